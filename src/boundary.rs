@@ -1,0 +1,147 @@
+//! Boundary conditions on regions of the reference configuration.
+//!
+//! Prescribed velocity components are imposed on the initial state and their rates are
+//! zeroed at every evaluation, so every integrator keeps them exactly and the
+//! displacement of a prescribed component follows u = u0 + v t without overwriting.
+
+use crate::scene::{Case, CaseError, Condition, Discretised, Region};
+use crate::tensor::Dim;
+
+/// The constraints and external loads of a scene, as sparse per-particle lists.
+#[derive(Clone, Debug)]
+pub struct Boundary<D: Dim> {
+    /// (particle, bit mask of constrained velocity components).
+    pub constrained: Vec<(u32, u8)>,
+    /// (particle, prescribed velocity; only the masked components are meaningful).
+    prescribed: Vec<(u32, D::V)>,
+    /// (particle, external acceleration from tractions).
+    pub external: Vec<(u32, D::V)>,
+}
+
+impl<D: Dim> Boundary<D> {
+    /// Resolves the case's boundary conditions to particles.
+    pub fn build(case: &Case, disc: &Discretised<D>, mass: &[f64]) -> Result<Self, CaseError> {
+        let mut mask = vec![0u8; disc.x0.len()];
+        let mut value = vec![D::zero(); disc.x0.len()];
+        let mut external = vec![D::zero(); disc.x0.len()];
+        let area = case.spacing.powi(D::N as i32 - 1);
+        for (b, bc) in case.boundaries.iter().enumerate() {
+            let selected = select(case, &bc.region, disc);
+            if selected.is_empty() {
+                return Err(case.invalid(
+                    format!("boundary.{b}.region"),
+                    "selects no particle; check the bounds against the bodies' reference positions",
+                ));
+            }
+            for i in selected {
+                match &bc.condition {
+                    Condition::Fixed => {
+                        mask[i] = (1 << D::N) - 1;
+                        value[i] = D::zero();
+                    }
+                    Condition::Velocity { vx, vy, vz } => {
+                        let mut v = D::to3(value[i]);
+                        for (k, c) in [vx, vy, vz].iter().enumerate().take(D::N) {
+                            if let Some(c) = c {
+                                mask[i] |= 1 << k;
+                                v[k] = *c;
+                            }
+                        }
+                        value[i] = D::from_slice(&v);
+                    }
+                    Condition::Symmetry { normal } => {
+                        let k = normal.index();
+                        mask[i] |= 1 << k;
+                        let mut v = D::to3(value[i]);
+                        v[k] = 0.0;
+                        value[i] = D::from_slice(&v);
+                    }
+                    Condition::Traction { traction } => {
+                        external[i] += D::from_slice(traction) * (area / mass[i]);
+                    }
+                }
+            }
+        }
+        let constrained: Vec<u32> = (0..mask.len() as u32).filter(|&i| mask[i as usize] != 0).collect();
+        Ok(Self {
+            prescribed: constrained.iter().map(|&i| (i, value[i as usize])).collect(),
+            constrained: constrained.iter().map(|&i| (i, mask[i as usize])).collect(),
+            external: (0..mask.len() as u32)
+                .filter(|&i| external[i as usize] != D::zero())
+                .map(|i| (i, external[i as usize]))
+                .collect(),
+        })
+    }
+
+    /// Overwrites the constrained components of the initial velocities.
+    pub fn impose_initial(&self, v: &mut [D::V]) {
+        for &(i, prescribed) in &self.prescribed {
+            let mask = self.mask_of(i);
+            v[i as usize] = mix::<D>(mask, prescribed, v[i as usize]);
+        }
+    }
+
+    fn mask_of(&self, i: u32) -> u8 {
+        let k = self.constrained.binary_search_by_key(&i, |&(p, _)| p);
+        k.map_or(0, |k| self.constrained[k].1)
+    }
+
+    /// Adds external accelerations and zeroes the constrained components of `a`.
+    /// Returns the power of the constraint reactions, −Σ m a_k v_k over constrained
+    /// components (the work rate of the supports on the body).
+    pub fn apply(&self, a: &mut [D::V], v: &[D::V], mass: &[f64]) -> f64 {
+        for &(i, g) in &self.external {
+            a[i as usize] += g;
+        }
+        let mut power = 0.0;
+        for &(i, mask) in &self.constrained {
+            let i = i as usize;
+            let (ai, vi) = (D::to3(a[i]), D::to3(v[i]));
+            for k in 0..D::N {
+                if mask & (1 << k) != 0 {
+                    power -= mass[i] * ai[k] * vi[k];
+                }
+            }
+            a[i] = mix::<D>(mask, D::zero(), a[i]);
+        }
+        power
+    }
+
+    /// Power of the external (traction) loads, Σ m a_ext · v.
+    pub fn external_power(&self, v: &[D::V], mass: &[f64]) -> f64 {
+        self.external
+            .iter()
+            .map(|&(i, g)| mass[i as usize] * D::dot(g, v[i as usize]))
+            .sum()
+    }
+}
+
+/// Components of `on` where `mask` is set, of `off` elsewhere.
+fn mix<D: Dim>(mask: u8, on: D::V, off: D::V) -> D::V {
+    let (a, b) = (D::to3(on), D::to3(off));
+    let c: Vec<f64> = (0..D::N).map(|k| if mask & (1 << k) != 0 { a[k] } else { b[k] }).collect();
+    D::from_slice(&c)
+}
+
+/// Particles inside the region (bounds widened by Δx/4).
+fn select<D: Dim>(case: &Case, region: &Region, disc: &Discretised<D>) -> Vec<usize> {
+    let tol = 0.25 * case.spacing;
+    let body = region
+        .body
+        .as_ref()
+        .and_then(|name| case.bodies.iter().position(|b| &b.name == name));
+    let bounds = [
+        (region.x_min, region.x_max),
+        (region.y_min, region.y_max),
+        (region.z_min, region.z_max),
+    ];
+    (0..disc.x0.len())
+        .filter(|&i| body.is_none_or(|b| disc.body[i] as usize == b))
+        .filter(|&i| {
+            let p = D::to3(disc.x0[i]);
+            bounds.iter().zip(p).all(|(&(lo, hi), c)| {
+                lo.is_none_or(|lo| c >= lo - tol) && hi.is_none_or(|hi| c <= hi + tol)
+            })
+        })
+        .collect()
+}

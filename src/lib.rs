@@ -1,0 +1,16 @@
+//! meshless: particle methods for solids under very large deformation.
+//!
+//! The CPU path (rayon, f64) is the reference implementation of every method.
+
+pub mod boundary;
+pub mod correction;
+pub mod integrate;
+pub mod kernel;
+pub mod material;
+pub mod method;
+pub mod neighbour;
+pub mod observe;
+pub mod output;
+pub mod run;
+pub mod scene;
+pub mod tensor;

@@ -1,0 +1,144 @@
+//! The `meshless` command line.
+
+use clap::{Parser, Subcommand};
+use meshless::run::{Backend, RunError, RunOptions, run};
+use meshless::scene::{Case, MethodName};
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(name = "meshless", version, about = "Meshless particle methods for solids under very large deformation")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run a case file (or the name of a shipped case in cases/).
+    Run {
+        case: String,
+        #[arg(long, value_enum, default_value_t = Backend::Auto)]
+        backend: Backend,
+        /// Output folder (default: out/<case name>).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Override a case key, e.g. --set method.dt=1e-6 --set body.0.geometry.radius=0.5
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
+        /// Write no VTU frames (series and summary only).
+        #[arg(long)]
+        no_frames: bool,
+        /// No progress bar.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// List the shipped cases and the available methods.
+    List,
+}
+
+/// Exit code for invalid input (case files, arguments), as clap uses for usage errors.
+const EXIT_INPUT: u8 = 2;
+/// Exit code for a run that failed (blow-up, I/O).
+const EXIT_FAILED: u8 = 1;
+
+fn main() -> ExitCode {
+    match Cli::parse().command {
+        Command::Run {
+            case,
+            backend,
+            out,
+            set,
+            no_frames,
+            quiet,
+        } => run_command(&case, backend, out, &set, no_frames, quiet),
+        Command::List => list(),
+    }
+}
+
+fn cases_dir() -> PathBuf {
+    let local = PathBuf::from("cases");
+    if local.is_dir() {
+        local
+    } else {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("cases")
+    }
+}
+
+/// A path as given, or a shipped case by name.
+fn resolve(case: &str) -> PathBuf {
+    let given = PathBuf::from(case);
+    if given.exists() || case.ends_with(".toml") {
+        given
+    } else {
+        cases_dir().join(format!("{case}.toml"))
+    }
+}
+
+fn run_command(case: &str, backend: Backend, out: Option<PathBuf>, set: &[String], no_frames: bool, quiet: bool) -> ExitCode {
+    let path = resolve(case);
+    let case = match Case::load(&path, set) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(EXIT_INPUT);
+        }
+    };
+    let backend = match backend {
+        Backend::Auto => {
+            eprintln!("note: the GPU backend is not part of this build; running on the CPU (rayon, f64)");
+            Backend::Cpu
+        }
+        b => b,
+    };
+    let opts = RunOptions {
+        out_dir: out.unwrap_or_else(|| Path::new("out").join(&case.name)),
+        backend,
+        progress: !quiet && std::io::stderr().is_terminal(),
+        frames: !no_frames,
+    };
+    match run(&case, &opts) {
+        Ok(s) => {
+            println!(
+                "{}: {} particles, {} steps to t = {:e} s in {:.2} s ({:.3e} particle-steps/s); outputs in {}",
+                s.case,
+                s.particles,
+                s.steps,
+                s.end_time,
+                s.wall_seconds,
+                s.particle_steps_per_second,
+                opts.out_dir.display()
+            );
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            match e {
+                RunError::Case(_) | RunError::Backend(_) => ExitCode::from(EXIT_INPUT),
+                RunError::Io(_) | RunError::BlowUp { .. } => ExitCode::from(EXIT_FAILED),
+            }
+        }
+    }
+}
+
+fn list() -> ExitCode {
+    let dir = cases_dir();
+    println!("Shipped cases ({}):", dir.display());
+    let mut entries: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .map(|d| d.filter_map(|e| e.ok().map(|e| e.path())).collect())
+        .unwrap_or_default();
+    entries.retain(|p| p.extension().is_some_and(|e| e == "toml"));
+    entries.sort();
+    for path in entries {
+        match Case::load(&path, &[]) {
+            Ok(c) => println!("  {:<24} {}D  {}", c.name, c.dimension, c.description),
+            Err(e) => println!("  {:<24} invalid: {e}", path.display()),
+        }
+    }
+    println!("\nMethods:");
+    for m in MethodName::ALL {
+        println!("  {:<24} {}", format!("{m:?}").to_lowercase(), m.describe());
+    }
+    ExitCode::SUCCESS
+}

@@ -1,0 +1,392 @@
+//! Total-Lagrangian SPH after Reveles (seed 000 §5.3, eqs 134–137).
+//!
+//! Neighbours and corrected reference gradients ∇0W̃_ij are computed once on the
+//! reference configuration. The state stores the displacement u = x − X (not x), the
+//! velocity v and, for the rate-based (hypoelastic) model, the density ρ and the
+//! deviatoric stress S.
+
+use super::{BlowUp, Method};
+use crate::boundary::Boundary;
+use crate::correction;
+use crate::integrate::{OdeState, OdeSystem};
+use crate::kernel::Kernel;
+use crate::material::Material;
+use crate::neighbour::{self, Csr};
+use crate::scene::{ArtificialViscosity, Case, CaseError, Discretised};
+use crate::tensor::Dim;
+use rayon::prelude::*;
+use std::ops::{Add, Mul};
+
+/// Smallest slice length rayon splits down to: below it the per-task overhead dominates.
+const MIN_CHUNK: usize = 256;
+
+/// Integrated state of TLSPH.
+#[derive(Clone, Debug)]
+pub struct TlState<D: Dim> {
+    /// Displacement u = x − X.
+    pub u: Vec<D::V>,
+    pub v: Vec<D::V>,
+    /// Density (rate-based model only; empty otherwise).
+    pub rho: Vec<f64>,
+    /// Deviatoric Cauchy stress (rate-based model only; empty otherwise).
+    pub s: Vec<D::T>,
+}
+
+fn axpy<T: Copy + Send + Sync + Add<Output = T> + Mul<f64, Output = T>>(y: &mut [T], a: f64, x: &[T]) {
+    y.par_iter_mut()
+        .with_min_len(MIN_CHUNK)
+        .zip(x)
+        .for_each(|(y, &x)| *y = *y + x * a);
+}
+
+fn blend<T: Copy + Send + Sync + Add<Output = T> + Mul<f64, Output = T>>(y: &mut [T], a: f64, b: f64, x: &[T]) {
+    y.par_iter_mut()
+        .with_min_len(MIN_CHUNK)
+        .zip(x)
+        .for_each(|(y, &x)| *y = *y * a + x * b);
+}
+
+impl<D: Dim> OdeState for TlState<D> {
+    fn axpy(&mut self, a: f64, r: &Self) {
+        axpy(&mut self.u, a, &r.u);
+        axpy(&mut self.v, a, &r.v);
+        axpy(&mut self.rho, a, &r.rho);
+        axpy(&mut self.s, a, &r.s);
+    }
+
+    fn blend(&mut self, a: f64, b: f64, o: &Self) {
+        blend(&mut self.u, a, b, &o.u);
+        blend(&mut self.v, a, b, &o.v);
+        blend(&mut self.rho, a, b, &o.rho);
+        blend(&mut self.s, a, b, &o.s);
+    }
+
+    fn kick(&mut self, h: f64, r: &Self) {
+        axpy(&mut self.v, h, &r.v);
+    }
+
+    fn drift(&mut self, h: f64, r: &Self) {
+        let v = &self.v;
+        self.u
+            .par_iter_mut()
+            .with_min_len(MIN_CHUNK)
+            .zip(v)
+            .for_each(|(u, &v)| *u += v * h);
+        axpy(&mut self.rho, h, &r.rho);
+        axpy(&mut self.s, h, &r.s);
+    }
+}
+
+/// Per-particle quantities of one rate evaluation.
+#[derive(Clone, Copy, Debug)]
+struct Kinematics<D: Dim> {
+    /// Deformation gradient F = I + Σ_j V_j (u_j − u_i) ⊗ ∇0W̃_ij (eq 137).
+    f: D::T,
+    /// First Piola–Kirchhoff stress P = J σ F⁻ᵀ.
+    p: D::T,
+    /// Current density (ρ, or ρ0/J for state-based models).
+    rho: f64,
+}
+
+/// The TLSPH system on the CPU (f64, rayon).
+pub struct Tlsph<D: Dim> {
+    x0: Vec<D::V>,
+    vol: Vec<f64>,
+    mass: Vec<f64>,
+    body: Vec<u32>,
+    v0: Vec<D::V>,
+    csr: Csr,
+    /// Corrected reference gradients ∇0W̃_ij, one per CSR pair.
+    grad: Vec<D::V>,
+    material: Material,
+    av: Option<ArtificialViscosity>,
+    h: f64,
+    boundary: Boundary<D>,
+    kin: Vec<Kinematics<D>>,
+    power: f64,
+}
+
+impl<D: Dim> Tlsph<D> {
+    /// Builds neighbours and corrected gradients on the reference configuration.
+    pub fn new(case: &Case, disc: Discretised<D>) -> Result<Self, CaseError> {
+        let material = Material::new(&case.material);
+        let m = &case.method;
+        let h = m.h_over_dx * case.spacing;
+        let kernel = Kernel::new(m.kernel, h, D::N);
+        // A relative margin so that lattice neighbours exactly at the support are found on
+        // both sides despite round-off (their W and ∇W vanish).
+        let csr = neighbour::build::<D>(&disc.x0, kernel.support() * (1.0 + 1e-9));
+        let grad = correction::gradients::<D>(m.correction, &disc.x0, &disc.vol, &csr, &kernel)
+            .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
+        let mass: Vec<f64> = disc.vol.iter().map(|v| v * material.rho0).collect();
+        let boundary = Boundary::build(case, &disc, &mass)?;
+        let mut v0 = disc.v0;
+        boundary.impose_initial(&mut v0);
+        let identity = Kinematics {
+            f: D::identity(),
+            p: D::zero_t(),
+            rho: material.rho0,
+        };
+        Ok(Self {
+            kin: vec![identity; disc.x0.len()],
+            x0: disc.x0,
+            vol: disc.vol,
+            mass,
+            body: disc.body,
+            v0,
+            csr,
+            grad,
+            material,
+            av: m.artificial_viscosity,
+            h,
+            boundary,
+            power: 0.0,
+        })
+    }
+
+    /// Neighbour lists (reference configuration).
+    pub fn neighbours(&self) -> &Csr {
+        &self.csr
+    }
+
+    /// Corrected reference gradients, in CSR order.
+    pub fn gradients(&self) -> &[D::V] {
+        &self.grad
+    }
+
+    /// Σ_j V_j (f_j − f_i) ⊗ ∇0W̃_ij: the corrected gradient of a particle field.
+    #[inline]
+    fn gradient_of(&self, i: usize, f: &[D::V]) -> D::T {
+        let mut g = D::zero_t();
+        let fi = f[i];
+        for p in self.csr.range(i) {
+            let j = self.csr.ids[p] as usize;
+            g += D::outer(f[j] - fi, self.grad[p]) * self.vol[j];
+        }
+        g
+    }
+
+    fn blow_up(&self, i: usize, quantity: &str, value: f64) -> BlowUp {
+        BlowUp {
+            particle: i,
+            position: D::to3(self.x0[i]),
+            quantity: quantity.to_string(),
+            value,
+        }
+    }
+
+    /// Pass 1: F, P and current density per particle; ρ̇ and Ṡ for the rate model.
+    fn stresses(&mut self, y: &TlState<D>, d: &mut TlState<D>) {
+        let mat = self.material;
+        let mut kin = std::mem::take(&mut self.kin);
+        if mat.model.is_rate_based() {
+            kin.par_iter_mut()
+                .with_min_len(MIN_CHUNK)
+                .zip(d.rho.par_iter_mut())
+                .zip(d.s.par_iter_mut())
+                .enumerate()
+                .for_each(|(i, ((k, rho_dot), s_dot))| {
+                    let f = D::identity() + self.gradient_of(i, &y.u);
+                    let f_dot = self.gradient_of(i, &y.v); // eq 136
+                    let f_inv = D::inverse(f);
+                    let l = f_dot * f_inv; // L = Ḟ F⁻¹
+                    *rho_dot = -y.rho[i] * D::trace(l);
+                    *s_dot = mat.jaumann_rate::<D>(y.s[i], l);
+                    let sigma = y.s[i] - D::identity() * mat.pressure(y.rho[i]);
+                    *k = Kinematics {
+                        f,
+                        p: sigma * D::transpose(f_inv) * D::det(f),
+                        rho: y.rho[i],
+                    };
+                });
+        } else {
+            kin.par_iter_mut()
+                .with_min_len(MIN_CHUNK)
+                .enumerate()
+                .for_each(|(i, k)| {
+                    let f = D::identity() + self.gradient_of(i, &y.u);
+                    *k = Kinematics {
+                        f,
+                        p: mat.pk1::<D>(f),
+                        rho: mat.rho0 / D::det(f),
+                    };
+                });
+        }
+        self.kin = kin;
+    }
+
+    /// Pass 2: a_i = (1/ρ0) Σ_j V_j (P_i + P_j) ∇0W̃_ij (eq 134) plus artificial viscosity.
+    fn accelerations(&self, y: &TlState<D>, a: &mut [D::V]) {
+        let inv_rho0 = 1.0 / self.material.rho0;
+        let bulk = self.material.bulk;
+        let h = self.h;
+        a.par_iter_mut()
+            .with_min_len(MIN_CHUNK)
+            .enumerate()
+            .for_each(|(i, a)| {
+                let ki = self.kin[i];
+                let xi = self.x0[i] + y.u[i];
+                let ci = (bulk / ki.rho).sqrt();
+                let mut stress = D::zero();
+                let mut viscous = D::zero();
+                for p in self.csr.range(i) {
+                    let j = self.csr.ids[p] as usize;
+                    let kj = self.kin[j];
+                    let g = self.grad[p];
+                    stress += (ki.p + kj.p) * g * self.vol[j];
+                    if let Some(av) = &self.av {
+                        let x_ij = xi - (self.x0[j] + y.u[j]);
+                        let vx = D::dot(y.v[i] - y.v[j], x_ij);
+                        if vx < 0.0 {
+                            // Monaghan viscosity for approaching pairs (seed 000 §3.1 step 6).
+                            let mu = h * vx / (D::norm2(x_ij) + av.eta * av.eta * h * h);
+                            let c = 0.5 * (ci + (bulk / kj.rho).sqrt());
+                            let rho = 0.5 * (ki.rho + kj.rho);
+                            let pi = (-av.alpha * c * mu + av.beta * mu * mu) / rho;
+                            viscous -= g * (self.mass[j] * pi);
+                        }
+                    }
+                }
+                *a = stress * inv_rho0 + viscous;
+            });
+    }
+
+    fn first_inadmissible(&self) -> Option<BlowUp> {
+        let i = self
+            .kin
+            .par_iter()
+            .position_first(|k| !(D::det(k.f) > 0.0))?;
+        Some(self.blow_up(i, "det F", D::det(self.kin[i].f)))
+    }
+
+    fn each_f(&self, y: &TlState<D>) -> Vec<D::T> {
+        (0..self.x0.len())
+            .into_par_iter()
+            .with_min_len(MIN_CHUNK)
+            .map(|i| D::identity() + self.gradient_of(i, &y.u))
+            .collect()
+    }
+}
+
+impl<D: Dim> OdeSystem for Tlsph<D> {
+    type State = TlState<D>;
+    type Error = BlowUp;
+
+    fn rates(&mut self, _t: f64, y: &TlState<D>, d: &mut TlState<D>) -> Result<(), BlowUp> {
+        self.stresses(y, d);
+        if let Some(b) = self.first_inadmissible() {
+            return Err(b);
+        }
+        self.accelerations(y, &mut d.v);
+        d.u.par_iter_mut()
+            .with_min_len(MIN_CHUNK)
+            .zip(&y.v)
+            .for_each(|(u, &v)| *u = v);
+        self.power = self.boundary.apply(&mut d.v, &y.v, &self.mass)
+            + self.boundary.external_power(&y.v, &self.mass);
+        Ok(())
+    }
+}
+
+impl<D: Dim> Method<D> for Tlsph<D> {
+    fn initial_state(&self) -> TlState<D> {
+        let n = self.x0.len();
+        let rate = self.material.model.is_rate_based();
+        TlState {
+            u: vec![D::zero(); n],
+            v: self.v0.clone(),
+            rho: if rate { vec![self.material.rho0; n] } else { Vec::new() },
+            s: if rate { vec![D::zero_t(); n] } else { Vec::new() },
+        }
+    }
+
+    fn displacement<'a>(&self, y: &'a TlState<D>) -> &'a [D::V] {
+        &y.u
+    }
+
+    fn velocity<'a>(&self, y: &'a TlState<D>) -> &'a [D::V] {
+        &y.v
+    }
+
+    fn reference(&self) -> &[D::V] {
+        &self.x0
+    }
+
+    fn mass(&self) -> &[f64] {
+        &self.mass
+    }
+
+    fn body(&self) -> &[u32] {
+        &self.body
+    }
+
+    fn constrained(&self) -> &[(u32, u8)] {
+        &self.boundary.constrained
+    }
+
+    fn deformation_gradient(&self, y: &TlState<D>) -> Vec<D::T> {
+        self.each_f(y)
+    }
+
+    fn cauchy_stress(&self, y: &TlState<D>) -> Vec<[[f64; 3]; 3]> {
+        let mat = self.material;
+        let rate = mat.model.is_rate_based();
+        self.each_f(y)
+            .into_par_iter()
+            .enumerate()
+            .map(|(i, f)| {
+                let (s, rho) = if rate {
+                    (y.s[i], y.rho[i])
+                } else {
+                    (D::zero_t(), mat.rho0 / D::det(f))
+                };
+                let sigma = if rate {
+                    s - D::identity() * mat.pressure(rho)
+                } else {
+                    mat.pk1::<D>(f) * D::transpose(f) * (1.0 / D::det(f))
+                };
+                let mut out = D::to3x3(sigma);
+                if D::N == 2 {
+                    out[2][2] = mat.sigma_zz::<D>(f, s, rho);
+                }
+                out
+            })
+            .collect()
+    }
+
+    fn strain_energy(&self, y: &TlState<D>) -> f64 {
+        let mat = self.material;
+        let rate = mat.model.is_rate_based();
+        self.each_f(y)
+            .into_par_iter()
+            .enumerate()
+            .map(|(i, f)| {
+                let (s, rho) = if rate { (y.s[i], y.rho[i]) } else { (D::zero_t(), mat.rho0) };
+                self.vol[i] * mat.energy_density::<D>(f, s, rho)
+            })
+            .sum()
+    }
+
+    fn max_signal_speed(&self, y: &TlState<D>) -> f64 {
+        let vmax = y.v.par_iter().map(|&v| D::norm2(v)).reduce(|| 0.0, f64::max).sqrt();
+        self.material.p_wave_speed() + vmax
+    }
+
+    fn boundary_power(&self) -> f64 {
+        self.power
+    }
+
+    fn check_finite(&self, y: &TlState<D>) -> Result<(), BlowUp> {
+        let bad = |name: &str, i: Option<usize>, value: &dyn Fn(usize) -> f64| match i {
+            Some(i) => Err(self.blow_up(i, name, value(i))),
+            None => Ok(()),
+        };
+        let norm = |v: D::V| D::norm2(v).sqrt();
+        bad("displacement |u|", y.u.par_iter().position_first(|&u| !D::is_finite_v(u)), &|i| norm(y.u[i]))?;
+        bad("velocity |v|", y.v.par_iter().position_first(|&v| !D::is_finite_v(v)), &|i| norm(y.v[i]))?;
+        bad("density", y.rho.par_iter().position_first(|r| !r.is_finite()), &|i| y.rho[i])?;
+        bad("deviatoric stress |S|", y.s.par_iter().position_first(|&s| !D::is_finite_t(s)), &|i| {
+            D::ddot(y.s[i], y.s[i]).sqrt()
+        })
+    }
+}

@@ -1,0 +1,194 @@
+//! Observers: energies, momenta, body extents, neck height and point probes, sampled into
+//! the CSV time series.
+
+use crate::method::Method;
+use crate::scene::{Case, CaseError, Observer};
+use crate::tensor::Dim;
+use rayon::prelude::*;
+use std::collections::BTreeMap;
+
+/// Global invariants of a state.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Invariants {
+    pub kinetic: f64,
+    pub strain: f64,
+    /// Σ m v.
+    pub linear: [f64; 3],
+    /// Σ m x × v about the origin (2D: z component).
+    pub angular: [f64; 3],
+}
+
+impl Invariants {
+    pub fn total_energy(&self) -> f64 {
+        self.kinetic + self.strain
+    }
+
+    pub fn of<D: Dim, M: Method<D>>(method: &M, y: &M::State) -> Self {
+        let (x0, u, v, m) = (method.reference(), method.displacement(y), method.velocity(y), method.mass());
+        let add3 = |a: [f64; 3], b: [f64; 3]| [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
+        let (kinetic, linear, angular) = (0..m.len())
+            .into_par_iter()
+            .map(|i| {
+                let p = v[i] * m[i];
+                (0.5 * D::dot(p, v[i]), D::to3(p), D::cross3(x0[i] + u[i], p))
+            })
+            .reduce(
+                || (0.0, [0.0; 3], [0.0; 3]),
+                |a, b| (a.0 + b.0, add3(a.1, b.1), add3(a.2, b.2)),
+            );
+        Self {
+            kinetic,
+            strain: method.strain_energy(y),
+            linear,
+            angular,
+        }
+    }
+
+    /// Named values for the run summary.
+    pub fn named<D: Dim>(&self) -> BTreeMap<String, f64> {
+        let mut out = BTreeMap::new();
+        out.insert("kinetic_energy".into(), self.kinetic);
+        out.insert("strain_energy".into(), self.strain);
+        out.insert("total_energy".into(), self.total_energy());
+        for k in 0..D::N {
+            out.insert(format!("linear_momentum_{}", AXES[k]), self.linear[k]);
+        }
+        for k in angular_components::<D>() {
+            out.insert(format!("angular_momentum_{}", AXES[k]), self.angular[k]);
+        }
+        out
+    }
+}
+
+const AXES: [&str; 3] = ["x", "y", "z"];
+
+fn angular_components<D: Dim>() -> std::ops::Range<usize> {
+    if D::N == 2 { 2..3 } else { 0..3 }
+}
+
+/// The observers of a run and the columns they fill.
+pub struct Observers {
+    list: Vec<Observer>,
+    probes: Vec<usize>,
+    /// Material columns of free particles (neck height).
+    columns: Vec<Vec<usize>>,
+    bodies: usize,
+    names: Vec<String>,
+}
+
+impl Observers {
+    pub fn new<D: Dim, M: Method<D>>(case: &Case, method: &M) -> Result<Self, CaseError> {
+        let x0 = method.reference();
+        let mut names = vec!["time".to_string(), "step".to_string(), "dt".to_string()];
+        let mut list = case.output.observers.clone();
+        list.sort();
+        list.dedup();
+        for obs in &list {
+            match obs {
+                Observer::Energy => names.extend(
+                    ["kinetic_energy", "strain_energy", "total_energy", "external_work"].map(String::from),
+                ),
+                Observer::LinearMomentum => names.extend((0..D::N).map(|k| format!("momentum_{}", AXES[k]))),
+                Observer::AngularMomentum => {
+                    names.extend(angular_components::<D>().map(|k| format!("angular_momentum_{}", AXES[k])))
+                }
+                Observer::Extent => {
+                    for b in &case.bodies {
+                        names.extend((0..D::N).map(|k| format!("{}.extent_{}", b.name, AXES[k])));
+                    }
+                }
+                Observer::NeckHeight => names.push("neck_height".into()),
+            }
+        }
+        let mut probes = Vec::new();
+        for (p, probe) in case.probes.iter().enumerate() {
+            let target = D::from_slice(&probe.position);
+            let nearest = (0..x0.len())
+                .min_by(|&a, &b| D::norm2(x0[a] - target).total_cmp(&D::norm2(x0[b] - target)))
+                .ok_or_else(|| case.invalid(format!("probe.{p}.position"), "the scene has no particles"))?;
+            probes.push(nearest);
+            for q in ["u", "v"] {
+                names.extend((0..D::N).map(|k| format!("{}.{q}{}", probe.name, AXES[k])));
+            }
+        }
+        let columns = if list.contains(&Observer::NeckHeight) {
+            free_columns::<D, M>(case, method)
+        } else {
+            Vec::new()
+        };
+        Ok(Self {
+            list,
+            probes,
+            columns,
+            bodies: case.bodies.len(),
+            names,
+        })
+    }
+
+    pub fn column_names(&self) -> &[String] {
+        &self.names
+    }
+
+    /// One row of the time series.
+    pub fn sample<D: Dim, M: Method<D>>(
+        &self,
+        method: &M,
+        y: &M::State,
+        inv: &Invariants,
+        t: f64,
+        step: u64,
+        dt: f64,
+        external_work: f64,
+    ) -> Vec<f64> {
+        let (x0, u, v) = (method.reference(), method.displacement(y), method.velocity(y));
+        let mut row = vec![t, step as f64, dt];
+        for obs in &self.list {
+            match obs {
+                Observer::Energy => row.extend([inv.kinetic, inv.strain, inv.total_energy(), external_work]),
+                Observer::LinearMomentum => row.extend(&inv.linear[..D::N]),
+                Observer::AngularMomentum => row.extend(angular_components::<D>().map(|k| inv.angular[k])),
+                Observer::Extent => {
+                    let mut lo = vec![[f64::INFINITY; 3]; self.bodies];
+                    let mut hi = vec![[f64::NEG_INFINITY; 3]; self.bodies];
+                    for (i, &b) in method.body().iter().enumerate() {
+                        let x = D::to3(x0[i] + u[i]);
+                        for k in 0..3 {
+                            lo[b as usize][k] = lo[b as usize][k].min(x[k]);
+                            hi[b as usize][k] = hi[b as usize][k].max(x[k]);
+                        }
+                    }
+                    for b in 0..self.bodies {
+                        row.extend((0..D::N).map(|k| hi[b][k] - lo[b][k]));
+                    }
+                }
+                Observer::NeckHeight => {
+                    let height = |col: &Vec<usize>| {
+                        let ys = col.iter().map(|&i| D::comp(x0[i] + u[i], 1));
+                        ys.clone().fold(f64::NEG_INFINITY, f64::max) - ys.fold(f64::INFINITY, f64::min)
+                    };
+                    row.push(self.columns.iter().map(height).fold(f64::INFINITY, f64::min));
+                }
+            }
+        }
+        for &i in &self.probes {
+            row.extend((0..D::N).map(|k| D::comp(u[i], k)));
+            row.extend((0..D::N).map(|k| D::comp(v[i], k)));
+        }
+        row
+    }
+}
+
+/// Particles grouped by reference x (one group per lattice column), leaving out columns
+/// that contain a constrained particle.
+fn free_columns<D: Dim, M: Method<D>>(case: &Case, method: &M) -> Vec<Vec<usize>> {
+    let x0 = method.reference();
+    let key = |i: usize| (D::comp(x0[i], 0) / case.spacing).round() as i64;
+    let mut groups: BTreeMap<i64, Vec<usize>> = BTreeMap::new();
+    for i in 0..x0.len() {
+        groups.entry(key(i)).or_default().push(i);
+    }
+    for &(i, _) in method.constrained() {
+        groups.remove(&key(i as usize));
+    }
+    groups.into_values().collect()
+}

@@ -1,0 +1,182 @@
+//! JSON summary of a finished, failed or interrupted run.
+
+use std::collections::BTreeMap;
+use std::io::{self, Write};
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use super::write_atomically;
+
+/// What a run did and how fast, written once at its end.
+///
+/// JSON has no NaN or infinity: every non-finite number (in the scalar fields
+/// and in `final_invariants`) is written as `null` and read back as NaN, so a
+/// summary of a diverged run still writes and parses.
+#[derive(Serialize, Deserialize, Debug, Clone, PartialEq)]
+pub struct RunSummary {
+    /// Case name.
+    pub case: String,
+    /// Particle method.
+    pub method: String,
+    /// Compute backend.
+    pub backend: String,
+    /// Spatial dimension (2 or 3).
+    pub dimension: u32,
+    /// Number of particles.
+    pub particles: usize,
+    /// Time steps taken.
+    pub steps: u64,
+    /// Last time step size.
+    #[serde(with = "non_finite_as_null")]
+    pub dt_last: f64,
+    /// Simulated time reached.
+    #[serde(with = "non_finite_as_null")]
+    pub end_time: f64,
+    /// Wall-clock duration of the run.
+    #[serde(with = "non_finite_as_null")]
+    pub wall_seconds: f64,
+    /// Throughput: particles times steps per wall-clock second.
+    #[serde(with = "non_finite_as_null")]
+    pub particle_steps_per_second: f64,
+    /// `"completed"`, `"failed"` or `"interrupted"`.
+    pub status: String,
+    /// Why the run failed, if it did.
+    #[serde(default)]
+    pub failure: Option<String>,
+    /// Conserved or monitored quantities at the end of the run.
+    #[serde(with = "non_finite_values_as_null")]
+    pub final_invariants: BTreeMap<String, f64>,
+}
+
+/// Writes `summary` to `path` as pretty-printed JSON, atomically.
+pub fn write_summary(path: &Path, summary: &RunSummary) -> io::Result<()> {
+    write_atomically(path, |w| {
+        serde_json::to_writer_pretty(&mut *w, summary)?;
+        w.write_all(b"\n")
+    })
+}
+
+fn finite_or_none(x: f64) -> Option<f64> {
+    x.is_finite().then_some(x)
+}
+
+/// An `f64` that is written as `null` when non-finite and read as NaN from `null`.
+mod non_finite_as_null {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    pub fn serialize<S: Serializer>(x: &f64, s: S) -> Result<S::Ok, S::Error> {
+        super::finite_or_none(*x).serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+    }
+}
+
+/// [`non_finite_as_null`] applied to every value of a map.
+mod non_finite_values_as_null {
+    use std::collections::BTreeMap;
+
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(map: &BTreeMap<String, f64>, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_map(map.iter().map(|(k, &v)| (k, super::finite_or_none(v))))
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<BTreeMap<String, f64>, D::Error> {
+        let map = BTreeMap::<String, Option<f64>>::deserialize(d)?;
+        Ok(map
+            .into_iter()
+            .map(|(k, v)| (k, v.unwrap_or(f64::NAN)))
+            .collect())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::fs;
+
+    fn sample() -> RunSummary {
+        RunSummary {
+            case: "taylor_bar".into(),
+            method: "tlsph".into(),
+            backend: "cpu".into(),
+            dimension: 3,
+            particles: 12_345,
+            steps: 9_876_543_210,
+            dt_last: 1.234_567_890_123_456_7e-8,
+            end_time: 8.0e-5,
+            wall_seconds: 12.5,
+            particle_steps_per_second: 1.0 / 3.0 * 1e9,
+            status: "completed".into(),
+            failure: None,
+            final_invariants: BTreeMap::from([
+                ("energy_total".to_string(), 0.1 + 0.2),
+                ("momentum_x".to_string(), -1e-300),
+            ]),
+        }
+    }
+
+    #[test]
+    fn summary_round_trips_through_json() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("summary.json");
+        let mut summary = sample();
+        write_summary(&path, &summary).unwrap();
+
+        let text = fs::read_to_string(&path).unwrap();
+        assert!(
+            text.contains("\n  \"case\": \"taylor_bar\",\n"),
+            "not pretty: {text}"
+        );
+        let back: RunSummary = serde_json::from_str(&text).unwrap();
+        // f64 fields compare exactly: serde_json round-trips f64 bit for bit.
+        assert_eq!(back, summary);
+
+        summary.status = "failed".into();
+        summary.failure = Some("particle 17: negative Jacobian".into());
+        write_summary(&path, &summary).unwrap();
+        let back: RunSummary = serde_json::from_str(&fs::read_to_string(&path).unwrap()).unwrap();
+        assert_eq!(back, summary);
+
+        assert!(!dir.path().join("summary.json.tmp").exists());
+        assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn summary_writes_non_finite_as_null_and_reads_nan() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("summary.json");
+        let mut summary = sample();
+        summary.status = "failed".into();
+        summary.dt_last = f64::NAN;
+        summary.particle_steps_per_second = f64::INFINITY;
+        summary
+            .final_invariants
+            .insert("energy_total".into(), f64::NEG_INFINITY);
+        summary.final_invariants.insert("mass".into(), f64::NAN);
+
+        write_summary(&path, &summary).unwrap();
+        let text = fs::read_to_string(&path).unwrap();
+        let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+        assert!(json["dt_last"].is_null());
+        assert!(json["particle_steps_per_second"].is_null());
+        assert!(json["final_invariants"]["energy_total"].is_null());
+        assert!(json["final_invariants"]["mass"].is_null());
+        assert_eq!(
+            json["final_invariants"]["momentum_x"].as_f64(),
+            Some(-1e-300)
+        );
+        assert_eq!(json["end_time"].as_f64(), Some(8.0e-5));
+
+        let back: RunSummary = serde_json::from_str(&text).unwrap();
+        assert!(back.dt_last.is_nan());
+        assert!(back.particle_steps_per_second.is_nan());
+        assert!(back.final_invariants["energy_total"].is_nan());
+        assert!(back.final_invariants["mass"].is_nan());
+        assert_eq!(back.final_invariants["momentum_x"], -1e-300);
+        assert_eq!(back.end_time, 8.0e-5);
+    }
+}

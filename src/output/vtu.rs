@@ -1,0 +1,690 @@
+//! VTK XML UnstructuredGrid (`.vtu`) frames for particle clouds and the
+//! ParaView collection (`.pvd`) that indexes them in time.
+//!
+//! Frames use binary appended raw encoding with UInt64 block headers in
+//! little-endian byte order. Every particle is one `VTK_VERTEX` cell so that
+//! ParaView renders the cloud without a Glyph filter, and the frame time is
+//! stored as the `TimeValue` field-data array.
+
+use std::collections::HashSet;
+use std::fmt::Write as _;
+use std::io::{self, Write};
+use std::path::{Path, PathBuf};
+
+use super::{format_f64, invalid_input, write_atomically};
+
+/// VTK cell type of a single point.
+const VTK_VERTEX: u8 = 1;
+
+/// Values of one per-point field.
+#[derive(Debug, Clone, Copy)]
+pub enum FieldData<'a> {
+    /// One `Float64` per point.
+    Scalar(&'a [f64]),
+    /// Three `Float64` components per point.
+    Vector(&'a [[f64; 3]]),
+    /// A 3x3 tensor per point, row-major (`xx, xy, xz, yx, ..., zz`).
+    Tensor(&'a [[f64; 9]]),
+    /// One `Int32` per point (ids, flags, material indices).
+    Int(&'a [i32]),
+}
+
+impl FieldData<'_> {
+    /// Number of points the field covers.
+    pub fn len(&self) -> usize {
+        match self {
+            FieldData::Scalar(v) => v.len(),
+            FieldData::Vector(v) => v.len(),
+            FieldData::Tensor(v) => v.len(),
+            FieldData::Int(v) => v.len(),
+        }
+    }
+
+    /// Whether the field has no values.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Number of components per point.
+    pub fn components(&self) -> usize {
+        match self {
+            FieldData::Scalar(_) | FieldData::Int(_) => 1,
+            FieldData::Vector(_) => 3,
+            FieldData::Tensor(_) => 9,
+        }
+    }
+}
+
+/// A named per-point field of a frame.
+#[derive(Debug, Clone, Copy)]
+pub struct Field<'a> {
+    /// Array name shown in ParaView.
+    pub name: &'a str,
+    /// The values, one entry per point.
+    pub data: FieldData<'a>,
+}
+
+/// Writes one frame: `points` with per-point `fields` at simulation `time`.
+///
+/// Two-dimensional data passes `z = 0`. Fails with
+/// [`io::ErrorKind::InvalidInput`] if a field's length differs from the point
+/// count or if field names are empty or repeated; the file at `path` is then
+/// left untouched. The frame is written to `<path>.tmp` and renamed into place.
+pub fn write_vtu(path: &Path, points: &[[f64; 3]], fields: &[Field], time: f64) -> io::Result<()> {
+    let n = points.len();
+    let mut names = HashSet::new();
+    for field in fields {
+        if field.name.is_empty() {
+            return Err(invalid_input("a VTU field has an empty name".into()));
+        }
+        if !names.insert(field.name) {
+            return Err(invalid_input(format!(
+                "VTU field `{}` is given twice",
+                field.name
+            )));
+        }
+        if field.data.len() != n {
+            return Err(invalid_input(format!(
+                "VTU field `{}` has {} values but there are {n} points",
+                field.name,
+                field.data.len()
+            )));
+        }
+    }
+
+    let time = [time];
+    let time_array = Array::new("TimeValue", 1, Payload::F64(&time));
+    let point_arrays: Vec<Array> = fields.iter().map(Array::from_field).collect();
+    let points_array = Array::new("Points", 3, Payload::F64(points.as_flattened()));
+    let count = i64::try_from(n).map_err(|_| invalid_input(format!("{n} points is too many")))?;
+    let cell_arrays = [
+        Array::new("connectivity", 1, Payload::Int64Range(0, count)),
+        Array::new("offsets", 1, Payload::Int64Range(1, count + 1)),
+        Array::new("types", 1, Payload::UInt8Repeat(VTK_VERTEX, n)),
+    ];
+
+    // The header lists the arrays in the order their blocks are appended.
+    let mut header = String::new();
+    let mut offset = 0;
+    header.push_str("<?xml version=\"1.0\"?>\n");
+    header.push_str(
+        "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" \
+         byte_order=\"LittleEndian\" header_type=\"UInt64\">\n",
+    );
+    header.push_str("  <UnstructuredGrid>\n");
+    header.push_str("    <FieldData>\n");
+    time_array.write_tag(&mut header, 6, true, &mut offset);
+    header.push_str("    </FieldData>\n");
+    let _ = writeln!(
+        header,
+        "    <Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{n}\">"
+    );
+    header.push_str("      <PointData>\n");
+    for array in &point_arrays {
+        array.write_tag(&mut header, 8, false, &mut offset);
+    }
+    header.push_str("      </PointData>\n");
+    header.push_str("      <Points>\n");
+    points_array.write_tag(&mut header, 8, false, &mut offset);
+    header.push_str("      </Points>\n");
+    header.push_str("      <Cells>\n");
+    for array in &cell_arrays {
+        array.write_tag(&mut header, 8, false, &mut offset);
+    }
+    header.push_str("      </Cells>\n");
+    header.push_str("    </Piece>\n");
+    header.push_str("  </UnstructuredGrid>\n");
+    header.push_str("  <AppendedData encoding=\"raw\">\n   _");
+
+    let blocks = std::iter::once(&time_array)
+        .chain(&point_arrays)
+        .chain(std::iter::once(&points_array))
+        .chain(&cell_arrays);
+
+    write_atomically(path, |w| {
+        w.write_all(header.as_bytes())?;
+        for array in blocks {
+            array.payload.write_block(w)?;
+        }
+        w.write_all(b"\n  </AppendedData>\n</VTKFile>\n")
+    })
+}
+
+/// Raw values of one appended block.
+enum Payload<'a> {
+    F64(&'a [f64]),
+    I32(&'a [i32]),
+    /// `start, start + 1, ..., end - 1` as `Int64`.
+    Int64Range(i64, i64),
+    /// `value` repeated `count` times as `UInt8`.
+    UInt8Repeat(u8, usize),
+}
+
+impl Payload<'_> {
+    fn vtk_type(&self) -> &'static str {
+        match self {
+            Payload::F64(_) => "Float64",
+            Payload::I32(_) => "Int32",
+            Payload::Int64Range(..) => "Int64",
+            Payload::UInt8Repeat(..) => "UInt8",
+        }
+    }
+
+    /// Size of the data in bytes, excluding the block header.
+    fn byte_len(&self) -> u64 {
+        let bytes = match self {
+            Payload::F64(v) => v.len() * 8,
+            Payload::I32(v) => v.len() * 4,
+            Payload::Int64Range(start, end) => (end - start).max(0) as usize * 8,
+            Payload::UInt8Repeat(_, count) => *count,
+        };
+        bytes as u64
+    }
+
+    /// Writes the UInt64 byte count followed by the little-endian values.
+    fn write_block(&self, w: &mut impl Write) -> io::Result<()> {
+        w.write_all(&self.byte_len().to_le_bytes())?;
+        match self {
+            Payload::F64(v) => write_le(w, v.iter().map(|x| x.to_le_bytes())),
+            Payload::I32(v) => write_le(w, v.iter().map(|x| x.to_le_bytes())),
+            Payload::Int64Range(start, end) => write_le(w, (*start..*end).map(i64::to_le_bytes)),
+            Payload::UInt8Repeat(value, count) => {
+                write_le(w, std::iter::repeat_n([*value], *count))
+            }
+        }
+    }
+}
+
+/// Writes fixed-size little-endian encodings through a small staging buffer.
+fn write_le<const N: usize>(
+    w: &mut impl Write,
+    values: impl Iterator<Item = [u8; N]>,
+) -> io::Result<()> {
+    const CHUNK_BYTES: usize = 64 * 1024;
+    let mut buf = Vec::with_capacity(CHUNK_BYTES);
+    for bytes in values {
+        buf.extend_from_slice(&bytes);
+        if buf.len() >= CHUNK_BYTES {
+            w.write_all(&buf)?;
+            buf.clear();
+        }
+    }
+    w.write_all(&buf)
+}
+
+/// One `DataArray`: its header attributes and its appended payload.
+struct Array<'a> {
+    name: &'a str,
+    components: usize,
+    payload: Payload<'a>,
+}
+
+impl<'a> Array<'a> {
+    fn new(name: &'a str, components: usize, payload: Payload<'a>) -> Self {
+        Self {
+            name,
+            components,
+            payload,
+        }
+    }
+
+    fn from_field(field: &Field<'a>) -> Self {
+        let payload = match field.data {
+            FieldData::Scalar(v) => Payload::F64(v),
+            FieldData::Vector(v) => Payload::F64(v.as_flattened()),
+            FieldData::Tensor(v) => Payload::F64(v.as_flattened()),
+            FieldData::Int(v) => Payload::I32(v),
+        };
+        Self::new(field.name, field.data.components(), payload)
+    }
+
+    /// Appends the `DataArray` tag at `offset` and advances `offset` past
+    /// this array's block. Field-data arrays declare their tuple count.
+    fn write_tag(&self, out: &mut String, indent: usize, field_data: bool, offset: &mut u64) {
+        let _ = write!(
+            out,
+            "{:indent$}<DataArray type=\"{}\" Name=\"{}\" ",
+            "",
+            self.payload.vtk_type(),
+            escape_xml(self.name)
+        );
+        if field_data {
+            let tuples = self.payload.byte_len() / 8 / self.components as u64;
+            let _ = write!(out, "NumberOfTuples=\"{tuples}\" ");
+        }
+        let _ = writeln!(
+            out,
+            "NumberOfComponents=\"{}\" format=\"appended\" offset=\"{offset}\"/>",
+            self.components
+        );
+        *offset += 8 + self.payload.byte_len();
+    }
+}
+
+/// Escapes text for use inside a double-quoted XML attribute.
+fn escape_xml(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        match c {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '"' => out.push_str("&quot;"),
+            '\'' => out.push_str("&apos;"),
+            _ => out.push(c),
+        }
+    }
+    out
+}
+
+/// A ParaView collection (`<base>.pvd`) listing the frames written so far.
+///
+/// The index is rewritten atomically after every [`push`](Self::push), so the
+/// file on disk is always complete and lists only frames that exist.
+#[derive(Debug, Clone)]
+pub struct PvdIndex {
+    dir: PathBuf,
+    path: PathBuf,
+    frames: Vec<(f64, String)>,
+}
+
+impl PvdIndex {
+    /// Starts an empty index at `dir/<base>.pvd`, replacing any existing one.
+    pub fn create(dir: &Path, base: &str) -> io::Result<Self> {
+        if base.is_empty() {
+            return Err(invalid_input("PVD base name is empty".into()));
+        }
+        let index = Self {
+            dir: dir.to_path_buf(),
+            path: dir.join(format!("{base}.pvd")),
+            frames: Vec::new(),
+        };
+        index.write()?;
+        Ok(index)
+    }
+
+    /// Adds the frame `file_name` (relative to the index's directory, already
+    /// written) at `time` and rewrites the index.
+    pub fn push(&mut self, time: f64, file_name: &str) -> io::Result<()> {
+        if !time.is_finite() {
+            return Err(invalid_input(format!(
+                "PVD frame `{file_name}` has non-finite time {time}"
+            )));
+        }
+        if file_name.is_empty() || Path::new(file_name).is_absolute() {
+            return Err(invalid_input(format!(
+                "PVD frame `{file_name}` must be a path relative to the index"
+            )));
+        }
+        if !self.dir.join(file_name).is_file() {
+            return Err(io::Error::new(
+                io::ErrorKind::NotFound,
+                format!(
+                    "PVD frame `{file_name}` does not exist in `{}`",
+                    self.dir.display()
+                ),
+            ));
+        }
+        self.frames.push((time, file_name.to_owned()));
+        let result = self.write();
+        if result.is_err() {
+            self.frames.pop();
+        }
+        result
+    }
+
+    /// Path of the `.pvd` file.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Number of frames listed.
+    pub fn len(&self) -> usize {
+        self.frames.len()
+    }
+
+    /// Whether no frame has been listed yet.
+    pub fn is_empty(&self) -> bool {
+        self.frames.is_empty()
+    }
+
+    fn write(&self) -> io::Result<()> {
+        let mut xml = String::new();
+        xml.push_str("<?xml version=\"1.0\"?>\n");
+        xml.push_str("<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n");
+        xml.push_str("  <Collection>\n");
+        for (time, file) in &self.frames {
+            let _ = writeln!(
+                xml,
+                "    <DataSet timestep=\"{}\" group=\"\" part=\"0\" file=\"{}\"/>",
+                format_f64(*time),
+                escape_xml(file)
+            );
+        }
+        xml.push_str("  </Collection>\n");
+        xml.push_str("</VTKFile>\n");
+        write_atomically(&self.path, |w| w.write_all(xml.as_bytes()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::fs;
+
+    /// A `DataArray` tag as read back from a frame header.
+    #[derive(Debug)]
+    struct Tag {
+        name: String,
+        vtk_type: String,
+        components: usize,
+        offset: usize,
+    }
+
+    /// Value of attribute `key` in a single XML tag.
+    fn attr<'t>(tag: &'t str, key: &str) -> Option<&'t str> {
+        let start = tag.find(&format!(" {key}=\""))? + key.len() + 3;
+        let len = tag[start..].find('"')?;
+        Some(&tag[start..start + len])
+    }
+
+    /// Minimal reader of the frames written by [`write_vtu`]: returns the XML
+    /// header, the `DataArray` tags and the bytes after the `_` marker.
+    fn read_vtu(path: &Path) -> (String, Vec<Tag>, Vec<u8>) {
+        let bytes = fs::read(path).unwrap();
+        let opening = b"<AppendedData encoding=\"raw\">";
+        let at = bytes
+            .windows(opening.len())
+            .position(|w| w == opening)
+            .expect("no AppendedData element");
+        let marker = at + bytes[at..].iter().position(|&b| b == b'_').unwrap();
+        let header = String::from_utf8(bytes[..marker].to_vec()).unwrap();
+        let raw = bytes[marker + 1..].to_vec();
+        let tags = header
+            .split("<DataArray")
+            .skip(1)
+            .map(|rest| {
+                let tag = &rest[..rest.find("/>").expect("unclosed DataArray")];
+                Tag {
+                    name: attr(tag, "Name").unwrap().to_owned(),
+                    vtk_type: attr(tag, "type").unwrap().to_owned(),
+                    components: attr(tag, "NumberOfComponents").unwrap().parse().unwrap(),
+                    offset: attr(tag, "offset").unwrap().parse().unwrap(),
+                }
+            })
+            .collect();
+        (header, tags, raw)
+    }
+
+    /// Payload of the block at `offset`, checked against its UInt64 header.
+    fn block(raw: &[u8], offset: usize) -> &[u8] {
+        let len = u64::from_le_bytes(raw[offset..offset + 8].try_into().unwrap()) as usize;
+        &raw[offset + 8..offset + 8 + len]
+    }
+
+    fn decode_f64(bytes: &[u8]) -> Vec<u64> {
+        assert_eq!(bytes.len() % 8, 0);
+        bytes
+            .chunks_exact(8)
+            .map(|c| f64::from_le_bytes(c.try_into().unwrap()).to_bits())
+            .collect()
+    }
+
+    fn decode_i32(bytes: &[u8]) -> Vec<i32> {
+        assert_eq!(bytes.len() % 4, 0);
+        bytes
+            .chunks_exact(4)
+            .map(|c| i32::from_le_bytes(c.try_into().unwrap()))
+            .collect()
+    }
+
+    fn decode_i64(bytes: &[u8]) -> Vec<i64> {
+        assert_eq!(bytes.len() % 8, 0);
+        bytes
+            .chunks_exact(8)
+            .map(|c| i64::from_le_bytes(c.try_into().unwrap()))
+            .collect()
+    }
+
+    fn bits(values: &[f64]) -> Vec<u64> {
+        values.iter().map(|x| x.to_bits()).collect()
+    }
+
+    #[test]
+    fn vtu_round_trips_all_field_kinds_bit_exact() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("frame_0003.vtu");
+        let points = [
+            [0.0, 0.0, 0.0],
+            [0.1, -0.0, 1e-300],
+            [1.0 / 3.0, 2.5, -7.25],
+            [f64::MAX, f64::MIN_POSITIVE, 5e-324],
+            [-1.5e10, 3.0e-8, 42.0],
+        ];
+        let pressure = [1.0, -2.0, f64::NAN, f64::INFINITY, 0.1 + 0.2];
+        let velocity = [
+            [1.0, 2.0, 3.0],
+            [-1.0, -2.0, -3.0],
+            [0.5, 0.25, 0.125],
+            [1e-12, 1e12, 0.0],
+            [9.0, 8.0, 7.0],
+        ];
+        let stress: Vec<[f64; 9]> = (0..5)
+            .map(|p| std::array::from_fn(|k| (10 * p + k) as f64 + 1.0 / 7.0))
+            .collect();
+        let ids = [0, -1, i32::MAX, i32::MIN, 7];
+        let fields = [
+            Field {
+                name: "pressure",
+                data: FieldData::Scalar(&pressure),
+            },
+            Field {
+                name: "velocity",
+                data: FieldData::Vector(&velocity),
+            },
+            Field {
+                name: "stress",
+                data: FieldData::Tensor(&stress),
+            },
+            Field {
+                name: "id",
+                data: FieldData::Int(&ids),
+            },
+        ];
+        let time = 0.123_456_789_012_345_67;
+
+        write_vtu(&path, &points, &fields, time).unwrap();
+        let (header, tags, raw) = read_vtu(&path);
+
+        assert!(header.starts_with("<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\""));
+        assert!(header.contains("header_type=\"UInt64\""));
+        assert!(header.contains("byte_order=\"LittleEndian\""));
+        assert!(header.contains("<Piece NumberOfPoints=\"5\" NumberOfCells=\"5\">"));
+        assert!(header.contains("NumberOfTuples=\"1\""));
+
+        let expected = [
+            ("TimeValue", "Float64", 1, 8),
+            ("pressure", "Float64", 1, 5 * 8),
+            ("velocity", "Float64", 3, 15 * 8),
+            ("stress", "Float64", 9, 45 * 8),
+            ("id", "Int32", 1, 5 * 4),
+            ("Points", "Float64", 3, 15 * 8),
+            ("connectivity", "Int64", 1, 5 * 8),
+            ("offsets", "Int64", 1, 5 * 8),
+            ("types", "UInt8", 1, 5),
+        ];
+        assert_eq!(tags.len(), expected.len());
+        let mut offset = 0;
+        for (tag, (name, vtk_type, components, len)) in tags.iter().zip(expected) {
+            assert_eq!((tag.name.as_str(), tag.vtk_type.as_str()), (name, vtk_type));
+            assert_eq!(tag.components, components, "{name}");
+            assert_eq!(tag.offset, offset, "offset of {name}");
+            assert_eq!(block(&raw, offset).len(), len, "length of {name}");
+            offset += 8 + len;
+        }
+        assert_eq!(&raw[offset..], b"\n  </AppendedData>\n</VTKFile>\n");
+
+        let data = |i: usize| block(&raw, tags[i].offset);
+        assert_eq!(decode_f64(data(0)), bits(&[time]));
+        assert_eq!(decode_f64(data(1)), bits(&pressure));
+        assert_eq!(decode_f64(data(2)), bits(velocity.as_flattened()));
+        assert_eq!(decode_f64(data(3)), bits(stress.as_flattened()));
+        assert_eq!(decode_i32(data(4)), ids);
+        assert_eq!(decode_f64(data(5)), bits(points.as_flattened()));
+        assert_eq!(decode_i64(data(6)), [0, 1, 2, 3, 4]);
+        assert_eq!(decode_i64(data(7)), [1, 2, 3, 4, 5]);
+        assert_eq!(data(8), [VTK_VERTEX; 5]);
+
+        assert!(!dir.path().join("frame_0003.vtu.tmp").exists());
+        assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn vtu_without_points_or_fields_is_well_formed() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("empty.vtu");
+
+        write_vtu(&path, &[], &[], 2.0).unwrap();
+        let (header, tags, raw) = read_vtu(&path);
+
+        assert!(header.contains("<Piece NumberOfPoints=\"0\" NumberOfCells=\"0\">"));
+        assert!(header.contains("<PointData>\n      </PointData>"));
+        let names: Vec<&str> = tags.iter().map(|t| t.name.as_str()).collect();
+        assert_eq!(
+            names,
+            ["TimeValue", "Points", "connectivity", "offsets", "types"]
+        );
+        assert_eq!(decode_f64(block(&raw, 0)), bits(&[2.0]));
+        for tag in &tags[1..] {
+            assert!(block(&raw, tag.offset).is_empty(), "{}", tag.name);
+        }
+        assert_eq!(&raw[8 + 8 + 4 * 8..], b"\n  </AppendedData>\n</VTKFile>\n");
+    }
+
+    #[test]
+    fn vtu_rejects_field_length_mismatch_naming_field() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("bad.vtu");
+        let points = [[0.0; 3]; 3];
+        let good = [1.0, 2.0, 3.0];
+        let short = [[0.0; 9]; 2];
+        let fields = [
+            Field {
+                name: "density",
+                data: FieldData::Scalar(&good),
+            },
+            Field {
+                name: "cauchy_stress",
+                data: FieldData::Tensor(&short),
+            },
+        ];
+
+        let err = write_vtu(&path, &points, &fields, 0.0).unwrap_err();
+
+        assert_eq!(err.kind(), io::ErrorKind::InvalidInput);
+        assert!(err.to_string().contains("cauchy_stress"), "{err}");
+        assert!(!err.to_string().contains("density"), "{err}");
+        assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 0);
+    }
+
+    #[test]
+    fn vtu_rejects_empty_and_repeated_field_names() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("bad.vtu");
+        let points = [[0.0; 3]];
+        let v = [1.0];
+        let empty = [Field {
+            name: "",
+            data: FieldData::Scalar(&v),
+        }];
+        let twice = [
+            Field {
+                name: "rho",
+                data: FieldData::Scalar(&v),
+            },
+            Field {
+                name: "rho",
+                data: FieldData::Scalar(&v),
+            },
+        ];
+
+        for fields in [&empty[..], &twice[..]] {
+            let err = write_vtu(&path, &points, fields, 0.0).unwrap_err();
+            assert_eq!(err.kind(), io::ErrorKind::InvalidInput);
+        }
+        assert!(!path.exists());
+    }
+
+    #[test]
+    fn vtu_escapes_field_names() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("names.vtu");
+        let v = [1.0];
+
+        let fields = [Field {
+            name: "a<b & \"c\"",
+            data: FieldData::Scalar(&v),
+        }];
+        write_vtu(&path, &[[0.0; 3]], &fields, 0.0).unwrap();
+        let (header, _, _) = read_vtu(&path);
+
+        assert!(
+            header.contains("Name=\"a&lt;b &amp; &quot;c&quot;\""),
+            "{header}"
+        );
+    }
+
+    #[test]
+    fn pvd_lists_every_pushed_frame() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut index = PvdIndex::create(dir.path(), "run").unwrap();
+        let pvd = dir.path().join("run.pvd");
+        assert_eq!(index.path(), pvd);
+        let empty = fs::read_to_string(&pvd).unwrap();
+        assert!(empty.contains("<Collection>\n  </Collection>"), "{empty}");
+
+        let times = [0.0, 2.5e-4, 1.0 / 3.0];
+        for (i, &t) in times.iter().enumerate() {
+            let name = format!("run_{i:04}.vtu");
+            write_vtu(&dir.path().join(&name), &[[0.0; 3]], &[], t).unwrap();
+            index.push(t, &name).unwrap();
+        }
+        assert_eq!(index.len(), 3);
+
+        let xml = fs::read_to_string(&pvd).unwrap();
+        assert!(xml.starts_with("<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\""));
+        assert!(xml.ends_with("  </Collection>\n</VTKFile>\n"), "{xml}");
+        assert_eq!(xml.matches("<Collection>").count(), 1);
+        let datasets: Vec<&str> = xml.lines().filter(|l| l.contains("<DataSet")).collect();
+        assert_eq!(datasets.len(), 3);
+        for (i, (line, &t)) in datasets.iter().zip(&times).enumerate() {
+            assert!(line.trim_end().ends_with("/>"), "{line}");
+            let timestep: f64 = attr(line, "timestep").unwrap().parse().unwrap();
+            assert_eq!(timestep.to_bits(), t.to_bits());
+            assert_eq!(attr(line, "part"), Some("0"));
+            assert_eq!(attr(line, "file"), Some(format!("run_{i:04}.vtu").as_str()));
+        }
+        assert!(!dir.path().join("run.pvd.tmp").exists());
+    }
+
+    #[test]
+    fn pvd_rejects_missing_frames_and_keeps_index() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut index = PvdIndex::create(dir.path(), "run").unwrap();
+        write_vtu(&dir.path().join("a.vtu"), &[], &[], 0.0).unwrap();
+        index.push(0.0, "a.vtu").unwrap();
+        let before = fs::read_to_string(index.path()).unwrap();
+
+        let missing = index.push(1.0, "b.vtu").unwrap_err();
+        assert_eq!(missing.kind(), io::ErrorKind::NotFound);
+        assert!(missing.to_string().contains("b.vtu"), "{missing}");
+        let nan = index.push(f64::NAN, "a.vtu").unwrap_err();
+        assert_eq!(nan.kind(), io::ErrorKind::InvalidInput);
+        let absolute = dir.path().join("a.vtu");
+        let absolute = index.push(1.0, absolute.to_str().unwrap()).unwrap_err();
+        assert_eq!(absolute.kind(), io::ErrorKind::InvalidInput);
+
+        assert_eq!(index.len(), 1);
+        assert_eq!(fs::read_to_string(index.path()).unwrap(), before);
+    }
+}

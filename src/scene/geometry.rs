@@ -1,0 +1,206 @@
+//! Geometry generators: sample every body of a case on a lattice of spacing Δx (or read
+//! its points from CSV) and set the initial velocity field.
+
+use super::{BodySpec, Case, CaseError, Shape, VelocityField};
+use crate::tensor::Dim;
+use std::path::Path;
+
+/// The particles of a case in the reference configuration.
+#[derive(Clone, Debug)]
+pub struct Discretised<D: Dim> {
+    /// Reference positions X.
+    pub x0: Vec<D::V>,
+    /// Reference volumes V0 (Δx^d for lattice points; 2D volumes are per unit thickness).
+    pub vol: Vec<f64>,
+    /// Body index of every particle (into `Case::bodies`).
+    pub body: Vec<u32>,
+    /// Initial velocities.
+    pub v0: Vec<D::V>,
+}
+
+/// Samples every body of the case.
+pub fn discretise<D: Dim>(case: &Case) -> Result<Discretised<D>, CaseError> {
+    let mut out = Discretised {
+        x0: Vec::new(),
+        vol: Vec::new(),
+        body: Vec::new(),
+        v0: Vec::new(),
+    };
+    for (b, spec) in case.bodies.iter().enumerate() {
+        let (points, volumes) = sample::<D>(case, b, spec)?;
+        if points.is_empty() {
+            return Err(case.invalid(
+                format!("body.{b}.geometry"),
+                format!(
+                    "body `{}` contains no particle at spacing {}; reduce `spacing` or enlarge the shape",
+                    spec.name, case.spacing
+                ),
+            ));
+        }
+        for (&x, &v) in points.iter().zip(&volumes) {
+            out.x0.push(x);
+            out.vol.push(v);
+            out.body.push(b as u32);
+            out.v0.push(initial_velocity::<D>(spec.initial_velocity.as_ref(), x));
+        }
+    }
+    Ok(out)
+}
+
+fn sample<D: Dim>(case: &Case, b: usize, spec: &BodySpec) -> Result<(Vec<D::V>, Vec<f64>), CaseError> {
+    let dx = case.spacing;
+    let cell = dx.powi(D::N as i32);
+    let lattice_of = |lo: &[f64], hi: &[f64], inside: &dyn Fn(&[f64]) -> bool| {
+        let points = lattice::<D>(lo, hi, dx, inside);
+        let vol = vec![cell; points.len()];
+        (points, vol)
+    };
+    Ok(match &spec.geometry {
+        Shape::Box { min, max } => lattice_of(min, max, &|_| true),
+        Shape::Disk { center, radius } => {
+            let (lo, hi) = around(center, *radius);
+            lattice_of(&lo, &hi, &|p| dist2(p, center) < radius * radius)
+        }
+        Shape::Ring {
+            center,
+            inner_radius,
+            outer_radius,
+        } => {
+            let (lo, hi) = around(center, *outer_radius);
+            lattice_of(&lo, &hi, &|p| {
+                let r2 = dist2(p, center);
+                r2 >= inner_radius * inner_radius && r2 < outer_radius * outer_radius
+            })
+        }
+        Shape::Cylinder {
+            base,
+            axis,
+            radius,
+            inner_radius,
+            length,
+        } => {
+            let a = axis.index();
+            let (mut lo, mut hi) = around(base, *radius);
+            lo[a] = base[a];
+            hi[a] = base[a] + length;
+            lattice_of(&lo, &hi, &|p| {
+                let r2: f64 = (0..3).filter(|&k| k != a).map(|k| (p[k] - base[k]).powi(2)).sum();
+                r2 >= inner_radius * inner_radius && r2 <= radius * radius
+            })
+        }
+        Shape::Points { file } => {
+            let path = case.base_dir().join(file);
+            read_points::<D>(&path, cell)
+                .map_err(|m| case.invalid(format!("body.{b}.geometry.file"), format!("{}: {m}", path.display())))?
+        }
+    })
+}
+
+fn around(center: &[f64], r: f64) -> (Vec<f64>, Vec<f64>) {
+    (center.iter().map(|c| c - r).collect(), center.iter().map(|c| c + r).collect())
+}
+
+fn dist2(p: &[f64], c: &[f64]) -> f64 {
+    p.iter().zip(c).map(|(a, b)| (a - b).powi(2)).sum()
+}
+
+/// Points lo + i·Δx (per axis, i = 0, 1, … while ≤ hi, with a 1e-9 relative tolerance so
+/// that an end point on the bound is kept) that satisfy `inside`.
+fn lattice<D: Dim>(lo: &[f64], hi: &[f64], dx: f64, inside: &dyn Fn(&[f64]) -> bool) -> Vec<D::V> {
+    let n: Vec<usize> = (0..D::N)
+        .map(|k| ((hi[k] - lo[k]) / dx + 1e-9).floor() as usize + 1)
+        .collect();
+    let total: usize = n.iter().product();
+    let mut points = Vec::new();
+    let mut p = vec![0.0; D::N];
+    for flat in 0..total {
+        let mut rest = flat;
+        for k in 0..D::N {
+            p[k] = lo[k] + (rest % n[k]) as f64 * dx;
+            rest /= n[k];
+        }
+        if inside(&p) {
+            points.push(D::from_slice(&p));
+        }
+    }
+    points
+}
+
+/// Reads `x,y[,z][,volume]` rows (header required, any column order). Without a volume
+/// column every point gets Δx^d.
+fn read_points<D: Dim>(path: &Path, cell: f64) -> Result<(Vec<D::V>, Vec<f64>), String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read: {e}"))?;
+    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
+    let (_, header) = lines.next().ok_or("empty file; expected a header line x,y[,z][,volume]")?;
+    let names: Vec<&str> = header.split(',').map(str::trim).collect();
+    let column = |name: &str| names.iter().position(|&c| c == name);
+    let axes: Vec<usize> = ["x", "y", "z"][..D::N]
+        .iter()
+        .map(|a| column(a).ok_or(format!("header `{header}` lacks column `{a}` (needed in {}D)", D::N)))
+        .collect::<Result<_, _>>()?;
+    let volume = column("volume");
+    let (mut points, mut vols) = (Vec::new(), Vec::new());
+    for (line_no, line) in lines {
+        let fields: Vec<f64> = line
+            .split(',')
+            .map(|f| f.trim().parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|e| format!("line {}: {e}", line_no + 1))?;
+        if fields.len() != names.len() || fields.iter().any(|v| !v.is_finite()) {
+            return Err(format!(
+                "line {}: expected {} finite numbers, found `{line}`",
+                line_no + 1,
+                names.len()
+            ));
+        }
+        let p: Vec<f64> = axes.iter().map(|&c| fields[c]).collect();
+        points.push(D::from_slice(&p));
+        let v = volume.map_or(cell, |c| fields[c]);
+        if v <= 0.0 {
+            return Err(format!("line {}: volume must be positive, found {v}", line_no + 1));
+        }
+        vols.push(v);
+    }
+    Ok((points, vols))
+}
+
+fn initial_velocity<D: Dim>(field: Option<&VelocityField>, x: D::V) -> D::V {
+    let Some(field) = field else { return D::zero() };
+    let p = D::to3(x);
+    match field {
+        VelocityField::Uniform { value } => D::from_slice(value),
+        VelocityField::RigidRotation { omega, center, axis } => {
+            let c = pad3(center);
+            let w = match axis {
+                Some(a) => {
+                    let a = pad3(a);
+                    let n = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+                    [a[0] / n * omega, a[1] / n * omega, a[2] / n * omega]
+                }
+                None => [0.0, 0.0, *omega],
+            };
+            let r = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
+            let v = [
+                w[1] * r[2] - w[2] * r[1],
+                w[2] * r[0] - w[0] * r[2],
+                w[0] * r[1] - w[1] * r[0],
+            ];
+            D::from_slice(&v)
+        }
+        VelocityField::GaussianPulse {
+            amplitude,
+            direction,
+            center,
+            width,
+        } => {
+            let d = D::from_slice(direction);
+            let d = d * (1.0 / D::norm2(d).sqrt());
+            let s = D::dot(x, d);
+            d * (amplitude * (-((s - center) / width).powi(2)).exp())
+        }
+    }
+}
+
+fn pad3(v: &[f64]) -> [f64; 3] {
+    [v[0], v[1], v.get(2).copied().unwrap_or(0.0)]
+}

@@ -1,0 +1,377 @@
+//! Case files: the schema of `cases/*.toml`, loading with `--set` overrides, and validation.
+//!
+//! A case is parsed completely and validated before anything runs; every error names
+//! the file, the key and what is allowed.
+
+mod geometry;
+mod overrides;
+mod validate;
+
+pub use geometry::{Discretised, discretise};
+
+use crate::correction::CorrectionKind;
+use crate::integrate::IntegratorKind;
+use crate::kernel::KernelKind;
+use crate::material::MaterialModel;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+/// A complete, validated scene description.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Case {
+    /// Scene name, used for output file names.
+    pub name: String,
+    #[serde(default)]
+    pub description: String,
+    /// 2 (plane strain) or 3.
+    pub dimension: u32,
+    /// Particle spacing Δx of the lattices that sample every body.
+    pub spacing: f64,
+    pub material: MaterialSpec,
+    pub method: MethodSpec,
+    #[serde(rename = "body")]
+    pub bodies: Vec<BodySpec>,
+    #[serde(default, rename = "boundary")]
+    pub boundaries: Vec<BoundarySpec>,
+    pub run: RunSpec,
+    #[serde(default)]
+    pub output: OutputSpec,
+    #[serde(default, rename = "probe")]
+    pub probes: Vec<ProbeSpec>,
+    /// The case file, named in errors; relative paths inside it are relative to its folder.
+    #[serde(skip)]
+    pub file: PathBuf,
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialSpec {
+    pub model: MaterialModel,
+    /// Reference density ρ0 [kg/m³].
+    pub density: f64,
+    /// Young's modulus E [Pa].
+    pub youngs_modulus: f64,
+    /// Poisson ratio ν.
+    pub poisson_ratio: f64,
+}
+
+/// Particle method, as named in case files.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum MethodName {
+    /// Total-Lagrangian SPH after Reveles (seed 000 §5.3).
+    Tlsph,
+}
+
+impl MethodName {
+    pub const ALL: [MethodName; 1] = [MethodName::Tlsph];
+
+    pub fn describe(self) -> &'static str {
+        match self {
+            Self::Tlsph => {
+                "total-Lagrangian SPH (Reveles; seed 000 §5.3): corrected reference kernel, \
+                 rate- or state-based stress, Monaghan artificial viscosity"
+            }
+        }
+    }
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct MethodSpec {
+    pub name: MethodName,
+    #[serde(default = "default_kernel")]
+    pub kernel: KernelKind,
+    /// Smoothing length over particle spacing.
+    pub h_over_dx: f64,
+    #[serde(default = "default_correction")]
+    pub correction: CorrectionKind,
+    #[serde(default = "default_integrator")]
+    pub integrator: IntegratorKind,
+    /// Fixed time step [s]; exactly one of `dt` and `cfl` is given.
+    pub dt: Option<f64>,
+    /// Courant number: Δt = cfl · Δx / (c_p + max |v|).
+    pub cfl: Option<f64>,
+    pub artificial_viscosity: Option<ArtificialViscosity>,
+}
+
+fn default_kernel() -> KernelKind {
+    KernelKind::CubicSpline
+}
+fn default_correction() -> CorrectionKind {
+    CorrectionKind::RandlesLibersky
+}
+fn default_integrator() -> IntegratorKind {
+    IntegratorKind::Rk4
+}
+
+/// Monaghan artificial viscosity Π_ij = (−α c̄ μ_ij + β μ_ij²)/ρ̄_ij (seed 000 §3.1 step 6).
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ArtificialViscosity {
+    pub alpha: f64,
+    pub beta: f64,
+    #[serde(default = "default_eta")]
+    pub eta: f64,
+}
+
+fn default_eta() -> f64 {
+    0.1
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodySpec {
+    pub name: String,
+    pub geometry: Shape,
+    pub initial_velocity: Option<VelocityField>,
+}
+
+/// Geometry generators. Lattices are anchored at the lower corner of the shape's
+/// bounding box: points min + i·Δx, i = 0, 1, … while ≤ max.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(tag = "shape", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum Shape {
+    /// Rectangle (2D) or box (3D), both ends closed.
+    Box { min: Vec<f64>, max: Vec<f64> },
+    /// Disk of points with |x − c| < r (2D).
+    Disk { center: Vec<f64>, radius: f64 },
+    /// Annulus of points with r_i ≤ |x − c| < r_o (2D).
+    Ring {
+        center: Vec<f64>,
+        inner_radius: f64,
+        outer_radius: f64,
+    },
+    /// Solid or hollow cylinder along a coordinate axis (3D); `base` is the centre of
+    /// the bottom face.
+    Cylinder {
+        base: Vec<f64>,
+        axis: Axis,
+        radius: f64,
+        #[serde(default)]
+        inner_radius: f64,
+        length: f64,
+    },
+    /// Points from a CSV file with a header naming columns x, y[, z][, volume].
+    Points { file: PathBuf },
+}
+
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum Axis {
+    X,
+    Y,
+    Z,
+}
+
+impl Axis {
+    pub fn index(self) -> usize {
+        self as usize
+    }
+}
+
+/// Initial velocity fields v(X).
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum VelocityField {
+    Uniform {
+        value: Vec<f64>,
+    },
+    /// v = ω × (X − c); in 2D ω is the out-of-plane rate, in 3D `axis` gives its direction.
+    RigidRotation {
+        omega: f64,
+        center: Vec<f64>,
+        axis: Option<Vec<f64>>,
+    },
+    /// Longitudinal pulse v = A d exp(−((X·d − s0)/w)²) along the unit direction d.
+    GaussianPulse {
+        amplitude: f64,
+        direction: Vec<f64>,
+        center: f64,
+        width: f64,
+    },
+}
+
+/// A boundary condition on a region of the reference configuration.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoundarySpec {
+    pub region: Region,
+    pub condition: Condition,
+}
+
+/// Axis-aligned box in reference coordinates (every bound optional), optionally limited
+/// to one body. Bounds are inclusive and widened by Δx/4 so that lattice rows lying on a
+/// bound are selected despite round-off.
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Region {
+    pub body: Option<String>,
+    pub x_min: Option<f64>,
+    pub x_max: Option<f64>,
+    pub y_min: Option<f64>,
+    pub y_max: Option<f64>,
+    pub z_min: Option<f64>,
+    pub z_max: Option<f64>,
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum Condition {
+    /// u = 0, v = 0.
+    Fixed,
+    /// Prescribed velocity components (the others stay free); u follows as v·t.
+    Velocity {
+        vx: Option<f64>,
+        vy: Option<f64>,
+        vz: Option<f64>,
+    },
+    /// Mirror plane with the given normal: the normal velocity component is zero.
+    Symmetry { normal: Axis },
+    /// Surface traction t [Pa] on the region's particles, f = t·Δx^(d−1) each.
+    Traction { traction: Vec<f64> },
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunSpec {
+    /// Simulated end time [s].
+    pub end_time: f64,
+    /// Stop as failed when the total energy exceeds this factor times the initial
+    /// energy plus the work done by boundary conditions.
+    #[serde(default = "default_energy_growth")]
+    pub energy_growth_limit: f64,
+}
+
+fn default_energy_growth() -> f64 {
+    10.0
+}
+
+/// Observers written to the CSV time series.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[serde(rename_all = "kebab-case")]
+pub enum Observer {
+    /// Kinetic, strain and total energy.
+    Energy,
+    /// Σ m v.
+    LinearMomentum,
+    /// Σ m x × v about the origin.
+    AngularMomentum,
+    /// Current bounding-box size of every body along each axis.
+    Extent,
+    /// Smallest current height (y-extent) over the material columns of free particles.
+    NeckHeight,
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputSpec {
+    /// Time between VTU frames [s]; frames at t = 0 and at the end are always written.
+    /// Absent: only those two.
+    pub frame_interval: Option<f64>,
+    /// Time between rows of the CSV time series [s]; absent: every step.
+    pub series_interval: Option<f64>,
+    #[serde(default)]
+    pub observers: Vec<Observer>,
+}
+
+impl Default for OutputSpec {
+    fn default() -> Self {
+        Self {
+            frame_interval: None,
+            series_interval: None,
+            observers: vec![Observer::Energy],
+        }
+    }
+}
+
+/// A point probe: the particle nearest to `position` in the reference configuration.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProbeSpec {
+    pub name: String,
+    pub position: Vec<f64>,
+}
+
+/// What is wrong with a case file.
+#[derive(Debug, Error)]
+pub enum CaseError {
+    #[error("{file}: cannot read: {source}")]
+    Read {
+        file: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{file}: {message}")]
+    Parse { file: PathBuf, message: String },
+    #[error("{file}: --set {assignment}: {message}")]
+    Override {
+        file: PathBuf,
+        assignment: String,
+        message: String,
+    },
+    #[error("{file}: key `{key}`: {message}")]
+    Invalid {
+        file: PathBuf,
+        key: String,
+        message: String,
+    },
+}
+
+impl Case {
+    /// Reads, overrides (`key.path=value`) and validates a case file.
+    pub fn load(path: &Path, overrides: &[String]) -> Result<Case, CaseError> {
+        let text = std::fs::read_to_string(path).map_err(|source| CaseError::Read {
+            file: path.to_path_buf(),
+            source,
+        })?;
+        Self::from_toml(&text, path, overrides)
+    }
+
+    /// Parses case text; `file` names it in errors and anchors relative paths.
+    pub fn from_toml(text: &str, file: &Path, overrides: &[String]) -> Result<Case, CaseError> {
+        let parse_error = |e: toml::de::Error| CaseError::Parse {
+            file: file.to_path_buf(),
+            message: e.to_string().trim_end().to_string(),
+        };
+        let mut case: Case = if overrides.is_empty() {
+            toml::from_str(text).map_err(parse_error)?
+        } else {
+            let mut table: toml::Table = toml::from_str(text).map_err(parse_error)?;
+            for assignment in overrides {
+                overrides::apply(&mut table, assignment).map_err(|message| CaseError::Override {
+                    file: file.to_path_buf(),
+                    assignment: assignment.clone(),
+                    message,
+                })?;
+            }
+            Case::deserialize(table).map_err(parse_error)?
+        };
+        case.file = file.to_path_buf();
+        validate::check(&case).map_err(|(key, message)| CaseError::Invalid {
+            file: file.to_path_buf(),
+            key,
+            message,
+        })?;
+        Ok(case)
+    }
+
+    pub fn dim(&self) -> usize {
+        self.dimension as usize
+    }
+
+    /// Folder that relative paths in the case are resolved against.
+    pub fn base_dir(&self) -> &Path {
+        self.file.parent().unwrap_or(Path::new("."))
+    }
+
+    /// An error about `key` in this case's file.
+    pub fn invalid(&self, key: impl Into<String>, message: impl Into<String>) -> CaseError {
+        CaseError::Invalid {
+            file: self.file.clone(),
+            key: key.into(),
+            message: message.into(),
+        }
+    }
+}

@@ -1,0 +1,726 @@
+//! Semantic checks of a parsed case: everything serde cannot see (ranges, vector
+//! lengths, shapes that exist only in one dimension, references between tables).
+//!
+//! Checks run in a fixed order (top level, material, method, bodies, boundaries, run,
+//! output, probes) and the first problem found is reported, so the same bad file always
+//! gives the same message.
+
+use super::{
+    ArtificialViscosity, Axis, BodySpec, BoundarySpec, Case, Condition, MaterialSpec, MethodSpec,
+    OutputSpec, ProbeSpec, Region, RunSpec, Shape, VelocityField,
+};
+use serde::Serialize;
+use std::collections::HashSet;
+
+/// A failed check: the dotted key path and what is wrong with it.
+type Problem = (String, String);
+type Checked = Result<(), Problem>;
+
+/// Semantic checks after parsing. Err((key, message)): the dotted key path, e.g. `material.poisson_ratio` or `body.1.geometry.radius` or `boundary.0.condition.vx`, and a message that says what is wrong and what is allowed, quoting the offending value.
+pub(super) fn check(case: &Case) -> Result<(), (String, String)> {
+    top_level(case)?;
+    let dim = case.dim();
+    material(&case.material)?;
+    method(&case.method)?;
+    bodies(&case.bodies, dim)?;
+    for (i, boundary) in case.boundaries.iter().enumerate() {
+        self::boundary(boundary, &format!("boundary.{i}"), &case.bodies, dim)?;
+    }
+    run(&case.run)?;
+    output(&case.output)?;
+    probes(&case.probes, dim)
+}
+
+fn fail(key: impl Into<String>, message: impl Into<String>) -> Checked {
+    Err((key.into(), message.into()))
+}
+
+/// The name a unit enum variant has in case files (`neck-height`, `z`).
+fn toml_name<T: Serialize>(value: &T) -> String {
+    serde_json::to_value(value)
+        .ok()
+        .and_then(|v| v.as_str().map(str::to_string))
+        .unwrap_or_else(|| "?".to_string())
+}
+
+fn finite(key: &str, value: f64) -> Checked {
+    if value.is_finite() {
+        Ok(())
+    } else {
+        fail(key, format!("must be a finite number, got {value:?}"))
+    }
+}
+
+/// Finite and strictly positive.
+fn positive(key: &str, value: f64) -> Checked {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        fail(key, format!("must be a finite number > 0, got {value:?}"))
+    }
+}
+
+/// Finite and ≥ 0.
+fn non_negative(key: &str, value: f64) -> Checked {
+    if value.is_finite() && value >= 0.0 {
+        Ok(())
+    } else {
+        fail(key, format!("must be a finite number ≥ 0, got {value:?}"))
+    }
+}
+
+/// A coordinate vector: one finite entry per dimension.
+fn vector(key: &str, value: &[f64], dim: usize) -> Checked {
+    if value.len() != dim {
+        return fail(
+            key,
+            format!(
+                "must have {dim} components (one per dimension; the case has dimension = {dim}), \
+                 got {} in {value:?}",
+                value.len()
+            ),
+        );
+    }
+    if let Some((k, v)) = value.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+        return fail(
+            key,
+            format!("component {k} must be a finite number, got {v:?} in {value:?}"),
+        );
+    }
+    Ok(())
+}
+
+/// A direction: a vector of the given length that is not zero.
+fn direction(key: &str, value: &[f64], dim: usize) -> Checked {
+    vector(key, value, dim)?;
+    if value.iter().all(|v| *v == 0.0) {
+        return fail(key, format!("must be a non-zero direction, got {value:?}"));
+    }
+    Ok(())
+}
+
+/// Names that become file names or CSV column prefixes.
+fn identifier(key: &str, value: &str, what: &str) -> Checked {
+    if value.is_empty() {
+        return fail(
+            key,
+            format!(
+                "must not be empty; {what}, so use only letters, digits, '-' and '_' \
+                 (e.g. \"beam-1\")"
+            ),
+        );
+    }
+    if let Some(c) = value
+        .chars()
+        .find(|c| !(c.is_ascii_alphanumeric() || *c == '-' || *c == '_'))
+    {
+        return fail(
+            key,
+            format!(
+                "{value:?} contains {c:?}; {what}, so only ASCII letters, digits, '-' and '_' \
+                 are allowed"
+            ),
+        );
+    }
+    Ok(())
+}
+
+fn top_level(case: &Case) -> Checked {
+    if !matches!(case.dimension, 2 | 3) {
+        return fail(
+            "dimension",
+            format!("must be 2 (plane strain) or 3, got {}", case.dimension),
+        );
+    }
+    positive("spacing", case.spacing)?;
+    identifier(
+        "name",
+        &case.name,
+        "the case name becomes the output file name",
+    )
+}
+
+fn material(m: &MaterialSpec) -> Checked {
+    positive("material.density", m.density)?;
+    positive("material.youngs_modulus", m.youngs_modulus)?;
+    let nu = m.poisson_ratio;
+    if !(nu > -1.0 && nu < 0.5) {
+        return fail(
+            "material.poisson_ratio",
+            format!(
+                "is {nu:?}; it must lie in (−1, 0.5); 0.5 is incompressible, which these \
+                 compressible models cannot represent"
+            ),
+        );
+    }
+    Ok(())
+}
+
+fn method(m: &MethodSpec) -> Checked {
+    let h = m.h_over_dx;
+    if !(h.is_finite() && (0.5..=4.0).contains(&h)) {
+        return fail(
+            "method.h_over_dx",
+            format!("must be a finite number in [0.5, 4], got {h:?}"),
+        );
+    }
+    match (m.dt, m.cfl) {
+        (Some(dt), Some(cfl)) => {
+            return fail(
+                "method.dt",
+                format!(
+                    "`method.dt` = {dt:?} and `method.cfl` = {cfl:?} are both given; give \
+                     exactly one of them: `dt` for a fixed time step [s] or `cfl` for an \
+                     adaptive one"
+                ),
+            );
+        }
+        (None, None) => {
+            return fail(
+                "method.dt",
+                "neither `method.dt` nor `method.cfl` is given; give exactly one of them: `dt` \
+                 for a fixed time step [s] or `cfl` for an adaptive one",
+            );
+        }
+        (Some(dt), None) => positive("method.dt", dt)?,
+        (None, Some(cfl)) => {
+            if !(cfl > 0.0 && cfl <= 2.0) {
+                return fail("method.cfl", format!("must lie in (0, 2], got {cfl:?}"));
+            }
+        }
+    }
+    if let Some(ArtificialViscosity { alpha, beta, eta }) = m.artificial_viscosity {
+        non_negative("method.artificial_viscosity.alpha", alpha)?;
+        non_negative("method.artificial_viscosity.beta", beta)?;
+        non_negative("method.artificial_viscosity.eta", eta)?;
+    }
+    Ok(())
+}
+
+fn bodies(bodies: &[BodySpec], dim: usize) -> Checked {
+    if bodies.is_empty() {
+        return fail(
+            "body",
+            "the case has no body; add at least one [[body]] table with a name and a geometry",
+        );
+    }
+    let mut seen = HashSet::new();
+    for (i, body) in bodies.iter().enumerate() {
+        let key = format!("body.{i}");
+        identifier(
+            &format!("{key}.name"),
+            &body.name,
+            "body names label output fields and boundary regions",
+        )?;
+        if !seen.insert(body.name.as_str()) {
+            return fail(
+                format!("{key}.name"),
+                format!(
+                    "{:?} is already the name of an earlier body; body names must be unique",
+                    body.name
+                ),
+            );
+        }
+        shape(&body.geometry, &format!("{key}.geometry"), dim)?;
+        if let Some(v) = &body.initial_velocity {
+            velocity(v, &format!("{key}.initial_velocity"), dim)?;
+        }
+    }
+    Ok(())
+}
+
+fn shape(shape: &Shape, key: &str, dim: usize) -> Checked {
+    let only = |name: &str, exists: usize, instead: &str| {
+        fail(
+            format!("{key}.shape"),
+            format!(
+                "shape \"{name}\" exists only in {exists}D, but the case has dimension = {dim}; \
+                 in {dim}D use {instead}"
+            ),
+        )
+    };
+    match shape {
+        Shape::Box { min, max } => {
+            vector(&format!("{key}.min"), min, dim)?;
+            vector(&format!("{key}.max"), max, dim)?;
+            for (k, (lo, hi)) in min.iter().zip(max).enumerate() {
+                if lo >= hi {
+                    return fail(
+                        format!("{key}.max"),
+                        format!(
+                            "must exceed `min` on every axis, but on axis {k} max = {hi:?} ≤ \
+                             min = {lo:?} (min = {min:?}, max = {max:?})"
+                        ),
+                    );
+                }
+            }
+        }
+        Shape::Disk { center, radius } => {
+            if dim != 2 {
+                return only("disk", 2, "\"cylinder\" or \"box\"");
+            }
+            vector(&format!("{key}.center"), center, dim)?;
+            positive(&format!("{key}.radius"), *radius)?;
+        }
+        Shape::Ring {
+            center,
+            inner_radius,
+            outer_radius,
+        } => {
+            if dim != 2 {
+                return only("ring", 2, "\"cylinder\" with an inner_radius");
+            }
+            vector(&format!("{key}.center"), center, dim)?;
+            non_negative(&format!("{key}.inner_radius"), *inner_radius)?;
+            positive(&format!("{key}.outer_radius"), *outer_radius)?;
+            if inner_radius >= outer_radius {
+                return fail(
+                    format!("{key}.inner_radius"),
+                    format!(
+                        "must be smaller than outer_radius = {outer_radius:?} (0 ≤ inner < \
+                         outer), got {inner_radius:?}"
+                    ),
+                );
+            }
+        }
+        Shape::Cylinder {
+            base,
+            axis: _,
+            radius,
+            inner_radius,
+            length,
+        } => {
+            if dim != 3 {
+                return only("cylinder", 3, "\"disk\" or \"ring\"");
+            }
+            vector(&format!("{key}.base"), base, dim)?;
+            positive(&format!("{key}.radius"), *radius)?;
+            non_negative(&format!("{key}.inner_radius"), *inner_radius)?;
+            if inner_radius >= radius {
+                return fail(
+                    format!("{key}.inner_radius"),
+                    format!(
+                        "must be smaller than radius = {radius:?} (0 ≤ inner_radius < radius), \
+                         got {inner_radius:?}"
+                    ),
+                );
+            }
+            positive(&format!("{key}.length"), *length)?;
+        }
+        Shape::Points { file } => {
+            if file.as_os_str().is_empty() {
+                return fail(
+                    format!("{key}.file"),
+                    "must name a CSV file (relative to the case file) with columns x, y[, z][, \
+                     volume]; got an empty path",
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+fn velocity(field: &VelocityField, key: &str, dim: usize) -> Checked {
+    match field {
+        VelocityField::Uniform { value } => vector(&format!("{key}.value"), value, dim),
+        VelocityField::RigidRotation {
+            omega,
+            center,
+            axis,
+        } => {
+            finite(&format!("{key}.omega"), *omega)?;
+            vector(&format!("{key}.center"), center, dim)?;
+            match (dim, axis) {
+                (3, Some(axis)) => direction(&format!("{key}.axis"), axis, 3),
+                (3, None) => fail(
+                    format!("{key}.axis"),
+                    "is required in 3D: give the direction of ω as 3 components, e.g. [0.0, \
+                     0.0, 1.0]",
+                ),
+                (_, Some(axis)) => fail(
+                    format!("{key}.axis"),
+                    format!(
+                        "must be absent in 2D (ω is the out-of-plane rotation rate), got \
+                         {axis:?}"
+                    ),
+                ),
+                (_, None) => Ok(()),
+            }
+        }
+        VelocityField::GaussianPulse {
+            amplitude,
+            direction: d,
+            center,
+            width,
+        } => {
+            finite(&format!("{key}.amplitude"), *amplitude)?;
+            direction(&format!("{key}.direction"), d, dim)?;
+            finite(&format!("{key}.center"), *center)?;
+            positive(&format!("{key}.width"), *width)
+        }
+    }
+}
+
+fn boundary(b: &BoundarySpec, key: &str, bodies: &[BodySpec], dim: usize) -> Checked {
+    region(&b.region, &format!("{key}.region"), bodies, dim)?;
+    let key = format!("{key}.condition");
+    match &b.condition {
+        Condition::Fixed => Ok(()),
+        Condition::Velocity { vx, vy, vz } => {
+            if vx.is_none() && vy.is_none() && vz.is_none() {
+                let allowed = if dim == 3 { "vx, vy, vz" } else { "vx, vy" };
+                return fail(
+                    key,
+                    format!("a velocity condition needs at least one of {allowed}; none is given"),
+                );
+            }
+            if dim != 3 {
+                if let Some(vz) = vz {
+                    return fail(
+                        format!("{key}.vz"),
+                        format!(
+                            "exists only in 3D, but the case has dimension = {dim}; got {vz:?}; in 2D give vx and/or vy"
+                        ),
+                    );
+                }
+            }
+            for (name, v) in [("vx", vx), ("vy", vy), ("vz", vz)] {
+                if let Some(v) = v {
+                    finite(&format!("{key}.{name}"), *v)?;
+                }
+            }
+            Ok(())
+        }
+        Condition::Symmetry { normal } => {
+            if dim != 3 && *normal == Axis::Z {
+                return fail(
+                    format!("{key}.normal"),
+                    format!(
+                        "\"{}\" exists only in 3D, but the case has dimension = {dim}; in 2D \
+                         the normal is \"x\" or \"y\"",
+                        toml_name(normal)
+                    ),
+                );
+            }
+            Ok(())
+        }
+        Condition::Traction { traction } => vector(&format!("{key}.traction"), traction, dim),
+    }
+}
+
+fn region(r: &Region, key: &str, bodies: &[BodySpec], dim: usize) -> Checked {
+    if let Some(name) = &r.body {
+        if !bodies.iter().any(|b| &b.name == name) {
+            let names: Vec<String> = bodies.iter().map(|b| format!("{:?}", b.name)).collect();
+            return fail(
+                format!("{key}.body"),
+                format!(
+                    "names no body: {name:?}; the bodies are {}",
+                    names.join(", ")
+                ),
+            );
+        }
+    }
+    let axes = [
+        ("x", r.x_min, r.x_max),
+        ("y", r.y_min, r.y_max),
+        ("z", r.z_min, r.z_max),
+    ];
+    for (k, (axis, lo, hi)) in axes.into_iter().enumerate() {
+        for (end, bound) in [("min", lo), ("max", hi)] {
+            let Some(v) = bound else { continue };
+            let bound_key = format!("{key}.{axis}_{end}");
+            if k >= dim {
+                return fail(
+                    bound_key,
+                    format!(
+                        "exists only in 3D, but the case has dimension = {dim}; got {v:?}; in \
+                         2D bound the region with x_min, x_max, y_min, y_max"
+                    ),
+                );
+            }
+            finite(&bound_key, v)?;
+        }
+        if let (Some(lo), Some(hi)) = (lo, hi) {
+            if lo > hi {
+                return fail(
+                    format!("{key}.{axis}_max"),
+                    format!("must be ≥ {axis}_min = {lo:?}, got {hi:?}"),
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+fn run(r: &RunSpec) -> Checked {
+    positive("run.end_time", r.end_time)?;
+    let limit = r.energy_growth_limit;
+    if !(limit > 1.0) {
+        return fail(
+            "run.energy_growth_limit",
+            format!(
+                "must be > 1 (a factor on the initial energy plus boundary work), got {limit:?}"
+            ),
+        );
+    }
+    Ok(())
+}
+
+fn output(o: &OutputSpec) -> Checked {
+    if let Some(v) = o.frame_interval {
+        positive("output.frame_interval", v)?;
+    }
+    if let Some(v) = o.series_interval {
+        positive("output.series_interval", v)?;
+    }
+    let mut seen = HashSet::new();
+    for observer in &o.observers {
+        if !seen.insert(*observer) {
+            return fail(
+                "output.observers",
+                format!(
+                    "\"{}\" is listed more than once; list each observer at most once",
+                    toml_name(observer)
+                ),
+            );
+        }
+    }
+    Ok(())
+}
+
+fn probes(probes: &[ProbeSpec], dim: usize) -> Checked {
+    let mut seen = HashSet::new();
+    for (i, probe) in probes.iter().enumerate() {
+        let key = format!("probe.{i}");
+        identifier(
+            &format!("{key}.name"),
+            &probe.name,
+            "probe names become CSV column prefixes",
+        )?;
+        if !seen.insert(probe.name.as_str()) {
+            return fail(
+                format!("{key}.name"),
+                format!(
+                    "{:?} is already the name of an earlier probe; probe names must be unique",
+                    probe.name
+                ),
+            );
+        }
+        vector(&format!("{key}.position"), &probe.position, dim)?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{MethodName, Observer};
+
+    fn case() -> Case {
+        toml::from_str(
+            r#"
+            name = "ok"
+            dimension = 2
+            spacing = 0.1
+            [material]
+            model = "hypoelastic"
+            density = 1000.0
+            youngs_modulus = 1e6
+            poisson_ratio = 0.3
+            [method]
+            name = "tlsph"
+            h_over_dx = 1.3
+            dt = 1e-5
+            [[body]]
+            name = "b"
+            geometry = { shape = "box", min = [0.0, 0.0], max = [1.0, 1.0] }
+            [run]
+            end_time = 1e-3
+            "#,
+        )
+        .unwrap()
+    }
+
+    fn key_of(case: &Case) -> String {
+        check(case).unwrap_err().0
+    }
+
+    #[test]
+    fn valid_case_passes() {
+        let c = case();
+        assert_eq!(c.method.name, MethodName::Tlsph);
+        check(&c).unwrap();
+    }
+
+    #[test]
+    fn first_problem_in_order_is_reported() {
+        let mut c = case();
+        c.dimension = 4;
+        c.material.poisson_ratio = 0.5;
+        assert_eq!(key_of(&c), "dimension");
+        c.dimension = 2;
+        assert_eq!(key_of(&c), "material.poisson_ratio");
+        let (_, msg) = check(&c).unwrap_err();
+        assert!(msg.contains("(−1, 0.5)") && msg.contains("0.5"), "{msg}");
+    }
+
+    #[test]
+    fn names_and_numbers() {
+        let mut c = case();
+        c.name = "a b".into();
+        assert_eq!(key_of(&c), "name");
+        c.name = "a-b_1".into();
+        c.spacing = f64::NAN;
+        assert_eq!(key_of(&c), "spacing");
+        c.spacing = 0.1;
+        c.method.h_over_dx = 5.0;
+        assert_eq!(key_of(&c), "method.h_over_dx");
+        c.method.h_over_dx = 1.3;
+        c.method.dt = None;
+        c.method.cfl = Some(2.5);
+        assert_eq!(key_of(&c), "method.cfl");
+        c.method.cfl = Some(2.0);
+        check(&c).unwrap();
+        c.method.artificial_viscosity = Some(ArtificialViscosity {
+            alpha: 1.0,
+            beta: -1.0,
+            eta: 0.1,
+        });
+        assert_eq!(key_of(&c), "method.artificial_viscosity.beta");
+    }
+
+    #[test]
+    fn bodies_and_shapes() {
+        let mut c = case();
+        c.bodies.push(c.bodies[0].clone());
+        assert_eq!(key_of(&c), "body.1.name");
+        c.bodies[1].name = "c".into();
+        c.bodies[1].geometry = Shape::Ring {
+            center: vec![0.0, 0.0],
+            inner_radius: 1.0,
+            outer_radius: 1.0,
+        };
+        assert_eq!(key_of(&c), "body.1.geometry.inner_radius");
+        c.bodies[1].geometry = Shape::Cylinder {
+            base: vec![0.0, 0.0, 0.0],
+            axis: Axis::Z,
+            radius: 1.0,
+            inner_radius: 0.0,
+            length: 1.0,
+        };
+        let (key, msg) = check(&c).unwrap_err();
+        assert_eq!(key, "body.1.geometry.shape");
+        assert!(msg.contains("only in 3D"), "{msg}");
+        c.bodies[1].geometry = Shape::Box {
+            min: vec![0.0, 1.0],
+            max: vec![1.0, 1.0],
+        };
+        assert_eq!(key_of(&c), "body.1.geometry.max");
+        c.bodies[1].geometry = Shape::Points { file: "".into() };
+        assert_eq!(key_of(&c), "body.1.geometry.file");
+        c.bodies.pop();
+        c.bodies[0].initial_velocity = Some(VelocityField::RigidRotation {
+            omega: 1.0,
+            center: vec![0.0, 0.0],
+            axis: Some(vec![0.0, 0.0, 1.0]),
+        });
+        assert_eq!(key_of(&c), "body.0.initial_velocity.axis");
+        c.bodies[0].initial_velocity = Some(VelocityField::GaussianPulse {
+            amplitude: 1.0,
+            direction: vec![0.0, 0.0],
+            center: 0.0,
+            width: 1.0,
+        });
+        assert_eq!(key_of(&c), "body.0.initial_velocity.direction");
+        c.bodies.clear();
+        assert_eq!(key_of(&c), "body");
+    }
+
+    #[test]
+    fn three_d_requirements() {
+        let mut c = case();
+        c.dimension = 3;
+        assert_eq!(key_of(&c), "body.0.geometry.min");
+        c.bodies[0].geometry = Shape::Cylinder {
+            base: vec![0.0, 0.0, 0.0],
+            axis: Axis::Z,
+            radius: 1.0,
+            inner_radius: 0.5,
+            length: 1.0,
+        };
+        check(&c).unwrap();
+        c.bodies[0].initial_velocity = Some(VelocityField::RigidRotation {
+            omega: 1.0,
+            center: vec![0.0, 0.0, 0.0],
+            axis: None,
+        });
+        assert_eq!(key_of(&c), "body.0.initial_velocity.axis");
+    }
+
+    #[test]
+    fn boundaries_run_output_probes() {
+        let mut c = case();
+        c.boundaries.push(BoundarySpec {
+            region: Region {
+                body: Some("nope".into()),
+                ..Region::default()
+            },
+            condition: Condition::Fixed,
+        });
+        let (key, msg) = check(&c).unwrap_err();
+        assert_eq!(key, "boundary.0.region.body");
+        assert!(msg.contains("\"nope\"") && msg.contains("\"b\""), "{msg}");
+        c.boundaries[0].region.body = Some("b".into());
+        c.boundaries[0].region.z_min = Some(0.0);
+        assert_eq!(key_of(&c), "boundary.0.region.z_min");
+        c.boundaries[0].region.z_min = None;
+        c.boundaries[0].region.x_min = Some(1.0);
+        c.boundaries[0].region.x_max = Some(0.0);
+        assert_eq!(key_of(&c), "boundary.0.region.x_max");
+        c.boundaries[0].region.x_max = Some(1.0);
+        c.boundaries[0].condition = Condition::Velocity {
+            vx: None,
+            vy: None,
+            vz: None,
+        };
+        assert_eq!(key_of(&c), "boundary.0.condition");
+        c.boundaries[0].condition = Condition::Velocity {
+            vx: Some(1.0),
+            vy: None,
+            vz: Some(0.0),
+        };
+        assert_eq!(key_of(&c), "boundary.0.condition.vz");
+        c.boundaries[0].condition = Condition::Symmetry { normal: Axis::Z };
+        let (key, msg) = check(&c).unwrap_err();
+        assert_eq!(key, "boundary.0.condition.normal");
+        assert!(msg.contains("\"z\""), "{msg}");
+        c.boundaries[0].condition = Condition::Traction {
+            traction: vec![1.0],
+        };
+        assert_eq!(key_of(&c), "boundary.0.condition.traction");
+        c.boundaries.clear();
+        c.run.energy_growth_limit = 1.0;
+        assert_eq!(key_of(&c), "run.energy_growth_limit");
+        c.run.energy_growth_limit = 10.0;
+        c.output.observers = vec![Observer::Energy, Observer::NeckHeight, Observer::NeckHeight];
+        let (key, msg) = check(&c).unwrap_err();
+        assert_eq!(key, "output.observers");
+        assert!(msg.contains("\"neck-height\""), "{msg}");
+        c.output.observers.pop();
+        c.output.frame_interval = Some(0.0);
+        assert_eq!(key_of(&c), "output.frame_interval");
+        c.output.frame_interval = None;
+        c.probes.push(ProbeSpec {
+            name: "tip.x".into(),
+            position: vec![0.0, 0.0],
+        });
+        assert_eq!(key_of(&c), "probe.0.name");
+        c.probes[0].name = "tip".into();
+        c.probes.push(c.probes[0].clone());
+        assert_eq!(key_of(&c), "probe.1.name");
+        c.probes[1].name = "mid".into();
+        c.probes[1].position = vec![0.0];
+        assert_eq!(key_of(&c), "probe.1.position");
+    }
+}

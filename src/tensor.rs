@@ -1,0 +1,241 @@
+//! Dimension abstraction: small vectors and second-order tensors in 2D or 3D.
+//!
+//! Every numerical routine is generic over [`Dim`], so a 2D scene works on
+//! `DVec2`/`DMat2` and never pays for 3D tensor algebra.
+
+use glam::{DMat2, DMat3, DVec2, DVec3};
+use std::fmt::Debug;
+use std::ops::{Add, AddAssign, Mul, Neg, Sub, SubAssign};
+
+/// Space dimension: the vector and tensor types and the operations the methods need.
+pub trait Dim: Copy + Send + Sync + Debug + 'static {
+    /// Number of spatial components (2 or 3).
+    const N: usize;
+    /// Position, velocity, acceleration.
+    type V: Copy
+        + Send
+        + Sync
+        + Debug
+        + PartialEq
+        + Add<Output = Self::V>
+        + Sub<Output = Self::V>
+        + Neg<Output = Self::V>
+        + Mul<f64, Output = Self::V>
+        + AddAssign
+        + SubAssign;
+    /// Second-order tensor (F, P, σ, correction matrices).
+    type T: Copy
+        + Send
+        + Sync
+        + Debug
+        + PartialEq
+        + Add<Output = Self::T>
+        + Sub<Output = Self::T>
+        + Mul<f64, Output = Self::T>
+        + Mul<Self::V, Output = Self::V>
+        + Mul<Self::T, Output = Self::T>
+        + AddAssign
+        + SubAssign;
+
+    fn zero() -> Self::V;
+    fn zero_t() -> Self::T;
+    fn identity() -> Self::T;
+    fn dot(a: Self::V, b: Self::V) -> f64;
+    /// (a ⊗ b)_kl = a_k b_l.
+    fn outer(a: Self::V, b: Self::V) -> Self::T;
+    fn transpose(t: Self::T) -> Self::T;
+    fn det(t: Self::T) -> f64;
+    fn inverse(t: Self::T) -> Self::T;
+    fn trace(t: Self::T) -> f64;
+    /// Double contraction A : B = Σ_kl A_kl B_kl.
+    fn ddot(a: Self::T, b: Self::T) -> f64;
+    /// Component k of a vector.
+    fn comp(v: Self::V, k: usize) -> f64;
+    /// Vector from the first N entries of a slice.
+    fn from_slice(s: &[f64]) -> Self::V;
+    /// Vector padded to three components (2D: z = 0).
+    fn to3(v: Self::V) -> [f64; 3];
+    /// Tensor padded to 3×3 (2D: zeros in the third row and column), row-major.
+    fn to3x3(t: Self::T) -> [[f64; 3]; 3];
+    /// Angular momentum of a point mass, r × p (2D: the out-of-plane component in z).
+    fn cross3(r: Self::V, p: Self::V) -> [f64; 3];
+    /// Tensor entry T_kl.
+    fn entry(t: Self::T, k: usize, l: usize) -> f64 {
+        Self::to3x3(t)[k][l]
+    }
+    fn norm2(v: Self::V) -> f64 {
+        Self::dot(v, v)
+    }
+    fn is_finite_v(v: Self::V) -> bool {
+        Self::to3(v).iter().all(|c| c.is_finite())
+    }
+    fn is_finite_t(t: Self::T) -> bool {
+        Self::to3x3(t).iter().flatten().all(|c| c.is_finite())
+    }
+}
+
+/// Two dimensions (plane strain).
+#[derive(Clone, Copy, Debug)]
+pub struct D2;
+
+/// Three dimensions.
+#[derive(Clone, Copy, Debug)]
+pub struct D3;
+
+impl Dim for D2 {
+    const N: usize = 2;
+    type V = DVec2;
+    type T = DMat2;
+
+    #[inline]
+    fn zero() -> DVec2 {
+        DVec2::ZERO
+    }
+    #[inline]
+    fn zero_t() -> DMat2 {
+        DMat2::ZERO
+    }
+    #[inline]
+    fn identity() -> DMat2 {
+        DMat2::IDENTITY
+    }
+    #[inline]
+    fn dot(a: DVec2, b: DVec2) -> f64 {
+        a.dot(b)
+    }
+    #[inline]
+    fn outer(a: DVec2, b: DVec2) -> DMat2 {
+        // glam stores columns: column l is a * b_l.
+        DMat2::from_cols(a * b.x, a * b.y)
+    }
+    #[inline]
+    fn transpose(t: DMat2) -> DMat2 {
+        t.transpose()
+    }
+    #[inline]
+    fn det(t: DMat2) -> f64 {
+        t.determinant()
+    }
+    #[inline]
+    fn inverse(t: DMat2) -> DMat2 {
+        t.inverse()
+    }
+    #[inline]
+    fn trace(t: DMat2) -> f64 {
+        t.x_axis.x + t.y_axis.y
+    }
+    #[inline]
+    fn ddot(a: DMat2, b: DMat2) -> f64 {
+        a.x_axis.dot(b.x_axis) + a.y_axis.dot(b.y_axis)
+    }
+    #[inline]
+    fn comp(v: DVec2, k: usize) -> f64 {
+        v[k]
+    }
+    fn from_slice(s: &[f64]) -> DVec2 {
+        DVec2::new(s[0], s[1])
+    }
+    #[inline]
+    fn to3(v: DVec2) -> [f64; 3] {
+        [v.x, v.y, 0.0]
+    }
+    fn to3x3(t: DMat2) -> [[f64; 3]; 3] {
+        [
+            [t.x_axis.x, t.y_axis.x, 0.0],
+            [t.x_axis.y, t.y_axis.y, 0.0],
+            [0.0, 0.0, 0.0],
+        ]
+    }
+    #[inline]
+    fn cross3(r: DVec2, p: DVec2) -> [f64; 3] {
+        [0.0, 0.0, r.perp_dot(p)]
+    }
+}
+
+impl Dim for D3 {
+    const N: usize = 3;
+    type V = DVec3;
+    type T = DMat3;
+
+    #[inline]
+    fn zero() -> DVec3 {
+        DVec3::ZERO
+    }
+    #[inline]
+    fn zero_t() -> DMat3 {
+        DMat3::ZERO
+    }
+    #[inline]
+    fn identity() -> DMat3 {
+        DMat3::IDENTITY
+    }
+    #[inline]
+    fn dot(a: DVec3, b: DVec3) -> f64 {
+        a.dot(b)
+    }
+    #[inline]
+    fn outer(a: DVec3, b: DVec3) -> DMat3 {
+        DMat3::from_cols(a * b.x, a * b.y, a * b.z)
+    }
+    #[inline]
+    fn transpose(t: DMat3) -> DMat3 {
+        t.transpose()
+    }
+    #[inline]
+    fn det(t: DMat3) -> f64 {
+        t.determinant()
+    }
+    #[inline]
+    fn inverse(t: DMat3) -> DMat3 {
+        t.inverse()
+    }
+    #[inline]
+    fn trace(t: DMat3) -> f64 {
+        t.x_axis.x + t.y_axis.y + t.z_axis.z
+    }
+    #[inline]
+    fn ddot(a: DMat3, b: DMat3) -> f64 {
+        a.x_axis.dot(b.x_axis) + a.y_axis.dot(b.y_axis) + a.z_axis.dot(b.z_axis)
+    }
+    #[inline]
+    fn comp(v: DVec3, k: usize) -> f64 {
+        v[k]
+    }
+    fn from_slice(s: &[f64]) -> DVec3 {
+        DVec3::new(s[0], s[1], s[2])
+    }
+    #[inline]
+    fn to3(v: DVec3) -> [f64; 3] {
+        v.to_array()
+    }
+    fn to3x3(t: DMat3) -> [[f64; 3]; 3] {
+        let c = t.to_cols_array_2d();
+        [
+            [c[0][0], c[1][0], c[2][0]],
+            [c[0][1], c[1][1], c[2][1]],
+            [c[0][2], c[1][2], c[2][2]],
+        ]
+    }
+    #[inline]
+    fn cross3(r: DVec3, p: DVec3) -> [f64; 3] {
+        r.cross(p).to_array()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn outer_product_is_row_by_column() {
+        let t = D2::outer(DVec2::new(1.0, 2.0), DVec2::new(3.0, 5.0));
+        assert_eq!(D2::entry(t, 0, 1), 5.0);
+        assert_eq!(D2::entry(t, 1, 0), 6.0);
+        let t3 = D3::outer(DVec3::new(1.0, 2.0, 3.0), DVec3::new(7.0, 11.0, 13.0));
+        assert_eq!(D3::entry(t3, 2, 0), 21.0);
+        assert_eq!(D3::entry(t3, 0, 2), 13.0);
+        // (a ⊗ b) c = a (b · c)
+        let c = DVec3::new(0.5, -1.0, 2.0);
+        assert_eq!(t3 * c, DVec3::new(1.0, 2.0, 3.0) * (7.0 * 0.5 - 11.0 + 26.0));
+    }
+}

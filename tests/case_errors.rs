@@ -1,0 +1,526 @@
+//! Bad case files: every error names the file, the key and what is allowed.
+//!
+//! Each test starts from a minimal valid case, breaks one thing, and checks the text of
+//! the error. `valid_minimal_case_loads` makes sure the starting point itself is fine, so
+//! the other tests cannot pass merely because everything fails.
+
+use meshless::scene::{Case, CaseError};
+use std::path::Path;
+
+/// 2D box body, hypoelastic, TLSPH with a fixed time step.
+const VALID: &str = r#"name = "minimal"
+dimension = 2
+spacing = 0.1
+
+[material]
+model = "hypoelastic"
+density = 1000.0
+youngs_modulus = 1e6
+poisson_ratio = 0.3
+
+[method]
+name = "tlsph"
+h_over_dx = 1.3
+dt = 1e-5
+
+[[body]]
+name = "block"
+geometry = { shape = "box", min = [0.0, 0.0], max = [1.0, 0.5] }
+
+[run]
+end_time = 1e-3
+"#;
+
+/// A richer valid 3D case: cylinder, initial rotation, boundaries, output and probes.
+const VALID_3D: &str = r#"name = "spin_3d"
+dimension = 3
+spacing = 0.05
+
+[material]
+model = "neo-hookean"
+density = 1100.0
+youngs_modulus = 2e6
+poisson_ratio = 0.45
+
+[method]
+name = "tlsph"
+h_over_dx = 1.5
+correction = "shepard"
+cfl = 0.3
+artificial_viscosity = { alpha = 1.0, beta = 2.0 }
+
+[[body]]
+name = "tube"
+geometry = { shape = "cylinder", base = [0.0, 0.0, 0.0], axis = "z", radius = 0.5, inner_radius = 0.25, length = 1.0 }
+initial_velocity = { type = "rigid-rotation", omega = 2.0, center = [0.0, 0.0, 0.0], axis = [0.0, 0.0, 1.0] }
+
+[[body]]
+name = "slab"
+geometry = { shape = "box", min = [-1.0, -1.0, -0.5], max = [1.0, 1.0, -0.1] }
+
+[[boundary]]
+region = { body = "slab", z_max = -0.4 }
+condition = { type = "fixed" }
+
+[[boundary]]
+region = { body = "tube", z_min = 0.95 }
+condition = { type = "velocity", vz = -0.1 }
+
+[[boundary]]
+region = { x_min = -1.0, x_max = -0.99 }
+condition = { type = "symmetry", normal = "x" }
+
+[run]
+end_time = 0.01
+energy_growth_limit = 5.0
+
+[output]
+frame_interval = 1e-3
+observers = ["energy", "angular-momentum", "extent"]
+
+[[probe]]
+name = "top-rim"
+position = [0.5, 0.0, 1.0]
+"#;
+
+const FILE: &str = "cases/bad.toml";
+
+/// `VALID` with `from` replaced by `to`; panics if `from` is not in the text, so that a
+/// test cannot silently run on the unchanged valid case.
+fn edit(base: &str, from: &str, to: &str) -> String {
+    assert!(base.contains(from), "test case text has no {from:?}");
+    base.replacen(from, to, 1)
+}
+
+/// Display text of the error for `text` with `overrides`; panics if the case loads.
+fn error_with(text: &str, overrides: &[&str]) -> (CaseError, String) {
+    let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
+    match Case::from_toml(text, Path::new(FILE), &overrides) {
+        Ok(_) => panic!("bad case was accepted:\n{text}"),
+        Err(e) => {
+            let shown = e.to_string();
+            (e, shown)
+        }
+    }
+}
+
+fn error(text: &str) -> String {
+    error_with(text, &[]).1
+}
+
+/// Asserts that `message` contains every one of `parts`.
+fn assert_mentions(message: &str, parts: &[&str]) {
+    for part in parts {
+        assert!(
+            message.contains(part),
+            "error message lacks {part:?}:\n{message}"
+        );
+    }
+}
+
+/// Asserts an `Invalid` error for `key` whose text contains `parts`.
+fn assert_invalid(text: &str, key: &str, parts: &[&str]) {
+    let (e, shown) = error_with(text, &[]);
+    assert!(
+        matches!(e, CaseError::Invalid { .. }),
+        "not a validation error: {shown}"
+    );
+    assert_mentions(&shown, &[FILE, &format!("key `{key}`:")]);
+    assert_mentions(&shown, parts);
+}
+
+// ---------------------------------------------------------------------------------------
+// Valid cases
+
+#[test]
+fn valid_minimal_case_loads() {
+    let case = Case::from_toml(VALID, Path::new(FILE), &[]).expect("minimal case is valid");
+    assert_eq!(case.name, "minimal");
+    assert_eq!(case.dim(), 2);
+    assert_eq!(case.bodies.len(), 1);
+    assert_eq!(case.method.dt, Some(1e-5));
+    assert_eq!(case.base_dir(), Path::new("cases"));
+    assert_eq!(case.file, Path::new(FILE));
+}
+
+#[test]
+fn valid_3d_case_with_boundaries_and_probes_loads() {
+    let case = Case::from_toml(VALID_3D, Path::new(FILE), &[]).expect("3D case is valid");
+    assert_eq!(case.dim(), 3);
+    assert_eq!(case.boundaries.len(), 3);
+    assert_eq!(case.probes.len(), 1);
+}
+
+#[test]
+fn valid_case_loads_from_file_with_override() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("ok.toml");
+    std::fs::write(&path, VALID).unwrap();
+    let case = Case::load(&path, &["method.dt=2e-5".to_string()]).expect("valid");
+    assert_eq!(case.method.dt, Some(2e-5));
+    assert_eq!(case.base_dir(), dir.path());
+}
+
+// ---------------------------------------------------------------------------------------
+// Parse errors (TOML syntax and serde)
+
+#[test]
+fn unknown_key_typo_is_named_with_allowed_keys() {
+    let text = edit(
+        VALID,
+        "h_over_dx = 1.3",
+        "h_over_dx = 1.3\nkernal = \"quintic\"",
+    );
+    let (e, shown) = error_with(&text, &[]);
+    assert!(matches!(e, CaseError::Parse { .. }), "{shown}");
+    assert_mentions(
+        &shown,
+        &[FILE, "unknown field `kernal`", "`kernel`", "line 14"],
+    );
+}
+
+#[test]
+fn wrong_enum_value_lists_allowed_variants() {
+    let text = edit(VALID, "dt = 1e-5", "dt = 1e-5\nintegrator = \"rk5\"");
+    let shown = error(&text);
+    assert_mentions(
+        &shown,
+        &[FILE, "unknown variant `rk5`", "expected one of", "`rk4`"],
+    );
+}
+
+#[test]
+fn wrong_material_model_lists_allowed_models() {
+    let text = edit(VALID, "\"hypoelastic\"", "\"hookean\"");
+    let shown = error(&text);
+    assert_mentions(
+        &shown,
+        &[
+            FILE,
+            "unknown variant `hookean`",
+            "`hypoelastic`",
+            "`saint-venant-kirchhoff`",
+            "`neo-hookean`",
+        ],
+    );
+}
+
+#[test]
+fn wrong_shape_lists_allowed_shapes() {
+    let text = edit(VALID, "shape = \"box\"", "shape = \"sphere\"");
+    let shown = error(&text);
+    assert_mentions(
+        &shown,
+        &[
+            FILE,
+            "unknown variant `sphere`",
+            "`box`",
+            "`disk`",
+            "`cylinder`",
+        ],
+    );
+}
+
+#[test]
+fn missing_required_key_is_named() {
+    let text = edit(VALID, "spacing = 0.1\n", "");
+    let (e, shown) = error_with(&text, &[]);
+    assert!(matches!(e, CaseError::Parse { .. }), "{shown}");
+    assert_mentions(&shown, &[FILE, "missing field `spacing`"]);
+}
+
+#[test]
+fn toml_syntax_error_gives_line_number() {
+    let text = edit(VALID, "density = 1000.0", "density = = 1000.0");
+    let line = 1 + text.lines().position(|l| l.contains("= =")).unwrap();
+    let (e, shown) = error_with(&text, &[]);
+    assert!(matches!(e, CaseError::Parse { .. }), "{shown}");
+    assert_mentions(&shown, &[FILE, &format!("line {line}")]);
+}
+
+// ---------------------------------------------------------------------------------------
+// Semantic errors (validate.rs)
+
+#[test]
+fn incompressible_poisson_ratio_is_rejected() {
+    let text = edit(VALID, "poisson_ratio = 0.3", "poisson_ratio = 0.5");
+    assert_invalid(
+        &text,
+        "material.poisson_ratio",
+        &["0.5", "(−1, 0.5)", "incompressible"],
+    );
+}
+
+#[test]
+fn non_positive_youngs_modulus_is_rejected() {
+    let text = edit(VALID, "youngs_modulus = 1e6", "youngs_modulus = 0.0");
+    assert_invalid(&text, "material.youngs_modulus", &["> 0", "0.0"]);
+}
+
+#[test]
+fn both_dt_and_cfl_is_rejected() {
+    let text = edit(VALID, "dt = 1e-5", "dt = 1e-5\ncfl = 0.3");
+    assert_invalid(&text, "method.dt", &["`method.cfl`", "both", "exactly one"]);
+}
+
+#[test]
+fn neither_dt_nor_cfl_is_rejected() {
+    let text = edit(VALID, "dt = 1e-5\n", "");
+    assert_invalid(
+        &text,
+        "method.dt",
+        &["`method.cfl`", "neither", "exactly one"],
+    );
+}
+
+#[test]
+fn cfl_out_of_range_is_rejected() {
+    let text = edit(VALID, "dt = 1e-5", "cfl = 2.5");
+    assert_invalid(&text, "method.cfl", &["(0, 2]", "2.5"]);
+}
+
+#[test]
+fn smoothing_ratio_out_of_range_is_rejected() {
+    let text = edit(VALID, "h_over_dx = 1.3", "h_over_dx = 0.2");
+    assert_invalid(&text, "method.h_over_dx", &["[0.5, 4]", "0.2"]);
+}
+
+#[test]
+fn case_name_that_is_not_a_file_name_is_rejected() {
+    let text = edit(VALID, "name = \"minimal\"", "name = \"../minimal\"");
+    assert_invalid(&text, "name", &["\"../minimal\"", "'-'", "'_'", "digits"]);
+}
+
+#[test]
+fn dimension_other_than_2_or_3_is_rejected() {
+    let text = edit(VALID, "dimension = 2", "dimension = 4");
+    assert_invalid(&text, "dimension", &["2", "3", "got 4"]);
+}
+
+#[test]
+fn disk_in_3d_is_rejected() {
+    let text = edit(
+        &edit(VALID, "dimension = 2", "dimension = 3"),
+        "{ shape = \"box\", min = [0.0, 0.0], max = [1.0, 0.5] }",
+        "{ shape = \"disk\", center = [0.0, 0.0, 0.0], radius = 1.0 }",
+    );
+    assert_invalid(
+        &text,
+        "body.0.geometry.shape",
+        &["\"disk\"", "only in 2D", "dimension = 3"],
+    );
+}
+
+#[test]
+fn cylinder_in_2d_is_rejected() {
+    let text = edit(
+        VALID,
+        "{ shape = \"box\", min = [0.0, 0.0], max = [1.0, 0.5] }",
+        "{ shape = \"cylinder\", base = [0.0, 0.0], axis = \"y\", radius = 1.0, length = 2.0 }",
+    );
+    assert_invalid(
+        &text,
+        "body.0.geometry.shape",
+        &["\"cylinder\"", "only in 3D", "\"disk\""],
+    );
+}
+
+#[test]
+fn vector_of_wrong_length_is_rejected() {
+    let text = edit(VALID, "min = [0.0, 0.0]", "min = [0.0, 0.0, 0.0]");
+    assert_invalid(
+        &text,
+        "body.0.geometry.min",
+        &["2 components", "got 3", "[0.0, 0.0, 0.0]"],
+    );
+}
+
+#[test]
+fn empty_box_is_rejected() {
+    let text = edit(VALID, "max = [1.0, 0.5]", "max = [1.0, -0.5]");
+    assert_invalid(&text, "body.0.geometry.max", &["axis 1", "-0.5", "min"]);
+}
+
+#[test]
+fn ring_with_inner_radius_not_below_outer_is_rejected() {
+    let text = edit(
+        VALID,
+        "{ shape = \"box\", min = [0.0, 0.0], max = [1.0, 0.5] }",
+        "{ shape = \"ring\", center = [0.0, 0.0], inner_radius = 1.0, outer_radius = 0.5 }",
+    );
+    assert_invalid(
+        &text,
+        "body.0.geometry.inner_radius",
+        &["outer_radius = 0.5", "1.0"],
+    );
+}
+
+#[test]
+fn duplicate_body_names_are_rejected() {
+    let text = format!(
+        "{VALID}\n[[body]]\nname = \"block\"\ngeometry = {{ shape = \"disk\", center = [3.0, 0.0], radius = 0.5 }}\n"
+    );
+    assert_invalid(&text, "body.1.name", &["\"block\"", "unique"]);
+}
+
+#[test]
+fn rotation_axis_in_2d_is_rejected() {
+    let text = edit(
+        VALID,
+        "max = [1.0, 0.5] }",
+        "max = [1.0, 0.5] }\ninitial_velocity = { type = \"rigid-rotation\", omega = 1.0, center = [0.0, 0.0], axis = [0.0, 0.0, 1.0] }",
+    );
+    assert_invalid(
+        &text,
+        "body.0.initial_velocity.axis",
+        &["absent in 2D", "[0.0, 0.0, 1.0]"],
+    );
+}
+
+#[test]
+fn rotation_axis_missing_in_3d_is_rejected() {
+    let text = edit(VALID_3D, ", axis = [0.0, 0.0, 1.0] }", " }");
+    assert_invalid(&text, "body.0.initial_velocity.axis", &["required in 3D"]);
+}
+
+#[test]
+fn boundary_naming_missing_body_is_rejected() {
+    let text = edit(VALID_3D, "body = \"tube\"", "body = \"tubes\"");
+    assert_invalid(
+        &text,
+        "boundary.1.region.body",
+        &["\"tubes\"", "\"tube\"", "\"slab\""],
+    );
+}
+
+#[test]
+fn z_bound_in_2d_is_rejected() {
+    let text = format!(
+        "{VALID}\n[[boundary]]\nregion = {{ z_min = 0.0 }}\ncondition = {{ type = \"fixed\" }}\n"
+    );
+    assert_invalid(
+        &text,
+        "boundary.0.region.z_min",
+        &["only in 3D", "dimension = 2"],
+    );
+}
+
+#[test]
+fn velocity_condition_without_components_is_rejected() {
+    let text = format!(
+        "{VALID}\n[[boundary]]\nregion = {{ x_max = 0.0 }}\ncondition = {{ type = \"velocity\" }}\n"
+    );
+    assert_invalid(&text, "boundary.0.condition", &["at least one of vx, vy"]);
+}
+
+#[test]
+fn traction_of_wrong_length_is_rejected() {
+    let text = format!(
+        "{VALID}\n[[boundary]]\nregion = {{ x_min = 1.0 }}\ncondition = {{ type = \"traction\", traction = [1e3] }}\n"
+    );
+    assert_invalid(
+        &text,
+        "boundary.0.condition.traction",
+        &["2 components", "got 1"],
+    );
+}
+
+#[test]
+fn energy_growth_limit_not_above_one_is_rejected() {
+    let text = edit(
+        VALID,
+        "end_time = 1e-3",
+        "end_time = 1e-3\nenergy_growth_limit = 0.9",
+    );
+    assert_invalid(&text, "run.energy_growth_limit", &["> 1", "0.9"]);
+}
+
+#[test]
+fn duplicate_observer_is_rejected() {
+    let text = edit(VALID_3D, "\"extent\"]", "\"extent\", \"energy\"]");
+    assert_invalid(&text, "output.observers", &["\"energy\"", "more than once"]);
+}
+
+#[test]
+fn probe_position_and_name_are_checked() {
+    let text = edit(
+        VALID_3D,
+        "position = [0.5, 0.0, 1.0]",
+        "position = [0.5, 0.0]",
+    );
+    assert_invalid(&text, "probe.0.position", &["3 components", "got 2"]);
+    let text = edit(VALID_3D, "name = \"top-rim\"", "name = \"top rim\"");
+    assert_invalid(&text, "probe.0.name", &["\"top rim\"", "CSV"]);
+}
+
+// ---------------------------------------------------------------------------------------
+// --set overrides and files
+
+#[test]
+fn set_to_nonexistent_table_is_named() {
+    let (e, shown) = error_with(VALID, &["solver.dt=1e-6"]);
+    assert!(matches!(e, CaseError::Override { .. }), "{shown}");
+    assert_mentions(&shown, &[FILE, "--set solver.dt=1e-6", "no key `solver`"]);
+}
+
+#[test]
+fn set_to_unknown_key_is_named() {
+    let (_, shown) = error_with(VALID, &["method.kernal=quintic"]);
+    assert_mentions(&shown, &[FILE, "unknown field `kernal`", "`kernel`"]);
+}
+
+#[test]
+fn set_past_the_last_body_is_named() {
+    let (e, shown) = error_with(VALID, &["body.1.name=x"]);
+    assert!(matches!(e, CaseError::Override { .. }), "{shown}");
+    assert_mentions(&shown, &[FILE, "--set body.1.name=x", "no index 1"]);
+}
+
+#[test]
+fn set_that_makes_the_case_invalid_is_named() {
+    let (e, shown) = error_with(VALID, &["method.dt=-1"]);
+    assert!(matches!(e, CaseError::Invalid { .. }), "{shown}");
+    assert_mentions(&shown, &[FILE, "key `method.dt`", "> 0", "-1"]);
+}
+
+#[test]
+fn set_on_a_file_reports_the_file_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("beam.toml");
+    std::fs::write(&path, VALID).unwrap();
+    let e = Case::load(&path, &["method.dt=-1".to_string()]).unwrap_err();
+    let shown = e.to_string();
+    assert_mentions(
+        &shown,
+        &[&path.display().to_string(), "key `method.dt`", "> 0"],
+    );
+}
+
+#[test]
+fn invalid_file_reports_its_path_and_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("nu.toml");
+    std::fs::write(
+        &path,
+        edit(VALID, "poisson_ratio = 0.3", "poisson_ratio = 0.5"),
+    )
+    .unwrap();
+    let shown = Case::load(&path, &[]).unwrap_err().to_string();
+    assert_mentions(
+        &shown,
+        &[
+            &path.display().to_string(),
+            "key `material.poisson_ratio`",
+            "(−1, 0.5)",
+        ],
+    );
+}
+
+#[test]
+fn missing_file_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("does-not-exist.toml");
+    let e = Case::load(&path, &[]).unwrap_err();
+    assert!(matches!(e, CaseError::Read { .. }), "{e}");
+    assert_mentions(&e.to_string(), &["does-not-exist.toml", "cannot read"]);
+}
