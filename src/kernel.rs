@@ -33,7 +33,7 @@ impl KernelKind {
             (Self::CubicSpline, 2) => 10.0 / (7.0 * PI),
             (Self::CubicSpline, _) => 1.0 / PI,
             (Self::Quintic, 2) => 7.0 / (478.0 * PI),
-            (Self::Quintic, _) => 3.0 / (359.0 * PI),
+            (Self::Quintic, _) => 1.0 / (120.0 * PI),
             (Self::WendlandC2, 2) => 7.0 / (4.0 * PI),
             (Self::WendlandC2, _) => 21.0 / (16.0 * PI),
         }

@@ -84,6 +84,8 @@ struct Kinematics<D: Dim> {
     f: D::T,
     /// First Piola–Kirchhoff stress P = J σ F⁻ᵀ.
     p: D::T,
+    /// F⁻ᵀ, which pushes reference gradients forward: ∇W = F⁻ᵀ ∇0W.
+    f_inv_t: D::T,
     /// Current density (ρ, or ρ0/J for state-based models).
     rho: f64,
 }
@@ -125,6 +127,7 @@ impl<D: Dim> Tlsph<D> {
         let identity = Kinematics {
             f: D::identity(),
             p: D::zero_t(),
+            f_inv_t: D::identity(),
             rho: material.rho0,
         };
         Ok(Self {
@@ -193,9 +196,11 @@ impl<D: Dim> Tlsph<D> {
                     *rho_dot = -y.rho[i] * D::trace(l);
                     *s_dot = mat.jaumann_rate::<D>(y.s[i], l);
                     let sigma = y.s[i] - D::identity() * mat.pressure(y.rho[i]);
+                    let f_inv_t = D::transpose(f_inv);
                     *k = Kinematics {
                         f,
-                        p: sigma * D::transpose(f_inv) * D::det(f),
+                        p: sigma * f_inv_t * D::det(f),
+                        f_inv_t,
                         rho: y.rho[i],
                     };
                 });
@@ -208,6 +213,7 @@ impl<D: Dim> Tlsph<D> {
                     *k = Kinematics {
                         f,
                         p: mat.pk1::<D>(f),
+                        f_inv_t: D::transpose(D::inverse(f)),
                         rho: mat.rho0 / D::det(f),
                     };
                 });
@@ -216,6 +222,11 @@ impl<D: Dim> Tlsph<D> {
     }
 
     /// Pass 2: a_i = (1/ρ0) Σ_j V_j (P_i + P_j) ∇0W̃_ij (eq 134) plus artificial viscosity.
+    ///
+    /// The viscous term acts along the current-configuration gradient F_i⁻ᵀ ∇0W̃_ij. The
+    /// reference code applies ∇0W̃_ij unmapped, which after a quarter turn of rigid
+    /// rotation points across the pair and feeds energy in (the rotating disk blows up
+    /// at t ≈ 0.035 s with it).
     fn accelerations(&self, y: &TlState<D>, a: &mut [D::V]) {
         let inv_rho0 = 1.0 / self.material.rho0;
         let bulk = self.material.bulk;
@@ -243,7 +254,7 @@ impl<D: Dim> Tlsph<D> {
                             let c = 0.5 * (ci + (bulk / kj.rho).sqrt());
                             let rho = 0.5 * (ki.rho + kj.rho);
                             let pi = (-av.alpha * c * mu + av.beta * mu * mu) / rho;
-                            viscous -= g * (self.mass[j] * pi);
+                            viscous -= ki.f_inv_t * g * (self.mass[j] * pi);
                         }
                     }
                 }
