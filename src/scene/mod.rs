@@ -273,8 +273,12 @@ pub struct OutputSpec {
     pub frame_interval: Option<f64>,
     /// Time between rows of the CSV time series [s]; absent: every step.
     pub series_interval: Option<f64>,
-    #[serde(default)]
+    #[serde(default = "default_observers")]
     pub observers: Vec<Observer>,
+}
+
+fn default_observers() -> Vec<Observer> {
+    vec![Observer::Energy]
 }
 
 impl Default for OutputSpec {
@@ -282,7 +286,7 @@ impl Default for OutputSpec {
         Self {
             frame_interval: None,
             series_interval: None,
-            observers: vec![Observer::Energy],
+            observers: default_observers(),
         }
     }
 }

@@ -2,8 +2,8 @@
 //!
 //! Path segments are table keys or array indices (`body.0.geometry.radius`). The value
 //! is read as a TOML value (`1e-6`, `"rk4"`, `[1.0, 0.0]`, `true`); a bare word that is
-//! not valid TOML is taken as a string (`method.integrator=leapfrog`). The value `none`
-//! removes the key.
+//! not valid TOML is taken as a string (`method.integrator=leapfrog`). An empty value
+//! (`method.dt=`) removes the key.
 
 use toml::{Table, Value};
 
@@ -16,7 +16,7 @@ pub fn apply(root: &mut Table, assignment: &str) -> Result<(), String> {
         return Err(format!("empty segment in key path `{path}`"));
     }
     let raw = raw.trim();
-    let value = (raw != "none").then(|| parse_value(raw));
+    let value = (!raw.is_empty()).then(|| parse_value(raw));
     set(root, &keys, value, &keys)
 }
 
@@ -80,9 +80,11 @@ mod tests {
         apply(&mut t, "m.dt=2e-6").unwrap();
         apply(&mut t, "m.integrator=leapfrog").unwrap();
         apply(&mut t, "body.0.geometry.radius=0.5").unwrap();
-        apply(&mut t, "m.cfl=none").unwrap();
-        apply(&mut t, "m.dt=none").unwrap();
+        apply(&mut t, "m.cfl=").unwrap();
+        apply(&mut t, "m.dt=").unwrap();
+        apply(&mut t, "m.correction=none").unwrap();
         assert!(t["m"].get("dt").is_none());
+        assert_eq!(t["m"]["correction"].as_str(), Some("none"));
         assert_eq!(t["m"]["integrator"].as_str(), Some("leapfrog"));
         assert_eq!(t["body"][0]["geometry"]["radius"].as_float(), Some(0.5));
     }

@@ -456,7 +456,7 @@ fn region(r: &Region, key: &str, bodies: &[BodySpec], dim: usize) -> Checked {
 fn run(r: &RunSpec) -> Checked {
     positive("run.end_time", r.end_time)?;
     let limit = r.energy_growth_limit;
-    if !(limit > 1.0) {
+    if limit.is_nan() || limit <= 1.0 {
         return fail(
             "run.energy_growth_limit",
             format!(
