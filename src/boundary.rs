@@ -62,9 +62,14 @@ impl<D: Dim> Boundary<D> {
                 }
             }
         }
-        let constrained: Vec<u32> = (0..mask.len() as u32).filter(|&i| mask[i as usize] != 0).collect();
+        let constrained: Vec<u32> = (0..mask.len() as u32)
+            .filter(|&i| mask[i as usize] != 0)
+            .collect();
         Ok(Self {
-            prescribed: constrained.iter().map(|&i| (i, value[i as usize])).collect(),
+            prescribed: constrained
+                .iter()
+                .map(|&i| (i, value[i as usize]))
+                .collect(),
             constrained: constrained.iter().map(|&i| (i, mask[i as usize])).collect(),
             external: (0..mask.len() as u32)
                 .filter(|&i| external[i as usize] != D::zero())
@@ -119,7 +124,9 @@ impl<D: Dim> Boundary<D> {
 /// Components of `on` where `mask` is set, of `off` elsewhere.
 fn mix<D: Dim>(mask: u8, on: D::V, off: D::V) -> D::V {
     let (a, b) = (D::to3(on), D::to3(off));
-    let c: Vec<f64> = (0..D::N).map(|k| if mask & (1 << k) != 0 { a[k] } else { b[k] }).collect();
+    let c: Vec<f64> = (0..D::N)
+        .map(|k| if mask & (1 << k) != 0 { a[k] } else { b[k] })
+        .collect();
     D::from_slice(&c)
 }
 

@@ -103,7 +103,9 @@ fn shepard<D: Dim>(i: usize, x: &[D::V], vol: &[f64], csr: &Csr, kernel: &Kernel
             .iter()
             .map(|&j| vol[j as usize] * kernel.w(D::norm2(x[i] - x[j as usize]).sqrt()))
             .sum::<f64>();
-    plain::<D>(i, x, csr, kernel).map(|g| g * (1.0 / c)).collect()
+    plain::<D>(i, x, csr, kernel)
+        .map(|g| g * (1.0 / c))
+        .collect()
 }
 
 fn randles_libersky<D: Dim>(
@@ -119,7 +121,7 @@ fn randles_libersky<D: Dim>(
         a += D::outer(x[j as usize] - x[i], g) * vol[j as usize];
     }
     let det = D::det(a);
-    if !(det.abs() > 1e-10) {
+    if det.is_nan() || det.abs() <= 1e-10 {
         return Err(CorrectionError::Singular {
             kind: CorrectionKind::RandlesLibersky,
             particle: i,
@@ -140,15 +142,16 @@ fn solve_small(mut m: Small, mut b: [f64; 4], n: usize) -> Option<[f64; 4]> {
     let scale = m.iter().flatten().fold(0.0f64, |s, v| s.max(v.abs()));
     for c in 0..n {
         let p = (c..n).max_by(|&a, &b| m[a][c].abs().total_cmp(&m[b][c].abs()))?;
-        if !(m[p][c].abs() > 1e-12 * scale) {
+        if m[p][c].is_nan() || m[p][c].abs() <= 1e-12 * scale {
             return None;
         }
         m.swap(c, p);
         b.swap(c, p);
         for r in c + 1..n {
             let f = m[r][c] / m[c][c];
-            for k in c..n {
-                m[r][k] -= f * m[c][k];
+            let pivot_row = m[c];
+            for (mk, pk) in m[r][c..n].iter_mut().zip(&pivot_row[c..n]) {
+                *mk -= f * pk;
             }
             b[r] -= f * b[c];
         }
@@ -188,7 +191,8 @@ fn rkpm<D: Dim>(
                 m[a][b] += v * w * p[a] * p[b];
                 for (k, dmk) in dm.iter_mut().enumerate().take(D::N) {
                     let e = |c: usize| if c == k + 1 { 1.0 } else { 0.0 };
-                    dmk[a][b] += v * (D::comp(gw, k) * p[a] * p[b] + w * (e(a) * p[b] + p[a] * e(b)));
+                    dmk[a][b] +=
+                        v * (D::comp(gw, k) * p[a] * p[b] + w * (e(a) * p[b] + p[a] * e(b)));
                 }
             }
         }
@@ -248,7 +252,10 @@ mod tests {
         (0..n * n)
             .map(|k| {
                 let (a, b) = ((k % n) as f64, (k / n) as f64);
-                DVec2::new(a * dx + jitter(2 * k, amp * dx), b * dx + jitter(2 * k + 1, amp * dx))
+                DVec2::new(
+                    a * dx + jitter(2 * k, amp * dx),
+                    b * dx + jitter(2 * k + 1, amp * dx),
+                )
             })
             .collect()
     }
@@ -282,7 +289,10 @@ mod tests {
                     let g = gradients::<D2>(kind, &x, &vol, &csr, &kernel).unwrap();
                     // Exact up to round-off of O(N) sums of O(1/dx) terms: 1e-10 relative to |A| ~ 3.
                     let e = linear_error::<D2>(&x, &vol, &csr, &g, a);
-                    assert!(e < 1e-10, "{kind:?} {kernel_kind:?} jitter {amp}: error {e:e}");
+                    assert!(
+                        e < 1e-10,
+                        "{kind:?} {kernel_kind:?} jitter {amp}: error {e:e}"
+                    );
                 }
                 // The plain gradient is not first-order: it must fail at the boundary.
                 let g = gradients::<D2>(CorrectionKind::None, &x, &vol, &csr, &kernel).unwrap();
@@ -298,7 +308,11 @@ mod tests {
         let x: Vec<DVec3> = (0..n * n * n)
             .map(|k| {
                 let p = DVec3::new((k % n) as f64, ((k / n) % n) as f64, (k / (n * n)) as f64) * dx;
-                p + DVec3::new(jitter(3 * k, 0.15 * dx), jitter(3 * k + 1, 0.15 * dx), jitter(3 * k + 2, 0.15 * dx))
+                p + DVec3::new(
+                    jitter(3 * k, 0.15 * dx),
+                    jitter(3 * k + 1, 0.15 * dx),
+                    jitter(3 * k + 2, 0.15 * dx),
+                )
             })
             .collect();
         let vol = vec![dx * dx * dx; x.len()];
@@ -318,7 +332,15 @@ mod tests {
         let vol = vec![1.0; 2];
         let kernel = Kernel::new(KernelKind::CubicSpline, 1.0, 2);
         let csr = neighbour::build::<D2>(&x, kernel.support());
-        let err = gradients::<D2>(CorrectionKind::RandlesLibersky, &x, &vol, &csr, &kernel).unwrap_err();
-        assert!(matches!(err, CorrectionError::Singular { particle: 0, neighbours: 0, .. }));
+        let err =
+            gradients::<D2>(CorrectionKind::RandlesLibersky, &x, &vol, &csr, &kernel).unwrap_err();
+        assert!(matches!(
+            err,
+            CorrectionError::Singular {
+                particle: 0,
+                neighbours: 0,
+                ..
+            }
+        ));
     }
 }

@@ -43,7 +43,8 @@ pub trait OdeState: Clone + Send + Sync {
 pub trait OdeSystem {
     type State: OdeState;
     type Error;
-    fn rates(&mut self, t: f64, y: &Self::State, dydt: &mut Self::State) -> Result<(), Self::Error>;
+    fn rates(&mut self, t: f64, y: &Self::State, dydt: &mut Self::State)
+    -> Result<(), Self::Error>;
 }
 
 /// An integrator with its scratch states (allocated once).
@@ -89,7 +90,13 @@ impl<S: OdeState> Integrator<S> {
         }
     }
 
-    fn rk4<Sys: OdeSystem<State = S>>(&mut self, sys: &mut Sys, t: f64, dt: f64, y: &mut S) -> Result<(), Sys::Error> {
+    fn rk4<Sys: OdeSystem<State = S>>(
+        &mut self,
+        sys: &mut Sys,
+        t: f64,
+        dt: f64,
+        y: &mut S,
+    ) -> Result<(), Sys::Error> {
         let [k1, k2, k3, k4] = &mut self.k[..] else {
             unreachable!("RK4 holds four rate buffers")
         };
@@ -111,7 +118,13 @@ impl<S: OdeState> Integrator<S> {
         Ok(())
     }
 
-    fn tvd_rk2<Sys: OdeSystem<State = S>>(&mut self, sys: &mut Sys, t: f64, dt: f64, y: &mut S) -> Result<(), Sys::Error> {
+    fn tvd_rk2<Sys: OdeSystem<State = S>>(
+        &mut self,
+        sys: &mut Sys,
+        t: f64,
+        dt: f64,
+        y: &mut S,
+    ) -> Result<(), Sys::Error> {
         let (k, stage) = (&mut self.k[0], &mut self.stage);
         sys.rates(t, y, k)?;
         stage.clone_from(y);
@@ -122,7 +135,13 @@ impl<S: OdeState> Integrator<S> {
         Ok(())
     }
 
-    fn ssp_rk3<Sys: OdeSystem<State = S>>(&mut self, sys: &mut Sys, t: f64, dt: f64, y: &mut S) -> Result<(), Sys::Error> {
+    fn ssp_rk3<Sys: OdeSystem<State = S>>(
+        &mut self,
+        sys: &mut Sys,
+        t: f64,
+        dt: f64,
+        y: &mut S,
+    ) -> Result<(), Sys::Error> {
         let (k, stage) = (&mut self.k[0], &mut self.stage);
         sys.rates(t, y, k)?;
         stage.clone_from(y);
@@ -136,7 +155,13 @@ impl<S: OdeState> Integrator<S> {
         Ok(())
     }
 
-    fn leapfrog<Sys: OdeSystem<State = S>>(&mut self, sys: &mut Sys, t: f64, dt: f64, y: &mut S) -> Result<(), Sys::Error> {
+    fn leapfrog<Sys: OdeSystem<State = S>>(
+        &mut self,
+        sys: &mut Sys,
+        t: f64,
+        dt: f64,
+        y: &mut S,
+    ) -> Result<(), Sys::Error> {
         let rates = match &mut self.last_rates {
             Some(r) => r,
             None => {
@@ -194,7 +219,11 @@ mod tests {
         type State = Osc;
         type Error = ();
         fn rates(&mut self, _t: f64, y: &Osc, d: &mut Osc) -> Result<(), ()> {
-            *d = Osc { x: y.v, v: -y.x, z: -y.z };
+            *d = Osc {
+                x: y.v,
+                v: -y.x,
+                z: -y.z,
+            };
             Ok(())
         }
     }
@@ -202,7 +231,11 @@ mod tests {
     fn error(kind: IntegratorKind, steps: usize) -> f64 {
         let t_end = 2.0;
         let dt = t_end / steps as f64;
-        let mut y = Osc { x: 1.0, v: 0.0, z: 1.0 };
+        let mut y = Osc {
+            x: 1.0,
+            v: 0.0,
+            z: 1.0,
+        };
         let mut integ = Integrator::new(kind, &y);
         for n in 0..steps {
             integ.step(&mut Sho, n as f64 * dt, dt, &mut y).unwrap();
@@ -210,7 +243,11 @@ mod tests {
         let ex = (y.x - t_end.cos()).abs() + (y.v + t_end.sin()).abs();
         // The leapfrog advances z with the first-order Euler drift by design; the RK
         // schemes integrate every field at their full order.
-        if kind == IntegratorKind::Leapfrog { ex } else { ex + (y.z - (-t_end).exp()).abs() }
+        if kind == IntegratorKind::Leapfrog {
+            ex
+        } else {
+            ex + (y.z - (-t_end).exp()).abs()
+        }
     }
 
     #[test]
@@ -224,7 +261,10 @@ mod tests {
             let (e1, e2) = (error(kind, 100), error(kind, 200));
             let measured = (e1 / e2).log2();
             // Asymptotic regime at 100–200 steps: the observed order lies within 0.15 of theory.
-            assert!((measured - order).abs() < 0.15, "{kind:?}: order {measured:.3} (errors {e1:e}, {e2:e})");
+            assert!(
+                (measured - order).abs() < 0.15,
+                "{kind:?}: order {measured:.3} (errors {e1:e}, {e2:e})"
+            );
         }
     }
 }

@@ -173,7 +173,10 @@ mod tests {
             for knot in [1.0, 2.0] {
                 let (a, b) = (knot - 1e-9, knot + 1e-9);
                 assert!((k.w(a) - k.w(b)).abs() < 1e-7, "{kind:?} W jumps at {knot}");
-                assert!((k.dw_dr(a) - k.dw_dr(b)).abs() < 1e-7, "{kind:?} W' jumps at {knot}");
+                assert!(
+                    (k.dw_dr(a) - k.dw_dr(b)).abs() < 1e-7,
+                    "{kind:?} W' jumps at {knot}"
+                );
             }
             // dW/dr matches a central difference of W (checks the derivative formula).
             for r in [0.3, 0.9, 1.4, 1.9, 2.5] {

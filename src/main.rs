@@ -8,7 +8,11 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "meshless", version, about = "Meshless particle methods for solids under very large deformation")]
+#[command(
+    name = "meshless",
+    version,
+    about = "Meshless particle methods for solids under very large deformation"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -76,7 +80,14 @@ fn resolve(case: &str) -> PathBuf {
     }
 }
 
-fn run_command(case: &str, backend: Backend, out: Option<PathBuf>, set: &[String], no_frames: bool, quiet: bool) -> ExitCode {
+fn run_command(
+    case: &str,
+    backend: Backend,
+    out: Option<PathBuf>,
+    set: &[String],
+    no_frames: bool,
+    quiet: bool,
+) -> ExitCode {
     let path = resolve(case);
     let case = match Case::load(&path, set) {
         Ok(c) => c,
@@ -87,7 +98,9 @@ fn run_command(case: &str, backend: Backend, out: Option<PathBuf>, set: &[String
     };
     let backend = match backend {
         Backend::Auto => {
-            eprintln!("note: the GPU backend is not part of this build; running on the CPU (rayon, f64)");
+            eprintln!(
+                "note: the GPU backend is not part of this build; running on the CPU (rayon, f64)"
+            );
             Backend::Cpu
         }
         b => b,

@@ -184,7 +184,10 @@ mod tests {
     #[test]
     fn state_models_are_stress_free_under_rotation_and_agree_in_small_strain() {
         let q3 = DMat3::from_axis_angle(DVec3::new(1.0, 2.0, 2.0).normalize(), 0.7);
-        for model in [MaterialModel::SaintVenantKirchhoff, MaterialModel::NeoHookean] {
+        for model in [
+            MaterialModel::SaintVenantKirchhoff,
+            MaterialModel::NeoHookean,
+        ] {
             let m = Material::new(&spec(model));
             let p = m.pk1::<D3>(q3);
             assert!(D3::ddot(p, p).sqrt() < 1e-8 * m.mu, "{model:?}");
@@ -203,7 +206,10 @@ mod tests {
     fn pk1_is_the_derivative_of_the_energy() {
         // Central differences of ψ(F) with step 1e-7 on O(1) strains: error ~1e-6 relative.
         let f0 = DMat3::from_cols_array(&[1.2, 0.1, -0.05, 0.2, 0.9, 0.1, 0.0, -0.1, 1.1]);
-        for model in [MaterialModel::SaintVenantKirchhoff, MaterialModel::NeoHookean] {
+        for model in [
+            MaterialModel::SaintVenantKirchhoff,
+            MaterialModel::NeoHookean,
+        ] {
             let m = Material::new(&spec(model));
             let p = m.pk1::<D3>(f0);
             for k in 0..3 {
@@ -214,7 +220,10 @@ mod tests {
                     let fd = (m.energy_density::<D3>(f0 + df, DMat3::ZERO, 1.0)
                         - m.energy_density::<D3>(f0 - df, DMat3::ZERO, 1.0))
                         / 2e-7;
-                    assert!((fd - D3::entry(p, k, l)).abs() < 1e-5 * m.mu, "{model:?} P_{k}{l}");
+                    assert!(
+                        (fd - D3::entry(p, k, l)).abs() < 1e-5 * m.mu,
+                        "{model:?} P_{k}{l}"
+                    );
                 }
             }
         }
@@ -222,7 +231,9 @@ mod tests {
 
     #[test]
     fn von_mises_of_uniaxial_stress_is_its_magnitude() {
-        assert!((von_mises(&[[-3.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]) - 3.0).abs() < 1e-12);
+        assert!(
+            (von_mises(&[[-3.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]) - 3.0).abs() < 1e-12
+        );
         assert!(von_mises(&[[2.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.0]]).abs() < 1e-12);
     }
 }

@@ -170,7 +170,9 @@ mod tests {
         (0..x.len())
             .map(|i| {
                 (0..x.len() as u32)
-                    .filter(|&j| j as usize != i && D::norm2(x[i] - x[j as usize]) <= radius * radius)
+                    .filter(|&j| {
+                        j as usize != i && D::norm2(x[i] - x[j as usize]) <= radius * radius
+                    })
                     .collect()
             })
             .collect()
@@ -188,7 +190,9 @@ mod tests {
     #[test]
     fn cell_list_equals_brute_force_2d() {
         let mut s = 7;
-        let random: Vec<DVec2> = (0..600).map(|_| DVec2::new(lcg(&mut s) * 3.0, lcg(&mut s))).collect();
+        let random: Vec<DVec2> = (0..600)
+            .map(|_| DVec2::new(lcg(&mut s) * 3.0, lcg(&mut s)))
+            .collect();
         check::<D2>(&random, 0.13);
         let lattice: Vec<DVec2> = (0..400)
             .map(|k| DVec2::new((k % 20) as f64 * 0.1, (k / 20) as f64 * 0.1))

@@ -24,7 +24,12 @@ impl Invariants {
     }
 
     pub fn of<D: Dim, M: Method<D>>(method: &M, y: &M::State) -> Self {
-        let (x0, u, v, m) = (method.reference(), method.displacement(y), method.velocity(y), method.mass());
+        let (x0, u, v, m) = (
+            method.reference(),
+            method.displacement(y),
+            method.velocity(y),
+            method.mass(),
+        );
         let add3 = |a: [f64; 3], b: [f64; 3]| [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
         let (kinetic, linear, angular) = (0..m.len())
             .into_par_iter()
@@ -50,8 +55,8 @@ impl Invariants {
         out.insert("kinetic_energy".into(), self.kinetic);
         out.insert("strain_energy".into(), self.strain);
         out.insert("total_energy".into(), self.total_energy());
-        for k in 0..D::N {
-            out.insert(format!("linear_momentum_{}", AXES[k]), self.linear[k]);
+        for (axis, p) in AXES.iter().zip(self.linear).take(D::N) {
+            out.insert(format!("linear_momentum_{axis}"), p);
         }
         for k in angular_components::<D>() {
             out.insert(format!("angular_momentum_{}", AXES[k]), self.angular[k]);
@@ -64,6 +69,16 @@ const AXES: [&str; 3] = ["x", "y", "z"];
 
 fn angular_components<D: Dim>() -> std::ops::Range<usize> {
     if D::N == 2 { 2..3 } else { 0..3 }
+}
+
+/// Where a run stands: time, step count, last step size and the work done on the body by
+/// supports and loads so far.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Clock {
+    pub t: f64,
+    pub step: u64,
+    pub dt: f64,
+    pub external_work: f64,
 }
 
 /// The observers of a run and the columns they fill.
@@ -86,12 +101,20 @@ impl Observers {
         for obs in &list {
             match obs {
                 Observer::Energy => names.extend(
-                    ["kinetic_energy", "strain_energy", "total_energy", "external_work"].map(String::from),
+                    [
+                        "kinetic_energy",
+                        "strain_energy",
+                        "total_energy",
+                        "external_work",
+                    ]
+                    .map(String::from),
                 ),
-                Observer::LinearMomentum => names.extend((0..D::N).map(|k| format!("momentum_{}", AXES[k]))),
-                Observer::AngularMomentum => {
-                    names.extend(angular_components::<D>().map(|k| format!("angular_momentum_{}", AXES[k])))
+                Observer::LinearMomentum => {
+                    names.extend((0..D::N).map(|k| format!("momentum_{}", AXES[k])))
                 }
+                Observer::AngularMomentum => names.extend(
+                    angular_components::<D>().map(|k| format!("angular_momentum_{}", AXES[k])),
+                ),
                 Observer::Extent => {
                     for b in &case.bodies {
                         names.extend((0..D::N).map(|k| format!("{}.extent_{}", b.name, AXES[k])));
@@ -105,7 +128,9 @@ impl Observers {
             let target = D::from_slice(&probe.position);
             let nearest = (0..x0.len())
                 .min_by(|&a, &b| D::norm2(x0[a] - target).total_cmp(&D::norm2(x0[b] - target)))
-                .ok_or_else(|| case.invalid(format!("probe.{p}.position"), "the scene has no particles"))?;
+                .ok_or_else(|| {
+                    case.invalid(format!("probe.{p}.position"), "the scene has no particles")
+                })?;
             probes.push(nearest);
             for q in ["u", "v"] {
                 names.extend((0..D::N).map(|k| format!("{}.{q}{}", probe.name, AXES[k])));
@@ -135,18 +160,26 @@ impl Observers {
         method: &M,
         y: &M::State,
         inv: &Invariants,
-        t: f64,
-        step: u64,
-        dt: f64,
-        external_work: f64,
+        clock: &Clock,
     ) -> Vec<f64> {
-        let (x0, u, v) = (method.reference(), method.displacement(y), method.velocity(y));
-        let mut row = vec![t, step as f64, dt];
+        let (x0, u, v) = (
+            method.reference(),
+            method.displacement(y),
+            method.velocity(y),
+        );
+        let mut row = vec![clock.t, clock.step as f64, clock.dt];
         for obs in &self.list {
             match obs {
-                Observer::Energy => row.extend([inv.kinetic, inv.strain, inv.total_energy(), external_work]),
+                Observer::Energy => row.extend([
+                    inv.kinetic,
+                    inv.strain,
+                    inv.total_energy(),
+                    clock.external_work,
+                ]),
                 Observer::LinearMomentum => row.extend(&inv.linear[..D::N]),
-                Observer::AngularMomentum => row.extend(angular_components::<D>().map(|k| inv.angular[k])),
+                Observer::AngularMomentum => {
+                    row.extend(angular_components::<D>().map(|k| inv.angular[k]))
+                }
                 Observer::Extent => {
                     let mut lo = vec![[f64::INFINITY; 3]; self.bodies];
                     let mut hi = vec![[f64::NEG_INFINITY; 3]; self.bodies];
@@ -164,9 +197,15 @@ impl Observers {
                 Observer::NeckHeight => {
                     let height = |col: &Vec<usize>| {
                         let ys = col.iter().map(|&i| D::comp(x0[i] + u[i], 1));
-                        ys.clone().fold(f64::NEG_INFINITY, f64::max) - ys.fold(f64::INFINITY, f64::min)
+                        ys.clone().fold(f64::NEG_INFINITY, f64::max)
+                            - ys.fold(f64::INFINITY, f64::min)
                     };
-                    row.push(self.columns.iter().map(height).fold(f64::INFINITY, f64::min));
+                    row.push(
+                        self.columns
+                            .iter()
+                            .map(height)
+                            .fold(f64::INFINITY, f64::min),
+                    );
                 }
             }
         }

@@ -5,8 +5,10 @@ use crate::integrate::Integrator;
 use crate::material::von_mises;
 use crate::method::tlsph::Tlsph;
 use crate::method::{BlowUp, Method};
-use crate::observe::{Invariants, Observers};
-use crate::output::{Field, FieldData, PvdIndex, RunSummary, SeriesWriter, write_summary, write_vtu};
+use crate::observe::{Clock, Invariants, Observers};
+use crate::output::{
+    Field, FieldData, PvdIndex, RunSummary, SeriesWriter, write_summary, write_vtu,
+};
 use crate::scene::{Case, CaseError, MethodName, discretise};
 use crate::tensor::{D2, D3, Dim};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -96,37 +98,45 @@ fn run_dim<D: Dim>(case: &Case, opts: &RunOptions) -> Result<RunSummary, RunErro
     let observers = Observers::new::<D, _>(case, &method)?;
 
     std::fs::create_dir_all(&opts.out_dir)?;
-    let mut series = SeriesWriter::create(&opts.out_dir.join("series.csv"), observers.column_names())?;
+    let mut series =
+        SeriesWriter::create(&opts.out_dir.join("series.csv"), observers.column_names())?;
     let mut frames = Frames::new(case, opts)?;
 
     let n = method.reference().len();
-    let (t_end, mut t, mut step) = (case.run.end_time, 0.0, 0u64);
+    let t_end = case.run.end_time;
     let inv0 = Invariants::of::<D, _>(&method, &y);
-    let mut external_work = 0.0;
-    let mut dt = time_step::<D, _>(case, &method, &y);
+    let mut clock = Clock {
+        dt: time_step::<D, _>(case, &method, &y),
+        ..Clock::default()
+    };
     let progress = progress_bar(opts.progress, case);
     let started = Instant::now();
 
-    series.write_row(&observers.sample::<D, _>(&method, &y, &inv0, t, step, dt, 0.0))?;
-    frames.write::<D, _>(&method, &y, t, true)?;
+    series.write_row(&observers.sample::<D, _>(&method, &y, &inv0, &clock))?;
+    frames.write::<D, _>(&method, &y, 0.0, true)?;
     let series_every = case.output.series_interval.unwrap_or(0.0);
     let mut next_sample = series_every;
     let mut last_power = 0.0;
 
     let failure = loop {
+        let Clock { t, step, .. } = clock;
         if t >= t_end * (1.0 - 1e-12) {
             break None;
         }
-        dt = time_step::<D, _>(case, &method, &y).min(t_end - t);
+        let dt = time_step::<D, _>(case, &method, &y).min(t_end - t);
         if let Err(cause) = integrator.step(&mut method, t, dt, &mut y) {
             break Some(cause);
         }
-        t += dt;
-        step += 1;
         // Trapezoidal work of the supports and loads, from the powers of successive steps.
         let power = method.boundary_power();
-        external_work += 0.5 * (last_power + power) * dt;
+        clock = Clock {
+            t: t + dt,
+            step: step + 1,
+            dt,
+            external_work: clock.external_work + 0.5 * (last_power + power) * dt,
+        };
         last_power = power;
+        let (t, step) = (clock.t, clock.step);
 
         let sample = t + 0.5 * dt >= next_sample || t >= t_end * (1.0 - 1e-12);
         if sample || step % CHECK_EVERY == 0 {
@@ -134,12 +144,18 @@ fn run_dim<D: Dim>(case: &Case, opts: &RunOptions) -> Result<RunSummary, RunErro
                 break Some(cause);
             }
             let inv = Invariants::of::<D, _>(&method, &y);
-            let bound = case.run.energy_growth_limit * (inv0.total_energy() + external_work.max(0.0));
+            let bound =
+                case.run.energy_growth_limit * (inv0.total_energy() + clock.external_work.max(0.0));
             if inv.total_energy() > bound && bound > 0.0 {
-                break Some(energy_blow_up::<D, _>(&method, &y, inv.total_energy(), bound));
+                break Some(energy_blow_up::<D, _>(
+                    &method,
+                    &y,
+                    inv.total_energy(),
+                    bound,
+                ));
             }
             if sample {
-                series.write_row(&observers.sample::<D, _>(&method, &y, &inv, t, step, dt, external_work))?;
+                series.write_row(&observers.sample::<D, _>(&method, &y, &inv, &clock))?;
                 next_sample = t + series_every;
             }
         }
@@ -147,11 +163,14 @@ fn run_dim<D: Dim>(case: &Case, opts: &RunOptions) -> Result<RunSummary, RunErro
         if step % 64 == 0 {
             progress.set_position((t / t_end * 1000.0) as u64);
             let rate = (n as f64 * step as f64) / started.elapsed().as_secs_f64();
-            progress.set_message(format!("step {step}, t = {t:.4e} s, {rate:.3e} particle-steps/s"));
+            progress.set_message(format!(
+                "step {step}, t = {t:.4e} s, {rate:.3e} particle-steps/s"
+            ));
         }
     };
     progress.finish_and_clear();
 
+    let Clock { t, step, dt, .. } = clock;
     let wall = started.elapsed().as_secs_f64();
     let inv = Invariants::of::<D, _>(&method, &y);
     let summary = RunSummary {
@@ -165,8 +184,15 @@ fn run_dim<D: Dim>(case: &Case, opts: &RunOptions) -> Result<RunSummary, RunErro
         end_time: t,
         wall_seconds: wall,
         particle_steps_per_second: n as f64 * step as f64 / wall.max(1e-12),
-        status: if failure.is_some() { "failed" } else { "completed" }.into(),
-        failure: failure.as_ref().map(|c| format!("step {}, t = {t:e} s: {c}", step + 1)),
+        status: if failure.is_some() {
+            "failed"
+        } else {
+            "completed"
+        }
+        .into(),
+        failure: failure
+            .as_ref()
+            .map(|c| format!("step {}, t = {t:e} s: {c}", step + 1)),
         final_invariants: inv.named::<D>(),
     };
     write_summary(&opts.out_dir.join("summary.json"), &summary)?;
@@ -182,7 +208,12 @@ fn run_dim<D: Dim>(case: &Case, opts: &RunOptions) -> Result<RunSummary, RunErro
 }
 
 /// Energy-growth failure, attributed to the particle with the largest kinetic energy.
-fn energy_blow_up<D: Dim, M: Method<D>>(method: &M, y: &M::State, energy: f64, bound: f64) -> BlowUp {
+fn energy_blow_up<D: Dim, M: Method<D>>(
+    method: &M,
+    y: &M::State,
+    energy: f64,
+    bound: f64,
+) -> BlowUp {
     let (v, m) = (method.velocity(y), method.mass());
     let i = (0..m.len())
         .max_by(|&a, &b| (m[a] * D::norm2(v[a])).total_cmp(&(m[b] * D::norm2(v[b]))))
@@ -201,8 +232,10 @@ fn progress_bar(show: bool, case: &Case) -> ProgressBar {
     }
     let bar = ProgressBar::new(1000);
     bar.set_style(
-        ProgressStyle::with_template("{prefix} [{elapsed_precise}] {wide_bar} {percent}% eta {eta} {msg}")
-            .expect("static progress template is valid"),
+        ProgressStyle::with_template(
+            "{prefix} [{elapsed_precise}] {wide_bar} {percent}% eta {eta} {msg}",
+        )
+        .expect("static progress template is valid"),
     );
     bar.set_prefix(case.name.clone());
     bar
@@ -236,8 +269,16 @@ impl Frames {
     }
 
     /// Writes a frame when one is due (or `force`).
-    fn write<D: Dim, M: Method<D>>(&mut self, method: &M, y: &M::State, t: f64, force: bool) -> std::io::Result<()> {
-        let Some(index) = &mut self.index else { return Ok(()) };
+    fn write<D: Dim, M: Method<D>>(
+        &mut self,
+        method: &M,
+        y: &M::State,
+        t: f64,
+        force: bool,
+    ) -> std::io::Result<()> {
+        let Some(index) = &mut self.index else {
+            return Ok(());
+        };
         let due = self.interval.is_some_and(|_| t >= self.next * (1.0 - 1e-9));
         if !(due || force) {
             return Ok(());
@@ -256,8 +297,17 @@ impl Frames {
 }
 
 /// One VTU frame: current positions with u, v, F, σ, von Mises stress, J and body.
-pub fn write_frame<D: Dim, M: Method<D>>(path: &Path, method: &M, y: &M::State, t: f64) -> std::io::Result<()> {
-    let (x0, u, v) = (method.reference(), method.displacement(y), method.velocity(y));
+pub fn write_frame<D: Dim, M: Method<D>>(
+    path: &Path,
+    method: &M,
+    y: &M::State,
+    t: f64,
+) -> std::io::Result<()> {
+    let (x0, u, v) = (
+        method.reference(),
+        method.displacement(y),
+        method.velocity(y),
+    );
     let points: Vec<[f64; 3]> = x0.iter().zip(u).map(|(&x, &u)| D::to3(x + u)).collect();
     let uu: Vec<[f64; 3]> = u.iter().map(|&a| D::to3(a)).collect();
     let vv: Vec<[f64; 3]> = v.iter().map(|&a| D::to3(a)).collect();
@@ -269,13 +319,34 @@ pub fn write_frame<D: Dim, M: Method<D>>(path: &Path, method: &M, y: &M::State, 
     let s9: Vec<[f64; 9]> = sigma.iter().map(|s| flatten(*s)).collect();
     let body: Vec<i32> = method.body().iter().map(|&b| b as i32).collect();
     let fields = [
-        Field { name: "u", data: FieldData::Vector(&uu) },
-        Field { name: "v", data: FieldData::Vector(&vv) },
-        Field { name: "F", data: FieldData::Tensor(&f9) },
-        Field { name: "sigma", data: FieldData::Tensor(&s9) },
-        Field { name: "von_mises", data: FieldData::Scalar(&vm) },
-        Field { name: "J", data: FieldData::Scalar(&jac) },
-        Field { name: "body", data: FieldData::Int(&body) },
+        Field {
+            name: "u",
+            data: FieldData::Vector(&uu),
+        },
+        Field {
+            name: "v",
+            data: FieldData::Vector(&vv),
+        },
+        Field {
+            name: "F",
+            data: FieldData::Tensor(&f9),
+        },
+        Field {
+            name: "sigma",
+            data: FieldData::Tensor(&s9),
+        },
+        Field {
+            name: "von_mises",
+            data: FieldData::Scalar(&vm),
+        },
+        Field {
+            name: "J",
+            data: FieldData::Scalar(&jac),
+        },
+        Field {
+            name: "body",
+            data: FieldData::Int(&body),
+        },
     ];
     write_vtu(path, &points, &fields, t)
 }

@@ -236,6 +236,9 @@ mod tests {
         assert_eq!(D3::entry(t3, 0, 2), 13.0);
         // (a ⊗ b) c = a (b · c)
         let c = DVec3::new(0.5, -1.0, 2.0);
-        assert_eq!(t3 * c, DVec3::new(1.0, 2.0, 3.0) * (7.0 * 0.5 - 11.0 + 26.0));
+        assert_eq!(
+            t3 * c,
+            DVec3::new(1.0, 2.0, 3.0) * (7.0 * 0.5 - 11.0 + 26.0)
+        );
     }
 }

@@ -11,7 +11,9 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn case_file(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("cases").join(format!("{name}.toml"))
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("cases")
+        .join(format!("{name}.toml"))
 }
 
 fn options(dir: &Path, frames: bool) -> RunOptions {
@@ -27,8 +29,15 @@ fn options(dir: &Path, frames: bool) -> RunOptions {
 fn column(csv: &Path, name: &str) -> Vec<f64> {
     let text = std::fs::read_to_string(csv).unwrap();
     let mut lines = text.lines();
-    let k = lines.next().unwrap().split(',').position(|c| c == name).unwrap();
-    lines.map(|l| l.split(',').nth(k).unwrap().parse().unwrap()).collect()
+    let k = lines
+        .next()
+        .unwrap()
+        .split(',')
+        .position(|c| c == name)
+        .unwrap();
+    lines
+        .map(|l| l.split(',').nth(k).unwrap().parse().unwrap())
+        .collect()
 }
 
 #[test]
@@ -88,7 +97,10 @@ fn wave_speed_matches_the_confined_modulus_and_converges() {
         .collect();
     // Dispersion error of the discrete operator falls with Δx/width; measured errors are
     // listed above. Require a monotone fall and the finest within 0.5 %.
-    assert!(errors[1] < errors[0] && errors[2] < errors[1], "errors {errors:?}");
+    assert!(
+        errors[1] < errors[0] && errors[2] < errors[1],
+        "errors {errors:?}"
+    );
     assert!(errors[2] < 5e-3, "finest relative error {:e}", errors[2]);
 }
 
@@ -99,16 +111,26 @@ fn blow_up_stops_the_run_with_a_diagnostic_and_keeps_earlier_frames() {
     let dir = tempfile::tempdir().unwrap();
     let case = Case::load(
         &case_file("wave-rod"),
-        &["method.cfl=".into(), "method.dt=2e-5".into(), "output.frame_interval=2e-5".into()],
+        &[
+            "method.cfl=".into(),
+            "method.dt=2e-5".into(),
+            "output.frame_interval=2e-5".into(),
+        ],
     )
     .unwrap();
     let err = run(&case, &options(dir.path(), true)).unwrap_err();
-    let RunError::BlowUp { step, time, cause, .. } = &err else {
+    let RunError::BlowUp {
+        step, time, cause, ..
+    } = &err
+    else {
         panic!("expected a blow-up, got {err}")
     };
     assert!(*step > 1 && *time > 0.0 && cause.particle < 2211);
     let text = err.to_string();
-    assert!(text.contains("blow-up at step") && text.contains("particle"), "{text}");
+    assert!(
+        text.contains("blow-up at step") && text.contains("particle"),
+        "{text}"
+    );
     let summary = std::fs::read_to_string(dir.path().join("summary.json")).unwrap();
     assert!(summary.contains("\"failed\""), "{summary}");
     let pvd = std::fs::read_to_string(dir.path().join("wave-rod.pvd")).unwrap();
@@ -116,8 +138,17 @@ fn blow_up_stops_the_run_with_a_diagnostic_and_keeps_earlier_frames() {
     let frames = pvd.matches("<DataSet").count();
     assert!(frames >= 2, "frames before the blow-up are indexed");
     for line in pvd.lines().filter(|l| l.contains("<DataSet")) {
-        let file = line.split("file=\"").nth(1).unwrap().split('"').next().unwrap();
-        assert!(dir.path().join(file).is_file(), "indexed frame {file} exists");
+        let file = line
+            .split("file=\"")
+            .nth(1)
+            .unwrap()
+            .split('"')
+            .next()
+            .unwrap();
+        assert!(
+            dir.path().join(file).is_file(),
+            "indexed frame {file} exists"
+        );
     }
 }
 
@@ -126,25 +157,52 @@ fn command_line_exit_codes() {
     let exe = env!("CARGO_BIN_EXE_meshless");
     let dir = tempfile::tempdir().unwrap();
     let bad = Command::new(exe)
-        .args(["run", case_file("wave-rod").to_str().unwrap(), "--set", "material.poisson_ratio=0.5"])
+        .args([
+            "run",
+            case_file("wave-rod").to_str().unwrap(),
+            "--set",
+            "material.poisson_ratio=0.5",
+        ])
         .output()
         .unwrap();
     assert_eq!(bad.status.code(), Some(2));
     let stderr = String::from_utf8_lossy(&bad.stderr);
-    assert!(stderr.contains("material.poisson_ratio") && stderr.contains("wave-rod.toml"), "{stderr}");
+    assert!(
+        stderr.contains("material.poisson_ratio") && stderr.contains("wave-rod.toml"),
+        "{stderr}"
+    );
 
     let blow = Command::new(exe)
-        .args(["run", case_file("wave-rod").to_str().unwrap(), "--set", "method.cfl=", "--set", "method.dt=2e-5", "--no-frames", "--out"])
+        .args([
+            "run",
+            case_file("wave-rod").to_str().unwrap(),
+            "--set",
+            "method.cfl=",
+            "--set",
+            "method.dt=2e-5",
+            "--no-frames",
+            "--out",
+        ])
         .arg(dir.path())
         .output()
         .unwrap();
     assert_eq!(blow.status.code(), Some(1));
 
     let ok = Command::new(exe)
-        .args(["run", case_file("wave-rod").to_str().unwrap(), "--backend", "cpu", "--out"])
+        .args([
+            "run",
+            case_file("wave-rod").to_str().unwrap(),
+            "--backend",
+            "cpu",
+            "--out",
+        ])
         .arg(dir.path())
         .output()
         .unwrap();
-    assert!(ok.status.success(), "{}", String::from_utf8_lossy(&ok.stderr));
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
     assert!(dir.path().join("wave-rod.pvd").is_file() && dir.path().join("summary.json").is_file());
 }

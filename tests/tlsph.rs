@@ -12,7 +12,9 @@ use std::f64::consts::PI;
 use std::path::Path;
 
 fn case_file(name: &str) -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("cases").join(format!("{name}.toml"))
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("cases")
+        .join(format!("{name}.toml"))
 }
 
 fn block(dim: u32, model: &str) -> Case {
@@ -92,7 +94,10 @@ fn rigid_rotation_of_state_based_models_is_stress_free() {
         // bound 1e-10·E·V, while a true strain of 1e-5 would give ψ ~ ½E·1e-10.
         let volume = 1.1 * 0.7;
         let w = m.strain_energy(&y);
-        assert!(w.abs() < 1e-10 * 1e6 * volume, "{model}: strain energy {w:e}");
+        assert!(
+            w.abs() < 1e-10 * 1e6 * volume,
+            "{model}: strain energy {w:e}"
+        );
     }
 }
 
@@ -130,7 +135,11 @@ fn seed_benchmarks_reproduce_their_set_up() {
     let h: f64 = (0..276)
         .map(|i| m.mass()[i] * m.reference()[i].perp_dot(y.v[i]))
         .sum();
-    assert!((h / (25.0 * PI) - 0.94746).abs() < 5e-6, "H(0)/H̄ = {}", h / (25.0 * PI));
+    assert!(
+        (h / (25.0 * PI) - 0.94746).abs() < 5e-6,
+        "H(0)/H̄ = {}",
+        h / (25.0 * PI)
+    );
 
     let strip = Case::load(&case_file("tensile-strip"), &[]).unwrap();
     let m: Tlsph<D2> = build_method(&strip).unwrap();

@@ -32,14 +32,23 @@ pub struct TlState<D: Dim> {
     pub s: Vec<D::T>,
 }
 
-fn axpy<T: Copy + Send + Sync + Add<Output = T> + Mul<f64, Output = T>>(y: &mut [T], a: f64, x: &[T]) {
+fn axpy<T: Copy + Send + Sync + Add<Output = T> + Mul<f64, Output = T>>(
+    y: &mut [T],
+    a: f64,
+    x: &[T],
+) {
     y.par_iter_mut()
         .with_min_len(MIN_CHUNK)
         .zip(x)
         .for_each(|(y, &x)| *y = *y + x * a);
 }
 
-fn blend<T: Copy + Send + Sync + Add<Output = T> + Mul<f64, Output = T>>(y: &mut [T], a: f64, b: f64, x: &[T]) {
+fn blend<T: Copy + Send + Sync + Add<Output = T> + Mul<f64, Output = T>>(
+    y: &mut [T],
+    a: f64,
+    b: f64,
+    x: &[T],
+) {
     y.par_iter_mut()
         .with_min_len(MIN_CHUNK)
         .zip(x)
@@ -266,7 +275,7 @@ impl<D: Dim> Tlsph<D> {
         let i = self
             .kin
             .par_iter()
-            .position_first(|k| !(D::det(k.f) > 0.0))?;
+            .position_first(|k| D::det(k.f).is_nan() || D::det(k.f) <= 0.0)?;
         Some(self.blow_up(i, "det F", D::det(self.kin[i].f)))
     }
 
@@ -306,8 +315,16 @@ impl<D: Dim> Method<D> for Tlsph<D> {
         TlState {
             u: vec![D::zero(); n],
             v: self.v0.clone(),
-            rho: if rate { vec![self.material.rho0; n] } else { Vec::new() },
-            s: if rate { vec![D::zero_t(); n] } else { Vec::new() },
+            rho: if rate {
+                vec![self.material.rho0; n]
+            } else {
+                Vec::new()
+            },
+            s: if rate {
+                vec![D::zero_t(); n]
+            } else {
+                Vec::new()
+            },
         }
     }
 
@@ -372,14 +389,22 @@ impl<D: Dim> Method<D> for Tlsph<D> {
             .into_par_iter()
             .enumerate()
             .map(|(i, f)| {
-                let (s, rho) = if rate { (y.s[i], y.rho[i]) } else { (D::zero_t(), mat.rho0) };
+                let (s, rho) = if rate {
+                    (y.s[i], y.rho[i])
+                } else {
+                    (D::zero_t(), mat.rho0)
+                };
                 self.vol[i] * mat.energy_density::<D>(f, s, rho)
             })
             .sum()
     }
 
     fn max_signal_speed(&self, y: &TlState<D>) -> f64 {
-        let vmax = y.v.par_iter().map(|&v| D::norm2(v)).reduce(|| 0.0, f64::max).sqrt();
+        let vmax =
+            y.v.par_iter()
+                .map(|&v| D::norm2(v))
+                .reduce(|| 0.0, f64::max)
+                .sqrt();
         self.material.p_wave_speed() + vmax
     }
 
@@ -393,11 +418,25 @@ impl<D: Dim> Method<D> for Tlsph<D> {
             None => Ok(()),
         };
         let norm = |v: D::V| D::norm2(v).sqrt();
-        bad("displacement |u|", y.u.par_iter().position_first(|&u| !D::is_finite_v(u)), &|i| norm(y.u[i]))?;
-        bad("velocity |v|", y.v.par_iter().position_first(|&v| !D::is_finite_v(v)), &|i| norm(y.v[i]))?;
-        bad("density", y.rho.par_iter().position_first(|r| !r.is_finite()), &|i| y.rho[i])?;
-        bad("deviatoric stress |S|", y.s.par_iter().position_first(|&s| !D::is_finite_t(s)), &|i| {
-            D::ddot(y.s[i], y.s[i]).sqrt()
-        })
+        bad(
+            "displacement |u|",
+            y.u.par_iter().position_first(|&u| !D::is_finite_v(u)),
+            &|i| norm(y.u[i]),
+        )?;
+        bad(
+            "velocity |v|",
+            y.v.par_iter().position_first(|&v| !D::is_finite_v(v)),
+            &|i| norm(y.v[i]),
+        )?;
+        bad(
+            "density",
+            y.rho.par_iter().position_first(|r| !r.is_finite()),
+            &|i| y.rho[i],
+        )?;
+        bad(
+            "deviatoric stress |S|",
+            y.s.par_iter().position_first(|&s| !D::is_finite_t(s)),
+            &|i| D::ddot(y.s[i], y.s[i]).sqrt(),
+        )
     }
 }

@@ -41,13 +41,18 @@ pub fn discretise<D: Dim>(case: &Case) -> Result<Discretised<D>, CaseError> {
             out.x0.push(x);
             out.vol.push(v);
             out.body.push(b as u32);
-            out.v0.push(initial_velocity::<D>(spec.initial_velocity.as_ref(), x));
+            out.v0
+                .push(initial_velocity::<D>(spec.initial_velocity.as_ref(), x));
         }
     }
     Ok(out)
 }
 
-fn sample<D: Dim>(case: &Case, b: usize, spec: &BodySpec) -> Result<(Vec<D::V>, Vec<f64>), CaseError> {
+fn sample<D: Dim>(
+    case: &Case,
+    b: usize,
+    spec: &BodySpec,
+) -> Result<(Vec<D::V>, Vec<f64>), CaseError> {
     let dx = case.spacing;
     let cell = dx.powi(D::N as i32);
     let lattice_of = |lo: &[f64], hi: &[f64], inside: &dyn Fn(&[f64]) -> bool| {
@@ -84,20 +89,30 @@ fn sample<D: Dim>(case: &Case, b: usize, spec: &BodySpec) -> Result<(Vec<D::V>, 
             lo[a] = base[a];
             hi[a] = base[a] + length;
             lattice_of(&lo, &hi, &|p| {
-                let r2: f64 = (0..3).filter(|&k| k != a).map(|k| (p[k] - base[k]).powi(2)).sum();
+                let r2: f64 = (0..3)
+                    .filter(|&k| k != a)
+                    .map(|k| (p[k] - base[k]).powi(2))
+                    .sum();
                 r2 >= inner_radius * inner_radius && r2 <= radius * radius
             })
         }
         Shape::Points { file } => {
             let path = case.base_dir().join(file);
-            read_points::<D>(&path, cell)
-                .map_err(|m| case.invalid(format!("body.{b}.geometry.file"), format!("{}: {m}", path.display())))?
+            read_points::<D>(&path, cell).map_err(|m| {
+                case.invalid(
+                    format!("body.{b}.geometry.file"),
+                    format!("{}: {m}", path.display()),
+                )
+            })?
         }
     })
 }
 
 fn around(center: &[f64], r: f64) -> (Vec<f64>, Vec<f64>) {
-    (center.iter().map(|c| c - r).collect(), center.iter().map(|c| c + r).collect())
+    (
+        center.iter().map(|c| c - r).collect(),
+        center.iter().map(|c| c + r).collect(),
+    )
 }
 
 fn dist2(p: &[f64], c: &[f64]) -> f64 {
@@ -130,13 +145,23 @@ fn lattice<D: Dim>(lo: &[f64], hi: &[f64], dx: f64, inside: &dyn Fn(&[f64]) -> b
 /// column every point gets Δx^d.
 fn read_points<D: Dim>(path: &Path, cell: f64) -> Result<(Vec<D::V>, Vec<f64>), String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read: {e}"))?;
-    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
-    let (_, header) = lines.next().ok_or("empty file; expected a header line x,y[,z][,volume]")?;
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty());
+    let (_, header) = lines
+        .next()
+        .ok_or("empty file; expected a header line x,y[,z][,volume]")?;
     let names: Vec<&str> = header.split(',').map(str::trim).collect();
     let column = |name: &str| names.iter().position(|&c| c == name);
     let axes: Vec<usize> = ["x", "y", "z"][..D::N]
         .iter()
-        .map(|a| column(a).ok_or(format!("header `{header}` lacks column `{a}` (needed in {}D)", D::N)))
+        .map(|a| {
+            column(a).ok_or(format!(
+                "header `{header}` lacks column `{a}` (needed in {}D)",
+                D::N
+            ))
+        })
         .collect::<Result<_, _>>()?;
     let volume = column("volume");
     let (mut points, mut vols) = (Vec::new(), Vec::new());
@@ -157,7 +182,10 @@ fn read_points<D: Dim>(path: &Path, cell: f64) -> Result<(Vec<D::V>, Vec<f64>), 
         points.push(D::from_slice(&p));
         let v = volume.map_or(cell, |c| fields[c]);
         if v <= 0.0 {
-            return Err(format!("line {}: volume must be positive, found {v}", line_no + 1));
+            return Err(format!(
+                "line {}: volume must be positive, found {v}",
+                line_no + 1
+            ));
         }
         vols.push(v);
     }
@@ -169,7 +197,11 @@ fn initial_velocity<D: Dim>(field: Option<&VelocityField>, x: D::V) -> D::V {
     let p = D::to3(x);
     match field {
         VelocityField::Uniform { value } => D::from_slice(value),
-        VelocityField::RigidRotation { omega, center, axis } => {
+        VelocityField::RigidRotation {
+            omega,
+            center,
+            axis,
+        } => {
             let c = pad3(center);
             let w = match axis {
                 Some(a) => {

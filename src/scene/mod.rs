@@ -344,10 +344,12 @@ impl Case {
         } else {
             let mut table: toml::Table = toml::from_str(text).map_err(parse_error)?;
             for assignment in overrides {
-                overrides::apply(&mut table, assignment).map_err(|message| CaseError::Override {
-                    file: file.to_path_buf(),
-                    assignment: assignment.clone(),
-                    message,
+                overrides::apply(&mut table, assignment).map_err(|message| {
+                    CaseError::Override {
+                        file: file.to_path_buf(),
+                        assignment: assignment.clone(),
+                        message,
+                    }
                 })?;
             }
             Case::deserialize(table).map_err(parse_error)?

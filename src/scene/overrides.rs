@@ -20,7 +20,12 @@ pub fn apply(root: &mut Table, assignment: &str) -> Result<(), String> {
     set(root, &keys, value, &keys)
 }
 
-fn set(table: &mut Table, keys: &[&str], value: Option<Value>, full: &[&str]) -> Result<(), String> {
+fn set(
+    table: &mut Table,
+    keys: &[&str],
+    value: Option<Value>,
+    full: &[&str],
+) -> Result<(), String> {
     let here = full[..full.len() - keys.len() + 1].join(".");
     let Some((key, rest)) = keys.split_first() else {
         unreachable!("apply checks that the path is not empty")
@@ -49,10 +54,16 @@ fn set(table: &mut Table, keys: &[&str], value: Option<Value>, full: &[&str]) ->
                     Ok(())
                 }
                 (Value::Table(t), deeper) => set(t, deeper, value, full),
-                (other, _) => Err(format!("`{here}.{index}` is of type {}, not a table", other.type_str())),
+                (other, _) => Err(format!(
+                    "`{here}.{index}` is of type {}, not a table",
+                    other.type_str()
+                )),
             }
         }
-        Some(other) => Err(format!("`{here}` is of type {}, not a table", other.type_str())),
+        Some(other) => Err(format!(
+            "`{here}` is of type {}, not a table",
+            other.type_str()
+        )),
     }
 }
 
@@ -93,8 +104,20 @@ mod tests {
     fn bad_paths_are_named() {
         let mut t = table();
         assert!(apply(&mut t, "nope.x=1").unwrap_err().contains("`nope`"));
-        assert!(apply(&mut t, "body.3.name=x").unwrap_err().contains("no index 3"));
-        assert!(apply(&mut t, "a.b=1").unwrap_err().contains("`a` is of type integer"));
-        assert!(apply(&mut t, "m.dt").unwrap_err().contains("key.path=value"));
+        assert!(
+            apply(&mut t, "body.3.name=x")
+                .unwrap_err()
+                .contains("no index 3")
+        );
+        assert!(
+            apply(&mut t, "a.b=1")
+                .unwrap_err()
+                .contains("`a` is of type integer")
+        );
+        assert!(
+            apply(&mut t, "m.dt")
+                .unwrap_err()
+                .contains("key.path=value")
+        );
     }
 }
