@@ -55,6 +55,11 @@ impl Kernel {
         Self { kind, h, scale }
     }
 
+    /// σ_d / h^d, the factor in front of the kernel's shape function.
+    pub fn scale(&self) -> f64 {
+        self.scale
+    }
+
     /// Support radius (W = 0 beyond it).
     pub fn support(&self) -> f64 {
         self.kind.support_factor() * self.h

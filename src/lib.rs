@@ -4,6 +4,7 @@
 
 pub mod boundary;
 pub mod correction;
+pub mod gpu;
 pub mod integrate;
 pub mod kernel;
 pub mod material;

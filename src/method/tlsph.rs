@@ -161,6 +161,11 @@ impl<D: Dim> Tlsph<D> {
         &self.csr
     }
 
+    /// Reference volumes V0.
+    pub fn volume(&self) -> &[f64] {
+        &self.vol
+    }
+
     /// Corrected reference gradients, in CSR order.
     pub fn gradients(&self) -> &[D::V] {
         &self.grad
@@ -277,6 +282,13 @@ impl<D: Dim> Tlsph<D> {
             .par_iter()
             .position_first(|k| D::det(k.f).is_nan() || D::det(k.f) <= 0.0)?;
         Some(self.blow_up(i, "det F", D::det(self.kin[i].f)))
+    }
+
+    /// First Piola–Kirchhoff stress of every particle.
+    pub fn first_piola(&mut self, y: &TlState<D>) -> Vec<D::T> {
+        let mut scratch = y.clone();
+        self.stresses(y, &mut scratch);
+        self.kin.iter().map(|k| k.p).collect()
     }
 
     fn each_f(&self, y: &TlState<D>) -> Vec<D::T> {

@@ -1,0 +1,150 @@
+// Cell list and CSR neighbour lists: all pairs (i, j), i ≠ j, with |x_i − x_j|² ≤ radius²,
+// each particle's ids sorted ascending (the same lists as src/neighbour.rs).
+//
+// Passes, in order (the host runs the scans of scan.wgsl between them):
+//   bin_particles     cell id of each particle, and per-cell counts (atomicAdd)
+//   (scan of counts → cell_start, n + … ; copy cell_start → cursor)
+//   scatter           particle ids into cell-sorted order (atomic cursors)
+//   count_neighbours  offsets[i] = number of neighbours of i
+//   (scan of offsets over n + 1 entries: offsets[n] = number of pairs)
+//   fill_neighbours   ids[offsets[i]..offsets[i + 1]] = neighbours of i, sorted
+// Each invocation writes only its own particle's entries (plus the u32 atomic counters).
+
+struct CellParams {
+    // Grid origin (lower corner of the bounding box; z = 0 in 2D).
+    origin: vec3<f32>,
+    // 1 / cell edge.
+    inv_cell: f32,
+    // Cells per axis (z = 1 in 2D).
+    dims: vec3<u32>,
+    // Number of particles.
+    n: u32,
+    radius2: f32,
+    // dims.x * dims.y * dims.z.
+    ncells: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+@group(0) @binding(0) var<uniform> params: CellParams;
+@group(0) @binding(1) var<storage, read> x: array<vecd>;
+// Cell id of each particle.
+@group(0) @binding(2) var<storage, read_write> cell: array<u32>;
+// Counts per cell, then (after the scan) the first sorted slot of each cell; ncells + 1.
+@group(0) @binding(3) var<storage, read_write> cell_start: array<atomic<u32>>;
+// Next free sorted slot of each cell (a copy of cell_start).
+@group(0) @binding(4) var<storage, read_write> cursor: array<atomic<u32>>;
+// Particle ids in cell order.
+@group(0) @binding(5) var<storage, read_write> sorted: array<u32>;
+// Neighbour counts, then (after the scan) CSR offsets; n + 1.
+@group(0) @binding(6) var<storage, read_write> offsets: array<u32>;
+// CSR neighbour ids.
+@group(0) @binding(7) var<storage, read_write> ids: array<u32>;
+
+fn particle_index(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
+    return gid.x + gid.y * nwg.x * 256u;
+}
+
+fn cell_of(p: vecd) -> vec3<u32> {
+    return cell_coords(p, params.origin, params.inv_cell, params.dims);
+}
+
+fn cell_id(c: vec3<u32>) -> u32 {
+    return (c.z * params.dims.y + c.y) * params.dims.x + c.x;
+}
+
+@compute @workgroup_size(256)
+fn bin_particles(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+) {
+    let i = particle_index(gid, nwg);
+    if i >= params.n {
+        return;
+    }
+    let c = cell_id(cell_of(x[i]));
+    cell[i] = c;
+    atomicAdd(&cell_start[c], 1u);
+}
+
+@compute @workgroup_size(256)
+fn scatter(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+) {
+    let i = particle_index(gid, nwg);
+    if i >= params.n {
+        return;
+    }
+    let slot = atomicAdd(&cursor[cell[i]], 1u);
+    sorted[slot] = i;
+}
+
+// Visits the candidates of the 3^DIM cells around particle i. Counts the neighbours;
+// with `fill`, also inserts them into ids[first..end) in ascending order (insertion sort
+// over the particle's own slice; lists are short). Count and fill run this same code,
+// so they select the same set.
+fn gather(i: u32, fill: bool, first: u32, end: u32) -> u32 {
+    let xi = x[i];
+    let c = cell_of(xi);
+    let lo = max(c, vec3<u32>(1u)) - vec3<u32>(1u);
+    let hi = min(c + vec3<u32>(1u), params.dims - vec3<u32>(1u));
+    // In 2D the z range is the single layer 0 (dims.z = 1); DIM makes that explicit.
+    var z_hi = hi.z;
+    if DIM == 2u {
+        z_hi = 0u;
+    }
+    var count = 0u;
+    for (var z = lo.z; z <= z_hi; z++) {
+        for (var y = lo.y; y <= hi.y; y++) {
+            // Cells lo.x..=hi.x of a row are contiguous, so are their sorted particles.
+            let row = (z * params.dims.y + y) * params.dims.x;
+            let s = atomicLoad(&cell_start[row + lo.x]);
+            let e = atomicLoad(&cell_start[row + hi.x + 1u]);
+            for (var k = s; k < e; k++) {
+                let j = sorted[k];
+                let d = x[j] - xi;
+                if j == i || dot(d, d) > params.radius2 {
+                    continue;
+                }
+                if fill && first + count < end {
+                    var slot = first + count;
+                    loop {
+                        if slot == first || ids[slot - 1u] < j {
+                            break;
+                        }
+                        ids[slot] = ids[slot - 1u];
+                        slot -= 1u;
+                    }
+                    ids[slot] = j;
+                }
+                count += 1u;
+            }
+        }
+    }
+    return count;
+}
+
+@compute @workgroup_size(256)
+fn count_neighbours(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+) {
+    let i = particle_index(gid, nwg);
+    if i >= params.n {
+        return;
+    }
+    offsets[i] = gather(i, false, 0u, 0u);
+}
+
+@compute @workgroup_size(256)
+fn fill_neighbours(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+) {
+    let i = particle_index(gid, nwg);
+    if i >= params.n {
+        return;
+    }
+    _ = gather(i, true, offsets[i], offsets[i + 1u]);
+}

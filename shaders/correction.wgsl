@@ -1,0 +1,42 @@
+// Corrected reference kernel gradients, once per total-Lagrangian scene: one invocation
+// per particle writes the gradients of its own pairs (CSR order).
+// CORRECTION: 0 none (∇W), 1 Shepard (∇W / Σ_k V_k W_ik), 2 Randles–Libersky (A_i⁻ᵀ ∇W with
+// A_i = Σ_j V_j (X_j − X_i) ⊗ ∇W_ij). A singular A_i is reported through status[0].
+
+@group(0) @binding(0) var<storage, read> offsets: array<u32>;
+@group(0) @binding(1) var<storage, read> ids: array<u32>;
+// Reference pair offsets X_j − X_i (DIM per pair), rounded from f64 so that mirror pairs
+// stay exactly opposite: differences of f32 absolute positions would lose |X|/Δx digits.
+@group(0) @binding(2) var<storage, read> dx0: array<f32>;
+@group(0) @binding(3) var<storage, read> vol: array<f32>;
+@group(0) @binding(4) var<storage, read_write> grad: array<f32>;
+@group(0) @binding(5) var<storage, read_write> status: array<atomic<u32>>;
+
+@compute @workgroup_size(256)
+fn correct(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = gid.x + gid.y * nwg.x * 256u;
+    if i >= N {
+        return;
+    }
+    var a: matd;
+    var shepard = vol[i] * kernel_w(0.0);
+    for (var p = offsets[i]; p < offsets[i + 1u]; p++) {
+        let j = ids[p];
+        let x_ij = -vload_dx0(DIM * p);
+        a += outer(-x_ij, kernel_grad(x_ij)) * vol[j];
+        shepard += vol[j] * kernel_w(length(x_ij));
+    }
+    var m = identity_d();
+    if CORRECTION == 1u {
+        m = identity_d() * (1.0 / shepard);
+    } else if CORRECTION == 2u {
+        if !(abs(determinant(a)) > 1e-6) {
+            atomicMin(&status[0], i);
+        }
+        m = transpose(inverse_d(a));
+    }
+    for (var p = offsets[i]; p < offsets[i + 1u]; p++) {
+        let x_ij = -vload_dx0(DIM * p);
+        vstore_grad(DIM * p, m * kernel_grad(x_ij));
+    }
+}

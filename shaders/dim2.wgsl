@@ -1,0 +1,31 @@
+// Two dimensions (plane strain): vectors and tensors are 2-component.
+alias vecd = vec2<f32>;
+alias matd = mat2x2<f32>;
+const DIM: u32 = 2u;
+
+fn identity_d() -> matd {
+    return matd(1.0, 0.0, 0.0, 1.0);
+}
+
+// (a ⊗ b)_kl = a_k b_l: column l is a * b_l.
+fn outer(a: vecd, b: vecd) -> matd {
+    return matd(a * b.x, a * b.y);
+}
+
+fn trace_d(m: matd) -> f32 {
+    return m[0][0] + m[1][1];
+}
+
+fn inverse_d(m: matd) -> matd {
+    return matd(m[1][1], -m[0][1], -m[1][0], m[0][0]) * (1.0 / determinant(m));
+}
+
+fn ddot_d(a: matd, b: matd) -> f32 {
+    return dot(a[0], b[0]) + dot(a[1], b[1]);
+}
+
+// Integer cell coordinates of a point, padded to three (z = 0).
+fn cell_coords(x: vecd, origin: vec3<f32>, inv_cell: f32, dims: vec3<u32>) -> vec3<u32> {
+    let c = clamp(floor((x - origin.xy) * inv_cell), vec2<f32>(0.0), vec2<f32>(dims.xy - vec2<u32>(1u)));
+    return vec3<u32>(u32(c.x), u32(c.y), 0u);
+}

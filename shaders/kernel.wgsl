@@ -1,0 +1,62 @@
+// Smoothing kernels (cubic spline, quintic, Wendland C2), matching src/kernel.rs.
+// Needs the scene constants KERNEL (0 cubic spline, 1 quintic, 2 Wendland C2),
+// KERNEL_H (smoothing length h) and KERNEL_SCALE (σ_d / h^d).
+
+fn kernel_w(r: f32) -> f32 {
+    let q = r / KERNEL_H;
+    var w = 0.0;
+    if KERNEL == 0u {
+        if q < 1.0 {
+            w = 1.0 - 1.5 * q * q + 0.75 * q * q * q;
+        } else if q < 2.0 {
+            let t = 2.0 - q;
+            w = 0.25 * t * t * t;
+        }
+    } else if KERNEL == 1u {
+        let t3 = max(3.0 - q, 0.0);
+        let t2 = max(2.0 - q, 0.0);
+        let t1 = max(1.0 - q, 0.0);
+        w = pow5(t3) - 6.0 * pow5(t2) + 15.0 * pow5(t1);
+    } else if q < 2.0 {
+        let t = 1.0 - 0.5 * q;
+        w = t * t * t * t * (2.0 * q + 1.0);
+    }
+    return KERNEL_SCALE * w;
+}
+
+fn pow5(t: f32) -> f32 {
+    let t2 = t * t;
+    return t2 * t2 * t;
+}
+
+// dW/dr (≤ 0).
+fn kernel_dw(r: f32) -> f32 {
+    let q = r / KERNEL_H;
+    var d = 0.0;
+    if KERNEL == 0u {
+        if q < 1.0 {
+            d = -3.0 * q + 2.25 * q * q;
+        } else if q < 2.0 {
+            let t = 2.0 - q;
+            d = -0.75 * t * t;
+        }
+    } else if KERNEL == 1u {
+        let t3 = max(3.0 - q, 0.0);
+        let t2 = max(2.0 - q, 0.0);
+        let t1 = max(1.0 - q, 0.0);
+        d = -5.0 * (t3 * t3 * t3 * t3 - 6.0 * t2 * t2 * t2 * t2 + 15.0 * t1 * t1 * t1 * t1);
+    } else if q < 2.0 {
+        let t = 1.0 - 0.5 * q;
+        d = -5.0 * q * t * t * t;
+    }
+    return KERNEL_SCALE / KERNEL_H * d;
+}
+
+// ∇W_ij = ∂W(x_i − x_j)/∂x_i; zero for the self pair.
+fn kernel_grad(x_ij: vecd) -> vecd {
+    let r = length(x_ij);
+    if r <= 1e-6 * KERNEL_H {
+        return vecd(0.0);
+    }
+    return x_ij * (kernel_dw(r) / r);
+}

@@ -1,0 +1,58 @@
+// Total-Lagrangian SPH accelerations (seed 000 eq 134) with Monaghan viscosity along the
+// pushed-forward gradient F_i⁻ᵀ ∇0W̃_ij, boundary conditions, and u̇ = v. One invocation
+// per particle; writes only its own particle. Layout and constants as in tlsph.wgsl.
+
+@group(0) @binding(0) var<storage, read> offsets: array<u32>;
+@group(0) @binding(1) var<storage, read> ids: array<u32>;
+@group(0) @binding(2) var<storage, read> grad: array<f32>;
+@group(0) @binding(3) var<storage, read> vol: array<f32>;
+// Reference pair offsets X_j − X_i (DIM per pair, see correction.wgsl).
+@group(0) @binding(4) var<storage, read> dx0: array<f32>;
+@group(0) @binding(5) var<storage, read> y: array<f32>;
+@group(0) @binding(6) var<storage, read> kin: array<f32>;
+// Bit k set: velocity component k is prescribed (its rate is zero).
+@group(0) @binding(7) var<storage, read> mask: array<u32>;
+// External acceleration from tractions (DIM per particle).
+@group(0) @binding(8) var<storage, read> ext: array<f32>;
+@group(0) @binding(9) var<storage, read_write> d: array<f32>;
+
+@compute @workgroup_size(256)
+fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = gid.x + gid.y * nwg.x * 256u;
+    if i >= N {
+        return;
+    }
+    let p_i = mload_kin(KP_OFF + DIM * DIM * i);
+    let rho_i = kin[KRHO_OFF + i];
+    let f_inv_t = mload_kin(KFIT_OFF + DIM * DIM * i);
+    let v_i = vload_y(V_OFF + DIM * i);
+    let u_i = vload_y(U_OFF + DIM * i);
+    let c_i = sqrt(BULK / rho_i);
+    var stress: vecd;
+    var viscous: vecd;
+    for (var p = offsets[i]; p < offsets[i + 1u]; p++) {
+        let j = ids[p];
+        let g = vload_grad(DIM * p);
+        stress += (p_i + mload_kin(KP_OFF + DIM * DIM * j)) * g * vol[j];
+        if AV == 1u {
+            let x_ij = u_i - vload_y(U_OFF + DIM * j) - vload_dx0(DIM * p);
+            let vx = dot(v_i - vload_y(V_OFF + DIM * j), x_ij);
+            if vx < 0.0 {
+                let rho_j = kin[KRHO_OFF + j];
+                let mu = H * vx / (dot(x_ij, x_ij) + AV_ETA * AV_ETA * H * H);
+                let c = 0.5 * (c_i + sqrt(BULK / rho_j));
+                let pi = (-AV_ALPHA * c * mu + AV_BETA * mu * mu) / (0.5 * (rho_i + rho_j));
+                viscous -= f_inv_t * g * (RHO0 * vol[j] * pi);
+            }
+        }
+    }
+    var a = stress * (1.0 / RHO0) + viscous + vload_ext(DIM * i);
+    let m = mask[i];
+    for (var k = 0u; k < DIM; k++) {
+        if ((m >> k) & 1u) != 0u {
+            a[k] = 0.0;
+        }
+    }
+    vstore_d(V_OFF + DIM * i, a);
+    vstore_d(U_OFF + DIM * i, v_i);
+}

@@ -1,0 +1,303 @@
+//! The wgpu device: adapter selection, buffers, pipelines, dispatch sizes and readback.
+
+use bytemuck::Pod;
+use std::borrow::Cow;
+use thiserror::Error;
+use wgpu::util::DeviceExt;
+
+/// Environment variable that picks an adapter by a substring of its name or by backend
+/// (`vulkan`, `metal`, `dx12`, `gl`).
+pub const ADAPTER_ENV: &str = "MESHLESS_ADAPTER";
+
+/// Invocations per workgroup of every 1D pass (see the shaders' `@workgroup_size`).
+pub const WORKGROUP: u32 = 256;
+
+#[derive(Debug, Error)]
+pub enum GpuError {
+    #[error(
+        "no GPU adapter found{}; adapters seen: [{}]. On Linux without a GPU install Mesa's \
+         Vulkan CPU driver (Debian: mesa-vulkan-drivers) or run with --backend cpu",
+        .requested.as_ref().map(|r| format!(" matching {ADAPTER_ENV}={r}")).unwrap_or_default(),
+        .available.join("; ")
+    )]
+    NoAdapter {
+        requested: Option<String>,
+        available: Vec<String>,
+    },
+    #[error("adapter `{adapter}`: cannot create a device: {source}")]
+    Device {
+        adapter: String,
+        source: wgpu::RequestDeviceError,
+    },
+    #[error(
+        "adapter `{adapter}`: the scene needs a {what} of {needed} bytes, above the device \
+         limit {limit}; use fewer particles or a device with more memory"
+    )]
+    TooLarge {
+        adapter: String,
+        what: &'static str,
+        needed: u64,
+        limit: u64,
+    },
+}
+
+/// One adapter as `meshless info` shows it.
+#[derive(Clone, Debug)]
+pub struct AdapterSummary {
+    pub info: wgpu::AdapterInfo,
+    pub limits: wgpu::Limits,
+    pub features: wgpu::Features,
+}
+
+impl std::fmt::Display for AdapterSummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let (i, l) = (&self.info, &self.limits);
+        writeln!(
+            f,
+            "{} ({:?}, {:?}, driver {} {})",
+            i.name, i.backend, i.device_type, i.driver, i.driver_info
+        )?;
+        writeln!(
+            f,
+            "  max buffer {} B, max storage binding {} B, {} storage buffers per stage, \
+             {} invocations per workgroup, {} workgroups per dimension",
+            l.max_buffer_size,
+            l.max_storage_buffer_binding_size,
+            l.max_storage_buffers_per_shader_stage,
+            l.max_compute_invocations_per_workgroup,
+            l.max_compute_workgroups_per_dimension
+        )?;
+        write!(f, "  features: {:?}", self.features)
+    }
+}
+
+fn describe(info: &wgpu::AdapterInfo) -> String {
+    format!("{} ({:?}, {:?})", info.name, info.backend, info.device_type)
+}
+
+fn instance() -> wgpu::Instance {
+    wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env())
+}
+
+/// Every adapter wgpu reaches, best first.
+pub fn adapters() -> Vec<AdapterSummary> {
+    let mut list: Vec<wgpu::Adapter> =
+        pollster::block_on(instance().enumerate_adapters(wgpu::Backends::all()));
+    list.sort_by_key(rank);
+    list.iter()
+        .map(|a| AdapterSummary {
+            info: a.get_info(),
+            limits: a.limits(),
+            features: a.features(),
+        })
+        .collect()
+}
+
+/// Preference order: discrete, integrated, virtual, CPU; Vulkan/Metal/DX12 before GL.
+fn rank(a: &wgpu::Adapter) -> (u8, u8) {
+    let info = a.get_info();
+    let device = match info.device_type {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Cpu => 3,
+        wgpu::DeviceType::Other => 4,
+    };
+    let backend = u8::from(info.backend == wgpu::Backend::Gl);
+    (device, backend)
+}
+
+fn matches(info: &wgpu::AdapterInfo, wanted: &str) -> bool {
+    let wanted = wanted.to_lowercase();
+    info.name.to_lowercase().contains(&wanted)
+        || format!("{:?}", info.backend).to_lowercase() == wanted
+}
+
+/// A device and its queue on the chosen adapter, with the adapter's own limits.
+pub struct Gpu {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub info: wgpu::AdapterInfo,
+    pub limits: wgpu::Limits,
+}
+
+impl Gpu {
+    /// Opens the best adapter, or the one named by `MESHLESS_ADAPTER`.
+    pub fn new() -> Result<Self, GpuError> {
+        let requested = std::env::var(ADAPTER_ENV).ok().filter(|s| !s.is_empty());
+        let mut list: Vec<wgpu::Adapter> =
+            pollster::block_on(instance().enumerate_adapters(wgpu::Backends::all()));
+        list.sort_by_key(rank);
+        let available: Vec<String> = list.iter().map(|a| describe(&a.get_info())).collect();
+        let adapter = list
+            .into_iter()
+            .find(|a| {
+                requested
+                    .as_deref()
+                    .is_none_or(|r| matches(&a.get_info(), r))
+            })
+            .ok_or(GpuError::NoAdapter {
+                requested,
+                available,
+            })?;
+        let info = adapter.get_info();
+        let limits = adapter.limits();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("meshless"),
+            required_features: wgpu::Features::empty(),
+            required_limits: limits.clone(),
+            ..Default::default()
+        }))
+        .map_err(|source| GpuError::Device {
+            adapter: describe(&info),
+            source,
+        })?;
+        Ok(Self {
+            device,
+            queue,
+            info,
+            limits,
+        })
+    }
+
+    pub fn name(&self) -> String {
+        describe(&self.info)
+    }
+
+    /// Fails with a clear error when a buffer of `bytes` exceeds the device's limits.
+    pub fn check_size(&self, what: &'static str, bytes: u64) -> Result<(), GpuError> {
+        let limit = self
+            .limits
+            .max_storage_buffer_binding_size
+            .min(self.limits.max_buffer_size);
+        if bytes > limit {
+            return Err(GpuError::TooLarge {
+                adapter: self.name(),
+                what,
+                needed: bytes,
+                limit,
+            });
+        }
+        Ok(())
+    }
+
+    /// A storage buffer holding `data` (at least 4 bytes, so empty fields still bind).
+    pub fn storage<T: Pod>(&self, label: &str, data: &[T]) -> wgpu::Buffer {
+        let bytes: &[u8] = bytemuck::cast_slice(data);
+        let contents: Cow<[u8]> = if bytes.is_empty() {
+            Cow::Owned(vec![0; 4])
+        } else {
+            Cow::Borrowed(bytes)
+        };
+        self.device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: &contents,
+                usage: wgpu::BufferUsages::STORAGE
+                    | wgpu::BufferUsages::COPY_SRC
+                    | wgpu::BufferUsages::COPY_DST,
+            })
+    }
+
+    /// A zero-filled storage buffer of `bytes` (at least 4).
+    pub fn zeroed(&self, label: &str, bytes: u64) -> wgpu::Buffer {
+        self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: bytes.max(4).next_multiple_of(4),
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_SRC
+                | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })
+    }
+
+    /// A uniform buffer holding `value`.
+    pub fn uniform<T: Pod>(&self, label: &str, value: &T) -> wgpu::Buffer {
+        self.device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: bytemuck::bytes_of(value),
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            })
+    }
+
+    /// Compiles `source` and returns the pipeline of `entry` (layout from the shader).
+    pub fn pipeline(&self, label: &str, source: &str, entry: &str) -> wgpu::ComputePipeline {
+        let module = self
+            .device
+            .create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(label),
+                source: wgpu::ShaderSource::Wgsl(source.into()),
+            });
+        self.device
+            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(label),
+                layout: None,
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+    }
+
+    /// Bind group 0 of `pipeline` with `resources` at bindings 0, 1, 2, …
+    pub fn bind(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        resources: &[&wgpu::Buffer],
+    ) -> wgpu::BindGroup {
+        let entries: Vec<wgpu::BindGroupEntry> = resources
+            .iter()
+            .enumerate()
+            .map(|(k, b)| wgpu::BindGroupEntry {
+                binding: k as u32,
+                resource: b.as_entire_binding(),
+            })
+            .collect();
+        self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: None,
+            layout: &pipeline.get_bind_group_layout(0),
+            entries: &entries,
+        })
+    }
+
+    /// Workgroup counts covering `n` invocations of `WORKGROUP`: 2D past 65,535 groups.
+    /// Shaders flatten with `gid.x + gid.y * num_workgroups.x * WORKGROUP`.
+    pub fn groups(&self, n: u32) -> (u32, u32) {
+        let groups = n.div_ceil(WORKGROUP).max(1);
+        let max = self.limits.max_compute_workgroups_per_dimension;
+        if groups <= max {
+            (groups, 1)
+        } else {
+            (max, groups.div_ceil(max))
+        }
+    }
+
+    /// Copies a buffer back to the host (waits for the queue).
+    pub fn read<T: Pod>(&self, buffer: &wgpu::Buffer) -> Vec<T> {
+        let size = buffer.size();
+        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut encoder = self.device.create_command_encoder(&Default::default());
+        encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
+        self.queue.submit([encoder.finish()]);
+        let slice = staging.slice(..);
+        slice.map_async(wgpu::MapMode::Read, |r| {
+            r.expect("mapping a readback buffer")
+        });
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .expect("waiting for the GPU queue");
+        let view = slice
+            .get_mapped_range()
+            .expect("mapped range of a readback buffer");
+        let out = bytemuck::cast_slice(&view).to_vec();
+        drop(view);
+        staging.unmap();
+        out
+    }
+}

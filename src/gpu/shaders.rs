@@ -1,0 +1,155 @@
+//! WGSL sources and their composition into scene-specific variants.
+//!
+//! A shader is the dimension prelude (`shaders/dim2.wgsl` or `dim3.wgsl`), a block of
+//! scene constants, the shared kernel functions where needed, and the pass file. Scene
+//! constants are compiled in (one variant per scene), so a 2D scene runs 2D code only.
+
+use super::layout::GpuDim;
+use crate::kernel::{Kernel, KernelKind};
+
+/// A pass file of `shaders/`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Source {
+    pub name: &'static str,
+    pub text: &'static str,
+    /// Whether it calls the kernel functions of `kernel.wgsl`.
+    pub uses_kernel: bool,
+    /// Flat f32 buffers that get `vload_/mload_` (and, if writable, `vstore_/mstore_`)
+    /// accessors for DIM-vectors and DIM×DIM column-major tensors.
+    pub flat: &'static [(&'static str, bool)],
+}
+
+macro_rules! source {
+    ($name:literal, $kernel:expr) => {
+        source!($name, $kernel, [])
+    };
+    ($name:literal, $kernel:expr, [$(($buf:literal, $rw:literal)),*]) => {
+        Source {
+            name: $name,
+            text: include_str!(concat!("../../shaders/", $name)),
+            uses_kernel: $kernel,
+            flat: &[$(($buf, $rw)),*],
+        }
+    };
+}
+
+pub const TLSPH_STRESS: Source = source!(
+    "tlsph.wgsl",
+    false,
+    [("y", false), ("grad", false), ("d", true), ("kin", true)]
+);
+pub const TLSPH_ACCEL: Source = source!(
+    "tlsph_accel.wgsl",
+    false,
+    [
+        ("y", false),
+        ("grad", false),
+        ("dx0", false),
+        ("ext", false),
+        ("kin", false),
+        ("d", true)
+    ]
+);
+pub const CORRECTION: Source = source!("correction.wgsl", true, [("dx0", false), ("grad", true)]);
+pub const INTEGRATE: Source = source!("integrate.wgsl", false);
+
+pub const KERNEL: &str = include_str!("../../shaders/kernel.wgsl");
+
+/// The passes compiled with a scene's constants (`gpu::tlsph::scene_constants`).
+pub const SCENE: &[Source] = &[TLSPH_STRESS, TLSPH_ACCEL, CORRECTION, INTEGRATE];
+
+/// Every pass file, for validation.
+pub const ALL: &[Source] = &[
+    TLSPH_STRESS,
+    TLSPH_ACCEL,
+    CORRECTION,
+    INTEGRATE,
+    source!("cell_list.wgsl", false),
+    source!("scan.wgsl", false),
+];
+
+/// Scene constants compiled into a variant.
+#[derive(Clone, Debug, Default)]
+pub struct Constants(Vec<(String, String)>);
+
+impl Constants {
+    pub fn f32(mut self, name: &str, value: f64) -> Self {
+        self.0.push((name.into(), format!("{:?}", value as f32)));
+        self
+    }
+
+    pub fn u32(mut self, name: &str, value: u32) -> Self {
+        self.0.push((name.into(), format!("{value}u")));
+        self
+    }
+
+    /// KERNEL, KERNEL_H and KERNEL_SCALE of a kernel.
+    pub fn kernel(self, kernel: &Kernel) -> Self {
+        let kind = match kernel.kind {
+            KernelKind::CubicSpline => 0,
+            KernelKind::Quintic => 1,
+            KernelKind::WendlandC2 => 2,
+        };
+        self.u32("KERNEL", kind)
+            .f32("KERNEL_H", kernel.h)
+            .f32("KERNEL_SCALE", kernel.scale())
+    }
+
+    fn render(&self) -> String {
+        self.0
+            .iter()
+            .map(|(n, v)| {
+                let ty = if v.ends_with('u') { "u32" } else { "f32" };
+                format!("const {n}: {ty} = {v};\n")
+            })
+            .collect()
+    }
+}
+
+/// The full WGSL text of a pass in dimension D with the given constants.
+pub fn compose<D: GpuDim>(source: &Source, constants: &Constants) -> String {
+    let mut text = String::new();
+    text.push_str(D::PRELUDE);
+    text.push_str(&constants.render());
+    if source.uses_kernel {
+        text.push_str(KERNEL);
+    }
+    for &(name, writable) in source.flat {
+        text.push_str(&accessors(name, D::N, writable));
+    }
+    text.push_str(source.text);
+    text
+}
+
+/// Load (and store) functions for DIM-vectors and column-major DIM×DIM tensors at a flat
+/// f32 index of buffer `name`.
+fn accessors(name: &str, dim: usize, writable: bool) -> String {
+    let at = |k: usize| {
+        if k == 0 {
+            format!("{name}[k]")
+        } else {
+            format!("{name}[k + {k}u]")
+        }
+    };
+    let list = |n: usize| (0..n).map(at).collect::<Vec<_>>().join(", ");
+    let comps = ["x", "y", "z"];
+    let mut text = format!(
+        "fn vload_{name}(k: u32) -> vecd {{ return vecd({}); }}\n\
+         fn mload_{name}(k: u32) -> matd {{ return matd({}); }}\n",
+        list(dim),
+        list(dim * dim)
+    );
+    if writable {
+        let vstore: String = (0..dim)
+            .map(|c| format!("{} = v.{}; ", at(c), comps[c]))
+            .collect();
+        let mstore: String = (0..dim * dim)
+            .map(|c| format!("{} = m[{}].{}; ", at(c), c / dim, comps[c % dim]))
+            .collect();
+        text.push_str(&format!(
+            "fn vstore_{name}(k: u32, v: vecd) {{ {vstore}}}\n\
+             fn mstore_{name}(k: u32, m: matd) {{ {mstore}}}\n"
+        ));
+    }
+    text
+}

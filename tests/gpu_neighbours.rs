@@ -1,0 +1,365 @@
+//! GPU neighbour search (cell list + scan + CSR fill) against the CPU reference
+//! `meshless::neighbour::build`, and the GPU exclusive scan against a host prefix sum.
+//!
+//! These tests need a GPU adapter (on CPU-only Linux: Mesa's lavapipe, Debian package
+//! mesa-vulkan-drivers). Without one they FAIL; they do not skip.
+
+use glam::{DVec2, DVec3};
+use meshless::gpu::neighbour::{self as gpu_neighbour, CellParams};
+use meshless::gpu::shaders::{ALL, Constants, compose};
+use meshless::gpu::{Gpu, GpuDim};
+use meshless::neighbour::{self, Csr};
+use meshless::tensor::{D2, D3, Dim};
+use std::sync::Arc;
+
+fn gpu() -> Gpu {
+    let gpu = Gpu::new().expect(
+        "no GPU adapter found: the GPU neighbour tests need one (on Linux without a GPU, \
+         install Mesa's Vulkan CPU driver lavapipe: apt-get install mesa-vulkan-drivers)",
+    );
+    gpu.device
+        .on_uncaptured_error(Arc::new(|e| panic!("wgpu error: {e}")));
+    gpu
+}
+
+/// Deterministic pseudo-random numbers in [0, 1) (64-bit LCG, as in src/neighbour.rs).
+fn lcg(seed: &mut u64) -> f64 {
+    *seed = seed
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
+    (*seed >> 11) as f64 / (1u64 << 53) as f64
+}
+
+fn bounding_box<D: Dim>(x: &[D::V]) -> ([f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for &p in x {
+        let p = D::to3(p);
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    (lo, hi)
+}
+
+fn gpu_lists<D: GpuDim>(gpu: &Gpu, x: &[D::V], radius: f64) -> Csr {
+    let host: Vec<D::HV> = x.iter().map(|&p| D::v(p)).collect();
+    let buffer = gpu.storage("positions", &host);
+    let (lo, hi) = bounding_box::<D>(x);
+    let csr = gpu_neighbour::build::<D>(gpu, &buffer, lo, hi, x.len() as u32, radius)
+        .expect("building GPU neighbour lists");
+    let lists = gpu_neighbour::read_lists(gpu, &csr);
+    assert_eq!(lists.ids.len(), csr.pairs as usize);
+    lists
+}
+
+/// GPU lists equal the CPU lists exactly (same offsets, same ids in the same order).
+fn assert_same_lists<D: GpuDim>(gpu: &Gpu, x: &[D::V], radius: f64, what: &str) {
+    let cpu = neighbour::build::<D>(x, radius);
+    let got = gpu_lists::<D>(gpu, x, radius);
+    assert_eq!(got.len(), cpu.len(), "{what}: number of particles");
+    for (i, p) in x.iter().enumerate() {
+        assert_eq!(
+            got.neighbours(i),
+            cpu.neighbours(i),
+            "{what}: neighbours of particle {i} at {p:?} (GPU left, CPU right)"
+        );
+    }
+    assert_eq!(got, cpu, "{what}: CSR offsets/ids");
+    assert!(cpu.pair_count() > 0, "{what}: the case should have pairs");
+}
+
+/// Drops points so that no pair's f64 distance lies within 1e-5·radius of the radius;
+/// `lists` finds the candidate pairs (the CPU cell list, or brute force).
+///
+/// The GPU compares f32 positions (relative rounding ~6e-8 of a coordinate, a few 1e-7
+/// of a distance of the test sizes here), so pairs that close to the radius may classify
+/// differently than in f64; a margin of 1e-5 leaves ample room. Removing a point only
+/// removes pairs, so the survivors have no near-ties either.
+fn drop_near_ties<D: Dim>(
+    x: Vec<D::V>,
+    radius: f64,
+    lists: impl Fn(&[D::V], f64) -> Csr,
+) -> Vec<D::V> {
+    let wide = lists(&x, radius * (1.0 + 1e-5));
+    let mut keep = vec![true; x.len()];
+    for i in 0..x.len() {
+        if !keep[i] {
+            continue;
+        }
+        for &j in wide.neighbours(i) {
+            let j = j as usize;
+            if j > i && keep[j] && (D::norm2(x[i] - x[j]).sqrt() - radius).abs() <= 1e-5 * radius {
+                keep[j] = false;
+            }
+        }
+    }
+    x.into_iter()
+        .zip(keep)
+        .filter_map(|(p, k)| k.then_some(p))
+        .collect()
+}
+
+/// All pairs by brute force, as CSR (for clouds the CPU cell list cannot grid).
+fn brute_force<D: Dim>(x: &[D::V], radius: f64) -> Csr {
+    let mut csr = Csr {
+        offsets: vec![0],
+        ids: Vec::new(),
+    };
+    for i in 0..x.len() {
+        csr.ids.extend(
+            (0..x.len() as u32)
+                .filter(|&j| j as usize != i && D::norm2(x[i] - x[j as usize]) <= radius * radius),
+        );
+        csr.offsets.push(csr.ids.len());
+    }
+    csr
+}
+
+#[test]
+fn cell_params_match_the_wgsl_uniform_layout() {
+    use std::mem::{offset_of, size_of};
+    assert_eq!(size_of::<CellParams>(), 48);
+    let source = ALL
+        .iter()
+        .find(|s| s.name == "cell_list.wgsl")
+        .expect("cell_list.wgsl in ALL");
+    for text in [
+        compose::<D2>(source, &Constants::default()),
+        compose::<D3>(source, &Constants::default()),
+    ] {
+        let module = naga::front::wgsl::parse_str(&text).expect("cell_list.wgsl parses");
+        let (span, members) = module
+            .types
+            .iter()
+            .find_map(|(_, ty)| match (&ty.name, &ty.inner) {
+                (Some(name), naga::TypeInner::Struct { members, span }) if name == "CellParams" => {
+                    Some((*span, members.clone()))
+                }
+                _ => None,
+            })
+            .expect("struct CellParams in cell_list.wgsl");
+        assert_eq!(span as usize, size_of::<CellParams>());
+        let offset = |name: &str| {
+            members
+                .iter()
+                .find(|m| m.name.as_deref() == Some(name))
+                .unwrap_or_else(|| panic!("member {name}"))
+                .offset as usize
+        };
+        assert_eq!(offset("origin"), offset_of!(CellParams, origin));
+        assert_eq!(offset("inv_cell"), offset_of!(CellParams, inv_cell));
+        assert_eq!(offset("dims"), offset_of!(CellParams, dims));
+        assert_eq!(offset("n"), offset_of!(CellParams, n));
+        assert_eq!(offset("radius2"), offset_of!(CellParams, radius2));
+        assert_eq!(offset("ncells"), offset_of!(CellParams, ncells));
+    }
+}
+
+#[test]
+fn neighbour_shaders_validate_with_naga() {
+    for name in ["cell_list.wgsl", "scan.wgsl"] {
+        let source = ALL.iter().find(|s| s.name == name).expect("shader in ALL");
+        for text in [
+            compose::<D2>(source, &Constants::default()),
+            compose::<D3>(source, &Constants::default()),
+        ] {
+            let module = naga::front::wgsl::parse_str(&text)
+                .unwrap_or_else(|e| panic!("{}", e.emit_to_string_with_path(&text, name)));
+            naga::valid::Validator::new(
+                naga::valid::ValidationFlags::all(),
+                naga::valid::Capabilities::empty(),
+            )
+            .validate(&module)
+            .unwrap_or_else(|e| panic!("{}", e.emit_to_string_with_path(&text, name)));
+        }
+    }
+}
+
+#[test]
+fn scan_matches_host_prefix_sum() {
+    let gpu = gpu();
+    let mut seed = 3;
+    // 512 per workgroup: 70_000 needs two levels, 262_145 = 512² + 1 three.
+    for n in [1usize, 255, 256, 257, 511, 512, 513, 70_000, 262_145] {
+        // Full-range values: the sums wrap, exactly like u32 wrapping_add on the host.
+        let data: Vec<u32> = (0..n)
+            .map(|_| (lcg(&mut seed) * 4_294_967_296.0) as u32)
+            .collect();
+        let mut expected = Vec::with_capacity(n);
+        let mut sum = 0u32;
+        for &v in &data {
+            expected.push(sum);
+            sum = sum.wrapping_add(v);
+        }
+        // Entries past n must stay untouched.
+        let sentinel = [0xDEAD_BEEF_u32, 7, 1 << 31];
+        let mut padded = data.clone();
+        padded.extend(sentinel);
+        let buffer = gpu.storage("scan data", &padded);
+        gpu_neighbour::exclusive_scan(&gpu, &buffer, n as u32);
+        let got: Vec<u32> = gpu.read(&buffer);
+        if let Some(i) = (0..n).find(|&i| got[i] != expected[i]) {
+            panic!(
+                "scan of {n}: entry {i} is {}, expected {}",
+                got[i], expected[i]
+            );
+        }
+        assert_eq!(&got[n..n + 3], &sentinel, "scan of {n} wrote past its end");
+    }
+}
+
+#[test]
+fn random_cloud_2d_matches_cpu() {
+    let gpu = gpu();
+    let radius = 0.08;
+    let mut s = 7;
+    let x: Vec<DVec2> = (0..3000)
+        .map(|_| DVec2::new(lcg(&mut s) * 3.0, lcg(&mut s)))
+        .collect();
+    let x = drop_near_ties::<D2>(x, radius, neighbour::build::<D2>);
+    assert!(
+        x.len() > 2990,
+        "too many near-ties dropped: {} left",
+        x.len()
+    );
+    assert_same_lists::<D2>(&gpu, &x, radius, "2D random cloud");
+}
+
+#[test]
+fn lattice_2d_matches_cpu_including_ties() {
+    let gpu = gpu();
+    let (nx, ny) = (40, 30);
+    // dx = 1: integer coordinates and their differences are exact in f32, so the ties at
+    // r = 2 dx (pairs at exactly 2 dx) are included on both sides with the exact radius.
+    // r = 1.3·2·dx = 2.6 dx has no lattice distance near it (2.6² = 6.76 vs 6 and 7).
+    let unit: Vec<DVec2> = (0..nx * ny)
+        .map(|k| DVec2::new((k % nx) as f64, (k / nx) as f64))
+        .collect();
+    for radius in [2.6, 2.0] {
+        assert_same_lists::<D2>(
+            &gpu,
+            &unit,
+            radius,
+            &format!("2D lattice dx = 1, r = {radius}"),
+        );
+    }
+    // dx = 0.1 off the origin: k·0.1 is inexact in f64 and more so in f32, so a pair at
+    // 2 dx may land on either side of r = 0.2 in either precision. Both sides use
+    // r·(1 + 1e-5): coordinates up to 4.9 round by up to 2.4e-7 in f32 (half an ulp), so
+    // a 2 dx = 0.2 difference is off by up to 4.8e-7, 2.4e-6 relative: 1e-6 is not a safe
+    // margin here. The next lattice distance past 2 dx is √5 dx, far outside the margin.
+    let dx = 0.1;
+    let scaled: Vec<DVec2> = (0..nx * ny)
+        .map(|k| DVec2::new(1.0 + (k % nx) as f64 * dx, 2.0 + (k / nx) as f64 * dx))
+        .collect();
+    for radius in [1.3 * 2.0 * dx, 2.0 * dx] {
+        let r = radius * (1.0 + 1e-5);
+        assert_same_lists::<D2>(
+            &gpu,
+            &scaled,
+            r,
+            &format!("2D lattice dx = 0.1, r = {radius}(1 + 1e-5)"),
+        );
+    }
+    // Interior count as in seed 000 §1.1: 21 points (self included) within 2.6 dx.
+    let lists = gpu_lists::<D2>(&gpu, &unit, 2.6);
+    assert_eq!(lists.neighbours(15 * nx + 20).len() + 1, 21);
+}
+
+#[test]
+fn random_cloud_3d_matches_cpu() {
+    let gpu = gpu();
+    let radius = 0.2;
+    let mut s = 11;
+    let x: Vec<DVec3> = (0..2000)
+        .map(|_| DVec3::new(lcg(&mut s), lcg(&mut s) * 2.0, lcg(&mut s)))
+        .collect();
+    let x = drop_near_ties::<D3>(x, radius, neighbour::build::<D3>);
+    assert!(
+        x.len() > 1990,
+        "too many near-ties dropped: {} left",
+        x.len()
+    );
+    assert_same_lists::<D3>(&gpu, &x, radius, "3D random cloud");
+}
+
+#[test]
+fn lattice_3d_matches_cpu_including_ties() {
+    let gpu = gpu();
+    let (nx, ny, nz) = (14, 12, 10);
+    let at = |k: usize, dx: f64, o: f64| {
+        DVec3::new(
+            o + (k % nx) as f64 * dx,
+            o + (k / nx % ny) as f64 * dx,
+            o + (k / (nx * ny)) as f64 * dx,
+        )
+    };
+    // Exact in f32 (see the 2D lattice test).
+    let unit: Vec<DVec3> = (0..nx * ny * nz).map(|k| at(k, 1.0, 0.0)).collect();
+    for radius in [2.6, 2.0] {
+        assert_same_lists::<D3>(
+            &gpu,
+            &unit,
+            radius,
+            &format!("3D lattice dx = 1, r = {radius}"),
+        );
+    }
+    // Inexact spacing: the ties need the margin r·(1 + 1e-5) on both sides.
+    let dx = 0.05;
+    let scaled: Vec<DVec3> = (0..nx * ny * nz).map(|k| at(k, dx, 0.5)).collect();
+    for radius in [1.3 * 2.0 * dx, 2.0 * dx] {
+        let r = radius * (1.0 + 1e-5);
+        assert_same_lists::<D3>(
+            &gpu,
+            &scaled,
+            r,
+            &format!("3D lattice dx = 0.05, r = {radius}(1 + 1e-5)"),
+        );
+    }
+}
+
+#[test]
+fn sparse_clusters_and_tiny_inputs() {
+    let gpu = gpu();
+    // Two clusters 1e4 apart with r = 0.05: 2e5 cells per axis at cell = r, so the GPU
+    // grid grows its cells (fewer, larger cells); the lists must not change. The CPU
+    // cell list would allocate 4e10 cells here, so the reference is brute force.
+    let radius = 0.05;
+    let mut s = 5;
+    let x: Vec<DVec2> = (0..600)
+        .map(|k| {
+            let o = if k % 2 == 0 { 0.0 } else { 1.0e4 };
+            DVec2::new(o + lcg(&mut s) * 0.5, o + lcg(&mut s) * 0.5)
+        })
+        .collect();
+    // Positions near 1e4 round by up to ~5e-4 in f32 (1e-2 of the radius), so all points
+    // are snapped to f32 values first; their differences are then exact in f32 (Sterbenz)
+    // and the f64 reference sees what the GPU sees. Then near-ties go, by brute force.
+    let x: Vec<DVec2> = x
+        .into_iter()
+        .map(|p| DVec2::new(p.x as f32 as f64, p.y as f32 as f64))
+        .collect();
+    let x = drop_near_ties::<D2>(x, radius, brute_force::<D2>);
+    let expected = brute_force::<D2>(&x, radius);
+    assert!(expected.pair_count() > 0);
+    assert_eq!(
+        gpu_lists::<D2>(&gpu, &x, radius),
+        expected,
+        "2D sparse clusters"
+    );
+
+    // No points, one point, two points within the radius.
+    assert_eq!(
+        gpu_lists::<D2>(&gpu, &[], 1.0),
+        neighbour::build::<D2>(&[], 1.0)
+    );
+    let one = [DVec3::new(1.0, 2.0, 3.0)];
+    assert_eq!(
+        gpu_lists::<D3>(&gpu, &one, 1.0),
+        neighbour::build::<D3>(&one, 1.0)
+    );
+    let two = [DVec3::new(1.0, 2.0, 3.0), DVec3::new(1.5, 2.0, 3.0)];
+    assert_same_lists::<D3>(&gpu, &two, 1.0, "two points");
+}

@@ -1,0 +1,248 @@
+//! The GPU TLSPH passes against the f64 CPU reference on a software (or real) adapter.
+//! A missing adapter fails these tests: the GPU path is part of what CI checks.
+
+use meshless::gpu::Gpu;
+use meshless::gpu::layout::{Flat, GpuDim};
+use meshless::gpu::tlsph::GpuTlsph;
+use meshless::integrate::{Integrator, OdeSystem};
+use meshless::material::Material;
+use meshless::method::Method;
+use meshless::method::tlsph::{TlState, Tlsph};
+use meshless::run::build_method;
+use meshless::scene::Case;
+use meshless::tensor::{D2, D3, Dim};
+use std::path::Path;
+
+fn gpu() -> Gpu {
+    Gpu::new()
+        .unwrap_or_else(|e| panic!("GPU tests need an adapter (CI installs Mesa lavapipe): {e}"))
+}
+
+fn case(name: &str, overrides: &[&str]) -> Case {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("cases")
+        .join(format!("{name}.toml"));
+    let o: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
+    Case::load(&path, &o).unwrap()
+}
+
+/// Advances the CPU reference `steps` steps of size dt.
+fn cpu_run<D: Dim>(
+    m: &mut Tlsph<D>,
+    y: &mut TlState<D>,
+    kind: meshless::integrate::IntegratorKind,
+    dt: f64,
+    steps: usize,
+) {
+    let mut integ = Integrator::new(kind, y);
+    for n in 0..steps {
+        integ.step(m, n as f64 * dt, dt, y).unwrap();
+    }
+}
+
+fn max_t<D: Dim>(a: &[D::T], b: &[D::T]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(&x, &y)| D::ddot(x - y, x - y).sqrt())
+        .fold(0.0, f64::max)
+}
+
+fn max_v<D: Dim>(a: &[D::V], b: &[D::V]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(&x, &y)| D::norm2(x - y).sqrt())
+        .fold(0.0, f64::max)
+}
+
+fn norm_v<D: Dim>(a: &[D::V]) -> f64 {
+    a.iter().map(|&x| D::norm2(x).sqrt()).fold(0.0, f64::max)
+}
+
+/// Compares one rate evaluation on a deformed, stressed state.
+fn compare_rates<D: GpuDim + Flat>(c: &Case, steps: usize, dt: f64) {
+    let mut cpu: Tlsph<D> = build_method(c).unwrap();
+    let mut y = cpu.initial_state();
+    cpu_run(&mut cpu, &mut y, c.method.integrator, dt, steps);
+    let mut d = y.clone();
+    cpu.rates(0.0, &y, &mut d).unwrap();
+    let f_cpu = cpu.deformation_gradient(&y);
+
+    let mut g: GpuTlsph<D> = GpuTlsph::new(c, gpu()).unwrap();
+    let (d_gpu, f_gpu, _) = g.rates(&y);
+    // Corrected gradients: each is A⁻ᵀ∇W from ~40 f32 terms: relative 1e-5 of max |g|.
+    let (gc, gg) = (cpu.gradients().to_vec(), g.gradients());
+    let eg = max_v::<D>(&gc, &gg);
+    assert!(
+        eg < 1e-5 * norm_v::<D>(&gc),
+        "{}: max |Δ∇W̃| = {eg:e}",
+        c.name
+    );
+
+    // F = I + Σ_j V_j (u_j − u_i) ⊗ g_ij: ~40 terms of O(1) in f32 (ε = 6e-8), plus the
+    // f32 rounding of u itself (|u| ≤ 1 ⇒ 6e-8 absolute): 2e-5 leaves a factor 5 margin.
+    let ef = max_t::<D>(&f_cpu, &f_gpu);
+    assert!(ef < 2e-5, "{}: max |ΔF| = {ef:e}", c.name);
+    // a_i = (1/ρ0) Σ_j V_j (P_i + P_j) ∇0W̃_ij sums ~40 terms that largely cancel: the f32
+    // bound is relative to Σ_j |P_i + P_j| |∇0W̃_ij| V_j / ρ0 (plus the viscous terms,
+    // bounded the same way through m_j Π_ij), at 1e-4 = 40 terms × 6e-8 × a factor 40 for
+    // the f32 error of P itself (from F = I + H with rotations of O(0.1)).
+    //
+    // State-based P(F) adds the f32 error of H = F − I itself: ~n·ε·|H| (n terms), which
+    // under rotation is not small against the strain; it enters as
+    // δP ≈ (λ + 2μ)·n·ε·|H| and δa ≈ 2 δP Σ_j |∇0W̃_ij| V_j / ρ0.
+    let p = cpu.first_piola(&y);
+    let (csr, g0) = (cpu.neighbours(), cpu.gradients());
+    let mat = Material::new(&c.material);
+    for i in 0..y.u.len() {
+        let h = f_cpu[i] - D::identity();
+        let n_terms = csr.neighbours(i).len() as f64;
+        let delta_p =
+            (mat.lambda + 2.0 * mat.mu) * n_terms * f64::from(f32::EPSILON) * D::ddot(h, h).sqrt();
+        let g_sum: f64 = csr
+            .range(i)
+            .zip(csr.neighbours(i))
+            .map(|(k, &j)| D::norm2(g0[k]).sqrt() * cpu.volume()[j as usize])
+            .sum();
+        let from_h = if y.s.is_empty() {
+            2.0 * delta_p * g_sum / c.material.density
+        } else {
+            0.0
+        };
+        let scale: f64 = csr
+            .range(i)
+            .zip(csr.neighbours(i))
+            .map(|(k, &j)| {
+                let pij = p[i] + p[j as usize];
+                D::ddot(pij, pij).sqrt() * D::norm2(g0[k]).sqrt() * cpu.mass()[j as usize]
+            })
+            .sum::<f64>()
+            / (c.material.density * c.material.density);
+        let ea = D::norm2(d.v[i] - d_gpu.v[i]).sqrt();
+        assert!(
+            ea <= 1e-4 * scale + from_h + 1e-6,
+            "{}: particle {i}: |Δa| = {ea:e} (scale {scale:e}, from H {from_h:e})",
+            c.name
+        );
+    }
+    // u̇ = v is copied: exact up to the f32 rounding of v.
+    let ev = max_v::<D>(&d.u, &d_gpu.u);
+    assert!(
+        ev < 1e-6 * norm_v::<D>(&y.v).max(1.0),
+        "{}: max |Δu̇| = {ev:e}",
+        c.name
+    );
+    if !y.s.is_empty() {
+        // Ṡ = 2G dev(sym L) + ωS − Sω with L = Ḟ F⁻¹ summed in f32 from velocity differences:
+        // the error is relative to the whole velocity gradient (rotation included),
+        // 2G·max|v_j − v_i|/|X_j − X_i|, at 1e-5 (40 terms × 6e-8 × 4).
+        let x0 = cpu.reference();
+        let l_scale = (0..y.u.len())
+            .flat_map(|i| csr.neighbours(i).iter().map(move |&j| (i, j as usize)))
+            .map(|(i, j)| (D::norm2(y.v[j] - y.v[i]) / D::norm2(x0[j] - x0[i])).sqrt())
+            .fold(0.0, f64::max);
+        let scale_s = 2.0 * Material::new(&c.material).mu * l_scale;
+        let es = max_t::<D>(&d.s, &d_gpu.s);
+        assert!(
+            es < 1e-5 * scale_s,
+            "{}: max |ΔṠ| = {es:e} (scale {scale_s:e})",
+            c.name
+        );
+    }
+}
+
+#[test]
+fn rates_match_the_cpu_on_the_rotating_disk() {
+    // 200 RK4 steps of 5e-6 s: 0.05 rad of rotation with developed stresses and AV active.
+    compare_rates::<D2>(&case("rotating-disk", &["method.dt=5e-6"]), 200, 5e-6);
+}
+
+#[test]
+fn rates_match_the_cpu_for_state_based_models_in_2d_and_3d() {
+    for model in ["saint-venant-kirchhoff", "neo-hookean"] {
+        let m = format!("material.model={model}");
+        compare_rates::<D2>(&case("rotating-disk", &[&m, "method.dt=5e-6"]), 100, 5e-6);
+        let c = Case::from_toml(&cube(model), Path::new("cube.toml"), &[]).unwrap();
+        compare_rates::<D3>(&c, 100, 2e-6);
+    }
+}
+
+/// A spinning 3D block with a shear velocity field superposed.
+fn cube(model: &str) -> String {
+    format!(
+        r#"
+name = "cube"
+dimension = 3
+spacing = 0.1
+[material]
+model = "{model}"
+density = 1000.0
+youngs_modulus = 1.0e7
+poisson_ratio = 0.3
+[method]
+name = "tlsph"
+h_over_dx = 1.3
+dt = 2.0e-6
+artificial_viscosity = {{ alpha = 1.0, beta = 1.0 }}
+[[body]]
+name = "b"
+geometry = {{ shape = "box", min = [0.0, 0.0, 0.0], max = [0.5, 0.4, 0.6] }}
+initial_velocity = {{ type = "rigid-rotation", omega = 20.0, center = [0.25, 0.2, 0.3], axis = [0.3, 1.0, 0.2] }}
+[run]
+end_time = 1.0
+"#
+    )
+}
+
+#[test]
+fn whole_runs_track_the_cpu() {
+    // Wave rod (RK4, confined, 2,211 particles) for its full 121 CFL steps, and the disk for
+    // 1,000 RK4 steps: positions agree to f32 accumulation over the run.
+    let c = case(
+        "wave-rod",
+        &["method.cfl=", "method.dt=1e-6", "run.end_time=1.2e-4"],
+    );
+    let (steps, dt) = (120, 1e-6);
+    let mut cpu: Tlsph<D2> = build_method(&c).unwrap();
+    let mut y = cpu.initial_state();
+    cpu_run(&mut cpu, &mut y, c.method.integrator, dt, steps);
+    let mut g: GpuTlsph<D2> = GpuTlsph::new(&c, gpu()).unwrap();
+    g.advance(dt, steps as u32);
+    let yg = g.state();
+    // |v| ≤ 1 m/s: f32 round-off per step ~1e-7, 120 steps ⇒ ≤ 1e-5 m/s; bound 1e-4 of the
+    // amplitude.
+    let ev = max_v::<D2>(&y.v, &yg.v);
+    assert!(ev < 1e-4, "wave rod: max |Δv| = {ev:e} m/s");
+    assert!(g.failed_particle().is_none());
+
+    for integrator in ["rk4", "leapfrog", "ssp-rk3", "tvd-rk2"] {
+        let c = case(
+            "rotating-disk",
+            &["method.dt=5e-6", &format!("method.integrator={integrator}")],
+        );
+        let (steps, dt) = (1000, 5e-6);
+        let mut cpu: Tlsph<D2> = build_method(&c).unwrap();
+        let mut y = cpu.initial_state();
+        cpu_run(&mut cpu, &mut y, c.method.integrator, dt, steps);
+        let mut g: GpuTlsph<D2> = GpuTlsph::new(&c, gpu()).unwrap();
+        for _ in 0..10 {
+            g.advance(dt, (steps / 10) as u32);
+        }
+        let yg = g.state();
+        // After 0.005 s (0.25 rad) |u| ~ 0.25 m; f32 accumulation of 1,000 increments of
+        // ~2.5e-4 m gives ≤ 1e-5 m; bound 1e-4 m.
+        let eu = max_v::<D2>(&y.u, &yg.u);
+        assert!(eu < 1e-4, "disk {integrator}: max |Δu| = {eu:e} m");
+        let h = |y: &TlState<D2>| -> f64 {
+            (0..y.u.len())
+                .map(|i| cpu.mass()[i] * (cpu.reference()[i] + y.u[i]).perp_dot(y.v[i]))
+                .sum()
+        };
+        // f32 rounding of u and v in ≤ 4 stage updates per step, 1,000 steps, accumulating at
+        // worst linearly: 1e3 × 4 × 6e-8 = 2.4e-4.
+        let dh = (h(&y) - h(&yg)).abs() / h(&y);
+        assert!(
+            dh < 2.4e-4,
+            "disk {integrator}: relative angular momentum difference {dh:e}"
+        );
+    }
+}
