@@ -1,8 +1,27 @@
 #!/usr/bin/env bash
 # The whole test suite: formatting, lints, then every test in release mode (the numerical
 # tests integrate thousands of steps and are written for optimised builds).
+#
+# The GPU tests run the WGSL shaders on whatever adapter wgpu finds; on a machine without
+# a GPU that is Mesa's lavapipe (Vulkan on the CPU), installed here when it is missing.
+# A GPU test without any adapter fails: it does not skip.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+
+if ! ls /usr/share/vulkan/icd.d/*.json >/dev/null 2>&1; then
+    echo "installing Mesa's Vulkan drivers (lavapipe) for the GPU tests"
+    sudo_cmd=""
+    [ "$(id -u)" -ne 0 ] && sudo_cmd="sudo"
+    $sudo_cmd apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq --no-install-recommends \
+        mesa-vulkan-drivers libvulkan1 >/dev/null
+fi
+# The Vulkan loader's Wayland probe complains without a runtime directory.
+if [ -z "${XDG_RUNTIME_DIR:-}" ] || [ ! -d "${XDG_RUNTIME_DIR}" ]; then
+    XDG_RUNTIME_DIR=$(mktemp -d)
+    export XDG_RUNTIME_DIR
+fi
+
 cargo fmt --all -- --check
 cargo clippy --release --all-targets -- -D warnings
 cargo test --release
