@@ -15,6 +15,9 @@
 // External acceleration from tractions (DIM per particle).
 @group(0) @binding(8) var<storage, read> ext: array<f32>;
 @group(0) @binding(9) var<storage, read_write> d: array<f32>;
+// Power of the support reactions and traction loads on this particle (for the work
+// balance of the energy check): m (a_ext · v) − Σ_k∈prescribed m a_k v_k.
+@group(0) @binding(10) var<storage, read_write> power: array<f32>;
 
 @compute @workgroup_size(256)
 fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
@@ -46,13 +49,18 @@ fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
             }
         }
     }
-    var a = stress * (1.0 / RHO0) + viscous + vload_ext(DIM * i);
+    let ext_i = vload_ext(DIM * i);
+    var a = stress * (1.0 / RHO0) + viscous + ext_i;
+    let mass = RHO0 * vol[i];
+    var pw = mass * dot(ext_i, v_i);
     let m = mask[i];
     for (var k = 0u; k < DIM; k++) {
         if ((m >> k) & 1u) != 0u {
+            pw -= mass * a[k] * v_i[k];
             a[k] = 0.0;
         }
     }
+    power[i] = pw;
     vstore_d(V_OFF + DIM * i, a);
     vstore_d(U_OFF + DIM * i, v_i);
 }

@@ -40,6 +40,8 @@ enum Command {
     },
     /// List the shipped cases and the available methods.
     List,
+    /// List the GPU adapters wgpu finds, with backend, type, limits and features.
+    Info,
 }
 
 /// Exit code for invalid input (case files, arguments), as clap uses for usage errors.
@@ -58,6 +60,7 @@ fn main() -> ExitCode {
             quiet,
         } => run_command(&case, backend, out, &set, no_frames, quiet),
         Command::List => list(),
+        Command::Info => info(),
     }
 }
 
@@ -114,8 +117,9 @@ fn run_command(
     match run(&case, &opts) {
         Ok(s) => {
             println!(
-                "{}: {} particles, {} steps to t = {:e} s in {:.2} s ({:.3e} particle-steps/s); outputs in {}",
+                "{} on {}: {} particles, {} steps to t = {:e} s in {:.2} s ({:.3e} particle-steps/s); outputs in {}",
                 s.case,
+                s.backend,
                 s.particles,
                 s.steps,
                 s.end_time,
@@ -153,5 +157,23 @@ fn list() -> ExitCode {
     for m in MethodName::ALL {
         println!("  {:<24} {}", format!("{m:?}").to_lowercase(), m.describe());
     }
+    ExitCode::SUCCESS
+}
+
+fn info() -> ExitCode {
+    let adapters = meshless::gpu::context::adapters();
+    if adapters.is_empty() {
+        println!(
+            "No GPU adapter found. Runs use the CPU backend; on Linux without a GPU, Mesa's \
+             Vulkan CPU driver (Debian: mesa-vulkan-drivers) provides one."
+        );
+    }
+    for (k, a) in adapters.iter().enumerate() {
+        println!("[{k}] {a}");
+    }
+    println!(
+        "\nThe first listed is used; set {}=<name substring or backend> to pick another.",
+        meshless::gpu::context::ADAPTER_ENV
+    );
     ExitCode::SUCCESS
 }

@@ -1,11 +1,24 @@
 //! Observers: energies, momenta, body extents, neck height and point probes, sampled into
 //! the CSV time series.
 
-use crate::method::Method;
 use crate::scene::{Case, CaseError, Observer};
 use crate::tensor::Dim;
 use rayon::prelude::*;
 use std::collections::BTreeMap;
+
+/// A state as observers and frames read it, from either backend: reference data,
+/// displacement, velocity, deformation gradient, Cauchy stress and strain energy.
+pub struct Snapshot<'a, D: Dim> {
+    pub x0: &'a [D::V],
+    pub mass: &'a [f64],
+    pub body: &'a [u32],
+    pub u: Vec<D::V>,
+    pub v: Vec<D::V>,
+    pub f: Vec<D::T>,
+    /// 3×3 Cauchy stress (2D: plane-strain σ_zz filled in).
+    pub sigma: Vec<[[f64; 3]; 3]>,
+    pub strain_energy: f64,
+}
 
 /// Global invariants of a state.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -23,13 +36,8 @@ impl Invariants {
         self.kinetic + self.strain
     }
 
-    pub fn of<D: Dim, M: Method<D>>(method: &M, y: &M::State) -> Self {
-        let (x0, u, v, m) = (
-            method.reference(),
-            method.displacement(y),
-            method.velocity(y),
-            method.mass(),
-        );
+    pub fn of<D: Dim>(snap: &Snapshot<D>) -> Self {
+        let (x0, u, v, m) = (snap.x0, &snap.u, &snap.v, snap.mass);
         let add3 = |a: [f64; 3], b: [f64; 3]| [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
         let (kinetic, linear, angular) = (0..m.len())
             .into_par_iter()
@@ -43,7 +51,7 @@ impl Invariants {
             );
         Self {
             kinetic,
-            strain: method.strain_energy(y),
+            strain: snap.strain_energy,
             linear,
             angular,
         }
@@ -92,8 +100,13 @@ pub struct Observers {
 }
 
 impl Observers {
-    pub fn new<D: Dim, M: Method<D>>(case: &Case, method: &M) -> Result<Self, CaseError> {
-        let x0 = method.reference();
+    /// Observers of a case over particles at reference positions x0, of which
+    /// `constrained` have prescribed velocity components.
+    pub fn new<D: Dim>(
+        case: &Case,
+        x0: &[D::V],
+        constrained: &[(u32, u8)],
+    ) -> Result<Self, CaseError> {
         let mut names = vec!["time".to_string(), "step".to_string(), "dt".to_string()];
         let mut list = case.output.observers.clone();
         list.sort();
@@ -137,7 +150,7 @@ impl Observers {
             }
         }
         let columns = if list.contains(&Observer::NeckHeight) {
-            free_columns::<D, M>(case, method)
+            free_columns::<D>(case, x0, constrained)
         } else {
             Vec::new()
         };
@@ -155,18 +168,8 @@ impl Observers {
     }
 
     /// One row of the time series.
-    pub fn sample<D: Dim, M: Method<D>>(
-        &self,
-        method: &M,
-        y: &M::State,
-        inv: &Invariants,
-        clock: &Clock,
-    ) -> Vec<f64> {
-        let (x0, u, v) = (
-            method.reference(),
-            method.displacement(y),
-            method.velocity(y),
-        );
+    pub fn sample<D: Dim>(&self, snap: &Snapshot<D>, inv: &Invariants, clock: &Clock) -> Vec<f64> {
+        let (x0, u, v) = (snap.x0, &snap.u, &snap.v);
         let mut row = vec![clock.t, clock.step as f64, clock.dt];
         for obs in &self.list {
             match obs {
@@ -183,7 +186,7 @@ impl Observers {
                 Observer::Extent => {
                     let mut lo = vec![[f64::INFINITY; 3]; self.bodies];
                     let mut hi = vec![[f64::NEG_INFINITY; 3]; self.bodies];
-                    for (i, &b) in method.body().iter().enumerate() {
+                    for (i, &b) in snap.body.iter().enumerate() {
                         let x = D::to3(x0[i] + u[i]);
                         for k in 0..3 {
                             lo[b as usize][k] = lo[b as usize][k].min(x[k]);
@@ -219,14 +222,13 @@ impl Observers {
 
 /// Particles grouped by reference x (one group per lattice column), leaving out columns
 /// that contain a constrained particle.
-fn free_columns<D: Dim, M: Method<D>>(case: &Case, method: &M) -> Vec<Vec<usize>> {
-    let x0 = method.reference();
+fn free_columns<D: Dim>(case: &Case, x0: &[D::V], constrained: &[(u32, u8)]) -> Vec<Vec<usize>> {
     let key = |i: usize| (D::comp(x0[i], 0) / case.spacing).round() as i64;
     let mut groups: BTreeMap<i64, Vec<usize>> = BTreeMap::new();
     for i in 0..x0.len() {
         groups.entry(key(i)).or_default().push(i);
     }
-    for &(i, _) in method.constrained() {
+    for &(i, _) in constrained {
         groups.remove(&key(i as usize));
     }
     groups.into_values().collect()

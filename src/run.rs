@@ -1,11 +1,15 @@
 //! The run driver: sets up a case, integrates it to the end time with observers, frames
 //! and blow-up detection, and writes the summary.
 
+use crate::gpu::Gpu;
+use crate::gpu::layout::{Flat, GpuDim};
+use crate::gpu::tlsph::{GpuTlsph, SetupError};
 use crate::integrate::Integrator;
 use crate::material::von_mises;
+use crate::method::tlsph::TlState;
 use crate::method::tlsph::Tlsph;
 use crate::method::{BlowUp, Method};
-use crate::observe::{Clock, Invariants, Observers};
+use crate::observe::{Clock, Invariants, Observers, Snapshot};
 use crate::output::{
     Field, FieldData, PvdIndex, RunSummary, SeriesWriter, write_summary, write_vtu,
 };
@@ -60,11 +64,6 @@ pub enum RunError {
 
 /// Runs a case to its end time; returns the summary (also written as `summary.json`).
 pub fn run(case: &Case, opts: &RunOptions) -> Result<RunSummary, RunError> {
-    if opts.backend == Backend::Gpu {
-        return Err(RunError::Backend(
-            "the GPU backend is not part of this build yet; use --backend cpu or auto".into(),
-        ));
-    }
     match case.dimension {
         2 => run_dim::<D2>(case, opts),
         _ => run_dim::<D3>(case, opts),
@@ -79,104 +78,222 @@ pub fn build_method<D: Dim>(case: &Case) -> Result<Tlsph<D>, CaseError> {
     }
 }
 
+/// A time stepper the driver runs: the CPU method with its integrator, or the GPU engine.
+pub trait Engine<D: Dim> {
+    /// "cpu", or "gpu: <adapter>".
+    fn backend(&self) -> String;
+    fn reference(&self) -> &[D::V];
+    fn constrained(&self) -> &[(u32, u8)];
+    /// Advances `steps` steps of size dt from time t.
+    fn advance(&mut self, t: f64, dt: f64, steps: u32) -> Result<(), BlowUp>;
+    /// Largest signal speed c_p + |v| (for the CFL step).
+    fn max_signal_speed(&mut self) -> f64;
+    /// Work done on the bodies by supports and loads so far.
+    fn external_work(&mut self) -> f64;
+    /// Non-finite state or det F ≤ 0 since the start.
+    fn check(&mut self) -> Result<(), BlowUp>;
+    fn snapshot(&mut self) -> Snapshot<'_, D>;
+}
+
+/// The CPU reference engine: a method and an integrator (f64, rayon).
+pub struct CpuEngine<D: Dim> {
+    pub method: Tlsph<D>,
+    pub y: TlState<D>,
+    integrator: Integrator<TlState<D>>,
+    work: f64,
+    last_power: f64,
+}
+
+impl<D: Dim> CpuEngine<D> {
+    pub fn new(case: &Case) -> Result<Self, CaseError> {
+        let method = build_method::<D>(case)?;
+        let y = method.initial_state();
+        let integrator = Integrator::new(case.method.integrator, &y);
+        Ok(Self {
+            method,
+            y,
+            integrator,
+            work: 0.0,
+            last_power: 0.0,
+        })
+    }
+}
+
+impl<D: Dim> Engine<D> for CpuEngine<D> {
+    fn backend(&self) -> String {
+        "cpu".into()
+    }
+
+    fn reference(&self) -> &[D::V] {
+        self.method.reference()
+    }
+
+    fn constrained(&self) -> &[(u32, u8)] {
+        self.method.constrained()
+    }
+
+    fn advance(&mut self, t: f64, dt: f64, steps: u32) -> Result<(), BlowUp> {
+        for k in 0..steps {
+            self.integrator
+                .step(&mut self.method, t + f64::from(k) * dt, dt, &mut self.y)?;
+            // Trapezoidal work of the supports and loads, from successive step powers.
+            let power = self.method.boundary_power();
+            self.work += 0.5 * (self.last_power + power) * dt;
+            self.last_power = power;
+        }
+        Ok(())
+    }
+
+    fn max_signal_speed(&mut self) -> f64 {
+        self.method.max_signal_speed(&self.y)
+    }
+
+    fn external_work(&mut self) -> f64 {
+        self.work
+    }
+
+    fn check(&mut self) -> Result<(), BlowUp> {
+        self.method.check_finite(&self.y)
+    }
+
+    fn snapshot(&mut self) -> Snapshot<'_, D> {
+        self.method.snapshot(&self.y)
+    }
+}
+
+/// Steps between blow-up checks (and CFL updates) when samples are rarer.
+const CHECK_EVERY: u64 = 100;
+
+fn run_dim<D: GpuDim + Flat>(case: &Case, opts: &RunOptions) -> Result<RunSummary, RunError> {
+    let gpu = match opts.backend {
+        Backend::Cpu => None,
+        Backend::Gpu => Some(Gpu::new().map_err(|e| RunError::Backend(e.to_string()))?),
+        Backend::Auto => Gpu::new()
+            .inspect_err(|e| eprintln!("note: {e}; running on the CPU (rayon, f64)"))
+            .ok(),
+    };
+    match gpu {
+        Some(gpu) => {
+            let engine = GpuTlsph::<D>::new(case, gpu).map_err(|e| match e {
+                SetupError::Case(c) => RunError::Case(c),
+                SetupError::Gpu(g) => RunError::Backend(g.to_string()),
+            })?;
+            drive::<D, _>(case, opts, engine)
+        }
+        None => drive::<D, _>(case, opts, CpuEngine::<D>::new(case)?),
+    }
+}
+
 /// Time-step size: fixed, or from the CFL number.
-fn time_step<D: Dim, M: Method<D>>(case: &Case, method: &M, y: &M::State) -> f64 {
+fn time_step<D: Dim>(case: &Case, engine: &mut impl Engine<D>) -> f64 {
     match (case.method.dt, case.method.cfl) {
         (Some(dt), _) => dt,
-        (None, Some(cfl)) => cfl * case.spacing / method.max_signal_speed(y),
+        (None, Some(cfl)) => cfl * case.spacing / engine.max_signal_speed(),
         (None, None) => unreachable!("validation requires dt or cfl"),
     }
 }
 
-/// Steps between blow-up checks when the series is sampled more rarely.
-const CHECK_EVERY: u64 = 100;
-
-fn run_dim<D: Dim>(case: &Case, opts: &RunOptions) -> Result<RunSummary, RunError> {
-    let mut method = build_method::<D>(case)?;
-    let mut y = method.initial_state();
-    let mut integrator = Integrator::new(case.method.integrator, &y);
-    let observers = Observers::new::<D, _>(case, &method)?;
-
+/// Runs an engine to the end time with observers, frames, checks and the summary.
+pub fn drive<D: Dim, E: Engine<D>>(
+    case: &Case,
+    opts: &RunOptions,
+    mut engine: E,
+) -> Result<RunSummary, RunError> {
+    let observers = Observers::new::<D>(case, engine.reference(), engine.constrained())?;
     std::fs::create_dir_all(&opts.out_dir)?;
     let mut series =
         SeriesWriter::create(&opts.out_dir.join("series.csv"), observers.column_names())?;
     let mut frames = Frames::new(case, opts)?;
+    let backend = engine.backend();
+    if opts.progress {
+        eprintln!(
+            "{}: {} particles on {backend}",
+            case.name,
+            engine.reference().len()
+        );
+    }
 
-    let n = method.reference().len();
+    let n = engine.reference().len();
     let t_end = case.run.end_time;
-    let inv0 = Invariants::of::<D, _>(&method, &y);
+    let done = |t: f64| t >= t_end * (1.0 - 1e-12);
     let mut clock = Clock {
-        dt: time_step::<D, _>(case, &method, &y),
+        dt: time_step(case, &mut engine),
         ..Clock::default()
     };
     let progress = progress_bar(opts.progress, case);
     let started = Instant::now();
 
-    series.write_row(&observers.sample::<D, _>(&method, &y, &inv0, &clock))?;
-    frames.write::<D, _>(&method, &y, 0.0, true)?;
+    let snap = engine.snapshot();
+    let inv0 = Invariants::of(&snap);
+    series.write_row(&observers.sample(&snap, &inv0, &clock))?;
+    frames.write(&snap, 0.0, true)?;
+    drop(snap);
     let series_every = case.output.series_interval.unwrap_or(0.0);
     let mut next_sample = series_every;
-    let mut last_power = 0.0;
 
     let failure = loop {
         let Clock { t, step, .. } = clock;
-        if t >= t_end * (1.0 - 1e-12) {
+        if done(t) {
             break None;
         }
-        let dt = time_step::<D, _>(case, &method, &y).min(t_end - t);
-        if let Err(cause) = integrator.step(&mut method, t, dt, &mut y) {
+        let dt = time_step(case, &mut engine);
+        // Steps to the next sample, frame, check or the end, whichever comes first.
+        let to_event = [next_sample, frames.next_time(), t_end]
+            .into_iter()
+            .map(|te| ((te - t) / dt - 0.5).ceil().max(1.0))
+            .fold(CHECK_EVERY as f64, f64::min) as u32;
+        let (steps, dt) = if t + f64::from(to_event) * dt > t_end {
+            // Land on the end time: whole steps of dt, then one shorter step.
+            let whole = ((t_end - t) / dt).floor() as u32;
+            if whole == 0 {
+                (1, t_end - t)
+            } else {
+                (whole, dt)
+            }
+        } else {
+            (to_event, dt)
+        };
+        if let Err(cause) = engine.advance(t, dt, steps) {
             break Some(cause);
         }
-        // Trapezoidal work of the supports and loads, from the powers of successive steps.
-        let power = method.boundary_power();
         clock = Clock {
-            t: t + dt,
-            step: step + 1,
+            t: t + f64::from(steps) * dt,
+            step: step + u64::from(steps),
             dt,
-            external_work: clock.external_work + 0.5 * (last_power + power) * dt,
+            external_work: engine.external_work(),
         };
-        last_power = power;
-        let (t, step) = (clock.t, clock.step);
-
-        let sample = t + 0.5 * dt >= next_sample || t >= t_end * (1.0 - 1e-12);
-        if sample || step % CHECK_EVERY == 0 {
-            if let Err(cause) = method.check_finite(&y) {
-                break Some(cause);
-            }
-            let inv = Invariants::of::<D, _>(&method, &y);
-            let bound =
-                case.run.energy_growth_limit * (inv0.total_energy() + clock.external_work.max(0.0));
-            if inv.total_energy() > bound && bound > 0.0 {
-                break Some(energy_blow_up::<D, _>(
-                    &method,
-                    &y,
-                    inv.total_energy(),
-                    bound,
-                ));
-            }
-            if sample {
-                series.write_row(&observers.sample::<D, _>(&method, &y, &inv, &clock))?;
-                next_sample = t + series_every;
-            }
+        let t = clock.t;
+        if let Err(cause) = engine.check() {
+            break Some(cause);
         }
-        frames.write::<D, _>(&method, &y, t, t >= t_end * (1.0 - 1e-12))?;
-        if step % 64 == 0 {
-            progress.set_position((t / t_end * 1000.0) as u64);
-            let rate = (n as f64 * step as f64) / started.elapsed().as_secs_f64();
-            progress.set_message(format!(
-                "step {step}, t = {t:.4e} s, {rate:.3e} particle-steps/s"
-            ));
+        let snap = engine.snapshot();
+        let inv = Invariants::of(&snap);
+        let bound =
+            case.run.energy_growth_limit * (inv0.total_energy() + clock.external_work.max(0.0));
+        if inv.total_energy() > bound && bound > 0.0 {
+            break Some(energy_blow_up::<D>(&snap, inv.total_energy(), bound));
         }
+        if t + 0.5 * dt >= next_sample || done(t) {
+            series.write_row(&observers.sample(&snap, &inv, &clock))?;
+            next_sample = t + series_every;
+        }
+        frames.write(&snap, t, done(t))?;
+        progress.set_position((t / t_end * 1000.0) as u64);
+        let rate = (n as f64 * clock.step as f64) / started.elapsed().as_secs_f64();
+        progress.set_message(format!(
+            "step {}, t = {t:.4e} s, {rate:.3e} particle-steps/s",
+            clock.step
+        ));
     };
     progress.finish_and_clear();
 
     let Clock { t, step, dt, .. } = clock;
     let wall = started.elapsed().as_secs_f64();
-    let inv = Invariants::of::<D, _>(&method, &y);
+    let inv = Invariants::of(&engine.snapshot());
     let summary = RunSummary {
         case: case.name.clone(),
         method: format!("{:?}", case.method.name).to_lowercase(),
-        backend: "cpu".into(),
+        backend,
         dimension: case.dimension,
         particles: n,
         steps: step,
@@ -192,13 +309,13 @@ fn run_dim<D: Dim>(case: &Case, opts: &RunOptions) -> Result<RunSummary, RunErro
         .into(),
         failure: failure
             .as_ref()
-            .map(|c| format!("step {}, t = {t:e} s: {c}", step + 1)),
+            .map(|c| format!("by step {step}, t = {t:e} s: {c}")),
         final_invariants: inv.named::<D>(),
     };
     write_summary(&opts.out_dir.join("summary.json"), &summary)?;
     match failure {
         Some(cause) => Err(RunError::BlowUp {
-            step: step + 1,
+            step,
             time: t,
             cause,
             out_dir: opts.out_dir.clone(),
@@ -208,19 +325,14 @@ fn run_dim<D: Dim>(case: &Case, opts: &RunOptions) -> Result<RunSummary, RunErro
 }
 
 /// Energy-growth failure, attributed to the particle with the largest kinetic energy.
-fn energy_blow_up<D: Dim, M: Method<D>>(
-    method: &M,
-    y: &M::State,
-    energy: f64,
-    bound: f64,
-) -> BlowUp {
-    let (v, m) = (method.velocity(y), method.mass());
+fn energy_blow_up<D: Dim>(snap: &Snapshot<D>, energy: f64, bound: f64) -> BlowUp {
+    let (v, m) = (&snap.v, snap.mass);
     let i = (0..m.len())
         .max_by(|&a, &b| (m[a] * D::norm2(v[a])).total_cmp(&(m[b] * D::norm2(v[b]))))
         .unwrap_or(0);
     BlowUp {
         particle: i,
-        position: D::to3(method.reference()[i]),
+        position: D::to3(snap.x0[i]),
         quantity: format!("total energy (bound {bound:e}, fastest particle shown)"),
         value: energy,
     }
@@ -268,14 +380,16 @@ impl Frames {
         })
     }
 
+    /// Time of the next frame (infinite when frames are off or have no interval).
+    fn next_time(&self) -> f64 {
+        match (&self.index, self.interval) {
+            (Some(_), Some(_)) => self.next,
+            _ => f64::INFINITY,
+        }
+    }
+
     /// Writes a frame when one is due (or `force`).
-    fn write<D: Dim, M: Method<D>>(
-        &mut self,
-        method: &M,
-        y: &M::State,
-        t: f64,
-        force: bool,
-    ) -> std::io::Result<()> {
+    fn write<D: Dim>(&mut self, snap: &Snapshot<D>, t: f64, force: bool) -> std::io::Result<()> {
         let Some(index) = &mut self.index else {
             return Ok(());
         };
@@ -284,7 +398,7 @@ impl Frames {
             return Ok(());
         }
         let file = format!("{}_{:06}.vtu", self.name, self.count);
-        write_frame::<D, M>(&self.dir.join(&file), method, y, t)?;
+        write_frame::<D>(&self.dir.join(&file), snap, t)?;
         index.push(t, &file)?;
         self.count += 1;
         if let Some(dt) = self.interval {
@@ -297,27 +411,20 @@ impl Frames {
 }
 
 /// One VTU frame: current positions with u, v, F, σ, von Mises stress, J and body.
-pub fn write_frame<D: Dim, M: Method<D>>(
-    path: &Path,
-    method: &M,
-    y: &M::State,
-    t: f64,
-) -> std::io::Result<()> {
-    let (x0, u, v) = (
-        method.reference(),
-        method.displacement(y),
-        method.velocity(y),
-    );
-    let points: Vec<[f64; 3]> = x0.iter().zip(u).map(|(&x, &u)| D::to3(x + u)).collect();
-    let uu: Vec<[f64; 3]> = u.iter().map(|&a| D::to3(a)).collect();
-    let vv: Vec<[f64; 3]> = v.iter().map(|&a| D::to3(a)).collect();
-    let f = method.deformation_gradient(y);
-    let jac: Vec<f64> = f.iter().map(|&f| D::det(f)).collect();
-    let f9: Vec<[f64; 9]> = f.iter().map(|&f| flatten(pad_f::<D>(f))).collect();
-    let sigma = method.cauchy_stress(y);
-    let vm: Vec<f64> = sigma.iter().map(von_mises).collect();
-    let s9: Vec<[f64; 9]> = sigma.iter().map(|s| flatten(*s)).collect();
-    let body: Vec<i32> = method.body().iter().map(|&b| b as i32).collect();
+pub fn write_frame<D: Dim>(path: &Path, snap: &Snapshot<D>, t: f64) -> std::io::Result<()> {
+    let points: Vec<[f64; 3]> = snap
+        .x0
+        .iter()
+        .zip(&snap.u)
+        .map(|(&x, &u)| D::to3(x + u))
+        .collect();
+    let uu: Vec<[f64; 3]> = snap.u.iter().map(|&a| D::to3(a)).collect();
+    let vv: Vec<[f64; 3]> = snap.v.iter().map(|&a| D::to3(a)).collect();
+    let jac: Vec<f64> = snap.f.iter().map(|&f| D::det(f)).collect();
+    let f9: Vec<[f64; 9]> = snap.f.iter().map(|&f| flatten(pad_f::<D>(f))).collect();
+    let vm: Vec<f64> = snap.sigma.iter().map(von_mises).collect();
+    let s9: Vec<[f64; 9]> = snap.sigma.iter().map(|s| flatten(*s)).collect();
+    let body: Vec<i32> = snap.body.iter().map(|&b| b as i32).collect();
     let fields = [
         Field {
             name: "u",

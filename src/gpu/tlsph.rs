@@ -13,8 +13,11 @@ use crate::correction::{self, CorrectionKind};
 use crate::integrate::IntegratorKind;
 use crate::kernel::Kernel;
 use crate::material::{Material, MaterialModel};
-use crate::method::tlsph::TlState;
+use crate::method::BlowUp;
+use crate::method::tlsph::{TlState, check_state, stress_fields};
 use crate::neighbour;
+use crate::observe::Snapshot;
+use crate::run::Engine;
 use crate::scene::{Case, CaseError, discretise};
 use bytemuck::{Pod, Zeroable};
 use thiserror::Error;
@@ -265,6 +268,15 @@ pub struct GpuTlsph<D: GpuDim + Flat> {
     vol: Vec<f64>,
     /// Rates of the state in `Y` alone (leapfrog priming, cross-checks).
     rates_y: Recorded,
+    /// The stress pass on `Y` writing into `Acc` (for snapshots: F at the current state
+    /// without touching the integrator's rates).
+    kinematics_y: wgpu::BindGroup,
+    power: wgpu::Buffer,
+    constrained: Vec<(u32, u8)>,
+    /// Simulated time advanced so far, and the work balance of supports and loads.
+    time: f64,
+    work: f64,
+    last_power: (f64, f64),
 }
 
 /// Value of `status[0]` when no particle failed.
@@ -356,6 +368,7 @@ impl<D: GpuDim + Flat> GpuTlsph<D> {
             gpu.zeroed("acc", layout.len as u64 * 4),
         ];
         let kin = gpu.zeroed("kinematics", layout.kin_len as u64 * 4);
+        let power = gpu.zeroed("power", n as u64 * 4);
 
         let stress = gpu.pipeline("tlsph stress", &compose(&shaders::TLSPH_STRESS), "stress");
         let accel = gpu.pipeline("tlsph accel", &compose(&shaders::TLSPH_ACCEL), "accel");
@@ -391,11 +404,25 @@ impl<D: GpuDim + Flat> GpuTlsph<D> {
                         &mask,
                         &ext,
                         &states[Buf::Rates as usize],
+                        &power,
                     ],
                 ),
             }
         };
         let rates_y = rates(Buf::Y);
+        let kinematics_y = gpu.bind(
+            &stress,
+            &[
+                &offsets,
+                &ids,
+                &grad,
+                &vol,
+                &states[Buf::Y as usize],
+                &kin,
+                &states[Buf::Acc as usize],
+                &status,
+            ],
+        );
         let mut steps = Vec::new();
         for op in program(case.method.integrator) {
             steps.push(match op {
@@ -446,6 +473,12 @@ impl<D: GpuDim + Flat> GpuTlsph<D> {
             body: disc.body,
             vol: disc.vol,
             rates_y,
+            kinematics_y,
+            power,
+            constrained: boundary.constrained.clone(),
+            time: 0.0,
+            work: 0.0,
+            last_power: (0.0, 0.0),
         })
     }
 }
@@ -600,7 +633,8 @@ impl<D: GpuDim + Flat> GpuTlsph<D> {
     }
 
     /// Records `steps` steps of size `dt` into one command encoder and submits them.
-    pub fn advance(&mut self, dt: f64, steps: u32) {
+    pub fn advance_steps(&mut self, dt: f64, steps: u32) {
+        self.time += dt * f64::from(steps);
         self.set_dt(dt);
         let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
         if self.integrator == IntegratorKind::Leapfrog && !self.primed {
@@ -700,5 +734,78 @@ impl<D: GpuDim + Flat> GpuTlsph<D> {
     /// The first particle whose det F ≤ 0 (or NaN) in any evaluation so far.
     pub fn failed_particle(&self) -> Option<usize> {
         read_status(&self.gpu, &self.status)
+    }
+}
+
+impl<D: GpuDim + Flat> Engine<D> for GpuTlsph<D> {
+    fn backend(&self) -> String {
+        format!("gpu: {}", self.gpu.name())
+    }
+
+    fn reference(&self) -> &[D::V] {
+        &self.x0
+    }
+
+    fn constrained(&self) -> &[(u32, u8)] {
+        &self.constrained
+    }
+
+    fn advance(&mut self, _t: f64, dt: f64, steps: u32) -> Result<(), BlowUp> {
+        self.advance_steps(dt, steps);
+        Ok(())
+    }
+
+    fn max_signal_speed(&mut self) -> f64 {
+        let y = self.state();
+        let vmax = y.v.iter().map(|&v| D::norm2(v)).fold(0.0, f64::max).sqrt();
+        self.material.p_wave_speed() + vmax
+    }
+
+    /// Trapezoidal over the intervals between calls (the driver calls it at every check).
+    fn external_work(&mut self) -> f64 {
+        let p: Vec<f32> = self.gpu.read(&self.power);
+        let power: f64 = p.iter().map(|&x| f64::from(x)).sum();
+        let (t_last, p_last) = self.last_power;
+        self.work += 0.5 * (p_last + power) * (self.time - t_last);
+        self.last_power = (self.time, power);
+        self.work
+    }
+
+    fn check(&mut self) -> Result<(), BlowUp> {
+        if let Some(i) = self.failed_particle() {
+            return Err(BlowUp {
+                particle: i,
+                position: D::to3(self.x0[i]),
+                quantity: "det F (f32, GPU)".into(),
+                value: 0.0,
+            });
+        }
+        check_state(&self.x0, &self.state())
+    }
+
+    fn snapshot(&mut self) -> Snapshot<'_, D> {
+        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            let (x, y) = self.gpu.groups(self.layout.n as u32);
+            pass.set_pipeline(&self.stress);
+            pass.set_bind_group(0, &self.kinematics_y, &[]);
+            pass.dispatch_workgroups(x, y, 1);
+        }
+        self.gpu.queue.submit([encoder.finish()]);
+        let y = self.state();
+        let (f, _) = self.kinematics();
+        let (sigma, strain_energy) =
+            stress_fields::<D>(&self.material, &f, &y.s, &y.rho, &self.vol);
+        Snapshot {
+            x0: &self.x0,
+            mass: &self.mass,
+            body: &self.body,
+            u: y.u,
+            v: y.v,
+            f,
+            sigma,
+            strain_energy,
+        }
     }
 }

@@ -4,6 +4,7 @@
 pub mod tlsph;
 
 use crate::integrate::OdeSystem;
+use crate::observe::Snapshot;
 use crate::tensor::Dim;
 use thiserror::Error;
 
@@ -37,6 +38,8 @@ pub trait Method<D: Dim>: OdeSystem<Error = BlowUp> {
     fn cauchy_stress(&self, y: &Self::State) -> Vec<[[f64; 3]; 3]>;
     /// Σ V0 ψ: the stored strain energy.
     fn strain_energy(&self, y: &Self::State) -> f64;
+    /// Everything observers and frames read, at state y.
+    fn snapshot<'a>(&'a self, y: &Self::State) -> Snapshot<'a, D>;
     /// Largest signal speed c_p + |v| for the CFL condition.
     fn max_signal_speed(&self, y: &Self::State) -> f64;
     /// Power of the boundary reactions and external loads at the last rate evaluation.

@@ -12,6 +12,7 @@ use crate::integrate::{OdeState, OdeSystem};
 use crate::kernel::Kernel;
 use crate::material::Material;
 use crate::neighbour::{self, Csr};
+use crate::observe::Snapshot;
 use crate::scene::{ArtificialViscosity, Case, CaseError, Discretised};
 use crate::tensor::Dim;
 use rayon::prelude::*;
@@ -97,6 +98,71 @@ struct Kinematics<D: Dim> {
     f_inv_t: D::T,
     /// Current density (ρ, or ρ0/J for state-based models).
     rho: f64,
+}
+
+/// The first particle with a non-finite u, v, ρ or S, as a blow-up.
+pub fn check_state<D: Dim>(x0: &[D::V], y: &TlState<D>) -> Result<(), BlowUp> {
+    let fail = |i: usize, quantity: &str, value: f64| BlowUp {
+        particle: i,
+        position: D::to3(x0[i]),
+        quantity: quantity.to_string(),
+        value,
+    };
+    let norm = |v: D::V| D::norm2(v).sqrt();
+    if let Some(i) = y.u.par_iter().position_first(|&u| !D::is_finite_v(u)) {
+        return Err(fail(i, "displacement |u|", norm(y.u[i])));
+    }
+    if let Some(i) = y.v.par_iter().position_first(|&v| !D::is_finite_v(v)) {
+        return Err(fail(i, "velocity |v|", norm(y.v[i])));
+    }
+    if let Some(i) = y.rho.par_iter().position_first(|r| !r.is_finite()) {
+        return Err(fail(i, "density", y.rho[i]));
+    }
+    if let Some(i) = y.s.par_iter().position_first(|&s| !D::is_finite_t(s)) {
+        return Err(fail(
+            i,
+            "deviatoric stress |S|",
+            D::ddot(y.s[i], y.s[i]).sqrt(),
+        ));
+    }
+    Ok(())
+}
+
+/// Cauchy stress (3×3; 2D plane strain fills σ_zz) and strain energy Σ V0 ψ of every
+/// particle from F and, for the rate model, S and ρ (empty slices for state models).
+/// Shared by the CPU and GPU paths for their outputs.
+pub fn stress_fields<D: Dim>(
+    mat: &Material,
+    f: &[D::T],
+    s: &[D::T],
+    rho: &[f64],
+    vol: &[f64],
+) -> (Vec<[[f64; 3]; 3]>, f64) {
+    let rate = mat.model.is_rate_based();
+    let per_particle: Vec<([[f64; 3]; 3], f64)> = f
+        .par_iter()
+        .enumerate()
+        .map(|(i, &f)| {
+            let (s, rho) = if rate {
+                (s[i], rho[i])
+            } else {
+                (D::zero_t(), mat.rho0 / D::det(f))
+            };
+            let sigma = if rate {
+                s - D::identity() * mat.pressure(rho)
+            } else {
+                mat.pk1::<D>(f) * D::transpose(f) * (1.0 / D::det(f))
+            };
+            let mut out = D::to3x3(sigma);
+            if D::N == 2 {
+                out[2][2] = mat.sigma_zz::<D>(f, s, rho);
+            }
+            let energy_rho = if rate { rho } else { mat.rho0 };
+            (out, vol[i] * mat.energy_density::<D>(f, s, energy_rho))
+        })
+        .collect();
+    let energy = per_particle.iter().map(|p| p.1).sum();
+    (per_particle.into_iter().map(|p| p.0).collect(), energy)
 }
 
 /// The TLSPH system on the CPU (f64, rayon).
@@ -369,46 +435,27 @@ impl<D: Dim> Method<D> for Tlsph<D> {
     }
 
     fn cauchy_stress(&self, y: &TlState<D>) -> Vec<[[f64; 3]; 3]> {
-        let mat = self.material;
-        let rate = mat.model.is_rate_based();
-        self.each_f(y)
-            .into_par_iter()
-            .enumerate()
-            .map(|(i, f)| {
-                let (s, rho) = if rate {
-                    (y.s[i], y.rho[i])
-                } else {
-                    (D::zero_t(), mat.rho0 / D::det(f))
-                };
-                let sigma = if rate {
-                    s - D::identity() * mat.pressure(rho)
-                } else {
-                    mat.pk1::<D>(f) * D::transpose(f) * (1.0 / D::det(f))
-                };
-                let mut out = D::to3x3(sigma);
-                if D::N == 2 {
-                    out[2][2] = mat.sigma_zz::<D>(f, s, rho);
-                }
-                out
-            })
-            .collect()
+        stress_fields::<D>(&self.material, &self.each_f(y), &y.s, &y.rho, &self.vol).0
     }
 
     fn strain_energy(&self, y: &TlState<D>) -> f64 {
-        let mat = self.material;
-        let rate = mat.model.is_rate_based();
-        self.each_f(y)
-            .into_par_iter()
-            .enumerate()
-            .map(|(i, f)| {
-                let (s, rho) = if rate {
-                    (y.s[i], y.rho[i])
-                } else {
-                    (D::zero_t(), mat.rho0)
-                };
-                self.vol[i] * mat.energy_density::<D>(f, s, rho)
-            })
-            .sum()
+        stress_fields::<D>(&self.material, &self.each_f(y), &y.s, &y.rho, &self.vol).1
+    }
+
+    fn snapshot<'a>(&'a self, y: &TlState<D>) -> Snapshot<'a, D> {
+        let f = self.each_f(y);
+        let (sigma, strain_energy) =
+            stress_fields::<D>(&self.material, &f, &y.s, &y.rho, &self.vol);
+        Snapshot {
+            x0: &self.x0,
+            mass: &self.mass,
+            body: &self.body,
+            u: y.u.clone(),
+            v: y.v.clone(),
+            f,
+            sigma,
+            strain_energy,
+        }
     }
 
     fn max_signal_speed(&self, y: &TlState<D>) -> f64 {
@@ -425,30 +472,6 @@ impl<D: Dim> Method<D> for Tlsph<D> {
     }
 
     fn check_finite(&self, y: &TlState<D>) -> Result<(), BlowUp> {
-        let bad = |name: &str, i: Option<usize>, value: &dyn Fn(usize) -> f64| match i {
-            Some(i) => Err(self.blow_up(i, name, value(i))),
-            None => Ok(()),
-        };
-        let norm = |v: D::V| D::norm2(v).sqrt();
-        bad(
-            "displacement |u|",
-            y.u.par_iter().position_first(|&u| !D::is_finite_v(u)),
-            &|i| norm(y.u[i]),
-        )?;
-        bad(
-            "velocity |v|",
-            y.v.par_iter().position_first(|&v| !D::is_finite_v(v)),
-            &|i| norm(y.v[i]),
-        )?;
-        bad(
-            "density",
-            y.rho.par_iter().position_first(|r| !r.is_finite()),
-            &|i| y.rho[i],
-        )?;
-        bad(
-            "deviatoric stress |S|",
-            y.s.par_iter().position_first(|&s| !D::is_finite_t(s)),
-            &|i| D::ddot(y.s[i], y.s[i]).sqrt(),
-        )
+        check_state(&self.x0, y)
     }
 }
