@@ -154,6 +154,15 @@ fn compare_rates<D: GpuDim + Flat>(c: &Case, steps: usize, dt: f64) {
 fn rates_match_the_cpu_on_the_rotating_disk() {
     // 200 RK4 steps of 5e-6 s: 0.05 rad of rotation with developed stresses and AV active.
     compare_rates::<D2>(&case("rotating-disk", &["method.dt=5e-6"]), 200, 5e-6);
+    // Every correction the GPU path supports: Shepard and none on the GPU pass, RKPM from
+    // the host solve.
+    for correction in ["\"shepard\"", "\"none\"", "rkpm"] {
+        let c = case(
+            "rotating-disk",
+            &["method.dt=5e-6", &format!("method.correction={correction}")],
+        );
+        compare_rates::<D2>(&c, 50, 5e-6);
+    }
 }
 
 #[test]

@@ -52,14 +52,26 @@ pub const TLSPH_ACCEL: Source = source!(
 );
 pub const CORRECTION: Source = source!("correction.wgsl", true, [("dx0", false), ("grad", true)]);
 pub const INTEGRATE: Source = source!("integrate.wgsl", false);
+pub const PAIR_OFFSETS: Source = source!(
+    "pair_offsets.wgsl",
+    false,
+    [("x_hi", false), ("x_lo", false), ("dx0", true)]
+);
 
 pub const KERNEL: &str = include_str!("../../shaders/kernel.wgsl");
 
 /// The passes compiled with a scene's constants (`gpu::tlsph::scene_constants`).
-pub const SCENE: &[Source] = &[TLSPH_STRESS, TLSPH_ACCEL, CORRECTION, INTEGRATE];
+pub const SCENE: &[Source] = &[
+    TLSPH_STRESS,
+    TLSPH_ACCEL,
+    CORRECTION,
+    INTEGRATE,
+    PAIR_OFFSETS,
+];
 
 /// Every pass file, for validation.
 pub const ALL: &[Source] = &[
+    PAIR_OFFSETS,
     TLSPH_STRESS,
     TLSPH_ACCEL,
     CORRECTION,

@@ -7,6 +7,7 @@
 
 use super::context::{Gpu, GpuError};
 use super::layout::{Flat, GpuDim};
+use super::neighbour;
 use super::shaders::{self, Constants, Source};
 use crate::boundary::Boundary;
 use crate::correction::{self, CorrectionKind};
@@ -15,10 +16,10 @@ use crate::kernel::Kernel;
 use crate::material::{Material, MaterialModel};
 use crate::method::BlowUp;
 use crate::method::tlsph::{TlState, check_state, stress_fields};
-use crate::neighbour;
 use crate::observe::Snapshot;
 use crate::run::Engine;
 use crate::scene::{Case, CaseError, discretise};
+use crate::tensor::Dim;
 use bytemuck::{Pod, Zeroable};
 use thiserror::Error;
 
@@ -297,23 +298,46 @@ impl<D: GpuDim + Flat> GpuTlsph<D> {
         let mass: Vec<f64> = disc.vol.iter().map(|v| v * material.rho0).collect();
         let boundary = Boundary::build(case, &disc, &mass)?;
 
-        let csr = neighbour::build::<D>(&disc.x0, kernel.support() * (1.0 + 1e-9));
-        let pairs = csr.pair_count() as u64;
+        // Neighbours on the GPU from f32 positions; the 1e-5 margin keeps lattice pairs lying
+        // exactly on the support on both sides of the f32 rounding (their W and ∇W vanish).
+        let typed: Vec<D::HV> = disc.x0.iter().map(|&x| D::v(x)).collect();
+        let x_typed = gpu.storage("x0 (cell list)", &typed);
+        let (lo, hi) = bounding_box::<D>(&disc.x0);
+        let csr = neighbour::build::<D>(
+            &gpu,
+            &x_typed,
+            lo,
+            hi,
+            n as u32,
+            kernel.support() * (1.0 + 1e-5),
+        )?;
+        let pairs = u64::from(csr.pairs);
         gpu.check_size("per-pair gradient buffer", pairs * D::N as u64 * 4)?;
         gpu.check_size("kinematics buffer", layout.kin_len as u64 * 4)?;
-        let offsets: Vec<u32> = csr.offsets.iter().map(|&o| o as u32).collect();
-        let offsets = gpu.storage("offsets", &offsets);
-        let ids = gpu.storage("ids", &csr.ids);
+        let (offsets, ids) = (csr.offsets.clone(), csr.ids.clone());
         let flat_v = |vs: &[D::V]| {
             let mut out = Vec::with_capacity(vs.len() * D::N);
             vs.iter().for_each(|&v| D::push_v(&mut out, v));
             out
         };
-        let offsets_x0: Vec<D::V> = (0..n)
-            .flat_map(|i| csr.neighbours(i).iter().map(move |&j| (i, j as usize)))
-            .map(|(i, j)| disc.x0[j] - disc.x0[i])
+        // X = hi + lo in f32 pairs, for exact pair offsets (see pair_offsets.wgsl).
+        let x_hi = flat_v(&disc.x0);
+        let x_lo: Vec<f32> = disc
+            .x0
+            .iter()
+            .flat_map(|&x| D::to3(x).into_iter().take(D::N))
+            .zip(&x_hi)
+            .map(|(x, &h)| (x - f64::from(h)) as f32)
             .collect();
-        let dx0 = gpu.storage("dx0", &flat_v(&offsets_x0));
+        let (x_hi, x_lo) = (gpu.storage("x hi", &x_hi), gpu.storage("x lo", &x_lo));
+        let dx0 = gpu.zeroed("dx0", pairs * D::N as u64 * 4);
+        let pipeline = gpu.pipeline(
+            "pair offsets",
+            &compose(&shaders::PAIR_OFFSETS),
+            "pair_offsets",
+        );
+        let bind = gpu.bind(&pipeline, &[&offsets, &ids, &x_hi, &x_lo, &dx0]);
+        dispatch(&gpu, &pipeline, &bind, n as u32);
         let vol32: Vec<f32> = disc.vol.iter().map(|&v| v as f32).collect();
         let vol = gpu.storage("vol", &vol32);
         let status = gpu.storage("status", &[STATUS_OK]);
@@ -323,7 +347,7 @@ impl<D: GpuDim + Flat> GpuTlsph<D> {
                 CorrectionKind::Rkpm,
                 &disc.x0,
                 &disc.vol,
-                &csr,
+                &neighbour::read_lists(&gpu, &csr),
                 &kernel,
             )
             .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
@@ -808,4 +832,18 @@ impl<D: GpuDim + Flat> Engine<D> for GpuTlsph<D> {
             strain_energy,
         }
     }
+}
+
+/// Bounding box of the reference positions, padded to three components.
+fn bounding_box<D: Dim>(x: &[D::V]) -> ([f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for &p in x {
+        let p = D::to3(p);
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    (lo, hi)
 }
