@@ -37,11 +37,34 @@ enum Command {
         /// No progress bar.
         #[arg(long, short)]
         quiet: bool,
+        /// Print the plan (what runs once, per step, and what is left out) and exit.
+        #[arg(long)]
+        explain: bool,
     },
     /// List the shipped cases and the available methods.
     List,
     /// List the GPU adapters wgpu finds, with backend, type, limits and features.
     Info,
+    /// Measure particle-steps/s of cases at several sizes on a backend.
+    Bench {
+        /// Case files or shipped case names.
+        #[arg(required = true)]
+        cases: Vec<String>,
+        #[arg(long, value_enum, default_value_t = Backend::Auto)]
+        backend: Backend,
+        /// Target particle counts (the spacing is scaled to reach them), e.g. 1e3,1e4,1e5.
+        #[arg(long, value_delimiter = ',', default_value = "1e3,1e4,1e5")]
+        particles: Vec<f64>,
+        /// Timed steps per configuration (after one warm-up step).
+        #[arg(long, default_value_t = 200)]
+        steps: u32,
+        /// Override case keys, as for `run`.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
+        /// Also write the table as CSV.
+        #[arg(long)]
+        csv: Option<PathBuf>,
+    },
 }
 
 /// Exit code for invalid input (case files, arguments), as clap uses for usage errors.
@@ -58,9 +81,24 @@ fn main() -> ExitCode {
             set,
             no_frames,
             quiet,
-        } => run_command(&case, backend, out, &set, no_frames, quiet),
+            explain,
+        } => {
+            if explain {
+                explain_command(&case, backend, &set)
+            } else {
+                run_command(&case, backend, out, &set, no_frames, quiet)
+            }
+        }
         Command::List => list(),
         Command::Info => info(),
+        Command::Bench {
+            cases,
+            backend,
+            particles,
+            steps,
+            set,
+            csv,
+        } => bench_command(&cases, backend, &particles, steps, &set, csv.as_deref()),
     }
 }
 
@@ -156,6 +194,86 @@ fn list() -> ExitCode {
     println!("\nMethods:");
     for m in MethodName::ALL {
         println!("  {:<24} {}", format!("{m:?}").to_lowercase(), m.describe());
+    }
+    ExitCode::SUCCESS
+}
+
+fn explain_command(case: &str, backend: Backend, set: &[String]) -> ExitCode {
+    match Case::load(&resolve(case), set) {
+        Ok(c) => {
+            let gpu = match backend {
+                Backend::Cpu => false,
+                Backend::Gpu => true,
+                Backend::Auto => !meshless::gpu::context::adapters().is_empty(),
+            };
+            println!("{}", meshless::run::explain(&c, gpu));
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(EXIT_INPUT)
+        }
+    }
+}
+
+fn bench_command(
+    cases: &[String],
+    backend: Backend,
+    particles: &[f64],
+    steps: u32,
+    set: &[String],
+    csv: Option<&Path>,
+) -> ExitCode {
+    use meshless::bench::{BenchRow, measure, resize};
+    let mut rows = Vec::new();
+    println!(
+        "| case | backend | particles | steps | set-up [s] | particle-steps/s | rate evaluations/s |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    for name in cases {
+        let path = resolve(name);
+        for &target in particles {
+            let result = Case::load(&path, set)
+                .map_err(RunError::from)
+                .and_then(|base| resize(&base, target))
+                .and_then(|sizes| {
+                    let all: Vec<String> = set.iter().cloned().chain(sizes).collect();
+                    Ok(Case::load(&path, &all)?)
+                })
+                .and_then(|case| measure(&case, backend, steps));
+            match result {
+                Ok(r) => {
+                    println!(
+                        "| {} | {} | {} | {} | {:.2} | {:.3e} | {:.3e} |",
+                        r.case,
+                        r.backend,
+                        r.particles,
+                        r.steps,
+                        r.setup_seconds,
+                        r.particle_steps_per_second,
+                        r.rate_evaluations_per_second
+                    );
+                    rows.push(r);
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    return ExitCode::from(match e {
+                        RunError::Case(_) => EXIT_INPUT,
+                        _ => EXIT_FAILED,
+                    });
+                }
+            }
+        }
+    }
+    if let Some(path) = csv {
+        let text: String = std::iter::once(BenchRow::HEADER.to_string())
+            .chain(rows.iter().map(BenchRow::csv))
+            .map(|l| l + "\n")
+            .collect();
+        if let Err(e) = std::fs::write(path, text) {
+            eprintln!("error: {}: {e}", path.display());
+            return ExitCode::from(EXIT_FAILED);
+        }
     }
     ExitCode::SUCCESS
 }

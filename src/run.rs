@@ -5,7 +5,7 @@ use crate::gpu::Gpu;
 use crate::gpu::layout::{Flat, GpuDim};
 use crate::gpu::tlsph::{GpuTlsph, SetupError};
 use crate::integrate::Integrator;
-use crate::material::von_mises;
+use crate::material::{Material, von_mises};
 use crate::method::tlsph::TlState;
 use crate::method::tlsph::Tlsph;
 use crate::method::{BlowUp, Method};
@@ -70,6 +70,74 @@ pub fn run(case: &Case, opts: &RunOptions) -> Result<RunSummary, RunError> {
     }
 }
 
+/// The plan of a run: what is built once, what runs per step, and what the scene leaves
+/// out. `gpu` selects the GPU pass list.
+pub fn explain(case: &Case, gpu: bool) -> String {
+    let m = &case.method;
+    let mat = Material::new(&case.material);
+    let mut out = vec![
+        format!("case `{}`: {}D, spacing {} m, {} bod{}", case.name, case.dimension, case.spacing,
+            case.bodies.len(), if case.bodies.len() == 1 { "y" } else { "ies" }),
+        format!("method: {:?} with {:?} kernel, h/Δx = {}, {:?} correction, {:?} integrator",
+            m.name, m.kernel, m.h_over_dx, m.correction, m.integrator),
+        format!("backend: {}", if gpu { "GPU (wgpu/WGSL, f32)" } else { "CPU (rayon, f64)" }),
+        "once, on the reference configuration: cell-list neighbours (CSR), corrected gradients ∇0W̃_ij".into(),
+    ];
+    if mat.model.is_rate_based() {
+        out.push("state: u, v, ρ, S (rate model: Jaumann + linear EOS)".into());
+    } else {
+        out.push(format!(
+            "state: u, v (state model {:?}: no ρ or S integrated)",
+            mat.model
+        ));
+    }
+    out.push(format!(
+        "time step: {}",
+        match (m.dt, m.cfl) {
+            (Some(dt), _) => format!("fixed Δt = {dt:e} s"),
+            (_, Some(cfl)) => format!(
+                "CFL {cfl}: Δt = cfl·Δx/(c_p + max|v|), c_p = {:.1} m/s, updated at every check",
+                mat.p_wave_speed()
+            ),
+            _ => unreachable!("validated"),
+        }
+    ));
+    if gpu {
+        out.push("per step (one command encoder for all steps between host checks):".into());
+        out.extend(
+            crate::gpu::tlsph::describe_step(m.integrator)
+                .into_iter()
+                .map(|s| format!("  {s}")),
+        );
+    } else {
+        out.push(format!(
+            "per step: {} rate evaluations (two gathers each: F/P, then accelerations)",
+            m.integrator.stages()
+        ));
+    }
+    let mut left_out = vec!["neighbour rebuild (total-Lagrangian)"];
+    if case.bodies.len() == 1 {
+        left_out.push("contact (one body)");
+    }
+    if m.artificial_viscosity.is_none() {
+        left_out.push("artificial viscosity");
+    }
+    if mat.model.is_rate_based() {
+        left_out.push("P(F) evaluation");
+    } else {
+        left_out.push("continuity and Jaumann rates");
+    }
+    if case.boundaries.is_empty() {
+        left_out.push("boundary conditions");
+    }
+    out.push(format!("left out: {}", left_out.join(", ")));
+    out.push(format!(
+        "host checks every {CHECK_EVERY} steps or at samples: det F ≤ 0, non-finite state, energy ≤ {}·(E0 + W_ext); observers: {:?}",
+        case.run.energy_growth_limit, case.output.observers
+    ));
+    out.join("\n")
+}
+
 /// Builds the method of a case.
 pub fn build_method<D: Dim>(case: &Case) -> Result<Tlsph<D>, CaseError> {
     let disc = discretise::<D>(case)?;
@@ -93,6 +161,8 @@ pub trait Engine<D: Dim> {
     /// Non-finite state or det F ≤ 0 since the start.
     fn check(&mut self) -> Result<(), BlowUp>;
     fn snapshot(&mut self) -> Snapshot<'_, D>;
+    /// Waits until all submitted work is done (for timing).
+    fn finish(&mut self) {}
 }
 
 /// The CPU reference engine: a method and an integrator (f64, rayon).

@@ -151,6 +151,37 @@ enum Op {
     },
 }
 
+/// The passes of one GPU step, in order, as `meshless run --explain` prints them.
+pub fn describe_step(kind: IntegratorKind) -> Vec<String> {
+    program(kind)
+        .into_iter()
+        .map(|op| match op {
+            Op::Rates(src) => format!(
+                "rates of {src:?}: stress pass (F, P, ρ̇, Ṡ) + acceleration pass (a, u̇ = v, BCs)"
+            ),
+            Op::Copy(a, b) => format!("copy {a:?} → {b:?}"),
+            Op::Blend {
+                out,
+                x,
+                a,
+                b_dt,
+                b_const,
+            } => {
+                let b = if b_dt != 0.0 {
+                    format!("{b_dt:.4}·Δt")
+                } else {
+                    format!("{b_const:.4}")
+                };
+                format!("{out:?} = {a:.4}·{out:?} + {b}·{x:?}")
+            }
+            Op::Kick { out, b_dt } => format!("kick: v({out:?}) += {b_dt}·Δt·a"),
+            Op::Drift { out, b_dt } => {
+                format!("drift: u({out:?}) += {b_dt}·Δt·v, ρ, S += {b_dt}·Δt·rates")
+            }
+        })
+        .collect()
+}
+
 /// The operations of one step of each integrator (same schemes as `crate::integrate`).
 fn program(kind: IntegratorKind) -> Vec<Op> {
     use Buf::*;
@@ -805,6 +836,13 @@ impl<D: GpuDim + Flat> Engine<D> for GpuTlsph<D> {
             });
         }
         check_state(&self.x0, &self.state())
+    }
+
+    fn finish(&mut self) {
+        self.gpu
+            .device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .expect("waiting for the GPU queue");
     }
 
     fn snapshot(&mut self) -> Snapshot<'_, D> {

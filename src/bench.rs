@@ -1,0 +1,140 @@
+//! `meshless bench`: throughput of a case on a backend at several sizes, in
+//! particle-steps per second, measured over whole steps after a warm-up.
+
+use crate::gpu::Gpu;
+use crate::gpu::layout::{Flat, GpuDim};
+use crate::gpu::tlsph::{GpuTlsph, SetupError};
+use crate::run::{Backend, CpuEngine, Engine, RunError};
+use crate::scene::{Case, discretise};
+use crate::tensor::{D2, D3};
+use std::time::Instant;
+
+/// One measured configuration.
+#[derive(Clone, Debug)]
+pub struct BenchRow {
+    pub case: String,
+    pub backend: String,
+    pub particles: usize,
+    pub steps: u32,
+    /// Set-up time (discretisation, neighbours, corrected gradients, uploads) [s].
+    pub setup_seconds: f64,
+    /// Time of the measured steps [s].
+    pub seconds: f64,
+    pub particle_steps_per_second: f64,
+    /// Particle-steps/s times the rate evaluations per step of the integrator.
+    pub rate_evaluations_per_second: f64,
+}
+
+impl BenchRow {
+    pub const HEADER: &'static str =
+        "case,backend,particles,steps,setup_s,seconds,particle_steps_per_s,rate_evaluations_per_s";
+
+    pub fn csv(&self) -> String {
+        format!(
+            "{},{},{},{},{:.6},{:.6},{:.6e},{:.6e}",
+            self.case,
+            self.backend.replace(',', ";"),
+            self.particles,
+            self.steps,
+            self.setup_seconds,
+            self.seconds,
+            self.particle_steps_per_second,
+            self.rate_evaluations_per_second
+        )
+    }
+}
+
+/// Overrides that rescale a case to about `particles` particles: the spacing scales with
+/// (N0/N)^(1/d) and a fixed Δt with the spacing (same Courant number).
+pub fn resize(case: &Case, particles: f64) -> Result<Vec<String>, RunError> {
+    let n0 = match case.dimension {
+        2 => discretise::<D2>(case)?.x0.len(),
+        _ => discretise::<D3>(case)?.x0.len(),
+    } as f64;
+    let factor = (n0 / particles).powf(1.0 / f64::from(case.dimension));
+    let mut set = vec![format!("spacing={:e}", case.spacing * factor)];
+    if let Some(dt) = case.method.dt {
+        set.push(format!("method.dt={:e}", dt * factor));
+    }
+    Ok(set)
+}
+
+/// Measures `steps` steps of a case after one warm-up step.
+pub fn measure(case: &Case, backend: Backend, steps: u32) -> Result<BenchRow, RunError> {
+    match case.dimension {
+        2 => measure_dim::<D2>(case, backend, steps),
+        _ => measure_dim::<D3>(case, backend, steps),
+    }
+}
+
+fn measure_dim<D: GpuDim + Flat>(
+    case: &Case,
+    backend: Backend,
+    steps: u32,
+) -> Result<BenchRow, RunError> {
+    let started = Instant::now();
+    let use_gpu = match backend {
+        Backend::Cpu => None,
+        Backend::Gpu => Some(Gpu::new().map_err(|e| RunError::Backend(e.to_string()))?),
+        Backend::Auto => Gpu::new().ok(),
+    };
+    match use_gpu {
+        Some(gpu) => {
+            let engine = GpuTlsph::<D>::new(case, gpu).map_err(|e| match e {
+                SetupError::Case(c) => RunError::Case(c),
+                SetupError::Gpu(g) => RunError::Backend(g.to_string()),
+            })?;
+            time_steps::<D, _>(case, engine, started, steps)
+        }
+        None => time_steps::<D, _>(case, CpuEngine::<D>::new(case)?, started, steps),
+    }
+}
+
+/// Steps per submission when timing (one command encoder each on the GPU).
+const CHUNK: u32 = 100;
+
+fn time_steps<D: GpuDim + Flat, E: Engine<D>>(
+    case: &Case,
+    mut engine: E,
+    started: Instant,
+    steps: u32,
+) -> Result<BenchRow, RunError> {
+    let dt = match (case.method.dt, case.method.cfl) {
+        (Some(dt), _) => dt,
+        (_, Some(cfl)) => cfl * case.spacing / engine.max_signal_speed(),
+        _ => unreachable!("validated"),
+    };
+    engine
+        .advance(0.0, dt, 1)
+        .map_err(|cause| blow_up(case, cause))?;
+    engine.finish();
+    let setup_seconds = started.elapsed().as_secs_f64();
+    let timer = Instant::now();
+    let mut done = 0;
+    while done < steps {
+        let chunk = CHUNK.min(steps - done);
+        engine
+            .advance(f64::from(done + 1) * dt, dt, chunk)
+            .map_err(|cause| blow_up(case, cause))?;
+        done += chunk;
+    }
+    engine.finish();
+    let seconds = timer.elapsed().as_secs_f64();
+    engine.check().map_err(|cause| blow_up(case, cause))?;
+    let n = engine.reference().len();
+    let rate = n as f64 * f64::from(steps) / seconds;
+    Ok(BenchRow {
+        case: case.name.clone(),
+        backend: engine.backend(),
+        particles: n,
+        steps,
+        setup_seconds,
+        seconds,
+        particle_steps_per_second: rate,
+        rate_evaluations_per_second: rate * case.method.integrator.stages() as f64,
+    })
+}
+
+fn blow_up(case: &Case, cause: crate::method::BlowUp) -> RunError {
+    RunError::Backend(format!("benchmark of `{}` failed: {cause}", case.name))
+}
