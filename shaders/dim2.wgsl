@@ -29,3 +29,8 @@ fn cell_coords(x: vecd, origin: vec3<f32>, inv_cell: f32, dims: vec3<u32>) -> ve
     let c = clamp(floor((x - origin.xy) * inv_cell), vec2<f32>(0.0), vec2<f32>(dims.xy - vec2<u32>(1u)));
     return vec3<u32>(u32(c.x), u32(c.y), 0u);
 }
+
+// A vector padded to three components (z = 0).
+fn pad3(v: vecd) -> vec3<f32> {
+    return vec3<f32>(v, 0.0);
+}

@@ -31,3 +31,8 @@ fn cell_coords(x: vecd, origin: vec3<f32>, inv_cell: f32, dims: vec3<u32>) -> ve
     let c = clamp(floor((x - origin) * inv_cell), vec3<f32>(0.0), vec3<f32>(dims - vec3<u32>(1u)));
     return vec3<u32>(c);
 }
+
+// A vector as three components (the identity in 3D).
+fn pad3(v: vecd) -> vec3<f32> {
+    return v;
+}

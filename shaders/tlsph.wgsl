@@ -3,7 +3,8 @@
 //
 // Buffers are flat f32 arrays in structure-of-arrays segments: the state y = [u | v | ρ − ρ0 | S]
 // (ρ and S only for the rate model; the density is stored as its deviation so that the
-// pressure c0²(ρ − ρ0) keeps its digits in f32, as u = x − X does for positions), the per-particle kinematics kin = [F | P | F⁻ᵀ | ρ],
+// pressure c0²(ρ − ρ0) keeps its digits in f32, as u = x − X does for positions), the per-particle kinematics kin = [H = F − I | P | F⁻ᵀ | ρ] (H, not F, so that
+// small strains keep their f32 digits),
 // per-pair gradients grad (DIM per pair), reference positions x0 (DIM per particle).
 // Scene constants: N, DIM, RATE, MODEL (0 hypoelastic, 1 SVK, 2 neo-Hookean), RHO0, MU,
 // LAMBDA, BULK, AV, AV_ALPHA, AV_BETA, AV_ETA, H, segment offsets U_OFF, V_OFF, RHO_OFF,
@@ -104,7 +105,7 @@ fn stress(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
         rho = RHO0 / jac;
         p = pk1(h, f_inv_t, ln_det(h));
     }
-    mstore_kin(KF_OFF + DIM * DIM * i, f);
+    mstore_kin(KF_OFF + DIM * DIM * i, h);
     mstore_kin(KP_OFF + DIM * DIM * i, p);
     mstore_kin(KFIT_OFF + DIM * DIM * i, f_inv_t);
     kin[KRHO_OFF + i] = rho;

@@ -161,6 +161,10 @@ pub trait Engine<D: Dim> {
     /// Non-finite state or det F ≤ 0 since the start.
     fn check(&mut self) -> Result<(), BlowUp>;
     fn snapshot(&mut self) -> Snapshot<'_, D>;
+    /// Energies and momenta of the current state.
+    fn invariants(&mut self) -> Invariants {
+        Invariants::of(&self.snapshot())
+    }
     /// Waits until all submitted work is done (for timing).
     fn finish(&mut self) {}
 }
@@ -359,7 +363,7 @@ pub fn drive<D: Dim, E: Engine<D>>(
 
     let Clock { t, step, dt, .. } = clock;
     let wall = started.elapsed().as_secs_f64();
-    let inv = Invariants::of(&engine.snapshot());
+    let inv = engine.invariants();
     let summary = RunSummary {
         case: case.name.clone(),
         method: format!("{:?}", case.method.name).to_lowercase(),
@@ -458,12 +462,17 @@ impl Frames {
         }
     }
 
+    /// Whether a frame is due at time t.
+    fn due(&self, t: f64) -> bool {
+        self.index.is_some() && self.interval.is_some() && t >= self.next * (1.0 - 1e-9)
+    }
+
     /// Writes a frame when one is due (or `force`).
     fn write<D: Dim>(&mut self, snap: &Snapshot<D>, t: f64, force: bool) -> std::io::Result<()> {
+        let due = self.due(t);
         let Some(index) = &mut self.index else {
             return Ok(());
         };
-        let due = self.interval.is_some_and(|_| t >= self.next * (1.0 - 1e-9));
         if !(due || force) {
             return Ok(());
         }

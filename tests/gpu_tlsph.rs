@@ -8,7 +8,7 @@ use meshless::integrate::{Integrator, OdeSystem};
 use meshless::material::Material;
 use meshless::method::Method;
 use meshless::method::tlsph::{TlState, Tlsph};
-use meshless::run::build_method;
+use meshless::run::{CpuEngine, Engine, build_method};
 use meshless::scene::Case;
 use meshless::tensor::{D2, D3, Dim};
 use std::path::Path;
@@ -253,5 +253,73 @@ fn whole_runs_track_the_cpu() {
             dh < 2.4e-4,
             "disk {integrator}: relative angular momentum difference {dh:e}"
         );
+    }
+}
+
+#[test]
+fn reductions_match_the_cpu() {
+    // Energies and momenta summed on the GPU (per-workgroup f32 partials, f64 on the host)
+    // against the f64 path on the same state. Bounds: f32 sums of ≤ 256 terms per group,
+    // ~ 256 × 6e-8 = 1.5e-5 relative. The strain energy of a state model is second order
+    // in H, which the GPU sums from n terms in f32 (δH ≈ n·ε·|H|), so
+    // |δW| ≲ Σ_i V_i (λ + 2μ) n_i ε |H_i|², taken twice, on top of 1e-4 relative.
+    for model in ["hypoelastic", "neo-hookean"] {
+        let c = case(
+            "rotating-disk",
+            &["method.dt=5e-6", &format!("material.model={model}")],
+        );
+        let mut cpu = CpuEngine::<D2>::new(&c).unwrap();
+        cpu.advance(0.0, 5e-6, 200).unwrap();
+        let reference = cpu.invariants();
+        let mut g: GpuTlsph<D2> = GpuTlsph::new(&c, gpu()).unwrap();
+        g.set_state(&cpu.y);
+        let inv = Engine::<D2>::invariants(&mut g);
+        let rel = |a: f64, b: f64| (a - b).abs() / b.abs();
+        assert!(
+            rel(inv.kinetic, reference.kinetic) < 1.5e-5,
+            "{model}: kinetic {} vs {}",
+            inv.kinetic,
+            reference.kinetic
+        );
+        assert!(
+            rel(inv.angular[2], reference.angular[2]) < 1.5e-5,
+            "{model}: angular momentum"
+        );
+        let mat = Material::new(&c.material);
+        let f = cpu.method.deformation_gradient(&cpu.y);
+        let csr = cpu.method.neighbours();
+        let from_h: f64 = (0..f.len())
+            .map(|i| {
+                let h = f[i] - glam::DMat2::IDENTITY;
+                cpu.method.volume()[i]
+                    * (mat.lambda + 2.0 * mat.mu)
+                    * csr.neighbours(i).len() as f64
+                    * f64::from(f32::EPSILON)
+                    * D2::ddot(h, h)
+            })
+            .sum();
+        // The rate model's energy depends on S and ρ only, not on H.
+        let from_h = if mat.model.is_rate_based() {
+            0.0
+        } else {
+            from_h
+        };
+        let bound = 1e-4 * reference.strain + 2.0 * from_h;
+        let dw = (inv.strain - reference.strain).abs();
+        assert!(
+            dw < bound,
+            "{model}: strain energy {} vs {} (bound {bound:e})",
+            inv.strain,
+            reference.strain
+        );
+        // Linear momentum is ~0 (the disk spins about its centre): compare against Σ m|v|.
+        let scale: f64 = (0..cpu.y.v.len())
+            .map(|i| cpu.method.mass()[i] * cpu.y.v[i].length())
+            .sum();
+        assert!(
+            (inv.linear[0] - reference.linear[0]).abs() < 1.5e-5 * scale,
+            "{model}: momentum"
+        );
+        assert!(Engine::<D2>::check(&mut g).is_ok());
     }
 }

@@ -52,6 +52,11 @@ pub const TLSPH_ACCEL: Source = source!(
 );
 pub const CORRECTION: Source = source!("correction.wgsl", true, [("dx0", false), ("grad", true)]);
 pub const INTEGRATE: Source = source!("integrate.wgsl", false);
+pub const REDUCE: Source = source!(
+    "reduce.wgsl",
+    false,
+    [("y", false), ("kin", false), ("x_hi", false)]
+);
 pub const PAIR_OFFSETS: Source = source!(
     "pair_offsets.wgsl",
     false,
@@ -67,10 +72,12 @@ pub const SCENE: &[Source] = &[
     CORRECTION,
     INTEGRATE,
     PAIR_OFFSETS,
+    REDUCE,
 ];
 
 /// Every pass file, for validation.
 pub const ALL: &[Source] = &[
+    REDUCE,
     PAIR_OFFSETS,
     TLSPH_STRESS,
     TLSPH_ACCEL,

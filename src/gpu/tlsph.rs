@@ -16,7 +16,7 @@ use crate::kernel::Kernel;
 use crate::material::{Material, MaterialModel};
 use crate::method::BlowUp;
 use crate::method::tlsph::{TlState, check_state, stress_fields};
-use crate::observe::Snapshot;
+use crate::observe::{Invariants, Snapshot};
 use crate::run::Engine;
 use crate::scene::{Case, CaseError, discretise};
 use crate::tensor::Dim;
@@ -32,7 +32,7 @@ pub enum SetupError {
 }
 
 /// Offsets (in f32 entries) of the fields in the flat state and kinematics buffers.
-/// The state holds u, v, ρ − ρ0 and S; the kinematics F, P, F⁻ᵀ and ρ.
+/// The state holds u, v, ρ − ρ0 and S; the kinematics H = F − I, P, F⁻ᵀ and ρ.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Layout {
     pub n: usize,
@@ -303,7 +303,11 @@ pub struct GpuTlsph<D: GpuDim + Flat> {
     /// The stress pass on `Y` writing into `Acc` (for snapshots: F at the current state
     /// without touching the integrator's rates).
     kinematics_y: wgpu::BindGroup,
-    power: wgpu::Buffer,
+    reduce: wgpu::ComputePipeline,
+    reduce_bind: wgpu::BindGroup,
+    partials: wgpu::Buffer,
+    /// The reduction of the current state, until the next advance.
+    reduced: Option<Reduced>,
     constrained: Vec<(u32, u8)>,
     /// Simulated time advanced so far, and the work balance of supports and loads.
     time: f64,
@@ -464,6 +468,20 @@ impl<D: GpuDim + Flat> GpuTlsph<D> {
                 ),
             }
         };
+        let reduce = gpu.pipeline("reduce", &compose(&shaders::REDUCE), "reduce");
+        let (gx, gy) = gpu.groups(n as u32);
+        let partials = gpu.zeroed("partials", u64::from(gx * gy) * REDUCED as u64 * 4);
+        let reduce_bind = gpu.bind(
+            &reduce,
+            &[
+                &states[Buf::Y as usize],
+                &kin,
+                &vol,
+                &x_hi,
+                &power,
+                &partials,
+            ],
+        );
         let rates_y = rates(Buf::Y);
         let kinematics_y = gpu.bind(
             &stress,
@@ -529,7 +547,10 @@ impl<D: GpuDim + Flat> GpuTlsph<D> {
             vol: disc.vol,
             rates_y,
             kinematics_y,
-            power,
+            reduce,
+            reduce_bind,
+            partials,
+            reduced: None,
             constrained: boundary.constrained.clone(),
             time: 0.0,
             work: 0.0,
@@ -690,6 +711,7 @@ impl<D: GpuDim + Flat> GpuTlsph<D> {
     /// Records `steps` steps of size `dt` into one command encoder and submits them.
     pub fn advance_steps(&mut self, dt: f64, steps: u32) {
         self.time += dt * f64::from(steps);
+        self.reduced = None;
         self.set_dt(dt);
         let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
         if self.integrator == IntegratorKind::Leapfrog && !self.primed {
@@ -777,13 +799,17 @@ impl<D: GpuDim + Flat> GpuTlsph<D> {
         g.chunks_exact(D::N).map(D::read_v).collect()
     }
 
-    /// F and P of the last rate evaluation.
+    /// F and P of the last rate evaluation (the GPU keeps H = F − I; I is added in f64).
     pub fn kinematics(&self) -> (Vec<D::T>, Vec<D::T>) {
         let kin: Vec<f32> = self.gpu.read(&self.kin);
         let l = &self.layout;
         let t = D::N * D::N;
-        let tensors = |off: usize| (0..l.n).map(|i| D::read_t(&kin[off + t * i..])).collect();
-        (tensors(l.kin_f), tensors(l.kin_p))
+        let tensor = |off: usize, i: usize| D::read_t(&kin[off + t * i..]);
+        let f = (0..l.n)
+            .map(|i| D::identity() + tensor(l.kin_f, i))
+            .collect();
+        let p = (0..l.n).map(|i| tensor(l.kin_p, i)).collect();
+        (f, p)
     }
 
     /// The first particle whose det F ≤ 0 (or NaN) in any evaluation so far.
@@ -811,15 +837,12 @@ impl<D: GpuDim + Flat> Engine<D> for GpuTlsph<D> {
     }
 
     fn max_signal_speed(&mut self) -> f64 {
-        let y = self.state();
-        let vmax = y.v.iter().map(|&v| D::norm2(v)).fold(0.0, f64::max).sqrt();
-        self.material.p_wave_speed() + vmax
+        self.material.p_wave_speed() + self.reduction().max_speed
     }
 
     /// Trapezoidal over the intervals between calls (the driver calls it at every check).
     fn external_work(&mut self) -> f64 {
-        let p: Vec<f32> = self.gpu.read(&self.power);
-        let power: f64 = p.iter().map(|&x| f64::from(x)).sum();
+        let power = self.reduction().power;
         let (t_last, p_last) = self.last_power;
         self.work += 0.5 * (p_last + power) * (self.time - t_last);
         self.last_power = (self.time, power);
@@ -835,7 +858,14 @@ impl<D: GpuDim + Flat> Engine<D> for GpuTlsph<D> {
                 value: 0.0,
             });
         }
-        check_state(&self.x0, &self.state())
+        if self.reduction().non_finite {
+            return check_state(&self.x0, &self.state());
+        }
+        Ok(())
+    }
+
+    fn invariants(&mut self) -> Invariants {
+        self.reduction().invariants
     }
 
     fn finish(&mut self) {
@@ -884,4 +914,63 @@ fn bounding_box<D: Dim>(x: &[D::V]) -> ([f64; 3], [f64; 3]) {
         }
     }
     (lo, hi)
+}
+
+/// Values per workgroup written by `reduce.wgsl`.
+const REDUCED: usize = 11;
+
+/// The GPU reduction of one state, summed on the host.
+#[derive(Clone, Copy, Debug)]
+struct Reduced {
+    invariants: Invariants,
+    /// Power of supports and loads.
+    power: f64,
+    max_speed: f64,
+    non_finite: bool,
+}
+
+impl<D: GpuDim + Flat> GpuTlsph<D> {
+    /// Stress pass on the current state (F into the kinematics) and the reduction; reads
+    /// back REDUCED values per workgroup only.
+    fn reduction(&mut self) -> Reduced {
+        if let Some(r) = self.reduced {
+            return r;
+        }
+        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            let (x, y) = self.gpu.groups(self.layout.n as u32);
+            pass.set_pipeline(&self.stress);
+            pass.set_bind_group(0, &self.kinematics_y, &[]);
+            pass.dispatch_workgroups(x, y, 1);
+            pass.set_pipeline(&self.reduce);
+            pass.set_bind_group(0, &self.reduce_bind, &[]);
+            pass.dispatch_workgroups(x, y, 1);
+        }
+        self.gpu.queue.submit([encoder.finish()]);
+        let partials: Vec<f32> = self.gpu.read(&self.partials);
+        let mut q = [0.0f64; REDUCED];
+        for group in partials.chunks_exact(REDUCED) {
+            for (k, &v) in group.iter().enumerate() {
+                q[k] = if k == 9 {
+                    q[k].max(f64::from(v))
+                } else {
+                    q[k] + f64::from(v)
+                };
+            }
+        }
+        let r = Reduced {
+            invariants: Invariants {
+                kinetic: q[0],
+                strain: q[1],
+                linear: [q[2], q[3], q[4]],
+                angular: [q[5], q[6], q[7]],
+            },
+            power: q[8],
+            max_speed: q[9].sqrt(),
+            non_finite: q[10] != 0.0 || !q[..10].iter().all(|x| x.is_finite()),
+        };
+        self.reduced = Some(r);
+        r
+    }
 }

@@ -1,0 +1,138 @@
+// Global sums of one state, per workgroup: kinetic and strain energy, linear and angular
+// momentum, the power of supports and loads, max |v|² and a count of non-finite entries.
+// One invocation per particle; a tree reduction in workgroup memory writes REDUCED values
+// per workgroup to `partials`, summed (max for |v|²) on the host in f64. Needs the stress
+// pass to have filled kin (F) for the same state. Layout and constants as in tlsph.wgsl.
+
+const REDUCED: u32 = 11u;
+
+@group(0) @binding(0) var<storage, read> y: array<f32>;
+@group(0) @binding(1) var<storage, read> kin: array<f32>;
+@group(0) @binding(2) var<storage, read> vol: array<f32>;
+@group(0) @binding(3) var<storage, read> x_hi: array<f32>;
+@group(0) @binding(4) var<storage, read> power: array<f32>;
+@group(0) @binding(5) var<storage, read_write> partials: array<f32>;
+
+var<workgroup> sums: array<array<f32, REDUCED>, 256>;
+
+fn pressure(rho_dev: f32) -> f32 {
+    return BULK / RHO0 * rho_dev;
+}
+
+// Strain energy density per reference volume (src/material.rs `energy_density`), in
+// H = F − I for the state models so that small strains keep their digits.
+fn energy_density(i: u32, h: matd) -> f32 {
+    if RATE == 1u {
+        let s = mload_y(S_OFF + DIM * DIM * i);
+        var szz = 0.0;
+        if DIM == 2u {
+            szz = -trace_d(s);
+        }
+        let p = pressure(y[RHO_OFF + i]);
+        return (ddot_d(s, s) + szz * szz) / (4.0 * MU) + p * p / (2.0 * BULK);
+    }
+    if MODEL == 1u {
+        let e = (h + transpose(h) + transpose(h) * h) * 0.5;
+        let tr = trace_d(e);
+        return 0.5 * LAMBDA * tr * tr + MU * ddot_d(e, e);
+    }
+    // ψ = μ/2 (tr C − DIM) − μ ln J + λ/2 ln²J with tr C − DIM = 2 tr H + H:H, regrouped so
+    // that the first-order terms cancel analytically: J − 1 = x = tr H + q, and
+    // tr H − ln J = (x − ln(1 + x)) − q.
+    let q = det_excess(h) - trace_d(h);
+    let x = trace_d(h) + q;
+    let ln_j = log_1p(x);
+    return 0.5 * MU * ddot_d(h, h) + MU * (x_minus_log_1p(x) - q) + 0.5 * LAMBDA * ln_j * ln_j;
+}
+
+// det(I + H) − 1 from the invariants of H.
+fn det_excess(h: matd) -> f32 {
+    let tr = trace_d(h);
+    var e = tr + determinant(h);
+    if DIM == 3u {
+        e += 0.5 * (tr * tr - trace_d(h * h));
+    }
+    return e;
+}
+
+// ln(1 + x) with its rounding error removed (Kahan's trick).
+fn log_1p(x: f32) -> f32 {
+    let one_plus = 1.0 + x;
+    if one_plus == 1.0 {
+        return x;
+    }
+    return log(one_plus) * x / (one_plus - 1.0);
+}
+
+// x − ln(1 + x) without cancellation: its series for small x.
+fn x_minus_log_1p(x: f32) -> f32 {
+    if abs(x) < 1e-2 {
+        return x * x * (0.5 - x * (1.0 / 3.0 - x * (0.25 - x * 0.2)));
+    }
+    return x - log(1.0 + x);
+}
+
+fn finite(x: f32) -> bool {
+    // NaN fails both comparisons; ±inf fails the bound.
+    return abs(x) <= 3.0e38;
+}
+
+@compute @workgroup_size(256)
+fn reduce(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+    @builtin(workgroup_id) wid: vec3<u32>,
+) {
+    let i = gid.x + gid.y * nwg.x * 256u;
+    var q: array<f32, REDUCED>;
+    if i < N {
+        let m = RHO0 * vol[i];
+        let u = pad3(vload_y(U_OFF + DIM * i));
+        let v = pad3(vload_y(V_OFF + DIM * i));
+        let x = pad3(vload_x_hi(DIM * i)) + u;
+        let h = mload_kin(KF_OFF + DIM * DIM * i);
+        let p = m * v;
+        let l = cross(x, p);
+        q[0] = 0.5 * dot(p, v);
+        q[1] = vol[i] * energy_density(i, h);
+        q[2] = p.x;
+        q[3] = p.y;
+        q[4] = p.z;
+        q[5] = l.x;
+        q[6] = l.y;
+        q[7] = l.z;
+        q[8] = power[i];
+        q[9] = dot(v, v);
+        var bad = 0.0;
+        for (var k = 0u; k < 3u; k++) {
+            if !finite(u[k]) || !finite(v[k]) {
+                bad = 1.0;
+            }
+        }
+        if RATE == 1u && !finite(y[RHO_OFF + i]) {
+            bad = 1.0;
+        }
+        q[10] = bad;
+    }
+    sums[lid] = q;
+    workgroupBarrier();
+    for (var stride = 128u; stride > 0u; stride >>= 1u) {
+        if lid < stride {
+            for (var k = 0u; k < REDUCED; k++) {
+                if k == 9u {
+                    sums[lid][k] = max(sums[lid][k], sums[lid + stride][k]);
+                } else {
+                    sums[lid][k] += sums[lid + stride][k];
+                }
+            }
+        }
+        workgroupBarrier();
+    }
+    if lid == 0u {
+        let group = wid.x + wid.y * nwg.x;
+        for (var k = 0u; k < REDUCED; k++) {
+            partials[group * REDUCED + k] = sums[0][k];
+        }
+    }
+}
