@@ -15,63 +15,6 @@ const REDUCED: u32 = 11u;
 
 var<workgroup> sums: array<array<f32, REDUCED>, 256>;
 
-fn pressure(rho_dev: f32) -> f32 {
-    return BULK / RHO0 * rho_dev;
-}
-
-// Strain energy density per reference volume (src/material.rs `energy_density`), in
-// H = F − I for the state models so that small strains keep their digits.
-fn energy_density(i: u32, h: matd) -> f32 {
-    if RATE == 1u {
-        let s = mload_y(S_OFF + DIM * DIM * i);
-        var szz = 0.0;
-        if DIM == 2u {
-            szz = -trace_d(s);
-        }
-        let p = pressure(y[RHO_OFF + i]);
-        return (ddot_d(s, s) + szz * szz) / (4.0 * MU) + p * p / (2.0 * BULK);
-    }
-    if MODEL == 1u {
-        let e = (h + transpose(h) + transpose(h) * h) * 0.5;
-        let tr = trace_d(e);
-        return 0.5 * LAMBDA * tr * tr + MU * ddot_d(e, e);
-    }
-    // ψ = μ/2 (tr C − DIM) − μ ln J + λ/2 ln²J with tr C − DIM = 2 tr H + H:H, regrouped so
-    // that the first-order terms cancel analytically: J − 1 = x = tr H + q, and
-    // tr H − ln J = (x − ln(1 + x)) − q.
-    let q = det_excess(h) - trace_d(h);
-    let x = trace_d(h) + q;
-    let ln_j = log_1p(x);
-    return 0.5 * MU * ddot_d(h, h) + MU * (x_minus_log_1p(x) - q) + 0.5 * LAMBDA * ln_j * ln_j;
-}
-
-// det(I + H) − 1 from the invariants of H.
-fn det_excess(h: matd) -> f32 {
-    let tr = trace_d(h);
-    var e = tr + determinant(h);
-    if DIM == 3u {
-        e += 0.5 * (tr * tr - trace_d(h * h));
-    }
-    return e;
-}
-
-// ln(1 + x) with its rounding error removed (Kahan's trick).
-fn log_1p(x: f32) -> f32 {
-    let one_plus = 1.0 + x;
-    if one_plus == 1.0 {
-        return x;
-    }
-    return log(one_plus) * x / (one_plus - 1.0);
-}
-
-// x − ln(1 + x) without cancellation: its series for small x.
-fn x_minus_log_1p(x: f32) -> f32 {
-    if abs(x) < 1e-2 {
-        return x * x * (0.5 - x * (1.0 / 3.0 - x * (0.25 - x * 0.2)));
-    }
-    return x - log(1.0 + x);
-}
-
 fn finite(x: f32) -> bool {
     // NaN fails both comparisons; ±inf fails the bound.
     return abs(x) <= 3.0e38;
@@ -95,7 +38,13 @@ fn reduce(
         let p = m * v;
         let l = cross(x, p);
         q[0] = 0.5 * dot(p, v);
-        q[1] = vol[i] * energy_density(i, h);
+        var s: matd;
+        var rho_dev = 0.0;
+        if RATE == 1u {
+            s = mload_y(S_OFF + DIM * DIM * i);
+            rho_dev = y[RHO_OFF + i];
+        }
+        q[1] = vol[i] * energy_density(h, s, rho_dev);
         q[2] = p.x;
         q[3] = p.y;
         q[4] = p.z;

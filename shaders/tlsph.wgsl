@@ -3,9 +3,9 @@
 //
 // Buffers are flat f32 arrays in structure-of-arrays segments: the state y = [u | v | ρ − ρ0 | S]
 // (ρ and S only for the rate model; the density is stored as its deviation so that the
-// pressure c0²(ρ − ρ0) keeps its digits in f32, as u = x − X does for positions), the per-particle kinematics kin = [H = F − I | P | F⁻ᵀ | ρ] (H, not F, so that
-// small strains keep their f32 digits),
-// per-pair gradients grad (DIM per pair), reference positions x0 (DIM per particle).
+// pressure c0²(ρ − ρ0) keeps its digits in f32, as u = x − X does for positions), the
+// per-particle kinematics kin = [H = F − I | P | F⁻ᵀ | ρ] (H, not F, for the same reason),
+// and the per-pair gradients grad (DIM per pair). Constitutive functions: mechanics.wgsl.
 // Scene constants: N, DIM, RATE, MODEL (0 hypoelastic, 1 SVK, 2 neo-Hookean), RHO0, MU,
 // LAMBDA, BULK, AV, AV_ALPHA, AV_BETA, AV_ETA, H, segment offsets U_OFF, V_OFF, RHO_OFF,
 // S_OFF, KF_OFF, KP_OFF, KFIT_OFF, KRHO_OFF.
@@ -18,47 +18,6 @@
 @group(0) @binding(5) var<storage, read_write> kin: array<f32>;
 @group(0) @binding(6) var<storage, read_write> d: array<f32>;
 @group(0) @binding(7) var<storage, read_write> status: array<atomic<u32>>;
-
-// Linear EOS from the density deviation ρ − ρ0, positive in compression.
-fn pressure(rho_dev: f32) -> f32 {
-    return BULK / RHO0 * rho_dev;
-}
-
-// Jaumann deviatoric stress rate (seed 000 eqs 89–92).
-fn jaumann(s: matd, l: matd) -> matd {
-    let lt = transpose(l);
-    let eps = (l + lt) * 0.5;
-    let omega = (l - lt) * 0.5;
-    let dev = eps - identity_d() * (trace_d(eps) / 3.0);
-    return dev * (2.0 * MU) - s * omega + omega * s;
-}
-
-// First Piola–Kirchhoff stress of the state-based models, written in H = F − I so that
-// small strains keep their f32 digits: E = ½(H + Hᵀ + HᵀH), F − F⁻ᵀ = H + Hᵀ F⁻ᵀ.
-fn pk1(h: matd, f_inv_t: matd, ln_j: f32) -> matd {
-    let f = identity_d() + h;
-    if MODEL == 1u {
-        let e = (h + transpose(h) + transpose(h) * h) * 0.5;
-        return f * (identity_d() * (LAMBDA * trace_d(e)) + e * (2.0 * MU));
-    }
-    return (h + transpose(h) * f_inv_t) * MU + f_inv_t * (LAMBDA * ln_j);
-}
-
-// ln det(I + H) without forming 1 + small: det(I + H) − 1 from the invariants of H.
-fn ln_det(h: matd) -> f32 {
-    var excess = trace_d(h) + determinant(h);
-    if DIM == 3u {
-        // det(I + H) = 1 + tr H + ½((tr H)² − tr(H²)) + det H in 3D.
-        let tr = trace_d(h);
-        excess += 0.5 * (tr * tr - trace_d(h * h));
-    }
-    // log(1 + x) with its first-order error removed (Kahan's trick).
-    let one_plus = 1.0 + excess;
-    if one_plus == 1.0 {
-        return excess;
-    }
-    return log(one_plus) * excess / (one_plus - 1.0);
-}
 
 fn index(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
     return gid.x + gid.y * nwg.x * 256u;
@@ -103,7 +62,7 @@ fn stress(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
         p = (s - identity_d() * pressure(rho_dev)) * f_inv_t * jac;
     } else {
         rho = RHO0 / jac;
-        p = pk1(h, f_inv_t, ln_det(h));
+        p = pk1(h, f_inv_t);
     }
     mstore_kin(KF_OFF + DIM * DIM * i, h);
     mstore_kin(KP_OFF + DIM * DIM * i, p);

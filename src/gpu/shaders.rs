@@ -12,35 +12,44 @@ use crate::kernel::{Kernel, KernelKind};
 pub struct Source {
     pub name: &'static str,
     pub text: &'static str,
-    /// Whether it calls the kernel functions of `kernel.wgsl`.
-    pub uses_kernel: bool,
+    /// Shared function files it calls (`kernel.wgsl`, `mechanics.wgsl`), included first.
+    pub common: &'static [&'static str],
     /// Flat f32 buffers that get `vload_/mload_` (and, if writable, `vstore_/mstore_`)
     /// accessors for DIM-vectors and DIM×DIM column-major tensors.
     pub flat: &'static [(&'static str, bool)],
 }
 
 macro_rules! source {
-    ($name:literal, $kernel:expr) => {
-        source!($name, $kernel, [])
+    ($name:literal) => {
+        source!($name, [], [])
     };
-    ($name:literal, $kernel:expr, [$(($buf:literal, $rw:literal)),*]) => {
+    ($name:literal, [$($common:literal),*], [$(($buf:literal, $rw:literal)),*]) => {
         Source {
             name: $name,
             text: include_str!(concat!("../../shaders/", $name)),
-            uses_kernel: $kernel,
+            common: &[$($common),*],
             flat: &[$(($buf, $rw)),*],
         }
     };
 }
 
+/// Shared function files, by name.
+const COMMON: &[(&str, &str)] = &[
+    ("kernel.wgsl", include_str!("../../shaders/kernel.wgsl")),
+    (
+        "mechanics.wgsl",
+        include_str!("../../shaders/mechanics.wgsl"),
+    ),
+];
+
 pub const TLSPH_STRESS: Source = source!(
     "tlsph.wgsl",
-    false,
+    ["mechanics.wgsl"],
     [("y", false), ("grad", false), ("d", true), ("kin", true)]
 );
 pub const TLSPH_ACCEL: Source = source!(
     "tlsph_accel.wgsl",
-    false,
+    [],
     [
         ("y", false),
         ("grad", false),
@@ -50,20 +59,22 @@ pub const TLSPH_ACCEL: Source = source!(
         ("d", true)
     ]
 );
-pub const CORRECTION: Source = source!("correction.wgsl", true, [("dx0", false), ("grad", true)]);
-pub const INTEGRATE: Source = source!("integrate.wgsl", false);
+pub const CORRECTION: Source = source!(
+    "correction.wgsl",
+    ["kernel.wgsl"],
+    [("dx0", false), ("grad", true)]
+);
+pub const INTEGRATE: Source = source!("integrate.wgsl");
 pub const REDUCE: Source = source!(
     "reduce.wgsl",
-    false,
+    ["mechanics.wgsl"],
     [("y", false), ("kin", false), ("x_hi", false)]
 );
 pub const PAIR_OFFSETS: Source = source!(
     "pair_offsets.wgsl",
-    false,
+    [],
     [("x_hi", false), ("x_lo", false), ("dx0", true)]
 );
-
-pub const KERNEL: &str = include_str!("../../shaders/kernel.wgsl");
 
 /// The passes compiled with a scene's constants (`gpu::tlsph::scene_constants`).
 pub const SCENE: &[Source] = &[
@@ -83,8 +94,8 @@ pub const ALL: &[Source] = &[
     TLSPH_ACCEL,
     CORRECTION,
     INTEGRATE,
-    source!("cell_list.wgsl", false),
-    source!("scan.wgsl", false),
+    source!("cell_list.wgsl"),
+    source!("scan.wgsl"),
 ];
 
 /// Scene constants compiled into a variant.
@@ -130,8 +141,12 @@ pub fn compose<D: GpuDim>(source: &Source, constants: &Constants) -> String {
     let mut text = String::new();
     text.push_str(D::PRELUDE);
     text.push_str(&constants.render());
-    if source.uses_kernel {
-        text.push_str(KERNEL);
+    for name in source.common {
+        let (_, common) = COMMON
+            .iter()
+            .find(|(n, _)| n == name)
+            .unwrap_or_else(|| panic!("{}: no shared shader file {name}", source.name));
+        text.push_str(common);
     }
     for &(name, writable) in source.flat {
         text.push_str(&accessors(name, D::N, writable));

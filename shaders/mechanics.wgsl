@@ -1,0 +1,79 @@
+// Constitutive functions shared by the TLSPH passes and the reduction (src/material.rs in
+// f32). State models are written in H = F − I so that small strains keep their digits.
+// Needs the scene constants RHO0, MU, LAMBDA, BULK, MODEL, RATE.
+
+// Linear EOS from the density deviation ρ − ρ0, positive in compression.
+fn pressure(rho_dev: f32) -> f32 {
+    return BULK / RHO0 * rho_dev;
+}
+
+// Jaumann deviatoric stress rate (seed 000 eqs 89–92).
+fn jaumann(s: matd, l: matd) -> matd {
+    let lt = transpose(l);
+    let eps = (l + lt) * 0.5;
+    let omega = (l - lt) * 0.5;
+    let dev = eps - identity_d() * (trace_d(eps) / 3.0);
+    return dev * (2.0 * MU) - s * omega + omega * s;
+}
+
+// det(I + H) − 1 from the invariants of H.
+fn det_excess(h: matd) -> f32 {
+    let tr = trace_d(h);
+    var e = tr + determinant(h);
+    if DIM == 3u {
+        e += 0.5 * (tr * tr - trace_d(h * h));
+    }
+    return e;
+}
+
+// ln(1 + x) with its rounding error removed (Kahan's trick).
+fn log_1p(x: f32) -> f32 {
+    let one_plus = 1.0 + x;
+    if one_plus == 1.0 {
+        return x;
+    }
+    return log(one_plus) * x / (one_plus - 1.0);
+}
+
+// x − ln(1 + x) without cancellation: its series for small x.
+fn x_minus_log_1p(x: f32) -> f32 {
+    if abs(x) < 1e-2 {
+        return x * x * (0.5 - x * (1.0 / 3.0 - x * (0.25 - x * 0.2)));
+    }
+    return x - log(1.0 + x);
+}
+
+// First Piola–Kirchhoff stress of the state models: E = ½(H + Hᵀ + HᵀH) for SVK;
+// F − F⁻ᵀ = H + Hᵀ F⁻ᵀ for neo-Hookean.
+fn pk1(h: matd, f_inv_t: matd) -> matd {
+    let f = identity_d() + h;
+    if MODEL == 1u {
+        let e = (h + transpose(h) + transpose(h) * h) * 0.5;
+        return f * (identity_d() * (LAMBDA * trace_d(e)) + e * (2.0 * MU));
+    }
+    return (h + transpose(h) * f_inv_t) * MU + f_inv_t * (LAMBDA * log_1p(det_excess(h)));
+}
+
+// Strain-energy density per reference volume. Rate model: the complementary energy
+// S:S/(4G) + p²/(2K) (with S_zz = −tr S in 2D). Neo-Hookean: ψ = μ/2 (tr C − DIM) − μ ln J
+// + λ/2 ln²J regrouped so the first-order terms cancel analytically: with J − 1 = x =
+// tr H + q, tr C − DIM = 2 tr H + H:H and tr H − ln J = (x − ln(1 + x)) − q.
+fn energy_density(h: matd, s: matd, rho_dev: f32) -> f32 {
+    if RATE == 1u {
+        var szz = 0.0;
+        if DIM == 2u {
+            szz = -trace_d(s);
+        }
+        let p = pressure(rho_dev);
+        return (ddot_d(s, s) + szz * szz) / (4.0 * MU) + p * p / (2.0 * BULK);
+    }
+    if MODEL == 1u {
+        let e = (h + transpose(h) + transpose(h) * h) * 0.5;
+        let tr = trace_d(e);
+        return 0.5 * LAMBDA * tr * tr + MU * ddot_d(e, e);
+    }
+    let x = det_excess(h);
+    let q = x - trace_d(h);
+    let ln_j = log_1p(x);
+    return 0.5 * MU * ddot_d(h, h) + MU * (x_minus_log_1p(x) - q) + 0.5 * LAMBDA * ln_j * ln_j;
+}
