@@ -1,7 +1,7 @@
 //! WGSL sources and their composition into scene-specific variants.
 //!
 //! A shader is the dimension prelude (`shaders/dim2.wgsl` or `dim3.wgsl`), a block of
-//! scene constants, the shared kernel functions where needed, and the pass file. Scene
+//! scene constants, the shared function files it names, and the pass file. Scene
 //! constants are compiled in (one variant per scene), so a 2D scene runs 2D code only.
 
 use super::layout::GpuDim;
