@@ -2,7 +2,7 @@
 //! particle-steps per second, measured over whole steps after a warm-up.
 
 use crate::gpu::Gpu;
-use crate::gpu::layout::{Flat, GpuDim};
+use crate::gpu::layout::GpuDim;
 use crate::gpu::tlsph::{GpuTlsph, SetupError};
 use crate::run::{Backend, CpuEngine, Engine, RunError};
 use crate::scene::{Case, discretise};
@@ -67,11 +67,7 @@ pub fn measure(case: &Case, backend: Backend, steps: u32) -> Result<BenchRow, Ru
     }
 }
 
-fn measure_dim<D: GpuDim + Flat>(
-    case: &Case,
-    backend: Backend,
-    steps: u32,
-) -> Result<BenchRow, RunError> {
+fn measure_dim<D: GpuDim>(case: &Case, backend: Backend, steps: u32) -> Result<BenchRow, RunError> {
     let started = Instant::now();
     let use_gpu = match backend {
         Backend::Cpu => None,
@@ -93,7 +89,7 @@ fn measure_dim<D: GpuDim + Flat>(
 /// Steps per submission when timing (one command encoder each on the GPU).
 const CHUNK: u32 = 100;
 
-fn time_steps<D: GpuDim + Flat, E: Engine<D>>(
+fn time_steps<D: GpuDim, E: Engine<D>>(
     case: &Case,
     mut engine: E,
     started: Instant,

@@ -2,7 +2,7 @@
 //! and blow-up detection, and writes the summary.
 
 use crate::gpu::Gpu;
-use crate::gpu::layout::{Flat, GpuDim};
+use crate::gpu::layout::GpuDim;
 use crate::gpu::tlsph::{GpuTlsph, SetupError};
 use crate::integrate::Integrator;
 use crate::material::{Material, von_mises};
@@ -238,7 +238,7 @@ impl<D: Dim> Engine<D> for CpuEngine<D> {
 /// Steps between blow-up checks (and CFL updates) when samples are rarer.
 const CHECK_EVERY: u64 = 100;
 
-fn run_dim<D: GpuDim + Flat>(case: &Case, opts: &RunOptions) -> Result<RunSummary, RunError> {
+fn run_dim<D: GpuDim>(case: &Case, opts: &RunOptions) -> Result<RunSummary, RunError> {
     let gpu = match opts.backend {
         Backend::Cpu => None,
         Backend::Gpu => Some(Gpu::new().map_err(|e| RunError::Backend(e.to_string()))?),

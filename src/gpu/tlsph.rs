@@ -276,7 +276,7 @@ enum Recorded {
 }
 
 /// The TLSPH system resident on the GPU.
-pub struct GpuTlsph<D: GpuDim + Flat> {
+pub struct GpuTlsph<D: GpuDim> {
     gpu: Gpu,
     layout: Layout,
     material: Material,
@@ -318,7 +318,7 @@ pub struct GpuTlsph<D: GpuDim + Flat> {
 /// Value of `status[0]` when no particle failed.
 const STATUS_OK: u32 = u32::MAX;
 
-impl<D: GpuDim + Flat> GpuTlsph<D> {
+impl<D: GpuDim> GpuTlsph<D> {
     /// Discretises the case, builds neighbours and corrected gradients, and uploads the
     /// initial state.
     pub fn new(case: &Case, gpu: Gpu) -> Result<Self, SetupError> {
@@ -612,7 +612,7 @@ fn initial_state<D: Flat>(layout: &Layout, v0: &[D::V]) -> Vec<f32> {
     y
 }
 
-impl<D: GpuDim + Flat> GpuTlsph<D> {
+impl<D: GpuDim> GpuTlsph<D> {
     pub fn layout(&self) -> &Layout {
         &self.layout
     }
@@ -818,7 +818,7 @@ impl<D: GpuDim + Flat> GpuTlsph<D> {
     }
 }
 
-impl<D: GpuDim + Flat> Engine<D> for GpuTlsph<D> {
+impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
     fn backend(&self) -> String {
         format!("gpu: {}", self.gpu.name())
     }
@@ -929,7 +929,7 @@ struct Reduced {
     non_finite: bool,
 }
 
-impl<D: GpuDim + Flat> GpuTlsph<D> {
+impl<D: GpuDim> GpuTlsph<D> {
     /// Stress pass on the current state (F into the kinematics) and the reduction; reads
     /// back REDUCED values per workgroup only.
     fn reduction(&mut self) -> Reduced {
