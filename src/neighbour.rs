@@ -50,7 +50,9 @@ struct CellGrid {
 }
 
 impl CellGrid {
-    fn new(points: &[[f64; 3]], cell: f64, dim: usize) -> Self {
+    /// A grid of cells of at least `min_cell`, enlarged (which only adds candidates) while
+    /// it would hold more than max(8n, 4096) cells, so sparse clouds stay in memory.
+    fn new(points: &[[f64; 3]], min_cell: f64, dim: usize) -> Self {
         let mut lo = [f64::INFINITY; 3];
         let mut hi = [f64::NEG_INFINITY; 3];
         for p in points {
@@ -58,6 +60,16 @@ impl CellGrid {
                 lo[k] = lo[k].min(p[k]);
                 hi[k] = hi[k].max(p[k]);
             }
+        }
+        let budget = (8 * points.len()).max(4096) as f64;
+        let count = |cell: f64| {
+            (0..dim)
+                .map(|k| ((hi[k] - lo[k]) / cell).floor() + 1.0)
+                .product::<f64>()
+        };
+        let mut cell = min_cell;
+        while count(cell) > budget {
+            cell *= 2.0;
         }
         let mut dims = [1usize; 3];
         for k in 0..dim {
@@ -208,6 +220,19 @@ mod tests {
             .map(|_| DVec3::new(lcg(&mut s), lcg(&mut s) * 2.0, lcg(&mut s)))
             .collect();
         check::<D3>(&random, 0.21);
+    }
+
+    #[test]
+    fn sparse_clouds_use_a_bounded_grid() {
+        // Two clusters 1e6 radii apart: a grid of radius-sized cells would need 1e12 cells.
+        let mut s = 3;
+        let x: Vec<DVec2> = (0..400)
+            .map(|k| {
+                let shift = if k % 2 == 0 { 0.0 } else { 1e5 };
+                DVec2::new(shift + lcg(&mut s), lcg(&mut s))
+            })
+            .collect();
+        check::<D2>(&x, 0.1);
     }
 
     #[test]
