@@ -1,0 +1,88 @@
+//! GPU-path throughput in particle-steps per second (criterion's elements/s): one
+//! iteration is 10 time steps recorded into one command encoder and waited for, with
+//! `Throughput::Elements(10 × particles)`. Scenes: the rotating disk (2D, RK4) and the
+//! spinning 3D block (SSP-RK3) at about 1e3, 1e4 and 1e5 particles, plus the GPU set-up
+//! (cell-list neighbour build, pair offsets, corrected gradients). Runs on the adapter
+//! `Gpu::new` picks (`MESHLESS_ADAPTER` to choose); without one it stops with the reason.
+
+use criterion::{
+    BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main,
+};
+use meshless::bench::resize;
+use meshless::gpu::Gpu;
+use meshless::gpu::layout::GpuDim;
+use meshless::gpu::tlsph::GpuTlsph;
+use meshless::run::Engine;
+use meshless::scene::Case;
+use meshless::tensor::{D2, D3};
+use std::path::PathBuf;
+use std::time::Duration;
+
+const STEPS_PER_ITERATION: u32 = 10;
+
+fn load(name: &str, particles: f64) -> Case {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("cases")
+        .join(name);
+    let base = Case::load(&path, &[]).expect("case loads");
+    let mut sizes = resize(&base, particles).expect("case resizes");
+    // A fixed step at the case's Courant number, so every iteration does the same work.
+    if base.method.cfl.is_some() {
+        let dt =
+            0.3 * base.spacing / 5000.0 * (particles / 1e4).powf(-1.0 / f64::from(base.dimension));
+        sizes.extend(["method.cfl=".into(), format!("method.dt={dt:e}")]);
+    }
+    Case::load(&path, &sizes).expect("resized case loads")
+}
+
+fn gpu() -> Gpu {
+    Gpu::new().unwrap_or_else(|e| panic!("the GPU benchmarks need an adapter: {e}"))
+}
+
+fn steps<D: GpuDim>(c: &mut Criterion, group: &str, name: &str) {
+    let mut g = c.benchmark_group(group);
+    g.sample_size(10)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(3))
+        .sampling_mode(SamplingMode::Flat);
+    for particles in [1e3, 1e4, 1e5] {
+        let case = load(name, particles);
+        let mut engine: GpuTlsph<D> = GpuTlsph::new(&case, gpu()).expect("GPU set-up");
+        let dt = case.method.dt.expect("fixed dt");
+        let n = engine.layout().n;
+        g.throughput(Throughput::Elements(
+            n as u64 * u64::from(STEPS_PER_ITERATION),
+        ));
+        g.bench_with_input(BenchmarkId::new("steps", n), &n, |b, _| {
+            b.iter(|| {
+                engine.advance_steps(dt, STEPS_PER_ITERATION);
+                engine.finish();
+            })
+        });
+        Engine::<D>::check(&mut engine).expect("state stays finite");
+    }
+    g.finish();
+}
+
+fn setup(c: &mut Criterion) {
+    let mut g = c.benchmark_group("gpu_setup");
+    g.sample_size(10).sampling_mode(SamplingMode::Flat);
+    let case = load("rotating-disk.toml", 1e5);
+    let n = case.spacing;
+    g.bench_function(
+        BenchmarkId::new("rotating_disk", format!("spacing={n:.4}")),
+        |b| b.iter(|| GpuTlsph::<D2>::new(&case, gpu()).expect("GPU set-up")),
+    );
+    g.finish();
+}
+
+fn disk(c: &mut Criterion) {
+    steps::<D2>(c, "gpu_rotating_disk", "rotating-disk.toml");
+}
+
+fn block(c: &mut Criterion) {
+    steps::<D3>(c, "gpu_spinning_block_3d", "spinning-block-3d.toml");
+}
+
+criterion_group!(benches, disk, block, setup);
+criterion_main!(benches);
