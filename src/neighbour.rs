@@ -38,6 +38,19 @@ impl Csr {
     }
 }
 
+/// Bounding box (lower and upper corner) of points padded to three components.
+pub fn bounding_box(points: impl IntoIterator<Item = [f64; 3]>) -> ([f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in points {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    (lo, hi)
+}
+
 /// Uniform grid of cubic cells of edge `cell` over the bounding box of the points,
 /// with particles counting-sorted by cell.
 struct CellGrid {
@@ -53,14 +66,7 @@ impl CellGrid {
     /// A grid of cells of at least `min_cell`, enlarged (which only adds candidates) while
     /// it would hold more than max(8n, 4096) cells, so sparse clouds stay in memory.
     fn new(points: &[[f64; 3]], min_cell: f64, dim: usize) -> Self {
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        for p in points {
-            for k in 0..3 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
-        }
+        let (lo, hi) = bounding_box(points.iter().copied());
         let budget = (8 * points.len()).max(4096) as f64;
         let count = |cell: f64| {
             (0..dim)

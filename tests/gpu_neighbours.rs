@@ -30,23 +30,10 @@ fn lcg(seed: &mut u64) -> f64 {
     (*seed >> 11) as f64 / (1u64 << 53) as f64
 }
 
-fn bounding_box<D: Dim>(x: &[D::V]) -> ([f64; 3], [f64; 3]) {
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for &p in x {
-        let p = D::to3(p);
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
-    (lo, hi)
-}
-
 fn gpu_lists<D: GpuDim>(gpu: &Gpu, x: &[D::V], radius: f64) -> Csr {
     let host: Vec<D::HV> = x.iter().map(|&p| D::v(p)).collect();
     let buffer = gpu.storage("positions", &host);
-    let (lo, hi) = bounding_box::<D>(x);
+    let (lo, hi) = meshless::neighbour::bounding_box(x.iter().map(|&p| D::to3(p)));
     let csr = gpu_neighbour::build::<D>(gpu, &buffer, lo, hi, x.len() as u32, radius)
         .expect("building GPU neighbour lists");
     let lists = gpu_neighbour::read_lists(gpu, &csr);

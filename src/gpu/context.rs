@@ -273,6 +273,20 @@ impl Gpu {
         }
     }
 
+    /// Records one dispatch of `pipeline` over `n` invocations in `pass`.
+    pub fn dispatch(
+        &self,
+        pass: &mut wgpu::ComputePass<'_>,
+        pipeline: &wgpu::ComputePipeline,
+        bind: &wgpu::BindGroup,
+        n: u32,
+    ) {
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, bind, &[]);
+        let (x, y) = self.groups(n);
+        pass.dispatch_workgroups(x, y, 1);
+    }
+
     /// Copies a buffer back to the host (waits for the queue).
     pub fn read<T: Pod>(&self, buffer: &wgpu::Buffer) -> Vec<T> {
         let size = buffer.size();

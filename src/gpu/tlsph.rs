@@ -15,11 +15,11 @@ use crate::integrate::IntegratorKind;
 use crate::kernel::Kernel;
 use crate::material::{Material, MaterialModel};
 use crate::method::BlowUp;
-use crate::method::tlsph::{TlState, check_state, stress_fields};
+use crate::method::tlsph::{TlState, check_state, snapshot};
+use crate::neighbour as neighbour_cpu;
 use crate::observe::{Invariants, Snapshot};
 use crate::run::Engine;
 use crate::scene::{Case, CaseError, discretise};
-use crate::tensor::Dim;
 use bytemuck::{Pod, Zeroable};
 use thiserror::Error;
 
@@ -337,7 +337,7 @@ impl<D: GpuDim> GpuTlsph<D> {
         // exactly on the support on both sides of the f32 rounding (their W and ∇W vanish).
         let typed: Vec<D::HV> = disc.x0.iter().map(|&x| D::v(x)).collect();
         let x_typed = gpu.storage("x0 (cell list)", &typed);
-        let (lo, hi) = bounding_box::<D>(&disc.x0);
+        let (lo, hi) = neighbour_cpu::bounding_box(disc.x0.iter().map(|&x| D::to3(x)));
         let csr = neighbour::build::<D>(
             &gpu,
             &x_typed,
@@ -589,10 +589,7 @@ fn dispatch(gpu: &Gpu, pipeline: &wgpu::ComputePipeline, bind: &wgpu::BindGroup,
     let mut encoder = gpu.device.create_command_encoder(&Default::default());
     {
         let mut pass = encoder.begin_compute_pass(&Default::default());
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, bind, &[]);
-        let (x, y) = gpu.groups(n);
-        pass.dispatch_workgroups(x, y, 1);
+        gpu.dispatch(&mut pass, pipeline, bind, n);
     }
     gpu.queue.submit([encoder.finish()]);
 }
@@ -675,13 +672,8 @@ impl<D: GpuDim> GpuTlsph<D> {
         match rec {
             Recorded::Rates { stress, accel } => {
                 let mut pass = encoder.begin_compute_pass(&Default::default());
-                let (x, y) = self.gpu.groups(n);
-                pass.set_pipeline(&self.stress);
-                pass.set_bind_group(0, stress, &[]);
-                pass.dispatch_workgroups(x, y, 1);
-                pass.set_pipeline(&self.accel);
-                pass.set_bind_group(0, accel, &[]);
-                pass.dispatch_workgroups(x, y, 1);
+                self.gpu.dispatch(&mut pass, &self.stress, stress, n);
+                self.gpu.dispatch(&mut pass, &self.accel, accel, n);
             }
             Recorded::Copy(a, b) => {
                 let size = self.layout.len as u64 * 4;
@@ -700,10 +692,8 @@ impl<D: GpuDim> GpuTlsph<D> {
                 ..
             } => {
                 let mut pass = encoder.begin_compute_pass(&Default::default());
-                let (x, y) = self.gpu.groups(*invocations);
-                pass.set_pipeline(&self.stages[*pipeline]);
-                pass.set_bind_group(0, bind, &[]);
-                pass.dispatch_workgroups(x, y, 1);
+                self.gpu
+                    .dispatch(&mut pass, &self.stages[*pipeline], bind, *invocations);
             }
         }
     }
@@ -879,41 +869,23 @@ impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
         let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
-            let (x, y) = self.gpu.groups(self.layout.n as u32);
-            pass.set_pipeline(&self.stress);
-            pass.set_bind_group(0, &self.kinematics_y, &[]);
-            pass.dispatch_workgroups(x, y, 1);
+            let n = self.layout.n as u32;
+            self.gpu
+                .dispatch(&mut pass, &self.stress, &self.kinematics_y, n);
         }
         self.gpu.queue.submit([encoder.finish()]);
         let y = self.state();
         let (f, _) = self.kinematics();
-        let (sigma, strain_energy) =
-            stress_fields::<D>(&self.material, &f, &y.s, &y.rho, &self.vol);
-        Snapshot {
-            x0: &self.x0,
-            mass: &self.mass,
-            body: &self.body,
-            u: y.u,
-            v: y.v,
+        snapshot(
+            &self.material,
+            &self.x0,
+            &self.mass,
+            &self.body,
+            &self.vol,
+            y,
             f,
-            sigma,
-            strain_energy,
-        }
+        )
     }
-}
-
-/// Bounding box of the reference positions, padded to three components.
-fn bounding_box<D: Dim>(x: &[D::V]) -> ([f64; 3], [f64; 3]) {
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for &p in x {
-        let p = D::to3(p);
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
-    (lo, hi)
 }
 
 /// Values per workgroup written by `reduce.wgsl`.
@@ -939,13 +911,11 @@ impl<D: GpuDim> GpuTlsph<D> {
         let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
-            let (x, y) = self.gpu.groups(self.layout.n as u32);
-            pass.set_pipeline(&self.stress);
-            pass.set_bind_group(0, &self.kinematics_y, &[]);
-            pass.dispatch_workgroups(x, y, 1);
-            pass.set_pipeline(&self.reduce);
-            pass.set_bind_group(0, &self.reduce_bind, &[]);
-            pass.dispatch_workgroups(x, y, 1);
+            let n = self.layout.n as u32;
+            self.gpu
+                .dispatch(&mut pass, &self.stress, &self.kinematics_y, n);
+            self.gpu
+                .dispatch(&mut pass, &self.reduce, &self.reduce_bind, n);
         }
         self.gpu.queue.submit([encoder.finish()]);
         let partials: Vec<f32> = self.gpu.read(&self.partials);

@@ -165,6 +165,30 @@ pub fn stress_fields<D: Dim>(
     (per_particle.into_iter().map(|p| p.0).collect(), energy)
 }
 
+/// A snapshot of state y with deformation gradients f: stresses and strain energy
+/// follow from `stress_fields`. Shared by the CPU and GPU paths.
+pub fn snapshot<'a, D: Dim>(
+    material: &Material,
+    x0: &'a [D::V],
+    mass: &'a [f64],
+    body: &'a [u32],
+    vol: &[f64],
+    y: TlState<D>,
+    f: Vec<D::T>,
+) -> Snapshot<'a, D> {
+    let (sigma, strain_energy) = stress_fields::<D>(material, &f, &y.s, &y.rho, vol);
+    Snapshot {
+        x0,
+        mass,
+        body,
+        u: y.u,
+        v: y.v,
+        f,
+        sigma,
+        strain_energy,
+    }
+}
+
 /// The TLSPH system on the CPU (f64, rayon).
 pub struct Tlsph<D: Dim> {
     x0: Vec<D::V>,
@@ -444,18 +468,8 @@ impl<D: Dim> Method<D> for Tlsph<D> {
 
     fn snapshot<'a>(&'a self, y: &TlState<D>) -> Snapshot<'a, D> {
         let f = self.each_f(y);
-        let (sigma, strain_energy) =
-            stress_fields::<D>(&self.material, &f, &y.s, &y.rho, &self.vol);
-        Snapshot {
-            x0: &self.x0,
-            mass: &self.mass,
-            body: &self.body,
-            u: y.u.clone(),
-            v: y.v.clone(),
-            f,
-            sigma,
-            strain_energy,
-        }
+        let (x0, mass, body, vol) = (&self.x0, &self.mass, &self.body, &self.vol);
+        snapshot(&self.material, x0, mass, body, vol, y.clone(), f)
     }
 
     fn max_signal_speed(&self, y: &TlState<D>) -> f64 {
