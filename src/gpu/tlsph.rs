@@ -770,6 +770,7 @@ impl<D: GpuDim> GpuTlsph<D> {
             bytemuck::cast_slice(&flat),
         );
         self.primed = false;
+        self.reduced = None;
     }
 
     /// Rates of a given state: (dy/dt, F, P) per particle, read back.
