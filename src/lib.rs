@@ -2,6 +2,7 @@
 //!
 //! The CPU path (rayon, f64) is the reference implementation of every method.
 
+pub mod analytic;
 pub mod bench;
 pub mod boundary;
 pub mod correction;

@@ -2,6 +2,8 @@
 //! its points from CSV) and set the initial velocity field.
 
 use super::{BodySpec, Case, CaseError, Shape, VelocityField};
+use crate::analytic::SwingingMode;
+use crate::material::Material;
 use crate::tensor::Dim;
 use std::path::Path;
 
@@ -41,8 +43,11 @@ pub fn discretise<D: Dim>(case: &Case) -> Result<Discretised<D>, CaseError> {
             out.x0.push(x);
             out.vol.push(v);
             out.body.push(b as u32);
-            out.v0
-                .push(initial_velocity::<D>(spec.initial_velocity.as_ref(), x));
+            out.v0.push(initial_velocity::<D>(
+                case,
+                spec.initial_velocity.as_ref(),
+                x,
+            ));
         }
     }
     Ok(out)
@@ -192,7 +197,7 @@ fn read_points<D: Dim>(path: &Path, cell: f64) -> Result<(Vec<D::V>, Vec<f64>), 
     Ok((points, vols))
 }
 
-fn initial_velocity<D: Dim>(field: Option<&VelocityField>, x: D::V) -> D::V {
+fn initial_velocity<D: Dim>(case: &Case, field: Option<&VelocityField>, x: D::V) -> D::V {
     let Some(field) = field else { return D::zero() };
     let p = D::to3(x);
     match field {
@@ -229,6 +234,10 @@ fn initial_velocity<D: Dim>(field: Option<&VelocityField>, x: D::V) -> D::V {
             let d = d * (1.0 / D::norm2(d).sqrt());
             let s = D::dot(x, d);
             d * (amplitude * (-((s - center) / width).powi(2)).exp())
+        }
+        VelocityField::Swinging { amplitude } => {
+            SwingingMode::new(*amplitude, &Material::new(&case.material), D::N)
+                .velocity::<D>(x, 0.0)
         }
     }
 }

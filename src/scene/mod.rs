@@ -192,6 +192,11 @@ pub enum VelocityField {
         center: f64,
         width: f64,
     },
+    /// The swinging plate/cube mode of seed 003 §7.1.1 on [0, 1]^d at t = 0 of its sine
+    /// form: v = U0 ω Φ(X) (see [`crate::analytic::SwingingMode`]).
+    Swinging {
+        amplitude: f64,
+    },
 }
 
 /// A boundary condition on a region of the reference configuration.

@@ -358,6 +358,7 @@ fn velocity(field: &VelocityField, key: &str, dim: usize) -> Checked {
             finite(&format!("{key}.center"), *center)?;
             positive(&format!("{key}.width"), *width)
         }
+        VelocityField::Swinging { amplitude } => finite(&format!("{key}.amplitude"), *amplitude),
     }
 }
 
