@@ -1,5 +1,5 @@
-// Smoothing kernels (cubic spline, quintic, Wendland C2), matching src/kernel.rs.
-// Needs the scene constants KERNEL (0 cubic spline, 1 quintic, 2 Wendland C2),
+// Smoothing kernels (cubic spline, quintic, Wendland C2, quadratic), matching src/kernel.rs.
+// Needs the scene constants KERNEL (0 cubic spline, 1 quintic, 2 Wendland C2, 3 quadratic),
 // KERNEL_H (smoothing length h) and KERNEL_SCALE (σ_d / h^d).
 
 fn kernel_w(r: f32) -> f32 {
@@ -17,9 +17,13 @@ fn kernel_w(r: f32) -> f32 {
         let t2 = max(2.0 - q, 0.0);
         let t1 = max(1.0 - q, 0.0);
         w = pow5(t3) - 6.0 * pow5(t2) + 15.0 * pow5(t1);
+    } else if KERNEL == 2u {
+        if q < 2.0 {
+            let t = 1.0 - 0.5 * q;
+            w = t * t * t * t * (2.0 * q + 1.0);
+        }
     } else if q < 2.0 {
-        let t = 1.0 - 0.5 * q;
-        w = t * t * t * t * (2.0 * q + 1.0);
+        w = 0.1875 * q * q - 0.75 * q + 0.75;
     }
     return KERNEL_SCALE * w;
 }
@@ -45,9 +49,13 @@ fn kernel_dw(r: f32) -> f32 {
         let t2 = max(2.0 - q, 0.0);
         let t1 = max(1.0 - q, 0.0);
         d = -5.0 * (t3 * t3 * t3 * t3 - 6.0 * t2 * t2 * t2 * t2 + 15.0 * t1 * t1 * t1 * t1);
+    } else if KERNEL == 2u {
+        if q < 2.0 {
+            let t = 1.0 - 0.5 * q;
+            d = -5.0 * q * t * t * t;
+        }
     } else if q < 2.0 {
-        let t = 1.0 - 0.5 * q;
-        d = -5.0 * q * t * t * t;
+        d = 0.375 * q - 0.75;
     }
     return KERNEL_SCALE / KERNEL_H * d;
 }

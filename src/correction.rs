@@ -22,12 +22,16 @@ pub enum CorrectionKind {
     RandlesLibersky,
     /// Reproducing-kernel gradient ∇Ψ_j(x_i) with a linear basis (seed 000 eqs 42–59).
     Rkpm,
+    /// Corrected gradient of the corrected kernel (Bonet & Lok 1999; seed 003 §3.2):
+    /// L_i ∇W̃_j(x_i) with the Shepard kernel W̃_j = W_j/S, ∇W̃_j = (∇W_j − W_j ∇S/S)/S,
+    /// S = Σ_k V_k W_k (self included) and L_i = [Σ_j V_j ∇W̃_j ⊗ (x_j − x_i)]⁻¹.
+    Cgck,
 }
 
 impl CorrectionKind {
     /// Whether gradients of linear fields are reproduced exactly.
     pub fn is_first_order(self) -> bool {
-        matches!(self, Self::RandlesLibersky | Self::Rkpm)
+        matches!(self, Self::RandlesLibersky | Self::Rkpm | Self::Cgck)
     }
 }
 
@@ -74,7 +78,13 @@ pub fn gradients<D: Dim>(
         .map(|i| match kind {
             CorrectionKind::None => Ok(plain::<D>(i, x, csr, kernel).collect()),
             CorrectionKind::Shepard => Ok(shepard::<D>(i, x, vol, csr, kernel)),
-            CorrectionKind::RandlesLibersky => randles_libersky::<D>(i, x, vol, csr, kernel),
+            CorrectionKind::RandlesLibersky => {
+                linear_correction::<D>(kind, i, x, vol, csr, plain::<D>(i, x, csr, kernel).collect())
+            }
+            CorrectionKind::Cgck => {
+                let grads = shepard_kernel_gradients::<D>(i, x, vol, csr, kernel);
+                linear_correction::<D>(kind, i, x, vol, csr, grads)
+            }
             CorrectionKind::Rkpm => rkpm::<D>(i, x, vol, csr, kernel),
         })
         .collect();
@@ -108,14 +118,41 @@ fn shepard<D: Dim>(i: usize, x: &[D::V], vol: &[f64], csr: &Csr, kernel: &Kernel
         .collect()
 }
 
-fn randles_libersky<D: Dim>(
+/// ∇W̃_j(x_i) of the Shepard kernel W̃_j = W_j/S (Bonet & Lok 1999 eq 4.14, with the W_j
+/// factor on ∇S that seed 002 eq 13 drops).
+fn shepard_kernel_gradients<D: Dim>(
     i: usize,
     x: &[D::V],
     vol: &[f64],
     csr: &Csr,
     kernel: &Kernel,
+) -> Vec<D::V> {
+    let mut s = vol[i] * kernel.w(0.0);
+    let mut grad_s = D::zero();
+    for &j in csr.neighbours(i) {
+        let r = x[i] - x[j as usize];
+        s += vol[j as usize] * kernel.w(D::norm2(r).sqrt());
+        grad_s += kernel.grad::<D>(r) * vol[j as usize];
+    }
+    csr.neighbours(i)
+        .iter()
+        .map(|&j| {
+            let r = x[i] - x[j as usize];
+            let w = kernel.w(D::norm2(r).sqrt());
+            (kernel.grad::<D>(r) - grad_s * (w / s)) * (1.0 / s)
+        })
+        .collect()
+}
+
+/// L_i g with L_i = [Σ_j V_j g_j ⊗ (x_j − x_i)]⁻¹, so that Σ_j V_j (x_j − x_i) ⊗ L_i g_j = I.
+fn linear_correction<D: Dim>(
+    kind: CorrectionKind,
+    i: usize,
+    x: &[D::V],
+    vol: &[f64],
+    csr: &Csr,
+    grads: Vec<D::V>,
 ) -> Result<Vec<D::V>, CorrectionError> {
-    let grads: Vec<D::V> = plain::<D>(i, x, csr, kernel).collect();
     let mut a = D::zero_t();
     for (&j, &g) in csr.neighbours(i).iter().zip(&grads) {
         a += D::outer(x[j as usize] - x[i], g) * vol[j as usize];
@@ -123,7 +160,7 @@ fn randles_libersky<D: Dim>(
     let det = D::det(a);
     if det.is_nan() || det.abs() <= 1e-10 {
         return Err(CorrectionError::Singular {
-            kind: CorrectionKind::RandlesLibersky,
+            kind,
             particle: i,
             neighbours: grads.len(),
             det,
@@ -285,7 +322,7 @@ mod tests {
             for kernel_kind in KernelKind::ALL {
                 let kernel = Kernel::new(kernel_kind, 1.3 * dx, 2);
                 let csr = neighbour::build::<D2>(&x, kernel.support());
-                for kind in [CorrectionKind::RandlesLibersky, CorrectionKind::Rkpm] {
+                for kind in [CorrectionKind::RandlesLibersky, CorrectionKind::Rkpm, CorrectionKind::Cgck] {
                     let g = gradients::<D2>(kind, &x, &vol, &csr, &kernel).unwrap();
                     // Exact up to round-off of O(N) sums of O(1/dx) terms: 1e-10 relative to |A| ~ 3.
                     let e = linear_error::<D2>(&x, &vol, &csr, &g, a);
@@ -319,7 +356,7 @@ mod tests {
         let kernel = Kernel::new(KernelKind::WendlandC2, 1.3 * dx, 3);
         let csr = neighbour::build::<D3>(&x, kernel.support());
         let a = DMat3::from_cols_array(&[0.7, -1.3, 2.1, 0.4, 0.5, -0.6, 0.9, 0.2, -1.1]);
-        for kind in [CorrectionKind::RandlesLibersky, CorrectionKind::Rkpm] {
+        for kind in [CorrectionKind::RandlesLibersky, CorrectionKind::Rkpm, CorrectionKind::Cgck] {
             let g = gradients::<D3>(kind, &x, &vol, &csr, &kernel).unwrap();
             let e = linear_error::<D3>(&x, &vol, &csr, &g, a);
             assert!(e < 1e-10, "{kind:?}: error {e:e}");

@@ -14,15 +14,23 @@ pub enum KernelKind {
     Quintic,
     /// Wendland C2, support 2h.
     WendlandC2,
+    /// Quadratic kernel of Johnson, Stryk & Beissel (1996), support 2h: the kernel of
+    /// seed 003, W = σ_d/h^d (3/16 q² − 3/4 q + 3/4).
+    Quadratic,
 }
 
 impl KernelKind {
-    pub const ALL: [KernelKind; 3] = [Self::CubicSpline, Self::Quintic, Self::WendlandC2];
+    pub const ALL: [KernelKind; 4] = [
+        Self::CubicSpline,
+        Self::Quintic,
+        Self::WendlandC2,
+        Self::Quadratic,
+    ];
 
     /// Support radius in units of h.
     pub fn support_factor(self) -> f64 {
         match self {
-            Self::CubicSpline | Self::WendlandC2 => 2.0,
+            Self::CubicSpline | Self::WendlandC2 | Self::Quadratic => 2.0,
             Self::Quintic => 3.0,
         }
     }
@@ -36,6 +44,8 @@ impl KernelKind {
             (Self::Quintic, _) => 1.0 / (120.0 * PI),
             (Self::WendlandC2, 2) => 7.0 / (4.0 * PI),
             (Self::WendlandC2, _) => 21.0 / (16.0 * PI),
+            (Self::Quadratic, 2) => 2.0 / PI,
+            (Self::Quadratic, _) => 5.0 / (4.0 * PI),
         }
     }
 }
@@ -90,6 +100,13 @@ impl Kernel {
                         0.0
                     }
                 }
+                KernelKind::Quadratic => {
+                    if q < 2.0 {
+                        0.1875 * q * q - 0.75 * q + 0.75
+                    } else {
+                        0.0
+                    }
+                }
             }
     }
 
@@ -114,6 +131,13 @@ impl Kernel {
                 KernelKind::WendlandC2 => {
                     if q < 2.0 {
                         -5.0 * q * (1.0 - 0.5 * q).powi(3)
+                    } else {
+                        0.0
+                    }
+                }
+                KernelKind::Quadratic => {
+                    if q < 2.0 {
+                        0.375 * q - 0.75
                     } else {
                         0.0
                     }
@@ -172,7 +196,11 @@ mod tests {
             let k = Kernel::new(kind, 1.0, 2);
             let rs = k.support();
             assert!(k.w(rs).abs() < 1e-14 && k.dw_dr(rs).abs() < 1e-14);
-            assert!(k.dw_dr(0.0).abs() < 1e-14, "{kind:?}: dW/dr(0) must vanish");
+            // The quadratic kernel has a cusp at q = 0 by construction (dW/dr(0) = −¾σ/h);
+            // its gradient is defined as zero for the self pair.
+            if kind != KernelKind::Quadratic {
+                assert!(k.dw_dr(0.0).abs() < 1e-14, "{kind:?}: dW/dr(0) must vanish");
+            }
             // Continuity of W and dW/dr across every knot (q = 1, 2): one-sided values
             // 1e-9 apart differ by O(1e-9) for a C1 function, O(1) for a jump.
             for knot in [1.0, 2.0] {

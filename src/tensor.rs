@@ -59,6 +59,12 @@ pub trait Dim: Copy + Send + Sync + Debug + 'static {
     fn to3x3(t: Self::T) -> [[f64; 3]; 3];
     /// Angular momentum of a point mass, r × p (2D: the out-of-plane component in z).
     fn cross3(r: Self::V, p: Self::V) -> [f64; 3];
+    /// Cofactor cof A = det(A) A⁻ᵀ, defined for singular A too.
+    fn cof(a: Self::T) -> Self::T;
+    /// Rate of the cofactor, d(cof F)/dt = F × Ḟ with the tensor cross product
+    /// (A × B)_iI = ε_ijk ε_IJK A_jJ B_kK (seed 003 eq 3). In 2D plane strain (F_zz = 1,
+    /// Ḟ_zz = 0) the in-plane block of F × Ḟ is cof Ḟ.
+    fn cof_rate(f: Self::T, f_dot: Self::T) -> Self::T;
     /// Tensor entry T_kl.
     fn entry(t: Self::T, k: usize, l: usize) -> f64 {
         Self::to3x3(t)[k][l]
@@ -150,6 +156,17 @@ impl Dim for D2 {
     fn cross3(r: DVec2, p: DVec2) -> [f64; 3] {
         [0.0, 0.0, r.perp_dot(p)]
     }
+    #[inline]
+    fn cof(a: DMat2) -> DMat2 {
+        DMat2::from_cols(
+            DVec2::new(a.y_axis.y, -a.y_axis.x),
+            DVec2::new(-a.x_axis.y, a.x_axis.x),
+        )
+    }
+    #[inline]
+    fn cof_rate(_f: DMat2, f_dot: DMat2) -> DMat2 {
+        Self::cof(f_dot)
+    }
 }
 
 impl Dim for D3 {
@@ -220,11 +237,53 @@ impl Dim for D3 {
     fn cross3(r: DVec3, p: DVec3) -> [f64; 3] {
         r.cross(p).to_array()
     }
+    #[inline]
+    fn cof(a: DMat3) -> DMat3 {
+        Self::cof_rate(a, a) * 0.5
+    }
+    /// (A × B)_iI = A_jJ B_kK − A_jK B_kJ − A_kJ B_jK + A_kK B_jJ with (i, j, k) and
+    /// (I, J, K) cyclic.
+    fn cof_rate(f: DMat3, f_dot: DMat3) -> DMat3 {
+        let (a, b) = (f.to_cols_array_2d(), f_dot.to_cols_array_2d());
+        // Column-major storage: a[col][row] = A_row,col.
+        let e = |m: &[[f64; 3]; 3], r: usize, c: usize| m[c][r];
+        let mut out = [[0.0; 3]; 3];
+        for i in 0..3 {
+            let (j, k) = ((i + 1) % 3, (i + 2) % 3);
+            for ii in 0..3 {
+                let (jj, kk) = ((ii + 1) % 3, (ii + 2) % 3);
+                out[ii][i] = e(&a, j, jj) * e(&b, k, kk) - e(&a, j, kk) * e(&b, k, jj)
+                    - e(&a, k, jj) * e(&b, j, kk)
+                    + e(&a, k, kk) * e(&b, j, jj);
+            }
+        }
+        DMat3::from_cols_array_2d(&out)
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn cofactor_is_det_times_inverse_transpose_and_cof_rate_its_derivative() {
+        let f3 = DMat3::from_cols_array(&[1.1, 0.2, -0.3, 0.4, 0.9, 0.1, -0.2, 0.3, 1.2]);
+        let l3 = DMat3::from_cols_array(&[0.3, -0.7, 0.2, 0.5, 0.1, -0.4, 0.6, 0.8, -0.9]);
+        let f2 = DMat2::from_cols_array(&[1.1, 0.2, -0.3, 0.9]);
+        let l2 = DMat2::from_cols_array(&[0.3, -0.7, 0.2, 0.5]);
+        fn check<D: Dim>(f: D::T, l: D::T) {
+            let exact = D::transpose(D::inverse(f)) * D::det(f);
+            let e = D::cof(f) - exact;
+            assert!(D::ddot(e, e).sqrt() < 1e-14);
+            // Central difference of cof(F + εL): cof is quadratic, so exact to round-off.
+            let eps = 1e-3;
+            let fd = (D::cof(f + l * eps) - D::cof(f - l * eps)) * (0.5 / eps);
+            let e = D::cof_rate(f, l) - fd;
+            assert!(D::ddot(e, e).sqrt() < 1e-11, "{e:?}");
+        }
+        check::<D3>(f3, l3);
+        check::<D2>(f2, l2);
+    }
 
     #[test]
     fn outer_product_is_row_by_column() {

@@ -119,6 +119,7 @@ impl Constants {
             KernelKind::CubicSpline => 0,
             KernelKind::Quintic => 1,
             KernelKind::WendlandC2 => 2,
+            KernelKind::Quadratic => 3,
         };
         self.u32("KERNEL", kind)
             .f32("KERNEL_H", kernel.h)

@@ -86,7 +86,7 @@ pub fn scene_constants(case: &Case, layout: &Layout) -> Constants {
     let correction = match case.method.correction {
         CorrectionKind::None => 0,
         CorrectionKind::Shepard => 1,
-        CorrectionKind::RandlesLibersky | CorrectionKind::Rkpm => 2,
+        CorrectionKind::RandlesLibersky | CorrectionKind::Rkpm | CorrectionKind::Cgck => 2,
     };
     let av = case.method.artificial_viscosity;
     let u = |x: usize| x as u32;
@@ -376,10 +376,14 @@ impl<D: GpuDim> GpuTlsph<D> {
         let vol32: Vec<f32> = disc.vol.iter().map(|&v| v as f32).collect();
         let vol = gpu.storage("vol", &vol32);
         let status = gpu.storage("status", &[STATUS_OK]);
-        let grad = if case.method.correction == CorrectionKind::Rkpm {
-            // The RKPM moment-matrix solve runs once on the host (f64) and is uploaded.
+        let host_solved = matches!(
+            case.method.correction,
+            CorrectionKind::Rkpm | CorrectionKind::Cgck
+        );
+        let grad = if host_solved {
+            // The RKPM and CGCK corrections run once on the host (f64) and are uploaded.
             let g = correction::gradients::<D>(
-                CorrectionKind::Rkpm,
+                case.method.correction,
                 &disc.x0,
                 &disc.vol,
                 &neighbour::read_lists(&gpu, &csr),
