@@ -43,15 +43,40 @@ fn x_minus_log_1p(x: f32) -> f32 {
     return x - log(1.0 + x);
 }
 
+// e^y − 1 − y without cancellation: its series for small y.
+fn exp_minus_1_minus(y: f32) -> f32 {
+    if abs(y) < 1e-2 {
+        return y * y * (0.5 + y * (1.0 / 6.0 + y / 24.0));
+    }
+    return exp(y) - 1.0 - y;
+}
+
+// F:F − 3 of the 3D deformation gradient (plane strain: F_zz = 1) from H = F − I.
+fn ff_excess(h: matd) -> f32 {
+    return 2.0 * trace_d(h) + ddot_d(h, h);
+}
+
 // First Piola–Kirchhoff stress of the state models: E = ½(H + Hᵀ + HᵀH) for SVK;
-// F − F⁻ᵀ = H + Hᵀ F⁻ᵀ for neo-Hookean.
+// F − F⁻ᵀ = H + Hᵀ F⁻ᵀ for neo-Hookean; ε = sym H for linear elasticity; for the
+// polyconvex model F − ⅓F:F F⁻ᵀ = (H + Hᵀ F⁻ᵀ) − ⅓(F:F − 3) F⁻ᵀ.
 fn pk1(h: matd, f_inv_t: matd) -> matd {
     let f = identity_d() + h;
     if MODEL == 1u {
         let e = (h + transpose(h) + transpose(h) * h) * 0.5;
         return f * (identity_d() * (LAMBDA * trace_d(e)) + e * (2.0 * MU));
     }
-    return (h + transpose(h) * f_inv_t) * MU + f_inv_t * (LAMBDA * log_1p(det_excess(h)));
+    if MODEL == 3u {
+        let eps = (h + transpose(h)) * 0.5;
+        return identity_d() * (LAMBDA * trace_d(eps)) + eps * (2.0 * MU);
+    }
+    let f_minus_f_inv_t = h + transpose(h) * f_inv_t;
+    let x = det_excess(h);
+    if MODEL == 4u {
+        let j = 1.0 + x;
+        let iso = f_minus_f_inv_t - f_inv_t * (ff_excess(h) / 3.0);
+        return iso * (MU * exp(-2.0 / 3.0 * log_1p(x))) + f_inv_t * (BULK * x * j);
+    }
+    return f_minus_f_inv_t * MU + f_inv_t * (LAMBDA * log_1p(x));
 }
 
 // Strain-energy density per reference volume. Rate model: the complementary energy
@@ -72,8 +97,22 @@ fn energy_density(h: matd, s: matd, rho_dev: f32) -> f32 {
         let tr = trace_d(e);
         return 0.5 * LAMBDA * tr * tr + MU * ddot_d(e, e);
     }
+    if MODEL == 3u {
+        let eps = (h + transpose(h)) * 0.5;
+        let tr = trace_d(eps);
+        return 0.5 * LAMBDA * tr * tr + MU * ddot_d(eps, eps);
+    }
     let x = det_excess(h);
     let q = x - trace_d(h);
     let ln_j = log_1p(x);
+    if MODEL == 4u {
+        // J^(−2/3) F:F − 3 = 3(e^y − 1 − y) + (F:F − 3 − 2 ln J) + (e^y − 1)(F:F − 3),
+        // y = −⅔ ln J, with F:F − 3 − 2 ln J = H:H + 2((x − ln(1 + x)) − q).
+        let y = -2.0 / 3.0 * ln_j;
+        let a = ff_excess(h);
+        let g = exp_minus_1_minus(y);
+        let iso = 3.0 * g + ddot_d(h, h) + 2.0 * (x_minus_log_1p(x) - q) + (g + y) * a;
+        return 0.5 * MU * iso + 0.5 * BULK * x * x;
+    }
     return 0.5 * MU * ddot_d(h, h) + MU * (x_minus_log_1p(x) - q) + 0.5 * LAMBDA * ln_j * ln_j;
 }

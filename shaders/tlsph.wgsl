@@ -6,7 +6,8 @@
 // pressure c0²(ρ − ρ0) keeps its digits in f32, as u = x − X does for positions), the
 // per-particle kinematics kin = [H = F − I | P | F⁻ᵀ | ρ] (H, not F, for the same reason),
 // and the per-pair gradients grad (DIM per pair). Constitutive functions: mechanics.wgsl.
-// Scene constants: N, DIM, RATE, MODEL (0 hypoelastic, 1 SVK, 2 neo-Hookean), RHO0, MU,
+// Scene constants: N, DIM, RATE, MODEL (0 hypoelastic, 1 SVK, 2 neo-Hookean,
+// 3 linear elastic, 4 polyconvex neo-Hookean), RHO0, MU,
 // LAMBDA, BULK, AV, AV_ALPHA, AV_BETA, AV_ETA, H, segment offsets U_OFF, V_OFF, RHO_OFF,
 // S_OFF, KF_OFF, KP_OFF, KFIT_OFF, KRHO_OFF.
 

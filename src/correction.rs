@@ -78,9 +78,14 @@ pub fn gradients<D: Dim>(
         .map(|i| match kind {
             CorrectionKind::None => Ok(plain::<D>(i, x, csr, kernel).collect()),
             CorrectionKind::Shepard => Ok(shepard::<D>(i, x, vol, csr, kernel)),
-            CorrectionKind::RandlesLibersky => {
-                linear_correction::<D>(kind, i, x, vol, csr, plain::<D>(i, x, csr, kernel).collect())
-            }
+            CorrectionKind::RandlesLibersky => linear_correction::<D>(
+                kind,
+                i,
+                x,
+                vol,
+                csr,
+                plain::<D>(i, x, csr, kernel).collect(),
+            ),
             CorrectionKind::Cgck => {
                 let grads = shepard_kernel_gradients::<D>(i, x, vol, csr, kernel);
                 linear_correction::<D>(kind, i, x, vol, csr, grads)
@@ -322,7 +327,11 @@ mod tests {
             for kernel_kind in KernelKind::ALL {
                 let kernel = Kernel::new(kernel_kind, 1.3 * dx, 2);
                 let csr = neighbour::build::<D2>(&x, kernel.support());
-                for kind in [CorrectionKind::RandlesLibersky, CorrectionKind::Rkpm, CorrectionKind::Cgck] {
+                for kind in [
+                    CorrectionKind::RandlesLibersky,
+                    CorrectionKind::Rkpm,
+                    CorrectionKind::Cgck,
+                ] {
                     let g = gradients::<D2>(kind, &x, &vol, &csr, &kernel).unwrap();
                     // Exact up to round-off of O(N) sums of O(1/dx) terms: 1e-10 relative to |A| ~ 3.
                     let e = linear_error::<D2>(&x, &vol, &csr, &g, a);
@@ -356,7 +365,11 @@ mod tests {
         let kernel = Kernel::new(KernelKind::WendlandC2, 1.3 * dx, 3);
         let csr = neighbour::build::<D3>(&x, kernel.support());
         let a = DMat3::from_cols_array(&[0.7, -1.3, 2.1, 0.4, 0.5, -0.6, 0.9, 0.2, -1.1]);
-        for kind in [CorrectionKind::RandlesLibersky, CorrectionKind::Rkpm, CorrectionKind::Cgck] {
+        for kind in [
+            CorrectionKind::RandlesLibersky,
+            CorrectionKind::Rkpm,
+            CorrectionKind::Cgck,
+        ] {
             let g = gradients::<D3>(kind, &x, &vol, &csr, &kernel).unwrap();
             let e = linear_error::<D3>(&x, &vol, &csr, &g, a);
             assert!(e < 1e-10, "{kind:?}: error {e:e}");

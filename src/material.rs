@@ -15,13 +15,22 @@ pub enum MaterialModel {
     SaintVenantKirchhoff,
     /// P = μ(F − F⁻ᵀ) + λ ln J F⁻ᵀ.
     NeoHookean,
+    /// Small-strain linear elasticity, P = λ tr(ε) I + 2μ ε with ε = sym(F − I): the model
+    /// the analytic swinging plate/cube solves.
+    LinearElastic,
+    /// Polyconvex nearly incompressible neo-Hookean in {F, H, J} (seed 003 via Lee et al.
+    /// 2016 eqs 11–12): ψ = μ/2 J^(−2/3) F:F − 3μ/2 + κ/2 (J − 1)²,
+    /// P = μ J^(−2/3) F + [κ(J − 1) − μ/3 J^(−5/3) F:F] H.
+    NearlyIncompressibleNeoHookean,
 }
 
 impl MaterialModel {
-    pub const ALL: [MaterialModel; 3] = [
+    pub const ALL: [MaterialModel; 5] = [
         Self::Hypoelastic,
         Self::SaintVenantKirchhoff,
         Self::NeoHookean,
+        Self::LinearElastic,
+        Self::NearlyIncompressibleNeoHookean,
     ];
 
     /// Rate-based models integrate ρ and S; state-based ones evaluate P(F).
@@ -62,6 +71,11 @@ impl Material {
         ((self.lambda + 2.0 * self.mu) / self.rho0).sqrt()
     }
 
+    /// Shear (s-wave) speed sqrt(μ/ρ0).
+    pub fn s_wave_speed(&self) -> f64 {
+        (self.mu / self.rho0).sqrt()
+    }
+
     /// Pressure of the linear EOS, positive in compression (seed 000 erratum to eq 77).
     pub fn pressure(&self, rho: f64) -> f64 {
         self.bulk / self.rho0 * (rho - self.rho0)
@@ -87,8 +101,36 @@ impl Material {
                 let f_inv_t = D::transpose(D::inverse(f));
                 (f - f_inv_t) * self.mu + f_inv_t * (self.lambda * D::det(f).ln())
             }
+            MaterialModel::LinearElastic => {
+                let eps = small_strain::<D>(f);
+                D::identity() * (self.lambda * D::trace(eps)) + eps * (2.0 * self.mu)
+            }
+            MaterialModel::NearlyIncompressibleNeoHookean => {
+                self.pk1_mixed::<D>(f, D::cof(f), D::det(f))
+            }
             MaterialModel::Hypoelastic => unreachable!("the hypoelastic model is rate-based"),
         }
+    }
+
+    /// P(F, H, J) of the mixed formulations, where H and J may be evolved independently
+    /// of F (seed 003 eq 1). Only the polyconvex model reads H and J; the others are
+    /// functions of F alone.
+    pub fn pk1_mixed<D: Dim>(&self, f: D::T, h: D::T, j: f64) -> D::T {
+        if self.model != MaterialModel::NearlyIncompressibleNeoHookean {
+            return self.pk1::<D>(f);
+        }
+        let ff = full_ddot::<D>(f);
+        let j23 = j.powf(-2.0 / 3.0);
+        f * (self.mu * j23) + h * (self.bulk * (j - 1.0) - self.mu / 3.0 * j23 / j * ff)
+    }
+
+    /// Strain-energy density ψ(F, J) of the mixed formulations (J evolved or det F).
+    pub fn energy_density_mixed<D: Dim>(&self, f: D::T, j: f64) -> f64 {
+        if self.model != MaterialModel::NearlyIncompressibleNeoHookean {
+            return self.energy_density::<D>(f, D::zero_t(), self.rho0);
+        }
+        0.5 * self.mu * (j.powf(-2.0 / 3.0) * full_ddot::<D>(f) - 3.0)
+            + 0.5 * self.bulk * (j - 1.0).powi(2)
     }
 
     /// Strain-energy density per reference volume. For the hypoelastic model this is the
@@ -111,6 +153,13 @@ impl Material {
                 0.5 * self.mu * (D::trace(c) - D::N as f64) - self.mu * ln_j
                     + 0.5 * self.lambda * ln_j * ln_j
             }
+            MaterialModel::LinearElastic => {
+                let eps = small_strain::<D>(f);
+                0.5 * self.lambda * D::trace(eps).powi(2) + self.mu * D::ddot(eps, eps)
+            }
+            MaterialModel::NearlyIncompressibleNeoHookean => {
+                self.energy_density_mixed::<D>(f, D::det(f))
+            }
         }
     }
 
@@ -128,8 +177,26 @@ impl Material {
                 self.lambda * D::trace(e) / j
             }
             MaterialModel::NeoHookean => self.lambda * j.ln() / j,
+            MaterialModel::LinearElastic => self.lambda * D::trace(small_strain::<D>(f)),
+            MaterialModel::NearlyIncompressibleNeoHookean => {
+                // P_zz with F_zz = 1, H_zz = J, then σ_zz = P_zz F_zz / J.
+                let j23 = j.powf(-2.0 / 3.0);
+                let pzz = self.mu * j23
+                    + j * (self.bulk * (j - 1.0) - self.mu / 3.0 * j23 / j * full_ddot::<D>(f));
+                pzz / j
+            }
         }
     }
+}
+
+/// ε = sym(F − I).
+fn small_strain<D: Dim>(f: D::T) -> D::T {
+    (f + D::transpose(f)) * 0.5 - D::identity()
+}
+
+/// F:F of the 3D deformation gradient (2D plane strain adds F_zz² = 1).
+fn full_ddot<D: Dim>(f: D::T) -> f64 {
+    D::ddot(f, f) + (3 - D::N) as f64
 }
 
 /// S_zz of a traceless 3D deviator whose in-plane part is `s` (2D only).
@@ -187,11 +254,16 @@ mod tests {
         for model in [
             MaterialModel::SaintVenantKirchhoff,
             MaterialModel::NeoHookean,
+            MaterialModel::NearlyIncompressibleNeoHookean,
+            MaterialModel::LinearElastic,
         ] {
             let m = Material::new(&spec(model));
-            let p = m.pk1::<D3>(q3);
-            assert!(D3::ddot(p, p).sqrt() < 1e-8 * m.mu, "{model:?}");
-            assert!(m.energy_density::<D3>(q3, DMat3::ZERO, 1.0).abs() < 1e-8 * m.mu);
+            // Small-strain elasticity is not objective: it is the one exception.
+            if model != MaterialModel::LinearElastic {
+                let p = m.pk1::<D3>(q3);
+                assert!(D3::ddot(p, p).sqrt() < 1e-8 * m.mu, "{model:?}");
+                assert!(m.energy_density::<D3>(q3, DMat3::ZERO, 1.0).abs() < 1e-8 * m.mu);
+            }
             // Small uniaxial strain ε: P_xx ≈ (λ + 2μ) ε, P_yy ≈ λ ε (plane strain) to O(ε²).
             let eps = 1e-6;
             let f = DMat2::from_cols_array(&[1.0 + eps, 0.0, 0.0, 1.0]);
@@ -206,27 +278,52 @@ mod tests {
     fn pk1_is_the_derivative_of_the_energy() {
         // Central differences of ψ(F) with step 1e-7 on O(1) strains: error ~1e-6 relative.
         let f0 = DMat3::from_cols_array(&[1.2, 0.1, -0.05, 0.2, 0.9, 0.1, 0.0, -0.1, 1.1]);
+        let f2 = DMat2::from_cols_array(&[1.2, 0.1, 0.2, 0.9]);
         for model in [
             MaterialModel::SaintVenantKirchhoff,
             MaterialModel::NeoHookean,
+            MaterialModel::LinearElastic,
+            MaterialModel::NearlyIncompressibleNeoHookean,
         ] {
             let m = Material::new(&spec(model));
-            let p = m.pk1::<D3>(f0);
-            for k in 0..3 {
-                for l in 0..3 {
-                    let mut d = [0.0; 9];
-                    d[l * 3 + k] = 1e-7;
-                    let df = DMat3::from_cols_array(&d);
-                    let fd = (m.energy_density::<D3>(f0 + df, DMat3::ZERO, 1.0)
-                        - m.energy_density::<D3>(f0 - df, DMat3::ZERO, 1.0))
-                        / 2e-7;
-                    assert!(
-                        (fd - D3::entry(p, k, l)).abs() < 1e-5 * m.mu,
-                        "{model:?} P_{k}{l}"
-                    );
-                }
+            check_pk1::<D3>(&m, f0);
+            check_pk1::<D2>(&m, f2);
+        }
+    }
+
+    fn check_pk1<D: Dim>(m: &Material, f0: D::T) {
+        let p = m.pk1::<D>(f0);
+        for k in 0..D::N {
+            for l in 0..D::N {
+                let mut e = [0.0; 3];
+                e[k] = 1e-7;
+                let mut n = [0.0; 3];
+                n[l] = 1.0;
+                let df = D::outer(D::from_slice(&e), D::from_slice(&n));
+                let fd = (m.energy_density::<D>(f0 + df, D::zero_t(), 1.0)
+                    - m.energy_density::<D>(f0 - df, D::zero_t(), 1.0))
+                    / 2e-7;
+                assert!(
+                    (fd - D::entry(p, k, l)).abs() < 1e-5 * m.mu,
+                    "{:?} {}D P_{k}{l}: {fd} vs {}",
+                    m.model,
+                    D::N,
+                    D::entry(p, k, l)
+                );
             }
         }
+    }
+
+    #[test]
+    fn polyconvex_model_matches_its_classical_form_when_h_and_j_follow_f() {
+        // P = μ J^(−2/3)(F − ⅓ F:F F⁻ᵀ) + κ(J − 1) J F⁻ᵀ (seed 003 §E.2) with H = cof F.
+        let m = Material::new(&spec(MaterialModel::NearlyIncompressibleNeoHookean));
+        let f = DMat3::from_cols_array(&[1.2, 0.1, -0.05, 0.2, 0.9, 0.1, 0.0, -0.1, 1.1]);
+        let (j, f_inv_t) = (f.determinant(), f.inverse().transpose());
+        let classical = (f - f_inv_t * (D3::ddot(f, f) / 3.0)) * (m.mu * j.powf(-2.0 / 3.0))
+            + f_inv_t * (m.bulk * (j - 1.0) * j);
+        let e = m.pk1::<D3>(f) - classical;
+        assert!(D3::ddot(e, e).sqrt() < 1e-9 * m.mu);
     }
 
     #[test]

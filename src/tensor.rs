@@ -252,7 +252,8 @@ impl Dim for D3 {
             let (j, k) = ((i + 1) % 3, (i + 2) % 3);
             for ii in 0..3 {
                 let (jj, kk) = ((ii + 1) % 3, (ii + 2) % 3);
-                out[ii][i] = e(&a, j, jj) * e(&b, k, kk) - e(&a, j, kk) * e(&b, k, jj)
+                out[ii][i] = e(&a, j, jj) * e(&b, k, kk)
+                    - e(&a, j, kk) * e(&b, k, jj)
                     - e(&a, k, jj) * e(&b, j, kk)
                     + e(&a, k, kk) * e(&b, j, jj);
             }

@@ -82,6 +82,8 @@ pub fn scene_constants(case: &Case, layout: &Layout) -> Constants {
         MaterialModel::Hypoelastic => 0,
         MaterialModel::SaintVenantKirchhoff => 1,
         MaterialModel::NeoHookean => 2,
+        MaterialModel::LinearElastic => 3,
+        MaterialModel::NearlyIncompressibleNeoHookean => 4,
     };
     let correction = match case.method.correction {
         CorrectionKind::None => 0,
