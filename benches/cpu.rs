@@ -20,6 +20,7 @@ use criterion::{
 use meshless::integrate::Integrator;
 use meshless::kernel::Kernel;
 use meshless::method::Method;
+use meshless::method::tlsph::Tlsph;
 use meshless::run::build_method;
 use meshless::scene::Case;
 use meshless::tensor::D2;
@@ -66,7 +67,8 @@ fn bench_steps(c: &mut Criterion, group: &str, label: &str, case: &Case) {
         .sampling_mode(SamplingMode::Flat);
     for threads in THREADS {
         let pool = pool(threads);
-        let mut method = pool.install(|| build_method::<D2>(case).expect("method builds"));
+        let mut method =
+            pool.install(|| build_method::<D2, Tlsph<D2>>(case).expect("method builds"));
         let mut state = method.initial_state();
         let mut integrator = Integrator::new(case.method.integrator, &state);
         let dt = case.method.dt.expect("case has a fixed dt");
@@ -121,7 +123,7 @@ fn tensile_strip(c: &mut Criterion) {
 
 fn neighbour_build(c: &mut Criterion) {
     let case = load("rotating-disk.toml", Some(0.0056), &[]);
-    let method = build_method::<D2>(&case).expect("method builds");
+    let method = build_method::<D2, Tlsph<D2>>(&case).expect("method builds");
     let x = method.reference();
     let h = case.method.h_over_dx * case.spacing;
     let radius = Kernel::new(case.method.kernel, h, 2).support() * (1.0 + 1e-9);

@@ -1,10 +1,8 @@
 //! `meshless bench`: throughput of a case on a backend at several sizes, in
 //! particle-steps per second, measured over whole steps after a warm-up.
 
-use crate::gpu::Gpu;
 use crate::gpu::layout::GpuDim;
-use crate::gpu::tlsph::{GpuTlsph, SetupError};
-use crate::run::{Backend, CpuEngine, Engine, RunError};
+use crate::run::{Backend, Engine, RunError, engine};
 use crate::scene::{Case, discretise};
 use crate::tensor::{D2, D3};
 use std::time::Instant;
@@ -69,21 +67,7 @@ pub fn measure(case: &Case, backend: Backend, steps: u32) -> Result<BenchRow, Ru
 
 fn measure_dim<D: GpuDim>(case: &Case, backend: Backend, steps: u32) -> Result<BenchRow, RunError> {
     let started = Instant::now();
-    let use_gpu = match backend {
-        Backend::Cpu => None,
-        Backend::Gpu => Some(Gpu::new().map_err(|e| RunError::Backend(e.to_string()))?),
-        Backend::Auto => Gpu::new().ok(),
-    };
-    match use_gpu {
-        Some(gpu) => {
-            let engine = GpuTlsph::<D>::new(case, gpu).map_err(|e| match e {
-                SetupError::Case(c) => RunError::Case(c),
-                SetupError::Gpu(g) => RunError::Backend(g.to_string()),
-            })?;
-            time_steps::<D, _>(case, engine, started, steps)
-        }
-        None => time_steps::<D, _>(case, CpuEngine::<D>::new(case)?, started, steps),
-    }
+    time_steps::<D, _>(case, engine::<D>(case, backend)?, started, steps)
 }
 
 /// Steps per submission when timing (one command encoder each on the GPU).

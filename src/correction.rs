@@ -176,11 +176,11 @@ fn linear_correction<D: Dim>(
 }
 
 /// Dense square matrix of order n ≤ 4 (the RKPM moment matrix, n = d + 1).
-type Small = [[f64; 4]; 4];
+pub(crate) type Small = [[f64; 4]; 4];
 
 /// Solves M y = b for n ≤ 4 by Gaussian elimination with partial pivoting.
 /// Returns None when M is singular relative to its scale.
-fn solve_small(mut m: Small, mut b: [f64; 4], n: usize) -> Option<[f64; 4]> {
+pub(crate) fn solve_small(mut m: Small, mut b: [f64; 4], n: usize) -> Option<[f64; 4]> {
     let scale = m.iter().flatten().fold(0.0f64, |s, v| s.max(v.abs()));
     for c in 0..n {
         let p = (c..n).max_by(|&a, &b| m[a][c].abs().total_cmp(&m[b][c].abs()))?;

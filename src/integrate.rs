@@ -45,6 +45,10 @@ pub trait OdeSystem {
     type Error;
     fn rates(&mut self, t: f64, y: &Self::State, dydt: &mut Self::State)
     -> Result<(), Self::Error>;
+    /// Called at the start of every step with the step's start state and size, before
+    /// the first rate evaluation (for schemes whose stages need y^n, e.g. the
+    /// angular-momentum projection of seed 003).
+    fn begin_step(&mut self, _t: f64, _dt: f64, _y: &Self::State) {}
 }
 
 /// An integrator with its scratch states (allocated once).
@@ -82,6 +86,7 @@ impl<S: OdeState> Integrator<S> {
         dt: f64,
         y: &mut S,
     ) -> Result<(), Sys::Error> {
+        sys.begin_step(t, dt, y);
         match self.kind {
             IntegratorKind::Rk4 => self.rk4(sys, t, dt, y),
             IntegratorKind::TvdRk2 => self.tvd_rk2(sys, t, dt, y),

@@ -6,7 +6,7 @@ use crate::gpu::layout::GpuDim;
 use crate::gpu::tlsph::{GpuTlsph, SetupError};
 use crate::integrate::Integrator;
 use crate::material::{Material, von_mises};
-use crate::method::tlsph::TlState;
+use crate::method::mixed::MixedSph;
 use crate::method::tlsph::Tlsph;
 use crate::method::{BlowUp, Method};
 use crate::observe::{Clock, Invariants, Observers, Snapshot};
@@ -138,12 +138,49 @@ pub fn explain(case: &Case, gpu: bool) -> String {
     out.join("\n")
 }
 
-/// Builds the method of a case.
-pub fn build_method<D: Dim>(case: &Case) -> Result<Tlsph<D>, CaseError> {
-    let disc = discretise::<D>(case)?;
-    match case.method.name {
-        MethodName::Tlsph => Tlsph::new(case, disc),
+/// Builds the method of a case; `M` must be the method the case names.
+pub fn build_method<D: Dim, M: Method<D>>(case: &Case) -> Result<M, CaseError> {
+    if !M::NAMES.contains(&case.method.name) {
+        return Err(case.invalid(
+            "method.name",
+            format!(
+                "this engine runs {:?}, not {:?}",
+                M::NAMES,
+                case.method.name
+            ),
+        ));
     }
+    M::build(case, discretise::<D>(case)?)
+}
+
+/// The engine a case runs on: the GPU when `backend` asks for it (or `auto` finds an
+/// adapter and the method has GPU passes), the CPU otherwise.
+pub fn engine<D: GpuDim>(case: &Case, backend: Backend) -> Result<Box<dyn Engine<D>>, RunError> {
+    let gpu_method = case.method.name == MethodName::Tlsph;
+    let gpu = match backend {
+        Backend::Cpu => None,
+        Backend::Gpu if !gpu_method => {
+            return Err(RunError::Backend(format!(
+                "method `{}` runs on the CPU backend only; use --backend cpu or auto",
+                case.method.name.key()
+            )));
+        }
+        Backend::Gpu => Some(Gpu::new().map_err(|e| RunError::Backend(e.to_string()))?),
+        Backend::Auto if !gpu_method => None,
+        Backend::Auto => Gpu::new()
+            .inspect_err(|e| eprintln!("note: {e}; running on the CPU (rayon, f64)"))
+            .ok(),
+    };
+    Ok(match (gpu, case.method.name) {
+        (Some(gpu), _) => Box::new(GpuTlsph::<D>::new(case, gpu).map_err(|e| match e {
+            SetupError::Case(c) => RunError::Case(c),
+            SetupError::Gpu(g) => RunError::Backend(g.to_string()),
+        })?),
+        (None, MethodName::Tlsph) => Box::new(CpuEngine::<D, Tlsph<D>>::new(case)?),
+        (None, MethodName::UpwindSph | MethodName::JstSph) => {
+            Box::new(CpuEngine::<D, MixedSph<D>>::new(case)?)
+        }
+    })
 }
 
 /// A time stepper the driver runs: the CPU method with its integrator, or the GPU engine.
@@ -169,18 +206,53 @@ pub trait Engine<D: Dim> {
     fn finish(&mut self) {}
 }
 
-/// The CPU reference engine: a method and an integrator (f64, rayon).
-pub struct CpuEngine<D: Dim> {
-    pub method: Tlsph<D>,
-    pub y: TlState<D>,
-    integrator: Integrator<TlState<D>>,
-    work: f64,
-    last_power: f64,
+/// Forwarding, so that the driver runs whichever engine [`engine`] chose.
+impl<D: Dim> Engine<D> for Box<dyn Engine<D>> {
+    fn backend(&self) -> String {
+        (**self).backend()
+    }
+    fn reference(&self) -> &[D::V] {
+        (**self).reference()
+    }
+    fn constrained(&self) -> &[(u32, u8)] {
+        (**self).constrained()
+    }
+    fn advance(&mut self, t: f64, dt: f64, steps: u32) -> Result<(), BlowUp> {
+        (**self).advance(t, dt, steps)
+    }
+    fn max_signal_speed(&mut self) -> f64 {
+        (**self).max_signal_speed()
+    }
+    fn external_work(&mut self) -> f64 {
+        (**self).external_work()
+    }
+    fn check(&mut self) -> Result<(), BlowUp> {
+        (**self).check()
+    }
+    fn snapshot(&mut self) -> Snapshot<'_, D> {
+        (**self).snapshot()
+    }
+    fn invariants(&mut self) -> Invariants {
+        (**self).invariants()
+    }
+    fn finish(&mut self) {
+        (**self).finish()
+    }
 }
 
-impl<D: Dim> CpuEngine<D> {
+/// The CPU reference engine: a method and an integrator (f64, rayon).
+pub struct CpuEngine<D: Dim, M: Method<D> = Tlsph<D>> {
+    pub method: M,
+    pub y: M::State,
+    integrator: Integrator<M::State>,
+    work: f64,
+    last_power: f64,
+    _dim: std::marker::PhantomData<D>,
+}
+
+impl<D: Dim, M: Method<D>> CpuEngine<D, M> {
     pub fn new(case: &Case) -> Result<Self, CaseError> {
-        let method = build_method::<D>(case)?;
+        let method = build_method::<D, M>(case)?;
         let y = method.initial_state();
         let integrator = Integrator::new(case.method.integrator, &y);
         Ok(Self {
@@ -189,11 +261,12 @@ impl<D: Dim> CpuEngine<D> {
             integrator,
             work: 0.0,
             last_power: 0.0,
+            _dim: std::marker::PhantomData,
         })
     }
 }
 
-impl<D: Dim> Engine<D> for CpuEngine<D> {
+impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
     fn backend(&self) -> String {
         "cpu".into()
     }
@@ -239,23 +312,7 @@ impl<D: Dim> Engine<D> for CpuEngine<D> {
 const CHECK_EVERY: u64 = 100;
 
 fn run_dim<D: GpuDim>(case: &Case, opts: &RunOptions) -> Result<RunSummary, RunError> {
-    let gpu = match opts.backend {
-        Backend::Cpu => None,
-        Backend::Gpu => Some(Gpu::new().map_err(|e| RunError::Backend(e.to_string()))?),
-        Backend::Auto => Gpu::new()
-            .inspect_err(|e| eprintln!("note: {e}; running on the CPU (rayon, f64)"))
-            .ok(),
-    };
-    match gpu {
-        Some(gpu) => {
-            let engine = GpuTlsph::<D>::new(case, gpu).map_err(|e| match e {
-                SetupError::Case(c) => RunError::Case(c),
-                SetupError::Gpu(g) => RunError::Backend(g.to_string()),
-            })?;
-            drive::<D, _>(case, opts, engine)
-        }
-        None => drive::<D, _>(case, opts, CpuEngine::<D>::new(case)?),
-    }
+    drive::<D, _>(case, opts, engine::<D>(case, opts.backend)?)
 }
 
 /// Time-step size: fixed, or from the CFL number.

@@ -247,18 +247,15 @@ impl Dim for D3 {
         let (a, b) = (f.to_cols_array_2d(), f_dot.to_cols_array_2d());
         // Column-major storage: a[col][row] = A_row,col.
         let e = |m: &[[f64; 3]; 3], r: usize, c: usize| m[c][r];
-        let mut out = [[0.0; 3]; 3];
-        for i in 0..3 {
+        let entry = |i: usize, ii: usize| {
             let (j, k) = ((i + 1) % 3, (i + 2) % 3);
-            for ii in 0..3 {
-                let (jj, kk) = ((ii + 1) % 3, (ii + 2) % 3);
-                out[ii][i] = e(&a, j, jj) * e(&b, k, kk)
-                    - e(&a, j, kk) * e(&b, k, jj)
-                    - e(&a, k, jj) * e(&b, j, kk)
-                    + e(&a, k, kk) * e(&b, j, jj);
-            }
-        }
-        DMat3::from_cols_array_2d(&out)
+            let (jj, kk) = ((ii + 1) % 3, (ii + 2) % 3);
+            e(&a, j, jj) * e(&b, k, kk) - e(&a, j, kk) * e(&b, k, jj) - e(&a, k, jj) * e(&b, j, kk)
+                + e(&a, k, kk) * e(&b, j, jj)
+        };
+        DMat3::from_cols_array_2d(&std::array::from_fn(|col| {
+            std::array::from_fn(|row| entry(row, col))
+        }))
     }
 }
 

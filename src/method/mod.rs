@@ -1,12 +1,44 @@
 //! Particle methods. Each method is an [`OdeSystem`] plus the fields and energies that
 //! observers and outputs read.
 
+pub mod mixed;
 pub mod tlsph;
 
 use crate::integrate::OdeSystem;
 use crate::observe::Snapshot;
+use crate::scene::{Case, CaseError, Discretised, MethodName};
 use crate::tensor::Dim;
+use rayon::prelude::*;
+use std::ops::{Add, Mul};
 use thiserror::Error;
+
+/// Smallest slice length rayon splits down to: below it the per-task overhead dominates.
+pub(crate) const MIN_CHUNK: usize = 256;
+
+/// y += a x, field by field.
+pub(crate) fn axpy<T: Copy + Send + Sync + Add<Output = T> + Mul<f64, Output = T>>(
+    y: &mut [T],
+    a: f64,
+    x: &[T],
+) {
+    y.par_iter_mut()
+        .with_min_len(MIN_CHUNK)
+        .zip(x)
+        .for_each(|(y, &x)| *y = *y + x * a);
+}
+
+/// y = a y + b x, field by field.
+pub(crate) fn blend<T: Copy + Send + Sync + Add<Output = T> + Mul<f64, Output = T>>(
+    y: &mut [T],
+    a: f64,
+    b: f64,
+    x: &[T],
+) {
+    y.par_iter_mut()
+        .with_min_len(MIN_CHUNK)
+        .zip(x)
+        .for_each(|(y, &x)| *y = *y * a + x * b);
+}
 
 /// A run stopped because the solution left the physically admissible set.
 #[derive(Clone, Debug, Error, PartialEq)]
@@ -20,7 +52,11 @@ pub struct BlowUp {
 }
 
 /// What the driver, observers and outputs need from a method.
-pub trait Method<D: Dim>: OdeSystem<Error = BlowUp> {
+pub trait Method<D: Dim>: OdeSystem<Error = BlowUp> + Sized {
+    /// The case-file method names this type implements.
+    const NAMES: &'static [MethodName];
+    /// Builds the method on the reference configuration of a case.
+    fn build(case: &Case, disc: Discretised<D>) -> Result<Self, CaseError>;
     /// Initial state (displacement zero, initial velocities with BCs imposed).
     fn initial_state(&self) -> Self::State;
     /// Displacement u = x − X and velocity v of a state.

@@ -5,7 +5,7 @@
 //! velocity v and, for the rate-based (hypoelastic) model, the density ρ and the
 //! deviatoric stress S.
 
-use super::{BlowUp, Method};
+use super::{BlowUp, MIN_CHUNK, Method, axpy, blend};
 use crate::boundary::Boundary;
 use crate::correction;
 use crate::integrate::{OdeState, OdeSystem};
@@ -13,13 +13,9 @@ use crate::kernel::Kernel;
 use crate::material::Material;
 use crate::neighbour::{self, Csr};
 use crate::observe::Snapshot;
-use crate::scene::{ArtificialViscosity, Case, CaseError, Discretised};
+use crate::scene::{ArtificialViscosity, Case, CaseError, Discretised, MethodName};
 use crate::tensor::Dim;
 use rayon::prelude::*;
-use std::ops::{Add, Mul};
-
-/// Smallest slice length rayon splits down to: below it the per-task overhead dominates.
-const MIN_CHUNK: usize = 256;
 
 /// Integrated state of TLSPH.
 #[derive(Clone, Debug)]
@@ -31,29 +27,6 @@ pub struct TlState<D: Dim> {
     pub rho: Vec<f64>,
     /// Deviatoric Cauchy stress (rate-based model only; empty otherwise).
     pub s: Vec<D::T>,
-}
-
-fn axpy<T: Copy + Send + Sync + Add<Output = T> + Mul<f64, Output = T>>(
-    y: &mut [T],
-    a: f64,
-    x: &[T],
-) {
-    y.par_iter_mut()
-        .with_min_len(MIN_CHUNK)
-        .zip(x)
-        .for_each(|(y, &x)| *y = *y + x * a);
-}
-
-fn blend<T: Copy + Send + Sync + Add<Output = T> + Mul<f64, Output = T>>(
-    y: &mut [T],
-    a: f64,
-    b: f64,
-    x: &[T],
-) {
-    y.par_iter_mut()
-        .with_min_len(MIN_CHUNK)
-        .zip(x)
-        .for_each(|(y, &x)| *y = *y * a + x * b);
 }
 
 impl<D: Dim> OdeState for TlState<D> {
@@ -411,6 +384,12 @@ impl<D: Dim> OdeSystem for Tlsph<D> {
 }
 
 impl<D: Dim> Method<D> for Tlsph<D> {
+    const NAMES: &'static [MethodName] = &[MethodName::Tlsph];
+
+    fn build(case: &Case, disc: Discretised<D>) -> Result<Self, CaseError> {
+        Self::new(case, disc)
+    }
+
     fn initial_state(&self) -> TlState<D> {
         let n = self.x0.len();
         let rate = self.material.model.is_rate_based();

@@ -1,7 +1,7 @@
 //! Geometry generators: sample every body of a case on a lattice of spacing Δx (or read
 //! its points from CSV) and set the initial velocity field.
 
-use super::{BodySpec, Case, CaseError, Shape, VelocityField};
+use super::{BodySpec, Case, CaseError, Shape, VelocityField, Volumes};
 use crate::analytic::SwingingMode;
 use crate::material::Material;
 use crate::tensor::Dim;
@@ -66,7 +66,21 @@ fn sample<D: Dim>(
         (points, vol)
     };
     Ok(match &spec.geometry {
-        Shape::Box { min, max } => lattice_of(min, max, &|_| true),
+        Shape::Box { min, max, volumes } => {
+            let (points, mut vol) = lattice_of(min, max, &|_| true);
+            if *volumes == Volumes::Tributary {
+                for (p, v) in points.iter().zip(vol.iter_mut()) {
+                    let p = D::to3(*p);
+                    for k in 0..D::N {
+                        let on_face = |bound: f64| (p[k] - bound).abs() < 1e-9 * dx;
+                        if on_face(min[k]) || on_face(max[k]) {
+                            *v *= 0.5;
+                        }
+                    }
+                }
+            }
+            (points, vol)
+        }
         Shape::Disk { center, radius } => {
             let (lo, hi) = around(center, *radius);
             lattice_of(&lo, &hi, &|p| dist2(p, center) < radius * radius)
@@ -234,6 +248,11 @@ fn initial_velocity<D: Dim>(case: &Case, field: Option<&VelocityField>, x: D::V)
             let d = d * (1.0 / D::norm2(d).sqrt());
             let s = D::dot(x, d);
             d * (amplitude * (-((s - center) / width).powi(2)).exp())
+        }
+        VelocityField::Twist { omega, length } => {
+            let w = omega * (std::f64::consts::FRAC_PI_2 * p[1] / length).sin();
+            // ω ŷ × X = (ω Z, 0, −ω X).
+            D::from_slice(&[w * p[2], 0.0, -w * p[0]])
         }
         VelocityField::Swinging { amplitude } => {
             SwingingMode::new(*amplitude, &Material::new(&case.material), D::N)

@@ -63,10 +63,16 @@ pub struct MaterialSpec {
 pub enum MethodName {
     /// Total-Lagrangian SPH after Reveles (seed 000 §5.3).
     Tlsph,
+    /// Mixed {p, F, H, J} total-Lagrangian SPH with the acoustic Riemann (upwind)
+    /// stabilisation of seed 003.
+    UpwindSph,
+    /// Mixed {p, F, H, J} total-Lagrangian SPH with Jameson–Schmidt–Turkel dissipation on
+    /// p (Lee et al. 2016, seed 002 eqs 26–28).
+    JstSph,
 }
 
 impl MethodName {
-    pub const ALL: [MethodName; 1] = [MethodName::Tlsph];
+    pub const ALL: [MethodName; 3] = [Self::Tlsph, Self::UpwindSph, Self::JstSph];
 
     pub fn describe(self) -> &'static str {
         match self {
@@ -74,6 +80,76 @@ impl MethodName {
                 "total-Lagrangian SPH (Reveles; seed 000 §5.3): corrected reference kernel, \
                  rate- or state-based stress, Monaghan artificial viscosity"
             }
+            Self::UpwindSph => {
+                "mixed {p, F, H, J} total-Lagrangian SPH with the acoustic Riemann (upwind) \
+                 stabilisation on p and J, linear reconstruction and the angular-momentum \
+                 projection (Lee et al. 2018; seed 003)"
+            }
+            Self::JstSph => {
+                "mixed {p, F, H, J} total-Lagrangian SPH with Jameson–Schmidt–Turkel \
+                 dissipation on p (Lee et al. 2016; seed 002 eqs 26–28)"
+            }
+        }
+    }
+
+    /// The name in case files.
+    pub fn key(self) -> &'static str {
+        match self {
+            Self::Tlsph => "tlsph",
+            Self::UpwindSph => "upwind-sph",
+            Self::JstSph => "jst-sph",
+        }
+    }
+
+    /// Whether the method evolves the mixed conservation variables {p, F, H, J}.
+    pub fn is_mixed(self) -> bool {
+        matches!(self, Self::UpwindSph | Self::JstSph)
+    }
+}
+
+/// Which geometric conservation laws a mixed method evolves besides p and F (seed 003 §6);
+/// the others are computed from F (H = cof F, J = det F).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Serialize)]
+pub enum Conserved {
+    #[serde(rename = "p-F")]
+    PF,
+    #[serde(rename = "p-F-J")]
+    PFJ,
+    #[serde(rename = "p-F-H-J")]
+    PFHJ,
+}
+
+impl Conserved {
+    pub const ALL: [Conserved; 3] = [Self::PF, Self::PFJ, Self::PFHJ];
+
+    pub fn evolves_h(self) -> bool {
+        self == Self::PFHJ
+    }
+
+    pub fn evolves_j(self) -> bool {
+        self != Self::PF
+    }
+}
+
+/// JST dissipation coefficients ε⁽²⁾ (Laplacian) and ε⁽⁴⁾ (bi-Laplacian).
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Jst {
+    #[serde(default)]
+    pub eps2: f64,
+    #[serde(default = "default_eps4")]
+    pub eps4: f64,
+}
+
+fn default_eps4() -> f64 {
+    0.125
+}
+
+impl Default for Jst {
+    fn default() -> Self {
+        Self {
+            eps2: 0.0,
+            eps4: default_eps4(),
         }
     }
 }
@@ -95,6 +171,15 @@ pub struct MethodSpec {
     /// Courant number: Δt = cfl · Δx / (c_p + max |v|).
     pub cfl: Option<f64>,
     pub artificial_viscosity: Option<ArtificialViscosity>,
+    /// Mixed methods: the conservation variables evolved (default {p, F, H, J}).
+    pub variables: Option<Conserved>,
+    /// Upwind-SPH: linear reconstruction of p and P to the mid-pair (default on).
+    pub reconstruction: Option<bool>,
+    /// Mixed methods: angular-momentum-preserving projection of the internal force and
+    /// of the stabilisation (seed 003 Appendix B; default on).
+    pub projection: Option<bool>,
+    /// JST-SPH: dissipation coefficients (default ε⁽²⁾ = 0, ε⁽⁴⁾ = 1/8).
+    pub jst: Option<Jst>,
 }
 
 fn default_kernel() -> KernelKind {
@@ -129,13 +214,30 @@ pub struct BodySpec {
     pub initial_velocity: Option<VelocityField>,
 }
 
+/// How lattice particles share the volume of their body.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Volumes {
+    #[default]
+    Uniform,
+    Tributary,
+}
+
 /// Geometry generators. Lattices are anchored at the lower corner of the shape's
 /// bounding box: points min + i·Δx, i = 0, 1, … while ≤ max.
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(tag = "shape", rename_all = "kebab-case", deny_unknown_fields)]
 pub enum Shape {
     /// Rectangle (2D) or box (3D), both ends closed.
-    Box { min: Vec<f64>, max: Vec<f64> },
+    Box {
+        min: Vec<f64>,
+        max: Vec<f64>,
+        /// Particle volumes: `uniform` (Δx^d each, the default) or `tributary` (the dual
+        /// cell of a vertex lattice: halved on every face a particle lies on, so the
+        /// volumes sum to the box's volume when its sides are multiples of Δx).
+        #[serde(default)]
+        volumes: Volumes,
+    },
     /// Disk of points with |x − c| < r (2D).
     Disk { center: Vec<f64>, radius: f64 },
     /// Annulus of points with r_i ≤ |x − c| < r_o (2D).
@@ -196,6 +298,12 @@ pub enum VelocityField {
     /// form: v = U0 ω Φ(X) (see [`crate::analytic::SwingingMode`]).
     Swinging {
         amplitude: f64,
+    },
+    /// The twisting column of seed 003 §7.3.1: v = ω(Y) × X with ω = Ω sin(πY/(2L)) ŷ,
+    /// about the Y axis through the origin.
+    Twist {
+        omega: f64,
+        length: f64,
     },
 }
 

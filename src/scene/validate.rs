@@ -6,8 +6,8 @@
 //! gives the same message.
 
 use super::{
-    ArtificialViscosity, Axis, BodySpec, BoundarySpec, Case, Condition, MaterialSpec, MethodSpec,
-    OutputSpec, ProbeSpec, Region, RunSpec, Shape, VelocityField,
+    ArtificialViscosity, Axis, BodySpec, BoundarySpec, Case, Condition, Jst, MaterialSpec,
+    MethodName, MethodSpec, OutputSpec, ProbeSpec, Region, RunSpec, Shape, VelocityField,
 };
 use serde::Serialize;
 use std::collections::HashSet;
@@ -22,6 +22,7 @@ pub(super) fn check(case: &Case) -> Result<(), (String, String)> {
     let dim = case.dim();
     material(&case.material)?;
     method(&case.method)?;
+    method_options(case)?;
     bodies(&case.bodies, dim)?;
     for (i, boundary) in case.boundaries.iter().enumerate() {
         self::boundary(boundary, &format!("boundary.{i}"), &case.bodies, dim)?;
@@ -197,6 +198,77 @@ fn method(m: &MethodSpec) -> Checked {
     Ok(())
 }
 
+/// Keys that only some methods read, and the models and corrections each method needs.
+fn method_options(case: &Case) -> Checked {
+    let m = &case.method;
+    let name = toml_name(&m.name);
+    if !m.name.is_mixed() {
+        for (key, given) in [
+            ("variables", m.variables.is_some()),
+            ("reconstruction", m.reconstruction.is_some()),
+            ("projection", m.projection.is_some()),
+            ("jst", m.jst.is_some()),
+        ] {
+            if given {
+                return fail(
+                    format!("method.{key}"),
+                    format!(
+                        "is read only by the mixed methods `upwind-sph` and `jst-sph`, not by \
+                         {name}; remove it"
+                    ),
+                );
+            }
+        }
+        return Ok(());
+    }
+    if m.artificial_viscosity.is_some() {
+        return fail(
+            "method.artificial_viscosity",
+            format!(
+                "is read only by `tlsph`; {name} is stabilised by its own flux, remove the key"
+            ),
+        );
+    }
+    if m.name != MethodName::UpwindSph && m.reconstruction.is_some() {
+        return fail(
+            "method.reconstruction",
+            format!("is read only by `upwind-sph`, not by {name}; remove it"),
+        );
+    }
+    if m.name != MethodName::JstSph && m.jst.is_some() {
+        return fail(
+            "method.jst",
+            format!("is read only by `jst-sph`, not by {name}; remove it"),
+        );
+    }
+    if let Some(Jst { eps2, eps4 }) = m.jst {
+        non_negative("method.jst.eps2", eps2)?;
+        non_negative("method.jst.eps4", eps4)?;
+    }
+    if !m.correction.is_first_order() {
+        return fail(
+            "method.correction",
+            format!(
+                "{name} needs gradients that are exact for linear fields; use `cgck` (the \
+                 paper's), `randles-libersky` or `rkpm`, not {}",
+                toml_name(&m.correction)
+            ),
+        );
+    }
+    if case.material.model.is_rate_based() {
+        return fail(
+            "material.model",
+            format!(
+                "{name} evolves F and evaluates P(F, H, J): use a state model \
+                 (`nearly-incompressible-neo-hookean`, `neo-hookean`, `saint-venant-kirchhoff` \
+                 or `linear-elastic`), not {}",
+                toml_name(&case.material.model)
+            ),
+        );
+    }
+    Ok(())
+}
+
 fn bodies(bodies: &[BodySpec], dim: usize) -> Checked {
     if bodies.is_empty() {
         return fail(
@@ -240,7 +312,7 @@ fn shape(shape: &Shape, key: &str, dim: usize) -> Checked {
         )
     };
     match shape {
-        Shape::Box { min, max } => {
+        Shape::Box { min, max, .. } => {
             vector(&format!("{key}.min"), min, dim)?;
             vector(&format!("{key}.max"), max, dim)?;
             for (k, (lo, hi)) in min.iter().zip(max).enumerate() {
@@ -359,6 +431,16 @@ fn velocity(field: &VelocityField, key: &str, dim: usize) -> Checked {
             positive(&format!("{key}.width"), *width)
         }
         VelocityField::Swinging { amplitude } => finite(&format!("{key}.amplitude"), *amplitude),
+        VelocityField::Twist { omega, length } => {
+            if dim != 3 {
+                return fail(
+                    key,
+                    "a twist is a 3D field (about the Y axis); use it in 3D",
+                );
+            }
+            finite(&format!("{key}.omega"), *omega)?;
+            positive(&format!("{key}.length"), *length)
+        }
     }
 }
 
@@ -616,6 +698,7 @@ mod tests {
         c.bodies[1].geometry = Shape::Box {
             min: vec![0.0, 1.0],
             max: vec![1.0, 1.0],
+            volumes: Default::default(),
         };
         assert_eq!(key_of(&c), "body.1.geometry.max");
         c.bodies[1].geometry = Shape::Points { file: "".into() };
