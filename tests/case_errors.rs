@@ -524,3 +524,64 @@ fn missing_file_is_named() {
     assert!(matches!(e, CaseError::Read { .. }), "{e}");
     assert_mentions(&e.to_string(), &["does-not-exist.toml", "cannot read"]);
 }
+
+// ---------------------------------------------------------------------------------------
+// Method-specific keys and requirements of the mixed methods
+
+#[test]
+fn mixed_method_rejects_rate_models_plain_gradients_and_viscosity() {
+    let mixed = edit(
+        &edit(VALID, "name = \"tlsph\"", "name = \"upwind-sph\""),
+        "model = \"hypoelastic\"",
+        "model = \"nearly-incompressible-neo-hookean\"",
+    );
+    let mixed = edit(
+        &mixed,
+        "h_over_dx = 1.3",
+        "h_over_dx = 1.3\ncorrection = \"cgck\"",
+    );
+    Case::from_toml(&mixed, Path::new(FILE), &[]).expect("a valid mixed case");
+    assert_invalid(
+        &edit(
+            &mixed,
+            "model = \"nearly-incompressible-neo-hookean\"",
+            "model = \"hypoelastic\"",
+        ),
+        "material.model",
+        &["state model", "hypoelastic"],
+    );
+    assert_invalid(
+        &edit(&mixed, "correction = \"cgck\"", "correction = \"shepard\""),
+        "method.correction",
+        &["exact for linear fields", "cgck", "shepard"],
+    );
+    assert_invalid(
+        &edit(
+            &mixed,
+            "dt = 1e-5",
+            "dt = 1e-5\nartificial_viscosity = { alpha = 1.0, beta = 1.0 }",
+        ),
+        "method.artificial_viscosity",
+        &["tlsph"],
+    );
+    assert_invalid(
+        &edit(&mixed, "dt = 1e-5", "dt = 1e-5\njst = { eps4 = 0.1 }"),
+        "method.jst",
+        &["jst-sph"],
+    );
+}
+
+#[test]
+fn tlsph_rejects_the_keys_of_the_mixed_methods() {
+    assert_invalid(
+        &edit(VALID, "dt = 1e-5", "dt = 1e-5\nvariables = \"p-F-J\""),
+        "method.variables",
+        &["upwind-sph", "jst-sph", "remove it"],
+    );
+    let (e, shown) = error_with(
+        &edit(VALID, "dt = 1e-5", "dt = 1e-5\nvariables = \"p-J\""),
+        &[],
+    );
+    assert!(matches!(e, CaseError::Parse { .. }), "{shown}");
+    assert_mentions(&shown, &["p-F", "p-F-J", "p-F-H-J"]);
+}
