@@ -53,8 +53,8 @@ impl Drift {
         let dh = [0, 1, 2].map(|k| inv.angular[k] - self.h0[k]);
         let h = norm(dh) / norm(self.h0);
         // Scaled by E(0), or by the work done so far when the body starts at rest.
-        let e = (inv.total_energy() - external_work - self.e0).abs()
-            / self.e0.max(external_work.abs());
+        let e =
+            (inv.total_energy() - external_work - self.e0).abs() / self.e0.max(external_work.abs());
         // NaN (a state past a blow-up) does not replace a finite maximum.
         if !self.angular_momentum.is_nan() {
             self.angular_momentum = self.angular_momentum.max(h);

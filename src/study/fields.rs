@@ -199,7 +199,11 @@ pub fn analytic_fields(
 
 /// Axial stress d·P·d of a state (the rod pulse's stress measure).
 pub fn axial_stress(state: &FinalState, case: &Case) -> Vec<f64> {
-    let dir = match case.bodies.first().and_then(|b| b.initial_velocity.as_ref()) {
+    let dir = match case
+        .bodies
+        .first()
+        .and_then(|b| b.initial_velocity.as_ref())
+    {
         Some(VelocityField::GaussianPulse { direction, .. }) => direction.clone(),
         _ => vec![1.0, 0.0, 0.0],
     };

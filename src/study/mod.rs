@@ -144,14 +144,17 @@ fn progress(show: bool, len: u64, name: &str) -> ProgressBar {
 
 fn summary_line(r: &RunRecord) -> String {
     let what = match &r.status {
-        Status::Ok => format!(
-            "ok in {:.2} s, {} particles, {} steps{}{}",
-            r.wall_seconds,
-            r.particles,
-            r.steps,
-            opt(" e_v", r.error_velocity),
-            opt(" e_P", r.error_stress)
-        ),
+        Status::Ok => {
+            format!(
+                "ok in {:.2} s, {} particles, {} steps{}{}",
+                r.wall_seconds,
+                r.particles,
+                r.steps,
+                opt(" e_v", r.error_velocity),
+                opt(" e_P", r.error_stress)
+            ) + &opt(" ΔH/H0", r.drift_angular_momentum)
+                + &opt(" ΔE/E0", r.drift_energy)
+        }
         Status::Failed { time, quantity, .. } => format!("failed at t = {time:.3e} s: {quantity}"),
         Status::Error => format!("not run: {}", r.reason),
     };

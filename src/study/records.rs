@@ -92,7 +92,11 @@ pub const HEADER: [&str; 25] = [
 ];
 
 fn num(x: f64) -> String {
-    if x.is_nan() { String::new() } else { format!("{x:e}") }
+    if x.is_nan() {
+        String::new()
+    } else {
+        format!("{x:e}")
+    }
 }
 
 fn parse_num(s: &str) -> f64 {

@@ -191,7 +191,10 @@ pub fn suite_section(
     if !suite.description.is_empty() {
         let _ = writeln!(s, "{}\n", suite.description.trim());
     }
-    let case = recs.iter().find(|r| !r.case.is_empty()).map(|r| r.case.as_str());
+    let case = recs
+        .iter()
+        .find(|r| !r.case.is_empty())
+        .map(|r| r.case.as_str());
     let _ = writeln!(
         s,
         "Case `{}` (suite file `{}`), sweep over `{}`; overrides of every run: `{}`.\n",
@@ -267,7 +270,11 @@ pub fn findings(suite: &Suite, recs: &[RunRecord]) -> String {
                         show(best)
                     ));
                 } else {
-                    parts.push(format!("on {} the most accurate run is {}", m.tag, show(best)));
+                    parts.push(format!(
+                        "on {} the most accurate run is {}",
+                        m.tag,
+                        show(best)
+                    ));
                 }
             }
             let failed: Vec<String> = recs
@@ -296,7 +303,9 @@ pub fn findings(suite: &Suite, recs: &[RunRecord]) -> String {
                 let mut last_stable = None;
                 let mut first_fail = None;
                 for v in &vals {
-                    let Some(r) = recs.iter().find(|r| r.line() == line && &r.sweep_value == v)
+                    let Some(r) = recs
+                        .iter()
+                        .find(|r| r.line() == line && &r.sweep_value == v)
                     else {
                         continue;
                     };

@@ -208,7 +208,10 @@ impl Suite {
                     "reference variant `{variant}` is not one of the variants {names:?}"
                 )));
             }
-            if at.as_ref().is_some_and(|at| !suite.sweep.values.contains(at)) {
+            if at
+                .as_ref()
+                .is_some_and(|at| !suite.sweep.values.contains(at))
+            {
                 return Err(invalid(
                     "reference `at` is not one of the sweep values".into(),
                 ));
@@ -301,6 +304,8 @@ impl Suite {
 pub fn label(v: &Value) -> String {
     match v {
         Value::String(s) => s.clone(),
+        Value::Float(x) if *x != 0.0 && (x.abs() < 1e-3 || x.abs() >= 1e6) => format!("{x:e}"),
+        Value::Float(x) => format!("{x}"),
         other => other.to_string(),
     }
 }
