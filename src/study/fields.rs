@@ -30,9 +30,9 @@ impl FinalState {
             .zip(&snap.sigma)
             .map(|(&f, s)| {
                 let mut sigma = D::zero_t();
-                for k in 0..D::N {
-                    for l in 0..D::N {
-                        sigma += D::outer(unit::<D>(k), unit::<D>(l)) * s[k][l];
+                for (k, row) in s.iter().enumerate().take(D::N) {
+                    for (l, &x) in row.iter().enumerate().take(D::N) {
+                        sigma += D::outer(unit::<D>(k), unit::<D>(l)) * x;
                     }
                 }
                 let p = sigma * D::transpose(D::inverse(f)) * D::det(f);
@@ -127,7 +127,7 @@ fn unit<D: Dim>(k: usize) -> D::V {
 /// `q` and `q_ex` holding `w.len()` blocks of equal size (vector or tensor components).
 /// NaN when the sizes disagree or the reference is zero.
 pub fn relative_l2(w: &[f64], q: &[f64], q_ex: &[f64]) -> f64 {
-    if w.is_empty() || q.len() != q_ex.len() || q.len() % w.len() != 0 {
+    if w.is_empty() || q.len() != q_ex.len() || !q.len().is_multiple_of(w.len()) {
         return f64::NAN;
     }
     let block = q.len() / w.len();

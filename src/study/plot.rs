@@ -210,7 +210,7 @@ fn draw<DB: DrawingBackend>(
             front.clone(),
             6u32,
             4u32,
-            BLACK.stroke_width(1).into(),
+            BLACK.stroke_width(1),
         ))
         .map_err(err)?
         .label("Pareto front")
