@@ -16,4 +16,5 @@ pub mod observe;
 pub mod output;
 pub mod run;
 pub mod scene;
+pub mod study;
 pub mod tensor;

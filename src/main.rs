@@ -65,6 +65,24 @@ enum Command {
         #[arg(long)]
         csv: Option<PathBuf>,
     },
+    /// Run study suites: error against wall time and stability sweeps (see cases/studies/).
+    Study {
+        /// Suite files, names of suites in cases/studies/, or `all` (the report's suites).
+        #[arg(required = true)]
+        suites: Vec<String>,
+        /// Results root; each suite writes into <DIR>/<suite name>/ (default: out/study).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Redo every run (by default runs already in results.csv are kept).
+        #[arg(long)]
+        no_resume: bool,
+        /// Also write a report over the suites (plots and CSV go to study/ beside it).
+        #[arg(long)]
+        report: Option<PathBuf>,
+        /// No progress bar or per-run lines.
+        #[arg(long, short)]
+        quiet: bool,
+    },
 }
 
 /// Exit code for invalid input (case files, arguments), as clap uses for usage errors.
@@ -99,6 +117,62 @@ fn main() -> ExitCode {
             set,
             csv,
         } => bench_command(&cases, backend, &particles, steps, &set, csv.as_deref()),
+        Command::Study {
+            suites,
+            out,
+            no_resume,
+            report,
+            quiet,
+        } => study_command(&suites, out, !no_resume, report.as_deref(), quiet),
+    }
+}
+
+fn study_command(
+    names: &[String],
+    out: Option<PathBuf>,
+    resume: bool,
+    report: Option<&Path>,
+    quiet: bool,
+) -> ExitCode {
+    use meshless::study::{StudyError, resolve_suites, run_suites};
+    let paths = match resolve_suites(names, &cases_dir().join("studies")) {
+        Ok(p) => p,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(EXIT_INPUT);
+        }
+    };
+    let out = out.unwrap_or_else(|| Path::new("out").join("study"));
+    let mut command = format!("meshless study {}", names.join(" "));
+    if let Some(r) = report {
+        command += &format!(" --report {}", r.display());
+    }
+    match run_suites(&paths, &out, resume, !quiet, report, &command) {
+        Ok(done) => {
+            for (suite, o) in &done {
+                let failed = o.records.iter().filter(|r| r.status.name() != "ok").count();
+                println!(
+                    "{}: {} runs ({} done now, {} kept from an earlier study, {} not ok); results in {}",
+                    suite.name,
+                    o.records.len(),
+                    o.executed,
+                    o.skipped,
+                    failed,
+                    out.join(&suite.name).display()
+                );
+            }
+            if let Some(r) = report {
+                println!("report: {}", r.display());
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(match e {
+                StudyError::Suite(_) => EXIT_INPUT,
+                StudyError::Io(_) => EXIT_FAILED,
+            })
+        }
     }
 }
 

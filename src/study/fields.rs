@@ -1,0 +1,332 @@
+//! Final fields of a run and the error norms against a reference: a closed form, or the
+//! final state of a converged run matched by reference position.
+
+use crate::analytic::SwingingMode;
+use crate::material::Material;
+use crate::observe::Snapshot;
+use crate::scene::{Case, VelocityField};
+use crate::tensor::Dim;
+use std::collections::HashMap;
+use std::io::{BufRead, Write};
+use std::path::Path;
+
+/// The end state of a run, independent of the dimension: reference positions, volumes,
+/// velocity and first Piola–Kirchhoff stress P = J σ F⁻ᵀ (in-plane block in 2D).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FinalState {
+    pub dim: usize,
+    pub x0: Vec<[f64; 3]>,
+    pub volume: Vec<f64>,
+    pub v: Vec<[f64; 3]>,
+    pub pk1: Vec<[[f64; 3]; 3]>,
+}
+
+impl FinalState {
+    /// From a snapshot; volumes are m/ρ0.
+    pub fn of<D: Dim>(snap: &Snapshot<D>, rho0: f64) -> Self {
+        let pk1 = snap
+            .f
+            .iter()
+            .zip(&snap.sigma)
+            .map(|(&f, s)| {
+                let mut sigma = D::zero_t();
+                for (k, row) in s.iter().enumerate().take(D::N) {
+                    for (l, &x) in row.iter().enumerate().take(D::N) {
+                        sigma += D::outer(unit::<D>(k), unit::<D>(l)) * x;
+                    }
+                }
+                let p = sigma * D::transpose(D::inverse(f)) * D::det(f);
+                D::to3x3(p)
+            })
+            .collect();
+        Self {
+            dim: D::N,
+            x0: snap.x0.iter().map(|&x| D::to3(x)).collect(),
+            volume: snap.mass.iter().map(|m| m / rho0).collect(),
+            v: snap.v.iter().map(|&v| D::to3(v)).collect(),
+            pk1,
+        }
+    }
+
+    /// Velocities, `dim` numbers per particle.
+    pub fn velocity_flat(&self) -> Vec<f64> {
+        self.v.iter().flat_map(|v| v[..self.dim].to_vec()).collect()
+    }
+
+    /// P, `dim²` numbers per particle.
+    pub fn stress_flat(&self) -> Vec<f64> {
+        self.pk1.iter().flat_map(|p| self.block(p)).collect()
+    }
+
+    fn block(&self, p: &[[f64; 3]; 3]) -> Vec<f64> {
+        (0..self.dim)
+            .flat_map(|k| (0..self.dim).map(move |l| p[k][l]))
+            .collect()
+    }
+
+    /// Writes the state as CSV (x, y, z, volume, v, P row by row), digits that round-trip.
+    pub fn write_csv(&self, path: &Path) -> std::io::Result<()> {
+        let tmp = path.with_extension("csv.tmp");
+        {
+            let mut w = std::io::BufWriter::new(std::fs::File::create(&tmp)?);
+            writeln!(w, "dim,{}", self.dim)?;
+            for i in 0..self.x0.len() {
+                let mut row: Vec<f64> = self.x0[i].to_vec();
+                row.push(self.volume[i]);
+                row.extend(self.v[i]);
+                row.extend(self.pk1[i].iter().flatten());
+                let text: Vec<String> = row.iter().map(|x| format!("{x:e}")).collect();
+                writeln!(w, "{}", text.join(","))?;
+            }
+            w.flush()?;
+        }
+        std::fs::rename(tmp, path)
+    }
+
+    pub fn read_csv(path: &Path) -> std::io::Result<Self> {
+        let bad = |m: String| std::io::Error::new(std::io::ErrorKind::InvalidData, m);
+        let file = std::io::BufReader::new(std::fs::File::open(path)?);
+        let mut out = FinalState::default();
+        for (n, line) in file.lines().enumerate() {
+            let line = line?;
+            if n == 0 {
+                out.dim = line
+                    .strip_prefix("dim,")
+                    .and_then(|d| d.parse().ok())
+                    .ok_or_else(|| bad(format!("{}: no dim header", path.display())))?;
+                continue;
+            }
+            let x: Vec<f64> = line
+                .split(',')
+                .map(|s| s.parse::<f64>())
+                .collect::<Result<_, _>>()
+                .map_err(|e| bad(format!("{}:{}: {e}", path.display(), n + 1)))?;
+            if x.len() != 16 {
+                return Err(bad(format!("{}:{}: 16 columns", path.display(), n + 1)));
+            }
+            out.x0.push([x[0], x[1], x[2]]);
+            out.volume.push(x[3]);
+            out.v.push([x[4], x[5], x[6]]);
+            out.pk1.push([
+                [x[7], x[8], x[9]],
+                [x[10], x[11], x[12]],
+                [x[13], x[14], x[15]],
+            ]);
+        }
+        Ok(out)
+    }
+}
+
+fn unit<D: Dim>(k: usize) -> D::V {
+    let mut e = [0.0; 3];
+    e[k] = 1.0;
+    D::from_slice(&e)
+}
+
+/// Relative L2 error e = sqrt(Σ_i w_i |q_i − q_ex,i|²) / sqrt(Σ_i w_i |q_ex,i|²), with
+/// `q` and `q_ex` holding `w.len()` blocks of equal size (vector or tensor components).
+/// NaN when the sizes disagree or the reference is zero.
+pub fn relative_l2(w: &[f64], q: &[f64], q_ex: &[f64]) -> f64 {
+    if w.is_empty() || q.len() != q_ex.len() || !q.len().is_multiple_of(w.len()) {
+        return f64::NAN;
+    }
+    let block = q.len() / w.len();
+    let (mut num, mut den) = (0.0, 0.0);
+    for (i, &wi) in w.iter().enumerate() {
+        for k in i * block..(i + 1) * block {
+            num += wi * (q[k] - q_ex[k]).powi(2);
+            den += wi * q_ex[k].powi(2);
+        }
+    }
+    if den > 0.0 {
+        (num / den).sqrt()
+    } else {
+        f64::NAN
+    }
+}
+
+/// Velocity and stress of a closed-form solution at the particles of `state`, time t,
+/// flattened as [`FinalState::velocity_flat`] and [`FinalState::stress_flat`]. For the
+/// rod pulse only the axial component of P along the pulse is kept (its other
+/// components are zero in the exact solution but depend on the constitutive model).
+pub fn analytic_fields(
+    solution: super::suite::AnalyticSolution,
+    case: &Case,
+    state: &FinalState,
+    t: f64,
+) -> Result<(Vec<f64>, Vec<f64>), String> {
+    use super::suite::AnalyticSolution;
+    let body = case.bodies.first().ok_or("the case has no body")?;
+    let material = Material::new(&case.material);
+    match (solution, &body.initial_velocity) {
+        (AnalyticSolution::Swinging, Some(VelocityField::Swinging { amplitude })) => {
+            let (v, p) = match state.dim {
+                2 => swinging::<crate::tensor::D2>(*amplitude, &material, state, t),
+                _ => swinging::<crate::tensor::D3>(*amplitude, &material, state, t),
+            };
+            Ok((v, p))
+        }
+        (
+            AnalyticSolution::RodPulse,
+            Some(VelocityField::GaussianPulse {
+                amplitude,
+                direction,
+                center,
+                width,
+            }),
+        ) => {
+            let n = direction.iter().map(|d| d * d).sum::<f64>().sqrt();
+            let d: Vec<f64> = direction.iter().map(|x| x / n).collect();
+            let c = material.p_wave_speed();
+            let modulus = material.lambda + 2.0 * material.mu;
+            let g = |s: f64| (-((s - center) / width).powi(2)).exp();
+            let mut v = Vec::new();
+            let mut p = Vec::new();
+            for x in &state.x0 {
+                let s: f64 = (0..state.dim).map(|k| x[k] * d[k]).sum();
+                let speed = 0.5 * amplitude * (g(s - c * t) + g(s + c * t));
+                v.extend((0..state.dim).map(|k| speed * d[k]));
+                // u = (A/2c) ∫_{s−ct}^{s+ct} g, ∂u/∂s = (A/2c)(g(s + ct) − g(s − ct)).
+                p.push(modulus * amplitude / (2.0 * c) * (g(s + c * t) - g(s - c * t)));
+            }
+            Ok((v, p))
+        }
+        (s, _) => Err(format!(
+            "the analytic solution {s:?} needs the matching initial velocity of the case's first body"
+        )),
+    }
+}
+
+/// Axial stress d·P·d of a state (the rod pulse's stress measure).
+pub fn axial_stress(state: &FinalState, case: &Case) -> Vec<f64> {
+    let dir = match case
+        .bodies
+        .first()
+        .and_then(|b| b.initial_velocity.as_ref())
+    {
+        Some(VelocityField::GaussianPulse { direction, .. }) => direction.clone(),
+        _ => vec![1.0, 0.0, 0.0],
+    };
+    let n = dir.iter().map(|d| d * d).sum::<f64>().sqrt();
+    let d: Vec<f64> = dir.iter().map(|x| x / n).collect();
+    state
+        .pk1
+        .iter()
+        .map(|p| {
+            (0..state.dim)
+                .flat_map(|k| (0..state.dim).map(move |l| (k, l)))
+                .map(|(k, l)| d[k] * p[k][l] * d[l])
+                .sum()
+        })
+        .collect()
+}
+
+fn swinging<D: Dim>(
+    amplitude: f64,
+    material: &Material,
+    state: &FinalState,
+    t: f64,
+) -> (Vec<f64>, Vec<f64>) {
+    let mode = SwingingMode::new(amplitude, material, D::N);
+    let mut v = Vec::new();
+    let mut p = Vec::new();
+    for x in &state.x0 {
+        let x = D::from_slice(x);
+        let vx = D::to3(mode.velocity::<D>(x, t));
+        v.extend_from_slice(&vx[..D::N]);
+        let px = D::to3x3(mode.stress::<D>(material, x, t));
+        for row in px.iter().take(D::N) {
+            p.extend_from_slice(&row[..D::N]);
+        }
+    }
+    (v, p)
+}
+
+/// The reference state's fields at the particles of `state`: each particle takes the
+/// values of the reference particle nearest to its reference position (on nested
+/// lattices of one ladder the positions coincide). Returns (velocity, stress, largest
+/// match distance).
+pub fn matched_fields(reference: &FinalState, state: &FinalState) -> (Vec<f64>, Vec<f64>, f64) {
+    let grid = Grid::new(&reference.x0);
+    let mut v = Vec::new();
+    let mut p = Vec::new();
+    let mut worst: f64 = 0.0;
+    for x in &state.x0 {
+        let (j, d) = grid.nearest(&reference.x0, x);
+        worst = worst.max(d);
+        v.extend_from_slice(&reference.v[j][..state.dim]);
+        p.extend(reference.block(&reference.pk1[j]));
+    }
+    (v, p, worst)
+}
+
+/// A uniform hash grid for nearest-neighbour queries.
+struct Grid {
+    cell: f64,
+    cells: HashMap<[i64; 3], Vec<usize>>,
+}
+
+impl Grid {
+    fn new(points: &[[f64; 3]]) -> Self {
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for p in points {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let extent: Vec<f64> = (0..3).map(|k| hi[k] - lo[k]).filter(|&e| e > 0.0).collect();
+        let volume: f64 = extent.iter().product();
+        let cell = if extent.is_empty() {
+            1.0
+        } else {
+            (volume / points.len().max(1) as f64).powf(1.0 / extent.len() as f64) * 2.0
+        };
+        let mut cells: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
+        for (i, p) in points.iter().enumerate() {
+            cells.entry(key(p, cell)).or_default().push(i);
+        }
+        Self { cell, cells }
+    }
+
+    /// Index and distance of the nearest point.
+    fn nearest(&self, points: &[[f64; 3]], x: &[f64; 3]) -> (usize, f64) {
+        let c = key(x, self.cell);
+        let mut best = (0, f64::INFINITY);
+        for ring in 0i64.. {
+            // Points in ring r + 1 are at least r cells away.
+            if best.1 < (ring - 1).max(0) as f64 * self.cell || ring > 1 << 20 {
+                break;
+            }
+            for a in -ring..=ring {
+                for b in -ring..=ring {
+                    for e in -ring..=ring {
+                        if a.abs().max(b.abs()).max(e.abs()) != ring {
+                            continue;
+                        }
+                        let Some(list) = self.cells.get(&[c[0] + a, c[1] + b, c[2] + e]) else {
+                            continue;
+                        };
+                        for &j in list {
+                            let d = (0..3)
+                                .map(|k| (points[j][k] - x[k]).powi(2))
+                                .sum::<f64>()
+                                .sqrt();
+                            if d < best.1 {
+                                best = (j, d);
+                            }
+                        }
+                    }
+                }
+            }
+            if self.cells.is_empty() {
+                break;
+            }
+        }
+        best
+    }
+}
+
+fn key(p: &[f64; 3], cell: f64) -> [i64; 3] {
+    [0, 1, 2].map(|k| (p[k] / cell).floor() as i64)
+}

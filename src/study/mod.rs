@@ -1,0 +1,393 @@
+//! `meshless study`: runs the suites of `cases/studies/` (variants × backends × a sweep of
+//! one case key), measures each run's error against the suite's reference and its wall
+//! time, and writes CSV, Markdown tables, error-against-time plots and the report.
+//!
+//! Runs are isolated (a blow-up, an invalid case or a panic is recorded and the study goes
+//! on) and keyed by a hash of the resolved case and the backend, so a study that is run
+//! again skips what it finished. Nothing here depends on the particle method: a method
+//! family plugs in by being named in a variant's `method.name=…`.
+
+pub mod engine;
+pub mod fields;
+pub mod plot;
+pub mod records;
+pub mod report;
+pub mod suite;
+
+pub use records::{RunRecord, Status};
+pub use suite::{Reference, Suite, SuiteKind};
+
+use crate::run::{Backend, RunError, RunOptions};
+use engine::{Outcome, run_case};
+use fields::{FinalState, analytic_fields, axial_stress, matched_fields, relative_l2};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::{Path, PathBuf};
+use suite::{AnalyticSolution, BackendName, PlannedRun};
+
+/// How a study runs.
+#[derive(Clone, Debug)]
+pub struct StudyOptions {
+    /// Folder of this suite's results (`results.csv`, `results.md`, plots, run outputs).
+    pub out_dir: PathBuf,
+    /// Skip runs whose results are already in `results.csv`.
+    pub resume: bool,
+    /// Progress bar on the terminal.
+    pub progress: bool,
+}
+
+/// What a study did.
+#[derive(Clone, Debug)]
+pub struct StudyOutcome {
+    /// One record per planned run, in plan order.
+    pub records: Vec<RunRecord>,
+    /// Runs done now.
+    pub executed: usize,
+    /// Runs taken from an earlier study.
+    pub skipped: usize,
+    /// Files written (results, table, plots).
+    pub files: Vec<PathBuf>,
+}
+
+/// File of a converged reference's final state.
+fn reference_file(out_dir: &Path, id: &str) -> PathBuf {
+    out_dir.join(format!("reference-{id}.csv"))
+}
+
+/// Runs a suite: every planned run not already finished, one after another (their wall
+/// times are compared, so they do not share the cores).
+pub fn run_suite(suite: &Suite, opts: &StudyOptions) -> std::io::Result<StudyOutcome> {
+    std::fs::create_dir_all(&opts.out_dir)?;
+    let results = opts.out_dir.join("results.csv");
+    let plan = suite.plan();
+    let mut records: Vec<RunRecord> = if opts.resume {
+        records::read(&results)?
+            .into_iter()
+            .filter(|r| plan.iter().any(|p| p.id == r.id))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let reference_id = suite
+        .reference_value()
+        .and(plan.first().map(|p| p.id.clone()));
+    let mut reference: Option<FinalState> = None;
+    let machine = records::machine();
+
+    let bar = progress(opts.progress, plan.len() as u64, &suite.name);
+    let (mut executed, mut skipped) = (0, 0);
+    for run in &plan {
+        let is_reference = reference_id.as_deref() == Some(run.id.as_str());
+        let finished = records
+            .iter()
+            .any(|r| r.id == run.id && r.status != Status::Error);
+        let reference_ready = !is_reference || reference_file(&opts.out_dir, &run.id).exists();
+        if finished && reference_ready {
+            if is_reference {
+                reference = FinalState::read_csv(&reference_file(&opts.out_dir, &run.id)).ok();
+            }
+            skipped += 1;
+            bar.inc(1);
+            continue;
+        }
+        bar.set_message(format!("{} {}={}", run.variant, suite.sweep.key, run.value));
+        let (record, state) = execute(suite, run, opts, reference.as_ref(), &machine);
+        if is_reference {
+            if let (Some(state), Status::Ok) = (&state, &record.status) {
+                state.write_csv(&reference_file(&opts.out_dir, &run.id))?;
+                reference = Some(state.clone());
+            }
+        }
+        let line = summary_line(&record);
+        if bar.is_hidden() {
+            if opts.progress {
+                eprintln!("{line}");
+            }
+        } else {
+            bar.println(line);
+        }
+        records.retain(|r| r.id != run.id);
+        records.push(record);
+        records::write(&results, &records)?;
+        executed += 1;
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+
+    // Plan order, then the files.
+    records.sort_by_key(|r| plan.iter().position(|p| p.id == r.id));
+    records::write(&results, &records)?;
+    let mut files = vec![results];
+    files.extend(plot::plots(suite, &records, &opts.out_dir)?);
+    let md = opts.out_dir.join("results.md");
+    std::fs::write(&md, report::suite_section(suite, &records, &[], 3))?;
+    files.push(md);
+    Ok(StudyOutcome {
+        records,
+        executed,
+        skipped,
+        files,
+    })
+}
+
+fn progress(show: bool, len: u64, name: &str) -> ProgressBar {
+    if !show || !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::new(len);
+    bar.set_style(
+        ProgressStyle::with_template("{prefix} [{elapsed_precise}] {wide_bar} {pos}/{len} {msg}")
+            .expect("static progress template is valid"),
+    );
+    bar.set_prefix(name.to_string());
+    bar
+}
+
+fn summary_line(r: &RunRecord) -> String {
+    let what = match &r.status {
+        Status::Ok => {
+            format!(
+                "ok in {:.2} s, {} particles, {} steps{}{}",
+                r.wall_seconds,
+                r.particles,
+                r.steps,
+                opt(" e_v", r.error_velocity),
+                opt(" e_P", r.error_stress)
+            ) + &opt(" ΔH/H0", r.drift_angular_momentum)
+                + &opt(" ΔE/E0", r.drift_energy)
+        }
+        Status::Failed { time, quantity, .. } => format!("failed at t = {time:.3e} s: {quantity}"),
+        Status::Error => format!("not run: {}", r.reason),
+    };
+    format!(
+        "  {} [{}] {}={}: {what}",
+        r.variant, r.backend, r.sweep_key, r.sweep_value
+    )
+}
+
+fn opt(name: &str, x: f64) -> String {
+    if x.is_finite() {
+        format!("{name} = {x:.3e}")
+    } else {
+        String::new()
+    }
+}
+
+/// One run, isolated: any failure, including a panic, becomes its record.
+fn execute(
+    suite: &Suite,
+    run: &PlannedRun,
+    opts: &StudyOptions,
+    reference: Option<&FinalState>,
+    machine: &str,
+) -> (RunRecord, Option<FinalState>) {
+    let mut record = RunRecord {
+        id: run.id.clone(),
+        suite: suite.name.clone(),
+        case: String::new(),
+        variant: run.variant.clone(),
+        backend: run.backend.as_str().to_string(),
+        sweep_key: suite.sweep.key.clone(),
+        sweep_value: run.value.clone(),
+        spacing: f64::NAN,
+        particles: 0,
+        steps: 0,
+        dt_last: f64::NAN,
+        time: f64::NAN,
+        wall_seconds: f64::NAN,
+        error_velocity: f64::NAN,
+        error_stress: f64::NAN,
+        drift_angular_momentum: f64::NAN,
+        drift_energy: f64::NAN,
+        status: Status::Error,
+        reason: String::new(),
+        machine: machine.to_string(),
+    };
+    let case = match &run.case {
+        Ok(c) => c,
+        Err(e) => {
+            record.reason = e.clone();
+            return (record, None);
+        }
+    };
+    record.case = case.name.clone();
+    record.spacing = case.spacing;
+    let run_opts = RunOptions {
+        out_dir: opts.out_dir.join("runs").join(&run.id),
+        backend: match run.backend {
+            BackendName::Cpu => Backend::Cpu,
+            BackendName::Gpu => Backend::Gpu,
+        },
+        progress: false,
+        frames: false,
+    };
+    let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        run_case(case, run_opts.backend, &run_opts)
+    }));
+    let Outcome {
+        result,
+        wall_seconds,
+        drift,
+        state,
+        time,
+    } = match outcome {
+        Ok(o) => o,
+        Err(panic) => {
+            let msg = panic
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_default();
+            record.reason = format!("panic: {msg}");
+            return (record, None);
+        }
+    };
+    record.wall_seconds = wall_seconds;
+    record.time = time;
+    record.particles = state.as_ref().map_or(0, |s| s.x0.len());
+    match result {
+        Ok(summary) => {
+            record.status = Status::Ok;
+            record.backend = summary.backend;
+            record.steps = summary.steps;
+            record.dt_last = summary.dt_last;
+            record.drift_angular_momentum = drift.angular_momentum;
+            record.drift_energy = drift.energy;
+            if let Some(state) = &state {
+                let is_reference = suite
+                    .reference_value()
+                    .is_some_and(|(v, value)| v == run.variant && value == run.value);
+                match errors(suite, case, state, time, reference) {
+                    Ok((ev, es)) if !is_reference => {
+                        record.error_velocity = ev;
+                        record.error_stress = es;
+                    }
+                    Ok(_) => {
+                        record.reason = "converged reference: the other runs' errors are \
+                                         measured against this run"
+                            .into()
+                    }
+                    Err(e) => record.reason = e,
+                }
+            }
+        }
+        Err(RunError::BlowUp {
+            step, time, cause, ..
+        }) => {
+            record.steps = step;
+            record.reason = cause.to_string();
+            record.status = Status::Failed {
+                time,
+                step,
+                particle: cause.particle,
+                quantity: cause.quantity.clone(),
+            };
+        }
+        Err(e) => record.reason = e.to_string(),
+    }
+    (record, state)
+}
+
+/// Velocity and stress errors of a final state against the suite's reference (NaN where
+/// the reference measures no field).
+fn errors(
+    suite: &Suite,
+    case: &crate::scene::Case,
+    state: &FinalState,
+    time: f64,
+    reference: Option<&FinalState>,
+) -> Result<(f64, f64), String> {
+    let w = &state.volume;
+    match &suite.reference {
+        Reference::Analytic { solution } => {
+            let (v_ex, p_ex) = analytic_fields(*solution, case, state, time)?;
+            let ev = relative_l2(w, &state.velocity_flat(), &v_ex);
+            let es = match solution {
+                AnalyticSolution::RodPulse => relative_l2(w, &axial_stress(state, case), &p_ex),
+                AnalyticSolution::Swinging => relative_l2(w, &state.stress_flat(), &p_ex),
+            };
+            Ok((ev, es))
+        }
+        Reference::Converged { .. } => {
+            let Some(reference) = reference else {
+                // The reference run itself, or its run failed.
+                return Ok((f64::NAN, f64::NAN));
+            };
+            let (v_ex, p_ex, _) = matched_fields(reference, state);
+            Ok((
+                relative_l2(w, &state.velocity_flat(), &v_ex),
+                relative_l2(w, &state.stress_flat(), &p_ex),
+            ))
+        }
+        Reference::Invariant { .. } | Reference::None => Ok((f64::NAN, f64::NAN)),
+    }
+}
+
+/// The suite files named on the command line: paths, names of files in `dir`, or `all`
+/// (every suite in `dir` with `report = true`).
+pub fn resolve_suites(names: &[String], dir: &Path) -> Result<Vec<PathBuf>, String> {
+    let mut out = Vec::new();
+    for name in names {
+        if name == "all" {
+            let mut all: Vec<PathBuf> = std::fs::read_dir(dir)
+                .map_err(|e| format!("{}: {e}", dir.display()))?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+                .filter(|p| Suite::load(p).is_ok_and(|s| s.report))
+                .collect();
+            all.sort();
+            out.extend(all);
+            continue;
+        }
+        let given = PathBuf::from(name);
+        if given.exists() || name.ends_with(".toml") {
+            out.push(given);
+        } else {
+            out.push(dir.join(format!("{name}.toml")));
+        }
+    }
+    Ok(out)
+}
+
+/// Runs suites one after another (results in `<out_root>/<suite name>/`) and, with
+/// `report`, writes the report over them. `command` is quoted in the report as the way to
+/// regenerate it.
+pub fn run_suites(
+    paths: &[PathBuf],
+    out_root: &Path,
+    resume: bool,
+    progress: bool,
+    report: Option<&Path>,
+    command: &str,
+) -> Result<Vec<(Suite, StudyOutcome)>, StudyError> {
+    let suites = paths
+        .iter()
+        .map(|p| Suite::load(p))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut done = Vec::new();
+    for suite in suites {
+        let opts = StudyOptions {
+            out_dir: out_root.join(&suite.name),
+            resume,
+            progress,
+        };
+        let outcome = run_suite(&suite, &opts)?;
+        done.push((suite, outcome));
+    }
+    if let Some(path) = report {
+        let entries: Vec<(Suite, Vec<RunRecord>)> = done
+            .iter()
+            .map(|(s, o)| (s.clone(), o.records.clone()))
+            .collect();
+        report::write_report(&entries, path, command)?;
+    }
+    Ok(done)
+}
+
+/// Why a study could not run (failed runs are results, not errors).
+#[derive(Debug, thiserror::Error)]
+pub enum StudyError {
+    #[error(transparent)]
+    Suite(#[from] suite::SuiteError),
+    #[error("output: {0}")]
+    Io(#[from] std::io::Error),
+}

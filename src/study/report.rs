@@ -1,0 +1,434 @@
+//! Markdown: the table of one suite's runs, the stability map, and the report over suites
+//! with its "which method for which job" section drawn from the records alone.
+
+use super::plot::{metrics, pareto, plots, plottable};
+use super::records::{self, RunRecord, Status};
+use super::suite::{AnalyticSolution, InvariantKind, Reference, Suite, SuiteKind};
+use std::fmt::Write;
+use std::path::Path;
+
+fn sci(x: f64) -> String {
+    if x.is_finite() {
+        format!("{x:.2e}")
+    } else {
+        "–".into()
+    }
+}
+
+fn cell(s: &str) -> String {
+    s.replace('|', "\\|").replace('\n', " ")
+}
+
+/// The failed quantity without its parenthesised detail (`total energy`, `det F`).
+fn short_quantity(q: &str) -> &str {
+    q.split(" (").next().unwrap_or(q)
+}
+
+/// What the errors of a suite are measured against, in words.
+pub fn reference_statement(suite: &Suite) -> String {
+    match &suite.reference {
+        Reference::Analytic {
+            solution: AnalyticSolution::Swinging,
+        } => "analytic: the swinging plate/cube mode of seed 003 §7.1.1 (linear elastodynamics). \
+              Errors are relative L2 norms at the end time, weighted by particle volume, \
+              e = sqrt(Σ V |q − q_ex|²)/sqrt(Σ V |q_ex|²), of the velocity v and of the \
+              first Piola–Kirchhoff stress P = J σ F⁻ᵀ (all in-plane components)."
+            .into(),
+        Reference::Analytic {
+            solution: AnalyticSolution::RodPulse,
+        } => "analytic: d'Alembert's solution of the Gaussian velocity pulse in uniaxial strain \
+              (v = ½A[g(s − ct) + g(s + ct)], c = sqrt((λ + 2μ)/ρ0)). Errors are relative L2 \
+              norms at the end time, weighted by particle volume, of the velocity v and of the \
+              axial first Piola–Kirchhoff stress P_xx (the lateral components depend on the \
+              constitutive model's plane-strain closure and are left out)."
+            .into(),
+        Reference::Invariant {
+            quantity: InvariantKind::AngularMomentum,
+        } => "invariant: the angular momentum H = Σ m x × v must stay at H(0) (no external \
+              moment). The error is max |H(t) − H(0)|/|H(0)| over every check of the run (at \
+              least every 100 steps and every series sample)."
+            .into(),
+        Reference::Invariant {
+            quantity: InvariantKind::Energy,
+        } => "invariant: the total energy E = kinetic + strain minus the work W of supports \
+              and loads must stay at E(0). The error is max |E(t) − W(t) − E(0)|/max(E(0), |W(t)|) \
+              over every check of the run (for the hypoelastic model E uses the complementary \
+              energy of its linearisation, so this is approximate)."
+            .into(),
+        Reference::Converged { .. } => {
+            let (variant, value) = suite
+                .reference_value()
+                .map(|(v, x)| (v.to_string(), x))
+                .unwrap_or_default();
+            format!(
+                "**converged reference** (not an exact solution): the final state of variant \
+                 `{variant}` at {} = {value}, the finest run of the suite. Every other run's \
+                 particles take the reference values of the reference particle nearest to their \
+                 reference position (on the nested lattices of one spacing ladder the positions \
+                 coincide). Errors are relative L2 norms at the end time, weighted by particle \
+                 volume, of the velocity v and the first Piola–Kirchhoff stress P.",
+                suite.sweep.key
+            )
+        }
+        Reference::None => {
+            "none: stability only. A run is stable when it reaches the end time without the \
+             driver's blow-up checks firing (non-finite state, det F ≤ 0, total energy above \
+             `run.energy_growth_limit` × (E0 + work of supports and loads))."
+                .into()
+        }
+    }
+}
+
+/// The table of every run of a suite.
+pub fn runs_table(suite: &Suite, recs: &[RunRecord]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "| variant | backend | {} | particles | steps | wall [s] | e(v) | e(P) | ΔH/H0 | ΔE/E0 | status |",
+        suite.sweep.key
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|");
+    for r in recs {
+        let status = match &r.status {
+            Status::Ok if r.reason.is_empty() => "ok".to_string(),
+            Status::Ok => format!("ok: {}", r.reason),
+            Status::Failed { time, quantity, .. } => {
+                format!("failed at t = {time:.3e} s: {}", short_quantity(quantity))
+            }
+            Status::Error => format!("not run: {}", r.reason),
+        };
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} | {:.3} | {} | {} | {} | {} | {} |",
+            r.variant,
+            cell(&r.backend),
+            r.sweep_value,
+            r.particles,
+            r.steps,
+            r.wall_seconds,
+            sci(r.error_velocity),
+            sci(r.error_stress),
+            sci(r.drift_angular_momentum),
+            sci(r.drift_energy),
+            cell(&status)
+        );
+    }
+    s
+}
+
+/// Lines (variant and backend) in the order they first appear.
+fn lines(recs: &[RunRecord]) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    for r in recs {
+        if !out.contains(&r.line()) {
+            out.push(r.line());
+        }
+    }
+    out
+}
+
+/// Sweep values in the order they first appear.
+fn values(recs: &[RunRecord]) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    for r in recs {
+        if !out.contains(&r.sweep_value) {
+            out.push(r.sweep_value.clone());
+        }
+    }
+    out
+}
+
+/// Stability map: one row per variant (and backend), one column per sweep value.
+pub fn stability_map(suite: &Suite, recs: &[RunRecord]) -> String {
+    let vals = values(recs);
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "| variant \\ {} | {} |",
+        suite.sweep.key,
+        vals.join(" | ")
+    );
+    let _ = writeln!(s, "|---|{}", "---|".repeat(vals.len()));
+    for line in lines(recs) {
+        let cells: Vec<String> = vals
+            .iter()
+            .map(|v| {
+                match recs
+                    .iter()
+                    .find(|r| r.line() == line && &r.sweep_value == v)
+                {
+                    None => String::new(),
+                    Some(r) => match &r.status {
+                        Status::Ok => format!("stable (ΔE/E0 {})", sci(r.drift_energy)),
+                        Status::Failed { time, quantity, .. } => format!(
+                            "**failed** at t = {time:.2e} s: {}",
+                            short_quantity(quantity)
+                        ),
+                        Status::Error => {
+                            let reason: String = r.reason.chars().take(80).collect();
+                            format!("not run: {}", cell(&reason))
+                        }
+                    },
+                }
+            })
+            .collect();
+        let _ = writeln!(s, "| {} | {} |", line, cells.join(" | "));
+    }
+    s
+}
+
+/// A suite's section: description, reference, plots, stability map and the table of runs.
+/// `plot_links` are paths of the PNG plots relative to the Markdown file.
+pub fn suite_section(
+    suite: &Suite,
+    recs: &[RunRecord],
+    plot_links: &[String],
+    level: usize,
+) -> String {
+    let h = "#".repeat(level);
+    let mut s = String::new();
+    let _ = writeln!(s, "{h} `{}`\n", suite.name);
+    if !suite.description.is_empty() {
+        let _ = writeln!(s, "{}\n", suite.description.trim());
+    }
+    let case = recs
+        .iter()
+        .find(|r| !r.case.is_empty())
+        .map(|r| r.case.as_str());
+    let _ = writeln!(
+        s,
+        "Case `{}` (suite file `{}`), sweep over `{}`; overrides of every run: `{}`.\n",
+        case.unwrap_or(&suite.case),
+        suite.file.display(),
+        suite.sweep.key,
+        suite.set.join(" ")
+    );
+    let _ = writeln!(s, "Variants:\n");
+    for v in &suite.variants {
+        let _ = writeln!(
+            s,
+            "- `{}`: `{}`{}",
+            v.name,
+            v.set.join(" "),
+            v.backends
+                .as_ref()
+                .map(|b| format!(
+                    " on {}",
+                    b.iter().map(|b| b.as_str()).collect::<Vec<_>>().join(", ")
+                ))
+                .unwrap_or_default()
+        );
+    }
+    let _ = writeln!(s, "\nReference: {}\n", reference_statement(suite));
+    for link in plot_links {
+        let svg = link.replace(".png", ".svg");
+        let _ = writeln!(s, "![{link}]({link})\n\n([SVG]({svg}))\n");
+    }
+    if suite.kind == SuiteKind::Stability {
+        let _ = writeln!(s, "Stability map:\n\n{}", stability_map(suite, recs));
+    }
+    let _ = writeln!(s, "Runs:\n\n{}", runs_table(suite, recs));
+    s
+}
+
+/// Findings of one suite, drawn from its records only.
+pub fn findings(suite: &Suite, recs: &[RunRecord]) -> String {
+    let job = if suite.job.is_empty() {
+        suite.name.clone()
+    } else {
+        suite.job.clone()
+    };
+    let mut s = format!("- **{job}** (`{}`): ", suite.name);
+    match suite.kind {
+        SuiteKind::Accuracy => {
+            let ms = metrics(suite);
+            let mut parts = Vec::new();
+            for (k, m) in ms.iter().enumerate() {
+                let pts = plottable(recs, m);
+                if pts.is_empty() {
+                    continue;
+                }
+                let coords: Vec<(f64, f64)> = pts.iter().map(|p| (p.1, p.2)).collect();
+                let front = pareto(&coords);
+                let show = |i: usize| {
+                    let (r, t, e) = pts[i];
+                    format!(
+                        "`{}` at {} = {} (e = {e:.2e} in {t:.2} s)",
+                        r.line(),
+                        r.sweep_key,
+                        r.sweep_value
+                    )
+                };
+                let best = (0..pts.len())
+                    .min_by(|&a, &b| pts[a].2.total_cmp(&pts[b].2))
+                    .expect("not empty");
+                if k == 0 {
+                    parts.push(format!(
+                        "on {}, the Pareto front of error against wall time is {}; the most accurate run is {}",
+                        m.tag,
+                        front.iter().map(|&i| show(i)).collect::<Vec<_>>().join(", "),
+                        show(best)
+                    ));
+                } else {
+                    parts.push(format!(
+                        "on {} the most accurate run is {}",
+                        m.tag,
+                        show(best)
+                    ));
+                }
+            }
+            let failed: Vec<String> = recs
+                .iter()
+                .filter_map(|r| match &r.status {
+                    Status::Failed { time, quantity, .. } => Some(format!(
+                        "`{}` at {} = {} (t = {time:.2e} s, {})",
+                        r.line(),
+                        r.sweep_key,
+                        r.sweep_value,
+                        short_quantity(quantity)
+                    )),
+                    _ => None,
+                })
+                .collect();
+            if !failed.is_empty() {
+                parts.push(format!("failed: {}", failed.join(", ")));
+            }
+            s += &parts.join("; ");
+            s += ".";
+        }
+        SuiteKind::Stability => {
+            let vals = values(recs);
+            let mut parts = Vec::new();
+            for line in lines(recs) {
+                let mut last_stable = None;
+                let mut first_fail = None;
+                for v in &vals {
+                    let Some(r) = recs
+                        .iter()
+                        .find(|r| r.line() == line && &r.sweep_value == v)
+                    else {
+                        continue;
+                    };
+                    match &r.status {
+                        Status::Ok if first_fail.is_none() => last_stable = Some(v.clone()),
+                        Status::Failed { time, quantity, .. } if first_fail.is_none() => {
+                            first_fail = Some(format!(
+                                "fails at {v} (t = {time:.2e} s, {})",
+                                short_quantity(quantity)
+                            ))
+                        }
+                        _ => {}
+                    }
+                }
+                parts.push(match (last_stable, first_fail) {
+                    (Some(v), None) => format!("`{line}` stable over the sweep (to {v})"),
+                    (Some(v), Some(f)) => format!("`{line}` stable to {v}, {f}"),
+                    (None, Some(f)) => format!("`{line}` {f}"),
+                    (None, None) => format!("`{line}` not run"),
+                });
+            }
+            s += &format!("over {} = {}: ", suite.sweep.key, vals.join(", "));
+            s += &parts.join("; ");
+            s += ".";
+        }
+    }
+    s
+}
+
+/// Throughput rows: per suite and line, the largest finished run.
+fn throughput(entries: &[(Suite, Vec<RunRecord>)]) -> String {
+    let mut s = String::from(
+        "| suite | variant | backend | particles | steps | wall [s] | particle-steps/s |\n|---|---|---|---|---|---|---|\n",
+    );
+    for (suite, recs) in entries {
+        for line in lines(recs) {
+            let best = recs
+                .iter()
+                .filter(|r| r.line() == line && r.status == Status::Ok)
+                .max_by_key(|r| r.particles as u64 * r.steps);
+            if let Some(r) = best {
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | {} | {} | {} | {:.2} | {:.3e} |",
+                    suite.name,
+                    r.variant,
+                    cell(&r.backend),
+                    r.particles,
+                    r.steps,
+                    r.wall_seconds,
+                    r.particles as f64 * r.steps as f64 / r.wall_seconds
+                );
+            }
+        }
+    }
+    s
+}
+
+/// Writes the report over suites to `path`, with plots and CSV copies in `study/` beside it.
+pub fn write_report(
+    entries: &[(Suite, Vec<RunRecord>)],
+    path: &Path,
+    command: &str,
+) -> std::io::Result<()> {
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let assets = dir.join("study");
+    std::fs::create_dir_all(&assets)?;
+    let mut s = String::new();
+    let _ = writeln!(s, "# Error against run time, and stability\n");
+    let _ = writeln!(
+        s,
+        "Generated by `{command}` from the suites in `cases/studies/`; every number below is \
+         measured by that command (results per suite in [`study/`](study/), one CSV row per \
+         run). Do not edit by hand: change a suite and regenerate.\n"
+    );
+    let mut machines: Vec<&str> = entries
+        .iter()
+        .flat_map(|(_, r)| r.iter().map(|r| r.machine.as_str()))
+        .filter(|m| !m.is_empty())
+        .collect();
+    machines.sort_unstable();
+    machines.dedup();
+    let _ = writeln!(
+        s,
+        "Measured on: {}. Runs of a suite go one after another (each run uses every thread); \
+         wall time is engine set-up (neighbours, corrected gradients) plus the time loop, \
+         without GPU adapter creation or error evaluation.\n",
+        machines.join("; ")
+    );
+    let _ = writeln!(s, "## Which method for which job\n");
+    let _ = writeln!(
+        s,
+        "Read off the measurements below, suite by suite (nothing here is extrapolated):\n"
+    );
+    for (suite, recs) in entries {
+        let _ = writeln!(s, "{}", findings(suite, recs));
+    }
+    let _ = writeln!(s, "\n## Suites\n");
+    for (suite, recs) in entries {
+        records::write(&assets.join(format!("{}.csv", suite.name)), recs)?;
+        let files = plots(suite, recs, &assets)?;
+        let links: Vec<String> = files
+            .iter()
+            .filter(|f| f.extension().is_some_and(|e| e == "png"))
+            .filter_map(|f| f.file_name())
+            .map(|n| format!("study/{}", n.to_string_lossy()))
+            .collect();
+        s += &suite_section(suite, recs, &links, 3);
+        let _ = writeln!(s, "Results: [`study/{0}.csv`](study/{0}.csv)\n", suite.name);
+    }
+    let _ = writeln!(
+        s,
+        "## Throughput\n\nThe largest finished run of every variant (particle-steps/s = \
+         particles × steps / wall time, set-up included):\n\n{}",
+        throughput(entries)
+    );
+    let _ = writeln!(
+        s,
+        "## Not measured yet\n\n- The per-particle hourglass (zero-energy) indicator is not \
+         written to the VTU frames, so no run is failed for hourglassing; stability here \
+         means the driver's checks (non-finite state, det F ≤ 0, energy growth)."
+    );
+    let tmp = path.with_extension("md.tmp");
+    std::fs::write(&tmp, s)?;
+    std::fs::rename(tmp, path)
+}

@@ -1,0 +1,326 @@
+//! Suite files (`cases/studies/*.toml`): a base case, variants, a sweep and a reference,
+//! expanded into the runs of a study.
+
+use crate::scene::{Case, CaseError};
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+use toml::Value;
+
+/// What a suite measures.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum SuiteKind {
+    /// Error against wall time over a ladder (spacing, Δt): table and log–log plots.
+    Accuracy,
+    /// Stable to the end or failed, over a parameter sweep: the stability map.
+    Stability,
+}
+
+/// Compute backend of a run, as named in suite files.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[serde(rename_all = "lowercase")]
+pub enum BackendName {
+    Cpu,
+    Gpu,
+}
+
+impl BackendName {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Cpu => "cpu",
+            Self::Gpu => "gpu",
+        }
+    }
+}
+
+/// Analytic solutions a suite can measure against.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum AnalyticSolution {
+    /// The swinging plate/cube of seed 003 §7.1.1 ([`crate::analytic::SwingingMode`]); the
+    /// amplitude is the case's `swinging` initial velocity.
+    Swinging,
+    /// d'Alembert's solution for the case's `gaussian-pulse` initial velocity in uniaxial
+    /// strain (a laterally confined rod): v = ½A[g(s − ct) + g(s + ct)] along d.
+    RodPulse,
+}
+
+/// Invariants a suite can measure the drift of.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum InvariantKind {
+    /// max over the run of |H(t) − H(0)|/|H(0)|.
+    AngularMomentum,
+    /// max over the run of |E(t) − W_ext(t) − E(0)|/max(E(0), |W_ext(t)|).
+    Energy,
+}
+
+/// What the errors of a suite are measured against.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum Reference {
+    /// Relative L2 errors of velocity and stress at the end time against a closed form.
+    Analytic { solution: AnalyticSolution },
+    /// Drift of a conserved quantity over the run.
+    Invariant { quantity: InvariantKind },
+    /// Relative L2 errors against the final state of one run of the suite (a variant at
+    /// one sweep value, by default its finest spacing), matched by reference position.
+    Converged {
+        variant: String,
+        /// Sweep value of the reference run (default: the smallest for a spacing ladder,
+        /// else the last value).
+        at: Option<Value>,
+    },
+    /// Stability only: no error is measured (invariant drifts are still recorded).
+    None,
+}
+
+/// One parameter swept over values (a resolution ladder when the key is `spacing`).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Sweep {
+    /// Case key, as for `--set`: `spacing`, `method.cfl`, `material.poisson_ratio`, …
+    pub key: String,
+    /// Values, as TOML values (numbers or strings).
+    pub values: Vec<Value>,
+}
+
+/// A method configuration: overrides applied after the suite's own.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Variant {
+    pub name: String,
+    #[serde(default)]
+    pub set: Vec<String>,
+    /// Backends of this variant (default: the suite's).
+    pub backends: Option<Vec<BackendName>>,
+}
+
+/// A study suite.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Suite {
+    /// Letters, digits, - and _: names the output folder and plot files.
+    pub name: String,
+    #[serde(default)]
+    pub description: String,
+    /// The job a user picks a method for, named in the report's recommendations.
+    #[serde(default)]
+    pub job: String,
+    pub kind: SuiteKind,
+    /// Base case: a shipped case name or a path relative to the suite file.
+    pub case: String,
+    /// Overrides applied to every run (before the variant's and the sweep's).
+    #[serde(default)]
+    pub set: Vec<String>,
+    #[serde(default = "default_backends")]
+    pub backends: Vec<BackendName>,
+    pub sweep: Sweep,
+    #[serde(rename = "variant")]
+    pub variants: Vec<Variant>,
+    pub reference: Reference,
+    /// Part of `meshless study all` (the published report).
+    #[serde(default)]
+    pub report: bool,
+    /// The suite file.
+    #[serde(skip)]
+    pub file: PathBuf,
+}
+
+fn default_backends() -> Vec<BackendName> {
+    vec![BackendName::Cpu]
+}
+
+#[derive(Debug, Error)]
+pub enum SuiteError {
+    #[error("{file}: cannot read: {source}")]
+    Read {
+        file: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{file}: {message}")]
+    Invalid { file: PathBuf, message: String },
+    #[error(transparent)]
+    Case(#[from] CaseError),
+}
+
+/// One run of a suite: a variant on a backend at one sweep value.
+#[derive(Clone, Debug)]
+pub struct PlannedRun {
+    /// Stable id: a hash of the resolved case and the backend (or of the overrides when the
+    /// case does not validate).
+    pub id: String,
+    pub variant: String,
+    pub backend: BackendName,
+    /// The sweep value as written in tables (`0.05`, `rk4`).
+    pub value: String,
+    /// Numeric sweep value (NaN for strings).
+    pub number: f64,
+    /// All overrides of the run, in order.
+    pub overrides: Vec<String>,
+    /// The resolved case, or why it is invalid.
+    pub case: Result<Box<Case>, String>,
+}
+
+impl Suite {
+    /// Reads a suite file and checks its names and reference.
+    pub fn load(path: &Path) -> Result<Suite, SuiteError> {
+        let text = std::fs::read_to_string(path).map_err(|source| SuiteError::Read {
+            file: path.to_path_buf(),
+            source,
+        })?;
+        let invalid = |message: String| SuiteError::Invalid {
+            file: path.to_path_buf(),
+            message,
+        };
+        let mut suite: Suite = toml::from_str(&text).map_err(|e| invalid(e.to_string()))?;
+        suite.file = path.to_path_buf();
+        let good_name = |s: &str| {
+            !s.is_empty()
+                && s.chars()
+                    .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+        };
+        if !good_name(&suite.name) {
+            return Err(invalid(format!(
+                "`name = {:?}`: use letters, digits, - and _",
+                suite.name
+            )));
+        }
+        if suite.variants.is_empty() || suite.sweep.values.is_empty() {
+            return Err(invalid(
+                "a suite needs at least one [[variant]] and one sweep value".into(),
+            ));
+        }
+        let mut names: Vec<&str> = suite.variants.iter().map(|v| v.name.as_str()).collect();
+        if let Some(bad) = names.iter().find(|n| !good_name(n)) {
+            return Err(invalid(format!(
+                "variant `{bad}`: use letters, digits, - and _"
+            )));
+        }
+        names.sort_unstable();
+        if let Some(w) = names.windows(2).find(|w| w[0] == w[1]) {
+            return Err(invalid(format!("variant `{}` is listed twice", w[0])));
+        }
+        if let Reference::Converged { variant, at } = &suite.reference {
+            if !names.contains(&variant.as_str()) {
+                return Err(invalid(format!(
+                    "reference variant `{variant}` is not one of the variants {names:?}"
+                )));
+            }
+            if at
+                .as_ref()
+                .is_some_and(|at| !suite.sweep.values.contains(at))
+            {
+                return Err(invalid(
+                    "reference `at` is not one of the sweep values".into(),
+                ));
+            }
+        }
+        Ok(suite)
+    }
+
+    /// The base case file.
+    pub fn case_path(&self) -> PathBuf {
+        let dir = self.file.parent().unwrap_or(Path::new("."));
+        if self.case.ends_with(".toml") || self.case.contains('/') {
+            return dir.join(&self.case);
+        }
+        let shipped = dir.join("..").join(format!("{}.toml", self.case));
+        if shipped.exists() {
+            shipped
+        } else {
+            Path::new("cases").join(format!("{}.toml", self.case))
+        }
+    }
+
+    /// The sweep value the converged reference is taken at.
+    pub fn reference_value(&self) -> Option<(&str, String)> {
+        let Reference::Converged { variant, at } = &self.reference else {
+            return None;
+        };
+        let value = match at {
+            Some(v) => v.clone(),
+            None if self.sweep.key == "spacing" => self
+                .sweep
+                .values
+                .iter()
+                .min_by(|a, b| number(a).total_cmp(&number(b)))
+                .cloned()?,
+            None => self.sweep.values.last().cloned()?,
+        };
+        Some((variant, label(&value)))
+    }
+
+    /// Every run, variant by variant, backend by backend, in sweep order; the converged
+    /// reference run (if any) first.
+    pub fn plan(&self) -> Vec<PlannedRun> {
+        let path = self.case_path();
+        let mut runs = Vec::new();
+        for variant in &self.variants {
+            let backends = variant.backends.as_ref().unwrap_or(&self.backends);
+            for &backend in backends {
+                for value in &self.sweep.values {
+                    let overrides: Vec<String> = self
+                        .set
+                        .iter()
+                        .chain(&variant.set)
+                        .cloned()
+                        .chain([format!("{}={}", self.sweep.key, value)])
+                        .collect();
+                    let case = Case::load(&path, &overrides).map_err(|e| e.to_string());
+                    let identity = match &case {
+                        Ok(c) => toml::to_string(c).unwrap_or_else(|e| e.to_string()),
+                        Err(_) => format!("{}\n{}", path.display(), overrides.join("\n")),
+                    };
+                    runs.push(PlannedRun {
+                        id: format!(
+                            "{:016x}",
+                            fnv1a(format!("{identity}\nbackend={}", backend.as_str()).as_bytes())
+                        ),
+                        variant: variant.name.clone(),
+                        backend,
+                        value: label(value),
+                        number: number(value),
+                        overrides,
+                        case: case.map(Box::new),
+                    });
+                }
+            }
+        }
+        let reference = self.reference_value().and_then(|(variant, value)| {
+            runs.iter()
+                .position(|r| r.variant == variant && r.value == value)
+        });
+        if let Some(k) = reference {
+            let run = runs.remove(k);
+            runs.insert(0, run);
+        }
+        runs
+    }
+}
+
+/// A sweep value as written in tables: numbers as TOML writes them, strings bare.
+pub fn label(v: &Value) -> String {
+    match v {
+        Value::String(s) => s.clone(),
+        Value::Float(x) if *x != 0.0 && (x.abs() < 1e-3 || x.abs() >= 1e6) => format!("{x:e}"),
+        Value::Float(x) => format!("{x}"),
+        other => other.to_string(),
+    }
+}
+
+fn number(v: &Value) -> f64 {
+    match v {
+        Value::Float(x) => *x,
+        Value::Integer(i) => *i as f64,
+        _ => f64::NAN,
+    }
+}
+
+/// 64-bit FNV-1a: a hash that stays the same across Rust versions and platforms.
+pub fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}
