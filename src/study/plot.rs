@@ -23,6 +23,8 @@ fn register_font() {
 /// An error measure of a suite: file-name tag, axis label and the value of a record.
 pub struct Metric {
     pub tag: &'static str,
+    /// Short symbol for tables (`e(v)`, `ΔH/H0`).
+    pub symbol: &'static str,
     pub label: &'static str,
     pub value: fn(&RunRecord) -> f64,
 }
@@ -33,11 +35,13 @@ pub fn metrics(suite: &Suite) -> Vec<Metric> {
         Reference::Analytic { .. } | Reference::Converged { .. } => vec![
             Metric {
                 tag: "velocity",
+                symbol: "e(v)",
                 label: "relative L2 error of v at the end",
                 value: |r| r.error_velocity,
             },
             Metric {
                 tag: "stress",
+                symbol: "e(P)",
                 label: "relative L2 error of P at the end",
                 value: |r| r.error_stress,
             },
@@ -46,6 +50,7 @@ pub fn metrics(suite: &Suite) -> Vec<Metric> {
             quantity: InvariantKind::AngularMomentum,
         } => vec![Metric {
             tag: "angular-momentum",
+            symbol: "ΔH/H0",
             label: "max |H(t)/H(0) - 1| over the run",
             value: |r| r.drift_angular_momentum,
         }],
@@ -53,6 +58,7 @@ pub fn metrics(suite: &Suite) -> Vec<Metric> {
             quantity: InvariantKind::Energy,
         } => vec![Metric {
             tag: "energy",
+            symbol: "ΔE/E0",
             label: "max |E(t) - W(t) - E(0)| / max(E(0), |W|)",
             value: |r| r.drift_energy,
         }],
@@ -75,11 +81,19 @@ pub fn pareto(points: &[(f64, f64)]) -> Vec<usize> {
     front
 }
 
-/// Points of a metric that can go on log axes: finished runs with a positive error.
-pub fn plottable<'a>(records: &'a [RunRecord], m: &Metric) -> Vec<(&'a RunRecord, f64, f64)> {
+/// Points of a metric that can go on log axes: finished runs with a positive error. With
+/// a converged reference, runs at the reference's own sweep value are left out: they share
+/// its resolution and measure only the other options' difference from it.
+pub fn plottable<'a>(
+    suite: &Suite,
+    records: &'a [RunRecord],
+    m: &Metric,
+) -> Vec<(&'a RunRecord, f64, f64)> {
+    let reference = suite.reference_value().map(|(_, v)| v);
     records
         .iter()
         .filter(|r| r.status == Status::Ok)
+        .filter(|r| reference.as_ref() != Some(&r.sweep_value))
         .map(|r| (r, r.wall_seconds, (m.value)(r)))
         .filter(|&(_, t, e)| t > 0.0 && e > 0.0 && t.is_finite() && e.is_finite())
         .collect()
@@ -93,7 +107,7 @@ pub fn plots(suite: &Suite, records: &[RunRecord], dir: &Path) -> std::io::Resul
     }
     register_font();
     for m in metrics(suite) {
-        let points = plottable(records, &m);
+        let points = plottable(suite, records, &m);
         if points.is_empty() {
             continue;
         }
@@ -160,8 +174,11 @@ fn draw<DB: DrawingBackend>(
     };
     let xr = range(points.iter().map(|p| p.1).collect());
     let yr = range(points.iter().map(|p| p.2).collect());
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 22))
+    // The legend goes in a column right of the chart, never over the points.
+    let root = root.titled(title, ("sans-serif", 20)).map_err(err)?;
+    let (width, _) = root.dim_in_pixel();
+    let (plot_area, legend_area) = root.split_horizontally(width.saturating_sub(230));
+    let mut chart = ChartBuilder::on(&plot_area)
         .margin(12)
         .x_label_area_size(48)
         .y_label_area_size(78)
@@ -171,7 +188,9 @@ fn draw<DB: DrawingBackend>(
         .configure_mesh()
         .x_desc("wall time [s] (set-up + time loop)")
         .y_desc(m.label)
-        .x_label_formatter(&|x| format!("{x:.2e}"))
+        .x_labels(8)
+        .y_labels(10)
+        .x_label_formatter(&|x| format!("{x:.1e}"))
         .y_label_formatter(&|y| format!("{y:.1e}"))
         .label_style(("sans-serif", 14))
         .axis_desc_style(("sans-serif", 16))
@@ -194,11 +213,7 @@ fn draw<DB: DrawingBackend>(
         pts.sort_by(|a, b| a.0.total_cmp(&b.0));
         chart
             .draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2)))
-            .map_err(err)?
-            .label(line.clone())
-            .legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
-            });
+            .map_err(err)?;
         chart
             .draw_series(pts.iter().map(|&p| Circle::new(p, 4, colour.filled())))
             .map_err(err)?;
@@ -212,9 +227,7 @@ fn draw<DB: DrawingBackend>(
             4u32,
             BLACK.stroke_width(1),
         ))
-        .map_err(err)?
-        .label("Pareto front")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(1)));
+        .map_err(err)?;
     chart
         .draw_series(
             front
@@ -232,13 +245,30 @@ fn draw<DB: DrawingBackend>(
             )
         }))
         .map_err(err)?;
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::LowerLeft)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 13))
-        .draw()
+    let font = ("sans-serif", 13).into_font();
+    let row = |k: usize| 40 + 22 * k as i32;
+    for (k, line) in lines.iter().enumerate() {
+        let colour = COLOURS[k % COLOURS.len()];
+        let y = row(k);
+        legend_area
+            .draw(&PathElement::new(
+                vec![(10, y), (34, y)],
+                colour.stroke_width(2),
+            ))
+            .map_err(err)?;
+        legend_area
+            .draw(&Circle::new((22, y), 4, colour.filled()))
+            .map_err(err)?;
+        legend_area
+            .draw(&Text::new(line.clone(), (40, y - 7), font.clone()))
+            .map_err(err)?;
+    }
+    let y = row(lines.len());
+    legend_area
+        .draw(&Circle::new((22, y), 8, BLACK.stroke_width(2)))
+        .map_err(err)?;
+    legend_area
+        .draw(&Text::new("Pareto front", (40, y - 7), font.clone()))
         .map_err(err)?;
     root.present().map_err(err)?;
     Ok(())

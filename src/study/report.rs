@@ -52,8 +52,9 @@ pub fn reference_statement(suite: &Suite) -> String {
             quantity: InvariantKind::Energy,
         } => "invariant: the total energy E = kinetic + strain minus the work W of supports \
               and loads must stay at E(0). The error is max |E(t) − W(t) − E(0)|/max(E(0), |W(t)|) \
-              over every check of the run (for the hypoelastic model E uses the complementary \
-              energy of its linearisation, so this is approximate)."
+              over every check of the run. The artificial viscosity's dissipation is not separated \
+              (with AV this bounds the energy error from above), and for the hypoelastic model \
+              E uses the complementary energy of its linearisation, so there it is approximate."
             .into(),
         Reference::Converged { .. } => {
             let (variant, value) = suite
@@ -141,6 +142,7 @@ fn values(recs: &[RunRecord]) -> Vec<String> {
 /// Stability map: one row per variant (and backend), one column per sweep value.
 pub fn stability_map(suite: &Suite, recs: &[RunRecord]) -> String {
     let vals = values(recs);
+    let metric = metrics(suite).into_iter().next();
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -159,14 +161,22 @@ pub fn stability_map(suite: &Suite, recs: &[RunRecord]) -> String {
                 {
                     None => String::new(),
                     Some(r) => match &r.status {
-                        Status::Ok => format!("stable (ΔE/E0 {})", sci(r.drift_energy)),
+                        Status::Ok => match &metric {
+                            Some(m) => format!("stable ({} {})", m.symbol, sci((m.value)(r))),
+                            None => format!("stable (ΔE/E0 {})", sci(r.drift_energy)),
+                        },
                         Status::Failed { time, quantity, .. } => format!(
                             "**failed** at t = {time:.2e} s: {}",
                             short_quantity(quantity)
                         ),
                         Status::Error => {
-                            let reason: String = r.reason.chars().take(80).collect();
-                            format!("not run: {}", cell(&reason))
+                            // The message without the file and key it names.
+                            let why = r.reason.rsplit("`: ").next().unwrap_or(&r.reason);
+                            let mut short: String = why.chars().take(60).collect();
+                            if short.len() < why.len() {
+                                short.push('…');
+                            }
+                            format!("not run: {}", cell(&short))
                         }
                     },
                 }
@@ -244,7 +254,7 @@ pub fn findings(suite: &Suite, recs: &[RunRecord]) -> String {
             let ms = metrics(suite);
             let mut parts = Vec::new();
             for (k, m) in ms.iter().enumerate() {
-                let pts = plottable(recs, m);
+                let pts = plottable(suite, recs, m);
                 if pts.is_empty() {
                     continue;
                 }
@@ -269,6 +279,22 @@ pub fn findings(suite: &Suite, recs: &[RunRecord]) -> String {
                         front.iter().map(|&i| show(i)).collect::<Vec<_>>().join(", "),
                         show(best)
                     ));
+                    // Each line at its most expensive finished run.
+                    let mut last = Vec::new();
+                    for line in lines(recs) {
+                        let i = (0..pts.len())
+                            .filter(|&i| pts[i].0.line() == line)
+                            .max_by(|&a, &b| pts[a].1.total_cmp(&pts[b].1));
+                        if let Some(i) = i {
+                            last.push(show(i));
+                        }
+                    }
+                    if last.len() > 1 {
+                        parts.push(format!(
+                            "each variant at its longest run: {}",
+                            last.join(", ")
+                        ));
+                    }
                 } else {
                     parts.push(format!(
                         "on {} the most accurate run is {}",
