@@ -3,13 +3,11 @@
 //! and reads the final state.
 
 use super::fields::FinalState;
-use crate::gpu::Gpu;
 use crate::gpu::layout::GpuDim;
-use crate::gpu::tlsph::{GpuTlsph, SetupError};
 use crate::method::BlowUp;
 use crate::observe::{Invariants, Snapshot};
 use crate::output::RunSummary;
-use crate::run::{Backend, CpuEngine, Engine, RunError, RunOptions, drive};
+use crate::run::{Backend, Engine, RunError, RunOptions, drive, engine};
 use crate::scene::Case;
 use crate::tensor::{D2, D3, Dim};
 use std::marker::PhantomData;
@@ -157,25 +155,10 @@ fn failed(error: RunError) -> Outcome {
 }
 
 fn run_dim<D: GpuDim>(case: &Case, backend: Backend, opts: &RunOptions) -> Outcome {
-    let gpu = match backend {
-        Backend::Cpu => None,
-        Backend::Gpu | Backend::Auto => match Gpu::new() {
-            Ok(g) => Some(g),
-            Err(e) if backend == Backend::Gpu => return failed(RunError::Backend(e.to_string())),
-            Err(_) => None,
-        },
-    };
     let started = Instant::now();
-    match gpu {
-        Some(gpu) => match GpuTlsph::<D>::new(case, gpu) {
-            Ok(mut engine) => drive_tracked(case, opts, &mut engine, started),
-            Err(SetupError::Case(c)) => failed(RunError::Case(c)),
-            Err(SetupError::Gpu(g)) => failed(RunError::Backend(g.to_string())),
-        },
-        None => match CpuEngine::<D>::new(case) {
-            Ok(mut engine) => drive_tracked(case, opts, &mut engine, started),
-            Err(e) => failed(RunError::Case(e)),
-        },
+    match engine::<D>(case, backend) {
+        Ok(mut engine) => drive_tracked(case, opts, &mut engine, started),
+        Err(e) => failed(e),
     }
 }
 
