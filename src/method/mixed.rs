@@ -8,13 +8,14 @@
 //! and every per-pair weight are computed once on the reference configuration; every
 //! pair sum is a gather over particle a's own list, in both directions of the pair.
 
-use super::{BlowUp, MIN_CHUNK, Method, axpy, blend};
+use super::{
+    BlowUp, MIN_CHUNK, Method, axpy, blend, check_motion, masses_and_boundary, reference_gradients,
+};
 use crate::boundary::Boundary;
-use crate::correction::{self, Small, solve_small};
+use crate::correction::{Small, solve_small};
 use crate::integrate::{IntegratorKind, OdeState, OdeSystem};
-use crate::kernel::Kernel;
 use crate::material::Material;
-use crate::neighbour::{self, Csr};
+use crate::neighbour::Csr;
 use crate::observe::Snapshot;
 use crate::scene::{Case, CaseError, Conserved, Discretised, Jst, MethodName};
 use crate::tensor::Dim;
@@ -93,6 +94,9 @@ struct Kinematics<D: Dim> {
     h: D::T,
     /// Velocity gradient ∇0v = Σ_b (v_b − v_a) ⊗ G_b(X_a) (eq 39b).
     grad_v: D::T,
+    /// J used in the stress (evolved, or det F) and det F.
+    j: f64,
+    det_f: f64,
 }
 
 /// Least-squares gradients of v and P (eq 37) for the reconstruction; in 2D the third
@@ -178,11 +182,7 @@ impl<D: Dim> MixedSph<D> {
     pub fn new(case: &Case, disc: Discretised<D>) -> Result<Self, CaseError> {
         let material = Material::new(&case.material);
         let m = &case.method;
-        let h = m.h_over_dx * case.spacing;
-        let kernel = Kernel::new(m.kernel, h, D::N);
-        let csr = neighbour::build::<D>(&disc.x0, kernel.support() * (1.0 + 1e-9));
-        let grad = correction::gradients::<D>(m.correction, &disc.x0, &disc.vol, &csr, &kernel)
-            .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
+        let (csr, grad) = reference_gradients::<D>(case, &disc.x0, &disc.vol)?;
         let rev = csr.reverse_pairs();
         let normal: Vec<D::V> = pair_map(&csr, |i, j| {
             let d = disc.x0[j] - disc.x0[i];
@@ -223,10 +223,7 @@ impl<D: Dim> MixedSph<D> {
                 reconstruction: m.reconstruction.unwrap_or(true),
             },
         };
-        let mass: Vec<f64> = disc.vol.iter().map(|v| v * material.rho0).collect();
-        let boundary = Boundary::build(case, &disc, &mass)?;
-        let mut v0 = disc.v0;
-        boundary.impose_initial(&mut v0);
+        let (mass, boundary, v0) = masses_and_boundary(case, &disc, material.rho0)?;
         let n = disc.x0.len();
         Ok(Self {
             kin: vec![
@@ -234,6 +231,8 @@ impl<D: Dim> MixedSph<D> {
                     p: D::zero_t(),
                     h: D::identity(),
                     grad_v: D::zero_t(),
+                    j: 1.0,
+                    det_f: 1.0,
                 };
                 n
             ],
@@ -260,7 +259,7 @@ impl<D: Dim> MixedSph<D> {
             stabilisation,
             projection: m.projection.unwrap_or(true),
             integrator: m.integrator,
-            h,
+            h: m.h_over_dx * case.spacing,
             boundary,
             step_start: None,
             stage: 0,
@@ -295,12 +294,7 @@ impl<D: Dim> MixedSph<D> {
     }
 
     fn blow_up(&self, i: usize, quantity: &str, value: f64) -> BlowUp {
-        BlowUp {
-            particle: i,
-            position: D::to3(self.x0[i]),
-            quantity: quantity.to_string(),
-            value,
-        }
+        BlowUp::at::<D>(&self.x0, i, quantity, value)
     }
 
     /// Pass 1: P(F, H, J) and the corrected velocity gradient of every particle.
@@ -320,24 +314,18 @@ impl<D: Dim> MixedSph<D> {
                     p: self.material.pk1_mixed::<D>(y.f[a], h, j),
                     h,
                     grad_v,
+                    j,
+                    det_f: D::det(y.f[a]),
                 };
             });
         self.kin = kin;
-        let bad = (0..self.x0.len()).into_par_iter().find_first(|&a| {
-            let (_, j) = self.h_and_j(y, a);
-            let det = D::det(y.f[a]);
-            !(j > 0.0 && det > 0.0)
-        });
+        let bad = self
+            .kin
+            .par_iter()
+            .position_first(|k| !(k.j > 0.0 && k.det_f > 0.0));
         match bad {
-            Some(a) => {
-                let (_, j) = self.h_and_j(y, a);
-                let det = D::det(y.f[a]);
-                Err(if det > 0.0 {
-                    self.blow_up(a, "J", j)
-                } else {
-                    self.blow_up(a, "det F", det)
-                })
-            }
+            Some(a) if self.kin[a].det_f > 0.0 => Err(self.blow_up(a, "J", self.kin[a].j)),
+            Some(a) => Err(self.blow_up(a, "det F", self.kin[a].det_f)),
             None => Ok(()),
         }
     }
@@ -501,76 +489,81 @@ impl<D: Dim> MixedSph<D> {
     }
 }
 
-/// Removes the net force and moment of a per-volume force field f_a about the points
-/// 𝒳_a: f̂_a = f_a + λ × (𝒳_a − c) + μ with the V-weighted centroid c (seed 003 eqs
-/// B.2–B.5). Shifting to the centroid decouples the 6×6 system of eq B.4 into
-/// μ = −Σ V f / Σ V and I_c λ = −Σ V r × f with I_c = Σ V (|r|² I − r ⊗ r).
-pub fn project<D: Dim>(f: &mut [D::V], points: &[D::V], vol: &[f64]) {
-    let add = |a: [f64; 3], b: [f64; 3]| [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
-    let total_vol: f64 = vol.iter().sum();
-    let centroid = points
-        .iter()
-        .zip(vol)
-        .fold(D::zero(), |c, (&x, &v)| c + x * v)
-        * (1.0 / total_vol);
-    let (net, moment, inertia) = (0..f.len())
-        .into_par_iter()
-        .map(|a| {
-            let r = points[a] - centroid;
-            let r3 = D::to3(r);
-            let r2 = D::norm2(r);
-            let mut i = [[0.0; 3]; 3];
-            for (k, row) in i.iter_mut().enumerate() {
-                for (l, e) in row.iter_mut().enumerate() {
-                    let delta = if k == l { r2 } else { 0.0 };
-                    *e = vol[a] * (delta - r3[k] * r3[l]);
-                }
-            }
-            let m = D::cross3(r, f[a]);
-            (f[a] * vol[a], m.map(|c| c * vol[a]), i)
-        })
-        .reduce(
-            || (D::zero(), [0.0; 3], [[0.0; 3]; 3]),
-            |x, y| {
-                let mut i = x.2;
-                for (row, other) in i.iter_mut().zip(y.2) {
-                    *row = add(*row, other);
-                }
-                (x.0 + y.0, add(x.1, y.1), i)
-            },
-        );
-    let mu = net * (-1.0 / total_vol);
-    let lambda = if D::N == 2 {
-        [0.0, 0.0, -moment[2] / inertia[2][2]]
-    } else {
-        let m = glam::DMat3::from_cols_array_2d(&inertia); // symmetric: rows = columns
-        let l = m.inverse() * glam::DVec3::from_array(moment);
-        [-l.x, -l.y, -l.z]
-    };
-    f.par_iter_mut()
-        .with_min_len(MIN_CHUNK)
-        .zip(points)
-        .for_each(|(f, &x)| {
-            let r = D::to3(x - centroid);
-            let turn = [
-                lambda[1] * r[2] - lambda[2] * r[1],
-                lambda[2] * r[0] - lambda[0] * r[2],
-                lambda[0] * r[1] - lambda[1] * r[0],
-            ];
-            *f += D::from_slice(&turn) + mu;
-        });
+/// The balance of a per-volume force field f_a about the points 𝒳_a (seed 003 eqs
+/// B.2–B.5): f̂_a = f_a + λ × (𝒳_a − c) + μ removes its net force and moment. With the
+/// V-weighted centroid c the 6×6 system of eq B.4 decouples into μ = −Σ V f / Σ V and
+/// I_c λ = −Σ V r × f, I_c = Σ V (|r|² I − r ⊗ r), r = 𝒳 − c; c and I_c⁻¹ depend on the
+/// points only and serve every field projected about them.
+pub struct Balance<'a, D: Dim> {
+    points: &'a [D::V],
+    vol: &'a [f64],
+    total_vol: f64,
+    centroid: D::V,
+    /// I_c⁻¹ (2D: only the zz entry, 1/Σ V |r|², is used).
+    inertia_inv: glam::DMat3,
+}
+
+impl<'a, D: Dim> Balance<'a, D> {
+    pub fn new(points: &'a [D::V], vol: &'a [f64]) -> Self {
+        let total_vol: f64 = vol.iter().sum();
+        let centroid = points
+            .iter()
+            .zip(vol)
+            .fold(D::zero(), |c, (&x, &v)| c + x * v)
+            * (1.0 / total_vol);
+        let inertia = (0..points.len())
+            .into_par_iter()
+            .map(|a| {
+                let r = glam::DVec3::from_array(D::to3(points[a] - centroid));
+                (glam::DMat3::IDENTITY * r.length_squared()
+                    - glam::DMat3::from_cols(r * r.x, r * r.y, r * r.z))
+                    * vol[a]
+            })
+            .reduce(|| glam::DMat3::ZERO, |x, y| x + y);
+        let inertia_inv = if D::N == 2 {
+            glam::DMat3::from_diagonal(glam::DVec3::new(0.0, 0.0, 1.0 / inertia.z_axis.z))
+        } else {
+            inertia.inverse()
+        };
+        Self {
+            points,
+            vol,
+            total_vol,
+            centroid,
+            inertia_inv,
+        }
+    }
+
+    /// Projects f in place.
+    pub fn project(&self, f: &mut [D::V]) {
+        let (points, vol, c) = (self.points, self.vol, self.centroid);
+        let (net, moment) = (0..f.len())
+            .into_par_iter()
+            .map(|a| {
+                let m = glam::DVec3::from_array(D::cross3(points[a] - c, f[a]));
+                (f[a] * vol[a], m * vol[a])
+            })
+            .reduce(
+                || (D::zero(), glam::DVec3::ZERO),
+                |x, y| (x.0 + y.0, x.1 + y.1),
+            );
+        let mu = net * (-1.0 / self.total_vol);
+        let lambda = -(self.inertia_inv * moment);
+        f.par_iter_mut()
+            .with_min_len(MIN_CHUNK)
+            .zip(points)
+            .for_each(|(f, &x)| {
+                let turn = lambda.cross(glam::DVec3::from_array(D::to3(x - c)));
+                *f += D::from_slice(&turn.to_array()) + mu;
+            });
+    }
 }
 
 /// One value per CSR pair (i, j).
 fn pair_map<T: Send>(csr: &Csr, f: impl Fn(usize, usize) -> T + Sync) -> Vec<T> {
     (0..csr.len())
         .into_par_iter()
-        .flat_map_iter(|i| {
-            csr.neighbours(i)
-                .iter()
-                .map(move |&j| (i, j as usize))
-                .collect::<Vec<_>>()
-        })
+        .flat_map_iter(|i| csr.neighbours(i).iter().map(move |&j| (i, j as usize)))
         .map(|(i, j)| f(i, j))
         .collect()
 }
@@ -684,8 +677,9 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
         let (mut t, mut dp): (Vec<D::V>, Vec<D::V>) = forces.iter().map(|f| (f.t, f.d)).unzip();
         if self.projection {
             let points = self.balance_points(y);
-            project::<D>(&mut t, &points, &self.vol);
-            project::<D>(&mut dp, &points, &self.vol);
+            let balance = Balance::<D>::new(&points, &self.vol);
+            balance.project(&mut t);
+            balance.project(&mut dp);
         }
         self.stage += 1;
         let inv_rho0 = 1.0 / self.material.rho0;
@@ -834,14 +828,8 @@ impl<D: Dim> Method<D> for MixedSph<D> {
     }
 
     fn check_finite(&self, y: &MixedState<D>) -> Result<(), BlowUp> {
-        let norm = |v: D::V| D::norm2(v).sqrt();
+        check_motion::<D>(&self.x0, &y.u, &y.v)?;
         let norm_t = |t: D::T| D::ddot(t, t).sqrt();
-        if let Some(i) = y.u.par_iter().position_first(|&u| !D::is_finite_v(u)) {
-            return Err(self.blow_up(i, "displacement |u|", norm(y.u[i])));
-        }
-        if let Some(i) = y.v.par_iter().position_first(|&v| !D::is_finite_v(v)) {
-            return Err(self.blow_up(i, "velocity |v|", norm(y.v[i])));
-        }
         if let Some(i) = y.f.par_iter().position_first(|&f| !D::is_finite_t(f)) {
             return Err(self.blow_up(i, "|F|", norm_t(y.f[i])));
         }

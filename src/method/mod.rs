@@ -4,7 +4,11 @@
 pub mod mixed;
 pub mod tlsph;
 
+use crate::boundary::Boundary;
+use crate::correction;
 use crate::integrate::OdeSystem;
+use crate::kernel::Kernel;
+use crate::neighbour::{self, Csr};
 use crate::observe::Snapshot;
 use crate::scene::{Case, CaseError, Discretised, MethodName};
 use crate::tensor::Dim;
@@ -40,6 +44,51 @@ pub(crate) fn blend<T: Copy + Send + Sync + Add<Output = T> + Mul<f64, Output = 
         .for_each(|(y, &x)| *y = *y * a + x * b);
 }
 
+/// Neighbours within the kernel support and corrected gradients g_ij, computed once on
+/// the reference configuration of a total-Lagrangian method.
+pub(crate) fn reference_gradients<D: Dim>(
+    case: &Case,
+    x0: &[D::V],
+    vol: &[f64],
+) -> Result<(Csr, Vec<D::V>), CaseError> {
+    let m = &case.method;
+    let kernel = Kernel::new(m.kernel, m.h_over_dx * case.spacing, D::N);
+    // A relative margin so that lattice neighbours exactly at the support are found on
+    // both sides despite round-off (their W and ∇W vanish).
+    let csr = neighbour::build::<D>(x0, kernel.support() * (1.0 + 1e-9));
+    let grad = correction::gradients::<D>(m.correction, x0, vol, &csr, &kernel)
+        .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
+    Ok((csr, grad))
+}
+
+/// Masses, boundary conditions and initial velocities of a method's particles.
+pub(crate) type Supported<D> = (Vec<f64>, Boundary<D>, Vec<<D as Dim>::V>);
+
+/// Masses ρ0 V, the boundary conditions, and the initial velocities with them imposed.
+pub(crate) fn masses_and_boundary<D: Dim>(
+    case: &Case,
+    disc: &Discretised<D>,
+    rho0: f64,
+) -> Result<Supported<D>, CaseError> {
+    let mass: Vec<f64> = disc.vol.iter().map(|v| v * rho0).collect();
+    let boundary = Boundary::build(case, disc, &mass)?;
+    let mut v0 = disc.v0.clone();
+    boundary.impose_initial(&mut v0);
+    Ok((mass, boundary, v0))
+}
+
+/// The first particle with a non-finite displacement or velocity, as a blow-up.
+pub fn check_motion<D: Dim>(x0: &[D::V], u: &[D::V], v: &[D::V]) -> Result<(), BlowUp> {
+    let norm = |v: D::V| D::norm2(v).sqrt();
+    if let Some(i) = u.par_iter().position_first(|&u| !D::is_finite_v(u)) {
+        return Err(BlowUp::at::<D>(x0, i, "displacement |u|", norm(u[i])));
+    }
+    if let Some(i) = v.par_iter().position_first(|&v| !D::is_finite_v(v)) {
+        return Err(BlowUp::at::<D>(x0, i, "velocity |v|", norm(v[i])));
+    }
+    Ok(())
+}
+
 /// A run stopped because the solution left the physically admissible set.
 #[derive(Clone, Debug, Error, PartialEq)]
 #[error("{quantity} = {value:e} at particle {particle} (reference position {position:?})")]
@@ -49,6 +98,18 @@ pub struct BlowUp {
     /// What failed, e.g. `det F` or `velocity`.
     pub quantity: String,
     pub value: f64,
+}
+
+impl BlowUp {
+    /// `quantity` = `value` at particle i of the reference positions x0.
+    pub fn at<D: Dim>(x0: &[D::V], i: usize, quantity: &str, value: f64) -> Self {
+        Self {
+            particle: i,
+            position: D::to3(x0[i]),
+            quantity: quantity.to_string(),
+            value,
+        }
+    }
 }
 
 /// What the driver, observers and outputs need from a method.

@@ -5,13 +5,15 @@
 //! velocity v and, for the rate-based (hypoelastic) model, the density ρ and the
 //! deviatoric stress S.
 
-use super::{BlowUp, MIN_CHUNK, Method, axpy, blend};
+use super::{
+    BlowUp, MIN_CHUNK, Method, axpy, blend, check_motion, masses_and_boundary, reference_gradients,
+};
 use crate::boundary::Boundary;
-use crate::correction;
+
 use crate::integrate::{OdeState, OdeSystem};
-use crate::kernel::Kernel;
+
 use crate::material::Material;
-use crate::neighbour::{self, Csr};
+use crate::neighbour::Csr;
 use crate::observe::Snapshot;
 use crate::scene::{ArtificialViscosity, Case, CaseError, Discretised, MethodName};
 use crate::tensor::Dim;
@@ -75,19 +77,8 @@ struct Kinematics<D: Dim> {
 
 /// The first particle with a non-finite u, v, ρ or S, as a blow-up.
 pub fn check_state<D: Dim>(x0: &[D::V], y: &TlState<D>) -> Result<(), BlowUp> {
-    let fail = |i: usize, quantity: &str, value: f64| BlowUp {
-        particle: i,
-        position: D::to3(x0[i]),
-        quantity: quantity.to_string(),
-        value,
-    };
-    let norm = |v: D::V| D::norm2(v).sqrt();
-    if let Some(i) = y.u.par_iter().position_first(|&u| !D::is_finite_v(u)) {
-        return Err(fail(i, "displacement |u|", norm(y.u[i])));
-    }
-    if let Some(i) = y.v.par_iter().position_first(|&v| !D::is_finite_v(v)) {
-        return Err(fail(i, "velocity |v|", norm(y.v[i])));
-    }
+    check_motion::<D>(x0, &y.u, &y.v)?;
+    let fail = |i: usize, quantity: &str, value: f64| BlowUp::at::<D>(x0, i, quantity, value);
     if let Some(i) = y.rho.par_iter().position_first(|r| !r.is_finite()) {
         return Err(fail(i, "density", y.rho[i]));
     }
@@ -185,17 +176,8 @@ impl<D: Dim> Tlsph<D> {
     pub fn new(case: &Case, disc: Discretised<D>) -> Result<Self, CaseError> {
         let material = Material::new(&case.material);
         let m = &case.method;
-        let h = m.h_over_dx * case.spacing;
-        let kernel = Kernel::new(m.kernel, h, D::N);
-        // A relative margin so that lattice neighbours exactly at the support are found on
-        // both sides despite round-off (their W and ∇W vanish).
-        let csr = neighbour::build::<D>(&disc.x0, kernel.support() * (1.0 + 1e-9));
-        let grad = correction::gradients::<D>(m.correction, &disc.x0, &disc.vol, &csr, &kernel)
-            .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
-        let mass: Vec<f64> = disc.vol.iter().map(|v| v * material.rho0).collect();
-        let boundary = Boundary::build(case, &disc, &mass)?;
-        let mut v0 = disc.v0;
-        boundary.impose_initial(&mut v0);
+        let (csr, grad) = reference_gradients::<D>(case, &disc.x0, &disc.vol)?;
+        let (mass, boundary, v0) = masses_and_boundary(case, &disc, material.rho0)?;
         let identity = Kinematics {
             f: D::identity(),
             p: D::zero_t(),
@@ -213,7 +195,7 @@ impl<D: Dim> Tlsph<D> {
             grad,
             material,
             av: m.artificial_viscosity,
-            h,
+            h: m.h_over_dx * case.spacing,
             boundary,
             power: 0.0,
         })
@@ -247,12 +229,7 @@ impl<D: Dim> Tlsph<D> {
     }
 
     fn blow_up(&self, i: usize, quantity: &str, value: f64) -> BlowUp {
-        BlowUp {
-            particle: i,
-            position: D::to3(self.x0[i]),
-            quantity: quantity.to_string(),
-            value,
-        }
+        BlowUp::at::<D>(&self.x0, i, quantity, value)
     }
 
     /// Pass 1: F, P and current density per particle; ρ̇ and Ṡ for the rate model.
