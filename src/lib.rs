@@ -11,6 +11,7 @@ pub mod integrate;
 pub mod kernel;
 pub mod material;
 pub mod method;
+pub mod mirror;
 pub mod neighbour;
 pub mod observe;
 pub mod output;

@@ -37,21 +37,10 @@ impl Csr {
         self.ids.len()
     }
 
-    /// For every stored pair (i, j), the index of (j, i). The lists of a symmetric
-    /// neighbourhood (one radius for all) contain both directions.
-    pub fn reverse_pairs(&self) -> Vec<u32> {
-        (0..self.len())
-            .into_par_iter()
-            .flat_map_iter(|i| {
-                self.neighbours(i).iter().map(move |&j| {
-                    let back = self
-                        .neighbours(j as usize)
-                        .binary_search(&(i as u32))
-                        .expect("neighbour lists are symmetric");
-                    (self.offsets[j as usize] + back) as u32
-                })
-            })
-            .collect()
+    /// Keeps the lists of the first n particles (their ids may still exceed n).
+    pub fn truncate(&mut self, n: usize) {
+        self.offsets.truncate(n + 1);
+        self.ids.truncate(self.offsets[n]);
     }
 }
 
@@ -243,22 +232,6 @@ mod tests {
             .map(|_| DVec3::new(lcg(&mut s), lcg(&mut s) * 2.0, lcg(&mut s)))
             .collect();
         check::<D3>(&random, 0.21);
-    }
-
-    #[test]
-    fn reverse_pairs_point_back() {
-        let mut seed = 7;
-        let x: Vec<DVec2> = (0..300)
-            .map(|_| DVec2::new(lcg(&mut seed), lcg(&mut seed)))
-            .collect();
-        let csr = build::<D2>(&x, 0.15);
-        let rev = csr.reverse_pairs();
-        for i in 0..csr.len() {
-            for (p, &j) in csr.range(i).zip(csr.neighbours(i)) {
-                let q = rev[p] as usize;
-                assert!(csr.range(j as usize).contains(&q) && csr.ids[q] as usize == i);
-            }
-        }
     }
 
     #[test]

@@ -585,3 +585,60 @@ fn tlsph_rejects_the_keys_of_the_mixed_methods() {
     assert!(matches!(e, CaseError::Parse { .. }), "{shown}");
     assert_mentions(&shown, &["p-F", "p-F-J", "p-F-H-J"]);
 }
+
+#[test]
+fn mirror_planes_are_checked() {
+    let plane = "\n[[mirror]]\nnormal = \"x\"\nat = 0.0\nkind = \"symmetric\"\n";
+    assert_invalid(
+        &format!("{VALID}{plane}"),
+        "mirror.0",
+        &["upwind-sph", "jst-sph", "tlsph", "symmetry"],
+    );
+    let mixed = edit(
+        &edit(
+            &edit(VALID, "name = \"tlsph\"", "name = \"upwind-sph\""),
+            "model = \"hypoelastic\"",
+            "model = \"linear-elastic\"",
+        ),
+        "h_over_dx = 1.3",
+        "h_over_dx = 1.3\ncorrection = \"cgck\"",
+    );
+    Case::from_toml(&format!("{mixed}{plane}"), Path::new(FILE), &[]).expect("a valid mirror");
+    assert_invalid(
+        &format!("{mixed}{}", plane.replace("\"x\"", "\"z\"")),
+        "mirror.0.normal",
+        &["3D", "dimension = 2"],
+    );
+    assert_invalid(
+        &format!("{mixed}{plane}{plane}{plane}"),
+        "mirror.2.normal",
+        &["at most two"],
+    );
+    assert_invalid(
+        &format!(
+            "{}{plane}",
+            edit(&mixed, "dt = 1e-5", "dt = 1e-5\nprojection = true")
+        ),
+        "method.projection",
+        &["mirror", "projection = false"],
+    );
+    let (e, shown) = error_with(
+        &format!("{mixed}{}", plane.replace("\"symmetric\"", "\"odd\"")),
+        &[],
+    );
+    assert!(matches!(e, CaseError::Parse { .. }), "{shown}");
+    assert_mentions(&shown, &["symmetric", "skew-symmetric"]);
+}
+
+#[test]
+fn tributary_volumes_need_a_vertex_lattice() {
+    assert_invalid(
+        &edit(
+            VALID,
+            "max = [1.0, 0.5] }",
+            "max = [1.0, 0.5], volumes = \"tributary\", lattice = \"cell-centred\" }",
+        ),
+        "body.0.geometry.volumes",
+        &["vertex lattice", "uniform"],
+    );
+}

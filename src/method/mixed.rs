@@ -7,14 +7,19 @@
 //! F and, per variant, H and J. Neighbours, corrected gradients G_b(X_a) = V_b ∇̃0W̃_b(X_a)
 //! and every per-pair weight are computed once on the reference configuration; every
 //! pair sum is a gather over particle a's own list, in both directions of the pair.
+//! Mirror planes are closed by ghost particles ([`crate::mirror`]): the per-pair data
+//! and every per-particle field are extended to them, and only real particles are
+//! integrated.
 
 use super::{
-    BlowUp, MIN_CHUNK, Method, axpy, blend, check_motion, masses_and_boundary, reference_gradients,
+    BlowUp, MIN_CHUNK, Method, axpy, blend, check_motion, masses_and_boundary, neighbour_radius,
+    reference_gradients,
 };
 use crate::boundary::Boundary;
 use crate::correction::{Small, solve_small};
 use crate::integrate::{IntegratorKind, OdeState, OdeSystem};
 use crate::material::Material;
+use crate::mirror::Ghosts;
 use crate::neighbour::Csr;
 use crate::observe::Snapshot;
 use crate::scene::{Case, CaseError, Conserved, Discretised, Jst, MethodName};
@@ -142,8 +147,12 @@ pub struct Fluxes<D: Dim> {
 /// Displacements, velocities and size of the current step at its start.
 type StepStart<D> = (Vec<<D as Dim>::V>, Vec<<D as Dim>::V>, f64);
 
-/// Mixed {p, F, H, J} SPH on the CPU (f64, rayon).
+/// Mixed {p, F, H, J} SPH on the CPU (f64, rayon). Per-particle arrays of the reference
+/// configuration and of the passes hold the n real particles, then the ghosts.
 pub struct MixedSph<D: Dim> {
+    /// Number of real particles.
+    n: usize,
+    ghosts: Ghosts<D>,
     x0: Vec<D::V>,
     vol: Vec<f64>,
     mass: Vec<f64>,
@@ -152,8 +161,8 @@ pub struct MixedSph<D: Dim> {
     csr: Csr,
     /// g_ab = ∇̃0W̃_b(X_a), CSR order.
     grad: Vec<D::V>,
-    /// Index of pair (b, a) for pair (a, b).
-    rev: Vec<u32>,
+    /// g_ba = ∇̃0W̃_a(X_b) for pair (a, b), CSR order.
+    grad_rev: Vec<D::V>,
     /// N_ab = (X_b − X_a)/|X_b − X_a|.
     normal: Vec<D::V>,
     /// Least-squares weights M_a⁻¹ N_ab / |d_ab| (eq 37).
@@ -165,6 +174,9 @@ pub struct MixedSph<D: Dim> {
     integrator: IntegratorKind,
     h: f64,
     boundary: Boundary<D>,
+    /// Displacements and velocities of real particles and ghosts at the current stage.
+    u_ext: Vec<D::V>,
+    v_ext: Vec<D::V>,
     kin: Vec<Kinematics<D>>,
     slopes: Vec<Slopes<D>>,
     /// JST: the Laplacian ∇²v of every particle.
@@ -182,13 +194,34 @@ impl<D: Dim> MixedSph<D> {
     pub fn new(case: &Case, disc: Discretised<D>) -> Result<Self, CaseError> {
         let material = Material::new(&case.material);
         let m = &case.method;
-        let (csr, grad) = reference_gradients::<D>(case, &disc.x0, &disc.vol)?;
-        let rev = csr.reverse_pairs();
+        let (mass, boundary, v0) = masses_and_boundary(case, &disc, material.rho0)?;
+        let n = disc.x0.len();
+        let ghosts = Ghosts::build(case, &disc.x0, &disc.vol, neighbour_radius::<D>(case))?;
+        let (x0, vol) = ghosts.extend_reference(&disc.x0, &disc.vol);
+        let (mut csr, mut grad) = reference_gradients::<D>(case, &x0, &vol)?;
+        csr.truncate(n);
+        grad.truncate(csr.pair_count());
+        let rev = ghosts.reverse_pairs(&csr).map_err(|a| {
+            case.invalid(
+                "method.h_over_dx",
+                format!(
+                    "particle {a} has a neighbour at the kernel support whose mirror image \
+                     falls outside it by round-off; change h/dx slightly"
+                ),
+            )
+        })?;
+        let grad_rev = rev
+            .par_iter()
+            .map(|&(q, image)| {
+                let g = grad[q as usize];
+                image.map_or(g, |m| m.reflect::<D>(g))
+            })
+            .collect();
         let normal: Vec<D::V> = pair_map(&csr, |i, j| {
-            let d = disc.x0[j] - disc.x0[i];
+            let d = x0[j] - x0[i];
             d * (1.0 / D::norm2(d).sqrt())
         });
-        let ls = least_squares_weights::<D>(&disc.x0, &csr, &normal).map_err(|i| {
+        let ls = least_squares_weights::<D>(&x0, &csr, &normal).map_err(|i| {
             case.invalid(
                 "method.h_over_dx",
                 format!(
@@ -199,8 +232,8 @@ impl<D: Dim> MixedSph<D> {
         })?;
         let stabilisation = match m.name {
             MethodName::JstSph => {
-                let ell = laplacian_weights::<D>(&disc.x0, &disc.vol, &csr, &grad, &normal)
-                    .map_err(|i| {
+                let ell =
+                    laplacian_weights::<D>(&x0, &vol, &csr, &grad, &normal).map_err(|i| {
                         case.invalid("method.h_over_dx", format!(
                         "the Laplacian correction of particle {i} is singular; increase h/dx"
                     ))
@@ -210,7 +243,7 @@ impl<D: Dim> MixedSph<D> {
                     .into_par_iter()
                     .map(|q| {
                         let (i, j) = pairs[q];
-                        ell[q] + disc.vol[j] / disc.vol[i] * ell[rev[q] as usize]
+                        ell[q] + vol[j] / vol[i] * ell[rev[q].0 as usize]
                     })
                     .collect();
                 Stabilisation::Jst {
@@ -223,8 +256,7 @@ impl<D: Dim> MixedSph<D> {
                 reconstruction: m.reconstruction.unwrap_or(true),
             },
         };
-        let (mass, boundary, v0) = masses_and_boundary(case, &disc, material.rho0)?;
-        let n = disc.x0.len();
+        let n_ext = x0.len();
         Ok(Self {
             kin: vec![
                 Kinematics {
@@ -234,30 +266,34 @@ impl<D: Dim> MixedSph<D> {
                     j: 1.0,
                     det_f: 1.0,
                 };
-                n
+                n_ext
             ],
             slopes: vec![
                 Slopes {
                     grad_v: D::zero_t(),
                     grad_p: [D::zero_t(); 3],
                 };
-                n
+                n_ext
             ],
-            lap: vec![D::zero(); n],
-            x0: disc.x0,
-            vol: disc.vol,
+            lap: vec![D::zero(); n_ext],
+            u_ext: vec![D::zero(); n_ext],
+            v_ext: vec![D::zero(); n_ext],
+            n,
+            ghosts,
+            x0,
+            vol,
             mass,
             body: disc.body,
             v0,
             csr,
             grad,
-            rev,
+            grad_rev,
             normal,
             ls,
             material,
             conserved: m.variables.unwrap_or(Conserved::PFHJ),
             stabilisation,
-            projection: m.projection.unwrap_or(true),
+            projection: m.projection.unwrap_or(case.mirrors.is_empty()),
             integrator: m.integrator,
             h: m.h_over_dx * case.spacing,
             boundary,
@@ -272,9 +308,9 @@ impl<D: Dim> MixedSph<D> {
         &self.csr
     }
 
-    /// Reference volumes V0.
+    /// Reference volumes V0 of the real particles.
     pub fn volume(&self) -> &[f64] {
-        &self.vol
+        &self.vol[..self.n]
     }
 
     /// H and J of a state: evolved, or cof F and det F.
@@ -297,10 +333,21 @@ impl<D: Dim> MixedSph<D> {
         BlowUp::at::<D>(&self.x0, i, quantity, value)
     }
 
+    /// u and v of the real particles and their ghosts.
+    fn extend_motion(&mut self, y: &MixedState<D>) {
+        let n = self.n;
+        self.u_ext[..n].copy_from_slice(&y.u);
+        self.v_ext[..n].copy_from_slice(&y.v);
+        self.ghosts.extend(&mut self.u_ext, |m, u| m.vector::<D>(u));
+        self.ghosts.extend(&mut self.v_ext, |m, v| m.vector::<D>(v));
+    }
+
     /// Pass 1: P(F, H, J) and the corrected velocity gradient of every particle.
     fn kinematics(&mut self, y: &MixedState<D>) -> Result<(), BlowUp> {
+        self.extend_motion(y);
         let mut kin = std::mem::take(&mut self.kin);
-        kin.par_iter_mut()
+        kin[..self.n]
+            .par_iter_mut()
             .with_min_len(MIN_CHUNK)
             .enumerate()
             .for_each(|(a, k)| {
@@ -308,7 +355,7 @@ impl<D: Dim> MixedSph<D> {
                 let mut grad_v = D::zero_t();
                 for q in self.csr.range(a) {
                     let b = self.csr.ids[q] as usize;
-                    grad_v += D::outer(y.v[b] - y.v[a], self.grad[q]) * self.vol[b];
+                    grad_v += D::outer(self.v_ext[b] - self.v_ext[a], self.grad[q]) * self.vol[b];
                 }
                 *k = Kinematics {
                     p: self.material.pk1_mixed::<D>(y.f[a], h, j),
@@ -318,9 +365,15 @@ impl<D: Dim> MixedSph<D> {
                     det_f: D::det(y.f[a]),
                 };
             });
+        self.ghosts.extend(&mut kin, |m, k| Kinematics {
+            p: m.tensor::<D>(k.p),
+            h: m.unit_tensor::<D>(k.h),
+            grad_v: m.tensor::<D>(k.grad_v),
+            j: m.unit_scalar(k.j),
+            det_f: m.unit_scalar(k.det_f),
+        });
         self.kin = kin;
-        let bad = self
-            .kin
+        let bad = self.kin[..self.n]
             .par_iter()
             .position_first(|k| !(k.j > 0.0 && k.det_f > 0.0));
         match bad {
@@ -331,9 +384,9 @@ impl<D: Dim> MixedSph<D> {
     }
 
     /// Pass 2 (Upwind-SPH with reconstruction): least-squares slopes of v and P.
-    fn slopes(&mut self, y: &MixedState<D>) {
+    fn slopes(&mut self) {
         let mut slopes = std::mem::take(&mut self.slopes);
-        slopes
+        slopes[..self.n]
             .par_iter_mut()
             .with_min_len(MIN_CHUNK)
             .enumerate()
@@ -344,7 +397,7 @@ impl<D: Dim> MixedSph<D> {
                 for q in self.csr.range(a) {
                     let b = self.csr.ids[q] as usize;
                     let w = self.ls[q];
-                    grad_v += D::outer(y.v[b] - y.v[a], w);
+                    grad_v += D::outer(self.v_ext[b] - self.v_ext[a], w);
                     let dp = self.kin[b].p - pa;
                     for (l, g) in grad_p.iter_mut().enumerate().take(D::N) {
                         *g += dp * D::comp(w, l);
@@ -352,26 +405,36 @@ impl<D: Dim> MixedSph<D> {
                 }
                 *s = Slopes { grad_v, grad_p };
             });
+        // ∂P'/∂X'_l = r_l σ R (∂P/∂X_l) R.
+        self.ghosts.extend(&mut slopes, |m, s| Slopes {
+            grad_v: m.tensor::<D>(s.grad_v),
+            grad_p: std::array::from_fn(|l| {
+                let sign = if l < D::N { m.axis_sign(l) } else { 0.0 };
+                m.tensor::<D>(s.grad_p[l]) * sign
+            }),
+        });
         self.slopes = slopes;
     }
 
     /// Pass 2 (JST-SPH): ∇²v_a = Σ_b ℓ_ab (v_b − v_a) (seed 002 eq 27).
-    fn laplacians(&mut self, y: &MixedState<D>) {
+    fn laplacians(&mut self) {
         let Stabilisation::Jst { ell, .. } = &self.stabilisation else {
             return;
         };
         let mut lap = std::mem::take(&mut self.lap);
-        lap.par_iter_mut()
+        lap[..self.n]
+            .par_iter_mut()
             .with_min_len(MIN_CHUNK)
             .enumerate()
             .for_each(|(a, l)| {
                 let mut sum = D::zero();
                 for q in self.csr.range(a) {
                     let b = self.csr.ids[q] as usize;
-                    sum += (y.v[b] - y.v[a]) * ell[q];
+                    sum += (self.v_ext[b] - self.v_ext[a]) * ell[q];
                 }
                 *l = sum;
             });
+        self.ghosts.extend(&mut lap, |m, l| m.vector::<D>(l));
         self.lap = lap;
     }
 
@@ -379,7 +442,8 @@ impl<D: Dim> MixedSph<D> {
     fn forces(&self, y: &MixedState<D>) -> Vec<Forces<D>> {
         let mat = &self.material;
         let (c_p, c_s) = (mat.p_wave_speed(), mat.s_wave_speed());
-        (0..self.x0.len())
+        let (u, v) = (&self.u_ext, &self.v_ext);
+        (0..self.n)
             .into_par_iter()
             .with_min_len(MIN_CHUNK)
             .map(|a| {
@@ -391,13 +455,13 @@ impl<D: Dim> MixedSph<D> {
                 for q in self.csr.range(a) {
                     let b = self.csr.ids[q] as usize;
                     let kb = self.kin[b];
-                    let (g_ab, g_ba) = (self.grad[q], self.grad[self.rev[q] as usize]);
+                    let (g_ab, g_ba) = (self.grad[q], self.grad_rev[q]);
                     // eq 21: V_b [P_b ∇̃W̃_a(X_b) − P_a ∇̃W̃_b(X_a)].
                     t += (kb.p * g_ba - ka.p * g_ab) * self.vol[b];
                     match &self.stabilisation {
                         Stabilisation::Upwind { reconstruction } => {
                             let n_ref = self.normal[q];
-                            let (mut dv, mut dp) = (y.v[b] - y.v[a], kb.p - ka.p);
+                            let (mut dv, mut dp) = (v[b] - v[a], kb.p - ka.p);
                             if *reconstruction {
                                 // eq 37: faces at the mid-pair, p_f⁻ from a, p_f⁺ from b.
                                 let d_ab = self.x0[b] - self.x0[a];
@@ -406,7 +470,7 @@ impl<D: Dim> MixedSph<D> {
                                 dv = dv + vb - va;
                                 dp = dp + pb - pa;
                             }
-                            let x_ab = self.x0[b] + y.u[b] - xa;
+                            let x_ab = self.x0[b] + u[b] - xa;
                             let n = x_ab * (1.0 / D::norm2(x_ab).sqrt());
                             // eq 28: S^p Δp = ½[c_p n (n·Δp) + c_s (Δp − n (n·Δp))].
                             let dp_mom = dv * mat.rho0;
@@ -426,7 +490,7 @@ impl<D: Dim> MixedSph<D> {
                         } => {
                             let (e2, e4) = (coefficients.eps2, coefficients.eps4);
                             let lap = self.lap[b] - self.lap[a];
-                            let dv = y.v[b] - y.v[a];
+                            let dv = v[b] - v[a];
                             d += (dv * (e2 * self.h) - lap * (e4 * self.h.powi(3)))
                                 * (0.5 * c_p * mat.rho0 * s[q]);
                         }
@@ -442,13 +506,11 @@ impl<D: Dim> MixedSph<D> {
     /// makes the step conserve angular momentum exactly.
     fn balance_points(&self, y: &MixedState<D>) -> Vec<D::V> {
         match (&self.step_start, self.stage) {
-            (Some((u0, v0, dt)), 1) if self.integrator == IntegratorKind::TvdRk2 => {
-                (0..self.x0.len())
-                    .into_par_iter()
-                    .map(|a| self.x0[a] + u0[a] + (v0[a] + y.v[a]) * (0.5 * dt))
-                    .collect()
-            }
-            _ => (0..self.x0.len())
+            (Some((u0, v0, dt)), 1) if self.integrator == IntegratorKind::TvdRk2 => (0..self.n)
+                .into_par_iter()
+                .map(|a| self.x0[a] + u0[a] + (v0[a] + y.v[a]) * (0.5 * dt))
+                .collect(),
+            _ => (0..self.n)
                 .into_par_iter()
                 .map(|a| self.x0[a] + y.u[a])
                 .collect(),
@@ -475,8 +537,8 @@ impl<D: Dim> MixedSph<D> {
         match self.stabilisation {
             Stabilisation::Upwind {
                 reconstruction: true,
-            } => self.slopes(y),
-            Stabilisation::Jst { .. } => self.laplacians(y),
+            } => self.slopes(),
+            Stabilisation::Jst { .. } => self.laplacians(),
             Stabilisation::Upwind { .. } => {}
         }
         Ok(())
@@ -677,7 +739,7 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
         let (mut t, mut dp): (Vec<D::V>, Vec<D::V>) = forces.iter().map(|f| (f.t, f.d)).unzip();
         if self.projection {
             let points = self.balance_points(y);
-            let balance = Balance::<D>::new(&points, &self.vol);
+            let balance = Balance::<D>::new(&points, &self.vol[..self.n]);
             balance.project(&mut t);
             balance.project(&mut dp);
         }
@@ -726,7 +788,7 @@ impl<D: Dim> Method<D> for MixedSph<D> {
     }
 
     fn initial_state(&self) -> MixedState<D> {
-        let n = self.x0.len();
+        let n = self.n;
         MixedState {
             u: vec![D::zero(); n],
             v: self.v0.clone(),
@@ -753,7 +815,7 @@ impl<D: Dim> Method<D> for MixedSph<D> {
     }
 
     fn reference(&self) -> &[D::V] {
-        &self.x0
+        &self.x0[..self.n]
     }
 
     fn mass(&self) -> &[f64] {
@@ -775,7 +837,7 @@ impl<D: Dim> Method<D> for MixedSph<D> {
     /// σ = J⁻¹ P Fᵀ with the method's J (2D: σ_zz of plane strain from F).
     fn cauchy_stress(&self, y: &MixedState<D>) -> Vec<[[f64; 3]; 3]> {
         let mat = &self.material;
-        (0..self.x0.len())
+        (0..self.n)
             .into_par_iter()
             .map(|a| {
                 let (h, j) = self.h_and_j(y, a);
@@ -791,7 +853,7 @@ impl<D: Dim> Method<D> for MixedSph<D> {
     }
 
     fn strain_energy(&self, y: &MixedState<D>) -> f64 {
-        (0..self.x0.len())
+        (0..self.n)
             .into_par_iter()
             .map(|a| {
                 let (_, j) = self.h_and_j(y, a);
@@ -802,7 +864,7 @@ impl<D: Dim> Method<D> for MixedSph<D> {
 
     fn snapshot<'a>(&'a self, y: &MixedState<D>) -> Snapshot<'a, D> {
         Snapshot {
-            x0: &self.x0,
+            x0: &self.x0[..self.n],
             mass: &self.mass,
             body: &self.body,
             u: y.u.clone(),

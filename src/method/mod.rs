@@ -44,6 +44,13 @@ pub(crate) fn blend<T: Copy + Send + Sync + Add<Output = T> + Mul<f64, Output = 
         .for_each(|(y, &x)| *y = *y * a + x * b);
 }
 
+/// The kernel support, with a relative margin so that lattice neighbours exactly at the
+/// support are found on both sides despite round-off (their W and ∇W vanish).
+pub(crate) fn neighbour_radius<D: Dim>(case: &Case) -> f64 {
+    let m = &case.method;
+    Kernel::new(m.kernel, m.h_over_dx * case.spacing, D::N).support() * (1.0 + 1e-9)
+}
+
 /// Neighbours within the kernel support and corrected gradients g_ij, computed once on
 /// the reference configuration of a total-Lagrangian method.
 pub(crate) fn reference_gradients<D: Dim>(
@@ -53,9 +60,7 @@ pub(crate) fn reference_gradients<D: Dim>(
 ) -> Result<(Csr, Vec<D::V>), CaseError> {
     let m = &case.method;
     let kernel = Kernel::new(m.kernel, m.h_over_dx * case.spacing, D::N);
-    // A relative margin so that lattice neighbours exactly at the support are found on
-    // both sides despite round-off (their W and ∇W vanish).
-    let csr = neighbour::build::<D>(x0, kernel.support() * (1.0 + 1e-9));
+    let csr = neighbour::build::<D>(x0, neighbour_radius::<D>(case));
     let grad = correction::gradients::<D>(m.correction, x0, vol, &csr, &kernel)
         .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
     Ok((csr, grad))

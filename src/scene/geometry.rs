@@ -1,7 +1,7 @@
 //! Geometry generators: sample every body of a case on a lattice of spacing Δx (or read
 //! its points from CSV) and set the initial velocity field.
 
-use super::{BodySpec, Case, CaseError, Shape, VelocityField, Volumes};
+use super::{BodySpec, Case, CaseError, Lattice, Shape, VelocityField, Volumes};
 use crate::analytic::SwingingMode;
 use crate::material::Material;
 use crate::tensor::Dim;
@@ -66,7 +66,20 @@ fn sample<D: Dim>(
         (points, vol)
     };
     Ok(match &spec.geometry {
-        Shape::Box { min, max, volumes } => {
+        Shape::Box {
+            min,
+            max,
+            lattice: Lattice::CellCentred,
+            ..
+        } => {
+            let half: Vec<f64> = (0..D::N).map(|_| 0.5 * dx).collect();
+            let lo: Vec<f64> = min.iter().zip(&half).map(|(m, h)| m + h).collect();
+            let hi: Vec<f64> = max.iter().zip(&half).map(|(m, h)| m - h).collect();
+            lattice_of(&lo, &hi, &|_| true)
+        }
+        Shape::Box {
+            min, max, volumes, ..
+        } => {
             let (points, mut vol) = lattice_of(min, max, &|_| true);
             if *volumes == Volumes::Tributary {
                 for (p, v) in points.iter().zip(vol.iter_mut()) {

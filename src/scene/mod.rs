@@ -35,6 +35,9 @@ pub struct Case {
     pub bodies: Vec<BodySpec>,
     #[serde(default, rename = "boundary")]
     pub boundaries: Vec<BoundarySpec>,
+    /// Symmetry and skew-symmetry planes, closed by mirror (ghost) particles.
+    #[serde(default, rename = "mirror")]
+    pub mirrors: Vec<MirrorSpec>,
     pub run: RunSpec,
     #[serde(default)]
     pub output: OutputSpec,
@@ -176,7 +179,8 @@ pub struct MethodSpec {
     /// Upwind-SPH: linear reconstruction of p and P to the mid-pair (default on).
     pub reconstruction: Option<bool>,
     /// Mixed methods: angular-momentum-preserving projection of the internal force and
-    /// of the stabilisation (seed 003 Appendix B; default on).
+    /// of the stabilisation (seed 003 Appendix B; default on without mirror planes, off
+    /// with them, whose reactions are external forces).
     pub projection: Option<bool>,
     /// JST-SPH: dissipation coefficients (default ε⁽²⁾ = 0, ε⁽⁴⁾ = 1/8).
     pub jst: Option<Jst>,
@@ -223,6 +227,18 @@ pub enum Volumes {
     Tributary,
 }
 
+/// Where a box's lattice points sit.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Lattice {
+    /// On the vertices min + i·Δx: rows of particles lie on the faces.
+    #[default]
+    Vertex,
+    /// At the centres min + (i + ½)Δx of the Δx cells that fill the box: no particle lies
+    /// on a face, and the Δx^d volumes sum to the box's volume.
+    CellCentred,
+}
+
 /// Geometry generators. Lattices are anchored at the lower corner of the shape's
 /// bounding box: points min + i·Δx, i = 0, 1, … while ≤ max.
 #[derive(Clone, Debug, Deserialize, Serialize)]
@@ -237,6 +253,9 @@ pub enum Shape {
         /// volumes sum to the box's volume when its sides are multiples of Δx).
         #[serde(default)]
         volumes: Volumes,
+        /// `vertex` (the default) or `cell-centred`.
+        #[serde(default)]
+        lattice: Lattice,
     },
     /// Disk of points with |x − c| < r (2D).
     Disk { center: Vec<f64>, radius: f64 },
@@ -345,6 +364,24 @@ pub enum Condition {
     Symmetry { normal: Axis },
     /// Surface traction t [Pa] on the region's particles, f = t·Δx^(d−1) each.
     Traction { traction: Vec<f64> },
+}
+
+/// A plane X_k = `at` across which the solution continues as its mirror image: for
+/// `symmetric`, u'(X') = R u(X) (normal displacement zero on the plane); for
+/// `skew-symmetric`, u'(X') = −R u(X) (tangential displacement zero), R the reflection.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct MirrorSpec {
+    pub normal: Axis,
+    pub at: f64,
+    pub kind: MirrorKind,
+}
+
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum MirrorKind {
+    Symmetric,
+    SkewSymmetric,
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]

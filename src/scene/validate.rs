@@ -6,8 +6,8 @@
 //! gives the same message.
 
 use super::{
-    ArtificialViscosity, Axis, BodySpec, BoundarySpec, Case, Condition, Jst, MaterialSpec,
-    MethodName, MethodSpec, OutputSpec, ProbeSpec, Region, RunSpec, Shape, VelocityField,
+    ArtificialViscosity, Axis, BodySpec, BoundarySpec, Case, Condition, Jst, Lattice, MaterialSpec,
+    MethodName, MethodSpec, OutputSpec, ProbeSpec, Region, RunSpec, Shape, VelocityField, Volumes,
 };
 use serde::Serialize;
 use std::collections::HashSet;
@@ -27,6 +27,7 @@ pub(super) fn check(case: &Case) -> Result<(), (String, String)> {
     for (i, boundary) in case.boundaries.iter().enumerate() {
         self::boundary(boundary, &format!("boundary.{i}"), &case.bodies, dim)?;
     }
+    mirrors(case)?;
     run(&case.run)?;
     output(&case.output)?;
     probes(&case.probes, dim)
@@ -312,9 +313,21 @@ fn shape(shape: &Shape, key: &str, dim: usize) -> Checked {
         )
     };
     match shape {
-        Shape::Box { min, max, .. } => {
+        Shape::Box {
+            min,
+            max,
+            volumes,
+            lattice,
+        } => {
             vector(&format!("{key}.min"), min, dim)?;
             vector(&format!("{key}.max"), max, dim)?;
+            if (*volumes, *lattice) == (Volumes::Tributary, Lattice::CellCentred) {
+                return fail(
+                    format!("{key}.volumes"),
+                    "`tributary` halves the volumes of the particles on the faces of a vertex \
+                     lattice; a `cell-centred` lattice has none there, so use `uniform`",
+                );
+            }
             for (k, (lo, hi)) in min.iter().zip(max).enumerate() {
                 if lo >= hi {
                     return fail(
@@ -442,6 +455,58 @@ fn velocity(field: &VelocityField, key: &str, dim: usize) -> Checked {
             positive(&format!("{key}.length"), *length)
         }
     }
+}
+
+/// Mirror planes: read by the mixed methods, at most two per axis, and they exclude the
+/// projection (the planes' reactions are external forces). Where the particles lie
+/// against the planes is checked when the ghosts are built.
+fn mirrors(case: &Case) -> Checked {
+    let dim = case.dim();
+    let m = &case.method;
+    for (i, mirror) in case.mirrors.iter().enumerate() {
+        let key = format!("mirror.{i}");
+        if !m.name.is_mixed() {
+            return fail(
+                key,
+                format!(
+                    "mirror planes are read by `upwind-sph` and `jst-sph`, not by {}; use a \
+                     [[boundary]] with a `symmetry` condition instead",
+                    toml_name(&m.name)
+                ),
+            );
+        }
+        if mirror.normal.index() >= dim {
+            return fail(
+                format!("{key}.normal"),
+                format!(
+                    "\"z\" exists only in 3D, but the case has dimension = {dim}; use \"x\" or \"y\""
+                ),
+            );
+        }
+        finite(&format!("{key}.at"), mirror.at)?;
+        let same_axis = case.mirrors[..i]
+            .iter()
+            .filter(|o| o.normal == mirror.normal)
+            .count();
+        if same_axis >= 2 {
+            return fail(
+                format!("{key}.normal"),
+                format!(
+                    "a body lies between at most two planes normal to {}; this is the third",
+                    toml_name(&mirror.normal)
+                ),
+            );
+        }
+    }
+    if !case.mirrors.is_empty() && m.projection == Some(true) {
+        return fail(
+            "method.projection",
+            "the projection removes the net force and moment of the internal forces, but \
+             mirror planes exert reactions on the body; set projection = false or remove the \
+             [[mirror]] planes",
+        );
+    }
+    Ok(())
 }
 
 fn boundary(b: &BoundarySpec, key: &str, bodies: &[BodySpec], dim: usize) -> Checked {
@@ -699,6 +764,7 @@ mod tests {
             min: vec![0.0, 1.0],
             max: vec![1.0, 1.0],
             volumes: Default::default(),
+            lattice: Default::default(),
         };
         assert_eq!(key_of(&c), "body.1.geometry.max");
         c.bodies[1].geometry = Shape::Points { file: "".into() };
