@@ -100,6 +100,53 @@ pub fn gradients<D: Dim>(
     Ok(out)
 }
 
+/// Per-pair weights V_j W̃_j(x_i) of the corrected kernel in CSR order (rows of `csr`,
+/// which may be fewer than the points its ids refer to): the
+/// reproducing kernel with a linear basis for RKPM (W̃¹, seed 002 eqs 6–8: Σ V W̃ = 1 and
+/// Σ V W̃ (x_i − x_j) = 0, self term included), the Shepard kernel W_j / Σ_k V_k W_k
+/// (W̃⁰, seed 002 eq 10) for the other corrections.
+pub fn kernel_weights<D: Dim>(
+    kind: CorrectionKind,
+    x: &[D::V],
+    vol: &[f64],
+    csr: &Csr,
+    kernel: &Kernel,
+) -> Result<Vec<f64>, CorrectionError> {
+    let per_particle: Vec<Result<Vec<f64>, CorrectionError>> = (0..csr.len())
+        .into_par_iter()
+        .map(|i| {
+            let w = |j: u32| kernel.w(D::norm2(x[i] - x[j as usize]).sqrt());
+            if kind != CorrectionKind::Rkpm {
+                let s = vol[i] * kernel.w(0.0)
+                    + csr
+                        .neighbours(i)
+                        .iter()
+                        .map(|&j| vol[j as usize] * w(j))
+                        .sum::<f64>();
+                return Ok(csr
+                    .neighbours(i)
+                    .iter()
+                    .map(|&j| vol[j as usize] * w(j) / s)
+                    .collect());
+            }
+            let (c, _) = rkpm_coefficients::<D>(i, x, vol, csr, kernel)?;
+            Ok(csr
+                .neighbours(i)
+                .iter()
+                .map(|&j| {
+                    let p = linear_basis::<D>(x[i] - x[j as usize]);
+                    vol[j as usize] * w(j) * (0..=D::N).map(|a| c[a] * p[a]).sum::<f64>()
+                })
+                .collect())
+        })
+        .collect();
+    let mut out = Vec::with_capacity(csr.pair_count());
+    for w in per_particle {
+        out.extend(w?);
+    }
+    Ok(out)
+}
+
 fn plain<'a, D: Dim>(
     i: usize,
     x: &'a [D::V],
@@ -206,23 +253,27 @@ pub(crate) fn solve_small(mut m: Small, mut b: [f64; 4], n: usize) -> Option<[f6
     Some(y)
 }
 
-fn rkpm<D: Dim>(
+/// Linear basis p(r) = (1, r) of the reproducing kernel, r = x_i − x_j.
+fn linear_basis<D: Dim>(r: D::V) -> [f64; 4] {
+    let mut p = [0.0; 4];
+    p[0] = 1.0;
+    for k in 0..D::N {
+        p[k + 1] = D::comp(r, k);
+    }
+    p
+}
+
+/// The reproducing-kernel coefficients of particle i: C = M⁻¹ e₁ and ∂_k C (seed 000
+/// eqs 55–59), so that W̃_j(x_i) = C·p(r) W(r).
+fn rkpm_coefficients<D: Dim>(
     i: usize,
     x: &[D::V],
     vol: &[f64],
     csr: &Csr,
     kernel: &Kernel,
-) -> Result<Vec<D::V>, CorrectionError> {
+) -> Result<([f64; 4], [[f64; 4]; 3]), CorrectionError> {
     let n = D::N + 1;
-    // Linear basis p(r) = (1, r), r = x_i − x_j.
-    let basis = |r: D::V| {
-        let mut p = [0.0; 4];
-        p[0] = 1.0;
-        for k in 0..D::N {
-            p[k + 1] = D::comp(r, k);
-        }
-        p
-    };
+    let basis = linear_basis::<D>;
     // Moment matrix M and its derivatives ∂_k M (eqs 55–58), self term included.
     let mut m: Small = [[0.0; 4]; 4];
     let mut dm: [Small; 3] = [[[0.0; 4]; 4]; 3];
@@ -259,6 +310,19 @@ fn rkpm<D: Dim>(
         }
         dc[k] = solve_small(m, rhs, n).ok_or_else(singular)?;
     }
+    Ok((c, dc))
+}
+
+fn rkpm<D: Dim>(
+    i: usize,
+    x: &[D::V],
+    vol: &[f64],
+    csr: &Csr,
+    kernel: &Kernel,
+) -> Result<Vec<D::V>, CorrectionError> {
+    let n = D::N + 1;
+    let basis = linear_basis::<D>;
+    let (c, dc) = rkpm_coefficients::<D>(i, x, vol, csr, kernel)?;
     Ok(csr
         .neighbours(i)
         .iter()

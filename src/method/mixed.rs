@@ -16,13 +16,17 @@ use super::{
     reference_gradients,
 };
 use crate::boundary::Boundary;
+use crate::correction;
 use crate::correction::{Small, solve_small};
 use crate::integrate::{IntegratorKind, OdeState, OdeSystem};
+use crate::kernel::Kernel;
 use crate::material::Material;
 use crate::mirror::Ghosts;
 use crate::neighbour::Csr;
 use crate::observe::Snapshot;
-use crate::scene::{Case, CaseError, Conserved, Discretised, Jst, MethodName};
+use crate::scene::{
+    Case, CaseError, Conserved, DeformationGradient, Discretised, Jst, MethodName, Momentum,
+};
 use crate::tensor::Dim;
 use rayon::prelude::*;
 
@@ -169,6 +173,9 @@ pub struct MixedSph<D: Dim> {
     ls: Vec<D::V>,
     material: Material,
     conserved: Conserved,
+    momentum: Momentum,
+    /// V_b W̃_b(X_a) per pair, for the bond-based F; None for the evolved F.
+    bond_weights: Option<Vec<f64>>,
     stabilisation: Stabilisation,
     projection: bool,
     integrator: IntegratorKind,
@@ -256,6 +263,15 @@ impl<D: Dim> MixedSph<D> {
                 reconstruction: m.reconstruction.unwrap_or(true),
             },
         };
+        let bond_weights = match m.deformation_gradient.unwrap_or_default() {
+            DeformationGradient::Evolved => None,
+            DeformationGradient::BondBased => {
+                let kernel = Kernel::new(m.kernel, m.h_over_dx * case.spacing, D::N);
+                let w = correction::kernel_weights::<D>(m.correction, &x0, &vol, &csr, &kernel)
+                    .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
+                Some(w)
+            }
+        };
         let n_ext = x0.len();
         Ok(Self {
             kin: vec![
@@ -292,6 +308,8 @@ impl<D: Dim> MixedSph<D> {
             ls,
             material,
             conserved: m.variables.unwrap_or(Conserved::PFHJ),
+            momentum: m.momentum.unwrap_or_default(),
+            bond_weights,
             stabilisation,
             projection: m.projection.unwrap_or(case.mirrors.is_empty()),
             integrator: m.integrator,
@@ -313,20 +331,51 @@ impl<D: Dim> MixedSph<D> {
         &self.vol[..self.n]
     }
 
-    /// H and J of a state: evolved, or cof F and det F.
-    fn h_and_j(&self, y: &MixedState<D>, i: usize) -> (D::T, f64) {
-        let f = y.f[i];
+    /// The F, H and J the stress of particle a is evaluated at: F evolved or the
+    /// bond-based F^c (from the displacements `u_ext` of the real particles and the
+    /// ghosts); H and J evolved, or cof F and det F.
+    fn stress_arguments(&self, y: &MixedState<D>, a: usize, u_ext: &[D::V]) -> (D::T, D::T, f64) {
+        let f = match &self.bond_weights {
+            Some(w) => self.bond_based_f(a, y.f[a], u_ext, w),
+            None => y.f[a],
+        };
         let h = if self.conserved.evolves_h() {
-            y.h[i]
+            y.h[a]
         } else {
             D::cof(f)
         };
         let j = if self.conserved.evolves_j() {
-            y.j[i]
+            y.j[a]
         } else {
             D::det(f)
         };
-        (h, j)
+        (f, h, j)
+    }
+
+    /// F^c_a = F_a + Σ_b V_b W̃_b(X_a) [(x_b − x_a) − F_a X_ab] ⊗ X_ab / |X_ab|²: the
+    /// kernel-smoothed Breitzman–Dayal bond F with the self-bond F_aa = F_a (seed 002 eqs
+    /// 37 and 39, summed with the partition of unity Σ_b V_b W̃_b = 1). Exact for affine
+    /// motion: the bracket vanishes.
+    fn bond_based_f(&self, a: usize, f: D::T, u_ext: &[D::V], w: &[f64]) -> D::T {
+        let mut fc = f;
+        for q in self.csr.range(a) {
+            let b = self.csr.ids[q] as usize;
+            let x_ab = self.x0[b] - self.x0[a];
+            let dx = x_ab + u_ext[b] - u_ext[a];
+            fc += D::outer(dx - f * x_ab, x_ab) * (w[q] / D::norm2(x_ab));
+        }
+        fc
+    }
+
+    /// Displacements of the real particles and the ghosts, when the bond-based F needs
+    /// them outside a rate evaluation (outputs); empty otherwise.
+    fn extended_displacement(&self, u: &[D::V]) -> Vec<D::V> {
+        if self.bond_weights.is_none() {
+            return Vec::new();
+        }
+        let mut u_ext = vec![D::zero(); self.x0.len()];
+        fill_extended(&self.ghosts, &mut u_ext, u);
+        u_ext
     }
 
     fn blow_up(&self, i: usize, quantity: &str, value: f64) -> BlowUp {
@@ -335,11 +384,8 @@ impl<D: Dim> MixedSph<D> {
 
     /// u and v of the real particles and their ghosts.
     fn extend_motion(&mut self, y: &MixedState<D>) {
-        let n = self.n;
-        self.u_ext[..n].copy_from_slice(&y.u);
-        self.v_ext[..n].copy_from_slice(&y.v);
-        self.ghosts.extend(&mut self.u_ext, |m, u| m.vector::<D>(u));
-        self.ghosts.extend(&mut self.v_ext, |m, v| m.vector::<D>(v));
+        fill_extended(&self.ghosts, &mut self.u_ext, &y.u);
+        fill_extended(&self.ghosts, &mut self.v_ext, &y.v);
     }
 
     /// Pass 1: P(F, H, J) and the corrected velocity gradient of every particle.
@@ -351,18 +397,18 @@ impl<D: Dim> MixedSph<D> {
             .with_min_len(MIN_CHUNK)
             .enumerate()
             .for_each(|(a, k)| {
-                let (h, j) = self.h_and_j(y, a);
+                let (f, h, j) = self.stress_arguments(y, a, &self.u_ext);
                 let mut grad_v = D::zero_t();
                 for q in self.csr.range(a) {
                     let b = self.csr.ids[q] as usize;
                     grad_v += D::outer(self.v_ext[b] - self.v_ext[a], self.grad[q]) * self.vol[b];
                 }
                 *k = Kinematics {
-                    p: self.material.pk1_mixed::<D>(y.f[a], h, j),
+                    p: self.material.pk1_mixed::<D>(f, h, j),
                     h,
                     grad_v,
                     j,
-                    det_f: D::det(y.f[a]),
+                    det_f: D::det(f),
                 };
             });
         self.ghosts.extend(&mut kin, |m, k| Kinematics {
@@ -456,8 +502,14 @@ impl<D: Dim> MixedSph<D> {
                     let b = self.csr.ids[q] as usize;
                     let kb = self.kin[b];
                     let (g_ab, g_ba) = (self.grad[q], self.grad_rev[q]);
-                    // eq 21: V_b [P_b ∇̃W̃_a(X_b) − P_a ∇̃W̃_b(X_a)].
-                    t += (kb.p * g_ba - ka.p * g_ab) * self.vol[b];
+                    t += match self.momentum {
+                        // seed 003 eq 21: V_b [P_b ∇̃W̃_a(X_b) − P_a ∇̃W̃_b(X_a)].
+                        Momentum::Weak => (kb.p * g_ba - ka.p * g_ab) * self.vol[b],
+                        // seed 002 eq 22: −½ V_b (P_a + P_b)(∇W̃_b(X_a) − ∇W̃_a(X_b)).
+                        Momentum::Symmetrised => {
+                            (ka.p + kb.p) * (g_ab - g_ba) * (-0.5 * self.vol[b])
+                        }
+                    };
                     match &self.stabilisation {
                         Stabilisation::Upwind { reconstruction } => {
                             let n_ref = self.normal[q];
@@ -619,6 +671,12 @@ impl<'a, D: Dim> Balance<'a, D> {
                 *f += D::from_slice(&turn.to_array()) + mu;
             });
     }
+}
+
+/// `real` into out[..n] and the ghosts' images σR v into the rest.
+fn fill_extended<D: Dim>(ghosts: &Ghosts<D>, out: &mut [D::V], real: &[D::V]) {
+    out[..real.len()].copy_from_slice(real);
+    ghosts.extend(out, |m, v| m.vector::<D>(v));
 }
 
 /// One value per CSR pair (i, j).
@@ -837,11 +895,11 @@ impl<D: Dim> Method<D> for MixedSph<D> {
     /// σ = J⁻¹ P Fᵀ with the method's J (2D: σ_zz of plane strain from F).
     fn cauchy_stress(&self, y: &MixedState<D>) -> Vec<[[f64; 3]; 3]> {
         let mat = &self.material;
+        let u_ext = self.extended_displacement(&y.u);
         (0..self.n)
             .into_par_iter()
             .map(|a| {
-                let (h, j) = self.h_and_j(y, a);
-                let f = y.f[a];
+                let (f, h, j) = self.stress_arguments(y, a, &u_ext);
                 let sigma = mat.pk1_mixed::<D>(f, h, j) * D::transpose(f) * (1.0 / j);
                 let mut out = D::to3x3(sigma);
                 if D::N == 2 {
@@ -853,11 +911,12 @@ impl<D: Dim> Method<D> for MixedSph<D> {
     }
 
     fn strain_energy(&self, y: &MixedState<D>) -> f64 {
+        let u_ext = self.extended_displacement(&y.u);
         (0..self.n)
             .into_par_iter()
             .map(|a| {
-                let (_, j) = self.h_and_j(y, a);
-                self.vol[a] * self.material.energy_density_mixed::<D>(y.f[a], j)
+                let (f, _, j) = self.stress_arguments(y, a, &u_ext);
+                self.vol[a] * self.material.energy_density_mixed::<D>(f, j)
             })
             .sum()
     }

@@ -184,6 +184,33 @@ pub struct MethodSpec {
     pub projection: Option<bool>,
     /// JST-SPH: dissipation coefficients (default ε⁽²⁾ = 0, ε⁽⁴⁾ = 1/8).
     pub jst: Option<Jst>,
+    /// Mixed methods: the discrete divergence of P (default `weak`).
+    pub momentum: Option<Momentum>,
+    /// Mixed methods: the F the stress is evaluated at (default `evolved`).
+    pub deformation_gradient: Option<DeformationGradient>,
+}
+
+/// Discrete DIV P of the mixed methods.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Momentum {
+    /// T_a = Σ_b V_b [P_b ∇̃W̃_a(X_b) − P_a ∇̃W̃_b(X_a)] (seed 003 eqs 20–21).
+    #[default]
+    Weak,
+    /// T_a = −½ Σ_b V_b (P_a + P_b)(∇W̃_b(X_a) − ∇W̃_a(X_b)) (seed 002 eq 22).
+    Symmetrised,
+}
+
+/// The deformation gradient the stress of a mixed method is evaluated at.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DeformationGradient {
+    /// The evolved F (eq 24 of seed 002, 38b of seed 003).
+    #[default]
+    Evolved,
+    /// The kernel-smoothed bond-based F^c with the self-bond (seed 002 eqs 37, 39),
+    /// recomputed from the positions at every stage; the evolved F stays the state.
+    BondBased,
 }
 
 fn default_kernel() -> KernelKind {

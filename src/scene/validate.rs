@@ -6,8 +6,9 @@
 //! gives the same message.
 
 use super::{
-    ArtificialViscosity, Axis, BodySpec, BoundarySpec, Case, Condition, Jst, Lattice, MaterialSpec,
-    MethodName, MethodSpec, OutputSpec, ProbeSpec, Region, RunSpec, Shape, VelocityField, Volumes,
+    ArtificialViscosity, Axis, BodySpec, BoundarySpec, Case, Condition, Conserved,
+    DeformationGradient, Jst, Lattice, MaterialSpec, MethodName, MethodSpec, OutputSpec, ProbeSpec,
+    Region, RunSpec, Shape, VelocityField, Volumes,
 };
 use serde::Serialize;
 use std::collections::HashSet;
@@ -209,6 +210,8 @@ fn method_options(case: &Case) -> Checked {
             ("reconstruction", m.reconstruction.is_some()),
             ("projection", m.projection.is_some()),
             ("jst", m.jst.is_some()),
+            ("momentum", m.momentum.is_some()),
+            ("deformation_gradient", m.deformation_gradient.is_some()),
         ] {
             if given {
                 return fail(
@@ -265,6 +268,14 @@ fn method_options(case: &Case) -> Checked {
                  or `linear-elastic`), not {}",
                 toml_name(&case.material.model)
             ),
+        );
+    }
+    let bond_based = m.deformation_gradient == Some(DeformationGradient::BondBased);
+    if bond_based && m.variables.unwrap_or(Conserved::PFHJ) != Conserved::PF {
+        return fail(
+            "method.deformation_gradient",
+            "the bond-based F (seed 002) replaces F in P(F) and goes with the {p, F} system; \
+             set method.variables = \"p-F\"",
         );
     }
     Ok(())
