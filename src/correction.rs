@@ -354,6 +354,46 @@ mod tests {
         amp * (2.0 * s - 1.0)
     }
 
+    #[test]
+    fn corrected_kernels_are_partitions_of_unity() {
+        // Σ_j V_j W̃_j(x_i) = 1 with the self term V_i W̃_i(x_i) (eq 5a) for both kernels;
+        // RKPM's W̃¹ also has Σ_j V_j W̃_j (x_i − x_j) = 0 (eq 5b), Shepard's does not at
+        // the boundary. Jittered 12×12 lattice, boundary included; round-off of O(k) sums
+        // of O(1) terms: 1e-12.
+        let dx = 0.1;
+        let x = lattice2(12, dx, 0.2);
+        let vol = vec![dx * dx; x.len()];
+        let kernel = Kernel::new(KernelKind::CubicSpline, 1.3 * dx, 2);
+        let csr = neighbour::build::<D2>(&x, kernel.support());
+        let shepard = shepard_sums::<D2>(&x, &vol, &csr, &kernel);
+        for kind in [CorrectionKind::Rkpm, CorrectionKind::Cgck] {
+            let w = kernel_weights::<D2>(kind, &x, &vol, &csr, &kernel).unwrap();
+            let mut worst_moment = 0.0f64;
+            for i in 0..x.len() {
+                // The self weight V_i W̃_i(x_i), computed independently of the pair list.
+                let own = vol[i] * kernel.w(0.0) * match kind {
+                    CorrectionKind::Rkpm => {
+                        rkpm_coefficients::<D2>(i, &x, &vol, &csr, &kernel).unwrap().0[0]
+                    }
+                    _ => 1.0 / shepard[i],
+                };
+                let pairs = csr.range(i);
+                let total = own + w[pairs.clone()].iter().sum::<f64>();
+                assert!((total - 1.0).abs() < 1e-12, "{kind:?} particle {i}: Σ V W̃ = {total}");
+                let moment = pairs.fold(DVec2::ZERO, |m, q| {
+                    m + (x[i] - x[csr.ids[q] as usize]) * w[q]
+                });
+                worst_moment = worst_moment.max(moment.length() / dx);
+            }
+            match kind {
+                CorrectionKind::Rkpm => {
+                    assert!(worst_moment < 1e-12, "W̃¹ first moment {worst_moment:e}")
+                }
+                _ => assert!(worst_moment > 1e-3, "Shepard first moment {worst_moment:e}"),
+            }
+        }
+    }
+
     fn lattice2(n: usize, dx: f64, amp: f64) -> Vec<DVec2> {
         (0..n * n)
             .map(|k| {

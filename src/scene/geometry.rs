@@ -229,6 +229,13 @@ fn initial_velocity<D: Dim>(case: &Case, field: Option<&VelocityField>, x: D::V)
     let p = D::to3(x);
     match field {
         VelocityField::Uniform { value } => D::from_slice(value),
+        VelocityField::Linear { gradient } => {
+            let v: Vec<f64> = gradient
+                .iter()
+                .map(|row| row.iter().zip(&p).map(|(g, x)| g * x).sum())
+                .collect();
+            D::from_slice(&v)
+        }
         VelocityField::RigidRotation {
             omega,
             center,

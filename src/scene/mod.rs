@@ -327,6 +327,10 @@ pub enum VelocityField {
     Uniform {
         value: Vec<f64>,
     },
+    /// v = G X with the velocity gradient G given row by row (G_ij = ∂v_i/∂X_j).
+    Linear {
+        gradient: Vec<Vec<f64>>,
+    },
     /// v = ω × (X − c); in 2D ω is the out-of-plane rate, in 3D `axis` gives its direction.
     RigidRotation {
         omega: f64,

@@ -419,6 +419,21 @@ fn shape(shape: &Shape, key: &str, dim: usize) -> Checked {
 fn velocity(field: &VelocityField, key: &str, dim: usize) -> Checked {
     match field {
         VelocityField::Uniform { value } => vector(&format!("{key}.value"), value, dim),
+        VelocityField::Linear { gradient } => {
+            if gradient.len() != dim {
+                return fail(
+                    format!("{key}.gradient"),
+                    format!(
+                        "must have {dim} rows (one per velocity component), got {}",
+                        gradient.len()
+                    ),
+                );
+            }
+            for (i, row) in gradient.iter().enumerate() {
+                vector(&format!("{key}.gradient.{i}"), row, dim)?;
+            }
+            Ok(())
+        }
         VelocityField::RigidRotation {
             omega,
             center,
