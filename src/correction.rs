@@ -371,15 +371,22 @@ mod tests {
             let mut worst_moment = 0.0f64;
             for i in 0..x.len() {
                 // The self weight V_i W̃_i(x_i), computed independently of the pair list.
-                let own = vol[i] * kernel.w(0.0) * match kind {
-                    CorrectionKind::Rkpm => {
-                        rkpm_coefficients::<D2>(i, &x, &vol, &csr, &kernel).unwrap().0[0]
-                    }
-                    _ => 1.0 / shepard[i],
-                };
+                let own = vol[i]
+                    * kernel.w(0.0)
+                    * match kind {
+                        CorrectionKind::Rkpm => {
+                            rkpm_coefficients::<D2>(i, &x, &vol, &csr, &kernel)
+                                .unwrap()
+                                .0[0]
+                        }
+                        _ => 1.0 / shepard[i],
+                    };
                 let pairs = csr.range(i);
                 let total = own + w[pairs.clone()].iter().sum::<f64>();
-                assert!((total - 1.0).abs() < 1e-12, "{kind:?} particle {i}: Σ V W̃ = {total}");
+                assert!(
+                    (total - 1.0).abs() < 1e-12,
+                    "{kind:?} particle {i}: Σ V W̃ = {total}"
+                );
                 let moment = pairs.fold(DVec2::ZERO, |m, q| {
                     m + (x[i] - x[csr.ids[q] as usize]) * w[q]
                 });

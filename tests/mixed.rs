@@ -323,7 +323,10 @@ fn mirror_planes_give_second_order_rates_up_to_the_boundary() {
 fn swinging_run_errors(spacing: f64, name: &str) -> (f64, f64) {
     run_errors(&load(
         "swinging-plate",
-        &[&format!("spacing={spacing}"), &format!("method.name={name}")],
+        &[
+            &format!("spacing={spacing}"),
+            &format!("method.name={name}"),
+        ],
     ))
 }
 
@@ -434,20 +437,25 @@ fn bond_based_deformation_gradient_is_exact_for_affine_motion() {
         let scale = D2::ddot(exact, exact).sqrt();
         for (a, p) in m.first_piola(&y).unwrap().iter().enumerate() {
             let e = D2::ddot(*p - exact, *p - exact).sqrt();
-            assert!(e < 1e-10 * scale, "{correction}: particle {a}: |P − P(A)| = {e:e}");
+            assert!(
+                e < 1e-10 * scale,
+                "{correction}: particle {a}: |P − P(A)| = {e:e}"
+            );
         }
         // The same positions with an F that disagrees with them: F^c moves off F.
         for f in y.f.iter_mut() {
             *f = glam::DMat2::IDENTITY;
         }
-        let p_identity = mat.pk1_mixed::<D2>(
-            glam::DMat2::IDENTITY,
-            glam::DMat2::IDENTITY,
-            1.0,
-        );
+        let p_identity = mat.pk1_mixed::<D2>(glam::DMat2::IDENTITY, glam::DMat2::IDENTITY, 1.0);
         let p = m.first_piola(&y).unwrap();
-        let moved = p.iter().filter(|&&p| D2::ddot(p - p_identity, p - p_identity).sqrt() > 1e-3 * scale);
-        assert_eq!(moved.count(), p.len(), "{correction}: F^c must see the bond stretch");
+        let moved = p
+            .iter()
+            .filter(|&&p| D2::ddot(p - p_identity, p - p_identity).sqrt() > 1e-3 * scale);
+        assert_eq!(
+            moved.count(),
+            p.len(),
+            "{correction}: F^c must see the bond stretch"
+        );
     }
 }
 
@@ -473,7 +481,8 @@ fn seed_002_swinging_plate_converges_with_the_bond_based_f() {
             run_errors(&case)
         };
         let (coarse, fine) = (errors(1.0 / 32.0), errors(1.0 / 64.0));
-        for (what, c, f, order_min) in [("v", coarse.0, fine.0, 1.7), ("P", coarse.1, fine.1, 1.8)] {
+        for (what, c, f, order_min) in [("v", coarse.0, fine.0, 1.7), ("P", coarse.1, fine.1, 1.8)]
+        {
             let order = (c / f).log2();
             assert!(
                 order > order_min,
