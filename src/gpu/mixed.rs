@@ -22,7 +22,7 @@ use crate::method::mixed::{Fluxes, MixedSph, MixedState};
 use crate::method::{BlowUp, Method};
 use crate::observe::{Invariants, Snapshot};
 use crate::run::{Engine, build_method};
-use crate::scene::{Case, MethodName};
+use crate::scene::{Case, Conserved, MethodName};
 use bytemuck::{Pod, Zeroable};
 
 /// Offsets (in f32 entries) of the fields in the flat buffers of a mixed scene.
@@ -148,31 +148,45 @@ pub fn scene<D: GpuDim>(case: &Case, cpu: &MixedSph<D>) -> (MixedLayout, Constan
 pub fn describe_rates(case: &Case) -> String {
     let m = &case.method;
     let ghosts = !case.mirrors.is_empty();
+    let jst = m.name == MethodName::JstSph;
+    let conserved = m.variables.unwrap_or(Conserved::PFHJ);
+    let (h, j) = (conserved.evolves_h(), conserved.evolves_j());
+    let d_j = !jst && j;
     let mut passes = Vec::new();
     if ghosts {
-        passes.push("ghost motion");
+        passes.push("ghost motion".to_string());
     }
-    passes.push("kinematics (P, ∇0v, Ḟ, Ḣ, J̇)");
+    passes.push(format!(
+        "kinematics (P, ∇0v, Ḟ{}{})",
+        if h { ", Ḣ" } else { "" },
+        if j { ", J̇" } else { "" }
+    ));
     if ghosts {
-        passes.push("ghost P, H");
+        passes.push(format!("ghost P{}", if d_j { ", H" } else { "" }));
     }
-    match m.name {
-        MethodName::JstSph => passes.push("Laplacians ∇²v"),
-        _ if m.reconstruction.unwrap_or(true) => passes.push("least-squares slopes of v, P"),
-        _ => {}
+    let second = match m.name {
+        MethodName::JstSph => Some("Laplacians ∇²v"),
+        _ if m.reconstruction.unwrap_or(true) => Some("least-squares slopes of v, P"),
+        _ => None,
+    };
+    if let Some(second) = second {
+        passes.push(second.into());
+        if ghosts {
+            passes.push("their ghosts".into());
+        }
     }
-    if ghosts && (m.name == MethodName::JstSph || m.reconstruction.unwrap_or(true)) {
-        passes.push("their ghosts");
-    }
-    passes.push(if m.name == MethodName::JstSph {
-        "forces (T, JST D(p))"
-    } else {
-        "forces (T, upwind D(p), D(J))"
+    passes.push(match (jst, d_j) {
+        (true, _) => "forces (T, JST D(p))".into(),
+        (false, true) => "forces (T, upwind D(p), D(J))".into(),
+        (false, false) => "forces (T, upwind D(p))".into(),
     });
-    if m.projection.unwrap_or(ghosts) {
-        passes.push("projection sums (per workgroup) + solve (one invocation)");
+    // The projection is on by default without mirror planes (their reactions are external).
+    if m.projection.unwrap_or(!ghosts) {
+        passes.push("projection sums (per workgroup) + solve (one invocation)".into());
+        passes.push("rates (ρ0 v̇ = D(p) − T projected, BCs, u̇ = v)".into());
+    } else {
+        passes.push("rates (ρ0 v̇ = D(p) − T, BCs, u̇ = v)".into());
     }
-    passes.push("rates (ρ0 v̇ = D(p) − T projected, BCs, u̇ = v)");
     passes.join(" → ")
 }
 
@@ -576,14 +590,6 @@ fn encode<D: GpuDim>(l: &MixedLayout, y: &MixedState<D>) -> Vec<f32> {
 }
 
 impl<D: GpuDim> GpuMixed<D> {
-    pub fn gpu(&self) -> &Gpu {
-        &self.gpu
-    }
-
-    pub fn layout(&self) -> &MixedLayout {
-        &self.layout
-    }
-
     /// The CPU reference of the same scene (its set-up is the one uploaded).
     pub fn cpu(&self) -> &MixedSph<D> {
         &self.cpu
