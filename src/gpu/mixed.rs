@@ -595,10 +595,8 @@ impl<D: GpuDim> GpuMixed<D> {
         &self.cpu
     }
 
-    /// Records `steps` steps of size `dt` into one command encoder and submits them.
-    pub fn advance_steps(&mut self, dt: f64, steps: u32) {
-        self.work.advance(dt, steps);
-        self.reduction.invalidate();
+    /// Writes Δt/2 into the uniform of the mid-step balance points when Δt changes.
+    fn set_dt(&mut self, dt: f64) {
         if dt != self.dt {
             self.dt = dt;
             let points = StagePoints {
@@ -609,6 +607,13 @@ impl<D: GpuDim> GpuMixed<D> {
                 .queue
                 .write_buffer(&self.mid_points, 0, bytemuck::bytes_of(&points));
         }
+    }
+
+    /// Records `steps` steps of size `dt` into one command encoder and submits them.
+    pub fn advance_steps(&mut self, dt: f64, steps: u32) {
+        self.work.advance(dt, steps);
+        self.reduction.invalidate();
+        self.set_dt(dt);
         let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
         let Self {
             gpu,
@@ -675,11 +680,43 @@ impl<D: GpuDim> GpuMixed<D> {
     /// Rates of a given state (balanced about its own positions), read back.
     pub fn rates(&mut self, y: &MixedState<D>) -> MixedState<D> {
         self.set_state(y);
-        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
-        let e = Evaluation {
+        self.evaluate(Evaluation {
             src: Buf::Y,
             index: 0,
-        };
+        })
+    }
+
+    /// Rates at the second stage of a TVD-RK2 step of size `dt` from `start` (y^n), of the
+    /// stage state y*, read back: with the projection they balance about
+    /// x^n + Δt/2 (v^n + v*).
+    pub fn second_stage_rates(
+        &mut self,
+        start: &MixedState<D>,
+        stage: &MixedState<D>,
+        dt: f64,
+    ) -> MixedState<D> {
+        assert_eq!(
+            self.stepper.kind(),
+            IntegratorKind::TvdRk2,
+            "the scene's integrator must be TVD-RK2"
+        );
+        self.set_state(start);
+        let flat = encode::<D>(&self.layout, stage);
+        self.gpu.queue.write_buffer(
+            self.stepper.buffer(Buf::Stage),
+            0,
+            bytemuck::cast_slice(&flat),
+        );
+        self.set_dt(dt);
+        self.evaluate(Evaluation {
+            src: Buf::Stage,
+            index: 1,
+        })
+    }
+
+    /// Records one evaluation alone and reads its rates back.
+    fn evaluate(&mut self, e: Evaluation) -> MixedState<D> {
+        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
         self.evaluator.record(&self.gpu, &mut encoder, e);
         self.gpu.queue.submit([encoder.finish()]);
         let d: Vec<f32> = self.gpu.read(self.stepper.buffer(Buf::Rates));

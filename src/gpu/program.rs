@@ -270,6 +270,10 @@ impl Stepper {
         }
     }
 
+    pub fn kind(&self) -> IntegratorKind {
+        self.kind
+    }
+
     pub fn buffer(&self, b: Buf) -> &wgpu::Buffer {
         &self.states[b as usize]
     }
