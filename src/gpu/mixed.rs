@@ -12,7 +12,7 @@
 //! into one command encoder; the host reads back only when asked.
 
 use super::context::{Gpu, WORKGROUP};
-use super::layout::{Flat, GpuDim};
+use super::layout::{GpuDim, boundary_buffers, flat_v};
 use super::program::{Buf, Evaluation, StateLayout, Stepper, evaluations};
 use super::reduction::{Reduced, Reduction, WorkBalance};
 use super::shaders::{self, Constants, Source};
@@ -298,13 +298,6 @@ pub struct GpuMixed<D: GpuDim> {
     work: WorkBalance,
 }
 
-/// f32 DIM-vectors, flat.
-fn flat_v<D: Flat>(vs: impl IntoIterator<Item = D::V>) -> Vec<f32> {
-    let mut out = Vec::new();
-    vs.into_iter().for_each(|v| D::push_v(&mut out, v));
-    out
-}
-
 impl<D: GpuDim> GpuMixed<D> {
     /// Builds the CPU set-up of the case and uploads it with the initial state.
     pub fn new(case: &Case, gpu: Gpu) -> Result<Self, SetupError> {
@@ -325,8 +318,7 @@ impl<D: GpuDim> GpuMixed<D> {
         let offsets = gpu.storage("offsets", &offsets);
         let ids = gpu.storage("ids", &csr.ids);
         let scaled = |g: &[D::V]| {
-            let q = (0..n).flat_map(|a| csr.range(a).map(move |q| (a, q)));
-            flat_v::<D>(q.map(|(_, q)| g[q] * vol[csr.ids[q] as usize]))
+            flat_v::<D>((0..csr.pair_count()).map(|q| g[q] * vol[csr.ids[q] as usize]))
         };
         let grad_buf = gpu.storage("G_ab", &scaled(grad));
         let grad_rev_buf = gpu.storage("G_ba", &scaled(grad_rev));
@@ -393,17 +385,7 @@ impl<D: GpuDim> GpuMixed<D> {
         let x_hi = gpu.storage("X", &flat_v::<D>(x_real.iter().copied()));
         let vol32: Vec<f32> = vol[..n].iter().map(|&v| v as f32).collect();
         let vol_buf = gpu.storage("vol", &vol32);
-        let boundary = cpu.boundary();
-        let mut mask = vec![0u32; n];
-        for &(i, m) in &boundary.constrained {
-            mask[i as usize] = u32::from(m);
-        }
-        let mut ext = vec![D::zero(); n];
-        for &(i, a) in &boundary.external {
-            ext[i as usize] = a;
-        }
-        let mask = gpu.storage("mask", &mask);
-        let ext = gpu.storage("ext", &flat_v::<D>(ext));
+        let (mask, ext) = boundary_buffers(&gpu, cpu.boundary(), n);
         let power = gpu.zeroed("power", n as u64 * 4);
         let kin = gpu.zeroed("kinematics", layout.kin_len as u64 * 4);
         let force = gpu.zeroed("forces", layout.force_len as u64 * 4);

@@ -6,7 +6,7 @@
 //! only when asked (outputs, observers, checks).
 
 use super::context::{Gpu, GpuError};
-use super::layout::{Flat, GpuDim};
+use super::layout::{Flat, GpuDim, boundary_buffers, flat_v};
 use super::neighbour;
 use super::program::{Buf, StateLayout, Stepper};
 use super::reduction::{Reduced, Reduction, WorkBalance};
@@ -176,13 +176,8 @@ impl<D: GpuDim> GpuTlsph<D> {
         gpu.check_size("per-pair gradient buffer", pairs * D::N as u64 * 4)?;
         gpu.check_size("kinematics buffer", layout.kin_len as u64 * 4)?;
         let (offsets, ids) = (csr.offsets.clone(), csr.ids.clone());
-        let flat_v = |vs: &[D::V]| {
-            let mut out = Vec::with_capacity(vs.len() * D::N);
-            vs.iter().for_each(|&v| D::push_v(&mut out, v));
-            out
-        };
         // X = hi + lo in f32 pairs, for exact pair offsets (see pair_offsets.wgsl).
-        let x_hi = flat_v(&disc.x0);
+        let x_hi = flat_v::<D>(disc.x0.iter().copied());
         let x_lo: Vec<f32> = disc
             .x0
             .iter()
@@ -216,7 +211,7 @@ impl<D: GpuDim> GpuTlsph<D> {
                 &kernel,
             )
             .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
-            gpu.storage("grad", &flat_v(&g))
+            gpu.storage("grad", &flat_v::<D>(g))
         } else {
             let grad = gpu.zeroed("grad", pairs * D::N as u64 * 4);
             let pipeline = gpu.pipeline("correction", &compose(&shaders::CORRECTION), "correct");
@@ -236,16 +231,7 @@ impl<D: GpuDim> GpuTlsph<D> {
             grad
         };
 
-        let mut mask = vec![0u32; n];
-        for &(i, m) in &boundary.constrained {
-            mask[i as usize] = u32::from(m);
-        }
-        let mut ext = vec![D::zero(); n];
-        for &(i, a) in &boundary.external {
-            ext[i as usize] = a;
-        }
-        let mask = gpu.storage("mask", &mask);
-        let ext = gpu.storage("ext", &flat_v(&ext));
+        let (mask, ext) = boundary_buffers(&gpu, &boundary, n);
 
         let mut v0 = disc.v0.clone();
         boundary.impose_initial(&mut v0);
