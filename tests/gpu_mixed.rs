@@ -219,6 +219,11 @@ fn rates_match_the_cpu_on_the_swinging_cube() {
         "material.model=nearly-incompressible-neo-hookean",
     ];
     compare_rates::<D3>(&case("swinging-cube", &free), gpu());
+    // A fixed base (velocity constraints through the mask; ν = 0.4995), both methods.
+    for method in ["upwind-sph", "jst-sph"] {
+        let m = format!("method.name={method}");
+        compare_rates::<D3>(&case("twisting-column", &[&m]), gpu());
+    }
 }
 
 /// `steps` TVD-RK2 steps of the CFL size on both backends from the case's initial state:
