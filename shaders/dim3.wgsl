@@ -26,13 +26,47 @@ fn ddot_d(a: matd, b: matd) -> f32 {
     return dot(a[0], b[0]) + dot(a[1], b[1]) + dot(a[2], b[2]);
 }
 
+// Entry-wise product.
+fn hadamard(a: matd, b: matd) -> matd {
+    return matd(a[0] * b[0], a[1] * b[1], a[2] * b[2]);
+}
+
+// Tensor cross product A × B (seed 003 eq 3): column i is a_j × b_k + b_j × a_k with
+// (i, j, k) cyclic, so that cof A = ½ A × A (columns a_j × a_k, as in inverse_d).
+fn tensor_cross(a: matd, b: matd) -> matd {
+    return matd(
+        cross(a[1], b[2]) + cross(b[1], a[2]),
+        cross(a[2], b[0]) + cross(b[2], a[0]),
+        cross(a[0], b[1]) + cross(b[0], a[1]),
+    );
+}
+
+// cof(I + A) − I = I × A + ½ A × A, without the cancellation of forming I + A.
+fn cof_excess(a: matd) -> matd {
+    return tensor_cross(identity_d() + a * 0.5, a);
+}
+
+// d cof F/dt = F × Ḟ with F = I + A.
+fn cof_rate(a: matd, f_dot: matd) -> matd {
+    return tensor_cross(identity_d() + a, f_dot);
+}
+
 // Integer cell coordinates of a point.
 fn cell_coords(x: vecd, origin: vec3<f32>, inv_cell: f32, dims: vec3<u32>) -> vec3<u32> {
     let c = clamp(floor((x - origin) * inv_cell), vec3<f32>(0.0), vec3<f32>(dims - vec3<u32>(1u)));
     return vec3<u32>(c);
 }
 
-// A vector as three components (the identity in 3D).
+// A vector as three components, and back (the identity in 3D).
 fn pad3(v: vecd) -> vec3<f32> {
     return v;
+}
+
+fn unpad(v: vec3<f32>) -> vecd {
+    return v;
+}
+
+// Solves I λ = m for an inertia tensor I.
+fn solve_inertia(i: mat3x3<f32>, m: vec3<f32>) -> vec3<f32> {
+    return inverse_d(i) * m;
 }

@@ -1,5 +1,6 @@
 // Integrator stages on whole flat states (one invocation per f32 entry, or per particle
-// for the leapfrog). Constants: N, DIM, U_OFF, V_OFF, RHO_OFF, LEN (flat state length).
+// for the leapfrog). Constants: N, DIM, U_OFF, V_OFF, REST_OFF (the first field after v),
+// LEN (flat state length).
 
 struct Coefficients {
     a: f32,
@@ -38,8 +39,8 @@ fn drift(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     let k = flat(gid, nwg);
     if k < N * DIM {
         out[U_OFF + k] += c.b * out[V_OFF + k];
-    } else if RHO_OFF + k - N * DIM < LEN {
-        let m = RHO_OFF + k - N * DIM;
+    } else if REST_OFF + k - N * DIM < LEN {
+        let m = REST_OFF + k - N * DIM;
         out[m] += c.b * x[m];
     }
 }

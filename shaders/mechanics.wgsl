@@ -1,6 +1,6 @@
-// Constitutive functions shared by the TLSPH passes and the reduction (src/material.rs in
-// f32). State models are written in H = F − I so that small strains keep their digits.
-// Needs the scene constants RHO0, MU, LAMBDA, BULK, MODEL, RATE.
+// Constitutive functions shared by the TLSPH and mixed passes and the reductions
+// (src/material.rs in f32). State models are written in H = F − I so that small strains
+// keep their digits. Needs the scene constants RHO0, MU, LAMBDA, BULK, MODEL, RATE.
 
 // Linear EOS from the density deviation ρ − ρ0, positive in compression.
 fn pressure(rho_dev: f32) -> f32 {
@@ -79,6 +79,23 @@ fn pk1(h: matd, f_inv_t: matd) -> matd {
     return f_minus_f_inv_t * MU + f_inv_t * (LAMBDA * log_1p(x));
 }
 
+// P(F, H, J) of the mixed formulations (seed 003 eq 1; Material::pk1_mixed) from the
+// excesses f = F − I, h = H − I, j = J − 1. Only the polyconvex model reads H and J
+// apart from F: P = μ J^(−2/3) [F − ⅓ F:F J⁻¹ H] + κ (J − 1) H, where the bracket is
+// f − h − c H with c = (⅓(F:F − 3) − j)/J, every term small at small strain.
+fn pk1_mixed(f: matd, h: matd, j: f32) -> matd {
+    if MODEL != 4u {
+        var f_inv_t = identity_d();
+        if MODEL == 2u {
+            f_inv_t = transpose(inverse_d(identity_d() + f));
+        }
+        return pk1(f, f_inv_t);
+    }
+    let hh = identity_d() + h;
+    let c = (ff_excess(f) / 3.0 - j) / (1.0 + j);
+    return (f - h - hh * c) * (MU * exp(-2.0 / 3.0 * log_1p(j))) + hh * (BULK * j);
+}
+
 // Strain-energy density per reference volume. Rate model: the complementary energy
 // S:S/(4G) + p²/(2K) (with S_zz = −tr S in 2D). Neo-Hookean: ψ = μ/2 (tr C − DIM) − μ ln J
 // + λ/2 ln²J regrouped so the first-order terms cancel analytically: with J − 1 = x =
@@ -103,16 +120,32 @@ fn energy_density(h: matd, s: matd, rho_dev: f32) -> f32 {
         return 0.5 * LAMBDA * tr * tr + MU * ddot_d(eps, eps);
     }
     let x = det_excess(h);
+    if MODEL == 4u {
+        return polyconvex_energy(h, x);
+    }
     let q = x - trace_d(h);
     let ln_j = log_1p(x);
-    if MODEL == 4u {
-        // J^(−2/3) F:F − 3 = 3(e^y − 1 − y) + (F:F − 3 − 2 ln J) + (e^y − 1)(F:F − 3),
-        // y = −⅔ ln J, with F:F − 3 − 2 ln J = H:H + 2((x − ln(1 + x)) − q).
-        let y = -2.0 / 3.0 * ln_j;
-        let a = ff_excess(h);
-        let g = exp_minus_1_minus(y);
-        let iso = 3.0 * g + ddot_d(h, h) + 2.0 * (x_minus_log_1p(x) - q) + (g + y) * a;
-        return 0.5 * MU * iso + 0.5 * BULK * x * x;
-    }
     return 0.5 * MU * ddot_d(h, h) + MU * (x_minus_log_1p(x) - q) + 0.5 * LAMBDA * ln_j * ln_j;
+}
+
+// ψ = μ/2 (J^(−2/3) F:F − 3) + κ/2 (J − 1)² of the polyconvex model from H = F − I and
+// x = J − 1 (det F − 1, or the evolved J of a mixed method). With y = −⅔ ln J and
+// q = x − tr H: J^(−2/3) F:F − 3 = 3(e^y − 1 − y) + (F:F − 3 − 2 ln J) + (e^y − 1)(F:F − 3)
+// and F:F − 3 − 2 ln J = H:H + 2((x − ln(1 + x)) − q).
+fn polyconvex_energy(h: matd, x: f32) -> f32 {
+    let q = x - trace_d(h);
+    let y = -2.0 / 3.0 * log_1p(x);
+    let a = ff_excess(h);
+    let g = exp_minus_1_minus(y);
+    let iso = 3.0 * g + ddot_d(h, h) + 2.0 * (x_minus_log_1p(x) - q) + (g + y) * a;
+    return 0.5 * MU * iso + 0.5 * BULK * x * x;
+}
+
+// ψ(F, J) of the mixed formulations (Material::energy_density_mixed) from f = F − I and
+// j = J − 1: only the polyconvex model reads J apart from F.
+fn energy_density_mixed(f: matd, j: f32) -> f32 {
+    if MODEL == 4u {
+        return polyconvex_energy(f, j);
+    }
+    return energy_density(f, matd(), 0.0);
 }

@@ -1,12 +1,15 @@
 // Global sums of one state, per workgroup: kinetic and strain energy, linear and angular
 // momentum, the power of supports and loads, max |v|² and a count of non-finite entries.
 // One invocation per particle; a tree reduction in workgroup memory writes REDUCED values
-// per workgroup to `partials`, summed (max for |v|²) on the host in f64. Needs the stress
-// pass to have filled kin (F) for the same state. Layout and constants as in tlsph.wgsl.
+// per workgroup to `partials`, summed (max for |v|²) on the host in f64. The method's
+// `strain_energy(i)` (tlsph_energy.wgsl: from the stress pass's kin for the same state;
+// mixed_energy.wgsl: from the state) is V_i ψ_i; a non-finite energy counts as a
+// non-finite entry. Constants: N, DIM, RHO0, U_OFF, V_OFF.
 
 const REDUCED: u32 = 11u;
 
 @group(0) @binding(0) var<storage, read> y: array<f32>;
+// Method data the strain energy reads (TLSPH: the kinematics; unused by mixed methods).
 @group(0) @binding(1) var<storage, read> kin: array<f32>;
 @group(0) @binding(2) var<storage, read> vol: array<f32>;
 @group(0) @binding(3) var<storage, read> x_hi: array<f32>;
@@ -34,17 +37,10 @@ fn reduce(
         let u = pad3(vload_y(U_OFF + DIM * i));
         let v = pad3(vload_y(V_OFF + DIM * i));
         let x = pad3(vload_x_hi(DIM * i)) + u;
-        let h = mload_kin(KF_OFF + DIM * DIM * i);
         let p = m * v;
         let l = cross(x, p);
         q[0] = 0.5 * dot(p, v);
-        var s: matd;
-        var rho_dev = 0.0;
-        if RATE == 1u {
-            s = mload_y(S_OFF + DIM * DIM * i);
-            rho_dev = y[RHO_OFF + i];
-        }
-        q[1] = vol[i] * energy_density(h, s, rho_dev);
+        q[1] = strain_energy(i);
         q[2] = p.x;
         q[3] = p.y;
         q[4] = p.z;
@@ -59,7 +55,7 @@ fn reduce(
                 bad = 1.0;
             }
         }
-        if RATE == 1u && !finite(y[RHO_OFF + i]) {
+        if !finite(q[1]) {
             bad = 1.0;
         }
         q[10] = bad;

@@ -1,6 +1,7 @@
 // Total-Lagrangian SPH accelerations (seed 000 eq 134) with Monaghan viscosity along the
-// pushed-forward gradient F_i⁻ᵀ ∇0W̃_ij, boundary conditions, and u̇ = v. One invocation
-// per particle; writes only its own particle. Layout and constants as in tlsph.wgsl.
+// pushed-forward gradient F_i⁻ᵀ ∇0W̃_ij, boundary conditions (boundary.wgsl), and u̇ = v.
+// One invocation per particle; writes only its own particle. Layout and constants as in
+// tlsph.wgsl.
 
 @group(0) @binding(0) var<storage, read> offsets: array<u32>;
 @group(0) @binding(1) var<storage, read> ids: array<u32>;
@@ -15,8 +16,7 @@
 // External acceleration from tractions (DIM per particle).
 @group(0) @binding(8) var<storage, read> ext: array<f32>;
 @group(0) @binding(9) var<storage, read_write> d: array<f32>;
-// Power of the support reactions and traction loads on this particle (for the work
-// balance of the energy check): m (a_ext · v) − Σ_k∈prescribed m a_k v_k.
+// Power of the support reactions and traction loads on this particle (boundary.wgsl).
 @group(0) @binding(10) var<storage, read_write> power: array<f32>;
 
 @compute @workgroup_size(256)
@@ -49,18 +49,7 @@ fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
             }
         }
     }
-    let ext_i = vload_ext(DIM * i);
-    var a = stress * (1.0 / RHO0) + viscous + ext_i;
-    let mass = RHO0 * vol[i];
-    var pw = mass * dot(ext_i, v_i);
-    let m = mask[i];
-    for (var k = 0u; k < DIM; k++) {
-        if ((m >> k) & 1u) != 0u {
-            pw -= mass * a[k] * v_i[k];
-            a[k] = 0.0;
-        }
-    }
-    power[i] = pw;
+    let a = apply_boundary(i, stress * (1.0 / RHO0) + viscous, v_i, RHO0 * vol[i]);
     vstore_d(V_OFF + DIM * i, a);
     vstore_d(U_OFF + DIM * i, v_i);
 }

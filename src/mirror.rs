@@ -73,6 +73,14 @@ impl Image {
     }
 }
 
+/// Read access for the GPU engine (`gpu::mixed`).
+impl Image {
+    /// σ: −1 per skew-symmetric plane in the composition.
+    pub(crate) fn sign(&self) -> f64 {
+        self.sigma
+    }
+}
+
 /// The mirror images of the real particles of a case.
 pub struct Ghosts<D: Dim> {
     /// Number of real particles.
@@ -264,6 +272,18 @@ impl<D: Dim> Ghosts<D> {
             .into_iter()
             .collect::<Result<Vec<_>, _>>()
             .map(|v| v.concat())
+    }
+}
+
+/// Read access for the GPU engine (`gpu::mixed`).
+impl<D: Dim> Ghosts<D> {
+    /// Source (real particle) and image of every ghost, in extended order.
+    pub(crate) fn table(&self) -> Vec<(u32, Image)> {
+        self.source
+            .iter()
+            .zip(&self.image)
+            .map(|(&s, &m)| (s, self.images[m as usize].expect("ghost images are valid")))
+            .collect()
     }
 }
 

@@ -3,6 +3,7 @@
 
 use crate::gpu::Gpu;
 use crate::gpu::layout::GpuDim;
+use crate::gpu::mixed::GpuMixed;
 use crate::gpu::tlsph::{GpuTlsph, SetupError};
 use crate::integrate::Integrator;
 use crate::material::{Material, von_mises};
@@ -13,7 +14,9 @@ use crate::observe::{Clock, Invariants, Observers, Snapshot};
 use crate::output::{
     Field, FieldData, PvdIndex, RunSummary, SeriesWriter, write_summary, write_vtu,
 };
-use crate::scene::{Case, CaseError, MethodName, discretise};
+use crate::scene::{
+    Case, CaseError, Conserved, DeformationGradient, MethodName, Momentum, discretise,
+};
 use crate::tensor::{D2, D3, Dim};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -75,21 +78,63 @@ pub fn run(case: &Case, opts: &RunOptions) -> Result<RunSummary, RunError> {
 pub fn explain(case: &Case, gpu: bool) -> String {
     let m = &case.method;
     let mat = Material::new(&case.material);
+    let mixed = m.name.is_mixed();
     let mut out = vec![
-        format!("case `{}`: {}D, spacing {} m, {} bod{}", case.name, case.dimension, case.spacing,
-            case.bodies.len(), if case.bodies.len() == 1 { "y" } else { "ies" }),
-        format!("method: {:?} with {:?} kernel, h/Δx = {}, {:?} correction, {:?} integrator",
-            m.name, m.kernel, m.h_over_dx, m.correction, m.integrator),
-        format!("backend: {}", if gpu { "GPU (wgpu/WGSL, f32)" } else { "CPU (rayon, f64)" }),
-        "once, on the reference configuration: cell-list neighbours (CSR), corrected gradients ∇0W̃_ij".into(),
+        format!(
+            "case `{}`: {}D, spacing {} m, {} bod{}",
+            case.name,
+            case.dimension,
+            case.spacing,
+            case.bodies.len(),
+            if case.bodies.len() == 1 { "y" } else { "ies" }
+        ),
+        format!(
+            "method: {:?} with {:?} kernel, h/Δx = {}, {:?} correction, {:?} integrator",
+            m.name, m.kernel, m.h_over_dx, m.correction, m.integrator
+        ),
+        format!(
+            "backend: {}",
+            if gpu {
+                "GPU (wgpu/WGSL, f32)"
+            } else {
+                "CPU (rayon, f64)"
+            }
+        ),
     ];
-    if mat.model.is_rate_based() {
-        out.push("state: u, v, ρ, S (rate model: Jaumann + linear EOS)".into());
-    } else {
+    let conserved = m.variables.unwrap_or(Conserved::PFHJ);
+    let projection = m.projection.unwrap_or(case.mirrors.is_empty());
+    if mixed {
+        let ghosts = if case.mirrors.is_empty() {
+            String::new()
+        } else {
+            format!(", ghost particles of {} mirror planes", case.mirrors.len())
+        };
+        let weights = match m.name {
+            MethodName::JstSph => "Laplacian weights ℓ_ab, s_ab",
+            _ if m.reconstruction.unwrap_or(true) => "least-squares weights M_a⁻¹N_ab/|d_ab|",
+            _ => "N_ab",
+        };
         out.push(format!(
-            "state: u, v (state model {:?}: no ρ or S integrated)",
+            "once, on the reference configuration (host, f64{}): cell-list neighbours (CSR){ghosts}, \
+             corrected gradients g_ab and g_ba, {weights}",
+            if gpu { ", uploaded in f32" } else { "" }
+        ));
+        out.push(format!(
+            "state: u, v, F{}{} ({conserved:?}; {:?})",
+            if conserved.evolves_h() { ", H" } else { "" },
+            if conserved.evolves_j() { ", J" } else { "" },
             mat.model
         ));
+    } else {
+        out.push("once, on the reference configuration: cell-list neighbours (CSR), corrected gradients ∇0W̃_ij".into());
+        if mat.model.is_rate_based() {
+            out.push("state: u, v, ρ, S (rate model: Jaumann + linear EOS)".into());
+        } else {
+            out.push(format!(
+                "state: u, v (state model {:?}: no ρ or S integrated)",
+                mat.model
+            ));
+        }
     }
     out.push(format!(
         "time step: {}",
@@ -102,13 +147,23 @@ pub fn explain(case: &Case, gpu: bool) -> String {
             _ => unreachable!("validated"),
         }
     ));
+    let rates = if mixed {
+        crate::gpu::mixed::describe_rates(case)
+    } else {
+        crate::gpu::tlsph::RATES.to_string()
+    };
     if gpu {
         out.push("per step (one command encoder for all steps between host checks):".into());
         out.extend(
-            crate::gpu::tlsph::describe_step(m.integrator)
+            crate::gpu::program::describe_step(m.integrator, &rates)
                 .into_iter()
                 .map(|s| format!("  {s}")),
         );
+    } else if mixed {
+        out.push(format!(
+            "per step: {} rate evaluations, each {rates}",
+            m.integrator.stages()
+        ));
     } else {
         out.push(format!(
             "per step: {} rate evaluations (two gathers each: F/P, then accelerations)",
@@ -119,20 +174,36 @@ pub fn explain(case: &Case, gpu: bool) -> String {
     if case.bodies.len() == 1 {
         left_out.push("contact (one body)");
     }
-    if m.artificial_viscosity.is_none() {
-        left_out.push("artificial viscosity");
-    }
-    if mat.model.is_rate_based() {
-        left_out.push("P(F) evaluation");
+    if mixed {
+        if case.mirrors.is_empty() {
+            left_out.push("ghost particles (no mirror planes)");
+        }
+        if !projection {
+            left_out.push("angular-momentum projection");
+        }
+        if !conserved.evolves_h() {
+            left_out.push("H evolution (H = cof F)");
+        }
+        if !conserved.evolves_j() {
+            left_out.push("J evolution (J = det F)");
+        }
     } else {
-        left_out.push("continuity and Jaumann rates");
+        if m.artificial_viscosity.is_none() {
+            left_out.push("artificial viscosity");
+        }
+        if mat.model.is_rate_based() {
+            left_out.push("P(F) evaluation");
+        } else {
+            left_out.push("continuity and Jaumann rates");
+        }
     }
     if case.boundaries.is_empty() {
         left_out.push("boundary conditions");
     }
     out.push(format!("left out: {}", left_out.join(", ")));
     out.push(format!(
-        "host checks every {CHECK_EVERY} steps or at samples: det F ≤ 0, non-finite state, energy ≤ {}·(E0 + W_ext); observers: {:?}",
+        "host checks every {CHECK_EVERY} steps or at samples: det F{} ≤ 0, non-finite state, energy ≤ {}·(E0 + W_ext); observers: {:?}",
+        if mixed { ", J" } else { "" },
         case.run.energy_growth_limit, case.output.observers
     ));
     out.join("\n")
@@ -154,33 +225,56 @@ pub fn build_method<D: Dim, M: Method<D>>(case: &Case) -> Result<M, CaseError> {
 }
 
 /// The engine a case runs on: the GPU when `backend` asks for it (or `auto` finds an
-/// adapter and the method has GPU passes), the CPU otherwise.
+/// adapter), the CPU otherwise. Every method has both.
 pub fn engine<D: GpuDim>(case: &Case, backend: Backend) -> Result<Box<dyn Engine<D>>, RunError> {
-    let gpu_method = case.method.name == MethodName::Tlsph;
     let gpu = match backend {
         Backend::Cpu => None,
-        Backend::Gpu if !gpu_method => {
-            return Err(RunError::Backend(format!(
-                "method `{}` runs on the CPU backend only; use --backend cpu or auto",
-                case.method.name.key()
-            )));
-        }
         Backend::Gpu => Some(Gpu::new().map_err(|e| RunError::Backend(e.to_string()))?),
-        Backend::Auto if !gpu_method => None,
         Backend::Auto => Gpu::new()
             .inspect_err(|e| eprintln!("note: {e}; running on the CPU (rayon, f64)"))
             .ok(),
     };
+    let setup = |e: SetupError| match e {
+        SetupError::Case(c) => RunError::Case(c),
+        SetupError::Gpu(g) => RunError::Backend(g.to_string()),
+    };
+    let gpu = match (gpu, gpu_unsupported(case)) {
+        (Some(_), Some(why)) if backend == Backend::Gpu => {
+            return Err(RunError::Backend(format!(
+                "{why} has no GPU passes yet; run with --backend cpu (or auto)"
+            )));
+        }
+        (Some(_), Some(why)) => {
+            eprintln!("note: {why} has no GPU passes yet; running on the CPU (rayon, f64)");
+            None
+        }
+        (gpu, _) => gpu,
+    };
     Ok(match (gpu, case.method.name) {
-        (Some(gpu), _) => Box::new(GpuTlsph::<D>::new(case, gpu).map_err(|e| match e {
-            SetupError::Case(c) => RunError::Case(c),
-            SetupError::Gpu(g) => RunError::Backend(g.to_string()),
-        })?),
+        (Some(gpu), MethodName::Tlsph) => Box::new(GpuTlsph::<D>::new(case, gpu).map_err(setup)?),
+        (Some(gpu), MethodName::UpwindSph | MethodName::JstSph) => {
+            Box::new(GpuMixed::<D>::new(case, gpu).map_err(setup)?)
+        }
         (None, MethodName::Tlsph) => Box::new(CpuEngine::<D, Tlsph<D>>::new(case)?),
         (None, MethodName::UpwindSph | MethodName::JstSph) => {
             Box::new(CpuEngine::<D, MixedSph<D>>::new(case)?)
         }
     })
+}
+
+/// The method option of a case that the GPU engine does not implement, if any.
+fn gpu_unsupported(case: &Case) -> Option<&'static str> {
+    let m = &case.method;
+    if m.momentum.is_some_and(|k| k != Momentum::Weak) {
+        Some("method.momentum = \"symmetrised\"")
+    } else if m
+        .deformation_gradient
+        .is_some_and(|k| k != DeformationGradient::Evolved)
+    {
+        Some("method.deformation_gradient = \"bond-based\"")
+    } else {
+        None
+    }
 }
 
 /// A time stepper the driver runs: the CPU method with its integrator, or the GPU engine.

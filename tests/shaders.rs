@@ -2,8 +2,11 @@
 //! dimensions and for every scene variant the solver compiles.
 
 use meshless::gpu::layout::GpuDim;
+use meshless::gpu::mixed;
 use meshless::gpu::shaders::{self, Constants};
 use meshless::gpu::tlsph::{Layout, scene_constants};
+use meshless::method::mixed::MixedSph;
+use meshless::run::build_method;
 use meshless::scene::Case;
 use meshless::tensor::{D2, D3};
 use std::path::Path;
@@ -57,6 +60,50 @@ fn variants() -> Vec<Case> {
     cases
 }
 
+/// Mixed-method scenes of dimension `dim`: with ghosts (mirror planes) and without, each
+/// material model the mixed methods allow, projection on and off, Upwind-SPH with and
+/// without reconstruction and JST-SPH, each set of conserved variables.
+fn mixed_variants(dim: usize) -> Vec<Case> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases");
+    let bases: Vec<(&str, Vec<&str>)> = if dim == 2 {
+        vec![
+            ("swinging-plate", vec!["spacing=0.125"]),
+            ("spinning-plate", vec!["spacing=0.4"]),
+            (
+                "spinning-plate",
+                vec![
+                    "spacing=0.4",
+                    "material.model=neo-hookean",
+                    "method.projection=false",
+                ],
+            ),
+        ]
+    } else {
+        vec![
+            ("swinging-cube", vec!["spacing=0.125"]),
+            ("swinging-cube", vec!["spacing=0.25", "mirror="]),
+        ]
+    };
+    let methods: [&[&str]; 3] = [
+        &["method.name=upwind-sph"],
+        &["method.name=upwind-sph", "method.reconstruction=false"],
+        &["method.name=jst-sph"],
+    ];
+    let mut cases = Vec::new();
+    for (name, base) in &bases {
+        for method in methods {
+            for variables in ["p-F", "p-F-J", "p-F-H-J"] {
+                let mut set: Vec<String> = base.iter().map(|s| s.to_string()).collect();
+                set.extend(method.iter().map(|s| s.to_string()));
+                set.push(format!("method.variables={variables}"));
+                let path = dir.join(format!("{name}.toml"));
+                cases.push(Case::load(&path, &set).unwrap());
+            }
+        }
+    }
+    cases
+}
+
 fn check_all<D: GpuDim>() {
     for case in variants() {
         for rate in [false, true] {
@@ -67,9 +114,17 @@ fn check_all<D: GpuDim>() {
             }
         }
     }
+    for case in mixed_variants(D::N) {
+        let cpu: MixedSph<D> = build_method(&case).unwrap();
+        let (_, constants) = mixed::scene(&case, &cpu);
+        for source in shaders::MIXED_SCENE {
+            let src = shaders::compose::<D>(source, &constants);
+            validate(&format!("{}D {} ({})", D::N, source.name, case.name), &src);
+        }
+    }
     // Passes without scene constants (neighbour build, scans) validate on their own.
     for source in shaders::ALL {
-        if !shaders::SCENE.contains(source) {
+        if !shaders::SCENE.contains(source) && !shaders::MIXED_SCENE.contains(source) {
             validate(
                 source.name,
                 &shaders::compose::<D>(source, &Constants::default()),

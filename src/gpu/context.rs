@@ -246,11 +246,26 @@ impl Gpu {
         pipeline: &wgpu::ComputePipeline,
         resources: &[&wgpu::Buffer],
     ) -> wgpu::BindGroup {
-        let entries: Vec<wgpu::BindGroupEntry> = resources
+        let entries: Vec<(u32, &wgpu::Buffer)> = resources
             .iter()
             .enumerate()
-            .map(|(k, b)| wgpu::BindGroupEntry {
-                binding: k as u32,
+            .map(|(k, &b)| (k as u32, b))
+            .collect();
+        self.bind_at(pipeline, &entries)
+    }
+
+    /// Bind group 0 of `pipeline` with (binding, buffer) entries: for an entry point that
+    /// uses some of the bindings its file declares (the layout is derived from the entry
+    /// point, so it must get exactly those).
+    pub fn bind_at(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        resources: &[(u32, &wgpu::Buffer)],
+    ) -> wgpu::BindGroup {
+        let entries: Vec<wgpu::BindGroupEntry> = resources
+            .iter()
+            .map(|&(binding, b)| wgpu::BindGroupEntry {
+                binding,
                 resource: b.as_entire_binding(),
             })
             .collect();

@@ -4,6 +4,8 @@
 //! column-major tensor). The cell-list build reads typed `array<vecd>` positions
 //! ([`GpuDim::HV`]: `vec2<f32>`, or `vec3<f32>` with its 16-byte storage stride).
 
+use super::context::Gpu;
+use crate::boundary::Boundary;
 use crate::tensor::{D2, D3, Dim};
 use bytemuck::Pod;
 
@@ -76,4 +78,32 @@ impl Flat for D3 {
         }
         glam::DMat3::from_cols_array(&c)
     }
+}
+
+/// DIM-vectors as one flat f32 array.
+pub fn flat_v<D: Flat>(vs: impl IntoIterator<Item = D::V>) -> Vec<f32> {
+    let mut out = Vec::new();
+    vs.into_iter().for_each(|v| D::push_v(&mut out, v));
+    out
+}
+
+/// The `mask` (bit k: velocity component k prescribed) and `ext` (external acceleration,
+/// DIM per particle) buffers of `shaders/boundary.wgsl` for n particles.
+pub fn boundary_buffers<D: Flat>(
+    gpu: &Gpu,
+    boundary: &Boundary<D>,
+    n: usize,
+) -> (wgpu::Buffer, wgpu::Buffer) {
+    let mut mask = vec![0u32; n];
+    for &(i, m) in &boundary.constrained {
+        mask[i as usize] = u32::from(m);
+    }
+    let mut ext = vec![D::zero(); n];
+    for &(i, a) in &boundary.external {
+        ext[i as usize] = a;
+    }
+    (
+        gpu.storage("mask", &mask),
+        gpu.storage("ext", &flat_v::<D>(ext)),
+    )
 }

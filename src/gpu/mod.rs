@@ -2,9 +2,12 @@
 
 pub mod context;
 pub mod layout;
+pub mod mixed;
 pub mod neighbour;
+pub mod program;
+pub mod reduction;
 pub mod shaders;
+pub mod tlsph;
 
 pub use context::{Gpu, GpuError};
 pub use layout::GpuDim;
-pub mod tlsph;

@@ -6,6 +6,7 @@
 
 use super::layout::GpuDim;
 use crate::kernel::{Kernel, KernelKind};
+use crate::material::{Material, MaterialModel};
 
 /// A pass file of `shaders/`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -40,6 +41,20 @@ const COMMON: &[(&str, &str)] = &[
         "mechanics.wgsl",
         include_str!("../../shaders/mechanics.wgsl"),
     ),
+    ("boundary.wgsl", include_str!("../../shaders/boundary.wgsl")),
+    (
+        "tlsph_energy.wgsl",
+        include_str!("../../shaders/tlsph_energy.wgsl"),
+    ),
+    ("mixed.wgsl", include_str!("../../shaders/mixed.wgsl")),
+    (
+        "mixed_motion.wgsl",
+        include_str!("../../shaders/mixed_motion.wgsl"),
+    ),
+    (
+        "mixed_energy.wgsl",
+        include_str!("../../shaders/mixed_energy.wgsl"),
+    ),
 ];
 
 pub const TLSPH_STRESS: Source = source!(
@@ -49,7 +64,7 @@ pub const TLSPH_STRESS: Source = source!(
 );
 pub const TLSPH_ACCEL: Source = source!(
     "tlsph_accel.wgsl",
-    [],
+    ["boundary.wgsl"],
     [
         ("y", false),
         ("grad", false),
@@ -67,7 +82,7 @@ pub const CORRECTION: Source = source!(
 pub const INTEGRATE: Source = source!("integrate.wgsl");
 pub const REDUCE: Source = source!(
     "reduce.wgsl",
-    ["mechanics.wgsl"],
+    ["mechanics.wgsl", "tlsph_energy.wgsl"],
     [("y", false), ("kin", false), ("x_hi", false)]
 );
 pub const PAIR_OFFSETS: Source = source!(
@@ -76,7 +91,7 @@ pub const PAIR_OFFSETS: Source = source!(
     [("x_hi", false), ("x_lo", false), ("dx0", true)]
 );
 
-/// The passes compiled with a scene's constants (`gpu::tlsph::scene_constants`).
+/// The passes compiled with a TLSPH scene's constants (`gpu::tlsph::scene_constants`).
 pub const SCENE: &[Source] = &[
     TLSPH_STRESS,
     TLSPH_ACCEL,
@@ -84,6 +99,76 @@ pub const SCENE: &[Source] = &[
     INTEGRATE,
     PAIR_OFFSETS,
     REDUCE,
+];
+
+pub const MIXED_GHOSTS: Source = source!(
+    "mixed_ghosts.wgsl",
+    ["mixed.wgsl"],
+    [("ghost_img", false), ("field", true), ("y", false)]
+);
+pub const MIXED_KINEMATICS: Source = source!(
+    "mixed_kinematics.wgsl",
+    ["mechanics.wgsl", "mixed.wgsl", "mixed_motion.wgsl"],
+    [
+        ("grad", false),
+        ("y", false),
+        ("gm", false),
+        ("kin", true),
+        ("d", true)
+    ]
+);
+pub const MIXED_SLOPES: Source = source!(
+    "mixed_slopes.wgsl",
+    ["mixed.wgsl", "mixed_motion.wgsl"],
+    [
+        ("weights", false),
+        ("y", false),
+        ("gm", false),
+        ("out", true),
+        ("kin", false)
+    ]
+);
+pub const MIXED_FORCES: Source = source!(
+    "mixed_forces.wgsl",
+    ["mixed.wgsl", "mixed_motion.wgsl"],
+    [
+        ("grad", false),
+        ("grad_rev", false),
+        ("y", false),
+        ("gm", false),
+        ("kin", false),
+        ("force", true),
+        ("pair", false),
+        ("second", false)
+    ]
+);
+pub const MIXED_MOMENTUM: Source = source!(
+    "mixed_momentum.wgsl",
+    ["mixed.wgsl", "boundary.wgsl"],
+    [
+        ("force", false),
+        ("y", false),
+        ("y0", false),
+        ("x_rel", false),
+        ("ext", false),
+        ("d", true)
+    ]
+);
+pub const MIXED_REDUCE: Source = source!(
+    "reduce.wgsl",
+    ["mechanics.wgsl", "mixed_energy.wgsl"],
+    [("y", false), ("x_hi", false)]
+);
+
+/// The passes compiled with a mixed scene's constants (`gpu::mixed::scene_constants`).
+pub const MIXED_SCENE: &[Source] = &[
+    MIXED_GHOSTS,
+    MIXED_KINEMATICS,
+    MIXED_SLOPES,
+    MIXED_FORCES,
+    MIXED_MOMENTUM,
+    MIXED_REDUCE,
+    INTEGRATE,
 ];
 
 /// Every pass file, for validation.
@@ -94,6 +179,12 @@ pub const ALL: &[Source] = &[
     TLSPH_ACCEL,
     CORRECTION,
     INTEGRATE,
+    MIXED_GHOSTS,
+    MIXED_KINEMATICS,
+    MIXED_SLOPES,
+    MIXED_FORCES,
+    MIXED_MOMENTUM,
+    MIXED_REDUCE,
     source!("cell_list.wgsl"),
     source!("scan.wgsl"),
 ];
@@ -124,6 +215,24 @@ impl Constants {
         self.u32("KERNEL", kind)
             .f32("KERNEL_H", kernel.h)
             .f32("KERNEL_SCALE", kernel.scale())
+    }
+
+    /// MODEL (0 hypoelastic, 1 SVK, 2 neo-Hookean, 3 linear elastic, 4 polyconvex
+    /// neo-Hookean), RHO0, MU, LAMBDA, BULK and RATE of a material (mechanics.wgsl).
+    pub fn material(self, material: &Material) -> Self {
+        let model = match material.model {
+            MaterialModel::Hypoelastic => 0,
+            MaterialModel::SaintVenantKirchhoff => 1,
+            MaterialModel::NeoHookean => 2,
+            MaterialModel::LinearElastic => 3,
+            MaterialModel::NearlyIncompressibleNeoHookean => 4,
+        };
+        self.u32("MODEL", model)
+            .u32("RATE", u32::from(material.model.is_rate_based()))
+            .f32("RHO0", material.rho0)
+            .f32("MU", material.mu)
+            .f32("LAMBDA", material.lambda)
+            .f32("BULK", material.bulk)
     }
 
     fn render(&self) -> String {

@@ -1,26 +1,26 @@
 //! Total-Lagrangian SPH on the GPU: the passes of `shaders/tlsph*.wgsl`, the integrator
-//! stages of `shaders/integrate.wgsl`, and the set-up (neighbours, corrected gradients)
-//! done once. The CPU path (`method::tlsph`) is the reference it is checked against.
+//! program of [`super::program`], and the set-up (neighbours, corrected gradients) done
+//! once. The CPU path (`method::tlsph`) is the reference it is checked against.
 //!
 //! A whole step, or several, is recorded into one command encoder; the host reads back
 //! only when asked (outputs, observers, checks).
 
 use super::context::{Gpu, GpuError};
-use super::layout::{Flat, GpuDim};
+use super::layout::{Flat, GpuDim, boundary_buffers, flat_v};
 use super::neighbour;
+use super::program::{Buf, StateLayout, Stepper};
+use super::reduction::{Reduced, Reduction, WorkBalance};
 use super::shaders::{self, Constants, Source};
 use crate::boundary::Boundary;
 use crate::correction::{self, CorrectionKind};
-use crate::integrate::IntegratorKind;
 use crate::kernel::Kernel;
-use crate::material::{Material, MaterialModel};
+use crate::material::Material;
 use crate::method::BlowUp;
 use crate::method::tlsph::{TlState, check_state, snapshot};
 use crate::neighbour as neighbour_cpu;
 use crate::observe::{Invariants, Snapshot};
 use crate::run::Engine;
 use crate::scene::{Case, CaseError, discretise};
-use bytemuck::{Pod, Zeroable};
 use thiserror::Error;
 
 #[derive(Debug, Error)]
@@ -78,13 +78,6 @@ pub fn scene_constants(case: &Case, layout: &Layout) -> Constants {
     let material = Material::new(&case.material);
     let h = case.method.h_over_dx * case.spacing;
     let kernel = Kernel::new(case.method.kernel, h, layout.dim);
-    let model = match material.model {
-        MaterialModel::Hypoelastic => 0,
-        MaterialModel::SaintVenantKirchhoff => 1,
-        MaterialModel::NeoHookean => 2,
-        MaterialModel::LinearElastic => 3,
-        MaterialModel::NearlyIncompressibleNeoHookean => 4,
-    };
     let correction = match case.method.correction {
         CorrectionKind::None => 0,
         CorrectionKind::Shepard => 1,
@@ -95,13 +88,8 @@ pub fn scene_constants(case: &Case, layout: &Layout) -> Constants {
     Constants::default()
         .kernel(&kernel)
         .u32("N", u(layout.n))
-        .u32("RATE", u32::from(layout.rate))
-        .u32("MODEL", model)
+        .material(&material)
         .u32("CORRECTION", correction)
-        .f32("RHO0", material.rho0)
-        .f32("MU", material.mu)
-        .f32("LAMBDA", material.lambda)
-        .f32("BULK", material.bulk)
         .f32("H", h)
         .u32("AV", u32::from(av.is_some()))
         .f32("AV_ALPHA", av.map_or(0.0, |a| a.alpha))
@@ -110,6 +98,7 @@ pub fn scene_constants(case: &Case, layout: &Layout) -> Constants {
         .u32("U_OFF", u(layout.u))
         .u32("V_OFF", u(layout.v))
         .u32("RHO_OFF", u(layout.rho))
+        .u32("REST_OFF", u(layout.rho))
         .u32("S_OFF", u(layout.s))
         .u32("LEN", u(layout.len))
         .u32("KF_OFF", u(layout.kin_f))
@@ -118,163 +107,13 @@ pub fn scene_constants(case: &Case, layout: &Layout) -> Constants {
         .u32("KRHO_OFF", u(layout.kin_rho))
 }
 
-/// One of the four state-sized buffers.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Buf {
-    Y,
-    Stage,
-    Rates,
-    Acc,
-}
+/// What one rate evaluation records, as `meshless run --explain` prints it.
+pub const RATES: &str = "stress pass (F, P, ρ̇, Ṡ) + acceleration pass (a, u̇ = v, BCs)";
 
-/// One recorded operation of a step.
-#[derive(Clone, Copy, Debug)]
-enum Op {
-    /// Rates of the state in the buffer into `Rates`.
-    Rates(Buf),
-    Copy(Buf, Buf),
-    /// out = a·out + b·x, with b = b_dt·Δt + b_const.
-    Blend {
-        out: Buf,
-        x: Buf,
-        a: f64,
-        b_dt: f64,
-        b_const: f64,
-    },
-    /// v += (b_dt·Δt)·(rate of v).
-    Kick {
-        out: Buf,
-        b_dt: f64,
-    },
-    /// u += (b_dt·Δt)·v; ρ, S += (b_dt·Δt)·rates.
-    Drift {
-        out: Buf,
-        b_dt: f64,
-    },
-}
-
-/// The passes of one GPU step, in order, as `meshless run --explain` prints them.
-pub fn describe_step(kind: IntegratorKind) -> Vec<String> {
-    program(kind)
-        .into_iter()
-        .map(|op| match op {
-            Op::Rates(src) => format!(
-                "rates of {src:?}: stress pass (F, P, ρ̇, Ṡ) + acceleration pass (a, u̇ = v, BCs)"
-            ),
-            Op::Copy(a, b) => format!("copy {a:?} → {b:?}"),
-            Op::Blend {
-                out,
-                x,
-                a,
-                b_dt,
-                b_const,
-            } => {
-                let b = if b_dt != 0.0 {
-                    format!("{b_dt:.4}·Δt")
-                } else {
-                    format!("{b_const:.4}")
-                };
-                format!("{out:?} = {a:.4}·{out:?} + {b}·{x:?}")
-            }
-            Op::Kick { out, b_dt } => format!("kick: v({out:?}) += {b_dt}·Δt·a"),
-            Op::Drift { out, b_dt } => {
-                format!("drift: u({out:?}) += {b_dt}·Δt·v, ρ, S += {b_dt}·Δt·rates")
-            }
-        })
-        .collect()
-}
-
-/// The operations of one step of each integrator (same schemes as `crate::integrate`).
-fn program(kind: IntegratorKind) -> Vec<Op> {
-    use Buf::*;
-    let axpy = |out, x, b_dt| Op::Blend {
-        out,
-        x,
-        a: 1.0,
-        b_dt,
-        b_const: 0.0,
-    };
-    let mix = |out, x, a: f64, b: f64| Op::Blend {
-        out,
-        x,
-        a,
-        b_dt: 0.0,
-        b_const: b,
-    };
-    match kind {
-        IntegratorKind::Rk4 => vec![
-            Op::Rates(Y),
-            Op::Copy(Y, Acc),
-            axpy(Acc, Rates, 1.0 / 6.0),
-            Op::Copy(Y, Stage),
-            axpy(Stage, Rates, 0.5),
-            Op::Rates(Stage),
-            axpy(Acc, Rates, 1.0 / 3.0),
-            Op::Copy(Y, Stage),
-            axpy(Stage, Rates, 0.5),
-            Op::Rates(Stage),
-            axpy(Acc, Rates, 1.0 / 3.0),
-            Op::Copy(Y, Stage),
-            axpy(Stage, Rates, 1.0),
-            Op::Rates(Stage),
-            axpy(Acc, Rates, 1.0 / 6.0),
-            Op::Copy(Acc, Y),
-        ],
-        IntegratorKind::TvdRk2 => vec![
-            Op::Rates(Y),
-            Op::Copy(Y, Stage),
-            axpy(Stage, Rates, 1.0),
-            Op::Rates(Stage),
-            axpy(Stage, Rates, 1.0),
-            mix(Y, Stage, 0.5, 0.5),
-        ],
-        IntegratorKind::SspRk3 => vec![
-            Op::Rates(Y),
-            Op::Copy(Y, Stage),
-            axpy(Stage, Rates, 1.0),
-            Op::Rates(Stage),
-            axpy(Stage, Rates, 1.0),
-            mix(Stage, Y, 0.25, 0.75),
-            Op::Rates(Stage),
-            axpy(Stage, Rates, 1.0),
-            mix(Y, Stage, 1.0 / 3.0, 2.0 / 3.0),
-        ],
-        // The rates of the previous evaluation (or of the priming pass) start the step.
-        IntegratorKind::Leapfrog => vec![
-            Op::Kick { out: Y, b_dt: 0.5 },
-            Op::Drift { out: Y, b_dt: 1.0 },
-            Op::Copy(Y, Stage),
-            Op::Kick {
-                out: Stage,
-                b_dt: 0.5,
-            },
-            Op::Rates(Stage),
-            Op::Kick { out: Y, b_dt: 0.5 },
-        ],
-    }
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-struct Coefficients {
-    a: f32,
-    b: f32,
-}
-
-/// A recorded op with its GPU resources.
-enum Recorded {
-    Rates {
-        stress: wgpu::BindGroup,
-        accel: wgpu::BindGroup,
-    },
-    Copy(Buf, Buf),
-    Pass {
-        pipeline: usize,
-        bind: wgpu::BindGroup,
-        coefficients: wgpu::Buffer,
-        invocations: u32,
-        op: Op,
-    },
+/// The stress and acceleration passes of one rate evaluation, bound to a source state.
+struct Rates {
+    stress: wgpu::BindGroup,
+    accel: wgpu::BindGroup,
 }
 
 /// The TLSPH system resident on the GPU.
@@ -282,39 +121,24 @@ pub struct GpuTlsph<D: GpuDim> {
     gpu: Gpu,
     layout: Layout,
     material: Material,
-    integrator: IntegratorKind,
-    /// y, stage, rates, acc.
-    states: [wgpu::Buffer; 4],
+    stepper: Stepper,
     kin: wgpu::Buffer,
     grad: wgpu::Buffer,
     status: wgpu::Buffer,
     stress: wgpu::ComputePipeline,
     accel: wgpu::ComputePipeline,
-    /// blend, kick, drift.
-    stages: [wgpu::ComputePipeline; 3],
-    steps: Vec<Recorded>,
-    /// Leapfrog only: rates primed at the current state.
-    primed: bool,
-    dt: f64,
+    /// Rate evaluations of the states in `Y` and in `Stage`.
+    rates: [Rates; 2],
     x0: Vec<D::V>,
     mass: Vec<f64>,
     body: Vec<u32>,
     vol: Vec<f64>,
-    /// Rates of the state in `Y` alone (leapfrog priming, cross-checks).
-    rates_y: Recorded,
     /// The stress pass on `Y` writing into `Acc` (for snapshots: F at the current state
     /// without touching the integrator's rates).
     kinematics_y: wgpu::BindGroup,
-    reduce: wgpu::ComputePipeline,
-    reduce_bind: wgpu::BindGroup,
-    partials: wgpu::Buffer,
-    /// The reduction of the current state, until the next advance.
-    reduced: Option<Reduced>,
+    reduction: Reduction,
     constrained: Vec<(u32, u8)>,
-    /// Simulated time advanced so far, and the work balance of supports and loads.
-    time: f64,
-    work: f64,
-    last_power: (f64, f64),
+    work: WorkBalance,
 }
 
 /// Value of `status[0]` when no particle failed.
@@ -352,13 +176,8 @@ impl<D: GpuDim> GpuTlsph<D> {
         gpu.check_size("per-pair gradient buffer", pairs * D::N as u64 * 4)?;
         gpu.check_size("kinematics buffer", layout.kin_len as u64 * 4)?;
         let (offsets, ids) = (csr.offsets.clone(), csr.ids.clone());
-        let flat_v = |vs: &[D::V]| {
-            let mut out = Vec::with_capacity(vs.len() * D::N);
-            vs.iter().for_each(|&v| D::push_v(&mut out, v));
-            out
-        };
         // X = hi + lo in f32 pairs, for exact pair offsets (see pair_offsets.wgsl).
-        let x_hi = flat_v(&disc.x0);
+        let x_hi = flat_v::<D>(disc.x0.iter().copied());
         let x_lo: Vec<f32> = disc
             .x0
             .iter()
@@ -392,7 +211,7 @@ impl<D: GpuDim> GpuTlsph<D> {
                 &kernel,
             )
             .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
-            gpu.storage("grad", &flat_v(&g))
+            gpu.storage("grad", &flat_v::<D>(g))
         } else {
             let grad = gpu.zeroed("grad", pairs * D::N as u64 * 4);
             let pipeline = gpu.pipeline("correction", &compose(&shaders::CORRECTION), "correct");
@@ -412,83 +231,51 @@ impl<D: GpuDim> GpuTlsph<D> {
             grad
         };
 
-        let mut mask = vec![0u32; n];
-        for &(i, m) in &boundary.constrained {
-            mask[i as usize] = u32::from(m);
-        }
-        let mut ext = vec![D::zero(); n];
-        for &(i, a) in &boundary.external {
-            ext[i as usize] = a;
-        }
-        let mask = gpu.storage("mask", &mask);
-        let ext = gpu.storage("ext", &flat_v(&ext));
+        let (mask, ext) = boundary_buffers(&gpu, &boundary, n);
 
         let mut v0 = disc.v0.clone();
         boundary.impose_initial(&mut v0);
-        let y0 = initial_state::<D>(&layout, &v0);
-        let states = [
-            gpu.storage("y", &y0),
-            gpu.zeroed("stage", layout.len as u64 * 4),
-            gpu.zeroed("rates", layout.len as u64 * 4),
-            gpu.zeroed("acc", layout.len as u64 * 4),
-        ];
+        let state = StateLayout {
+            n,
+            dim: D::N,
+            rest: layout.rho,
+            len: layout.len,
+        };
+        let stepper = Stepper::new(
+            &gpu,
+            case.method.integrator,
+            &compose(&shaders::INTEGRATE),
+            state,
+            &initial_state::<D>(&layout, &v0),
+        );
         let kin = gpu.zeroed("kinematics", layout.kin_len as u64 * 4);
         let power = gpu.zeroed("power", n as u64 * 4);
 
         let stress = gpu.pipeline("tlsph stress", &compose(&shaders::TLSPH_STRESS), "stress");
         let accel = gpu.pipeline("tlsph accel", &compose(&shaders::TLSPH_ACCEL), "accel");
-        let integrate = compose(&shaders::INTEGRATE);
-        let stages = ["blend", "kick", "drift"].map(|e| gpu.pipeline(e, &integrate, e));
-
-        let rates = |src: Buf| {
-            let s = &states[src as usize];
-            Recorded::Rates {
+        let rates_d = stepper.buffer(Buf::Rates);
+        let rates = [Buf::Y, Buf::Stage].map(|src| {
+            let s = stepper.buffer(src);
+            Rates {
                 stress: gpu.bind(
                     &stress,
-                    &[
-                        &offsets,
-                        &ids,
-                        &grad,
-                        &vol,
-                        s,
-                        &kin,
-                        &states[Buf::Rates as usize],
-                        &status,
-                    ],
+                    &[&offsets, &ids, &grad, &vol, s, &kin, rates_d, &status],
                 ),
                 accel: gpu.bind(
                     &accel,
                     &[
-                        &offsets,
-                        &ids,
-                        &grad,
-                        &vol,
-                        &dx0,
-                        s,
-                        &kin,
-                        &mask,
-                        &ext,
-                        &states[Buf::Rates as usize],
-                        &power,
+                        &offsets, &ids, &grad, &vol, &dx0, s, &kin, &mask, &ext, rates_d, &power,
                     ],
                 ),
             }
-        };
-        let reduce = gpu.pipeline("reduce", &compose(&shaders::REDUCE), "reduce");
-        let (gx, gy) = gpu.groups(n as u32);
-        let partials = gpu.zeroed("partials", u64::from(gx * gy) * REDUCED as u64 * 4);
-        let reduce_bind = gpu.bind(
-            &reduce,
-            &[
-                &states[Buf::Y as usize],
-                &kin,
-                &vol,
-                &x_hi,
-                &power,
-                &partials,
-            ],
+        });
+        let y = stepper.buffer(Buf::Y);
+        let reduction = Reduction::new(
+            &gpu,
+            &compose(&shaders::REDUCE),
+            &[(0, y), (1, &kin), (2, &vol), (3, &x_hi), (4, &power)],
+            n,
         );
-        let rates_y = rates(Buf::Y);
         let kinematics_y = gpu.bind(
             &stress,
             &[
@@ -496,98 +283,32 @@ impl<D: GpuDim> GpuTlsph<D> {
                 &ids,
                 &grad,
                 &vol,
-                &states[Buf::Y as usize],
+                y,
                 &kin,
-                &states[Buf::Acc as usize],
+                stepper.buffer(Buf::Acc),
                 &status,
             ],
         );
-        let mut steps = Vec::new();
-        for op in program(case.method.integrator) {
-            steps.push(match op {
-                Op::Rates(src) => rates(src),
-                Op::Copy(a, b) => Recorded::Copy(a, b),
-                Op::Blend { out, x, .. } => {
-                    pass(&gpu, &states, &stages[0], 0, op, out, x, layout.len)
-                }
-                Op::Kick { out, .. } => pass(
-                    &gpu,
-                    &states,
-                    &stages[1],
-                    1,
-                    op,
-                    out,
-                    Buf::Rates,
-                    layout.n * D::N,
-                ),
-                Op::Drift { out, .. } => pass(
-                    &gpu,
-                    &states,
-                    &stages[2],
-                    2,
-                    op,
-                    out,
-                    Buf::Rates,
-                    layout.n * D::N + (layout.len - layout.rho),
-                ),
-            });
-        }
         Ok(Self {
             gpu,
             layout,
             material,
-            integrator: case.method.integrator,
-            states,
+            stepper,
             kin,
             grad,
             status,
             stress,
             accel,
-            stages,
-            steps,
-            primed: false,
-            dt: f64::NAN,
+            rates,
             x0: disc.x0,
             mass,
             body: disc.body,
             vol: disc.vol,
-            rates_y,
             kinematics_y,
-            reduce,
-            reduce_bind,
-            partials,
-            reduced: None,
+            reduction,
             constrained: boundary.constrained.clone(),
-            time: 0.0,
-            work: 0.0,
-            last_power: (0.0, 0.0),
+            work: WorkBalance::default(),
         })
-    }
-}
-
-/// A blend/kick/drift pass with its own coefficient buffer, bound to `out` and `x`.
-#[allow(clippy::too_many_arguments)]
-fn pass(
-    gpu: &Gpu,
-    states: &[wgpu::Buffer; 4],
-    pipeline: &wgpu::ComputePipeline,
-    index: usize,
-    op: Op,
-    out: Buf,
-    x: Buf,
-    invocations: usize,
-) -> Recorded {
-    let coefficients = gpu.uniform("coefficients", &Coefficients { a: 1.0, b: 0.0 });
-    let bind = gpu.bind(
-        pipeline,
-        &[&coefficients, &states[out as usize], &states[x as usize]],
-    );
-    Recorded::Pass {
-        pipeline: index,
-        bind,
-        coefficients,
-        invocations: invocations as u32,
-        op,
     }
 }
 
@@ -644,87 +365,43 @@ impl<D: GpuDim> GpuTlsph<D> {
         &self.material
     }
 
-    /// Rewrites the stage coefficients when the step size changes.
-    fn set_dt(&mut self, dt: f64) {
-        if dt == self.dt {
-            return;
-        }
-        self.dt = dt;
-        for rec in &self.steps {
-            if let Recorded::Pass {
-                coefficients, op, ..
-            } = rec
-            {
-                let (a, b) = match *op {
-                    Op::Blend {
-                        a, b_dt, b_const, ..
-                    } => (a, b_dt * dt + b_const),
-                    Op::Kick { b_dt, .. } | Op::Drift { b_dt, .. } => (1.0, b_dt * dt),
-                    Op::Rates(_) | Op::Copy(..) => unreachable!("only passes carry coefficients"),
-                };
-                let c = Coefficients {
-                    a: a as f32,
-                    b: b as f32,
-                };
-                self.gpu
-                    .queue
-                    .write_buffer(coefficients, 0, bytemuck::bytes_of(&c));
-            }
-        }
-    }
-
-    fn record(&self, encoder: &mut wgpu::CommandEncoder, rec: &Recorded) {
-        let n = self.layout.n as u32;
-        match rec {
-            Recorded::Rates { stress, accel } => {
-                let mut pass = encoder.begin_compute_pass(&Default::default());
-                self.gpu.dispatch(&mut pass, &self.stress, stress, n);
-                self.gpu.dispatch(&mut pass, &self.accel, accel, n);
-            }
-            Recorded::Copy(a, b) => {
-                let size = self.layout.len as u64 * 4;
-                encoder.copy_buffer_to_buffer(
-                    &self.states[*a as usize],
-                    0,
-                    &self.states[*b as usize],
-                    0,
-                    size,
-                );
-            }
-            Recorded::Pass {
-                pipeline,
-                bind,
-                invocations,
-                ..
-            } => {
-                let mut pass = encoder.begin_compute_pass(&Default::default());
-                self.gpu
-                    .dispatch(&mut pass, &self.stages[*pipeline], bind, *invocations);
-            }
-        }
+    /// Records one rate evaluation: the stress and acceleration passes on `rates`.
+    fn record_rates(
+        gpu: &Gpu,
+        n: u32,
+        (stress, accel): (&wgpu::ComputePipeline, &wgpu::ComputePipeline),
+        encoder: &mut wgpu::CommandEncoder,
+        rates: &Rates,
+    ) {
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        gpu.dispatch(&mut pass, stress, &rates.stress, n);
+        gpu.dispatch(&mut pass, accel, &rates.accel, n);
     }
 
     /// Records `steps` steps of size `dt` into one command encoder and submits them.
     pub fn advance_steps(&mut self, dt: f64, steps: u32) {
-        self.time += dt * f64::from(steps);
-        self.reduced = None;
-        self.set_dt(dt);
+        self.work.advance(dt, steps);
+        self.reduction.invalidate();
         let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
-        if self.integrator == IntegratorKind::Leapfrog && !self.primed {
-            self.record(&mut encoder, &self.rates_y);
-            self.primed = true;
-        }
-        for _ in 0..steps {
-            for rec in &self.steps {
-                self.record(&mut encoder, rec);
-            }
-        }
+        let Self {
+            gpu,
+            stepper,
+            stress,
+            accel,
+            rates,
+            layout,
+            ..
+        } = self;
+        stepper.record(gpu, &mut encoder, dt, steps, |encoder, e| {
+            let src = usize::from(e.src != Buf::Y);
+            Self::record_rates(gpu, layout.n as u32, (stress, accel), encoder, &rates[src]);
+        });
         self.gpu.queue.submit([encoder.finish()]);
     }
 
     /// Reads the current state back (waits for the queue).
     pub fn state(&self) -> TlState<D> {
-        let flat: Vec<f32> = self.gpu.read(&self.states[Buf::Y as usize]);
+        let flat: Vec<f32> = self.gpu.read(self.stepper.buffer(Buf::Y));
         let mut y = self.decode(&flat);
         y.rho.iter_mut().for_each(|r| *r += self.material.rho0);
         y
@@ -770,22 +447,19 @@ impl<D: GpuDim> GpuTlsph<D> {
             y.s.iter().for_each(|&s| D::push_t(&mut tmp, s));
             flat[l.s..l.s + tmp.len()].copy_from_slice(&tmp);
         }
-        self.gpu.queue.write_buffer(
-            &self.states[Buf::Y as usize],
-            0,
-            bytemuck::cast_slice(&flat),
-        );
-        self.primed = false;
-        self.reduced = None;
+        self.stepper.set_state(&self.gpu, &flat);
+        self.reduction.invalidate();
     }
 
     /// Rates of a given state: (dy/dt, F, P) per particle, read back.
     pub fn rates(&mut self, y: &TlState<D>) -> (TlState<D>, Vec<D::T>, Vec<D::T>) {
         self.set_state(y);
         let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
-        self.record(&mut encoder, &self.rates_y);
+        let n = self.layout.n as u32;
+        let pipelines = (&self.stress, &self.accel);
+        Self::record_rates(&self.gpu, n, pipelines, &mut encoder, &self.rates[0]);
         self.gpu.queue.submit([encoder.finish()]);
-        let d: Vec<f32> = self.gpu.read(&self.states[Buf::Rates as usize]);
+        let d: Vec<f32> = self.gpu.read(self.stepper.buffer(Buf::Rates));
         let (f, p) = self.kinematics();
         (self.decode(&d), f, p)
     }
@@ -840,10 +514,7 @@ impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
     /// Trapezoidal over the intervals between calls (the driver calls it at every check).
     fn external_work(&mut self) -> f64 {
         let power = self.reduction().power;
-        let (t_last, p_last) = self.last_power;
-        self.work += 0.5 * (p_last + power) * (self.time - t_last);
-        self.last_power = (self.time, power);
-        self.work
+        self.work.update(power)
     }
 
     fn check(&mut self) -> Result<(), BlowUp> {
@@ -895,59 +566,19 @@ impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
     }
 }
 
-/// Values per workgroup written by `reduce.wgsl`.
-const REDUCED: usize = 11;
-
-/// The GPU reduction of one state, summed on the host.
-#[derive(Clone, Copy, Debug)]
-struct Reduced {
-    invariants: Invariants,
-    /// Power of supports and loads.
-    power: f64,
-    max_speed: f64,
-    non_finite: bool,
-}
-
 impl<D: GpuDim> GpuTlsph<D> {
-    /// Stress pass on the current state (F into the kinematics) and the reduction; reads
-    /// back REDUCED values per workgroup only.
+    /// Stress pass on the current state (F into the kinematics) and the reduction.
     fn reduction(&mut self) -> Reduced {
-        if let Some(r) = self.reduced {
-            return r;
-        }
-        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
-        {
-            let mut pass = encoder.begin_compute_pass(&Default::default());
-            let n = self.layout.n as u32;
-            self.gpu
-                .dispatch(&mut pass, &self.stress, &self.kinematics_y, n);
-            self.gpu
-                .dispatch(&mut pass, &self.reduce, &self.reduce_bind, n);
-        }
-        self.gpu.queue.submit([encoder.finish()]);
-        let partials: Vec<f32> = self.gpu.read(&self.partials);
-        let mut q = [0.0f64; REDUCED];
-        for group in partials.chunks_exact(REDUCED) {
-            for (k, &v) in group.iter().enumerate() {
-                q[k] = if k == 9 {
-                    q[k].max(f64::from(v))
-                } else {
-                    q[k] + f64::from(v)
-                };
-            }
-        }
-        let r = Reduced {
-            invariants: Invariants {
-                kinetic: q[0],
-                strain: q[1],
-                linear: [q[2], q[3], q[4]],
-                angular: [q[5], q[6], q[7]],
-            },
-            power: q[8],
-            max_speed: q[9].sqrt(),
-            non_finite: q[10] != 0.0 || !q[..10].iter().all(|x| x.is_finite()),
-        };
-        self.reduced = Some(r);
-        r
+        let Self {
+            gpu,
+            stress,
+            kinematics_y,
+            layout,
+            reduction,
+            ..
+        } = self;
+        reduction.get(gpu, |pass| {
+            gpu.dispatch(pass, stress, kinematics_y, layout.n as u32)
+        })
     }
 }

@@ -963,3 +963,67 @@ impl<D: Dim> Method<D> for MixedSph<D> {
         Ok(())
     }
 }
+
+/// Read access to the reference set-up, for the GPU engine (`gpu::mixed`).
+impl<D: Dim> MixedSph<D> {
+    pub(crate) fn ghosts(&self) -> &Ghosts<D> {
+        &self.ghosts
+    }
+
+    /// Reference positions and volumes of the real particles, then the ghosts.
+    pub(crate) fn extended_reference(&self) -> (&[D::V], &[f64]) {
+        (&self.x0, &self.vol)
+    }
+
+    /// g_ab and g_ba, CSR order.
+    pub(crate) fn pair_gradients(&self) -> (&[D::V], &[D::V]) {
+        (&self.grad, &self.grad_rev)
+    }
+
+    /// Least-squares weights M_a⁻¹ N_ab / |d_ab|, CSR order.
+    pub(crate) fn ls_weights(&self) -> &[D::V] {
+        &self.ls
+    }
+
+    /// Upwind-SPH: whether p and P are reconstructed to the mid-pair.
+    pub(crate) fn reconstruction(&self) -> bool {
+        matches!(
+            self.stabilisation,
+            Stabilisation::Upwind {
+                reconstruction: true
+            }
+        )
+    }
+
+    /// JST-SPH: the coefficients and the per-pair ℓ_ab and s_ab.
+    pub(crate) fn jst(&self) -> Option<(Jst, &[f64], &[f64])> {
+        match &self.stabilisation {
+            Stabilisation::Jst {
+                coefficients,
+                ell,
+                s,
+            } => Some((*coefficients, ell, s)),
+            Stabilisation::Upwind { .. } => None,
+        }
+    }
+
+    pub(crate) fn material(&self) -> &Material {
+        &self.material
+    }
+
+    pub(crate) fn conserved(&self) -> Conserved {
+        self.conserved
+    }
+
+    pub(crate) fn projection(&self) -> bool {
+        self.projection
+    }
+
+    pub(crate) fn boundary(&self) -> &Boundary<D> {
+        &self.boundary
+    }
+
+    pub(crate) fn smoothing_length(&self) -> f64 {
+        self.h
+    }
+}

@@ -1,0 +1,22 @@
+// Shared by the mixed {p, F, H, J} passes (seed 003; src/method/mixed.rs).
+//
+// Buffers are flat f32 arrays in structure-of-arrays segments. The state of the N real
+// particles is y = [u | v | F − I | H − I | J − 1] (H only for {p, F, H, J}, J for
+// {p, F, J} and {p, F, H, J}): the excesses keep their digits at small strain in f32, as
+// u = x − X does for positions, and a ghost maps them like two-point tensors. The NG
+// ghosts follow the real particles in the extended index (ghost k is N + k); per-pair
+// data are in CSR order over the real rows, whose neighbour ids may be ghosts. The
+// kinematics kin = [P | H − I] (H only where D(J) gathers it), the slopes and the
+// Laplacians hold the real particles then the ghosts (filled by mixed_ghosts.wgsl).
+//
+// Scene constants: N, NG, DIM, MODEL, RHO0, MU, LAMBDA, BULK, C_P, C_S, H (smoothing
+// length), STAB (0 upwind, 1 JST), RECON, EPS2, EPS4, EVOLVE_H, EVOLVE_J, KIN_H,
+// PROJECTION, GROUPS (workgroups over N), TOTAL_VOL, segment offsets U_OFF, V_OFF, F_OFF,
+// H_OFF, J_OFF, KP_OFF, KH_OFF, FT_OFF, FD_OFF, FJ_OFF.
+
+// Size of one particle's slopes: ∇0v, then ∂P/∂X_l for l < DIM.
+const SLOPE: u32 = (DIM + 1u) * DIM * DIM;
+
+fn index(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
+    return gid.x + gid.y * nwg.x * 256u;
+}

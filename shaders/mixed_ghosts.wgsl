@@ -1,0 +1,80 @@
+// Ghost fills of the mixed passes (src/mirror.rs): ghost k (extended index N + k) takes its
+// source's fields through its image, with r the diagonal of the reflection R and σ = −1
+// per skew-symmetric plane: vectors v' = σ R v; two-point tensors and the excesses F − I,
+// H − I: T' = σ R T R; slopes ∂P'/∂X'_l = r_l σ R (∂P/∂X_l) R. One invocation per ghost.
+
+@group(0) @binding(0) var<storage, read> ghost_src: array<u32>;
+// r_0 … r_{DIM−1}, σ per ghost.
+@group(0) @binding(1) var<storage, read> ghost_img: array<f32>;
+// The field filled: the ghost motion gm = [u | v], or in place the kinematics, slopes or
+// Laplacians of the extended particles.
+@group(0) @binding(2) var<storage, read_write> field: array<f32>;
+@group(0) @binding(3) var<storage, read> y: array<f32>;
+
+fn reflection(k: u32) -> vecd {
+    return vload_ghost_img((DIM + 1u) * k);
+}
+
+fn sigma(k: u32) -> f32 {
+    return ghost_img[(DIM + 1u) * k + DIM];
+}
+
+fn map_vector(k: u32, v: vecd) -> vecd {
+    return reflection(k) * v * sigma(k);
+}
+
+// (σ R T R)_kl = σ r_k r_l T_kl.
+fn map_tensor(k: u32, t: matd) -> matd {
+    let r = reflection(k);
+    return hadamard(t, outer(r, r) * sigma(k));
+}
+
+@compute @workgroup_size(256)
+fn ghost_motion(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let k = index(gid, nwg);
+    if k >= NG {
+        return;
+    }
+    let s = ghost_src[k];
+    vstore_field(DIM * k, map_vector(k, vload_y(U_OFF + DIM * s)));
+    vstore_field(DIM * (NG + k), map_vector(k, vload_y(V_OFF + DIM * s)));
+}
+
+@compute @workgroup_size(256)
+fn ghost_kin(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let k = index(gid, nwg);
+    if k >= NG {
+        return;
+    }
+    let s = ghost_src[k];
+    let g = N + k;
+    mstore_field(KP_OFF + DIM * DIM * g, map_tensor(k, mload_field(KP_OFF + DIM * DIM * s)));
+    if KIN_H == 1u {
+        mstore_field(KH_OFF + DIM * DIM * g, map_tensor(k, mload_field(KH_OFF + DIM * DIM * s)));
+    }
+}
+
+@compute @workgroup_size(256)
+fn ghost_slopes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let k = index(gid, nwg);
+    if k >= NG {
+        return;
+    }
+    let s = SLOPE * ghost_src[k];
+    let g = SLOPE * (N + k);
+    let r = reflection(k);
+    mstore_field(g, map_tensor(k, mload_field(s)));
+    for (var l = 0u; l < DIM; l++) {
+        let at = (l + 1u) * DIM * DIM;
+        mstore_field(g + at, map_tensor(k, mload_field(s + at)) * r[l]);
+    }
+}
+
+@compute @workgroup_size(256)
+fn ghost_laplacian(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let k = index(gid, nwg);
+    if k >= NG {
+        return;
+    }
+    vstore_field(DIM * (N + k), map_vector(k, vload_field(DIM * ghost_src[k])));
+}

@@ -1,0 +1,11 @@
+// V_i ψ_i of a TLSPH particle for reduce.wgsl: H = F − I from the stress pass (kin), and S,
+// ρ − ρ0 of the rate model from the state. Constants as in tlsph.wgsl.
+fn strain_energy(i: u32) -> f32 {
+    var s: matd;
+    var rho_dev = 0.0;
+    if RATE == 1u {
+        s = mload_y(S_OFF + DIM * DIM * i);
+        rho_dev = y[RHO_OFF + i];
+    }
+    return vol[i] * energy_density(mload_kin(KF_OFF + DIM * DIM * i), s, rho_dev);
+}

@@ -1,0 +1,119 @@
+//! The GPU reduction of a state (`shaders/reduce.wgsl`) and the work balance of supports
+//! and loads, shared by the GPU engines: energies, momenta, the power of supports and
+//! loads, max |v| and a non-finite count, per workgroup on the device and summed on the
+//! host in f64. Only the partials (11 floats per 256 particles) are read back.
+
+use super::context::Gpu;
+use crate::observe::Invariants;
+
+/// Values per workgroup written by `reduce.wgsl`.
+const REDUCED: usize = 11;
+
+/// The GPU reduction of one state, summed on the host.
+#[derive(Clone, Copy, Debug)]
+pub struct Reduced {
+    pub invariants: Invariants,
+    /// Power of supports and loads.
+    pub power: f64,
+    pub max_speed: f64,
+    pub non_finite: bool,
+}
+
+/// The reduce pass of an engine and its cached result for the current state.
+pub struct Reduction {
+    pipeline: wgpu::ComputePipeline,
+    bind: wgpu::BindGroup,
+    partials: wgpu::Buffer,
+    n: u32,
+    cached: Option<Reduced>,
+}
+
+impl Reduction {
+    /// `source` is `reduce.wgsl` composed for the method; `inputs` are its bindings 0–4
+    /// (state, method data, volumes, reference positions, power) that the method's
+    /// variant reads, with their binding numbers; the partials are binding 5.
+    pub fn new(gpu: &Gpu, source: &str, inputs: &[(u32, &wgpu::Buffer)], n: usize) -> Self {
+        let pipeline = gpu.pipeline("reduce", source, "reduce");
+        let (gx, gy) = gpu.groups(n as u32);
+        let partials = gpu.zeroed("partials", u64::from(gx * gy) * REDUCED as u64 * 4);
+        let mut entries = inputs.to_vec();
+        entries.push((5, &partials));
+        let bind = gpu.bind_at(&pipeline, &entries);
+        Self {
+            pipeline,
+            bind,
+            partials,
+            n: n as u32,
+            cached: None,
+        }
+    }
+
+    /// Forgets the cached result (the state changed).
+    pub fn invalidate(&mut self) {
+        self.cached = None;
+    }
+
+    /// The reduction of the current state; `before` records the passes it needs first
+    /// (into the same compute pass). Cached until [`Reduction::invalidate`].
+    pub fn get(&mut self, gpu: &Gpu, before: impl FnOnce(&mut wgpu::ComputePass<'_>)) -> Reduced {
+        if let Some(r) = self.cached {
+            return r;
+        }
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            before(&mut pass);
+            gpu.dispatch(&mut pass, &self.pipeline, &self.bind, self.n);
+        }
+        gpu.queue.submit([encoder.finish()]);
+        let partials: Vec<f32> = gpu.read(&self.partials);
+        let mut q = [0.0f64; REDUCED];
+        for group in partials.chunks_exact(REDUCED) {
+            for (k, &v) in group.iter().enumerate() {
+                q[k] = if k == 9 {
+                    q[k].max(f64::from(v))
+                } else {
+                    q[k] + f64::from(v)
+                };
+            }
+        }
+        let r = Reduced {
+            invariants: Invariants {
+                kinetic: q[0],
+                strain: q[1],
+                linear: [q[2], q[3], q[4]],
+                angular: [q[5], q[6], q[7]],
+            },
+            power: q[8],
+            max_speed: q[9].sqrt(),
+            non_finite: q[10] != 0.0 || !q[..10].iter().all(|x| x.is_finite()),
+        };
+        self.cached = Some(r);
+        r
+    }
+}
+
+/// Work done on the bodies by supports and loads: trapezoidal over the intervals between
+/// the reductions that give the power (the driver reduces at every check).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct WorkBalance {
+    /// Simulated time advanced so far.
+    time: f64,
+    work: f64,
+    /// Time and power of the last update.
+    last: (f64, f64),
+}
+
+impl WorkBalance {
+    pub fn advance(&mut self, dt: f64, steps: u32) {
+        self.time += dt * f64::from(steps);
+    }
+
+    /// The work up to now, given the power at the current state.
+    pub fn update(&mut self, power: f64) -> f64 {
+        let (t_last, p_last) = self.last;
+        self.work += 0.5 * (p_last + power) * (self.time - t_last);
+        self.last = (self.time, power);
+        self.work
+    }
+}
