@@ -12,60 +12,13 @@ use meshless::observe::Invariants;
 use meshless::run::{Engine, build_method};
 use meshless::scene::{Case, MethodName};
 use meshless::tensor::{D2, D3, Dim};
-use std::path::Path;
+
+mod common;
+use common::{load as case, random_state};
 
 fn gpu() -> Gpu {
     Gpu::new()
         .unwrap_or_else(|e| panic!("GPU tests need an adapter (CI installs Mesa lavapipe): {e}"))
-}
-
-fn case(name: &str, overrides: &[&str]) -> Case {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("cases")
-        .join(format!("{name}.toml"));
-    let o: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
-    Case::load(&path, &o).unwrap()
-}
-
-/// Deterministic numbers in [−1, 1) (64-bit LCG).
-fn noise(seed: &mut u64) -> f64 {
-    *seed = seed
-        .wrapping_mul(6364136223846793005)
-        .wrapping_add(1442695040888963407);
-    ((*seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-}
-
-fn random_tensor<D: Dim>(seed: &mut u64, scale: f64) -> D::T {
-    let mut t = D::zero_t();
-    for k in 0..D::N {
-        let mut e = [0.0; 3];
-        e[k] = 1.0;
-        let row: Vec<f64> = (0..D::N).map(|_| scale * noise(seed)).collect();
-        t += D::outer(D::from_slice(&e), D::from_slice(&row));
-    }
-    t
-}
-
-/// A random admissible state: |v| ~ 1 m/s, |u| ~ 1 cm, F = I + 5 % noise, H = cof F + 1 %,
-/// J = det F + 1 % (H and J off their compatible values, so that every term of the
-/// rates is exercised).
-fn random_state<D: Dim>(m: &MixedSph<D>, seed: &mut u64) -> MixedState<D> {
-    let mut y = m.initial_state();
-    let vec = |seed: &mut u64, s: f64| {
-        D::from_slice(&(0..D::N).map(|_| s * noise(seed)).collect::<Vec<_>>())
-    };
-    for a in 0..y.v.len() {
-        y.v[a] = vec(seed, 1.0);
-        y.u[a] = vec(seed, 0.01);
-        y.f[a] = D::identity() + random_tensor::<D>(seed, 0.05);
-        if !y.h.is_empty() {
-            y.h[a] = D::cof(y.f[a]) + random_tensor::<D>(seed, 0.01);
-        }
-        if !y.j.is_empty() {
-            y.j[a] = D::det(y.f[a]) * (1.0 + 0.01 * noise(seed));
-        }
-    }
-    y
 }
 
 fn max_v<D: Dim>(a: &[D::V], b: &[D::V]) -> (f64, f64) {
@@ -133,7 +86,7 @@ fn compare_rates<D: GpuDim>(c: &Case, gpu: Gpu) {
         }
     );
     let mut cpu: MixedSph<D> = build_method(c).unwrap();
-    let y = random_state(&cpu, &mut 7);
+    let y = random_state(&cpu, &mut 7, 0.01);
     let mut d = y.clone();
     cpu.rates(0.0, &y, &mut d).unwrap();
     let n = y.u.len();
@@ -304,8 +257,8 @@ fn the_second_tvd_rk2_stage_balances_about_the_mid_step_points() {
     let c = case("spinning-plate", &[]);
     let dt = 0.5;
     let mut cpu: MixedSph<D2> = build_method(&c).unwrap();
-    let start = random_state(&cpu, &mut 3);
-    let mut stage = random_state(&cpu, &mut 4);
+    let start = random_state(&cpu, &mut 3, 0.01);
+    let mut stage = random_state(&cpu, &mut 4, 0.01);
     stage.u.clone_from(&start.u);
     let mut about_stage = stage.clone();
     cpu.rates(0.0, &stage, &mut about_stage).unwrap();

@@ -6,59 +6,16 @@ use meshless::analytic::SwingingMode;
 use meshless::integrate::OdeSystem;
 use meshless::material::Material;
 use meshless::method::Method;
-use meshless::method::mixed::{Fluxes, MixedSph, MixedState};
+use meshless::method::mixed::{Fluxes, MixedSph};
 use meshless::run::{Backend, CpuEngine, Engine, RunOptions, build_method};
 use meshless::scene::Case;
 use meshless::study::engine::run_case;
 use meshless::study::fields::{analytic_fields, relative_l2};
 use meshless::study::suite::AnalyticSolution;
 use meshless::tensor::{D2, D3, Dim};
-use std::path::{Path, PathBuf};
 
-fn load(name: &str, overrides: &[&str]) -> Case {
-    let path: PathBuf = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("cases")
-        .join(format!("{name}.toml"));
-    let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
-    Case::load(&path, &overrides).unwrap()
-}
-
-/// Deterministic numbers in [−1, 1) (64-bit LCG).
-fn noise(seed: &mut u64) -> f64 {
-    *seed = seed
-        .wrapping_mul(6364136223846793005)
-        .wrapping_add(1442695040888963407);
-    ((*seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-}
-
-fn random_tensor<D: Dim>(seed: &mut u64, scale: f64) -> D::T {
-    let mut t = D::zero_t();
-    for k in 0..D::N {
-        let mut e = [0.0; 3];
-        e[k] = 1.0;
-        let row: Vec<f64> = (0..D::N).map(|_| scale * noise(seed)).collect();
-        t += D::outer(D::from_slice(&e), D::from_slice(&row));
-    }
-    t
-}
-
-/// A random admissible state: |v| ~ 1 m/s, F = I + 5 % noise, H = cof F, J = det F + 1 %.
-fn random_state<D: Dim>(m: &MixedSph<D>, seed: &mut u64) -> MixedState<D> {
-    let mut y = m.initial_state();
-    for a in 0..y.v.len() {
-        let v: Vec<f64> = (0..D::N).map(|_| noise(seed)).collect();
-        y.v[a] = D::from_slice(&v);
-        y.f[a] = D::identity() + random_tensor::<D>(seed, 0.05);
-        y.u[a] = D::from_slice(&(0..D::N).map(|_| 0.01 * noise(seed)).collect::<Vec<_>>());
-        if !y.h.is_empty() {
-            y.h[a] = D::cof(y.f[a]);
-        }
-        if !y.j.is_empty() {
-            y.j[a] = D::det(y.f[a]) * (1.0 + 0.01 * noise(seed));
-        }
-    }
-    y
-}
+mod common;
+use common::{load, noise, random_state};
 
 fn sum_v<D: Dim>(f: &[D::V], vol: &[f64]) -> (D::V, f64) {
     let total = f.iter().zip(vol).fold(D::zero(), |s, (&f, &v)| s + f * v);
@@ -74,7 +31,7 @@ fn sum_v<D: Dim>(f: &[D::V], vol: &[f64]) -> (D::V, f64) {
 /// every pair term is antisymmetric. Round-off of O(N·k) terms: 1e-12 of Σ V |f|.
 fn fluxes_are_conservative<D: Dim>(case: &Case) {
     let mut m: MixedSph<D> = build_method(case).unwrap();
-    let y = random_state(&m, &mut 11);
+    let y = random_state(&m, &mut 11, 0.0);
     let Fluxes { t, d, dj } = m.fluxes(&y).unwrap();
     let vol = m.volume().to_vec();
     for (name, f) in [("T", &t), ("D(p)", &d)] {
@@ -117,7 +74,7 @@ fn upwind_stabilisation_dissipates_momentum_and_volume_jumps() {
     let case = load("spinning-plate", &["method.reconstruction=false"]);
     let mut m: MixedSph<D2> = build_method(&case).unwrap();
     let mut seed = 5;
-    let mut y = random_state(&m, &mut seed);
+    let mut y = random_state(&m, &mut seed, 0.0);
     let d = m.fluxes(&y).unwrap().d;
     let power: f64 = (0..d.len())
         .map(|a| m.volume()[a] * D2::dot(y.v[a], d[a]))
