@@ -18,6 +18,7 @@
 //!
 //! Ghosts are indexed after the n real particles: extended index n + k is ghost k.
 
+use crate::method::MIN_CHUNK;
 use crate::neighbour::Csr;
 use crate::scene::{Case, CaseError, MirrorKind};
 use crate::tensor::Dim;
@@ -228,16 +229,24 @@ impl<D: Dim> Ghosts<D> {
         )
     }
 
-    /// Fills the ghost entries values[n..] from their sources through `map`.
-    pub fn extend<T: Copy + Send + Sync>(
+    /// A per-particle pass over real particles and ghosts: values[a] = real(a) for the
+    /// n real particles (in parallel), then every ghost's entry as the image of its
+    /// source's through `map`.
+    pub fn fill<T: Copy + Send + Sync>(
         &self,
         values: &mut [T],
+        real: impl Fn(usize) -> T + Sync,
         map: impl Fn(&Image, T) -> T + Sync,
     ) {
-        let (real, ghost) = values.split_at_mut(self.n);
+        let (reals, ghost) = values.split_at_mut(self.n);
+        reals
+            .par_iter_mut()
+            .with_min_len(MIN_CHUNK)
+            .enumerate()
+            .for_each(|(a, v)| *v = real(a));
         ghost.par_iter_mut().enumerate().for_each(|(k, g)| {
             let image = self.images[self.image[k] as usize].expect("ghost images are valid");
-            *g = map(&image, real[self.source[k] as usize]);
+            *g = map(&image, reals[self.source[k] as usize]);
         });
     }
 

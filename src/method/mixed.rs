@@ -392,26 +392,22 @@ impl<D: Dim> MixedSph<D> {
     fn kinematics(&mut self, y: &MixedState<D>) -> Result<(), BlowUp> {
         self.extend_motion(y);
         let mut kin = std::mem::take(&mut self.kin);
-        kin[..self.n]
-            .par_iter_mut()
-            .with_min_len(MIN_CHUNK)
-            .enumerate()
-            .for_each(|(a, k)| {
-                let (f, h, j) = self.stress_arguments(y, a, &self.u_ext);
-                let mut grad_v = D::zero_t();
-                for q in self.csr.range(a) {
-                    let b = self.csr.ids[q] as usize;
-                    grad_v += D::outer(self.v_ext[b] - self.v_ext[a], self.grad[q]) * self.vol[b];
-                }
-                *k = Kinematics {
-                    p: self.material.pk1_mixed::<D>(f, h, j),
-                    h,
-                    grad_v,
-                    j,
-                    det_f: D::det(f),
-                };
-            });
-        self.ghosts.extend(&mut kin, |m, k| Kinematics {
+        let kinematics = |a: usize| {
+            let (f, h, j) = self.stress_arguments(y, a, &self.u_ext);
+            let mut grad_v = D::zero_t();
+            for q in self.csr.range(a) {
+                let b = self.csr.ids[q] as usize;
+                grad_v += D::outer(self.v_ext[b] - self.v_ext[a], self.grad[q]) * self.vol[b];
+            }
+            Kinematics {
+                p: self.material.pk1_mixed::<D>(f, h, j),
+                h,
+                grad_v,
+                j,
+                det_f: D::det(f),
+            }
+        };
+        self.ghosts.fill(&mut kin, kinematics, |m, k| Kinematics {
             p: m.tensor::<D>(k.p),
             h: m.unit_tensor::<D>(k.h),
             grad_v: m.tensor::<D>(k.grad_v),
@@ -432,27 +428,23 @@ impl<D: Dim> MixedSph<D> {
     /// Pass 2 (Upwind-SPH with reconstruction): least-squares slopes of v and P.
     fn slopes(&mut self) {
         let mut slopes = std::mem::take(&mut self.slopes);
-        slopes[..self.n]
-            .par_iter_mut()
-            .with_min_len(MIN_CHUNK)
-            .enumerate()
-            .for_each(|(a, s)| {
-                let mut grad_v = D::zero_t();
-                let mut grad_p = [D::zero_t(); 3];
-                let pa = self.kin[a].p;
-                for q in self.csr.range(a) {
-                    let b = self.csr.ids[q] as usize;
-                    let w = self.ls[q];
-                    grad_v += D::outer(self.v_ext[b] - self.v_ext[a], w);
-                    let dp = self.kin[b].p - pa;
-                    for (l, g) in grad_p.iter_mut().enumerate().take(D::N) {
-                        *g += dp * D::comp(w, l);
-                    }
+        let least_squares = |a: usize| {
+            let mut grad_v = D::zero_t();
+            let mut grad_p = [D::zero_t(); 3];
+            let pa = self.kin[a].p;
+            for q in self.csr.range(a) {
+                let b = self.csr.ids[q] as usize;
+                let w = self.ls[q];
+                grad_v += D::outer(self.v_ext[b] - self.v_ext[a], w);
+                let dp = self.kin[b].p - pa;
+                for (l, g) in grad_p.iter_mut().enumerate().take(D::N) {
+                    *g += dp * D::comp(w, l);
                 }
-                *s = Slopes { grad_v, grad_p };
-            });
+            }
+            Slopes { grad_v, grad_p }
+        };
         // ∂P'/∂X'_l = r_l σ R (∂P/∂X_l) R.
-        self.ghosts.extend(&mut slopes, |m, s| Slopes {
+        self.ghosts.fill(&mut slopes, least_squares, |m, s| Slopes {
             grad_v: m.tensor::<D>(s.grad_v),
             grad_p: std::array::from_fn(|l| {
                 let sign = if l < D::N { m.axis_sign(l) } else { 0.0 };
@@ -468,19 +460,16 @@ impl<D: Dim> MixedSph<D> {
             return;
         };
         let mut lap = std::mem::take(&mut self.lap);
-        lap[..self.n]
-            .par_iter_mut()
-            .with_min_len(MIN_CHUNK)
-            .enumerate()
-            .for_each(|(a, l)| {
-                let mut sum = D::zero();
-                for q in self.csr.range(a) {
-                    let b = self.csr.ids[q] as usize;
-                    sum += (self.v_ext[b] - self.v_ext[a]) * ell[q];
-                }
-                *l = sum;
-            });
-        self.ghosts.extend(&mut lap, |m, l| m.vector::<D>(l));
+        let laplacian = |a: usize| {
+            let mut sum = D::zero();
+            for q in self.csr.range(a) {
+                let b = self.csr.ids[q] as usize;
+                sum += (self.v_ext[b] - self.v_ext[a]) * ell[q];
+            }
+            sum
+        };
+        self.ghosts
+            .fill(&mut lap, laplacian, |m, l| m.vector::<D>(l));
         self.lap = lap;
     }
 
@@ -675,8 +664,7 @@ impl<'a, D: Dim> Balance<'a, D> {
 
 /// `real` into out[..n] and the ghosts' images σR v into the rest.
 fn fill_extended<D: Dim>(ghosts: &Ghosts<D>, out: &mut [D::V], real: &[D::V]) {
-    out[..real.len()].copy_from_slice(real);
-    ghosts.extend(out, |m, v| m.vector::<D>(v));
+    ghosts.fill(out, |a| real[a], |m, v| m.vector::<D>(v));
 }
 
 /// One value per CSR pair (i, j).
