@@ -38,8 +38,11 @@ pub struct Image {
 impl Image {
     /// R g.
     pub fn reflect<D: Dim>(&self, g: D::V) -> D::V {
-        let c: Vec<f64> = (0..D::N).map(|k| self.r[k] * D::comp(g, k)).collect();
-        D::from_slice(&c)
+        let mut c = [0.0; 3];
+        for (k, c) in c.iter_mut().enumerate().take(D::N) {
+            *c = self.r[k] * D::comp(g, k);
+        }
+        D::from_slice(&c[..D::N])
     }
 
     /// σ R v.

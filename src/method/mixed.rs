@@ -174,7 +174,7 @@ pub struct MixedSph<D: Dim> {
     material: Material,
     conserved: Conserved,
     momentum: Momentum,
-    /// V_b W̃_b(X_a) per pair, for the bond-based F; None for the evolved F.
+    /// V_b W̃_b(X_a) / |X_ab|² per pair, for the bond-based F; None for the evolved F.
     bond_weights: Option<Vec<f64>>,
     stabilisation: Stabilisation,
     projection: bool,
@@ -269,7 +269,8 @@ impl<D: Dim> MixedSph<D> {
                 let kernel = Kernel::new(m.kernel, m.h_over_dx * case.spacing, D::N);
                 let w = correction::kernel_weights::<D>(m.correction, &x0, &vol, &csr, &kernel)
                     .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
-                Some(w)
+                let r2 = pair_map(&csr, |i, j| D::norm2(x0[j] - x0[i]));
+                Some(w.iter().zip(&r2).map(|(w, r2)| w / r2).collect())
             }
         };
         let n_ext = x0.len();
@@ -356,13 +357,14 @@ impl<D: Dim> MixedSph<D> {
     /// kernel-smoothed Breitzman–Dayal bond F with the self-bond F_aa = F_a (seed 002 eqs
     /// 37 and 39, summed with the partition of unity Σ_b V_b W̃_b = 1). Exact for affine
     /// motion: the bracket vanishes.
+    /// `w` holds V_b W̃_b(X_a) / |X_ab|² per pair.
     fn bond_based_f(&self, a: usize, f: D::T, u_ext: &[D::V], w: &[f64]) -> D::T {
         let mut fc = f;
         for q in self.csr.range(a) {
             let b = self.csr.ids[q] as usize;
             let x_ab = self.x0[b] - self.x0[a];
             let dx = x_ab + u_ext[b] - u_ext[a];
-            fc += D::outer(dx - f * x_ab, x_ab) * (w[q] / D::norm2(x_ab));
+            fc += D::outer(dx - f * x_ab, x_ab) * w[q];
         }
         fc
     }
