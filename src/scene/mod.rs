@@ -134,7 +134,8 @@ impl Conserved {
     }
 }
 
-/// JST dissipation coefficients ε⁽²⁾ (Laplacian) and ε⁽⁴⁾ (bi-Laplacian).
+/// JST dissipation: coefficients ε⁽²⁾ (Laplacian) and ε⁽⁴⁾ (bi-Laplacian), and the
+/// discrete Laplacian both are built on.
 #[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Jst {
@@ -142,6 +143,23 @@ pub struct Jst {
     pub eps2: f64,
     #[serde(default = "default_eps4")]
     pub eps4: f64,
+    #[serde(default)]
+    pub laplacian: JstLaplacian,
+}
+
+/// The discrete Laplacian ∇²f_a = Σ_b ℓ_ab (f_b − f_a) of the JST dissipation.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum JstLaplacian {
+    /// Brookshaw weights corrected to be exact for linear fields and |X|² (the properties
+    /// seed 002 states); near free surfaces the weights grow and change sign, and a
+    /// large ε⁽⁴⁾ then needs a smaller CFL number.
+    #[default]
+    Corrected,
+    /// ℓ_ab = 2 V_b N_ab·∇̃W̃_b(X_a)/|X_ab| (seed 003 eq 55, Morris et al.): positive
+    /// symmetrised weights, but the Laplacian of a linear field is not zero at free
+    /// surfaces, so rigid and bending motion is damped there.
+    Brookshaw,
 }
 
 fn default_eps4() -> f64 {
@@ -153,6 +171,7 @@ impl Default for Jst {
         Self {
             eps2: 0.0,
             eps4: default_eps4(),
+            laplacian: JstLaplacian::default(),
         }
     }
 }

@@ -245,7 +245,7 @@ fn method_options(case: &Case) -> Checked {
             format!("is read only by `jst-sph`, not by {name}; remove it"),
         );
     }
-    if let Some(Jst { eps2, eps4 }) = m.jst {
+    if let Some(Jst { eps2, eps4, .. }) = m.jst {
         non_negative("method.jst.eps2", eps2)?;
         non_negative("method.jst.eps4", eps4)?;
     }
