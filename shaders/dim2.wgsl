@@ -20,6 +20,13 @@ fn inverse_d(m: matd) -> matd {
     return matd(m[1][1], -m[0][1], -m[1][0], m[0][0]) * (1.0 / determinant(m));
 }
 
+// The smallest eigenvalue of a symmetric tensor (tensor::smallest_stretch_squared on
+// the CPU).
+fn smallest_eigenvalue_sym(c: matd) -> f32 {
+    let half_gap = 0.5 * (c[0][0] - c[1][1]);
+    return 0.5 * trace_d(c) - sqrt(half_gap * half_gap + c[1][0] * c[1][0]);
+}
+
 fn ddot_d(a: matd, b: matd) -> f32 {
     return dot(a[0], b[0]) + dot(a[1], b[1]);
 }

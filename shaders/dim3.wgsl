@@ -22,6 +22,34 @@ fn inverse_d(m: matd) -> matd {
     return adj * (1.0 / determinant(m));
 }
 
+// The smallest eigenvalue of a symmetric tensor: the trigonometric solution of the
+// characteristic cubic (tensor::smallest_stretch_squared on the CPU), then two Newton
+// steps on the cubic, since Vulkan lets acos be off by thousands of ulp (4e-4 relative
+// measured on lavapipe).
+fn smallest_eigenvalue_sym(c: matd) -> f32 {
+    let q = trace_d(c) / 3.0;
+    let off = c[1][0] * c[1][0] + c[2][0] * c[2][0] + c[2][1] * c[2][1];
+    let d = vec3<f32>(c[0][0], c[1][1], c[2][2]) - vec3<f32>(q);
+    let p = sqrt((dot(d, d) + 2.0 * off) / 6.0);
+    if p == 0.0 {
+        return q;
+    }
+    let b = (c - identity_d() * q) * (1.0 / p);
+    let phi = acos(clamp(0.5 * determinant(b), -1.0, 1.0)) / 3.0;
+    var l = q + 2.0 * p * cos(phi + 2.0943951);
+    // det(C − λI) = ((I1 − λ)λ − I2)λ + I3.
+    let i1 = trace_d(c);
+    let i2 = 0.5 * (i1 * i1 - trace_d(c * c));
+    let i3 = determinant(c);
+    for (var k = 0; k < 2; k++) {
+        let slope = (2.0 * i1 - 3.0 * l) * l - i2;
+        if slope != 0.0 {
+            l -= (((i1 - l) * l - i2) * l + i3) / slope;
+        }
+    }
+    return l;
+}
+
 fn ddot_d(a: matd, b: matd) -> f32 {
     return dot(a[0], b[0]) + dot(a[1], b[1]) + dot(a[2], b[2]);
 }

@@ -8,3 +8,10 @@ fn strain_energy(i: u32) -> f32 {
     }
     return vol[i] * energy_density_mixed(f, j);
 }
+
+// 1/λ²_min of particle i (seed 002 eqs 31–32: the wave speed the CFL step uses is
+// c_p/λ²_min), λ²_min the smallest eigenvalue of C = FᵀF.
+fn stretch_factor(i: u32) -> f32 {
+    let f = identity_d() + mload_y(F_OFF + DIM * DIM * i);
+    return 1.0 / smallest_eigenvalue_sym(transpose(f) * f);
+}

@@ -1,12 +1,14 @@
 // Global sums of one state, per workgroup: kinetic and strain energy, linear and angular
-// momentum, the power of supports and loads, max |v|² and a count of non-finite entries.
+// momentum, the power of supports and loads, max |v|², a count of non-finite entries and
+// the largest stretch factor of the wave speed (`stretch_factor(i)`: 1/λ²_min for the mixed
+// methods, 1 for TLSPH).
 // One invocation per particle; a tree reduction in workgroup memory writes REDUCED values
-// per workgroup to `partials`, summed (max for |v|²) on the host in f64. The method's
+// per workgroup to `partials`, summed (max for |v|² and the stretch factor) on the host in f64. The method's
 // `strain_energy(i)` (tlsph_energy.wgsl: from the stress pass's kin for the same state;
 // mixed_energy.wgsl: from the state) is V_i ψ_i; a non-finite energy counts as a
 // non-finite entry. Constants: N, DIM, RHO0, U_OFF, V_OFF.
 
-const REDUCED: u32 = 11u;
+const REDUCED: u32 = 12u;
 
 @group(0) @binding(0) var<storage, read> y: array<f32>;
 // Method data the strain energy reads (TLSPH: the kinematics; unused by mixed methods).
@@ -59,13 +61,14 @@ fn reduce(
             bad = 1.0;
         }
         q[10] = bad;
+        q[11] = stretch_factor(i);
     }
     sums[lid] = q;
     workgroupBarrier();
     for (var stride = 128u; stride > 0u; stride >>= 1u) {
         if lid < stride {
             for (var k = 0u; k < REDUCED; k++) {
-                if k == 9u {
+                if k == 9u || k == 11u {
                     sums[lid][k] = max(sums[lid][k], sums[lid + stride][k]);
                 } else {
                     sums[lid][k] += sums[lid + stride][k];

@@ -259,9 +259,61 @@ impl Dim for D3 {
     }
 }
 
+/// The smallest principal stretch squared of F: the smallest eigenvalue of C = FᵀF, in
+/// closed form (2D), or by the trigonometric solution of the characteristic cubic (3D).
+pub fn smallest_stretch_squared<D: Dim>(f: D::T) -> f64 {
+    let c = D::transpose(f) * f;
+    let e = |k: usize, l: usize| D::entry(c, k, l);
+    let q = D::trace(c) / D::N as f64;
+    if D::N == 2 {
+        let r = (0.25 * (e(0, 0) - e(1, 1)).powi(2) + e(0, 1).powi(2)).sqrt();
+        return q - r;
+    }
+    let off = e(0, 1).powi(2) + e(0, 2).powi(2) + e(1, 2).powi(2);
+    let p = (((e(0, 0) - q).powi(2) + (e(1, 1) - q).powi(2) + (e(2, 2) - q).powi(2) + 2.0 * off)
+        / 6.0)
+        .sqrt();
+    if p == 0.0 {
+        return q;
+    }
+    // B = (C − qI)/p has eigenvalues 2 cos(φ + 2πk/3), φ = acos(det B / 2)/3.
+    let b = (c - D::identity() * q) * (1.0 / p);
+    let phi = (0.5 * D::det(b)).clamp(-1.0, 1.0).acos() / 3.0;
+    q + 2.0 * p * (phi + 2.0 * std::f64::consts::FRAC_PI_3).cos()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn smallest_stretch_squared_of_a_rotated_stretch() {
+        // F = R diag(λ) has C = diag(λ²); the rotation must not change the answer
+        // (round-off of the cubic's trigonometric solution: 1e-12).
+        let r3 = DMat3::from_euler(glam::EulerRot::XYZ, 0.3, -1.1, 2.0);
+        for l in [
+            [2.0, 0.5, 1.5],
+            [0.7, 0.7, 3.0],
+            [1.0, 1.0, 1.0],
+            [4.0, 0.2, 0.2],
+        ] {
+            let f = r3 * DMat3::from_diagonal(DVec3::from_array(l));
+            let min = l.iter().fold(f64::INFINITY, |m, &x| m.min(x * x));
+            assert!(
+                (smallest_stretch_squared::<D3>(f) - min).abs() < 1e-12,
+                "{l:?}"
+            );
+        }
+        let r2 = DMat2::from_angle(0.7);
+        for l in [[2.0, 0.5], [0.3, 0.3], [1.2, 3.0]] {
+            let f = r2 * DMat2::from_diagonal(DVec2::from_array(l));
+            let min = l.iter().fold(f64::INFINITY, |m, &x| m.min(x * x));
+            assert!(
+                (smallest_stretch_squared::<D2>(f) - min).abs() < 1e-12,
+                "{l:?}"
+            );
+        }
+    }
 
     #[test]
     fn cofactor_is_det_times_inverse_transpose_and_cof_rate_its_derivative() {

@@ -6,6 +6,7 @@ use meshless::gpu::Gpu;
 use meshless::gpu::layout::GpuDim;
 use meshless::gpu::mixed::GpuMixed;
 use meshless::integrate::{Integrator, OdeSystem};
+use meshless::material::Material;
 use meshless::method::Method;
 use meshless::method::mixed::{MixedSph, MixedState};
 use meshless::observe::Invariants;
@@ -320,4 +321,41 @@ fn projection_keeps_the_angular_momentum_of_the_spinning_plate() {
         without > 1e-5 && without > 100.0 * with,
         "without the projection: max |L/L0 − 1| = {without:e} (projected {with:e})"
     );
+}
+
+/// The CFL signal speed c_p/λ²_min + max |v| (seed 002 eqs 31–32) on a random state in
+/// which one particle is stretched to F = R diag(2, 0.4[, 1.3]) (λ²_min = 0.16): the
+/// CPU value against the closed form (the other particles have λ²_min ≥ 0.8; round-off
+/// 1e-12), and the GPU's reduction against the CPU (f32 eigenvalue of C with entries
+/// ≤ 4 over λ²_min = 0.16: 25 × 6e-8 = 1.5e-6, with a margin; measured 2.3e-7 in 2D,
+/// 7.6e-8 in 3D, after the Newton steps that undo Vulkan's loose acos).
+fn check_signal_speed<D: GpuDim>(c: &Case, stretched: D::T) {
+    let cpu: MixedSph<D> = build_method(c).unwrap();
+    let mut y = random_state(&cpu, &mut 11, 0.01);
+    y.f[3] = stretched;
+    y.v.iter_mut().for_each(|v| *v = D::zero());
+    let v_max = y.v.iter().map(|&v| D::norm2(v).sqrt()).fold(0.0, f64::max);
+    let exact = Material::new(&c.material).p_wave_speed() / 0.16 + v_max;
+    let on_cpu = cpu.max_signal_speed(&y);
+    assert!(
+        (on_cpu / exact - 1.0).abs() < 1e-12,
+        "CPU {on_cpu} vs {exact} m/s"
+    );
+    let mut g: GpuMixed<D> = GpuMixed::new(c, gpu()).unwrap();
+    g.set_state(&y);
+    let on_gpu = g.max_signal_speed();
+    assert!(
+        (on_gpu / on_cpu - 1.0).abs() < 1e-5,
+        "GPU {on_gpu} vs CPU {on_cpu} m/s"
+    );
+}
+
+#[test]
+fn the_cfl_signal_speed_follows_the_smallest_stretch() {
+    let r2 = glam::DMat2::from_angle(0.4);
+    let s2 = r2 * glam::DMat2::from_diagonal(glam::DVec2::new(2.0, 0.4));
+    check_signal_speed::<D2>(&case("swinging-plate", &["spacing=0.125"]), s2);
+    let r3 = glam::DMat3::from_euler(glam::EulerRot::XYZ, 0.3, -0.5, 1.1);
+    let s3 = r3 * glam::DMat3::from_diagonal(glam::DVec3::new(2.0, 0.4, 1.3));
+    check_signal_speed::<D3>(&case("swinging-cube", &["spacing=0.125"]), s3);
 }

@@ -760,7 +760,9 @@ impl<D: GpuDim> Engine<D> for GpuMixed<D> {
     }
 
     fn max_signal_speed(&mut self) -> f64 {
-        self.cpu.material().p_wave_speed() + self.reduction().max_speed
+        // As the CPU's MixedSph::max_signal_speed (seed 002 eqs 31–32).
+        let r = self.reduction();
+        self.cpu.material().p_wave_speed() * r.stretch_factor + r.max_speed
     }
 
     /// Trapezoidal over the intervals between calls (the driver calls it at every check).

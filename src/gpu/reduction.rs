@@ -1,13 +1,14 @@
 //! The GPU reduction of a state (`shaders/reduce.wgsl`) and the work balance of supports
 //! and loads, shared by the GPU engines: energies, momenta, the power of supports and
-//! loads, max |v| and a non-finite count, per workgroup on the device and summed on the
-//! host in f64. Only the partials (11 floats per 256 particles) are read back.
+//! loads, max |v|, a non-finite count and the largest stretch factor of the wave speed, per
+//! workgroup on the device and summed on the host in f64. Only the partials (12 floats
+//! per 256 particles) are read back.
 
 use super::context::Gpu;
 use crate::observe::Invariants;
 
 /// Values per workgroup written by `reduce.wgsl`.
-const REDUCED: usize = 11;
+const REDUCED: usize = 12;
 
 /// The GPU reduction of one state, summed on the host.
 #[derive(Clone, Copy, Debug)]
@@ -17,6 +18,8 @@ pub struct Reduced {
     pub power: f64,
     pub max_speed: f64,
     pub non_finite: bool,
+    /// Largest factor on the wave speed (1/λ²_min for the mixed methods, 1 for TLSPH).
+    pub stretch_factor: f64,
 }
 
 /// The reduce pass of an engine and its cached result for the current state.
@@ -70,7 +73,7 @@ impl Reduction {
         let mut q = [0.0f64; REDUCED];
         for group in partials.chunks_exact(REDUCED) {
             for (k, &v) in group.iter().enumerate() {
-                q[k] = if k == 9 {
+                q[k] = if k == 9 || k == 11 {
                     q[k].max(f64::from(v))
                 } else {
                     q[k] + f64::from(v)
@@ -87,6 +90,7 @@ impl Reduction {
             power: q[8],
             max_speed: q[9].sqrt(),
             non_finite: q[10] != 0.0 || !q[..10].iter().all(|x| x.is_finite()),
+            stretch_factor: q[11],
         };
         self.cached = Some(r);
         r
