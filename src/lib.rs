@@ -7,6 +7,7 @@ pub mod bench;
 pub mod boundary;
 pub mod correction;
 pub mod gpu;
+pub mod hourglass;
 pub mod integrate;
 pub mod kernel;
 pub mod material;

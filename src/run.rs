@@ -5,6 +5,7 @@ use crate::gpu::Gpu;
 use crate::gpu::layout::GpuDim;
 use crate::gpu::mixed::GpuMixed;
 use crate::gpu::tlsph::{GpuTlsph, SetupError};
+use crate::hourglass::HourglassIndicator;
 use crate::integrate::Integrator;
 use crate::material::{Material, von_mises};
 use crate::method::mixed::MixedSph;
@@ -429,7 +430,7 @@ pub fn drive<D: Dim, E: Engine<D>>(
     std::fs::create_dir_all(&opts.out_dir)?;
     let mut series =
         SeriesWriter::create(&opts.out_dir.join("series.csv"), observers.column_names())?;
-    let mut frames = Frames::new(case, opts)?;
+    let mut frames = Frames::new::<D>(case, opts, engine.reference())?;
     let backend = engine.backend();
     if opts.progress {
         eprintln!(
@@ -598,6 +599,7 @@ fn progress_bar(show: bool, case: &Case) -> ProgressBar {
 /// VTU frames and their PVD index.
 struct Frames {
     index: Option<PvdIndex>,
+    hourglass: Option<HourglassIndicator>,
     dir: PathBuf,
     name: String,
     interval: Option<f64>,
@@ -606,14 +608,18 @@ struct Frames {
 }
 
 impl Frames {
-    fn new(case: &Case, opts: &RunOptions) -> std::io::Result<Self> {
-        let index = if opts.frames {
-            Some(PvdIndex::create(&opts.out_dir, &case.name)?)
+    fn new<D: Dim>(case: &Case, opts: &RunOptions, x0: &[D::V]) -> std::io::Result<Self> {
+        let (index, hourglass) = if opts.frames {
+            (
+                Some(PvdIndex::create(&opts.out_dir, &case.name)?),
+                Some(HourglassIndicator::new::<D>(case, x0)),
+            )
         } else {
-            None
+            (None, None)
         };
         Ok(Self {
             index,
+            hourglass,
             dir: opts.out_dir.clone(),
             name: case.name.clone(),
             interval: case.output.frame_interval,
@@ -638,14 +644,14 @@ impl Frames {
     /// Writes a frame when one is due (or `force`).
     fn write<D: Dim>(&mut self, snap: &Snapshot<D>, t: f64, force: bool) -> std::io::Result<()> {
         let due = self.due(t);
-        let Some(index) = &mut self.index else {
+        let (Some(index), Some(hourglass)) = (&mut self.index, &self.hourglass) else {
             return Ok(());
         };
         if !(due || force) {
             return Ok(());
         }
         let file = format!("{}_{:06}.vtu", self.name, self.count);
-        write_frame::<D>(&self.dir.join(&file), snap, t)?;
+        write_frame::<D>(&self.dir.join(&file), snap, t, hourglass)?;
         index.push(t, &file)?;
         self.count += 1;
         if let Some(dt) = self.interval {
@@ -657,8 +663,14 @@ impl Frames {
     }
 }
 
-/// One VTU frame: current positions with u, v, F, σ, von Mises stress, J and body.
-pub fn write_frame<D: Dim>(path: &Path, snap: &Snapshot<D>, t: f64) -> std::io::Result<()> {
+/// One VTU frame: current positions with u, v, F, σ, von Mises stress, J, the hourglass
+/// indicator η and body.
+pub fn write_frame<D: Dim>(
+    path: &Path,
+    snap: &Snapshot<D>,
+    t: f64,
+    hourglass: &HourglassIndicator,
+) -> std::io::Result<()> {
     let points: Vec<[f64; 3]> = snap
         .x0
         .iter()
@@ -672,6 +684,7 @@ pub fn write_frame<D: Dim>(path: &Path, snap: &Snapshot<D>, t: f64) -> std::io::
     let vm: Vec<f64> = snap.sigma.iter().map(von_mises).collect();
     let s9: Vec<[f64; 9]> = snap.sigma.iter().map(|s| flatten(*s)).collect();
     let body: Vec<i32> = snap.body.iter().map(|&b| b as i32).collect();
+    let eta = hourglass.of::<D>(snap.x0, &snap.u, &snap.f);
     let fields = [
         Field {
             name: "u",
@@ -696,6 +709,10 @@ pub fn write_frame<D: Dim>(path: &Path, snap: &Snapshot<D>, t: f64) -> std::io::
         Field {
             name: "J",
             data: FieldData::Scalar(&jac),
+        },
+        Field {
+            name: "hourglass",
+            data: FieldData::Scalar(&eta),
         },
         Field {
             name: "body",
