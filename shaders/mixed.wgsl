@@ -10,9 +10,9 @@
 // Laplacians hold the real particles then the ghosts (filled by mixed_ghosts.wgsl).
 //
 // Scene constants: N, NG, DIM, MODEL, RHO0, MU, LAMBDA, BULK, C_P, C_S, H (smoothing
-// length), STAB (0 upwind, 1 JST), RECON, EPS2, EPS4, EVOLVE_H, EVOLVE_J, KIN_H,
-// PROJECTION, GROUPS (workgroups over N), TOTAL_VOL, segment offsets U_OFF, V_OFF, F_OFF,
-// H_OFF, J_OFF, KP_OFF, KH_OFF, FT_OFF, FD_OFF, FJ_OFF.
+// length), STAB (0 upwind, 1 JST), RECON, EPS2, EPS4, MOMENTUM (0 weak, 1 symmetrised),
+// EVOLVE_H, EVOLVE_J, KIN_H, PROJECTION, GROUPS (workgroups over N), TOTAL_VOL, segment
+// offsets U_OFF, V_OFF, F_OFF, H_OFF, J_OFF, KP_OFF, KH_OFF, FT_OFF, FD_OFF, FJ_OFF.
 
 // Size of one particle's slopes: ∇0v, then ∂P/∂X_l for l < DIM.
 const SLOPE: u32 = (DIM + 1u) * DIM * DIM;

@@ -22,7 +22,7 @@ use crate::method::mixed::{Fluxes, MixedSph, MixedState};
 use crate::method::{BlowUp, Method};
 use crate::observe::{Invariants, Snapshot};
 use crate::run::{Engine, build_method};
-use crate::scene::{Case, Conserved, MethodName};
+use crate::scene::{Case, Conserved, MethodName, Momentum};
 use bytemuck::{Pod, Zeroable};
 
 /// Offsets (in f32 entries) of the fields in the flat buffers of a mixed scene.
@@ -123,6 +123,10 @@ pub fn scene<D: GpuDim>(case: &Case, cpu: &MixedSph<D>) -> (MixedLayout, Constan
         .u32("RECON", u32::from(cpu.reconstruction()))
         .f32("EPS2", eps2)
         .f32("EPS4", eps4)
+        .u32(
+            "MOMENTUM",
+            u32::from(cpu.momentum() == Momentum::Symmetrised),
+        )
         .u32("EVOLVE_H", u32::from(l.evolves_h))
         .u32("EVOLVE_J", u32::from(l.evolves_j))
         .u32("KIN_H", u32::from(l.kin_h))
@@ -175,10 +179,14 @@ pub fn describe_rates(case: &Case) -> String {
             passes.push("their ghosts".into());
         }
     }
+    let t = match m.momentum.unwrap_or_default() {
+        Momentum::Weak => "T",
+        Momentum::Symmetrised => "T symmetrised",
+    };
     passes.push(match (jst, d_j) {
-        (true, _) => "forces (T, JST D(p))".into(),
-        (false, true) => "forces (T, upwind D(p), D(J))".into(),
-        (false, false) => "forces (T, upwind D(p))".into(),
+        (true, _) => format!("forces ({t}, JST D(p))"),
+        (false, true) => format!("forces ({t}, upwind D(p), D(J))"),
+        (false, false) => format!("forces ({t}, upwind D(p))"),
     });
     // The projection is on by default without mirror planes (their reactions are external).
     if m.projection.unwrap_or(!ghosts) {

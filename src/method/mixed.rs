@@ -997,6 +997,10 @@ impl<D: Dim> MixedSph<D> {
         }
     }
 
+    pub(crate) fn momentum(&self) -> Momentum {
+        self.momentum
+    }
+
     pub(crate) fn material(&self) -> &Material {
         &self.material
     }
