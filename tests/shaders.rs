@@ -63,7 +63,7 @@ fn variants() -> Vec<Case> {
 /// Mixed-method scenes of dimension `dim`: with ghosts (mirror planes) and without, each
 /// material model the mixed methods allow, projection on and off, Upwind-SPH with and
 /// without reconstruction and JST-SPH, each set of conserved variables, and each method
-/// with the symmetrised momentum of seed 002.
+/// with the seed 002 options (symmetrised momentum, bond-based F with {p, F}).
 fn mixed_variants(dim: usize) -> Vec<Case> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases");
     let bases: Vec<(&str, Vec<&str>)> = if dim == 2 {
@@ -114,7 +114,7 @@ fn mixed_variants(dim: usize) -> Vec<Case> {
             [
                 "method.variables=p-F",
                 "method.momentum=symmetrised",
-                "method.deformation_gradient=evolved",
+                "method.deformation_gradient=bond-based",
             ]
             .map(String::from),
         );
