@@ -9,7 +9,7 @@ use meshless::integrate::{Integrator, OdeSystem};
 use meshless::method::Method;
 use meshless::method::mixed::{MixedSph, MixedState};
 use meshless::observe::Invariants;
-use meshless::run::{Engine, build_method};
+use meshless::run::{Backend, Engine, build_method};
 use meshless::scene::{Case, MethodName};
 use meshless::tensor::{D2, D3, Dim};
 
@@ -320,6 +320,15 @@ fn runs_track_the_cpu_with_the_seed_002_options() {
         "method.deformation_gradient=bond-based",
     ];
     compare_runs::<D2>(&case("swinging-plate", &plate), 100);
+}
+
+#[test]
+fn gpu_backend_runs_the_seed_002_options() {
+    // `--backend gpu` builds the GPU engine for the bending column (symmetrised momentum,
+    // bond-based F) instead of refusing or falling back to the CPU.
+    let engine = meshless::run::engine::<D3>(&case("bending-column", &[]), Backend::Gpu)
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert!(engine.backend().starts_with("gpu"), "{}", engine.backend());
 }
 
 #[test]

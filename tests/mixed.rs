@@ -476,24 +476,3 @@ fn bending_column_is_stable_at_cfl_0_9() {
         "relative energy change {change:e} over 75 ms"
     );
 }
-
-/// The seed 002 options have no GPU passes: `--backend gpu` must refuse them by name
-/// rather than run the seed 003 fluxes (needs an adapter: lavapipe in CI).
-#[test]
-fn gpu_backend_refuses_the_seed_002_options() {
-    let case = load("bending-column", &[]);
-    let message = match meshless::run::engine::<D3>(&case, Backend::Gpu) {
-        Ok(_) => panic!("the GPU engine accepted the bond-based F"),
-        Err(e) => e.to_string(),
-    };
-    assert!(
-        message.contains("method.momentum") && message.contains("--backend cpu"),
-        "{message}"
-    );
-    let case = load("bending-column", &["method.momentum=weak"]);
-    let message = match meshless::run::engine::<D3>(&case, Backend::Gpu) {
-        Ok(_) => panic!("the GPU engine accepted the bond-based F"),
-        Err(e) => e.to_string(),
-    };
-    assert!(message.contains("bond-based"), "{message}");
-}
