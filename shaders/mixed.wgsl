@@ -7,12 +7,16 @@
 // ghosts follow the real particles in the extended index (ghost k is N + k); per-pair
 // data are in CSR order over the real rows, whose neighbour ids may be ghosts. The
 // kinematics kin = [P | H − I] (H only where D(J) gathers it), the slopes and the
-// Laplacians hold the real particles then the ghosts (filled by mixed_ghosts.wgsl).
+// Laplacians hold the real particles then the ghosts (filled by mixed_ghosts.wgsl). The
+// stress is evaluated at the F − I of a binding `fs` at FS_OFF: the state again
+// (FS_OFF = F_OFF) where F is evolved, or the bond-based F^c − I of mixed_bond.wgsl
+// (FS_OFF = 0, seed 002).
 //
 // Scene constants: N, NG, DIM, MODEL, RHO0, MU, LAMBDA, BULK, C_P, C_S, H (smoothing
-// length), STAB (0 upwind, 1 JST), RECON, EPS2, EPS4, EVOLVE_H, EVOLVE_J, KIN_H,
-// PROJECTION, GROUPS (workgroups over N), TOTAL_VOL, segment offsets U_OFF, V_OFF, F_OFF,
-// H_OFF, J_OFF, KP_OFF, KH_OFF, FT_OFF, FD_OFF, FJ_OFF.
+// length), STAB (0 upwind, 1 JST), RECON, EPS2, EPS4, MOMENTUM (0 weak, 1 symmetrised),
+// EVOLVE_H, EVOLVE_J, KIN_H, PROJECTION, GROUPS (workgroups over N), TOTAL_VOL, segment
+// offsets U_OFF, V_OFF, F_OFF, H_OFF, J_OFF, FS_OFF, KP_OFF, KH_OFF, FT_OFF, FD_OFF,
+// FJ_OFF.
 
 // Size of one particle's slopes: ∇0v, then ∂P/∂X_l for l < DIM.
 const SLOPE: u32 = (DIM + 1u) * DIM * DIM;

@@ -1,8 +1,10 @@
 // Pass 1 of a mixed rate evaluation (MixedSph::kinematics), one invocation per real
 // particle: P(F, H, J) (mechanics.wgsl) and ∇0v_a = Σ_b V_b (v_b − v_a) ⊗ g_ab, and from
 // them the rates Ḟ = ∇0v, Ḣ = F × ∇0v and J̇ = H : ∇0v (eqs 39b–d; the rates pass adds
-// D(J)). H = cof F and J = det F where they are not evolved. det F ≤ 0 records the particle
-// in status[0], J ≤ 0 in status[1] (u32 atomicMin). Layout and constants: mixed.wgsl.
+// D(J)). P, and H = cof F and J = det F where they are not evolved, take the F of `fs`
+// (the evolved F or the bond-based F^c); Ḣ takes the evolved F. det F ≤ 0 records the
+// particle in status[0], J ≤ 0 in status[1] (u32 atomicMin). Layout and constants:
+// mixed.wgsl.
 
 @group(0) @binding(0) var<storage, read> offsets: array<u32>;
 @group(0) @binding(1) var<storage, read> ids: array<u32>;
@@ -13,6 +15,8 @@
 @group(0) @binding(5) var<storage, read_write> kin: array<f32>;
 @group(0) @binding(6) var<storage, read_write> d: array<f32>;
 @group(0) @binding(7) var<storage, read_write> status: array<atomic<u32>>;
+// F − I of the stress at FS_OFF (mixed.wgsl): y again, or F^c − I.
+@group(0) @binding(8) var<storage, read> fs: array<f32>;
 
 @compute @workgroup_size(256)
 fn kinematics(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
@@ -25,7 +29,7 @@ fn kinematics(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     for (var p = offsets[a]; p < offsets[a + 1u]; p++) {
         grad_v += outer(velocity(ids[p]) - v_a, vload_grad(DIM * p));
     }
-    let f = mload_y(F_OFF + DIM * DIM * a);
+    let f = mload_fs(FS_OFF + DIM * DIM * a);
     var h = cof_excess(f);
     if EVOLVE_H == 1u {
         h = mload_y(H_OFF + DIM * DIM * a);
@@ -47,7 +51,7 @@ fn kinematics(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     }
     mstore_d(F_OFF + DIM * DIM * a, grad_v);
     if EVOLVE_H == 1u {
-        mstore_d(H_OFF + DIM * DIM * a, cof_rate(f, grad_v));
+        mstore_d(H_OFF + DIM * DIM * a, cof_rate(mload_y(F_OFF + DIM * DIM * a), grad_v));
     }
     if EVOLVE_J == 1u {
         d[J_OFF + a] = ddot_d(identity_d() + h, grad_v);

@@ -5,13 +5,14 @@
 // One invocation per particle; a tree reduction in workgroup memory writes REDUCED values
 // per workgroup to `partials`, summed (max for |v|² and the stretch factor) on the host in f64. The method's
 // `strain_energy(i)` (tlsph_energy.wgsl: from the stress pass's kin for the same state;
-// mixed_energy.wgsl: from the state) is V_i ψ_i; a non-finite energy counts as a
+// mixed_energy.wgsl: from the F of the stress) is V_i ψ_i; a non-finite energy counts as a
 // non-finite entry. Constants: N, DIM, RHO0, U_OFF, V_OFF.
 
 const REDUCED: u32 = 12u;
 
 @group(0) @binding(0) var<storage, read> y: array<f32>;
-// Method data the strain energy reads (TLSPH: the kinematics; unused by mixed methods).
+// Method data the strain energy reads (TLSPH: the kinematics; mixed methods: the state
+// again, or the bond-based F^c − I).
 @group(0) @binding(1) var<storage, read> kin: array<f32>;
 @group(0) @binding(2) var<storage, read> vol: array<f32>;
 @group(0) @binding(3) var<storage, read> x_hi: array<f32>;

@@ -15,9 +15,7 @@ use crate::observe::{Clock, Invariants, Observers, Snapshot};
 use crate::output::{
     Field, FieldData, PvdIndex, RunSummary, SeriesWriter, write_summary, write_vtu,
 };
-use crate::scene::{
-    Case, CaseError, Conserved, DeformationGradient, MethodName, Momentum, discretise,
-};
+use crate::scene::{Case, CaseError, Conserved, DeformationGradient, MethodName, discretise};
 use crate::tensor::{D2, D3, Dim};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -104,6 +102,7 @@ pub fn explain(case: &Case, gpu: bool) -> String {
     ];
     let conserved = m.variables.unwrap_or(Conserved::PFHJ);
     let projection = m.projection.unwrap_or(case.mirrors.is_empty());
+    let bond = mixed && m.deformation_gradient == Some(DeformationGradient::BondBased);
     if mixed {
         let ghosts = if case.mirrors.is_empty() {
             String::new()
@@ -117,8 +116,13 @@ pub fn explain(case: &Case, gpu: bool) -> String {
         };
         out.push(format!(
             "once, on the reference configuration (host, f64{}): cell-list neighbours (CSR){ghosts}, \
-             corrected gradients g_ab and g_ba, {weights}",
-            if gpu { ", uploaded in f32" } else { "" }
+             corrected gradients g_ab and g_ba, {weights}{}",
+            if gpu { ", uploaded in f32" } else { "" },
+            if bond {
+                ", bond weights V_b W̃_b(X_a)/|X_ab|²"
+            } else {
+                ""
+            }
         ));
         out.push(format!(
             "state: u, v, F{}{} ({conserved:?}; {:?})",
@@ -188,6 +192,9 @@ pub fn explain(case: &Case, gpu: bool) -> String {
         if !conserved.evolves_j() {
             left_out.push("J evolution (J = det F)");
         }
+        if !bond {
+            left_out.push("bond-based F^c (P of the evolved F)");
+        }
     } else {
         if m.artificial_viscosity.is_none() {
             left_out.push("artificial viscosity");
@@ -203,9 +210,22 @@ pub fn explain(case: &Case, gpu: bool) -> String {
     }
     out.push(format!("left out: {}", left_out.join(", ")));
     out.push(format!(
-        "host checks every {CHECK_EVERY} steps or at samples: det F{} ≤ 0, non-finite state, energy ≤ {}·(E0 + W_ext); observers: {:?}",
+        "host checks every {CHECK_EVERY} steps or at samples: det F{} ≤ 0, non-finite state, energy ≤ {}·(E0 + W_ext){}; observers: {:?}",
         if mixed { ", J" } else { "" },
-        case.run.energy_growth_limit, case.output.observers
+        case.run.energy_growth_limit,
+        if bond && gpu {
+            format!(
+                " (strain energy ψ(F^c): {}bond-based F^c of Y recorded before the reduction)",
+                if case.mirrors.is_empty() {
+                    ""
+                } else {
+                    "ghost motion and "
+                }
+            )
+        } else {
+            String::new()
+        },
+        case.output.observers
     ));
     out.join("\n")
 }
@@ -239,18 +259,6 @@ pub fn engine<D: GpuDim>(case: &Case, backend: Backend) -> Result<Box<dyn Engine
         SetupError::Case(c) => RunError::Case(c),
         SetupError::Gpu(g) => RunError::Backend(g.to_string()),
     };
-    let gpu = match (gpu, gpu_unsupported(case)) {
-        (Some(_), Some(why)) if backend == Backend::Gpu => {
-            return Err(RunError::Backend(format!(
-                "{why} has no GPU passes yet; run with --backend cpu (or auto)"
-            )));
-        }
-        (Some(_), Some(why)) => {
-            eprintln!("note: {why} has no GPU passes yet; running on the CPU (rayon, f64)");
-            None
-        }
-        (gpu, _) => gpu,
-    };
     Ok(match (gpu, case.method.name) {
         (Some(gpu), MethodName::Tlsph) => Box::new(GpuTlsph::<D>::new(case, gpu).map_err(setup)?),
         (Some(gpu), MethodName::UpwindSph | MethodName::JstSph) => {
@@ -261,21 +269,6 @@ pub fn engine<D: GpuDim>(case: &Case, backend: Backend) -> Result<Box<dyn Engine
             Box::new(CpuEngine::<D, MixedSph<D>>::new(case)?)
         }
     })
-}
-
-/// The method option of a case that the GPU engine does not implement, if any.
-fn gpu_unsupported(case: &Case) -> Option<&'static str> {
-    let m = &case.method;
-    if m.momentum.is_some_and(|k| k != Momentum::Weak) {
-        Some("method.momentum = \"symmetrised\"")
-    } else if m
-        .deformation_gradient
-        .is_some_and(|k| k != DeformationGradient::Evolved)
-    {
-        Some("method.deformation_gradient = \"bond-based\"")
-    } else {
-        None
-    }
 }
 
 /// A time stepper the driver runs: the CPU method with its integrator, or the GPU engine.

@@ -530,23 +530,3 @@ fn jst_on_the_brookshaw_laplacian_survives_the_pull_the_corrected_one_does_not()
     );
 }
 
-/// The seed 002 options have no GPU passes: `--backend gpu` must refuse them by name
-/// rather than run the seed 003 fluxes (needs an adapter: lavapipe in CI).
-#[test]
-fn gpu_backend_refuses_the_seed_002_options() {
-    let case = load("bending-column", &[]);
-    let message = match meshless::run::engine::<D3>(&case, Backend::Gpu) {
-        Ok(_) => panic!("the GPU engine accepted the bond-based F"),
-        Err(e) => e.to_string(),
-    };
-    assert!(
-        message.contains("method.momentum") && message.contains("--backend cpu"),
-        "{message}"
-    );
-    let case = load("bending-column", &["method.momentum=weak"]);
-    let message = match meshless::run::engine::<D3>(&case, Backend::Gpu) {
-        Ok(_) => panic!("the GPU engine accepted the bond-based F"),
-        Err(e) => e.to_string(),
-    };
-    assert!(message.contains("bond-based"), "{message}");
-}

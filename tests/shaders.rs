@@ -62,7 +62,8 @@ fn variants() -> Vec<Case> {
 
 /// Mixed-method scenes of dimension `dim`: with ghosts (mirror planes) and without, each
 /// material model the mixed methods allow, projection on and off, Upwind-SPH with and
-/// without reconstruction and JST-SPH, each set of conserved variables.
+/// without reconstruction and JST-SPH, each set of conserved variables, and each method
+/// with the seed 002 options (symmetrised momentum, bond-based F with {p, F}).
 fn mixed_variants(dim: usize) -> Vec<Case> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases");
     let bases: Vec<(&str, Vec<&str>)> = if dim == 2 {
@@ -100,6 +101,25 @@ fn mixed_variants(dim: usize) -> Vec<Case> {
                 cases.push(Case::load(&path, &set).unwrap());
             }
         }
+    }
+    let (seed_002, base) = if dim == 2 {
+        ("swinging-plate", "spacing=0.125")
+    } else {
+        ("bending-column", "method.jst=")
+    };
+    for method in methods {
+        let mut set = vec![base.to_string()];
+        set.extend(method.iter().map(|s| s.to_string()));
+        set.extend(
+            [
+                "method.variables=p-F",
+                "method.momentum=symmetrised",
+                "method.deformation_gradient=bond-based",
+            ]
+            .map(String::from),
+        );
+        let path = dir.join(format!("{seed_002}.toml"));
+        cases.push(Case::load(&path, &set).unwrap());
     }
     cases
 }

@@ -6,10 +6,10 @@
 //! strain energy of a read-back state, in f64).
 //!
 //! One rate evaluation, all on the device and recorded in one compute pass:
-//! ghost motion → kinematics (P, ∇0v, Ḟ, Ḣ, J̇) → ghost kinematics → [slopes or
-//! Laplacians → their ghosts] → forces (T, D(p), D(J)) → [projection sums → solve] →
-//! rates of v and u with the boundary conditions. A whole step, or several, is recorded
-//! into one command encoder; the host reads back only when asked.
+//! ghost motion → [bond-based F^c] → kinematics (P, ∇0v, Ḟ, Ḣ, J̇) → ghost kinematics →
+//! [slopes or Laplacians → their ghosts] → forces (T, D(p), D(J)) → [projection sums →
+//! solve] → rates of v and u with the boundary conditions. A whole step, or several, is
+//! recorded into one command encoder; the host reads back only when asked.
 
 use super::context::{Gpu, WORKGROUP};
 use super::layout::{GpuDim, boundary_buffers, flat_v};
@@ -22,7 +22,7 @@ use crate::method::mixed::{Fluxes, MixedSph, MixedState};
 use crate::method::{BlowUp, Method};
 use crate::observe::{Invariants, Snapshot};
 use crate::run::{Engine, build_method};
-use crate::scene::{Case, Conserved, MethodName};
+use crate::scene::{Case, Conserved, DeformationGradient, MethodName, Momentum};
 use bytemuck::{Pod, Zeroable};
 
 /// Offsets (in f32 entries) of the fields in the flat buffers of a mixed scene.
@@ -43,6 +43,9 @@ pub struct MixedLayout {
     pub h: usize,
     pub j: usize,
     pub len: usize,
+    /// F − I of the stress: F in the state, or with the bond-based F (seed 002) F^c − I
+    /// at 0 of its own buffer (DIM² per real particle).
+    pub fs: usize,
     /// Kinematics [P | H − I] of the real particles then the ghosts.
     pub kin_p: usize,
     pub kin_h_off: usize,
@@ -55,7 +58,14 @@ pub struct MixedLayout {
 }
 
 impl MixedLayout {
-    pub fn new(n: usize, ghosts: usize, dim: usize, evolves: (bool, bool), upwind: bool) -> Self {
+    pub fn new(
+        n: usize,
+        ghosts: usize,
+        dim: usize,
+        evolves: (bool, bool),
+        upwind: bool,
+        bond: bool,
+    ) -> Self {
         let (evolves_h, evolves_j) = evolves;
         let (nd, nt) = (n * dim, n * dim * dim);
         let h = 2 * nd + nt;
@@ -75,6 +85,7 @@ impl MixedLayout {
             h,
             j,
             len: j + if evolves_j { n } else { 0 },
+            fs: if bond { 0 } else { 2 * nd },
             kin_p: 0,
             kin_h_off: ext_t,
             kin_len: if kin_h { 2 * ext_t } else { ext_t },
@@ -106,6 +117,7 @@ pub fn scene<D: GpuDim>(case: &Case, cpu: &MixedSph<D>) -> (MixedLayout, Constan
         D::N,
         (conserved.evolves_h(), conserved.evolves_j()),
         jst.is_none(),
+        cpu.bond_weights().is_some(),
     );
     let material = cpu.material();
     let total_vol: f64 = cpu.volume().iter().sum();
@@ -123,6 +135,10 @@ pub fn scene<D: GpuDim>(case: &Case, cpu: &MixedSph<D>) -> (MixedLayout, Constan
         .u32("RECON", u32::from(cpu.reconstruction()))
         .f32("EPS2", eps2)
         .f32("EPS4", eps4)
+        .u32(
+            "MOMENTUM",
+            u32::from(cpu.momentum() == Momentum::Symmetrised),
+        )
         .u32("EVOLVE_H", u32::from(l.evolves_h))
         .u32("EVOLVE_J", u32::from(l.evolves_j))
         .u32("KIN_H", u32::from(l.kin_h))
@@ -134,6 +150,7 @@ pub fn scene<D: GpuDim>(case: &Case, cpu: &MixedSph<D>) -> (MixedLayout, Constan
         .u32("F_OFF", u(l.f))
         .u32("H_OFF", u(l.h))
         .u32("J_OFF", u(l.j))
+        .u32("FS_OFF", u(l.fs))
         .u32("REST_OFF", u(l.f))
         .u32("LEN", u(l.len))
         .u32("KP_OFF", u(l.kin_p))
@@ -152,12 +169,17 @@ pub fn describe_rates(case: &Case) -> String {
     let conserved = m.variables.unwrap_or(Conserved::PFHJ);
     let (h, j) = (conserved.evolves_h(), conserved.evolves_j());
     let d_j = !jst && j;
+    let bond = m.deformation_gradient == Some(DeformationGradient::BondBased);
     let mut passes = Vec::new();
     if ghosts {
         passes.push("ghost motion".to_string());
     }
+    if bond {
+        passes.push("bond-based F^c (gather of u)".into());
+    }
     passes.push(format!(
-        "kinematics (P, ∇0v, Ḟ{}{})",
+        "kinematics (P{}, ∇0v, Ḟ{}{})",
+        if bond { "(F^c)" } else { "" },
         if h { ", Ḣ" } else { "" },
         if j { ", J̇" } else { "" }
     ));
@@ -175,10 +197,14 @@ pub fn describe_rates(case: &Case) -> String {
             passes.push("their ghosts".into());
         }
     }
+    let t = match m.momentum.unwrap_or_default() {
+        Momentum::Weak => "T",
+        Momentum::Symmetrised => "T symmetrised",
+    };
     passes.push(match (jst, d_j) {
-        (true, _) => "forces (T, JST D(p))".into(),
-        (false, true) => "forces (T, upwind D(p), D(J))".into(),
-        (false, false) => "forces (T, upwind D(p))".into(),
+        (true, _) => format!("forces ({t}, JST D(p))"),
+        (false, true) => format!("forces ({t}, upwind D(p), D(J))"),
+        (false, false) => format!("forces ({t}, upwind D(p))"),
     });
     // The projection is on by default without mirror planes (their reactions are external).
     if m.projection.unwrap_or(!ghosts) {
@@ -204,6 +230,8 @@ struct Passes {
     ghost_kin: wgpu::ComputePipeline,
     /// Ghost slopes or Laplacians.
     ghost_second: wgpu::ComputePipeline,
+    /// The bond-based F^c, where the scene uses it.
+    bond: Option<wgpu::ComputePipeline>,
     kinematics: wgpu::ComputePipeline,
     /// Slopes or Laplacians.
     second: wgpu::ComputePipeline,
@@ -217,6 +245,7 @@ struct Passes {
 struct Bound {
     ghost_motion: wgpu::BindGroup,
     ghost_kin: wgpu::BindGroup,
+    bond: Option<wgpu::BindGroup>,
     kinematics: wgpu::BindGroup,
     /// Slopes or Laplacians, and their ghost fill.
     second: Option<(wgpu::BindGroup, wgpu::BindGroup)>,
@@ -245,20 +274,33 @@ impl Evaluator {
         (e.src, self.tvd_mid && e.index == 1)
     }
 
-    /// Records one rate evaluation into one compute pass.
-    fn record(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, e: Evaluation) {
-        let key = self.key(e);
-        let b = &self
+    fn bound(&self, key: (Buf, bool)) -> &Bound {
+        &self
             .bound
             .iter()
             .find(|(k, _)| *k == key)
             .expect("every evaluation of the program is bound")
-            .1;
+            .1
+    }
+
+    /// The motion of the ghosts and, with the bond-based F, F^c − I of the state bound
+    /// in `b`: what the kinematics read besides the state.
+    fn record_motion(&self, gpu: &Gpu, pass: &mut wgpu::ComputePass<'_>, b: &Bound) {
+        let p = &self.passes;
+        if self.ghosts > 0 {
+            gpu.dispatch(pass, &p.ghost_motion, &b.ghost_motion, self.ghosts);
+        }
+        if let (Some(pipeline), Some(bond)) = (&p.bond, &b.bond) {
+            gpu.dispatch(pass, pipeline, bond, self.n);
+        }
+    }
+
+    /// Records one rate evaluation into one compute pass.
+    fn record(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, e: Evaluation) {
+        let b = self.bound(self.key(e));
         let (p, n, ng) = (&self.passes, self.n, self.ghosts);
         let mut pass = encoder.begin_compute_pass(&Default::default());
-        if ng > 0 {
-            gpu.dispatch(&mut pass, &p.ghost_motion, &b.ghost_motion, ng);
-        }
+        self.record_motion(gpu, &mut pass, b);
         gpu.dispatch(&mut pass, &p.kinematics, &b.kinematics, n);
         if ng > 0 {
             gpu.dispatch(&mut pass, &p.ghost_kin, &b.ghost_kin, ng);
@@ -330,10 +372,10 @@ impl<D: GpuDim> GpuMixed<D> {
         let jst = cpu.jst();
         let upwind = jst.is_none();
         let reconstruction = cpu.reconstruction();
+        let f32s = |x: &[f64]| x.iter().map(|&x| x as f32).collect::<Vec<f32>>();
         // Upwind: d_ab and (reconstruction) the least-squares weights; JST: s_ab and ℓ_ab.
         let (pair, weights, second_len) = match jst {
             Some((_, ell, s)) => {
-                let f32s = |x: &[f64]| x.iter().map(|&x| x as f32).collect::<Vec<f32>>();
                 let (s, ell) = (f32s(s), f32s(ell));
                 (
                     gpu.storage("s_ab", &s),
@@ -357,6 +399,17 @@ impl<D: GpuDim> GpuMixed<D> {
             0 => dummy(),
             len => gpu.zeroed("slopes or Laplacians", len as u64 * 4),
         };
+        // The bond-based F (seed 002): X_ab (the upwind flux's d_ab where it has one) and
+        // w_ab per pair, and the F^c − I it writes per real particle.
+        let bond = cpu.bond_weights().map(|w| {
+            let x_ab = if upwind {
+                pair.clone()
+            } else {
+                gpu.storage("X_ab", &pair_offsets())
+            };
+            let fc = gpu.zeroed("F^c − I", (n * D::N * D::N) as u64 * 4);
+            (x_ab, gpu.storage("bond weights w_ab", &f32s(w)), fc)
+        });
 
         // Ghost table: source and (r, σ) of every ghost.
         let table = cpu.ghosts().table();
@@ -416,6 +469,9 @@ impl<D: GpuDim> GpuMixed<D> {
             ghost_motion: pipeline("ghost motion", &ghosts_src, "ghost_motion"),
             ghost_kin: pipeline("ghost kinematics", &ghosts_src, "ghost_kin"),
             ghost_second: pipeline("ghost slopes", &ghosts_src, ghost_second_entry),
+            bond: bond
+                .as_ref()
+                .map(|_| pipeline("bond-based F", &compose(&shaders::MIXED_BOND), "bond_f")),
             kinematics: pipeline(
                 "mixed kinematics",
                 &compose(&shaders::MIXED_KINEMATICS),
@@ -460,6 +516,8 @@ impl<D: GpuDim> GpuMixed<D> {
         let y_start = stepper.buffer(Buf::Y);
         let rates_d = stepper.buffer(Buf::Rates);
         let p = &evaluator.passes;
+        // F − I of the stress (`fs`): the state's own, or F^c − I.
+        let stress_f = |y| bond.as_ref().map_or(y, |(.., fc)| fc);
         let bind = |(src, mid): (Buf, bool)| {
             let y = stepper.buffer(src);
             let points = if mid { &mid_points } else { &stage_points };
@@ -483,9 +541,26 @@ impl<D: GpuDim> GpuMixed<D> {
             Bound {
                 ghost_motion: gpu.bind(&p.ghost_motion, &[&ghost_src, &ghost_img, &gm, y]),
                 ghost_kin: gpu.bind(&p.ghost_kin, &[&ghost_src, &ghost_img, &kin]),
+                bond: p
+                    .bond
+                    .as_ref()
+                    .zip(bond.as_ref())
+                    .map(|(pipeline, (x_ab, w, fc))| {
+                        gpu.bind(pipeline, &[&offsets, &ids, x_ab, w, y, &gm, fc])
+                    }),
                 kinematics: gpu.bind(
                     &p.kinematics,
-                    &[&offsets, &ids, &grad_buf, y, &gm, &kin, rates_d, &status],
+                    &[
+                        &offsets,
+                        &ids,
+                        &grad_buf,
+                        y,
+                        &gm,
+                        &kin,
+                        rates_d,
+                        &status,
+                        stress_f(y),
+                    ],
                 ),
                 second: second_pass,
                 forces: gpu.bind(
@@ -539,7 +614,13 @@ impl<D: GpuDim> GpuMixed<D> {
         let reduction = Reduction::new(
             &gpu,
             &compose(&shaders::MIXED_REDUCE),
-            &[(0, y_start), (2, &vol_buf), (3, &x_hi), (4, &power)],
+            &[
+                (0, y_start),
+                (1, stress_f(y_start)),
+                (2, &vol_buf),
+                (3, &x_hi),
+                (4, &power),
+            ],
             n,
         );
         Ok(Self {
@@ -736,8 +817,20 @@ impl<D: GpuDim> GpuMixed<D> {
         [0, 1].map(|k| (s[k] != STATUS_OK[k]).then_some(s[k] as usize))
     }
 
+    /// The reduction of the current state; with the bond-based F its strain energy reads
+    /// F^c − I of the state, recorded first.
     fn reduction(&mut self) -> Reduced {
-        self.reduction.get(&self.gpu, |_| {})
+        let Self {
+            gpu,
+            evaluator,
+            reduction,
+            ..
+        } = self;
+        reduction.get(gpu, |pass| {
+            if evaluator.passes.bond.is_some() {
+                evaluator.record_motion(gpu, pass, evaluator.bound((Buf::Y, false)));
+            }
+        })
     }
 }
 

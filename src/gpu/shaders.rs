@@ -114,8 +114,14 @@ pub const MIXED_KINEMATICS: Source = source!(
         ("y", false),
         ("gm", false),
         ("kin", true),
-        ("d", true)
+        ("d", true),
+        ("fs", false)
     ]
+);
+pub const MIXED_BOND: Source = source!(
+    "mixed_bond.wgsl",
+    ["mixed.wgsl", "mixed_motion.wgsl"],
+    [("x_ab", false), ("y", false), ("gm", false), ("fc", true)]
 );
 pub const MIXED_SLOPES: Source = source!(
     "mixed_slopes.wgsl",
@@ -157,13 +163,14 @@ pub const MIXED_MOMENTUM: Source = source!(
 pub const MIXED_REDUCE: Source = source!(
     "reduce.wgsl",
     ["mechanics.wgsl", "mixed_energy.wgsl"],
-    [("y", false), ("x_hi", false)]
+    [("y", false), ("kin", false), ("x_hi", false)]
 );
 
 /// The passes compiled with a mixed scene's constants (`gpu::mixed::scene_constants`).
 pub const MIXED_SCENE: &[Source] = &[
     MIXED_GHOSTS,
     MIXED_KINEMATICS,
+    MIXED_BOND,
     MIXED_SLOPES,
     MIXED_FORCES,
     MIXED_MOMENTUM,
@@ -181,6 +188,7 @@ pub const ALL: &[Source] = &[
     INTEGRATE,
     MIXED_GHOSTS,
     MIXED_KINEMATICS,
+    MIXED_BOND,
     MIXED_SLOPES,
     MIXED_FORCES,
     MIXED_MOMENTUM,

@@ -1016,6 +1016,15 @@ impl<D: Dim> MixedSph<D> {
         }
     }
 
+    /// The bond-based F: w_ab = V_b W̃_b(X_a) / |X_ab|² per pair, CSR order.
+    pub(crate) fn bond_weights(&self) -> Option<&[f64]> {
+        self.bond_weights.as_deref()
+    }
+
+    pub(crate) fn momentum(&self) -> Momentum {
+        self.momentum
+    }
+
     pub(crate) fn material(&self) -> &Material {
         &self.material
     }
