@@ -529,4 +529,3 @@ fn jst_on_the_brookshaw_laplacian_survives_the_pull_the_corrected_one_does_not()
         "E − W − E0 = {excess:e} J, W = {work:e} J"
     );
 }
-
