@@ -15,7 +15,7 @@ use meshless::scene::{Case, MethodName};
 use meshless::tensor::{D2, D3, Dim};
 
 mod common;
-use common::{load as case, random_state};
+use common::{load as case, random_state, random_tensor};
 
 fn gpu() -> Gpu {
     Gpu::new()
@@ -427,13 +427,15 @@ fn projection_keeps_the_angular_momentum_of_the_spinning_plate() {
 /// which one particle is stretched to F = R diag(2, 0.4[, 1.3]) (λ²_min = 0.16): the
 /// CPU value against the closed form (the other particles have λ²_min ≥ 0.8; round-off
 /// 1e-12), and the GPU's reduction against the CPU (f32 eigenvalue of C with entries
-/// ≤ 4 over λ²_min = 0.16: 25 × 6e-8 = 1.5e-6, with a margin; measured 2.3e-7 in 2D,
-/// 7.6e-8 in 3D, after the Newton steps that undo Vulkan's loose acos).
+/// ≤ 4 over λ²_min = 0.16: 25 × 6e-8 = 1.5e-6; measured 2.3e-7 in 2D, 7.6e-8 in 3D,
+/// after the Newton steps that undo Vulkan's loose acos). Then on a nearly isotropic C
+/// everywhere (eigenvalues within p ≈ 3e-3 of each other), where the 3D cubic has a
+/// near-triple root and its f32 solution is only good to a fraction of p: within 1e-3,
+/// ample for a time step.
 fn check_signal_speed<D: GpuDim>(c: &Case, stretched: D::T) {
     let cpu: MixedSph<D> = build_method(c).unwrap();
     let mut y = random_state(&cpu, &mut 11, 0.01);
     y.f[3] = stretched;
-    y.v.iter_mut().for_each(|v| *v = D::zero());
     let v_max = y.v.iter().map(|&v| D::norm2(v).sqrt()).fold(0.0, f64::max);
     let exact = Material::new(&c.material).p_wave_speed() / 0.16 + v_max;
     let on_cpu = cpu.max_signal_speed(&y);
@@ -442,12 +444,22 @@ fn check_signal_speed<D: GpuDim>(c: &Case, stretched: D::T) {
         "CPU {on_cpu} vs {exact} m/s"
     );
     let mut g: GpuMixed<D> = GpuMixed::new(c, gpu()).unwrap();
-    g.set_state(&y);
-    let on_gpu = g.max_signal_speed();
-    assert!(
-        (on_gpu / on_cpu - 1.0).abs() < 1e-5,
-        "GPU {on_gpu} vs CPU {on_cpu} m/s"
-    );
+    let mut compare = |y: &MixedState<D>, tol: f64| {
+        g.set_state(y);
+        let (on_gpu, on_cpu) = (g.max_signal_speed(), cpu.max_signal_speed(y));
+        assert!(
+            (on_gpu / on_cpu - 1.0).abs() < tol,
+            "GPU {on_gpu} vs CPU {on_cpu} m/s"
+        );
+    };
+    compare(&y, 1e-5);
+    // Nearly isotropic C everywhere (F = I + 1e-3 noise: eigenvalues within 3e-3 of
+    // each other), where the characteristic cubic has a near-triple root.
+    let mut seed = 5;
+    for f in &mut y.f {
+        *f = D::identity() + random_tensor::<D>(&mut seed, 1e-3);
+    }
+    compare(&y, 1e-3);
 }
 
 #[test]
