@@ -30,7 +30,13 @@ impl HourglassIndicator {
                     let r = D::norm2(x0[csr.ids[q] as usize] - x0[a]).sqrt();
                     (kernel.w(r), r)
                 };
-                let norm: f64 = csr.range(a).map(|q| bond(q).0 * bond(q).1).sum();
+                let norm: f64 = csr
+                    .range(a)
+                    .map(|q| {
+                        let (w, r) = bond(q);
+                        w * r
+                    })
+                    .sum();
                 csr.range(a)
                     .map(move |q| bond(q).0 / norm)
                     .collect::<Vec<_>>()

@@ -302,6 +302,13 @@ impl Gpu {
         pass.dispatch_workgroups(x, y, 1);
     }
 
+    /// Blocks until every submitted command buffer has finished.
+    pub fn wait(&self) {
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .expect("waiting for the GPU queue");
+    }
+
     /// Copies a buffer back to the host (waits for the queue).
     pub fn read<T: Pod>(&self, buffer: &wgpu::Buffer) -> Vec<T> {
         let size = buffer.size();
@@ -318,9 +325,7 @@ impl Gpu {
         slice.map_async(wgpu::MapMode::Read, |r| {
             r.expect("mapping a readback buffer")
         });
-        self.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .expect("waiting for the GPU queue");
+        self.wait();
         let view = slice
             .get_mapped_range()
             .expect("mapped range of a readback buffer");

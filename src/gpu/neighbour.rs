@@ -351,9 +351,7 @@ pub fn build<D: GpuDim>(
     slice.map_async(wgpu::MapMode::Read, |r| {
         r.expect("mapping the neighbour pair count")
     });
-    gpu.device
-        .poll(wgpu::PollType::wait_indefinitely())
-        .expect("waiting for the GPU queue");
+    gpu.wait();
     let pairs = {
         let view = slice
             .get_mapped_range()

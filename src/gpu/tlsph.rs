@@ -537,10 +537,7 @@ impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
     }
 
     fn finish(&mut self) {
-        self.gpu
-            .device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .expect("waiting for the GPU queue");
+        self.gpu.wait();
     }
 
     fn snapshot(&mut self) -> Snapshot<'_, D> {

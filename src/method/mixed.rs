@@ -241,9 +241,10 @@ impl<D: Dim> MixedSph<D> {
         let stabilisation = match m.name {
             MethodName::JstSph => {
                 let coefficients = m.jst.unwrap_or_default();
-                let mut ell = brookshaw_weights::<D>(&x0, &vol, &csr, &grad, &normal);
+                let pairs = pair_map(&csr, |i, j| (i, j));
+                let mut ell = brookshaw_weights::<D>(&x0, &vol, &pairs, &grad, &normal);
                 if coefficients.laplacian == JstLaplacian::Corrected {
-                    correct_laplacian::<D>(&x0, &csr, &mut ell).map_err(|i| {
+                    ell = correct_laplacian::<D>(&x0, &csr, &ell).map_err(|i| {
                         case.invalid(
                             "method.jst.laplacian",
                             format!(
@@ -253,7 +254,6 @@ impl<D: Dim> MixedSph<D> {
                         )
                     })?;
                 }
-                let pairs = pair_map(&csr, |i, j| (i, j));
                 let s = (0..pairs.len())
                     .into_par_iter()
                     .map(|q| {
@@ -724,25 +724,25 @@ fn least_squares_weights<D: Dim>(
 fn brookshaw_weights<D: Dim>(
     x0: &[D::V],
     vol: &[f64],
-    csr: &Csr,
+    pairs: &[(usize, usize)],
     grad: &[D::V],
     normal: &[D::V],
 ) -> Vec<f64> {
-    pair_map(csr, |a, b| (a, b))
-        .into_par_iter()
+    pairs
+        .par_iter()
         .zip(grad.par_iter().zip(normal))
-        .map(|((a, b), (&g, &n))| 2.0 * vol[b] * D::dot(n, g) / D::norm2(x0[b] - x0[a]).sqrt())
+        .map(|(&(a, b), (&g, &n))| 2.0 * vol[b] * D::dot(n, g) / D::norm2(x0[b] - x0[a]).sqrt())
         .collect()
 }
 
-/// Corrects Brookshaw weights in place to ℓ_ab = w_ab (1 + λ_a·X_ab + μ_a |X_ab|²), with
+/// Brookshaw weights w_ab corrected to ℓ_ab = w_ab (1 + λ_a·X_ab + μ_a |X_ab|²), with
 /// λ_a, μ_a such that Σ_b ℓ_ab X_ab = 0 and Σ_b ℓ_ab |X_ab|² = 2d: Σ_b ℓ_ab (f_b − f_a)
 /// is then exact for linear fields and for |X|². Seed 002 names the Bonet–Kulasegaram
 /// corrected Laplacian without giving it; this is the smallest correction with its
 /// stated properties. Err(a) names a particle whose correction is singular.
-fn correct_laplacian<D: Dim>(x0: &[D::V], csr: &Csr, w: &mut [f64]) -> Result<(), usize> {
+fn correct_laplacian<D: Dim>(x0: &[D::V], csr: &Csr, w: &[f64]) -> Result<Vec<f64>, usize> {
     let n = D::N + 1;
-    let corrected: Vec<Result<Vec<f64>, usize>> = (0..csr.len())
+    let per_particle: Vec<Result<Vec<f64>, usize>> = (0..csr.len())
         .into_par_iter()
         .map(|a| {
             let basis = |q: usize| {
@@ -776,14 +776,10 @@ fn correct_laplacian<D: Dim>(x0: &[D::V], csr: &Csr, w: &mut [f64]) -> Result<()
                 .collect())
         })
         .collect();
-    let mut q = 0;
-    for ell_a in corrected {
-        for ell in ell_a? {
-            w[q] = ell;
-            q += 1;
-        }
-    }
-    Ok(())
+    per_particle
+        .into_iter()
+        .collect::<Result<Vec<_>, _>>()
+        .map(|v| v.concat())
 }
 
 impl<D: Dim> OdeSystem for MixedSph<D> {
@@ -1070,9 +1066,10 @@ mod tests {
         let grad =
             correction::gradients::<D3>(CorrectionKind::Cgck, &x0, &vol, &csr, &kernel).unwrap();
         let normal = pair_map(&csr, |a, b| (x0[b] - x0[a]).normalize());
-        let mut ell = brookshaw_weights::<D3>(&x0, &vol, &csr, &grad, &normal);
+        let pairs = pair_map(&csr, |a, b| (a, b));
+        let mut ell = brookshaw_weights::<D3>(&x0, &vol, &pairs, &grad, &normal);
         if corrected {
-            correct_laplacian::<D3>(&x0, &csr, &mut ell).unwrap();
+            ell = correct_laplacian::<D3>(&x0, &csr, &ell).unwrap();
         }
         let (mut first, mut second, mut min_sym) = (0.0_f64, 0.0_f64, f64::INFINITY);
         for a in 0..csr.len() {
