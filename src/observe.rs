@@ -134,6 +134,7 @@ impl Observers {
                     }
                 }
                 Observer::NeckHeight => names.push("neck_height".into()),
+                Observer::Hourglass => names.push("hourglass_max".into()),
             }
         }
         let mut probes = Vec::new();
@@ -167,8 +168,20 @@ impl Observers {
         &self.names
     }
 
-    /// One row of the time series.
-    pub fn sample<D: Dim>(&self, snap: &Snapshot<D>, inv: &Invariants, clock: &Clock) -> Vec<f64> {
+    /// Whether a row needs the hourglass indicator η of every particle.
+    pub fn need_hourglass(&self) -> bool {
+        self.list.contains(&Observer::Hourglass)
+    }
+
+    /// One row of the time series; `eta` is the hourglass indicator of every particle,
+    /// given when [`Self::need_hourglass`].
+    pub fn sample<D: Dim>(
+        &self,
+        snap: &Snapshot<D>,
+        inv: &Invariants,
+        clock: &Clock,
+        eta: Option<&[f64]>,
+    ) -> Vec<f64> {
         let (x0, u, v) = (snap.x0, &snap.u, &snap.v);
         let mut row = vec![clock.t, clock.step as f64, clock.dt];
         for obs in &self.list {
@@ -210,6 +223,11 @@ impl Observers {
                             .fold(f64::INFINITY, f64::min),
                     );
                 }
+                Observer::Hourglass => row.push(
+                    eta.expect("η is computed when the hourglass observer is on")
+                        .iter()
+                        .fold(0.0, |a: f64, &b| a.max(b)),
+                ),
             }
         }
         for &i in &self.probes {

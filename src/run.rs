@@ -16,7 +16,7 @@ use crate::output::{
     Field, FieldData, PvdIndex, RunSummary, SeriesWriter, write_summary, write_vtu,
 };
 use crate::scene::{Case, CaseError, Conserved, DeformationGradient, MethodName, discretise};
-use crate::tensor::{D2, D3, Dim};
+use crate::tensor::{D2, D3, Dim, smallest_stretch_squared};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -423,7 +423,17 @@ pub fn drive<D: Dim, E: Engine<D>>(
     std::fs::create_dir_all(&opts.out_dir)?;
     let mut series =
         SeriesWriter::create(&opts.out_dir.join("series.csv"), observers.column_names())?;
-    let mut frames = Frames::new::<D>(case, opts, engine.reference())?;
+    let mut frames = Frames::new(case, opts)?;
+    // η of every particle, evaluated at each output when frames, the observer or the limit
+    // need it.
+    let hourglass =
+        (frames.on() || observers.need_hourglass() || case.run.hourglass_limit.is_some())
+            .then(|| HourglassIndicator::new::<D>(case, engine.reference()));
+    let eta_of = |snap: &Snapshot<D>| {
+        hourglass
+            .as_ref()
+            .map(|h| h.of::<D>(snap.x0, &snap.u, &snap.f))
+    };
     let backend = engine.backend();
     if opts.progress {
         eprintln!(
@@ -440,13 +450,15 @@ pub fn drive<D: Dim, E: Engine<D>>(
         dt: time_step(case, &mut engine),
         ..Clock::default()
     };
+    let dt_first = clock.dt;
     let progress = progress_bar(opts.progress, case);
     let started = Instant::now();
 
     let snap = engine.snapshot();
     let inv0 = Invariants::of(&snap);
-    series.write_row(&observers.sample(&snap, &inv0, &clock))?;
-    frames.write(&snap, 0.0, true)?;
+    let eta = eta_of(&snap);
+    series.write_row(&observers.sample(&snap, &inv0, &clock, eta.as_deref()))?;
+    frames.write(&snap, 0.0, true, eta.as_deref())?;
     drop(snap);
     let series_every = case.output.series_interval.unwrap_or(0.0);
     let mut next_sample = series_every;
@@ -457,6 +469,15 @@ pub fn drive<D: Dim, E: Engine<D>>(
             break None;
         }
         let dt = time_step(case, &mut engine);
+        if let Some(ratio) = case.run.min_step_ratio
+            && dt < ratio * dt_first
+        {
+            break Some(step_collapse::<D>(
+                case,
+                &engine.snapshot(),
+                ratio * dt_first,
+            ));
+        }
         // Steps to the next sample, frame, check or the end, whichever comes first.
         let to_event = [next_sample, frames.next_time(), t_end]
             .into_iter()
@@ -499,11 +520,17 @@ pub fn drive<D: Dim, E: Engine<D>>(
             if too_much(&inv) {
                 break Some(energy_blow_up::<D>(&snap, inv.total_energy(), bound));
             }
+            let eta = eta_of(&snap);
+            if let (Some(limit), Some(eta)) = (case.run.hourglass_limit, &eta)
+                && let Some(cause) = hourglass_blow_up::<D>(&snap, eta, limit)
+            {
+                break Some(cause);
+            }
             if sample {
-                series.write_row(&observers.sample(&snap, &inv, &clock))?;
+                series.write_row(&observers.sample(&snap, &inv, &clock, eta.as_deref()))?;
                 next_sample = t + series_every;
             }
-            frames.write(&snap, t, done(t))?;
+            frames.write(&snap, t, done(t), eta.as_deref())?;
         } else {
             let inv = engine.invariants();
             if too_much(&inv) {
@@ -574,6 +601,39 @@ fn energy_blow_up<D: Dim>(snap: &Snapshot<D>, energy: f64, bound: f64) -> BlowUp
     }
 }
 
+/// Hourglass failure: the particle with the largest η, when η exceeds the limit.
+fn hourglass_blow_up<D: Dim>(snap: &Snapshot<D>, eta: &[f64], limit: f64) -> Option<BlowUp> {
+    let (i, &worst) = eta.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1))?;
+    (worst > limit).then(|| {
+        let quantity = format!("hourglass indicator η (run.hourglass_limit = {limit})");
+        BlowUp::at::<D>(snap.x0, i, &quantity, worst)
+    })
+}
+
+/// Collapse of the CFL step below `floor`, attributed to the particle with the largest
+/// signal speed: c_p/λ²_min + |v| for the mixed methods (seed 002 eqs 31–32, λ²_min the
+/// smallest eigenvalue of C), |v| for TLSPH (its step does not depend on the stretch).
+fn step_collapse<D: Dim>(case: &Case, snap: &Snapshot<D>, floor: f64) -> BlowUp {
+    let c_p = Material::new(&case.material).p_wave_speed();
+    let speed = |i: usize| {
+        let stretch = match case.method.name {
+            MethodName::Tlsph => 0.0,
+            MethodName::UpwindSph | MethodName::JstSph => {
+                c_p / smallest_stretch_squared::<D>(snap.f[i])
+            }
+        };
+        stretch + D::norm2(snap.v[i]).sqrt()
+    };
+    let i = (0..snap.v.len())
+        .max_by(|&a, &b| speed(a).total_cmp(&speed(b)))
+        .unwrap_or(0);
+    let quantity = format!(
+        "signal speed [m/s] (the CFL step fell below run.min_step_ratio × the first step \
+         = {floor:e} s; the fastest particle shown)"
+    );
+    BlowUp::at::<D>(snap.x0, i, &quantity, speed(i))
+}
+
 fn progress_bar(show: bool, case: &Case) -> ProgressBar {
     if !show {
         return ProgressBar::hidden();
@@ -592,7 +652,6 @@ fn progress_bar(show: bool, case: &Case) -> ProgressBar {
 /// VTU frames and their PVD index.
 struct Frames {
     index: Option<PvdIndex>,
-    hourglass: Option<HourglassIndicator>,
     dir: PathBuf,
     name: String,
     interval: Option<f64>,
@@ -601,24 +660,25 @@ struct Frames {
 }
 
 impl Frames {
-    fn new<D: Dim>(case: &Case, opts: &RunOptions, x0: &[D::V]) -> std::io::Result<Self> {
-        let (index, hourglass) = if opts.frames {
-            (
-                Some(PvdIndex::create(&opts.out_dir, &case.name)?),
-                Some(HourglassIndicator::new::<D>(case, x0)),
-            )
+    fn new(case: &Case, opts: &RunOptions) -> std::io::Result<Self> {
+        let index = if opts.frames {
+            Some(PvdIndex::create(&opts.out_dir, &case.name)?)
         } else {
-            (None, None)
+            None
         };
         Ok(Self {
             index,
-            hourglass,
             dir: opts.out_dir.clone(),
             name: case.name.clone(),
             interval: case.output.frame_interval,
             next: 0.0,
             count: 0,
         })
+    }
+
+    /// Whether frames are written at all.
+    fn on(&self) -> bool {
+        self.index.is_some()
     }
 
     /// Time of the next frame (infinite when frames are off or have no interval).
@@ -634,17 +694,24 @@ impl Frames {
         self.index.is_some() && self.interval.is_some() && t >= self.next * (1.0 - 1e-9)
     }
 
-    /// Writes a frame when one is due (or `force`).
-    fn write<D: Dim>(&mut self, snap: &Snapshot<D>, t: f64, force: bool) -> std::io::Result<()> {
+    /// Writes a frame when one is due (or `force`); `eta` is the hourglass indicator,
+    /// given whenever frames are on.
+    fn write<D: Dim>(
+        &mut self,
+        snap: &Snapshot<D>,
+        t: f64,
+        force: bool,
+        eta: Option<&[f64]>,
+    ) -> std::io::Result<()> {
         let due = self.due(t);
-        let (Some(index), Some(hourglass)) = (&mut self.index, &self.hourglass) else {
+        let (Some(index), Some(eta)) = (&mut self.index, eta) else {
             return Ok(());
         };
         if !(due || force) {
             return Ok(());
         }
         let file = format!("{}_{:06}.vtu", self.name, self.count);
-        write_frame::<D>(&self.dir.join(&file), snap, t, hourglass)?;
+        write_frame::<D>(&self.dir.join(&file), snap, t, eta)?;
         index.push(t, &file)?;
         self.count += 1;
         if let Some(dt) = self.interval {
@@ -662,7 +729,7 @@ pub fn write_frame<D: Dim>(
     path: &Path,
     snap: &Snapshot<D>,
     t: f64,
-    hourglass: &HourglassIndicator,
+    eta: &[f64],
 ) -> std::io::Result<()> {
     let points: Vec<[f64; 3]> = snap
         .x0
@@ -677,7 +744,6 @@ pub fn write_frame<D: Dim>(
     let vm: Vec<f64> = snap.sigma.iter().map(von_mises).collect();
     let s9: Vec<[f64; 9]> = snap.sigma.iter().map(|s| flatten(*s)).collect();
     let body: Vec<i32> = snap.body.iter().map(|&b| b as i32).collect();
-    let eta = hourglass.of::<D>(snap.x0, &snap.u, &snap.f);
     let fields = [
         Field {
             name: "u",
@@ -705,7 +771,7 @@ pub fn write_frame<D: Dim>(
         },
         Field {
             name: "hourglass",
-            data: FieldData::Scalar(&eta),
+            data: FieldData::Scalar(eta),
         },
         Field {
             name: "body",

@@ -436,6 +436,31 @@ fn energy_growth_limit_not_above_one_is_rejected() {
 }
 
 #[test]
+fn step_collapse_ratio_outside_zero_one_or_with_a_fixed_step_is_rejected() {
+    let with = |ratio: &str| {
+        edit(
+            VALID_3D,
+            "energy_growth_limit = 5.0",
+            &format!("energy_growth_limit = 5.0\nmin_step_ratio = {ratio}"),
+        )
+    };
+    assert_invalid(&with("1.0"), "run.min_step_ratio", &["(0, 1)", "1.0"]);
+    assert_invalid(&with("0.0"), "run.min_step_ratio", &["(0, 1)", "0.0"]);
+    let fixed = edit(&with("0.1"), "cfl = 0.3", "dt = 1e-5");
+    assert_invalid(&fixed, "run.min_step_ratio", &["method.cfl", "method.dt"]);
+}
+
+#[test]
+fn hourglass_limit_not_positive_is_rejected() {
+    let text = edit(
+        VALID,
+        "end_time = 1e-3",
+        "end_time = 1e-3\nhourglass_limit = -0.5",
+    );
+    assert_invalid(&text, "run.hourglass_limit", &["> 0", "-0.5"]);
+}
+
+#[test]
 fn duplicate_observer_is_rejected() {
     let text = edit(VALID_3D, "\"extent\"]", "\"extent\", \"energy\"]");
     assert_invalid(&text, "output.observers", &["\"energy\"", "more than once"]);

@@ -206,3 +206,78 @@ fn command_line_exit_codes() {
     );
     assert!(dir.path().join("wave-rod.pvd").is_file() && dir.path().join("summary.json").is_file());
 }
+
+/// The swinging plate (Upwind-SPH, Δx = 0.1, about 100 steps of one period) with the
+/// hourglass observer and `overrides`, a sample after every step; its series and result.
+fn swinging_plate(dir: &Path, overrides: &[&str]) -> Result<(), RunError> {
+    let mut set = vec![
+        "spacing=0.1".to_string(),
+        "run.end_time=0.02".to_string(),
+        "output.observers=[\"energy\", \"hourglass\"]".to_string(),
+    ];
+    set.extend(overrides.iter().map(|s| s.to_string()));
+    let case = Case::load(&case_file("swinging-plate"), &set).unwrap();
+    run(&case, &options(dir, false)).map(|_| ())
+}
+
+/// The blow-up of a run that must fail.
+fn blow_up(result: Result<(), RunError>) -> (f64, meshless::method::BlowUp) {
+    match result {
+        Err(RunError::BlowUp { time, cause, .. }) => (time, cause),
+        other => panic!("expected a blow-up, got {other:?}"),
+    }
+}
+
+#[test]
+fn hourglass_limit_stops_the_run_at_the_first_sample_above_it() {
+    // The free run's series says when max η first exceeds half its largest value; the
+    // limited run must stop there. Both runs compute the same states (the CPU path is
+    // deterministic), so the times agree to round-off of the time sum.
+    let free = tempfile::tempdir().unwrap();
+    swinging_plate(free.path(), &[]).unwrap();
+    let csv = free.path().join("series.csv");
+    let (time, eta) = (column(&csv, "time"), column(&csv, "hourglass_max"));
+    assert_eq!(eta[0], 0.0, "η vanishes on the undeformed lattice");
+    let limit = 0.5 * eta.iter().fold(0.0, |a: f64, &b| a.max(b));
+    let first = eta.iter().position(|&e| e > limit).unwrap();
+
+    let limited = tempfile::tempdir().unwrap();
+    let set = format!("run.hourglass_limit={limit}");
+    let (t, cause) = blow_up(swinging_plate(limited.path(), &[&set]));
+    assert!(cause.quantity.contains("hourglass"), "{cause}");
+    assert_eq!(cause.value, eta[first]);
+    assert!(
+        (t - time[first]).abs() <= 1e-12 * t,
+        "{t} vs {}",
+        time[first]
+    );
+}
+
+#[test]
+fn a_collapsing_cfl_step_stops_the_run_before_the_step_below_the_floor() {
+    // The CFL step of the mixed method follows λ²_min and |v|: over the period it dips to
+    // about 0.9992 of the first step. A floor between the two must stop the run at the
+    // start of the first step below it; a floor below the dip must not.
+    let free = tempfile::tempdir().unwrap();
+    swinging_plate(free.path(), &[]).unwrap();
+    let csv = free.path().join("series.csv");
+    let (time, dt) = (column(&csv, "time"), column(&csv, "dt"));
+    // The last step is shortened to land on the end time, so it is left out.
+    let steps = &dt[1..dt.len() - 1];
+    let dip = steps.iter().fold(f64::INFINITY, |a, &b| a.min(b)) / dt[0];
+    assert!(
+        dip < 1.0 - 1e-4,
+        "the step must vary over the run, dip {dip}"
+    );
+    let ratio = 0.5 * (1.0 + dip);
+    let first = 1 + steps.iter().position(|&d| d < ratio * dt[0]).unwrap();
+
+    let limited = tempfile::tempdir().unwrap();
+    let set = format!("run.min_step_ratio={ratio}");
+    let (t, cause) = blow_up(swinging_plate(limited.path(), &[&set]));
+    assert!(cause.quantity.contains("CFL step"), "{cause}");
+    assert!((t - time[first - 1]).abs() <= 1e-12 * t.max(1e-12));
+
+    let below = format!("run.min_step_ratio={}", 0.9 * dip);
+    swinging_plate(tempfile::tempdir().unwrap().path(), &[&below]).unwrap();
+}

@@ -444,6 +444,14 @@ pub struct RunSpec {
     /// energy plus the work done by boundary conditions.
     #[serde(default = "default_energy_growth")]
     pub energy_growth_limit: f64,
+    /// Stop as failed when the hourglass indicator η of a particle exceeds this, checked
+    /// at every series sample (see [`crate::hourglass`]).
+    #[serde(default)]
+    pub hourglass_limit: Option<f64>,
+    /// Stop as failed when the CFL step falls below this fraction of the first step
+    /// (a collapse of the step: the run would crawl rather than end).
+    #[serde(default)]
+    pub min_step_ratio: Option<f64>,
 }
 
 fn default_energy_growth() -> f64 {
@@ -464,6 +472,8 @@ pub enum Observer {
     Extent,
     /// Smallest current height (y-extent) over the material columns of free particles.
     NeckHeight,
+    /// Largest hourglass indicator η over the particles.
+    Hourglass,
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]

@@ -29,7 +29,7 @@ pub(super) fn check(case: &Case) -> Result<(), (String, String)> {
         self::boundary(boundary, &format!("boundary.{i}"), &case.bodies, dim)?;
     }
     mirrors(case)?;
-    run(&case.run)?;
+    run(&case.run, &case.method)?;
     output(&case.output)?;
     probes(&case.probes, dim)
 }
@@ -627,8 +627,26 @@ fn region(r: &Region, key: &str, bodies: &[BodySpec], dim: usize) -> Checked {
     Ok(())
 }
 
-fn run(r: &RunSpec) -> Checked {
+fn run(r: &RunSpec, m: &MethodSpec) -> Checked {
     positive("run.end_time", r.end_time)?;
+    if let Some(eta) = r.hourglass_limit {
+        positive("run.hourglass_limit", eta)?;
+    }
+    if let Some(ratio) = r.min_step_ratio {
+        if !(ratio > 0.0 && ratio < 1.0) {
+            return fail(
+                "run.min_step_ratio",
+                format!("must lie in (0, 1) (a fraction of the first CFL step), got {ratio:?}"),
+            );
+        }
+        if m.cfl.is_none() {
+            return fail(
+                "run.min_step_ratio",
+                "needs method.cfl (a fixed method.dt never shrinks): give method.cfl instead of \
+                 method.dt, or remove run.min_step_ratio",
+            );
+        }
+    }
     let limit = r.energy_growth_limit;
     if limit.is_nan() || limit <= 1.0 {
         return fail(
