@@ -628,8 +628,8 @@ fn step_collapse<D: Dim>(case: &Case, snap: &Snapshot<D>, floor: f64) -> BlowUp 
         .max_by(|&a, &b| speed(a).total_cmp(&speed(b)))
         .unwrap_or(0);
     let quantity = format!(
-        "signal speed [m/s] (the CFL step fell below run.min_step_ratio × the first step \
-         = {floor:e} s; the fastest particle shown)"
+        "collapse of the CFL step (below run.min_step_ratio × the first step = {floor:e} s); \
+         signal speed [m/s] of the fastest particle"
     );
     BlowUp::at::<D>(snap.x0, i, &quantity, speed(i))
 }

@@ -5,7 +5,7 @@
 use meshless::material::Material;
 use meshless::scene::Case;
 use meshless::study::fields::{FinalState, analytic_fields, matched_fields, relative_l2};
-use meshless::study::suite::AnalyticSolution;
+use meshless::study::suite::{AnalyticSolution, TimeMeasure};
 use meshless::study::{Status, StudyOptions, Suite, records, report, run_suite};
 use std::path::{Path, PathBuf};
 
@@ -234,6 +234,23 @@ fn a_blow_up_is_recorded_and_the_study_goes_on_then_resumes_without_redoing() {
     assert!(text.contains("failed at t = "));
     assert!(dir.path().join("docs/study/ci-velocity.svg").is_file());
     assert!(dir.path().join("docs/study/ci.csv").is_file());
+
+    // With a failure measure, each failure time is also shown in that measure.
+    let measured = Suite {
+        failure_measure: Some(TimeMeasure {
+            name: "λ3".into(),
+            per_second: 1e4,
+            unit: "%".into(),
+        }),
+        ..suite.clone()
+    };
+    let table = report::runs_table(&measured, &third.records);
+    for r in &third.records {
+        if let Status::Failed { time, .. } = r.status {
+            let shown = format!("λ3 = {:.0} %", 1e4 * time);
+            assert!(table.contains(&shown), "{shown} not in\n{table}");
+        }
+    }
 }
 
 #[test]

@@ -94,7 +94,11 @@ pub fn runs_table(suite: &Suite, recs: &[RunRecord]) -> String {
             Status::Ok if r.reason.is_empty() => "ok".to_string(),
             Status::Ok => format!("ok: {}", r.reason),
             Status::Failed { time, quantity, .. } => {
-                format!("failed at t = {time:.3e} s: {}", short_quantity(quantity))
+                format!(
+                    "failed at {}: {}",
+                    failure_time(suite, *time, 3),
+                    short_quantity(quantity)
+                )
             }
             Status::Error => format!("not run: {}", r.reason),
         };
@@ -139,6 +143,15 @@ fn values(recs: &[RunRecord]) -> Vec<String> {
     out
 }
 
+/// "t = 2.30e0 s", with the suite's failure measure when it has one.
+fn failure_time(suite: &Suite, time: f64, digits: usize) -> String {
+    let t = format!("t = {time:.digits$e} s");
+    match &suite.failure_measure {
+        Some(m) => format!("{t}, {}", m.at(time)),
+        None => t,
+    }
+}
+
 /// Stability map: one row per variant (and backend), one column per sweep value.
 pub fn stability_map(suite: &Suite, recs: &[RunRecord]) -> String {
     let vals = values(recs);
@@ -166,7 +179,8 @@ pub fn stability_map(suite: &Suite, recs: &[RunRecord]) -> String {
                             None => format!("stable (ΔE/E0 {})", sci(r.drift_energy)),
                         },
                         Status::Failed { time, quantity, .. } => format!(
-                            "**failed** at t = {time:.2e} s: {}",
+                            "**failed** at {}: {}",
+                            failure_time(suite, *time, 2),
                             short_quantity(quantity)
                         ),
                         Status::Error => {
@@ -307,10 +321,11 @@ pub fn findings(suite: &Suite, recs: &[RunRecord]) -> String {
                 .iter()
                 .filter_map(|r| match &r.status {
                     Status::Failed { time, quantity, .. } => Some(format!(
-                        "`{}` at {} = {} (t = {time:.2e} s, {})",
+                        "`{}` at {} = {} ({}, {})",
                         r.line(),
                         r.sweep_key,
                         r.sweep_value,
+                        failure_time(suite, *time, 2),
                         short_quantity(quantity)
                     )),
                     _ => None,
@@ -339,7 +354,8 @@ pub fn findings(suite: &Suite, recs: &[RunRecord]) -> String {
                         Status::Ok if first_fail.is_none() => last_stable = Some(v.clone()),
                         Status::Failed { time, quantity, .. } if first_fail.is_none() => {
                             first_fail = Some(format!(
-                                "fails at {v} (t = {time:.2e} s, {})",
+                                "fails at {v} ({}, {})",
+                                failure_time(suite, *time, 2),
                                 short_quantity(quantity)
                             ))
                         }
@@ -450,10 +466,27 @@ pub fn write_report(
     );
     let _ = writeln!(
         s,
-        "## Not measured yet\n\n- The per-particle hourglass (zero-energy) indicator is not \
-         written to the VTU frames, so no run is failed for hourglassing; stability here \
-         means the driver's checks (non-finite state, det F ≤ 0, energy growth)."
+        "## Failure reasons\n\nA run fails at the first of: a non-finite state or det F ≤ 0 \
+         (every evaluation); total energy above `run.energy_growth_limit` × (E(0) + work of \
+         supports and loads); a particle's hourglass indicator η = Σ W|F X_ab − x_ab| / \
+         Σ W|X_ab| above `run.hourglass_limit` (at every series sample), i.e. its bonds \
+         misplaced, on average, by that fraction of their length relative to its own F; a CFL \
+         step below `run.min_step_ratio` × the first step. Which limits a suite sets is in \
+         its overrides.\n"
     );
+    let emulated: Vec<&str> = entries
+        .iter()
+        .flat_map(|(_, r)| r.iter().map(|r| r.backend.as_str()))
+        .filter(|b| b.starts_with("gpu") && b.ends_with(", Cpu)"))
+        .collect();
+    if let Some(adapter) = emulated.first() {
+        let _ = writeln!(
+            s,
+            "## Not measured here\n\n- GPU speed: the GPU runs above used `{adapter}`, a CPU \
+             emulation of a GPU; their wall times check the GPU path's results, not its \
+             speed. `meshless bench` measures a hardware adapter."
+        );
+    }
     let tmp = path.with_extension("md.tmp");
     std::fs::write(&tmp, s)?;
     std::fs::rename(tmp, path)

@@ -97,6 +97,24 @@ pub struct Variant {
     pub backends: Option<Vec<BackendName>>,
 }
 
+/// A quantity proportional to the simulated time, shown beside failure times: for a
+/// column pulled at constant speed v, the stretch λ3 = 100 % · v t / L.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct TimeMeasure {
+    pub name: String,
+    /// Its value per second of simulated time.
+    pub per_second: f64,
+    pub unit: String,
+}
+
+impl TimeMeasure {
+    /// "λ3 = 383 %" at time t.
+    pub fn at(&self, t: f64) -> String {
+        format!("{} = {:.0} {}", self.name, self.per_second * t, self.unit)
+    }
+}
+
 /// A study suite.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -120,6 +138,8 @@ pub struct Suite {
     #[serde(rename = "variant")]
     pub variants: Vec<Variant>,
     pub reference: Reference,
+    /// Shown beside every failure time.
+    pub failure_measure: Option<TimeMeasure>,
     /// Part of `meshless study all` (the published report).
     #[serde(default)]
     pub report: bool,
