@@ -12,13 +12,13 @@
 //! integrated.
 
 use super::{
-    BlowUp, MIN_CHUNK, Method, axpy, blend, check_motion, masses_and_boundary, neighbour_radius,
+    BlowUp, MIN_CHUNK, Method, check_motion, masses_and_boundary, neighbour_radius, particle_state,
     reference_gradients,
 };
 use crate::boundary::Boundary;
 use crate::correction;
 use crate::correction::{Small, solve_small};
-use crate::integrate::{IntegratorKind, OdeState, OdeSystem};
+use crate::integrate::{IntegratorKind, OdeSystem};
 use crate::kernel::Kernel;
 use crate::material::Material;
 use crate::mirror::Ghosts;
@@ -46,39 +46,7 @@ pub struct MixedState<D: Dim> {
     pub j: Vec<f64>,
 }
 
-impl<D: Dim> OdeState for MixedState<D> {
-    fn axpy(&mut self, a: f64, r: &Self) {
-        axpy(&mut self.u, a, &r.u);
-        axpy(&mut self.v, a, &r.v);
-        axpy(&mut self.f, a, &r.f);
-        axpy(&mut self.h, a, &r.h);
-        axpy(&mut self.j, a, &r.j);
-    }
-
-    fn blend(&mut self, a: f64, b: f64, o: &Self) {
-        blend(&mut self.u, a, b, &o.u);
-        blend(&mut self.v, a, b, &o.v);
-        blend(&mut self.f, a, b, &o.f);
-        blend(&mut self.h, a, b, &o.h);
-        blend(&mut self.j, a, b, &o.j);
-    }
-
-    fn kick(&mut self, h: f64, r: &Self) {
-        axpy(&mut self.v, h, &r.v);
-    }
-
-    fn drift(&mut self, h: f64, r: &Self) {
-        let v = &self.v;
-        self.u
-            .par_iter_mut()
-            .with_min_len(MIN_CHUNK)
-            .zip(v)
-            .for_each(|(u, &v)| *u += v * h);
-        axpy(&mut self.f, h, &r.f);
-        axpy(&mut self.h, h, &r.h);
-        axpy(&mut self.j, h, &r.j);
-    }
-}
+particle_state!(MixedState { f, h, j });
 
 /// The stabilising flux of a mixed method.
 #[derive(Clone, Debug)]

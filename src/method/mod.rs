@@ -44,6 +44,37 @@ pub(crate) fn blend<T: Copy + Send + Sync + Add<Output = T> + Mul<f64, Output = 
         .for_each(|(y, &x)| *y = *y * a + x * b);
 }
 
+/// `OdeState` for a particle state of displacement `u`, velocity `v` and further fields,
+/// each with a rate of its own: RK stages combine every field; the leapfrog drift moves u
+/// with the state's own v and the other fields with their rates.
+macro_rules! particle_state {
+    ($state:ident { $($field:ident),* }) => {
+        impl<D: Dim> crate::integrate::OdeState for $state<D> {
+            fn axpy(&mut self, a: f64, r: &Self) {
+                crate::method::axpy(&mut self.u, a, &r.u);
+                crate::method::axpy(&mut self.v, a, &r.v);
+                $(crate::method::axpy(&mut self.$field, a, &r.$field);)*
+            }
+
+            fn blend(&mut self, a: f64, b: f64, o: &Self) {
+                crate::method::blend(&mut self.u, a, b, &o.u);
+                crate::method::blend(&mut self.v, a, b, &o.v);
+                $(crate::method::blend(&mut self.$field, a, b, &o.$field);)*
+            }
+
+            fn kick(&mut self, h: f64, r: &Self) {
+                crate::method::axpy(&mut self.v, h, &r.v);
+            }
+
+            fn drift(&mut self, h: f64, r: &Self) {
+                crate::method::axpy(&mut self.u, h, &self.v);
+                $(crate::method::axpy(&mut self.$field, h, &r.$field);)*
+            }
+        }
+    };
+}
+pub(crate) use particle_state;
+
 /// The kernel support, with a relative margin so that lattice neighbours exactly at the
 /// support are found on both sides despite round-off (their W and ∇W vanish).
 pub(crate) fn neighbour_radius<D: Dim>(case: &Case) -> f64 {

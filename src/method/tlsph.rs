@@ -6,11 +6,12 @@
 //! deviatoric stress S.
 
 use super::{
-    BlowUp, MIN_CHUNK, Method, axpy, blend, check_motion, masses_and_boundary, reference_gradients,
+    BlowUp, MIN_CHUNK, Method, check_motion, masses_and_boundary, particle_state,
+    reference_gradients,
 };
 use crate::boundary::Boundary;
 
-use crate::integrate::{OdeState, OdeSystem};
+use crate::integrate::OdeSystem;
 
 use crate::material::Material;
 use crate::neighbour::Csr;
@@ -31,36 +32,7 @@ pub struct TlState<D: Dim> {
     pub s: Vec<D::T>,
 }
 
-impl<D: Dim> OdeState for TlState<D> {
-    fn axpy(&mut self, a: f64, r: &Self) {
-        axpy(&mut self.u, a, &r.u);
-        axpy(&mut self.v, a, &r.v);
-        axpy(&mut self.rho, a, &r.rho);
-        axpy(&mut self.s, a, &r.s);
-    }
-
-    fn blend(&mut self, a: f64, b: f64, o: &Self) {
-        blend(&mut self.u, a, b, &o.u);
-        blend(&mut self.v, a, b, &o.v);
-        blend(&mut self.rho, a, b, &o.rho);
-        blend(&mut self.s, a, b, &o.s);
-    }
-
-    fn kick(&mut self, h: f64, r: &Self) {
-        axpy(&mut self.v, h, &r.v);
-    }
-
-    fn drift(&mut self, h: f64, r: &Self) {
-        let v = &self.v;
-        self.u
-            .par_iter_mut()
-            .with_min_len(MIN_CHUNK)
-            .zip(v)
-            .for_each(|(u, &v)| *u += v * h);
-        axpy(&mut self.rho, h, &r.rho);
-        axpy(&mut self.s, h, &r.s);
-    }
-}
+particle_state!(TlState { rho, s });
 
 /// Per-particle quantities of one rate evaluation.
 #[derive(Clone, Copy, Debug)]
