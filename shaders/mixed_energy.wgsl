@@ -1,6 +1,8 @@
-// V_i ψ(F_i, J_i) of a mixed-method particle for reduce.wgsl, from the F − I of the stress,
-// bound as `kin` at FS_OFF (the state again, or the bond-based F^c − I), and J − 1
-// (det F − 1 when J is not evolved). Constants as in mixed_kinematics.wgsl.
+// The hooks of reduce.wgsl for a mixed method. Constants as in mixed.wgsl.
+
+// V_i ψ(F_i, J_i) of a mixed-method particle, from the F − I of the stress, bound as `kin`
+// at FS_OFF (the state again, or the bond-based F^c − I), and J − 1 (det F − 1 when J is
+// not evolved).
 fn strain_energy(i: u32) -> f32 {
     let f = mload_kin(FS_OFF + DIM * DIM * i);
     var j = det_excess(f);
@@ -10,9 +12,32 @@ fn strain_energy(i: u32) -> f32 {
     return vol[i] * energy_density_mixed(f, j);
 }
 
-// 1/λ²_min of particle i (seed 002 eqs 31–32: the wave speed the CFL step uses is
-// c_p/λ²_min), λ²_min the smallest eigenvalue of C = FᵀF.
-fn stretch_factor(i: u32) -> f32 {
+// The neighbour lists (CSR over the real rows; ids ≥ N are ghosts), for the pair rate.
+@group(0) @binding(6) var<storage, read> offsets: array<u32>;
+@group(0) @binding(7) var<storage, read> ids: array<u32>;
+
+// λ_i, the smallest principal stretch of particle i: the square root of the smallest
+// eigenvalue of C = FᵀF.
+fn smallest_stretch(i: u32) -> f32 {
     let f = identity_d() + mload_y(F_OFF + DIM * DIM * i);
-    return 1.0 / smallest_eigenvalue_sym(transpose(f) * f);
+    return sqrt(smallest_eigenvalue_sym(transpose(f) * f));
+}
+
+// Δx max_j C_p,ij / r_ij over the real neighbours j of particle i (seed 002 eqs 31–32,
+// MixedSph::pair_wave_speed on the CPU, which says why ghosts do not count), r_ij the
+// current distance.
+fn pair_wave_speed(i: u32) -> f32 {
+    let x_i = vload_x_hi(DIM * i) + vload_y(U_OFF + DIM * i);
+    let lambda_i = smallest_stretch(i);
+    var fastest = 0.0;
+    for (var q = offsets[i]; q < offsets[i + 1u]; q++) {
+        let j = ids[q];
+        if j < N {
+            let r_ij = length(vload_x_hi(DIM * j) + vload_y(U_OFF + DIM * j) - x_i);
+            // eq 32: C_p,ij = C_p^Lin / λ^Ave_ij, λ^Ave_ij = ½(λ_i + λ_j).
+            let c_ij = C_P / (0.5 * (lambda_i + smallest_stretch(j)));
+            fastest = max(fastest, c_ij / r_ij);
+        }
+    }
+    return SPACING * fastest;
 }

@@ -1,12 +1,13 @@
 // Global sums of one state, per workgroup: kinetic and strain energy, linear and angular
 // momentum, the power of supports and loads, max |v|², a count of non-finite entries and
-// the largest stretch factor of the wave speed (`stretch_factor(i)`: 1/λ²_min for the mixed
-// methods, 1 for TLSPH).
+// the largest pair wave speed of the CFL step (`pair_wave_speed(i)`: Δx max_j C_p,ij / r_ij
+// for the mixed methods, seed 002 eqs 31–32; unused, 0, for TLSPH).
 // One invocation per particle; a tree reduction in workgroup memory writes REDUCED values
-// per workgroup to `partials`, summed (max for |v|² and the stretch factor) on the host in f64. The method's
-// `strain_energy(i)` (tlsph_energy.wgsl: from the stress pass's kin for the same state;
-// mixed_energy.wgsl: from the F of the stress) is V_i ψ_i; a non-finite energy counts as a
-// non-finite entry. Constants: N, DIM, RHO0, U_OFF, V_OFF.
+// per workgroup to `partials`, summed (max for |v|² and the pair wave speed) on the host in
+// f64. The method's `strain_energy(i)` (tlsph_energy.wgsl: from the stress pass's kin for
+// the same state; mixed_energy.wgsl: from the F of the stress) is V_i ψ_i; a non-finite
+// energy counts as a non-finite entry. The method's file may declare bindings past 5 for
+// its hooks (mixed_energy.wgsl: the neighbour lists). Constants: N, DIM, RHO0, U_OFF, V_OFF.
 
 const REDUCED: u32 = 12u;
 
@@ -62,7 +63,7 @@ fn reduce(
             bad = 1.0;
         }
         q[10] = bad;
-        q[11] = stretch_factor(i);
+        q[11] = pair_wave_speed(i);
     }
     sums[lid] = q;
     workgroupBarrier();

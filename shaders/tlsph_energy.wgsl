@@ -10,7 +10,8 @@ fn strain_energy(i: u32) -> f32 {
     return vol[i] * energy_density(mload_kin(KF_OFF + DIM * DIM * i), s, rho_dev);
 }
 
-// TLSPH's CFL step uses c_p of the reference configuration.
-fn stretch_factor(i: u32) -> f32 {
-    return 1.0;
+// TLSPH's CFL step is Δx / (c_p + max |v|) with c_p of the reference configuration
+// (gpu::tlsph): no pair wave speed, and the host does not read this slot.
+fn pair_wave_speed(i: u32) -> f32 {
+    return 0.0;
 }

@@ -6,7 +6,6 @@ use meshless::gpu::Gpu;
 use meshless::gpu::layout::GpuDim;
 use meshless::gpu::mixed::GpuMixed;
 use meshless::integrate::{Integrator, OdeSystem};
-use meshless::material::Material;
 use meshless::method::Method;
 use meshless::method::mixed::{MixedSph, MixedState};
 use meshless::observe::Invariants;
@@ -423,47 +422,48 @@ fn projection_keeps_the_angular_momentum_of_the_spinning_plate() {
     );
 }
 
-/// The CFL signal speed c_p/λ²_min + max |v| (seed 002 eqs 31–32) on a random state in
-/// which one particle is stretched to F = R diag(2, 0.4[, 1.3]) (λ²_min = 0.16): the
-/// CPU value against the closed form (the other particles have λ²_min ≥ 0.8; round-off
-/// 1e-12), and the GPU's reduction against the CPU (f32 eigenvalue of C with entries
-/// ≤ 4 over λ²_min = 0.16: 25 × 6e-8 = 1.5e-6; measured 2.3e-7 in 2D, 7.6e-8 in 3D,
-/// after the Newton steps that undo Vulkan's loose acos). Then on a nearly isotropic C
-/// everywhere (eigenvalues within p ≈ 3e-3 of each other), where the 3D cubic has a
-/// near-triple root and its f32 solution is only good to a fraction of p: within 1e-3,
-/// ample for a time step.
+/// The CFL signal speed Δx max_ab C_p,ab / r_ab + max |v| over the pairs of real
+/// particles (seed 002 eqs 31–32; the CPU value against eq 31 in closed form is a unit
+/// test of `method::mixed`), GPU against CPU, with mirror planes (their ghosts do not
+/// count), on a random state (|u| ~ 1 cm at Δx = 0.125 m) in which one particle is
+/// stretched to F = R diag(2, 0.4[, 1.3]) (λ_min = 0.63). The f32 error: λ from the f32
+/// eigenvalue of C (entries ≤ 4 over λ²_min = 0.16: 25 × 6e-8 = 1.5e-6 on λ², half on
+/// λ), r_ab from the f32 X (6e-8 of coordinates ≤ 1 m over r ≈ 0.125 m: 5e-7 per
+/// position, 1e-6 for the pair): about 2e-6; bound 1e-5. Then on a nearly isotropic C everywhere
+/// (eigenvalues within p ≈ 3e-3 of each other), where the 3D cubic has a near-triple
+/// root and its f32 solution is only good to a fraction of p: within 1e-3, ample for a
+/// time step.
 fn check_signal_speed<D: GpuDim>(c: &Case, stretched: D::T) {
     let cpu: MixedSph<D> = build_method(c).unwrap();
     let mut y = random_state(&cpu, &mut 11, 0.01);
     y.f[3] = stretched;
-    let v_max = y.v.iter().map(|&v| D::norm2(v).sqrt()).fold(0.0, f64::max);
-    let exact = Material::new(&c.material).p_wave_speed() / 0.16 + v_max;
-    let on_cpu = cpu.max_signal_speed(&y);
-    assert!(
-        (on_cpu / exact - 1.0).abs() < 1e-12,
-        "CPU {on_cpu} vs {exact} m/s"
-    );
     let mut g: GpuMixed<D> = GpuMixed::new(c, gpu()).unwrap();
-    let mut compare = |y: &MixedState<D>, tol: f64| {
+    let mut compare = |label: &str, y: &MixedState<D>, tol: f64| {
         g.set_state(y);
         let (on_gpu, on_cpu) = (g.max_signal_speed(), cpu.max_signal_speed(y));
+        let deviation = (on_gpu / on_cpu - 1.0).abs();
+        eprintln!(
+            "{}D {label}: signal speed GPU {on_gpu} vs CPU {on_cpu} m/s ({deviation:.2e})",
+            D::N
+        );
         assert!(
-            (on_gpu / on_cpu - 1.0).abs() < tol,
-            "GPU {on_gpu} vs CPU {on_cpu} m/s"
+            deviation < tol,
+            "{}D {label}: GPU {on_gpu} vs CPU {on_cpu} m/s",
+            D::N
         );
     };
-    compare(&y, 1e-5);
+    compare("one stretched particle", &y, 1e-5);
     // Nearly isotropic C everywhere (F = I + 1e-3 noise: eigenvalues within 3e-3 of
     // each other), where the characteristic cubic has a near-triple root.
     let mut seed = 5;
     for f in &mut y.f {
         *f = D::identity() + random_tensor::<D>(&mut seed, 1e-3);
     }
-    compare(&y, 1e-3);
+    compare("nearly isotropic C", &y, 1e-3);
 }
 
 #[test]
-fn the_cfl_signal_speed_follows_the_smallest_stretch() {
+fn the_cfl_signal_speed_follows_the_fastest_pair() {
     let r2 = glam::DMat2::from_angle(0.4);
     let s2 = r2 * glam::DMat2::from_diagonal(glam::DVec2::new(2.0, 0.4));
     check_signal_speed::<D2>(&case("swinging-plate", &["spacing=0.125"]), s2);

@@ -130,6 +130,7 @@ pub fn scene<D: GpuDim>(case: &Case, cpu: &MixedSph<D>) -> (MixedLayout, Constan
         .material(material)
         .f32("C_P", material.p_wave_speed())
         .f32("C_S", material.s_wave_speed())
+        .f32("SPACING", case.spacing)
         .f32("H", cpu.smoothing_length())
         .u32("STAB", u32::from(case.method.name == MethodName::JstSph))
         .u32("RECON", u32::from(cpu.reconstruction()))
@@ -620,6 +621,8 @@ impl<D: GpuDim> GpuMixed<D> {
                 (2, &vol_buf),
                 (3, &x_hi),
                 (4, &power),
+                (6, &offsets),
+                (7, &ids),
             ],
             n,
         );
@@ -855,7 +858,7 @@ impl<D: GpuDim> Engine<D> for GpuMixed<D> {
     fn max_signal_speed(&mut self) -> f64 {
         // As the CPU's MixedSph::max_signal_speed (seed 002 eqs 31–32).
         let r = self.reduction();
-        self.cpu.material().p_wave_speed() * r.stretch_factor + r.max_speed
+        r.pair_wave_speed + r.max_speed
     }
 
     /// Trapezoidal over the intervals between calls (the driver calls it at every check).

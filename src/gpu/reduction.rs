@@ -1,6 +1,6 @@
 //! The GPU reduction of a state (`shaders/reduce.wgsl`) and the work balance of supports
 //! and loads, shared by the GPU engines: energies, momenta, the power of supports and
-//! loads, max |v|, a non-finite count and the largest stretch factor of the wave speed, per
+//! loads, max |v|, a non-finite count and the largest pair wave speed of the CFL step, per
 //! workgroup on the device and summed on the host in f64. Only the partials (12 floats
 //! per 256 particles) are read back.
 
@@ -18,8 +18,9 @@ pub struct Reduced {
     pub power: f64,
     pub max_speed: f64,
     pub non_finite: bool,
-    /// Largest factor on the wave speed (1/λ²_min for the mixed methods, 1 for TLSPH).
-    pub stretch_factor: f64,
+    /// Mixed methods: Δx max_ab C_p,ab / r_ab over the pairs of real particles (seed 002
+    /// eqs 31–32, `MixedSph::pair_wave_speed`); 0 for TLSPH.
+    pub pair_wave_speed: f64,
 }
 
 /// The reduce pass of an engine and its cached result for the current state.
@@ -34,7 +35,8 @@ pub struct Reduction {
 impl Reduction {
     /// `source` is `reduce.wgsl` composed for the method; `inputs` are its bindings 0–4
     /// (state, method data, volumes, reference positions, power) that the method's
-    /// variant reads, with their binding numbers; the partials are binding 5.
+    /// variant reads and those past 5 its hooks declare, with their binding numbers; the
+    /// partials are binding 5.
     pub fn new(gpu: &Gpu, source: &str, inputs: &[(u32, &wgpu::Buffer)], n: usize) -> Self {
         let pipeline = gpu.pipeline("reduce", source, "reduce");
         let (gx, gy) = gpu.groups(n as u32);
@@ -90,7 +92,7 @@ impl Reduction {
             power: q[8],
             max_speed: q[9].sqrt(),
             non_finite: q[10] != 0.0 || !q[..10].iter().all(|x| x.is_finite()),
-            stretch_factor: q[11],
+            pair_wave_speed: q[11],
         };
         self.cached = Some(r);
         r

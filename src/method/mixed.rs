@@ -148,6 +148,8 @@ pub struct MixedSph<D: Dim> {
     stabilisation: Stabilisation,
     projection: bool,
     integrator: IntegratorKind,
+    /// Particle spacing Δx: the driver's CFL step is α Δx / signal speed.
+    spacing: f64,
     h: f64,
     boundary: Boundary<D>,
     /// Displacements and velocities of real particles and ghosts at the current stage.
@@ -290,6 +292,7 @@ impl<D: Dim> MixedSph<D> {
             stabilisation,
             projection: m.projection.unwrap_or(case.mirrors.is_empty()),
             integrator: m.integrator,
+            spacing: case.spacing,
             h: m.h_over_dx * case.spacing,
             boundary,
             step_start: None,
@@ -561,6 +564,48 @@ impl<D: Dim> MixedSph<D> {
             Stabilisation::Upwind { .. } => {}
         }
         Ok(())
+    }
+
+    /// Δx max_ab C_p,ab / r_ab over the neighbour pairs of real particles (seed 002 eqs
+    /// 31–32): the speed that crosses the spacing Δx in the shortest time r_ab / C_p,ab
+    /// a wave takes across a pair, r_ab = |x_b − x_a| the current distance.
+    ///
+    /// Pairs with a ghost do not count: a ghost is no material point, and counting it
+    /// could only lower Δt through the mirror construction. Across a symmetry plane the
+    /// image b' of b is no nearer to a than b is (|x_a − x_b'| ≥ |x_a − x_b| for a and b
+    /// on the body's side, likewise in the reference, so (a, b) is a pair too) and
+    /// λ_b' = λ_b; only a particle's pair with its own image would add a rate, at twice
+    /// its distance to the plane: Δx at rest on a cell-centred lattice, and for a locally
+    /// affine motion stretched as the real pairs along the plane's normal are. Across a
+    /// skew-symmetric plane the image carries −u along the plane, and its distance to a is
+    /// no distance in the body.
+    pub fn pair_wave_speed(&self, y: &MixedState<D>) -> f64 {
+        // λ_a: the smallest principal stretch, sqrt of the smallest eigenvalue of C_a.
+        let stretch: Vec<f64> =
+            y.f.par_iter()
+                .map(|&f| smallest_stretch_squared::<D>(f).sqrt())
+                .collect();
+        let c_p = self.material.p_wave_speed();
+        let fastest = (0..self.n)
+            .into_par_iter()
+            .with_min_len(MIN_CHUNK)
+            .map(|a| {
+                let xa = self.x0[a] + y.u[a];
+                self.csr
+                    .neighbours(a)
+                    .iter()
+                    .map(|&b| b as usize)
+                    .filter(|&b| b < self.n)
+                    .map(|b| {
+                        let r_ab = D::norm2(self.x0[b] + y.u[b] - xa).sqrt();
+                        // eq 32: C_p,ab = C_p^Lin / λ^Ave_ab, λ^Ave_ab = ½(λ_a + λ_b).
+                        let c_ab = c_p / (0.5 * (stretch[a] + stretch[b]));
+                        c_ab / r_ab
+                    })
+                    .fold(0.0, f64::max)
+            })
+            .reduce(|| 0.0, f64::max);
+        self.spacing * fastest
     }
 
     /// First Piola–Kirchhoff stress of every particle.
@@ -904,17 +949,14 @@ impl<D: Dim> Method<D> for MixedSph<D> {
         }
     }
 
-    /// c_p / λ²_min + max |v|: seed 002 eqs 31–32, Δt = α min_ab r_ab λ̄_ab / c_p, with
-    /// the current pair distance r_ab ≥ λ_min |X_ab| of a locally affine motion, so that
-    /// Δt = α Δx / signal speed shrinks with the smallest principal stretch λ_min of any
-    /// particle (a column stretched by 400 % has λ²_min ≈ 1/5 across it).
+    /// Δx max_ab C_p,ab / r_ab + max |v| ([`MixedSph::pair_wave_speed`]): with v = 0 the
+    /// driver's Δt = α Δx / signal speed is seed 002 eq 31, α min_ab r_ab / C_p,ab.
     fn max_signal_speed(&self, y: &MixedState<D>) -> f64 {
-        let (v2_max, slowest) =
+        let v2_max =
             y.v.par_iter()
-                .zip(&y.f)
-                .map(|(&v, &f)| (D::norm2(v), 1.0 / smallest_stretch_squared::<D>(f)))
-                .reduce(|| (0.0, 0.0), |a, b| (a.0.max(b.0), a.1.max(b.1)));
-        self.material.p_wave_speed() * slowest + v2_max.sqrt()
+                .map(|&v| D::norm2(v))
+                .reduce(|| 0.0, f64::max);
+        self.pair_wave_speed(y) + v2_max.sqrt()
     }
 
     fn boundary_power(&self) -> f64 {
@@ -1016,7 +1058,7 @@ mod tests {
     use crate::correction::{self, CorrectionKind};
     use crate::kernel::KernelKind;
     use crate::neighbour;
-    use crate::tensor::D3;
+    use crate::tensor::{D2, D3};
     use glam::DVec3;
 
     /// Σ_b ℓ_ab X_ab and Σ_b ℓ_ab |X_ab|² − 2d of every particle, and the smallest
@@ -1068,6 +1110,88 @@ mod tests {
         assert!(second < 1e-12, "|Σ ℓ|X|² − 2d| = {second:e}");
         assert!(first > 1.0, "|Σ ℓ X| = {first:e} at the free surface");
         assert!(min_sym > 0.0, "smallest ℓ_ab + ℓ_ba = {min_sym:e}");
+    }
+
+    /// A shipped case.
+    fn shipped(name: &str) -> Case {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("cases")
+            .join(format!("{name}.toml"));
+        Case::load(&path, &[]).unwrap()
+    }
+
+    /// The driver's CFL step α Δx / signal speed of a case's lattice at rest with the
+    /// uniform stretch F = diag(s) (u = (F − I) X), against seed 002 eq 31 in closed form:
+    /// every particle has λ = λ_min = min s, so Δt = α min |F X_ab| λ_min / c_p over the
+    /// lattice bonds X_ab = Δx k (k integer, 0 < |X_ab| ≤ the kernel support). Then one
+    /// particle alone stretched to F = diag(s) at u = 0: its pairs with the nearest
+    /// neighbours give Δt = α Δx ½(λ_min + 1) / c_p, the pair average of eq 32 (a
+    /// per-particle λ²_min would give α Δx λ²_min / c_p). Round-off of the distances and
+    /// the eigenvalue: 1e-12.
+    fn check_stretched_step<D: Dim>(case: &Case, s: [f64; 3]) {
+        let m: MixedSph<D> = crate::run::build_method(case).unwrap();
+        let (alpha, dx) = (case.method.cfl.unwrap(), case.spacing);
+        let c_p = m.material.p_wave_speed();
+        let axis = |k: usize| {
+            let mut e = [0.0; 3];
+            e[k] = 1.0;
+            D::from_slice(&e[..D::N])
+        };
+        let f = (0..D::N).fold(D::zero_t(), |f, k| f + D::outer(axis(k), axis(k)) * s[k]);
+        let lambda_min = s[..D::N].iter().copied().fold(f64::INFINITY, f64::min);
+        let step = |y: &MixedState<D>| alpha * dx / m.max_signal_speed(y);
+        let check = |what: &str, dt: f64, exact: f64| {
+            let deviation = (dt / exact - 1.0).abs();
+            eprintln!(
+                "{}D {what}: Δt = {dt:e} s ({deviation:.1e} from eq 31)",
+                D::N
+            );
+            assert!(
+                deviation < 1e-12,
+                "{}D {what}: Δt = {dt:e} s, eq 31 gives {exact:e} s",
+                D::N
+            );
+        };
+
+        let mut y = m.initial_state();
+        for a in 0..m.n {
+            y.u[a] = f * m.x0[a] - m.x0[a];
+            y.v[a] = D::zero();
+            y.f[a] = f;
+        }
+        let support = Kernel::new(case.method.kernel, m.h, D::N).support();
+        let reach = (support / dx) as i64;
+        let side = 2 * reach + 1;
+        let shortest = (0..side.pow(D::N as u32))
+            .filter_map(|cell| {
+                let k: Vec<f64> = (0..D::N as u32)
+                    .map(|l| (cell / side.pow(l) % side - reach) as f64 * dx)
+                    .collect();
+                let x_ab = D::from_slice(&k);
+                let r0 = D::norm2(x_ab).sqrt();
+                (r0 > 0.0 && r0 <= support).then(|| D::norm2(f * x_ab).sqrt())
+            })
+            .fold(f64::INFINITY, f64::min);
+        check(
+            "uniform stretch",
+            step(&y),
+            alpha * shortest * lambda_min / c_p,
+        );
+
+        let mut y = m.initial_state();
+        y.v.fill(D::zero());
+        y.f[m.n / 2] = f;
+        check(
+            "one stretched particle",
+            step(&y),
+            alpha * dx * 0.5 * (lambda_min + 1.0) / c_p,
+        );
+    }
+
+    #[test]
+    fn the_cfl_step_is_the_shortest_pair_crossing_of_eq_31() {
+        check_stretched_step::<D2>(&shipped("spinning-plate"), [1.3, 0.7, 1.0]);
+        check_stretched_step::<D3>(&shipped("pulling-column"), [0.8, 1.5, 0.6]);
     }
 
     #[test]

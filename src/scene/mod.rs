@@ -190,8 +190,9 @@ pub struct MethodSpec {
     pub integrator: IntegratorKind,
     /// Fixed time step [s]; exactly one of `dt` and `cfl` is given.
     pub dt: Option<f64>,
-    /// Courant number: Δt = cfl · Δx / (c_p + max |v|); the mixed methods divide c_p by
-    /// the smallest squared principal stretch λ²_min of any particle (seed 002 eqs 31–32).
+    /// Courant number: Δt = cfl · Δx / (c_p + max |v|); the mixed methods replace c_p/Δx
+    /// by the largest C_p,ab / r_ab of a pair, with the current distance r_ab and
+    /// C_p,ab = c_p / ½(λ_a + λ_b), λ the smallest principal stretch (seed 002 eqs 31–32).
     pub cfl: Option<f64>,
     pub artificial_viscosity: Option<ArtificialViscosity>,
     /// Mixed methods: the conservation variables evolved (default {p, F, H, J}).
