@@ -612,8 +612,10 @@ fn hourglass_blow_up<D: Dim>(snap: &Snapshot<D>, eta: &[f64], limit: f64) -> Opt
 }
 
 /// Collapse of the CFL step below `floor`, attributed to the particle with the largest
-/// signal speed: c_p/λ²_min + |v| for the mixed methods (seed 002 eqs 31–32, λ²_min the
-/// smallest eigenvalue of C), |v| for TLSPH (its step does not depend on the stretch).
+/// signal-speed estimate: c_p/λ²_min + |v| for the mixed methods (λ²_min the smallest
+/// eigenvalue of C; their per-pair step of seed 002 eqs 31–32 falls as r_ab λ_ab, and
+/// r_ab ≥ λ_min |X_ab| for a locally affine motion), |v| for TLSPH (its step does not
+/// depend on the stretch).
 fn step_collapse<D: Dim>(case: &Case, snap: &Snapshot<D>, floor: f64) -> BlowUp {
     let c_p = Material::new(&case.material).p_wave_speed();
     let speed = |i: usize| {
