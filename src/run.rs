@@ -425,14 +425,17 @@ pub fn drive<D: Dim, E: Engine<D>>(
     let mut series =
         SeriesWriter::create(&opts.out_dir.join("series.csv"), observers.column_names())?;
     let mut frames = Frames::new(case, opts)?;
-    // η of every particle, evaluated at each output when frames, the observer or the limit
-    // need it.
+    // η of every particle, evaluated at an output only when a frame, a series row with the
+    // observer or the limit needs it.
     let hourglass =
         (frames.on() || observers.need_hourglass() || case.run.hourglass_limit.is_some())
             .then(|| HourglassIndicator::new::<D>(case, engine.reference()));
-    let eta_of = |snap: &Snapshot<D>| {
+    let eta_of = |snap: &Snapshot<D>, frame: bool, row: bool| {
+        let needed =
+            frame || (row && observers.need_hourglass()) || case.run.hourglass_limit.is_some();
         hourglass
             .as_ref()
+            .filter(|_| needed)
             .map(|h| h.of::<D>(snap.x0, &snap.u, &snap.f))
     };
     let backend = engine.backend();
@@ -457,7 +460,7 @@ pub fn drive<D: Dim, E: Engine<D>>(
 
     let snap = engine.snapshot();
     let inv0 = Invariants::of(&snap);
-    let eta = eta_of(&snap);
+    let eta = eta_of(&snap, frames.will_write(0.0, true), true);
     series.write_row(&observers.sample(&snap, &inv0, &clock, eta.as_deref()))?;
     frames.write(&snap, 0.0, true, eta.as_deref())?;
     drop(snap);
@@ -521,7 +524,7 @@ pub fn drive<D: Dim, E: Engine<D>>(
             if too_much(&inv) {
                 break Some(energy_blow_up::<D>(&snap, inv.total_energy(), bound));
             }
-            let eta = eta_of(&snap);
+            let eta = eta_of(&snap, frames.will_write(t, done(t)), sample);
             if let (Some(limit), Some(eta)) = (case.run.hourglass_limit, &eta)
                 && let Some(cause) = hourglass_blow_up::<D>(&snap, eta, limit)
             {
@@ -684,6 +687,11 @@ impl Frames {
         self.index.is_some()
     }
 
+    /// Whether [`Self::write`] at time t writes a frame.
+    fn will_write(&self, t: f64, force: bool) -> bool {
+        self.on() && (self.due(t) || force)
+    }
+
     /// Time of the next frame (infinite when frames are off or have no interval).
     fn next_time(&self) -> f64 {
         match (&self.index, self.interval) {
@@ -698,7 +706,7 @@ impl Frames {
     }
 
     /// Writes a frame when one is due (or `force`); `eta` is the hourglass indicator,
-    /// given whenever frames are on.
+    /// given whenever [`Self::will_write`].
     fn write<D: Dim>(
         &mut self,
         snap: &Snapshot<D>,
@@ -706,13 +714,12 @@ impl Frames {
         force: bool,
         eta: Option<&[f64]>,
     ) -> std::io::Result<()> {
-        let due = self.due(t);
+        if !self.will_write(t, force) {
+            return Ok(());
+        }
         let (Some(index), Some(eta)) = (&mut self.index, eta) else {
             return Ok(());
         };
-        if !(due || force) {
-            return Ok(());
-        }
         let file = format!("{}_{:06}.vtu", self.name, self.count);
         write_frame::<D>(&self.dir.join(&file), snap, t, eta)?;
         index.push(t, &file)?;
