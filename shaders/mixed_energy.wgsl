@@ -17,8 +17,11 @@ fn strain_energy(i: u32) -> f32 {
 @group(0) @binding(7) var<storage, read> ids: array<u32>;
 
 // λ_i, the smallest principal stretch of particle i: the square root of the smallest
-// eigenvalue of C = FᵀF.
+// eigenvalue of C = FᵀF; 1 when the step takes C_p^Lin for every pair (PAIR_STRETCH = 0).
 fn smallest_stretch(i: u32) -> f32 {
+    if PAIR_STRETCH == 0u {
+        return 1.0;
+    }
     let f = identity_d() + mload_y(F_OFF + DIM * DIM * i);
     return sqrt(smallest_eigenvalue_sym(transpose(f) * f));
 }

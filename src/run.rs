@@ -15,7 +15,9 @@ use crate::observe::{Clock, Invariants, Observers, Snapshot};
 use crate::output::{
     Field, FieldData, PvdIndex, RunSummary, SeriesWriter, write_summary, write_vtu,
 };
-use crate::scene::{Case, CaseError, Conserved, DeformationGradient, MethodName, discretise};
+use crate::scene::{
+    Case, CaseError, CflWaveSpeed, Conserved, DeformationGradient, MethodName, discretise,
+};
 use crate::tensor::{D2, D3, Dim, smallest_stretch_squared};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -145,6 +147,15 @@ pub fn explain(case: &Case, gpu: bool) -> String {
         "time step: {}",
         match (m.dt, m.cfl) {
             (Some(dt), _) => format!("fixed Δt = {dt:e} s"),
+            (_, Some(cfl)) if mixed => format!(
+                "CFL {cfl}: Δt = cfl·min_ab r_ab/C_p,ab with C_p,ab = {} (seed 002 eqs 31–32), \
+                 C_p^Lin = {:.1} m/s, updated at every check",
+                match m.cfl_wave_speed.unwrap_or_default() {
+                    CflWaveSpeed::Pair => "C_p^Lin/½(λ_a + λ_b)",
+                    CflWaveSpeed::Linear => "C_p^Lin",
+                },
+                mat.p_wave_speed()
+            ),
             (_, Some(cfl)) => format!(
                 "CFL {cfl}: Δt = cfl·Δx/(c_p + max|v|), c_p = {:.1} m/s, updated at every check",
                 mat.p_wave_speed()

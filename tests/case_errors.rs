@@ -594,6 +594,23 @@ fn mixed_method_rejects_rate_models_plain_gradients_and_viscosity() {
         "method.jst",
         &["jst-sph"],
     );
+    let linear = "cfl = 0.3\ncfl_wave_speed = \"linear\"";
+    Case::from_toml(&edit(&mixed, "dt = 1e-5", linear), Path::new(FILE), &[])
+        .expect("C_p^Lin with a CFL step");
+    assert_invalid(
+        &edit(
+            &mixed,
+            "dt = 1e-5",
+            "dt = 1e-5\ncfl_wave_speed = \"linear\"",
+        ),
+        "method.cfl_wave_speed",
+        &["method.cfl", "method.dt"],
+    );
+    assert_invalid(
+        &edit(VALID, "dt = 1e-5", linear),
+        "method.cfl_wave_speed",
+        &["upwind-sph", "jst-sph", "remove it"],
+    );
 }
 
 #[test]

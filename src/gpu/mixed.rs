@@ -22,7 +22,7 @@ use crate::method::mixed::{Fluxes, MixedSph, MixedState};
 use crate::method::{BlowUp, Method};
 use crate::observe::{Invariants, Snapshot};
 use crate::run::{Engine, build_method};
-use crate::scene::{Case, Conserved, DeformationGradient, MethodName, Momentum};
+use crate::scene::{Case, CflWaveSpeed, Conserved, DeformationGradient, MethodName, Momentum};
 use bytemuck::{Pod, Zeroable};
 
 /// Offsets (in f32 entries) of the fields in the flat buffers of a mixed scene.
@@ -131,6 +131,10 @@ pub fn scene<D: GpuDim>(case: &Case, cpu: &MixedSph<D>) -> (MixedLayout, Constan
         .f32("C_P", material.p_wave_speed())
         .f32("C_S", material.s_wave_speed())
         .f32("SPACING", case.spacing)
+        .u32(
+            "PAIR_STRETCH",
+            u32::from(cpu.cfl_wave_speed() == CflWaveSpeed::Pair),
+        )
         .f32("H", cpu.smoothing_length())
         .u32("STAB", u32::from(case.method.name == MethodName::JstSph))
         .u32("RECON", u32::from(cpu.reconstruction()))

@@ -194,6 +194,8 @@ pub struct MethodSpec {
     /// by the largest C_p,ab / r_ab of a pair, with the current distance r_ab and
     /// C_p,ab = c_p / ½(λ_a + λ_b), λ the smallest principal stretch (seed 002 eqs 31–32).
     pub cfl: Option<f64>,
+    /// Mixed methods with `cfl`: the pair wave speed C_p,ab of the step (default `pair`).
+    pub cfl_wave_speed: Option<CflWaveSpeed>,
     pub artificial_viscosity: Option<ArtificialViscosity>,
     /// Mixed methods: the conservation variables evolved (default {p, F, H, J}).
     pub variables: Option<Conserved>,
@@ -209,6 +211,19 @@ pub struct MethodSpec {
     pub momentum: Option<Momentum>,
     /// Mixed methods: the F the stress is evaluated at (default `evolved`).
     pub deformation_gradient: Option<DeformationGradient>,
+}
+
+/// The p-wave speed C_p,ab of a pair in the mixed methods' CFL step Δt = α min_ab r_ab /
+/// C_p,ab (seed 002 eq 31).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum CflWaveSpeed {
+    /// C_p,ab = C_p^Lin / ½(λ_a + λ_b), λ the smallest principal stretch (eq 32).
+    #[default]
+    Pair,
+    /// C_p^Lin = sqrt((λ + 2μ)/ρ₀) for every pair: the paper's choice for the bond-based
+    /// column, which needs no stretches; r_ab still follows the motion.
+    Linear,
 }
 
 /// Discrete DIV P of the mixed methods.

@@ -212,6 +212,7 @@ fn method_options(case: &Case) -> Checked {
             ("jst", m.jst.is_some()),
             ("momentum", m.momentum.is_some()),
             ("deformation_gradient", m.deformation_gradient.is_some()),
+            ("cfl_wave_speed", m.cfl_wave_speed.is_some()),
         ] {
             if given {
                 return fail(
@@ -268,6 +269,13 @@ fn method_options(case: &Case) -> Checked {
                  or `linear-elastic`), not {}",
                 toml_name(&case.material.model)
             ),
+        );
+    }
+    if m.cfl_wave_speed.is_some() && m.cfl.is_none() {
+        return fail(
+            "method.cfl_wave_speed",
+            "sets the wave speed of the CFL step and is read only with method.cfl; remove it \
+             or replace method.dt by method.cfl",
         );
     }
     let bond_based = m.deformation_gradient == Some(DeformationGradient::BondBased);
