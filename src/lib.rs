@@ -5,6 +5,7 @@
 pub mod analytic;
 pub mod bench;
 pub mod boundary;
+pub mod contact;
 pub mod correction;
 pub mod gpu;
 pub mod hourglass;

@@ -186,9 +186,21 @@ pub fn explain(case: &Case, gpu: bool) -> String {
             m.integrator.stages()
         ));
     }
+    if let Some(contact) = case.contact {
+        out.push(format!(
+            "between steps: penalty contact (seed 000 §5.8, α = {}) of every particle against \
+             the convex hulls of the other {} bodies, held through the next step",
+            contact.penalty,
+            case.bodies.len() - 1
+        ));
+    }
     let mut left_out = vec!["neighbour rebuild (total-Lagrangian)"];
-    if case.bodies.len() == 1 {
-        left_out.push("contact (one body)");
+    if case.contact.is_none() {
+        left_out.push(if case.bodies.len() == 1 {
+            "contact (one body)"
+        } else {
+            "contact (no [contact] table)"
+        });
     }
     if mixed {
         if case.mirrors.is_empty() {
@@ -262,6 +274,10 @@ pub fn engine<D: GpuDim>(case: &Case, backend: Backend) -> Result<Box<dyn Engine
     let gpu = match backend {
         Backend::Cpu => None,
         Backend::Gpu => Some(Gpu::new().map_err(|e| RunError::Backend(e.to_string()))?),
+        Backend::Auto if case.contact.is_some() => {
+            eprintln!("note: contact runs on the CPU only; running on the CPU (rayon, f64)");
+            None
+        }
         Backend::Auto => Gpu::new()
             .inspect_err(|e| eprintln!("note: {e}; running on the CPU (rayon, f64)"))
             .ok(),
@@ -384,6 +400,7 @@ impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
         for k in 0..steps {
             self.integrator
                 .step(&mut self.method, t + f64::from(k) * dt, dt, &mut self.y)?;
+            self.method.end_step(&self.y, dt);
             // Trapezoidal work of the supports and loads, from successive step powers.
             let power = self.method.boundary_power();
             self.work += 0.5 * (self.last_power + power) * dt;

@@ -5,6 +5,7 @@
 //! the other tests cannot pass merely because everything fails.
 
 use meshless::scene::{Case, CaseError};
+use meshless::tensor::D2;
 use std::path::Path;
 
 /// 2D box body, hypoelastic, TLSPH with a fixed time step.
@@ -682,5 +683,62 @@ fn tributary_volumes_need_a_vertex_lattice() {
         ),
         "body.0.geometry.volumes",
         &["vertex lattice", "uniform"],
+    );
+}
+
+// ---------------------------------------------------------------------------------------
+// Contact
+
+/// `VALID` with a second block 0.5 m above the first and penalty contact.
+fn two_blocks(penalty: &str) -> String {
+    let second = "[[body]]\nname = \"lid\"\ngeometry = { shape = \"box\", min = [0.0, 1.0], \
+                  max = [1.0, 1.5] }\n\n[contact]\npenalty = ";
+    edit(VALID, "\n[run]", &format!("\n{second}{penalty}\n\n[run]"))
+}
+
+#[test]
+fn contact_needs_a_penalty_in_range_2d_tlsph_and_two_bodies() {
+    Case::from_toml(&two_blocks("0.1"), Path::new(FILE), &[]).expect("valid contact");
+    assert_invalid(
+        &two_blocks("1.5"),
+        "contact.penalty",
+        &["(0, 1]", "0.1", "1.5"],
+    );
+    assert_invalid(&two_blocks("0.0"), "contact.penalty", &["(0, 1]", "0.0"]);
+    let one_body = edit(VALID, "\n[run]", "\n[contact]\npenalty = 0.1\n\n[run]");
+    assert_invalid(&one_body, "contact", &["one", "[[body]]"]);
+    let mixed = edit(
+        &edit(&two_blocks("0.1"), "name = \"tlsph\"", "name = \"jst-sph\""),
+        "model = \"hypoelastic\"",
+        "model = \"neo-hookean\"",
+    );
+    let mixed = edit(
+        &mixed,
+        "h_over_dx = 1.3",
+        "h_over_dx = 1.3\ncorrection = \"cgck\"",
+    );
+    assert_invalid(&mixed, "contact", &["tlsph", "jst-sph"]);
+    let spun = edit(VALID_3D, "\n[run]", "\n[contact]\npenalty = 0.1\n\n[run]");
+    assert_invalid(&spun, "contact", &["2D", "3D"]);
+}
+
+#[test]
+fn contact_between_bodies_that_a_kernel_spans_is_rejected() {
+    // The lid 0.1 m (one Δx) above the block: within the support 2h = 0.26 m.
+    let close = edit(&two_blocks("0.1"), "min = [0.0, 1.0]", "min = [0.0, 0.6]");
+    let case = Case::from_toml(&close, Path::new(FILE), &[]).expect("parses and validates");
+    let e = match meshless::run::build_method::<D2, meshless::method::tlsph::Tlsph<D2>>(&case) {
+        Ok(_) => panic!("bodies within the kernel support were accepted"),
+        Err(e) => e.to_string(),
+    };
+    assert_mentions(
+        &e,
+        &[
+            "key `contact`",
+            "`block`",
+            "`lid`",
+            "support",
+            "move them apart",
+        ],
     );
 }

@@ -148,6 +148,14 @@ impl<D: GpuDim> GpuTlsph<D> {
     /// Discretises the case, builds neighbours and corrected gradients, and uploads the
     /// initial state.
     pub fn new(case: &Case, gpu: Gpu) -> Result<Self, SetupError> {
+        if case.contact.is_some() {
+            return Err(case
+                .invalid(
+                    "contact",
+                    "the GPU backend has no contact pass; run the case with --backend cpu",
+                )
+                .into());
+        }
         let disc = discretise::<D>(case)?;
         let material = Material::new(&case.material);
         let n = disc.x0.len();

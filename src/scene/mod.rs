@@ -43,9 +43,21 @@ pub struct Case {
     pub output: OutputSpec,
     #[serde(default, rename = "probe")]
     pub probes: Vec<ProbeSpec>,
+    /// Penalty contact between the bodies (2D, TLSPH on the CPU).
+    pub contact: Option<ContactSpec>,
     /// The case file, named in errors; relative paths inside it are relative to its folder.
     #[serde(skip)]
     pub file: PathBuf,
+}
+
+/// Penalty contact of seed 000 §5.8: every body is a master to every other, its boundary
+/// the convex hull of its reference particles.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ContactSpec {
+    /// α of eq 178, f = −α m (d·n) n / Δt²: the fraction of a penetration removed in one
+    /// step (the seed uses 0.1).
+    pub penalty: f64,
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]

@@ -6,7 +6,7 @@
 //! gives the same message.
 
 use super::{
-    ArtificialViscosity, Axis, BodySpec, BoundarySpec, Case, Condition, Conserved,
+    ArtificialViscosity, Axis, BodySpec, BoundarySpec, Case, Condition, Conserved, ContactSpec,
     DeformationGradient, Jst, Lattice, MaterialSpec, MethodName, MethodSpec, OutputSpec, ProbeSpec,
     Region, RunSpec, Shape, VelocityField, Volumes,
 };
@@ -29,6 +29,7 @@ pub(super) fn check(case: &Case) -> Result<(), (String, String)> {
         self::boundary(boundary, &format!("boundary.{i}"), &case.bodies, dim)?;
     }
     mirrors(case)?;
+    contact(case)?;
     run(&case.run, &case.method)?;
     output(&case.output)?;
     probes(&case.probes, dim)
@@ -284,6 +285,49 @@ fn method_options(case: &Case) -> Checked {
             "method.deformation_gradient",
             "the bond-based F (seed 002) replaces F in P(F) and goes with the {p, F} system; \
              set method.variables = \"p-F\"",
+        );
+    }
+    Ok(())
+}
+
+/// Penalty contact: 2D, TLSPH, at least two bodies, 0 < α ≤ 1. That the bodies lie
+/// apart by more than the kernel support is checked on their particles, when the method
+/// finds its neighbours.
+fn contact(case: &Case) -> Checked {
+    let Some(ContactSpec { penalty }) = case.contact else {
+        return Ok(());
+    };
+    if !(penalty > 0.0 && penalty <= 1.0) {
+        return fail(
+            "contact.penalty",
+            format!(
+                "must lie in (0, 1] (the fraction of a penetration removed in one step; the \
+                 seed uses 0.1), got {penalty:?}"
+            ),
+        );
+    }
+    if case.dim() != 2 {
+        return fail(
+            "contact",
+            "contact finds each body's boundary as a 2D convex hull; a 3D case cannot have \
+             contact, remove the [contact] table",
+        );
+    }
+    if case.method.name != MethodName::Tlsph {
+        return fail(
+            "contact",
+            format!(
+                "contact is implemented for `tlsph`, not for {}; remove the [contact] table or \
+                 use method.name = \"tlsph\"",
+                toml_name(&case.method.name)
+            ),
+        );
+    }
+    if case.bodies.len() < 2 {
+        return fail(
+            "contact",
+            "contact acts between bodies and the case has one; add a [[body]] or remove the \
+             [contact] table",
         );
     }
     Ok(())

@@ -97,7 +97,7 @@ pub fn run_suite(suite: &Suite, opts: &StudyOptions) -> std::io::Result<StudyOut
                 reference = Some(state.clone());
             }
         }
-        let line = summary_line(&record);
+        let line = summary_line(suite, &record);
         if bar.is_hidden() {
             if opts.progress {
                 eprintln!("{line}");
@@ -142,7 +142,7 @@ fn progress(show: bool, len: u64, name: &str) -> ProgressBar {
     bar
 }
 
-fn summary_line(r: &RunRecord) -> String {
+fn summary_line(suite: &Suite, r: &RunRecord) -> String {
     let what = match &r.status {
         Status::Ok => {
             format!(
@@ -155,7 +155,10 @@ fn summary_line(r: &RunRecord) -> String {
             ) + &opt(" ΔH/H0", r.drift_angular_momentum)
                 + &opt(" ΔE/E0", r.drift_energy)
         }
-        Status::Failed { time, quantity, .. } => format!("failed at t = {time:.3e} s: {quantity}"),
+        Status::Failed { time, quantity, .. } => format!(
+            "failed at {}: {quantity}",
+            report::failure_time(suite, *time, 3)
+        ),
         Status::Error => format!("not run: {}", r.reason),
     };
     format!(

@@ -144,7 +144,7 @@ fn values(recs: &[RunRecord]) -> Vec<String> {
 }
 
 /// "t = 2.30e0 s", with the suite's failure measure when it has one.
-fn failure_time(suite: &Suite, time: f64, digits: usize) -> String {
+pub(crate) fn failure_time(suite: &Suite, time: f64, digits: usize) -> String {
     let t = format!("t = {time:.digits$e} s");
     match &suite.failure_measure {
         Some(m) => format!("{t}, {}", m.at(time)),

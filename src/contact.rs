@@ -1,0 +1,215 @@
+//! Penalty contact between the bodies of a 2D scene (seed 000 §5.8, eqs 172–178).
+//!
+//! Every body is a master to every other. Its boundary is the convex hull of its
+//! reference particles, found once, ordered counter-clockwise; at each hull particle p the
+//! normal is the average of the outward unit normals of its two hull edges (eqs 172–176).
+//! A slave particle s of another body, with c the closest hull particle of the master and
+//! d = x_s − x_c, is in contact when d·n_c ≤ 0, and is then pushed back along n_c by
+//! f_c = −α m_s (d·n_c) n_c / Δt² (eqs 177–178, α the penalty stiffness): the acceleration
+//! that removes the fraction α of the penetration in one step. As in the seed's code the
+//! forces are found between steps, from the positions at the end of a step, and held
+//! through every stage of the next; the master feels no reaction, so linear momentum is
+//! not conserved during contact.
+
+use crate::tensor::Dim;
+use rayon::prelude::*;
+
+/// The hulls of a scene's bodies and the contact accelerations of the current step.
+#[derive(Clone, Debug)]
+pub struct Contact<D: Dim> {
+    /// α of eq 178.
+    penalty: f64,
+    /// Body index of every particle.
+    body: Vec<u32>,
+    /// Hull particles of each body, counter-clockwise.
+    hulls: Vec<Vec<u32>>,
+    /// a_c = f_c / m of every particle, held through the current step.
+    accel: Vec<D::V>,
+}
+
+impl<D: Dim> Contact<D> {
+    /// Finds the hull of every body in the reference positions `x0`.
+    pub fn new(penalty: f64, x0: &[D::V], body: &[u32]) -> Self {
+        assert_eq!(D::N, 2, "contact finds hulls in 2D only");
+        let bodies = body.iter().map(|&b| b as usize + 1).max().unwrap_or(0);
+        let hulls = (0..bodies)
+            .map(|b| {
+                let members: Vec<u32> = (0..x0.len() as u32)
+                    .filter(|&i| body[i as usize] as usize == b)
+                    .collect();
+                convex_hull(&members, |i| plane::<D>(x0[i as usize]))
+            })
+            .collect();
+        Self {
+            penalty,
+            body: body.to_vec(),
+            hulls,
+            accel: vec![D::zero(); x0.len()],
+        }
+    }
+
+    /// The contact accelerations of the step that follows, from the positions x at its
+    /// start and its size dt.
+    pub fn update(&mut self, x: &[D::V], dt: f64) {
+        let masters: Vec<Vec<([f64; 2], [f64; 2])>> = self
+            .hulls
+            .iter()
+            // A body of fewer than three non-collinear particles has no area to enter.
+            .map(|hull| match hull.len() {
+                0..3 => Vec::new(),
+                _ => hull_normals(hull, |i| plane::<D>(x[i as usize])),
+            })
+            .collect();
+        let scale = self.penalty / (dt * dt);
+        let body = &self.body;
+        self.accel.par_iter_mut().enumerate().for_each(|(s, a)| {
+            let xs = plane::<D>(x[s]);
+            let mut push = [0.0; 2];
+            for (m, master) in masters.iter().enumerate() {
+                if m == body[s] as usize || master.is_empty() {
+                    continue;
+                }
+                let (xc, n) = *master
+                    .iter()
+                    .min_by(|(p, _), (q, _)| dist2(*p, xs).total_cmp(&dist2(*q, xs)))
+                    .expect("non-empty hull");
+                // eq 177: the penetration along n_c; eq 178: the push back.
+                let d_n = (xs[0] - xc[0]) * n[0] + (xs[1] - xc[1]) * n[1];
+                if d_n <= 0.0 {
+                    push[0] -= scale * d_n * n[0];
+                    push[1] -= scale * d_n * n[1];
+                }
+            }
+            *a = D::from_slice(&push);
+        });
+    }
+
+    /// a_c = f_c / m of every particle for the current step.
+    pub fn accelerations(&self) -> &[D::V] {
+        &self.accel
+    }
+
+    /// Hull particles of each body, counter-clockwise.
+    pub fn hulls(&self) -> &[Vec<u32>] {
+        &self.hulls
+    }
+}
+
+/// The in-plane coordinates of a 2D vector.
+fn plane<D: Dim>(x: D::V) -> [f64; 2] {
+    let p = D::to3(x);
+    [p[0], p[1]]
+}
+
+fn dist2(a: [f64; 2], b: [f64; 2]) -> f64 {
+    (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)
+}
+
+/// z of (a − o) × (b − o): positive when o → a → b turns counter-clockwise.
+fn cross(o: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+}
+
+/// Andrew's monotone chain: the particles on the convex hull of `ids`, counter-clockwise,
+/// without collinear ones.
+fn convex_hull(ids: &[u32], at: impl Fn(u32) -> [f64; 2]) -> Vec<u32> {
+    let mut sorted = ids.to_vec();
+    sorted.sort_by(|&a, &b| {
+        let (p, q) = (at(a), at(b));
+        p[0].total_cmp(&q[0]).then(p[1].total_cmp(&q[1]))
+    });
+    if sorted.len() < 3 {
+        return sorted;
+    }
+    let mut hull: Vec<u32> = Vec::with_capacity(2 * sorted.len());
+    for pass in [
+        &sorted[..],
+        &sorted.iter().rev().copied().collect::<Vec<_>>()[..],
+    ] {
+        let start = hull.len();
+        for &i in pass {
+            while hull.len() >= start + 2
+                && cross(at(hull[hull.len() - 2]), at(hull[hull.len() - 1]), at(i)) <= 0.0
+            {
+                hull.pop();
+            }
+            hull.push(i);
+        }
+        // The last point of each chain starts the other.
+        hull.pop();
+    }
+    hull
+}
+
+/// Current position and normal n_p = ½(n_left + n_right) of every hull particle (eqs
+/// 172–176): the outward unit normals of the edges to the previous and the next one.
+fn hull_normals(hull: &[u32], at: impl Fn(u32) -> [f64; 2]) -> Vec<([f64; 2], [f64; 2])> {
+    let k = hull.len();
+    let unit = |v: [f64; 2]| {
+        let l = v[0].hypot(v[1]);
+        [v[0] / l, v[1] / l]
+    };
+    (0..k)
+        .map(|p| {
+            let x = at(hull[p]);
+            let (prev, next) = (at(hull[(p + k - 1) % k]), at(hull[(p + 1) % k]));
+            let tl = [prev[0] - x[0], prev[1] - x[1]];
+            let tr = [next[0] - x[0], next[1] - x[1]];
+            let (nl, nr) = (unit([-tl[1], tl[0]]), unit([tr[1], -tr[0]]));
+            (x, [0.5 * (nl[0] + nr[0]), 0.5 * (nl[1] + nr[1])])
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tensor::D2;
+    use glam::DVec2;
+
+    /// A master square [0, 1]² sampled on a 5 × 5 lattice (body 0) and two slave particles
+    /// (body 1).
+    fn square_and(slaves: &[DVec2]) -> (Vec<DVec2>, Vec<u32>) {
+        let mut x: Vec<DVec2> = (0..25)
+            .map(|k| DVec2::new(f64::from(k % 5), f64::from(k / 5)) * 0.25)
+            .collect();
+        let mut body = vec![0; 25];
+        x.extend_from_slice(slaves);
+        body.extend(slaves.iter().map(|_| 1));
+        (x, body)
+    }
+
+    #[test]
+    fn the_hull_of_a_lattice_square_is_its_corners_counter_clockwise() {
+        let (x, body) = square_and(&[DVec2::new(2.0, 2.0)]);
+        let contact = Contact::<D2>::new(0.1, &x, &body);
+        // Corners (0, 0), (1, 0), (1, 1), (0, 1): particles 0, 4, 24, 20; the 12
+        // collinear edge particles are not hull vertices.
+        assert_eq!(contact.hulls()[0], vec![0, 4, 24, 20]);
+        assert_eq!(contact.hulls()[1], vec![25]);
+    }
+
+    #[test]
+    fn a_penetrating_particle_is_pushed_back_as_eq_178_says() {
+        // Slave a at (0.9, 0.95) inside the square: its closest hull particle is the
+        // corner (1, 1) with n = ½((0, 1) + (1, 0)) (eq 176), d = (−0.1, −0.05), d·n =
+        // −0.075, so a_c = −α (d·n) n / Δt² = α 0.0375 (1, 1) / Δt². Slave b at (1.2, 1.1)
+        // lies outside (d·n > 0): no force. The master feels none either. Round-off:
+        // 1e-12 relative.
+        let (alpha, dt) = (0.1, 1e-3);
+        let (x, body) = square_and(&[DVec2::new(0.9, 0.95), DVec2::new(1.2, 1.1)]);
+        let mut contact = Contact::<D2>::new(alpha, &x, &body);
+        contact.update(&x, dt);
+        let a = contact.accelerations();
+        let expected = DVec2::splat(alpha * 0.0375 / (dt * dt));
+        assert!(
+            (a[25] - expected).length() < 1e-12 * expected.length(),
+            "a_c = {} against {expected}",
+            a[25]
+        );
+        assert_eq!(a[26], DVec2::ZERO);
+        // Body 1, two particles, has no area and is no master: the square's particles
+        // are not pushed.
+        assert!(a[..25].iter().all(|&a| a == DVec2::ZERO));
+    }
+}
