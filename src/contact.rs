@@ -89,6 +89,11 @@ impl<D: Dim> Contact<D> {
         &self.accel
     }
 
+    /// α of eq 178.
+    pub fn penalty(&self) -> f64 {
+        self.penalty
+    }
+
     /// Hull particles of each body, counter-clockwise.
     pub fn hulls(&self) -> &[Vec<u32>] {
         &self.hulls

@@ -278,9 +278,7 @@ fn explain_command(case: &str, backend: Backend, set: &[String]) -> ExitCode {
             let gpu = match backend {
                 Backend::Cpu => false,
                 Backend::Gpu => true,
-                Backend::Auto => {
-                    c.contact.is_none() && !meshless::gpu::context::adapters().is_empty()
-                }
+                Backend::Auto => !meshless::gpu::context::adapters().is_empty(),
             };
             println!("{}", meshless::run::explain(&c, gpu));
             ExitCode::SUCCESS

@@ -274,10 +274,6 @@ pub fn engine<D: GpuDim>(case: &Case, backend: Backend) -> Result<Box<dyn Engine
     let gpu = match backend {
         Backend::Cpu => None,
         Backend::Gpu => Some(Gpu::new().map_err(|e| RunError::Backend(e.to_string()))?),
-        Backend::Auto if case.contact.is_some() => {
-            eprintln!("note: contact runs on the CPU only; running on the CPU (rayon, f64)");
-            None
-        }
         Backend::Auto => Gpu::new()
             .inspect_err(|e| eprintln!("note: {e}; running on the CPU (rayon, f64)"))
             .ok(),

@@ -691,9 +691,14 @@ impl<D: GpuDim> GpuMixed<D> {
             evaluator,
             ..
         } = self;
-        stepper.record(gpu, &mut encoder, dt, steps, |encoder, e| {
-            evaluator.record(gpu, encoder, e)
-        });
+        stepper.record(
+            gpu,
+            &mut encoder,
+            dt,
+            steps,
+            |encoder, e| evaluator.record(gpu, encoder, e),
+            |_| {},
+        );
         self.gpu.queue.submit([encoder.finish()]);
     }
 }

@@ -314,7 +314,7 @@ impl Stepper {
     }
 
     /// Records `steps` steps of size `dt` into `encoder`; `rates` records one rate
-    /// evaluation of the method (into `Rates`).
+    /// evaluation of the method (into `Rates`), `end_step` what runs between two steps.
     pub fn record(
         &mut self,
         gpu: &Gpu,
@@ -322,6 +322,7 @@ impl Stepper {
         dt: f64,
         steps: u32,
         mut rates: impl FnMut(&mut wgpu::CommandEncoder, Evaluation),
+        mut end_step: impl FnMut(&mut wgpu::CommandEncoder),
     ) {
         self.set_dt(gpu, dt);
         if self.kind == IntegratorKind::Leapfrog && !self.primed {
@@ -356,6 +357,7 @@ impl Stepper {
                     }
                 }
             }
+            end_step(encoder);
         }
     }
 }

@@ -91,10 +91,22 @@ pub const PAIR_OFFSETS: Source = source!(
     [("x_hi", false), ("x_lo", false), ("dx0", true)]
 );
 
+pub const CONTACT: Source = source!(
+    "contact.wgsl",
+    [],
+    [
+        ("x_hi", false),
+        ("y", false),
+        ("traction", false),
+        ("ext", true)
+    ]
+);
+
 /// The passes compiled with a TLSPH scene's constants (`gpu::tlsph::scene_constants`).
 pub const SCENE: &[Source] = &[
     TLSPH_STRESS,
     TLSPH_ACCEL,
+    CONTACT,
     CORRECTION,
     INTEGRATE,
     PAIR_OFFSETS,
@@ -184,6 +196,7 @@ pub const ALL: &[Source] = &[
     PAIR_OFFSETS,
     TLSPH_STRESS,
     TLSPH_ACCEL,
+    CONTACT,
     CORRECTION,
     INTEGRATE,
     MIXED_GHOSTS,

@@ -12,11 +12,12 @@ use super::program::{Buf, StateLayout, Stepper};
 use super::reduction::{Reduced, Reduction, WorkBalance};
 use super::shaders::{self, Constants, Source};
 use crate::boundary::Boundary;
+use crate::contact::Contact;
 use crate::correction::{self, CorrectionKind};
 use crate::kernel::Kernel;
 use crate::material::Material;
 use crate::method::BlowUp;
-use crate::method::tlsph::{TlState, check_state, snapshot};
+use crate::method::tlsph::{TlState, apart, check_state, snapshot};
 use crate::neighbour as neighbour_cpu;
 use crate::observe::{Invariants, Snapshot};
 use crate::run::Engine;
@@ -88,6 +89,7 @@ pub fn scene_constants(case: &Case, layout: &Layout) -> Constants {
     Constants::default()
         .kernel(&kernel)
         .u32("N", u(layout.n))
+        .u32("BODIES", u(case.bodies.len()))
         .material(&material)
         .u32("CORRECTION", correction)
         .f32("H", h)
@@ -116,6 +118,50 @@ struct Rates {
     accel: wgpu::BindGroup,
 }
 
+/// The contact pass between steps (contact.wgsl) and its α/Δt² uniform.
+struct ContactPass {
+    pipeline: wgpu::ComputePipeline,
+    bind: wgpu::BindGroup,
+    params: wgpu::Buffer,
+    penalty: f64,
+}
+
+impl ContactPass {
+    /// Uploads the hulls of [`Contact`] and binds the pass that writes traction plus
+    /// contact accelerations into `ext`.
+    fn new<D: GpuDim>(
+        gpu: &Gpu,
+        source: &str,
+        contact: &Contact<D>,
+        body: &[u32],
+        [x_hi, y, traction, ext]: [&wgpu::Buffer; 4],
+    ) -> Self {
+        let mut hull_start = vec![0u32];
+        let mut hull = Vec::new();
+        for h in contact.hulls() {
+            hull.extend_from_slice(h);
+            hull_start.push(hull.len() as u32);
+        }
+        let pipeline = gpu.pipeline("contact", source, "contact");
+        let params = gpu.uniform("contact params", &[0.0f32; 4]);
+        let (body, hull, hull_start) = (
+            gpu.storage("body", body),
+            gpu.storage("hull", &hull),
+            gpu.storage("hull start", &hull_start),
+        );
+        let bind = gpu.bind(
+            &pipeline,
+            &[&params, x_hi, y, &body, &hull, &hull_start, traction, ext],
+        );
+        Self {
+            pipeline,
+            bind,
+            params,
+            penalty: contact.penalty(),
+        }
+    }
+}
+
 /// The TLSPH system resident on the GPU.
 pub struct GpuTlsph<D: GpuDim> {
     gpu: Gpu,
@@ -137,6 +183,7 @@ pub struct GpuTlsph<D: GpuDim> {
     /// without touching the integrator's rates).
     kinematics_y: wgpu::BindGroup,
     reduction: Reduction,
+    contact: Option<ContactPass>,
     constrained: Vec<(u32, u8)>,
     work: WorkBalance,
 }
@@ -148,14 +195,6 @@ impl<D: GpuDim> GpuTlsph<D> {
     /// Discretises the case, builds neighbours and corrected gradients, and uploads the
     /// initial state.
     pub fn new(case: &Case, gpu: Gpu) -> Result<Self, SetupError> {
-        if case.contact.is_some() {
-            return Err(case
-                .invalid(
-                    "contact",
-                    "the GPU backend has no contact pass; run the case with --backend cpu",
-                )
-                .into());
-        }
         let disc = discretise::<D>(case)?;
         let material = Material::new(&case.material);
         let n = disc.x0.len();
@@ -239,7 +278,18 @@ impl<D: GpuDim> GpuTlsph<D> {
             grad
         };
 
-        let (mask, ext) = boundary_buffers(&gpu, &boundary, n);
+        let (mask, traction) = boundary_buffers(&gpu, &boundary, n);
+        // With contact, ext = traction + contact acceleration, rewritten between steps.
+        let ext = match case.contact {
+            Some(_) => {
+                let ext = gpu.zeroed("ext (traction + contact)", traction.size());
+                let mut encoder = gpu.device.create_command_encoder(&Default::default());
+                encoder.copy_buffer_to_buffer(&traction, 0, &ext, 0, traction.size());
+                gpu.queue.submit([encoder.finish()]);
+                ext
+            }
+            None => traction.clone(),
+        };
 
         let mut v0 = disc.v0.clone();
         boundary.impose_initial(&mut v0);
@@ -278,6 +328,20 @@ impl<D: GpuDim> GpuTlsph<D> {
             }
         });
         let y = stepper.buffer(Buf::Y);
+        let contact = match case.contact {
+            Some(spec) => {
+                let cpu = Contact::<D>::new(spec.penalty, &disc.x0, &disc.body);
+                apart::<D>(case, &neighbour::read_lists(&gpu, &csr), &disc.body)?;
+                Some(ContactPass::new(
+                    &gpu,
+                    &compose(&shaders::CONTACT),
+                    &cpu,
+                    &disc.body,
+                    [&x_hi, y, &traction, &ext],
+                ))
+            }
+            None => None,
+        };
         let reduction = Reduction::new(
             &gpu,
             &compose(&shaders::REDUCE),
@@ -314,6 +378,7 @@ impl<D: GpuDim> GpuTlsph<D> {
             vol: disc.vol,
             kinematics_y,
             reduction,
+            contact,
             constrained: boundary.constrained.clone(),
             work: WorkBalance::default(),
         })
@@ -391,6 +456,13 @@ impl<D: GpuDim> GpuTlsph<D> {
         self.work.advance(dt, steps);
         self.reduction.invalidate();
         let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+        if let Some(c) = &self.contact {
+            let scale = (c.penalty / (dt * dt)) as f32;
+            let params = [scale, 0.0, 0.0, 0.0];
+            self.gpu
+                .queue
+                .write_buffer(&c.params, 0, bytemuck::cast_slice(&params));
+        }
         let Self {
             gpu,
             stepper,
@@ -398,12 +470,26 @@ impl<D: GpuDim> GpuTlsph<D> {
             accel,
             rates,
             layout,
+            contact,
             ..
         } = self;
-        stepper.record(gpu, &mut encoder, dt, steps, |encoder, e| {
-            let src = usize::from(e.src != Buf::Y);
-            Self::record_rates(gpu, layout.n as u32, (stress, accel), encoder, &rates[src]);
-        });
+        let n = layout.n as u32;
+        stepper.record(
+            gpu,
+            &mut encoder,
+            dt,
+            steps,
+            |encoder, e| {
+                let src = usize::from(e.src != Buf::Y);
+                Self::record_rates(gpu, n, (stress, accel), encoder, &rates[src]);
+            },
+            |encoder| {
+                if let Some(c) = contact {
+                    let mut pass = encoder.begin_compute_pass(&Default::default());
+                    gpu.dispatch(&mut pass, &c.pipeline, &c.bind, n);
+                }
+            },
+        );
         self.gpu.queue.submit([encoder.finish()]);
     }
 

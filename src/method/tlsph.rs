@@ -448,7 +448,7 @@ impl<D: Dim> Method<D> for Tlsph<D> {
 
 /// Contact needs bodies that no kernel spans in the reference configuration: a
 /// total-Lagrangian kernel between two bodies would bond them for the whole run.
-fn apart<D: Dim>(case: &Case, csr: &Csr, body: &[u32]) -> Result<(), CaseError> {
+pub(crate) fn apart<D: Dim>(case: &Case, csr: &Csr, body: &[u32]) -> Result<(), CaseError> {
     let bonded = (0..csr.len()).find_map(|i| {
         csr.neighbours(i)
             .iter()

@@ -43,7 +43,7 @@ pub struct Case {
     pub output: OutputSpec,
     #[serde(default, rename = "probe")]
     pub probes: Vec<ProbeSpec>,
-    /// Penalty contact between the bodies (2D, TLSPH on the CPU).
+    /// Penalty contact between the bodies (2D, TLSPH).
     pub contact: Option<ContactSpec>,
     /// The case file, named in errors; relative paths inside it are relative to its folder.
     #[serde(skip)]
