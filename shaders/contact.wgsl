@@ -1,5 +1,5 @@
 // Penalty contact between the bodies of a 2D scene (seed 000 §5.8, eqs 172–178;
-// src/contact.rs), run between steps. One invocation per slave particle s gathers over
+// src/contact.rs), run before every step. One invocation per slave particle s gathers over
 // the hull particles of every other body (counter-clockwise, concatenated in `hull`,
 // body m's at hull_start[m]..hull_start[m + 1]), takes the closest one c (the first of
 // equals), its normal n_c = ½(n_left + n_right) from the current positions of its hull

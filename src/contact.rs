@@ -7,9 +7,10 @@
 //! d = x_s − x_c, is in contact when d·n_c ≤ 0, and is then pushed back along n_c by
 //! f_c = −α m_s (d·n_c) n_c / Δt² (eqs 177–178, α the penalty stiffness): the acceleration
 //! that removes the fraction α of the penetration in one step. As in the seed's code the
-//! forces are found between steps, from the positions at the end of a step, and held
-//! through every stage of the next; the master feels no reaction, so linear momentum is
-//! not conserved during contact.
+//! forces are found from the positions at the start of a step and held through its
+//! stages. The master feels no reaction, so neither linear momentum nor energy is
+//! conserved during contact: a slave pushed out by a master surface that moves towards it
+//! gains energy, as a ball struck by a bat does.
 
 use crate::tensor::Dim;
 use rayon::prelude::*;
@@ -48,9 +49,8 @@ impl<D: Dim> Contact<D> {
         }
     }
 
-    /// The contact accelerations of the step that follows, from the positions x at its
-    /// start and its size dt.
-    pub fn update(&mut self, x: &[D::V], dt: f64) {
+    /// The contact accelerations of a step of size dt from the positions x at its start.
+    pub fn begin_step(&mut self, x: &[D::V], dt: f64) {
         let masters: Vec<Vec<([f64; 2], [f64; 2])>> = self
             .hulls
             .iter()
@@ -204,7 +204,7 @@ mod tests {
         let (alpha, dt) = (0.1, 1e-3);
         let (x, body) = square_and(&[DVec2::new(0.9, 0.95), DVec2::new(1.2, 1.1)]);
         let mut contact = Contact::<D2>::new(alpha, &x, &body);
-        contact.update(&x, dt);
+        contact.begin_step(&x, dt);
         let a = contact.accelerations();
         let expected = DVec2::splat(alpha * 0.0375 / (dt * dt));
         assert!(

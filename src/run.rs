@@ -396,7 +396,6 @@ impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
         for k in 0..steps {
             self.integrator
                 .step(&mut self.method, t + f64::from(k) * dt, dt, &mut self.y)?;
-            self.method.end_step(&self.y, dt);
             // Trapezoidal work of the supports and loads, from successive step powers.
             let power = self.method.boundary_power();
             self.work += 0.5 * (self.last_power + power) * dt;

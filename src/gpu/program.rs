@@ -314,7 +314,7 @@ impl Stepper {
     }
 
     /// Records `steps` steps of size `dt` into `encoder`; `rates` records one rate
-    /// evaluation of the method (into `Rates`), `end_step` what runs between two steps.
+    /// evaluation of the method (into `Rates`), `begin_step` what runs before each step.
     pub fn record(
         &mut self,
         gpu: &Gpu,
@@ -322,7 +322,7 @@ impl Stepper {
         dt: f64,
         steps: u32,
         mut rates: impl FnMut(&mut wgpu::CommandEncoder, Evaluation),
-        mut end_step: impl FnMut(&mut wgpu::CommandEncoder),
+        mut begin_step: impl FnMut(&mut wgpu::CommandEncoder),
     ) {
         self.set_dt(gpu, dt);
         if self.kind == IntegratorKind::Leapfrog && !self.primed {
@@ -336,6 +336,7 @@ impl Stepper {
             self.primed = true;
         }
         for _ in 0..steps {
+            begin_step(encoder);
             for rec in &self.steps {
                 match rec {
                     Recorded::Rates(e) => rates(encoder, *e),
@@ -357,7 +358,6 @@ impl Stepper {
                     }
                 }
             }
-            end_step(encoder);
         }
     }
 }

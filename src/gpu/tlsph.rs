@@ -118,7 +118,7 @@ struct Rates {
     accel: wgpu::BindGroup,
 }
 
-/// The contact pass between steps (contact.wgsl) and its α/Δt² uniform.
+/// The contact pass before every step (contact.wgsl) and its α/Δt² uniform.
 struct ContactPass {
     pipeline: wgpu::ComputePipeline,
     bind: wgpu::BindGroup,

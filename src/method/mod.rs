@@ -177,9 +177,6 @@ pub trait Method<D: Dim>: OdeSystem<Error = BlowUp> + Sized {
     fn max_signal_speed(&self, y: &Self::State) -> f64;
     /// Power of the boundary reactions and external loads at the last rate evaluation.
     fn boundary_power(&self) -> f64;
-    /// Between steps, at the end of a step of size dt: the contact forces of the next
-    /// step (seed 000 §5.8). No-op for a method without contact.
-    fn end_step(&mut self, _y: &Self::State, _dt: f64) {}
     /// The first particle whose state is not finite, if any.
     fn check_finite(&self, y: &Self::State) -> Result<(), BlowUp>;
 }

@@ -351,6 +351,14 @@ impl<D: Dim> OdeSystem for Tlsph<D> {
             + contact_power;
         Ok(())
     }
+
+    /// The contact forces of the step (seed 000 §5.8).
+    fn begin_step(&mut self, _t: f64, dt: f64, y: &TlState<D>) {
+        if let Some(contact) = &mut self.contact {
+            let x: Vec<D::V> = self.x0.iter().zip(&y.u).map(|(&x0, &u)| x0 + u).collect();
+            contact.begin_step(&x, dt);
+        }
+    }
 }
 
 impl<D: Dim> Method<D> for Tlsph<D> {
@@ -432,13 +440,6 @@ impl<D: Dim> Method<D> for Tlsph<D> {
 
     fn boundary_power(&self) -> f64 {
         self.power
-    }
-
-    fn end_step(&mut self, y: &TlState<D>, dt: f64) {
-        if let Some(contact) = &mut self.contact {
-            let x: Vec<D::V> = self.x0.iter().zip(&y.u).map(|(&x0, &u)| x0 + u).collect();
-            contact.update(&x, dt);
-        }
     }
 
     fn check_finite(&self, y: &TlState<D>) -> Result<(), BlowUp> {
