@@ -91,6 +91,8 @@ mod tests {
             density: 1100.0,
             youngs_modulus: 1.7e7,
             poisson_ratio: 0.3,
+            yield_stress: None,
+            hardening_modulus: None,
         })
     }
 

@@ -17,6 +17,7 @@ pub mod mirror;
 pub mod neighbour;
 pub mod observe;
 pub mod output;
+pub mod plasticity;
 pub mod run;
 pub mod scene;
 pub mod study;

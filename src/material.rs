@@ -1,8 +1,10 @@
 //! Constitutive models: hypoelastic (Jaumann rate + linear EOS), Saint Venant–Kirchhoff
 //! and compressible neo-Hookean. In 2D every model is plane strain (F_zz = 1, ε̇_zz = 0).
 
+use crate::plasticity::{Hardening, Returned, VonMises, from_mat3, to_mat3};
 use crate::scene::MaterialSpec;
 use crate::tensor::Dim;
+use glam::DMat3;
 use serde::{Deserialize, Serialize};
 
 /// Constitutive model, as named in case files.
@@ -22,15 +24,21 @@ pub enum MaterialModel {
     /// 2016 eqs 11–12): ψ = μ/2 J^(−2/3) F:F − 3μ/2 + κ/2 (J − 1)²,
     /// P = μ J^(−2/3) F + [κ(J − 1) − μ/3 J^(−5/3) F:F] H.
     NearlyIncompressibleNeoHookean,
+    /// Von Mises hyperelastic-plastic with linear isotropic hardening (seed 003 Algorithm
+    /// 2, [`crate::plasticity`]): Hencky elasticity, radial return. Its stress depends on
+    /// the history C_p⁻¹, ε_p, which the mixed methods carry; as a function of F alone
+    /// (`pk1`) it is the response from the virgin state.
+    VonMisesPlastic,
 }
 
 impl MaterialModel {
-    pub const ALL: [MaterialModel; 5] = [
+    pub const ALL: [MaterialModel; 6] = [
         Self::Hypoelastic,
         Self::SaintVenantKirchhoff,
         Self::NeoHookean,
         Self::LinearElastic,
         Self::NearlyIncompressibleNeoHookean,
+        Self::VonMisesPlastic,
     ];
 
     /// Rate-based models integrate ρ and S; state-based ones evaluate P(F).
@@ -50,6 +58,8 @@ pub struct Material {
     pub lambda: f64,
     /// Bulk modulus K = λ + 2μ/3.
     pub bulk: f64,
+    /// Yield stress and hardening of `von-mises-plastic`.
+    pub hardening: Option<Hardening>,
 }
 
 impl Material {
@@ -63,7 +73,33 @@ impl Material {
             mu,
             lambda,
             bulk: lambda + 2.0 * mu / 3.0,
+            hardening: match (spec.model, spec.yield_stress, spec.hardening_modulus) {
+                (MaterialModel::VonMisesPlastic, Some(yield_stress), Some(modulus)) => {
+                    Some(Hardening {
+                        yield_stress,
+                        modulus,
+                    })
+                }
+                _ => None,
+            },
         }
+    }
+
+    /// The von Mises model of a `von-mises-plastic` material.
+    pub fn von_mises(&self) -> Option<VonMises> {
+        self.hardening.map(|hardening| VonMises {
+            mu: self.mu,
+            bulk: self.bulk,
+            hardening,
+        })
+    }
+
+    /// Algorithm 2 from the virgin state (C_p⁻¹ = I, ε_p = 0) at a D tensor F.
+    fn virgin<D: Dim>(&self, f: D::T) -> Returned {
+        let model = self
+            .von_mises()
+            .expect("validation gives a von-mises-plastic material its hardening");
+        model.return_map(to_mat3::<D>(f, 1.0), DMat3::IDENTITY, 0.0)
     }
 
     /// Longitudinal (p-wave) speed of the linearised model, sqrt((λ + 2μ)/ρ0).
@@ -108,6 +144,7 @@ impl Material {
             MaterialModel::NearlyIncompressibleNeoHookean => {
                 self.pk1_mixed::<D>(f, D::cof(f), D::det(f))
             }
+            MaterialModel::VonMisesPlastic => from_mat3::<D>(self.virgin::<D>(f).p),
             MaterialModel::Hypoelastic => unreachable!("the hypoelastic model is rate-based"),
         }
     }
@@ -160,6 +197,7 @@ impl Material {
             MaterialModel::NearlyIncompressibleNeoHookean => {
                 self.energy_density_mixed::<D>(f, D::det(f))
             }
+            MaterialModel::VonMisesPlastic => self.virgin::<D>(f).psi,
         }
     }
 
@@ -184,6 +222,10 @@ impl Material {
                 let pzz = self.mu * j23
                     + j * (self.bulk * (j - 1.0) - self.mu / 3.0 * j23 / j * full_ddot::<D>(f));
                 pzz / j
+            }
+            MaterialModel::VonMisesPlastic => {
+                let f3 = to_mat3::<D>(f, 1.0);
+                (self.virgin::<D>(f).p * f3.transpose()).col(2).z / j
             }
         }
     }
@@ -229,6 +271,10 @@ mod tests {
             density: 1.0,
             youngs_modulus: 1e7,
             poisson_ratio: 0.4,
+            // Read by `von-mises-plastic` only: far above the tests' stresses, so that its
+            // response is the Hencky elastic one.
+            yield_stress: Some(1e12),
+            hardening_modulus: Some(0.0),
         }
     }
 

@@ -742,3 +742,50 @@ fn contact_between_bodies_that_a_kernel_spans_is_rejected() {
         ],
     );
 }
+
+// ---------------------------------------------------------------------------------------
+// Plasticity
+
+#[test]
+fn the_plastic_model_needs_its_hardening_and_a_mixed_method() {
+    let mixed = edit(
+        &edit(VALID, "name = \"tlsph\"", "name = \"upwind-sph\""),
+        "h_over_dx = 1.3",
+        "h_over_dx = 1.3\ncorrection = \"cgck\"",
+    );
+    let plastic = edit(
+        &mixed,
+        "model = \"hypoelastic\"",
+        "model = \"von-mises-plastic\"\nyield_stress = 1e5\nhardening_modulus = 1e4",
+    );
+    Case::from_toml(&plastic, Path::new(FILE), &[]).expect("a valid plastic case");
+    assert_invalid(
+        &edit(&plastic, "yield_stress = 1e5\n", ""),
+        "material.yield_stress",
+        &["von-mises-plastic", "yield_stress", "hardening_modulus"],
+    );
+    assert_invalid(
+        &edit(&plastic, "yield_stress = 1e5", "yield_stress = -1e5"),
+        "material.yield_stress",
+        &["-100000"],
+    );
+    assert_invalid(
+        &edit(
+            VALID,
+            "poisson_ratio = 0.3",
+            "poisson_ratio = 0.3\nyield_stress = 1e5",
+        ),
+        "material.yield_stress",
+        &["von-mises-plastic", "hypoelastic", "remove it"],
+    );
+    let on_tlsph = edit(&plastic, "name = \"upwind-sph\"", "name = \"tlsph\"");
+    assert_invalid(
+        &edit(
+            &on_tlsph,
+            "correction = \"cgck\"",
+            "correction = \"randles-libersky\"",
+        ),
+        "material.model",
+        &["von-mises-plastic", "upwind-sph", "jst-sph", "tlsph"],
+    );
+}

@@ -18,6 +18,7 @@ use super::reduction::{Reduced, Reduction, WorkBalance};
 use super::shaders::{self, Constants, Source};
 use super::tlsph::SetupError;
 use crate::integrate::IntegratorKind;
+use crate::material::MaterialModel;
 use crate::method::mixed::{Fluxes, MixedSph, MixedState};
 use crate::method::{BlowUp, Method};
 use crate::observe::{Invariants, Snapshot};
@@ -348,6 +349,15 @@ pub struct GpuMixed<D: GpuDim> {
 impl<D: GpuDim> GpuMixed<D> {
     /// Builds the CPU set-up of the case and uploads it with the initial state.
     pub fn new(case: &Case, gpu: Gpu) -> Result<Self, SetupError> {
+        if case.material.model == MaterialModel::VonMisesPlastic {
+            return Err(case
+                .invalid(
+                    "material.model",
+                    "the GPU backend has no plastic return map (`von-mises-plastic`); run the \
+                     case with --backend cpu",
+                )
+                .into());
+        }
         let cpu: MixedSph<D> = build_method(case)?;
         let (layout, constants) = scene(case, &cpu);
         let compose = |s: &Source| shaders::compose::<D>(s, &constants);

@@ -247,6 +247,7 @@ impl Constants {
             MaterialModel::NeoHookean => 2,
             MaterialModel::LinearElastic => 3,
             MaterialModel::NearlyIncompressibleNeoHookean => 4,
+            MaterialModel::VonMisesPlastic => 5,
         };
         self.u32("MODEL", model)
             .u32("RATE", u32::from(material.model.is_rate_based()))

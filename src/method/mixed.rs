@@ -24,11 +24,13 @@ use crate::material::Material;
 use crate::mirror::Ghosts;
 use crate::neighbour::Csr;
 use crate::observe::Snapshot;
+use crate::plasticity::{Returned, VonMises, from_mat3, to_mat3};
 use crate::scene::{
     Case, CaseError, CflWaveSpeed, Conserved, DeformationGradient, Discretised, Jst, JstLaplacian,
     MethodName, Momentum,
 };
-use crate::tensor::{Dim, smallest_stretch_squared};
+use crate::tensor::{D3, Dim, smallest_stretch_squared};
+use glam::DMat3;
 use rayon::prelude::*;
 
 /// Integrated state of a mixed method.
@@ -117,6 +119,14 @@ pub struct Fluxes<D: Dim> {
     pub dj: Vec<f64>,
 }
 
+/// The plastic history of a `von-mises-plastic` material: the internal variables of the
+/// real particles at the start of the current step (seed 003 Algorithm 2).
+struct PlasticHistory {
+    model: VonMises,
+    cp_inv: Vec<DMat3>,
+    eps_p: Vec<f64>,
+}
+
 /// Displacements, velocities and size of the current step at its start.
 type StepStart<D> = (Vec<<D as Dim>::V>, Vec<<D as Dim>::V>, f64);
 
@@ -145,6 +155,8 @@ pub struct MixedSph<D: Dim> {
     momentum: Momentum,
     /// V_b W̃_b(X_a) / |X_ab|² per pair, for the bond-based F; None for the evolved F.
     bond_weights: Option<Vec<f64>>,
+    /// None for the elastic models.
+    plastic: Option<PlasticHistory>,
     stabilisation: Stabilisation,
     projection: bool,
     integrator: IntegratorKind,
@@ -291,6 +303,11 @@ impl<D: Dim> MixedSph<D> {
             conserved: m.variables.unwrap_or(Conserved::PFHJ),
             momentum: m.momentum.unwrap_or_default(),
             bond_weights,
+            plastic: material.von_mises().map(|model| PlasticHistory {
+                model,
+                cp_inv: vec![DMat3::IDENTITY; n],
+                eps_p: vec![0.0; n],
+            }),
             stabilisation,
             projection: m.projection.unwrap_or(case.mirrors.is_empty()),
             integrator: m.integrator,
@@ -333,6 +350,23 @@ impl<D: Dim> MixedSph<D> {
             D::det(f)
         };
         (f, h, j)
+    }
+
+    /// Algorithm 2 of seed 003 for real particle a at F from its history at the start of
+    /// the step; None for the elastic models.
+    fn returned(&self, a: usize, f: D::T) -> Option<Returned> {
+        self.plastic.as_ref().map(|pl| {
+            pl.model
+                .return_map(to_mat3::<D>(f, 1.0), pl.cp_inv[a], pl.eps_p[a])
+        })
+    }
+
+    /// P(F, H, J) of real particle a.
+    fn stress(&self, a: usize, f: D::T, h: D::T, j: f64) -> D::T {
+        match self.returned(a, f) {
+            Some(r) => from_mat3::<D>(r.p),
+            None => self.material.pk1_mixed::<D>(f, h, j),
+        }
     }
 
     /// F^c_a = F_a + Σ_b V_b W̃_b(X_a) [(x_b − x_a) − F_a X_ab] ⊗ X_ab / |X_ab|²: the
@@ -384,7 +418,7 @@ impl<D: Dim> MixedSph<D> {
                 grad_v += D::outer(self.v_ext[b] - self.v_ext[a], self.grad[q]) * self.vol[b];
             }
             Kinematics {
-                p: self.material.pk1_mixed::<D>(f, h, j),
+                p: self.stress(a, f, h, j),
                 h,
                 grad_v,
                 j,
@@ -811,6 +845,21 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
 
     fn begin_step(&mut self, _t: f64, dt: f64, y: &MixedState<D>) {
         self.stage = 0;
+        // The plastic history is committed once per step, from the state at its start.
+        if self.plastic.is_some() {
+            let u_ext = self.extended_displacement(&y.u);
+            let committed: Vec<(DMat3, f64)> = (0..self.n)
+                .into_par_iter()
+                .map(|a| {
+                    let (f, ..) = self.stress_arguments(y, a, &u_ext);
+                    let r = self.returned(a, f).expect("plastic");
+                    (r.cp_inv, r.eps_p)
+                })
+                .collect();
+            if let Some(pl) = self.plastic.as_mut() {
+                (pl.cp_inv, pl.eps_p) = committed.into_iter().unzip();
+            }
+        }
         if self.projection && self.integrator == IntegratorKind::TvdRk2 {
             self.step_start = Some((y.u.clone(), y.v.clone(), dt));
         }
@@ -925,6 +974,11 @@ impl<D: Dim> Method<D> for MixedSph<D> {
             .into_par_iter()
             .map(|a| {
                 let (f, h, j) = self.stress_arguments(y, a, &u_ext);
+                if let Some(r) = self.returned(a, f) {
+                    let f3 = to_mat3::<D>(f, 1.0);
+                    let sigma = r.p * f3.transpose() * (1.0 / f3.determinant());
+                    return D3::to3x3(sigma);
+                }
                 let sigma = mat.pk1_mixed::<D>(f, h, j) * D::transpose(f) * (1.0 / j);
                 let mut out = D::to3x3(sigma);
                 if D::N == 2 {
@@ -941,7 +995,11 @@ impl<D: Dim> Method<D> for MixedSph<D> {
             .into_par_iter()
             .map(|a| {
                 let (f, _, j) = self.stress_arguments(y, a, &u_ext);
-                self.vol[a] * self.material.energy_density_mixed::<D>(f, j)
+                self.vol[a]
+                    * match self.returned(a, f) {
+                        Some(r) => r.psi,
+                        None => self.material.energy_density_mixed::<D>(f, j),
+                    }
             })
             .sum()
     }

@@ -115,11 +115,16 @@ fn sample<D: Dim>(
             radius,
             inner_radius,
             length,
+            lattice,
         } => {
             let a = axis.index();
             let (mut lo, mut hi) = around(base, *radius);
             lo[a] = base[a];
             hi[a] = base[a] + length;
+            if *lattice == Lattice::CellCentred {
+                lo.iter_mut().for_each(|x| *x += 0.5 * dx);
+                hi.iter_mut().for_each(|x| *x -= 0.5 * dx);
+            }
             lattice_of(&lo, &hi, &|p| {
                 let r2: f64 = (0..3)
                     .filter(|&k| k != a)

@@ -70,6 +70,10 @@ pub struct MaterialSpec {
     pub youngs_modulus: f64,
     /// Poisson ratio ν.
     pub poisson_ratio: f64,
+    /// `von-mises-plastic`: initial yield stress τ_y⁰ [Pa].
+    pub yield_stress: Option<f64>,
+    /// `von-mises-plastic`: linear isotropic hardening modulus H [Pa].
+    pub hardening_modulus: Option<f64>,
 }
 
 /// Particle method, as named in case files.
@@ -349,6 +353,10 @@ pub enum Shape {
         #[serde(default)]
         inner_radius: f64,
         length: f64,
+        /// `vertex` (the default: layers on both end faces) or `cell-centred` (the
+        /// centres of the Δx cells of the bounding box, Δx/2 inside its faces).
+        #[serde(default)]
+        lattice: Lattice,
     },
     /// Points from a CSV file with a header naming columns x, y[, z][, volume].
     Points { file: PathBuf },

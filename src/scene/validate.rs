@@ -10,6 +10,7 @@ use super::{
     DeformationGradient, Jst, Lattice, MaterialSpec, MethodName, MethodSpec, OutputSpec, ProbeSpec,
     Region, RunSpec, Shape, VelocityField, Volumes,
 };
+use crate::material::MaterialModel;
 use serde::Serialize;
 use std::collections::HashSet;
 
@@ -157,6 +158,38 @@ fn material(m: &MaterialSpec) -> Checked {
             ),
         );
     }
+    let plastic = m.model == MaterialModel::VonMisesPlastic;
+    for (key, value) in [
+        ("yield_stress", m.yield_stress),
+        ("hardening_modulus", m.hardening_modulus),
+    ] {
+        let key = format!("material.{key}");
+        match value {
+            Some(_) if !plastic => {
+                return fail(
+                    key,
+                    format!(
+                        "is read only by the `von-mises-plastic` model, not by {}; remove it",
+                        toml_name(&m.model)
+                    ),
+                );
+            }
+            None if plastic => {
+                return fail(
+                    key,
+                    "the `von-mises-plastic` model needs it: give `yield_stress` (τ_y⁰ [Pa], > 0) \
+                     and `hardening_modulus` (H [Pa], ≥ 0)",
+                );
+            }
+            _ => {}
+        }
+    }
+    if let Some(y) = m.yield_stress {
+        positive("material.yield_stress", y)?;
+    }
+    if let Some(h) = m.hardening_modulus {
+        non_negative("material.hardening_modulus", h)?;
+    }
     Ok(())
 }
 
@@ -225,6 +258,16 @@ fn method_options(case: &Case) -> Checked {
                 );
             }
         }
+        if case.material.model == MaterialModel::VonMisesPlastic {
+            return fail(
+                "material.model",
+                format!(
+                    "`von-mises-plastic` carries a plastic history (C_p⁻¹, ε_p), which the \
+                     mixed methods `upwind-sph` and `jst-sph` evolve; {name} evaluates P(F) \
+                     without one"
+                ),
+            );
+        }
         return Ok(());
     }
     if m.artificial_viscosity.is_some() {
@@ -266,8 +309,8 @@ fn method_options(case: &Case) -> Checked {
             "material.model",
             format!(
                 "{name} evolves F and evaluates P(F, H, J): use a state model \
-                 (`nearly-incompressible-neo-hookean`, `neo-hookean`, `saint-venant-kirchhoff` \
-                 or `linear-elastic`), not {}",
+                 (`nearly-incompressible-neo-hookean`, `neo-hookean`, `saint-venant-kirchhoff`, \
+                 `linear-elastic` or `von-mises-plastic`), not {}",
                 toml_name(&case.material.model)
             ),
         );
@@ -437,6 +480,7 @@ fn shape(shape: &Shape, key: &str, dim: usize) -> Checked {
             radius,
             inner_radius,
             length,
+            lattice: _,
         } => {
             if dim != 3 {
                 return only("cylinder", 3, "\"disk\" or \"ring\"");
@@ -852,6 +896,7 @@ mod tests {
             radius: 1.0,
             inner_radius: 0.0,
             length: 1.0,
+            lattice: Lattice::Vertex,
         };
         let (key, msg) = check(&c).unwrap_err();
         assert_eq!(key, "body.1.geometry.shape");
@@ -894,6 +939,7 @@ mod tests {
             radius: 1.0,
             inner_radius: 0.5,
             length: 1.0,
+            lattice: Lattice::Vertex,
         };
         check(&c).unwrap();
         c.bodies[0].initial_velocity = Some(VelocityField::RigidRotation {

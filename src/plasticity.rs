@@ -1,0 +1,248 @@
+//! Von Mises hyperelastic-plastic model with isotropic hardening (seed 003 Appendix A,
+//! Algorithm 2): Hencky (logarithmic) elastic strains, a radial return in the principal
+//! Kirchhoff stresses, and the internal variables C_p⁻¹ and ε_p, which the mixed methods
+//! commit once per step from the state at its start (the paper leaves the stages open).
+//! The algorithm works in 3 × 3 tensors; a 2D (plane-strain) F enters with F_zz = 1.
+
+use crate::tensor::Dim;
+use glam::{DMat3, DVec3};
+
+/// Yield stress and hardening of the model.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hardening {
+    /// Initial yield stress τ_y⁰ [Pa].
+    pub yield_stress: f64,
+    /// Linear isotropic hardening modulus H [Pa]: τ_y = τ_y⁰ + H ε_p.
+    pub modulus: f64,
+}
+
+/// Shear and bulk moduli with the hardening.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VonMises {
+    pub mu: f64,
+    pub bulk: f64,
+    pub hardening: Hardening,
+}
+
+/// The outcome of Algorithm 2 for one particle.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Returned {
+    /// First Piola–Kirchhoff stress P = τ F⁻ᵀ (step 11).
+    pub p: DMat3,
+    /// [C_p⁻¹]ⁿ⁺¹ = F⁻¹ b_e Fᵀ⁻¹ (step 13).
+    pub cp_inv: DMat3,
+    /// ε_pⁿ⁺¹ = ε_pⁿ + Δγ (step 14).
+    pub eps_p: f64,
+    /// Stored (Hencky) energy per reference volume, μ Σ (ln λ_e,i − ⅓ ln J)² + κ/2 (ln J)².
+    pub psi: f64,
+}
+
+impl VonMises {
+    /// Algorithm 2 at deformation gradient f from the internal variables [C_p⁻¹]ⁿ, ε_pⁿ.
+    pub fn return_map(&self, f: DMat3, cp_inv: DMat3, eps_p: f64) -> Returned {
+        let (mu, h) = (self.mu, self.hardening.modulus);
+        // (1)–(2)
+        let j = f.determinant();
+        let ln_j = j.ln();
+        let p = self.bulk * ln_j / j;
+        // (3)–(4): b̄_e = F C_p⁻¹ Fᵀ = Σ λ̄² n̄ ⊗ n̄.
+        let (eig, n) = symmetric_eigen(f * cp_inv * f.transpose());
+        let ln_stretch = eig.to_array().map(|e| 0.5 * e.ln());
+        // (5) τ̄'_ii = 2μ ln λ̄_i − ⅔ μ ln J.
+        let tau_trial = ln_stretch.map(|l| 2.0 * mu * l - 2.0 / 3.0 * mu * ln_j);
+        let norm = tau_trial.iter().map(|t| t * t).sum::<f64>().sqrt();
+        // (6) f = sqrt(3/2 τ̄':τ̄') − (τ_y⁰ + H ε_p).
+        let yield_fn = (1.5f64).sqrt() * norm - (self.hardening.yield_stress + h * eps_p);
+        // (7) Δγ = f / (3μ + H), ν_i = τ̄'_ii / sqrt(2/3 τ̄':τ̄').
+        let (dgamma, scale) = if yield_fn > 0.0 {
+            let dgamma = yield_fn / (3.0 * mu + h);
+            (dgamma, (2.0f64 / 3.0).sqrt() * norm)
+        } else {
+            (0.0, 1.0)
+        };
+        let nu = tau_trial.map(|t| t / scale);
+        // (8) ln λ_e = ln λ̄ − Δγ ν; (10) τ'_ii = (1 − 2μΔγ / sqrt(2/3 τ̄':τ̄')) τ̄'_ii.
+        let ln_elastic: [f64; 3] = std::array::from_fn(|i| ln_stretch[i] - dgamma * nu[i]);
+        let tau_dev = tau_trial.map(|t| (1.0 - 2.0 * mu * dgamma / scale) * t);
+        let principal = |v: [f64; 3]| {
+            (0..3).fold(DMat3::ZERO, |m, i| {
+                m + DMat3::from_cols(
+                    n.col(i) * n.col(i).x,
+                    n.col(i) * n.col(i).y,
+                    n.col(i) * n.col(i).z,
+                ) * v[i]
+            })
+        };
+        // (10)–(11)
+        let tau = principal(tau_dev.map(|t| t + j * p));
+        let f_inv = f.inverse();
+        // (12)–(13)
+        let b_e = principal(ln_elastic.map(|l| (2.0 * l).exp()));
+        let psi = mu
+            * ln_elastic
+                .iter()
+                .map(|l| (l - ln_j / 3.0).powi(2))
+                .sum::<f64>()
+            + 0.5 * self.bulk * ln_j * ln_j;
+        Returned {
+            p: tau * f_inv.transpose(),
+            cp_inv: f_inv * b_e * f_inv.transpose(),
+            eps_p: eps_p + dgamma,
+            psi,
+        }
+    }
+}
+
+/// A 2D (plane-strain, F_zz = 1) or 3D tensor as a 3 × 3 one.
+pub fn to_mat3<D: Dim>(t: D::T, zz: f64) -> DMat3 {
+    let mut m = D::to3x3(t);
+    if D::N == 2 {
+        m[2][2] = zz;
+    }
+    DMat3::from_cols_array_2d(&m).transpose()
+}
+
+/// The in-plane block of a 3 × 3 tensor as a D tensor.
+pub fn from_mat3<D: Dim>(m: DMat3) -> D::T {
+    let e = |k: usize| {
+        let mut v = [0.0; 3];
+        v[k] = 1.0;
+        D::from_slice(&v[..D::N])
+    };
+    let mut t = D::zero_t();
+    for k in 0..D::N {
+        for l in 0..D::N {
+            t += D::outer(e(k), e(l)) * m.col(l)[k];
+        }
+    }
+    t
+}
+
+/// Eigenvalues and unit eigenvectors (the columns) of a symmetric 3 × 3 matrix, by cyclic
+/// Jacobi rotations to a relative off-diagonal of 1e-15.
+pub fn symmetric_eigen(a: DMat3) -> (DVec3, DMat3) {
+    let mut m = a.to_cols_array_2d();
+    let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    let scale = m.iter().flatten().map(|x| x * x).sum::<f64>().sqrt();
+    for _sweep in 0..16 {
+        let off = m[0][1].powi(2) + m[0][2].powi(2) + m[1][2].powi(2);
+        if off.sqrt() <= 1e-15 * scale {
+            break;
+        }
+        for (p, q) in [(0, 1), (0, 2), (1, 2)] {
+            if m[p][q] == 0.0 {
+                continue;
+            }
+            // The rotation in the (p, q) plane that zeroes m_pq.
+            let theta = (m[q][q] - m[p][p]) / (2.0 * m[p][q]);
+            let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+            let c = 1.0 / (t * t + 1.0).sqrt();
+            let s = t * c;
+            // m ← Jᵀ m J and v ← v J with J the rotation.
+            let rotate_columns = |row: &mut [f64; 3]| {
+                let (xp, xq) = (row[p], row[q]);
+                row[p] = c * xp - s * xq;
+                row[q] = s * xp + c * xq;
+            };
+            m.iter_mut().for_each(rotate_columns);
+            v.iter_mut().for_each(rotate_columns);
+            let (rp, rq) = (m[p], m[q]);
+            m[p] = std::array::from_fn(|k| c * rp[k] - s * rq[k]);
+            m[q] = std::array::from_fn(|k| s * rp[k] + c * rq[k]);
+        }
+    }
+    // v holds the eigenvectors as columns in row-major form.
+    let cols = DMat3::from_cols_array_2d(&v).transpose();
+    (DVec3::new(m[0][0], m[1][1], m[2][2]), cols)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn max_abs(m: DMat3) -> f64 {
+        m.to_cols_array().iter().fold(0.0, |a, x| a.max(x.abs()))
+    }
+
+    fn copper() -> VonMises {
+        // The seed-003 Taylor bar: E = 117 GPa, ν = 0.35, τ_y⁰ = 0.4 GPa, H = 0.1 GPa.
+        let (e, nu) = (117e9, 0.35);
+        let mu = e / (2.0 * (1.0 + nu));
+        VonMises {
+            mu,
+            bulk: e / (3.0 * (1.0 - 2.0 * nu)),
+            hardening: Hardening {
+                yield_stress: 0.4e9,
+                modulus: 0.1e9,
+            },
+        }
+    }
+
+    #[test]
+    fn jacobi_finds_the_eigenpairs_of_a_rotated_diagonal() {
+        // A = R diag(3, 1e-3, 2) Rᵀ: A n_i = λ_i n_i and RᵀR = I to round-off (1e-14).
+        let r = DMat3::from_euler(glam::EulerRot::XYZ, 0.4, -1.2, 2.5);
+        let a = r * DMat3::from_diagonal(DVec3::new(3.0, 1e-3, 2.0)) * r.transpose();
+        let (eig, n) = symmetric_eigen(a);
+        let mut sorted = eig.to_array();
+        sorted.sort_by(f64::total_cmp);
+        assert!(
+            (DVec3::from_array(sorted) - DVec3::new(1e-3, 2.0, 3.0))
+                .abs()
+                .max_element()
+                < 1e-14
+        );
+        for i in 0..3 {
+            let residual = a * n.col(i) - n.col(i) * eig[i];
+            assert!(
+                residual.length() < 1e-14,
+                "eigenpair {i}: residual {residual}"
+            );
+        }
+        assert!(max_abs(n.transpose() * n - DMat3::IDENTITY) < 1e-14);
+    }
+
+    #[test]
+    fn below_yield_the_response_is_hencky_elastic() {
+        // Uniaxial stretch 1.001 (σ ≈ 117 MPa < 400 MPa): no plastic flow, C_p⁻¹ stays I,
+        // and τ = 2μ dev ln V + κ ln J I exactly (round-off 1e-9 relative).
+        let m = copper();
+        let f = DMat3::from_diagonal(DVec3::new(1.0, 1.001, 1.0));
+        let r = m.return_map(f, DMat3::IDENTITY, 0.0);
+        assert_eq!(r.eps_p, 0.0);
+        assert!(max_abs(r.cp_inv - DMat3::IDENTITY) < 1e-15);
+        let ln = 1.001f64.ln();
+        let tau_yy = 2.0 * m.mu * (ln - ln / 3.0) + m.bulk * ln;
+        let p_yy = tau_yy / 1.001;
+        assert!(
+            (r.p.col(1).y / p_yy - 1.0).abs() < 1e-9,
+            "P_yy {} vs {p_yy}",
+            r.p.col(1).y
+        );
+    }
+
+    #[test]
+    fn the_return_lands_on_the_hardened_yield_surface() {
+        // A shear far beyond yield: after the return the equivalent Kirchhoff stress
+        // sqrt(3/2 τ':τ') equals τ_y⁰ + H ε_pⁿ⁺¹ (the consistency condition, exact in the
+        // principal frame: round-off 1e-9 relative), the plastic flow keeps det C_p⁻¹ = 1
+        // (isochoric, 1e-12), and a second return from the committed variables at the same
+        // F is elastic (Δγ = 0).
+        let m = copper();
+        let f = DMat3::from_cols_array_2d(&[[1.0, 0.05, 0.0], [0.0, 1.0, 0.0], [0.01, 0.0, 0.999]]);
+        let r = m.return_map(f, DMat3::IDENTITY, 0.0);
+        assert!(r.eps_p > 0.0, "a shear of 5 % must yield copper");
+        let tau = r.p * f.transpose();
+        let dev = tau - DMat3::IDENTITY * (tau.col(0).x + tau.col(1).y + tau.col(2).z) / 3.0;
+        let equivalent = (1.5 * dev.to_cols_array().iter().map(|x| x * x).sum::<f64>()).sqrt();
+        let yield_now = m.hardening.yield_stress + m.hardening.modulus * r.eps_p;
+        assert!(
+            (equivalent / yield_now - 1.0).abs() < 1e-9,
+            "{equivalent} vs {yield_now}"
+        );
+        assert!((r.cp_inv.determinant() - 1.0).abs() < 1e-12);
+        let again = m.return_map(f, r.cp_inv, r.eps_p);
+        assert!((again.eps_p - r.eps_p).abs() < 1e-12 * r.eps_p);
+        assert!(max_abs(again.p - r.p) < 1e-6 * max_abs(r.p));
+    }
+}
