@@ -17,6 +17,16 @@ use meshless::tensor::{D2, D3, Dim};
 mod common;
 use common::{load, noise, random_state};
 
+/// A CPU run into `dir`: series and summary, no frames, no progress bar.
+fn cpu_options(dir: &std::path::Path) -> RunOptions {
+    RunOptions {
+        out_dir: dir.to_path_buf(),
+        backend: Backend::Cpu,
+        progress: false,
+        frames: false,
+    }
+}
+
 fn sum_v<D: Dim>(f: &[D::V], vol: &[f64]) -> (D::V, f64) {
     let total = f.iter().zip(vol).fold(D::zero(), |s, (&f, &v)| s + f * v);
     let scale: f64 = f
@@ -290,12 +300,7 @@ fn swinging_run_errors(spacing: f64, name: &str) -> (f64, f64) {
 /// Relative L2 errors of v and P of a swinging case at its end time.
 fn run_errors(case: &Case) -> (f64, f64) {
     let dir = tempfile::tempdir().unwrap();
-    let opts = RunOptions {
-        out_dir: dir.path().to_path_buf(),
-        backend: Backend::Cpu,
-        progress: false,
-        frames: false,
-    };
+    let opts = cpu_options(dir.path());
     let out = run_case(case, Backend::Cpu, &opts);
     out.result.unwrap();
     let state = out.state.unwrap();
@@ -457,12 +462,7 @@ fn seed_002_swinging_plate_converges_with_the_bond_based_f() {
 fn bending_column_is_stable_at_cfl_0_9() {
     let case = load("bending-column", &[]);
     let dir = tempfile::tempdir().unwrap();
-    let opts = RunOptions {
-        out_dir: dir.path().to_path_buf(),
-        backend: Backend::Cpu,
-        progress: false,
-        frames: false,
-    };
+    let opts = cpu_options(dir.path());
     let out = run_case(&case, Backend::Cpu, &opts);
     let summary = out.result.unwrap();
     assert!((summary.end_time - 0.07505).abs() < 1e-9);
@@ -497,12 +497,7 @@ fn jst_on_the_brookshaw_laplacian_survives_the_pull_the_corrected_one_does_not()
                 laplacian.as_str(),
             ],
         );
-        let opts = RunOptions {
-            out_dir: dir.to_path_buf(),
-            backend: Backend::Cpu,
-            progress: false,
-            frames: false,
-        };
+        let opts = cpu_options(dir);
         run_case(&case, Backend::Cpu, &opts)
     };
     let dir = tempfile::tempdir().unwrap();
@@ -545,12 +540,7 @@ fn the_taylor_bar_mushrooms_to_the_published_radius() {
     let spacing = format!("spacing={dx}");
     let case = load("taylor-bar", &[&spacing, "run.end_time=4e-5"]);
     let dir = tempfile::tempdir().unwrap();
-    let opts = RunOptions {
-        out_dir: dir.path().to_path_buf(),
-        backend: Backend::Cpu,
-        progress: false,
-        frames: false,
-    };
+    let opts = cpu_options(dir.path());
     run_case(&case, Backend::Cpu, &opts).result.unwrap();
     // series.csv: time, step, dt, kinetic, strain, total energy, external work,
     // bar.extent_x, …
