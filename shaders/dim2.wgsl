@@ -70,3 +70,13 @@ fn unpad(v: vec3<f32>) -> vecd {
 fn solve_inertia(i: mat3x3<f32>, m: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(0.0, 0.0, m.z / i[2][2]);
 }
+
+// The plane-strain 3 × 3 tensor of an in-plane one, with the given zz entry.
+fn lift3(m: matd, zz: f32) -> mat3x3<f32> {
+    return mat3x3<f32>(vec3<f32>(m[0], 0.0), vec3<f32>(m[1], 0.0), vec3<f32>(0.0, 0.0, zz));
+}
+
+// The in-plane block of a 3 × 3 tensor.
+fn lower3(m: mat3x3<f32>) -> matd {
+    return matd(m[0].xy, m[1].xy);
+}

@@ -101,3 +101,12 @@ fn unpad(v: vec3<f32>) -> vecd {
 fn solve_inertia(i: mat3x3<f32>, m: vec3<f32>) -> vec3<f32> {
     return inverse_d(i) * m;
 }
+
+// The 3 × 3 tensor itself (the 2D prelude pads an in-plane one with zz).
+fn lift3(m: matd, zz: f32) -> mat3x3<f32> {
+    return m;
+}
+
+fn lower3(m: mat3x3<f32>) -> matd {
+    return m;
+}

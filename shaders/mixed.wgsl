@@ -12,7 +12,8 @@
 // (FS_OFF = F_OFF) where F is evolved, or the bond-based F^c − I of mixed_bond.wgsl
 // (FS_OFF = 0, seed 002).
 //
-// Scene constants: N, NG, DIM, MODEL, RHO0, MU, LAMBDA, BULK, C_P, C_S, SPACING
+// Scene constants: N, NG, DIM, MODEL, RHO0, MU, LAMBDA, BULK, YIELD, HARDENING (von Mises
+// model, plasticity.wgsl), C_P, C_S, SPACING
 // (particle spacing Δx), PAIR_STRETCH (1: the CFL step's C_p,ij = C_P / λ^Ave_ij, 0:
 // C_P), H (smoothing length), STAB (0 upwind, 1 JST), RECON, EPS2, EPS4,
 // MOMENTUM (0 weak, 1 symmetrised), EVOLVE_H, EVOLVE_J, KIN_H, PROJECTION, GROUPS

@@ -2,9 +2,13 @@
 
 // V_i ψ(F_i, J_i) of a mixed-method particle, from the F − I of the stress, bound as `kin`
 // at FS_OFF (the state again, or the bond-based F^c − I), and J − 1 (det F − 1 when J is
-// not evolved).
+// not evolved); for the von Mises model the Hencky energy of the returned elastic
+// stretches.
 fn strain_energy(i: u32) -> f32 {
     let f = mload_kin(FS_OFF + DIM * DIM * i);
+    if MODEL == 5u {
+        return vol[i] * return_map(lift3(identity_d() + f, 1.0), history(i)).psi;
+    }
     var j = det_excess(f);
     if EVOLVE_J == 1u {
         j = y[J_OFF + i];
@@ -15,6 +19,8 @@ fn strain_energy(i: u32) -> f32 {
 // The neighbour lists (CSR over the real rows; ids ≥ N are ghosts), for the pair rate.
 @group(0) @binding(6) var<storage, read> offsets: array<u32>;
 @group(0) @binding(7) var<storage, read> ids: array<u32>;
+// The plastic history (plasticity.wgsl), read with MODEL 5 only.
+@group(0) @binding(8) var<storage, read> hist: array<f32>;
 
 // λ_i, the smallest principal stretch of particle i: the square root of the smallest
 // eigenvalue of C = FᵀF; 1 when the step takes C_p^Lin for every pair (PAIR_STRETCH = 0).

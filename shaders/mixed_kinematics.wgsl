@@ -3,8 +3,9 @@
 // them the rates Ḟ = ∇0v, Ḣ = F × ∇0v and J̇ = H : ∇0v (eqs 39b–d; the rates pass adds
 // D(J)). P, and H = cof F and J = det F where they are not evolved, take the F of `fs`
 // (the evolved F or the bond-based F^c); Ḣ takes the evolved F. det F ≤ 0 records the
-// particle in status[0], J ≤ 0 in status[1] (u32 atomicMin). Layout and constants:
-// mixed.wgsl.
+// particle in status[0], J ≤ 0 in status[1] (u32 atomicMin). The von Mises model
+// (MODEL 5) returns F from the particle's history instead (plasticity.wgsl). Layout and
+// constants: mixed.wgsl.
 
 @group(0) @binding(0) var<storage, read> offsets: array<u32>;
 @group(0) @binding(1) var<storage, read> ids: array<u32>;
@@ -17,6 +18,8 @@
 @group(0) @binding(7) var<storage, read_write> status: array<atomic<u32>>;
 // F − I of the stress at FS_OFF (mixed.wgsl): y again, or F^c − I.
 @group(0) @binding(8) var<storage, read> fs: array<f32>;
+// The plastic history (plasticity.wgsl), read with MODEL 5 only.
+@group(0) @binding(9) var<storage, read> hist: array<f32>;
 
 @compute @workgroup_size(256)
 fn kinematics(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
@@ -45,7 +48,12 @@ fn kinematics(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     if !(1.0 + j > 0.0) {
         atomicMin(&status[1], a);
     }
-    mstore_kin(KP_OFF + DIM * DIM * a, pk1_mixed(f, h, j));
+    if MODEL == 5u {
+        let returned = return_map(lift3(identity_d() + f, 1.0), history(a));
+        mstore_kin(KP_OFF + DIM * DIM * a, lower3(returned.p));
+    } else {
+        mstore_kin(KP_OFF + DIM * DIM * a, pk1_mixed(f, h, j));
+    }
     if KIN_H == 1u {
         mstore_kin(KH_OFF + DIM * DIM * a, h);
     }

@@ -7,7 +7,7 @@ use crate::gpu::mixed::GpuMixed;
 use crate::gpu::tlsph::{GpuTlsph, SetupError};
 use crate::hourglass::HourglassIndicator;
 use crate::integrate::Integrator;
-use crate::material::{Material, MaterialModel, von_mises};
+use crate::material::{Material, von_mises};
 use crate::method::mixed::MixedSph;
 use crate::method::tlsph::Tlsph;
 use crate::method::{BlowUp, Method};
@@ -274,12 +274,6 @@ pub fn engine<D: GpuDim>(case: &Case, backend: Backend) -> Result<Box<dyn Engine
     let gpu = match backend {
         Backend::Cpu => None,
         Backend::Gpu => Some(Gpu::new().map_err(|e| RunError::Backend(e.to_string()))?),
-        Backend::Auto if case.material.model == MaterialModel::VonMisesPlastic => {
-            eprintln!(
-                "note: the plastic model runs on the CPU only; running on the CPU (rayon, f64)"
-            );
-            None
-        }
         Backend::Auto => Gpu::new()
             .inspect_err(|e| eprintln!("note: {e}; running on the CPU (rayon, f64)"))
             .ok(),

@@ -477,3 +477,48 @@ fn the_cfl_signal_speed_follows_the_fastest_pair() {
         check_signal_speed::<D3>(&case("swinging-cube", &["spacing=0.125", &wave]), s3);
     }
 }
+
+/// The von Mises return map and the per-step commit of the plastic history on the GPU
+/// against the CPU: the coarse Taylor bar (960 particles, 227 m/s) over 500 fixed steps
+/// of 20 ns (10 µs, the impact end deep in plastic flow). The displacements, the
+/// largest 2.3 mm, agree to 1e-4 of it, and the energies to 1e-4 of E(0): f32 states and
+/// a return map whose ln J and eigenvalues carry 6e-8 relative, amplified over 500 steps
+/// of flow (measured: 3.8e-5 of the largest displacement, 8e-6 of E(0)).
+#[test]
+fn plastic_flow_matches_the_cpu() {
+    let c = case(
+        "taylor-bar",
+        &[
+            "spacing=1.0666666666666667e-3",
+            "method.cfl=",
+            "method.cfl_wave_speed=",
+            "method.dt=2e-8",
+        ],
+    );
+    let mut cpu = meshless::run::CpuEngine::<D3, MixedSph<D3>>::new(&c).unwrap();
+    let mut g: GpuMixed<D3> = GpuMixed::new(&c, gpu()).unwrap();
+    let e0 = cpu.invariants().total_energy();
+    cpu.advance(0.0, 2e-8, 500).unwrap();
+    Engine::<D3>::advance(&mut g, 0.0, 2e-8, 500).unwrap();
+    let (on_cpu, on_gpu) = (cpu.snapshot(), Engine::<D3>::snapshot(&mut g));
+    let largest = on_cpu.u.iter().map(|u| u.length()).fold(0.0, f64::max);
+    let deviation = on_cpu
+        .u
+        .iter()
+        .zip(&on_gpu.u)
+        .map(|(a, b)| (*a - *b).length())
+        .fold(0.0, f64::max);
+    let (energy_cpu, energy_gpu) = (
+        on_cpu.strain_energy + Invariants::of(&on_cpu).kinetic,
+        on_gpu.strain_energy + Invariants::of(&on_gpu).kinetic,
+    );
+    eprintln!(
+        "Taylor bar, 500 steps: max |u_GPU − u_CPU| = {deviation:e} m of {largest:e} m; \
+         energy {energy_gpu} against {energy_cpu} J (E0 = {e0} J)"
+    );
+    assert!(
+        deviation < 1e-4 * largest,
+        "{deviation:e} m of {largest:e} m"
+    );
+    assert!((energy_gpu - energy_cpu).abs() < 1e-4 * e0);
+}

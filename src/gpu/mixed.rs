@@ -25,6 +25,7 @@ use crate::observe::{Invariants, Snapshot};
 use crate::run::{Engine, build_method};
 use crate::scene::{Case, CflWaveSpeed, Conserved, DeformationGradient, MethodName, Momentum};
 use bytemuck::{Pod, Zeroable};
+use glam::DMat3;
 
 /// Offsets (in f32 entries) of the fields in the flat buffers of a mixed scene.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -129,6 +130,8 @@ pub fn scene<D: GpuDim>(case: &Case, cpu: &MixedSph<D>) -> (MixedLayout, Constan
         .u32("N", u(n))
         .u32("NG", u(l.ghosts))
         .material(material)
+        .f32("YIELD", material.hardening.map_or(0.0, |h| h.yield_stress))
+        .f32("HARDENING", material.hardening.map_or(0.0, |h| h.modulus))
         .f32("C_P", material.p_wave_speed())
         .f32("C_S", material.s_wave_speed())
         .f32("SPACING", case.spacing)
@@ -343,18 +346,23 @@ pub struct GpuMixed<D: GpuDim> {
     force: wgpu::Buffer,
     status: wgpu::Buffer,
     reduction: Reduction,
+    /// The plastic history (plasticity.wgsl; 10 floats of a dummy for elastic models).
+    hist: wgpu::Buffer,
+    /// The commit of the plastic history before every step (mixed_plastic.wgsl).
+    commit: Option<(wgpu::ComputePipeline, wgpu::BindGroup)>,
     work: WorkBalance,
 }
 
 impl<D: GpuDim> GpuMixed<D> {
     /// Builds the CPU set-up of the case and uploads it with the initial state.
     pub fn new(case: &Case, gpu: Gpu) -> Result<Self, SetupError> {
-        if case.material.model == MaterialModel::VonMisesPlastic {
+        let plastic = case.material.model == MaterialModel::VonMisesPlastic;
+        if plastic && case.method.deformation_gradient == Some(DeformationGradient::BondBased) {
             return Err(case
                 .invalid(
-                    "material.model",
-                    "the GPU backend has no plastic return map (`von-mises-plastic`); run the \
-                     case with --backend cpu",
+                    "method.deformation_gradient",
+                    "the GPU commits the plastic history from the evolved F; the bond-based F \
+                     with `von-mises-plastic` runs with --backend cpu",
                 )
                 .into());
         }
@@ -530,6 +538,21 @@ impl<D: GpuDim> GpuMixed<D> {
         }
         let y_start = stepper.buffer(Buf::Y);
         let rates_d = stepper.buffer(Buf::Rates);
+        // [C_p⁻¹ by columns | ε_p] per real particle, from the virgin state.
+        let virgin = [1.0f32, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+        let hist = gpu.storage(
+            "plastic history",
+            &virgin.repeat(if plastic { n } else { 1 }),
+        );
+        let commit = plastic.then(|| {
+            let pipeline = gpu.pipeline(
+                "plastic commit",
+                &compose(&shaders::MIXED_PLASTIC),
+                "commit",
+            );
+            let bind = gpu.bind(&pipeline, &[y_start, &hist]);
+            (pipeline, bind)
+        });
         let p = &evaluator.passes;
         // F − I of the stress (`fs`): the state's own, or F^c − I.
         let stress_f = |y| bond.as_ref().map_or(y, |(.., fc)| fc);
@@ -575,6 +598,7 @@ impl<D: GpuDim> GpuMixed<D> {
                         rates_d,
                         &status,
                         stress_f(y),
+                        &hist,
                     ],
                 ),
                 second: second_pass,
@@ -637,6 +661,7 @@ impl<D: GpuDim> GpuMixed<D> {
                 (4, &power),
                 (6, &offsets),
                 (7, &ids),
+                (8, &hist),
             ],
             n,
         );
@@ -652,6 +677,8 @@ impl<D: GpuDim> GpuMixed<D> {
             force,
             status,
             reduction,
+            hist,
+            commit,
             work: WorkBalance::default(),
         })
     }
@@ -699,6 +726,8 @@ impl<D: GpuDim> GpuMixed<D> {
             gpu,
             stepper,
             evaluator,
+            commit,
+            layout,
             ..
         } = self;
         stepper.record(
@@ -707,7 +736,12 @@ impl<D: GpuDim> GpuMixed<D> {
             dt,
             steps,
             |encoder, e| evaluator.record(gpu, encoder, e),
-            |_| {},
+            |encoder| {
+                if let Some((pipeline, bind)) = commit {
+                    let mut pass = encoder.begin_compute_pass(&Default::default());
+                    gpu.dispatch(&mut pass, pipeline, bind, layout.n as u32);
+                }
+            },
         );
         self.gpu.queue.submit([encoder.finish()]);
     }
@@ -913,6 +947,17 @@ impl<D: GpuDim> Engine<D> for GpuMixed<D> {
 
     fn snapshot(&mut self) -> Snapshot<'_, D> {
         let y = self.state();
+        if self.commit.is_some() {
+            let flat: Vec<f32> = self.gpu.read(&self.hist);
+            let (cp_inv, eps_p) = flat
+                .chunks_exact(10)
+                .map(|h| {
+                    let m: [f64; 9] = std::array::from_fn(|k| f64::from(h[k]));
+                    (DMat3::from_cols_array(&m), f64::from(h[9]))
+                })
+                .unzip();
+            self.cpu.set_plastic_history(cp_inv, eps_p);
+        }
         self.cpu.snapshot(&y)
     }
 }

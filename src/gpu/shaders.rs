@@ -55,6 +55,10 @@ const COMMON: &[(&str, &str)] = &[
         "mixed_energy.wgsl",
         include_str!("../../shaders/mixed_energy.wgsl"),
     ),
+    (
+        "plasticity.wgsl",
+        include_str!("../../shaders/plasticity.wgsl"),
+    ),
 ];
 
 pub const TLSPH_STRESS: Source = source!(
@@ -120,7 +124,12 @@ pub const MIXED_GHOSTS: Source = source!(
 );
 pub const MIXED_KINEMATICS: Source = source!(
     "mixed_kinematics.wgsl",
-    ["mechanics.wgsl", "mixed.wgsl", "mixed_motion.wgsl"],
+    [
+        "mechanics.wgsl",
+        "mixed.wgsl",
+        "mixed_motion.wgsl",
+        "plasticity.wgsl"
+    ],
     [
         ("grad", false),
         ("y", false),
@@ -174,14 +183,21 @@ pub const MIXED_MOMENTUM: Source = source!(
 );
 pub const MIXED_REDUCE: Source = source!(
     "reduce.wgsl",
-    ["mechanics.wgsl", "mixed_energy.wgsl"],
+    ["mechanics.wgsl", "mixed_energy.wgsl", "plasticity.wgsl"],
     [("y", false), ("kin", false), ("x_hi", false)]
 );
 
 /// The passes compiled with a mixed scene's constants (`gpu::mixed::scene_constants`).
+pub const MIXED_PLASTIC: Source = source!(
+    "mixed_plastic.wgsl",
+    ["mixed.wgsl", "plasticity.wgsl"],
+    [("y", false)]
+);
+
 pub const MIXED_SCENE: &[Source] = &[
     MIXED_GHOSTS,
     MIXED_KINEMATICS,
+    MIXED_PLASTIC,
     MIXED_BOND,
     MIXED_SLOPES,
     MIXED_FORCES,
@@ -201,6 +217,7 @@ pub const ALL: &[Source] = &[
     INTEGRATE,
     MIXED_GHOSTS,
     MIXED_KINEMATICS,
+    MIXED_PLASTIC,
     MIXED_BOND,
     MIXED_SLOPES,
     MIXED_FORCES,

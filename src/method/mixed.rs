@@ -1111,6 +1111,13 @@ impl<D: Dim> MixedSph<D> {
         self.projection
     }
 
+    /// Replaces the plastic history (the GPU engine's, read back for snapshots).
+    pub(crate) fn set_plastic_history(&mut self, cp_inv: Vec<DMat3>, eps_p: Vec<f64>) {
+        if let Some(pl) = self.plastic.as_mut() {
+            (pl.cp_inv, pl.eps_p) = (cp_inv, eps_p);
+        }
+    }
+
     pub(crate) fn cfl_wave_speed(&self) -> CflWaveSpeed {
         self.cfl_wave_speed
     }
