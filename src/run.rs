@@ -186,6 +186,13 @@ pub fn explain(case: &Case, gpu: bool) -> String {
             m.integrator.stages()
         ));
     }
+    if mat.hardening.is_some() {
+        out.push(
+            "before every step: the plastic history C_p⁻¹, ε_p committed from the step's start \
+             state (seed 003 Algorithm 2); every stage returns F from it"
+                .into(),
+        );
+    }
     if let Some(contact) = case.contact {
         out.push(format!(
             "between steps: penalty contact (seed 000 §5.8, α = {}) of every particle against \
