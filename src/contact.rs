@@ -1,7 +1,8 @@
 //! Penalty contact between the bodies of a 2D scene (seed 000 §5.8, eqs 172–178).
 //!
 //! Every body is a master to every other. Its boundary is the convex hull of its
-//! reference particles, found once, ordered counter-clockwise; at each hull particle p the
+//! reference particles (collinear ones included), found once, ordered counter-clockwise;
+//! at each hull particle p the
 //! normal is the average of the outward unit normals of its two hull edges (eqs 172–176).
 //! A slave particle s of another body, with c the closest hull particle of the master and
 //! d = x_s − x_c, is in contact when d·n_c ≤ 0, and is then pushed back along n_c by
@@ -116,7 +117,8 @@ fn cross(o: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
 }
 
 /// Andrew's monotone chain: the particles on the convex hull of `ids`, counter-clockwise,
-/// without collinear ones.
+/// collinear ones included: on a flat face the closest hull particle is then one of the
+/// face, whose normal is the face's, not a distant corner's averaged one.
 fn convex_hull(ids: &[u32], at: impl Fn(u32) -> [f64; 2]) -> Vec<u32> {
     let mut sorted = ids.to_vec();
     sorted.sort_by(|&a, &b| {
@@ -134,7 +136,7 @@ fn convex_hull(ids: &[u32], at: impl Fn(u32) -> [f64; 2]) -> Vec<u32> {
         let start = hull.len();
         for &i in pass {
             while hull.len() >= start + 2
-                && cross(at(hull[hull.len() - 2]), at(hull[hull.len() - 1]), at(i)) <= 0.0
+                && cross(at(hull[hull.len() - 2]), at(hull[hull.len() - 1]), at(i)) < 0.0
             {
                 hull.pop();
             }
@@ -172,26 +174,28 @@ mod tests {
     use crate::tensor::D2;
     use glam::DVec2;
 
-    /// A master square [0, 1]² sampled on a 5 × 5 lattice (body 0) and two slave particles
-    /// (body 1).
+    /// A master square [0, 1]² sampled on a 5 × 5 lattice (body 0) and slave particles,
+    /// each a body of its own (bodies 1, 2, …), which has no area and so is no master.
     fn square_and(slaves: &[DVec2]) -> (Vec<DVec2>, Vec<u32>) {
         let mut x: Vec<DVec2> = (0..25)
             .map(|k| DVec2::new(f64::from(k % 5), f64::from(k / 5)) * 0.25)
             .collect();
         let mut body = vec![0; 25];
         x.extend_from_slice(slaves);
-        body.extend(slaves.iter().map(|_| 1));
+        body.extend((1..=slaves.len() as u32).collect::<Vec<_>>());
         (x, body)
     }
 
     #[test]
-    fn the_hull_of_a_lattice_square_is_its_corners_counter_clockwise() {
+    fn the_hull_of_a_lattice_square_is_its_boundary_counter_clockwise() {
         let (x, body) = square_and(&[DVec2::new(2.0, 2.0)]);
         let contact = Contact::<D2>::new(0.1, &x, &body);
-        // Corners (0, 0), (1, 0), (1, 1), (0, 1): particles 0, 4, 24, 20; the 12
-        // collinear edge particles are not hull vertices.
-        assert_eq!(contact.hulls()[0], vec![0, 4, 24, 20]);
+        // The 16 boundary particles from (0, 0) along the bottom, up the right side,
+        // back along the top and down the left side; the 9 interior ones are not on it.
+        let boundary = vec![0, 1, 2, 3, 4, 9, 14, 19, 24, 23, 22, 21, 20, 15, 10, 5];
+        assert_eq!(contact.hulls()[0], boundary);
         assert_eq!(contact.hulls()[1], vec![25]);
+        assert_eq!(contact.hulls().len(), 2);
     }
 
     #[test]
@@ -199,10 +203,16 @@ mod tests {
         // Slave a at (0.9, 0.95) inside the square: its closest hull particle is the
         // corner (1, 1) with n = ½((0, 1) + (1, 0)) (eq 176), d = (−0.1, −0.05), d·n =
         // −0.075, so a_c = −α (d·n) n / Δt² = α 0.0375 (1, 1) / Δt². Slave b at (1.2, 1.1)
-        // lies outside (d·n > 0): no force. The master feels none either. Round-off:
-        // 1e-12 relative.
+        // lies outside (d·n > 0): no force. Slave c at (0.4, 1.1) lies above the top face,
+        // whose particle (0.5, 1) is its closest, with n = (0, 1): no force (a corner's
+        // averaged normal would push it). The master feels none either. Round-off: 1e-12
+        // relative.
         let (alpha, dt) = (0.1, 1e-3);
-        let (x, body) = square_and(&[DVec2::new(0.9, 0.95), DVec2::new(1.2, 1.1)]);
+        let (x, body) = square_and(&[
+            DVec2::new(0.9, 0.95),
+            DVec2::new(1.2, 1.1),
+            DVec2::new(0.4, 1.1),
+        ]);
         let mut contact = Contact::<D2>::new(alpha, &x, &body);
         contact.begin_step(&x, dt);
         let a = contact.accelerations();
@@ -213,8 +223,8 @@ mod tests {
             a[25]
         );
         assert_eq!(a[26], DVec2::ZERO);
-        // Body 1, two particles, has no area and is no master: the square's particles
-        // are not pushed.
+        assert_eq!(a[27], DVec2::ZERO);
+        // The one-particle bodies have no area: the square's particles are not pushed.
         assert!(a[..25].iter().all(|&a| a == DVec2::ZERO));
     }
 }

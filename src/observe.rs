@@ -18,6 +18,8 @@ pub struct Snapshot<'a, D: Dim> {
     /// 3×3 Cauchy stress (2D: plane-strain σ_zz filled in).
     pub sigma: Vec<[[f64; 3]; 3]>,
     pub strain_energy: f64,
+    /// Equivalent plastic strain ε_p of every particle; None for the elastic models.
+    pub plastic_strain: Option<Vec<f64>>,
 }
 
 /// Global invariants of a state.

@@ -204,7 +204,8 @@ mod tests {
 
     #[test]
     fn below_yield_the_response_is_hencky_elastic() {
-        // Uniaxial stretch 1.001 (σ ≈ 117 MPa < 400 MPa): no plastic flow, C_p⁻¹ stays I,
+        // Uniaxial strain 1.001 (σ_yy ≈ 188 MPa, equivalent stress 87 MPa < 400 MPa): no
+        // plastic flow, C_p⁻¹ stays I,
         // and τ = 2μ dev ln V + κ ln J I exactly (round-off 1e-9 relative).
         let m = copper();
         let f = DMat3::from_diagonal(DVec3::new(1.0, 1.001, 1.0));

@@ -764,7 +764,7 @@ impl Frames {
 }
 
 /// One VTU frame: current positions with u, v, F, σ, von Mises stress, J, the hourglass
-/// indicator η and body.
+/// indicator η, body, and the plastic strain ε_p of a plastic material.
 pub fn write_frame<D: Dim>(
     path: &Path,
     snap: &Snapshot<D>,
@@ -784,7 +784,7 @@ pub fn write_frame<D: Dim>(
     let vm: Vec<f64> = snap.sigma.iter().map(von_mises).collect();
     let s9: Vec<[f64; 9]> = snap.sigma.iter().map(|s| flatten(*s)).collect();
     let body: Vec<i32> = snap.body.iter().map(|&b| b as i32).collect();
-    let fields = [
+    let mut fields = vec![
         Field {
             name: "u",
             data: FieldData::Vector(&uu),
@@ -818,6 +818,12 @@ pub fn write_frame<D: Dim>(
             data: FieldData::Int(&body),
         },
     ];
+    if let Some(eps_p) = &snap.plastic_strain {
+        fields.push(Field {
+            name: "plastic_strain",
+            data: FieldData::Scalar(eps_p),
+        });
+    }
     write_vtu(path, &points, &fields, t)
 }
 

@@ -10,8 +10,8 @@ use meshless::tensor::D2;
 use std::path::Path;
 
 /// The shipped rings case on the nbox = 20 lattice (Δx = 0.08/19): the centres at ∓47.5 mm,
-/// so that the 15 mm gap exceeds the kernel support 2h = 3.4Δx = 14.3 mm; Δt scaled
-/// with Δx (c_p Δt/Δx = 0.44).
+/// so that the 23.4 mm between the nearest particles exceed the kernel support
+/// 2h = 3.4Δx = 14.3 mm; Δt scaled with Δx (c_p Δt/Δx = 0.44).
 fn rings(extra: &[&str]) -> Result<Case, CaseError> {
     let mut set = vec![
         "spacing=4.2105263157894736e-3",
@@ -47,13 +47,12 @@ fn ring_velocities(case: &Case, time: f64) -> [f64; 2] {
 #[test]
 fn colliding_rings_rebound_with_a_restitution_between_zero_and_one() {
     // Two identical rings at ±180 m/s. Head on, each ring's centre-of-mass velocity must
-    // reverse to between 0 and its impact speed: with AV and the penalty dissipating, the
-    // restitution e = −v_after/v_before lies in (0, 1]. Mirror symmetry x → −x makes the
-    // two velocities opposite, but for the round-off of the mirrored lattice amplified
-    // over 1,000 steps (measured 4e-14 relative): bound 1e-9 of 180 m/s. The rings touch at 42 µs (15 mm at 360 m/s) and separate before
-    // 400 µs. Without contact they pass through each other unchanged, their velocities
-    // uniform at ±180 m/s to 1e-9 relative (F stays I but for round-off; no kernel joins
-    // the bodies).
+    // reverse to between 0 and its impact speed: the restitution e = −v_after/v_before of
+    // an impact that the artificial viscosity damps lies in (0, 1]. Mirror symmetry
+    // x → −x makes the two velocities opposite, but for the round-off of the mirrored
+    // lattice amplified over 1,000 steps (measured 4e-14 relative): bound 1e-9 of
+    // 180 m/s. The nearest particles touch at 65 µs (23.4 mm at 360 m/s); the rings have
+    // separated by 400 µs.
     let end = 4.0e-4;
     let [left, right] = ring_velocities(&rings(&[]).unwrap(), end);
     let restitution = -left / 180.0;
@@ -68,6 +67,9 @@ fn colliding_rings_rebound_with_a_restitution_between_zero_and_one() {
     );
 }
 
+/// Without contact the rings pass through each other unchanged: their velocities stay
+/// uniform at ±180 m/s to 1e-9 relative (F stays I but for round-off, and no kernel joins
+/// the bodies).
 #[test]
 fn without_contact_the_rings_pass_through_each_other() {
     let [left, right] = ring_velocities(&rings(&["contact="]).unwrap(), 4.0e-4);
@@ -86,7 +88,7 @@ fn the_gpu_contact_pass_matches_the_cpu() {
     // each ring. The penalty force is continuous across the contact switch (zero at
     // d·n = 0), so f32 round-off (6e-8 of the coordinates, 1e-7 of the forces) spreads
     // only smoothly; the closest hull particle can differ on near-ties, which moves the
-    // normal by one hull edge for a particle at zero depth. Measured 1.2e-5 of the impact
+    // normal by one hull edge for a particle at zero depth. Measured 2e-6 of the impact
     // speed on lavapipe; bound 1e-4.
     let case = rings(&[]).unwrap();
     let gpu = Gpu::new()

@@ -361,6 +361,18 @@ impl<D: Dim> MixedSph<D> {
         })
     }
 
+    /// ε_p of every real particle at state y (the return from the step's history).
+    fn plastic_strain(&self, y: &MixedState<D>) -> Vec<f64> {
+        let u_ext = self.extended_displacement(&y.u);
+        (0..self.n)
+            .into_par_iter()
+            .map(|a| {
+                let (f, ..) = self.stress_arguments(y, a, &u_ext);
+                self.returned(a, f).map_or(0.0, |r| r.eps_p)
+            })
+            .collect()
+    }
+
     /// P(F, H, J) of real particle a.
     fn stress(&self, a: usize, f: D::T, h: D::T, j: f64) -> D::T {
         match self.returned(a, f) {
@@ -1014,6 +1026,7 @@ impl<D: Dim> Method<D> for MixedSph<D> {
             f: y.f.clone(),
             sigma: self.cauchy_stress(y),
             strain_energy: self.strain_energy(y),
+            plastic_strain: self.plastic.is_some().then(|| self.plastic_strain(y)),
         }
     }
 

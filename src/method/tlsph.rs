@@ -123,6 +123,7 @@ pub fn snapshot<'a, D: Dim>(
         f,
         sigma,
         strain_energy,
+        plastic_strain: None,
     }
 }
 
