@@ -48,8 +48,8 @@ fn contact(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
     for (var m = 0u; m < BODIES; m++) {
         let first = hull_start[m];
         let k = hull_start[m + 1u] - first;
-        // A body of fewer than three non-collinear particles has no area to enter.
-        if m == body[s] || k < 3u {
+        // A body without area has an empty hull (src/contact.rs) and is no master.
+        if m == body[s] || k == 0u {
             continue;
         }
         var closest = 0u;

@@ -23,7 +23,7 @@ pub struct Contact<D: Dim> {
     penalty: f64,
     /// Body index of every particle.
     body: Vec<u32>,
-    /// Hull particles of each body, counter-clockwise.
+    /// Hull particles of each body, counter-clockwise; empty for a body without area.
     hulls: Vec<Vec<u32>>,
     /// a_c = f_c / m of every particle, held through the current step.
     accel: Vec<D::V>,
@@ -39,7 +39,22 @@ impl<D: Dim> Contact<D> {
                 let members: Vec<u32> = (0..x0.len() as u32)
                     .filter(|&i| body[i as usize] as usize == b)
                     .collect();
-                convex_hull(&members, |i| plane::<D>(x0[i as usize]))
+                let at = |i: u32| plane::<D>(x0[i as usize]);
+                let hull = convex_hull(&members, at);
+                // A body whose hull encloses no area (fewer than three particles, or all on
+                // a line) has no inside to enter and is no master.
+                let doubled_area: f64 = (0..hull.len())
+                    .map(|k| cross([0.0; 2], at(hull[k]), at(hull[(k + 1) % hull.len()])))
+                    .sum();
+                let extent2 = hull
+                    .iter()
+                    .map(|&i| dist2(at(i), at(hull[0])))
+                    .fold(0.0, f64::max);
+                if doubled_area > 1e-12 * extent2 {
+                    hull
+                } else {
+                    Vec::new()
+                }
             })
             .collect();
         Self {
@@ -55,9 +70,8 @@ impl<D: Dim> Contact<D> {
         let masters: Vec<Vec<([f64; 2], [f64; 2])>> = self
             .hulls
             .iter()
-            // A body of fewer than three non-collinear particles has no area to enter.
             .map(|hull| match hull.len() {
-                0..3 => Vec::new(),
+                0 => Vec::new(),
                 _ => hull_normals(hull, |i| plane::<D>(x[i as usize])),
             })
             .collect();
@@ -194,8 +208,14 @@ mod tests {
         // back along the top and down the left side; the 9 interior ones are not on it.
         let boundary = vec![0, 1, 2, 3, 4, 9, 14, 19, 24, 23, 22, 21, 20, 15, 10, 5];
         assert_eq!(contact.hulls()[0], boundary);
-        assert_eq!(contact.hulls()[1], vec![25]);
-        assert_eq!(contact.hulls().len(), 2);
+        // A one-particle body, and a row of particles, enclose no area: no hull.
+        assert!(contact.hulls()[1].is_empty());
+        let row: Vec<DVec2> = (0..4).map(|k| DVec2::new(f64::from(k), 3.0)).collect();
+        let mut x = x;
+        x.extend_from_slice(&row);
+        let mut body = body;
+        body.extend([2; 4]);
+        assert!(Contact::<D2>::new(0.1, &x, &body).hulls()[2].is_empty());
     }
 
     #[test]
