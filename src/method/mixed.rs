@@ -361,14 +361,16 @@ impl<D: Dim> MixedSph<D> {
         })
     }
 
-    /// ε_p of every real particle at state y (the return from the step's history).
-    fn plastic_strain(&self, y: &MixedState<D>) -> Vec<f64> {
+    /// Algorithm 2 for every real particle at state y from the step's history; None for
+    /// the elastic models.
+    fn returned_all(&self, y: &MixedState<D>) -> Option<Vec<Returned>> {
+        self.plastic.as_ref()?;
         let u_ext = self.extended_displacement(&y.u);
         (0..self.n)
             .into_par_iter()
             .map(|a| {
                 let (f, ..) = self.stress_arguments(y, a, &u_ext);
-                self.returned(a, f).map_or(0.0, |r| r.eps_p)
+                self.returned(a, f)
             })
             .collect()
     }
@@ -858,19 +860,10 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
     fn begin_step(&mut self, _t: f64, dt: f64, y: &MixedState<D>) {
         self.stage = 0;
         // The plastic history is committed once per step, from the state at its start.
-        if self.plastic.is_some() {
-            let u_ext = self.extended_displacement(&y.u);
-            let committed: Vec<(DMat3, f64)> = (0..self.n)
-                .into_par_iter()
-                .map(|a| {
-                    let (f, ..) = self.stress_arguments(y, a, &u_ext);
-                    let r = self.returned(a, f).expect("plastic");
-                    (r.cp_inv, r.eps_p)
-                })
-                .collect();
-            if let Some(pl) = self.plastic.as_mut() {
-                (pl.cp_inv, pl.eps_p) = committed.into_iter().unzip();
-            }
+        if let Some(committed) = self.returned_all(y)
+            && let Some(pl) = self.plastic.as_mut()
+        {
+            (pl.cp_inv, pl.eps_p) = committed.iter().map(|r| (r.cp_inv, r.eps_p)).unzip();
         }
         if self.projection && self.integrator == IntegratorKind::TvdRk2 {
             self.step_start = Some((y.u.clone(), y.v.clone(), dt));
@@ -1026,7 +1019,9 @@ impl<D: Dim> Method<D> for MixedSph<D> {
             f: y.f.clone(),
             sigma: self.cauchy_stress(y),
             strain_energy: self.strain_energy(y),
-            plastic_strain: self.plastic.is_some().then(|| self.plastic_strain(y)),
+            plastic_strain: self
+                .returned_all(y)
+                .map(|r| r.iter().map(|r| r.eps_p).collect()),
         }
     }
 
