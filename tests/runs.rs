@@ -220,6 +220,28 @@ fn swinging_plate(dir: &Path, overrides: &[&str]) -> Result<(), RunError> {
     run(&case, &options(dir, false)).map(|_| ())
 }
 
+/// Columns of the swinging plate's series without any failure limit, run once for the
+/// tests that set a limit from it.
+struct FreeRun {
+    time: Vec<f64>,
+    dt: Vec<f64>,
+    eta: Vec<f64>,
+}
+
+fn free_run() -> &'static FreeRun {
+    static FREE: std::sync::OnceLock<FreeRun> = std::sync::OnceLock::new();
+    FREE.get_or_init(|| {
+        let dir = tempfile::tempdir().unwrap();
+        swinging_plate(dir.path(), &[]).unwrap();
+        let csv = dir.path().join("series.csv");
+        FreeRun {
+            time: column(&csv, "time"),
+            dt: column(&csv, "dt"),
+            eta: column(&csv, "hourglass_max"),
+        }
+    })
+}
+
 /// The blow-up of a run that must fail.
 fn blow_up(result: Result<(), RunError>) -> (f64, meshless::method::BlowUp) {
     match result {
@@ -233,10 +255,7 @@ fn hourglass_limit_stops_the_run_at_the_first_sample_above_it() {
     // The free run's series says when max η first exceeds half its largest value; the
     // limited run must stop there. Both runs compute the same states (the CPU path is
     // deterministic), so the times agree to round-off of the time sum.
-    let free = tempfile::tempdir().unwrap();
-    swinging_plate(free.path(), &[]).unwrap();
-    let csv = free.path().join("series.csv");
-    let (time, eta) = (column(&csv, "time"), column(&csv, "hourglass_max"));
+    let FreeRun { time, eta, .. } = free_run();
     assert_eq!(eta[0], 0.0, "η vanishes on the undeformed lattice");
     let limit = 0.5 * eta.iter().fold(0.0, |a: f64, &b| a.max(b));
     let first = eta.iter().position(|&e| e > limit).unwrap();
@@ -258,10 +277,7 @@ fn a_collapsing_cfl_step_stops_the_run_before_the_step_below_the_floor() {
     // The CFL step of the mixed method follows λ²_min and |v|: over the period it dips to
     // about 0.9992 of the first step. A floor between the two must stop the run at the
     // start of the first step below it; a floor below the dip must not.
-    let free = tempfile::tempdir().unwrap();
-    swinging_plate(free.path(), &[]).unwrap();
-    let csv = free.path().join("series.csv");
-    let (time, dt) = (column(&csv, "time"), column(&csv, "dt"));
+    let FreeRun { time, dt, .. } = free_run();
     // The last step is shortened to land on the end time, so it is left out.
     let steps = &dt[1..dt.len() - 1];
     let dip = steps.iter().fold(f64::INFINITY, |a, &b| a.min(b)) / dt[0];
