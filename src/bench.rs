@@ -1,8 +1,7 @@
 //! `meshless bench`: throughput of a case on a backend at several sizes, in
 //! particle-steps per second, measured over whole steps after a warm-up.
 
-use crate::gpu::layout::GpuDim;
-use crate::run::{Backend, Engine, RunError, engine};
+use crate::run::{Backend, Engine, EngineDim, RunError, engine};
 use crate::scene::{Case, discretise};
 use crate::tensor::{D2, D3};
 use std::time::Instant;
@@ -65,7 +64,11 @@ pub fn measure(case: &Case, backend: Backend, steps: u32) -> Result<BenchRow, Ru
     }
 }
 
-fn measure_dim<D: GpuDim>(case: &Case, backend: Backend, steps: u32) -> Result<BenchRow, RunError> {
+fn measure_dim<D: EngineDim>(
+    case: &Case,
+    backend: Backend,
+    steps: u32,
+) -> Result<BenchRow, RunError> {
     let started = Instant::now();
     time_steps::<D, _>(case, engine::<D>(case, backend)?, started, steps)
 }
@@ -73,7 +76,7 @@ fn measure_dim<D: GpuDim>(case: &Case, backend: Backend, steps: u32) -> Result<B
 /// Steps per submission when timing (one command encoder each on the GPU).
 const CHUNK: u32 = 100;
 
-fn time_steps<D: GpuDim, E: Engine<D>>(
+fn time_steps<D: EngineDim, E: Engine<D>>(
     case: &Case,
     mut engine: E,
     started: Instant,
@@ -115,6 +118,6 @@ fn time_steps<D: GpuDim, E: Engine<D>>(
     })
 }
 
-fn blow_up(case: &Case, cause: crate::method::BlowUp) -> RunError {
+fn blow_up(case: &Case, cause: crate::methods::BlowUp) -> RunError {
     RunError::Backend(format!("benchmark of `{}` failed: {cause}", case.name))
 }

@@ -1,18 +1,22 @@
 //! meshless: particle methods for solids under very large deformation.
 //!
-//! The CPU path (rayon, f64) is the reference implementation of every method.
+//! The CPU path (rayon, f64) is the reference implementation of every method. Cargo
+//! features: `gpu` (the wgpu/WGSL backend), `study` (`meshless study`: suites, plots,
+//! the report) and `cli` (the command line); all on by default, and the library without
+//! them is the CPU path alone.
 
 pub mod analytic;
 pub mod bench;
 pub mod boundary;
 pub mod contact;
 pub mod correction;
+#[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod hourglass;
 pub mod integrate;
 pub mod kernel;
 pub mod material;
-pub mod method;
+pub mod methods;
 pub mod mirror;
 pub mod neighbour;
 pub mod observe;
@@ -20,5 +24,6 @@ pub mod output;
 pub mod plasticity;
 pub mod run;
 pub mod scene;
+#[cfg(feature = "study")]
 pub mod study;
 pub mod tensor;

@@ -1,8 +1,9 @@
 //! The `meshless` command line.
 
 use clap::{Parser, Subcommand};
+use meshless::methods::REGISTRY;
 use meshless::run::{Backend, RunError, RunOptions, run};
-use meshless::scene::{Case, MethodName};
+use meshless::scene::Case;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -66,6 +67,7 @@ enum Command {
         csv: Option<PathBuf>,
     },
     /// Run study suites: error against wall time and stability sweeps (see cases/studies/).
+    #[cfg(feature = "study")]
     Study {
         /// Suite files, names of suites in cases/studies/, or `all` (the report's suites).
         #[arg(required = true)]
@@ -117,6 +119,7 @@ fn main() -> ExitCode {
             set,
             csv,
         } => bench_command(&cases, backend, &particles, steps, &set, csv.as_deref()),
+        #[cfg(feature = "study")]
         Command::Study {
             suites,
             out,
@@ -127,6 +130,7 @@ fn main() -> ExitCode {
     }
 }
 
+#[cfg(feature = "study")]
 fn study_command(
     names: &[String],
     out: Option<PathBuf>,
@@ -205,20 +209,14 @@ fn run_command(
 ) -> ExitCode {
     let path = resolve(case);
     let case = match Case::load(&path, set) {
-        Ok(c) => c,
+        Ok(c) => {
+            show_notes(&c);
+            c
+        }
         Err(e) => {
             eprintln!("error: {e}");
             return ExitCode::from(EXIT_INPUT);
         }
-    };
-    let backend = match backend {
-        Backend::Auto => {
-            eprintln!(
-                "note: the GPU backend is not part of this build; running on the CPU (rayon, f64)"
-            );
-            Backend::Cpu
-        }
-        b => b,
     };
     let opts = RunOptions {
         out_dir: out.unwrap_or_else(|| Path::new("out").join(&case.name)),
@@ -266,8 +264,8 @@ fn list() -> ExitCode {
         }
     }
     println!("\nMethods:");
-    for m in MethodName::ALL {
-        println!("  {:<24} {}", format!("{m:?}").to_lowercase(), m.describe());
+    for m in REGISTRY {
+        println!("  {:<24} {}", m.name, m.description);
     }
     ExitCode::SUCCESS
 }
@@ -275,10 +273,11 @@ fn list() -> ExitCode {
 fn explain_command(case: &str, backend: Backend, set: &[String]) -> ExitCode {
     match Case::load(&resolve(case), set) {
         Ok(c) => {
+            show_notes(&c);
             let gpu = match backend {
                 Backend::Cpu => false,
                 Backend::Gpu => true,
-                Backend::Auto => !meshless::gpu::context::adapters().is_empty(),
+                Backend::Auto => has_adapter(),
             };
             println!("{}", meshless::run::explain(&c, gpu));
             ExitCode::SUCCESS
@@ -352,6 +351,30 @@ fn bench_command(
     ExitCode::SUCCESS
 }
 
+/// What loading changed in a case (keys dropped by a change of method).
+fn show_notes(case: &Case) {
+    for note in &case.notes {
+        eprintln!("note: {}: {note}", case.file.display());
+    }
+}
+
+#[cfg(feature = "gpu")]
+fn has_adapter() -> bool {
+    !meshless::gpu::context::adapters().is_empty()
+}
+
+#[cfg(not(feature = "gpu"))]
+fn has_adapter() -> bool {
+    false
+}
+
+#[cfg(not(feature = "gpu"))]
+fn info() -> ExitCode {
+    println!("This build has no GPU backend (cargo feature `gpu`); runs use the CPU backend.");
+    ExitCode::SUCCESS
+}
+
+#[cfg(feature = "gpu")]
 fn info() -> ExitCode {
     let adapters = meshless::gpu::context::adapters();
     if adapters.is_empty() {

@@ -18,7 +18,7 @@
 //!
 //! Ghosts are indexed after the n real particles: extended index n + k is ghost k.
 
-use crate::method::MIN_CHUNK;
+use crate::methods::shared::MIN_CHUNK;
 use crate::neighbour::Csr;
 use crate::scene::{Case, CaseError, MirrorKind};
 use crate::tensor::Dim;
@@ -77,7 +77,8 @@ impl Image {
     }
 }
 
-/// Read access for the GPU engine (`gpu::mixed`).
+/// Read access for the GPU engine (`methods::mixed::gpu`).
+#[cfg(feature = "gpu")]
 impl Image {
     /// σ: −1 per skew-symmetric plane in the composition.
     pub(crate) fn sign(&self) -> f64 {
@@ -287,7 +288,8 @@ impl<D: Dim> Ghosts<D> {
     }
 }
 
-/// Read access for the GPU engine (`gpu::mixed`).
+/// Read access for the GPU engine (`methods::mixed::gpu`).
+#[cfg(feature = "gpu")]
 impl<D: Dim> Ghosts<D> {
     /// Source (real particle) and image of every ghost, in extended order.
     pub(crate) fn table(&self) -> Vec<(u32, Image)> {

@@ -7,7 +7,8 @@ use rayon::prelude::*;
 use std::collections::BTreeMap;
 
 /// A state as observers and frames read it, from either backend: reference data,
-/// displacement, velocity, deformation gradient, Cauchy stress and strain energy.
+/// displacement, velocity, deformation gradient, Cauchy stress, strain energy, and the
+/// fields a method adds of its own.
 pub struct Snapshot<'a, D: Dim> {
     pub x0: &'a [D::V],
     pub mass: &'a [f64],
@@ -18,8 +19,26 @@ pub struct Snapshot<'a, D: Dim> {
     /// 3×3 Cauchy stress (2D: plane-strain σ_zz filled in).
     pub sigma: Vec<[[f64; 3]; 3]>,
     pub strain_energy: f64,
-    /// Equivalent plastic strain ε_p of every particle; None for the elastic models.
-    pub plastic_strain: Option<Vec<f64>>,
+    /// Per-particle fields of the method's own, written into the frames.
+    pub extra: Vec<ScalarField>,
+}
+
+/// A per-particle scalar field that a method adds to the frames (the plastic strain ε_p).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ScalarField {
+    /// The field's name in the VTU frames.
+    pub name: &'static str,
+    pub values: Vec<f64>,
+}
+
+impl<D: Dim> Snapshot<'_, D> {
+    /// The values of the method's own field `name`, if it has one.
+    pub fn field(&self, name: &str) -> Option<&[f64]> {
+        self.extra
+            .iter()
+            .find(|f| f.name == name)
+            .map(|f| f.values.as_slice())
+    }
 }
 
 /// Global invariants of a state.

@@ -21,7 +21,7 @@ pub trait GpuDim: Dim + Flat {
 
 impl GpuDim for D2 {
     type HV = [f32; 2];
-    const PRELUDE: &'static str = include_str!("../../shaders/dim2.wgsl");
+    const PRELUDE: &'static str = include_str!("../../shaders/common/dim2.wgsl");
 
     fn v(v: glam::DVec2) -> [f32; 2] {
         [v.x as f32, v.y as f32]
@@ -30,7 +30,7 @@ impl GpuDim for D2 {
 
 impl GpuDim for D3 {
     type HV = [f32; 4];
-    const PRELUDE: &'static str = include_str!("../../shaders/dim3.wgsl");
+    const PRELUDE: &'static str = include_str!("../../shaders/common/dim3.wgsl");
 
     fn v(v: glam::DVec3) -> [f32; 4] {
         [v.x as f32, v.y as f32, v.z as f32, 0.0]

@@ -16,16 +16,9 @@
 
 use super::context::{Gpu, GpuError, WORKGROUP};
 use super::layout::GpuDim;
-use super::shaders::{ALL, Constants, Source, compose};
+use super::shaders::{CELL_LIST, Constants, SCAN, compose};
 use crate::tensor::D2;
 use bytemuck::{Pod, Zeroable};
-
-/// A pass file of [`ALL`] by name.
-fn source(name: &str) -> &'static Source {
-    ALL.iter()
-        .find(|s| s.name == name)
-        .unwrap_or_else(|| panic!("{name} is missing from gpu::shaders::ALL"))
-}
 
 /// Entries scanned by one workgroup of `scan_blocks` (two per invocation).
 pub const SCAN_BLOCK: u32 = 2 * WORKGROUP;
@@ -157,7 +150,7 @@ pub struct ScanPlan {
 impl Scan {
     /// Compiles the scan (it does not depend on the dimension; the 2D prelude is unused).
     pub fn new(gpu: &Gpu) -> Self {
-        let text = compose::<D2>(source("scan.wgsl"), &Constants::default());
+        let text = compose::<D2>(&SCAN, &Constants::default());
         Self {
             blocks: gpu.pipeline("scan_blocks", &text, "scan_blocks"),
             add: gpu.pipeline("add_block_sums", &text, "add_block_sums"),
@@ -295,7 +288,7 @@ pub fn build<D: GpuDim>(
         mapped_at_creation: false,
     });
 
-    let text = compose::<D>(source("cell_list.wgsl"), &Constants::default());
+    let text = compose::<D>(&CELL_LIST, &Constants::default());
     let pipeline = |entry: &str| gpu.pipeline(entry, &text, entry);
     let (bin, scatter, count, fill) = (
         pipeline("bin_particles"),

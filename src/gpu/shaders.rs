@@ -1,102 +1,88 @@
 //! WGSL sources and their composition into scene-specific variants.
 //!
-//! A shader is the dimension prelude (`shaders/dim2.wgsl` or `dim3.wgsl`), a block of
-//! scene constants, the shared function files it names, and the pass file. Scene
+//! A shader is the dimension prelude (`shaders/common/dim2.wgsl` or `dim3.wgsl`), a
+//! block of scene constants, the function files it names, and the pass file. Scene
 //! constants are compiled in (one variant per scene), so a 2D scene runs 2D code only.
+//! Shared files live in `shaders/common/` and are declared here; a method's own in
+//! `shaders/<method>/`, declared by its GPU engine.
 
 use super::layout::GpuDim;
 use crate::kernel::{Kernel, KernelKind};
 use crate::material::{Material, MaterialModel};
 
-/// A pass file of `shaders/`.
+/// A WGSL file of `shaders/`, by its path there (`common/kernel.wgsl`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Wgsl {
+    pub name: &'static str,
+    pub text: &'static str,
+}
+
+/// The [`Wgsl`] file at a path under `shaders/`.
+macro_rules! wgsl {
+    ($path:literal) => {
+        $crate::gpu::shaders::Wgsl {
+            name: $path,
+            text: include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/shaders/", $path)),
+        }
+    };
+}
+pub(crate) use wgsl;
+
+/// A pass file with the function files it calls and its flat buffers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Source {
     pub name: &'static str,
     pub text: &'static str,
-    /// Shared function files it calls (`kernel.wgsl`, `mechanics.wgsl`), included first.
-    pub common: &'static [&'static str],
+    /// Function files it calls (`common/kernel.wgsl`, …), included first.
+    pub common: &'static [Wgsl],
     /// Flat f32 buffers that get `vload_/mload_` (and, if writable, `vstore_/mstore_`)
     /// accessors for DIM-vectors and DIM×DIM column-major tensors.
     pub flat: &'static [(&'static str, bool)],
 }
 
+/// The [`Source`] of a pass file under `shaders/` with the function files it calls and
+/// its flat buffers `(name, writable)`.
 macro_rules! source {
-    ($name:literal) => {
-        source!($name, [], [])
+    ($path:literal) => {
+        $crate::gpu::shaders::source!($path, [], [])
     };
-    ($name:literal, [$($common:literal),*], [$(($buf:literal, $rw:literal)),*]) => {
-        Source {
-            name: $name,
-            text: include_str!(concat!("../../shaders/", $name)),
+    ($path:literal, [$($common:expr),*], [$(($buf:literal, $rw:literal)),*]) => {
+        $crate::gpu::shaders::Source {
+            name: $path,
+            text: $crate::gpu::shaders::wgsl!($path).text,
             common: &[$($common),*],
             flat: &[$(($buf, $rw)),*],
         }
     };
 }
+pub(crate) use source;
 
-/// Shared function files, by name.
-const COMMON: &[(&str, &str)] = &[
-    ("kernel.wgsl", include_str!("../../shaders/kernel.wgsl")),
-    (
-        "mechanics.wgsl",
-        include_str!("../../shaders/mechanics.wgsl"),
-    ),
-    ("boundary.wgsl", include_str!("../../shaders/boundary.wgsl")),
-    (
-        "tlsph_energy.wgsl",
-        include_str!("../../shaders/tlsph_energy.wgsl"),
-    ),
-    ("mixed.wgsl", include_str!("../../shaders/mixed.wgsl")),
-    (
-        "mixed_motion.wgsl",
-        include_str!("../../shaders/mixed_motion.wgsl"),
-    ),
-    (
-        "mixed_energy.wgsl",
-        include_str!("../../shaders/mixed_energy.wgsl"),
-    ),
-    (
-        "plasticity.wgsl",
-        include_str!("../../shaders/plasticity.wgsl"),
-    ),
-];
+/// Kernel functions W and ∇W of the scene's kernel.
+pub const KERNEL: Wgsl = wgsl!("common/kernel.wgsl");
+/// Stresses and strain energies of the material models, in H = F − I.
+pub const MECHANICS: Wgsl = wgsl!("common/mechanics.wgsl");
+/// Boundary conditions on the rates and the power of supports and loads.
+pub const BOUNDARY: Wgsl = wgsl!("common/boundary.wgsl");
+/// The von Mises return map.
+pub const PLASTICITY: Wgsl = wgsl!("common/plasticity.wgsl");
 
-pub const TLSPH_STRESS: Source = source!(
-    "tlsph.wgsl",
-    ["mechanics.wgsl"],
-    [("y", false), ("grad", false), ("d", true), ("kin", true)]
-);
-pub const TLSPH_ACCEL: Source = source!(
-    "tlsph_accel.wgsl",
-    ["boundary.wgsl"],
-    [
-        ("y", false),
-        ("grad", false),
-        ("dx0", false),
-        ("ext", false),
-        ("kin", false),
-        ("d", true)
-    ]
-);
+/// Corrected reference gradients (Randles–Libersky, Shepard, none).
 pub const CORRECTION: Source = source!(
-    "correction.wgsl",
-    ["kernel.wgsl"],
+    "common/correction.wgsl",
+    [KERNEL],
     [("dx0", false), ("grad", true)]
 );
-pub const INTEGRATE: Source = source!("integrate.wgsl");
-pub const REDUCE: Source = source!(
-    "reduce.wgsl",
-    ["mechanics.wgsl", "tlsph_energy.wgsl"],
-    [("y", false), ("kin", false), ("x_hi", false)]
-);
+/// The integrators' stage operations over the flat state.
+pub const INTEGRATE: Source = source!("common/integrate.wgsl");
+/// Reference pair offsets X_j − X_i from hi + lo positions.
 pub const PAIR_OFFSETS: Source = source!(
-    "pair_offsets.wgsl",
+    "common/pair_offsets.wgsl",
     [],
     [("x_hi", false), ("x_lo", false), ("dx0", true)]
 );
-
+/// Penalty contact of seed 000 §5.8: one gather per slave over the other bodies' hulls.
 pub const CONTACT: Source = source!(
-    "contact.wgsl",
+    "common/contact.wgsl",
     [],
     [
         ("x_hi", false),
@@ -105,127 +91,13 @@ pub const CONTACT: Source = source!(
         ("ext", true)
     ]
 );
+/// Cell list and neighbour lists.
+pub const CELL_LIST: Source = source!("common/cell_list.wgsl");
+/// Prefix scans.
+pub const SCAN: Source = source!("common/scan.wgsl");
 
-/// The passes compiled with a TLSPH scene's constants (`gpu::tlsph::scene_constants`).
-pub const SCENE: &[Source] = &[
-    TLSPH_STRESS,
-    TLSPH_ACCEL,
-    CONTACT,
-    CORRECTION,
-    INTEGRATE,
-    PAIR_OFFSETS,
-    REDUCE,
-];
-
-pub const MIXED_GHOSTS: Source = source!(
-    "mixed_ghosts.wgsl",
-    ["mixed.wgsl"],
-    [("ghost_img", false), ("field", true), ("y", false)]
-);
-pub const MIXED_KINEMATICS: Source = source!(
-    "mixed_kinematics.wgsl",
-    [
-        "mechanics.wgsl",
-        "mixed.wgsl",
-        "mixed_motion.wgsl",
-        "plasticity.wgsl"
-    ],
-    [
-        ("grad", false),
-        ("y", false),
-        ("gm", false),
-        ("kin", true),
-        ("d", true),
-        ("fs", false)
-    ]
-);
-pub const MIXED_BOND: Source = source!(
-    "mixed_bond.wgsl",
-    ["mixed.wgsl", "mixed_motion.wgsl"],
-    [("x_ab", false), ("y", false), ("gm", false), ("fc", true)]
-);
-pub const MIXED_SLOPES: Source = source!(
-    "mixed_slopes.wgsl",
-    ["mixed.wgsl", "mixed_motion.wgsl"],
-    [
-        ("weights", false),
-        ("y", false),
-        ("gm", false),
-        ("out", true),
-        ("kin", false)
-    ]
-);
-pub const MIXED_FORCES: Source = source!(
-    "mixed_forces.wgsl",
-    ["mixed.wgsl", "mixed_motion.wgsl"],
-    [
-        ("grad", false),
-        ("grad_rev", false),
-        ("y", false),
-        ("gm", false),
-        ("kin", false),
-        ("force", true),
-        ("pair", false),
-        ("second", false)
-    ]
-);
-pub const MIXED_MOMENTUM: Source = source!(
-    "mixed_momentum.wgsl",
-    ["mixed.wgsl", "boundary.wgsl"],
-    [
-        ("force", false),
-        ("y", false),
-        ("y0", false),
-        ("x_rel", false),
-        ("ext", false),
-        ("d", true)
-    ]
-);
-pub const MIXED_REDUCE: Source = source!(
-    "reduce.wgsl",
-    ["mechanics.wgsl", "mixed_energy.wgsl", "plasticity.wgsl"],
-    [("y", false), ("kin", false), ("x_hi", false)]
-);
-
-/// The passes compiled with a mixed scene's constants (`gpu::mixed::scene_constants`).
-pub const MIXED_PLASTIC: Source = source!(
-    "mixed_plastic.wgsl",
-    ["mixed.wgsl", "plasticity.wgsl"],
-    [("y", false)]
-);
-
-pub const MIXED_SCENE: &[Source] = &[
-    MIXED_GHOSTS,
-    MIXED_KINEMATICS,
-    MIXED_PLASTIC,
-    MIXED_BOND,
-    MIXED_SLOPES,
-    MIXED_FORCES,
-    MIXED_MOMENTUM,
-    MIXED_REDUCE,
-    INTEGRATE,
-];
-
-/// Every pass file, for validation.
-pub const ALL: &[Source] = &[
-    REDUCE,
-    PAIR_OFFSETS,
-    TLSPH_STRESS,
-    TLSPH_ACCEL,
-    CONTACT,
-    CORRECTION,
-    INTEGRATE,
-    MIXED_GHOSTS,
-    MIXED_KINEMATICS,
-    MIXED_PLASTIC,
-    MIXED_BOND,
-    MIXED_SLOPES,
-    MIXED_FORCES,
-    MIXED_MOMENTUM,
-    MIXED_REDUCE,
-    source!("cell_list.wgsl"),
-    source!("scan.wgsl"),
-];
+/// The shared pass files that take no scene constants.
+pub const SHARED: &[Source] = &[CELL_LIST, SCAN];
 
 /// Scene constants compiled into a variant.
 #[derive(Clone, Debug, Default)]
@@ -290,12 +162,8 @@ pub fn compose<D: GpuDim>(source: &Source, constants: &Constants) -> String {
     let mut text = String::new();
     text.push_str(D::PRELUDE);
     text.push_str(&constants.render());
-    for name in source.common {
-        let (_, common) = COMMON
-            .iter()
-            .find(|(n, _)| n == name)
-            .unwrap_or_else(|| panic!("{}: no shared shader file {name}", source.name));
-        text.push_str(common);
+    for file in source.common {
+        text.push_str(file.text);
     }
     for &(name, writable) in source.flat {
         text.push_str(&accessors(name, D::N, writable));

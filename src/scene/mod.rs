@@ -5,14 +5,12 @@
 
 mod geometry;
 mod overrides;
-mod validate;
+pub(crate) mod validate;
 
 pub use geometry::{Discretised, discretise};
 
-use crate::correction::CorrectionKind;
-use crate::integrate::IntegratorKind;
-use crate::kernel::KernelKind;
 use crate::material::MaterialModel;
+use crate::methods::{MethodTable, drop_foreign_keys};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use thiserror::Error;
@@ -30,7 +28,7 @@ pub struct Case {
     /// Particle spacing Δx of the lattices that sample every body.
     pub spacing: f64,
     pub material: MaterialSpec,
-    pub method: MethodSpec,
+    pub method: MethodTable,
     #[serde(rename = "body")]
     pub bodies: Vec<BodySpec>,
     #[serde(default, rename = "boundary")]
@@ -43,11 +41,15 @@ pub struct Case {
     pub output: OutputSpec,
     #[serde(default, rename = "probe")]
     pub probes: Vec<ProbeSpec>,
-    /// Penalty contact between the bodies (2D, TLSPH).
+    /// Penalty contact between the bodies (2D).
     pub contact: Option<ContactSpec>,
     /// The case file, named in errors; relative paths inside it are relative to its folder.
     #[serde(skip)]
     pub file: PathBuf,
+    /// What loading changed beyond the file and the overrides (keys dropped by a change
+    /// of method), for the command line to show.
+    #[serde(skip)]
+    pub notes: Vec<String>,
 }
 
 /// Penalty contact of seed 000 §5.8: every body is a master to every other, its boundary
@@ -74,219 +76,6 @@ pub struct MaterialSpec {
     pub yield_stress: Option<f64>,
     /// `von-mises-plastic`: linear isotropic hardening modulus H [Pa].
     pub hardening_modulus: Option<f64>,
-}
-
-/// Particle method, as named in case files.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum MethodName {
-    /// Total-Lagrangian SPH after Reveles (seed 000 §5.3).
-    Tlsph,
-    /// Mixed {p, F, H, J} total-Lagrangian SPH with the acoustic Riemann (upwind)
-    /// stabilisation of seed 003.
-    UpwindSph,
-    /// Mixed {p, F, H, J} total-Lagrangian SPH with Jameson–Schmidt–Turkel dissipation on
-    /// p (Lee et al. 2016, seed 002 eqs 26–28).
-    JstSph,
-}
-
-impl MethodName {
-    pub const ALL: [MethodName; 3] = [Self::Tlsph, Self::UpwindSph, Self::JstSph];
-
-    pub fn describe(self) -> &'static str {
-        match self {
-            Self::Tlsph => {
-                "total-Lagrangian SPH (Reveles; seed 000 §5.3): corrected reference kernel, \
-                 rate- or state-based stress, Monaghan artificial viscosity"
-            }
-            Self::UpwindSph => {
-                "mixed {p, F, H, J} total-Lagrangian SPH with the acoustic Riemann (upwind) \
-                 stabilisation on p and J, linear reconstruction and the angular-momentum \
-                 projection (Lee et al. 2018; seed 003)"
-            }
-            Self::JstSph => {
-                "mixed {p, F, H, J} total-Lagrangian SPH with Jameson–Schmidt–Turkel \
-                 dissipation on p (Lee et al. 2016; seed 002 eqs 26–28)"
-            }
-        }
-    }
-
-    /// The name in case files.
-    pub fn key(self) -> &'static str {
-        match self {
-            Self::Tlsph => "tlsph",
-            Self::UpwindSph => "upwind-sph",
-            Self::JstSph => "jst-sph",
-        }
-    }
-
-    /// Whether the method evolves the mixed conservation variables {p, F, H, J}.
-    pub fn is_mixed(self) -> bool {
-        matches!(self, Self::UpwindSph | Self::JstSph)
-    }
-}
-
-/// Which geometric conservation laws a mixed method evolves besides p and F (seed 003 §6);
-/// the others are computed from F (H = cof F, J = det F).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Serialize)]
-pub enum Conserved {
-    #[serde(rename = "p-F")]
-    PF,
-    #[serde(rename = "p-F-J")]
-    PFJ,
-    #[serde(rename = "p-F-H-J")]
-    PFHJ,
-}
-
-impl Conserved {
-    pub const ALL: [Conserved; 3] = [Self::PF, Self::PFJ, Self::PFHJ];
-
-    pub fn evolves_h(self) -> bool {
-        self == Self::PFHJ
-    }
-
-    pub fn evolves_j(self) -> bool {
-        self != Self::PF
-    }
-}
-
-/// JST dissipation: coefficients ε⁽²⁾ (Laplacian) and ε⁽⁴⁾ (bi-Laplacian), and the
-/// discrete Laplacian both are built on.
-#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct Jst {
-    #[serde(default)]
-    pub eps2: f64,
-    #[serde(default = "default_eps4")]
-    pub eps4: f64,
-    #[serde(default)]
-    pub laplacian: JstLaplacian,
-}
-
-/// The discrete Laplacian ∇²f_a = Σ_b ℓ_ab (f_b − f_a) of the JST dissipation.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum JstLaplacian {
-    /// Brookshaw weights corrected to be exact for linear fields and |X|² (the properties
-    /// seed 002 states); near free surfaces the weights grow and change sign, and a
-    /// large ε⁽⁴⁾ then needs a smaller CFL number.
-    #[default]
-    Corrected,
-    /// ℓ_ab = 2 V_b N_ab·∇̃W̃_b(X_a)/|X_ab| (seed 003 eq 55, Morris et al.): positive
-    /// symmetrised weights, but the Laplacian of a linear field is not zero at free
-    /// surfaces, so rigid and bending motion is damped there.
-    Brookshaw,
-}
-
-fn default_eps4() -> f64 {
-    0.125
-}
-
-impl Default for Jst {
-    fn default() -> Self {
-        Self {
-            eps2: 0.0,
-            eps4: default_eps4(),
-            laplacian: JstLaplacian::default(),
-        }
-    }
-}
-
-#[derive(Clone, Debug, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct MethodSpec {
-    pub name: MethodName,
-    #[serde(default = "default_kernel")]
-    pub kernel: KernelKind,
-    /// Smoothing length over particle spacing.
-    pub h_over_dx: f64,
-    #[serde(default = "default_correction")]
-    pub correction: CorrectionKind,
-    #[serde(default = "default_integrator")]
-    pub integrator: IntegratorKind,
-    /// Fixed time step [s]; exactly one of `dt` and `cfl` is given.
-    pub dt: Option<f64>,
-    /// Courant number: Δt = cfl · Δx / (c_p + max |v|); the mixed methods replace c_p/Δx
-    /// by the largest C_p,ab / r_ab of a pair, with the current distance r_ab and
-    /// C_p,ab = c_p / ½(λ_a + λ_b), λ the smallest principal stretch (seed 002 eqs 31–32).
-    pub cfl: Option<f64>,
-    /// Mixed methods with `cfl`: the pair wave speed C_p,ab of the step (default `pair`).
-    pub cfl_wave_speed: Option<CflWaveSpeed>,
-    pub artificial_viscosity: Option<ArtificialViscosity>,
-    /// Mixed methods: the conservation variables evolved (default {p, F, H, J}).
-    pub variables: Option<Conserved>,
-    /// Upwind-SPH: linear reconstruction of p and P to the mid-pair (default on).
-    pub reconstruction: Option<bool>,
-    /// Mixed methods: angular-momentum-preserving projection of the internal force and
-    /// of the stabilisation (seed 003 Appendix B; default on without mirror planes, off
-    /// with them, whose reactions are external forces).
-    pub projection: Option<bool>,
-    /// JST-SPH: dissipation coefficients (default ε⁽²⁾ = 0, ε⁽⁴⁾ = 1/8).
-    pub jst: Option<Jst>,
-    /// Mixed methods: the discrete divergence of P (default `weak`).
-    pub momentum: Option<Momentum>,
-    /// Mixed methods: the F the stress is evaluated at (default `evolved`).
-    pub deformation_gradient: Option<DeformationGradient>,
-}
-
-/// The p-wave speed C_p,ab of a pair in the mixed methods' CFL step Δt = α min_ab r_ab /
-/// C_p,ab (seed 002 eq 31).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum CflWaveSpeed {
-    /// C_p,ab = C_p^Lin / ½(λ_a + λ_b), λ the smallest principal stretch (eq 32).
-    #[default]
-    Pair,
-    /// C_p^Lin = sqrt((λ + 2μ)/ρ₀) for every pair: the paper's choice for the bond-based
-    /// column, which needs no stretches; r_ab still follows the motion.
-    Linear,
-}
-
-/// Discrete DIV P of the mixed methods.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Momentum {
-    /// T_a = Σ_b V_b [P_b ∇̃W̃_a(X_b) − P_a ∇̃W̃_b(X_a)] (seed 003 eqs 20–21).
-    #[default]
-    Weak,
-    /// T_a = −½ Σ_b V_b (P_a + P_b)(∇W̃_b(X_a) − ∇W̃_a(X_b)) (seed 002 eq 22).
-    Symmetrised,
-}
-
-/// The deformation gradient the stress of a mixed method is evaluated at.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum DeformationGradient {
-    /// The evolved F (eq 24 of seed 002, 38b of seed 003).
-    #[default]
-    Evolved,
-    /// The kernel-smoothed bond-based F^c with the self-bond (seed 002 eqs 37, 39),
-    /// recomputed from the positions at every stage; the evolved F stays the state.
-    BondBased,
-}
-
-fn default_kernel() -> KernelKind {
-    KernelKind::CubicSpline
-}
-fn default_correction() -> CorrectionKind {
-    CorrectionKind::RandlesLibersky
-}
-fn default_integrator() -> IntegratorKind {
-    IntegratorKind::Rk4
-}
-
-/// Monaghan artificial viscosity Π_ij = (−α c̄ μ_ij + β μ_ij²)/ρ̄_ij (seed 000 §3.1 step 6).
-#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct ArtificialViscosity {
-    pub alpha: f64,
-    pub beta: f64,
-    #[serde(default = "default_eta")]
-    pub eta: f64,
-}
-
-fn default_eta() -> f64 {
-    0.1
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
@@ -570,6 +359,37 @@ pub enum CaseError {
     },
 }
 
+/// `method.name` of a case table, if it is a string.
+fn method_name(table: &toml::Table) -> Option<String> {
+    table
+        .get("method")?
+        .get("name")?
+        .as_str()
+        .map(str::to_string)
+}
+
+/// A change of method by `--set method.name=X`: the keys of the previous method that X
+/// also reads are kept, the others are dropped (unless an override sets them, so that a
+/// wrong one is still reported), and a note names the dropped ones.
+fn method_change(method: &mut toml::Table, name: &str, overrides: &[String]) -> Option<String> {
+    let set: Vec<String> = overrides
+        .iter()
+        .filter_map(|a| a.split_once('=')?.0.trim().strip_prefix("method."))
+        .map(|path| path.split('.').next().unwrap_or(path).to_string())
+        .collect();
+    let dropped = drop_foreign_keys(method, name, &set);
+    (!dropped.is_empty()).then(|| {
+        format!(
+            "method.name = \"{name}\" does not read {}; dropped from the case",
+            dropped
+                .iter()
+                .map(|k| format!("`method.{k}`"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    })
+}
+
 impl Case {
     /// Reads, overrides (`key.path=value`) and validates a case file.
     pub fn load(path: &Path, overrides: &[String]) -> Result<Case, CaseError> {
@@ -586,10 +406,12 @@ impl Case {
             file: file.to_path_buf(),
             message: e.to_string().trim_end().to_string(),
         };
+        let mut notes = Vec::new();
         let mut case: Case = if overrides.is_empty() {
             toml::from_str(text).map_err(parse_error)?
         } else {
             let mut table: toml::Table = toml::from_str(text).map_err(parse_error)?;
+            let name_before = method_name(&table);
             for assignment in overrides {
                 overrides::apply(&mut table, assignment).map_err(|message| {
                     CaseError::Override {
@@ -599,8 +421,14 @@ impl Case {
                     }
                 })?;
             }
+            if let Some(name) = method_name(&table).filter(|n| Some(n) != name_before.as_ref())
+                && let Some(toml::Value::Table(method)) = table.get_mut("method")
+            {
+                notes.extend(method_change(method, &name, overrides));
+            }
             Case::deserialize(table).map_err(parse_error)?
         };
+        case.notes = notes;
         case.file = file.to_path_buf();
         validate::check(&case).map_err(|(key, message)| CaseError::Invalid {
             file: file.to_path_buf(),

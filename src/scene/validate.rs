@@ -6,16 +6,14 @@
 //! gives the same message.
 
 use super::{
-    ArtificialViscosity, Axis, BodySpec, BoundarySpec, Case, Condition, Conserved, ContactSpec,
-    DeformationGradient, Jst, Lattice, MaterialSpec, MethodName, MethodSpec, OutputSpec, ProbeSpec,
-    Region, RunSpec, Shape, VelocityField, Volumes,
+    Axis, BodySpec, BoundarySpec, Case, Condition, ContactSpec, Lattice, MaterialSpec, OutputSpec,
+    ProbeSpec, Region, RunSpec, Shape, VelocityField, Volumes,
 };
 use crate::material::MaterialModel;
+use crate::methods::{Feature, MethodTable, Problem, REGISTRY, entry, quoted, supporting};
 use serde::Serialize;
 use std::collections::HashSet;
 
-/// A failed check: the dotted key path and what is wrong with it.
-type Problem = (String, String);
 type Checked = Result<(), Problem>;
 
 /// Semantic checks after parsing. Err((key, message)): the dotted key path, e.g. `material.poisson_ratio` or `body.1.geometry.radius` or `boundary.0.condition.vx`, and a message that says what is wrong and what is allowed, quoting the offending value.
@@ -24,7 +22,17 @@ pub(super) fn check(case: &Case) -> Result<(), (String, String)> {
     let dim = case.dim();
     material(&case.material)?;
     method(&case.method)?;
-    method_options(case)?;
+    method_keys(case)?;
+    case.method.spec.validate(case)?;
+    if case.material.model == MaterialModel::VonMisesPlastic {
+        feature(
+            case,
+            Feature::Plasticity,
+            "material.model",
+            "`von-mises-plastic` carries a plastic history (C_p⁻¹, ε_p)",
+            "use an elastic model",
+        )?;
+    }
     bodies(&case.bodies, dim)?;
     for (i, boundary) in case.boundaries.iter().enumerate() {
         self::boundary(boundary, &format!("boundary.{i}"), &case.bodies, dim)?;
@@ -36,12 +44,12 @@ pub(super) fn check(case: &Case) -> Result<(), (String, String)> {
     probes(&case.probes, dim)
 }
 
-fn fail(key: impl Into<String>, message: impl Into<String>) -> Checked {
+pub(crate) fn fail(key: impl Into<String>, message: impl Into<String>) -> Checked {
     Err((key.into(), message.into()))
 }
 
 /// The name a unit enum variant has in case files (`neck-height`, `z`).
-fn toml_name<T: Serialize>(value: &T) -> String {
+pub(crate) fn toml_name<T: Serialize>(value: &T) -> String {
     serde_json::to_value(value)
         .ok()
         .and_then(|v| v.as_str().map(str::to_string))
@@ -66,7 +74,7 @@ fn positive(key: &str, value: f64) -> Checked {
 }
 
 /// Finite and ≥ 0.
-fn non_negative(key: &str, value: f64) -> Checked {
+pub(crate) fn non_negative(key: &str, value: f64) -> Checked {
     if value.is_finite() && value >= 0.0 {
         Ok(())
     } else {
@@ -193,7 +201,7 @@ fn material(m: &MaterialSpec) -> Checked {
     Ok(())
 }
 
-fn method(m: &MethodSpec) -> Checked {
+fn method(m: &MethodTable) -> Checked {
     let h = m.h_over_dx;
     if !(h.is_finite() && (0.5..=4.0).contains(&h)) {
         return fail(
@@ -226,114 +234,52 @@ fn method(m: &MethodSpec) -> Checked {
             }
         }
     }
-    if let Some(ArtificialViscosity { alpha, beta, eta }) = m.artificial_viscosity {
-        non_negative("method.artificial_viscosity.alpha", alpha)?;
-        non_negative("method.artificial_viscosity.beta", beta)?;
-        non_negative("method.artificial_viscosity.eta", eta)?;
-    }
     Ok(())
 }
 
-/// Keys that only some methods read, and the models and corrections each method needs.
-fn method_options(case: &Case) -> Checked {
-    let m = &case.method;
-    let name = toml_name(&m.name);
-    if !m.name.is_mixed() {
-        for (key, given) in [
-            ("variables", m.variables.is_some()),
-            ("reconstruction", m.reconstruction.is_some()),
-            ("projection", m.projection.is_some()),
-            ("jst", m.jst.is_some()),
-            ("momentum", m.momentum.is_some()),
-            ("deformation_gradient", m.deformation_gradient.is_some()),
-            ("cfl_wave_speed", m.cfl_wave_speed.is_some()),
-        ] {
-            if given {
-                return fail(
-                    format!("method.{key}"),
-                    format!(
-                        "is read only by the mixed methods `upwind-sph` and `jst-sph`, not by \
-                         {name}; remove it"
-                    ),
-                );
+/// Keys of other methods in the `[method]` table: named with the methods that read them
+/// and the keys this one reads.
+fn method_keys(case: &Case) -> Checked {
+    let Some(key) = case.method.foreign.first() else {
+        return Ok(());
+    };
+    let name = case.method.name();
+    let owners = REGISTRY
+        .iter()
+        .filter(|e| e.keys.contains(&key.as_str()))
+        .map(|e| e.name);
+    let own = entry(name).map_or(&[][..], |e| e.keys);
+    fail(
+        format!("method.{key}"),
+        format!(
+            "is read only by {}, not by `{name}`; remove it (the keys of `{name}` besides \
+             the common ones: {})",
+            quoted(owners),
+            if own.is_empty() {
+                "none".to_string()
+            } else {
+                own.join(", ")
             }
-        }
-        if case.material.model == MaterialModel::VonMisesPlastic {
-            return fail(
-                "material.model",
-                format!(
-                    "`von-mises-plastic` carries a plastic history (C_p⁻¹, ε_p), which the \
-                     mixed methods `upwind-sph` and `jst-sph` evolve; {name} evaluates P(F) \
-                     without one"
-                ),
-            );
-        }
+        ),
+    )
+}
+
+/// A scene feature the case's method must run: names the methods that do.
+fn feature(case: &Case, feature: Feature, key: &str, what: &str, instead: &str) -> Checked {
+    let name = case.method.name();
+    if case.method.spec.entry().features.contains(&feature) {
         return Ok(());
     }
-    if m.artificial_viscosity.is_some() {
-        return fail(
-            "method.artificial_viscosity",
-            format!(
-                "is read only by `tlsph`; {name} is stabilised by its own flux, remove the key"
-            ),
-        );
-    }
-    if m.name != MethodName::UpwindSph && m.reconstruction.is_some() {
-        return fail(
-            "method.reconstruction",
-            format!("is read only by `upwind-sph`, not by {name}; remove it"),
-        );
-    }
-    if m.name != MethodName::JstSph && m.jst.is_some() {
-        return fail(
-            "method.jst",
-            format!("is read only by `jst-sph`, not by {name}; remove it"),
-        );
-    }
-    if let Some(Jst { eps2, eps4, .. }) = m.jst {
-        non_negative("method.jst.eps2", eps2)?;
-        non_negative("method.jst.eps4", eps4)?;
-    }
-    if !m.correction.is_first_order() {
-        return fail(
-            "method.correction",
-            format!(
-                "{name} needs gradients that are exact for linear fields; use `cgck` (the \
-                 paper's), `randles-libersky` or `rkpm`, not {}",
-                toml_name(&m.correction)
-            ),
-        );
-    }
-    if case.material.model.is_rate_based() {
-        return fail(
-            "material.model",
-            format!(
-                "{name} evolves F and evaluates P(F, H, J): use a state model \
-                 (`nearly-incompressible-neo-hookean`, `neo-hookean`, `saint-venant-kirchhoff`, \
-                 `linear-elastic` or `von-mises-plastic`), not {}",
-                toml_name(&case.material.model)
-            ),
-        );
-    }
-    if m.cfl_wave_speed.is_some() && m.cfl.is_none() {
-        return fail(
-            "method.cfl_wave_speed",
-            "sets the wave speed of the CFL step and is read only with method.cfl; remove it \
-             or replace method.dt by method.cfl",
-        );
-    }
-    let bond_based = m.deformation_gradient == Some(DeformationGradient::BondBased);
-    if bond_based && m.variables.unwrap_or(Conserved::PFHJ) != Conserved::PF {
-        return fail(
-            "method.deformation_gradient",
-            "the bond-based F (seed 002) replaces F in P(F) and goes with the {p, F} system; \
-             set method.variables = \"p-F\"",
-        );
-    }
-    Ok(())
+    fail(
+        key,
+        format!(
+            "{what}, which {} run, not `{name}`; {instead} or choose one of those methods",
+            quoted(supporting(feature))
+        ),
+    )
 }
 
-/// Penalty contact: 2D, TLSPH, at least two bodies, 0 < α ≤ 1. That the bodies lie
+/// Penalty contact: 2D, a method that runs it, at least two bodies, 0 < α ≤ 1. That the bodies lie
 /// apart by more than the kernel support is checked on their particles, when the method
 /// finds its neighbours.
 fn contact(case: &Case) -> Checked {
@@ -356,16 +302,13 @@ fn contact(case: &Case) -> Checked {
              contact, remove the [contact] table",
         );
     }
-    if case.method.name != MethodName::Tlsph {
-        return fail(
-            "contact",
-            format!(
-                "contact is implemented for `tlsph`, not for {}; remove the [contact] table or \
-                 use method.name = \"tlsph\"",
-                toml_name(&case.method.name)
-            ),
-        );
-    }
+    feature(
+        case,
+        Feature::Contact,
+        "contact",
+        "penalty contact is a pass of the methods",
+        "remove the [contact] table",
+    )?;
     if case.bodies.len() < 2 {
         return fail(
             "contact",
@@ -579,24 +522,19 @@ fn velocity(field: &VelocityField, key: &str, dim: usize) -> Checked {
     }
 }
 
-/// Mirror planes: read by the mixed methods, at most two per axis, and they exclude the
-/// projection (the planes' reactions are external forces). Where the particles lie
+/// Mirror planes: a method that runs them, at most two per axis. Where the particles lie
 /// against the planes is checked when the ghosts are built.
 fn mirrors(case: &Case) -> Checked {
     let dim = case.dim();
-    let m = &case.method;
     for (i, mirror) in case.mirrors.iter().enumerate() {
         let key = format!("mirror.{i}");
-        if !m.name.is_mixed() {
-            return fail(
-                key,
-                format!(
-                    "mirror planes are read by `upwind-sph` and `jst-sph`, not by {}; use a \
-                     [[boundary]] with a `symmetry` condition instead",
-                    toml_name(&m.name)
-                ),
-            );
-        }
+        feature(
+            case,
+            Feature::MirrorPlanes,
+            &key,
+            "mirror planes are ghost particles",
+            "use a [[boundary]] with a `symmetry` condition instead",
+        )?;
         if mirror.normal.index() >= dim {
             return fail(
                 format!("{key}.normal"),
@@ -619,14 +557,6 @@ fn mirrors(case: &Case) -> Checked {
                 ),
             );
         }
-    }
-    if !case.mirrors.is_empty() && m.projection == Some(true) {
-        return fail(
-            "method.projection",
-            "the projection removes the net force and moment of the internal forces, but \
-             mirror planes exert reactions on the body; set projection = false or remove the \
-             [[mirror]] planes",
-        );
     }
     Ok(())
 }
@@ -723,7 +653,7 @@ fn region(r: &Region, key: &str, bodies: &[BodySpec], dim: usize) -> Checked {
     Ok(())
 }
 
-fn run(r: &RunSpec, m: &MethodSpec) -> Checked {
+fn run(r: &RunSpec, m: &MethodTable) -> Checked {
     positive("run.end_time", r.end_time)?;
     if let Some(eta) = r.hourglass_limit {
         positive("run.hourglass_limit", eta)?;
@@ -803,7 +733,9 @@ fn probes(probes: &[ProbeSpec], dim: usize) -> Checked {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{MethodName, Observer};
+    use crate::methods::MethodSpec;
+    use crate::methods::tlsph::{ArtificialViscosity, TlsphSpec};
+    use crate::scene::Observer;
 
     fn case() -> Case {
         toml::from_str(
@@ -837,7 +769,7 @@ mod tests {
     #[test]
     fn valid_case_passes() {
         let c = case();
-        assert_eq!(c.method.name, MethodName::Tlsph);
+        assert_eq!(c.method.name(), "tlsph");
         check(&c).unwrap();
     }
 
@@ -870,10 +802,12 @@ mod tests {
         assert_eq!(key_of(&c), "method.cfl");
         c.method.cfl = Some(2.0);
         check(&c).unwrap();
-        c.method.artificial_viscosity = Some(ArtificialViscosity {
-            alpha: 1.0,
-            beta: -1.0,
-            eta: 0.1,
+        c.method.spec = MethodSpec::Tlsph(TlsphSpec {
+            artificial_viscosity: Some(ArtificialViscosity {
+                alpha: 1.0,
+                beta: -1.0,
+                eta: 0.1,
+            }),
         });
         assert_eq!(key_of(&c), "method.artificial_viscosity.beta");
     }

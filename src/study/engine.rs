@@ -3,11 +3,10 @@
 //! and reads the final state.
 
 use super::fields::FinalState;
-use crate::gpu::layout::GpuDim;
-use crate::method::BlowUp;
+use crate::methods::BlowUp;
 use crate::observe::{Invariants, Snapshot};
 use crate::output::RunSummary;
-use crate::run::{Backend, Engine, RunError, RunOptions, drive, engine};
+use crate::run::{Backend, Engine, EngineDim, RunError, RunOptions, drive, engine};
 use crate::scene::Case;
 use crate::tensor::{D2, D3, Dim};
 use std::marker::PhantomData;
@@ -154,7 +153,7 @@ fn failed(error: RunError) -> Outcome {
     }
 }
 
-fn run_dim<D: GpuDim>(case: &Case, backend: Backend, opts: &RunOptions) -> Outcome {
+fn run_dim<D: EngineDim>(case: &Case, backend: Backend, opts: &RunOptions) -> Outcome {
     let started = Instant::now();
     match engine::<D>(case, backend) {
         Ok(mut engine) => drive_tracked(case, opts, &mut engine, started),

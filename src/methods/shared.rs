@@ -1,8 +1,7 @@
-//! Particle methods. Each method is an [`OdeSystem`] plus the fields and energies that
-//! observers and outputs read.
-
-pub mod mixed;
-pub mod tlsph;
+//! What the CPU systems of the methods share: the [`Method`] trait (an [`OdeSystem`] plus
+//! the fields and energies that observers and outputs read), [`BlowUp`], the particle
+//! state's field-wise arithmetic, and the reference neighbours and gradients of the
+//! total-Lagrangian methods.
 
 use crate::boundary::Boundary;
 use crate::correction;
@@ -10,7 +9,7 @@ use crate::integrate::OdeSystem;
 use crate::kernel::Kernel;
 use crate::neighbour::{self, Csr};
 use crate::observe::Snapshot;
-use crate::scene::{Case, CaseError, Discretised, MethodName};
+use crate::scene::{Case, CaseError, Discretised};
 use crate::tensor::Dim;
 use rayon::prelude::*;
 use std::ops::{Add, Mul};
@@ -51,24 +50,24 @@ macro_rules! particle_state {
     ($state:ident { $($field:ident),* }) => {
         impl<D: Dim> crate::integrate::OdeState for $state<D> {
             fn axpy(&mut self, a: f64, r: &Self) {
-                crate::method::axpy(&mut self.u, a, &r.u);
-                crate::method::axpy(&mut self.v, a, &r.v);
-                $(crate::method::axpy(&mut self.$field, a, &r.$field);)*
+                crate::methods::shared::axpy(&mut self.u, a, &r.u);
+                crate::methods::shared::axpy(&mut self.v, a, &r.v);
+                $(crate::methods::shared::axpy(&mut self.$field, a, &r.$field);)*
             }
 
             fn blend(&mut self, a: f64, b: f64, o: &Self) {
-                crate::method::blend(&mut self.u, a, b, &o.u);
-                crate::method::blend(&mut self.v, a, b, &o.v);
-                $(crate::method::blend(&mut self.$field, a, b, &o.$field);)*
+                crate::methods::shared::blend(&mut self.u, a, b, &o.u);
+                crate::methods::shared::blend(&mut self.v, a, b, &o.v);
+                $(crate::methods::shared::blend(&mut self.$field, a, b, &o.$field);)*
             }
 
             fn kick(&mut self, h: f64, r: &Self) {
-                crate::method::axpy(&mut self.v, h, &r.v);
+                crate::methods::shared::axpy(&mut self.v, h, &r.v);
             }
 
             fn drift(&mut self, h: f64, r: &Self) {
-                crate::method::axpy(&mut self.u, h, &self.v);
-                $(crate::method::axpy(&mut self.$field, h, &r.$field);)*
+                crate::methods::shared::axpy(&mut self.u, h, &self.v);
+                $(crate::methods::shared::axpy(&mut self.$field, h, &r.$field);)*
             }
         }
     };
@@ -150,9 +149,8 @@ impl BlowUp {
 
 /// What the driver, observers and outputs need from a method.
 pub trait Method<D: Dim>: OdeSystem<Error = BlowUp> + Sized {
-    /// The case-file method names this type implements.
-    const NAMES: &'static [MethodName];
-    /// Builds the method on the reference configuration of a case.
+    /// Builds the method on the reference configuration of a case; a case that names a
+    /// method this system does not run is an error.
     fn build(case: &Case, disc: Discretised<D>) -> Result<Self, CaseError>;
     /// Initial state (displacement zero, initial velocities with BCs imposed).
     fn initial_state(&self) -> Self::State;

@@ -1,36 +1,71 @@
-//! Total-Lagrangian SPH on the GPU: the passes of `shaders/tlsph*.wgsl`, the integrator
-//! program of [`super::program`], and the set-up (neighbours, corrected gradients) done
-//! once. The CPU path (`method::tlsph`) is the reference it is checked against.
+//! Total-Lagrangian SPH on the GPU: the passes of `shaders/tlsph/`, the integrator
+//! program of [`crate::gpu::program`], and the set-up (neighbours, corrected gradients)
+//! done once. The CPU system ([`super::system`]) is the reference it is checked against.
 //!
 //! A whole step, or several, is recorded into one command encoder; the host reads back
 //! only when asked (outputs, observers, checks).
 
-use super::context::{Gpu, GpuError};
-use super::layout::{Flat, GpuDim, boundary_buffers, flat_v};
-use super::neighbour;
-use super::program::{Buf, StateLayout, Stepper};
-use super::reduction::{Reduced, Reduction, WorkBalance};
-use super::shaders::{self, Constants, Source};
+use super::system::{TlState, apart, check_state, snapshot};
 use crate::boundary::Boundary;
 use crate::contact::Contact;
 use crate::correction::{self, CorrectionKind};
+use crate::gpu::SetupError;
+use crate::gpu::context::Gpu;
+use crate::gpu::layout::{Flat, GpuDim, boundary_buffers, flat_v};
+use crate::gpu::neighbour;
+use crate::gpu::program::{Buf, StateLayout, Stepper};
+use crate::gpu::reduction::{Reduced, Reduction, WorkBalance};
+use crate::gpu::shaders::{
+    self, BOUNDARY, CONTACT, CORRECTION, Constants, INTEGRATE, MECHANICS, PAIR_OFFSETS, Source,
+    Wgsl, source, wgsl,
+};
 use crate::kernel::Kernel;
 use crate::material::Material;
-use crate::method::BlowUp;
-use crate::method::tlsph::{TlState, apart, check_state, snapshot};
+use crate::methods::{BlowUp, MethodSpec, not_run_by};
 use crate::neighbour as neighbour_cpu;
 use crate::observe::{Invariants, Snapshot};
 use crate::run::Engine;
-use crate::scene::{Case, CaseError, discretise};
-use thiserror::Error;
+use crate::scene::{Case, discretise};
 
-#[derive(Debug, Error)]
-pub enum SetupError {
-    #[error(transparent)]
-    Case(#[from] CaseError),
-    #[error(transparent)]
-    Gpu(#[from] GpuError),
-}
+/// Strain energy densities of the TLSPH models, for the reduction.
+const ENERGY: Wgsl = wgsl!("tlsph/tlsph_energy.wgsl");
+
+/// F, P (and ρ̇, Ṡ of the rate model) per particle.
+pub const STRESS: Source = source!(
+    "tlsph/tlsph.wgsl",
+    [MECHANICS],
+    [("y", false), ("grad", false), ("d", true), ("kin", true)]
+);
+/// Accelerations, artificial viscosity, boundary conditions.
+pub const ACCEL: Source = source!(
+    "tlsph/tlsph_accel.wgsl",
+    [BOUNDARY],
+    [
+        ("y", false),
+        ("grad", false),
+        ("dx0", false),
+        ("ext", false),
+        ("kin", false),
+        ("d", true)
+    ]
+);
+/// Energies, momenta and checks of a state.
+pub const REDUCE: Source = source!(
+    "common/reduce.wgsl",
+    [MECHANICS, ENERGY],
+    [("y", false), ("kin", false), ("x_hi", false)]
+);
+
+/// The passes compiled with a TLSPH scene's constants ([`scene_constants`]).
+pub const SHADERS: &[Source] = &[
+    STRESS,
+    ACCEL,
+    CONTACT,
+    CORRECTION,
+    INTEGRATE,
+    PAIR_OFFSETS,
+    REDUCE,
+];
 
 /// Offsets (in f32 entries) of the fields in the flat state and kinematics buffers.
 /// The state holds u, v, ρ − ρ0 and S; the kinematics H = F − I, P, F⁻ᵀ and ρ.
@@ -84,7 +119,10 @@ pub fn scene_constants(case: &Case, layout: &Layout) -> Constants {
         CorrectionKind::Shepard => 1,
         CorrectionKind::RandlesLibersky | CorrectionKind::Rkpm | CorrectionKind::Cgck => 2,
     };
-    let av = case.method.artificial_viscosity;
+    let av = match &case.method.spec {
+        MethodSpec::Tlsph(spec) => spec.artificial_viscosity,
+        _ => None,
+    };
     let u = |x: usize| x as u32;
     Constants::default()
         .kernel(&kernel)
@@ -108,9 +146,6 @@ pub fn scene_constants(case: &Case, layout: &Layout) -> Constants {
         .u32("KFIT_OFF", u(layout.kin_fit))
         .u32("KRHO_OFF", u(layout.kin_rho))
 }
-
-/// What one rate evaluation records, as `meshless run --explain` prints it.
-pub const RATES: &str = "stress pass (F, P, ρ̇, Ṡ) + acceleration pass (a, u̇ = v, BCs)";
 
 /// The stress and acceleration passes of one rate evaluation, bound to a source state.
 struct Rates {
@@ -195,6 +230,9 @@ impl<D: GpuDim> GpuTlsph<D> {
     /// Discretises the case, builds neighbours and corrected gradients, and uploads the
     /// initial state.
     pub fn new(case: &Case, gpu: Gpu) -> Result<Self, SetupError> {
+        if !matches!(case.method.spec, MethodSpec::Tlsph(_)) {
+            return Err(not_run_by(case, "GpuTlsph").into());
+        }
         let disc = discretise::<D>(case)?;
         let material = Material::new(&case.material);
         let n = disc.x0.len();
@@ -234,11 +272,7 @@ impl<D: GpuDim> GpuTlsph<D> {
             .collect();
         let (x_hi, x_lo) = (gpu.storage("x hi", &x_hi), gpu.storage("x lo", &x_lo));
         let dx0 = gpu.zeroed("dx0", pairs * D::N as u64 * 4);
-        let pipeline = gpu.pipeline(
-            "pair offsets",
-            &compose(&shaders::PAIR_OFFSETS),
-            "pair_offsets",
-        );
+        let pipeline = gpu.pipeline("pair offsets", &compose(&PAIR_OFFSETS), "pair_offsets");
         let bind = gpu.bind(&pipeline, &[&offsets, &ids, &x_hi, &x_lo, &dx0]);
         dispatch(&gpu, &pipeline, &bind, n as u32);
         let vol32: Vec<f32> = disc.vol.iter().map(|&v| v as f32).collect();
@@ -261,7 +295,7 @@ impl<D: GpuDim> GpuTlsph<D> {
             gpu.storage("grad", &flat_v::<D>(g))
         } else {
             let grad = gpu.zeroed("grad", pairs * D::N as u64 * 4);
-            let pipeline = gpu.pipeline("correction", &compose(&shaders::CORRECTION), "correct");
+            let pipeline = gpu.pipeline("correction", &compose(&CORRECTION), "correct");
             let bind = gpu.bind(&pipeline, &[&offsets, &ids, &dx0, &vol, &grad, &status]);
             dispatch(&gpu, &pipeline, &bind, n as u32);
             if let Some(i) = read_status(&gpu, &status) {
@@ -302,15 +336,15 @@ impl<D: GpuDim> GpuTlsph<D> {
         let stepper = Stepper::new(
             &gpu,
             case.method.integrator,
-            &compose(&shaders::INTEGRATE),
+            &compose(&INTEGRATE),
             state,
             &initial_state::<D>(&layout, &v0),
         );
         let kin = gpu.zeroed("kinematics", layout.kin_len as u64 * 4);
         let power = gpu.zeroed("power", n as u64 * 4);
 
-        let stress = gpu.pipeline("tlsph stress", &compose(&shaders::TLSPH_STRESS), "stress");
-        let accel = gpu.pipeline("tlsph accel", &compose(&shaders::TLSPH_ACCEL), "accel");
+        let stress = gpu.pipeline("tlsph stress", &compose(&STRESS), "stress");
+        let accel = gpu.pipeline("tlsph accel", &compose(&ACCEL), "accel");
         let rates_d = stepper.buffer(Buf::Rates);
         let rates = [Buf::Y, Buf::Stage].map(|src| {
             let s = stepper.buffer(src);
@@ -334,7 +368,7 @@ impl<D: GpuDim> GpuTlsph<D> {
                 apart::<D>(case, &neighbour::read_lists(&gpu, &csr), &disc.body)?;
                 Some(ContactPass::new(
                     &gpu,
-                    &compose(&shaders::CONTACT),
+                    &compose(&CONTACT),
                     &cpu,
                     &disc.body,
                     [&x_hi, y, &traction, &ext],
@@ -344,7 +378,7 @@ impl<D: GpuDim> GpuTlsph<D> {
         };
         let reduction = Reduction::new(
             &gpu,
-            &compose(&shaders::REDUCE),
+            &compose(&REDUCE),
             &[(0, y), (1, &kin), (2, &vol), (3, &x_hi), (4, &power)],
             n,
         );

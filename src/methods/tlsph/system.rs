@@ -5,19 +5,21 @@
 //! velocity v and, for the rate-based (hypoelastic) model, the density ρ and the
 //! deviatoric stress S.
 
-use super::{
-    BlowUp, MIN_CHUNK, Method, check_motion, masses_and_boundary, particle_state,
-    reference_gradients,
-};
+use super::ArtificialViscosity;
 use crate::boundary::Boundary;
 use crate::contact::Contact;
+use crate::methods::shared::{
+    BlowUp, MIN_CHUNK, Method, check_motion, masses_and_boundary, neighbour_radius, particle_state,
+    reference_gradients,
+};
+use crate::methods::{MethodSpec, not_run_by};
 
 use crate::integrate::OdeSystem;
 
 use crate::material::Material;
 use crate::neighbour::Csr;
 use crate::observe::Snapshot;
-use crate::scene::{ArtificialViscosity, Case, CaseError, Discretised, MethodName};
+use crate::scene::{Case, CaseError, Discretised};
 use crate::tensor::Dim;
 use rayon::prelude::*;
 
@@ -123,7 +125,7 @@ pub fn snapshot<'a, D: Dim>(
         f,
         sigma,
         strain_energy,
-        plastic_strain: None,
+        extra: Vec::new(),
     }
 }
 
@@ -149,6 +151,9 @@ pub struct Tlsph<D: Dim> {
 impl<D: Dim> Tlsph<D> {
     /// Builds neighbours and corrected gradients on the reference configuration.
     pub fn new(case: &Case, disc: Discretised<D>) -> Result<Self, CaseError> {
+        let MethodSpec::Tlsph(spec) = &case.method.spec else {
+            return Err(not_run_by(case, "Tlsph"));
+        };
         let material = Material::new(&case.material);
         let m = &case.method;
         let (csr, grad) = reference_gradients::<D>(case, &disc.x0, &disc.vol)?;
@@ -176,7 +181,7 @@ impl<D: Dim> Tlsph<D> {
             csr,
             grad,
             material,
-            av: m.artificial_viscosity,
+            av: spec.artificial_viscosity,
             h: m.h_over_dx * case.spacing,
             boundary,
             contact,
@@ -363,8 +368,6 @@ impl<D: Dim> OdeSystem for Tlsph<D> {
 }
 
 impl<D: Dim> Method<D> for Tlsph<D> {
-    const NAMES: &'static [MethodName] = &[MethodName::Tlsph];
-
     fn build(case: &Case, disc: Discretised<D>) -> Result<Self, CaseError> {
         Self::new(case, disc)
     }
@@ -469,7 +472,7 @@ pub(crate) fn apart<D: Dim>(case: &Case, csr: &Csr, body: &[u32]) -> Result<(), 
                      the kernels would bond the bodies; move them apart by more than the support",
                     name(i),
                     name(j),
-                    super::neighbour_radius::<D>(case)
+                    neighbour_radius::<D>(case)
                 ),
             ))
         }

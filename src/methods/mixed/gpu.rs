@@ -1,5 +1,5 @@
 //! Mixed {p, F, H, J} SPH (seed 003: Upwind-SPH and JST-SPH) on the GPU: the passes of
-//! `shaders/mixed*.wgsl` and the integrator program of [`super::program`]. The set-up is
+//! `shaders/mixed/` and the integrator program of [`crate::gpu::program`]. The set-up is
 //! the CPU reference's own (`MixedSph::new`, f64): neighbours, corrected gradients, the
 //! reverse pairs, least-squares and Laplacian weights and the ghost table are computed
 //! once on the host and uploaded in f32. The CPU method is kept for snapshots (σ and the
@@ -11,21 +11,114 @@
 //! solve] → rates of v and u with the boundary conditions. A whole step, or several, is
 //! recorded into one command encoder; the host reads back only when asked.
 
-use super::context::{Gpu, WORKGROUP};
-use super::layout::{GpuDim, boundary_buffers, flat_v};
-use super::program::{Buf, Evaluation, StateLayout, Stepper, evaluations};
-use super::reduction::{Reduced, Reduction, WorkBalance};
-use super::shaders::{self, Constants, Source};
-use super::tlsph::SetupError;
+use super::system::{Fluxes, MixedSph, MixedState};
+use super::{CflWaveSpeed, DeformationGradient, Momentum};
+use crate::gpu::SetupError;
+use crate::gpu::context::{Gpu, WORKGROUP};
+use crate::gpu::layout::{GpuDim, boundary_buffers, flat_v};
+use crate::gpu::program::{Buf, Evaluation, StateLayout, Stepper, evaluations};
+use crate::gpu::reduction::{Reduced, Reduction, WorkBalance};
+use crate::gpu::shaders::{
+    self, BOUNDARY, Constants, INTEGRATE, MECHANICS, PLASTICITY, Source, Wgsl, source, wgsl,
+};
 use crate::integrate::IntegratorKind;
 use crate::material::MaterialModel;
-use crate::method::mixed::{Fluxes, MixedSph, MixedState};
-use crate::method::{BlowUp, Method};
+use crate::methods::{BlowUp, Method, not_run_by};
 use crate::observe::{Invariants, Snapshot};
 use crate::run::{Engine, build_method};
-use crate::scene::{Case, CflWaveSpeed, Conserved, DeformationGradient, MethodName, Momentum};
+use crate::scene::Case;
 use bytemuck::{Pod, Zeroable};
 use glam::DMat3;
+
+/// Shared functions of the mixed passes: state and kinematics access, ghost maps.
+const MIXED: Wgsl = wgsl!("mixed/mixed.wgsl");
+/// Current positions and pair geometry.
+const MOTION: Wgsl = wgsl!("mixed/mixed_motion.wgsl");
+/// Strain energy and the CFL pair wave speed, for the reduction.
+const ENERGY: Wgsl = wgsl!("mixed/mixed_energy.wgsl");
+
+/// Ghost motion and ghost fields.
+pub const GHOSTS: Source = source!(
+    "mixed/mixed_ghosts.wgsl",
+    [MIXED],
+    [("ghost_img", false), ("field", true), ("y", false)]
+);
+/// ∇0v, P(F, H, J) and the rates of F, H, J.
+pub const KINEMATICS: Source = source!(
+    "mixed/mixed_kinematics.wgsl",
+    [MECHANICS, MIXED, MOTION, PLASTICITY],
+    [
+        ("grad", false),
+        ("y", false),
+        ("gm", false),
+        ("kin", true),
+        ("d", true),
+        ("fs", false)
+    ]
+);
+/// The bond-based F^c (seed 002 eqs 37, 39).
+pub const BOND: Source = source!(
+    "mixed/mixed_bond.wgsl",
+    [MIXED, MOTION],
+    [("x_ab", false), ("y", false), ("gm", false), ("fc", true)]
+);
+/// Least-squares slopes of v and P, or the Laplacian ∇²v.
+pub const SLOPES: Source = source!(
+    "mixed/mixed_slopes.wgsl",
+    [MIXED, MOTION],
+    [
+        ("weights", false),
+        ("y", false),
+        ("gm", false),
+        ("out", true),
+        ("kin", false)
+    ]
+);
+/// T, D(p) and D(J) per particle.
+pub const FORCES: Source = source!(
+    "mixed/mixed_forces.wgsl",
+    [MIXED, MOTION],
+    [
+        ("grad", false),
+        ("grad_rev", false),
+        ("y", false),
+        ("gm", false),
+        ("kin", false),
+        ("force", true),
+        ("pair", false),
+        ("second", false)
+    ]
+);
+/// The projection's sums and solve, and the rates with the boundary conditions.
+pub const MOMENTUM: Source = source!(
+    "mixed/mixed_momentum.wgsl",
+    [MIXED, BOUNDARY],
+    [
+        ("force", false),
+        ("y", false),
+        ("y0", false),
+        ("x_rel", false),
+        ("ext", false),
+        ("d", true)
+    ]
+);
+/// Energies, momenta, checks and the CFL pair wave speed of a state.
+pub const REDUCE: Source = source!(
+    "common/reduce.wgsl",
+    [MECHANICS, ENERGY, PLASTICITY],
+    [("y", false), ("kin", false), ("x_hi", false)]
+);
+/// The per-step commit of the plastic history.
+pub const PLASTIC: Source = source!(
+    "mixed/mixed_plastic.wgsl",
+    [MIXED, PLASTICITY],
+    [("y", false)]
+);
+
+/// The passes compiled with a mixed scene's constants ([`scene`]).
+pub const SHADERS: &[Source] = &[
+    GHOSTS, KINEMATICS, PLASTIC, BOND, SLOPES, FORCES, MOMENTUM, REDUCE, INTEGRATE,
+];
 
 /// Offsets (in f32 entries) of the fields in the flat buffers of a mixed scene.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -140,7 +233,7 @@ pub fn scene<D: GpuDim>(case: &Case, cpu: &MixedSph<D>) -> (MixedLayout, Constan
             u32::from(cpu.cfl_wave_speed() == CflWaveSpeed::Pair),
         )
         .f32("H", cpu.smoothing_length())
-        .u32("STAB", u32::from(case.method.name == MethodName::JstSph))
+        .u32("STAB", u32::from(jst.is_some()))
         .u32("RECON", u32::from(cpu.reconstruction()))
         .f32("EPS2", eps2)
         .f32("EPS4", eps4)
@@ -168,61 +261,6 @@ pub fn scene<D: GpuDim>(case: &Case, cpu: &MixedSph<D>) -> (MixedLayout, Constan
         .u32("FD_OFF", u(l.force_d))
         .u32("FJ_OFF", u(l.force_j));
     (layout, constants)
-}
-
-/// The passes of one rate evaluation of a scene, as `meshless run --explain` prints them.
-pub fn describe_rates(case: &Case) -> String {
-    let m = &case.method;
-    let ghosts = !case.mirrors.is_empty();
-    let jst = m.name == MethodName::JstSph;
-    let conserved = m.variables.unwrap_or(Conserved::PFHJ);
-    let (h, j) = (conserved.evolves_h(), conserved.evolves_j());
-    let d_j = !jst && j;
-    let bond = m.deformation_gradient == Some(DeformationGradient::BondBased);
-    let mut passes = Vec::new();
-    if ghosts {
-        passes.push("ghost motion".to_string());
-    }
-    if bond {
-        passes.push("bond-based F^c (gather of u)".into());
-    }
-    passes.push(format!(
-        "kinematics (P{}, ∇0v, Ḟ{}{})",
-        if bond { "(F^c)" } else { "" },
-        if h { ", Ḣ" } else { "" },
-        if j { ", J̇" } else { "" }
-    ));
-    if ghosts {
-        passes.push(format!("ghost P{}", if d_j { ", H" } else { "" }));
-    }
-    let second = match m.name {
-        MethodName::JstSph => Some("Laplacians ∇²v"),
-        _ if m.reconstruction.unwrap_or(true) => Some("least-squares slopes of v, P"),
-        _ => None,
-    };
-    if let Some(second) = second {
-        passes.push(second.into());
-        if ghosts {
-            passes.push("their ghosts".into());
-        }
-    }
-    let t = match m.momentum.unwrap_or_default() {
-        Momentum::Weak => "T",
-        Momentum::Symmetrised => "T symmetrised",
-    };
-    passes.push(match (jst, d_j) {
-        (true, _) => format!("forces ({t}, JST D(p))"),
-        (false, true) => format!("forces ({t}, upwind D(p), D(J))"),
-        (false, false) => format!("forces ({t}, upwind D(p))"),
-    });
-    // The projection is on by default without mirror planes (their reactions are external).
-    if m.projection.unwrap_or(!ghosts) {
-        passes.push("projection sums (per workgroup) + solve (one invocation)".into());
-        passes.push("rates (ρ0 v̇ = D(p) − T projected, BCs, u̇ = v)".into());
-    } else {
-        passes.push("rates (ρ0 v̇ = D(p) − T, BCs, u̇ = v)".into());
-    }
-    passes.join(" → ")
 }
 
 /// The uniform `Stage` of `mixed_momentum.wgsl`.
@@ -356,8 +394,9 @@ pub struct GpuMixed<D: GpuDim> {
 impl<D: GpuDim> GpuMixed<D> {
     /// Builds the CPU set-up of the case and uploads it with the initial state.
     pub fn new(case: &Case, gpu: Gpu) -> Result<Self, SetupError> {
+        let (options, _) = super::scheme(case).ok_or_else(|| not_run_by(case, "GpuMixed"))?;
         let plastic = case.material.model == MaterialModel::VonMisesPlastic;
-        if plastic && case.method.deformation_gradient == Some(DeformationGradient::BondBased) {
+        if plastic && options.deformation_gradient == DeformationGradient::BondBased {
             return Err(case
                 .invalid(
                     "method.deformation_gradient",
@@ -474,14 +513,14 @@ impl<D: GpuDim> GpuMixed<D> {
         let stepper = Stepper::new(
             &gpu,
             case.method.integrator,
-            &compose(&shaders::INTEGRATE),
+            &compose(&INTEGRATE),
             layout.state(),
             &y0,
         );
 
-        let ghosts_src = compose(&shaders::MIXED_GHOSTS);
-        let slopes_src = compose(&shaders::MIXED_SLOPES);
-        let momentum_src = compose(&shaders::MIXED_MOMENTUM);
+        let ghosts_src = compose(&GHOSTS);
+        let slopes_src = compose(&SLOPES);
+        let momentum_src = compose(&MOMENTUM);
         let pipeline = |label: &str, src: &str, entry: &str| gpu.pipeline(label, src, entry);
         let (second_entry, ghost_second_entry) = if upwind {
             ("slopes", "ghost_slopes")
@@ -494,14 +533,10 @@ impl<D: GpuDim> GpuMixed<D> {
             ghost_second: pipeline("ghost slopes", &ghosts_src, ghost_second_entry),
             bond: bond
                 .as_ref()
-                .map(|_| pipeline("bond-based F", &compose(&shaders::MIXED_BOND), "bond_f")),
-            kinematics: pipeline(
-                "mixed kinematics",
-                &compose(&shaders::MIXED_KINEMATICS),
-                "kinematics",
-            ),
+                .map(|_| pipeline("bond-based F", &compose(&BOND), "bond_f")),
+            kinematics: pipeline("mixed kinematics", &compose(&KINEMATICS), "kinematics"),
             second: pipeline("slopes", &slopes_src, second_entry),
-            forces: pipeline("mixed forces", &compose(&shaders::MIXED_FORCES), "forces"),
+            forces: pipeline("mixed forces", &compose(&FORCES), "forces"),
             balance_sums: pipeline("balance sums", &momentum_src, "balance_sums"),
             balance_solve: pipeline("balance solve", &momentum_src, "balance_solve"),
             rates: pipeline("mixed rates", &momentum_src, "rates"),
@@ -545,11 +580,7 @@ impl<D: GpuDim> GpuMixed<D> {
             &virgin.repeat(if plastic { n } else { 1 }),
         );
         let commit = plastic.then(|| {
-            let pipeline = gpu.pipeline(
-                "plastic commit",
-                &compose(&shaders::MIXED_PLASTIC),
-                "commit",
-            );
+            let pipeline = gpu.pipeline("plastic commit", &compose(&PLASTIC), "commit");
             let bind = gpu.bind(&pipeline, &[y_start, &hist]);
             (pipeline, bind)
         });
@@ -652,7 +683,7 @@ impl<D: GpuDim> GpuMixed<D> {
         evaluator.bound = bound;
         let reduction = Reduction::new(
             &gpu,
-            &compose(&shaders::MIXED_REDUCE),
+            &compose(&REDUCE),
             &[
                 (0, y_start),
                 (1, stress_f(y_start)),

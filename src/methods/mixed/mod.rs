@@ -1,0 +1,484 @@
+//! Mixed {p, F, H, J} total-Lagrangian SPH (seed 003, with the options of seed 002):
+//! Upwind-SPH and JST-SPH. The specs, the CPU system ([`system`], with its pair weights
+//! in [`weights`] and the angular-momentum projection in [`projection`]) and the GPU
+//! engine ([`gpu`]). Numerics notes: `docs/methods/mixed.md`.
+
+#[cfg(feature = "gpu")]
+pub mod gpu;
+pub mod projection;
+pub mod system;
+pub mod weights;
+
+#[cfg(feature = "gpu")]
+pub use gpu::GpuMixed;
+pub use system::{MixedSph, MixedState};
+
+use super::{Feature, MethodFamily, MethodSpec, Plan, Problem};
+use crate::material::Material;
+use crate::run::{CpuEngine, Engine, EngineDim};
+use crate::scene::validate::{fail, non_negative, toml_name};
+use crate::scene::{Case, CaseError};
+use crate::tensor::{Dim, smallest_stretch_squared};
+use serde::{Deserialize, Serialize};
+
+/// Which geometric conservation laws a mixed method evolves besides p and F (seed 003 §6);
+/// the others are computed from F (H = cof F, J = det F).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+pub enum Conserved {
+    #[serde(rename = "p-F")]
+    PF,
+    #[serde(rename = "p-F-J")]
+    PFJ,
+    #[default]
+    #[serde(rename = "p-F-H-J")]
+    PFHJ,
+}
+
+impl Conserved {
+    pub const ALL: [Conserved; 3] = [Self::PF, Self::PFJ, Self::PFHJ];
+
+    pub fn evolves_h(self) -> bool {
+        self == Self::PFHJ
+    }
+
+    pub fn evolves_j(self) -> bool {
+        self != Self::PF
+    }
+}
+
+/// JST dissipation: coefficients ε⁽²⁾ (Laplacian) and ε⁽⁴⁾ (bi-Laplacian), and the
+/// discrete Laplacian both are built on.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Jst {
+    #[serde(default)]
+    pub eps2: f64,
+    #[serde(default = "default_eps4")]
+    pub eps4: f64,
+    #[serde(default)]
+    pub laplacian: JstLaplacian,
+}
+
+fn default_eps4() -> f64 {
+    0.125
+}
+
+impl Default for Jst {
+    fn default() -> Self {
+        Self {
+            eps2: 0.0,
+            eps4: default_eps4(),
+            laplacian: JstLaplacian::default(),
+        }
+    }
+}
+
+/// The discrete Laplacian ∇²f_a = Σ_b ℓ_ab (f_b − f_a) of the JST dissipation.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum JstLaplacian {
+    /// Brookshaw weights corrected to be exact for linear fields and |X|² (the properties
+    /// seed 002 states); near free surfaces the weights grow and change sign, and a
+    /// large ε⁽⁴⁾ then needs a smaller CFL number.
+    #[default]
+    Corrected,
+    /// ℓ_ab = 2 V_b N_ab·∇̃W̃_b(X_a)/|X_ab| (seed 003 eq 55, Morris et al.): positive
+    /// symmetrised weights, but the Laplacian of a linear field is not zero at free
+    /// surfaces, so rigid and bending motion is damped there.
+    Brookshaw,
+}
+
+/// The p-wave speed C_p,ab of a pair in the mixed methods' CFL step Δt = α min_ab r_ab /
+/// C_p,ab (seed 002 eq 31).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum CflWaveSpeed {
+    /// C_p,ab = C_p^Lin / ½(λ_a + λ_b), λ the smallest principal stretch (eq 32).
+    #[default]
+    Pair,
+    /// C_p^Lin = sqrt((λ + 2μ)/ρ₀) for every pair: the paper's choice for the bond-based
+    /// column, which needs no stretches; r_ab still follows the motion.
+    Linear,
+}
+
+/// Discrete DIV P of the mixed methods.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Momentum {
+    /// T_a = Σ_b V_b [P_b ∇̃W̃_a(X_b) − P_a ∇̃W̃_b(X_a)] (seed 003 eqs 20–21).
+    #[default]
+    Weak,
+    /// T_a = −½ Σ_b V_b (P_a + P_b)(∇W̃_b(X_a) − ∇W̃_a(X_b)) (seed 002 eq 22).
+    Symmetrised,
+}
+
+/// The deformation gradient the stress of a mixed method is evaluated at.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DeformationGradient {
+    /// The evolved F (eq 24 of seed 002, 38b of seed 003).
+    #[default]
+    Evolved,
+    /// The kernel-smoothed bond-based F^c with the self-bond (seed 002 eqs 37, 39),
+    /// recomputed from the positions at every stage; the evolved F stays the state.
+    BondBased,
+}
+
+/// The `[method]` keys both mixed methods read.
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
+pub struct MixedOptions {
+    /// The conservation variables evolved (default {p, F, H, J}).
+    #[serde(default)]
+    pub variables: Conserved,
+    /// The angular-momentum-preserving projection of the internal force and of the
+    /// stabilisation (seed 003 Appendix B); see [`MixedOptions::projection`].
+    pub projection: Option<bool>,
+    /// The discrete divergence of P (default `weak`).
+    #[serde(default)]
+    pub momentum: Momentum,
+    /// The F the stress is evaluated at (default `evolved`).
+    #[serde(default)]
+    pub deformation_gradient: DeformationGradient,
+    /// With `cfl`: the pair wave speed C_p,ab of the step (default `pair`).
+    #[serde(default)]
+    pub cfl_wave_speed: CflWaveSpeed,
+}
+
+impl MixedOptions {
+    /// Whether the projection is on: as given, else on without mirror planes and off
+    /// with them (their reactions are external forces).
+    pub fn projection(&self, case: &Case) -> bool {
+        self.projection.unwrap_or(case.mirrors.is_empty())
+    }
+
+    fn bond_based(&self) -> bool {
+        self.deformation_gradient == DeformationGradient::BondBased
+    }
+}
+
+/// Upwind-SPH: the acoustic Riemann stabilisation on p and J (seed 003).
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+pub struct UpwindSpec {
+    #[serde(flatten)]
+    pub mixed: MixedOptions,
+    /// Linear reconstruction of p and P to the mid-pair (default on).
+    #[serde(default = "yes")]
+    pub reconstruction: bool,
+}
+
+fn yes() -> bool {
+    true
+}
+
+/// JST-SPH: Jameson–Schmidt–Turkel dissipation on p (seed 002 eqs 26–28).
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+pub struct JstSpec {
+    #[serde(flatten)]
+    pub mixed: MixedOptions,
+    /// Dissipation coefficients (default ε⁽²⁾ = 0, ε⁽⁴⁾ = 1/8) and Laplacian.
+    #[serde(default)]
+    pub jst: Jst,
+}
+
+/// The stabilisation of a mixed method, as its systems read it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Stabiliser {
+    Upwind { reconstruction: bool },
+    Jst(Jst),
+}
+
+/// The options and stabilisation of a case's mixed method; None for another method.
+pub fn scheme(case: &Case) -> Option<(&MixedOptions, Stabiliser)> {
+    match &case.method.spec {
+        MethodSpec::UpwindSph(s) => Some((
+            &s.mixed,
+            Stabiliser::Upwind {
+                reconstruction: s.reconstruction,
+            },
+        )),
+        MethodSpec::JstSph(s) => Some((&s.mixed, Stabiliser::Jst(s.jst))),
+        _ => None,
+    }
+}
+
+/// Checks both mixed methods share: a first-order correction, a state model, the CFL
+/// wave speed only with a CFL step, the bond-based F with {p, F}, no projection against
+/// mirror planes.
+fn validate(m: &MixedOptions, case: &Case) -> Result<(), Problem> {
+    let name = case.method.name();
+    if !case.method.correction.is_first_order() {
+        return fail(
+            "method.correction",
+            format!(
+                "`{name}` needs gradients that are exact for linear fields; use `cgck` (the \
+                 paper's), `randles-libersky` or `rkpm`, not {}",
+                toml_name(&case.method.correction)
+            ),
+        );
+    }
+    if case.material.model.is_rate_based() {
+        return fail(
+            "material.model",
+            format!(
+                "`{name}` evolves F and evaluates P(F, H, J): use a state model \
+                 (`nearly-incompressible-neo-hookean`, `neo-hookean`, `saint-venant-kirchhoff`, \
+                 `linear-elastic` or `von-mises-plastic`), not {}",
+                toml_name(&case.material.model)
+            ),
+        );
+    }
+    if m.cfl_wave_speed != CflWaveSpeed::default() && case.method.cfl.is_none() {
+        return fail(
+            "method.cfl_wave_speed",
+            "sets the wave speed of the CFL step and is read only with method.cfl; remove it \
+             or replace method.dt by method.cfl",
+        );
+    }
+    if m.bond_based() && m.variables != Conserved::PF {
+        return fail(
+            "method.deformation_gradient",
+            "the bond-based F (seed 002) replaces F in P(F) and goes with the {p, F} system; \
+             set method.variables = \"p-F\"",
+        );
+    }
+    if !case.mirrors.is_empty() && m.projection == Some(true) {
+        return fail(
+            "method.projection",
+            "the projection removes the net force and moment of the internal forces, but \
+             mirror planes exert reactions on the body; set projection = false or remove the \
+             [[mirror]] planes",
+        );
+    }
+    Ok(())
+}
+
+/// The run plan of a mixed method.
+fn plan(m: &MixedOptions, stab: Stabiliser, case: &Case, gpu: bool) -> Plan {
+    let mat = Material::new(&case.material);
+    let bond = m.bond_based();
+    let ghosts = if case.mirrors.is_empty() {
+        String::new()
+    } else {
+        format!(", ghost particles of {} mirror planes", case.mirrors.len())
+    };
+    let weights = match stab {
+        Stabiliser::Jst(_) => "Laplacian weights ℓ_ab, s_ab",
+        Stabiliser::Upwind {
+            reconstruction: true,
+        } => "least-squares weights M_a⁻¹N_ab/|d_ab|",
+        Stabiliser::Upwind {
+            reconstruction: false,
+        } => "N_ab",
+    };
+    let mut left_out = Vec::new();
+    if !m.projection(case) {
+        left_out.push("angular-momentum projection");
+    }
+    if !m.variables.evolves_h() {
+        left_out.push("H evolution (H = cof F)");
+    }
+    if !m.variables.evolves_j() {
+        left_out.push("J evolution (J = det F)");
+    }
+    if !bond {
+        left_out.push("bond-based F^c (P of the evolved F)");
+    }
+    Plan {
+        once: format!(
+            "once, on the reference configuration (host, f64{}): cell-list neighbours \
+             (CSR){ghosts}, corrected gradients g_ab and g_ba, {weights}{}",
+            if gpu { ", uploaded in f32" } else { "" },
+            if bond {
+                ", bond weights V_b W̃_b(X_a)/|X_ab|²"
+            } else {
+                ""
+            }
+        ),
+        state: format!(
+            "u, v, F{}{} ({:?}; {:?})",
+            if m.variables.evolves_h() { ", H" } else { "" },
+            if m.variables.evolves_j() { ", J" } else { "" },
+            m.variables,
+            mat.model
+        ),
+        cfl_step: format!(
+            "Δt = cfl·min_ab r_ab/C_p,ab with C_p,ab = {} (seed 002 eqs 31–32), C_p^Lin = \
+             {:.1} m/s",
+            match m.cfl_wave_speed {
+                CflWaveSpeed::Pair => "C_p^Lin/½(λ_a + λ_b)",
+                CflWaveSpeed::Linear => "C_p^Lin",
+            },
+            mat.p_wave_speed()
+        ),
+        rates: rate_passes(m, stab, case),
+        checked: "det F, J",
+        check_note: if bond && gpu {
+            format!(
+                " (strain energy ψ(F^c): {}bond-based F^c of Y recorded before the reduction)",
+                if case.mirrors.is_empty() {
+                    ""
+                } else {
+                    "ghost motion and "
+                }
+            )
+        } else {
+            String::new()
+        },
+        left_out,
+    }
+}
+
+/// The passes of one rate evaluation (the GPU's dispatches, the CPU's loops).
+fn rate_passes(m: &MixedOptions, stab: Stabiliser, case: &Case) -> String {
+    let ghosts = !case.mirrors.is_empty();
+    let (h, j) = (m.variables.evolves_h(), m.variables.evolves_j());
+    let jst = matches!(stab, Stabiliser::Jst(_));
+    let d_j = !jst && j;
+    let bond = m.bond_based();
+    let mut passes = Vec::new();
+    if ghosts {
+        passes.push("ghost motion".to_string());
+    }
+    if bond {
+        passes.push("bond-based F^c (gather of u)".into());
+    }
+    passes.push(format!(
+        "kinematics (P{}, ∇0v, Ḟ{}{})",
+        if bond { "(F^c)" } else { "" },
+        if h { ", Ḣ" } else { "" },
+        if j { ", J̇" } else { "" }
+    ));
+    if ghosts {
+        passes.push(format!("ghost P{}", if d_j { ", H" } else { "" }));
+    }
+    let second = match stab {
+        Stabiliser::Jst(_) => Some("Laplacians ∇²v"),
+        Stabiliser::Upwind {
+            reconstruction: true,
+        } => Some("least-squares slopes of v, P"),
+        Stabiliser::Upwind {
+            reconstruction: false,
+        } => None,
+    };
+    if let Some(second) = second {
+        passes.push(second.into());
+        if ghosts {
+            passes.push("their ghosts".into());
+        }
+    }
+    let t = match m.momentum {
+        Momentum::Weak => "T",
+        Momentum::Symmetrised => "T symmetrised",
+    };
+    passes.push(match (jst, d_j) {
+        (true, _) => format!("forces ({t}, JST D(p))"),
+        (false, true) => format!("forces ({t}, upwind D(p), D(J))"),
+        (false, false) => format!("forces ({t}, upwind D(p))"),
+    });
+    if m.projection(case) {
+        passes.push("projection sums (per workgroup) + solve (one invocation)".into());
+        passes.push("rates (ρ0 v̇ = D(p) − T projected, BCs, u̇ = v)".into());
+    } else {
+        passes.push("rates (ρ0 v̇ = D(p) − T, BCs, u̇ = v)".into());
+    }
+    passes.join(" → ")
+}
+
+/// What distinguishes the two mixed methods; everything else of their
+/// [`MethodFamily`] is shared.
+trait MixedMethod {
+    const DESCRIPTION: &'static str;
+    const KEYS: &'static [&'static str];
+    fn options(&self) -> &MixedOptions;
+    fn stabiliser(&self) -> Stabiliser;
+    /// Checks of the stabilisation's own keys.
+    fn validate_own(&self) -> Result<(), Problem>;
+}
+
+impl MixedMethod for UpwindSpec {
+    const DESCRIPTION: &'static str = "mixed {p, F, H, J} total-Lagrangian SPH with the \
+        acoustic Riemann (upwind) stabilisation on p and J, linear reconstruction and the \
+        angular-momentum projection (Lee et al. 2018; seed 003)";
+    const KEYS: &'static [&'static str] = &[
+        "variables",
+        "projection",
+        "momentum",
+        "deformation_gradient",
+        "cfl_wave_speed",
+        "reconstruction",
+    ];
+
+    fn options(&self) -> &MixedOptions {
+        &self.mixed
+    }
+
+    fn stabiliser(&self) -> Stabiliser {
+        Stabiliser::Upwind {
+            reconstruction: self.reconstruction,
+        }
+    }
+
+    fn validate_own(&self) -> Result<(), Problem> {
+        Ok(())
+    }
+}
+
+impl MixedMethod for JstSpec {
+    const DESCRIPTION: &'static str = "mixed {p, F, H, J} total-Lagrangian SPH with \
+        Jameson–Schmidt–Turkel dissipation on p (Lee et al. 2016; seed 002 eqs 26–28)";
+    const KEYS: &'static [&'static str] = &[
+        "variables",
+        "projection",
+        "momentum",
+        "deformation_gradient",
+        "cfl_wave_speed",
+        "jst",
+    ];
+
+    fn options(&self) -> &MixedOptions {
+        &self.mixed
+    }
+
+    fn stabiliser(&self) -> Stabiliser {
+        Stabiliser::Jst(self.jst)
+    }
+
+    fn validate_own(&self) -> Result<(), Problem> {
+        non_negative("method.jst.eps2", self.jst.eps2)?;
+        non_negative("method.jst.eps4", self.jst.eps4)
+    }
+}
+
+impl<S: MixedMethod> MethodFamily for S {
+    const DESCRIPTION: &'static str = S::DESCRIPTION;
+    const KEYS: &'static [&'static str] = S::KEYS;
+    const FEATURES: &'static [Feature] = &[Feature::MirrorPlanes, Feature::Plasticity];
+
+    fn validate(&self, case: &Case) -> Result<(), Problem> {
+        self.validate_own()?;
+        validate(self.options(), case)
+    }
+
+    fn plan(&self, case: &Case, gpu: bool) -> Plan {
+        plan(self.options(), self.stabiliser(), case, gpu)
+    }
+
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> Result<Box<dyn Engine<D>>, CaseError> {
+        Ok(Box::new(CpuEngine::<D, MixedSph<D>>::new(case)?))
+    }
+
+    #[cfg(feature = "gpu")]
+    fn gpu_engine<D: EngineDim>(
+        &self,
+        case: &Case,
+        gpu: crate::gpu::Gpu,
+    ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
+        Ok(Box::new(GpuMixed::<D>::new(case, gpu)?))
+    }
+
+    /// c_p/λ²_min: the per-pair step of seed 002 eqs 31–32 falls as r_ab λ_ab, and
+    /// r_ab ≥ λ_min |X_ab| for a locally affine motion.
+    fn stretch_signal_speed<D: Dim>(&self, c_p: f64, f: D::T) -> f64 {
+        c_p / smallest_stretch_squared::<D>(f)
+    }
+}

@@ -1,0 +1,75 @@
+//! The angular-momentum-preserving projection of seed 003 Appendix B.
+
+use crate::methods::shared::MIN_CHUNK;
+use crate::tensor::Dim;
+use rayon::prelude::*;
+
+/// The balance of a per-volume force field f_a about the points 𝒳_a (seed 003 eqs
+/// B.2–B.5): f̂_a = f_a + λ × (𝒳_a − c) + μ removes its net force and moment. With the
+/// V-weighted centroid c the 6×6 system of eq B.4 decouples into μ = −Σ V f / Σ V and
+/// I_c λ = −Σ V r × f, I_c = Σ V (|r|² I − r ⊗ r), r = 𝒳 − c; c and I_c⁻¹ depend on the
+/// points only and serve every field projected about them.
+pub struct Balance<'a, D: Dim> {
+    points: &'a [D::V],
+    vol: &'a [f64],
+    total_vol: f64,
+    centroid: D::V,
+    /// I_c⁻¹ (2D: only the zz entry, 1/Σ V |r|², is used).
+    inertia_inv: glam::DMat3,
+}
+
+impl<'a, D: Dim> Balance<'a, D> {
+    pub fn new(points: &'a [D::V], vol: &'a [f64]) -> Self {
+        let total_vol: f64 = vol.iter().sum();
+        let centroid = points
+            .iter()
+            .zip(vol)
+            .fold(D::zero(), |c, (&x, &v)| c + x * v)
+            * (1.0 / total_vol);
+        let inertia = (0..points.len())
+            .into_par_iter()
+            .map(|a| {
+                let r = glam::DVec3::from_array(D::to3(points[a] - centroid));
+                (glam::DMat3::IDENTITY * r.length_squared()
+                    - glam::DMat3::from_cols(r * r.x, r * r.y, r * r.z))
+                    * vol[a]
+            })
+            .reduce(|| glam::DMat3::ZERO, |x, y| x + y);
+        let inertia_inv = if D::N == 2 {
+            glam::DMat3::from_diagonal(glam::DVec3::new(0.0, 0.0, 1.0 / inertia.z_axis.z))
+        } else {
+            inertia.inverse()
+        };
+        Self {
+            points,
+            vol,
+            total_vol,
+            centroid,
+            inertia_inv,
+        }
+    }
+
+    /// Projects f in place.
+    pub fn project(&self, f: &mut [D::V]) {
+        let (points, vol, c) = (self.points, self.vol, self.centroid);
+        let (net, moment) = (0..f.len())
+            .into_par_iter()
+            .map(|a| {
+                let m = glam::DVec3::from_array(D::cross3(points[a] - c, f[a]));
+                (f[a] * vol[a], m * vol[a])
+            })
+            .reduce(
+                || (D::zero(), glam::DVec3::ZERO),
+                |x, y| (x.0 + y.0, x.1 + y.1),
+            );
+        let mu = net * (-1.0 / self.total_vol);
+        let lambda = -(self.inertia_inv * moment);
+        f.par_iter_mut()
+            .with_min_len(MIN_CHUNK)
+            .zip(points)
+            .for_each(|(f, &x)| {
+                let turn = lambda.cross(glam::DVec3::from_array(D::to3(x - c)));
+                *f += D::from_slice(&turn.to_array()) + mu;
+            });
+    }
+}

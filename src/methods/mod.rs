@@ -1,0 +1,456 @@
+//! Particle methods, one folder each, and the registry the driver reaches them through.
+//!
+//! A method is its typed spec (the keys of the case's `[method]` table that it reads, with
+//! its defaults), a [`MethodFamily`] implementation on that spec (validation, the
+//! `--explain` plan, the CPU and GPU engines, blow-up attribution), its CPU system and its
+//! GPU engine. The driver, the command line, validation, benchmarks and studies go through
+//! [`MethodSpec`] and [`REGISTRY`] and never name a method: adding one is a folder here
+//! and one line in [`registry!`].
+
+pub mod mixed;
+pub mod shared;
+pub mod tlsph;
+
+pub use shared::{BlowUp, Method, check_motion};
+
+use crate::correction::CorrectionKind;
+use crate::integrate::IntegratorKind;
+use crate::kernel::KernelKind;
+use crate::run::{Engine, EngineDim};
+use crate::scene::{Case, CaseError};
+use crate::tensor::Dim;
+use serde::de::{self, DeserializeSeed, MapAccess, Visitor};
+use serde::{Deserialize, Deserializer, Serialize};
+use std::fmt;
+use std::sync::OnceLock;
+use toml::{Table, Value};
+
+/// A check that failed: the dotted key and what is wrong with it.
+pub type Problem = (String, String);
+
+/// Scene features a method may or may not run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Feature {
+    /// Penalty contact between bodies (`[contact]`).
+    Contact,
+    /// Symmetry planes closed by ghost particles (`[[mirror]]`).
+    MirrorPlanes,
+    /// A material with a plastic history (`von-mises-plastic`).
+    Plasticity,
+}
+
+/// What a run of a method does, for `meshless run --explain`.
+#[derive(Clone, Debug, Default)]
+pub struct Plan {
+    /// What is built once on the reference configuration.
+    pub once: String,
+    /// The integrated state.
+    pub state: String,
+    /// The adaptive step rule, for `method.cfl`.
+    pub cfl_step: String,
+    /// One rate evaluation (the GPU passes, or the CPU's gathers).
+    pub rates: String,
+    /// Per-particle quantities checked besides finiteness (`det F`, `J`).
+    pub checked: &'static str,
+    /// A remark on the host checks, if any.
+    pub check_note: String,
+    /// What this scene leaves out of the method.
+    pub left_out: Vec<&'static str>,
+}
+
+/// What the driver needs from a method. Implemented by the method's typed spec.
+pub trait MethodFamily: Sized {
+    /// One line for `meshless list`.
+    const DESCRIPTION: &'static str;
+    /// The `[method]` keys this method reads besides [`COMMON_KEYS`].
+    const KEYS: &'static [&'static str];
+    /// The scene features it runs.
+    const FEATURES: &'static [Feature];
+
+    /// Checks of the case that concern this method (its keys, model, correction).
+    fn validate(&self, case: &Case) -> Result<(), Problem>;
+
+    /// The method's part of the run plan; `gpu` selects the GPU passes.
+    fn plan(&self, case: &Case, gpu: bool) -> Plan;
+
+    /// The CPU reference engine (f64, rayon).
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> Result<Box<dyn Engine<D>>, CaseError>;
+
+    /// The GPU engine (wgpu, f32).
+    #[cfg(feature = "gpu")]
+    fn gpu_engine<D: EngineDim>(
+        &self,
+        case: &Case,
+        gpu: crate::gpu::Gpu,
+    ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError>;
+
+    /// The stretch-dependent part of a particle's signal speed in the method's CFL step
+    /// (beyond |v|), with c_p the linear p-wave speed and F the particle's deformation
+    /// gradient: it names the particle a collapse of the step is attributed to.
+    fn stretch_signal_speed<D: Dim>(&self, c_p: f64, f: D::T) -> f64;
+}
+
+/// A method as listed: its name and what its spec declares.
+#[derive(Clone, Copy, Debug)]
+pub struct Entry {
+    /// The name in case files, `meshless list`, summaries and docs.
+    pub name: &'static str,
+    pub description: &'static str,
+    pub keys: &'static [&'static str],
+    pub features: &'static [Feature],
+}
+
+impl Entry {
+    const fn of<S: MethodFamily>(name: &'static str) -> Self {
+        Self {
+            name,
+            description: S::DESCRIPTION,
+            keys: S::KEYS,
+            features: S::FEATURES,
+        }
+    }
+
+    /// Whether the method reads `key` of the `[method]` table.
+    pub fn reads(&self, key: &str) -> bool {
+        key == "name" || COMMON_KEYS.contains(&key) || self.keys.contains(&key)
+    }
+}
+
+/// The methods: one line each, `"case-file name" => Variant(spec type)`.
+macro_rules! registry {
+    ($($name:literal => $variant:ident($spec:ty)),* $(,)?) => {
+        /// The method of a case with its own keys, tagged by `name` in case files.
+        #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+        #[serde(tag = "name")]
+        pub enum MethodSpec {
+            $(#[serde(rename = $name)] $variant($spec)),*
+        }
+
+        /// Every method, in the order `meshless list` shows them.
+        pub const REGISTRY: &[Entry] = &[$(Entry::of::<$spec>($name)),*];
+
+        /// The case-file names of the methods.
+        const NAMES: &[&str] = &[$($name),*];
+
+        impl MethodSpec {
+            /// The registry entry of this method.
+            pub fn entry(&self) -> &'static Entry {
+                let name = match self {
+                    $(Self::$variant(_) => $name),*
+                };
+                entry(name).expect("every spec is registered")
+            }
+
+            pub fn validate(&self, case: &Case) -> Result<(), Problem> {
+                match self {
+                    $(Self::$variant(s) => s.validate(case)),*
+                }
+            }
+
+            pub fn plan(&self, case: &Case, gpu: bool) -> Plan {
+                match self {
+                    $(Self::$variant(s) => s.plan(case, gpu)),*
+                }
+            }
+
+            pub fn cpu_engine<D: EngineDim>(
+                &self,
+                case: &Case,
+            ) -> Result<Box<dyn Engine<D>>, CaseError> {
+                match self {
+                    $(Self::$variant(s) => s.cpu_engine::<D>(case)),*
+                }
+            }
+
+            #[cfg(feature = "gpu")]
+            pub fn gpu_engine<D: EngineDim>(
+                &self,
+                case: &Case,
+                gpu: crate::gpu::Gpu,
+            ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
+                match self {
+                    $(Self::$variant(s) => s.gpu_engine::<D>(case, gpu)),*
+                }
+            }
+
+            pub fn stretch_signal_speed<D: Dim>(&self, c_p: f64, f: D::T) -> f64 {
+                match self {
+                    $(Self::$variant(s) => s.stretch_signal_speed::<D>(c_p, f)),*
+                }
+            }
+        }
+    };
+}
+
+registry! {
+    "tlsph" => Tlsph(tlsph::TlsphSpec),
+    "upwind-sph" => UpwindSph(mixed::UpwindSpec),
+    "jst-sph" => JstSph(mixed::JstSpec),
+}
+
+/// The registry entry of a case-file method name.
+pub fn entry(name: &str) -> Option<&'static Entry> {
+    REGISTRY.iter().find(|e| e.name == name)
+}
+
+/// `a`, `b` and `c`: method names as a message lists them.
+pub fn quoted(names: impl IntoIterator<Item = &'static str>) -> String {
+    names
+        .into_iter()
+        .map(|n| format!("`{n}`"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The methods that run a scene feature.
+pub fn supporting(feature: Feature) -> impl Iterator<Item = &'static str> {
+    REGISTRY
+        .iter()
+        .filter(move |e| e.features.contains(&feature))
+        .map(|e| e.name)
+}
+
+/// The keys of `[method]` that every method reads.
+pub const COMMON_KEYS: &[&str] = &[
+    "kernel",
+    "h_over_dx",
+    "correction",
+    "integrator",
+    "dt",
+    "cfl",
+];
+
+/// The `[method]` table of a case: the keys every method reads, and the method's spec.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct MethodTable {
+    pub kernel: KernelKind,
+    /// Smoothing length over particle spacing.
+    pub h_over_dx: f64,
+    pub correction: CorrectionKind,
+    pub integrator: IntegratorKind,
+    /// Fixed time step [s]; exactly one of `dt` and `cfl` is given.
+    pub dt: Option<f64>,
+    /// Courant number of the adaptive step (each method states its signal speed).
+    pub cfl: Option<f64>,
+    #[serde(flatten)]
+    pub spec: MethodSpec,
+    /// Keys of other methods found in the table (well-typed for those methods), which
+    /// validation reports with the methods that read them.
+    #[serde(skip)]
+    pub foreign: Vec<String>,
+}
+
+impl MethodTable {
+    /// The case-file name of the method.
+    pub fn name(&self) -> &'static str {
+        self.spec.entry().name
+    }
+}
+
+/// The keys every method reads, with their defaults.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CommonKeys {
+    #[serde(default = "default_kernel")]
+    kernel: KernelKind,
+    h_over_dx: f64,
+    #[serde(default = "default_correction")]
+    correction: CorrectionKind,
+    #[serde(default = "default_integrator")]
+    integrator: IntegratorKind,
+    dt: Option<f64>,
+    cfl: Option<f64>,
+}
+
+fn default_kernel() -> KernelKind {
+    KernelKind::CubicSpline
+}
+fn default_correction() -> CorrectionKind {
+    CorrectionKind::RandlesLibersky
+}
+fn default_integrator() -> IntegratorKind {
+    IntegratorKind::Rk4
+}
+
+/// Every key any method reads, for the unknown-key message.
+fn all_keys() -> &'static [&'static str] {
+    static KEYS: OnceLock<Vec<&'static str>> = OnceLock::new();
+    KEYS.get_or_init(|| {
+        let mut keys = vec!["name"];
+        keys.extend(COMMON_KEYS);
+        for e in REGISTRY {
+            for k in e.keys {
+                if !keys.contains(k) {
+                    keys.push(k);
+                }
+            }
+        }
+        keys
+    })
+}
+
+/// A key of `[method]`: rejected at its own position in the file unless some method
+/// reads it.
+struct KeySeed;
+
+impl<'de> DeserializeSeed<'de> for KeySeed {
+    type Value = String;
+    fn deserialize<De: Deserializer<'de>>(self, d: De) -> Result<String, De::Error> {
+        let key = String::deserialize(d)?;
+        if all_keys().contains(&key.as_str()) {
+            Ok(key)
+        } else {
+            Err(de::Error::unknown_field(&key, all_keys()))
+        }
+    }
+}
+
+/// The method name: rejected at its own position unless registered.
+struct NameSeed;
+
+impl<'de> DeserializeSeed<'de> for NameSeed {
+    type Value = String;
+    fn deserialize<De: Deserializer<'de>>(self, d: De) -> Result<String, De::Error> {
+        let name = String::deserialize(d)?;
+        if entry(&name).is_some() {
+            Ok(name)
+        } else {
+            Err(de::Error::unknown_variant(&name, NAMES))
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for MethodTable {
+    fn deserialize<De: Deserializer<'de>>(d: De) -> Result<Self, De::Error> {
+        d.deserialize_map(TableVisitor)
+    }
+}
+
+struct TableVisitor;
+
+impl<'de> Visitor<'de> for TableVisitor {
+    type Value = MethodTable;
+
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str("the [method] table")
+    }
+
+    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<MethodTable, A::Error> {
+        let mut name = None;
+        let mut rest = Table::new();
+        while let Some(key) = map.next_key_seed(KeySeed)? {
+            if key == "name" {
+                name = Some(map.next_value_seed(NameSeed)?);
+            } else {
+                let value: Value = map.next_value()?;
+                rest.insert(key, value);
+            }
+        }
+        let name = name.ok_or_else(|| de::Error::missing_field("name"))?;
+        MethodTable::split(&name, rest).map_err(de::Error::custom)
+    }
+}
+
+impl MethodTable {
+    /// The table of method `name` from its other keys: the common keys, the method's own
+    /// (into its spec) and those of other methods (type-checked against their methods'
+    /// specs and kept as `foreign`).
+    fn split(name: &str, rest: Table) -> Result<Self, String> {
+        let entry = entry(name).expect("the name seed accepts registered names only");
+        let (mut common, mut own, mut foreign) = (Table::new(), Table::new(), Vec::new());
+        own.insert("name".into(), Value::String(name.into()));
+        for (key, value) in rest {
+            if COMMON_KEYS.contains(&key.as_str()) {
+                common.insert(key, value);
+            } else if entry.keys.contains(&key.as_str()) {
+                own.insert(key, value);
+            } else {
+                let owner = REGISTRY
+                    .iter()
+                    .find(|e| e.keys.contains(&key.as_str()))
+                    .expect("the key seed accepts registered keys only");
+                let mut alone = Table::new();
+                alone.insert("name".into(), Value::String(owner.name.into()));
+                alone.insert(key.clone(), value);
+                MethodSpec::deserialize(Value::Table(alone))
+                    .map_err(|e| format!("`method.{key}` (a key of `{}`): {e}", owner.name))?;
+                foreign.push(key);
+            }
+        }
+        let c = CommonKeys::deserialize(Value::Table(common)).map_err(|e| e.to_string())?;
+        let spec = MethodSpec::deserialize(Value::Table(own)).map_err(|e| e.to_string())?;
+        Ok(Self {
+            kernel: c.kernel,
+            h_over_dx: c.h_over_dx,
+            correction: c.correction,
+            integrator: c.integrator,
+            dt: c.dt,
+            cfl: c.cfl,
+            spec,
+            foreign,
+        })
+    }
+}
+
+/// Drops from a `[method]` table the keys that method `name` does not read, except those
+/// in `kept`; returns the dropped keys. This is what `--set method.name=X` does to the
+/// keys of the previous method.
+pub fn drop_foreign_keys(table: &mut Table, name: &str, kept: &[String]) -> Vec<String> {
+    let Some(entry) = entry(name) else {
+        return Vec::new();
+    };
+    let dropped: Vec<String> = table
+        .keys()
+        .filter(|k| !entry.reads(k) && !kept.contains(k))
+        .cloned()
+        .collect();
+    for key in &dropped {
+        table.remove(key);
+    }
+    dropped
+}
+
+/// The error of a system built for a case that names another method.
+pub fn not_run_by(case: &Case, system: &str) -> CaseError {
+    case.invalid(
+        "method.name",
+        format!("{system} does not run `{}`", case.method.name()),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_registered_key_is_read_by_its_spec() {
+        // Each key a method declares must deserialize into its spec: a key listed but
+        // not read would be accepted and ignored.
+        for e in REGISTRY {
+            for key in e.keys {
+                let mut t = Table::new();
+                t.insert("name".into(), Value::String(e.name.into()));
+                t.insert((*key).into(), Value::String("no such value".into()));
+                let err = MethodSpec::deserialize(Value::Table(t))
+                    .expect_err("a string where the key wants another value");
+                assert!(
+                    !err.to_string().contains("unknown field"),
+                    "{}: `{key}` is declared but not a field: {err}",
+                    e.name
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn names_are_unique() {
+        for (i, a) in REGISTRY.iter().enumerate() {
+            assert!(REGISTRY[i + 1..].iter().all(|b| b.name != a.name));
+            assert!(
+                !COMMON_KEYS.iter().any(|k| a.keys.contains(k)),
+                "{}",
+                a.name
+            );
+        }
+    }
+}

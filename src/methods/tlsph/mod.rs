@@ -1,0 +1,115 @@
+//! Total-Lagrangian SPH after Reveles (seed 000 §5.3): the spec, the CPU system
+//! ([`system`]) and the GPU engine ([`gpu`]). Numerics notes: `docs/methods/tlsph.md`.
+
+#[cfg(feature = "gpu")]
+pub mod gpu;
+pub mod system;
+
+#[cfg(feature = "gpu")]
+pub use gpu::GpuTlsph;
+pub use system::{TlState, Tlsph};
+
+use super::{Feature, MethodFamily, Plan, Problem};
+use crate::material::Material;
+use crate::run::{CpuEngine, Engine, EngineDim};
+use crate::scene::Case;
+use crate::scene::validate::non_negative;
+use crate::tensor::Dim;
+use serde::{Deserialize, Serialize};
+
+/// Monaghan artificial viscosity Π_ij = (−α c̄ μ_ij + β μ_ij²)/ρ̄_ij (seed 000 §3.1 step 6).
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ArtificialViscosity {
+    pub alpha: f64,
+    pub beta: f64,
+    #[serde(default = "default_eta")]
+    pub eta: f64,
+}
+
+fn default_eta() -> f64 {
+    0.1
+}
+
+/// The `[method]` keys of TLSPH.
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
+pub struct TlsphSpec {
+    /// Monaghan artificial viscosity; none when absent.
+    pub artificial_viscosity: Option<ArtificialViscosity>,
+}
+
+/// One rate evaluation on the GPU, as `--explain` prints it.
+const GPU_RATES: &str = "stress pass (F, P, ρ̇, Ṡ) + acceleration pass (a, u̇ = v, BCs)";
+
+impl MethodFamily for TlsphSpec {
+    const DESCRIPTION: &'static str = "total-Lagrangian SPH (Reveles; seed 000 §5.3): corrected \
+        reference kernel, rate- or state-based stress, Monaghan artificial viscosity";
+    const KEYS: &'static [&'static str] = &["artificial_viscosity"];
+    const FEATURES: &'static [Feature] = &[Feature::Contact];
+
+    fn validate(&self, _case: &Case) -> Result<(), Problem> {
+        if let Some(ArtificialViscosity { alpha, beta, eta }) = self.artificial_viscosity {
+            non_negative("method.artificial_viscosity.alpha", alpha)?;
+            non_negative("method.artificial_viscosity.beta", beta)?;
+            non_negative("method.artificial_viscosity.eta", eta)?;
+        }
+        Ok(())
+    }
+
+    fn plan(&self, case: &Case, gpu: bool) -> Plan {
+        let mat = Material::new(&case.material);
+        let rate = mat.model.is_rate_based();
+        let mut left_out = Vec::new();
+        if self.artificial_viscosity.is_none() {
+            left_out.push("artificial viscosity");
+        }
+        left_out.push(if rate {
+            "P(F) evaluation"
+        } else {
+            "continuity and Jaumann rates"
+        });
+        Plan {
+            once: "once, on the reference configuration: cell-list neighbours (CSR), corrected \
+                   gradients ∇0W̃_ij"
+                .into(),
+            state: if rate {
+                "u, v, ρ, S (rate model: Jaumann + linear EOS)".into()
+            } else {
+                format!("u, v (state model {:?}: no ρ or S integrated)", mat.model)
+            },
+            cfl_step: format!(
+                "Δt = cfl·Δx/(c_p + max|v|), c_p = {:.1} m/s",
+                mat.p_wave_speed()
+            ),
+            rates: if gpu {
+                GPU_RATES.into()
+            } else {
+                "two gathers: F and P, then the accelerations".into()
+            },
+            checked: "det F",
+            check_note: String::new(),
+            left_out,
+        }
+    }
+
+    fn cpu_engine<D: EngineDim>(
+        &self,
+        case: &Case,
+    ) -> Result<Box<dyn Engine<D>>, crate::scene::CaseError> {
+        Ok(Box::new(CpuEngine::<D, Tlsph<D>>::new(case)?))
+    }
+
+    #[cfg(feature = "gpu")]
+    fn gpu_engine<D: EngineDim>(
+        &self,
+        case: &Case,
+        gpu: crate::gpu::Gpu,
+    ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
+        Ok(Box::new(GpuTlsph::<D>::new(case, gpu)?))
+    }
+
+    /// TLSPH's step Δt = α Δx/(c_p + max|v|) does not depend on the stretch.
+    fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
+        0.0
+    }
+}

@@ -1,0 +1,53 @@
+//! Blow-up attribution of the driver's checks: the particle and quantity a failure of
+//! the energy bound, the hourglass limit or the CFL step is reported at.
+
+use crate::material::Material;
+use crate::methods::BlowUp;
+use crate::observe::Snapshot;
+use crate::scene::Case;
+use crate::tensor::Dim;
+
+/// Energy-growth failure, attributed to the particle with the largest kinetic energy.
+pub(super) fn energy_blow_up<D: Dim>(snap: &Snapshot<D>, energy: f64, bound: f64) -> BlowUp {
+    let (v, m) = (&snap.v, snap.mass);
+    let i = (0..m.len())
+        .max_by(|&a, &b| (m[a] * D::norm2(v[a])).total_cmp(&(m[b] * D::norm2(v[b]))))
+        .unwrap_or(0);
+    BlowUp {
+        particle: i,
+        position: D::to3(snap.x0[i]),
+        quantity: format!("total energy (bound {bound:e}, fastest particle shown)"),
+        value: energy,
+    }
+}
+
+/// Hourglass failure: the particle with the largest η, when η exceeds the limit.
+pub(super) fn hourglass_blow_up<D: Dim>(
+    snap: &Snapshot<D>,
+    eta: &[f64],
+    limit: f64,
+) -> Option<BlowUp> {
+    let (i, &worst) = eta.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1))?;
+    (worst > limit).then(|| {
+        let quantity = format!("hourglass indicator η (run.hourglass_limit = {limit})");
+        BlowUp::at::<D>(snap.x0, i, &quantity, worst)
+    })
+}
+
+/// Collapse of the CFL step below `floor`, attributed to the particle with the largest
+/// signal-speed estimate: the method's stretch-dependent part
+/// ([`crate::methods::MethodFamily::stretch_signal_speed`]) plus |v|.
+pub(super) fn step_collapse<D: Dim>(case: &Case, snap: &Snapshot<D>, floor: f64) -> BlowUp {
+    let c_p = Material::new(&case.material).p_wave_speed();
+    let speed = |i: usize| {
+        case.method.spec.stretch_signal_speed::<D>(c_p, snap.f[i]) + D::norm2(snap.v[i]).sqrt()
+    };
+    let i = (0..snap.v.len())
+        .max_by(|&a, &b| speed(a).total_cmp(&speed(b)))
+        .unwrap_or(0);
+    let quantity = format!(
+        "collapse of the CFL step (below run.min_step_ratio × the first step = {floor:e} s); \
+         signal speed [m/s] of the fastest particle"
+    );
+    BlowUp::at::<D>(snap.x0, i, &quantity, speed(i))
+}

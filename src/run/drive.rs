@@ -1,0 +1,217 @@
+//! The time loop: steps between events (samples, frames, checks, the end), the blow-up
+//! checks, outputs and the summary.
+
+use super::checks::{energy_blow_up, hourglass_blow_up, step_collapse};
+use super::frames::Frames;
+use super::{Engine, RunError, RunOptions};
+use crate::hourglass::HourglassIndicator;
+use crate::observe::{Clock, Invariants, Observers, Snapshot};
+use crate::output::{RunSummary, SeriesWriter, write_summary};
+use crate::scene::Case;
+use crate::tensor::Dim;
+use indicatif::{ProgressBar, ProgressStyle};
+use std::time::Instant;
+
+/// Steps between blow-up checks (and CFL updates) when samples are rarer.
+pub(super) const CHECK_EVERY: u64 = 100;
+
+/// Time-step size: fixed, or from the CFL number.
+fn time_step<D: Dim>(case: &Case, engine: &mut impl Engine<D>) -> f64 {
+    match (case.method.dt, case.method.cfl) {
+        (Some(dt), _) => dt,
+        (None, Some(cfl)) => cfl * case.spacing / engine.max_signal_speed(),
+        (None, None) => unreachable!("validation requires dt or cfl"),
+    }
+}
+
+/// Runs an engine to the end time with observers, frames, checks and the summary.
+pub fn drive<D: Dim, E: Engine<D>>(
+    case: &Case,
+    opts: &RunOptions,
+    mut engine: E,
+) -> Result<RunSummary, RunError> {
+    let observers = Observers::new::<D>(case, engine.reference(), engine.constrained())?;
+    std::fs::create_dir_all(&opts.out_dir)?;
+    let mut series =
+        SeriesWriter::create(&opts.out_dir.join("series.csv"), observers.column_names())?;
+    let mut frames = Frames::new(case, opts)?;
+    // η of every particle, evaluated at an output only when a frame, a series row with the
+    // observer or the limit needs it.
+    let hourglass =
+        (frames.on() || observers.need_hourglass() || case.run.hourglass_limit.is_some())
+            .then(|| HourglassIndicator::new::<D>(case, engine.reference()));
+    let eta_of = |snap: &Snapshot<D>, frame: bool, row: bool| {
+        let needed =
+            frame || (row && observers.need_hourglass()) || case.run.hourglass_limit.is_some();
+        hourglass
+            .as_ref()
+            .filter(|_| needed)
+            .map(|h| h.of::<D>(snap.x0, &snap.u, &snap.f))
+    };
+    let backend = engine.backend();
+    if opts.progress {
+        eprintln!(
+            "{}: {} particles on {backend}",
+            case.name,
+            engine.reference().len()
+        );
+    }
+
+    let n = engine.reference().len();
+    let t_end = case.run.end_time;
+    let done = |t: f64| t >= t_end * (1.0 - 1e-12);
+    let mut clock = Clock {
+        dt: time_step(case, &mut engine),
+        ..Clock::default()
+    };
+    let dt_first = clock.dt;
+    let progress = progress_bar(opts.progress, case);
+    let started = Instant::now();
+
+    let snap = engine.snapshot();
+    let inv0 = Invariants::of(&snap);
+    let eta = eta_of(&snap, frames.will_write(0.0, true), true);
+    series.write_row(&observers.sample(&snap, &inv0, &clock, eta.as_deref()))?;
+    frames.write(&snap, 0.0, true, eta.as_deref())?;
+    drop(snap);
+    let series_every = case.output.series_interval.unwrap_or(0.0);
+    let mut next_sample = series_every;
+
+    let failure = loop {
+        let Clock { t, step, .. } = clock;
+        if done(t) {
+            break None;
+        }
+        let dt = time_step(case, &mut engine);
+        if let Some(ratio) = case.run.min_step_ratio
+            && dt < ratio * dt_first
+        {
+            break Some(step_collapse::<D>(
+                case,
+                &engine.snapshot(),
+                ratio * dt_first,
+            ));
+        }
+        // Steps to the next sample, frame, check or the end, whichever comes first.
+        let to_event = [next_sample, frames.next_time(), t_end]
+            .into_iter()
+            .map(|te| ((te - t) / dt - 0.5).ceil().max(1.0))
+            .fold(CHECK_EVERY as f64, f64::min) as u32;
+        let (steps, dt) = if t + f64::from(to_event) * dt > t_end {
+            // Land on the end time: whole steps of dt, then one shorter step.
+            let whole = ((t_end - t) / dt).floor() as u32;
+            if whole == 0 {
+                (1, t_end - t)
+            } else {
+                (whole, dt)
+            }
+        } else {
+            (to_event, dt)
+        };
+        if let Err(cause) = engine.advance(t, dt, steps) {
+            break Some(cause);
+        }
+        clock = Clock {
+            t: t + f64::from(steps) * dt,
+            step: step + u64::from(steps),
+            dt,
+            external_work: engine.external_work(),
+        };
+        let t = clock.t;
+        if let Err(cause) = engine.check() {
+            break Some(cause);
+        }
+        // The full state is read (and F, σ evaluated) only when a row or frame is due;
+        // other checks use the engine's invariants (a reduction on the GPU).
+        let sample = t + 0.5 * dt >= next_sample || done(t);
+        let output = sample || frames.due(t) || done(t);
+        let bound =
+            case.run.energy_growth_limit * (inv0.total_energy() + clock.external_work.max(0.0));
+        let too_much = |inv: &Invariants| inv.total_energy() > bound && bound > 0.0;
+        if output {
+            let snap = engine.snapshot();
+            let inv = Invariants::of(&snap);
+            if too_much(&inv) {
+                break Some(energy_blow_up::<D>(&snap, inv.total_energy(), bound));
+            }
+            let eta = eta_of(&snap, frames.will_write(t, done(t)), sample);
+            if let (Some(limit), Some(eta)) = (case.run.hourglass_limit, &eta)
+                && let Some(cause) = hourglass_blow_up::<D>(&snap, eta, limit)
+            {
+                break Some(cause);
+            }
+            if sample {
+                series.write_row(&observers.sample(&snap, &inv, &clock, eta.as_deref()))?;
+                next_sample = t + series_every;
+            }
+            frames.write(&snap, t, done(t), eta.as_deref())?;
+        } else {
+            let inv = engine.invariants();
+            if too_much(&inv) {
+                break Some(energy_blow_up::<D>(
+                    &engine.snapshot(),
+                    inv.total_energy(),
+                    bound,
+                ));
+            }
+        }
+        progress.set_position((t / t_end * 1000.0) as u64);
+        let rate = (n as f64 * clock.step as f64) / started.elapsed().as_secs_f64();
+        progress.set_message(format!(
+            "step {}, t = {t:.4e} s, {rate:.3e} particle-steps/s",
+            clock.step
+        ));
+    };
+    progress.finish_and_clear();
+
+    let Clock { t, step, dt, .. } = clock;
+    let wall = started.elapsed().as_secs_f64();
+    let inv = engine.invariants();
+    let summary = RunSummary {
+        case: case.name.clone(),
+        method: case.method.name().to_string(),
+        backend,
+        dimension: case.dimension,
+        particles: n,
+        steps: step,
+        dt_last: dt,
+        end_time: t,
+        wall_seconds: wall,
+        particle_steps_per_second: n as f64 * step as f64 / wall.max(1e-12),
+        status: if failure.is_some() {
+            "failed"
+        } else {
+            "completed"
+        }
+        .into(),
+        failure: failure
+            .as_ref()
+            .map(|c| format!("by step {step}, t = {t:e} s: {c}")),
+        final_invariants: inv.named::<D>(),
+    };
+    write_summary(&opts.out_dir.join("summary.json"), &summary)?;
+    match failure {
+        Some(cause) => Err(RunError::BlowUp {
+            step,
+            time: t,
+            cause,
+            out_dir: opts.out_dir.clone(),
+        }),
+        None => Ok(summary),
+    }
+}
+
+fn progress_bar(show: bool, case: &Case) -> ProgressBar {
+    if !show {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::new(1000);
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{prefix} [{elapsed_precise}] {wide_bar} {percent}% eta {eta} {msg}",
+        )
+        .expect("static progress template is valid"),
+    );
+    bar.set_prefix(case.name.clone());
+    bar
+}

@@ -1,0 +1,192 @@
+//! Engines: what the driver steps, and the factory that builds a case's engine through
+//! its method's spec.
+
+use super::{Backend, RunError};
+#[cfg(feature = "gpu")]
+use crate::gpu::{Gpu, SetupError};
+use crate::integrate::Integrator;
+use crate::methods::{BlowUp, Method};
+use crate::observe::{Invariants, Snapshot};
+use crate::scene::{Case, CaseError, discretise};
+use crate::tensor::Dim;
+
+/// The dimensions an engine runs in: [`Dim`], and with the GPU backend its WGSL layouts.
+#[cfg(feature = "gpu")]
+pub trait EngineDim: crate::gpu::GpuDim {}
+#[cfg(feature = "gpu")]
+impl<D: crate::gpu::GpuDim> EngineDim for D {}
+/// The dimensions an engine runs in.
+#[cfg(not(feature = "gpu"))]
+pub trait EngineDim: Dim {}
+#[cfg(not(feature = "gpu"))]
+impl<D: Dim> EngineDim for D {}
+
+/// Builds the CPU system `M` of a case.
+pub fn build_method<D: Dim, M: Method<D>>(case: &Case) -> Result<M, CaseError> {
+    M::build(case, discretise::<D>(case)?)
+}
+
+/// The engine a case runs on: the GPU when `backend` asks for it (or `auto` finds an
+/// adapter), the CPU otherwise. Every method has both; the method's spec builds them.
+pub fn engine<D: EngineDim>(case: &Case, backend: Backend) -> Result<Box<dyn Engine<D>>, RunError> {
+    let spec = &case.method.spec;
+    match gpu(backend)? {
+        #[cfg(feature = "gpu")]
+        Some(gpu) => spec.gpu_engine::<D>(case, gpu).map_err(|e| match e {
+            SetupError::Case(c) => RunError::Case(c),
+            SetupError::Gpu(g) => RunError::Backend(g.to_string()),
+        }),
+        _ => Ok(spec.cpu_engine::<D>(case)?),
+    }
+}
+
+/// The GPU a backend choice asks for: none for `cpu`, an error for `gpu` without an
+/// adapter, and for `auto` the adapter if there is one.
+#[cfg(feature = "gpu")]
+fn gpu(backend: Backend) -> Result<Option<Gpu>, RunError> {
+    Ok(match backend {
+        Backend::Cpu => None,
+        Backend::Gpu => Some(Gpu::new().map_err(|e| RunError::Backend(e.to_string()))?),
+        Backend::Auto => Gpu::new()
+            .inspect_err(|e| eprintln!("note: {e}; running on the CPU (rayon, f64)"))
+            .ok(),
+    })
+}
+
+/// Without the GPU backend: the CPU for `cpu` and `auto`, an error for `gpu`.
+#[cfg(not(feature = "gpu"))]
+fn gpu(backend: Backend) -> Result<Option<std::convert::Infallible>, RunError> {
+    match backend {
+        Backend::Gpu => Err(RunError::Backend(
+            "this build has no GPU backend (cargo feature `gpu`); use --backend cpu".into(),
+        )),
+        Backend::Cpu | Backend::Auto => Ok(None),
+    }
+}
+
+/// A time stepper the driver runs: the CPU method with its integrator, or the GPU engine.
+pub trait Engine<D: Dim> {
+    /// "cpu", or "gpu: <adapter>".
+    fn backend(&self) -> String;
+    fn reference(&self) -> &[D::V];
+    fn constrained(&self) -> &[(u32, u8)];
+    /// Advances `steps` steps of size dt from time t.
+    fn advance(&mut self, t: f64, dt: f64, steps: u32) -> Result<(), BlowUp>;
+    /// Largest signal speed (for the CFL step Δt = α Δx / signal speed): c_p + max |v| for
+    /// TLSPH, Δx max_ab C_p,ab / r_ab + max |v| over the current pairs for the mixed
+    /// methods (seed 002 eqs 31–32).
+    fn max_signal_speed(&mut self) -> f64;
+    /// Work done on the bodies by supports and loads so far.
+    fn external_work(&mut self) -> f64;
+    /// Non-finite state or det F ≤ 0 since the start.
+    fn check(&mut self) -> Result<(), BlowUp>;
+    fn snapshot(&mut self) -> Snapshot<'_, D>;
+    /// Energies and momenta of the current state.
+    fn invariants(&mut self) -> Invariants {
+        Invariants::of(&self.snapshot())
+    }
+    /// Waits until all submitted work is done (for timing).
+    fn finish(&mut self) {}
+}
+
+/// Forwarding, so that the driver runs whichever engine [`engine`] chose.
+impl<D: Dim> Engine<D> for Box<dyn Engine<D>> {
+    fn backend(&self) -> String {
+        (**self).backend()
+    }
+    fn reference(&self) -> &[D::V] {
+        (**self).reference()
+    }
+    fn constrained(&self) -> &[(u32, u8)] {
+        (**self).constrained()
+    }
+    fn advance(&mut self, t: f64, dt: f64, steps: u32) -> Result<(), BlowUp> {
+        (**self).advance(t, dt, steps)
+    }
+    fn max_signal_speed(&mut self) -> f64 {
+        (**self).max_signal_speed()
+    }
+    fn external_work(&mut self) -> f64 {
+        (**self).external_work()
+    }
+    fn check(&mut self) -> Result<(), BlowUp> {
+        (**self).check()
+    }
+    fn snapshot(&mut self) -> Snapshot<'_, D> {
+        (**self).snapshot()
+    }
+    fn invariants(&mut self) -> Invariants {
+        (**self).invariants()
+    }
+    fn finish(&mut self) {
+        (**self).finish()
+    }
+}
+
+/// The CPU reference engine: a method and an integrator (f64, rayon).
+pub struct CpuEngine<D: Dim, M: Method<D>> {
+    pub method: M,
+    pub y: M::State,
+    integrator: Integrator<M::State>,
+    work: f64,
+    last_power: f64,
+    _dim: std::marker::PhantomData<D>,
+}
+
+impl<D: Dim, M: Method<D>> CpuEngine<D, M> {
+    pub fn new(case: &Case) -> Result<Self, CaseError> {
+        let method = build_method::<D, M>(case)?;
+        let y = method.initial_state();
+        let integrator = Integrator::new(case.method.integrator, &y);
+        Ok(Self {
+            method,
+            y,
+            integrator,
+            work: 0.0,
+            last_power: 0.0,
+            _dim: std::marker::PhantomData,
+        })
+    }
+}
+
+impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
+    fn backend(&self) -> String {
+        "cpu".into()
+    }
+
+    fn reference(&self) -> &[D::V] {
+        self.method.reference()
+    }
+
+    fn constrained(&self) -> &[(u32, u8)] {
+        self.method.constrained()
+    }
+
+    fn advance(&mut self, t: f64, dt: f64, steps: u32) -> Result<(), BlowUp> {
+        for k in 0..steps {
+            self.integrator
+                .step(&mut self.method, t + f64::from(k) * dt, dt, &mut self.y)?;
+            // Trapezoidal work of the supports and loads, from successive step powers.
+            let power = self.method.boundary_power();
+            self.work += 0.5 * (self.last_power + power) * dt;
+            self.last_power = power;
+        }
+        Ok(())
+    }
+
+    fn max_signal_speed(&mut self) -> f64 {
+        self.method.max_signal_speed(&self.y)
+    }
+
+    fn external_work(&mut self) -> f64 {
+        self.work
+    }
+
+    fn check(&mut self) -> Result<(), BlowUp> {
+        self.method.check_finite(&self.y)
+    }
+
+    fn snapshot(&mut self) -> Snapshot<'_, D> {
+        self.method.snapshot(&self.y)
+    }
+}

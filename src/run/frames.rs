@@ -1,0 +1,167 @@
+//! Output callbacks of the driver: VTU frames at their interval and the PVD index.
+
+use super::RunOptions;
+use crate::material::von_mises;
+use crate::observe::Snapshot;
+use crate::output::{Field, FieldData, PvdIndex, write_vtu};
+use crate::scene::Case;
+use crate::tensor::Dim;
+use std::path::{Path, PathBuf};
+
+/// VTU frames and their PVD index.
+pub(super) struct Frames {
+    index: Option<PvdIndex>,
+    dir: PathBuf,
+    name: String,
+    interval: Option<f64>,
+    next: f64,
+    count: usize,
+}
+
+impl Frames {
+    pub(super) fn new(case: &Case, opts: &RunOptions) -> std::io::Result<Self> {
+        let index = if opts.frames {
+            Some(PvdIndex::create(&opts.out_dir, &case.name)?)
+        } else {
+            None
+        };
+        Ok(Self {
+            index,
+            dir: opts.out_dir.clone(),
+            name: case.name.clone(),
+            interval: case.output.frame_interval,
+            next: 0.0,
+            count: 0,
+        })
+    }
+
+    /// Whether frames are written at all.
+    pub(super) fn on(&self) -> bool {
+        self.index.is_some()
+    }
+
+    /// Whether [`Self::write`] at time t writes a frame.
+    pub(super) fn will_write(&self, t: f64, force: bool) -> bool {
+        self.on() && (self.due(t) || force)
+    }
+
+    /// Time of the next frame (infinite when frames are off or have no interval).
+    pub(super) fn next_time(&self) -> f64 {
+        match (&self.index, self.interval) {
+            (Some(_), Some(_)) => self.next,
+            _ => f64::INFINITY,
+        }
+    }
+
+    /// Whether a frame is due at time t.
+    pub(super) fn due(&self, t: f64) -> bool {
+        self.index.is_some() && self.interval.is_some() && t >= self.next * (1.0 - 1e-9)
+    }
+
+    /// Writes a frame when one is due (or `force`); `eta` is the hourglass indicator,
+    /// given whenever [`Self::will_write`].
+    pub(super) fn write<D: Dim>(
+        &mut self,
+        snap: &Snapshot<D>,
+        t: f64,
+        force: bool,
+        eta: Option<&[f64]>,
+    ) -> std::io::Result<()> {
+        if !self.will_write(t, force) {
+            return Ok(());
+        }
+        let (Some(index), Some(eta)) = (&mut self.index, eta) else {
+            return Ok(());
+        };
+        let file = format!("{}_{:06}.vtu", self.name, self.count);
+        write_frame::<D>(&self.dir.join(&file), snap, t, eta)?;
+        index.push(t, &file)?;
+        self.count += 1;
+        if let Some(dt) = self.interval {
+            while self.next <= t * (1.0 + 1e-9) {
+                self.next += dt;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// One VTU frame: current positions with u, v, F, σ, von Mises stress, J, the hourglass
+/// indicator η, body, and the method's own fields (the plastic strain ε_p of a plastic
+/// material).
+pub fn write_frame<D: Dim>(
+    path: &Path,
+    snap: &Snapshot<D>,
+    t: f64,
+    eta: &[f64],
+) -> std::io::Result<()> {
+    let points: Vec<[f64; 3]> = snap
+        .x0
+        .iter()
+        .zip(&snap.u)
+        .map(|(&x, &u)| D::to3(x + u))
+        .collect();
+    let uu: Vec<[f64; 3]> = snap.u.iter().map(|&a| D::to3(a)).collect();
+    let vv: Vec<[f64; 3]> = snap.v.iter().map(|&a| D::to3(a)).collect();
+    let jac: Vec<f64> = snap.f.iter().map(|&f| D::det(f)).collect();
+    let f9: Vec<[f64; 9]> = snap.f.iter().map(|&f| flatten(pad_f::<D>(f))).collect();
+    let vm: Vec<f64> = snap.sigma.iter().map(von_mises).collect();
+    let s9: Vec<[f64; 9]> = snap.sigma.iter().map(|s| flatten(*s)).collect();
+    let body: Vec<i32> = snap.body.iter().map(|&b| b as i32).collect();
+    let mut fields = vec![
+        Field {
+            name: "u",
+            data: FieldData::Vector(&uu),
+        },
+        Field {
+            name: "v",
+            data: FieldData::Vector(&vv),
+        },
+        Field {
+            name: "F",
+            data: FieldData::Tensor(&f9),
+        },
+        Field {
+            name: "sigma",
+            data: FieldData::Tensor(&s9),
+        },
+        Field {
+            name: "von_mises",
+            data: FieldData::Scalar(&vm),
+        },
+        Field {
+            name: "J",
+            data: FieldData::Scalar(&jac),
+        },
+        Field {
+            name: "hourglass",
+            data: FieldData::Scalar(eta),
+        },
+        Field {
+            name: "body",
+            data: FieldData::Int(&body),
+        },
+    ];
+    fields.extend(snap.extra.iter().map(|f| Field {
+        name: f.name,
+        data: FieldData::Scalar(&f.values),
+    }));
+    write_vtu(path, &points, &fields, t)
+}
+
+/// F as 3×3; in plane strain F_zz = 1.
+fn pad_f<D: Dim>(f: D::T) -> [[f64; 3]; 3] {
+    let mut m = D::to3x3(f);
+    if D::N == 2 {
+        m[2][2] = 1.0;
+    }
+    m
+}
+
+fn flatten(m: [[f64; 3]; 3]) -> [f64; 9] {
+    let mut out = [0.0; 9];
+    for k in 0..3 {
+        out[3 * k..3 * k + 3].copy_from_slice(&m[k]);
+    }
+    out
+}

@@ -1,0 +1,175 @@
+//! The run driver: builds a case's engine through its method's spec ([`engine`]),
+//! integrates it to the end time with observers, frames and blow-up checks ([`drive`]),
+//! and writes the summary. The driver knows stages, not methods.
+
+mod checks;
+mod drive;
+mod engine;
+mod frames;
+
+pub use drive::drive;
+pub use engine::{CpuEngine, Engine, EngineDim, build_method, engine};
+pub use frames::write_frame;
+
+use crate::material::Material;
+use crate::methods::{BlowUp, Feature, supporting};
+use crate::output::RunSummary;
+use crate::scene::{Case, CaseError};
+use crate::tensor::{D2, D3};
+use std::path::PathBuf;
+use thiserror::Error;
+
+/// Compute backend.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+pub enum Backend {
+    /// Rayon, f64: the reference path.
+    Cpu,
+    /// wgpu/WGSL compute shaders, f32.
+    Gpu,
+    /// The GPU when an adapter is found, else the CPU.
+    Auto,
+}
+
+/// Run-time options that are not part of the scene.
+#[derive(Clone, Debug)]
+pub struct RunOptions {
+    pub out_dir: PathBuf,
+    pub backend: Backend,
+    /// Show a progress bar on the terminal.
+    pub progress: bool,
+    /// Write VTU frames (the time series and summary are always written).
+    pub frames: bool,
+}
+
+#[derive(Debug, Error)]
+pub enum RunError {
+    #[error(transparent)]
+    Case(#[from] CaseError),
+    #[error("output: {0}")]
+    Io(#[from] std::io::Error),
+    #[error("backend: {0}")]
+    Backend(String),
+    #[error(
+        "blow-up at step {step}, t = {time:e} s: {cause}; outputs up to the last good frame are in {}",
+        out_dir.display()
+    )]
+    BlowUp {
+        step: u64,
+        time: f64,
+        cause: BlowUp,
+        out_dir: PathBuf,
+    },
+}
+
+/// Runs a case to its end time; returns the summary (also written as `summary.json`).
+pub fn run(case: &Case, opts: &RunOptions) -> Result<RunSummary, RunError> {
+    match case.dimension {
+        2 => drive::<D2, _>(case, opts, engine::<D2>(case, opts.backend)?),
+        _ => drive::<D3, _>(case, opts, engine::<D3>(case, opts.backend)?),
+    }
+}
+
+/// The plan of a run: what is built once, what runs per step, and what the scene leaves
+/// out. `gpu` selects the GPU pass list.
+pub fn explain(case: &Case, gpu: bool) -> String {
+    let m = &case.method;
+    let name = m.name();
+    let plan = m.spec.plan(case, gpu);
+    let mat = Material::new(&case.material);
+    let mut out = vec![
+        format!(
+            "case `{}`: {}D, spacing {} m, {} bod{}",
+            case.name,
+            case.dimension,
+            case.spacing,
+            case.bodies.len(),
+            if case.bodies.len() == 1 { "y" } else { "ies" }
+        ),
+        format!(
+            "method: {name} with {:?} kernel, h/Δx = {}, {:?} correction, {:?} integrator",
+            m.kernel, m.h_over_dx, m.correction, m.integrator
+        ),
+        format!(
+            "backend: {}",
+            if gpu {
+                "GPU (wgpu/WGSL, f32)"
+            } else {
+                "CPU (rayon, f64)"
+            }
+        ),
+        plan.once,
+        format!("state: {}", plan.state),
+        format!(
+            "time step: {}",
+            match (m.dt, m.cfl) {
+                (Some(dt), _) => format!("fixed Δt = {dt:e} s"),
+                (_, Some(cfl)) => format!("CFL {cfl}: {}, updated at every check", plan.cfl_step),
+                _ => unreachable!("validated"),
+            }
+        ),
+    ];
+    out.extend(step_lines(case, gpu, &plan.rates));
+    if mat.hardening.is_some() {
+        out.push(
+            "before every step: the plastic history C_p⁻¹, ε_p committed from the step's start \
+             state (seed 003 Algorithm 2); every stage returns F from it"
+                .into(),
+        );
+    }
+    if let Some(contact) = case.contact {
+        out.push(format!(
+            "between steps: penalty contact (seed 000 §5.8, α = {}) of every particle against \
+             the convex hulls of the other {} bodies, held through the next step",
+            contact.penalty,
+            case.bodies.len() - 1
+        ));
+    }
+    let mut left_out = vec!["neighbour rebuild (total-Lagrangian)"];
+    let runs = |f: Feature| supporting(f).any(|n| n == name);
+    if case.contact.is_none() && runs(Feature::Contact) {
+        left_out.push(if case.bodies.len() == 1 {
+            "contact (one body)"
+        } else {
+            "contact (no [contact] table)"
+        });
+    }
+    if case.mirrors.is_empty() && runs(Feature::MirrorPlanes) {
+        left_out.push("ghost particles (no mirror planes)");
+    }
+    left_out.extend(plan.left_out);
+    if case.boundaries.is_empty() {
+        left_out.push("boundary conditions");
+    }
+    out.push(format!("left out: {}", left_out.join(", ")));
+    out.push(format!(
+        "host checks every {} steps or at samples: {} ≤ 0, non-finite state, energy ≤ {}·(E0 + W_ext){}; observers: {:?}",
+        drive::CHECK_EVERY,
+        plan.checked,
+        case.run.energy_growth_limit,
+        plan.check_note,
+        case.output.observers
+    ));
+    out.join("\n")
+}
+
+/// The per-step lines of the plan: the GPU's step program, or the CPU's rate evaluations.
+#[cfg_attr(not(feature = "gpu"), allow(unused_variables))]
+fn step_lines(case: &Case, gpu: bool, rates: &str) -> Vec<String> {
+    let integrator = case.method.integrator;
+    #[cfg(feature = "gpu")]
+    if gpu {
+        let mut lines =
+            vec!["per step (one command encoder for all steps between host checks):".to_string()];
+        lines.extend(
+            crate::gpu::program::describe_step(integrator, rates)
+                .into_iter()
+                .map(|s| format!("  {s}")),
+        );
+        return lines;
+    }
+    vec![format!(
+        "per step: {} rate evaluations, each {rates}",
+        integrator.stages()
+    )]
+}
