@@ -19,8 +19,8 @@ use criterion::{
 };
 use meshless::integrate::Integrator;
 use meshless::kernel::Kernel;
-use meshless::method::Method;
-use meshless::method::tlsph::Tlsph;
+use meshless::methods::Method;
+use meshless::methods::tlsph::Tlsph;
 use meshless::run::build_method;
 use meshless::scene::Case;
 use meshless::tensor::D2;

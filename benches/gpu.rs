@@ -11,7 +11,7 @@ use criterion::{
 use meshless::bench::resize;
 use meshless::gpu::Gpu;
 use meshless::gpu::layout::GpuDim;
-use meshless::gpu::tlsph::GpuTlsph;
+use meshless::methods::tlsph::GpuTlsph;
 use meshless::run::Engine;
 use meshless::scene::Case;
 use meshless::tensor::{D2, D3};

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# The whole test suite: formatting, lints, then every test in release mode (the numerical
-# tests integrate thousands of steps and are written for optimised builds).
+# The whole test suite: formatting, lints (with and without the default features), then
+# every test in release mode (the numerical tests integrate thousands of steps and are
+# written for optimised builds).
 #
 # The GPU tests run the WGSL shaders on whatever adapter wgpu finds; on a machine without
 # a GPU that is Mesa's lavapipe (Vulkan on the CPU), installed here when it is missing.
@@ -23,5 +24,7 @@ if [ -z "${XDG_RUNTIME_DIR:-}" ] || [ ! -d "${XDG_RUNTIME_DIR}" ]; then
 fi
 
 cargo fmt --all -- --check
+# The CPU library alone (no GPU backend, command line or studies) builds and is clean.
+cargo clippy --no-default-features --all-targets -- -D warnings
 cargo clippy --release --all-targets -- -D warnings
 cargo test --release

@@ -66,6 +66,9 @@ pub trait MethodFamily: Sized {
     const KEYS: &'static [&'static str];
     /// The scene features it runs.
     const FEATURES: &'static [Feature];
+    /// The GPU passes it compiles with a scene's constants.
+    #[cfg(feature = "gpu")]
+    const SHADERS: &'static [crate::gpu::shaders::Source];
 
     /// Checks of the case that concern this method (its keys, model, correction).
     fn validate(&self, case: &Case) -> Result<(), Problem>;
@@ -98,6 +101,8 @@ pub struct Entry {
     pub description: &'static str,
     pub keys: &'static [&'static str],
     pub features: &'static [Feature],
+    #[cfg(feature = "gpu")]
+    pub shaders: &'static [crate::gpu::shaders::Source],
 }
 
 impl Entry {
@@ -107,6 +112,8 @@ impl Entry {
             description: S::DESCRIPTION,
             keys: S::KEYS,
             features: S::FEATURES,
+            #[cfg(feature = "gpu")]
+            shaders: S::SHADERS,
         }
     }
 
@@ -191,6 +198,18 @@ registry! {
 /// The registry entry of a case-file method name.
 pub fn entry(name: &str) -> Option<&'static Entry> {
     REGISTRY.iter().find(|e| e.name == name)
+}
+
+/// Every GPU pass file: the shared ones and each method's, once each.
+#[cfg(feature = "gpu")]
+pub fn shaders() -> Vec<crate::gpu::shaders::Source> {
+    let mut all = crate::gpu::shaders::SHARED.to_vec();
+    for source in REGISTRY.iter().flat_map(|e| e.shaders) {
+        if !all.contains(source) {
+            all.push(*source);
+        }
+    }
+    all
 }
 
 /// `a`, `b` and `c`: method names as a message lists them.

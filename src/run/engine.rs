@@ -72,9 +72,9 @@ pub trait Engine<D: Dim> {
     fn constrained(&self) -> &[(u32, u8)];
     /// Advances `steps` steps of size dt from time t.
     fn advance(&mut self, t: f64, dt: f64, steps: u32) -> Result<(), BlowUp>;
-    /// Largest signal speed (for the CFL step Δt = α Δx / signal speed): c_p + max |v| for
-    /// TLSPH, Δx max_ab C_p,ab / r_ab + max |v| over the current pairs for the mixed
-    /// methods (seed 002 eqs 31–32).
+    /// Largest signal speed for the CFL step Δt = α Δx / signal speed, as the method
+    /// defines it (`Plan::cfl_step`; e.g. c_p + max |v|, or Δx max_ab C_p,ab / r_ab + max
+    /// |v| over the current pairs for seed 002 eqs 31–32).
     fn max_signal_speed(&mut self) -> f64;
     /// Work done on the bodies by supports and loads so far.
     fn external_work(&mut self) -> f64;

@@ -453,6 +453,8 @@ impl<S: MixedMethod> MethodFamily for S {
     const DESCRIPTION: &'static str = S::DESCRIPTION;
     const KEYS: &'static [&'static str] = S::KEYS;
     const FEATURES: &'static [Feature] = &[Feature::MirrorPlanes, Feature::Plasticity];
+    #[cfg(feature = "gpu")]
+    const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
 
     fn validate(&self, case: &Case) -> Result<(), Problem> {
         self.validate_own()?;

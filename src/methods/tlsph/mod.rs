@@ -46,6 +46,8 @@ impl MethodFamily for TlsphSpec {
         reference kernel, rate- or state-based stress, Monaghan artificial viscosity";
     const KEYS: &'static [&'static str] = &["artificial_viscosity"];
     const FEATURES: &'static [Feature] = &[Feature::Contact];
+    #[cfg(feature = "gpu")]
+    const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
 
     fn validate(&self, _case: &Case) -> Result<(), Problem> {
         if let Some(ArtificialViscosity { alpha, beta, eta }) = self.artificial_viscosity {
@@ -111,5 +113,26 @@ impl MethodFamily for TlsphSpec {
     /// TLSPH's step Δt = α Δx/(c_p + max|v|) does not depend on the stretch.
     fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
         0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn viscosity_coefficients_must_not_be_negative() {
+        let spec = |beta: f64| TlsphSpec {
+            artificial_viscosity: Some(ArtificialViscosity {
+                alpha: 1.0,
+                beta,
+                eta: 0.1,
+            }),
+        };
+        let case = crate::scene::validate::minimal_case();
+        spec(1.0).validate(&case).unwrap();
+        let (key, message) = spec(-1.0).validate(&case).unwrap_err();
+        assert_eq!(key, "method.artificial_viscosity.beta");
+        assert!(message.contains("-1"), "{message}");
     }
 }
