@@ -358,9 +358,10 @@ fn show_notes(case: &Case) {
     }
 }
 
+/// Whether `--backend auto` runs on a GPU.
 #[cfg(feature = "gpu")]
 fn has_adapter() -> bool {
-    !meshless::gpu::context::adapters().is_empty()
+    meshless::gpu::context::auto_adapter().is_ok()
 }
 
 #[cfg(not(feature = "gpu"))]

@@ -93,6 +93,25 @@ pub fn adapters() -> Vec<AdapterSummary> {
         .collect()
 }
 
+/// What `--backend auto` runs on: the best adapter, unless it emulates a GPU on the CPU
+/// (Mesa's lavapipe, SwiftShader: slower than the CPU backend) and `MESHLESS_ADAPTER`
+/// does not name it. Err: why the CPU backend runs instead.
+pub fn auto_adapter() -> Result<String, String> {
+    let requested = std::env::var(ADAPTER_ENV).ok().filter(|s| !s.is_empty());
+    let list = adapters();
+    let chosen = list
+        .iter()
+        .find(|a| requested.as_deref().is_none_or(|r| matches(&a.info, r)));
+    match (chosen, requested) {
+        (None, _) => Err("no GPU adapter found".into()),
+        (Some(a), None) if a.info.device_type == wgpu::DeviceType::Cpu => Err(format!(
+            "the only adapter, {}, emulates a GPU on the CPU (--backend gpu runs on it)",
+            describe(&a.info)
+        )),
+        (Some(a), _) => Ok(describe(&a.info)),
+    }
+}
+
 /// Preference order: discrete, integrated, virtual, CPU; Vulkan/Metal/DX12 before GL.
 fn rank(a: &wgpu::Adapter) -> (u8, u8) {
     let info = a.get_info();

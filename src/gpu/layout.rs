@@ -88,7 +88,7 @@ pub fn flat_v<D: Flat>(vs: impl IntoIterator<Item = D::V>) -> Vec<f32> {
 }
 
 /// The `mask` (bit k: velocity component k prescribed) and `ext` (external acceleration,
-/// DIM per particle) buffers of `shaders/boundary.wgsl` for n particles.
+/// DIM per particle) buffers of `shaders/common/boundary.wgsl` for n particles.
 pub fn boundary_buffers<D: Flat>(
     gpu: &Gpu,
     boundary: &Boundary<D>,

@@ -8,7 +8,7 @@
 //! differently. Lattice ties (pairs at exactly 2 dx, say) need a relative margin on the
 //! radius of that size (1e-5 is safe for |x| up to a few hundred radii); 1 + 1e-9 is not.
 //!
-//! Passes (`shaders/cell_list.wgsl`, `shaders/scan.wgsl`), recorded in two command
+//! Passes (`shaders/common/cell_list.wgsl`, `shaders/common/scan.wgsl`), recorded in two command
 //! encoders: bin particles into cells and count per cell → exclusive scan of the counts →
 //! scatter into cell order → count neighbours per particle → exclusive scan into offsets
 //! (n + 1 entries) → read back the pair count (the only readback) → allocate `ids` → fill

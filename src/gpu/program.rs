@@ -1,6 +1,6 @@
 //! The integrator's program of one GPU step, shared by the GPU engines: the operations of
 //! each scheme (the same as `crate::integrate`) on four state-sized flat buffers, the stage
-//! passes of `shaders/integrate.wgsl` with their coefficients, and the recording of whole
+//! passes of `shaders/common/integrate.wgsl` with their coefficients, and the recording of whole
 //! steps, with the method's rate evaluations, into one command encoder.
 
 use super::context::Gpu;
@@ -210,7 +210,7 @@ pub struct Stepper {
 
 impl Stepper {
     /// The program of `kind` on a state starting at `y0`; `integrate` is
-    /// `shaders/integrate.wgsl` composed with the scene's constants (N, DIM, U_OFF, V_OFF,
+    /// `shaders/common/integrate.wgsl` composed with the scene's constants (N, DIM, U_OFF, V_OFF,
     /// REST_OFF, LEN of `layout`).
     pub fn new(
         gpu: &Gpu,

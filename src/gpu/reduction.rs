@@ -1,4 +1,4 @@
-//! The GPU reduction of a state (`shaders/reduce.wgsl`) and the work balance of supports
+//! The GPU reduction of a state (`shaders/common/reduce.wgsl`) and the work balance of supports
 //! and loads, shared by the GPU engines: energies, momenta, the power of supports and
 //! loads, max |v|, a non-finite count and the largest pair wave speed of the CFL step, per
 //! workgroup on the device and summed on the host in f64. Only the partials (12 floats

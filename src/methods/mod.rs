@@ -134,7 +134,7 @@ macro_rules! registry {
         }
 
         /// Every method, in the order `meshless list` shows them.
-        pub const REGISTRY: &[Entry] = &[$(Entry::of::<$spec>($name)),*];
+        pub static REGISTRY: &[Entry] = &[$(Entry::of::<$spec>($name)),*];
 
         /// The case-file names of the methods.
         const NAMES: &[&str] = &[$($name),*];

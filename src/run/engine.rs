@@ -41,15 +41,21 @@ pub fn engine<D: EngineDim>(case: &Case, backend: Backend) -> Result<Box<dyn Eng
 }
 
 /// The GPU a backend choice asks for: none for `cpu`, an error for `gpu` without an
-/// adapter, and for `auto` the adapter if there is one.
+/// adapter, and for `auto` the adapter [`crate::gpu::context::auto_adapter`] picks.
 #[cfg(feature = "gpu")]
 fn gpu(backend: Backend) -> Result<Option<Gpu>, RunError> {
     Ok(match backend {
         Backend::Cpu => None,
         Backend::Gpu => Some(Gpu::new().map_err(|e| RunError::Backend(e.to_string()))?),
-        Backend::Auto => Gpu::new()
-            .inspect_err(|e| eprintln!("note: {e}; running on the CPU (rayon, f64)"))
-            .ok(),
+        Backend::Auto => match crate::gpu::context::auto_adapter() {
+            Ok(_) => Gpu::new()
+                .inspect_err(|e| eprintln!("note: {e}; running on the CPU (rayon, f64)"))
+                .ok(),
+            Err(why) => {
+                eprintln!("note: --backend auto: {why}; running on the CPU (rayon, f64)");
+                None
+            }
+        },
     })
 }
 

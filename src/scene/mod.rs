@@ -368,9 +368,10 @@ fn method_name(table: &toml::Table) -> Option<String> {
         .map(str::to_string)
 }
 
-/// A change of method by `--set method.name=X`: the keys of the previous method that X
-/// also reads are kept, the others are dropped (unless an override sets them, so that a
-/// wrong one is still reported), and a note names the dropped ones.
+/// A change of method by `--set method.name=X`, applied where it stands among the
+/// overrides: the keys of the previous method that X also reads are kept, the others are
+/// dropped (unless an override of the command sets them, so that a wrong one is still
+/// reported), and a note names the dropped ones.
 fn method_change(method: &mut toml::Table, name: &str, overrides: &[String]) -> Option<String> {
     let set: Vec<String> = overrides
         .iter()
@@ -411,8 +412,8 @@ impl Case {
             toml::from_str(text).map_err(parse_error)?
         } else {
             let mut table: toml::Table = toml::from_str(text).map_err(parse_error)?;
-            let name_before = method_name(&table);
             for assignment in overrides {
+                let name_before = method_name(&table);
                 overrides::apply(&mut table, assignment).map_err(|message| {
                     CaseError::Override {
                         file: file.to_path_buf(),
@@ -420,11 +421,11 @@ impl Case {
                         message,
                     }
                 })?;
-            }
-            if let Some(name) = method_name(&table).filter(|n| Some(n) != name_before.as_ref())
-                && let Some(toml::Value::Table(method)) = table.get_mut("method")
-            {
-                notes.extend(method_change(method, &name, overrides));
+                if let Some(name) = method_name(&table).filter(|n| Some(n) != name_before.as_ref())
+                    && let Some(toml::Value::Table(method)) = table.get_mut("method")
+                {
+                    notes.extend(method_change(method, &name, overrides));
+                }
             }
             Case::deserialize(table).map_err(parse_error)?
         };

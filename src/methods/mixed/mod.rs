@@ -11,7 +11,7 @@ pub mod weights;
 
 #[cfg(feature = "gpu")]
 pub use gpu::GpuMixed;
-pub use system::{MixedSph, MixedState};
+pub use system::{Fluxes, MixedSph, MixedState};
 
 use super::{Feature, MethodFamily, MethodSpec, Plan, Problem};
 use crate::material::Material;

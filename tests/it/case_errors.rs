@@ -4,6 +4,7 @@
 //! the error. `valid_minimal_case_loads` makes sure the starting point itself is fine, so
 //! the other tests cannot pass merely because everything fails.
 
+use crate::common::{cases_dir, toml_files};
 use meshless::scene::{Case, CaseError};
 use meshless::tensor::D2;
 use std::path::Path;
@@ -727,7 +728,7 @@ fn contact_between_bodies_that_a_kernel_spans_is_rejected() {
     // The lid 0.1 m (one Δx) above the block: within the support 2h = 0.26 m.
     let close = edit(&two_blocks("0.1"), "min = [0.0, 1.0]", "min = [0.0, 0.6]");
     let case = Case::from_toml(&close, Path::new(FILE), &[]).expect("parses and validates");
-    let e = match meshless::run::build_method::<D2, meshless::method::tlsph::Tlsph<D2>>(&case) {
+    let e = match meshless::run::build_method::<D2, meshless::methods::tlsph::Tlsph<D2>>(&case) {
         Ok(_) => panic!("bodies within the kernel support were accepted"),
         Err(e) => e.to_string(),
     };
@@ -797,13 +798,8 @@ fn the_plastic_model_needs_its_hardening_and_a_mixed_method() {
 fn every_shipped_case_validates_and_discretises() {
     // Each file in cases/ parses, passes validation and samples its bodies: a renamed key
     // or a geometry that holds no particle fails here, before any run.
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases");
     let mut count = 0;
-    for entry in std::fs::read_dir(&dir).unwrap() {
-        let path = entry.unwrap().path();
-        if path.extension().is_none_or(|e| e != "toml") {
-            continue;
-        }
+    for path in toml_files(&cases_dir()) {
         let case = Case::load(&path, &[]).unwrap_or_else(|e| panic!("{e}"));
         let particles = match case.dimension {
             2 => meshless::scene::discretise::<D2>(&case).map(|d| d.x0.len()),

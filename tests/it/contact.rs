@@ -1,13 +1,15 @@
 //! Penalty contact on whole runs: the seed-000 rubber rings, coarsened, on the CPU and on
 //! the GPU (a missing adapter fails the GPU test: CI installs Mesa lavapipe).
 
-use meshless::gpu::Gpu;
-use meshless::gpu::tlsph::GpuTlsph;
-use meshless::method::tlsph::Tlsph;
+use crate::common::case_file;
+#[cfg(feature = "gpu")]
+use crate::common::gpu;
+#[cfg(feature = "gpu")]
+use meshless::methods::tlsph::GpuTlsph;
+use meshless::methods::tlsph::Tlsph;
 use meshless::run::{CpuEngine, Engine};
 use meshless::scene::{Case, CaseError};
 use meshless::tensor::D2;
-use std::path::Path;
 
 /// The shipped rings case on the nbox = 20 lattice (Δx = 0.08/19): the centres at ∓47.5 mm,
 /// so that the 23.4 mm between the nearest particles exceed the kernel support
@@ -21,8 +23,7 @@ fn rings(extra: &[&str]) -> Result<Case, CaseError> {
     ];
     set.extend_from_slice(extra);
     let set: Vec<String> = set.iter().map(|s| s.to_string()).collect();
-    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/rings-impact.toml");
-    Case::load(&file, &set)
+    Case::load(&case_file("rings-impact"), &set)
 }
 
 /// Centre-of-mass velocity v_x of each ring after `time` on an engine.
@@ -82,6 +83,7 @@ fn without_contact_the_rings_pass_through_each_other() {
     }
 }
 
+#[cfg(feature = "gpu")]
 #[test]
 fn the_gpu_contact_pass_matches_the_cpu() {
     // The whole impact in f32 on the GPU against f64 on the CPU: the rebound velocity of
@@ -91,9 +93,7 @@ fn the_gpu_contact_pass_matches_the_cpu() {
     // normal by one hull edge for a particle at zero depth. Measured 2e-6 of the impact
     // speed on lavapipe; bound 1e-4.
     let case = rings(&[]).unwrap();
-    let gpu = Gpu::new()
-        .unwrap_or_else(|e| panic!("GPU tests need an adapter (CI installs Mesa lavapipe): {e}"));
-    let mut g = GpuTlsph::<D2>::new(&case, gpu).unwrap();
+    let mut g = GpuTlsph::<D2>::new(&case, gpu()).unwrap();
     let on_gpu = ring_velocities_on(&mut g, &case, 4.0e-4);
     let on_cpu = ring_velocities(&case, 4.0e-4);
     eprintln!("ring v_x after the impact: GPU {on_gpu:?}, CPU {on_cpu:?} m/s");

@@ -1,21 +1,16 @@
 //! Total-Lagrangian SPH on the CPU: exact kinematics, frame invariance, set-up
 //! reproduction of the seed-000 benchmarks and conservation on the rotating disk.
 
+use crate::common::{largest_t, shipped};
 use glam::{DMat2, DMat3, DVec2, DVec3};
 use meshless::integrate::OdeSystem;
-use meshless::method::Method;
-use meshless::method::tlsph::Tlsph;
+use meshless::methods::Method;
+use meshless::methods::tlsph::Tlsph;
 use meshless::run::build_method;
 use meshless::scene::Case;
-use meshless::tensor::{D2, D3, Dim};
+use meshless::tensor::{D2, D3};
 use std::f64::consts::PI;
 use std::path::Path;
-
-fn case_file(name: &str) -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("cases")
-        .join(format!("{name}.toml"))
-}
 
 fn block(dim: u32, model: &str) -> Case {
     let (min, max, ext) = if dim == 2 {
@@ -47,10 +42,6 @@ end_time = 1.0e-4
     Case::from_toml(&text, Path::new("block.toml"), &[]).unwrap()
 }
 
-fn max_norm<D: Dim>(ts: impl Iterator<Item = D::T>) -> f64 {
-    ts.map(|t| D::ddot(t, t).sqrt()).fold(0.0, f64::max)
-}
-
 #[test]
 fn affine_displacement_gives_the_exact_deformation_gradient() {
     // F = I + Σ_j V_j (u_j − u_i) ⊗ ∇0W̃_ij is exact for u = (A − I) X + b at every
@@ -61,7 +52,7 @@ fn affine_displacement_gives_the_exact_deformation_gradient() {
     for (u, &x) in y.u.iter_mut().zip(m2.reference()) {
         *u = a2 * x - x + DVec2::new(0.5, -2.0);
     }
-    let err = max_norm::<D2>(m2.deformation_gradient(&y).into_iter().map(|f| f - a2));
+    let err = largest_t::<D2>(m2.deformation_gradient(&y).into_iter().map(|f| f - a2));
     assert!(err < 1e-11, "2D: max |F − A| = {err:e}");
 
     let a3 = DMat3::from_cols_array(&[1.3, 0.2, -0.4, 0.1, 0.7, 0.3, -0.2, 0.05, 1.6]);
@@ -70,7 +61,7 @@ fn affine_displacement_gives_the_exact_deformation_gradient() {
     for (u, &x) in y.u.iter_mut().zip(m3.reference()) {
         *u = a3 * x - x + DVec3::new(0.5, -2.0, 1.0);
     }
-    let err = max_norm::<D3>(m3.deformation_gradient(&y).into_iter().map(|f| f - a3));
+    let err = largest_t::<D3>(m3.deformation_gradient(&y).into_iter().map(|f| f - a3));
     assert!(err < 1e-11, "3D: max |F − A| = {err:e}");
 }
 
@@ -115,7 +106,7 @@ fn rigid_motion_rates_of_the_hypoelastic_model_vanish() {
     let mut d = y.clone();
     m.rates(0.0, &y, &mut d).unwrap();
     let rho_dot = d.rho.iter().fold(0.0f64, |a, b| a.max(b.abs()));
-    let s_dot = max_norm::<D2>(d.s.iter().copied());
+    let s_dot = largest_t::<D2>(d.s.iter().copied());
     let acc = d.v.iter().fold(0.0f64, |a, b| a.max(b.length()));
     assert!(rho_dot < 1e-9, "max |ρ̇| = {rho_dot:e}");
     assert!(s_dot < 1e-3, "max |Ṡ| = {s_dot:e}");
@@ -126,7 +117,7 @@ fn rigid_motion_rates_of_the_hypoelastic_model_vanish() {
 fn seed_benchmarks_reproduce_their_set_up() {
     // Seed 000 checklist 16–17: disk N = 276, discrete mass 3.0582, H(0)/H̄ = 0.94746 with
     // H̄ = 25π; strip N = 441 with 21 prescribed particles per side.
-    let disk = Case::load(&case_file("rotating-disk"), &[]).unwrap();
+    let disk = shipped("rotating-disk");
     let m: Tlsph<D2> = build_method(&disk).unwrap();
     let y = m.initial_state();
     assert_eq!(m.reference().len(), 276);
@@ -141,7 +132,7 @@ fn seed_benchmarks_reproduce_their_set_up() {
         h / (25.0 * PI)
     );
 
-    let strip = Case::load(&case_file("tensile-strip"), &[]).unwrap();
+    let strip = shipped("tensile-strip");
     let m: Tlsph<D2> = build_method(&strip).unwrap();
     assert_eq!(m.reference().len(), 441);
     assert_eq!(m.constrained().len(), 42);

@@ -2,54 +2,19 @@
 //! on a software (or real) adapter. A missing adapter fails these tests: the GPU path is
 //! part of what CI checks.
 
+use crate::common::{
+    gpu, load, max_s, max_t, max_v, mixed_variants, random_state, random_tensor, shipped,
+};
 use meshless::gpu::Gpu;
 use meshless::gpu::layout::GpuDim;
-use meshless::gpu::mixed::GpuMixed;
 use meshless::integrate::{Integrator, OdeSystem};
-use meshless::method::Method;
-use meshless::method::mixed::{MixedSph, MixedState};
+use meshless::methods::Method;
+use meshless::methods::mixed::system::PLASTIC_STRAIN;
+use meshless::methods::mixed::{GpuMixed, MixedOptions, MixedSph, MixedState, Stabiliser, scheme};
 use meshless::observe::Invariants;
 use meshless::run::{Backend, Engine, build_method};
-use meshless::scene::{Case, MethodName};
-use meshless::tensor::{D2, D3, Dim};
-
-mod common;
-use common::{load as case, random_state, random_tensor};
-
-fn gpu() -> Gpu {
-    Gpu::new()
-        .unwrap_or_else(|e| panic!("GPU tests need an adapter (CI installs Mesa lavapipe): {e}"))
-}
-
-fn max_v<D: Dim>(a: &[D::V], b: &[D::V]) -> (f64, f64) {
-    let e = a
-        .iter()
-        .zip(b)
-        .map(|(&x, &y)| D::norm2(x - y).sqrt())
-        .fold(0.0, f64::max);
-    let s = a.iter().map(|&x| D::norm2(x).sqrt()).fold(0.0, f64::max);
-    (e, s)
-}
-
-fn max_t<D: Dim>(a: &[D::T], b: &[D::T]) -> (f64, f64) {
-    let e = a
-        .iter()
-        .zip(b)
-        .map(|(&x, &y)| D::ddot(x - y, x - y).sqrt())
-        .fold(0.0, f64::max);
-    let s = a.iter().map(|&x| D::ddot(x, x).sqrt()).fold(0.0, f64::max);
-    (e, s)
-}
-
-fn max_s(a: &[f64], b: &[f64]) -> (f64, f64) {
-    let e = a
-        .iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max);
-    let s = a.iter().map(|x| x.abs()).fold(0.0, f64::max);
-    (e, s)
-}
+use meshless::scene::Case;
+use meshless::tensor::{D2, D3};
 
 /// Asserts `error ≤ tol · scale` and reports the ratio.
 fn check(label: &str, field: &str, (error, scale): (f64, f64), tol: f64) {
@@ -63,11 +28,19 @@ fn check(label: &str, field: &str, (error, scale): (f64, f64), tol: f64) {
     );
 }
 
-/// The seed 002 options a case sets, for the labels.
+/// The options and stabilisation of a mixed case.
+fn mixed(c: &Case) -> (&MixedOptions, Stabiliser) {
+    scheme(c).expect("a mixed case")
+}
+
+/// The seed 002 options a case sets (those other than the defaults), for the labels.
 fn seed_002_options(c: &Case) -> String {
+    let (m, _) = mixed(c);
+    let default = MixedOptions::default();
     [
-        c.method.momentum.map(|m| format!(" {m:?} momentum")),
-        c.method.deformation_gradient.map(|f| format!(" {f:?} F")),
+        (m.momentum != default.momentum).then(|| format!(" {:?} momentum", m.momentum)),
+        (m.deformation_gradient != default.deformation_gradient)
+            .then(|| format!(" {:?} F", m.deformation_gradient)),
     ]
     .into_iter()
     .flatten()
@@ -89,10 +62,12 @@ fn compare_rates<D: GpuDim>(c: &Case, gpu: Gpu) {
         "{}D {} {} {:?}{}{}",
         D::N,
         c.name,
-        c.method.name.key(),
-        c.method.variables,
-        match c.method.reconstruction {
-            Some(false) => " (no reconstruction)",
+        c.method.name(),
+        mixed(c).0.variables,
+        match mixed(c).1 {
+            Stabiliser::Upwind {
+                reconstruction: false,
+            } => " (no reconstruction)",
             _ => "",
         },
         seed_002_options(c)
@@ -122,38 +97,18 @@ fn compare_rates<D: GpuDim>(c: &Case, gpu: Gpu) {
     }
     if !d.j.is_empty() {
         // The GPU computes D(J) only where it is read: Upwind-SPH with J evolved.
-        if c.method.name == MethodName::UpwindSph {
+        if matches!(mixed(c).1, Stabiliser::Upwind { .. }) {
             check(&label, "D(J)", max_s(&fluxes.dj, &fg.dj), 1e-5);
         }
         check(&label, "J̇", max_s(&d.j, &dg.j), 1e-5);
     }
 }
 
-/// Every variant the mixed methods compile: Upwind-SPH with and without reconstruction,
-/// JST-SPH, each set of conserved variables.
-fn variants(base: &[&str]) -> Vec<Vec<String>> {
-    let methods: [&[&str]; 3] = [
-        &["method.name=upwind-sph"],
-        &["method.name=upwind-sph", "method.reconstruction=false"],
-        &["method.name=jst-sph"],
-    ];
-    let mut out = Vec::new();
-    for method in methods {
-        for variables in ["p-F", "p-F-J", "p-F-H-J"] {
-            let mut set: Vec<String> = base.iter().map(|s| s.to_string()).collect();
-            set.extend(method.iter().map(|s| s.to_string()));
-            set.push(format!("method.variables={variables}"));
-            out.push(set);
-        }
-    }
-    out
-}
-
-/// The seed 002 options on every variant of `variants`: the symmetrised momentum with each
+/// The seed 002 options on every variant of `mixed_variants`: the symmetrised momentum with each
 /// set of conserved variables, and with {p, F} the bond-based F under either momentum.
 fn seed_002_variants(base: &[&str]) -> Vec<Vec<String>> {
     let mut out = Vec::new();
-    for set in variants(base) {
+    for set in mixed_variants(base) {
         let with = |options: [&str; 2]| {
             let mut s = set.clone();
             s.extend(options.map(|o| format!("method.{o}")));
@@ -175,15 +130,10 @@ fn seed_002_variants(base: &[&str]) -> Vec<Vec<String>> {
     out
 }
 
-fn load(name: &str, set: &[String]) -> Case {
-    let s: Vec<&str> = set.iter().map(|s| s.as_str()).collect();
-    case(name, &s)
-}
-
 #[test]
 fn rates_match_the_cpu_on_the_swinging_plate() {
     // Mirror planes (ghosts), linear elastic, no projection.
-    for set in variants(&[]) {
+    for set in mixed_variants(&[]) {
         compare_rates::<D2>(&load("swinging-plate", &set), gpu());
     }
 }
@@ -191,16 +141,16 @@ fn rates_match_the_cpu_on_the_swinging_plate() {
 #[test]
 fn rates_match_the_cpu_on_the_spinning_plate() {
     // No ghosts, polyconvex model, projection on (and a neo-Hookean variant).
-    for set in variants(&[]) {
+    for set in mixed_variants(&[]) {
         compare_rates::<D2>(&load("spinning-plate", &set), gpu());
     }
     let neo = ["material.model=neo-hookean"];
-    compare_rates::<D2>(&case("spinning-plate", &neo), gpu());
+    compare_rates::<D2>(&load("spinning-plate", &neo), gpu());
 }
 
 #[test]
 fn rates_match_the_cpu_on_the_swinging_cube() {
-    for set in variants(&["spacing=0.125"]) {
+    for set in mixed_variants(&["spacing=0.125"]) {
         compare_rates::<D3>(&load("swinging-cube", &set), gpu());
     }
     // 3D without ghosts, polyconvex, with the projection.
@@ -209,11 +159,11 @@ fn rates_match_the_cpu_on_the_swinging_cube() {
         "mirror=",
         "material.model=nearly-incompressible-neo-hookean",
     ];
-    compare_rates::<D3>(&case("swinging-cube", &free), gpu());
+    compare_rates::<D3>(&load("swinging-cube", &free), gpu());
     // A fixed base (velocity constraints through the mask; ν = 0.4995), both methods.
     for method in ["upwind-sph", "jst-sph"] {
         let m = format!("method.name={method}");
-        compare_rates::<D3>(&case("twisting-column", &[&m]), gpu());
+        compare_rates::<D3>(&load("twisting-column", &[&m]), gpu());
     }
 }
 
@@ -237,7 +187,7 @@ fn rates_match_the_cpu_with_the_seed_002_options_on_the_swinging_plate() {
 fn rates_match_the_cpu_with_the_seed_002_options_on_the_bending_column() {
     // Seed 002's scene as shipped: JST-SPH {p, F} with ε⁽⁴⁾ = 1/64, symmetrised, the
     // bond-based F, polyconvex at ν = 0.495, a clamped base.
-    compare_rates::<D3>(&case("bending-column", &[]), gpu());
+    compare_rates::<D3>(&shipped("bending-column"), gpu());
     // Every method (JST-SPH with its default coefficients).
     for set in seed_002_variants(&["method.jst="]) {
         compare_rates::<D3>(&load("bending-column", &set), gpu());
@@ -249,7 +199,7 @@ fn rates_match_the_cpu_with_the_seed_002_options_on_the_bending_column() {
         "method.momentum=symmetrised",
         "method.deformation_gradient=bond-based",
     ];
-    compare_rates::<D3>(&case("swinging-cube", &cube), gpu());
+    compare_rates::<D3>(&load("swinging-cube", &cube), gpu());
 }
 
 /// `steps` TVD-RK2 steps of the CFL size on both backends from the case's initial state:
@@ -266,7 +216,7 @@ fn compare_runs<D: GpuDim>(c: &Case, steps: u32) {
         "{}D {} {} {:?}{}",
         D::N,
         c.name,
-        c.method.name.key(),
+        c.method.name(),
         c.method.integrator,
         seed_002_options(c)
     );
@@ -300,8 +250,8 @@ fn compare_runs<D: GpuDim>(c: &Case, steps: u32) {
 fn runs_track_the_cpu_on_the_swinging_plate_and_cube() {
     for method in ["upwind-sph", "jst-sph"] {
         let m = format!("method.name={method}");
-        compare_runs::<D2>(&case("swinging-plate", &[&m]), 100);
-        compare_runs::<D3>(&case("swinging-cube", &[&m, "spacing=0.125"]), 100);
+        compare_runs::<D2>(&load("swinging-plate", &[&m]), 100);
+        compare_runs::<D3>(&load("swinging-cube", &[&m, "spacing=0.125"]), 100);
     }
 }
 
@@ -313,20 +263,20 @@ fn runs_track_the_cpu_with_the_seed_002_options() {
     // ψ(F^c) on both backends. The swinging plate with both options runs TVD-RK2 with
     // ghosts as in `compare_runs`. Measured: column v 2.2e-6, u 1.9e-6, E 3.2e-6; plate
     // v 6.0e-7, u 6.4e-7, E 8e-9.
-    compare_runs::<D3>(&case("bending-column", &[]), 50);
+    compare_runs::<D3>(&shipped("bending-column"), 50);
     let plate = [
         "method.variables=p-F",
         "method.momentum=symmetrised",
         "method.deformation_gradient=bond-based",
     ];
-    compare_runs::<D2>(&case("swinging-plate", &plate), 100);
+    compare_runs::<D2>(&load("swinging-plate", &plate), 100);
 }
 
 #[test]
 fn gpu_backend_runs_the_seed_002_options() {
     // `--backend gpu` builds the GPU engine for the bending column (symmetrised momentum,
     // bond-based F) instead of refusing or falling back to the CPU.
-    let engine = meshless::run::engine::<D3>(&case("bending-column", &[]), Backend::Gpu)
+    let engine = meshless::run::engine::<D3>(&shipped("bending-column"), Backend::Gpu)
         .unwrap_or_else(|e| panic!("{e}"));
     assert!(engine.backend().starts_with("gpu"), "{}", engine.backend());
 }
@@ -338,7 +288,7 @@ fn every_integrator_tracks_the_cpu() {
     // 4 f32 updates a step at most, 4 × 50 × 6e-8 = 1.2e-5 of the fields' scales; the
     // energy as in `compare_runs`. Bounds 2e-5 and 1e-4.
     for integrator in ["rk4", "ssp-rk3", "leapfrog"] {
-        let c = case(
+        let c = load(
             "spinning-plate",
             &[&format!("method.integrator={integrator}")],
         );
@@ -354,7 +304,7 @@ fn the_second_tvd_rk2_stage_balances_about_the_mid_step_points() {
     // ~ 0.5 m on a 2 m plate. The GPU's v̇ must match the CPU's within the 1e-5 of
     // `compare_rates`, and the rates balanced about x* must differ by more than 10 times
     // that (else a GPU that ignored the mid-step points would pass).
-    let c = case("spinning-plate", &[]);
+    let c = shipped("spinning-plate");
     let dt = 0.5;
     let mut cpu: MixedSph<D2> = build_method(&c).unwrap();
     let start = random_state(&cpu, &mut 3, 0.01);
@@ -382,7 +332,7 @@ fn the_second_tvd_rk2_stage_balances_about_the_mid_step_points() {
 /// Largest |L(t)/L(0) − 1| of the spinning plate over `steps` TVD-RK2 steps on the GPU,
 /// L = Σ m (X + u) × v summed in f64 from the read-back f32 state every 10 steps.
 fn spinning_plate_drift(projection: bool, steps: u32) -> f64 {
-    let c = case(
+    let c = load(
         "spinning-plate",
         &[&format!("method.projection={projection}")],
     );
@@ -442,7 +392,7 @@ fn check_signal_speed<D: GpuDim>(c: &Case, stretched: D::T) {
         g.set_state(y);
         let (on_gpu, on_cpu) = (g.max_signal_speed(), cpu.max_signal_speed(y));
         let deviation = (on_gpu / on_cpu - 1.0).abs();
-        let wave = c.method.cfl_wave_speed.unwrap_or_default();
+        let wave = mixed(c).0.cfl_wave_speed;
         eprintln!(
             "{}D {label}, {wave:?}: signal speed GPU {on_gpu} vs CPU {on_cpu} m/s \
              ({deviation:.2e})",
@@ -473,8 +423,8 @@ fn the_cfl_signal_speed_follows_the_fastest_pair() {
     // Both pair wave speeds: C_p,ab of eq 32 and C_p^Lin, which skips the stretches.
     for wave in ["pair", "linear"] {
         let wave = format!("method.cfl_wave_speed={wave}");
-        check_signal_speed::<D2>(&case("swinging-plate", &["spacing=0.125", &wave]), s2);
-        check_signal_speed::<D3>(&case("swinging-cube", &["spacing=0.125", &wave]), s3);
+        check_signal_speed::<D2>(&load("swinging-plate", &["spacing=0.125", &wave]), s2);
+        check_signal_speed::<D3>(&load("swinging-cube", &["spacing=0.125", &wave]), s3);
     }
 }
 
@@ -487,7 +437,7 @@ fn the_cfl_signal_speed_follows_the_fastest_pair() {
 /// strains, up to 0.66, agree to 1e-3 of the largest (measured 3e-5).
 #[test]
 fn plastic_flow_matches_the_cpu() {
-    let c = case(
+    let c = load(
         "taylor-bar",
         &[
             "spacing=1.0666666666666667e-3",
@@ -502,13 +452,7 @@ fn plastic_flow_matches_the_cpu() {
     cpu.advance(0.0, 2e-8, 500).unwrap();
     Engine::<D3>::advance(&mut g, 0.0, 2e-8, 500).unwrap();
     let (on_cpu, on_gpu) = (cpu.snapshot(), Engine::<D3>::snapshot(&mut g));
-    let largest = on_cpu.u.iter().map(|u| u.length()).fold(0.0, f64::max);
-    let deviation = on_cpu
-        .u
-        .iter()
-        .zip(&on_gpu.u)
-        .map(|(a, b)| (*a - *b).length())
-        .fold(0.0, f64::max);
+    let (deviation, largest) = max_v::<D3>(&on_cpu.u, &on_gpu.u);
     let (energy_cpu, energy_gpu) = (
         on_cpu.strain_energy + Invariants::of(&on_cpu).kinetic,
         on_gpu.strain_energy + Invariants::of(&on_gpu).kinetic,
@@ -523,15 +467,10 @@ fn plastic_flow_matches_the_cpu() {
     );
     assert!((energy_gpu - energy_cpu).abs() < 1e-4 * e0);
     let (eps_cpu, eps_gpu) = (
-        on_cpu.plastic_strain.clone().unwrap(),
-        on_gpu.plastic_strain.clone().unwrap(),
+        on_cpu.field(PLASTIC_STRAIN).unwrap().to_vec(),
+        on_gpu.field(PLASTIC_STRAIN).unwrap().to_vec(),
     );
-    let eps_max = eps_cpu.iter().copied().fold(0.0, f64::max);
-    let eps_deviation = eps_cpu
-        .iter()
-        .zip(&eps_gpu)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0, f64::max);
+    let (eps_deviation, eps_max) = max_s(&eps_cpu, &eps_gpu);
     eprintln!("ε_p: max {eps_max}, max |ε_p,GPU − ε_p,CPU| = {eps_deviation:e}");
     assert!(
         eps_max > 0.1,

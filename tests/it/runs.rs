@@ -1,29 +1,14 @@
 //! Whole runs on the CPU: conservation on the rotating disk, wave speed in the rod with
 //! refinement, blow-up detection and the command line's exit codes.
 
+use crate::common::{case_file, cpu_options, load};
 use meshless::integrate::Integrator;
-use meshless::method::Method;
-use meshless::method::tlsph::Tlsph;
-use meshless::run::{Backend, RunError, RunOptions, build_method, run};
-use meshless::scene::Case;
+use meshless::methods::Method;
+use meshless::methods::tlsph::Tlsph;
+use meshless::run::{RunError, build_method, run};
 use meshless::tensor::D2;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
-
-fn case_file(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("cases")
-        .join(format!("{name}.toml"))
-}
-
-fn options(dir: &Path, frames: bool) -> RunOptions {
-    RunOptions {
-        out_dir: dir.to_path_buf(),
-        backend: Backend::Cpu,
-        progress: false,
-        frames,
-    }
-}
 
 /// Column `name` of a series CSV.
 fn column(csv: &Path, name: &str) -> Vec<f64> {
@@ -47,12 +32,8 @@ fn rotating_disk_keeps_its_angular_momentum() {
     // paper's 1e-6 over 0.15 s). RL-corrected TLSPH does not conserve H exactly (seed 000
     // checklist 15), so the bound is the measured drift with a factor 4 margin: 1e-4.
     let dir = tempfile::tempdir().unwrap();
-    let case = Case::load(
-        &case_file("rotating-disk"),
-        &["method.dt=5e-6".into(), "run.end_time=0.126".into()],
-    )
-    .unwrap();
-    run(&case, &options(dir.path(), false)).unwrap();
+    let case = load("rotating-disk", &["method.dt=5e-6", "run.end_time=0.126"]);
+    run(&case, &cpu_options(dir.path(), false)).unwrap();
     let h = column(&dir.path().join("series.csv"), "angular_momentum_z");
     let drift = h.iter().map(|x| (x / h[0] - 1.0).abs()).fold(0.0, f64::max);
     assert!(drift < 1e-4, "max |H/H(0) − 1| = {drift:e}");
@@ -61,7 +42,7 @@ fn rotating_disk_keeps_its_angular_momentum() {
 
 /// Speed of the right-moving half pulse: displacement of its velocity centroid over t.
 fn measured_wave_speed(spacing: f64) -> (f64, usize) {
-    let case = Case::load(&case_file("wave-rod"), &[format!("spacing={spacing}")]).unwrap();
+    let case = load("wave-rod", &[format!("spacing={spacing}")]);
     let mut m: Tlsph<D2> = build_method(&case).unwrap();
     let mut y = m.initial_state();
     let mut integ = Integrator::new(case.method.integrator, &y);
@@ -109,16 +90,15 @@ fn blow_up_stops_the_run_with_a_diagnostic_and_keeps_earlier_frames() {
     // c·Δt/Δx = 9 is far past the RK4 stability limit: the run must stop, name the step, time,
     // particle and quantity, write a failed summary and keep a valid PVD of earlier frames.
     let dir = tempfile::tempdir().unwrap();
-    let case = Case::load(
-        &case_file("wave-rod"),
+    let case = load(
+        "wave-rod",
         &[
-            "method.cfl=".into(),
-            "method.dt=2e-5".into(),
-            "output.frame_interval=2e-5".into(),
+            "method.cfl=",
+            "method.dt=2e-5",
+            "output.frame_interval=2e-5",
         ],
-    )
-    .unwrap();
-    let err = run(&case, &options(dir.path(), true)).unwrap_err();
+    );
+    let err = run(&case, &cpu_options(dir.path(), true)).unwrap_err();
     let RunError::BlowUp {
         step, time, cause, ..
     } = &err
@@ -211,13 +191,12 @@ fn command_line_exit_codes() {
 /// hourglass observer and `overrides`, a sample after every step; its series and result.
 fn swinging_plate(dir: &Path, overrides: &[&str]) -> Result<(), RunError> {
     let mut set = vec![
-        "spacing=0.1".to_string(),
-        "run.end_time=0.02".to_string(),
-        "output.observers=[\"energy\", \"hourglass\"]".to_string(),
+        "spacing=0.1",
+        "run.end_time=0.02",
+        "output.observers=[\"energy\", \"hourglass\"]",
     ];
-    set.extend(overrides.iter().map(|s| s.to_string()));
-    let case = Case::load(&case_file("swinging-plate"), &set).unwrap();
-    run(&case, &options(dir, false)).map(|_| ())
+    set.extend_from_slice(overrides);
+    run(&load("swinging-plate", &set), &cpu_options(dir, false)).map(|_| ())
 }
 
 /// Columns of the swinging plate's series without any failure limit, run once for the
@@ -243,7 +222,7 @@ fn free_run() -> &'static FreeRun {
 }
 
 /// The blow-up of a run that must fail.
-fn blow_up(result: Result<(), RunError>) -> (f64, meshless::method::BlowUp) {
+fn blow_up(result: Result<(), RunError>) -> (f64, meshless::methods::BlowUp) {
     match result {
         Err(RunError::BlowUp { time, cause, .. }) => (time, cause),
         other => panic!("expected a blow-up, got {other:?}"),

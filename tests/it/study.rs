@@ -2,15 +2,16 @@
 //! recorded as failed while the study goes on, resumption without redoing finished runs,
 //! and the files a suite writes.
 
+use crate::common::{cases_dir, toml_files};
 use meshless::material::Material;
 use meshless::scene::Case;
 use meshless::study::fields::{FinalState, analytic_fields, matched_fields, relative_l2};
 use meshless::study::suite::{AnalyticSolution, TimeMeasure};
 use meshless::study::{Status, StudyOptions, Suite, records, report, run_suite};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 fn studies() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/studies")
+    cases_dir().join("studies")
 }
 
 fn ci_suite() -> Suite {
@@ -275,11 +276,7 @@ fn shipped_suites_load_and_plan_valid_cases() {
     // Every suite file parses, and every planned case validates except where a sweep
     // value is meant to be refused (ν = 0.5).
     let mut count = 0;
-    for entry in std::fs::read_dir(studies()).unwrap() {
-        let path = entry.unwrap().path();
-        if path.extension().is_none_or(|e| e != "toml") {
-            continue;
-        }
+    for path in toml_files(&studies()) {
         let suite = Suite::load(&path).unwrap_or_else(|e| panic!("{e}"));
         for run in suite.plan() {
             if let Err(e) = &run.case {

@@ -2,30 +2,18 @@
 //! of the stabilisation, exactness on linear fields, momenta with and without the
 //! angular-momentum projection, and the symmetry of the twisting column.
 
+use crate::common::{cpu_options, load, noise, random_state, shipped};
 use meshless::analytic::SwingingMode;
 use meshless::integrate::OdeSystem;
 use meshless::material::Material;
-use meshless::method::Method;
-use meshless::method::mixed::{Fluxes, MixedSph};
-use meshless::run::{Backend, CpuEngine, Engine, RunOptions, build_method};
+use meshless::methods::Method;
+use meshless::methods::mixed::{Fluxes, MixedSph};
+use meshless::run::{Backend, CpuEngine, Engine, build_method};
 use meshless::scene::Case;
 use meshless::study::engine::run_case;
 use meshless::study::fields::{analytic_fields, relative_l2};
 use meshless::study::suite::AnalyticSolution;
 use meshless::tensor::{D2, D3, Dim};
-
-mod common;
-use common::{load, noise, random_state};
-
-/// A CPU run into `dir`: series and summary, no frames, no progress bar.
-fn cpu_options(dir: &std::path::Path) -> RunOptions {
-    RunOptions {
-        out_dir: dir.to_path_buf(),
-        backend: Backend::Cpu,
-        progress: false,
-        frames: false,
-    }
-}
 
 fn sum_v<D: Dim>(f: &[D::V], vol: &[f64]) -> (D::V, f64) {
     let total = f.iter().zip(vol).fold(D::zero(), |s, (&f, &v)| s + f * v);
@@ -49,7 +37,7 @@ fn fluxes_are_conservative<D: Dim>(case: &Case) {
         assert!(
             D::norm2(total).sqrt() < 1e-12 * scale,
             "{} {}D: |Σ V {name}| = {:e} of {scale:e}",
-            case.method.name.key(),
+            case.method.name(),
             D::N,
             D::norm2(total).sqrt()
         );
@@ -198,7 +186,7 @@ fn twisting_column_keeps_its_axis_and_loses_energy() {
     // about the Y axis and so is the twist, hence the axis particles move along Y only; their
     // off-axis displacement is round-off (bound 1e-12 m against a 0.1 m twist). The upwind
     // fluxes only dissipate: the total energy must not grow (bound: 1e-9 relative).
-    let case = load("twisting-column", &[]);
+    let case = shipped("twisting-column");
     let mut e = run_steps::<D3>(&case, 600);
     let e0 = 7402038.57421875; // kinetic energy of the initial twist on this lattice
     let snap = e.snapshot();
@@ -300,7 +288,7 @@ fn swinging_run_errors(spacing: f64, name: &str) -> (f64, f64) {
 /// Relative L2 errors of v and P of a swinging case at its end time.
 fn run_errors(case: &Case) -> (f64, f64) {
     let dir = tempfile::tempdir().unwrap();
-    let opts = cpu_options(dir.path());
+    let opts = cpu_options(dir.path(), false);
     let out = run_case(case, Backend::Cpu, &opts);
     out.result.unwrap();
     let state = out.state.unwrap();
@@ -460,9 +448,9 @@ fn seed_002_swinging_plate_converges_with_the_bond_based_f() {
 /// an unstable mode, so the change must be a loss.
 #[test]
 fn bending_column_is_stable_at_cfl_0_9() {
-    let case = load("bending-column", &[]);
+    let case = shipped("bending-column");
     let dir = tempfile::tempdir().unwrap();
-    let opts = cpu_options(dir.path());
+    let opts = cpu_options(dir.path(), false);
     let out = run_case(&case, Backend::Cpu, &opts);
     let summary = out.result.unwrap();
     assert!((summary.end_time - 0.07505).abs() < 1e-9);
@@ -497,7 +485,7 @@ fn jst_on_the_brookshaw_laplacian_survives_the_pull_the_corrected_one_does_not()
                 laplacian.as_str(),
             ],
         );
-        let opts = cpu_options(dir);
+        let opts = cpu_options(dir, false);
         run_case(&case, Backend::Cpu, &opts)
     };
     let dir = tempfile::tempdir().unwrap();
@@ -540,7 +528,7 @@ fn the_taylor_bar_mushrooms_to_the_published_radius() {
     let spacing = format!("spacing={dx}");
     let case = load("taylor-bar", &[&spacing, "run.end_time=4e-5"]);
     let dir = tempfile::tempdir().unwrap();
-    let opts = cpu_options(dir.path());
+    let opts = cpu_options(dir.path(), false);
     run_case(&case, Backend::Cpu, &opts).result.unwrap();
     // series.csv: time, step, dt, kinetic, strain, total energy, external work,
     // bar.extent_x, …

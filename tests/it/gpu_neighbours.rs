@@ -4,31 +4,14 @@
 //! These tests need a GPU adapter (on CPU-only Linux: Mesa's lavapipe, Debian package
 //! mesa-vulkan-drivers). Without one they FAIL; they do not skip.
 
+use crate::common::{gpu, lcg, validate_wgsl};
 use glam::{DVec2, DVec3};
 use meshless::gpu::neighbour::{self as gpu_neighbour, CellParams};
-use meshless::gpu::shaders::{ALL, Constants, compose};
+use meshless::gpu::shaders::{Constants, compose};
 use meshless::gpu::{Gpu, GpuDim};
+use meshless::methods::shaders;
 use meshless::neighbour::{self, Csr};
 use meshless::tensor::{D2, D3, Dim};
-use std::sync::Arc;
-
-fn gpu() -> Gpu {
-    let gpu = Gpu::new().expect(
-        "no GPU adapter found: the GPU neighbour tests need one (on Linux without a GPU, \
-         install Mesa's Vulkan CPU driver lavapipe: apt-get install mesa-vulkan-drivers)",
-    );
-    gpu.device
-        .on_uncaptured_error(Arc::new(|e| panic!("wgpu error: {e}")));
-    gpu
-}
-
-/// Deterministic pseudo-random numbers in [0, 1) (64-bit LCG, as in src/neighbour.rs).
-fn lcg(seed: &mut u64) -> f64 {
-    *seed = seed
-        .wrapping_mul(6364136223846793005)
-        .wrapping_add(1442695040888963407);
-    (*seed >> 11) as f64 / (1u64 << 53) as f64
-}
 
 fn gpu_lists<D: GpuDim>(gpu: &Gpu, x: &[D::V], radius: f64) -> Csr {
     let host: Vec<D::HV> = x.iter().map(|&p| D::v(p)).collect();
@@ -108,10 +91,11 @@ fn brute_force<D: Dim>(x: &[D::V], radius: f64) -> Csr {
 fn cell_params_match_the_wgsl_uniform_layout() {
     use std::mem::{offset_of, size_of};
     assert_eq!(size_of::<CellParams>(), 48);
-    let source = ALL
+    let all = shaders();
+    let source = all
         .iter()
-        .find(|s| s.name == "cell_list.wgsl")
-        .expect("cell_list.wgsl in ALL");
+        .find(|s| s.name == "common/cell_list.wgsl")
+        .expect("cell_list.wgsl among the passes");
     for text in [
         compose::<D2>(source, &Constants::default()),
         compose::<D3>(source, &Constants::default()),
@@ -146,20 +130,17 @@ fn cell_params_match_the_wgsl_uniform_layout() {
 
 #[test]
 fn neighbour_shaders_validate_with_naga() {
-    for name in ["cell_list.wgsl", "scan.wgsl"] {
-        let source = ALL.iter().find(|s| s.name == name).expect("shader in ALL");
+    for name in ["common/cell_list.wgsl", "common/scan.wgsl"] {
+        let all = shaders();
+        let source = all
+            .iter()
+            .find(|s| s.name == name)
+            .expect("shader among the passes");
         for text in [
             compose::<D2>(source, &Constants::default()),
             compose::<D3>(source, &Constants::default()),
         ] {
-            let module = naga::front::wgsl::parse_str(&text)
-                .unwrap_or_else(|e| panic!("{}", e.emit_to_string_with_path(&text, name)));
-            naga::valid::Validator::new(
-                naga::valid::ValidationFlags::all(),
-                naga::valid::Capabilities::empty(),
-            )
-            .validate(&module)
-            .unwrap_or_else(|e| panic!("{}", e.emit_to_string_with_path(&text, name)));
+            validate_wgsl(name, &text);
         }
     }
 }

@@ -1,0 +1,205 @@
+//! Helpers the test modules share: the GPU, the shipped cases, run options, deterministic
+//! random numbers and states, WGSL validation, and the largest difference between two
+//! fields.
+//!
+//! Some helpers serve only the modules compiled with the `gpu` or `study` feature; a
+//! build without them leaves those unused.
+#![cfg_attr(not(all(feature = "gpu", feature = "study")), allow(dead_code))]
+
+#[cfg(feature = "gpu")]
+use meshless::gpu::Gpu;
+use meshless::methods::Method;
+use meshless::methods::mixed::{MixedSph, MixedState};
+use meshless::run::{Backend, RunOptions};
+use meshless::scene::Case;
+use meshless::tensor::Dim;
+use std::ops::Sub;
+use std::path::{Path, PathBuf};
+#[cfg(feature = "gpu")]
+use std::sync::Arc;
+
+#[cfg(feature = "gpu")]
+/// The adapter wgpu finds, with uncaptured wgpu errors raised as panics. Without an
+/// adapter the test fails, it does not skip: the GPU path is part of what CI checks (on
+/// Linux without a GPU, Mesa's Vulkan CPU driver lavapipe).
+pub fn gpu() -> Gpu {
+    let gpu = Gpu::new().unwrap_or_else(|e| {
+        panic!(
+            "GPU tests need an adapter (CI installs Mesa lavapipe: apt-get install \
+             mesa-vulkan-drivers): {e}"
+        )
+    });
+    gpu.device
+        .on_uncaptured_error(Arc::new(|e| panic!("wgpu error: {e}")));
+    gpu
+}
+
+/// The folder of the shipped cases.
+pub fn cases_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("cases")
+}
+
+/// The file of the shipped case `name`: `cases/<name>.toml`.
+pub fn case_file(name: &str) -> PathBuf {
+    cases_dir().join(format!("{name}.toml"))
+}
+
+/// The `.toml` files in `dir`, in the order the folder lists them.
+pub fn toml_files(dir: &Path) -> Vec<PathBuf> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|entry| entry.unwrap().path())
+        .filter(|path| path.extension().is_some_and(|e| e == "toml"))
+        .collect()
+}
+
+/// The shipped case `name` with `--set` overrides (`key=value`); panics if it does not
+/// load.
+pub fn load(name: &str, overrides: &[impl AsRef<str>]) -> Case {
+    let overrides: Vec<String> = overrides.iter().map(|s| s.as_ref().to_string()).collect();
+    Case::load(&case_file(name), &overrides).unwrap()
+}
+
+/// The shipped case `name` as its file has it.
+pub fn shipped(name: &str) -> Case {
+    Case::load(&case_file(name), &[]).unwrap()
+}
+
+/// Options of a CPU run into `dir`: series and summary, frames if `frames`, no progress
+/// bar.
+pub fn cpu_options(dir: &Path, frames: bool) -> RunOptions {
+    RunOptions {
+        out_dir: dir.to_path_buf(),
+        backend: Backend::Cpu,
+        progress: false,
+        frames,
+    }
+}
+
+/// Every variant the mixed methods compile, on top of the overrides `base`: Upwind-SPH
+/// with and without reconstruction, JST-SPH, each with each set of conserved variables
+/// (the last override of each variant).
+pub fn mixed_variants(base: &[&str]) -> Vec<Vec<String>> {
+    let methods: [&[&str]; 3] = [
+        &["method.name=upwind-sph"],
+        &["method.name=upwind-sph", "method.reconstruction=false"],
+        &["method.name=jst-sph"],
+    ];
+    let mut out = Vec::new();
+    for method in methods {
+        for variables in ["p-F", "p-F-J", "p-F-H-J"] {
+            let mut set: Vec<String> = base.iter().map(|s| s.to_string()).collect();
+            set.extend(method.iter().map(|s| s.to_string()));
+            set.push(format!("method.variables={variables}"));
+            out.push(set);
+        }
+    }
+    out
+}
+
+/// Deterministic pseudo-random numbers in [0, 1) (64-bit LCG, as in src/neighbour.rs).
+pub fn lcg(seed: &mut u64) -> f64 {
+    *seed = seed
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
+    (*seed >> 11) as f64 / (1u64 << 53) as f64
+}
+
+/// Deterministic numbers in [−1, 1): `lcg` stretched.
+pub fn noise(seed: &mut u64) -> f64 {
+    lcg(seed) * 2.0 - 1.0
+}
+
+/// A tensor with entries scale × noise.
+pub fn random_tensor<D: Dim>(seed: &mut u64, scale: f64) -> D::T {
+    let mut t = D::zero_t();
+    for k in 0..D::N {
+        let mut e = [0.0; 3];
+        e[k] = 1.0;
+        let row: Vec<f64> = (0..D::N).map(|_| scale * noise(seed)).collect();
+        t += D::outer(D::from_slice(&e), D::from_slice(&row));
+    }
+    t
+}
+
+/// A random admissible state: |v| ~ 1 m/s, |u| ~ 1 cm, F = I + 5 % noise,
+/// H = cof F + `h_noise` noise, J = det F + 1 %.
+pub fn random_state<D: Dim>(m: &MixedSph<D>, seed: &mut u64, h_noise: f64) -> MixedState<D> {
+    let mut y = m.initial_state();
+    let vec = |seed: &mut u64, s: f64| {
+        D::from_slice(&(0..D::N).map(|_| s * noise(seed)).collect::<Vec<_>>())
+    };
+    for a in 0..y.v.len() {
+        y.v[a] = vec(seed, 1.0);
+        y.u[a] = vec(seed, 0.01);
+        y.f[a] = D::identity() + random_tensor::<D>(seed, 0.05);
+        if !y.h.is_empty() {
+            y.h[a] = D::cof(y.f[a]) + random_tensor::<D>(seed, h_noise);
+        }
+        if !y.j.is_empty() {
+            y.j[a] = D::det(y.f[a]) * (1.0 + 0.01 * noise(seed));
+        }
+    }
+    y
+}
+
+/// Parses and validates the WGSL `src` with naga; panics with the located error, under
+/// `name`.
+pub fn validate_wgsl(name: &str, src: &str) {
+    let module = naga::front::wgsl::parse_str(src)
+        .unwrap_or_else(|e| panic!("{}", e.emit_to_string_with_path(src, name)));
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::empty(),
+    )
+    .validate(&module)
+    .unwrap_or_else(|e| panic!("{}", e.emit_to_string_with_path(src, name)));
+}
+
+/// The largest `norm` over `values` (0 for none).
+fn largest<T>(values: impl IntoIterator<Item = T>, norm: impl Fn(T) -> f64) -> f64 {
+    values.into_iter().map(norm).fold(0.0, f64::max)
+}
+
+/// The largest length over the vectors `values`.
+pub fn largest_v<D: Dim>(values: impl IntoIterator<Item = D::V>) -> f64 {
+    largest(values, norm_v::<D>)
+}
+
+/// The largest Frobenius norm over the tensors `values`.
+pub fn largest_t<D: Dim>(values: impl IntoIterator<Item = D::T>) -> f64 {
+    largest(values, norm_t::<D>)
+}
+
+/// The length |v| of a vector.
+fn norm_v<D: Dim>(v: D::V) -> f64 {
+    D::norm2(v).sqrt()
+}
+
+/// The Frobenius norm |T| = √(T : T) of a tensor.
+fn norm_t<D: Dim>(t: D::T) -> f64 {
+    D::ddot(t, t).sqrt()
+}
+
+/// The largest difference between the fields `a` (the reference) and `b`, and the scale
+/// to hold it against: (max |a − b|, max |a|), so that a bound can be relative to the
+/// field (f32 round-off is relative to the values summed, not to each difference).
+fn max_diff<T: Copy + Sub<Output = T>>(a: &[T], b: &[T], norm: impl Fn(T) -> f64) -> (f64, f64) {
+    let error = largest(a.iter().zip(b).map(|(&x, &y)| x - y), &norm);
+    (error, largest(a.iter().copied(), norm))
+}
+
+/// `max_diff` of vector fields.
+pub fn max_v<D: Dim>(a: &[D::V], b: &[D::V]) -> (f64, f64) {
+    max_diff(a, b, norm_v::<D>)
+}
+
+/// `max_diff` of tensor fields, in the Frobenius norm.
+pub fn max_t<D: Dim>(a: &[D::T], b: &[D::T]) -> (f64, f64) {
+    max_diff(a, b, norm_t::<D>)
+}
+
+/// `max_diff` of scalar fields.
+pub fn max_s(a: &[f64], b: &[f64]) -> (f64, f64) {
+    max_diff(a, b, f64::abs)
+}

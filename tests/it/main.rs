@@ -1,0 +1,27 @@
+//! Integration tests of `meshless`, one module per subject, built as one test binary.
+//!
+//! The CPU modules check the methods, whole runs, case files and the study runner against
+//! exact solutions and invariants; the GPU modules validate the WGSL passes with naga and
+//! compare them against the f64 CPU reference on whatever adapter wgpu finds (CI installs
+//! Mesa's lavapipe). A GPU test without an adapter fails: it does not skip. The helpers
+//! the modules share are in `common`. Modules and tests that need the `gpu` or `study`
+//! feature are compiled only with it (both are on by default).
+
+mod case_errors;
+mod common;
+mod contact;
+#[cfg(feature = "gpu")]
+mod gpu_mixed;
+#[cfg(feature = "gpu")]
+mod gpu_neighbours;
+#[cfg(feature = "gpu")]
+mod gpu_tlsph;
+#[cfg(feature = "study")]
+mod mixed;
+mod registry;
+mod runs;
+#[cfg(feature = "gpu")]
+mod shaders;
+#[cfg(feature = "study")]
+mod study;
+mod tlsph;

@@ -1,0 +1,170 @@
+//! Every WGSL pass validates with naga (and lowers to an IR) without any adapter, in both
+//! dimensions and for every scene variant the solver compiles.
+
+use crate::common::{load, mixed_variants, shipped, validate_wgsl};
+use meshless::gpu::layout::GpuDim;
+use meshless::gpu::shaders::{self, Constants};
+use meshless::methods::mixed::{MixedSph, gpu as mixed};
+use meshless::methods::tlsph::gpu::{self as tlsph, Layout, scene_constants};
+use meshless::run::build_method;
+use meshless::scene::Case;
+use meshless::tensor::{D2, D3};
+
+/// TLSPH scenes: each material model, kernel and correction the GPU passes compile.
+fn variants() -> Vec<Case> {
+    vec![
+        shipped("rotating-disk"),
+        load(
+            "rotating-disk",
+            &[
+                "material.model=saint-venant-kirchhoff",
+                "method.artificial_viscosity=",
+            ],
+        ),
+        load(
+            "rotating-disk",
+            &[
+                "material.model=neo-hookean",
+                "method.kernel=quintic",
+                "method.correction=\"shepard\"",
+            ],
+        ),
+        load("wave-rod", &["method.correction=\"none\""]),
+        load("wave-rod", &["method.kernel=cubic-spline"]),
+    ]
+}
+
+/// Mixed-method scenes of dimension `dim`: with ghosts (mirror planes) and without, each
+/// material model the mixed methods allow, projection on and off, Upwind-SPH with and
+/// without reconstruction and JST-SPH, each set of conserved variables, and each method
+/// with the seed 002 options (symmetrised momentum, bond-based F with {p, F}).
+fn mixed_cases(dim: usize) -> Vec<Case> {
+    let bases: Vec<(&str, Vec<&str>)> = if dim == 2 {
+        vec![
+            ("swinging-plate", vec!["spacing=0.125"]),
+            ("spinning-plate", vec!["spacing=0.4"]),
+            (
+                "spinning-plate",
+                vec![
+                    "spacing=0.4",
+                    "material.model=neo-hookean",
+                    "method.projection=false",
+                ],
+            ),
+        ]
+    } else {
+        vec![
+            ("swinging-cube", vec!["spacing=0.125"]),
+            ("swinging-cube", vec!["spacing=0.25", "mirror="]),
+        ]
+    };
+    let mut cases = Vec::new();
+    for (name, base) in &bases {
+        for set in mixed_variants(base) {
+            cases.push(load(name, &set));
+        }
+    }
+    let (seed_002, base) = if dim == 2 {
+        ("swinging-plate", "spacing=0.125")
+    } else {
+        ("bending-column", "method.jst=")
+    };
+    for mut set in mixed_variants(&[base]) {
+        if set.last().is_some_and(|v| v == "method.variables=p-F") {
+            set.extend(
+                [
+                    "method.momentum=symmetrised",
+                    "method.deformation_gradient=bond-based",
+                ]
+                .map(String::from),
+            );
+            cases.push(load(seed_002, &set));
+        }
+    }
+    cases
+}
+
+fn check_all<D: GpuDim>() {
+    for case in variants() {
+        for rate in [false, true] {
+            let constants = scene_constants(&case, &Layout::new(100, D::N, rate));
+            for source in tlsph::SHADERS {
+                let src = shaders::compose::<D>(source, &constants);
+                validate_wgsl(&format!("{}D {} ({})", D::N, source.name, case.name), &src);
+            }
+        }
+    }
+    for case in mixed_cases(D::N) {
+        let cpu: MixedSph<D> = build_method(&case).unwrap();
+        let (_, constants) = mixed::scene(&case, &cpu);
+        for source in mixed::SHADERS {
+            let src = shaders::compose::<D>(source, &constants);
+            validate_wgsl(&format!("{}D {} ({})", D::N, source.name, case.name), &src);
+        }
+    }
+    // Passes without scene constants (neighbour build, scans) validate on their own.
+    for source in meshless::methods::shaders() {
+        if !tlsph::SHADERS.contains(&source) && !mixed::SHADERS.contains(&source) {
+            validate_wgsl(
+                source.name,
+                &shaders::compose::<D>(&source, &Constants::default()),
+            );
+        }
+    }
+}
+
+/// Every `.wgsl` file under `shaders/` is a pass of some method (or a shared pass), a
+/// function file one of them includes, or a dimension prelude: so the checks above
+/// validate every file there is.
+#[test]
+fn every_wgsl_file_is_a_validated_pass_or_included() {
+    let mut reached: Vec<&str> = vec!["common/dim2.wgsl", "common/dim3.wgsl"];
+    for source in meshless::methods::shaders() {
+        reached.push(source.name);
+        reached.extend(source.common.iter().map(|f| f.name));
+    }
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
+    let mut files = Vec::new();
+    for folder in std::fs::read_dir(&root).unwrap() {
+        let folder = folder.unwrap().path();
+        for file in std::fs::read_dir(&folder).unwrap() {
+            let file = file.unwrap().path();
+            if file.extension().is_some_and(|e| e == "wgsl") {
+                files.push(
+                    file.strip_prefix(&root)
+                        .unwrap()
+                        .to_string_lossy()
+                        .into_owned(),
+                );
+            }
+        }
+    }
+    assert!(files.len() > 20, "{files:?}");
+    for file in &files {
+        assert!(
+            reached.contains(&file.as_str()),
+            "shaders/{file} is neither a pass nor included by one"
+        );
+    }
+}
+
+#[test]
+fn every_shader_validates_in_2d() {
+    check_all::<D2>();
+}
+
+#[test]
+fn every_shader_validates_in_3d() {
+    check_all::<D3>();
+}
+
+#[test]
+fn a_broken_shader_is_rejected() {
+    // The validator is live: a type error must be reported with the file name.
+    let src = "@compute @workgroup_size(1) fn main() { let x: f32 = 1u; }";
+    let err = naga::front::wgsl::parse_str(src).unwrap_err();
+    assert!(
+        err.emit_to_string_with_path(src, "broken.wgsl")
+            .contains("broken.wgsl")
+    );
+}
