@@ -1,5 +1,9 @@
 //! Explicit time integrators: classical RK4, TVD-RK2, SSP-RK3 (Shu–Osher forms) and a
 //! kick–drift–kick leapfrog (velocity Verlet) with one rate evaluation per step.
+//!
+//! Each scheme is written once, as data: a [`program`] of operations on four state-sized
+//! buffers (the state `Y`, a `Stage`, the `Rates` and an accumulator `Acc`). The CPU
+//! [`Integrator`] interprets it; the GPU engines record it (`gpu::program::Stepper`).
 
 use serde::{Deserialize, Serialize};
 
@@ -39,38 +43,211 @@ pub trait OdeState: Clone + Send + Sync {
     fn drift(&mut self, h: f64, rate: &Self);
 }
 
-/// A semi-discrete system dy/dt = f(t, y).
+/// A method's right-hand side dy/dt = f(t, y).
 pub trait OdeSystem {
     type State: OdeState;
     type Error;
+    /// Writes dy/dt at (t, y) into `dydt`.
     fn rates(&mut self, t: f64, y: &Self::State, dydt: &mut Self::State)
     -> Result<(), Self::Error>;
-    /// Called at the start of every step with the step's start state and size, before
-    /// the first rate evaluation (for schemes whose stages need y^n, e.g. the
-    /// angular-momentum projection of seed 003).
+    /// Called once before each step with its start time, size and state.
     fn begin_step(&mut self, _t: f64, _dt: f64, _y: &Self::State) {}
 }
 
-/// An integrator with its scratch states (allocated once).
+/// One of the four state-sized buffers of a step.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Buf {
+    Y,
+    Stage,
+    Rates,
+    Acc,
+}
+
+/// A coefficient of Δt: num·Δt/den (so that Δt/6 is one correctly rounded division).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OfDt(pub f64, pub f64);
+
+impl OfDt {
+    pub fn times(self, dt: f64) -> f64 {
+        dt * self.0 / self.1
+    }
+}
+
+/// The scalar b of a blend: a multiple of Δt or a constant.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Weight {
+    Dt(OfDt),
+    Const(f64),
+}
+
+impl Weight {
+    pub fn at(self, dt: f64) -> f64 {
+        match self {
+            Self::Dt(c) => c.times(dt),
+            Self::Const(b) => b,
+        }
+    }
+}
+
+/// One operation of a step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Op {
+    /// The rates of the state in `src`, at t + c·Δt, into `Rates`.
+    Rates { src: Buf, c: f64 },
+    /// `to` = `from`.
+    Copy { from: Buf, to: Buf },
+    /// out = a·out + b·x.
+    Blend { out: Buf, x: Buf, a: f64, b: Weight },
+    /// v(out) += h·(rate of v), h a multiple of Δt.
+    Kick { out: Buf, h: OfDt },
+    /// u(out) += h·v(out); every field after v += h·rates.
+    Drift { out: Buf, h: OfDt },
+}
+
+/// One rate evaluation of a step: of the state in `src` into `Rates`, the `index`-th of
+/// the step. The leapfrog's priming evaluation (rates of `Y` before its first step) has
+/// index 0.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Evaluation {
+    pub src: Buf,
+    pub index: usize,
+}
+
+/// The operations of one step of each integrator. The leapfrog starts from the rates of
+/// the previous step (or of a priming evaluation of `Y` before its first step).
+pub fn program(kind: IntegratorKind) -> Vec<Op> {
+    use Buf::*;
+    let rates = |src, c| Op::Rates { src, c };
+    let copy = |from, to| Op::Copy { from, to };
+    let axpy = |out, x, num, den| Op::Blend {
+        out,
+        x,
+        a: 1.0,
+        b: Weight::Dt(OfDt(num, den)),
+    };
+    let mix = |out, x, a, b| Op::Blend {
+        out,
+        x,
+        a,
+        b: Weight::Const(b),
+    };
+    match kind {
+        IntegratorKind::Rk4 => vec![
+            rates(Y, 0.0),
+            copy(Y, Acc),
+            axpy(Acc, Rates, 1.0, 6.0),
+            copy(Y, Stage),
+            axpy(Stage, Rates, 1.0, 2.0),
+            rates(Stage, 0.5),
+            axpy(Acc, Rates, 1.0, 3.0),
+            copy(Y, Stage),
+            axpy(Stage, Rates, 1.0, 2.0),
+            rates(Stage, 0.5),
+            axpy(Acc, Rates, 1.0, 3.0),
+            copy(Y, Stage),
+            axpy(Stage, Rates, 1.0, 1.0),
+            rates(Stage, 1.0),
+            axpy(Acc, Rates, 1.0, 6.0),
+            copy(Acc, Y),
+        ],
+        IntegratorKind::TvdRk2 => vec![
+            rates(Y, 0.0),
+            copy(Y, Stage),
+            axpy(Stage, Rates, 1.0, 1.0),
+            rates(Stage, 1.0),
+            axpy(Stage, Rates, 1.0, 1.0),
+            mix(Y, Stage, 0.5, 0.5),
+        ],
+        IntegratorKind::SspRk3 => vec![
+            rates(Y, 0.0),
+            copy(Y, Stage),
+            axpy(Stage, Rates, 1.0, 1.0),
+            rates(Stage, 1.0),
+            axpy(Stage, Rates, 1.0, 1.0),
+            mix(Stage, Y, 0.25, 0.75),
+            rates(Stage, 0.5),
+            axpy(Stage, Rates, 1.0, 1.0),
+            mix(Y, Stage, 1.0 / 3.0, 2.0 / 3.0),
+        ],
+        IntegratorKind::Leapfrog => vec![
+            Op::Kick {
+                out: Y,
+                h: OfDt(1.0, 2.0),
+            },
+            Op::Drift {
+                out: Y,
+                h: OfDt(1.0, 1.0),
+            },
+            copy(Y, Stage),
+            Op::Kick {
+                out: Stage,
+                h: OfDt(1.0, 2.0),
+            },
+            rates(Stage, 1.0),
+            Op::Kick {
+                out: Y,
+                h: OfDt(1.0, 2.0),
+            },
+        ],
+    }
+}
+
+/// The rate evaluations of one step, in order.
+pub fn evaluations(kind: IntegratorKind) -> Vec<Evaluation> {
+    program(kind)
+        .into_iter()
+        .filter_map(|op| match op {
+            Op::Rates { src, .. } => Some(src),
+            _ => None,
+        })
+        .enumerate()
+        .map(|(index, src)| Evaluation { src, index })
+        .collect()
+}
+
+/// The operations of one step, in order, as `meshless run --explain` prints them;
+/// `rates` describes one rate evaluation of the method.
+pub fn describe_step(kind: IntegratorKind, rates: &str) -> Vec<String> {
+    let of_dt = |h: OfDt| format!("{:.4}·Δt", h.0 / h.1);
+    program(kind)
+        .into_iter()
+        .map(|op| match op {
+            Op::Rates { src, .. } => format!("rates of {src:?}: {rates}"),
+            Op::Copy { from, to } => format!("copy {from:?} → {to:?}"),
+            Op::Blend { out, x, a, b } => {
+                let b = match b {
+                    Weight::Dt(h) => of_dt(h),
+                    Weight::Const(b) => format!("{b:.4}"),
+                };
+                format!("{out:?} = {a:.4}·{out:?} + {b}·{x:?}")
+            }
+            Op::Kick { out, h } => format!("kick: v({out:?}) += {}·a", of_dt(h)),
+            Op::Drift { out, h } => {
+                let h = of_dt(h);
+                format!("drift: u({out:?}) += {h}·v, fields after v += {h}·rates")
+            }
+        })
+        .collect()
+}
+
+/// The CPU interpreter of an integrator's [`program`], with its buffers allocated once.
 pub struct Integrator<S: OdeState> {
     kind: IntegratorKind,
-    k: Vec<S>,
-    stage: S,
-    /// Leapfrog: the rates of the last evaluation, reused as the next step's first kick.
-    last_rates: Option<S>,
+    program: Vec<Op>,
+    /// Stage, Rates, Acc.
+    buffers: [S; 3],
+    /// Leapfrog: whether `Rates` holds the rates of the current state.
+    primed: bool,
 }
 
 impl<S: OdeState> Integrator<S> {
+    /// Stage buffers shaped like `template`.
     pub fn new(kind: IntegratorKind, template: &S) -> Self {
-        let scratch = match kind {
-            IntegratorKind::Rk4 => 4,
-            _ => 1,
-        };
         Self {
             kind,
-            k: vec![template.clone(); scratch],
-            stage: template.clone(),
-            last_rates: None,
+            program: program(kind),
+            buffers: [template.clone(), template.clone(), template.clone()],
+            primed: false,
         }
     }
 
@@ -78,7 +255,7 @@ impl<S: OdeState> Integrator<S> {
         self.kind
     }
 
-    /// Advances y from t to t + dt.
+    /// Advances y by one step of size dt from time t.
     pub fn step<Sys: OdeSystem<State = S>>(
         &mut self,
         sys: &mut Sys,
@@ -87,103 +264,66 @@ impl<S: OdeState> Integrator<S> {
         y: &mut S,
     ) -> Result<(), Sys::Error> {
         sys.begin_step(t, dt, y);
-        match self.kind {
-            IntegratorKind::Rk4 => self.rk4(sys, t, dt, y),
-            IntegratorKind::TvdRk2 => self.tvd_rk2(sys, t, dt, y),
-            IntegratorKind::SspRk3 => self.ssp_rk3(sys, t, dt, y),
-            IntegratorKind::Leapfrog => self.leapfrog(sys, t, dt, y),
+        if self.kind == IntegratorKind::Leapfrog && !self.primed {
+            sys.rates(t, y, &mut self.buffers[1])?;
+            self.primed = true;
         }
-    }
-
-    fn rk4<Sys: OdeSystem<State = S>>(
-        &mut self,
-        sys: &mut Sys,
-        t: f64,
-        dt: f64,
-        y: &mut S,
-    ) -> Result<(), Sys::Error> {
-        let [k1, k2, k3, k4] = &mut self.k[..] else {
-            unreachable!("RK4 holds four rate buffers")
-        };
-        let stage = &mut self.stage;
-        sys.rates(t, y, k1)?;
-        stage.clone_from(y);
-        stage.axpy(0.5 * dt, k1);
-        sys.rates(t + 0.5 * dt, stage, k2)?;
-        stage.clone_from(y);
-        stage.axpy(0.5 * dt, k2);
-        sys.rates(t + 0.5 * dt, stage, k3)?;
-        stage.clone_from(y);
-        stage.axpy(dt, k3);
-        sys.rates(t + dt, stage, k4)?;
-        y.axpy(dt / 6.0, k1);
-        y.axpy(dt / 3.0, k2);
-        y.axpy(dt / 3.0, k3);
-        y.axpy(dt / 6.0, k4);
-        Ok(())
-    }
-
-    fn tvd_rk2<Sys: OdeSystem<State = S>>(
-        &mut self,
-        sys: &mut Sys,
-        t: f64,
-        dt: f64,
-        y: &mut S,
-    ) -> Result<(), Sys::Error> {
-        let (k, stage) = (&mut self.k[0], &mut self.stage);
-        sys.rates(t, y, k)?;
-        stage.clone_from(y);
-        stage.axpy(dt, k);
-        sys.rates(t + dt, stage, k)?;
-        stage.axpy(dt, k);
-        y.blend(0.5, 0.5, stage);
-        Ok(())
-    }
-
-    fn ssp_rk3<Sys: OdeSystem<State = S>>(
-        &mut self,
-        sys: &mut Sys,
-        t: f64,
-        dt: f64,
-        y: &mut S,
-    ) -> Result<(), Sys::Error> {
-        let (k, stage) = (&mut self.k[0], &mut self.stage);
-        sys.rates(t, y, k)?;
-        stage.clone_from(y);
-        stage.axpy(dt, k);
-        sys.rates(t + dt, stage, k)?;
-        stage.axpy(dt, k);
-        stage.blend(0.25, 0.75, y);
-        sys.rates(t + 0.5 * dt, stage, k)?;
-        stage.axpy(dt, k);
-        y.blend(1.0 / 3.0, 2.0 / 3.0, stage);
-        Ok(())
-    }
-
-    fn leapfrog<Sys: OdeSystem<State = S>>(
-        &mut self,
-        sys: &mut Sys,
-        t: f64,
-        dt: f64,
-        y: &mut S,
-    ) -> Result<(), Sys::Error> {
-        let rates = match &mut self.last_rates {
-            Some(r) => r,
-            None => {
-                let mut r = self.k[0].clone();
-                sys.rates(t, y, &mut r)?;
-                self.last_rates.insert(r)
+        for op in &self.program {
+            match *op {
+                Op::Rates { src, c } => {
+                    let [stage, rates, _] = &mut self.buffers;
+                    let state = match src {
+                        Buf::Y => &*y,
+                        Buf::Stage => &*stage,
+                        Buf::Rates | Buf::Acc => unreachable!("rates are of Y or Stage"),
+                    };
+                    sys.rates(t + c * dt, state, rates)?;
+                }
+                Op::Copy { from, to } => {
+                    let (out, x) = pair(y, &mut self.buffers, to, from);
+                    out.clone_from(x);
+                }
+                Op::Blend { out, x, a, b } => {
+                    let (out, x) = pair(y, &mut self.buffers, out, x);
+                    if a == 1.0 {
+                        out.axpy(b.at(dt), x);
+                    } else {
+                        out.blend(a, b.at(dt), x);
+                    }
+                }
+                Op::Kick { out, h } => {
+                    let (out, rates) = pair(y, &mut self.buffers, out, Buf::Rates);
+                    out.kick(h.times(dt), rates);
+                }
+                Op::Drift { out, h } => {
+                    let (out, rates) = pair(y, &mut self.buffers, out, Buf::Rates);
+                    out.drift(h.times(dt), rates);
+                }
             }
-        };
-        y.kick(0.5 * dt, rates);
-        y.drift(dt, rates);
-        // Evaluate at the new positions with the velocity predicted to the end of the step.
-        let stage = &mut self.stage;
-        stage.clone_from(y);
-        stage.kick(0.5 * dt, rates);
-        sys.rates(t + dt, stage, rates)?;
-        y.kick(0.5 * dt, rates);
+        }
         Ok(())
+    }
+}
+
+/// The buffer `out` to write and the distinct buffer `x` to read, of y and
+/// [Stage, Rates, Acc].
+fn pair<'a, S>(y: &'a mut S, buffers: &'a mut [S; 3], out: Buf, x: Buf) -> (&'a mut S, &'a S) {
+    let index = |b: Buf| b as usize - 1;
+    match (out, x) {
+        (Buf::Y, Buf::Y) => unreachable!("an operation reads another buffer than it writes"),
+        (Buf::Y, x) => (y, &buffers[index(x)]),
+        (out, Buf::Y) => (&mut buffers[index(out)], y),
+        (out, x) => {
+            let (o, x) = (index(out), index(x));
+            assert_ne!(o, x, "an operation reads another buffer than it writes");
+            if o < x {
+                let (lo, hi) = buffers.split_at_mut(x);
+                (&mut lo[o], &hi[0])
+            } else {
+                let (lo, hi) = buffers.split_at_mut(o);
+                (&mut hi[0], &lo[x])
+            }
+        }
     }
 }
 

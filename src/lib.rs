@@ -8,12 +8,12 @@
 pub mod analytic;
 pub mod bench;
 pub mod boundary;
-pub mod contact;
 pub mod correction;
 #[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod hourglass;
 pub mod integrate;
+pub mod interaction;
 pub mod kernel;
 pub mod material;
 pub mod methods;

@@ -1,12 +1,12 @@
 // Penalty contact between the bodies of a 2D scene (seed 000 §5.8, eqs 172–178;
-// src/contact.rs), run before every step. One invocation per slave particle s gathers over
+// src/interaction/contact.rs), run before every step. One invocation per slave particle s gathers over
 // the hull particles of every other body (counter-clockwise, concatenated in `hull`,
 // body m's at hull_start[m]..hull_start[m + 1]), takes the closest one c (the first of
 // equals), its normal n_c = ½(n_left + n_right) from the current positions of its hull
 // neighbours, and with d = x_s − x_c and d·n_c ≤ 0 pushes back by −α (d·n_c) n_c / Δt².
-// It writes the sum over the masters plus the particle's traction acceleration into its
-// own entry of ext, which the next step's rate passes add (boundary.wgsl). Constants as in
-// tlsph.wgsl, plus BODIES.
+// It adds the sum over the masters to its own entry of ext (which holds the traction
+// acceleration, copied before the interaction passes), which the next step's rate passes
+// add (boundary.wgsl). Scene constants N, DIM, U_OFF and BODIES.
 
 struct ContactParams {
     // α / Δt².
@@ -22,8 +22,7 @@ struct ContactParams {
 @group(0) @binding(3) var<storage, read> body: array<u32>;
 @group(0) @binding(4) var<storage, read> hull: array<u32>;
 @group(0) @binding(5) var<storage, read> hull_start: array<u32>;
-@group(0) @binding(6) var<storage, read> traction: array<f32>;
-@group(0) @binding(7) var<storage, read_write> ext: array<f32>;
+@group(0) @binding(6) var<storage, read_write> ext: array<f32>;
 
 fn position(i: u32) -> vecd {
     return vload_x_hi(DIM * i) + vload_y(U_OFF + DIM * i);
@@ -48,7 +47,7 @@ fn contact(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
     for (var m = 0u; m < BODIES; m++) {
         let first = hull_start[m];
         let k = hull_start[m + 1u] - first;
-        // A body without area has an empty hull (src/contact.rs) and is no master.
+        // A body without area has an empty hull (src/interaction/contact.rs) and is no master.
         if m == body[s] || k == 0u {
             continue;
         }
@@ -72,5 +71,5 @@ fn contact(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
             push -= n * (params.scale * d_n);
         }
     }
-    vstore_ext(DIM * s, vload_traction(DIM * s) + push);
+    vstore_ext(DIM * s, vload_ext(DIM * s) + push);
 }

@@ -1,168 +1,12 @@
 //! The integrator's program of one GPU step, shared by the GPU engines: the operations of
-//! each scheme (the same as `crate::integrate`) on four state-sized flat buffers, the stage
-//! passes of `shaders/common/integrate.wgsl` with their coefficients, and the recording of whole
-//! steps, with the method's rate evaluations, into one command encoder.
+//! each scheme ([`crate::integrate::program`], which the CPU interprets) on four
+//! state-sized flat buffers, the stage passes of `shaders/common/integrate.wgsl` with their
+//! coefficients, and the recording of whole steps, with the method's rate evaluations,
+//! into one command encoder.
 
 use super::context::Gpu;
-use crate::integrate::IntegratorKind;
+use crate::integrate::{Buf, Evaluation, IntegratorKind, Op, program};
 use bytemuck::{Pod, Zeroable};
-
-/// One of the four state-sized buffers.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Buf {
-    Y,
-    Stage,
-    Rates,
-    Acc,
-}
-
-/// One rate evaluation of a step: of the state in `src` into `Rates`, the `index`-th of
-/// the step. The leapfrog's priming evaluation (rates of `Y` before its first step) has
-/// index 0.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Evaluation {
-    pub src: Buf,
-    pub index: usize,
-}
-
-/// One operation of a step.
-#[derive(Clone, Copy, Debug)]
-enum Op {
-    /// Rates of the state in the buffer into `Rates`.
-    Rates(Buf),
-    Copy(Buf, Buf),
-    /// out = a·out + b·x, with b = b_dt·Δt + b_const.
-    Blend {
-        out: Buf,
-        x: Buf,
-        a: f64,
-        b_dt: f64,
-        b_const: f64,
-    },
-    /// v += (b_dt·Δt)·(rate of v).
-    Kick {
-        out: Buf,
-        b_dt: f64,
-    },
-    /// u += (b_dt·Δt)·v; every field after v += (b_dt·Δt)·rates.
-    Drift {
-        out: Buf,
-        b_dt: f64,
-    },
-}
-
-/// The operations of one step, in order, as `meshless run --explain` prints them;
-/// `rates` describes one rate evaluation of the method.
-pub fn describe_step(kind: IntegratorKind, rates: &str) -> Vec<String> {
-    program(kind)
-        .into_iter()
-        .map(|op| match op {
-            Op::Rates(src) => format!("rates of {src:?}: {rates}"),
-            Op::Copy(a, b) => format!("copy {a:?} → {b:?}"),
-            Op::Blend {
-                out,
-                x,
-                a,
-                b_dt,
-                b_const,
-            } => {
-                let b = if b_dt != 0.0 {
-                    format!("{b_dt:.4}·Δt")
-                } else {
-                    format!("{b_const:.4}")
-                };
-                format!("{out:?} = {a:.4}·{out:?} + {b}·{x:?}")
-            }
-            Op::Kick { out, b_dt } => format!("kick: v({out:?}) += {b_dt}·Δt·a"),
-            Op::Drift { out, b_dt } => {
-                format!("drift: u({out:?}) += {b_dt}·Δt·v, fields after v += {b_dt}·Δt·rates")
-            }
-        })
-        .collect()
-}
-
-/// The operations of one step of each integrator (same schemes as `crate::integrate`).
-fn program(kind: IntegratorKind) -> Vec<Op> {
-    use Buf::*;
-    let axpy = |out, x, b_dt| Op::Blend {
-        out,
-        x,
-        a: 1.0,
-        b_dt,
-        b_const: 0.0,
-    };
-    let mix = |out, x, a: f64, b: f64| Op::Blend {
-        out,
-        x,
-        a,
-        b_dt: 0.0,
-        b_const: b,
-    };
-    match kind {
-        IntegratorKind::Rk4 => vec![
-            Op::Rates(Y),
-            Op::Copy(Y, Acc),
-            axpy(Acc, Rates, 1.0 / 6.0),
-            Op::Copy(Y, Stage),
-            axpy(Stage, Rates, 0.5),
-            Op::Rates(Stage),
-            axpy(Acc, Rates, 1.0 / 3.0),
-            Op::Copy(Y, Stage),
-            axpy(Stage, Rates, 0.5),
-            Op::Rates(Stage),
-            axpy(Acc, Rates, 1.0 / 3.0),
-            Op::Copy(Y, Stage),
-            axpy(Stage, Rates, 1.0),
-            Op::Rates(Stage),
-            axpy(Acc, Rates, 1.0 / 6.0),
-            Op::Copy(Acc, Y),
-        ],
-        IntegratorKind::TvdRk2 => vec![
-            Op::Rates(Y),
-            Op::Copy(Y, Stage),
-            axpy(Stage, Rates, 1.0),
-            Op::Rates(Stage),
-            axpy(Stage, Rates, 1.0),
-            mix(Y, Stage, 0.5, 0.5),
-        ],
-        IntegratorKind::SspRk3 => vec![
-            Op::Rates(Y),
-            Op::Copy(Y, Stage),
-            axpy(Stage, Rates, 1.0),
-            Op::Rates(Stage),
-            axpy(Stage, Rates, 1.0),
-            mix(Stage, Y, 0.25, 0.75),
-            Op::Rates(Stage),
-            axpy(Stage, Rates, 1.0),
-            mix(Y, Stage, 1.0 / 3.0, 2.0 / 3.0),
-        ],
-        // The rates of the previous evaluation (or of the priming pass) start the step.
-        IntegratorKind::Leapfrog => vec![
-            Op::Kick { out: Y, b_dt: 0.5 },
-            Op::Drift { out: Y, b_dt: 1.0 },
-            Op::Copy(Y, Stage),
-            Op::Kick {
-                out: Stage,
-                b_dt: 0.5,
-            },
-            Op::Rates(Stage),
-            Op::Kick { out: Y, b_dt: 0.5 },
-        ],
-    }
-}
-
-/// The rate evaluations of one step, in order.
-pub fn evaluations(kind: IntegratorKind) -> Vec<Evaluation> {
-    program(kind)
-        .into_iter()
-        .filter_map(|op| match op {
-            Op::Rates(src) => Some(src),
-            _ => None,
-        })
-        .enumerate()
-        .map(|(index, src)| Evaluation { src, index })
-        .collect()
-}
 
 /// A flat state of n particles: u at 0 and v at n·DIM (DIM each), then the fields that
 /// are integrated with their rates, from `rest` to `len` (f32 entries).
@@ -184,6 +28,7 @@ struct Coefficients {
 /// A recorded operation with its GPU resources.
 enum Recorded {
     Rates(Evaluation),
+    /// from, to.
     Copy(Buf, Buf),
     Pass {
         pipeline: usize,
@@ -233,14 +78,14 @@ impl Stepper {
             .into_iter()
             .map(|op| {
                 let (pipeline, out, x, invocations) = match op {
-                    Op::Rates(src) => {
+                    Op::Rates { src, .. } => {
                         index += 1;
                         return Recorded::Rates(Evaluation {
                             src,
                             index: index - 1,
                         });
                     }
-                    Op::Copy(a, b) => return Recorded::Copy(a, b),
+                    Op::Copy { from, to } => return Recorded::Copy(from, to),
                     Op::Blend { out, x, .. } => (0, out, x, layout.len),
                     Op::Kick { out, .. } => (1, out, Buf::Rates, nd),
                     Op::Drift { out, .. } => (2, out, Buf::Rates, nd + rest),
@@ -297,11 +142,11 @@ impl Stepper {
             } = rec
             {
                 let (a, b) = match *op {
-                    Op::Blend {
-                        a, b_dt, b_const, ..
-                    } => (a, b_dt * dt + b_const),
-                    Op::Kick { b_dt, .. } | Op::Drift { b_dt, .. } => (1.0, b_dt * dt),
-                    Op::Rates(_) | Op::Copy(..) => unreachable!("only passes carry coefficients"),
+                    Op::Blend { a, b, .. } => (a, b.at(dt)),
+                    Op::Kick { h, .. } | Op::Drift { h, .. } => (1.0, h.times(dt)),
+                    Op::Rates { .. } | Op::Copy { .. } => {
+                        unreachable!("only passes carry coefficients")
+                    }
                 };
                 let c = Coefficients {
                     a: a as f32,
@@ -325,18 +170,19 @@ impl Stepper {
         mut begin_step: impl FnMut(&mut wgpu::CommandEncoder),
     ) {
         self.set_dt(gpu, dt);
-        if self.kind == IntegratorKind::Leapfrog && !self.primed {
-            rates(
-                encoder,
-                Evaluation {
-                    src: Buf::Y,
-                    index: 0,
-                },
-            );
-            self.primed = true;
-        }
         for _ in 0..steps {
             begin_step(encoder);
+            // As on the CPU: the leapfrog's first rates after the first step's preparation.
+            if self.kind == IntegratorKind::Leapfrog && !self.primed {
+                rates(
+                    encoder,
+                    Evaluation {
+                        src: Buf::Y,
+                        index: 0,
+                    },
+                );
+                self.primed = true;
+            }
             for rec in &self.steps {
                 match rec {
                     Recorded::Rates(e) => rates(encoder, *e),

@@ -84,12 +84,7 @@ pub const PAIR_OFFSETS: Source = source!(
 pub const CONTACT: Source = source!(
     "common/contact.wgsl",
     [],
-    [
-        ("x_hi", false),
-        ("y", false),
-        ("traction", false),
-        ("ext", true)
-    ]
+    [("x_hi", false), ("y", false), ("ext", true)]
 );
 /// Cell list and neighbour lists.
 pub const CELL_LIST: Source = source!("common/cell_list.wgsl");

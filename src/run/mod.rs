@@ -153,23 +153,18 @@ pub fn explain(case: &Case, gpu: bool) -> String {
     out.join("\n")
 }
 
-/// The per-step lines of the plan: the GPU's step program, or the CPU's rate evaluations.
-#[cfg_attr(not(feature = "gpu"), allow(unused_variables))]
+/// The per-step lines of the plan: the integrator's program with the method's rate
+/// evaluations (the same on both backends).
 fn step_lines(case: &Case, gpu: bool, rates: &str) -> Vec<String> {
-    let integrator = case.method.integrator;
-    #[cfg(feature = "gpu")]
-    if gpu {
-        let mut lines =
-            vec!["per step (one command encoder for all steps between host checks):".to_string()];
-        lines.extend(
-            crate::gpu::program::describe_step(integrator, rates)
-                .into_iter()
-                .map(|s| format!("  {s}")),
-        );
-        return lines;
-    }
-    vec![format!(
-        "per step: {} rate evaluations, each {rates}",
-        integrator.stages()
-    )]
+    let mut lines = vec![if gpu {
+        "per step (one command encoder for all steps between host checks):".to_string()
+    } else {
+        "per step:".to_string()
+    }];
+    lines.extend(
+        crate::integrate::describe_step(case.method.integrator, rates)
+            .into_iter()
+            .map(|s| format!("  {s}")),
+    );
+    lines
 }

@@ -16,12 +16,15 @@ use super::{CflWaveSpeed, DeformationGradient, Momentum};
 use crate::gpu::SetupError;
 use crate::gpu::context::{Gpu, WORKGROUP};
 use crate::gpu::layout::{GpuDim, boundary_buffers, flat_v};
-use crate::gpu::program::{Buf, Evaluation, StateLayout, Stepper, evaluations};
+use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{Reduced, Reduction, WorkBalance};
 use crate::gpu::shaders::{
-    self, BOUNDARY, Constants, INTEGRATE, MECHANICS, PLASTICITY, Source, Wgsl, source, wgsl,
+    self, BOUNDARY, CONTACT, Constants, INTEGRATE, MECHANICS, PLASTICITY, Source, Wgsl, source,
+    wgsl,
 };
 use crate::integrate::IntegratorKind;
+use crate::integrate::{Buf, Evaluation, evaluations};
+use crate::interaction::gpu::GpuInteractions;
 use crate::material::MaterialModel;
 use crate::methods::{BlowUp, Method, not_run_by};
 use crate::observe::{Invariants, Snapshot};
@@ -117,7 +120,7 @@ pub const PLASTIC: Source = source!(
 
 /// The passes compiled with a mixed scene's constants ([`scene`]).
 pub const SHADERS: &[Source] = &[
-    GHOSTS, KINEMATICS, PLASTIC, BOND, SLOPES, FORCES, MOMENTUM, REDUCE, INTEGRATE,
+    GHOSTS, KINEMATICS, PLASTIC, BOND, SLOPES, FORCES, MOMENTUM, REDUCE, INTEGRATE, CONTACT,
 ];
 
 /// Offsets (in f32 entries) of the fields in the flat buffers of a mixed scene.
@@ -221,6 +224,7 @@ pub fn scene<D: GpuDim>(case: &Case, cpu: &MixedSph<D>) -> (MixedLayout, Constan
     let l = &layout;
     let constants = Constants::default()
         .u32("N", u(n))
+        .u32("BODIES", u(case.bodies.len()))
         .u32("NG", u(l.ghosts))
         .material(material)
         .f32("YIELD", material.hardening.map_or(0.0, |h| h.yield_stress))
@@ -388,6 +392,8 @@ pub struct GpuMixed<D: GpuDim> {
     hist: wgpu::Buffer,
     /// The commit of the plastic history before every step (mixed_plastic.wgsl).
     commit: Option<(wgpu::ComputePipeline, wgpu::BindGroup)>,
+    /// Passes before every step (contact) and the `ext` they write.
+    interactions: GpuInteractions,
     work: WorkBalance,
 }
 
@@ -500,7 +506,7 @@ impl<D: GpuDim> GpuMixed<D> {
         let x_hi = gpu.storage("X", &flat_v::<D>(x_real.iter().copied()));
         let vol32: Vec<f32> = vol[..n].iter().map(|&v| v as f32).collect();
         let vol_buf = gpu.storage("vol", &vol32);
-        let (mask, ext) = boundary_buffers(&gpu, cpu.boundary(), n);
+        let (mask, traction) = boundary_buffers(&gpu, cpu.boundary(), n);
         let power = gpu.zeroed("power", n as u64 * 4);
         let kin = gpu.zeroed("kinematics", layout.kin_len as u64 * 4);
         let force = gpu.zeroed("forces", layout.force_len as u64 * 4);
@@ -517,6 +523,15 @@ impl<D: GpuDim> GpuMixed<D> {
             layout.state(),
             &y0,
         );
+        let interactions = GpuInteractions::new(
+            &gpu,
+            cpu.interactions(),
+            &compose,
+            &x_hi,
+            stepper.buffer(Buf::Y),
+            traction,
+        );
+        let ext = interactions.ext();
 
         let ghosts_src = compose(&GHOSTS);
         let slopes_src = compose(&SLOPES);
@@ -672,7 +687,7 @@ impl<D: GpuDim> GpuMixed<D> {
                         (5, &vol_buf),
                         (7, &proj),
                         (8, &mask),
-                        (9, &ext),
+                        (9, ext),
                         (10, rates_d),
                         (11, &power),
                     ],
@@ -710,6 +725,7 @@ impl<D: GpuDim> GpuMixed<D> {
             reduction,
             hist,
             commit,
+            interactions,
             work: WorkBalance::default(),
         })
     }
@@ -752,6 +768,7 @@ impl<D: GpuDim> GpuMixed<D> {
         self.work.advance(dt, steps);
         self.reduction.invalidate();
         self.set_dt(dt);
+        self.interactions.set_step(&self.gpu, dt);
         let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
         let Self {
             gpu,
@@ -759,6 +776,7 @@ impl<D: GpuDim> GpuMixed<D> {
             evaluator,
             commit,
             layout,
+            interactions,
             ..
         } = self;
         stepper.record(
@@ -768,6 +786,7 @@ impl<D: GpuDim> GpuMixed<D> {
             steps,
             |encoder, e| evaluator.record(gpu, encoder, e),
             |encoder| {
+                interactions.record(gpu, encoder, layout.n as u32);
                 if let Some((pipeline, bind)) = commit {
                     let mut pass = encoder.begin_compute_pass(&Default::default());
                     gpu.dispatch(&mut pass, pipeline, bind, layout.n as u32);

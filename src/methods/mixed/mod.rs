@@ -452,7 +452,8 @@ impl MixedMethod for JstSpec {
 impl<S: MixedMethod> MethodFamily for S {
     const DESCRIPTION: &'static str = S::DESCRIPTION;
     const KEYS: &'static [&'static str] = S::KEYS;
-    const FEATURES: &'static [Feature] = &[Feature::MirrorPlanes, Feature::Plasticity];
+    const FEATURES: &'static [Feature] =
+        &[Feature::Contact, Feature::MirrorPlanes, Feature::Plasticity];
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
 

@@ -17,6 +17,7 @@ use super::{CflWaveSpeed, Conserved, DeformationGradient, JstLaplacian, Momentum
 use crate::boundary::Boundary;
 use crate::correction;
 use crate::integrate::{IntegratorKind, OdeSystem};
+use crate::interaction::Interactions;
 use crate::kernel::Kernel;
 use crate::material::Material;
 use crate::methods::not_run_by;
@@ -169,6 +170,8 @@ pub struct MixedSph<D: Dim> {
     cfl_wave_speed: CflWaveSpeed,
     h: f64,
     boundary: Boundary<D>,
+    /// Forces from outside the method (contact).
+    interactions: Interactions<D>,
     /// Displacements and velocities of real particles and ghosts at the current stage.
     u_ext: Vec<D::V>,
     v_ext: Vec<D::V>,
@@ -267,6 +270,9 @@ impl<D: Dim> MixedSph<D> {
                 Some(w.iter().zip(&r2).map(|(w, r2)| w / r2).collect())
             }
         };
+        let mut body = vec![0; x0.len()];
+        ghosts.fill(&mut body, |a| disc.body[a], |_, b| b);
+        let interactions = Interactions::build(case, &x0[..n], &body, || csr.clone())?;
         let n_ext = x0.len();
         Ok(Self {
             kin: vec![
@@ -317,6 +323,7 @@ impl<D: Dim> MixedSph<D> {
             cfl_wave_speed: options.cfl_wave_speed,
             h: m.h_over_dx * case.spacing,
             boundary,
+            interactions,
             step_start: None,
             stage: 0,
             power: 0.0,
@@ -684,8 +691,10 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
     type State = MixedState<D>;
     type Error = BlowUp;
 
-    fn begin_step(&mut self, _t: f64, dt: f64, y: &MixedState<D>) {
+    fn begin_step(&mut self, t: f64, dt: f64, y: &MixedState<D>) {
         self.stage = 0;
+        self.interactions
+            .begin_step(t, dt, &self.x0[..self.n], &y.u, &y.v);
         // The plastic history is committed once per step, from the state at its start.
         if let Some(committed) = self.returned_all(y)
             && let Some(pl) = self.plastic.as_mut()
@@ -738,8 +747,10 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
                     *j = D::ddot(k.h, k.grad_v) + forces[a].dj;
                 });
         }
+        let interaction_power = self.interactions.accelerate(&y.v, &self.mass, &mut d.v);
         self.power = self.boundary.apply(&mut d.v, &y.v, &self.mass)
-            + self.boundary.external_power(&y.v, &self.mass);
+            + self.boundary.external_power(&y.v, &self.mass)
+            + interaction_power;
         Ok(())
     }
 }
@@ -963,6 +974,10 @@ impl<D: Dim> MixedSph<D> {
 
     pub(crate) fn boundary(&self) -> &Boundary<D> {
         &self.boundary
+    }
+
+    pub(crate) fn interactions(&self) -> &Interactions<D> {
+        &self.interactions
     }
 
     pub(crate) fn smoothing_length(&self) -> f64 {

@@ -5,20 +5,22 @@
 //! A whole step, or several, is recorded into one command encoder; the host reads back
 //! only when asked (outputs, observers, checks).
 
-use super::system::{TlState, apart, check_state, snapshot};
+use super::system::{TlState, check_state, snapshot};
 use crate::boundary::Boundary;
-use crate::contact::Contact;
 use crate::correction::{self, CorrectionKind};
 use crate::gpu::SetupError;
 use crate::gpu::context::Gpu;
 use crate::gpu::layout::{Flat, GpuDim, boundary_buffers, flat_v};
 use crate::gpu::neighbour;
-use crate::gpu::program::{Buf, StateLayout, Stepper};
+use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{Reduced, Reduction, WorkBalance};
 use crate::gpu::shaders::{
     self, BOUNDARY, CONTACT, CORRECTION, Constants, INTEGRATE, MECHANICS, PAIR_OFFSETS, Source,
     Wgsl, source, wgsl,
 };
+use crate::integrate::Buf;
+use crate::interaction::Interactions;
+use crate::interaction::gpu::GpuInteractions;
 use crate::kernel::Kernel;
 use crate::material::Material;
 use crate::methods::{BlowUp, MethodSpec, not_run_by};
@@ -153,50 +155,6 @@ struct Rates {
     accel: wgpu::BindGroup,
 }
 
-/// The contact pass before every step (contact.wgsl) and its α/Δt² uniform.
-struct ContactPass {
-    pipeline: wgpu::ComputePipeline,
-    bind: wgpu::BindGroup,
-    params: wgpu::Buffer,
-    penalty: f64,
-}
-
-impl ContactPass {
-    /// Uploads the hulls of [`Contact`] and binds the pass that writes traction plus
-    /// contact accelerations into `ext`.
-    fn new<D: GpuDim>(
-        gpu: &Gpu,
-        source: &str,
-        contact: &Contact<D>,
-        body: &[u32],
-        [x_hi, y, traction, ext]: [&wgpu::Buffer; 4],
-    ) -> Self {
-        let mut hull_start = vec![0u32];
-        let mut hull = Vec::new();
-        for h in contact.hulls() {
-            hull.extend_from_slice(h);
-            hull_start.push(hull.len() as u32);
-        }
-        let pipeline = gpu.pipeline("contact", source, "contact");
-        let params = gpu.uniform("contact params", &[0.0f32; 4]);
-        let (body, hull, hull_start) = (
-            gpu.storage("body", body),
-            gpu.storage("hull", &hull),
-            gpu.storage("hull start", &hull_start),
-        );
-        let bind = gpu.bind(
-            &pipeline,
-            &[&params, x_hi, y, &body, &hull, &hull_start, traction, ext],
-        );
-        Self {
-            pipeline,
-            bind,
-            params,
-            penalty: contact.penalty(),
-        }
-    }
-}
-
 /// The TLSPH system resident on the GPU.
 pub struct GpuTlsph<D: GpuDim> {
     gpu: Gpu,
@@ -218,7 +176,8 @@ pub struct GpuTlsph<D: GpuDim> {
     /// without touching the integrator's rates).
     kinematics_y: wgpu::BindGroup,
     reduction: Reduction,
-    contact: Option<ContactPass>,
+    /// Passes before every step (contact) and the `ext` they write.
+    interactions: GpuInteractions,
     constrained: Vec<(u32, u8)>,
     work: WorkBalance,
 }
@@ -313,17 +272,6 @@ impl<D: GpuDim> GpuTlsph<D> {
         };
 
         let (mask, traction) = boundary_buffers(&gpu, &boundary, n);
-        // With contact, ext = traction + contact acceleration, rewritten between steps.
-        let ext = match case.contact {
-            Some(_) => {
-                let ext = gpu.zeroed("ext (traction + contact)", traction.size());
-                let mut encoder = gpu.device.create_command_encoder(&Default::default());
-                encoder.copy_buffer_to_buffer(&traction, 0, &ext, 0, traction.size());
-                gpu.queue.submit([encoder.finish()]);
-                ext
-            }
-            None => traction.clone(),
-        };
 
         let mut v0 = disc.v0.clone();
         boundary.impose_initial(&mut v0);
@@ -340,6 +288,18 @@ impl<D: GpuDim> GpuTlsph<D> {
             state,
             &initial_state::<D>(&layout, &v0),
         );
+        let interactions = Interactions::<D>::build(case, &disc.x0, &disc.body, || {
+            neighbour::read_lists(&gpu, &csr)
+        })?;
+        let interactions = GpuInteractions::new(
+            &gpu,
+            &interactions,
+            &compose,
+            &x_hi,
+            stepper.buffer(Buf::Y),
+            traction,
+        );
+        let ext = interactions.ext();
         let kin = gpu.zeroed("kinematics", layout.kin_len as u64 * 4);
         let power = gpu.zeroed("power", n as u64 * 4);
 
@@ -356,26 +316,12 @@ impl<D: GpuDim> GpuTlsph<D> {
                 accel: gpu.bind(
                     &accel,
                     &[
-                        &offsets, &ids, &grad, &vol, &dx0, s, &kin, &mask, &ext, rates_d, &power,
+                        &offsets, &ids, &grad, &vol, &dx0, s, &kin, &mask, ext, rates_d, &power,
                     ],
                 ),
             }
         });
         let y = stepper.buffer(Buf::Y);
-        let contact = match case.contact {
-            Some(spec) => {
-                let cpu = Contact::<D>::new(spec.penalty, &disc.x0, &disc.body);
-                apart::<D>(case, &neighbour::read_lists(&gpu, &csr), &disc.body)?;
-                Some(ContactPass::new(
-                    &gpu,
-                    &compose(&CONTACT),
-                    &cpu,
-                    &disc.body,
-                    [&x_hi, y, &traction, &ext],
-                ))
-            }
-            None => None,
-        };
         let reduction = Reduction::new(
             &gpu,
             &compose(&REDUCE),
@@ -412,7 +358,7 @@ impl<D: GpuDim> GpuTlsph<D> {
             vol: disc.vol,
             kinematics_y,
             reduction,
-            contact,
+            interactions,
             constrained: boundary.constrained.clone(),
             work: WorkBalance::default(),
         })
@@ -490,13 +436,7 @@ impl<D: GpuDim> GpuTlsph<D> {
         self.work.advance(dt, steps);
         self.reduction.invalidate();
         let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
-        if let Some(c) = &self.contact {
-            let scale = (c.penalty / (dt * dt)) as f32;
-            let params = [scale, 0.0, 0.0, 0.0];
-            self.gpu
-                .queue
-                .write_buffer(&c.params, 0, bytemuck::cast_slice(&params));
-        }
+        self.interactions.set_step(&self.gpu, dt);
         let Self {
             gpu,
             stepper,
@@ -504,7 +444,7 @@ impl<D: GpuDim> GpuTlsph<D> {
             accel,
             rates,
             layout,
-            contact,
+            interactions,
             ..
         } = self;
         let n = layout.n as u32;
@@ -517,12 +457,7 @@ impl<D: GpuDim> GpuTlsph<D> {
                 let src = usize::from(e.src != Buf::Y);
                 Self::record_rates(gpu, n, (stress, accel), encoder, &rates[src]);
             },
-            |encoder| {
-                if let Some(c) = contact {
-                    let mut pass = encoder.begin_compute_pass(&Default::default());
-                    gpu.dispatch(&mut pass, &c.pipeline, &c.bind, n);
-                }
-            },
+            |encoder| interactions.record(gpu, encoder, n),
         );
         self.gpu.queue.submit([encoder.finish()]);
     }

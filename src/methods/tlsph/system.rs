@@ -7,9 +7,9 @@
 
 use super::ArtificialViscosity;
 use crate::boundary::Boundary;
-use crate::contact::Contact;
+use crate::interaction::Interactions;
 use crate::methods::shared::{
-    BlowUp, MIN_CHUNK, Method, check_motion, masses_and_boundary, neighbour_radius, particle_state,
+    BlowUp, MIN_CHUNK, Method, check_motion, masses_and_boundary, particle_state,
     reference_gradients,
 };
 use crate::methods::{MethodSpec, not_run_by};
@@ -143,7 +143,7 @@ pub struct Tlsph<D: Dim> {
     av: Option<ArtificialViscosity>,
     h: f64,
     boundary: Boundary<D>,
-    contact: Option<Contact<D>>,
+    interactions: Interactions<D>,
     kin: Vec<Kinematics<D>>,
     power: f64,
 }
@@ -158,13 +158,7 @@ impl<D: Dim> Tlsph<D> {
         let m = &case.method;
         let (csr, grad) = reference_gradients::<D>(case, &disc.x0, &disc.vol)?;
         let (mass, boundary, v0) = masses_and_boundary(case, &disc, material.rho0)?;
-        let contact = match case.contact {
-            Some(spec) => {
-                apart::<D>(case, &csr, &disc.body)?;
-                Some(Contact::new(spec.penalty, &disc.x0, &disc.body))
-            }
-            None => None,
-        };
+        let interactions = Interactions::build(case, &disc.x0, &disc.body, || csr.clone())?;
         let identity = Kinematics {
             f: D::identity(),
             p: D::zero_t(),
@@ -184,7 +178,7 @@ impl<D: Dim> Tlsph<D> {
             av: spec.artificial_viscosity,
             h: m.h_over_dx * case.spacing,
             boundary,
-            contact,
+            interactions,
             power: 0.0,
         })
     }
@@ -342,28 +336,16 @@ impl<D: Dim> OdeSystem for Tlsph<D> {
             .with_min_len(MIN_CHUNK)
             .zip(&y.v)
             .for_each(|(u, &v)| *u = v);
-        let mut contact_power = 0.0;
-        if let Some(contact) = &self.contact {
-            let a_c = contact.accelerations();
-            for (i, a) in d.v.iter_mut().enumerate() {
-                *a += a_c[i];
-            }
-            contact_power = (0..a_c.len())
-                .map(|i| self.mass[i] * D::dot(a_c[i], y.v[i]))
-                .sum();
-        }
+        let interaction_power = self.interactions.accelerate(&y.v, &self.mass, &mut d.v);
         self.power = self.boundary.apply(&mut d.v, &y.v, &self.mass)
             + self.boundary.external_power(&y.v, &self.mass)
-            + contact_power;
+            + interaction_power;
         Ok(())
     }
 
-    /// The contact forces of the step (seed 000 §5.8).
-    fn begin_step(&mut self, _t: f64, dt: f64, y: &TlState<D>) {
-        if let Some(contact) = &mut self.contact {
-            let x: Vec<D::V> = self.x0.iter().zip(&y.u).map(|(&x0, &u)| x0 + u).collect();
-            contact.begin_step(&x, dt);
-        }
+    /// The interactions' work before the step (the contact forces of seed 000 §5.8).
+    fn begin_step(&mut self, t: f64, dt: f64, y: &TlState<D>) {
+        self.interactions.begin_step(t, dt, &self.x0, &y.u, &y.v);
     }
 }
 
@@ -448,33 +430,5 @@ impl<D: Dim> Method<D> for Tlsph<D> {
 
     fn check_finite(&self, y: &TlState<D>) -> Result<(), BlowUp> {
         check_state(&self.x0, y)
-    }
-}
-
-/// Contact needs bodies that no kernel spans in the reference configuration: a
-/// total-Lagrangian kernel between two bodies would bond them for the whole run.
-pub(crate) fn apart<D: Dim>(case: &Case, csr: &Csr, body: &[u32]) -> Result<(), CaseError> {
-    let bonded = (0..csr.len()).find_map(|i| {
-        csr.neighbours(i)
-            .iter()
-            .find(|&&j| body[j as usize] != body[i])
-            .map(|&j| (i, j as usize))
-    });
-    match bonded {
-        None => Ok(()),
-        Some((i, j)) => {
-            let name = |k: usize| &case.bodies[body[k] as usize].name;
-            Err(case.invalid(
-                "contact",
-                format!(
-                    "particle {i} of body `{}` and particle {j} of body `{}` lie within the \
-                     kernel support ({:e} m) of each other in the reference configuration, so \
-                     the kernels would bond the bodies; move them apart by more than the support",
-                    name(i),
-                    name(j),
-                    neighbour_radius::<D>(case)
-                ),
-            ))
-        }
     }
 }

@@ -13,6 +13,10 @@
 //! conserved during contact: a slave pushed out by a master surface that moves towards it
 //! gains energy, as a ball struck by a bat does.
 
+use super::Interaction;
+use crate::methods::shared::neighbour_radius;
+use crate::neighbour::Csr;
+use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use rayon::prelude::*;
 
@@ -104,14 +108,99 @@ impl<D: Dim> Contact<D> {
         &self.accel
     }
 
-    /// α of eq 178.
-    pub fn penalty(&self) -> f64 {
-        self.penalty
-    }
-
     /// Hull particles of each body, counter-clockwise.
     pub fn hulls(&self) -> &[Vec<u32>] {
         &self.hulls
+    }
+}
+
+impl<D: Dim> Interaction<D> for Contact<D> {
+    fn begin_step(&mut self, _t: f64, dt: f64, x: &[D::V], _v: &[D::V]) {
+        Contact::begin_step(self, x, dt);
+    }
+
+    fn accelerate(&self, v: &[D::V], mass: &[f64], a: &mut [D::V]) -> f64 {
+        for (a, &a_c) in a.iter_mut().zip(&self.accel) {
+            *a += a_c;
+        }
+        (0..self.accel.len())
+            .map(|i| mass[i] * D::dot(self.accel[i], v[i]))
+            .sum()
+    }
+
+    #[cfg(feature = "gpu")]
+    fn gpu_pass(&self) -> Option<&dyn super::gpu::GpuInteraction> {
+        Some(self)
+    }
+}
+
+#[cfg(feature = "gpu")]
+impl<D: Dim> super::gpu::GpuInteraction for Contact<D> {
+    /// `shaders/common/contact.wgsl`: one invocation per slave over the other bodies'
+    /// hulls (concatenated, body m's at hull_start[m]..hull_start[m + 1]), with α/Δt² in
+    /// its uniform.
+    fn pass(
+        &self,
+        gpu: &crate::gpu::context::Gpu,
+        compose: &dyn Fn(&crate::gpu::shaders::Source) -> String,
+        on: &super::gpu::Bindings,
+    ) -> super::gpu::Pass {
+        let mut hull_start = vec![0u32];
+        let mut hull = Vec::new();
+        for h in &self.hulls {
+            hull.extend_from_slice(h);
+            hull_start.push(hull.len() as u32);
+        }
+        let pipeline = gpu.pipeline(
+            "contact",
+            &compose(&crate::gpu::shaders::CONTACT),
+            "contact",
+        );
+        let params = gpu.uniform("contact params", &[0.0f32; 4]);
+        let (body, hull, hull_start) = (
+            gpu.storage("body", &self.body),
+            gpu.storage("hull", &hull),
+            gpu.storage("hull start", &hull_start),
+        );
+        let bind = gpu.bind(
+            &pipeline,
+            &[&params, on.x_hi, on.y, &body, &hull, &hull_start, on.ext],
+        );
+        let penalty = self.penalty;
+        super::gpu::Pass {
+            pipeline,
+            bind,
+            params,
+            uniform: Box::new(move |dt| [(penalty / (dt * dt)) as f32, 0.0, 0.0, 0.0]),
+        }
+    }
+}
+
+/// Contact needs bodies that no kernel spans in the reference configuration: a
+/// total-Lagrangian kernel between two bodies would bond them for the whole run.
+pub(super) fn apart<D: Dim>(case: &Case, csr: &Csr, body: &[u32]) -> Result<(), CaseError> {
+    let bonded = (0..csr.len()).find_map(|i| {
+        csr.neighbours(i)
+            .iter()
+            .find(|&&j| body[j as usize] != body[i])
+            .map(|&j| (i, j as usize))
+    });
+    match bonded {
+        None => Ok(()),
+        Some((i, j)) => {
+            let name = |k: usize| &case.bodies[body[k] as usize].name;
+            Err(case.invalid(
+                "contact",
+                format!(
+                    "particle {i} of body `{}` and particle {j} of body `{}` lie within the \
+                     kernel support ({:e} m) of each other in the reference configuration, so \
+                     the kernels would bond the bodies; move them apart by more than the support",
+                    name(i),
+                    name(j),
+                    neighbour_radius::<D>(case)
+                ),
+            ))
+        }
     }
 }
 

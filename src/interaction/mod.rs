@@ -1,0 +1,91 @@
+//! Interactions: forces that act on the bodies besides a method's internal forces
+//! (contact between bodies now; body forces, time-dependent loads and hourglass control
+//! plug in the same way). A method holds the scene's [`Interactions`] and calls them at
+//! named points of a step, on either backend:
+//!
+//! - before the step ([`Interaction::begin_step`]), from the positions and velocities at
+//!   its start;
+//! - after the method's forces ([`Interaction::accelerate`]), adding accelerations to the
+//!   rates before the boundary conditions act, and returning their power for the energy
+//!   balance.
+//!
+//! On the GPU an interaction is a pass recorded before every step that writes its
+//! accelerations, with the traction loads, into the `ext` buffer the rate passes add
+//! ([`gpu`]).
+
+pub mod contact;
+#[cfg(feature = "gpu")]
+pub mod gpu;
+
+pub use contact::Contact;
+
+use crate::neighbour::Csr;
+use crate::scene::{Case, CaseError};
+use crate::tensor::Dim;
+
+/// A force on the particles from outside the method, at named points of a step.
+pub trait Interaction<D: Dim>: Send + Sync {
+    /// Before every step of size dt from time t, with the current positions x and
+    /// velocities v of the particles.
+    fn begin_step(&mut self, t: f64, dt: f64, x: &[D::V], v: &[D::V]);
+
+    /// Adds the interaction's accelerations to `a` at a rate evaluation with velocities v
+    /// and masses m; returns their power Σ m a·v.
+    fn accelerate(&self, v: &[D::V], mass: &[f64], a: &mut [D::V]) -> f64;
+
+    /// The interaction's device pass, if it has one.
+    #[cfg(feature = "gpu")]
+    fn gpu_pass(&self) -> Option<&dyn gpu::GpuInteraction>;
+}
+
+/// The interactions a case asks for, in the order they act.
+pub struct Interactions<D: Dim> {
+    list: Vec<Box<dyn Interaction<D>>>,
+}
+
+impl<D: Dim> Interactions<D> {
+    /// The case's interactions on the particles at reference positions x0, with
+    /// `neighbours` giving the neighbour lists of a total-Lagrangian method (read only by
+    /// contact: its kernels must not join two bodies) and `body` the body of every
+    /// particle those lists name (the particles of x0 first, then any ghosts).
+    pub fn build(
+        case: &Case,
+        x0: &[D::V],
+        body: &[u32],
+        neighbours: impl FnOnce() -> Csr,
+    ) -> Result<Self, CaseError> {
+        let mut list: Vec<Box<dyn Interaction<D>>> = Vec::new();
+        if let Some(spec) = case.contact {
+            contact::apart::<D>(case, &neighbours(), body)?;
+            list.push(Box::new(Contact::<D>::new(
+                spec.penalty,
+                x0,
+                &body[..x0.len()],
+            )));
+        }
+        Ok(Self { list })
+    }
+
+    /// Every interaction's work before a step (see [`Interaction::begin_step`]); `x0 + u`
+    /// are the positions.
+    pub fn begin_step(&mut self, t: f64, dt: f64, x0: &[D::V], u: &[D::V], v: &[D::V]) {
+        if self.list.is_empty() {
+            return;
+        }
+        let x: Vec<D::V> = x0.iter().zip(u).map(|(&x0, &u)| x0 + u).collect();
+        for i in &mut self.list {
+            i.begin_step(t, dt, &x, v);
+        }
+    }
+
+    /// Adds every interaction's accelerations to `a`; returns their total power.
+    pub fn accelerate(&self, v: &[D::V], mass: &[f64], a: &mut [D::V]) -> f64 {
+        self.list.iter().map(|i| i.accelerate(v, mass, a)).sum()
+    }
+
+    /// The device passes of the interactions.
+    #[cfg(feature = "gpu")]
+    pub fn gpu_passes(&self) -> impl Iterator<Item = &dyn gpu::GpuInteraction> {
+        self.list.iter().filter_map(|i| i.gpu_pass())
+    }
+}
