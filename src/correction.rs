@@ -73,31 +73,23 @@ pub fn gradients<D: Dim>(
     csr: &Csr,
     kernel: &Kernel,
 ) -> Result<Vec<D::V>, CorrectionError> {
-    let per_particle: Vec<Result<Vec<D::V>, CorrectionError>> = (0..x.len())
-        .into_par_iter()
-        .map(|i| match kind {
-            CorrectionKind::None => Ok(plain::<D>(i, x, csr, kernel).collect()),
-            CorrectionKind::Shepard => Ok(shepard::<D>(i, x, vol, csr, kernel)),
-            CorrectionKind::RandlesLibersky => linear_correction::<D>(
-                kind,
-                i,
-                x,
-                vol,
-                csr,
-                plain::<D>(i, x, csr, kernel).collect(),
-            ),
-            CorrectionKind::Cgck => {
-                let grads = shepard_kernel_gradients::<D>(i, x, vol, csr, kernel);
-                linear_correction::<D>(kind, i, x, vol, csr, grads)
-            }
-            CorrectionKind::Rkpm => rkpm::<D>(i, x, vol, csr, kernel),
-        })
-        .collect();
-    let mut out = Vec::with_capacity(csr.pair_count());
-    for g in per_particle {
-        out.extend(g?);
-    }
-    Ok(out)
+    csr.map_rows(|i| match kind {
+        CorrectionKind::None => Ok(plain::<D>(i, x, csr, kernel).collect()),
+        CorrectionKind::Shepard => Ok(shepard::<D>(i, x, vol, csr, kernel)),
+        CorrectionKind::RandlesLibersky => linear_correction::<D>(
+            kind,
+            i,
+            x,
+            vol,
+            csr,
+            plain::<D>(i, x, csr, kernel).collect(),
+        ),
+        CorrectionKind::Cgck => {
+            let grads = shepard_kernel_gradients::<D>(i, x, vol, csr, kernel);
+            linear_correction::<D>(kind, i, x, vol, csr, grads)
+        }
+        CorrectionKind::Rkpm => rkpm::<D>(i, x, vol, csr, kernel),
+    })
 }
 
 /// Per-pair weights V_j W̃_j(x_i) of the corrected kernel in CSR order (rows of `csr`,
@@ -112,39 +104,31 @@ pub fn kernel_weights<D: Dim>(
     csr: &Csr,
     kernel: &Kernel,
 ) -> Result<Vec<f64>, CorrectionError> {
-    let per_particle: Vec<Result<Vec<f64>, CorrectionError>> = (0..csr.len())
-        .into_par_iter()
-        .map(|i| {
-            let w = |j: u32| kernel.w(D::norm2(x[i] - x[j as usize]).sqrt());
-            if kind != CorrectionKind::Rkpm {
-                let s = vol[i] * kernel.w(0.0)
-                    + csr
-                        .neighbours(i)
-                        .iter()
-                        .map(|&j| vol[j as usize] * w(j))
-                        .sum::<f64>();
-                return Ok(csr
+    csr.map_rows(|i| {
+        let w = |j: u32| kernel.w(D::norm2(x[i] - x[j as usize]).sqrt());
+        if kind != CorrectionKind::Rkpm {
+            let s = vol[i] * kernel.w(0.0)
+                + csr
                     .neighbours(i)
                     .iter()
-                    .map(|&j| vol[j as usize] * w(j) / s)
-                    .collect());
-            }
-            let (c, _) = rkpm_coefficients::<D>(i, x, vol, csr, kernel)?;
-            Ok(csr
+                    .map(|&j| vol[j as usize] * w(j))
+                    .sum::<f64>();
+            return Ok(csr
                 .neighbours(i)
                 .iter()
-                .map(|&j| {
-                    let p = linear_basis::<D>(x[i] - x[j as usize]);
-                    vol[j as usize] * w(j) * (0..=D::N).map(|a| c[a] * p[a]).sum::<f64>()
-                })
-                .collect())
-        })
-        .collect();
-    let mut out = Vec::with_capacity(csr.pair_count());
-    for w in per_particle {
-        out.extend(w?);
-    }
-    Ok(out)
+                .map(|&j| vol[j as usize] * w(j) / s)
+                .collect());
+        }
+        let (c, _) = rkpm_coefficients::<D>(i, x, vol, csr, kernel)?;
+        Ok(csr
+            .neighbours(i)
+            .iter()
+            .map(|&j| {
+                let p = linear_basis::<D>(x[i] - x[j as usize]);
+                vol[j as usize] * w(j) * (0..=D::N).map(|a| c[a] * p[a]).sum::<f64>()
+            })
+            .collect())
+    })
 }
 
 fn plain<'a, D: Dim>(

@@ -260,31 +260,25 @@ impl<D: Dim> Ghosts<D> {
     /// is symmetric under M within a support of the plane. Err(a) where that pair is
     /// missing (a neighbour exactly at the support radius, found on one side only).
     pub fn reverse_pairs(&self, csr: &Csr) -> Result<Vec<(u32, Option<Image>)>, usize> {
-        let per_row: Vec<Result<Vec<_>, usize>> = (0..self.n)
-            .into_par_iter()
-            .map(|a| {
-                csr.neighbours(a)
-                    .iter()
-                    .map(|&b| {
-                        let (row, partner, image) = match (b as usize).checked_sub(self.n) {
-                            None => (b as usize, a as u32, None),
-                            Some(k) => {
-                                let mask = self.image[k];
-                                let partner = *self.index.get(&(a as u32, mask)).ok_or(a)?;
-                                let image = self.images[mask as usize];
-                                (self.source[k] as usize, partner, image)
-                            }
-                        };
-                        let back = csr.neighbours(row).binary_search(&partner).map_err(|_| a)?;
-                        Ok(((csr.offsets[row] + back) as u32, image))
-                    })
-                    .collect()
-            })
-            .collect();
-        per_row
-            .into_iter()
-            .collect::<Result<Vec<_>, _>>()
-            .map(|v| v.concat())
+        debug_assert_eq!(csr.len(), self.n, "the real rows only");
+        csr.map_rows(|a| {
+            csr.neighbours(a)
+                .iter()
+                .map(|&b| {
+                    let (row, partner, image) = match (b as usize).checked_sub(self.n) {
+                        None => (b as usize, a as u32, None),
+                        Some(k) => {
+                            let mask = self.image[k];
+                            let partner = *self.index.get(&(a as u32, mask)).ok_or(a)?;
+                            let image = self.images[mask as usize];
+                            (self.source[k] as usize, partner, image)
+                        }
+                    };
+                    let back = csr.neighbours(row).binary_search(&partner).map_err(|_| a)?;
+                    Ok(((csr.offsets[row] + back) as u32, image))
+                })
+                .collect()
+        })
     }
 }
 

@@ -37,6 +37,20 @@ impl Csr {
         self.ids.len()
     }
 
+    /// One value per pair in CSR order: `row(i)` gives the values of row i's pairs, in
+    /// order; the rows run in parallel. The first row (in order) that fails fails all.
+    pub fn map_rows<T: Send, E: Send>(
+        &self,
+        row: impl Fn(usize) -> Result<Vec<T>, E> + Sync + Send,
+    ) -> Result<Vec<T>, E> {
+        let rows: Vec<Result<Vec<T>, E>> = (0..self.len()).into_par_iter().map(row).collect();
+        let mut out = Vec::with_capacity(self.pair_count());
+        for r in rows {
+            out.extend(r?);
+        }
+        Ok(out)
+    }
+
     /// Keeps the lists of the first n particles (their ids may still exceed n).
     pub fn truncate(&mut self, n: usize) {
         self.offsets.truncate(n + 1);

@@ -23,31 +23,24 @@ pub(super) fn least_squares_weights<D: Dim>(
     csr: &Csr,
     normal: &[D::V],
 ) -> Result<Vec<D::V>, usize> {
-    let per_particle: Vec<Result<Vec<D::V>, usize>> = (0..csr.len())
-        .into_par_iter()
-        .map(|a| {
-            let mut m = D::zero_t();
-            for q in csr.range(a) {
-                m += D::outer(normal[q], normal[q]);
-            }
-            let det = D::det(m);
-            if det.is_nan() || det.abs() <= 1e-8 {
-                return Err(a);
-            }
-            let m_inv = D::inverse(m);
-            Ok(csr
-                .range(a)
-                .map(|q| {
-                    let d = D::norm2(x0[csr.ids[q] as usize] - x0[a]).sqrt();
-                    m_inv * normal[q] * (1.0 / d)
-                })
-                .collect())
-        })
-        .collect();
-    per_particle
-        .into_iter()
-        .collect::<Result<Vec<_>, _>>()
-        .map(|v| v.concat())
+    csr.map_rows(|a| {
+        let mut m = D::zero_t();
+        for q in csr.range(a) {
+            m += D::outer(normal[q], normal[q]);
+        }
+        let det = D::det(m);
+        if det.is_nan() || det.abs() <= 1e-8 {
+            return Err(a);
+        }
+        let m_inv = D::inverse(m);
+        Ok(csr
+            .range(a)
+            .map(|q| {
+                let d = D::norm2(x0[csr.ids[q] as usize] - x0[a]).sqrt();
+                m_inv * normal[q] * (1.0 / d)
+            })
+            .collect())
+    })
 }
 
 /// Brookshaw Laplacian weights w_ab = 2 V_b N_ab · ∇̃W̃_b(X_a)/|X_ab| (seed 003 eq 55).
@@ -76,44 +69,37 @@ pub(super) fn correct_laplacian<D: Dim>(
     w: &[f64],
 ) -> Result<Vec<f64>, usize> {
     let n = D::N + 1;
-    let per_particle: Vec<Result<Vec<f64>, usize>> = (0..csr.len())
-        .into_par_iter()
-        .map(|a| {
-            let basis = |q: usize| {
-                let x = x0[csr.ids[q] as usize] - x0[a];
-                let mut p = [0.0; 4];
-                for (k, c) in p.iter_mut().enumerate().take(D::N) {
-                    *c = D::comp(x, k);
-                }
-                p[D::N] = D::norm2(x);
-                p
-            };
-            let mut m: Small = [[0.0; 4]; 4];
-            let mut rhs = [0.0; 4];
-            rhs[D::N] = 2.0 * D::N as f64;
-            for q in csr.range(a) {
-                let p = basis(q);
-                for k in 0..n {
-                    rhs[k] -= w[q] * p[k];
-                    for l in 0..n {
-                        m[k][l] += w[q] * p[k] * p[l];
-                    }
+    csr.map_rows(|a| {
+        let basis = |q: usize| {
+            let x = x0[csr.ids[q] as usize] - x0[a];
+            let mut p = [0.0; 4];
+            for (k, c) in p.iter_mut().enumerate().take(D::N) {
+                *c = D::comp(x, k);
+            }
+            p[D::N] = D::norm2(x);
+            p
+        };
+        let mut m: Small = [[0.0; 4]; 4];
+        let mut rhs = [0.0; 4];
+        rhs[D::N] = 2.0 * D::N as f64;
+        for q in csr.range(a) {
+            let p = basis(q);
+            for k in 0..n {
+                rhs[k] -= w[q] * p[k];
+                for l in 0..n {
+                    m[k][l] += w[q] * p[k] * p[l];
                 }
             }
-            let c = solve_small(m, rhs, n).ok_or(a)?;
-            Ok(csr
-                .range(a)
-                .map(|q| {
-                    let p = basis(q);
-                    w[q] * (1.0 + (0..n).map(|k| c[k] * p[k]).sum::<f64>())
-                })
-                .collect())
-        })
-        .collect();
-    per_particle
-        .into_iter()
-        .collect::<Result<Vec<_>, _>>()
-        .map(|v| v.concat())
+        }
+        let c = solve_small(m, rhs, n).ok_or(a)?;
+        Ok(csr
+            .range(a)
+            .map(|q| {
+                let p = basis(q);
+                w[q] * (1.0 + (0..n).map(|k| c[k] * p[k]).sum::<f64>())
+            })
+            .collect())
+    })
 }
 
 #[cfg(test)]
