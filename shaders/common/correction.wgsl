@@ -1,7 +1,7 @@
 // Corrected reference kernel gradients, once per total-Lagrangian scene: one invocation
 // per particle writes the gradients of its own pairs (CSR order).
-// CORRECTION: 0 none (∇W), 1 Shepard (∇W / Σ_k V_k W_ik), 2 Randles–Libersky (A_i⁻ᵀ ∇W with
-// A_i = Σ_j V_j (X_j − X_i) ⊗ ∇W_ij). A singular A_i is reported through status[0].
+// CORRECTION: CORRECTION_NONE (∇W), CORRECTION_SHEPARD (∇W / Σ_k V_k W_ik) or
+// CORRECTION_LINEAR (Randles–Libersky, A_i⁻ᵀ ∇W with A_i = Σ_j V_j (X_j − X_i) ⊗ ∇W_ij). A singular A_i is reported through status[0].
 
 @group(0) @binding(0) var<storage, read> offsets: array<u32>;
 @group(0) @binding(1) var<storage, read> ids: array<u32>;
@@ -27,9 +27,9 @@ fn correct(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
         shepard += vol[j] * kernel_w(length(x_ij));
     }
     var m = identity_d();
-    if CORRECTION == 1u {
+    if CORRECTION == CORRECTION_SHEPARD {
         m = identity_d() * (1.0 / shepard);
-    } else if CORRECTION == 2u {
+    } else if CORRECTION == CORRECTION_LINEAR {
         if !(abs(determinant(a)) > 1e-6) {
             atomicMin(&status[0], i);
         }

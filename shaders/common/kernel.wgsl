@@ -1,23 +1,23 @@
 // Smoothing kernels (cubic spline, quintic, Wendland C2, quadratic), matching src/kernel.rs.
-// Needs the scene constants KERNEL (0 cubic spline, 1 quintic, 2 Wendland C2, 3 quadratic),
-// KERNEL_H (smoothing length h) and KERNEL_SCALE (σ_d / h^d).
+// Needs the scene constants KERNEL (one of KERNEL_CUBIC_SPLINE, KERNEL_QUINTIC,
+// KERNEL_WENDLAND_C2, KERNEL_QUADRATIC), KERNEL_H (smoothing length h) and KERNEL_SCALE (σ_d / h^d).
 
 fn kernel_w(r: f32) -> f32 {
     let q = r / KERNEL_H;
     var w = 0.0;
-    if KERNEL == 0u {
+    if KERNEL == KERNEL_CUBIC_SPLINE {
         if q < 1.0 {
             w = 1.0 - 1.5 * q * q + 0.75 * q * q * q;
         } else if q < 2.0 {
             let t = 2.0 - q;
             w = 0.25 * t * t * t;
         }
-    } else if KERNEL == 1u {
+    } else if KERNEL == KERNEL_QUINTIC {
         let t3 = max(3.0 - q, 0.0);
         let t2 = max(2.0 - q, 0.0);
         let t1 = max(1.0 - q, 0.0);
         w = pow5(t3) - 6.0 * pow5(t2) + 15.0 * pow5(t1);
-    } else if KERNEL == 2u {
+    } else if KERNEL == KERNEL_WENDLAND_C2 {
         if q < 2.0 {
             let t = 1.0 - 0.5 * q;
             w = t * t * t * t * (2.0 * q + 1.0);
@@ -37,19 +37,19 @@ fn pow5(t: f32) -> f32 {
 fn kernel_dw(r: f32) -> f32 {
     let q = r / KERNEL_H;
     var d = 0.0;
-    if KERNEL == 0u {
+    if KERNEL == KERNEL_CUBIC_SPLINE {
         if q < 1.0 {
             d = -3.0 * q + 2.25 * q * q;
         } else if q < 2.0 {
             let t = 2.0 - q;
             d = -0.75 * t * t;
         }
-    } else if KERNEL == 1u {
+    } else if KERNEL == KERNEL_QUINTIC {
         let t3 = max(3.0 - q, 0.0);
         let t2 = max(2.0 - q, 0.0);
         let t1 = max(1.0 - q, 0.0);
         d = -5.0 * (t3 * t3 * t3 * t3 - 6.0 * t2 * t2 * t2 * t2 + 15.0 * t1 * t1 * t1 * t1);
-    } else if KERNEL == 2u {
+    } else if KERNEL == KERNEL_WENDLAND_C2 {
         if q < 2.0 {
             let t = 1.0 - 0.5 * q;
             d = -5.0 * q * t * t * t;

@@ -1,6 +1,7 @@
 // Constitutive functions shared by the TLSPH and mixed passes and the reductions
 // (src/material.rs in f32). State models are written in H = F − I so that small strains
-// keep their digits. Needs the scene constants RHO0, MU, LAMBDA, BULK, MODEL, RATE.
+// keep their digits. Needs the scene constants RHO0, MU, LAMBDA, BULK, MODEL (a choice: MODEL_HYPOELASTIC,
+// MODEL_SAINT_VENANT_KIRCHHOFF, …) and RATE.
 
 // Linear EOS from the density deviation ρ − ρ0, positive in compression.
 fn pressure(rho_dev: f32) -> f32 {
@@ -61,17 +62,17 @@ fn ff_excess(h: matd) -> f32 {
 // polyconvex model F − ⅓F:F F⁻ᵀ = (H + Hᵀ F⁻ᵀ) − ⅓(F:F − 3) F⁻ᵀ.
 fn pk1(h: matd, f_inv_t: matd) -> matd {
     let f = identity_d() + h;
-    if MODEL == 1u {
+    if MODEL == MODEL_SAINT_VENANT_KIRCHHOFF {
         let e = (h + transpose(h) + transpose(h) * h) * 0.5;
         return f * (identity_d() * (LAMBDA * trace_d(e)) + e * (2.0 * MU));
     }
-    if MODEL == 3u {
+    if MODEL == MODEL_LINEAR_ELASTIC {
         let eps = (h + transpose(h)) * 0.5;
         return identity_d() * (LAMBDA * trace_d(eps)) + eps * (2.0 * MU);
     }
     let f_minus_f_inv_t = h + transpose(h) * f_inv_t;
     let x = det_excess(h);
-    if MODEL == 4u {
+    if MODEL == MODEL_NEARLY_INCOMPRESSIBLE_NEO_HOOKEAN {
         let j = 1.0 + x;
         let iso = f_minus_f_inv_t - f_inv_t * (ff_excess(h) / 3.0);
         return iso * (MU * exp(-2.0 / 3.0 * log_1p(x))) + f_inv_t * (BULK * x * j);
@@ -84,9 +85,9 @@ fn pk1(h: matd, f_inv_t: matd) -> matd {
 // apart from F: P = μ J^(−2/3) [F − ⅓ F:F J⁻¹ H] + κ (J − 1) H, where the bracket is
 // f − h − c H with c = (⅓(F:F − 3) − j)/J, every term small at small strain.
 fn pk1_mixed(f: matd, h: matd, j: f32) -> matd {
-    if MODEL != 4u {
+    if MODEL != MODEL_NEARLY_INCOMPRESSIBLE_NEO_HOOKEAN {
         var f_inv_t = identity_d();
-        if MODEL == 2u {
+        if MODEL == MODEL_NEO_HOOKEAN {
             f_inv_t = transpose(inverse_d(identity_d() + f));
         }
         return pk1(f, f_inv_t);
@@ -109,18 +110,18 @@ fn energy_density(h: matd, s: matd, rho_dev: f32) -> f32 {
         let p = pressure(rho_dev);
         return (ddot_d(s, s) + szz * szz) / (4.0 * MU) + p * p / (2.0 * BULK);
     }
-    if MODEL == 1u {
+    if MODEL == MODEL_SAINT_VENANT_KIRCHHOFF {
         let e = (h + transpose(h) + transpose(h) * h) * 0.5;
         let tr = trace_d(e);
         return 0.5 * LAMBDA * tr * tr + MU * ddot_d(e, e);
     }
-    if MODEL == 3u {
+    if MODEL == MODEL_LINEAR_ELASTIC {
         let eps = (h + transpose(h)) * 0.5;
         let tr = trace_d(eps);
         return 0.5 * LAMBDA * tr * tr + MU * ddot_d(eps, eps);
     }
     let x = det_excess(h);
-    if MODEL == 4u {
+    if MODEL == MODEL_NEARLY_INCOMPRESSIBLE_NEO_HOOKEAN {
         return polyconvex_energy(h, x);
     }
     let q = x - trace_d(h);
@@ -144,7 +145,7 @@ fn polyconvex_energy(h: matd, x: f32) -> f32 {
 // ψ(F, J) of the mixed formulations (Material::energy_density_mixed) from f = F − I and
 // j = J − 1: only the polyconvex model reads J apart from F.
 fn energy_density_mixed(f: matd, j: f32) -> f32 {
-    if MODEL == 4u {
+    if MODEL == MODEL_NEARLY_INCOMPRESSIBLE_NEO_HOOKEAN {
         return polyconvex_energy(f, j);
     }
     return energy_density(f, matd(), 0.0);

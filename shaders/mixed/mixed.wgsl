@@ -15,8 +15,8 @@
 // Scene constants: N, NG, DIM, MODEL, RHO0, MU, LAMBDA, BULK, YIELD, HARDENING (von Mises
 // model, plasticity.wgsl), C_P, C_S, SPACING
 // (particle spacing Δx), PAIR_STRETCH (1: the CFL step's C_p,ij = C_P / λ^Ave_ij, 0:
-// C_P), H (smoothing length), STAB (0 upwind, 1 JST), RECON, EPS2, EPS4,
-// MOMENTUM (0 weak, 1 symmetrised), EVOLVE_H, EVOLVE_J, KIN_H, PROJECTION, GROUPS
+// C_P), H (smoothing length), STAB (STAB_UPWIND or STAB_JST), RECON, EPS2, EPS4,
+// MOMENTUM (MOMENTUM_WEAK or MOMENTUM_SYMMETRISED), EVOLVE_H, EVOLVE_J, KIN_H, PROJECTION, GROUPS
 // (workgroups over N), TOTAL_VOL, segment offsets U_OFF, V_OFF, F_OFF, H_OFF, J_OFF,
 // FS_OFF, KP_OFF, KH_OFF, FT_OFF, FD_OFF, FJ_OFF.
 

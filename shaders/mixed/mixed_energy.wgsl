@@ -6,7 +6,7 @@
 // stretches.
 fn strain_energy(i: u32) -> f32 {
     let f = mload_kin(FS_OFF + DIM * DIM * i);
-    if MODEL == 5u {
+    if MODEL == MODEL_VON_MISES_PLASTIC {
         return vol[i] * return_map(lift3(identity_d() + f, 1.0), history(i)).psi;
     }
     var j = det_excess(f);
@@ -19,7 +19,7 @@ fn strain_energy(i: u32) -> f32 {
 // The neighbour lists (CSR over the real rows; ids ≥ N are ghosts), for the pair rate.
 @group(0) @binding(6) var<storage, read> offsets: array<u32>;
 @group(0) @binding(7) var<storage, read> ids: array<u32>;
-// The plastic history (plasticity.wgsl), read with MODEL 5 only.
+// The plastic history (plasticity.wgsl), read with MODEL_VON_MISES_PLASTIC only.
 @group(0) @binding(8) var<storage, read> hist: array<f32>;
 
 // λ_i, the smallest principal stretch of particle i: the square root of the smallest

@@ -1,6 +1,6 @@
 // Pass 3 of a mixed rate evaluation (MixedSph::forces), one invocation per real particle
 // gathering over its pairs, with G_ab = V_b g_ab and G_ba = V_b g_ba:
-//   T_a = Σ_b [P_b G_ba − P_a G_ab] (eqs 20–21), or symmetrised (MOMENTUM = 1):
+//   T_a = Σ_b [P_b G_ba − P_a G_ab] (eqs 20–21), or symmetrised (MOMENTUM_SYMMETRISED):
 //   T_a = −½ Σ_b (P_a + P_b)(G_ab − G_ba) (seed 002 eq 22);
 //   Upwind-SPH: D(p_a) = Σ_b (S^p Δp)(N_ab · (G_ab − G_ba)) (eqs 28, 32) with the jumps
 //   reconstructed to the mid-pair face (eq 37, "−" from a, "+" from b) and n_ab from the
@@ -52,7 +52,7 @@ fn forces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     let v_a = velocity(a);
     var lap_a: vecd;
     var s_a: Slopes;
-    if STAB == 1u {
+    if STAB == STAB_JST {
         lap_a = vload_second(DIM * a);
     } else if RECON == 1u {
         s_a = slopes_of(a);
@@ -65,13 +65,13 @@ fn forces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
         let g_ab = vload_grad(DIM * p);
         let g_ba = vload_grad_rev(DIM * p);
         let p_b = mload_kin(KP_OFF + DIM * DIM * b);
-        if MOMENTUM == 1u {
+        if MOMENTUM == MOMENTUM_SYMMETRISED {
             t -= (p_a + p_b) * (g_ab - g_ba) * 0.5;
         } else {
             t += p_b * g_ba - p_a * g_ab;
         }
         let v_b = velocity(b);
-        if STAB == 0u {
+        if STAB == STAB_UPWIND {
             let d_ab = vload_pair(DIM * p);
             let n_ref = normalize(d_ab);
             var dv = v_b - v_a;

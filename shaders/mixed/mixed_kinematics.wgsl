@@ -48,7 +48,7 @@ fn kinematics(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     if !(1.0 + j > 0.0) {
         atomicMin(&status[1], a);
     }
-    if MODEL == 5u {
+    if MODEL == MODEL_VON_MISES_PLASTIC {
         let returned = return_map(lift3(identity_d() + f, 1.0), history(a));
         mstore_kin(KP_OFF + DIM * DIM * a, lower3(returned.p));
     } else {

@@ -109,7 +109,17 @@ impl Constants {
         self
     }
 
-    /// KERNEL, KERNEL_H and KERNEL_SCALE of a kernel.
+    /// A choice among named alternatives: `const {name}_{alternative}: u32` for each (0, 1,
+    /// …) and `const {name}: u32` the chosen one's, so that shaders compare against names
+    /// (`MODEL == MODEL_NEO_HOOKEAN`), not bare tags.
+    pub fn choice(self, name: &str, alternatives: &[&str], chosen: usize) -> Self {
+        let with = alternatives.iter().enumerate().fold(self, |c, (k, alt)| {
+            c.u32(&format!("{name}_{alt}"), k as u32)
+        });
+        with.u32(name, chosen as u32)
+    }
+
+    /// KERNEL (a choice), KERNEL_H and KERNEL_SCALE of a kernel.
     pub fn kernel(self, kernel: &Kernel) -> Self {
         let kind = match kernel.kind {
             KernelKind::CubicSpline => 0,
@@ -117,13 +127,16 @@ impl Constants {
             KernelKind::WendlandC2 => 2,
             KernelKind::Quadratic => 3,
         };
-        self.u32("KERNEL", kind)
-            .f32("KERNEL_H", kernel.h)
-            .f32("KERNEL_SCALE", kernel.scale())
+        self.choice(
+            "KERNEL",
+            &["CUBIC_SPLINE", "QUINTIC", "WENDLAND_C2", "QUADRATIC"],
+            kind,
+        )
+        .f32("KERNEL_H", kernel.h)
+        .f32("KERNEL_SCALE", kernel.scale())
     }
 
-    /// MODEL (0 hypoelastic, 1 SVK, 2 neo-Hookean, 3 linear elastic, 4 polyconvex
-    /// neo-Hookean), RHO0, MU, LAMBDA, BULK and RATE of a material (mechanics.wgsl).
+    /// MODEL (a choice), RHO0, MU, LAMBDA, BULK and RATE of a material (mechanics.wgsl).
     pub fn material(self, material: &Material) -> Self {
         let model = match material.model {
             MaterialModel::Hypoelastic => 0,
@@ -133,12 +146,23 @@ impl Constants {
             MaterialModel::NearlyIncompressibleNeoHookean => 4,
             MaterialModel::VonMisesPlastic => 5,
         };
-        self.u32("MODEL", model)
-            .u32("RATE", u32::from(material.model.is_rate_based()))
-            .f32("RHO0", material.rho0)
-            .f32("MU", material.mu)
-            .f32("LAMBDA", material.lambda)
-            .f32("BULK", material.bulk)
+        self.choice(
+            "MODEL",
+            &[
+                "HYPOELASTIC",
+                "SAINT_VENANT_KIRCHHOFF",
+                "NEO_HOOKEAN",
+                "LINEAR_ELASTIC",
+                "NEARLY_INCOMPRESSIBLE_NEO_HOOKEAN",
+                "VON_MISES_PLASTIC",
+            ],
+            model,
+        )
+        .u32("RATE", u32::from(material.model.is_rate_based()))
+        .f32("RHO0", material.rho0)
+        .f32("MU", material.mu)
+        .f32("LAMBDA", material.lambda)
+        .f32("BULK", material.bulk)
     }
 
     fn render(&self) -> String {

@@ -237,13 +237,14 @@ pub fn scene<D: GpuDim>(case: &Case, cpu: &MixedSph<D>) -> (MixedLayout, Constan
             u32::from(cpu.cfl_wave_speed() == CflWaveSpeed::Pair),
         )
         .f32("H", cpu.smoothing_length())
-        .u32("STAB", u32::from(jst.is_some()))
+        .choice("STAB", &["UPWIND", "JST"], usize::from(jst.is_some()))
         .u32("RECON", u32::from(cpu.reconstruction()))
         .f32("EPS2", eps2)
         .f32("EPS4", eps4)
-        .u32(
+        .choice(
             "MOMENTUM",
-            u32::from(cpu.momentum() == Momentum::Symmetrised),
+            &["WEAK", "SYMMETRISED"],
+            usize::from(cpu.momentum() == Momentum::Symmetrised),
         )
         .u32("EVOLVE_H", u32::from(l.evolves_h))
         .u32("EVOLVE_J", u32::from(l.evolves_j))

@@ -131,7 +131,7 @@ pub fn scene_constants(case: &Case, layout: &Layout) -> Constants {
         .u32("N", u(layout.n))
         .u32("BODIES", u(case.bodies.len()))
         .material(&material)
-        .u32("CORRECTION", correction)
+        .choice("CORRECTION", &["NONE", "SHEPARD", "LINEAR"], correction)
         .f32("H", h)
         .u32("AV", u32::from(av.is_some()))
         .f32("AV_ALPHA", av.map_or(0.0, |a| a.alpha))
