@@ -5,7 +5,6 @@
 //! affine motion (rigid rotations included), is O(Δx |∇F|) for a smooth one and O(1)
 //! when neighbours oscillate about the particle's F, as in an hourglass mode.
 
-use crate::kernel::Kernel;
 use crate::neighbour::{self, Csr};
 use crate::scene::Case;
 use crate::tensor::Dim;
@@ -20,8 +19,7 @@ pub struct HourglassIndicator {
 
 impl HourglassIndicator {
     pub fn new<D: Dim>(case: &Case, x0: &[D::V]) -> Self {
-        let m = &case.method;
-        let kernel = Kernel::new(m.kernel, m.h_over_dx * case.spacing, D::N);
+        let kernel = case.kernel(D::N);
         let csr = neighbour::build::<D>(x0, kernel.support());
         let w = (0..csr.len())
             .into_par_iter()

@@ -3,13 +3,12 @@
 //! state's field-wise arithmetic, and the reference neighbours and gradients of the
 //! total-Lagrangian methods.
 
-use crate::boundary::Boundary;
 use crate::correction;
 use crate::integrate::OdeSystem;
-use crate::kernel::Kernel;
 use crate::neighbour::{self, Csr};
 use crate::observe::Snapshot;
-use crate::scene::{Case, CaseError, Discretised};
+use crate::reference::{self, Reference};
+use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use rayon::prelude::*;
 use std::ops::{Add, Mul};
@@ -74,42 +73,23 @@ macro_rules! particle_state {
 }
 pub(crate) use particle_state;
 
-/// The kernel support, with a relative margin so that lattice neighbours exactly at the
-/// support are found on both sides despite round-off (their W and ∇W vanish).
+/// The kernel support of a case, with the margin of [`crate::reference::neighbour_radius`].
 pub(crate) fn neighbour_radius<D: Dim>(case: &Case) -> f64 {
-    let m = &case.method;
-    Kernel::new(m.kernel, m.h_over_dx * case.spacing, D::N).support() * (1.0 + 1e-9)
+    reference::neighbour_radius(&case.kernel(D::N))
 }
 
 /// Neighbours within the kernel support and corrected gradients g_ij, computed once on
-/// the reference configuration of a total-Lagrangian method.
+/// the reference positions x0 (and volumes) of a total-Lagrangian method.
 pub(crate) fn reference_gradients<D: Dim>(
     case: &Case,
     x0: &[D::V],
     vol: &[f64],
 ) -> Result<(Csr, Vec<D::V>), CaseError> {
-    let m = &case.method;
-    let kernel = Kernel::new(m.kernel, m.h_over_dx * case.spacing, D::N);
-    let csr = neighbour::build::<D>(x0, neighbour_radius::<D>(case));
-    let grad = correction::gradients::<D>(m.correction, x0, vol, &csr, &kernel)
+    let kernel = case.kernel(D::N);
+    let csr = neighbour::build::<D>(x0, reference::neighbour_radius(&kernel));
+    let grad = correction::gradients::<D>(case.method.correction, x0, vol, &csr, &kernel)
         .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
     Ok((csr, grad))
-}
-
-/// Masses, boundary conditions and initial velocities of a method's particles.
-pub(crate) type Supported<D> = (Vec<f64>, Boundary<D>, Vec<<D as Dim>::V>);
-
-/// Masses ρ0 V, the boundary conditions, and the initial velocities with them imposed.
-pub(crate) fn masses_and_boundary<D: Dim>(
-    case: &Case,
-    disc: &Discretised<D>,
-    rho0: f64,
-) -> Result<Supported<D>, CaseError> {
-    let mass: Vec<f64> = disc.vol.iter().map(|v| v * rho0).collect();
-    let boundary = Boundary::build(case, disc, &mass)?;
-    let mut v0 = disc.v0.clone();
-    boundary.impose_initial(&mut v0);
-    Ok((mass, boundary, v0))
 }
 
 /// The first particle with a non-finite displacement or velocity, as a blow-up.
@@ -151,7 +131,7 @@ impl BlowUp {
 pub trait Method<D: Dim>: OdeSystem<Error = BlowUp> + Sized {
     /// Builds the method on the reference configuration of a case; a case that names a
     /// method this system does not run is an error.
-    fn build(case: &Case, disc: Discretised<D>) -> Result<Self, CaseError>;
+    fn build(case: &Case, reference: Reference<D>) -> Result<Self, CaseError>;
     /// Initial state (displacement zero, initial velocities with BCs imposed).
     fn initial_state(&self) -> Self::State;
     /// Displacement u = x − X and velocity v of a state.

@@ -7,7 +7,8 @@ use crate::gpu::{Gpu, SetupError};
 use crate::integrate::Integrator;
 use crate::methods::{BlowUp, Method};
 use crate::observe::{Invariants, Snapshot};
-use crate::scene::{Case, CaseError, discretise};
+use crate::reference::Reference;
+use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 
 /// The dimensions an engine runs in: [`Dim`], and with the GPU backend its WGSL layouts.
@@ -23,7 +24,7 @@ impl<D: Dim> EngineDim for D {}
 
 /// Builds the CPU system `M` of a case.
 pub fn build_method<D: Dim, M: Method<D>>(case: &Case) -> Result<M, CaseError> {
-    M::build(case, discretise::<D>(case)?)
+    M::build(case, Reference::build(case)?)
 }
 
 /// The engine a case runs on: the GPU when `backend` asks for it (or `auto` finds an

@@ -443,6 +443,16 @@ impl Case {
         self.dimension as usize
     }
 
+    /// The smoothing length h = h_over_dx · Δx.
+    pub fn smoothing_length(&self) -> f64 {
+        self.method.h_over_dx * self.spacing
+    }
+
+    /// The case's kernel in `dim` dimensions.
+    pub fn kernel(&self, dim: usize) -> crate::kernel::Kernel {
+        crate::kernel::Kernel::new(self.method.kernel, self.smoothing_length(), dim)
+    }
+
     /// Folder that relative paths in the case are resolved against.
     pub fn base_dir(&self) -> &Path {
         self.file.parent().unwrap_or(Path::new("."))

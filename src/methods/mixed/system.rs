@@ -18,18 +18,17 @@ use crate::boundary::Boundary;
 use crate::correction;
 use crate::integrate::{IntegratorKind, OdeSystem};
 use crate::interaction::Interactions;
-use crate::kernel::Kernel;
 use crate::material::Material;
 use crate::methods::not_run_by;
 use crate::methods::shared::{
-    BlowUp, MIN_CHUNK, Method, check_motion, masses_and_boundary, neighbour_radius, particle_state,
-    reference_gradients,
+    BlowUp, MIN_CHUNK, Method, check_motion, neighbour_radius, particle_state, reference_gradients,
 };
 use crate::mirror::Ghosts;
 use crate::neighbour::Csr;
 use crate::observe::{ScalarField, Snapshot};
 use crate::plasticity::{Returned, VonMises, from_mat3, to_mat3};
-use crate::scene::{Case, CaseError, Discretised};
+use crate::reference::Reference;
+use crate::scene::{Case, CaseError};
 use crate::tensor::{D3, Dim, smallest_stretch_squared};
 use glam::DMat3;
 use rayon::prelude::*;
@@ -189,15 +188,23 @@ pub struct MixedSph<D: Dim> {
 impl<D: Dim> MixedSph<D> {
     /// Builds neighbours, corrected gradients and the per-pair weights on the reference
     /// configuration.
-    pub fn new(case: &Case, disc: Discretised<D>) -> Result<Self, CaseError> {
+    pub fn new(case: &Case, reference: Reference<D>) -> Result<Self, CaseError> {
         let (options, stabiliser) =
             super::scheme(case).ok_or_else(|| not_run_by(case, "MixedSph"))?;
-        let material = Material::new(&case.material);
+        let Reference {
+            x0: x_real,
+            vol: vol_real,
+            mass,
+            body: body_real,
+            v0,
+            boundary,
+            material,
+            kernel,
+        } = reference;
         let m = &case.method;
-        let (mass, boundary, v0) = masses_and_boundary(case, &disc, material.rho0)?;
-        let n = disc.x0.len();
-        let ghosts = Ghosts::build(case, &disc.x0, &disc.vol, neighbour_radius::<D>(case))?;
-        let (x0, vol) = ghosts.extend_reference(&disc.x0, &disc.vol);
+        let n = x_real.len();
+        let ghosts = Ghosts::build(case, &x_real, &vol_real, neighbour_radius::<D>(case))?;
+        let (x0, vol) = ghosts.extend_reference(&x_real, &vol_real);
         let (mut csr, mut grad) = reference_gradients::<D>(case, &x0, &vol)?;
         csr.truncate(n);
         grad.truncate(csr.pair_count());
@@ -263,7 +270,6 @@ impl<D: Dim> MixedSph<D> {
         let bond_weights = match options.deformation_gradient {
             DeformationGradient::Evolved => None,
             DeformationGradient::BondBased => {
-                let kernel = Kernel::new(m.kernel, m.h_over_dx * case.spacing, D::N);
                 let w = correction::kernel_weights::<D>(m.correction, &x0, &vol, &csr, &kernel)
                     .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
                 let r2 = pair_map(&csr, |i, j| D::norm2(x0[j] - x0[i]));
@@ -271,7 +277,7 @@ impl<D: Dim> MixedSph<D> {
             }
         };
         let mut body = vec![0; x0.len()];
-        ghosts.fill(&mut body, |a| disc.body[a], |_, b| b);
+        ghosts.fill(&mut body, |a| body_real[a], |_, b| b);
         let interactions = Interactions::build(case, &x0[..n], &body, || csr.clone())?;
         let n_ext = x0.len();
         Ok(Self {
@@ -300,7 +306,7 @@ impl<D: Dim> MixedSph<D> {
             x0,
             vol,
             mass,
-            body: disc.body,
+            body: body_real,
             v0,
             csr,
             grad,
@@ -321,7 +327,7 @@ impl<D: Dim> MixedSph<D> {
             integrator: m.integrator,
             spacing: case.spacing,
             cfl_wave_speed: options.cfl_wave_speed,
-            h: m.h_over_dx * case.spacing,
+            h: kernel.h,
             boundary,
             interactions,
             step_start: None,
@@ -756,8 +762,8 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
 }
 
 impl<D: Dim> Method<D> for MixedSph<D> {
-    fn build(case: &Case, disc: Discretised<D>) -> Result<Self, CaseError> {
-        Self::new(case, disc)
+    fn build(case: &Case, reference: Reference<D>) -> Result<Self, CaseError> {
+        Self::new(case, reference)
     }
 
     fn initial_state(&self) -> MixedState<D> {
@@ -1049,7 +1055,7 @@ mod tests {
             y.v[a] = D::zero();
             y.f[a] = f;
         }
-        let support = Kernel::new(case.method.kernel, m.h, D::N).support();
+        let support = case.kernel(D::N).support();
         let reach = (support / dx) as i64;
         let side = 2 * reach + 1;
         let shortest = (0..side.pow(D::N as u32))

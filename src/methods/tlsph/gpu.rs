@@ -6,7 +6,6 @@
 //! only when asked (outputs, observers, checks).
 
 use super::system::{TlState, check_state, snapshot};
-use crate::boundary::Boundary;
 use crate::correction::{self, CorrectionKind};
 use crate::gpu::SetupError;
 use crate::gpu::context::Gpu;
@@ -21,13 +20,13 @@ use crate::gpu::shaders::{
 use crate::integrate::Buf;
 use crate::interaction::Interactions;
 use crate::interaction::gpu::GpuInteractions;
-use crate::kernel::Kernel;
 use crate::material::Material;
 use crate::methods::{BlowUp, MethodSpec, not_run_by};
 use crate::neighbour as neighbour_cpu;
 use crate::observe::{Invariants, Snapshot};
+use crate::reference::Reference;
 use crate::run::Engine;
-use crate::scene::{Case, discretise};
+use crate::scene::Case;
 
 /// Strain energy densities of the TLSPH models, for the reduction.
 const ENERGY: Wgsl = wgsl!("tlsph/tlsph_energy.wgsl");
@@ -114,8 +113,7 @@ impl Layout {
 /// The compiled-in constants of a scene's TLSPH passes.
 pub fn scene_constants(case: &Case, layout: &Layout) -> Constants {
     let material = Material::new(&case.material);
-    let h = case.method.h_over_dx * case.spacing;
-    let kernel = Kernel::new(case.method.kernel, h, layout.dim);
+    let kernel = case.kernel(layout.dim);
     let correction = match case.method.correction {
         CorrectionKind::None => 0,
         CorrectionKind::Shepard => 1,
@@ -132,7 +130,7 @@ pub fn scene_constants(case: &Case, layout: &Layout) -> Constants {
         .u32("BODIES", u(case.bodies.len()))
         .material(&material)
         .choice("CORRECTION", &["NONE", "SHEPARD", "LINEAR"], correction)
-        .f32("H", h)
+        .f32("H", kernel.h)
         .u32("AV", u32::from(av.is_some()))
         .f32("AV_ALPHA", av.map_or(0.0, |a| a.alpha))
         .f32("AV_BETA", av.map_or(0.0, |a| a.beta))
@@ -192,16 +190,17 @@ impl<D: GpuDim> GpuTlsph<D> {
         if !matches!(case.method.spec, MethodSpec::Tlsph(_)) {
             return Err(not_run_by(case, "GpuTlsph").into());
         }
-        let disc = discretise::<D>(case)?;
-        let material = Material::new(&case.material);
-        let n = disc.x0.len();
+        let disc = Reference::<D>::build(case)?;
+        let Reference {
+            material,
+            kernel,
+            boundary,
+            ..
+        } = &disc;
+        let n = disc.len();
         let layout = Layout::new(n, D::N, material.model.is_rate_based());
         let constants = scene_constants(case, &layout);
         let compose = |s: &Source| shaders::compose::<D>(s, &constants);
-        let h = case.method.h_over_dx * case.spacing;
-        let kernel = Kernel::new(case.method.kernel, h, D::N);
-        let mass: Vec<f64> = disc.vol.iter().map(|v| v * material.rho0).collect();
-        let boundary = Boundary::build(case, &disc, &mass)?;
 
         // Neighbours on the GPU from f32 positions; the 1e-5 margin keeps lattice pairs lying
         // exactly on the support on both sides of the f32 rounding (their W and ∇W vanish).
@@ -248,7 +247,7 @@ impl<D: GpuDim> GpuTlsph<D> {
                 &disc.x0,
                 &disc.vol,
                 &neighbour::read_lists(&gpu, &csr),
-                &kernel,
+                kernel,
             )
             .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
             gpu.storage("grad", &flat_v::<D>(g))
@@ -271,10 +270,7 @@ impl<D: GpuDim> GpuTlsph<D> {
             grad
         };
 
-        let (mask, traction) = boundary_buffers(&gpu, &boundary, n);
-
-        let mut v0 = disc.v0.clone();
-        boundary.impose_initial(&mut v0);
+        let (mask, traction) = boundary_buffers(&gpu, boundary, n);
         let state = StateLayout {
             n,
             dim: D::N,
@@ -286,7 +282,7 @@ impl<D: GpuDim> GpuTlsph<D> {
             case.method.integrator,
             &compose(&INTEGRATE),
             state,
-            &initial_state::<D>(&layout, &v0),
+            &initial_state::<D>(&layout, &disc.v0),
         );
         let interactions = Interactions::<D>::build(case, &disc.x0, &disc.body, || {
             neighbour::read_lists(&gpu, &csr)
@@ -341,6 +337,15 @@ impl<D: GpuDim> GpuTlsph<D> {
                 &status,
             ],
         );
+        let constrained = disc.boundary.constrained.clone();
+        let Reference {
+            x0,
+            vol,
+            mass,
+            body,
+            material,
+            ..
+        } = disc;
         Ok(Self {
             gpu,
             layout,
@@ -352,14 +357,14 @@ impl<D: GpuDim> GpuTlsph<D> {
             stress,
             accel,
             rates,
-            x0: disc.x0,
+            x0,
             mass,
-            body: disc.body,
-            vol: disc.vol,
+            body,
+            vol,
             kinematics_y,
             reduction,
             interactions,
-            constrained: boundary.constrained.clone(),
+            constrained,
             work: WorkBalance::default(),
         })
     }

@@ -9,8 +9,7 @@ use super::ArtificialViscosity;
 use crate::boundary::Boundary;
 use crate::interaction::Interactions;
 use crate::methods::shared::{
-    BlowUp, MIN_CHUNK, Method, check_motion, masses_and_boundary, particle_state,
-    reference_gradients,
+    BlowUp, MIN_CHUNK, Method, check_motion, particle_state, reference_gradients,
 };
 use crate::methods::{MethodSpec, not_run_by};
 
@@ -19,7 +18,8 @@ use crate::integrate::OdeSystem;
 use crate::material::Material;
 use crate::neighbour::Csr;
 use crate::observe::Snapshot;
-use crate::scene::{Case, CaseError, Discretised};
+use crate::reference::Reference;
+use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use rayon::prelude::*;
 
@@ -150,15 +150,22 @@ pub struct Tlsph<D: Dim> {
 
 impl<D: Dim> Tlsph<D> {
     /// Builds neighbours and corrected gradients on the reference configuration.
-    pub fn new(case: &Case, disc: Discretised<D>) -> Result<Self, CaseError> {
+    pub fn new(case: &Case, reference: Reference<D>) -> Result<Self, CaseError> {
         let MethodSpec::Tlsph(spec) = &case.method.spec else {
             return Err(not_run_by(case, "Tlsph"));
         };
-        let material = Material::new(&case.material);
-        let m = &case.method;
-        let (csr, grad) = reference_gradients::<D>(case, &disc.x0, &disc.vol)?;
-        let (mass, boundary, v0) = masses_and_boundary(case, &disc, material.rho0)?;
-        let interactions = Interactions::build(case, &disc.x0, &disc.body, || csr.clone())?;
+        let Reference {
+            x0,
+            vol,
+            mass,
+            body,
+            v0,
+            boundary,
+            material,
+            kernel,
+        } = reference;
+        let (csr, grad) = reference_gradients::<D>(case, &x0, &vol)?;
+        let interactions = Interactions::build(case, &x0, &body, || csr.clone())?;
         let identity = Kinematics {
             f: D::identity(),
             p: D::zero_t(),
@@ -166,17 +173,17 @@ impl<D: Dim> Tlsph<D> {
             rho: material.rho0,
         };
         Ok(Self {
-            kin: vec![identity; disc.x0.len()],
-            x0: disc.x0,
-            vol: disc.vol,
+            kin: vec![identity; x0.len()],
+            x0,
+            vol,
             mass,
-            body: disc.body,
+            body,
             v0,
             csr,
             grad,
             material,
             av: spec.artificial_viscosity,
-            h: m.h_over_dx * case.spacing,
+            h: kernel.h,
             boundary,
             interactions,
             power: 0.0,
@@ -350,8 +357,8 @@ impl<D: Dim> OdeSystem for Tlsph<D> {
 }
 
 impl<D: Dim> Method<D> for Tlsph<D> {
-    fn build(case: &Case, disc: Discretised<D>) -> Result<Self, CaseError> {
-        Self::new(case, disc)
+    fn build(case: &Case, reference: Reference<D>) -> Result<Self, CaseError> {
+        Self::new(case, reference)
     }
 
     fn initial_state(&self) -> TlState<D> {

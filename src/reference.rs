@@ -1,0 +1,70 @@
+//! The reference configuration of a case: the particles and what every method reads of
+//! them, built once on the host in f64 and held (or uploaded) by the method.
+
+use crate::boundary::Boundary;
+use crate::kernel::Kernel;
+use crate::material::Material;
+use crate::neighbour::{self, Csr};
+use crate::scene::{Case, CaseError, discretise};
+use crate::tensor::Dim;
+
+/// Particles of a case in the reference configuration.
+pub struct Reference<D: Dim> {
+    /// Reference positions X.
+    pub x0: Vec<D::V>,
+    /// Volumes V0.
+    pub vol: Vec<f64>,
+    /// Masses ρ0 V0.
+    pub mass: Vec<f64>,
+    /// Body index of every particle.
+    pub body: Vec<u32>,
+    /// Initial velocities, with the boundary conditions imposed.
+    pub v0: Vec<D::V>,
+    pub boundary: Boundary<D>,
+    pub material: Material,
+    /// The case's kernel, at h = h_over_dx · Δx.
+    pub kernel: Kernel,
+}
+
+impl<D: Dim> Reference<D> {
+    /// Samples the case's bodies and sets up masses, boundary conditions and initial
+    /// velocities.
+    pub fn build(case: &Case) -> Result<Self, CaseError> {
+        let disc = discretise::<D>(case)?;
+        let material = Material::new(&case.material);
+        let mass: Vec<f64> = disc.vol.iter().map(|v| v * material.rho0).collect();
+        let boundary = Boundary::build(case, &disc, &mass)?;
+        let mut v0 = disc.v0;
+        boundary.impose_initial(&mut v0);
+        Ok(Self {
+            x0: disc.x0,
+            vol: disc.vol,
+            mass,
+            body: disc.body,
+            v0,
+            boundary,
+            material,
+            kernel: case.kernel(D::N),
+        })
+    }
+
+    /// Number of particles.
+    pub fn len(&self) -> usize {
+        self.x0.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.x0.is_empty()
+    }
+
+    /// Neighbour lists within the kernel support, on the reference positions.
+    pub fn neighbours(&self) -> Csr {
+        neighbour::build::<D>(&self.x0, neighbour_radius(&self.kernel))
+    }
+}
+
+/// The kernel support, with a relative margin so that lattice neighbours exactly at the
+/// support are found on both sides despite round-off (their W and ∇W vanish).
+pub fn neighbour_radius(kernel: &Kernel) -> f64 {
+    kernel.support() * (1.0 + 1e-9)
+}
