@@ -77,12 +77,42 @@ impl Frames {
         write_frame::<D>(&self.dir.join(&file), snap, t, eta)?;
         index.push(t, &file)?;
         self.count += 1;
-        if let Some(dt) = self.interval {
-            while self.next <= t * (1.0 + 1e-9) {
-                self.next += dt;
-            }
+        if let Some(interval) = self.interval {
+            self.next = next_frame_time(self.next, interval, t);
         }
         Ok(())
+    }
+}
+
+/// The time of the frame after one written at t: the next multiple of the interval past
+/// t. One interval on from the previous frame time when that passes t (the common case);
+/// else the multiple found directly, at least the next float after t, so that an
+/// interval far below the resolution of t (or below the step) never loops.
+fn next_frame_time(previous: f64, interval: f64, t: f64) -> f64 {
+    let past = t * (1.0 + 1e-9);
+    let stepped = previous + interval;
+    if stepped > past {
+        return stepped;
+    }
+    let k = (past / interval).floor() + 1.0;
+    (k * interval).max(past.next_up())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::next_frame_time;
+
+    #[test]
+    fn the_next_frame_time_passes_t_whatever_the_interval() {
+        // One interval on from the last frame: exactly the sum, as frames are spaced.
+        assert_eq!(next_frame_time(0.25, 0.25, 0.25), 0.5);
+        // A step longer than the interval skips to the next multiple past t.
+        let next = next_frame_time(0.25, 0.25, 1.1);
+        assert!((next - 1.25).abs() < 1e-15, "{next}");
+        // An interval below the resolution of t: just past t, without looping.
+        let t = 1.0e-3;
+        let next = next_frame_time(0.0, 1e-22, t);
+        assert!(next > t * (1.0 + 1e-9) && next < t * (1.0 + 1e-8), "{next}");
     }
 }
 

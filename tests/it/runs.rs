@@ -279,3 +279,39 @@ fn a_collapsing_cfl_step_stops_the_run_before_the_step_below_the_floor() {
     let below = format!("run.min_step_ratio={}", 0.9 * dip);
     swinging_plate(tempfile::tempdir().unwrap().path(), &[&below]).unwrap();
 }
+
+#[test]
+fn output_intervals_below_the_step_give_one_frame_and_row_per_step() {
+    // Intervals of 1e-22 s, far below the 1e-6 s step and the resolution of t: a frame
+    // and a series row at every step (the first at t = 0), and the run ends. The frame
+    // schedule once stepped to the next frame time by repeated addition of the interval,
+    // which no longer moved t and never ended.
+    let dir = tempfile::tempdir().unwrap();
+    let case = load(
+        "tensile-strip",
+        &[
+            "run.end_time=2e-5",
+            "output.frame_interval=1e-22",
+            "output.series_interval=1e-22",
+        ],
+    );
+    let summary = run(&case, &cpu_options(dir.path(), true)).unwrap();
+    assert_eq!(summary.steps, 20);
+    let frames = std::fs::read_dir(dir.path())
+        .unwrap()
+        .filter(|e| {
+            let name = e.as_ref().unwrap().file_name();
+            name.to_string_lossy().ends_with(".vtu")
+        })
+        .count();
+    assert_eq!(
+        frames, 21,
+        "a frame at t = 0 and after each of the 20 steps"
+    );
+    let rows = column(&dir.path().join("series.csv"), "time");
+    assert_eq!(
+        rows.len(),
+        21,
+        "a row at t = 0 and after each of the 20 steps"
+    );
+}
