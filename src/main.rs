@@ -243,7 +243,7 @@ fn run_command(
             eprintln!("error: {e}");
             match e {
                 RunError::Case(_) | RunError::Backend(_) => ExitCode::from(EXIT_INPUT),
-                RunError::Io(_) | RunError::BlowUp { .. } => ExitCode::from(EXIT_FAILED),
+                RunError::Output { .. } | RunError::BlowUp { .. } => ExitCode::from(EXIT_FAILED),
             }
         }
     }

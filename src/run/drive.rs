@@ -3,7 +3,7 @@
 
 use super::checks::{energy_blow_up, hourglass_blow_up, step_collapse};
 use super::frames::Frames;
-use super::{Engine, RunError, RunOptions};
+use super::{Engine, RunError, RunOptions, output_error};
 use crate::hourglass::HourglassIndicator;
 use crate::observe::{Clock, Invariants, Observers, Snapshot};
 use crate::output::{RunSummary, SeriesWriter, write_summary};
@@ -31,9 +31,10 @@ pub fn drive<D: Dim, E: Engine<D>>(
     mut engine: E,
 ) -> Result<RunSummary, RunError> {
     let observers = Observers::new::<D>(case, engine.reference(), engine.constrained())?;
-    std::fs::create_dir_all(&opts.out_dir)?;
-    let mut series =
-        SeriesWriter::create(&opts.out_dir.join("series.csv"), observers.column_names())?;
+    std::fs::create_dir_all(&opts.out_dir).map_err(output_error(&opts.out_dir))?;
+    let series_path = opts.out_dir.join("series.csv");
+    let mut series = SeriesWriter::create(&series_path, observers.column_names())
+        .map_err(output_error(&series_path))?;
     let mut frames = Frames::new(case, opts)?;
     // η of every particle, evaluated at an output only when a frame, a series row with the
     // observer or the limit needs it.
@@ -71,7 +72,9 @@ pub fn drive<D: Dim, E: Engine<D>>(
     let snap = engine.snapshot();
     let inv0 = Invariants::of(&snap);
     let eta = eta_of(&snap, frames.will_write(0.0, true), true);
-    series.write_row(&observers.sample(&snap, &inv0, &clock, eta.as_deref()))?;
+    series
+        .write_row(&observers.sample(&snap, &inv0, &clock, eta.as_deref()))
+        .map_err(output_error(&series_path))?;
     frames.write(&snap, 0.0, true, eta.as_deref())?;
     drop(snap);
     let series_every = case.output.series_interval.unwrap_or(0.0);
@@ -141,7 +144,9 @@ pub fn drive<D: Dim, E: Engine<D>>(
                 break Some(cause);
             }
             if sample {
-                series.write_row(&observers.sample(&snap, &inv, &clock, eta.as_deref()))?;
+                series
+                    .write_row(&observers.sample(&snap, &inv, &clock, eta.as_deref()))
+                    .map_err(output_error(&series_path))?;
                 next_sample = t + series_every;
             }
             frames.write(&snap, t, done(t), eta.as_deref())?;
@@ -189,7 +194,8 @@ pub fn drive<D: Dim, E: Engine<D>>(
             .map(|c| format!("by step {step}, t = {t:e} s: {c}")),
         final_invariants: inv.named::<D>(),
     };
-    write_summary(&opts.out_dir.join("summary.json"), &summary)?;
+    let summary_path = opts.out_dir.join("summary.json");
+    write_summary(&summary_path, &summary).map_err(output_error(&summary_path))?;
     match failure {
         Some(cause) => Err(RunError::BlowUp {
             step,

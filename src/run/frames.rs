@@ -1,6 +1,6 @@
 //! Output callbacks of the driver: VTU frames at their interval and the PVD index.
 
-use super::RunOptions;
+use super::{RunError, RunOptions, output_error};
 use crate::material::von_mises;
 use crate::observe::Snapshot;
 use crate::output::{Field, FieldData, PvdIndex, write_vtu};
@@ -19,9 +19,13 @@ pub(super) struct Frames {
 }
 
 impl Frames {
-    pub(super) fn new(case: &Case, opts: &RunOptions) -> std::io::Result<Self> {
+    pub(super) fn new(case: &Case, opts: &RunOptions) -> Result<Self, RunError> {
         let index = if opts.frames {
-            Some(PvdIndex::create(&opts.out_dir, &case.name)?)
+            Some(
+                PvdIndex::create(&opts.out_dir, &case.name).map_err(output_error(
+                    &opts.out_dir.join(format!("{}.pvd", case.name)),
+                ))?,
+            )
         } else {
             None
         };
@@ -66,7 +70,7 @@ impl Frames {
         t: f64,
         force: bool,
         eta: Option<&[f64]>,
-    ) -> std::io::Result<()> {
+    ) -> Result<(), RunError> {
         if !self.will_write(t, force) {
             return Ok(());
         }
@@ -74,8 +78,11 @@ impl Frames {
             return Ok(());
         };
         let file = format!("{}_{:06}.vtu", self.name, self.count);
-        write_frame::<D>(&self.dir.join(&file), snap, t, eta)?;
-        index.push(t, &file)?;
+        let path = self.dir.join(&file);
+        write_frame::<D>(&path, snap, t, eta).map_err(output_error(&path))?;
+        index
+            .push(t, &file)
+            .map_err(output_error(&self.dir.join(format!("{}.pvd", self.name))))?;
         self.count += 1;
         if let Some(interval) = self.interval {
             self.next = next_frame_time(self.next, interval, t);

@@ -46,8 +46,15 @@ pub struct RunOptions {
 pub enum RunError {
     #[error(transparent)]
     Case(#[from] CaseError),
-    #[error("output: {0}")]
-    Io(#[from] std::io::Error),
+    #[error(
+        "output {}: {source}; check that the folder is writable and the disk has room, or \
+         choose another with --out",
+        path.display()
+    )]
+    Output {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     #[error("backend: {0}")]
     Backend(String),
     #[error(
@@ -60,6 +67,12 @@ pub enum RunError {
         cause: BlowUp,
         out_dir: PathBuf,
     },
+}
+
+/// The error of an output file or folder at `path`.
+pub(crate) fn output_error(path: &std::path::Path) -> impl FnOnce(std::io::Error) -> RunError {
+    let path = path.to_path_buf();
+    move |source| RunError::Output { path, source }
 }
 
 /// Runs a case to its end time; returns the summary (also written as `summary.json`).

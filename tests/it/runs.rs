@@ -315,3 +315,19 @@ fn output_intervals_below_the_step_give_one_frame_and_row_per_step() {
         "a row at t = 0 and after each of the 20 steps"
     );
 }
+
+#[test]
+fn an_output_error_names_the_path() {
+    // An output folder below a regular file cannot be created: the error names that
+    // folder and what to do, and the command line exits with 1 (a failed run).
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("not-a-folder");
+    std::fs::write(&file, "x").unwrap();
+    let out = file.join("run");
+    let case = load("tensile-strip", &["run.end_time=1e-5"]);
+    let e = run(&case, &cpu_options(&out, false)).unwrap_err();
+    let shown = e.to_string();
+    assert!(matches!(e, RunError::Output { .. }), "{shown}");
+    assert!(shown.contains(&out.display().to_string()), "{shown}");
+    assert!(shown.contains("--out"), "{shown}");
+}
