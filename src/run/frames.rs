@@ -105,24 +105,6 @@ fn next_frame_time(previous: f64, interval: f64, t: f64) -> f64 {
     (k * interval).max(past.next_up())
 }
 
-#[cfg(test)]
-mod tests {
-    use super::next_frame_time;
-
-    #[test]
-    fn the_next_frame_time_passes_t_whatever_the_interval() {
-        // One interval on from the last frame: exactly the sum, as frames are spaced.
-        assert_eq!(next_frame_time(0.25, 0.25, 0.25), 0.5);
-        // A step longer than the interval skips to the next multiple past t.
-        let next = next_frame_time(0.25, 0.25, 1.1);
-        assert!((next - 1.25).abs() < 1e-15, "{next}");
-        // An interval below the resolution of t: just past t, without looping.
-        let t = 1.0e-3;
-        let next = next_frame_time(0.0, 1e-22, t);
-        assert!(next > t * (1.0 + 1e-9) && next < t * (1.0 + 1e-8), "{next}");
-    }
-}
-
 /// One VTU frame: current positions with u, v, F, σ, von Mises stress, J, the hourglass
 /// indicator η, body, and the method's own fields (the plastic strain ε_p of a plastic
 /// material).
@@ -201,4 +183,22 @@ fn flatten(m: [[f64; 3]; 3]) -> [f64; 9] {
         out[3 * k..3 * k + 3].copy_from_slice(&m[k]);
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::next_frame_time;
+
+    #[test]
+    fn the_next_frame_time_passes_t_whatever_the_interval() {
+        // One interval on from the last frame: exactly the sum, as frames are spaced.
+        assert_eq!(next_frame_time(0.25, 0.25, 0.25), 0.5);
+        // A step longer than the interval skips to the next multiple past t.
+        let next = next_frame_time(0.25, 0.25, 1.1);
+        assert!((next - 1.25).abs() < 1e-15, "{next}");
+        // An interval below the resolution of t: just past t, without looping.
+        let t = 1.0e-3;
+        let next = next_frame_time(0.0, 1e-22, t);
+        assert!(next > t * (1.0 + 1e-9) && next < t * (1.0 + 1e-8), "{next}");
+    }
 }
