@@ -241,12 +241,18 @@ fn run_command(
         }
         Err(e) => {
             eprintln!("error: {e}");
-            match e {
-                RunError::Case(_) | RunError::Backend(_) => ExitCode::from(EXIT_INPUT),
-                RunError::Output { .. } | RunError::BlowUp { .. } => ExitCode::from(EXIT_FAILED),
-            }
+            exit_code(&e)
         }
     }
+}
+
+/// The exit code of a failed run or measurement: 2 for input the run cannot start from
+/// (the case, the backend), 1 for a run that failed (blow-up, output).
+fn exit_code(e: &RunError) -> ExitCode {
+    ExitCode::from(match e {
+        RunError::Case(_) | RunError::Backend(_) => EXIT_INPUT,
+        RunError::Output { .. } | RunError::BlowUp { .. } => EXIT_FAILED,
+    })
 }
 
 fn list() -> ExitCode {
@@ -330,10 +336,7 @@ fn bench_command(
                 }
                 Err(e) => {
                     eprintln!("error: {e}");
-                    return ExitCode::from(match e {
-                        RunError::Case(_) => EXIT_INPUT,
-                        _ => EXIT_FAILED,
-                    });
+                    return exit_code(&e);
                 }
             }
         }

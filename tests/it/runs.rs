@@ -185,6 +185,24 @@ fn command_line_exit_codes() {
         String::from_utf8_lossy(&ok.stderr)
     );
     assert!(dir.path().join("wave-rod.pvd").is_file() && dir.path().join("summary.json").is_file());
+
+    // A GPU backend that cannot start is input the run cannot start from: exit 2, for
+    // `run` and `bench` alike.
+    for args in [
+        &["run", "wave-rod"][..],
+        &["bench", "wave-rod", "--particles", "1e3", "--steps", "2"],
+    ] {
+        let no_gpu = Command::new(exe)
+            .args(args)
+            .args(["--backend", "gpu"])
+            .env("MESHLESS_ADAPTER", "no-such-adapter")
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&no_gpu.stderr);
+        assert_eq!(no_gpu.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(stderr.contains("--backend cpu"), "{args:?}: {stderr}");
+    }
 }
 
 /// The swinging plate (Upwind-SPH, Δx = 0.1, about 100 steps of one period) with the
