@@ -38,13 +38,17 @@ impl CorrectionKind {
 #[derive(Debug, Error, PartialEq)]
 pub enum CorrectionError {
     #[error(
-        "the {kind:?} correction matrix of particle {particle} is singular (det = {det:e}): \
-         the particle has {neighbours} neighbours, too few or all on one line; \
-         increase h/dx or check the geometry"
+        "the {kind:?} correction matrix of particle {particle} at X = {position:?} is singular \
+         (det = {det:e}): it has {neighbours} neighbours, too few or all on one line. Likely \
+         causes: a particle apart from its body (a stray row of a points file), a body \
+         thinner than the kernel support, or too small an h/dx; check the geometry near X \
+         or increase h/dx"
     )]
     Singular {
         kind: CorrectionKind,
         particle: usize,
+        /// Its reference position.
+        position: [f64; 3],
         neighbours: usize,
         det: f64,
     },
@@ -198,6 +202,7 @@ fn linear_correction<D: Dim>(
         return Err(CorrectionError::Singular {
             kind,
             particle: i,
+            position: D::to3(x[i]),
             neighbours: grads.len(),
             det,
         });
@@ -281,6 +286,7 @@ fn rkpm_coefficients<D: Dim>(
     let singular = || CorrectionError::Singular {
         kind: CorrectionKind::Rkpm,
         particle: i,
+        position: D::to3(x[i]),
         neighbours: csr.neighbours(i).len(),
         det: 0.0,
     };
@@ -487,5 +493,11 @@ mod tests {
                 ..
             }
         ));
+        // The message says where the particle is and what usually causes it.
+        let shown = err.to_string();
+        assert!(
+            shown.contains("particle 0 at X = [0.0, 0.0, 0.0]") && shown.contains("points file"),
+            "{shown}"
+        );
     }
 }
