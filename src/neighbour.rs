@@ -154,8 +154,45 @@ impl CellGrid {
     }
 }
 
+/// The search radius: one for every particle, or one each (a per-particle smoothing
+/// length). A pair is within reach when its distance is at most the larger of its two
+/// radii, so every list holds the pair in both directions.
+#[derive(Clone, Copy, Debug)]
+pub enum Reach<'a> {
+    Uniform(f64),
+    PerParticle(&'a [f64]),
+}
+
+impl Reach<'_> {
+    /// The largest radius (the cell size of the search grid).
+    fn largest(&self) -> f64 {
+        match self {
+            Self::Uniform(r) => *r,
+            Self::PerParticle(r) => r.iter().copied().fold(0.0, f64::max),
+        }
+    }
+
+    /// The squared radius of the pair (i, j).
+    fn squared(&self, i: usize, j: usize) -> f64 {
+        match self {
+            Self::Uniform(r) => r * r,
+            Self::PerParticle(r) => {
+                let r = r[i].max(r[j]);
+                r * r
+            }
+        }
+    }
+}
+
 /// All pairs (i, j), i ≠ j, with |x_i − x_j| ≤ radius.
 pub fn build<D: Dim>(x: &[D::V], radius: f64) -> Csr {
+    build_within::<D>(x, Reach::Uniform(radius), None)
+}
+
+/// All pairs (i, j), i ≠ j, within reach, and with `body` only pairs of one body
+/// (body[i] = body[j]: the per-body lists of a method that keeps bodies apart for
+/// contact).
+pub fn build_within<D: Dim>(x: &[D::V], reach: Reach, body: Option<&[u32]>) -> Csr {
     let points: Vec<[f64; 3]> = x.iter().map(|&p| D::to3(p)).collect();
     if points.is_empty() {
         return Csr {
@@ -163,9 +200,12 @@ pub fn build<D: Dim>(x: &[D::V], radius: f64) -> Csr {
             ids: Vec::new(),
         };
     }
-    let grid = CellGrid::new(&points, radius, D::N);
-    let r2 = radius * radius;
-    let within = |i: usize, j: u32| j as usize != i && D::norm2(x[i] - x[j as usize]) <= r2;
+    let grid = CellGrid::new(&points, reach.largest(), D::N);
+    let same_body = |i: usize, j: usize| body.is_none_or(|b| b[i] == b[j]);
+    let within = |i: usize, j: u32| {
+        let j = j as usize;
+        j != i && same_body(i, j) && D::norm2(x[i] - x[j]) <= reach.squared(i, j)
+    };
     let lists: Vec<Vec<u32>> = (0..points.len())
         .into_par_iter()
         .map(|i| {
@@ -246,6 +286,42 @@ mod tests {
             .map(|_| DVec3::new(lcg(&mut s), lcg(&mut s) * 2.0, lcg(&mut s)))
             .collect();
         check::<D3>(&random, 0.21);
+    }
+
+    #[test]
+    fn per_particle_reach_and_body_masks_equal_brute_force() {
+        // Random radii between 0.05 and 0.2 (a pair within the larger of its two radii)
+        // and three bodies: the lists are the brute-force ones, and symmetric.
+        let mut s = 5;
+        let x: Vec<DVec2> = (0..500)
+            .map(|_| DVec2::new(lcg(&mut s) * 2.0, lcg(&mut s)))
+            .collect();
+        let radius: Vec<f64> = (0..x.len()).map(|_| 0.05 + 0.15 * lcg(&mut s)).collect();
+        let body: Vec<u32> = (0..x.len() as u32).map(|i| i % 3).collect();
+        for mask in [None, Some(body.as_slice())] {
+            let csr = build_within::<D2>(&x, Reach::PerParticle(&radius), mask);
+            for i in 0..x.len() {
+                let expected: Vec<u32> = (0..x.len() as u32)
+                    .filter(|&j| {
+                        let j = j as usize;
+                        let r = radius[i].max(radius[j]);
+                        j != i
+                            && mask.is_none_or(|b| b[i] == b[j])
+                            && (x[i] - x[j]).length_squared() <= r * r
+                    })
+                    .collect();
+                assert_eq!(csr.neighbours(i), expected.as_slice(), "particle {i}");
+                for &j in csr.neighbours(i) {
+                    assert!(csr.neighbours(j as usize).contains(&(i as u32)));
+                }
+            }
+        }
+        // Equal radii give the uniform search's lists.
+        let uniform = vec![0.13; x.len()];
+        assert_eq!(
+            build_within::<D2>(&x, Reach::PerParticle(&uniform), None),
+            build::<D2>(&x, 0.13)
+        );
     }
 
     #[test]

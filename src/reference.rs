@@ -4,7 +4,7 @@
 use crate::boundary::Boundary;
 use crate::kernel::Kernel;
 use crate::material::Material;
-use crate::neighbour::{self, Csr};
+use crate::neighbour::{self, Csr, Reach};
 use crate::scene::{Case, CaseError, discretise};
 use crate::tensor::Dim;
 
@@ -24,6 +24,9 @@ pub struct Reference<D: Dim> {
     pub material: Material,
     /// The case's kernel, at h = h_over_dx · Δx.
     pub kernel: Kernel,
+    /// The smoothing length of every particle (all the kernel's h until a case sets them
+    /// per particle); the neighbour search reaches the support of the larger of a pair's.
+    pub h: Vec<f64>,
 }
 
 impl<D: Dim> Reference<D> {
@@ -36,7 +39,9 @@ impl<D: Dim> Reference<D> {
         let boundary = Boundary::build(case, &disc, &mass)?;
         let mut v0 = disc.v0;
         boundary.impose_initial(&mut v0);
+        let kernel = case.kernel(D::N);
         Ok(Self {
+            h: vec![kernel.h; disc.x0.len()],
             x0: disc.x0,
             vol: disc.vol,
             mass,
@@ -44,7 +49,7 @@ impl<D: Dim> Reference<D> {
             v0,
             boundary,
             material,
-            kernel: case.kernel(D::N),
+            kernel,
         })
     }
 
@@ -57,9 +62,15 @@ impl<D: Dim> Reference<D> {
         self.x0.is_empty()
     }
 
-    /// Neighbour lists within the kernel support, on the reference positions.
+    /// Neighbour lists on the reference positions: the pairs within the kernel support
+    /// of the larger smoothing length of the two.
     pub fn neighbours(&self) -> Csr {
-        neighbour::build::<D>(&self.x0, neighbour_radius(&self.kernel))
+        let reach: Vec<f64> = self
+            .h
+            .iter()
+            .map(|&h| neighbour_radius(&Kernel::new(self.kernel.kind, h, D::N)))
+            .collect();
+        neighbour::build_within::<D>(&self.x0, Reach::PerParticle(&reach), None)
     }
 }
 

@@ -5,7 +5,7 @@
 
 use crate::correction;
 use crate::integrate::OdeSystem;
-use crate::neighbour::{self, Csr};
+use crate::neighbour::Csr;
 use crate::observe::Snapshot;
 use crate::reference::{self, Reference};
 use crate::scene::{Case, CaseError};
@@ -78,18 +78,16 @@ pub(crate) fn neighbour_radius<D: Dim>(case: &Case) -> f64 {
     reference::neighbour_radius(&case.kernel(D::N))
 }
 
-/// Neighbours within the kernel support and corrected gradients g_ij, computed once on
-/// the reference positions x0 (and volumes) of a total-Lagrangian method.
+/// Corrected gradients g_ij on the neighbour lists `csr` of the reference positions x0
+/// (and volumes) of a total-Lagrangian method, computed once.
 pub(crate) fn reference_gradients<D: Dim>(
     case: &Case,
     x0: &[D::V],
     vol: &[f64],
-) -> Result<(Csr, Vec<D::V>), CaseError> {
-    let kernel = case.kernel(D::N);
-    let csr = neighbour::build::<D>(x0, reference::neighbour_radius(&kernel));
-    let grad = correction::gradients::<D>(case.method.correction, x0, vol, &csr, &kernel)
-        .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
-    Ok((csr, grad))
+    csr: &Csr,
+) -> Result<Vec<D::V>, CaseError> {
+    correction::gradients::<D>(case.method.correction, x0, vol, csr, &case.kernel(D::N))
+        .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))
 }
 
 /// The first particle with a non-finite displacement or velocity, as a blow-up.

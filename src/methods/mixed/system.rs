@@ -24,7 +24,7 @@ use crate::methods::shared::{
     BlowUp, MIN_CHUNK, Method, check_motion, neighbour_radius, particle_state, reference_gradients,
 };
 use crate::mirror::Ghosts;
-use crate::neighbour::Csr;
+use crate::neighbour::{self, Csr};
 use crate::observe::{ScalarField, Snapshot};
 use crate::plasticity::{Returned, VonMises, from_mat3, to_mat3};
 use crate::reference::Reference;
@@ -200,12 +200,16 @@ impl<D: Dim> MixedSph<D> {
             boundary,
             material,
             kernel,
+            ..
         } = reference;
         let m = &case.method;
         let n = x_real.len();
-        let ghosts = Ghosts::build(case, &x_real, &vol_real, neighbour_radius::<D>(case))?;
+        let radius = neighbour_radius::<D>(case);
+        let ghosts = Ghosts::build(case, &x_real, &vol_real, radius)?;
         let (x0, vol) = ghosts.extend_reference(&x_real, &vol_real);
-        let (mut csr, mut grad) = reference_gradients::<D>(case, &x0, &vol)?;
+        // Real and ghost particles together: the ghosts close the real rows' lists.
+        let mut csr = neighbour::build::<D>(&x0, radius);
+        let mut grad = reference_gradients::<D>(case, &x0, &vol, &csr)?;
         csr.truncate(n);
         grad.truncate(csr.pair_count());
         let rev = ghosts.reverse_pairs(&csr).map_err(|a| {

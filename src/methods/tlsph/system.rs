@@ -154,6 +154,7 @@ impl<D: Dim> Tlsph<D> {
         let MethodSpec::Tlsph(spec) = &case.method.spec else {
             return Err(not_run_by(case, "Tlsph"));
         };
+        let csr = reference.neighbours();
         let Reference {
             x0,
             vol,
@@ -163,8 +164,9 @@ impl<D: Dim> Tlsph<D> {
             boundary,
             material,
             kernel,
+            ..
         } = reference;
-        let (csr, grad) = reference_gradients::<D>(case, &x0, &vol)?;
+        let grad = reference_gradients::<D>(case, &x0, &vol, &csr)?;
         let interactions = Interactions::build(case, &x0, &body, || csr.clone())?;
         let identity = Kinematics {
             f: D::identity(),
