@@ -42,13 +42,21 @@ impl BenchRow {
 }
 
 /// Overrides that rescale a case to about `particles` particles: the spacing scales with
-/// (N0/N)^(1/d) and a fixed Δt with the spacing (same Courant number).
+/// (N0/N)^(1/d), rounded to a whole divisor (finer) or multiple (coarser) of the case's
+/// own, so that lattices anchored at the bodies' corners keep points on the bounds the
+/// case's regions select (a grip at the far end of a strip); a fixed Δt scales with the
+/// spacing (same Courant number).
 pub fn resize(case: &Case, particles: f64) -> Result<Vec<String>, RunError> {
     let n0 = match case.dimension {
         2 => discretise::<D2>(case)?.x0.len(),
         _ => discretise::<D3>(case)?.x0.len(),
     } as f64;
-    let factor = (n0 / particles).powf(1.0 / f64::from(case.dimension));
+    let exact = (n0 / particles).powf(1.0 / f64::from(case.dimension));
+    let factor = if exact < 1.0 {
+        1.0 / (1.0 / exact).round()
+    } else {
+        exact.round()
+    };
     let mut set = vec![format!("spacing={:e}", case.spacing * factor)];
     if let Some(dt) = case.method.dt {
         set.push(format!("method.dt={:e}", dt * factor));

@@ -1,10 +1,12 @@
 //! Whole runs on the CPU: conservation on the rotating disk, wave speed in the rod with
 //! refinement, blow-up detection and the command line's exit codes.
 
-use crate::common::{case_file, cpu_options, load};
+use crate::common::{case_file, cpu_options, load, shipped};
+use meshless::bench::resize;
 use meshless::integrate::Integrator;
 use meshless::methods::Method;
 use meshless::methods::tlsph::Tlsph;
+use meshless::reference::Reference;
 use meshless::run::{RunError, build_method, run};
 use meshless::tensor::D2;
 use std::path::Path;
@@ -348,4 +350,23 @@ fn an_output_error_names_the_path() {
     assert!(matches!(e, RunError::Output { .. }), "{shown}");
     assert!(shown.contains(&out.display().to_string()), "{shown}");
     assert!(shown.contains("--out"), "{shown}");
+}
+
+#[test]
+fn bench_sizes_keep_the_regions_of_a_case() {
+    // The strip's grips select the lattice rows at x = 0 and x = 1 (20 spacings apart):
+    // every rescaled spacing keeps a row on both, so each size builds its boundary
+    // conditions (a region that selects no particle is an error), with a particle count
+    // within a factor 2.5 of the target (whole divisors and multiples of the spacing).
+    let base = shipped("tensile-strip");
+    for target in [100.0, 200.0, 1e3, 1e4] {
+        let case = load("tensile-strip", &resize(&base, target).unwrap());
+        let n = Reference::<D2>::build(&case)
+            .unwrap_or_else(|e| panic!("{target} particles: {e}"))
+            .len() as f64;
+        assert!(
+            n / target < 2.5 && target / n < 2.5,
+            "{n} particles for {target}"
+        );
+    }
 }
