@@ -30,6 +30,18 @@ pub enum GpuError {
         source: wgpu::RequestDeviceError,
     },
     #[error(
+        "adapter `{adapter}`: pass `{pass}` binds {count} storage buffers, above the adapter's \
+         limit of {limit} per shader stage (max_storage_buffers_per_shader_stage); run with \
+         --backend cpu, or on an adapter with a higher limit (Vulkan, Metal and DX12 \
+         adapters allow 31 or more; `meshless info` lists each adapter's)"
+    )]
+    TooManyBuffers {
+        adapter: String,
+        pass: String,
+        count: u32,
+        limit: u32,
+    },
+    #[error(
         "adapter `{adapter}`: the scene needs a {what} of {needed} bytes, above the device \
          limit {limit}; use fewer particles or a device with more memory"
     )]
@@ -77,6 +89,30 @@ fn describe(info: &wgpu::AdapterInfo) -> String {
 
 fn instance() -> wgpu::Instance {
     wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env())
+}
+
+/// The storage buffers entry point `entry` of a WGSL source reads or writes (naga
+/// reflection of the module wgpu compiles); None if the source does not validate (wgpu
+/// then reports the error itself).
+pub fn storage_buffers(source: &str, entry: &str) -> Option<u32> {
+    use wgpu::naga;
+    let module = naga::front::wgsl::parse_str(source).ok()?;
+    let info = naga::valid::Validator::new(
+        naga::valid::ValidationFlags::empty(),
+        naga::valid::Capabilities::all(),
+    )
+    .validate(&module)
+    .ok()?;
+    let index = module.entry_points.iter().position(|e| e.name == entry)?;
+    let uses = info.get_entry_point(index);
+    let count = module
+        .global_variables
+        .iter()
+        .filter(|(handle, var)| {
+            matches!(var.space, naga::AddressSpace::Storage { .. }) && !uses[*handle].is_empty()
+        })
+        .count();
+    u32::try_from(count).ok()
 }
 
 /// Every adapter wgpu reaches, best first.
@@ -241,14 +277,31 @@ impl Gpu {
     }
 
     /// Compiles `source` and returns the pipeline of `entry` (layout from the shader).
-    pub fn pipeline(&self, label: &str, source: &str, entry: &str) -> wgpu::ComputePipeline {
+    /// The compute pipeline of entry point `entry` of a WGSL pass, after checking that it
+    /// binds no more storage buffers than the adapter allows.
+    pub fn pipeline(
+        &self,
+        label: &str,
+        source: &str,
+        entry: &str,
+    ) -> Result<wgpu::ComputePipeline, GpuError> {
+        let limit = self.limits.max_storage_buffers_per_shader_stage;
+        if let Some(count) = storage_buffers(source, entry).filter(|&c| c > limit) {
+            return Err(GpuError::TooManyBuffers {
+                adapter: self.name(),
+                pass: format!("{label} ({entry})"),
+                count,
+                limit,
+            });
+        }
         let module = self
             .device
             .create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(label),
                 source: wgpu::ShaderSource::Wgsl(source.into()),
             });
-        self.device
+        Ok(self
+            .device
             .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(label),
                 layout: None,
@@ -256,7 +309,7 @@ impl Gpu {
                 entry_point: Some(entry),
                 compilation_options: Default::default(),
                 cache: None,
-            })
+            }))
     }
 
     /// Bind group 0 of `pipeline` with `resources` at bindings 0, 1, 2, …

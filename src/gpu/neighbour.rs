@@ -149,12 +149,12 @@ pub struct ScanPlan {
 
 impl Scan {
     /// Compiles the scan (it does not depend on the dimension; the 2D prelude is unused).
-    pub fn new(gpu: &Gpu) -> Self {
+    pub fn new(gpu: &Gpu) -> Result<Self, GpuError> {
         let text = compose::<D2>(&SCAN, &Constants::default());
-        Self {
-            blocks: gpu.pipeline("scan_blocks", &text, "scan_blocks"),
-            add: gpu.pipeline("add_block_sums", &text, "add_block_sums"),
-        }
+        Ok(Self {
+            blocks: gpu.pipeline("scan_blocks", &text, "scan_blocks")?,
+            add: gpu.pipeline("add_block_sums", &text, "add_block_sums")?,
+        })
     }
 
     /// An exclusive scan of the first `n` u32 of `data`, in place: one level per factor
@@ -207,14 +207,15 @@ impl ScanPlan {
 
 /// Exclusive prefix sum of the first `n` u32 of `data`, in place (wrapping), submitted to
 /// the queue at once.
-pub fn exclusive_scan(gpu: &Gpu, data: &wgpu::Buffer, n: u32) {
-    let plan = Scan::new(gpu).plan(gpu, data, n);
+pub fn exclusive_scan(gpu: &Gpu, data: &wgpu::Buffer, n: u32) -> Result<(), GpuError> {
+    let plan = Scan::new(gpu)?.plan(gpu, data, n);
     let mut encoder = gpu.device.create_command_encoder(&Default::default());
     {
         let mut pass = encoder.begin_compute_pass(&Default::default());
         plan.encode(&mut pass);
     }
     gpu.queue.submit([encoder.finish()]);
+    Ok(())
 }
 
 /// Bind group 0 of `pipeline` with each buffer at its binding number (the passes of
@@ -291,12 +292,12 @@ pub fn build<D: GpuDim>(
     let text = compose::<D>(&CELL_LIST, &Constants::default());
     let pipeline = |entry: &str| gpu.pipeline(entry, &text, entry);
     let (bin, scatter, count, fill) = (
-        pipeline("bin_particles"),
-        pipeline("scatter"),
-        pipeline("count_neighbours"),
-        pipeline("fill_neighbours"),
+        pipeline("bin_particles")?,
+        pipeline("scatter")?,
+        pipeline("count_neighbours")?,
+        pipeline("fill_neighbours")?,
     );
-    let scan = Scan::new(gpu);
+    let scan = Scan::new(gpu)?;
     let scan_cells = scan.plan(gpu, &cell_start, ncells + 1);
     let scan_offsets = scan.plan(gpu, &offsets, n + 1);
     let per_particle = gpu.groups(n);

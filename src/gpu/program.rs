@@ -4,7 +4,7 @@
 //! coefficients, and the recording of whole steps, with the method's rate evaluations,
 //! into one command encoder.
 
-use super::context::Gpu;
+use super::context::{Gpu, GpuError};
 use crate::integrate::{Buf, Evaluation, IntegratorKind, Op, program};
 use bytemuck::{Pod, Zeroable};
 
@@ -63,7 +63,7 @@ impl Stepper {
         integrate: &str,
         layout: StateLayout,
         y0: &[f32],
-    ) -> Self {
+    ) -> Result<Self, GpuError> {
         let bytes = layout.len as u64 * 4;
         let states = [
             gpu.storage("y", y0),
@@ -71,7 +71,11 @@ impl Stepper {
             gpu.zeroed("rates", bytes),
             gpu.zeroed("acc", bytes),
         ];
-        let stages = ["blend", "kick", "drift"].map(|e| gpu.pipeline(e, integrate, e));
+        let stages = [
+            gpu.pipeline("blend", integrate, "blend")?,
+            gpu.pipeline("kick", integrate, "kick")?,
+            gpu.pipeline("drift", integrate, "drift")?,
+        ];
         let (nd, rest) = (layout.n * layout.dim, layout.len - layout.rest);
         let mut index = 0;
         let steps = program(kind)
@@ -104,7 +108,7 @@ impl Stepper {
                 }
             })
             .collect();
-        Self {
+        Ok(Self {
             kind,
             layout,
             states,
@@ -112,7 +116,7 @@ impl Stepper {
             steps,
             dt: f64::NAN,
             primed: false,
-        }
+        })
     }
 
     pub fn kind(&self) -> IntegratorKind {

@@ -4,7 +4,7 @@
 //! workgroup on the device and summed on the host in f64. Only the partials (12 floats
 //! per 256 particles) are read back.
 
-use super::context::Gpu;
+use super::context::{Gpu, GpuError};
 use crate::observe::Invariants;
 
 /// Values per workgroup written by `reduce.wgsl`.
@@ -37,20 +37,25 @@ impl Reduction {
     /// (state, method data, volumes, reference positions, power) that the method's
     /// variant reads and those past 5 its hooks declare, with their binding numbers; the
     /// partials are binding 5.
-    pub fn new(gpu: &Gpu, source: &str, inputs: &[(u32, &wgpu::Buffer)], n: usize) -> Self {
-        let pipeline = gpu.pipeline("reduce", source, "reduce");
+    pub fn new(
+        gpu: &Gpu,
+        source: &str,
+        inputs: &[(u32, &wgpu::Buffer)],
+        n: usize,
+    ) -> Result<Self, GpuError> {
+        let pipeline = gpu.pipeline("reduce", source, "reduce")?;
         let (gx, gy) = gpu.groups(n as u32);
         let partials = gpu.zeroed("partials", u64::from(gx * gy) * REDUCED as u64 * 4);
         let mut entries = inputs.to_vec();
         entries.push((5, &partials));
         let bind = gpu.bind_at(&pipeline, &entries);
-        Self {
+        Ok(Self {
             pipeline,
             bind,
             partials,
             n: n as u32,
             cached: None,
-        }
+        })
     }
 
     /// Forgets the cached result (the state changed).

@@ -144,7 +144,7 @@ impl<D: Dim> super::gpu::GpuInteraction for Contact<D> {
         gpu: &crate::gpu::context::Gpu,
         compose: &dyn Fn(&crate::gpu::shaders::Source) -> String,
         on: &super::gpu::Bindings,
-    ) -> super::gpu::Pass {
+    ) -> Result<super::gpu::Pass, crate::gpu::GpuError> {
         let mut hull_start = vec![0u32];
         let mut hull = Vec::new();
         for h in &self.hulls {
@@ -155,7 +155,7 @@ impl<D: Dim> super::gpu::GpuInteraction for Contact<D> {
             "contact",
             &compose(&crate::gpu::shaders::CONTACT),
             "contact",
-        );
+        )?;
         let params = gpu.uniform("contact params", &[0.0f32; 4]);
         let (body, hull, hull_start) = (
             gpu.storage("body", &self.body),
@@ -167,12 +167,12 @@ impl<D: Dim> super::gpu::GpuInteraction for Contact<D> {
             &[&params, on.x_hi, on.y, &body, &hull, &hull_start, on.ext],
         );
         let penalty = self.penalty;
-        super::gpu::Pass {
+        Ok(super::gpu::Pass {
             pipeline,
             bind,
             params,
             uniform: Box::new(move |dt| [(penalty / (dt * dt)) as f32, 0.0, 0.0, 0.0]),
-        }
+        })
     }
 }
 

@@ -3,7 +3,7 @@
 //! accelerations there, and the rate passes add `ext` (`shaders/common/boundary.wgsl`).
 
 use super::Interactions;
-use crate::gpu::context::Gpu;
+use crate::gpu::context::{Gpu, GpuError};
 use crate::gpu::shaders::Source;
 use crate::tensor::Dim;
 
@@ -30,7 +30,12 @@ pub struct Pass {
 /// An interaction that runs on the device.
 pub trait GpuInteraction {
     /// Compiles its pass with the engine's scene constants (`compose`) and binds it.
-    fn pass(&self, gpu: &Gpu, compose: &dyn Fn(&Source) -> String, on: &Bindings) -> Pass;
+    fn pass(
+        &self,
+        gpu: &Gpu,
+        compose: &dyn Fn(&Source) -> String,
+        on: &Bindings,
+    ) -> Result<Pass, GpuError>;
 }
 
 /// The device passes of a scene's interactions, for one engine.
@@ -51,7 +56,7 @@ impl GpuInteractions {
         x_hi: &wgpu::Buffer,
         y: &wgpu::Buffer,
         traction: wgpu::Buffer,
-    ) -> Self {
+    ) -> Result<Self, GpuError> {
         let mut passes = interactions.gpu_passes().peekable();
         let ext = if passes.peek().is_some() {
             // The loads alone until the first step's passes add to them.
@@ -64,12 +69,14 @@ impl GpuInteractions {
             traction.clone()
         };
         let on = Bindings { x_hi, y, ext: &ext };
-        let passes = passes.map(|p| p.pass(gpu, compose, &on)).collect();
-        Self {
+        let passes = passes
+            .map(|p| p.pass(gpu, compose, &on))
+            .collect::<Result<_, _>>()?;
+        Ok(Self {
             passes,
             traction,
             ext,
-        }
+        })
     }
 
     /// The external accelerations the rate passes add.

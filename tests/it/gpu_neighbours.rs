@@ -166,7 +166,7 @@ fn scan_matches_host_prefix_sum() {
         let mut padded = data.clone();
         padded.extend(sentinel);
         let buffer = gpu.storage("scan data", &padded);
-        gpu_neighbour::exclusive_scan(&gpu, &buffer, n as u32);
+        gpu_neighbour::exclusive_scan(&gpu, &buffer, n as u32).unwrap();
         let got: Vec<u32> = gpu.read(&buffer);
         if let Some(i) = (0..n).find(|&i| got[i] != expected[i]) {
             panic!(

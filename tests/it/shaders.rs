@@ -2,6 +2,7 @@
 //! dimensions and for every scene variant the solver compiles.
 
 use crate::common::{load, mixed_variants, shipped, validate_wgsl};
+use meshless::gpu::context::storage_buffers;
 use meshless::gpu::layout::GpuDim;
 use meshless::gpu::shaders::{self, Constants};
 use meshless::methods::mixed::{MixedSph, gpu as mixed};
@@ -167,4 +168,33 @@ fn a_broken_shader_is_rejected() {
         err.emit_to_string_with_path(src, "broken.wgsl")
             .contains("broken.wgsl")
     );
+}
+
+/// The storage buffers an entry point binds, as the pipeline check counts them: those it
+/// reads or writes, not every one its module declares.
+#[test]
+fn storage_buffers_are_counted_per_entry_point() {
+    let src = "
+        @group(0) @binding(0) var<storage, read> a: array<f32>;
+        @group(0) @binding(1) var<storage, read> b: array<f32>;
+        @group(0) @binding(2) var<storage, read_write> c: array<f32>;
+        @group(0) @binding(3) var<uniform> k: vec4<f32>;
+        @compute @workgroup_size(1) fn both(@builtin(global_invocation_id) i: vec3<u32>) {
+            c[i.x] = a[i.x] + k.x;
+        }
+        @compute @workgroup_size(1) fn one(@builtin(global_invocation_id) i: vec3<u32>) {
+            c[i.x] = b[i.x];
+        }
+    ";
+    assert_eq!(storage_buffers(src, "both"), Some(2));
+    assert_eq!(storage_buffers(src, "one"), Some(2));
+    assert_eq!(storage_buffers(src, "none"), None);
+    // Every pass of the shipped variants is counted; the largest binds at most 12, below
+    // the 31 of desktop Vulkan, Metal and DX12 adapters.
+    let case = shipped("swinging-plate");
+    let cpu: MixedSph<D2> = build_method(&case).unwrap();
+    let (_, constants) = mixed::scene(&case, &cpu);
+    let forces = shaders::compose::<D2>(&mixed::FORCES, &constants);
+    let count = storage_buffers(&forces, "forces").expect("the forces pass validates");
+    assert!((8..=12).contains(&count), "mixed forces binds {count}");
 }

@@ -523,7 +523,7 @@ impl<D: GpuDim> GpuMixed<D> {
             &compose(&INTEGRATE),
             layout.state(),
             &y0,
-        );
+        )?;
         let interactions = GpuInteractions::new(
             &gpu,
             cpu.interactions(),
@@ -531,7 +531,7 @@ impl<D: GpuDim> GpuMixed<D> {
             &x_hi,
             stepper.buffer(Buf::Y),
             traction,
-        );
+        )?;
         let ext = interactions.ext();
 
         let ghosts_src = compose(&GHOSTS);
@@ -544,18 +544,19 @@ impl<D: GpuDim> GpuMixed<D> {
             ("laplacian", "ghost_laplacian")
         };
         let passes = Passes {
-            ghost_motion: pipeline("ghost motion", &ghosts_src, "ghost_motion"),
-            ghost_kin: pipeline("ghost kinematics", &ghosts_src, "ghost_kin"),
-            ghost_second: pipeline("ghost slopes", &ghosts_src, ghost_second_entry),
+            ghost_motion: pipeline("ghost motion", &ghosts_src, "ghost_motion")?,
+            ghost_kin: pipeline("ghost kinematics", &ghosts_src, "ghost_kin")?,
+            ghost_second: pipeline("ghost slopes", &ghosts_src, ghost_second_entry)?,
             bond: bond
                 .as_ref()
-                .map(|_| pipeline("bond-based F", &compose(&BOND), "bond_f")),
-            kinematics: pipeline("mixed kinematics", &compose(&KINEMATICS), "kinematics"),
-            second: pipeline("slopes", &slopes_src, second_entry),
-            forces: pipeline("mixed forces", &compose(&FORCES), "forces"),
-            balance_sums: pipeline("balance sums", &momentum_src, "balance_sums"),
-            balance_solve: pipeline("balance solve", &momentum_src, "balance_solve"),
-            rates: pipeline("mixed rates", &momentum_src, "rates"),
+                .map(|_| pipeline("bond-based F", &compose(&BOND), "bond_f"))
+                .transpose()?,
+            kinematics: pipeline("mixed kinematics", &compose(&KINEMATICS), "kinematics")?,
+            second: pipeline("slopes", &slopes_src, second_entry)?,
+            forces: pipeline("mixed forces", &compose(&FORCES), "forces")?,
+            balance_sums: pipeline("balance sums", &momentum_src, "balance_sums")?,
+            balance_solve: pipeline("balance solve", &momentum_src, "balance_solve")?,
+            rates: pipeline("mixed rates", &momentum_src, "rates")?,
         };
 
         let stage_points = gpu.uniform(
@@ -595,11 +596,14 @@ impl<D: GpuDim> GpuMixed<D> {
             "plastic history",
             &virgin.repeat(if plastic { n } else { 1 }),
         );
-        let commit = plastic.then(|| {
-            let pipeline = gpu.pipeline("plastic commit", &compose(&PLASTIC), "commit");
-            let bind = gpu.bind(&pipeline, &[y_start, &hist]);
-            (pipeline, bind)
-        });
+        let commit = match plastic {
+            true => {
+                let pipeline = gpu.pipeline("plastic commit", &compose(&PLASTIC), "commit")?;
+                let bind = gpu.bind(&pipeline, &[y_start, &hist]);
+                Some((pipeline, bind))
+            }
+            false => None,
+        };
         let p = &evaluator.passes;
         // F − I of the stress (`fs`): the state's own, or F^c − I.
         let stress_f = |y| bond.as_ref().map_or(y, |(.., fc)| fc);
@@ -711,7 +715,7 @@ impl<D: GpuDim> GpuMixed<D> {
                 (8, &hist),
             ],
             n,
-        );
+        )?;
         Ok(Self {
             gpu,
             cpu,

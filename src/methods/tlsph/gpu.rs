@@ -230,7 +230,7 @@ impl<D: GpuDim> GpuTlsph<D> {
             .collect();
         let (x_hi, x_lo) = (gpu.storage("x hi", &x_hi), gpu.storage("x lo", &x_lo));
         let dx0 = gpu.zeroed("dx0", pairs * D::N as u64 * 4);
-        let pipeline = gpu.pipeline("pair offsets", &compose(&PAIR_OFFSETS), "pair_offsets");
+        let pipeline = gpu.pipeline("pair offsets", &compose(&PAIR_OFFSETS), "pair_offsets")?;
         let bind = gpu.bind(&pipeline, &[&offsets, &ids, &x_hi, &x_lo, &dx0]);
         dispatch(&gpu, &pipeline, &bind, n as u32);
         let vol32: Vec<f32> = disc.vol.iter().map(|&v| v as f32).collect();
@@ -253,7 +253,7 @@ impl<D: GpuDim> GpuTlsph<D> {
             gpu.storage("grad", &flat_v::<D>(g))
         } else {
             let grad = gpu.zeroed("grad", pairs * D::N as u64 * 4);
-            let pipeline = gpu.pipeline("correction", &compose(&CORRECTION), "correct");
+            let pipeline = gpu.pipeline("correction", &compose(&CORRECTION), "correct")?;
             let bind = gpu.bind(&pipeline, &[&offsets, &ids, &dx0, &vol, &grad, &status]);
             dispatch(&gpu, &pipeline, &bind, n as u32);
             if let Some(i) = read_status(&gpu, &status) {
@@ -283,7 +283,7 @@ impl<D: GpuDim> GpuTlsph<D> {
             &compose(&INTEGRATE),
             state,
             &initial_state::<D>(&layout, &disc.v0),
-        );
+        )?;
         let interactions = Interactions::<D>::build(case, &disc.x0, &disc.body, || {
             neighbour::read_lists(&gpu, &csr)
         })?;
@@ -294,13 +294,13 @@ impl<D: GpuDim> GpuTlsph<D> {
             &x_hi,
             stepper.buffer(Buf::Y),
             traction,
-        );
+        )?;
         let ext = interactions.ext();
         let kin = gpu.zeroed("kinematics", layout.kin_len as u64 * 4);
         let power = gpu.zeroed("power", n as u64 * 4);
 
-        let stress = gpu.pipeline("tlsph stress", &compose(&STRESS), "stress");
-        let accel = gpu.pipeline("tlsph accel", &compose(&ACCEL), "accel");
+        let stress = gpu.pipeline("tlsph stress", &compose(&STRESS), "stress")?;
+        let accel = gpu.pipeline("tlsph accel", &compose(&ACCEL), "accel")?;
         let rates_d = stepper.buffer(Buf::Rates);
         let rates = [Buf::Y, Buf::Stage].map(|src| {
             let s = stepper.buffer(src);
@@ -323,7 +323,7 @@ impl<D: GpuDim> GpuTlsph<D> {
             &compose(&REDUCE),
             &[(0, y), (1, &kin), (2, &vol), (3, &x_hi), (4, &power)],
             n,
-        );
+        )?;
         let kinematics_y = gpu.bind(
             &stress,
             &[
