@@ -11,7 +11,7 @@ fn strain_energy(i: u32) -> f32 {
 }
 
 // TLSPH's CFL step is Δx / (c_p + max |v|) with c_p of the reference configuration
-// (gpu::tlsph): no pair wave speed, and the host does not read this slot.
+// (methods::tlsph::gpu): no pair wave speed, and the host does not read this slot.
 fn pair_wave_speed(i: u32) -> f32 {
     return 0.0;
 }
