@@ -130,7 +130,12 @@ pub fn drive<D: Dim, E: Engine<D>>(
         let output = sample || frames.due(t) || done(t);
         let bound =
             case.run.energy_growth_limit * (inv0.total_energy() + clock.external_work.max(0.0));
-        let too_much = |inv: &Invariants| inv.total_energy() > bound && bound > 0.0;
+        // A non-finite energy (an overflowing velocity of a rigid motion, which leaves F
+        // finite) is a blow-up whatever the bound.
+        let too_much = |inv: &Invariants| {
+            let e = inv.total_energy();
+            !e.is_finite() || (e > bound && bound > 0.0)
+        };
         if output {
             let snap = engine.snapshot();
             let inv = Invariants::of(&snap);

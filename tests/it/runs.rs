@@ -370,3 +370,21 @@ fn bench_sizes_keep_the_regions_of_a_case() {
         );
     }
 }
+
+#[test]
+fn an_infinite_energy_stops_the_run() {
+    // A free strip moving rigidly at 1e300 m/s: F stays I and the state finite, but the
+    // kinetic energy overflows to infinity, which the energy check must report.
+    let dir = tempfile::tempdir().unwrap();
+    let case = load(
+        "tensile-strip",
+        &[
+            "boundary=",
+            "body.0.initial_velocity={ type = \"uniform\", value = [1e300, 0.0] }",
+            "run.end_time=1e-5",
+        ],
+    );
+    let (_, cause) = blow_up(run(&case, &cpu_options(dir.path(), false)).map(|_| ()));
+    assert!(cause.quantity.contains("total energy"), "{cause}");
+    assert!(cause.value.is_infinite(), "{cause}");
+}
