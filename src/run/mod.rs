@@ -14,6 +14,7 @@ pub use frames::write_frame;
 use crate::material::Material;
 use crate::methods::{BlowUp, Feature, supporting};
 use crate::output::RunSummary;
+use crate::scene::validate::toml_name;
 use crate::scene::{Case, CaseError};
 use crate::tensor::{D2, D3};
 use std::path::PathBuf;
@@ -100,8 +101,11 @@ pub fn explain(case: &Case, gpu: bool) -> String {
             if case.bodies.len() == 1 { "y" } else { "ies" }
         ),
         format!(
-            "method: {name} with {:?} kernel, h/Δx = {}, {:?} correction, {:?} integrator",
-            m.kernel, m.h_over_dx, m.correction, m.integrator
+            "method: {name} with {} kernel, h/Δx = {}, {} correction, {} integrator",
+            toml_name(&m.kernel),
+            m.h_over_dx,
+            toml_name(&m.correction),
+            toml_name(&m.integrator)
         ),
         format!(
             "backend: {}",
