@@ -97,7 +97,7 @@ fn time_steps<D: EngineDim, E: Engine<D>>(
     };
     engine
         .advance(0.0, dt, 1)
-        .map_err(|cause| blow_up(case, cause))?;
+        .map_err(|f| blow_up(case, f.cause))?;
     engine.finish();
     let setup_seconds = started.elapsed().as_secs_f64();
     let timer = Instant::now();
@@ -106,7 +106,7 @@ fn time_steps<D: EngineDim, E: Engine<D>>(
         let chunk = CHUNK.min(steps - done);
         engine
             .advance(f64::from(done + 1) * dt, dt, chunk)
-            .map_err(|cause| blow_up(case, cause))?;
+            .map_err(|f| blow_up(case, f.cause))?;
         done += chunk;
     }
     engine.finish();
@@ -127,5 +127,5 @@ fn time_steps<D: EngineDim, E: Engine<D>>(
 }
 
 fn blow_up(case: &Case, cause: crate::methods::BlowUp) -> RunError {
-    RunError::Backend(format!("benchmark of `{}` failed: {cause}", case.name))
+    RunError::Benchmark(format!("benchmark of `{}` blew up: {cause}", case.name))
 }

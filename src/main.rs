@@ -251,7 +251,7 @@ fn run_command(
 fn exit_code(e: &RunError) -> ExitCode {
     ExitCode::from(match e {
         RunError::Case(_) | RunError::Backend(_) => EXIT_INPUT,
-        RunError::Output { .. } | RunError::BlowUp { .. } => EXIT_FAILED,
+        RunError::Output { .. } | RunError::BlowUp { .. } | RunError::Benchmark(_) => EXIT_FAILED,
     })
 }
 

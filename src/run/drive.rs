@@ -3,7 +3,7 @@
 
 use super::checks::{energy_blow_up, hourglass_blow_up, step_collapse};
 use super::frames::Frames;
-use super::{Engine, RunError, RunOptions, output_error};
+use super::{Engine, Failed, RunError, RunOptions, output_error};
 use crate::hourglass::HourglassIndicator;
 use crate::observe::{Clock, Invariants, Observers, Snapshot};
 use crate::output::{RunSummary, SeriesWriter, write_summary};
@@ -80,6 +80,9 @@ pub fn drive<D: Dim, E: Engine<D>>(
     let series_every = case.output.series_interval.unwrap_or(0.0);
     let mut next_sample = series_every;
 
+    // Where a failure was found, when not at the current step: (first step it may have
+    // happened in, the step it is reported at, the time at the end of that step).
+    let mut found = None;
     let failure = loop {
         let Clock { t, step, .. } = clock;
         if done(t) {
@@ -111,7 +114,12 @@ pub fn drive<D: Dim, E: Engine<D>>(
         } else {
             (to_event, dt)
         };
-        if let Err(cause) = engine.advance(t, dt, steps) {
+        if let Err(Failed { completed, cause }) = engine.advance(t, dt, steps) {
+            // Found during a step: reported at that step, and at the time it would end.
+            let failing = step + u64::from(completed) + 1;
+            clock.t = t + f64::from(completed) * dt;
+            clock.step = failing - 1;
+            found = Some((failing, failing, clock.t + dt));
             break Some(cause);
         }
         clock = Clock {
@@ -122,6 +130,8 @@ pub fn drive<D: Dim, E: Engine<D>>(
         };
         let t = clock.t;
         if let Err(cause) = engine.check() {
+            // Found at the check after the batch: in one of its steps.
+            found = Some((step + 1, clock.step, t));
             break Some(cause);
         }
         // The full state is read (and F, σ evaluated) only when a row or frame is due;
@@ -175,6 +185,7 @@ pub fn drive<D: Dim, E: Engine<D>>(
     progress.finish_and_clear();
 
     let Clock { t, step, dt, .. } = clock;
+    let (first_step, failed_step, failed_time) = found.unwrap_or((step, step, t));
     let wall = started.elapsed().as_secs_f64();
     let inv = engine.invariants();
     let summary = RunSummary {
@@ -194,17 +205,23 @@ pub fn drive<D: Dim, E: Engine<D>>(
             "completed"
         }
         .into(),
-        failure: failure
-            .as_ref()
-            .map(|c| format!("by step {step}, t = {t:e} s: {c}")),
+        failure: failure.as_ref().map(|c| {
+            let steps = if first_step < failed_step {
+                format!("in steps {first_step} to {failed_step}")
+            } else {
+                format!("at step {failed_step}")
+            };
+            format!("{steps}, t = {failed_time:e} s: {c}")
+        }),
         final_invariants: inv.named::<D>(),
     };
     let summary_path = opts.out_dir.join("summary.json");
     write_summary(&summary_path, &summary).map_err(output_error(&summary_path))?;
     match failure {
         Some(cause) => Err(RunError::BlowUp {
-            step,
-            time: t,
+            step: failed_step,
+            first_step,
+            time: failed_time,
             cause,
             out_dir: opts.out_dir.clone(),
         }),

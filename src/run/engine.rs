@@ -11,6 +11,13 @@ use crate::reference::Reference;
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 
+/// A blow-up found during [`Engine::advance`], after `completed` whole steps of it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Failed {
+    pub completed: u32,
+    pub cause: BlowUp,
+}
+
 /// The dimensions an engine runs in: [`Dim`], and with the GPU backend its WGSL layouts.
 #[cfg(feature = "gpu")]
 pub trait EngineDim: crate::gpu::GpuDim {}
@@ -77,8 +84,9 @@ pub trait Engine<D: Dim> {
     fn backend(&self) -> String;
     fn reference(&self) -> &[D::V];
     fn constrained(&self) -> &[(u32, u8)];
-    /// Advances `steps` steps of size dt from time t.
-    fn advance(&mut self, t: f64, dt: f64, steps: u32) -> Result<(), BlowUp>;
+    /// Advances `steps` steps of size dt from time t; a blow-up found during a step says
+    /// how many whole steps came before it.
+    fn advance(&mut self, t: f64, dt: f64, steps: u32) -> Result<(), Failed>;
     /// Largest signal speed for the CFL step Δt = α Δx / signal speed, as the method
     /// defines it (`Plan::cfl_step`; e.g. c_p + max |v|, or Δx max_ab C_p,ab / r_ab + max
     /// |v| over the current pairs for seed 002 eqs 31–32).
@@ -107,7 +115,7 @@ impl<D: Dim> Engine<D> for Box<dyn Engine<D>> {
     fn constrained(&self) -> &[(u32, u8)] {
         (**self).constrained()
     }
-    fn advance(&mut self, t: f64, dt: f64, steps: u32) -> Result<(), BlowUp> {
+    fn advance(&mut self, t: f64, dt: f64, steps: u32) -> Result<(), Failed> {
         (**self).advance(t, dt, steps)
     }
     fn max_signal_speed(&mut self) -> f64 {
@@ -169,10 +177,14 @@ impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
         self.method.constrained()
     }
 
-    fn advance(&mut self, t: f64, dt: f64, steps: u32) -> Result<(), BlowUp> {
+    fn advance(&mut self, t: f64, dt: f64, steps: u32) -> Result<(), Failed> {
         for k in 0..steps {
             self.integrator
-                .step(&mut self.method, t + f64::from(k) * dt, dt, &mut self.y)?;
+                .step(&mut self.method, t + f64::from(k) * dt, dt, &mut self.y)
+                .map_err(|cause| Failed {
+                    completed: k,
+                    cause,
+                })?;
             // Trapezoidal work of the supports and loads, from successive step powers.
             let power = self.method.boundary_power();
             self.work += 0.5 * (self.last_power + power) * dt;

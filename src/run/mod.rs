@@ -8,7 +8,7 @@ mod engine;
 mod frames;
 
 pub use drive::drive;
-pub use engine::{CpuEngine, Engine, EngineDim, build_method, engine};
+pub use engine::{CpuEngine, Engine, EngineDim, Failed, build_method, engine};
 pub use frames::write_frame;
 
 use crate::material::Material;
@@ -58,12 +58,25 @@ pub enum RunError {
     },
     #[error("backend: {0}")]
     Backend(String),
+    /// A benchmark's steps failed (they write no outputs).
+    #[error("{0}")]
+    Benchmark(String),
     #[error(
-        "blow-up at step {step}, t = {time:e} s: {cause}; outputs up to the last good frame are in {}",
+        "blow-up at step {step}{}, t = {time:e} s: {cause}; outputs up to the last good frame are in {}",
+        if first_step < step {
+            format!(" (found at the check after steps {first_step} to {step})")
+        } else {
+            String::new()
+        },
         out_dir.display()
     )]
     BlowUp {
+        /// The step the failure is reported at: the one it happened in, or the last of
+        /// the steps before the check that found it.
         step: u64,
+        /// The first step it may have happened in (`step` when it is known exactly).
+        first_step: u64,
+        /// The time at the end of `step`.
         time: f64,
         cause: BlowUp,
         out_dir: PathBuf,

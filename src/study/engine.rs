@@ -6,7 +6,7 @@ use super::fields::FinalState;
 use crate::methods::BlowUp;
 use crate::observe::{Invariants, Snapshot};
 use crate::output::RunSummary;
-use crate::run::{Backend, Engine, EngineDim, RunError, RunOptions, drive, engine};
+use crate::run::{Backend, Engine, EngineDim, Failed, RunError, RunOptions, drive, engine};
 use crate::scene::Case;
 use crate::tensor::{D2, D3, Dim};
 use std::marker::PhantomData;
@@ -82,7 +82,7 @@ impl<D: Dim, E: Engine<D>> Engine<D> for Tracked<'_, D, E> {
     fn constrained(&self) -> &[(u32, u8)] {
         self.inner.constrained()
     }
-    fn advance(&mut self, t: f64, dt: f64, steps: u32) -> Result<(), BlowUp> {
+    fn advance(&mut self, t: f64, dt: f64, steps: u32) -> Result<(), Failed> {
         self.inner.advance(t, dt, steps)
     }
     fn max_signal_speed(&mut self) -> f64 {

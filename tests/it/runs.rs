@@ -388,3 +388,39 @@ fn an_infinite_energy_stops_the_run() {
     assert!(cause.quantity.contains("total energy"), "{cause}");
     assert!(cause.value.is_infinite(), "{cause}");
 }
+
+#[test]
+fn a_blow_up_during_a_step_is_reported_at_that_step() {
+    // The wave rod at 2e-5 s (CFL 4.6): the CPU finds det F ≤ 0 during a step and reports
+    // that step, not the first of its check batch. Running one step fewer completes, and
+    // running exactly to the reported step fails there.
+    let dt = 2e-5;
+    let set = |end: f64| {
+        load(
+            "wave-rod",
+            &[
+                "method.cfl=".to_string(),
+                format!("method.dt={dt}"),
+                format!("run.end_time={end}"),
+            ],
+        )
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let err = run(&set(1.3e-4), &cpu_options(dir.path(), false)).unwrap_err();
+    let RunError::BlowUp {
+        step, first_step, ..
+    } = err
+    else {
+        panic!("expected a blow-up, got {err}")
+    };
+    assert_eq!(first_step, step, "found during a step: exactly one step");
+    assert!(step > 1, "step {step}");
+    let before = (step - 1) as f64 * dt;
+    run(&set(before), &cpu_options(dir.path(), false))
+        .unwrap_or_else(|e| panic!("{} steps fail: {e}", step - 1));
+    let at = step as f64 * dt;
+    match run(&set(at), &cpu_options(dir.path(), false)) {
+        Err(RunError::BlowUp { step: again, .. }) => assert_eq!(again, step),
+        other => panic!("{step} steps: {other:?}"),
+    }
+}

@@ -28,7 +28,7 @@ use crate::interaction::gpu::GpuInteractions;
 use crate::material::MaterialModel;
 use crate::methods::{BlowUp, Method, not_run_by};
 use crate::observe::{Invariants, Snapshot};
-use crate::run::{Engine, build_method};
+use crate::run::{Engine, Failed, build_method};
 use crate::scene::Case;
 use bytemuck::{Pod, Zeroable};
 use glam::DMat3;
@@ -958,7 +958,7 @@ impl<D: GpuDim> Engine<D> for GpuMixed<D> {
         self.cpu.constrained()
     }
 
-    fn advance(&mut self, _t: f64, dt: f64, steps: u32) -> Result<(), BlowUp> {
+    fn advance(&mut self, _t: f64, dt: f64, steps: u32) -> Result<(), Failed> {
         self.advance_steps(dt, steps);
         Ok(())
     }

@@ -25,7 +25,7 @@ use crate::methods::{BlowUp, MethodSpec, not_run_by};
 use crate::neighbour as neighbour_cpu;
 use crate::observe::{Invariants, Snapshot};
 use crate::reference::Reference;
-use crate::run::Engine;
+use crate::run::{Engine, Failed};
 use crate::scene::Case;
 
 /// Strain energy densities of the TLSPH models, for the reduction.
@@ -570,7 +570,7 @@ impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
         &self.constrained
     }
 
-    fn advance(&mut self, _t: f64, dt: f64, steps: u32) -> Result<(), BlowUp> {
+    fn advance(&mut self, _t: f64, dt: f64, steps: u32) -> Result<(), Failed> {
         self.advance_steps(dt, steps);
         Ok(())
     }
