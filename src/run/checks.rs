@@ -51,3 +51,33 @@ pub(super) fn step_collapse<D: Dim>(case: &Case, snap: &Snapshot<D>, floor: f64)
     );
     BlowUp::at::<D>(snap.x0, i, &quantity, speed(i))
 }
+
+/// A fixed step above the method's CFL step Δx/(signal speed) at the start: a Courant
+/// number above 1, where explicit steps of these methods blow up.
+pub(super) fn fixed_step_warning(dt: f64, cfl_step: f64) -> Option<String> {
+    let courant = dt / cfl_step;
+    (courant > 1.0).then(|| {
+        format!(
+            "method.dt = {dt:e} s is {courant:.2} times the method's CFL step Δx/(signal \
+             speed) = {cfl_step:e} s at the start (a Courant number of {courant:.2}); explicit \
+             steps above 1 blow up: give method.dt below {cfl_step:e} s, or method.cfl = 0.3 \
+             instead"
+        )
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::fixed_step_warning;
+
+    #[test]
+    fn a_fixed_step_above_the_cfl_step_is_named_with_the_limit() {
+        assert_eq!(fixed_step_warning(0.5e-6, 1e-6), None);
+        assert_eq!(fixed_step_warning(1e-6, 1e-6), None);
+        let w = fixed_step_warning(4.6e-6, 1e-6).expect("a Courant number of 4.6");
+        assert!(
+            w.contains("4.60") && w.contains("1e-6") && w.contains("method.cfl"),
+            "{w}"
+        );
+    }
+}

@@ -1,7 +1,7 @@
 //! The time loop: steps between events (samples, frames, checks, the end), the blow-up
 //! checks, outputs and the summary.
 
-use super::checks::{energy_blow_up, hourglass_blow_up, step_collapse};
+use super::checks::{energy_blow_up, fixed_step_warning, hourglass_blow_up, step_collapse};
 use super::frames::Frames;
 use super::{Engine, Failed, RunError, RunOptions, output_error};
 use crate::hourglass::HourglassIndicator;
@@ -66,6 +66,12 @@ pub fn drive<D: Dim, E: Engine<D>>(
         ..Clock::default()
     };
     let dt_first = clock.dt;
+    if case.method.dt.is_some()
+        && let Some(warning) =
+            fixed_step_warning(dt_first, case.spacing / engine.max_signal_speed())
+    {
+        eprintln!("warning: {}: {warning}", case.file.display());
+    }
     let progress = progress_bar(opts.progress, case);
     let started = Instant::now();
 

@@ -574,15 +574,15 @@ fn boundary(b: &BoundarySpec, key: &str, bodies: &[BodySpec], dim: usize) -> Che
                     format!("a velocity condition needs at least one of {allowed}; none is given"),
                 );
             }
-            if dim != 3 {
-                if let Some(vz) = vz {
-                    return fail(
-                        format!("{key}.vz"),
-                        format!(
-                            "exists only in 3D, but the case has dimension = {dim}; got {vz:?}; in 2D give vx and/or vy"
-                        ),
-                    );
-                }
+            if dim != 3
+                && let Some(vz) = vz
+            {
+                return fail(
+                    format!("{key}.vz"),
+                    format!(
+                        "exists only in 3D, but the case has dimension = {dim}; got {vz:?}; in 2D give vx and/or vy"
+                    ),
+                );
             }
             for (name, v) in [("vx", vx), ("vy", vy), ("vz", vz)] {
                 if let Some(v) = v {
@@ -609,17 +609,17 @@ fn boundary(b: &BoundarySpec, key: &str, bodies: &[BodySpec], dim: usize) -> Che
 }
 
 fn region(r: &Region, key: &str, bodies: &[BodySpec], dim: usize) -> Checked {
-    if let Some(name) = &r.body {
-        if !bodies.iter().any(|b| &b.name == name) {
-            let names: Vec<String> = bodies.iter().map(|b| format!("{:?}", b.name)).collect();
-            return fail(
-                format!("{key}.body"),
-                format!(
-                    "names no body: {name:?}; the bodies are {}",
-                    names.join(", ")
-                ),
-            );
-        }
+    if let Some(name) = &r.body
+        && !bodies.iter().any(|b| &b.name == name)
+    {
+        let names: Vec<String> = bodies.iter().map(|b| format!("{:?}", b.name)).collect();
+        return fail(
+            format!("{key}.body"),
+            format!(
+                "names no body: {name:?}; the bodies are {}",
+                names.join(", ")
+            ),
+        );
     }
     let axes = [
         ("x", r.x_min, r.x_max),
@@ -641,13 +641,13 @@ fn region(r: &Region, key: &str, bodies: &[BodySpec], dim: usize) -> Checked {
             }
             finite(&bound_key, v)?;
         }
-        if let (Some(lo), Some(hi)) = (lo, hi) {
-            if lo > hi {
-                return fail(
-                    format!("{key}.{axis}_max"),
-                    format!("must be ≥ {axis}_min = {lo:?}, got {hi:?}"),
-                );
-            }
+        if let (Some(lo), Some(hi)) = (lo, hi)
+            && lo > hi
+        {
+            return fail(
+                format!("{key}.{axis}_max"),
+                format!("must be ≥ {axis}_min = {lo:?}, got {hi:?}"),
+            );
         }
     }
     Ok(())

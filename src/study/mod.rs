@@ -91,11 +91,9 @@ pub fn run_suite(suite: &Suite, opts: &StudyOptions) -> std::io::Result<StudyOut
         }
         bar.set_message(format!("{} {}={}", run.variant, suite.sweep.key, run.value));
         let (record, state) = execute(suite, run, opts, reference.as_ref(), &machine);
-        if is_reference {
-            if let (Some(state), Status::Ok) = (&state, &record.status) {
-                state.write_csv(&reference_file(&opts.out_dir, &run.id))?;
-                reference = Some(state.clone());
-            }
+        if is_reference && let (Some(state), Status::Ok) = (&state, &record.status) {
+            state.write_csv(&reference_file(&opts.out_dir, &run.id))?;
+            reference = Some(state.clone());
         }
         let line = summary_line(suite, &record);
         if bar.is_hidden() {
