@@ -11,8 +11,34 @@ pub mod shaders;
 pub use context::{Gpu, GpuError};
 pub use layout::GpuDim;
 
-use crate::scene::CaseError;
+use crate::scene::{Case, CaseError};
+use shaders::Constants;
 use thiserror::Error;
+
+/// Refuses scene constants that f32 cannot hold (a value valid in f64, such as E = 1e39
+/// Pa or a density of 1e-46), naming the case key they come from.
+pub fn check_f32_range(case: &Case, constants: &Constants) -> Result<(), CaseError> {
+    let Some((name, value)) = constants.out_of_f32_range() else {
+        return Ok(());
+    };
+    let key = match name {
+        "RHO0" => "material.density",
+        "MU" | "LAMBDA" | "BULK" | "C_P" | "C_S" => "material.youngs_modulus",
+        "YIELD" => "material.yield_stress",
+        "HARDENING" => "material.hardening_modulus",
+        "EPS2" | "EPS4" => "method.jst",
+        n if n.starts_with("AV_") => "method.artificial_viscosity",
+        _ => "spacing",
+    };
+    Err(case.invalid(
+        key,
+        format!(
+            "gives the GPU constant {name} = {value:e}, which f32 cannot hold (normal f32 \
+             magnitudes lie between 1.2e-38 and 3.4e38); run with --backend cpu (f64), or \
+             express the case in other units"
+        ),
+    ))
+}
 
 /// Why a GPU engine could not be set up: the case, or the device.
 #[derive(Debug, Error)]

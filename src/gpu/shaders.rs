@@ -96,16 +96,17 @@ pub const SHARED: &[Source] = &[CELL_LIST, SCAN];
 
 /// Scene constants compiled into a variant.
 #[derive(Clone, Debug, Default)]
-pub struct Constants(Vec<(String, String)>);
+pub struct Constants(Vec<(String, String, Option<f64>)>);
 
 impl Constants {
     pub fn f32(mut self, name: &str, value: f64) -> Self {
-        self.0.push((name.into(), format!("{:?}", value as f32)));
+        self.0
+            .push((name.into(), format!("{:?}", value as f32), Some(value)));
         self
     }
 
     pub fn u32(mut self, name: &str, value: u32) -> Self {
-        self.0.push((name.into(), format!("{value}u")));
+        self.0.push((name.into(), format!("{value}u"), None));
         self
     }
 
@@ -165,11 +166,22 @@ impl Constants {
         .f32("BULK", material.bulk)
     }
 
+    /// The first f32 constant whose value f32 cannot hold: infinite, or a nonzero value
+    /// that rounds to zero or loses digits as a subnormal. (name, value).
+    pub fn out_of_f32_range(&self) -> Option<(&str, f64)> {
+        self.0.iter().find_map(|(name, _, value)| {
+            let v = (*value)?;
+            let f = v as f32;
+            let bad = !f.is_finite() || (v != 0.0 && !f.is_normal());
+            bad.then_some((name.as_str(), v))
+        })
+    }
+
     fn render(&self) -> String {
         self.0
             .iter()
-            .map(|(n, v)| {
-                let ty = if v.ends_with('u') { "u32" } else { "f32" };
+            .map(|(n, v, real)| {
+                let ty = if real.is_some() { "f32" } else { "u32" };
                 format!("const {n}: {ty} = {v};\n")
             })
             .collect()

@@ -288,3 +288,34 @@ fn reductions_match_the_cpu() {
         assert!(Engine::<D2>::check(&mut g).is_ok());
     }
 }
+
+#[test]
+fn values_beyond_f32_are_refused_with_their_key() {
+    // Valid in f64, not in the f32 of the device: E = 1e39 Pa (μ = 3.6e38 > 3.4e38), a
+    // density of 1e-46 (below the smallest normal f32) and a spacing of 1e154. Each is a
+    // case error naming the key, before anything reaches the device.
+    for (set, key) in [
+        ("material.youngs_modulus=1e39", "material.youngs_modulus"),
+        ("material.density=1e-46", "material.density"),
+        ("spacing=1e154", "spacing"),
+    ] {
+        let case = load("tensile-strip", &[set]);
+        match GpuTlsph::<D2>::new(&case, gpu()) {
+            Err(meshless::gpu::SetupError::Case(e)) => {
+                let shown = e.to_string();
+                assert!(
+                    shown.contains(&format!("key `{key}`")) && shown.contains("--backend cpu"),
+                    "{shown}"
+                );
+            }
+            Err(e) => panic!("{set}: not a case error: {e}"),
+            Ok(_) => panic!("{set}: accepted on the GPU"),
+        }
+    }
+    // The mixed engine checks the same way.
+    let plate = load("swinging-plate", &["material.youngs_modulus=1e39"]);
+    assert!(matches!(
+        meshless::methods::mixed::GpuMixed::<D2>::new(&plate, gpu()),
+        Err(meshless::gpu::SetupError::Case(_))
+    ));
+}

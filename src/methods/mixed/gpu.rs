@@ -13,7 +13,6 @@
 
 use super::system::{Fluxes, MixedSph, MixedState};
 use super::{CflWaveSpeed, DeformationGradient, Momentum};
-use crate::gpu::SetupError;
 use crate::gpu::context::{Gpu, WORKGROUP};
 use crate::gpu::layout::{GpuDim, boundary_buffers, flat_v};
 use crate::gpu::program::{StateLayout, Stepper};
@@ -22,6 +21,7 @@ use crate::gpu::shaders::{
     self, BOUNDARY, CONTACT, Constants, INTEGRATE, MECHANICS, PLASTICITY, Source, Wgsl, source,
     wgsl,
 };
+use crate::gpu::{SetupError, check_f32_range};
 use crate::integrate::IntegratorKind;
 use crate::integrate::{Buf, Evaluation, evaluations};
 use crate::interaction::gpu::GpuInteractions;
@@ -414,6 +414,7 @@ impl<D: GpuDim> GpuMixed<D> {
         }
         let cpu: MixedSph<D> = build_method(case)?;
         let (layout, constants) = scene(case, &cpu);
+        check_f32_range(case, &constants)?;
         let compose = |s: &Source| shaders::compose::<D>(s, &constants);
         let (n, ng) = (layout.n, layout.ghosts);
         let csr = cpu.neighbours();

@@ -7,7 +7,6 @@
 
 use super::system::{TlState, check_state, snapshot};
 use crate::correction::{self, CorrectionKind};
-use crate::gpu::SetupError;
 use crate::gpu::context::Gpu;
 use crate::gpu::layout::{Flat, GpuDim, boundary_buffers, flat_v};
 use crate::gpu::neighbour;
@@ -17,6 +16,7 @@ use crate::gpu::shaders::{
     self, BOUNDARY, CONTACT, CORRECTION, Constants, INTEGRATE, MECHANICS, PAIR_OFFSETS, Source,
     Wgsl, source, wgsl,
 };
+use crate::gpu::{SetupError, check_f32_range};
 use crate::integrate::Buf;
 use crate::interaction::Interactions;
 use crate::interaction::gpu::GpuInteractions;
@@ -200,6 +200,7 @@ impl<D: GpuDim> GpuTlsph<D> {
         let n = disc.len();
         let layout = Layout::new(n, D::N, material.model.is_rate_based());
         let constants = scene_constants(case, &layout);
+        check_f32_range(case, &constants)?;
         let compose = |s: &Source| shaders::compose::<D>(s, &constants);
 
         // Neighbours on the GPU from f32 positions; the 1e-5 margin keeps lattice pairs lying
