@@ -42,6 +42,18 @@ enum Command {
         #[arg(long)]
         explain: bool,
     },
+    /// Check cases as `run` would (the file, the bodies, the boundary regions, the
+    /// method's set-up on the backend) without running them.
+    Check {
+        /// Case files or shipped case names.
+        #[arg(required = true)]
+        cases: Vec<String>,
+        #[arg(long, value_enum, default_value_t = Backend::Auto)]
+        backend: Backend,
+        /// Override case keys, as for `run`.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
+    },
     /// List the shipped cases and the available methods.
     List,
     /// List the GPU adapters wgpu finds, with backend, type, limits and features.
@@ -109,6 +121,11 @@ fn main() -> ExitCode {
                 run_command(&case, backend, out, &set, no_frames, quiet)
             }
         }
+        Command::Check {
+            cases,
+            backend,
+            set,
+        } => check_command(&cases, backend, &set),
         Command::List => list(),
         Command::Info => info(),
         Command::Bench {
@@ -349,6 +366,40 @@ fn bench_command(
         if let Err(e) = std::fs::write(path, text) {
             eprintln!("error: {}: {e}", path.display());
             return ExitCode::from(EXIT_FAILED);
+        }
+    }
+    ExitCode::SUCCESS
+}
+
+/// Loads each case and builds its engine (reference configuration, neighbours, corrected
+/// gradients, the method's weights; on the GPU its passes and the f32 range of its
+/// constants), as `run` does before its first step; exit 2 at the first case that fails.
+fn check_command(cases: &[String], backend: Backend, set: &[String]) -> ExitCode {
+    use meshless::run::{RunError, engine};
+    use meshless::tensor::{D2, D3};
+    for name in cases {
+        let path = resolve(name);
+        let built = Case::load(&path, set)
+            .map_err(RunError::from)
+            .and_then(|case| {
+                show_notes(&case);
+                let particles = match case.dimension {
+                    2 => engine::<D2>(&case, backend)?.reference().len(),
+                    _ => engine::<D3>(&case, backend)?.reference().len(),
+                };
+                Ok((case, particles))
+            });
+        match built {
+            Ok((case, particles)) => println!(
+                "{}: ok ({}D, {particles} particles, {})",
+                path.display(),
+                case.dimension,
+                case.method.name()
+            ),
+            Err(e) => {
+                eprintln!("error: {e}");
+                return exit_code(&e);
+            }
         }
     }
     ExitCode::SUCCESS

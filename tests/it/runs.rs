@@ -424,3 +424,38 @@ fn a_blow_up_during_a_step_is_reported_at_that_step() {
         other => panic!("{step} steps: {other:?}"),
     }
 }
+
+#[test]
+fn check_builds_a_case_without_running_it() {
+    // `meshless check` exits 0 for a case whose set-up succeeds, and 2 with the key for
+    // one that `run` would refuse only once its bodies are sampled (a boundary region
+    // beyond the strip), which validation of the file alone cannot see.
+    let exe = env!("CARGO_BIN_EXE_meshless");
+    let ok = Command::new(exe)
+        .args([
+            "check",
+            "tensile-strip",
+            "swinging-plate",
+            "--backend",
+            "cpu",
+        ])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&ok.stdout);
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    assert_eq!(stdout.matches(": ok (").count(), 2, "{stdout}");
+    let bad = Command::new(exe)
+        .args(["check", "tensile-strip", "--backend", "cpu"])
+        .args(["--set", "boundary.1.region.x_min=5.0"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&bad.stderr);
+    assert_eq!(bad.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("key `boundary.1.region`"), "{stderr}");
+}
