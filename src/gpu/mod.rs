@@ -15,6 +15,33 @@ use crate::scene::{Case, CaseError};
 use shaders::Constants;
 use thiserror::Error;
 
+/// Refuses reference positions and initial velocities beyond the f32 range of the
+/// device, naming the body whose geometry or initial velocity gives them.
+pub fn check_f32_particles<D: crate::tensor::Dim>(
+    case: &Case,
+    x0: &[D::V],
+    v0: &[D::V],
+    body: &[u32],
+) -> Result<(), CaseError> {
+    let beyond = |v: &D::V| D::to3(*v).iter().any(|&c| !(c as f32).is_finite());
+    for (key, what, values) in [
+        ("geometry", "position", x0),
+        ("initial_velocity", "velocity", v0),
+    ] {
+        if let Some(i) = values.iter().position(beyond) {
+            return Err(case.invalid(
+                format!("body.{}.{key}", body[i]),
+                format!(
+                    "particle {i} has the {what} {:?}, beyond the f32 range (3.4e38) of the \
+                     GPU; run with --backend cpu (f64), or express the case in other units",
+                    D::to3(values[i])
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Refuses scene constants that f32 cannot hold (a value valid in f64, such as E = 1e39
 /// Pa or a density of 1e-46), naming the case key they come from.
 pub fn check_f32_range(case: &Case, constants: &Constants) -> Result<(), CaseError> {

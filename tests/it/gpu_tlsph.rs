@@ -292,12 +292,17 @@ fn reductions_match_the_cpu() {
 #[test]
 fn values_beyond_f32_are_refused_with_their_key() {
     // Valid in f64, not in the f32 of the device: E = 1e39 Pa (μ = 3.6e38 > 3.4e38), a
-    // density of 1e-46 (below the smallest normal f32) and a spacing of 1e154. Each is a
-    // case error naming the key, before anything reaches the device.
+    // density of 1e-46 (below the smallest normal f32), a spacing of 1e154 and a velocity
+    // of 1e39 m/s. Each is a case error naming the key, before anything reaches the
+    // device.
     for (set, key) in [
         ("material.youngs_modulus=1e39", "material.youngs_modulus"),
         ("material.density=1e-46", "material.density"),
         ("spacing=1e154", "spacing"),
+        (
+            "body.0.initial_velocity={ type = \"uniform\", value = [1e39, 0.0] }",
+            "body.0.initial_velocity",
+        ),
     ] {
         let case = load("tensile-strip", &[set]);
         match GpuTlsph::<D2>::new(&case, gpu()) {

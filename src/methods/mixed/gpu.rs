@@ -21,7 +21,7 @@ use crate::gpu::shaders::{
     self, BOUNDARY, CONTACT, Constants, INTEGRATE, MECHANICS, PLASTICITY, Source, Wgsl, source,
     wgsl,
 };
-use crate::gpu::{SetupError, check_f32_range};
+use crate::gpu::{SetupError, check_f32_particles, check_f32_range};
 use crate::integrate::IntegratorKind;
 use crate::integrate::{Buf, Evaluation, evaluations};
 use crate::interaction::gpu::GpuInteractions;
@@ -415,6 +415,7 @@ impl<D: GpuDim> GpuMixed<D> {
         let cpu: MixedSph<D> = build_method(case)?;
         let (layout, constants) = scene(case, &cpu);
         check_f32_range(case, &constants)?;
+        check_f32_particles::<D>(case, cpu.reference(), &cpu.initial_state().v, cpu.body())?;
         let compose = |s: &Source| shaders::compose::<D>(s, &constants);
         let (n, ng) = (layout.n, layout.ghosts);
         let csr = cpu.neighbours();

@@ -16,7 +16,7 @@ use crate::gpu::shaders::{
     self, BOUNDARY, CONTACT, CORRECTION, Constants, INTEGRATE, MECHANICS, PAIR_OFFSETS, Source,
     Wgsl, source, wgsl,
 };
-use crate::gpu::{SetupError, check_f32_range};
+use crate::gpu::{SetupError, check_f32_particles, check_f32_range};
 use crate::integrate::Buf;
 use crate::interaction::Interactions;
 use crate::interaction::gpu::GpuInteractions;
@@ -201,6 +201,7 @@ impl<D: GpuDim> GpuTlsph<D> {
         let layout = Layout::new(n, D::N, material.model.is_rate_based());
         let constants = scene_constants(case, &layout);
         check_f32_range(case, &constants)?;
+        check_f32_particles::<D>(case, &disc.x0, &disc.v0, &disc.body)?;
         let compose = |s: &Source| shaders::compose::<D>(s, &constants);
 
         // Neighbours on the GPU from f32 positions; the 1e-5 margin keeps lattice pairs lying
