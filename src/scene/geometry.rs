@@ -178,10 +178,34 @@ fn lattice<D: Dim>(lo: &[f64], hi: &[f64], dx: f64, inside: &dyn Fn(&[f64]) -> b
     points
 }
 
+/// The largest points file read [bytes]: 1 GiB, about 15 million rows of x, y, z and a
+/// volume.
+const POINTS_FILE_CAP: u64 = 1 << 30;
+
+/// A points file as text: a regular file (not a device, pipe or folder) of at most
+/// [`POINTS_FILE_CAP`] bytes.
+fn read_points_file(path: &Path) -> Result<String, String> {
+    use std::io::Read;
+    let meta = std::fs::metadata(path).map_err(|e| format!("cannot read: {e}"))?;
+    if !meta.is_file() {
+        return Err("is not a regular file; give a CSV file of points".into());
+    }
+    let mut text = String::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(POINTS_FILE_CAP + 1).read_to_string(&mut text))
+        .map_err(|e| format!("cannot read as UTF-8 text: {e}"))?;
+    if text.len() as u64 > POINTS_FILE_CAP {
+        return Err(format!(
+            "is larger than {POINTS_FILE_CAP} bytes, the most a points file may hold"
+        ));
+    }
+    Ok(text)
+}
+
 /// Reads `x,y[,z][,volume]` rows (header required, any column order). Without a volume
-/// column every point gets Δx^d.
+/// column every point gets Δx^d. Errors name lines and columns, never the file's text.
 fn read_points<D: Dim>(path: &Path, cell: f64) -> Result<(Vec<D::V>, Vec<f64>), String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read: {e}"))?;
+    let text = read_points_file(path)?;
     let mut lines = text
         .lines()
         .enumerate()
@@ -195,7 +219,8 @@ fn read_points<D: Dim>(path: &Path, cell: f64) -> Result<(Vec<D::V>, Vec<f64>), 
         .iter()
         .map(|a| {
             column(a).ok_or(format!(
-                "header `{header}` lacks column `{a}` (needed in {}D)",
+                "the header (its first non-empty line) has no column `{a}` (needed in {}D); a \
+                 points file starts with a header such as `x,y,volume`",
                 D::N
             ))
         })
@@ -210,7 +235,7 @@ fn read_points<D: Dim>(path: &Path, cell: f64) -> Result<(Vec<D::V>, Vec<f64>), 
             .map_err(|e| format!("line {}: {e}", line_no + 1))?;
         if fields.len() != names.len() || fields.iter().any(|v| !v.is_finite()) {
             return Err(format!(
-                "line {}: expected {} finite numbers, found `{line}`",
+                "line {}: expected {} finite numbers separated by commas, one per header column",
                 line_no + 1,
                 names.len()
             ));

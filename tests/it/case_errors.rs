@@ -812,3 +812,41 @@ fn every_shipped_case_validates_and_discretises() {
     }
     assert!(count >= 12, "{count} shipped cases");
 }
+
+// ---------------------------------------------------------------------------------------
+// Points files
+
+/// `VALID` with its body sampled from the points file `file`, loaded and discretised.
+fn points_error(file: &Path) -> String {
+    let text = edit(
+        VALID,
+        "geometry = { shape = \"box\", min = [0.0, 0.0], max = [1.0, 0.5] }",
+        &format!(
+            "geometry = {{ shape = \"points\", file = {:?} }}",
+            file.display().to_string()
+        ),
+    );
+    let case = Case::from_toml(&text, Path::new(FILE), &[]).expect("the file validates");
+    match meshless::scene::discretise::<D2>(&case) {
+        Ok(_) => panic!("{} was sampled", file.display()),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn points_files_are_regular_files_whose_text_errors_never_echo() {
+    // A device is refused before it is read (reading /dev/zero would never end), and the
+    // errors about a file's lines name line and column but not their text.
+    let shown = points_error(Path::new("/dev/zero"));
+    assert_mentions(&shown, &["body.0.geometry.file", "not a regular file"]);
+    let dir = tempfile::tempdir().unwrap();
+    let secret = dir.path().join("secret.csv");
+    std::fs::write(&secret, "password-in-the-header\n1,2\n").unwrap();
+    let shown = points_error(&secret);
+    assert_mentions(&shown, &["no column `x`", "header"]);
+    assert!(!shown.contains("password"), "{shown}");
+    std::fs::write(&secret, "x,y\n0.0,0.0\n1.0,token-on-line-3\n").unwrap();
+    let shown = points_error(&secret);
+    assert_mentions(&shown, &["line 3"]);
+    assert!(!shown.contains("token"), "{shown}");
+}
