@@ -3,12 +3,6 @@
 //! installs Mesa lavapipe).
 
 use crate::common::case_file;
-#[cfg(feature = "gpu")]
-use crate::common::gpu;
-#[cfg(feature = "gpu")]
-use meshless::methods::mixed::GpuMixed;
-#[cfg(feature = "gpu")]
-use meshless::methods::tlsph::GpuTlsph;
 use meshless::run::{Backend, Engine, engine};
 use meshless::scene::{Case, CaseError};
 use meshless::tensor::D2;
@@ -63,10 +57,18 @@ fn colliding_rings_rebound_with_a_restitution_between_zero_and_one() {
     // lattice amplified over 1,000 steps (measured 4e-14 relative): bound 1e-9 of
     // 180 m/s. The nearest particles touch at 65 µs (23.4 mm at 360 m/s); the rings have
     // separated by 400 µs.
-    let end = 4.0e-4;
-    let [left, right] = ring_velocities(&rings(&[]).unwrap(), end);
+    assert_rebound(&rings(&[]).unwrap(), 4.0e-4);
+}
+
+/// The rings of `case` after `end`: each reversed to a restitution e = −v_after/180 m/s in
+/// (0, 1], and opposite by mirror symmetry to 1e-9 of the impact speed.
+fn assert_rebound(case: &Case, end: f64) {
+    let [left, right] = ring_velocities(case, end);
     let restitution = -left / 180.0;
-    eprintln!("rings after {end:e} s: v_x = {left} and {right} m/s, e = {restitution}");
+    eprintln!(
+        "{} rings after {end:e} s: v_x = {left} and {right} m/s, e = {restitution}",
+        case.method.name()
+    );
     assert!(
         restitution > 0.0 && restitution <= 1.0,
         "restitution {restitution} (left ring v_x = {left} m/s)"
@@ -101,11 +103,20 @@ fn the_gpu_contact_pass_matches_the_cpu() {
     // only smoothly; the closest hull particle can differ on near-ties, which moves the
     // normal by one hull edge for a particle at zero depth. Measured 2e-6 of the impact
     // speed on lavapipe; bound 1e-4.
-    let case = rings(&[]).unwrap();
-    let mut g = GpuTlsph::<D2>::new(&case, gpu()).unwrap();
-    let on_gpu = ring_velocities_on(&mut g, &case, 4.0e-4);
-    let on_cpu = ring_velocities(&case, 4.0e-4);
-    eprintln!("ring v_x after the impact: GPU {on_gpu:?}, CPU {on_cpu:?} m/s");
+    assert_gpu_matches_cpu(&rings(&[]).unwrap(), 4.0e-4);
+}
+
+/// The rings' velocities after `end` on the GPU engine of the case's method against its
+/// CPU reference, within 1e-4 of the impact speed.
+#[cfg(feature = "gpu")]
+fn assert_gpu_matches_cpu(case: &Case, end: f64) {
+    let mut g = engine::<D2>(case, Backend::Gpu).unwrap();
+    let on_gpu = ring_velocities_on(&mut g, case, end);
+    let on_cpu = ring_velocities(case, end);
+    eprintln!(
+        "{} ring v_x after the impact: GPU {on_gpu:?}, CPU {on_cpu:?} m/s",
+        case.method.name()
+    );
     for (g, c) in on_gpu.iter().zip(&on_cpu) {
         assert!(
             (g - c).abs() < 1e-4 * 180.0,
@@ -121,18 +132,7 @@ fn contact_acts_on_a_mixed_method_as_on_tlsph() {
     // symmetry holds to round-off (bound 1e-9 of 180 m/s, as for TLSPH). The mixed rings
     // stay in contact longer: their centres still close at 7 m/s at 400 µs, and have
     // separated at 800 µs (measured v_x = −64 m/s, e = 0.36; TLSPH: e = 0.46 by 400 µs).
-    let end = 8.0e-4;
-    let [left, right] = ring_velocities(&rings(&UPWIND).unwrap(), end);
-    let restitution = -left / 180.0;
-    eprintln!("upwind-sph rings after {end:e} s: v_x = {left} and {right} m/s, e = {restitution}");
-    assert!(
-        restitution > 0.0 && restitution <= 1.0,
-        "restitution {restitution} (left ring v_x = {left} m/s)"
-    );
-    assert!(
-        (left + right).abs() < 1e-9 * 180.0,
-        "mirror symmetry: v_x = {left} and {right} m/s"
-    );
+    assert_rebound(&rings(&UPWIND).unwrap(), 8.0e-4);
 }
 
 #[cfg(feature = "gpu")]
@@ -141,15 +141,5 @@ fn the_gpu_contact_pass_matches_the_cpu_on_a_mixed_method() {
     // The same pass in the mixed GPU engine: the rebound velocities at 800 µs against the
     // CPU, with the bound of the TLSPH comparison above (1e-4 of the impact speed;
     // measured 5.5e-6 on lavapipe).
-    let case = rings(&UPWIND).unwrap();
-    let mut g = GpuMixed::<D2>::new(&case, gpu()).unwrap();
-    let on_gpu = ring_velocities_on(&mut g, &case, 8.0e-4);
-    let on_cpu = ring_velocities(&case, 8.0e-4);
-    eprintln!("upwind-sph ring v_x after the impact: GPU {on_gpu:?}, CPU {on_cpu:?} m/s");
-    for (g, c) in on_gpu.iter().zip(&on_cpu) {
-        assert!(
-            (g - c).abs() < 1e-4 * 180.0,
-            "GPU {on_gpu:?} against CPU {on_cpu:?} m/s"
-        );
-    }
+    assert_gpu_matches_cpu(&rings(&UPWIND).unwrap(), 8.0e-4);
 }
