@@ -1,21 +1,21 @@
 // Boundary conditions of a rate pass (src/boundary.rs), shared by the TLSPH and mixed
 // passes: the external acceleration of tractions ext[i] is added, prescribed velocity
-// components (bit k of mask[i]) get a zero rate, and power[i] receives the power of the
-// support reactions and traction loads on the particle, m (a_ext · v) − Σ_k∈prescribed
-// m a_k v_k, for the work balance of the energy check. Needs the bindings mask, ext (DIM
-// per particle) and power.
+// components (bit k of mask_of(i), reference.wgsl) get a zero rate, and kin[KPOW_OFF + i]
+// receives the power of the support reactions and traction loads on the particle,
+// m (a_ext · v) − Σ_k∈prescribed m a_k v_k, for the work balance of the energy check.
+// Needs the bindings reference, ext (DIM per particle) and kin (read_write).
 
 fn apply_boundary(i: u32, acc: vecd, v: vecd, mass: f32) -> vecd {
     let ext_i = vload_ext(DIM * i);
     var a = acc + ext_i;
     var pw = mass * dot(ext_i, v);
-    let m = mask[i];
+    let m = mask_of(i);
     for (var k = 0u; k < DIM; k++) {
         if ((m >> k) & 1u) != 0u {
             pw -= mass * a[k] * v[k];
             a[k] = 0.0;
         }
     }
-    power[i] = pw;
+    kin[KPOW_OFF + i] = pw;
     return a;
 }

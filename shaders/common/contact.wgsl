@@ -6,7 +6,8 @@
 // neighbours, and with d = x_s − x_c and d·n_c ≤ 0 pushes back by −α (d·n_c) n_c / Δt².
 // It adds the sum over the masters to its own entry of ext (which holds the traction
 // acceleration, copied before the interaction passes), which the next step's rate passes
-// add (boundary.wgsl). Scene constants N, DIM, U_OFF and BODIES.
+// add (boundary.wgsl). Scene constants N, DIM, U_OFF, BODIES and the reference fields
+// (reference.wgsl).
 
 struct ContactParams {
     // α / Δt².
@@ -17,7 +18,7 @@ struct ContactParams {
 }
 
 @group(0) @binding(0) var<uniform> params: ContactParams;
-@group(0) @binding(1) var<storage, read> x_hi: array<f32>;
+@group(0) @binding(1) var<storage, read> reference: array<f32>;
 @group(0) @binding(2) var<storage, read> y: array<f32>;
 @group(0) @binding(3) var<storage, read> body: array<u32>;
 @group(0) @binding(4) var<storage, read> hull: array<u32>;
@@ -25,7 +26,7 @@ struct ContactParams {
 @group(0) @binding(6) var<storage, read_write> ext: array<f32>;
 
 fn position(i: u32) -> vecd {
-    return vload_x_hi(DIM * i) + vload_y(U_OFF + DIM * i);
+    return x0_of(i) + vload_y(U_OFF + DIM * i);
 }
 
 // The in-plane vector t turned by +90° (−t_y, t_x), made unit.

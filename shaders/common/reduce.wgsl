@@ -6,19 +6,18 @@
 // per workgroup to `partials`, summed (max for |v|² and the pair wave speed) on the host in
 // f64. The method's `strain_energy(i)` (tlsph_energy.wgsl: from the stress pass's kin for
 // the same state; mixed_energy.wgsl: from the F of the stress) is V_i ψ_i; a non-finite
-// energy counts as a non-finite entry. The method's file may declare bindings past 5 for
-// its hooks (mixed_energy.wgsl: the neighbour lists). Constants: N, DIM, RHO0, U_OFF, V_OFF.
+// energy counts as a non-finite entry. The power of supports and loads is the rate
+// passes' kin[KPOW_OFF + i] (boundary.wgsl). The method's file may declare bindings past 3
+// for its hooks (mixed_energy.wgsl: the neighbour lists). Constants: N, DIM, RHO0, U_OFF,
+// V_OFF, KPOW_OFF and the reference fields (reference.wgsl).
 
 const REDUCED: u32 = 12u;
 
 @group(0) @binding(0) var<storage, read> y: array<f32>;
-// Method data the strain energy reads (TLSPH: the kinematics; mixed methods: the state
-// again, or the bond-based F^c − I).
+// The method's per-particle scratch of the last rate evaluation (kinematics, power).
 @group(0) @binding(1) var<storage, read> kin: array<f32>;
-@group(0) @binding(2) var<storage, read> vol: array<f32>;
-@group(0) @binding(3) var<storage, read> x_hi: array<f32>;
-@group(0) @binding(4) var<storage, read> power: array<f32>;
-@group(0) @binding(5) var<storage, read_write> partials: array<f32>;
+@group(0) @binding(2) var<storage, read> reference: array<f32>;
+@group(0) @binding(3) var<storage, read_write> partials: array<f32>;
 
 var<workgroup> sums: array<array<f32, REDUCED>, 256>;
 
@@ -37,10 +36,10 @@ fn reduce(
     let i = gid.x + gid.y * nwg.x * 256u;
     var q: array<f32, REDUCED>;
     if i < N {
-        let m = RHO0 * vol[i];
+        let m = RHO0 * vol_of(i);
         let u = pad3(vload_y(U_OFF + DIM * i));
         let v = pad3(vload_y(V_OFF + DIM * i));
-        let x = pad3(vload_x_hi(DIM * i)) + u;
+        let x = pad3(x0_of(i)) + u;
         let p = m * v;
         let l = cross(x, p);
         q[0] = 0.5 * dot(p, v);
@@ -51,7 +50,7 @@ fn reduce(
         q[5] = l.x;
         q[6] = l.y;
         q[7] = l.z;
-        q[8] = power[i];
+        q[8] = kin[KPOW_OFF + i];
         q[9] = dot(v, v);
         var bad = 0.0;
         for (var k = 0u; k < 3u; k++) {

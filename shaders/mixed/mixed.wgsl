@@ -5,20 +5,21 @@
 // {p, F, J} and {p, F, H, J}): the excesses keep their digits at small strain in f32, as
 // u = x − X does for positions, and a ghost maps them like two-point tensors. The NG
 // ghosts follow the real particles in the extended index (ghost k is N + k); per-pair
-// data are in CSR order over the real rows, whose neighbour ids may be ghosts. The
-// kinematics kin = [P | H − I] (H only where D(J) gathers it), the slopes and the
+// data are in CSR order over the real rows, whose neighbour ids may be ghosts:
+// pair = [G_ab | G_ba | d_ab | s_ab | w_ab (least squares) | ℓ_ab | w_ab (bond)], each
+// where the scene uses it. The kinematics kin = [P | H − I | ghost motion | F^c − I |
+// power] (H only where D(J) gathers it, F^c with the bond-based F), the slopes and the
 // Laplacians hold the real particles then the ghosts (filled by mixed_ghosts.wgsl). The
-// stress is evaluated at the F − I of a binding `fs` at FS_OFF: the state again
-// (FS_OFF = F_OFF) where F is evolved, or the bond-based F^c − I of mixed_bond.wgsl
-// (FS_OFF = 0, seed 002).
+// stress is evaluated at stress_excess(a) (mixed_motion.wgsl): the evolved F − I, or the
+// bond-based F^c − I of mixed_bond.wgsl (BOND = 1, seed 002). The field offsets are those
+// of methods::mixed::gpu::MixedLayout.
 //
 // Scene constants: N, NG, DIM, MODEL, RHO0, MU, LAMBDA, BULK, YIELD, HARDENING (von Mises
 // model, plasticity.wgsl), C_P, C_S, SPACING
 // (particle spacing Δx), PAIR_STRETCH (1: the CFL step's C_p,ij = C_P / λ^Ave_ij, 0:
 // C_P), H (smoothing length), STAB (STAB_UPWIND or STAB_JST), RECON, EPS2, EPS4,
-// MOMENTUM (MOMENTUM_WEAK or MOMENTUM_SYMMETRISED), EVOLVE_H, EVOLVE_J, KIN_H, PROJECTION, GROUPS
-// (workgroups over N), TOTAL_VOL, segment offsets U_OFF, V_OFF, F_OFF, H_OFF, J_OFF,
-// FS_OFF, KP_OFF, KH_OFF, FT_OFF, FD_OFF, FJ_OFF.
+// MOMENTUM (MOMENTUM_WEAK or MOMENTUM_SYMMETRISED), EVOLVE_H, EVOLVE_J, KIN_H, BOND,
+// PROJECTION, GROUPS (workgroups over N), TOTAL_VOL, and the field offsets.
 
 // Size of one particle's slopes: ∇0v, then ∂P/∂X_l for l < DIM.
 const SLOPE: u32 = (DIM + 1u) * DIM * DIM;

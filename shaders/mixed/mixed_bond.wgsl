@@ -3,19 +3,15 @@
 // ⊗ X_ab with w_ab = V_b W̃_b(X_a)/|X_ab|² (eqs 37, 39 with the self-bond). In excesses
 // f = F − I the X_ab of x_b − x_a and of F_a X_ab cancel analytically:
 //   F^c_a − I = f_a + Σ_b w_ab [(u_b − u_a) − f_a X_ab] ⊗ X_ab,
-// with u of the ghosts from the ghost motion. Writes fc = F^c − I (DIM² per real particle)
-// of its own particle, which the kinematics and the strain energy read in place of F.
-// Layout and constants: mixed.wgsl.
+// with u of the ghosts from the ghost motion, X_ab at PDX_OFF and w_ab at PW_OFF of
+// `pair`. Writes F^c − I of its own particle at KFC_OFF of kin, which the kinematics and
+// the strain energy read in place of F. Layout and constants: mixed.wgsl.
 
 @group(0) @binding(0) var<storage, read> offsets: array<u32>;
 @group(0) @binding(1) var<storage, read> ids: array<u32>;
-// X_ab = X_b − X_a (DIM per pair).
-@group(0) @binding(2) var<storage, read> x_ab: array<f32>;
-// w_ab (one per pair).
-@group(0) @binding(3) var<storage, read> bond: array<f32>;
-@group(0) @binding(4) var<storage, read> y: array<f32>;
-@group(0) @binding(5) var<storage, read> gm: array<f32>;
-@group(0) @binding(6) var<storage, read_write> fc: array<f32>;
+@group(0) @binding(2) var<storage, read> pair: array<f32>;
+@group(0) @binding(3) var<storage, read> y: array<f32>;
+@group(0) @binding(4) var<storage, read_write> kin: array<f32>;
 
 @compute @workgroup_size(256)
 fn bond_f(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
@@ -27,8 +23,8 @@ fn bond_f(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     let u_a = displacement(a);
     var f_c = f;
     for (var p = offsets[a]; p < offsets[a + 1u]; p++) {
-        let x = vload_x_ab(DIM * p);
-        f_c += outer(displacement(ids[p]) - u_a - f * x, x * bond[p]);
+        let x = vload_pair(PDX_OFF + DIM * p);
+        f_c += outer(displacement(ids[p]) - u_a - f * x, x * pair[PW_OFF + p]);
     }
-    mstore_fc(DIM * DIM * a, f_c);
+    mstore_kin(KFC_OFF + DIM * DIM * a, f_c);
 }

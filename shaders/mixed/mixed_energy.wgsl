@@ -1,26 +1,26 @@
 // The hooks of reduce.wgsl for a mixed method. Constants as in mixed.wgsl.
 
-// V_i ψ(F_i, J_i) of a mixed-method particle, from the F − I of the stress, bound as `kin`
-// at FS_OFF (the state again, or the bond-based F^c − I), and J − 1 (det F − 1 when J is
-// not evolved); for the von Mises model the Hencky energy of the returned elastic
-// stretches.
+// V_i ψ(F_i, J_i) of a mixed-method particle, from the F − I of the stress
+// (stress_excess, mixed_motion.wgsl: the evolved F, or the bond-based F^c − I), and J − 1
+// (det F − 1 when J is not evolved); for the von Mises model the Hencky energy of the
+// returned elastic stretches.
 fn strain_energy(i: u32) -> f32 {
-    let f = mload_kin(FS_OFF + DIM * DIM * i);
+    let f = stress_excess(i);
     if MODEL == MODEL_VON_MISES_PLASTIC {
-        return vol[i] * return_map(lift3(identity_d() + f, 1.0), history(i)).psi;
+        return vol_of(i) * return_map(lift3(identity_d() + f, 1.0), history(i)).psi;
     }
     var j = det_excess(f);
     if EVOLVE_J == 1u {
         j = y[J_OFF + i];
     }
-    return vol[i] * energy_density_mixed(f, j);
+    return vol_of(i) * energy_density_mixed(f, j);
 }
 
 // The neighbour lists (CSR over the real rows; ids ≥ N are ghosts), for the pair rate.
-@group(0) @binding(6) var<storage, read> offsets: array<u32>;
-@group(0) @binding(7) var<storage, read> ids: array<u32>;
+@group(0) @binding(4) var<storage, read> offsets: array<u32>;
+@group(0) @binding(5) var<storage, read> ids: array<u32>;
 // The plastic history (plasticity.wgsl), read with MODEL_VON_MISES_PLASTIC only.
-@group(0) @binding(8) var<storage, read> hist: array<f32>;
+@group(0) @binding(6) var<storage, read> hist: array<f32>;
 
 // λ_i, the smallest principal stretch of particle i: the square root of the smallest
 // eigenvalue of C = FᵀF; 1 when the step takes C_p^Lin for every pair (PAIR_STRETCH = 0).
@@ -36,13 +36,13 @@ fn smallest_stretch(i: u32) -> f32 {
 // MixedSph::pair_wave_speed on the CPU, which says why ghosts do not count), r_ij the
 // current distance.
 fn pair_wave_speed(i: u32) -> f32 {
-    let x_i = vload_x_hi(DIM * i) + vload_y(U_OFF + DIM * i);
+    let x_i = x0_of(i) + vload_y(U_OFF + DIM * i);
     let lambda_i = smallest_stretch(i);
     var fastest = 0.0;
     for (var q = offsets[i]; q < offsets[i + 1u]; q++) {
         let j = ids[q];
         if j < N {
-            let r_ij = length(vload_x_hi(DIM * j) + vload_y(U_OFF + DIM * j) - x_i);
+            let r_ij = length(x0_of(j) + vload_y(U_OFF + DIM * j) - x_i);
             // eq 32: C_p,ij = C_p^Lin / λ^Ave_ij, λ^Ave_ij = ½(λ_i + λ_j).
             let c_ij = C_P / (0.5 * (lambda_i + smallest_stretch(j)));
             fastest = max(fastest, c_ij / r_ij);

@@ -7,20 +7,17 @@
 //   current positions; D(J_a) = Σ_b p^stab/ρ0 · (H_a G_ab − H_b G_ba) (eq 33 with the
 //   dissipative sign), p^stab = n (n · ΔP N_ab)/(2 c_p), only where J is evolved;
 //   JST-SPH: D(p_a) = ½ c_p ρ0 Σ_b s_ab (ε⁽²⁾ h Δv − ε⁽⁴⁾ h³ Δ∇²v) (seed 002 eq 28).
-// Writes force = [T | D(p) | D(J)] of its own particle. Layout and constants: mixed.wgsl.
+// Writes force = [T | D(p) | D(J)] of its own particle. Per pair: G_ab, G_ba, and
+// d_ab = X_b − X_a (Upwind-SPH) or s_ab (JST-SPH). Layout and constants: mixed.wgsl.
 
 @group(0) @binding(0) var<storage, read> offsets: array<u32>;
 @group(0) @binding(1) var<storage, read> ids: array<u32>;
-@group(0) @binding(2) var<storage, read> grad: array<f32>;
-@group(0) @binding(3) var<storage, read> grad_rev: array<f32>;
-@group(0) @binding(4) var<storage, read> y: array<f32>;
-@group(0) @binding(5) var<storage, read> gm: array<f32>;
-@group(0) @binding(6) var<storage, read> kin: array<f32>;
-@group(0) @binding(7) var<storage, read_write> force: array<f32>;
-// Upwind: d_ab = X_b − X_a (DIM per pair); JST: s_ab (one per pair).
-@group(0) @binding(8) var<storage, read> pair: array<f32>;
+@group(0) @binding(2) var<storage, read> pair: array<f32>;
+@group(0) @binding(3) var<storage, read> y: array<f32>;
+@group(0) @binding(4) var<storage, read> kin: array<f32>;
+@group(0) @binding(5) var<storage, read_write> force: array<f32>;
 // Upwind with reconstruction: the slopes; JST: the Laplacians; else unused.
-@group(0) @binding(9) var<storage, read> second: array<f32>;
+@group(0) @binding(6) var<storage, read> second: array<f32>;
 
 // Least-squares slopes of an extended particle: ∇0v and ∂P/∂X_l.
 struct Slopes {
@@ -62,8 +59,8 @@ fn forces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     var dj = 0.0;
     for (var p = offsets[a]; p < offsets[a + 1u]; p++) {
         let b = ids[p];
-        let g_ab = vload_grad(DIM * p);
-        let g_ba = vload_grad_rev(DIM * p);
+        let g_ab = vload_pair(PG_OFF + DIM * p);
+        let g_ba = vload_pair(PGR_OFF + DIM * p);
         let p_b = mload_kin(KP_OFF + DIM * DIM * b);
         if MOMENTUM == MOMENTUM_SYMMETRISED {
             t -= (p_a + p_b) * (g_ab - g_ba) * 0.5;
@@ -72,7 +69,7 @@ fn forces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
         }
         let v_b = velocity(b);
         if STAB == STAB_UPWIND {
-            let d_ab = vload_pair(DIM * p);
+            let d_ab = vload_pair(PDX_OFF + DIM * p);
             let n_ref = normalize(d_ab);
             var dv = v_b - v_a;
             var dp = p_b - p_a;
@@ -99,7 +96,7 @@ fn forces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
             }
         } else {
             let lap = vload_second(DIM * b) - lap_a;
-            dp_sum += ((v_b - v_a) * (EPS2 * H) - lap * (EPS4 * H * H * H)) * (0.5 * C_P * RHO0 * pair[p]);
+            dp_sum += ((v_b - v_a) * (EPS2 * H) - lap * (EPS4 * H * H * H)) * (0.5 * C_P * RHO0 * pair[PS_OFF + p]);
         }
     }
     vstore_force(FT_OFF + DIM * a, t);

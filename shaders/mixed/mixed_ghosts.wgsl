@@ -6,8 +6,8 @@
 @group(0) @binding(0) var<storage, read> ghost_src: array<u32>;
 // r_0 … r_{DIM−1}, σ per ghost.
 @group(0) @binding(1) var<storage, read> ghost_img: array<f32>;
-// The field filled: the ghost motion gm = [u | v], or in place the kinematics, slopes or
-// Laplacians of the extended particles.
+// The field filled: the kinematics (the ghost motion [u | v] at KGM_OFF, or in place P
+// and H), or in place the slopes or Laplacians of the extended particles.
 @group(0) @binding(2) var<storage, read_write> field: array<f32>;
 @group(0) @binding(3) var<storage, read> y: array<f32>;
 
@@ -36,8 +36,8 @@ fn ghost_motion(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
         return;
     }
     let s = ghost_src[k];
-    vstore_field(DIM * k, map_vector(k, vload_y(U_OFF + DIM * s)));
-    vstore_field(DIM * (NG + k), map_vector(k, vload_y(V_OFF + DIM * s)));
+    vstore_field(KGM_OFF + DIM * k, map_vector(k, vload_y(U_OFF + DIM * s)));
+    vstore_field(KGM_OFF + DIM * (NG + k), map_vector(k, vload_y(V_OFF + DIM * s)));
 }
 
 @compute @workgroup_size(256)

@@ -1,25 +1,22 @@
 // Pass 1 of a mixed rate evaluation (MixedSph::kinematics), one invocation per real
 // particle: P(F, H, J) (mechanics.wgsl) and ∇0v_a = Σ_b V_b (v_b − v_a) ⊗ g_ab, and from
 // them the rates Ḟ = ∇0v, Ḣ = F × ∇0v and J̇ = H : ∇0v (eqs 39b–d; the rates pass adds
-// D(J)). P, and H = cof F and J = det F where they are not evolved, take the F of `fs`
-// (the evolved F or the bond-based F^c); Ḣ takes the evolved F. det F ≤ 0 records the
+// D(J)). P, and H = cof F and J = det F where they are not evolved, take the F of the
+// stress (stress_excess: the evolved F or the bond-based F^c); Ḣ takes the evolved F. det F ≤ 0 records the
 // particle in status[0], J ≤ 0 in status[1] (u32 atomicMin). The von Mises model
 // (MODEL 5) returns F from the particle's history instead (plasticity.wgsl). Layout and
 // constants: mixed.wgsl.
 
 @group(0) @binding(0) var<storage, read> offsets: array<u32>;
 @group(0) @binding(1) var<storage, read> ids: array<u32>;
-// G_b(X_a) = V_b g_ab per pair (DIM each).
-@group(0) @binding(2) var<storage, read> grad: array<f32>;
+// G_b(X_a) = V_b g_ab per pair at PG_OFF (DIM each).
+@group(0) @binding(2) var<storage, read> pair: array<f32>;
 @group(0) @binding(3) var<storage, read> y: array<f32>;
-@group(0) @binding(4) var<storage, read> gm: array<f32>;
-@group(0) @binding(5) var<storage, read_write> kin: array<f32>;
-@group(0) @binding(6) var<storage, read_write> d: array<f32>;
-@group(0) @binding(7) var<storage, read_write> status: array<atomic<u32>>;
-// F − I of the stress at FS_OFF (mixed.wgsl): y again, or F^c − I.
-@group(0) @binding(8) var<storage, read> fs: array<f32>;
+@group(0) @binding(4) var<storage, read_write> kin: array<f32>;
+@group(0) @binding(5) var<storage, read_write> d: array<f32>;
+@group(0) @binding(6) var<storage, read_write> status: array<atomic<u32>>;
 // The plastic history (plasticity.wgsl), read with MODEL 5 only.
-@group(0) @binding(9) var<storage, read> hist: array<f32>;
+@group(0) @binding(7) var<storage, read> hist: array<f32>;
 
 @compute @workgroup_size(256)
 fn kinematics(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
@@ -30,9 +27,9 @@ fn kinematics(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     let v_a = velocity(a);
     var grad_v: matd;
     for (var p = offsets[a]; p < offsets[a + 1u]; p++) {
-        grad_v += outer(velocity(ids[p]) - v_a, vload_grad(DIM * p));
+        grad_v += outer(velocity(ids[p]) - v_a, vload_pair(PG_OFF + DIM * p));
     }
-    let f = mload_fs(FS_OFF + DIM * DIM * a);
+    let f = stress_excess(a);
     var h = cof_excess(f);
     if EVOLVE_H == 1u {
         h = mload_y(H_OFF + DIM * DIM * a);

@@ -9,7 +9,7 @@
 //                  Σ V f and Σ V r × f about the reference centroid X̄ (r = 𝒳 − X̄: small
 //                  sums, so that moving them to c loses few digits);
 //   balance_solve  one invocation: sums the GROUPS partials (compensated), solves for λ,
-//                  μ and c − X̄;
+//                  μ and c − X̄, written at FPROJ_OFF of force;
 //   rates          per particle: ρ0 v̇ = f̂ (eq 38a), boundary conditions (boundary.wgsl),
 //                  u̇ = v, and J̇ += D(J).
 // Layout and constants: mixed.wgsl.
@@ -22,20 +22,18 @@ struct Stage {
 }
 
 @group(0) @binding(0) var<uniform> stage: Stage;
-@group(0) @binding(1) var<storage, read> force: array<f32>;
+// [T | D(p) | D(J) | projection]: the projection λ, μ, c − X̄ as vec3 padded to four
+// floats each at FPROJ_OFF, written by balance_solve.
+@group(0) @binding(1) var<storage, read_write> force: array<f32>;
 @group(0) @binding(2) var<storage, read> y: array<f32>;
 // The state at the start of the step (the TVD-RK2 points).
 @group(0) @binding(3) var<storage, read> y0: array<f32>;
-// X − X̄ (DIM per real particle).
-@group(0) @binding(4) var<storage, read> x_rel: array<f32>;
-@group(0) @binding(5) var<storage, read> vol: array<f32>;
-@group(0) @binding(6) var<storage, read_write> partials: array<f32>;
-// λ (3), μ (3), c − X̄ (3), as vec3 padded to four floats each.
-@group(0) @binding(7) var<storage, read_write> proj: array<vec4<f32>, 3>;
-@group(0) @binding(8) var<storage, read> mask: array<u32>;
-@group(0) @binding(9) var<storage, read> ext: array<f32>;
-@group(0) @binding(10) var<storage, read_write> d: array<f32>;
-@group(0) @binding(11) var<storage, read_write> power: array<f32>;
+@group(0) @binding(4) var<storage, read> reference: array<f32>;
+@group(0) @binding(5) var<storage, read_write> partials: array<f32>;
+@group(0) @binding(6) var<storage, read> ext: array<f32>;
+@group(0) @binding(7) var<storage, read_write> d: array<f32>;
+// The kinematics; the rates write only the power (boundary.wgsl).
+@group(0) @binding(8) var<storage, read_write> kin: array<f32>;
 
 // vec4 sums per workgroup: (Σ V r, Σ V r_x²), (Σ V r_y², Σ V r_z², Σ V r_x r_y, Σ V r_x r_z),
 // (Σ V r_y r_z, Σ V f), (Σ V r × f, 0).
@@ -46,7 +44,7 @@ var<workgroup> tile: array<array<vec4<f32>, BALANCED>, 256>;
 // 𝒳_a − X̄ (eq B.1): the stage position, or x^n + Δt/2 (v^n + v*) at the second TVD-RK2
 // stage, which makes the step conserve angular momentum.
 fn balance_point(a: u32) -> vecd {
-    let x = vload_x_rel(DIM * a);
+    let x = vload_reference(RXREL_OFF + DIM * a);
     if stage.mid == 1u {
         let v_sum = vload_y0(V_OFF + DIM * a) + vload_y(V_OFF + DIM * a);
         return x + vload_y0(U_OFF + DIM * a) + v_sum * stage.half_dt;
@@ -68,7 +66,7 @@ fn balance_sums(
     let a = index(gid, nwg);
     var q: array<vec4<f32>, BALANCED>;
     if a < N {
-        let w = vol[a];
+        let w = vol_of(a);
         let r = pad3(balance_point(a));
         let f = pad3(net_force(a)) * w;
         let rw = r * w;
@@ -122,9 +120,21 @@ fn balance_solve() {
     let inertia = mat3x3<f32>(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0) * (rr[0][0] + rr[1][1] + rr[2][2]) - rr;
     let net = s[2].yzw;
     let moment = s[3].xyz - cross(c, net);
-    proj[0] = vec4<f32>(-solve_inertia(inertia, moment), 0.0);
-    proj[1] = vec4<f32>(-net / TOTAL_VOL, 0.0);
-    proj[2] = vec4<f32>(c, 0.0);
+    store_projection(0u, -solve_inertia(inertia, moment));
+    store_projection(1u, -net / TOTAL_VOL);
+    store_projection(2u, c);
+}
+
+// λ (k = 0), μ (1) or c − X̄ (2) of the projection.
+fn store_projection(k: u32, x: vec3<f32>) {
+    for (var c = 0u; c < 3u; c++) {
+        force[FPROJ_OFF + 4u * k + c] = x[c];
+    }
+}
+
+fn projection(k: u32) -> vec3<f32> {
+    let o = FPROJ_OFF + 4u * k;
+    return vec3<f32>(force[o], force[o + 1u], force[o + 2u]);
 }
 
 fn outer3(a: vec3<f32>, b: vec3<f32>) -> mat3x3<f32> {
@@ -139,11 +149,11 @@ fn rates(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     }
     var f = net_force(a);
     if PROJECTION == 1u {
-        let r = pad3(balance_point(a)) - proj[2].xyz;
-        f += unpad(cross(proj[0].xyz, r) + proj[1].xyz);
+        let r = pad3(balance_point(a)) - projection(2u);
+        f += unpad(cross(projection(0u), r) + projection(1u));
     }
     let v_a = vload_y(V_OFF + DIM * a);
-    vstore_d(V_OFF + DIM * a, apply_boundary(a, f * (1.0 / RHO0), v_a, RHO0 * vol[a]));
+    vstore_d(V_OFF + DIM * a, apply_boundary(a, f * (1.0 / RHO0), v_a, RHO0 * vol_of(a)));
     vstore_d(U_OFF + DIM * a, v_a);
     if KIN_H == 1u {
         d[J_OFF + a] += force[FJ_OFF + a];

@@ -1,17 +1,27 @@
-// Shared by the gathers of the mixed passes, which bind the state y and the ghost motion gm.
+// Shared by the gathers of the mixed passes, which bind the state y and the kinematics
+// kin.
 
 // Displacement and velocity of extended particle b: the state, or the ghost motion
-// gm = [u | v] (NG·DIM each) written by the ghost fill.
+// [u | v] (NG·DIM each) at KGM_OFF of kin, written by the ghost fill.
 fn displacement(b: u32) -> vecd {
     if b < N {
         return vload_y(U_OFF + DIM * b);
     }
-    return vload_gm(DIM * (b - N));
+    return vload_kin(KGM_OFF + DIM * (b - N));
 }
 
 fn velocity(b: u32) -> vecd {
     if b < N {
         return vload_y(V_OFF + DIM * b);
     }
-    return vload_gm(DIM * (NG + b - N));
+    return vload_kin(KGM_OFF + DIM * (NG + b - N));
+}
+
+// F − I of the stress of real particle a: the evolved F, or the bond-based F^c − I
+// (seed 002) that mixed_bond.wgsl wrote at KFC_OFF of kin.
+fn stress_excess(a: u32) -> matd {
+    if BOND == 1u {
+        return mload_kin(KFC_OFF + DIM * DIM * a);
+    }
+    return mload_y(F_OFF + DIM * DIM * a);
 }

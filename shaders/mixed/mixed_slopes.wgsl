@@ -1,18 +1,17 @@
 // Pass 2 of a mixed rate evaluation, one invocation per real particle. Upwind-SPH with
 // reconstruction (MixedSph::slopes): least-squares gradients of v and of P (eq 37),
 // 𝒢_a = Σ_b (𝒰_b − 𝒰_a) w_ab with w_ab = M_a⁻¹ N_ab / |d_ab|. JST-SPH
-// (MixedSph::laplacians): ∇²v_a = Σ_b ℓ_ab (v_b − v_a) (seed 002 eq 27). Layout and
-// constants: mixed.wgsl.
+// (MixedSph::laplacians): ∇²v_a = Σ_b ℓ_ab (v_b − v_a) (seed 002 eq 27). The weights are
+// per pair: w_ab at PLS_OFF (DIM each), ℓ_ab at PELL_OFF. Layout and constants:
+// mixed.wgsl.
 
 @group(0) @binding(0) var<storage, read> offsets: array<u32>;
 @group(0) @binding(1) var<storage, read> ids: array<u32>;
-// w_ab (DIM per pair) for the slopes, ℓ_ab (one per pair) for the Laplacian.
-@group(0) @binding(2) var<storage, read> weights: array<f32>;
+@group(0) @binding(2) var<storage, read> pair: array<f32>;
 @group(0) @binding(3) var<storage, read> y: array<f32>;
-@group(0) @binding(4) var<storage, read> gm: array<f32>;
 // Slopes (SLOPE per extended particle) or Laplacians (DIM per extended particle).
-@group(0) @binding(5) var<storage, read_write> out: array<f32>;
-@group(0) @binding(6) var<storage, read> kin: array<f32>;
+@group(0) @binding(4) var<storage, read_write> out: array<f32>;
+@group(0) @binding(5) var<storage, read> kin: array<f32>;
 
 @compute @workgroup_size(256)
 fn slopes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
@@ -26,7 +25,7 @@ fn slopes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     var grad_p: array<matd, 3>;
     for (var p = offsets[a]; p < offsets[a + 1u]; p++) {
         let b = ids[p];
-        let w = vload_weights(DIM * p);
+        let w = vload_pair(PLS_OFF + DIM * p);
         grad_v += outer(velocity(b) - v_a, w);
         let dp = mload_kin(KP_OFF + DIM * DIM * b) - p_a;
         for (var l = 0u; l < DIM; l++) {
@@ -49,7 +48,7 @@ fn laplacian(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     let v_a = velocity(a);
     var sum: vecd;
     for (var p = offsets[a]; p < offsets[a + 1u]; p++) {
-        sum += (velocity(ids[p]) - v_a) * weights[p];
+        sum += (velocity(ids[p]) - v_a) * pair[PELL_OFF + p];
     }
     vstore_out(DIM * a, sum);
 }

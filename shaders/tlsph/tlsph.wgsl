@@ -4,17 +4,17 @@
 // Buffers are flat f32 arrays in structure-of-arrays segments: the state y = [u | v | ρ − ρ0 | S]
 // (ρ and S only for the rate model; the density is stored as its deviation so that the
 // pressure c0²(ρ − ρ0) keeps its digits in f32, as u = x − X does for positions), the
-// per-particle kinematics kin = [H = F − I | P | F⁻ᵀ | ρ] (H, not F, for the same reason),
-// and the per-pair gradients grad (DIM per pair). Constitutive functions: mechanics.wgsl.
-// Scene constants: N, DIM, RATE, MODEL (0 hypoelastic, 1 SVK, 2 neo-Hookean,
-// 3 linear elastic, 4 polyconvex neo-Hookean), RHO0, MU,
-// LAMBDA, BULK, AV, AV_ALPHA, AV_BETA, AV_ETA, H, segment offsets U_OFF, V_OFF, RHO_OFF,
-// S_OFF, KF_OFF, KP_OFF, KFIT_OFF, KRHO_OFF.
+// per-particle kinematics kin = [H = F − I | P | F⁻ᵀ | ρ | power] (H, not F, for the same
+// reason), the per-pair data pair = [∇0W̃ | X_j − X_i] (DIM each per pair) and the
+// reference configuration (reference.wgsl). Constitutive functions: mechanics.wgsl.
+// Scene constants: N, DIM, RATE, MODEL, RHO0, MU, LAMBDA, BULK, AV, AV_ALPHA, AV_BETA,
+// AV_ETA, H, and the field offsets of methods::tlsph::gpu::Layout (U_OFF, V_OFF, RHO_OFF,
+// S_OFF; KF_OFF, KP_OFF, KFIT_OFF, KRHO_OFF, KPOW_OFF; PG_OFF, PDX_OFF).
 
 @group(0) @binding(0) var<storage, read> offsets: array<u32>;
 @group(0) @binding(1) var<storage, read> ids: array<u32>;
-@group(0) @binding(2) var<storage, read> grad: array<f32>;
-@group(0) @binding(3) var<storage, read> vol: array<f32>;
+@group(0) @binding(2) var<storage, read> pair: array<f32>;
+@group(0) @binding(3) var<storage, read> reference: array<f32>;
 @group(0) @binding(4) var<storage, read> y: array<f32>;
 @group(0) @binding(5) var<storage, read_write> kin: array<f32>;
 @group(0) @binding(6) var<storage, read_write> d: array<f32>;
@@ -37,8 +37,8 @@ fn stress(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     var f_dot: matd;
     for (var p = offsets[i]; p < offsets[i + 1u]; p++) {
         let j = ids[p];
-        let g = vload_grad(DIM * p);
-        let w = vol[j];
+        let g = vload_pair(PG_OFF + DIM * p);
+        let w = vol_of(j);
         h += outer(vload_y(U_OFF + DIM * j) - ui, g) * w;
         if RATE == 1u {
             f_dot += outer(vload_y(V_OFF + DIM * j) - vi, g) * w;

@@ -5,19 +5,14 @@
 
 @group(0) @binding(0) var<storage, read> offsets: array<u32>;
 @group(0) @binding(1) var<storage, read> ids: array<u32>;
-@group(0) @binding(2) var<storage, read> grad: array<f32>;
-@group(0) @binding(3) var<storage, read> vol: array<f32>;
-// Reference pair offsets X_j − X_i (DIM per pair, see correction.wgsl).
-@group(0) @binding(4) var<storage, read> dx0: array<f32>;
-@group(0) @binding(5) var<storage, read> y: array<f32>;
-@group(0) @binding(6) var<storage, read> kin: array<f32>;
-// Bit k set: velocity component k is prescribed (its rate is zero).
-@group(0) @binding(7) var<storage, read> mask: array<u32>;
-// External acceleration from tractions (DIM per particle).
-@group(0) @binding(8) var<storage, read> ext: array<f32>;
-@group(0) @binding(9) var<storage, read_write> d: array<f32>;
-// Power of the support reactions and traction loads on this particle (boundary.wgsl).
-@group(0) @binding(10) var<storage, read_write> power: array<f32>;
+@group(0) @binding(2) var<storage, read> pair: array<f32>;
+@group(0) @binding(3) var<storage, read> reference: array<f32>;
+@group(0) @binding(4) var<storage, read> y: array<f32>;
+// The kinematics of the stress pass; this pass writes only the power (boundary.wgsl).
+@group(0) @binding(5) var<storage, read_write> kin: array<f32>;
+// External acceleration from tractions and interactions (DIM per particle).
+@group(0) @binding(6) var<storage, read> ext: array<f32>;
+@group(0) @binding(7) var<storage, read_write> d: array<f32>;
 
 @compute @workgroup_size(256)
 fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
@@ -35,21 +30,21 @@ fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     var viscous: vecd;
     for (var p = offsets[i]; p < offsets[i + 1u]; p++) {
         let j = ids[p];
-        let g = vload_grad(DIM * p);
-        stress += (p_i + mload_kin(KP_OFF + DIM * DIM * j)) * g * vol[j];
+        let g = vload_pair(PG_OFF + DIM * p);
+        stress += (p_i + mload_kin(KP_OFF + DIM * DIM * j)) * g * vol_of(j);
         if AV == 1u {
-            let x_ij = u_i - vload_y(U_OFF + DIM * j) - vload_dx0(DIM * p);
+            let x_ij = u_i - vload_y(U_OFF + DIM * j) - vload_pair(PDX_OFF + DIM * p);
             let vx = dot(v_i - vload_y(V_OFF + DIM * j), x_ij);
             if vx < 0.0 {
                 let rho_j = kin[KRHO_OFF + j];
                 let mu = H * vx / (dot(x_ij, x_ij) + AV_ETA * AV_ETA * H * H);
                 let c = 0.5 * (c_i + sqrt(BULK / rho_j));
                 let pi = (-AV_ALPHA * c * mu + AV_BETA * mu * mu) / (0.5 * (rho_i + rho_j));
-                viscous -= f_inv_t * g * (RHO0 * vol[j] * pi);
+                viscous -= f_inv_t * g * (RHO0 * vol_of(j) * pi);
             }
         }
     }
-    let a = apply_boundary(i, stress * (1.0 / RHO0) + viscous, v_i, RHO0 * vol[i]);
+    let a = apply_boundary(i, stress * (1.0 / RHO0) + viscous, v_i, RHO0 * vol_of(i));
     vstore_d(V_OFF + DIM * i, a);
     vstore_d(U_OFF + DIM * i, v_i);
 }

@@ -7,7 +7,7 @@ fn strain_energy(i: u32) -> f32 {
         s = mload_y(S_OFF + DIM * DIM * i);
         rho_dev = y[RHO_OFF + i];
     }
-    return vol[i] * energy_density(mload_kin(KF_OFF + DIM * DIM * i), s, rho_dev);
+    return vol_of(i) * energy_density(mload_kin(KF_OFF + DIM * DIM * i), s, rho_dev);
 }
 
 // TLSPH's CFL step is Δx / (c_p + max |v|) with c_p of the reference configuration

@@ -41,6 +41,10 @@ pub enum GpuError {
         count: u32,
         limit: u32,
     },
+    #[error("pass `{pass}` does not compile: {message}")]
+    Shader { pass: String, message: String },
+    #[error("pass `{pass}` uses the binding `{binding}`, which its engine does not provide")]
+    Unbound { pass: String, binding: String },
     #[error(
         "adapter `{adapter}`: the scene needs a {what} of {needed} bytes, above the device \
          limit {limit}; use fewer particles or a device with more memory"
@@ -51,6 +55,14 @@ pub enum GpuError {
         needed: u64,
         limit: u64,
     },
+}
+
+/// A compiled entry point of a WGSL pass and the bindings it uses, by variable name.
+pub struct Pipeline {
+    pub raw: wgpu::ComputePipeline,
+    /// `label (entry)`, for messages.
+    pub pass: String,
+    bindings: Vec<(u32, String)>,
 }
 
 /// One adapter as `meshless info` shows it.
@@ -91,28 +103,48 @@ fn instance() -> wgpu::Instance {
     wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env())
 }
 
-/// The storage buffers entry point `entry` of a WGSL source reads or writes (naga
-/// reflection of the module wgpu compiles); None if the source does not validate (wgpu
-/// then reports the error itself).
-pub fn storage_buffers(source: &str, entry: &str) -> Option<u32> {
+/// What an entry point of a WGSL source binds (naga reflection of the module wgpu
+/// compiles): its bindings in group 0 by variable name, and how many are storage buffers.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Reflection {
+    pub bindings: Vec<(u32, String)>,
+    pub storage_buffers: u32,
+}
+
+/// The [`Reflection`] of entry point `entry`; Err: naga's message when the source does
+/// not validate or has no such entry point.
+pub fn reflect(source: &str, entry: &str) -> Result<Reflection, String> {
     use wgpu::naga;
-    let module = naga::front::wgsl::parse_str(source).ok()?;
+    let module = naga::front::wgsl::parse_str(source).map_err(|e| e.emit_to_string(source))?;
     let info = naga::valid::Validator::new(
-        naga::valid::ValidationFlags::empty(),
-        naga::valid::Capabilities::all(),
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::empty(),
     )
     .validate(&module)
-    .ok()?;
-    let index = module.entry_points.iter().position(|e| e.name == entry)?;
+    .map_err(|e| e.emit_to_string(source))?;
+    let index = module
+        .entry_points
+        .iter()
+        .position(|e| e.name == entry)
+        .ok_or_else(|| format!("no entry point `{entry}`"))?;
     let uses = info.get_entry_point(index);
-    let count = module
+    let used = module
         .global_variables
         .iter()
-        .filter(|(handle, var)| {
-            matches!(var.space, naga::AddressSpace::Storage { .. }) && !uses[*handle].is_empty()
-        })
-        .count();
-    u32::try_from(count).ok()
+        .filter(|(handle, var)| var.binding.is_some() && !uses[*handle].is_empty());
+    let mut reflection = Reflection {
+        bindings: Vec::new(),
+        storage_buffers: 0,
+    };
+    for (_, var) in used {
+        let binding = var.binding.as_ref().map_or(0, |b| b.binding);
+        let name = var.name.clone().unwrap_or_default();
+        reflection.bindings.push((binding, name));
+        if matches!(var.space, naga::AddressSpace::Storage { .. }) {
+            reflection.storage_buffers += 1;
+        }
+    }
+    Ok(reflection)
 }
 
 /// Every adapter wgpu reaches, best first.
@@ -276,21 +308,20 @@ impl Gpu {
             })
     }
 
-    /// Compiles `source` and returns the pipeline of `entry` (layout from the shader).
     /// The compute pipeline of entry point `entry` of a WGSL pass, after checking that it
-    /// binds no more storage buffers than the adapter allows.
-    pub fn pipeline(
-        &self,
-        label: &str,
-        source: &str,
-        entry: &str,
-    ) -> Result<wgpu::ComputePipeline, GpuError> {
+    /// binds no more storage buffers than the adapter allows (layout from the shader).
+    pub fn pipeline(&self, label: &str, source: &str, entry: &str) -> Result<Pipeline, GpuError> {
+        let pass = format!("{label} ({entry})");
+        let reflection = reflect(source, entry).map_err(|message| GpuError::Shader {
+            pass: pass.clone(),
+            message,
+        })?;
         let limit = self.limits.max_storage_buffers_per_shader_stage;
-        if let Some(count) = storage_buffers(source, entry).filter(|&c| c > limit) {
+        if reflection.storage_buffers > limit {
             return Err(GpuError::TooManyBuffers {
                 adapter: self.name(),
-                pass: format!("{label} ({entry})"),
-                count,
+                pass,
+                count: reflection.storage_buffers,
                 limit,
             });
         }
@@ -300,7 +331,7 @@ impl Gpu {
                 label: Some(label),
                 source: wgpu::ShaderSource::Wgsl(source.into()),
             });
-        Ok(self
+        let raw = self
             .device
             .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(label),
@@ -309,43 +340,47 @@ impl Gpu {
                 entry_point: Some(entry),
                 compilation_options: Default::default(),
                 cache: None,
-            }))
+            });
+        Ok(Pipeline {
+            raw,
+            pass,
+            bindings: reflection.bindings,
+        })
     }
 
-    /// Bind group 0 of `pipeline` with `resources` at bindings 0, 1, 2, …
+    /// Bind group 0 of `pipeline`, each binding its entry point uses taking the buffer of
+    /// the same variable name in `resources` (names it does not use are ignored, so one
+    /// table serves every entry point of a file). Err names the pass and the binding
+    /// that `resources` lacks.
     pub fn bind(
         &self,
-        pipeline: &wgpu::ComputePipeline,
-        resources: &[&wgpu::Buffer],
-    ) -> wgpu::BindGroup {
-        let entries: Vec<(u32, &wgpu::Buffer)> = resources
+        pipeline: &Pipeline,
+        resources: &[(&str, &wgpu::Buffer)],
+    ) -> Result<wgpu::BindGroup, GpuError> {
+        let entries = pipeline
+            .bindings
             .iter()
-            .enumerate()
-            .map(|(k, &b)| (k as u32, b))
-            .collect();
-        self.bind_at(pipeline, &entries)
-    }
-
-    /// Bind group 0 of `pipeline` with (binding, buffer) entries: for an entry point that
-    /// uses some of the bindings its file declares (the layout is derived from the entry
-    /// point, so it must get exactly those).
-    pub fn bind_at(
-        &self,
-        pipeline: &wgpu::ComputePipeline,
-        resources: &[(u32, &wgpu::Buffer)],
-    ) -> wgpu::BindGroup {
-        let entries: Vec<wgpu::BindGroupEntry> = resources
-            .iter()
-            .map(|&(binding, b)| wgpu::BindGroupEntry {
-                binding,
-                resource: b.as_entire_binding(),
+            .map(|(binding, name)| {
+                let buffer = resources
+                    .iter()
+                    .rev()
+                    .find(|(n, _)| n == name)
+                    .ok_or_else(|| GpuError::Unbound {
+                        pass: pipeline.pass.clone(),
+                        binding: name.clone(),
+                    })?
+                    .1;
+                Ok(wgpu::BindGroupEntry {
+                    binding: *binding,
+                    resource: buffer.as_entire_binding(),
+                })
             })
-            .collect();
-        self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: None,
-            layout: &pipeline.get_bind_group_layout(0),
+            .collect::<Result<Vec<_>, GpuError>>()?;
+        Ok(self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(&pipeline.pass),
+            layout: &pipeline.raw.get_bind_group_layout(0),
             entries: &entries,
-        })
+        }))
     }
 
     /// Workgroup counts covering `n` invocations of `WORKGROUP`: 2D past 65,535 groups.
@@ -364,11 +399,11 @@ impl Gpu {
     pub fn dispatch(
         &self,
         pass: &mut wgpu::ComputePass<'_>,
-        pipeline: &wgpu::ComputePipeline,
+        pipeline: &Pipeline,
         bind: &wgpu::BindGroup,
         n: u32,
     ) {
-        pass.set_pipeline(pipeline);
+        pass.set_pipeline(&pipeline.raw);
         pass.set_bind_group(0, bind, &[]);
         let (x, y) = self.groups(n);
         pass.dispatch_workgroups(x, y, 1);

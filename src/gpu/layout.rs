@@ -1,11 +1,13 @@
 //! Host-side layout of GPU buffers.
 //!
 //! The solver passes use flat f32 arrays ([`Flat`]: DIM floats per vector, DIM² per
-//! column-major tensor). The cell-list build reads typed `array<vecd>` positions
-//! ([`GpuDim::HV`]: `vec2<f32>`, or `vec3<f32>` with its 16-byte storage stride).
+//! column-major tensor). A buffer holding several fields is described once by
+//! [`Fields`], which gives the host its offsets and its encode/decode, and the shaders
+//! the same offsets as `{PREFIX}{NAME}_OFF` constants. The cell-list build reads typed
+//! `array<vecd>` positions ([`GpuDim::HV`]: `vec2<f32>`, or `vec3<f32>` with its 16-byte
+//! storage stride).
 
-use super::context::Gpu;
-use crate::boundary::Boundary;
+use super::shaders::Constants;
 use crate::tensor::{D2, D3, Dim};
 use bytemuck::Pod;
 
@@ -87,23 +89,160 @@ pub fn flat_v<D: Flat>(vs: impl IntoIterator<Item = D::V>) -> Vec<f32> {
     out
 }
 
-/// The `mask` (bit k: velocity component k prescribed) and `ext` (external acceleration,
-/// DIM per particle) buffers of `shaders/common/boundary.wgsl` for n particles.
-pub fn boundary_buffers<D: Flat>(
-    gpu: &Gpu,
-    boundary: &Boundary<D>,
-    n: usize,
-) -> (wgpu::Buffer, wgpu::Buffer) {
-    let mut mask = vec![0u32; n];
-    for &(i, m) in &boundary.constrained {
-        mask[i as usize] = u32::from(m);
+/// One field of a [`Fields`] buffer: `count` items of `width` floats from `offset`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Field {
+    pub name: &'static str,
+    pub offset: usize,
+    pub count: usize,
+    pub width: usize,
+}
+
+/// The fields of one flat f32 buffer, laid end to end in the order they are declared.
+/// A field declared absent (`present = false`) takes no room but keeps its offset
+/// constant, so that a shader compiled for every variant still names it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Fields {
+    prefix: &'static str,
+    dim: usize,
+    fields: Vec<Field>,
+    len: usize,
+}
+
+impl Fields {
+    /// An empty buffer whose offset constants are named `{prefix}{NAME}_OFF`.
+    pub fn new(prefix: &'static str, dim: usize) -> Self {
+        Self {
+            prefix,
+            dim,
+            fields: Vec::new(),
+            len: 0,
+        }
     }
-    let mut ext = vec![D::zero(); n];
-    for &(i, a) in &boundary.external {
-        ext[i as usize] = a;
+
+    /// `count` items of `width` floats, if `present`.
+    pub fn block(mut self, name: &'static str, present: bool, count: usize, width: usize) -> Self {
+        let count = if present { count } else { 0 };
+        self.fields.push(Field {
+            name,
+            offset: self.len,
+            count,
+            width,
+        });
+        self.len += count * width;
+        self
     }
-    (
-        gpu.storage("mask", &mask),
-        gpu.storage("ext", &flat_v::<D>(ext)),
-    )
+
+    /// `count` scalars.
+    pub fn scalars(self, name: &'static str, present: bool, count: usize) -> Self {
+        self.block(name, present, count, 1)
+    }
+
+    /// `count` DIM-vectors.
+    pub fn vectors(self, name: &'static str, present: bool, count: usize) -> Self {
+        let dim = self.dim;
+        self.block(name, present, count, dim)
+    }
+
+    /// `count` column-major DIM×DIM tensors.
+    pub fn tensors(self, name: &'static str, present: bool, count: usize) -> Self {
+        let dim = self.dim;
+        self.block(name, present, count, dim * dim)
+    }
+
+    /// The field `name`. Layouts are written in code, so a name it lacks is a bug.
+    pub fn field(&self, name: &str) -> &Field {
+        self.fields
+            .iter()
+            .find(|f| f.name == name)
+            .unwrap_or_else(|| panic!("layout {} has no field {name}", self.prefix))
+    }
+
+    /// The offset of field `name` (f32 entries).
+    pub fn offset(&self, name: &str) -> usize {
+        self.field(name).offset
+    }
+
+    /// Whether field `name` takes room.
+    pub fn has(&self, name: &str) -> bool {
+        self.field(name).count > 0
+    }
+
+    /// Length of the buffer (f32 entries).
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Length in bytes (at least 4: an empty buffer still binds).
+    pub fn bytes(&self) -> u64 {
+        (self.len.max(1) * 4) as u64
+    }
+
+    /// The offset constants `{PREFIX}{NAME}_OFF` of every field and `{PREFIX}LEN`.
+    pub fn constants(&self, constants: Constants) -> Constants {
+        let p = self.prefix;
+        self.fields
+            .iter()
+            .fold(constants, |c, f| {
+                c.u32(&format!("{p}{}_OFF", f.name), f.offset as u32)
+            })
+            .u32(&format!("{p}LEN"), self.len as u32)
+    }
+
+    /// A zeroed host copy of the buffer.
+    pub fn zeroed(&self) -> Vec<f32> {
+        vec![0.0; self.len]
+    }
+
+    /// Writes items of `width` floats each into field `name`, item k from `put(k, out)`.
+    fn write<T>(&self, flat: &mut [f32], name: &str, items: &[T], put: impl Fn(&mut Vec<f32>, &T)) {
+        let f = self.field(name);
+        assert_eq!(items.len(), f.count, "field {name} holds {} items", f.count);
+        let mut out = Vec::with_capacity(f.count * f.width);
+        items.iter().for_each(|t| put(&mut out, t));
+        flat[f.offset..f.offset + out.len()].copy_from_slice(&out);
+    }
+
+    /// Writes scalars less `rest` (J − 1, ρ − ρ0, …) into field `name`.
+    pub fn write_s(&self, flat: &mut [f32], name: &str, values: &[f64], rest: f64) {
+        self.write(flat, name, values, |o, &x| o.push((x - rest) as f32));
+    }
+
+    /// Writes vectors into field `name`.
+    pub fn write_v<D: Flat>(&self, flat: &mut [f32], name: &str, values: &[D::V]) {
+        self.write(flat, name, values, |o, &v| D::push_v(o, v));
+    }
+
+    /// Writes tensors less `rest` (F − I, …), formed in f64, into field `name`.
+    pub fn write_t<D: Flat>(&self, flat: &mut [f32], name: &str, values: &[D::T], rest: D::T) {
+        self.write(flat, name, values, |o, &t| D::push_t(o, t - rest));
+    }
+
+    /// The items of field `name`, each read from its slice of `flat`.
+    fn read<T>(&self, flat: &[f32], name: &str, get: impl Fn(&[f32]) -> T) -> Vec<T> {
+        let f = self.field(name);
+        flat[f.offset..f.offset + f.count * f.width]
+            .chunks_exact(f.width.max(1))
+            .map(get)
+            .collect()
+    }
+
+    /// The scalars of field `name` plus `rest`.
+    pub fn read_s(&self, flat: &[f32], name: &str, rest: f64) -> Vec<f64> {
+        self.read(flat, name, |s| rest + f64::from(s[0]))
+    }
+
+    /// The vectors of field `name`.
+    pub fn read_v<D: Flat>(&self, flat: &[f32], name: &str) -> Vec<D::V> {
+        self.read(flat, name, D::read_v)
+    }
+
+    /// The tensors of field `name` plus `rest`.
+    pub fn read_t<D: Flat>(&self, flat: &[f32], name: &str, rest: D::T) -> Vec<D::T> {
+        self.read(flat, name, |s| rest + D::read_t(s))
+    }
 }

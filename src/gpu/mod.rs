@@ -6,6 +6,7 @@ pub mod layout;
 pub mod neighbour;
 pub mod program;
 pub mod reduction;
+pub mod reference;
 pub mod shaders;
 
 pub use context::{Gpu, GpuError};

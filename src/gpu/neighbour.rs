@@ -14,7 +14,7 @@
 //! (n + 1 entries) → read back the pair count (the only readback) → allocate `ids` → fill
 //! and sort each particle's slice.
 
-use super::context::{Gpu, GpuError, WORKGROUP};
+use super::context::{Gpu, GpuError, Pipeline, WORKGROUP};
 use super::layout::GpuDim;
 use super::shaders::{CELL_LIST, Constants, SCAN, compose};
 use crate::tensor::D2;
@@ -122,8 +122,8 @@ struct ScanParams {
 
 /// The pipelines of the exclusive prefix sum.
 pub struct Scan {
-    blocks: wgpu::ComputePipeline,
-    add: wgpu::ComputePipeline,
+    blocks: Pipeline,
+    add: Pipeline,
 }
 
 /// One dispatch: pipeline, bind group, workgroup counts.
@@ -159,7 +159,7 @@ impl Scan {
 
     /// An exclusive scan of the first `n` u32 of `data`, in place: one level per factor
     /// of [`SCAN_BLOCK`] (block scans from the bottom up, add-backs from the top down).
-    pub fn plan(&self, gpu: &Gpu, data: &wgpu::Buffer, n: u32) -> ScanPlan {
+    pub fn plan(&self, gpu: &Gpu, data: &wgpu::Buffer, n: u32) -> Result<ScanPlan, GpuError> {
         let mut scans = Vec::new();
         let mut adds = Vec::new();
         let mut level = data.clone();
@@ -174,9 +174,10 @@ impl Scan {
                     _pad: [0; 3],
                 },
             );
+            let table = [("scan", &params), ("data", &level), ("block_sums", &sums)];
             scans.push(Step {
-                pipeline: self.blocks.clone(),
-                bind: gpu.bind(&self.blocks, &[&params, &level, &sums]),
+                pipeline: self.blocks.raw.clone(),
+                bind: gpu.bind(&self.blocks, &table)?,
                 groups: gpu.groups(blocks * WORKGROUP),
             });
             if blocks == 1 {
@@ -184,8 +185,8 @@ impl Scan {
                 break;
             }
             adds.push(Step {
-                pipeline: self.add.clone(),
-                bind: gpu.bind(&self.add, &[&params, &level, &sums]),
+                pipeline: self.add.raw.clone(),
+                bind: gpu.bind(&self.add, &table)?,
                 groups: gpu.groups(len),
             });
             level = sums;
@@ -193,7 +194,7 @@ impl Scan {
         }
         adds.reverse();
         scans.extend(adds);
-        ScanPlan { steps: scans }
+        Ok(ScanPlan { steps: scans })
     }
 }
 
@@ -208,7 +209,7 @@ impl ScanPlan {
 /// Exclusive prefix sum of the first `n` u32 of `data`, in place (wrapping), submitted to
 /// the queue at once.
 pub fn exclusive_scan(gpu: &Gpu, data: &wgpu::Buffer, n: u32) -> Result<(), GpuError> {
-    let plan = Scan::new(gpu)?.plan(gpu, data, n);
+    let plan = Scan::new(gpu)?.plan(gpu, data, n)?;
     let mut encoder = gpu.device.create_command_encoder(&Default::default());
     {
         let mut pass = encoder.begin_compute_pass(&Default::default());
@@ -216,27 +217,6 @@ pub fn exclusive_scan(gpu: &Gpu, data: &wgpu::Buffer, n: u32) -> Result<(), GpuE
     }
     gpu.queue.submit([encoder.finish()]);
     Ok(())
-}
-
-/// Bind group 0 of `pipeline` with each buffer at its binding number (the passes of
-/// `cell_list.wgsl` use different subsets of its bindings).
-fn bind_at(
-    gpu: &Gpu,
-    pipeline: &wgpu::ComputePipeline,
-    entries: &[(u32, &wgpu::Buffer)],
-) -> wgpu::BindGroup {
-    let entries: Vec<wgpu::BindGroupEntry> = entries
-        .iter()
-        .map(|&(binding, buffer)| wgpu::BindGroupEntry {
-            binding,
-            resource: buffer.as_entire_binding(),
-        })
-        .collect();
-    gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: None,
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &entries,
-    })
 }
 
 /// Builds the CSR neighbour lists of the `n` points in `x` (`array<vecd>`, uploaded with
@@ -298,29 +278,33 @@ pub fn build<D: GpuDim>(
         pipeline("fill_neighbours")?,
     );
     let scan = Scan::new(gpu)?;
-    let scan_cells = scan.plan(gpu, &cell_start, ncells + 1);
-    let scan_offsets = scan.plan(gpu, &offsets, n + 1);
+    let scan_cells = scan.plan(gpu, &cell_start, ncells + 1)?;
+    let scan_offsets = scan.plan(gpu, &offsets, n + 1)?;
     let per_particle = gpu.groups(n);
-    let step = |pipeline: &wgpu::ComputePipeline, entries: &[(u32, &wgpu::Buffer)]| Step {
-        pipeline: pipeline.clone(),
-        bind: bind_at(gpu, pipeline, entries),
-        groups: per_particle,
+    // The passes of cell_list.wgsl use different subsets of its bindings.
+    let table = |ids| -> [(&str, &wgpu::Buffer); 8] {
+        [
+            ("params", &uniform),
+            ("x", x),
+            ("cell", &cell),
+            ("cell_start", &cell_start),
+            ("cursor", &cursor),
+            ("sorted", &sorted),
+            ("offsets", &offsets),
+            ("ids", ids),
+        ]
     };
-    let bin = step(&bin, &[(0, &uniform), (1, x), (2, &cell), (3, &cell_start)]);
-    let scatter = step(
-        &scatter,
-        &[(0, &uniform), (2, &cell), (4, &cursor), (5, &sorted)],
-    );
-    let count = step(
-        &count,
-        &[
-            (0, &uniform),
-            (1, x),
-            (3, &cell_start),
-            (5, &sorted),
-            (6, &offsets),
-            (7, &no_ids),
-        ],
+    let step = |pipeline: &Pipeline, ids| -> Result<Step, GpuError> {
+        Ok(Step {
+            pipeline: pipeline.raw.clone(),
+            bind: gpu.bind(pipeline, &table(ids))?,
+            groups: per_particle,
+        })
+    };
+    let (bin, scatter, count) = (
+        step(&bin, &no_ids)?,
+        step(&scatter, &no_ids)?,
+        step(&count, &no_ids)?,
     );
 
     let mut encoder = gpu.device.create_command_encoder(&Default::default());
@@ -358,17 +342,7 @@ pub fn build<D: GpuDim>(
     gpu.check_size("neighbour list", ids_bytes)?;
     let ids = gpu.zeroed("neighbour ids", ids_bytes);
     if pairs > 0 {
-        let fill = step(
-            &fill,
-            &[
-                (0, &uniform),
-                (1, x),
-                (3, &cell_start),
-                (5, &sorted),
-                (6, &offsets),
-                (7, &ids),
-            ],
-        );
+        let fill = step(&fill, &ids)?;
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());

@@ -4,7 +4,7 @@
 //! coefficients, and the recording of whole steps, with the method's rate evaluations,
 //! into one command encoder.
 
-use super::context::{Gpu, GpuError};
+use super::context::{Gpu, GpuError, Pipeline};
 use crate::integrate::{Buf, Evaluation, IntegratorKind, Op, program};
 use bytemuck::{Pod, Zeroable};
 
@@ -46,7 +46,7 @@ pub struct Stepper {
     /// y, stage, rates, acc.
     states: [wgpu::Buffer; 4],
     /// blend, kick, drift.
-    stages: [wgpu::ComputePipeline; 3],
+    stages: [Pipeline; 3],
     steps: Vec<Recorded>,
     dt: f64,
     /// Leapfrog only: rates primed at the current state.
@@ -84,12 +84,12 @@ impl Stepper {
                 let (pipeline, out, x, invocations) = match op {
                     Op::Rates { src, .. } => {
                         index += 1;
-                        return Recorded::Rates(Evaluation {
+                        return Ok(Recorded::Rates(Evaluation {
                             src,
                             index: index - 1,
-                        });
+                        }));
                     }
-                    Op::Copy { from, to } => return Recorded::Copy(from, to),
+                    Op::Copy { from, to } => return Ok(Recorded::Copy(from, to)),
                     Op::Blend { out, x, .. } => (0, out, x, layout.len),
                     Op::Kick { out, .. } => (1, out, Buf::Rates, nd),
                     Op::Drift { out, .. } => (2, out, Buf::Rates, nd + rest),
@@ -97,17 +97,21 @@ impl Stepper {
                 let coefficients = gpu.uniform("coefficients", &Coefficients { a: 1.0, b: 0.0 });
                 let bind = gpu.bind(
                     &stages[pipeline],
-                    &[&coefficients, &states[out as usize], &states[x as usize]],
-                );
-                Recorded::Pass {
+                    &[
+                        ("c", &coefficients),
+                        ("out", &states[out as usize]),
+                        ("x", &states[x as usize]),
+                    ],
+                )?;
+                Ok(Recorded::Pass {
                     pipeline,
                     bind,
                     coefficients,
                     invocations: invocations as u32,
                     op,
-                }
+                })
             })
-            .collect();
+            .collect::<Result<_, GpuError>>()?;
         Ok(Self {
             kind,
             layout,

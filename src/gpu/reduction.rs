@@ -4,7 +4,7 @@
 //! workgroup on the device and summed on the host in f64. Only the partials (12 floats
 //! per 256 particles) are read back.
 
-use super::context::{Gpu, GpuError};
+use super::context::{Gpu, GpuError, Pipeline};
 use crate::observe::Invariants;
 
 /// Values per workgroup written by `reduce.wgsl`.
@@ -25,7 +25,7 @@ pub struct Reduced {
 
 /// The reduce pass of an engine and its cached result for the current state.
 pub struct Reduction {
-    pipeline: wgpu::ComputePipeline,
+    pipeline: Pipeline,
     bind: wgpu::BindGroup,
     partials: wgpu::Buffer,
     n: u32,
@@ -33,22 +33,21 @@ pub struct Reduction {
 }
 
 impl Reduction {
-    /// `source` is `reduce.wgsl` composed for the method; `inputs` are its bindings 0–4
-    /// (state, method data, volumes, reference positions, power) that the method's
-    /// variant reads and those past 5 its hooks declare, with their binding numbers; the
-    /// partials are binding 5.
+    /// `source` is `reduce.wgsl` composed for the method; `inputs` its engine's buffers
+    /// by binding name (the state `y`, `kin`, `reference` and those its hooks declare);
+    /// the reduction adds its `partials`.
     pub fn new(
         gpu: &Gpu,
         source: &str,
-        inputs: &[(u32, &wgpu::Buffer)],
+        inputs: &[(&str, &wgpu::Buffer)],
         n: usize,
     ) -> Result<Self, GpuError> {
         let pipeline = gpu.pipeline("reduce", source, "reduce")?;
         let (gx, gy) = gpu.groups(n as u32);
         let partials = gpu.zeroed("partials", u64::from(gx * gy) * REDUCED as u64 * 4);
         let mut entries = inputs.to_vec();
-        entries.push((5, &partials));
-        let bind = gpu.bind_at(&pipeline, &entries);
+        entries.push(("partials", &partials));
+        let bind = gpu.bind(&pipeline, &entries)?;
         Ok(Self {
             pipeline,
             bind,

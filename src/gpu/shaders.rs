@@ -63,28 +63,30 @@ pub const KERNEL: Wgsl = wgsl!("common/kernel.wgsl");
 pub const MECHANICS: Wgsl = wgsl!("common/mechanics.wgsl");
 /// Boundary conditions on the rates and the power of supports and loads.
 pub const BOUNDARY: Wgsl = wgsl!("common/boundary.wgsl");
+/// Accessors of the reference configuration on the device (`gpu::reference`).
+pub const REFERENCE: Wgsl = wgsl!("common/reference.wgsl");
 /// The von Mises return map.
 pub const PLASTICITY: Wgsl = wgsl!("common/plasticity.wgsl");
 
 /// Corrected reference gradients (Randles–Libersky, Shepard, none).
 pub const CORRECTION: Source = source!(
     "common/correction.wgsl",
-    [KERNEL],
-    [("dx0", false), ("grad", true)]
+    [KERNEL, REFERENCE],
+    [("pair", true), ("reference", false)]
 );
 /// The integrators' stage operations over the flat state.
 pub const INTEGRATE: Source = source!("common/integrate.wgsl");
 /// Reference pair offsets X_j − X_i from hi + lo positions.
 pub const PAIR_OFFSETS: Source = source!(
     "common/pair_offsets.wgsl",
-    [],
-    [("x_hi", false), ("x_lo", false), ("dx0", true)]
+    [REFERENCE],
+    [("reference", false), ("pair", true)]
 );
 /// Penalty contact of seed 000 §5.8: one gather per slave over the other bodies' hulls.
 pub const CONTACT: Source = source!(
     "common/contact.wgsl",
-    [],
-    [("x_hi", false), ("y", false), ("ext", true)]
+    [REFERENCE],
+    [("reference", false), ("y", false), ("ext", true)]
 );
 /// Cell list and neighbour lists.
 pub const CELL_LIST: Source = source!("common/cell_list.wgsl");

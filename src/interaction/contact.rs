@@ -164,8 +164,16 @@ impl<D: Dim> super::gpu::GpuInteraction for Contact<D> {
         );
         let bind = gpu.bind(
             &pipeline,
-            &[&params, on.x_hi, on.y, &body, &hull, &hull_start, on.ext],
-        );
+            &[
+                ("params", &params),
+                ("reference", on.reference),
+                ("y", on.y),
+                ("body", &body),
+                ("hull", &hull),
+                ("hull_start", &hull_start),
+                ("ext", on.ext),
+            ],
+        )?;
         let penalty = self.penalty;
         Ok(super::gpu::Pass {
             pipeline,

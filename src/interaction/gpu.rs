@@ -3,14 +3,14 @@
 //! accelerations there, and the rate passes add `ext` (`shaders/common/boundary.wgsl`).
 
 use super::Interactions;
-use crate::gpu::context::{Gpu, GpuError};
+use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::shaders::Source;
 use crate::tensor::Dim;
 
 /// The engine buffers an interaction pass binds.
 pub struct Bindings<'a> {
-    /// Reference positions (the hi part of the hi + lo split), DIM floats a particle.
-    pub x_hi: &'a wgpu::Buffer,
+    /// The reference configuration (`gpu::reference`: X at `RX_OFF`).
+    pub reference: &'a wgpu::Buffer,
     /// The state at the start of the step, u at `U_OFF`.
     pub y: &'a wgpu::Buffer,
     /// External accelerations, DIM floats a particle: the passes add to it.
@@ -19,7 +19,7 @@ pub struct Bindings<'a> {
 
 /// A compiled and bound pass of one interaction.
 pub struct Pass {
-    pub pipeline: wgpu::ComputePipeline,
+    pub pipeline: Pipeline,
     pub bind: wgpu::BindGroup,
     /// Its uniform, rewritten from Δt before the steps are recorded.
     pub params: wgpu::Buffer,
@@ -47,13 +47,14 @@ pub struct GpuInteractions {
 }
 
 impl GpuInteractions {
-    /// The passes of `interactions`; `traction` holds the loads, and the `ext` the rate
-    /// passes read is [`GpuInteractions::ext`]: `traction` itself when no pass writes.
+    /// The passes of `interactions` on the engine's `reference` and state `y`; `traction`
+    /// holds the loads, and the `ext` the rate passes read is [`GpuInteractions::ext`]:
+    /// `traction` itself when no pass writes.
     pub fn new<D: Dim>(
         gpu: &Gpu,
         interactions: &Interactions<D>,
         compose: &dyn Fn(&Source) -> String,
-        x_hi: &wgpu::Buffer,
+        reference: &wgpu::Buffer,
         y: &wgpu::Buffer,
         traction: wgpu::Buffer,
     ) -> Result<Self, GpuError> {
@@ -68,7 +69,11 @@ impl GpuInteractions {
         } else {
             traction.clone()
         };
-        let on = Bindings { x_hi, y, ext: &ext };
+        let on = Bindings {
+            reference,
+            y,
+            ext: &ext,
+        };
         let passes = passes
             .map(|p| p.pass(gpu, compose, &on))
             .collect::<Result<_, _>>()?;

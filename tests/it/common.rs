@@ -144,7 +144,8 @@ pub fn random_state<D: Dim>(m: &MixedSph<D>, seed: &mut u64, h_noise: f64) -> Mi
 }
 
 /// Parses and validates the WGSL `src` with naga; panics with the located error, under
-/// `name`.
+/// `name`, or when an entry point binds more storage buffers than WebGPU allows.
+#[cfg(feature = "gpu")]
 pub fn validate_wgsl(name: &str, src: &str) {
     let module = naga::front::wgsl::parse_str(src)
         .unwrap_or_else(|e| panic!("{}", e.emit_to_string_with_path(src, name)));
@@ -154,7 +155,23 @@ pub fn validate_wgsl(name: &str, src: &str) {
     )
     .validate(&module)
     .unwrap_or_else(|e| panic!("{}", e.emit_to_string_with_path(src, name)));
+    // WebGPU's default limit, which every adapter meets: no entry point of any variant
+    // may bind more storage buffers (`Gpu::pipeline` checks the adapter's own at run time).
+    for entry in &module.entry_points {
+        let r = meshless::gpu::context::reflect(src, &entry.name).unwrap();
+        assert!(
+            r.storage_buffers <= WEBGPU_STORAGE_BUFFERS,
+            "{name}: entry point `{}` binds {} storage buffers, above WebGPU's default of \
+             {WEBGPU_STORAGE_BUFFERS}",
+            entry.name,
+            r.storage_buffers
+        );
+    }
 }
+
+/// `max_storage_buffers_per_shader_stage` of WebGPU's default limits.
+#[cfg(feature = "gpu")]
+pub const WEBGPU_STORAGE_BUFFERS: u32 = 8;
 
 /// The largest `norm` over `values` (0 for none).
 fn largest<T>(values: impl IntoIterator<Item = T>, norm: impl Fn(T) -> f64) -> f64 {

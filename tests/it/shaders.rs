@@ -2,7 +2,7 @@
 //! dimensions and for every scene variant the solver compiles.
 
 use crate::common::{load, mixed_variants, shipped, validate_wgsl};
-use meshless::gpu::context::storage_buffers;
+use meshless::gpu::context::reflect;
 use meshless::gpu::layout::GpuDim;
 use meshless::gpu::shaders::{self, Constants};
 use meshless::methods::mixed::{MixedSph, gpu as mixed};
@@ -88,7 +88,7 @@ fn mixed_cases(dim: usize) -> Vec<Case> {
 fn check_all<D: GpuDim>() {
     for case in variants() {
         for rate in [false, true] {
-            let constants = scene_constants(&case, &Layout::new(100, D::N, rate));
+            let constants = scene_constants(&case, &Layout::new(100, D::N, rate, 1000));
             for source in tlsph::SHADERS {
                 let src = shaders::compose::<D>(source, &constants);
                 validate_wgsl(&format!("{}D {} ({})", D::N, source.name, case.name), &src);
@@ -170,10 +170,10 @@ fn a_broken_shader_is_rejected() {
     );
 }
 
-/// The storage buffers an entry point binds, as the pipeline check counts them: those it
-/// reads or writes, not every one its module declares.
+/// The bindings an entry point uses, by name, and its storage buffers, as the pipeline
+/// check counts them: those it reads or writes, not every one its module declares.
 #[test]
-fn storage_buffers_are_counted_per_entry_point() {
+fn bindings_are_reflected_per_entry_point() {
     let src = "
         @group(0) @binding(0) var<storage, read> a: array<f32>;
         @group(0) @binding(1) var<storage, read> b: array<f32>;
@@ -186,15 +186,13 @@ fn storage_buffers_are_counted_per_entry_point() {
             c[i.x] = b[i.x];
         }
     ";
-    assert_eq!(storage_buffers(src, "both"), Some(2));
-    assert_eq!(storage_buffers(src, "one"), Some(2));
-    assert_eq!(storage_buffers(src, "none"), None);
-    // Every pass of the shipped variants is counted; the largest binds at most 12, below
-    // the 31 of desktop Vulkan, Metal and DX12 adapters.
-    let case = shipped("swinging-plate");
-    let cpu: MixedSph<D2> = build_method(&case).unwrap();
-    let (_, constants) = mixed::scene(&case, &cpu);
-    let forces = shaders::compose::<D2>(&mixed::FORCES, &constants);
-    let count = storage_buffers(&forces, "forces").expect("the forces pass validates");
-    assert!((8..=12).contains(&count), "mixed forces binds {count}");
+    let names = |entry: &str| {
+        let r = reflect(src, entry).unwrap();
+        let mut names: Vec<String> = r.bindings.into_iter().map(|(_, n)| n).collect();
+        names.sort();
+        (names, r.storage_buffers)
+    };
+    assert_eq!(names("both"), (vec!["a".into(), "c".into(), "k".into()], 2));
+    assert_eq!(names("one"), (vec!["b".into(), "c".into()], 2));
+    assert!(reflect(src, "none").unwrap_err().contains("none"));
 }

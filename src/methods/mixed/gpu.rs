@@ -1,8 +1,9 @@
 //! Mixed {p, F, H, J} SPH (seed 003: Upwind-SPH and JST-SPH) on the GPU: the passes of
 //! `shaders/mixed/` and the integrator program of [`crate::gpu::program`]. The set-up is
-//! the CPU reference's own (`MixedSph::new`, f64): neighbours, corrected gradients, the
-//! reverse pairs, least-squares and Laplacian weights and the ghost table are computed
-//! once on the host and uploaded in f32. The CPU method is kept for snapshots (σ and the
+//! the CPU reference's own (`MixedSph::new`, f64): the reference configuration and
+//! neighbours ([`crate::gpu::reference`]), corrected gradients, the reverse pairs,
+//! least-squares and Laplacian weights and the ghost table are computed once on the host
+//! and uploaded in f32. The CPU method is kept for snapshots (σ and the
 //! strain energy of a read-back state, in f64).
 //!
 //! One rate evaluation, all on the device and recorded in one compute pass:
@@ -13,13 +14,14 @@
 
 use super::system::{Fluxes, MixedSph, MixedState};
 use super::{CflWaveSpeed, DeformationGradient, Momentum};
-use crate::gpu::context::{Gpu, WORKGROUP};
-use crate::gpu::layout::{GpuDim, boundary_buffers, flat_v};
+use crate::gpu::context::{Gpu, GpuError, Pipeline, WORKGROUP};
+use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{Reduced, Reduction, WorkBalance};
+use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
-    self, BOUNDARY, CONTACT, Constants, INTEGRATE, MECHANICS, PLASTICITY, Source, Wgsl, source,
-    wgsl,
+    self, BOUNDARY, CONTACT, Constants, INTEGRATE, MECHANICS, PLASTICITY, REFERENCE, Source, Wgsl,
+    source, wgsl,
 };
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range};
 use crate::integrate::IntegratorKind;
@@ -30,6 +32,7 @@ use crate::methods::{BlowUp, Method, not_run_by};
 use crate::observe::{Invariants, Snapshot};
 use crate::run::{Engine, Failed, build_method};
 use crate::scene::Case;
+use crate::tensor::Dim;
 use bytemuck::{Pod, Zeroable};
 use glam::DMat3;
 
@@ -50,66 +53,51 @@ pub const GHOSTS: Source = source!(
 pub const KINEMATICS: Source = source!(
     "mixed/mixed_kinematics.wgsl",
     [MECHANICS, MIXED, MOTION, PLASTICITY],
-    [
-        ("grad", false),
-        ("y", false),
-        ("gm", false),
-        ("kin", true),
-        ("d", true),
-        ("fs", false)
-    ]
+    [("pair", false), ("y", false), ("kin", true), ("d", true)]
 );
 /// The bond-based F^c (seed 002 eqs 37, 39).
 pub const BOND: Source = source!(
     "mixed/mixed_bond.wgsl",
     [MIXED, MOTION],
-    [("x_ab", false), ("y", false), ("gm", false), ("fc", true)]
+    [("pair", false), ("y", false), ("kin", true)]
 );
 /// Least-squares slopes of v and P, or the Laplacian ∇²v.
 pub const SLOPES: Source = source!(
     "mixed/mixed_slopes.wgsl",
     [MIXED, MOTION],
-    [
-        ("weights", false),
-        ("y", false),
-        ("gm", false),
-        ("out", true),
-        ("kin", false)
-    ]
+    [("pair", false), ("y", false), ("out", true), ("kin", false)]
 );
 /// T, D(p) and D(J) per particle.
 pub const FORCES: Source = source!(
     "mixed/mixed_forces.wgsl",
     [MIXED, MOTION],
     [
-        ("grad", false),
-        ("grad_rev", false),
+        ("pair", false),
         ("y", false),
-        ("gm", false),
         ("kin", false),
         ("force", true),
-        ("pair", false),
         ("second", false)
     ]
 );
 /// The projection's sums and solve, and the rates with the boundary conditions.
 pub const MOMENTUM: Source = source!(
     "mixed/mixed_momentum.wgsl",
-    [MIXED, BOUNDARY],
+    [MIXED, BOUNDARY, REFERENCE],
     [
         ("force", false),
         ("y", false),
         ("y0", false),
-        ("x_rel", false),
+        ("reference", false),
         ("ext", false),
+        ("kin", true),
         ("d", true)
     ]
 );
 /// Energies, momenta, checks and the CFL pair wave speed of a state.
 pub const REDUCE: Source = source!(
     "common/reduce.wgsl",
-    [MECHANICS, ENERGY, PLASTICITY],
-    [("y", false), ("kin", false), ("x_hi", false)]
+    [MECHANICS, MIXED, MOTION, ENERGY, PLASTICITY, REFERENCE],
+    [("y", false), ("kin", false), ("reference", false)]
 );
 /// The per-step commit of the plastic history.
 pub const PLASTIC: Source = source!(
@@ -123,107 +111,133 @@ pub const SHADERS: &[Source] = &[
     GHOSTS, KINEMATICS, PLASTIC, BOND, SLOPES, FORCES, MOMENTUM, REDUCE, INTEGRATE, CONTACT,
 ];
 
-/// Offsets (in f32 entries) of the fields in the flat buffers of a mixed scene.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// The flat buffers of a mixed scene, each described once ([`Fields`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct MixedLayout {
     /// Real particles and ghosts.
     pub n: usize,
     pub ghosts: usize,
     pub dim: usize,
-    pub evolves_h: bool,
-    pub evolves_j: bool,
     /// The kinematics keep H for the D(J) gather (Upwind-SPH with J evolved).
     pub kin_h: bool,
-    /// State [u | v | F − I | H − I | J − 1] of the real particles.
-    pub u: usize,
-    pub v: usize,
-    pub f: usize,
-    pub h: usize,
-    pub j: usize,
-    pub len: usize,
-    /// F − I of the stress: F in the state, or with the bond-based F (seed 002) F^c − I
-    /// at 0 of its own buffer (DIM² per real particle).
-    pub fs: usize,
-    /// Kinematics [P | H − I] of the real particles then the ghosts.
-    pub kin_p: usize,
-    pub kin_h_off: usize,
-    pub kin_len: usize,
-    /// Forces [T | D(p) | D(J)] of the real particles.
-    pub force_t: usize,
-    pub force_d: usize,
-    pub force_j: usize,
-    pub force_len: usize,
+    /// The state [u | v | F − I | H − I | J − 1] of the real particles (H and J where
+    /// evolved).
+    pub state: Fields,
+    /// [P | H − I] of the real particles then the ghosts, the ghost motion [u | v], the
+    /// bond-based F^c − I and the power of supports and loads.
+    pub kin: Fields,
+    /// [T | D(p) | D(J)] of the real particles and the projection's λ, μ, c − X̄ (vec3
+    /// padded to four floats each).
+    pub force: Fields,
+    /// Per pair in CSR order: G_ab = V_b g_ab, G_ba = V_b g_ba, d_ab = X_b − X_a (upwind
+    /// flux, bond-based F), s_ab (JST), w_ab (least-squares slopes), ℓ_ab (JST
+    /// Laplacian), w_ab (bond-based F).
+    pub pair: Fields,
+    pub reference: Fields,
 }
 
 impl MixedLayout {
-    pub fn new(
-        n: usize,
-        ghosts: usize,
-        dim: usize,
-        evolves: (bool, bool),
-        upwind: bool,
-        bond: bool,
-    ) -> Self {
-        let (evolves_h, evolves_j) = evolves;
-        let (nd, nt) = (n * dim, n * dim * dim);
-        let h = 2 * nd + nt;
-        let j = h + if evolves_h { nt } else { 0 };
+    /// The layout of the scene set up in `cpu`.
+    pub fn of<D: Dim>(cpu: &MixedSph<D>) -> Self {
+        let n = cpu.reference().len();
+        let ghosts = cpu.extended_reference().0.len() - n;
+        let pairs = cpu.neighbours().pair_count();
+        let conserved = cpu.conserved();
+        let (evolves_h, evolves_j) = (conserved.evolves_h(), conserved.evolves_j());
+        let (jst, bond) = (cpu.jst().is_some(), cpu.bond_weights().is_some());
+        let upwind = !jst;
         let kin_h = upwind && evolves_j;
-        let ext_t = (n + ghosts) * dim * dim;
+        let dim = D::N;
         Self {
             n,
             ghosts,
             dim,
-            evolves_h,
-            evolves_j,
             kin_h,
-            u: 0,
-            v: nd,
-            f: 2 * nd,
-            h,
-            j,
-            len: j + if evolves_j { n } else { 0 },
-            fs: if bond { 0 } else { 2 * nd },
-            kin_p: 0,
-            kin_h_off: ext_t,
-            kin_len: if kin_h { 2 * ext_t } else { ext_t },
-            force_t: 0,
-            force_d: nd,
-            force_j: 2 * nd,
-            force_len: 2 * nd + n,
+            state: Fields::new("", dim)
+                .vectors("U", true, n)
+                .vectors("V", true, n)
+                .tensors("F", true, n)
+                .tensors("H", evolves_h, n)
+                .scalars("J", evolves_j, n),
+            kin: Fields::new("K", dim)
+                .tensors("P", true, n + ghosts)
+                .tensors("H", kin_h, n + ghosts)
+                .vectors("GM", true, 2 * ghosts)
+                .tensors("FC", bond, n)
+                .scalars("POW", true, n),
+            force: Fields::new("F", dim)
+                .vectors("T", true, n)
+                .vectors("D", true, n)
+                .scalars("J", true, n)
+                .block("PROJ", true, 3, 4),
+            pair: Fields::new("P", dim)
+                .vectors("G", true, pairs)
+                .vectors("GR", true, pairs)
+                .vectors("DX", upwind || bond, pairs)
+                .scalars("S", jst, pairs)
+                .vectors("LS", upwind && cpu.reconstruction(), pairs)
+                .scalars("ELL", jst, pairs)
+                .scalars("W", bond, pairs),
+            reference: reference::fields(n, dim, EXTRAS),
         }
     }
 
-    fn state(&self) -> StateLayout {
+    fn stepped(&self) -> StateLayout {
         StateLayout {
             n: self.n,
             dim: self.dim,
-            rest: self.f,
-            len: self.len,
+            rest: self.state.offset("F"),
+            len: self.state.len(),
+        }
+    }
+
+    /// A mixed state as a flat f32 state: F − I, H − I and J − 1 are formed in f64.
+    fn encode<D: GpuDim>(&self, y: &MixedState<D>) -> Vec<f32> {
+        let l = &self.state;
+        let mut flat = l.zeroed();
+        l.write_v::<D>(&mut flat, "U", &y.u);
+        l.write_v::<D>(&mut flat, "V", &y.v);
+        l.write_t::<D>(&mut flat, "F", &y.f, D::identity());
+        l.write_t::<D>(&mut flat, "H", &y.h, D::identity());
+        l.write_s(&mut flat, "J", &y.j, 1.0);
+        flat
+    }
+
+    /// Decodes a flat state (`excess`: F, H, J are stored less I, I, 1) or rate buffer.
+    fn decode<D: GpuDim>(&self, flat: &[f32], excess: bool) -> MixedState<D> {
+        let (one_t, one) = if excess {
+            (D::identity(), 1.0)
+        } else {
+            (D::zero_t(), 0.0)
+        };
+        let l = &self.state;
+        MixedState {
+            u: l.read_v::<D>(flat, "U"),
+            v: l.read_v::<D>(flat, "V"),
+            f: l.read_t::<D>(flat, "F", one_t),
+            h: l.read_t::<D>(flat, "H", one_t),
+            j: l.read_s(flat, "J", one),
         }
     }
 }
 
+/// The reference fields the mixed passes read besides X and V: X − X̄ for the projection.
+const EXTRAS: Extras = Extras {
+    lo: false,
+    centred: true,
+};
+
 /// The layout and compiled-in constants of a scene's mixed passes, from its CPU set-up.
 pub fn scene<D: GpuDim>(case: &Case, cpu: &MixedSph<D>) -> (MixedLayout, Constants) {
-    let n = cpu.reference().len();
-    let conserved = cpu.conserved();
-    let jst = cpu.jst();
-    let layout = MixedLayout::new(
-        n,
-        cpu.extended_reference().1.len() - n,
-        D::N,
-        (conserved.evolves_h(), conserved.evolves_j()),
-        jst.is_none(),
-        cpu.bond_weights().is_some(),
-    );
+    let layout = MixedLayout::of(cpu);
+    let l = &layout;
     let material = cpu.material();
     let total_vol: f64 = cpu.volume().iter().sum();
+    let jst = cpu.jst();
     let (eps2, eps4) = jst.map_or((0.0, 0.0), |(c, ..)| (c.eps2, c.eps4));
     let u = |x: usize| x as u32;
-    let l = &layout;
     let constants = Constants::default()
-        .u32("N", u(n))
+        .u32("N", u(l.n))
         .u32("BODIES", u(case.bodies.len()))
         .u32("NG", u(l.ghosts))
         .material(material)
@@ -246,26 +260,52 @@ pub fn scene<D: GpuDim>(case: &Case, cpu: &MixedSph<D>) -> (MixedLayout, Constan
             &["WEAK", "SYMMETRISED"],
             usize::from(cpu.momentum() == Momentum::Symmetrised),
         )
-        .u32("EVOLVE_H", u32::from(l.evolves_h))
-        .u32("EVOLVE_J", u32::from(l.evolves_j))
+        .u32("EVOLVE_H", u32::from(l.state.has("H")))
+        .u32("EVOLVE_J", u32::from(l.state.has("J")))
         .u32("KIN_H", u32::from(l.kin_h))
+        .u32("BOND", u32::from(l.kin.has("FC")))
         .u32("PROJECTION", u32::from(cpu.projection()))
-        .u32("GROUPS", u(n).div_ceil(WORKGROUP))
+        .u32("GROUPS", u(l.n).div_ceil(WORKGROUP))
         .f32("TOTAL_VOL", total_vol)
-        .u32("U_OFF", u(l.u))
-        .u32("V_OFF", u(l.v))
-        .u32("F_OFF", u(l.f))
-        .u32("H_OFF", u(l.h))
-        .u32("J_OFF", u(l.j))
-        .u32("FS_OFF", u(l.fs))
-        .u32("REST_OFF", u(l.f))
-        .u32("LEN", u(l.len))
-        .u32("KP_OFF", u(l.kin_p))
-        .u32("KH_OFF", u(l.kin_h_off))
-        .u32("FT_OFF", u(l.force_t))
-        .u32("FD_OFF", u(l.force_d))
-        .u32("FJ_OFF", u(l.force_j));
+        .u32("REST_OFF", u(l.state.offset("F")));
+    let constants = [&l.state, &l.kin, &l.force, &l.pair, &l.reference]
+        .into_iter()
+        .fold(constants, |c, fields| fields.constants(c));
     (layout, constants)
+}
+
+/// The per-pair buffer of the scene set up in `cpu`, host side (f32).
+fn pair_data<D: GpuDim>(cpu: &MixedSph<D>, l: &Fields) -> Vec<f32> {
+    let csr = cpu.neighbours();
+    let (x0, vol) = cpu.extended_reference();
+    let (grad, grad_rev) = cpu.pair_gradients();
+    let rows = || (0..csr.len()).flat_map(|a| csr.range(a).map(move |q| (a, q)));
+    // Gradients scaled by V_b: G_b(X_a) = V_b g_ab.
+    let scaled = |g: &[D::V]| -> Vec<D::V> {
+        rows()
+            .map(|(_, q)| g[q] * vol[csr.ids[q] as usize])
+            .collect()
+    };
+    let mut flat = l.zeroed();
+    l.write_v::<D>(&mut flat, "G", &scaled(grad));
+    l.write_v::<D>(&mut flat, "GR", &scaled(grad_rev));
+    if l.has("DX") {
+        let d: Vec<D::V> = rows()
+            .map(|(a, q)| x0[csr.ids[q] as usize] - x0[a])
+            .collect();
+        l.write_v::<D>(&mut flat, "DX", &d);
+    }
+    if let Some((_, ell, s)) = cpu.jst() {
+        l.write_s(&mut flat, "S", s, 0.0);
+        l.write_s(&mut flat, "ELL", ell, 0.0);
+    }
+    if l.has("LS") {
+        l.write_v::<D>(&mut flat, "LS", cpu.ls_weights());
+    }
+    if let Some(w) = cpu.bond_weights() {
+        l.write_s(&mut flat, "W", w, 0.0);
+    }
+    flat
 }
 
 /// The uniform `Stage` of `mixed_momentum.wgsl`.
@@ -278,19 +318,19 @@ struct StagePoints {
 
 /// The pipelines of the mixed passes.
 struct Passes {
-    ghost_motion: wgpu::ComputePipeline,
-    ghost_kin: wgpu::ComputePipeline,
+    ghost_motion: Pipeline,
+    ghost_kin: Pipeline,
     /// Ghost slopes or Laplacians.
-    ghost_second: wgpu::ComputePipeline,
+    ghost_second: Pipeline,
     /// The bond-based F^c, where the scene uses it.
-    bond: Option<wgpu::ComputePipeline>,
-    kinematics: wgpu::ComputePipeline,
+    bond: Option<Pipeline>,
+    kinematics: Pipeline,
     /// Slopes or Laplacians.
-    second: wgpu::ComputePipeline,
-    forces: wgpu::ComputePipeline,
-    balance_sums: wgpu::ComputePipeline,
-    balance_solve: wgpu::ComputePipeline,
-    rates: wgpu::ComputePipeline,
+    second: Pipeline,
+    forces: Pipeline,
+    balance_sums: Pipeline,
+    balance_solve: Pipeline,
+    rates: Pipeline,
 }
 
 /// The bind groups of one rate evaluation (a source state and its balance points).
@@ -392,7 +432,7 @@ pub struct GpuMixed<D: GpuDim> {
     /// The plastic history (plasticity.wgsl; 10 floats of a dummy for elastic models).
     hist: wgpu::Buffer,
     /// The commit of the plastic history before every step (mixed_plastic.wgsl).
-    commit: Option<(wgpu::ComputePipeline, wgpu::BindGroup)>,
+    commit: Option<(Pipeline, wgpu::BindGroup)>,
     /// Passes before every step (contact) and the `ext` they write.
     interactions: GpuInteractions,
     work: WorkBalance,
@@ -418,69 +458,28 @@ impl<D: GpuDim> GpuMixed<D> {
         check_f32_particles::<D>(case, cpu.reference(), &cpu.initial_state().v, cpu.body())?;
         let compose = |s: &Source| shaders::compose::<D>(s, &constants);
         let (n, ng) = (layout.n, layout.ghosts);
-        let csr = cpu.neighbours();
-        let pairs = csr.pair_count() as u64;
-        let d = D::N as u64;
-        gpu.check_size("per-pair gradient buffer", pairs * d * 4)?;
-        gpu.check_size("kinematics buffer", layout.kin_len as u64 * 4)?;
+        gpu.check_size("per-pair buffer", layout.pair.bytes())?;
+        gpu.check_size("kinematics buffer", layout.kin.bytes())?;
         let (x0, vol) = cpu.extended_reference();
-        let (grad, grad_rev) = cpu.pair_gradients();
-
-        // Per-pair data in CSR order; gradients scaled by V_b: G_b(X_a) = V_b g_ab.
-        let offsets: Vec<u32> = csr.offsets.iter().map(|&o| o as u32).collect();
-        let offsets = gpu.storage("offsets", &offsets);
-        let ids = gpu.storage("ids", &csr.ids);
-        let scaled = |g: &[D::V]| {
-            flat_v::<D>((0..csr.pair_count()).map(|q| g[q] * vol[csr.ids[q] as usize]))
-        };
-        let grad_buf = gpu.storage("G_ab", &scaled(grad));
-        let grad_rev_buf = gpu.storage("G_ba", &scaled(grad_rev));
-        let pair_offsets = || {
-            let q = (0..n).flat_map(|a| csr.range(a).map(move |q| (a, q)));
-            flat_v::<D>(q.map(|(a, q)| x0[csr.ids[q] as usize] - x0[a]))
-        };
-        let dummy = || gpu.zeroed("unused", 4);
-        let jst = cpu.jst();
-        let upwind = jst.is_none();
-        let reconstruction = cpu.reconstruction();
-        let f32s = |x: &[f64]| x.iter().map(|&x| x as f32).collect::<Vec<f32>>();
-        // Upwind: d_ab and (reconstruction) the least-squares weights; JST: s_ab and ℓ_ab.
-        let (pair, weights, second_len) = match jst {
-            Some((_, ell, s)) => {
-                let (s, ell) = (f32s(s), f32s(ell));
-                (
-                    gpu.storage("s_ab", &s),
-                    Some(gpu.storage("ell_ab", &ell)),
-                    (n + ng) * D::N,
-                )
-            }
-            None if reconstruction => {
-                let ls = flat_v::<D>(cpu.ls_weights().iter().copied());
-                gpu.check_size("per-pair weight buffer", ls.len() as u64 * 4)?;
-                (
-                    gpu.storage("d_ab", &pair_offsets()),
-                    Some(gpu.storage("w_ab", &ls)),
-                    (n + ng) * (D::N + 1) * D::N * D::N,
-                )
-            }
-            None => (gpu.storage("d_ab", &pair_offsets()), None, 0),
+        let device = DeviceReference::upload::<D>(
+            &gpu,
+            &x0[..n],
+            &vol[..n],
+            cpu.boundary(),
+            cpu.neighbours(),
+            EXTRAS,
+        );
+        let pair = gpu.storage("per-pair data", &pair_data(&cpu, &layout.pair));
+        // Slopes (upwind with reconstruction) or Laplacians (JST) of the extended particles.
+        let second_len = if layout.pair.has("ELL") {
+            (n + ng) * D::N
+        } else if layout.pair.has("LS") {
+            (n + ng) * (D::N + 1) * D::N * D::N
+        } else {
+            0
         };
         gpu.check_size("slope buffer", second_len as u64 * 4)?;
-        let second = match second_len {
-            0 => dummy(),
-            len => gpu.zeroed("slopes or Laplacians", len as u64 * 4),
-        };
-        // The bond-based F (seed 002): X_ab (the upwind flux's d_ab where it has one) and
-        // w_ab per pair, and the F^c − I it writes per real particle.
-        let bond = cpu.bond_weights().map(|w| {
-            let x_ab = if upwind {
-                pair.clone()
-            } else {
-                gpu.storage("X_ab", &pair_offsets())
-            };
-            let fc = gpu.zeroed("F^c − I", (n * D::N * D::N) as u64 * 4);
-            (x_ab, gpu.storage("bond weights w_ab", &f32s(w)), fc)
-        });
+        let second = gpu.zeroed("slopes or Laplacians", second_len as u64 * 4);
 
         // Ghost table: source and (r, σ) of every ghost.
         let table = cpu.ghosts().table();
@@ -495,63 +494,52 @@ impl<D: GpuDim> GpuMixed<D> {
             .collect();
         let ghost_src = gpu.storage("ghost sources", &ghost_src);
         let ghost_img = gpu.storage("ghost images", &ghost_img);
-        let gm = gpu.zeroed("ghost motion", (2 * ng * D::N) as u64 * 4);
 
-        // Per-particle data of the real particles.
-        let x_real = &x0[..n];
-        let total_vol: f64 = vol[..n].iter().sum();
-        let centroid = x_real
-            .iter()
-            .zip(vol)
-            .fold(D::zero(), |c, (&x, &v)| c + x * v)
-            * (1.0 / total_vol);
-        let x_rel = gpu.storage("X − X̄", &flat_v::<D>(x_real.iter().map(|&x| x - centroid)));
-        let x_hi = gpu.storage("X", &flat_v::<D>(x_real.iter().copied()));
-        let vol32: Vec<f32> = vol[..n].iter().map(|&v| v as f32).collect();
-        let vol_buf = gpu.storage("vol", &vol32);
-        let (mask, traction) = boundary_buffers(&gpu, cpu.boundary(), n);
-        let power = gpu.zeroed("power", n as u64 * 4);
-        let kin = gpu.zeroed("kinematics", layout.kin_len as u64 * 4);
-        let force = gpu.zeroed("forces", layout.force_len as u64 * 4);
+        let kin = gpu.zeroed("kinematics", layout.kin.bytes());
+        let force = gpu.zeroed("forces", layout.force.bytes());
         let status = gpu.storage("status", &STATUS_OK);
         let (gx, gy) = gpu.groups(n as u32);
         let partials = gpu.zeroed("balance partials", u64::from(gx * gy) * 16 * 4);
-        let proj = gpu.zeroed("projection", 12 * 4);
+        // [C_p⁻¹ by columns | ε_p] per real particle, from the virgin state.
+        let virgin = [1.0f32, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+        let hist = gpu.storage(
+            "plastic history",
+            &virgin.repeat(if plastic { n } else { 1 }),
+        );
 
-        let y0 = encode::<D>(&layout, &cpu.initial_state());
         let stepper = Stepper::new(
             &gpu,
             case.method.integrator,
             &compose(&INTEGRATE),
-            layout.state(),
-            &y0,
+            layout.stepped(),
+            &layout.encode(&cpu.initial_state()),
         )?;
         let interactions = GpuInteractions::new(
             &gpu,
             cpu.interactions(),
             &compose,
-            &x_hi,
+            &device.reference,
             stepper.buffer(Buf::Y),
-            traction,
+            device.traction,
         )?;
-        let ext = interactions.ext();
 
         let ghosts_src = compose(&GHOSTS);
         let slopes_src = compose(&SLOPES);
         let momentum_src = compose(&MOMENTUM);
         let pipeline = |label: &str, src: &str, entry: &str| gpu.pipeline(label, src, entry);
-        let (second_entry, ghost_second_entry) = if upwind {
-            ("slopes", "ghost_slopes")
-        } else {
+        let (second_entry, ghost_second_entry) = if layout.pair.has("ELL") {
             ("laplacian", "ghost_laplacian")
+        } else {
+            ("slopes", "ghost_slopes")
         };
         let passes = Passes {
             ghost_motion: pipeline("ghost motion", &ghosts_src, "ghost_motion")?,
             ghost_kin: pipeline("ghost kinematics", &ghosts_src, "ghost_kin")?,
             ghost_second: pipeline("ghost slopes", &ghosts_src, ghost_second_entry)?,
-            bond: bond
-                .as_ref()
-                .map(|_| pipeline("bond-based F", &compose(&BOND), "bond_f"))
+            bond: layout
+                .kin
+                .has("FC")
+                .then(|| pipeline("bond-based F", &compose(&BOND), "bond_f"))
                 .transpose()?,
             kinematics: pipeline("mixed kinematics", &compose(&KINEMATICS), "kinematics")?,
             second: pipeline("slopes", &slopes_src, second_entry)?,
@@ -591,133 +579,69 @@ impl<D: GpuDim> GpuMixed<D> {
             }
         }
         let y_start = stepper.buffer(Buf::Y);
-        let rates_d = stepper.buffer(Buf::Rates);
-        // [C_p⁻¹ by columns | ε_p] per real particle, from the virgin state.
-        let virgin = [1.0f32, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
-        let hist = gpu.storage(
-            "plastic history",
-            &virgin.repeat(if plastic { n } else { 1 }),
-        );
+        // Every buffer of the passes by binding name, with the state `y` an evaluation
+        // reads and the balance points of its stage.
+        let table = |y, points| -> Vec<(&str, &wgpu::Buffer)> {
+            vec![
+                ("offsets", &device.offsets),
+                ("ids", &device.ids),
+                ("reference", &device.reference),
+                ("pair", &pair),
+                ("ghost_src", &ghost_src),
+                ("ghost_img", &ghost_img),
+                ("field", &kin),
+                ("kin", &kin),
+                ("second", &second),
+                ("out", &second),
+                ("force", &force),
+                ("status", &status),
+                ("hist", &hist),
+                ("partials", &partials),
+                ("ext", interactions.ext()),
+                ("y0", y_start),
+                ("d", stepper.buffer(Buf::Rates)),
+                ("stage", points),
+                ("y", y),
+            ]
+        };
         let commit = match plastic {
             true => {
                 let pipeline = gpu.pipeline("plastic commit", &compose(&PLASTIC), "commit")?;
-                let bind = gpu.bind(&pipeline, &[y_start, &hist]);
+                let bind = gpu.bind(&pipeline, &table(y_start, &stage_points))?;
                 Some((pipeline, bind))
             }
             false => None,
         };
         let p = &evaluator.passes;
-        // F − I of the stress (`fs`): the state's own, or F^c − I.
-        let stress_f = |y| bond.as_ref().map_or(y, |(.., fc)| fc);
-        let bind = |(src, mid): (Buf, bool)| {
-            let y = stepper.buffer(src);
+        let bind = |(src, mid): (Buf, bool)| -> Result<Bound, GpuError> {
             let points = if mid { &mid_points } else { &stage_points };
-            let second_pass = weights.as_ref().map(|w| {
-                let mut e = vec![
-                    (0, &offsets),
-                    (1, &ids),
-                    (2, w),
-                    (3, y),
-                    (4, &gm),
-                    (5, &second),
-                ];
-                if upwind {
-                    e.push((6, &kin));
-                }
-                (
-                    gpu.bind_at(&p.second, &e),
-                    gpu.bind(&p.ghost_second, &[&ghost_src, &ghost_img, &second]),
-                )
-            });
-            Bound {
-                ghost_motion: gpu.bind(&p.ghost_motion, &[&ghost_src, &ghost_img, &gm, y]),
-                ghost_kin: gpu.bind(&p.ghost_kin, &[&ghost_src, &ghost_img, &kin]),
-                bond: p
-                    .bond
-                    .as_ref()
-                    .zip(bond.as_ref())
-                    .map(|(pipeline, (x_ab, w, fc))| {
-                        gpu.bind(pipeline, &[&offsets, &ids, x_ab, w, y, &gm, fc])
-                    }),
-                kinematics: gpu.bind(
-                    &p.kinematics,
-                    &[
-                        &offsets,
-                        &ids,
-                        &grad_buf,
-                        y,
-                        &gm,
-                        &kin,
-                        rates_d,
-                        &status,
-                        stress_f(y),
-                        &hist,
-                    ],
-                ),
-                second: second_pass,
-                forces: gpu.bind(
-                    &p.forces,
-                    &[
-                        &offsets,
-                        &ids,
-                        &grad_buf,
-                        &grad_rev_buf,
-                        y,
-                        &gm,
-                        &kin,
-                        &force,
-                        &pair,
-                        &second,
-                    ],
-                ),
-                balance_sums: gpu.bind_at(
-                    &p.balance_sums,
-                    &[
-                        (0, points),
-                        (1, &force),
-                        (2, y),
-                        (3, y_start),
-                        (4, &x_rel),
-                        (5, &vol_buf),
-                        (6, &partials),
-                    ],
-                ),
-                balance_solve: gpu.bind_at(&p.balance_solve, &[(6, &partials), (7, &proj)]),
-                rates: gpu.bind_at(
-                    &p.rates,
-                    &[
-                        (0, points),
-                        (1, &force),
-                        (2, y),
-                        (3, y_start),
-                        (4, &x_rel),
-                        (5, &vol_buf),
-                        (7, &proj),
-                        (8, &mask),
-                        (9, ext),
-                        (10, rates_d),
-                        (11, &power),
-                    ],
-                ),
-            }
+            let t = table(stepper.buffer(src), points);
+            let mut with_second = t.clone();
+            with_second.push(("field", &second));
+            let second = match second_len {
+                0 => None,
+                _ => Some((
+                    gpu.bind(&p.second, &t)?,
+                    gpu.bind(&p.ghost_second, &with_second)?,
+                )),
+            };
+            Ok(Bound {
+                ghost_motion: gpu.bind(&p.ghost_motion, &t)?,
+                ghost_kin: gpu.bind(&p.ghost_kin, &t)?,
+                bond: p.bond.as_ref().map(|b| gpu.bind(b, &t)).transpose()?,
+                kinematics: gpu.bind(&p.kinematics, &t)?,
+                second,
+                forces: gpu.bind(&p.forces, &t)?,
+                balance_sums: gpu.bind(&p.balance_sums, &t)?,
+                balance_solve: gpu.bind(&p.balance_solve, &t)?,
+                rates: gpu.bind(&p.rates, &t)?,
+            })
         };
-        let bound = keys.into_iter().map(|k| (k, bind(k))).collect();
-        evaluator.bound = bound;
-        let reduction = Reduction::new(
-            &gpu,
-            &compose(&REDUCE),
-            &[
-                (0, y_start),
-                (1, stress_f(y_start)),
-                (2, &vol_buf),
-                (3, &x_hi),
-                (4, &power),
-                (6, &offsets),
-                (7, &ids),
-                (8, &hist),
-            ],
-            n,
-        )?;
+        evaluator.bound = keys
+            .into_iter()
+            .map(|k| Ok((k, bind(k)?)))
+            .collect::<Result<_, GpuError>>()?;
+        let reduction = Reduction::new(&gpu, &compose(&REDUCE), &table(y_start, &stage_points), n)?;
         Ok(Self {
             gpu,
             cpu,
@@ -736,18 +660,6 @@ impl<D: GpuDim> GpuMixed<D> {
             work: WorkBalance::default(),
         })
     }
-}
-
-/// A mixed state as a flat f32 state: F − I, H − I and J − 1 are formed in f64.
-fn encode<D: GpuDim>(l: &MixedLayout, y: &MixedState<D>) -> Vec<f32> {
-    let mut flat = flat_v::<D>(y.u.iter().chain(&y.v).copied());
-    y.f.iter()
-        .for_each(|&f| D::push_t(&mut flat, f - D::identity()));
-    y.h.iter()
-        .for_each(|&h| D::push_t(&mut flat, h - D::identity()));
-    flat.extend(y.j.iter().map(|&j| (j - 1.0) as f32));
-    debug_assert_eq!(flat.len(), l.len);
-    flat
 }
 
 impl<D: GpuDim> GpuMixed<D> {
@@ -805,51 +717,15 @@ impl<D: GpuDim> GpuMixed<D> {
 }
 
 impl<D: GpuDim> GpuMixed<D> {
-    /// Decodes a flat state (`excess`: F, H, J are stored less I, I, 1) or rate buffer.
-    fn decode(&self, flat: &[f32], excess: bool) -> MixedState<D> {
-        let l = &self.layout;
-        let (d, t) = (D::N, D::N * D::N);
-        let (one_t, one) = if excess {
-            (D::identity(), 1.0)
-        } else {
-            (D::zero_t(), 0.0)
-        };
-        let vecs = |off: usize| (0..l.n).map(|i| D::read_v(&flat[off + d * i..])).collect();
-        let tensors = |off: usize| {
-            (0..l.n)
-                .map(|i| one_t + D::read_t(&flat[off + t * i..]))
-                .collect()
-        };
-        MixedState {
-            u: vecs(l.u),
-            v: vecs(l.v),
-            f: tensors(l.f),
-            h: if l.evolves_h {
-                tensors(l.h)
-            } else {
-                Vec::new()
-            },
-            j: if l.evolves_j {
-                flat[l.j..l.j + l.n]
-                    .iter()
-                    .map(|&j| one + f64::from(j))
-                    .collect()
-            } else {
-                Vec::new()
-            },
-        }
-    }
-
     /// Reads the current state back (waits for the queue).
     pub fn state(&self) -> MixedState<D> {
         let flat: Vec<f32> = self.gpu.read(self.stepper.buffer(Buf::Y));
-        self.decode(&flat, true)
+        self.layout.decode(&flat, true)
     }
 
     /// Replaces the state (e.g. to cross-check rates on a given state).
     pub fn set_state(&mut self, y: &MixedState<D>) {
-        self.stepper
-            .set_state(&self.gpu, &encode::<D>(&self.layout, y));
+        self.stepper.set_state(&self.gpu, &self.layout.encode(y));
         self.reduction.invalidate();
     }
 
@@ -877,7 +753,7 @@ impl<D: GpuDim> GpuMixed<D> {
             "the scene's integrator must be TVD-RK2"
         );
         self.set_state(start);
-        let flat = encode::<D>(&self.layout, stage);
+        let flat = self.layout.encode(stage);
         self.gpu.queue.write_buffer(
             self.stepper.buffer(Buf::Stage),
             0,
@@ -896,31 +772,26 @@ impl<D: GpuDim> GpuMixed<D> {
         self.evaluator.record(&self.gpu, &mut encoder, e);
         self.gpu.queue.submit([encoder.finish()]);
         let d: Vec<f32> = self.gpu.read(self.stepper.buffer(Buf::Rates));
-        self.decode(&d, false)
+        self.layout.decode(&d, false)
     }
 
     /// P of the real particles at the last rate evaluation.
     pub fn first_piola(&self) -> Vec<D::T> {
         let kin: Vec<f32> = self.gpu.read(&self.kin);
-        let (off, t) = (self.layout.kin_p, D::N * D::N);
-        (0..self.layout.n)
-            .map(|i| D::read_t(&kin[off + t * i..]))
-            .collect()
+        let mut p = self.layout.kin.read_t::<D>(&kin, "P", D::zero_t());
+        p.truncate(self.layout.n);
+        p
     }
 
     /// T, D(p) and D(J) of the last rate evaluation, before the projection (D(J) is zero
     /// where the scene does not evolve J or is JST-SPH: nothing reads it there).
     pub fn fluxes(&self) -> Fluxes<D> {
         let f: Vec<f32> = self.gpu.read(&self.force);
-        let l = &self.layout;
-        let vecs = |off: usize| (0..l.n).map(|i| D::read_v(&f[off + D::N * i..])).collect();
+        let l = &self.layout.force;
         Fluxes {
-            t: vecs(l.force_t),
-            d: vecs(l.force_d),
-            dj: f[l.force_j..l.force_j + l.n]
-                .iter()
-                .map(|&x| x.into())
-                .collect(),
+            t: l.read_v::<D>(&f, "T"),
+            d: l.read_v::<D>(&f, "D"),
+            dj: l.read_s(&f, "J", 0.0),
         }
     }
 

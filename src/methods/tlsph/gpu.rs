@@ -1,20 +1,21 @@
 //! Total-Lagrangian SPH on the GPU: the passes of `shaders/tlsph/`, the integrator
-//! program of [`crate::gpu::program`], and the set-up (neighbours, corrected gradients)
-//! done once. The CPU system ([`super::system`]) is the reference it is checked against.
+//! program of [`crate::gpu::program`], and the set-up done once: the reference
+//! configuration and neighbours uploaded from the host, the pair offsets and corrected
+//! gradients derived on the device. The CPU system ([`super::system`]) is the reference it is checked against.
 //!
 //! A whole step, or several, is recorded into one command encoder; the host reads back
 //! only when asked (outputs, observers, checks).
 
 use super::system::{TlState, check_state, snapshot};
 use crate::correction::{self, CorrectionKind};
-use crate::gpu::context::Gpu;
-use crate::gpu::layout::{Flat, GpuDim, boundary_buffers, flat_v};
-use crate::gpu::neighbour;
+use crate::gpu::context::{Gpu, GpuError, Pipeline};
+use crate::gpu::layout::{Fields, GpuDim, flat_v};
 use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{Reduced, Reduction, WorkBalance};
+use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
-    self, BOUNDARY, CONTACT, CORRECTION, Constants, INTEGRATE, MECHANICS, PAIR_OFFSETS, Source,
-    Wgsl, source, wgsl,
+    self, BOUNDARY, CONTACT, CORRECTION, Constants, INTEGRATE, MECHANICS, PAIR_OFFSETS, REFERENCE,
+    Source, Wgsl, source, wgsl,
 };
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range};
 use crate::integrate::Buf;
@@ -22,7 +23,6 @@ use crate::interaction::Interactions;
 use crate::interaction::gpu::GpuInteractions;
 use crate::material::Material;
 use crate::methods::{BlowUp, MethodSpec, not_run_by};
-use crate::neighbour as neighbour_cpu;
 use crate::observe::{Invariants, Snapshot};
 use crate::reference::Reference;
 use crate::run::{Engine, Failed};
@@ -34,27 +34,33 @@ const ENERGY: Wgsl = wgsl!("tlsph/tlsph_energy.wgsl");
 /// F, P (and ρ̇, Ṡ of the rate model) per particle.
 pub const STRESS: Source = source!(
     "tlsph/tlsph.wgsl",
-    [MECHANICS],
-    [("y", false), ("grad", false), ("d", true), ("kin", true)]
+    [MECHANICS, REFERENCE],
+    [
+        ("y", false),
+        ("pair", false),
+        ("reference", false),
+        ("d", true),
+        ("kin", true)
+    ]
 );
 /// Accelerations, artificial viscosity, boundary conditions.
 pub const ACCEL: Source = source!(
     "tlsph/tlsph_accel.wgsl",
-    [BOUNDARY],
+    [BOUNDARY, REFERENCE],
     [
         ("y", false),
-        ("grad", false),
-        ("dx0", false),
+        ("pair", false),
+        ("reference", false),
         ("ext", false),
-        ("kin", false),
+        ("kin", true),
         ("d", true)
     ]
 );
 /// Energies, momenta and checks of a state.
 pub const REDUCE: Source = source!(
     "common/reduce.wgsl",
-    [MECHANICS, ENERGY],
-    [("y", false), ("kin", false), ("x_hi", false)]
+    [MECHANICS, ENERGY, REFERENCE],
+    [("y", false), ("kin", false), ("reference", false)]
 );
 
 /// The passes compiled with a TLSPH scene's constants ([`scene_constants`]).
@@ -68,47 +74,61 @@ pub const SHADERS: &[Source] = &[
     REDUCE,
 ];
 
-/// Offsets (in f32 entries) of the fields in the flat state and kinematics buffers.
-/// The state holds u, v, ρ − ρ0 and S; the kinematics H = F − I, P, F⁻ᵀ and ρ.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// The flat buffers of a TLSPH scene, each described once ([`Fields`]): the state
+/// [u | v | ρ − ρ0 | S] (ρ and S for the rate model only), the kinematics
+/// [H = F − I | P | F⁻ᵀ | ρ | power], the per-pair data [∇0W̃ | X_j − X_i] and the
+/// reference configuration.
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Layout {
     pub n: usize,
     pub dim: usize,
     pub rate: bool,
-    pub u: usize,
-    pub v: usize,
-    pub rho: usize,
-    pub s: usize,
-    /// Flat state length.
-    pub len: usize,
-    pub kin_f: usize,
-    pub kin_p: usize,
-    pub kin_fit: usize,
-    pub kin_rho: usize,
-    pub kin_len: usize,
+    pub state: Fields,
+    pub kin: Fields,
+    pub pair: Fields,
+    pub reference: Fields,
 }
 
 impl Layout {
-    pub fn new(n: usize, dim: usize, rate: bool) -> Self {
-        let (nd, nt) = (n * dim, n * dim * dim);
-        let fields_after_v = if rate { n + nt } else { 0 };
+    pub fn new(n: usize, dim: usize, rate: bool, pairs: usize) -> Self {
         Self {
             n,
             dim,
             rate,
-            u: 0,
-            v: nd,
-            rho: 2 * nd,
-            s: 2 * nd + n,
-            len: 2 * nd + fields_after_v,
-            kin_f: 0,
-            kin_p: nt,
-            kin_fit: 2 * nt,
-            kin_rho: 3 * nt,
-            kin_len: 3 * nt + n,
+            state: Fields::new("", dim)
+                .vectors("U", true, n)
+                .vectors("V", true, n)
+                .scalars("RHO", rate, n)
+                .tensors("S", rate, n),
+            kin: Fields::new("K", dim)
+                .tensors("F", true, n)
+                .tensors("P", true, n)
+                .tensors("FIT", true, n)
+                .scalars("RHO", true, n)
+                .scalars("POW", true, n),
+            pair: Fields::new("P", dim)
+                .vectors("G", true, pairs)
+                .vectors("DX", true, pairs),
+            reference: reference::fields(n, dim, EXTRAS),
+        }
+    }
+
+    fn stepped(&self) -> StateLayout {
+        StateLayout {
+            n: self.n,
+            dim: self.dim,
+            rest: self.state.offset("RHO"),
+            len: self.state.len(),
         }
     }
 }
+
+/// The reference fields the TLSPH passes read besides X and V: the lo part of X, for the
+/// exact pair offsets.
+const EXTRAS: Extras = Extras {
+    lo: true,
+    centred: false,
+};
 
 /// The compiled-in constants of a scene's TLSPH passes.
 pub fn scene_constants(case: &Case, layout: &Layout) -> Constants {
@@ -124,7 +144,7 @@ pub fn scene_constants(case: &Case, layout: &Layout) -> Constants {
         _ => None,
     };
     let u = |x: usize| x as u32;
-    Constants::default()
+    let constants = Constants::default()
         .kernel(&kernel)
         .u32("N", u(layout.n))
         .u32("BODIES", u(case.bodies.len()))
@@ -135,16 +155,10 @@ pub fn scene_constants(case: &Case, layout: &Layout) -> Constants {
         .f32("AV_ALPHA", av.map_or(0.0, |a| a.alpha))
         .f32("AV_BETA", av.map_or(0.0, |a| a.beta))
         .f32("AV_ETA", av.map_or(0.0, |a| a.eta))
-        .u32("U_OFF", u(layout.u))
-        .u32("V_OFF", u(layout.v))
-        .u32("RHO_OFF", u(layout.rho))
-        .u32("REST_OFF", u(layout.rho))
-        .u32("S_OFF", u(layout.s))
-        .u32("LEN", u(layout.len))
-        .u32("KF_OFF", u(layout.kin_f))
-        .u32("KP_OFF", u(layout.kin_p))
-        .u32("KFIT_OFF", u(layout.kin_fit))
-        .u32("KRHO_OFF", u(layout.kin_rho))
+        .u32("REST_OFF", u(layout.state.offset("RHO")));
+    [&layout.state, &layout.kin, &layout.pair, &layout.reference]
+        .into_iter()
+        .fold(constants, |c, fields| fields.constants(c))
 }
 
 /// The stress and acceleration passes of one rate evaluation, bound to a source state.
@@ -156,27 +170,23 @@ struct Rates {
 /// The TLSPH system resident on the GPU.
 pub struct GpuTlsph<D: GpuDim> {
     gpu: Gpu,
+    /// The host's f64 reference configuration, which the device's was uploaded from.
+    reference: Reference<D>,
     layout: Layout,
-    material: Material,
     stepper: Stepper,
     kin: wgpu::Buffer,
-    grad: wgpu::Buffer,
+    pair: wgpu::Buffer,
     status: wgpu::Buffer,
-    stress: wgpu::ComputePipeline,
-    accel: wgpu::ComputePipeline,
+    stress: Pipeline,
+    accel: Pipeline,
     /// Rate evaluations of the states in `Y` and in `Stage`.
     rates: [Rates; 2],
-    x0: Vec<D::V>,
-    mass: Vec<f64>,
-    body: Vec<u32>,
-    vol: Vec<f64>,
     /// The stress pass on `Y` writing into `Acc` (for snapshots: F at the current state
     /// without touching the integrator's rates).
     kinematics_y: wgpu::BindGroup,
     reduction: Reduction,
     /// Passes before every step (contact) and the `ext` they write.
     interactions: GpuInteractions,
-    constrained: Vec<(u32, u8)>,
     work: WorkBalance,
 }
 
@@ -184,80 +194,58 @@ pub struct GpuTlsph<D: GpuDim> {
 const STATUS_OK: u32 = u32::MAX;
 
 impl<D: GpuDim> GpuTlsph<D> {
-    /// Discretises the case, builds neighbours and corrected gradients, and uploads the
-    /// initial state.
+    /// Uploads the case's reference configuration and initial state, and derives the
+    /// reference pair offsets and corrected gradients on the device (the RKPM and CGCK
+    /// corrections on the host, in f64).
     pub fn new(case: &Case, gpu: Gpu) -> Result<Self, SetupError> {
         if !matches!(case.method.spec, MethodSpec::Tlsph(_)) {
             return Err(not_run_by(case, "GpuTlsph").into());
         }
         let disc = Reference::<D>::build(case)?;
-        let Reference {
-            material,
-            kernel,
-            boundary,
-            ..
-        } = &disc;
+        check_f32_particles::<D>(case, &disc.x0, &disc.v0, &disc.body)?;
         let n = disc.len();
-        let layout = Layout::new(n, D::N, material.model.is_rate_based());
+        let csr = disc.neighbours();
+        let layout = Layout::new(
+            n,
+            D::N,
+            disc.material.model.is_rate_based(),
+            csr.pair_count(),
+        );
         let constants = scene_constants(case, &layout);
         check_f32_range(case, &constants)?;
-        check_f32_particles::<D>(case, &disc.x0, &disc.v0, &disc.body)?;
+        gpu.check_size("per-pair buffer", layout.pair.bytes())?;
+        gpu.check_size("kinematics buffer", layout.kin.bytes())?;
         let compose = |s: &Source| shaders::compose::<D>(s, &constants);
 
-        // Neighbours on the GPU from f32 positions; the 1e-5 margin keeps lattice pairs lying
-        // exactly on the support on both sides of the f32 rounding (their W and ∇W vanish).
-        let typed: Vec<D::HV> = disc.x0.iter().map(|&x| D::v(x)).collect();
-        let x_typed = gpu.storage("x0 (cell list)", &typed);
-        let (lo, hi) = neighbour_cpu::bounding_box(disc.x0.iter().map(|&x| D::to3(x)));
-        let csr = neighbour::build::<D>(
-            &gpu,
-            &x_typed,
-            lo,
-            hi,
-            n as u32,
-            kernel.support() * (1.0 + 1e-5),
-        )?;
-        let pairs = u64::from(csr.pairs);
-        gpu.check_size("per-pair gradient buffer", pairs * D::N as u64 * 4)?;
-        gpu.check_size("kinematics buffer", layout.kin_len as u64 * 4)?;
-        let (offsets, ids) = (csr.offsets.clone(), csr.ids.clone());
-        // X = hi + lo in f32 pairs, for exact pair offsets (see pair_offsets.wgsl).
-        let x_hi = flat_v::<D>(disc.x0.iter().copied());
-        let x_lo: Vec<f32> = disc
-            .x0
-            .iter()
-            .flat_map(|&x| D::to3(x).into_iter().take(D::N))
-            .zip(&x_hi)
-            .map(|(x, &h)| (x - f64::from(h)) as f32)
-            .collect();
-        let (x_hi, x_lo) = (gpu.storage("x hi", &x_hi), gpu.storage("x lo", &x_lo));
-        let dx0 = gpu.zeroed("dx0", pairs * D::N as u64 * 4);
-        let pipeline = gpu.pipeline("pair offsets", &compose(&PAIR_OFFSETS), "pair_offsets")?;
-        let bind = gpu.bind(&pipeline, &[&offsets, &ids, &x_hi, &x_lo, &dx0]);
-        dispatch(&gpu, &pipeline, &bind, n as u32);
-        let vol32: Vec<f32> = disc.vol.iter().map(|&v| v as f32).collect();
-        let vol = gpu.storage("vol", &vol32);
+        let device =
+            DeviceReference::upload::<D>(&gpu, &disc.x0, &disc.vol, &disc.boundary, &csr, EXTRAS);
+        let pair = gpu.zeroed("per-pair data", layout.pair.bytes());
         let status = gpu.storage("status", &[STATUS_OK]);
-        let host_solved = matches!(
+        let set_up: [(&str, &wgpu::Buffer); 5] = [
+            ("offsets", &device.offsets),
+            ("ids", &device.ids),
+            ("reference", &device.reference),
+            ("pair", &pair),
+            ("status", &status),
+        ];
+        run_once(&gpu, &compose(&PAIR_OFFSETS), "pair_offsets", &set_up, n)?;
+        if matches!(
             case.method.correction,
             CorrectionKind::Rkpm | CorrectionKind::Cgck
-        );
-        let grad = if host_solved {
-            // The RKPM and CGCK corrections run once on the host (f64) and are uploaded.
+        ) {
             let g = correction::gradients::<D>(
                 case.method.correction,
                 &disc.x0,
                 &disc.vol,
-                &neighbour::read_lists(&gpu, &csr),
-                kernel,
+                &csr,
+                &disc.kernel,
             )
             .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
-            gpu.storage("grad", &flat_v::<D>(g))
+            let at = (layout.pair.offset("G") * 4) as u64;
+            gpu.queue
+                .write_buffer(&pair, at, bytemuck::cast_slice(&flat_v::<D>(g)));
         } else {
-            let grad = gpu.zeroed("grad", pairs * D::N as u64 * 4);
-            let pipeline = gpu.pipeline("correction", &compose(&CORRECTION), "correct")?;
-            let bind = gpu.bind(&pipeline, &[&offsets, &ids, &dx0, &vol, &grad, &status]);
-            dispatch(&gpu, &pipeline, &bind, n as u32);
+            run_once(&gpu, &compose(&CORRECTION), "correct", &set_up, n)?;
             if let Some(i) = read_status(&gpu, &status) {
                 return Err(case
                     .invalid(
@@ -269,131 +257,98 @@ impl<D: GpuDim> GpuTlsph<D> {
                     )
                     .into());
             }
-            grad
-        };
+        }
 
-        let (mask, traction) = boundary_buffers(&gpu, boundary, n);
-        let state = StateLayout {
-            n,
-            dim: D::N,
-            rest: layout.rho,
-            len: layout.len,
-        };
+        let mut y0 = layout.state.zeroed();
+        layout.state.write_v::<D>(&mut y0, "V", &disc.v0);
         let stepper = Stepper::new(
             &gpu,
             case.method.integrator,
             &compose(&INTEGRATE),
-            state,
-            &initial_state::<D>(&layout, &disc.v0),
+            layout.stepped(),
+            &y0,
         )?;
-        let interactions = Interactions::<D>::build(case, &disc.x0, &disc.body, || {
-            neighbour::read_lists(&gpu, &csr)
-        })?;
+        let interactions = Interactions::<D>::build(case, &disc.x0, &disc.body, || csr.clone())?;
         let interactions = GpuInteractions::new(
             &gpu,
             &interactions,
             &compose,
-            &x_hi,
+            &device.reference,
             stepper.buffer(Buf::Y),
-            traction,
+            device.traction,
         )?;
-        let ext = interactions.ext();
-        let kin = gpu.zeroed("kinematics", layout.kin_len as u64 * 4);
-        let power = gpu.zeroed("power", n as u64 * 4);
+        let kin = gpu.zeroed("kinematics", layout.kin.bytes());
 
         let stress = gpu.pipeline("tlsph stress", &compose(&STRESS), "stress")?;
         let accel = gpu.pipeline("tlsph accel", &compose(&ACCEL), "accel")?;
+        let table = |y, d| -> [(&str, &wgpu::Buffer); 9] {
+            [
+                ("offsets", &device.offsets),
+                ("ids", &device.ids),
+                ("pair", &pair),
+                ("reference", &device.reference),
+                ("kin", &kin),
+                ("status", &status),
+                ("ext", interactions.ext()),
+                ("y", y),
+                ("d", d),
+            ]
+        };
         let rates_d = stepper.buffer(Buf::Rates);
-        let rates = [Buf::Y, Buf::Stage].map(|src| {
-            let s = stepper.buffer(src);
-            Rates {
-                stress: gpu.bind(
-                    &stress,
-                    &[&offsets, &ids, &grad, &vol, s, &kin, rates_d, &status],
-                ),
-                accel: gpu.bind(
-                    &accel,
-                    &[
-                        &offsets, &ids, &grad, &vol, &dx0, s, &kin, &mask, ext, rates_d, &power,
-                    ],
-                ),
-            }
-        });
+        let bound = |src| -> Result<Rates, GpuError> {
+            let t = table(stepper.buffer(src), rates_d);
+            Ok(Rates {
+                stress: gpu.bind(&stress, &t)?,
+                accel: gpu.bind(&accel, &t)?,
+            })
+        };
+        let rates = [bound(Buf::Y)?, bound(Buf::Stage)?];
         let y = stepper.buffer(Buf::Y);
-        let reduction = Reduction::new(
-            &gpu,
-            &compose(&REDUCE),
-            &[(0, y), (1, &kin), (2, &vol), (3, &x_hi), (4, &power)],
-            n,
-        )?;
-        let kinematics_y = gpu.bind(
-            &stress,
-            &[
-                &offsets,
-                &ids,
-                &grad,
-                &vol,
-                y,
-                &kin,
-                stepper.buffer(Buf::Acc),
-                &status,
-            ],
-        );
-        let constrained = disc.boundary.constrained.clone();
-        let Reference {
-            x0,
-            vol,
-            mass,
-            body,
-            material,
-            ..
-        } = disc;
+        let reduction = Reduction::new(&gpu, &compose(&REDUCE), &table(y, rates_d), n)?;
+        let kinematics_y = gpu.bind(&stress, &table(y, stepper.buffer(Buf::Acc)))?;
         Ok(Self {
             gpu,
+            reference: disc,
             layout,
-            material,
             stepper,
             kin,
-            grad,
+            pair,
             status,
             stress,
             accel,
             rates,
-            x0,
-            mass,
-            body,
-            vol,
             kinematics_y,
             reduction,
             interactions,
-            constrained,
             work: WorkBalance::default(),
         })
     }
 }
 
-fn dispatch(gpu: &Gpu, pipeline: &wgpu::ComputePipeline, bind: &wgpu::BindGroup, n: u32) {
+/// Compiles entry point `entry` of `source`, binds it from `table` and runs it once over
+/// n particles (a set-up pass).
+fn run_once(
+    gpu: &Gpu,
+    source: &str,
+    entry: &str,
+    table: &[(&str, &wgpu::Buffer)],
+    n: usize,
+) -> Result<(), GpuError> {
+    let pipeline = gpu.pipeline(entry, source, entry)?;
+    let bind = gpu.bind(&pipeline, table)?;
     let mut encoder = gpu.device.create_command_encoder(&Default::default());
     {
         let mut pass = encoder.begin_compute_pass(&Default::default());
-        gpu.dispatch(&mut pass, pipeline, bind, n);
+        gpu.dispatch(&mut pass, &pipeline, &bind, n as u32);
     }
     gpu.queue.submit([encoder.finish()]);
+    Ok(())
 }
 
 /// The first failed particle recorded in a status buffer, if any.
 fn read_status(gpu: &Gpu, status: &wgpu::Buffer) -> Option<usize> {
     let s: Vec<u32> = gpu.read(status);
     (s[0] != STATUS_OK).then_some(s[0] as usize)
-}
-
-/// Flat initial state: u = 0, v = v0, ρ − ρ0 = 0, S = 0.
-fn initial_state<D: Flat>(layout: &Layout, v0: &[D::V]) -> Vec<f32> {
-    let mut y = vec![0.0f32; layout.len];
-    let mut v = Vec::with_capacity(layout.n * D::N);
-    v0.iter().for_each(|&x| D::push_v(&mut v, x));
-    y[layout.v..layout.v + v.len()].copy_from_slice(&v);
-    y
 }
 
 impl<D: GpuDim> GpuTlsph<D> {
@@ -405,31 +360,16 @@ impl<D: GpuDim> GpuTlsph<D> {
         &self.gpu
     }
 
-    pub fn reference(&self) -> &[D::V] {
-        &self.x0
-    }
-
-    pub fn mass(&self) -> &[f64] {
-        &self.mass
-    }
-
-    pub fn body(&self) -> &[u32] {
-        &self.body
-    }
-
-    pub fn volume(&self) -> &[f64] {
-        &self.vol
-    }
-
-    pub fn material(&self) -> &Material {
-        &self.material
+    /// The host's reference configuration of the scene.
+    pub fn reference(&self) -> &Reference<D> {
+        &self.reference
     }
 
     /// Records one rate evaluation: the stress and acceleration passes on `rates`.
     fn record_rates(
         gpu: &Gpu,
         n: u32,
-        (stress, accel): (&wgpu::ComputePipeline, &wgpu::ComputePipeline),
+        (stress, accel): (&Pipeline, &Pipeline),
         encoder: &mut wgpu::CommandEncoder,
         rates: &Rates,
     ) {
@@ -472,51 +412,29 @@ impl<D: GpuDim> GpuTlsph<D> {
     /// Reads the current state back (waits for the queue).
     pub fn state(&self) -> TlState<D> {
         let flat: Vec<f32> = self.gpu.read(self.stepper.buffer(Buf::Y));
-        let mut y = self.decode(&flat);
-        y.rho.iter_mut().for_each(|r| *r += self.material.rho0);
-        y
+        self.decode(&flat, self.reference.material.rho0)
     }
 
-    /// Decodes a flat state or rate buffer (the density entry is ρ − ρ0, or ρ̇).
-    fn decode(&self, flat: &[f32]) -> TlState<D> {
-        let l = &self.layout;
-        let (d, t) = (D::N, D::N * D::N);
-        let vecs = |off: usize| (0..l.n).map(|i| D::read_v(&flat[off + d * i..])).collect();
+    /// Decodes a flat state (`rho0` = ρ0: the density is stored as ρ − ρ0) or rate
+    /// buffer (`rho0` = 0).
+    fn decode(&self, flat: &[f32], rho0: f64) -> TlState<D> {
+        let l = &self.layout.state;
         TlState {
-            u: vecs(l.u),
-            v: vecs(l.v),
-            rho: if l.rate {
-                flat[l.rho..l.rho + l.n].iter().map(|&r| r.into()).collect()
-            } else {
-                Vec::new()
-            },
-            s: if l.rate {
-                (0..l.n).map(|i| D::read_t(&flat[l.s + t * i..])).collect()
-            } else {
-                Vec::new()
-            },
+            u: l.read_v::<D>(flat, "U"),
+            v: l.read_v::<D>(flat, "V"),
+            rho: l.read_s(flat, "RHO", rho0),
+            s: l.read_t::<D>(flat, "S", D::zero_t()),
         }
     }
 
     /// Replaces the state (e.g. to cross-check rates on a given state).
     pub fn set_state(&mut self, y: &TlState<D>) {
-        let l = &self.layout;
-        let mut flat = vec![0.0f32; l.len];
-        let mut put_v = |off: usize, vs: &[D::V]| {
-            let mut tmp = Vec::with_capacity(vs.len() * D::N);
-            vs.iter().for_each(|&v| D::push_v(&mut tmp, v));
-            flat[off..off + tmp.len()].copy_from_slice(&tmp);
-        };
-        put_v(l.u, &y.u);
-        put_v(l.v, &y.v);
-        if l.rate {
-            for (k, &r) in y.rho.iter().enumerate() {
-                flat[l.rho + k] = (r - self.material.rho0) as f32;
-            }
-            let mut tmp = Vec::with_capacity(l.n * D::N * D::N);
-            y.s.iter().for_each(|&s| D::push_t(&mut tmp, s));
-            flat[l.s..l.s + tmp.len()].copy_from_slice(&tmp);
-        }
+        let l = &self.layout.state;
+        let mut flat = l.zeroed();
+        l.write_v::<D>(&mut flat, "U", &y.u);
+        l.write_v::<D>(&mut flat, "V", &y.v);
+        l.write_s(&mut flat, "RHO", &y.rho, self.reference.material.rho0);
+        l.write_t::<D>(&mut flat, "S", &y.s, D::zero_t());
         self.stepper.set_state(&self.gpu, &flat);
         self.reduction.invalidate();
     }
@@ -531,26 +449,23 @@ impl<D: GpuDim> GpuTlsph<D> {
         self.gpu.queue.submit([encoder.finish()]);
         let d: Vec<f32> = self.gpu.read(self.stepper.buffer(Buf::Rates));
         let (f, p) = self.kinematics();
-        (self.decode(&d), f, p)
+        (self.decode(&d, 0.0), f, p)
     }
 
     /// The corrected reference gradients, in CSR order.
     pub fn gradients(&self) -> Vec<D::V> {
-        let g: Vec<f32> = self.gpu.read(&self.grad);
-        g.chunks_exact(D::N).map(D::read_v).collect()
+        let pair: Vec<f32> = self.gpu.read(&self.pair);
+        self.layout.pair.read_v::<D>(&pair, "G")
     }
 
     /// F and P of the last rate evaluation (the GPU keeps H = F − I; I is added in f64).
     pub fn kinematics(&self) -> (Vec<D::T>, Vec<D::T>) {
         let kin: Vec<f32> = self.gpu.read(&self.kin);
-        let l = &self.layout;
-        let t = D::N * D::N;
-        let tensor = |off: usize, i: usize| D::read_t(&kin[off + t * i..]);
-        let f = (0..l.n)
-            .map(|i| D::identity() + tensor(l.kin_f, i))
-            .collect();
-        let p = (0..l.n).map(|i| tensor(l.kin_p, i)).collect();
-        (f, p)
+        let l = &self.layout.kin;
+        (
+            l.read_t::<D>(&kin, "F", D::identity()),
+            l.read_t::<D>(&kin, "P", D::zero_t()),
+        )
     }
 
     /// The first particle whose det F ≤ 0 (or NaN) in any evaluation so far.
@@ -565,11 +480,11 @@ impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
     }
 
     fn reference(&self) -> &[D::V] {
-        &self.x0
+        &self.reference.x0
     }
 
     fn constrained(&self) -> &[(u32, u8)] {
-        &self.constrained
+        &self.reference.boundary.constrained
     }
 
     fn advance(&mut self, _t: f64, dt: f64, steps: u32) -> Result<(), Failed> {
@@ -578,7 +493,7 @@ impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
     }
 
     fn max_signal_speed(&mut self) -> f64 {
-        self.material.p_wave_speed() + self.reduction().max_speed
+        self.reference.material.p_wave_speed() + self.reduction().max_speed
     }
 
     /// Trapezoidal over the intervals between calls (the driver calls it at every check).
@@ -591,13 +506,13 @@ impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
         if let Some(i) = self.failed_particle() {
             return Err(BlowUp {
                 particle: i,
-                position: D::to3(self.x0[i]),
+                position: D::to3(self.reference.x0[i]),
                 quantity: "det F (f32, GPU)".into(),
                 value: 0.0,
             });
         }
         if self.reduction().non_finite {
-            return check_state(&self.x0, &self.state());
+            return check_state(&self.reference.x0, &self.state());
         }
         Ok(())
     }
@@ -621,15 +536,8 @@ impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
         self.gpu.queue.submit([encoder.finish()]);
         let y = self.state();
         let (f, _) = self.kinematics();
-        snapshot(
-            &self.material,
-            &self.x0,
-            &self.mass,
-            &self.body,
-            &self.vol,
-            y,
-            f,
-        )
+        let r = &self.reference;
+        snapshot(&r.material, &r.x0, &r.mass, &r.body, &r.vol, y, f)
     }
 }
 

@@ -1,0 +1,92 @@
+//! The reference configuration on the device, uploaded the same way by every GPU engine
+//! from the host's f64 set-up ([`crate::reference::Reference`]): one flat buffer
+//! `reference` (`shaders/common/reference.wgsl`), the CSR neighbour lists, and the
+//! traction loads.
+
+use super::context::Gpu;
+use super::layout::{Fields, Flat, flat_v};
+use crate::boundary::Boundary;
+use crate::neighbour::Csr;
+
+/// Which optional fields of the `reference` buffer an engine's passes read.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Extras {
+    /// The lo part of X = hi + lo (exact reference pair offsets, pair_offsets.wgsl).
+    pub lo: bool,
+    /// X − X̄ about the volume-weighted centroid (the mixed methods' projection).
+    pub centred: bool,
+}
+
+/// The fields of the `reference` buffer of n particles: X (f32 hi part), X lo, X − X̄, V
+/// and the boundary mask (an f32 integer, bit k for velocity component k).
+pub fn fields(n: usize, dim: usize, extras: Extras) -> Fields {
+    Fields::new("R", dim)
+        .vectors("X", true, n)
+        .vectors("XLO", extras.lo, n)
+        .vectors("XREL", extras.centred, n)
+        .scalars("VOL", true, n)
+        .scalars("MASK", true, n)
+}
+
+/// The reference configuration and the neighbour lists, resident on the device.
+pub struct DeviceReference {
+    pub fields: Fields,
+    pub reference: wgpu::Buffer,
+    /// CSR row offsets (n + 1) and neighbour ids.
+    pub offsets: wgpu::Buffer,
+    pub ids: wgpu::Buffer,
+    /// External accelerations of the traction loads (DIM per particle).
+    pub traction: wgpu::Buffer,
+}
+
+impl DeviceReference {
+    /// Uploads positions `x0`, volumes `vol`, the boundary conditions and the neighbour
+    /// lists `csr` of the particles (f64 on the host, rounded once to f32).
+    pub fn upload<D: Flat>(
+        gpu: &Gpu,
+        x0: &[D::V],
+        vol: &[f64],
+        boundary: &Boundary<D>,
+        csr: &Csr,
+        extras: Extras,
+    ) -> Self {
+        let n = x0.len();
+        let fields = fields(n, D::N, extras);
+        let mut flat = fields.zeroed();
+        let hi = flat_v::<D>(x0.iter().copied());
+        fields.write_v::<D>(&mut flat, "X", x0);
+        if extras.lo {
+            let lo: Vec<D::V> = x0
+                .iter()
+                .zip(hi.chunks_exact(D::N))
+                .map(|(&x, h)| x - D::read_v(h))
+                .collect();
+            fields.write_v::<D>(&mut flat, "XLO", &lo);
+        }
+        if extras.centred {
+            let total: f64 = vol.iter().sum();
+            let centroid =
+                x0.iter().zip(vol).fold(D::zero(), |c, (&x, &v)| c + x * v) * (1.0 / total);
+            let centred: Vec<D::V> = x0.iter().map(|&x| x - centroid).collect();
+            fields.write_v::<D>(&mut flat, "XREL", &centred);
+        }
+        fields.write_s(&mut flat, "VOL", vol, 0.0);
+        let mut mask = vec![0.0; n];
+        for &(i, m) in &boundary.constrained {
+            mask[i as usize] = f64::from(m);
+        }
+        fields.write_s(&mut flat, "MASK", &mask, 0.0);
+        let mut ext = vec![D::zero(); n];
+        for &(i, a) in &boundary.external {
+            ext[i as usize] = a;
+        }
+        let offsets: Vec<u32> = csr.offsets.iter().map(|&o| o as u32).collect();
+        Self {
+            reference: gpu.storage("reference", &flat),
+            offsets: gpu.storage("neighbour offsets", &offsets),
+            ids: gpu.storage("neighbour ids", &csr.ids),
+            traction: gpu.storage("traction", &flat_v::<D>(ext)),
+            fields,
+        }
+    }
+}
