@@ -1,5 +1,9 @@
-// Cell list and CSR neighbour lists: all pairs (i, j), i ≠ j, with |x_i − x_j|² ≤ radius²,
-// each particle's ids sorted ascending (the same lists as src/neighbour.rs).
+// Cell list and CSR neighbour lists: all pairs (i, j), i ≠ j, with |x_i − x_j|² ≤ radius²
+// (and, with MASKED = 1, body[i] = body[j]), each particle's ids sorted ascending (the same
+// lists as src/neighbour.rs). Positions are read from a flat f32 buffer, DIM floats per
+// particle from POS_OFF (a state's displacement or position field, or positions alone).
+// The lists fill `ids` up to its length, the capacity; past it `overflow[0]` receives the
+// pair count the lists need, and the host grows `ids`. Nothing is read back to rebuild.
 //
 // Passes, in order (the host runs the scans of scan.wgsl between them):
 //   bin_particles     cell id of each particle, and per-cell counts (atomicAdd)
@@ -27,7 +31,7 @@ struct CellParams {
 }
 
 @group(0) @binding(0) var<uniform> params: CellParams;
-@group(0) @binding(1) var<storage, read> x: array<vecd>;
+@group(0) @binding(1) var<storage, read> x: array<f32>;
 // Cell id of each particle.
 @group(0) @binding(2) var<storage, read_write> cell: array<u32>;
 // Counts per cell, then (after the scan) the first sorted slot of each cell; ncells + 1.
@@ -40,6 +44,14 @@ struct CellParams {
 @group(0) @binding(6) var<storage, read_write> offsets: array<u32>;
 // CSR neighbour ids.
 @group(0) @binding(7) var<storage, read_write> ids: array<u32>;
+// The body of each particle (read with MASKED = 1).
+@group(0) @binding(8) var<storage, read> body: array<u32>;
+// The pair count, where it exceeds the capacity of `ids` (atomicMax).
+@group(0) @binding(9) var<storage, read_write> overflow: array<atomic<u32>>;
+
+fn position(i: u32) -> vecd {
+    return vload_x(POS_OFF + DIM * i);
+}
 
 fn particle_index(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
     return gid.x + gid.y * nwg.x * 256u;
@@ -62,7 +74,7 @@ fn bin_particles(
     if i >= params.n {
         return;
     }
-    let c = cell_id(cell_of(x[i]));
+    let c = cell_id(cell_of(position(i)));
     cell[i] = c;
     atomicAdd(&cell_start[c], 1u);
 }
@@ -85,7 +97,7 @@ fn scatter(
 // over the particle's own slice; lists are short). Count and fill run this same code,
 // so they select the same set.
 fn gather(i: u32, fill: bool, first: u32, end: u32) -> u32 {
-    let xi = x[i];
+    let xi = position(i);
     let c = cell_of(xi);
     let lo = max(c, vec3<u32>(1u)) - vec3<u32>(1u);
     let hi = min(c + vec3<u32>(1u), params.dims - vec3<u32>(1u));
@@ -103,8 +115,11 @@ fn gather(i: u32, fill: bool, first: u32, end: u32) -> u32 {
             let e = atomicLoad(&cell_start[row + hi.x + 1u]);
             for (var k = s; k < e; k++) {
                 let j = sorted[k];
-                let d = x[j] - xi;
+                let d = position(j) - xi;
                 if j == i || dot(d, d) > params.radius2 {
+                    continue;
+                }
+                if MASKED == 1u && body[j] != body[i] {
                     continue;
                 }
                 if fill && first + count < end {
@@ -146,5 +161,9 @@ fn fill_neighbours(
     if i >= params.n {
         return;
     }
-    _ = gather(i, true, offsets[i], offsets[i + 1u]);
+    let capacity = arrayLength(&ids);
+    if i == 0u && offsets[params.n] > capacity {
+        atomicMax(&overflow[0], offsets[params.n]);
+    }
+    _ = gather(i, true, offsets[i], min(offsets[i + 1u], capacity));
 }

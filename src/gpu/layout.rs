@@ -3,40 +3,23 @@
 //! The solver passes use flat f32 arrays ([`Flat`]: DIM floats per vector, DIM² per
 //! column-major tensor). A buffer holding several fields is described once by
 //! [`Fields`], which gives the host its offsets and its encode/decode, and the shaders
-//! the same offsets as `{PREFIX}{NAME}_OFF` constants. The cell-list build reads typed
-//! `array<vecd>` positions ([`GpuDim::HV`]: `vec2<f32>`, or `vec3<f32>` with its 16-byte
-//! storage stride).
+//! the same offsets as `{PREFIX}{NAME}_OFF` constants.
 
 use super::shaders::Constants;
 use crate::tensor::{D2, D3, Dim};
-use bytemuck::Pod;
 
 /// A dimension whose vectors can be laid out for the GPU.
 pub trait GpuDim: Dim + Flat {
-    /// `vec2<f32>`, or `vec3<f32>` padded to 16 bytes (the stride of `array<vec3<f32>>`).
-    type HV: Pod + Send + Sync + Copy;
     /// The WGSL prelude defining `vecd`, `matd` and the tensor helpers.
     const PRELUDE: &'static str;
-
-    fn v(v: Self::V) -> Self::HV;
 }
 
 impl GpuDim for D2 {
-    type HV = [f32; 2];
     const PRELUDE: &'static str = include_str!("../../shaders/common/dim2.wgsl");
-
-    fn v(v: glam::DVec2) -> [f32; 2] {
-        [v.x as f32, v.y as f32]
-    }
 }
 
 impl GpuDim for D3 {
-    type HV = [f32; 4];
     const PRELUDE: &'static str = include_str!("../../shaders/common/dim3.wgsl");
-
-    fn v(v: glam::DVec3) -> [f32; 4] {
-        [v.x as f32, v.y as f32, v.z as f32, 0.0]
-    }
 }
 
 /// Flat f32 layout used by the solver passes: DIM components per vector and DIM² per

@@ -1,5 +1,6 @@
 //! GPU neighbour search: a cell list (counting sort with u32 atomics) and CSR neighbour
-//! lists, built once per total-Lagrangian scene from the reference positions.
+//! lists, rebuilt on the device from the current positions as often as a method's
+//! neighbours change, with per-body masks.
 //!
 //! The lists equal those of [`crate::neighbour::build`] (self excluded, |x_i − x_j| ≤ radius,
 //! ids ascending), up to the f32 rounding of the positions: a pair whose distance lies
@@ -8,11 +9,12 @@
 //! differently. Lattice ties (pairs at exactly 2 dx, say) need a relative margin on the
 //! radius of that size (1e-5 is safe for |x| up to a few hundred radii); 1 + 1e-9 is not.
 //!
-//! Passes (`shaders/common/cell_list.wgsl`, `shaders/common/scan.wgsl`), recorded in two command
-//! encoders: bin particles into cells and count per cell → exclusive scan of the counts →
-//! scatter into cell order → count neighbours per particle → exclusive scan into offsets
-//! (n + 1 entries) → read back the pair count (the only readback) → allocate `ids` → fill
-//! and sort each particle's slice.
+//! Passes (`shaders/common/cell_list.wgsl`, `shaders/common/scan.wgsl`), recorded into one
+//! command encoder: bin particles into cells and count per cell → exclusive scan of the
+//! counts → scatter into cell order → count neighbours per particle → exclusive scan into
+//! offsets (n + 1 entries) → fill and sort each particle's slice, up to the capacity of
+//! `ids`; a build that needs more records the pair count in an overflow flag, which the
+//! owner reads when it checks the run (the only readback) to grow the lists.
 
 use super::context::{Gpu, GpuError, Pipeline, WORKGROUP};
 use super::layout::GpuDim;
@@ -26,17 +28,6 @@ pub const SCAN_BLOCK: u32 = 2 * WORKGROUP;
 /// Most cells along one axis. Past it the cell grows: f32 cell coordinates of magnitude
 /// up to this bound keep an error far below one cell (see [`CellParams::new`]).
 const MAX_CELLS_PER_AXIS: f64 = 65_536.0;
-
-/// Neighbour lists on the GPU: the neighbours of particle i are
-/// `ids[offsets[i]..offsets[i + 1]]`, sorted ascending.
-pub struct GpuCsr {
-    /// `array<u32>`, n + 1 entries; the last is `pairs`.
-    pub offsets: wgpu::Buffer,
-    /// `array<u32>`, `pairs` entries (at least 4 bytes, so an empty list still binds).
-    pub ids: wgpu::Buffer,
-    /// Total number of ordered pairs.
-    pub pairs: u32,
-}
 
 /// The uniform `CellParams` of `cell_list.wgsl` (48 bytes: `origin` is a vec3 at offset 0
 /// and `dims` a vec3 at offset 16, each followed by a 4-byte scalar in its tail).
@@ -219,153 +210,199 @@ pub fn exclusive_scan(gpu: &Gpu, data: &wgpu::Buffer, n: u32) -> Result<(), GpuE
     Ok(())
 }
 
-/// Builds the CSR neighbour lists of the `n` points in `x` (`array<vecd>`, uploaded with
-/// `D::v`): all pairs i ≠ j with |x_i − x_j| ≤ `radius`, ids ascending. `lo`/`hi` is the
-/// bounding box of the points (computed by the caller; points outside it are still found,
-/// only less efficiently). Reads back one u32 (the pair count) to size `ids`.
-///
-/// Panics if `radius` is not positive and finite or `x` holds fewer than `n` vectors.
-pub fn build<D: GpuDim>(
-    gpu: &Gpu,
-    x: &wgpu::Buffer,
-    lo: [f64; 3],
-    hi: [f64; 3],
-    n: u32,
-    radius: f64,
-) -> Result<GpuCsr, GpuError> {
-    assert!(
-        radius.is_finite() && radius > 0.0,
-        "neighbour radius must be positive, got {radius}"
-    );
-    let stride = std::mem::size_of::<D::HV>() as u64;
-    assert!(
-        x.size() >= u64::from(n) * stride,
-        "positions buffer holds {} bytes, fewer than {n} vectors of {stride} bytes",
-        x.size()
-    );
-    let n_bytes = u64::from(n) * 4;
-    gpu.check_size("neighbour list", n_bytes + 4)?;
-    let offsets = gpu.zeroed("neighbour offsets", n_bytes + 4);
-    if n == 0 {
-        return Ok(GpuCsr {
-            offsets,
-            ids: gpu.zeroed("neighbour ids", 4),
-            pairs: 0,
-        });
-    }
-    let params = CellParams::new(gpu, D::N, lo, hi, n, radius)?;
-    let ncells = params.ncells;
-    let uniform = gpu.uniform("cell list params", &params);
-    let cell = gpu.zeroed("particle cells", n_bytes);
-    let cell_start = gpu.zeroed("cell start", (u64::from(ncells) + 1) * 4);
-    let cursor = gpu.zeroed("cell cursor", u64::from(ncells) * 4);
-    let sorted = gpu.zeroed("cell-sorted particles", n_bytes);
-    // count_neighbours shares its loop with the fill and so binds `ids` statically.
-    let no_ids = gpu.zeroed("neighbour ids (count pass)", 4);
-    let total = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("neighbour pair count"),
-        size: 4,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
+/// The constants of `cell_list.wgsl`: positions from `offset` floats in, pairs only
+/// within a body if `masked`.
+pub fn constants(offset: usize, masked: bool) -> Constants {
+    Constants::default()
+        .u32("POS_OFF", offset as u32)
+        .u32("MASKED", u32::from(masked))
+}
 
-    let text = compose::<D>(&CELL_LIST, &Constants::default());
-    let pipeline = |entry: &str| gpu.pipeline(entry, &text, entry);
-    let (bin, scatter, count, fill) = (
-        pipeline("bin_particles")?,
-        pipeline("scatter")?,
-        pipeline("count_neighbours")?,
-        pipeline("fill_neighbours")?,
-    );
-    let scan = Scan::new(gpu)?;
-    let scan_cells = scan.plan(gpu, &cell_start, ncells + 1)?;
-    let scan_offsets = scan.plan(gpu, &offsets, n + 1)?;
-    let per_particle = gpu.groups(n);
-    // The passes of cell_list.wgsl use different subsets of its bindings.
-    let table = |ids| -> [(&str, &wgpu::Buffer); 8] {
-        [
+/// Where a [`CellList`] reads the positions, and which pairs it keeps.
+#[derive(Clone, Copy)]
+pub struct Positions<'a> {
+    /// Flat f32 buffer: DIM floats per particle from `offset` floats in (a state's
+    /// position or displacement field, or positions alone at 0).
+    pub x: &'a wgpu::Buffer,
+    pub offset: usize,
+    pub n: u32,
+    /// The body of each particle: pairs only within a body (per-body masks).
+    pub body: Option<&'a wgpu::Buffer>,
+}
+
+/// A neighbour build resident on the device: the cell list's buffers and passes for n
+/// particles, allocated once and recorded into an encoder as often as the particles move,
+/// without reading anything back. The lists are CSR (`offsets`, n + 1 entries, and `ids`,
+/// filled up to its capacity); a build that needs more pairs than the capacity records
+/// the count it needs ([`CellList::overflow`]) and the owner makes a larger one.
+pub struct CellList {
+    /// n + 1 entries; the last is the pair count.
+    pub offsets: wgpu::Buffer,
+    /// `capacity` entries.
+    pub ids: wgpu::Buffer,
+    capacity: u32,
+    n: u32,
+    cell_start: wgpu::Buffer,
+    cursor: wgpu::Buffer,
+    ncells: u32,
+    overflow: wgpu::Buffer,
+    /// bin, (scan of cells), scatter, count, (scan of offsets), fill.
+    passes: [Step; 4],
+    scans: [ScanPlan; 2],
+}
+
+impl CellList {
+    /// The passes over `grid` (a box the particles may leave: a particle outside is put in
+    /// the nearest cell, which keeps every pair and only adds candidates) with room for
+    /// `capacity` pairs (at least 1).
+    pub fn new<D: GpuDim>(
+        gpu: &Gpu,
+        at: Positions,
+        grid: &CellParams,
+        capacity: u32,
+    ) -> Result<Self, GpuError> {
+        let n = at.n;
+        let capacity = capacity.max(1);
+        let n_bytes = u64::from(n.max(1)) * 4;
+        gpu.check_size("neighbour list", u64::from(capacity) * 4)?;
+        let ncells = grid.ncells;
+        let uniform = gpu.uniform("cell list params", grid);
+        let cell = gpu.zeroed("particle cells", n_bytes);
+        let cell_start = gpu.zeroed("cell start", (u64::from(ncells) + 1) * 4);
+        let cursor = gpu.zeroed("cell cursor", u64::from(ncells) * 4);
+        let sorted = gpu.zeroed("cell-sorted particles", n_bytes);
+        let offsets = gpu.zeroed("neighbour offsets", n_bytes + 4);
+        let ids = gpu.zeroed("neighbour ids", u64::from(capacity) * 4);
+        let overflow = gpu.zeroed("neighbour overflow", 4);
+        let unmasked = gpu.zeroed("bodies (unmasked)", 4);
+
+        let text = compose::<D>(&CELL_LIST, &constants(at.offset, at.body.is_some()));
+        let table = [
             ("params", &uniform),
-            ("x", x),
+            ("x", at.x),
             ("cell", &cell),
             ("cell_start", &cell_start),
             ("cursor", &cursor),
             ("sorted", &sorted),
             ("offsets", &offsets),
-            ("ids", ids),
-        ]
-    };
-    let step = |pipeline: &Pipeline, ids| -> Result<Step, GpuError> {
-        Ok(Step {
-            pipeline: pipeline.raw.clone(),
-            bind: gpu.bind(pipeline, &table(ids))?,
-            groups: per_particle,
+            ("ids", &ids),
+            ("body", at.body.unwrap_or(&unmasked)),
+            ("overflow", &overflow),
+        ];
+        let groups = gpu.groups(n);
+        let step = |entry: &str| -> Result<Step, GpuError> {
+            let pipeline = gpu.pipeline(entry, &text, entry)?;
+            Ok(Step {
+                bind: gpu.bind(&pipeline, &table)?,
+                pipeline: pipeline.raw,
+                groups,
+            })
+        };
+        let passes = [
+            step("bin_particles")?,
+            step("scatter")?,
+            step("count_neighbours")?,
+            step("fill_neighbours")?,
+        ];
+        let scan = Scan::new(gpu)?;
+        let scans = [
+            scan.plan(gpu, &cell_start, ncells + 1)?,
+            scan.plan(gpu, &offsets, n + 1)?,
+        ];
+        Ok(Self {
+            offsets,
+            ids,
+            capacity,
+            n,
+            cell_start,
+            cursor,
+            ncells,
+            overflow,
+            passes,
+            scans,
         })
-    };
-    let (bin, scatter, count) = (
-        step(&bin, &no_ids)?,
-        step(&scatter, &no_ids)?,
-        step(&count, &no_ids)?,
-    );
-
-    let mut encoder = gpu.device.create_command_encoder(&Default::default());
-    encoder.clear_buffer(&cell_start, 0, None);
-    encoder.clear_buffer(&offsets, 0, None);
-    {
-        let mut pass = encoder.begin_compute_pass(&Default::default());
-        bin.encode(&mut pass);
-        scan_cells.encode(&mut pass);
     }
-    encoder.copy_buffer_to_buffer(&cell_start, 0, &cursor, 0, u64::from(ncells) * 4);
-    {
+
+    /// Records a build from the current positions.
+    pub fn record(&self, encoder: &mut wgpu::CommandEncoder) {
+        if self.n == 0 {
+            return;
+        }
+        let [bin, scatter, count, fill] = &self.passes;
+        encoder.clear_buffer(&self.cell_start, 0, None);
+        encoder.clear_buffer(&self.offsets, 0, None);
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            bin.encode(&mut pass);
+            self.scans[0].encode(&mut pass);
+        }
+        let cells = u64::from(self.ncells) * 4;
+        encoder.copy_buffer_to_buffer(&self.cell_start, 0, &self.cursor, 0, cells);
         let mut pass = encoder.begin_compute_pass(&Default::default());
         scatter.encode(&mut pass);
         count.encode(&mut pass);
-        scan_offsets.encode(&mut pass);
+        self.scans[1].encode(&mut pass);
+        fill.encode(&mut pass);
     }
-    encoder.copy_buffer_to_buffer(&offsets, n_bytes, &total, 0, 4);
-    gpu.queue.submit([encoder.finish()]);
 
-    let slice = total.slice(..);
-    slice.map_async(wgpu::MapMode::Read, |r| {
-        r.expect("mapping the neighbour pair count")
-    });
-    gpu.wait();
-    let pairs = {
-        let view = slice
-            .get_mapped_range()
-            .expect("mapped range of the neighbour pair count");
-        bytemuck::pod_read_unaligned::<u32>(&view)
-    };
-    total.unmap();
-
-    let ids_bytes = u64::from(pairs) * 4;
-    gpu.check_size("neighbour list", ids_bytes)?;
-    let ids = gpu.zeroed("neighbour ids", ids_bytes);
-    if pairs > 0 {
-        let fill = step(&fill, &ids)?;
-        let mut encoder = gpu.device.create_command_encoder(&Default::default());
-        {
-            let mut pass = encoder.begin_compute_pass(&Default::default());
-            fill.encode(&mut pass);
-        }
-        gpu.queue.submit([encoder.finish()]);
+    /// Room for pairs in `ids`.
+    pub fn capacity(&self) -> u32 {
+        self.capacity
     }
-    Ok(GpuCsr {
-        offsets,
-        ids,
-        pairs,
-    })
+
+    /// The pair count a build since the list was made needed beyond its capacity, if any
+    /// (reads one u32 back).
+    pub fn overflow(&self, gpu: &Gpu) -> Option<u32> {
+        let needed: Vec<u32> = gpu.read(&self.overflow);
+        (needed[0] > 0).then_some(needed[0])
+    }
+
+    /// The lists of the last build, read back (waits for the queue).
+    pub fn lists(&self, gpu: &Gpu) -> crate::neighbour::Csr {
+        let offsets: Vec<u32> = gpu.read(&self.offsets);
+        let offsets: Vec<usize> = offsets[..=self.n as usize]
+            .iter()
+            .map(|&o| o as usize)
+            .collect();
+        let mut ids: Vec<u32> = gpu.read(&self.ids);
+        ids.truncate(offsets[self.n as usize]);
+        crate::neighbour::Csr { offsets, ids }
+    }
 }
 
-/// Reads GPU lists back into the CPU type (waits for the queue).
-pub fn read_lists(gpu: &Gpu, csr: &GpuCsr) -> crate::neighbour::Csr {
-    let entries = (csr.offsets.size() / 4) as usize;
-    let mut offsets: Vec<u32> = gpu.read(&csr.offsets);
-    offsets.truncate(entries);
-    let mut ids: Vec<u32> = gpu.read(&csr.ids);
-    ids.truncate(csr.pairs as usize);
-    crate::neighbour::Csr {
-        offsets: offsets.into_iter().map(|o| o as usize).collect(),
-        ids,
+/// Builds the CSR neighbour lists of the particles `at` once: all pairs i ≠ j with
+/// |x_i − x_j| ≤ `radius` (within a body, with per-body masks), ids ascending. `lo`/`hi`
+/// is their bounding box. Starts with room for 64 pairs per particle and, if a build
+/// overflows, builds again with the room it asked for (one readback each).
+///
+/// Panics if `radius` is not positive and finite or `x` holds fewer than `n` positions.
+pub fn build<D: GpuDim>(
+    gpu: &Gpu,
+    at: Positions,
+    lo: [f64; 3],
+    hi: [f64; 3],
+    radius: f64,
+) -> Result<CellList, GpuError> {
+    assert!(
+        radius.is_finite() && radius > 0.0,
+        "neighbour radius must be positive, got {radius}"
+    );
+    let floats = (at.offset + at.n as usize * D::N) as u64;
+    assert!(
+        at.x.size() >= floats * 4,
+        "positions buffer holds {} bytes, fewer than {floats} floats",
+        at.x.size()
+    );
+    let grid = CellParams::new(gpu, D::N, lo, hi, at.n, radius)?;
+    let mut capacity = at.n.saturating_mul(64);
+    loop {
+        let list = CellList::new::<D>(gpu, at, &grid, capacity)?;
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        list.record(&mut encoder);
+        gpu.queue.submit([encoder.finish()]);
+        match list.overflow(gpu) {
+            None => return Ok(list),
+            Some(needed) => capacity = needed,
+        }
     }
 }

@@ -88,12 +88,12 @@ pub const CONTACT: Source = source!(
     [REFERENCE],
     [("reference", false), ("y", false), ("ext", true)]
 );
-/// Cell list and neighbour lists.
-pub const CELL_LIST: Source = source!("common/cell_list.wgsl");
+/// Cell list and neighbour lists, with the constants of `gpu::neighbour::constants`.
+pub const CELL_LIST: Source = source!("common/cell_list.wgsl", [], [("x", false)]);
 /// Prefix scans.
 pub const SCAN: Source = source!("common/scan.wgsl");
 
-/// The shared pass files that take no scene constants.
+/// The shared pass files that take no scene constants (the cell list takes its own).
 pub const SHARED: &[Source] = &[CELL_LIST, SCAN];
 
 /// Scene constants compiled into a variant.

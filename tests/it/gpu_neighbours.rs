@@ -6,22 +6,26 @@
 
 use crate::common::{gpu, lcg, validate_wgsl};
 use glam::{DVec2, DVec3};
-use meshless::gpu::neighbour::{self as gpu_neighbour, CellParams};
-use meshless::gpu::shaders::{Constants, compose};
+use meshless::gpu::layout::flat_v;
+use meshless::gpu::neighbour::{self as gpu_neighbour, CellParams, Positions};
+use meshless::gpu::shaders::compose;
 use meshless::gpu::{Gpu, GpuDim};
 use meshless::methods::shaders;
 use meshless::neighbour::{self, Csr};
 use meshless::tensor::{D2, D3, Dim};
 
 fn gpu_lists<D: GpuDim>(gpu: &Gpu, x: &[D::V], radius: f64) -> Csr {
-    let host: Vec<D::HV> = x.iter().map(|&p| D::v(p)).collect();
-    let buffer = gpu.storage("positions", &host);
+    let buffer = gpu.storage("positions", &flat_v::<D>(x.iter().copied()));
     let (lo, hi) = meshless::neighbour::bounding_box(x.iter().map(|&p| D::to3(p)));
-    let csr = gpu_neighbour::build::<D>(gpu, &buffer, lo, hi, x.len() as u32, radius)
-        .expect("building GPU neighbour lists");
-    let lists = gpu_neighbour::read_lists(gpu, &csr);
-    assert_eq!(lists.ids.len(), csr.pairs as usize);
-    lists
+    let at = Positions {
+        x: &buffer,
+        offset: 0,
+        n: x.len() as u32,
+        body: None,
+    };
+    gpu_neighbour::build::<D>(gpu, at, lo, hi, radius)
+        .expect("building GPU neighbour lists")
+        .lists(gpu)
 }
 
 /// GPU lists equal the CPU lists exactly (same offsets, same ids in the same order).
@@ -40,19 +44,14 @@ fn assert_same_lists<D: GpuDim>(gpu: &Gpu, x: &[D::V], radius: f64, what: &str) 
     assert!(cpu.pair_count() > 0, "{what}: the case should have pairs");
 }
 
-/// Drops points so that no pair's f64 distance lies within 1e-5·radius of the radius;
-/// `lists` finds the candidate pairs (the CPU cell list, or brute force).
-///
-/// The GPU compares f32 positions (relative rounding ~6e-8 of a coordinate, a few 1e-7
-/// of a distance of the test sizes here), so pairs that close to the radius may classify
-/// differently than in f64; a margin of 1e-5 leaves ample room. Removing a point only
-/// removes pairs, so the survivors have no near-ties either.
-fn drop_near_ties<D: Dim>(
-    x: Vec<D::V>,
+/// Marks the points to keep so that no pair's f64 distance lies within 1e-5·radius of the
+/// radius; `lists` finds the candidate pairs.
+fn near_tie_free<D: Dim>(
+    x: &[D::V],
     radius: f64,
     lists: impl Fn(&[D::V], f64) -> Csr,
-) -> Vec<D::V> {
-    let wide = lists(&x, radius * (1.0 + 1e-5));
+) -> Vec<bool> {
+    let wide = lists(x, radius * (1.0 + 1e-5));
     let mut keep = vec![true; x.len()];
     for i in 0..x.len() {
         if !keep[i] {
@@ -65,6 +64,22 @@ fn drop_near_ties<D: Dim>(
             }
         }
     }
+    keep
+}
+
+/// Drops points so that no pair's f64 distance lies within 1e-5·radius of the radius;
+/// `lists` finds the candidate pairs (the CPU cell list, or brute force).
+///
+/// The GPU compares f32 positions (relative rounding ~6e-8 of a coordinate, a few 1e-7
+/// of a distance of the test sizes here), so pairs that close to the radius may classify
+/// differently than in f64; a margin of 1e-5 leaves ample room. Removing a point only
+/// removes pairs, so the survivors have no near-ties either.
+fn drop_near_ties<D: Dim>(
+    x: Vec<D::V>,
+    radius: f64,
+    lists: impl Fn(&[D::V], f64) -> Csr,
+) -> Vec<D::V> {
+    let keep = near_tie_free::<D>(&x, radius, lists);
     x.into_iter()
         .zip(keep)
         .filter_map(|(p, k)| k.then_some(p))
@@ -96,9 +111,10 @@ fn cell_params_match_the_wgsl_uniform_layout() {
         .iter()
         .find(|s| s.name == "common/cell_list.wgsl")
         .expect("cell_list.wgsl among the passes");
+    let constants = gpu_neighbour::constants(0, false);
     for text in [
-        compose::<D2>(source, &Constants::default()),
-        compose::<D3>(source, &Constants::default()),
+        compose::<D2>(source, &constants),
+        compose::<D3>(source, &constants),
     ] {
         let module = naga::front::wgsl::parse_str(&text).expect("cell_list.wgsl parses");
         let (span, members) = module
@@ -136,11 +152,14 @@ fn neighbour_shaders_validate_with_naga() {
             .iter()
             .find(|s| s.name == name)
             .expect("shader among the passes");
-        for text in [
-            compose::<D2>(source, &Constants::default()),
-            compose::<D3>(source, &Constants::default()),
-        ] {
-            validate_wgsl(name, &text);
+        for masked in [false, true] {
+            let constants = gpu_neighbour::constants(3, masked);
+            for text in [
+                compose::<D2>(source, &constants),
+                compose::<D3>(source, &constants),
+            ] {
+                validate_wgsl(name, &text);
+            }
         }
     }
 }
@@ -330,4 +349,86 @@ fn sparse_clusters_and_tiny_inputs() {
     );
     let two = [DVec3::new(1.0, 2.0, 3.0), DVec3::new(1.5, 2.0, 3.0)];
     assert_same_lists::<D3>(&gpu, &two, 1.0, "two points");
+}
+
+/// A list built once and recorded again after the particles moved (rotated, stretched,
+/// jittered and partly carried out of the grid's box) gives the CPU's lists of the new
+/// positions, with and without per-body masks; a list with too little room reports the
+/// pair count it needs.
+#[test]
+fn a_rebuild_on_the_device_follows_moving_particles() {
+    let gpu = gpu();
+    let radius = 0.08;
+    let mut s = 5;
+    let reference: Vec<DVec2> = (0..2500)
+        .map(|_| DVec2::new(lcg(&mut s) * 2.0, lcg(&mut s)))
+        .collect();
+    let (c, turn) = (DVec2::new(1.0, 0.5), glam::DMat2::from_angle(0.7));
+    let moved: Vec<DVec2> = reference
+        .iter()
+        .map(|&x| {
+            let jitter = DVec2::new(lcg(&mut s) - 0.5, lcg(&mut s) - 0.5) * 0.02;
+            c + turn * ((x - c) * DVec2::new(1.2, 0.9)) + jitter + DVec2::new(0.6, 0.0)
+        })
+        .collect();
+    // Near-ties of either configuration are dropped from both (see drop_near_ties).
+    let keep: Vec<bool> = near_tie_free::<D2>(&reference, radius, neighbour::build::<D2>)
+        .into_iter()
+        .zip(near_tie_free::<D2>(&moved, radius, neighbour::build::<D2>))
+        .map(|(a, b)| a && b)
+        .collect();
+    let kept = |x: &[DVec2]| -> Vec<DVec2> {
+        x.iter()
+            .zip(&keep)
+            .filter_map(|(&p, &k)| k.then_some(p))
+            .collect()
+    };
+    let (reference, moved) = (kept(&reference), kept(&moved));
+    assert!(reference.len() > 2480, "{} left", reference.len());
+    let n = reference.len() as u32;
+    let body: Vec<u32> = reference.iter().map(|x| u32::from(x.x > 1.0)).collect();
+    let positions = gpu.storage("positions", &flat_v::<D2>(reference.iter().copied()));
+    let bodies = gpu.storage("bodies", &body);
+    // The grid covers the reference box only: the moved cloud leaves it by up to 0.6.
+    let (lo, hi) = neighbour::bounding_box(reference.iter().map(|&p| D2::to3(p)));
+    let grid = CellParams::new(&gpu, 2, lo, hi, n, radius).unwrap();
+    for masked in [false, true] {
+        let at = Positions {
+            x: &positions,
+            offset: 0,
+            n,
+            body: masked.then_some(&bodies),
+        };
+        let lists = gpu_neighbour::CellList::new::<D2>(&gpu, at, &grid, 40 * n).unwrap();
+        let mask = masked.then_some(body.as_slice());
+        for x in [&reference, &moved] {
+            gpu.queue.write_buffer(
+                &positions,
+                0,
+                bytemuck::cast_slice(&flat_v::<D2>(x.iter().copied())),
+            );
+            let mut encoder = gpu.device.create_command_encoder(&Default::default());
+            lists.record(&mut encoder);
+            gpu.queue.submit([encoder.finish()]);
+            let cpu = neighbour::build_within::<D2>(x, neighbour::Reach::Uniform(radius), mask);
+            assert!(
+                cpu.pair_count() > 20 * x.len(),
+                "{} pairs",
+                cpu.pair_count()
+            );
+            assert_eq!(lists.overflow(&gpu), None, "masked {masked}");
+            assert_eq!(
+                lists.lists(&gpu),
+                cpu,
+                "masked {masked}: lists of the moved particles"
+            );
+        }
+        // Room for 10 pairs: the build reports the count the moved particles need.
+        let small = gpu_neighbour::CellList::new::<D2>(&gpu, at, &grid, 10).unwrap();
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        small.record(&mut encoder);
+        gpu.queue.submit([encoder.finish()]);
+        let cpu = neighbour::build_within::<D2>(&moved, neighbour::Reach::Uniform(radius), mask);
+        assert_eq!(small.overflow(&gpu), Some(cpu.pair_count() as u32));
+    }
 }
