@@ -114,7 +114,6 @@ pub struct Reflection {
 /// The [`Reflection`] of entry point `entry`; Err: naga's message when the source does
 /// not validate or has no such entry point.
 pub fn reflect(source: &str, entry: &str) -> Result<Reflection, String> {
-    use wgpu::naga;
     let module = naga::front::wgsl::parse_str(source).map_err(|e| e.emit_to_string(source))?;
     let info = naga::valid::Validator::new(
         naga::valid::ValidationFlags::all(),
@@ -211,7 +210,12 @@ pub struct Gpu {
 impl Gpu {
     /// Opens the best adapter, or the one named by `MESHLESS_ADAPTER`.
     pub fn new() -> Result<Self, GpuError> {
-        let requested = std::env::var(ADAPTER_ENV).ok().filter(|s| !s.is_empty());
+        Self::matching(std::env::var(ADAPTER_ENV).ok().filter(|s| !s.is_empty()))
+    }
+
+    /// Opens the best adapter whose name contains `requested` or whose backend it names
+    /// (`vulkan`, `metal`, `dx12`, `gl`), or the best of all for None.
+    pub fn matching(requested: Option<String>) -> Result<Self, GpuError> {
         let mut list: Vec<wgpu::Adapter> =
             pollster::block_on(instance().enumerate_adapters(wgpu::Backends::all()));
         list.sort_by_key(rank);

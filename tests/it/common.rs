@@ -143,20 +143,47 @@ pub fn random_state<D: Dim>(m: &MixedSph<D>, seed: &mut u64, h_noise: f64) -> Mi
     y
 }
 
-/// Parses and validates the WGSL `src` with naga; panics with the located error, under
-/// `name`, or when an entry point binds more storage buffers than WebGPU allows.
+/// Parses and validates the WGSL `src` with naga and translates it with the SPIR-V, MSL,
+/// HLSL and GLSL (ES 3.1 compute) back ends; checks every entry point against WebGPU's
+/// default limits, which every adapter meets (`Gpu::pipeline` checks the adapter's own
+/// at run time). Panics with the located error, under `name`.
 #[cfg(feature = "gpu")]
 pub fn validate_wgsl(name: &str, src: &str) {
     let module = naga::front::wgsl::parse_str(src)
         .unwrap_or_else(|e| panic!("{}", e.emit_to_string_with_path(src, name)));
-    naga::valid::Validator::new(
+    let info = naga::valid::Validator::new(
         naga::valid::ValidationFlags::all(),
         naga::valid::Capabilities::empty(),
     )
     .validate(&module)
     .unwrap_or_else(|e| panic!("{}", e.emit_to_string_with_path(src, name)));
-    // WebGPU's default limit, which every adapter meets: no entry point of any variant
-    // may bind more storage buffers (`Gpu::pipeline` checks the adapter's own at run time).
+    within_webgpu_limits(name, src, &module);
+    translate(name, &module, &info);
+}
+
+/// WebGPU's default limits: `max_storage_buffers_per_shader_stage`,
+/// `max_compute_invocations_per_workgroup` and `max_compute_workgroup_storage_size`.
+#[cfg(feature = "gpu")]
+pub const WEBGPU_STORAGE_BUFFERS: u32 = 8;
+#[cfg(feature = "gpu")]
+const WEBGPU_INVOCATIONS: u32 = 256;
+#[cfg(feature = "gpu")]
+const WEBGPU_WORKGROUP_BYTES: u32 = 16_384;
+
+#[cfg(feature = "gpu")]
+fn within_webgpu_limits(name: &str, src: &str, module: &naga::Module) {
+    let mut layouter = naga::proc::Layouter::default();
+    layouter.update(module.to_ctx()).unwrap();
+    let shared: u32 = module
+        .global_variables
+        .iter()
+        .filter(|(_, v)| v.space == naga::AddressSpace::WorkGroup)
+        .map(|(_, v)| layouter[v.ty].size)
+        .sum();
+    assert!(
+        shared <= WEBGPU_WORKGROUP_BYTES,
+        "{name}: {shared} bytes of workgroup memory, above WebGPU's {WEBGPU_WORKGROUP_BYTES}"
+    );
     for entry in &module.entry_points {
         let r = meshless::gpu::context::reflect(src, &entry.name).unwrap();
         assert!(
@@ -166,12 +193,58 @@ pub fn validate_wgsl(name: &str, src: &str) {
             entry.name,
             r.storage_buffers
         );
+        let invocations: u32 = entry.workgroup_size.iter().product();
+        assert!(
+            invocations <= WEBGPU_INVOCATIONS,
+            "{name}: entry point `{}` has {invocations} invocations per workgroup",
+            entry.name
+        );
     }
 }
 
-/// `max_storage_buffers_per_shader_stage` of WebGPU's default limits.
+/// Translates a validated module with every back end wgpu uses: SPIR-V (Vulkan), MSL
+/// (Metal), HLSL (DX12) and GLSL ES 3.1 (GL, one entry point at a time).
 #[cfg(feature = "gpu")]
-pub const WEBGPU_STORAGE_BUFFERS: u32 = 8;
+fn translate(name: &str, module: &naga::Module, info: &naga::valid::ModuleInfo) {
+    use naga::back::{glsl, hlsl, msl, spv};
+    let fail = |back: &str, e: &dyn std::fmt::Display| -> ! {
+        panic!("{name}: the {back} back end does not translate it: {e}")
+    };
+    spv::write_vec(module, info, &spv::Options::default(), None)
+        .unwrap_or_else(|e| fail("SPIR-V", &e));
+    let msl_options = msl::Options {
+        lang_version: (2, 0),
+        ..Default::default()
+    };
+    msl::write_string(module, info, &msl_options, &msl::PipelineOptions::default())
+        .unwrap_or_else(|e| fail("MSL", &e));
+    let mut hlsl_out = String::new();
+    hlsl::Writer::new(
+        &mut hlsl_out,
+        &hlsl::Options::default(),
+        &hlsl::PipelineOptions::default(),
+    )
+    .write(module, info, None)
+    .unwrap_or_else(|e| fail("HLSL", &e));
+    for entry in &module.entry_points {
+        let pipeline = glsl::PipelineOptions {
+            shader_stage: naga::ShaderStage::Compute,
+            entry_point: entry.name.clone(),
+            multiview: None,
+        };
+        let mut out = String::new();
+        glsl::Writer::new(
+            &mut out,
+            module,
+            info,
+            &glsl::Options::default(),
+            &pipeline,
+            naga::proc::BoundsCheckPolicies::default(),
+        )
+        .and_then(|mut w| w.write().map(|_| ()))
+        .unwrap_or_else(|e| fail("GLSL ES 3.1", &e));
+    }
+}
 
 /// The largest `norm` over `values` (0 for none).
 fn largest<T>(values: impl IntoIterator<Item = T>, norm: impl Fn(T) -> f64) -> f64 {

@@ -197,3 +197,30 @@ fn bindings_are_reflected_per_entry_point() {
     assert_eq!(names("one"), (vec!["b".into(), "c".into()], 2));
     assert!(reflect(src, "none").unwrap_err().contains("none"));
 }
+
+/// The per-pass check against WebGPU's limits is live: nine storage buffers, or 512
+/// invocations per workgroup, or 32 KB of workgroup memory are each refused.
+#[test]
+fn a_pass_above_webgpu_limits_is_rejected() {
+    let buffers: String = (0..9)
+        .map(|k| format!("@group(0) @binding({k}) var<storage, read_write> b{k}: array<f32>;\n"))
+        .collect();
+    let sum: String = (0..9).map(|k| format!("b{k}[0] = 1.0;")).collect();
+    let nine = format!("{buffers}@compute @workgroup_size(64) fn nine() {{ {sum} }}");
+    let wide = "@compute @workgroup_size(512) fn wide() {}".to_string();
+    let shared = "var<workgroup> t: array<f32, 8192>;
+        @compute @workgroup_size(64) fn fill(@builtin(local_invocation_index) i: u32) { t[i] = 1.0; }"
+        .to_string();
+    for (src, says) in [
+        (nine, "9 storage buffers"),
+        (wide, "512 invocations"),
+        (shared, "32768 bytes of workgroup memory"),
+    ] {
+        let refused = std::panic::catch_unwind(|| validate_wgsl("limits", &src))
+            .expect_err("accepted above WebGPU's limits");
+        let message = refused
+            .downcast_ref::<String>()
+            .expect("a formatted message");
+        assert!(message.contains(says), "{message}");
+    }
+}

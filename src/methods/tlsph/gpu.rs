@@ -228,11 +228,20 @@ impl<D: GpuDim> GpuTlsph<D> {
             ("pair", &pair),
             ("status", &status),
         ];
-        run_once(&gpu, &compose(&PAIR_OFFSETS), "pair_offsets", &set_up, n)?;
-        if matches!(
+        // X_j − X_i, then (but for the host's RKPM and CGCK) the corrected gradients.
+        let offsets_pass = (compose(&PAIR_OFFSETS), "pair_offsets");
+        let correct_pass = (compose(&CORRECTION), "correct");
+        let host_solved = matches!(
             case.method.correction,
             CorrectionKind::Rkpm | CorrectionKind::Cgck
-        ) {
+        );
+        let passes = if host_solved {
+            vec![offsets_pass]
+        } else {
+            vec![offsets_pass, correct_pass]
+        };
+        run_once(&gpu, &passes, &set_up, n)?;
+        if host_solved {
             let g = correction::gradients::<D>(
                 case.method.correction,
                 &disc.x0,
@@ -244,19 +253,16 @@ impl<D: GpuDim> GpuTlsph<D> {
             let at = (layout.pair.offset("G") * 4) as u64;
             gpu.queue
                 .write_buffer(&pair, at, bytemuck::cast_slice(&flat_v::<D>(g)));
-        } else {
-            run_once(&gpu, &compose(&CORRECTION), "correct", &set_up, n)?;
-            if let Some(i) = read_status(&gpu, &status) {
-                return Err(case
-                    .invalid(
-                        "method.h_over_dx",
-                        format!(
-                            "the Randles–Libersky matrix of particle {i} is singular on the GPU \
-                             (f32): too few neighbours; increase h/dx"
-                        ),
-                    )
-                    .into());
-            }
+        } else if let Some(i) = read_status(&gpu, &status) {
+            return Err(case
+                .invalid(
+                    "method.h_over_dx",
+                    format!(
+                        "the Randles–Libersky matrix of particle {i} is singular on the GPU \
+                         (f32): too few neighbours; increase h/dx"
+                    ),
+                )
+                .into());
         }
 
         let mut y0 = layout.state.zeroed();
@@ -325,21 +331,26 @@ impl<D: GpuDim> GpuTlsph<D> {
     }
 }
 
-/// Compiles entry point `entry` of `source`, binds it from `table` and runs it once over
-/// n particles (a set-up pass).
+/// Compiles the entry points `(source, entry)`, binds them from `table` and runs them
+/// once, in order, over n particles (set-up passes), in one compute pass.
 fn run_once(
     gpu: &Gpu,
-    source: &str,
-    entry: &str,
+    passes: &[(String, &str)],
     table: &[(&str, &wgpu::Buffer)],
     n: usize,
 ) -> Result<(), GpuError> {
-    let pipeline = gpu.pipeline(entry, source, entry)?;
-    let bind = gpu.bind(&pipeline, table)?;
+    let mut bound = Vec::new();
+    for (source, entry) in passes {
+        let pipeline = gpu.pipeline(entry, source, entry)?;
+        let bind = gpu.bind(&pipeline, table)?;
+        bound.push((pipeline, bind));
+    }
     let mut encoder = gpu.device.create_command_encoder(&Default::default());
     {
         let mut pass = encoder.begin_compute_pass(&Default::default());
-        gpu.dispatch(&mut pass, &pipeline, &bind, n as u32);
+        for (pipeline, bind) in &bound {
+            gpu.dispatch(&mut pass, pipeline, bind, n as u32);
+        }
     }
     gpu.queue.submit([encoder.finish()]);
     Ok(())
