@@ -24,4 +24,5 @@ mod runs;
 mod shaders;
 #[cfg(feature = "study")]
 mod study;
+mod tl_potential;
 mod tlsph;

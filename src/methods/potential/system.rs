@@ -191,7 +191,9 @@ impl<D: Dim> Potential<D> {
     }
 
     /// Pass 2: m_i a_i = Σ_j [w_ij P_i ∇0W̃_ij − w_ji P_j ∇0W̃_ji] (eq 148 symmetrised),
-    /// plus Monaghan viscosity along F_i⁻ᵀ ∇0W̃_ij as in TLSPH.
+    /// plus Monaghan viscosity along ½(F_i⁻ᵀ ∇0W̃_ij − F_j⁻ᵀ ∇0W̃_ji): the TLSPH direction
+    /// F_i⁻ᵀ ∇0W̃_ij made antisymmetric in the pair as the stress term is, so that the
+    /// viscosity too keeps Σ m a = 0.
     fn accelerations(&self, y: &TlState<D>, a: &mut [D::V]) {
         let bulk = self.material.bulk;
         let h = self.h;
@@ -214,7 +216,8 @@ impl<D: Dim> Potential<D> {
                         let c = 0.5 * (ci + (bulk / kj.rho).sqrt());
                         let rho = 0.5 * (ki.rho + kj.rho);
                         let pi = av.pi::<D>(h, x_ij, y.v[i] - y.v[j], c, rho);
-                        viscous -= ki.f_inv_t * self.grad[p] * (self.mass[j] * pi);
+                        let dir = ki.f_inv_t * self.grad[p] - kj.f_inv_t * self.grad_rev[p];
+                        viscous -= dir * (0.5 * self.mass[j] * pi);
                     }
                 }
                 *a = force * (1.0 / self.mass[i]) + viscous;
