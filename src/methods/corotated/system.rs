@@ -264,9 +264,9 @@ impl<D: Dim> Corotated<D> {
         self.each_kinematics(&y.u).iter().map(|k| k.f_hat).collect()
     }
 
-    /// F = R F̂, the Cauchy stress σ = R (P̂ F̂ᵀ/det F̂) Rᵀ (2D: with σ_zz of F̂) and
-    /// Σ V ψ(F̂) of state y.
-    fn fields(&self, y: &TlState<D>) -> (Vec<D::T>, Vec<[[f64; 3]; 3]>, f64) {
+    /// The snapshot of state y: F = R F̂, the Cauchy stress σ = R (P̂ F̂ᵀ/det F̂) Rᵀ (2D:
+    /// with σ_zz of F̂) and Σ V ψ(F̂).
+    fn fields(&self, y: &TlState<D>) -> Snapshot<'_, D> {
         let mat = &self.material;
         let kin = self.each_kinematics(&y.u);
         let f = kin.iter().map(|k| k.r * k.f_hat).collect();
@@ -281,12 +281,22 @@ impl<D: Dim> Corotated<D> {
                 out
             })
             .collect();
-        let energy = kin
+        let strain_energy = kin
             .par_iter()
             .zip(&self.vol)
             .map(|(k, v)| v * mat.energy_density::<D>(k.f_hat, D::zero_t(), mat.rho0))
             .sum();
-        (f, sigma, energy)
+        Snapshot {
+            x0: &self.x0,
+            mass: &self.mass,
+            body: &self.body,
+            u: y.u.clone(),
+            v: y.v.clone(),
+            f,
+            sigma,
+            strain_energy,
+            extra: Vec::new(),
+        }
     }
 }
 
@@ -369,27 +379,16 @@ impl<D: Dim> Method<D> for Corotated<D> {
     }
 
     fn cauchy_stress(&self, y: &TlState<D>) -> Vec<[[f64; 3]; 3]> {
-        self.fields(y).1
+        self.fields(y).sigma
     }
 
     /// Σ V ψ(F̂): the energy of the corotated strains.
     fn strain_energy(&self, y: &TlState<D>) -> f64 {
-        self.fields(y).2
+        self.fields(y).strain_energy
     }
 
     fn snapshot<'a>(&'a self, y: &TlState<D>) -> Snapshot<'a, D> {
-        let (f, sigma, strain_energy) = self.fields(y);
-        Snapshot {
-            x0: &self.x0,
-            mass: &self.mass,
-            body: &self.body,
-            u: y.u.clone(),
-            v: y.v.clone(),
-            f,
-            sigma,
-            strain_energy,
-            extra: Vec::new(),
-        }
+        self.fields(y)
     }
 
     fn max_signal_speed(&self, y: &TlState<D>) -> f64 {
