@@ -9,7 +9,7 @@ use glam::{DMat2, DMat3, DVec2, DVec3};
 use meshless::integrate::OdeSystem;
 use meshless::methods::Method;
 use meshless::methods::potential::Potential;
-use meshless::methods::tlsph::TlState;
+use meshless::methods::tlsph::{ArtificialViscosity, TlState};
 use meshless::run::{Backend, CpuEngine, Engine, build_method};
 use meshless::scene::Case;
 use meshless::tensor::{D2, D3, Dim};
@@ -299,4 +299,28 @@ fn a_free_vibration_conserves_energy_and_both_momenta() {
     }
     let dh = (end.angular[2] - start.angular[2]).abs();
     assert!(dh < 1e-9 * scale, "Σ m x × v moved by {dh:e}");
+}
+
+#[test]
+fn artificial_viscosity_acts_on_approaching_pairs_only() {
+    // Checklist 23: Π_ij = 0 for v_ij·x_ij ≥ 0; for an approaching pair μ_ij < 0 and
+    // Π_ij = (−α c̄ μ + β μ²)/ρ̄ > 0, here in closed form (round-off 1e-12 relative).
+    let av = ArtificialViscosity {
+        alpha: 1.0,
+        beta: 2.0,
+        eta: 0.1,
+    };
+    let (h, c, rho) = (0.13, 40.0, 1000.0);
+    let x_ij = DVec2::new(0.1, 0.05);
+    for v_ij in [DVec2::new(1.0, 0.0), DVec2::new(-0.05, 0.1), DVec2::ZERO] {
+        assert_eq!(av.pi::<D2>(h, x_ij, v_ij, c, rho), 0.0, "v_ij = {v_ij}");
+    }
+    let v_ij = DVec2::new(-2.0, 0.5);
+    let mu = h * v_ij.dot(x_ij) / (x_ij.length_squared() + 0.01 * h * h);
+    let want = (-c * mu + 2.0 * mu * mu) / rho;
+    let got = av.pi::<D2>(h, x_ij, v_ij, c, rho);
+    assert!(
+        want > 0.0 && (got - want).abs() < 1e-12 * want,
+        "{got} vs {want}"
+    );
 }
