@@ -4,9 +4,10 @@
 //! the reference code's force is the consistent one over V, and an affine stretch gives the
 //! analytic stress with no interior force.
 
-use crate::common::{block_case, block_text, largest_v, random_vector};
+use crate::common::{block_case, block_text, largest_v, random_vector, shipped};
 use glam::{DMat2, DMat3, DVec2, DVec3};
 use meshless::integrate::OdeSystem;
+use meshless::material::Material;
 use meshless::methods::Method;
 use meshless::methods::potential::Potential;
 use meshless::methods::tlsph::{ArtificialViscosity, TlState};
@@ -323,4 +324,24 @@ fn artificial_viscosity_acts_on_approaching_pairs_only() {
         want > 0.0 && (got - want).abs() < 1e-12 * want,
         "{got} vs {want}"
     );
+}
+
+#[test]
+fn the_shipped_cases_have_the_seeds_plane_stress_constants_in_plane() {
+    // Checklist 20: the seed's state models are plane stress with E = 1e7 Pa, ν = 0.4,
+    // i.e. in-plane G = 3.5714e6 Pa and λ* = Dν = 4.7619e6 Pa (D = E/(1 − ν²)); the plane-
+    // strain constants E', ν' of the shipped cases must give the same λ and μ (the
+    // printed digits of E', ν' carry 1e-15, so 1e-9 relative).
+    let (e, nu) = (1.0e7, 0.4);
+    let g = e / (2.0 * (1.0 + nu));
+    let lambda_star = e / (1.0 - nu * nu) * nu;
+    for name in ["tensile-strip-potential", "rotating-disk-corotated"] {
+        let m = Material::new(&shipped(name).material);
+        assert!((m.mu - g).abs() < 1e-9 * g, "{name}: μ = {}", m.mu);
+        assert!(
+            (m.lambda - lambda_star).abs() < 1e-9 * lambda_star,
+            "{name}: λ = {}",
+            m.lambda
+        );
+    }
 }
