@@ -7,7 +7,9 @@
 //! [`MethodSpec`] and [`REGISTRY`] and never name a method: adding one is a folder here
 //! and one line in [`registry!`].
 
+pub mod corotated;
 pub mod mixed;
+pub mod potential;
 pub mod shared;
 pub mod tlsph;
 
@@ -66,6 +68,8 @@ pub trait MethodFamily: Sized {
     const KEYS: &'static [&'static str];
     /// The scene features it runs.
     const FEATURES: &'static [Feature];
+    /// Whether it has a GPU engine (`--backend auto` runs the others on the CPU).
+    const GPU_ENGINE: bool = true;
     /// The GPU passes it compiles with a scene's constants.
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source];
@@ -101,6 +105,8 @@ pub struct Entry {
     pub description: &'static str,
     pub keys: &'static [&'static str],
     pub features: &'static [Feature],
+    /// Whether it has a GPU engine.
+    pub gpu_engine: bool,
     #[cfg(feature = "gpu")]
     pub shaders: &'static [crate::gpu::shaders::Source],
 }
@@ -112,6 +118,7 @@ impl Entry {
             description: S::DESCRIPTION,
             keys: S::KEYS,
             features: S::FEATURES,
+            gpu_engine: S::GPU_ENGINE,
             #[cfg(feature = "gpu")]
             shaders: S::SHADERS,
         }
@@ -193,6 +200,8 @@ registry! {
     "tlsph" => Tlsph(tlsph::TlsphSpec),
     "upwind-sph" => UpwindSph(mixed::UpwindSpec),
     "jst-sph" => JstSph(mixed::JstSpec),
+    "tl-potential" => TlPotential(potential::PotentialSpec),
+    "corotated-tlsph" => CorotatedTlsph(corotated::CorotatedSpec),
 }
 
 /// The registry entry of a case-file method name.
@@ -435,6 +444,36 @@ pub fn not_run_by(case: &Case, system: &str) -> CaseError {
         "method.name",
         format!("{system} does not run `{}`", case.method.name()),
     )
+}
+
+/// The error of a GPU run of a method without a GPU engine: it names the method and the
+/// backend that runs it.
+pub fn no_gpu_engine(case: &Case) -> CaseError {
+    case.invalid(
+        "method.name",
+        format!(
+            "`{}` has no GPU engine; run it with `--backend cpu` (`--backend auto` picks the \
+             CPU for it)",
+            case.method.name()
+        ),
+    )
+}
+
+/// The check of a method that evaluates P = ∂ψ/∂F: the material must be a state model.
+pub fn state_model(case: &Case) -> Result<(), Problem> {
+    if case.material.model.is_rate_based() {
+        return crate::scene::validate::fail(
+            "material.model",
+            format!(
+                "`{}` evaluates the stress from F: use a state model \
+                 (`saint-venant-kirchhoff`, `neo-hookean`, `linear-elastic` or \
+                 `nearly-incompressible-neo-hookean`), not {}",
+                case.method.name(),
+                crate::scene::validate::toml_name(&case.material.model)
+            ),
+        );
+    }
+    Ok(())
 }
 
 #[cfg(test)]

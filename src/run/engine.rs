@@ -35,9 +35,19 @@ pub fn build_method<D: Dim, M: Method<D>>(case: &Case) -> Result<M, CaseError> {
 }
 
 /// The engine a case runs on: the GPU when `backend` asks for it (or `auto` finds an
-/// adapter), the CPU otherwise. Every method has both; the method's spec builds them.
+/// adapter and the method has a GPU engine), the CPU otherwise; the method's spec builds
+/// them.
 pub fn engine<D: EngineDim>(case: &Case, backend: Backend) -> Result<Box<dyn Engine<D>>, RunError> {
     let spec = &case.method.spec;
+    let backend = if backend == Backend::Auto && !spec.entry().gpu_engine {
+        eprintln!(
+            "note: --backend auto: `{}` has no GPU engine; running on the CPU (rayon, f64)",
+            case.method.name()
+        );
+        Backend::Cpu
+    } else {
+        backend
+    };
     match gpu(backend)? {
         #[cfg(feature = "gpu")]
         Some(gpu) => spec.gpu_engine::<D>(case, gpu).map_err(|e| match e {

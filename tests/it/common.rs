@@ -126,9 +126,7 @@ pub fn random_tensor<D: Dim>(seed: &mut u64, scale: f64) -> D::T {
 /// H = cof F + `h_noise` noise, J = det F + 1 %.
 pub fn random_state<D: Dim>(m: &MixedSph<D>, seed: &mut u64, h_noise: f64) -> MixedState<D> {
     let mut y = m.initial_state();
-    let vec = |seed: &mut u64, s: f64| {
-        D::from_slice(&(0..D::N).map(|_| s * noise(seed)).collect::<Vec<_>>())
-    };
+    let vec = random_vector::<D>;
     for a in 0..y.v.len() {
         y.v[a] = vec(seed, 1.0);
         y.u[a] = vec(seed, 0.01);
@@ -292,4 +290,45 @@ pub fn max_t<D: Dim>(a: &[D::T], b: &[D::T]) -> (f64, f64) {
 /// `max_diff` of scalar fields.
 pub fn max_s(a: &[f64], b: &[f64]) -> (f64, f64) {
     max_diff(a, b, f64::abs)
+}
+
+/// The case text of a block of one body, Δx = 0.1, ρ0 = 1000, E = 1e6, ν = 0.3,
+/// h/Δx = 1.3, no boundary conditions: `[method]` gets `name = "<method>"` and the lines
+/// `method_keys`; `max` is the far corner (2D or 3D) from the origin.
+pub fn block_text(max: &[f64], model: &str, method: &str, method_keys: &str) -> String {
+    let dim = max.len();
+    format!(
+        r#"
+name = "block"
+dimension = {dim}
+spacing = 0.1
+[material]
+model = "{model}"
+density = 1000.0
+youngs_modulus = 1.0e6
+poisson_ratio = 0.3
+[method]
+name = "{method}"
+h_over_dx = 1.3
+dt = 1.0e-5
+{method_keys}
+[[body]]
+name = "b"
+geometry = {{ shape = "box", min = {:?}, max = {max:?} }}
+[run]
+end_time = 1.0e-4
+"#,
+        vec![0.0; dim]
+    )
+}
+
+/// The case of [`block_text`]; panics if it does not load.
+pub fn block_case(max: &[f64], model: &str, method: &str, method_keys: &str) -> Case {
+    let text = block_text(max, model, method, method_keys);
+    Case::from_toml(&text, Path::new("block.toml"), &[]).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// A vector with components scale × noise.
+pub fn random_vector<D: Dim>(seed: &mut u64, scale: f64) -> D::V {
+    D::from_slice(&(0..D::N).map(|_| scale * noise(seed)).collect::<Vec<_>>())
 }

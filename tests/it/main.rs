@@ -10,6 +10,7 @@
 mod case_errors;
 mod common;
 mod contact;
+mod corotated_tlsph;
 #[cfg(feature = "gpu")]
 mod gpu_mixed;
 #[cfg(feature = "gpu")]
@@ -24,4 +25,5 @@ mod runs;
 mod shaders;
 #[cfg(feature = "study")]
 mod study;
+mod tl_potential;
 mod tlsph;

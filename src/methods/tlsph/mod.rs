@@ -31,6 +31,27 @@ fn default_eta() -> f64 {
     0.1
 }
 
+impl ArtificialViscosity {
+    /// The coefficients must not be negative.
+    pub fn validate(&self) -> Result<(), Problem> {
+        non_negative("method.artificial_viscosity.alpha", self.alpha)?;
+        non_negative("method.artificial_viscosity.beta", self.beta)?;
+        non_negative("method.artificial_viscosity.eta", self.eta)
+    }
+
+    /// Π_ij of a pair at distance x_ij = x_i − x_j with relative velocity v_ij, mean sound
+    /// speed c̄ and mean density ρ̄, smoothing length h: μ_ij = h v_ij·x_ij/(|x_ij|² + η²h²)
+    /// for approaching pairs, and zero for separating ones (v_ij·x_ij ≥ 0).
+    pub fn pi<D: Dim>(&self, h: f64, x_ij: D::V, v_ij: D::V, c: f64, rho: f64) -> f64 {
+        let vx = D::dot(v_ij, x_ij);
+        if vx >= 0.0 {
+            return 0.0;
+        }
+        let mu = h * vx / (D::norm2(x_ij) + self.eta * self.eta * h * h);
+        (-self.alpha * c * mu + self.beta * mu * mu) / rho
+    }
+}
+
 /// The `[method]` keys of TLSPH.
 #[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
 pub struct TlsphSpec {
@@ -50,12 +71,10 @@ impl MethodFamily for TlsphSpec {
     const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
 
     fn validate(&self, _case: &Case) -> Result<(), Problem> {
-        if let Some(ArtificialViscosity { alpha, beta, eta }) = self.artificial_viscosity {
-            non_negative("method.artificial_viscosity.alpha", alpha)?;
-            non_negative("method.artificial_viscosity.beta", beta)?;
-            non_negative("method.artificial_viscosity.eta", eta)?;
+        match &self.artificial_viscosity {
+            Some(av) => av.validate(),
+            None => Ok(()),
         }
-        Ok(())
     }
 
     fn plan(&self, case: &Case, gpu: bool) -> Plan {

@@ -292,15 +292,10 @@ impl<D: Dim> Tlsph<D> {
                     stress += (ki.p + kj.p) * g * self.vol[j];
                     if let Some(av) = &self.av {
                         let x_ij = xi - (self.x0[j] + y.u[j]);
-                        let vx = D::dot(y.v[i] - y.v[j], x_ij);
-                        if vx < 0.0 {
-                            // Monaghan viscosity for approaching pairs (seed 000 §3.1 step 6).
-                            let mu = h * vx / (D::norm2(x_ij) + av.eta * av.eta * h * h);
-                            let c = 0.5 * (ci + (bulk / kj.rho).sqrt());
-                            let rho = 0.5 * (ki.rho + kj.rho);
-                            let pi = (-av.alpha * c * mu + av.beta * mu * mu) / rho;
-                            viscous -= ki.f_inv_t * g * (self.mass[j] * pi);
-                        }
+                        let c = 0.5 * (ci + (bulk / kj.rho).sqrt());
+                        let rho = 0.5 * (ki.rho + kj.rho);
+                        let pi = av.pi::<D>(h, x_ij, y.v[i] - y.v[j], c, rho);
+                        viscous -= ki.f_inv_t * g * (self.mass[j] * pi);
                     }
                 }
                 *a = stress * inv_rho0 + viscous;

@@ -1,0 +1,91 @@
+//! Corotated total-Lagrangian SPH (after Becker, Ihmsen and Teschner; seed 000 §5.5): the
+//! spec and the CPU system ([`system`]). It has no GPU engine. Numerics notes:
+//! `docs/methods/corotated-tlsph.md`.
+
+pub mod system;
+
+pub use system::{Corotated, rotation};
+
+use super::{Feature, MethodFamily, Plan, Problem, state_model};
+use crate::material::Material;
+use crate::methods::tlsph::ArtificialViscosity;
+use crate::run::{CpuEngine, Engine, EngineDim};
+use crate::scene::validate::toml_name;
+use crate::scene::{Case, CaseError};
+use crate::tensor::Dim;
+use serde::{Deserialize, Serialize};
+
+/// The `[method]` keys of corotated TLSPH.
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
+pub struct CorotatedSpec {
+    /// Monaghan artificial viscosity; none when absent.
+    pub artificial_viscosity: Option<ArtificialViscosity>,
+}
+
+impl MethodFamily for CorotatedSpec {
+    const DESCRIPTION: &'static str = "corotated total-Lagrangian SPH (Becker et al.; seed 000 \
+        §5.5): shape-matching rotations, stress of the rotated displacements, forces rotated \
+        back with ½(R_i + R_j), Monaghan artificial viscosity (CPU only)";
+    const KEYS: &'static [&'static str] = &["artificial_viscosity"];
+    const FEATURES: &'static [Feature] = &[Feature::Contact];
+    const GPU_ENGINE: bool = false;
+    #[cfg(feature = "gpu")]
+    const SHADERS: &'static [crate::gpu::shaders::Source] = &[];
+
+    fn validate(&self, case: &Case) -> Result<(), Problem> {
+        if let Some(av) = &self.artificial_viscosity {
+            av.validate()?;
+        }
+        state_model(case)
+    }
+
+    fn plan(&self, case: &Case, _gpu: bool) -> Plan {
+        let mat = Material::new(&case.material);
+        let mut left_out = Vec::new();
+        if self.artificial_viscosity.is_none() {
+            left_out.push("artificial viscosity");
+        }
+        Plan {
+            once: format!(
+                "once, on the reference configuration: cell-list neighbours (CSR), reference \
+                 gradients ∇0W_ij ({} correction), shape-matching weights m_j W_ij",
+                toml_name(&case.method.correction)
+            ),
+            state: format!("u, v (state model {:?} of the corotated F̂)", mat.model),
+            cfl_step: format!(
+                "Δt = cfl·Δx/(c_p + max|v|), c_p = {:.1} m/s",
+                mat.p_wave_speed()
+            ),
+            rates: format!(
+                "two gathers: shape matching A_i, its rotation R_i ({}), F̂_i and P̂(F̂_i); then \
+                 the forces ½(R_i + R_j)(P̂_i + P̂_j)∇0W_ij",
+                if case.dimension == 2 {
+                    "closed form"
+                } else {
+                    "polar decomposition by scaled Newton iteration"
+                }
+            ),
+            checked: "det R, det F̂",
+            check_note: String::new(),
+            left_out,
+        }
+    }
+
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> Result<Box<dyn Engine<D>>, CaseError> {
+        Ok(Box::new(CpuEngine::<D, Corotated<D>>::new(case)?))
+    }
+
+    #[cfg(feature = "gpu")]
+    fn gpu_engine<D: EngineDim>(
+        &self,
+        case: &Case,
+        _gpu: crate::gpu::Gpu,
+    ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
+        Err(super::no_gpu_engine(case).into())
+    }
+
+    /// The step Δt = α Δx/(c_p + max|v|) does not depend on the stretch.
+    fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
+        0.0
+    }
+}

@@ -1,0 +1,106 @@
+//! Total-Lagrangian SPH from the elastic potential (after Müller et al.; seed 000 §5.4):
+//! the spec and the CPU system ([`system`]). It has no GPU engine. Numerics notes:
+//! `docs/methods/tl-potential.md`.
+
+pub mod system;
+
+pub use system::Potential;
+
+use super::{Feature, MethodFamily, Plan, Problem, state_model};
+use crate::material::Material;
+use crate::methods::tlsph::ArtificialViscosity;
+use crate::run::{CpuEngine, Engine, EngineDim};
+use crate::scene::validate::toml_name;
+use crate::scene::{Case, CaseError};
+use crate::tensor::Dim;
+use serde::{Deserialize, Serialize};
+
+/// The volume factors of the symmetrised potential force (seed 000 §3.4).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum PotentialForce {
+    /// f_i = Σ_j V_i V_j [P_i ∇0W̃_ij − P_j ∇0W̃_ji] = −∂Π/∂u_i, Π = Σ_i V_i ψ(F_i).
+    #[default]
+    Consistent,
+    /// The reference code's f_i = Σ_j [V_i P_i ∇0W̃_ij − V_j P_j ∇0W̃_ji]: each term lacks
+    /// the neighbour's volume, a stiffness scale of 1/V (in SI units) on a uniform lattice.
+    ReferenceCode,
+}
+
+/// The `[method]` keys of the elastic-potential method.
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
+pub struct PotentialSpec {
+    /// The volume factors of the force (default `consistent`).
+    #[serde(default)]
+    pub force: PotentialForce,
+    /// Monaghan artificial viscosity; none when absent.
+    pub artificial_viscosity: Option<ArtificialViscosity>,
+}
+
+impl MethodFamily for PotentialSpec {
+    const DESCRIPTION: &'static str = "total-Lagrangian SPH from the elastic potential \
+        (Müller et al.; seed 000 §5.4): symmetrised force −∂Π/∂u with corrected reference \
+        gradients of both sides, state-based stress, Monaghan artificial viscosity (CPU only)";
+    const KEYS: &'static [&'static str] = &["force", "artificial_viscosity"];
+    const FEATURES: &'static [Feature] = &[Feature::Contact];
+    const GPU_ENGINE: bool = false;
+    #[cfg(feature = "gpu")]
+    const SHADERS: &'static [crate::gpu::shaders::Source] = &[];
+
+    fn validate(&self, case: &Case) -> Result<(), Problem> {
+        if let Some(av) = &self.artificial_viscosity {
+            av.validate()?;
+        }
+        state_model(case)
+    }
+
+    fn plan(&self, case: &Case, _gpu: bool) -> Plan {
+        let mat = Material::new(&case.material);
+        let mut left_out = Vec::new();
+        if self.artificial_viscosity.is_none() {
+            left_out.push("artificial viscosity");
+        }
+        Plan {
+            once: "once, on the reference configuration: cell-list neighbours (CSR), corrected \
+                   gradients ∇0W̃_ij and their reverses ∇0W̃_ji"
+                .into(),
+            state: format!("u, v (state model {:?})", mat.model),
+            cfl_step: match self.force {
+                PotentialForce::Consistent => format!(
+                    "Δt = cfl·Δx/(c_p + max|v|), c_p = {:.1} m/s",
+                    mat.p_wave_speed()
+                ),
+                PotentialForce::ReferenceCode => format!(
+                    "Δt = cfl·Δx/(c_p/√V_min + max|v|), c_p = {:.1} m/s (the reference \
+                     code's force is 1/V stiffer)",
+                    mat.p_wave_speed()
+                ),
+            },
+            rates: format!(
+                "two gathers: F and P = ∂ψ/∂F, then the {} symmetrised forces",
+                toml_name(&self.force)
+            ),
+            checked: "det F",
+            check_note: String::new(),
+            left_out,
+        }
+    }
+
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> Result<Box<dyn Engine<D>>, CaseError> {
+        Ok(Box::new(CpuEngine::<D, Potential<D>>::new(case)?))
+    }
+
+    #[cfg(feature = "gpu")]
+    fn gpu_engine<D: EngineDim>(
+        &self,
+        case: &Case,
+        _gpu: crate::gpu::Gpu,
+    ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
+        Err(super::no_gpu_engine(case).into())
+    }
+
+    /// The step Δt = α Δx/(c_p + max|v|) does not depend on the stretch.
+    fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
+        0.0
+    }
+}
