@@ -7,6 +7,7 @@
 //! [`MethodSpec`] and [`REGISTRY`] and never name a method: adding one is a folder here
 //! and one line in [`registry!`].
 
+pub mod gray_monaghan;
 pub mod mixed;
 pub mod shared;
 pub mod tlsph;
@@ -16,6 +17,7 @@ pub use shared::{BlowUp, Method, check_motion};
 use crate::correction::CorrectionKind;
 use crate::integrate::IntegratorKind;
 use crate::kernel::KernelKind;
+use crate::neighbour::Rebuild;
 use crate::run::{Engine, EngineDim};
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
@@ -66,6 +68,10 @@ pub trait MethodFamily: Sized {
     const KEYS: &'static [&'static str];
     /// The scene features it runs.
     const FEATURES: &'static [Feature];
+    /// When its neighbour lists are built: once on the reference configuration
+    /// (total-Lagrangian), or from the current positions at every rate evaluation
+    /// (updated-Lagrangian).
+    const NEIGHBOURS: Rebuild = Rebuild::Once;
     /// The GPU passes it compiles with a scene's constants.
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source];
@@ -193,6 +199,7 @@ registry! {
     "tlsph" => Tlsph(tlsph::TlsphSpec),
     "upwind-sph" => UpwindSph(mixed::UpwindSpec),
     "jst-sph" => JstSph(mixed::JstSpec),
+    "gray-monaghan-sph" => GrayMonaghanSph(gray_monaghan::GrayMonaghanSpec),
 }
 
 /// The registry entry of a case-file method name.
