@@ -453,6 +453,44 @@ mod tests {
     }
 
     #[test]
+    fn a_rebuild_reuses_its_buffers_and_follows_the_particles() {
+        // Particles shuffled by up to twice the radius between rebuilds: every rebuild
+        // gives the brute-force lists of the current positions, and once the lists have
+        // reached their largest size the rebuilds allocate nothing (the pair buffer stays
+        // where it is: the first rebuild is of the cloud squeezed to half its size, with
+        // about four times the pairs of any later one). `Once` keeps the first lists
+        // whatever the particles do.
+        let mut s = 23;
+        let x0: Vec<DVec2> = (0..500)
+            .map(|_| DVec2::new(lcg(&mut s) * 2.0, lcg(&mut s)))
+            .collect();
+        let radius = 0.1;
+        let reach = vec![radius; x0.len()];
+        let mut every = Neighbours::new::<D2>(Rebuild::EveryStage, &x0, reach.clone(), None);
+        let once = Neighbours::new::<D2>(Rebuild::Once, &x0, reach, None);
+        let mut kept = once.clone();
+        let squeezed: Vec<DVec2> = x0.iter().map(|&p| p * 0.5).collect();
+        every.update::<D2>(&squeezed);
+        let capacity = every.lists().ids.capacity();
+        let pairs = every.lists().ids.as_ptr();
+        for _ in 0..4 {
+            let x: Vec<DVec2> = x0
+                .iter()
+                .map(|&p| p + DVec2::new(lcg(&mut s) - 0.5, lcg(&mut s) - 0.5) * 4.0 * radius)
+                .collect();
+            assert!(every.update::<D2>(&x));
+            let expected = brute::<D2>(&x, radius);
+            for (i, e) in expected.iter().enumerate() {
+                assert_eq!(every.lists().neighbours(i), e.as_slice(), "particle {i}");
+            }
+            assert!(every.lists().pair_count() <= capacity);
+            assert_eq!(every.lists().ids.as_ptr(), pairs, "the pair buffer moved");
+            assert!(!kept.update::<D2>(&x));
+            assert_eq!(kept.lists(), once.lists());
+        }
+    }
+
+    #[test]
     fn sparse_clouds_use_a_bounded_grid() {
         // Two clusters 1e6 radii apart: a grid of radius-sized cells would need 1e12 cells.
         let mut s = 3;

@@ -16,6 +16,7 @@ mod gpu_mixed;
 mod gpu_neighbours;
 #[cfg(feature = "gpu")]
 mod gpu_tlsph;
+mod gray_monaghan;
 #[cfg(feature = "study")]
 mod mixed;
 mod registry;

@@ -1023,7 +1023,7 @@ mod tests {
         match &mut case.method.spec {
             MethodSpec::UpwindSph(s) => s.mixed.cfl_wave_speed = wave,
             MethodSpec::JstSph(s) => s.mixed.cfl_wave_speed = wave,
-            MethodSpec::Tlsph(_) => panic!("{} is not a mixed case", case.name),
+            _ => panic!("{} is not a mixed case", case.name),
         }
         let case = &case;
         let m: MixedSph<D> = crate::run::build_method(case).unwrap();
