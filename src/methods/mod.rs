@@ -7,10 +7,12 @@
 //! [`MethodSpec`] and [`REGISTRY`] and never name a method: adding one is a folder here
 //! and one line in [`registry!`].
 
+pub mod godunov;
 pub mod gray_monaghan;
 pub mod mixed;
 pub mod shared;
 pub mod tlsph;
+pub mod ul;
 
 pub use shared::{BlowUp, Method, check_motion};
 
@@ -200,6 +202,7 @@ registry! {
     "upwind-sph" => UpwindSph(mixed::UpwindSpec),
     "jst-sph" => JstSph(mixed::JstSpec),
     "gray-monaghan-sph" => GrayMonaghanSph(gray_monaghan::GrayMonaghanSpec),
+    "godunov-sph" => GodunovSph(godunov::GodunovSpec),
 }
 
 /// The registry entry of a case-file method name.

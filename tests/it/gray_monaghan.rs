@@ -8,8 +8,9 @@ use glam::{DMat2, DVec2};
 use meshless::integrate::OdeSystem;
 use meshless::kernel::Kernel;
 use meshless::methods::Method;
+use meshless::methods::gray_monaghan::GrayMonaghan;
 use meshless::methods::gray_monaghan::system::{artificial_stress, principal_stresses};
-use meshless::methods::gray_monaghan::{GrayMonaghan, UlState};
+use meshless::methods::ul::{PairScheme, UlSph, UlState};
 use meshless::run::build_method;
 use meshless::scene::{Case, CaseError};
 use meshless::tensor::{D2, D3, Dim};
@@ -52,19 +53,19 @@ end_time = 1.0e-4
 }
 
 /// The rates of state y.
-fn rates<D: Dim>(m: &mut GrayMonaghan<D>, y: &UlState<D>) -> UlState<D> {
+pub fn rates<D: Dim, S: PairScheme<D>>(m: &mut UlSph<D, S>, y: &UlState<D>) -> UlState<D> {
     let mut d = y.clone();
     m.rates(0.0, y, &mut d).unwrap();
     d
 }
 
 /// A vector with components scale × noise.
-fn random_vector<D: Dim>(seed: &mut u64, scale: f64) -> D::V {
+pub fn random_vector<D: Dim>(seed: &mut u64, scale: f64) -> D::V {
     D::from_slice(&(0..D::N).map(|_| scale * noise(seed)).collect::<Vec<_>>())
 }
 
 /// A symmetric traceless tensor with entries of size `scale`.
-fn random_deviator<D: Dim>(seed: &mut u64, scale: f64) -> D::T {
+pub fn random_deviator<D: Dim>(seed: &mut u64, scale: f64) -> D::T {
     let t = random_tensor::<D>(seed, scale);
     let sym = (t + D::transpose(t)) * 0.5;
     sym - D::identity() * (D::trace(sym) / D::N as f64)
@@ -72,7 +73,11 @@ fn random_deviator<D: Dim>(seed: &mut u64, scale: f64) -> D::T {
 
 /// A disordered state: |u| ~ 0.2 Δx, |v| ~ 10 m/s, ρ within 1 % of ρ0, |S| ~ 1e5 Pa
 /// (tension and compression, so the artificial stress acts), F = I.
-fn random_state<D: Dim>(m: &GrayMonaghan<D>, dx: f64, seed: &mut u64) -> UlState<D> {
+pub fn random_state<D: Dim, S: PairScheme<D>>(
+    m: &UlSph<D, S>,
+    dx: f64,
+    seed: &mut u64,
+) -> UlState<D> {
     let mut y = m.initial_state();
     for i in 0..y.u.len() {
         y.u[i] = random_vector::<D>(seed, 0.2 * dx);
@@ -295,7 +300,7 @@ fn an_affine_velocity_gives_the_analytic_jaumann_rate() {
 // Conservation (seed 000 §7 item 12)
 
 /// |Σ_i m_i r_i| against Σ_i m_i |r_i|.
-fn net<D: Dim>(mass: &[f64], r: &[D::V]) -> (f64, f64) {
+pub fn net<D: Dim>(mass: &[f64], r: &[D::V]) -> (f64, f64) {
     let total = mass.iter().zip(r).fold(D::zero(), |s, (&m, &r)| s + r * m);
     let size: f64 = mass
         .iter()
@@ -307,7 +312,7 @@ fn net<D: Dim>(mass: &[f64], r: &[D::V]) -> (f64, f64) {
 
 /// Σ m v̇ = 0 and Σ m (ẋ − v) = 0 for a disordered state, to round-off.
 fn check_momentum<D: Dim>(mut m: GrayMonaghan<D>, dx: f64, seed: &mut u64) {
-    let y = random_state::<D>(&m, dx, seed);
+    let y = random_state(&m, dx, seed);
     let d = rates(&mut m, &y);
     // The pair terms (stress, artificial stress, viscosity) are antisymmetric in (i, j)
     // and cancel pairwise; the sum of ~1e4 terms in f64 leaves 1e-13 of their size.

@@ -10,6 +10,7 @@
 mod case_errors;
 mod common;
 mod contact;
+mod godunov;
 #[cfg(feature = "gpu")]
 mod gpu_mixed;
 #[cfg(feature = "gpu")]

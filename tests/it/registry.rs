@@ -119,8 +119,8 @@ fn every_method_has_one_name_in_case_files_listings_and_summaries() {
     for e in REGISTRY {
         let mut set = vec![format!("method.name={}", e.name)];
         match e.name {
-            // The strip's hypoelastic model and Randles–Libersky correction suit both.
-            "tlsph" | "gray-monaghan-sph" => {}
+            // The strip's hypoelastic model and Randles–Libersky correction suit these.
+            "tlsph" | "gray-monaghan-sph" | "godunov-sph" => {}
             _ => set.extend([
                 "material.model=neo-hookean".into(),
                 "method.correction=cgck".into(),

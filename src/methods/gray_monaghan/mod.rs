@@ -1,10 +1,11 @@
 //! Gray–Monaghan stress-corrected updated-Lagrangian SPH (seed 000 §5.1, Algorithm 1,
-//! eqs 118–127): the spec and the CPU system ([`system`]). Numerics notes:
+//! eqs 118–127): the spec and the CPU system ([`system`], a pair scheme of the
+//! updated-Lagrangian core [`super::ul`]). Numerics notes:
 //! `docs/methods/gray-monaghan.md`.
 
 pub mod system;
 
-pub use system::{GrayMonaghan, UlState};
+pub use system::GrayMonaghan;
 
 use super::tlsph::ArtificialViscosity;
 use super::{Feature, MethodFamily, Plan, Problem};
