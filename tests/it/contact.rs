@@ -78,6 +78,17 @@ fn gray_monaghan_rings_rebound_through_contact() {
     assert_rebound(&rings(&GRAY_MONAGHAN).unwrap(), 4.0e-4);
 }
 
+#[test]
+fn godunov_rings_rebound_through_contact() {
+    // Godunov SPH has no artificial viscosity: the key is dropped with the method change.
+    let godunov = [
+        "method.name=godunov-sph",
+        "material.model=hypoelastic",
+        "method.correction=none",
+    ];
+    assert_rebound(&rings(&godunov).unwrap(), 4.0e-4);
+}
+
 /// The rings of `case` after `end`: each reversed to a restitution e = −v_after/180 m/s in
 /// (0, 1], and opposite by mirror symmetry to 1e-9 of the impact speed.
 fn assert_rebound(case: &Case, end: f64) {
