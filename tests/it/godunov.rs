@@ -105,12 +105,10 @@ fn equal_pair_states_give_the_standard_sph_sums() {
             .map(|l| -rho * (l.col(0).x + l.col(1).y))
             .collect();
     let largest = expected.iter().fold(0.0, |a: f64, e| a.max(e.abs()));
-    for i in 0..y.v.len() {
+    for (i, (&rho_dot, &e)) in d.rho.iter().zip(&expected).enumerate() {
         assert!(
-            (d.rho[i] - expected[i]).abs() < 1e-12 * largest,
-            "ρ̇ at {i}: {} against {}",
-            d.rho[i],
-            expected[i]
+            (rho_dot - e).abs() < 1e-12 * largest,
+            "ρ̇ at {i}: {rho_dot} against {e}"
         );
     }
 }
