@@ -109,6 +109,8 @@ pub struct Entry {
     pub description: &'static str,
     pub keys: &'static [&'static str],
     pub features: &'static [Feature],
+    /// When the method's neighbour lists are built.
+    pub neighbours: Rebuild,
     #[cfg(feature = "gpu")]
     pub shaders: &'static [crate::gpu::shaders::Source],
 }
@@ -120,6 +122,7 @@ impl Entry {
             description: S::DESCRIPTION,
             keys: S::KEYS,
             features: S::FEATURES,
+            neighbours: S::NEIGHBOURS,
             #[cfg(feature = "gpu")]
             shaders: S::SHADERS,
         }

@@ -17,11 +17,13 @@ use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::kernel::Kernel;
 use crate::material::Material;
+use crate::methods::Problem;
 use crate::methods::shared::{BlowUp, MIN_CHUNK, Method, check_motion, particle_state};
 use crate::methods::tlsph::system::stress_fields;
 use crate::neighbour::{Csr, Neighbours, Rebuild};
 use crate::observe::Snapshot;
 use crate::reference::Reference;
+use crate::scene::validate::{fail, toml_name};
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use rayon::prelude::*;
@@ -66,6 +68,52 @@ impl<D: Dim> Correction<D> {
     pub fn is_singular(&self) -> bool {
         self.det.is_nan() || self.det.abs() <= 1e-10
     }
+}
+
+/// The corrections of the velocity gradient (eq 105) the UL methods run.
+const CORRECTIONS: [CorrectionKind; 2] = [CorrectionKind::None, CorrectionKind::RandlesLibersky];
+
+/// The checks every UL method makes of a case: the hypoelastic model and a correction of
+/// [`CORRECTIONS`].
+pub fn validate(case: &Case) -> Result<(), Problem> {
+    let name = case.method.name();
+    if !case.material.model.is_rate_based() {
+        return fail(
+            "material.model",
+            format!(
+                "`{name}` integrates ρ and S with the Jaumann rate: use `hypoelastic`, not {}",
+                toml_name(&case.material.model)
+            ),
+        );
+    }
+    if !CORRECTIONS.contains(&case.method.correction) {
+        return fail(
+            "method.correction",
+            format!(
+                "`{name}` corrects its velocity gradient with `none` (the paper's) or \
+                 `randles-libersky`, not {}",
+                toml_name(&case.method.correction)
+            ),
+        );
+    }
+    Ok(())
+}
+
+/// The start of a UL method's rate evaluation as `--explain` prints it: the rebuild,
+/// per body with contact, and the gradients of L.
+pub fn plan_rebuild(case: &Case) -> String {
+    format!(
+        "cell-list neighbours from the current positions{}, then one gather: L ({})",
+        if case.contact.is_some() {
+            " (per body)"
+        } else {
+            ""
+        },
+        match case.method.correction {
+            CorrectionKind::RandlesLibersky => "Randles–Libersky-corrected gradients",
+            _ => "plain kernel gradients",
+        }
+    )
 }
 
 /// The particles of an updated-Lagrangian method and what every such method does with

@@ -7,12 +7,10 @@ pub mod system;
 pub use system::Godunov;
 
 use super::{Feature, MethodFamily, Plan, Problem};
-use crate::correction::CorrectionKind;
 use crate::material::Material;
 use crate::neighbour::Rebuild;
 use crate::run::{CpuEngine, Engine, EngineDim};
 use crate::scene::Case;
-use crate::scene::validate::{fail, toml_name};
 use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};
 
@@ -20,9 +18,6 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct GodunovSpec {}
-
-/// The corrections of the velocity gradient (eq 105) this method runs.
-const CORRECTIONS: [CorrectionKind; 2] = [CorrectionKind::None, CorrectionKind::RandlesLibersky];
 
 impl MethodFamily for GodunovSpec {
     const DESCRIPTION: &'static str = "Godunov SPH (Parshikov–Medin; seed 000 §5.2): \
@@ -35,27 +30,7 @@ impl MethodFamily for GodunovSpec {
     const SHADERS: &'static [crate::gpu::shaders::Source] = &[];
 
     fn validate(&self, case: &Case) -> Result<(), Problem> {
-        let name = case.method.name();
-        if !case.material.model.is_rate_based() {
-            return fail(
-                "material.model",
-                format!(
-                    "`{name}` integrates ρ and S with the Jaumann rate: use `hypoelastic`, not {}",
-                    toml_name(&case.material.model)
-                ),
-            );
-        }
-        if !CORRECTIONS.contains(&case.method.correction) {
-            return fail(
-                "method.correction",
-                format!(
-                    "`{name}` corrects its velocity gradient with `none` (the paper's) or \
-                     `randles-libersky`, not {}",
-                    toml_name(&case.method.correction)
-                ),
-            );
-        }
-        Ok(())
+        super::ul::validate(case)
     }
 
     fn plan(&self, case: &Case, _gpu: bool) -> Plan {
@@ -68,12 +43,10 @@ impl MethodFamily for GodunovSpec {
                 mat.p_wave_speed()
             ),
             rates: format!(
-                "cell-list neighbours from the current positions (per body), then one gather: \
-                 L ({} gradients), Ṡ, Ḟ, and ρ̇ and a from the pairs' acoustic Riemann \
-                 solutions",
-                toml_name(&case.method.correction)
+                "{}, Ṡ, Ḟ, and ρ̇ and a from the pairs' acoustic Riemann solutions",
+                super::ul::plan_rebuild(case)
             ),
-            checked: "ρ > 0",
+            checked: "ρ",
             check_note: String::new(),
             left_out: vec!["artificial viscosity (the Riemann solver dissipates)"],
         }

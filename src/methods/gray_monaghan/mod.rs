@@ -9,13 +9,12 @@ pub use system::GrayMonaghan;
 
 use super::tlsph::ArtificialViscosity;
 use super::{Feature, MethodFamily, Plan, Problem};
-use crate::correction::CorrectionKind;
 use crate::integrate::IntegratorKind;
 use crate::material::Material;
 use crate::neighbour::Rebuild;
 use crate::run::{CpuEngine, Engine, EngineDim};
 use crate::scene::Case;
-use crate::scene::validate::{fail, non_negative, toml_name};
+use crate::scene::validate::{fail, non_negative};
 use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};
 
@@ -41,9 +40,6 @@ pub struct GrayMonaghanSpec {
     pub xsph: Option<f64>,
 }
 
-/// The corrections of the velocity gradient (eqs 104–105) this method runs.
-const CORRECTIONS: [CorrectionKind; 2] = [CorrectionKind::None, CorrectionKind::RandlesLibersky];
-
 impl MethodFamily for GrayMonaghanSpec {
     const DESCRIPTION: &'static str = "Gray–Monaghan stress-corrected updated-Lagrangian SPH \
         (seed 000 §5.1): neighbours rebuilt every stage, Jaumann rate, artificial viscosity, \
@@ -55,26 +51,7 @@ impl MethodFamily for GrayMonaghanSpec {
     const SHADERS: &'static [crate::gpu::shaders::Source] = &[];
 
     fn validate(&self, case: &Case) -> Result<(), Problem> {
-        let name = case.method.name();
-        if !case.material.model.is_rate_based() {
-            return fail(
-                "material.model",
-                format!(
-                    "`{name}` integrates ρ and S with the Jaumann rate: use `hypoelastic`, not {}",
-                    toml_name(&case.material.model)
-                ),
-            );
-        }
-        if !CORRECTIONS.contains(&case.method.correction) {
-            return fail(
-                "method.correction",
-                format!(
-                    "`{name}` corrects its velocity gradient with `none` (the paper's) or \
-                     `randles-libersky`, not {}",
-                    toml_name(&case.method.correction)
-                ),
-            );
-        }
+        super::ul::validate(case)?;
         if let Some(ArtificialViscosity { alpha, beta, eta }) = self.artificial_viscosity {
             non_negative("method.artificial_viscosity.alpha", alpha)?;
             non_negative("method.artificial_viscosity.beta", beta)?;
@@ -122,12 +99,8 @@ impl MethodFamily for GrayMonaghanSpec {
                 "Δt = cfl·Δx/(c_p + max|v|), c_p = {:.1} m/s",
                 mat.p_wave_speed()
             ),
-            rates: format!(
-                "cell-list neighbours from the current positions (per body), then one gather: \
-                 L ({} gradients), ρ̇, Ṡ, Ḟ, a, ẋ",
-                toml_name(&case.method.correction)
-            ),
-            checked: "ρ > 0",
+            rates: format!("{}, ρ̇, Ṡ, Ḟ, a, ẋ", super::ul::plan_rebuild(case)),
+            checked: "ρ",
             check_note: String::new(),
             left_out,
         }
