@@ -35,9 +35,20 @@ pub fn build_method<D: Dim, M: Method<D>>(case: &Case) -> Result<M, CaseError> {
 }
 
 /// The engine a case runs on: the GPU when `backend` asks for it (or `auto` finds an
-/// adapter), the CPU otherwise. Every method has both; the method's spec builds them.
+/// adapter and the method has GPU passes), the CPU otherwise; the method's spec builds
+/// them. A method without GPU passes refuses `gpu` in its own words.
 pub fn engine<D: EngineDim>(case: &Case, backend: Backend) -> Result<Box<dyn Engine<D>>, RunError> {
     let spec = &case.method.spec;
+    #[cfg(feature = "gpu")]
+    let backend = if backend == Backend::Auto && spec.entry().shaders.is_empty() {
+        eprintln!(
+            "note: --backend auto: `{}` has no GPU engine; running on the CPU (rayon, f64)",
+            spec.entry().name
+        );
+        Backend::Cpu
+    } else {
+        backend
+    };
     match gpu(backend)? {
         #[cfg(feature = "gpu")]
         Some(gpu) => spec.gpu_engine::<D>(case, gpu).map_err(|e| match e {
