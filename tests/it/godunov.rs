@@ -3,13 +3,13 @@
 //! 6) and exact linear momentum of the Riemann pair forces (item 12).
 
 use crate::common::{load, noise};
-use crate::gray_monaghan::{net, random_deviator, random_state, random_vector, rates};
+use crate::gray_monaghan::{block_3d, net, random_deviator, random_state, random_vector, rates};
 use glam::{DMat2, DVec2};
 use meshless::methods::Method;
 use meshless::methods::godunov::Godunov;
 use meshless::methods::godunov::system::{contact_traction, contact_velocity};
 use meshless::run::build_method;
-use meshless::tensor::D2;
+use meshless::tensor::{D2, D3};
 
 /// The shipped Godunov disk (276 particles, h/dx = 1.7) with overrides.
 fn disk(overrides: &[&str]) -> Godunov<D2> {
@@ -150,4 +150,11 @@ fn the_riemann_pair_forces_conserve_linear_momentum() {
         eprintln!("Godunov ({correction}): |Σ m v̇| = {total:e} of {size:e}");
         assert!(total < 1e-12 * size, "Σ m v̇ = {total:e} of {size:e}");
     }
+    // 3D: the traction of eq 132 as one vector across the pair axis.
+    let mut m: Godunov<D3> = block_3d("godunov-sph", "none", "");
+    let y = random_state(&m, 0.1, &mut seed);
+    let d = rates(&mut m, &y);
+    let (total, size) = net::<D3>(m.mass(), &d.v);
+    eprintln!("Godunov 3D: |Σ m v̇| = {total:e} of {size:e}");
+    assert!(total < 1e-12 * size, "3D: Σ m v̇ = {total:e} of {size:e}");
 }

@@ -22,8 +22,9 @@ fn disk(overrides: &[&str]) -> GrayMonaghan<D2> {
     build_method(&load("rotating-disk-gray-monaghan", overrides)).unwrap()
 }
 
-/// A 3D block of 6 × 5 × 4 particles under Gray–Monaghan with every stabilisation.
-fn block_3d(correction: &str) -> GrayMonaghan<D3> {
+/// A 3D block of 6 × 5 × 4 particles under the UL method `name` with the `[method]`
+/// lines `keys`.
+pub fn block_3d<S: PairScheme<D3>>(name: &str, correction: &str, keys: &str) -> UlSph<D3, S> {
     let text = format!(
         r#"
 name = "block"
@@ -35,13 +36,11 @@ density = 1000.0
 youngs_modulus = 1.0e6
 poisson_ratio = 0.3
 [method]
-name = "gray-monaghan-sph"
+name = "{name}"
 h_over_dx = 1.3
 correction = "{correction}"
 dt = 1.0e-5
-artificial_viscosity = {{ alpha = 1.0, beta = 1.0, eta = 0.1 }}
-artificial_stress = {{ epsilon = 0.3, n = 4.0 }}
-xsph = 0.5
+{keys}
 [[body]]
 name = "b"
 geometry = {{ shape = "box", min = [0.0, 0.0, 0.0], max = [0.5, 0.4, 0.3] }}
@@ -50,6 +49,16 @@ end_time = 1.0e-4
 "#
     );
     build_method(&Case::from_toml(&text, Path::new("block.toml"), &[]).unwrap()).unwrap()
+}
+
+/// The 3D block under Gray–Monaghan with every stabilisation.
+fn gray_monaghan_3d(correction: &str) -> GrayMonaghan<D3> {
+    block_3d(
+        "gray-monaghan-sph",
+        correction,
+        "artificial_viscosity = { alpha = 1.0, beta = 1.0, eta = 0.1 }\n\
+         artificial_stress = { epsilon = 0.3, n = 4.0 }\nxsph = 0.5",
+    )
 }
 
 /// The rates of state y.
@@ -293,7 +302,7 @@ fn an_affine_velocity_gives_the_analytic_jaumann_rate() {
         1e7 / 2.8,
         &mut seed,
     );
-    check_affine::<D3>(block_3d("randles-libersky"), 1e6 / 2.6, &mut seed);
+    check_affine::<D3>(gray_monaghan_3d("randles-libersky"), 1e6 / 2.6, &mut seed);
 }
 
 // ---------------------------------------------------------------------------------------
@@ -341,7 +350,7 @@ fn the_pair_forces_conserve_linear_momentum() {
             &mut seed,
         );
     }
-    check_momentum::<D3>(block_3d("none"), 0.1, &mut seed);
+    check_momentum::<D3>(gray_monaghan_3d("none"), 0.1, &mut seed);
 }
 
 // ---------------------------------------------------------------------------------------
