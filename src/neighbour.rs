@@ -72,7 +72,8 @@ pub fn bounding_box(points: impl IntoIterator<Item = [f64; 3]>) -> ([f64; 3], [f
 }
 
 /// Uniform grid of cubic cells of edge `cell` over the bounding box of the points,
-/// with particles counting-sorted by cell.
+/// with particles counting-sorted by cell. Its buffers are kept from one sort to the next.
+#[derive(Clone, Debug, Default)]
 struct CellGrid {
     origin: [f64; 3],
     cell: f64,
@@ -80,12 +81,17 @@ struct CellGrid {
     /// `start[c]..start[c + 1]` indexes `sorted` for cell c.
     start: Vec<usize>,
     sorted: Vec<u32>,
+    /// The cell of every point.
+    cell_of: Vec<usize>,
+    /// The next free slot of every cell while sorting.
+    cursor: Vec<usize>,
 }
 
 impl CellGrid {
-    /// A grid of cells of at least `min_cell`, enlarged (which only adds candidates) while
-    /// it would hold more than max(8n, 4096) cells, so sparse clouds stay in memory.
-    fn new(points: &[[f64; 3]], min_cell: f64, dim: usize) -> Self {
+    /// Sorts the points into cells of at least `min_cell`, enlarged (which only adds
+    /// candidates) while the grid would hold more than max(8n, 4096) cells, so sparse
+    /// clouds stay in memory.
+    fn sort(&mut self, points: &[[f64; 3]], min_cell: f64, dim: usize) {
         let (lo, hi) = bounding_box(points.iter().copied());
         let budget = (8 * points.len()).max(4096) as f64;
         let count = |cell: f64| {
@@ -97,30 +103,32 @@ impl CellGrid {
         while count(cell) > budget {
             cell *= 2.0;
         }
-        let mut dims = [1usize; 3];
+        self.origin = lo;
+        self.cell = cell;
+        self.dims = [1; 3];
         for k in 0..dim {
-            dims[k] = (((hi[k] - lo[k]) / cell).floor() as usize) + 1;
+            self.dims[k] = (((hi[k] - lo[k]) / cell).floor() as usize) + 1;
         }
-        let mut grid = Self {
-            origin: lo,
-            cell,
-            dims,
-            start: vec![0; dims.iter().product::<usize>() + 1],
-            sorted: vec![0; points.len()],
-        };
-        let cells: Vec<usize> = points.iter().map(|p| grid.cell_index(p)).collect();
-        for &c in &cells {
-            grid.start[c + 1] += 1;
+        let cells = self.dims.iter().product::<usize>();
+        self.start.clear();
+        self.start.resize(cells + 1, 0);
+        self.cell_of.clear();
+        for p in points {
+            let c = self.cell_index(p);
+            self.cell_of.push(c);
+            self.start[c + 1] += 1;
         }
-        for c in 0..grid.start.len() - 1 {
-            grid.start[c + 1] += grid.start[c];
+        for c in 0..cells {
+            self.start[c + 1] += self.start[c];
         }
-        let mut fill = grid.start.clone();
-        for (i, &c) in cells.iter().enumerate() {
-            grid.sorted[fill[c]] = i as u32;
-            fill[c] += 1;
+        self.cursor.clear();
+        self.cursor.extend_from_slice(&self.start[..cells]);
+        self.sorted.clear();
+        self.sorted.resize(points.len(), 0);
+        for (i, &c) in self.cell_of.iter().enumerate() {
+            self.sorted[self.cursor[c]] = i as u32;
+            self.cursor[c] += 1;
         }
-        grid
     }
 
     fn coords(&self, p: &[f64; 3]) -> [usize; 3] {
@@ -193,40 +201,160 @@ pub fn build<D: Dim>(x: &[D::V], radius: f64) -> Csr {
 /// (body[i] = body[j]: the per-body lists of a method that keeps bodies apart for
 /// contact).
 pub fn build_within<D: Dim>(x: &[D::V], reach: Reach, body: Option<&[u32]>) -> Csr {
-    let points: Vec<[f64; 3]> = x.iter().map(|&p| D::to3(p)).collect();
-    if points.is_empty() {
-        return Csr {
-            offsets: vec![0],
-            ids: Vec::new(),
+    let mut csr = Csr::default();
+    CellList::default().build::<D>(x, reach, body, &mut csr);
+    csr
+}
+
+/// The cell-list search with its buffers, which a method that rebuilds its lists keeps:
+/// a build into lists as large as an earlier one allocates nothing.
+#[derive(Clone, Debug, Default)]
+pub struct CellList {
+    points: Vec<[f64; 3]>,
+    grid: CellGrid,
+}
+
+/// Rows a task of the parallel fill handles at least.
+const MIN_ROWS: usize = 256;
+
+impl CellList {
+    /// Writes into `out` the lists of [`build_within`]: a pass that counts every row's
+    /// neighbours, their prefix sum into the offsets, and a pass that fills and sorts
+    /// every row in place.
+    pub fn build<D: Dim>(&mut self, x: &[D::V], reach: Reach, body: Option<&[u32]>, out: &mut Csr) {
+        self.points.clear();
+        self.points.extend(x.iter().map(|&p| D::to3(p)));
+        out.offsets.clear();
+        out.offsets.resize(x.len() + 1, 0);
+        out.ids.clear();
+        if x.is_empty() {
+            return;
+        }
+        self.grid.sort(&self.points, reach.largest(), D::N);
+        let (grid, points) = (&self.grid, &self.points);
+        let same_body = |i: usize, j: usize| body.is_none_or(|b| b[i] == b[j]);
+        let within = |i: usize, j: u32| {
+            let j = j as usize;
+            j != i && same_body(i, j) && D::norm2(x[i] - x[j]) <= reach.squared(i, j)
         };
-    }
-    let grid = CellGrid::new(&points, reach.largest(), D::N);
-    let same_body = |i: usize, j: usize| body.is_none_or(|b| b[i] == b[j]);
-    let within = |i: usize, j: u32| {
-        let j = j as usize;
-        j != i && same_body(i, j) && D::norm2(x[i] - x[j]) <= reach.squared(i, j)
-    };
-    let lists: Vec<Vec<u32>> = (0..points.len())
-        .into_par_iter()
-        .map(|i| {
-            let mut list = Vec::new();
+        out.offsets[1..]
+            .par_iter_mut()
+            .with_min_len(MIN_ROWS)
+            .enumerate()
+            .for_each(|(i, count)| {
+                grid.for_each_candidate(&points[i], |j| *count += usize::from(within(i, j)));
+            });
+        for i in 0..x.len() {
+            out.offsets[i + 1] += out.offsets[i];
+        }
+        out.ids.resize(out.offsets[x.len()], 0);
+        fill_rows(0, &out.offsets, &mut out.ids, &|i, row: &mut [u32]| {
+            let mut k = 0;
             grid.for_each_candidate(&points[i], |j| {
                 if within(i, j) {
-                    list.push(j);
+                    row[k] = j;
+                    k += 1;
                 }
             });
-            list.sort_unstable();
-            list
-        })
-        .collect();
-    let mut offsets = Vec::with_capacity(points.len() + 1);
-    offsets.push(0);
-    for l in &lists {
-        offsets.push(offsets.last().unwrap() + l.len());
+            row.sort_unstable();
+        });
     }
-    Csr {
-        offsets,
-        ids: lists.concat(),
+}
+
+/// Calls `fill(i, row)` for every row of `ids` (rows `first..` with the offsets
+/// `offsets`, which start at the first row's), splitting the rows in halves in parallel.
+fn fill_rows(
+    first: usize,
+    offsets: &[usize],
+    ids: &mut [u32],
+    fill: &(impl Fn(usize, &mut [u32]) + Sync),
+) {
+    let rows = offsets.len() - 1;
+    if rows <= MIN_ROWS {
+        let base = offsets[0];
+        for r in 0..rows {
+            fill(
+                first + r,
+                &mut ids[offsets[r] - base..offsets[r + 1] - base],
+            );
+        }
+        return;
+    }
+    let mid = rows / 2;
+    let (a, b) = ids.split_at_mut(offsets[mid] - offsets[0]);
+    rayon::join(
+        || fill_rows(first, &offsets[..=mid], a, fill),
+        || fill_rows(first + mid, &offsets[mid..], b, fill),
+    );
+}
+
+/// When a method's neighbour lists are built: the method declares it
+/// ([`crate::methods::MethodFamily::NEIGHBOURS`]) and holds its lists as [`Neighbours`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Rebuild {
+    /// Once, on the reference configuration (total-Lagrangian methods).
+    Once,
+    /// From the current positions at every rate evaluation (updated-Lagrangian methods).
+    EveryStage,
+}
+
+/// A method's neighbour lists, kept by its [`Rebuild`] policy: the reach of every
+/// particle, the body masks, and the cell list that rebuilds them with its buffers.
+#[derive(Clone, Debug)]
+pub struct Neighbours {
+    rebuild: Rebuild,
+    reach: Vec<f64>,
+    body: Option<Vec<u32>>,
+    search: CellList,
+    lists: Csr,
+}
+
+impl Neighbours {
+    /// The lists of positions x, each particle reaching `reach`, and with `body` only
+    /// pairs of one body.
+    pub fn new<D: Dim>(
+        rebuild: Rebuild,
+        x: &[D::V],
+        reach: Vec<f64>,
+        body: Option<Vec<u32>>,
+    ) -> Self {
+        let mut n = Self {
+            rebuild,
+            reach,
+            body,
+            search: CellList::default(),
+            lists: Csr::default(),
+        };
+        n.rebuild::<D>(x);
+        n
+    }
+
+    /// At a rate evaluation with positions x: rebuilds the lists if the policy asks for
+    /// it; returns whether it did.
+    pub fn update<D: Dim>(&mut self, x: &[D::V]) -> bool {
+        match self.rebuild {
+            Rebuild::Once => false,
+            Rebuild::EveryStage => {
+                self.rebuild::<D>(x);
+                true
+            }
+        }
+    }
+
+    fn rebuild<D: Dim>(&mut self, x: &[D::V]) {
+        let reach = Reach::PerParticle(&self.reach);
+        self.search
+            .build::<D>(x, reach, self.body.as_deref(), &mut self.lists);
+    }
+
+    /// The current lists.
+    pub fn lists(&self) -> &Csr {
+        &self.lists
+    }
+
+    /// The lists, for a method that keeps them alone.
+    pub fn into_lists(self) -> Csr {
+        self.lists
     }
 }
 
@@ -322,6 +450,44 @@ mod tests {
             build_within::<D2>(&x, Reach::PerParticle(&uniform), None),
             build::<D2>(&x, 0.13)
         );
+    }
+
+    #[test]
+    fn a_rebuild_reuses_its_buffers_and_follows_the_particles() {
+        // Particles shuffled by up to twice the radius between rebuilds: every rebuild
+        // gives the brute-force lists of the current positions, and once the lists have
+        // reached their largest size the rebuilds allocate nothing (the pair buffer stays
+        // where it is: the first rebuild is of the cloud squeezed to half its size, with
+        // about four times the pairs of any later one). `Once` keeps the first lists
+        // whatever the particles do.
+        let mut s = 23;
+        let x0: Vec<DVec2> = (0..500)
+            .map(|_| DVec2::new(lcg(&mut s) * 2.0, lcg(&mut s)))
+            .collect();
+        let radius = 0.1;
+        let reach = vec![radius; x0.len()];
+        let mut every = Neighbours::new::<D2>(Rebuild::EveryStage, &x0, reach.clone(), None);
+        let once = Neighbours::new::<D2>(Rebuild::Once, &x0, reach, None);
+        let mut kept = once.clone();
+        let squeezed: Vec<DVec2> = x0.iter().map(|&p| p * 0.5).collect();
+        every.update::<D2>(&squeezed);
+        let capacity = every.lists().ids.capacity();
+        let pairs = every.lists().ids.as_ptr();
+        for _ in 0..4 {
+            let x: Vec<DVec2> = x0
+                .iter()
+                .map(|&p| p + DVec2::new(lcg(&mut s) - 0.5, lcg(&mut s) - 0.5) * 4.0 * radius)
+                .collect();
+            assert!(every.update::<D2>(&x));
+            let expected = brute::<D2>(&x, radius);
+            for (i, e) in expected.iter().enumerate() {
+                assert_eq!(every.lists().neighbours(i), e.as_slice(), "particle {i}");
+            }
+            assert!(every.lists().pair_count() <= capacity);
+            assert_eq!(every.lists().ids.as_ptr(), pairs, "the pair buffer moved");
+            assert!(!kept.update::<D2>(&x));
+            assert_eq!(kept.lists(), once.lists());
+        }
     }
 
     #[test]

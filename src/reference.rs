@@ -4,7 +4,7 @@
 use crate::boundary::Boundary;
 use crate::kernel::Kernel;
 use crate::material::Material;
-use crate::neighbour::{self, Csr, Reach};
+use crate::neighbour::{Csr, Neighbours, Rebuild};
 use crate::scene::{Case, CaseError, discretise};
 use crate::tensor::Dim;
 
@@ -65,12 +65,20 @@ impl<D: Dim> Reference<D> {
     /// Neighbour lists on the reference positions: the pairs within the kernel support
     /// of the larger smoothing length of the two.
     pub fn neighbours(&self) -> Csr {
+        self.neighbour_lists(Rebuild::Once, false).into_lists()
+    }
+
+    /// The neighbour lists of a method that keeps them by the policy `rebuild`, built on
+    /// the reference positions (pairs within the kernel support of the larger smoothing
+    /// length of the two) and, with `per_body`, only of pairs of one body.
+    pub fn neighbour_lists(&self, rebuild: Rebuild, per_body: bool) -> Neighbours {
         let reach: Vec<f64> = self
             .h
             .iter()
             .map(|&h| neighbour_radius(&Kernel::new(self.kernel.kind, h, D::N)))
             .collect();
-        neighbour::build_within::<D>(&self.x0, Reach::PerParticle(&reach), None)
+        let body = per_body.then(|| self.body.clone());
+        Neighbours::new::<D>(rebuild, &self.x0, reach, body)
     }
 }
 

@@ -8,16 +8,20 @@
 //! and one line in [`registry!`].
 
 pub mod corotated;
+pub mod godunov;
+pub mod gray_monaghan;
 pub mod mixed;
 pub mod potential;
 pub mod shared;
 pub mod tlsph;
+pub mod ul;
 
 pub use shared::{BlowUp, Method, check_motion};
 
 use crate::correction::CorrectionKind;
 use crate::integrate::IntegratorKind;
 use crate::kernel::KernelKind;
+use crate::neighbour::Rebuild;
 use crate::run::{Engine, EngineDim};
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
@@ -70,6 +74,10 @@ pub trait MethodFamily: Sized {
     const FEATURES: &'static [Feature];
     /// Whether it has a GPU engine (`--backend auto` runs the others on the CPU).
     const GPU_ENGINE: bool = true;
+    /// When its neighbour lists are built: once on the reference configuration
+    /// (total-Lagrangian), or from the current positions at every rate evaluation
+    /// (updated-Lagrangian).
+    const NEIGHBOURS: Rebuild = Rebuild::Once;
     /// The GPU passes it compiles with a scene's constants.
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source];
@@ -107,6 +115,8 @@ pub struct Entry {
     pub features: &'static [Feature],
     /// Whether it has a GPU engine.
     pub gpu_engine: bool,
+    /// When the method's neighbour lists are built.
+    pub neighbours: Rebuild,
     #[cfg(feature = "gpu")]
     pub shaders: &'static [crate::gpu::shaders::Source],
 }
@@ -119,6 +129,7 @@ impl Entry {
             keys: S::KEYS,
             features: S::FEATURES,
             gpu_engine: S::GPU_ENGINE,
+            neighbours: S::NEIGHBOURS,
             #[cfg(feature = "gpu")]
             shaders: S::SHADERS,
         }
@@ -202,6 +213,8 @@ registry! {
     "jst-sph" => JstSph(mixed::JstSpec),
     "tl-potential" => TlPotential(potential::PotentialSpec),
     "corotated-tlsph" => CorotatedTlsph(corotated::CorotatedSpec),
+    "gray-monaghan-sph" => GrayMonaghanSph(gray_monaghan::GrayMonaghanSpec),
+    "godunov-sph" => GodunovSph(godunov::GodunovSpec),
 }
 
 /// The registry entry of a case-file method name.

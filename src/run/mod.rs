@@ -13,6 +13,7 @@ pub use frames::write_frame;
 
 use crate::material::Material;
 use crate::methods::{BlowUp, Feature, supporting};
+use crate::neighbour::Rebuild;
 use crate::output::RunSummary;
 use crate::scene::validate::toml_name;
 use crate::scene::{Case, CaseError};
@@ -155,7 +156,10 @@ pub fn explain(case: &Case, gpu: bool) -> String {
             case.bodies.len() - 1
         ));
     }
-    let mut left_out = vec!["neighbour rebuild (total-Lagrangian)"];
+    let mut left_out = Vec::new();
+    if m.spec.entry().neighbours == Rebuild::Once {
+        left_out.push("neighbour rebuild (total-Lagrangian)");
+    }
     let runs = |f: Feature| supporting(f).any(|n| n == name);
     if case.contact.is_none() && runs(Feature::Contact) {
         left_out.push(if case.bodies.len() == 1 {

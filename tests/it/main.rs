@@ -11,12 +11,14 @@ mod case_errors;
 mod common;
 mod contact;
 mod corotated_tlsph;
+mod godunov;
 #[cfg(feature = "gpu")]
 mod gpu_mixed;
 #[cfg(feature = "gpu")]
 mod gpu_neighbours;
 #[cfg(feature = "gpu")]
 mod gpu_tlsph;
+mod gray_monaghan;
 #[cfg(feature = "study")]
 mod mixed;
 mod registry;

@@ -1,0 +1,130 @@
+//! Gray–Monaghan stress-corrected updated-Lagrangian SPH (seed 000 §5.1, Algorithm 1,
+//! eqs 118–127): the spec and the CPU system ([`system`], a pair scheme of the
+//! updated-Lagrangian core [`super::ul`]). Numerics notes:
+//! `docs/methods/gray-monaghan.md`.
+
+pub mod system;
+
+pub use system::GrayMonaghan;
+
+use super::tlsph::ArtificialViscosity;
+use super::{Feature, MethodFamily, Plan, Problem};
+use crate::integrate::IntegratorKind;
+use crate::material::Material;
+use crate::neighbour::Rebuild;
+use crate::run::{CpuEngine, Engine, EngineDim};
+use crate::scene::Case;
+use crate::scene::validate::{fail, non_negative};
+use crate::tensor::Dim;
+use serde::{Deserialize, Serialize};
+
+/// The artificial stress of Gray, Monaghan and Swift (eqs 118–125): R_i from the tensile
+/// principal stresses of particle i, weighted per pair by f_ij^n with f_ij = W_ij/W(Δp).
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ArtificialStress {
+    /// ε of eq 122 (the seed: 0.3).
+    pub epsilon: f64,
+    /// The exponent n of f_ij^n in eq 118 (the seed: 4).
+    pub n: f64,
+}
+
+/// The `[method]` keys of Gray–Monaghan SPH.
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
+pub struct GrayMonaghanSpec {
+    /// Monaghan artificial viscosity; none when absent.
+    pub artificial_viscosity: Option<ArtificialViscosity>,
+    /// Artificial stress; none when absent.
+    pub artificial_stress: Option<ArtificialStress>,
+    /// The XSPH factor ε of eq 127; none when absent.
+    pub xsph: Option<f64>,
+}
+
+impl MethodFamily for GrayMonaghanSpec {
+    const DESCRIPTION: &'static str = "Gray–Monaghan stress-corrected updated-Lagrangian SPH \
+        (seed 000 §5.1): neighbours rebuilt every stage, Jaumann rate, artificial viscosity, \
+        artificial stress and XSPH (CPU only)";
+    const KEYS: &'static [&'static str] = &["artificial_viscosity", "artificial_stress", "xsph"];
+    const FEATURES: &'static [Feature] = &[Feature::Contact];
+    const GPU_ENGINE: bool = false;
+    const NEIGHBOURS: Rebuild = Rebuild::EveryStage;
+    #[cfg(feature = "gpu")]
+    const SHADERS: &'static [crate::gpu::shaders::Source] = &[];
+
+    fn validate(&self, case: &Case) -> Result<(), Problem> {
+        super::ul::validate(case)?;
+        if let Some(ArtificialViscosity { alpha, beta, eta }) = self.artificial_viscosity {
+            non_negative("method.artificial_viscosity.alpha", alpha)?;
+            non_negative("method.artificial_viscosity.beta", beta)?;
+            non_negative("method.artificial_viscosity.eta", eta)?;
+        }
+        if let Some(ArtificialStress { epsilon, n }) = self.artificial_stress {
+            non_negative("method.artificial_stress.epsilon", epsilon)?;
+            non_negative("method.artificial_stress.n", n)?;
+        }
+        if let Some(xsph) = self.xsph {
+            if !(0.0..=1.0).contains(&xsph) {
+                return fail(
+                    "method.xsph",
+                    format!("must lie in [0, 1] (the seed uses 0.5), got {xsph:?}"),
+                );
+            }
+            if case.method.integrator == IntegratorKind::Leapfrog {
+                return fail(
+                    "method.integrator",
+                    "the leapfrog drifts the positions with the velocity alone, which leaves \
+                     out the XSPH term of ẋ (method.xsph); use `rk4`, `ssp-rk3` or `tvd-rk2`, \
+                     or remove method.xsph",
+                );
+            }
+        }
+        Ok(())
+    }
+
+    fn plan(&self, case: &Case, _gpu: bool) -> Plan {
+        let mat = Material::new(&case.material);
+        let mut left_out = Vec::new();
+        if self.artificial_viscosity.is_none() {
+            left_out.push("artificial viscosity");
+        }
+        if self.artificial_stress.is_none() {
+            left_out.push("artificial stress");
+        }
+        if self.xsph.is_none() {
+            left_out.push("XSPH");
+        }
+        Plan {
+            once: "nothing but W(Δp): the neighbours are rebuilt at every rate evaluation".into(),
+            state: "u, v, ρ, S, and F integrated by Ḟ = L F for the outputs".into(),
+            cfl_step: format!(
+                "Δt = cfl·Δx/(c_p + max|v|), c_p = {:.1} m/s",
+                mat.p_wave_speed()
+            ),
+            rates: format!("{}, ρ̇, Ṡ, Ḟ, a, ẋ", super::ul::plan_rebuild(case)),
+            checked: "ρ",
+            check_note: String::new(),
+            left_out,
+        }
+    }
+
+    fn cpu_engine<D: EngineDim>(
+        &self,
+        case: &Case,
+    ) -> Result<Box<dyn Engine<D>>, crate::scene::CaseError> {
+        Ok(Box::new(CpuEngine::<D, GrayMonaghan<D>>::new(case)?))
+    }
+
+    #[cfg(feature = "gpu")]
+    fn gpu_engine<D: EngineDim>(
+        &self,
+        case: &Case,
+        _gpu: crate::gpu::Gpu,
+    ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
+        Err(super::no_gpu_engine(case).into())
+    }
+
+    /// The step Δt = cfl Δx/(c_p + max|v|) does not depend on the stretch.
+    fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
+        0.0
+    }
+}

@@ -1,0 +1,197 @@
+//! Gray–Monaghan stress-corrected updated-Lagrangian SPH on the CPU (seed 000 §5.1,
+//! Algorithm 1, eqs 103–105 and 118–127): the pair scheme of the updated-Lagrangian core
+//! ([`crate::methods::ul`]).
+//!
+//! The momentum equation (eq 118) uses the plain, antisymmetric kernel gradient ∇W_ij, so
+//! the pair forces (stress, artificial stress and artificial viscosity) conserve linear
+//! momentum; the case's correction (`none`, the paper's, or `randles-libersky`) acts on the
+//! velocity gradient L_i of eq 105, which feeds ρ̇, Ṡ and Ḟ.
+
+use super::{ArtificialStress, GrayMonaghanSpec};
+use crate::correction::CorrectionKind;
+use crate::methods::shared::BlowUp;
+use crate::methods::tlsph::ArtificialViscosity;
+use crate::methods::ul::{Correction, PairRates, PairScheme, UlCore, UlSph, UlState};
+use crate::methods::{MethodFamily, MethodSpec, not_run_by};
+use crate::neighbour::Rebuild;
+use crate::plasticity::{symmetric_eigen, to_mat3};
+use crate::scene::{Case, CaseError};
+use crate::tensor::Dim;
+use rayon::prelude::*;
+
+/// f^n, by repeated multiplication for the integer exponents of every seed set-up (n = 4).
+fn power(f: f64, n: f64) -> f64 {
+    if n.fract() == 0.0 && n.abs() <= 16.0 {
+        f.powi(n as i32)
+    } else {
+        f.powf(n)
+    }
+}
+
+/// The Gray–Monaghan system on the CPU (f64, rayon).
+pub type GrayMonaghan<D> = UlSph<D, Scheme>;
+
+/// Per-particle quantities of one rate evaluation (Algorithm 1 steps 1–3).
+#[derive(Clone, Copy, Debug)]
+pub struct Particle<D: Dim> {
+    /// σ_i/ρ_i² with σ = S − p I.
+    sigma_rho2: D::T,
+    /// Artificial stress R_i (eqs 119–125); zero without it.
+    r: D::T,
+    /// V_i = m_i/ρ_i.
+    vol: f64,
+    /// Sound speed c_i = sqrt(K/ρ_i).
+    c: f64,
+    /// The correction of L_i.
+    correction: Correction<D>,
+}
+
+/// The artificial stress R of a particle with Cauchy stress σ and density ρ (eqs
+/// 119–125, with the errata of seed 000 §8): R = Σ_k R̄_k n_k ⊗ n_k over the principal
+/// stresses σ̄_k with directions n_k, where R̄_k = −ε σ̄_k/ρ² for σ̄_k > 0 (tension) and 0
+/// otherwise. In 2D n_1 = (c, s), n_2 = (−s, c) with θ of tan 2θ = 2σ_xy/(σ_xx − σ_yy)
+/// (eq 119) in closed form; in 3D the directions are the Jacobi eigenvectors of σ.
+pub fn artificial_stress<D: Dim>(sigma: D::T, rho: f64, epsilon: f64) -> D::T {
+    let (values, directions) = principal_stresses::<D>(sigma);
+    let mut r = D::zero_t();
+    for k in 0..D::N {
+        if values[k] > 0.0 {
+            let n = directions[k];
+            r += D::outer(n, n) * (-epsilon * values[k] / (rho * rho)); // eq 122
+        }
+    }
+    r
+}
+
+/// Principal stresses σ̄_k and their unit directions n_k (the first D::N entries).
+pub fn principal_stresses<D: Dim>(sigma: D::T) -> ([f64; 3], [D::V; 3]) {
+    if D::N == 2 {
+        let (sxx, syy, sxy) = (
+            D::entry(sigma, 0, 0),
+            D::entry(sigma, 1, 1),
+            D::entry(sigma, 0, 1),
+        );
+        // eq 119 without trigonometry: cos 2θ and sin 2θ from d = sqrt((σ_xx − σ_yy)² + 4σ_xy²);
+        // θ = 0 for an isotropic stress (d = 0), as atan2(0, 0) = 0.
+        let d = ((sxx - syy).powi(2) + 4.0 * sxy * sxy).sqrt();
+        let (c, s) = if d == 0.0 {
+            (1.0, 0.0)
+        } else {
+            let (cos2, sin2) = ((sxx - syy) / d, 2.0 * sxy / d);
+            let s = ((1.0 - cos2) / 2.0).max(0.0).sqrt();
+            (
+                ((1.0 + cos2) / 2.0).max(0.0).sqrt(),
+                if sin2 < 0.0 { -s } else { s },
+            )
+        };
+        let bar_xx = c * c * sxx + 2.0 * c * s * sxy + s * s * syy; // eq 120
+        let bar_yy = s * s * sxx - 2.0 * c * s * sxy + c * c * syy; // eq 121 (erratum: −2csσ_xy)
+        let n1 = D::from_slice(&[c, s]);
+        let n2 = D::from_slice(&[-s, c]);
+        ([bar_xx, bar_yy, 0.0], [n1, n2, D::zero()])
+    } else {
+        let (values, vectors) = symmetric_eigen(to_mat3::<D>(sigma, 0.0));
+        let n = |k: usize| D::from_slice(&vectors.col(k).to_array());
+        (values.to_array(), [n(0), n(1), n(2)])
+    }
+}
+
+/// The pair sums of Algorithm 1 with the case's constants.
+pub struct Scheme {
+    correction: CorrectionKind,
+    av: Option<ArtificialViscosity>,
+    /// The artificial stress with W(Δp), Δp the particle spacing (eq 118's
+    /// f_ij = W_ij/W(Δp)).
+    stress: Option<(ArtificialStress, f64)>,
+    xsph: Option<f64>,
+}
+
+impl<D: Dim> PairScheme<D> for Scheme {
+    type Particle = Particle<D>;
+    const REBUILD: Rebuild = GrayMonaghanSpec::NEIGHBOURS;
+
+    fn new(case: &Case, core: &UlCore<D>) -> Result<Self, CaseError> {
+        let MethodSpec::GrayMonaghanSph(spec) = &case.method.spec else {
+            return Err(not_run_by(case, "GrayMonaghan"));
+        };
+        Ok(Self {
+            correction: case.method.correction,
+            av: spec.artificial_viscosity,
+            stress: spec
+                .artificial_stress
+                .map(|s| (s, core.kernel.w(case.spacing))),
+            xsph: spec.xsph,
+        })
+    }
+
+    fn particle(&self, core: &UlCore<D>, i: usize, y: &UlState<D>) -> Particle<D> {
+        let rho = y.rho[i];
+        let sigma = y.s[i] - D::identity() * core.material.pressure(rho); // σ = S − pI
+        Particle {
+            sigma_rho2: sigma * (1.0 / (rho * rho)),
+            r: self.stress.map_or(D::zero_t(), |(s, _)| {
+                artificial_stress::<D>(sigma, rho, s.epsilon)
+            }),
+            vol: core.mass[i] / rho,
+            c: (core.material.bulk / rho).sqrt(),
+            correction: core.correction(self.correction, i, &y.rho),
+        }
+    }
+
+    /// A singular correction matrix.
+    fn inadmissible(&self, core: &UlCore<D>, particles: &[Particle<D>]) -> Option<BlowUp> {
+        core.first_singular(particles.par_iter().map(|p| &p.correction))
+    }
+
+    /// Steps 4–11 for particle i.
+    fn rates_of(
+        &self,
+        core: &UlCore<D>,
+        particles: &[Particle<D>],
+        i: usize,
+        y: &UlState<D>,
+    ) -> PairRates<D> {
+        let kernel = &core.kernel;
+        let h = kernel.h;
+        let pi = particles[i];
+        let (vi, rho_i) = (y.v[i], y.rho[i]);
+        let mut l = D::zero_t();
+        let mut a = D::zero();
+        let mut xsph = D::zero();
+        for &j in core.neighbours().neighbours(i) {
+            let j = j as usize;
+            let pj = particles[j];
+            let x_ij = core.x[i] - core.x[j];
+            let r = D::norm2(x_ij).sqrt();
+            let grad = kernel.grad::<D>(x_ij);
+            let w = kernel.w(r);
+            let v_ji = y.v[j] - vi;
+            l += D::outer(v_ji, pi.correction.a_inv_t * grad) * pj.vol; // eq 105
+            let mut t = pi.sigma_rho2 + pj.sigma_rho2;
+            if let Some((s, w_dp)) = self.stress {
+                t += (pi.r + pj.r) * power(w / w_dp, s.n); // eq 118
+            }
+            a += t * grad * core.mass[j];
+            let rho_bar = 0.5 * (rho_i + y.rho[j]);
+            if let Some(av) = &self.av {
+                let vx = -D::dot(v_ji, x_ij);
+                if vx < 0.0 {
+                    // Monaghan viscosity for approaching pairs (seed 000 §3.1 step 6).
+                    let mu = h * vx / (r * r + av.eta * av.eta * h * h);
+                    let c = 0.5 * (pi.c + pj.c);
+                    let pi_ij = (-av.alpha * c * mu + av.beta * mu * mu) / rho_bar;
+                    a -= grad * (core.mass[j] * pi_ij);
+                }
+            }
+            if self.xsph.is_some() {
+                xsph += v_ji * (core.mass[j] / rho_bar * w); // eq 127
+            }
+        }
+        PairRates {
+            x_dot: vi + xsph * self.xsph.unwrap_or(0.0),
+            v_dot: a,
+            rho_dot: -rho_i * D::trace(l), // eq 104
+            l,
+        }
+    }
+}

@@ -1,0 +1,446 @@
+//! The core of the updated-Lagrangian SPH methods on the CPU: what Gray–Monaghan and
+//! Godunov SPH (seed 000 Algorithms 1 and 2) share.
+//!
+//! [`UlSph`] is a whole CPU system, generic over a [`PairScheme`], which supplies the
+//! per-particle quantities and the pair sums of one method. The core holds the particles,
+//! the neighbour lists kept by the family's [`Rebuild`] policy (rebuilt from the current
+//! positions at every rate evaluation, per body when the case has contact), the
+//! boundary conditions and the interactions. At every rate evaluation it forms
+//! x = X + u, updates the lists, checks ρ > 0, lets the scheme compute its particles and
+//! rates (ẋ, v̇, ρ̇ and the velocity gradient L), and closes with the Jaumann rate Ṡ, Ḟ = L F,
+//! the prescribed velocities and the interactions. The state is [`UlState`]: u = x − X,
+//! v, ρ, S and F (integrated for the outputs only).
+
+use crate::boundary::Boundary;
+use crate::correction::CorrectionKind;
+use crate::integrate::OdeSystem;
+use crate::interaction::Interactions;
+use crate::kernel::Kernel;
+use crate::material::Material;
+use crate::methods::Problem;
+use crate::methods::shared::{BlowUp, MIN_CHUNK, Method, check_motion, particle_state};
+use crate::methods::tlsph::system::stress_fields;
+use crate::neighbour::{Csr, Neighbours, Rebuild};
+use crate::observe::Snapshot;
+use crate::reference::Reference;
+use crate::scene::validate::{fail, toml_name};
+use crate::scene::{Case, CaseError};
+use crate::tensor::Dim;
+use rayon::prelude::*;
+
+/// Integrated state of an updated-Lagrangian SPH method.
+#[derive(Clone, Debug)]
+pub struct UlState<D: Dim> {
+    /// Displacement u = x − X.
+    pub u: Vec<D::V>,
+    pub v: Vec<D::V>,
+    /// Density ρ.
+    pub rho: Vec<f64>,
+    /// Deviatoric Cauchy stress S (Jaumann rate, seed 000 §2.2).
+    pub s: Vec<D::T>,
+    /// Deformation gradient F, integrated by Ḟ = L F (outputs only).
+    pub f: Vec<D::T>,
+}
+
+particle_state!(UlState { rho, s, f });
+
+/// The rates of one particle that a scheme computes: ẋ, v̇ (before contact and boundary
+/// conditions), ρ̇ and the velocity gradient L.
+#[derive(Clone, Copy, Debug)]
+pub struct PairRates<D: Dim> {
+    pub x_dot: D::V,
+    pub v_dot: D::V,
+    pub rho_dot: f64,
+    pub l: D::T,
+}
+
+/// The Randles–Libersky correction of a particle's velocity gradient on the current
+/// positions: g_ij = A_i⁻ᵀ ∇W_ij with A_i = Σ_j V_j (x_j − x_i) ⊗ ∇W_ij (seed 000 §1.3);
+/// I (and det 1) without a correction.
+#[derive(Clone, Copy, Debug)]
+pub struct Correction<D: Dim> {
+    pub a_inv_t: D::T,
+    pub det: f64,
+}
+
+impl<D: Dim> Correction<D> {
+    /// |det A| ≤ 1e-10, or NaN: e.g. a particle that has lost its neighbours.
+    pub fn is_singular(&self) -> bool {
+        self.det.is_nan() || self.det.abs() <= 1e-10
+    }
+}
+
+/// The corrections of the velocity gradient (eq 105) the UL methods run.
+const CORRECTIONS: [CorrectionKind; 2] = [CorrectionKind::None, CorrectionKind::RandlesLibersky];
+
+/// The checks every UL method makes of a case: the hypoelastic model and a correction of
+/// [`CORRECTIONS`].
+pub fn validate(case: &Case) -> Result<(), Problem> {
+    let name = case.method.name();
+    if !case.material.model.is_rate_based() {
+        return fail(
+            "material.model",
+            format!(
+                "`{name}` integrates ρ and S with the Jaumann rate: use `hypoelastic`, not {}",
+                toml_name(&case.material.model)
+            ),
+        );
+    }
+    if !CORRECTIONS.contains(&case.method.correction) {
+        return fail(
+            "method.correction",
+            format!(
+                "`{name}` corrects its velocity gradient with `none` (the paper's) or \
+                 `randles-libersky`, not {}",
+                toml_name(&case.method.correction)
+            ),
+        );
+    }
+    Ok(())
+}
+
+/// The start of a UL method's rate evaluation as `--explain` prints it: the rebuild,
+/// per body with contact, and the gradients of L.
+pub fn plan_rebuild(case: &Case) -> String {
+    format!(
+        "cell-list neighbours from the current positions{}, then one gather: L ({})",
+        if case.contact.is_some() {
+            " (per body)"
+        } else {
+            ""
+        },
+        match case.method.correction {
+            CorrectionKind::RandlesLibersky => "Randles–Libersky-corrected gradients",
+            _ => "plain kernel gradients",
+        }
+    )
+}
+
+/// The particles of an updated-Lagrangian method and what every such method does with
+/// them.
+pub struct UlCore<D: Dim> {
+    pub x0: Vec<D::V>,
+    /// Reference volumes V0 (the strain energy is per reference volume).
+    pub vol0: Vec<f64>,
+    pub mass: Vec<f64>,
+    pub body: Vec<u32>,
+    v0: Vec<D::V>,
+    pub boundary: Boundary<D>,
+    pub material: Material,
+    /// The case's kernel (one smoothing length, as in seed 000).
+    pub kernel: Kernel,
+    neighbours: Neighbours,
+    /// Current positions x = X + u of the last rate evaluation.
+    pub x: Vec<D::V>,
+    interactions: Interactions<D>,
+    power: f64,
+}
+
+impl<D: Dim> UlCore<D> {
+    /// The particles of the reference configuration with their lists kept by `rebuild`,
+    /// per body when the case has contact (without it the bodies interact through the SPH
+    /// sums as one body).
+    pub fn new(case: &Case, reference: Reference<D>, rebuild: Rebuild) -> Result<Self, CaseError> {
+        let neighbours = reference.neighbour_lists(rebuild, case.contact.is_some());
+        let Reference {
+            x0,
+            vol,
+            mass,
+            body,
+            v0,
+            boundary,
+            material,
+            kernel,
+            ..
+        } = reference;
+        let interactions = Interactions::build(case, &x0, &body, || neighbours.lists().clone())?;
+        Ok(Self {
+            x: x0.clone(),
+            x0,
+            vol0: vol,
+            mass,
+            body,
+            v0,
+            boundary,
+            material,
+            kernel,
+            neighbours,
+            interactions,
+            power: 0.0,
+        })
+    }
+
+    /// The neighbour lists of the last rate evaluation.
+    pub fn neighbours(&self) -> &Csr {
+        self.neighbours.lists()
+    }
+
+    /// The correction `kind` (`none` or `randles-libersky`) of particle i's velocity
+    /// gradient, with V_j = m_j/ρ_j.
+    pub fn correction(&self, kind: CorrectionKind, i: usize, rho: &[f64]) -> Correction<D> {
+        if kind != CorrectionKind::RandlesLibersky {
+            return Correction {
+                a_inv_t: D::identity(),
+                det: 1.0,
+            };
+        }
+        let mut a = D::zero_t();
+        for &j in self.neighbours().neighbours(i) {
+            let j = j as usize;
+            let x_ij = self.x[i] - self.x[j];
+            a += D::outer(-x_ij, self.kernel.grad::<D>(x_ij)) * (self.mass[j] / rho[j]);
+        }
+        Correction {
+            a_inv_t: D::transpose(D::inverse(a)),
+            det: D::det(a),
+        }
+    }
+
+    /// The first particle of `corrections` whose correction is singular, as a blow-up.
+    pub fn first_singular<'a>(
+        &self,
+        corrections: impl IndexedParallelIterator<Item = &'a Correction<D>>,
+    ) -> Option<BlowUp> {
+        let (i, c) = corrections
+            .enumerate()
+            .find_first(|(_, c)| c.is_singular())?;
+        Some(BlowUp::at::<D>(
+            &self.x0,
+            i,
+            "det A (Randles–Libersky)",
+            c.det,
+        ))
+    }
+
+    /// x = X + u and the lists; the first particle with ρ ≤ 0 fails.
+    fn positions(&mut self, y: &UlState<D>) -> Result<(), BlowUp> {
+        self.x
+            .par_iter_mut()
+            .with_min_len(MIN_CHUNK)
+            .zip(&self.x0)
+            .zip(&y.u)
+            .for_each(|((x, &x0), &u)| *x = x0 + u);
+        self.neighbours.update::<D>(&self.x);
+        if let Some(i) = y
+            .rho
+            .par_iter()
+            .position_first(|&rho| rho.is_nan() || rho <= 0.0)
+        {
+            return Err(BlowUp::at::<D>(&self.x0, i, "density", y.rho[i]));
+        }
+        Ok(())
+    }
+
+    /// Prescribed velocity components: ẋ takes them (a scheme's XSPH term is left out)
+    /// and v̇ is zeroed; then the interactions' accelerations. Records the power.
+    fn close(&mut self, y: &UlState<D>, d: &mut UlState<D>) {
+        for &(i, mask) in &self.boundary.constrained {
+            let i = i as usize;
+            let (mut x_dot, vi) = (D::to3(d.u[i]), D::to3(y.v[i]));
+            for k in 0..D::N {
+                if mask & (1 << k) != 0 {
+                    x_dot[k] = vi[k];
+                }
+            }
+            d.u[i] = D::from_slice(&x_dot[..D::N]);
+        }
+        let interaction_power = self.interactions.accelerate(&y.v, &self.mass, &mut d.v);
+        self.power = self.boundary.apply(&mut d.v, &y.v, &self.mass)
+            + self.boundary.external_power(&y.v, &self.mass)
+            + interaction_power;
+    }
+}
+
+/// The pair sums of one updated-Lagrangian method, on the core's particles and lists.
+pub trait PairScheme<D: Dim>: Sized + Send + Sync {
+    /// What the scheme computes per particle before its pair sums.
+    type Particle: Copy + Send + Sync;
+    /// The family's neighbour policy.
+    const REBUILD: Rebuild;
+
+    /// The scheme of a case; an error if the case names another method.
+    fn new(case: &Case, core: &UlCore<D>) -> Result<Self, CaseError>;
+
+    /// The quantities of particle i at state y (the core's positions and lists are
+    /// current).
+    fn particle(&self, core: &UlCore<D>, i: usize, y: &UlState<D>) -> Self::Particle;
+
+    /// The first particle whose quantities are inadmissible, if any.
+    fn inadmissible(&self, core: &UlCore<D>, particles: &[Self::Particle]) -> Option<BlowUp>;
+
+    /// The rates of particle i from its neighbours.
+    fn rates_of(
+        &self,
+        core: &UlCore<D>,
+        particles: &[Self::Particle],
+        i: usize,
+        y: &UlState<D>,
+    ) -> PairRates<D>;
+}
+
+/// An updated-Lagrangian SPH system on the CPU (f64, rayon): the core and a scheme.
+pub struct UlSph<D: Dim, S: PairScheme<D>> {
+    pub core: UlCore<D>,
+    pub scheme: S,
+    particles: Vec<S::Particle>,
+}
+
+impl<D: Dim, S: PairScheme<D>> UlSph<D, S> {
+    /// The current neighbour lists (those of the last rate evaluation).
+    pub fn neighbours(&self) -> &Csr {
+        self.core.neighbours()
+    }
+}
+
+impl<D: Dim, S: PairScheme<D>> OdeSystem for UlSph<D, S> {
+    type State = UlState<D>;
+    type Error = BlowUp;
+
+    fn rates(&mut self, _t: f64, y: &UlState<D>, d: &mut UlState<D>) -> Result<(), BlowUp> {
+        self.core.positions(y)?;
+        let (core, scheme) = (&self.core, &self.scheme);
+        (0..y.u.len())
+            .into_par_iter()
+            .with_min_len(MIN_CHUNK)
+            .map(|i| scheme.particle(core, i, y))
+            .collect_into_vec(&mut self.particles);
+        if let Some(b) = scheme.inadmissible(core, &self.particles) {
+            return Err(b);
+        }
+        let particles = &self.particles;
+        d.u.par_iter_mut()
+            .with_min_len(MIN_CHUNK)
+            .zip(d.v.par_iter_mut())
+            .zip(d.rho.par_iter_mut())
+            .zip(d.s.par_iter_mut())
+            .zip(d.f.par_iter_mut())
+            .enumerate()
+            .for_each(|(i, ((((u_dot, v_dot), rho_dot), s_dot), f_dot))| {
+                let r = scheme.rates_of(core, particles, i, y);
+                (*u_dot, *v_dot, *rho_dot) = (r.x_dot, r.v_dot, r.rho_dot);
+                *s_dot = core.material.jaumann_rate::<D>(y.s[i], r.l);
+                *f_dot = r.l * y.f[i];
+            });
+        self.core.close(y, d);
+        Ok(())
+    }
+
+    /// The interactions' work before the step (the contact forces of seed 000 §5.8).
+    fn begin_step(&mut self, t: f64, dt: f64, y: &UlState<D>) {
+        let core = &mut self.core;
+        core.interactions.begin_step(t, dt, &core.x0, &y.u, &y.v);
+    }
+}
+
+impl<D: Dim, S: PairScheme<D>> Method<D> for UlSph<D, S> {
+    fn build(case: &Case, reference: Reference<D>) -> Result<Self, CaseError> {
+        let core = UlCore::new(case, reference, S::REBUILD)?;
+        let scheme = S::new(case, &core)?;
+        Ok(Self {
+            core,
+            scheme,
+            particles: Vec::new(),
+        })
+    }
+
+    fn initial_state(&self) -> UlState<D> {
+        let n = self.core.x0.len();
+        UlState {
+            u: vec![D::zero(); n],
+            v: self.core.v0.clone(),
+            rho: vec![self.core.material.rho0; n],
+            s: vec![D::zero_t(); n],
+            f: vec![D::identity(); n],
+        }
+    }
+
+    fn displacement<'a>(&self, y: &'a UlState<D>) -> &'a [D::V] {
+        &y.u
+    }
+
+    fn velocity<'a>(&self, y: &'a UlState<D>) -> &'a [D::V] {
+        &y.v
+    }
+
+    fn reference(&self) -> &[D::V] {
+        &self.core.x0
+    }
+
+    fn mass(&self) -> &[f64] {
+        &self.core.mass
+    }
+
+    fn body(&self) -> &[u32] {
+        &self.core.body
+    }
+
+    fn constrained(&self) -> &[(u32, u8)] {
+        &self.core.boundary.constrained
+    }
+
+    fn deformation_gradient(&self, y: &UlState<D>) -> Vec<D::T> {
+        y.f.clone()
+    }
+
+    fn cauchy_stress(&self, y: &UlState<D>) -> Vec<[[f64; 3]; 3]> {
+        stress_fields::<D>(&self.core.material, &y.f, &y.s, &y.rho, &self.core.vol0).0
+    }
+
+    fn strain_energy(&self, y: &UlState<D>) -> f64 {
+        stress_fields::<D>(&self.core.material, &y.f, &y.s, &y.rho, &self.core.vol0).1
+    }
+
+    fn snapshot<'a>(&'a self, y: &UlState<D>) -> Snapshot<'a, D> {
+        let core = &self.core;
+        let (sigma, strain_energy) =
+            stress_fields::<D>(&core.material, &y.f, &y.s, &y.rho, &core.vol0);
+        Snapshot {
+            x0: &core.x0,
+            mass: &core.mass,
+            body: &core.body,
+            u: y.u.clone(),
+            v: y.v.clone(),
+            f: y.f.clone(),
+            sigma,
+            strain_energy,
+            extra: Vec::new(),
+        }
+    }
+
+    fn max_signal_speed(&self, y: &UlState<D>) -> f64 {
+        let vmax =
+            y.v.par_iter()
+                .map(|&v| D::norm2(v))
+                .reduce(|| 0.0, f64::max)
+                .sqrt();
+        self.core.material.p_wave_speed() + vmax
+    }
+
+    fn boundary_power(&self) -> f64 {
+        self.core.power
+    }
+
+    fn check_finite(&self, y: &UlState<D>) -> Result<(), BlowUp> {
+        let x0 = &self.core.x0;
+        check_motion::<D>(x0, &y.u, &y.v)?;
+        let fail = |i: usize, quantity: &str, value: f64| BlowUp::at::<D>(x0, i, quantity, value);
+        if let Some(i) = y.rho.par_iter().position_first(|r| !r.is_finite()) {
+            return Err(fail(i, "density", y.rho[i]));
+        }
+        if let Some(i) = y.s.par_iter().position_first(|&s| !D::is_finite_t(s)) {
+            return Err(fail(
+                i,
+                "deviatoric stress |S|",
+                D::ddot(y.s[i], y.s[i]).sqrt(),
+            ));
+        }
+        if let Some(i) = y.f.par_iter().position_first(|&f| !D::is_finite_t(f)) {
+            return Err(fail(
+                i,
+                "deformation gradient |F|",
+                D::ddot(y.f[i], y.f[i]).sqrt(),
+            ));
+        }
+        Ok(())
+    }
+}
