@@ -296,17 +296,31 @@ pub enum Rebuild {
     Once,
     /// From the current positions at every rate evaluation (updated-Lagrangian methods).
     EveryStage,
+    /// From the current positions, each reach widened by the skin [`SKIN`]·reach, and
+    /// again only once some particle has moved more than half the smallest skin since: the
+    /// lists then hold every pair within reach of the current positions (and pairs up to
+    /// the skin beyond, whose kernel terms vanish), in the order `EveryStage` gives them.
+    OnDrift,
 }
+
+/// The skin of [`Rebuild::OnDrift`], a fraction of each particle's reach.
+pub const SKIN: f64 = 0.1;
 
 /// A method's neighbour lists, kept by its [`Rebuild`] policy: the reach of every
 /// particle, the body masks, and the cell list that rebuilds them with its buffers.
 #[derive(Clone, Debug)]
 pub struct Neighbours {
     rebuild: Rebuild,
+    /// The reach of every particle, widened by the skin with [`Rebuild::OnDrift`].
     reach: Vec<f64>,
     body: Option<Vec<u32>>,
     search: CellList,
     lists: Csr,
+    /// [`Rebuild::OnDrift`]: the positions of the last build (DIM floats each, as 3D).
+    built_at: Vec<[f64; 3]>,
+    /// [`Rebuild::OnDrift`]: the largest displacement since the last build that keeps its
+    /// lists complete (half the smallest skin).
+    drift: f64,
 }
 
 impl Neighbours {
@@ -318,12 +332,20 @@ impl Neighbours {
         reach: Vec<f64>,
         body: Option<Vec<u32>>,
     ) -> Self {
+        let widen = if rebuild == Rebuild::OnDrift {
+            1.0 + SKIN
+        } else {
+            1.0
+        };
+        let drift = 0.5 * SKIN * reach.iter().copied().fold(f64::INFINITY, f64::min);
         let mut n = Self {
             rebuild,
-            reach,
+            reach: reach.iter().map(|r| r * widen).collect(),
             body,
             search: CellList::default(),
             lists: Csr::default(),
+            built_at: Vec::new(),
+            drift,
         };
         n.rebuild::<D>(x);
         n
@@ -338,6 +360,18 @@ impl Neighbours {
                 self.rebuild::<D>(x);
                 true
             }
+            Rebuild::OnDrift => {
+                let moved = |(p, q): (&D::V, &[f64; 3])| {
+                    let p = D::to3(*p);
+                    let d2: f64 = (0..3).map(|k| (p[k] - q[k]).powi(2)).sum();
+                    !(d2 <= self.drift * self.drift)
+                };
+                let rebuild = x.iter().zip(&self.built_at).any(moved);
+                if rebuild {
+                    self.rebuild::<D>(x);
+                }
+                rebuild
+            }
         }
     }
 
@@ -345,6 +379,10 @@ impl Neighbours {
         let reach = Reach::PerParticle(&self.reach);
         self.search
             .build::<D>(x, reach, self.body.as_deref(), &mut self.lists);
+        if self.rebuild == Rebuild::OnDrift {
+            self.built_at.clear();
+            self.built_at.extend(x.iter().map(|&p| D::to3(p)));
+        }
     }
 
     /// The current lists.
@@ -488,6 +526,50 @@ mod tests {
             assert!(!kept.update::<D2>(&x));
             assert_eq!(kept.lists(), once.lists());
         }
+    }
+
+    #[test]
+    fn drift_lists_hold_every_pair_in_reach_and_rebuild_only_past_the_skin() {
+        // Particles moved in small random steps: after every update the drift lists hold
+        // each pair within the radius of the current positions (brute force), with the
+        // extra pairs no farther than radius·(1 + SKIN) + 2·drift; the lists are rebuilt
+        // only when some particle moved more than half the skin since the last build.
+        let mut s = 29;
+        let mut x: Vec<DVec2> = (0..400)
+            .map(|_| DVec2::new(lcg(&mut s) * 2.0, lcg(&mut s)))
+            .collect();
+        let radius = 0.1;
+        let mut drift = Neighbours::new::<D2>(Rebuild::OnDrift, &x, vec![radius; 400], None);
+        let mut since = vec![DVec2::ZERO; x.len()];
+        let (mut rebuilds, mut kept) = (0, 0);
+        for _ in 0..60 {
+            for (p, m) in x.iter_mut().zip(&mut since) {
+                let step = DVec2::new(lcg(&mut s) - 0.5, lcg(&mut s) - 0.5) * 0.002;
+                *p += step;
+                *m += step;
+            }
+            let far = since.iter().any(|m| m.length() > 0.5 * SKIN * radius);
+            let rebuilt = drift.update::<D2>(&x);
+            assert_eq!(
+                rebuilt, far,
+                "rebuilt exactly when a particle left the skin"
+            );
+            if rebuilt {
+                since.iter_mut().for_each(|m| *m = DVec2::ZERO);
+                rebuilds += 1;
+            } else {
+                kept += 1;
+            }
+            for (i, within) in brute::<D2>(&x, radius).iter().enumerate() {
+                let listed = drift.lists().neighbours(i);
+                assert!(within.iter().all(|j| listed.contains(j)), "particle {i}");
+                assert!(listed.windows(2).all(|w| w[0] < w[1]), "sorted ids");
+            }
+        }
+        assert!(
+            rebuilds > 2 && kept > 10,
+            "{rebuilds} rebuilds, {kept} kept"
+        );
     }
 
     #[test]

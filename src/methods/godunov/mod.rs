@@ -26,7 +26,7 @@ impl MethodFamily for GodunovSpec {
     const KEYS: &'static [&'static str] = &[];
     const FEATURES: &'static [Feature] = &[Feature::Contact];
     const GPU_ENGINE: bool = false;
-    const NEIGHBOURS: Rebuild = Rebuild::EveryStage;
+    const NEIGHBOURS: Rebuild = Rebuild::OnDrift;
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = &[];
 

@@ -47,7 +47,7 @@ impl MethodFamily for GrayMonaghanSpec {
     const KEYS: &'static [&'static str] = &["artificial_viscosity", "artificial_stress", "xsph"];
     const FEATURES: &'static [Feature] = &[Feature::Contact];
     const GPU_ENGINE: bool = false;
-    const NEIGHBOURS: Rebuild = Rebuild::EveryStage;
+    const NEIGHBOURS: Rebuild = Rebuild::OnDrift;
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = &[];
 
