@@ -4,7 +4,7 @@
 use crate::boundary::Boundary;
 use crate::kernel::Kernel;
 use crate::material::Material;
-use crate::neighbour::{Csr, Neighbours, Rebuild};
+use crate::neighbour::{self, Csr, Neighbours, Rebuild};
 use crate::scene::{Case, CaseError, discretise};
 use crate::tensor::Dim;
 
@@ -34,6 +34,7 @@ impl<D: Dim> Reference<D> {
     /// velocities.
     pub fn build(case: &Case) -> Result<Self, CaseError> {
         let disc = discretise::<D>(case)?;
+        no_coincident_particles::<D>(case, &disc.x0, &disc.body)?;
         let material = Material::new(&case.material);
         let mass: Vec<f64> = disc.vol.iter().map(|v| v * material.rho0).collect();
         let boundary = Boundary::build(case, &disc, &mass)?;
@@ -80,6 +81,41 @@ impl<D: Dim> Reference<D> {
         let body = per_body.then(|| self.body.clone());
         Neighbours::new::<D>(rebuild, &self.x0, reach, body)
     }
+}
+
+/// Refuses particles closer than 1e-6 of the spacing to another, naming both, their
+/// bodies and the position: a row repeated in a points file, or two bodies laid over each
+/// other, which would double the mass there (and collapse the CFL step). Sampled lattices
+/// are a spacing apart, so the bound leaves six decades of room.
+fn no_coincident_particles<D: Dim>(
+    case: &Case,
+    x0: &[D::V],
+    body: &[u32],
+) -> Result<(), CaseError> {
+    let close = neighbour::build::<D>(x0, 1e-6 * case.spacing);
+    let Some((i, &j)) = (0..close.len()).find_map(|i| close.neighbours(i).first().map(|j| (i, j)))
+    else {
+        return Ok(());
+    };
+    let (bi, bj) = (body[i] as usize, body[j as usize] as usize);
+    let name = |b: usize| &case.bodies[b].name;
+    let what = if bi == bj {
+        format!("particles {i} and {j} of body `{}`", name(bi))
+    } else {
+        format!(
+            "particle {i} of body `{}` and particle {j} of body `{}` (the bodies overlap)",
+            name(bi),
+            name(bj)
+        )
+    };
+    Err(case.invalid(
+        format!("body.{}.geometry", bi.max(bj)),
+        format!(
+            "{what} coincide at {:?} (closer than 1e-6 of the spacing); remove the repeated \
+             point or move the bodies apart",
+            D::to3(x0[i])
+        ),
+    ))
 }
 
 /// The kernel support, with a relative margin so that lattice neighbours exactly at the

@@ -850,3 +850,53 @@ fn points_files_are_regular_files_whose_text_errors_never_echo() {
     assert_mentions(&shown, &["line 3"]);
     assert!(!shown.contains("token"), "{shown}");
 }
+
+/// The error of building `text`'s reference configuration (None if it builds).
+fn reference_error(text: &str) -> Option<String> {
+    let case = Case::from_toml(text, Path::new(FILE), &[]).expect("the file validates");
+    meshless::reference::Reference::<D2>::build(&case)
+        .err()
+        .map(|e| e.to_string())
+}
+
+#[test]
+fn coincident_particles_and_overlapping_bodies_are_refused() {
+    // A row repeated in a points file: two particles at one position of one body.
+    let dir = tempfile::tempdir().unwrap();
+    let points = dir.path().join("points.csv");
+    std::fs::write(&points, "x,y\n0.0,0.0\n0.1,0.0\n0.1,0.0\n0.2,0.0\n").unwrap();
+    let repeated = edit(
+        VALID,
+        "geometry = { shape = \"box\", min = [0.0, 0.0], max = [1.0, 0.5] }",
+        &format!(
+            "geometry = {{ shape = \"points\", file = {:?} }}",
+            points.display().to_string()
+        ),
+    );
+    let shown = reference_error(&repeated).expect("a repeated point is refused");
+    assert_mentions(
+        &shown,
+        &[
+            "body.0.geometry",
+            "particles 1 and 2",
+            "`block`",
+            "coincide",
+        ],
+    );
+    // The same box twice: every particle of the second lies on one of the first.
+    let twice = format!(
+        "{VALID}\n[[body]]\nname = \"copy\"\n\
+         geometry = {{ shape = \"box\", min = [0.0, 0.0], max = [1.0, 0.5] }}\n"
+    );
+    let shown = reference_error(&twice).expect("overlapping bodies are refused");
+    assert_mentions(
+        &shown,
+        &["body.1.geometry", "`block`", "`copy`", "the bodies overlap"],
+    );
+    // Bodies side by side a spacing apart build.
+    let beside = format!(
+        "{VALID}\n[[body]]\nname = \"beside\"\n\
+         geometry = {{ shape = \"box\", min = [1.1, 0.0], max = [2.0, 0.5] }}\n"
+    );
+    assert_eq!(reference_error(&beside), None);
+}
