@@ -364,7 +364,7 @@ impl Neighbours {
                 let moved = |(p, q): (&D::V, &[f64; 3])| {
                     let p = D::to3(*p);
                     let d2: f64 = (0..3).map(|k| (p[k] - q[k]).powi(2)).sum();
-                    !(d2 <= self.drift * self.drift)
+                    d2.is_nan() || d2 > self.drift * self.drift
                 };
                 let rebuild = x.iter().zip(&self.built_at).any(moved);
                 if rebuild {
