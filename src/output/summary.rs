@@ -39,7 +39,8 @@ pub struct RunSummary {
     /// Throughput: particles times steps per wall-clock second.
     #[serde(with = "non_finite_as_null")]
     pub particle_steps_per_second: f64,
-    /// `"completed"`, `"failed"` or `"interrupted"`.
+    /// `"running"` (written when the run starts), `"completed"`, `"failed"` or
+    /// `"interrupted"`.
     pub status: String,
     /// Why the run failed, if it did.
     #[serde(default)]

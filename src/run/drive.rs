@@ -10,6 +10,7 @@ use crate::output::{RunSummary, SeriesWriter, write_summary};
 use crate::scene::Case;
 use crate::tensor::Dim;
 use indicatif::{ProgressBar, ProgressStyle};
+use std::path::Path;
 use std::time::Instant;
 
 /// Steps between blow-up checks (and CFL updates) when samples are rarer.
@@ -32,6 +33,7 @@ pub fn drive<D: Dim, E: Engine<D>>(
 ) -> Result<RunSummary, RunError> {
     let observers = Observers::new::<D>(case, engine.reference(), engine.constrained())?;
     std::fs::create_dir_all(&opts.out_dir).map_err(output_error(&opts.out_dir))?;
+    clear_previous_run(&opts.out_dir)?;
     let series_path = opts.out_dir.join("series.csv");
     let mut series = SeriesWriter::create(&series_path, observers.column_names())
         .map_err(output_error(&series_path))?;
@@ -59,6 +61,23 @@ pub fn drive<D: Dim, E: Engine<D>>(
     }
 
     let n = engine.reference().len();
+    let summary_path = opts.out_dir.join("summary.json");
+    let running = RunSummary {
+        case: case.name.clone(),
+        method: case.method.name().to_string(),
+        backend: backend.clone(),
+        dimension: case.dimension,
+        particles: n,
+        steps: 0,
+        dt_last: f64::NAN,
+        end_time: 0.0,
+        wall_seconds: 0.0,
+        particle_steps_per_second: f64::NAN,
+        status: "running".into(),
+        failure: None,
+        final_invariants: Default::default(),
+    };
+    write_summary(&summary_path, &running).map_err(output_error(&summary_path))?;
     let t_end = case.run.end_time;
     let done = |t: f64| t >= t_end * (1.0 - 1e-12);
     let mut clock = Clock {
@@ -221,7 +240,6 @@ pub fn drive<D: Dim, E: Engine<D>>(
         }),
         final_invariants: inv.named::<D>(),
     };
-    let summary_path = opts.out_dir.join("summary.json");
     write_summary(&summary_path, &summary).map_err(output_error(&summary_path))?;
     match failure {
         Some(cause) => Err(RunError::BlowUp {
@@ -233,6 +251,40 @@ pub fn drive<D: Dim, E: Engine<D>>(
         }),
         None => Ok(summary),
     }
+}
+
+/// Removes what an earlier run wrote into `dir`, and nothing else: its summary, its
+/// series, and each PVD index with the frames it lists, so that no stale file of it is
+/// left beside the new run's.
+fn clear_previous_run(dir: &Path) -> Result<(), RunError> {
+    let remove = |path: &Path| match std::fs::remove_file(path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(output_error(path)(e)),
+        _ => Ok(()),
+    };
+    for name in ["summary.json", "series.csv"] {
+        remove(&dir.join(name))?;
+    }
+    let entries = std::fs::read_dir(dir).map_err(output_error(dir))?;
+    for entry in entries {
+        let index = entry.map_err(output_error(dir))?.path();
+        if index.extension().is_none_or(|e| e != "pvd") {
+            continue;
+        }
+        let text = std::fs::read_to_string(&index).unwrap_or_default();
+        for frame in text
+            .split("file=\"")
+            .skip(1)
+            .filter_map(|t| t.split('"').next())
+        {
+            let frame = Path::new(frame);
+            // Only frames the index names in this folder (a name, no path).
+            if frame.components().count() == 1 && frame.extension().is_some_and(|e| e == "vtu") {
+                remove(&dir.join(frame))?;
+            }
+        }
+        remove(&index)?;
+    }
+    Ok(())
 }
 
 fn progress_bar(show: bool, case: &Case) -> ProgressBar {

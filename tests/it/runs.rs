@@ -459,3 +459,52 @@ fn check_builds_a_case_without_running_it() {
     assert_eq!(bad.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("key `boundary.1.region`"), "{stderr}");
 }
+
+#[test]
+fn a_run_clears_the_previous_runs_files_and_nothing_else() {
+    // A first run writes 20 frames, their index, a series and a summary; a second run
+    // into the same folder without frames leaves none of the first run's frames or index
+    // (which it lists), a summary of its own, and the user's own files untouched, a VTU
+    // the index does not list included.
+    let dir = tempfile::tempdir().unwrap();
+    let first = load(
+        "tensile-strip",
+        &["run.end_time=2e-5", "output.frame_interval=1e-6"],
+    );
+    run(&first, &cpu_options(dir.path(), true)).unwrap();
+    let files = |ext: &str| {
+        std::fs::read_dir(dir.path())
+            .unwrap()
+            .filter(|e| {
+                e.as_ref()
+                    .unwrap()
+                    .path()
+                    .extension()
+                    .is_some_and(|x| x == ext)
+            })
+            .count()
+    };
+    assert!(files("vtu") > 10 && files("pvd") == 1);
+    std::fs::write(dir.path().join("notes.txt"), "mine").unwrap();
+    std::fs::write(dir.path().join("mesh.vtu"), "mine").unwrap();
+    let second = load("tensile-strip", &["run.end_time=1e-5"]);
+    let summary = run(&second, &cpu_options(dir.path(), false)).unwrap();
+    assert_eq!(
+        (files("vtu"), files("pvd")),
+        (1, 0),
+        "only the user's VTU is left"
+    );
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("notes.txt")).unwrap(),
+        "mine"
+    );
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("mesh.vtu")).unwrap(),
+        "mine"
+    );
+    let written: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("summary.json")).unwrap())
+            .unwrap();
+    assert_eq!(written["status"], "completed");
+    assert_eq!(written["steps"], summary.steps);
+}
