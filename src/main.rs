@@ -7,6 +7,8 @@ use meshless::scene::Case;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 #[derive(Parser)]
 #[command(
@@ -103,6 +105,8 @@ enum Command {
 const EXIT_INPUT: u8 = 2;
 /// Exit code for a run that failed (blow-up, I/O).
 const EXIT_FAILED: u8 = 1;
+/// Exit code of a run ended by SIGINT or SIGTERM (128 + SIGINT, the shell's convention).
+const EXIT_INTERRUPTED: u8 = 130;
 
 fn main() -> ExitCode {
     match Cli::parse().command {
@@ -240,6 +244,7 @@ fn run_command(
         backend,
         progress: !quiet && std::io::stderr().is_terminal(),
         frames: !no_frames,
+        stop: Some(stop_on_signal()),
     };
     match run(&case, &opts) {
         Ok(s) => {
@@ -269,7 +274,22 @@ fn exit_code(e: &RunError) -> ExitCode {
     ExitCode::from(match e {
         RunError::Case(_) | RunError::Backend(_) => EXIT_INPUT,
         RunError::Output { .. } | RunError::BlowUp { .. } | RunError::Benchmark(_) => EXIT_FAILED,
+        RunError::Interrupted { .. } => EXIT_INTERRUPTED,
     })
+}
+
+/// A flag that SIGINT (Ctrl-C) or SIGTERM sets, so that a run ends after its current
+/// batch of steps with an "interrupted" summary. Without a handler (one is already
+/// installed) the signal ends the process as usual, and the summary says "running".
+fn stop_on_signal() -> Arc<AtomicBool> {
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = stop.clone();
+    if let Err(e) = ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed)) {
+        eprintln!(
+            "warning: no SIGINT/SIGTERM handler ({e}): an interrupted run keeps a 'running' summary"
+        );
+    }
+    stop
 }
 
 fn list() -> ExitCode {

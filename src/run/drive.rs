@@ -108,6 +108,12 @@ pub fn drive<D: Dim, E: Engine<D>>(
     // Where a failure was found, when not at the current step: (first step it may have
     // happened in, the step it is reported at, the time at the end of that step).
     let mut found = None;
+    let stop_requested = || {
+        opts.stop
+            .as_ref()
+            .is_some_and(|s| s.load(std::sync::atomic::Ordering::Relaxed))
+    };
+    let mut interrupted = false;
     let failure = loop {
         let Clock { t, step, .. } = clock;
         if done(t) {
@@ -158,6 +164,10 @@ pub fn drive<D: Dim, E: Engine<D>>(
             // Found at the check after the batch: in one of its steps.
             found = Some((step + 1, clock.step, t));
             break Some(cause);
+        }
+        if stop_requested() {
+            interrupted = true;
+            break None;
         }
         // The full state is read (and F, σ evaluated) only when a row or frame is due;
         // other checks use the engine's invariants (a reduction on the GPU).
@@ -224,10 +234,10 @@ pub fn drive<D: Dim, E: Engine<D>>(
         end_time: t,
         wall_seconds: wall,
         particle_steps_per_second: n as f64 * step as f64 / wall.max(1e-12),
-        status: if failure.is_some() {
-            "failed"
-        } else {
-            "completed"
+        status: match (&failure, interrupted) {
+            (Some(_), _) => "failed",
+            (None, true) => "interrupted",
+            (None, false) => "completed",
         }
         .into(),
         failure: failure.as_ref().map(|c| {
@@ -247,6 +257,11 @@ pub fn drive<D: Dim, E: Engine<D>>(
             first_step,
             time: failed_time,
             cause,
+            out_dir: opts.out_dir.clone(),
+        }),
+        None if interrupted => Err(RunError::Interrupted {
+            step,
+            time: t,
             out_dir: opts.out_dir.clone(),
         }),
         None => Ok(summary),

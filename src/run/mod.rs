@@ -19,6 +19,8 @@ use crate::scene::validate::toml_name;
 use crate::scene::{Case, CaseError};
 use crate::tensor::{D2, D3};
 use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
 use thiserror::Error;
 
 /// Compute backend.
@@ -42,10 +44,23 @@ pub struct RunOptions {
     pub progress: bool,
     /// Write VTU frames (the time series and summary are always written).
     pub frames: bool,
+    /// Set (by the command line's SIGINT/SIGTERM handler, say) to end the run after its
+    /// current batch of steps, with an "interrupted" summary.
+    pub stop: Option<Arc<AtomicBool>>,
 }
 
 #[derive(Debug, Error)]
 pub enum RunError {
+    #[error(
+        "interrupted at step {step}, t = {time:e} s; the series and frames so far and an \
+         'interrupted' summary are in {}",
+        out_dir.display()
+    )]
+    Interrupted {
+        step: u64,
+        time: f64,
+        out_dir: PathBuf,
+    },
     #[error(transparent)]
     Case(#[from] CaseError),
     #[error(

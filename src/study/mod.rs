@@ -220,6 +220,7 @@ fn execute(
         },
         progress: false,
         frames: false,
+        stop: None,
     };
     let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         run_case(case, run_opts.backend, &run_opts)

@@ -73,6 +73,7 @@ pub fn cpu_options(dir: &Path, frames: bool) -> RunOptions {
         backend: Backend::Cpu,
         progress: false,
         frames,
+        stop: None,
     }
 }
 

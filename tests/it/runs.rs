@@ -508,3 +508,45 @@ fn a_run_clears_the_previous_runs_files_and_nothing_else() {
     assert_eq!(written["status"], "completed");
     assert_eq!(written["steps"], summary.steps);
 }
+
+#[test]
+fn sigint_and_sigterm_end_a_run_with_an_interrupted_summary() {
+    // The rotating disk (150,000 steps, a minute or more) started from the command line:
+    // its summary says "running" once it has begun; SIGINT or SIGTERM then ends it after
+    // the current batch of steps with exit code 130 and an "interrupted" summary that
+    // names the step reached, the series rows so far intact.
+    let exe = env!("CARGO_BIN_EXE_meshless");
+    for signal in ["-INT", "-TERM"] {
+        let dir = tempfile::tempdir().unwrap();
+        let mut child = Command::new(exe)
+            .args(["run", case_file("rotating-disk").to_str().unwrap()])
+            .args(["--backend", "cpu", "--no-frames", "-q", "--out"])
+            .arg(dir.path())
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        let summary = dir.path().join("summary.json");
+        let read = || -> Option<serde_json::Value> {
+            serde_json::from_str(&std::fs::read_to_string(&summary).ok()?).ok()
+        };
+        let started = std::time::Instant::now();
+        while read().is_none_or(|s| s["status"] != "running") {
+            assert!(started.elapsed().as_secs() < 60, "no 'running' summary");
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        std::thread::sleep(std::time::Duration::from_millis(300));
+        let sent = Command::new("kill")
+            .args([signal, &child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(sent.success());
+        let status = child.wait().unwrap();
+        assert_eq!(status.code(), Some(130), "{signal}");
+        let s = read().expect("a summary");
+        assert_eq!(s["status"], "interrupted", "{signal}");
+        assert!(s["steps"].as_u64().unwrap() > 0 && s["steps"].as_u64().unwrap() < 150_000);
+        let rows = std::fs::read_to_string(dir.path().join("series.csv")).unwrap();
+        assert!(rows.lines().count() >= 2, "{rows}");
+    }
+}
