@@ -1,5 +1,6 @@
 // Total-Lagrangian SPH accelerations (seed 000 eq 134) with Monaghan viscosity along the
-// pushed-forward gradient F_i⁻ᵀ ∇0W̃_ij, boundary conditions (boundary.wgsl), and u̇ = v.
+// pushed-forward gradient F_i⁻ᵀ ∇0W̃_ij (or ∇0W̃_ij unmapped, AV_GRADIENT_REFERENCE: the
+// paper's form), boundary conditions (boundary.wgsl), and u̇ = v.
 // One invocation per particle; writes only its own particle. Layout and constants as in
 // tlsph.wgsl.
 
@@ -40,7 +41,11 @@ fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
                 let mu = H * vx / (dot(x_ij, x_ij) + AV_ETA * AV_ETA * H * H);
                 let c = 0.5 * (c_i + sqrt(BULK / rho_j));
                 let pi = (-AV_ALPHA * c * mu + AV_BETA * mu * mu) / (0.5 * (rho_i + rho_j));
-                viscous -= f_inv_t * g * (RHO0 * vol_of(j) * pi);
+                var along = f_inv_t * g;
+                if AV_GRADIENT == AV_GRADIENT_REFERENCE {
+                    along = g;
+                }
+                viscous -= along * (RHO0 * vol_of(j) * pi);
             }
         }
     }

@@ -1,7 +1,7 @@
 //! Total-Lagrangian SPH on the CPU: exact kinematics, frame invariance, set-up
 //! reproduction of the seed-000 benchmarks and conservation on the rotating disk.
 
-use crate::common::{largest_t, shipped};
+use crate::common::{largest_t, largest_v, shipped};
 use glam::{DMat2, DMat3, DVec2, DVec3};
 use meshless::integrate::OdeSystem;
 use meshless::methods::Method;
@@ -111,6 +111,51 @@ fn rigid_motion_rates_of_the_hypoelastic_model_vanish() {
     assert!(rho_dot < 1e-9, "max |ρ̇| = {rho_dot:e}");
     assert!(s_dot < 1e-3, "max |Ṡ| = {s_dot:e}");
     assert!(acc < 1e-9, "max |a| = {acc:e}");
+}
+
+#[test]
+fn only_the_pushed_forward_viscosity_turns_with_the_body() {
+    // A block compressed along x (v = −0.5 X_1 e_1, u = 0), and the same state turned
+    // rigidly by a quarter turn (x = R X, v' = R v). With the Randles–Libersky correction
+    // F = R exactly, so the stress vanishes in both and the viscous pair terms see the
+    // same μ_ij and Π_ij. Objectivity asks a' = R a: the pushed-forward direction
+    // F⁻ᵀ ∇0W̃_ij = R ∇0W̃_ij gives it to round-off (sums of ~20 terms and F = R to
+    // 1e-12: 1e-9 of the largest acceleration); the paper's ∇0W̃_ij unmapped gives a' = a,
+    // off by √2 |a| at 90°.
+    let objectivity_error = |gradient: &str| -> f64 {
+        let keys = format!(
+            "artificial_viscosity = {{ alpha = 1.0, beta = 1.0 }}\n\
+             viscosity_gradient = \"{gradient}\""
+        );
+        let c = crate::common::block_case(&[1.0, 0.6], "neo-hookean", "tlsph", &keys);
+        let mut m: Tlsph<D2> = build_method(&c).unwrap();
+        let q = DMat2::from_angle(PI / 2.0);
+        let mut y = m.initial_state();
+        for (v, &x0) in y.v.iter_mut().zip(m.reference()) {
+            *v = DVec2::new(-0.5 * x0.x, 0.0);
+        }
+        let mut turned = y.clone();
+        for ((u, v), &x0) in turned.u.iter_mut().zip(&mut turned.v).zip(m.reference()) {
+            *u = q * x0 - x0;
+            *v = q * *v;
+        }
+        let (mut d, mut d_turned) = (y.clone(), y.clone());
+        m.rates(0.0, &y, &mut d).unwrap();
+        m.rates(0.0, &turned, &mut d_turned).unwrap();
+        let scale = largest_v::<D2>(d.v.iter().copied());
+        assert!(scale > 0.0, "the viscosity must act");
+        largest_v::<D2>(d.v.iter().zip(&d_turned.v).map(|(&a, &b)| b - q * a)) / scale
+    };
+    let pushed = objectivity_error("pushed-forward");
+    assert!(
+        pushed < 1e-9,
+        "pushed-forward: |a' − R a| = {pushed:e} of max |a|"
+    );
+    let reference = objectivity_error("reference");
+    assert!(
+        reference > 0.5,
+        "the paper's form: |a' − R a| = {reference:e} of max |a|"
+    );
 }
 
 #[test]

@@ -6,6 +6,7 @@
 //! A whole step, or several, is recorded into one command encoder; the host reads back
 //! only when asked (outputs, observers, checks).
 
+use super::ViscosityGradient;
 use super::system::{TlState, check_state, snapshot};
 use crate::correction::{self, CorrectionKind};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
@@ -139,9 +140,9 @@ pub fn scene_constants(case: &Case, layout: &Layout) -> Constants {
         CorrectionKind::Shepard => 1,
         CorrectionKind::RandlesLibersky | CorrectionKind::Rkpm | CorrectionKind::Cgck => 2,
     };
-    let av = match &case.method.spec {
-        MethodSpec::Tlsph(spec) => spec.artificial_viscosity,
-        _ => None,
+    let (av, av_gradient) = match &case.method.spec {
+        MethodSpec::Tlsph(spec) => (spec.artificial_viscosity, spec.viscosity_gradient),
+        _ => (None, ViscosityGradient::default()),
     };
     let u = |x: usize| x as u32;
     let constants = Constants::default()
@@ -155,6 +156,11 @@ pub fn scene_constants(case: &Case, layout: &Layout) -> Constants {
         .f32("AV_ALPHA", av.map_or(0.0, |a| a.alpha))
         .f32("AV_BETA", av.map_or(0.0, |a| a.beta))
         .f32("AV_ETA", av.map_or(0.0, |a| a.eta))
+        .choice(
+            "AV_GRADIENT",
+            &["PUSHED_FORWARD", "REFERENCE"],
+            usize::from(av_gradient == ViscosityGradient::Reference),
+        )
         .u32("REST_OFF", u(layout.state.offset("RHO")));
     [&layout.state, &layout.kin, &layout.pair, &layout.reference]
         .into_iter()

@@ -52,11 +52,27 @@ impl ArtificialViscosity {
     }
 }
 
+/// The direction along which TLSPH's artificial viscosity acts on a pair.
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum ViscosityGradient {
+    /// F_i⁻ᵀ ∇0W̃_ij: the reference gradient pushed forward to the current configuration,
+    /// which stays along the pair under rigid rotation.
+    #[default]
+    PushedForward,
+    /// ∇0W̃_ij unmapped, as the paper writes Algorithm 3 step 7 and the reference code
+    /// runs it; after a rotation it points across the pair.
+    Reference,
+}
+
 /// The `[method]` keys of TLSPH.
 #[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
 pub struct TlsphSpec {
     /// Monaghan artificial viscosity; none when absent.
     pub artificial_viscosity: Option<ArtificialViscosity>,
+    /// The direction of the viscous pair force.
+    #[serde(default)]
+    pub viscosity_gradient: ViscosityGradient,
 }
 
 /// One rate evaluation on the GPU, as `--explain` prints it.
@@ -65,7 +81,7 @@ const GPU_RATES: &str = "stress pass (F, P, ρ̇, Ṡ) + acceleration pass (a, u
 impl MethodFamily for TlsphSpec {
     const DESCRIPTION: &'static str = "total-Lagrangian SPH (Reveles; seed 000 §5.3): corrected \
         reference kernel, rate- or state-based stress, Monaghan artificial viscosity";
-    const KEYS: &'static [&'static str] = &["artificial_viscosity"];
+    const KEYS: &'static [&'static str] = &["artificial_viscosity", "viscosity_gradient"];
     const FEATURES: &'static [Feature] = &[Feature::Contact];
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
@@ -81,9 +97,15 @@ impl MethodFamily for TlsphSpec {
         let mat = Material::new(&case.material);
         let rate = mat.model.is_rate_based();
         let mut left_out = Vec::new();
-        if self.artificial_viscosity.is_none() {
-            left_out.push("artificial viscosity");
-        }
+        left_out.push(
+            match (&self.artificial_viscosity, self.viscosity_gradient) {
+                (None, _) => "artificial viscosity",
+                (Some(_), ViscosityGradient::PushedForward) => {
+                    "viscosity along ∇0W̃_ij unmapped (the paper's form)"
+                }
+                (Some(_), ViscosityGradient::Reference) => "viscosity along F⁻ᵀ ∇0W̃_ij",
+            },
+        );
         left_out.push(if rate {
             "P(F) evaluation"
         } else {
@@ -147,6 +169,7 @@ mod tests {
                 beta,
                 eta: 0.1,
             }),
+            viscosity_gradient: ViscosityGradient::PushedForward,
         };
         let case = crate::scene::validate::minimal_case();
         spec(1.0).validate(&case).unwrap();

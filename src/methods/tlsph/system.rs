@@ -5,7 +5,7 @@
 //! velocity v and, for the rate-based (hypoelastic) model, the density ρ and the
 //! deviatoric stress S.
 
-use super::ArtificialViscosity;
+use super::{ArtificialViscosity, ViscosityGradient};
 use crate::boundary::Boundary;
 use crate::interaction::Interactions;
 use crate::methods::shared::{
@@ -141,6 +141,8 @@ pub struct Tlsph<D: Dim> {
     grad: Vec<D::V>,
     material: Material,
     av: Option<ArtificialViscosity>,
+    /// The direction of the viscous pair force.
+    av_gradient: ViscosityGradient,
     h: f64,
     boundary: Boundary<D>,
     interactions: Interactions<D>,
@@ -185,6 +187,7 @@ impl<D: Dim> Tlsph<D> {
             grad,
             material,
             av: spec.artificial_viscosity,
+            av_gradient: spec.viscosity_gradient,
             h: kernel.h,
             boundary,
             interactions,
@@ -268,10 +271,10 @@ impl<D: Dim> Tlsph<D> {
 
     /// Pass 2: a_i = (1/ρ0) Σ_j V_j (P_i + P_j) ∇0W̃_ij (eq 134) plus artificial viscosity.
     ///
-    /// The viscous term acts along the current-configuration gradient F_i⁻ᵀ ∇0W̃_ij. The
-    /// reference code applies ∇0W̃_ij unmapped, which after a quarter turn of rigid
-    /// rotation points across the pair and feeds energy in (the rotating disk blows up
-    /// at t ≈ 0.035 s with it).
+    /// The viscous term acts along the current-configuration gradient F_i⁻ᵀ ∇0W̃_ij, or, with
+    /// `viscosity_gradient = "reference"`, along ∇0W̃_ij unmapped as the paper and the
+    /// reference code have it; after a quarter turn of rigid rotation that direction points
+    /// across the pair and feeds energy in (docs/methods/tlsph.md).
     fn accelerations(&self, y: &TlState<D>, a: &mut [D::V]) {
         let inv_rho0 = 1.0 / self.material.rho0;
         let bulk = self.material.bulk;
@@ -295,7 +298,11 @@ impl<D: Dim> Tlsph<D> {
                         let c = 0.5 * (ci + (bulk / kj.rho).sqrt());
                         let rho = 0.5 * (ki.rho + kj.rho);
                         let pi = av.pi::<D>(h, x_ij, y.v[i] - y.v[j], c, rho);
-                        viscous -= ki.f_inv_t * g * (self.mass[j] * pi);
+                        let along = match self.av_gradient {
+                            ViscosityGradient::PushedForward => ki.f_inv_t * g,
+                            ViscosityGradient::Reference => g,
+                        };
+                        viscous -= along * (self.mass[j] * pi);
                     }
                 }
                 *a = stress * inv_rho0 + viscous;
