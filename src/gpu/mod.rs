@@ -56,6 +56,8 @@ pub fn check_f32_range(case: &Case, constants: &Constants) -> Result<(), CaseErr
         "HARDENING" => "material.hardening_modulus",
         "EPS2" | "EPS4" => "method.jst",
         n if n.starts_with("AV_") => "method.artificial_viscosity",
+        n if n.starts_with("AS_") => "method.artificial_stress",
+        n if n.starts_with("XSPH_") => "method.xsph",
         _ => "spacing",
     };
     Err(case.invalid(

@@ -138,6 +138,16 @@ impl Stepper {
         self.primed = false;
     }
 
+    /// Replaces the state in `Y` by a copy of `from` (a state saved before steps that are
+    /// to run again); the leapfrog primes its rates again.
+    pub fn restart_from(&mut self, gpu: &Gpu, from: &wgpu::Buffer) {
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        let bytes = self.layout.len as u64 * 4;
+        encoder.copy_buffer_to_buffer(from, 0, self.buffer(Buf::Y), 0, bytes);
+        gpu.queue.submit([encoder.finish()]);
+        self.primed = false;
+    }
+
     /// Rewrites the stage coefficients when the step size changes.
     fn set_dt(&mut self, gpu: &Gpu, dt: f64) {
         if dt == self.dt {

@@ -65,7 +65,10 @@ pub const MECHANICS: Wgsl = wgsl!("common/mechanics.wgsl");
 pub const BOUNDARY: Wgsl = wgsl!("common/boundary.wgsl");
 /// Accessors of the reference configuration on the device (`gpu::reference`).
 pub const REFERENCE: Wgsl = wgsl!("common/reference.wgsl");
-/// The von Mises return map.
+/// Eigen-decomposition of symmetric tensors (cyclic Jacobi) and tensors from principal
+/// values.
+pub const EIGEN: Wgsl = wgsl!("common/eigen.wgsl");
+/// The von Mises return map (after [`EIGEN`]).
 pub const PLASTICITY: Wgsl = wgsl!("common/plasticity.wgsl");
 
 /// Corrected reference gradients (Randles–Libersky, Shepard, none).

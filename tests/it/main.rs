@@ -18,6 +18,8 @@ mod gpu_mixed;
 mod gpu_neighbours;
 #[cfg(feature = "gpu")]
 mod gpu_tlsph;
+#[cfg(feature = "gpu")]
+mod gpu_ul;
 mod gray_monaghan;
 #[cfg(feature = "study")]
 mod mixed;

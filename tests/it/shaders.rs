@@ -1,12 +1,17 @@
 //! Every WGSL pass validates with naga (and lowers to an IR) without any adapter, in both
 //! dimensions and for every scene variant the solver compiles.
 
-use crate::common::{load, mixed_variants, shipped, validate_wgsl};
+use crate::common::{block_case, load, mixed_variants, shipped, validate_wgsl};
+use meshless::correction::CorrectionKind;
 use meshless::gpu::context::reflect;
 use meshless::gpu::layout::GpuDim;
 use meshless::gpu::shaders::{self, Constants};
+use meshless::methods::MethodSpec;
+use meshless::methods::godunov::gpu as godunov;
+use meshless::methods::gray_monaghan::gpu as gray_monaghan;
 use meshless::methods::mixed::{MixedSph, gpu as mixed};
 use meshless::methods::tlsph::gpu::{self as tlsph, Layout, scene_constants};
+use meshless::methods::ul::gpu as ul;
 use meshless::run::build_method;
 use meshless::scene::Case;
 use meshless::tensor::{D2, D3};
@@ -85,6 +90,28 @@ fn mixed_cases(dim: usize) -> Vec<Case> {
     cases
 }
 
+/// Updated-Lagrangian scenes of dimension `dim`: each method, with and without the
+/// correction, and Gray–Monaghan with and without each of its terms.
+fn ul_cases(dim: usize) -> Vec<Case> {
+    let max: &[f64] = if dim == 2 {
+        &[1.0, 0.6]
+    } else {
+        &[0.5, 0.4, 0.3]
+    };
+    let all = "artificial_viscosity = { alpha = 1.0, beta = 1.0 }\n\
+               artificial_stress = { epsilon = 0.3, n = 4.0 }\nxsph = 0.5";
+    let mut cases = Vec::new();
+    for correction in ["none", "randles-libersky"] {
+        let c = format!("correction = \"{correction}\"");
+        cases.push(block_case(max, "hypoelastic", "godunov-sph", &c));
+        for keys in [all, ""] {
+            let keys = format!("{c}\n{keys}");
+            cases.push(block_case(max, "hypoelastic", "gray-monaghan-sph", &keys));
+        }
+    }
+    cases
+}
+
 fn check_all<D: GpuDim>() {
     for case in variants() {
         for rate in [false, true] {
@@ -103,9 +130,28 @@ fn check_all<D: GpuDim>() {
             validate_wgsl(&format!("{}D {} ({})", D::N, source.name, case.name), &src);
         }
     }
+    for case in ul_cases(D::N) {
+        let (scheme, sources) = match &case.method.spec {
+            MethodSpec::GrayMonaghanSph(spec) => {
+                (gray_monaghan::scheme(&case, spec), gray_monaghan::SHADERS)
+            }
+            _ => (godunov::scheme(), godunov::SHADERS),
+        };
+        let corrected = case.method.correction == CorrectionKind::RandlesLibersky;
+        let layout = ul::Layout::new(100, D::N, &scheme, corrected);
+        let constants = ul::scene_constants(&case, &layout, &scheme);
+        for source in sources {
+            let src = shaders::compose::<D>(source, &constants);
+            validate_wgsl(&format!("{}D {} ({})", D::N, source.name, case.name), &src);
+        }
+    }
     // Passes without scene constants (neighbour build, scans) validate on their own.
+    let ul_shaders = [gray_monaghan::SHADERS, godunov::SHADERS].concat();
     for source in meshless::methods::shaders() {
-        if !tlsph::SHADERS.contains(&source) && !mixed::SHADERS.contains(&source) {
+        if !tlsph::SHADERS.contains(&source)
+            && !mixed::SHADERS.contains(&source)
+            && !ul_shaders.contains(&source)
+        {
             let constants = match source == shaders::CELL_LIST {
                 true => meshless::gpu::neighbour::constants(0, true),
                 false => Constants::default(),

@@ -2,6 +2,8 @@
 //! Algorithm 2, eqs 128–133): the spec and the CPU system ([`system`], a pair scheme of
 //! the updated-Lagrangian core [`super::ul`]). Numerics notes: `docs/methods/godunov.md`.
 
+#[cfg(feature = "gpu")]
+pub mod gpu;
 pub mod system;
 
 pub use system::Godunov;
@@ -22,13 +24,12 @@ pub struct GodunovSpec {}
 impl MethodFamily for GodunovSpec {
     const DESCRIPTION: &'static str = "Godunov SPH (Parshikov–Medin; seed 000 §5.2): \
         updated-Lagrangian, neighbours rebuilt every stage, acoustic Riemann solutions in \
-        the continuity and momentum equations, no artificial viscosity (CPU only)";
+        the continuity and momentum equations, no artificial viscosity";
     const KEYS: &'static [&'static str] = &[];
     const FEATURES: &'static [Feature] = &[Feature::Contact];
-    const GPU_ENGINE: bool = false;
     const NEIGHBOURS: Rebuild = Rebuild::OnDrift;
     #[cfg(feature = "gpu")]
-    const SHADERS: &'static [crate::gpu::shaders::Source] = &[];
+    const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
 
     fn validate(&self, case: &Case) -> Result<(), Problem> {
         super::ul::validate(case)
@@ -64,9 +65,10 @@ impl MethodFamily for GodunovSpec {
     fn gpu_engine<D: EngineDim>(
         &self,
         case: &Case,
-        _gpu: crate::gpu::Gpu,
+        gpu: crate::gpu::Gpu,
     ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
-        Err(super::no_gpu_engine(case).into())
+        let engine = crate::methods::ul::gpu::GpuUl::<D>::new(case, gpu, &gpu::scheme())?;
+        Ok(Box::new(engine))
     }
 
     /// The step Δt = cfl Δx/(c_p + max|v|) does not depend on the stretch.

@@ -3,6 +3,8 @@
 //! updated-Lagrangian core [`super::ul`]). Numerics notes:
 //! `docs/methods/gray-monaghan.md`.
 
+#[cfg(feature = "gpu")]
+pub mod gpu;
 pub mod system;
 
 pub use system::GrayMonaghan;
@@ -43,13 +45,12 @@ pub struct GrayMonaghanSpec {
 impl MethodFamily for GrayMonaghanSpec {
     const DESCRIPTION: &'static str = "Gray–Monaghan stress-corrected updated-Lagrangian SPH \
         (seed 000 §5.1): neighbours rebuilt every stage, Jaumann rate, artificial viscosity, \
-        artificial stress and XSPH (CPU only)";
+        artificial stress and XSPH";
     const KEYS: &'static [&'static str] = &["artificial_viscosity", "artificial_stress", "xsph"];
     const FEATURES: &'static [Feature] = &[Feature::Contact];
-    const GPU_ENGINE: bool = false;
     const NEIGHBOURS: Rebuild = Rebuild::OnDrift;
     #[cfg(feature = "gpu")]
-    const SHADERS: &'static [crate::gpu::shaders::Source] = &[];
+    const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
 
     fn validate(&self, case: &Case) -> Result<(), Problem> {
         super::ul::validate(case)?;
@@ -118,9 +119,10 @@ impl MethodFamily for GrayMonaghanSpec {
     fn gpu_engine<D: EngineDim>(
         &self,
         case: &Case,
-        _gpu: crate::gpu::Gpu,
+        gpu: crate::gpu::Gpu,
     ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
-        Err(super::no_gpu_engine(case).into())
+        let engine = crate::methods::ul::gpu::GpuUl::<D>::new(case, gpu, &gpu::scheme(case, self))?;
+        Ok(Box::new(engine))
     }
 
     /// The step Δt = cfl Δx/(c_p + max|v|) does not depend on the stretch.

@@ -20,8 +20,8 @@ use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{Reduced, Reduction, WorkBalance};
 use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
-    self, BOUNDARY, CONTACT, Constants, INTEGRATE, MECHANICS, PLASTICITY, REFERENCE, Source, Wgsl,
-    source, wgsl,
+    self, BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, MECHANICS, PLASTICITY, REFERENCE, Source,
+    Wgsl, source, wgsl,
 };
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range};
 use crate::integrate::IntegratorKind;
@@ -52,7 +52,7 @@ pub const GHOSTS: Source = source!(
 /// ∇0v, P(F, H, J) and the rates of F, H, J.
 pub const KINEMATICS: Source = source!(
     "mixed/mixed_kinematics.wgsl",
-    [MECHANICS, MIXED, MOTION, PLASTICITY],
+    [MECHANICS, MIXED, MOTION, EIGEN, PLASTICITY],
     [("pair", false), ("y", false), ("kin", true), ("d", true)]
 );
 /// The bond-based F^c (seed 002 eqs 37, 39).
@@ -96,13 +96,15 @@ pub const MOMENTUM: Source = source!(
 /// Energies, momenta, checks and the CFL pair wave speed of a state.
 pub const REDUCE: Source = source!(
     "common/reduce.wgsl",
-    [MECHANICS, MIXED, MOTION, ENERGY, PLASTICITY, REFERENCE],
+    [
+        MECHANICS, MIXED, MOTION, ENERGY, EIGEN, PLASTICITY, REFERENCE
+    ],
     [("y", false), ("kin", false), ("reference", false)]
 );
 /// The per-step commit of the plastic history.
 pub const PLASTIC: Source = source!(
     "mixed/mixed_plastic.wgsl",
-    [MIXED, PLASTICITY],
+    [MIXED, EIGEN, PLASTICITY],
     [("y", false)]
 );
 

@@ -11,6 +11,9 @@
 //! the prescribed velocities and the interactions. The state is [`UlState`]: u = x − X,
 //! v, ρ, S and F (integrated for the outputs only).
 
+#[cfg(feature = "gpu")]
+pub mod gpu;
+
 use crate::boundary::Boundary;
 use crate::correction::CorrectionKind;
 use crate::integrate::OdeSystem;
@@ -392,19 +395,14 @@ impl<D: Dim, S: PairScheme<D>> Method<D> for UlSph<D, S> {
 
     fn snapshot<'a>(&'a self, y: &UlState<D>) -> Snapshot<'a, D> {
         let core = &self.core;
-        let (sigma, strain_energy) =
-            stress_fields::<D>(&core.material, &y.f, &y.s, &y.rho, &core.vol0);
-        Snapshot {
-            x0: &core.x0,
-            mass: &core.mass,
-            body: &core.body,
-            u: y.u.clone(),
-            v: y.v.clone(),
-            f: y.f.clone(),
-            sigma,
-            strain_energy,
-            extra: Vec::new(),
-        }
+        snapshot(
+            &core.material,
+            &core.x0,
+            &core.mass,
+            &core.body,
+            &core.vol0,
+            y.clone(),
+        )
     }
 
     fn max_signal_speed(&self, y: &UlState<D>) -> f64 {
@@ -421,26 +419,54 @@ impl<D: Dim, S: PairScheme<D>> Method<D> for UlSph<D, S> {
     }
 
     fn check_finite(&self, y: &UlState<D>) -> Result<(), BlowUp> {
-        let x0 = &self.core.x0;
-        check_motion::<D>(x0, &y.u, &y.v)?;
-        let fail = |i: usize, quantity: &str, value: f64| BlowUp::at::<D>(x0, i, quantity, value);
-        if let Some(i) = y.rho.par_iter().position_first(|r| !r.is_finite()) {
-            return Err(fail(i, "density", y.rho[i]));
-        }
-        if let Some(i) = y.s.par_iter().position_first(|&s| !D::is_finite_t(s)) {
-            return Err(fail(
-                i,
-                "deviatoric stress |S|",
-                D::ddot(y.s[i], y.s[i]).sqrt(),
-            ));
-        }
-        if let Some(i) = y.f.par_iter().position_first(|&f| !D::is_finite_t(f)) {
-            return Err(fail(
-                i,
-                "deformation gradient |F|",
-                D::ddot(y.f[i], y.f[i]).sqrt(),
-            ));
-        }
-        Ok(())
+        check_state(&self.core.x0, y)
     }
+}
+
+/// A snapshot of the UL state y: stresses and strain energy (per reference volume
+/// `vol0`) from `stress_fields`. Shared by the CPU and GPU paths.
+pub fn snapshot<'a, D: Dim>(
+    material: &crate::material::Material,
+    x0: &'a [D::V],
+    mass: &'a [f64],
+    body: &'a [u32],
+    vol0: &[f64],
+    y: UlState<D>,
+) -> Snapshot<'a, D> {
+    let (sigma, strain_energy) = stress_fields::<D>(material, &y.f, &y.s, &y.rho, vol0);
+    Snapshot {
+        x0,
+        mass,
+        body,
+        u: y.u,
+        v: y.v,
+        f: y.f,
+        sigma,
+        strain_energy,
+        extra: Vec::new(),
+    }
+}
+
+/// The first non-finite entry of a UL state, as a blow-up at its particle.
+pub fn check_state<D: Dim>(x0: &[D::V], y: &UlState<D>) -> Result<(), BlowUp> {
+    check_motion::<D>(x0, &y.u, &y.v)?;
+    let fail = |i: usize, quantity: &str, value: f64| BlowUp::at::<D>(x0, i, quantity, value);
+    if let Some(i) = y.rho.par_iter().position_first(|r| !r.is_finite()) {
+        return Err(fail(i, "density", y.rho[i]));
+    }
+    if let Some(i) = y.s.par_iter().position_first(|&s| !D::is_finite_t(s)) {
+        return Err(fail(
+            i,
+            "deviatoric stress |S|",
+            D::ddot(y.s[i], y.s[i]).sqrt(),
+        ));
+    }
+    if let Some(i) = y.f.par_iter().position_first(|&f| !D::is_finite_t(f)) {
+        return Err(fail(
+            i,
+            "deformation gradient |F|",
+            D::ddot(y.f[i], y.f[i]).sqrt(),
+        ));
+    }
+    Ok(())
 }

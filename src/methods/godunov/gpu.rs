@@ -1,0 +1,35 @@
+//! Godunov SPH on the GPU: its passes (`shaders/godunov/`) on the updated-Lagrangian core
+//! of [`crate::methods::ul::gpu`]. The CPU system ([`super::system`]) is the reference it
+//! is checked against.
+
+use crate::gpu::shaders::{
+    BOUNDARY, CONTACT, Constants, INTEGRATE, KERNEL, MECHANICS, REFERENCE, Source, source,
+};
+use crate::methods::ul::gpu::{CORE, REDUCE, Scheme};
+
+/// Per-particle quantities (σ, p, Z, V, the correction) and the Riemann pair gather.
+pub const PASSES: Source = source!(
+    "godunov/godunov.wgsl",
+    [KERNEL, MECHANICS, REFERENCE, BOUNDARY, CORE],
+    [
+        ("y", false),
+        ("x", true),
+        ("kin", true),
+        ("d", true),
+        ("reference", false),
+        ("ext", false)
+    ]
+);
+
+/// The passes of a Godunov scene.
+pub const SHADERS: &[Source] = &[PASSES, CONTACT, INTEGRATE, REDUCE];
+
+/// The scheme: no constants of its own.
+pub fn scheme() -> Scheme {
+    Scheme {
+        passes: PASSES,
+        artificial_stress: false,
+        pressure: true,
+        constants: Constants::default(),
+    }
+}

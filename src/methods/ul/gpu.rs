@@ -1,0 +1,536 @@
+//! The updated-Lagrangian core on the GPU: what the Gray–Monaghan and Godunov engines
+//! share, as [`super`] is on the CPU. A [`Scheme`] supplies one method's pass file (its
+//! `particle` and `rates` entry points, on `shaders/ul/ul.wgsl`) and constants; the core
+//! holds the state, the integrator program, the interactions and the neighbour lists.
+//!
+//! Every rate evaluation records, with no read-back: x = X + u (`positions`), a cell-list
+//! rebuild of the lists from x ([`CellList`], per body with contact), the scheme's
+//! per-particle pass and its pair gather. The lists live on the device with a capacity for
+//! a number of pairs; a rebuild that needs more sets an overflow flag, which the engine
+//! reads (one u32) after each batch of steps: it then grows the lists to the count the
+//! flag holds and runs the batch again from its start.
+
+use super::{UlState, check_state, snapshot};
+use crate::correction::CorrectionKind;
+use crate::gpu::context::{Gpu, GpuError, Pipeline};
+use crate::gpu::layout::{Fields, GpuDim};
+use crate::gpu::neighbour::{CellList, CellParams, Positions};
+use crate::gpu::program::{StateLayout, Stepper};
+use crate::gpu::reduction::{Reduced, Reduction, WorkBalance};
+use crate::gpu::reference::{self, DeviceReference, Extras};
+use crate::gpu::shaders::{
+    self, CONTACT, Constants, INTEGRATE, MECHANICS, REFERENCE, Source, Wgsl, source, wgsl,
+};
+use crate::gpu::{SetupError, check_f32_particles, check_f32_range};
+use crate::integrate::Buf;
+use crate::interaction::Interactions;
+use crate::interaction::gpu::GpuInteractions;
+use crate::methods::BlowUp;
+use crate::neighbour::{Csr, bounding_box};
+use crate::observe::{Invariants, Snapshot};
+use crate::reference::Reference;
+use crate::run::{Engine, Failed};
+use crate::scene::Case;
+
+/// The core's bindings, positions pass, correction and closing of the rates, which each
+/// scheme's pass file includes last.
+pub const CORE: Wgsl = wgsl!("ul/ul.wgsl");
+/// The strain energy of the reduction.
+const ENERGY: Wgsl = wgsl!("ul/ul_energy.wgsl");
+/// Energies, momenta and checks of a state.
+pub const REDUCE: Source = source!(
+    "common/reduce.wgsl",
+    [MECHANICS, ENERGY, REFERENCE],
+    [("y", false), ("kin", false), ("reference", false)]
+);
+/// The passes every UL engine compiles besides its scheme's.
+pub const SHARED: [Source; 3] = [CONTACT, INTEGRATE, REDUCE];
+
+/// One updated-Lagrangian method on the device.
+pub struct Scheme {
+    /// Its pass file, with [`CORE`] among its function files: entry points `positions`
+    /// (the core's), `particle` and `rates`.
+    pub passes: Source,
+    /// It stores an artificial stress R per particle.
+    pub artificial_stress: bool,
+    /// It stores the pressure p per particle.
+    pub pressure: bool,
+    /// Its own compiled-in constants.
+    pub constants: Constants,
+}
+
+/// The flat buffers of an updated-Lagrangian scene, each described once: the state
+/// [u | v | ρ − ρ0 | S | H = F − I], the scheme's per-particle quantities
+/// [T | R | AIT | VOL | C | P | POW] (`shaders/ul/ul.wgsl`) and the reference
+/// configuration.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Layout {
+    pub n: usize,
+    pub dim: usize,
+    pub state: Fields,
+    pub kin: Fields,
+    pub reference: Fields,
+}
+
+impl Layout {
+    pub fn new(n: usize, dim: usize, scheme: &Scheme, corrected: bool) -> Self {
+        Self {
+            n,
+            dim,
+            state: Fields::new("", dim)
+                .vectors("U", true, n)
+                .vectors("V", true, n)
+                .scalars("RHO", true, n)
+                .tensors("S", true, n)
+                .tensors("F", true, n),
+            kin: Fields::new("K", dim)
+                .tensors("T", true, n)
+                .tensors("R", scheme.artificial_stress, n)
+                .tensors("AIT", corrected, n)
+                .scalars("VOL", true, n)
+                .scalars("C", true, n)
+                .scalars("P", scheme.pressure, n)
+                .scalars("POW", true, n),
+            reference: reference::fields(n, dim, Extras::default()),
+        }
+    }
+
+    fn stepped(&self) -> StateLayout {
+        StateLayout {
+            n: self.n,
+            dim: self.dim,
+            rest: self.state.offset("RHO"),
+            len: self.state.len(),
+        }
+    }
+}
+
+/// The compiled-in constants of a scene's UL passes: the scheme's, the kernel, the
+/// material, the correction and the field offsets.
+pub fn scene_constants(case: &Case, layout: &Layout, scheme: &Scheme) -> Constants {
+    let corrected = case.method.correction == CorrectionKind::RandlesLibersky;
+    let constants = scheme
+        .constants
+        .clone()
+        .kernel(&case.kernel(layout.dim))
+        .u32("N", layout.n as u32)
+        .u32("BODIES", case.bodies.len() as u32)
+        .material(&crate::material::Material::new(&case.material))
+        .choice("CORRECTION", &["NONE", "LINEAR"], usize::from(corrected))
+        .u32("REST_OFF", layout.state.offset("RHO") as u32);
+    [&layout.state, &layout.kin, &layout.reference]
+        .into_iter()
+        .fold(constants, |c, fields| fields.constants(c))
+}
+
+/// `status` slots: the first particle with a singular correction, and with ρ ≤ 0.
+const STATUS_OK: [u32; 2] = [u32::MAX; 2];
+
+/// The pipelines of one rate evaluation.
+struct Passes {
+    positions: Pipeline,
+    particle: Pipeline,
+    rates: Pipeline,
+}
+
+/// The bind groups of one rate evaluation on a source state.
+struct Bound {
+    positions: wgpu::BindGroup,
+    particle: wgpu::BindGroup,
+    rates: wgpu::BindGroup,
+}
+
+/// The neighbour lists on the device and the rate evaluations bound to them (on the
+/// states in `Y` and in `Stage`).
+struct Lists {
+    cells: CellList,
+    rates: [Bound; 2],
+}
+
+/// An updated-Lagrangian system resident on the GPU.
+pub struct GpuUl<D: GpuDim> {
+    gpu: Gpu,
+    /// The host's f64 reference configuration, which the device's was uploaded from.
+    reference: Reference<D>,
+    layout: Layout,
+    stepper: Stepper,
+    device: DeviceReference,
+    /// x = X + u of the last positions pass.
+    x: wgpu::Buffer,
+    kin: wgpu::Buffer,
+    status: wgpu::Buffer,
+    /// The body of each particle for per-body lists (with contact).
+    body: Option<wgpu::Buffer>,
+    grid: CellParams,
+    passes: Passes,
+    /// Bound once the engine's buffers exist, and again when they grow.
+    lists: Option<Lists>,
+    /// `Y` at the start of the batch, to run it again after the lists grew.
+    start: wgpu::Buffer,
+    reduction: Reduction,
+    interactions: GpuInteractions,
+    work: WorkBalance,
+}
+
+impl<D: GpuDim> GpuUl<D> {
+    /// Uploads the case's reference configuration and initial state and compiles the
+    /// scheme's passes.
+    pub fn new(case: &Case, gpu: Gpu, scheme: &Scheme) -> Result<Self, SetupError> {
+        let disc = Reference::<D>::build(case)?;
+        check_f32_particles::<D>(case, &disc.x0, &disc.v0, &disc.body)?;
+        let n = disc.len();
+        let corrected = case.method.correction == CorrectionKind::RandlesLibersky;
+        let layout = Layout::new(n, D::N, scheme, corrected);
+        let constants = scene_constants(case, &layout, scheme);
+        check_f32_range(case, &constants)?;
+        gpu.check_size("kinematics buffer", layout.kin.bytes())?;
+        let compose = |s: &Source| shaders::compose::<D>(s, &constants);
+
+        // The lists come from the device's cell list, not from the host.
+        let device = DeviceReference::upload::<D>(
+            &gpu,
+            &disc.x0,
+            &disc.vol,
+            &disc.boundary,
+            &Csr::default(),
+            Extras::default(),
+        );
+        let mut y0 = layout.state.zeroed();
+        layout.state.write_v::<D>(&mut y0, "V", &disc.v0);
+        let stepper = Stepper::new(
+            &gpu,
+            case.method.integrator,
+            &compose(&INTEGRATE),
+            layout.stepped(),
+            &y0,
+        )?;
+        let per_body = case.contact.is_some();
+        let interactions =
+            Interactions::<D>::build(case, &disc.x0, &disc.body, || disc.neighbours())?;
+        let interactions = GpuInteractions::new(
+            &gpu,
+            &interactions,
+            &compose,
+            &device.reference,
+            stepper.buffer(Buf::Y),
+            device.traction.clone(),
+        )?;
+        let x = gpu.zeroed("positions x", (n * D::N) as u64 * 4);
+        let kin = gpu.zeroed("per-particle quantities", layout.kin.bytes());
+        let status = gpu.storage("status", &STATUS_OK);
+        let body = per_body.then(|| gpu.storage("bodies", &disc.body));
+        let text = compose(&scheme.passes);
+        let passes = Passes {
+            positions: gpu.pipeline("ul positions", &text, "positions")?,
+            particle: gpu.pipeline("ul particle", &text, "particle")?,
+            rates: gpu.pipeline("ul rates", &text, "rates")?,
+        };
+        let grid = grid::<D>(&gpu, &disc, n as u32)?;
+        let reduction = Reduction::new(
+            &gpu,
+            &compose(&REDUCE),
+            &[
+                ("y", stepper.buffer(Buf::Y)),
+                ("kin", &kin),
+                ("reference", &device.reference),
+            ],
+            n,
+        )?;
+        let start = gpu.zeroed("state at the batch start", layout.state.bytes());
+        // Room for twice the reference configuration's pairs: compression adds
+        // neighbours, and a build that needs more grows the lists.
+        let capacity = 2 * disc.neighbours().pair_count().max(n) as u32;
+        let mut engine = Self {
+            gpu,
+            reference: disc,
+            layout,
+            stepper,
+            device,
+            x,
+            kin,
+            status,
+            body,
+            grid,
+            passes,
+            lists: None,
+            start,
+            reduction,
+            interactions,
+            work: WorkBalance::default(),
+        };
+        engine.lists = Some(engine.bind_lists(capacity)?);
+        Ok(engine)
+    }
+
+    /// Neighbour lists with room for `capacity` pairs and the rate evaluations bound to
+    /// them.
+    fn bind_lists(&self, capacity: u32) -> Result<Lists, GpuError> {
+        let n = self.layout.n as u32;
+        let at = Positions {
+            x: &self.x,
+            offset: 0,
+            n,
+            body: self.body.as_ref(),
+        };
+        let cells = CellList::new::<D>(&self.gpu, at, &self.grid, capacity)?;
+        let rates_d = self.stepper.buffer(Buf::Rates);
+        let bound = |src: Buf| -> Result<Bound, GpuError> {
+            let table: [(&str, &wgpu::Buffer); 9] = [
+                ("offsets", &cells.offsets),
+                ("ids", &cells.ids),
+                ("reference", &self.device.reference),
+                ("y", self.stepper.buffer(src)),
+                ("x", &self.x),
+                ("kin", &self.kin),
+                ("ext", self.interactions.ext()),
+                ("d", rates_d),
+                ("status", &self.status),
+            ];
+            let p = &self.passes;
+            Ok(Bound {
+                positions: self.gpu.bind(&p.positions, &table)?,
+                particle: self.gpu.bind(&p.particle, &table)?,
+                rates: self.gpu.bind(&p.rates, &table)?,
+            })
+        };
+        let rates = [bound(Buf::Y)?, bound(Buf::Stage)?];
+        Ok(Lists { cells, rates })
+    }
+}
+
+/// The cell grid over the reference configuration's box, widened on every side by a
+/// fifth of its extent and the kernel support (particles that leave it are binned in the
+/// nearest cell, which keeps every pair), for the kernel support with a relative margin of
+/// 1e-5 for f32 ties at lattice distances (`gpu::neighbour`).
+fn grid<D: GpuDim>(gpu: &Gpu, disc: &Reference<D>, n: u32) -> Result<CellParams, GpuError> {
+    let radius = disc.kernel.support() * (1.0 + 1e-5);
+    let (mut lo, mut hi) = bounding_box(disc.x0.iter().map(|&x| D::to3(x)));
+    for k in 0..D::N {
+        let margin = 0.2 * (hi[k] - lo[k]) + radius;
+        lo[k] -= margin;
+        hi[k] += margin;
+    }
+    CellParams::new(gpu, D::N, lo, hi, n, radius)
+}
+
+impl<D: GpuDim> GpuUl<D> {
+    pub fn layout(&self) -> &Layout {
+        &self.layout
+    }
+
+    /// The host's reference configuration of the scene.
+    pub fn reference(&self) -> &Reference<D> {
+        &self.reference
+    }
+
+    /// Records `steps` steps of size dt from the state in `Y` (kept in `start`) and
+    /// submits them.
+    fn record_steps(&mut self, dt: f64, steps: u32) {
+        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+        let bytes = self.layout.state.bytes();
+        encoder.copy_buffer_to_buffer(self.stepper.buffer(Buf::Y), 0, &self.start, 0, bytes);
+        self.interactions.set_step(&self.gpu, dt);
+        let Self {
+            gpu,
+            stepper,
+            passes,
+            lists,
+            interactions,
+            layout,
+            ..
+        } = self;
+        let lists = lists
+            .as_ref()
+            .expect("the lists are bound when the engine is built");
+        let n = layout.n as u32;
+        stepper.record(
+            gpu,
+            &mut encoder,
+            dt,
+            steps,
+            |encoder, e| record_rates(gpu, passes, lists, n, encoder, e.src),
+            |encoder| interactions.record(gpu, encoder, n),
+        );
+        gpu.queue.submit([encoder.finish()]);
+    }
+
+    /// Advances `steps` steps; when a rebuild overflowed the lists, grows them to the
+    /// pairs it needed (with a quarter more) and runs the steps again from their start.
+    pub fn advance_steps(&mut self, dt: f64, steps: u32) -> Result<(), GpuError> {
+        self.reduction.invalidate();
+        loop {
+            self.record_steps(dt, steps);
+            let Some(needed) = self.lists().cells.overflow(&self.gpu) else {
+                break;
+            };
+            let capacity = needed.saturating_add(needed / 4);
+            self.lists = Some(self.bind_lists(capacity)?);
+            self.stepper.restart_from(&self.gpu, &self.start);
+        }
+        self.work.advance(dt, steps);
+        Ok(())
+    }
+
+    /// Room for pairs in the device's lists.
+    pub fn capacity(&self) -> u32 {
+        self.lists().cells.capacity()
+    }
+
+    /// The lists of the last rate evaluation, read back.
+    pub fn neighbours(&self) -> Csr {
+        self.lists().cells.lists(&self.gpu)
+    }
+
+    /// Reads the current state back (waits for the queue).
+    pub fn state(&self) -> UlState<D> {
+        let flat: Vec<f32> = self.gpu.read(self.stepper.buffer(Buf::Y));
+        self.decode(&flat, self.reference.material.rho0, D::identity())
+    }
+
+    /// Decodes a flat state (`rho0` = ρ0 and `f0` = I: ρ and F are stored as ρ − ρ0 and
+    /// F − I) or rate buffer (`rho0` = 0, `f0` = 0).
+    fn decode(&self, flat: &[f32], rho0: f64, f0: D::T) -> UlState<D> {
+        let l = &self.layout.state;
+        UlState {
+            u: l.read_v::<D>(flat, "U"),
+            v: l.read_v::<D>(flat, "V"),
+            rho: l.read_s(flat, "RHO", rho0),
+            s: l.read_t::<D>(flat, "S", D::zero_t()),
+            f: l.read_t::<D>(flat, "F", f0),
+        }
+    }
+
+    /// Replaces the state (e.g. to cross-check rates on a given state).
+    pub fn set_state(&mut self, y: &UlState<D>) {
+        let l = &self.layout.state;
+        let mut flat = l.zeroed();
+        l.write_v::<D>(&mut flat, "U", &y.u);
+        l.write_v::<D>(&mut flat, "V", &y.v);
+        l.write_s(&mut flat, "RHO", &y.rho, self.reference.material.rho0);
+        l.write_t::<D>(&mut flat, "S", &y.s, D::zero_t());
+        l.write_t::<D>(&mut flat, "F", &y.f, D::identity());
+        self.stepper.set_state(&self.gpu, &flat);
+        self.reduction.invalidate();
+    }
+
+    /// The rates of a given state, read back (the lists are built from its positions).
+    pub fn rates(&mut self, y: &UlState<D>) -> UlState<D> {
+        self.set_state(y);
+        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+        let n = self.layout.n as u32;
+        record_rates(
+            &self.gpu,
+            &self.passes,
+            self.lists(),
+            n,
+            &mut encoder,
+            Buf::Y,
+        );
+        self.gpu.queue.submit([encoder.finish()]);
+        let d: Vec<f32> = self.gpu.read(self.stepper.buffer(Buf::Rates));
+        self.decode(&d, 0.0, D::zero_t())
+    }
+
+    fn lists(&self) -> &Lists {
+        self.lists
+            .as_ref()
+            .expect("the lists are bound when the engine is built")
+    }
+
+    /// The first particle with a singular correction, and with ρ ≤ 0, since the start.
+    fn failed(&self) -> [Option<usize>; 2] {
+        let s: Vec<u32> = self.gpu.read(&self.status);
+        [0, 1].map(|k| (s[k] != u32::MAX).then_some(s[k] as usize))
+    }
+
+    fn reduced(&mut self) -> Reduced {
+        self.reduction.get(&self.gpu, |_| {})
+    }
+}
+
+/// Records one rate evaluation on the state in `src` (`Y` or `Stage`): positions, the
+/// rebuild of the lists, the scheme's particle and pair passes.
+fn record_rates(
+    gpu: &Gpu,
+    passes: &Passes,
+    lists: &Lists,
+    n: u32,
+    encoder: &mut wgpu::CommandEncoder,
+    src: Buf,
+) {
+    let bound = &lists.rates[usize::from(src != Buf::Y)];
+    {
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        gpu.dispatch(&mut pass, &passes.positions, &bound.positions, n);
+    }
+    lists.cells.record(encoder);
+    let mut pass = encoder.begin_compute_pass(&Default::default());
+    gpu.dispatch(&mut pass, &passes.particle, &bound.particle, n);
+    gpu.dispatch(&mut pass, &passes.rates, &bound.rates, n);
+}
+
+impl<D: GpuDim> Engine<D> for GpuUl<D> {
+    fn backend(&self) -> String {
+        format!("gpu: {}", self.gpu.name())
+    }
+
+    fn reference(&self) -> &[D::V] {
+        &self.reference.x0
+    }
+
+    fn constrained(&self) -> &[(u32, u8)] {
+        &self.reference.boundary.constrained
+    }
+
+    fn advance(&mut self, _t: f64, dt: f64, steps: u32) -> Result<(), Failed> {
+        self.advance_steps(dt, steps).map_err(|e| Failed {
+            completed: 0,
+            cause: BlowUp {
+                particle: 0,
+                position: [0.0; 3],
+                quantity: format!("neighbour lists (GPU): {e}"),
+                value: f64::NAN,
+            },
+        })
+    }
+
+    fn max_signal_speed(&mut self) -> f64 {
+        self.reference.material.p_wave_speed() + self.reduced().max_speed
+    }
+
+    /// Trapezoidal over the intervals between calls (the driver calls it at every check).
+    fn external_work(&mut self) -> f64 {
+        let power = self.reduced().power;
+        self.work.update(power)
+    }
+
+    fn check(&mut self) -> Result<(), BlowUp> {
+        let [singular, density] = self.failed();
+        for (i, quantity) in [
+            (singular, "det A (Randles–Libersky, f32, GPU)"),
+            (density, "density (f32, GPU)"),
+        ] {
+            if let Some(i) = i {
+                return Err(BlowUp::at::<D>(&self.reference.x0, i, quantity, 0.0));
+            }
+        }
+        if self.reduced().non_finite {
+            return check_state(&self.reference.x0, &self.state());
+        }
+        Ok(())
+    }
+
+    fn invariants(&mut self) -> Invariants {
+        self.reduced().invariants
+    }
+
+    fn finish(&mut self) {
+        self.gpu.wait();
+    }
+
+    fn snapshot(&mut self) -> Snapshot<'_, D> {
+        let y = self.state();
+        let r = &self.reference;
+        snapshot(&r.material, &r.x0, &r.mass, &r.body, &r.vol, y)
+    }
+}

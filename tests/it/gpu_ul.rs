@@ -1,0 +1,156 @@
+//! The updated-Lagrangian GPU engines (Gray–Monaghan and Godunov SPH) against the f64 CPU
+//! reference on a software (or real) adapter: rates on disordered states in 2D and 3D,
+//! whole runs that carry particles past the rebuild distance, and the device's rebuilt
+//! lists against brute force. A missing adapter fails these tests.
+
+use crate::common::{block_case, gpu, load, max_s, max_t, max_v};
+use crate::gray_monaghan::random_state;
+use meshless::gpu::layout::GpuDim;
+use meshless::methods::godunov::system::Scheme as GodunovScheme;
+use meshless::methods::godunov::{Godunov, gpu as godunov};
+use meshless::methods::gray_monaghan::system::Scheme as GmScheme;
+use meshless::methods::gray_monaghan::{GrayMonaghan, gpu as gray_monaghan};
+use meshless::methods::ul::gpu::{GpuUl, Scheme};
+use meshless::methods::ul::{PairScheme, UlSph, UlState};
+use meshless::methods::{Method, MethodSpec};
+use meshless::run::{CpuEngine, Engine, build_method};
+use meshless::scene::Case;
+use meshless::tensor::{D2, D3, Dim};
+
+/// The GPU scheme of a UL case.
+fn scheme(case: &Case) -> Scheme {
+    match &case.method.spec {
+        MethodSpec::GrayMonaghanSph(spec) => gray_monaghan::scheme(case, spec),
+        MethodSpec::GodunovSph(_) => godunov::scheme(),
+        other => panic!("not an updated-Lagrangian method: {other:?}"),
+    }
+}
+
+/// The largest |Δ| of every rate between the CPU's `d` and the GPU's `g`, each relative
+/// to the largest CPU rate of its kind.
+fn rate_errors<D: Dim>(d: &UlState<D>, g: &UlState<D>) -> [(&'static str, f64); 5] {
+    let rel = |(e, scale): (f64, f64)| e / scale.max(f64::MIN_POSITIVE);
+    [
+        ("ẋ", rel(max_v::<D>(&d.u, &g.u))),
+        ("v̇", rel(max_v::<D>(&d.v, &g.v))),
+        ("ρ̇", rel(max_s(&d.rho, &g.rho))),
+        ("Ṡ", rel(max_t::<D>(&d.s, &g.s))),
+        ("Ḟ", rel(max_t::<D>(&d.f, &g.f))),
+    ]
+}
+
+/// One rate evaluation of the CPU system and of the GPU engine on a disordered state
+/// (|u| ~ 0.2 Δx, |v| ~ 10 m/s, ρ within 1 %, |S| ~ 1e5 Pa in tension and compression).
+fn compare_rates<D: GpuDim, S: PairScheme<D>>(case: &Case) {
+    let mut cpu: UlSph<D, S> = build_method(case).unwrap();
+    let y = random_state(&cpu, case.spacing, &mut 17);
+    let mut d = y.clone();
+    meshless::integrate::OdeSystem::rates(&mut cpu, 0.0, &y, &mut d).unwrap();
+    let mut g = GpuUl::<D>::new(case, gpu(), &scheme(case)).unwrap();
+    let dg = g.rates(&y);
+    // Each rate is a gather of 20–80 pair terms of the random state, which do not cancel:
+    // f32 rounding of the inputs (positions 6e-8 of |x| ≲ 1 m against pair distances of
+    // 0.1 m, so ~1e-6 in x_ij and ∇W_ij; stresses and velocities 6e-8) and of the sums
+    // leaves ~1e-6 of the largest rate; the Randles–Libersky inverse adds its condition
+    // number (≲ 10 here). Bound 1e-4 of the largest rate of each kind.
+    for (what, e) in rate_errors::<D>(&d, &dg) {
+        assert!(
+            e < 1e-4,
+            "{} {}D: max |Δ{what}| = {e:e} of the largest",
+            case.name,
+            D::N
+        );
+    }
+}
+
+fn block(dim: usize, method: &str, keys: &str) -> Case {
+    let max: &[f64] = if dim == 2 {
+        &[1.0, 0.6]
+    } else {
+        &[0.5, 0.4, 0.3]
+    };
+    block_case(max, "hypoelastic", method, keys)
+}
+
+const GRAY_MONAGHAN_KEYS: &str = "artificial_viscosity = { alpha = 1.0, beta = 1.0 }\n\
+    artificial_stress = { epsilon = 0.3, n = 4.0 }\nxsph = 0.5";
+
+#[test]
+fn gray_monaghan_rates_match_the_cpu_in_2d_and_3d() {
+    for correction in ["none", "randles-libersky"] {
+        let keys = format!("correction = \"{correction}\"\n{GRAY_MONAGHAN_KEYS}");
+        compare_rates::<D2, GmScheme>(&block(2, "gray-monaghan-sph", &keys));
+        compare_rates::<D3, GmScheme>(&block(3, "gray-monaghan-sph", &keys));
+    }
+}
+
+#[test]
+fn godunov_rates_match_the_cpu_in_2d_and_3d() {
+    for correction in ["none", "randles-libersky"] {
+        let keys = format!("correction = \"{correction}\"");
+        compare_rates::<D2, GodunovScheme>(&block(2, "godunov-sph", &keys));
+        compare_rates::<D3, GodunovScheme>(&block(3, "godunov-sph", &keys));
+    }
+}
+
+/// Runs `steps` steps of the shipped disk of `name` on both backends and compares the
+/// final states; then the device's lists of that state against brute force.
+fn compare_runs<M: Method<D2, State = UlState<D2>>>(name: &str, dt: f64, steps: u32) {
+    let case = load(name, &[&format!("method.dt={dt}")]);
+    let mut cpu = CpuEngine::<D2, M>::new(&case).unwrap();
+    cpu.advance(0.0, dt, steps).unwrap();
+    let mut g = GpuUl::<D2>::new(&case, gpu(), &scheme(&case)).unwrap();
+    for _ in 0..4 {
+        g.advance(0.0, dt, steps / 4).unwrap();
+    }
+    g.check().unwrap();
+    let yg = g.state();
+    // The rim moves 50 m/s × steps·dt = 0.05 m, past the half skin of the CPU's lists
+    // (0.05 × 2h = 0.018 m), so both rebuilt their lists on the way. f32 rounding of u
+    // (|x| ≤ 1 m ⇒ 6e-8 m) in 4 stage updates a step over 400 steps accumulates to at
+    // most 1e-4 m if it adds up linearly; the bound is that.
+    let (eu, _) = max_v::<D2>(&cpu.y.u, &yg.u);
+    assert!(eu < 1e-4, "{name}: max |Δu| = {eu:e} m after {steps} steps");
+    let (ev, _) = max_v::<D2>(&cpu.y.v, &yg.v);
+    assert!(ev < 1e-2, "{name}: max |Δv| = {ev:e} m/s (|v| ≤ 50 m/s)");
+
+    // The device's lists from the positions of its last rate evaluation (the last stage
+    // of RK4, within one step of the final state): every pair of the brute-force search
+    // within the support, except those within one step's motion (50 m/s × dt) or f32
+    // rounding of the support, must be there, and none farther.
+    let lists = g.neighbours();
+    let x: Vec<_> = g
+        .reference()
+        .x0
+        .iter()
+        .zip(&yg.u)
+        .map(|(&x0, &u)| x0 + u)
+        .collect();
+    let support = g.reference().kernel.support();
+    let slack = 50.0 * dt + 1e-5 * support;
+    for i in 0..x.len() {
+        let found = lists.neighbours(i);
+        for j in 0..x.len() {
+            if j == i {
+                continue;
+            }
+            let r = (x[i] - x[j]).length();
+            let listed = found.contains(&(j as u32));
+            if r < support - slack {
+                assert!(listed, "{name}: pair ({i}, {j}) at r = {r} missing");
+            } else if r > support + slack {
+                assert!(!listed, "{name}: pair ({i}, {j}) at r = {r} listed");
+            }
+        }
+    }
+}
+
+#[test]
+fn gray_monaghan_runs_track_the_cpu_past_the_rebuild_distance() {
+    compare_runs::<GrayMonaghan<D2>>("rotating-disk-gray-monaghan", 1e-5, 100);
+}
+
+#[test]
+fn godunov_runs_track_the_cpu_past_the_rebuild_distance() {
+    compare_runs::<Godunov<D2>>("rotating-disk-godunov", 2.5e-6, 400);
+}
