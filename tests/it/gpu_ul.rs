@@ -3,7 +3,7 @@
 //! whole runs that carry particles past the rebuild distance, and the device's rebuilt
 //! lists against brute force. A missing adapter fails these tests.
 
-use crate::common::{block_case, gpu, load, max_s, max_t, max_v};
+use crate::common::{block_case, gpu, load, max_s, max_t, max_v, shipped};
 use crate::gray_monaghan::random_state;
 use meshless::gpu::layout::GpuDim;
 use meshless::methods::godunov::system::Scheme as GodunovScheme;
@@ -153,4 +153,29 @@ fn gray_monaghan_runs_track_the_cpu_past_the_rebuild_distance() {
 #[test]
 fn godunov_runs_track_the_cpu_past_the_rebuild_distance() {
     compare_runs::<Godunov<D2>>("rotating-disk-godunov", 2.5e-6, 400);
+}
+
+#[test]
+fn lists_that_overflow_grow_and_the_steps_run_again() {
+    // Lists with room for one pair overflow at the first rebuild: the engine must grow
+    // them to the count the device asked for and run the batch again from its start, so
+    // that the state is bit for bit that of an engine whose lists never overflowed (the
+    // same passes on the same device, lists sorted per particle).
+    let case = shipped("rotating-disk-gray-monaghan");
+    let run = |capacity: Option<u32>| {
+        let mut g = GpuUl::<D2>::new(&case, gpu(), &scheme(&case)).unwrap();
+        if let Some(c) = capacity {
+            g.set_capacity(c).unwrap();
+        }
+        g.advance_steps(1e-5, 20).unwrap();
+        let pairs = g.neighbours().pair_count() as u32;
+        assert!(g.capacity() >= pairs, "capacity {} < {pairs}", g.capacity());
+        (g.state(), g.capacity())
+    };
+    let (grown, capacity) = run(Some(1));
+    let (roomy, _) = run(None);
+    assert!(capacity > 1, "the lists did not grow");
+    assert_eq!(grown.u, roomy.u);
+    assert_eq!(grown.v, roomy.v);
+    assert_eq!(grown.s, roomy.s);
 }

@@ -363,11 +363,17 @@ impl<D: GpuDim> GpuUl<D> {
             let Some(needed) = self.lists().cells.overflow(&self.gpu) else {
                 break;
             };
-            let capacity = needed.saturating_add(needed / 4);
-            self.lists = Some(self.bind_lists(capacity)?);
+            self.set_capacity(needed.saturating_add(needed / 4))?;
             self.stepper.restart_from(&self.gpu, &self.start);
         }
         self.work.advance(dt, steps);
+        Ok(())
+    }
+
+    /// Makes the device's lists anew with room for `capacity` pairs (a rebuild that needs
+    /// more grows them again).
+    pub fn set_capacity(&mut self, capacity: u32) -> Result<(), GpuError> {
+        self.lists = Some(self.bind_lists(capacity)?);
         Ok(())
     }
 
