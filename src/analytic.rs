@@ -93,6 +93,7 @@ mod tests {
             poisson_ratio: 0.3,
             yield_stress: None,
             hardening_modulus: None,
+            plane: crate::scene::Plane::Strain,
         })
     }
 

@@ -1,8 +1,10 @@
 //! Constitutive models: hypoelastic (Jaumann rate + linear EOS), Saint Venant–Kirchhoff
-//! and compressible neo-Hookean. In 2D every model is plane strain (F_zz = 1, ε̇_zz = 0).
+//! and compressible neo-Hookean. In 2D every model is plane strain (F_zz = 1, ε̇_zz = 0)
+//! unless the case asks for plane stress (σ_zz = 0), which the models that are linear in
+//! their strain measure take exactly through λ* = 2λμ/(λ + 2μ) in place of λ.
 
 use crate::plasticity::{Hardening, Returned, VonMises, from_mat3, to_mat3};
-use crate::scene::MaterialSpec;
+use crate::scene::{MaterialSpec, Plane};
 use crate::tensor::Dim;
 use glam::DMat3;
 use serde::{Deserialize, Serialize};
@@ -45,6 +47,14 @@ impl MaterialModel {
     pub fn is_rate_based(self) -> bool {
         self == Self::Hypoelastic
     }
+
+    /// The models whose plane-stress response is their plane-strain one with λ*: those
+    /// linear in their strain measure (E, ε, or the rate ε̇).
+    pub const PLANE_STRESS: [MaterialModel; 3] = [
+        Self::Hypoelastic,
+        Self::SaintVenantKirchhoff,
+        Self::LinearElastic,
+    ];
 }
 
 /// Isotropic elastic constants derived from (ρ0, E, ν).
@@ -60,14 +70,25 @@ pub struct Material {
     pub bulk: f64,
     /// Yield stress and hardening of `von-mises-plastic`.
     pub hardening: Option<Hardening>,
+    /// σ_zz = 0 in 2D (λ and K are then the plane-stress λ* and λ* + 2μ/3).
+    pub plane_stress: bool,
 }
 
 impl Material {
     pub fn new(spec: &MaterialSpec) -> Self {
         let (e, nu) = (spec.youngs_modulus, spec.poisson_ratio);
         let mu = e / (2.0 * (1.0 + nu));
-        let lambda = e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+        let lambda_3d = e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+        let plane_stress = spec.plane == Plane::Stress;
+        // σ_zz = 0 eliminates ε_zz = −λ tr ε/(λ + 2μ) from the in-plane response, whose
+        // λ becomes λ* = 2λμ/(λ + 2μ) = Eν/(1 − ν²).
+        let lambda = if plane_stress {
+            2.0 * lambda_3d * mu / (lambda_3d + 2.0 * mu)
+        } else {
+            lambda_3d
+        };
         Self {
+            plane_stress,
             model: spec.model,
             rho0: spec.density,
             mu,
@@ -204,7 +225,7 @@ impl Material {
     /// Out-of-plane Cauchy stress σ_zz of a 2D (plane-strain) particle; zero in 3D, where
     /// σ carries all components.
     pub fn sigma_zz<D: Dim>(&self, f: D::T, s: D::T, rho: f64) -> f64 {
-        if D::N == 3 {
+        if D::N == 3 || self.plane_stress {
             return 0.0;
         }
         let j = D::det(f);
@@ -275,6 +296,37 @@ mod tests {
             // response is the Hencky elastic one.
             yield_stress: Some(1e12),
             hardening_modulus: Some(0.0),
+            plane: Plane::Strain,
+        }
+    }
+
+    #[test]
+    fn plane_stress_leaves_the_out_of_plane_stress_free() {
+        // A uniaxial stretch ε in x with the plane-stress lateral strain −ν ε: the stress is
+        // uniaxial, P_xx = E ε and P_yy = 0, to first order (SVK's quadratic terms leave
+        // O(ε²) = 1e-12 relative of E at ε = 1e-6; bound 1e-5 E ε), for every model that
+        // takes plane stress; the hypoelastic rate gives Ṡ − ṗ I the same ratios.
+        let (eps, nu, e) = (1e-6, 0.4, 1e7);
+        for model in MaterialModel::PLANE_STRESS {
+            let m = Material::new(&MaterialSpec {
+                plane: Plane::Stress,
+                ..spec(model)
+            });
+            let f = DMat2::from_diagonal(glam::DVec2::new(1.0 + eps, 1.0 - nu * eps));
+            let p = if model.is_rate_based() {
+                // Rates per unit time at L = diag(ε, −ν ε): σ̇ = Ṡ − ṗ I with ṗ = −K tr L.
+                let l = f - DMat2::IDENTITY;
+                let s_dot = m.jaumann_rate::<D2>(DMat2::ZERO, l);
+                s_dot + DMat2::IDENTITY * (m.bulk * l.x_axis.x + m.bulk * l.y_axis.y)
+            } else {
+                m.pk1::<D2>(f)
+            };
+            assert!(
+                (p.x_axis.x - e * eps).abs() < 1e-5 * e * eps,
+                "{model:?}: P = {p}"
+            );
+            assert!(p.y_axis.y.abs() < 1e-5 * e * eps, "{model:?}: P = {p}");
+            assert_eq!(m.sigma_zz::<D2>(f, DMat2::ZERO, 1.0), 0.0);
         }
     }
 

@@ -76,6 +76,21 @@ pub struct MaterialSpec {
     pub yield_stress: Option<f64>,
     /// `von-mises-plastic`: linear isotropic hardening modulus H [Pa].
     pub hardening_modulus: Option<f64>,
+    /// What the out-of-plane direction of a 2D scene holds fixed.
+    #[serde(default)]
+    pub plane: Plane,
+}
+
+/// The out-of-plane assumption of a 2D scene.
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum Plane {
+    /// F_zz = 1 (ε_zz = 0): a slice of a long body.
+    #[default]
+    Strain,
+    /// σ_zz = 0: a thin sheet, as the seed-000 reference code's SVK and small-strain
+    /// models are.
+    Stress,
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]

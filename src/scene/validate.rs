@@ -7,7 +7,7 @@
 
 use super::{
     Axis, BodySpec, BoundarySpec, Case, Condition, ContactSpec, Lattice, MaterialSpec, OutputSpec,
-    ProbeSpec, Region, RunSpec, Shape, VelocityField, Volumes,
+    Plane, ProbeSpec, Region, RunSpec, Shape, VelocityField, Volumes,
 };
 use crate::material::MaterialModel;
 use crate::methods::{Feature, MethodTable, Problem, REGISTRY, entry, quoted, supporting};
@@ -21,6 +21,7 @@ pub(super) fn check(case: &Case) -> Result<(), (String, String)> {
     top_level(case)?;
     let dim = case.dim();
     material(&case.material)?;
+    plane(&case.material, dim)?;
     method(&case.method)?;
     method_keys(case)?;
     case.method.spec.validate(case)?;
@@ -197,6 +198,36 @@ fn material(m: &MaterialSpec) -> Checked {
     }
     if let Some(h) = m.hardening_modulus {
         non_negative("material.hardening_modulus", h)?;
+    }
+    Ok(())
+}
+
+/// Plane stress is a 2D assumption, which the models linear in their strain measure take.
+fn plane(m: &MaterialSpec, dim: usize) -> Checked {
+    if m.plane == Plane::Strain {
+        return Ok(());
+    }
+    if dim != 2 {
+        return fail(
+            "material.plane",
+            "applies to 2D scenes (dimension = 2) only; remove it from a 3D case",
+        );
+    }
+    if !MaterialModel::PLANE_STRESS.contains(&m.model) {
+        let models: Vec<String> = MaterialModel::PLANE_STRESS
+            .iter()
+            .map(|m| format!("`{}`", toml_name(m)))
+            .collect();
+        return fail(
+            "material.plane",
+            format!(
+                "\"stress\" is taken by the models {} (linear in their strain measure), not \
+                 by `{}`, whose σ_zz = 0 would need a per-particle solve for F_zz; use \
+                 plane = \"strain\" or one of those models",
+                models.join(", "),
+                toml_name(&m.model)
+            ),
+        );
     }
     Ok(())
 }

@@ -208,6 +208,37 @@ fn wrong_material_model_lists_allowed_models() {
 }
 
 #[test]
+fn plane_stress_is_2d_and_for_the_models_linear_in_their_strain() {
+    let stress = "poisson_ratio = 0.3\nplane = \"stress\"";
+    let plane_stress = edit(VALID, "poisson_ratio = 0.3", stress);
+    Case::from_toml(&plane_stress, Path::new(FILE), &[]).unwrap();
+    assert_invalid(
+        &edit(&plane_stress, "\"hypoelastic\"", "\"neo-hookean\""),
+        "material.plane",
+        &[
+            "`neo-hookean`",
+            "`saint-venant-kirchhoff`",
+            "plane = \"strain\"",
+        ],
+    );
+    assert_invalid(
+        &edit(
+            VALID_3D,
+            "poisson_ratio = 0.45",
+            "poisson_ratio = 0.45\nplane = \"stress\"",
+        ),
+        "material.plane",
+        &["2D"],
+    );
+    let shown = error(&edit(
+        VALID,
+        "poisson_ratio = 0.3",
+        "poisson_ratio = 0.3\nplane = \"sheet\"",
+    ));
+    assert_mentions(&shown, &[FILE, "`strain`", "`stress`"]);
+}
+
+#[test]
 fn wrong_shape_lists_allowed_shapes() {
     let text = edit(VALID, "shape = \"box\"", "shape = \"sphere\"");
     let shown = error(&text);

@@ -327,11 +327,11 @@ fn artificial_viscosity_acts_on_approaching_pairs_only() {
 }
 
 #[test]
-fn the_shipped_cases_have_the_seeds_plane_stress_constants_in_plane() {
+fn the_shipped_cases_have_the_seeds_plane_stress_constants() {
     // Checklist 20: the seed's state models are plane stress with E = 1e7 Pa, ν = 0.4,
-    // i.e. in-plane G = 3.5714e6 Pa and λ* = Dν = 4.7619e6 Pa (D = E/(1 − ν²)); the plane-
-    // strain constants E', ν' of the shipped cases must give the same λ and μ (the
-    // printed digits of E', ν' carry 1e-15, so 1e-9 relative).
+    // i.e. in-plane G = 3.5714e6 Pa and λ* = Dν = 4.7619e6 Pa (D = E/(1 − ν²)); the shipped
+    // cases' `plane = "stress"` must give them (λ* = 2λμ/(λ + 2μ) in the material, a
+    // different expression: round-off only, 1e-9 relative).
     let (e, nu) = (1.0e7, 0.4);
     let g = e / (2.0 * (1.0 + nu));
     let lambda_star = e / (1.0 - nu * nu) * nu;
