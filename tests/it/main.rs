@@ -8,6 +8,7 @@
 //! feature are compiled only with it (both are on by default).
 
 mod case_errors;
+mod checkpoint;
 mod common;
 mod contact;
 mod corotated_tlsph;
