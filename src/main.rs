@@ -2,7 +2,7 @@
 
 use clap::{Parser, Subcommand};
 use meshless::methods::REGISTRY;
-use meshless::run::{Backend, Limits, RunError, RunOptions, run};
+use meshless::run::{Backend, EXIT_FAILED, EXIT_INPUT, Limits, RunError, RunOptions, run};
 use meshless::scene::Case;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -133,13 +133,6 @@ impl From<LimitArgs> for Limits {
         }
     }
 }
-
-/// Exit code for invalid input (case files, arguments), as clap uses for usage errors.
-const EXIT_INPUT: u8 = 2;
-/// Exit code for a run that failed (blow-up, I/O).
-const EXIT_FAILED: u8 = 1;
-/// Exit code of a run ended by SIGINT or SIGTERM (128 + SIGINT, the shell's convention).
-const EXIT_INTERRUPTED: u8 = 130;
 
 fn main() -> ExitCode {
     match Cli::parse().command {
@@ -336,14 +329,9 @@ fn run_command(
     }
 }
 
-/// The exit code of a failed run or measurement: 2 for input the run cannot start from
-/// (the case, the backend), 1 for a run that failed (blow-up, output).
+/// The exit code of a failed run or measurement ([`RunError::exit_code`]).
 fn exit_code(e: &RunError) -> ExitCode {
-    ExitCode::from(match e {
-        RunError::Case(_) | RunError::Backend(_) | RunError::Checkpoint { .. } => EXIT_INPUT,
-        RunError::Output { .. } | RunError::BlowUp { .. } | RunError::Benchmark(_) => EXIT_FAILED,
-        RunError::Interrupted { .. } => EXIT_INTERRUPTED,
-    })
+    ExitCode::from(e.exit_code())
 }
 
 /// A flag that SIGINT (Ctrl-C) or SIGTERM sets, so that a run ends after its current
@@ -466,19 +454,13 @@ fn bench_command(
 /// method's weights; on the GPU its passes and the f32 range of its constants), as `run`
 /// does before its first step; exit 2 at the first case that fails.
 fn check_command(cases: &[String], backend: Backend, set: &[String], limits: &Limits) -> ExitCode {
-    use meshless::run::{RunError, budget, engine, may_use_gpu};
-    use meshless::tensor::{D2, D3};
     for name in cases {
         let path = resolve(name);
         let built = Case::load(&path, set)
             .map_err(RunError::from)
             .and_then(|case| {
                 show_notes(&case);
-                let estimate = budget::check(&case, may_use_gpu(&case, backend), limits)?;
-                let particles = match case.dimension {
-                    2 => engine::<D2>(&case, backend)?.reference().len(),
-                    _ => engine::<D3>(&case, backend)?.reference().len(),
-                };
+                let (estimate, particles) = meshless::run::check(&case, backend, limits)?;
                 Ok((case, particles, estimate))
             });
         match built {

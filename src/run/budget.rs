@@ -64,13 +64,21 @@ pub struct Estimate {
     /// Steps to the end time: exact for a fixed Δt; for a CFL step from c_p alone (the
     /// velocities only shorten it), checked again once the first Δt is known.
     pub steps: f64,
+    /// Lattice points the sampler visits (the bodies' bounding boxes).
+    pub visited: f64,
 }
+
+/// How many lattice points the sampler may visit per particle allowed: a thin ring
+/// fills a small part of its bounding box, and the box is what the sampler walks.
+const VISITS_PER_PARTICLE: f64 = 100.0;
 
 impl Estimate {
     /// Estimates the resources of a case without building it.
     pub fn of(case: &Case) -> Result<Self, CaseError> {
-        let bodies = estimate_particles(case)?;
+        let sizes = estimate_particles(case)?;
+        let bodies: Vec<f64> = sizes.iter().map(|s| s.particles).collect();
         let particles: f64 = bodies.iter().sum();
+        let visited: f64 = sizes.iter().map(|s| s.visited).sum();
         let d = case.dim();
         let reach = case.method.kernel.support_factor() * case.method.h_over_dx;
         let ball = if d == 2 {
@@ -87,6 +95,7 @@ impl Estimate {
             device_bytes: particles * DEVICE_PARTICLE_BYTES[k] + pairs * DEVICE_PAIR_BYTES[k],
             steps: case.run.end_time / first_step(case),
             bodies,
+            visited,
         })
     }
 
@@ -145,6 +154,17 @@ pub fn check(case: &Case, gpu: bool, limits: &Limits) -> Result<Estimate, CaseEr
                 "gives about {:.3e} particles, above the cap of {:.3e} (--max-particles); \
                  increase `spacing` (now {:e}) or raise the cap with --max-particles",
                 estimate.particles, limits.max_particles, case.spacing
+            ),
+        ));
+    }
+    if estimate.visited > VISITS_PER_PARTICLE * limits.max_particles {
+        return Err(case.invalid(
+            key,
+            format!(
+                "samples the bodies on about {:.3e} lattice points (their bounding boxes), \
+                 above {VISITS_PER_PARTICLE} times the cap of {:.3e} particles \
+                 (--max-particles); increase `spacing` (now {:e}) or raise the cap",
+                estimate.visited, limits.max_particles, case.spacing
             ),
         ));
     }

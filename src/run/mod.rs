@@ -108,6 +108,45 @@ pub enum RunError {
     },
 }
 
+/// Exit code for invalid input (case files, arguments, checkpoints), as clap uses for
+/// usage errors.
+pub const EXIT_INPUT: u8 = 2;
+/// Exit code for a run that failed (blow-up, I/O).
+pub const EXIT_FAILED: u8 = 1;
+/// Exit code of a run ended by SIGINT or SIGTERM (128 + SIGINT, the shell's convention).
+pub const EXIT_INTERRUPTED: u8 = 130;
+
+impl RunError {
+    /// The command line's exit code: 2 for input a run cannot start from (the case, the
+    /// backend, a checkpoint), 1 for a run that failed (blow-up, output), 130 for one
+    /// interrupted.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            Self::Case(_) | Self::Backend(_) | Self::Checkpoint { .. } => EXIT_INPUT,
+            Self::Output { .. } | Self::BlowUp { .. } | Self::Benchmark(_) => EXIT_FAILED,
+            Self::Interrupted { .. } => EXIT_INTERRUPTED,
+        }
+    }
+}
+
+/// Every check `run` makes before its first step, without running: the resource
+/// estimate against `limits` and the machine, then the engine built on `backend`
+/// (bodies, boundary regions, neighbours, corrected gradients, the method's weights; on
+/// the GPU its passes and the f32 range of what reaches the device). Returns the
+/// estimate and the particle count. `meshless check` is this.
+pub fn check(
+    case: &Case,
+    backend: Backend,
+    limits: &Limits,
+) -> Result<(Estimate, usize), RunError> {
+    let estimate = budget::check(case, may_use_gpu(case, backend), limits)?;
+    let particles = match case.dimension {
+        2 => engine::<D2>(case, backend)?.reference().len(),
+        _ => engine::<D3>(case, backend)?.reference().len(),
+    };
+    Ok((estimate, particles))
+}
+
 /// The error of an output file or folder at `path`.
 pub(crate) fn output_error(path: &std::path::Path) -> impl FnOnce(std::io::Error) -> RunError {
     let path = path.to_path_buf();

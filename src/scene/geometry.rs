@@ -208,16 +208,37 @@ fn lattice<D: Dim>(
     Ok(points)
 }
 
-/// The particles of each body of a case, estimated without sampling it: the lattice
-/// points of its bounding box times the fraction of the box the shape fills (exact for
-/// a box; π/4 of the box for a disk), or the data rows of a points file (counted, not
-/// parsed). In f64: a spacing of 1e-300 gives 1e600 → ∞, never a wrapped count.
-pub fn estimate_particles(case: &Case) -> Result<Vec<f64>, CaseError> {
+/// The size of a body, estimated without sampling it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BodySize {
+    /// Its particles: the lattice points of its bounding box times the fraction of the
+    /// box the shape fills (exact for a box; π/4 of the box for a disk), or the data rows
+    /// of a points file (counted, not parsed).
+    pub particles: f64,
+    /// The lattice points the sampler visits to find them (its bounding box's).
+    pub visited: f64,
+}
+
+/// The size of each body of a case. In f64: a spacing of 1e-300 gives 1e600 → ∞, never
+/// a wrapped count.
+pub fn estimate_particles(case: &Case) -> Result<Vec<BodySize>, CaseError> {
     let dx = case.spacing;
     let half = 0.5 * dx;
     let box_of = |lo: &[f64], hi: &[f64]| -> f64 { lattice_counts(lo, hi, dx).iter().product() };
     let annulus =
         |inner: f64, outer: f64| std::f64::consts::FRAC_PI_4 * (1.0 - (inner / outer).powi(2));
+    let size = |visited: f64, fraction: f64| {
+        // ∞ · 0 (an infinite lattice of a zero fraction) counts as ∞.
+        let particles = visited * fraction;
+        BodySize {
+            particles: if particles.is_nan() {
+                f64::INFINITY
+            } else {
+                particles
+            },
+            visited,
+        }
+    };
     case.bodies
         .iter()
         .enumerate()
@@ -231,12 +252,12 @@ pub fn estimate_particles(case: &Case) -> Result<Vec<f64>, CaseError> {
                 } => {
                     let lo: Vec<f64> = min.iter().map(|m| m + half).collect();
                     let hi: Vec<f64> = max.iter().map(|m| m - half).collect();
-                    box_of(&lo, &hi)
+                    size(box_of(&lo, &hi), 1.0)
                 }
-                Shape::Box { min, max, .. } => box_of(min, max),
+                Shape::Box { min, max, .. } => size(box_of(min, max), 1.0),
                 Shape::Disk { center, radius } => {
                     let (lo, hi) = around(center, *radius);
-                    box_of(&lo, &hi) * annulus(0.0, *radius)
+                    size(box_of(&lo, &hi), annulus(0.0, *radius))
                 }
                 Shape::Ring {
                     center,
@@ -244,7 +265,7 @@ pub fn estimate_particles(case: &Case) -> Result<Vec<f64>, CaseError> {
                     outer_radius,
                 } => {
                     let (lo, hi) = around(center, *outer_radius);
-                    box_of(&lo, &hi) * annulus(*inner_radius, *outer_radius)
+                    size(box_of(&lo, &hi), annulus(*inner_radius, *outer_radius))
                 }
                 Shape::Cylinder {
                     base,
@@ -258,21 +279,20 @@ pub fn estimate_particles(case: &Case) -> Result<Vec<f64>, CaseError> {
                     let (mut lo, mut hi) = around(base, *radius);
                     lo[a] = base[a];
                     hi[a] = base[a] + length;
-                    box_of(&lo, &hi) * annulus(*inner_radius, *radius)
+                    size(box_of(&lo, &hi), annulus(*inner_radius, *radius))
                 }
                 Shape::Points { file } => {
                     let path = case.base_dir().join(file);
-                    count_point_rows(&path).map_err(|m| {
+                    let rows = count_point_rows(&path).map_err(|m| {
                         case.invalid(
                             format!("body.{b}.geometry.file"),
                             format!("{}: {m}", path.display()),
                         )
-                    })? as f64
+                    })? as f64;
+                    size(rows, 1.0)
                 }
             })
         })
-        // ∞ · 0 (an infinite lattice of a zero fraction) counts as ∞.
-        .map(|n: Result<f64, CaseError>| n.map(|n| if n.is_nan() { f64::INFINITY } else { n }))
         .collect()
 }
 

@@ -7,7 +7,7 @@ mod geometry;
 mod overrides;
 pub(crate) mod validate;
 
-pub use geometry::{Discretised, PARTICLE_ID_LIMIT, discretise, estimate_particles};
+pub use geometry::{BodySize, Discretised, PARTICLE_ID_LIMIT, discretise, estimate_particles};
 
 use crate::material::MaterialModel;
 use crate::methods::{MethodTable, drop_foreign_keys};

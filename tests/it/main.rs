@@ -20,6 +20,7 @@ mod gpu_neighbours;
 #[cfg(feature = "gpu")]
 mod gpu_tlsph;
 mod gray_monaghan;
+mod hostile;
 #[cfg(feature = "study")]
 mod mixed;
 mod registry;
