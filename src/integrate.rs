@@ -41,6 +41,11 @@ pub trait OdeState: Clone + Send + Sync {
     fn kick(&mut self, h: f64, rate: &Self);
     /// Leapfrog drift: position += h · (own) velocity, every other field += h · rate.
     fn drift(&mut self, h: f64, rate: &Self);
+    /// Appends every field, exactly, for a checkpoint.
+    fn save(&self, out: &mut Vec<f64>);
+    /// Reads the fields [`Self::save`] wrote from the front of `words` (and moves past
+    /// them); Err when they do not fit this state's layout.
+    fn load(&mut self, words: &mut &[f64]) -> Result<(), String>;
 }
 
 /// A method's right-hand side dy/dt = f(t, y).
@@ -255,6 +260,26 @@ impl<S: OdeState> Integrator<S> {
         self.kind
     }
 
+    /// Appends what a step carries to the next (the leapfrog's rates of the current
+    /// state, when primed): a flag word, then the rates.
+    pub fn save(&self, out: &mut Vec<f64>) {
+        out.push(f64::from(u8::from(self.primed)));
+        if self.primed {
+            self.buffers[1].save(out);
+        }
+    }
+
+    /// Reads what [`Self::save`] wrote.
+    pub fn load(&mut self, words: &mut &[f64]) -> Result<(), String> {
+        let (&flag, rest) = words.split_first().ok_or("no integrator flag")?;
+        *words = rest;
+        self.primed = flag == 1.0;
+        if self.primed {
+            self.buffers[1].load(words)?;
+        }
+        Ok(())
+    }
+
     /// Advances y by one step of size dt from time t.
     pub fn step<Sys: OdeSystem<State = S>>(
         &mut self,
@@ -356,6 +381,14 @@ mod tests {
         fn drift(&mut self, h: f64, r: &Self) {
             self.x += h * self.v;
             self.z += h * r.z;
+        }
+        fn save(&self, out: &mut Vec<f64>) {
+            out.extend([self.x, self.v, self.z]);
+        }
+        fn load(&mut self, words: &mut &[f64]) -> Result<(), String> {
+            let (&[x, v, z], rest) = words.split_first_chunk().ok_or("short")?;
+            (self.x, self.v, self.z, *words) = (x, v, z, rest);
+            Ok(())
         }
     }
 

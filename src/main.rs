@@ -2,7 +2,7 @@
 
 use clap::{Parser, Subcommand};
 use meshless::methods::REGISTRY;
-use meshless::run::{Backend, RunError, RunOptions, run};
+use meshless::run::{Backend, EXIT_FAILED, EXIT_INPUT, Limits, RunError, RunOptions, run};
 use meshless::scene::Case;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -29,8 +29,12 @@ enum Command {
         #[arg(long, value_enum, default_value_t = Backend::Auto)]
         backend: Backend,
         /// Output folder (default: out/<case name>).
-        #[arg(long)]
+        #[arg(long, conflicts_with = "resume")]
         out: Option<PathBuf>,
+        /// Continue the run whose output folder is DIR from its last checkpoint
+        /// (run.checkpoint_interval), with the same case and --set overrides.
+        #[arg(long, value_name = "DIR")]
+        resume: Option<PathBuf>,
         /// Override a case key, e.g. --set method.dt=1e-6 --set body.0.geometry.radius=0.5
         #[arg(long = "set", value_name = "KEY=VALUE")]
         set: Vec<String>,
@@ -43,6 +47,8 @@ enum Command {
         /// Print the plan (what runs once, per step, and what is left out) and exit.
         #[arg(long)]
         explain: bool,
+        #[command(flatten)]
+        limits: LimitArgs,
     },
     /// Check cases as `run` would (the file, the bodies, the boundary regions, the
     /// method's set-up on the backend) without running them.
@@ -55,6 +61,8 @@ enum Command {
         /// Override case keys, as for `run`.
         #[arg(long = "set", value_name = "KEY=VALUE")]
         set: Vec<String>,
+        #[command(flatten)]
+        limits: LimitArgs,
     },
     /// List the shipped cases and the available methods.
     List,
@@ -98,15 +106,33 @@ enum Command {
         /// No progress bar or per-run lines.
         #[arg(long, short)]
         quiet: bool,
+        /// Stop a run after this many seconds of wall time and record it as an error; the
+        /// study goes on.
+        #[arg(long, value_name = "SECONDS", default_value_t = meshless::study::RUN_TIME_LIMIT.as_secs_f64())]
+        run_time_limit: f64,
     },
 }
 
-/// Exit code for invalid input (case files, arguments), as clap uses for usage errors.
-const EXIT_INPUT: u8 = 2;
-/// Exit code for a run that failed (blow-up, I/O).
-const EXIT_FAILED: u8 = 1;
-/// Exit code of a run ended by SIGINT or SIGTERM (128 + SIGINT, the shell's convention).
-const EXIT_INTERRUPTED: u8 = 130;
+/// Caps on what one run may ask for; a case past them is refused with exit code 2.
+#[derive(clap::Args, Clone, Copy)]
+struct LimitArgs {
+    /// Refuse a run of more particles than this (estimated from the case before anything
+    /// is allocated).
+    #[arg(long, value_name = "N", default_value_t = Limits::MAX_PARTICLES)]
+    max_particles: f64,
+    /// Refuse a run of more time steps than this (end time over the first Δt).
+    #[arg(long, value_name = "N", default_value_t = Limits::MAX_STEPS)]
+    max_steps: f64,
+}
+
+impl From<LimitArgs> for Limits {
+    fn from(a: LimitArgs) -> Self {
+        Limits {
+            max_particles: a.max_particles,
+            max_steps: a.max_steps,
+        }
+    }
+}
 
 fn main() -> ExitCode {
     match Cli::parse().command {
@@ -114,22 +140,31 @@ fn main() -> ExitCode {
             case,
             backend,
             out,
+            resume,
             set,
             no_frames,
             quiet,
             explain,
+            limits,
         } => {
             if explain {
                 explain_command(&case, backend, &set)
             } else {
-                run_command(&case, backend, out, &set, no_frames, quiet)
+                let output = Output {
+                    resume: resume.is_some(),
+                    dir: resume.or(out),
+                    frames: !no_frames,
+                    quiet,
+                };
+                run_command(&case, backend, output, &set, limits.into())
             }
         }
         Command::Check {
             cases,
             backend,
             set,
-        } => check_command(&cases, backend, &set),
+            limits,
+        } => check_command(&cases, backend, &set, &limits.into()),
         Command::List => list(),
         Command::Info => info(),
         Command::Bench {
@@ -147,7 +182,15 @@ fn main() -> ExitCode {
             no_resume,
             report,
             quiet,
-        } => study_command(&suites, out, !no_resume, report.as_deref(), quiet),
+            run_time_limit,
+        } => study_command(
+            &suites,
+            out,
+            !no_resume,
+            report.as_deref(),
+            quiet,
+            run_time_limit,
+        ),
     }
 }
 
@@ -158,6 +201,7 @@ fn study_command(
     resume: bool,
     report: Option<&Path>,
     quiet: bool,
+    run_time_limit: f64,
 ) -> ExitCode {
     use meshless::study::{StudyError, resolve_suites, run_suites};
     let paths = match resolve_suites(names, &cases_dir().join("studies")) {
@@ -172,7 +216,11 @@ fn study_command(
     if let Some(r) = report {
         command += &format!(" --report {}", r.display());
     }
-    match run_suites(&paths, &out, resume, !quiet, report, &command) {
+    let Ok(limit) = std::time::Duration::try_from_secs_f64(run_time_limit) else {
+        eprintln!("error: --run-time-limit must be a number of seconds ≥ 0, got {run_time_limit}");
+        return ExitCode::from(EXIT_INPUT);
+    };
+    match run_suites(&paths, &out, resume, !quiet, report, &command, limit) {
         Ok(done) => {
             for (suite, o) in &done {
                 let failed = o.records.iter().filter(|r| r.status.name() != "ok").count();
@@ -220,13 +268,22 @@ fn resolve(case: &str) -> PathBuf {
     }
 }
 
+/// Where and what a run writes.
+struct Output {
+    /// The output folder (default: out/<case name>).
+    dir: Option<PathBuf>,
+    /// Continue from the checkpoint in `dir`.
+    resume: bool,
+    frames: bool,
+    quiet: bool,
+}
+
 fn run_command(
     case: &str,
     backend: Backend,
-    out: Option<PathBuf>,
+    output: Output,
     set: &[String],
-    no_frames: bool,
-    quiet: bool,
+    limits: Limits,
 ) -> ExitCode {
     let path = resolve(case);
     let case = match Case::load(&path, set) {
@@ -240,11 +297,15 @@ fn run_command(
         }
     };
     let opts = RunOptions {
-        out_dir: out.unwrap_or_else(|| Path::new("out").join(&case.name)),
+        out_dir: output
+            .dir
+            .unwrap_or_else(|| Path::new("out").join(&case.name)),
         backend,
-        progress: !quiet && std::io::stderr().is_terminal(),
-        frames: !no_frames,
+        progress: !output.quiet && std::io::stderr().is_terminal(),
+        frames: output.frames,
         stop: Some(stop_on_signal()),
+        limits,
+        resume: output.resume,
     };
     match run(&case, &opts) {
         Ok(s) => {
@@ -268,14 +329,9 @@ fn run_command(
     }
 }
 
-/// The exit code of a failed run or measurement: 2 for input the run cannot start from
-/// (the case, the backend), 1 for a run that failed (blow-up, output).
+/// The exit code of a failed run or measurement ([`RunError::exit_code`]).
 fn exit_code(e: &RunError) -> ExitCode {
-    ExitCode::from(match e {
-        RunError::Case(_) | RunError::Backend(_) => EXIT_INPUT,
-        RunError::Output { .. } | RunError::BlowUp { .. } | RunError::Benchmark(_) => EXIT_FAILED,
-        RunError::Interrupted { .. } => EXIT_INTERRUPTED,
-    })
+    ExitCode::from(e.exit_code())
 }
 
 /// A flag that SIGINT (Ctrl-C) or SIGTERM sets, so that a run ends after its current
@@ -383,7 +439,9 @@ fn bench_command(
             .chain(rows.iter().map(BenchRow::csv))
             .map(|l| l + "\n")
             .collect();
-        if let Err(e) = std::fs::write(path, text) {
+        if let Err(e) = meshless::output::write_atomically(path, |w| {
+            std::io::Write::write_all(w, text.as_bytes())
+        }) {
             eprintln!("error: {}: {e}", path.display());
             return ExitCode::from(EXIT_FAILED);
         }
@@ -391,30 +449,27 @@ fn bench_command(
     ExitCode::SUCCESS
 }
 
-/// Loads each case and builds its engine (reference configuration, neighbours, corrected
-/// gradients, the method's weights; on the GPU its passes and the f32 range of its
-/// constants), as `run` does before its first step; exit 2 at the first case that fails.
-fn check_command(cases: &[String], backend: Backend, set: &[String]) -> ExitCode {
-    use meshless::run::{RunError, engine};
-    use meshless::tensor::{D2, D3};
+/// Loads each case, estimates its resources against the caps and the machine's memory,
+/// and builds its engine (reference configuration, neighbours, corrected gradients, the
+/// method's weights; on the GPU its passes and the f32 range of its constants), as `run`
+/// does before its first step; exit 2 at the first case that fails.
+fn check_command(cases: &[String], backend: Backend, set: &[String], limits: &Limits) -> ExitCode {
     for name in cases {
         let path = resolve(name);
         let built = Case::load(&path, set)
             .map_err(RunError::from)
             .and_then(|case| {
                 show_notes(&case);
-                let particles = match case.dimension {
-                    2 => engine::<D2>(&case, backend)?.reference().len(),
-                    _ => engine::<D3>(&case, backend)?.reference().len(),
-                };
-                Ok((case, particles))
+                let (estimate, particles) = meshless::run::check(&case, backend, limits)?;
+                Ok((case, particles, estimate))
             });
         match built {
-            Ok((case, particles)) => println!(
-                "{}: ok ({}D, {particles} particles, {})",
+            Ok((case, particles, estimate)) => println!(
+                "{}: ok ({}D, {particles} particles, {}; estimated {})",
                 path.display(),
                 case.dimension,
-                case.method.name()
+                case.method.name(),
+                estimate.describe()
             ),
             Err(e) => {
                 eprintln!("error: {e}");

@@ -1,9 +1,9 @@
 //! Observers: energies, momenta, body extents, neck height and point probes, sampled into
 //! the CSV time series.
 
+use crate::methods::shared::ordered_reduce;
 use crate::scene::{Case, CaseError, Observer};
 use crate::tensor::Dim;
-use rayon::prelude::*;
 use std::collections::BTreeMap;
 
 /// A state as observers and frames read it, from either backend: reference data,
@@ -60,16 +60,15 @@ impl Invariants {
     pub fn of<D: Dim>(snap: &Snapshot<D>) -> Self {
         let (x0, u, v, m) = (snap.x0, &snap.u, &snap.v, snap.mass);
         let add3 = |a: [f64; 3], b: [f64; 3]| [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
-        let (kinetic, linear, angular) = (0..m.len())
-            .into_par_iter()
-            .map(|i| {
+        let (kinetic, linear, angular) = ordered_reduce(
+            m.len(),
+            || (0.0, [0.0; 3], [0.0; 3]),
+            |i| {
                 let p = v[i] * m[i];
                 (0.5 * D::dot(p, v[i]), D::to3(p), D::cross3(x0[i] + u[i], p))
-            })
-            .reduce(
-                || (0.0, [0.0; 3], [0.0; 3]),
-                |a, b| (a.0 + b.0, add3(a.1, b.1), add3(a.2, b.2)),
-            );
+            },
+            |a, b| (a.0 + b.0, add3(a.1, b.1), add3(a.2, b.2)),
+        );
         Self {
             kinetic,
             strain: snap.strain_energy,

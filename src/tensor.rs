@@ -22,7 +22,8 @@ pub trait Dim: Copy + Send + Sync + Debug + 'static {
         + Neg<Output = Self::V>
         + Mul<f64, Output = Self::V>
         + AddAssign
-        + SubAssign;
+        + SubAssign
+        + Words;
     /// Second-order tensor (F, P, σ, correction matrices).
     type T: Copy
         + Send
@@ -35,7 +36,8 @@ pub trait Dim: Copy + Send + Sync + Debug + 'static {
         + Mul<Self::V, Output = Self::V>
         + Mul<Self::T, Output = Self::T>
         + AddAssign
-        + SubAssign;
+        + SubAssign
+        + Words;
 
     fn zero() -> Self::V;
     fn zero_t() -> Self::T;
@@ -78,6 +80,45 @@ pub trait Dim: Copy + Send + Sync + Debug + 'static {
     fn is_finite_t(t: Self::T) -> bool {
         Self::to3x3(t).iter().flatten().all(|c| c.is_finite())
     }
+}
+
+/// A value a checkpoint stores exactly, as `LEN` f64 words (tensors column by column).
+pub trait Words: Copy {
+    const LEN: usize;
+    fn put(self, out: &mut Vec<f64>);
+    /// The value of the first `LEN` words.
+    fn take(words: &[f64]) -> Self;
+}
+
+impl Words for f64 {
+    const LEN: usize = 1;
+    fn put(self, out: &mut Vec<f64>) {
+        out.push(self);
+    }
+    fn take(words: &[f64]) -> Self {
+        words[0]
+    }
+}
+
+macro_rules! glam_words {
+    ($($t:ty: $len:expr, $to:ident, $from:ident;)*) => {$(
+        impl Words for $t {
+            const LEN: usize = $len;
+            fn put(self, out: &mut Vec<f64>) {
+                out.extend(self.$to());
+            }
+            fn take(words: &[f64]) -> Self {
+                <$t>::$from(&words[..$len])
+            }
+        }
+    )*};
+}
+
+glam_words! {
+    DVec2: 2, to_array, from_slice;
+    DVec3: 3, to_array, from_slice;
+    DMat2: 4, to_cols_array, from_cols_slice;
+    DMat3: 9, to_cols_array, from_cols_slice;
 }
 
 /// Two dimensions (plane strain).

@@ -43,6 +43,135 @@ pub fn check_f32_particles<D: crate::tensor::Dim>(
     Ok(())
 }
 
+/// A GPU engine's state for a checkpoint: its [`reduction::WorkBalance`], then each
+/// buffer (length, then its f32 values, exactly, as f64).
+pub fn save_buffers(
+    gpu: &Gpu,
+    work: &reduction::WorkBalance,
+    buffers: &[&wgpu::Buffer],
+) -> Vec<f64> {
+    let mut out = work.words().to_vec();
+    for buffer in buffers {
+        let flat: Vec<f32> = gpu.read(buffer);
+        out.push(flat.len() as f64);
+        out.extend(flat.iter().map(|&x| f64::from(x)));
+    }
+    out
+}
+
+/// Reads what [`save_buffers`] wrote into the same buffers (uploads them); returns the
+/// work balance.
+pub fn load_buffers(
+    gpu: &Gpu,
+    words: &[f64],
+    buffers: &[(&str, &wgpu::Buffer)],
+) -> Result<reduction::WorkBalance, String> {
+    let (&work, mut rest) = words
+        .split_first_chunk::<4>()
+        .ok_or("the checkpoint holds no engine state")?;
+    for (name, buffer) in buffers {
+        let len = (buffer.size() / 4) as usize;
+        match rest.split_first() {
+            Some((&n, values)) if n == len as f64 && values.len() >= len => {
+                let flat: Vec<f32> = values[..len].iter().map(|&x| x as f32).collect();
+                gpu.queue
+                    .write_buffer(buffer, 0, bytemuck::cast_slice(&flat));
+                rest = &values[len..];
+            }
+            _ => {
+                return Err(format!(
+                    "the {name} buffer of the checkpoint does not have this run's {len} values"
+                ));
+            }
+        }
+    }
+    if !rest.is_empty() {
+        return Err(format!(
+            "{} words are left over after the engine's state",
+            rest.len()
+        ));
+    }
+    Ok(reduction::WorkBalance::from_words(work))
+}
+
+/// Whether f32 holds `value`: finite, and normal unless zero (a subnormal keeps too few
+/// digits, and a smaller value rounds to zero).
+fn holds_f32(value: f64) -> bool {
+    let f = value as f32;
+    f.is_finite() && (value == 0.0 || f.is_normal())
+}
+
+/// The error of a value, valid in f64, that f32 cannot hold on the GPU.
+fn beyond_f32(case: &Case, key: impl Into<String>, what: String) -> CaseError {
+    case.invalid(
+        key,
+        format!(
+            "{what}, which the f32 of the GPU backend cannot hold (normal f32 magnitudes lie              between 1.2e-38 and 3.4e38); run with --backend cpu (f64), or express the case              in other units"
+        ),
+    )
+}
+
+/// Refuses the values a GPU run reaches from the case besides its constants and initial
+/// state: the time step in the integrator's coefficients (its smallest, Δt/6 of RK4;
+/// a CFL step estimated as α Δx / c_p), prescribed velocities and the accelerations of
+/// the traction loads, each named by its key.
+pub fn check_f32_run<D: crate::tensor::Dim>(
+    case: &Case,
+    boundary: &crate::boundary::Boundary<D>,
+) -> Result<(), CaseError> {
+    let (key, dt) = match (case.method.dt, case.method.cfl) {
+        (Some(dt), _) => ("method.dt", dt),
+        (_, cfl) => {
+            let c_p = crate::material::Material::new(&case.material).p_wave_speed();
+            ("method.cfl", cfl.unwrap_or(0.0) * case.spacing / c_p)
+        }
+    };
+    if !(holds_f32(dt) && holds_f32(dt / 6.0)) {
+        return Err(beyond_f32(
+            case,
+            key,
+            format!("gives the time step Δt = {dt:e} s (and Δt/6 in the stage coefficients)"),
+        ));
+    }
+    for (b, bc) in case.boundaries.iter().enumerate() {
+        if let crate::scene::Condition::Velocity { vx, vy, vz } = &bc.condition {
+            for (name, v) in [("vx", vx), ("vy", vy), ("vz", vz)] {
+                if let Some(v) = v.filter(|&v| !holds_f32(v)) {
+                    return Err(beyond_f32(
+                        case,
+                        format!("boundary.{b}.condition.{name}"),
+                        format!("prescribes the velocity {v:e} m/s"),
+                    ));
+                }
+            }
+        }
+    }
+    let load = boundary
+        .external
+        .iter()
+        .find(|(_, a)| D::to3(*a).iter().any(|&c| !holds_f32(c)));
+    if let Some(&(i, a)) = load {
+        // The traction condition with the largest traction gives it.
+        let magnitude = |t: &[f64]| t.iter().map(|c| c * c).sum::<f64>();
+        let b = (0..case.boundaries.len())
+            .filter_map(|b| match &case.boundaries[b].condition {
+                crate::scene::Condition::Traction { traction } => Some((b, magnitude(traction))),
+                _ => None,
+            })
+            .max_by(|x, y| x.1.total_cmp(&y.1))
+            .map_or(0, |(b, _)| b);
+        return Err(beyond_f32(
+            case,
+            format!("boundary.{b}.condition.traction"),
+            format!(
+                "gives particle {i} the acceleration {:?} m/s² (t·Δx^(d−1)/m)",
+                D::to3(a)
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// Refuses scene constants that f32 cannot hold (a value valid in f64, such as E = 1e39
 /// Pa or a density of 1e-46), naming the case key they come from.
 pub fn check_f32_range(case: &Case, constants: &Constants) -> Result<(), CaseError> {

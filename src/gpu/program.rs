@@ -132,6 +132,12 @@ impl Stepper {
     }
 
     /// Replaces the state in `Y` (the leapfrog primes its rates again).
+    /// After the state buffer was written directly (a checkpoint restored): the
+    /// leapfrog's rates are evaluated again before its next step.
+    pub fn state_replaced(&mut self) {
+        self.primed = false;
+    }
+
     pub fn set_state(&mut self, gpu: &Gpu, flat: &[f32]) {
         gpu.queue
             .write_buffer(self.buffer(Buf::Y), 0, bytemuck::cast_slice(flat));

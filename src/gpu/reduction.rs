@@ -119,6 +119,19 @@ impl WorkBalance {
         self.time += dt * f64::from(steps);
     }
 
+    /// Its four numbers, for a checkpoint: time, work, time and power of the last update.
+    pub fn words(&self) -> [f64; 4] {
+        [self.time, self.work, self.last.0, self.last.1]
+    }
+
+    pub fn from_words([time, work, t_last, p_last]: [f64; 4]) -> Self {
+        Self {
+            time,
+            work,
+            last: (t_last, p_last),
+        }
+    }
+
     /// The work up to now, given the power at the current state.
     pub fn update(&mut self, power: f64) -> f64 {
         let (t_last, p_last) = self.last;

@@ -9,13 +9,35 @@ use crate::neighbour::Csr;
 use crate::observe::Snapshot;
 use crate::reference::{self, Reference};
 use crate::scene::{Case, CaseError};
-use crate::tensor::Dim;
+use crate::tensor::{Dim, Words};
 use rayon::prelude::*;
 use std::ops::{Add, Mul};
 use thiserror::Error;
 
 /// Smallest slice length rayon splits down to: below it the per-task overhead dominates.
 pub(crate) const MIN_CHUNK: usize = 256;
+
+/// Reduces map(0), …, map(n − 1) with `add` in parallel, deterministically: in fixed
+/// chunks of [`MIN_CHUNK`] indices, each folded in order, and the chunks' results then
+/// folded in order, so the sum has the same bits whatever the number of threads and
+/// however rayon steals work (rayon's `reduce` and `sum` combine in an order that
+/// depends on both). Every floating-point sum over particles goes through it.
+pub(crate) fn ordered_reduce<T: Send>(
+    n: usize,
+    identity: impl Fn() -> T + Sync,
+    map: impl Fn(usize) -> T + Sync,
+    add: impl Fn(T, T) -> T + Sync,
+) -> T {
+    let chunks: Vec<T> = (0..n.div_ceil(MIN_CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            (c * MIN_CHUNK..n.min((c + 1) * MIN_CHUNK))
+                .map(&map)
+                .fold(identity(), &add)
+        })
+        .collect();
+    chunks.into_iter().fold(identity(), add)
+}
 
 /// y += a x, field by field.
 pub(crate) fn axpy<T: Copy + Send + Sync + Add<Output = T> + Mul<f64, Output = T>>(
@@ -68,10 +90,57 @@ macro_rules! particle_state {
                 crate::methods::shared::axpy(&mut self.u, h, &self.v);
                 $(crate::methods::shared::axpy(&mut self.$field, h, &r.$field);)*
             }
+
+            fn save(&self, out: &mut Vec<f64>) {
+                crate::methods::shared::save_field(&self.u, out);
+                crate::methods::shared::save_field(&self.v, out);
+                $(crate::methods::shared::save_field(&self.$field, out);)*
+            }
+
+            fn load(&mut self, words: &mut &[f64]) -> Result<(), String> {
+                crate::methods::shared::load_field(&mut self.u, "u", words)?;
+                crate::methods::shared::load_field(&mut self.v, "v", words)?;
+                $(crate::methods::shared::load_field(
+                    &mut self.$field,
+                    stringify!($field),
+                    words,
+                )?;)*
+                Ok(())
+            }
         }
     };
 }
 pub(crate) use particle_state;
+
+/// Appends a field for a checkpoint: its length, then its values.
+pub(crate) fn save_field<T: Words>(field: &[T], out: &mut Vec<f64>) {
+    out.push(field.len() as f64);
+    for x in field {
+        x.put(out);
+    }
+}
+
+/// Reads a field [`save_field`] wrote into `field`, which must have its length.
+pub(crate) fn load_field<T: Words>(
+    field: &mut [T],
+    name: &str,
+    words: &mut &[f64],
+) -> Result<(), String> {
+    let (&len, rest) = words
+        .split_first()
+        .ok_or_else(|| format!("the checkpoint ends before the field {name}"))?;
+    if len != field.len() as f64 || rest.len() < field.len() * T::LEN {
+        return Err(format!(
+            "the field {name} holds {len} values in the checkpoint and {} in this run",
+            field.len()
+        ));
+    }
+    for (x, w) in field.iter_mut().zip(rest.chunks_exact(T::LEN)) {
+        *x = T::take(w);
+    }
+    *words = &rest[field.len() * T::LEN..];
+    Ok(())
+}
 
 /// The kernel support of a case, with the margin of [`crate::reference::neighbour_radius`].
 pub(crate) fn neighbour_radius<D: Dim>(case: &Case) -> f64 {
@@ -155,4 +224,11 @@ pub trait Method<D: Dim>: OdeSystem<Error = BlowUp> + Sized {
     fn boundary_power(&self) -> f64;
     /// The first particle whose state is not finite, if any.
     fn check_finite(&self, y: &Self::State) -> Result<(), BlowUp>;
+    /// What the method carries from step to step besides the state (a plastic
+    /// history), for a checkpoint; none by default.
+    fn save_history(&self, _out: &mut Vec<f64>) {}
+    /// Reads what [`Self::save_history`] wrote.
+    fn load_history(&mut self, _words: &mut &[f64]) -> Result<(), String> {
+        Ok(())
+    }
 }

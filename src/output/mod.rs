@@ -2,8 +2,13 @@
 //! series and a JSON run summary.
 //!
 //! Files that are rewritten whole (frames, the index, the summary) are written
-//! to a temporary sibling and renamed into place, so a process that dies
-//! mid-write never leaves a truncated file under the final name.
+//! to a fresh temporary sibling and renamed into place, so a process that dies
+//! mid-write never leaves a truncated file under the final name. No output
+//! follows a link: a temporary file is created with a name of its own that must
+//! not exist yet (`O_CREAT | O_EXCL`, which refuses a planted symlink too), and
+//! the rename replaces whatever entry the final name has (a symlink planted
+//! there is replaced, its target untouched). The CSV series is created the same
+//! way and then appended to through its open handle.
 
 pub mod series;
 pub mod summary;
@@ -17,22 +22,23 @@ use std::ffi::OsString;
 use std::fs::{self, File};
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 
-/// Writes `path` by running `write` on a buffered temporary sibling
-/// (`<name>.tmp`) and renaming it over `path` once everything is flushed.
+/// Writes `path` by running `write` on a buffered fresh temporary sibling
+/// ([`create_temporary`]) and renaming it over `path` once everything is flushed.
 ///
 /// On any error the temporary file is removed and `path` is left untouched.
-fn write_atomically(
+pub fn write_atomically(
     path: &Path,
     write: impl FnOnce(&mut BufWriter<File>) -> io::Result<()>,
 ) -> io::Result<()> {
-    let tmp = tmp_path(path)?;
-    let result = File::create(&tmp).and_then(|file| {
+    let (file, tmp) = create_temporary(path)?;
+    let result = (|| {
         let mut writer = BufWriter::new(file);
         write(&mut writer)?;
         writer.flush()?;
         fs::rename(&tmp, path)
-    });
+    })();
     if result.is_err() {
         // Best effort: the original error is the one worth reporting.
         let _ = fs::remove_file(&tmp);
@@ -40,17 +46,38 @@ fn write_atomically(
     result
 }
 
-/// `dir/name` -> `dir/name.tmp`.
-fn tmp_path(path: &Path) -> io::Result<PathBuf> {
+/// Temporary names made by this process so far (with the process id, unique across
+/// the runs and threads writing into one folder).
+static TEMPORARIES: AtomicU64 = AtomicU64::new(0);
+
+/// Creates a new, empty temporary sibling of `path` (`.<name>.<pid>-<k>.tmp`) that did
+/// not exist before: created with `create_new`, so neither a file nor a symlink that is
+/// already there under that name is opened; a name taken is skipped for the next one.
+fn create_temporary(path: &Path) -> io::Result<(File, PathBuf)> {
     let name = path.file_name().ok_or_else(|| {
         io::Error::new(
             io::ErrorKind::InvalidInput,
             format!("`{}` does not name a file", path.display()),
         )
     })?;
-    let mut tmp_name = OsString::from(name);
-    tmp_name.push(".tmp");
-    Ok(path.with_file_name(tmp_name))
+    let mut last = None;
+    for _ in 0..64 {
+        let mut tmp_name = OsString::from(".");
+        tmp_name.push(name);
+        let k = TEMPORARIES.fetch_add(1, Ordering::Relaxed);
+        tmp_name.push(format!(".{}-{k}.tmp", std::process::id()));
+        let tmp = path.with_file_name(tmp_name);
+        match fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&tmp)
+        {
+            Ok(file) => return Ok((file, tmp)),
+            Err(e) if e.kind() == io::ErrorKind::AlreadyExists => last = Some(e),
+            Err(e) => return Err(e),
+        }
+    }
+    Err(last.unwrap_or_else(|| io::Error::other("no temporary name left")))
 }
 
 /// Formats `x` so that it parses back to the same bits, in plain notation for
@@ -82,7 +109,6 @@ mod tests {
         write_atomically(&path, |w| w.write_all(b"new contents")).unwrap();
 
         assert_eq!(fs::read_to_string(&path).unwrap(), "new contents");
-        assert!(!dir.path().join("out.txt.tmp").exists());
         assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 1);
     }
 
@@ -100,14 +126,65 @@ mod tests {
 
         assert_eq!(err.to_string(), "simulated failure");
         assert_eq!(fs::read_to_string(&path).unwrap(), "old");
-        assert!(!dir.path().join("out.txt.tmp").exists());
+        assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn temporaries_are_fresh_siblings_and_planted_links_are_not_followed() {
+        // The final name and the next temporary name are both symlinks to a file outside
+        // the folder: the write replaces the link at the final name, skips the taken
+        // temporary name, and the target keeps its contents.
+        let outside = tempfile::tempdir().unwrap();
+        let target = outside.path().join("precious");
+        fs::write(&target, "keep").unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("summary.json");
+        std::os::unix::fs::symlink(&target, &path).unwrap();
+        let next = TEMPORARIES.load(Ordering::Relaxed);
+        for k in next..next + 8 {
+            let planted = dir
+                .path()
+                .join(format!(".summary.json.{}-{k}.tmp", std::process::id()));
+            std::os::unix::fs::symlink(&target, planted).unwrap();
+        }
+        write_atomically(&path, |w| w.write_all(b"new")).unwrap();
+        assert_eq!(fs::read_to_string(&target).unwrap(), "keep");
+        assert!(!fs::symlink_metadata(&path).unwrap().is_symlink());
+        assert_eq!(fs::read_to_string(&path).unwrap(), "new");
+        assert!(create_temporary(Path::new("/")).is_err());
     }
 
     #[test]
-    fn tmp_path_appends_suffix_to_file_name() {
-        let tmp = tmp_path(Path::new("/a/b/frame_0001.vtu")).unwrap();
-        assert_eq!(tmp, Path::new("/a/b/frame_0001.vtu.tmp"));
-        assert!(tmp_path(Path::new("/")).is_err());
+    fn concurrent_writers_into_one_folder_do_not_collide() {
+        // Four threads rewrite the same two names 50 times each: every write succeeds,
+        // each file holds one writer's whole text, and no temporary is left.
+        let dir = tempfile::tempdir().unwrap();
+        std::thread::scope(|scope| {
+            for w in 0..4 {
+                let dir = dir.path();
+                scope.spawn(move || {
+                    for k in 0..50 {
+                        let name = ["summary.json", "series.csv"][k % 2];
+                        let text = format!("writer {w} write {k} ").repeat(100);
+                        write_atomically(&dir.join(name), |f| f.write_all(text.as_bytes()))
+                            .unwrap();
+                    }
+                });
+            }
+        });
+        let mut names: Vec<String> = fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().into_string().unwrap())
+            .collect();
+        names.sort();
+        assert_eq!(names, ["series.csv", "summary.json"]);
+        for name in names {
+            let text = fs::read_to_string(dir.path().join(name)).unwrap();
+            let unit = &text[..text.len() / 100];
+            assert!(unit.starts_with("writer "), "{unit}");
+            assert_eq!(text, unit.repeat(100));
+        }
     }
 
     #[test]

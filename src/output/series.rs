@@ -1,25 +1,33 @@
 //! CSV time series written one row at a time.
 
 use std::fs::File;
-use std::io::{self, BufWriter, Write};
+use std::io::{self, Seek, SeekFrom, Write};
 use std::path::Path;
 
-use super::{format_f64, invalid_input};
+use super::{create_temporary, format_f64, invalid_input};
 
 /// A CSV file with a header line and one row of numbers per call.
 ///
 /// Every row is flushed as soon as it is written, so rows already reported
-/// survive a crash or an interrupt. Numbers are written with enough digits to
-/// parse back to the same `f64` (non-finite values as `NaN`, `inf`, `-inf`).
+/// survive a crash or an interrupt; a row that cannot be written whole (a full
+/// disk) is cut off again, so the file ends with the last whole row. Numbers
+/// are written with enough digits to parse back to the same `f64` (non-finite
+/// values as `NaN`, `inf`, `-inf`).
 #[derive(Debug)]
 pub struct SeriesWriter {
-    out: BufWriter<File>,
+    /// Written one whole row per call (no buffer to flush).
+    out: File,
     columns: usize,
     line: String,
+    /// Bytes of whole lines written.
+    len: u64,
 }
 
 impl SeriesWriter {
-    /// Creates (or truncates) `path` and writes the header line.
+    /// Creates `path` with the header line: written to a fresh temporary
+    /// sibling and renamed over `path` (which replaces a file or a symlink
+    /// there, and never follows it); rows are then appended through the open
+    /// file.
     ///
     /// Column names are written as given; they must be non-empty and must not
     /// contain commas, quotes or line breaks.
@@ -37,14 +45,49 @@ impl SeriesWriter {
                 "CSV column name {bad:?} is empty or contains a comma, quote or line break"
             )));
         }
-        let mut out = BufWriter::new(File::create(path)?);
-        writeln!(out, "{}", columns.join(","))?;
-        out.flush()?;
+        let header = format!("{}\n", columns.join(","));
+        let (mut out, tmp) = create_temporary(path)?;
+        let created = out
+            .write_all(header.as_bytes())
+            .and_then(|()| std::fs::rename(&tmp, path));
+        if let Err(e) = created {
+            let _ = std::fs::remove_file(&tmp);
+            return Err(e);
+        }
         Ok(Self {
             out,
             columns: columns.len(),
             line: String::new(),
+            len: header.len() as u64,
         })
+    }
+
+    /// Continues the series at `path` after its first `len` bytes (the rows up to a
+    /// checkpoint; later rows are dropped): the kept bytes, whose header must name
+    /// `columns`, are copied into a fresh file renamed over `path`, as for
+    /// [`Self::create`].
+    pub fn resume(path: &Path, columns: &[String], len: u64) -> io::Result<Self> {
+        use std::io::Read;
+        let mut kept = Vec::new();
+        File::open(path)?.take(len).read_to_end(&mut kept)?;
+        let header = format!("{}\n", columns.join(","));
+        if kept.len() as u64 != len || !kept.starts_with(header.as_bytes()) {
+            return Err(invalid_input(format!(
+                "`{}` does not hold the {len} bytes of series (header `{}`) the checkpoint \
+                 counts",
+                path.display(),
+                header.trim_end()
+            )));
+        }
+        let mut series = Self::create(path, columns)?;
+        series.out.write_all(&kept[header.len()..])?;
+        series.len = len;
+        Ok(series)
+    }
+
+    /// Bytes written: the header and the whole rows.
+    pub fn bytes(&self) -> u64 {
+        self.len
     }
 
     /// Number of columns in each row.
@@ -69,8 +112,15 @@ impl SeriesWriter {
             self.line.push_str(&format_f64(value));
         }
         self.line.push('\n');
-        self.out.write_all(self.line.as_bytes())?;
-        self.out.flush()
+        if let Err(e) = self.out.write_all(self.line.as_bytes()) {
+            // Cut the file back to its last whole row (best effort: the write error is
+            // the one to report).
+            let _ = self.out.set_len(self.len);
+            let _ = self.out.seek(SeekFrom::Start(self.len));
+            return Err(e);
+        }
+        self.len += self.line.len() as u64;
+        Ok(())
     }
 }
 
@@ -152,6 +202,22 @@ mod tests {
             assert_eq!(err.kind(), io::ErrorKind::InvalidInput, "{columns:?}");
         }
         assert!(!path.exists());
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_symlink_planted_as_the_series_is_replaced_not_followed() {
+        let outside = tempfile::tempdir().unwrap();
+        let target = outside.path().join("precious");
+        fs::write(&target, "keep").unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("series.csv");
+        std::os::unix::fs::symlink(&target, &path).unwrap();
+        let mut series = SeriesWriter::create(&path, &names(&["t"])).unwrap();
+        series.write_row(&[1.0]).unwrap();
+        assert_eq!(fs::read_to_string(&target).unwrap(), "keep");
+        assert!(!fs::symlink_metadata(&path).unwrap().is_symlink());
+        assert_eq!(fs::read_to_string(&path).unwrap(), "t\n1\n");
     }
 
     #[test]

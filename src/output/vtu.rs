@@ -338,6 +338,11 @@ impl PvdIndex {
         &self.path
     }
 
+    /// Times of the frames listed, in order.
+    pub fn times(&self) -> Vec<f64> {
+        self.frames.iter().map(|(t, _)| *t).collect()
+    }
+
     /// Number of frames listed.
     pub fn len(&self) -> usize {
         self.frames.len()

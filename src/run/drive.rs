@@ -1,8 +1,9 @@
 //! The time loop: steps between events (samples, frames, checks, the end), the blow-up
 //! checks, outputs and the summary.
 
+use super::checkpoint;
 use super::checks::{energy_blow_up, fixed_step_warning, hourglass_blow_up, step_collapse};
-use super::frames::Frames;
+use super::frames::{Frames, next_frame_time};
 use super::{Engine, Failed, RunError, RunOptions, output_error};
 use crate::hourglass::HourglassIndicator;
 use crate::observe::{Clock, Invariants, Observers, Snapshot};
@@ -31,13 +32,45 @@ pub fn drive<D: Dim, E: Engine<D>>(
     opts: &RunOptions,
     mut engine: E,
 ) -> Result<RunSummary, RunError> {
+    let t_end = case.run.end_time;
+    let backend = engine.backend();
+    let n = engine.reference().len();
+    // A resumed run continues from the state and progress of its checkpoint.
+    let resumed = match opts.resume {
+        true => {
+            let (progress, words) = checkpoint::read(&opts.out_dir, case, &backend, n)?;
+            engine
+                .restore(&words)
+                .map_err(|message| RunError::Checkpoint {
+                    path: opts.out_dir.join(checkpoint::FILE),
+                    message,
+                })?;
+            Some(progress)
+        }
+        false => None,
+    };
+    // The step count once the first Δt is known, before anything is written.
+    let dt_first = match &resumed {
+        Some(p) => p.dt_first,
+        None => time_step(case, &mut engine),
+    };
+    super::budget::check_steps(case, t_end / dt_first, dt_first, &opts.limits)?;
     let observers = Observers::new::<D>(case, engine.reference(), engine.constrained())?;
     std::fs::create_dir_all(&opts.out_dir).map_err(output_error(&opts.out_dir))?;
-    clear_previous_run(&opts.out_dir)?;
     let series_path = opts.out_dir.join("series.csv");
-    let mut series = SeriesWriter::create(&series_path, observers.column_names())
-        .map_err(output_error(&series_path))?;
+    let columns = observers.column_names();
+    if resumed.is_none() {
+        clear_previous_run(&opts.out_dir)?;
+    }
     let mut frames = Frames::new(case, opts)?;
+    let mut series = match &resumed {
+        Some(p) => {
+            frames.resume(p.next_frame, &p.frames)?;
+            SeriesWriter::resume(&series_path, columns, p.series_bytes)
+        }
+        None => SeriesWriter::create(&series_path, columns),
+    }
+    .map_err(output_error(&series_path))?;
     // η of every particle, evaluated at an output only when a frame, a series row with the
     // observer or the limit needs it.
     let hourglass =
@@ -51,16 +84,10 @@ pub fn drive<D: Dim, E: Engine<D>>(
             .filter(|_| needed)
             .map(|h| h.of::<D>(snap.x0, &snap.u, &snap.f))
     };
-    let backend = engine.backend();
     if opts.progress {
-        eprintln!(
-            "{}: {} particles on {backend}",
-            case.name,
-            engine.reference().len()
-        );
+        eprintln!("{}: {n} particles on {backend}", case.name);
     }
 
-    let n = engine.reference().len();
     let summary_path = opts.out_dir.join("summary.json");
     let running = RunSummary {
         case: case.name.clone(),
@@ -78,13 +105,7 @@ pub fn drive<D: Dim, E: Engine<D>>(
         final_invariants: Default::default(),
     };
     write_summary(&summary_path, &running).map_err(output_error(&summary_path))?;
-    let t_end = case.run.end_time;
     let done = |t: f64| t >= t_end * (1.0 - 1e-12);
-    let mut clock = Clock {
-        dt: time_step(case, &mut engine),
-        ..Clock::default()
-    };
-    let dt_first = clock.dt;
     if case.method.dt.is_some()
         && let Some(warning) =
             fixed_step_warning(dt_first, case.spacing / engine.max_signal_speed())
@@ -93,17 +114,35 @@ pub fn drive<D: Dim, E: Engine<D>>(
     }
     let progress = progress_bar(opts.progress, case);
     let started = Instant::now();
-
-    let snap = engine.snapshot();
-    let inv0 = Invariants::of(&snap);
-    let eta = eta_of(&snap, frames.will_write(0.0, true), true);
-    series
-        .write_row(&observers.sample(&snap, &inv0, &clock, eta.as_deref()))
-        .map_err(output_error(&series_path))?;
-    frames.write(&snap, 0.0, true, eta.as_deref())?;
-    drop(snap);
     let series_every = case.output.series_interval.unwrap_or(0.0);
-    let mut next_sample = series_every;
+    let checkpoint_every = case.run.checkpoint_interval;
+
+    let (mut clock, e0, mut next_sample, mut next_checkpoint) = match &resumed {
+        Some(p) => {
+            let clock = Clock {
+                t: p.t,
+                step: p.step,
+                dt: p.dt,
+                external_work: engine.external_work(),
+            };
+            (clock, p.e0, p.next_sample, p.next_checkpoint)
+        }
+        None => {
+            let clock = Clock {
+                dt: dt_first,
+                ..Clock::default()
+            };
+            let snap = engine.snapshot();
+            let inv0 = Invariants::of(&snap);
+            let eta = eta_of(&snap, frames.will_write(0.0, true), true);
+            series
+                .write_row(&observers.sample(&snap, &inv0, &clock, eta.as_deref()))
+                .map_err(output_error(&series_path))?;
+            frames.write(&snap, 0.0, true, eta.as_deref())?;
+            let first_checkpoint = checkpoint_every.unwrap_or(f64::INFINITY);
+            (clock, inv0.total_energy(), series_every, first_checkpoint)
+        }
+    };
 
     // Where a failure was found, when not at the current step: (first step it may have
     // happened in, the step it is reported at, the time at the end of that step).
@@ -129,8 +168,9 @@ pub fn drive<D: Dim, E: Engine<D>>(
                 ratio * dt_first,
             ));
         }
-        // Steps to the next sample, frame, check or the end, whichever comes first.
-        let to_event = [next_sample, frames.next_time(), t_end]
+        // Steps to the next sample, frame, checkpoint, check or the end, whichever comes
+        // first.
+        let to_event = [next_sample, frames.next_time(), next_checkpoint, t_end]
             .into_iter()
             .map(|te| ((te - t) / dt - 0.5).ceil().max(1.0))
             .fold(CHECK_EVERY as f64, f64::min) as u32;
@@ -165,16 +205,11 @@ pub fn drive<D: Dim, E: Engine<D>>(
             found = Some((step + 1, clock.step, t));
             break Some(cause);
         }
-        if stop_requested() {
-            interrupted = true;
-            break None;
-        }
         // The full state is read (and F, σ evaluated) only when a row or frame is due;
         // other checks use the engine's invariants (a reduction on the GPU).
         let sample = t + 0.5 * dt >= next_sample || done(t);
         let output = sample || frames.due(t) || done(t);
-        let bound =
-            case.run.energy_growth_limit * (inv0.total_energy() + clock.external_work.max(0.0));
+        let bound = case.run.energy_growth_limit * (e0 + clock.external_work.max(0.0));
         // A non-finite energy (an overflowing velocity of a rigid motion, which leaves F
         // finite) is a blow-up whatever the bound.
         let too_much = |inv: &Invariants| {
@@ -209,6 +244,35 @@ pub fn drive<D: Dim, E: Engine<D>>(
                     bound,
                 ));
             }
+        }
+        // A checkpoint when one is due, and on a stop (with checkpoints on), after the
+        // batch's outputs: a resumed run goes on from here exactly as this one would.
+        let stop = stop_requested();
+        let due = t >= next_checkpoint * (1.0 - 1e-9);
+        if let Some(interval) = checkpoint_every
+            && (due || stop)
+        {
+            if due {
+                next_checkpoint = next_frame_time(next_checkpoint, interval, t);
+            }
+            let (next_frame, frame_times) = frames.progress();
+            let at = checkpoint::Progress {
+                t,
+                step: clock.step,
+                dt: clock.dt,
+                dt_first,
+                e0,
+                next_sample,
+                next_checkpoint,
+                series_bytes: series.bytes(),
+                next_frame,
+                frames: frame_times,
+            };
+            checkpoint::write(&opts.out_dir, case, &backend, n, &at, &engine.save())?;
+        }
+        if stop {
+            interrupted = true;
+            break None;
         }
         progress.set_position((t / t_end * 1000.0) as u64);
         let rate = (n as f64 * clock.step as f64) / started.elapsed().as_secs_f64();
@@ -269,14 +333,14 @@ pub fn drive<D: Dim, E: Engine<D>>(
 }
 
 /// Removes what an earlier run wrote into `dir`, and nothing else: its summary, its
-/// series, and each PVD index with the frames it lists, so that no stale file of it is
+/// series, its checkpoint, and each PVD index with the frames it lists, so that no stale file of it is
 /// left beside the new run's.
 fn clear_previous_run(dir: &Path) -> Result<(), RunError> {
     let remove = |path: &Path| match std::fs::remove_file(path) {
         Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(output_error(path)(e)),
         _ => Ok(()),
     };
-    for name in ["summary.json", "series.csv"] {
+    for name in ["summary.json", "series.csv", checkpoint::FILE] {
         remove(&dir.join(name))?;
     }
     let entries = std::fs::read_dir(dir).map_err(output_error(dir))?;

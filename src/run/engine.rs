@@ -4,7 +4,7 @@
 use super::{Backend, RunError};
 #[cfg(feature = "gpu")]
 use crate::gpu::{Gpu, SetupError};
-use crate::integrate::Integrator;
+use crate::integrate::{Integrator, OdeState};
 use crate::methods::{BlowUp, Method};
 use crate::observe::{Invariants, Snapshot};
 use crate::reference::Reference;
@@ -112,6 +112,12 @@ pub trait Engine<D: Dim> {
     }
     /// Waits until all submitted work is done (for timing).
     fn finish(&mut self) {}
+    /// Everything the engine carries from one step to the next (the state, the work of
+    /// the supports and loads, an integrator's or material's history), as f64 words for
+    /// a checkpoint.
+    fn save(&mut self) -> Vec<f64>;
+    /// Continues from what [`Self::save`] returned; Err says what does not fit.
+    fn restore(&mut self, words: &[f64]) -> Result<(), String>;
 }
 
 /// Forwarding, so that the driver runs whichever engine [`engine`] chose.
@@ -145,6 +151,12 @@ impl<D: Dim> Engine<D> for Box<dyn Engine<D>> {
     }
     fn finish(&mut self) {
         (**self).finish()
+    }
+    fn save(&mut self) -> Vec<f64> {
+        (**self).save()
+    }
+    fn restore(&mut self, words: &[f64]) -> Result<(), String> {
+        (**self).restore(words)
     }
 }
 
@@ -217,5 +229,31 @@ impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
 
     fn snapshot(&mut self) -> Snapshot<'_, D> {
         self.method.snapshot(&self.y)
+    }
+
+    /// The work and last power, the state y, the integrator's and the method's history.
+    fn save(&mut self) -> Vec<f64> {
+        let mut out = vec![self.work, self.last_power];
+        self.y.save(&mut out);
+        self.integrator.save(&mut out);
+        self.method.save_history(&mut out);
+        out
+    }
+
+    fn restore(&mut self, words: &[f64]) -> Result<(), String> {
+        let (&[work, last_power], mut rest) = words
+            .split_first_chunk()
+            .ok_or("the checkpoint holds no engine state")?;
+        self.y.load(&mut rest)?;
+        self.integrator.load(&mut rest)?;
+        self.method.load_history(&mut rest)?;
+        if !rest.is_empty() {
+            return Err(format!(
+                "{} words are left over after the engine's state",
+                rest.len()
+            ));
+        }
+        (self.work, self.last_power) = (work, last_power);
+        Ok(())
     }
 }

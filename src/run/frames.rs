@@ -39,6 +39,31 @@ impl Frames {
         })
     }
 
+    /// The time of the next frame and the times of those written (for a checkpoint).
+    pub(super) fn progress(&self) -> (f64, Vec<f64>) {
+        (
+            self.next,
+            self.index.as_ref().map_or_else(Vec::new, PvdIndex::times),
+        )
+    }
+
+    /// Continues after the frames written before a checkpoint: lists them again (they
+    /// must still be in the folder) and takes the next frame time.
+    pub(super) fn resume(&mut self, next: f64, times: &[f64]) -> Result<(), RunError> {
+        self.next = next;
+        let Some(index) = &mut self.index else {
+            return Ok(());
+        };
+        for &t in times {
+            let file = frame_file(&self.name, self.count);
+            index
+                .push(t, &file)
+                .map_err(output_error(&self.dir.join(&file)))?;
+            self.count += 1;
+        }
+        Ok(())
+    }
+
     /// Whether frames are written at all.
     pub(super) fn on(&self) -> bool {
         self.index.is_some()
@@ -77,7 +102,7 @@ impl Frames {
         let (Some(index), Some(eta)) = (&mut self.index, eta) else {
             return Ok(());
         };
-        let file = format!("{}_{:06}.vtu", self.name, self.count);
+        let file = frame_file(&self.name, self.count);
         let path = self.dir.join(&file);
         write_frame::<D>(&path, snap, t, eta).map_err(output_error(&path))?;
         index
@@ -91,11 +116,16 @@ impl Frames {
     }
 }
 
+/// The file of frame k of a case.
+fn frame_file(name: &str, k: usize) -> String {
+    format!("{name}_{k:06}.vtu")
+}
+
 /// The time of the frame after one written at t: the next multiple of the interval past
 /// t. One interval on from the previous frame time when that passes t (the common case);
 /// else the multiple found directly, at least the next float after t, so that an
 /// interval far below the resolution of t (or below the step) never loops.
-fn next_frame_time(previous: f64, interval: f64, t: f64) -> f64 {
+pub(super) fn next_frame_time(previous: f64, interval: f64, t: f64) -> f64 {
     let past = t * (1.0 + 1e-9);
     let stepped = previous + interval;
     if stepped > past {

@@ -2,11 +2,14 @@
 //! integrates it to the end time with observers, frames and blow-up checks ([`drive`]),
 //! and writes the summary. The driver knows stages, not methods.
 
+pub mod budget;
+pub mod checkpoint;
 mod checks;
 mod drive;
 mod engine;
 mod frames;
 
+pub use budget::{Estimate, Limits};
 pub use drive::drive;
 pub use engine::{CpuEngine, Engine, EngineDim, Failed, build_method, engine};
 pub use frames::write_frame;
@@ -47,6 +50,10 @@ pub struct RunOptions {
     /// Set (by the command line's SIGINT/SIGTERM handler, say) to end the run after its
     /// current batch of steps, with an "interrupted" summary.
     pub stop: Option<Arc<AtomicBool>>,
+    /// Caps on the particle and step counts (`--max-particles`, `--max-steps`).
+    pub limits: Limits,
+    /// Continue from the checkpoint in `out_dir` (`--resume`) instead of starting.
+    pub resume: bool,
 }
 
 #[derive(Debug, Error)]
@@ -63,6 +70,8 @@ pub enum RunError {
     },
     #[error(transparent)]
     Case(#[from] CaseError),
+    #[error("checkpoint {}: {message}", path.display())]
+    Checkpoint { path: PathBuf, message: String },
     #[error(
         "output {}: {source}; check that the folder is writable and the disk has room, or \
          choose another with --out",
@@ -99,6 +108,45 @@ pub enum RunError {
     },
 }
 
+/// Exit code for invalid input (case files, arguments, checkpoints), as clap uses for
+/// usage errors.
+pub const EXIT_INPUT: u8 = 2;
+/// Exit code for a run that failed (blow-up, I/O).
+pub const EXIT_FAILED: u8 = 1;
+/// Exit code of a run ended by SIGINT or SIGTERM (128 + SIGINT, the shell's convention).
+pub const EXIT_INTERRUPTED: u8 = 130;
+
+impl RunError {
+    /// The command line's exit code: 2 for input a run cannot start from (the case, the
+    /// backend, a checkpoint), 1 for a run that failed (blow-up, output), 130 for one
+    /// interrupted.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            Self::Case(_) | Self::Backend(_) | Self::Checkpoint { .. } => EXIT_INPUT,
+            Self::Output { .. } | Self::BlowUp { .. } | Self::Benchmark(_) => EXIT_FAILED,
+            Self::Interrupted { .. } => EXIT_INTERRUPTED,
+        }
+    }
+}
+
+/// Every check `run` makes before its first step, without running: the resource
+/// estimate against `limits` and the machine, then the engine built on `backend`
+/// (bodies, boundary regions, neighbours, corrected gradients, the method's weights; on
+/// the GPU its passes and the f32 range of what reaches the device). Returns the
+/// estimate and the particle count. `meshless check` is this.
+pub fn check(
+    case: &Case,
+    backend: Backend,
+    limits: &Limits,
+) -> Result<(Estimate, usize), RunError> {
+    let estimate = budget::check(case, may_use_gpu(case, backend), limits)?;
+    let particles = match case.dimension {
+        2 => engine::<D2>(case, backend)?.reference().len(),
+        _ => engine::<D3>(case, backend)?.reference().len(),
+    };
+    Ok((estimate, particles))
+}
+
 /// The error of an output file or folder at `path`.
 pub(crate) fn output_error(path: &std::path::Path) -> impl FnOnce(std::io::Error) -> RunError {
     let path = path.to_path_buf();
@@ -106,11 +154,20 @@ pub(crate) fn output_error(path: &std::path::Path) -> impl FnOnce(std::io::Error
 }
 
 /// Runs a case to its end time; returns the summary (also written as `summary.json`).
+/// The case's resources are estimated first ([`budget::check`]): nothing is allocated for
+/// a run that would not fit.
 pub fn run(case: &Case, opts: &RunOptions) -> Result<RunSummary, RunError> {
+    budget::check(case, may_use_gpu(case, opts.backend), &opts.limits)?;
     match case.dimension {
         2 => drive::<D2, _>(case, opts, engine::<D2>(case, opts.backend)?),
         _ => drive::<D3, _>(case, opts, engine::<D3>(case, opts.backend)?),
     }
+}
+
+/// Whether a run of `case` on `backend` may use the GPU (the memory estimate then counts
+/// the device's share too): `gpu`, or `auto` for a method with a GPU engine.
+pub fn may_use_gpu(case: &Case, backend: Backend) -> bool {
+    backend != Backend::Cpu && case.method.spec.entry().gpu_engine
 }
 
 /// The plan of a run: what is built once, what runs per step, and what the scene leaves

@@ -61,9 +61,18 @@ fn sample<D: Dim>(
     let dx = case.spacing;
     let cell = dx.powi(D::N as i32);
     let lattice_of = |lo: &[f64], hi: &[f64], inside: &dyn Fn(&[f64]) -> bool| {
-        let points = lattice::<D>(lo, hi, dx, inside);
+        let points = lattice::<D>(lo, hi, dx, inside).map_err(|total| {
+            case.invalid(
+                "spacing",
+                format!(
+                    "{dx:e} samples body `{}` on a lattice of {total:.3e} points, more than \
+                     the {PARTICLE_ID_LIMIT:.0} particle ids hold; increase `spacing`",
+                    spec.name
+                ),
+            )
+        })?;
         let vol = vec![cell; points.len()];
-        (points, vol)
+        Ok::<_, CaseError>((points, vol))
     };
     Ok(match &spec.geometry {
         Shape::Box {
@@ -75,12 +84,12 @@ fn sample<D: Dim>(
             let half: Vec<f64> = (0..D::N).map(|_| 0.5 * dx).collect();
             let lo: Vec<f64> = min.iter().zip(&half).map(|(m, h)| m + h).collect();
             let hi: Vec<f64> = max.iter().zip(&half).map(|(m, h)| m - h).collect();
-            lattice_of(&lo, &hi, &|_| true)
+            lattice_of(&lo, &hi, &|_| true)?
         }
         Shape::Box {
             min, max, volumes, ..
         } => {
-            let (points, mut vol) = lattice_of(min, max, &|_| true);
+            let (points, mut vol) = lattice_of(min, max, &|_| true)?;
             if *volumes == Volumes::Tributary {
                 for (p, v) in points.iter().zip(vol.iter_mut()) {
                     let p = D::to3(*p);
@@ -96,7 +105,7 @@ fn sample<D: Dim>(
         }
         Shape::Disk { center, radius } => {
             let (lo, hi) = around(center, *radius);
-            lattice_of(&lo, &hi, &|p| dist2(p, center) < radius * radius)
+            lattice_of(&lo, &hi, &|p| dist2(p, center) < radius * radius)?
         }
         Shape::Ring {
             center,
@@ -107,7 +116,7 @@ fn sample<D: Dim>(
             lattice_of(&lo, &hi, &|p| {
                 let r2 = dist2(p, center);
                 r2 >= inner_radius * inner_radius && r2 < outer_radius * outer_radius
-            })
+            })?
         }
         Shape::Cylinder {
             base,
@@ -131,7 +140,7 @@ fn sample<D: Dim>(
                     .map(|k| (p[k] - base[k]).powi(2))
                     .sum();
                 r2 >= inner_radius * inner_radius && r2 <= radius * radius
-            })
+            })?
         }
         Shape::Points { file } => {
             let path = case.base_dir().join(file);
@@ -156,16 +165,37 @@ fn dist2(p: &[f64], c: &[f64]) -> f64 {
     p.iter().zip(c).map(|(a, b)| (a - b).powi(2)).sum()
 }
 
-/// Points lo + i·Δx (per axis, i = 0, 1, … while ≤ hi, with a 1e-9 relative tolerance so
-/// that an end point on the bound is kept) that satisfy `inside`.
-fn lattice<D: Dim>(lo: &[f64], hi: &[f64], dx: f64, inside: &dyn Fn(&[f64]) -> bool) -> Vec<D::V> {
-    let n: Vec<usize> = (0..D::N)
-        .map(|k| ((hi[k] - lo[k]) / dx + 1e-9).floor() as usize + 1)
-        .collect();
-    let total: usize = n.iter().product();
+/// Lattice points per axis from lo to hi at spacing Δx (i = 0, 1, … while lo + i·Δx ≤ hi,
+/// with a 1e-9 relative tolerance so that an end point on the bound is kept), in f64 so
+/// that a spacing far below the shape (1e-300) gives a huge count, never a wrapped one;
+/// zero on an axis where hi < lo.
+fn lattice_counts(lo: &[f64], hi: &[f64], dx: f64) -> Vec<f64> {
+    lo.iter()
+        .zip(hi)
+        .map(|(l, h)| ((h - l) / dx + 1e-9).floor().max(-1.0) + 1.0)
+        .collect()
+}
+
+/// The most particles a case may have: ids are u32 on both backends.
+pub const PARTICLE_ID_LIMIT: f64 = u32::MAX as f64;
+
+/// Points lo + i·Δx (see [`lattice_counts`]) that satisfy `inside`. Err: the lattice
+/// has more points than particle ids hold.
+fn lattice<D: Dim>(
+    lo: &[f64],
+    hi: &[f64],
+    dx: f64,
+    inside: &dyn Fn(&[f64]) -> bool,
+) -> Result<Vec<D::V>, f64> {
+    let counts = lattice_counts(&lo[..D::N], &hi[..D::N], dx);
+    let total: f64 = counts.iter().product();
+    if total > PARTICLE_ID_LIMIT {
+        return Err(total);
+    }
+    let n: Vec<usize> = counts.iter().map(|&c| c as usize).collect();
     let mut points = Vec::new();
     let mut p = vec![0.0; D::N];
-    for flat in 0..total {
+    for flat in 0..total as usize {
         let mut rest = flat;
         for k in 0..D::N {
             p[k] = lo[k] + (rest % n[k]) as f64 * dx;
@@ -175,24 +205,124 @@ fn lattice<D: Dim>(lo: &[f64], hi: &[f64], dx: f64, inside: &dyn Fn(&[f64]) -> b
             points.push(D::from_slice(&p));
         }
     }
-    points
+    Ok(points)
+}
+
+/// The size of a body, estimated without sampling it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BodySize {
+    /// Its particles: the lattice points of its bounding box times the fraction of the
+    /// box the shape fills (exact for a box; π/4 of the box for a disk), or the data rows
+    /// of a points file (counted, not parsed).
+    pub particles: f64,
+    /// The lattice points the sampler visits to find them (its bounding box's).
+    pub visited: f64,
+}
+
+/// The size of each body of a case. In f64: a spacing of 1e-300 gives 1e600 → ∞, never
+/// a wrapped count.
+pub fn estimate_particles(case: &Case) -> Result<Vec<BodySize>, CaseError> {
+    let dx = case.spacing;
+    let half = 0.5 * dx;
+    let box_of = |lo: &[f64], hi: &[f64]| -> f64 { lattice_counts(lo, hi, dx).iter().product() };
+    let annulus =
+        |inner: f64, outer: f64| std::f64::consts::FRAC_PI_4 * (1.0 - (inner / outer).powi(2));
+    let size = |visited: f64, fraction: f64| {
+        // ∞ · 0 (an infinite lattice of a zero fraction) counts as ∞.
+        let particles = visited * fraction;
+        BodySize {
+            particles: if particles.is_nan() {
+                f64::INFINITY
+            } else {
+                particles
+            },
+            visited,
+        }
+    };
+    case.bodies
+        .iter()
+        .enumerate()
+        .map(|(b, spec)| {
+            Ok(match &spec.geometry {
+                Shape::Box {
+                    min,
+                    max,
+                    lattice: Lattice::CellCentred,
+                    ..
+                } => {
+                    let lo: Vec<f64> = min.iter().map(|m| m + half).collect();
+                    let hi: Vec<f64> = max.iter().map(|m| m - half).collect();
+                    size(box_of(&lo, &hi), 1.0)
+                }
+                Shape::Box { min, max, .. } => size(box_of(min, max), 1.0),
+                Shape::Disk { center, radius } => {
+                    let (lo, hi) = around(center, *radius);
+                    size(box_of(&lo, &hi), annulus(0.0, *radius))
+                }
+                Shape::Ring {
+                    center,
+                    inner_radius,
+                    outer_radius,
+                } => {
+                    let (lo, hi) = around(center, *outer_radius);
+                    size(box_of(&lo, &hi), annulus(*inner_radius, *outer_radius))
+                }
+                Shape::Cylinder {
+                    base,
+                    axis,
+                    radius,
+                    inner_radius,
+                    length,
+                    ..
+                } => {
+                    let a = axis.index();
+                    let (mut lo, mut hi) = around(base, *radius);
+                    lo[a] = base[a];
+                    hi[a] = base[a] + length;
+                    size(box_of(&lo, &hi), annulus(*inner_radius, *radius))
+                }
+                Shape::Points { file } => {
+                    let path = case.base_dir().join(file);
+                    let rows = count_point_rows(&path).map_err(|m| {
+                        case.invalid(
+                            format!("body.{b}.geometry.file"),
+                            format!("{}: {m}", path.display()),
+                        )
+                    })? as f64;
+                    size(rows, 1.0)
+                }
+            })
+        })
+        .collect()
 }
 
 /// The largest points file read [bytes]: 1 GiB, about 15 million rows of x, y, z and a
 /// volume.
 const POINTS_FILE_CAP: u64 = 1 << 30;
 
-/// A points file as text: a regular file (not a device, pipe or folder) of at most
-/// [`POINTS_FILE_CAP`] bytes.
-fn read_points_file(path: &Path) -> Result<String, String> {
-    use std::io::Read;
+/// A points file that may be read: a regular file (not a device, pipe or folder) of at
+/// most [`POINTS_FILE_CAP`] bytes.
+fn open_points_file(path: &Path) -> Result<std::fs::File, String> {
     let meta = std::fs::metadata(path).map_err(|e| format!("cannot read: {e}"))?;
     if !meta.is_file() {
         return Err("is not a regular file; give a CSV file of points".into());
     }
+    if meta.len() > POINTS_FILE_CAP {
+        return Err(format!(
+            "is larger than {POINTS_FILE_CAP} bytes, the most a points file may hold"
+        ));
+    }
+    std::fs::File::open(path).map_err(|e| format!("cannot read: {e}"))
+}
+
+/// A points file as text (see [`open_points_file`]); at most the cap is read, should the
+/// file grow after its size was checked.
+fn read_points_file(path: &Path) -> Result<String, String> {
+    use std::io::Read;
     let mut text = String::new();
-    std::fs::File::open(path)
-        .and_then(|f| f.take(POINTS_FILE_CAP + 1).read_to_string(&mut text))
+    open_points_file(path)?
+        .take(POINTS_FILE_CAP + 1)
+        .read_to_string(&mut text)
         .map_err(|e| format!("cannot read as UTF-8 text: {e}"))?;
     if text.len() as u64 > POINTS_FILE_CAP {
         return Err(format!(
@@ -200,6 +330,35 @@ fn read_points_file(path: &Path) -> Result<String, String> {
         ));
     }
     Ok(text)
+}
+
+/// The data rows of a points file (its non-empty lines after the header), counted in
+/// chunks without holding the file.
+fn count_point_rows(path: &Path) -> Result<u64, String> {
+    use std::io::Read;
+    let mut file = open_points_file(path)?.take(POINTS_FILE_CAP + 1);
+    let mut chunk = vec![0u8; 1 << 16];
+    let (mut rows, mut blank) = (0u64, true);
+    loop {
+        let read = file
+            .read(&mut chunk)
+            .map_err(|e| format!("cannot read: {e}"))?;
+        if read == 0 {
+            break;
+        }
+        for &byte in &chunk[..read] {
+            match byte {
+                b'\n' => {
+                    rows += u64::from(!blank);
+                    blank = true;
+                }
+                b' ' | b'\t' | b'\r' => {}
+                _ => blank = false,
+            }
+        }
+    }
+    rows += u64::from(!blank);
+    Ok(rows.saturating_sub(1))
 }
 
 /// Reads `x,y[,z][,volume]` rows (header required, any column order). Without a volume

@@ -7,7 +7,7 @@ mod geometry;
 mod overrides;
 pub(crate) mod validate;
 
-pub use geometry::{Discretised, discretise};
+pub use geometry::{BodySize, Discretised, PARTICLE_ID_LIMIT, discretise, estimate_particles};
 
 use crate::material::MaterialModel;
 use crate::methods::{MethodTable, drop_foreign_keys};
@@ -292,6 +292,10 @@ pub struct RunSpec {
     /// (a collapse of the step: the run would crawl rather than end).
     #[serde(default)]
     pub min_step_ratio: Option<f64>,
+    /// Simulated time between checkpoints [s] (`checkpoint.bin` in the output folder,
+    /// from which `--resume` continues); absent: none.
+    #[serde(default)]
+    pub checkpoint_interval: Option<f64>,
 }
 
 fn default_energy_growth() -> f64 {
@@ -468,6 +472,14 @@ impl Case {
         crate::kernel::Kernel::new(self.method.kernel, self.smoothing_length(), dim)
     }
 
+    /// A hash of everything in the case but its end time: a checkpoint of a run of this
+    /// case, or of the same case run longer, has it.
+    pub fn fingerprint(&self) -> u64 {
+        let mut case = self.clone();
+        case.run.end_time = 0.0;
+        fnv1a(toml::to_string(&case).unwrap_or_default().as_bytes())
+    }
+
     /// Folder that relative paths in the case are resolved against.
     pub fn base_dir(&self) -> &Path {
         self.file.parent().unwrap_or(Path::new("."))
@@ -481,4 +493,11 @@ impl Case {
             message: message.into(),
         }
     }
+}
+
+/// 64-bit FNV-1a: a hash that stays the same across Rust versions and platforms.
+pub fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
+    })
 }

@@ -686,6 +686,9 @@ fn region(r: &Region, key: &str, bodies: &[BodySpec], dim: usize) -> Checked {
 
 fn run(r: &RunSpec, m: &MethodTable) -> Checked {
     positive("run.end_time", r.end_time)?;
+    if let Some(interval) = r.checkpoint_interval {
+        positive("run.checkpoint_interval", interval)?;
+    }
     if let Some(eta) = r.hourglass_limit {
         positive("run.hourglass_limit", eta)?;
     }

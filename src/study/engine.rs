@@ -6,7 +6,9 @@ use super::fields::FinalState;
 use crate::methods::BlowUp;
 use crate::observe::{Invariants, Snapshot};
 use crate::output::RunSummary;
-use crate::run::{Backend, Engine, EngineDim, Failed, RunError, RunOptions, drive, engine};
+use crate::run::{
+    Backend, Engine, EngineDim, Failed, RunError, RunOptions, budget, drive, engine, may_use_gpu,
+};
 use crate::scene::Case;
 use crate::tensor::{D2, D3, Dim};
 use std::marker::PhantomData;
@@ -120,6 +122,12 @@ impl<D: Dim, E: Engine<D>> Engine<D> for Tracked<'_, D, E> {
     fn finish(&mut self) {
         self.inner.finish()
     }
+    fn save(&mut self) -> Vec<f64> {
+        self.inner.save()
+    }
+    fn restore(&mut self, words: &[f64]) -> Result<(), String> {
+        self.inner.restore(words)
+    }
 }
 
 /// What one run produced.
@@ -155,6 +163,9 @@ fn failed(error: RunError) -> Outcome {
 
 fn run_dim<D: EngineDim>(case: &Case, backend: Backend, opts: &RunOptions) -> Outcome {
     let started = Instant::now();
+    if let Err(e) = budget::check(case, may_use_gpu(case, backend), &opts.limits) {
+        return failed(e.into());
+    }
     match engine::<D>(case, backend) {
         Ok(mut engine) => drive_tracked(case, opts, &mut engine, started),
         Err(e) => failed(e),

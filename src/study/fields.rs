@@ -66,9 +66,7 @@ impl FinalState {
 
     /// Writes the state as CSV (x, y, z, volume, v, P row by row), digits that round-trip.
     pub fn write_csv(&self, path: &Path) -> std::io::Result<()> {
-        let tmp = path.with_extension("csv.tmp");
-        {
-            let mut w = std::io::BufWriter::new(std::fs::File::create(&tmp)?);
+        crate::output::write_atomically(path, |w| {
             writeln!(w, "dim,{}", self.dim)?;
             for i in 0..self.x0.len() {
                 let mut row: Vec<f64> = self.x0[i].to_vec();
@@ -78,9 +76,8 @@ impl FinalState {
                 let text: Vec<String> = row.iter().map(|x| format!("{x:e}")).collect();
                 writeln!(w, "{}", text.join(","))?;
             }
-            w.flush()?;
-        }
-        std::fs::rename(tmp, path)
+            Ok(())
+        })
     }
 
     pub fn read_csv(path: &Path) -> std::io::Result<Self> {

@@ -22,6 +22,9 @@ use engine::{Outcome, run_case};
 use fields::{FinalState, analytic_fields, axial_stress, matched_fields, relative_l2};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
 use suite::{AnalyticSolution, BackendName, PlannedRun};
 
 /// How a study runs.
@@ -33,7 +36,14 @@ pub struct StudyOptions {
     pub resume: bool,
     /// Progress bar on the terminal.
     pub progress: bool,
+    /// Wall time after which a run is stopped (after its current batch of steps) and
+    /// recorded as an error; the study goes on.
+    pub run_time_limit: Duration,
 }
+
+/// The default per-run wall-time limit: half an hour (the longest run of the published
+/// report takes about two minutes on 2 cores).
+pub const RUN_TIME_LIMIT: Duration = Duration::from_secs(1800);
 
 /// What a study did.
 #[derive(Clone, Debug)]
@@ -117,7 +127,8 @@ pub fn run_suite(suite: &Suite, opts: &StudyOptions) -> std::io::Result<StudyOut
     let mut files = vec![results];
     files.extend(plot::plots(suite, &records, &opts.out_dir)?);
     let md = opts.out_dir.join("results.md");
-    std::fs::write(&md, report::suite_section(suite, &records, &[], 3))?;
+    let section = report::suite_section(suite, &records, &[], 3);
+    crate::output::write_atomically(&md, |w| std::io::Write::write_all(w, section.as_bytes()))?;
     files.push(md);
     Ok(StudyOutcome {
         records,
@@ -220,11 +231,15 @@ fn execute(
         },
         progress: false,
         frames: false,
-        stop: None,
+        stop: Some(Arc::new(AtomicBool::new(false))),
+        limits: Default::default(),
+        resume: false,
     };
-    let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        run_case(case, run_opts.backend, &run_opts)
-    }));
+    let (outcome, timed_out) = within_time_limit(opts.run_time_limit, &run_opts, || {
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            run_case(case, run_opts.backend, &run_opts)
+        }))
+    });
     let Outcome {
         result,
         wall_seconds,
@@ -284,9 +299,36 @@ fn execute(
                 quantity: cause.quantity.clone(),
             };
         }
+        Err(RunError::Interrupted { step, time, .. }) if timed_out => {
+            record.steps = step;
+            record.reason = format!(
+                "stopped at the per-run wall-time limit of {} s, at step {step}, t = {time:e} s",
+                opts.run_time_limit.as_secs_f64()
+            );
+        }
         Err(e) => record.reason = e.to_string(),
     }
     (record, state)
+}
+
+/// Runs `run` with a watchdog that sets the stop flag of `opts` once `limit` has passed
+/// (the driver then ends the run after its current batch of steps); returns its result
+/// and whether the watchdog fired.
+fn within_time_limit<T>(limit: Duration, opts: &RunOptions, run: impl FnOnce() -> T) -> (T, bool) {
+    let Some(stop) = opts.stop.clone() else {
+        return (run(), false);
+    };
+    let (done, finished) = std::sync::mpsc::channel::<()>();
+    let watchdog = std::thread::spawn(move || {
+        let fired = finished.recv_timeout(limit) == Err(std::sync::mpsc::RecvTimeoutError::Timeout);
+        if fired {
+            stop.store(true, Ordering::Relaxed);
+        }
+        fired
+    });
+    let result = run();
+    drop(done);
+    (result, watchdog.join().unwrap_or(false))
 }
 
 /// Velocity and stress errors of a final state against the suite's reference (NaN where
@@ -360,6 +402,7 @@ pub fn run_suites(
     progress: bool,
     report: Option<&Path>,
     command: &str,
+    run_time_limit: Duration,
 ) -> Result<Vec<(Suite, StudyOutcome)>, StudyError> {
     let suites = paths
         .iter()
@@ -371,6 +414,7 @@ pub fn run_suites(
             out_dir: out_root.join(&suite.name),
             resume,
             progress,
+            run_time_limit,
         };
         let outcome = run_suite(&suite, &opts)?;
         done.push((suite, outcome));

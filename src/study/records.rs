@@ -263,17 +263,14 @@ pub fn read(path: &Path) -> std::io::Result<Vec<RunRecord>> {
 
 /// Writes all records to `path` through a temporary file and a rename.
 pub fn write(path: &Path, records: &[RunRecord]) -> std::io::Result<()> {
-    let tmp = path.with_extension("csv.tmp");
-    {
-        let mut w = std::io::BufWriter::new(std::fs::File::create(&tmp)?);
+    crate::output::write_atomically(path, |w| {
         writeln!(w, "{}", HEADER.join(","))?;
         for r in records {
             let fields: Vec<String> = r.to_fields().iter().map(|s| field(s)).collect();
             writeln!(w, "{}", fields.join(","))?;
         }
-        w.flush()?;
-    }
-    std::fs::rename(tmp, path)
+        Ok(())
+    })
 }
 
 /// CPU model and thread count of this machine, for the record.

@@ -487,7 +487,5 @@ pub fn write_report(
              speed. `meshless bench` measures a hardware adapter."
         );
     }
-    let tmp = path.with_extension("md.tmp");
-    std::fs::write(&tmp, s)?;
-    std::fs::rename(tmp, path)
+    crate::output::write_atomically(path, |w| std::io::Write::write_all(w, s.as_bytes()))
 }

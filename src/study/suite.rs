@@ -338,9 +338,4 @@ fn number(v: &Value) -> f64 {
     }
 }
 
-/// 64-bit FNV-1a: a hash that stays the same across Rust versions and platforms.
-pub fn fnv1a(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
-        (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
-    })
-}
+pub use crate::scene::fnv1a;

@@ -74,6 +74,8 @@ pub fn cpu_options(dir: &Path, frames: bool) -> RunOptions {
         progress: false,
         frames,
         stop: None,
+        limits: Default::default(),
+        resume: false,
     }
 }
 

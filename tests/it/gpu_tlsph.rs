@@ -299,9 +299,17 @@ fn reductions_match_the_cpu() {
 fn values_beyond_f32_are_refused_with_their_key() {
     // Valid in f64, not in the f32 of the device: E = 1e39 Pa (μ = 3.6e38 > 3.4e38), a
     // density of 1e-46 (below the smallest normal f32), a spacing of 1e154 and a velocity
-    // of 1e39 m/s. Each is a case error naming the key, before anything reaches the
-    // device.
+    // of 1e39 m/s; and values the run reaches: a fixed Δt of 1e-40 s (subnormal in
+    // f32), a prescribed velocity of 1e39 m/s, a traction of 1e45 Pa (an acceleration of
+    // 2e46 m/s² on the strip's particles of 2.5e-3 kg). Each is a case error naming the
+    // key and the CPU backend, before anything reaches the device.
     for (set, key) in [
+        ("method.dt=1e-40", "method.dt"),
+        ("boundary.1.condition.vx=1e39", "boundary.1.condition.vx"),
+        (
+            "boundary.0.condition={ type = \"traction\", traction = [1e45, 0.0] }",
+            "boundary.0.condition.traction",
+        ),
         ("material.youngs_modulus=1e39", "material.youngs_modulus"),
         ("material.density=1e-46", "material.density"),
         ("spacing=1e154", "spacing"),
@@ -323,10 +331,19 @@ fn values_beyond_f32_are_refused_with_their_key() {
             Ok(_) => panic!("{set}: accepted on the GPU"),
         }
     }
-    // The mixed engine checks the same way.
-    let plate = load("swinging-plate", &["material.youngs_modulus=1e39"]);
-    assert!(matches!(
-        meshless::methods::mixed::GpuMixed::<D2>::new(&plate, gpu()),
-        Err(meshless::gpu::SetupError::Case(_))
-    ));
+    // The mixed engine checks the same way: its constants, and a CFL step α Δx / c_p of
+    // 1e-37 · 0.0625 m / c_p, below the smallest normal f32.
+    for (set, key) in [
+        ("material.youngs_modulus=1e39", "material.youngs_modulus"),
+        ("method.cfl=1e-37", "method.cfl"),
+    ] {
+        let plate = load("swinging-plate", &[set]);
+        match meshless::methods::mixed::GpuMixed::<D2>::new(&plate, gpu()) {
+            Err(meshless::gpu::SetupError::Case(e)) => {
+                assert!(e.to_string().contains(&format!("key `{key}`")), "{e}")
+            }
+            Err(e) => panic!("{set}: not a case error: {e}"),
+            Ok(_) => panic!("{set}: accepted on the GPU"),
+        }
+    }
 }

@@ -8,6 +8,7 @@
 //! feature are compiled only with it (both are on by default).
 
 mod case_errors;
+mod checkpoint;
 mod common;
 mod contact;
 mod corotated_tlsph;
@@ -21,6 +22,7 @@ mod gpu_tlsph;
 #[cfg(feature = "gpu")]
 mod gpu_ul;
 mod gray_monaghan;
+mod hostile;
 #[cfg(feature = "study")]
 mod mixed;
 mod registry;

@@ -352,6 +352,49 @@ fn an_output_error_names_the_path() {
     assert!(shown.contains("--out"), "{shown}");
 }
 
+#[cfg(unix)]
+#[test]
+fn outputs_replace_planted_symlinks_and_never_write_through_them() {
+    // Symlinks to files outside --out planted as every file a run writes (the series, the
+    // summary, the index, a frame) and as the fixed temporary names of earlier versions:
+    // after the run every target holds what it held, and the run's files are its own.
+    let outside = tempfile::tempdir().unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let names = [
+        "series.csv",
+        "summary.json",
+        "tensile-strip.pvd",
+        "tensile-strip_000000.vtu",
+        "series.csv.tmp",
+        "summary.json.tmp",
+        "tensile-strip.pvd.tmp",
+    ];
+    for (k, name) in names.iter().enumerate() {
+        let target = outside.path().join(format!("target-{k}"));
+        std::fs::write(&target, format!("precious {k}")).unwrap();
+        std::os::unix::fs::symlink(&target, dir.path().join(name)).unwrap();
+    }
+    let case = load("tensile-strip", &["run.end_time=2e-6"]);
+    run(&case, &cpu_options(dir.path(), true)).unwrap();
+    for k in 0..names.len() {
+        let target = outside.path().join(format!("target-{k}"));
+        assert_eq!(
+            std::fs::read_to_string(target).unwrap(),
+            format!("precious {k}")
+        );
+    }
+    for name in &names[..4] {
+        let meta = std::fs::symlink_metadata(dir.path().join(name)).unwrap();
+        assert!(meta.is_file(), "{name} is not the run's own file");
+    }
+    let series = std::fs::read_to_string(dir.path().join("series.csv")).unwrap();
+    assert_eq!(
+        series.lines().count(),
+        3,
+        "header and the rows at t = 0 and the end: {series}"
+    );
+}
+
 #[test]
 fn bench_sizes_keep_the_regions_of_a_case() {
     // The strip's grips select the lattice rows at x = 0 and x = 1 (20 spacings apart):
@@ -449,6 +492,7 @@ fn check_builds_a_case_without_running_it() {
         String::from_utf8_lossy(&ok.stderr)
     );
     assert_eq!(stdout.matches(": ok (").count(), 2, "{stdout}");
+    assert_eq!(stdout.matches("GiB on the CPU").count(), 2, "{stdout}");
     let bad = Command::new(exe)
         .args(["check", "tensile-strip", "--backend", "cpu"])
         .args(["--set", "boundary.1.region.x_min=5.0"])
@@ -458,6 +502,46 @@ fn check_builds_a_case_without_running_it() {
     let stderr = String::from_utf8_lossy(&bad.stderr);
     assert_eq!(bad.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("key `boundary.1.region`"), "{stderr}");
+}
+
+#[test]
+fn runs_that_would_not_fit_or_never_end_are_refused_at_once() {
+    // The inputs that grew to 4 GB and aborted (spacing 1e-6), wrapped the particle count
+    // to zero (1e-300) or ran forever (Δt = 1e-300, an end time of 1e300, CFL 1e-12):
+    // each exits with 2 and the key within seconds, before a file is written; a cap
+    // given on the command line is obeyed (the strip's 441 particles over 400).
+    let exe = env!("CARGO_BIN_EXE_meshless");
+    let dir = tempfile::tempdir().unwrap();
+    for (args, key) in [
+        (&["--set", "spacing=1e-6"][..], "spacing"),
+        (&["--set", "spacing=1e-300"], "spacing"),
+        (&["--set", "method.dt=1e-300"], "method.dt"),
+        (&["--set", "run.end_time=1e300"], "run.end_time"),
+        (
+            &["--set", "method.dt=", "--set", "method.cfl=1e-12"],
+            "method.cfl",
+        ),
+        (&["--max-particles", "400"], "spacing"),
+        (&["--max-steps", "1000"], "run.end_time"),
+    ] {
+        let started = std::time::Instant::now();
+        let out = Command::new(exe)
+            .args(["run", "tensile-strip", "--backend", "cpu", "-q", "--out"])
+            .arg(dir.path())
+            .args(args)
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(
+            stderr.contains(&format!("key `{key}`")),
+            "{args:?}: {stderr}"
+        );
+        // Seconds of process start-up on a loaded machine, not the hours of the run.
+        assert!(started.elapsed().as_secs() < 30, "{args:?}");
+        assert!(!dir.path().join("summary.json").exists(), "{args:?}");
+    }
 }
 
 #[test]

@@ -7,7 +7,7 @@ use meshless::material::Material;
 use meshless::scene::Case;
 use meshless::study::fields::{FinalState, analytic_fields, matched_fields, relative_l2};
 use meshless::study::suite::{AnalyticSolution, TimeMeasure};
-use meshless::study::{Status, StudyOptions, Suite, records, report, run_suite};
+use meshless::study::{RUN_TIME_LIMIT, Status, StudyOptions, Suite, records, report, run_suite};
 use std::path::PathBuf;
 
 fn studies() -> PathBuf {
@@ -135,6 +135,7 @@ fn a_blow_up_is_recorded_and_the_study_goes_on_then_resumes_without_redoing() {
         out_dir: dir.path().to_path_buf(),
         resume: true,
         progress: false,
+        run_time_limit: RUN_TIME_LIMIT,
     };
     let first = run_suite(&suite, &opts).unwrap();
     let n = suite.variants.len() * suite.sweep.values.len();
@@ -292,4 +293,53 @@ fn shipped_suites_load_and_plan_valid_cases() {
         count += 1;
     }
     assert!(count >= 6, "{count} suites");
+}
+
+#[test]
+fn a_run_past_the_estimate_or_the_time_limit_is_recorded_and_the_study_goes_on() {
+    // One sweep value asks for ~1e600 particles (spacing 1e-300): refused by the resource
+    // estimate before anything is allocated, recorded as an error naming `spacing`; the
+    // other value runs. With a zero wall-time limit the same runnable value is stopped
+    // after its first batch and recorded as such.
+    let dir = tempfile::tempdir().unwrap();
+    let mut suite = ci_suite();
+    suite.variants.truncate(2);
+    suite.variants.remove(0);
+    suite.sweep.values = vec![toml::Value::Float(1e-300), toml::Value::Float(0.2)];
+    let opts = StudyOptions {
+        out_dir: dir.path().to_path_buf(),
+        resume: false,
+        progress: false,
+        run_time_limit: RUN_TIME_LIMIT,
+    };
+    let done = run_suite(&suite, &opts).unwrap();
+    let [tiny, ok] = &done.records[..] else {
+        panic!("{:?}", done.records)
+    };
+    assert_eq!(tiny.status, Status::Error);
+    assert!(
+        tiny.reason.contains("key `spacing`") && tiny.reason.contains("--max-particles"),
+        "{}",
+        tiny.reason
+    );
+    assert_eq!(ok.status, Status::Ok, "{}", ok.reason);
+
+    let hurried = StudyOptions {
+        run_time_limit: std::time::Duration::ZERO,
+        ..opts
+    };
+    let done = run_suite(&suite, &hurried).unwrap();
+    let stopped = &done.records[1];
+    assert_eq!(stopped.status, Status::Error);
+    assert!(
+        stopped.reason.contains("wall-time limit of 0 s"),
+        "{}",
+        stopped.reason
+    );
+    assert!(
+        stopped.steps < ok.steps,
+        "{} of {}",
+        stopped.steps,
+        ok.steps
+    );
 }

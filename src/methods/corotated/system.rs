@@ -13,7 +13,7 @@ use crate::boundary::Boundary;
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::material::Material;
-use crate::methods::shared::{BlowUp, MIN_CHUNK, Method, reference_gradients};
+use crate::methods::shared::{BlowUp, MIN_CHUNK, Method, ordered_reduce, reference_gradients};
 use crate::methods::tlsph::{ArtificialViscosity, TlState, system as tl};
 use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::Csr;
@@ -281,11 +281,12 @@ impl<D: Dim> Corotated<D> {
                 out
             })
             .collect();
-        let strain_energy = kin
-            .par_iter()
-            .zip(&self.vol)
-            .map(|(k, v)| v * mat.energy_density::<D>(k.f_hat, D::zero_t(), mat.rho0))
-            .sum();
+        let strain_energy = ordered_reduce(
+            kin.len(),
+            || 0.0,
+            |a| self.vol[a] * mat.energy_density::<D>(kin[a].f_hat, D::zero_t(), mat.rho0),
+            |x, y| x + y,
+        );
         Snapshot {
             x0: &self.x0,
             mass: &self.mass,

@@ -23,7 +23,7 @@ use crate::gpu::shaders::{
     self, BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, MECHANICS, PLASTICITY, REFERENCE, Source,
     Wgsl, source, wgsl,
 };
-use crate::gpu::{SetupError, check_f32_particles, check_f32_range};
+use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
 use crate::integrate::IntegratorKind;
 use crate::integrate::{Buf, Evaluation, evaluations};
 use crate::interaction::gpu::GpuInteractions;
@@ -457,6 +457,7 @@ impl<D: GpuDim> GpuMixed<D> {
         let cpu: MixedSph<D> = build_method(case)?;
         let (layout, constants) = scene(case, &cpu);
         check_f32_range(case, &constants)?;
+        check_f32_run(case, cpu.boundary())?;
         check_f32_particles::<D>(case, cpu.reference(), &cpu.initial_state().v, cpu.body())?;
         let compose = |s: &Source| shaders::compose::<D>(s, &constants);
         let (n, ng) = (layout.n, layout.ghosts);
@@ -873,6 +874,23 @@ impl<D: GpuDim> Engine<D> for GpuMixed<D> {
 
     fn finish(&mut self) {
         self.gpu.wait();
+    }
+
+    /// The work balance, the state buffer and the plastic history (f32).
+    fn save(&mut self) -> Vec<f64> {
+        let buffers = [self.stepper.buffer(Buf::Y), &self.hist];
+        crate::gpu::save_buffers(&self.gpu, &self.work, &buffers)
+    }
+
+    fn restore(&mut self, words: &[f64]) -> Result<(), String> {
+        let buffers = [
+            ("state", self.stepper.buffer(Buf::Y)),
+            ("plastic history", &self.hist),
+        ];
+        self.work = crate::gpu::load_buffers(&self.gpu, words, &buffers)?;
+        self.stepper.state_replaced();
+        self.reduction.invalidate();
+        Ok(())
     }
 
     fn snapshot(&mut self) -> Snapshot<'_, D> {

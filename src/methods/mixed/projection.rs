@@ -1,6 +1,6 @@
 //! The angular-momentum-preserving projection of seed 003 Appendix B.
 
-use crate::methods::shared::MIN_CHUNK;
+use crate::methods::shared::{MIN_CHUNK, ordered_reduce};
 use crate::tensor::Dim;
 use rayon::prelude::*;
 
@@ -26,15 +26,17 @@ impl<'a, D: Dim> Balance<'a, D> {
             .zip(vol)
             .fold(D::zero(), |c, (&x, &v)| c + x * v)
             * (1.0 / total_vol);
-        let inertia = (0..points.len())
-            .into_par_iter()
-            .map(|a| {
+        let inertia = ordered_reduce(
+            points.len(),
+            || glam::DMat3::ZERO,
+            |a| {
                 let r = glam::DVec3::from_array(D::to3(points[a] - centroid));
                 (glam::DMat3::IDENTITY * r.length_squared()
                     - glam::DMat3::from_cols(r * r.x, r * r.y, r * r.z))
                     * vol[a]
-            })
-            .reduce(|| glam::DMat3::ZERO, |x, y| x + y);
+            },
+            |x, y| x + y,
+        );
         let inertia_inv = if D::N == 2 {
             glam::DMat3::from_diagonal(glam::DVec3::new(0.0, 0.0, 1.0 / inertia.z_axis.z))
         } else {
@@ -52,16 +54,15 @@ impl<'a, D: Dim> Balance<'a, D> {
     /// Projects f in place.
     pub fn project(&self, f: &mut [D::V]) {
         let (points, vol, c) = (self.points, self.vol, self.centroid);
-        let (net, moment) = (0..f.len())
-            .into_par_iter()
-            .map(|a| {
+        let (net, moment) = ordered_reduce(
+            f.len(),
+            || (D::zero(), glam::DVec3::ZERO),
+            |a| {
                 let m = glam::DVec3::from_array(D::cross3(points[a] - c, f[a]));
                 (f[a] * vol[a], m * vol[a])
-            })
-            .reduce(
-                || (D::zero(), glam::DVec3::ZERO),
-                |x, y| (x.0 + y.0, x.1 + y.1),
-            );
+            },
+            |x, y| (x.0 + y.0, x.1 + y.1),
+        );
         let mu = net * (-1.0 / self.total_vol);
         let lambda = -(self.inertia_inv * moment);
         f.par_iter_mut()

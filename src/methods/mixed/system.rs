@@ -21,7 +21,8 @@ use crate::interaction::Interactions;
 use crate::material::Material;
 use crate::methods::not_run_by;
 use crate::methods::shared::{
-    BlowUp, MIN_CHUNK, Method, check_motion, neighbour_radius, particle_state, reference_gradients,
+    BlowUp, MIN_CHUNK, Method, check_motion, load_field, neighbour_radius, ordered_reduce,
+    particle_state, reference_gradients, save_field,
 };
 use crate::mirror::Ghosts;
 use crate::neighbour::{self, Csr};
@@ -842,17 +843,19 @@ impl<D: Dim> Method<D> for MixedSph<D> {
 
     fn strain_energy(&self, y: &MixedState<D>) -> f64 {
         let u_ext = self.extended_displacement(&y.u);
-        (0..self.n)
-            .into_par_iter()
-            .map(|a| {
+        ordered_reduce(
+            self.n,
+            || 0.0,
+            |a| {
                 let (f, _, j) = self.stress_arguments(y, a, &u_ext);
                 self.vol[a]
                     * match self.returned(a, f) {
                         Some(r) => r.psi,
                         None => self.material.energy_density_mixed::<D>(f, j),
                     }
-            })
-            .sum()
+            },
+            |x, y| x + y,
+        )
     }
 
     fn snapshot<'a>(&'a self, y: &MixedState<D>) -> Snapshot<'a, D> {
@@ -901,6 +904,22 @@ impl<D: Dim> Method<D> for MixedSph<D> {
         }
         if let Some(i) = y.j.par_iter().position_first(|j| !j.is_finite()) {
             return Err(self.blow_up(i, "J", y.j[i]));
+        }
+        Ok(())
+    }
+
+    /// The plastic history C_p⁻¹, ε_p of a `von-mises-plastic` material.
+    fn save_history(&self, out: &mut Vec<f64>) {
+        if let Some(pl) = &self.plastic {
+            save_field(&pl.cp_inv, out);
+            save_field(&pl.eps_p, out);
+        }
+    }
+
+    fn load_history(&mut self, words: &mut &[f64]) -> Result<(), String> {
+        if let Some(pl) = self.plastic.as_mut() {
+            load_field(&mut pl.cp_inv, "C_p⁻¹", words)?;
+            load_field(&mut pl.eps_p, "ε_p", words)?;
         }
         Ok(())
     }

@@ -18,7 +18,7 @@ use crate::gpu::shaders::{
     self, BOUNDARY, CONTACT, CORRECTION, Constants, INTEGRATE, MECHANICS, PAIR_OFFSETS, REFERENCE,
     Source, Wgsl, source, wgsl,
 };
-use crate::gpu::{SetupError, check_f32_particles, check_f32_range};
+use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
 use crate::integrate::Buf;
 use crate::interaction::Interactions;
 use crate::interaction::gpu::GpuInteractions;
@@ -208,6 +208,7 @@ impl<D: GpuDim> GpuTlsph<D> {
             return Err(not_run_by(case, "GpuTlsph").into());
         }
         let disc = Reference::<D>::build(case)?;
+        check_f32_run(case, &disc.boundary)?;
         check_f32_particles::<D>(case, &disc.x0, &disc.v0, &disc.body)?;
         let n = disc.len();
         let csr = disc.neighbours();
@@ -540,6 +541,19 @@ impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
 
     fn finish(&mut self) {
         self.gpu.wait();
+    }
+
+    /// The work balance and the state buffer (f32).
+    fn save(&mut self) -> Vec<f64> {
+        crate::gpu::save_buffers(&self.gpu, &self.work, &[self.stepper.buffer(Buf::Y)])
+    }
+
+    fn restore(&mut self, words: &[f64]) -> Result<(), String> {
+        let y = [("state", self.stepper.buffer(Buf::Y))];
+        self.work = crate::gpu::load_buffers(&self.gpu, words, &y)?;
+        self.stepper.state_replaced();
+        self.reduction.invalidate();
+        Ok(())
     }
 
     fn snapshot(&mut self) -> Snapshot<'_, D> {

@@ -1,0 +1,327 @@
+//! The resources a run needs, estimated from the case before anything is allocated: the
+//! particle count, the neighbour pairs, the memory of each backend and the step count;
+//! a run that does not fit the machine, or passes the caps, is refused as a case error
+//! naming the key that sets the figure.
+
+use crate::material::Material;
+use crate::scene::{Case, CaseError, Shape, estimate_particles};
+
+/// Caps on what one run may ask for (`--max-particles`, `--max-steps`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Limits {
+    pub max_particles: f64,
+    pub max_steps: f64,
+}
+
+impl Limits {
+    /// Ten million particles: 16 GB for TLSPH in 2D (the memory estimate bounds the
+    /// heavier methods and 3D further).
+    pub const MAX_PARTICLES: f64 = 1e7;
+    /// A hundred million steps: the shipped cases take at most 150,000.
+    pub const MAX_STEPS: f64 = 1e8;
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Self {
+            max_particles: Self::MAX_PARTICLES,
+            max_steps: Self::MAX_STEPS,
+        }
+    }
+}
+
+/// Host memory assumed where the operating system does not say (no /proc/meminfo).
+pub const ASSUMED_MEMORY: f64 = 8.0 * GIB;
+
+const GIB: f64 = (1u64 << 30) as f64;
+
+/// Bytes per particle and per neighbour pair of each backend, [2D, 3D]. Peak resident
+/// sizes measured on the CPU (`/usr/bin/time -f %M` over one step): TLSPH 2D 1.1 kB a
+/// particle (12 pairs), Upwind-SPH {p, F} 2D 3.1 kB (21 pairs), TLSPH 3D 3.7 kB (73
+/// pairs), Upwind-SPH 3D 17.8 kB (73 pairs, the heaviest); the constants bound them all
+/// (the last by 20 %). The device's share of a GPU run is the f32 copies of the state,
+/// the scratch and the per-pair data, about half the host's; its host share is the CPU
+/// reference its set-up builds.
+const CPU_PARTICLE_BYTES: [f64; 2] = [1500.0, 3000.0];
+const CPU_PAIR_BYTES: [f64; 2] = [120.0, 260.0];
+const DEVICE_PARTICLE_BYTES: [f64; 2] = [750.0, 1500.0];
+const DEVICE_PAIR_BYTES: [f64; 2] = [60.0, 130.0];
+
+/// What a case needs, estimated from its keys alone.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Estimate {
+    /// Particles of every body (the lattice points of its bounding box times the fraction
+    /// the shape fills, or the rows of a points file).
+    pub bodies: Vec<f64>,
+    pub particles: f64,
+    /// Neighbour pairs: particles × the lattice points within the kernel support,
+    /// ω_d (κ h/Δx)^d.
+    pub pairs: f64,
+    /// Host memory of a CPU run [bytes].
+    pub cpu_bytes: f64,
+    /// Device memory of a GPU run [bytes] (its host share is `cpu_bytes`).
+    pub device_bytes: f64,
+    /// Steps to the end time: exact for a fixed Δt; for a CFL step from c_p alone (the
+    /// velocities only shorten it), checked again once the first Δt is known.
+    pub steps: f64,
+    /// Lattice points the sampler visits (the bodies' bounding boxes).
+    pub visited: f64,
+}
+
+/// How many lattice points the sampler may visit per particle allowed: a thin ring
+/// fills a small part of its bounding box, and the box is what the sampler walks.
+const VISITS_PER_PARTICLE: f64 = 100.0;
+
+impl Estimate {
+    /// Estimates the resources of a case without building it.
+    pub fn of(case: &Case) -> Result<Self, CaseError> {
+        let sizes = estimate_particles(case)?;
+        let bodies: Vec<f64> = sizes.iter().map(|s| s.particles).collect();
+        let particles: f64 = bodies.iter().sum();
+        let visited: f64 = sizes.iter().map(|s| s.visited).sum();
+        let d = case.dim();
+        let reach = case.method.kernel.support_factor() * case.method.h_over_dx;
+        let ball = if d == 2 {
+            std::f64::consts::PI * reach.powi(2)
+        } else {
+            4.0 / 3.0 * std::f64::consts::PI * reach.powi(3)
+        };
+        let pairs = particles * ball.floor();
+        let k = d - 2;
+        Ok(Self {
+            particles,
+            pairs,
+            cpu_bytes: particles * CPU_PARTICLE_BYTES[k] + pairs * CPU_PAIR_BYTES[k],
+            device_bytes: particles * DEVICE_PARTICLE_BYTES[k] + pairs * DEVICE_PAIR_BYTES[k],
+            steps: case.run.end_time / first_step(case),
+            bodies,
+            visited,
+        })
+    }
+
+    /// Memory a run on the GPU needs on the host and device together (on an integrated
+    /// GPU or lavapipe both are the host's).
+    pub fn gpu_bytes(&self) -> f64 {
+        self.cpu_bytes + self.device_bytes
+    }
+
+    /// One line for `meshless check`.
+    pub fn describe(&self) -> String {
+        format!(
+            "about {:.3e} particles, {:.3e} neighbour pairs, {} on the CPU, {} on the GPU \
+             (host and device), {:.3e} steps",
+            self.particles,
+            self.pairs,
+            gib(self.cpu_bytes),
+            gib(self.gpu_bytes()),
+            self.steps
+        )
+    }
+}
+
+/// The first time step: the fixed Δt, or the CFL step α Δx / c_p.
+fn first_step(case: &Case) -> f64 {
+    match (case.method.dt, case.method.cfl) {
+        (Some(dt), _) => dt,
+        (_, Some(cfl)) => cfl * case.spacing / Material::new(&case.material).p_wave_speed(),
+        _ => unreachable!("validation requires dt or cfl"),
+    }
+}
+
+fn gib(bytes: f64) -> String {
+    format!("{:.3} GiB", bytes / GIB)
+}
+
+/// The host memory available to a new process [bytes]: MemAvailable of /proc/meminfo,
+/// or `None` where it cannot be read.
+pub fn available_memory() -> Option<f64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024.0)
+}
+
+/// Refuses a case whose estimate passes the particle cap or the machine's available
+/// memory on `gpu` or the CPU, or whose step count passes the step cap; returns the
+/// estimate otherwise.
+pub fn check(case: &Case, gpu: bool, limits: &Limits) -> Result<Estimate, CaseError> {
+    let estimate = Estimate::of(case)?;
+    let key = particle_key(case, &estimate);
+    if estimate.particles > limits.max_particles {
+        return Err(case.invalid(
+            key,
+            format!(
+                "gives about {:.3e} particles, above the cap of {:.3e} (--max-particles); \
+                 increase `spacing` (now {:e}) or raise the cap with --max-particles",
+                estimate.particles, limits.max_particles, case.spacing
+            ),
+        ));
+    }
+    if estimate.visited > VISITS_PER_PARTICLE * limits.max_particles {
+        return Err(case.invalid(
+            key,
+            format!(
+                "samples the bodies on about {:.3e} lattice points (their bounding boxes), \
+                 above {VISITS_PER_PARTICLE} times the cap of {:.3e} particles \
+                 (--max-particles); increase `spacing` (now {:e}) or raise the cap",
+                estimate.visited, limits.max_particles, case.spacing
+            ),
+        ));
+    }
+    let (needed, backend) = if gpu {
+        (estimate.gpu_bytes(), "the GPU backend (host and device)")
+    } else {
+        (estimate.cpu_bytes, "the CPU backend")
+    };
+    let (available, source) = match available_memory() {
+        Some(bytes) => (bytes, "available (MemAvailable of /proc/meminfo)"),
+        None => (
+            ASSUMED_MEMORY,
+            "assumed available (this system does not report it)",
+        ),
+    };
+    if needed > available {
+        return Err(case.invalid(
+            key,
+            format!(
+                "gives about {:.3e} particles and {:.3e} neighbour pairs, which need about \
+                 {} on {backend}; the machine has {} {source}; increase `spacing` (now {:e})",
+                estimate.particles,
+                estimate.pairs,
+                gib(needed),
+                gib(available),
+                case.spacing
+            ),
+        ));
+    }
+    check_steps(case, estimate.steps, first_step(case), limits)?;
+    Ok(estimate)
+}
+
+/// Refuses a run of `steps` steps of `dt` (the first Δt) past the step cap, naming the
+/// time step's key when the step is far below the CFL step α = 1 would give (1e-3 of
+/// it), and `run.end_time` otherwise.
+pub fn check_steps(case: &Case, steps: f64, dt: f64, limits: &Limits) -> Result<(), CaseError> {
+    if steps <= limits.max_steps {
+        return Ok(());
+    }
+    let c_p = Material::new(&case.material).p_wave_speed();
+    let tiny = dt < 1e-3 * case.spacing / c_p;
+    let key = match (tiny, case.method.dt.is_some()) {
+        (false, _) => "run.end_time",
+        (true, true) => "method.dt",
+        (true, false) => "method.cfl",
+    };
+    Err(case.invalid(
+        key,
+        format!(
+            "run.end_time = {:e} s in steps of Δt = {dt:e} s is about {steps:.3e} steps, \
+             above the cap of {:.3e} (--max-steps); shorten run.end_time, lengthen the step \
+             (method.dt or method.cfl), or raise the cap with --max-steps",
+            case.run.end_time, limits.max_steps
+        ),
+    ))
+}
+
+/// The key that sets the particle count: the points file of the largest body when it
+/// is one, `spacing` otherwise.
+fn particle_key(case: &Case, estimate: &Estimate) -> String {
+    let largest = (0..estimate.bodies.len())
+        .max_by(|&a, &b| estimate.bodies[a].total_cmp(&estimate.bodies[b]));
+    match largest {
+        Some(b) if matches!(case.bodies[b].geometry, Shape::Points { .. }) => {
+            format!("body.{b}.geometry.file")
+        }
+        _ => "spacing".into(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::validate::minimal_case;
+    use crate::scene::{Lattice, discretise};
+    use crate::tensor::{D2, D3};
+
+    #[test]
+    fn the_estimate_counts_a_box_exactly_and_a_disk_within_a_few_percent() {
+        // The box lattice count is the sampler's own formula: equal. A disk of 20 Δx
+        // radius has π r² / Δx² ≈ 1257 points to within its boundary layer, O(2πr/Δx) =
+        // 126 points, so within 10 %.
+        let mut c = minimal_case();
+        let exact = discretise::<D2>(&c).unwrap().x0.len() as f64;
+        assert_eq!(Estimate::of(&c).unwrap().particles, exact);
+        c.bodies[0].geometry = Shape::Disk {
+            center: vec![0.0, 0.0],
+            radius: 2.0,
+        };
+        let n = discretise::<D2>(&c).unwrap().x0.len() as f64;
+        let e = Estimate::of(&c).unwrap().particles;
+        assert!((e / n - 1.0).abs() < 0.1, "{e} against {n}");
+        c.dimension = 3;
+        c.bodies[0].geometry = Shape::Cylinder {
+            base: vec![0.0, 0.0, 0.0],
+            axis: crate::scene::Axis::Y,
+            radius: 1.0,
+            inner_radius: 0.5,
+            length: 1.0,
+            lattice: Lattice::Vertex,
+        };
+        let n = discretise::<D3>(&c).unwrap().x0.len() as f64;
+        let e = Estimate::of(&c).unwrap().particles;
+        assert!((e / n - 1.0).abs() < 0.2, "{e} against {n}");
+    }
+
+    #[test]
+    fn a_tiny_spacing_is_refused_not_wrapped() {
+        // 1e-300 gives (1/1e-300)² = ∞ particles: refused by the cap, naming `spacing`.
+        let mut c = minimal_case();
+        c.spacing = 1e-300;
+        let e = check(&c, false, &Limits::default()).unwrap_err();
+        let CaseError::Invalid { key, message, .. } = e else {
+            panic!("{e}")
+        };
+        assert_eq!(key, "spacing");
+        assert!(message.contains("--max-particles"), "{message}");
+        // The sampler refuses it too, whoever calls it.
+        assert!(discretise::<D2>(&c).is_err());
+    }
+
+    #[test]
+    fn memory_beyond_the_machine_is_refused_with_the_estimate() {
+        // 1e-6 on a 1 m² box: 1e12 particles. Above the cap; with the cap lifted, above
+        // any machine's memory (1e12 × 1.5 kB = 1.5 PB).
+        let mut c = minimal_case();
+        c.spacing = 1e-6;
+        let lifted = Limits {
+            max_particles: f64::INFINITY,
+            ..Limits::default()
+        };
+        let e = check(&c, false, &lifted).unwrap_err().to_string();
+        assert!(
+            e.contains("key `spacing`") && e.contains("GiB") && e.contains("available"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn step_counts_past_the_cap_name_the_key_at_fault() {
+        let limits = Limits::default();
+        let key = |c: &Case| match check(c, false, &limits) {
+            Err(CaseError::Invalid { key, .. }) => key,
+            other => panic!("{other:?}"),
+        };
+        let mut c = minimal_case();
+        c.method.dt = Some(1e-300);
+        assert_eq!(key(&c), "method.dt");
+        c.method.dt = Some(1e-5);
+        c.run.end_time = 1e300;
+        assert_eq!(key(&c), "run.end_time");
+        c.run.end_time = 1e-3;
+        c.method.dt = None;
+        c.method.cfl = Some(1e-12);
+        assert_eq!(key(&c), "method.cfl");
+        c.method.cfl = Some(0.3);
+        check(&c, false, &limits).unwrap();
+    }
+}
