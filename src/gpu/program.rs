@@ -131,13 +131,13 @@ impl Stepper {
         &self.states[b as usize]
     }
 
-    /// Replaces the state in `Y` (the leapfrog primes its rates again).
     /// After the state buffer was written directly (a checkpoint restored): the
     /// leapfrog's rates are evaluated again before its next step.
     pub fn state_replaced(&mut self) {
         self.primed = false;
     }
 
+    /// Replaces the state in `Y` (the leapfrog primes its rates again).
     pub fn set_state(&mut self, gpu: &Gpu, flat: &[f32]) {
         gpu.queue
             .write_buffer(self.buffer(Buf::Y), 0, bytemuck::cast_slice(flat));
@@ -151,7 +151,7 @@ impl Stepper {
         let bytes = self.layout.len as u64 * 4;
         encoder.copy_buffer_to_buffer(from, 0, self.buffer(Buf::Y), 0, bytes);
         gpu.queue.submit([encoder.finish()]);
-        self.primed = false;
+        self.state_replaced();
     }
 
     /// Rewrites the stage coefficients when the step size changes.

@@ -534,6 +534,18 @@ impl<D: GpuDim> Engine<D> for GpuUl<D> {
         self.gpu.wait();
     }
 
+    fn save(&mut self) -> Vec<f64> {
+        crate::gpu::save_buffers(&self.gpu, &self.work, &[self.stepper.buffer(Buf::Y)])
+    }
+
+    fn restore(&mut self, words: &[f64]) -> Result<(), String> {
+        let y = [("state", self.stepper.buffer(Buf::Y))];
+        self.work = crate::gpu::load_buffers(&self.gpu, words, &y)?;
+        self.stepper.state_replaced();
+        self.reduction.invalidate();
+        Ok(())
+    }
+
     fn snapshot(&mut self) -> Snapshot<'_, D> {
         let y = self.state();
         let r = &self.reference;
