@@ -10,6 +10,7 @@ use meshless::methods::MethodSpec;
 use meshless::methods::godunov::gpu as godunov;
 use meshless::methods::gray_monaghan::gpu as gray_monaghan;
 use meshless::methods::mixed::{MixedSph, gpu as mixed};
+use meshless::methods::potential::gpu as potential;
 use meshless::methods::tlsph::gpu::{self as tlsph, Layout, scene_constants};
 use meshless::methods::ul::gpu as ul;
 use meshless::run::build_method;
@@ -115,7 +116,12 @@ fn ul_cases(dim: usize) -> Vec<Case> {
 fn check_all<D: GpuDim>() {
     for case in variants() {
         for rate in [false, true] {
-            let constants = scene_constants(&case, &Layout::new(100, D::N, rate, 1000));
+            let MethodSpec::Tlsph(spec) = &case.method.spec else {
+                unreachable!("TLSPH variants")
+            };
+            let scheme = tlsph::scheme(spec);
+            let layout = Layout::new(100, D::N, rate, 1000, false);
+            let constants = scene_constants(&case, &layout, &scheme);
             for source in tlsph::SHADERS {
                 let src = shaders::compose::<D>(source, &constants);
                 validate_wgsl(&format!("{}D {} ({})", D::N, source.name, case.name), &src);
@@ -145,8 +151,27 @@ fn check_all<D: GpuDim>() {
             validate_wgsl(&format!("{}D {} ({})", D::N, source.name, case.name), &src);
         }
     }
+    for force in ["consistent", "reference-code"] {
+        let keys =
+            format!("force = \"{force}\"\nartificial_viscosity = {{ alpha = 1.0, beta = 1.0 }}");
+        let max: &[f64] = if D::N == 2 {
+            &[1.0, 0.6]
+        } else {
+            &[0.5, 0.4, 0.3]
+        };
+        let case = block_case(max, "saint-venant-kirchhoff", "tl-potential", &keys);
+        let MethodSpec::TlPotential(spec) = &case.method.spec else {
+            unreachable!("a tl-potential case")
+        };
+        let scheme = potential::scheme(spec);
+        let constants = scene_constants(&case, &Layout::new(100, D::N, false, 1000, true), &scheme);
+        for source in potential::SHADERS {
+            let src = shaders::compose::<D>(source, &constants);
+            validate_wgsl(&format!("{}D {} ({force})", D::N, source.name), &src);
+        }
+    }
     // Passes without scene constants (neighbour build, scans) validate on their own.
-    let ul_shaders = [gray_monaghan::SHADERS, godunov::SHADERS].concat();
+    let ul_shaders = [gray_monaghan::SHADERS, godunov::SHADERS, potential::SHADERS].concat();
     for source in meshless::methods::shaders() {
         if !tlsph::SHADERS.contains(&source)
             && !mixed::SHADERS.contains(&source)

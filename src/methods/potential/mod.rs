@@ -1,7 +1,9 @@
 //! Total-Lagrangian SPH from the elastic potential (after Müller et al.; seed 000 §5.4):
-//! the spec and the CPU system ([`system`]). It has no GPU engine. Numerics notes:
-//! `docs/methods/tl-potential.md`.
+//! the spec, the CPU system ([`system`]) and its force on the total-Lagrangian GPU engine
+//! ([`gpu`]). Numerics notes: `docs/methods/tl-potential.md`.
 
+#[cfg(feature = "gpu")]
+pub mod gpu;
 pub mod system;
 
 pub use system::Potential;
@@ -40,12 +42,11 @@ pub struct PotentialSpec {
 impl MethodFamily for PotentialSpec {
     const DESCRIPTION: &'static str = "total-Lagrangian SPH from the elastic potential \
         (Müller et al.; seed 000 §5.4): symmetrised force −∂Π/∂u with corrected reference \
-        gradients of both sides, state-based stress, Monaghan artificial viscosity (CPU only)";
+        gradients of both sides, state-based stress, Monaghan artificial viscosity";
     const KEYS: &'static [&'static str] = &["force", "artificial_viscosity"];
     const FEATURES: &'static [Feature] = &[Feature::Contact];
-    const GPU_ENGINE: bool = false;
     #[cfg(feature = "gpu")]
-    const SHADERS: &'static [crate::gpu::shaders::Source] = &[];
+    const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
 
     fn validate(&self, case: &Case) -> Result<(), Problem> {
         if let Some(av) = &self.artificial_viscosity {
@@ -94,9 +95,10 @@ impl MethodFamily for PotentialSpec {
     fn gpu_engine<D: EngineDim>(
         &self,
         case: &Case,
-        _gpu: crate::gpu::Gpu,
+        gpu: crate::gpu::Gpu,
     ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
-        Err(super::no_gpu_engine(case).into())
+        let engine = crate::methods::tlsph::GpuTlsph::<D>::new(case, gpu)?;
+        Ok(Box::new(engine))
     }
 
     /// The step Δt = α Δx/(c_p + max|v|) does not depend on the stretch.

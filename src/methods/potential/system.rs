@@ -51,6 +51,16 @@ pub fn reverse_pairs(csr: &Csr) -> Result<Vec<u32>, usize> {
     })
 }
 
+/// The factor 1/√V_min on c_p in the CFL step of the reference code's force, which is
+/// that of Σ_i ψ_i and so 1/V stiffer than the consistent one.
+pub fn unit_weight_wave_speed_scale(vol: &[f64]) -> f64 {
+    vol.iter()
+        .copied()
+        .fold(f64::INFINITY, f64::min)
+        .sqrt()
+        .recip()
+}
+
 /// The elastic-potential system on the CPU (f64, rayon).
 pub struct Potential<D: Dim> {
     x0: Vec<D::V>,
@@ -339,10 +349,7 @@ impl<D: Dim> Method<D> for Potential<D> {
                 .sqrt();
         let scale = match self.force {
             PotentialForce::Consistent => 1.0,
-            PotentialForce::ReferenceCode => {
-                let v_min = self.vol.iter().copied().fold(f64::INFINITY, f64::min);
-                v_min.sqrt().recip()
-            }
+            PotentialForce::ReferenceCode => unit_weight_wave_speed_scale(&self.vol),
         };
         self.material.p_wave_speed() * scale + vmax
     }

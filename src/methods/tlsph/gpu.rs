@@ -27,7 +27,7 @@ use crate::methods::{BlowUp, MethodSpec, not_run_by};
 use crate::observe::{Invariants, Snapshot};
 use crate::reference::Reference;
 use crate::run::{Engine, Failed};
-use crate::scene::Case;
+use crate::scene::{Case, CaseError};
 
 /// Strain energy densities of the TLSPH models, for the reduction.
 const ENERGY: Wgsl = wgsl!("tlsph/tlsph_energy.wgsl");
@@ -75,6 +75,57 @@ pub const SHADERS: &[Source] = &[
     REDUCE,
 ];
 
+/// The force of one total-Lagrangian method on this engine: TLSPH's own, or another
+/// method's on the same stress pass (the elastic potential's).
+pub struct TlScheme {
+    /// Its acceleration pass file (entry point `accel`).
+    pub accel: Source,
+    /// Its reduction (`reduce`, with the method's strain energy).
+    pub reduce: Source,
+    /// The pass file's set-up entry `reverse_gradients` fills ∇0W̃_ji of every pair (i, j)
+    /// into the pair data (field GREV) from the index of the reverse pair (`rev`).
+    pub reverse: bool,
+    /// Its own compiled-in constants.
+    pub constants: Constants,
+    /// Its force derives from Σ_i ψ_i rather than Σ_i V_i ψ_i (the reference code's
+    /// potential force): the strain energy weighs each ψ_i by 1 and the wave speed of the
+    /// CFL step is c_p/√V_min.
+    pub unit_weights: bool,
+}
+
+/// TLSPH's own force: eq 134 with the spec's viscosity.
+pub fn scheme(spec: &super::TlsphSpec) -> TlScheme {
+    TlScheme {
+        accel: ACCEL,
+        reduce: REDUCE,
+        reverse: false,
+        constants: viscosity(spec.artificial_viscosity.as_ref()).choice(
+            "AV_GRADIENT",
+            &["PUSHED_FORWARD", "REFERENCE"],
+            usize::from(spec.viscosity_gradient == ViscosityGradient::Reference),
+        ),
+        unit_weights: false,
+    }
+}
+
+/// The constants AV, AV_ALPHA, AV_BETA and AV_ETA of a Monaghan viscosity, if any.
+pub fn viscosity(av: Option<&super::ArtificialViscosity>) -> Constants {
+    Constants::default()
+        .u32("AV", u32::from(av.is_some()))
+        .f32("AV_ALPHA", av.map_or(0.0, |a| a.alpha))
+        .f32("AV_BETA", av.map_or(0.0, |a| a.beta))
+        .f32("AV_ETA", av.map_or(0.0, |a| a.eta))
+}
+
+/// The scheme of a case's method on this engine.
+fn scheme_of(case: &Case) -> Result<TlScheme, CaseError> {
+    match &case.method.spec {
+        MethodSpec::Tlsph(spec) => Ok(scheme(spec)),
+        MethodSpec::TlPotential(spec) => Ok(crate::methods::potential::gpu::scheme(spec)),
+        _ => Err(not_run_by(case, "GpuTlsph")),
+    }
+}
+
 /// The flat buffers of a TLSPH scene, each described once ([`Fields`]): the state
 /// [u | v | ρ − ρ0 | S] (ρ and S for the rate model only), the kinematics
 /// [H = F − I | P | F⁻ᵀ | ρ | power], the per-pair data [∇0W̃ | X_j − X_i] and the
@@ -91,7 +142,7 @@ pub struct Layout {
 }
 
 impl Layout {
-    pub fn new(n: usize, dim: usize, rate: bool, pairs: usize) -> Self {
+    pub fn new(n: usize, dim: usize, rate: bool, pairs: usize, reverse: bool) -> Self {
         Self {
             n,
             dim,
@@ -109,7 +160,8 @@ impl Layout {
                 .scalars("POW", true, n),
             pair: Fields::new("P", dim)
                 .vectors("G", true, pairs)
-                .vectors("DX", true, pairs),
+                .vectors("DX", true, pairs)
+                .vectors("GREV", reverse, pairs),
             reference: reference::fields(n, dim, EXTRAS),
         }
     }
@@ -131,8 +183,8 @@ const EXTRAS: Extras = Extras {
     centred: false,
 };
 
-/// The compiled-in constants of a scene's TLSPH passes.
-pub fn scene_constants(case: &Case, layout: &Layout) -> Constants {
+/// The compiled-in constants of a scene's TLSPH passes with the scheme's own.
+pub fn scene_constants(case: &Case, layout: &Layout, scheme: &TlScheme) -> Constants {
     let material = Material::new(&case.material);
     let kernel = case.kernel(layout.dim);
     let correction = match case.method.correction {
@@ -140,27 +192,17 @@ pub fn scene_constants(case: &Case, layout: &Layout) -> Constants {
         CorrectionKind::Shepard => 1,
         CorrectionKind::RandlesLibersky | CorrectionKind::Rkpm | CorrectionKind::Cgck => 2,
     };
-    let (av, av_gradient) = match &case.method.spec {
-        MethodSpec::Tlsph(spec) => (spec.artificial_viscosity, spec.viscosity_gradient),
-        _ => (None, ViscosityGradient::default()),
-    };
     let u = |x: usize| x as u32;
-    let constants = Constants::default()
+    let constants = scheme
+        .constants
+        .clone()
         .kernel(&kernel)
         .u32("N", u(layout.n))
+        .u32("PAIRS", u(layout.pair.field("G").count))
         .u32("BODIES", u(case.bodies.len()))
         .material(&material)
         .choice("CORRECTION", &["NONE", "SHEPARD", "LINEAR"], correction)
         .f32("H", kernel.h)
-        .u32("AV", u32::from(av.is_some()))
-        .f32("AV_ALPHA", av.map_or(0.0, |a| a.alpha))
-        .f32("AV_BETA", av.map_or(0.0, |a| a.beta))
-        .f32("AV_ETA", av.map_or(0.0, |a| a.eta))
-        .choice(
-            "AV_GRADIENT",
-            &["PUSHED_FORWARD", "REFERENCE"],
-            usize::from(av_gradient == ViscosityGradient::Reference),
-        )
         .u32("REST_OFF", u(layout.state.offset("RHO")));
     [&layout.state, &layout.kin, &layout.pair, &layout.reference]
         .into_iter()
@@ -178,6 +220,10 @@ pub struct GpuTlsph<D: GpuDim> {
     gpu: Gpu,
     /// The host's f64 reference configuration, which the device's was uploaded from.
     reference: Reference<D>,
+    /// The weight of each particle's ψ in the strain energy (`TlScheme::unit_weights`).
+    energy_weight: Vec<f64>,
+    /// The factor on c_p in the CFL step's wave speed (`TlScheme::unit_weights`).
+    wave_speed_scale: f64,
     layout: Layout,
     stepper: Stepper,
     kin: wgpu::Buffer,
@@ -204,9 +250,7 @@ impl<D: GpuDim> GpuTlsph<D> {
     /// reference pair offsets and corrected gradients on the device (the RKPM and CGCK
     /// corrections on the host, in f64).
     pub fn new(case: &Case, gpu: Gpu) -> Result<Self, SetupError> {
-        if !matches!(case.method.spec, MethodSpec::Tlsph(_)) {
-            return Err(not_run_by(case, "GpuTlsph").into());
-        }
+        let scheme = scheme_of(case)?;
         let disc = Reference::<D>::build(case)?;
         check_f32_run(case, &disc.boundary)?;
         check_f32_particles::<D>(case, &disc.x0, &disc.v0, &disc.body)?;
@@ -217,8 +261,9 @@ impl<D: GpuDim> GpuTlsph<D> {
             D::N,
             disc.material.model.is_rate_based(),
             csr.pair_count(),
+            scheme.reverse,
         );
-        let constants = scene_constants(case, &layout);
+        let constants = scene_constants(case, &layout, &scheme);
         check_f32_range(case, &constants)?;
         gpu.check_size("per-pair buffer", layout.pair.bytes())?;
         gpu.check_size("kinematics buffer", layout.kin.bytes())?;
@@ -271,6 +316,18 @@ impl<D: GpuDim> GpuTlsph<D> {
                 )
                 .into());
         }
+        if scheme.reverse {
+            let rev = crate::methods::potential::system::reverse_pairs(&csr).map_err(|i| {
+                case.invalid(
+                    "method.h_over_dx",
+                    format!(
+                        "particle {i} has a neighbour at the kernel support that does not \
+                         list it back; change h/dx slightly"
+                    ),
+                )
+            })?;
+            reverse_gradients(&gpu, &compose(&scheme.accel), &rev, &pair)?;
+        }
 
         let mut y0 = layout.state.zeroed();
         layout.state.write_v::<D>(&mut y0, "V", &disc.v0);
@@ -293,7 +350,7 @@ impl<D: GpuDim> GpuTlsph<D> {
         let kin = gpu.zeroed("kinematics", layout.kin.bytes());
 
         let stress = gpu.pipeline("tlsph stress", &compose(&STRESS), "stress")?;
-        let accel = gpu.pipeline("tlsph accel", &compose(&ACCEL), "accel")?;
+        let accel = gpu.pipeline("tl accel", &compose(&scheme.accel), "accel")?;
         let table = |y, d| -> [(&str, &wgpu::Buffer); 9] {
             [
                 ("offsets", &device.offsets),
@@ -317,11 +374,23 @@ impl<D: GpuDim> GpuTlsph<D> {
         };
         let rates = [bound(Buf::Y)?, bound(Buf::Stage)?];
         let y = stepper.buffer(Buf::Y);
-        let reduction = Reduction::new(&gpu, &compose(&REDUCE), &table(y, rates_d), n)?;
+        let reduction = Reduction::new(&gpu, &compose(&scheme.reduce), &table(y, rates_d), n)?;
+        let energy_weight = if scheme.unit_weights {
+            vec![1.0; n]
+        } else {
+            disc.vol.clone()
+        };
+        let wave_speed_scale = if scheme.unit_weights {
+            crate::methods::potential::system::unit_weight_wave_speed_scale(&disc.vol)
+        } else {
+            1.0
+        };
         let kinematics_y = gpu.bind(&stress, &table(y, stepper.buffer(Buf::Acc)))?;
         Ok(Self {
             gpu,
             reference: disc,
+            energy_weight,
+            wave_speed_scale,
             layout,
             stepper,
             kin,
@@ -358,6 +427,26 @@ fn run_once(
         for (pipeline, bind) in &bound {
             gpu.dispatch(&mut pass, pipeline, bind, n as u32);
         }
+    }
+    gpu.queue.submit([encoder.finish()]);
+    Ok(())
+}
+
+/// Runs the pass file's `reverse_gradients` set-up entry: ∇0W̃_ji of every pair (i, j)
+/// into GREV, from `rev`, the index of the pair (j, i) of each.
+fn reverse_gradients(
+    gpu: &Gpu,
+    source: &str,
+    rev: &[u32],
+    pair: &wgpu::Buffer,
+) -> Result<(), GpuError> {
+    let index = gpu.storage("reverse pairs", rev);
+    let pipeline = gpu.pipeline("reverse_gradients", source, "reverse_gradients")?;
+    let bind = gpu.bind(&pipeline, &[("pair", pair), ("rev", &index)])?;
+    let mut encoder = gpu.device.create_command_encoder(&Default::default());
+    {
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        gpu.dispatch(&mut pass, &pipeline, &bind, rev.len() as u32);
     }
     gpu.queue.submit([encoder.finish()]);
     Ok(())
@@ -511,7 +600,7 @@ impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
     }
 
     fn max_signal_speed(&mut self) -> f64 {
-        self.reference.material.p_wave_speed() + self.reduction().max_speed
+        self.wave_speed_scale * self.reference.material.p_wave_speed() + self.reduction().max_speed
     }
 
     /// Trapezoidal over the intervals between calls (the driver calls it at every check).
@@ -568,7 +657,15 @@ impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
         let y = self.state();
         let (f, _) = self.kinematics();
         let r = &self.reference;
-        snapshot(&r.material, &r.x0, &r.mass, &r.body, &r.vol, y, f)
+        snapshot(
+            &r.material,
+            &r.x0,
+            &r.mass,
+            &r.body,
+            &self.energy_weight,
+            y,
+            f,
+        )
     }
 }
 

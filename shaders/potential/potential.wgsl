@@ -1,0 +1,74 @@
+// Total-Lagrangian SPH from the elastic potential on the device (seed 000 §5.4, eq 148
+// symmetrised; methods::potential::system on the CPU), on the stress pass of tlsph.wgsl
+// (F, P = ∂ψ/∂F, F⁻ᵀ, ρ0/J in kin). Buffers as in tlsph.wgsl, with the per-pair data
+// pair = [∇0W̃ | X_j − X_i | ∇0W̃_ji] and rev, the index of pair (j, i) for every pair
+// (i, j). Scheme constants: FORCE (FORCE_CONSISTENT: weights V_i V_j on both terms;
+// FORCE_REFERENCE_CODE: V_i and V_j, seed 000 §3.4), AV, AV_ALPHA, AV_BETA, AV_ETA.
+
+@group(0) @binding(0) var<storage, read> offsets: array<u32>;
+@group(0) @binding(1) var<storage, read> ids: array<u32>;
+@group(0) @binding(2) var<storage, read_write> pair: array<f32>;
+@group(0) @binding(3) var<storage, read> reference: array<f32>;
+@group(0) @binding(4) var<storage, read> y: array<f32>;
+// The kinematics of the stress pass; this pass writes only the power (boundary.wgsl).
+@group(0) @binding(5) var<storage, read_write> kin: array<f32>;
+@group(0) @binding(6) var<storage, read> ext: array<f32>;
+@group(0) @binding(7) var<storage, read_write> d: array<f32>;
+@group(0) @binding(8) var<storage, read> rev: array<u32>;
+
+// Set-up, one invocation per pair p = (i, j): ∇0W̃_ji, j's corrected gradient towards i.
+@compute @workgroup_size(256)
+fn reverse_gradients(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let p = gid.x + gid.y * nwg.x * 256u;
+    if p >= PAIRS {
+        return;
+    }
+    vstore_pair(PGREV_OFF + DIM * p, vload_pair(PG_OFF + DIM * rev[p]));
+}
+
+// m_i a_i = Σ_j [w_ij P_i ∇0W̃_ij − w_ji P_j ∇0W̃_ji] (eq 148 symmetrised) plus Monaghan
+// viscosity along ½(F_i⁻ᵀ ∇0W̃_ij − F_j⁻ᵀ ∇0W̃_ji), boundary conditions and u̇ = v.
+@compute @workgroup_size(256)
+fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = gid.x + gid.y * nwg.x * 256u;
+    if i >= N {
+        return;
+    }
+    let p_i = mload_kin(KP_OFF + DIM * DIM * i);
+    let rho_i = kin[KRHO_OFF + i];
+    let fit_i = mload_kin(KFIT_OFF + DIM * DIM * i);
+    let v_i = vload_y(V_OFF + DIM * i);
+    let u_i = vload_y(U_OFF + DIM * i);
+    let c_i = sqrt(BULK / rho_i);
+    let m_i = RHO0 * vol_of(i);
+    var force: vecd;
+    var viscous: vecd;
+    for (var p = offsets[i]; p < offsets[i + 1u]; p++) {
+        let j = ids[p];
+        let g = vload_pair(PG_OFF + DIM * p);
+        let g_rev = vload_pair(PGREV_OFF + DIM * p);
+        var w_ij = vol_of(i) * vol_of(j);
+        var w_ji = w_ij;
+        if FORCE == FORCE_REFERENCE_CODE {
+            w_ij = vol_of(i);
+            w_ji = vol_of(j);
+        }
+        force += p_i * g * w_ij
+            - mload_kin(KP_OFF + DIM * DIM * j) * g_rev * w_ji;
+        if AV == 1u {
+            let x_ij = u_i - vload_y(U_OFF + DIM * j) - vload_pair(PDX_OFF + DIM * p);
+            let vx = dot(v_i - vload_y(V_OFF + DIM * j), x_ij);
+            if vx < 0.0 {
+                let rho_j = kin[KRHO_OFF + j];
+                let mu = H * vx / (dot(x_ij, x_ij) + AV_ETA * AV_ETA * H * H);
+                let c = 0.5 * (c_i + sqrt(BULK / rho_j));
+                let pi = (-AV_ALPHA * c * mu + AV_BETA * mu * mu) / (0.5 * (rho_i + rho_j));
+                let dir = fit_i * g - mload_kin(KFIT_OFF + DIM * DIM * j) * g_rev;
+                viscous -= dir * (0.5 * RHO0 * vol_of(j) * pi);
+            }
+        }
+    }
+    let a = apply_boundary(i, force * (1.0 / m_i) + viscous, v_i, m_i);
+    vstore_d(V_OFF + DIM * i, a);
+    vstore_d(U_OFF + DIM * i, v_i);
+}

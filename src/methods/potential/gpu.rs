@@ -1,0 +1,61 @@
+//! TLSPH from the elastic potential on the GPU: its force pass (`shaders/potential/`) on
+//! the total-Lagrangian engine of [`crate::methods::tlsph::gpu`], whose stress pass gives
+//! F and P = ∂ψ/∂F. The CPU system ([`super::system`]) is the reference it is checked
+//! against.
+
+use super::{PotentialForce, PotentialSpec};
+use crate::gpu::shaders::{
+    BOUNDARY, CONTACT, CORRECTION, INTEGRATE, MECHANICS, PAIR_OFFSETS, REFERENCE, Source, Wgsl,
+    source, wgsl,
+};
+use crate::methods::tlsph::gpu::{STRESS, TlScheme, viscosity};
+
+/// The strain energy of the reduction (V_i ψ_i, or ψ_i for the reference code's force).
+const ENERGY: Wgsl = wgsl!("potential/potential_energy.wgsl");
+
+/// The reverse gradients (set-up) and the symmetrised forces of eq 148 with viscosity.
+pub const ACCEL: Source = source!(
+    "potential/potential.wgsl",
+    [BOUNDARY, REFERENCE],
+    [
+        ("y", false),
+        ("pair", true),
+        ("reference", false),
+        ("ext", false),
+        ("kin", true),
+        ("d", true)
+    ]
+);
+/// Energies, momenta and checks of a state.
+pub const REDUCE: Source = source!(
+    "common/reduce.wgsl",
+    [MECHANICS, ENERGY, REFERENCE],
+    [("y", false), ("kin", false), ("reference", false)]
+);
+
+/// The passes of an elastic-potential scene.
+pub const SHADERS: &[Source] = &[
+    STRESS,
+    ACCEL,
+    CONTACT,
+    CORRECTION,
+    INTEGRATE,
+    PAIR_OFFSETS,
+    REDUCE,
+];
+
+/// The potential's force with the spec's constants.
+pub fn scheme(spec: &PotentialSpec) -> TlScheme {
+    let reference_code = spec.force == PotentialForce::ReferenceCode;
+    TlScheme {
+        accel: ACCEL,
+        reduce: REDUCE,
+        reverse: true,
+        constants: viscosity(spec.artificial_viscosity.as_ref()).choice(
+            "FORCE",
+            &["CONSISTENT", "REFERENCE_CODE"],
+            usize::from(reference_code),
+        ),
+        unit_weights: reference_code,
+    }
+}
