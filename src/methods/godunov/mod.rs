@@ -35,7 +35,7 @@ impl MethodFamily for GodunovSpec {
         super::ul::validate(case)
     }
 
-    fn plan(&self, case: &Case, _gpu: bool) -> Plan {
+    fn plan(&self, case: &Case, gpu: bool) -> Plan {
         let mat = Material::new(&case.material);
         Plan {
             once: "nothing: the neighbours are rebuilt at every rate evaluation".into(),
@@ -46,7 +46,7 @@ impl MethodFamily for GodunovSpec {
             ),
             rates: format!(
                 "{}, Ṡ, Ḟ, and ρ̇ and a from the pairs' acoustic Riemann solutions",
-                super::ul::plan_rebuild(case)
+                super::ul::plan_rebuild(case, gpu)
             ),
             checked: "ρ",
             check_note: String::new(),

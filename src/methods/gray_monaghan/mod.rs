@@ -82,7 +82,7 @@ impl MethodFamily for GrayMonaghanSpec {
         Ok(())
     }
 
-    fn plan(&self, case: &Case, _gpu: bool) -> Plan {
+    fn plan(&self, case: &Case, gpu: bool) -> Plan {
         let mat = Material::new(&case.material);
         let mut left_out = Vec::new();
         if self.artificial_viscosity.is_none() {
@@ -101,7 +101,7 @@ impl MethodFamily for GrayMonaghanSpec {
                 "Δt = cfl·Δx/(c_p + max|v|), c_p = {:.1} m/s",
                 mat.p_wave_speed()
             ),
-            rates: format!("{}, ρ̇, Ṡ, Ḟ, a, ẋ", super::ul::plan_rebuild(case)),
+            rates: format!("{}, ρ̇, Ṡ, Ḟ, a, ẋ", super::ul::plan_rebuild(case, gpu)),
             checked: "ρ",
             check_note: String::new(),
             left_out,

@@ -102,11 +102,17 @@ pub fn validate(case: &Case) -> Result<(), Problem> {
     Ok(())
 }
 
-/// The start of a UL method's rate evaluation as `--explain` prints it: the rebuild,
-/// per body with contact, and the gradients of L.
-pub fn plan_rebuild(case: &Case) -> String {
+/// The start of a UL method's rate evaluation as `--explain` prints it: the rebuild (on
+/// drift on the CPU, before every evaluation on the GPU), per body with contact, and the
+/// gradients of L.
+pub fn plan_rebuild(case: &Case, gpu: bool) -> String {
     format!(
-        "cell-list neighbours from the current positions{}, then one gather: L ({})",
+        "{}{}, then one gather: L ({})",
+        if gpu {
+            "device cell list rebuilt from x = X + u before every evaluation"
+        } else {
+            "cell-list neighbours from the current positions (rebuilt on drift)"
+        },
         if case.contact.is_some() {
             " (per body)"
         } else {
