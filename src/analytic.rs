@@ -139,3 +139,75 @@ mod tests {
         assert!(u1[1].abs() < 1e-15 && u1[2].abs() < 1e-15 && u1[0] != 0.0);
     }
 }
+
+/// The cantilever of Timoshenko & Goodier with a parabolic shear P at x = L (seed 004 eqs
+/// 53–55; plane stress, I = D³/12 per unit thickness): u_y(L, y) = −P/(6EI) [(4 + 5ν)
+/// D² L/4 + 2L³] at the loaded end, 2.77284e-6 m for the seed's beam.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cantilever {
+    /// End load P per unit thickness [N/m].
+    pub load: f64,
+    pub length: f64,
+    pub depth: f64,
+    pub youngs_modulus: f64,
+    pub poisson_ratio: f64,
+}
+
+impl Cantilever {
+    /// I = D³/12.
+    fn inertia(&self) -> f64 {
+        self.depth.powi(3) / 12.0
+    }
+
+    /// (u_x, u_y) at (x, y), eqs 53–54.
+    pub fn displacement(&self, x: f64, y: f64) -> [f64; 2] {
+        let (p, l, d, nu) = (self.load, self.length, self.depth, self.poisson_ratio);
+        let c = p / (6.0 * self.youngs_modulus * self.inertia());
+        [
+            c * y * ((6.0 * l - 3.0 * x) * x + (2.0 + nu) * (y * y - d * d / 4.0)),
+            -c * (3.0 * nu * y * y * (l - x)
+                + (4.0 + 5.0 * nu) * d * d * x / 4.0
+                + (3.0 * l - x) * x * x),
+        ]
+    }
+
+    /// (σ_xx, σ_yy, τ_xy) at (x, y), eq 55.
+    pub fn stress(&self, x: f64, y: f64) -> [f64; 3] {
+        let (p, l, d, i) = (self.load, self.length, self.depth, self.inertia());
+        [
+            p * (l - x) * y / i,
+            0.0,
+            -p / (2.0 * i) * (d * d / 4.0 - y * y),
+        ]
+    }
+}
+
+impl Cantilever {
+    /// The cantilever of a case's `timoshenko-cantilever` solution with its material.
+    pub fn of(solution: &crate::scene::Solution, material: &crate::scene::MaterialSpec) -> Self {
+        let crate::scene::Solution::TimoshenkoCantilever {
+            load,
+            length,
+            depth,
+        } = *solution;
+        Self {
+            load,
+            length,
+            depth,
+            youngs_modulus: material.youngs_modulus,
+            poisson_ratio: material.poisson_ratio,
+        }
+    }
+
+    /// The displacement at a reference position, padded to three components (u_z = 0).
+    pub fn displacement3(&self, x: [f64; 3]) -> [f64; 3] {
+        let [ux, uy] = self.displacement(x[0], x[1]);
+        [ux, uy, 0.0]
+    }
+
+    /// The Cauchy stress at a reference position as a 3×3 tensor (plane stress in x–y).
+    pub fn stress3(&self, x: [f64; 3]) -> [[f64; 3]; 3] {
+        let [sxx, syy, txy] = self.stress(x[0], x[1]);
+        [[sxx, txy, 0.0], [txy, syy, 0.0], [0.0, 0.0, 0.0]]
+    }
+}
