@@ -8,7 +8,7 @@ mod engine;
 mod frames;
 
 pub use drive::drive;
-pub use engine::{CpuEngine, Engine, EngineDim, Failed, build_method, engine};
+pub use engine::{CpuEngine, Engine, EngineDim, Failed, Iteration, build_method, engine};
 pub use frames::write_frame;
 
 use crate::material::Material;

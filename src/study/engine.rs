@@ -120,6 +120,9 @@ impl<D: Dim, E: Engine<D>> Engine<D> for Tracked<'_, D, E> {
     fn finish(&mut self) {
         self.inner.finish()
     }
+    fn iterations(&mut self) -> Vec<crate::run::Iteration> {
+        self.inner.iterations()
+    }
 }
 
 /// What one run produced.

@@ -11,6 +11,7 @@ mod case_errors;
 mod common;
 mod contact;
 mod corotated_tlsph;
+mod dual_support;
 mod godunov;
 #[cfg(feature = "gpu")]
 mod gpu_mixed;
