@@ -300,7 +300,7 @@ impl FreeSystem {
                     .map_or(1.0, |q| values[q])
             })
             .collect();
-        if diag.iter().any(|&d| !(d > 0.0)) {
+        if diag.iter().any(|&d| d <= 0.0 || d.is_nan()) {
             return Err(SolveError::NotPositiveDefinite);
         }
         let dot = |a: &[f64], b: &[f64]| -> f64 { a.par_iter().zip(b).map(|(a, b)| a * b).sum() };
@@ -317,7 +317,7 @@ impl FreeSystem {
         for it in 1..=max_iterations {
             self.matvec(values, &p, &mut q);
             let pq = dot(&p, &q);
-            if !(pq > 0.0) {
+            if pq <= 0.0 || pq.is_nan() {
                 return Err(SolveError::NotPositiveDefinite);
             }
             let alpha = rz / pq;

@@ -126,10 +126,8 @@ impl<D: Dim> Statics<D> {
                 });
             }
         }
-        let mut next = 0u32;
-        for f in free.iter_mut().flatten() {
-            *f = next;
-            next += 1;
+        for (next, f) in free.iter_mut().flatten().enumerate() {
+            *f = next as u32;
         }
         let mut load = vec![D::zero(); n];
         for &(i, a) in &boundary.external {
@@ -302,13 +300,24 @@ impl<D: Dim> Statics<D> {
     fn inadmissible(&self, u: &[D::V]) -> Option<usize> {
         let f = self.model.deformation_gradients(u);
         f.par_iter()
-            .position_first(|&f| !D::is_finite_t(f) || !(D::det(f) > 0.0))
+            .position_first(|&f| !D::is_finite_t(f) || D::det(f) <= 0.0 || D::det(f).is_nan())
     }
 }
 
 impl<D: Dim> Engine<D> for Statics<D> {
+    /// "cpu", with the linear solver, its size and (direct) the fill of the factor.
     fn backend(&self) -> String {
-        "cpu".into()
+        let Fill { factor, lower } = self.fill;
+        if factor > 0 {
+            format!(
+                "cpu; sparse Cholesky of {} unknowns, factor {factor} non-zeros ({:.1}× the \
+                 tangent's lower triangle, {lower})",
+                self.system.n,
+                factor as f64 / lower.max(1) as f64
+            )
+        } else {
+            format!("cpu; conjugate gradients on {} unknowns", self.system.n)
+        }
     }
 
     fn reference(&self) -> &[D::V] {

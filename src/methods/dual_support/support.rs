@@ -94,7 +94,7 @@ impl<D: Dim> Support<D> {
             .collect();
         if let Some(i) = (0..x0.len())
             .into_par_iter()
-            .find_first(|&i| !(D::det(l[i]).abs() > 1e-8))
+            .find_first(|&i| D::det(l[i]).abs() <= 1e-8 || D::det(l[i]).is_nan())
         {
             return Err(SingularCorrection {
                 particle: i,
