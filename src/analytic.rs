@@ -182,32 +182,68 @@ impl Cantilever {
     }
 }
 
-impl Cantilever {
-    /// The cantilever of a case's `timoshenko-cantilever` solution with its material.
+/// A case's closed-form solution with its material's E and ν.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ClosedForm {
+    Cantilever(Cantilever),
+    /// Uniaxial stress σ along x: u = (σx, −νσy, −νσz)/E.
+    Uniaxial {
+        stress: f64,
+        youngs_modulus: f64,
+        poisson_ratio: f64,
+    },
+}
+
+impl ClosedForm {
     pub fn of(solution: &crate::scene::Solution, material: &crate::scene::MaterialSpec) -> Self {
-        let crate::scene::Solution::TimoshenkoCantilever {
-            load,
-            length,
-            depth,
-        } = *solution;
-        Self {
-            load,
-            length,
-            depth,
-            youngs_modulus: material.youngs_modulus,
-            poisson_ratio: material.poisson_ratio,
+        let (youngs_modulus, poisson_ratio) = (material.youngs_modulus, material.poisson_ratio);
+        match *solution {
+            crate::scene::Solution::TimoshenkoCantilever {
+                load,
+                length,
+                depth,
+            } => Self::Cantilever(Cantilever {
+                load,
+                length,
+                depth,
+                youngs_modulus,
+                poisson_ratio,
+            }),
+            crate::scene::Solution::UniaxialStress { stress } => Self::Uniaxial {
+                stress,
+                youngs_modulus,
+                poisson_ratio,
+            },
         }
     }
 
-    /// The displacement at a reference position, padded to three components (u_z = 0).
+    /// The displacement at a reference position, three components (the cantilever's
+    /// plane-stress solution has u_z = 0).
     pub fn displacement3(&self, x: [f64; 3]) -> [f64; 3] {
-        let [ux, uy] = self.displacement(x[0], x[1]);
-        [ux, uy, 0.0]
+        match *self {
+            Self::Cantilever(c) => {
+                let [ux, uy] = c.displacement(x[0], x[1]);
+                [ux, uy, 0.0]
+            }
+            Self::Uniaxial {
+                stress,
+                youngs_modulus,
+                poisson_ratio,
+            } => {
+                let e = stress / youngs_modulus;
+                [e * x[0], -poisson_ratio * e * x[1], -poisson_ratio * e * x[2]]
+            }
+        }
     }
 
-    /// The Cauchy stress at a reference position as a 3×3 tensor (plane stress in x–y).
+    /// The Cauchy stress at a reference position as a 3×3 tensor.
     pub fn stress3(&self, x: [f64; 3]) -> [[f64; 3]; 3] {
-        let [sxx, syy, txy] = self.stress(x[0], x[1]);
-        [[sxx, txy, 0.0], [txy, syy, 0.0], [0.0, 0.0, 0.0]]
+        match *self {
+            Self::Cantilever(c) => {
+                let [sxx, syy, txy] = c.stress(x[0], x[1]);
+                [[sxx, txy, 0.0], [txy, syy, 0.0], [0.0, 0.0, 0.0]]
+            }
+            Self::Uniaxial { stress, .. } => [[stress, 0.0, 0.0], [0.0; 3], [0.0; 3]],
+        }
     }
 }

@@ -4,7 +4,7 @@
 //! zeroed at every evaluation, so every integrator keeps them exactly and the
 //! displacement of a prescribed component follows u = u0 + v t without overwriting.
 
-use crate::analytic::Cantilever;
+use crate::analytic::ClosedForm;
 use crate::neighbour;
 use crate::scene::{Case, CaseError, Condition, Discretised, Region};
 use crate::tensor::Dim;
@@ -85,7 +85,7 @@ impl<D: Dim> Boundary<D> {
                         solution,
                         components,
                     } => {
-                        let u = Cantilever::of(solution, &case.material)
+                        let u = ClosedForm::of(solution, &case.material)
                             .displacement3(D::to3(disc.x0[i]));
                         for k in components.iter().map(|a| a.index()) {
                             mask[i] |= 1 << k;
@@ -94,7 +94,7 @@ impl<D: Dim> Boundary<D> {
                         }
                     }
                     Condition::SolutionTraction { solution, normal } => {
-                        let beam = Cantilever::of(solution, &case.material);
+                        let closed = ClosedForm::of(solution, &case.material);
                         let patch = Patch {
                             centre: D::to3(disc.x0[i]),
                             half: 0.5 * case.spacing,
@@ -102,7 +102,7 @@ impl<D: Dim> Boundary<D> {
                             normal,
                         };
                         let f = patch.force::<D>(|x| {
-                            let s = beam.stress3(x);
+                            let s = closed.stress3(x);
                             std::array::from_fn(|r| (0..D::N).map(|c| s[r][c] * normal[c]).sum())
                         });
                         external[i] += D::from_slice(&f) * (1.0 / mass[i]);

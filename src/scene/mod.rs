@@ -272,6 +272,8 @@ pub enum Solution {
     /// 53–55, plane stress, the material's E and ν): x ∈ [0, length] from the clamped
     /// end, y ∈ [−depth/2, depth/2], end load `load` per unit thickness [N/m].
     TimoshenkoCantilever { load: f64, length: f64, depth: f64 },
+    /// Uniaxial stress σ_xx = `stress` [Pa] (seed 004 §6.3): u = (σx, −νσy, −νσz)/E.
+    UniaxialStress { stress: f64 },
 }
 
 /// A plane X_k = `at` across which the solution continues as its mirror image: for

@@ -686,14 +686,18 @@ fn boundary(b: &BoundarySpec, key: &str, bodies: &[BodySpec], dim: usize) -> Che
 }
 
 fn solution(s: &Solution, key: &str) -> Checked {
-    let Solution::TimoshenkoCantilever {
-        load,
-        length,
-        depth,
-    } = *s;
-    finite(&format!("{key}.load"), load)?;
-    positive(&format!("{key}.length"), length)?;
-    positive(&format!("{key}.depth"), depth)
+    match *s {
+        Solution::TimoshenkoCantilever {
+            load,
+            length,
+            depth,
+        } => {
+            finite(&format!("{key}.load"), load)?;
+            positive(&format!("{key}.length"), length)?;
+            positive(&format!("{key}.depth"), depth)
+        }
+        Solution::UniaxialStress { stress } => finite(&format!("{key}.stress"), stress),
+    }
 }
 
 fn region(r: &Region, key: &str, bodies: &[BodySpec], dim: usize) -> Checked {
