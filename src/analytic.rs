@@ -231,7 +231,11 @@ impl ClosedForm {
                 poisson_ratio,
             } => {
                 let e = stress / youngs_modulus;
-                [e * x[0], -poisson_ratio * e * x[1], -poisson_ratio * e * x[2]]
+                [
+                    e * x[0],
+                    -poisson_ratio * e * x[1],
+                    -poisson_ratio * e * x[2],
+                ]
             }
         }
     }

@@ -522,7 +522,10 @@ fn the_cantilever_tip_deflection_converges_to_timoshenko() {
 fn bar_energy(hourglass: f64) -> f64 {
     let case = crate::common::load(
         "tension-bar-3d",
-        &["spacing=0.5".to_string(), format!("method.hourglass={hourglass}")],
+        &[
+            "spacing=0.5".to_string(),
+            format!("method.hourglass={hourglass}"),
+        ],
     );
     let meshless::methods::MethodSpec::DualSupportSph(spec) = &case.method.spec else {
         panic!("the bar runs dual-support-sph")
