@@ -140,3 +140,115 @@ mod tests {
         assert!(u1[1].abs() < 1e-15 && u1[2].abs() < 1e-15 && u1[0] != 0.0);
     }
 }
+
+/// The cantilever of Timoshenko & Goodier with a parabolic shear P at x = L (seed 004 eqs
+/// 53–55; plane stress, I = D³/12 per unit thickness): u_y(L, y) = −P/(6EI) [(4 + 5ν)
+/// D² L/4 + 2L³] at the loaded end, 2.77284e-6 m for the seed's beam.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cantilever {
+    /// End load P per unit thickness [N/m].
+    pub load: f64,
+    pub length: f64,
+    pub depth: f64,
+    pub youngs_modulus: f64,
+    pub poisson_ratio: f64,
+}
+
+impl Cantilever {
+    /// I = D³/12.
+    fn inertia(&self) -> f64 {
+        self.depth.powi(3) / 12.0
+    }
+
+    /// (u_x, u_y) at (x, y), eqs 53–54.
+    pub fn displacement(&self, x: f64, y: f64) -> [f64; 2] {
+        let (p, l, d, nu) = (self.load, self.length, self.depth, self.poisson_ratio);
+        let c = p / (6.0 * self.youngs_modulus * self.inertia());
+        [
+            c * y * ((6.0 * l - 3.0 * x) * x + (2.0 + nu) * (y * y - d * d / 4.0)),
+            -c * (3.0 * nu * y * y * (l - x)
+                + (4.0 + 5.0 * nu) * d * d * x / 4.0
+                + (3.0 * l - x) * x * x),
+        ]
+    }
+
+    /// (σ_xx, σ_yy, τ_xy) at (x, y), eq 55.
+    pub fn stress(&self, x: f64, y: f64) -> [f64; 3] {
+        let (p, l, d, i) = (self.load, self.length, self.depth, self.inertia());
+        [
+            p * (l - x) * y / i,
+            0.0,
+            -p / (2.0 * i) * (d * d / 4.0 - y * y),
+        ]
+    }
+}
+
+/// A case's closed-form solution with its material's E and ν.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ClosedForm {
+    Cantilever(Cantilever),
+    /// Uniaxial stress σ along x: u = (σx, −νσy, −νσz)/E.
+    Uniaxial {
+        stress: f64,
+        youngs_modulus: f64,
+        poisson_ratio: f64,
+    },
+}
+
+impl ClosedForm {
+    pub fn of(solution: &crate::scene::Solution, material: &crate::scene::MaterialSpec) -> Self {
+        let (youngs_modulus, poisson_ratio) = (material.youngs_modulus, material.poisson_ratio);
+        match *solution {
+            crate::scene::Solution::TimoshenkoCantilever {
+                load,
+                length,
+                depth,
+            } => Self::Cantilever(Cantilever {
+                load,
+                length,
+                depth,
+                youngs_modulus,
+                poisson_ratio,
+            }),
+            crate::scene::Solution::UniaxialStress { stress } => Self::Uniaxial {
+                stress,
+                youngs_modulus,
+                poisson_ratio,
+            },
+        }
+    }
+
+    /// The displacement at a reference position, three components (the cantilever's
+    /// plane-stress solution has u_z = 0).
+    pub fn displacement3(&self, x: [f64; 3]) -> [f64; 3] {
+        match *self {
+            Self::Cantilever(c) => {
+                let [ux, uy] = c.displacement(x[0], x[1]);
+                [ux, uy, 0.0]
+            }
+            Self::Uniaxial {
+                stress,
+                youngs_modulus,
+                poisson_ratio,
+            } => {
+                let e = stress / youngs_modulus;
+                [
+                    e * x[0],
+                    -poisson_ratio * e * x[1],
+                    -poisson_ratio * e * x[2],
+                ]
+            }
+        }
+    }
+
+    /// The Cauchy stress at a reference position as a 3×3 tensor.
+    pub fn stress3(&self, x: [f64; 3]) -> [[f64; 3]; 3] {
+        match *self {
+            Self::Cantilever(c) => {
+                let [sxx, syy, txy] = c.stress(x[0], x[1]);
+                [[sxx, txy, 0.0], [txy, syy, 0.0], [0.0, 0.0, 0.0]]
+            }
+            Self::Uniaxial { stress, .. } => [[stress, 0.0, 0.0], [0.0; 3], [0.0; 3]],
+        }
+    }
+}

@@ -4,6 +4,8 @@
 //! zeroed at every evaluation, so every integrator keeps them exactly and the
 //! displacement of a prescribed component follows u = u0 + v t without overwriting.
 
+use crate::analytic::ClosedForm;
+use crate::neighbour;
 use crate::scene::{Case, CaseError, Condition, Discretised, Region};
 use crate::tensor::Dim;
 
@@ -13,7 +15,11 @@ pub struct Boundary<D: Dim> {
     /// (particle, bit mask of constrained velocity components).
     pub constrained: Vec<(u32, u8)>,
     /// (particle, prescribed velocity; only the masked components are meaningful).
-    prescribed: Vec<(u32, D::V)>,
+    pub prescribed: Vec<(u32, D::V)>,
+    /// (particle, bit mask of the constrained components whose displacement is
+    /// prescribed (reached at the end time; static path), displacement): a subset of
+    /// `constrained`, whose other components have prescribed velocities.
+    pub displacement: Vec<(u32, u8, D::V)>,
     /// (particle, external acceleration from tractions).
     pub external: Vec<(u32, D::V)>,
 }
@@ -24,6 +30,8 @@ impl<D: Dim> Boundary<D> {
         let mut mask = vec![0u8; disc.x0.len()];
         let mut value = vec![D::zero(); disc.x0.len()];
         let mut external = vec![D::zero(); disc.x0.len()];
+        let mut dmask = vec![0u8; disc.x0.len()];
+        let mut dvalue = vec![[0.0; 3]; disc.x0.len()];
         let area = case.spacing.powi(D::N as i32 - 1);
         for (b, bc) in case.boundaries.iter().enumerate() {
             let selected = select(case, &bc.region, disc);
@@ -33,10 +41,13 @@ impl<D: Dim> Boundary<D> {
                     "selects no particle; check the bounds against the bodies' reference positions",
                 ));
             }
+            // The extent of the region's particles: the face a traction patch is clipped to.
+            let face = neighbour::bounding_box(selected.iter().map(|&i| D::to3(disc.x0[i])));
             for i in selected {
                 match &bc.condition {
                     Condition::Fixed => {
                         mask[i] = (1 << D::N) - 1;
+                        dmask[i] = 0;
                         value[i] = D::zero();
                     }
                     Condition::Velocity { vx, vy, vz } => {
@@ -44,6 +55,7 @@ impl<D: Dim> Boundary<D> {
                         for (k, c) in [vx, vy, vz].iter().enumerate().take(D::N) {
                             if let Some(c) = c {
                                 mask[i] |= 1 << k;
+                                dmask[i] &= !(1 << k);
                                 v[k] = *c;
                             }
                         }
@@ -52,12 +64,48 @@ impl<D: Dim> Boundary<D> {
                     Condition::Symmetry { normal } => {
                         let k = normal.index();
                         mask[i] |= 1 << k;
+                        dmask[i] &= !(1 << k);
                         let mut v = D::to3(value[i]);
                         v[k] = 0.0;
                         value[i] = D::from_slice(&v);
                     }
                     Condition::Traction { traction } => {
                         external[i] += D::from_slice(traction) * (area / mass[i]);
+                    }
+                    Condition::Displacement { ux, uy, uz } => {
+                        for (k, c) in [ux, uy, uz].iter().enumerate().take(D::N) {
+                            if let Some(c) = c {
+                                mask[i] |= 1 << k;
+                                dmask[i] |= 1 << k;
+                                dvalue[i][k] = *c;
+                            }
+                        }
+                    }
+                    Condition::SolutionDisplacement {
+                        solution,
+                        components,
+                    } => {
+                        let u = ClosedForm::of(solution, &case.material)
+                            .displacement3(D::to3(disc.x0[i]));
+                        for k in components.iter().map(|a| a.index()) {
+                            mask[i] |= 1 << k;
+                            dmask[i] |= 1 << k;
+                            dvalue[i][k] = u[k];
+                        }
+                    }
+                    Condition::SolutionTraction { solution, normal } => {
+                        let closed = ClosedForm::of(solution, &case.material);
+                        let patch = Patch {
+                            centre: D::to3(disc.x0[i]),
+                            half: 0.5 * case.spacing,
+                            face: &face,
+                            normal,
+                        };
+                        let f = patch.force::<D>(|x| {
+                            let s = closed.stress3(x);
+                            std::array::from_fn(|r| (0..D::N).map(|c| s[r][c] * normal[c]).sum())
+                        });
+                        external[i] += D::from_slice(&f) * (1.0 / mass[i]);
                     }
                 }
             }
@@ -66,6 +114,14 @@ impl<D: Dim> Boundary<D> {
             .filter(|&i| mask[i as usize] != 0)
             .collect();
         Ok(Self {
+            displacement: constrained
+                .iter()
+                .filter(|&&i| dmask[i as usize] != 0)
+                .map(|&i| {
+                    let i = i as usize;
+                    (i as u32, dmask[i], D::from_slice(&dvalue[i]))
+                })
+                .collect(),
             prescribed: constrained
                 .iter()
                 .map(|&i| (i, value[i as usize]))
@@ -118,6 +174,65 @@ impl<D: Dim> Boundary<D> {
             .iter()
             .map(|&(i, g)| mass[i as usize] * D::dot(g, v[i as usize]))
             .sum()
+    }
+}
+
+/// The patch of a face that a particle carries the traction of: Δx wide in each
+/// direction of the face, centred at the particle, clipped to the extent of the region's
+/// particles (so that on a vertex lattice the edge and corner particles carry half and a
+/// quarter of a patch, and the patches tile the face).
+struct Patch<'a> {
+    centre: [f64; 3],
+    half: f64,
+    face: &'a ([f64; 3], [f64; 3]),
+    normal: &'a [f64],
+}
+
+impl Patch<'_> {
+    /// ∫ t dA over the patch: 2-point Gauss in each direction of the face (exact for
+    /// tractions quadratic in X).
+    fn force<D: Dim>(&self, t: impl Fn([f64; 3]) -> [f64; 3]) -> [f64; 3] {
+        let along: Vec<usize> = (0..D::N).filter(|&k| self.normal[k] == 0.0).collect();
+        let bounds: Vec<(f64, f64)> = along
+            .iter()
+            .map(|&k| {
+                let lo = (self.centre[k] - self.half).max(self.face.0[k]);
+                let hi = (self.centre[k] + self.half).min(self.face.1[k]);
+                (lo, hi.max(lo))
+            })
+            .collect();
+        // A region one particle thick along a direction of the face: a full patch there.
+        let bounds: Vec<(f64, f64)> = bounds
+            .iter()
+            .zip(&along)
+            .map(|(&(lo, hi), &k)| {
+                if hi - lo < 1e-12 * self.half {
+                    (self.centre[k] - self.half, self.centre[k] + self.half)
+                } else {
+                    (lo, hi)
+                }
+            })
+            .collect();
+        let area: f64 = bounds.iter().map(|(lo, hi)| hi - lo).product();
+        let gauss = 0.5 / 3f64.sqrt();
+        let points = 1usize << along.len();
+        let mut force = [0.0; 3];
+        for corner in 0..points {
+            let mut p = self.centre;
+            for (bit, (&k, &(lo, hi))) in along.iter().zip(&bounds).enumerate() {
+                let s = if corner & (1 << bit) != 0 {
+                    gauss
+                } else {
+                    -gauss
+                };
+                p[k] = 0.5 * (lo + hi) + s * (hi - lo);
+            }
+            let tp = t(p);
+            for k in 0..3 {
+                force[k] += tp[k] * area / points as f64;
+            }
+        }
+        force
     }
 }
 

@@ -252,6 +252,155 @@ impl Material {
     }
 }
 
+/// The first elasticity tensor 𝔸 = ∂P/∂F as a 9×9 matrix on F flattened row-major
+/// (F_aB at 3a + B, seed 004 eq 32): the tangent of the implicit path. In 2D (plane
+/// strain, F_zz = 1) the entries of in-plane components are the 2D tangent.
+pub type Tangent = [[f64; 9]; 9];
+
+impl MaterialModel {
+    /// Whether [`Material::tangent`] has the model's tangent 𝔸 = ∂P/∂F.
+    pub fn has_tangent(self) -> bool {
+        matches!(
+            self,
+            Self::SaintVenantKirchhoff
+                | Self::NeoHookean
+                | Self::LinearElastic
+                | Self::NearlyIncompressibleNeoHookean
+        )
+    }
+}
+
+impl Material {
+    /// 𝔸 = ∂P/∂F of a model with [`MaterialModel::has_tangent`] (seed 004 §5 with the
+    /// corrections of its note §3: the linear-elastic matrix of eq 45 rebuilt from
+    /// 𝔸_aBbC = λ δ_aB δ_bC + μ(δ_ab δ_BC + δ_aC δ_Bb), and the compressible neo-Hookean
+    /// eq 52 with its missing (−μ/J) J_FF term).
+    pub fn tangent<D: Dim>(&self, f: D::T) -> Tangent {
+        let f = plane_strain_f::<D>(f);
+        let fl: [f64; 9] = std::array::from_fn(|k| f[k / 3][k % 3]);
+        let (mu, lambda) = (self.mu, self.lambda);
+        let delta = |i: usize, j: usize| if i == j { 1.0 } else { 0.0 };
+        let j = det3(&f);
+        let j_f = cofactor3(&f);
+        let j_ff = cofactor_derivative3(&f);
+        let outer = |a: &[f64; 9], b: &[f64; 9]| -> Tangent {
+            std::array::from_fn(|r| std::array::from_fn(|c| a[r] * b[c]))
+        };
+        let mut out = [[0.0; 9]; 9];
+        let mut add = |m: &Tangent, s: f64| {
+            for (o, r) in out.iter_mut().zip(m) {
+                for (o, v) in o.iter_mut().zip(r) {
+                    *o += s * v;
+                }
+            }
+        };
+        let identity: Tangent = std::array::from_fn(|r| std::array::from_fn(|c| delta(r, c)));
+        match self.model {
+            MaterialModel::LinearElastic => {
+                let a: Tangent = std::array::from_fn(|r| {
+                    std::array::from_fn(|c| {
+                        let (a, bb, b, cc) = (r / 3, r % 3, c / 3, c % 3);
+                        lambda * delta(a, bb) * delta(b, cc)
+                            + mu * (delta(a, b) * delta(bb, cc) + delta(a, cc) * delta(bb, b))
+                    })
+                });
+                add(&a, 1.0);
+            }
+            MaterialModel::NeoHookean => {
+                // Eq 52 corrected: μ I + ((λ ln J − μ)/J) J_FF + ((λ − λ ln J + μ)/J²) J_F ⊗ J_F.
+                let ln_j = j.ln();
+                add(&identity, mu);
+                add(&j_ff, (lambda * ln_j - mu) / j);
+                add(&outer(&j_f, &j_f), (lambda - lambda * ln_j + mu) / (j * j));
+            }
+            MaterialModel::NearlyIncompressibleNeoHookean => {
+                // Eq 48 with κ the bulk modulus.
+                let ff: f64 = fl.iter().map(|v| v * v).sum();
+                let kappa = self.bulk;
+                let j53 = j.powf(5.0 / 3.0);
+                add(&identity, mu * j.powf(-2.0 / 3.0));
+                add(&outer(&fl, &j_f), -2.0 * mu / (3.0 * j53));
+                add(&outer(&j_f, &fl), -2.0 * mu / (3.0 * j53));
+                add(
+                    &outer(&j_f, &j_f),
+                    kappa + 5.0 * mu * ff / (9.0 * j.powf(8.0 / 3.0)),
+                );
+                add(&j_ff, kappa * (j - 1.0) - mu * ff / (3.0 * j53));
+            }
+            MaterialModel::SaintVenantKirchhoff => {
+                // 𝔸_aBbC = δ_ab S_BC + F_aA ℂ_ABCD F_bD, ℂ = λ I⊗I + 2μ 𝕀ˢʸᵐ.
+                let e: [[f64; 3]; 3] = std::array::from_fn(|a| {
+                    std::array::from_fn(|b| {
+                        0.5 * ((0..3).map(|k| f[k][a] * f[k][b]).sum::<f64>() - delta(a, b))
+                    })
+                });
+                let tr = e[0][0] + e[1][1] + e[2][2];
+                let s = |a: usize, b: usize| lambda * tr * delta(a, b) + 2.0 * mu * e[a][b];
+                let a: Tangent = std::array::from_fn(|r| {
+                    std::array::from_fn(|c| {
+                        let (a, bb, b, cc) = (r / 3, r % 3, c / 3, c % 3);
+                        // F_aA ℂ_ABCD F_bD = λ F_aB F_bC + μ (F_aC F_bB + (F Fᵀ)_ab δ_BC).
+                        let ftf = (0..3).map(|k| f[a][k] * f[b][k]).sum::<f64>();
+                        delta(a, b) * s(bb, cc)
+                            + lambda * f[a][bb] * f[b][cc]
+                            + mu * (f[a][cc] * f[b][bb] + ftf * delta(bb, cc))
+                    })
+                });
+                add(&a, 1.0);
+            }
+            MaterialModel::Hypoelastic | MaterialModel::VonMisesPlastic => {
+                unreachable!("validation admits models with a tangent only")
+            }
+        }
+        out
+    }
+}
+
+/// F as a 3×3 row-major array, with F_zz = 1 in 2D (plane strain).
+fn plane_strain_f<D: Dim>(f: D::T) -> [[f64; 3]; 3] {
+    let mut m = D::to3x3(f);
+    if D::N == 2 {
+        m[2][2] = 1.0;
+    }
+    m
+}
+
+fn det3(f: &[[f64; 3]; 3]) -> f64 {
+    f[0][0] * (f[1][1] * f[2][2] - f[1][2] * f[2][1])
+        - f[0][1] * (f[1][0] * f[2][2] - f[1][2] * f[2][0])
+        + f[0][2] * (f[1][0] * f[2][1] - f[1][1] * f[2][0])
+}
+
+/// ε_abc (Levi-Civita).
+fn levi_civita(a: usize, b: usize, c: usize) -> f64 {
+    ((a as i64 - b as i64) * (b as i64 - c as i64) * (c as i64 - a as i64)) as f64 / 2.0
+}
+
+/// J_F = ∂J/∂F = cof F, flattened row-major (seed 004 eq 37).
+fn cofactor3(f: &[[f64; 3]; 3]) -> [f64; 9] {
+    std::array::from_fn(|r| {
+        let (a, aa) = (r / 3, r % 3);
+        let (b, c, bb, cc) = ((a + 1) % 3, (a + 2) % 3, (aa + 1) % 3, (aa + 2) % 3);
+        f[b][bb] * f[c][cc] - f[b][cc] * f[c][bb]
+    })
+}
+
+/// J_FF = ∂²J/∂F∂F, ∂²J/∂F_aA∂F_bB = ε_abc ε_ABC F_cC (seed 004 eq 49).
+fn cofactor_derivative3(f: &[[f64; 3]; 3]) -> Tangent {
+    std::array::from_fn(|r| {
+        std::array::from_fn(|s| {
+            let (a, aa, b, bb) = (r / 3, r % 3, s / 3, s % 3);
+            let mut v = 0.0;
+            for (c, row) in f.iter().enumerate() {
+                for (cc, fc) in row.iter().enumerate() {
+                    v += levi_civita(a, b, c) * levi_civita(aa, bb, cc) * fc;
+                }
+            }
+            v
+        })
+    })
+}
+
 /// ε = sym(F − I).
 fn small_strain<D: Dim>(f: D::T) -> D::T {
     (f + D::transpose(f)) * 0.5 - D::identity()

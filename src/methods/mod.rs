@@ -8,6 +8,7 @@
 //! and one line in [`registry!`].
 
 pub mod corotated;
+pub mod dual_support;
 pub mod godunov;
 pub mod gray_monaghan;
 pub mod mixed;
@@ -43,6 +44,9 @@ pub enum Feature {
     MirrorPlanes,
     /// A material with a plastic history (`von-mises-plastic`).
     Plasticity,
+    /// Prescribed displacements (`displacement`, `solution-displacement` conditions):
+    /// boundary conditions of the static path.
+    PrescribedDisplacement,
 }
 
 /// What a run of a method does, for `meshless run --explain`.
@@ -215,6 +219,7 @@ registry! {
     "corotated-tlsph" => CorotatedTlsph(corotated::CorotatedSpec),
     "gray-monaghan-sph" => GrayMonaghanSph(gray_monaghan::GrayMonaghanSpec),
     "godunov-sph" => GodunovSph(godunov::GodunovSpec),
+    "dual-support-sph" => DualSupportSph(dual_support::DualSupportSpec),
 }
 
 /// The registry entry of a case-file method name.

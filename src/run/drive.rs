@@ -4,7 +4,7 @@
 use super::checkpoint;
 use super::checks::{energy_blow_up, fixed_step_warning, hourglass_blow_up, step_collapse};
 use super::frames::{Frames, next_frame_time};
-use super::{Engine, Failed, RunError, RunOptions, output_error};
+use super::{Engine, Failed, Iteration, RunError, RunOptions, output_error};
 use crate::hourglass::HourglassIndicator;
 use crate::observe::{Clock, Invariants, Observers, Snapshot};
 use crate::output::{RunSummary, SeriesWriter, write_summary};
@@ -113,6 +113,7 @@ pub fn drive<D: Dim, E: Engine<D>>(
         eprintln!("warning: {}: {warning}", case.file.display());
     }
     let progress = progress_bar(opts.progress, case);
+    let mut iterations = IterationLog::new(&opts.out_dir);
     let started = Instant::now();
     let series_every = case.output.series_interval.unwrap_or(0.0);
     let checkpoint_every = case.run.checkpoint_interval;
@@ -185,7 +186,9 @@ pub fn drive<D: Dim, E: Engine<D>>(
         } else {
             (to_event, dt)
         };
-        if let Err(Failed { completed, cause }) = engine.advance(t, dt, steps) {
+        let advanced = engine.advance(t, dt, steps);
+        iterations.record(engine.iterations(), &progress)?;
+        if let Err(Failed { completed, cause }) = advanced {
             // Found during a step: reported at that step, and at the time it would end.
             let failing = step + u64::from(completed) + 1;
             clock.t = t + f64::from(completed) * dt;
@@ -340,7 +343,7 @@ fn clear_previous_run(dir: &Path) -> Result<(), RunError> {
         Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(output_error(path)(e)),
         _ => Ok(()),
     };
-    for name in ["summary.json", "series.csv", checkpoint::FILE] {
+    for name in ["summary.json", "series.csv", checkpoint::FILE, ITERATIONS] {
         remove(&dir.join(name))?;
     }
     let entries = std::fs::read_dir(dir).map_err(output_error(dir))?;
@@ -364,6 +367,55 @@ fn clear_previous_run(dir: &Path) -> Result<(), RunError> {
         remove(&index)?;
     }
     Ok(())
+}
+
+/// The file of a static engine's solver iterations.
+const ITERATIONS: &str = "iterations.csv";
+
+/// `iterations.csv`, created at the first iteration an engine reports (time steppers
+/// report none), one row per iteration, and a progress line each.
+struct IterationLog {
+    path: std::path::PathBuf,
+    writer: Option<SeriesWriter>,
+}
+
+impl IterationLog {
+    fn new(dir: &Path) -> Self {
+        Self {
+            path: dir.join(ITERATIONS),
+            writer: None,
+        }
+    }
+
+    fn record(&mut self, rows: Vec<Iteration>, progress: &ProgressBar) -> Result<(), RunError> {
+        for it in rows {
+            if self.writer.is_none() {
+                let columns: Vec<String> = Iteration::COLUMNS.map(String::from).to_vec();
+                self.writer = Some(
+                    SeriesWriter::create(&self.path, &columns).map_err(output_error(&self.path))?,
+                );
+            }
+            if let Some(w) = self.writer.as_mut() {
+                w.write_row(&it.row()).map_err(output_error(&self.path))?;
+            }
+            progress.println(format!(
+                "load step {}, t = {:.4e}: iteration {}, |R| = {:.3e} ({:.3e} relative), \
+                 |Δu| = {:.3e}{}",
+                it.load_step,
+                it.time,
+                it.iteration,
+                it.residual,
+                it.relative_residual,
+                it.increment,
+                if it.linear_iterations > 0 {
+                    format!(", {} CG iterations", it.linear_iterations)
+                } else {
+                    String::new()
+                }
+            ));
+        }
+        Ok(())
+    }
 }
 
 fn progress_bar(show: bool, case: &Case) -> ProgressBar {

@@ -88,7 +88,58 @@ fn gpu(backend: Backend) -> Result<Option<std::convert::Infallible>, RunError> {
     }
 }
 
-/// A time stepper the driver runs: the CPU method with its integrator, or the GPU engine.
+/// One iteration of a static engine's nonlinear solve (seed 004 §2): a row of
+/// `iterations.csv` and a progress line.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Iteration {
+    /// The load step being solved (1, 2, …; a cut step keeps its number).
+    pub load_step: u64,
+    /// The pseudo-time t of the load being solved (the load factor is t/end_time).
+    pub time: f64,
+    /// 0 for the residual before the first solve.
+    pub iteration: u32,
+    /// |R| over the free degrees of freedom [N].
+    pub residual: f64,
+    /// |R| over the force scale the tolerance is relative to.
+    pub relative_residual: f64,
+    /// |Δu| of the solve that led here [m] (0 at iteration 0).
+    pub increment: f64,
+    /// Iterations of the linear solver (0 for a direct solve).
+    pub linear_iterations: u32,
+    /// Wall time of the tangent assembly and linear solve [s].
+    pub solve_seconds: f64,
+}
+
+impl Iteration {
+    /// The columns of `iterations.csv`.
+    pub const COLUMNS: [&'static str; 8] = [
+        "load_step",
+        "time",
+        "iteration",
+        "residual",
+        "relative_residual",
+        "increment",
+        "linear_iterations",
+        "solve_seconds",
+    ];
+
+    /// The row of `iterations.csv`.
+    pub fn row(&self) -> [f64; 8] {
+        [
+            self.load_step as f64,
+            self.time,
+            f64::from(self.iteration),
+            self.residual,
+            self.relative_residual,
+            self.increment,
+            f64::from(self.linear_iterations),
+            self.solve_seconds,
+        ]
+    }
+}
+
+/// A time stepper the driver runs: the CPU method with its integrator, or the GPU engine;
+/// or a static engine, whose steps are load steps in the pseudo-time of the run.
 pub trait Engine<D: Dim> {
     /// "cpu", or "gpu: <adapter>".
     fn backend(&self) -> String;
@@ -118,6 +169,11 @@ pub trait Engine<D: Dim> {
     fn save(&mut self) -> Vec<f64>;
     /// Continues from what [`Self::save`] returned; Err says what does not fit.
     fn restore(&mut self, words: &[f64]) -> Result<(), String>;
+    /// The nonlinear-solver iterations since the last call (a static engine's Newton
+    /// iterations; a time stepper has none).
+    fn iterations(&mut self) -> Vec<Iteration> {
+        Vec::new()
+    }
 }
 
 /// Forwarding, so that the driver runs whichever engine [`engine`] chose.
@@ -157,6 +213,9 @@ impl<D: Dim> Engine<D> for Box<dyn Engine<D>> {
     }
     fn restore(&mut self, words: &[f64]) -> Result<(), String> {
         (**self).restore(words)
+    }
+    fn iterations(&mut self) -> Vec<Iteration> {
+        (**self).iterations()
     }
 }
 

@@ -11,7 +11,7 @@ mod frames;
 
 pub use budget::{Estimate, Limits};
 pub use drive::drive;
-pub use engine::{CpuEngine, Engine, EngineDim, Failed, build_method, engine};
+pub use engine::{CpuEngine, Engine, EngineDim, Failed, Iteration, build_method, engine};
 pub use frames::write_frame;
 
 use crate::material::Material;

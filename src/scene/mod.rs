@@ -255,6 +255,40 @@ pub enum Condition {
     Symmetry { normal: Axis },
     /// Surface traction t [Pa] on the region's particles, f = t·Δx^(d−1) each.
     Traction { traction: Vec<f64> },
+    /// Prescribed displacement components [m] reached at the end time (static path: the
+    /// load steps ramp them with the load factor t/end_time); the others stay free.
+    Displacement {
+        ux: Option<f64>,
+        uy: Option<f64>,
+        uz: Option<f64>,
+    },
+    /// The displacement of a closed-form solution at each particle's reference position,
+    /// for the listed components (static path, ramped like `displacement`).
+    SolutionDisplacement {
+        solution: Solution,
+        components: Vec<Axis>,
+    },
+    /// The traction t = σ(X) n of a closed-form solution's stress on a face with outward
+    /// unit normal n along an axis: each particle carries ∫ t dA over its patch of the
+    /// face, Δx wide in each direction and clipped to the extent of the region's particles
+    /// (the tributary patch of a vertex lattice), by 2-point Gauss in each direction of the
+    /// face (exact for tractions quadratic in X).
+    SolutionTraction {
+        solution: Solution,
+        normal: Vec<f64>,
+    },
+}
+
+/// Closed-form solutions that boundary conditions can take their values from.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum Solution {
+    /// The cantilever with a parabolic end shear of Timoshenko & Goodier (seed 004 eqs
+    /// 53–55, plane stress, the material's E and ν): x ∈ [0, length] from the clamped
+    /// end, y ∈ [−depth/2, depth/2], end load `load` per unit thickness [N/m].
+    TimoshenkoCantilever { load: f64, length: f64, depth: f64 },
+    /// Uniaxial stress σ_xx = `stress` [Pa] (seed 004 §6.3): u = (σx, −νσy, −νσz)/E.
+    UniaxialStress { stress: f64 },
 }
 
 /// A plane X_k = `at` across which the solution continues as its mirror image: for

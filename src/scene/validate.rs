@@ -7,7 +7,7 @@
 
 use super::{
     Axis, BodySpec, BoundarySpec, Case, Condition, ContactSpec, Lattice, MaterialSpec, OutputSpec,
-    Plane, ProbeSpec, Region, RunSpec, Shape, VelocityField, Volumes,
+    Plane, ProbeSpec, Region, RunSpec, Shape, Solution, VelocityField, Volumes,
 };
 use crate::material::MaterialModel;
 use crate::methods::{Feature, MethodTable, Problem, REGISTRY, entry, quoted, supporting};
@@ -37,6 +37,18 @@ pub(super) fn check(case: &Case) -> Result<(), (String, String)> {
     bodies(&case.bodies, dim)?;
     for (i, boundary) in case.boundaries.iter().enumerate() {
         self::boundary(boundary, &format!("boundary.{i}"), &case.bodies, dim)?;
+        if matches!(
+            boundary.condition,
+            Condition::Displacement { .. } | Condition::SolutionDisplacement { .. }
+        ) {
+            feature(
+                case,
+                Feature::PrescribedDisplacement,
+                &format!("boundary.{i}.condition"),
+                "a prescribed displacement is a condition of the static path",
+                "prescribe a velocity (`velocity`) instead",
+            )?;
+        }
     }
     mirrors(case)?;
     contact(case)?;
@@ -636,6 +648,86 @@ fn boundary(b: &BoundarySpec, key: &str, bodies: &[BodySpec], dim: usize) -> Che
             Ok(())
         }
         Condition::Traction { traction } => vector(&format!("{key}.traction"), traction, dim),
+        Condition::Displacement { ux, uy, uz } => {
+            if ux.is_none() && uy.is_none() && uz.is_none() {
+                let allowed = if dim == 3 { "ux, uy, uz" } else { "ux, uy" };
+                return fail(
+                    key,
+                    format!(
+                        "a displacement condition needs at least one of {allowed}; none is given"
+                    ),
+                );
+            }
+            if dim != 3
+                && let Some(uz) = uz
+            {
+                return fail(
+                    format!("{key}.uz"),
+                    format!(
+                        "exists only in 3D, but the case has dimension = {dim}; got {uz:?}; in 2D give ux and/or uy"
+                    ),
+                );
+            }
+            for (name, u) in [("ux", ux), ("uy", uy), ("uz", uz)] {
+                if let Some(u) = u {
+                    finite(&format!("{key}.{name}"), *u)?;
+                }
+            }
+            Ok(())
+        }
+        Condition::SolutionDisplacement {
+            solution,
+            components,
+        } => {
+            self::solution(solution, &format!("{key}.solution"))?;
+            if components.is_empty() {
+                return fail(
+                    format!("{key}.components"),
+                    "lists no component; give some of \"x\", \"y\" (and \"z\" in 3D)",
+                );
+            }
+            if let Some(z) = components.iter().find(|a| a.index() >= dim) {
+                return fail(
+                    format!("{key}.components"),
+                    format!(
+                        "\"{}\" exists only in 3D, but the case has dimension = {dim}",
+                        toml_name(z)
+                    ),
+                );
+            }
+            Ok(())
+        }
+        Condition::SolutionTraction { solution, normal } => {
+            self::solution(solution, &format!("{key}.solution"))?;
+            vector(&format!("{key}.normal"), normal, dim)?;
+            let axes = normal.iter().filter(|c| **c != 0.0).count();
+            if axes != 1 || normal.iter().any(|c| *c != 0.0 && c.abs() != 1.0) {
+                return fail(
+                    format!("{key}.normal"),
+                    format!(
+                        "must be the outward unit normal of a face along an axis, such as \
+                         [1, 0{}], got {normal:?}",
+                        if dim == 3 { ", 0" } else { "" }
+                    ),
+                );
+            }
+            Ok(())
+        }
+    }
+}
+
+fn solution(s: &Solution, key: &str) -> Checked {
+    match *s {
+        Solution::TimoshenkoCantilever {
+            load,
+            length,
+            depth,
+        } => {
+            finite(&format!("{key}.load"), load)?;
+            positive(&format!("{key}.length"), length)?;
+            positive(&format!("{key}.depth"), depth)
+        }
+        Solution::UniaxialStress { stress } => finite(&format!("{key}.stress"), stress),
     }
 }
 

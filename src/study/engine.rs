@@ -128,6 +128,9 @@ impl<D: Dim, E: Engine<D>> Engine<D> for Tracked<'_, D, E> {
     fn restore(&mut self, words: &[f64]) -> Result<(), String> {
         self.inner.restore(words)
     }
+    fn iterations(&mut self) -> Vec<crate::run::Iteration> {
+        self.inner.iterations()
+    }
 }
 
 /// What one run produced.

@@ -12,6 +12,7 @@ mod checkpoint;
 mod common;
 mod contact;
 mod corotated_tlsph;
+mod dual_support;
 mod godunov;
 #[cfg(feature = "gpu")]
 mod gpu_mixed;

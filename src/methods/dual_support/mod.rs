@@ -1,0 +1,294 @@
+//! Implicit dual-support SPH (Ren, Zhuang, Rabczuk & Zhu; seed 004): a smoothing length
+//! per particle with supports and dual-supports ([`support`]), the variational internal
+//! force and hourglass energy with their tangent ([`model`]), sparse assembly and solvers
+//! ([`sparse`]), and the static Newton engine ([`statics`]). CPU only. Numerics notes:
+//! `docs/methods/dual-support.md`.
+
+pub mod model;
+pub mod sparse;
+pub mod statics;
+pub mod support;
+
+pub use model::{DualSupport, Energies};
+pub use sparse::SolverKind;
+pub use statics::Statics;
+pub use support::Support;
+
+use super::{Feature, MethodFamily, Plan, Problem};
+use crate::material::Material;
+use crate::neighbour;
+use crate::reference::Reference;
+use crate::run::{Engine, EngineDim};
+use crate::scene::validate::{fail, non_negative, toml_name};
+use crate::scene::{Case, CaseError};
+use crate::tensor::Dim;
+use serde::{Deserialize, Serialize};
+
+/// How the smoothing length of each particle is chosen (`method.smoothing_length`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SmoothingLength {
+    /// h = h_over_dx · Δx for every particle.
+    #[default]
+    Uniform,
+    /// h_i = h_over_dx · V_i^(1/d) (eq 58 with Δx_i from the particle's volume).
+    Volume,
+    /// The support radius of i reaches its k-th nearest particle (§6.2, §6.5: "the k
+    /// nearest particles"; that particle sits where W and W′ vanish).
+    Nearest(u32),
+}
+
+/// The `[method]` keys of dual-support SPH.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct DualSupportSpec {
+    /// Hourglass penalty α in units of the shear modulus μ (eq 21 with α replacing μ in
+    /// α/m_L; §6.5's "α = 5μ" is 5); 0 switches the hourglass energy off. Default 1.
+    #[serde(default = "one")]
+    pub hourglass: f64,
+    #[serde(default)]
+    pub smoothing_length: SmoothingLength,
+    /// `direct` (sparse Cholesky, the default) or `cg` (Jacobi-preconditioned CG).
+    #[serde(default)]
+    pub solver: SolverKind,
+    /// Newton stops when |R| ≤ this × the force scale (the norm of the internal and
+    /// external forces). Default 1e-8.
+    #[serde(default = "residual_tolerance")]
+    pub residual_tolerance: f64,
+    /// … or when |Δu| ≤ this × |u|. Default 1e-12.
+    #[serde(default = "increment_tolerance")]
+    pub increment_tolerance: f64,
+    /// Newton iterations of a load step before it is cut in half. Default 20.
+    #[serde(default = "max_iterations")]
+    pub max_iterations: u32,
+    /// Halvings of a load step before the run fails. Default 6.
+    #[serde(default = "max_cuts")]
+    pub max_cuts: u32,
+    /// CG's relative residual. Default 1e-10.
+    #[serde(default = "linear_tolerance")]
+    pub linear_tolerance: f64,
+    /// CG's iteration limit. Default 20000.
+    #[serde(default = "linear_max_iterations")]
+    pub linear_max_iterations: u32,
+}
+
+fn one() -> f64 {
+    1.0
+}
+fn residual_tolerance() -> f64 {
+    1e-8
+}
+fn increment_tolerance() -> f64 {
+    1e-12
+}
+fn max_iterations() -> u32 {
+    20
+}
+fn max_cuts() -> u32 {
+    6
+}
+fn linear_tolerance() -> f64 {
+    1e-10
+}
+fn linear_max_iterations() -> u32 {
+    20_000
+}
+
+impl Default for DualSupportSpec {
+    fn default() -> Self {
+        Self {
+            hourglass: one(),
+            smoothing_length: SmoothingLength::default(),
+            solver: SolverKind::default(),
+            residual_tolerance: residual_tolerance(),
+            increment_tolerance: increment_tolerance(),
+            max_iterations: max_iterations(),
+            max_cuts: max_cuts(),
+            linear_tolerance: linear_tolerance(),
+            linear_max_iterations: linear_max_iterations(),
+        }
+    }
+}
+
+impl DualSupportSpec {
+    /// The smoothing length of every particle of a reference configuration.
+    pub fn smoothing_lengths<D: Dim>(
+        &self,
+        case: &Case,
+        reference: &Reference<D>,
+    ) -> Result<Vec<f64>, CaseError> {
+        let h = case.smoothing_length();
+        Ok(match self.smoothing_length {
+            SmoothingLength::Uniform => vec![h; reference.len()],
+            SmoothingLength::Volume => reference
+                .vol
+                .iter()
+                .map(|v| case.method.h_over_dx * v.powf(1.0 / D::N as f64))
+                .collect(),
+            SmoothingLength::Nearest(k) => {
+                let k = k as usize;
+                if reference.len() <= k {
+                    return Err(case.invalid(
+                        "method.smoothing_length.nearest",
+                        format!(
+                            "asks for the {k}th nearest particle, but the case has {} particles",
+                            reference.len()
+                        ),
+                    ));
+                }
+                let factor = case.method.kernel.support_factor();
+                nearest_distances::<D>(&reference.x0, k, case.spacing)
+                    .into_iter()
+                    .map(|r| r / factor)
+                    .collect()
+            }
+        })
+    }
+}
+
+/// The distance from every particle to its k-th nearest other particle (a radius search
+/// doubled until every particle has k neighbours).
+fn nearest_distances<D: Dim>(x0: &[D::V], k: usize, spacing: f64) -> Vec<f64> {
+    let mut radius = spacing * (k as f64).powf(1.0 / D::N as f64);
+    loop {
+        let csr = neighbour::build::<D>(x0, radius);
+        if (0..x0.len()).all(|i| csr.neighbours(i).len() >= k) {
+            return (0..x0.len())
+                .map(|i| {
+                    let mut d: Vec<f64> = csr
+                        .neighbours(i)
+                        .iter()
+                        .map(|&j| D::norm2(x0[j as usize] - x0[i]).sqrt())
+                        .collect();
+                    d.sort_by(f64::total_cmp);
+                    d[k - 1]
+                })
+                .collect();
+        }
+        radius *= 2.0;
+    }
+}
+
+impl MethodFamily for DualSupportSpec {
+    const DESCRIPTION: &'static str = "implicit dual-support SPH (Ren et al.; seed 004): \
+        smoothing length per particle, variational force with dual-supports, hourglass \
+        energy, assembled tangent and static Newton–Raphson with load steps (CPU only)";
+    const KEYS: &'static [&'static str] = &[
+        "hourglass",
+        "smoothing_length",
+        "solver",
+        "residual_tolerance",
+        "increment_tolerance",
+        "max_iterations",
+        "max_cuts",
+        "linear_tolerance",
+        "linear_max_iterations",
+    ];
+    const FEATURES: &'static [Feature] = &[Feature::PrescribedDisplacement];
+    const GPU_ENGINE: bool = false;
+    #[cfg(feature = "gpu")]
+    const SHADERS: &'static [crate::gpu::shaders::Source] = &[];
+
+    fn validate(&self, case: &Case) -> Result<(), Problem> {
+        let model = case.material.model;
+        if !model.has_tangent() {
+            return fail(
+                "material.model",
+                format!(
+                    "`dual-support-sph` needs the tangent ∂P/∂F of its model: use \
+                     `linear-elastic`, `neo-hookean`, `nearly-incompressible-neo-hookean` or \
+                     `saint-venant-kirchhoff`, not {}",
+                    toml_name(&model)
+                ),
+            );
+        }
+        if case.method.dt.is_none() || case.method.cfl.is_some() {
+            return fail(
+                "method.dt",
+                "`dual-support-sph` is static: give method.dt, the load step in the \
+                 pseudo-time of run.end_time (end_time/dt load steps), and no method.cfl",
+            );
+        }
+        non_negative("method.hourglass", self.hourglass)?;
+        for (key, v) in [
+            ("method.residual_tolerance", self.residual_tolerance),
+            ("method.increment_tolerance", self.increment_tolerance),
+            ("method.linear_tolerance", self.linear_tolerance),
+        ] {
+            if !(v.is_finite() && v > 0.0 && v < 1.0) {
+                return fail(key, format!("must lie in (0, 1), got {v:?}"));
+            }
+        }
+        for (key, v) in [
+            ("method.max_iterations", self.max_iterations),
+            ("method.linear_max_iterations", self.linear_max_iterations),
+        ] {
+            if v == 0 {
+                return fail(key, "must be at least 1, got 0");
+            }
+        }
+        if self.smoothing_length == SmoothingLength::Nearest(0) {
+            return fail(
+                "method.smoothing_length.nearest",
+                "must be at least the dimension + 1, got 0",
+            );
+        }
+        Ok(())
+    }
+
+    fn plan(&self, case: &Case, _gpu: bool) -> Plan {
+        let mat = Material::new(&case.material);
+        let mut left_out = vec![
+            "time integration (static)",
+            "the case's gradient correction",
+        ];
+        if self.hourglass == 0.0 {
+            left_out.push("hourglass energy");
+        }
+        Plan {
+            once: format!(
+                "once, on the reference configuration: smoothing lengths ({}), supports S_i \
+                 and dual-supports S'_i, corrected gradients g_ij = L_i⁻¹∇W_i V_j, the \
+                 two-hop pattern of the tangent and the {} set-up",
+                match self.smoothing_length {
+                    SmoothingLength::Uniform => "uniform".to_string(),
+                    SmoothingLength::Volume => "h_over_dx · V^(1/d)".to_string(),
+                    SmoothingLength::Nearest(k) => format!("{k} nearest"),
+                },
+                match self.solver {
+                    SolverKind::Direct => "symbolic Cholesky",
+                    SolverKind::Cg => "CG",
+                }
+            ),
+            state: format!("u (state model {:?}); no velocity", mat.model),
+            cfl_step: "none: load steps of method.dt".into(),
+            rates: format!(
+                "Newton iterations: F_i, P_i, 𝔸_i; R = f_int + λ f_ext; K = Σ_i V_i δF_iᵀ𝔸_iδF_i \
+                 + hourglass (α = {}μ); {} solve",
+                self.hourglass,
+                toml_name(&self.solver)
+            ),
+            checked: "det F",
+            check_note: String::new(),
+            left_out,
+        }
+    }
+
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> Result<Box<dyn Engine<D>>, CaseError> {
+        Ok(Box::new(Statics::<D>::new(case, self)?))
+    }
+
+    #[cfg(feature = "gpu")]
+    fn gpu_engine<D: EngineDim>(
+        &self,
+        case: &Case,
+        _gpu: crate::gpu::Gpu,
+    ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
+        Err(super::no_gpu_engine(case).into())
+    }
+
+    /// No CFL step.
+    fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
+        0.0
+    }
+}

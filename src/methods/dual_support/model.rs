@@ -1,0 +1,240 @@
+//! The discrete energy of dual-support SPH and its derivatives: the strain energy
+//! Σ_i V_i ψ(F_i) (eq 38) and the hourglass energy Σ_i V_i 𝓕_i^hg (eq 21), the internal
+//! force −∂E/∂u (eq 18, and eq 28 with the sign of the hourglass term corrected), and the
+//! tangent ∂²E/∂u² assembled in two steps (eqs 39–41 and the corrected eq 29).
+
+use super::sparse::BlockPattern;
+use super::support::Support;
+use crate::material::{Material, Tangent};
+use crate::tensor::Dim;
+use rayon::prelude::*;
+
+/// Strain and hourglass energy of a displacement field.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Energies {
+    /// Σ_i V_i ψ(F_i).
+    pub strain: f64,
+    /// Σ_i V_i 𝓕_i^hg.
+    pub hourglass: f64,
+}
+
+/// Dual-support SPH on a reference configuration: supports, material and the hourglass
+/// coefficient of every particle.
+pub struct DualSupport<D: Dim> {
+    pub support: Support<D>,
+    pub material: Material,
+    /// c_i = α/m_{L_i} with m_{L_i} = tr L_i < 0 and the penalty α = (factor) μ ≥ 0, so
+    /// that c_i w_ij ≥ 0 and 𝓕^hg ≥ 0 (note §1.6: keep the signs of W′ and m_L together).
+    pub hourglass: Vec<f64>,
+}
+
+impl<D: Dim> DualSupport<D> {
+    /// The method with hourglass penalty α = `factor` · μ (0: no hourglass control).
+    pub fn new(support: Support<D>, material: Material, factor: f64) -> Self {
+        let alpha = factor * material.mu;
+        let hourglass = support.l.iter().map(|&l| alpha / D::trace(l)).collect();
+        Self {
+            support,
+            material,
+            hourglass,
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.support.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.support.is_empty()
+    }
+
+    /// F_i of every particle (eq 12).
+    pub fn deformation_gradients(&self, u: &[D::V]) -> Vec<D::T> {
+        (0..self.len())
+            .into_par_iter()
+            .map(|i| D::identity() + self.support.displacement_gradient(u, i))
+            .collect()
+    }
+
+    /// e_ij = x_ij − F_i X_ij = u_ij − H_i X_ij of pair slot p = (i, j): the error of the
+    /// affine map of i at j.
+    fn pair_error(&self, u: &[D::V], h_i: D::T, i: usize, p: usize) -> D::V {
+        let s = &self.support;
+        let j = s.lists.ids[p] as usize;
+        (u[j] - u[i]) - h_i * (s.x0[j] - s.x0[i])
+    }
+
+    /// 𝓕_i^hg = c_i Σ_j w_ij |e_ij|² (eq 21, first form), an energy density.
+    fn hourglass_density(&self, u: &[D::V], h_i: D::T, i: usize) -> f64 {
+        let c = self.hourglass[i];
+        if c == 0.0 {
+            return 0.0;
+        }
+        let s = &self.support;
+        c * s
+            .lists
+            .range(i)
+            .map(|p| s.w[p] * D::norm2(self.pair_error(u, h_i, i, p)))
+            .sum::<f64>()
+    }
+
+    /// 𝓕_i^hg of every particle (eq 21), for the frames.
+    pub fn hourglass_densities(&self, u: &[D::V]) -> Vec<f64> {
+        (0..self.len())
+            .into_par_iter()
+            .map(|i| self.hourglass_density(u, self.support.displacement_gradient(u, i), i))
+            .collect()
+    }
+
+    /// The strain and hourglass energies of displacement u.
+    pub fn energies(&self, u: &[D::V]) -> Energies {
+        let s = &self.support;
+        let (strain, hourglass) = (0..self.len())
+            .into_par_iter()
+            .map(|i| {
+                let h = s.displacement_gradient(u, i);
+                let psi = self.material.energy_density::<D>(
+                    D::identity() + h,
+                    D::zero_t(),
+                    self.material.rho0,
+                );
+                (s.vol[i] * psi, s.vol[i] * self.hourglass_density(u, h, i))
+            })
+            .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
+        Energies { strain, hourglass }
+    }
+
+    /// The internal forces f_a = −∂E/∂u_a with E the strain energy plus, with
+    /// `with_hourglass`, the hourglass energy. Per particle a, as a gather over its
+    /// support and dual-support (eq 18; eq 28 with −T^hg):
+    /// f_a = V_a P_a Σ_j g_aj − Σ_{i∈S'_a} V_i P_i g_ia
+    ///     + 2 V_a c_a Σ_j w_aj e_aj − Σ_{i∈S'_a} 2 V_i c_i w_ia e_ia.
+    /// Every pair term enters two particles with opposite signs: Σ_a f_a = 0.
+    pub fn internal_force(&self, u: &[D::V], with_hourglass: bool) -> Vec<D::V> {
+        let s = &self.support;
+        let h: Vec<D::T> = (0..self.len())
+            .into_par_iter()
+            .map(|i| s.displacement_gradient(u, i))
+            .collect();
+        // V_i P_i, and per pair the hourglass term 2 V_i c_i w_ij e_ij.
+        let vp: Vec<D::T> = (0..self.len())
+            .into_par_iter()
+            .map(|i| self.material.pk1::<D>(D::identity() + h[i]) * s.vol[i])
+            .collect();
+        let hg: Vec<D::V> = if with_hourglass {
+            s.lists
+                .map_rows(|i| {
+                    let k = 2.0 * s.vol[i] * self.hourglass[i];
+                    Ok::<_, ()>(
+                        s.lists
+                            .range(i)
+                            .map(|p| self.pair_error(u, h[i], i, p) * (k * s.w[p]))
+                            .collect(),
+                    )
+                })
+                .unwrap_or_default()
+        } else {
+            Vec::new()
+        };
+        (0..self.len())
+            .into_par_iter()
+            .map(|a| {
+                let mut f = -(vp[a] * s.g_self[a]);
+                for (q, &i) in s.dual.range(a).zip(&s.dual.ids[s.dual.range(a)]) {
+                    f -= vp[i as usize] * s.g[s.dual_slot[q] as usize];
+                }
+                if with_hourglass {
+                    for p in s.lists.range(a) {
+                        f += hg[p];
+                    }
+                    for q in s.dual.range(a) {
+                        f -= hg[s.dual_slot[q] as usize];
+                    }
+                }
+                f
+            })
+            .collect()
+    }
+
+    /// 𝔸_i = ∂P/∂F of every particle at displacement u.
+    pub fn tangents(&self, u: &[D::V]) -> Vec<Tangent> {
+        (0..self.len())
+            .into_par_iter()
+            .map(|i| {
+                let f = D::identity() + self.support.displacement_gradient(u, i);
+                self.material.tangent::<D>(f)
+            })
+            .collect()
+    }
+
+    /// The tangent K = ∂²E/∂u² into the values of `pattern` (d×d blocks, row-major), in
+    /// two steps: the nodal matrices K_i = V_i δF_iᵀ 𝔸_i δF_i (eq 41) plus the hourglass
+    /// blocks 2 V_i c_i (C_kl − g_k·L_i g_l) I (eq 29 with its factor 2 restored; constant),
+    /// summed into the global pattern (global assembly). Each row of blocks is gathered by
+    /// its own particle a from the elements holding it (a itself and S'_a), so every block
+    /// of every K_i is computed once and no two threads write one value.
+    pub fn stiffness(&self, tangents: &[Tangent], pattern: &BlockPattern, values: &mut [f64]) {
+        let s = &self.support;
+        let d = D::N;
+        let bs = d * d;
+        let comp = |v: D::V| -> [f64; 3] { D::to3(v) };
+        pattern
+            .rows_mut(values, bs)
+            .into_par_iter()
+            .for_each(|(a, cols, row)| {
+                row.iter_mut().for_each(|v| *v = 0.0);
+                for (i, ka) in s.elements_of(a) {
+                    let gk = comp(s.weight(i, ka));
+                    let tan = &tangents[i];
+                    let vi = s.vol[i];
+                    // T[a'][b][C] = Σ_B 𝔸[a'B][bC] g_k,B.
+                    let mut t = [[[0.0; 3]; 3]; 3];
+                    for (ap, ta) in t.iter_mut().enumerate().take(d) {
+                        for (b, tb) in ta.iter_mut().enumerate().take(d) {
+                            for (c, tc) in tb.iter_mut().enumerate().take(d) {
+                                *tc = (0..d)
+                                    .map(|bb| tan[3 * ap + bb][3 * b + c] * gk[bb])
+                                    .sum::<f64>()
+                                    * vi;
+                            }
+                        }
+                    }
+                    let hg = 2.0 * vi * self.hourglass[i];
+                    let lg = comp(s.l[i] * s.weight(i, ka));
+                    for (l, node) in s.nodes(i).enumerate() {
+                        let col = cols
+                            .binary_search(&(node as u32))
+                            .expect("the pattern holds every pair of an element");
+                        let block = &mut row[col * bs..(col + 1) * bs];
+                        let gl = comp(s.weight(i, l));
+                        for ap in 0..d {
+                            for b in 0..d {
+                                block[ap * d + b] +=
+                                    (0..d).map(|c| t[ap][b][c] * gl[c]).sum::<f64>();
+                            }
+                        }
+                        if hg != 0.0 {
+                            let c_kl = laplacian(s, i, ka, l);
+                            let g_lg = (0..d).map(|c| lg[c] * gl[c]).sum::<f64>();
+                            for ap in 0..d {
+                                block[ap * d + ap] += hg * (c_kl - g_lg);
+                            }
+                        }
+                    }
+                }
+            });
+    }
+}
+
+/// C_kl of the hourglass energy of particle i (note §1.6 block form): with w_k the weight
+/// of local node k ≥ 1, C_00 = Σ_k w_k, C_0k = C_k0 = −w_k, C_kk = w_k, zero elsewhere.
+fn laplacian<D: Dim>(s: &Support<D>, i: usize, k: usize, l: usize) -> f64 {
+    let off = s.lists.offsets[i];
+    match (k, l) {
+        (0, 0) => s.w[s.lists.range(i)].iter().sum(),
+        (0, l) => -s.w[off + l - 1],
+        (k, 0) => -s.w[off + k - 1],
+        (k, l) if k == l => s.w[off + k - 1],
+        _ => 0.0,
+    }
+}
