@@ -54,6 +54,12 @@ static TEMPORARIES: AtomicU64 = AtomicU64::new(0);
 /// not exist before: created with `create_new`, so neither a file nor a symlink that is
 /// already there under that name is opened; a name taken is skipped for the next one.
 fn create_temporary(path: &Path) -> io::Result<(File, PathBuf)> {
+    create_temporary_with(path, "")
+}
+
+/// [`create_temporary`] with `tail` appended to the name (`.png` for a writer that reads
+/// the format from the extension).
+pub(crate) fn create_temporary_with(path: &Path, tail: &str) -> io::Result<(File, PathBuf)> {
     let name = path.file_name().ok_or_else(|| {
         io::Error::new(
             io::ErrorKind::InvalidInput,
@@ -65,7 +71,7 @@ fn create_temporary(path: &Path) -> io::Result<(File, PathBuf)> {
         let mut tmp_name = OsString::from(".");
         tmp_name.push(name);
         let k = TEMPORARIES.fetch_add(1, Ordering::Relaxed);
-        tmp_name.push(format!(".{}-{k}.tmp", std::process::id()));
+        tmp_name.push(format!(".{}-{k}.tmp{tail}", std::process::id()));
         let tmp = path.with_file_name(tmp_name);
         match fs::OpenOptions::new()
             .write(true)

@@ -69,7 +69,8 @@ pub struct Field<'a> {
 /// Two-dimensional data passes `z = 0`. Fails with
 /// [`io::ErrorKind::InvalidInput`] if a field's length differs from the point
 /// count or if field names are empty or repeated; the file at `path` is then
-/// left untouched. The frame is written to `<path>.tmp` and renamed into place.
+/// left untouched. The frame is written to a fresh temporary sibling and renamed into
+/// place ([`super::write_atomically`]).
 pub fn write_vtu(path: &Path, points: &[[f64; 3]], fields: &[Field], time: f64) -> io::Result<()> {
     let n = points.len();
     let mut names = HashSet::new();

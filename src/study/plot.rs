@@ -122,7 +122,10 @@ pub fn plots(suite: &Suite, records: &[RunRecord], dir: &Path) -> std::io::Resul
         );
         for ext in ["png", "svg"] {
             let path = dir.join(format!("{}-{}.{ext}", suite.name, m.tag));
-            let tmp = dir.join(format!(".{}-{}.tmp.{ext}", suite.name, m.tag));
+            // A fresh temporary file of this process (never a link planted in the folder),
+            // which the backend overwrites by name; then renamed into place.
+            let (file, tmp) = crate::output::create_temporary_with(&path, &format!(".{ext}"))?;
+            drop(file);
             let result = if ext == "png" {
                 draw(
                     BitMapBackend::new(&tmp, (960, 640)).into_drawing_area(),
@@ -138,7 +141,10 @@ pub fn plots(suite: &Suite, records: &[RunRecord], dir: &Path) -> std::io::Resul
                     &points,
                 )
             };
-            result.map_err(|e| std::io::Error::other(format!("{}: {e}", path.display())))?;
+            if let Err(e) = result {
+                let _ = std::fs::remove_file(&tmp);
+                return Err(std::io::Error::other(format!("{}: {e}", path.display())));
+            }
             std::fs::rename(&tmp, &path)?;
             files.push(path);
         }
@@ -929,7 +935,25 @@ mod tests {
             ));
         }
         let dir = tempfile::tempdir().unwrap();
+        // Links planted where a plot goes and at a guessable temporary name are not
+        // written through: the plot replaces the first, and the target is left as it was.
+        let target = dir.path().join("target.txt");
+        std::fs::write(&target, "kept").unwrap();
+        #[cfg(unix)]
+        for planted in [
+            "swinging-plate-velocity.png",
+            ".swinging-plate-velocity.tmp.png",
+        ] {
+            std::os::unix::fs::symlink(&target, dir.path().join(planted)).unwrap();
+        }
         let files = plots(&suite, &recs, dir.path()).unwrap();
+        assert_eq!(std::fs::read_to_string(&target).unwrap(), "kept");
+        assert!(
+            !std::fs::symlink_metadata(dir.path().join("swinging-plate-velocity.png"))
+                .unwrap()
+                .file_type()
+                .is_symlink()
+        );
         assert!(
             files
                 .iter()
