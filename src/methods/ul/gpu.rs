@@ -314,10 +314,6 @@ fn grid<D: GpuDim>(gpu: &Gpu, disc: &Reference<D>, n: u32) -> Result<CellParams,
 }
 
 impl<D: GpuDim> GpuUl<D> {
-    pub fn layout(&self) -> &Layout {
-        &self.layout
-    }
-
     /// The host's reference configuration of the scene.
     pub fn reference(&self) -> &Reference<D> {
         &self.reference
