@@ -1,8 +1,10 @@
 //! GPU-path throughput in particle-steps per second (criterion's elements/s): one
 //! iteration is 10 time steps recorded into one command encoder and waited for, with
-//! `Throughput::Elements(10 × particles)`. Scenes: the rotating disk (2D, RK4) and the
-//! spinning 3D block (SSP-RK3) at about 1e3, 1e4 and 1e5 particles, plus the GPU set-up
-//! (cell-list neighbour build, pair offsets, corrected gradients). Runs on the adapter
+//! `Throughput::Elements(10 × particles)`. Scenes at about 1e3, 1e4 and 1e5 particles: the
+//! rotating disk (2D, RK4) under TLSPH, Gray–Monaghan and Godunov SPH (the last two
+//! rebuild their neighbours on the device before every rate evaluation), the potential's
+//! tensile strip and the spinning 3D block (SSP-RK3); plus the TLSPH set-up (cell-list
+//! neighbour build, pair offsets, corrected gradients). Runs on the adapter
 //! `Gpu::new` picks (`MESHLESS_ADAPTER` to choose); without one it stops with the reason.
 
 use criterion::{
@@ -10,9 +12,8 @@ use criterion::{
 };
 use meshless::bench::resize;
 use meshless::gpu::Gpu;
-use meshless::gpu::layout::GpuDim;
 use meshless::methods::tlsph::GpuTlsph;
-use meshless::run::Engine;
+use meshless::run::{Engine, EngineDim};
 use meshless::scene::Case;
 use meshless::tensor::{D2, D3};
 use std::path::PathBuf;
@@ -27,6 +28,12 @@ fn load(name: &str, particles: f64) -> Case {
     let base = Case::load(&path, &[]).expect("case loads");
     let mut sizes = resize(&base, particles).expect("case resizes");
     // A fixed step at the case's Courant number, so every iteration does the same work.
+    if let Some(dt) = base.method.dt {
+        let spacing = Case::load(&path, &sizes)
+            .expect("resized case loads")
+            .spacing;
+        sizes.push(format!("method.dt={:e}", dt * spacing / base.spacing));
+    }
     if base.method.cfl.is_some() {
         let dt =
             0.3 * base.spacing / 5000.0 * (particles / 1e4).powf(-1.0 / f64::from(base.dimension));
@@ -39,7 +46,7 @@ fn gpu() -> Gpu {
     Gpu::new().unwrap_or_else(|e| panic!("the GPU benchmarks need an adapter: {e}"))
 }
 
-fn steps<D: GpuDim>(c: &mut Criterion, group: &str, name: &str) {
+fn steps<D: EngineDim>(c: &mut Criterion, group: &str, name: &str) {
     let mut g = c.benchmark_group(group);
     g.sample_size(10)
         .warm_up_time(Duration::from_millis(500))
@@ -47,19 +54,25 @@ fn steps<D: GpuDim>(c: &mut Criterion, group: &str, name: &str) {
         .sampling_mode(SamplingMode::Flat);
     for particles in [1e3, 1e4, 1e5] {
         let case = load(name, particles);
-        let mut engine: GpuTlsph<D> = GpuTlsph::new(&case, gpu()).expect("GPU set-up");
+        let mut engine = case
+            .method
+            .spec
+            .gpu_engine::<D>(&case, gpu())
+            .unwrap_or_else(|e| panic!("GPU set-up of {name}: {e}"));
         let dt = case.method.dt.expect("fixed dt");
-        let n = engine.layout().n;
+        let n = engine.reference().len();
         g.throughput(Throughput::Elements(
             n as u64 * u64::from(STEPS_PER_ITERATION),
         ));
         g.bench_with_input(BenchmarkId::new("steps", n), &n, |b, _| {
             b.iter(|| {
-                engine.advance_steps(dt, STEPS_PER_ITERATION);
+                engine
+                    .advance(0.0, dt, STEPS_PER_ITERATION)
+                    .expect("steps run");
                 engine.finish();
             })
         });
-        Engine::<D>::check(&mut engine).expect("state stays finite");
+        engine.check().expect("state stays finite");
     }
     g.finish();
 }
@@ -80,9 +93,37 @@ fn disk(c: &mut Criterion) {
     steps::<D2>(c, "gpu_rotating_disk", "rotating-disk.toml");
 }
 
+fn disk_gray_monaghan(c: &mut Criterion) {
+    steps::<D2>(
+        c,
+        "gpu_rotating_disk_gray_monaghan",
+        "rotating-disk-gray-monaghan.toml",
+    );
+}
+
+fn disk_godunov(c: &mut Criterion) {
+    steps::<D2>(c, "gpu_rotating_disk_godunov", "rotating-disk-godunov.toml");
+}
+
+fn strip_potential(c: &mut Criterion) {
+    steps::<D2>(
+        c,
+        "gpu_tensile_strip_potential",
+        "tensile-strip-potential.toml",
+    );
+}
+
 fn block(c: &mut Criterion) {
     steps::<D3>(c, "gpu_spinning_block_3d", "spinning-block-3d.toml");
 }
 
-criterion_group!(benches, disk, block, setup);
+criterion_group!(
+    benches,
+    disk,
+    disk_gray_monaghan,
+    disk_godunov,
+    strip_potential,
+    block,
+    setup
+);
 criterion_main!(benches);
