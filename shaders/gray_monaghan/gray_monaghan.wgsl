@@ -72,13 +72,8 @@ fn rates(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
         a += t * grad * m_j;
         let rho_bar = 0.5 * (rho_i + rho_of(j));
         if AV == 1u {
-            let vx = -dot(v_ji, x_ij);
-            if vx < 0.0 {
-                let mu = KERNEL_H * vx / (r * r + AV_ETA * AV_ETA * KERNEL_H * KERNEL_H);
-                let c = 0.5 * (c_i + kin[KC_OFF + j]);
-                let pi = (-AV_ALPHA * c * mu + AV_BETA * mu * mu) / rho_bar;
-                a -= grad * (m_j * pi);
-            }
+            let pi = monaghan_pi(x_ij, -v_ji, 0.5 * (c_i + kin[KC_OFF + j]), rho_bar);
+            a -= grad * (m_j * pi);
         }
         if XSPH == 1u {
             xsph += v_ji * (m_j / rho_bar * w);

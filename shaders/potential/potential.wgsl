@@ -57,12 +57,10 @@ fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
             - mload_kin(KP_OFF + DIM * DIM * j) * g_rev * w_ji;
         if AV == 1u {
             let x_ij = u_i - vload_y(U_OFF + DIM * j) - vload_pair(PDX_OFF + DIM * p);
-            let vx = dot(v_i - vload_y(V_OFF + DIM * j), x_ij);
-            if vx < 0.0 {
-                let rho_j = kin[KRHO_OFF + j];
-                let mu = H * vx / (dot(x_ij, x_ij) + AV_ETA * AV_ETA * H * H);
-                let c = 0.5 * (c_i + sqrt(BULK / rho_j));
-                let pi = (-AV_ALPHA * c * mu + AV_BETA * mu * mu) / (0.5 * (rho_i + rho_j));
+            let rho_j = kin[KRHO_OFF + j];
+            let c = 0.5 * (c_i + sqrt(BULK / rho_j));
+            let pi = monaghan_pi(x_ij, v_i - vload_y(V_OFF + DIM * j), c, 0.5 * (rho_i + rho_j));
+            if pi != 0.0 {
                 let dir = fit_i * g - mload_kin(KFIT_OFF + DIM * DIM * j) * g_rev;
                 viscous -= dir * (0.5 * RHO0 * vol_of(j) * pi);
             }

@@ -8,7 +8,7 @@
 // reason), the per-pair data pair = [∇0W̃ | X_j − X_i] (DIM each per pair) and the
 // reference configuration (reference.wgsl). Constitutive functions: mechanics.wgsl.
 // Scene constants: N, DIM, RATE, MODEL, RHO0, MU, LAMBDA, BULK, AV, AV_ALPHA, AV_BETA,
-// AV_ETA, H, and the field offsets of methods::tlsph::gpu::Layout (U_OFF, V_OFF, RHO_OFF,
+// AV_ETA (viscosity.wgsl), and the field offsets of methods::tlsph::gpu::Layout (U_OFF, V_OFF, RHO_OFF,
 // S_OFF; KF_OFF, KP_OFF, KFIT_OFF, KRHO_OFF, KPOW_OFF; PG_OFF, PDX_OFF).
 
 @group(0) @binding(0) var<storage, read> offsets: array<u32>;

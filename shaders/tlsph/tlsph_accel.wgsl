@@ -35,12 +35,10 @@ fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
         stress += (p_i + mload_kin(KP_OFF + DIM * DIM * j)) * g * vol_of(j);
         if AV == 1u {
             let x_ij = u_i - vload_y(U_OFF + DIM * j) - vload_pair(PDX_OFF + DIM * p);
-            let vx = dot(v_i - vload_y(V_OFF + DIM * j), x_ij);
-            if vx < 0.0 {
-                let rho_j = kin[KRHO_OFF + j];
-                let mu = H * vx / (dot(x_ij, x_ij) + AV_ETA * AV_ETA * H * H);
-                let c = 0.5 * (c_i + sqrt(BULK / rho_j));
-                let pi = (-AV_ALPHA * c * mu + AV_BETA * mu * mu) / (0.5 * (rho_i + rho_j));
+            let rho_j = kin[KRHO_OFF + j];
+            let c = 0.5 * (c_i + sqrt(BULK / rho_j));
+            let pi = monaghan_pi(x_ij, v_i - vload_y(V_OFF + DIM * j), c, 0.5 * (rho_i + rho_j));
+            if pi != 0.0 {
                 var along = f_inv_t * g;
                 if AV_GRADIENT == AV_GRADIENT_REFERENCE {
                     along = g;

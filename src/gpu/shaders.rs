@@ -65,6 +65,8 @@ pub const MECHANICS: Wgsl = wgsl!("common/mechanics.wgsl");
 pub const BOUNDARY: Wgsl = wgsl!("common/boundary.wgsl");
 /// Accessors of the reference configuration on the device (`gpu::reference`).
 pub const REFERENCE: Wgsl = wgsl!("common/reference.wgsl");
+/// Monaghan's artificial viscosity Π_ij of a pair.
+pub const VISCOSITY: Wgsl = wgsl!("common/viscosity.wgsl");
 /// Eigen-decomposition of symmetric tensors (cyclic Jacobi) and tensors from principal
 /// values.
 pub const EIGEN: Wgsl = wgsl!("common/eigen.wgsl");

@@ -4,7 +4,8 @@
 
 use super::GrayMonaghanSpec;
 use crate::gpu::shaders::{
-    BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, KERNEL, MECHANICS, REFERENCE, Source, source,
+    BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, KERNEL, MECHANICS, REFERENCE, Source,
+    VISCOSITY, source,
 };
 use crate::methods::ul::gpu::{CORE, REDUCE, Scheme};
 use crate::scene::Case;
@@ -12,7 +13,9 @@ use crate::scene::Case;
 /// Per-particle quantities (σ/ρ², R, c, V, the correction) and the pair gather.
 pub const PASSES: Source = source!(
     "gray_monaghan/gray_monaghan.wgsl",
-    [KERNEL, MECHANICS, REFERENCE, BOUNDARY, EIGEN, CORE],
+    [
+        KERNEL, MECHANICS, REFERENCE, BOUNDARY, EIGEN, VISCOSITY, CORE
+    ],
     [
         ("y", false),
         ("x", true),

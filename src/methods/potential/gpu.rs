@@ -5,8 +5,8 @@
 
 use super::{PotentialForce, PotentialSpec};
 use crate::gpu::shaders::{
-    BOUNDARY, CONTACT, CORRECTION, INTEGRATE, MECHANICS, PAIR_OFFSETS, REFERENCE, Source, Wgsl,
-    source, wgsl,
+    BOUNDARY, CONTACT, CORRECTION, INTEGRATE, MECHANICS, PAIR_OFFSETS, REFERENCE, Source,
+    VISCOSITY, Wgsl, source, wgsl,
 };
 use crate::methods::tlsph::gpu::{STRESS, TlScheme, viscosity};
 
@@ -16,7 +16,7 @@ const ENERGY: Wgsl = wgsl!("potential/potential_energy.wgsl");
 /// The reverse gradients (set-up) and the symmetrised forces of eq 148 with viscosity.
 pub const ACCEL: Source = source!(
     "potential/potential.wgsl",
-    [BOUNDARY, REFERENCE],
+    [BOUNDARY, REFERENCE, VISCOSITY],
     [
         ("y", false),
         ("pair", true),

@@ -16,7 +16,7 @@ use crate::gpu::reduction::{Reduced, Reduction, WorkBalance};
 use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
     self, BOUNDARY, CONTACT, CORRECTION, Constants, INTEGRATE, MECHANICS, PAIR_OFFSETS, REFERENCE,
-    Source, Wgsl, source, wgsl,
+    Source, VISCOSITY, Wgsl, source, wgsl,
 };
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
 use crate::integrate::Buf;
@@ -47,7 +47,7 @@ pub const STRESS: Source = source!(
 /// Accelerations, artificial viscosity, boundary conditions.
 pub const ACCEL: Source = source!(
     "tlsph/tlsph_accel.wgsl",
-    [BOUNDARY, REFERENCE],
+    [BOUNDARY, REFERENCE, VISCOSITY],
     [
         ("y", false),
         ("pair", false),
@@ -202,7 +202,6 @@ pub fn scene_constants(case: &Case, layout: &Layout, scheme: &TlScheme) -> Const
         .u32("BODIES", u(case.bodies.len()))
         .material(&material)
         .choice("CORRECTION", &["NONE", "SHEPARD", "LINEAR"], correction)
-        .f32("H", kernel.h)
         .u32("REST_OFF", u(layout.state.offset("RHO")));
     [&layout.state, &layout.kin, &layout.pair, &layout.reference]
         .into_iter()
