@@ -158,9 +158,27 @@ pub(crate) fn output_error(path: &std::path::Path) -> impl FnOnce(std::io::Error
 /// a run that would not fit.
 pub fn run(case: &Case, opts: &RunOptions) -> Result<RunSummary, RunError> {
     budget::check(case, may_use_gpu(case, opts.backend), &opts.limits)?;
-    match case.dimension {
+    with_threads(case, || match case.dimension {
         2 => drive::<D2, _>(case, opts, engine::<D2>(case, opts.backend)?),
         _ => drive::<D3, _>(case, opts, engine::<D3>(case, opts.backend)?),
+    })?
+}
+
+/// Runs `f` in a pool of the case's `run.threads` CPU threads, or in the global pool (every
+/// core) when the case sets none.
+pub fn with_threads<T: Send>(case: &Case, f: impl FnOnce() -> T + Send) -> Result<T, RunError> {
+    match case.run.threads {
+        None => Ok(f()),
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .map(|pool| pool.install(f))
+            .map_err(|e| {
+                RunError::Case(case.invalid(
+                    "run.threads",
+                    format!("cannot start {n} threads ({e}); give fewer"),
+                ))
+            }),
     }
 }
 

@@ -330,6 +330,10 @@ pub struct RunSpec {
     /// from which `--resume` continues); absent: none.
     #[serde(default)]
     pub checkpoint_interval: Option<f64>,
+    /// CPU threads of the run (a pool of its own); absent: every core. A study sweeps it
+    /// to measure the parallel speed-up.
+    #[serde(default)]
+    pub threads: Option<usize>,
 }
 
 fn default_energy_growth() -> f64 {

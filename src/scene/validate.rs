@@ -14,6 +14,10 @@ use crate::methods::{Feature, MethodTable, Problem, REGISTRY, entry, quoted, sup
 use serde::Serialize;
 use std::collections::HashSet;
 
+/// Largest `run.threads`: more than any machine this runs on, few enough that a typo
+/// (`run.threads = 20000`) is refused rather than spawning the threads.
+const MAX_THREADS: usize = 4096;
+
 type Checked = Result<(), Problem>;
 
 /// Semantic checks after parsing. Err((key, message)): the dotted key path, e.g. `material.poisson_ratio` or `body.1.geometry.radius` or `boundary.0.condition.vx`, and a message that says what is wrong and what is allowed, quoting the offending value.
@@ -798,6 +802,14 @@ fn run(r: &RunSpec, m: &MethodTable) -> Checked {
                  method.dt, or remove run.min_step_ratio",
             );
         }
+    }
+    if let Some(n) = r.threads
+        && !(1..=MAX_THREADS).contains(&n)
+    {
+        return fail(
+            "run.threads",
+            format!("must be a whole number from 1 to {MAX_THREADS}, got {n}"),
+        );
     }
     let limit = r.energy_growth_limit;
     if limit.is_nan() || limit <= 1.0 {

@@ -8,6 +8,7 @@ use crate::observe::{Invariants, Snapshot};
 use crate::output::RunSummary;
 use crate::run::{
     Backend, Engine, EngineDim, Failed, RunError, RunOptions, budget, drive, engine, may_use_gpu,
+    with_threads,
 };
 use crate::scene::Case;
 use crate::tensor::{D2, D3, Dim};
@@ -148,10 +149,11 @@ pub struct Outcome {
 
 /// Runs a case on a backend (no frames, no progress bar) and reads its final state.
 pub fn run_case(case: &Case, backend: Backend, opts: &RunOptions) -> Outcome {
-    match case.dimension {
+    with_threads(case, || match case.dimension {
         2 => run_dim::<D2>(case, backend, opts),
         _ => run_dim::<D3>(case, backend, opts),
-    }
+    })
+    .unwrap_or_else(failed)
 }
 
 fn failed(error: RunError) -> Outcome {

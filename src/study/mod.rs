@@ -9,6 +9,7 @@
 
 pub mod engine;
 pub mod fields;
+pub mod history;
 pub mod plot;
 pub mod records;
 pub mod report;
@@ -126,8 +127,15 @@ pub fn run_suite(suite: &Suite, opts: &StudyOptions) -> std::io::Result<StudyOut
     records::write(&results, &records)?;
     let mut files = vec![results];
     files.extend(plot::plots(suite, &records, &opts.out_dir)?);
+    files.extend(history::write(
+        suite,
+        &records,
+        &opts.out_dir,
+        &opts.out_dir,
+    )?);
     let md = opts.out_dir.join("results.md");
-    let section = report::suite_section(suite, &records, &[], 3);
+    let section = report::suite_section(suite, &records, &[], 3)
+        + &history::table(suite, &records, &opts.out_dir, "");
     crate::output::write_atomically(&md, |w| std::io::Write::write_all(w, section.as_bytes()))?;
     files.push(md);
     Ok(StudyOutcome {
@@ -424,7 +432,7 @@ pub fn run_suites(
             .iter()
             .map(|(s, o)| (s.clone(), o.records.clone()))
             .collect();
-        report::write_report(&entries, path, command)?;
+        report::write_report(&entries, out_root, path, command)?;
     }
     Ok(done)
 }

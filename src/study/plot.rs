@@ -16,7 +16,7 @@ use std::sync::Once;
 
 static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
 
-fn register_font() {
+pub(super) fn register_font() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
         if plotters::style::register_font("sans-serif", FontStyle::Normal, FONT).is_err() {
@@ -120,34 +120,54 @@ pub fn plots(suite: &Suite, records: &[RunRecord], dir: &Path) -> std::io::Resul
             "{}: {} against wall time (points labelled by {})",
             suite.name, m.tag, suite.sweep.key
         );
-        for ext in ["png", "svg"] {
-            let path = dir.join(format!("{}-{}.{ext}", suite.name, m.tag));
-            // A fresh temporary file of this process (never a link planted in the folder),
-            // which the backend overwrites by name; then renamed into place.
-            let (file, tmp) = crate::output::create_temporary_with(&path, &format!(".{ext}"))?;
-            drop(file);
-            let result = if ext == "png" {
+        files.extend(write_figure(
+            dir,
+            &format!("{}-{}", suite.name, m.tag),
+            |path| {
                 draw(
-                    BitMapBackend::new(&tmp, (960, 640)).into_drawing_area(),
+                    BitMapBackend::new(path, (960, 640)).into_drawing_area(),
                     &title,
                     &m,
                     &points,
                 )
-            } else {
+            },
+            |path| {
                 draw(
-                    SVGBackend::new(&tmp, (960, 640)).into_drawing_area(),
+                    SVGBackend::new(path, (960, 640)).into_drawing_area(),
                     &title,
                     &m,
                     &points,
                 )
-            };
-            if let Err(e) = result {
-                let _ = std::fs::remove_file(&tmp);
-                return Err(std::io::Error::other(format!("{}: {e}", path.display())));
-            }
-            std::fs::rename(&tmp, &path)?;
-            files.push(path);
+            },
+        )?);
+    }
+    Ok(files)
+}
+
+/// Draws a figure into the file at a path.
+type Draw<'a> = dyn FnOnce(&Path) -> Result<(), String> + 'a;
+
+/// Writes `<stem>.png` and `<stem>.svg` into `dir`, each drawn by its function into a
+/// fresh temporary file of this process (never a link planted in the folder), which the
+/// backend overwrites by name, then renamed into place.
+pub(super) fn write_figure(
+    dir: &Path,
+    stem: &str,
+    png: impl FnOnce(&Path) -> Result<(), String>,
+    svg: impl FnOnce(&Path) -> Result<(), String>,
+) -> std::io::Result<Vec<PathBuf>> {
+    let mut files = Vec::new();
+    let draws: [(&str, Box<Draw<'_>>); 2] = [("png", Box::new(png)), ("svg", Box::new(svg))];
+    for (ext, draw) in draws {
+        let path = dir.join(format!("{stem}.{ext}"));
+        let (file, tmp) = crate::output::create_temporary_with(&path, &format!(".{ext}"))?;
+        drop(file);
+        if let Err(e) = draw(&tmp) {
+            let _ = std::fs::remove_file(&tmp);
+            return Err(std::io::Error::other(format!("{}: {e}", path.display())));
         }
+        std::fs::rename(&tmp, &path)?;
+        files.push(path);
     }
     Ok(files)
 }
@@ -399,7 +419,7 @@ pub fn place_labels(
 
 /// Marker shapes, in the order lines take them.
 #[derive(Clone, Copy, Debug, PartialEq)]
-enum Marker {
+pub(super) enum Marker {
     Circle,
     Square,
     TriangleUp,
@@ -427,13 +447,13 @@ const DASHES: [Option<(u32, u32)>; 3] = [None, Some((10, 5)), Some((3, 4))];
 
 /// How line `k` is drawn.
 #[derive(Clone, Copy, Debug)]
-struct LineStyle {
-    colour: RGBColor,
-    marker: Marker,
+pub(super) struct LineStyle {
+    pub colour: RGBColor,
+    pub marker: Marker,
     dash: Option<(u32, u32)>,
 }
 
-fn line_style(k: usize) -> LineStyle {
+pub(super) fn line_style(k: usize) -> LineStyle {
     LineStyle {
         colour: COLOURS[k % COLOURS.len()],
         marker: MARKERS[k % MARKERS.len()],
@@ -445,7 +465,7 @@ fn line_style(k: usize) -> LineStyle {
 const MARKER: i32 = 5;
 
 /// Draws a marker centred at pixel `c` of `area`.
-fn draw_marker<DB: DrawingBackend>(
+pub(super) fn draw_marker<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     marker: Marker,
     c: (i32, i32),
@@ -509,7 +529,7 @@ fn draw_marker<DB: DrawingBackend>(
 }
 
 /// Draws a polyline in pixels of `area`, solid or dashed.
-fn draw_path<DB: DrawingBackend>(
+pub(super) fn draw_path<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     path: Vec<(i32, i32)>,
     style: &LineStyle,

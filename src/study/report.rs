@@ -1,6 +1,7 @@
 //! Markdown: the table of one suite's runs, the stability map, and the report over suites
 //! with its "which method for which job" section drawn from the records alone.
 
+use super::history;
 use super::plot::{metrics, pareto, plots, plottable};
 use super::records::{self, RunRecord, Status};
 use super::suite::{AnalyticSolution, InvariantKind, Reference, Suite, SuiteKind};
@@ -231,8 +232,12 @@ pub fn suite_section(
     for v in &suite.variants {
         let _ = writeln!(
             s,
-            "- `{}`: `{}`{}",
+            "- `{}`: {}`{}`{}",
             v.name,
+            v.case
+                .as_ref()
+                .map(|c| format!("case `{c}`, "))
+                .unwrap_or_default(),
             v.set.join(" "),
             v.backends
                 .as_ref()
@@ -406,9 +411,11 @@ fn throughput(entries: &[(Suite, Vec<RunRecord>)]) -> String {
     s
 }
 
-/// Writes the report over suites to `path`, with plots and CSV copies in `study/` beside it.
+/// Writes the report over suites to `path`, with plots and CSV copies in `study/` beside it;
+/// `out_root` holds each suite's results (`<out_root>/<suite name>/`, with the runs' series).
 pub fn write_report(
     entries: &[(Suite, Vec<RunRecord>)],
+    out_root: &Path,
     path: &Path,
     command: &str,
 ) -> std::io::Result<()> {
@@ -448,7 +455,13 @@ pub fn write_report(
     let _ = writeln!(s, "\n## Suites\n");
     for (suite, recs) in entries {
         records::write(&assets.join(format!("{}.csv", suite.name)), recs)?;
-        let files = plots(suite, recs, &assets)?;
+        let mut files = plots(suite, recs, &assets)?;
+        files.extend(history::write(
+            suite,
+            recs,
+            &out_root.join(&suite.name),
+            &assets,
+        )?);
         let links: Vec<String> = files
             .iter()
             .filter(|f| f.extension().is_some_and(|e| e == "png"))
@@ -456,6 +469,7 @@ pub fn write_report(
             .map(|n| format!("study/{}", n.to_string_lossy()))
             .collect();
         s += &suite_section(suite, recs, &links, 3);
+        s += &history::table(suite, recs, &out_root.join(&suite.name), "study/");
         let _ = writeln!(s, "Results: [`study/{0}.csv`](study/{0}.csv)\n", suite.name);
     }
     let _ = writeln!(

@@ -91,6 +91,9 @@ pub struct Sweep {
 #[serde(deny_unknown_fields)]
 pub struct Variant {
     pub name: String,
+    /// Base case of this variant (default: the suite's), named as the suite's `case`: a
+    /// per-method preset of a benchmark, say.
+    pub case: Option<String>,
     #[serde(default)]
     pub set: Vec<String>,
     /// Backends of this variant (default: the suite's).
@@ -113,6 +116,32 @@ impl TimeMeasure {
     pub fn at(&self, t: f64) -> String {
         format!("{} = {:.0} {}", self.name, self.per_second * t, self.unit)
     }
+}
+
+/// A column of the runs' time series (`series.csv`) drawn against time, one line per run:
+/// y = `scale` × column, x = `x_scale` × t.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct History {
+    /// Column of `series.csv`: `angular_momentum_z`, `neck_height`, `left.extent_y`, …
+    pub column: String,
+    /// Label of the y axis (of column × scale).
+    pub label: String,
+    #[serde(default = "unit_scale")]
+    pub scale: f64,
+    /// Label of the x axis (of t × x_scale).
+    #[serde(default = "time_label")]
+    pub x_label: String,
+    #[serde(default = "unit_scale")]
+    pub x_scale: f64,
+}
+
+fn unit_scale() -> f64 {
+    1.0
+}
+
+fn time_label() -> String {
+    "t [s]".into()
 }
 
 /// A study suite.
@@ -140,6 +169,8 @@ pub struct Suite {
     pub reference: Reference,
     /// Shown beside every failure time.
     pub failure_measure: Option<TimeMeasure>,
+    /// A series column plotted against time for every run.
+    pub history: Option<History>,
     /// Part of `meshless study all` (the published report).
     #[serde(default)]
     pub report: bool,
@@ -218,6 +249,15 @@ impl Suite {
                 "variant `{bad}`: use letters, digits, - and _"
             )));
         }
+        if let Some(h) = &suite.history
+            && !(h.scale.is_finite() && h.x_scale.is_finite() && h.scale != 0.0 && h.x_scale > 0.0)
+        {
+            return Err(invalid(format!(
+                "[history]: `scale` must be finite and non-zero and `x_scale` finite and \
+                 positive (got {} and {})",
+                h.scale, h.x_scale
+            )));
+        }
         names.sort_unstable();
         if let Some(w) = names.windows(2).find(|w| w[0] == w[1]) {
             return Err(invalid(format!("variant `{}` is listed twice", w[0])));
@@ -240,17 +280,18 @@ impl Suite {
         Ok(suite)
     }
 
-    /// The base case file.
-    pub fn case_path(&self) -> PathBuf {
+    /// The base case file of a variant: its own `case`, else the suite's.
+    pub fn case_path(&self, variant: &Variant) -> PathBuf {
+        let case = variant.case.as_deref().unwrap_or(&self.case);
         let dir = self.file.parent().unwrap_or(Path::new("."));
-        if self.case.ends_with(".toml") || self.case.contains('/') {
-            return dir.join(&self.case);
+        if case.ends_with(".toml") || case.contains('/') {
+            return dir.join(case);
         }
-        let shipped = dir.join("..").join(format!("{}.toml", self.case));
+        let shipped = dir.join("..").join(format!("{case}.toml"));
         if shipped.exists() {
             shipped
         } else {
-            Path::new("cases").join(format!("{}.toml", self.case))
+            Path::new("cases").join(format!("{case}.toml"))
         }
     }
 
@@ -275,9 +316,9 @@ impl Suite {
     /// Every run, variant by variant, backend by backend, in sweep order; the converged
     /// reference run (if any) first.
     pub fn plan(&self) -> Vec<PlannedRun> {
-        let path = self.case_path();
         let mut runs = Vec::new();
         for variant in &self.variants {
+            let path = self.case_path(variant);
             let backends = variant.backends.as_ref().unwrap_or(&self.backends);
             for &backend in backends {
                 for value in &self.sweep.values {

@@ -129,10 +129,13 @@ fn converged_reference_is_matched_by_reference_position() {
 
 #[test]
 fn a_blow_up_is_recorded_and_the_study_goes_on_then_resumes_without_redoing() {
-    let dir = tempfile::tempdir().unwrap();
+    // Results in <root>/ci/, as `meshless study` lays them out, so the report finds the
+    // runs' series there.
+    let root = tempfile::tempdir().unwrap();
+    let dir = root.path().join("ci");
     let suite = ci_suite();
     let opts = StudyOptions {
-        out_dir: dir.path().to_path_buf(),
+        out_dir: dir.clone(),
         resume: true,
         progress: false,
         run_time_limit: RUN_TIME_LIMIT,
@@ -187,20 +190,40 @@ fn a_blow_up_is_recorded_and_the_study_goes_on_then_resumes_without_redoing() {
         "ci-velocity.png",
         "ci-velocity.svg",
         "ci-stress.png",
+        "ci-history-1.png",
+        "ci-history-2.svg",
+        "ci-history.csv",
     ] {
-        let len = std::fs::metadata(dir.path().join(f)).unwrap().len();
+        let len = std::fs::metadata(dir.join(f)).unwrap().len();
         assert!(len > 100, "{f}: {len} bytes");
     }
-    let png = std::fs::read(dir.path().join("ci-velocity.png")).unwrap();
+    // The history: every run's total energy against t in ms; a finished run's curve ends at
+    // the end time (12.26 ms, to within the series interval of 0.2 ms plus the last step),
+    // a failed one's before it.
+    let history = std::fs::read_to_string(dir.join("ci-history.csv")).unwrap();
+    let mut last_x = std::collections::BTreeMap::<String, f64>::new();
+    for line in history.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        last_x.insert(format!("{}@{}", f[0], f[1]), f[2].parse().unwrap());
+    }
+    assert_eq!(last_x.len(), n, "one curve per run: {last_x:?}");
+    for (run, x) in &last_x {
+        if run.starts_with("leapfrog") {
+            assert!(*x < 12.0, "{run} failed early, its curve ends at {x} ms");
+        } else {
+            assert!((x - 12.26).abs() < 0.21, "{run} ends at {x} ms");
+        }
+    }
+    let png = std::fs::read(dir.join("ci-velocity.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");
-    let svg = std::fs::read_to_string(dir.path().join("ci-velocity.svg")).unwrap();
+    let svg = std::fs::read_to_string(dir.join("ci-velocity.svg")).unwrap();
     assert!(
         svg.contains("Pareto front") && svg.contains("rl-rk4"),
         "labels in the SVG"
     );
 
     // Half-finished: drop the last two rows, as if the study had been stopped there.
-    let path = dir.path().join("results.csv");
+    let path = dir.join("results.csv");
     let mut kept = records::read(&path).unwrap();
     kept.truncate(n - 2);
     records::write(&path, &kept).unwrap();
@@ -223,9 +246,10 @@ fn a_blow_up_is_recorded_and_the_study_goes_on_then_resumes_without_redoing() {
     assert_eq!(run_suite(&suite, &fresh).unwrap().executed, n);
 
     // The report over the suite: findings, plot links and the table.
-    let report_path = dir.path().join("docs/REPORT.md");
+    let report_path = dir.join("docs/REPORT.md");
     report::write_report(
         &[(suite.clone(), third.records.clone())],
+        root.path(),
         &report_path,
         "test",
     )
@@ -234,8 +258,10 @@ fn a_blow_up_is_recorded_and_the_study_goes_on_then_resumes_without_redoing() {
     assert!(text.contains("## Which method for which job"));
     assert!(text.contains("](study/ci-velocity.png)"));
     assert!(text.contains("failed at t = "));
-    assert!(dir.path().join("docs/study/ci-velocity.svg").is_file());
-    assert!(dir.path().join("docs/study/ci.csv").is_file());
+    assert!(dir.join("docs/study/ci-velocity.svg").is_file());
+    assert!(dir.join("docs/study/ci.csv").is_file());
+    assert!(text.contains("](study/ci-history-1.png)"));
+    assert!(dir.join("docs/study/ci-history.csv").is_file());
 
     // With a failure measure, each failure time is also shown in that measure.
     let measured = Suite {
@@ -270,6 +296,43 @@ fn run_ids_are_stable_and_depend_on_what_runs() {
     let mut other = suite.clone();
     other.set.push("run.end_time=0.004".into());
     assert!(other.plan().iter().all(|r| !ids.contains(&r.id.as_str())));
+}
+
+#[test]
+fn a_variant_runs_its_own_case_and_run_threads_sizes_the_pool() {
+    // A variant naming another base case plans that case (its method and its Δt), the
+    // others the suite's.
+    let path = studies().join("seed000-disk.toml");
+    let suite = Suite::load(&path).unwrap();
+    for run in suite.plan() {
+        let case = run.case.as_ref().unwrap();
+        let expected = match run.variant.as_str() {
+            "godunov" => ("godunov-sph", 1e-6),
+            "gray-monaghan" => ("gray-monaghan-sph", 1e-5),
+            "corotated" => ("corotated-tlsph", 2.5e-6),
+            "potential" => ("tl-potential", 1e-6),
+            _ => ("tlsph", 1e-6),
+        };
+        assert_eq!(
+            (case.method.name(), case.method.dt),
+            (expected.0, Some(expected.1)),
+            "{}",
+            run.variant
+        );
+    }
+    // run.threads = n runs in a pool of n threads; without it, in the global pool.
+    let base = Case::load(&cases_dir().join("rotating-disk.toml"), &[]).unwrap();
+    for n in [1, 3] {
+        let case = Case::load(
+            &cases_dir().join("rotating-disk.toml"),
+            &[format!("run.threads={n}")],
+        )
+        .unwrap();
+        let inside = meshless::run::with_threads(&case, rayon::current_num_threads).unwrap();
+        assert_eq!(inside, n);
+    }
+    let inside = meshless::run::with_threads(&base, rayon::current_num_threads).unwrap();
+    assert_eq!(inside, rayon::current_num_threads());
 }
 
 #[test]

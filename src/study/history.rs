@@ -1,0 +1,360 @@
+//! A suite's `[history]`: one column of every run's time series (`series.csv`) against
+//! time, a line per run, on linear axes: H/H̄ of the rotating disk per method (seed 000
+//! Fig. 7), the strip's neck height against extension (Fig. 9), a ring's height (Fig. 12).
+//! Also written as one long CSV (`variant,backend,sweep_value,x,y`) for plotting scripts.
+
+use super::plot::{draw_marker, draw_path, line_style, register_font, write_figure};
+use super::records::{RunRecord, Status};
+use super::suite::{History, Suite};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// The time series of one run of a suite: its record's line name and the points.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Curve {
+    pub name: String,
+    pub sweep_value: String,
+    /// (x_scale · t, scale · column), in time order.
+    pub points: Vec<(f64, f64)>,
+    /// Whether the run failed (the curve ends at the failure).
+    pub failed: bool,
+}
+
+/// The series file of a run.
+pub fn series_file(suite_dir: &Path, id: &str) -> PathBuf {
+    suite_dir.join("runs").join(id).join("series.csv")
+}
+
+/// Reads column `h.column` of a series file against its `time` column, scaled.
+pub fn read_series(path: &Path, h: &History) -> Result<Vec<(f64, f64)>, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap_or("").split(',').collect();
+    let find = |name: &str| {
+        header.iter().position(|c| *c == name).ok_or_else(|| {
+            format!(
+                "{}: no column `{name}` (the columns are {}); name one of them in the suite's \
+                 [history] `column`, or add its observer to the case's `output.observers`",
+                path.display(),
+                header.join(", ")
+            )
+        })
+    };
+    let (kt, ky) = (find("time")?, find(&h.column)?);
+    let mut points = Vec::new();
+    for (row, line) in lines.enumerate() {
+        let fields: Vec<&str> = line.split(',').collect();
+        let value = |k: usize| {
+            fields
+                .get(k)
+                .and_then(|f| f.trim().parse::<f64>().ok())
+                .ok_or_else(|| {
+                    format!(
+                        "{}: row {}: no number in column {k}",
+                        path.display(),
+                        row + 2
+                    )
+                })
+        };
+        points.push((h.x_scale * value(kt)?, h.scale * value(ky)?));
+    }
+    Ok(points)
+}
+
+/// The curves of a suite's finished and failed runs whose series can be read; runs without
+/// one (not run, or from before the series was kept) are left out, with the reason.
+pub fn curves(h: &History, records: &[RunRecord], suite_dir: &Path) -> (Vec<Curve>, Vec<String>) {
+    let mut curves = Vec::new();
+    let mut missing = Vec::new();
+    for r in records {
+        let failed = matches!(r.status, Status::Failed { .. });
+        if r.status != Status::Ok && !failed {
+            continue;
+        }
+        match read_series(&series_file(suite_dir, &r.id), h) {
+            Ok(points) => curves.push(Curve {
+                name: r.line(),
+                sweep_value: r.sweep_value.clone(),
+                points: points.into_iter().filter(|p| p.1.is_finite()).collect(),
+                failed,
+            }),
+            Err(e) => missing.push(e),
+        }
+    }
+    (curves, missing)
+}
+
+/// Writes `<suite>-history.csv` and, per sweep value, `<suite>-history[-k].png/svg` into
+/// `dir` from the series under `suite_dir`.
+pub fn write(
+    suite: &Suite,
+    records: &[RunRecord],
+    suite_dir: &Path,
+    dir: &Path,
+) -> std::io::Result<Vec<PathBuf>> {
+    let Some(h) = &suite.history else {
+        return Ok(Vec::new());
+    };
+    let (curves, missing) = curves(h, records, suite_dir);
+    for m in &missing {
+        eprintln!("warning: {}: history: {m}", suite.name);
+    }
+    let mut files = Vec::new();
+    if curves.is_empty() {
+        return Ok(files);
+    }
+    register_font();
+    let csv = dir.join(format!("{}-history.csv", suite.name));
+    let mut text = String::from("run,sweep_value,x,y\n");
+    for c in &curves {
+        for (x, y) in &c.points {
+            let _ = writeln!(text, "{},{},{x:e},{y:e}", c.name, c.sweep_value);
+        }
+    }
+    crate::output::write_atomically(&csv, |w| std::io::Write::write_all(w, text.as_bytes()))?;
+    files.push(csv);
+    let mut values: Vec<&str> = Vec::new();
+    for c in &curves {
+        if !values.contains(&c.sweep_value.as_str()) {
+            values.push(&c.sweep_value);
+        }
+    }
+    for (k, value) in values.iter().enumerate() {
+        let these: Vec<&Curve> = curves.iter().filter(|c| c.sweep_value == *value).collect();
+        let stem = if values.len() == 1 {
+            format!("{}-history", suite.name)
+        } else {
+            format!("{}-history-{}", suite.name, k + 1)
+        };
+        let title = if values.len() == 1 {
+            format!("{}: {}", suite.name, h.label)
+        } else {
+            format!(
+                "{}: {} at {} = {value}",
+                suite.name, h.label, suite.sweep.key
+            )
+        };
+        files.extend(write_figure(
+            dir,
+            &stem,
+            |path| {
+                draw(
+                    BitMapBackend::new(path, (960, 640)).into_drawing_area(),
+                    &title,
+                    h,
+                    &these,
+                )
+            },
+            |path| {
+                draw(
+                    SVGBackend::new(path, (960, 640)).into_drawing_area(),
+                    &title,
+                    h,
+                    &these,
+                )
+            },
+        )?);
+    }
+    Ok(files)
+}
+
+/// A Markdown table of the history of every run: its value at the start, its smallest and
+/// largest, and its last (at the end, or at the failure), with the x of the last. `folder`
+/// is the path of the history CSV's folder relative to the Markdown file (`study/`, or empty).
+pub fn table(suite: &Suite, records: &[RunRecord], suite_dir: &Path, folder: &str) -> String {
+    let Some(h) = &suite.history else {
+        return String::new();
+    };
+    let (curves, _) = curves(h, records, suite_dir);
+    if curves.is_empty() {
+        return String::new();
+    }
+    let g = |v: f64| format!("{v:.5}");
+    let mut s = format!(
+        "{} per run ([`{}-history.csv`]({folder}{}-history.csv) has every point):\n\n\
+         | run | {} | first | min | max | last | at {} |\n|---|---|---|---|---|---|---|\n",
+        h.label, suite.name, suite.name, suite.sweep.key, h.x_label
+    );
+    for c in &curves {
+        let ys = || c.points.iter().map(|p| p.1);
+        let (Some(first), Some(last)) = (c.points.first(), c.points.last()) else {
+            continue;
+        };
+        let _ = writeln!(
+            s,
+            "| {}{} | {} | {} | {} | {} | {} | {} |",
+            c.name,
+            if c.failed { " (failed)" } else { "" },
+            c.sweep_value,
+            g(first.1),
+            g(ys().fold(f64::INFINITY, f64::min)),
+            g(ys().fold(f64::NEG_INFINITY, f64::max)),
+            g(last.1),
+            g(last.0)
+        );
+    }
+    s + "\n"
+}
+
+/// A linear axis over `lo..=hi` widened to whole steps of 1, 2 or 5 × 10^k, about five to
+/// ten of them.
+pub fn linear_axis(lo: f64, hi: f64) -> (f64, f64) {
+    let span = if hi > lo {
+        hi - lo
+    } else {
+        lo.abs().max(1e-12) * 0.1
+    };
+    let raw = span / 6.0;
+    let decade = 10f64.powf(raw.log10().floor());
+    let step = [1.0, 2.0, 5.0, 10.0]
+        .into_iter()
+        .map(|m| m * decade)
+        .find(|s| span / s <= 10.0)
+        .unwrap_or(10.0 * decade);
+    // Round-off in the products may leave an end a hair inside the data: widen by a step.
+    let a = (lo / step).floor() * step;
+    let a = if a > lo { a - step } else { a };
+    let b = (hi / step).ceil() * step;
+    let b = if b < hi { b + step } else { b };
+    if b > a { (a, b) } else { (a - step, b + step) }
+}
+
+fn draw<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    title: &str,
+    h: &History,
+    curves: &[&Curve],
+) -> Result<(), String> {
+    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    root.fill(&WHITE).map_err(err)?;
+    let all = || curves.iter().flat_map(|c| c.points.iter());
+    let fold = |f: fn(&(f64, f64)) -> f64| {
+        all()
+            .map(f)
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                (a.min(v), b.max(v))
+            })
+    };
+    let (x_lo, x_hi) = linear_axis(fold(|p| p.0).0, fold(|p| p.0).1);
+    let (y_lo, y_hi) = linear_axis(fold(|p| p.1).0, fold(|p| p.1).1);
+    let root = root.titled(title, ("sans-serif", 20)).map_err(err)?;
+    let (width, _) = root.dim_in_pixel();
+    let (plot_area, legend_area) = root.split_horizontally(width.saturating_sub(250));
+    let mut chart = ChartBuilder::on(&plot_area)
+        .margin(12)
+        .x_label_area_size(48)
+        .y_label_area_size(78)
+        .build_cartesian_2d(x_lo..x_hi, y_lo..y_hi)
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc(h.x_label.as_str())
+        .y_desc(h.label.as_str())
+        .bold_line_style(RGBColor(190, 190, 190))
+        .light_line_style(RGBColor(235, 235, 235))
+        .label_style(("sans-serif", 15))
+        .axis_desc_style(("sans-serif", 16))
+        .draw()
+        .map_err(err)?;
+    let area = chart.plotting_area().strip_coord_spec();
+    let base = area.get_base_pixel();
+    let px = |x: f64, y: f64| {
+        let (a, b) = chart.backend_coord(&(x, y));
+        (a - base.0, b - base.1)
+    };
+    // Markers every ~1/12 of the x range, so that dense series stay lines.
+    let every = (x_hi - x_lo) / 12.0;
+    let font = ("sans-serif", 14).into_font();
+    let mut y = 40;
+    for (k, c) in curves.iter().enumerate() {
+        let style = line_style(k);
+        let path: Vec<(i32, i32)> = c.points.iter().map(|p| px(p.0, p.1)).collect();
+        draw_path(&area, path, &style).map_err(err)?;
+        let mut next = f64::NEG_INFINITY;
+        for (i, p) in c.points.iter().enumerate() {
+            let last = i + 1 == c.points.len();
+            if p.0 >= next || last {
+                let marker = if last && c.failed {
+                    super::plot::Marker::Cross
+                } else {
+                    style.marker
+                };
+                draw_marker(&area, marker, px(p.0, p.1), style.colour).map_err(err)?;
+                next = p.0 + every;
+            }
+        }
+        draw_path(&legend_area, vec![(8, y), (48, y)], &style).map_err(err)?;
+        draw_marker(&legend_area, style.marker, (28, y), style.colour).map_err(err)?;
+        let name = if c.failed {
+            format!("{} (failed, ×)", c.name)
+        } else {
+            c.name.clone()
+        };
+        legend_area
+            .draw(&Text::new(name, (56, y - 8), font.clone()))
+            .map_err(err)?;
+        y += 22;
+    }
+    root.present().map_err(err)?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn linear_axes_cover_the_data_in_round_steps() {
+        for (lo, hi) in [
+            (0.0, 0.15),
+            (0.9468, 0.9475),
+            (-3.0, 7.0),
+            (2.0, 2.0),
+            (77.0, 78.0),
+        ] {
+            let (a, b) = linear_axis(lo, hi);
+            assert!(a <= lo && b >= hi && b > a, "({lo}, {hi}) → ({a}, {b})");
+            // At most 11 steps of the chosen size over the range: not wider than needed
+            // by more than a step on each side.
+            assert!(
+                (b - a) <= 4.0 * (hi - lo).max(lo.abs() * 0.1),
+                "({lo}, {hi}) → ({a}, {b})"
+            );
+        }
+    }
+
+    #[test]
+    fn a_series_column_is_read_and_scaled_and_a_missing_one_is_named() {
+        let dir = std::env::temp_dir().join(format!("meshless-history-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("series.csv");
+        std::fs::write(
+            &path,
+            "time,step,dt,neck_height\n0,0,1e-6,1.0\n0.01,10,1e-6,0.8\n",
+        )
+        .unwrap();
+        let h = History {
+            column: "neck_height".into(),
+            label: "l/l0".into(),
+            scale: 2.0,
+            x_label: "extension [%]".into(),
+            x_scale: 2000.0,
+        };
+        assert_eq!(
+            read_series(&path, &h).unwrap(),
+            vec![(0.0, 2.0), (20.0, 1.6)]
+        );
+        let wrong = History {
+            column: "left.extent_y".into(),
+            ..h
+        };
+        let e = read_series(&path, &wrong).unwrap_err();
+        assert!(
+            e.contains("left.extent_y") && e.contains("neck_height"),
+            "{e}"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
