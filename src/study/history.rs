@@ -199,8 +199,8 @@ pub fn table(suite: &Suite, records: &[RunRecord], suite_dir: &Path, folder: &st
 }
 
 /// A linear axis over `lo..=hi` widened to whole steps of 1, 2 or 5 × 10^k, about five to
-/// ten of them.
-pub fn linear_axis(lo: f64, hi: f64) -> (f64, f64) {
+/// ten of them: (start, end, step).
+pub fn linear_axis(lo: f64, hi: f64) -> (f64, f64, f64) {
     let span = if hi > lo {
         hi - lo
     } else {
@@ -218,7 +218,26 @@ pub fn linear_axis(lo: f64, hi: f64) -> (f64, f64) {
     let a = if a > lo { a - step } else { a };
     let b = (hi / step).ceil() * step;
     let b = if b < hi { b + step } else { b };
-    if b > a { (a, b) } else { (a - step, b + step) }
+    if b > a {
+        (a, b, step)
+    } else {
+        (a - step, b + step, step)
+    }
+}
+
+/// A tick label with as many decimals as the step needs (no `-0.0`).
+pub fn tick(v: f64, step: f64) -> String {
+    let decimals = (-(step.log10() + 1e-9).floor()).max(0.0) as usize;
+    let text = format!("{v:.decimals$}");
+    if text
+        .trim_start_matches('-')
+        .chars()
+        .all(|c| c == '0' || c == '.')
+    {
+        text.trim_start_matches('-').to_string()
+    } else {
+        text
+    }
 }
 
 fn draw<DB: DrawingBackend>(
@@ -237,8 +256,8 @@ fn draw<DB: DrawingBackend>(
                 (a.min(v), b.max(v))
             })
     };
-    let (x_lo, x_hi) = linear_axis(fold(|p| p.0).0, fold(|p| p.0).1);
-    let (y_lo, y_hi) = linear_axis(fold(|p| p.1).0, fold(|p| p.1).1);
+    let (x_lo, x_hi, x_step) = linear_axis(fold(|p| p.0).0, fold(|p| p.0).1);
+    let (y_lo, y_hi, y_step) = linear_axis(fold(|p| p.1).0, fold(|p| p.1).1);
     let root = root.titled(title, ("sans-serif", 20)).map_err(err)?;
     let (width, _) = root.dim_in_pixel();
     let (plot_area, legend_area) = root.split_horizontally(width.saturating_sub(250));
@@ -252,6 +271,8 @@ fn draw<DB: DrawingBackend>(
         .configure_mesh()
         .x_desc(h.x_label.as_str())
         .y_desc(h.label.as_str())
+        .x_label_formatter(&|v| tick(*v, x_step))
+        .y_label_formatter(&|v| tick(*v, y_step))
         .bold_line_style(RGBColor(190, 190, 190))
         .light_line_style(RGBColor(235, 235, 235))
         .label_style(("sans-serif", 15))
@@ -314,7 +335,8 @@ mod tests {
             (2.0, 2.0),
             (77.0, 78.0),
         ] {
-            let (a, b) = linear_axis(lo, hi);
+            let (a, b, step) = linear_axis(lo, hi);
+            assert!(((b - a) / step - ((b - a) / step).round()).abs() < 1e-6);
             assert!(a <= lo && b >= hi && b > a, "({lo}, {hi}) → ({a}, {b})");
             // At most 11 steps of the chosen size over the range: not wider than needed
             // by more than a step on each side.
@@ -323,6 +345,15 @@ mod tests {
                 "({lo}, {hi}) → ({a}, {b})"
             );
         }
+    }
+
+    #[test]
+    fn tick_labels_carry_the_decimals_of_the_step() {
+        assert_eq!(tick(-0.0, 0.2), "0.0");
+        assert_eq!(tick(-1e-17, 0.05), "0.00");
+        assert_eq!(tick(0.9472, 1e-4), "0.9472");
+        assert_eq!(tick(-0.4, 0.2), "-0.4");
+        assert_eq!(tick(300.0, 50.0), "300");
     }
 
     #[test]

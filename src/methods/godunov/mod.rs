@@ -38,7 +38,7 @@ impl MethodFamily for GodunovSpec {
     fn plan(&self, case: &Case, gpu: bool) -> Plan {
         let mat = Material::new(&case.material);
         Plan {
-            once: "nothing: the neighbours are rebuilt at every rate evaluation".into(),
+            once: "nothing: the neighbour lists follow the particles (see the rates)".into(),
             state: "u, v, ρ, S, and F integrated by Ḟ = L F for the outputs".into(),
             cfl_step: format!(
                 "Δt = cfl·Δx/(c_p + max|v|), c_p = {:.1} m/s",

@@ -95,7 +95,8 @@ impl MethodFamily for GrayMonaghanSpec {
             left_out.push("XSPH");
         }
         Plan {
-            once: "nothing but W(Δp): the neighbours are rebuilt at every rate evaluation".into(),
+            once: "nothing but W(Δp): the neighbour lists follow the particles (see the rates)"
+                .into(),
             state: "u, v, ρ, S, and F integrated by Ḟ = L F for the outputs".into(),
             cfl_step: format!(
                 "Δt = cfl·Δx/(c_p + max|v|), c_p = {:.1} m/s",
