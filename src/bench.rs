@@ -20,15 +20,17 @@ pub struct BenchRow {
     pub particle_steps_per_second: f64,
     /// Particle-steps/s times the rate evaluations per step of the integrator.
     pub rate_evaluations_per_second: f64,
+    /// The share of the measured steps' time spent keeping the neighbour lists up to date
+    /// (`Engine::neighbour_seconds`), for the methods whose lists follow the particles.
+    pub neighbour_share: Option<f64>,
 }
 
 impl BenchRow {
-    pub const HEADER: &'static str =
-        "case,backend,particles,steps,setup_s,seconds,particle_steps_per_s,rate_evaluations_per_s";
+    pub const HEADER: &'static str = "case,backend,particles,steps,setup_s,seconds,particle_steps_per_s,rate_evaluations_per_s,neighbour_share";
 
     pub fn csv(&self) -> String {
         format!(
-            "{},{},{},{},{:.6},{:.6},{:.6e},{:.6e}",
+            "{},{},{},{},{:.6},{:.6},{:.6e},{:.6e},{}",
             self.case,
             self.backend.replace(',', ";"),
             self.particles,
@@ -36,7 +38,9 @@ impl BenchRow {
             self.setup_seconds,
             self.seconds,
             self.particle_steps_per_second,
-            self.rate_evaluations_per_second
+            self.rate_evaluations_per_second,
+            self.neighbour_share
+                .map_or(String::new(), |s| format!("{s:.4}"))
         )
     }
 }
@@ -100,6 +104,7 @@ fn time_steps<D: EngineDim, E: Engine<D>>(
         .map_err(|f| blow_up(case, f.cause))?;
     engine.finish();
     let setup_seconds = started.elapsed().as_secs_f64();
+    let neighbours_before = engine.neighbour_seconds();
     let timer = Instant::now();
     let mut done = 0;
     while done < steps {
@@ -111,6 +116,10 @@ fn time_steps<D: EngineDim, E: Engine<D>>(
     }
     engine.finish();
     let seconds = timer.elapsed().as_secs_f64();
+    let neighbour_share = engine
+        .neighbour_seconds()
+        .zip(neighbours_before)
+        .map(|(after, before)| (after - before) / seconds);
     engine.check().map_err(|cause| blow_up(case, cause))?;
     let n = engine.reference().len();
     let rate = n as f64 * f64::from(steps) / seconds;
@@ -123,6 +132,7 @@ fn time_steps<D: EngineDim, E: Engine<D>>(
         seconds,
         particle_steps_per_second: rate,
         rate_evaluations_per_second: rate * case.method.integrator.stages() as f64,
+        neighbour_share,
     })
 }
 

@@ -399,9 +399,9 @@ fn bench_command(
     use meshless::bench::{BenchRow, measure, resize};
     let mut rows = Vec::new();
     println!(
-        "| case | backend | particles | steps | set-up [s] | particle-steps/s | rate evaluations/s |"
+        "| case | backend | particles | steps | set-up [s] | particle-steps/s | rate evaluations/s | neighbours [% of steps] |"
     );
-    println!("|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|");
     for name in cases {
         let path = resolve(name);
         for &target in particles {
@@ -416,14 +416,16 @@ fn bench_command(
             match result {
                 Ok(r) => {
                     println!(
-                        "| {} | {} | {} | {} | {:.2} | {:.3e} | {:.3e} |",
+                        "| {} | {} | {} | {} | {:.2} | {:.3e} | {:.3e} | {} |",
                         r.case,
                         r.backend,
                         r.particles,
                         r.steps,
                         r.setup_seconds,
                         r.particle_steps_per_second,
-                        r.rate_evaluations_per_second
+                        r.rate_evaluations_per_second,
+                        r.neighbour_share
+                            .map_or("–".into(), |s| format!("{:.1}", 100.0 * s))
                     );
                     rows.push(r);
                 }

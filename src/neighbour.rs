@@ -321,6 +321,8 @@ pub struct Neighbours {
     /// [`Rebuild::OnDrift`]: the largest displacement since the last build that keeps its
     /// lists complete (half the smallest skin).
     drift: f64,
+    /// Wall time of [`Self::update`] since the lists were made (drift checks and rebuilds).
+    seconds: f64,
 }
 
 impl Neighbours {
@@ -346,6 +348,7 @@ impl Neighbours {
             lists: Csr::default(),
             built_at: Vec::new(),
             drift,
+            seconds: 0.0,
         };
         n.rebuild::<D>(x);
         n
@@ -354,6 +357,18 @@ impl Neighbours {
     /// At a rate evaluation with positions x: rebuilds the lists if the policy asks for
     /// it; returns whether it did.
     pub fn update<D: Dim>(&mut self, x: &[D::V]) -> bool {
+        let started = std::time::Instant::now();
+        let rebuilt = self.follow::<D>(x);
+        self.seconds += started.elapsed().as_secs_f64();
+        rebuilt
+    }
+
+    /// Wall time spent in [`Self::update`] since the lists were made [s].
+    pub fn seconds(&self) -> f64 {
+        self.seconds
+    }
+
+    fn follow<D: Dim>(&mut self, x: &[D::V]) -> bool {
         match self.rebuild {
             Rebuild::Once => false,
             Rebuild::EveryStage => {

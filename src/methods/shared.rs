@@ -231,4 +231,9 @@ pub trait Method<D: Dim>: OdeSystem<Error = BlowUp> + Sized {
     fn load_history(&mut self, _words: &mut &[f64]) -> Result<(), String> {
         Ok(())
     }
+    /// Wall time spent keeping the neighbour lists up to date since the method was built
+    /// [s]; none for lists built once on the reference configuration.
+    fn neighbour_seconds(&self) -> Option<f64> {
+        None
+    }
 }

@@ -174,6 +174,12 @@ pub trait Engine<D: Dim> {
     fn iterations(&mut self) -> Vec<Iteration> {
         Vec::new()
     }
+    /// Wall time spent keeping the neighbour lists up to date since the engine was built
+    /// [s], for the methods whose lists follow the particles (`meshless bench` reports it
+    /// as a share of the step time); none for lists built once.
+    fn neighbour_seconds(&mut self) -> Option<f64> {
+        None
+    }
 }
 
 /// Forwarding, so that the driver runs whichever engine [`engine`] chose.
@@ -216,6 +222,9 @@ impl<D: Dim> Engine<D> for Box<dyn Engine<D>> {
     }
     fn iterations(&mut self) -> Vec<Iteration> {
         (**self).iterations()
+    }
+    fn neighbour_seconds(&mut self) -> Option<f64> {
+        (**self).neighbour_seconds()
     }
 }
 
@@ -314,5 +323,9 @@ impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
         }
         (self.work, self.last_power) = (work, last_power);
         Ok(())
+    }
+
+    fn neighbour_seconds(&mut self) -> Option<f64> {
+        self.method.neighbour_seconds()
     }
 }

@@ -2,12 +2,12 @@
 //! refinement, blow-up detection and the command line's exit codes.
 
 use crate::common::{case_file, cpu_options, load, shipped};
-use meshless::bench::resize;
+use meshless::bench::{measure, resize};
 use meshless::integrate::Integrator;
 use meshless::methods::Method;
 use meshless::methods::tlsph::Tlsph;
 use meshless::reference::Reference;
-use meshless::run::{RunError, build_method, run};
+use meshless::run::{Backend, RunError, build_method, run};
 use meshless::tensor::D2;
 use std::path::Path;
 use std::process::Command;
@@ -412,6 +412,33 @@ fn bench_sizes_keep_the_regions_of_a_case() {
             "{n} particles for {target}"
         );
     }
+}
+
+#[test]
+fn bench_reports_the_neighbour_share_of_the_methods_whose_lists_follow_the_particles() {
+    // On the CPU the share is the wall time of the lists' updates inside the timed steps,
+    // a part of those steps: strictly between 0 and 1. On the GPU it is the rebuilds
+    // recorded times one rebuild timed alone, an estimate: positive, and below 2 (a
+    // rebuild is one of the three parts of a rate evaluation, so a share near or above 1
+    // would be a wrong count). Lists built once report no share.
+    let ul = shipped("rotating-disk-gray-monaghan");
+    let cpu = measure(&ul, Backend::Cpu, 20).unwrap();
+    let share = cpu
+        .neighbour_share
+        .expect("the UL lists follow the particles");
+    assert!(share > 0.0 && share < 1.0, "CPU share {share}");
+    let gpu = measure(&ul, Backend::Gpu, 20).unwrap();
+    let share = gpu
+        .neighbour_share
+        .expect("the GPU rebuilds every evaluation");
+    assert!(share > 0.0 && share < 2.0, "GPU share {share}");
+    let tl = measure(&shipped("rotating-disk"), Backend::Cpu, 5).unwrap();
+    assert_eq!(tl.neighbour_share, None);
+    assert!(
+        cpu.csv()
+            .ends_with(&format!("{:.4}", cpu.neighbour_share.unwrap()))
+    );
+    assert!(tl.csv().ends_with(','));
 }
 
 #[test]

@@ -170,6 +170,8 @@ pub struct GpuUl<D: GpuDim> {
     reduction: Reduction,
     interactions: GpuInteractions,
     work: WorkBalance,
+    /// Neighbour rebuilds recorded since the engine was built (one per rate evaluation).
+    rebuilds: u64,
 }
 
 impl<D: GpuDim> GpuUl<D> {
@@ -257,6 +259,7 @@ impl<D: GpuDim> GpuUl<D> {
             reduction,
             interactions,
             work: WorkBalance::default(),
+            rebuilds: 0,
         };
         engine.lists = Some(engine.bind_lists(capacity)?);
         Ok(engine)
@@ -339,15 +342,43 @@ impl<D: GpuDim> GpuUl<D> {
             .as_ref()
             .expect("the lists are bound when the engine is built");
         let n = layout.n as u32;
+        let mut rebuilds = 0;
         stepper.record(
             gpu,
             &mut encoder,
             dt,
             steps,
-            |encoder, e| record_rates(gpu, passes, lists, n, encoder, e.src),
+            |encoder, e| {
+                rebuilds += 1;
+                record_rates(gpu, passes, lists, n, encoder, e.src);
+            },
             |encoder| interactions.record(gpu, encoder, n),
         );
         gpu.queue.submit([encoder.finish()]);
+        self.rebuilds += rebuilds;
+    }
+
+    /// The wall time of one neighbour rebuild (positions pass and cell list) from the
+    /// current state, timed alone over `REPEATS` rebuilds in one submission [s].
+    pub fn time_rebuild(&self) -> f64 {
+        const REPEATS: u32 = 20;
+        let lists = self.lists();
+        let bound = &lists.rates[0];
+        self.gpu.wait();
+        let started = std::time::Instant::now();
+        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+        for _ in 0..REPEATS {
+            {
+                let mut pass = encoder.begin_compute_pass(&Default::default());
+                let n = self.layout.n as u32;
+                self.gpu
+                    .dispatch(&mut pass, &self.passes.positions, &bound.positions, n);
+            }
+            lists.cells.record(&mut encoder);
+        }
+        self.gpu.queue.submit([encoder.finish()]);
+        self.gpu.wait();
+        started.elapsed().as_secs_f64() / f64::from(REPEATS)
     }
 
     /// Advances `steps` steps; when a rebuild overflowed the lists, grows them to the
@@ -528,6 +559,12 @@ impl<D: GpuDim> Engine<D> for GpuUl<D> {
 
     fn finish(&mut self) {
         self.gpu.wait();
+    }
+
+    /// The rebuilds recorded so far times one rebuild timed alone ([`Self::time_rebuild`]):
+    /// the device's passes are not timed one by one inside a step.
+    fn neighbour_seconds(&mut self) -> Option<f64> {
+        Some(self.rebuilds as f64 * self.time_rebuild())
     }
 
     fn save(&mut self) -> Vec<f64> {

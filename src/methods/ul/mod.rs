@@ -411,6 +411,10 @@ impl<D: Dim, S: PairScheme<D>> Method<D> for UlSph<D, S> {
         )
     }
 
+    fn neighbour_seconds(&self) -> Option<f64> {
+        Some(self.core.neighbours.seconds())
+    }
+
     fn max_signal_speed(&self, y: &UlState<D>) -> f64 {
         let vmax =
             y.v.par_iter()
