@@ -2,9 +2,10 @@
 
 use clap::{Parser, Subcommand};
 use meshless::methods::REGISTRY;
-use meshless::run::{Backend, EXIT_FAILED, EXIT_INPUT, Limits, RunError, RunOptions, run};
+use meshless::run::{
+    Backend, EXIT_FAILED, EXIT_INPUT, Limits, ProgressDisplay, RunError, RunOptions, run,
+};
 use meshless::scene::Case;
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Arc;
@@ -301,7 +302,7 @@ fn run_command(
             .dir
             .unwrap_or_else(|| Path::new("out").join(&case.name)),
         backend,
-        progress: !output.quiet && std::io::stderr().is_terminal(),
+        progress: ProgressDisplay::for_stderr(output.quiet),
         frames: output.frames,
         stop: Some(stop_on_signal()),
         limits,

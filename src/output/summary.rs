@@ -17,9 +17,20 @@ use super::write_atomically;
 pub struct RunSummary {
     /// Case name.
     pub case: String,
+    /// The version of meshless that ran it.
+    #[serde(default)]
+    pub version: String,
+    /// The case file and the `--set` overrides applied to it, in order.
+    #[serde(default)]
+    pub case_file: String,
+    #[serde(default)]
+    pub overrides: Vec<String>,
+    /// The case as run: the file with the overrides and every default resolved.
+    #[serde(default)]
+    pub resolved_case: serde_json::Value,
     /// Particle method.
     pub method: String,
-    /// Compute backend.
+    /// Compute backend: `cpu`, or `gpu: ` and the adapter's name and API.
     pub backend: String,
     /// Spatial dimension (2 or 3).
     pub dimension: u32,
@@ -102,6 +113,10 @@ mod tests {
     fn sample() -> RunSummary {
         RunSummary {
             case: "taylor_bar".into(),
+            version: "0.1.0".into(),
+            case_file: "cases/taylor-bar.toml".into(),
+            overrides: vec!["run.end_time=4e-5".into()],
+            resolved_case: serde_json::json!({ "name": "taylor_bar", "spacing": 1e-4 }),
             method: "tlsph".into(),
             backend: "cpu".into(),
             dimension: 3,

@@ -374,9 +374,24 @@ impl PvdIndex {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use std::fs;
+
+    /// The values of the Float64 or Int32 `DataArray` named `name` of a frame, as f64.
+    pub(crate) fn read_field(path: &Path, name: &str) -> Vec<f64> {
+        let (_, tags, raw) = read_vtu(path);
+        let tag = tags
+            .iter()
+            .find(|t| t.name == name)
+            .unwrap_or_else(|| panic!("no field {name}"));
+        let bytes = block(&raw, tag.offset);
+        match tag.vtk_type.as_str() {
+            "Float64" => decode_f64(bytes).into_iter().map(f64::from_bits).collect(),
+            "Int32" => decode_i32(bytes).into_iter().map(f64::from).collect(),
+            other => panic!("{name}: type {other}"),
+        }
+    }
 
     /// A `DataArray` tag as read back from a frame header.
     #[derive(Debug)]

@@ -4,13 +4,13 @@
 use super::checkpoint;
 use super::checks::{energy_blow_up, fixed_step_warning, hourglass_blow_up, step_collapse};
 use super::frames::{Frames, next_frame_time};
+use super::progress::{Progress, ProgressDisplay};
 use super::{Engine, Failed, Iteration, RunError, RunOptions, output_error};
 use crate::hourglass::HourglassIndicator;
 use crate::observe::{Clock, Invariants, Observers, Snapshot};
 use crate::output::{RunSummary, SeriesWriter, write_summary};
 use crate::scene::Case;
 use crate::tensor::Dim;
-use indicatif::{ProgressBar, ProgressStyle};
 use std::path::Path;
 use std::time::Instant;
 
@@ -84,13 +84,17 @@ pub fn drive<D: Dim, E: Engine<D>>(
             .filter(|_| needed)
             .map(|h| h.of::<D>(snap.x0, &snap.u, &snap.f))
     };
-    if opts.progress {
+    if opts.progress != ProgressDisplay::Off {
         eprintln!("{}: {n} particles on {backend}", case.name);
     }
 
     let summary_path = opts.out_dir.join("summary.json");
     let running = RunSummary {
         case: case.name.clone(),
+        version: env!("CARGO_PKG_VERSION").into(),
+        case_file: case.file.display().to_string(),
+        overrides: case.overrides.clone(),
+        resolved_case: serde_json::to_value(case).unwrap_or_default(),
         method: case.method.name().to_string(),
         backend: backend.clone(),
         dimension: case.dimension,
@@ -112,7 +116,7 @@ pub fn drive<D: Dim, E: Engine<D>>(
     {
         eprintln!("warning: {}: {warning}", case.file.display());
     }
-    let progress = progress_bar(opts.progress, case);
+    let mut progress = Progress::new(opts.progress, case);
     let mut iterations = IterationLog::new(&opts.out_dir);
     let started = Instant::now();
     let series_every = case.output.series_interval.unwrap_or(0.0);
@@ -277,25 +281,16 @@ pub fn drive<D: Dim, E: Engine<D>>(
             interrupted = true;
             break None;
         }
-        progress.set_position((t / t_end * 1000.0) as u64);
         let rate = (n as f64 * clock.step as f64) / started.elapsed().as_secs_f64();
-        progress.set_message(format!(
-            "step {}, t = {t:.4e} s, {rate:.3e} particle-steps/s",
-            clock.step
-        ));
+        progress.update(t, t_end, clock.step, rate);
     };
-    progress.finish_and_clear();
+    progress.finish();
 
     let Clock { t, step, dt, .. } = clock;
     let (first_step, failed_step, failed_time) = found.unwrap_or((step, step, t));
     let wall = started.elapsed().as_secs_f64();
     let inv = engine.invariants();
     let summary = RunSummary {
-        case: case.name.clone(),
-        method: case.method.name().to_string(),
-        backend,
-        dimension: case.dimension,
-        particles: n,
         steps: step,
         dt_last: dt,
         end_time: t,
@@ -316,6 +311,7 @@ pub fn drive<D: Dim, E: Engine<D>>(
             format!("{steps}, t = {failed_time:e} s: {c}")
         }),
         final_invariants: inv.named::<D>(),
+        ..running
     };
     write_summary(&summary_path, &summary).map_err(output_error(&summary_path))?;
     match failure {
@@ -387,7 +383,7 @@ impl IterationLog {
         }
     }
 
-    fn record(&mut self, rows: Vec<Iteration>, progress: &ProgressBar) -> Result<(), RunError> {
+    fn record(&mut self, rows: Vec<Iteration>, progress: &Progress) -> Result<(), RunError> {
         for it in rows {
             if self.writer.is_none() {
                 let columns: Vec<String> = Iteration::COLUMNS.map(String::from).to_vec();
@@ -416,19 +412,4 @@ impl IterationLog {
         }
         Ok(())
     }
-}
-
-fn progress_bar(show: bool, case: &Case) -> ProgressBar {
-    if !show {
-        return ProgressBar::hidden();
-    }
-    let bar = ProgressBar::new(1000);
-    bar.set_style(
-        ProgressStyle::with_template(
-            "{prefix} [{elapsed_precise}] {wide_bar} {percent}% eta {eta} {msg}",
-        )
-        .expect("static progress template is valid"),
-    );
-    bar.set_prefix(case.name.clone());
-    bar
 }

@@ -16,6 +16,25 @@ pub(super) struct Frames {
     interval: Option<f64>,
     next: f64,
     count: usize,
+    constants: FrameConstants,
+}
+
+/// What a frame needs from the case besides the snapshot.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameConstants {
+    /// Reference density ρ0: V0 = m/ρ0, V = V0 J and ρ = ρ0/J.
+    pub rho0: f64,
+    /// The case's smoothing length, for the methods that give none per particle.
+    pub h: f64,
+}
+
+impl FrameConstants {
+    pub fn of(case: &Case) -> Self {
+        Self {
+            rho0: case.material.density,
+            h: case.smoothing_length(),
+        }
+    }
 }
 
 impl Frames {
@@ -36,6 +55,7 @@ impl Frames {
             interval: case.output.frame_interval,
             next: 0.0,
             count: 0,
+            constants: FrameConstants::of(case),
         })
     }
 
@@ -104,7 +124,7 @@ impl Frames {
         };
         let file = frame_file(&self.name, self.count);
         let path = self.dir.join(&file);
-        write_frame::<D>(&path, snap, t, eta).map_err(output_error(&path))?;
+        write_frame::<D>(&path, snap, t, eta, self.constants).map_err(output_error(&path))?;
         index
             .push(t, &file)
             .map_err(output_error(&self.dir.join(format!("{}.pvd", self.name))))?;
@@ -135,14 +155,17 @@ pub(super) fn next_frame_time(previous: f64, interval: f64, t: f64) -> f64 {
     (k * interval).max(past.next_up())
 }
 
-/// One VTU frame: current positions with u, v, F, σ, von Mises stress, J, the hourglass
-/// indicator η, body, and the method's own fields (the plastic strain ε_p of a plastic
-/// material).
+/// One VTU frame: current positions with the particle id, reference position X, u, v, F,
+/// σ, pressure p = −tr σ/3, von Mises stress, J, mass, volume V = V0 J, density ρ0/J,
+/// smoothing length, the hourglass indicator η, body, and the method's own fields (the
+/// plastic strain ε_p of a plastic material), which replace the derived field of the same
+/// name (a UL method's own density, a per-particle smoothing length).
 pub fn write_frame<D: Dim>(
     path: &Path,
     snap: &Snapshot<D>,
     t: f64,
     eta: &[f64],
+    constants: FrameConstants,
 ) -> std::io::Result<()> {
     let points: Vec<[f64; 3]> = snap
         .x0
@@ -157,7 +180,30 @@ pub fn write_frame<D: Dim>(
     let vm: Vec<f64> = snap.sigma.iter().map(von_mises).collect();
     let s9: Vec<[f64; 9]> = snap.sigma.iter().map(|s| flatten(*s)).collect();
     let body: Vec<i32> = snap.body.iter().map(|&b| b as i32).collect();
+    let id: Vec<i32> = (0..snap.x0.len()).map(|i| i as i32).collect();
+    let x0: Vec<[f64; 3]> = snap.x0.iter().map(|&a| D::to3(a)).collect();
+    let pressure: Vec<f64> = snap
+        .sigma
+        .iter()
+        .map(|s| -(s[0][0] + s[1][1] + s[2][2]) / 3.0)
+        .collect();
+    let volume: Vec<f64> = snap
+        .mass
+        .iter()
+        .zip(&jac)
+        .map(|(m, j)| m / constants.rho0 * j)
+        .collect();
+    let density: Vec<f64> = jac.iter().map(|j| constants.rho0 / j).collect();
+    let h = vec![constants.h; snap.x0.len()];
     let mut fields = vec![
+        Field {
+            name: "id",
+            data: FieldData::Int(&id),
+        },
+        Field {
+            name: "X",
+            data: FieldData::Vector(&x0),
+        },
         Field {
             name: "u",
             data: FieldData::Vector(&uu),
@@ -175,12 +221,32 @@ pub fn write_frame<D: Dim>(
             data: FieldData::Tensor(&s9),
         },
         Field {
+            name: "pressure",
+            data: FieldData::Scalar(&pressure),
+        },
+        Field {
             name: "von_mises",
             data: FieldData::Scalar(&vm),
         },
         Field {
             name: "J",
             data: FieldData::Scalar(&jac),
+        },
+        Field {
+            name: "mass",
+            data: FieldData::Scalar(snap.mass),
+        },
+        Field {
+            name: "volume",
+            data: FieldData::Scalar(&volume),
+        },
+        Field {
+            name: "density",
+            data: FieldData::Scalar(&density),
+        },
+        Field {
+            name: "smoothing_length",
+            data: FieldData::Scalar(&h),
         },
         Field {
             name: "hourglass",
@@ -191,10 +257,15 @@ pub fn write_frame<D: Dim>(
             data: FieldData::Int(&body),
         },
     ];
-    fields.extend(snap.extra.iter().map(|f| Field {
-        name: f.name,
-        data: FieldData::Scalar(&f.values),
-    }));
+    // A method's own field replaces the one of the same name derived above (a UL method's
+    // density ρ, a per-particle smoothing length).
+    for f in &snap.extra {
+        let data = FieldData::Scalar(&f.values);
+        match fields.iter_mut().find(|g| g.name == f.name) {
+            Some(g) => g.data = data,
+            None => fields.push(Field { name: f.name, data }),
+        }
+    }
     write_vtu(path, &points, &fields, t)
 }
 
@@ -217,7 +288,57 @@ fn flatten(m: [[f64; 3]; 3]) -> [f64; 9] {
 
 #[cfg(test)]
 mod tests {
-    use super::next_frame_time;
+    use super::{FrameConstants, next_frame_time, write_frame};
+    use crate::observe::{ScalarField, Snapshot};
+    use crate::output::vtu::tests::read_field;
+    use crate::tensor::{D2, Dim};
+
+    #[test]
+    fn a_frame_carries_what_a_particle_code_user_expects() {
+        // Two 2D particles of mass 2 and 3 at ρ0 = 4 (V0 = 0.5, 0.75), the first stretched
+        // to J = 2, the second unstretched, with known stresses: V = V0 J, ρ = ρ0/J,
+        // p = −tr σ/3, the ids, X and the case's h; a method's own density replaces ρ0/J.
+        let x0 = [[0.0, 0.0], [1.0, 0.5]].map(|p| D2::from_slice(&p));
+        let mass = [2.0, 3.0];
+        let body = [0, 0];
+        let f = vec![
+            glam::DMat2::from_diagonal(glam::DVec2::new(2.0, 1.0)),
+            D2::identity(),
+        ];
+        let sigma = vec![
+            [[3.0, 1.0, 0.0], [1.0, 6.0, 0.0], [0.0, 0.0, 9.0]],
+            [[-3.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]],
+        ];
+        let snapshot = |extra| Snapshot::<D2> {
+            x0: &x0,
+            mass: &mass,
+            body: &body,
+            u: vec![D2::zero(); 2],
+            v: vec![D2::zero(); 2],
+            f: f.clone(),
+            sigma: sigma.clone(),
+            strain_energy: 0.0,
+            extra,
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("frame.vtu");
+        let constants = FrameConstants { rho0: 4.0, h: 0.13 };
+        write_frame(&path, &snapshot(Vec::new()), 0.0, &[0.0; 2], constants).unwrap();
+        let field = |name| read_field(&path, name);
+        assert_eq!(field("id"), [0.0, 1.0]);
+        assert_eq!(field("X"), [0.0, 0.0, 0.0, 1.0, 0.5, 0.0]);
+        assert_eq!(field("mass"), mass);
+        assert_eq!(field("volume"), [1.0, 0.75]);
+        assert_eq!(field("density"), [2.0, 4.0]);
+        assert_eq!(field("pressure"), [-6.0, 1.0]);
+        assert_eq!(field("smoothing_length"), [0.13; 2]);
+        let own = vec![ScalarField {
+            name: "density",
+            values: vec![5.0, 6.0],
+        }];
+        write_frame(&path, &snapshot(own), 0.0, &[0.0; 2], constants).unwrap();
+        assert_eq!(read_field(&path, "density"), [5.0, 6.0]);
+    }
 
     #[test]
     fn the_next_frame_time_passes_t_whatever_the_interval() {

@@ -8,11 +8,13 @@ mod checks;
 mod drive;
 mod engine;
 mod frames;
+mod progress;
 
 pub use budget::{Estimate, Limits};
 pub use drive::drive;
 pub use engine::{CpuEngine, Engine, EngineDim, Failed, Iteration, build_method, engine};
-pub use frames::write_frame;
+pub use frames::{FrameConstants, write_frame};
+pub use progress::ProgressDisplay;
 
 use crate::material::Material;
 use crate::methods::{BlowUp, Feature, supporting};
@@ -43,8 +45,8 @@ pub enum Backend {
 pub struct RunOptions {
     pub out_dir: PathBuf,
     pub backend: Backend,
-    /// Show a progress bar on the terminal.
-    pub progress: bool,
+    /// How the run shows its progress on stderr.
+    pub progress: ProgressDisplay,
     /// Write VTU frames (the time series and summary are always written).
     pub frames: bool,
     /// Set (by the command line's SIGINT/SIGTERM handler, say) to end the run after its

@@ -50,6 +50,9 @@ pub struct Case {
     /// of method), for the command line to show.
     #[serde(skip)]
     pub notes: Vec<String>,
+    /// The `--set` overrides applied to the file, in order.
+    #[serde(skip)]
+    pub overrides: Vec<String>,
 }
 
 /// Penalty contact of seed 000 §5.8: every body is a master to every other, its boundary
@@ -488,6 +491,7 @@ impl Case {
         };
         case.notes = notes;
         case.file = file.to_path_buf();
+        case.overrides = overrides.to_vec();
         validate::check(&case).map_err(|(key, message)| CaseError::Invalid {
             file: file.to_path_buf(),
             key,

@@ -18,7 +18,7 @@ pub mod suite;
 pub use records::{RunRecord, Status};
 pub use suite::{Reference, Suite, SuiteKind};
 
-use crate::run::{Backend, RunError, RunOptions};
+use crate::run::{Backend, ProgressDisplay, RunError, RunOptions};
 use engine::{Outcome, run_case};
 use fields::{FinalState, analytic_fields, axial_stress, matched_fields, relative_l2};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -237,7 +237,7 @@ fn execute(
             BackendName::Cpu => Backend::Cpu,
             BackendName::Gpu => Backend::Gpu,
         },
-        progress: false,
+        progress: ProgressDisplay::Off,
         frames: false,
         stop: Some(Arc::new(AtomicBool::new(false))),
         limits: Default::default(),

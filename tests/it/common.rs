@@ -10,7 +10,7 @@
 use meshless::gpu::Gpu;
 use meshless::methods::Method;
 use meshless::methods::mixed::{MixedSph, MixedState};
-use meshless::run::{Backend, RunOptions};
+use meshless::run::{Backend, ProgressDisplay, RunOptions};
 use meshless::scene::Case;
 use meshless::tensor::Dim;
 use std::ops::Sub;
@@ -71,7 +71,7 @@ pub fn cpu_options(dir: &Path, frames: bool) -> RunOptions {
     RunOptions {
         out_dir: dir.to_path_buf(),
         backend: Backend::Cpu,
-        progress: false,
+        progress: ProgressDisplay::Off,
         frames,
         stop: None,
         limits: Default::default(),

@@ -209,6 +209,54 @@ fn command_line_exit_codes() {
 
 /// The swinging plate (Upwind-SPH, Δx = 0.1, about 100 steps of one period) with the
 /// hourglass observer and `overrides`, a sample after every step; its series and result.
+#[test]
+fn a_batch_run_logs_plain_progress_and_its_summary_records_how_it_was_set_up() {
+    // stderr is a pipe here, as in a batch job: no bar, but the plain start line (and a
+    // line every 10 s, which this short run does not reach). summary.json names the file,
+    // the overrides in order, the version and the case as run, defaults resolved.
+    let exe = env!("CARGO_BIN_EXE_meshless");
+    let dir = tempfile::tempdir().unwrap();
+    let file = case_file("wave-rod");
+    let out = Command::new(exe)
+        .args([
+            "run",
+            file.to_str().unwrap(),
+            "--backend",
+            "cpu",
+            "--no-frames",
+        ])
+        .args([
+            "--set",
+            "run.end_time=1e-4",
+            "--set",
+            "material.poisson_ratio=0.25",
+        ])
+        .arg("--out")
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("wave-rod: "), "{stderr}");
+    assert!(
+        !stderr.contains('\r'),
+        "a bar was drawn into a pipe: {stderr:?}"
+    );
+    let text = std::fs::read_to_string(dir.path().join("summary.json")).unwrap();
+    let summary: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(summary["version"], env!("CARGO_PKG_VERSION"));
+    assert_eq!(summary["case_file"], file.display().to_string());
+    assert_eq!(
+        summary["overrides"],
+        serde_json::json!(["run.end_time=1e-4", "material.poisson_ratio=0.25"])
+    );
+    let resolved = &summary["resolved_case"];
+    assert_eq!(resolved["material"]["poisson_ratio"], 0.25);
+    assert_eq!(resolved["run"]["end_time"], 1e-4);
+    assert!(resolved["method"]["kernel"].is_string(), "{resolved}");
+    assert_eq!(summary["backend"], "cpu");
+}
+
 fn swinging_plate(dir: &Path, overrides: &[&str]) -> Result<(), RunError> {
     let mut set = vec![
         "spacing=0.1",

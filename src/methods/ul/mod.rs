@@ -24,7 +24,7 @@ use crate::methods::Problem;
 use crate::methods::shared::{BlowUp, MIN_CHUNK, Method, check_motion, particle_state};
 use crate::methods::tlsph::system::stress_fields;
 use crate::neighbour::{Csr, Neighbours, Rebuild};
-use crate::observe::Snapshot;
+use crate::observe::{ScalarField, Snapshot};
 use crate::reference::Reference;
 use crate::scene::validate::{fail, toml_name};
 use crate::scene::{Case, CaseError};
@@ -444,6 +444,9 @@ pub fn snapshot<'a, D: Dim>(
     y: UlState<D>,
 ) -> Snapshot<'a, D> {
     let (sigma, strain_energy) = stress_fields::<D>(material, &y.f, &y.s, &y.rho, vol0);
+    // The method's own ρ (continuity equation) and V = m/ρ, in place of ρ0/J and V0 J of
+    // the integrated F.
+    let volume = mass.iter().zip(&y.rho).map(|(m, rho)| m / rho).collect();
     Snapshot {
         x0,
         mass,
@@ -453,7 +456,16 @@ pub fn snapshot<'a, D: Dim>(
         f: y.f,
         sigma,
         strain_energy,
-        extra: Vec::new(),
+        extra: vec![
+            ScalarField {
+                name: "density",
+                values: y.rho,
+            },
+            ScalarField {
+                name: "volume",
+                values: volume,
+            },
+        ],
     }
 }
 
