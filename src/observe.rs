@@ -170,6 +170,19 @@ impl Observers {
                 names.extend((0..D::N).map(|k| format!("{}.{q}{}", probe.name, AXES[k])));
             }
         }
+        for (k, check) in case.output.checks.iter().enumerate() {
+            if !names.contains(&check.column) {
+                return Err(case.invalid(
+                    format!("output.check.{k}.column"),
+                    format!(
+                        "no series column `{}`; this case's columns are {} (add an observer to \
+                         output.observers for more)",
+                        check.column,
+                        names.join(", ")
+                    ),
+                ));
+            }
+        }
         let columns = if list.contains(&Observer::NeckHeight) {
             free_columns::<D>(case, x0, constrained)
         } else {

@@ -15,7 +15,7 @@ pub mod summary;
 pub mod vtu;
 
 pub use series::SeriesWriter;
-pub use summary::{RunSummary, write_summary};
+pub use summary::{CheckResult, RunSummary, write_summary};
 pub use vtu::{Field, FieldData, PvdIndex, write_vtu};
 
 use std::ffi::OsString;

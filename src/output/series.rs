@@ -6,6 +6,57 @@ use std::path::Path;
 
 use super::{create_temporary, format_f64, invalid_input};
 
+/// Why a column of a series file cannot be read.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ColumnError {
+    #[error("{file}: no column `{column}` (the columns are {columns})")]
+    NoColumn {
+        file: String,
+        column: String,
+        columns: String,
+    },
+    #[error("{0}")]
+    Unreadable(String),
+}
+
+/// Column `column` of a series file against its `time` column, one (t, value) per row.
+pub fn read_column(path: &Path, column: &str) -> Result<Vec<(f64, f64)>, ColumnError> {
+    let file = path.display().to_string();
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| ColumnError::Unreadable(format!("{file}: {e}")))?;
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap_or("").split(',').collect();
+    let find = |name: &str| {
+        header
+            .iter()
+            .position(|c| *c == name)
+            .ok_or_else(|| ColumnError::NoColumn {
+                file: file.clone(),
+                column: name.to_string(),
+                columns: header.join(", "),
+            })
+    };
+    let (kt, kc) = (find("time")?, find(column)?);
+    lines
+        .enumerate()
+        .map(|(row, line)| {
+            let fields: Vec<&str> = line.split(',').collect();
+            let value = |k: usize| {
+                fields
+                    .get(k)
+                    .and_then(|f| f.trim().parse::<f64>().ok())
+                    .ok_or_else(|| {
+                        ColumnError::Unreadable(format!(
+                            "{file}: row {}: no number in column {k}",
+                            row + 2
+                        ))
+                    })
+            };
+            Ok((value(kt)?, value(kc)?))
+        })
+        .collect()
+}
+
 /// A CSV file with a header line and one row of numbers per call.
 ///
 /// Every row is flushed as soon as it is written, so rows already reported

@@ -59,6 +59,43 @@ pub struct RunSummary {
     /// Conserved or monitored quantities at the end of the run.
     #[serde(with = "non_finite_values_as_null")]
     pub final_invariants: BTreeMap<String, f64>,
+    /// The case's documented checks (`[[output.check]]`) on the series written.
+    #[serde(default)]
+    pub checks: Vec<CheckResult>,
+}
+
+/// A case's check evaluated on a run's series.
+#[derive(Serialize, Deserialize, Debug, Clone, PartialEq)]
+pub struct CheckResult {
+    pub label: String,
+    pub column: String,
+    /// `end`, `min`, `max` or `drift`.
+    pub statistic: String,
+    #[serde(with = "non_finite_as_null")]
+    pub value: f64,
+    pub expected: Option<[f64; 2]>,
+    pub source: Option<String>,
+    /// Whether the value lies in the expected range (none without one).
+    pub within: Option<bool>,
+}
+
+impl std::fmt::Display for CheckResult {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{}: {} ({} of {})",
+            self.label, self.value, self.statistic, self.column
+        )?;
+        if let (Some([lo, hi]), Some(within)) = (self.expected, self.within) {
+            let verdict = if within { "within" } else { "OUTSIDE" };
+            write!(f, "; expected {lo} to {hi}")?;
+            if let Some(source) = &self.source {
+                write!(f, " ({source})")?;
+            }
+            write!(f, ": {verdict}")?;
+        }
+        Ok(())
+    }
 }
 
 /// Writes `summary` to `path` as pretty-printed JSON, atomically.
@@ -132,6 +169,15 @@ mod tests {
                 ("energy_total".to_string(), 0.1 + 0.2),
                 ("momentum_x".to_string(), -1e-300),
             ]),
+            checks: vec![CheckResult {
+                label: "radius of the impact end".into(),
+                column: "bar.extent_x".into(),
+                statistic: "end".into(),
+                value: 0.00695,
+                expected: Some([0.00689, 0.007]),
+                source: Some("paper Table 2".into()),
+                within: Some(true),
+            }],
         }
     }
 

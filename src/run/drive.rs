@@ -8,8 +8,10 @@ use super::progress::{Progress, ProgressDisplay};
 use super::{Engine, Failed, Iteration, RunError, RunOptions, output_error};
 use crate::hourglass::HourglassIndicator;
 use crate::observe::{Clock, Invariants, Observers, Snapshot};
-use crate::output::{RunSummary, SeriesWriter, write_summary};
+use crate::output::series::read_column;
+use crate::output::{CheckResult, RunSummary, SeriesWriter, write_summary};
 use crate::scene::Case;
+use crate::scene::validate::toml_name;
 use crate::tensor::Dim;
 use std::path::Path;
 use std::time::Instant;
@@ -107,6 +109,7 @@ pub fn drive<D: Dim, E: Engine<D>>(
         status: "running".into(),
         failure: None,
         final_invariants: Default::default(),
+        checks: Vec::new(),
     };
     write_summary(&summary_path, &running).map_err(output_error(&summary_path))?;
     let done = |t: f64| t >= t_end * (1.0 - 1e-12);
@@ -311,8 +314,14 @@ pub fn drive<D: Dim, E: Engine<D>>(
             format!("{steps}, t = {failed_time:e} s: {c}")
         }),
         final_invariants: inv.named::<D>(),
+        checks: evaluate_checks(case, &series_path),
         ..running
     };
+    if opts.progress != ProgressDisplay::Off {
+        for check in &summary.checks {
+            eprintln!("check: {check}");
+        }
+    }
     write_summary(&summary_path, &summary).map_err(output_error(&summary_path))?;
     match failure {
         Some(cause) => Err(RunError::BlowUp {
@@ -363,6 +372,30 @@ fn clear_previous_run(dir: &Path) -> Result<(), RunError> {
         remove(&index)?;
     }
     Ok(())
+}
+
+/// The case's checks on the series written so far; a check whose column cannot be read
+/// has the value NaN.
+fn evaluate_checks(case: &Case, series: &Path) -> Vec<CheckResult> {
+    case.output
+        .checks
+        .iter()
+        .map(|c| {
+            let values: Vec<f64> = read_column(series, &c.column)
+                .map(|rows| rows.into_iter().map(|(_, v)| v).collect())
+                .unwrap_or_default();
+            let value = c.statistic.of(&values);
+            CheckResult {
+                label: c.label.clone(),
+                column: c.column.clone(),
+                statistic: toml_name(&c.statistic),
+                value,
+                expected: c.expected,
+                source: c.source.clone(),
+                within: c.expected.map(|[lo, hi]| value >= lo && value <= hi),
+            }
+        })
+        .collect()
 }
 
 /// The file of a static engine's solver iterations.

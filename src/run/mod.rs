@@ -143,10 +143,18 @@ pub fn check(
 ) -> Result<(Estimate, usize), RunError> {
     let estimate = budget::check(case, may_use_gpu(case, backend), limits)?;
     let particles = match case.dimension {
-        2 => engine::<D2>(case, backend)?.reference().len(),
-        _ => engine::<D3>(case, backend)?.reference().len(),
+        2 => built::<D2>(case, backend)?,
+        _ => built::<D3>(case, backend)?,
     };
     Ok((estimate, particles))
+}
+
+/// Builds a case's engine and its series' observers (probes, checks) as `run` does; the
+/// particle count.
+fn built<D: EngineDim>(case: &Case, backend: Backend) -> Result<usize, RunError> {
+    let engine = engine::<D>(case, backend)?;
+    crate::observe::Observers::new::<D>(case, engine.reference(), engine.constrained())?;
+    Ok(engine.reference().len())
 }
 
 /// The error of an output file or folder at `path`.

@@ -371,6 +371,52 @@ pub struct OutputSpec {
     pub series_interval: Option<f64>,
     #[serde(default = "default_observers")]
     pub observers: Vec<Observer>,
+    /// The case's documented checks, evaluated on the series at the end of a run.
+    #[serde(default, rename = "check")]
+    pub checks: Vec<CheckSpec>,
+}
+
+/// A number a run of the case is checked by: a statistic of one series column, printed at
+/// the end of the run and kept in `summary.json`, with the range it is expected in.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CheckSpec {
+    /// What the number is, in words.
+    pub label: String,
+    /// The series column it is taken from.
+    pub column: String,
+    pub statistic: Statistic,
+    /// The range [lo, hi] it is expected in, if any.
+    pub expected: Option<[f64; 2]>,
+    /// Where the expected range comes from (a paper's table, a closed form).
+    pub source: Option<String>,
+}
+
+/// A statistic of a series column c(t).
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum Statistic {
+    /// c at the last row.
+    End,
+    Min,
+    Max,
+    /// max_t |c(t) − c(0)| / |c(0)|.
+    Drift,
+}
+
+impl Statistic {
+    /// The statistic of the values c(t) in row order; NaN without rows.
+    pub fn of(self, c: &[f64]) -> f64 {
+        let (Some(&first), Some(&last)) = (c.first(), c.last()) else {
+            return f64::NAN;
+        };
+        match self {
+            Self::End => last,
+            Self::Min => c.iter().copied().fold(f64::INFINITY, f64::min),
+            Self::Max => c.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            Self::Drift => c.iter().map(|x| (x - first).abs()).fold(0.0, f64::max) / first.abs(),
+        }
+    }
 }
 
 fn default_observers() -> Vec<Observer> {
@@ -383,6 +429,7 @@ impl Default for OutputSpec {
             frame_interval: None,
             series_interval: None,
             observers: default_observers(),
+            checks: Vec::new(),
         }
     }
 }
@@ -542,4 +589,20 @@ pub fn fnv1a(bytes: &[u8]) -> u64 {
     bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
         (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Statistic;
+
+    #[test]
+    fn statistics_of_a_series_column() {
+        let c = [2.0, 3.0, 1.0, 2.5];
+        assert_eq!(Statistic::End.of(&c), 2.5);
+        assert_eq!(Statistic::Min.of(&c), 1.0);
+        assert_eq!(Statistic::Max.of(&c), 3.0);
+        // max |c − c(0)| = 1 (at 3 and at 1), over |c(0)| = 2.
+        assert_eq!(Statistic::Drift.of(&c), 0.5);
+        assert!(Statistic::End.of(&[]).is_nan());
+    }
 }

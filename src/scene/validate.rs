@@ -842,6 +842,22 @@ fn output(o: &OutputSpec) -> Checked {
             );
         }
     }
+    for (k, check) in o.checks.iter().enumerate() {
+        if check.label.trim().is_empty() {
+            return fail(
+                format!("output.check.{k}.label"),
+                "is empty: say in words what the number is",
+            );
+        }
+        if let Some([lo, hi]) = check.expected
+            && !(lo.is_finite() && hi.is_finite() && lo <= hi)
+        {
+            return fail(
+                format!("output.check.{k}.expected"),
+                format!("[{lo}, {hi}] is not a range: give [lo, hi] with finite lo ≤ hi"),
+            );
+        }
+    }
     Ok(())
 }
 

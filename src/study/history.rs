@@ -6,6 +6,7 @@
 use super::plot::{draw_marker, draw_path, line_style, register_font, write_figure};
 use super::records::{RunRecord, Status};
 use super::suite::{History, Suite};
+use crate::output::series::{ColumnError, read_column};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::fmt::Write as _;
@@ -29,38 +30,17 @@ pub fn series_file(suite_dir: &Path, id: &str) -> PathBuf {
 
 /// Reads column `h.column` of a series file against its `time` column, scaled.
 pub fn read_series(path: &Path, h: &History) -> Result<Vec<(f64, f64)>, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().unwrap_or("").split(',').collect();
-    let find = |name: &str| {
-        header.iter().position(|c| *c == name).ok_or_else(|| {
-            format!(
-                "{}: no column `{name}` (the columns are {}); name one of them in the suite's \
-                 [history] `column`, or add its observer to the case's `output.observers`",
-                path.display(),
-                header.join(", ")
-            )
-        })
-    };
-    let (kt, ky) = (find("time")?, find(&h.column)?);
-    let mut points = Vec::new();
-    for (row, line) in lines.enumerate() {
-        let fields: Vec<&str> = line.split(',').collect();
-        let value = |k: usize| {
-            fields
-                .get(k)
-                .and_then(|f| f.trim().parse::<f64>().ok())
-                .ok_or_else(|| {
-                    format!(
-                        "{}: row {}: no number in column {k}",
-                        path.display(),
-                        row + 2
-                    )
-                })
-        };
-        points.push((h.x_scale * value(kt)?, h.scale * value(ky)?));
-    }
-    Ok(points)
+    let points = read_column(path, &h.column).map_err(|e| match e {
+        ColumnError::NoColumn { .. } => format!(
+            "{e}; name one of them in the suite's [history] `column`, or add its observer to \
+             the case's `output.observers`"
+        ),
+        ColumnError::Unreadable(_) => e.to_string(),
+    })?;
+    Ok(points
+        .into_iter()
+        .map(|(t, c)| (h.x_scale * t, h.scale * c))
+        .collect())
 }
 
 /// The curves of a suite's finished and failed runs whose series can be read; runs without

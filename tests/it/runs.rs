@@ -257,6 +257,38 @@ fn a_batch_run_logs_plain_progress_and_its_summary_records_how_it_was_set_up() {
     assert_eq!(summary["backend"], "cpu");
 }
 
+#[test]
+fn a_run_evaluates_its_cases_checks_on_the_series() {
+    // The shipped disk's check is the relative drift of H over the series. Recomputed here
+    // from series.csv by hand, it must equal the summary's value to round-off, lie in the
+    // check's expected range [0, 1e-4], and be positive (RK4 drifts a little).
+    let dir = tempfile::tempdir().unwrap();
+    let case = load("rotating-disk", &["run.end_time=2e-3"]);
+    let summary = run(&case, &cpu_options(dir.path(), false)).unwrap();
+    let [check] = summary.checks.as_slice() else {
+        panic!("{:?}", summary.checks)
+    };
+    let text = std::fs::read_to_string(dir.path().join("series.csv")).unwrap();
+    let mut lines = text.lines();
+    let k = lines
+        .next()
+        .unwrap()
+        .split(',')
+        .position(|c| c == "angular_momentum_z")
+        .unwrap();
+    let h: Vec<f64> = lines
+        .map(|l| l.split(',').nth(k).unwrap().parse().unwrap())
+        .collect();
+    let drift = h.iter().map(|x| (x - h[0]).abs()).fold(0.0, f64::max) / h[0].abs();
+    assert!(h.len() > 10);
+    assert_eq!(check.statistic, "drift");
+    assert!(
+        (check.value - drift).abs() <= 1e-15,
+        "{check} against {drift}"
+    );
+    assert!(check.value > 0.0 && check.within == Some(true), "{check}");
+}
+
 fn swinging_plate(dir: &Path, overrides: &[&str]) -> Result<(), RunError> {
     let mut set = vec![
         "spacing=0.1",
