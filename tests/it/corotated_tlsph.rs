@@ -238,6 +238,7 @@ fn the_seed_disk_keeps_its_angular_momentum() {
 
 /// A disordered state turned through a large rotation: x = Q (X + δ) + b with δ of
 /// `u_scale` noise, so that R_i is far from I, and velocities of `v_scale` noise.
+#[cfg(feature = "gpu")]
 fn rotated_random<D: Dim>(
     m: &Corotated<D>,
     q: D::T,

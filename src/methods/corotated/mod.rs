@@ -46,36 +46,39 @@ impl MethodFamily for CorotatedSpec {
         if self.artificial_viscosity.is_none() {
             left_out.push("artificial viscosity");
         }
+        let rotation = if case.dimension == 2 {
+            "closed form"
+        } else {
+            "polar decomposition by scaled Newton iteration"
+        };
         Plan {
             once: format!(
                 "once, on the reference configuration: cell-list neighbours (CSR), reference \
-                 gradients ∇0W_ij ({} correction), shape-matching weights m_j W_ij",
-                toml_name(&case.method.correction)
+                 gradients ∇0W_ij ({} correction), {}",
+                toml_name(&case.method.correction),
+                if gpu {
+                    "pair offsets X_j − X_i"
+                } else {
+                    "shape-matching weights m_j W_ij"
+                }
             ),
             state: format!("u, v (state model {:?} of the corotated F̂)", mat.model),
             cfl_step: format!(
                 "Δt = cfl·Δx/(c_p + max|v|), c_p = {:.1} m/s",
                 mat.p_wave_speed()
             ),
-            rates: format!(
-                "{}: shape matching A_i, its rotation R_i ({}), F̂_i and P̂(F̂_i); then {}the \
-                 forces ½(R_i + R_j)(P̂_i + P̂_j)∇0W_ij",
-                if gpu {
-                    "shape-matching pass (R_i kept per particle)"
-                } else {
-                    "two gathers"
-                },
-                if case.dimension == 2 {
-                    "closed form"
-                } else {
-                    "polar decomposition by scaled Newton iteration"
-                },
-                if gpu {
-                    "the acceleration pass (a, u̇ = v, BCs): "
-                } else {
-                    ""
-                }
-            ),
+            rates: if gpu {
+                format!(
+                    "shape-matching pass (A_i, its rotation R_i ({rotation}), F̂_i, \
+                     P̂(F̂_i); R_i kept per particle) + acceleration pass (the forces \
+                     ½(R_i + R_j)(P̂_i + P̂_j)∇0W_ij, a, u̇ = v, BCs)"
+                )
+            } else {
+                format!(
+                    "two gathers: shape matching A_i, its rotation R_i ({rotation}), F̂_i and \
+                     P̂(F̂_i); then the forces ½(R_i + R_j)(P̂_i + P̂_j)∇0W_ij"
+                )
+            },
             checked: "det R, det F̂",
             check_note: String::new(),
             left_out,

@@ -270,7 +270,11 @@ impl<D: Dim> Corotated<D> {
         let kin = self.each_kinematics(&y.u);
         let r: Vec<D::T> = kin.iter().map(|k| k.r).collect();
         let f_hat: Vec<D::T> = kin.iter().map(|k| k.f_hat).collect();
-        let (f, sigma, strain_energy) = outputs::<D>(&self.material, &self.vol, &r, &f_hat);
+        let Outputs {
+            f,
+            sigma,
+            strain_energy,
+        } = outputs::<D>(&self.material, &self.vol, &r, &f_hat);
         Snapshot {
             x0: &self.x0,
             mass: &self.mass,
@@ -285,15 +289,20 @@ impl<D: Dim> Corotated<D> {
     }
 }
 
+/// The fields outputs read of a corotated state.
+pub struct Outputs<D: Dim> {
+    /// F = R F̂.
+    pub f: Vec<D::T>,
+    /// σ = R (P̂ F̂ᵀ/det F̂) Rᵀ (3 × 3; 2D: with σ_zz of F̂).
+    pub sigma: Vec<[[f64; 3]; 3]>,
+    /// Σ V ψ(F̂).
+    pub strain_energy: f64,
+}
+
 /// The outputs of rotations R_i and corotated gradients F̂_i: F = R F̂, the Cauchy stress
 /// σ = R (P̂ F̂ᵀ/det F̂) Rᵀ (2D: with σ_zz of F̂) and the strain energy Σ V ψ(F̂). Shared by
 /// the CPU system and the GPU engine (which reads R and F̂ back).
-pub fn outputs<D: Dim>(
-    mat: &Material,
-    vol: &[f64],
-    r: &[D::T],
-    f_hat: &[D::T],
-) -> (Vec<D::T>, Vec<[[f64; 3]; 3]>, f64) {
+pub fn outputs<D: Dim>(mat: &Material, vol: &[f64], r: &[D::T], f_hat: &[D::T]) -> Outputs<D> {
     let f = r.iter().zip(f_hat).map(|(&r, &f_hat)| r * f_hat).collect();
     let sigma = r
         .par_iter()
@@ -314,7 +323,11 @@ pub fn outputs<D: Dim>(
         |a| vol[a] * mat.energy_density::<D>(f_hat[a], D::zero_t(), mat.rho0),
         |x, y| x + y,
     );
-    (f, sigma, strain_energy)
+    Outputs {
+        f,
+        sigma,
+        strain_energy,
+    }
 }
 
 impl<D: Dim> OdeSystem for Corotated<D> {

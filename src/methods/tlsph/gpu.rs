@@ -712,8 +712,11 @@ impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
         let r = &self.reference;
         if self.frame == Frame::Corotated {
             let rot = self.kin_tensor("R");
-            let (f, sigma, strain_energy) =
-                crate::methods::corotated::system::outputs::<D>(&r.material, &r.vol, &rot, &f);
+            let crate::methods::corotated::system::Outputs {
+                f,
+                sigma,
+                strain_energy,
+            } = crate::methods::corotated::system::outputs::<D>(&r.material, &r.vol, &rot, &f);
             return Snapshot {
                 x0: &r.x0,
                 mass: &r.mass,
