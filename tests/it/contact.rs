@@ -12,7 +12,7 @@ use meshless::tensor::D2;
 /// 2h = 3.4Δx = 14.3 mm; Δt scaled with Δx (c_p Δt/Δx = 0.44); plane strain, the
 /// material every method here reads the same way (the shipped case is the seed's plane
 /// stress).
-fn rings(extra: &[&str]) -> Result<Case, CaseError> {
+pub(crate) fn rings(extra: &[&str]) -> Result<Case, CaseError> {
     let mut set = vec![
         "material.plane=\"strain\"",
         "spacing=4.2105263157894736e-3",
@@ -162,7 +162,7 @@ fn the_gpu_contact_pass_matches_the_cpu() {
 /// The rings' velocities after `end` on the GPU engine of the case's method against its
 /// CPU reference, within 1e-4 of the impact speed.
 #[cfg(feature = "gpu")]
-fn assert_gpu_matches_cpu(case: &Case, end: f64) {
+pub(crate) fn assert_gpu_matches_cpu(case: &Case, end: f64) {
     let mut g = engine::<D2>(case, Backend::Gpu).unwrap();
     let on_gpu = ring_velocities_on(&mut g, case, end);
     let on_cpu = ring_velocities(case, end);

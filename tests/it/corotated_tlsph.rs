@@ -1,7 +1,10 @@
 //! Corotated TLSPH (`corotated-tlsph`, seed 000 §5.5) on the CPU: the polar factor in 2D
 //! and 3D, exact corotation of a rigidly rotated body (checklist 8), no force under rigid
 //! motion (checklist 6), linear momentum with the uncorrected kernel (checklist 12) and
-//! the analytic stress of an affine stretch.
+//! the analytic stress of an affine stretch; on the GPU against the CPU: rotations,
+//! corotated gradients, accelerations, stress and strain energy of disordered states in 2D
+//! and 3D, the seed's disk, the rings through contact and the blow-up of an inverted
+//! neighbourhood.
 
 use crate::common::{
     block_case, block_text, largest_t, largest_v, random_tensor, random_vector, shipped,
@@ -191,7 +194,7 @@ fn an_affine_stretch_gives_the_analytic_stress_inside() {
 }
 
 #[test]
-fn the_method_needs_a_state_model_and_runs_on_the_cpu() {
+fn the_method_needs_a_state_model_and_auto_runs_it_on_the_gpu() {
     let text = block_text(&[1.0, 0.6], "hypoelastic", "corotated-tlsph", "");
     let e = Case::from_toml(&text, Path::new("block.toml"), &[])
         .unwrap_err()
@@ -200,21 +203,19 @@ fn the_method_needs_a_state_model_and_runs_on_the_cpu() {
         e.contains("material.model") && e.contains("`corotated-tlsph`"),
         "{e}"
     );
-    let engine = meshless::run::engine::<D3>(&case(&[0.5, 0.4, 0.3], ""), Backend::Auto).unwrap();
+    let entry = meshless::methods::entry("corotated-tlsph").unwrap();
+    assert!(entry.gpu_engine);
+    let engine = meshless::run::engine::<D3>(&case(&[0.5, 0.4, 0.3], ""), Backend::Cpu).unwrap();
     assert_eq!(engine.backend(), "cpu");
 }
 
 #[cfg(feature = "gpu")]
 #[test]
-fn the_gpu_backend_is_refused_naming_the_method_and_the_cpu_backend() {
-    let e = match meshless::run::engine::<D2>(&case(&[1.0, 0.6], ""), Backend::Gpu) {
-        Ok(_) => panic!("corotated-tlsph has no GPU engine"),
-        Err(e) => e.to_string(),
-    };
-    assert!(
-        e.contains("`corotated-tlsph`") && e.contains("--backend cpu"),
-        "{e}"
-    );
+fn the_gpu_backend_runs_the_method() {
+    // `--backend gpu` builds the total-Lagrangian GPU engine with the corotated passes.
+    let engine = meshless::run::engine::<D2>(&case(&[1.0, 0.6], AV), Backend::Gpu)
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert!(engine.backend().starts_with("gpu"), "{}", engine.backend());
 }
 
 #[test]
@@ -233,4 +234,238 @@ fn the_seed_disk_keeps_its_angular_momentum() {
     let end = e.invariants();
     let drift = (end.angular[2] - start.angular[2]).abs() / start.angular[2];
     assert!(drift < 1e-5, "|H − H0|/H0 = {drift:e}");
+}
+
+/// A disordered state turned through a large rotation: x = Q (X + δ) + b with δ of
+/// `u_scale` noise, so that R_i is far from I, and velocities of `v_scale` noise.
+#[cfg(feature = "gpu")]
+fn rotated_random<D: Dim>(
+    m: &Corotated<D>,
+    q: D::T,
+    seed: u64,
+    u_scale: f64,
+    v_scale: f64,
+) -> TlState<D> {
+    let mut seed = seed;
+    let mut y = m.initial_state();
+    let b = random_vector::<D>(&mut seed, 0.5);
+    for ((u, v), &x) in y.u.iter_mut().zip(y.v.iter_mut()).zip(m.reference()) {
+        *u = q * (x + random_vector::<D>(&mut seed, u_scale)) + b - x;
+        *v = random_vector::<D>(&mut seed, v_scale);
+    }
+    y
+}
+
+/// The largest entry of a list of 3 × 3 stresses.
+#[cfg(feature = "gpu")]
+fn largest_entry<'a>(sigma: impl IntoIterator<Item = &'a [[f64; 3]; 3]>) -> f64 {
+    sigma
+        .into_iter()
+        .flat_map(|s| s.iter().flatten())
+        .fold(0.0f64, |a, &b| a.max(b.abs()))
+}
+
+/// Differences of the GPU from the CPU on one state, each relative to the CPU's largest
+/// value (the rotations absolute).
+#[cfg(feature = "gpu")]
+#[derive(Debug)]
+struct Differences {
+    rotation: f64,
+    gradient: f64,
+    acceleration: f64,
+    stress: f64,
+    deformation: f64,
+    energy_reduced: f64,
+    energy_snapshot: f64,
+}
+
+/// One rate evaluation and the outputs of a state on the GPU against the CPU.
+#[cfg(feature = "gpu")]
+fn differences<D: meshless::gpu::layout::GpuDim>(c: &Case, q: D::T) -> Differences {
+    use meshless::methods::tlsph::GpuTlsph;
+    let mut cpu: Corotated<D> = build_method(c).unwrap();
+    let y = rotated_random(&cpu, q, 11, 0.01, 1.0);
+    let a = rates(&mut cpu, &y);
+    let mut g = GpuTlsph::<D>::new(c, crate::common::gpu()).unwrap();
+    let (d, f_hat, _) = g.rates(&y);
+    let rot = g.kin_tensor("R");
+    let relative_t = |gpu: &[D::T], cpu: &[D::T], base: D::T| {
+        let scale = largest_t::<D>(cpu.iter().map(|&t| t - base));
+        largest_t::<D>(gpu.iter().zip(cpu).map(|(&x, &y)| x - y)) / scale
+    };
+    let r_cpu = cpu.rotations(&y);
+    let f_cpu = cpu.corotated_gradients(&y);
+    let w_reduced = g.invariants().strain;
+    let snap = g.snapshot();
+    let w_cpu = cpu.strain_energy(&y);
+    let sigma_cpu = cpu.cauchy_stress(&y);
+    let sigma_err = snap
+        .sigma
+        .iter()
+        .zip(&sigma_cpu)
+        .flat_map(|(a, b)| (0..9).map(move |k| (a[k / 3][k % 3] - b[k / 3][k % 3]).abs()))
+        .fold(0.0f64, f64::max);
+    let scale_a = largest_v::<D>(a.iter().copied());
+    Differences {
+        rotation: largest_t::<D>(rot.iter().zip(&r_cpu).map(|(&x, &y)| x - y)),
+        gradient: relative_t(&f_hat, &f_cpu, D::identity()),
+        acceleration: largest_v::<D>(a.iter().zip(&d.v).map(|(&x, &y)| x - y)) / scale_a,
+        stress: sigma_err / largest_entry(&sigma_cpu),
+        deformation: relative_t(&snap.f, &cpu.deformation_gradient(&y), D::zero_t()),
+        energy_reduced: (w_reduced - w_cpu).abs() / w_cpu,
+        energy_snapshot: (snap.strain_energy - w_cpu).abs() / w_cpu,
+    }
+}
+
+#[cfg(feature = "gpu")]
+#[test]
+fn the_gpu_rates_stress_and_energy_match_the_cpu_in_2d_and_3d() {
+    // Disordered states (|δ| ~ 0.1 Δx, |v| ~ 1 m/s) turned through Q: the shape matching,
+    // F̂, P̂ and the forces of the GPU (f32) against the CPU (f64), for every correction,
+    // every state model, with and without viscosity, in 2D and 3D, and plane stress.
+    //
+    // Bounds, those of TLSPH and the potential: each acceleration sums 20–80 pair terms
+    // ½(R_i + R_j)(P̂_i + P̂_j)∇0W_ij V_j of the random state, which do not cancel; P̂ comes
+    // from Ĥ = F̂ − I (|Ĥ| ~ 0.3) summed in f32 from û_ij = R_iᵀ x_ji − X_ji, 6e-8
+    // relative per term: ~1e-6 of the largest acceleration; bound 1e-4 of it. R is the
+    // polar factor of an f32 sum (closed form in 2D, Newton to |ΔR| ≤ 1e-5 in 3D, whose
+    // error is then O(1e-10)): a few ulps, bound 1e-5. F̂ − I, σ and F of the same f32
+    // sums: bound 1e-4 of their largest. The strain energy Σ V ψ(F̂), summed in f32 per
+    // workgroup (the reduction) or in f64 from the f32 F̂ read back (the snapshot):
+    // bound 1e-4 relative. Measured on lavapipe, largest over the variants: |ΔR| 5.8e-7;
+    // F̂ − I 6.1e-6, a 6.4e-6, σ 6.5e-6, F 6.5e-7; Σ V ψ 6.3e-7 (snapshot) and 4.5e-5
+    // (reduction, the nearly incompressible model, whose κ/2 (J − 1)² is formed in f32).
+    let q2 = DMat2::from_angle(2.2);
+    let q3 = DMat3::from_axis_angle(DVec3::new(-1.0, 2.0, 0.5).normalize(), 1.9);
+    let variants: Vec<(&str, String)> = ["none", "shepard", "randles-libersky", "rkpm", "cgck"]
+        .iter()
+        .map(|c| ("linear-elastic", format!("correction = \"{c}\"\n{AV}")))
+        .chain([
+            ("saint-venant-kirchhoff", "correction = \"none\"".into()),
+            (
+                "neo-hookean",
+                format!("correction = \"randles-libersky\"\n{AV}"),
+            ),
+            (
+                "nearly-incompressible-neo-hookean",
+                format!("correction = \"none\"\n{AV}"),
+            ),
+        ])
+        .collect();
+    let check = |what: String, d: Differences| {
+        eprintln!("{what}: {d:?}");
+        assert!(d.rotation < 1e-5, "{what}: |ΔR| = {:e}", d.rotation);
+        for (name, value) in [
+            ("F̂ − I", d.gradient),
+            ("a", d.acceleration),
+            ("σ", d.stress),
+            ("F", d.deformation),
+            ("Σ V ψ (reduced)", d.energy_reduced),
+            ("Σ V ψ (snapshot)", d.energy_snapshot),
+        ] {
+            assert!(value < 1e-4, "{what}: {name} differs by {value:e}");
+        }
+    };
+    for (model, keys) in &variants {
+        let text = block_text(&[1.0, 0.6], model, "corotated-tlsph", keys);
+        let c = Case::from_toml(&text, Path::new("block.toml"), &[]).unwrap();
+        check(format!("2D {model} {keys}"), differences::<D2>(&c, q2));
+        let text = block_text(&[0.5, 0.4, 0.3], model, "corotated-tlsph", keys);
+        let c = Case::from_toml(&text, Path::new("block.toml"), &[]).unwrap();
+        check(format!("3D {model} {keys}"), differences::<D3>(&c, q3));
+    }
+    // Plane stress (λ* in the constants, σ_zz = 0 in the outputs).
+    let c = Case::load(
+        &crate::common::case_file("rotating-disk-corotated"),
+        &["spacing=0.2".to_string()],
+    )
+    .unwrap();
+    check("2D plane stress".into(), differences::<D2>(&c, q2));
+}
+
+#[cfg(feature = "gpu")]
+#[test]
+fn the_seed_disk_on_the_gpu_follows_the_cpu() {
+    // The shipped disk (276 particles, no viscosity, RK4 at Δt = 2.5e-6 s) for 400 steps
+    // (1e-3 s, 0.05 rad of its turn) on both backends. The GPU keeps the state in f32
+    // (|v| = 50 m/s at the rim, 6e-8 relative per step), so the velocities part by
+    // round-off that accumulates over the steps: measured on lavapipe 3.2e-5 of max |v|,
+    // 2.7e-6 of max |u|, angular momentum 3.4e-7: bounds 1e-4, 1e-4 and 1e-5 (the reduction
+    // sums in f32). The stresses are those of the centrifugal load (ρ ω² R² = 2.5e3 Pa
+    // against E = 1e7 Pa: strains of 2e-4), so the f32 differences of the positions
+    // (1e-7 of Δx) and their accumulated drift are a larger part of them: measured 9.4e-3
+    // of the largest |σ| and 1.0e-4 of Σ V ψ(F̂); bounds 5e-2 and 1e-3.
+    let case = shipped("rotating-disk-corotated");
+    let mut cpu: CpuEngine<D2, Corotated<D2>> = CpuEngine::new(&case).unwrap();
+    let mut gpu = meshless::run::engine::<D2>(&case, Backend::Gpu).unwrap();
+    let steps = 400;
+    cpu.advance(0.0, 2.5e-6, steps).unwrap();
+    gpu.advance(0.0, 2.5e-6, steps).unwrap();
+    gpu.check().unwrap();
+    let (hc, hg) = (cpu.invariants().angular[2], gpu.invariants().angular[2]);
+    let (wc, wg) = (cpu.invariants().strain, gpu.invariants().strain);
+    let (sc, sg) = (cpu.snapshot(), gpu.snapshot());
+    let v_scale = largest_v::<D2>(sc.v.iter().copied());
+    let u_scale = largest_v::<D2>(sc.u.iter().copied());
+    let dv = largest_v::<D2>(sc.v.iter().zip(&sg.v).map(|(&a, &b)| a - b)) / v_scale;
+    let du = largest_v::<D2>(sc.u.iter().zip(&sg.u).map(|(&a, &b)| a - b)) / u_scale;
+    let dh = (hg - hc).abs() / hc;
+    let dw = (wg - wc).abs() / wc;
+    let ds = sc
+        .sigma
+        .iter()
+        .zip(&sg.sigma)
+        .flat_map(|(a, b)| (0..9).map(move |k| (a[k / 3][k % 3] - b[k / 3][k % 3]).abs()))
+        .fold(0.0f64, f64::max)
+        / largest_entry(&sc.sigma);
+    eprintln!(
+        "disk after {steps} steps: |Δv| {dv:e}, |Δu| {du:e} (of {u_scale:e} m), ΔH {dh:e}, \
+         Δ(Σ V ψ) {dw:e} (CPU {wc:e} J), Δσ {ds:e}"
+    );
+    assert!(dv < 1e-4 && du < 1e-4, "|Δv| = {dv:e}, |Δu| = {du:e}");
+    assert!(dh < 1e-5, "ΔH = {dh:e}");
+    assert!(ds < 5e-2 && dw < 1e-3, "Δσ = {ds:e}, Δ(Σ V ψ) = {dw:e}");
+}
+
+#[cfg(feature = "gpu")]
+#[test]
+fn the_rings_on_the_gpu_rebound_as_on_the_cpu() {
+    // The coarsened rings of tests/it/contact.rs (nbox = 20) with the seed's corotated
+    // set-up (`rings-impact-corotated`: plane-stress Hooke on F̂, the uncorrected kernel,
+    // AV 1/1/0.1): the rebound velocity of each ring at 400 µs on the GPU against the
+    // CPU, within the bound of the other methods' comparison (1e-4 of the impact speed).
+    let case = crate::contact::rings(&[
+        "method.name=corotated-tlsph",
+        "material.model=linear-elastic",
+        "material.plane=\"stress\"",
+        "method.correction=none",
+        "method.artificial_viscosity={ alpha = 1.0, beta = 1.0, eta = 0.1 }",
+    ])
+    .unwrap();
+    crate::contact::assert_gpu_matches_cpu(&case, 4.0e-4);
+}
+
+#[cfg(feature = "gpu")]
+#[test]
+fn an_inverted_neighbourhood_stops_the_gpu_run() {
+    // One particle pushed through its neighbours inverts its shape-matching moment (3D:
+    // det A_i ≤ 0, no rotation as its polar factor) or its F̂: the engine's check names the
+    // quantity and the particle, as the CPU's rates do.
+    use meshless::methods::tlsph::GpuTlsph;
+    let c = case(&[0.5, 0.4, 0.3], "");
+    let cpu: Corotated<D3> = build_method(&c).unwrap();
+    let mut y = cpu.initial_state();
+    // Mirror the body through the plane z = 0.15: every neighbourhood inverts.
+    for (u, &x) in y.u.iter_mut().zip(cpu.reference()) {
+        *u = DVec3::new(0.0, 0.0, 0.3 - 2.0 * x.z);
+    }
+    let mut cpu_m: Corotated<D3> = build_method(&c).unwrap();
+    let mut d = y.clone();
+    let on_cpu = cpu_m.rates(0.0, &y, &mut d).unwrap_err();
+    let mut g = GpuTlsph::<D3>::new(&c, crate::common::gpu()).unwrap();
+    g.rates(&y);
+    let on_gpu = g.check().unwrap_err();
+    eprintln!("CPU: {on_cpu}\nGPU: {on_gpu}");
+    assert_eq!(on_gpu.particle, on_cpu.particle);
+    assert!(on_gpu.quantity.contains("det R") && on_cpu.quantity.contains("det R"));
 }

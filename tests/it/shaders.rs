@@ -7,6 +7,7 @@ use meshless::gpu::context::reflect;
 use meshless::gpu::layout::GpuDim;
 use meshless::gpu::shaders::{self, Constants};
 use meshless::methods::MethodSpec;
+use meshless::methods::corotated::gpu as corotated;
 use meshless::methods::godunov::gpu as godunov;
 use meshless::methods::gray_monaghan::gpu as gray_monaghan;
 use meshless::methods::mixed::{MixedSph, gpu as mixed};
@@ -120,7 +121,7 @@ fn check_all<D: GpuDim>() {
                 unreachable!("TLSPH variants")
             };
             let scheme = tlsph::scheme(spec);
-            let layout = Layout::new(100, D::N, rate, 1000, false);
+            let layout = Layout::new(100, D::N, rate, 1000, &scheme);
             let constants = scene_constants(&case, &layout, &scheme);
             for source in tlsph::SHADERS {
                 let src = shaders::compose::<D>(source, &constants);
@@ -164,14 +165,58 @@ fn check_all<D: GpuDim>() {
             unreachable!("a tl-potential case")
         };
         let scheme = potential::scheme(spec);
-        let constants = scene_constants(&case, &Layout::new(100, D::N, false, 1000, true), &scheme);
+        let layout = Layout::new(100, D::N, false, 1000, &scheme);
+        let constants = scene_constants(&case, &layout, &scheme);
         for source in potential::SHADERS {
             let src = shaders::compose::<D>(source, &constants);
             validate_wgsl(&format!("{}D {} ({force})", D::N, source.name), &src);
         }
     }
+    // Corotated TLSPH: each state model, each correction (the RKPM and CGCK gradients are
+    // solved on the host and compile as the linear correction), each kernel, with and
+    // without viscosity.
+    let max: &[f64] = if D::N == 2 {
+        &[1.0, 0.6]
+    } else {
+        &[0.5, 0.4, 0.3]
+    };
+    let av = "artificial_viscosity = { alpha = 1.0, beta = 1.0 }";
+    for (model, keys) in [
+        ("linear-elastic", "correction = \"none\""),
+        ("linear-elastic", &format!("correction = \"none\"\n{av}")),
+        (
+            "saint-venant-kirchhoff",
+            "correction = \"shepard\"\nkernel = \"quintic\"",
+        ),
+        (
+            "neo-hookean",
+            &format!("correction = \"randles-libersky\"\n{av}"),
+        ),
+        (
+            "nearly-incompressible-neo-hookean",
+            "correction = \"none\"\nkernel = \"wendland-c2\"",
+        ),
+    ] {
+        let case = block_case(max, model, "corotated-tlsph", keys);
+        let MethodSpec::CorotatedTlsph(spec) = &case.method.spec else {
+            unreachable!("a corotated-tlsph case")
+        };
+        let scheme = corotated::scheme(spec);
+        let layout = Layout::new(100, D::N, false, 1000, &scheme);
+        let constants = scene_constants(&case, &layout, &scheme);
+        for source in corotated::SHADERS {
+            let src = shaders::compose::<D>(source, &constants);
+            validate_wgsl(&format!("{}D {} ({model})", D::N, source.name), &src);
+        }
+    }
     // Passes without scene constants (neighbour build, scans) validate on their own.
-    let ul_shaders = [gray_monaghan::SHADERS, godunov::SHADERS, potential::SHADERS].concat();
+    let ul_shaders = [
+        gray_monaghan::SHADERS,
+        godunov::SHADERS,
+        potential::SHADERS,
+        corotated::SHADERS,
+    ]
+    .concat();
     for source in meshless::methods::shaders() {
         if !tlsph::SHADERS.contains(&source)
             && !mixed::SHADERS.contains(&source)

@@ -1,7 +1,9 @@
 //! Corotated total-Lagrangian SPH (after Becker, Ihmsen and Teschner; seed 000 §5.5): the
-//! spec and the CPU system ([`system`]). It has no GPU engine. Numerics notes:
-//! `docs/methods/corotated-tlsph.md`.
+//! spec, the CPU system ([`system`]) and its passes on the total-Lagrangian GPU engine
+//! ([`gpu`]). Numerics notes: `docs/methods/corotated-tlsph.md`.
 
+#[cfg(feature = "gpu")]
+pub mod gpu;
 pub mod system;
 
 pub use system::{Corotated, rotation};
@@ -25,12 +27,11 @@ pub struct CorotatedSpec {
 impl MethodFamily for CorotatedSpec {
     const DESCRIPTION: &'static str = "corotated total-Lagrangian SPH (Becker et al.; seed 000 \
         §5.5): shape-matching rotations, stress of the rotated displacements, forces rotated \
-        back with ½(R_i + R_j), Monaghan artificial viscosity (CPU only)";
+        back with ½(R_i + R_j), Monaghan artificial viscosity";
     const KEYS: &'static [&'static str] = &["artificial_viscosity"];
     const FEATURES: &'static [Feature] = &[Feature::Contact];
-    const GPU_ENGINE: bool = false;
     #[cfg(feature = "gpu")]
-    const SHADERS: &'static [crate::gpu::shaders::Source] = &[];
+    const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
 
     fn validate(&self, case: &Case) -> Result<(), Problem> {
         if let Some(av) = &self.artificial_viscosity {
@@ -39,32 +40,45 @@ impl MethodFamily for CorotatedSpec {
         state_model(case)
     }
 
-    fn plan(&self, case: &Case, _gpu: bool) -> Plan {
+    fn plan(&self, case: &Case, gpu: bool) -> Plan {
         let mat = Material::new(&case.material);
         let mut left_out = Vec::new();
         if self.artificial_viscosity.is_none() {
             left_out.push("artificial viscosity");
         }
+        let rotation = if case.dimension == 2 {
+            "closed form"
+        } else {
+            "polar decomposition by scaled Newton iteration"
+        };
         Plan {
             once: format!(
                 "once, on the reference configuration: cell-list neighbours (CSR), reference \
-                 gradients ∇0W_ij ({} correction), shape-matching weights m_j W_ij",
-                toml_name(&case.method.correction)
+                 gradients ∇0W_ij ({} correction), {}",
+                toml_name(&case.method.correction),
+                if gpu {
+                    "pair offsets X_j − X_i"
+                } else {
+                    "shape-matching weights m_j W_ij"
+                }
             ),
             state: format!("u, v (state model {:?} of the corotated F̂)", mat.model),
             cfl_step: format!(
                 "Δt = cfl·Δx/(c_p + max|v|), c_p = {:.1} m/s",
                 mat.p_wave_speed()
             ),
-            rates: format!(
-                "two gathers: shape matching A_i, its rotation R_i ({}), F̂_i and P̂(F̂_i); then \
-                 the forces ½(R_i + R_j)(P̂_i + P̂_j)∇0W_ij",
-                if case.dimension == 2 {
-                    "closed form"
-                } else {
-                    "polar decomposition by scaled Newton iteration"
-                }
-            ),
+            rates: if gpu {
+                format!(
+                    "shape-matching pass (A_i, its rotation R_i ({rotation}), F̂_i, \
+                     P̂(F̂_i); R_i kept per particle) + acceleration pass (the forces \
+                     ½(R_i + R_j)(P̂_i + P̂_j)∇0W_ij, a, u̇ = v, BCs)"
+                )
+            } else {
+                format!(
+                    "two gathers: shape matching A_i, its rotation R_i ({rotation}), F̂_i and \
+                     P̂(F̂_i); then the forces ½(R_i + R_j)(P̂_i + P̂_j)∇0W_ij"
+                )
+            },
             checked: "det R, det F̂",
             check_note: String::new(),
             left_out,
@@ -79,9 +93,10 @@ impl MethodFamily for CorotatedSpec {
     fn gpu_engine<D: EngineDim>(
         &self,
         case: &Case,
-        _gpu: crate::gpu::Gpu,
+        gpu: crate::gpu::Gpu,
     ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
-        Err(super::no_gpu_engine(case).into())
+        let engine = crate::methods::tlsph::GpuTlsph::<D>::new(case, gpu)?;
+        Ok(Box::new(engine))
     }
 
     /// The step Δt = α Δx/(c_p + max|v|) does not depend on the stretch.

@@ -267,26 +267,14 @@ impl<D: Dim> Corotated<D> {
     /// The snapshot of state y: F = R F̂, the Cauchy stress σ = R (P̂ F̂ᵀ/det F̂) Rᵀ (2D:
     /// with σ_zz of F̂) and Σ V ψ(F̂).
     fn fields(&self, y: &TlState<D>) -> Snapshot<'_, D> {
-        let mat = &self.material;
         let kin = self.each_kinematics(&y.u);
-        let f = kin.iter().map(|k| k.r * k.f_hat).collect();
-        let sigma = kin
-            .par_iter()
-            .map(|k| {
-                let local = k.p_hat * D::transpose(k.f_hat) * (1.0 / D::det(k.f_hat));
-                let mut out = D::to3x3(k.r * local * D::transpose(k.r));
-                if D::N == 2 {
-                    out[2][2] = mat.sigma_zz::<D>(k.f_hat, D::zero_t(), mat.rho0);
-                }
-                out
-            })
-            .collect();
-        let strain_energy = ordered_reduce(
-            kin.len(),
-            || 0.0,
-            |a| self.vol[a] * mat.energy_density::<D>(kin[a].f_hat, D::zero_t(), mat.rho0),
-            |x, y| x + y,
-        );
+        let r: Vec<D::T> = kin.iter().map(|k| k.r).collect();
+        let f_hat: Vec<D::T> = kin.iter().map(|k| k.f_hat).collect();
+        let Outputs {
+            f,
+            sigma,
+            strain_energy,
+        } = outputs::<D>(&self.material, &self.vol, &r, &f_hat);
         Snapshot {
             x0: &self.x0,
             mass: &self.mass,
@@ -298,6 +286,47 @@ impl<D: Dim> Corotated<D> {
             strain_energy,
             extra: Vec::new(),
         }
+    }
+}
+
+/// The fields outputs read of a corotated state.
+pub struct Outputs<D: Dim> {
+    /// F = R F̂.
+    pub f: Vec<D::T>,
+    /// σ = R (P̂ F̂ᵀ/det F̂) Rᵀ (3 × 3; 2D: with σ_zz of F̂).
+    pub sigma: Vec<[[f64; 3]; 3]>,
+    /// Σ V ψ(F̂).
+    pub strain_energy: f64,
+}
+
+/// The outputs of rotations R_i and corotated gradients F̂_i: F = R F̂, the Cauchy stress
+/// σ = R (P̂ F̂ᵀ/det F̂) Rᵀ (2D: with σ_zz of F̂) and the strain energy Σ V ψ(F̂). Shared by
+/// the CPU system and the GPU engine (which reads R and F̂ back).
+pub fn outputs<D: Dim>(mat: &Material, vol: &[f64], r: &[D::T], f_hat: &[D::T]) -> Outputs<D> {
+    let f = r.iter().zip(f_hat).map(|(&r, &f_hat)| r * f_hat).collect();
+    let sigma = r
+        .par_iter()
+        .zip(f_hat)
+        .map(|(&r, &f_hat)| {
+            let p_hat = mat.pk1::<D>(f_hat);
+            let local = p_hat * D::transpose(f_hat) * (1.0 / D::det(f_hat));
+            let mut out = D::to3x3(r * local * D::transpose(r));
+            if D::N == 2 {
+                out[2][2] = mat.sigma_zz::<D>(f_hat, D::zero_t(), mat.rho0);
+            }
+            out
+        })
+        .collect();
+    let strain_energy = ordered_reduce(
+        f_hat.len(),
+        || 0.0,
+        |a| vol[a] * mat.energy_density::<D>(f_hat[a], D::zero_t(), mat.rho0),
+        |x, y| x + y,
+    );
+    Outputs {
+        f,
+        sigma,
+        strain_energy,
     }
 }
 

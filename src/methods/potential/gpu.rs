@@ -8,7 +8,7 @@ use crate::gpu::shaders::{
     BOUNDARY, CONTACT, CORRECTION, INTEGRATE, MECHANICS, PAIR_OFFSETS, REFERENCE, Source,
     VISCOSITY, Wgsl, source, wgsl,
 };
-use crate::methods::tlsph::gpu::{STRESS, TlScheme, viscosity};
+use crate::methods::tlsph::gpu::{DET_F, Frame, STRESS, TlScheme, viscosity};
 
 /// The strain energy of the reduction (V_i ψ_i, or ψ_i for the reference code's force).
 const ENERGY: Wgsl = wgsl!("potential/potential_energy.wgsl");
@@ -48,6 +48,7 @@ pub const SHADERS: &[Source] = &[
 pub fn scheme(spec: &PotentialSpec) -> TlScheme {
     let reference_code = spec.force == PotentialForce::ReferenceCode;
     TlScheme {
+        stress: STRESS,
         accel: ACCEL,
         reduce: REDUCE,
         reverse: true,
@@ -57,5 +58,8 @@ pub fn scheme(spec: &PotentialSpec) -> TlScheme {
             usize::from(reference_code),
         ),
         unit_weights: reference_code,
+        kin_tensors: &[],
+        frame: Frame::Reference,
+        checks: DET_F,
     }
 }

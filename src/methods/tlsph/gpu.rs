@@ -75,9 +75,14 @@ pub const SHADERS: &[Source] = &[
     REDUCE,
 ];
 
-/// The force of one total-Lagrangian method on this engine: TLSPH's own, or another
-/// method's on the same stress pass (the elastic potential's).
+/// The force of one total-Lagrangian method on this engine: TLSPH's own, another method's
+/// on the same stress pass (the elastic potential's), or a method's with its own
+/// per-particle pass (corotated TLSPH's shape matching).
 pub struct TlScheme {
+    /// Its per-particle pass file (entry point `stress`): [`STRESS`], or the method's own.
+    /// It writes the kinematics H, P, F⁻ᵀ and ρ (and its own `kin_tensors`) and records
+    /// failed particles in `status` (slot k for the quantity `checks[k]`).
+    pub stress: Source,
     /// Its acceleration pass file (entry point `accel`).
     pub accel: Source,
     /// Its reduction (`reduce`, with the method's strain energy).
@@ -91,11 +96,33 @@ pub struct TlScheme {
     /// potential force): the strain energy weighs each ψ_i by 1 and the wave speed of the
     /// CFL step is c_p/√V_min.
     pub unit_weights: bool,
+    /// Per-particle tensors its stress pass keeps in the kinematics besides H, P and F⁻ᵀ
+    /// (field `K{name}`: corotated TLSPH's rotation R).
+    pub kin_tensors: &'static [&'static str],
+    /// What the kinematics' H = F − I is the excess of, for the outputs.
+    pub frame: Frame,
+    /// The quantities whose failure the stress pass records, one status slot each (the
+    /// first particle, by `atomicMin`), as a blow-up names them.
+    pub checks: &'static [&'static str],
 }
+
+/// What the kinematics' H = F − I measures, for snapshots.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Frame {
+    /// The deformation gradient F itself.
+    Reference,
+    /// The corotated gradient F̂ in the frame of the kinematics' rotation R (field `KR`):
+    /// F = R F̂ (seed 000 §5.5).
+    Corotated,
+}
+
+/// The failure TLSPH's stress pass records (slot 0).
+pub const DET_F: &[&str] = &["det F (f32, GPU)"];
 
 /// TLSPH's own force: eq 134 with the spec's viscosity.
 pub fn scheme(spec: &super::TlsphSpec) -> TlScheme {
     TlScheme {
+        stress: STRESS,
         accel: ACCEL,
         reduce: REDUCE,
         reverse: false,
@@ -105,6 +132,9 @@ pub fn scheme(spec: &super::TlsphSpec) -> TlScheme {
             usize::from(spec.viscosity_gradient == ViscosityGradient::Reference),
         ),
         unit_weights: false,
+        kin_tensors: &[],
+        frame: Frame::Reference,
+        checks: DET_F,
     }
 }
 
@@ -122,14 +152,16 @@ fn scheme_of(case: &Case) -> Result<TlScheme, CaseError> {
     match &case.method.spec {
         MethodSpec::Tlsph(spec) => Ok(scheme(spec)),
         MethodSpec::TlPotential(spec) => Ok(crate::methods::potential::gpu::scheme(spec)),
+        MethodSpec::CorotatedTlsph(spec) => Ok(crate::methods::corotated::gpu::scheme(spec)),
         _ => Err(not_run_by(case, "GpuTlsph")),
     }
 }
 
 /// The flat buffers of a TLSPH scene, each described once ([`Fields`]): the state
 /// [u | v | ρ − ρ0 | S] (ρ and S for the rate model only), the kinematics
-/// [H = F − I | P | F⁻ᵀ | ρ | power], the per-pair data [∇0W̃ | X_j − X_i] and the
-/// reference configuration.
+/// [H = F − I | P | F⁻ᵀ | ρ | power | the scheme's own tensors], the per-pair data
+/// [∇0W̃ | X_j − X_i | ∇0W̃_ji for the schemes that read it] and the reference
+/// configuration.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Layout {
     pub n: usize,
@@ -142,7 +174,17 @@ pub struct Layout {
 }
 
 impl Layout {
-    pub fn new(n: usize, dim: usize, rate: bool, pairs: usize, reverse: bool) -> Self {
+    pub fn new(n: usize, dim: usize, rate: bool, pairs: usize, scheme: &TlScheme) -> Self {
+        let kin = Fields::new("K", dim)
+            .tensors("F", true, n)
+            .tensors("P", true, n)
+            .tensors("FIT", true, n)
+            .scalars("RHO", true, n)
+            .scalars("POW", true, n);
+        let kin = scheme
+            .kin_tensors
+            .iter()
+            .fold(kin, |k, &name| k.tensors(name, true, n));
         Self {
             n,
             dim,
@@ -152,16 +194,11 @@ impl Layout {
                 .vectors("V", true, n)
                 .scalars("RHO", rate, n)
                 .tensors("S", rate, n),
-            kin: Fields::new("K", dim)
-                .tensors("F", true, n)
-                .tensors("P", true, n)
-                .tensors("FIT", true, n)
-                .scalars("RHO", true, n)
-                .scalars("POW", true, n),
+            kin,
             pair: Fields::new("P", dim)
                 .vectors("G", true, pairs)
                 .vectors("DX", true, pairs)
-                .vectors("GREV", reverse, pairs),
+                .vectors("GREV", scheme.reverse, pairs),
             reference: reference::fields(n, dim, EXTRAS),
         }
     }
@@ -223,6 +260,10 @@ pub struct GpuTlsph<D: GpuDim> {
     energy_weight: Vec<f64>,
     /// The factor on c_p in the CFL step's wave speed (`TlScheme::unit_weights`).
     wave_speed_scale: f64,
+    /// What the kinematics' H measures (`TlScheme::frame`).
+    frame: Frame,
+    /// The quantity of each status slot (`TlScheme::checks`).
+    checks: &'static [&'static str],
     layout: Layout,
     stepper: Stepper,
     kin: wgpu::Buffer,
@@ -260,7 +301,7 @@ impl<D: GpuDim> GpuTlsph<D> {
             D::N,
             disc.material.model.is_rate_based(),
             csr.pair_count(),
-            scheme.reverse,
+            &scheme,
         );
         let constants = scene_constants(case, &layout, &scheme);
         check_f32_range(case, &constants)?;
@@ -271,7 +312,7 @@ impl<D: GpuDim> GpuTlsph<D> {
         let device =
             DeviceReference::upload::<D>(&gpu, &disc.x0, &disc.vol, &disc.boundary, &csr, EXTRAS);
         let pair = gpu.zeroed("per-pair data", layout.pair.bytes());
-        let status = gpu.storage("status", &[STATUS_OK]);
+        let status = gpu.storage("status", &vec![STATUS_OK; scheme.checks.len().max(1)]);
         let set_up: [(&str, &wgpu::Buffer); 5] = [
             ("offsets", &device.offsets),
             ("ids", &device.ids),
@@ -304,7 +345,7 @@ impl<D: GpuDim> GpuTlsph<D> {
             let at = (layout.pair.offset("G") * 4) as u64;
             gpu.queue
                 .write_buffer(&pair, at, bytemuck::cast_slice(&flat_v::<D>(g)));
-        } else if let Some(i) = read_status(&gpu, &status) {
+        } else if let Some((i, _)) = read_status(&gpu, &status) {
             return Err(case
                 .invalid(
                     "method.h_over_dx",
@@ -348,7 +389,7 @@ impl<D: GpuDim> GpuTlsph<D> {
         )?;
         let kin = gpu.zeroed("kinematics", layout.kin.bytes());
 
-        let stress = gpu.pipeline("tlsph stress", &compose(&STRESS), "stress")?;
+        let stress = gpu.pipeline("tl stress", &compose(&scheme.stress), "stress")?;
         let accel = gpu.pipeline("tl accel", &compose(&scheme.accel), "accel")?;
         let table = |y, d| -> [(&str, &wgpu::Buffer); 9] {
             [
@@ -390,6 +431,8 @@ impl<D: GpuDim> GpuTlsph<D> {
             reference: disc,
             energy_weight,
             wave_speed_scale,
+            frame: scheme.frame,
+            checks: scheme.checks,
             layout,
             stepper,
             kin,
@@ -451,10 +494,12 @@ fn reverse_gradients(
     Ok(())
 }
 
-/// The first failed particle recorded in a status buffer, if any.
-fn read_status(gpu: &Gpu, status: &wgpu::Buffer) -> Option<usize> {
+/// The first failed particle recorded in a status buffer, if any, and its slot: the
+/// lowest particle of any slot, the later slot on a tie.
+fn read_status(gpu: &Gpu, status: &wgpu::Buffer) -> Option<(usize, usize)> {
     let s: Vec<u32> = gpu.read(status);
-    (s[0] != STATUS_OK).then_some(s[0] as usize)
+    let (slot, &i) = s.iter().enumerate().rev().min_by_key(|&(_, &i)| i)?;
+    (i != STATUS_OK).then_some((i as usize, slot))
 }
 
 impl<D: GpuDim> GpuTlsph<D> {
@@ -564,7 +609,8 @@ impl<D: GpuDim> GpuTlsph<D> {
         self.layout.pair.read_v::<D>(&pair, "G")
     }
 
-    /// F and P of the last rate evaluation (the GPU keeps H = F − I; I is added in f64).
+    /// F and P of the last rate evaluation (the GPU keeps H = F − I; I is added in f64);
+    /// the corotated F̂ and P̂ of a [`Frame::Corotated`] scheme.
     pub fn kinematics(&self) -> (Vec<D::T>, Vec<D::T>) {
         let kin: Vec<f32> = self.gpu.read(&self.kin);
         let l = &self.layout.kin;
@@ -574,9 +620,17 @@ impl<D: GpuDim> GpuTlsph<D> {
         )
     }
 
-    /// The first particle whose det F ≤ 0 (or NaN) in any evaluation so far.
+    /// A per-particle tensor of the scheme's own (`TlScheme::kin_tensors`) of the last
+    /// rate evaluation: corotated TLSPH's rotations R.
+    pub fn kin_tensor(&self, name: &str) -> Vec<D::T> {
+        let kin: Vec<f32> = self.gpu.read(&self.kin);
+        self.layout.kin.read_t::<D>(&kin, name, D::zero_t())
+    }
+
+    /// The first particle whose stress pass failed (det F ≤ 0 or NaN, or the scheme's
+    /// other checks) in any evaluation so far.
     pub fn failed_particle(&self) -> Option<usize> {
-        read_status(&self.gpu, &self.status)
+        read_status(&self.gpu, &self.status).map(|(i, _)| i)
     }
 }
 
@@ -609,11 +663,11 @@ impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
     }
 
     fn check(&mut self) -> Result<(), BlowUp> {
-        if let Some(i) = self.failed_particle() {
+        if let Some((i, slot)) = read_status(&self.gpu, &self.status) {
             return Err(BlowUp {
                 particle: i,
                 position: D::to3(self.reference.x0[i]),
-                quantity: "det F (f32, GPU)".into(),
+                quantity: self.checks[slot].into(),
                 value: 0.0,
             });
         }
@@ -656,6 +710,25 @@ impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
         let y = self.state();
         let (f, _) = self.kinematics();
         let r = &self.reference;
+        if self.frame == Frame::Corotated {
+            let rot = self.kin_tensor("R");
+            let crate::methods::corotated::system::Outputs {
+                f,
+                sigma,
+                strain_energy,
+            } = crate::methods::corotated::system::outputs::<D>(&r.material, &r.vol, &rot, &f);
+            return Snapshot {
+                x0: &r.x0,
+                mass: &r.mass,
+                body: &r.body,
+                u: y.u,
+                v: y.v,
+                f,
+                sigma,
+                strain_energy,
+                extra: Vec::new(),
+            };
+        }
         snapshot(
             &r.material,
             &r.x0,

@@ -1,0 +1,55 @@
+// Corotated total-Lagrangian SPH on the device (seed 000 §5.5), pass 2 of a rate
+// evaluation: m_i a_i = Σ_j V_i V_j ½(R_i + R_j)(P̂_i + P̂_j)∇0W_ij (eqs 154–155 as the
+// reference code writes them) plus Monaghan viscosity along ½(R_iF̂_i⁻ᵀ + R_jF̂_j⁻ᵀ)∇0W_ij,
+// boundary conditions (boundary.wgsl) and u̇ = v. One invocation per particle; writes
+// only its own particle. Buffers and constants as in corotated.wgsl, with ext (the
+// external accelerations, DIM per particle) and the rates d = [u̇ | v̇]; AV, AV_ALPHA,
+// AV_BETA, AV_ETA (viscosity.wgsl).
+
+@group(0) @binding(0) var<storage, read> offsets: array<u32>;
+@group(0) @binding(1) var<storage, read> ids: array<u32>;
+@group(0) @binding(2) var<storage, read> pair: array<f32>;
+@group(0) @binding(3) var<storage, read> reference: array<f32>;
+@group(0) @binding(4) var<storage, read> y: array<f32>;
+// The kinematics of the shape-matching pass; this pass writes only the power
+// (boundary.wgsl).
+@group(0) @binding(5) var<storage, read_write> kin: array<f32>;
+@group(0) @binding(6) var<storage, read> ext: array<f32>;
+@group(0) @binding(7) var<storage, read_write> d: array<f32>;
+
+@compute @workgroup_size(256)
+fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = gid.x + gid.y * nwg.x * 256u;
+    if i >= N {
+        return;
+    }
+    let r_i = mload_kin(KR_OFF + DIM * DIM * i);
+    let p_i = mload_kin(KP_OFF + DIM * DIM * i);
+    let push_i = mload_kin(KFIT_OFF + DIM * DIM * i);
+    let rho_i = kin[KRHO_OFF + i];
+    let v_i = vload_y(V_OFF + DIM * i);
+    let u_i = vload_y(U_OFF + DIM * i);
+    let c_i = sqrt(BULK / rho_i);
+    var stress: vecd;
+    var viscous: vecd;
+    for (var p = offsets[i]; p < offsets[i + 1u]; p++) {
+        let j = ids[p];
+        let g = vload_pair(PG_OFF + DIM * p);
+        // ½(R_i + R_j)(P̂_i + P̂_j)∇0W_ij V_j (eq 155).
+        let r_sum = r_i + mload_kin(KR_OFF + DIM * DIM * j);
+        stress += r_sum * ((p_i + mload_kin(KP_OFF + DIM * DIM * j)) * g) * (0.5 * vol_of(j));
+        if AV == 1u {
+            let x_ij = u_i - vload_y(U_OFF + DIM * j) - vload_pair(PDX_OFF + DIM * p);
+            let rho_j = kin[KRHO_OFF + j];
+            let c = 0.5 * (c_i + sqrt(BULK / rho_j));
+            let pi = monaghan_pi(x_ij, v_i - vload_y(V_OFF + DIM * j), c, 0.5 * (rho_i + rho_j));
+            if pi != 0.0 {
+                let along = (push_i + mload_kin(KFIT_OFF + DIM * DIM * j)) * g;
+                viscous -= along * (0.5 * RHO0 * vol_of(j) * pi);
+            }
+        }
+    }
+    let a = apply_boundary(i, stress * (1.0 / RHO0) + viscous, v_i, RHO0 * vol_of(i));
+    vstore_d(V_OFF + DIM * i, a);
+    vstore_d(U_OFF + DIM * i, v_i);
+}

@@ -1,0 +1,72 @@
+//! Corotated TLSPH on the GPU: its shape-matching pass and its force pass
+//! (`shaders/corotated/`) on the total-Lagrangian engine of [`crate::methods::tlsph::gpu`].
+//! The CPU system ([`super::system`]) is the reference it is checked against.
+
+use super::CorotatedSpec;
+use crate::gpu::shaders::{
+    BOUNDARY, CONTACT, CORRECTION, INTEGRATE, KERNEL, MECHANICS, PAIR_OFFSETS, REFERENCE, Source,
+    VISCOSITY, source,
+};
+use crate::methods::tlsph::gpu::{Frame, REDUCE, TlScheme, viscosity};
+
+/// Per particle: shape matching A_i and its rotation R_i (eq 151), the corotated gradient
+/// F̂_i (eqs 152–153), P̂_i = P(F̂_i), R_i F̂_i⁻ᵀ and ρ0/det F̂_i.
+pub const STRESS: Source = source!(
+    "corotated/corotated.wgsl",
+    [KERNEL, MECHANICS, REFERENCE],
+    [
+        ("y", false),
+        ("pair", false),
+        ("reference", false),
+        ("kin", true)
+    ]
+);
+/// The forces ½(R_i + R_j)(P̂_i + P̂_j)∇0W_ij (eqs 154–155) with viscosity, boundary
+/// conditions.
+pub const ACCEL: Source = source!(
+    "corotated/corotated_accel.wgsl",
+    [BOUNDARY, REFERENCE, VISCOSITY],
+    [
+        ("y", false),
+        ("pair", false),
+        ("reference", false),
+        ("ext", false),
+        ("kin", true),
+        ("d", true)
+    ]
+);
+
+/// The passes of a corotated scene (the strain energy Σ V ψ(F̂) is TLSPH's reduction of
+/// the kinematics' H, here F̂ − I).
+pub const SHADERS: &[Source] = &[
+    STRESS,
+    ACCEL,
+    CONTACT,
+    CORRECTION,
+    INTEGRATE,
+    PAIR_OFFSETS,
+    REDUCE,
+];
+
+/// What the shape-matching pass records: det F̂ ≤ 0 (slot 0), and A_i without a rotation
+/// as its polar factor (slot 1: singular in 2D; det A_i ≤ 0 or no convergence in 3D).
+const CHECKS: &[&str] = &[
+    "det F̂ (f32, GPU)",
+    "det R (shape matching: A_i has no rotation as its polar factor; f32, GPU)",
+];
+
+/// Corotated TLSPH with the spec's viscosity: its own per-particle pass, which keeps R_i
+/// in the kinematics (`KR`) beside F̂_i − I, P̂_i, R_i F̂_i⁻ᵀ and ρ_i.
+pub fn scheme(spec: &CorotatedSpec) -> TlScheme {
+    TlScheme {
+        stress: STRESS,
+        accel: ACCEL,
+        reduce: REDUCE,
+        reverse: false,
+        constants: viscosity(spec.artificial_viscosity.as_ref()),
+        unit_weights: false,
+        kin_tensors: &["R"],
+        frame: Frame::Corotated,
+        checks: CHECKS,
+    }
+}
