@@ -5,13 +5,19 @@
 // The lists fill `ids` up to its length, the capacity; past it `overflow[0]` receives the
 // pair count the lists need, and the host grows `ids`. Nothing is read back to rebuild.
 //
-// Passes, in order (the host runs the scans of scan.wgsl between them):
+// A build is due when check_drift finds a particle that moved more than sqrt(drift2)
+// since the last one (or the host forces one); `arm` then sets the workgroup counts of the
+// build's dispatches, which are all indirect, so nothing comes back to the host to decide.
+// Passes, in order (the scans of scan.wgsl between them):
+//   clear_counts      cell_start and offsets to zero
 //   bin_particles     cell id of each particle, and per-cell counts (atomicAdd)
-//   (scan of counts → cell_start, n + … ; copy cell_start → cursor)
+//   (scan of counts → cell_start, n + …)
+//   copy_cursor       cursor = cell_start
 //   scatter           particle ids into cell-sorted order (atomic cursors)
 //   count_neighbours  offsets[i] = number of neighbours of i
 //   (scan of offsets over n + 1 entries: offsets[n] = number of pairs)
 //   fill_neighbours   ids[offsets[i]..offsets[i + 1]] = neighbours of i, sorted
+//   save_built        the positions of this build, for the next drift check
 // Each invocation writes only its own particle's entries (plus the u32 atomic counters).
 
 struct CellParams {
@@ -26,8 +32,10 @@ struct CellParams {
     radius2: f32,
     // dims.x * dims.y * dims.z.
     ncells: u32,
-    _pad0: u32,
-    _pad1: u32,
+    // Square of the displacement since the last build that keeps the lists complete.
+    drift2: f32,
+    // Dispatches of a build (3 entries each in `args` and `full`).
+    dispatches: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: CellParams;
@@ -48,6 +56,13 @@ struct CellParams {
 @group(0) @binding(8) var<storage, read> body: array<u32>;
 // The pair count, where it exceeds the capacity of `ids` (atomicMax).
 @group(0) @binding(9) var<storage, read_write> overflow: array<atomic<u32>>;
+// The positions of the last build, DIM floats per particle.
+@group(0) @binding(10) var<storage, read_write> built: array<f32>;
+// [0]: a build is due (set by check_drift, or by the host to force one); [1]: builds so far.
+@group(0) @binding(11) var<storage, read_write> due: array<atomic<u32>>;
+// Workgroup counts (x, y, z) of the dispatches of a build: `full` when one is due, else 0.
+@group(0) @binding(12) var<storage, read_write> args: array<u32>;
+@group(0) @binding(13) var<storage, read> full: array<u32>;
 
 fn position(i: u32) -> vecd {
     return vload_x(POS_OFF + DIM * i);
@@ -166,4 +181,77 @@ fn fill_neighbours(
         atomicMax(&overflow[0], offsets[params.n]);
     }
     _ = gather(i, true, offsets[i], min(offsets[i + 1u], capacity));
+}
+
+@compute @workgroup_size(256)
+fn check_drift(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+) {
+    let i = particle_index(gid, nwg);
+    if i >= params.n {
+        return;
+    }
+    let p = position(i);
+    var d2 = 0.0;
+    for (var k = 0u; k < DIM; k++) {
+        let e = p[k] - built[DIM * i + k];
+        d2 += e * e;
+    }
+    // Written so that a NaN position asks for a build too.
+    if !(d2 <= params.drift2) {
+        atomicMax(&due[0], 1u);
+    }
+}
+
+@compute @workgroup_size(1)
+fn arm() {
+    let build = atomicLoad(&due[0]) != 0u;
+    for (var k = 0u; k < 3u * params.dispatches; k++) {
+        args[k] = select(0u, full[k], build);
+    }
+    if build {
+        atomicAdd(&due[1], 1u);
+    }
+    atomicStore(&due[0], 0u);
+}
+
+@compute @workgroup_size(256)
+fn clear_counts(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+) {
+    let i = particle_index(gid, nwg);
+    if i <= params.ncells {
+        atomicStore(&cell_start[i], 0u);
+    }
+    if i <= params.n {
+        offsets[i] = 0u;
+    }
+}
+
+@compute @workgroup_size(256)
+fn copy_cursor(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+) {
+    let c = particle_index(gid, nwg);
+    if c < params.ncells {
+        atomicStore(&cursor[c], atomicLoad(&cell_start[c]));
+    }
+}
+
+@compute @workgroup_size(256)
+fn save_built(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+) {
+    let i = particle_index(gid, nwg);
+    if i >= params.n {
+        return;
+    }
+    let p = position(i);
+    for (var k = 0u; k < DIM; k++) {
+        built[DIM * i + k] = p[k];
+    }
 }

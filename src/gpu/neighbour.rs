@@ -40,7 +40,11 @@ pub struct CellParams {
     pub n: u32,
     pub radius2: f32,
     pub ncells: u32,
-    pub _pad: [u32; 2],
+    /// The square of the displacement since the last build that keeps the lists complete
+    /// (set by [`CellList::new`]).
+    pub drift2: f32,
+    /// The dispatches of a build (set by [`CellList::new`]).
+    pub dispatches: u32,
 }
 
 impl CellParams {
@@ -98,7 +102,8 @@ impl CellParams {
             n,
             radius2: (radius * radius) as f32,
             ncells: ncells as u32,
-            _pad: [0; 2],
+            drift2: 0.0,
+            dispatches: 0,
         })
     }
 }
@@ -129,6 +134,13 @@ impl Step {
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &self.bind, &[]);
         pass.dispatch_workgroups(self.groups.0, self.groups.1, 1);
+    }
+
+    /// The dispatch with the workgroup counts at entry `k` of `args`.
+    fn encode_indirect(&self, pass: &mut wgpu::ComputePass, args: &wgpu::Buffer, k: usize) {
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &self.bind, &[]);
+        pass.dispatch_workgroups_indirect(args, 12 * k as u64);
     }
 }
 
@@ -235,6 +247,11 @@ pub struct Positions<'a> {
 /// without reading anything back. The lists are CSR (`offsets`, n + 1 entries, and `ids`,
 /// filled up to its capacity); a build that needs more pairs than the capacity records
 /// the count it needs ([`CellList::overflow`]) and the owner makes a larger one.
+///
+/// Every dispatch of a build is indirect: [`CellList::record`] forces a build, and
+/// [`CellList::record_on_drift`] builds only when a particle has moved more than the drift
+/// distance since the last build (a check on the device sets the workgroup counts), so
+/// that lists searched with a skin stay complete without a build at every evaluation.
 pub struct CellList {
     /// n + 1 entries; the last is the pair count.
     pub offsets: wgpu::Buffer,
@@ -242,13 +259,18 @@ pub struct CellList {
     pub ids: wgpu::Buffer,
     capacity: u32,
     n: u32,
-    cell_start: wgpu::Buffer,
-    cursor: wgpu::Buffer,
-    ncells: u32,
     overflow: wgpu::Buffer,
-    /// bin, (scan of cells), scatter, count, (scan of offsets), fill.
-    passes: [Step; 4],
-    scans: [ScanPlan; 2],
+    /// [a build is due, builds so far].
+    due: wgpu::Buffer,
+    /// A u32 1, copied into `due` to force a build.
+    one: wgpu::Buffer,
+    /// The workgroup counts of `build`'s dispatches for the build at hand.
+    args: wgpu::Buffer,
+    check: Step,
+    arm: Step,
+    /// clear, bin, (scan of cells), copy cursor, scatter, count, (scan of offsets), fill,
+    /// save the positions.
+    build: Vec<Step>,
 }
 
 impl CellList {
@@ -260,13 +282,13 @@ impl CellList {
         at: Positions,
         grid: &CellParams,
         capacity: u32,
+        drift: f64,
     ) -> Result<Self, GpuError> {
         let n = at.n;
         let capacity = capacity.max(1);
         let n_bytes = u64::from(n.max(1)) * 4;
         gpu.check_size("neighbour list", u64::from(capacity) * 4)?;
         let ncells = grid.ncells;
-        let uniform = gpu.uniform("cell list params", grid);
         let cell = gpu.zeroed("particle cells", n_bytes);
         let cell_start = gpu.zeroed("cell start", (u64::from(ncells) + 1) * 4);
         let cursor = gpu.zeroed("cell cursor", u64::from(ncells) * 4);
@@ -275,8 +297,51 @@ impl CellList {
         let ids = gpu.zeroed("neighbour ids", u64::from(capacity) * 4);
         let overflow = gpu.zeroed("neighbour overflow", 4);
         let unmasked = gpu.zeroed("bodies (unmasked)", 4);
+        let built = gpu.zeroed("positions of the last build", n_bytes * D::N as u64);
+        let due = gpu.storage("build due", &[1u32, 0]);
+        let one = gpu.storage("one", &[1u32]);
 
+        let scan = Scan::new(gpu)?;
+        let scans = [
+            scan.plan(gpu, &cell_start, ncells + 1)?,
+            scan.plan(gpu, &offsets, n + 1)?,
+        ];
         let text = compose::<D>(&CELL_LIST, &constants(at.offset, at.body.is_some()));
+        let particles = gpu.groups(n);
+        let order: [(&str, (u32, u32)); 8] = [
+            ("clear_counts", gpu.groups(n.max(ncells) + 1)),
+            ("bin_particles", particles),
+            ("copy_cursor", gpu.groups(ncells)),
+            ("scatter", particles),
+            ("count_neighbours", particles),
+            ("fill_neighbours", particles),
+            ("save_built", particles),
+            ("check_drift", particles),
+        ];
+        let scan_groups =
+            |plan: &ScanPlan| -> Vec<(u32, u32)> { plan.steps.iter().map(|s| s.groups).collect() };
+        // The groups of every dispatch of a build, in order, 3 u32 each.
+        let groups: Vec<(u32, u32)> = [order[0].1, order[1].1]
+            .into_iter()
+            .chain(scan_groups(&scans[0]))
+            .chain([order[2].1, order[3].1, order[4].1])
+            .chain(scan_groups(&scans[1]))
+            .chain([order[5].1, order[6].1])
+            .collect();
+        let full: Vec<u32> = groups.iter().flat_map(|&(x, y)| [x, y, 1]).collect();
+        let full = gpu.storage("build workgroups", &full);
+        let args = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("build workgroups due"),
+            size: full.size(),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT,
+            mapped_at_creation: false,
+        });
+        let params = CellParams {
+            drift2: (drift * drift) as f32,
+            dispatches: groups.len() as u32,
+            ..*grid
+        };
+        let uniform = gpu.uniform("cell list params", &params);
         let table = [
             ("params", &uniform),
             ("x", at.x),
@@ -288,9 +353,12 @@ impl CellList {
             ("ids", &ids),
             ("body", at.body.unwrap_or(&unmasked)),
             ("overflow", &overflow),
+            ("built", &built),
+            ("due", &due),
+            ("args", &args),
+            ("full", &full),
         ];
-        let groups = gpu.groups(n);
-        let step = |entry: &str| -> Result<Step, GpuError> {
+        let step = |entry: &str, groups: (u32, u32)| -> Result<Step, GpuError> {
             let pipeline = gpu.pipeline(entry, &text, entry)?;
             Ok(Step {
                 bind: gpu.bind(&pipeline, &table)?,
@@ -298,51 +366,69 @@ impl CellList {
                 groups,
             })
         };
-        let passes = [
-            step("bin_particles")?,
-            step("scatter")?,
-            step("count_neighbours")?,
-            step("fill_neighbours")?,
-        ];
-        let scan = Scan::new(gpu)?;
-        let scans = [
-            scan.plan(gpu, &cell_start, ncells + 1)?,
-            scan.plan(gpu, &offsets, n + 1)?,
-        ];
+        let [clear, bin, copy, scatter, count, fill, save, check] =
+            order.map(|(entry, groups)| step(entry, groups));
+        let arm = step("arm", (1, 1))?;
+        let [scan_cells, scan_offsets] = scans;
+        let build: Vec<Step> = [clear?, bin?]
+            .into_iter()
+            .chain(scan_cells.steps)
+            .chain([copy?, scatter?, count?])
+            .chain(scan_offsets.steps)
+            .chain([fill?, save?])
+            .collect();
         Ok(Self {
             offsets,
             ids,
             capacity,
             n,
-            cell_start,
-            cursor,
-            ncells,
             overflow,
-            passes,
-            scans,
+            due,
+            one,
+            args,
+            check: check?,
+            arm,
+            build,
         })
     }
 
     /// Records a build from the current positions.
     pub fn record(&self, encoder: &mut wgpu::CommandEncoder) {
+        self.force(encoder);
+        self.record_due(encoder, false);
+    }
+
+    /// Makes the next [`Self::record_on_drift`] build, whatever the drift.
+    pub fn force(&self, encoder: &mut wgpu::CommandEncoder) {
+        encoder.copy_buffer_to_buffer(&self.one, 0, &self.due, 0, 4);
+    }
+
+    /// Records a build from the current positions if a particle has moved more than the
+    /// drift distance since the last build (decided on the device).
+    pub fn record_on_drift(&self, encoder: &mut wgpu::CommandEncoder) {
+        self.record_due(encoder, true);
+    }
+
+    /// The drift check (with `check`), then the build's dispatches with the workgroup
+    /// counts `arm` sets: all of them when a build is due, none otherwise.
+    fn record_due(&self, encoder: &mut wgpu::CommandEncoder, check: bool) {
         if self.n == 0 {
             return;
         }
-        let [bin, scatter, count, fill] = &self.passes;
-        encoder.clear_buffer(&self.cell_start, 0, None);
-        encoder.clear_buffer(&self.offsets, 0, None);
-        {
-            let mut pass = encoder.begin_compute_pass(&Default::default());
-            bin.encode(&mut pass);
-            self.scans[0].encode(&mut pass);
-        }
-        let cells = u64::from(self.ncells) * 4;
-        encoder.copy_buffer_to_buffer(&self.cell_start, 0, &self.cursor, 0, cells);
         let mut pass = encoder.begin_compute_pass(&Default::default());
-        scatter.encode(&mut pass);
-        count.encode(&mut pass);
-        self.scans[1].encode(&mut pass);
-        fill.encode(&mut pass);
+        if check {
+            self.check.encode(&mut pass);
+        }
+        self.arm.encode(&mut pass);
+        for (k, step) in self.build.iter().enumerate() {
+            step.encode_indirect(&mut pass, &self.args, k);
+        }
+    }
+
+    /// The builds recorded and run so far (reads one u32 back).
+    pub fn builds(&self, gpu: &Gpu) -> u32 {
+        let due: Vec<u32> = gpu.read(&self.due);
+        due[1]
     }
 
     /// Room for pairs in `ids`.
@@ -396,7 +482,7 @@ pub fn build<D: GpuDim>(
     let grid = CellParams::new(gpu, D::N, lo, hi, at.n, radius)?;
     let mut capacity = at.n.saturating_mul(64);
     loop {
-        let list = CellList::new::<D>(gpu, at, &grid, capacity)?;
+        let list = CellList::new::<D>(gpu, at, &grid, capacity, 0.0)?;
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
         list.record(&mut encoder);
         gpu.queue.submit([encoder.finish()]);

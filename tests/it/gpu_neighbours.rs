@@ -399,7 +399,7 @@ fn a_rebuild_on_the_device_follows_moving_particles() {
             n,
             body: masked.then_some(&bodies),
         };
-        let lists = gpu_neighbour::CellList::new::<D2>(&gpu, at, &grid, 40 * n).unwrap();
+        let lists = gpu_neighbour::CellList::new::<D2>(&gpu, at, &grid, 40 * n, 0.0).unwrap();
         let mask = masked.then_some(body.as_slice());
         for x in [&reference, &moved] {
             gpu.queue.write_buffer(
@@ -424,7 +424,7 @@ fn a_rebuild_on_the_device_follows_moving_particles() {
             );
         }
         // Room for 10 pairs: the build reports the count the moved particles need.
-        let small = gpu_neighbour::CellList::new::<D2>(&gpu, at, &grid, 10).unwrap();
+        let small = gpu_neighbour::CellList::new::<D2>(&gpu, at, &grid, 10, 0.0).unwrap();
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
         small.record(&mut encoder);
         gpu.queue.submit([encoder.finish()]);

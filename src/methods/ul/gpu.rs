@@ -26,7 +26,7 @@ use crate::integrate::Buf;
 use crate::interaction::Interactions;
 use crate::interaction::gpu::GpuInteractions;
 use crate::methods::BlowUp;
-use crate::neighbour::{Csr, bounding_box};
+use crate::neighbour::{Csr, SKIN, bounding_box};
 use crate::observe::{Invariants, Snapshot};
 use crate::reference::Reference;
 use crate::run::{Engine, Failed};
@@ -170,8 +170,9 @@ pub struct GpuUl<D: GpuDim> {
     reduction: Reduction,
     interactions: GpuInteractions,
     work: WorkBalance,
-    /// Neighbour rebuilds recorded since the engine was built (one per rate evaluation).
-    rebuilds: u64,
+    /// Neighbour builds of the lists that growth replaced, less those of
+    /// [`Self::time_rebuild`].
+    builds_before: i64,
 }
 
 impl<D: GpuDim> GpuUl<D> {
@@ -259,7 +260,7 @@ impl<D: GpuDim> GpuUl<D> {
             reduction,
             interactions,
             work: WorkBalance::default(),
-            rebuilds: 0,
+            builds_before: 0,
         };
         engine.lists = Some(engine.bind_lists(capacity)?);
         Ok(engine)
@@ -275,7 +276,8 @@ impl<D: GpuDim> GpuUl<D> {
             n,
             body: self.body.as_ref(),
         };
-        let cells = CellList::new::<D>(&self.gpu, at, &self.grid, capacity)?;
+        let drift = 0.5 * SKIN * self.reference.kernel.support();
+        let cells = CellList::new::<D>(&self.gpu, at, &self.grid, capacity, drift)?;
         let rates_d = self.stepper.buffer(Buf::Rates);
         let bound = |src: Buf| -> Result<Bound, GpuError> {
             let table: [(&str, &wgpu::Buffer); 9] = [
@@ -303,10 +305,11 @@ impl<D: GpuDim> GpuUl<D> {
 
 /// The cell grid over the reference configuration's box, widened on every side by a
 /// fifth of its extent and the kernel support (particles that leave it are binned in the
-/// nearest cell, which keeps every pair), for the kernel support with a relative margin of
-/// 1e-5 for f32 ties at lattice distances (`gpu::neighbour`).
+/// nearest cell, which keeps every pair), for the kernel support widened by the skin
+/// [`SKIN`] (the lists are rebuilt once a particle has moved half of it, as on the CPU)
+/// and a relative margin of 1e-5 for f32 ties at lattice distances (`gpu::neighbour`).
 fn grid<D: GpuDim>(gpu: &Gpu, disc: &Reference<D>, n: u32) -> Result<CellParams, GpuError> {
-    let radius = disc.kernel.support() * (1.0 + 1e-5);
+    let radius = disc.kernel.support() * (1.0 + SKIN) * (1.0 + 1e-5);
     let (mut lo, mut hi) = bounding_box(disc.x0.iter().map(|&x| D::to3(x)));
     for k in 0..D::N {
         let margin = 0.2 * (hi[k] - lo[k]) + radius;
@@ -342,26 +345,25 @@ impl<D: GpuDim> GpuUl<D> {
             .as_ref()
             .expect("the lists are bound when the engine is built");
         let n = layout.n as u32;
-        let mut rebuilds = 0;
+        // The batch may run again from its start (lists grown): its first evaluation
+        // builds from its own positions, whatever the lists held.
+        lists.cells.force(&mut encoder);
         stepper.record(
             gpu,
             &mut encoder,
             dt,
             steps,
-            |encoder, e| {
-                rebuilds += 1;
-                record_rates(gpu, passes, lists, n, encoder, e.src);
-            },
+            |encoder, e| record_rates(gpu, passes, lists, n, encoder, e.src),
             |encoder| interactions.record(gpu, encoder, n),
         );
         gpu.queue.submit([encoder.finish()]);
-        self.rebuilds += rebuilds;
     }
 
     /// The wall time of one neighbour rebuild (positions pass and cell list) from the
     /// current state, timed alone over `REPEATS` rebuilds in one submission [s].
-    pub fn time_rebuild(&self) -> f64 {
+    pub fn time_rebuild(&mut self) -> f64 {
         const REPEATS: u32 = 20;
+        self.builds_before -= i64::from(REPEATS);
         let lists = self.lists();
         let bound = &lists.rates[0];
         self.gpu.wait();
@@ -379,6 +381,11 @@ impl<D: GpuDim> GpuUl<D> {
         self.gpu.queue.submit([encoder.finish()]);
         self.gpu.wait();
         started.elapsed().as_secs_f64() / f64::from(REPEATS)
+    }
+
+    /// The neighbour builds the device ran for the steps so far (reads one u32 back).
+    pub fn builds(&self) -> i64 {
+        self.builds_before + i64::from(self.lists().cells.builds(&self.gpu))
     }
 
     /// Advances `steps` steps; when a rebuild overflowed the lists, grows them to the
@@ -400,6 +407,7 @@ impl<D: GpuDim> GpuUl<D> {
     /// Makes the device's lists anew with room for `capacity` pairs (a rebuild that needs
     /// more grows them again).
     pub fn set_capacity(&mut self, capacity: u32) -> Result<(), GpuError> {
+        self.builds_before += i64::from(self.lists().cells.builds(&self.gpu));
         self.lists = Some(self.bind_lists(capacity)?);
         Ok(())
     }
@@ -496,7 +504,7 @@ fn record_rates(
         let mut pass = encoder.begin_compute_pass(&Default::default());
         gpu.dispatch(&mut pass, &passes.positions, &bound.positions, n);
     }
-    lists.cells.record(encoder);
+    lists.cells.record_on_drift(encoder);
     let mut pass = encoder.begin_compute_pass(&Default::default());
     gpu.dispatch(&mut pass, &passes.particle, &bound.particle, n);
     gpu.dispatch(&mut pass, &passes.rates, &bound.rates, n);
@@ -561,10 +569,13 @@ impl<D: GpuDim> Engine<D> for GpuUl<D> {
         self.gpu.wait();
     }
 
-    /// The rebuilds recorded so far times one rebuild timed alone ([`Self::time_rebuild`]):
-    /// the device's passes are not timed one by one inside a step.
+    /// The builds the device ran so far (those its drift checks asked for, and one at the
+    /// start of each batch) times one build timed alone ([`Self::time_rebuild`]): the
+    /// device's passes are not timed one by one inside a step, and the drift checks (one
+    /// position read per particle and evaluation) are left out.
     fn neighbour_seconds(&mut self) -> Option<f64> {
-        Some(self.rebuilds as f64 * self.time_rebuild())
+        let seconds = self.time_rebuild();
+        Some(self.builds() as f64 * seconds)
     }
 
     fn save(&mut self) -> Vec<f64> {

@@ -103,13 +103,14 @@ pub fn validate(case: &Case) -> Result<(), Problem> {
 }
 
 /// The start of a UL method's rate evaluation as `--explain` prints it: the rebuild (on
-/// drift on the CPU, before every evaluation on the GPU), per body with contact, and the
-/// gradients of L.
+/// drift on both backends, decided on the device on the GPU), per body with contact, and
+/// the gradients of L.
 pub fn plan_rebuild(case: &Case, gpu: bool) -> String {
     format!(
         "{}{}, then one gather: L ({})",
         if gpu {
-            "device cell list rebuilt from x = X + u before every evaluation"
+            "device cell list from x = X + u, rebuilt on drift (a device check sets the \
+             build's indirect dispatches)"
         } else {
             "cell-list neighbours from the current positions (rebuilt on drift)"
         },
