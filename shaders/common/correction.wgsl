@@ -20,7 +20,8 @@ fn correct(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
     }
     var a: matd;
     var shepard = vol_of(i) * kernel_w(0.0);
-    for (var p = offsets[i]; p < offsets[i + 1u]; p++) {
+    let p_end = offsets[i + 1u];
+    for (var p = offsets[i]; p < p_end; p++) {
         let j = ids[p];
         let x_ij = -vload_pair(PDX_OFF + DIM * p);
         a += outer(-x_ij, kernel_grad(x_ij)) * vol_of(j);
@@ -35,7 +36,7 @@ fn correct(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
         }
         m = transpose(inverse_d(a));
     }
-    for (var p = offsets[i]; p < offsets[i + 1u]; p++) {
+    for (var p = offsets[i]; p < p_end; p++) {
         let x_ij = -vload_pair(PDX_OFF + DIM * p);
         vstore_pair(PG_OFF + DIM * p, m * kernel_grad(x_ij));
     }

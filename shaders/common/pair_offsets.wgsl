@@ -16,7 +16,8 @@ fn pair_offsets(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     }
     let hi_i = x0_of(i);
     let lo_i = vload_reference(RXLO_OFF + DIM * i);
-    for (var p = offsets[i]; p < offsets[i + 1u]; p++) {
+    let p_end = offsets[i + 1u];
+    for (var p = offsets[i]; p < p_end; p++) {
         let j = ids[p];
         let lo_j = vload_reference(RXLO_OFF + DIM * j);
         vstore_pair(PDX_OFF + DIM * p, (x0_of(j) - hi_i) + (lo_j - lo_i));

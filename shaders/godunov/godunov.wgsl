@@ -36,7 +36,8 @@ fn rates(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     var l: matd;
     var rho_dot = 0.0;
     var a: vecd;
-    for (var p = offsets[i]; p < offsets[i + 1u]; p++) {
+    let p_end = offsets[i + 1u];
+    for (var p = offsets[i]; p < p_end; p++) {
         let j = ids[p];
         let x_ij = x_i - x_of(j);
         let r = length(x_ij);

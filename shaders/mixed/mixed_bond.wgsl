@@ -22,7 +22,8 @@ fn bond_f(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     let f = mload_y(F_OFF + DIM * DIM * a);
     let u_a = displacement(a);
     var f_c = f;
-    for (var p = offsets[a]; p < offsets[a + 1u]; p++) {
+    let p_end = offsets[a + 1u];
+    for (var p = offsets[a]; p < p_end; p++) {
         let x = vload_pair(PDX_OFF + DIM * p);
         f_c += outer(displacement(ids[p]) - u_a - f * x, x * pair[PW_OFF + p]);
     }

@@ -39,7 +39,8 @@ fn pair_wave_speed(i: u32) -> f32 {
     let x_i = x0_of(i) + vload_y(U_OFF + DIM * i);
     let lambda_i = smallest_stretch(i);
     var fastest = 0.0;
-    for (var q = offsets[i]; q < offsets[i + 1u]; q++) {
+    let q_end = offsets[i + 1u];
+    for (var q = offsets[i]; q < q_end; q++) {
         let j = ids[q];
         if j < N {
             let r_ij = length(x0_of(j) + vload_y(U_OFF + DIM * j) - x_i);

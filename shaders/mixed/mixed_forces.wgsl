@@ -57,7 +57,8 @@ fn forces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     var t: vecd;
     var dp_sum: vecd;
     var dj = 0.0;
-    for (var p = offsets[a]; p < offsets[a + 1u]; p++) {
+    let p_end = offsets[a + 1u];
+    for (var p = offsets[a]; p < p_end; p++) {
         let b = ids[p];
         let g_ab = vload_pair(PG_OFF + DIM * p);
         let g_ba = vload_pair(PGR_OFF + DIM * p);

@@ -26,7 +26,8 @@ fn kinematics(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     }
     let v_a = velocity(a);
     var grad_v: matd;
-    for (var p = offsets[a]; p < offsets[a + 1u]; p++) {
+    let p_end = offsets[a + 1u];
+    for (var p = offsets[a]; p < p_end; p++) {
         grad_v += outer(velocity(ids[p]) - v_a, vload_pair(PG_OFF + DIM * p));
     }
     let f = stress_excess(a);

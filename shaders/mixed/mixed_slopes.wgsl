@@ -23,7 +23,8 @@ fn slopes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     let p_a = mload_kin(KP_OFF + DIM * DIM * a);
     var grad_v: matd;
     var grad_p: array<matd, 3>;
-    for (var p = offsets[a]; p < offsets[a + 1u]; p++) {
+    let p_end = offsets[a + 1u];
+    for (var p = offsets[a]; p < p_end; p++) {
         let b = ids[p];
         let w = vload_pair(PLS_OFF + DIM * p);
         grad_v += outer(velocity(b) - v_a, w);
@@ -47,7 +48,8 @@ fn laplacian(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     }
     let v_a = velocity(a);
     var sum: vecd;
-    for (var p = offsets[a]; p < offsets[a + 1u]; p++) {
+    let p_end = offsets[a + 1u];
+    for (var p = offsets[a]; p < p_end; p++) {
         sum += (velocity(ids[p]) - v_a) * pair[PELL_OFF + p];
     }
     vstore_out(DIM * a, sum);

@@ -43,7 +43,8 @@ fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     let m_i = RHO0 * vol_of(i);
     var force: vecd;
     var viscous: vecd;
-    for (var p = offsets[i]; p < offsets[i + 1u]; p++) {
+    let p_end = offsets[i + 1u];
+    for (var p = offsets[i]; p < p_end; p++) {
         let j = ids[p];
         let g = vload_pair(PG_OFF + DIM * p);
         let g_rev = vload_pair(PGREV_OFF + DIM * p);

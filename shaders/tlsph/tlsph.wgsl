@@ -35,7 +35,8 @@ fn stress(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     let vi = vload_y(V_OFF + DIM * i);
     var h: matd;
     var f_dot: matd;
-    for (var p = offsets[i]; p < offsets[i + 1u]; p++) {
+    let p_end = offsets[i + 1u];
+    for (var p = offsets[i]; p < p_end; p++) {
         let j = ids[p];
         let g = vload_pair(PG_OFF + DIM * p);
         let w = vol_of(j);

@@ -67,7 +67,8 @@ fn correction_of(i: u32) -> matd {
     }
     let xi = x_of(i);
     var a: matd;
-    for (var p = offsets[i]; p < offsets[i + 1u]; p++) {
+    let p_end = offsets[i + 1u];
+    for (var p = offsets[i]; p < p_end; p++) {
         let j = ids[p];
         let x_ij = xi - x_of(j);
         a += outer(-x_ij, kernel_grad(x_ij)) * (mass_of(j) / rho_of(j));

@@ -146,12 +146,18 @@ pub fn reflect(source: &str, entry: &str) -> Result<Reflection, String> {
     Ok(reflection)
 }
 
-/// Every adapter wgpu reaches, best first.
-pub fn adapters() -> Vec<AdapterSummary> {
+/// Every adapter wgpu reaches, best first ([`rank`]).
+fn ranked() -> Vec<wgpu::Adapter> {
     let mut list: Vec<wgpu::Adapter> =
         pollster::block_on(instance().enumerate_adapters(wgpu::Backends::all()));
     list.sort_by_key(rank);
-    list.iter()
+    list
+}
+
+/// Every adapter wgpu reaches, best first.
+pub fn adapters() -> Vec<AdapterSummary> {
+    ranked()
+        .iter()
         .map(|a| AdapterSummary {
             info: a.get_info(),
             limits: a.limits(),
@@ -216,9 +222,7 @@ impl Gpu {
     /// Opens the best adapter whose name contains `requested` or whose backend it names
     /// (`vulkan`, `metal`, `dx12`, `gl`), or the best of all for None.
     pub fn matching(requested: Option<String>) -> Result<Self, GpuError> {
-        let mut list: Vec<wgpu::Adapter> =
-            pollster::block_on(instance().enumerate_adapters(wgpu::Backends::all()));
-        list.sort_by_key(rank);
+        let list = ranked();
         let available: Vec<String> = list.iter().map(|a| describe(&a.get_info())).collect();
         let adapter = list
             .into_iter()
@@ -231,6 +235,17 @@ impl Gpu {
                 requested,
                 available,
             })?;
+        Self::open(adapter)
+    }
+
+    /// Opens every adapter wgpu reaches, best first (Mesa's lavapipe through Vulkan and
+    /// llvmpipe through GL are two); each Err says why that one has no device.
+    pub fn every() -> Vec<Result<Self, GpuError>> {
+        ranked().into_iter().map(Self::open).collect()
+    }
+
+    /// A device on `adapter` with the adapter's own limits.
+    fn open(adapter: wgpu::Adapter) -> Result<Self, GpuError> {
         let info = adapter.get_info();
         let limits = adapter.limits();
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {

@@ -34,6 +34,29 @@ pub fn gpu() -> Gpu {
     gpu
 }
 
+#[cfg(feature = "gpu")]
+/// Every adapter wgpu enumerates (Mesa's lavapipe through Vulkan and llvmpipe through GL
+/// here, where both are installed), best first, each with uncaptured wgpu errors raised as
+/// panics: the cross-checks that call this run on each, not only on the one `gpu()`
+/// picks. No adapter, or one that cannot open a device, fails the test; with a single
+/// adapter they run on that one.
+pub fn gpus() -> Vec<Gpu> {
+    let all: Vec<Gpu> = Gpu::every()
+        .into_iter()
+        .map(|gpu| gpu.unwrap_or_else(|e| panic!("an adapter has no device: {e}")))
+        .collect();
+    assert!(
+        !all.is_empty(),
+        "GPU tests need an adapter (CI installs Mesa lavapipe: apt-get install \
+         mesa-vulkan-drivers)"
+    );
+    for gpu in &all {
+        gpu.device
+            .on_uncaptured_error(Arc::new(|e| panic!("wgpu error: {e}")));
+    }
+    all
+}
+
 /// The folder of the shipped cases.
 pub fn cases_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("cases")

@@ -3,7 +3,7 @@
 //! part of what CI checks.
 
 use crate::common::{
-    gpu, load, max_s, max_t, max_v, mixed_variants, random_state, random_tensor, shipped,
+    gpu, gpus, load, max_s, max_t, max_v, mixed_variants, random_state, random_tensor, shipped,
 };
 use meshless::gpu::Gpu;
 use meshless::gpu::layout::GpuDim;
@@ -135,6 +135,22 @@ fn rates_match_the_cpu_on_the_swinging_plate() {
     // Mirror planes (ghosts), linear elastic, no projection.
     for set in mixed_variants(&[]) {
         compare_rates::<D2>(&load("swinging-plate", &set), gpu());
+    }
+}
+
+#[test]
+fn rates_match_the_cpu_on_every_adapter() {
+    // Upwind-SPH and JST-SPH with all of p, F, H, J on the swinging plate (ghosts) on
+    // every adapter wgpu enumerates, with the bounds of compare_rates.
+    for method in ["upwind-sph", "jst-sph"] {
+        for gpu in gpus() {
+            println!("adapter {}", gpu.name());
+            let set = [
+                format!("method.name={method}"),
+                "method.variables=p-F-H-J".into(),
+            ];
+            compare_rates::<D2>(&load("swinging-plate", &set), gpu);
+        }
     }
 }
 

@@ -3,8 +3,9 @@
 //! whole runs that carry particles past the rebuild distance, and the device's rebuilt
 //! lists against brute force. A missing adapter fails these tests.
 
-use crate::common::{block_case, gpu, load, max_s, max_t, max_v, shipped};
+use crate::common::{block_case, gpu, gpus, load, max_s, max_t, max_v, shipped};
 use crate::gray_monaghan::random_state;
+use meshless::gpu::Gpu;
 use meshless::gpu::layout::GpuDim;
 use meshless::methods::godunov::system::Scheme as GodunovScheme;
 use meshless::methods::godunov::{Godunov, gpu as godunov};
@@ -43,11 +44,16 @@ fn rate_errors<D: Dim>(d: &UlState<D>, g: &UlState<D>) -> [(&'static str, f64); 
 /// One rate evaluation of the CPU system and of the GPU engine on a disordered state
 /// (|u| ~ 0.2 Δx, |v| ~ 10 m/s, ρ within 1 %, |S| ~ 1e5 Pa in tension and compression).
 fn compare_rates<D: GpuDim, S: PairScheme<D>>(case: &Case) {
+    compare_rates_on::<D, S>(case, gpu());
+}
+
+/// [`compare_rates`] on `gpu`.
+fn compare_rates_on<D: GpuDim, S: PairScheme<D>>(case: &Case, gpu: Gpu) {
     let mut cpu: UlSph<D, S> = build_method(case).unwrap();
     let y = random_state(&cpu, case.spacing, &mut 17);
     let mut d = y.clone();
     meshless::integrate::OdeSystem::rates(&mut cpu, 0.0, &y, &mut d).unwrap();
-    let mut g = GpuUl::<D>::new(case, gpu(), &scheme(case)).unwrap();
+    let mut g = GpuUl::<D>::new(case, gpu, &scheme(case)).unwrap();
     let dg = g.rates(&y);
     // Each rate is a gather of 20–80 pair terms of the random state, which do not cancel:
     // f32 rounding of the inputs (positions 6e-8 of |x| ≲ 1 m against pair distances of
@@ -82,6 +88,23 @@ fn gray_monaghan_rates_match_the_cpu_in_2d_and_3d() {
         let keys = format!("correction = \"{correction}\"\n{GRAY_MONAGHAN_KEYS}");
         compare_rates::<D2, GmScheme>(&block(2, "gray-monaghan-sph", &keys));
         compare_rates::<D3, GmScheme>(&block(3, "gray-monaghan-sph", &keys));
+    }
+}
+
+#[test]
+fn ul_rates_match_the_cpu_on_every_adapter() {
+    // Both schemes with the Randles–Libersky correction (the updated-Lagrangian core's
+    // neighbour loops, its device cell list and its correction pass) on every adapter
+    // wgpu enumerates, with the bounds above.
+    let keys = format!("correction = \"randles-libersky\"\n{GRAY_MONAGHAN_KEYS}");
+    for gpu in gpus() {
+        println!("adapter {}", gpu.name());
+        compare_rates_on::<D2, GmScheme>(&block(2, "gray-monaghan-sph", &keys), gpu);
+    }
+    for gpu in gpus() {
+        println!("adapter {}", gpu.name());
+        let c = block(2, "godunov-sph", "correction = \"randles-libersky\"");
+        compare_rates_on::<D2, GodunovScheme>(&c, gpu);
     }
 }
 

@@ -266,6 +266,39 @@ fn every_wgsl_file_is_a_validated_pass_or_included() {
     }
 }
 
+/// No `for` loop condition reads memory (an index or a call): a loop bound from a buffer is
+/// read into a `let` before the loop. Mesa's llvmpipe through GL (22.3) reuses the load of
+/// a loop condition for the same load after the loop, where an invocation that left the
+/// loop before the last iteration of its SIMD group reads 0 (ARCHITECTURE.md, GPU engine):
+/// a second loop over the same CSR row then ran zero times.
+#[test]
+fn no_loop_condition_reads_a_buffer() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
+    let mut loops = 0;
+    for folder in std::fs::read_dir(&root).unwrap() {
+        for file in std::fs::read_dir(folder.unwrap().path()).unwrap() {
+            let path = file.unwrap().path();
+            let text = std::fs::read_to_string(&path).unwrap();
+            for (n, line) in text.lines().enumerate() {
+                let Some(at) = line.find("for (") else {
+                    continue;
+                };
+                loops += 1;
+                let condition = line[at..].split(';').nth(1).unwrap_or_default();
+                assert!(
+                    !condition.contains('[') && !condition.contains('('),
+                    "{}:{}: the loop condition `{}` reads memory; read the bound into a \
+                     `let` before the loop",
+                    path.display(),
+                    n + 1,
+                    condition.trim()
+                );
+            }
+        }
+    }
+    assert!(loops > 20, "{loops} loops found");
+}
+
 #[test]
 fn every_shader_validates_in_2d() {
     check_all::<D2>();
