@@ -98,7 +98,7 @@ impl<D: Dim> Support<D> {
         let singular = |l: D::T| {
             let scale = (D::ddot(l, l) / D::N as f64).powf(0.5 * D::N as f64);
             let det = D::det(l).abs();
-            !(det > 1e-8 * scale)
+            det.is_nan() || det <= 1e-8 * scale
         };
         if let Some(i) = (0..x0.len())
             .into_par_iter()
