@@ -187,9 +187,10 @@ impl Cantilever {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ClosedForm {
     Cantilever(Cantilever),
-    /// Uniaxial stress σ along x: u = (σx, −νσy, −νσz)/E.
+    /// Uniaxial stress σ along the axis a: u_a = σX_a/E, u_k = −νσX_k/E (k ≠ a).
     Uniaxial {
         stress: f64,
+        axis: usize,
         youngs_modulus: f64,
         poisson_ratio: f64,
     },
@@ -210,8 +211,9 @@ impl ClosedForm {
                 youngs_modulus,
                 poisson_ratio,
             }),
-            crate::scene::Solution::UniaxialStress { stress } => Self::Uniaxial {
+            crate::scene::Solution::UniaxialStress { stress, axis } => Self::Uniaxial {
                 stress,
+                axis: axis.index(),
                 youngs_modulus,
                 poisson_ratio,
             },
@@ -228,15 +230,18 @@ impl ClosedForm {
             }
             Self::Uniaxial {
                 stress,
+                axis,
                 youngs_modulus,
                 poisson_ratio,
             } => {
                 let e = stress / youngs_modulus;
-                [
-                    e * x[0],
-                    -poisson_ratio * e * x[1],
-                    -poisson_ratio * e * x[2],
-                ]
+                std::array::from_fn(|k| {
+                    if k == axis {
+                        e * x[k]
+                    } else {
+                        -poisson_ratio * e * x[k]
+                    }
+                })
             }
         }
     }
@@ -248,7 +253,11 @@ impl ClosedForm {
                 let [sxx, syy, txy] = c.stress(x[0], x[1]);
                 [[sxx, txy, 0.0], [txy, syy, 0.0], [0.0, 0.0, 0.0]]
             }
-            Self::Uniaxial { stress, .. } => [[stress, 0.0, 0.0], [0.0; 3], [0.0; 3]],
+            Self::Uniaxial { stress, axis, .. } => {
+                let mut s = [[0.0; 3]; 3];
+                s[axis][axis] = stress;
+                s
+            }
         }
     }
 }

@@ -290,8 +290,18 @@ pub enum Solution {
     /// 53–55, plane stress, the material's E and ν): x ∈ [0, length] from the clamped
     /// end, y ∈ [−depth/2, depth/2], end load `load` per unit thickness [N/m].
     TimoshenkoCantilever { load: f64, length: f64, depth: f64 },
-    /// Uniaxial stress σ_xx = `stress` [Pa] (seed 004 §6.3): u = (σx, −νσy, −νσz)/E.
-    UniaxialStress { stress: f64 },
+    /// Uniaxial stress σ_aa = `stress` [Pa] along `axis` (default x; seed 004 §6.3): u_a =
+    /// σX_a/E, the other components −νσX_k/E. As a traction on the face normal to that
+    /// axis it is a uniform pressure −`stress` (§6.2's plate, §6.6's cube).
+    UniaxialStress {
+        stress: f64,
+        #[serde(default = "x_axis")]
+        axis: Axis,
+    },
+}
+
+fn x_axis() -> Axis {
+    Axis::X
 }
 
 /// A plane X_k = `at` across which the solution continues as its mirror image: for

@@ -249,11 +249,20 @@ fn plane(m: &MaterialSpec, dim: usize) -> Checked {
 }
 
 fn method(m: &MethodTable) -> Checked {
+    // The support radius (support factor × h) must reach the nearest lattice neighbour:
+    // h ≥ Δx/2 for the kernels of support 2h, Δx/3 for the quintic (support 3h; seed 004
+    // §6.4's smallest support, 0.9 times a particle's diameter, is h = 0.338 Δx).
     let h = m.h_over_dx;
-    if !(h.is_finite() && (0.5..=4.0).contains(&h)) {
+    let lowest = 1.0 / m.kernel.support_factor();
+    if !(h.is_finite() && (lowest..=4.0).contains(&h)) {
         return fail(
             "method.h_over_dx",
-            format!("must be a finite number in [0.5, 4], got {h:?}"),
+            format!(
+                "must be a finite number in [{lowest:.4}, 4] (the {} kernel's support {}h \
+                 must reach one spacing), got {h:?}",
+                toml_name(&m.kernel),
+                m.kernel.support_factor()
+            ),
         );
     }
     match (m.dt, m.cfl) {
@@ -683,7 +692,7 @@ fn boundary(b: &BoundarySpec, key: &str, bodies: &[BodySpec], dim: usize) -> Che
             solution,
             components,
         } => {
-            self::solution(solution, &format!("{key}.solution"))?;
+            self::solution(solution, &format!("{key}.solution"), dim)?;
             if components.is_empty() {
                 return fail(
                     format!("{key}.components"),
@@ -702,7 +711,7 @@ fn boundary(b: &BoundarySpec, key: &str, bodies: &[BodySpec], dim: usize) -> Che
             Ok(())
         }
         Condition::SolutionTraction { solution, normal } => {
-            self::solution(solution, &format!("{key}.solution"))?;
+            self::solution(solution, &format!("{key}.solution"), dim)?;
             vector(&format!("{key}.normal"), normal, dim)?;
             let axes = normal.iter().filter(|c| **c != 0.0).count();
             if axes != 1 || normal.iter().any(|c| *c != 0.0 && c.abs() != 1.0) {
@@ -720,7 +729,7 @@ fn boundary(b: &BoundarySpec, key: &str, bodies: &[BodySpec], dim: usize) -> Che
     }
 }
 
-fn solution(s: &Solution, key: &str) -> Checked {
+fn solution(s: &Solution, key: &str, dim: usize) -> Checked {
     match *s {
         Solution::TimoshenkoCantilever {
             load,
@@ -731,7 +740,15 @@ fn solution(s: &Solution, key: &str) -> Checked {
             positive(&format!("{key}.length"), length)?;
             positive(&format!("{key}.depth"), depth)
         }
-        Solution::UniaxialStress { stress } => finite(&format!("{key}.stress"), stress),
+        Solution::UniaxialStress { stress, axis } => {
+            if axis.index() >= dim {
+                return fail(
+                    format!("{key}.axis"),
+                    format!("\"z\" exists only in 3D, but the case has dimension = {dim}"),
+                );
+            }
+            finite(&format!("{key}.stress"), stress)
+        }
     }
 }
 

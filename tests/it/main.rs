@@ -13,6 +13,7 @@ mod common;
 mod contact;
 mod corotated_tlsph;
 mod dual_support;
+mod dual_support_cases;
 mod godunov;
 #[cfg(feature = "gpu")]
 mod gpu_mixed;

@@ -192,6 +192,9 @@ impl<D: Dim> Statics<D> {
         for p in &self.prescribed {
             Self::set(&mut u, p.dof, p.velocity * t + p.displacement * lambda);
         }
+        if let Some(predicted) = self.predict(&u) {
+            u = predicted;
+        }
         let mut increment = 0.0;
         let mut stats = SolveStats::default();
         for iteration in 0..=self.newton.max_iterations {
@@ -294,6 +297,58 @@ impl<D: Dim> Statics<D> {
             }
         }
         unreachable!("the loop returns at max_iterations")
+    }
+
+    /// The linearised predictor of a load step that moves prescribed components: with
+    /// δ the move of the prescribed components from the converged state u₀ to `moved`,
+    /// K_ff Δu_f = (∂f_int/∂u)δ on the free components (the directional derivative by a
+    /// forward difference of 1e-7 δ), so that the free particles follow the prescribed
+    /// ones to first order instead of being left behind: a top row moved by several
+    /// spacings in one increment (seed 004 §6.5) otherwise inverts the particles next to
+    /// it in the first Newton iterate. None when nothing prescribed moves, the solve
+    /// fails or the predicted state has det F ≤ 0 (Newton then starts from `moved`).
+    fn predict(&mut self, moved: &[D::V]) -> Option<Vec<D::V>> {
+        let d = D::N;
+        let delta: Vec<D::V> = moved.iter().zip(&self.u).map(|(&a, &b)| a - b).collect();
+        let size = delta.iter().map(|&v| D::norm2(v)).sum::<f64>().sqrt();
+        if size == 0.0 {
+            return None;
+        }
+        let eps = 1e-7;
+        let probe: Vec<D::V> = self
+            .u
+            .iter()
+            .zip(&delta)
+            .map(|(&u, &v)| u + v * eps)
+            .collect();
+        let (f0, f1) = (
+            self.model.internal_force(&self.u, true),
+            self.model.internal_force(&probe, true),
+        );
+        let mut r = vec![0.0; self.system.n];
+        for (a, (&x0, &x1)) in f0.iter().zip(&f1).enumerate() {
+            let (x0, x1) = (D::to3(x0), D::to3(x1));
+            for k in 0..d {
+                if let Some(q) = self.free[a * d + k] {
+                    r[q as usize] = (x1[k] - x0[k]) / eps;
+                }
+            }
+        }
+        let tangents = self.model.tangents(&self.u);
+        self.model
+            .stiffness(&tangents, &self.pattern, &mut self.values);
+        let k = self.system.gather(&self.values);
+        let (du, _) = self.system.solve(&k, &r).ok()?;
+        let mut u = moved.to_vec();
+        for (dof, f) in self.free.iter().enumerate() {
+            if let Some(q) = f {
+                let (i, c) = (dof / d, dof % d);
+                let mut v = D::to3(u[i]);
+                v[c] += du[*q as usize];
+                u[i] = D::from_slice(&v);
+            }
+        }
+        (du.iter().all(|x| x.is_finite()) && self.inadmissible(&u).is_none()).then_some(u)
     }
 
     /// The first particle with det F ≤ 0 or a non-finite F.

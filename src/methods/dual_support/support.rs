@@ -92,9 +92,17 @@ impl<D: Dim> Support<D> {
                 })
             })
             .collect();
+        // Singular relative to L_i's own size: |det L| ≤ 1e-8 (|L|_F/√d)^d, so a support
+        // that barely reaches its neighbours (W′ ≈ 0 there: seed 004 §6.4's n = 0.9 at a
+        // corner) is not mistaken for a degenerate one; L ≈ −I inside gives the scale 1.
+        let singular = |l: D::T| {
+            let scale = (D::ddot(l, l) / D::N as f64).powf(0.5 * D::N as f64);
+            let det = D::det(l).abs();
+            det.is_nan() || det <= 1e-8 * scale
+        };
         if let Some(i) = (0..x0.len())
             .into_par_iter()
-            .find_first(|&i| D::det(l[i]).abs() <= 1e-8 || D::det(l[i]).is_nan())
+            .find_first(|&i| singular(l[i]))
         {
             return Err(SingularCorrection {
                 particle: i,

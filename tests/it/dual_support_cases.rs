@@ -1,0 +1,231 @@
+//! Dual-support SPH (seed 004) on the paper's remaining examples, at test sizes: the plate
+//! under compression with the hourglass penalty swept (§6.2), the smoothing-length study
+//! on the plane-stress beam (§6.4), the rubber pull to 500 % (§6.5) and the Newton
+//! convergence of the hyperelastic cube (§6.6). The paper-scale figures of
+//! docs/methods/dual-support.md come from the ignored `paper_scale_figures`.
+
+use meshless::analytic::Cantilever;
+use meshless::methods::dual_support::Statics;
+use meshless::run::{Engine, Iteration};
+use meshless::tensor::{D2, D3, Dim};
+
+/// The static engine of a shipped case with overrides.
+fn engine<D: Dim>(name: &str, set: &[String]) -> Statics<D> {
+    let case = crate::common::load(name, set);
+    let meshless::methods::MethodSpec::DualSupportSph(spec) = &case.method.spec else {
+        panic!("{name} runs dual-support-sph")
+    };
+    Statics::<D>::new(&case, spec).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn set(items: &[&str]) -> Vec<String> {
+    items.iter().map(|s| s.to_string()).collect()
+}
+
+/// (max u_x, min u_y) of the plate with hourglass penalty α.
+fn plate(alpha: f64, extra: &[&str]) -> (f64, f64) {
+    let mut overrides = set(extra);
+    overrides.push(format!("method.hourglass={alpha}"));
+    let mut e = engine::<D2>("plate-compression-2d", &overrides);
+    e.advance(0.0, 1.0, 1).unwrap_or_else(|f| panic!("{f:?}"));
+    let ux = e.u.iter().map(|u| u.x).fold(f64::NEG_INFINITY, f64::max);
+    let uy = e.u.iter().map(|u| u.y).fold(f64::INFINITY, f64::min);
+    (ux, uy)
+}
+
+#[test]
+fn the_plate_hourglass_penalty_sweep_softens_then_locks() {
+    // Seed 004 §6.2, Table 2 at p/E = 0.2 (note §4.2): max u_y −0.175, −0.1664,
+    // −0.16367, −0.1604, −0.1465 for α = 0.2, 2, 10, 100, 1e3 (Abaqus −0.178); α = 1e5
+    // locks at −0.0267. Measured on the shipped 20 × 20 irregular plate: −0.1842,
+    // −0.1685, −0.1652, −0.1601, −0.1433, −0.0222. Bounds: within 6 % of the paper's value
+    // for α ≤ 1e3 (its mesh is another irregular one; our 40 × 40 plate moves the values
+    // by up to 2 %), |u_y| falls monotonically with α, and α = 1e5 keeps less than a
+    // quarter of the α = 1 value (the paper: 15 %). A wrong hourglass sign or scale
+    // (eq 27, eq 29 without the 2) moves these by far more.
+    let alphas = [0.2, 2.0, 10.0, 100.0, 1e3, 1e5];
+    let paper = [-0.175, -0.1664, -0.16367, -0.1604, -0.1465];
+    let uy: Vec<f64> = alphas.iter().map(|&a| plate(a, &[]).1).collect();
+    for ((a, u), p) in alphas.iter().zip(&uy).zip(paper) {
+        assert!((u / p - 1.0).abs() < 0.06, "α = {a}: {u}; all {uy:?}");
+    }
+    for w in uy.windows(2) {
+        assert!(w[1] > w[0], "not monotone: {uy:?}");
+    }
+    let (_, default) = plate(1.0, &[]);
+    assert!(uy[5] / default < 0.25, "{uy:?} vs {default}");
+}
+
+/// ‖u‖_error of eq 56 and the strain energy Σ V ψ of the plane-stress beam at spacing
+/// Δx with h_over_dx.
+fn beam(spacing: f64, h_over_dx: f64) -> (f64, f64) {
+    let mut e = engine::<D2>(
+        "beam-smoothing-2d",
+        &[
+            format!("spacing={spacing}"),
+            format!("method.h_over_dx={h_over_dx}"),
+        ],
+    );
+    e.advance(0.0, 1.0, 1).unwrap_or_else(|f| panic!("{f:?}"));
+    let exact = Cantilever {
+        load: -1000.0,
+        length: 8.0,
+        depth: 3.0,
+        youngs_modulus: 3.0e10,
+        poisson_ratio: 0.3,
+    };
+    let s = &e.model.support;
+    let (mut num, mut den) = (0.0, 0.0);
+    for ((x, u), v) in s.x0.iter().zip(&e.u).zip(&s.vol) {
+        let [ux, uy] = exact.displacement(x.x, x.y);
+        num += ((ux - u.x).powi(2) + (uy - u.y).powi(2)) * v;
+        den += (ux * ux + uy * uy) * v;
+    }
+    ((num / den).sqrt(), e.model.energies(&e.u).strain)
+}
+
+/// The paper's n of eq 58 as the kernel's h_over_dx: support radius n · 2√(V/π) with
+/// V = Δx², over the quintic's 3h.
+fn h_over_dx(n: f64) -> f64 {
+    n * 2.0 / (3.0 * std::f64::consts::PI.sqrt())
+}
+
+#[test]
+fn the_beam_error_has_a_minimum_in_the_smoothing_length() {
+    // Seed 004 §6.4: the error is not monotone in n; n = 0.9 is still acceptable and the
+    // error grows beyond the optimum (the paper's n ≈ 2.2). Measured at Δx = 0.5 m: see
+    // the method page. Bounds: n = 0.9 solves (every L_i invertible with 4 lattice
+    // neighbours) within 10 % in ‖u‖ (the paper's Fig. 13 spans a few per cent; a missing
+    // dual-support term or a singular L would be off by far more), the error at n = 3.8
+    // exceeds the one at n = 2.2, and the smallest error lies strictly inside the sweep.
+    let ns = [0.9, 1.5, 2.2, 3.0, 3.8];
+    let errors: Vec<f64> = ns.iter().map(|&n| beam(0.5, h_over_dx(n)).0).collect();
+    assert!(errors[0] < 0.1, "{errors:?}");
+    assert!(errors[4] > errors[2], "{errors:?}");
+    let best = (0..ns.len())
+        .min_by(|&a, &b| errors[a].total_cmp(&errors[b]))
+        .unwrap();
+    assert!(best > 0 && best < ns.len() - 1, "{errors:?}");
+}
+
+/// The top displacement [m] reached by the rubber sheet, load step by load step, until
+/// Newton fails; with the shipped 40 increments of 0.25 mm.
+fn rubber(alpha: f64, extra: &[&str]) -> f64 {
+    let mut overrides = set(extra);
+    overrides.push(format!("method.hourglass={alpha}"));
+    let mut e = engine::<D2>("rubber-pull-2d", &overrides);
+    let dt = 0.025;
+    for k in 0..40 {
+        if let Err(failed) = e.advance(f64::from(k) * dt, dt, 1) {
+            eprintln!("α = {alpha}: {}", failed.cause.quantity);
+            return f64::from(k) * 0.25e-3;
+        }
+    }
+    10.0e-3
+}
+
+#[test]
+fn the_rubber_reaches_500_percent_with_hourglass_control_only() {
+    // Seed 004 §6.5: without hourglass control Newton fails beyond 8 mm of the top
+    // displacement (regular layout; 8.25 mm irregular); with α = 5μ the sheet reaches
+    // 10 mm (500 %). Measured on the shipped regular 20 × 20 sheet: the increment to 8.75
+    // mm fails without control (the tangent turns indefinite), 10 mm is reached with it.
+    // Bounds: with control 10 mm; without, the run fails after 5 mm and before 10 mm
+    // (the paper's 8 mm, with a margin for its unpublished layout). Without the
+    // linearised predictor of prescribed moves both fail at the first 0.25 mm increment.
+    let with = rubber(5.0, &[]);
+    let without = rubber(0.0, &[]);
+    assert_eq!(with, 10.0e-3, "α = 5μ stopped at {with} m");
+    assert!(
+        (5.0e-3..10.0e-3).contains(&without),
+        "α = 0 reached {without} m"
+    );
+}
+
+/// The Newton iterations of every load step of a log, and the relative residuals of each.
+fn by_step(log: &[Iteration]) -> Vec<Vec<f64>> {
+    let mut steps: Vec<Vec<f64>> = Vec::new();
+    for it in log {
+        if it.iteration == 0 {
+            steps.push(Vec::new());
+        }
+        steps.last_mut().unwrap().push(it.relative_residual);
+    }
+    steps
+}
+
+#[test]
+fn the_cube_converges_quadratically_in_each_load_sub_step() {
+    // Seed 004 §6.6: 4 load sub-steps, Newton iterations (4, 4, 5, 7). On 9³ particles
+    // (Δx = 1/8 m, direct solve) measured (4, 4, 5, 6) to 1e-10 of the force scale, with
+    // r_k+1/r_k² up to 25 in the last sub-step. Every sub-step converges within 10
+    // iterations and, once the relative residual r_k is below 1e-3, r_k+1 < 100 r_k²
+    // (quadratic; a tangent missing the geometric or the J_FF part converges linearly,
+    // r_k+1 ~ c r_k with c ≫ 100 r_k there); the last sub-step needs at least as many as
+    // the first (the nonlinearity grows with the load).
+    let mut e = engine::<D3>(
+        "hyperelastic-cube-3d",
+        &set(&["spacing=0.125", "method.solver=direct"]),
+    );
+    e.advance(0.0, 0.25, 4).unwrap_or_else(|f| panic!("{f:?}"));
+    let steps = by_step(&e.iterations());
+    assert_eq!(steps.len(), 4, "{steps:?}");
+    for s in &steps {
+        assert!(s.len() - 1 <= 10, "{steps:?}");
+        for w in s.windows(2) {
+            if w[0] < 1e-3 && w[1] > 1e-13 {
+                assert!(w[1] < 100.0 * w[0] * w[0], "not quadratic: {steps:?}");
+            }
+        }
+    }
+    assert!(steps[3].len() >= steps[0].len(), "{steps:?}");
+    let uz = e.u.iter().map(|u| u.z).fold(f64::INFINITY, f64::min);
+    eprintln!(
+        "cube 9³: iterations {:?}, largest u_z {uz}",
+        steps.iter().map(|s| s.len() - 1).collect::<Vec<_>>()
+    );
+    assert!(uz < -0.2 && uz > -0.5, "largest u_z {uz}");
+}
+
+/// The paper-scale runs of the method page (minutes on two cores): `cargo test --release
+/// --test it paper_scale_figures -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn paper_scale_figures() {
+    println!("§6.2 plate, 20 × 20 and 40 × 40 irregular: α, max u_x, min u_y");
+    for file in ["20", "40"] {
+        let geometry = format!(
+            "body.0.geometry={{ shape = \"points\", file = \"points/plate-irregular-{file}.csv\" }}"
+        );
+        let extra: Vec<String> = if file == "40" {
+            vec![
+                geometry,
+                "spacing=0.025".into(),
+                "boundary.0.region.y_max=0.02".into(),
+                "boundary.1.region.y_min=0.98".into(),
+            ]
+        } else {
+            vec![]
+        };
+        let extra: Vec<&str> = extra.iter().map(String::as_str).collect();
+        for a in [0.0, 0.2, 1.0, 2.0, 10.0, 100.0, 1e3, 1e5] {
+            let (ux, uy) = plate(a, &extra);
+            println!("{file} {a:e} {ux:.5} {uy:.5}");
+        }
+    }
+    println!("§6.4 beam: Δx, n, ‖u‖_error, Σ V ψ");
+    for dx in [0.25, 0.125] {
+        for n in [0.9, 1.2, 1.5, 2.0, 2.2, 2.4, 3.0, 3.8] {
+            let (err, energy) = beam(dx, h_over_dx(n));
+            println!("{dx} {n} {err:.5} {energy:.6e}");
+        }
+    }
+    println!("§6.5 rubber: layout, α, top displacement reached");
+    let irregular =
+        "body.0.geometry={ shape = \"points\", file = \"points/rubber-irregular.csv\" }";
+    for (name, extra) in [("regular", vec![]), ("irregular", vec![irregular])] {
+        for a in [0.0, 5.0] {
+            println!("{name} {a} {:.3e}", rubber(a, &extra));
+        }
+    }
+}
