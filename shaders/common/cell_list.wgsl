@@ -207,7 +207,8 @@ fn check_drift(
 @compute @workgroup_size(1)
 fn arm() {
     let build = atomicLoad(&due[0]) != 0u;
-    for (var k = 0u; k < 3u * params.dispatches; k++) {
+    let entries = 3u * params.dispatches;
+    for (var k = 0u; k < entries; k++) {
         args[k] = select(0u, full[k], build);
     }
     if build {

@@ -73,7 +73,8 @@ fn stress(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     let u_i = vload_y(U_OFF + DIM * i);
     // Shape matching A_i = Σ_j m_j W_ij (x_j − x_i) ⊗ (X_j − X_i) (eq 151).
     var a: matd;
-    for (var p = offsets[i]; p < offsets[i + 1u]; p++) {
+    let p_end = offsets[i + 1u];
+    for (var p = offsets[i]; p < p_end; p++) {
         let j = ids[p];
         let dx = vload_pair(PDX_OFF + DIM * p);
         let x_ji = vload_y(U_OFF + DIM * j) - u_i + dx;
@@ -87,7 +88,7 @@ fn stress(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     // (eqs 152–153), summed as Ĥ = F̂ − I.
     let r_t = transpose(r);
     var h: matd;
-    for (var p = offsets[i]; p < offsets[i + 1u]; p++) {
+    for (var p = offsets[i]; p < p_end; p++) {
         let j = ids[p];
         let dx = vload_pair(PDX_OFF + DIM * p);
         let u_hat = r_t * (vload_y(U_OFF + DIM * j) - u_i + dx) - dx;

@@ -32,7 +32,8 @@ fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     let c_i = sqrt(BULK / rho_i);
     var stress: vecd;
     var viscous: vecd;
-    for (var p = offsets[i]; p < offsets[i + 1u]; p++) {
+    let p_end = offsets[i + 1u];
+    for (var p = offsets[i]; p < p_end; p++) {
         let j = ids[p];
         let g = vload_pair(PG_OFF + DIM * p);
         // ½(R_i + R_j)(P̂_i + P̂_j)∇0W_ij V_j (eq 155).

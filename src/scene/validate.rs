@@ -258,8 +258,9 @@ fn method(m: &MethodTable) -> Checked {
         return fail(
             "method.h_over_dx",
             format!(
-                "must be a finite number in [{lowest:.4}, 4] (the {} kernel's support {}h \
-                 must reach one spacing), got {h:?}",
+                "must be a finite number in [{}, 4] (the {} kernel's support {}h must \
+                 reach one spacing), got {h:?}",
+                (lowest * 1e4).round() / 1e4,
                 toml_name(&m.kernel),
                 m.kernel.support_factor()
             ),
