@@ -443,6 +443,19 @@ fn a_linear_problem_converges_in_one_newton_iteration() {
 }
 
 #[test]
+fn frames_carry_the_smoothing_length_of_every_particle() {
+    // With h from each particle's 9th nearest neighbour, the plate's h varies (corner and
+    // edge particles reach farther): the snapshot's `smoothing_length`, which the frames
+    // write in place of the case's h, is the support's own h_i, particle by particle.
+    let case = plate_case("linear-elastic", "smoothing_length = { nearest = 9 }");
+    let (mut engine, _) = solve(&case);
+    let h = engine.model.support.h.clone();
+    assert!(h.iter().any(|&x| x != h[0]), "uniform h: {h:?}");
+    let snapshot = engine.snapshot();
+    assert_eq!(snapshot.field("smoothing_length"), Some(h.as_slice()));
+}
+
+#[test]
 fn the_iterative_solver_gives_the_direct_solution() {
     // CG to 1e-12 relative residual against the Cholesky solve: the difference is bounded
     // by the condition number (~1e4) times 1e-12, so 1e-7 of the largest displacement.

@@ -514,10 +514,17 @@ impl<D: Dim> Engine<D> for Statics<D> {
             f,
             sigma,
             strain_energy: energies.strain,
-            extra: vec![ScalarField {
-                name: "hourglass_energy_density",
-                values: hourglass,
-            }],
+            extra: vec![
+                ScalarField {
+                    name: "hourglass_energy_density",
+                    values: hourglass,
+                },
+                // The frames' smoothing length: this method's own, per particle.
+                ScalarField {
+                    name: "smoothing_length",
+                    values: model.support.h.clone(),
+                },
+            ],
         }
     }
 
