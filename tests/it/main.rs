@@ -14,6 +14,7 @@ mod contact;
 mod corotated_tlsph;
 mod dual_support;
 mod dual_support_cases;
+mod galerkin;
 mod godunov;
 #[cfg(feature = "gpu")]
 mod gpu_mixed;
