@@ -17,6 +17,8 @@ mod dual_support_cases;
 mod galerkin;
 mod godunov;
 #[cfg(feature = "gpu")]
+mod gpu_galerkin;
+#[cfg(feature = "gpu")]
 mod gpu_mixed;
 #[cfg(feature = "gpu")]
 mod gpu_neighbours;

@@ -1,7 +1,7 @@
 //! The finite-element reference of seed 000 (§5, "TL FEM"): 4-node quadrilaterals (8-node
 //! hexahedra in 3D) on the lattice cells of the bodies, 2×2 (2×2×2) Gauss points, the
 //! total-Lagrangian weak form with a lumped mass, explicit, on the shared Galerkin system
-//! ([`crate::methods::galerkin`]). CPU only for now. Numerics notes: `docs/methods/galerkin.md`.
+//! ([`crate::methods::galerkin`]). Numerics notes: `docs/methods/galerkin.md`.
 
 use super::galerkin::{Mass, TlGalerkin};
 use super::{Feature, MethodFamily, Plan, Problem};
@@ -43,16 +43,15 @@ impl MethodFamily for FemSpec {
         Gauss points, lumped mass, explicit";
     const KEYS: &'static [&'static str] = &["mass"];
     const FEATURES: &'static [Feature] = &[Feature::Contact];
-    const GPU_ENGINE: bool = false;
     const KERNEL: bool = false;
     #[cfg(feature = "gpu")]
-    const SHADERS: &'static [crate::gpu::shaders::Source] = &[];
+    const SHADERS: &'static [crate::gpu::shaders::Source] = super::galerkin::gpu::SHADERS;
 
     fn validate(&self, _case: &Case) -> Result<(), Problem> {
         Ok(())
     }
 
-    fn plan(&self, case: &Case, _gpu: bool) -> Plan {
+    fn plan(&self, case: &Case, gpu: bool) -> Plan {
         let mat = Material::new(&case.material);
         let mut left_out = vec!["kernels and neighbour lists (the cells are the mesh)"];
         left_out.push(if mat.model.is_rate_based() {
@@ -75,9 +74,15 @@ impl MethodFamily for FemSpec {
                 "Δt = cfl·Δx/(c_p + max|v|), c_p = {:.1} m/s",
                 mat.p_wave_speed()
             ),
-            rates: "F_q (and Ḟ_q) and P_q at every Gauss point, then each node gathers \
-                    −Σ_q w_q P_q ∇0N_a(X_q)"
-                .into(),
+            rates: if gpu {
+                "points pass (F_q, P_q, w_q ψ_q, ρ̇_q, Ṡ_q) + nodes pass (−Σ_q w_q P_q \
+                 ∇0N_a(X_q) gathered per node, BCs)"
+                    .into()
+            } else {
+                "F_q (and Ḟ_q) and P_q at every Gauss point, then each node gathers \
+                 −Σ_q w_q P_q ∇0N_a(X_q)"
+                    .into()
+            },
             checked: "det F at the Gauss points",
             check_note: String::new(),
             left_out,
@@ -92,9 +97,11 @@ impl MethodFamily for FemSpec {
     fn gpu_engine<D: EngineDim>(
         &self,
         case: &Case,
-        _gpu: crate::gpu::Gpu,
+        gpu: crate::gpu::Gpu,
     ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
-        Err(super::no_gpu_engine(case).into())
+        Ok(Box::new(super::galerkin::gpu::GpuGalerkin::<D>::new(
+            case, gpu,
+        )?))
     }
 
     /// Δt = α Δx/(c_p + max|v|) does not depend on the stretch.

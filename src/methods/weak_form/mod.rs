@@ -2,7 +2,7 @@
 //! Algorithm 6): reproducing-kernel (RKPM) shape functions of the particles at 2×2 Gauss
 //! points of the lattice cells, a lumped mass, and the velocity smoothing after each step
 //! that turns the RKPM coefficients into nodal values ("virtual to actual"). It runs on
-//! the shared Galerkin system ([`crate::methods::galerkin`]). CPU only for now. Numerics
+//! the shared Galerkin system ([`crate::methods::galerkin`]). Numerics
 //! notes: `docs/methods/galerkin.md`.
 
 use super::fem::galerkin_state;
@@ -83,15 +83,14 @@ impl MethodFamily for WeakFormSpec {
         mass, velocity smoothing after each step";
     const KEYS: &'static [&'static str] = &["smoothing", "mass"];
     const FEATURES: &'static [Feature] = &[Feature::Contact];
-    const GPU_ENGINE: bool = false;
     #[cfg(feature = "gpu")]
-    const SHADERS: &'static [crate::gpu::shaders::Source] = &[];
+    const SHADERS: &'static [crate::gpu::shaders::Source] = super::galerkin::gpu::SHADERS;
 
     fn validate(&self, _case: &Case) -> Result<(), Problem> {
         Ok(())
     }
 
-    fn plan(&self, case: &Case, _gpu: bool) -> Plan {
+    fn plan(&self, case: &Case, gpu: bool) -> Plan {
         let mat = Material::new(&case.material);
         let mut left_out = Vec::new();
         if !self.smoothing {
@@ -113,9 +112,16 @@ impl MethodFamily for WeakFormSpec {
                 "Δt = cfl·Δx/(c_p + max|v|), c_p = {:.1} m/s",
                 mat.p_wave_speed()
             ),
-            rates: "F_q (and Ḟ_q) and P_q at every Gauss point, then each particle gathers \
-                    −Σ_q w_q P_q ∇0N_a(X_q); after each step v_i ← Σ_j V_j Ψ_j(X_i) v_j"
-                .into(),
+            rates: if gpu {
+                "points pass (F_q, P_q, w_q ψ_q, ρ̇_q, Ṡ_q) + nodes pass (−Σ_q w_q P_q \
+                 ∇0N_a(X_q) gathered per particle, BCs); after each step the smooth and settle \
+                 passes (v_i ← Σ_j V_j Ψ_j(X_i) v_j, prescribed components kept)"
+                    .into()
+            } else {
+                "F_q (and Ḟ_q) and P_q at every Gauss point, then each particle gathers \
+                 −Σ_q w_q P_q ∇0N_a(X_q); after each step v_i ← Σ_j V_j Ψ_j(X_i) v_j"
+                    .into()
+            },
             checked: "det F at the Gauss points",
             check_note: String::new(),
             left_out,
@@ -130,9 +136,11 @@ impl MethodFamily for WeakFormSpec {
     fn gpu_engine<D: EngineDim>(
         &self,
         case: &Case,
-        _gpu: crate::gpu::Gpu,
+        gpu: crate::gpu::Gpu,
     ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
-        Err(super::no_gpu_engine(case).into())
+        Ok(Box::new(super::galerkin::gpu::GpuGalerkin::<D>::new(
+            case, gpu,
+        )?))
     }
 
     /// Δt = α Δx/(c_p + max|v|) does not depend on the stretch.

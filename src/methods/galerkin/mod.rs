@@ -10,6 +10,9 @@
 //! functions at Gauss points) and in what follows a step (the weak form's velocity
 //! smoothing, [`Smoothing`]).
 
+#[cfg(feature = "gpu")]
+pub mod gpu;
+
 use crate::boundary::Boundary;
 use crate::correction::{self, CorrectionKind};
 use crate::integrate::OdeSystem;
@@ -59,11 +62,11 @@ particle_state!(GalerkinState { rho, s });
 /// included, over the particles of i's body.
 #[derive(Clone, Debug)]
 pub struct Smoothing {
-    csr: Csr,
+    pub csr: Csr,
     /// V_j Ψ_j(X_i) per pair.
-    weight: Vec<f64>,
+    pub weight: Vec<f64>,
     /// V_i Ψ_i(X_i) = 1 − Σ_j V_j Ψ_j(X_i).
-    own: Vec<f64>,
+    pub own: Vec<f64>,
 }
 
 impl Smoothing {
@@ -173,6 +176,29 @@ impl<D: Dim> TlGalerkin<D> {
         &self.shapes
     }
 
+    /// The node-to-point gather lists.
+    pub fn gather(&self) -> &Gather {
+        &self.gather
+    }
+
+    /// The velocity smoothing after each step, if the method has one.
+    pub fn smoothing(&self) -> Option<&Smoothing> {
+        self.smoothing.as_ref()
+    }
+
+    /// P at every point of the last rate evaluation.
+    pub fn first_piola(&self) -> &[D::T] {
+        &self.pk1
+    }
+
+    pub fn material(&self) -> &Material {
+        &self.material
+    }
+
+    pub fn boundary(&self) -> &Boundary<D> {
+        &self.boundary
+    }
+
     /// The gradient Σ_a f_a ⊗ ∇0N_a(X_q) of a nodal field f at point q.
     #[inline]
     fn gradient_at(&self, q: usize, f: &[D::V]) -> D::T {
@@ -222,7 +248,7 @@ impl<D: Dim> TlGalerkin<D> {
 
     /// The node whose shape function is largest at point q: the particle a blow-up at
     /// the point is attributed to.
-    fn node_of(&self, q: usize) -> usize {
+    pub fn node_of(&self, q: usize) -> usize {
         let r = self.shapes.csr.range(q);
         let p = r
             .max_by(|&a, &b| self.shapes.n[a].total_cmp(&self.shapes.n[b]))
