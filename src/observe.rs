@@ -21,6 +21,9 @@ pub struct Snapshot<'a, D: Dim> {
     pub strain_energy: f64,
     /// Per-particle fields of the method's own, written into the frames.
     pub extra: Vec<ScalarField>,
+    /// The corners of the method's elements, 2^d per cell in VTK order, which the frames
+    /// show as cells on the particles; empty for the particle methods.
+    pub cells: &'a [u32],
 }
 
 /// A per-particle scalar field that a method adds to the frames (the plastic strain ε_p).

@@ -3,8 +3,9 @@
 //!
 //! Frames use binary appended raw encoding with UInt64 block headers in
 //! little-endian byte order. Every particle is one `VTK_VERTEX` cell so that
-//! ParaView renders the cloud without a Glyph filter, and the frame time is
-//! stored as the `TimeValue` field-data array.
+//! ParaView renders the cloud without a Glyph filter; a method with elements adds them
+//! as `VTK_QUAD` (2D) or `VTK_HEXAHEDRON` (3D) cells on the same points ([`Mesh`]). The
+//! frame time is stored as the `TimeValue` field-data array.
 
 use std::collections::HashSet;
 use std::fmt::Write as _;
@@ -15,6 +16,29 @@ use super::{format_f64, invalid_input, write_atomically};
 
 /// VTK cell type of a single point.
 const VTK_VERTEX: u8 = 1;
+/// VTK cell types of the 4-node quadrilateral and the 8-node hexahedron.
+const VTK_QUAD: u8 = 9;
+const VTK_HEXAHEDRON: u8 = 12;
+
+/// Elements on the points of a frame: 2^dim corner indices per cell, in VTK order.
+#[derive(Debug, Clone, Copy)]
+pub struct Mesh<'a> {
+    pub corners: &'a [u32],
+    /// 2 (quadrilaterals) or 3 (hexahedra).
+    pub dim: usize,
+}
+
+impl Mesh<'_> {
+    /// No elements: the points alone.
+    pub const NONE: Mesh<'static> = Mesh {
+        corners: &[],
+        dim: 2,
+    };
+
+    fn per_cell(&self) -> usize {
+        1 << self.dim
+    }
+}
 
 /// Values of one per-point field.
 #[derive(Debug, Clone, Copy)]
@@ -64,15 +88,27 @@ pub struct Field<'a> {
     pub data: FieldData<'a>,
 }
 
-/// Writes one frame: `points` with per-point `fields` at simulation `time`.
+/// Writes one frame: `points` with per-point `fields` at simulation `time`, and the
+/// elements of `mesh` besides the points' vertex cells.
 ///
 /// Two-dimensional data passes `z = 0`. Fails with
 /// [`io::ErrorKind::InvalidInput`] if a field's length differs from the point
-/// count or if field names are empty or repeated; the file at `path` is then
-/// left untouched. The frame is written to a fresh temporary sibling and renamed into
+/// count, if field names are empty or repeated, or if a cell names a point that is not
+/// there; the file at `path` is then left untouched. The frame is written to a fresh temporary sibling and renamed into
 /// place ([`super::write_atomically`]).
-pub fn write_vtu(path: &Path, points: &[[f64; 3]], fields: &[Field], time: f64) -> io::Result<()> {
+pub fn write_vtu(
+    path: &Path,
+    points: &[[f64; 3]],
+    fields: &[Field],
+    time: f64,
+    mesh: Mesh,
+) -> io::Result<()> {
     let n = points.len();
+    if let Some(&c) = mesh.corners.iter().find(|&&c| c as usize >= n) {
+        return Err(invalid_input(format!(
+            "a VTU cell names point {c} but there are {n} points"
+        )));
+    }
     let mut names = HashSet::new();
     for field in fields {
         if field.name.is_empty() {
@@ -98,10 +134,28 @@ pub fn write_vtu(path: &Path, points: &[[f64; 3]], fields: &[Field], time: f64) 
     let point_arrays: Vec<Array> = fields.iter().map(Array::from_field).collect();
     let points_array = Array::new("Points", 3, Payload::F64(points.as_flattened()));
     let count = i64::try_from(n).map_err(|_| invalid_input(format!("{n} points is too many")))?;
+    // The vertex cells 0..n, then the elements.
+    let elements = mesh.corners.len() / mesh.per_cell();
+    let connectivity: Vec<i64> = (0..count)
+        .chain(mesh.corners.iter().map(|&c| i64::from(c)))
+        .collect();
+    let per_cell = mesh.per_cell() as i64;
+    let offsets: Vec<i64> = (1..=count)
+        .chain((1..=elements as i64).map(|k| count + k * per_cell))
+        .collect();
+    let element_type = if mesh.dim == 3 {
+        VTK_HEXAHEDRON
+    } else {
+        VTK_QUAD
+    };
+    let types: Vec<u8> = std::iter::repeat_n(VTK_VERTEX, n)
+        .chain(std::iter::repeat_n(element_type, elements))
+        .collect();
+    let cells = n + elements;
     let cell_arrays = [
-        Array::new("connectivity", 1, Payload::Int64Range(0, count)),
-        Array::new("offsets", 1, Payload::Int64Range(1, count + 1)),
-        Array::new("types", 1, Payload::UInt8Repeat(VTK_VERTEX, n)),
+        Array::new("connectivity", 1, Payload::I64(&connectivity)),
+        Array::new("offsets", 1, Payload::I64(&offsets)),
+        Array::new("types", 1, Payload::U8(&types)),
     ];
 
     // The header lists the arrays in the order their blocks are appended.
@@ -118,7 +172,7 @@ pub fn write_vtu(path: &Path, points: &[[f64; 3]], fields: &[Field], time: f64) 
     header.push_str("    </FieldData>\n");
     let _ = writeln!(
         header,
-        "    <Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{n}\">"
+        "    <Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{cells}\">"
     );
     header.push_str("      <PointData>\n");
     for array in &point_arrays {
@@ -155,10 +209,8 @@ pub fn write_vtu(path: &Path, points: &[[f64; 3]], fields: &[Field], time: f64) 
 enum Payload<'a> {
     F64(&'a [f64]),
     I32(&'a [i32]),
-    /// `start, start + 1, ..., end - 1` as `Int64`.
-    Int64Range(i64, i64),
-    /// `value` repeated `count` times as `UInt8`.
-    UInt8Repeat(u8, usize),
+    I64(&'a [i64]),
+    U8(&'a [u8]),
 }
 
 impl Payload<'_> {
@@ -166,8 +218,8 @@ impl Payload<'_> {
         match self {
             Payload::F64(_) => "Float64",
             Payload::I32(_) => "Int32",
-            Payload::Int64Range(..) => "Int64",
-            Payload::UInt8Repeat(..) => "UInt8",
+            Payload::I64(_) => "Int64",
+            Payload::U8(_) => "UInt8",
         }
     }
 
@@ -176,8 +228,8 @@ impl Payload<'_> {
         let bytes = match self {
             Payload::F64(v) => v.len() * 8,
             Payload::I32(v) => v.len() * 4,
-            Payload::Int64Range(start, end) => (end - start).max(0) as usize * 8,
-            Payload::UInt8Repeat(_, count) => *count,
+            Payload::I64(v) => v.len() * 8,
+            Payload::U8(v) => v.len(),
         };
         bytes as u64
     }
@@ -188,10 +240,8 @@ impl Payload<'_> {
         match self {
             Payload::F64(v) => write_le(w, v.iter().map(|x| x.to_le_bytes())),
             Payload::I32(v) => write_le(w, v.iter().map(|x| x.to_le_bytes())),
-            Payload::Int64Range(start, end) => write_le(w, (*start..*end).map(i64::to_le_bytes)),
-            Payload::UInt8Repeat(value, count) => {
-                write_le(w, std::iter::repeat_n([*value], *count))
-            }
+            Payload::I64(v) => write_le(w, v.iter().map(|x| x.to_le_bytes())),
+            Payload::U8(v) => write_le(w, v.iter().map(|&x| [x])),
         }
     }
 }
@@ -514,7 +564,7 @@ pub(crate) mod tests {
         ];
         let time = 0.123_456_789_012_345_67;
 
-        write_vtu(&path, &points, &fields, time).unwrap();
+        write_vtu(&path, &points, &fields, time, Mesh::NONE).unwrap();
         let (header, tags, raw) = read_vtu(&path);
 
         assert!(header.starts_with("<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\""));
@@ -561,11 +611,51 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn elements_follow_the_vertex_cells() {
+        // Four points and one quadrilateral on them: five cells, the quad's corners after
+        // the vertices, its offset four past theirs, its type VTK_QUAD; a cell naming a
+        // fifth point is refused and nothing is written.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("mesh.vtu");
+        let points = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+        ];
+        let mesh = Mesh {
+            corners: &[0, 1, 2, 3],
+            dim: 2,
+        };
+        write_vtu(&path, &points, &[], 0.0, mesh).unwrap();
+        let (header, tags, raw) = read_vtu(&path);
+        assert!(header.contains("NumberOfPoints=\"4\" NumberOfCells=\"5\""));
+        let data = |name: &str| {
+            let tag = tags.iter().find(|t| t.name == name).unwrap();
+            block(&raw, tag.offset).to_vec()
+        };
+        assert_eq!(decode_i64(&data("connectivity")), [0, 1, 2, 3, 0, 1, 2, 3]);
+        assert_eq!(decode_i64(&data("offsets")), [1, 2, 3, 4, 8]);
+        assert_eq!(
+            data("types"),
+            [VTK_VERTEX, VTK_VERTEX, VTK_VERTEX, VTK_VERTEX, VTK_QUAD]
+        );
+        let bad = Mesh {
+            corners: &[0, 1, 2, 4],
+            dim: 2,
+        };
+        let other = dir.path().join("bad.vtu");
+        let err = write_vtu(&other, &points, &[], 0.0, bad).unwrap_err();
+        assert!(err.to_string().contains("point 4"), "{err}");
+        assert!(!other.exists());
+    }
+
+    #[test]
     fn vtu_without_points_or_fields_is_well_formed() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("empty.vtu");
 
-        write_vtu(&path, &[], &[], 2.0).unwrap();
+        write_vtu(&path, &[], &[], 2.0, Mesh::NONE).unwrap();
         let (header, tags, raw) = read_vtu(&path);
 
         assert!(header.contains("<Piece NumberOfPoints=\"0\" NumberOfCells=\"0\">"));
@@ -600,7 +690,7 @@ pub(crate) mod tests {
             },
         ];
 
-        let err = write_vtu(&path, &points, &fields, 0.0).unwrap_err();
+        let err = write_vtu(&path, &points, &fields, 0.0, Mesh::NONE).unwrap_err();
 
         assert_eq!(err.kind(), io::ErrorKind::InvalidInput);
         assert!(err.to_string().contains("cauchy_stress"), "{err}");
@@ -630,7 +720,7 @@ pub(crate) mod tests {
         ];
 
         for fields in [&empty[..], &twice[..]] {
-            let err = write_vtu(&path, &points, fields, 0.0).unwrap_err();
+            let err = write_vtu(&path, &points, fields, 0.0, Mesh::NONE).unwrap_err();
             assert_eq!(err.kind(), io::ErrorKind::InvalidInput);
         }
         assert!(!path.exists());
@@ -646,7 +736,7 @@ pub(crate) mod tests {
             name: "a<b & \"c\"",
             data: FieldData::Scalar(&v),
         }];
-        write_vtu(&path, &[[0.0; 3]], &fields, 0.0).unwrap();
+        write_vtu(&path, &[[0.0; 3]], &fields, 0.0, Mesh::NONE).unwrap();
         let (header, _, _) = read_vtu(&path);
 
         assert!(
@@ -667,7 +757,7 @@ pub(crate) mod tests {
         let times = [0.0, 2.5e-4, 1.0 / 3.0];
         for (i, &t) in times.iter().enumerate() {
             let name = format!("run_{i:04}.vtu");
-            write_vtu(&dir.path().join(&name), &[[0.0; 3]], &[], t).unwrap();
+            write_vtu(&dir.path().join(&name), &[[0.0; 3]], &[], t, Mesh::NONE).unwrap();
             index.push(t, &name).unwrap();
         }
         assert_eq!(index.len(), 3);
@@ -692,7 +782,7 @@ pub(crate) mod tests {
     fn pvd_rejects_missing_frames_and_keeps_index() {
         let dir = tempfile::tempdir().unwrap();
         let mut index = PvdIndex::create(dir.path(), "run").unwrap();
-        write_vtu(&dir.path().join("a.vtu"), &[], &[], 0.0).unwrap();
+        write_vtu(&dir.path().join("a.vtu"), &[], &[], 0.0, Mesh::NONE).unwrap();
         index.push(0.0, "a.vtu").unwrap();
         let before = fs::read_to_string(index.path()).unwrap();
 

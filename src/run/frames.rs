@@ -3,7 +3,7 @@
 use super::{RunError, RunOptions, output_error};
 use crate::material::von_mises;
 use crate::observe::Snapshot;
-use crate::output::{Field, FieldData, PvdIndex, write_vtu};
+use crate::output::{Field, FieldData, Mesh, PvdIndex, write_vtu};
 use crate::scene::Case;
 use crate::tensor::Dim;
 use std::path::{Path, PathBuf};
@@ -159,7 +159,8 @@ pub(super) fn next_frame_time(previous: f64, interval: f64, t: f64) -> f64 {
 /// σ, pressure p = −tr σ/3, von Mises stress, J, mass, volume V = V0 J, density ρ0/J,
 /// smoothing length, the hourglass indicator η, body, and the method's own fields (the
 /// plastic strain ε_p of a plastic material), which replace the derived field of the same
-/// name (a UL method's own density, a per-particle smoothing length).
+/// name (a UL method's own density, a per-particle smoothing length); the method's
+/// elements, if it has them, as cells on the particles.
 pub fn write_frame<D: Dim>(
     path: &Path,
     snap: &Snapshot<D>,
@@ -266,7 +267,11 @@ pub fn write_frame<D: Dim>(
             None => fields.push(Field { name: f.name, data }),
         }
     }
-    write_vtu(path, &points, &fields, t)
+    let mesh = Mesh {
+        corners: snap.cells,
+        dim: D::N,
+    };
+    write_vtu(path, &points, &fields, t, mesh)
 }
 
 /// F as 3×3; in plane strain F_zz = 1.
@@ -319,6 +324,7 @@ mod tests {
             sigma: sigma.clone(),
             strain_energy: 0.0,
             extra,
+            cells: &[],
         };
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("frame.vtu");

@@ -256,3 +256,24 @@ fn angular_momentum_on_the_rotating_disk() {
         "the smoothing does not dissipate: ΔH/H0 = {smoothed:e}"
     );
 }
+
+#[test]
+fn frames_carry_the_elements() {
+    // The strip's 441 nodes and 400 quadrilaterals: 841 cells in each frame (the
+    // frame's own header).
+    let dir = tempfile::tempdir().unwrap();
+    let case = load("tensile-strip-fem", &["run.end_time=1e-5"]);
+    meshless::run::run(&case, &crate::common::cpu_options(dir.path(), true)).unwrap();
+    let frame = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.extension().is_some_and(|e| e == "vtu"))
+        .expect("a frame");
+    let bytes = std::fs::read(&frame).unwrap();
+    let text = String::from_utf8_lossy(&bytes);
+    assert!(
+        text.contains("NumberOfPoints=\"441\" NumberOfCells=\"841\""),
+        "{}",
+        &text[..600]
+    );
+}

@@ -285,6 +285,7 @@ impl<D: Dim> Corotated<D> {
             sigma,
             strain_energy,
             extra: Vec::new(),
+            cells: &[],
         }
     }
 }

@@ -525,6 +525,7 @@ impl<D: Dim> Engine<D> for Statics<D> {
                     values: model.support.h.clone(),
                 },
             ],
+            cells: &[],
         }
     }
 

@@ -33,7 +33,7 @@ impl FemSpec {
             .map_err(|e| case.invalid("body", e.to_string()))?;
         let points = QuadraturePoints::new(&cells, &reference.x0, Rule::Gauss2);
         let shapes = Shapes::isoparametric(&cells, &points, &reference.x0);
-        TlGalerkin::new(case, reference, points, shapes, self.mass, None)
+        TlGalerkin::new(case, reference, cells, points, shapes, self.mass, None)
     }
 }
 

@@ -23,7 +23,7 @@ use crate::methods::tlsph::system::stress_fields;
 use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::{Csr, Rebuild};
 use crate::observe::Snapshot;
-use crate::quadrature::{Gather, QuadraturePoints, Shapes};
+use crate::quadrature::{Cells, Gather, QuadraturePoints, Shapes};
 use crate::reference::Reference;
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
@@ -106,6 +106,8 @@ pub struct TlGalerkin<D: Dim> {
     mass: Vec<f64>,
     body: Vec<u32>,
     v0: Vec<D::V>,
+    /// The cells the points lie in, shown in the frames.
+    cells: Cells,
     points: QuadraturePoints<D>,
     shapes: Shapes<D>,
     gather: Gather,
@@ -120,11 +122,13 @@ pub struct TlGalerkin<D: Dim> {
 }
 
 impl<D: Dim> TlGalerkin<D> {
-    /// The system on the particles of `reference` with quadrature points and their shape
-    /// functions, nodal masses by `mass`, and a velocity smoothing after each step if given.
+    /// The system on the particles of `reference` with the quadrature points of `cells`
+    /// and their shape functions, nodal masses by `mass`, and a velocity smoothing after
+    /// each step if given.
     pub fn new(
         case: &Case,
         reference: Reference<D>,
+        cells: Cells,
         points: QuadraturePoints<D>,
         shapes: Shapes<D>,
         mass: Mass,
@@ -153,6 +157,7 @@ impl<D: Dim> TlGalerkin<D> {
             mass,
             body,
             v0,
+            cells,
             points,
             shapes,
             gather,
@@ -499,6 +504,7 @@ impl<D: Dim> Method<D> for TlGalerkin<D> {
             sigma: self.stress_at_nodes(&fields.sigma),
             strain_energy: fields.energy,
             extra: Vec::new(),
+            cells: &self.cells.corners,
         }
     }
 

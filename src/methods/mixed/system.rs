@@ -876,6 +876,7 @@ impl<D: Dim> Method<D> for MixedSph<D> {
                 })
                 .into_iter()
                 .collect(),
+            cells: &[],
         }
     }
 

@@ -727,6 +727,7 @@ impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
                 sigma,
                 strain_energy,
                 extra: Vec::new(),
+                cells: &[],
             };
         }
         snapshot(

@@ -126,6 +126,7 @@ pub fn snapshot<'a, D: Dim>(
         sigma,
         strain_energy,
         extra: Vec::new(),
+        cells: &[],
     }
 }
 

@@ -467,6 +467,7 @@ pub fn snapshot<'a, D: Dim>(
                 values: volume,
             },
         ],
+        cells: &[],
     }
 }
 

@@ -73,7 +73,7 @@ impl WeakFormSpec {
         } else {
             None
         };
-        TlGalerkin::new(case, reference, points, shapes, self.mass, smoothing)
+        TlGalerkin::new(case, reference, cells, points, shapes, self.mass, smoothing)
     }
 }
 
