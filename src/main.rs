@@ -437,6 +437,11 @@ fn bench_command(
             }
         }
     }
+    for r in &rows {
+        if let Some(report) = &r.passes {
+            println!("\n{}, {} particles. {report}", r.case, r.particles);
+        }
+    }
     if let Some(path) = csv {
         let text: String = std::iter::once(BenchRow::HEADER.to_string())
             .chain(rows.iter().map(BenchRow::csv))
