@@ -1,6 +1,6 @@
 //! The wgpu device: adapter selection, buffers, pipelines, dispatch sizes and readback.
 
-use super::profile::{Cost, Profiler};
+use super::profile::{Cost, PassBytes, Profiler};
 use bytemuck::Pod;
 use std::borrow::Cow;
 use std::sync::Mutex;
@@ -197,16 +197,20 @@ fn integer_constants(module: &naga::Module) -> Vec<(String, i64)> {
         .collect()
 }
 
-/// The bytes model of entry point `entry` of a composed pass, in the variant its
-/// constants select: the model its pass file declares (the registered
-/// [`Source`](super::shaders::Source) whose text the composed source ends with), None
-/// if it declares none. Err: the model names a constant the variant lacks.
-pub fn pass_cost(source: &str, entry: &str) -> Result<Option<Cost>, String> {
-    let Some(model) = crate::methods::shaders()
+/// The bytes model of entry point `entry` of a composed pass: the one its pass file
+/// declares (the registered [`Source`](super::shaders::Source) whose text the composed
+/// source ends with), None if it declares none.
+pub fn pass_model(source: &str, entry: &str) -> Option<&'static PassBytes> {
+    crate::methods::shaders()
         .into_iter()
         .filter(|s| source.ends_with(s.text))
         .find_map(|s| s.bytes.iter().find(|b| b.entry == entry))
-    else {
+}
+
+/// The bytes model of entry point `entry` of a composed pass ([`pass_model`]) in the
+/// variant its constants select. Err: the model names a constant the variant lacks.
+pub fn pass_cost(source: &str, entry: &str) -> Result<Option<Cost>, String> {
+    let Some(model) = pass_model(source, entry) else {
         return Ok(None);
     };
     let (module, _) = validated(source)?;

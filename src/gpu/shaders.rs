@@ -157,7 +157,7 @@ pub const CELL_LIST: Source = source!(
         PassBytes {
             entry: "clear_counts",
             traffic: &[
-                read_write("cell_start", [1, 0, 0], NONE),
+                write("cell_start", [1, 0, 0], NONE),
                 write("offsets", [1, 0, 0], NONE),
             ],
         },
@@ -172,8 +172,8 @@ pub const CELL_LIST: Source = source!(
         PassBytes {
             entry: "copy_cursor",
             traffic: &[
-                read_write("cell_start", [1, 0, 0], NONE),
-                read_write("cursor", [1, 0, 0], NONE),
+                read("cell_start", [1, 0, 0], NONE),
+                write("cursor", [1, 0, 0], NONE),
             ],
         },
         PassBytes {
@@ -188,10 +188,12 @@ pub const CELL_LIST: Source = source!(
             entry: "count_neighbours",
             traffic: &[
                 read("x", [0, 1, 0], NONE),
-                read_write("cell_start", [1, 0, 0], NONE),
+                read("cell_start", [1, 0, 0], NONE),
                 read("sorted", [1, 0, 0], NONE),
                 read("body", [1, 0, 0], NONE).when(&["MASKED"]),
                 write("offsets", [1, 0, 0], NONE),
+                // The search it shares with `fill_neighbours` fills ids there only.
+                read_write("ids", NONE, NONE),
             ],
         },
         // The ids of a row are sorted in place as they are found: read and written.
@@ -199,7 +201,7 @@ pub const CELL_LIST: Source = source!(
             entry: "fill_neighbours",
             traffic: &[
                 read("x", [0, 1, 0], NONE),
-                read_write("cell_start", [1, 0, 0], NONE),
+                read("cell_start", [1, 0, 0], NONE),
                 read("sorted", [1, 0, 0], NONE),
                 read("body", [1, 0, 0], NONE).when(&["MASKED"]),
                 read("offsets", [1, 0, 0], NONE),

@@ -238,10 +238,14 @@ pub const MOMENTUM: Source = source!(
                 write("partials", NONE, NONE),
             ],
         },
-        // One item: the partial sums of every workgroup in, 12 floats out (not counted).
+        // One item: the partial sums of every workgroup in (not counted), the rotation,
+        // translation and centre of the projection out.
         PassBytes {
             entry: "balance_solve",
-            traffic: &[read("partials", NONE, NONE), write("force", NONE, NONE)],
+            traffic: &[
+                read("partials", NONE, NONE),
+                write("force", [9, 0, 0], NONE)
+            ],
         },
         PassBytes {
             entry: "rates",
