@@ -210,11 +210,16 @@ pub fn pass_model(source: &str, entry: &str) -> Option<&'static PassBytes> {
 /// The bytes model of entry point `entry` of a composed pass ([`pass_model`]) in the
 /// variant its constants select. Err: the model names a constant the variant lacks.
 pub fn pass_cost(source: &str, entry: &str) -> Result<Option<Cost>, String> {
+    let (module, _) = validated(source)?;
+    cost_in(&module, source, entry)
+}
+
+/// [`pass_cost`] of the parsed `module` of `source`.
+fn cost_in(module: &naga::Module, source: &str, entry: &str) -> Result<Option<Cost>, String> {
     let Some(model) = pass_model(source, entry) else {
         return Ok(None);
     };
-    let (module, _) = validated(source)?;
-    let constants = integer_constants(&module);
+    let constants = integer_constants(module);
     model
         .cost(|name| constants.iter().find(|(n, _)| n == name).map(|c| c.1))
         .map(Some)
@@ -414,10 +419,13 @@ impl Gpu {
     /// binds no more storage buffers than the adapter allows (layout from the shader).
     pub fn pipeline(&self, label: &str, source: &str, entry: &str) -> Result<Pipeline, GpuError> {
         let pass = format!("{label} ({entry})");
-        let reflection = reflect(source, entry).map_err(|message| GpuError::Shader {
+        let shader = |message| GpuError::Shader {
             pass: pass.clone(),
             message,
-        })?;
+        };
+        let (module, info) = validated(source).map_err(shader)?;
+        let reflection = reflect_module(&module, &info, entry).map_err(shader)?;
+        let cost = cost_in(&module, source, entry).map_err(shader)?;
         let limit = self.limits.max_storage_buffers_per_shader_stage;
         if reflection.storage_buffers > limit {
             return Err(GpuError::TooManyBuffers {
@@ -427,10 +435,6 @@ impl Gpu {
                 limit,
             });
         }
-        let cost = pass_cost(source, entry).map_err(|message| GpuError::Shader {
-            pass: pass.clone(),
-            message,
-        })?;
         let module = self
             .device
             .create_shader_module(wgpu::ShaderModuleDescriptor {
