@@ -108,13 +108,21 @@ impl std::fmt::Display for PassReport {
             )?;
         }
         let bytes = self.bytes_per_step();
+        // The bandwidth of the passes with a model, over their own time.
+        let modelled: f64 = self
+            .rows
+            .iter()
+            .filter(|r| r.bytes.is_some())
+            .filter_map(|r| r.seconds)
+            .sum::<f64>()
+            / steps;
         match self.seconds_per_step() {
             Some(t) => writeln!(
                 f,
                 "| all passes | | {:.1} | {bytes:.0} | {:.2} | {:.3} |",
                 1e6 * t,
-                bytes / t * 1e-9,
-                bytes / t / self.copy_bandwidth
+                bytes / modelled * 1e-9,
+                bytes / modelled / self.copy_bandwidth
             )?,
             None => writeln!(f, "| all passes | | – | {bytes:.0} | – | – |")?,
         }

@@ -99,6 +99,7 @@ pub fn cpu_options(dir: &Path, frames: bool) -> RunOptions {
         stop: None,
         limits: Default::default(),
         resume: false,
+        profile: false,
     }
 }
 

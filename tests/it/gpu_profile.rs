@@ -4,12 +4,12 @@
 //! Without an adapter these tests fail: `bench::measure` on the GPU backend returns the
 //! error, which they unwrap.
 
-use crate::common::load;
+use crate::common::{cpu_options, load};
 use meshless::bench::{PassReport, measure};
 use meshless::gpu::profile::{NONE, PassBytes, read, read_write, write};
 use meshless::integrate::{Op, program};
 use meshless::reference::Reference;
-use meshless::run::Backend;
+use meshless::run::{Backend, RunOptions, run};
 use meshless::scene::Case;
 use meshless::tensor::D2;
 
@@ -271,4 +271,38 @@ fn a_bytes_model_counts_directions_conditions_and_slopes() {
     assert_eq!(cost.item, 4 * (1 + 3 + 9 + 3 + 2 * 4 * 9));
     let err = MISSING.cost(constants(0, 0)).unwrap_err();
     assert!(err.contains("XSPH"), "{err}");
+}
+
+/// `meshless run --profile` on the GPU: the summary carries the report of every step of
+/// the run, its passes' times within the run's wall time; without `--profile`, none.
+#[test]
+fn a_profiled_run_reports_the_passes_of_its_steps() {
+    let case = load("rotating-disk", &["run.end_time=3e-5"]);
+    let dir = tempfile::tempdir().unwrap();
+    let options = |profile| RunOptions {
+        backend: Backend::Gpu,
+        profile,
+        ..cpu_options(dir.path(), false)
+    };
+    let summary = run(&case, &options(true)).unwrap_or_else(|e| {
+        panic!("a profiled run needs a GPU adapter (CI installs Mesa lavapipe): {e}")
+    });
+    let report = summary
+        .passes
+        .expect("a profiled GPU run has a pass report");
+    assert_eq!(u64::from(report.steps), summary.steps);
+    let steps = u64::from(report.steps);
+    // The stress pass also runs for the snapshots of the series rows: at least 4 a step.
+    assert!(
+        row(&report, "tl stress (stress)").dispatches >= 4 * steps,
+        "{report}"
+    );
+    assert_eq!(row(&report, "tl accel (accel)").dispatches, 4 * steps);
+    let timed: f64 = report.rows.iter().filter_map(|r| r.seconds).sum();
+    assert!(
+        timed > 0.0 && timed <= summary.wall_seconds,
+        "passes {timed} s, run {} s",
+        summary.wall_seconds
+    );
+    assert!(run(&case, &options(false)).unwrap().passes.is_none());
 }
