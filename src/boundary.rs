@@ -134,8 +134,8 @@ impl<D: Dim> Boundary<D> {
         })
     }
 
-    /// Overwrites the constrained components of the initial velocities.
-    pub fn impose_initial(&self, v: &mut [D::V]) {
+    /// Overwrites the constrained components of velocities v with the prescribed ones.
+    pub fn impose(&self, v: &mut [D::V]) {
         for &(i, prescribed) in &self.prescribed {
             let mask = self.mask_of(i);
             v[i as usize] = mix::<D>(mask, prescribed, v[i as usize]);

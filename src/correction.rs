@@ -123,7 +123,7 @@ pub fn kernel_weights<D: Dim>(
                 .map(|&j| vol[j as usize] * w(j) / s)
                 .collect());
         }
-        let (c, _) = rkpm_coefficients::<D>(i, x, vol, csr, kernel)?;
+        let (c, _) = particle_coefficients::<D>(i, x, vol, csr, kernel)?;
         Ok(csr
             .neighbours(i)
             .iter()
@@ -252,21 +252,19 @@ fn linear_basis<D: Dim>(r: D::V) -> [f64; 4] {
     p
 }
 
-/// The reproducing-kernel coefficients of particle i: C = M⁻¹ e₁ and ∂_k C (seed 000
-/// eqs 55–59), so that W̃_j(x_i) = C·p(r) W(r).
+/// The reproducing-kernel coefficients at a point x: C = M⁻¹ e₁ and ∂_k C (seed 000
+/// eqs 55–59), from the nodes' offsets r_j = x − x_j and volumes V_j, so that
+/// Ψ_j(x) = C·p(r_j) W(r_j). None when the moment matrix is singular.
 fn rkpm_coefficients<D: Dim>(
-    i: usize,
-    x: &[D::V],
-    vol: &[f64],
-    csr: &Csr,
+    nodes: impl Iterator<Item = (D::V, f64)>,
     kernel: &Kernel,
-) -> Result<([f64; 4], [[f64; 4]; 3]), CorrectionError> {
+) -> Option<([f64; 4], [[f64; 4]; 3])> {
     let n = D::N + 1;
     let basis = linear_basis::<D>;
-    // Moment matrix M and its derivatives ∂_k M (eqs 55–58), self term included.
+    // Moment matrix M and its derivatives ∂_k M (eqs 55–58).
     let mut m: Small = [[0.0; 4]; 4];
     let mut dm: [Small; 3] = [[[0.0; 4]; 4]; 3];
-    let mut add = |r: D::V, v: f64| {
+    for (r, v) in nodes {
         let (w, gw, p) = (kernel.w(D::norm2(r).sqrt()), kernel.grad::<D>(r), basis(r));
         for a in 0..n {
             for b in 0..n {
@@ -278,19 +276,8 @@ fn rkpm_coefficients<D: Dim>(
                 }
             }
         }
-    };
-    add(D::zero(), vol[i]);
-    for &j in csr.neighbours(i) {
-        add(x[i] - x[j as usize], vol[j as usize]);
     }
-    let singular = || CorrectionError::Singular {
-        kind: CorrectionKind::Rkpm,
-        particle: i,
-        position: D::to3(x[i]),
-        neighbours: csr.neighbours(i).len(),
-        det: 0.0,
-    };
-    let c = solve_small(m, [1.0, 0.0, 0.0, 0.0], n).ok_or_else(singular)?;
+    let c = solve_small(m, [1.0, 0.0, 0.0, 0.0], n)?;
     // ∂_k C = −M⁻¹ (∂_k M) C (eq 59).
     let mut dc = [[0.0; 4]; 3];
     for k in 0..D::N {
@@ -298,9 +285,49 @@ fn rkpm_coefficients<D: Dim>(
         for a in 0..n {
             rhs[a] = -(0..n).map(|b| dm[k][a][b] * c[b]).sum::<f64>();
         }
-        dc[k] = solve_small(m, rhs, n).ok_or_else(singular)?;
+        dc[k] = solve_small(m, rhs, n)?;
     }
-    Ok((c, dc))
+    Some((c, dc))
+}
+
+/// Ψ_j(x) and ∇Ψ_j(x) of the node at offset r = x − x_j, from the coefficients C and
+/// ∂_k C at x: ∂_k Ψ_j = (∂_k C·p + C_k) W + C·p ∂_k W (seed 000 §1.4).
+fn rkpm_shape<D: Dim>(c: &[f64; 4], dc: &[[f64; 4]; 3], r: D::V, kernel: &Kernel) -> (f64, D::V) {
+    let n = D::N + 1;
+    let (w, gw, p) = (
+        kernel.w(D::norm2(r).sqrt()),
+        kernel.grad::<D>(r),
+        linear_basis::<D>(r),
+    );
+    let cp: f64 = (0..n).map(|a| c[a] * p[a]).sum();
+    let mut g = [0.0; 3];
+    for (k, gk) in g.iter_mut().enumerate().take(D::N) {
+        let dcp: f64 = (0..n).map(|a| dc[k][a] * p[a]).sum();
+        *gk = (dcp + c[k + 1]) * w + cp * D::comp(gw, k);
+    }
+    (cp * w, D::from_slice(&g))
+}
+
+/// The coefficients of particle i, its own term included in the moments.
+fn particle_coefficients<D: Dim>(
+    i: usize,
+    x: &[D::V],
+    vol: &[f64],
+    csr: &Csr,
+    kernel: &Kernel,
+) -> Result<([f64; 4], [[f64; 4]; 3]), CorrectionError> {
+    let own = std::iter::once((D::zero(), vol[i]));
+    let others = csr
+        .neighbours(i)
+        .iter()
+        .map(|&j| (x[i] - x[j as usize], vol[j as usize]));
+    rkpm_coefficients::<D>(own.chain(others), kernel).ok_or_else(|| CorrectionError::Singular {
+        kind: CorrectionKind::Rkpm,
+        particle: i,
+        position: D::to3(x[i]),
+        neighbours: csr.neighbours(i).len(),
+        det: 0.0,
+    })
 }
 
 fn rkpm<D: Dim>(
@@ -310,24 +337,33 @@ fn rkpm<D: Dim>(
     csr: &Csr,
     kernel: &Kernel,
 ) -> Result<Vec<D::V>, CorrectionError> {
-    let n = D::N + 1;
-    let basis = linear_basis::<D>;
-    let (c, dc) = rkpm_coefficients::<D>(i, x, vol, csr, kernel)?;
+    let (c, dc) = particle_coefficients::<D>(i, x, vol, csr, kernel)?;
     Ok(csr
         .neighbours(i)
         .iter()
-        .map(|&j| {
-            let r = x[i] - x[j as usize];
-            let (w, gw, p) = (kernel.w(D::norm2(r).sqrt()), kernel.grad::<D>(r), basis(r));
-            let cp: f64 = (0..n).map(|a| c[a] * p[a]).sum();
-            let mut g = [0.0; 3];
-            for (k, gk) in g.iter_mut().enumerate().take(D::N) {
-                let dcp: f64 = (0..n).map(|a| dc[k][a] * p[a]).sum();
-                *gk = (dcp + c[k + 1]) * w + cp * D::comp(gw, k);
-            }
-            D::from_slice(&g)
-        })
+        .map(|&j| rkpm_shape::<D>(&c, &dc, x[i] - x[j as usize], kernel).1)
         .collect())
+}
+
+/// RKPM shape functions with a linear basis at a point y (not one of the nodes) from the
+/// nodes x_j with volumes V_j that reach it: Ψ_j(y) and ∇Ψ_j(y) of every node, in the
+/// order given (seed 000 eqs 42–59). None when the nodes do not span the linear basis at
+/// y (fewer than d + 1 of them, or all on one line or plane).
+pub fn reproducing_shapes<D: Dim>(
+    y: D::V,
+    nodes: &[u32],
+    x: &[D::V],
+    vol: &[f64],
+    kernel: &Kernel,
+) -> Option<Vec<(f64, D::V)>> {
+    let offsets = nodes.iter().map(|&j| (y - x[j as usize], vol[j as usize]));
+    let (c, dc) = rkpm_coefficients::<D>(offsets, kernel)?;
+    Some(
+        nodes
+            .iter()
+            .map(|&j| rkpm_shape::<D>(&c, &dc, y - x[j as usize], kernel))
+            .collect(),
+    )
 }
 
 #[cfg(test)]
@@ -365,7 +401,7 @@ mod tests {
                     * kernel.w(0.0)
                     * match kind {
                         CorrectionKind::Rkpm => {
-                            rkpm_coefficients::<D2>(i, &x, &vol, &csr, &kernel)
+                            particle_coefficients::<D2>(i, &x, &vol, &csr, &kernel)
                                 .unwrap()
                                 .0[0]
                         }

@@ -57,6 +57,9 @@ pub trait OdeSystem {
     -> Result<(), Self::Error>;
     /// Called once before each step with its start time, size and state.
     fn begin_step(&mut self, _t: f64, _dt: f64, _y: &Self::State) {}
+    /// Called once after each step with its end time and the new state, which it may
+    /// change (a method's post-step correction, such as a velocity smoothing).
+    fn end_step(&mut self, _t: f64, _y: &mut Self::State) {}
 }
 
 /// One of the four state-sized buffers of a step.
@@ -326,6 +329,7 @@ impl<S: OdeState> Integrator<S> {
                 }
             }
         }
+        sys.end_step(t + dt, y);
         Ok(())
     }
 }

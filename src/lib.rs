@@ -22,6 +22,7 @@ pub mod neighbour;
 pub mod observe;
 pub mod output;
 pub mod plasticity;
+pub mod quadrature;
 pub mod reference;
 pub mod run;
 pub mod scene;

@@ -147,6 +147,28 @@ impl Material {
         dev * (2.0 * self.mu) - s * omega + omega * s
     }
 
+    /// The rate model at a point with deformation gradient F, its rate Ḟ, density ρ and
+    /// deviatoric stress S (seed 000 Algorithms 3 and 6, step 3): L = Ḟ F⁻¹, ρ̇ = −ρ tr L,
+    /// the Jaumann Ṡ, and P = J σ F⁻ᵀ with σ = S − p(ρ) I.
+    pub fn rate_response<D: Dim>(
+        &self,
+        f: D::T,
+        f_dot: D::T,
+        rho: f64,
+        s: D::T,
+    ) -> RateResponse<D> {
+        let f_inv = D::inverse(f);
+        let l = f_dot * f_inv;
+        let f_inv_t = D::transpose(f_inv);
+        let sigma = s - D::identity() * self.pressure(rho);
+        RateResponse {
+            pk1: sigma * f_inv_t * D::det(f),
+            f_inv_t,
+            rho_dot: -rho * D::trace(l),
+            s_dot: self.jaumann_rate::<D>(s, l),
+        }
+    }
+
     /// First Piola–Kirchhoff stress P(F) of a state-based model.
     pub fn pk1<D: Dim>(&self, f: D::T) -> D::T {
         match self.model {
@@ -427,6 +449,18 @@ pub fn von_mises(sigma: &[[f64; 3]; 3]) -> f64 {
         }
     }
     (1.5 * s2).sqrt()
+}
+
+/// What [`Material::rate_response`] gives at a point.
+#[derive(Clone, Copy, Debug)]
+pub struct RateResponse<D: Dim> {
+    /// First Piola–Kirchhoff stress P = J σ F⁻ᵀ.
+    pub pk1: D::T,
+    /// F⁻ᵀ, which pushes reference gradients forward.
+    pub f_inv_t: D::T,
+    pub rho_dot: f64,
+    /// Jaumann rate of the deviatoric stress.
+    pub s_dot: D::T,
 }
 
 #[cfg(test)]

@@ -206,6 +206,52 @@ pub fn build_within<D: Dim>(x: &[D::V], reach: Reach, body: Option<&[u32]>) -> C
     csr
 }
 
+/// The lists from a second point set to the particles: for every point q the particles j
+/// with |y_q − x_j| ≤ radius and, with `body` = (the points' bodies, the particles'), of
+/// the point's body; sorted ascending. A particle at the point itself is kept (the point
+/// is not one of the particles).
+pub fn between<D: Dim>(
+    points: &[D::V],
+    x: &[D::V],
+    radius: f64,
+    body: Option<(&[u32], &[u32])>,
+) -> Csr {
+    let nodes: Vec<[f64; 3]> = x.iter().map(|&p| D::to3(p)).collect();
+    let mut grid = CellGrid::default();
+    if !nodes.is_empty() {
+        grid.sort(&nodes, radius, D::N);
+    }
+    let rows: Vec<Vec<u32>> = points
+        .par_iter()
+        .with_min_len(MIN_ROWS)
+        .enumerate()
+        .map(|(q, &y)| {
+            let mut row = Vec::new();
+            if nodes.is_empty() {
+                return row;
+            }
+            grid.for_each_candidate(&D::to3(y), |j| {
+                let same_body = body.is_none_or(|(bq, bx)| bq[q] == bx[j as usize]);
+                if same_body && D::norm2(y - x[j as usize]) <= radius * radius {
+                    row.push(j);
+                }
+            });
+            row.sort_unstable();
+            row
+        })
+        .collect();
+    let mut csr = Csr {
+        offsets: Vec::with_capacity(points.len() + 1),
+        ids: Vec::with_capacity(rows.iter().map(Vec::len).sum()),
+    };
+    csr.offsets.push(0);
+    for row in rows {
+        csr.ids.extend(row);
+        csr.offsets.push(csr.ids.len());
+    }
+    csr
+}
+
 /// The cell-list search with its buffers, which a method that rebuilds its lists keeps:
 /// a build into lists as large as an earlier one allocates nothing.
 #[derive(Clone, Debug, Default)]

@@ -39,7 +39,7 @@ impl<D: Dim> Reference<D> {
         let mass: Vec<f64> = disc.vol.iter().map(|v| v * material.rho0).collect();
         let boundary = Boundary::build(case, &disc, &mass)?;
         let mut v0 = disc.v0;
-        boundary.impose_initial(&mut v0);
+        boundary.impose(&mut v0);
         let kernel = case.kernel(D::N);
         Ok(Self {
             h: vec![kernel.h; disc.x0.len()],

@@ -9,6 +9,8 @@
 
 pub mod corotated;
 pub mod dual_support;
+pub mod fem;
+pub mod galerkin;
 pub mod godunov;
 pub mod gray_monaghan;
 pub mod mixed;
@@ -16,6 +18,7 @@ pub mod potential;
 pub mod shared;
 pub mod tlsph;
 pub mod ul;
+pub mod weak_form;
 
 pub use shared::{BlowUp, Method, check_motion};
 
@@ -82,6 +85,9 @@ pub trait MethodFamily: Sized {
     /// (total-Lagrangian), or from the current positions at every rate evaluation
     /// (updated-Lagrangian).
     const NEIGHBOURS: Rebuild = Rebuild::Once;
+    /// Whether it has a kernel, and so reads [`KERNEL_KEYS`] (`h_over_dx` then required);
+    /// the finite elements have none.
+    const KERNEL: bool = true;
     /// The GPU passes it compiles with a scene's constants.
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source];
@@ -121,6 +127,8 @@ pub struct Entry {
     pub gpu_engine: bool,
     /// When the method's neighbour lists are built.
     pub neighbours: Rebuild,
+    /// Whether it reads the kernel keys ([`KERNEL_KEYS`]).
+    pub kernel: bool,
     #[cfg(feature = "gpu")]
     pub shaders: &'static [crate::gpu::shaders::Source],
 }
@@ -134,6 +142,7 @@ impl Entry {
             features: S::FEATURES,
             gpu_engine: S::GPU_ENGINE,
             neighbours: S::NEIGHBOURS,
+            kernel: S::KERNEL,
             #[cfg(feature = "gpu")]
             shaders: S::SHADERS,
         }
@@ -141,7 +150,9 @@ impl Entry {
 
     /// Whether the method reads `key` of the `[method]` table.
     pub fn reads(&self, key: &str) -> bool {
-        key == "name" || COMMON_KEYS.contains(&key) || self.keys.contains(&key)
+        key == "name"
+            || (COMMON_KEYS.contains(&key) && (self.kernel || !KERNEL_KEYS.contains(&key)))
+            || self.keys.contains(&key)
     }
 }
 
@@ -220,6 +231,8 @@ registry! {
     "gray-monaghan-sph" => GrayMonaghanSph(gray_monaghan::GrayMonaghanSpec),
     "godunov-sph" => GodunovSph(godunov::GodunovSpec),
     "dual-support-sph" => DualSupportSph(dual_support::DualSupportSpec),
+    "tl-weak-form" => TlWeakForm(weak_form::WeakFormSpec),
+    "tl-fem" => TlFem(fem::FemSpec),
 }
 
 /// The registry entry of a case-file method name.
@@ -256,7 +269,11 @@ pub fn supporting(feature: Feature) -> impl Iterator<Item = &'static str> {
         .map(|e| e.name)
 }
 
-/// The keys of `[method]` that every method reads.
+/// The keys of `[method]` that only the methods with a kernel read.
+pub const KERNEL_KEYS: &[&str] = &["kernel", "h_over_dx", "correction"];
+
+/// The keys of `[method]` that every method reads (the [`KERNEL_KEYS`] only those with a
+/// kernel).
 pub const COMMON_KEYS: &[&str] = &[
     "kernel",
     "h_over_dx",
@@ -270,7 +287,8 @@ pub const COMMON_KEYS: &[&str] = &[
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct MethodTable {
     pub kernel: KernelKind,
-    /// Smoothing length over particle spacing.
+    /// Smoothing length over particle spacing (1 for a method without a kernel, whose
+    /// smoothing length nothing reads).
     pub h_over_dx: f64,
     pub correction: CorrectionKind,
     pub integrator: IntegratorKind,
@@ -299,7 +317,7 @@ impl MethodTable {
 struct CommonKeys {
     #[serde(default = "default_kernel")]
     kernel: KernelKind,
-    h_over_dx: f64,
+    h_over_dx: Option<f64>,
     #[serde(default = "default_correction")]
     correction: CorrectionKind,
     #[serde(default = "default_integrator")]
@@ -406,6 +424,11 @@ impl MethodTable {
         let (mut common, mut own, mut foreign) = (Table::new(), Table::new(), Vec::new());
         own.insert("name".into(), Value::String(name.into()));
         for (key, value) in rest {
+            if !entry.kernel && KERNEL_KEYS.contains(&key.as_str()) {
+                return Err(format!(
+                    "`{name}` has no kernel and reads no `method.{key}`; remove the key"
+                ));
+            }
             if COMMON_KEYS.contains(&key.as_str()) {
                 common.insert(key, value);
             } else if entry.keys.contains(&key.as_str()) {
@@ -424,10 +447,15 @@ impl MethodTable {
             }
         }
         let c = CommonKeys::deserialize(Value::Table(common)).map_err(|e| e.to_string())?;
+        let h_over_dx = match c.h_over_dx {
+            Some(h) => h,
+            None if !entry.kernel => 1.0,
+            None => return Err("missing field `h_over_dx`".into()),
+        };
         let spec = MethodSpec::deserialize(Value::Table(own)).map_err(|e| e.to_string())?;
         Ok(Self {
             kernel: c.kernel,
-            h_over_dx: c.h_over_dx,
+            h_over_dx,
             correction: c.correction,
             integrator: c.integrator,
             dt: c.dt,

@@ -14,7 +14,10 @@ mod contact;
 mod corotated_tlsph;
 mod dual_support;
 mod dual_support_cases;
+mod galerkin;
 mod godunov;
+#[cfg(feature = "gpu")]
+mod gpu_galerkin;
 #[cfg(feature = "gpu")]
 mod gpu_mixed;
 #[cfg(feature = "gpu")]

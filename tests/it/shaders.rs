@@ -8,6 +8,7 @@ use meshless::gpu::layout::GpuDim;
 use meshless::gpu::shaders::{self, Constants};
 use meshless::methods::MethodSpec;
 use meshless::methods::corotated::gpu as corotated;
+use meshless::methods::galerkin::gpu as galerkin;
 use meshless::methods::godunov::gpu as godunov;
 use meshless::methods::gray_monaghan::gpu as gray_monaghan;
 use meshless::methods::mixed::{MixedSph, gpu as mixed};
@@ -209,12 +210,25 @@ fn check_all<D: GpuDim>() {
             validate_wgsl(&format!("{}D {} ({model})", D::N, source.name), &src);
         }
     }
+    // The total-Lagrangian Galerkin passes, rate and state models (the weak form's and
+    // the elements' passes are the same files).
+    for model in ["hypoelastic", "neo-hookean"] {
+        let case = block_case(max, model, "tl-weak-form", "");
+        let rate = model == "hypoelastic";
+        let layout = galerkin::Layout::new(100, 400, 1600, 1000, D::N, rate);
+        let constants = galerkin::scene_constants(&case, &layout);
+        for source in galerkin::SHADERS {
+            let src = shaders::compose::<D>(source, &constants);
+            validate_wgsl(&format!("{}D {} ({model})", D::N, source.name), &src);
+        }
+    }
     // Passes without scene constants (neighbour build, scans) validate on their own.
     let ul_shaders = [
         gray_monaghan::SHADERS,
         godunov::SHADERS,
         potential::SHADERS,
         corotated::SHADERS,
+        galerkin::SHADERS,
     ]
     .concat();
     for source in meshless::methods::shaders() {

@@ -239,16 +239,12 @@ impl<D: Dim> Tlsph<D> {
                 .for_each(|(i, ((k, rho_dot), s_dot))| {
                     let f = D::identity() + self.gradient_of(i, &y.u);
                     let f_dot = self.gradient_of(i, &y.v); // eq 136
-                    let f_inv = D::inverse(f);
-                    let l = f_dot * f_inv; // L = Ḟ F⁻¹
-                    *rho_dot = -y.rho[i] * D::trace(l);
-                    *s_dot = mat.jaumann_rate::<D>(y.s[i], l);
-                    let sigma = y.s[i] - D::identity() * mat.pressure(y.rho[i]);
-                    let f_inv_t = D::transpose(f_inv);
+                    let r = mat.rate_response::<D>(f, f_dot, y.rho[i], y.s[i]);
+                    (*rho_dot, *s_dot) = (r.rho_dot, r.s_dot);
                     *k = Kinematics {
                         f,
-                        p: sigma * f_inv_t * D::det(f),
-                        f_inv_t,
+                        p: r.pk1,
+                        f_inv_t: r.f_inv_t,
                         rho: y.rho[i],
                     };
                 });

@@ -1,0 +1,44 @@
+// The weak form's velocity smoothing after a step (seed 000 §5.6): v_a ← V_a Ψ_a(X_a) v_a
+// + Σ_b V_b Ψ_b(X_a) v_b over the particles' own reproducing-kernel lists, into
+// `smoothed` (`smooth_velocities`), then back into the state but for the prescribed components,
+// which keep their values (`settle`). Weights: smooth_weights = [own (N) | per pair].
+// Constants: N, DIM, V_OFF, SWOWN_OFF, SWPAIR_OFF and the reference fields.
+
+@group(0) @binding(0) var<storage, read> smooth_offsets: array<u32>;
+@group(0) @binding(1) var<storage, read> smooth_ids: array<u32>;
+@group(0) @binding(2) var<storage, read> smooth_weights: array<f32>;
+@group(0) @binding(3) var<storage, read> reference: array<f32>;
+@group(0) @binding(4) var<storage, read_write> y: array<f32>;
+@group(0) @binding(5) var<storage, read_write> smoothed: array<f32>;
+
+fn index(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
+    return gid.x + gid.y * nwg.x * 256u;
+}
+
+@compute @workgroup_size(256)
+fn smooth_velocities(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let a = index(gid, nwg);
+    if a >= N {
+        return;
+    }
+    var v = vload_y(V_OFF + DIM * a) * smooth_weights[SWOWN_OFF + a];
+    let p_end = smooth_offsets[a + 1u];
+    for (var p = smooth_offsets[a]; p < p_end; p++) {
+        v += vload_y(V_OFF + DIM * smooth_ids[p]) * smooth_weights[SWPAIR_OFF + p];
+    }
+    vstore_smoothed(DIM * a, v);
+}
+
+@compute @workgroup_size(256)
+fn settle(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let a = index(gid, nwg);
+    if a >= N {
+        return;
+    }
+    let m = mask_of(a);
+    for (var k = 0u; k < DIM; k++) {
+        if ((m >> k) & 1u) == 0u {
+            y[V_OFF + DIM * a + k] = smoothed[DIM * a + k];
+        }
+    }
+}

@@ -1,0 +1,123 @@
+//! The finite-element reference of seed 000 (§5, "TL FEM"): 4-node quadrilaterals (8-node
+//! hexahedra in 3D) on the lattice cells of the bodies, 2×2 (2×2×2) Gauss points, the
+//! total-Lagrangian weak form with a lumped mass, explicit, on the shared Galerkin system
+//! ([`crate::methods::galerkin`]). Numerics notes: `docs/methods/galerkin.md`.
+
+use super::galerkin::{Mass, TlGalerkin};
+use super::{Feature, MethodFamily, Plan, Problem};
+use crate::material::Material;
+use crate::quadrature::{QuadraturePoints, Rule, Shapes, lattice_cells};
+use crate::reference::Reference;
+use crate::run::{CpuEngine, Engine, EngineDim};
+use crate::scene::{Case, CaseError};
+use crate::tensor::Dim;
+use serde::{Deserialize, Serialize};
+
+/// The `[method]` keys of the total-Lagrangian FEM.
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FemSpec {
+    /// The nodal masses (default `row-sum`).
+    #[serde(default)]
+    pub mass: Mass,
+}
+
+impl FemSpec {
+    /// The Galerkin system on the bilinear (trilinear) elements of the lattice cells.
+    pub fn system<D: Dim>(
+        &self,
+        case: &Case,
+        reference: Reference<D>,
+    ) -> Result<TlGalerkin<D>, CaseError> {
+        let cells = lattice_cells::<D>(&reference.x0, &reference.body, case.spacing)
+            .map_err(|e| case.invalid("body", e.to_string()))?;
+        let points = QuadraturePoints::new(&cells, &reference.x0, Rule::Gauss2);
+        let shapes = Shapes::isoparametric(&cells, &points, &reference.x0);
+        TlGalerkin::new(case, reference, points, shapes, self.mass, None)
+    }
+}
+
+impl MethodFamily for FemSpec {
+    const DESCRIPTION: &'static str = "total-Lagrangian finite elements (seed 000's FEM \
+        reference): bilinear quadrilaterals (trilinear hexahedra) on the lattice cells, 2^d \
+        Gauss points, lumped mass, explicit";
+    const KEYS: &'static [&'static str] = &["mass"];
+    const FEATURES: &'static [Feature] = &[Feature::Contact];
+    const KERNEL: bool = false;
+    #[cfg(feature = "gpu")]
+    const SHADERS: &'static [crate::gpu::shaders::Source] = super::galerkin::gpu::SHADERS;
+
+    fn validate(&self, _case: &Case) -> Result<(), Problem> {
+        Ok(())
+    }
+
+    fn plan(&self, case: &Case, gpu: bool) -> Plan {
+        let mat = Material::new(&case.material);
+        let mut left_out = vec!["kernels and neighbour lists (the cells are the mesh)"];
+        left_out.push(if mat.model.is_rate_based() {
+            "P(F) evaluation"
+        } else {
+            "continuity and Jaumann rates"
+        });
+        Plan {
+            once: format!(
+                "once, on the reference configuration: the lattice cells of every body as \
+                 elements, 2^d Gauss points each, ∇0N_a = J⁻ᵀ ∂N_a/∂ξ, the node-to-point \
+                 gather lists, {} nodal masses",
+                match self.mass {
+                    Mass::RowSum => "row-sum",
+                    Mass::Particle => "particle",
+                }
+            ),
+            state: galerkin_state(&mat),
+            cfl_step: format!(
+                "Δt = cfl·Δx/(c_p + max|v|), c_p = {:.1} m/s",
+                mat.p_wave_speed()
+            ),
+            rates: if gpu {
+                "points pass (F_q, P_q, w_q ψ_q, ρ̇_q, Ṡ_q) + nodes pass (−Σ_q w_q P_q \
+                 ∇0N_a(X_q) gathered per node, BCs)"
+                    .into()
+            } else {
+                "F_q (and Ḟ_q) and P_q at every Gauss point, then each node gathers \
+                 −Σ_q w_q P_q ∇0N_a(X_q)"
+                    .into()
+            },
+            checked: "det F at the Gauss points",
+            check_note: String::new(),
+            left_out,
+        }
+    }
+
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> Result<Box<dyn Engine<D>>, CaseError> {
+        Ok(Box::new(CpuEngine::<D, TlGalerkin<D>>::new(case)?))
+    }
+
+    #[cfg(feature = "gpu")]
+    fn gpu_engine<D: EngineDim>(
+        &self,
+        case: &Case,
+        gpu: crate::gpu::Gpu,
+    ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
+        Ok(Box::new(super::galerkin::gpu::GpuGalerkin::<D>::new(
+            case, gpu,
+        )?))
+    }
+
+    /// Δt = α Δx/(c_p + max|v|) does not depend on the stretch.
+    fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
+        0.0
+    }
+}
+
+/// The state of a Galerkin method with material `mat`, for `--explain`.
+pub(crate) fn galerkin_state(mat: &Material) -> String {
+    if mat.model.is_rate_based() {
+        "u, v at the nodes; ρ, S at the quadrature points (rate model: Jaumann + linear EOS)".into()
+    } else {
+        format!(
+            "u, v at the nodes (state model {:?}: no ρ or S integrated)",
+            mat.model
+        )
+    }
+}

@@ -1,0 +1,560 @@
+//! The total-Lagrangian Galerkin methods on the GPU (`tl-fem`, `tl-weak-form`): the passes
+//! of `shaders/galerkin/`, on the points, shape functions, gather lists and smoothing
+//! weights that the host's f64 system ([`TlGalerkin`]) builds once and uploads. A rate
+//! evaluation is a points pass (F, P, w ψ and the rate model's rates per quadrature point)
+//! and a nodes pass (the force gathered over each node's points, the boundary conditions);
+//! the weak form's smoothing is two passes after each step. Whole steps are recorded into
+//! one command encoder; the host reads back only at checks and outputs.
+
+use super::{GalerkinState, TlGalerkin};
+use crate::gpu::context::{Gpu, GpuError, Pipeline};
+use crate::gpu::layout::{Fields, GpuDim};
+use crate::gpu::program::{StateLayout, Stepper};
+use crate::gpu::reduction::{Reduced, Reduction, WorkBalance};
+use crate::gpu::reference::{self, DeviceReference, Extras};
+use crate::gpu::shaders::{
+    self, BOUNDARY, CONTACT, Constants, INTEGRATE, MECHANICS, REFERENCE, Source, Wgsl, source, wgsl,
+};
+use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
+use crate::integrate::Buf;
+use crate::interaction::Interactions;
+use crate::interaction::gpu::GpuInteractions;
+use crate::material::Material;
+use crate::methods::{BlowUp, Method};
+use crate::neighbour::Csr;
+use crate::observe::{Invariants, Snapshot};
+use crate::run::{Engine, Failed};
+use crate::scene::Case;
+
+/// The points and nodes passes of one rate evaluation.
+pub const RATES: Source = source!(
+    "galerkin/galerkin.wgsl",
+    [MECHANICS, REFERENCE, BOUNDARY],
+    [
+        ("y", false),
+        ("pair", false),
+        ("reference", false),
+        ("ext", false),
+        ("entries", false),
+        ("kin", true),
+        ("d", true)
+    ]
+);
+/// A node's share of the points' stored energy, for the reduction.
+const ENERGY: Wgsl = wgsl!("galerkin/galerkin_energy.wgsl");
+/// Energies, momenta and checks of a state.
+pub const REDUCE: Source = source!(
+    "common/reduce.wgsl",
+    [MECHANICS, ENERGY, REFERENCE],
+    [("y", false), ("kin", false), ("reference", false)]
+);
+/// The weak form's velocity smoothing.
+pub const SMOOTH: Source = source!(
+    "galerkin/galerkin_smooth.wgsl",
+    [REFERENCE],
+    [("y", true), ("smoothed", true), ("reference", false)]
+);
+
+/// The passes compiled with a Galerkin scene's constants ([`scene_constants`]).
+pub const SHADERS: &[Source] = &[RATES, REDUCE, SMOOTH, CONTACT, INTEGRATE];
+
+/// The flat buffers of a Galerkin scene of n nodes and q points: the state [u | v | ρ − ρ0
+/// | S] (ρ and S at the points, rate model only), the kinematics [H = F − I | P | w ψ
+/// (points) | power (nodes)], the per-pair data [N_a | ∇0N_a] of the points' lists, the
+/// point weights, the gather lists (u32: [offsets | the point of each entry]) with their
+/// per-entry data [w_q ∇0N_a(X_q) | N_a(X_q)], the smoothing weights [own | per pair] and
+/// the nodes' reference fields.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Layout {
+    pub n: usize,
+    pub q: usize,
+    pub dim: usize,
+    pub state: Fields,
+    pub kin: Fields,
+    pub pair: Fields,
+    pub point: Fields,
+    pub gather: Fields,
+    pub entries: Fields,
+    pub smooth: Fields,
+    pub reference: Fields,
+}
+
+impl Layout {
+    /// n nodes, q points with `pairs` point–node pairs, `smooth_pairs` smoothing pairs.
+    pub fn new(
+        n: usize,
+        q: usize,
+        pairs: usize,
+        smooth_pairs: usize,
+        dim: usize,
+        rate: bool,
+    ) -> Self {
+        Self {
+            n,
+            q,
+            dim,
+            state: Fields::new("", dim)
+                .vectors("U", true, n)
+                .vectors("V", true, n)
+                .scalars("RHO", rate, q)
+                .tensors("S", rate, q),
+            kin: Fields::new("K", dim)
+                .tensors("F", true, q)
+                .tensors("P", true, q)
+                .scalars("PSI", true, q)
+                .scalars("POW", true, n),
+            pair: Fields::new("P", dim)
+                .scalars("N", true, pairs)
+                .vectors("G", true, pairs),
+            point: Fields::new("Q", dim).scalars("W", true, q),
+            gather: Fields::new("G", dim)
+                .scalars("OFFSETS", true, n + 1)
+                .scalars("POINT", true, pairs),
+            entries: Fields::new("E", dim)
+                .vectors("WG", true, pairs)
+                .scalars("N", true, pairs),
+            smooth: Fields::new("SW", dim).scalars("OWN", true, n).scalars(
+                "PAIR",
+                true,
+                smooth_pairs,
+            ),
+            reference: reference::fields(n, dim, Extras::default()),
+        }
+    }
+
+    fn stepped(&self) -> StateLayout {
+        StateLayout {
+            n: self.n,
+            dim: self.dim,
+            rest: self.state.offset("RHO"),
+            len: self.state.len(),
+        }
+    }
+}
+
+/// The compiled-in constants of a Galerkin scene.
+pub fn scene_constants(case: &Case, layout: &Layout) -> Constants {
+    let u = |x: usize| x as u32;
+    let constants = Constants::default()
+        .u32("N", u(layout.n))
+        .u32("Q", u(layout.q))
+        .u32("BODIES", u(case.bodies.len()))
+        .material(&Material::new(&case.material))
+        .u32("REST_OFF", u(layout.state.offset("RHO")));
+    [
+        &layout.state,
+        &layout.kin,
+        &layout.pair,
+        &layout.point,
+        &layout.gather,
+        &layout.entries,
+        &layout.smooth,
+        &layout.reference,
+    ]
+    .into_iter()
+    .fold(constants, |c, fields| fields.constants(c))
+}
+
+/// The points and nodes passes bound to a source state.
+struct Rates {
+    points: wgpu::BindGroup,
+    nodes: wgpu::BindGroup,
+}
+
+/// The weak form's smoothing passes, bound to the state and their scratch.
+struct SmoothPasses {
+    smooth: (Pipeline, wgpu::BindGroup),
+    settle: (Pipeline, wgpu::BindGroup),
+}
+
+/// Value of `status[0]` when no point failed.
+const STATUS_OK: u32 = u32::MAX;
+
+/// A total-Lagrangian Galerkin system resident on the GPU.
+pub struct GpuGalerkin<D: GpuDim> {
+    gpu: Gpu,
+    /// The host's f64 system the device's set-up was uploaded from; outputs are computed
+    /// from the state read back.
+    host: TlGalerkin<D>,
+    layout: Layout,
+    stepper: Stepper,
+    kin: wgpu::Buffer,
+    status: wgpu::Buffer,
+    points: Pipeline,
+    nodes: Pipeline,
+    /// Rate evaluations of the states in `Y` and in `Stage`.
+    rates: [Rates; 2],
+    /// The points pass on `Y` writing its rates into `Acc` (kinematics for a reduction
+    /// without touching the integrator's rates).
+    points_y: wgpu::BindGroup,
+    smooth: Option<SmoothPasses>,
+    reduction: Reduction,
+    interactions: GpuInteractions,
+    work: WorkBalance,
+}
+
+impl<D: GpuDim> GpuGalerkin<D> {
+    /// Builds the host system of the case and uploads it with the initial state.
+    pub fn new(case: &Case, gpu: Gpu) -> Result<Self, SetupError> {
+        let host: TlGalerkin<D> = crate::run::build_method(case)?;
+        check_f32_run(case, host.boundary())?;
+        let v0 = host.initial_state().v;
+        check_f32_particles::<D>(case, host.reference(), &v0, host.body())?;
+        let (shapes, points, gather) = (host.shapes(), host.points(), host.gather());
+        let (n, q) = (host.reference().len(), points.len());
+        let smoothing = host.smoothing();
+        let layout = Layout::new(
+            n,
+            q,
+            shapes.csr.pair_count(),
+            smoothing.map_or(0, |s| s.csr.pair_count()),
+            D::N,
+            host.material().model.is_rate_based(),
+        );
+        let constants = scene_constants(case, &layout);
+        check_f32_range(case, &constants)?;
+        gpu.check_size("per-pair buffer", layout.pair.bytes())?;
+        gpu.check_size("kinematics buffer", layout.kin.bytes())?;
+        let compose = |s: &Source| shaders::compose::<D>(s, &constants);
+
+        // The nodes' reference with V = m/ρ0, so that RHO0·V is the nodal mass.
+        let rho0 = host.material().rho0;
+        let mass_volume: Vec<f64> = host.mass().iter().map(|m| m / rho0).collect();
+        let device = DeviceReference::upload::<D>(
+            &gpu,
+            host.reference(),
+            &mass_volume,
+            host.boundary(),
+            &shapes.csr,
+            Extras::default(),
+        );
+        let mut pair = layout.pair.zeroed();
+        layout.pair.write_s(&mut pair, "N", &shapes.n, 0.0);
+        layout.pair.write_v::<D>(&mut pair, "G", &shapes.grad);
+        let pair = gpu.storage("per-pair shape functions", &pair);
+        let mut weights = layout.point.zeroed();
+        layout.point.write_s(&mut weights, "W", &points.weight, 0.0);
+        let point = gpu.storage("point weights", &weights);
+        let u32s = |v: &[usize]| v.iter().map(|&o| o as u32).collect::<Vec<u32>>();
+        let mut lists = u32s(&gather.offsets);
+        lists.extend(&gather.point);
+        let gather_lists = gpu.storage("gather lists", &lists);
+        let (weighted, values): (Vec<D::V>, Vec<f64>) = (0..gather.point.len())
+            .map(|e| {
+                let (q, p) = (gather.point[e] as usize, gather.pair[e] as usize);
+                (shapes.grad[p] * points.weight[q], shapes.n[p])
+            })
+            .unzip();
+        let mut flat = layout.entries.zeroed();
+        layout.entries.write_v::<D>(&mut flat, "WG", &weighted);
+        layout.entries.write_s(&mut flat, "N", &values, 0.0);
+        let entries = gpu.storage("gather entries", &flat);
+        let status = gpu.storage("status", &[STATUS_OK]);
+        let kin = gpu.zeroed("kinematics", layout.kin.bytes());
+
+        let mut y0 = layout.state.zeroed();
+        layout.state.write_v::<D>(&mut y0, "V", &v0);
+        let stepper = Stepper::new(
+            &gpu,
+            case.method.integrator,
+            &compose(&INTEGRATE),
+            layout.stepped(),
+            &y0,
+        )?;
+        let interactions =
+            Interactions::<D>::build(case, host.reference(), host.body(), Csr::default)?;
+        let interactions = GpuInteractions::new(
+            &gpu,
+            &interactions,
+            &compose,
+            &device.reference,
+            stepper.buffer(Buf::Y),
+            device.traction,
+        )?;
+
+        let rates_source = compose(&RATES);
+        let points_pipeline = gpu.pipeline("galerkin points", &rates_source, "points")?;
+        let nodes_pipeline = gpu.pipeline("galerkin nodes", &rates_source, "nodes")?;
+        let table = |y, d| -> [(&str, &wgpu::Buffer); 12] {
+            [
+                ("offsets", &device.offsets),
+                ("ids", &device.ids),
+                ("pair", &pair),
+                ("reference", &device.reference),
+                ("y", y),
+                ("kin", &kin),
+                ("d", d),
+                ("status", &status),
+                ("point", &point),
+                ("gather", &gather_lists),
+                ("entries", &entries),
+                ("ext", interactions.ext()),
+            ]
+        };
+        let rates_d = stepper.buffer(Buf::Rates);
+        let bound = |src| -> Result<Rates, GpuError> {
+            let t = table(stepper.buffer(src), rates_d);
+            Ok(Rates {
+                points: gpu.bind(&points_pipeline, &t)?,
+                nodes: gpu.bind(&nodes_pipeline, &t)?,
+            })
+        };
+        let rates = [bound(Buf::Y)?, bound(Buf::Stage)?];
+        let y = stepper.buffer(Buf::Y);
+        let points_y = gpu.bind(&points_pipeline, &table(y, stepper.buffer(Buf::Acc)))?;
+        let reduction = Reduction::new(&gpu, &compose(&REDUCE), &table(y, rates_d), n)?;
+        let smooth = match smoothing {
+            Some(s) => {
+                let mut w = layout.smooth.zeroed();
+                layout.smooth.write_s(&mut w, "OWN", &s.own, 0.0);
+                layout.smooth.write_s(&mut w, "PAIR", &s.weight, 0.0);
+                let source = compose(&SMOOTH);
+                let smooth = gpu.pipeline("smooth velocities", &source, "smooth_velocities")?;
+                let settle = gpu.pipeline("settle", &source, "settle")?;
+                let (offsets, ids, weights) = (
+                    gpu.storage("smoothing offsets", &u32s(&s.csr.offsets)),
+                    gpu.storage("smoothing ids", &s.csr.ids),
+                    gpu.storage("smoothing weights", &w),
+                );
+                let smoothed = gpu.zeroed("smoothed velocities", (n * D::N * 4) as u64);
+                let table = [
+                    ("smooth_offsets", &offsets),
+                    ("smooth_ids", &ids),
+                    ("smooth_weights", &weights),
+                    ("reference", &device.reference),
+                    ("y", y),
+                    ("smoothed", &smoothed),
+                ];
+                let (smooth_bind, settle_bind) =
+                    (gpu.bind(&smooth, &table)?, gpu.bind(&settle, &table)?);
+                Some(SmoothPasses {
+                    smooth: (smooth, smooth_bind),
+                    settle: (settle, settle_bind),
+                })
+            }
+            None => None,
+        };
+        Ok(Self {
+            gpu,
+            host,
+            layout,
+            stepper,
+            kin,
+            status,
+            points: points_pipeline,
+            nodes: nodes_pipeline,
+            rates,
+            points_y,
+            smooth,
+            reduction,
+            interactions,
+            work: WorkBalance::default(),
+        })
+    }
+
+    /// Records one rate evaluation: the points and nodes passes.
+    fn record_rates(
+        gpu: &Gpu,
+        layout: &Layout,
+        (points, nodes): (&Pipeline, &Pipeline),
+        encoder: &mut wgpu::CommandEncoder,
+        rates: &Rates,
+    ) {
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        gpu.dispatch(&mut pass, points, &rates.points, layout.q as u32);
+        gpu.dispatch(&mut pass, nodes, &rates.nodes, layout.n as u32);
+    }
+
+    /// Records `steps` steps of size dt, each followed by the smoothing if the method has
+    /// one, into one command encoder, and submits them.
+    pub fn advance_steps(&mut self, dt: f64, steps: u32) {
+        self.work.advance(dt, steps);
+        self.reduction.invalidate();
+        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+        self.interactions.set_step(&self.gpu, dt);
+        let Self {
+            gpu,
+            stepper,
+            points,
+            nodes,
+            rates,
+            layout,
+            interactions,
+            smooth,
+            ..
+        } = self;
+        let n = layout.n as u32;
+        // With a smoothing the steps are recorded one by one, each followed by its passes.
+        let (batches, per_batch) = match smooth {
+            Some(_) => (steps, 1),
+            None => (1, steps),
+        };
+        for _ in 0..batches {
+            stepper.record(
+                gpu,
+                &mut encoder,
+                dt,
+                per_batch,
+                |encoder, e| {
+                    let src = usize::from(e.src != Buf::Y);
+                    Self::record_rates(gpu, layout, (points, nodes), encoder, &rates[src]);
+                },
+                |encoder| interactions.record(gpu, encoder, n),
+            );
+            if let Some(s) = smooth {
+                let mut pass = encoder.begin_compute_pass(&Default::default());
+                for (pipeline, bind) in [&s.smooth, &s.settle] {
+                    gpu.dispatch(&mut pass, pipeline, bind, n);
+                }
+            }
+        }
+        self.gpu.queue.submit([encoder.finish()]);
+    }
+
+    /// Reads the current state back (waits for the queue).
+    pub fn state(&self) -> GalerkinState<D> {
+        let flat: Vec<f32> = self.gpu.read(self.stepper.buffer(Buf::Y));
+        self.decode(&flat, self.host.material().rho0)
+    }
+
+    /// Decodes a flat state (`rho0` = ρ0: the density is stored as ρ − ρ0) or rate buffer
+    /// (`rho0` = 0).
+    fn decode(&self, flat: &[f32], rho0: f64) -> GalerkinState<D> {
+        let l = &self.layout.state;
+        GalerkinState {
+            u: l.read_v::<D>(flat, "U"),
+            v: l.read_v::<D>(flat, "V"),
+            rho: l.read_s(flat, "RHO", rho0),
+            s: l.read_t::<D>(flat, "S", D::zero_t()),
+        }
+    }
+
+    /// Replaces the state (to cross-check rates on a given state).
+    pub fn set_state(&mut self, y: &GalerkinState<D>) {
+        let l = &self.layout.state;
+        let mut flat = l.zeroed();
+        l.write_v::<D>(&mut flat, "U", &y.u);
+        l.write_v::<D>(&mut flat, "V", &y.v);
+        l.write_s(&mut flat, "RHO", &y.rho, self.host.material().rho0);
+        l.write_t::<D>(&mut flat, "S", &y.s, D::zero_t());
+        self.stepper.set_state(&self.gpu, &flat);
+        self.reduction.invalidate();
+    }
+
+    /// The rates of a given state, read back, and P at every point.
+    pub fn rates(&mut self, y: &GalerkinState<D>) -> (GalerkinState<D>, Vec<D::T>) {
+        self.set_state(y);
+        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+        let pipelines = (&self.points, &self.nodes);
+        Self::record_rates(
+            &self.gpu,
+            &self.layout,
+            pipelines,
+            &mut encoder,
+            &self.rates[0],
+        );
+        self.gpu.queue.submit([encoder.finish()]);
+        let d: Vec<f32> = self.gpu.read(self.stepper.buffer(Buf::Rates));
+        let kin: Vec<f32> = self.gpu.read(&self.kin);
+        let p = self.layout.kin.read_t::<D>(&kin, "P", D::zero_t());
+        (self.decode(&d, 0.0), p)
+    }
+
+    /// The host's system, which the device's set-up came from.
+    pub fn host(&self) -> &TlGalerkin<D> {
+        &self.host
+    }
+
+    /// The first point whose points pass failed (det F ≤ 0 or NaN) so far.
+    fn failed_point(&self) -> Option<usize> {
+        let s: Vec<u32> = self.gpu.read(&self.status);
+        (s[0] != STATUS_OK).then_some(s[0] as usize)
+    }
+
+    /// The points pass on the current state (its kinematics) and the reduction.
+    fn reduction(&mut self) -> Reduced {
+        let Self {
+            gpu,
+            points,
+            points_y,
+            layout,
+            reduction,
+            ..
+        } = self;
+        reduction.get(gpu, |pass| {
+            gpu.dispatch(pass, points, points_y, layout.q as u32)
+        })
+    }
+}
+
+impl<D: GpuDim> Engine<D> for GpuGalerkin<D> {
+    fn backend(&self) -> String {
+        format!("gpu: {}", self.gpu.name())
+    }
+
+    fn reference(&self) -> &[D::V] {
+        self.host.reference()
+    }
+
+    fn constrained(&self) -> &[(u32, u8)] {
+        self.host.constrained()
+    }
+
+    fn advance(&mut self, _t: f64, dt: f64, steps: u32) -> Result<(), Failed> {
+        self.advance_steps(dt, steps);
+        Ok(())
+    }
+
+    fn max_signal_speed(&mut self) -> f64 {
+        self.host.material().p_wave_speed() + self.reduction().max_speed
+    }
+
+    /// Trapezoidal over the intervals between calls (the driver calls it at every check).
+    fn external_work(&mut self) -> f64 {
+        let power = self.reduction().power;
+        self.work.update(power)
+    }
+
+    fn check(&mut self) -> Result<(), BlowUp> {
+        if let Some(q) = self.failed_point() {
+            let node = self.host.node_of(q);
+            return Err(BlowUp::at::<D>(
+                self.host.reference(),
+                node,
+                &format!("det F (f32, GPU) at quadrature point {q} next to it"),
+                0.0,
+            ));
+        }
+        if self.reduction().non_finite {
+            return self.host.check_finite(&self.state());
+        }
+        Ok(())
+    }
+
+    fn invariants(&mut self) -> Invariants {
+        self.reduction().invariants
+    }
+
+    fn finish(&mut self) {
+        self.gpu.wait();
+    }
+
+    /// The work balance and the state buffer (f32).
+    fn save(&mut self) -> Vec<f64> {
+        crate::gpu::save_buffers(&self.gpu, &self.work, &[self.stepper.buffer(Buf::Y)])
+    }
+
+    fn restore(&mut self, words: &[f64]) -> Result<(), String> {
+        let y = [("state", self.stepper.buffer(Buf::Y))];
+        self.work = crate::gpu::load_buffers(&self.gpu, words, &y)?;
+        self.stepper.state_replaced();
+        self.reduction.invalidate();
+        Ok(())
+    }
+
+    /// The host's outputs (nodal F and σ, Σ_q w_q ψ_q in f64) of the state read back.
+    fn snapshot(&mut self) -> Snapshot<'_, D> {
+        let y = self.state();
+        self.host.snapshot(&y)
+    }
+}

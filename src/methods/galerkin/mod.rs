@@ -1,0 +1,545 @@
+//! What the total-Lagrangian Galerkin methods share (seed 000 §2.6, §5.6 and the TL FEM
+//! reference): nodes (the particles) carry u and v, quadrature points carry the stress,
+//! and the weak form ∫ δu·ρ0 ü dΩ0 = −∫ ∇0δu : P dΩ0 (eq 156) with a lumped mass gives
+//!
+//! - at each point q: F_q = I + Σ_a u_a ⊗ ∇0N_a(X_q), and P_q from the material;
+//! - at each node a: m_a ü_a = −Σ_q w_q P_q ∇0N_a(X_q), gathered over the node's points
+//!   ([`crate::quadrature::Gather`]), so every node writes only its own rate.
+//!
+//! The methods differ in their shape functions (bilinear elements, or reproducing-kernel
+//! functions at Gauss points) and in what follows a step (the weak form's velocity
+//! smoothing, [`Smoothing`]).
+
+#[cfg(feature = "gpu")]
+pub mod gpu;
+
+use crate::boundary::Boundary;
+use crate::correction::{self, CorrectionKind};
+use crate::integrate::OdeSystem;
+use crate::interaction::Interactions;
+use crate::material::Material;
+use crate::methods::shared::{BlowUp, MIN_CHUNK, Method, check_motion, particle_state};
+use crate::methods::tlsph::system::stress_fields;
+use crate::methods::{MethodSpec, not_run_by};
+use crate::neighbour::{Csr, Rebuild};
+use crate::observe::Snapshot;
+use crate::quadrature::{Gather, QuadraturePoints, Shapes};
+use crate::reference::Reference;
+use crate::scene::{Case, CaseError};
+use crate::tensor::Dim;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// The nodal masses of a Galerkin method (`method.mass`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Mass {
+    /// The row sums of the consistent mass matrix, m_a = Σ_q w_q ρ0 N_a(X_q): the body's
+    /// mass exactly, a quarter cell's at a corner node. Every particle must be a node of
+    /// some point.
+    #[default]
+    RowSum,
+    /// The particle's own mass ρ0 V_a, as the seed-000 reference code has it for every
+    /// node (eq 163); a lattice body then weighs more than its volume holds (the strip
+    /// 1.1025 kg/m instead of 1).
+    Particle,
+}
+
+/// The integrated state: u and v at the nodes; ρ and S at the quadrature points (rate
+/// model only, empty otherwise).
+#[derive(Clone, Debug)]
+pub struct GalerkinState<D: Dim> {
+    pub u: Vec<D::V>,
+    pub v: Vec<D::V>,
+    pub rho: Vec<f64>,
+    pub s: Vec<D::T>,
+}
+
+particle_state!(GalerkinState { rho, s });
+
+/// The velocity smoothing after each step of the reproducing-kernel weak form (seed 000
+/// §5.6, the "virtual to actual" conversion): v_i ← Σ_j Ψ_j(X_i) V_j v_j, own term
+/// included, over the particles of i's body.
+#[derive(Clone, Debug)]
+pub struct Smoothing {
+    pub csr: Csr,
+    /// V_j Ψ_j(X_i) per pair.
+    pub weight: Vec<f64>,
+    /// V_i Ψ_i(X_i) = 1 − Σ_j V_j Ψ_j(X_i).
+    pub own: Vec<f64>,
+}
+
+impl Smoothing {
+    /// The reproducing-kernel weights on the particles' reference positions.
+    pub fn new<D: Dim>(reference: &Reference<D>) -> Result<Self, correction::CorrectionError> {
+        let csr = reference.neighbour_lists(Rebuild::Once, true).into_lists();
+        let weight = correction::kernel_weights::<D>(
+            CorrectionKind::Rkpm,
+            &reference.x0,
+            &reference.vol,
+            &csr,
+            &reference.kernel,
+        )?;
+        let own = (0..csr.len())
+            .map(|i| 1.0 - weight[csr.range(i)].iter().sum::<f64>())
+            .collect();
+        Ok(Self { csr, weight, own })
+    }
+
+    /// The smoothed velocities of v.
+    fn apply<D: Dim>(&self, v: &[D::V]) -> Vec<D::V> {
+        (0..v.len())
+            .into_par_iter()
+            .with_min_len(MIN_CHUNK)
+            .map(|i| {
+                self.csr.range(i).fold(v[i] * self.own[i], |s, p| {
+                    s + v[self.csr.ids[p] as usize] * self.weight[p]
+                })
+            })
+            .collect()
+    }
+}
+
+/// A total-Lagrangian Galerkin system on the CPU (f64, rayon).
+pub struct TlGalerkin<D: Dim> {
+    x0: Vec<D::V>,
+    mass: Vec<f64>,
+    body: Vec<u32>,
+    v0: Vec<D::V>,
+    points: QuadraturePoints<D>,
+    shapes: Shapes<D>,
+    gather: Gather,
+    smoothing: Option<Smoothing>,
+    material: Material,
+    boundary: Boundary<D>,
+    interactions: Interactions<D>,
+    /// F_q and P_q of the last rate evaluation.
+    f: Vec<D::T>,
+    pk1: Vec<D::T>,
+    power: f64,
+}
+
+impl<D: Dim> TlGalerkin<D> {
+    /// The system on the particles of `reference` with quadrature points and their shape
+    /// functions, nodal masses by `mass`, and a velocity smoothing after each step if given.
+    pub fn new(
+        case: &Case,
+        reference: Reference<D>,
+        points: QuadraturePoints<D>,
+        shapes: Shapes<D>,
+        mass: Mass,
+        smoothing: Option<Smoothing>,
+    ) -> Result<Self, CaseError> {
+        let gather = shapes.gather(reference.len());
+        let Reference {
+            x0,
+            mass: particle_mass,
+            body,
+            v0,
+            boundary,
+            material,
+            ..
+        } = reference;
+        let mass = match mass {
+            Mass::Particle => particle_mass,
+            Mass::RowSum => row_sums(case, &points, &shapes, &gather, material.rho0)?,
+        };
+        // The shape functions of a point reach only its own body's nodes: no kernel spans
+        // two bodies, whatever their distance.
+        let interactions = Interactions::build(case, &x0, &body, Csr::default)?;
+        let n = points.len();
+        Ok(Self {
+            x0,
+            mass,
+            body,
+            v0,
+            points,
+            shapes,
+            gather,
+            smoothing,
+            material,
+            boundary,
+            interactions,
+            f: vec![D::identity(); n],
+            pk1: vec![D::zero_t(); n],
+            power: 0.0,
+        })
+    }
+
+    /// The quadrature points.
+    pub fn points(&self) -> &QuadraturePoints<D> {
+        &self.points
+    }
+
+    /// The shape functions at the points.
+    pub fn shapes(&self) -> &Shapes<D> {
+        &self.shapes
+    }
+
+    /// The node-to-point gather lists.
+    pub fn gather(&self) -> &Gather {
+        &self.gather
+    }
+
+    /// The velocity smoothing after each step, if the method has one.
+    pub fn smoothing(&self) -> Option<&Smoothing> {
+        self.smoothing.as_ref()
+    }
+
+    /// P at every point of the last rate evaluation.
+    pub fn first_piola(&self) -> &[D::T] {
+        &self.pk1
+    }
+
+    pub fn material(&self) -> &Material {
+        &self.material
+    }
+
+    pub fn boundary(&self) -> &Boundary<D> {
+        &self.boundary
+    }
+
+    /// The gradient Σ_a f_a ⊗ ∇0N_a(X_q) of a nodal field f at point q.
+    #[inline]
+    fn gradient_at(&self, q: usize, f: &[D::V]) -> D::T {
+        self.shapes.csr.range(q).fold(D::zero_t(), |g, p| {
+            g + D::outer(f[self.shapes.csr.ids[p] as usize], self.shapes.grad[p])
+        })
+    }
+
+    /// F_q and P_q at every point; ρ̇_q and Ṡ_q for the rate model.
+    fn point_stresses(&mut self, y: &GalerkinState<D>, d: &mut GalerkinState<D>) {
+        let mat = self.material;
+        let (mut f, mut pk1) = (std::mem::take(&mut self.f), std::mem::take(&mut self.pk1));
+        let each = f.par_iter_mut().zip(pk1.par_iter_mut()).enumerate();
+        if mat.model.is_rate_based() {
+            each.zip(d.rho.par_iter_mut().zip(d.s.par_iter_mut()))
+                .with_min_len(MIN_CHUNK)
+                .for_each(|((q, (f, pk1)), (rho_dot, s_dot))| {
+                    *f = D::identity() + self.gradient_at(q, &y.u);
+                    let f_dot = self.gradient_at(q, &y.v);
+                    let r = mat.rate_response::<D>(*f, f_dot, y.rho[q], y.s[q]);
+                    (*pk1, *rho_dot, *s_dot) = (r.pk1, r.rho_dot, r.s_dot);
+                });
+        } else {
+            each.with_min_len(MIN_CHUNK).for_each(|(q, (f, pk1))| {
+                *f = D::identity() + self.gradient_at(q, &y.u);
+                *pk1 = mat.pk1::<D>(*f);
+            });
+        }
+        (self.f, self.pk1) = (f, pk1);
+    }
+
+    /// ü_a = −(1/m_a) Σ_q w_q P_q ∇0N_a(X_q) (Algorithm 6 step 4), gathered per node.
+    fn accelerations(&self, a: &mut [D::V]) {
+        a.par_iter_mut()
+            .with_min_len(MIN_CHUNK)
+            .enumerate()
+            .for_each(|(node, a)| {
+                let force = self.gather.range(node).fold(D::zero(), |f, e| {
+                    let q = self.gather.point[e] as usize;
+                    f - self.pk1[q]
+                        * self.shapes.grad[self.gather.pair[e] as usize]
+                        * self.points.weight[q]
+                });
+                *a = force * (1.0 / self.mass[node]);
+            });
+    }
+
+    /// The node whose shape function is largest at point q: the particle a blow-up at
+    /// the point is attributed to.
+    pub fn node_of(&self, q: usize) -> usize {
+        let r = self.shapes.csr.range(q);
+        let p = r
+            .max_by(|&a, &b| self.shapes.n[a].total_cmp(&self.shapes.n[b]))
+            .expect("every point has nodes");
+        self.shapes.csr.ids[p] as usize
+    }
+
+    fn first_inadmissible(&self) -> Option<BlowUp> {
+        let q = self
+            .f
+            .par_iter()
+            .position_first(|&f| D::det(f).is_nan() || D::det(f) <= 0.0)?;
+        let what = format!("det F at quadrature point {q} next to it");
+        Some(BlowUp::at::<D>(
+            &self.x0,
+            self.node_of(q),
+            &what,
+            D::det(self.f[q]),
+        ))
+    }
+
+    /// F at every point of state y.
+    fn point_f(&self, y: &GalerkinState<D>) -> Vec<D::T> {
+        (0..self.points.len())
+            .into_par_iter()
+            .with_min_len(MIN_CHUNK)
+            .map(|q| D::identity() + self.gradient_at(q, &y.u))
+            .collect()
+    }
+
+    /// A point field projected to the nodes with the lumped L2 projection
+    /// g_a = Σ_q w_q N_a(X_q) g_q / Σ_q w_q N_a(X_q); `empty` at a node no point reaches.
+    fn to_nodes<T>(&self, g: &[T], empty: T) -> Vec<T>
+    where
+        T: Copy + Send + Sync + std::ops::Add<Output = T> + std::ops::Mul<f64, Output = T>,
+    {
+        (0..self.x0.len())
+            .into_par_iter()
+            .with_min_len(MIN_CHUNK)
+            .map(|node| {
+                let mut weight = 0.0;
+                let mut sum: Option<T> = None;
+                for e in self.gather.range(node) {
+                    let q = self.gather.point[e] as usize;
+                    let w = self.points.weight[q] * self.shapes.n[self.gather.pair[e] as usize];
+                    weight += w;
+                    sum = Some(sum.map_or(g[q] * w, |s| s + g[q] * w));
+                }
+                sum.map_or(empty, |s| s * (1.0 / weight))
+            })
+            .collect()
+    }
+
+    /// σ at the nodes from σ at the points (zero at a node no point reaches).
+    fn stress_at_nodes(&self, sigma: &[Tensor3]) -> Vec<[[f64; 3]; 3]> {
+        self.to_nodes(sigma, Tensor3([[0.0; 3]; 3]))
+            .into_iter()
+            .map(|s| s.0)
+            .collect()
+    }
+
+    /// F, σ and the stored energy Σ_q w_q ψ_q at the points of state y.
+    fn point_fields(&self, y: &GalerkinState<D>) -> PointFields<D> {
+        let f = self.point_f(y);
+        let (sigma, energy) =
+            stress_fields::<D>(&self.material, &f, &y.s, &y.rho, &self.points.weight);
+        PointFields {
+            f,
+            sigma: sigma.into_iter().map(Tensor3).collect(),
+            energy,
+        }
+    }
+}
+
+/// F, σ and the stored energy at the quadrature points.
+struct PointFields<D: Dim> {
+    f: Vec<D::T>,
+    sigma: Vec<Tensor3>,
+    /// Σ_q w_q ψ_q.
+    energy: f64,
+}
+
+/// m_a = ρ0 Σ_q w_q N_a(X_q); a particle no point reaches is refused.
+fn row_sums<D: Dim>(
+    case: &Case,
+    points: &QuadraturePoints<D>,
+    shapes: &Shapes<D>,
+    gather: &Gather,
+    rho0: f64,
+) -> Result<Vec<f64>, CaseError> {
+    let n = gather.offsets.len() - 1;
+    if let Some(a) = (0..n).find(|&a| gather.is_orphan(a)) {
+        return Err(case.invalid(
+            "method.mass",
+            format!(
+                "particle {a} is the corner of no cell, so the row-sum mass gives it none; \
+                 use `mass = \"particle\"` (it then keeps its particle mass and feels no \
+                 internal force) or a geometry whose every particle is a cell corner"
+            ),
+        ));
+    }
+    Ok((0..n)
+        .map(|a| {
+            gather.range(a).fold(0.0, |m, e| {
+                let q = gather.point[e] as usize;
+                m + rho0 * points.weight[q] * shapes.n[gather.pair[e] as usize]
+            })
+        })
+        .collect())
+}
+
+/// The first particle or quadrature point whose state is not finite.
+fn check_state<D: Dim>(sys: &TlGalerkin<D>, y: &GalerkinState<D>) -> Result<(), BlowUp> {
+    check_motion::<D>(&sys.x0, &y.u, &y.v)?;
+    let at = |q: usize, quantity: &str, value: f64| {
+        let what = format!("{quantity} at quadrature point {q} next to it");
+        BlowUp::at::<D>(&sys.x0, sys.node_of(q), &what, value)
+    };
+    if let Some(q) = y.rho.par_iter().position_first(|r| !r.is_finite()) {
+        return Err(at(q, "density", y.rho[q]));
+    }
+    if let Some(q) = y.s.par_iter().position_first(|&s| !D::is_finite_t(s)) {
+        return Err(at(
+            q,
+            "deviatoric stress |S|",
+            D::ddot(y.s[q], y.s[q]).sqrt(),
+        ));
+    }
+    Ok(())
+}
+
+impl<D: Dim> OdeSystem for TlGalerkin<D> {
+    type State = GalerkinState<D>;
+    type Error = BlowUp;
+
+    fn rates(
+        &mut self,
+        _t: f64,
+        y: &GalerkinState<D>,
+        d: &mut GalerkinState<D>,
+    ) -> Result<(), BlowUp> {
+        self.point_stresses(y, d);
+        if let Some(b) = self.first_inadmissible() {
+            return Err(b);
+        }
+        self.accelerations(&mut d.v);
+        d.u.par_iter_mut()
+            .with_min_len(MIN_CHUNK)
+            .zip(&y.v)
+            .for_each(|(u, &v)| *u = v);
+        let interaction_power = self.interactions.accelerate(&y.v, &self.mass, &mut d.v);
+        self.power = self.boundary.apply(&mut d.v, &y.v, &self.mass)
+            + self.boundary.external_power(&y.v, &self.mass)
+            + interaction_power;
+        Ok(())
+    }
+
+    fn begin_step(&mut self, t: f64, dt: f64, y: &GalerkinState<D>) {
+        self.interactions.begin_step(t, dt, &self.x0, &y.u, &y.v);
+    }
+
+    /// The weak form's velocity smoothing, then the prescribed velocities again.
+    fn end_step(&mut self, _t: f64, y: &mut GalerkinState<D>) {
+        if let Some(smoothing) = &self.smoothing {
+            y.v = smoothing.apply::<D>(&y.v);
+            self.boundary.impose(&mut y.v);
+        }
+    }
+}
+
+impl<D: Dim> Method<D> for TlGalerkin<D> {
+    /// Built through the method's spec, which chooses the points and shape functions.
+    fn build(case: &Case, reference: Reference<D>) -> Result<Self, CaseError> {
+        match &case.method.spec {
+            MethodSpec::TlFem(spec) => spec.system(case, reference),
+            MethodSpec::TlWeakForm(spec) => spec.system(case, reference),
+            _ => Err(not_run_by(case, "TlGalerkin")),
+        }
+    }
+
+    fn initial_state(&self) -> GalerkinState<D> {
+        let (n, q) = (self.x0.len(), self.points.len());
+        let rate = self.material.model.is_rate_based();
+        GalerkinState {
+            u: vec![D::zero(); n],
+            v: self.v0.clone(),
+            rho: if rate {
+                vec![self.material.rho0; q]
+            } else {
+                Vec::new()
+            },
+            s: if rate {
+                vec![D::zero_t(); q]
+            } else {
+                Vec::new()
+            },
+        }
+    }
+
+    fn displacement<'a>(&self, y: &'a GalerkinState<D>) -> &'a [D::V] {
+        &y.u
+    }
+
+    fn velocity<'a>(&self, y: &'a GalerkinState<D>) -> &'a [D::V] {
+        &y.v
+    }
+
+    fn reference(&self) -> &[D::V] {
+        &self.x0
+    }
+
+    fn mass(&self) -> &[f64] {
+        &self.mass
+    }
+
+    fn body(&self) -> &[u32] {
+        &self.body
+    }
+
+    fn constrained(&self) -> &[(u32, u8)] {
+        &self.boundary.constrained
+    }
+
+    /// F at the nodes, projected from the points.
+    fn deformation_gradient(&self, y: &GalerkinState<D>) -> Vec<D::T> {
+        self.to_nodes(&self.point_f(y), D::identity())
+    }
+
+    /// σ at the nodes, projected from the points.
+    fn cauchy_stress(&self, y: &GalerkinState<D>) -> Vec<[[f64; 3]; 3]> {
+        self.stress_at_nodes(&self.point_fields(y).sigma)
+    }
+
+    /// Σ_q w_q ψ_q.
+    fn strain_energy(&self, y: &GalerkinState<D>) -> f64 {
+        self.point_fields(y).energy
+    }
+
+    fn snapshot<'a>(&'a self, y: &GalerkinState<D>) -> Snapshot<'a, D> {
+        let fields = self.point_fields(y);
+        Snapshot {
+            x0: &self.x0,
+            mass: &self.mass,
+            body: &self.body,
+            u: y.u.clone(),
+            v: y.v.clone(),
+            f: self.to_nodes(&fields.f, D::identity()),
+            sigma: self.stress_at_nodes(&fields.sigma),
+            strain_energy: fields.energy,
+            extra: Vec::new(),
+        }
+    }
+
+    fn max_signal_speed(&self, y: &GalerkinState<D>) -> f64 {
+        let vmax =
+            y.v.par_iter()
+                .map(|&v| D::norm2(v))
+                .reduce(|| 0.0, f64::max)
+                .sqrt();
+        self.material.p_wave_speed() + vmax
+    }
+
+    fn boundary_power(&self) -> f64 {
+        self.power
+    }
+
+    fn check_finite(&self, y: &GalerkinState<D>) -> Result<(), BlowUp> {
+        check_state(self, y)
+    }
+}
+
+/// A 3×3 Cauchy stress with the arithmetic of the nodal projection.
+#[derive(Clone, Copy, Debug)]
+struct Tensor3([[f64; 3]; 3]);
+
+impl std::ops::Add for Tensor3 {
+    type Output = Self;
+    fn add(mut self, o: Self) -> Self {
+        for (r, s) in self.0.iter_mut().zip(o.0) {
+            for (a, b) in r.iter_mut().zip(s) {
+                *a += b;
+            }
+        }
+        self
+    }
+}
+
+impl std::ops::Mul<f64> for Tensor3 {
+    type Output = Self;
+    fn mul(mut self, k: f64) -> Self {
+        self.0.iter_mut().flatten().for_each(|a| *a *= k);
+        self
+    }
+}

@@ -1,0 +1,150 @@
+//! The total-Lagrangian weak form after Jun, Liu and Belytschko (seed 000 §5.6,
+//! Algorithm 6): reproducing-kernel (RKPM) shape functions of the particles at 2×2 Gauss
+//! points of the lattice cells, a lumped mass, and the velocity smoothing after each step
+//! that turns the RKPM coefficients into nodal values ("virtual to actual"). It runs on
+//! the shared Galerkin system ([`crate::methods::galerkin`]). Numerics
+//! notes: `docs/methods/galerkin.md`.
+
+use super::fem::galerkin_state;
+use super::galerkin::{Mass, Smoothing, TlGalerkin};
+use super::{Feature, MethodFamily, Plan, Problem};
+use crate::material::Material;
+use crate::quadrature::{QuadraturePoints, Rule, Shapes, lattice_cells};
+use crate::reference::Reference;
+use crate::run::{CpuEngine, Engine, EngineDim};
+use crate::scene::{Case, CaseError};
+use crate::tensor::Dim;
+use serde::{Deserialize, Serialize};
+
+fn yes() -> bool {
+    true
+}
+
+/// The `[method]` keys of the total-Lagrangian weak form.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct WeakFormSpec {
+    /// The velocity smoothing v_i ← Σ_j Ψ_j(X_i) V_j v_j after each step (default true,
+    /// as the paper and the reference code).
+    #[serde(default = "yes")]
+    pub smoothing: bool,
+    /// The nodal masses (default `particle`, the paper's eq 163).
+    #[serde(default = "particle_mass")]
+    pub mass: Mass,
+}
+
+fn particle_mass() -> Mass {
+    Mass::Particle
+}
+
+impl Default for WeakFormSpec {
+    fn default() -> Self {
+        Self {
+            smoothing: true,
+            mass: Mass::Particle,
+        }
+    }
+}
+
+impl WeakFormSpec {
+    /// The Galerkin system with the RKPM functions of the particles at the Gauss points of
+    /// the lattice cells.
+    pub fn system<D: Dim>(
+        &self,
+        case: &Case,
+        reference: Reference<D>,
+    ) -> Result<TlGalerkin<D>, CaseError> {
+        let cells = lattice_cells::<D>(&reference.x0, &reference.body, case.spacing)
+            .map_err(|e| case.invalid("body", e.to_string()))?;
+        let points = QuadraturePoints::new(&cells, &reference.x0, Rule::Gauss2);
+        let shapes = Shapes::reproducing(
+            &points,
+            &reference.x0,
+            &reference.vol,
+            &reference.body,
+            &reference.kernel,
+        )
+        .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
+        let smoothing = if self.smoothing {
+            Some(
+                Smoothing::new(&reference)
+                    .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?,
+            )
+        } else {
+            None
+        };
+        TlGalerkin::new(case, reference, points, shapes, self.mass, smoothing)
+    }
+}
+
+impl MethodFamily for WeakFormSpec {
+    const DESCRIPTION: &'static str = "total-Lagrangian weak form (Jun–Liu–Belytschko; seed \
+        000 §5.6): RKPM shape functions at 2×2 Gauss points of the lattice cells, lumped \
+        mass, velocity smoothing after each step";
+    const KEYS: &'static [&'static str] = &["smoothing", "mass"];
+    const FEATURES: &'static [Feature] = &[Feature::Contact];
+    #[cfg(feature = "gpu")]
+    const SHADERS: &'static [crate::gpu::shaders::Source] = super::galerkin::gpu::SHADERS;
+
+    fn validate(&self, _case: &Case) -> Result<(), Problem> {
+        Ok(())
+    }
+
+    fn plan(&self, case: &Case, gpu: bool) -> Plan {
+        let mat = Material::new(&case.material);
+        let mut left_out = Vec::new();
+        if !self.smoothing {
+            left_out.push("the velocity smoothing after each step");
+        }
+        left_out.push(if mat.model.is_rate_based() {
+            "P(F) evaluation"
+        } else {
+            "continuity and Jaumann rates"
+        });
+        Plan {
+            once: "once, on the reference configuration: the lattice cells with 2^d Gauss \
+                   points each, the particles within the kernel support of every point, RKPM \
+                   N_a = V_a Ψ_a and ∇0N_a there, the node-to-point gather lists, and the \
+                   particles' own RKPM weights for the smoothing"
+                .into(),
+            state: galerkin_state(&mat),
+            cfl_step: format!(
+                "Δt = cfl·Δx/(c_p + max|v|), c_p = {:.1} m/s",
+                mat.p_wave_speed()
+            ),
+            rates: if gpu {
+                "points pass (F_q, P_q, w_q ψ_q, ρ̇_q, Ṡ_q) + nodes pass (−Σ_q w_q P_q \
+                 ∇0N_a(X_q) gathered per particle, BCs); after each step the smooth and settle \
+                 passes (v_i ← Σ_j V_j Ψ_j(X_i) v_j, prescribed components kept)"
+                    .into()
+            } else {
+                "F_q (and Ḟ_q) and P_q at every Gauss point, then each particle gathers \
+                 −Σ_q w_q P_q ∇0N_a(X_q); after each step v_i ← Σ_j V_j Ψ_j(X_i) v_j"
+                    .into()
+            },
+            checked: "det F at the Gauss points",
+            check_note: String::new(),
+            left_out,
+        }
+    }
+
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> Result<Box<dyn Engine<D>>, CaseError> {
+        Ok(Box::new(CpuEngine::<D, TlGalerkin<D>>::new(case)?))
+    }
+
+    #[cfg(feature = "gpu")]
+    fn gpu_engine<D: EngineDim>(
+        &self,
+        case: &Case,
+        gpu: crate::gpu::Gpu,
+    ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
+        Ok(Box::new(super::galerkin::gpu::GpuGalerkin::<D>::new(
+            case, gpu,
+        )?))
+    }
+
+    /// Δt = α Δx/(c_p + max|v|) does not depend on the stretch.
+    fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
+        0.0
+    }
+}

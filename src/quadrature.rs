@@ -1,0 +1,550 @@
+//! Quadrature points: a second point set beside the particles, for the Galerkin methods
+//! (the weak forms and the finite elements of seed 000 §5.6–5.7 and the FEM references).
+//!
+//! - [`lattice_cells`]: the background cells of lattice bodies, every lattice square
+//!   (cube) whose 2^d corners are particles of one body;
+//! - [`QuadraturePoints`]: Gauss points in those cells, with their weights w_q;
+//! - [`Shapes`]: the nodes (particles) whose shape functions reach each point, as a CSR
+//!   from points to nodes, with N_a(x_q) and ∇N_a(x_q) per pair: bilinear (trilinear)
+//!   isoparametric functions of the cells, or reproducing-kernel (RKPM) functions;
+//! - [`Gather`]: the transposed lists, from each node to its pairs, so that the forces
+//!   f_a = −Σ_q w_q P_q ∇N_a(x_q) are gathered per node rather than scattered per point.
+
+use crate::correction;
+use crate::kernel::Kernel;
+use crate::neighbour::{self, Csr};
+use crate::tensor::Dim;
+use std::collections::HashMap;
+use thiserror::Error;
+
+/// The corners of the unit square and cube in VTK order (`VTK_QUAD`, `VTK_HEXAHEDRON`:
+/// the lower face counter-clockwise, then the upper face).
+const CORNERS: [[i64; 3]; 8] = [
+    [0, 0, 0],
+    [1, 0, 0],
+    [1, 1, 0],
+    [0, 1, 0],
+    [0, 0, 1],
+    [1, 0, 1],
+    [1, 1, 1],
+    [0, 1, 1],
+];
+
+/// Why the cells or the shape functions of a case cannot be built.
+#[derive(Clone, Debug, Error, PartialEq)]
+pub enum QuadratureError {
+    #[error(
+        "particle {particle} at {position:?} is not on the lattice of spacing {spacing} of its \
+         body (offset {offset:.3e} of a spacing from the nearest lattice point); cells are \
+         lattice squares, so give the body a shape sampled on the lattice, or a points file \
+         on one"
+    )]
+    OffLattice {
+        particle: usize,
+        position: [f64; 3],
+        spacing: f64,
+        offset: f64,
+    },
+    #[error(
+        "body {body} has no cell: no lattice square (cube) of it has all its corners; a body \
+         must be at least two particles across in every direction"
+    )]
+    NoCell { body: u32 },
+    #[error(
+        "the reproducing-kernel functions at quadrature point {point} at {position:?} are \
+         singular: {nodes} particles reach it, too few or all on one line; increase h/dx"
+    )]
+    Singular {
+        point: usize,
+        position: [f64; 3],
+        nodes: usize,
+    },
+}
+
+/// The background cells: `corners[c * 2^d..(c + 1) * 2^d]` are the particles at the
+/// corners of cell c, in VTK order.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Cells {
+    pub corners: Vec<u32>,
+    /// The body of every cell.
+    pub body: Vec<u32>,
+}
+
+impl Cells {
+    /// Number of cells.
+    pub fn len(&self) -> usize {
+        self.body.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.body.is_empty()
+    }
+
+    /// The corners of cell c.
+    pub fn of<D: Dim>(&self, c: usize) -> &[u32] {
+        let k = 1 << D::N;
+        &self.corners[c * k..(c + 1) * k]
+    }
+}
+
+/// The cells of lattice bodies: every square (cube) of the lattice of spacing Δx whose
+/// 2^d corners are particles of one body. A body's lattice is anchored at its smallest
+/// coordinates; a particle off it is an error, as is a body without a cell.
+pub fn lattice_cells<D: Dim>(
+    x0: &[D::V],
+    body: &[u32],
+    spacing: f64,
+) -> Result<Cells, QuadratureError> {
+    let bodies = body.iter().map(|&b| b as usize + 1).max().unwrap_or(0);
+    let mut origin = vec![[f64::INFINITY; 3]; bodies];
+    for (&x, &b) in x0.iter().zip(body) {
+        let x = D::to3(x);
+        for k in 0..D::N {
+            origin[b as usize][k] = origin[b as usize][k].min(x[k]);
+        }
+    }
+    let mut index = HashMap::with_capacity(x0.len());
+    let mut lattice_index = Vec::with_capacity(x0.len());
+    for (i, (&x, &b)) in x0.iter().zip(body).enumerate() {
+        let x = D::to3(x);
+        let mut at = [0i64; 3];
+        for k in 0..D::N {
+            let s = (x[k] - origin[b as usize][k]) / spacing;
+            let offset = (s - s.round()).abs();
+            if offset > 1e-6 {
+                return Err(QuadratureError::OffLattice {
+                    particle: i,
+                    position: x,
+                    spacing,
+                    offset,
+                });
+            }
+            at[k] = s.round() as i64;
+        }
+        index.insert((b, at), i as u32);
+        lattice_index.push(at);
+    }
+    let mut cells = Cells::default();
+    let corners = &CORNERS[..1 << D::N];
+    for (base, &b) in lattice_index.iter().zip(body) {
+        let found: Option<Vec<u32>> = corners
+            .iter()
+            .map(|c| index.get(&(b, [base[0] + c[0], base[1] + c[1], base[2] + c[2]])))
+            .map(|j| j.copied())
+            .collect();
+        if let Some(found) = found {
+            cells.corners.extend(found);
+            cells.body.push(b);
+        }
+    }
+    for b in 0..bodies as u32 {
+        if !cells.body.contains(&b) {
+            return Err(QuadratureError::NoCell { body: b });
+        }
+    }
+    Ok(cells)
+}
+
+/// The Gauss rule per cell.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Rule {
+    /// One point at the cell centre, weight 2^d (the stress points of seed 000 §5.7).
+    Centre,
+    /// 2^d points at ξ_k = ±1/√3, weight 1 each (exact for the bilinear stiffness).
+    Gauss2,
+}
+
+/// Quadrature points in the cells, in the reference configuration.
+#[derive(Clone, Debug)]
+pub struct QuadraturePoints<D: Dim> {
+    /// Positions X_q.
+    pub x0: Vec<D::V>,
+    /// Weights w_q = (Gauss weight)·det J(ξ_q): the reference volume each point carries.
+    pub weight: Vec<f64>,
+    /// The cell of every point.
+    pub cell: Vec<u32>,
+    /// The body of every point.
+    pub body: Vec<u32>,
+    /// Parent coordinates ξ_q of every point in its cell.
+    pub xi: Vec<[f64; 3]>,
+}
+
+impl<D: Dim> QuadraturePoints<D> {
+    /// The points of `rule` in every cell, mapped isoparametrically from the parent cell.
+    pub fn new(cells: &Cells, x0: &[D::V], rule: Rule) -> Self {
+        let parent: Vec<[f64; 3]> = match rule {
+            Rule::Centre => vec![[0.0; 3]],
+            Rule::Gauss2 => {
+                let g = 1.0 / 3f64.sqrt();
+                CORNERS[..1 << D::N]
+                    .iter()
+                    .map(|c| c.map(|s| if s == 0 { -g } else { g }))
+                    .map(|mut xi| {
+                        xi[D::N..].fill(0.0);
+                        xi
+                    })
+                    .collect()
+            }
+        };
+        let gauss_weight = match rule {
+            Rule::Centre => f64::from(1 << D::N),
+            Rule::Gauss2 => 1.0,
+        };
+        let mut points = Self {
+            x0: Vec::new(),
+            weight: Vec::new(),
+            cell: Vec::new(),
+            body: Vec::new(),
+            xi: Vec::new(),
+        };
+        for c in 0..cells.len() {
+            let corners = cells.of::<D>(c);
+            for &xi in &parent {
+                let (n, dn) = isoparametric::<D>(xi);
+                let x = corners
+                    .iter()
+                    .zip(&n)
+                    .fold(D::zero(), |s, (&a, &na)| s + x0[a as usize] * na);
+                let j = jacobian::<D>(corners, x0, &dn);
+                points.x0.push(x);
+                points.weight.push(gauss_weight * D::det(j));
+                points.cell.push(c as u32);
+                points.body.push(cells.body[c]);
+                points.xi.push(xi);
+            }
+        }
+        points
+    }
+
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.x0.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.x0.is_empty()
+    }
+}
+
+/// The isoparametric shape functions N_a(ξ) = Π_k (1 + ξ_a,k ξ_k)/2 of the 2^d corners
+/// and their parent derivatives ∂N_a/∂ξ_k.
+fn isoparametric<D: Dim>(xi: [f64; 3]) -> (Vec<f64>, Vec<[f64; 3]>) {
+    let corners = &CORNERS[..1 << D::N];
+    let sign = |c: i64| if c == 0 { -1.0 } else { 1.0 };
+    let factor = |c: &[i64; 3], k: usize| 0.5 * (1.0 + sign(c[k]) * xi[k]);
+    let n = corners
+        .iter()
+        .map(|c| (0..D::N).map(|k| factor(c, k)).product())
+        .collect();
+    let dn = corners
+        .iter()
+        .map(|c| {
+            let mut d = [0.0; 3];
+            for (k, dk) in d.iter_mut().enumerate().take(D::N) {
+                *dk = 0.5
+                    * sign(c[k])
+                    * (0..D::N)
+                        .filter(|&l| l != k)
+                        .map(|l| factor(c, l))
+                        .product::<f64>();
+            }
+            d
+        })
+        .collect();
+    (n, dn)
+}
+
+/// J = ∂X/∂ξ = Σ_a X_a ⊗ ∂N_a/∂ξ.
+fn jacobian<D: Dim>(corners: &[u32], x0: &[D::V], dn: &[[f64; 3]]) -> D::T {
+    corners.iter().zip(dn).fold(D::zero_t(), |j, (&a, d)| {
+        j + D::outer(x0[a as usize], D::from_slice(&d[..D::N]))
+    })
+}
+
+/// Shape functions at the quadrature points: the nodes of point q are
+/// `csr.neighbours(q)`, with N_a(x_q) in `n` and ∇N_a(x_q) in `grad`, one per pair in
+/// CSR order, so that a nodal field interpolates as f(x_q) = Σ_a N_a(x_q) f_a (for RKPM,
+/// N_a = V_a Ψ_a of seed 000 eq 43).
+#[derive(Clone, Debug)]
+pub struct Shapes<D: Dim> {
+    pub csr: Csr,
+    pub n: Vec<f64>,
+    pub grad: Vec<D::V>,
+}
+
+impl<D: Dim> Shapes<D> {
+    /// The isoparametric functions of each point's cell: ∇N_a = J⁻ᵀ ∂N_a/∂ξ.
+    pub fn isoparametric(cells: &Cells, points: &QuadraturePoints<D>, x0: &[D::V]) -> Self {
+        let k = 1 << D::N;
+        let mut shapes = Self {
+            csr: Csr {
+                offsets: (0..=points.len()).map(|q| q * k).collect(),
+                ids: Vec::with_capacity(points.len() * k),
+            },
+            n: Vec::with_capacity(points.len() * k),
+            grad: Vec::with_capacity(points.len() * k),
+        };
+        for (q, &xi) in points.xi.iter().enumerate() {
+            let corners = cells.of::<D>(points.cell[q] as usize);
+            let (n, dn) = isoparametric::<D>(xi);
+            let j_inv_t = D::transpose(D::inverse(jacobian::<D>(corners, x0, &dn)));
+            for ((&a, na), d) in corners.iter().zip(n).zip(&dn) {
+                shapes.csr.ids.push(a);
+                shapes.n.push(na);
+                shapes.grad.push(j_inv_t * D::from_slice(&d[..D::N]));
+            }
+        }
+        shapes
+    }
+
+    /// Reproducing-kernel functions with a linear basis (seed 000 §1.4) of the particles x
+    /// (volumes V) of the point's body within the kernel's support of each point:
+    /// N_a = V_a Ψ_a.
+    pub fn reproducing(
+        points: &QuadraturePoints<D>,
+        x: &[D::V],
+        vol: &[f64],
+        body: &[u32],
+        kernel: &Kernel,
+    ) -> Result<Self, QuadratureError> {
+        let reach = crate::reference::neighbour_radius(kernel);
+        let csr = neighbour::between::<D>(&points.x0, x, reach, Some((&points.body, body)));
+        let rows = csr.map_rows(|q| {
+            let nodes = csr.neighbours(q);
+            let shapes = correction::reproducing_shapes::<D>(points.x0[q], nodes, x, vol, kernel)
+                .ok_or(QuadratureError::Singular {
+                point: q,
+                position: D::to3(points.x0[q]),
+                nodes: nodes.len(),
+            })?;
+            Ok(nodes
+                .iter()
+                .zip(shapes)
+                .map(|(&j, (psi, grad))| (vol[j as usize] * psi, grad * vol[j as usize]))
+                .collect())
+        })?;
+        let (n, grad) = rows.into_iter().unzip();
+        Ok(Self { csr, n, grad })
+    }
+
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.csr.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.csr.is_empty()
+    }
+
+    /// The transposed lists, for the per-node gather.
+    pub fn gather(&self, nodes: usize) -> Gather {
+        let mut offsets = vec![0usize; nodes + 1];
+        for &a in &self.csr.ids {
+            offsets[a as usize + 1] += 1;
+        }
+        for a in 0..nodes {
+            offsets[a + 1] += offsets[a];
+        }
+        let mut cursor = offsets[..nodes].to_vec();
+        let mut point = vec![0u32; self.csr.ids.len()];
+        let mut pair = vec![0u32; self.csr.ids.len()];
+        for q in 0..self.len() {
+            for p in self.csr.range(q) {
+                let a = self.csr.ids[p] as usize;
+                point[cursor[a]] = q as u32;
+                pair[cursor[a]] = p as u32;
+                cursor[a] += 1;
+            }
+        }
+        Gather {
+            offsets,
+            point,
+            pair,
+        }
+    }
+}
+
+/// From each node a to the pairs (q, p) of [`Shapes`] that hold it, in ascending q:
+/// `point[offsets[a]..offsets[a + 1]]` and the pair indices `pair[…]` alike.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Gather {
+    pub offsets: Vec<usize>,
+    pub point: Vec<u32>,
+    pub pair: Vec<u32>,
+}
+
+impl Gather {
+    /// The entries of node a.
+    pub fn range(&self, a: usize) -> std::ops::Range<usize> {
+        self.offsets[a]..self.offsets[a + 1]
+    }
+
+    /// Whether node a is reached by no point.
+    pub fn is_orphan(&self, a: usize) -> bool {
+        self.offsets[a] == self.offsets[a + 1]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kernel::KernelKind;
+    use crate::tensor::{D2, D3};
+    use glam::{DVec2, DVec3};
+
+    /// Particles of an nx × ny lattice of spacing dx from the origin.
+    fn lattice(nx: usize, ny: usize, dx: f64) -> Vec<DVec2> {
+        (0..ny)
+            .flat_map(|j| (0..nx).map(move |i| DVec2::new(i as f64 * dx, j as f64 * dx)))
+            .collect()
+    }
+
+    #[test]
+    fn a_rectangle_has_its_lattice_squares_as_cells() {
+        // (nx − 1)(ny − 1) cells, each of area dx²: the 2×2 Gauss weights sum to the
+        // rectangle's area to round-off.
+        let (nx, ny, dx) = (5, 4, 0.25);
+        let x = lattice(nx, ny, dx);
+        let cells = lattice_cells::<D2>(&x, &vec![0; x.len()], dx).unwrap();
+        assert_eq!(cells.len(), (nx - 1) * (ny - 1));
+        for c in 0..cells.len() {
+            let k = cells.of::<D2>(c);
+            // Counter-clockwise: the signed area of the corner polygon is dx².
+            let area: f64 = (0..4)
+                .map(|a| x[k[a] as usize].perp_dot(x[k[(a + 1) % 4] as usize]))
+                .sum::<f64>()
+                / 2.0;
+            assert!((area - dx * dx).abs() < 1e-14, "cell {c}: area {area}");
+        }
+        let points = QuadraturePoints::<D2>::new(&cells, &x, Rule::Gauss2);
+        let total: f64 = points.weight.iter().sum();
+        let area = ((nx - 1) * (ny - 1)) as f64 * dx * dx;
+        assert!((total - area).abs() < 1e-13 * area);
+        let centres = QuadraturePoints::<D2>::new(&cells, &x, Rule::Centre);
+        assert!((centres.weight.iter().sum::<f64>() - area).abs() < 1e-13 * area);
+    }
+
+    #[test]
+    fn particles_off_the_lattice_and_bodies_without_cells_are_refused() {
+        let dx = 0.1;
+        let mut x = lattice(3, 3, dx);
+        x[4].x += 0.3 * dx;
+        let err = lattice_cells::<D2>(&x, &[0; 9], dx).unwrap_err();
+        assert!(
+            matches!(err, QuadratureError::OffLattice { particle: 4, .. }),
+            "{err}"
+        );
+        let line = lattice(4, 1, dx);
+        let err = lattice_cells::<D2>(&line, &[0; 4], dx).unwrap_err();
+        assert_eq!(err, QuadratureError::NoCell { body: 0 });
+    }
+
+    #[test]
+    fn isoparametric_gradients_reproduce_linear_fields_in_a_distorted_cell() {
+        // N_a partition unity and ∇N_a of a linear field f = a + b·x is b exactly, in a
+        // quadrilateral that is no parallelogram (J varies over the cell). Round-off: 1e-13.
+        let x = vec![
+            DVec2::new(0.0, 0.0),
+            DVec2::new(1.0, 0.1),
+            DVec2::new(1.2, 0.9),
+            DVec2::new(-0.1, 1.0),
+        ];
+        let cells = Cells {
+            corners: vec![0, 1, 2, 3],
+            body: vec![0],
+        };
+        let points = QuadraturePoints::<D2>::new(&cells, &x, Rule::Gauss2);
+        let shapes = Shapes::isoparametric(&cells, &points, &x);
+        let b = DVec2::new(0.7, -1.3);
+        let f: Vec<f64> = x.iter().map(|p| 2.0 + b.dot(*p)).collect();
+        for q in 0..points.len() {
+            let r = shapes.csr.range(q);
+            let sum: f64 = shapes.n[r.clone()].iter().sum();
+            assert!((sum - 1.0).abs() < 1e-14);
+            let value: f64 = r
+                .clone()
+                .map(|p| shapes.n[p] * f[shapes.csr.ids[p] as usize])
+                .sum();
+            assert!((value - 2.0 - b.dot(points.x0[q])).abs() < 1e-13);
+            let grad = r.fold(DVec2::ZERO, |g, p| {
+                g + shapes.grad[p] * f[shapes.csr.ids[p] as usize]
+            });
+            assert!((grad - b).length() < 1e-13, "point {q}: {grad}");
+        }
+    }
+
+    #[test]
+    fn hexahedra_weights_and_gradients() {
+        // A 3 × 3 × 3 lattice: 8 cubes, Gauss weights summing to the volume, and
+        // trilinear gradients exact for a linear field.
+        let dx = 0.5;
+        let x: Vec<DVec3> = (0..27)
+            .map(|i| DVec3::new((i % 3) as f64, ((i / 3) % 3) as f64, (i / 9) as f64) * dx)
+            .collect();
+        let cells = lattice_cells::<D3>(&x, &[0; 27], dx).unwrap();
+        assert_eq!(cells.len(), 8);
+        let points = QuadraturePoints::<D3>::new(&cells, &x, Rule::Gauss2);
+        assert_eq!(points.len(), 64);
+        assert!((points.weight.iter().sum::<f64>() - 1.0).abs() < 1e-13);
+        let shapes = Shapes::isoparametric(&cells, &points, &x);
+        let b = DVec3::new(0.3, -0.2, 1.1);
+        for q in 0..points.len() {
+            let grad = shapes.csr.range(q).fold(DVec3::ZERO, |g, p| {
+                g + shapes.grad[p] * b.dot(x[shapes.csr.ids[p] as usize])
+            });
+            assert!((grad - b).length() < 1e-13);
+        }
+    }
+
+    #[test]
+    fn reproducing_functions_reproduce_linear_fields_at_every_point() {
+        // Seed 000 checklist item 4 at the quadrature points: Σ_j V_j Ψ_j = 1,
+        // Σ_j V_j Ψ_j x_j = x_q and Σ_j V_j ∇Ψ_j ⊗ x_j = I (N_j = V_j Ψ_j) at every Gauss
+        // point, boundary
+        // cells included (the moment conditions, eqs 44–45). Round-off of sums of O(30)
+        // terms of O(1): 1e-12.
+        let dx = 0.1;
+        let x = lattice(9, 7, dx);
+        let vol = vec![dx * dx; x.len()];
+        let body = vec![0; x.len()];
+        let cells = lattice_cells::<D2>(&x, &body, dx).unwrap();
+        let points = QuadraturePoints::<D2>::new(&cells, &x, Rule::Gauss2);
+        let kernel = Kernel::new(KernelKind::CubicSpline, 1.5 * dx, 2);
+        let shapes = Shapes::reproducing(&points, &x, &vol, &body, &kernel).unwrap();
+        for q in 0..points.len() {
+            let (mut unity, mut first, mut grad) = (0.0, DVec2::ZERO, glam::DMat2::ZERO);
+            for p in shapes.csr.range(q) {
+                let j = shapes.csr.ids[p] as usize;
+                unity += shapes.n[p];
+                first += x[j] * shapes.n[p];
+                grad += D2::outer(shapes.grad[p], x[j]);
+            }
+            assert!((unity - 1.0).abs() < 1e-12, "point {q}: Σ V Ψ = {unity}");
+            assert!((first - points.x0[q]).length() < 1e-12 * dx * 10.0);
+            assert!((grad - glam::DMat2::IDENTITY).abs_diff_eq(glam::DMat2::ZERO, 1e-11));
+        }
+    }
+
+    #[test]
+    fn the_gather_lists_every_pair_once_under_its_node() {
+        let dx = 1.0;
+        let x = lattice(4, 3, dx);
+        let cells = lattice_cells::<D2>(&x, &[0; 12], dx).unwrap();
+        let points = QuadraturePoints::<D2>::new(&cells, &x, Rule::Gauss2);
+        let shapes = Shapes::isoparametric(&cells, &points, &x);
+        let gather = shapes.gather(x.len());
+        let mut seen = vec![false; shapes.csr.ids.len()];
+        for a in 0..x.len() {
+            for e in gather.range(a) {
+                let p = gather.pair[e] as usize;
+                assert_eq!(shapes.csr.ids[p] as usize, a);
+                assert!(shapes.csr.range(gather.point[e] as usize).contains(&p));
+                assert!(!std::mem::replace(&mut seen[p], true));
+            }
+        }
+        assert!(seen.iter().all(|&s| s));
+        // A corner node is in one cell (4 points), an interior one in four (16).
+        assert_eq!(gather.range(0).len(), 4);
+        assert_eq!(gather.range(5).len(), 16);
+    }
+}

@@ -1,0 +1,179 @@
+//! The GPU passes of the total-Lagrangian Galerkin methods (`tl-fem`, `tl-weak-form`)
+//! against the f64 CPU reference on a software (or real) adapter: one rate evaluation on a
+//! deformed, moving, stressed state, and whole runs with the weak form's smoothing. A
+//! missing adapter fails these tests.
+
+use crate::common::{gpu, load, max_s, max_t, max_v, noise, random_tensor, random_vector};
+use meshless::gpu::layout::GpuDim;
+use meshless::integrate::{Integrator, OdeSystem};
+use meshless::methods::Method;
+use meshless::methods::galerkin::gpu::GpuGalerkin;
+use meshless::methods::galerkin::{GalerkinState, TlGalerkin};
+use meshless::run::{Engine, build_method};
+use meshless::scene::Case;
+use meshless::tensor::{D2, D3, Dim};
+use std::path::Path;
+
+/// A block of spacing 0.1 (E = 1e6 Pa, ρ0 = 1000) under `method` with `model`.
+fn block(max: &[f64], model: &str, method: &str) -> Case {
+    let kernel = if method == "tl-fem" {
+        ""
+    } else {
+        "h_over_dx = 1.3"
+    };
+    let text = format!(
+        r#"
+name = "block"
+dimension = {}
+spacing = 0.1
+[material]
+model = "{model}"
+density = 1000.0
+youngs_modulus = 1.0e6
+poisson_ratio = 0.3
+[method]
+name = "{method}"
+{kernel}
+dt = 1.0e-5
+[[body]]
+name = "b"
+geometry = {{ shape = "box", min = {:?}, max = {max:?} }}
+[run]
+end_time = 1.0e-4
+"#,
+        max.len(),
+        vec![0.0; max.len()]
+    );
+    Case::from_toml(&text, Path::new("block.toml"), &[]).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// One rate evaluation of a random state (|u| ~ 1 mm, |v| ~ 1 m/s, ρ within 1 % of ρ0,
+/// |S| ~ 1e4 Pa) on both backends.
+fn compare_rates<D: GpuDim>(case: &Case) {
+    let mut cpu: TlGalerkin<D> = build_method(case).unwrap();
+    let mut seed = 11;
+    let mut y = cpu.initial_state();
+    for (u, v) in y.u.iter_mut().zip(y.v.iter_mut()) {
+        *u = random_vector::<D>(&mut seed, 1e-3);
+        *v = random_vector::<D>(&mut seed, 1.0);
+    }
+    for (rho, s) in y.rho.iter_mut().zip(y.s.iter_mut()) {
+        *rho *= 1.0 + 0.01 * noise(&mut seed);
+        *s = random_tensor::<D>(&mut seed, 1e4);
+    }
+    let mut d = y.clone();
+    cpu.rates(0.0, &y, &mut d).unwrap();
+    let mut g = GpuGalerkin::<D>::new(case, gpu()).unwrap();
+    let (dg, pg) = g.rates(&y);
+    let what = format!("{} {}D {:?}", case.method.name(), D::N, case.material.model);
+    // P_q from F_q = I + Σ_a (u_a − u_first) ⊗ ∇0N_a: ≤ 40 f32 terms of |u|·|∇N| ~ 1e-2
+    // (ε = 6e-8) and the f32 stress state: relative 1e-5 of max |P|.
+    let (ep, scale_p) = max_t::<D>(cpu.first_piola(), &pg);
+    assert!(
+        ep < 1e-5 * scale_p,
+        "{what}: max |ΔP| = {ep:e} of {scale_p:e}"
+    );
+    // a_a = −(1/m_a) Σ_q w_q P_q ∇0N_a: the node's terms cancel to a small net force, so
+    // the f32 bound is relative to the sum of their magnitudes (16 to 50 terms of
+    // relative error 1e-5 each from P): 1e-4 of Σ_q w_q |P_q| |∇0N_a| / m_a.
+    let (shapes, gather, w) = (cpu.shapes(), cpu.gather(), &cpu.points().weight);
+    for a in 0..y.u.len() {
+        let terms: f64 = gather
+            .range(a)
+            .map(|e| {
+                let q = gather.point[e] as usize;
+                let p = cpu.first_piola()[q];
+                w[q] * D::ddot(p, p).sqrt() * D::norm2(shapes.grad[gather.pair[e] as usize]).sqrt()
+            })
+            .sum::<f64>()
+            / cpu.mass()[a];
+        let diff = D::norm2(d.v[a] - dg.v[a]).sqrt();
+        assert!(
+            diff <= 1e-4 * terms + 1e-12,
+            "{what}: node {a}: |Δa| = {diff:e} of {terms:e}"
+        );
+    }
+    // u̇ = v exactly in f32.
+    let (eu, scale_v) = max_v::<D>(&d.u, &dg.u);
+    assert!(eu < 1e-6 * scale_v, "{what}: u̇ off by {eu:e}");
+    if !y.rho.is_empty() {
+        // ρ̇ = −ρ tr L and the Jaumann Ṡ from Ḟ = Σ_a (v_a − v_first) ⊗ ∇0N_a: 40 terms of
+        // |v||∇N| ~ 10 s⁻¹ in f32: 1e-5 of the largest rate.
+        let (er, scale_r) = max_s(&d.rho, &dg.rho);
+        assert!(
+            er < 1e-5 * scale_r,
+            "{what}: max |Δρ̇| = {er:e} of {scale_r:e}"
+        );
+        let (es, scale_s) = max_t::<D>(&d.s, &dg.s);
+        assert!(
+            es < 1e-5 * scale_s,
+            "{what}: max |ΔṠ| = {es:e} of {scale_s:e}"
+        );
+    }
+}
+
+#[test]
+fn rates_match_the_cpu() {
+    for method in ["tl-fem", "tl-weak-form"] {
+        for model in ["hypoelastic", "saint-venant-kirchhoff", "neo-hookean"] {
+            compare_rates::<D2>(&block(&[1.0, 0.6], model, method));
+        }
+    }
+    compare_rates::<D3>(&block(&[0.4, 0.3, 0.3], "hypoelastic", "tl-fem"));
+    compare_rates::<D3>(&block(&[0.4, 0.3, 0.3], "neo-hookean", "tl-weak-form"));
+}
+
+/// Runs `steps` CPU steps of size dt.
+fn cpu_run<D: Dim>(case: &Case, steps: usize, dt: f64) -> (TlGalerkin<D>, GalerkinState<D>) {
+    let mut m: TlGalerkin<D> = build_method(case).unwrap();
+    let mut y = m.initial_state();
+    let mut integrator = Integrator::new(case.method.integrator, &y);
+    for k in 0..steps {
+        integrator.step(&mut m, k as f64 * dt, dt, &mut y).unwrap();
+    }
+    (m, y)
+}
+
+#[test]
+fn whole_runs_track_the_cpu() {
+    // 100 steps of the seed-000 strip under the elements (grips at ±10 m/s, the rate model)
+    // and of the disk under the weak form with its smoothing after every step (ω = 50 rad/s,
+    // |v| ≤ 50 m/s). f32 round-off of v per stage update ~ 6e-8 |v|, four stages and the
+    // smoothing per step, 100 steps, accumulating at worst linearly: 3e-5 of max |v|;
+    // bound 1e-4 (measured 6e-7 and 1.3e-6). The kinetic energy of the GPU reduction (f32
+    // partials of ≤ 256 terms, f64 sums): 256 × 6e-8 = 1.5e-5; bound 1e-5 (measured 2e-8).
+    // The stored energy is second order in the strain, which on the rotating disk is
+    // what f32 resolves of H = F − I = O(1) under rotation: measured 6e-5 relative there
+    // (3e-8 on the strip); bound 1e-3.
+    for (name, dt) in [
+        ("tensile-strip-fem", 1e-6),
+        ("rotating-disk-weak-form", 1e-6),
+    ] {
+        let case = load(name, &[] as &[&str]);
+        let steps = 100;
+        let (cpu, y) = cpu_run::<D2>(&case, steps, dt);
+        let mut g = GpuGalerkin::<D2>::new(&case, gpu()).unwrap();
+        g.advance_steps(dt, steps as u32);
+        let yg = g.state();
+        let (ev, scale) = max_v::<D2>(&y.v, &yg.v);
+        assert!(ev < 1e-4 * scale, "{name}: max |Δv| = {ev:e} of {scale:e}");
+        g.check().unwrap();
+        let kinetic: f64 =
+            y.v.iter()
+                .zip(cpu.mass())
+                .map(|(v, m)| 0.5 * m * v.length_squared())
+                .sum();
+        let invariants = g.invariants();
+        assert!(
+            (invariants.kinetic - kinetic).abs() < 1e-5 * kinetic,
+            "{name}: kinetic energy {} on the GPU, {kinetic} on the CPU",
+            invariants.kinetic
+        );
+        let strain = cpu.strain_energy(&y);
+        assert!(
+            (invariants.strain - strain).abs() < 1e-3 * strain,
+            "{name}: strain energy {} on the GPU, {strain} on the CPU",
+            invariants.strain
+        );
+    }
+}
