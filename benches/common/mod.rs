@@ -48,6 +48,13 @@ const CASES: &[(&str, &str, &[&str], Kind)] = &[
         &[],
         Kind::Dynamic,
     ),
+    ("tl-fem", "rotating-disk-fem.toml", &[], Kind::Dynamic),
+    (
+        "tl-weak-form",
+        "rotating-disk-weak-form.toml",
+        &[],
+        Kind::Dynamic,
+    ),
     ("upwind-sph", "swinging-plate.toml", &[], Kind::Dynamic),
     (
         "jst-sph",
