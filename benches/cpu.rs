@@ -13,15 +13,21 @@
 //!   (the 2D linear-elastic strip of the LAMMPS comparison) at ~1e4 and ~1e5 particles;
 //!   the case's hypoelastic model at ~1e5 for comparison.
 //! - `neighbour_build`: the cell-list neighbour build on the ~1e5-particle disk.
+//! - `methods`: one step of every method of the registry (`meshless list`) on a case of
+//!   its own at about 2,000 particles (`common`), through the engine `meshless run`
+//!   builds, on the global thread pool; for the static dual-support method, one load step
+//!   of the plate (400 particles) from a freshly built engine, the build not timed.
+
+mod common;
 
 use criterion::{
-    BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main,
+    BatchSize, BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main,
 };
 use meshless::integrate::Integrator;
 use meshless::kernel::Kernel;
-use meshless::methods::Method;
 use meshless::methods::tlsph::Tlsph;
-use meshless::run::build_method;
+use meshless::methods::{Method, REGISTRY};
+use meshless::run::{Backend, Engine, build_method, engine};
 use meshless::scene::Case;
 use meshless::tensor::D2;
 use std::hint::black_box;
@@ -146,5 +152,47 @@ fn neighbour_build(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, rotating_disk, tensile_strip, neighbour_build);
+fn methods(c: &mut Criterion) {
+    let mut g = c.benchmark_group("methods");
+    g.sample_size(10)
+        .warm_up_time(Duration::from_millis(300))
+        .measurement_time(Duration::from_secs(2))
+        .sampling_mode(SamplingMode::Flat);
+    for entry in REGISTRY {
+        let (case, kind) = common::method_case(entry.name);
+        let build = || engine::<D2>(&case, Backend::Cpu).expect("CPU engine builds");
+        let mut stepper = build();
+        let dt = common::time_step(&case, stepper.as_mut());
+        let n = stepper.reference().len();
+        g.throughput(Throughput::Elements(n as u64));
+        let id = BenchmarkId::new(entry.name, n);
+        if kind == common::Kind::Static {
+            g.bench_function(id, |b| {
+                b.iter_batched(
+                    build,
+                    |mut e| e.advance(0.0, dt, 1).expect("load step converges"),
+                    BatchSize::PerIteration,
+                )
+            });
+            continue;
+        }
+        let mut t = 0.0;
+        g.bench_function(id, |b| {
+            b.iter(|| {
+                stepper.advance(t, dt, 1).expect("step stays finite");
+                t += dt;
+            })
+        });
+        stepper.check().expect("state stays finite");
+    }
+    g.finish();
+}
+
+criterion_group!(
+    benches,
+    rotating_disk,
+    tensile_strip,
+    neighbour_build,
+    methods
+);
 criterion_main!(benches);

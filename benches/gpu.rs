@@ -4,14 +4,19 @@
 //! rotating disk (2D, RK4) under TLSPH, Gray–Monaghan and Godunov SPH (the last two
 //! rebuild their neighbours on the device before every rate evaluation), the potential's
 //! tensile strip and the spinning 3D block (SSP-RK3); plus the TLSPH set-up (cell-list
-//! neighbour build, pair offsets, corrected gradients). Runs on the adapter
-//! `Gpu::new` picks (`MESHLESS_ADAPTER` to choose); without one it stops with the reason.
+//! neighbour build, pair offsets, corrected gradients); and `gpu_methods`, 10 steps of
+//! every method of the registry with a GPU engine on a case of its own at about 2,000
+//! particles (`common`). Runs on the adapter `Gpu::new` picks (`MESHLESS_ADAPTER` to
+//! choose); without one it stops with the reason.
+
+mod common;
 
 use criterion::{
     BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main,
 };
 use meshless::bench::resize;
 use meshless::gpu::Gpu;
+use meshless::methods::REGISTRY;
 use meshless::methods::tlsph::GpuTlsph;
 use meshless::run::{Engine, EngineDim};
 use meshless::scene::Case;
@@ -117,8 +122,46 @@ fn block(c: &mut Criterion) {
     steps::<D3>(c, "gpu_spinning_block_3d", "spinning-block-3d.toml");
 }
 
+fn methods(c: &mut Criterion) {
+    let mut g = c.benchmark_group("gpu_methods");
+    g.sample_size(10)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(3))
+        .sampling_mode(SamplingMode::Flat);
+    for entry in REGISTRY.iter().filter(|e| e.gpu_engine) {
+        let (case, kind) = common::method_case(entry.name);
+        assert_eq!(
+            kind,
+            common::Kind::Dynamic,
+            "{}: a GPU engine steps time",
+            entry.name
+        );
+        let mut engine = case
+            .method
+            .spec
+            .gpu_engine::<D2>(&case, gpu())
+            .unwrap_or_else(|e| panic!("GPU set-up of {}: {e}", entry.name));
+        let dt = common::time_step(&case, engine.as_mut());
+        let n = engine.reference().len();
+        g.throughput(Throughput::Elements(
+            n as u64 * u64::from(STEPS_PER_ITERATION),
+        ));
+        g.bench_function(BenchmarkId::new(entry.name, n), |b| {
+            b.iter(|| {
+                engine
+                    .advance(0.0, dt, STEPS_PER_ITERATION)
+                    .expect("steps run");
+                engine.finish();
+            })
+        });
+        engine.check().expect("state stays finite");
+    }
+    g.finish();
+}
+
 criterion_group!(
     benches,
+    methods,
     disk,
     disk_gray_monaghan,
     disk_godunov,

@@ -48,6 +48,9 @@ enum Command {
         /// Print the plan (what runs once, per step, and what is left out) and exit.
         #[arg(long)]
         explain: bool,
+        /// On the GPU, time every pass of the steps and print the pass report at the end.
+        #[arg(long)]
+        profile: bool,
         #[command(flatten)]
         limits: LimitArgs,
     },
@@ -146,6 +149,7 @@ fn main() -> ExitCode {
             no_frames,
             quiet,
             explain,
+            profile,
             limits,
         } => {
             if explain {
@@ -156,6 +160,7 @@ fn main() -> ExitCode {
                     dir: resume.or(out),
                     frames: !no_frames,
                     quiet,
+                    profile,
                 };
                 run_command(&case, backend, output, &set, limits.into())
             }
@@ -277,6 +282,8 @@ struct Output {
     resume: bool,
     frames: bool,
     quiet: bool,
+    /// Print the pass report of a GPU run.
+    profile: bool,
 }
 
 fn run_command(
@@ -307,6 +314,7 @@ fn run_command(
         stop: Some(stop_on_signal()),
         limits,
         resume: output.resume,
+        profile: output.profile,
     };
     match run(&case, &opts) {
         Ok(s) => {
@@ -321,6 +329,15 @@ fn run_command(
                 s.particle_steps_per_second,
                 opts.out_dir.display()
             );
+            match &s.passes {
+                Some(report) => println!("{report}"),
+                None if opts.profile => {
+                    println!(
+                        "note: --profile reports the passes of a GPU run; this one ran on the CPU"
+                    )
+                }
+                None => {}
+            }
             ExitCode::SUCCESS
         }
         Err(e) => {
@@ -435,6 +452,11 @@ fn bench_command(
                     return exit_code(&e);
                 }
             }
+        }
+    }
+    for r in &rows {
+        if let Some(report) = &r.passes {
+            println!("\n{}, {} particles. {report}", r.case, r.particles);
         }
     }
     if let Some(path) = csv {

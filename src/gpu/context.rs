@@ -1,7 +1,9 @@
 //! The wgpu device: adapter selection, buffers, pipelines, dispatch sizes and readback.
 
+use super::profile::{Cost, PassBytes, Profiler};
 use bytemuck::Pod;
 use std::borrow::Cow;
+use std::sync::Mutex;
 use thiserror::Error;
 use wgpu::util::DeviceExt;
 
@@ -58,11 +60,14 @@ pub enum GpuError {
 }
 
 /// A compiled entry point of a WGSL pass and the bindings it uses, by variable name.
+#[derive(Clone)]
 pub struct Pipeline {
     pub raw: wgpu::ComputePipeline,
-    /// `label (entry)`, for messages.
+    /// `label (entry)`, for messages and the pass report.
     pub pass: String,
     bindings: Vec<(u32, String)>,
+    /// The bytes model of its pass file for this variant, if the file declares one.
+    pub cost: Option<Cost>,
 }
 
 /// One adapter as `meshless info` shows it.
@@ -104,16 +109,19 @@ fn instance() -> wgpu::Instance {
 }
 
 /// What an entry point of a WGSL source binds (naga reflection of the module wgpu
-/// compiles): its bindings in group 0 by variable name, and how many are storage buffers.
+/// compiles): its bindings in group 0 by variable name, how many are storage buffers, and
+/// which storage buffers it reads and writes (loads and stores in the entry point and the
+/// functions it calls; an atomic counts as both).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Reflection {
     pub bindings: Vec<(u32, String)>,
     pub storage_buffers: u32,
+    pub reads: Vec<String>,
+    pub writes: Vec<String>,
 }
 
-/// The [`Reflection`] of entry point `entry`; Err: naga's message when the source does
-/// not validate or has no such entry point.
-pub fn reflect(source: &str, entry: &str) -> Result<Reflection, String> {
+/// The module of a WGSL source and its validation info; Err: naga's message.
+fn validated(source: &str) -> Result<(naga::Module, naga::valid::ModuleInfo), String> {
     let module = naga::front::wgsl::parse_str(source).map_err(|e| e.emit_to_string(source))?;
     let info = naga::valid::Validator::new(
         naga::valid::ValidationFlags::all(),
@@ -121,6 +129,22 @@ pub fn reflect(source: &str, entry: &str) -> Result<Reflection, String> {
     )
     .validate(&module)
     .map_err(|e| e.emit_to_string(source))?;
+    Ok((module, info))
+}
+
+/// The [`Reflection`] of entry point `entry`; Err: naga's message when the source does
+/// not validate or has no such entry point.
+pub fn reflect(source: &str, entry: &str) -> Result<Reflection, String> {
+    let (module, info) = validated(source)?;
+    reflect_module(&module, &info, entry)
+}
+
+fn reflect_module(
+    module: &naga::Module,
+    info: &naga::valid::ModuleInfo,
+    entry: &str,
+) -> Result<Reflection, String> {
+    use naga::valid::GlobalUse;
     let index = module
         .entry_points
         .iter()
@@ -134,16 +158,71 @@ pub fn reflect(source: &str, entry: &str) -> Result<Reflection, String> {
     let mut reflection = Reflection {
         bindings: Vec::new(),
         storage_buffers: 0,
+        reads: Vec::new(),
+        writes: Vec::new(),
     };
-    for (_, var) in used {
+    for (handle, var) in used {
         let binding = var.binding.as_ref().map_or(0, |b| b.binding);
         let name = var.name.clone().unwrap_or_default();
-        reflection.bindings.push((binding, name));
+        reflection.bindings.push((binding, name.clone()));
         if matches!(var.space, naga::AddressSpace::Storage { .. }) {
             reflection.storage_buffers += 1;
+            let used = uses[handle];
+            if used.intersects(GlobalUse::READ | GlobalUse::ATOMIC) {
+                reflection.reads.push(name.clone());
+            }
+            if used.intersects(GlobalUse::WRITE | GlobalUse::ATOMIC) {
+                reflection.writes.push(name);
+            }
         }
     }
     Ok(reflection)
+}
+
+/// The integer value of every scalar `const` of a module, by name.
+fn integer_constants(module: &naga::Module) -> Vec<(String, i64)> {
+    module
+        .constants
+        .iter()
+        .filter_map(|(_, c)| {
+            let value = match module.global_expressions[c.init] {
+                naga::Expression::Literal(naga::Literal::U32(v)) => i64::from(v),
+                naga::Expression::Literal(naga::Literal::I32(v)) => i64::from(v),
+                naga::Expression::Literal(naga::Literal::AbstractInt(v)) => v,
+                naga::Expression::Literal(naga::Literal::Bool(v)) => i64::from(v),
+                _ => return None,
+            };
+            Some((c.name.clone()?, value))
+        })
+        .collect()
+}
+
+/// The bytes model of entry point `entry` of a composed pass: the one its pass file
+/// declares (the registered [`Source`](super::shaders::Source) whose text the composed
+/// source ends with), None if it declares none.
+pub fn pass_model(source: &str, entry: &str) -> Option<&'static PassBytes> {
+    crate::methods::shaders()
+        .into_iter()
+        .filter(|s| source.ends_with(s.text))
+        .find_map(|s| s.bytes.iter().find(|b| b.entry == entry))
+}
+
+/// The bytes model of entry point `entry` of a composed pass ([`pass_model`]) in the
+/// variant its constants select. Err: the model names a constant the variant lacks.
+pub fn pass_cost(source: &str, entry: &str) -> Result<Option<Cost>, String> {
+    let (module, _) = validated(source)?;
+    cost_in(&module, source, entry)
+}
+
+/// [`pass_cost`] of the parsed `module` of `source`.
+fn cost_in(module: &naga::Module, source: &str, entry: &str) -> Result<Option<Cost>, String> {
+    let Some(model) = pass_model(source, entry) else {
+        return Ok(None);
+    };
+    let constants = integer_constants(module);
+    model
+        .cost(|name| constants.iter().find(|(n, _)| n == name).map(|c| c.1))
+        .map(Some)
 }
 
 /// Every adapter wgpu reaches, best first ([`rank`]).
@@ -211,6 +290,10 @@ pub struct Gpu {
     pub queue: wgpu::Queue,
     pub info: wgpu::AdapterInfo,
     pub limits: wgpu::Limits,
+    /// The pass report's recording, while profiling ([`Gpu::profile`]).
+    pub(crate) profiler: Mutex<Option<Profiler>>,
+    /// The copy bandwidth, once measured [B/s].
+    pub(crate) copy: Mutex<Option<f64>>,
 }
 
 impl Gpu {
@@ -244,13 +327,16 @@ impl Gpu {
         ranked().into_iter().map(Self::open).collect()
     }
 
-    /// A device on `adapter` with the adapter's own limits.
+    /// A device on `adapter` with the adapter's own limits, and timestamp queries inside
+    /// compute passes where it has them (for the pass report).
     fn open(adapter: wgpu::Adapter) -> Result<Self, GpuError> {
         let info = adapter.get_info();
         let limits = adapter.limits();
+        let timestamps =
+            wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES;
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("meshless"),
-            required_features: wgpu::Features::empty(),
+            required_features: adapter.features() & timestamps,
             required_limits: limits.clone(),
             ..Default::default()
         }))
@@ -263,6 +349,8 @@ impl Gpu {
             queue,
             info,
             limits,
+            profiler: Mutex::new(None),
+            copy: Mutex::new(None),
         })
     }
 
@@ -331,10 +419,13 @@ impl Gpu {
     /// binds no more storage buffers than the adapter allows (layout from the shader).
     pub fn pipeline(&self, label: &str, source: &str, entry: &str) -> Result<Pipeline, GpuError> {
         let pass = format!("{label} ({entry})");
-        let reflection = reflect(source, entry).map_err(|message| GpuError::Shader {
+        let shader = |message| GpuError::Shader {
             pass: pass.clone(),
             message,
-        })?;
+        };
+        let (module, info) = validated(source).map_err(shader)?;
+        let reflection = reflect_module(&module, &info, entry).map_err(shader)?;
+        let cost = cost_in(&module, source, entry).map_err(shader)?;
         let limit = self.limits.max_storage_buffers_per_shader_stage;
         if reflection.storage_buffers > limit {
             return Err(GpuError::TooManyBuffers {
@@ -364,6 +455,7 @@ impl Gpu {
             raw,
             pass,
             bindings: reflection.bindings,
+            cost,
         })
     }
 
@@ -422,17 +514,65 @@ impl Gpu {
         bind: &wgpu::BindGroup,
         n: u32,
     ) {
-        pass.set_pipeline(&pipeline.raw);
-        pass.set_bind_group(0, bind, &[]);
-        let (x, y) = self.groups(n);
-        pass.dispatch_workgroups(x, y, 1);
+        self.dispatch_groups(pass, pipeline, bind, self.groups(n), u64::from(n));
     }
 
-    /// Blocks until every submitted command buffer has finished.
+    /// Records one dispatch of `pipeline` over `groups` workgroups in `pass`, `items`
+    /// items of its bytes model (profiled like every dispatch).
+    pub fn dispatch_groups(
+        &self,
+        pass: &mut wgpu::ComputePass<'_>,
+        pipeline: &Pipeline,
+        bind: &wgpu::BindGroup,
+        groups: (u32, u32),
+        items: u64,
+    ) {
+        self.record(pass, pipeline, bind, items, false, |pass| {
+            pass.dispatch_workgroups(groups.0, groups.1, 1);
+        });
+    }
+
+    /// Records one dispatch of `pipeline` with the workgroup counts at `offset` bytes of
+    /// `args`, `items` items of its bytes model when it runs.
+    pub fn dispatch_indirect(
+        &self,
+        pass: &mut wgpu::ComputePass<'_>,
+        pipeline: &Pipeline,
+        bind: &wgpu::BindGroup,
+        (args, offset): (&wgpu::Buffer, u64),
+        items: u64,
+    ) {
+        self.record(pass, pipeline, bind, items, true, |pass| {
+            pass.dispatch_workgroups_indirect(args, offset);
+        });
+    }
+
+    fn record(
+        &self,
+        pass: &mut wgpu::ComputePass<'_>,
+        pipeline: &Pipeline,
+        bind: &wgpu::BindGroup,
+        items: u64,
+        indirect: bool,
+        encode: impl FnOnce(&mut wgpu::ComputePass<'_>),
+    ) {
+        pass.set_pipeline(&pipeline.raw);
+        pass.set_bind_group(0, bind, &[]);
+        match self.profiler.lock().expect("profiler lock").as_mut() {
+            Some(profiler) => {
+                profiler.dispatch(&self.device, pass, pipeline, items, indirect, encode);
+            }
+            None => encode(pass),
+        }
+    }
+
+    /// Blocks until every submitted command buffer has finished (and, when profiling,
+    /// reads the timestamps written so far back).
     pub fn wait(&self) {
         self.device
             .poll(wgpu::PollType::wait_indefinitely())
             .expect("waiting for the GPU queue");
+        self.resolve_profile();
     }
 
     /// Copies a buffer back to the host (waits for the queue).

@@ -4,6 +4,7 @@
 pub mod context;
 pub mod layout;
 pub mod neighbour;
+pub mod profile;
 pub mod program;
 pub mod reduction;
 pub mod reference;

@@ -21,6 +21,7 @@ use super::layout::GpuDim;
 use super::shaders::{CELL_LIST, Constants, SCAN, compose};
 use crate::tensor::D2;
 use bytemuck::{Pod, Zeroable};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Entries scanned by one workgroup of `scan_blocks` (two per invocation).
 pub const SCAN_BLOCK: u32 = 2 * WORKGROUP;
@@ -122,25 +123,30 @@ pub struct Scan {
     add: Pipeline,
 }
 
-/// One dispatch: pipeline, bind group, workgroup counts.
+/// One dispatch: pipeline, bind group, workgroup counts, and the items of its bytes model.
 struct Step {
-    pipeline: wgpu::ComputePipeline,
+    pipeline: Pipeline,
     bind: wgpu::BindGroup,
     groups: (u32, u32),
+    items: u32,
 }
 
 impl Step {
-    fn encode(&self, pass: &mut wgpu::ComputePass) {
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &self.bind, &[]);
-        pass.dispatch_workgroups(self.groups.0, self.groups.1, 1);
+    fn encode(&self, gpu: &Gpu, pass: &mut wgpu::ComputePass) {
+        let items = u64::from(self.items);
+        gpu.dispatch_groups(pass, &self.pipeline, &self.bind, self.groups, items);
     }
 
     /// The dispatch with the workgroup counts at entry `k` of `args`.
-    fn encode_indirect(&self, pass: &mut wgpu::ComputePass, args: &wgpu::Buffer, k: usize) {
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &self.bind, &[]);
-        pass.dispatch_workgroups_indirect(args, 12 * k as u64);
+    fn encode_indirect(
+        &self,
+        gpu: &Gpu,
+        pass: &mut wgpu::ComputePass,
+        args: &wgpu::Buffer,
+        k: usize,
+    ) {
+        let at = (args, 12 * k as u64);
+        gpu.dispatch_indirect(pass, &self.pipeline, &self.bind, at, u64::from(self.items));
     }
 }
 
@@ -179,18 +185,20 @@ impl Scan {
             );
             let table = [("scan", &params), ("data", &level), ("block_sums", &sums)];
             scans.push(Step {
-                pipeline: self.blocks.raw.clone(),
+                pipeline: self.blocks.clone(),
                 bind: gpu.bind(&self.blocks, &table)?,
                 groups: gpu.groups(blocks * WORKGROUP),
+                items: blocks * WORKGROUP,
             });
             if blocks == 1 {
                 // The single block's sum is the total: nothing to add back at this level.
                 break;
             }
             adds.push(Step {
-                pipeline: self.add.raw.clone(),
+                pipeline: self.add.clone(),
                 bind: gpu.bind(&self.add, &table)?,
                 groups: gpu.groups(len),
+                items: len,
             });
             level = sums;
             len = blocks;
@@ -202,9 +210,9 @@ impl Scan {
 }
 
 impl ScanPlan {
-    pub fn encode(&self, pass: &mut wgpu::ComputePass) {
+    pub fn encode(&self, gpu: &Gpu, pass: &mut wgpu::ComputePass) {
         for step in &self.steps {
-            step.encode(pass);
+            step.encode(gpu, pass);
         }
     }
 }
@@ -216,7 +224,7 @@ pub fn exclusive_scan(gpu: &Gpu, data: &wgpu::Buffer, n: u32) -> Result<(), GpuE
     let mut encoder = gpu.device.create_command_encoder(&Default::default());
     {
         let mut pass = encoder.begin_compute_pass(&Default::default());
-        plan.encode(&mut pass);
+        plan.encode(gpu, &mut pass);
     }
     gpu.queue.submit([encoder.finish()]);
     Ok(())
@@ -271,6 +279,8 @@ pub struct CellList {
     /// clear, bin, (scan of cells), copy cursor, scatter, count, (scan of offsets), fill,
     /// save the positions.
     build: Vec<Step>,
+    /// Builds recorded so far, due or not.
+    recorded: AtomicU64,
 }
 
 impl CellList {
@@ -308,15 +318,16 @@ impl CellList {
         ];
         let text = compose::<D>(&CELL_LIST, &constants(at.offset, at.body.is_some()));
         let particles = gpu.groups(n);
-        let order: [(&str, (u32, u32)); 8] = [
-            ("clear_counts", gpu.groups(n.max(ncells) + 1)),
-            ("bin_particles", particles),
-            ("copy_cursor", gpu.groups(ncells)),
-            ("scatter", particles),
-            ("count_neighbours", particles),
-            ("fill_neighbours", particles),
-            ("save_built", particles),
-            ("check_drift", particles),
+        let cleared = n.max(ncells) + 1;
+        let order: [(&str, (u32, u32), u32); 8] = [
+            ("clear_counts", gpu.groups(cleared), cleared),
+            ("bin_particles", particles, n),
+            ("copy_cursor", gpu.groups(ncells), ncells),
+            ("scatter", particles, n),
+            ("count_neighbours", particles, n),
+            ("fill_neighbours", particles, n),
+            ("save_built", particles, n),
+            ("check_drift", particles, n),
         ];
         let scan_groups =
             |plan: &ScanPlan| -> Vec<(u32, u32)> { plan.steps.iter().map(|s| s.groups).collect() };
@@ -358,17 +369,18 @@ impl CellList {
             ("args", &args),
             ("full", &full),
         ];
-        let step = |entry: &str, groups: (u32, u32)| -> Result<Step, GpuError> {
+        let step = |entry: &str, groups: (u32, u32), items: u32| -> Result<Step, GpuError> {
             let pipeline = gpu.pipeline(entry, &text, entry)?;
             Ok(Step {
                 bind: gpu.bind(&pipeline, &table)?,
-                pipeline: pipeline.raw,
+                pipeline,
                 groups,
+                items,
             })
         };
         let [clear, bin, copy, scatter, count, fill, save, check] =
-            order.map(|(entry, groups)| step(entry, groups));
-        let arm = step("arm", (1, 1))?;
+            order.map(|(entry, groups, items)| step(entry, groups, items));
+        let arm = step("arm", (1, 1), 1)?;
         let [scan_cells, scan_offsets] = scans;
         let build: Vec<Step> = [clear?, bin?]
             .into_iter()
@@ -389,13 +401,14 @@ impl CellList {
             check: check?,
             arm,
             build,
+            recorded: AtomicU64::new(0),
         })
     }
 
     /// Records a build from the current positions.
-    pub fn record(&self, encoder: &mut wgpu::CommandEncoder) {
+    pub fn record(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder) {
         self.force(encoder);
-        self.record_due(encoder, false);
+        self.record_due(gpu, encoder, false);
     }
 
     /// Makes the next [`Self::record_on_drift`] build, whatever the drift.
@@ -405,23 +418,24 @@ impl CellList {
 
     /// Records a build from the current positions if a particle has moved more than the
     /// drift distance since the last build (decided on the device).
-    pub fn record_on_drift(&self, encoder: &mut wgpu::CommandEncoder) {
-        self.record_due(encoder, true);
+    pub fn record_on_drift(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder) {
+        self.record_due(gpu, encoder, true);
     }
 
     /// The drift check (with `check`), then the build's dispatches with the workgroup
     /// counts `arm` sets: all of them when a build is due, none otherwise.
-    fn record_due(&self, encoder: &mut wgpu::CommandEncoder, check: bool) {
+    fn record_due(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, check: bool) {
         if self.n == 0 {
             return;
         }
+        self.recorded.fetch_add(1, Ordering::Relaxed);
         let mut pass = encoder.begin_compute_pass(&Default::default());
         if check {
-            self.check.encode(&mut pass);
+            self.check.encode(gpu, &mut pass);
         }
-        self.arm.encode(&mut pass);
+        self.arm.encode(gpu, &mut pass);
         for (k, step) in self.build.iter().enumerate() {
-            step.encode_indirect(&mut pass, &self.args, k);
+            step.encode_indirect(gpu, &mut pass, &self.args, k);
         }
     }
 
@@ -429,6 +443,12 @@ impl CellList {
     pub fn builds(&self, gpu: &Gpu) -> u32 {
         let due: Vec<u32> = gpu.read(&self.due);
         due[1]
+    }
+
+    /// The builds recorded so far, due or not (what [`Self::builds`] counts those that ran
+    /// of).
+    pub fn recorded(&self) -> u64 {
+        self.recorded.load(Ordering::Relaxed)
     }
 
     /// Room for pairs in `ids`.
@@ -484,7 +504,7 @@ pub fn build<D: GpuDim>(
     loop {
         let list = CellList::new::<D>(gpu, at, &grid, capacity, 0.0)?;
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
-        list.record(&mut encoder);
+        list.record(gpu, &mut encoder);
         gpu.queue.submit([encoder.finish()]);
         match list.overflow(gpu) {
             None => return Ok(list),

@@ -7,6 +7,7 @@
 //! `shaders/<method>/`, declared by its GPU engine.
 
 use super::layout::GpuDim;
+use super::profile::{NONE, PassBytes, read, read_write, write};
 use crate::kernel::{Kernel, KernelKind};
 use crate::material::{Material, MaterialModel};
 
@@ -38,20 +39,31 @@ pub struct Source {
     /// Flat f32 buffers that get `vload_/mload_` (and, if writable, `vstore_/mstore_`)
     /// accessors for DIM-vectors and DIM×DIM column-major tensors.
     pub flat: &'static [(&'static str, bool)],
+    /// The bytes model of its entry points that run in a step, for the pass report
+    /// (checked against the bindings each entry point reads and writes by a test).
+    pub bytes: &'static [PassBytes],
 }
 
-/// The [`Source`] of a pass file under `shaders/` with the function files it calls and
-/// its flat buffers `(name, writable)`.
+/// The [`Source`] of a pass file under `shaders/` with the function files it calls, its
+/// flat buffers `(name, writable)` and the bytes model of its entry points
+/// ([`PassBytes`]).
 macro_rules! source {
     ($path:literal) => {
-        $crate::gpu::shaders::source!($path, [], [])
+        $crate::gpu::shaders::source!($path, [], [], &[])
+    };
+    ($path:literal, bytes = $bytes:expr) => {
+        $crate::gpu::shaders::source!($path, [], [], $bytes)
     };
     ($path:literal, [$($common:expr),*], [$(($buf:literal, $rw:literal)),*]) => {
+        $crate::gpu::shaders::source!($path, [$($common),*], [$(($buf, $rw)),*], &[])
+    };
+    ($path:literal, [$($common:expr),*], [$(($buf:literal, $rw:literal)),*], $bytes:expr) => {
         $crate::gpu::shaders::Source {
             name: $path,
             text: $crate::gpu::shaders::wgsl!($path).text,
             common: &[$($common),*],
             flat: &[$(($buf, $rw)),*],
+            bytes: $bytes,
         }
     };
 }
@@ -79,27 +91,180 @@ pub const CORRECTION: Source = source!(
     [KERNEL, REFERENCE],
     [("pair", true), ("reference", false)]
 );
-/// The integrators' stage operations over the flat state.
-pub const INTEGRATE: Source = source!("common/integrate.wgsl");
+/// The integrators' stage operations over the flat state; an item is one f32 entry of it.
+pub const INTEGRATE: Source = source!(
+    "common/integrate.wgsl",
+    bytes = &[
+        // out = a·out + b·x.
+        PassBytes {
+            entry: "blend",
+            traffic: &[
+                read_write("out", [1, 0, 0], NONE),
+                read("x", [1, 0, 0], NONE)
+            ],
+        },
+        // v += b·v̇.
+        PassBytes {
+            entry: "kick",
+            traffic: &[
+                read_write("out", [1, 0, 0], NONE),
+                read("x", [1, 0, 0], NONE)
+            ],
+        },
+        // u += b·v, and every field after v += b·rate: one more read either way.
+        PassBytes {
+            entry: "drift",
+            traffic: &[
+                read_write("out", [1, 0, 0], NONE),
+                read("x", [1, 0, 0], NONE)
+            ],
+        },
+    ]
+);
 /// Reference pair offsets X_j − X_i from hi + lo positions.
 pub const PAIR_OFFSETS: Source = source!(
     "common/pair_offsets.wgsl",
     [REFERENCE],
     [("reference", false), ("pair", true)]
 );
-/// Penalty contact of seed 000 §5.8: one gather per slave over the other bodies' hulls.
+/// Penalty contact of seed 000 §5.8: one gather per slave over the other bodies' hulls
+/// (hull particles' positions counted once each, as a slave's).
 pub const CONTACT: Source = source!(
     "common/contact.wgsl",
     [REFERENCE],
-    [("reference", false), ("y", false), ("ext", true)]
+    [("reference", false), ("y", false), ("ext", true)],
+    &[PassBytes {
+        entry: "contact",
+        traffic: &[
+            read("reference", [0, 1, 0], NONE),
+            read("y", [0, 1, 0], NONE),
+            read("body", [1, 0, 0], NONE),
+            read("hull", [1, 0, 0], NONE),
+            read("hull_start", NONE, NONE),
+            read_write("ext", [0, 1, 0], NONE),
+        ],
+    }]
 );
-/// Cell list and neighbour lists, with the constants of `gpu::neighbour::constants`.
-pub const CELL_LIST: Source = source!("common/cell_list.wgsl", [], [("x", false)]);
-/// Prefix scans.
-pub const SCAN: Source = source!("common/scan.wgsl");
+/// Cell list and neighbour lists, with the constants of `gpu::neighbour::constants`. An
+/// item is a particle (a cell in `copy_cursor`, either in `clear_counts`); the cell
+/// starts, the sorted ids and a candidate's position are counted once per item, however
+/// many neighbours' searches read them.
+pub const CELL_LIST: Source = source!(
+    "common/cell_list.wgsl",
+    [],
+    [("x", false)],
+    &[
+        PassBytes {
+            entry: "clear_counts",
+            traffic: &[
+                write("cell_start", [1, 0, 0], NONE),
+                write("offsets", [1, 0, 0], NONE),
+            ],
+        },
+        PassBytes {
+            entry: "bin_particles",
+            traffic: &[
+                read("x", [0, 1, 0], NONE),
+                write("cell", [1, 0, 0], NONE),
+                read_write("cell_start", [1, 0, 0], NONE),
+            ],
+        },
+        PassBytes {
+            entry: "copy_cursor",
+            traffic: &[
+                read("cell_start", [1, 0, 0], NONE),
+                write("cursor", [1, 0, 0], NONE),
+            ],
+        },
+        PassBytes {
+            entry: "scatter",
+            traffic: &[
+                read("cell", [1, 0, 0], NONE),
+                read_write("cursor", [1, 0, 0], NONE),
+                write("sorted", [1, 0, 0], NONE),
+            ],
+        },
+        PassBytes {
+            entry: "count_neighbours",
+            traffic: &[
+                read("x", [0, 1, 0], NONE),
+                read("cell_start", [1, 0, 0], NONE),
+                read("sorted", [1, 0, 0], NONE),
+                read("body", [1, 0, 0], NONE).when(&["MASKED"]),
+                write("offsets", [1, 0, 0], NONE),
+                // The search it shares with `fill_neighbours` fills ids there only.
+                read_write("ids", NONE, NONE),
+            ],
+        },
+        // The ids of a row are sorted in place as they are found: read and written.
+        PassBytes {
+            entry: "fill_neighbours",
+            traffic: &[
+                read("x", [0, 1, 0], NONE),
+                read("cell_start", [1, 0, 0], NONE),
+                read("sorted", [1, 0, 0], NONE),
+                read("body", [1, 0, 0], NONE).when(&["MASKED"]),
+                read("offsets", [1, 0, 0], NONE),
+                read_write("ids", NONE, [1, 0, 0]),
+                read_write("overflow", NONE, NONE),
+            ],
+        },
+        PassBytes {
+            entry: "save_built",
+            traffic: &[read("x", [0, 1, 0], NONE), write("built", [0, 1, 0], NONE)],
+        },
+        PassBytes {
+            entry: "check_drift",
+            traffic: &[
+                read("x", [0, 1, 0], NONE),
+                read("built", [0, 1, 0], NONE),
+                read_write("due", NONE, NONE),
+            ],
+        },
+        // One item: 3 workgroup counts of each of a build's dispatches (12 with one
+        // level of each scan).
+        PassBytes {
+            entry: "arm",
+            traffic: &[
+                read_write("due", [2, 0, 0], NONE),
+                read("full", [36, 0, 0], NONE),
+                write("args", [36, 0, 0], NONE),
+            ],
+        },
+    ]
+);
+/// Prefix scans; an item is an invocation (two entries in `scan_blocks`, one in
+/// `add_block_sums`), the block sums (one per 512 entries) are not counted.
+pub const SCAN: Source = source!(
+    "common/scan.wgsl",
+    bytes = &[
+        PassBytes {
+            entry: "scan_blocks",
+            traffic: &[
+                read_write("data", [2, 0, 0], NONE),
+                write("block_sums", NONE, NONE),
+            ],
+        },
+        PassBytes {
+            entry: "add_block_sums",
+            traffic: &[
+                read_write("data", [1, 0, 0], NONE),
+                read("block_sums", NONE, NONE),
+            ],
+        },
+    ]
+);
+/// The copy that measures an adapter's copy bandwidth (`gpu::profile`): 16 bytes an item.
+pub const COPY: Source = source!(
+    "common/copy.wgsl",
+    bytes = &[PassBytes {
+        entry: "copy",
+        traffic: &[read("src", [4, 0, 0], NONE), write("dst", [4, 0, 0], NONE)],
+    }]
+);
 
 /// The shared pass files that take no scene constants (the cell list takes its own).
-pub const SHARED: &[Source] = &[CELL_LIST, SCAN];
+pub const SHARED: &[Source] = &[CELL_LIST, SCAN, COPY];
 
 /// Scene constants compiled into a variant.
 #[derive(Clone, Debug, Default)]

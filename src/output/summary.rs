@@ -17,6 +17,9 @@ use super::write_atomically;
 pub struct RunSummary {
     /// Case name.
     pub case: String,
+    /// The GPU pass report of a run with `--profile` (not written to the file).
+    #[serde(skip)]
+    pub passes: Option<crate::bench::PassReport>,
     /// The version of meshless that ran it.
     #[serde(default)]
     pub version: String,
@@ -149,6 +152,7 @@ mod tests {
 
     fn sample() -> RunSummary {
         RunSummary {
+            passes: None,
             case: "taylor_bar".into(),
             version: "0.1.0".into(),
             case_file: "cases/taylor-bar.toml".into(),

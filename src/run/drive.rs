@@ -28,6 +28,64 @@ fn time_step<D: Dim>(case: &Case, engine: &mut impl Engine<D>) -> f64 {
     }
 }
 
+/// Where a profiled run started: when, at which step, and the device builds so far.
+#[cfg(feature = "gpu")]
+struct Profiled {
+    started: Instant,
+    step: u64,
+    builds: Option<crate::gpu::profile::Builds>,
+}
+
+/// Without the GPU backend no run is profiled.
+#[cfg(not(feature = "gpu"))]
+type Profiled = std::convert::Infallible;
+
+/// Starts profiling the passes of a GPU engine (none on the CPU).
+#[cfg(feature = "gpu")]
+fn start_profile<D: Dim>(engine: &mut impl Engine<D>, step: u64) -> Option<Profiled> {
+    let (gpu, scale) = engine.device()?;
+    gpu.profile(true);
+    Some(Profiled {
+        started: Instant::now(),
+        step,
+        builds: scale.builds,
+    })
+}
+
+#[cfg(not(feature = "gpu"))]
+fn start_profile<D: Dim>(_: &mut impl Engine<D>, _: u64) -> Option<Profiled> {
+    None
+}
+
+/// The pass report of the steps since `from` up to `step`; stops profiling.
+#[cfg(feature = "gpu")]
+fn pass_report<D: Dim>(
+    engine: &mut impl Engine<D>,
+    from: Profiled,
+    step: u64,
+) -> Option<crate::bench::PassReport> {
+    let wall = from.started.elapsed().as_secs_f64();
+    let particles = engine.reference().len();
+    let (gpu, mut scale) = engine.device()?;
+    scale.builds = scale.builds.zip(from.builds).map(|(now, then)| now - then);
+    let steps = u32::try_from(step - from.step).unwrap_or(u32::MAX);
+    let report = crate::bench::PassReport {
+        particles,
+        ..gpu.pass_report(scale, steps, wall)
+    };
+    gpu.profile(false);
+    Some(report)
+}
+
+#[cfg(not(feature = "gpu"))]
+fn pass_report<D: Dim>(
+    _: &mut impl Engine<D>,
+    from: Profiled,
+    _: u64,
+) -> Option<crate::bench::PassReport> {
+    match from {}
+}
+
 /// Runs an engine to the end time with observers, frames, checks and the summary.
 pub fn drive<D: Dim, E: Engine<D>>(
     case: &Case,
@@ -92,6 +150,7 @@ pub fn drive<D: Dim, E: Engine<D>>(
 
     let summary_path = opts.out_dir.join("summary.json");
     let running = RunSummary {
+        passes: None,
         case: case.name.clone(),
         version: env!("CARGO_PKG_VERSION").into(),
         case_file: case.file.display().to_string(),
@@ -152,6 +211,11 @@ pub fn drive<D: Dim, E: Engine<D>>(
         }
     };
 
+    // With --profile on a GPU engine: the pass report of the steps from here.
+    let profiled = match opts.profile {
+        true => start_profile(&mut engine, clock.step),
+        false => None,
+    };
     // Where a failure was found, when not at the current step: (first step it may have
     // happened in, the step it is reported at, the time at the end of that step).
     let mut found = None;
@@ -292,8 +356,10 @@ pub fn drive<D: Dim, E: Engine<D>>(
     let Clock { t, step, dt, .. } = clock;
     let (first_step, failed_step, failed_time) = found.unwrap_or((step, step, t));
     let wall = started.elapsed().as_secs_f64();
+    let passes = profiled.and_then(|from| pass_report(&mut engine, from, step));
     let inv = engine.invariants();
     let summary = RunSummary {
+        passes,
         steps: step,
         dt_last: dt,
         end_time: t,

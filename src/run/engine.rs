@@ -180,6 +180,12 @@ pub trait Engine<D: Dim> {
     fn neighbour_seconds(&mut self) -> Option<f64> {
         None
     }
+    /// A GPU engine's device, for the pass report, and what scales its passes' bytes
+    /// (the pairs of its lists, the builds its device ran); none on the CPU.
+    #[cfg(feature = "gpu")]
+    fn device(&mut self) -> Option<(&Gpu, crate::gpu::profile::Scale)> {
+        None
+    }
 }
 
 /// Forwarding, so that the driver runs whichever engine [`engine`] chose.
@@ -225,6 +231,10 @@ impl<D: Dim> Engine<D> for Box<dyn Engine<D>> {
     }
     fn neighbour_seconds(&mut self) -> Option<f64> {
         (**self).neighbour_seconds()
+    }
+    #[cfg(feature = "gpu")]
+    fn device(&mut self) -> Option<(&Gpu, crate::gpu::profile::Scale)> {
+        (**self).device()
     }
 }
 

@@ -56,6 +56,9 @@ pub struct RunOptions {
     pub limits: Limits,
     /// Continue from the checkpoint in `out_dir` (`--resume`) instead of starting.
     pub resume: bool,
+    /// On the GPU, time every pass of the run's steps and return their report in the
+    /// summary (`--profile`).
+    pub profile: bool,
 }
 
 #[derive(Debug, Error)]

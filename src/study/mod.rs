@@ -242,6 +242,7 @@ fn execute(
         stop: Some(Arc::new(AtomicBool::new(false))),
         limits: Default::default(),
         resume: false,
+        profile: false,
     };
     let (outcome, timed_out) = within_time_limit(opts.run_time_limit, &run_opts, || {
         std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {

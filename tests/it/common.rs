@@ -99,6 +99,7 @@ pub fn cpu_options(dir: &Path, frames: bool) -> RunOptions {
         stop: None,
         limits: Default::default(),
         resume: false,
+        profile: false,
     }
 }
 
@@ -183,6 +184,60 @@ pub fn validate_wgsl(name: &str, src: &str) {
     .unwrap_or_else(|e| panic!("{}", e.emit_to_string_with_path(src, name)));
     within_webgpu_limits(name, src, &module);
     translate(name, &module, &info);
+    bytes_model_matches_the_bindings(name, src, &module);
+}
+
+/// A pass file that declares a bytes model (`gpu::profile`) declares one for each of its
+/// entry points, and each names exactly the storage bindings the entry point reads and
+/// those it writes (naga's uses of each global by the entry point and the functions it
+/// calls); its conditions name constants of the variant.
+#[cfg(feature = "gpu")]
+fn bytes_model_matches_the_bindings(name: &str, src: &str, module: &naga::Module) {
+    use meshless::gpu::context::{pass_cost, pass_model, reflect};
+    let models: Vec<_> = module
+        .entry_points
+        .iter()
+        .map(|e| (e.name.as_str(), pass_model(src, &e.name)))
+        .collect();
+    if models.iter().all(|(_, m)| m.is_none()) {
+        return;
+    }
+    for (entry, model) in models {
+        let model = model.unwrap_or_else(|| {
+            panic!("{name}: entry point `{entry}` has no bytes model beside the others'")
+        });
+        let r = reflect(src, entry).unwrap();
+        let declared = |test: fn(meshless::gpu::profile::Access) -> bool| {
+            let mut names: Vec<String> = model
+                .traffic
+                .iter()
+                .filter(|t| test(t.access))
+                .map(|t| t.binding.to_string())
+                .collect();
+            names.sort();
+            names.dedup();
+            names
+        };
+        let sorted = |mut v: Vec<String>| {
+            v.sort();
+            v
+        };
+        assert_eq!(
+            declared(|a| a.reads()),
+            sorted(r.reads),
+            "{name}: the bytes model of `{entry}` reads other bindings than its WGSL"
+        );
+        assert_eq!(
+            declared(|a| a.writes()),
+            sorted(r.writes),
+            "{name}: the bytes model of `{entry}` writes other bindings than its WGSL"
+        );
+        let cost = pass_cost(src, entry).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert!(
+            cost.is_some_and(|c| c.item + c.pair > 0),
+            "{name}: `{entry}` moves no bytes"
+        );
+    }
 }
 
 /// WebGPU's default limits: `max_storage_buffers_per_shader_stage`,

@@ -408,7 +408,7 @@ fn a_rebuild_on_the_device_follows_moving_particles() {
                 bytemuck::cast_slice(&flat_v::<D2>(x.iter().copied())),
             );
             let mut encoder = gpu.device.create_command_encoder(&Default::default());
-            lists.record(&mut encoder);
+            lists.record(&gpu, &mut encoder);
             gpu.queue.submit([encoder.finish()]);
             let cpu = neighbour::build_within::<D2>(x, neighbour::Reach::Uniform(radius), mask);
             assert!(
@@ -426,7 +426,7 @@ fn a_rebuild_on_the_device_follows_moving_particles() {
         // Room for 10 pairs: the build reports the count the moved particles need.
         let small = gpu_neighbour::CellList::new::<D2>(&gpu, at, &grid, 10, 0.0).unwrap();
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
-        small.record(&mut encoder);
+        small.record(&gpu, &mut encoder);
         gpu.queue.submit([encoder.finish()]);
         let cpu = neighbour::build_within::<D2>(&moved, neighbour::Reach::Uniform(radius), mask);
         assert_eq!(small.overflow(&gpu), Some(cpu.pair_count() as u32));

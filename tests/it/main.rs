@@ -23,6 +23,8 @@ mod gpu_mixed;
 #[cfg(feature = "gpu")]
 mod gpu_neighbours;
 #[cfg(feature = "gpu")]
+mod gpu_profile;
+#[cfg(feature = "gpu")]
 mod gpu_tlsph;
 #[cfg(feature = "gpu")]
 mod gpu_ul;

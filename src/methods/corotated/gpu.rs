@@ -3,6 +3,7 @@
 //! The CPU system ([`super::system`]) is the reference it is checked against.
 
 use super::CorotatedSpec;
+use crate::gpu::profile::{NONE, PassBytes, read, read_write, write};
 use crate::gpu::shaders::{
     BOUNDARY, CONTACT, CORRECTION, INTEGRATE, KERNEL, MECHANICS, PAIR_OFFSETS, REFERENCE, Source,
     VISCOSITY, source,
@@ -19,7 +20,23 @@ pub const STRESS: Source = source!(
         ("pair", false),
         ("reference", false),
         ("kin", true)
-    ]
+    ],
+    &[PassBytes {
+        entry: "stress",
+        traffic: &[
+            read("offsets", [1, 0, 0], NONE),
+            // Both loops over a row: the second reads it from the cache.
+            read("ids", NONE, [1, 0, 0]),
+            // X_j − X_i, ∇0W̃_ij.
+            read("pair", NONE, [0, 2, 0]),
+            read("reference", [1, 0, 0], NONE),
+            // u.
+            read("y", [0, 1, 0], NONE),
+            // F̂ − I, P̂, R F̂⁻ᵀ, ρ, R.
+            write("kin", [1, 0, 4], NONE),
+            read_write("status", NONE, NONE),
+        ],
+    }]
 );
 /// The forces ½(R_i + R_j)(P̂_i + P̂_j)∇0W_ij (eqs 154–155) with viscosity, boundary
 /// conditions.
@@ -33,7 +50,23 @@ pub const ACCEL: Source = source!(
         ("ext", false),
         ("kin", true),
         ("d", true)
-    ]
+    ],
+    &[PassBytes {
+        entry: "accel",
+        traffic: &[
+            read("offsets", [1, 0, 0], NONE),
+            read("ids", NONE, [1, 0, 0]),
+            read("pair", NONE, [0, 1, 0]),
+            read("pair", NONE, [0, 1, 0]).when(&["AV"]),
+            read("reference", [2, 0, 0], NONE),
+            read("y", [0, 2, 0], NONE),
+            // R, P̂, R F̂⁻ᵀ, ρ in; the power out.
+            read("kin", [1, 0, 3], NONE),
+            write("kin", [1, 0, 0], NONE),
+            read("ext", [0, 1, 0], NONE),
+            write("d", [0, 2, 0], NONE),
+        ],
+    }]
 );
 
 /// The passes of a corotated scene (the strain energy Σ V ψ(F̂) is TLSPH's reduction of

@@ -2,10 +2,47 @@
 //! of [`crate::methods::ul::gpu`]. The CPU system ([`super::system`]) is the reference it
 //! is checked against.
 
+use crate::gpu::profile::{NONE, PassBytes, Traffic, read, write};
 use crate::gpu::shaders::{
     BOUNDARY, CONTACT, Constants, INTEGRATE, KERNEL, MECHANICS, REFERENCE, Source, source,
 };
-use crate::methods::ul::gpu::{CORE, REDUCE, Scheme};
+use crate::methods::ul::gpu::{
+    CORE, PARTICLE_CORE, POSITIONS, POWER, RATES_CORE, REDUCE, STATUS, Scheme,
+};
+
+/// The core's part of `particle` and the method's: ρ − ρ0, S in; σ, p, Z = ρc out.
+const PARTICLE: [Traffic; 10] = {
+    let [a, b, c, d, e, f, g] = PARTICLE_CORE;
+    [
+        a,
+        b,
+        c,
+        d,
+        e,
+        f,
+        g,
+        read("y", [0, 0, 1], NONE),
+        write("kin", [2, 0, 1], NONE),
+        STATUS,
+    ]
+};
+/// The core's part of `rates` and the method's: σ, p, Z of both particles.
+const RATES: [Traffic; 11] = {
+    let [a, b, c, d, e, f, g, h, i] = RATES_CORE;
+    [
+        a,
+        b,
+        c,
+        d,
+        e,
+        f,
+        g,
+        h,
+        i,
+        read("kin", [2, 0, 1], NONE),
+        POWER,
+    ]
+};
 
 /// Per-particle quantities (σ, p, Z, V, the correction) and the Riemann pair gather.
 pub const PASSES: Source = source!(
@@ -18,6 +55,17 @@ pub const PASSES: Source = source!(
         ("d", true),
         ("reference", false),
         ("ext", false)
+    ],
+    &[
+        POSITIONS,
+        PassBytes {
+            entry: "particle",
+            traffic: &PARTICLE
+        },
+        PassBytes {
+            entry: "rates",
+            traffic: &RATES
+        },
     ]
 );
 

@@ -3,11 +3,50 @@
 //! ([`super::system`]) is the reference it is checked against.
 
 use super::GrayMonaghanSpec;
+use crate::gpu::profile::{NONE, PassBytes, Traffic, read, write};
 use crate::gpu::shaders::{
     BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, KERNEL, MECHANICS, REFERENCE, Source,
     VISCOSITY, source,
 };
-use crate::methods::ul::gpu::{CORE, REDUCE, Scheme};
+use crate::methods::ul::gpu::{
+    CORE, PARTICLE_CORE, POSITIONS, POWER, RATES_CORE, REDUCE, STATUS, Scheme,
+};
+
+/// The core's part of `particle` and the method's: ρ − ρ0, S in; σ/ρ², c (and R) out.
+const PARTICLE: [Traffic; 11] = {
+    let [a, b, c, d, e, f, g] = PARTICLE_CORE;
+    [
+        a,
+        b,
+        c,
+        d,
+        e,
+        f,
+        g,
+        read("y", [0, 0, 1], NONE),
+        write("kin", [1, 0, 1], NONE),
+        write("kin", [0, 0, 1], NONE).when(&["AS"]),
+        STATUS,
+    ]
+};
+/// The core's part of `rates` and the method's: σ/ρ², c (and R) of both particles.
+const RATES: [Traffic; 12] = {
+    let [a, b, c, d, e, f, g, h, i] = RATES_CORE;
+    [
+        a,
+        b,
+        c,
+        d,
+        e,
+        f,
+        g,
+        h,
+        i,
+        read("kin", [1, 0, 1], NONE),
+        read("kin", [0, 0, 1], NONE).when(&["AS"]),
+        POWER,
+    ]
+};
 use crate::scene::Case;
 
 /// Per-particle quantities (σ/ρ², R, c, V, the correction) and the pair gather.
@@ -23,6 +62,17 @@ pub const PASSES: Source = source!(
         ("d", true),
         ("reference", false),
         ("ext", false)
+    ],
+    &[
+        POSITIONS,
+        PassBytes {
+            entry: "particle",
+            traffic: &PARTICLE
+        },
+        PassBytes {
+            entry: "rates",
+            traffic: &RATES
+        },
     ]
 );
 

@@ -1,8 +1,43 @@
 //! The angular-momentum-preserving projection of seed 003 Appendix B.
 
-use crate::methods::shared::{MIN_CHUNK, ordered_reduce};
+use crate::methods::shared::MIN_CHUNK;
 use crate::tensor::Dim;
 use rayon::prelude::*;
+
+/// The per-chunk partial sums of a projection, kept by its owner so that projecting
+/// allocates nothing once they have their size.
+pub struct Sums<D: Dim> {
+    inertia: Vec<glam::DMat3>,
+    moments: Vec<(D::V, glam::DVec3)>,
+}
+
+impl<D: Dim> Default for Sums<D> {
+    fn default() -> Self {
+        Self {
+            inertia: Vec::new(),
+            moments: Vec::new(),
+        }
+    }
+}
+
+/// The sum of map(0..n) in fixed chunks of [`MIN_CHUNK`], folded in order (the chunks
+/// and order of `shared::ordered_reduce`, so the same bits), the chunks' sums kept in
+/// `chunks`.
+fn reduce_in<T: Copy + Send>(
+    chunks: &mut Vec<T>,
+    n: usize,
+    identity: impl Fn() -> T + Sync,
+    map: impl Fn(usize) -> T + Sync,
+    add: impl Fn(T, T) -> T + Sync,
+) -> T {
+    chunks.resize_with(n.div_ceil(MIN_CHUNK), &identity);
+    chunks.par_iter_mut().enumerate().for_each(|(c, sum)| {
+        *sum = (c * MIN_CHUNK..n.min((c + 1) * MIN_CHUNK))
+            .map(&map)
+            .fold(identity(), &add);
+    });
+    chunks.iter().fold(identity(), |x, &y| add(x, y))
+}
 
 /// The balance of a per-volume force field f_a about the points 𝒳_a (seed 003 eqs
 /// B.2–B.5): f̂_a = f_a + λ × (𝒳_a − c) + μ removes its net force and moment. With the
@@ -19,14 +54,15 @@ pub struct Balance<'a, D: Dim> {
 }
 
 impl<'a, D: Dim> Balance<'a, D> {
-    pub fn new(points: &'a [D::V], vol: &'a [f64]) -> Self {
+    pub fn new(points: &'a [D::V], vol: &'a [f64], sums: &mut Sums<D>) -> Self {
         let total_vol: f64 = vol.iter().sum();
         let centroid = points
             .iter()
             .zip(vol)
             .fold(D::zero(), |c, (&x, &v)| c + x * v)
             * (1.0 / total_vol);
-        let inertia = ordered_reduce(
+        let inertia = reduce_in(
+            &mut sums.inertia,
             points.len(),
             || glam::DMat3::ZERO,
             |a| {
@@ -52,9 +88,10 @@ impl<'a, D: Dim> Balance<'a, D> {
     }
 
     /// Projects f in place.
-    pub fn project(&self, f: &mut [D::V]) {
+    pub fn project(&self, f: &mut [D::V], sums: &mut Sums<D>) {
         let (points, vol, c) = (self.points, self.vol, self.centroid);
-        let (net, moment) = ordered_reduce(
+        let (net, moment) = reduce_in(
+            &mut sums.moments,
             f.len(),
             || (D::zero(), glam::DVec3::ZERO),
             |a| {

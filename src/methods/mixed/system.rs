@@ -11,7 +11,7 @@
 //! and every per-particle field are extended to them, and only real particles are
 //! integrated.
 
-use super::projection::Balance;
+use super::projection::{Balance, Sums};
 use super::weights::{brookshaw_weights, correct_laplacian, least_squares_weights, pair_map};
 use super::{CflWaveSpeed, Conserved, DeformationGradient, JstLaplacian, Momentum, Stabiliser};
 use crate::boundary::Boundary;
@@ -179,6 +179,14 @@ pub struct MixedSph<D: Dim> {
     slopes: Vec<Slopes<D>>,
     /// JST: the Laplacian ∇²v of every particle.
     lap: Vec<D::V>,
+    /// The forces of the current stage, T and D(p) apart for the projection, and the
+    /// positions it balances about, with its sums: kept so that a rate evaluation
+    /// allocates nothing.
+    forces: Vec<Forces<D>>,
+    t: Vec<D::V>,
+    dp: Vec<D::V>,
+    points: Vec<D::V>,
+    sums: Sums<D>,
     /// State at the start of the step (u, v) and the step size, for the projection's
     /// positions 𝒳 at the second TVD-RK2 stage.
     step_start: Option<StepStart<D>>,
@@ -304,6 +312,18 @@ impl<D: Dim> MixedSph<D> {
                 n_ext
             ],
             lap: vec![D::zero(); n_ext],
+            forces: vec![
+                Forces {
+                    t: D::zero(),
+                    d: D::zero(),
+                    dj: 0.0,
+                };
+                n
+            ],
+            t: vec![D::zero(); n],
+            dp: vec![D::zero(); n],
+            points: vec![D::zero(); n],
+            sums: Sums::default(),
             u_ext: vec![D::zero(); n_ext],
             v_ext: vec![D::zero(); n_ext],
             n,
@@ -525,15 +545,16 @@ impl<D: Dim> MixedSph<D> {
         self.lap = lap;
     }
 
-    /// Pass 3: the internal force, the stabilisation of p and the dissipation of J.
-    fn forces(&self, y: &MixedState<D>) -> Vec<Forces<D>> {
+    /// Pass 3: the internal force, the stabilisation of p and the dissipation of J of
+    /// every real particle, into `out`.
+    fn forces(&self, y: &MixedState<D>, out: &mut [Forces<D>]) {
         let mat = &self.material;
         let (c_p, c_s) = (mat.p_wave_speed(), mat.s_wave_speed());
         let (u, v) = (&self.u_ext, &self.v_ext);
-        (0..self.n)
-            .into_par_iter()
+        out.par_iter_mut()
             .with_min_len(MIN_CHUNK)
-            .map(|a| {
+            .enumerate()
+            .for_each(|(a, out)| {
                 let ka = self.kin[a];
                 let xa = self.x0[a] + y.u[a];
                 let mut t = D::zero();
@@ -589,24 +610,20 @@ impl<D: Dim> MixedSph<D> {
                         }
                     }
                 }
-                Forces { t, d, dj }
-            })
-            .collect()
+                *out = Forces { t, d, dj };
+            });
     }
 
     /// Positions 𝒳_a about which angular momentum is balanced (eq B.1): the stage
     /// positions, and x^n + Δt/2 (v^n + v*) = x^{n+1} at the second TVD-RK2 stage, which
     /// makes the step conserve angular momentum exactly.
-    fn balance_points(&self, y: &MixedState<D>) -> Vec<D::V> {
+    fn balance_points(&self, y: &MixedState<D>, out: &mut [D::V]) {
+        let points = out.par_iter_mut().with_min_len(MIN_CHUNK).enumerate();
         match (&self.step_start, self.stage) {
-            (Some((u0, v0, dt)), 1) if self.integrator == IntegratorKind::TvdRk2 => (0..self.n)
-                .into_par_iter()
-                .map(|a| self.x0[a] + u0[a] + (v0[a] + y.v[a]) * (0.5 * dt))
-                .collect(),
-            _ => (0..self.n)
-                .into_par_iter()
-                .map(|a| self.x0[a] + y.u[a])
-                .collect(),
+            (Some((u0, v0, dt)), 1) if self.integrator == IntegratorKind::TvdRk2 => {
+                points.for_each(|(a, x)| *x = self.x0[a] + u0[a] + (v0[a] + y.v[a]) * (0.5 * dt))
+            }
+            _ => points.for_each(|(a, x)| *x = self.x0[a] + y.u[a]),
         }
     }
 
@@ -615,7 +632,10 @@ impl<D: Dim> MixedSph<D> {
     /// and the J dissipation D(J_a).
     pub fn fluxes(&mut self, y: &MixedState<D>) -> Result<Fluxes<D>, BlowUp> {
         self.prepare(y)?;
-        let forces = self.forces(y);
+        let mut forces = std::mem::take(&mut self.forces);
+        self.forces(y, &mut forces);
+        self.forces = forces;
+        let forces = &self.forces;
         Ok(Fluxes {
             t: forces.iter().map(|f| f.t).collect(),
             d: forces.iter().map(|f| f.d).collect(),
@@ -719,13 +739,21 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
 
     fn rates(&mut self, _t: f64, y: &MixedState<D>, d: &mut MixedState<D>) -> Result<(), BlowUp> {
         self.prepare(y)?;
-        let forces = self.forces(y);
-        let (mut t, mut dp): (Vec<D::V>, Vec<D::V>) = forces.iter().map(|f| (f.t, f.d)).unzip();
+        let mut forces = std::mem::take(&mut self.forces);
+        self.forces(y, &mut forces);
+        let (mut t, mut dp) = (std::mem::take(&mut self.t), std::mem::take(&mut self.dp));
+        t.par_iter_mut()
+            .with_min_len(MIN_CHUNK)
+            .zip(dp.par_iter_mut())
+            .zip(&forces)
+            .for_each(|((t, dp), f)| (*t, *dp) = (f.t, f.d));
         if self.projection {
-            let points = self.balance_points(y);
-            let balance = Balance::<D>::new(&points, &self.vol[..self.n]);
-            balance.project(&mut t);
-            balance.project(&mut dp);
+            let mut points = std::mem::take(&mut self.points);
+            self.balance_points(y, &mut points);
+            let balance = Balance::<D>::new(&points, &self.vol[..self.n], &mut self.sums);
+            balance.project(&mut t, &mut self.sums);
+            balance.project(&mut dp, &mut self.sums);
+            self.points = points;
         }
         self.stage += 1;
         let inv_rho0 = 1.0 / self.material.rho0;
@@ -758,6 +786,7 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
                     *j = D::ddot(k.h, k.grad_v) + forces[a].dj;
                 });
         }
+        (self.forces, self.t, self.dp) = (forces, t, dp);
         let interaction_power = self.interactions.accelerate(&y.v, &self.mass, &mut d.v);
         self.power = self.boundary.apply(&mut d.v, &y.v, &self.mass)
             + self.boundary.external_power(&y.v, &self.mass)

@@ -4,6 +4,7 @@
 //! against.
 
 use super::{PotentialForce, PotentialSpec};
+use crate::gpu::profile::{NONE, PassBytes, read, write};
 use crate::gpu::shaders::{
     BOUNDARY, CONTACT, CORRECTION, INTEGRATE, MECHANICS, PAIR_OFFSETS, REFERENCE, Source,
     VISCOSITY, Wgsl, source, wgsl,
@@ -24,6 +25,34 @@ pub const ACCEL: Source = source!(
         ("ext", false),
         ("kin", true),
         ("d", true)
+    ],
+    &[
+        // Set-up; an item is a pair.
+        PassBytes {
+            entry: "reverse_gradients",
+            traffic: &[
+                read("rev", [1, 0, 0], NONE),
+                read("pair", [0, 1, 0], NONE),
+                write("pair", [0, 1, 0], NONE),
+            ],
+        },
+        PassBytes {
+            entry: "accel",
+            traffic: &[
+                read("offsets", [1, 0, 0], NONE),
+                read("ids", NONE, [1, 0, 0]),
+                // ∇0W̃_ij and the reverse ∇0W̃_ji; X_j − X_i for the viscosity.
+                read("pair", NONE, [0, 2, 0]),
+                read("pair", NONE, [0, 1, 0]).when(&["AV"]),
+                read("reference", [2, 0, 0], NONE),
+                read("y", [0, 2, 0], NONE),
+                // P, F⁻ᵀ, ρ in; the power out.
+                read("kin", [1, 0, 2], NONE),
+                write("kin", [1, 0, 0], NONE),
+                read("ext", [0, 1, 0], NONE),
+                write("d", [0, 2, 0], NONE),
+            ],
+        }
     ]
 );
 /// Energies, momenta and checks of a state.

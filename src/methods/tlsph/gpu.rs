@@ -11,6 +11,7 @@ use super::system::{TlState, check_state, snapshot};
 use crate::correction::{self, CorrectionKind};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim, flat_v};
+use crate::gpu::profile::{NONE, PassBytes, Scale, read, read_write, write};
 use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{Reduced, Reduction, WorkBalance};
 use crate::gpu::reference::{self, DeviceReference, Extras};
@@ -42,7 +43,25 @@ pub const STRESS: Source = source!(
         ("reference", false),
         ("d", true),
         ("kin", true)
-    ]
+    ],
+    &[PassBytes {
+        entry: "stress",
+        traffic: &[
+            read("offsets", [1, 0, 0], NONE),
+            read("ids", NONE, [1, 0, 0]),
+            // ∇0W̃_ij.
+            read("pair", NONE, [0, 1, 0]),
+            // V_j.
+            read("reference", [1, 0, 0], NONE),
+            // u, v; ρ − ρ0 and S of the rate model.
+            read("y", [0, 2, 0], NONE),
+            read("y", [1, 0, 1], NONE).when(&["RATE"]),
+            // H, P, F⁻ᵀ, ρ.
+            write("kin", [1, 0, 3], NONE),
+            write("d", [1, 0, 1], NONE).when(&["RATE"]),
+            read_write("status", NONE, NONE),
+        ],
+    }]
 );
 /// Accelerations, artificial viscosity, boundary conditions.
 pub const ACCEL: Source = source!(
@@ -55,7 +74,27 @@ pub const ACCEL: Source = source!(
         ("ext", false),
         ("kin", true),
         ("d", true)
-    ]
+    ],
+    &[PassBytes {
+        entry: "accel",
+        traffic: &[
+            read("offsets", [1, 0, 0], NONE),
+            read("ids", NONE, [1, 0, 0]),
+            // ∇0W̃_ij; X_j − X_i for the viscosity.
+            read("pair", NONE, [0, 1, 0]),
+            read("pair", NONE, [0, 1, 0]).when(&["AV"]),
+            // V, the boundary mask.
+            read("reference", [2, 0, 0], NONE),
+            // u, v.
+            read("y", [0, 2, 0], NONE),
+            // P, F⁻ᵀ, ρ in; the power of supports and loads out.
+            read("kin", [1, 0, 2], NONE),
+            write("kin", [1, 0, 0], NONE),
+            read("ext", [0, 1, 0], NONE),
+            // u̇ = v, v̇.
+            write("d", [0, 2, 0], NONE),
+        ],
+    }]
 );
 /// Energies, momenta and checks of a state.
 pub const REDUCE: Source = source!(
@@ -265,6 +304,8 @@ pub struct GpuTlsph<D: GpuDim> {
     /// The quantity of each status slot (`TlScheme::checks`).
     checks: &'static [&'static str],
     layout: Layout,
+    /// Neighbour pairs of the reference lists.
+    pairs: u64,
     stepper: Stepper,
     kin: wgpu::Buffer,
     pair: wgpu::Buffer,
@@ -428,6 +469,7 @@ impl<D: GpuDim> GpuTlsph<D> {
         let kinematics_y = gpu.bind(&stress, &table(y, stepper.buffer(Buf::Acc)))?;
         Ok(Self {
             gpu,
+            pairs: csr.pair_count() as u64,
             reference: disc,
             energy_weight,
             wave_speed_scale,
@@ -637,6 +679,14 @@ impl<D: GpuDim> GpuTlsph<D> {
 impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
     fn backend(&self) -> String {
         format!("gpu: {}", self.gpu.name())
+    }
+
+    fn device(&mut self) -> Option<(&Gpu, Scale)> {
+        let scale = Scale {
+            pairs: self.pairs,
+            builds: None,
+        };
+        Some((&self.gpu, scale))
     }
 
     fn reference(&self) -> &[D::V] {

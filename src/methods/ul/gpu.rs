@@ -15,6 +15,7 @@ use crate::correction::CorrectionKind;
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::neighbour::{CellList, CellParams, Positions};
+use crate::gpu::profile::{Builds, NONE, PassBytes, Scale, Traffic, read, read_write, write};
 use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{Reduced, Reduction, WorkBalance};
 use crate::gpu::reference::{self, DeviceReference, Extras};
@@ -43,6 +44,49 @@ pub const REDUCE: Source = source!(
     [MECHANICS, ENERGY, REFERENCE],
     [("y", false), ("kin", false), ("reference", false)]
 );
+/// The bytes model of the core's `positions` entry point: x = X + u.
+pub const POSITIONS: PassBytes = PassBytes {
+    entry: "positions",
+    traffic: &[
+        read("reference", [0, 1, 0], NONE),
+        read("y", [0, 1, 0], NONE),
+        write("x", [0, 1, 0], NONE),
+    ],
+};
+
+/// The traffic of the core's part of a scheme's `particle` pass: V = m/ρ (m from the
+/// reference volume, ρ from the state), the linear correction's A⁻ᵀ (a gather over x).
+pub const PARTICLE_CORE: [Traffic; 7] = [
+    read("reference", [1, 0, 0], NONE),
+    read("y", [1, 0, 0], NONE),
+    write("kin", [1, 0, 0], NONE),
+    write("kin", [0, 0, 1], NONE).when(&["CORRECTION == CORRECTION_LINEAR"]),
+    read("offsets", [1, 0, 0], NONE).when(&["CORRECTION == CORRECTION_LINEAR"]),
+    read("ids", NONE, [1, 0, 0]).when(&["CORRECTION == CORRECTION_LINEAR"]),
+    read("x", [0, 1, 0], NONE).when(&["CORRECTION == CORRECTION_LINEAR"]),
+];
+
+/// The traffic of the core's part of a scheme's `rates` pass: the row, x, the state
+/// (v, ρ, S, F), V, A⁻ᵀ, the boundary conditions (V and mask, ext, the power) and the
+/// rates (u̇, v̇, ρ̇, Ṡ, Ḟ).
+pub const RATES_CORE: [Traffic; 9] = [
+    read("offsets", [1, 0, 0], NONE),
+    read("ids", NONE, [1, 0, 0]),
+    read("x", [0, 1, 0], NONE),
+    read("y", [1, 1, 2], NONE),
+    read("kin", [1, 0, 0], NONE),
+    read("kin", [0, 0, 1], NONE).when(&["CORRECTION == CORRECTION_LINEAR"]),
+    read("reference", [2, 0, 0], NONE),
+    read("ext", [0, 1, 0], NONE),
+    write("d", [1, 2, 2], NONE),
+];
+
+/// The power of supports and loads, which the rates pass writes into `kin`.
+pub const POWER: Traffic = write("kin", [1, 0, 0], NONE);
+
+/// The failure flags (det A, ρ > 0) of the particle pass.
+pub const STATUS: Traffic = read_write("status", NONE, NONE);
+
 /// The passes every UL engine compiles besides its scheme's.
 pub const SHARED: [Source; 3] = [CONTACT, INTEGRATE, REDUCE];
 
@@ -376,7 +420,7 @@ impl<D: GpuDim> GpuUl<D> {
                 self.gpu
                     .dispatch(&mut pass, &self.passes.positions, &bound.positions, n);
             }
-            lists.cells.record(&mut encoder);
+            lists.cells.record(&self.gpu, &mut encoder);
         }
         self.gpu.queue.submit([encoder.finish()]);
         self.gpu.wait();
@@ -504,13 +548,28 @@ fn record_rates(
         let mut pass = encoder.begin_compute_pass(&Default::default());
         gpu.dispatch(&mut pass, &passes.positions, &bound.positions, n);
     }
-    lists.cells.record_on_drift(encoder);
+    lists.cells.record_on_drift(gpu, encoder);
     let mut pass = encoder.begin_compute_pass(&Default::default());
     gpu.dispatch(&mut pass, &passes.particle, &bound.particle, n);
     gpu.dispatch(&mut pass, &passes.rates, &bound.rates, n);
 }
 
 impl<D: GpuDim> Engine<D> for GpuUl<D> {
+    /// The pairs of the last build (read back), and the builds run and recorded so far.
+    fn device(&mut self) -> Option<(&Gpu, Scale)> {
+        let cells = &self.lists().cells;
+        let offsets: Vec<u32> = self.gpu.read(&cells.offsets);
+        let builds = Builds {
+            ran: u64::from(cells.builds(&self.gpu)),
+            recorded: cells.recorded(),
+        };
+        let scale = Scale {
+            pairs: u64::from(offsets[self.layout.n]),
+            builds: Some(builds),
+        };
+        Some((&self.gpu, scale))
+    }
+
     fn backend(&self) -> String {
         format!("gpu: {}", self.gpu.name())
     }

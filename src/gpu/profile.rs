@@ -1,0 +1,499 @@
+//! The pass report: per compute pass, the time its dispatches took on the device
+//! (timestamp queries, where the adapter has them), the bytes it moves by a model declared
+//! beside its WGSL ([`PassBytes`], in each pass file's [`Source`](super::shaders::Source)),
+//! the achieved bandwidth, and its fraction of the adapter's own copy bandwidth, measured
+//! once with `shaders/common/copy.wgsl`.
+//!
+//! Profiling is off unless asked for ([`Gpu::profile`]): a dispatch then writes a
+//! timestamp before and after itself, and the timestamps are resolved and read back only
+//! when the host waits for the queue anyway (a readback, the end of a batch), never once
+//! per step.
+//!
+//! The model counts the compulsory traffic of a pass: every field of a particle it reads
+//! or writes, once per item (an invocation: a particle, a ghost, a cell, a flat state
+//! entry), whether the item's own or a neighbour's (a gather reads a neighbour's fields
+//! from the cache after the first time), and every field indexed by a neighbour pair
+//! (ids, gradients, offsets X_j − X_i) once per pair. Loads and stores of one field count
+//! once each, a read-modify-write twice.
+
+use super::context::{Gpu, Pipeline};
+use super::shaders::{COPY, Constants, compose};
+use crate::bench::{PassReport, PassRow};
+use std::time::Instant;
+
+/// f32 or u32 words of one item or pair: scalars, DIM-vectors, DIM×DIM tensors and
+/// slopes (a tensor and its DIM derivatives, (DIM + 1)·DIM² words: the mixed methods'
+/// least-squares slopes of v and P).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Words {
+    pub scalars: u32,
+    pub vectors: u32,
+    pub tensors: u32,
+    pub slopes: u32,
+}
+
+impl Words {
+    /// Bytes of these words in dimension `dim`.
+    pub const fn bytes(self, dim: u32) -> u64 {
+        let d2 = dim * dim;
+        4 * (self.scalars + self.vectors * dim + self.tensors * d2 + self.slopes * (dim + 1) * d2)
+            as u64
+    }
+}
+
+/// How a pass uses a binding.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Access {
+    Read,
+    Write,
+    /// Read and written (a read-modify-write, or an atomic).
+    ReadWrite,
+}
+
+impl Access {
+    pub const fn reads(self) -> bool {
+        matches!(self, Self::Read | Self::ReadWrite)
+    }
+
+    pub const fn writes(self) -> bool {
+        matches!(self, Self::Write | Self::ReadWrite)
+    }
+}
+
+/// One storage binding's traffic in a pass: words per item and per neighbour pair, each
+/// counted once per direction of `access` (a [`Access::ReadWrite`] twice), in the scene
+/// variants where every condition of `when` holds (`"AV"`: the scene constant AV is 1;
+/// `"STAB == STAB_UPWIND"`: two constants, or a constant and a number, are equal).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Traffic {
+    pub binding: &'static str,
+    pub access: Access,
+    pub item: Words,
+    pub pair: Words,
+    pub when: &'static [&'static str],
+}
+
+impl Traffic {
+    /// Only in the scene variants where the conditions hold.
+    pub const fn when(self, when: &'static [&'static str]) -> Self {
+        Self { when, ..self }
+    }
+
+    /// And `slopes` slope blocks per item.
+    pub const fn slopes(self, slopes: u32) -> Self {
+        Self {
+            item: Words {
+                slopes,
+                ..self.item
+            },
+            ..self
+        }
+    }
+}
+
+const fn words(w: [u32; 3]) -> Words {
+    Words {
+        scalars: w[0],
+        vectors: w[1],
+        tensors: w[2],
+        slopes: 0,
+    }
+}
+
+/// `binding` read: `[scalars, vectors, tensors]` per item and per pair.
+pub const fn read(binding: &'static str, item: [u32; 3], pair: [u32; 3]) -> Traffic {
+    Traffic {
+        binding,
+        access: Access::Read,
+        item: words(item),
+        pair: words(pair),
+        when: &[],
+    }
+}
+
+/// `binding` written.
+pub const fn write(binding: &'static str, item: [u32; 3], pair: [u32; 3]) -> Traffic {
+    Traffic {
+        access: Access::Write,
+        ..read(binding, item, pair)
+    }
+}
+
+/// `binding` read and written.
+pub const fn read_write(binding: &'static str, item: [u32; 3], pair: [u32; 3]) -> Traffic {
+    Traffic {
+        access: Access::ReadWrite,
+        ..read(binding, item, pair)
+    }
+}
+
+/// No words.
+pub const NONE: [u32; 3] = [0, 0, 0];
+
+/// The bytes model of one entry point of a pass file: its storage bindings' traffic.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PassBytes {
+    pub entry: &'static str,
+    pub traffic: &'static [Traffic],
+}
+
+/// A pass's model in one compiled variant: bytes per item and per neighbour pair.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Cost {
+    pub item: u64,
+    pub pair: u64,
+}
+
+impl PassBytes {
+    /// The bytes per item and per pair in the variant whose scene constants `constant`
+    /// gives by name (None: no such constant, or not an integer); dimension from `DIM`.
+    pub fn cost(&self, constant: impl Fn(&str) -> Option<i64>) -> Result<Cost, String> {
+        let dim = constant("DIM").ok_or("the pass has no constant DIM")? as u32;
+        let value = |side: &str| -> Result<i64, String> {
+            let side = side.trim();
+            side.parse::<i64>()
+                .ok()
+                .or_else(|| constant(side))
+                .ok_or_else(|| {
+                    format!(
+                        "the bytes model of `{}` names `{side}`, not a constant",
+                        self.entry
+                    )
+                })
+        };
+        let holds = |condition: &str| -> Result<bool, String> {
+            match condition.split_once("==") {
+                Some((a, b)) => Ok(value(a)? == value(b)?),
+                None => match condition.split_once("!=") {
+                    Some((a, b)) => Ok(value(a)? != value(b)?),
+                    None => Ok(value(condition)? == 1),
+                },
+            }
+        };
+        let mut cost = Cost { item: 0, pair: 0 };
+        for t in self.traffic {
+            let mut counted = true;
+            for condition in t.when {
+                counted &= holds(condition)?;
+            }
+            if counted {
+                let times = u64::from(t.access.reads()) + u64::from(t.access.writes());
+                cost.item += times * t.item.bytes(dim);
+                cost.pair += times * t.pair.bytes(dim);
+            }
+        }
+        Ok(cost)
+    }
+}
+
+/// Timestamps a query set holds (wgpu's maximum).
+const QUERIES: u32 = wgpu::QUERY_SET_MAX_QUERIES;
+
+/// A pass's totals so far.
+struct Totals {
+    label: String,
+    cost: Option<Cost>,
+    dispatches: u64,
+    items: u64,
+    /// Indirect dispatches (a neighbour build that runs only when due).
+    indirect: bool,
+    nanos: f64,
+}
+
+/// The recording side of the pass report, held by a [`Gpu`] while profiling.
+pub(crate) struct Profiler {
+    timestamps: bool,
+    sets: Vec<wgpu::QuerySet>,
+    /// Queries written since the last resolve.
+    used: u32,
+    /// The pass (index into `passes`) of each timed dispatch since the last resolve, in
+    /// recording order: its timestamps are queries 2k and 2k + 1.
+    pending: Vec<usize>,
+    passes: Vec<Totals>,
+}
+
+impl Profiler {
+    pub(crate) fn new(timestamps: bool) -> Self {
+        Self {
+            timestamps,
+            sets: Vec::new(),
+            used: 0,
+            pending: Vec::new(),
+            passes: Vec::new(),
+        }
+    }
+
+    /// Records one dispatch of `pipeline` over `items` items, `encode` encoding it in
+    /// `pass`, with a timestamp before and after where the adapter has them.
+    pub(crate) fn dispatch(
+        &mut self,
+        device: &wgpu::Device,
+        pass: &mut wgpu::ComputePass<'_>,
+        pipeline: &Pipeline,
+        items: u64,
+        indirect: bool,
+        encode: impl FnOnce(&mut wgpu::ComputePass<'_>),
+    ) {
+        let index = match self.passes.iter().position(|p| p.label == pipeline.pass) {
+            Some(k) => k,
+            None => {
+                self.passes.push(Totals {
+                    label: pipeline.pass.clone(),
+                    cost: pipeline.cost,
+                    dispatches: 0,
+                    items: 0,
+                    indirect,
+                    nanos: 0.0,
+                });
+                self.passes.len() - 1
+            }
+        };
+        let totals = &mut self.passes[index];
+        totals.dispatches += 1;
+        totals.items += items;
+        if !self.timestamps {
+            encode(pass);
+            return;
+        }
+        let (set, query) = (self.used / QUERIES, self.used % QUERIES);
+        if set as usize == self.sets.len() {
+            self.sets
+                .push(device.create_query_set(&wgpu::QuerySetDescriptor {
+                    label: Some("pass timestamps"),
+                    ty: wgpu::QueryType::Timestamp,
+                    count: QUERIES,
+                }));
+        }
+        let set = &self.sets[set as usize];
+        pass.write_timestamp(set, query);
+        encode(pass);
+        pass.write_timestamp(set, query + 1);
+        self.used += 2;
+        self.pending.push(index);
+    }
+
+    /// Reads the pending timestamps back (after the work that writes them was submitted)
+    /// and adds each dispatch's time to its pass.
+    pub(crate) fn resolve(&mut self, gpu: &Gpu) {
+        if self.used == 0 {
+            return;
+        }
+        let bytes = u64::from(self.used) * 8;
+        let resolved = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("resolved timestamps"),
+            size: bytes,
+            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let staging = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("timestamps readback"),
+            size: bytes,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        for (k, set) in self.sets.iter().enumerate() {
+            let first = k as u32 * QUERIES;
+            if first >= self.used {
+                break;
+            }
+            let count = (self.used - first).min(QUERIES);
+            // Each set's slice starts at a multiple of QUERIES · 8 bytes, a multiple of
+            // QUERY_RESOLVE_BUFFER_ALIGNMENT.
+            encoder.resolve_query_set(set, 0..count, &resolved, u64::from(first) * 8);
+        }
+        encoder.copy_buffer_to_buffer(&resolved, 0, &staging, 0, bytes);
+        gpu.queue.submit([encoder.finish()]);
+        let slice = staging.slice(..);
+        slice.map_async(wgpu::MapMode::Read, |r| r.expect("mapping the timestamps"));
+        gpu.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .expect("waiting for the GPU queue");
+        let ticks: Vec<u64> = bytemuck::cast_slice(
+            &slice
+                .get_mapped_range()
+                .expect("mapped range of the timestamps"),
+        )
+        .to_vec();
+        staging.unmap();
+        let period = f64::from(gpu.queue.get_timestamp_period());
+        for (pass, t) in self.pending.drain(..).zip(ticks.chunks_exact(2)) {
+            // A pair written across a counter reset would read as negative: not counted.
+            if t[1] >= t[0] {
+                self.passes[pass].nanos += (t[1] - t[0]) as f64 * period;
+            }
+        }
+        self.used = 0;
+    }
+}
+
+/// The device neighbour builds of an engine whose lists are rebuilt when due.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Builds {
+    pub ran: u64,
+    pub recorded: u64,
+}
+
+impl std::ops::Sub for Builds {
+    type Output = Self;
+    fn sub(self, before: Self) -> Self {
+        Self {
+            ran: self.ran.saturating_sub(before.ran),
+            recorded: self.recorded.saturating_sub(before.recorded),
+        }
+    }
+}
+
+/// What scales a step's bytes: the neighbour pairs of the engine's lists and, for an
+/// engine whose lists are rebuilt on the device when due, its builds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Scale {
+    pub pairs: u64,
+    pub builds: Option<Builds>,
+}
+
+/// Bytes a copy-bandwidth measurement copies (at most; the device's binding limit may cut
+/// it): 64 MiB, far above any cache.
+const COPY_BYTES: u64 = 64 << 20;
+
+impl Gpu {
+    /// Starts profiling (measuring the copy bandwidth first, once per device) or stops it,
+    /// dropping what was recorded.
+    pub fn profile(&self, on: bool) {
+        if on && self.copy_bandwidth().is_none() {
+            let measured = self.measure_copy_bandwidth();
+            *self.copy.lock().expect("copy bandwidth lock") = Some(measured);
+        }
+        *self.profiler.lock().expect("profiler lock") =
+            on.then(|| Profiler::new(self.timestamps()));
+    }
+
+    /// Whether the device writes timestamps inside compute passes.
+    pub fn timestamps(&self) -> bool {
+        self.device.features().contains(
+            wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES,
+        )
+    }
+
+    /// The copy bandwidth measured by [`Gpu::profile`], bytes read plus written per second.
+    pub fn copy_bandwidth(&self) -> Option<f64> {
+        *self.copy.lock().expect("copy bandwidth lock")
+    }
+
+    /// The best of five copies of a large buffer by `copy.wgsl` (after one to warm up):
+    /// timed by timestamps where the adapter has them, else by the wall clock around a
+    /// submission and its wait.
+    fn measure_copy_bandwidth(&self) -> f64 {
+        let limit = self
+            .limits
+            .max_storage_buffer_binding_size
+            .min(self.limits.max_buffer_size);
+        let bytes = COPY_BYTES.min(limit) / 16 * 16;
+        let text = compose::<crate::tensor::D2>(&COPY, &Constants::default());
+        let pipeline = self
+            .pipeline("copy", &text, "copy")
+            .expect("copy.wgsl compiles (validated by the shader tests)");
+        let (src, dst) = (
+            self.zeroed("copy src", bytes),
+            self.zeroed("copy dst", bytes),
+        );
+        let bind = self
+            .bind(&pipeline, &[("src", &src), ("dst", &dst)])
+            .expect("copy.wgsl binds src and dst");
+        let items = (bytes / 16) as u32;
+        let mut profiler = Profiler::new(self.timestamps());
+        let mut best = 0.0f64;
+        for round in 0..6 {
+            let mut encoder = self.device.create_command_encoder(&Default::default());
+            {
+                let mut pass = encoder.begin_compute_pass(&Default::default());
+                pass.set_pipeline(&pipeline.raw);
+                pass.set_bind_group(0, &bind, &[]);
+                let (x, y) = self.groups(items);
+                profiler.dispatch(
+                    &self.device,
+                    &mut pass,
+                    &pipeline,
+                    u64::from(items),
+                    false,
+                    |pass| pass.dispatch_workgroups(x, y, 1),
+                );
+            }
+            let started = Instant::now();
+            self.queue.submit([encoder.finish()]);
+            self.device
+                .poll(wgpu::PollType::wait_indefinitely())
+                .expect("waiting for the GPU queue");
+            let wall = started.elapsed().as_secs_f64();
+            let before = profiler.passes[0].nanos;
+            profiler.resolve(self);
+            let timed = (profiler.passes[0].nanos - before) * 1e-9;
+            let seconds = if self.timestamps() && timed > 0.0 {
+                timed
+            } else {
+                wall
+            };
+            if round > 0 {
+                best = best.max(2.0 * bytes as f64 / seconds);
+            }
+        }
+        best
+    }
+
+    /// Resolves the timestamps written so far, when profiling (the queue is idle).
+    pub(crate) fn resolve_profile(&self) {
+        if let Some(profiler) = self.profiler.lock().expect("profiler lock").as_mut() {
+            profiler.resolve(self);
+        }
+    }
+
+    /// The pass report of what was recorded since [`Gpu::profile`] started it: `steps`
+    /// steps in `wall_seconds`, bytes scaled by `scale`.
+    pub fn pass_report(&self, scale: Scale, steps: u32, wall_seconds: f64) -> PassReport {
+        let mut guard = self.profiler.lock().expect("profiler lock");
+        let Some(profiler) = guard.as_mut() else {
+            return PassReport::default();
+        };
+        profiler.resolve(self);
+        let timed = profiler.timestamps;
+        let rows = profiler
+            .passes
+            .iter()
+            .map(|p| {
+                // An indirect pass moves its bytes only in the builds that ran.
+                let runs = match (p.indirect, scale.builds) {
+                    (true, Some(b)) => p.dispatches * b.ran / b.recorded.max(1),
+                    _ => p.dispatches,
+                };
+                let bytes = p.cost.map(|c| {
+                    let items = p.items / p.dispatches.max(1);
+                    runs * (c.item * items + c.pair * scale.pairs)
+                });
+                PassRow {
+                    pass: p.label.clone(),
+                    dispatches: p.dispatches,
+                    runs,
+                    seconds: timed.then_some(p.nanos * 1e-9),
+                    bytes,
+                }
+            })
+            .collect();
+        PassReport {
+            adapter: self.name(),
+            particles: 0,
+            steps,
+            wall_seconds,
+            copy_bandwidth: self.copy_bandwidth().unwrap_or(f64::NAN),
+            rows,
+            note: (!timed).then(|| {
+                format!(
+                    "adapter {} has no timestamp queries inside compute passes (wgpu features \
+                     TIMESTAMP_QUERY and TIMESTAMP_QUERY_INSIDE_PASSES): the report shows \
+                     the bytes of each pass, not its time; run on an adapter that has them \
+                     (`meshless info` lists each adapter's features) for the times",
+                    self.name()
+                )
+            }),
+        }
+    }
+}

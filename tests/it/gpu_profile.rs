@@ -1,0 +1,308 @@
+//! The GPU pass report (`meshless bench --backend gpu`) on the adapter wgpu finds
+//! (lavapipe here): every pass of a step of every GPU engine appears with a positive
+//! time, the bytes of the model, and a sum of times within the measured wall time.
+//! Without an adapter these tests fail: `bench::measure` on the GPU backend returns the
+//! error, which they unwrap.
+
+use crate::common::{cpu_options, load};
+use meshless::bench::{PassReport, measure};
+use meshless::gpu::profile::{NONE, PassBytes, read, read_write, write};
+use meshless::integrate::{Op, program};
+use meshless::reference::Reference;
+use meshless::run::{Backend, RunOptions, run};
+use meshless::scene::Case;
+use meshless::tensor::D2;
+
+/// Steps of each report: enough dispatches to time, few enough for lavapipe.
+const STEPS: u32 = 6;
+
+/// The pass report of `STEPS` steps of `case` on the GPU, with its particles and pairs
+/// (the host's reference lists, built here independently of the engine's count).
+fn profiled(case: &Case) -> (PassReport, u64, u64) {
+    let row = measure(case, Backend::Gpu, STEPS).unwrap_or_else(|e| {
+        panic!(
+            "the pass report needs a GPU adapter (CI installs Mesa lavapipe: apt-get install \
+             mesa-vulkan-drivers): {e}"
+        )
+    });
+    let report = row.passes.expect("a GPU engine has a pass report");
+    let reference = Reference::<D2>::build(case).unwrap();
+    let pairs = reference.neighbours().pair_count() as u64;
+    (report, reference.x0.len() as u64, pairs)
+}
+
+/// Dispatches per step of the blends of the case's integrator.
+fn blends(case: &Case) -> u64 {
+    program(case.method.integrator)
+        .iter()
+        .filter(|op| matches!(op, Op::Blend { .. }))
+        .count() as u64
+}
+
+fn row<'a>(report: &'a PassReport, pass: &str) -> &'a meshless::bench::PassRow {
+    report
+        .rows
+        .iter()
+        .find(|r| r.pass == pass)
+        .unwrap_or_else(|| panic!("no pass `{pass}` in the report:\n{report}"))
+}
+
+/// What every report must show: the passes named with their dispatches per step and no
+/// other pass, a positive time and a model's bytes for each, and the sum of the passes'
+/// device times within the wall time of the steps (the wall time also holds the copies
+/// between state buffers, the launches and the resolve of the timestamps).
+fn check_common(report: &PassReport, expected: &[(&str, u64)]) {
+    assert_eq!(report.steps, STEPS);
+    assert!(
+        report.note.is_none(),
+        "the adapter has timestamp queries: {report}"
+    );
+    assert!(
+        report.copy_bandwidth.is_finite() && report.copy_bandwidth > 0.0,
+        "{report}"
+    );
+    for &(pass, per_step) in expected {
+        let r = row(report, pass);
+        assert_eq!(
+            r.dispatches,
+            per_step * u64::from(STEPS),
+            "{pass}:\n{report}"
+        );
+    }
+    for r in &report.rows {
+        let seconds = r.seconds.expect("timed");
+        assert!(seconds > 0.0, "{}: {seconds} s\n{report}", r.pass);
+        assert!(
+            r.bytes.is_some_and(|b| b > 0),
+            "{}: no bytes\n{report}",
+            r.pass
+        );
+        assert!(r.runs <= r.dispatches, "{}\n{report}", r.pass);
+    }
+    let timed: f64 = report.rows.iter().filter_map(|r| r.seconds).sum();
+    assert!(
+        timed <= report.wall_seconds,
+        "passes {timed} s, wall {} s\n{report}",
+        report.wall_seconds
+    );
+}
+
+/// TLSPH's rotating disk (2D, rate model, viscosity, RK4): the stress and accel passes
+/// move 208 B per particle and 32 B per pair per rate evaluation, as read off the WGSL
+/// (stress: the row end, V, u, v, ρ − ρ0, S in and H, P, F⁻ᵀ, ρ, ρ̇, Ṡ out, 29 words; ids
+/// and ∇0W̃ per pair, 3 words; accel: the row end, V and the mask, u, v, P, F⁻ᵀ, ρ, ext in
+/// and the power, u̇, v̇ out, 23 words; ids, ∇0W̃ and X_j − X_i per pair, 5 words), and
+/// each RK4 blend reads and writes 3 words of the 9-word state per particle.
+#[test]
+fn the_rotating_disk_report_has_the_bytes_of_the_wgsl() {
+    let case = load("rotating-disk", &[] as &[&str]);
+    let (report, n, pairs) = profiled(&case);
+    let evaluations = 4 * u64::from(STEPS);
+    check_common(
+        &report,
+        &[
+            ("tl stress (stress)", 4),
+            ("tl accel (accel)", 4),
+            ("blend (blend)", blends(&case)),
+        ],
+    );
+    assert_eq!(report.rows.len(), 3, "{report}");
+    let stress = row(&report, "tl stress (stress)").bytes.unwrap();
+    let accel = row(&report, "tl accel (accel)").bytes.unwrap();
+    assert_eq!(stress, evaluations * (116 * n + 12 * pairs));
+    assert_eq!(stress + accel, evaluations * (208 * n + 32 * pairs));
+    let blend = row(&report, "blend (blend)");
+    assert_eq!(blend.bytes.unwrap(), blend.runs * 12 * 9 * n);
+    assert_eq!(report.particles as u64, n);
+}
+
+/// The tensile strip (TLSPH with grips) has the same passes and per-particle bytes.
+#[test]
+fn the_tensile_strip_report_has_the_bytes_of_the_wgsl() {
+    let case = load("tensile-strip", &[] as &[&str]);
+    let (report, n, pairs) = profiled(&case);
+    check_common(
+        &report,
+        &[
+            ("tl stress (stress)", 4),
+            ("tl accel (accel)", 4),
+            ("blend (blend)", blends(&case)),
+        ],
+    );
+    let both = row(&report, "tl stress (stress)").bytes.unwrap()
+        + row(&report, "tl accel (accel)").bytes.unwrap();
+    assert_eq!(both, 4 * u64::from(STEPS) * (208 * n + 32 * pairs));
+}
+
+/// The elastic potential and corotated TLSPH on the same engine: their own passes.
+#[test]
+fn the_total_lagrangian_schemes_report_their_own_passes() {
+    for (name, stress, accel) in [
+        (
+            "rotating-disk-potential",
+            "tl stress (stress)",
+            "tl accel (accel)",
+        ),
+        (
+            "rotating-disk-corotated",
+            "tl stress (stress)",
+            "tl accel (accel)",
+        ),
+    ] {
+        let case = load(name, &[] as &[&str]);
+        let stages = case.method.integrator.stages() as u64;
+        let (report, n, pairs) = profiled(&case);
+        check_common(
+            &report,
+            &[
+                (stress, stages),
+                (accel, stages),
+                ("blend (blend)", blends(&case)),
+            ],
+        );
+        // Both read at least their row ends, ids and gradients.
+        let evaluations = stages * u64::from(STEPS);
+        for pass in [stress, accel] {
+            let bytes = row(&report, pass).bytes.unwrap();
+            assert!(bytes >= evaluations * (4 * n + 12 * pairs), "{name} {pass}");
+        }
+    }
+}
+
+/// The updated-Lagrangian engine: positions, the drift check and its arming at every rate
+/// evaluation, the build's passes only in the builds that ran, and the method's passes.
+#[test]
+fn the_updated_lagrangian_report_counts_the_builds_that_ran() {
+    for name in ["rotating-disk-gray-monaghan", "rotating-disk-godunov"] {
+        let case = load(name, &[] as &[&str]);
+        let stages = case.method.integrator.stages() as u64;
+        let (report, n, _) = profiled(&case);
+        check_common(
+            &report,
+            &[
+                ("ul positions (positions)", stages),
+                ("check_drift (check_drift)", stages),
+                ("arm (arm)", stages),
+                ("ul particle (particle)", stages),
+                ("ul rates (rates)", stages),
+                ("blend (blend)", blends(&case)),
+            ],
+        );
+        // x = X + u: X and u in, x out, DIM floats each.
+        let positions = row(&report, "ul positions (positions)");
+        assert_eq!(positions.bytes.unwrap(), positions.runs * 24 * n);
+        for pass in [
+            "clear_counts (clear_counts)",
+            "bin_particles (bin_particles)",
+            "scatter (scatter)",
+            "count_neighbours (count_neighbours)",
+            "fill_neighbours (fill_neighbours)",
+            "save_built (save_built)",
+        ] {
+            let r = row(&report, pass);
+            assert_eq!(r.dispatches, stages * u64::from(STEPS), "{name} {pass}");
+        }
+    }
+}
+
+/// The mixed family: ghosts, kinematics, slopes, forces and rates of Upwind-SPH on the
+/// swinging plate (mirror planes, reconstruction); the Laplacian of JST-SPH.
+#[test]
+fn the_mixed_report_has_every_pass_of_a_stage() {
+    let case = load("swinging-plate", &["spacing=0.05"]);
+    let stages = case.method.integrator.stages() as u64;
+    let (report, _, _) = profiled(&case);
+    check_common(
+        &report,
+        &[
+            ("ghost motion (ghost_motion)", stages),
+            ("mixed kinematics (kinematics)", stages),
+            ("ghost kinematics (ghost_kin)", stages),
+            ("slopes (slopes)", stages),
+            ("ghost slopes (ghost_slopes)", stages),
+            ("mixed forces (forces)", stages),
+            ("mixed rates (rates)", stages),
+            ("blend (blend)", blends(&case)),
+        ],
+    );
+    let jst = load("swinging-plate", &["spacing=0.05", "method.name=jst-sph"]);
+    let stages = jst.method.integrator.stages() as u64;
+    let (report, _, _) = profiled(&jst);
+    check_common(
+        &report,
+        &[
+            ("slopes (laplacian)", stages),
+            ("ghost slopes (ghost_laplacian)", stages),
+            ("mixed forces (forces)", stages),
+        ],
+    );
+}
+
+/// A model's bytes: each direction of a binding once, conditions on the variant's
+/// constants, slopes (DIM + 1)·DIM² words.
+#[test]
+fn a_bytes_model_counts_directions_conditions_and_slopes() {
+    const MODEL: PassBytes = PassBytes {
+        entry: "pass",
+        traffic: &[
+            read("a", [1, 1, 1], [1, 0, 0]),
+            write("b", [0, 1, 0], NONE).when(&["AV"]),
+            read_write("c", NONE, NONE)
+                .slopes(1)
+                .when(&["STAB == STAB_JST"]),
+        ],
+    };
+    const MISSING: PassBytes = PassBytes {
+        entry: "pass",
+        traffic: &[read("a", [1, 0, 0], NONE).when(&["XSPH"])],
+    };
+    let constants = |av: i64, stab: i64| {
+        move |name: &str| match name {
+            "DIM" => Some(3),
+            "AV" => Some(av),
+            "STAB" => Some(stab),
+            "STAB_JST" => Some(1),
+            _ => None,
+        }
+    };
+    let cost = MODEL.cost(constants(0, 0)).unwrap();
+    assert_eq!((cost.item, cost.pair), (4 * (1 + 3 + 9), 4));
+    let cost = MODEL.cost(constants(1, 1)).unwrap();
+    assert_eq!(cost.item, 4 * (1 + 3 + 9 + 3 + 2 * 4 * 9));
+    let err = MISSING.cost(constants(0, 0)).unwrap_err();
+    assert!(err.contains("XSPH"), "{err}");
+}
+
+/// `meshless run --profile` on the GPU: the summary carries the report of every step of
+/// the run, its passes' times within the run's wall time; without `--profile`, none.
+#[test]
+fn a_profiled_run_reports_the_passes_of_its_steps() {
+    let case = load("rotating-disk", &["run.end_time=3e-5"]);
+    let dir = tempfile::tempdir().unwrap();
+    let options = |profile| RunOptions {
+        backend: Backend::Gpu,
+        profile,
+        ..cpu_options(dir.path(), false)
+    };
+    let summary = run(&case, &options(true)).unwrap_or_else(|e| {
+        panic!("a profiled run needs a GPU adapter (CI installs Mesa lavapipe): {e}")
+    });
+    let report = summary
+        .passes
+        .expect("a profiled GPU run has a pass report");
+    assert_eq!(u64::from(report.steps), summary.steps);
+    let steps = u64::from(report.steps);
+    // The stress pass also runs for the snapshots of the series rows: at least 4 a step.
+    assert!(
+        row(&report, "tl stress (stress)").dispatches >= 4 * steps,
+        "{report}"
+    );
+    assert_eq!(row(&report, "tl accel (accel)").dispatches, 4 * steps);
+    let timed: f64 = report.rows.iter().filter_map(|r| r.seconds).sum();
+    assert!(
+        timed > 0.0 && timed <= summary.wall_seconds,
+        "passes {timed} s, run {} s",
+        summary.wall_seconds
+    );
+    assert!(run(&case, &options(false)).unwrap().passes.is_none());
+}
