@@ -247,11 +247,6 @@ impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
         &self.shapes
     }
 
-    /// The weights w_q of the last rate evaluation.
-    pub fn weights(&self) -> &[f64] {
-        &self.weight
-    }
-
     /// x = X + u.
     fn positions(&self, y: &UlGalerkinState<D>) -> Vec<D::V> {
         self.x0.iter().zip(&y.u).map(|(&x0, &u)| x0 + u).collect()

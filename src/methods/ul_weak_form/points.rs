@@ -77,8 +77,8 @@ pub fn ellipse_shapes<D: Dim>(
 ) -> Result<(), Degenerate> {
     let offsets: Vec<D::V> = candidates.iter().map(|&j| centre - x[j as usize]).collect();
     let ellipse = Ellipse::<D>::new(&offsets).ok_or(Degenerate {
-        quantity: "the candidates' spread det C (all on one line)",
-        value: 0.0,
+        quantity: "candidates spanning no ellipse (all on one line)",
+        value: offsets.len() as f64,
     })?;
     let kernel = Kernel::new(KernelKind::CubicSpline, ellipse.h, D::N);
     let kept: Vec<usize> = (0..offsets.len())
@@ -89,8 +89,7 @@ pub fn ellipse_shapes<D: Dim>(
         .map(|&p| (offsets[p], vol(candidates[p] as usize)))
         .collect();
     let shapes = correction::reproducing_shapes_of::<D>(&nodes, &kernel).ok_or(Degenerate {
-        quantity: "the number of particles in its ellipse, too few or on one line for the \
-                   reproducing kernel,",
+        quantity: "particles in the ellipse (too few or on one line for RKPM)",
         value: kept.len() as f64,
     })?;
     n.fill(0.0);
