@@ -311,6 +311,8 @@ fn a_variant_runs_its_own_case_and_run_threads_sizes_the_pool() {
             "gray-monaghan" => ("gray-monaghan-sph", 1e-5),
             "corotated" => ("corotated-tlsph", 2.5e-6),
             "potential" => ("tl-potential", 1e-6),
+            "tl-weak-form" => ("tl-weak-form", 1e-6),
+            "tl-fem" => ("tl-fem", 1e-6),
             _ => ("tlsph", 1e-6),
         };
         assert_eq!(
