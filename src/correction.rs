@@ -356,12 +356,23 @@ pub fn reproducing_shapes<D: Dim>(
     vol: &[f64],
     kernel: &Kernel,
 ) -> Option<Vec<(f64, D::V)>> {
-    let offsets = nodes.iter().map(|&j| (y - x[j as usize], vol[j as usize]));
-    let (c, dc) = rkpm_coefficients::<D>(offsets, kernel)?;
+    let offsets: Vec<(D::V, f64)> = nodes
+        .iter()
+        .map(|&j| (y - x[j as usize], vol[j as usize]))
+        .collect();
+    reproducing_shapes_of::<D>(&offsets, kernel)
+}
+
+/// [`reproducing_shapes`] from the nodes' offsets r_j = y − x_j and volumes V_j.
+pub fn reproducing_shapes_of<D: Dim>(
+    nodes: &[(D::V, f64)],
+    kernel: &Kernel,
+) -> Option<Vec<(f64, D::V)>> {
+    let (c, dc) = rkpm_coefficients::<D>(nodes.iter().copied(), kernel)?;
     Some(
         nodes
             .iter()
-            .map(|&j| rkpm_shape::<D>(&c, &dc, y - x[j as usize], kernel))
+            .map(|&(r, _)| rkpm_shape::<D>(&c, &dc, r, kernel))
             .collect(),
     )
 }

@@ -14,6 +14,7 @@ use crate::correction;
 use crate::kernel::Kernel;
 use crate::neighbour::{self, Csr};
 use crate::tensor::Dim;
+use rayon::prelude::*;
 use std::collections::HashMap;
 use thiserror::Error;
 
@@ -51,8 +52,9 @@ pub enum QuadratureError {
     )]
     NoCell { body: u32 },
     #[error(
-        "the reproducing-kernel functions at quadrature point {point} at {position:?} are \
-         singular: {nodes} particles reach it, too few or all on one line; increase h/dx"
+        "the reproducing-kernel functions at point {point} at {position:?} (a quadrature \
+         point, or a particle for the velocity smoothing) are singular: {nodes} particles \
+         reach it, too few or all on one line; increase h/dx"
     )]
     Singular {
         point: usize,
@@ -154,6 +156,16 @@ pub enum Rule {
     Gauss2,
 }
 
+impl Rule {
+    /// The weight of each point in the parent cell [−1, 1]^d, so that w_q = weight·det J.
+    pub fn weight<D: Dim>(self) -> f64 {
+        match self {
+            Self::Centre => f64::from(1 << D::N),
+            Self::Gauss2 => 1.0,
+        }
+    }
+}
+
 /// Quadrature points in the cells, in the reference configuration.
 #[derive(Clone, Debug)]
 pub struct QuadraturePoints<D: Dim> {
@@ -186,10 +198,7 @@ impl<D: Dim> QuadraturePoints<D> {
                     .collect()
             }
         };
-        let gauss_weight = match rule {
-            Rule::Centre => f64::from(1 << D::N),
-            Rule::Gauss2 => 1.0,
-        };
+        let gauss_weight = rule.weight::<D>();
         let mut points = Self {
             x0: Vec::new(),
             weight: Vec::new(),
@@ -261,6 +270,26 @@ fn jacobian<D: Dim>(corners: &[u32], x0: &[D::V], dn: &[[f64; 3]]) -> D::T {
     })
 }
 
+/// The isoparametric functions of a cell with corners at x, at parent point ξ: N_a into
+/// `n` and ∇N_a = J⁻ᵀ ∂N_a/∂ξ into `grad`, in corner order; returns det J (∇N_a are not
+/// finite when it vanishes).
+pub fn isoparametric_shapes<D: Dim>(
+    corners: &[u32],
+    x: &[D::V],
+    xi: [f64; 3],
+    n: &mut [f64],
+    grad: &mut [D::V],
+) -> f64 {
+    let (values, dn) = isoparametric::<D>(xi);
+    let j = jacobian::<D>(corners, x, &dn);
+    let j_inv_t = D::transpose(D::inverse(j));
+    n.copy_from_slice(&values);
+    for (g, d) in grad.iter_mut().zip(&dn) {
+        *g = j_inv_t * D::from_slice(&d[..D::N]);
+    }
+    D::det(j)
+}
+
 /// Shape functions at the quadrature points: the nodes of point q are
 /// `csr.neighbours(q)`, with N_a(x_q) in `n` and ∇N_a(x_q) in `grad`, one per pair in
 /// CSR order, so that a nodal field interpolates as f(x_q) = Σ_a N_a(x_q) f_a (for RKPM,
@@ -272,6 +301,16 @@ pub struct Shapes<D: Dim> {
     pub grad: Vec<D::V>,
 }
 
+impl<D: Dim> Default for Shapes<D> {
+    fn default() -> Self {
+        Self {
+            csr: Csr::default(),
+            n: Vec::new(),
+            grad: Vec::new(),
+        }
+    }
+}
+
 impl<D: Dim> Shapes<D> {
     /// The isoparametric functions of each point's cell: ∇N_a = J⁻ᵀ ∂N_a/∂ξ.
     pub fn isoparametric(cells: &Cells, points: &QuadraturePoints<D>, x0: &[D::V]) -> Self {
@@ -281,42 +320,47 @@ impl<D: Dim> Shapes<D> {
                 offsets: (0..=points.len()).map(|q| q * k).collect(),
                 ids: Vec::with_capacity(points.len() * k),
             },
-            n: Vec::with_capacity(points.len() * k),
-            grad: Vec::with_capacity(points.len() * k),
+            n: vec![0.0; points.len() * k],
+            grad: vec![D::zero(); points.len() * k],
         };
         for (q, &xi) in points.xi.iter().enumerate() {
             let corners = cells.of::<D>(points.cell[q] as usize);
-            let (n, dn) = isoparametric::<D>(xi);
-            let j_inv_t = D::transpose(D::inverse(jacobian::<D>(corners, x0, &dn)));
-            for ((&a, na), d) in corners.iter().zip(n).zip(&dn) {
-                shapes.csr.ids.push(a);
-                shapes.n.push(na);
-                shapes.grad.push(j_inv_t * D::from_slice(&d[..D::N]));
-            }
+            shapes.csr.ids.extend(corners);
+            let r = shapes.csr.range(q);
+            isoparametric_shapes::<D>(
+                corners,
+                x0,
+                xi,
+                &mut shapes.n[r.clone()],
+                &mut shapes.grad[r],
+            );
         }
         shapes
     }
 
     /// Reproducing-kernel functions with a linear basis (seed 000 §1.4) of the particles x
-    /// (volumes V) of the point's body within the kernel's support of each point:
-    /// N_a = V_a Ψ_a.
+    /// (volumes V) of the point's body within the kernel's support of each point y_q (of
+    /// body `at_body[q]`): N_a = V_a Ψ_a. A particle at the point itself is one of its
+    /// nodes.
     pub fn reproducing(
-        points: &QuadraturePoints<D>,
+        at: &[D::V],
+        at_body: &[u32],
         x: &[D::V],
         vol: &[f64],
         body: &[u32],
         kernel: &Kernel,
     ) -> Result<Self, QuadratureError> {
         let reach = crate::reference::neighbour_radius(kernel);
-        let csr = neighbour::between::<D>(&points.x0, x, reach, Some((&points.body, body)));
+        let csr = neighbour::between::<D>(at, x, reach, Some((at_body, body)));
         let rows = csr.map_rows(|q| {
             let nodes = csr.neighbours(q);
-            let shapes = correction::reproducing_shapes::<D>(points.x0[q], nodes, x, vol, kernel)
-                .ok_or(QuadratureError::Singular {
-                point: q,
-                position: D::to3(points.x0[q]),
-                nodes: nodes.len(),
-            })?;
+            let shapes = correction::reproducing_shapes::<D>(at[q], nodes, x, vol, kernel).ok_or(
+                QuadratureError::Singular {
+                    point: q,
+                    position: D::to3(at[q]),
+                    nodes: nodes.len(),
+                },
+            )?;
             Ok(nodes
                 .iter()
                 .zip(shapes)
@@ -334,6 +378,61 @@ impl<D: Dim> Shapes<D> {
 
     pub fn is_empty(&self) -> bool {
         self.csr.is_empty()
+    }
+
+    /// The interpolant f(x_q) = Σ_a N_a(x_q) f_a of a nodal field f at every point.
+    pub fn interpolate<T>(&self, f: &[T]) -> Vec<T>
+    where
+        T: Copy + Send + Sync + std::ops::Add<Output = T> + std::ops::Mul<f64, Output = T>,
+    {
+        (0..self.len())
+            .into_par_iter()
+            .with_min_len(MIN_ROWS)
+            .map(|q| {
+                let mut r = self.csr.range(q);
+                let first = r.next().expect("every point has nodes");
+                r.fold(f[self.csr.ids[first] as usize] * self.n[first], |s, p| {
+                    s + f[self.csr.ids[p] as usize] * self.n[p]
+                })
+            })
+            .collect()
+    }
+
+    /// The gradient Σ_a f_a ⊗ ∇N_a(x_q) of a nodal field f at point q.
+    #[inline]
+    pub fn gradient(&self, q: usize, f: &[D::V]) -> D::T {
+        self.csr.range(q).fold(D::zero_t(), |g, p| {
+            g + D::outer(f[self.csr.ids[p] as usize], self.grad[p])
+        })
+    }
+
+    /// The node whose shape function is largest at point q.
+    pub fn strongest_node(&self, q: usize) -> usize {
+        let p = self
+            .csr
+            .range(q)
+            .max_by(|&a, &b| self.n[a].total_cmp(&self.n[b]))
+            .expect("every point has nodes");
+        self.csr.ids[p] as usize
+    }
+
+    /// Recomputes the values on the same lists, every point in parallel: `at(q, nodes, n,
+    /// grad)` writes N_a(x_q) and ∇N_a(x_q) of point q's nodes into its pairs and returns
+    /// a value of the point (its weight), collected in point order. The first point (in
+    /// order) that fails fails all, with its index.
+    pub fn recompute<E: Send>(
+        &mut self,
+        at: impl Fn(usize, &[u32], &mut [f64], &mut [D::V]) -> Result<f64, E> + Sync + Send,
+    ) -> Result<Vec<f64>, (usize, E)> {
+        let csr = &self.csr;
+        let rows: Vec<Result<f64, (usize, E)>> = rows_mut(csr, &mut self.n)
+            .into_par_iter()
+            .zip(rows_mut(csr, &mut self.grad))
+            .enumerate()
+            .with_min_len(MIN_ROWS)
+            .map(|(q, (n, grad))| at(q, csr.neighbours(q), n, grad).map_err(|e| (q, e)))
+            .collect();
+        rows.into_iter().collect()
     }
 
     /// The transposed lists, for the per-node gather.
@@ -362,6 +461,20 @@ impl<D: Dim> Shapes<D> {
             pair,
         }
     }
+}
+
+/// Rows a task of the parallel loops over points handles at least.
+const MIN_ROWS: usize = 64;
+
+/// The rows of a per-pair field `data` on the lists `csr`, as disjoint slices.
+fn rows_mut<'a, T>(csr: &Csr, mut data: &'a mut [T]) -> Vec<&'a mut [T]> {
+    let mut rows = Vec::with_capacity(csr.len());
+    for q in 0..csr.len() {
+        let (row, rest) = std::mem::take(&mut data).split_at_mut(csr.range(q).len());
+        rows.push(row);
+        data = rest;
+    }
+    rows
 }
 
 /// From each node a to the pairs (q, p) of [`Shapes`] that hold it, in ascending q:
@@ -510,7 +623,8 @@ mod tests {
         let cells = lattice_cells::<D2>(&x, &body, dx).unwrap();
         let points = QuadraturePoints::<D2>::new(&cells, &x, Rule::Gauss2);
         let kernel = Kernel::new(KernelKind::CubicSpline, 1.5 * dx, 2);
-        let shapes = Shapes::reproducing(&points, &x, &vol, &body, &kernel).unwrap();
+        let shapes =
+            Shapes::<D2>::reproducing(&points.x0, &points.body, &x, &vol, &body, &kernel).unwrap();
         for q in 0..points.len() {
             let (mut unity, mut first, mut grad) = (0.0, DVec2::ZERO, glam::DMat2::ZERO);
             for p in shapes.csr.range(q) {

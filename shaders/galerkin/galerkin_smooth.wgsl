@@ -1,8 +1,8 @@
-// The weak form's velocity smoothing after a step (seed 000 §5.6): v_a ← V_a Ψ_a(X_a) v_a
-// + Σ_b V_b Ψ_b(X_a) v_b over the particles' own reproducing-kernel lists, into
-// `smoothed` (`smooth_velocities`), then back into the state but for the prescribed components,
-// which keep their values (`settle`). Weights: smooth_weights = [own (N) | per pair].
-// Constants: N, DIM, V_OFF, SWOWN_OFF, SWPAIR_OFF and the reference fields.
+// The weak form's velocity smoothing after a step (seed 000 §5.6): v_a ← Σ_b N_b(X_a) v_b
+// with N_b = V_b Ψ_b over the particles' own reproducing-kernel lists (a itself
+// included), into `smoothed` (`smooth_velocities`), then back into the state but for the
+// prescribed components, which keep their values (`settle`). Weights: smooth_weights =
+// [N per pair]. Constants: N, DIM, V_OFF, SWN_OFF and the reference fields.
 
 @group(0) @binding(0) var<storage, read> smooth_offsets: array<u32>;
 @group(0) @binding(1) var<storage, read> smooth_ids: array<u32>;
@@ -21,10 +21,10 @@ fn smooth_velocities(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num
     if a >= N {
         return;
     }
-    var v = vload_y(V_OFF + DIM * a) * smooth_weights[SWOWN_OFF + a];
+    var v: vecd;
     let p_end = smooth_offsets[a + 1u];
     for (var p = smooth_offsets[a]; p < p_end; p++) {
-        v += vload_y(V_OFF + DIM * smooth_ids[p]) * smooth_weights[SWPAIR_OFF + p];
+        v += vload_y(V_OFF + DIM * smooth_ids[p]) * smooth_weights[SWN_OFF + p];
     }
     vstore_smoothed(DIM * a, v);
 }

@@ -18,6 +18,8 @@ pub mod potential;
 pub mod shared;
 pub mod tlsph;
 pub mod ul;
+pub mod ul_fem;
+pub mod ul_weak_form;
 pub mod weak_form;
 
 pub use shared::{BlowUp, Method, check_motion};
@@ -233,6 +235,8 @@ registry! {
     "dual-support-sph" => DualSupportSph(dual_support::DualSupportSpec),
     "tl-weak-form" => TlWeakForm(weak_form::WeakFormSpec),
     "tl-fem" => TlFem(fem::FemSpec),
+    "ul-weak-form" => UlWeakForm(ul_weak_form::UlWeakFormSpec),
+    "ul-fem" => UlFem(ul_fem::UlFemSpec),
 }
 
 /// The registry entry of a case-file method name.

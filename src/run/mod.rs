@@ -217,13 +217,20 @@ pub fn explain(case: &Case, gpu: bool) -> String {
             case.bodies.len(),
             if case.bodies.len() == 1 { "y" } else { "ies" }
         ),
-        format!(
-            "method: {name} with {} kernel, h/Δx = {}, {} correction, {} integrator",
-            toml_name(&m.kernel),
-            m.h_over_dx,
-            toml_name(&m.correction),
-            toml_name(&m.integrator)
-        ),
+        if m.spec.entry().kernel {
+            format!(
+                "method: {name} with {} kernel, h/Δx = {}, {} correction, {} integrator",
+                toml_name(&m.kernel),
+                m.h_over_dx,
+                toml_name(&m.correction),
+                toml_name(&m.integrator)
+            )
+        } else {
+            format!(
+                "method: {name} (no kernel keys), {} integrator",
+                toml_name(&m.integrator)
+            )
+        },
         format!(
             "backend: {}",
             if gpu {

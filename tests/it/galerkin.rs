@@ -14,14 +14,15 @@ use meshless::scene::Case;
 use meshless::tensor::{D2, D3, Dim};
 use std::path::Path;
 
-/// A block of spacing 0.1 from the origin to `max` with material `model` under method
-/// `method` (`tl-fem`, or `tl-weak-form` at h/dx 1.3), with further `[method]` keys.
-fn block(max: &[f64], model: &str, method: &str, keys: &str) -> Case {
+/// A block of spacing 0.1 from the origin to `max` with material `model` under the
+/// Galerkin method `method` (`tl-weak-form` at h/dx 1.3 unless `keys` set it; the others
+/// have no kernel), with further `[method]` keys.
+pub fn block(max: &[f64], model: &str, method: &str, keys: &str) -> Case {
     let dim = max.len();
-    let kernel = if method == "tl-fem" || keys.contains("h_over_dx") {
-        ""
-    } else {
+    let kernel = if method == "tl-weak-form" && !keys.contains("h_over_dx") {
         "h_over_dx = 1.3"
+    } else {
+        ""
     };
     let text = format!(
         r#"

@@ -40,3 +40,4 @@ mod shaders;
 mod study;
 mod tl_potential;
 mod tlsph;
+mod ul_galerkin;

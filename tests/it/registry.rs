@@ -119,8 +119,9 @@ fn every_method_has_one_name_in_case_files_listings_and_summaries() {
     for e in REGISTRY {
         let mut set = vec![format!("method.name={}", e.name)];
         match e.name {
-            // The strip's hypoelastic model and Randles–Libersky correction suit these.
-            "tlsph" | "gray-monaghan-sph" | "godunov-sph" => {}
+            // The strip's hypoelastic model and Randles–Libersky correction suit these
+            // (`ul-weak-form` reads no correction).
+            "tlsph" | "gray-monaghan-sph" | "godunov-sph" | "ul-weak-form" => {}
             // No kernel, so no correction.
             _ if !e.kernel => set.push("material.model=neo-hookean".into()),
             _ => set.extend([

@@ -64,10 +64,7 @@ impl MethodFamily for FemSpec {
                 "once, on the reference configuration: the lattice cells of every body as \
                  elements, 2^d Gauss points each, ∇0N_a = J⁻ᵀ ∂N_a/∂ξ, the node-to-point \
                  gather lists, {} nodal masses",
-                match self.mass {
-                    Mass::RowSum => "row-sum",
-                    Mass::Particle => "particle",
-                }
+                self.mass.name()
             ),
             state: galerkin_state(&mat),
             cfl_step: format!(

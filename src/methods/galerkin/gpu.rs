@@ -62,7 +62,7 @@ pub const SHADERS: &[Source] = &[RATES, REDUCE, SMOOTH, CONTACT, INTEGRATE];
 /// | S] (ρ and S at the points, rate model only), the kinematics [H = F − I | P | w ψ
 /// (points) | power (nodes)], the per-pair data [N_a | ∇0N_a] of the points' lists, the
 /// point weights, the gather lists (u32: [offsets | the point of each entry]) with their
-/// per-entry data [w_q ∇0N_a(X_q) | N_a(X_q)], the smoothing weights [own | per pair] and
+/// per-entry data [w_q ∇0N_a(X_q) | N_a(X_q)], the smoothing weights N_b(X_a) per pair and
 /// the nodes' reference fields.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Layout {
@@ -113,11 +113,7 @@ impl Layout {
             entries: Fields::new("E", dim)
                 .vectors("WG", true, pairs)
                 .scalars("N", true, pairs),
-            smooth: Fields::new("SW", dim).scalars("OWN", true, n).scalars(
-                "PAIR",
-                true,
-                smooth_pairs,
-            ),
+            smooth: Fields::new("SW", dim).scalars("N", true, smooth_pairs),
             reference: reference::fields(n, dim, Extras::default()),
         }
     }
@@ -306,8 +302,7 @@ impl<D: GpuDim> GpuGalerkin<D> {
         let smooth = match smoothing {
             Some(s) => {
                 let mut w = layout.smooth.zeroed();
-                layout.smooth.write_s(&mut w, "OWN", &s.own, 0.0);
-                layout.smooth.write_s(&mut w, "PAIR", &s.weight, 0.0);
+                layout.smooth.write_s(&mut w, "N", &s.n, 0.0);
                 let source = compose(&SMOOTH);
                 let smooth = gpu.pipeline("smooth velocities", &source, "smooth_velocities")?;
                 let settle = gpu.pipeline("settle", &source, "settle")?;
@@ -517,7 +512,7 @@ impl<D: GpuDim> Engine<D> for GpuGalerkin<D> {
 
     fn check(&mut self) -> Result<(), BlowUp> {
         if let Some(q) = self.failed_point() {
-            let node = self.host.node_of(q);
+            let node = self.host.shapes().strongest_node(q);
             return Err(BlowUp::at::<D>(
                 self.host.reference(),
                 node,

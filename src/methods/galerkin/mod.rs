@@ -1,29 +1,35 @@
-//! What the total-Lagrangian Galerkin methods share (seed 000 §2.6, §5.6 and the TL FEM
-//! reference): nodes (the particles) carry u and v, quadrature points carry the stress,
-//! and the weak form ∫ δu·ρ0 ü dΩ0 = −∫ ∇0δu : P dΩ0 (eq 156) with a lumped mass gives
+//! What the Galerkin methods share (seed 000 §2.6, §5.6, §5.7 and the FEM references):
+//! nodes (the particles) carry u and v, quadrature points carry the stress, and the weak
+//! form with a lumped mass gives each node a force gathered over its points
+//! ([`crate::quadrature::Gather`], [`gather_accelerations`]), so that every node writes
+//! only its own rate.
 //!
-//! - at each point q: F_q = I + Σ_a u_a ⊗ ∇0N_a(X_q), and P_q from the material;
-//! - at each node a: m_a ü_a = −Σ_q w_q P_q ∇0N_a(X_q), gathered over the node's points
-//!   ([`crate::quadrature::Gather`]), so every node writes only its own rate.
+//! - [`TlGalerkin`], total-Lagrangian (`tl-fem`, `tl-weak-form`): ∫ δu·ρ0 ü dΩ0 =
+//!   −∫ ∇0δu : P dΩ0 (eq 156), F_q = I + Σ_a u_a ⊗ ∇0N_a(X_q) and P_q from the material at
+//!   fixed points with shape functions computed once, m_a ü_a = −Σ_q w_q P_q ∇0N_a(X_q);
+//! - [`updated::UlGalerkin`], updated-Lagrangian (`ul-fem`, `ul-weak-form`): ∫ δv·ρ v̇ dΩ =
+//!   −∫ ∇δv : σ dΩ (eq 117) with shape functions and weights recomputed on the current
+//!   configuration at every rate evaluation, m_a v̇_a = −Σ_q w_q σ_q ∇N_a(x_q).
 //!
 //! The methods differ in their shape functions (bilinear elements, or reproducing-kernel
-//! functions at Gauss points) and in what follows a step (the weak form's velocity
-//! smoothing, [`Smoothing`]).
+//! functions) and in what follows a step (the weak forms' velocity smoothing,
+//! [`smooth_velocities`]).
+
+pub mod updated;
 
 #[cfg(feature = "gpu")]
 pub mod gpu;
 
 use crate::boundary::Boundary;
-use crate::correction::{self, CorrectionKind};
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::material::Material;
 use crate::methods::shared::{BlowUp, MIN_CHUNK, Method, check_motion, particle_state};
 use crate::methods::tlsph::system::stress_fields;
 use crate::methods::{MethodSpec, not_run_by};
-use crate::neighbour::{Csr, Rebuild};
+use crate::neighbour::Csr;
 use crate::observe::Snapshot;
-use crate::quadrature::{Cells, Gather, QuadraturePoints, Shapes};
+use crate::quadrature::{Cells, Gather, QuadratureError, QuadraturePoints, Shapes};
 use crate::reference::Reference;
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
@@ -45,6 +51,16 @@ pub enum Mass {
     Particle,
 }
 
+impl Mass {
+    /// The rule as case files name it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::RowSum => "row-sum",
+            Self::Particle => "particle",
+        }
+    }
+}
+
 /// The integrated state: u and v at the nodes; ρ and S at the quadrature points (rate
 /// model only, empty otherwise).
 #[derive(Clone, Debug)]
@@ -57,47 +73,125 @@ pub struct GalerkinState<D: Dim> {
 
 particle_state!(GalerkinState { rho, s });
 
-/// The velocity smoothing after each step of the reproducing-kernel weak form (seed 000
-/// §5.6, the "virtual to actual" conversion): v_i ← Σ_j Ψ_j(X_i) V_j v_j, own term
-/// included, over the particles of i's body.
-#[derive(Clone, Debug)]
-pub struct Smoothing {
-    pub csr: Csr,
-    /// V_j Ψ_j(X_i) per pair.
-    pub weight: Vec<f64>,
-    /// V_i Ψ_i(X_i) = 1 − Σ_j V_j Ψ_j(X_i).
-    pub own: Vec<f64>,
+/// The particles' own reproducing-kernel functions on their reference positions, N_j(X_i)
+/// = V_j Ψ_j(X_i) over the particles of i's body within the kernel's support, i itself
+/// included: what the weak form smooths its velocities with after each step
+/// ([`smooth_velocities`]).
+pub fn smoothing_shapes<D: Dim>(reference: &Reference<D>) -> Result<Shapes<D>, QuadratureError> {
+    Shapes::reproducing(
+        &reference.x0,
+        &reference.body,
+        &reference.x0,
+        &reference.vol,
+        &reference.body,
+        &reference.kernel,
+    )
 }
 
-impl Smoothing {
-    /// The reproducing-kernel weights on the particles' reference positions.
-    pub fn new<D: Dim>(reference: &Reference<D>) -> Result<Self, correction::CorrectionError> {
-        let csr = reference.neighbour_lists(Rebuild::Once, true).into_lists();
-        let weight = correction::kernel_weights::<D>(
-            CorrectionKind::Rkpm,
-            &reference.x0,
-            &reference.vol,
-            &csr,
-            &reference.kernel,
-        )?;
-        let own = (0..csr.len())
-            .map(|i| 1.0 - weight[csr.range(i)].iter().sum::<f64>())
-            .collect();
-        Ok(Self { csr, weight, own })
-    }
+/// The velocity smoothing after each step of the reproducing-kernel weak forms (seed 000
+/// §5.6 and §5.7, the "virtual to actual" conversion): v_i ← Σ_j N_j(x_i) v_j =
+/// Σ_j V_j Ψ_j(x_i) v_j with the particles' own functions `shapes` (one point per
+/// particle), then the prescribed velocities again.
+pub fn smooth_velocities<D: Dim>(shapes: &Shapes<D>, boundary: &Boundary<D>, v: &mut Vec<D::V>) {
+    *v = shapes.interpolate(v);
+    boundary.impose(v);
+}
 
-    /// The smoothed velocities of v.
-    fn apply<D: Dim>(&self, v: &[D::V]) -> Vec<D::V> {
-        (0..v.len())
-            .into_par_iter()
-            .with_min_len(MIN_CHUNK)
-            .map(|i| {
-                self.csr.range(i).fold(v[i] * self.own[i], |s, p| {
-                    s + v[self.csr.ids[p] as usize] * self.weight[p]
-                })
-            })
-            .collect()
+/// a_a = −(1/m_a) Σ_q w_q T_q ∇N_a(x_q), gathered per node over its points: the internal
+/// force of a Galerkin method with a stress T_q (P_q on the reference points, σ_q on the
+/// current ones) and point weights w_q, divided by the lumped mass.
+pub fn gather_accelerations<D: Dim>(
+    gather: &Gather,
+    shapes: &Shapes<D>,
+    weight: &[f64],
+    stress: &[D::T],
+    mass: &[f64],
+    a: &mut [D::V],
+) {
+    a.par_iter_mut()
+        .with_min_len(MIN_CHUNK)
+        .enumerate()
+        .for_each(|(node, a)| {
+            let force = gather.range(node).fold(D::zero(), |f, e| {
+                let q = gather.point[e] as usize;
+                f - stress[q] * shapes.grad[gather.pair[e] as usize] * weight[q]
+            });
+            *a = force * (1.0 / mass[node]);
+        });
+}
+
+/// A point field projected to the nodes with the lumped L2 projection
+/// g_a = Σ_q w_q N_a(x_q) g_q / Σ_q w_q N_a(x_q); `empty` at a node no point reaches.
+pub fn to_nodes<D: Dim, T>(
+    gather: &Gather,
+    shapes: &Shapes<D>,
+    weight: &[f64],
+    g: &[T],
+    empty: T,
+) -> Vec<T>
+where
+    T: Copy + Send + Sync + std::ops::Add<Output = T> + std::ops::Mul<f64, Output = T>,
+{
+    (0..gather.offsets.len() - 1)
+        .into_par_iter()
+        .with_min_len(MIN_CHUNK)
+        .map(|node| {
+            let mut total = 0.0;
+            let mut sum: Option<T> = None;
+            for e in gather.range(node) {
+                let q = gather.point[e] as usize;
+                let w = weight[q] * shapes.n[gather.pair[e] as usize];
+                total += w;
+                sum = Some(sum.map_or(g[q] * w, |s| s + g[q] * w));
+            }
+            sum.map_or(empty, |s| s * (1.0 / total))
+        })
+        .collect()
+}
+
+/// σ (3×3) at the nodes from σ at the points (zero at a node no point reaches).
+pub fn stress_at_nodes<D: Dim>(
+    gather: &Gather,
+    shapes: &Shapes<D>,
+    weight: &[f64],
+    sigma: Vec<[[f64; 3]; 3]>,
+) -> Vec<[[f64; 3]; 3]> {
+    let sigma: Vec<Tensor3> = sigma.into_iter().map(Tensor3).collect();
+    to_nodes(gather, shapes, weight, &sigma, Tensor3([[0.0; 3]; 3]))
+        .into_iter()
+        .map(|s| s.0)
+        .collect()
+}
+
+/// The first quadrature point whose ρ or S is not finite (`rho`, `s` empty without the
+/// rate model), as a blow-up at `node(q)`, the node next to it.
+pub fn check_points<D: Dim>(
+    x0: &[D::V],
+    node: impl Fn(usize) -> usize,
+    rho: &[f64],
+    s: &[D::T],
+) -> Result<(), BlowUp> {
+    let at = |q: usize, quantity: &str, value: f64| {
+        let what = format!("{quantity} at quadrature point {q} next to it");
+        BlowUp::at::<D>(x0, node(q), &what, value)
+    };
+    if let Some(q) = rho.par_iter().position_first(|r| !r.is_finite()) {
+        return Err(at(q, "density", rho[q]));
     }
+    if let Some(q) = s.par_iter().position_first(|&s| !D::is_finite_t(s)) {
+        return Err(at(q, "deviatoric stress |S|", D::ddot(s[q], s[q]).sqrt()));
+    }
+    Ok(())
+}
+
+/// c_p + max |v|: the signal speed of the Galerkin methods' CFL step.
+pub fn signal_speed<D: Dim>(material: &Material, v: &[D::V]) -> f64 {
+    let vmax = v
+        .par_iter()
+        .map(|&v| D::norm2(v))
+        .reduce(|| 0.0, f64::max)
+        .sqrt();
+    material.p_wave_speed() + vmax
 }
 
 /// A total-Lagrangian Galerkin system on the CPU (f64, rayon).
@@ -111,7 +205,8 @@ pub struct TlGalerkin<D: Dim> {
     points: QuadraturePoints<D>,
     shapes: Shapes<D>,
     gather: Gather,
-    smoothing: Option<Smoothing>,
+    /// The particles' own functions for the velocity smoothing after each step, if any.
+    smoothing: Option<Shapes<D>>,
     material: Material,
     boundary: Boundary<D>,
     interactions: Interactions<D>,
@@ -132,7 +227,7 @@ impl<D: Dim> TlGalerkin<D> {
         points: QuadraturePoints<D>,
         shapes: Shapes<D>,
         mass: Mass,
-        smoothing: Option<Smoothing>,
+        smoothing: Option<Shapes<D>>,
     ) -> Result<Self, CaseError> {
         let gather = shapes.gather(reference.len());
         let Reference {
@@ -146,7 +241,7 @@ impl<D: Dim> TlGalerkin<D> {
         } = reference;
         let mass = match mass {
             Mass::Particle => particle_mass,
-            Mass::RowSum => row_sums(case, &points, &shapes, &gather, material.rho0)?,
+            Mass::RowSum => row_sums(case, &points.weight, &shapes, &gather, material.rho0)?,
         };
         // The shape functions of a point reach only its own body's nodes: no kernel spans
         // two bodies, whatever their distance.
@@ -186,8 +281,9 @@ impl<D: Dim> TlGalerkin<D> {
         &self.gather
     }
 
-    /// The velocity smoothing after each step, if the method has one.
-    pub fn smoothing(&self) -> Option<&Smoothing> {
+    /// The particles' own functions of the velocity smoothing after each step, if the
+    /// method has one.
+    pub fn smoothing(&self) -> Option<&Shapes<D>> {
         self.smoothing.as_ref()
     }
 
@@ -204,14 +300,6 @@ impl<D: Dim> TlGalerkin<D> {
         &self.boundary
     }
 
-    /// The gradient Σ_a f_a ⊗ ∇0N_a(X_q) of a nodal field f at point q.
-    #[inline]
-    fn gradient_at(&self, q: usize, f: &[D::V]) -> D::T {
-        self.shapes.csr.range(q).fold(D::zero_t(), |g, p| {
-            g + D::outer(f[self.shapes.csr.ids[p] as usize], self.shapes.grad[p])
-        })
-    }
-
     /// F_q and P_q at every point; ρ̇_q and Ṡ_q for the rate model.
     fn point_stresses(&mut self, y: &GalerkinState<D>, d: &mut GalerkinState<D>) {
         let mat = self.material;
@@ -221,14 +309,14 @@ impl<D: Dim> TlGalerkin<D> {
             each.zip(d.rho.par_iter_mut().zip(d.s.par_iter_mut()))
                 .with_min_len(MIN_CHUNK)
                 .for_each(|((q, (f, pk1)), (rho_dot, s_dot))| {
-                    *f = D::identity() + self.gradient_at(q, &y.u);
-                    let f_dot = self.gradient_at(q, &y.v);
+                    *f = D::identity() + self.shapes.gradient(q, &y.u);
+                    let f_dot = self.shapes.gradient(q, &y.v);
                     let r = mat.rate_response::<D>(*f, f_dot, y.rho[q], y.s[q]);
                     (*pk1, *rho_dot, *s_dot) = (r.pk1, r.rho_dot, r.s_dot);
                 });
         } else {
             each.with_min_len(MIN_CHUNK).for_each(|(q, (f, pk1))| {
-                *f = D::identity() + self.gradient_at(q, &y.u);
+                *f = D::identity() + self.shapes.gradient(q, &y.u);
                 *pk1 = mat.pk1::<D>(*f);
             });
         }
@@ -237,28 +325,8 @@ impl<D: Dim> TlGalerkin<D> {
 
     /// ü_a = −(1/m_a) Σ_q w_q P_q ∇0N_a(X_q) (Algorithm 6 step 4), gathered per node.
     fn accelerations(&self, a: &mut [D::V]) {
-        a.par_iter_mut()
-            .with_min_len(MIN_CHUNK)
-            .enumerate()
-            .for_each(|(node, a)| {
-                let force = self.gather.range(node).fold(D::zero(), |f, e| {
-                    let q = self.gather.point[e] as usize;
-                    f - self.pk1[q]
-                        * self.shapes.grad[self.gather.pair[e] as usize]
-                        * self.points.weight[q]
-                });
-                *a = force * (1.0 / self.mass[node]);
-            });
-    }
-
-    /// The node whose shape function is largest at point q: the particle a blow-up at
-    /// the point is attributed to.
-    pub fn node_of(&self, q: usize) -> usize {
-        let r = self.shapes.csr.range(q);
-        let p = r
-            .max_by(|&a, &b| self.shapes.n[a].total_cmp(&self.shapes.n[b]))
-            .expect("every point has nodes");
-        self.shapes.csr.ids[p] as usize
+        let (weight, stress) = (&self.points.weight, &self.pk1);
+        gather_accelerations(&self.gather, &self.shapes, weight, stress, &self.mass, a);
     }
 
     fn first_inadmissible(&self) -> Option<BlowUp> {
@@ -269,7 +337,7 @@ impl<D: Dim> TlGalerkin<D> {
         let what = format!("det F at quadrature point {q} next to it");
         Some(BlowUp::at::<D>(
             &self.x0,
-            self.node_of(q),
+            self.shapes.strongest_node(q),
             &what,
             D::det(self.f[q]),
         ))
@@ -280,39 +348,21 @@ impl<D: Dim> TlGalerkin<D> {
         (0..self.points.len())
             .into_par_iter()
             .with_min_len(MIN_CHUNK)
-            .map(|q| D::identity() + self.gradient_at(q, &y.u))
+            .map(|q| D::identity() + self.shapes.gradient(q, &y.u))
             .collect()
     }
 
-    /// A point field projected to the nodes with the lumped L2 projection
-    /// g_a = Σ_q w_q N_a(X_q) g_q / Σ_q w_q N_a(X_q); `empty` at a node no point reaches.
-    fn to_nodes<T>(&self, g: &[T], empty: T) -> Vec<T>
+    /// A point field projected to the nodes (the lumped L2 projection of [`to_nodes`]).
+    fn projected<T>(&self, g: &[T], empty: T) -> Vec<T>
     where
         T: Copy + Send + Sync + std::ops::Add<Output = T> + std::ops::Mul<f64, Output = T>,
     {
-        (0..self.x0.len())
-            .into_par_iter()
-            .with_min_len(MIN_CHUNK)
-            .map(|node| {
-                let mut weight = 0.0;
-                let mut sum: Option<T> = None;
-                for e in self.gather.range(node) {
-                    let q = self.gather.point[e] as usize;
-                    let w = self.points.weight[q] * self.shapes.n[self.gather.pair[e] as usize];
-                    weight += w;
-                    sum = Some(sum.map_or(g[q] * w, |s| s + g[q] * w));
-                }
-                sum.map_or(empty, |s| s * (1.0 / weight))
-            })
-            .collect()
+        to_nodes(&self.gather, &self.shapes, &self.points.weight, g, empty)
     }
 
-    /// σ at the nodes from σ at the points (zero at a node no point reaches).
-    fn stress_at_nodes(&self, sigma: &[Tensor3]) -> Vec<[[f64; 3]; 3]> {
-        self.to_nodes(sigma, Tensor3([[0.0; 3]; 3]))
-            .into_iter()
-            .map(|s| s.0)
-            .collect()
+    /// σ at the nodes from σ at the points.
+    fn stress_at_nodes(&self, sigma: Vec<[[f64; 3]; 3]>) -> Vec<[[f64; 3]; 3]> {
+        stress_at_nodes(&self.gather, &self.shapes, &self.points.weight, sigma)
     }
 
     /// F, σ and the stored energy Σ_q w_q ψ_q at the points of state y.
@@ -320,26 +370,23 @@ impl<D: Dim> TlGalerkin<D> {
         let f = self.point_f(y);
         let (sigma, energy) =
             stress_fields::<D>(&self.material, &f, &y.s, &y.rho, &self.points.weight);
-        PointFields {
-            f,
-            sigma: sigma.into_iter().map(Tensor3).collect(),
-            energy,
-        }
+        PointFields { f, sigma, energy }
     }
 }
 
 /// F, σ and the stored energy at the quadrature points.
 struct PointFields<D: Dim> {
     f: Vec<D::T>,
-    sigma: Vec<Tensor3>,
+    sigma: Vec<[[f64; 3]; 3]>,
     /// Σ_q w_q ψ_q.
     energy: f64,
 }
 
-/// m_a = ρ0 Σ_q w_q N_a(X_q); a particle no point reaches is refused.
-fn row_sums<D: Dim>(
+/// m_a = ρ0 Σ_q w_q N_a(X_q) with the reference weights w_q and shapes; a particle no
+/// point reaches is refused.
+pub fn row_sums<D: Dim>(
     case: &Case,
-    points: &QuadraturePoints<D>,
+    weight: &[f64],
     shapes: &Shapes<D>,
     gather: &Gather,
     rho0: f64,
@@ -359,30 +406,10 @@ fn row_sums<D: Dim>(
         .map(|a| {
             gather.range(a).fold(0.0, |m, e| {
                 let q = gather.point[e] as usize;
-                m + rho0 * points.weight[q] * shapes.n[gather.pair[e] as usize]
+                m + rho0 * weight[q] * shapes.n[gather.pair[e] as usize]
             })
         })
         .collect())
-}
-
-/// The first particle or quadrature point whose state is not finite.
-fn check_state<D: Dim>(sys: &TlGalerkin<D>, y: &GalerkinState<D>) -> Result<(), BlowUp> {
-    check_motion::<D>(&sys.x0, &y.u, &y.v)?;
-    let at = |q: usize, quantity: &str, value: f64| {
-        let what = format!("{quantity} at quadrature point {q} next to it");
-        BlowUp::at::<D>(&sys.x0, sys.node_of(q), &what, value)
-    };
-    if let Some(q) = y.rho.par_iter().position_first(|r| !r.is_finite()) {
-        return Err(at(q, "density", y.rho[q]));
-    }
-    if let Some(q) = y.s.par_iter().position_first(|&s| !D::is_finite_t(s)) {
-        return Err(at(
-            q,
-            "deviatoric stress |S|",
-            D::ddot(y.s[q], y.s[q]).sqrt(),
-        ));
-    }
-    Ok(())
 }
 
 impl<D: Dim> OdeSystem for TlGalerkin<D> {
@@ -417,9 +444,8 @@ impl<D: Dim> OdeSystem for TlGalerkin<D> {
 
     /// The weak form's velocity smoothing, then the prescribed velocities again.
     fn end_step(&mut self, _t: f64, y: &mut GalerkinState<D>) {
-        if let Some(smoothing) = &self.smoothing {
-            y.v = smoothing.apply::<D>(&y.v);
-            self.boundary.impose(&mut y.v);
+        if let Some(shapes) = &self.smoothing {
+            smooth_velocities(shapes, &self.boundary, &mut y.v);
         }
     }
 }
@@ -479,12 +505,12 @@ impl<D: Dim> Method<D> for TlGalerkin<D> {
 
     /// F at the nodes, projected from the points.
     fn deformation_gradient(&self, y: &GalerkinState<D>) -> Vec<D::T> {
-        self.to_nodes(&self.point_f(y), D::identity())
+        self.projected(&self.point_f(y), D::identity())
     }
 
     /// σ at the nodes, projected from the points.
     fn cauchy_stress(&self, y: &GalerkinState<D>) -> Vec<[[f64; 3]; 3]> {
-        self.stress_at_nodes(&self.point_fields(y).sigma)
+        self.stress_at_nodes(self.point_fields(y).sigma)
     }
 
     /// Σ_q w_q ψ_q.
@@ -500,8 +526,8 @@ impl<D: Dim> Method<D> for TlGalerkin<D> {
             body: &self.body,
             u: y.u.clone(),
             v: y.v.clone(),
-            f: self.to_nodes(&fields.f, D::identity()),
-            sigma: self.stress_at_nodes(&fields.sigma),
+            f: self.projected(&fields.f, D::identity()),
+            sigma: self.stress_at_nodes(fields.sigma),
             strain_energy: fields.energy,
             extra: Vec::new(),
             cells: &self.cells.corners,
@@ -509,12 +535,7 @@ impl<D: Dim> Method<D> for TlGalerkin<D> {
     }
 
     fn max_signal_speed(&self, y: &GalerkinState<D>) -> f64 {
-        let vmax =
-            y.v.par_iter()
-                .map(|&v| D::norm2(v))
-                .reduce(|| 0.0, f64::max)
-                .sqrt();
-        self.material.p_wave_speed() + vmax
+        signal_speed::<D>(&self.material, &y.v)
     }
 
     fn boundary_power(&self) -> f64 {
@@ -522,7 +543,9 @@ impl<D: Dim> Method<D> for TlGalerkin<D> {
     }
 
     fn check_finite(&self, y: &GalerkinState<D>) -> Result<(), BlowUp> {
-        check_state(self, y)
+        check_motion::<D>(&self.x0, &y.u, &y.v)?;
+        let node = |q| self.shapes.strongest_node(q);
+        check_points::<D>(&self.x0, node, &y.rho, &y.s)
     }
 }
 

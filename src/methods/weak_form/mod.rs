@@ -6,7 +6,7 @@
 //! notes: `docs/methods/galerkin.md`.
 
 use super::fem::galerkin_state;
-use super::galerkin::{Mass, Smoothing, TlGalerkin};
+use super::galerkin::{Mass, TlGalerkin, smoothing_shapes};
 use super::{Feature, MethodFamily, Plan, Problem};
 use crate::material::Material;
 use crate::quadrature::{QuadraturePoints, Rule, Shapes, lattice_cells};
@@ -58,7 +58,8 @@ impl WeakFormSpec {
             .map_err(|e| case.invalid("body", e.to_string()))?;
         let points = QuadraturePoints::new(&cells, &reference.x0, Rule::Gauss2);
         let shapes = Shapes::reproducing(
-            &points,
+            &points.x0,
+            &points.body,
             &reference.x0,
             &reference.vol,
             &reference.body,
@@ -67,7 +68,7 @@ impl WeakFormSpec {
         .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
         let smoothing = if self.smoothing {
             Some(
-                Smoothing::new(&reference)
+                smoothing_shapes(&reference)
                     .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?,
             )
         } else {

@@ -1,0 +1,517 @@
+//! The updated-Lagrangian Galerkin system (seed 000 §5.7 and the UL FEM reference) on the
+//! CPU: the weak form ∫ δv·ρ v̇ dΩ = −∫ ∇δv : σ dΩ (eqs 111–117) on the current
+//! configuration. At every rate evaluation the points' shape functions N_a(x_q), ∇N_a(x_q)
+//! and weights w_q are recomputed from the current node positions ([`MovingPoints`]: the
+//! elements of `ul-fem`, the stress points of `ul-weak-form`), on lists from points to
+//! nodes fixed at set-up, so that the transposed lists of the per-node gather are fixed
+//! too. Then
+//!
+//! - at each point: L_q = Σ_a v_a ⊗ ∇N_a(x_q), ρ̇_q = −ρ_q tr L_q, the Jaumann Ṡ_q and
+//!   σ_q = S_q − p(ρ_q) I (rate model), or σ_q from F_q = (Σ_a X_a ⊗ ∇N_a(x_q))⁻¹ (state
+//!   model);
+//! - at each node: m_a v̇_a = −Σ_q w_q σ_q ∇N_a(x_q), gathered over the node's points.
+
+use super::{
+    Mass, check_points, gather_accelerations, row_sums, signal_speed, smooth_velocities,
+    stress_at_nodes, to_nodes,
+};
+use crate::boundary::Boundary;
+use crate::integrate::OdeSystem;
+use crate::interaction::Interactions;
+use crate::material::Material;
+use crate::methods::shared::{BlowUp, MIN_CHUNK, Method, check_motion, particle_state};
+use crate::methods::tlsph::system::stress_fields;
+use crate::neighbour::Csr;
+use crate::observe::Snapshot;
+use crate::quadrature::{Gather, Shapes};
+use crate::reference::Reference;
+use crate::scene::{Case, CaseError};
+use crate::tensor::Dim;
+use rayon::prelude::*;
+
+/// The integrated state: u, v at the nodes; ρ, S at the points (rate model; empty for a
+/// state model); and, for points that move on their own (the weak form's stress points),
+/// ρ at the nodes and the points' displacements (empty otherwise).
+#[derive(Clone, Debug)]
+pub struct UlGalerkinState<D: Dim> {
+    pub u: Vec<D::V>,
+    pub v: Vec<D::V>,
+    pub rho: Vec<f64>,
+    pub s: Vec<D::T>,
+    /// ρ at the nodes, whose volumes m_a/ρ_a the shape functions use.
+    pub node_rho: Vec<f64>,
+    /// x_q − X_q of the points, advected with the interpolated velocity (eq 169).
+    pub point_u: Vec<D::V>,
+}
+
+particle_state!(UlGalerkinState {
+    rho,
+    s,
+    node_rho,
+    point_u
+});
+
+/// Why a point's shape functions cannot be evaluated in a configuration: the quantity that
+/// degenerated and its value.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Degenerate {
+    pub quantity: &'static str,
+    pub value: f64,
+}
+
+/// The nodes as the points see them: reference and current positions, masses.
+pub struct Nodes<'a, D: Dim> {
+    pub x0: &'a [D::V],
+    pub x: &'a [D::V],
+    pub mass: &'a [f64],
+}
+
+/// The points of an updated-Lagrangian Galerkin method, with their shape functions on the
+/// current configuration.
+pub trait MovingPoints<D: Dim>: Sized + Send + Sync {
+    /// Whether the points move on their own (the state's `point_u`) and the nodes carry ρ
+    /// (`node_rho`), as the weak form's stress points do; otherwise the points follow the
+    /// nodes (elements).
+    const OWN_MOTION: bool;
+
+    /// The points of the case's method on the reference configuration; a case that names
+    /// another method is an error.
+    fn build(case: &Case, reference: &Reference<D>) -> Result<Self, CaseError>;
+
+    /// The fixed lists from every point to the nodes that may reach it.
+    fn lists(&self) -> &Csr;
+
+    /// The corners of the elements the frames show on the nodes (2^d per cell, VTK
+    /// order); none by default.
+    fn cells(&self) -> &[u32] {
+        &[]
+    }
+
+    /// The reference volume of every point (what the stored energy density is per).
+    fn reference_weights(&self) -> &[f64];
+
+    /// The nodal masses.
+    fn mass(&self) -> Mass;
+
+    /// N_a(x_q) and ∇N_a(x_q) of point q into its pairs of the lists (zero for a node that
+    /// does not reach it in this configuration), for the nodes at `nodes.x` and state y;
+    /// returns the point's weight w_q there.
+    fn shapes_at(
+        &self,
+        q: usize,
+        nodes: &Nodes<D>,
+        y: &UlGalerkinState<D>,
+        n: &mut [f64],
+        grad: &mut [D::V],
+    ) -> Result<f64, Degenerate>;
+
+    /// The rates of `node_rho` and `point_u`, with `shapes` the functions at the points
+    /// of this evaluation; nothing by default.
+    fn own_rates(
+        &mut self,
+        _nodes: &Nodes<D>,
+        _y: &UlGalerkinState<D>,
+        _shapes: &Shapes<D>,
+        _d: &mut UlGalerkinState<D>,
+    ) -> Result<(), BlowUp> {
+        Ok(())
+    }
+
+    /// The nodes' own functions that the velocities are smoothed with after a step, at
+    /// state y; none by default.
+    fn smoothing(&mut self, _nodes: &Nodes<D>, _y: &UlGalerkinState<D>) -> Option<&Shapes<D>> {
+        None
+    }
+}
+
+/// An updated-Lagrangian Galerkin system on the CPU (f64, rayon).
+pub struct UlGalerkin<D: Dim, P: MovingPoints<D>> {
+    x0: Vec<D::V>,
+    mass: Vec<f64>,
+    body: Vec<u32>,
+    v0: Vec<D::V>,
+    points: P,
+    /// The functions at the points of the last rate evaluation, on the points' lists.
+    shapes: Shapes<D>,
+    /// w_q of the last rate evaluation.
+    weight: Vec<f64>,
+    gather: Gather,
+    material: Material,
+    boundary: Boundary<D>,
+    interactions: Interactions<D>,
+    /// Current node positions x = X + u of the last rate evaluation.
+    x: Vec<D::V>,
+    /// σ_q of the last rate evaluation.
+    sigma: Vec<D::T>,
+    power: f64,
+}
+
+/// The initial state: at rest in the reference configuration, v = v0, ρ = ρ0, S = 0.
+fn initial<D: Dim>(
+    material: &Material,
+    v0: &[D::V],
+    points: usize,
+    own_motion: bool,
+) -> UlGalerkinState<D> {
+    let (n, rate) = (v0.len(), material.model.is_rate_based());
+    let sized = |on: bool, len: usize| if on { len } else { 0 };
+    UlGalerkinState {
+        u: vec![D::zero(); n],
+        v: v0.to_vec(),
+        rho: vec![material.rho0; sized(rate, points)],
+        s: vec![D::zero_t(); sized(rate, points)],
+        node_rho: vec![material.rho0; sized(own_motion, n)],
+        point_u: vec![D::zero(); sized(own_motion, points)],
+    }
+}
+
+/// N_a(x_q), ∇N_a(x_q) of every point into `shapes` and the weights w_q, for the nodes at
+/// `nodes.x` and state y; the first point that degenerates, with why.
+fn evaluate<D: Dim, P: MovingPoints<D>>(
+    points: &P,
+    nodes: &Nodes<D>,
+    y: &UlGalerkinState<D>,
+    shapes: &mut Shapes<D>,
+) -> Result<Vec<f64>, (usize, Degenerate)> {
+    shapes.recompute(|q, _, n, grad| points.shapes_at(q, nodes, y, n, grad))
+}
+
+impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
+    /// The system on the particles of `reference` with the method's points.
+    pub fn new(case: &Case, reference: Reference<D>, points: P) -> Result<Self, CaseError> {
+        let lists = points.lists().clone();
+        let pairs = lists.pair_count();
+        let mut shapes = Shapes {
+            csr: lists,
+            n: vec![0.0; pairs],
+            grad: vec![D::zero(); pairs],
+        };
+        let gather = shapes.gather(reference.len());
+        let Reference {
+            x0,
+            mass: particle_mass,
+            body,
+            v0,
+            boundary,
+            material,
+            ..
+        } = reference;
+        let y0 = initial::<D>(&material, &v0, shapes.len(), P::OWN_MOTION);
+        let nodes = Nodes {
+            x0: &x0,
+            x: &x0,
+            mass: &particle_mass,
+        };
+        let weight = evaluate(&points, &nodes, &y0, &mut shapes).map_err(|(q, e)| {
+            case.invalid(
+                "body",
+                format!(
+                    "{} = {:e} at quadrature point {q} on the reference configuration; the \
+                     body is too thin or irregular for the method's points",
+                    e.quantity, e.value
+                ),
+            )
+        })?;
+        let mass = match points.mass() {
+            Mass::Particle => particle_mass,
+            Mass::RowSum => row_sums(
+                case,
+                points.reference_weights(),
+                &shapes,
+                &gather,
+                material.rho0,
+            )?,
+        };
+        // The shape functions of a point reach only its own body's nodes.
+        let interactions = Interactions::build(case, &x0, &body, Csr::default)?;
+        let q = shapes.len();
+        Ok(Self {
+            x: x0.clone(),
+            x0,
+            mass,
+            body,
+            v0,
+            points,
+            shapes,
+            weight,
+            gather,
+            material,
+            boundary,
+            interactions,
+            sigma: vec![D::zero_t(); q],
+            power: 0.0,
+        })
+    }
+
+    /// The method's points.
+    pub fn points(&self) -> &P {
+        &self.points
+    }
+
+    /// The functions at the points of the last rate evaluation.
+    pub fn shapes(&self) -> &Shapes<D> {
+        &self.shapes
+    }
+
+    /// x = X + u.
+    fn positions(&self, y: &UlGalerkinState<D>) -> Vec<D::V> {
+        self.x0.iter().zip(&y.u).map(|(&x0, &u)| x0 + u).collect()
+    }
+
+    /// A point that degenerated, as a blow-up at the first node of its list.
+    fn degenerate(&self, q: usize, e: Degenerate) -> BlowUp {
+        let node = self.shapes.csr.ids[self.shapes.csr.offsets[q]] as usize;
+        let what = format!("{} at quadrature point {q} next to it", e.quantity);
+        BlowUp::at::<D>(&self.x0, node, &what, e.value)
+    }
+
+    /// The first point or node with ρ ≤ 0 (the volumes m/ρ need ρ > 0).
+    fn check_densities(&self, y: &UlGalerkinState<D>) -> Result<(), BlowUp> {
+        let bad = |r: &f64| r.is_nan() || *r <= 0.0;
+        if let Some(q) = y.rho.par_iter().position_first(bad) {
+            return Err(self.degenerate(
+                q,
+                Degenerate {
+                    quantity: "density",
+                    value: y.rho[q],
+                },
+            ));
+        }
+        if let Some(i) = y.node_rho.par_iter().position_first(bad) {
+            return Err(BlowUp::at::<D>(&self.x0, i, "density", y.node_rho[i]));
+        }
+        Ok(())
+    }
+
+    /// F_q = (Σ_a X_a ⊗ ∇N_a(x_q))⁻¹: the inverse of the gradient of the reference
+    /// positions on the current configuration.
+    fn point_f(&self, shapes: &Shapes<D>, q: usize) -> D::T {
+        D::inverse(shapes.gradient(q, &self.x0))
+    }
+
+    /// σ_q at every point; ρ̇_q and Ṡ_q for the rate model.
+    fn point_stresses(&mut self, y: &UlGalerkinState<D>, d: &mut UlGalerkinState<D>) {
+        let (mat, shapes) = (self.material, &self.shapes);
+        let mut sigma = std::mem::take(&mut self.sigma);
+        let each = sigma.par_iter_mut().enumerate();
+        if mat.model.is_rate_based() {
+            each.zip(d.rho.par_iter_mut().zip(d.s.par_iter_mut()))
+                .with_min_len(MIN_CHUNK)
+                .for_each(|((q, sigma), (rho_dot, s_dot))| {
+                    // L_q = Σ_a v_a ⊗ ∇N_a(x_q) (UL FEM step 4; Algorithm 7 step 6).
+                    let l = shapes.gradient(q, &y.v);
+                    *rho_dot = -y.rho[q] * D::trace(l);
+                    *s_dot = mat.jaumann_rate::<D>(y.s[q], l);
+                    *sigma = y.s[q] - D::identity() * mat.pressure(y.rho[q]);
+                });
+        } else {
+            each.with_min_len(MIN_CHUNK).for_each(|(q, sigma)| {
+                let f = self.point_f(shapes, q);
+                *sigma = mat.pk1::<D>(f) * D::transpose(f) * (1.0 / D::det(f));
+            });
+        }
+        self.sigma = sigma;
+    }
+
+    /// The functions and weights at the points for state y, or the point that
+    /// degenerates there.
+    fn evaluated(&self, y: &UlGalerkinState<D>) -> Result<(Shapes<D>, Vec<f64>), BlowUp> {
+        let x = self.positions(y);
+        let nodes = Nodes {
+            x0: &self.x0,
+            x: &x,
+            mass: &self.mass,
+        };
+        let mut shapes = self.shapes.clone();
+        let weight = evaluate(&self.points, &nodes, y, &mut shapes)
+            .map_err(|(q, e)| self.degenerate(q, e))?;
+        Ok((shapes, weight))
+    }
+
+    /// The functions and weights at the points for state y (those of the last rate
+    /// evaluation if y's cannot be evaluated: a state `check_finite` refuses before any
+    /// output reads it, but which a failure report may still show).
+    fn shapes_of(&self, y: &UlGalerkinState<D>) -> (Shapes<D>, Vec<f64>) {
+        self.evaluated(y)
+            .unwrap_or_else(|_| (self.shapes.clone(), self.weight.clone()))
+    }
+
+    /// F and σ at the nodes and the stored energy Σ_q w0_q ψ_q, for state y.
+    fn node_fields(&self, y: &UlGalerkinState<D>) -> NodeFields<D> {
+        let (shapes, weight) = self.shapes_of(y);
+        let f: Vec<D::T> = (0..shapes.len())
+            .into_par_iter()
+            .map(|q| self.point_f(&shapes, q))
+            .collect();
+        let w0 = self.points.reference_weights();
+        let (sigma, energy) = stress_fields::<D>(&self.material, &f, &y.s, &y.rho, w0);
+        NodeFields {
+            f: to_nodes(&self.gather, &shapes, &weight, &f, D::identity()),
+            sigma: stress_at_nodes(&self.gather, &shapes, &weight, sigma),
+            energy,
+        }
+    }
+}
+
+/// F and σ projected to the nodes, and the stored energy.
+struct NodeFields<D: Dim> {
+    f: Vec<D::T>,
+    sigma: Vec<[[f64; 3]; 3]>,
+    energy: f64,
+}
+
+impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
+    type State = UlGalerkinState<D>;
+    type Error = BlowUp;
+
+    fn rates(
+        &mut self,
+        _t: f64,
+        y: &UlGalerkinState<D>,
+        d: &mut UlGalerkinState<D>,
+    ) -> Result<(), BlowUp> {
+        self.check_densities(y)?;
+        self.x = self.positions(y);
+        let mut shapes = std::mem::take(&mut self.shapes);
+        let nodes = Nodes {
+            x0: &self.x0,
+            x: &self.x,
+            mass: &self.mass,
+        };
+        let weight = evaluate(&self.points, &nodes, y, &mut shapes);
+        self.shapes = shapes;
+        self.weight = weight.map_err(|(q, e)| self.degenerate(q, e))?;
+        self.point_stresses(y, d);
+        gather_accelerations(
+            &self.gather,
+            &self.shapes,
+            &self.weight,
+            &self.sigma,
+            &self.mass,
+            &mut d.v,
+        );
+        d.u.par_iter_mut()
+            .with_min_len(MIN_CHUNK)
+            .zip(&y.v)
+            .for_each(|(u, &v)| *u = v);
+        let nodes = Nodes {
+            x0: &self.x0,
+            x: &self.x,
+            mass: &self.mass,
+        };
+        self.points.own_rates(&nodes, y, &self.shapes, d)?;
+        let interaction_power = self.interactions.accelerate(&y.v, &self.mass, &mut d.v);
+        self.power = self.boundary.apply(&mut d.v, &y.v, &self.mass)
+            + self.boundary.external_power(&y.v, &self.mass)
+            + interaction_power;
+        Ok(())
+    }
+
+    fn begin_step(&mut self, t: f64, dt: f64, y: &UlGalerkinState<D>) {
+        self.interactions.begin_step(t, dt, &self.x0, &y.u, &y.v);
+    }
+
+    /// The weak form's velocity smoothing with the nodes' functions at the step's end,
+    /// then the prescribed velocities again. If those functions cannot be evaluated the
+    /// velocities stay as they are, and the next rate evaluation reports the cause.
+    fn end_step(&mut self, _t: f64, y: &mut UlGalerkinState<D>) {
+        let x = self.positions(y);
+        let nodes = Nodes {
+            x0: &self.x0,
+            x: &x,
+            mass: &self.mass,
+        };
+        if let Some(shapes) = self.points.smoothing(&nodes, y) {
+            smooth_velocities(shapes, &self.boundary, &mut y.v);
+        }
+    }
+}
+
+impl<D: Dim, P: MovingPoints<D>> Method<D> for UlGalerkin<D, P> {
+    fn build(case: &Case, reference: Reference<D>) -> Result<Self, CaseError> {
+        let points = P::build(case, &reference)?;
+        Self::new(case, reference, points)
+    }
+
+    fn initial_state(&self) -> UlGalerkinState<D> {
+        initial::<D>(&self.material, &self.v0, self.shapes.len(), P::OWN_MOTION)
+    }
+
+    fn displacement<'a>(&self, y: &'a UlGalerkinState<D>) -> &'a [D::V] {
+        &y.u
+    }
+
+    fn velocity<'a>(&self, y: &'a UlGalerkinState<D>) -> &'a [D::V] {
+        &y.v
+    }
+
+    fn reference(&self) -> &[D::V] {
+        &self.x0
+    }
+
+    fn mass(&self) -> &[f64] {
+        &self.mass
+    }
+
+    fn body(&self) -> &[u32] {
+        &self.body
+    }
+
+    fn constrained(&self) -> &[(u32, u8)] {
+        &self.boundary.constrained
+    }
+
+    /// F at the nodes, projected from F_q = (Σ_a X_a ⊗ ∇N_a(x_q))⁻¹.
+    fn deformation_gradient(&self, y: &UlGalerkinState<D>) -> Vec<D::T> {
+        self.node_fields(y).f
+    }
+
+    /// σ at the nodes, projected from the points.
+    fn cauchy_stress(&self, y: &UlGalerkinState<D>) -> Vec<[[f64; 3]; 3]> {
+        self.node_fields(y).sigma
+    }
+
+    /// Σ_q w0_q ψ_q.
+    fn strain_energy(&self, y: &UlGalerkinState<D>) -> f64 {
+        self.node_fields(y).energy
+    }
+
+    fn snapshot<'a>(&'a self, y: &UlGalerkinState<D>) -> Snapshot<'a, D> {
+        let fields = self.node_fields(y);
+        Snapshot {
+            x0: &self.x0,
+            mass: &self.mass,
+            body: &self.body,
+            u: y.u.clone(),
+            v: y.v.clone(),
+            f: fields.f,
+            sigma: fields.sigma,
+            strain_energy: fields.energy,
+            extra: Vec::new(),
+            cells: self.points.cells(),
+        }
+    }
+
+    fn max_signal_speed(&self, y: &UlGalerkinState<D>) -> f64 {
+        signal_speed::<D>(&self.material, &y.v)
+    }
+
+    fn boundary_power(&self) -> f64 {
+        self.power
+    }
+
+    /// Finite motion, ρ and S; then positive densities and points whose functions can
+    /// be evaluated.
+    fn check_finite(&self, y: &UlGalerkinState<D>) -> Result<(), BlowUp> {
+        check_motion::<D>(&self.x0, &y.u, &y.v)?;
+        let node = |q: usize| self.shapes.csr.ids[self.shapes.csr.offsets[q]] as usize;
+        check_points::<D>(&self.x0, node, &y.rho, &y.s)?;
+        if let Some(q) = y.point_u.par_iter().position_first(|&u| !D::is_finite_v(u)) {
+            let what = format!("displacement |u| of quadrature point {q} next to it");
+            let value = D::norm2(y.point_u[q]).sqrt();
+            return Err(BlowUp::at::<D>(&self.x0, node(q), &what, value));
+        }
+        self.check_densities(y)?;
+        self.evaluated(y).map(|_| ())
+    }
+}

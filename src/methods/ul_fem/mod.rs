@@ -1,0 +1,185 @@
+//! The updated-Lagrangian finite-element reference of seed 000 (§5, "UL FEM"): 4-node
+//! quadrilaterals (8-node hexahedra in 3D) on the lattice cells of the bodies, 2×2 (2×2×2)
+//! Gauss points whose positions, gradients ∇N_a = J⁻ᵀ ∂N_a/∂ξ and weights w_q = det J
+//! follow the current node positions at every rate evaluation, a lumped mass, explicit, on
+//! the shared updated-Lagrangian Galerkin system ([`crate::methods::galerkin::updated`]).
+//! CPU only. Numerics notes: `docs/methods/galerkin.md`.
+
+use super::galerkin::Mass;
+use super::galerkin::updated::{Degenerate, MovingPoints, Nodes, UlGalerkin, UlGalerkinState};
+use super::{Feature, MethodFamily, MethodSpec, Plan, Problem, not_run_by};
+use crate::material::Material;
+use crate::neighbour::Csr;
+use crate::quadrature::{
+    Cells, QuadraturePoints, Rule, Shapes, isoparametric_shapes, lattice_cells,
+};
+use crate::reference::Reference;
+use crate::run::{CpuEngine, Engine, EngineDim};
+use crate::scene::{Case, CaseError};
+use crate::tensor::Dim;
+use serde::{Deserialize, Serialize};
+
+/// The `[method]` keys of the updated-Lagrangian FEM.
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct UlFemSpec {
+    /// The nodal masses (default `row-sum`).
+    #[serde(default)]
+    pub mass: Mass,
+}
+
+/// The elements: the lattice cells with their Gauss points.
+pub struct Elements<D: Dim> {
+    cells: Cells,
+    points: QuadraturePoints<D>,
+    /// Every point's cell corners, in VTK order.
+    lists: Csr,
+    mass: Mass,
+}
+
+/// The Gauss rule of the elements.
+const RULE: Rule = Rule::Gauss2;
+
+impl<D: Dim> MovingPoints<D> for Elements<D> {
+    const OWN_MOTION: bool = false;
+
+    fn build(case: &Case, reference: &Reference<D>) -> Result<Self, CaseError> {
+        let MethodSpec::UlFem(spec) = &case.method.spec else {
+            return Err(not_run_by(case, "UlGalerkin with elements"));
+        };
+        let cells = lattice_cells::<D>(&reference.x0, &reference.body, case.spacing)
+            .map_err(|e| case.invalid("body", e.to_string()))?;
+        let points = QuadraturePoints::new(&cells, &reference.x0, RULE);
+        let lists = Shapes::isoparametric(&cells, &points, &reference.x0).csr;
+        Ok(Self {
+            cells,
+            points,
+            lists,
+            mass: spec.mass,
+        })
+    }
+
+    fn lists(&self) -> &Csr {
+        &self.lists
+    }
+
+    /// The elements.
+    fn cells(&self) -> &[u32] {
+        &self.cells.corners
+    }
+
+    fn reference_weights(&self) -> &[f64] {
+        &self.points.weight
+    }
+
+    fn mass(&self) -> Mass {
+        self.mass
+    }
+
+    /// The bilinear (trilinear) functions of the point's cell with its corners at their
+    /// current positions: w_q = det J (UL FEM step 1); an inverted cell (det J ≤ 0)
+    /// degenerates.
+    fn shapes_at(
+        &self,
+        q: usize,
+        nodes: &Nodes<D>,
+        _y: &UlGalerkinState<D>,
+        n: &mut [f64],
+        grad: &mut [D::V],
+    ) -> Result<f64, Degenerate> {
+        let corners = self.cells.of::<D>(self.points.cell[q] as usize);
+        let det = isoparametric_shapes::<D>(corners, nodes.x, self.points.xi[q], n, grad);
+        if det.is_nan() || det <= 0.0 {
+            return Err(Degenerate {
+                quantity: "det J (an inverted element)",
+                value: det,
+            });
+        }
+        Ok(RULE.weight::<D>() * det)
+    }
+}
+
+impl MethodFamily for UlFemSpec {
+    const DESCRIPTION: &'static str = "updated-Lagrangian finite elements (seed 000's UL FEM \
+        reference): bilinear quadrilaterals (trilinear hexahedra) on the lattice cells, 2^d \
+        Gauss points recomputed on the current configuration, lumped mass, explicit; CPU only";
+    const KEYS: &'static [&'static str] = &["mass"];
+    const FEATURES: &'static [Feature] = &[Feature::Contact];
+    const GPU_ENGINE: bool = false;
+    const KERNEL: bool = false;
+    #[cfg(feature = "gpu")]
+    const SHADERS: &'static [crate::gpu::shaders::Source] = &[];
+
+    fn validate(&self, _case: &Case) -> Result<(), Problem> {
+        Ok(())
+    }
+
+    fn plan(&self, case: &Case, _gpu: bool) -> Plan {
+        let mat = Material::new(&case.material);
+        Plan {
+            once: format!(
+                "once, on the reference configuration: the lattice cells of every body as \
+                 elements, 2^d Gauss points each, the node-to-point gather lists, {} nodal \
+                 masses; runs on the CPU only (no GPU engine)",
+                self.mass.name()
+            ),
+            state: ul_galerkin_state(&mat, "the Gauss points"),
+            cfl_step: format!(
+                "Δt = cfl·Δx/(c_p + max|v|), c_p = {:.1} m/s",
+                mat.p_wave_speed()
+            ),
+            rates: format!(
+                "on the CPU: x = X + u; at every Gauss point of the current cells N_a, \
+                 ∇N_a = J⁻ᵀ ∂N_a/∂ξ and w_q = det J, then {}; each node gathers \
+                 −Σ_q w_q σ_q ∇N_a(x_q)",
+                point_rates(&mat)
+            ),
+            checked: "det J (an inverted element) and ρ at the Gauss points",
+            check_note: String::new(),
+            left_out: vec!["kernels and neighbour lists (the cells are the mesh)"],
+        }
+    }
+
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> Result<Box<dyn Engine<D>>, CaseError> {
+        Ok(Box::new(CpuEngine::<D, UlGalerkin<D, Elements<D>>>::new(
+            case,
+        )?))
+    }
+
+    #[cfg(feature = "gpu")]
+    fn gpu_engine<D: EngineDim>(
+        &self,
+        case: &Case,
+        _gpu: crate::gpu::Gpu,
+    ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
+        Err(super::no_gpu_engine(case).into())
+    }
+
+    /// Δt = α Δx/(c_p + max|v|) does not depend on the stretch.
+    fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
+        0.0
+    }
+}
+
+/// The state of an updated-Lagrangian Galerkin method whose stress lives at `points`, for
+/// `--explain`.
+pub(crate) fn ul_galerkin_state(mat: &Material, points: &str) -> String {
+    if mat.model.is_rate_based() {
+        format!("u, v at the nodes; ρ, S at {points} (rate model: Jaumann + linear EOS)")
+    } else {
+        format!(
+            "u, v at the nodes (state model {:?}: σ from F = (Σ_a X_a ⊗ ∇N_a)⁻¹ at {points}, \
+             no ρ or S integrated)",
+            mat.model
+        )
+    }
+}
+
+/// What a point computes in one rate evaluation, for `--explain`.
+pub(crate) fn point_rates(mat: &Material) -> &'static str {
+    if mat.model.is_rate_based() {
+        "L_q = Σ_a v_a ⊗ ∇N_a, ρ̇_q = −ρ_q tr L_q, the Jaumann Ṡ_q and σ_q = S_q − p I"
+    } else {
+        "F_q = (Σ_a X_a ⊗ ∇N_a)⁻¹ and σ_q = P(F_q) F_qᵀ / det F_q"
+    }
+}

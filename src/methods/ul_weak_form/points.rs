@@ -1,0 +1,228 @@
+//! The stress points of Algorithm 7 and the particles' own functions: candidate lists
+//! fixed at set-up, covariance-ellipse neighbourhoods and reproducing-kernel functions
+//! recomputed on the current configuration.
+
+use super::ellipse::Ellipse;
+use crate::correction;
+use crate::kernel::{Kernel, KernelKind};
+use crate::methods::galerkin::Mass;
+use crate::methods::galerkin::updated::{Degenerate, MovingPoints, Nodes, UlGalerkinState};
+use crate::methods::shared::{BlowUp, MIN_CHUNK};
+use crate::methods::{MethodSpec, not_run_by};
+use crate::neighbour::{self, Csr};
+use crate::quadrature::{QuadraturePoints, Rule, Shapes, lattice_cells};
+use crate::reference::Reference;
+use crate::scene::{Case, CaseError};
+use crate::tensor::Dim;
+use rayon::prelude::*;
+
+/// The half-width of the candidate box in spacings: 2·h_c with h_c = 1.5 Δx (the
+/// reference code's `neighbor_ellipse`).
+pub const CANDIDATE_BOX: f64 = 3.0;
+
+/// The stress points (one per lattice cell, at its centre) and the particles' candidate
+/// lists and own functions.
+pub struct StressPoints<D: Dim> {
+    /// Reference positions X_q and volumes w0_q = Δx^d of the stress points.
+    points: QuadraturePoints<D>,
+    /// From every stress point to the particles of its body within the candidate box.
+    candidates: Csr,
+    /// The particles' own functions N_j(x_i) on their candidate lists (itself included),
+    /// of the last evaluation.
+    particle_shapes: Shapes<D>,
+    smoothing: bool,
+    rho0: f64,
+}
+
+/// For every point y_q (of body `at_body[q]`), the particles x_j of its body with
+/// |y_q,k − x_j,k| ≤ `half` in every direction k, in ascending order (a particle at the
+/// point itself included).
+pub fn box_candidates<D: Dim>(
+    at: &[D::V],
+    at_body: &[u32],
+    x: &[D::V],
+    body: &[u32],
+    half: f64,
+) -> Csr {
+    let half = half * (1.0 + 1e-6);
+    let corner = half * (D::N as f64).sqrt();
+    let within = neighbour::between::<D>(at, x, corner, Some((at_body, body)));
+    let mut csr = Csr {
+        offsets: vec![0],
+        ids: Vec::with_capacity(within.pair_count()),
+    };
+    for (q, &y) in at.iter().enumerate() {
+        let inside = |&&j: &&u32| {
+            let d = D::to3(y - x[j as usize]);
+            d.iter().all(|c| c.abs() <= half)
+        };
+        csr.ids.extend(within.neighbours(q).iter().filter(inside));
+        csr.offsets.push(csr.ids.len());
+    }
+    csr
+}
+
+/// The functions at a point at `centre` of the candidates `candidates` (positions x,
+/// volumes `vol(j)`): the ellipse neighbourhood and h (§1.5), then the reproducing-kernel
+/// functions with a linear basis (§1.4) of the neighbours with the cubic spline of that
+/// h, N_j = V_j Ψ_j(centre) and ∇N_j into the candidates' slots (zero outside the
+/// ellipse).
+pub fn ellipse_shapes<D: Dim>(
+    centre: D::V,
+    candidates: &[u32],
+    x: &[D::V],
+    vol: impl Fn(usize) -> f64,
+    n: &mut [f64],
+    grad: &mut [D::V],
+) -> Result<(), Degenerate> {
+    let offsets: Vec<D::V> = candidates.iter().map(|&j| centre - x[j as usize]).collect();
+    let ellipse = Ellipse::<D>::new(&offsets).ok_or(Degenerate {
+        quantity: "candidates spanning no ellipse (all on one line)",
+        value: offsets.len() as f64,
+    })?;
+    let kernel = Kernel::new(KernelKind::CubicSpline, ellipse.h, D::N);
+    let kept: Vec<usize> = (0..offsets.len())
+        .filter(|&p| ellipse.contains(offsets[p]))
+        .collect();
+    let nodes: Vec<(D::V, f64)> = kept
+        .iter()
+        .map(|&p| (offsets[p], vol(candidates[p] as usize)))
+        .collect();
+    let shapes = correction::reproducing_shapes_of::<D>(&nodes, &kernel).ok_or(Degenerate {
+        quantity: "particles in the ellipse (too few or on one line for RKPM)",
+        value: kept.len() as f64,
+    })?;
+    n.fill(0.0);
+    grad.fill(D::zero());
+    for ((&p, (psi, g)), &(_, v)) in kept.iter().zip(shapes).zip(&nodes) {
+        n[p] = v * psi;
+        grad[p] = g * v;
+    }
+    Ok(())
+}
+
+impl<D: Dim> StressPoints<D> {
+    /// The particles' own functions at the positions `nodes.x` with volumes m/ρ.
+    fn update_particle_shapes(
+        &mut self,
+        nodes: &Nodes<D>,
+        node_rho: &[f64],
+    ) -> Result<(), (usize, Degenerate)> {
+        let vol = |j: usize| nodes.mass[j] / node_rho[j];
+        self.particle_shapes
+            .recompute(|i, candidates, n, grad| {
+                ellipse_shapes::<D>(nodes.x[i], candidates, nodes.x, vol, n, grad).map(|()| 0.0)
+            })
+            .map(|_| ())
+    }
+
+    /// The stress points' reference positions and volumes.
+    pub fn points(&self) -> &QuadraturePoints<D> {
+        &self.points
+    }
+
+    /// The particles' own functions of the last evaluation.
+    pub fn particle_functions(&self) -> &Shapes<D> {
+        &self.particle_shapes
+    }
+}
+
+impl<D: Dim> MovingPoints<D> for StressPoints<D> {
+    const OWN_MOTION: bool = true;
+
+    /// One stress point per lattice cell at its centre (Rule::Centre, w0 = Δx^d), and the
+    /// candidate lists of the stress points and particles on the reference positions.
+    fn build(case: &Case, reference: &Reference<D>) -> Result<Self, CaseError> {
+        let MethodSpec::UlWeakForm(spec) = &case.method.spec else {
+            return Err(not_run_by(case, "UlGalerkin with stress points"));
+        };
+        let (x0, body) = (&reference.x0, &reference.body);
+        let cells = lattice_cells::<D>(x0, body, case.spacing)
+            .map_err(|e| case.invalid("body", e.to_string()))?;
+        let points = QuadraturePoints::new(&cells, x0, Rule::Centre);
+        let half = CANDIDATE_BOX * case.spacing;
+        let candidates = box_candidates::<D>(&points.x0, &points.body, x0, body, half);
+        let own = box_candidates::<D>(x0, body, x0, body, half);
+        let pairs = own.pair_count();
+        Ok(Self {
+            points,
+            candidates,
+            particle_shapes: Shapes {
+                csr: own,
+                n: vec![0.0; pairs],
+                grad: vec![D::zero(); pairs],
+            },
+            smoothing: spec.smoothing,
+            rho0: reference.material.rho0,
+        })
+    }
+
+    fn lists(&self) -> &Csr {
+        &self.candidates
+    }
+
+    fn reference_weights(&self) -> &[f64] {
+        &self.points.weight
+    }
+
+    /// The particle masses ρ0 V_j (eq 163), which with ρ_j give the volumes V_j = m_j/ρ_j.
+    fn mass(&self) -> Mass {
+        Mass::Particle
+    }
+
+    /// Steps 1–3 at stress point q: its ellipse and h among its candidates at their
+    /// current positions, the reproducing-kernel functions with V_j = m_j/ρ_j, and
+    /// w_q = V_q = m_q/ρ_q (the Riemann weight of the one point per cell).
+    fn shapes_at(
+        &self,
+        q: usize,
+        nodes: &Nodes<D>,
+        y: &UlGalerkinState<D>,
+        n: &mut [f64],
+        grad: &mut [D::V],
+    ) -> Result<f64, Degenerate> {
+        let centre = self.points.x0[q] + y.point_u[q];
+        let vol = |j: usize| nodes.mass[j] / y.node_rho[j];
+        let candidates = self.candidates.neighbours(q);
+        ellipse_shapes::<D>(centre, candidates, nodes.x, vol, n, grad)?;
+        Ok(self.points.weight[q] * self.rho0 / y.rho[q])
+    }
+
+    /// ρ̇_i = −ρ_i tr L_i with L_i = Σ_j (v_j − v_i) ⊗ ∇N_j(x_i) (steps 6 and 9), and the
+    /// stress points' motion ẋ_q = Σ_j N_j(x_q) v_j (eq 169, step 11).
+    fn own_rates(
+        &mut self,
+        nodes: &Nodes<D>,
+        y: &UlGalerkinState<D>,
+        shapes: &Shapes<D>,
+        d: &mut UlGalerkinState<D>,
+    ) -> Result<(), BlowUp> {
+        self.update_particle_shapes(nodes, &y.node_rho)
+            .map_err(|(i, e)| {
+                let what = format!("{} at the particle", e.quantity);
+                BlowUp::at::<D>(nodes.x0, i, &what, e.value)
+            })?;
+        let own = &self.particle_shapes;
+        d.node_rho
+            .par_iter_mut()
+            .with_min_len(MIN_CHUNK)
+            .enumerate()
+            .for_each(|(i, rho_dot)| {
+                let div_v = own.csr.range(i).fold(0.0, |s, p| {
+                    s + D::dot(y.v[own.csr.ids[p] as usize] - y.v[i], own.grad[p])
+                });
+                *rho_dot = -y.node_rho[i] * div_v;
+            });
+        d.point_u = shapes.interpolate(&y.v);
+        Ok(())
+    }
+
+    /// The particles' own functions at the step's end, for the velocity smoothing.
+    fn smoothing(&mut self, nodes: &Nodes<D>, y: &UlGalerkinState<D>) -> Option<&Shapes<D>> {
+        if !self.smoothing {
+            return None;
+        }
+        self.update_particle_shapes(nodes, &y.node_rho).ok()?;
+        Some(&self.particle_shapes)
+    }
+}
