@@ -306,3 +306,28 @@ fn a_profiled_run_reports_the_passes_of_its_steps() {
     );
     assert!(run(&case, &options(false)).unwrap().passes.is_none());
 }
+
+/// The total-Lagrangian Galerkin engine: the points and nodes passes at every rate
+/// evaluation, and the weak form's two smoothing passes after every step.
+#[test]
+fn the_galerkin_report_has_its_points_nodes_and_smoothing_passes() {
+    for (name, smoothing) in [
+        ("tensile-strip-fem", false),
+        ("rotating-disk-weak-form", true),
+    ] {
+        let case = load(name, &[] as &[&str]);
+        let stages = case.method.integrator.stages() as u64;
+        let (report, _, _) = profiled(&case);
+        let mut expected = vec![
+            ("galerkin points (points)", stages),
+            ("galerkin nodes (nodes)", stages),
+            ("blend (blend)", blends(&case)),
+        ];
+        if smoothing {
+            expected.push(("smooth velocities (smooth_velocities)", 1));
+            expected.push(("settle (settle)", 1));
+        }
+        check_common(&report, &expected);
+        assert_eq!(report.rows.len(), expected.len(), "{name}:\n{report}");
+    }
+}

@@ -9,6 +9,7 @@
 use super::{GalerkinState, TlGalerkin};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
+use crate::gpu::profile::{NONE, PassBytes, Scale, read, read_write, write};
 use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{Reduced, Reduction, WorkBalance};
 use crate::gpu::reference::{self, DeviceReference, Extras};
@@ -38,6 +39,45 @@ pub const RATES: Source = source!(
         ("entries", false),
         ("kin", true),
         ("d", true)
+    ],
+    // Items: points, then nodes; pairs: the point–node pairs, which are also the nodes'
+    // gather entries.
+    &[
+        PassBytes {
+            entry: "points",
+            traffic: &[
+                read("offsets", [1, 0, 0], NONE),
+                read("ids", [1, 0, 0], [1, 0, 0]),
+                // ∇0N_a.
+                read("pair", NONE, [0, 1, 0]),
+                read("point", [1, 0, 0], NONE),
+                // u of the first node and of every node; v too, ρ − ρ0 and S, for the
+                // rate model.
+                read("y", [0, 1, 0], [0, 1, 0]),
+                read("y", [1, 1, 1], [0, 1, 0]).when(&["RATE"]),
+                // H, P, w ψ.
+                write("kin", [1, 0, 2], NONE),
+                write("d", [1, 0, 1], NONE).when(&["RATE"]),
+                read_write("status", NONE, NONE),
+            ],
+        },
+        PassBytes {
+            entry: "nodes",
+            traffic: &[
+                // The row end, and the point of every entry.
+                read("gather", [1, 0, 0], [1, 0, 0]),
+                // w_q ∇0N_a(X_q).
+                read("entries", NONE, [0, 1, 0]),
+                // P_q in; the power out.
+                read("kin", NONE, [0, 0, 1]),
+                write("kin", [1, 0, 0], NONE),
+                // V and the mask.
+                read("reference", [2, 0, 0], NONE),
+                read("y", [0, 1, 0], NONE),
+                read("ext", [0, 1, 0], NONE),
+                write("d", [0, 2, 0], NONE),
+            ],
+        },
     ]
 );
 /// A node's share of the points' stored energy, for the reduction.
@@ -52,7 +92,29 @@ pub const REDUCE: Source = source!(
 pub const SMOOTH: Source = source!(
     "galerkin/galerkin_smooth.wgsl",
     [REFERENCE],
-    [("y", true), ("smoothed", true), ("reference", false)]
+    [("y", true), ("smoothed", true), ("reference", false)],
+    // Items: nodes; pairs: counted as the point–node pairs (the smoothing lists are about
+    // as long).
+    &[
+        PassBytes {
+            entry: "smooth_velocities",
+            traffic: &[
+                read("smooth_offsets", [1, 0, 0], NONE),
+                read("smooth_ids", NONE, [1, 0, 0]),
+                read("smooth_weights", NONE, [1, 0, 0]),
+                read("y", NONE, [0, 1, 0]),
+                write("smoothed", [0, 1, 0], NONE),
+            ],
+        },
+        PassBytes {
+            entry: "settle",
+            traffic: &[
+                read("reference", [1, 0, 0], NONE),
+                read("smoothed", [0, 1, 0], NONE),
+                write("y", [0, 1, 0], NONE),
+            ],
+        },
+    ]
 );
 
 /// The passes compiled with a Galerkin scene's constants ([`scene_constants`]).
@@ -485,6 +547,14 @@ impl<D: GpuDim> GpuGalerkin<D> {
 impl<D: GpuDim> Engine<D> for GpuGalerkin<D> {
     fn backend(&self) -> String {
         format!("gpu: {}", self.gpu.name())
+    }
+
+    fn device(&mut self) -> Option<(&Gpu, Scale)> {
+        let scale = Scale {
+            pairs: self.host.shapes().csr.pair_count() as u64,
+            builds: None,
+        };
+        Some((&self.gpu, scale))
     }
 
     fn reference(&self) -> &[D::V] {
