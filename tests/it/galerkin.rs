@@ -4,7 +4,7 @@
 //! measured failure for RKPM with Gauss points that refinement does not remove), the
 //! energy balance at driven boundaries, and angular momentum on the rotating disk.
 
-use crate::common::{largest_v, load, random_vector};
+use crate::common::{block_text, largest_v, load, random_vector};
 use glam::{DMat2, DVec2};
 use meshless::integrate::OdeSystem;
 use meshless::methods::Method;
@@ -18,35 +18,11 @@ use std::path::Path;
 /// Galerkin method `method` (`tl-weak-form` at h/dx 1.3 unless `keys` set it; the others
 /// have no kernel), with further `[method]` keys.
 pub fn block(max: &[f64], model: &str, method: &str, keys: &str) -> Case {
-    let dim = max.len();
-    let kernel = if method == "tl-weak-form" && !keys.contains("h_over_dx") {
-        "h_over_dx = 1.3"
-    } else {
-        ""
-    };
-    let text = format!(
-        r#"
-name = "block"
-dimension = {dim}
-spacing = 0.1
-[material]
-model = "{model}"
-density = 1000.0
-youngs_modulus = 1.0e6
-poisson_ratio = 0.3
-[method]
-name = "{method}"
-{kernel}
-dt = 1.0e-5
-{keys}
-[[body]]
-name = "b"
-geometry = {{ shape = "box", min = {:?}, max = {max:?} }}
-[run]
-end_time = 1.0e-4
-"#,
-        vec![0.0; dim]
-    );
+    let mut text = block_text(max, model, method, keys);
+    if method != "tl-weak-form" || keys.contains("h_over_dx") {
+        // The template's own line, which comes before `keys`.
+        text = text.replacen("h_over_dx = 1.3\n", "", 1);
+    }
     Case::from_toml(&text, Path::new("block.toml"), &[]).unwrap_or_else(|e| panic!("{e}"))
 }
 
