@@ -3,7 +3,7 @@
 // node's points through the transposed lists; each writes only its own point or node.
 //
 // Flat f32 buffers: the state y = [u | v (nodes) | ρ − ρ0 | S (points, rate model only)],
-// kin = [H = F − I | P | w ψ (points) | power (nodes)], pair = [N_a | ∇0N_a] per
+// kin = [H = F − I | P | w ψ (points) | power (nodes)], pair = [∇0N_a] per
 // point–node pair of the points' CSR (offsets, ids), point = [w_q] and the reference
 // configuration of the nodes (reference.wgsl; its V is m/ρ0, so that RHO0·V is the nodal
 // mass). The gather lists, node → its points: gather = [offsets (N + 1) | the point of

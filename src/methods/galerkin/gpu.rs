@@ -122,7 +122,7 @@ pub const SHADERS: &[Source] = &[RATES, REDUCE, SMOOTH, CONTACT, INTEGRATE];
 
 /// The flat buffers of a Galerkin scene of n nodes and q points: the state [u | v | ρ − ρ0
 /// | S] (ρ and S at the points, rate model only), the kinematics [H = F − I | P | w ψ
-/// (points) | power (nodes)], the per-pair data [N_a | ∇0N_a] of the points' lists, the
+/// (points) | power (nodes)], the per-pair gradients ∇0N_a of the points' lists, the
 /// point weights, the gather lists (u32: [offsets | the point of each entry]) with their
 /// per-entry data [w_q ∇0N_a(X_q) | N_a(X_q)], the smoothing weights N_b(X_a) per pair and
 /// the nodes' reference fields.
@@ -165,9 +165,7 @@ impl Layout {
                 .tensors("P", true, q)
                 .scalars("PSI", true, q)
                 .scalars("POW", true, n),
-            pair: Fields::new("P", dim)
-                .scalars("N", true, pairs)
-                .vectors("G", true, pairs),
+            pair: Fields::new("P", dim).vectors("G", true, pairs),
             point: Fields::new("Q", dim).scalars("W", true, q),
             gather: Fields::new("G", dim)
                 .scalars("OFFSETS", true, n + 1)
@@ -287,7 +285,6 @@ impl<D: GpuDim> GpuGalerkin<D> {
             Extras::default(),
         );
         let mut pair = layout.pair.zeroed();
-        layout.pair.write_s(&mut pair, "N", &shapes.n, 0.0);
         layout.pair.write_v::<D>(&mut pair, "G", &shapes.grad);
         let pair = gpu.storage("per-pair shape functions", &pair);
         let mut weights = layout.point.zeroed();
