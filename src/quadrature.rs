@@ -3,10 +3,14 @@
 //!
 //! - [`lattice_cells`]: the background cells of lattice bodies, every lattice square
 //!   (cube) whose 2^d corners are particles of one body;
-//! - [`QuadraturePoints`]: Gauss points in those cells, with their weights w_q;
+//! - [`QuadraturePoints`]: Gauss points in those cells, with their weights w_q; or the
+//!   particles themselves (nodal integration), alone or with a stress point at every cell
+//!   centre (seed 001 §5.2);
 //! - [`Shapes`]: the nodes (particles) whose shape functions reach each point, as a CSR
 //!   from points to nodes, with N_a(x_q) and ∇N_a(x_q) per pair: bilinear (trilinear)
-//!   isoparametric functions of the cells, or reproducing-kernel (RKPM) functions;
+//!   isoparametric functions of the cells, reproducing-kernel (RKPM) or moving
+//!   least-squares (MLS) functions, or Shepard functions with the Krongauz–Belytschko
+//!   corrected gradient, whose test functions differ from the trial functions;
 //! - [`Gather`]: the transposed lists, from each node to its pairs, so that the forces
 //!   f_a = −Σ_q w_q P_q ∇N_a(x_q) are gathered per node rather than scattered per point.
 
@@ -52,9 +56,9 @@ pub enum QuadratureError {
     )]
     NoCell { body: u32 },
     #[error(
-        "the reproducing-kernel functions at point {point} at {position:?} (a quadrature \
-         point, or a particle for the velocity smoothing) are singular: {nodes} particles \
-         reach it, too few or all on one line; increase h/dx"
+        "the corrected shape functions at point {point} at {position:?} (a quadrature \
+         point, or a particle) are singular: {nodes} particles reach it, too few or all \
+         on one line; increase h/dx"
     )]
     Singular {
         point: usize,
@@ -173,12 +177,15 @@ pub struct QuadraturePoints<D: Dim> {
     pub x0: Vec<D::V>,
     /// Weights w_q = (Gauss weight)·det J(ξ_q): the reference volume each point carries.
     pub weight: Vec<f64>,
-    /// The cell of every point.
+    /// The cell of every point (empty for points not in cells: particles, stress points).
     pub cell: Vec<u32>,
     /// The body of every point.
     pub body: Vec<u32>,
-    /// Parent coordinates ξ_q of every point in its cell.
+    /// Parent coordinates ξ_q of every point in its cell (empty as `cell`).
     pub xi: Vec<[f64; 3]>,
+    /// How many of the first points are the particles themselves, in their order: all of
+    /// them for nodal and stress-point integration, none for Gauss points.
+    pub particles: usize,
 }
 
 impl<D: Dim> QuadraturePoints<D> {
@@ -205,6 +212,7 @@ impl<D: Dim> QuadraturePoints<D> {
             cell: Vec::new(),
             body: Vec::new(),
             xi: Vec::new(),
+            particles: 0,
         };
         for c in 0..cells.len() {
             let corners = cells.of::<D>(c);
@@ -223,6 +231,45 @@ impl<D: Dim> QuadraturePoints<D> {
             }
         }
         points
+    }
+
+    /// The particles as points with their volumes as weights: nodal integration (seed 001
+    /// eq 59, ∫ f dΩ0 ≈ Σ_J f(X_J) V_J^0). No point lies in a cell.
+    pub fn at_particles(x0: &[D::V], vol: &[f64], body: &[u32]) -> Self {
+        Self {
+            x0: x0.to_vec(),
+            weight: vol.to_vec(),
+            cell: Vec::new(),
+            body: body.to_vec(),
+            xi: Vec::new(),
+            particles: x0.len(),
+        }
+    }
+
+    /// The particles, then a stress point at the centre of every cell (seed 001 §5.2),
+    /// weighted by the Voronoi diagram of both together (eq 65): on a lattice the stress
+    /// point's cell is half its square (cube) and each of the 2^d corners gets a 2^(d+1)-th,
+    /// so a particle weighs half its particle-only Voronoi volume (Δx²/2 inside, Δx²/4 on
+    /// an edge and Δx²/8 at a corner in 2D) and the weights sum to the cells' volume. A
+    /// particle that is no cell's corner weighs nothing. No point lies in a cell.
+    pub fn with_stress_points(cells: &Cells, x0: &[D::V], body: &[u32]) -> Self {
+        let centres = Self::new(cells, x0, Rule::Centre);
+        let corners = 1 << D::N;
+        let mut weight = vec![0.0; x0.len()];
+        for (c, &volume) in centres.weight.iter().enumerate() {
+            for &a in cells.of::<D>(c) {
+                weight[a as usize] += volume / f64::from(2 * corners);
+            }
+        }
+        weight.extend(centres.weight.iter().map(|v| v / 2.0));
+        Self {
+            x0: x0.iter().chain(&centres.x0).copied().collect(),
+            weight,
+            cell: Vec::new(),
+            body: body.iter().chain(&centres.body).copied().collect(),
+            xi: Vec::new(),
+            particles: x0.len(),
+        }
     }
 
     /// Number of points.
@@ -293,12 +340,18 @@ pub fn isoparametric_shapes<D: Dim>(
 /// Shape functions at the quadrature points: the nodes of point q are
 /// `csr.neighbours(q)`, with N_a(x_q) in `n` and ∇N_a(x_q) in `grad`, one per pair in
 /// CSR order, so that a nodal field interpolates as f(x_q) = Σ_a N_a(x_q) f_a (for RKPM,
-/// N_a = V_a Ψ_a of seed 000 eq 43).
+/// N_a = V_a Ψ_a of seed 000 eq 43) and its gradient is Σ_a f_a ⊗ ∇N_a(x_q).
+///
+/// A Petrov–Galerkin method tests with other functions than it interpolates with: their
+/// gradients ∇Φ_a(x_q), which the forces −Σ_q w_q P_q ∇Φ_a(x_q) use, are then in `test`
+/// ([`Shapes::test_gradient`]); empty for a Bubnov–Galerkin method, whose test functions
+/// are the trial functions.
 #[derive(Clone, Debug)]
 pub struct Shapes<D: Dim> {
     pub csr: Csr,
     pub n: Vec<f64>,
     pub grad: Vec<D::V>,
+    pub test: Vec<D::V>,
 }
 
 impl<D: Dim> Default for Shapes<D> {
@@ -307,6 +360,7 @@ impl<D: Dim> Default for Shapes<D> {
             csr: Csr::default(),
             n: Vec::new(),
             grad: Vec::new(),
+            test: Vec::new(),
         }
     }
 }
@@ -322,6 +376,7 @@ impl<D: Dim> Shapes<D> {
             },
             n: vec![0.0; points.len() * k],
             grad: vec![D::zero(); points.len() * k],
+            test: Vec::new(),
         };
         for (q, &xi) in points.xi.iter().enumerate() {
             let corners = cells.of::<D>(points.cell[q] as usize);
@@ -368,7 +423,73 @@ impl<D: Dim> Shapes<D> {
                 .collect())
         })?;
         let (n, grad) = rows.into_iter().unzip();
-        Ok(Self { csr, n, grad })
+        Ok(Self {
+            csr,
+            n,
+            grad,
+            test: Vec::new(),
+        })
+    }
+
+    /// Moving least-squares functions with a linear basis (seed 001 eqs 37–42), Φ_a(X) =
+    /// pᵀ(X) A⁻¹(X) p(X_a) W(X − X_a), A = Σ_a p(X_a) pᵀ(X_a) W(X − X_a), of the particles
+    /// within the kernel's support of each point: the reproducing-kernel functions with
+    /// unit weights in place of the volumes, so that a boundary particle's smaller volume
+    /// does not weaken its function.
+    pub fn moving_least_squares(
+        at: &[D::V],
+        at_body: &[u32],
+        x: &[D::V],
+        body: &[u32],
+        kernel: &Kernel,
+    ) -> Result<Self, QuadratureError> {
+        Self::reproducing(at, at_body, x, &vec![1.0; x.len()], body, kernel)
+    }
+
+    /// Krongauz–Belytschko functions (seed 001 §3.2) of the particles within the kernel's
+    /// support of each point X_q: the Shepard functions W^S_a = W_a / Σ_b W_b (eq 28) as
+    /// values and test functions, and the corrected trial gradient G_a = M⁻¹ ∇W^S_a (eqs
+    /// 27, 31) with M = Σ_a ∇W^S_a ⊗ (X_a − X_q), which makes Σ_a X_a ⊗ G_a = I (eq 29).
+    pub fn krongauz_belytschko(
+        at: &[D::V],
+        at_body: &[u32],
+        x: &[D::V],
+        body: &[u32],
+        kernel: &Kernel,
+    ) -> Result<Self, QuadratureError> {
+        let reach = crate::reference::neighbour_radius(kernel);
+        let csr = neighbour::between::<D>(at, x, reach, Some((at_body, body)));
+        let rows = csr.map_rows(|q| {
+            let nodes = csr.neighbours(q);
+            krongauz_belytschko_shapes::<D>(at[q], nodes, x, kernel).ok_or(
+                QuadratureError::Singular {
+                    point: q,
+                    position: D::to3(at[q]),
+                    nodes: nodes.len(),
+                },
+            )
+        })?;
+        let mut shapes = Self {
+            csr,
+            ..Self::default()
+        };
+        for (n, grad, test) in rows {
+            shapes.n.push(n);
+            shapes.grad.push(grad);
+            shapes.test.push(test);
+        }
+        Ok(shapes)
+    }
+
+    /// ∇Φ_a(x_q) of pair p: the test function's gradient (the trial function's for a
+    /// Bubnov–Galerkin method).
+    #[inline]
+    pub fn test_gradient(&self, p: usize) -> D::V {
+        if self.test.is_empty() {
+            self.grad[p]
+        } else {
+            self.test[p]
+        }
     }
 
     /// Number of points.
@@ -461,6 +582,47 @@ impl<D: Dim> Shapes<D> {
             pair,
         }
     }
+}
+
+/// One node's Krongauz–Belytschko functions at a point: (W^S_a, G_a, ∇W^S_a).
+pub type KbShape<D> = (f64, <D as Dim>::V, <D as Dim>::V);
+
+/// The Krongauz–Belytschko functions at y of the particles `nodes` of x, per node in
+/// order (see [`Shapes::krongauz_belytschko`]); none where the kernels sum to zero or M
+/// is singular (|det M| ≤ 1e-10 of its scale).
+pub fn krongauz_belytschko_shapes<D: Dim>(
+    y: D::V,
+    nodes: &[u32],
+    x: &[D::V],
+    kernel: &Kernel,
+) -> Option<Vec<KbShape<D>>> {
+    let kernels: Vec<(f64, D::V)> = nodes
+        .iter()
+        .map(|&a| {
+            let r = y - x[a as usize];
+            (kernel.w(D::norm2(r).sqrt()), kernel.grad::<D>(r))
+        })
+        .collect();
+    let sum: f64 = kernels.iter().map(|k| k.0).sum();
+    if sum <= 0.0 {
+        return None;
+    }
+    let grad_sum = kernels.iter().fold(D::zero(), |s, k| s + k.1);
+    // ∇W^S_a = (∇W_a − W^S_a Σ_b ∇W_b) / Σ_b W_b.
+    let shepard: Vec<(f64, D::V)> = kernels
+        .iter()
+        .map(|&(w, g)| (w / sum, (g - grad_sum * (w / sum)) * (1.0 / sum)))
+        .collect();
+    // M = Σ_a ∇W^S_a ⊗ (X_a − X_q): eq 31 with the shift that Σ_a ∇W^S_a = 0 allows.
+    let m = nodes.iter().zip(&shepard).fold(D::zero_t(), |m, (&a, s)| {
+        m + D::outer(s.1, x[a as usize] - y)
+    });
+    let scale = D::ddot(m, m).sqrt() / (D::N as f64).sqrt();
+    if D::det(m).abs() <= 1e-10 * scale.powi(D::N as i32) {
+        return None;
+    }
+    let a = D::inverse(m);
+    Some(shepard.into_iter().map(|(w, g)| (w, a * g, g)).collect())
 }
 
 /// Rows a task of the parallel loops over points handles at least.
@@ -636,6 +798,145 @@ mod tests {
             assert!((unity - 1.0).abs() < 1e-12, "point {q}: Σ V Ψ = {unity}");
             assert!((first - points.x0[q]).length() < 1e-12 * dx * 10.0);
             assert!((grad - glam::DMat2::IDENTITY).abs_diff_eq(glam::DMat2::ZERO, 1e-11));
+        }
+    }
+
+    #[test]
+    fn stress_point_weights_are_the_joint_voronoi_cells() {
+        // Seed 001 §5.2 (spec [D]): particles and cell-centre stress points of a square
+        // lattice form a lattice rotated by 45°, whose Voronoi cells are diamonds of
+        // Δx²/2, cut to Δx²/4 on an edge and Δx²/8 at a corner. Exact in binary: 1e-15.
+        let (nx, ny, dx) = (5, 4, 0.5);
+        let x = lattice(nx, ny, dx);
+        let body = vec![0; x.len()];
+        let cells = lattice_cells::<D2>(&x, &body, dx).unwrap();
+        let points = QuadraturePoints::<D2>::with_stress_points(&cells, &x, &body);
+        assert_eq!(points.len(), nx * ny + (nx - 1) * (ny - 1));
+        assert_eq!(points.particles, nx * ny);
+        let cell = dx * dx;
+        for (q, (&w, &y)) in points.weight.iter().zip(&points.x0).enumerate() {
+            let on_edges = if q < nx * ny {
+                [y.x, y.y]
+                    .iter()
+                    .zip([(nx - 1) as f64 * dx, (ny - 1) as f64 * dx])
+                    .filter(|(c, end)| **c == 0.0 || **c == *end)
+                    .count()
+            } else {
+                0
+            };
+            let expected = cell / 2.0 / f64::from(1 << on_edges);
+            assert!((w - expected).abs() < 1e-15, "point {q} at {y}: weight {w}");
+        }
+        let area = ((nx - 1) * (ny - 1)) as f64 * cell;
+        assert!((points.weight.iter().sum::<f64>() - area).abs() < 1e-14);
+        // In 3D the joint cells (a body-centred lattice's truncated octahedra) weigh
+        // Δx³/2 and the weights sum to the volume.
+        let x3: Vec<DVec3> = (0..27)
+            .map(|i| DVec3::new((i % 3) as f64, ((i / 3) % 3) as f64, (i / 9) as f64) * dx)
+            .collect();
+        let cells = lattice_cells::<D3>(&x3, &[0; 27], dx).unwrap();
+        let points = QuadraturePoints::<D3>::with_stress_points(&cells, &x3, &[0; 27]);
+        assert_eq!(points.weight[13], dx.powi(3) / 2.0);
+        assert!((points.weight.iter().sum::<f64>() - 8.0 * dx.powi(3)).abs() < 1e-14);
+    }
+
+    /// Σ_a N_a = 1, Σ_a ∇N_a = 0 (trial and test) and Σ_a X_a ⊗ ∇N_a = I at every point
+    /// of `shapes`, to `tol`.
+    fn check_linear_completeness(shapes: &Shapes<D2>, at: &[DVec2], x: &[DVec2], tol: f64) {
+        for (q, &y) in at.iter().enumerate() {
+            let (mut unity, mut first) = (0.0, DVec2::ZERO);
+            let (mut trial, mut test) = (DVec2::ZERO, DVec2::ZERO);
+            let mut grad = glam::DMat2::ZERO;
+            for p in shapes.csr.range(q) {
+                let a = shapes.csr.ids[p] as usize;
+                unity += shapes.n[p];
+                first += (x[a] - y) * shapes.n[p];
+                trial += shapes.grad[p];
+                test += shapes.test_gradient(p);
+                grad += D2::outer(x[a], shapes.grad[p]);
+            }
+            assert!((unity - 1.0).abs() < tol, "point {q}: Σ N = {unity}");
+            assert!(trial.length() < tol && test.length() < tol, "point {q}");
+            let off = (grad - glam::DMat2::IDENTITY).abs().to_cols_array();
+            assert!(off.iter().all(|&e| e < tol), "point {q}: Σ X ⊗ ∇N = {grad}");
+            // Only the MLS values reproduce X itself; Shepard values do not at a boundary.
+            if shapes.test.is_empty() {
+                assert!(first.length() < tol, "point {q}: Σ N (X − y) = {first}");
+            }
+        }
+    }
+
+    #[test]
+    fn krongauz_belytschko_gradients_are_linearly_complete_at_every_point() {
+        // Seed 001 checklist items 2 and 3 (spec §11): at every particle and stress point
+        // of a lattice, corners included, the Shepard functions sum to one with
+        // gradients summing to zero, and G_a = M⁻¹ ∇W^S_a reproduces a linear field's
+        // gradient (eq 29). Also on a jittered cloud at its particles. Round-off of sums of
+        // O(20) terms of O(1/Δx) against 1: 1e-10 · (1/Δx).
+        let dx = 0.1;
+        let kernel = Kernel::new(KernelKind::CubicSpline, 1.3 * dx, 2);
+        let x = lattice(9, 7, dx);
+        let body = vec![0; x.len()];
+        let cells = lattice_cells::<D2>(&x, &body, dx).unwrap();
+        let points = QuadraturePoints::<D2>::with_stress_points(&cells, &x, &body);
+        let kb = Shapes::<D2>::krongauz_belytschko(&points.x0, &points.body, &x, &body, &kernel)
+            .unwrap();
+        assert_eq!(kb.test.len(), kb.grad.len());
+        check_linear_completeness(&kb, &points.x0, &x, 1e-10 / dx);
+        let jittered: Vec<DVec2> = x
+            .iter()
+            .enumerate()
+            .map(|(i, &p)| {
+                let s = ((i as f64 * 12.9898).sin() * 43758.5453).fract();
+                p + DVec2::new(s, 1.0 - 2.0 * s.abs()) * 0.2 * dx
+            })
+            .collect();
+        let kb =
+            Shapes::<D2>::krongauz_belytschko(&jittered, &body, &jittered, &body, &kernel).unwrap();
+        check_linear_completeness(&kb, &jittered, &jittered, 1e-10 / dx);
+        // The test gradients are the Shepard ones: not corrected, so at a corner they do
+        // not reproduce the gradient of X (the paper's "not linearly complete" test
+        // functions, which cost global angular momentum).
+        let corner = kb.csr.range(0).fold(glam::DMat2::ZERO, |g, p| {
+            g + D2::outer(jittered[kb.csr.ids[p] as usize], kb.test[p])
+        });
+        let off = (corner - glam::DMat2::IDENTITY).abs().to_cols_array();
+        assert!(
+            off.iter().any(|&e| e > 0.1),
+            "Σ X ⊗ ∇W^S = {corner} at a corner"
+        );
+    }
+
+    #[test]
+    fn moving_least_squares_functions_are_those_of_eqs_40_to_42() {
+        // Φ_a(X) = pᵀ(X) A⁻¹ p(X_a) W(X − X_a) with A = Σ_a p(X_a) pᵀ(X_a) W(X − X_a),
+        // p = (1, X, Y), evaluated here directly (a 3×3 solve) at points between the
+        // particles of a lattice whose boundary particles carry other volumes, which the
+        // MLS functions must ignore; and linear completeness. Round-off: 1e-12.
+        let dx = 0.1;
+        let kernel = Kernel::new(KernelKind::CubicSpline, 1.5 * dx, 2);
+        let x = lattice(8, 6, dx);
+        let body = vec![0; x.len()];
+        let at = [
+            DVec2::new(0.0, 0.0),
+            DVec2::new(0.33, 0.21),
+            DVec2::new(0.7, 0.45),
+        ];
+        let mls = Shapes::<D2>::moving_least_squares(&at, &[0; 3], &x, &body, &kernel).unwrap();
+        check_linear_completeness(&mls, &at, &x, 1e-11 / dx);
+        for (q, &y) in at.iter().enumerate() {
+            let p = |z: DVec2| glam::DVec3::new(1.0, z.x, z.y);
+            let w = |a: usize| kernel.w((y - x[a]).length());
+            let a_matrix = (0..x.len()).fold(glam::DMat3::ZERO, |m, a| {
+                let pa = p(x[a]);
+                m + glam::DMat3::from_cols(pa * pa.x, pa * pa.y, pa * pa.z) * w(a)
+            });
+            let c = a_matrix.inverse() * p(y);
+            for k in mls.csr.range(q) {
+                let a = mls.csr.ids[k] as usize;
+                let phi = c.dot(p(x[a])) * w(a);
+                assert!((mls.n[k] - phi).abs() < 1e-12, "point {q}, node {a}");
+            }
         }
     }
 

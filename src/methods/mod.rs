@@ -9,10 +9,12 @@
 
 pub mod corotated;
 pub mod dual_support;
+pub mod efg;
 pub mod fem;
 pub mod galerkin;
 pub mod godunov;
 pub mod gray_monaghan;
+pub mod kbm;
 pub mod mixed;
 pub mod potential;
 pub mod shared;
@@ -71,6 +73,14 @@ pub struct Plan {
     pub check_note: String,
     /// What this scene leaves out of the method.
     pub left_out: Vec<&'static str>,
+}
+
+/// The `--explain` line of the step Δt = cfl·Δx/(c_p + max|v|) that most methods take.
+pub fn cfl_step(mat: &crate::material::Material) -> String {
+    format!(
+        "Δt = cfl·Δx/(c_p + max|v|), c_p = {:.1} m/s",
+        mat.p_wave_speed()
+    )
 }
 
 /// What the driver needs from a method. Implemented by the method's typed spec.
@@ -237,6 +247,8 @@ registry! {
     "tl-fem" => TlFem(fem::FemSpec),
     "ul-weak-form" => UlWeakForm(ul_weak_form::UlWeakFormSpec),
     "ul-fem" => UlFem(ul_fem::UlFemSpec),
+    "kbm" => Kbm(kbm::KbmSpec),
+    "efg" => Efg(efg::EfgSpec),
 }
 
 /// The registry entry of a case-file method name.

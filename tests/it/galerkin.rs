@@ -15,11 +15,12 @@ use meshless::tensor::{D2, D3, Dim};
 use std::path::Path;
 
 /// A block of spacing 0.1 from the origin to `max` with material `model` under the
-/// Galerkin method `method` (`tl-weak-form` at h/dx 1.3 unless `keys` set it; the others
-/// have no kernel), with further `[method]` keys.
+/// Galerkin method `method` (at h/dx 1.3 unless `keys` set it, if the method has a
+/// kernel), with further `[method]` keys.
 pub fn block(max: &[f64], model: &str, method: &str, keys: &str) -> Case {
     let mut text = block_text(max, model, method, keys);
-    if method != "tl-weak-form" || keys.contains("h_over_dx") {
+    let kernel = meshless::methods::entry(method).is_some_and(|e| e.kernel);
+    if !kernel || keys.contains("h_over_dx") {
         // The template's own line, which comes before `keys`.
         text = text.replacen("h_over_dx = 1.3\n", "", 1);
     }

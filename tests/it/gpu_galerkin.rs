@@ -1,5 +1,5 @@
-//! The GPU passes of the total-Lagrangian Galerkin methods (`tl-fem`, `tl-weak-form`)
-//! against the f64 CPU reference on a software (or real) adapter: one rate evaluation on a
+//! The GPU passes of the total-Lagrangian Galerkin methods (`tl-fem`, `tl-weak-form`,
+//! `kbm`, `efg`) against the f64 CPU reference on a software (or real) adapter: one rate evaluation on a
 //! deformed, moving, stressed state, and whole runs with the weak form's smoothing. A
 //! missing adapter fails these tests.
 
@@ -50,7 +50,8 @@ fn compare_rates<D: GpuDim>(case: &Case) {
             .map(|e| {
                 let q = gather.point[e] as usize;
                 let p = cpu.first_piola()[q];
-                w[q] * D::ddot(p, p).sqrt() * D::norm2(shapes.grad[gather.pair[e] as usize]).sqrt()
+                w[q] * D::ddot(p, p).sqrt()
+                    * D::norm2(shapes.test_gradient(gather.pair[e] as usize)).sqrt()
             })
             .sum::<f64>()
             / cpu.mass()[a];
@@ -88,6 +89,30 @@ fn rates_match_the_cpu() {
     }
     compare_rates::<D3>(&block(&[0.4, 0.3, 0.3], "hypoelastic", "tl-fem", ""));
     compare_rates::<D3>(&block(&[0.4, 0.3, 0.3], "neo-hookean", "tl-weak-form", ""));
+}
+
+#[test]
+fn seed_001_rates_match_the_cpu() {
+    // The Krongauz–Belytschko trial gradients and Shepard test gradients (KBM with and
+    // without stress points) and the MLS functions (EFG at cells and at the particles) on
+    // the same passes, under the bounds of `compare_rates`.
+    for (method, keys) in [
+        ("kbm", ""),
+        ("kbm", "stress_points = false"),
+        ("efg", ""),
+        ("efg", "integration = \"nodal\""),
+    ] {
+        for model in ["hypoelastic", "neo-hookean"] {
+            compare_rates::<D2>(&block(&[1.0, 0.6], model, method, keys));
+        }
+    }
+    compare_rates::<D3>(&block(
+        &[0.4, 0.3, 0.3],
+        "saint-venant-kirchhoff",
+        "kbm",
+        "",
+    ));
+    compare_rates::<D3>(&block(&[0.4, 0.3, 0.3], "hypoelastic", "efg", ""));
 }
 
 /// Runs `steps` CPU steps of size dt.

@@ -30,6 +30,7 @@ mod gpu_tlsph;
 mod gpu_ul;
 mod gray_monaghan;
 mod hostile;
+mod kbm_efg;
 #[cfg(feature = "study")]
 mod mixed;
 mod registry;

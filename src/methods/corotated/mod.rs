@@ -63,10 +63,7 @@ impl MethodFamily for CorotatedSpec {
                 }
             ),
             state: format!("u, v (state model {:?} of the corotated F̂)", mat.model),
-            cfl_step: format!(
-                "Δt = cfl·Δx/(c_p + max|v|), c_p = {:.1} m/s",
-                mat.p_wave_speed()
-            ),
+            cfl_step: super::cfl_step(&mat),
             rates: if gpu {
                 format!(
                     "shape-matching pass (A_i, its rotation R_i ({rotation}), F̂_i, \

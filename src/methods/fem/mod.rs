@@ -67,10 +67,7 @@ impl MethodFamily for FemSpec {
                 self.mass.name()
             ),
             state: galerkin_state(&mat),
-            cfl_step: format!(
-                "Δt = cfl·Δx/(c_p + max|v|), c_p = {:.1} m/s",
-                mat.p_wave_speed()
-            ),
+            cfl_step: super::cfl_step(&mat),
             rates: if gpu {
                 "points pass (F_q, P_q, w_q ψ_q, ρ̇_q, Ṡ_q) + nodes pass (−Σ_q w_q P_q \
                  ∇0N_a(X_q) gathered per node, BCs)"

@@ -124,7 +124,7 @@ pub const SHADERS: &[Source] = &[RATES, REDUCE, SMOOTH, CONTACT, INTEGRATE];
 /// | S] (ρ and S at the points, rate model only), the kinematics [H = F − I | P | w ψ
 /// (points) | power (nodes)], the per-pair gradients ∇0N_a of the points' lists, the
 /// point weights, the gather lists (u32: [offsets | the point of each entry]) with their
-/// per-entry data [w_q ∇0N_a(X_q) | N_a(X_q)], the smoothing weights N_b(X_a) per pair and
+/// per-entry data [w_q ∇0Φ_a(X_q) | N_a(X_q)] (Φ_a the test functions), the smoothing weights N_b(X_a) per pair and
 /// the nodes' reference fields.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Layout {
@@ -297,7 +297,7 @@ impl<D: GpuDim> GpuGalerkin<D> {
         let (weighted, values): (Vec<D::V>, Vec<f64>) = (0..gather.point.len())
             .map(|e| {
                 let (q, p) = (gather.point[e] as usize, gather.pair[e] as usize);
-                (shapes.grad[p] * points.weight[q], shapes.n[p])
+                (shapes.test_gradient(p) * points.weight[q], shapes.n[p])
             })
             .unzip();
         let mut flat = layout.entries.zeroed();

@@ -1,19 +1,22 @@
-//! What the Galerkin methods share (seed 000 §2.6, §5.6, §5.7 and the FEM references):
-//! nodes (the particles) carry u and v, quadrature points carry the stress, and the weak
-//! form with a lumped mass gives each node a force gathered over its points
+//! What the Galerkin methods share (seed 000 §2.6, §5.6, §5.7 and the FEM references;
+//! seed 001 §4–5): nodes (the particles) carry u and v, quadrature points carry the stress,
+//! and the weak form with a lumped mass gives each node a force gathered over its points
 //! ([`crate::quadrature::Gather`], [`gather_accelerations`]), so that every node writes
 //! only its own rate.
 //!
-//! - [`TlGalerkin`], total-Lagrangian (`tl-fem`, `tl-weak-form`): ∫ δu·ρ0 ü dΩ0 =
-//!   −∫ ∇0δu : P dΩ0 (eq 156), F_q = I + Σ_a u_a ⊗ ∇0N_a(X_q) and P_q from the material at
-//!   fixed points with shape functions computed once, m_a ü_a = −Σ_q w_q P_q ∇0N_a(X_q);
+//! - [`TlGalerkin`], total-Lagrangian (`tl-fem`, `tl-weak-form`, `kbm`, `efg`): ∫ δu·ρ0 ü
+//!   dΩ0 = −∫ ∇0δu : P dΩ0 (seed 000 eq 156, seed 001 eq 44), F_q = I + Σ_a u_a ⊗
+//!   ∇0N_a(X_q) and P_q from the material at fixed points with shape functions computed
+//!   once, m_a ü_a = −Σ_q w_q P_q ∇0Φ_a(X_q) with the test functions Φ_a (the trial
+//!   functions N_a but for the Petrov–Galerkin `kbm`);
 //! - [`updated::UlGalerkin`], updated-Lagrangian (`ul-fem`, `ul-weak-form`): ∫ δv·ρ v̇ dΩ =
 //!   −∫ ∇δv : σ dΩ (eq 117) with shape functions and weights recomputed on the current
 //!   configuration at every rate evaluation, m_a v̇_a = −Σ_q w_q σ_q ∇N_a(x_q).
 //!
-//! The methods differ in their shape functions (bilinear elements, or reproducing-kernel
-//! functions) and in what follows a step (the weak forms' velocity smoothing,
-//! [`smooth_velocities`]).
+//! The methods differ in their points (Gauss points of cells, the particles themselves,
+//! or the particles with stress points), their shape functions (bilinear elements,
+//! reproducing-kernel, moving least-squares or Krongauz–Belytschko functions) and in what
+//! follows a step (the weak forms' velocity smoothing, [`smooth_velocities`]).
 
 pub mod updated;
 
@@ -49,6 +52,11 @@ pub enum Mass {
     /// node (eq 163); a lattice body then weighs more than its volume holds (the strip
     /// 1.1025 kg/m instead of 1).
     Particle,
+}
+
+/// The particle mass, as a serde default.
+pub fn particle_mass() -> Mass {
+    Mass::Particle
 }
 
 impl Mass {
@@ -97,9 +105,9 @@ pub fn smooth_velocities<D: Dim>(shapes: &Shapes<D>, boundary: &Boundary<D>, v: 
     boundary.impose(v);
 }
 
-/// a_a = −(1/m_a) Σ_q w_q T_q ∇N_a(x_q), gathered per node over its points: the internal
+/// a_a = −(1/m_a) Σ_q w_q T_q ∇Φ_a(x_q), gathered per node over its points: the internal
 /// force of a Galerkin method with a stress T_q (P_q on the reference points, σ_q on the
-/// current ones) and point weights w_q, divided by the lumped mass.
+/// current ones), point weights w_q and test functions Φ_a, divided by the lumped mass.
 pub fn gather_accelerations<D: Dim>(
     gather: &Gather,
     shapes: &Shapes<D>,
@@ -114,7 +122,7 @@ pub fn gather_accelerations<D: Dim>(
         .for_each(|(node, a)| {
             let force = gather.range(node).fold(D::zero(), |f, e| {
                 let q = gather.point[e] as usize;
-                f - stress[q] * shapes.grad[gather.pair[e] as usize] * weight[q]
+                f - stress[q] * shapes.test_gradient(gather.pair[e] as usize) * weight[q]
             });
             *a = force * (1.0 / mass[node]);
         });
@@ -323,7 +331,8 @@ impl<D: Dim> TlGalerkin<D> {
         (self.f, self.pk1) = (f, pk1);
     }
 
-    /// ü_a = −(1/m_a) Σ_q w_q P_q ∇0N_a(X_q) (Algorithm 6 step 4), gathered per node.
+    /// ü_a = −(1/m_a) Σ_q w_q P_q ∇0Φ_a(X_q) (seed 000 Algorithm 6 step 4, seed 001 eq
+    /// 64), gathered per node.
     fn accelerations(&self, a: &mut [D::V]) {
         let (weight, stress) = (&self.points.weight, &self.pk1);
         gather_accelerations(&self.gather, &self.shapes, weight, stress, &self.mass, a);
@@ -344,7 +353,7 @@ impl<D: Dim> TlGalerkin<D> {
     }
 
     /// F at every point of state y.
-    fn point_f(&self, y: &GalerkinState<D>) -> Vec<D::T> {
+    pub fn point_f(&self, y: &GalerkinState<D>) -> Vec<D::T> {
         (0..self.points.len())
             .into_par_iter()
             .with_min_len(MIN_CHUNK)
@@ -352,17 +361,33 @@ impl<D: Dim> TlGalerkin<D> {
             .collect()
     }
 
-    /// A point field projected to the nodes (the lumped L2 projection of [`to_nodes`]).
+    /// Whether the particles are points (nodal or stress-point integration), so that a
+    /// point field is known at the nodes.
+    fn nodes_are_points(&self) -> bool {
+        self.points.particles == self.x0.len()
+    }
+
+    /// A point field at the nodes: its values at the particles where they are points,
+    /// else the lumped L2 projection of [`to_nodes`].
     fn projected<T>(&self, g: &[T], empty: T) -> Vec<T>
     where
         T: Copy + Send + Sync + std::ops::Add<Output = T> + std::ops::Mul<f64, Output = T>,
     {
-        to_nodes(&self.gather, &self.shapes, &self.points.weight, g, empty)
+        if self.nodes_are_points() {
+            g[..self.x0.len()].to_vec()
+        } else {
+            to_nodes(&self.gather, &self.shapes, &self.points.weight, g, empty)
+        }
     }
 
-    /// σ at the nodes from σ at the points.
-    fn stress_at_nodes(&self, sigma: Vec<[[f64; 3]; 3]>) -> Vec<[[f64; 3]; 3]> {
-        stress_at_nodes(&self.gather, &self.shapes, &self.points.weight, sigma)
+    /// σ at the nodes from σ at the points, as [`Self::projected`].
+    fn stress_at_nodes(&self, mut sigma: Vec<[[f64; 3]; 3]>) -> Vec<[[f64; 3]; 3]> {
+        if self.nodes_are_points() {
+            sigma.truncate(self.x0.len());
+            sigma
+        } else {
+            stress_at_nodes(&self.gather, &self.shapes, &self.points.weight, sigma)
+        }
     }
 
     /// F, σ and the stored energy Σ_q w_q ψ_q at the points of state y.
@@ -456,6 +481,8 @@ impl<D: Dim> Method<D> for TlGalerkin<D> {
         match &case.method.spec {
             MethodSpec::TlFem(spec) => spec.system(case, reference),
             MethodSpec::TlWeakForm(spec) => spec.system(case, reference),
+            MethodSpec::Kbm(spec) => spec.system(case, reference),
+            MethodSpec::Efg(spec) => spec.system(case, reference),
             _ => Err(not_run_by(case, "TlGalerkin")),
         }
     }

@@ -185,6 +185,7 @@ impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
             csr: lists,
             n: vec![0.0; pairs],
             grad: vec![D::zero(); pairs],
+            test: Vec::new(),
         };
         let gather = shapes.gather(reference.len());
         let Reference {

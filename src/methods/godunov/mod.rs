@@ -40,10 +40,7 @@ impl MethodFamily for GodunovSpec {
         Plan {
             once: "nothing: the neighbour lists follow the particles (see the rates)".into(),
             state: "u, v, ρ, S, and F integrated by Ḟ = L F for the outputs".into(),
-            cfl_step: format!(
-                "Δt = cfl·Δx/(c_p + max|v|), c_p = {:.1} m/s",
-                mat.p_wave_speed()
-            ),
+            cfl_step: super::cfl_step(&mat),
             rates: format!(
                 "{}, Ṡ, Ḟ, and ρ̇ and a from the pairs' acoustic Riemann solutions",
                 super::ul::plan_rebuild(case, gpu)

@@ -67,10 +67,7 @@ impl MethodFamily for PotentialSpec {
                 .into(),
             state: format!("u, v (state model {:?})", mat.model),
             cfl_step: match self.force {
-                PotentialForce::Consistent => format!(
-                    "Δt = cfl·Δx/(c_p + max|v|), c_p = {:.1} m/s",
-                    mat.p_wave_speed()
-                ),
+                PotentialForce::Consistent => super::cfl_step(&mat),
                 PotentialForce::ReferenceCode => format!(
                     "Δt = cfl·Δx/(c_p/√V_min + max|v|), c_p = {:.1} m/s (the reference \
                      code's force is 1/V stiffer)",

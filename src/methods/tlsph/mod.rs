@@ -120,10 +120,7 @@ impl MethodFamily for TlsphSpec {
             } else {
                 format!("u, v (state model {:?}: no ρ or S integrated)", mat.model)
             },
-            cfl_step: format!(
-                "Δt = cfl·Δx/(c_p + max|v|), c_p = {:.1} m/s",
-                mat.p_wave_speed()
-            ),
+            cfl_step: super::cfl_step(&mat),
             rates: if gpu {
                 GPU_RATES.into()
             } else {

@@ -124,10 +124,7 @@ impl MethodFamily for UlFemSpec {
                 self.mass.name()
             ),
             state: ul_galerkin_state(&mat, "the Gauss points"),
-            cfl_step: format!(
-                "Δt = cfl·Δx/(c_p + max|v|), c_p = {:.1} m/s",
-                mat.p_wave_speed()
-            ),
+            cfl_step: super::cfl_step(&mat),
             rates: format!(
                 "on the CPU: x = X + u; at every Gauss point of the current cells N_a, \
                  ∇N_a = J⁻ᵀ ∂N_a/∂ξ and w_q = det J, then {}; each node gathers \

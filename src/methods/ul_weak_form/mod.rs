@@ -88,10 +88,7 @@ impl MethodFamily for UlWeakFormSpec {
                 "{}; ρ at the particles; the stress points' displacements",
                 ul_galerkin_state(&mat, "the stress points")
             ),
-            cfl_step: format!(
-                "Δt = cfl·Δx/(c_p + max|v|), c_p = {:.1} m/s",
-                mat.p_wave_speed()
-            ),
+            cfl_step: super::cfl_step(&mat),
             rates: "on the CPU: covariance ellipses, h and RKPM N_j = V_j Ψ_j at every \
                     stress point and particle (V_j = m_j/ρ_j); L, ρ̇, Jaumann Ṡ, σ and \
                     ẋ_q = Σ_j N_j v_j at the stress points, ρ̇ at the particles; each particle \

@@ -151,6 +151,7 @@ impl<D: Dim> MovingPoints<D> for StressPoints<D> {
                 csr: own,
                 n: vec![0.0; pairs],
                 grad: vec![D::zero(); pairs],
+                test: Vec::new(),
             },
             smoothing: spec.smoothing,
             rho0: reference.material.rho0,

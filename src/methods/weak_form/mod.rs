@@ -6,7 +6,7 @@
 //! notes: `docs/methods/galerkin.md`.
 
 use super::fem::galerkin_state;
-use super::galerkin::{Mass, TlGalerkin, smoothing_shapes};
+use super::galerkin::{Mass, TlGalerkin, particle_mass, smoothing_shapes};
 use super::{Feature, MethodFamily, Plan, Problem};
 use crate::material::Material;
 use crate::quadrature::{QuadraturePoints, Rule, Shapes, lattice_cells};
@@ -31,10 +31,6 @@ pub struct WeakFormSpec {
     /// The nodal masses (default `particle`, the paper's eq 163).
     #[serde(default = "particle_mass")]
     pub mass: Mass,
-}
-
-fn particle_mass() -> Mass {
-    Mass::Particle
 }
 
 impl Default for WeakFormSpec {
@@ -109,10 +105,7 @@ impl MethodFamily for WeakFormSpec {
                    particles' own RKPM weights for the smoothing"
                 .into(),
             state: galerkin_state(&mat),
-            cfl_step: format!(
-                "Δt = cfl·Δx/(c_p + max|v|), c_p = {:.1} m/s",
-                mat.p_wave_speed()
-            ),
+            cfl_step: super::cfl_step(&mat),
             rates: if gpu {
                 "points pass (F_q, P_q, w_q ψ_q, ρ̇_q, Ṡ_q) + nodes pass (−Σ_q w_q P_q \
                  ∇0N_a(X_q) gathered per particle, BCs); after each step the smooth and settle \

@@ -1,0 +1,152 @@
+//! The element-free Galerkin method as seed 001 compares it (§3.4, §5): a Bubnov–Galerkin
+//! method on a Lagrangian kernel with moving least-squares functions of a linear basis
+//! (eqs 37–42), integrated at the particles ("EFG (ni)", eqs 59–60) or at 2×2 (2×2×2)
+//! Gauss points of the lattice cells ("EFG (ci)", eqs 66–69), F_q = I + Σ_a u_a ⊗
+//! ∇0Φ_a(X_q) and f_a = Σ_q w_q ∇0Φ_a(X_q)·P_q. Everything is built once on the reference
+//! configuration. It runs on the shared Galerkin system ([`crate::methods::galerkin`]).
+//! Numerics notes: `docs/methods/seed001.md`.
+
+use super::fem::galerkin_state;
+use super::galerkin::{Mass, TlGalerkin, particle_mass};
+use super::{Feature, MethodFamily, Plan, Problem};
+use crate::material::Material;
+use crate::quadrature::{Cells, QuadraturePoints, Rule, Shapes, lattice_cells};
+use crate::reference::Reference;
+use crate::run::{CpuEngine, Engine, EngineDim};
+use crate::scene::{Case, CaseError};
+use crate::tensor::Dim;
+use serde::{Deserialize, Serialize};
+
+/// Where the element-free Galerkin method integrates (`method.integration`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Integration {
+    /// At the particles, weighted by their volumes: EFG (ni).
+    Nodal,
+    /// At 2^d Gauss points of every lattice cell: EFG (ci).
+    #[default]
+    Cells,
+}
+
+/// The `[method]` keys of the element-free Galerkin method.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct EfgSpec {
+    /// `cells` (the default, EFG (ci)) or `nodal` (EFG (ni)).
+    #[serde(default)]
+    pub integration: Integration,
+    /// The nodal masses (default `particle`, the Voronoi masses of seed 001 eq 70).
+    #[serde(default = "particle_mass")]
+    pub mass: Mass,
+}
+
+impl Default for EfgSpec {
+    fn default() -> Self {
+        Self {
+            integration: Integration::Cells,
+            mass: Mass::Particle,
+        }
+    }
+}
+
+impl EfgSpec {
+    /// The Galerkin system with the MLS functions of the particles at the particles or at
+    /// the Gauss points of the lattice cells.
+    pub fn system<D: Dim>(
+        &self,
+        case: &Case,
+        reference: Reference<D>,
+    ) -> Result<TlGalerkin<D>, CaseError> {
+        let (cells, points) = match self.integration {
+            Integration::Cells => {
+                let cells = lattice_cells::<D>(&reference.x0, &reference.body, case.spacing)
+                    .map_err(|e| case.invalid("method.integration", e.to_string()))?;
+                let points = QuadraturePoints::new(&cells, &reference.x0, Rule::Gauss2);
+                (cells, points)
+            }
+            Integration::Nodal => {
+                let points =
+                    QuadraturePoints::at_particles(&reference.x0, &reference.vol, &reference.body);
+                (Cells::default(), points)
+            }
+        };
+        let shapes = Shapes::moving_least_squares(
+            &points.x0,
+            &points.body,
+            &reference.x0,
+            &reference.body,
+            &reference.kernel,
+        )
+        .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
+        TlGalerkin::new(case, reference, cells, points, shapes, self.mass, None)
+    }
+}
+
+impl MethodFamily for EfgSpec {
+    const DESCRIPTION: &'static str = "element-free Galerkin (seed 001): Lagrangian kernel, \
+        moving least-squares functions of a linear basis, integration at the particles or \
+        at 2^d Gauss points of the lattice cells";
+    const KEYS: &'static [&'static str] = &["integration", "mass"];
+    const FEATURES: &'static [Feature] = &[Feature::Contact];
+    #[cfg(feature = "gpu")]
+    const SHADERS: &'static [crate::gpu::shaders::Source] = super::galerkin::gpu::SHADERS;
+
+    fn validate(&self, _case: &Case) -> Result<(), Problem> {
+        Ok(())
+    }
+
+    fn plan(&self, case: &Case, gpu: bool) -> Plan {
+        let mat = Material::new(&case.material);
+        let mut left_out = Vec::new();
+        left_out.push(if mat.model.is_rate_based() {
+            "P(F) evaluation"
+        } else {
+            "continuity and Jaumann rates"
+        });
+        let points = match self.integration {
+            Integration::Cells => "the lattice cells with 2^d Gauss points each",
+            Integration::Nodal => "the particles as points, weighted by their volumes",
+        };
+        Plan {
+            once: format!(
+                "once, on the reference configuration: {points}, the particles within the \
+                 kernel support of every point, the MLS functions Φ_a and ∇0Φ_a there, and \
+                 the node-to-point gather lists"
+            ),
+            state: galerkin_state(&mat),
+            cfl_step: super::cfl_step(&mat),
+            rates: if gpu {
+                "points pass (F_q, P_q, w_q ψ_q, ρ̇_q, Ṡ_q) + nodes pass (−Σ_q w_q P_q \
+                 ∇0Φ_a(X_q) gathered per particle, BCs)"
+                    .into()
+            } else {
+                "F_q (and Ḟ_q) and P_q at every point, then each particle gathers −Σ_q w_q \
+                 P_q ∇0Φ_a(X_q)"
+                    .into()
+            },
+            checked: "det F at the points",
+            check_note: String::new(),
+            left_out,
+        }
+    }
+
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> Result<Box<dyn Engine<D>>, CaseError> {
+        Ok(Box::new(CpuEngine::<D, TlGalerkin<D>>::new(case)?))
+    }
+
+    #[cfg(feature = "gpu")]
+    fn gpu_engine<D: EngineDim>(
+        &self,
+        case: &Case,
+        gpu: crate::gpu::Gpu,
+    ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
+        Ok(Box::new(super::galerkin::gpu::GpuGalerkin::<D>::new(
+            case, gpu,
+        )?))
+    }
+
+    /// Δt = α Δx/(c_p + max|v|) does not depend on the stretch.
+    fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
+        0.0
+    }
+}
