@@ -55,6 +55,25 @@ const CASES: &[(&str, &str, &[&str], Kind)] = &[
         &[],
         Kind::Dynamic,
     ),
+    ("ul-fem", "rotating-disk-ul-fem.toml", &[], Kind::Dynamic),
+    (
+        "ul-weak-form",
+        "rotating-disk-ul-weak-form.toml",
+        &[],
+        Kind::Dynamic,
+    ),
+    (
+        "kbm",
+        "rotating-disk-weak-form.toml",
+        &["method.name=kbm", "method.h_over_dx=1.3"],
+        Kind::Dynamic,
+    ),
+    (
+        "efg",
+        "rotating-disk-weak-form.toml",
+        &["method.name=efg", "method.h_over_dx=1.3"],
+        Kind::Dynamic,
+    ),
     ("upwind-sph", "swinging-plate.toml", &[], Kind::Dynamic),
     (
         "jst-sph",

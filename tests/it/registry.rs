@@ -146,3 +146,20 @@ fn every_method_has_one_name_in_case_files_listings_and_summaries() {
         assert!(shown.contains(&format!("`{}`", m.name)), "{shown}");
     }
 }
+
+/// The benches' table of cases, compiled here so that a method without one fails a test
+/// rather than the bench run (its `time_step` serves the benches only).
+#[path = "../../benches/common/mod.rs"]
+#[allow(dead_code)]
+mod bench_cases;
+
+#[test]
+fn every_method_has_a_bench_case_that_loads() {
+    // `cargo bench` steps every method of the registry on its case of
+    // `benches/common/mod.rs`, resized to about 2,000 particles; a method added without
+    // one would panic there.
+    for entry in REGISTRY {
+        let (case, _) = bench_cases::method_case(entry.name);
+        assert_eq!(case.method.name(), entry.name);
+    }
+}
