@@ -34,6 +34,7 @@ mod hostile;
 mod mixed;
 mod registry;
 mod runs;
+mod seed001_rod;
 #[cfg(feature = "gpu")]
 mod shaders;
 #[cfg(feature = "study")]
