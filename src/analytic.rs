@@ -1,7 +1,10 @@
-//! Closed-form solutions that cases are checked against.
+//! Closed-form solutions that cases are checked against, and the relative L2 norm their
+//! errors are measured in.
 
 use crate::material::Material;
+use crate::scene::{Case, Shape, VelocityField};
 use crate::tensor::Dim;
+use serde::{Deserialize, Serialize};
 use std::f64::consts::FRAC_PI_2;
 
 /// The swinging cube (3D) and plate (2D, plane strain) of seed 003 §7.1.1 on [0, 1]^d:
@@ -259,5 +262,433 @@ impl ClosedForm {
                 s
             }
         }
+    }
+}
+
+/// Relative L2 error e = sqrt(Σ_i w_i |q_i − q_ex,i|²) / sqrt(Σ_i w_i |q_ex,i|²), with
+/// `q` and `q_ex` holding `w.len()` blocks of equal size (vector or tensor components).
+/// NaN when the sizes disagree or the reference is zero.
+pub fn relative_l2(w: &[f64], q: &[f64], q_ex: &[f64]) -> f64 {
+    if w.is_empty() || q.len() != q_ex.len() || !q.len().is_multiple_of(w.len()) {
+        return f64::NAN;
+    }
+    let block = q.len() / w.len();
+    let (mut num, mut den) = (0.0, 0.0);
+    for (i, &wi) in w.iter().enumerate() {
+        for k in i * block..(i + 1) * block {
+            num += wi * (q[k] - q_ex[k]).powi(2);
+            den += wi * q_ex[k].powi(2);
+        }
+    }
+    if den > 0.0 {
+        (num / den).sqrt()
+    } else {
+        f64::NAN
+    }
+}
+
+/// Closed forms a run's fields are measured against: by a study's `[reference]` at the end
+/// time, and by the `velocity-error` observer at every row of the time series.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[serde(rename_all = "kebab-case")]
+pub enum AnalyticSolution {
+    /// The swinging plate/cube of seed 003 §7.1.1 ([`SwingingMode`]); the amplitude is the
+    /// case's `swinging` initial velocity.
+    Swinging,
+    /// d'Alembert's solution for the case's `gaussian-pulse` initial velocity in uniaxial
+    /// strain (a laterally confined rod, c = c_p) before the pulse reaches an end: an
+    /// unbounded [`Rod`].
+    RodPulse,
+    /// The free–free rod of seed 001 §9.2: the first body's `gaussian-pulse` initial
+    /// velocity along an axis of its box, both ends of the box free: a [`Rod`] with ends,
+    /// at the bar speed of [`bar_wave_speed`].
+    FreeRod,
+}
+
+/// d'Alembert's solution of the 1D wave equation ρ0 ∂v/∂t = ∂σ/∂s, ∂σ/∂t = ρ0 c² ∂v/∂s
+/// from an initial velocity g(s) and no initial stress:
+///
+///   v(s, t) = ½[ĝ(s − ct) + ĝ(s + ct)],   σ(s, t) = ½ ρ0 c [ĝ(s + ct) − ĝ(s − ct)].
+///
+/// Unbounded (`ends = None`), ĝ = g. Between free ends a < b (σ = 0 there), ĝ is the even,
+/// 2(b − a)-periodic extension of g about both ends: a free end reflects the velocity
+/// with its sign kept and the stress with its sign reversed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rod {
+    /// c [m/s].
+    pub wave_speed: f64,
+    /// ρ0 [kg/m³].
+    pub density: f64,
+    /// The free ends [a, b], if any.
+    pub ends: Option<[f64; 2]>,
+}
+
+impl Rod {
+    /// The point of [a, b] that s folds onto, so that ĝ(s) = g(fold(s)).
+    pub fn fold(&self, s: f64) -> f64 {
+        let Some([a, b]) = self.ends else {
+            return s;
+        };
+        let l = b - a;
+        let r = (s - a).rem_euclid(2.0 * l);
+        a + if r > l { 2.0 * l - r } else { r }
+    }
+
+    /// v(s, t) for the initial velocity g.
+    pub fn velocity(&self, g: impl Fn(f64) -> f64, s: f64, t: f64) -> f64 {
+        let ct = self.wave_speed * t;
+        0.5 * (g(self.fold(s - ct)) + g(self.fold(s + ct)))
+    }
+
+    /// σ(s, t) for the initial velocity g (small strain: the axial stress, P = σ).
+    pub fn stress(&self, g: impl Fn(f64) -> f64, s: f64, t: f64) -> f64 {
+        let ct = self.wave_speed * t;
+        0.5 * self.density * self.wave_speed * (g(self.fold(s + ct)) - g(self.fold(s - ct)))
+    }
+}
+
+/// The speed of a longitudinal wave in a bar with free lateral faces, long waves:
+/// sqrt(E_bar/ρ0) with E_bar the modulus of uniaxial stress. In 3D E_bar = E =
+/// μ(3λ + 2μ)/(λ + μ). In 2D E_bar = 4μ(λ + μ)/(λ + 2μ) with the model's in-plane λ: E in
+/// plane stress, E/(1 − ν²) in plane strain (σ_zz holds ε_zz = 0). At ν = 0 every one of
+/// them is sqrt(E/ρ0) = c_p, and the 1D solution is exact; at ν ≠ 0 the lateral inertia
+/// makes the wave dispersive and this is its long-wave limit only.
+pub fn bar_wave_speed(material: &Material, dim: usize) -> f64 {
+    let (lambda, mu) = (material.lambda, material.mu);
+    let modulus = if dim == 2 {
+        4.0 * mu * (lambda + mu) / (lambda + 2.0 * mu)
+    } else {
+        mu * (3.0 * lambda + 2.0 * mu) / (lambda + mu)
+    };
+    (modulus / material.rho0).sqrt()
+}
+
+/// An [`AnalyticSolution`] resolved for a case: with its material, the first body's
+/// initial velocity and, for the free rod, its box.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Exact {
+    Swinging {
+        mode: SwingingMode,
+        dim: usize,
+    },
+    /// A longitudinal wave along the unit direction d: v = v(s, t) d, s = X·d, from the
+    /// profile g(s) = A exp(−((s − s0)/w)²) of a `gaussian-pulse`.
+    Wave {
+        rod: Rod,
+        direction: [f64; 3],
+        amplitude: f64,
+        center: f64,
+        width: f64,
+    },
+}
+
+impl Exact {
+    /// The solution `solution` of `case`, or why the case does not have it.
+    pub fn of(solution: AnalyticSolution, case: &Case) -> Result<Self, String> {
+        let body = case.bodies.first().ok_or("the case has no body")?;
+        let material = Material::new(&case.material);
+        let dim = case.dim();
+        let name = crate::scene::validate::toml_name(&solution);
+        match (solution, &body.initial_velocity) {
+            (AnalyticSolution::Swinging, Some(VelocityField::Swinging { amplitude })) => {
+                Ok(Self::Swinging {
+                    mode: SwingingMode::new(*amplitude, &material, dim),
+                    dim,
+                })
+            }
+            (
+                AnalyticSolution::RodPulse | AnalyticSolution::FreeRod,
+                Some(VelocityField::GaussianPulse {
+                    amplitude,
+                    direction,
+                    center,
+                    width,
+                }),
+            ) => {
+                let n = direction.iter().map(|d| d * d).sum::<f64>().sqrt();
+                let mut d = [0.0; 3];
+                for (k, x) in direction.iter().enumerate().take(3) {
+                    d[k] = x / n;
+                }
+                let rod = if solution == AnalyticSolution::RodPulse {
+                    Rod {
+                        wave_speed: material.p_wave_speed(),
+                        density: material.rho0,
+                        ends: None,
+                    }
+                } else {
+                    let Shape::Box { min, max, .. } = &body.geometry else {
+                        return Err(format!(
+                            "\"{name}\" is a rod between the faces of a box: give the first \
+                             body a `box` geometry"
+                        ));
+                    };
+                    let axis = (0..dim).find(|&k| d[k].abs() == 1.0).ok_or_else(|| {
+                        format!(
+                            "\"{name}\" needs the pulse along an axis of the box; the first \
+                             body's `gaussian-pulse` direction is {direction:?}"
+                        )
+                    })?;
+                    Rod {
+                        wave_speed: bar_wave_speed(&material, dim),
+                        density: material.rho0,
+                        ends: Some([min[axis], max[axis]]),
+                    }
+                };
+                Ok(Self::Wave {
+                    rod,
+                    direction: d,
+                    amplitude: *amplitude,
+                    center: *center,
+                    width: *width,
+                })
+            }
+            (_, field) => Err(format!(
+                "the analytic solution \"{name}\" needs the matching initial velocity of the \
+                 first body ({}), which has {}",
+                match solution {
+                    AnalyticSolution::Swinging => "`swinging`",
+                    _ => "`gaussian-pulse`",
+                },
+                field
+                    .as_ref()
+                    .map_or("none".to_string(), |f| format!("`{}`", velocity_name(f)))
+            )),
+        }
+    }
+
+    /// The velocity at reference position x (3 components, the unused ones 0) at time t.
+    pub fn velocity(&self, x: [f64; 3], t: f64) -> [f64; 3] {
+        match *self {
+            Self::Swinging { mode, dim } => match dim {
+                2 => swinging_velocity::<crate::tensor::D2>(mode, x, t),
+                _ => swinging_velocity::<crate::tensor::D3>(mode, x, t),
+            },
+            Self::Wave { rod, direction, .. } => {
+                let speed = rod.velocity(|s| self.profile(s), self.coordinate(x), t);
+                direction.map(|d| speed * d)
+            }
+        }
+    }
+
+    /// The axial stress d·P·d of a wave at reference position x and time t (NaN for the
+    /// swinging mode, whose stress is a tensor: [`SwingingMode::stress`]).
+    pub fn axial_stress(&self, x: [f64; 3], t: f64) -> f64 {
+        match *self {
+            Self::Swinging { .. } => f64::NAN,
+            Self::Wave { rod, .. } => rod.stress(|s| self.profile(s), self.coordinate(x), t),
+        }
+    }
+
+    /// s = X·d of a wave.
+    fn coordinate(&self, x: [f64; 3]) -> f64 {
+        match self {
+            Self::Wave { direction, .. } => (0..3).map(|k| x[k] * direction[k]).sum(),
+            Self::Swinging { .. } => f64::NAN,
+        }
+    }
+
+    /// The initial velocity profile g(s) of a wave.
+    fn profile(&self, s: f64) -> f64 {
+        match *self {
+            Self::Wave {
+                amplitude,
+                center,
+                width,
+                ..
+            } => amplitude * (-((s - center) / width).powi(2)).exp(),
+            Self::Swinging { .. } => f64::NAN,
+        }
+    }
+}
+
+fn swinging_velocity<D: Dim>(mode: SwingingMode, x: [f64; 3], t: f64) -> [f64; 3] {
+    D::to3(mode.velocity::<D>(D::from_slice(&x), t))
+}
+
+/// The `type` of an initial velocity field, as case files name it.
+fn velocity_name(field: &VelocityField) -> String {
+    serde_json::to_value(field)
+        .ok()
+        .and_then(|v| v.get("type").and_then(|t| t.as_str().map(str::to_string)))
+        .unwrap_or_else(|| "?".into())
+}
+
+#[cfg(test)]
+mod rod_tests {
+    use super::*;
+    use crate::material::MaterialModel;
+    use crate::scene::{MaterialSpec, Plane};
+
+    /// Seed 001 §9.2's rod: L = 60 mm, c = sqrt(E/ρ0) of steel, a Gaussian of α = 0.025
+    /// mm⁻² at x0 (m).
+    const L: f64 = 0.06;
+    const C: f64 = 5188.745216627708;
+    const RHO: f64 = 7800.0;
+
+    fn rod() -> Rod {
+        Rod {
+            wave_speed: C,
+            density: RHO,
+            ends: Some([0.0, L]),
+        }
+    }
+
+    fn gaussian(x0: f64) -> impl Fn(f64) -> f64 {
+        move |s: f64| (-((s - x0) / 6.324555320336759e-3).powi(2)).exp()
+    }
+
+    /// s = 0, …, L in n steps.
+    fn grid(n: usize) -> impl Iterator<Item = f64> {
+        (0..=n).map(move |k| L * k as f64 / n as f64)
+    }
+
+    #[test]
+    fn folding_reflects_about_both_ends_with_period_2l() {
+        let r = rod();
+        // Inside the rod nothing moves; outside, mirror images about 0 and L, period 2L.
+        // Bounds: round-off of rem_euclid on numbers of size L (1e-17 m).
+        for (s, folded) in [
+            (0.02, 0.02),
+            (-0.02, 0.02),
+            (0.07, 0.05),
+            (0.12, 0.0),
+            (0.13, 0.01),
+            (-0.11, 0.01),
+        ] {
+            assert!(
+                (r.fold(s) - folded).abs() < 1e-15,
+                "fold({s}) = {}",
+                r.fold(s)
+            );
+        }
+        let free = Rod { ends: None, ..r };
+        assert_eq!(free.fold(-0.3), -0.3);
+    }
+
+    #[test]
+    fn the_pulse_re_forms_at_every_return() {
+        // g symmetric about L/2 comes back at t = L/c and 2L/c; g off the centre comes back
+        // mirrored, g(L − s), at L/c and as it was at 2L/c (the period). Only round-off of
+        // fold and exp separates them: 1e-12 of the amplitude.
+        let r = rod();
+        for x0 in [0.5 * L, 0.02] {
+            let g = gaussian(x0);
+            for s in grid(600) {
+                let first = r.velocity(&g, s, L / C);
+                let second = r.velocity(&g, s, 2.0 * L / C);
+                assert!(
+                    (first - g(L - s)).abs() < 1e-12,
+                    "x0 = {x0}, s = {s}: {first}"
+                );
+                assert!(
+                    (second - g(s)).abs() < 1e-12,
+                    "x0 = {x0}, s = {s}: {second}"
+                );
+            }
+        }
+        // Halfway to the first return the halves sit at the ends, each of half the peak
+        // there, merged with their images into the full peak: v(0, L/2c) = g(L/2) = 1.
+        let g = gaussian(0.5 * L);
+        assert!((r.velocity(&g, 0.0, 0.5 * L / C) - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn momentum_and_energy_stay_constant_and_the_ends_stay_free() {
+        // ∫ρ0 v ds and ∫(½ρ0 v² + σ²/(2ρ0c²)) ds over [0, L] by the trapezoidal rule on
+        // 24,000 intervals: g is smooth (its tails at the ends are 1e-10 of the peak and
+        // the folds keep ĝ continuous), so the rule's error is far below the 1e-9 bound.
+        let r = rod();
+        let g = gaussian(0.021);
+        let n = 24_000;
+        let ds = L / n as f64;
+        let integral = |f: &dyn Fn(f64) -> f64| {
+            grid(n)
+                .map(|s| if s == 0.0 || s == L { 0.5 } else { 1.0 } * f(s))
+                .sum::<f64>()
+                * ds
+        };
+        let energy = |t: f64| {
+            integral(&|s| {
+                let (v, sigma) = (r.velocity(&g, s, t), r.stress(&g, s, t));
+                0.5 * RHO * v * v + sigma * sigma / (2.0 * RHO * C * C)
+            })
+        };
+        let (p0, e0) = (integral(&|s| RHO * g(s)), energy(0.0));
+        for t in [1.3e-6, 4.0e-6, 9.7e-6, 1.6e-5, 2.9e-5] {
+            let p = integral(&|s| RHO * r.velocity(&g, s, t));
+            assert!((p - p0).abs() < 1e-9 * p0, "t = {t}: momentum {p} vs {p0}");
+            let e = energy(t);
+            assert!((e - e0).abs() < 1e-9 * e0, "t = {t}: energy {e} vs {e0}");
+            // σ = 0 at both ends (ĝ is even about them), up to the round-off of fold, 1e-17
+            // m on a profile of slope ≤ 1/w: 1e-12 of the scale ρ0c.
+            for end in [0.0, L] {
+                let sigma = r.stress(&g, end, t);
+                assert!(sigma.abs() < 1e-12 * RHO * C, "t = {t}: σ({end}) = {sigma}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_solution_satisfies_the_wave_equation() {
+        // ρ0 ∂v/∂t = ∂σ/∂s and ∂σ/∂t = ρ0c² ∂v/∂s by central differences (step δ = 1 µm
+        // and its time of flight): truncation ~(δ/w)²/6 = 4e-9 of the terms' scale ρ0c/w
+        // (times c for the second), bound 1e-6.
+        let r = rod();
+        let g = gaussian(0.03);
+        let (ds, t) = (1e-6, 7.1e-6);
+        let dt = ds / C;
+        for s in [0.004, 0.019, 0.033, 0.0571] {
+            let v_t = (r.velocity(&g, s, t + dt) - r.velocity(&g, s, t - dt)) / (2.0 * dt);
+            let sigma_s = (r.stress(&g, s + ds, t) - r.stress(&g, s - ds, t)) / (2.0 * ds);
+            let sigma_t = (r.stress(&g, s, t + dt) - r.stress(&g, s, t - dt)) / (2.0 * dt);
+            let v_s = (r.velocity(&g, s + ds, t) - r.velocity(&g, s - ds, t)) / (2.0 * ds);
+            let scale = RHO * C / 6.3e-3;
+            assert!((RHO * v_t - sigma_s).abs() < 1e-6 * scale, "s = {s}");
+            assert!(
+                (sigma_t - RHO * C * C * v_s).abs() < 1e-6 * scale * C * C,
+                "s = {s}"
+            );
+        }
+    }
+
+    fn material(nu: f64, plane: Plane) -> Material {
+        Material::new(&MaterialSpec {
+            model: MaterialModel::LinearElastic,
+            density: RHO,
+            youngs_modulus: 2.1e11,
+            poisson_ratio: nu,
+            yield_stress: None,
+            hardening_modulus: None,
+            plane,
+        })
+    }
+
+    #[test]
+    fn bar_speed_is_sqrt_e_over_rho_at_nu_zero() {
+        // The paper's c = sqrt(E/ρ) = 5188.7 m/s (seed 001 §9.2); in plane strain at ν ≠ 0
+        // the bar modulus is E/(1 − ν²), in plane stress and 3D it is E. Round-off only.
+        let c = (2.1e11f64 / RHO).sqrt();
+        assert!((c - C).abs() < 1e-9);
+        for dim in [2, 3] {
+            let m = material(0.0, Plane::Strain);
+            assert!((bar_wave_speed(&m, dim) - c).abs() < 1e-9 * c);
+            assert!((m.p_wave_speed() - c).abs() < 1e-9 * c);
+        }
+        let nu: f64 = 0.3;
+        let strain = bar_wave_speed(&material(nu, Plane::Strain), 2);
+        assert!((strain - c / (1.0 - nu * nu).sqrt()).abs() < 1e-9 * c);
+        let stress = bar_wave_speed(&material(nu, Plane::Stress), 2);
+        assert!((stress - c).abs() < 1e-9 * c);
+        assert!((bar_wave_speed(&material(nu, Plane::Strain), 3) - c).abs() < 1e-9 * c);
+    }
+
+    #[test]
+    fn relative_l2_weights_by_volume() {
+        // Two particles, volumes 1 and 3, one component: e² = (1·1 + 3·0)/(1·4 + 3·1).
+        let e = relative_l2(&[1.0, 3.0], &[1.0, 1.0], &[2.0, 1.0]);
+        assert!((e - (1.0f64 / 7.0).sqrt()).abs() < 1e-15);
+        assert!(relative_l2(&[1.0], &[1.0, 2.0], &[1.0]).is_nan());
+        assert!(relative_l2(&[1.0], &[1.0], &[0.0]).is_nan());
     }
 }

@@ -1,6 +1,7 @@
-//! Observers: energies, momenta, body extents, neck height and point probes, sampled into
-//! the CSV time series.
+//! Observers: energies, momenta, body extents, neck height, the velocity error against a
+//! closed form and point probes, sampled into the CSV time series.
 
+use crate::analytic::{Exact, relative_l2};
 use crate::methods::shared::ordered_reduce;
 use crate::scene::{Case, CaseError, Observer};
 use crate::tensor::Dim;
@@ -119,6 +120,8 @@ pub struct Observers {
     /// Material columns of free particles (neck height).
     columns: Vec<Vec<usize>>,
     bodies: usize,
+    /// The closed form of the `velocity-error` observer, and ρ0 (volumes are m/ρ0).
+    exact: Option<(Exact, f64)>,
     names: Vec<String>,
 }
 
@@ -158,8 +161,18 @@ impl Observers {
                 }
                 Observer::NeckHeight => names.push("neck_height".into()),
                 Observer::Hourglass => names.push("hourglass_max".into()),
+                Observer::VelocityError(_) => names.push("velocity_error".into()),
             }
         }
+        let exact = list
+            .iter()
+            .find_map(|o| match o {
+                Observer::VelocityError(s) => Some(*s),
+                _ => None,
+            })
+            .map(|s| Exact::of(s, case).map_err(|m| case.invalid("output.observers", m)))
+            .transpose()?
+            .map(|e| (e, case.material.density));
         let mut probes = Vec::new();
         for (p, probe) in case.probes.iter().enumerate() {
             let target = D::from_slice(&probe.position);
@@ -196,6 +209,7 @@ impl Observers {
             probes,
             columns,
             bodies: case.bodies.len(),
+            exact,
             names,
         })
     }
@@ -264,6 +278,7 @@ impl Observers {
                         .iter()
                         .fold(0.0, |a: f64, &b| a.max(b)),
                 ),
+                Observer::VelocityError(_) => row.push(self.velocity_error(snap, clock.t)),
             }
         }
         for &i in &self.probes {
@@ -271,6 +286,25 @@ impl Observers {
             row.extend((0..D::N).map(|k| D::comp(v[i], k)));
         }
         row
+    }
+
+    /// sqrt(Σ V |v − v_ex|²)/sqrt(Σ V |v_ex|²) with V = m/ρ0, over every component.
+    fn velocity_error<D: Dim>(&self, snap: &Snapshot<D>, t: f64) -> f64 {
+        let Some((exact, rho0)) = &self.exact else {
+            return f64::NAN;
+        };
+        let w: Vec<f64> = snap.mass.iter().map(|m| m / rho0).collect();
+        let v: Vec<f64> = snap
+            .v
+            .iter()
+            .flat_map(|&v| D::to3(v)[..D::N].to_vec())
+            .collect();
+        let v_ex: Vec<f64> = snap
+            .x0
+            .iter()
+            .flat_map(|&x| exact.velocity(D::to3(x), t)[..D::N].to_vec())
+            .collect();
+        relative_l2(&w, &v, &v_ex)
     }
 }
 

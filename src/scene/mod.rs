@@ -369,6 +369,10 @@ pub enum Observer {
     NeckHeight,
     /// Largest hourglass indicator η over the particles.
     Hourglass,
+    /// The relative L2 error of the velocity against a closed form at the row's time,
+    /// sqrt(Σ V |v − v_ex|²)/sqrt(Σ V |v_ex|²) over the particles, all components (column
+    /// `velocity_error`); in case files `{ velocity-error = "free-rod" }`.
+    VelocityError(crate::analytic::AnalyticSolution),
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]

@@ -2,12 +2,12 @@
 //! lengths, shapes that exist only in one dimension, references between tables).
 //!
 //! Checks run in a fixed order (top level, material, method, bodies, boundaries, run,
-//! output, probes) and the first problem found is reported, so the same bad file always
+//! output, the closed forms of the observers, probes) and the first problem found is reported, so the same bad file always
 //! gives the same message.
 
 use super::{
-    Axis, BodySpec, BoundarySpec, Case, Condition, ContactSpec, Lattice, MaterialSpec, OutputSpec,
-    Plane, ProbeSpec, Region, RunSpec, Shape, Solution, VelocityField, Volumes,
+    Axis, BodySpec, BoundarySpec, Case, Condition, ContactSpec, Lattice, MaterialSpec, Observer,
+    OutputSpec, Plane, ProbeSpec, Region, RunSpec, Shape, Solution, VelocityField, Volumes,
 };
 use crate::material::MaterialModel;
 use crate::methods::{Feature, MethodTable, Problem, REGISTRY, entry, quoted, supporting};
@@ -58,6 +58,7 @@ pub(super) fn check(case: &Case) -> Result<(), (String, String)> {
     contact(case)?;
     run(&case.run, &case.method)?;
     output(&case.output)?;
+    analytic_observers(case)?;
     probes(&case.probes, dim)
 }
 
@@ -877,6 +878,28 @@ fn output(o: &OutputSpec) -> Checked {
         }
     }
     Ok(())
+}
+
+/// At most one `velocity-error` observer, and its closed form one the case has.
+fn analytic_observers(case: &Case) -> Checked {
+    let mut solutions = case.output.observers.iter().filter_map(|o| match o {
+        Observer::VelocityError(s) => Some(*s),
+        _ => None,
+    });
+    let Some(solution) = solutions.next() else {
+        return Ok(());
+    };
+    if solutions.next().is_some() {
+        return fail(
+            "output.observers",
+            "lists `velocity-error` more than once; its column `velocity_error` holds the error \
+             against one closed form",
+        );
+    }
+    match crate::analytic::Exact::of(solution, case) {
+        Ok(_) => Ok(()),
+        Err(message) => fail("output.observers", message),
+    }
 }
 
 fn probes(probes: &[ProbeSpec], dim: usize) -> Checked {

@@ -1,7 +1,7 @@
 //! Final fields of a run and the error norms against a reference: a closed form, or the
 //! final state of a converged run matched by reference position.
 
-use crate::analytic::SwingingMode;
+use crate::analytic::{Exact, SwingingMode};
 use crate::material::Material;
 use crate::observe::Snapshot;
 use crate::scene::{Case, VelocityField};
@@ -120,27 +120,7 @@ fn unit<D: Dim>(k: usize) -> D::V {
     D::from_slice(&e)
 }
 
-/// Relative L2 error e = sqrt(Σ_i w_i |q_i − q_ex,i|²) / sqrt(Σ_i w_i |q_ex,i|²), with
-/// `q` and `q_ex` holding `w.len()` blocks of equal size (vector or tensor components).
-/// NaN when the sizes disagree or the reference is zero.
-pub fn relative_l2(w: &[f64], q: &[f64], q_ex: &[f64]) -> f64 {
-    if w.is_empty() || q.len() != q_ex.len() || !q.len().is_multiple_of(w.len()) {
-        return f64::NAN;
-    }
-    let block = q.len() / w.len();
-    let (mut num, mut den) = (0.0, 0.0);
-    for (i, &wi) in w.iter().enumerate() {
-        for k in i * block..(i + 1) * block {
-            num += wi * (q[k] - q_ex[k]).powi(2);
-            den += wi * q_ex[k].powi(2);
-        }
-    }
-    if den > 0.0 {
-        (num / den).sqrt()
-    } else {
-        f64::NAN
-    }
-}
+pub use crate::analytic::relative_l2;
 
 /// Velocity and stress of a closed-form solution at the particles of `state`, time t,
 /// flattened as [`FinalState::velocity_flat`] and [`FinalState::stress_flat`]. For the
@@ -152,46 +132,21 @@ pub fn analytic_fields(
     state: &FinalState,
     t: f64,
 ) -> Result<(Vec<f64>, Vec<f64>), String> {
-    use super::suite::AnalyticSolution;
-    let body = case.bodies.first().ok_or("the case has no body")?;
-    let material = Material::new(&case.material);
-    match (solution, &body.initial_velocity) {
-        (AnalyticSolution::Swinging, Some(VelocityField::Swinging { amplitude })) => {
-            let (v, p) = match state.dim {
-                2 => swinging::<crate::tensor::D2>(*amplitude, &material, state, t),
-                _ => swinging::<crate::tensor::D3>(*amplitude, &material, state, t),
-            };
-            Ok((v, p))
-        }
-        (
-            AnalyticSolution::RodPulse,
-            Some(VelocityField::GaussianPulse {
-                amplitude,
-                direction,
-                center,
-                width,
-            }),
-        ) => {
-            let n = direction.iter().map(|d| d * d).sum::<f64>().sqrt();
-            let d: Vec<f64> = direction.iter().map(|x| x / n).collect();
-            let c = material.p_wave_speed();
-            let modulus = material.lambda + 2.0 * material.mu;
-            let g = |s: f64| (-((s - center) / width).powi(2)).exp();
-            let mut v = Vec::new();
-            let mut p = Vec::new();
-            for x in &state.x0 {
-                let s: f64 = (0..state.dim).map(|k| x[k] * d[k]).sum();
-                let speed = 0.5 * amplitude * (g(s - c * t) + g(s + c * t));
-                v.extend((0..state.dim).map(|k| speed * d[k]));
-                // u = (A/2c) ∫_{s−ct}^{s+ct} g, ∂u/∂s = (A/2c)(g(s + ct) − g(s − ct)).
-                p.push(modulus * amplitude / (2.0 * c) * (g(s + c * t) - g(s - c * t)));
-            }
-            Ok((v, p))
-        }
-        (s, _) => Err(format!(
-            "the analytic solution {s:?} needs the matching initial velocity of the case's first body"
-        )),
+    let exact = Exact::of(solution, case)?;
+    if let Exact::Swinging { mode, .. } = exact {
+        let material = Material::new(&case.material);
+        return Ok(match state.dim {
+            2 => swinging::<crate::tensor::D2>(mode, &material, state, t),
+            _ => swinging::<crate::tensor::D3>(mode, &material, state, t),
+        });
     }
+    let mut v = Vec::new();
+    let mut p = Vec::new();
+    for &x in &state.x0 {
+        v.extend_from_slice(&exact.velocity(x, t)[..state.dim]);
+        p.push(exact.axial_stress(x, t));
+    }
+    Ok((v, p))
 }
 
 /// Axial stress d·P·d of a state (the rod pulse's stress measure).
@@ -219,12 +174,11 @@ pub fn axial_stress(state: &FinalState, case: &Case) -> Vec<f64> {
 }
 
 fn swinging<D: Dim>(
-    amplitude: f64,
+    mode: SwingingMode,
     material: &Material,
     state: &FinalState,
     t: f64,
 ) -> (Vec<f64>, Vec<f64>) {
-    let mode = SwingingMode::new(amplitude, material, D::N);
     let mut v = Vec::new();
     let mut p = Vec::new();
     for x in &state.x0 {

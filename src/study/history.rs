@@ -147,6 +147,9 @@ pub fn table(suite: &Suite, records: &[RunRecord], suite_dir: &Path, folder: &st
     let Some(h) = &suite.history else {
         return String::new();
     };
+    if !h.at.is_empty() {
+        return at_table(suite, h, records, suite_dir, folder);
+    }
     let (curves, _) = curves(h, records, suite_dir);
     if curves.is_empty() {
         return String::new();
@@ -176,6 +179,109 @@ pub fn table(suite: &Suite, records: &[RunRecord], suite_dir: &Path, folder: &st
         );
     }
     s + "\n"
+}
+
+/// A Markdown table of the history at its `at` times, per run, each beside the variant's
+/// published value, with the run's particles, steps and wall time.
+fn at_table(
+    suite: &Suite,
+    h: &History,
+    records: &[RunRecord],
+    suite_dir: &Path,
+    folder: &str,
+) -> String {
+    let mut head = format!("| run | {} | particles | steps |", suite.sweep.key);
+    let mut rule = String::from("|---|---|---|---|");
+    for &t in &h.at {
+        let _ = write!(head, " at {} = {} |", h.x_label, significant(h.x_scale * t));
+        rule += "---|";
+        if h.published.is_some() {
+            head += " published |";
+            rule += "---|";
+        }
+    }
+    head += " wall [s] |";
+    rule += "---|";
+    let mut rows = String::new();
+    for r in records {
+        let failed = matches!(r.status, Status::Failed { .. });
+        if r.status != Status::Ok && !failed {
+            continue;
+        }
+        let Ok(points) = read_series(&series_file(suite_dir, &r.id), h) else {
+            continue;
+        };
+        let published = suite
+            .variants
+            .iter()
+            .find(|v| v.name == r.variant)
+            .map_or(&[][..], |v| v.published.as_slice());
+        let _ = write!(
+            rows,
+            "| {}{} | {} | {} | {} |",
+            r.line(),
+            if failed { " (failed)" } else { "" },
+            r.sweep_value,
+            r.particles,
+            r.steps
+        );
+        for (k, &t) in h.at.iter().enumerate() {
+            let _ = write!(rows, " {} |", significant(value_at(&points, h.x_scale * t)));
+            if h.published.is_some() {
+                let paper = published.get(k).map_or(String::new(), |&v| significant(v));
+                let _ = write!(rows, " {paper} |");
+            }
+        }
+        let _ = writeln!(rows, " {:.1} |", r.wall_seconds);
+    }
+    if rows.is_empty() {
+        return String::new();
+    }
+    let source = h
+        .published
+        .as_ref()
+        .map(|p| format!(", beside the published values ({p})"))
+        .unwrap_or_default();
+    format!(
+        "{} per run at {} = {}{source} ([`{}-history.csv`]({folder}{}-history.csv) has every \
+         point; – where the run did not reach the time):\n\n{head}\n{rule}\n{rows}\n",
+        h.label,
+        h.x_label,
+        h.at.iter()
+            .map(|&t| significant(h.x_scale * t))
+            .collect::<Vec<_>>()
+            .join(" and "),
+        suite.name,
+        suite.name
+    )
+}
+
+/// The series' value at x, linear between the points around it; NaN outside them (beyond
+/// round-off of the last point's x).
+pub fn value_at(points: &[(f64, f64)], x: f64) -> f64 {
+    let tolerance = 1e-9 * x.abs().max(f64::MIN_POSITIVE);
+    for w in points.windows(2) {
+        let ((x0, y0), (x1, y1)) = (w[0], w[1]);
+        if x0 <= x && x <= x1 && x1 > x0 {
+            return y0 + (y1 - y0) * (x - x0) / (x1 - x0);
+        }
+    }
+    match points.last() {
+        Some(&(xl, yl)) if (xl - x).abs() <= tolerance => yl,
+        _ => f64::NAN,
+    }
+}
+
+/// Four significant digits ("0.05026", "11.56"), – for NaN.
+fn significant(v: f64) -> String {
+    if !v.is_finite() {
+        return "–".into();
+    }
+    if v == 0.0 {
+        return "0".into();
+    }
+    let decimals = (3.0 - v.abs().log10().floor()).max(0.0) as usize;
+    format!("{v:.decimals$}")
 }
 
 /// A linear axis over `lo..=hi` widened to whole steps of 1, 2 or 5 × 10^k, about five to
@@ -337,6 +443,28 @@ mod tests {
     }
 
     #[test]
+    fn values_at_given_times_are_interpolated_between_rows() {
+        let points = [(0.0, 1.0), (2.0, 3.0), (4.0, 0.0)];
+        assert_eq!(value_at(&points, 1.0), 2.0);
+        assert_eq!(value_at(&points, 2.0), 3.0);
+        assert_eq!(value_at(&points, 3.0), 1.5);
+        // The last row answers for its own time up to round-off, nothing beyond it.
+        assert_eq!(value_at(&points, 4.0 * (1.0 + 1e-12)), 0.0);
+        assert!(value_at(&points, 4.1).is_nan());
+        assert!(value_at(&points, -0.1).is_nan());
+        assert!(value_at(&[], 1.0).is_nan());
+    }
+
+    #[test]
+    fn tabulated_values_keep_four_significant_digits() {
+        assert_eq!(significant(0.05026), "0.05026");
+        assert_eq!(significant(0.006817), "0.006817");
+        assert_eq!(significant(11.563), "11.56");
+        assert_eq!(significant(1234.5), "1234");
+        assert_eq!(significant(f64::NAN), "–");
+    }
+
+    #[test]
     fn a_series_column_is_read_and_scaled_and_a_missing_one_is_named() {
         let dir = std::env::temp_dir().join(format!("meshless-history-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
@@ -352,6 +480,8 @@ mod tests {
             scale: 2.0,
             x_label: "extension [%]".into(),
             x_scale: 2000.0,
+            at: Vec::new(),
+            published: None,
         };
         assert_eq!(
             read_series(&path, &h).unwrap(),

@@ -43,6 +43,15 @@ pub fn reference_statement(suite: &Suite) -> String {
               axial first Piola–Kirchhoff stress P_xx (the lateral components depend on the \
               constitutive model's plane-strain closure and are left out)."
             .into(),
+        Reference::Analytic {
+            solution: AnalyticSolution::FreeRod,
+        } => "analytic: d'Alembert's solution of the Gaussian initial velocity in a rod with \
+              both ends free (v = ½[ĝ(s − ct) + ĝ(s + ct)], ĝ the even extension of g about \
+              both ends, c the bar speed, sqrt(E/ρ0) at ν = 0). Errors are relative L2 norms at \
+              the end time, weighted by particle volume, of the velocity v (all components); the \
+              stress error is the L2 norm of P_xx − σ_ex over that of ρ0 c |v_ex|, the stress \
+              the exact velocity carries as a wave (at the returns σ_ex vanishes)."
+            .into(),
         Reference::Invariant {
             quantity: InvariantKind::AngularMomentum,
         } => "invariant: the angular momentum H = Σ m x × v must stay at H(0) (no external \

@@ -34,17 +34,7 @@ impl BackendName {
     }
 }
 
-/// Analytic solutions a suite can measure against.
-#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "kebab-case")]
-pub enum AnalyticSolution {
-    /// The swinging plate/cube of seed 003 §7.1.1 ([`crate::analytic::SwingingMode`]); the
-    /// amplitude is the case's `swinging` initial velocity.
-    Swinging,
-    /// d'Alembert's solution for the case's `gaussian-pulse` initial velocity in uniaxial
-    /// strain (a laterally confined rod): v = ½A[g(s − ct) + g(s + ct)] along d.
-    RodPulse,
-}
+pub use crate::analytic::AnalyticSolution;
 
 /// Invariants a suite can measure the drift of.
 #[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
@@ -98,6 +88,10 @@ pub struct Variant {
     pub set: Vec<String>,
     /// Backends of this variant (default: the suite's).
     pub backends: Option<Vec<BackendName>>,
+    /// Published values of the `[history]` column at its `at` times, shown beside this
+    /// variant's (the source is the history's `published`).
+    #[serde(default)]
+    pub published: Vec<f64>,
 }
 
 /// A quantity proportional to the simulated time, shown beside failure times: for a
@@ -134,6 +128,13 @@ pub struct History {
     pub x_label: String,
     #[serde(default = "unit_scale")]
     pub x_scale: f64,
+    /// Times [s] at which the column is tabulated, per run (linear interpolation between
+    /// the rows around each): seed 001's errors at the rod's return times, say. Empty: the
+    /// table gives the first, smallest, largest and last values instead.
+    #[serde(default)]
+    pub at: Vec<f64>,
+    /// Where the variants' `published` values at those times come from (a paper's table).
+    pub published: Option<String>,
 }
 
 fn unit_scale() -> f64 {
@@ -256,6 +257,30 @@ impl Suite {
                 "[history]: `scale` must be finite and non-zero and `x_scale` finite and \
                  positive (got {} and {})",
                 h.scale, h.x_scale
+            )));
+        }
+        if let Some(h) = &suite.history
+            && let Some(t) = h.at.iter().find(|t| !(t.is_finite() && **t >= 0.0))
+        {
+            return Err(invalid(format!(
+                "[history] `at`: {t} is not a time; give finite times ≥ 0 in seconds"
+            )));
+        }
+        let at = suite.history.as_ref().map_or(0, |h| h.at.len());
+        let source = suite
+            .history
+            .as_ref()
+            .is_some_and(|h| h.published.is_some());
+        if let Some(v) = suite
+            .variants
+            .iter()
+            .find(|v| !v.published.is_empty() && (v.published.len() != at || !source))
+        {
+            return Err(invalid(format!(
+                "variant `{}`: `published` gives {} values; it needs a [history] with as many \
+                 `at` times ({at}) and a `published` source",
+                v.name,
+                v.published.len()
             )));
         }
         names.sort_unstable();

@@ -35,6 +35,7 @@ mod kbm_efg;
 mod mixed;
 mod registry;
 mod runs;
+mod seed001_rod;
 #[cfg(feature = "gpu")]
 mod shaders;
 #[cfg(feature = "study")]
