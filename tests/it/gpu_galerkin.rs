@@ -169,3 +169,22 @@ fn whole_runs_track_the_cpu() {
         );
     }
 }
+
+#[test]
+fn the_seed_001_rod_tracks_the_cpu() {
+    // 500 leapfrog steps (4.6 µs, the two halves of the pulse 24 mm apart) of the Gaussian
+    // rod at Δx = 0.5 mm under KBM with stress points and EFG at Gauss points. f32
+    // round-off of v per step ~ 6e-8 |v|, two kicks per step, accumulating at worst
+    // linearly over 500 steps: 6e-5 of max |v|; bound 1e-4.
+    for name in ["rod-gaussian-kbm", "rod-gaussian-efg"] {
+        let case = load(name, &["spacing=5e-4"]);
+        let (dt, steps) = (case.method.dt.unwrap(), 500);
+        let (_, y) = cpu_run::<D2>(&case, steps, dt);
+        let mut g = GpuGalerkin::<D2>::new(&case, gpu()).unwrap();
+        g.advance_steps(dt, steps as u32);
+        g.check().unwrap();
+        let (ev, scale) = max_v::<D2>(&y.v, &g.state().v);
+        eprintln!("{name}: max |Δv| = {ev:e} of {scale:e}");
+        assert!(ev < 1e-4 * scale, "{name}: max |Δv| = {ev:e} of {scale:e}");
+    }
+}
