@@ -179,9 +179,16 @@ pub fn check_f32_range(case: &Case, constants: &Constants) -> Result<(), CaseErr
     let Some((name, value)) = constants.out_of_f32_range() else {
         return Ok(());
     };
+    let rubber = case.material.model.reads_mooney_rivlin_constants();
     let key = match name {
         "RHO0" => "material.density",
+        // The Mooney–Rivlin μ = c1 + c2 and the moduli and speeds that λ dominates.
+        "MU" if rubber => "material.c1",
+        "LAMBDA" | "BULK" | "C_P" | "C_S" if rubber => "material.lambda",
         "MU" | "LAMBDA" | "BULK" | "C_P" | "C_S" => "material.youngs_modulus",
+        "MR_C1" => "material.c1",
+        "MR_C2" => "material.c2",
+        "MR_LAMBDA" => "material.lambda",
         "YIELD" => "material.yield_stress",
         "HARDENING" => "material.hardening_modulus",
         "EPS2" | "EPS4" => "method.jst",

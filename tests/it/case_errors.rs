@@ -811,6 +811,22 @@ fn the_plastic_model_needs_its_hardening_and_a_mixed_method() {
         "material.yield_stress",
         &["von-mises-plastic", "hypoelastic", "remove it"],
     );
+    // Softening (seed 001 §9.5: H = −E/10) is accepted down to −3μ (μ = 3.85e5 Pa here).
+    let softening = edit(
+        &plastic,
+        "hardening_modulus = 1e4",
+        "hardening_modulus = -1e5",
+    );
+    Case::from_toml(&softening, Path::new(FILE), &[]).expect("a softening plastic case");
+    assert_invalid(
+        &edit(
+            &plastic,
+            "hardening_modulus = 1e4",
+            "hardening_modulus = -2e6",
+        ),
+        "material.hardening_modulus",
+        &["-2000000", "−3μ", "-1.153846"],
+    );
     let on_tlsph = edit(&plastic, "name = \"upwind-sph\"", "name = \"tlsph\"");
     assert_invalid(
         &edit(
@@ -821,6 +837,63 @@ fn the_plastic_model_needs_its_hardening_and_a_mixed_method() {
         "material.model",
         &["von-mises-plastic", "upwind-sph", "jst-sph", "tlsph"],
     );
+}
+
+// ---------------------------------------------------------------------------------------
+// The Mooney–Rivlin rubber
+
+#[test]
+fn the_mooney_rivlin_model_takes_c1_c2_and_lambda_instead_of_e_and_nu() {
+    let elastic = "youngs_modulus = 1e6\npoisson_ratio = 0.3";
+    let constants = "c1 = 1.265e5\nc2 = 1.012e4\nlambda = 1.012e7";
+    let rubber = edit(
+        &edit(VALID, "\"hypoelastic\"", "\"mooney-rivlin\""),
+        elastic,
+        constants,
+    );
+    Case::from_toml(&rubber, Path::new(FILE), &[]).expect("a valid Mooney–Rivlin case");
+    assert_invalid(
+        &edit(
+            &rubber,
+            "c1 = 1.265e5",
+            "c1 = 1.265e5\nyoungs_modulus = 1e6",
+        ),
+        "material.youngs_modulus",
+        &["not by `mooney-rivlin`", "`neo-hookean`", "remove it"],
+    );
+    assert_invalid(
+        &edit(&rubber, "c2 = 1.012e4\n", ""),
+        "material.c2",
+        &[
+            "`mooney-rivlin` model needs it",
+            "`c1`",
+            "`lambda`",
+            "eq 18",
+        ],
+    );
+    assert_invalid(
+        &edit(&rubber, "c1 = 1.265e5", "c1 = 0.0"),
+        "material.c1",
+        &["> 0", "0.0"],
+    );
+    assert_invalid(
+        &edit(
+            &rubber,
+            "lambda = 1.012e7",
+            "lambda = 1.012e7\nplane = \"stress\"",
+        ),
+        "material.plane",
+        &["`mooney-rivlin`", "plane = \"strain\""],
+    );
+    let neo_hookean = edit(VALID, "\"hypoelastic\"", "\"neo-hookean\"");
+    assert_invalid(
+        &edit(&neo_hookean, elastic, &format!("{elastic}\nc1 = 1e5")),
+        "material.c1",
+        &["read only by `mooney-rivlin`", "not by `neo-hookean`"],
+    );
+    // The updated-Lagrangian SPH methods integrate the rate model only.
+    let on_godunov = edit(&rubber, "name = \"tlsph\"", "name = \"godunov-sph\"");
+    assert_invalid(&on_godunov, "material.model", &["mooney-rivlin"]);
 }
 
 // ---------------------------------------------------------------------------------------

@@ -19,6 +19,8 @@ mod godunov;
 #[cfg(feature = "gpu")]
 mod gpu_galerkin;
 #[cfg(feature = "gpu")]
+mod gpu_materials;
+#[cfg(feature = "gpu")]
 mod gpu_mixed;
 #[cfg(feature = "gpu")]
 mod gpu_neighbours;
