@@ -156,7 +156,9 @@ pub fn check_f32_run<D: crate::tensor::Dim>(
         let magnitude = |t: &[f64]| t.iter().map(|c| c * c).sum::<f64>();
         let b = (0..case.boundaries.len())
             .filter_map(|b| match &case.boundaries[b].condition {
-                crate::scene::Condition::Traction { traction } => Some((b, magnitude(traction))),
+                crate::scene::Condition::Traction { traction, .. } => {
+                    Some((b, magnitude(traction)))
+                }
                 _ => None,
             })
             .max_by(|x, y| x.1.total_cmp(&y.1))

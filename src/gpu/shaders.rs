@@ -145,6 +145,21 @@ pub const CONTACT: Source = source!(
         ],
     }]
 );
+/// Loads that vary in time (`interaction::TimedLoads`): an item is a particle, whose
+/// acceleration it reads from every group.
+pub const LOADS: Source = source!(
+    "common/loads.wgsl",
+    [],
+    [("loads", false), ("ext", true)],
+    &[PassBytes {
+        entry: "timed_loads",
+        traffic: &[
+            read("loads", [0, 1, 0], NONE),
+            read("law", NONE, NONE),
+            read_write("ext", [0, 1, 0], NONE),
+        ],
+    }]
+);
 /// Cell list and neighbour lists, with the constants of `gpu::neighbour::constants`. An
 /// item is a particle (a cell in `copy_cursor`, either in `clear_counts`); the cell
 /// starts, the sorted ids and a candidate's position are counted once per item, however

@@ -7,7 +7,7 @@
 
 use super::{
     Axis, BodySpec, BoundarySpec, Case, Condition, ContactSpec, Lattice, MaterialSpec, OutputSpec,
-    Plane, ProbeSpec, Region, RunSpec, Shape, Solution, VelocityField, Volumes,
+    Plane, ProbeSpec, Region, RunSpec, Shape, Solution, TimeLaw, VelocityField, Volumes,
 };
 use crate::material::{Material, MaterialModel};
 use crate::methods::{Feature, MethodTable, Problem, REGISTRY, entry, quoted, supporting};
@@ -41,6 +41,23 @@ pub(super) fn check(case: &Case) -> Result<(), (String, String)> {
     bodies(&case.bodies, dim)?;
     for (i, boundary) in case.boundaries.iter().enumerate() {
         self::boundary(boundary, &format!("boundary.{i}"), &case.bodies, dim)?;
+        if boundary.condition.is_timed_load()
+            && case
+                .method
+                .spec
+                .entry()
+                .features
+                .contains(&Feature::PrescribedDisplacement)
+        {
+            return fail(
+                format!("boundary.{i}.condition"),
+                format!(
+                    "`{}` is static: its load steps scale the loads by t/end_time, so it takes \
+                     no pressure and no time law; give a constant `traction`",
+                    case.method.name()
+                ),
+            );
+        }
         if matches!(
             boundary.condition,
             Condition::Displacement { .. } | Condition::SolutionDisplacement { .. }
@@ -729,7 +746,31 @@ fn boundary(b: &BoundarySpec, key: &str, bodies: &[BodySpec], dim: usize) -> Che
             }
             Ok(())
         }
-        Condition::Traction { traction } => vector(&format!("{key}.traction"), traction, dim),
+        Condition::Traction { traction, law } => {
+            vector(&format!("{key}.traction"), traction, dim)?;
+            time_law(law, &format!("{key}.law"))
+        }
+        Condition::Pressure {
+            pressure,
+            center,
+            radius,
+            law,
+            ..
+        } => {
+            if dim != 2 {
+                return fail(
+                    key,
+                    format!(
+                        "a pressure acts on a circle of a 2D scene, but the case has dimension \
+                         = {dim}; in 3D give a `traction` on a face"
+                    ),
+                );
+            }
+            finite(&format!("{key}.pressure"), *pressure)?;
+            vector(&format!("{key}.center"), center, dim)?;
+            positive(&format!("{key}.radius"), *radius)?;
+            time_law(law, &format!("{key}.law"))
+        }
         Condition::Displacement { ux, uy, uz } => {
             if ux.is_none() && uy.is_none() && uz.is_none() {
                 let allowed = if dim == 3 { "ux, uy, uz" } else { "ux, uy" };
@@ -790,6 +831,48 @@ fn boundary(b: &BoundarySpec, key: &str, bodies: &[BodySpec], dim: usize) -> Che
                         "must be the outward unit normal of a face along an axis, such as \
                          [1, 0{}], got {normal:?}",
                         if dim == 3 { ", 0" } else { "" }
+                    ),
+                );
+            }
+            Ok(())
+        }
+    }
+}
+
+/// A time law: positive durations and time constants, a table of finite points with
+/// non-decreasing times.
+fn time_law(law: &TimeLaw, key: &str) -> Checked {
+    match law {
+        TimeLaw::Constant => Ok(()),
+        TimeLaw::Ramp { duration } => positive(&format!("{key}.duration"), *duration),
+        TimeLaw::Exponential { tau, start } => {
+            positive(&format!("{key}.tau"), *tau)?;
+            non_negative(&format!("{key}.start"), *start)
+        }
+        TimeLaw::Table { points } => {
+            if points.is_empty() {
+                return fail(
+                    format!("{key}.points"),
+                    "is empty; give [time, value] points, e.g. [[0.0, 1.0], [1e-4, 1.0], \
+                     [1e-4, 0.0]] (held for 0.1 ms, then removed)",
+                );
+            }
+            if let Some(p) = points
+                .iter()
+                .find(|p| !(p[0].is_finite() && p[1].is_finite()))
+            {
+                return fail(
+                    format!("{key}.points"),
+                    format!("holds {p:?}; every time and value must be a finite number"),
+                );
+            }
+            if let Some(w) = points.windows(2).find(|w| w[1][0] < w[0][0]) {
+                return fail(
+                    format!("{key}.points"),
+                    format!(
+                        "goes back in time from {:?} to {:?}; the times must not decrease (a \
+                         time given twice is a jump)",
+                        w[0], w[1]
                     ),
                 );
             }
@@ -1156,6 +1239,7 @@ mod tests {
         assert!(msg.contains("\"z\""), "{msg}");
         c.boundaries[0].condition = Condition::Traction {
             traction: vec![1.0],
+            law: TimeLaw::Constant,
         };
         assert_eq!(key_of(&c), "boundary.0.condition.traction");
         c.boundaries.clear();

@@ -897,6 +897,58 @@ fn the_mooney_rivlin_model_takes_c1_c2_and_lambda_instead_of_e_and_nu() {
 }
 
 // ---------------------------------------------------------------------------------------
+// Time laws and pressures
+
+#[test]
+fn time_laws_and_pressures_are_checked() {
+    let traction = "[[boundary]]\nregion = { x_min = 1.0 }\ncondition = { type = \"traction\", \
+                    traction = [1e4, 0.0], law = LAW }\n\n[run]";
+    let with_law = |law: &str| edit(VALID, "[run]", &traction.replace("LAW", law));
+    Case::from_toml(
+        &with_law("{ type = \"exponential\", tau = 1e-4 }"),
+        Path::new(FILE),
+        &[],
+    )
+    .expect("a traction decaying exponentially");
+    assert_invalid(
+        &with_law("{ type = \"ramp\", duration = 0.0 }"),
+        "boundary.0.condition.law.duration",
+        &["> 0"],
+    );
+    assert_invalid(
+        &with_law("{ type = \"table\", points = [[1e-4, 1.0], [0.0, 0.0]] }"),
+        "boundary.0.condition.law.points",
+        &["back in time", "must not decrease"],
+    );
+    assert_invalid(
+        &with_law("{ type = \"table\", points = [] }"),
+        "boundary.0.condition.law.points",
+        &["is empty", "[time, value]"],
+    );
+    let pressure = "[[boundary]]\nregion = {}\ncondition = { type = \"pressure\", pressure = \
+                    1e4, center = [0.5, 0.25], radius = 0.1, surface = \"inner\" }\n\n[run]";
+    let with_pressure = edit(VALID, "[run]", pressure);
+    assert_invalid(
+        &edit(&with_pressure, "radius = 0.1", "radius = -0.1"),
+        "boundary.0.condition.radius",
+        &["> 0"],
+    );
+    // The static path scales its loads by t/end_time and takes no time law.
+    let cantilever = std::fs::read_to_string(crate::common::case_file("cantilever-3d")).unwrap();
+    let timed = cantilever.replacen(
+        "[[boundary]]",
+        "[[boundary]]\nregion = { x_min = 8.0 }\ncondition = { type = \"traction\", traction = \
+         [0.0, -1.0, 0.0], law = { type = \"ramp\", duration = 1.0 } }\n\n[[boundary]]",
+        1,
+    );
+    assert_invalid(
+        &timed,
+        "boundary.0.condition",
+        &["`dual-support-sph` is static", "time law"],
+    );
+}
+
+// ---------------------------------------------------------------------------------------
 // Shipped cases
 
 #[test]
