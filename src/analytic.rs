@@ -92,10 +92,13 @@ mod tests {
         Material::new(&MaterialSpec {
             model: MaterialModel::NeoHookean,
             density: 1100.0,
-            youngs_modulus: 1.7e7,
-            poisson_ratio: 0.3,
+            youngs_modulus: Some(1.7e7),
+            poisson_ratio: Some(0.3),
             yield_stress: None,
             hardening_modulus: None,
+            c1: None,
+            c2: None,
+            lambda: None,
             plane: crate::scene::Plane::Strain,
         })
     }
@@ -201,7 +204,7 @@ pub enum ClosedForm {
 
 impl ClosedForm {
     pub fn of(solution: &crate::scene::Solution, material: &crate::scene::MaterialSpec) -> Self {
-        let (youngs_modulus, poisson_ratio) = (material.youngs_modulus, material.poisson_ratio);
+        let (youngs_modulus, poisson_ratio) = material.youngs_and_poisson();
         match *solution {
             crate::scene::Solution::TimoshenkoCantilever {
                 load,

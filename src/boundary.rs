@@ -3,10 +3,14 @@
 //! Prescribed velocity components are imposed on the initial state and their rates are
 //! zeroed at every evaluation, so every integrator keeps them exactly and the
 //! displacement of a prescribed component follows u = u0 + v t without overwriting.
+//!
+//! Loads that vary in time (a traction with a time law, a pressure) are not constant
+//! accelerations here but forces of [`timed_loads`], which the interaction
+//! [`crate::interaction::TimedLoads`] scales at every step.
 
 use crate::analytic::ClosedForm;
 use crate::neighbour;
-use crate::scene::{Case, CaseError, Condition, Discretised, Region};
+use crate::scene::{Case, CaseError, Condition, Discretised, Surface, TimeLaw};
 use crate::tensor::Dim;
 
 /// The constraints and external loads of a scene, as sparse per-particle lists.
@@ -34,16 +38,14 @@ impl<D: Dim> Boundary<D> {
         let mut dvalue = vec![[0.0; 3]; disc.x0.len()];
         let area = case.spacing.powi(D::N as i32 - 1);
         for (b, bc) in case.boundaries.iter().enumerate() {
-            let selected = select(case, &bc.region, disc);
-            if selected.is_empty() {
-                return Err(case.invalid(
-                    format!("boundary.{b}.region"),
-                    "selects no particle; check the bounds against the bodies' reference positions",
-                ));
+            let particles = selected::<D>(case, b, &disc.x0, &disc.body)?;
+            if bc.condition.is_timed_load() {
+                // Forces of `timed_loads`.
+                continue;
             }
             // The extent of the region's particles: the face a traction patch is clipped to.
-            let face = neighbour::bounding_box(selected.iter().map(|&i| D::to3(disc.x0[i])));
-            for i in selected {
+            let face = neighbour::bounding_box(particles.iter().map(|&i| D::to3(disc.x0[i])));
+            for i in particles {
                 match &bc.condition {
                     Condition::Fixed => {
                         mask[i] = (1 << D::N) - 1;
@@ -69,9 +71,10 @@ impl<D: Dim> Boundary<D> {
                         v[k] = 0.0;
                         value[i] = D::from_slice(&v);
                     }
-                    Condition::Traction { traction } => {
+                    Condition::Traction { traction, .. } => {
                         external[i] += D::from_slice(traction) * (area / mass[i]);
                     }
+                    Condition::Pressure { .. } => unreachable!("a timed load"),
                     Condition::Displacement { ux, uy, uz } => {
                         for (k, c) in [ux, uy, uz].iter().enumerate().take(D::N) {
                             if let Some(c) = c {
@@ -245,10 +248,150 @@ fn mix<D: Dim>(mask: u8, on: D::V, off: D::V) -> D::V {
     D::from_slice(&c)
 }
 
-/// Particles inside the region (bounds widened by Δx/4).
-fn select<D: Dim>(case: &Case, region: &Region, disc: &Discretised<D>) -> Vec<usize> {
+/// A load of [`timed_loads`]: one boundary condition's time law and the forces on its
+/// particles at law value 1.
+#[derive(Clone, Debug)]
+pub struct TimedLoad<D: Dim> {
+    pub law: TimeLaw,
+    /// (particle, force).
+    pub forces: Vec<(u32, D::V)>,
+}
+
+/// The loads of a case that vary in time, one per condition: its time law and the
+/// (particle, force) of every particle it loads, from the reference positions x0 and the
+/// body of each particle. A traction with a time law gives f = t·Δx^(d−1) to each
+/// particle of its region, as a constant one; a pressure p on a circle of radius R gives
+/// each particle within Δx of it on the body's side f = p R Δθ n, Δθ half the angle
+/// between its neighbours along the circle (so that the shares sum to 2πR) and n the
+/// reference normal into the body, ±(X − c)/|X − c|.
+pub fn timed_loads<D: Dim>(
+    case: &Case,
+    x0: &[D::V],
+    body: &[u32],
+) -> Result<Vec<TimedLoad<D>>, CaseError> {
+    let mut loads = Vec::new();
+    for (b, bc) in case.boundaries.iter().enumerate() {
+        if !bc.condition.is_timed_load() {
+            continue;
+        }
+        let (law, forces): (&TimeLaw, Vec<(u32, D::V)>) = match &bc.condition {
+            Condition::Traction { traction, law } => {
+                let f = D::from_slice(traction) * case.spacing.powi(D::N as i32 - 1);
+                let particles = selected::<D>(case, b, x0, body)?;
+                (law, particles.into_iter().map(|i| (i as u32, f)).collect())
+            }
+            Condition::Pressure {
+                pressure,
+                center,
+                radius,
+                surface,
+                law,
+            } => {
+                // Within Δx of the circle on the body's side, with a round-off margin on
+                // both ends (a lattice point on the circle, a layer Δx off it).
+                let (dx, tol) = (case.spacing, 1e-9 * case.spacing);
+                let on_circle: Vec<usize> = selected::<D>(case, b, x0, body)?
+                    .into_iter()
+                    .filter(|&i| {
+                        let r = D::norm2(x0[i] - D::from_slice(center)).sqrt();
+                        match surface {
+                            Surface::Inner => r >= radius - tol && r < radius + dx - tol,
+                            Surface::Outer => r <= radius + tol && r > radius - dx + tol,
+                        }
+                    })
+                    .collect();
+                let sign = match surface {
+                    Surface::Inner => 1.0,
+                    Surface::Outer => -1.0,
+                };
+                let shares = pressure_shares::<D>(case, b, x0, &on_circle, center)?;
+                let forces = shares
+                    .into_iter()
+                    .map(|(i, dtheta, normal)| {
+                        (i as u32, normal * (sign * pressure * radius * dtheta))
+                    })
+                    .collect();
+                (law, forces)
+            }
+            _ => unreachable!("the timed loads are tractions and pressures"),
+        };
+        loads.push(TimedLoad {
+            law: law.clone(),
+            forces,
+        });
+    }
+    Ok(loads)
+}
+
+/// The particles `on_circle` about `center` by angle, each with its share Δθ of the
+/// circle (half the angle to each neighbour along it) and its radial unit vector
+/// (X − c)/|X − c|. The shares of a whole circle sum to 2π; a circle that the particles
+/// leave open (a gap wider than a quarter turn, as under a region that cuts it) is refused,
+/// as is one with fewer than three particles.
+fn pressure_shares<D: Dim>(
+    case: &Case,
+    b: usize,
+    x0: &[D::V],
+    on_circle: &[usize],
+    center: &[f64],
+) -> Result<Vec<(usize, f64, D::V)>, CaseError> {
+    let key = format!("boundary.{b}.condition");
+    if on_circle.len() < 3 {
+        return Err(case.invalid(
+            key,
+            format!(
+                "the pressure's circle has {} particle(s) within Δx of it on the body's \
+                 side; check `center`, `radius` and `surface` against the body",
+                on_circle.len()
+            ),
+        ));
+    }
+    let c = D::from_slice(center);
+    let mut by_angle: Vec<(f64, usize)> = on_circle
+        .iter()
+        .map(|&i| {
+            let d = D::to3(x0[i] - c);
+            (d[1].atan2(d[0]), i)
+        })
+        .collect();
+    by_angle.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let n = by_angle.len();
+    let tau = std::f64::consts::TAU;
+    // gap[k]: the angle from particle k to the next one round the circle.
+    let gap: Vec<f64> = (0..n)
+        .map(|k| (by_angle[(k + 1) % n].0 - by_angle[k].0).rem_euclid(tau))
+        .collect();
+    let widest = gap.iter().copied().fold(0.0, f64::max);
+    if widest > tau / 4.0 {
+        return Err(case.invalid(
+            key,
+            format!(
+                "the pressure's particles leave a gap of {widest:.3} rad on the circle; a \
+                 pressure acts on a whole circle: let the region take every particle along it"
+            ),
+        ));
+    }
+    Ok((0..n)
+        .map(|k| {
+            let (_, i) = by_angle[k];
+            let r = x0[i] - c;
+            let share = 0.5 * (gap[(k + n - 1) % n] + gap[k]);
+            (i, share, r * (1.0 / D::norm2(r).sqrt()))
+        })
+        .collect())
+}
+
+/// The particles of boundary condition b's region among those at reference positions x0
+/// with bodies `body`; an error if it selects none.
+fn selected<D: Dim>(
+    case: &Case,
+    b: usize,
+    x0: &[D::V],
+    body: &[u32],
+) -> Result<Vec<usize>, CaseError> {
+    let region = &case.boundaries[b].region;
     let tol = 0.25 * case.spacing;
-    let body = region
+    let of_body = region
         .body
         .as_ref()
         .and_then(|name| case.bodies.iter().position(|b| &b.name == name));
@@ -257,13 +400,20 @@ fn select<D: Dim>(case: &Case, region: &Region, disc: &Discretised<D>) -> Vec<us
         (region.y_min, region.y_max),
         (region.z_min, region.z_max),
     ];
-    (0..disc.x0.len())
-        .filter(|&i| body.is_none_or(|b| disc.body[i] as usize == b))
+    let inside: Vec<usize> = (0..x0.len())
+        .filter(|&i| of_body.is_none_or(|b| body[i] as usize == b))
         .filter(|&i| {
-            let p = D::to3(disc.x0[i]);
+            let p = D::to3(x0[i]);
             bounds.iter().zip(p).all(|(&(lo, hi), c)| {
                 lo.is_none_or(|lo| c >= lo - tol) && hi.is_none_or(|hi| c <= hi + tol)
             })
         })
-        .collect()
+        .collect();
+    if inside.is_empty() {
+        return Err(case.invalid(
+            format!("boundary.{b}.region"),
+            "selects no particle; check the bounds against the bodies' reference positions",
+        ));
+    }
+    Ok(inside)
 }

@@ -18,6 +18,7 @@ pub mod kernel;
 pub mod material;
 pub mod methods;
 pub mod mirror;
+pub mod mooney_rivlin;
 pub mod neighbour;
 pub mod observe;
 pub mod output;

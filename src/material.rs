@@ -1,8 +1,13 @@
-//! Constitutive models: hypoelastic (Jaumann rate + linear EOS), Saint Venant–Kirchhoff
-//! and compressible neo-Hookean. In 2D every model is plane strain (F_zz = 1, ε̇_zz = 0)
-//! unless the case asks for plane stress (σ_zz = 0), which the models that are linear in
-//! their strain measure take exactly through λ* = 2λμ/(λ + 2μ) in place of λ.
+//! Constitutive models: hypoelastic (Jaumann rate + linear EOS), Saint Venant–Kirchhoff,
+//! compressible neo-Hookean, linear elastic, polyconvex nearly incompressible
+//! neo-Hookean, the compressible Mooney–Rivlin rubber of seed 001 eq 18
+//! ([`crate::mooney_rivlin`]) and von Mises hyperelastic-plastic ([`crate::plasticity`]).
+//! In 2D every model is plane strain (F_zz = 1, ε̇_zz = 0) unless the case asks for plane
+//! stress (σ_zz = 0), which the models that are linear in their strain measure take
+//! exactly through λ* = 2λμ/(λ + 2μ) in place of λ. The models are described in
+//! docs/materials.md.
 
+use crate::mooney_rivlin::MooneyRivlin;
 use crate::plasticity::{Hardening, Returned, VonMises, from_mat3, to_mat3};
 use crate::scene::{MaterialSpec, Plane};
 use crate::tensor::Dim;
@@ -31,21 +36,45 @@ pub enum MaterialModel {
     /// the history C_p⁻¹, ε_p, which the mixed methods carry; as a function of F alone
     /// (`pk1`) it is the response from the virgin state.
     VonMisesPlastic,
+    /// The compressible Mooney–Rivlin rubber of seed 001 eq 18 with the constants c1, c2,
+    /// λ ([`crate::mooney_rivlin`]): hyperelastic, μ = c1 + c2, λ_L = 2λ − ⅔(c1 + c2).
+    MooneyRivlin,
 }
 
 impl MaterialModel {
-    pub const ALL: [MaterialModel; 6] = [
+    pub const ALL: [MaterialModel; 7] = [
         Self::Hypoelastic,
         Self::SaintVenantKirchhoff,
         Self::NeoHookean,
         Self::LinearElastic,
         Self::NearlyIncompressibleNeoHookean,
         Self::VonMisesPlastic,
+        Self::MooneyRivlin,
     ];
 
     /// Rate-based models integrate ρ and S; state-based ones evaluate P(F).
     pub fn is_rate_based(self) -> bool {
         self == Self::Hypoelastic
+    }
+
+    /// The models `which` selects as case files name them, quoted and joined ("`a`, `b`
+    /// or `c`"), for messages.
+    pub fn names_where(which: impl Fn(Self) -> bool) -> String {
+        let names: Vec<String> = Self::ALL
+            .iter()
+            .filter(|&&m| which(m))
+            .map(|m| format!("`{}`", crate::scene::validate::toml_name(m)))
+            .collect();
+        match names.split_last() {
+            Some((last, rest)) if !rest.is_empty() => format!("{} or {last}", rest.join(", ")),
+            _ => names.concat(),
+        }
+    }
+
+    /// Whether the model takes its elastic constants from c1, c2 and λ (eq 18) rather
+    /// than from E and ν.
+    pub fn reads_mooney_rivlin_constants(self) -> bool {
+        self == Self::MooneyRivlin
     }
 
     /// The models whose plane-stress response is their plane-strain one with λ*: those
@@ -57,7 +86,8 @@ impl MaterialModel {
     ];
 }
 
-/// Isotropic elastic constants derived from (ρ0, E, ν).
+/// Isotropic elastic constants derived from (ρ0, E, ν), or from (c1, c2, λ) of the
+/// Mooney–Rivlin model, whose μ and λ are those of its linearisation at F = I.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Material {
     pub model: MaterialModel,
@@ -70,15 +100,25 @@ pub struct Material {
     pub bulk: f64,
     /// Yield stress and hardening of `von-mises-plastic`.
     pub hardening: Option<Hardening>,
+    /// The constants of `mooney-rivlin`.
+    pub mooney_rivlin: Option<MooneyRivlin>,
     /// σ_zz = 0 in 2D (λ and K are then the plane-stress λ* and λ* + 2μ/3).
     pub plane_stress: bool,
 }
 
 impl Material {
     pub fn new(spec: &MaterialSpec) -> Self {
-        let (e, nu) = (spec.youngs_modulus, spec.poisson_ratio);
-        let mu = e / (2.0 * (1.0 + nu));
-        let lambda_3d = e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+        let mooney_rivlin = spec.mooney_rivlin();
+        let (mu, lambda_3d) = match mooney_rivlin {
+            Some(m) => m.lame(),
+            None => {
+                let (e, nu) = spec.youngs_and_poisson();
+                (
+                    e / (2.0 * (1.0 + nu)),
+                    e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)),
+                )
+            }
+        };
         let plane_stress = spec.plane == Plane::Stress;
         // σ_zz = 0 eliminates ε_zz = −λ tr ε/(λ + 2μ) from the in-plane response, whose
         // λ becomes λ* = 2λμ/(λ + 2μ) = Eν/(1 − ν²).
@@ -103,7 +143,15 @@ impl Material {
                 }
                 _ => None,
             },
+            mooney_rivlin,
         }
+    }
+
+    /// The constants of a `mooney-rivlin` material.
+    fn rubber(&self) -> &MooneyRivlin {
+        self.mooney_rivlin
+            .as_ref()
+            .expect("validation gives a mooney-rivlin material its c1, c2 and λ")
     }
 
     /// The von Mises model of a `von-mises-plastic` material.
@@ -188,6 +236,7 @@ impl Material {
                 self.pk1_mixed::<D>(f, D::cof(f), D::det(f))
             }
             MaterialModel::VonMisesPlastic => from_mat3::<D>(self.virgin::<D>(f).p),
+            MaterialModel::MooneyRivlin => self.rubber().pk1::<D>(f),
             MaterialModel::Hypoelastic => unreachable!("the hypoelastic model is rate-based"),
         }
     }
@@ -241,6 +290,7 @@ impl Material {
                 self.energy_density_mixed::<D>(f, D::det(f))
             }
             MaterialModel::VonMisesPlastic => self.virgin::<D>(f).psi,
+            MaterialModel::MooneyRivlin => self.rubber().energy::<D>(f),
         }
     }
 
@@ -270,6 +320,7 @@ impl Material {
                 let f3 = to_mat3::<D>(f, 1.0);
                 (self.virgin::<D>(f).p * f3.transpose()).col(2).z / j
             }
+            MaterialModel::MooneyRivlin => self.rubber().sigma_zz::<D>(f),
         }
     }
 }
@@ -370,7 +421,9 @@ impl Material {
                 });
                 add(&a, 1.0);
             }
-            MaterialModel::Hypoelastic | MaterialModel::VonMisesPlastic => {
+            MaterialModel::Hypoelastic
+            | MaterialModel::VonMisesPlastic
+            | MaterialModel::MooneyRivlin => {
                 unreachable!("validation admits models with a tangent only")
             }
         }
@@ -470,15 +523,22 @@ mod tests {
     use glam::{DMat2, DMat3, DVec3};
 
     fn spec(model: MaterialModel) -> MaterialSpec {
+        let rubber = model.reads_mooney_rivlin_constants();
+        let given = |value: f64, read: bool| read.then_some(value);
         MaterialSpec {
             model,
             density: 1.0,
-            youngs_modulus: 1e7,
-            poisson_ratio: 0.4,
+            youngs_modulus: given(1e7, !rubber),
+            poisson_ratio: given(0.4, !rubber),
             // Read by `von-mises-plastic` only: far above the tests' stresses, so that its
             // response is the Hencky elastic one.
             yield_stress: Some(1e12),
             hardening_modulus: Some(0.0),
+            // The Mooney–Rivlin constants with the same linearisation as E = 1e7, ν = 0.4:
+            // μ = c1 + c2 = E/(2(1 + ν)) = 3.5714e6 and λ = K/2 = E/(6(1 − 2ν)) = 8.3333e6.
+            c1: given(3.2e6, rubber),
+            c2: given(1e7 / 2.8 - 3.2e6, rubber),
+            lambda: given(1e7 / (3.0 * 0.2) / 2.0, rubber),
             plane: Plane::Strain,
         }
     }
@@ -524,6 +584,29 @@ mod tests {
     }
 
     #[test]
+    fn mooney_rivlin_takes_the_constants_of_its_linearisation() {
+        // The test spec's c1, c2, λ are those of E = 1e7, ν = 0.4 (seed 000 §0's table):
+        // the same μ, λ, K and c_p as the elastic models to round-off, and K = 2λ.
+        let rubber = Material::new(&spec(MaterialModel::MooneyRivlin));
+        let elastic = Material::new(&spec(MaterialModel::NeoHookean));
+        for (a, b) in [
+            (rubber.mu, elastic.mu),
+            (rubber.lambda, elastic.lambda),
+            (rubber.bulk, elastic.bulk),
+            (rubber.p_wave_speed(), elastic.p_wave_speed()),
+            (rubber.bulk, 2.0 * rubber.mooney_rivlin.unwrap().lambda),
+        ] {
+            assert!((a - b).abs() < 1e-12 * b, "{a} vs {b}");
+        }
+        // (E, ν) of the linearisation, which the closed-form solutions take.
+        let (e, nu) = spec(MaterialModel::MooneyRivlin).youngs_and_poisson();
+        assert!(
+            (e - 1e7).abs() < 1e-5 && (nu - 0.4).abs() < 1e-12,
+            "{e} {nu}"
+        );
+    }
+
+    #[test]
     fn compression_gives_positive_pressure() {
         let m = Material::new(&spec(MaterialModel::Hypoelastic));
         assert!(m.pressure(1.01) > 0.0 && m.pressure(0.99) < 0.0);
@@ -537,6 +620,7 @@ mod tests {
             MaterialModel::NeoHookean,
             MaterialModel::NearlyIncompressibleNeoHookean,
             MaterialModel::LinearElastic,
+            MaterialModel::MooneyRivlin,
         ] {
             let m = Material::new(&spec(model));
             // Small-strain elasticity is not objective: it is the one exception.
@@ -565,6 +649,7 @@ mod tests {
             MaterialModel::NeoHookean,
             MaterialModel::LinearElastic,
             MaterialModel::NearlyIncompressibleNeoHookean,
+            MaterialModel::MooneyRivlin,
         ] {
             let m = Material::new(&spec(model));
             check_pk1::<D3>(&m, f0);

@@ -1,8 +1,18 @@
-//! Von Mises hyperelastic-plastic model with isotropic hardening (seed 003 Appendix A,
-//! Algorithm 2): Hencky (logarithmic) elastic strains, a radial return in the principal
-//! Kirchhoff stresses, and the internal variables C_p⁻¹ and ε_p, which the mixed methods
-//! commit once per step from the state at its start (the paper leaves the stages open).
-//! The algorithm works in 3 × 3 tensors; a 2D (plane-strain) F enters with F_zz = 1.
+//! Von Mises hyperelastic-plastic model with linear isotropic hardening or softening
+//! (seed 003 Appendix A, Algorithm 2): Hencky (logarithmic) elastic strains, a radial
+//! return in the principal Kirchhoff stresses, and the internal variables C_p⁻¹ and ε_p,
+//! which the mixed methods commit once per step from the state at its start (the paper
+//! leaves the stages open). The algorithm works in 3 × 3 tensors; a 2D (plane-strain) F
+//! enters with F_zz = 1.
+//!
+//! A negative modulus H softens (seed 001 §9.5: H = −E/10). The yield stress
+//! τ_y = τ_y⁰ + H ε_p then stops at zero, at ε_p = τ_y⁰/|H|: from there on the material
+//! carries no deviatoric stress (a fluid under pressure). The return solves
+//! q̄ − 3μΔγ − τ_y(ε_pⁿ + Δγ) = 0 with the trial equivalent stress q̄: on the linear
+//! branch Δγ = (q̄ − τ_y⁰ − H ε_pⁿ)/(3μ + H) (Algorithm 2 step 7), on the zero branch
+//! Δγ = q̄/(3μ); both are roots of decreasing functions whose smaller one is the
+//! left-hand side, so its root is the smaller of the two, which for H ≥ 0 is always the
+//! linear one. It needs 3μ + H > 0, which validation requires.
 
 use crate::tensor::Dim;
 use glam::{DMat3, DVec3};
@@ -12,8 +22,24 @@ use glam::{DMat3, DVec3};
 pub struct Hardening {
     /// Initial yield stress τ_y⁰ [Pa].
     pub yield_stress: f64,
-    /// Linear isotropic hardening modulus H [Pa]: τ_y = τ_y⁰ + H ε_p.
+    /// Linear isotropic hardening modulus H [Pa]: τ_y = τ_y⁰ + H ε_p, negative for
+    /// softening, down to τ_y = 0.
     pub modulus: f64,
+}
+
+impl Hardening {
+    /// The yield stress τ_y(ε_p) = max(τ_y⁰ + H ε_p, 0).
+    pub fn yield_stress_at(&self, eps_p: f64) -> f64 {
+        (self.yield_stress + self.modulus * eps_p).max(0.0)
+    }
+
+    /// The plastic multiplier Δγ of a return from the trial equivalent stress q̄ =
+    /// sqrt(3/2 τ̄':τ̄') beyond yield at ε_pⁿ (module docs).
+    fn multiplier(&self, mu: f64, q_trial: f64, eps_p: f64) -> f64 {
+        let linear =
+            (q_trial - (self.yield_stress + self.modulus * eps_p)) / (3.0 * mu + self.modulus);
+        linear.min(q_trial / (3.0 * mu))
+    }
 }
 
 /// Shear and bulk moduli with the hardening.
@@ -40,7 +66,7 @@ pub struct Returned {
 impl VonMises {
     /// Algorithm 2 at deformation gradient f from the internal variables [C_p⁻¹]ⁿ, ε_pⁿ.
     pub fn return_map(&self, f: DMat3, cp_inv: DMat3, eps_p: f64) -> Returned {
-        let (mu, h) = (self.mu, self.hardening.modulus);
+        let mu = self.mu;
         // (1)–(2)
         let j = f.determinant();
         let ln_j = j.ln();
@@ -51,11 +77,13 @@ impl VonMises {
         // (5) τ̄'_ii = 2μ ln λ̄_i − ⅔ μ ln J.
         let tau_trial = ln_stretch.map(|l| 2.0 * mu * l - 2.0 / 3.0 * mu * ln_j);
         let norm = tau_trial.iter().map(|t| t * t).sum::<f64>().sqrt();
-        // (6) f = sqrt(3/2 τ̄':τ̄') − (τ_y⁰ + H ε_p).
-        let yield_fn = (1.5f64).sqrt() * norm - (self.hardening.yield_stress + h * eps_p);
-        // (7) Δγ = f / (3μ + H), ν_i = τ̄'_ii / sqrt(2/3 τ̄':τ̄').
+        // (6) f = sqrt(3/2 τ̄':τ̄') − τ_y(ε_p).
+        let q_trial = (1.5f64).sqrt() * norm;
+        let yield_fn = q_trial - self.hardening.yield_stress_at(eps_p);
+        // (7) Δγ = f / (3μ + H) (or q̄/(3μ) once τ_y reaches zero), ν_i = τ̄'_ii /
+        // sqrt(2/3 τ̄':τ̄').
         let (dgamma, scale) = if yield_fn > 0.0 {
-            let dgamma = yield_fn / (3.0 * mu + h);
+            let dgamma = self.hardening.multiplier(mu, q_trial, eps_p);
             (dgamma, (2.0f64 / 3.0).sqrt() * norm)
         } else {
             (0.0, 1.0)
@@ -176,6 +204,81 @@ mod tests {
                 modulus: 0.1e9,
             },
         }
+    }
+
+    /// The steel of seed 001 §9.5: E = 2e11 Pa, H = −E/10, σ_Y(0) = 1e10 Pa; ν is not
+    /// given there, 0.3 is taken.
+    fn softening_steel() -> VonMises {
+        let (e, nu) = (2e11, 0.3);
+        VonMises {
+            mu: e / (2.0 * (1.0 + nu)),
+            bulk: e / (3.0 * (1.0 - 2.0 * nu)),
+            hardening: Hardening {
+                yield_stress: 1e10,
+                modulus: -e / 10.0,
+            },
+        }
+    }
+
+    #[test]
+    fn uniaxial_strain_follows_the_closed_form_with_hardening_and_softening() {
+        // F = diag(e^ε, 1, 1), ε from 0 to 1 in 200 increments, the history committed after
+        // each. The principal frame is fixed, so the return in logarithmic strains is exact
+        // and the path has a closed form: the elastic log strain is ε(1, 0, 0) − ε_p(1, −½,
+        // −½), its equivalent Kirchhoff stress q = 2με − 3μ ε_p, and on yield q = τ_y(ε_p),
+        // so ε_p = (2με − τ_y⁰)/(3μ + H) on the linear branch; once τ_y⁰ + H ε_p reaches
+        // zero (softening) the deviator vanishes and ε_p = ⅔ε. Then τ_xx = κ ε + ⅔ q and
+        // τ_yy = κ ε − ⅓ q. Round-off: ~1e-16 relative per logarithm and product (the
+        // eigen-decomposition of a diagonal matrix is exact), over 200 committed steps at
+        // most 1e-13 of the stresses (~1e11 Pa): 1e-2 Pa; bounds 1e-9 τ_y⁰ (≥ 0.4 Pa) and
+        // 1e-9 for ε_p.
+        for m in [softening_steel(), copper()] {
+            let (mu, kappa, hard) = (m.mu, m.bulk, m.hardening);
+            let (mut cp_inv, mut eps_p) = (DMat3::IDENTITY, 0.0);
+            let mut saturated = false;
+            for k in 1..=200 {
+                let eps = k as f64 / 200.0;
+                let f = DMat3::from_diagonal(DVec3::new(eps.exp(), 1.0, 1.0));
+                let r = m.return_map(f, cp_inv, eps_p);
+                (cp_inv, eps_p) = (r.cp_inv, r.eps_p);
+                let linear =
+                    ((2.0 * mu * eps - hard.yield_stress) / (3.0 * mu + hard.modulus)).max(0.0);
+                let expected_eps_p = if hard.yield_stress + hard.modulus * linear > 0.0 {
+                    linear
+                } else {
+                    saturated = true;
+                    2.0 * eps / 3.0
+                };
+                // The equivalent stress: elastic 2με below yield, τ_y(ε_p) beyond.
+                let q = if expected_eps_p > 0.0 {
+                    hard.yield_stress_at(expected_eps_p)
+                } else {
+                    2.0 * mu * eps
+                };
+                let tau = r.p * f.transpose();
+                let (xx, yy) = (kappa * eps + 2.0 / 3.0 * q, kappa * eps - q / 3.0);
+                let tol = 1e-9 * hard.yield_stress;
+                assert!(
+                    (eps_p - expected_eps_p).abs() < 1e-9,
+                    "H = {}: ε = {eps}: ε_p {eps_p} vs {expected_eps_p}",
+                    hard.modulus
+                );
+                assert!(
+                    (tau.col(0).x - xx).abs() < tol && (tau.col(1).y - yy).abs() < tol,
+                    "H = {}: ε = {eps}: τ_xx {} vs {xx}, τ_yy {} vs {yy}",
+                    hard.modulus,
+                    tau.col(0).x,
+                    tau.col(1).y
+                );
+            }
+            // The steel's yield stress reaches zero at ε_p = 0.5 (ε = 0.75) within the path;
+            // the copper keeps hardening.
+            assert_eq!(saturated, m.hardening.modulus < 0.0);
+        }
+        // The softening lowers the stress past yield: the steel's τ_y at ε_p = 0.25 is
+        // 1e10 − 2e10 · 0.25 = 5e9 Pa.
+        assert_eq!(softening_steel().hardening.yield_stress_at(0.25), 5e9);
+        assert_eq!(softening_steel().hardening.yield_stress_at(0.9), 0.0);
     }
 
     #[test]

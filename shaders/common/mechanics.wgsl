@@ -1,7 +1,7 @@
 // Constitutive functions shared by the TLSPH and mixed passes and the reductions
 // (src/material.rs in f32). State models are written in H = F − I so that small strains
 // keep their digits. Needs the scene constants RHO0, MU, LAMBDA, BULK, MODEL (a choice: MODEL_HYPOELASTIC,
-// MODEL_SAINT_VENANT_KIRCHHOFF, …) and RATE.
+// MODEL_SAINT_VENANT_KIRCHHOFF, …), RATE and the Mooney–Rivlin MR_C1, MR_C2, MR_LAMBDA.
 
 // Linear EOS from the density deviation ρ − ρ0, positive in compression.
 fn pressure(rho_dev: f32) -> f32 {
@@ -27,13 +27,19 @@ fn det_excess(h: matd) -> f32 {
     return e;
 }
 
-// ln(1 + x) with its rounding error removed (Kahan's trick).
+// ln(1 + x) to f32 precision. The device's log need only be accurate to 2^-21 absolute
+// in [0.5, 2] (Vulkan's precision of OpLog; on lavapipe ln J near 1 came out ~5e-8 off,
+// whatever the rounding of 1 + x), which near x = 0 leaves no relative precision: for
+// |x| < 0.25 the series of 2 atanh(s), s = x/(2 + x), |s| < 0.143, to s^11 (the next term
+// is below 1e-11 of the sum), else log(1 + x).
 fn log_1p(x: f32) -> f32 {
-    let one_plus = 1.0 + x;
-    if one_plus == 1.0 {
-        return x;
+    if abs(x) < 0.25 {
+        let s = x / (2.0 + x);
+        let s2 = s * s;
+        let odd = 1.0 / 3.0 + s2 * (0.2 + s2 * (1.0 / 7.0 + s2 * (1.0 / 9.0 + s2 / 11.0)));
+        return 2.0 * s * (1.0 + s2 * odd);
     }
-    return log(one_plus) * x / (one_plus - 1.0);
+    return log(1.0 + x);
 }
 
 // x − ln(1 + x) without cancellation: its series for small x.
@@ -41,7 +47,7 @@ fn x_minus_log_1p(x: f32) -> f32 {
     if abs(x) < 1e-2 {
         return x * x * (0.5 - x * (1.0 / 3.0 - x * (0.25 - x * 0.2)));
     }
-    return x - log(1.0 + x);
+    return x - log_1p(x);
 }
 
 // e^y − 1 − y without cancellation: its series for small y.
@@ -57,11 +63,55 @@ fn ff_excess(h: matd) -> f32 {
     return 2.0 * trace_d(h) + ddot_d(h, h);
 }
 
+// e^y − 1.
+fn exp_minus_1(y: f32) -> f32 {
+    return exp_minus_1_minus(y) + y;
+}
+
+// b = B − I = H + Hᵀ + H Hᵀ with B = F Fᵀ (plane strain: b_zz = 0).
+fn left_cauchy_green_excess(h: matd) -> matd {
+    return h + transpose(h) + h * transpose(h);
+}
+
+// The Kirchhoff stress τ = J σ of the Mooney–Rivlin rubber (seed 001 eq 18;
+// src/mooney_rivlin.rs) from H = F − I: with b = B − I and ln I3 = 2 ln J,
+// τ = c1 (b − (I3^(1/3) − 1) I) + c2 (b + tr b I + tr b b − b² − 2 (I3^(2/3) − 1) I)
+// + λ ln I3 I, every term small at small strain.
+fn mooney_rivlin_kirchhoff(h: matd) -> matd {
+    let b = left_cauchy_green_excess(h);
+    let tr_b = trace_d(b);
+    let ln_i3 = 2.0 * log_1p(det_excess(h));
+    let spherical = MR_LAMBDA * ln_i3 - MR_C1 * exp_minus_1(ln_i3 / 3.0)
+        + MR_C2 * (tr_b - 2.0 * exp_minus_1(2.0 * ln_i3 / 3.0));
+    return b * (MR_C1 + MR_C2 * (1.0 + tr_b)) - b * b * MR_C2 + identity_d() * spherical;
+}
+
+// W of the Mooney–Rivlin rubber (src/mooney_rivlin.rs), with ℓ = ln J:
+// W = c1/2 (I1 − 3 − 3(I3^(1/3) − 1)) + c2/2 (I2 − 3 − 3(I3^(2/3) − 1)) + λ ℓ², regrouped
+// so that the first-order terms cancel analytically: with a = I1 − 3 − 2ℓ = H:H +
+// 2((x − ln(1 + x)) − q) (x = J − 1, q = x − tr H) and g(y) = e^y − 1 − y,
+// I1 − 3 − 3(I3^(1/3) − 1) = a − 3 g(⅔ℓ) and, as I2 − 3 = 2 tr b + ½((tr b)² − b:b),
+// I2 − 3 − 3(I3^(2/3) − 1) = 2a + ½((tr b)² − b:b) − 3 g(4ℓ/3).
+fn mooney_rivlin_energy(h: matd) -> f32 {
+    let x = det_excess(h);
+    let ln_j = log_1p(x);
+    let a = ddot_d(h, h) + 2.0 * (x_minus_log_1p(x) - (x - trace_d(h)));
+    let b = left_cauchy_green_excess(h);
+    let tr_b = trace_d(b);
+    let first = a - 3.0 * exp_minus_1_minus(2.0 / 3.0 * ln_j);
+    let second = 2.0 * a + 0.5 * (tr_b * tr_b - ddot_d(b, b)) - 3.0 * exp_minus_1_minus(4.0 / 3.0 * ln_j);
+    return 0.5 * MR_C1 * first + 0.5 * MR_C2 * second + MR_LAMBDA * ln_j * ln_j;
+}
+
 // First Piola–Kirchhoff stress of the state models: E = ½(H + Hᵀ + HᵀH) for SVK;
 // F − F⁻ᵀ = H + Hᵀ F⁻ᵀ for neo-Hookean; ε = sym H for linear elasticity; for the
-// polyconvex model F − ⅓F:F F⁻ᵀ = (H + Hᵀ F⁻ᵀ) − ⅓(F:F − 3) F⁻ᵀ.
+// polyconvex model F − ⅓F:F F⁻ᵀ = (H + Hᵀ F⁻ᵀ) − ⅓(F:F − 3) F⁻ᵀ; τ F⁻ᵀ for the
+// Mooney–Rivlin rubber.
 fn pk1(h: matd, f_inv_t: matd) -> matd {
     let f = identity_d() + h;
+    if MODEL == MODEL_MOONEY_RIVLIN {
+        return mooney_rivlin_kirchhoff(h) * f_inv_t;
+    }
     if MODEL == MODEL_SAINT_VENANT_KIRCHHOFF {
         let e = (h + transpose(h) + transpose(h) * h) * 0.5;
         return f * (identity_d() * (LAMBDA * trace_d(e)) + e * (2.0 * MU));
@@ -87,7 +137,7 @@ fn pk1(h: matd, f_inv_t: matd) -> matd {
 fn pk1_mixed(f: matd, h: matd, j: f32) -> matd {
     if MODEL != MODEL_NEARLY_INCOMPRESSIBLE_NEO_HOOKEAN {
         var f_inv_t = identity_d();
-        if MODEL == MODEL_NEO_HOOKEAN {
+        if MODEL == MODEL_NEO_HOOKEAN || MODEL == MODEL_MOONEY_RIVLIN {
             f_inv_t = transpose(inverse_d(identity_d() + f));
         }
         return pk1(f, f_inv_t);
@@ -119,6 +169,9 @@ fn energy_density(h: matd, s: matd, rho_dev: f32) -> f32 {
         let eps = (h + transpose(h)) * 0.5;
         let tr = trace_d(eps);
         return 0.5 * LAMBDA * tr * tr + MU * ddot_d(eps, eps);
+    }
+    if MODEL == MODEL_MOONEY_RIVLIN {
+        return mooney_rivlin_energy(h);
     }
     let x = det_excess(h);
     if MODEL == MODEL_NEARLY_INCOMPRESSIBLE_NEO_HOOKEAN {

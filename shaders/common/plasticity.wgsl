@@ -1,7 +1,7 @@
 // Von Mises hyperelastic-plastic return map (seed 003 Algorithm 2; src/plasticity.rs) in
 // f32 3 × 3 tensors, and the per-particle history it reads: hist holds 10 floats per real
 // particle, [C_p⁻¹]ⁿ by columns then ε_pⁿ. Constants: MU, BULK, YIELD (τ_y⁰), HARDENING
-// (H). Needs eigen.wgsl.
+// (H, negative for softening). Needs eigen.wgsl.
 
 struct History {
     cp_inv: mat3x3<f32>,
@@ -43,12 +43,15 @@ fn return_map(f: mat3x3<f32>, h: History) -> Returned {
     let ln_stretch = 0.5 * log(e.values);
     let tau_trial = 2.0 * MU * ln_stretch - vec3<f32>(2.0 / 3.0 * MU * ln_j);
     let norm = length(tau_trial);
-    // (6)–(7)
-    let yield_fn = sqrt(1.5) * norm - (YIELD + HARDENING * h.eps_p);
+    // (6)–(7) with τ_y = max(τ_y⁰ + H ε_p, 0): a softening H < 0 stops at zero yield
+    // stress, where Δγ = q̄/(3μ) (Hardening::multiplier in src/plasticity.rs).
+    let q_trial = sqrt(1.5) * norm;
+    let linear_yield = YIELD + HARDENING * h.eps_p;
+    let yield_fn = q_trial - max(linear_yield, 0.0);
     var dgamma = 0.0;
     var scale = 1.0;
     if yield_fn > 0.0 {
-        dgamma = yield_fn / (3.0 * MU + HARDENING);
+        dgamma = min((q_trial - linear_yield) / (3.0 * MU + HARDENING), q_trial / (3.0 * MU));
         scale = sqrt(2.0 / 3.0) * norm;
     }
     // (8), (10)–(13)

@@ -156,7 +156,9 @@ pub fn check_f32_run<D: crate::tensor::Dim>(
         let magnitude = |t: &[f64]| t.iter().map(|c| c * c).sum::<f64>();
         let b = (0..case.boundaries.len())
             .filter_map(|b| match &case.boundaries[b].condition {
-                crate::scene::Condition::Traction { traction } => Some((b, magnitude(traction))),
+                crate::scene::Condition::Traction { traction, .. } => {
+                    Some((b, magnitude(traction)))
+                }
                 _ => None,
             })
             .max_by(|x, y| x.1.total_cmp(&y.1))
@@ -179,9 +181,16 @@ pub fn check_f32_range(case: &Case, constants: &Constants) -> Result<(), CaseErr
     let Some((name, value)) = constants.out_of_f32_range() else {
         return Ok(());
     };
+    let rubber = case.material.model.reads_mooney_rivlin_constants();
     let key = match name {
         "RHO0" => "material.density",
+        // The Mooney–Rivlin μ = c1 + c2 and the moduli and speeds that λ dominates.
+        "MU" if rubber => "material.c1",
+        "LAMBDA" | "BULK" | "C_P" | "C_S" if rubber => "material.lambda",
         "MU" | "LAMBDA" | "BULK" | "C_P" | "C_S" => "material.youngs_modulus",
+        "MR_C1" => "material.c1",
+        "MR_C2" => "material.c2",
+        "MR_LAMBDA" => "material.lambda",
         "YIELD" => "material.yield_stress",
         "HARDENING" => "material.hardening_modulus",
         "EPS2" | "EPS4" => "method.jst",

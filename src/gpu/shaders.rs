@@ -145,6 +145,21 @@ pub const CONTACT: Source = source!(
         ],
     }]
 );
+/// Loads that vary in time (`interaction::TimedLoads`): an item is a particle, whose
+/// acceleration it reads from every group.
+pub const LOADS: Source = source!(
+    "common/loads.wgsl",
+    [],
+    [("loads", false), ("ext", true)],
+    &[PassBytes {
+        entry: "timed_loads",
+        traffic: &[
+            read("loads", [0, 1, 0], NONE),
+            read("law", NONE, NONE),
+            read_write("ext", [0, 1, 0], NONE),
+        ],
+    }]
+);
 /// Cell list and neighbour lists, with the constants of `gpu::neighbour::constants`. An
 /// item is a particle (a cell in `copy_cursor`, either in `clear_counts`); the cell
 /// starts, the sorted ids and a candidate's position are counted once per item, however
@@ -309,7 +324,8 @@ impl Constants {
         .f32("KERNEL_SCALE", kernel.scale())
     }
 
-    /// MODEL (a choice), RHO0, MU, LAMBDA, BULK and RATE of a material (mechanics.wgsl).
+    /// MODEL (a choice), RHO0, MU, LAMBDA, BULK, RATE and the Mooney–Rivlin constants
+    /// MR_C1, MR_C2, MR_LAMBDA (zero for the other models) of a material (mechanics.wgsl).
     pub fn material(self, material: &Material) -> Self {
         let model = match material.model {
             MaterialModel::Hypoelastic => 0,
@@ -318,7 +334,9 @@ impl Constants {
             MaterialModel::LinearElastic => 3,
             MaterialModel::NearlyIncompressibleNeoHookean => 4,
             MaterialModel::VonMisesPlastic => 5,
+            MaterialModel::MooneyRivlin => 6,
         };
+        let rubber = material.mooney_rivlin;
         self.choice(
             "MODEL",
             &[
@@ -328,6 +346,7 @@ impl Constants {
                 "LINEAR_ELASTIC",
                 "NEARLY_INCOMPRESSIBLE_NEO_HOOKEAN",
                 "VON_MISES_PLASTIC",
+                "MOONEY_RIVLIN",
             ],
             model,
         )
@@ -336,6 +355,9 @@ impl Constants {
         .f32("MU", material.mu)
         .f32("LAMBDA", material.lambda)
         .f32("BULK", material.bulk)
+        .f32("MR_C1", rubber.map_or(0.0, |m| m.c1))
+        .f32("MR_C2", rubber.map_or(0.0, |m| m.c2))
+        .f32("MR_LAMBDA", rubber.map_or(0.0, |m| m.lambda))
     }
 
     /// The first f32 constant whose value f32 cannot hold: infinite, or a nonzero value

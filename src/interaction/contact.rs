@@ -178,8 +178,11 @@ impl<D: Dim> super::gpu::GpuInteraction for Contact<D> {
         Ok(super::gpu::Pass {
             pipeline,
             bind,
-            params,
-            uniform: Box::new(move |dt| [(penalty / (dt * dt)) as f32, 0.0, 0.0, 0.0]),
+            params: Some((
+                params,
+                Box::new(move |dt| [(penalty / (dt * dt)) as f32, 0.0, 0.0, 0.0]),
+            )),
+            step_values: None,
         })
     }
 }

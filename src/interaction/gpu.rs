@@ -1,11 +1,19 @@
 //! Interactions on the device: passes recorded before every step. The engine copies the
 //! traction loads into its `ext` buffer, then each pass adds its particles'
 //! accelerations there, and the rate passes add `ext` (`shaders/common/boundary.wgsl`).
+//!
+//! A pass may take values that change from step to step (the law values of the timed
+//! loads): the host keeps the time of the next step it records (set by the engine at the
+//! start of every batch, and advanced by Δt with each recorded step), writes the step's
+//! values into a staging buffer as it records the step (each step its own slot, so the
+//! writes of a whole batch land before its command buffer runs) and records a copy of
+//! them into the pass's buffer before the pass. Nothing is read back.
 
 use super::Interactions;
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::shaders::Source;
 use crate::tensor::Dim;
+use std::cell::{Cell, RefCell};
 
 /// The engine buffers an interaction pass binds.
 pub struct Bindings<'a> {
@@ -21,10 +29,55 @@ pub struct Bindings<'a> {
 pub struct Pass {
     pub pipeline: Pipeline,
     pub bind: wgpu::BindGroup,
-    /// Its uniform, rewritten from Δt before the steps are recorded.
-    pub params: wgpu::Buffer,
-    /// The uniform's value for a step of size Δt.
-    pub uniform: Box<dyn Fn(f64) -> [f32; 4] + Send + Sync>,
+    /// Its uniform, rewritten from Δt before the steps are recorded, and the uniform's
+    /// value for a step of size Δt.
+    pub params: Option<(wgpu::Buffer, Uniform)>,
+    /// Values written for every step it runs in.
+    pub step_values: Option<StepValues>,
+}
+
+/// A pass's uniform for a step of size Δt.
+pub type Uniform = Box<dyn Fn(f64) -> [f32; 4] + Send + Sync>;
+
+/// Values a pass reads that change from step to step.
+pub struct StepValues {
+    /// The storage buffer the pass reads them from.
+    pub target: wgpu::Buffer,
+    /// The values of the step from t to t + Δt.
+    pub values: Box<dyn Fn(f64, f64) -> Vec<f32> + Send + Sync>,
+}
+
+/// Staging buffers for the step values of the batch being recorded: slots taken in
+/// order, a new buffer when one is full; all free again at the next batch.
+#[derive(Default)]
+struct Staging {
+    buffers: Vec<wgpu::Buffer>,
+    /// The buffer and byte offset of the next slot.
+    at: (usize, u64),
+}
+
+impl Staging {
+    /// Bytes of one staging buffer (more if a slot needs it).
+    const CHUNK: u64 = 1 << 16;
+
+    /// A slot of `bytes` for the batch being recorded.
+    fn slot(&mut self, gpu: &Gpu, bytes: u64) -> (&wgpu::Buffer, u64) {
+        let (mut k, mut offset) = self.at;
+        if k < self.buffers.len() && offset + bytes > self.buffers[k].size() {
+            (k, offset) = (k + 1, 0);
+        }
+        if k == self.buffers.len() {
+            self.buffers
+                .push(gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("step values (staging)"),
+                    size: bytes.max(Self::CHUNK),
+                    usage: wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                }));
+        }
+        self.at = (k, offset + bytes);
+        (&self.buffers[k], offset)
+    }
 }
 
 /// An interaction that runs on the device.
@@ -44,6 +97,10 @@ pub struct GpuInteractions {
     /// The traction loads, copied into `ext` before the passes add to it.
     traction: wgpu::Buffer,
     ext: wgpu::Buffer,
+    /// The time of the next step recorded, and the step size.
+    time: Cell<f64>,
+    dt: Cell<f64>,
+    staging: RefCell<Staging>,
 }
 
 impl GpuInteractions {
@@ -81,7 +138,21 @@ impl GpuInteractions {
             passes,
             traction,
             ext,
+            time: Cell::new(0.0),
+            dt: Cell::new(0.0),
+            staging: RefCell::default(),
         })
+    }
+
+    /// The time of the next step recorded.
+    pub fn time(&self) -> f64 {
+        self.time.get()
+    }
+
+    /// Sets the time of the next step recorded (the engine's, at the start of a batch:
+    /// the clock otherwise advances by Δt with every step recorded from t = 0).
+    pub fn set_time(&self, t: f64) {
+        self.time.set(t);
     }
 
     /// The external accelerations the rate passes add.
@@ -89,19 +160,34 @@ impl GpuInteractions {
         &self.ext
     }
 
-    /// Writes the passes' uniforms for steps of size dt.
+    /// Writes the passes' uniforms for steps of size dt, before a batch of steps is
+    /// recorded (the staging slots of the previous batch are free again: it was
+    /// submitted).
     pub fn set_step(&self, gpu: &Gpu, dt: f64) {
-        for p in &self.passes {
+        self.dt.set(dt);
+        self.staging.borrow_mut().at = (0, 0);
+        for (params, uniform) in self.passes.iter().filter_map(|p| p.params.as_ref()) {
             gpu.queue
-                .write_buffer(&p.params, 0, bytemuck::cast_slice(&(p.uniform)(dt)));
+                .write_buffer(params, 0, bytemuck::cast_slice(&uniform(dt)));
         }
     }
 
-    /// Records the work before a step: `ext` = traction, then every pass over n particles.
+    /// Records the work before a step: the step's values of the passes that take them,
+    /// `ext` = traction, then every pass over n particles; the clock moves on by Δt.
     pub fn record(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, n: u32) {
         if self.passes.is_empty() {
             return;
         }
+        let (t, dt) = (self.time.get(), self.dt.get());
+        for feed in self.passes.iter().filter_map(|p| p.step_values.as_ref()) {
+            let values = (feed.values)(t, dt);
+            let bytes: &[u8] = bytemuck::cast_slice(&values);
+            let mut staging = self.staging.borrow_mut();
+            let (buffer, offset) = staging.slot(gpu, bytes.len() as u64);
+            gpu.queue.write_buffer(buffer, offset, bytes);
+            encoder.copy_buffer_to_buffer(buffer, offset, &feed.target, 0, bytes.len() as u64);
+        }
+        self.time.set(t + dt);
         encoder.copy_buffer_to_buffer(&self.traction, 0, &self.ext, 0, self.traction.size());
         let mut pass = encoder.begin_compute_pass(&Default::default());
         for p in &self.passes {

@@ -1,6 +1,6 @@
 //! Interactions: forces that act on the bodies besides a method's internal forces
-//! (contact between bodies now; body forces, time-dependent loads and hourglass control
-//! plug in the same way). A method holds the scene's [`Interactions`] and calls them at
+//! (contact between bodies, and the loads that vary in time; body forces and hourglass
+//! control plug in the same way). A method holds the scene's [`Interactions`] and calls them at
 //! named points of a step, on either backend:
 //!
 //! - before the step ([`Interaction::begin_step`]), from the positions and velocities at
@@ -16,8 +16,10 @@
 pub mod contact;
 #[cfg(feature = "gpu")]
 pub mod gpu;
+pub mod loads;
 
 pub use contact::Contact;
+pub use loads::TimedLoads;
 
 use crate::neighbour::Csr;
 use crate::scene::{Case, CaseError};
@@ -55,6 +57,9 @@ impl<D: Dim> Interactions<D> {
         neighbours: impl FnOnce() -> Csr,
     ) -> Result<Self, CaseError> {
         let mut list: Vec<Box<dyn Interaction<D>>> = Vec::new();
+        if let Some(loads) = TimedLoads::<D>::build(case)? {
+            list.push(Box::new(loads));
+        }
         if let Some(spec) = case.contact {
             contact::apart::<D>(case, &neighbours(), body)?;
             list.push(Box::new(Contact::<D>::new(

@@ -527,10 +527,11 @@ pub fn state_model(case: &Case) -> Result<(), Problem> {
         return crate::scene::validate::fail(
             "material.model",
             format!(
-                "`{}` evaluates the stress from F: use a state model \
-                 (`saint-venant-kirchhoff`, `neo-hookean`, `linear-elastic` or \
-                 `nearly-incompressible-neo-hookean`), not {}",
+                "`{}` evaluates the stress from F: use a state model ({}), not {}",
                 case.method.name(),
+                crate::material::MaterialModel::names_where(
+                    |m| !m.is_rate_based() && m != crate::material::MaterialModel::VonMisesPlastic
+                ),
                 crate::scene::validate::toml_name(&case.material.model)
             ),
         );

@@ -11,6 +11,7 @@ pub use geometry::{BodySize, Discretised, PARTICLE_ID_LIMIT, discretise, estimat
 
 use crate::material::MaterialModel;
 use crate::methods::{MethodTable, drop_foreign_keys};
+use crate::mooney_rivlin::MooneyRivlin;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use thiserror::Error;
@@ -71,17 +72,57 @@ pub struct MaterialSpec {
     pub model: MaterialModel,
     /// Reference density ρ0 [kg/m³].
     pub density: f64,
-    /// Young's modulus E [Pa].
-    pub youngs_modulus: f64,
-    /// Poisson ratio ν.
-    pub poisson_ratio: f64,
+    /// Young's modulus E [Pa]: every model but `mooney-rivlin`.
+    pub youngs_modulus: Option<f64>,
+    /// Poisson ratio ν: every model but `mooney-rivlin`.
+    pub poisson_ratio: Option<f64>,
     /// `von-mises-plastic`: initial yield stress τ_y⁰ [Pa].
     pub yield_stress: Option<f64>,
-    /// `von-mises-plastic`: linear isotropic hardening modulus H [Pa].
+    /// `von-mises-plastic`: linear isotropic hardening modulus H [Pa]: τ_y = τ_y⁰ + H ε_p,
+    /// negative for softening (down to τ_y = 0).
     pub hardening_modulus: Option<f64>,
+    /// `mooney-rivlin`: c1 of seed 001 eq 18 [Pa].
+    pub c1: Option<f64>,
+    /// `mooney-rivlin`: c2 of seed 001 eq 18 [Pa].
+    pub c2: Option<f64>,
+    /// `mooney-rivlin`: λ of seed 001 eq 18 [Pa], half the bulk modulus (not Lamé's λ,
+    /// which is 2λ − ⅔(c1 + c2)).
+    pub lambda: Option<f64>,
     /// What the out-of-plane direction of a 2D scene holds fixed.
     #[serde(default)]
     pub plane: Plane,
+}
+
+impl MaterialSpec {
+    /// The constants of a `mooney-rivlin` material (None for the other models).
+    pub fn mooney_rivlin(&self) -> Option<MooneyRivlin> {
+        match (self.model, self.c1, self.c2, self.lambda) {
+            (MaterialModel::MooneyRivlin, Some(c1), Some(c2), Some(lambda)) => {
+                Some(MooneyRivlin { c1, c2, lambda })
+            }
+            _ => None,
+        }
+    }
+
+    /// Young's modulus and Poisson's ratio (E, ν): as given, or for `mooney-rivlin` those
+    /// of its linearisation at F = I (μ = c1 + c2, λ_L = 2λ − ⅔μ). The closed-form
+    /// solutions of linear elasticity take them. NaN where validation would refuse the
+    /// case.
+    pub fn youngs_and_poisson(&self) -> (f64, f64) {
+        match self.mooney_rivlin() {
+            Some(m) => {
+                let (mu, lambda) = m.lame();
+                (
+                    mu * (3.0 * lambda + 2.0 * mu) / (lambda + mu),
+                    lambda / (2.0 * (lambda + mu)),
+                )
+            }
+            None => (
+                self.youngs_modulus.unwrap_or(f64::NAN),
+                self.poisson_ratio.unwrap_or(f64::NAN),
+            ),
+        }
+    }
 }
 
 /// The out-of-plane assumption of a 2D scene.
@@ -256,8 +297,26 @@ pub enum Condition {
     },
     /// Mirror plane with the given normal: the normal velocity component is zero.
     Symmetry { normal: Axis },
-    /// Surface traction t [Pa] on the region's particles, f = t·Δx^(d−1) each.
-    Traction { traction: Vec<f64> },
+    /// Surface traction t [Pa] on the region's particles, f = t·Δx^(d−1) each, times the
+    /// time law (constant by default).
+    Traction {
+        traction: Vec<f64>,
+        #[serde(default, skip_serializing_if = "TimeLaw::is_constant")]
+        law: TimeLaw,
+    },
+    /// A pressure p [Pa] on a circle of the reference configuration (2D): the region's
+    /// particles within Δx of the circle on the body's side (`inner`: the body lies
+    /// outside it, as round a ring's hole; `outer`: inside) carry p times their share of
+    /// the circle's length (half the angle to each neighbour along it, times the radius)
+    /// along the normal into the body, times the time law.
+    Pressure {
+        pressure: f64,
+        center: Vec<f64>,
+        radius: f64,
+        surface: Surface,
+        #[serde(default, skip_serializing_if = "TimeLaw::is_constant")]
+        law: TimeLaw,
+    },
     /// Prescribed displacement components [m] reached at the end time (static path: the
     /// load steps ramp them with the load factor t/end_time); the others stay free.
     Displacement {
@@ -280,6 +339,79 @@ pub enum Condition {
         solution: Solution,
         normal: Vec<f64>,
     },
+}
+
+impl Condition {
+    /// Whether the condition is a load that `interaction::TimedLoads` applies: a traction
+    /// with a time law, or a pressure (constant or not).
+    pub fn is_timed_load(&self) -> bool {
+        match self {
+            Self::Traction { law, .. } => !law.is_constant(),
+            Self::Pressure { .. } => true,
+            _ => false,
+        }
+    }
+}
+
+/// Which side of a pressure's circle the body lies on.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum Surface {
+    /// The body lies outside the circle (a hole): the pressure pushes outwards.
+    Inner,
+    /// The body lies inside the circle: the pressure pushes inwards.
+    Outer,
+}
+
+/// How a load varies in time: its value at time t is the condition's times law(t). A
+/// load is evaluated at the middle of each step and held through its stages (as the
+/// contact forces are), on both backends.
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
+#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum TimeLaw {
+    /// 1 at every time.
+    #[default]
+    Constant,
+    /// t/duration until `duration`, 1 after.
+    Ramp { duration: f64 },
+    /// 1 until `start` (default 0), exp(−(t − start)/tau) after: a load held and then
+    /// decaying with the time constant tau [s].
+    Exponential {
+        tau: f64,
+        #[serde(default)]
+        start: f64,
+    },
+    /// Linear between the points [t, value], times non-decreasing; the first value before
+    /// the first time and the last after the last. A time given twice is a jump: the
+    /// second value holds from that time on (`[[0, 1], [1e-4, 1], [1e-4, 0]]` holds a load
+    /// for 0.1 ms and removes it).
+    Table { points: Vec<[f64; 2]> },
+}
+
+impl TimeLaw {
+    pub fn is_constant(&self) -> bool {
+        *self == Self::Constant
+    }
+
+    /// The law's value at time t.
+    pub fn at(&self, t: f64) -> f64 {
+        match self {
+            Self::Constant => 1.0,
+            Self::Ramp { duration } => (t / duration).clamp(0.0, 1.0),
+            Self::Exponential { tau, start } => (-(t - start).max(0.0) / tau).exp(),
+            Self::Table { points } => {
+                // The last point at or before t (right-continuous at a jump).
+                match points.iter().rposition(|p| p[0] <= t) {
+                    None => points.first().map_or(1.0, |p| p[1]),
+                    Some(k) if k + 1 == points.len() => points[k][1],
+                    Some(k) => {
+                        let ([t0, v0], [t1, v1]) = (points[k], points[k + 1]);
+                        v0 + (v1 - v0) * (t - t0) / (t1 - t0)
+                    }
+                }
+            }
+        }
+    }
 }
 
 /// Closed-form solutions that boundary conditions can take their values from.
@@ -607,7 +739,42 @@ pub fn fnv1a(bytes: &[u8]) -> u64 {
 
 #[cfg(test)]
 mod tests {
-    use super::Statistic;
+    use super::{Statistic, TimeLaw};
+
+    #[test]
+    fn time_laws_take_their_values() {
+        // Exact values (the arithmetic is a division, a clamp or one exponential, ~1e-16).
+        assert_eq!(TimeLaw::Constant.at(-1.0), 1.0);
+        assert_eq!(TimeLaw::Constant.at(5.0), 1.0);
+        let ramp = TimeLaw::Ramp { duration: 2.0 };
+        assert_eq!(
+            [ramp.at(-1.0), ramp.at(0.5), ramp.at(2.0), ramp.at(7.0)],
+            [0.0, 0.25, 1.0, 1.0]
+        );
+        let decay = TimeLaw::Exponential {
+            tau: 1e-4,
+            start: 2e-4,
+        };
+        assert_eq!(decay.at(1e-4), 1.0);
+        assert!((decay.at(3e-4) - (-1f64).exp()).abs() < 1e-15);
+        assert!((decay.at(4e-4) - (-2f64).exp()).abs() < 1e-15);
+        // Held for 0.1 ms, then removed: a jump at a time given twice, the later value
+        // from that time on; linear between points; the end values beyond the ends.
+        let held = TimeLaw::Table {
+            points: vec![[0.0, 1.0], [1e-4, 1.0], [1e-4, 0.0]],
+        };
+        assert_eq!(
+            [held.at(-1.0), held.at(5e-5), held.at(1e-4), held.at(1.0)],
+            [1.0, 1.0, 0.0, 0.0]
+        );
+        let table = TimeLaw::Table {
+            points: vec![[1.0, 2.0], [3.0, 6.0], [4.0, 0.0]],
+        };
+        assert_eq!(
+            [table.at(0.0), table.at(2.0), table.at(3.5), table.at(9.0)],
+            [2.0, 4.0, 3.0, 0.0]
+        );
+    }
 
     #[test]
     fn statistics_of_a_series_column() {

@@ -7,9 +7,10 @@
 
 use super::{
     Axis, BodySpec, BoundarySpec, Case, Condition, ContactSpec, Lattice, MaterialSpec, Observer,
-    OutputSpec, Plane, ProbeSpec, Region, RunSpec, Shape, Solution, VelocityField, Volumes,
+    OutputSpec, Plane, ProbeSpec, Region, RunSpec, Shape, Solution, TimeLaw, VelocityField,
+    Volumes,
 };
-use crate::material::MaterialModel;
+use crate::material::{Material, MaterialModel};
 use crate::methods::{Feature, MethodTable, Problem, REGISTRY, entry, quoted, supporting};
 use serde::Serialize;
 use std::collections::HashSet;
@@ -41,6 +42,23 @@ pub(super) fn check(case: &Case) -> Result<(), (String, String)> {
     bodies(&case.bodies, dim)?;
     for (i, boundary) in case.boundaries.iter().enumerate() {
         self::boundary(boundary, &format!("boundary.{i}"), &case.bodies, dim)?;
+        if boundary.condition.is_timed_load()
+            && case
+                .method
+                .spec
+                .entry()
+                .features
+                .contains(&Feature::PrescribedDisplacement)
+        {
+            return fail(
+                format!("boundary.{i}.condition"),
+                format!(
+                    "`{}` is static: its load steps scale the loads by t/end_time, so it takes \
+                     no pressure and no time law; give a constant `traction`",
+                    case.method.name()
+                ),
+            );
+        }
         if matches!(
             boundary.condition,
             Condition::Displacement { .. } | Condition::SolutionDisplacement { .. }
@@ -171,11 +189,83 @@ fn top_level(case: &Case) -> Checked {
     )
 }
 
+/// A key of `[material]` that only some models read.
+struct ModelKey {
+    key: &'static str,
+    value: Option<f64>,
+    reads: fn(MaterialModel) -> bool,
+    /// What a model that reads it must be given.
+    needs: &'static str,
+}
+
+/// The keys of `[material]` that only some models read.
+fn model_keys(m: &MaterialSpec) -> [ModelKey; 7] {
+    let elastic = |model: MaterialModel| !model.reads_mooney_rivlin_constants();
+    let plastic = |model| model == MaterialModel::VonMisesPlastic;
+    let rubber = MaterialModel::reads_mooney_rivlin_constants;
+    const E_NU: &str = "give `youngs_modulus` (E [Pa], > 0) and `poisson_ratio` (ν in (−1, 0.5))";
+    const PLASTIC: &str = "give `yield_stress` (τ_y⁰ [Pa], > 0) and `hardening_modulus` (H \
+                           [Pa], > −3μ; negative softens, the yield stress stopping at zero)";
+    const RUBBER: &str = "give `c1` [Pa] (> 0), `c2` [Pa] (≥ 0) and `lambda` [Pa] (> 0), the \
+                          constants of seed 001 eq 18";
+    let key = |key, value, reads, needs| ModelKey {
+        key,
+        value,
+        reads,
+        needs,
+    };
+    [
+        key("youngs_modulus", m.youngs_modulus, elastic, E_NU),
+        key("poisson_ratio", m.poisson_ratio, elastic, E_NU),
+        key("yield_stress", m.yield_stress, plastic, PLASTIC),
+        key("hardening_modulus", m.hardening_modulus, plastic, PLASTIC),
+        key("c1", m.c1, rubber, RUBBER),
+        key("c2", m.c2, rubber, RUBBER),
+        key("lambda", m.lambda, rubber, RUBBER),
+    ]
+}
+
 fn material(m: &MaterialSpec) -> Checked {
     positive("material.density", m.density)?;
-    positive("material.youngs_modulus", m.youngs_modulus)?;
-    let nu = m.poisson_ratio;
-    if !(nu > -1.0 && nu < 0.5) {
+    for ModelKey {
+        key,
+        value,
+        reads,
+        needs,
+    } in model_keys(m)
+    {
+        let key = format!("material.{key}");
+        match value {
+            Some(_) if !reads(m.model) => {
+                let names: Vec<String> = MaterialModel::ALL
+                    .iter()
+                    .filter(|&&r| reads(r))
+                    .map(|r| format!("`{}`", toml_name(r)))
+                    .collect();
+                return fail(
+                    key,
+                    format!(
+                        "is read only by {}, not by `{}`; remove it",
+                        names.join(", "),
+                        toml_name(&m.model)
+                    ),
+                );
+            }
+            None if reads(m.model) => {
+                return fail(
+                    key,
+                    format!("the `{}` model needs it: {needs}", toml_name(&m.model)),
+                );
+            }
+            _ => {}
+        }
+    }
+    if let Some(e) = m.youngs_modulus {
+        positive("material.youngs_modulus", e)?;
+    }
+    if let Some(nu) = m.poisson_ratio
+        && !(nu > -1.0 && nu < 0.5)
+    {
         return fail(
             "material.poisson_ratio",
             format!(
@@ -184,37 +274,33 @@ fn material(m: &MaterialSpec) -> Checked {
             ),
         );
     }
-    let plastic = m.model == MaterialModel::VonMisesPlastic;
-    for (key, value) in [
-        ("yield_stress", m.yield_stress),
-        ("hardening_modulus", m.hardening_modulus),
-    ] {
-        let key = format!("material.{key}");
-        match value {
-            Some(_) if !plastic => {
-                return fail(
-                    key,
-                    format!(
-                        "is read only by the `von-mises-plastic` model, not by {}; remove it",
-                        toml_name(&m.model)
-                    ),
-                );
-            }
-            None if plastic => {
-                return fail(
-                    key,
-                    "the `von-mises-plastic` model needs it: give `yield_stress` (τ_y⁰ [Pa], > 0) \
-                     and `hardening_modulus` (H [Pa], ≥ 0)",
-                );
-            }
-            _ => {}
-        }
-    }
     if let Some(y) = m.yield_stress {
         positive("material.yield_stress", y)?;
     }
     if let Some(h) = m.hardening_modulus {
-        non_negative("material.hardening_modulus", h)?;
+        finite("material.hardening_modulus", h)?;
+        // Δγ = f/(3μ + H) of the radial return needs 3μ + H > 0: the yield function then
+        // decreases along the return and has one root.
+        let mu = Material::new(m).mu;
+        if h <= -3.0 * mu {
+            return fail(
+                "material.hardening_modulus",
+                format!(
+                    "is {h:?}; softening (H < 0) must stay above −3μ = {:e} Pa (μ = E/(2(1 + \
+                     ν))), where the radial return has no unique solution",
+                    -3.0 * mu
+                ),
+            );
+        }
+    }
+    if let Some(c1) = m.c1 {
+        positive("material.c1", c1)?;
+    }
+    if let Some(c2) = m.c2 {
+        non_negative("material.c2", c2)?;
+    }
+    if let Some(lambda) = m.lambda {
+        positive("material.lambda", lambda)?;
     }
     Ok(())
 }
@@ -662,7 +748,31 @@ fn boundary(b: &BoundarySpec, key: &str, bodies: &[BodySpec], dim: usize) -> Che
             }
             Ok(())
         }
-        Condition::Traction { traction } => vector(&format!("{key}.traction"), traction, dim),
+        Condition::Traction { traction, law } => {
+            vector(&format!("{key}.traction"), traction, dim)?;
+            time_law(law, &format!("{key}.law"))
+        }
+        Condition::Pressure {
+            pressure,
+            center,
+            radius,
+            law,
+            ..
+        } => {
+            if dim != 2 {
+                return fail(
+                    key,
+                    format!(
+                        "a pressure acts on a circle of a 2D scene, but the case has dimension \
+                         = {dim}; in 3D give a `traction` on a face"
+                    ),
+                );
+            }
+            finite(&format!("{key}.pressure"), *pressure)?;
+            vector(&format!("{key}.center"), center, dim)?;
+            positive(&format!("{key}.radius"), *radius)?;
+            time_law(law, &format!("{key}.law"))
+        }
         Condition::Displacement { ux, uy, uz } => {
             if ux.is_none() && uy.is_none() && uz.is_none() {
                 let allowed = if dim == 3 { "ux, uy, uz" } else { "ux, uy" };
@@ -723,6 +833,48 @@ fn boundary(b: &BoundarySpec, key: &str, bodies: &[BodySpec], dim: usize) -> Che
                         "must be the outward unit normal of a face along an axis, such as \
                          [1, 0{}], got {normal:?}",
                         if dim == 3 { ", 0" } else { "" }
+                    ),
+                );
+            }
+            Ok(())
+        }
+    }
+}
+
+/// A time law: positive durations and time constants, a table of finite points with
+/// non-decreasing times.
+fn time_law(law: &TimeLaw, key: &str) -> Checked {
+    match law {
+        TimeLaw::Constant => Ok(()),
+        TimeLaw::Ramp { duration } => positive(&format!("{key}.duration"), *duration),
+        TimeLaw::Exponential { tau, start } => {
+            positive(&format!("{key}.tau"), *tau)?;
+            non_negative(&format!("{key}.start"), *start)
+        }
+        TimeLaw::Table { points } => {
+            if points.is_empty() {
+                return fail(
+                    format!("{key}.points"),
+                    "is empty; give [time, value] points, e.g. [[0.0, 1.0], [1e-4, 1.0], \
+                     [1e-4, 0.0]] (held for 0.1 ms, then removed)",
+                );
+            }
+            if let Some(p) = points
+                .iter()
+                .find(|p| !(p[0].is_finite() && p[1].is_finite()))
+            {
+                return fail(
+                    format!("{key}.points"),
+                    format!("holds {p:?}; every time and value must be a finite number"),
+                );
+            }
+            if let Some(w) = points.windows(2).find(|w| w[1][0] < w[0][0]) {
+                return fail(
+                    format!("{key}.points"),
+                    format!(
+                        "goes back in time from {:?} to {:?}; the times must not decrease (a \
+                         time given twice is a jump)",
+                        w[0], w[1]
                     ),
                 );
             }
@@ -973,7 +1125,7 @@ mod tests {
     fn first_problem_in_order_is_reported() {
         let mut c = minimal_case();
         c.dimension = 4;
-        c.material.poisson_ratio = 0.5;
+        c.material.poisson_ratio = Some(0.5);
         assert_eq!(key_of(&c), "dimension");
         c.dimension = 2;
         assert_eq!(key_of(&c), "material.poisson_ratio");
@@ -1111,6 +1263,7 @@ mod tests {
         assert!(msg.contains("\"z\""), "{msg}");
         c.boundaries[0].condition = Condition::Traction {
             traction: vec![1.0],
+            law: TimeLaw::Constant,
         };
         assert_eq!(key_of(&c), "boundary.0.condition.traction");
         c.boundaries.clear();

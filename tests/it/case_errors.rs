@@ -811,6 +811,22 @@ fn the_plastic_model_needs_its_hardening_and_a_mixed_method() {
         "material.yield_stress",
         &["von-mises-plastic", "hypoelastic", "remove it"],
     );
+    // Softening (seed 001 §9.5: H = −E/10) is accepted down to −3μ (μ = 3.85e5 Pa here).
+    let softening = edit(
+        &plastic,
+        "hardening_modulus = 1e4",
+        "hardening_modulus = -1e5",
+    );
+    Case::from_toml(&softening, Path::new(FILE), &[]).expect("a softening plastic case");
+    assert_invalid(
+        &edit(
+            &plastic,
+            "hardening_modulus = 1e4",
+            "hardening_modulus = -2e6",
+        ),
+        "material.hardening_modulus",
+        &["-2000000", "−3μ", "-1.153846"],
+    );
     let on_tlsph = edit(&plastic, "name = \"upwind-sph\"", "name = \"tlsph\"");
     assert_invalid(
         &edit(
@@ -820,6 +836,115 @@ fn the_plastic_model_needs_its_hardening_and_a_mixed_method() {
         ),
         "material.model",
         &["von-mises-plastic", "upwind-sph", "jst-sph", "tlsph"],
+    );
+}
+
+// ---------------------------------------------------------------------------------------
+// The Mooney–Rivlin rubber
+
+#[test]
+fn the_mooney_rivlin_model_takes_c1_c2_and_lambda_instead_of_e_and_nu() {
+    let elastic = "youngs_modulus = 1e6\npoisson_ratio = 0.3";
+    let constants = "c1 = 1.265e5\nc2 = 1.012e4\nlambda = 1.012e7";
+    let rubber = edit(
+        &edit(VALID, "\"hypoelastic\"", "\"mooney-rivlin\""),
+        elastic,
+        constants,
+    );
+    Case::from_toml(&rubber, Path::new(FILE), &[]).expect("a valid Mooney–Rivlin case");
+    assert_invalid(
+        &edit(
+            &rubber,
+            "c1 = 1.265e5",
+            "c1 = 1.265e5\nyoungs_modulus = 1e6",
+        ),
+        "material.youngs_modulus",
+        &["not by `mooney-rivlin`", "`neo-hookean`", "remove it"],
+    );
+    assert_invalid(
+        &edit(&rubber, "c2 = 1.012e4\n", ""),
+        "material.c2",
+        &[
+            "`mooney-rivlin` model needs it",
+            "`c1`",
+            "`lambda`",
+            "eq 18",
+        ],
+    );
+    assert_invalid(
+        &edit(&rubber, "c1 = 1.265e5", "c1 = 0.0"),
+        "material.c1",
+        &["> 0", "0.0"],
+    );
+    assert_invalid(
+        &edit(
+            &rubber,
+            "lambda = 1.012e7",
+            "lambda = 1.012e7\nplane = \"stress\"",
+        ),
+        "material.plane",
+        &["`mooney-rivlin`", "plane = \"strain\""],
+    );
+    let neo_hookean = edit(VALID, "\"hypoelastic\"", "\"neo-hookean\"");
+    assert_invalid(
+        &edit(&neo_hookean, elastic, &format!("{elastic}\nc1 = 1e5")),
+        "material.c1",
+        &["read only by `mooney-rivlin`", "not by `neo-hookean`"],
+    );
+    // The updated-Lagrangian SPH methods integrate the rate model only.
+    let on_godunov = edit(&rubber, "name = \"tlsph\"", "name = \"godunov-sph\"");
+    assert_invalid(&on_godunov, "material.model", &["mooney-rivlin"]);
+}
+
+// ---------------------------------------------------------------------------------------
+// Time laws and pressures
+
+#[test]
+fn time_laws_and_pressures_are_checked() {
+    let traction = "[[boundary]]\nregion = { x_min = 1.0 }\ncondition = { type = \"traction\", \
+                    traction = [1e4, 0.0], law = LAW }\n\n[run]";
+    let with_law = |law: &str| edit(VALID, "[run]", &traction.replace("LAW", law));
+    Case::from_toml(
+        &with_law("{ type = \"exponential\", tau = 1e-4 }"),
+        Path::new(FILE),
+        &[],
+    )
+    .expect("a traction decaying exponentially");
+    assert_invalid(
+        &with_law("{ type = \"ramp\", duration = 0.0 }"),
+        "boundary.0.condition.law.duration",
+        &["> 0"],
+    );
+    assert_invalid(
+        &with_law("{ type = \"table\", points = [[1e-4, 1.0], [0.0, 0.0]] }"),
+        "boundary.0.condition.law.points",
+        &["back in time", "must not decrease"],
+    );
+    assert_invalid(
+        &with_law("{ type = \"table\", points = [] }"),
+        "boundary.0.condition.law.points",
+        &["is empty", "[time, value]"],
+    );
+    let pressure = "[[boundary]]\nregion = {}\ncondition = { type = \"pressure\", pressure = \
+                    1e4, center = [0.5, 0.25], radius = 0.1, surface = \"inner\" }\n\n[run]";
+    let with_pressure = edit(VALID, "[run]", pressure);
+    assert_invalid(
+        &edit(&with_pressure, "radius = 0.1", "radius = -0.1"),
+        "boundary.0.condition.radius",
+        &["> 0"],
+    );
+    // The static path scales its loads by t/end_time and takes no time law.
+    let cantilever = std::fs::read_to_string(crate::common::case_file("cantilever-3d")).unwrap();
+    let timed = cantilever.replacen(
+        "[[boundary]]",
+        "[[boundary]]\nregion = { x_min = 8.0 }\ncondition = { type = \"traction\", traction = \
+         [0.0, -1.0, 0.0], law = { type = \"ramp\", duration = 1.0 } }\n\n[[boundary]]",
+        1,
+    );
+    assert_invalid(
+        &timed,
+        "boundary.0.condition",
+        &["`dual-support-sph` is static", "time law"],
     );
 }
 

@@ -17,10 +17,13 @@ fn material(model: MaterialModel) -> Material {
     Material::new(&MaterialSpec {
         model,
         density: 1000.0,
-        youngs_modulus: 1.0e6,
-        poisson_ratio: 0.3,
+        youngs_modulus: Some(1.0e6),
+        poisson_ratio: Some(0.3),
         yield_stress: None,
         hardening_modulus: None,
+        c1: None,
+        c2: None,
+        lambda: None,
         plane: Plane::Strain,
     })
 }

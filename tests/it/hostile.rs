@@ -156,6 +156,7 @@ const WORDS: &[&str] = &[
     "\"upwind-sph\"",
     "\"godunov-sph\"",
     "\"von-mises-plastic\"",
+    "\"mooney-rivlin\"",
     "\"quintic\"",
     "\"\"",
     "\"/dev/zero\"",

@@ -19,6 +19,8 @@ mod godunov;
 #[cfg(feature = "gpu")]
 mod gpu_galerkin;
 #[cfg(feature = "gpu")]
+mod gpu_materials;
+#[cfg(feature = "gpu")]
 mod gpu_mixed;
 #[cfg(feature = "gpu")]
 mod gpu_neighbours;
@@ -31,6 +33,7 @@ mod gpu_ul;
 mod gray_monaghan;
 mod hostile;
 mod kbm_efg;
+mod loads;
 #[cfg(feature = "study")]
 mod mixed;
 mod registry;

@@ -21,8 +21,8 @@ use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{Reduced, Reduction, WorkBalance};
 use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
-    self, BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, MECHANICS, PLASTICITY, REFERENCE, Source,
-    Wgsl, source, wgsl,
+    self, BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, LOADS, MECHANICS, PLASTICITY, REFERENCE,
+    Source, Wgsl, source, wgsl,
 };
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
 use crate::integrate::IntegratorKind;
@@ -290,7 +290,7 @@ pub const PLASTIC: Source = source!(
 
 /// The passes compiled with a mixed scene's constants ([`scene`]).
 pub const SHADERS: &[Source] = &[
-    GHOSTS, KINEMATICS, PLASTIC, BOND, SLOPES, FORCES, MOMENTUM, REDUCE, INTEGRATE, CONTACT,
+    GHOSTS, KINEMATICS, PLASTIC, BOND, SLOPES, FORCES, MOMENTUM, REDUCE, INTEGRATE, CONTACT, LOADS,
 ];
 
 /// The flat buffers of a mixed scene, each described once ([`Fields`]).
@@ -1022,7 +1022,8 @@ impl<D: GpuDim> Engine<D> for GpuMixed<D> {
         self.cpu.constrained()
     }
 
-    fn advance(&mut self, _t: f64, dt: f64, steps: u32) -> Result<(), Failed> {
+    fn advance(&mut self, t: f64, dt: f64, steps: u32) -> Result<(), Failed> {
+        self.interactions.set_time(t);
         self.advance_steps(dt, steps);
         Ok(())
     }

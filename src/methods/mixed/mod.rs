@@ -14,7 +14,7 @@ pub use gpu::GpuMixed;
 pub use system::{Fluxes, MixedSph, MixedState};
 
 use super::{Feature, MethodFamily, MethodSpec, Plan, Problem};
-use crate::material::Material;
+use crate::material::{Material, MaterialModel};
 use crate::run::{CpuEngine, Engine, EngineDim};
 use crate::scene::validate::{fail, non_negative, toml_name};
 use crate::scene::{Case, CaseError};
@@ -220,9 +220,8 @@ fn validate(m: &MixedOptions, case: &Case) -> Result<(), Problem> {
         return fail(
             "material.model",
             format!(
-                "`{name}` evolves F and evaluates P(F, H, J): use a state model \
-                 (`nearly-incompressible-neo-hookean`, `neo-hookean`, `saint-venant-kirchhoff`, \
-                 `linear-elastic` or `von-mises-plastic`), not {}",
+                "`{name}` evolves F and evaluates P(F, H, J): use a state model ({}), not {}",
+                MaterialModel::names_where(|m| !m.is_rate_based()),
                 toml_name(&case.material.model)
             ),
         );

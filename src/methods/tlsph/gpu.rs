@@ -16,8 +16,8 @@ use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{Reduced, Reduction, WorkBalance};
 use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
-    self, BOUNDARY, CONTACT, CORRECTION, Constants, INTEGRATE, MECHANICS, PAIR_OFFSETS, REFERENCE,
-    Source, VISCOSITY, Wgsl, source, wgsl,
+    self, BOUNDARY, CONTACT, CORRECTION, Constants, INTEGRATE, LOADS, MECHANICS, PAIR_OFFSETS,
+    REFERENCE, Source, VISCOSITY, Wgsl, source, wgsl,
 };
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
 use crate::integrate::Buf;
@@ -108,6 +108,7 @@ pub const SHADERS: &[Source] = &[
     STRESS,
     ACCEL,
     CONTACT,
+    LOADS,
     CORRECTION,
     INTEGRATE,
     PAIR_OFFSETS,
@@ -697,7 +698,8 @@ impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
         &self.reference.boundary.constrained
     }
 
-    fn advance(&mut self, _t: f64, dt: f64, steps: u32) -> Result<(), Failed> {
+    fn advance(&mut self, t: f64, dt: f64, steps: u32) -> Result<(), Failed> {
+        self.interactions.set_time(t);
         self.advance_steps(dt, steps);
         Ok(())
     }

@@ -436,7 +436,10 @@ impl<D: GpuDim> GpuUl<D> {
     /// pairs it needed (with a quarter more) and runs the steps again from their start.
     pub fn advance_steps(&mut self, dt: f64, steps: u32) -> Result<(), GpuError> {
         self.reduction.invalidate();
+        let start = self.interactions.time();
         loop {
+            // The steps run again from their start time too.
+            self.interactions.set_time(start);
             self.record_steps(dt, steps);
             let Some(needed) = self.lists().cells.overflow(&self.gpu) else {
                 break;
@@ -582,7 +585,8 @@ impl<D: GpuDim> Engine<D> for GpuUl<D> {
         &self.reference.boundary.constrained
     }
 
-    fn advance(&mut self, _t: f64, dt: f64, steps: u32) -> Result<(), Failed> {
+    fn advance(&mut self, t: f64, dt: f64, steps: u32) -> Result<(), Failed> {
+        self.interactions.set_time(t);
         self.advance_steps(dt, steps).map_err(|e| Failed {
             completed: 0,
             cause: BlowUp {
