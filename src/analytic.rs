@@ -659,10 +659,13 @@ mod rod_tests {
         Material::new(&MaterialSpec {
             model: MaterialModel::LinearElastic,
             density: RHO,
-            youngs_modulus: 2.1e11,
-            poisson_ratio: nu,
+            youngs_modulus: Some(2.1e11),
+            poisson_ratio: Some(nu),
             yield_stress: None,
             hardening_modulus: None,
+            c1: None,
+            c2: None,
+            lambda: None,
             plane,
         })
     }

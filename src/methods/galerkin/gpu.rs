@@ -562,7 +562,8 @@ impl<D: GpuDim> Engine<D> for GpuGalerkin<D> {
         self.host.constrained()
     }
 
-    fn advance(&mut self, _t: f64, dt: f64, steps: u32) -> Result<(), Failed> {
+    fn advance(&mut self, t: f64, dt: f64, steps: u32) -> Result<(), Failed> {
+        self.interactions.set_time(t);
         self.advance_steps(dt, steps);
         Ok(())
     }
