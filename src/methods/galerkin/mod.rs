@@ -34,6 +34,7 @@ use crate::neighbour::Csr;
 use crate::observe::Snapshot;
 use crate::quadrature::{Cells, Gather, QuadratureError, QuadraturePoints, Shapes};
 use crate::reference::Reference;
+use crate::run::{CpuEngine, Engine, EngineDim};
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use rayon::prelude::*;
@@ -52,6 +53,21 @@ pub enum Mass {
     /// node (eq 163); a lattice body then weighs more than its volume holds (the strip
     /// 1.1025 kg/m instead of 1).
     Particle,
+}
+
+/// The CPU engine of a total-Lagrangian Galerkin method (`MethodFamily::cpu_engine` of
+/// `tl-fem`, `tl-weak-form`, `kbm` and `efg`).
+pub fn cpu_engine<D: EngineDim>(case: &Case) -> Result<Box<dyn Engine<D>>, CaseError> {
+    Ok(Box::new(CpuEngine::<D, TlGalerkin<D>>::new(case)?))
+}
+
+/// The GPU engine of a total-Lagrangian Galerkin method.
+#[cfg(feature = "gpu")]
+pub fn gpu_engine<D: EngineDim>(
+    case: &Case,
+    gpu: crate::gpu::Gpu,
+) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
+    Ok(Box::new(gpu::GpuGalerkin::<D>::new(case, gpu)?))
 }
 
 /// The particle mass, as a serde default.

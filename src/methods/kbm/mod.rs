@@ -14,7 +14,7 @@ use super::{Feature, MethodFamily, Plan, Problem};
 use crate::material::Material;
 use crate::quadrature::{Cells, QuadraturePoints, Shapes, lattice_cells};
 use crate::reference::Reference;
-use crate::run::{CpuEngine, Engine, EngineDim};
+use crate::run::{Engine, EngineDim};
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};
@@ -131,7 +131,7 @@ impl MethodFamily for KbmSpec {
     }
 
     fn cpu_engine<D: EngineDim>(&self, case: &Case) -> Result<Box<dyn Engine<D>>, CaseError> {
-        Ok(Box::new(CpuEngine::<D, TlGalerkin<D>>::new(case)?))
+        super::galerkin::cpu_engine(case)
     }
 
     #[cfg(feature = "gpu")]
@@ -140,9 +140,7 @@ impl MethodFamily for KbmSpec {
         case: &Case,
         gpu: crate::gpu::Gpu,
     ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
-        Ok(Box::new(super::galerkin::gpu::GpuGalerkin::<D>::new(
-            case, gpu,
-        )?))
+        super::galerkin::gpu_engine(case, gpu)
     }
 
     /// Δt = α Δx/(c_p + max|v|) does not depend on the stretch.
