@@ -122,6 +122,8 @@ pub struct Observers {
     bodies: usize,
     /// The closed form of the `velocity-error` observer, and ρ0 (volumes are m/ρ0).
     exact: Option<(Exact, f64)>,
+    /// The rings of the `ring-symmetry` observer, each in order of reference angle.
+    rings: Vec<Vec<usize>>,
     names: Vec<String>,
 }
 
@@ -162,8 +164,16 @@ impl Observers {
                 Observer::NeckHeight => names.push("neck_height".into()),
                 Observer::Hourglass => names.push("hourglass_max".into()),
                 Observer::VelocityError(_) => names.push("velocity_error".into()),
+                Observer::RingSymmetry => {
+                    names.extend(["hoop_stress_spread", "hoop_gap_spread"].map(String::from))
+                }
             }
         }
+        let rings = if list.contains(&Observer::RingSymmetry) {
+            rings::<D>(case, x0)?
+        } else {
+            Vec::new()
+        };
         let exact = list
             .iter()
             .find_map(|o| match o {
@@ -210,6 +220,7 @@ impl Observers {
             columns,
             bodies: case.bodies.len(),
             exact,
+            rings,
             names,
         })
     }
@@ -279,6 +290,7 @@ impl Observers {
                         .fold(0.0, |a: f64, &b| a.max(b)),
                 ),
                 Observer::VelocityError(_) => row.push(self.velocity_error(snap, clock.t)),
+                Observer::RingSymmetry => row.extend(ring_spreads(&self.rings, snap)),
             }
         }
         for &i in &self.probes {
@@ -306,6 +318,89 @@ impl Observers {
             .collect();
         relative_l2(&w, &v, &v_ex)
     }
+}
+
+/// The fewest particles a ring of the `ring-symmetry` observer has.
+const RING_MIN: usize = 8;
+
+/// The particles grouped by reference radius |X − X̄| about their centroid X̄ (to 1e-6 Δx),
+/// each group in order of reference angle; groups of fewer than [`RING_MIN`] are left
+/// out. Err: a 3D case, or no such group (the body is no ring on a polar lattice).
+fn rings<D: Dim>(case: &Case, x0: &[D::V]) -> Result<Vec<Vec<usize>>, CaseError> {
+    let invalid = |m: &str| case.invalid("output.observers", format!("`ring-symmetry` {m}"));
+    if D::N != 2 {
+        return Err(invalid("is a 2D observer; remove it from this 3D case"));
+    }
+    let centre = x0.iter().fold(D::zero(), |s, &x| s + x) * (1.0 / x0.len().max(1) as f64);
+    let polar = |i: usize| {
+        let d = D::to3(x0[i] - centre);
+        (d[0].hypot(d[1]), d[1].atan2(d[0]))
+    };
+    let mut groups: BTreeMap<i64, Vec<usize>> = BTreeMap::new();
+    for i in 0..x0.len() {
+        let key = (polar(i).0 / case.spacing * 1e6).round() as i64;
+        groups.entry(key).or_default().push(i);
+    }
+    let rings: Vec<Vec<usize>> = groups
+        .into_values()
+        .filter(|g| g.len() >= RING_MIN)
+        .map(|mut g| {
+            g.sort_by(|&a, &b| polar(a).1.total_cmp(&polar(b).1));
+            g
+        })
+        .collect();
+    if rings.is_empty() {
+        return Err(invalid(&format!(
+            "finds no ring of {RING_MIN} or more particles at one radius about their centroid; \
+             sample the body as a ring with lattice = \"polar\""
+        )));
+    }
+    Ok(rings)
+}
+
+/// The spreads of σ_θθ and of the gaps around the rings (see [`Observer::RingSymmetry`]).
+fn ring_spreads<D: Dim>(rings: &[Vec<usize>], snap: &Snapshot<D>) -> [f64; 2] {
+    let x = |i: usize| D::to3(snap.x0[i] + snap.u[i]);
+    let centre = (0..snap.x0.len()).fold([0.0; 3], |c, i| {
+        let xi = x(i);
+        [c[0] + xi[0], c[1] + xi[1], 0.0]
+    });
+    let centre = centre.map(|c| c / snap.x0.len() as f64);
+    let hoop = |i: usize| {
+        let xi = x(i);
+        let theta = (xi[1] - centre[1]).atan2(xi[0] - centre[0]);
+        let e = [-theta.sin(), theta.cos()];
+        let s = &snap.sigma[i];
+        (0..2)
+            .flat_map(|r| (0..2).map(move |c| e[r] * s[r][c] * e[c]))
+            .sum::<f64>()
+    };
+    let mean_std = |values: &[f64]| {
+        let mean = values.iter().sum::<f64>() / values.len() as f64;
+        let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / values.len() as f64;
+        (mean, var.sqrt())
+    };
+    let (mut largest_mean, mut stress_std, mut gap_spread) = (0.0f64, 0.0f64, 0.0f64);
+    for ring in rings {
+        let stresses: Vec<f64> = ring.iter().map(|&i| hoop(i)).collect();
+        let (mean, std) = mean_std(&stresses);
+        largest_mean = largest_mean.max(mean.abs());
+        stress_std = stress_std.max(std);
+        let gaps: Vec<f64> = (0..ring.len())
+            .map(|k| {
+                let (a, b) = (x(ring[k]), x(ring[(k + 1) % ring.len()]));
+                (a[0] - b[0]).hypot(a[1] - b[1])
+            })
+            .collect();
+        let (mean, std) = mean_std(&gaps);
+        gap_spread = gap_spread.max(std / mean);
+    }
+    let stress_spread = if largest_mean > 0.0 {
+        stress_std / largest_mean
+    } else {
+        0.0
+    };
+    [stress_spread, gap_spread]
 }
 
 /// Particles grouped by reference x (one group per lattice column), leaving out columns

@@ -93,17 +93,24 @@ impl Cells {
     }
 }
 
-/// The cells of lattice bodies: every square (cube) of the lattice of spacing Δx whose
-/// 2^d corners are particles of one body. A body's lattice is anchored at its smallest
-/// coordinates; a particle off it is an error, as is a body without a cell.
+/// The cells of the bodies: those `given` by their generator (a polar ring's), then for
+/// every other body each square (cube) of the lattice of spacing Δx whose 2^d corners are
+/// particles of the body. A body's lattice is anchored at its smallest coordinates; a
+/// particle off it is an error, as is a body without a cell.
 pub fn lattice_cells<D: Dim>(
     x0: &[D::V],
     body: &[u32],
     spacing: f64,
+    given: &Cells,
 ) -> Result<Cells, QuadratureError> {
     let bodies = body.iter().map(|&b| b as usize + 1).max().unwrap_or(0);
+    let mut generated = vec![false; bodies];
+    for &b in &given.body {
+        generated[b as usize] = true;
+    }
+    let on_lattice = |b: u32| !generated[b as usize];
     let mut origin = vec![[f64::INFINITY; 3]; bodies];
-    for (&x, &b) in x0.iter().zip(body) {
+    for (&x, &b) in x0.iter().zip(body).filter(|(_, b)| on_lattice(**b)) {
         let x = D::to3(x);
         for k in 0..D::N {
             origin[b as usize][k] = origin[b as usize][k].min(x[k]);
@@ -112,6 +119,10 @@ pub fn lattice_cells<D: Dim>(
     let mut index = HashMap::with_capacity(x0.len());
     let mut lattice_index = Vec::with_capacity(x0.len());
     for (i, (&x, &b)) in x0.iter().zip(body).enumerate() {
+        if !on_lattice(b) {
+            lattice_index.push(None);
+            continue;
+        }
         let x = D::to3(x);
         let mut at = [0i64; 3];
         for k in 0..D::N {
@@ -128,11 +139,12 @@ pub fn lattice_cells<D: Dim>(
             at[k] = s.round() as i64;
         }
         index.insert((b, at), i as u32);
-        lattice_index.push(at);
+        lattice_index.push(Some(at));
     }
-    let mut cells = Cells::default();
+    let mut cells = given.clone();
     let corners = &CORNERS[..1 << D::N];
     for (base, &b) in lattice_index.iter().zip(body) {
+        let Some(base) = base else { continue };
         let found: Option<Vec<u32>> = corners
             .iter()
             .map(|c| index.get(&(b, [base[0] + c[0], base[1] + c[1], base[2] + c[2]])))
@@ -537,21 +549,30 @@ impl<D: Dim> Shapes<D> {
         self.csr.ids[p] as usize
     }
 
-    /// Recomputes the values on the same lists, every point in parallel: `at(q, nodes, n,
-    /// grad)` writes N_a(x_q) and ∇N_a(x_q) of point q's nodes into its pairs and returns
-    /// a value of the point (its weight), collected in point order. The first point (in
-    /// order) that fails fails all, with its index.
+    /// Recomputes the values on the same lists, every point in parallel: `at(q, nodes,
+    /// row)` writes N_a(x_q), ∇N_a(x_q) (and the test gradients ∇Φ_a(x_q) of a
+    /// Petrov–Galerkin method; the row's `test` is empty otherwise) of point q's nodes into
+    /// its pairs and returns a value of the point (its weight), collected in point order.
+    /// The first point (in order) that fails fails all, with its index.
     pub fn recompute<E: Send>(
         &mut self,
-        at: impl Fn(usize, &[u32], &mut [f64], &mut [D::V]) -> Result<f64, E> + Sync + Send,
+        at: impl Fn(usize, &[u32], ShapeRow<D>) -> Result<f64, E> + Sync + Send,
     ) -> Result<Vec<f64>, (usize, E)> {
         let csr = &self.csr;
+        let test = if self.test.is_empty() {
+            (0..csr.len()).map(|_| &mut [][..]).collect()
+        } else {
+            rows_mut(csr, &mut self.test)
+        };
         let rows: Vec<Result<f64, (usize, E)>> = rows_mut(csr, &mut self.n)
             .into_par_iter()
             .zip(rows_mut(csr, &mut self.grad))
+            .zip(test)
             .enumerate()
             .with_min_len(MIN_ROWS)
-            .map(|(q, (n, grad))| at(q, csr.neighbours(q), n, grad).map_err(|e| (q, e)))
+            .map(|(q, ((n, grad), test))| {
+                at(q, csr.neighbours(q), ShapeRow { n, grad, test }).map_err(|e| (q, e))
+            })
             .collect();
         rows.into_iter().collect()
     }
@@ -582,6 +603,14 @@ impl<D: Dim> Shapes<D> {
             pair,
         }
     }
+}
+
+/// One point's functions in [`Shapes::recompute`]: N_a, ∇N_a and (Petrov–Galerkin
+/// methods only, else empty) ∇Φ_a of its nodes.
+pub struct ShapeRow<'a, D: Dim> {
+    pub n: &'a mut [f64],
+    pub grad: &'a mut [D::V],
+    pub test: &'a mut [D::V],
 }
 
 /// One node's Krongauz–Belytschko functions at a point: (W^S_a, G_a, ∇W^S_a).
@@ -680,7 +709,7 @@ mod tests {
         // rectangle's area to round-off.
         let (nx, ny, dx) = (5, 4, 0.25);
         let x = lattice(nx, ny, dx);
-        let cells = lattice_cells::<D2>(&x, &vec![0; x.len()], dx).unwrap();
+        let cells = lattice_cells::<D2>(&x, &vec![0; x.len()], dx, &Cells::default()).unwrap();
         assert_eq!(cells.len(), (nx - 1) * (ny - 1));
         for c in 0..cells.len() {
             let k = cells.of::<D2>(c);
@@ -704,13 +733,13 @@ mod tests {
         let dx = 0.1;
         let mut x = lattice(3, 3, dx);
         x[4].x += 0.3 * dx;
-        let err = lattice_cells::<D2>(&x, &[0; 9], dx).unwrap_err();
+        let err = lattice_cells::<D2>(&x, &[0; 9], dx, &Cells::default()).unwrap_err();
         assert!(
             matches!(err, QuadratureError::OffLattice { particle: 4, .. }),
             "{err}"
         );
         let line = lattice(4, 1, dx);
-        let err = lattice_cells::<D2>(&line, &[0; 4], dx).unwrap_err();
+        let err = lattice_cells::<D2>(&line, &[0; 4], dx, &Cells::default()).unwrap_err();
         assert_eq!(err, QuadratureError::NoCell { body: 0 });
     }
 
@@ -756,7 +785,7 @@ mod tests {
         let x: Vec<DVec3> = (0..27)
             .map(|i| DVec3::new((i % 3) as f64, ((i / 3) % 3) as f64, (i / 9) as f64) * dx)
             .collect();
-        let cells = lattice_cells::<D3>(&x, &[0; 27], dx).unwrap();
+        let cells = lattice_cells::<D3>(&x, &[0; 27], dx, &Cells::default()).unwrap();
         assert_eq!(cells.len(), 8);
         let points = QuadraturePoints::<D3>::new(&cells, &x, Rule::Gauss2);
         assert_eq!(points.len(), 64);
@@ -782,7 +811,7 @@ mod tests {
         let x = lattice(9, 7, dx);
         let vol = vec![dx * dx; x.len()];
         let body = vec![0; x.len()];
-        let cells = lattice_cells::<D2>(&x, &body, dx).unwrap();
+        let cells = lattice_cells::<D2>(&x, &body, dx, &Cells::default()).unwrap();
         let points = QuadraturePoints::<D2>::new(&cells, &x, Rule::Gauss2);
         let kernel = Kernel::new(KernelKind::CubicSpline, 1.5 * dx, 2);
         let shapes =
@@ -809,7 +838,7 @@ mod tests {
         let (nx, ny, dx) = (5, 4, 0.5);
         let x = lattice(nx, ny, dx);
         let body = vec![0; x.len()];
-        let cells = lattice_cells::<D2>(&x, &body, dx).unwrap();
+        let cells = lattice_cells::<D2>(&x, &body, dx, &Cells::default()).unwrap();
         let points = QuadraturePoints::<D2>::with_stress_points(&cells, &x, &body);
         assert_eq!(points.len(), nx * ny + (nx - 1) * (ny - 1));
         assert_eq!(points.particles, nx * ny);
@@ -834,7 +863,7 @@ mod tests {
         let x3: Vec<DVec3> = (0..27)
             .map(|i| DVec3::new((i % 3) as f64, ((i / 3) % 3) as f64, (i / 9) as f64) * dx)
             .collect();
-        let cells = lattice_cells::<D3>(&x3, &[0; 27], dx).unwrap();
+        let cells = lattice_cells::<D3>(&x3, &[0; 27], dx, &Cells::default()).unwrap();
         let points = QuadraturePoints::<D3>::with_stress_points(&cells, &x3, &[0; 27]);
         assert_eq!(points.weight[13], dx.powi(3) / 2.0);
         assert!((points.weight.iter().sum::<f64>() - 8.0 * dx.powi(3)).abs() < 1e-14);
@@ -877,7 +906,7 @@ mod tests {
         let kernel = Kernel::new(KernelKind::CubicSpline, 1.3 * dx, 2);
         let x = lattice(9, 7, dx);
         let body = vec![0; x.len()];
-        let cells = lattice_cells::<D2>(&x, &body, dx).unwrap();
+        let cells = lattice_cells::<D2>(&x, &body, dx, &Cells::default()).unwrap();
         let points = QuadraturePoints::<D2>::with_stress_points(&cells, &x, &body);
         let kb = Shapes::<D2>::krongauz_belytschko(&points.x0, &points.body, &x, &body, &kernel)
             .unwrap();
@@ -944,7 +973,7 @@ mod tests {
     fn the_gather_lists_every_pair_once_under_its_node() {
         let dx = 1.0;
         let x = lattice(4, 3, dx);
-        let cells = lattice_cells::<D2>(&x, &[0; 12], dx).unwrap();
+        let cells = lattice_cells::<D2>(&x, &[0; 12], dx, &Cells::default()).unwrap();
         let points = QuadraturePoints::<D2>::new(&cells, &x, Rule::Gauss2);
         let shapes = Shapes::isoparametric(&cells, &points, &x);
         let gather = shapes.gather(x.len());

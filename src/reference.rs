@@ -5,6 +5,7 @@ use crate::boundary::Boundary;
 use crate::kernel::Kernel;
 use crate::material::Material;
 use crate::neighbour::{self, Csr, Neighbours, Rebuild};
+use crate::quadrature::{Cells, QuadratureError, lattice_cells};
 use crate::scene::{Case, CaseError, discretise};
 use crate::tensor::Dim;
 
@@ -27,6 +28,8 @@ pub struct Reference<D: Dim> {
     /// The smoothing length of every particle (all the kernel's h until a case sets them
     /// per particle); the neighbour search reaches the support of the larger of a pair's.
     pub h: Vec<f64>,
+    /// The cells the geometry generators make (polar rings); see [`Self::cells`].
+    pub generated_cells: Cells,
 }
 
 impl<D: Dim> Reference<D> {
@@ -43,6 +46,7 @@ impl<D: Dim> Reference<D> {
         let kernel = case.kernel(D::N);
         Ok(Self {
             h: vec![kernel.h; disc.x0.len()],
+            generated_cells: disc.cells,
             x0: disc.x0,
             vol: disc.vol,
             mass,
@@ -52,6 +56,12 @@ impl<D: Dim> Reference<D> {
             material,
             kernel,
         })
+    }
+
+    /// The background cells of the bodies: the generators' (polar rings), and the
+    /// lattice squares (cubes) of spacing Δx of the others.
+    pub fn cells(&self, spacing: f64) -> Result<Cells, QuadratureError> {
+        lattice_cells::<D>(&self.x0, &self.body, spacing, &self.generated_cells)
     }
 
     /// Number of particles.

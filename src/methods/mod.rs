@@ -121,6 +121,18 @@ pub trait MethodFamily: Sized {
         gpu: crate::gpu::Gpu,
     ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError>;
 
+    /// Whether this spec runs on the GPU engine ([`Self::GPU_ENGINE`] unless a key selects
+    /// a CPU-only variant).
+    fn runs_on_gpu(&self) -> bool {
+        Self::GPU_ENGINE
+    }
+
+    /// Whether this spec searches neighbours on the current configuration
+    /// ([`Self::NEIGHBOURS`] other than once, unless a key selects such a variant).
+    fn searches_current_configuration(&self) -> bool {
+        Self::NEIGHBOURS != Rebuild::Once
+    }
+
     /// The stretch-dependent part of a particle's signal speed in the method's CFL step
     /// (beyond |v|), with c_p the linear p-wave speed and F the particle's deformation
     /// gradient: it names the particle a collapse of the step is attributed to.
@@ -222,6 +234,18 @@ macro_rules! registry {
             ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
                 match self {
                     $(Self::$variant(s) => s.gpu_engine::<D>(case, gpu)),*
+                }
+            }
+
+            pub fn runs_on_gpu(&self) -> bool {
+                match self {
+                    $(Self::$variant(s) => s.runs_on_gpu()),*
+                }
+            }
+
+            pub fn searches_current_configuration(&self) -> bool {
+                match self {
+                    $(Self::$variant(s) => s.searches_current_configuration()),*
                 }
             }
 

@@ -39,7 +39,7 @@ pub fn build_method<D: Dim, M: Method<D>>(case: &Case) -> Result<M, CaseError> {
 /// them.
 pub fn engine<D: EngineDim>(case: &Case, backend: Backend) -> Result<Box<dyn Engine<D>>, RunError> {
     let spec = &case.method.spec;
-    let backend = if backend == Backend::Auto && !spec.entry().gpu_engine {
+    let backend = if backend == Backend::Auto && !spec.runs_on_gpu() {
         eprintln!(
             "note: --backend auto: `{}` has no GPU engine; running on the CPU (rayon, f64)",
             case.method.name()

@@ -18,7 +18,6 @@ pub use progress::ProgressDisplay;
 
 use crate::material::Material;
 use crate::methods::{BlowUp, Feature, supporting};
-use crate::neighbour::Rebuild;
 use crate::output::RunSummary;
 use crate::scene::validate::toml_name;
 use crate::scene::{Case, CaseError};
@@ -198,7 +197,7 @@ pub fn with_threads<T: Send>(case: &Case, f: impl FnOnce() -> T + Send) -> Resul
 /// Whether a run of `case` on `backend` may use the GPU (the memory estimate then counts
 /// the device's share too): `gpu`, or `auto` for a method with a GPU engine.
 pub fn may_use_gpu(case: &Case, backend: Backend) -> bool {
-    backend != Backend::Cpu && case.method.spec.entry().gpu_engine
+    backend != Backend::Cpu && case.method.spec.runs_on_gpu()
 }
 
 /// The plan of a run: what is built once, what runs per step, and what the scene leaves
@@ -267,7 +266,7 @@ pub fn explain(case: &Case, gpu: bool) -> String {
         ));
     }
     let mut left_out = Vec::new();
-    if m.spec.entry().neighbours == Rebuild::Once {
+    if !m.spec.searches_current_configuration() {
         left_out.push("neighbour rebuild (total-Lagrangian)");
     }
     let runs = |f: Feature| supporting(f).any(|n| n == name);

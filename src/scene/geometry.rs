@@ -1,9 +1,12 @@
 //! Geometry generators: sample every body of a case on a lattice of spacing Δx (or read
 //! its points from CSV) and set the initial velocity field.
 
-use super::{BodySpec, Case, CaseError, Lattice, Shape, VelocityField, Volumes};
+use super::{
+    BodySpec, Case, CaseError, Lattice, RingLattice, Shape, VelocityField, VelocityNoise, Volumes,
+};
 use crate::analytic::SwingingMode;
 use crate::material::Material;
+use crate::quadrature::Cells;
 use crate::tensor::Dim;
 use std::path::Path;
 
@@ -18,6 +21,27 @@ pub struct Discretised<D: Dim> {
     pub body: Vec<u32>,
     /// Initial velocities.
     pub v0: Vec<D::V>,
+    /// The cells of the bodies whose generator makes them (polar rings); the other
+    /// bodies' cells are found on their lattice ([`crate::quadrature::lattice_cells`]).
+    pub cells: Cells,
+}
+
+/// The particles of one body, with its cells where the generator makes them.
+struct Sampled<D: Dim> {
+    points: Vec<D::V>,
+    volumes: Vec<f64>,
+    /// The corners of its cells (2^d each, VTK order), numbered within the body.
+    corners: Vec<u32>,
+}
+
+impl<D: Dim> From<(Vec<D::V>, Vec<f64>)> for Sampled<D> {
+    fn from((points, volumes): (Vec<D::V>, Vec<f64>)) -> Self {
+        Self {
+            points,
+            volumes,
+            corners: Vec::new(),
+        }
+    }
 }
 
 /// Samples every body of the case.
@@ -27,9 +51,14 @@ pub fn discretise<D: Dim>(case: &Case) -> Result<Discretised<D>, CaseError> {
         vol: Vec::new(),
         body: Vec::new(),
         v0: Vec::new(),
+        cells: Cells::default(),
     };
     for (b, spec) in case.bodies.iter().enumerate() {
-        let (points, volumes) = sample::<D>(case, b, spec)?;
+        let Sampled {
+            points,
+            volumes,
+            corners,
+        } = sample::<D>(case, b, spec)?;
         if points.is_empty() {
             return Err(case.invalid(
                 format!("body.{b}.geometry"),
@@ -39,25 +68,26 @@ pub fn discretise<D: Dim>(case: &Case) -> Result<Discretised<D>, CaseError> {
                 ),
             ));
         }
-        for (&x, &v) in points.iter().zip(&volumes) {
+        let first = out.x0.len() as u32;
+        out.cells.corners.extend(corners.iter().map(|a| first + a));
+        out.cells
+            .body
+            .extend(std::iter::repeat_n(b as u32, corners.len() >> D::N));
+        let noise = spec
+            .velocity_noise
+            .map_or_else(Vec::new, |n| velocity_noise::<D>(&n, points.len()));
+        for (i, (&x, &v)) in points.iter().zip(&volumes).enumerate() {
             out.x0.push(x);
             out.vol.push(v);
             out.body.push(b as u32);
-            out.v0.push(initial_velocity::<D>(
-                case,
-                spec.initial_velocity.as_ref(),
-                x,
-            ));
+            let v0 = initial_velocity::<D>(case, spec.initial_velocity.as_ref(), x);
+            out.v0.push(noise.get(i).map_or(v0, |&dv| v0 + dv));
         }
     }
     Ok(out)
 }
 
-fn sample<D: Dim>(
-    case: &Case,
-    b: usize,
-    spec: &BodySpec,
-) -> Result<(Vec<D::V>, Vec<f64>), CaseError> {
+fn sample<D: Dim>(case: &Case, b: usize, spec: &BodySpec) -> Result<Sampled<D>, CaseError> {
     let dx = case.spacing;
     let cell = dx.powi(D::N as i32);
     let lattice_of = |lo: &[f64], hi: &[f64], inside: &dyn Fn(&[f64]) -> bool| {
@@ -75,6 +105,32 @@ fn sample<D: Dim>(
         Ok::<_, CaseError>((points, vol))
     };
     Ok(match &spec.geometry {
+        Shape::Ring {
+            center,
+            inner_radius,
+            outer_radius,
+            lattice: RingLattice::Polar,
+            sectors,
+        } => {
+            let (n_r, n_theta) = polar_counts(*inner_radius, *outer_radius, dx, *sectors);
+            let total = (n_r + 1.0) * n_theta;
+            if total > PARTICLE_ID_LIMIT {
+                return Err(case.invalid(
+                    "spacing",
+                    format!(
+                        "{dx:e} samples body `{}` on a polar lattice of {total:.3e} points, \
+                         more than the {PARTICLE_ID_LIMIT:.0} particle ids hold; increase \
+                         `spacing` or give fewer `sectors`",
+                        spec.name
+                    ),
+                ));
+            }
+            polar_ring::<D>(
+                center,
+                (*inner_radius, *outer_radius),
+                (n_r as usize, n_theta as usize),
+            )
+        }
         Shape::Box {
             min,
             max,
@@ -84,7 +140,7 @@ fn sample<D: Dim>(
             let half: Vec<f64> = (0..D::N).map(|_| 0.5 * dx).collect();
             let lo: Vec<f64> = min.iter().zip(&half).map(|(m, h)| m + h).collect();
             let hi: Vec<f64> = max.iter().zip(&half).map(|(m, h)| m - h).collect();
-            lattice_of(&lo, &hi, &|_| true)?
+            lattice_of(&lo, &hi, &|_| true)?.into()
         }
         Shape::Box {
             min, max, volumes, ..
@@ -101,22 +157,24 @@ fn sample<D: Dim>(
                     }
                 }
             }
-            (points, vol)
+            (points, vol).into()
         }
         Shape::Disk { center, radius } => {
             let (lo, hi) = around(center, *radius);
-            lattice_of(&lo, &hi, &|p| dist2(p, center) < radius * radius)?
+            lattice_of(&lo, &hi, &|p| dist2(p, center) < radius * radius)?.into()
         }
         Shape::Ring {
             center,
             inner_radius,
             outer_radius,
+            ..
         } => {
             let (lo, hi) = around(center, *outer_radius);
             lattice_of(&lo, &hi, &|p| {
                 let r2 = dist2(p, center);
                 r2 >= inner_radius * inner_radius && r2 < outer_radius * outer_radius
             })?
+            .into()
         }
         Shape::Cylinder {
             base,
@@ -141,17 +199,102 @@ fn sample<D: Dim>(
                     .sum();
                 r2 >= inner_radius * inner_radius && r2 <= radius * radius
             })?
+            .into()
         }
         Shape::Points { file } => {
             let path = case.base_dir().join(file);
-            read_points::<D>(&path, cell).map_err(|m| {
-                case.invalid(
-                    format!("body.{b}.geometry.file"),
-                    format!("{}: {m}", path.display()),
-                )
-            })?
+            read_points::<D>(&path, cell)
+                .map_err(|m| {
+                    case.invalid(
+                        format!("body.{b}.geometry.file"),
+                        format!("{}: {m}", path.display()),
+                    )
+                })?
+                .into()
         }
     })
+}
+
+/// The noise's velocities, one per particle: per axis uniform in ±amplitude, from the
+/// SplitMix64 sequence of the seed.
+fn velocity_noise<D: Dim>(noise: &VelocityNoise, particles: usize) -> Vec<D::V> {
+    let mut state = noise.seed;
+    let mut uniform = move || {
+        state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^= z >> 31;
+        (z >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    };
+    (0..particles)
+        .map(|_| {
+            let v: Vec<f64> = (0..D::N).map(|_| uniform() * noise.amplitude).collect();
+            D::from_slice(&v)
+        })
+        .collect()
+}
+
+/// The polar lattice of a ring (see [`RingLattice::Polar`]): n_r + 1 rings, n_r the
+/// spacings across the wall nearest (r_o − r_i)/Δx, times n_θ rays; particle k·n_θ + j at
+/// (r_i + kΔr, 2πj/n_θ). Cell (k, j) has the corners (k, j), (k + 1, j), (k + 1, j + 1),
+/// (k, j + 1), counter-clockwise; its area is the trapezium's ½ sin(Δθ)(r_(k+1)² − r_k²).
+fn polar_ring<D: Dim>(
+    center: &[f64],
+    (inner, outer): (f64, f64),
+    (n_r, n_theta): (usize, usize),
+) -> Sampled<D> {
+    let dr = (outer - inner) / n_r as f64;
+    let dtheta = std::f64::consts::TAU / n_theta as f64;
+    let radius = |k: usize| inner + k as f64 * dr;
+    let mut points = Vec::with_capacity((n_r + 1) * n_theta);
+    for k in 0..=n_r {
+        for j in 0..n_theta {
+            let (s, c) = (j as f64 * dtheta).sin_cos();
+            points.push(D::from_slice(&[
+                center[0] + radius(k) * c,
+                center[1] + radius(k) * s,
+            ]));
+        }
+    }
+    let index = |k: usize, j: usize| (k * n_theta + j % n_theta) as u32;
+    let mut volumes = vec![0.0; points.len()];
+    let mut corners = Vec::with_capacity(4 * n_r * n_theta);
+    for k in 0..n_r {
+        let area = 0.5 * dtheta.sin() * (radius(k + 1).powi(2) - radius(k).powi(2));
+        for j in 0..n_theta {
+            let cell = [
+                index(k, j),
+                index(k + 1, j),
+                index(k + 1, j + 1),
+                index(k, j + 1),
+            ];
+            for &a in &cell {
+                volumes[a as usize] += area / 4.0;
+            }
+            corners.extend(cell);
+        }
+    }
+    Sampled {
+        points,
+        volumes,
+        corners,
+    }
+}
+
+/// The spacings across the wall and the rays of a polar ring lattice, in f64 so that a
+/// vanishing spacing gives a huge count, never a wrapped one.
+fn polar_counts(inner: f64, outer: f64, dx: f64, sectors: Option<u32>) -> (f64, f64) {
+    let n_r = ((outer - inner) / dx).round().max(1.0);
+    let n_theta = sectors.map_or_else(
+        || {
+            (std::f64::consts::PI * (inner + outer) / dx)
+                .round()
+                .max(3.0)
+        },
+        f64::from,
+    );
+    (n_r, n_theta)
 }
 
 fn around(center: &[f64], r: f64) -> (Vec<f64>, Vec<f64>) {
@@ -260,9 +403,20 @@ pub fn estimate_particles(case: &Case) -> Result<Vec<BodySize>, CaseError> {
                     size(box_of(&lo, &hi), annulus(0.0, *radius))
                 }
                 Shape::Ring {
+                    inner_radius,
+                    outer_radius,
+                    lattice: RingLattice::Polar,
+                    sectors,
+                    ..
+                } => {
+                    let (n_r, n_theta) = polar_counts(*inner_radius, *outer_radius, dx, *sectors);
+                    size((n_r + 1.0) * n_theta, 1.0)
+                }
+                Shape::Ring {
                     center,
                     inner_radius,
                     outer_radius,
+                    ..
                 } => {
                     let (lo, hi) = around(center, *outer_radius);
                     size(box_of(&lo, &hi), annulus(*inner_radius, *outer_radius))

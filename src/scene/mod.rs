@@ -143,6 +143,21 @@ pub struct BodySpec {
     pub name: String,
     pub geometry: Shape,
     pub initial_velocity: Option<VelocityField>,
+    /// An imperfection of the initial state: random velocities added to the initial ones.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub velocity_noise: Option<VelocityNoise>,
+}
+
+/// Velocities added to every particle's initial one: per axis a value uniform in
+/// ±`amplitude` [m/s], from a generator seeded by `seed`, the same on every run and
+/// backend. It seeds the instabilities a perfectly symmetric lattice would only meet
+/// through round-off.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct VelocityNoise {
+    pub amplitude: f64,
+    #[serde(default)]
+    pub seed: u64,
 }
 
 /// How lattice particles share the volume of their body.
@@ -166,6 +181,20 @@ pub enum Lattice {
     CellCentred,
 }
 
+/// How a ring is sampled.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RingLattice {
+    /// The points of the square lattice of spacing Δx inside the annulus.
+    #[default]
+    Square,
+    /// Rings at r_i + kΔr from the inner to the outer radius (Δr the spacing nearest Δx
+    /// that divides the wall) times `sectors` rays: particles on both rims, the
+    /// quadrilaterals between them as the body's cells, and volumes a quarter of each
+    /// adjacent cell's area (the mass allocation scheme of seed 001 §6).
+    Polar,
+}
+
 /// Geometry generators. Lattices are anchored at the lower corner of the shape's
 /// bounding box: points min + i·Δx, i = 0, 1, … while ≤ max.
 #[derive(Clone, Debug, Deserialize, Serialize)]
@@ -186,11 +215,18 @@ pub enum Shape {
     },
     /// Disk of points with |x − c| < r (2D).
     Disk { center: Vec<f64>, radius: f64 },
-    /// Annulus of points with r_i ≤ |x − c| < r_o (2D).
+    /// Annulus (2D): the square-lattice points with r_i ≤ |x − c| < r_o (`square`, the
+    /// default), or a polar lattice of rings and rays (`polar`, see [`RingLattice`]).
     Ring {
         center: Vec<f64>,
         inner_radius: f64,
         outer_radius: f64,
+        #[serde(default)]
+        lattice: RingLattice,
+        /// The rays of a polar lattice (default: the nearest whole number to the mid
+        /// circumference over Δx).
+        #[serde(default)]
+        sectors: Option<u32>,
     },
     /// Solid or hollow cylinder along a coordinate axis (3D); `base` is the centre of
     /// the bottom face.
@@ -505,6 +541,13 @@ pub enum Observer {
     /// sqrt(Σ V |v − v_ex|²)/sqrt(Σ V |v_ex|²) over the particles, all components (column
     /// `velocity_error`); in case files `{ velocity-error = "free-rod" }`.
     VelocityError(crate::analytic::AnalyticSolution),
+    /// How far a ring is from rotational symmetry (2D): the particles grouped into rings
+    /// of equal reference radius about the reference centroid (those of a polar lattice),
+    /// the largest spread of σ_θθ around a ring, std over the largest |mean| of a ring
+    /// (column `hoop_stress_spread`), and of the current gaps between neighbours on a ring,
+    /// std over mean (column `hoop_gap_spread`). Both are zero under a rotationally
+    /// symmetric motion and grow where particles cluster.
+    RingSymmetry,
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]

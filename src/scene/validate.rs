@@ -7,8 +7,8 @@
 
 use super::{
     Axis, BodySpec, BoundarySpec, Case, Condition, ContactSpec, Lattice, MaterialSpec, Observer,
-    OutputSpec, Plane, ProbeSpec, Region, RunSpec, Shape, Solution, TimeLaw, VelocityField,
-    Volumes,
+    OutputSpec, Plane, ProbeSpec, Region, RingLattice, RunSpec, Shape, Solution, TimeLaw,
+    VelocityField, Volumes,
 };
 use crate::material::{Material, MaterialModel};
 use crate::methods::{Feature, MethodTable, Problem, REGISTRY, entry, quoted, supporting};
@@ -491,6 +491,9 @@ fn bodies(bodies: &[BodySpec], dim: usize) -> Checked {
         if let Some(v) = &body.initial_velocity {
             velocity(v, &format!("{key}.initial_velocity"), dim)?;
         }
+        if let Some(noise) = &body.velocity_noise {
+            non_negative(&format!("{key}.velocity_noise.amplitude"), noise.amplitude)?;
+        }
     }
     Ok(())
 }
@@ -544,6 +547,8 @@ fn shape(shape: &Shape, key: &str, dim: usize) -> Checked {
             center,
             inner_radius,
             outer_radius,
+            lattice,
+            sectors,
         } => {
             if dim != 2 {
                 return only("ring", 2, "\"cylinder\" with an inner_radius");
@@ -559,6 +564,28 @@ fn shape(shape: &Shape, key: &str, dim: usize) -> Checked {
                          outer), got {inner_radius:?}"
                     ),
                 );
+            }
+            match (lattice, sectors) {
+                (RingLattice::Square, Some(_)) => {
+                    return fail(
+                        format!("{key}.sectors"),
+                        "is read by a polar lattice only: add lattice = \"polar\" or remove it",
+                    );
+                }
+                (RingLattice::Polar, _) if *inner_radius <= 0.0 => {
+                    return fail(
+                        format!("{key}.inner_radius"),
+                        "must be positive with lattice = \"polar\" (its rays meet at the centre \
+                         otherwise); use lattice = \"square\" or a disk for a full one",
+                    );
+                }
+                (RingLattice::Polar, Some(n)) if *n < 3 => {
+                    return fail(
+                        format!("{key}.sectors"),
+                        format!("must be at least 3 (rays around the ring), got {n}"),
+                    );
+                }
+                _ => {}
             }
         }
         Shape::Cylinder {
@@ -1162,6 +1189,32 @@ mod tests {
             center: vec![0.0, 0.0],
             inner_radius: 1.0,
             outer_radius: 1.0,
+            lattice: RingLattice::Square,
+            sectors: None,
+        };
+        assert_eq!(key_of(&c), "body.1.geometry.inner_radius");
+        c.bodies[1].geometry = Shape::Ring {
+            center: vec![0.0, 0.0],
+            inner_radius: 0.5,
+            outer_radius: 1.0,
+            lattice: RingLattice::Square,
+            sectors: Some(60),
+        };
+        assert_eq!(key_of(&c), "body.1.geometry.sectors");
+        c.bodies[1].geometry = Shape::Ring {
+            center: vec![0.0, 0.0],
+            inner_radius: 0.5,
+            outer_radius: 1.0,
+            lattice: RingLattice::Polar,
+            sectors: Some(2),
+        };
+        assert_eq!(key_of(&c), "body.1.geometry.sectors");
+        c.bodies[1].geometry = Shape::Ring {
+            center: vec![0.0, 0.0],
+            inner_radius: 0.0,
+            outer_radius: 1.0,
+            lattice: RingLattice::Polar,
+            sectors: None,
         };
         assert_eq!(key_of(&c), "body.1.geometry.inner_radius");
         c.bodies[1].geometry = Shape::Cylinder {

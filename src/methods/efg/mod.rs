@@ -10,7 +10,7 @@ use super::fem::galerkin_state;
 use super::galerkin::{Mass, TlGalerkin, particle_mass};
 use super::{Feature, MethodFamily, Plan, Problem};
 use crate::material::Material;
-use crate::quadrature::{Cells, QuadraturePoints, Rule, Shapes, lattice_cells};
+use crate::quadrature::{Cells, QuadraturePoints, Rule, Shapes};
 use crate::reference::Reference;
 use crate::run::{Engine, EngineDim};
 use crate::scene::{Case, CaseError};
@@ -59,7 +59,8 @@ impl EfgSpec {
     ) -> Result<TlGalerkin<D>, CaseError> {
         let (cells, points) = match self.integration {
             Integration::Cells => {
-                let cells = lattice_cells::<D>(&reference.x0, &reference.body, case.spacing)
+                let cells = reference
+                    .cells(case.spacing)
                     .map_err(|e| case.invalid("method.integration", e.to_string()))?;
                 let points = QuadraturePoints::new(&cells, &reference.x0, Rule::Gauss2);
                 (cells, points)

@@ -6,7 +6,7 @@
 use super::galerkin::{Mass, TlGalerkin};
 use super::{Feature, MethodFamily, Plan, Problem};
 use crate::material::Material;
-use crate::quadrature::{QuadraturePoints, Rule, Shapes, lattice_cells};
+use crate::quadrature::{QuadraturePoints, Rule, Shapes};
 use crate::reference::Reference;
 use crate::run::{Engine, EngineDim};
 use crate::scene::{Case, CaseError};
@@ -29,7 +29,8 @@ impl FemSpec {
         case: &Case,
         reference: Reference<D>,
     ) -> Result<TlGalerkin<D>, CaseError> {
-        let cells = lattice_cells::<D>(&reference.x0, &reference.body, case.spacing)
+        let cells = reference
+            .cells(case.spacing)
             .map_err(|e| case.invalid("body", e.to_string()))?;
         let points = QuadraturePoints::new(&cells, &reference.x0, Rule::Gauss2);
         let shapes = Shapes::isoparametric(&cells, &points, &reference.x0);

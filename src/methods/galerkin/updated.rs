@@ -23,7 +23,7 @@ use crate::methods::shared::{BlowUp, MIN_CHUNK, Method, check_motion, particle_s
 use crate::methods::tlsph::system::stress_fields;
 use crate::neighbour::Csr;
 use crate::observe::Snapshot;
-use crate::quadrature::{Gather, Shapes};
+use crate::quadrature::{Gather, ShapeRow, Shapes};
 use crate::reference::Reference;
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
@@ -69,10 +69,17 @@ pub struct Nodes<'a, D: Dim> {
 /// The points of an updated-Lagrangian Galerkin method, with their shape functions on the
 /// current configuration.
 pub trait MovingPoints<D: Dim>: Sized + Send + Sync {
-    /// Whether the points move on their own (the state's `point_u`) and the nodes carry ρ
-    /// (`node_rho`), as the weak form's stress points do; otherwise the points follow the
-    /// nodes (elements).
+    /// Whether the points move on their own (the state's `point_u`), as stress points
+    /// do; otherwise the points follow the nodes (elements).
     const OWN_MOTION: bool;
+
+    /// Whether the nodes carry ρ (`node_rho`), as the weak form's particles do for their
+    /// volumes m/ρ.
+    const NODE_DENSITY: bool = false;
+
+    /// Whether the test functions differ from the trial functions (Petrov–Galerkin): the
+    /// shapes then carry test gradients ([`Shapes::test_gradient`]).
+    const PETROV_GALERKIN: bool = false;
 
     /// The points of the case's method on the reference configuration; a case that names
     /// another method is an error.
@@ -93,17 +100,24 @@ pub trait MovingPoints<D: Dim>: Sized + Send + Sync {
     /// The nodal masses.
     fn mass(&self) -> Mass;
 
-    /// N_a(x_q) and ∇N_a(x_q) of point q into its pairs of the lists (zero for a node that
-    /// does not reach it in this configuration), for the nodes at `nodes.x` and state y;
-    /// returns the point's weight w_q there.
+    /// N_a(x_q) and ∇N_a(x_q) (and ∇Φ_a(x_q) if Petrov–Galerkin) of point q into its
+    /// pairs of the lists (zero for a node that does not reach it in this configuration),
+    /// for the nodes at `nodes.x` and state y; returns the point's weight w_q there.
     fn shapes_at(
         &self,
         q: usize,
         nodes: &Nodes<D>,
         y: &UlGalerkinState<D>,
-        n: &mut [f64],
-        grad: &mut [D::V],
+        row: ShapeRow<D>,
     ) -> Result<f64, Degenerate>;
+
+    /// New lists from the points to the nodes, searched on the configuration of state y
+    /// at the start of a step, when the method searches anew then (an Eulerian kernel;
+    /// [`Self::lists`] are these lists afterwards);
+    /// none keeps the lists (the default).
+    fn relist(&mut self, _nodes: &Nodes<D>, _y: &UlGalerkinState<D>) -> Option<Csr> {
+        None
+    }
 
     /// The rates of `node_rho` and `point_u`, with `shapes` the functions at the points
     /// of this evaluation; nothing by default.
@@ -147,11 +161,10 @@ pub struct UlGalerkin<D: Dim, P: MovingPoints<D>> {
 }
 
 /// The initial state: at rest in the reference configuration, v = v0, ρ = ρ0, S = 0.
-fn initial<D: Dim>(
+fn initial<D: Dim, P: MovingPoints<D>>(
     material: &Material,
     v0: &[D::V],
     points: usize,
-    own_motion: bool,
 ) -> UlGalerkinState<D> {
     let (n, rate) = (v0.len(), material.model.is_rate_based());
     let sized = |on: bool, len: usize| if on { len } else { 0 };
@@ -160,8 +173,21 @@ fn initial<D: Dim>(
         v: v0.to_vec(),
         rho: vec![material.rho0; sized(rate, points)],
         s: vec![D::zero_t(); sized(rate, points)],
-        node_rho: vec![material.rho0; sized(own_motion, n)],
-        point_u: vec![D::zero(); sized(own_motion, points)],
+        node_rho: vec![material.rho0; sized(P::NODE_DENSITY, n)],
+        point_u: vec![D::zero(); sized(P::OWN_MOTION, points)],
+    }
+}
+
+/// Shapes on `lists`, zero until evaluated (with test gradients for a Petrov–Galerkin
+/// method).
+fn on_lists<D: Dim, P: MovingPoints<D>>(lists: Csr) -> Shapes<D> {
+    let pairs = lists.pair_count();
+    let test = if P::PETROV_GALERKIN { pairs } else { 0 };
+    Shapes {
+        csr: lists,
+        n: vec![0.0; pairs],
+        grad: vec![D::zero(); pairs],
+        test: vec![D::zero(); test],
     }
 }
 
@@ -173,20 +199,13 @@ fn evaluate<D: Dim, P: MovingPoints<D>>(
     y: &UlGalerkinState<D>,
     shapes: &mut Shapes<D>,
 ) -> Result<Vec<f64>, (usize, Degenerate)> {
-    shapes.recompute(|q, _, n, grad| points.shapes_at(q, nodes, y, n, grad))
+    shapes.recompute(|q, _, row| points.shapes_at(q, nodes, y, row))
 }
 
 impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
     /// The system on the particles of `reference` with the method's points.
     pub fn new(case: &Case, reference: Reference<D>, points: P) -> Result<Self, CaseError> {
-        let lists = points.lists().clone();
-        let pairs = lists.pair_count();
-        let mut shapes = Shapes {
-            csr: lists,
-            n: vec![0.0; pairs],
-            grad: vec![D::zero(); pairs],
-            test: Vec::new(),
-        };
+        let mut shapes = on_lists::<D, P>(points.lists().clone());
         let gather = shapes.gather(reference.len());
         let Reference {
             x0,
@@ -197,7 +216,7 @@ impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
             material,
             ..
         } = reference;
-        let y0 = initial::<D>(&material, &v0, shapes.len(), P::OWN_MOTION);
+        let y0 = initial::<D, P>(&material, &v0, shapes.len());
         let nodes = Nodes {
             x0: &x0,
             x: &x0,
@@ -408,7 +427,18 @@ impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
         Ok(())
     }
 
+    /// The points' new lists if they search anew, then the interactions.
     fn begin_step(&mut self, t: f64, dt: f64, y: &UlGalerkinState<D>) {
+        let x = self.positions(y);
+        let nodes = Nodes {
+            x0: &self.x0,
+            x: &x,
+            mass: &self.mass,
+        };
+        if let Some(lists) = self.points.relist(&nodes, y) {
+            self.shapes = on_lists::<D, P>(lists);
+            self.gather = self.shapes.gather(self.x0.len());
+        }
         self.interactions.begin_step(t, dt, &self.x0, &y.u, &y.v);
     }
 
@@ -435,7 +465,7 @@ impl<D: Dim, P: MovingPoints<D>> Method<D> for UlGalerkin<D, P> {
     }
 
     fn initial_state(&self) -> UlGalerkinState<D> {
-        initial::<D>(&self.material, &self.v0, self.shapes.len(), P::OWN_MOTION)
+        initial::<D, P>(&self.material, &self.v0, self.shapes.len())
     }
 
     fn displacement<'a>(&self, y: &'a UlGalerkinState<D>) -> &'a [D::V] {

@@ -6,17 +6,25 @@
 //! stress point at the centre of every lattice cell ("KBM (si)", §5.2), weighted by the
 //! Voronoi diagram of both (eq 65). Everything is built once on the reference
 //! configuration (§2.2). It runs on the shared Galerkin system
-//! ([`crate::methods::galerkin`]). Numerics notes: `docs/methods/seed001.md`.
+//! ([`crate::methods::galerkin`]). `kernel_frame = "eulerian"` selects the same method on
+//! an Eulerian kernel ([`eulerian`], updated-Lagrangian, CPU only). Numerics notes:
+//! `docs/methods/seed001.md`.
+
+pub mod eulerian;
 
 use super::fem::galerkin_state;
+use super::galerkin::updated::UlGalerkin;
 use super::galerkin::{Mass, TlGalerkin, particle_mass};
+use super::ul_fem::ul_galerkin_state;
 use super::{Feature, MethodFamily, Plan, Problem};
 use crate::material::Material;
-use crate::quadrature::{Cells, QuadraturePoints, Shapes, lattice_cells};
+use crate::quadrature::{Cells, QuadraturePoints, Shapes};
 use crate::reference::Reference;
-use crate::run::{Engine, EngineDim};
+use crate::run::{CpuEngine, Engine, EngineDim};
+use crate::scene::validate::fail;
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
+use eulerian::EulerianPoints;
 use serde::{Deserialize, Serialize};
 
 fn yes() -> bool {
@@ -34,6 +42,26 @@ pub struct KbmSpec {
     /// The nodal masses (default `particle`, the Voronoi masses of eq 70).
     #[serde(default = "particle_mass")]
     pub mass: Mass,
+    /// The configuration of the kernel (default `lagrangian`).
+    #[serde(default)]
+    pub kernel_frame: KernelFrame,
+    /// Steps between two neighbour searches of the Eulerian kernel (default
+    /// [`eulerian::SEARCH_EVERY`]).
+    #[serde(default)]
+    pub search_every: Option<u32>,
+}
+
+/// Where the kernel lives (seed 001 §2.2).
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum KernelFrame {
+    /// W(X − X_a, h0) on the reference configuration (eq 17): neighbours and functions
+    /// built once, total-Lagrangian.
+    #[default]
+    Lagrangian,
+    /// W(x − x_a, h0) on the current configuration (eq 16): functions recomputed at every
+    /// rate evaluation, neighbours searched every `search_every` steps, updated-Lagrangian.
+    Eulerian,
 }
 
 impl Default for KbmSpec {
@@ -41,20 +69,23 @@ impl Default for KbmSpec {
         Self {
             stress_points: true,
             mass: Mass::Particle,
+            kernel_frame: KernelFrame::Lagrangian,
+            search_every: None,
         }
     }
 }
 
 impl KbmSpec {
-    /// The Galerkin system with the Krongauz–Belytschko functions at the particles and,
-    /// with stress points, at the cell centres.
-    pub fn system<D: Dim>(
+    /// The cells (stress points only) and the points: the particles, then with stress
+    /// points one at the centre of every cell, weighted by their joint Voronoi cells.
+    pub fn points<D: Dim>(
         &self,
         case: &Case,
-        reference: Reference<D>,
-    ) -> Result<TlGalerkin<D>, CaseError> {
-        let (cells, points) = if self.stress_points {
-            let cells = lattice_cells::<D>(&reference.x0, &reference.body, case.spacing)
+        reference: &Reference<D>,
+    ) -> Result<(Cells, QuadraturePoints<D>), CaseError> {
+        Ok(if self.stress_points {
+            let cells = reference
+                .cells(case.spacing)
                 .map_err(|e| case.invalid("method.stress_points", e.to_string()))?;
             let points =
                 QuadraturePoints::with_stress_points(&cells, &reference.x0, &reference.body);
@@ -63,7 +94,17 @@ impl KbmSpec {
             let points =
                 QuadraturePoints::at_particles(&reference.x0, &reference.vol, &reference.body);
             (Cells::default(), points)
-        };
+        })
+    }
+
+    /// The Galerkin system with the Krongauz–Belytschko functions at the particles and,
+    /// with stress points, at the cell centres.
+    pub fn system<D: Dim>(
+        &self,
+        case: &Case,
+        reference: Reference<D>,
+    ) -> Result<TlGalerkin<D>, CaseError> {
+        let (cells, points) = self.points(case, &reference)?;
         let shapes = Shapes::krongauz_belytschko(
             &points.x0,
             &points.body,
@@ -80,16 +121,31 @@ impl MethodFamily for KbmSpec {
     const DESCRIPTION: &'static str = "Krongauz–Belytschko Petrov–Galerkin method (seed \
         001, EFG–KBM): Lagrangian kernel, Shepard test functions, corrected trial gradient, \
         integration at the particles and at stress points in the cell centres";
-    const KEYS: &'static [&'static str] = &["stress_points", "mass"];
+    const KEYS: &'static [&'static str] =
+        &["stress_points", "mass", "kernel_frame", "search_every"];
     const FEATURES: &'static [Feature] = &[Feature::Contact];
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = super::galerkin::gpu::SHADERS;
 
     fn validate(&self, _case: &Case) -> Result<(), Problem> {
-        Ok(())
+        match (self.kernel_frame, self.search_every) {
+            (KernelFrame::Lagrangian, Some(_)) => fail(
+                "method.search_every",
+                "is read with kernel_frame = \"eulerian\" only (a Lagrangian kernel's \
+                 neighbours are found once): remove it or set kernel_frame",
+            ),
+            (KernelFrame::Eulerian, Some(0)) => fail(
+                "method.search_every",
+                "must be at least 1 (steps between two neighbour searches), got 0",
+            ),
+            _ => Ok(()),
+        }
     }
 
     fn plan(&self, case: &Case, gpu: bool) -> Plan {
+        if self.kernel_frame == KernelFrame::Eulerian {
+            return self.eulerian_plan(case);
+        }
         let mat = Material::new(&case.material);
         let mut left_out = Vec::new();
         if !self.stress_points {
@@ -131,7 +187,12 @@ impl MethodFamily for KbmSpec {
     }
 
     fn cpu_engine<D: EngineDim>(&self, case: &Case) -> Result<Box<dyn Engine<D>>, CaseError> {
-        super::galerkin::cpu_engine(case)
+        match self.kernel_frame {
+            KernelFrame::Lagrangian => super::galerkin::cpu_engine(case),
+            KernelFrame::Eulerian => Ok(Box::new(
+                CpuEngine::<D, UlGalerkin<D, EulerianPoints<D>>>::new(case)?,
+            )),
+        }
     }
 
     #[cfg(feature = "gpu")]
@@ -140,11 +201,64 @@ impl MethodFamily for KbmSpec {
         case: &Case,
         gpu: crate::gpu::Gpu,
     ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
-        super::galerkin::gpu_engine(case, gpu)
+        match self.kernel_frame {
+            KernelFrame::Lagrangian => super::galerkin::gpu_engine(case, gpu),
+            KernelFrame::Eulerian => Err(case
+                .invalid(
+                    "method.kernel_frame",
+                    "`kbm` on an Eulerian kernel has no GPU engine; run it with `--backend \
+                     cpu` (`--backend auto` picks the CPU for it)",
+                )
+                .into()),
+        }
+    }
+
+    fn runs_on_gpu(&self) -> bool {
+        self.kernel_frame == KernelFrame::Lagrangian
+    }
+
+    fn searches_current_configuration(&self) -> bool {
+        self.kernel_frame == KernelFrame::Eulerian
     }
 
     /// Δt = α Δx/(c_p + max|v|) does not depend on the stretch.
     fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
         0.0
+    }
+}
+
+impl KbmSpec {
+    /// The run plan of the Eulerian kernel.
+    fn eulerian_plan(&self, case: &Case) -> Plan {
+        let mat = Material::new(&case.material);
+        let points = if self.stress_points {
+            "the particles and a stress point at every cell centre (moving with the Shepard \
+             interpolant of the velocities)"
+        } else {
+            "the particles"
+        };
+        let mut left_out = Vec::new();
+        if !self.stress_points {
+            left_out.push("stress points (nodal integration only: KBM (ni))");
+        }
+        Plan {
+            once: format!(
+                "once, on the reference configuration: the points ({points}) and their \
+                 reference weights; runs on the CPU only (no GPU engine for the Eulerian \
+                 kernel)"
+            ),
+            state: ul_galerkin_state(&mat, "the points") + "; the stress points' displacements",
+            cfl_step: super::cfl_step(&mat),
+            rates: format!(
+                "on the CPU, on the current configuration: W^S_a, ∇W^S_a, M and G_a = M⁻¹∇W^S_a \
+                 at every point among the particles of its list (searched within 2h·(1 + \
+                 skin) every {} steps), L_q = Σ_a v_a ⊗ G_a and σ_q, then each particle \
+                 gathers −Σ_q w_q σ_q ∇W^S_a(x_q)",
+                self.search_every()
+            ),
+            checked: "det F (or ρ) at the points, and M at every point,",
+            check_note: String::new(),
+            left_out,
+        }
     }
 }

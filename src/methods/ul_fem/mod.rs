@@ -10,9 +10,7 @@ use super::galerkin::updated::{Degenerate, MovingPoints, Nodes, UlGalerkin, UlGa
 use super::{Feature, MethodFamily, MethodSpec, Plan, Problem, not_run_by};
 use crate::material::Material;
 use crate::neighbour::Csr;
-use crate::quadrature::{
-    Cells, QuadraturePoints, Rule, Shapes, isoparametric_shapes, lattice_cells,
-};
+use crate::quadrature::{Cells, QuadraturePoints, Rule, ShapeRow, Shapes, isoparametric_shapes};
 use crate::reference::Reference;
 use crate::run::{CpuEngine, Engine, EngineDim};
 use crate::scene::{Case, CaseError};
@@ -47,7 +45,8 @@ impl<D: Dim> MovingPoints<D> for Elements<D> {
         let MethodSpec::UlFem(spec) = &case.method.spec else {
             return Err(not_run_by(case, "UlGalerkin with elements"));
         };
-        let cells = lattice_cells::<D>(&reference.x0, &reference.body, case.spacing)
+        let cells = reference
+            .cells(case.spacing)
             .map_err(|e| case.invalid("body", e.to_string()))?;
         let points = QuadraturePoints::new(&cells, &reference.x0, RULE);
         let lists = Shapes::isoparametric(&cells, &points, &reference.x0).csr;
@@ -84,11 +83,10 @@ impl<D: Dim> MovingPoints<D> for Elements<D> {
         q: usize,
         nodes: &Nodes<D>,
         _y: &UlGalerkinState<D>,
-        n: &mut [f64],
-        grad: &mut [D::V],
+        row: ShapeRow<D>,
     ) -> Result<f64, Degenerate> {
         let corners = self.cells.of::<D>(self.points.cell[q] as usize);
-        let det = isoparametric_shapes::<D>(corners, nodes.x, self.points.xi[q], n, grad);
+        let det = isoparametric_shapes::<D>(corners, nodes.x, self.points.xi[q], row.n, row.grad);
         if det.is_nan() || det <= 0.0 {
             return Err(Degenerate {
                 quantity: "det J (an inverted element)",

@@ -10,7 +10,7 @@ use crate::methods::galerkin::updated::{Degenerate, MovingPoints, Nodes, UlGaler
 use crate::methods::shared::{BlowUp, MIN_CHUNK};
 use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::{self, Csr};
-use crate::quadrature::{QuadraturePoints, Rule, Shapes, lattice_cells};
+use crate::quadrature::{QuadraturePoints, Rule, ShapeRow, Shapes};
 use crate::reference::Reference;
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
@@ -110,8 +110,9 @@ impl<D: Dim> StressPoints<D> {
     ) -> Result<(), (usize, Degenerate)> {
         let vol = |j: usize| nodes.mass[j] / node_rho[j];
         self.particle_shapes
-            .recompute(|i, candidates, n, grad| {
-                ellipse_shapes::<D>(nodes.x[i], candidates, nodes.x, vol, n, grad).map(|()| 0.0)
+            .recompute(|i, candidates, row| {
+                ellipse_shapes::<D>(nodes.x[i], candidates, nodes.x, vol, row.n, row.grad)
+                    .map(|()| 0.0)
             })
             .map(|_| ())
     }
@@ -129,6 +130,7 @@ impl<D: Dim> StressPoints<D> {
 
 impl<D: Dim> MovingPoints<D> for StressPoints<D> {
     const OWN_MOTION: bool = true;
+    const NODE_DENSITY: bool = true;
 
     /// One stress point per lattice cell at its centre (Rule::Centre, w0 = Δx^d), and the
     /// candidate lists of the stress points and particles on the reference positions.
@@ -137,7 +139,8 @@ impl<D: Dim> MovingPoints<D> for StressPoints<D> {
             return Err(not_run_by(case, "UlGalerkin with stress points"));
         };
         let (x0, body) = (&reference.x0, &reference.body);
-        let cells = lattice_cells::<D>(x0, body, case.spacing)
+        let cells = reference
+            .cells(case.spacing)
             .map_err(|e| case.invalid("body", e.to_string()))?;
         let points = QuadraturePoints::new(&cells, x0, Rule::Centre);
         let half = CANDIDATE_BOX * case.spacing;
@@ -179,13 +182,12 @@ impl<D: Dim> MovingPoints<D> for StressPoints<D> {
         q: usize,
         nodes: &Nodes<D>,
         y: &UlGalerkinState<D>,
-        n: &mut [f64],
-        grad: &mut [D::V],
+        row: ShapeRow<D>,
     ) -> Result<f64, Degenerate> {
         let centre = self.points.x0[q] + y.point_u[q];
         let vol = |j: usize| nodes.mass[j] / y.node_rho[j];
         let candidates = self.candidates.neighbours(q);
-        ellipse_shapes::<D>(centre, candidates, nodes.x, vol, n, grad)?;
+        ellipse_shapes::<D>(centre, candidates, nodes.x, vol, row.n, row.grad)?;
         Ok(self.points.weight[q] * self.rho0 / y.rho[q])
     }
 

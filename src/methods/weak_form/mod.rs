@@ -9,7 +9,7 @@ use super::fem::galerkin_state;
 use super::galerkin::{Mass, TlGalerkin, particle_mass, smoothing_shapes};
 use super::{Feature, MethodFamily, Plan, Problem};
 use crate::material::Material;
-use crate::quadrature::{QuadraturePoints, Rule, Shapes, lattice_cells};
+use crate::quadrature::{QuadraturePoints, Rule, Shapes};
 use crate::reference::Reference;
 use crate::run::{Engine, EngineDim};
 use crate::scene::{Case, CaseError};
@@ -50,7 +50,8 @@ impl WeakFormSpec {
         case: &Case,
         reference: Reference<D>,
     ) -> Result<TlGalerkin<D>, CaseError> {
-        let cells = lattice_cells::<D>(&reference.x0, &reference.body, case.spacing)
+        let cells = reference
+            .cells(case.spacing)
             .map_err(|e| case.invalid("body", e.to_string()))?;
         let points = QuadraturePoints::new(&cells, &reference.x0, Rule::Gauss2);
         let shapes = Shapes::reproducing(

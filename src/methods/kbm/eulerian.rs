@@ -1,0 +1,197 @@
+//! The Krongauz–Belytschko method on an Eulerian kernel (seed 001 §2.2, Table 2): the
+//! kernel W(x − x_a, h0) of the current positions, so that the Shepard functions, M and
+//! the corrected gradient G_a = M⁻¹∇W^S_a are recomputed at every rate evaluation on the
+//! current configuration, with σ, current weights and L_q = Σ_a v_a ⊗ G_a(x_q) (the
+//! updated-Lagrangian Galerkin system, [`crate::methods::galerkin::updated`]). The lists
+//! from the points to the particles are searched anew on the current configuration every
+//! `search_every` steps (the paper's 30, §9.3), within the kernel's reach widened by
+//! [`SKIN`]. The stress points move with the Shepard interpolant of the particles'
+//! velocities; the particles are points at their own positions.
+
+use super::KbmSpec;
+use crate::kernel::Kernel;
+use crate::methods::galerkin::Mass;
+use crate::methods::galerkin::updated::{Degenerate, MovingPoints, Nodes, UlGalerkinState};
+use crate::methods::shared::BlowUp;
+use crate::methods::{MethodSpec, not_run_by};
+use crate::neighbour::{self, Csr, SKIN};
+use crate::quadrature::{QuadraturePoints, ShapeRow, Shapes, krongauz_belytschko_shapes};
+use crate::reference::{Reference, neighbour_radius};
+use crate::scene::{Case, CaseError};
+use crate::tensor::Dim;
+
+/// The points of the Eulerian-kernel KBM: the particles and (KBM (si)) the stress points,
+/// with their lists to the particles from the last search.
+pub struct EulerianPoints<D: Dim> {
+    /// Reference positions and volumes w0_q of the points (the particles first).
+    points: QuadraturePoints<D>,
+    lists: Csr,
+    kernel: Kernel,
+    /// The reach of a search: the kernel support widened by the skin.
+    reach: f64,
+    search_every: u32,
+    /// Steps begun since the last search.
+    steps: u32,
+    mass: Mass,
+    /// Whether the material integrates ρ (rate model): w_q = w0_q ρ0/ρ_q; else
+    /// w_q = w0_q det F_q.
+    rate_model: bool,
+    rho0: f64,
+}
+
+impl<D: Dim> EulerianPoints<D> {
+    /// The points' reference positions and volumes (the particles first).
+    pub fn points(&self) -> &QuadraturePoints<D> {
+        &self.points
+    }
+
+    /// The current position of point q, with the particles at x: its particle's, or
+    /// X_q + u_q of a stress point.
+    fn position(&self, q: usize, x: &[D::V], y: &UlGalerkinState<D>) -> D::V {
+        if q < self.points.particles {
+            x[q]
+        } else {
+            self.points.x0[q] + y.point_u[q]
+        }
+    }
+
+    /// The particles of its body within the reach of every point at `at`, the particles
+    /// at x.
+    fn search(&self, at: &[D::V], x: &[D::V]) -> Csr {
+        let particles = &self.points.body[..self.points.particles];
+        neighbour::between::<D>(at, x, self.reach, Some((&self.points.body, particles)))
+    }
+}
+
+/// The Krongauz–Belytschko functions at `centre` of the particles `list` at x into a
+/// row: W^S_a, G_a and ∇W^S_a (eqs 27–32 on the current configuration).
+fn kb_row<D: Dim>(
+    centre: D::V,
+    list: &[u32],
+    x: &[D::V],
+    kernel: &Kernel,
+    row: &mut ShapeRow<D>,
+) -> Result<(), Degenerate> {
+    let shapes = krongauz_belytschko_shapes::<D>(centre, list, x, kernel).ok_or(Degenerate {
+        quantity: "particles in the kernel support (too few, or all on one line, for M)",
+        value: list.len() as f64,
+    })?;
+    for (p, (w, g, test)) in shapes.into_iter().enumerate() {
+        row.n[p] = w;
+        row.grad[p] = g;
+        row.test[p] = test;
+    }
+    Ok(())
+}
+
+impl<D: Dim> MovingPoints<D> for EulerianPoints<D> {
+    const OWN_MOTION: bool = true;
+    const PETROV_GALERKIN: bool = true;
+
+    /// The points of KBM (si) or (ni) on the reference configuration, and their first
+    /// lists.
+    fn build(case: &Case, reference: &Reference<D>) -> Result<Self, CaseError> {
+        let MethodSpec::Kbm(spec) = &case.method.spec else {
+            return Err(not_run_by(case, "the Eulerian-kernel KBM points"));
+        };
+        let (_, points) = spec.points(case, reference)?;
+        let kernel = reference.kernel;
+        let mut eulerian = Self {
+            points,
+            lists: Csr::default(),
+            reach: neighbour_radius(&kernel) * (1.0 + SKIN),
+            kernel,
+            search_every: spec.search_every(),
+            steps: 0,
+            mass: spec.mass,
+            rate_model: reference.material.model.is_rate_based(),
+            rho0: reference.material.rho0,
+        };
+        eulerian.lists = eulerian.search(&eulerian.points.x0, &reference.x0);
+        Ok(eulerian)
+    }
+
+    fn lists(&self) -> &Csr {
+        &self.lists
+    }
+
+    fn reference_weights(&self) -> &[f64] {
+        &self.points.weight
+    }
+
+    fn mass(&self) -> Mass {
+        self.mass
+    }
+
+    /// The functions at the point's current position among its listed particles at
+    /// theirs; w_q = w0_q ρ0/ρ_q (rate model) or w0_q det F_q with F_q = (Σ_a X_a ⊗
+    /// G_a)⁻¹ (state model).
+    fn shapes_at(
+        &self,
+        q: usize,
+        nodes: &Nodes<D>,
+        y: &UlGalerkinState<D>,
+        row: ShapeRow<D>,
+    ) -> Result<f64, Degenerate> {
+        let list = self.lists.neighbours(q);
+        let centre = self.position(q, nodes.x, y);
+        let mut row = row;
+        kb_row::<D>(centre, list, nodes.x, &self.kernel, &mut row)?;
+        if self.rate_model {
+            return Ok(self.points.weight[q] * self.rho0 / y.rho[q]);
+        }
+        let inverse_f = list
+            .iter()
+            .zip(row.grad.iter())
+            .fold(D::zero_t(), |m, (&a, &g)| {
+                m + D::outer(nodes.x0[a as usize], g)
+            });
+        let det_f = 1.0 / D::det(inverse_f);
+        if det_f.is_nan() || det_f <= 0.0 {
+            return Err(Degenerate {
+                quantity: "det F",
+                value: det_f,
+            });
+        }
+        Ok(self.points.weight[q] * det_f)
+    }
+
+    /// ẋ_q = Σ_a W^S_a(x_q) v_a at the stress points (the particles move with their own
+    /// velocity).
+    fn own_rates(
+        &mut self,
+        _nodes: &Nodes<D>,
+        y: &UlGalerkinState<D>,
+        shapes: &Shapes<D>,
+        d: &mut UlGalerkinState<D>,
+    ) -> Result<(), BlowUp> {
+        d.point_u = shapes.interpolate(&y.v);
+        let n = self.points.particles;
+        d.point_u[..n].copy_from_slice(&y.v);
+        Ok(())
+    }
+
+    /// Every `search_every` steps: the lists on the current configuration.
+    fn relist(&mut self, nodes: &Nodes<D>, y: &UlGalerkinState<D>) -> Option<Csr> {
+        self.steps += 1;
+        if self.steps < self.search_every {
+            return None;
+        }
+        self.steps = 0;
+        let at: Vec<D::V> = (0..self.points.len())
+            .map(|q| self.position(q, nodes.x, y))
+            .collect();
+        self.lists = self.search(&at, nodes.x);
+        Some(self.lists.clone())
+    }
+}
+
+impl KbmSpec {
+    /// The steps between two neighbour searches of the Eulerian kernel.
+    pub fn search_every(&self) -> u32 {
+        self.search_every.unwrap_or(SEARCH_EVERY)
+    }
+}
+
+/// The paper's steps between two neighbour searches of an Eulerian kernel (§9.3).
+pub const SEARCH_EVERY: u32 = 30;
