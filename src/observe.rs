@@ -124,6 +124,9 @@ pub struct Observers {
     exact: Option<(Exact, f64)>,
     /// The rings of the `ring-symmetry` observer, each in order of reference angle.
     rings: Vec<Vec<usize>>,
+    /// The stress below which a ring's mean σ_θθ is round-off: 1e-9 of the p-wave
+    /// modulus λ + 2μ.
+    stress_floor: f64,
     names: Vec<String>,
 }
 
@@ -221,6 +224,10 @@ impl Observers {
             bodies: case.bodies.len(),
             exact,
             rings,
+            stress_floor: {
+                let mat = crate::material::Material::new(&case.material);
+                1e-9 * (mat.lambda + 2.0 * mat.mu)
+            },
             names,
         })
     }
@@ -290,7 +297,9 @@ impl Observers {
                         .fold(0.0, |a: f64, &b| a.max(b)),
                 ),
                 Observer::VelocityError(_) => row.push(self.velocity_error(snap, clock.t)),
-                Observer::RingSymmetry => row.extend(ring_spreads(&self.rings, snap)),
+                Observer::RingSymmetry => {
+                    row.extend(ring_spreads(&self.rings, snap, self.stress_floor))
+                }
             }
         }
         for &i in &self.probes {
@@ -358,8 +367,10 @@ fn rings<D: Dim>(case: &Case, x0: &[D::V]) -> Result<Vec<Vec<usize>>, CaseError>
     Ok(rings)
 }
 
-/// The spreads of σ_θθ and of the gaps around the rings (see [`Observer::RingSymmetry`]).
-fn ring_spreads<D: Dim>(rings: &[Vec<usize>], snap: &Snapshot<D>) -> [f64; 2] {
+/// The spreads of σ_θθ and of the gaps around the rings (see [`Observer::RingSymmetry`]);
+/// the largest ring mean counts as at least `floor`, so that an unstressed ring's
+/// round-off is no spread.
+fn ring_spreads<D: Dim>(rings: &[Vec<usize>], snap: &Snapshot<D>, floor: f64) -> [f64; 2] {
     let x = |i: usize| D::to3(snap.x0[i] + snap.u[i]);
     let centre = (0..snap.x0.len()).fold([0.0; 3], |c, i| {
         let xi = x(i);
@@ -395,12 +406,7 @@ fn ring_spreads<D: Dim>(rings: &[Vec<usize>], snap: &Snapshot<D>) -> [f64; 2] {
         let (mean, std) = mean_std(&gaps);
         gap_spread = gap_spread.max(std / mean);
     }
-    let stress_spread = if largest_mean > 0.0 {
-        stress_std / largest_mean
-    } else {
-        0.0
-    };
-    [stress_spread, gap_spread]
+    [stress_std / largest_mean.max(floor), gap_spread]
 }
 
 /// Particles grouped by reference x (one group per lattice column), leaving out columns

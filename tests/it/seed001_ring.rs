@@ -14,7 +14,7 @@ use meshless::methods::kbm::eulerian::{EulerianPoints, SEARCH_EVERY};
 use meshless::output::series::read_column;
 use meshless::reference::Reference;
 use meshless::run::{RunError, build_method, run};
-use meshless::scene::Case;
+use meshless::scene::{Case, VelocityNoise};
 use meshless::tensor::D2;
 
 type Eulerian = UlGalerkin<D2, EulerianPoints<D2>>;
@@ -253,4 +253,27 @@ fn the_rubber_ring_stays_symmetric_on_a_lagrangian_kernel_and_fails_on_an_euleri
         }
         other => panic!("the Eulerian kernel's ring should blow up: {other:?}"),
     }
+}
+
+#[test]
+fn velocity_noise_is_bounded_repeatable_and_centred() {
+    // The noise of `velocity_noise = { amplitude, seed }`: every component within
+    // ±amplitude of the initial velocity (zero here), the same on a second build, another
+    // for another seed, and centred: the mean of 540 uniform values on ±a has standard
+    // deviation a/√(3·540) = 0.0124a, so 5 of those (0.062a) fails one run in millions.
+    let noisy = |seed: u64| {
+        let mut case = ring(&[]);
+        case.bodies[0].velocity_noise = Some(VelocityNoise {
+            amplitude: 0.5,
+            seed,
+        });
+        Reference::<D2>::build(&case).unwrap().v0
+    };
+    let v = noisy(7);
+    assert_eq!(v, noisy(7));
+    assert_ne!(v, noisy(8));
+    assert!(v.iter().all(|v| v.abs().max_element() <= 0.5));
+    let mean = v.iter().sum::<DVec2>() / v.len() as f64;
+    assert!(mean.abs().max_element() < 0.062 * 0.5, "mean {mean}");
+    assert!(v.iter().any(|v| v.x.abs() > 0.45), "the range is covered");
 }
