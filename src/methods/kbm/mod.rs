@@ -81,7 +81,7 @@ impl MethodFamily for KbmSpec {
         001, EFG–KBM): Lagrangian kernel, Shepard test functions, corrected trial gradient, \
         integration at the particles and at stress points in the cell centres";
     const KEYS: &'static [&'static str] = &["stress_points", "mass"];
-    const FEATURES: &'static [Feature] = &[Feature::Contact];
+    const FEATURES: &'static [Feature] = &[Feature::Contact, Feature::StaticSolve];
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = super::galerkin::gpu::SHADERS;
 
