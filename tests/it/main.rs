@@ -38,6 +38,7 @@ mod loads;
 mod mixed;
 mod registry;
 mod runs;
+mod seed001_cantilever;
 mod seed001_rod;
 #[cfg(feature = "gpu")]
 mod shaders;
