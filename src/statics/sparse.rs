@@ -50,14 +50,6 @@ impl BlockPattern {
         &self.cols[self.offsets[a]..self.offsets[a + 1]]
     }
 
-    /// The index of block (a, b) in the block values, if b is in row a.
-    pub fn block(&self, a: usize, b: u32) -> Option<usize> {
-        self.row(a)
-            .binary_search(&b)
-            .ok()
-            .map(|k| self.offsets[a] + k)
-    }
-
     /// Groups of particles no two of which share a row (a distance-2 colouring of the
     /// coupling graph, greedy in particle order): displacing all the particles of a group
     /// at once changes the force on every particle through at most one of them, so that

@@ -21,24 +21,19 @@ const KBM_NI: &[&str] = &["method.name=kbm", "method.stress_points=false"];
 const EFG_NI: &[&str] = &["method.name=efg", "method.integration=nodal"];
 const EFG_CI: &[&str] = &["method.name=efg"];
 
-/// The static solve of a case: (displacement error, energy error, tip deflection u_y at
-/// (48, 0)).
-fn solve(case: &Case) -> (f64, f64, f64) {
+/// The static solve of a case: (displacement error, energy error).
+fn solve(case: &Case) -> (f64, f64) {
     let mut e = engine::<D2>(case, Backend::Cpu).unwrap_or_else(|e| panic!("{e}"));
     e.advance(0.0, 1.0, 1)
         .unwrap_or_else(|f| panic!("{}", f.cause));
     let closed = solution_of(case).expect("the case has a solution-displacement condition");
     let snap = e.snapshot();
     let [du, de] = solution_errors(&snap, &closed, &Material::new(&case.material));
-    let tip = (0..snap.x0.len())
-        .find(|&i| snap.x0[i].x == 48.0 && snap.x0[i].y == 0.0)
-        .map(|i| snap.u[i].y)
-        .expect("a particle at the tip");
-    (du, de, tip)
+    (du, de)
 }
 
 /// The errors of a variant at spacing Δx, with h/Δx = 1.3 or, if given, h fixed.
-fn errors(variant: &[&str], spacing: f64, h: Option<f64>) -> (f64, f64, f64) {
+fn errors(variant: &[&str], spacing: f64, h: Option<f64>) -> (f64, f64) {
     let mut set: Vec<String> = variant.iter().map(|s| s.to_string()).collect();
     set.push(format!("spacing={spacing}"));
     if let Some(h) = h {
@@ -57,8 +52,9 @@ fn the_static_solve_passes_the_patch_test_with_finite_elements() {
     // Uniaxial stress σ = 1e4 along x on a 4 × 2 block of bilinear elements (tl-fem),
     // u_x prescribed on x = 0 (and u_y at one point), the traction σ on x = 4: the exact
     // field is linear, which the elements contain, so the static solve (finite-difference
-    // stiffness of the method's own forces, sparse LU, one Newton iteration) must give it
-    // to round-off: bound 1e-9 relative in u (the solve leaves ~1e-13).
+    // stiffness of the method's own forces, sparse LU, Newton to 1e-10 of the load) must
+    // give it: bound 1e-9 relative in u (a wrong stiffness column or load is off by far
+    // more).
     let text = r#"
 name = "patch"
 dimension = 2
@@ -125,10 +121,7 @@ fn a_body_left_free_to_move_is_refused_by_name() {
 fn ladder(variant: &[&str], h: Option<f64>) -> (Vec<f64>, Vec<f64>) {
     [4.0, 2.0, 1.0]
         .iter()
-        .map(|&dx| {
-            let (u, e, _) = errors(variant, dx, h);
-            (u, e)
-        })
+        .map(|&dx| errors(variant, dx, h))
         .unzip()
 }
 
@@ -181,7 +174,7 @@ fn kbm_converges_at_first_order_with_patch_tractions() {
     eprintln!("KBM (si) {si:?} {si_e:?}; KBM (ni) {ni:?} {ni_e:?}");
     let o = orders(&si);
     assert!((0.8..1.5).contains(&o[1]), "{si:?}: {o:?}");
-    let (ci, _, _) = errors(EFG_CI, 1.0, None);
+    let (ci, _) = errors(EFG_CI, 1.0, None);
     assert!(si[2] > 10.0 * ci, "{si:?} vs EFG (ci) {ci}");
     assert!(si_e[1] < ni_e[1] && si_e[2] < ni_e[2], "{si_e:?} {ni_e:?}");
 }
@@ -209,8 +202,8 @@ fn sph_is_far_off_with_h_over_dx_fixed_and_worse_with_h_fixed() {
     // with h fixed the error at Δx = 1 above that at Δx = 2.
     let (u, _) = ladder(SPH, None);
     assert!(u[2] > 0.5 && u[2] < u[1], "{u:?}");
-    let (coarse, _, _) = errors(SPH, 2.0, Some(2.0));
-    let (fine, _, _) = errors(SPH, 1.0, Some(2.0));
+    let (coarse, _) = errors(SPH, 2.0, Some(2.0));
+    let (fine, _) = errors(SPH, 1.0, Some(2.0));
     eprintln!("SPH {u:?}; h fixed {coarse} {fine}");
     assert!(fine > coarse, "{coarse} {fine}");
 }
