@@ -301,10 +301,11 @@ pub fn rigid_motions_held<D: Dim>(
                     names[p]
                 ));
             }
-            for r in p + 1..m {
-                let s = gram[r][p] / pivot;
-                for c in p..m {
-                    gram[r][c] -= s * gram[p][c];
+            let top = gram[p].clone();
+            for row in gram.iter_mut().skip(p + 1) {
+                let s = row[p] / pivot;
+                for (g, t) in row.iter_mut().zip(&top).skip(p) {
+                    *g -= s * t;
                 }
             }
         }

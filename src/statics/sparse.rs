@@ -382,9 +382,9 @@ impl FreeSystem {
     /// |K x − b|/|b| with the values of Kᵀ by rows (the LU layout); 0 for b = 0 and x = 0.
     fn lu_residual(&self, values: &[f64], x: &[f64], b: &[f64]) -> f64 {
         let mut r = b.to_vec();
-        for c in 0..self.n {
+        for (c, &xc) in x.iter().enumerate().take(self.n) {
             for q in self.row_ptr[c]..self.row_ptr[c + 1] {
-                r[self.col[q]] -= values[q] * x[c];
+                r[self.col[q]] -= values[q] * xc;
             }
         }
         let norm = |v: &[f64]| v.iter().map(|a| a * a).sum::<f64>().sqrt();
