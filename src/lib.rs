@@ -27,6 +27,7 @@ pub mod quadrature;
 pub mod reference;
 pub mod run;
 pub mod scene;
+pub mod statics;
 #[cfg(feature = "study")]
 pub mod study;
 pub mod tensor;

@@ -1,7 +1,8 @@
 //! Observers: energies, momenta, body extents, neck height, the velocity error against a
 //! closed form and point probes, sampled into the CSV time series.
 
-use crate::analytic::{Exact, relative_l2};
+use crate::analytic::{ClosedForm, Exact, relative_l2};
+use crate::material::Material;
 use crate::methods::shared::ordered_reduce;
 use crate::scene::{Case, CaseError, Observer};
 use crate::tensor::Dim;
@@ -25,6 +26,19 @@ pub struct Snapshot<'a, D: Dim> {
     /// The corners of the method's elements, 2^d per cell in VTK order, which the frames
     /// show as cells on the particles; empty for the particle methods.
     pub cells: &'a [u32],
+    /// The points the method integrates at, when they are not the particles with volumes
+    /// m/ρ0 and the particles' F (the Galerkin methods).
+    pub quadrature: Option<Quadrature<D>>,
+}
+
+/// The quadrature points of a method with the displacement and F there: what an error
+/// measured with the method's own quadrature sums over (seed 001 §9.1).
+pub struct Quadrature<D: Dim> {
+    pub x0: Vec<D::V>,
+    pub weight: Vec<f64>,
+    /// u^h(X_q) = Σ_a N_a(X_q) u_a with the method's shape function values.
+    pub u: Vec<D::V>,
+    pub f: Vec<D::T>,
 }
 
 /// A per-particle scalar field that a method adds to the frames (the plastic strain ε_p).
@@ -127,6 +141,8 @@ pub struct Observers {
     /// The stress below which a ring's mean σ_θθ is round-off: 1e-9 of the p-wave
     /// modulus λ + 2μ.
     stress_floor: f64,
+    /// The closed form of the `solution-error` observer, and the material.
+    solution: Option<(ClosedForm, Material)>,
     names: Vec<String>,
 }
 
@@ -169,6 +185,8 @@ impl Observers {
                 Observer::VelocityError(_) => names.push("velocity_error".into()),
                 Observer::RingSymmetry => {
                     names.extend(["hoop_stress_spread", "hoop_gap_spread"].map(String::from))
+                Observer::SolutionError => {
+                    names.extend(["displacement_error", "energy_error"].map(String::from))
                 }
             }
         }
@@ -186,6 +204,18 @@ impl Observers {
             .map(|s| Exact::of(s, case).map_err(|m| case.invalid("output.observers", m)))
             .transpose()?
             .map(|e| (e, case.material.density));
+        let solution = if list.contains(&Observer::SolutionError) {
+            let closed = solution_of(case).ok_or_else(|| {
+                case.invalid(
+                    "output.observers",
+                    "`solution-error` measures against the closed form of a \
+                     `solution-displacement` boundary condition, and the case has none",
+                )
+            })?;
+            Some((closed, Material::new(&case.material)))
+        } else {
+            None
+        };
         let mut probes = Vec::new();
         for (p, probe) in case.probes.iter().enumerate() {
             let target = D::from_slice(&probe.position);
@@ -228,6 +258,7 @@ impl Observers {
                 let mat = crate::material::Material::new(&case.material);
                 1e-9 * (mat.lambda + 2.0 * mat.mu)
             },
+            solution,
             names,
         })
     }
@@ -300,6 +331,10 @@ impl Observers {
                 Observer::RingSymmetry => {
                     row.extend(ring_spreads(&self.rings, snap, self.stress_floor))
                 }
+                Observer::SolutionError => row.extend(match &self.solution {
+                    Some((closed, mat)) => solution_errors(snap, closed, mat),
+                    None => [f64::NAN; 2],
+                }),
             }
         }
         for &i in &self.probes {
@@ -407,6 +442,56 @@ fn ring_spreads<D: Dim>(rings: &[Vec<usize>], snap: &Snapshot<D>, floor: f64) ->
         gap_spread = gap_spread.max(std / mean);
     }
     [stress_std / largest_mean.max(floor), gap_spread]
+/// The relative displacement and energy errors of [`Observer::SolutionError`] against
+/// `closed` over the snapshot's quadrature points (the particles with V = m/ρ0 and their F
+/// where the method has no points of its own), with ψ of `mat`.
+pub fn solution_errors<D: Dim>(
+    snap: &Snapshot<D>,
+    closed: &ClosedForm,
+    mat: &Material,
+) -> [f64; 2] {
+    let particles;
+    let (x0, weight, u, f) = match &snap.quadrature {
+        Some(q) => (&q.x0[..], &q.weight[..], &q.u[..], &q.f[..]),
+        None => {
+            particles = snap.mass.iter().map(|m| m / mat.rho0).collect::<Vec<f64>>();
+            (snap.x0, &particles[..], &snap.u[..], &snap.f[..])
+        }
+    };
+    let psi = |h: D::T| mat.energy_density::<D>(D::identity() + h, D::zero_t(), mat.rho0);
+    let [mut du, mut ua, mut de, mut ea] = [0.0; 4];
+    for q in 0..x0.len() {
+        let x = D::to3(x0[q]);
+        let exact = D::from_slice(&closed.displacement3(x)[..D::N]);
+        let g = closed.displacement_gradient3(x);
+        let grad = (0..D::N)
+            .flat_map(|k| (0..D::N).map(move |l| (k, l)))
+            .fold(D::zero_t(), |t, (k, l)| {
+                t + D::outer(unit::<D>(k), unit::<D>(l)) * g[k][l]
+            });
+        du += weight[q] * D::norm2(u[q] - exact);
+        ua += weight[q] * D::norm2(exact);
+        de += weight[q] * psi(f[q] - D::identity() - grad);
+        ea += weight[q] * psi(grad);
+    }
+    [(du / ua).sqrt(), (de / ea).sqrt()]
+}
+
+/// The unit vector along axis k.
+fn unit<D: Dim>(k: usize) -> D::V {
+    let mut e = [0.0; 3];
+    e[k] = 1.0;
+    D::from_slice(&e)
+}
+
+/// The closed form of a case's first `solution-displacement` condition.
+pub fn solution_of(case: &Case) -> Option<ClosedForm> {
+    case.boundaries.iter().find_map(|b| match &b.condition {
+        crate::scene::Condition::SolutionDisplacement { solution, .. } => {
+            Some(ClosedForm::of(solution, &case.material))
+        }
+        _ => None,
+    })
 }
 
 /// Particles grouped by reference x (one group per lattice column), leaving out columns

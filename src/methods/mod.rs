@@ -51,9 +51,10 @@ pub enum Feature {
     MirrorPlanes,
     /// A material with a plastic history (`von-mises-plastic`).
     Plasticity,
-    /// Prescribed displacements (`displacement`, `solution-displacement` conditions):
-    /// boundary conditions of the static path.
-    PrescribedDisplacement,
+    /// The static solve of `run.solve = "static"` ([`crate::statics`]).
+    StaticSolve,
+    /// Static only: every run solves for equilibrium load step by load step.
+    StaticOnly,
 }
 
 /// What a run of a method does, for `meshless run --explain`.

@@ -325,6 +325,7 @@ mod tests {
             strain_energy: 0.0,
             extra,
             cells: &[],
+            quadrature: None,
         };
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("frame.vtu");

@@ -197,7 +197,7 @@ pub fn with_threads<T: Send>(case: &Case, f: impl FnOnce() -> T + Send) -> Resul
 /// Whether a run of `case` on `backend` may use the GPU (the memory estimate then counts
 /// the device's share too): `gpu`, or `auto` for a method with a GPU engine.
 pub fn may_use_gpu(case: &Case, backend: Backend) -> bool {
-    backend != Backend::Cpu && case.method.spec.runs_on_gpu()
+    backend != Backend::Cpu && case.method.spec.runs_on_gpu() && !case.is_static()
 }
 
 /// The plan of a run: what is built once, what runs per step, and what the scene leaves

@@ -493,8 +493,13 @@ pub enum MirrorKind {
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct RunSpec {
-    /// Simulated end time [s].
+    /// Simulated end time [s] (of the static path: the pseudo-time of the full load).
     pub end_time: f64,
+    /// How the run advances: `dynamic`, integrating in time, or `static`, solving for
+    /// equilibrium at every load step of `method.dt` ([`crate::statics`]). Absent: the
+    /// method's own (static for the static-only methods, dynamic for the others).
+    #[serde(default)]
+    pub solve: Option<Solve>,
     /// Stop as failed when the total energy exceeds this factor times the initial
     /// energy plus the work done by boundary conditions.
     #[serde(default = "default_energy_growth")]
@@ -515,6 +520,14 @@ pub struct RunSpec {
     /// to measure the parallel speed-up.
     #[serde(default)]
     pub threads: Option<usize>,
+}
+
+/// `run.solve`.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum Solve {
+    Dynamic,
+    Static,
 }
 
 fn default_energy_growth() -> f64 {
@@ -548,6 +561,13 @@ pub enum Observer {
     /// std over mean (column `hoop_gap_spread`). Both are zero under a rotationally
     /// symmetric motion and grow where particles cluster.
     RingSymmetry,
+    /// The relative errors against the closed form of the case's `solution-displacement`
+    /// condition, with the method's own quadrature (seed 001 eqs 71–74): of the
+    /// displacement, sqrt(Σ_q w_q |u^h − u_a|²)/sqrt(Σ_q w_q |u_a|²) (column
+    /// `displacement_error`), and in energy, sqrt(Σ_q w_q ψ(I + ∇u^h − ∇u_a))/sqrt(Σ_q w_q
+    /// ψ(I + ∇u_a)) (column `energy_error`; for the linear-elastic model ψ(I + H) =
+    /// ½ ε:C:ε, so this is the energy norm sqrt(½ ∫ (P:Fᵀ of the difference)) of eq 74).
+    SolutionError,
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
@@ -741,6 +761,18 @@ impl Case {
     }
 
     /// The smoothing length h = h_over_dx · Δx.
+    /// Whether the run solves for static equilibrium load step by load step: `run.solve
+    /// = "static"`, or a static-only method.
+    pub fn is_static(&self) -> bool {
+        self.run.solve == Some(Solve::Static)
+            || self
+                .method
+                .spec
+                .entry()
+                .features
+                .contains(&crate::methods::Feature::StaticOnly)
+    }
+
     pub fn smoothing_length(&self) -> f64 {
         self.method.h_over_dx * self.spacing
     }

@@ -7,8 +7,8 @@
 
 use super::{
     Axis, BodySpec, BoundarySpec, Case, Condition, ContactSpec, Lattice, MaterialSpec, Observer,
-    OutputSpec, Plane, ProbeSpec, Region, RingLattice, RunSpec, Shape, Solution, TimeLaw,
-    VelocityField, Volumes,
+    OutputSpec, Plane, ProbeSpec, Region, RingLattice, RunSpec, Shape, Solution, Solve,
+    TimeLaw, VelocityField, Volumes,
 };
 use crate::material::{Material, MaterialModel};
 use crate::methods::{Feature, MethodTable, Problem, REGISTRY, entry, quoted, supporting};
@@ -42,19 +42,12 @@ pub(super) fn check(case: &Case) -> Result<(), (String, String)> {
     bodies(&case.bodies, dim)?;
     for (i, boundary) in case.boundaries.iter().enumerate() {
         self::boundary(boundary, &format!("boundary.{i}"), &case.bodies, dim)?;
-        if boundary.condition.is_timed_load()
-            && case
-                .method
-                .spec
-                .entry()
-                .features
-                .contains(&Feature::PrescribedDisplacement)
-        {
+        if boundary.condition.is_timed_load() && case.is_static() {
             return fail(
                 format!("boundary.{i}.condition"),
                 format!(
-                    "`{}` is static: its load steps scale the loads by t/end_time, so it takes \
-                     no pressure and no time law; give a constant `traction`",
+                    "the run of `{}` is static: its load steps scale the loads by t/end_time, \
+                     so it takes no pressure and no time law; give a constant `traction`",
                     case.method.name()
                 ),
             );
@@ -62,19 +55,23 @@ pub(super) fn check(case: &Case) -> Result<(), (String, String)> {
         if matches!(
             boundary.condition,
             Condition::Displacement { .. } | Condition::SolutionDisplacement { .. }
-        ) {
-            feature(
-                case,
-                Feature::PrescribedDisplacement,
-                &format!("boundary.{i}.condition"),
-                "a prescribed displacement is a condition of the static path",
-                "prescribe a velocity (`velocity`) instead",
-            )?;
+        ) && !case.is_static()
+        {
+            return fail(
+                format!("boundary.{i}.condition"),
+                format!(
+                    "a prescribed displacement is a condition of the static path: set \
+                     run.solve = \"static\" (which {} run), or prescribe a velocity \
+                     (`velocity`) instead",
+                    quoted(supporting(Feature::StaticSolve))
+                ),
+            );
         }
     }
     mirrors(case)?;
     contact(case)?;
     run(&case.run, &case.method)?;
+    statics(case)?;
     output(&case.output)?;
     analytic_observers(case)?;
     probes(&case.probes, dim)
@@ -974,6 +971,61 @@ fn region(r: &Region, key: &str, bodies: &[BodySpec], dim: usize) -> Checked {
                 format!("must be ≥ {axis}_min = {lo:?}, got {hi:?}"),
             );
         }
+    }
+    Ok(())
+}
+
+/// `run.solve`: a method that runs it; the static solve of an explicit method takes
+/// load steps of `method.dt`, a state model without history and no contact.
+fn statics(case: &Case) -> Checked {
+    let features = case.method.spec.entry().features;
+    let name = case.method.name();
+    match case.run.solve {
+        Some(Solve::Dynamic) if features.contains(&Feature::StaticOnly) => {
+            return fail(
+                "run.solve",
+                format!("`{name}` is static only: give run.solve = \"static\" or remove the key"),
+            );
+        }
+        Some(Solve::Static) => feature(
+            case,
+            Feature::StaticSolve,
+            "run.solve",
+            "`static` is the static solve",
+            "give run.solve = \"dynamic\"",
+        )?,
+        _ => {}
+    }
+    if !case.is_static() || features.contains(&Feature::StaticOnly) {
+        return Ok(());
+    }
+    if case.method.dt.is_none() || case.method.cfl.is_some() {
+        return fail(
+            "method.dt",
+            "a static run takes load steps of method.dt in the pseudo-time of run.end_time \
+             (end_time/dt load steps; dt = end_time for one): give method.dt and no method.cfl",
+        );
+    }
+    let model = case.material.model;
+    if model.is_rate_based() || model == MaterialModel::VonMisesPlastic {
+        return fail(
+            "material.model",
+            format!(
+                "a static run solves for u alone, so the stress must follow from F without \
+                 history: use {}, not {}",
+                MaterialModel::names_where(
+                    |m| !m.is_rate_based() && m != MaterialModel::VonMisesPlastic
+                ),
+                toml_name(&model)
+            ),
+        );
+    }
+    if case.contact.is_some() {
+        return fail(
+            "contact",
+            "a static run has no contact (penalty contact acts through the time step); \
+             remove the [contact] table or give run.solve = \"dynamic\"",
+        );
     }
     Ok(())
 }

@@ -92,6 +92,10 @@ pub struct Variant {
     /// variant's (the source is the history's `published`).
     #[serde(default)]
     pub published: Vec<f64>,
+    /// A smoothing length h [m] held fixed over a spacing ladder: `method.h_over_dx` =
+    /// h/spacing at every sweep value (the constant domain of influence of seed 001 §9.1),
+    /// instead of a fixed h/Δx. Only with `[sweep] key = "spacing"`.
+    pub smoothing_length: Option<f64>,
 }
 
 /// A quantity proportional to the simulated time, shown beside failure times: for a
@@ -283,6 +287,16 @@ impl Suite {
                 v.published.len()
             )));
         }
+        if let Some(v) = suite.variants.iter().find(|v| {
+            v.smoothing_length
+                .is_some_and(|h| suite.sweep.key != "spacing" || !(h.is_finite() && h > 0.0))
+        }) {
+            return Err(invalid(format!(
+                "variant `{}`: `smoothing_length` holds h fixed over a spacing ladder; it \
+                 needs `[sweep] key = \"spacing\"` (here `{}`) and a finite h > 0",
+                v.name, suite.sweep.key
+            )));
+        }
         names.sort_unstable();
         if let Some(w) = names.windows(2).find(|w| w[0] == w[1]) {
             return Err(invalid(format!("variant `{}` is listed twice", w[0])));
@@ -347,12 +361,16 @@ impl Suite {
             let backends = variant.backends.as_ref().unwrap_or(&self.backends);
             for &backend in backends {
                 for value in &self.sweep.values {
+                    let fixed_h = variant
+                        .smoothing_length
+                        .map(|h| format!("method.h_over_dx={}", h / number(value)));
                     let overrides: Vec<String> = self
                         .set
                         .iter()
                         .chain(&variant.set)
                         .cloned()
                         .chain([format!("{}={}", self.sweep.key, value)])
+                        .chain(fixed_h)
                         .collect();
                     let case = Case::load(&path, &overrides).map_err(|e| e.to_string());
                     let identity = match &case {

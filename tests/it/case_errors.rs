@@ -946,6 +946,18 @@ fn time_laws_and_pressures_are_checked() {
         "boundary.0.condition",
         &["`dual-support-sph` is static", "time law"],
     );
+    // A static run of an explicit method: load steps of method.dt, a method that has it.
+    let beam = std::fs::read_to_string(crate::common::case_file("cantilever-convergence")).unwrap();
+    assert_invalid(
+        &edit(&beam, "dt = 1.0", "cfl = 0.3"),
+        "method.dt",
+        &["load steps", "no method.cfl"],
+    );
+    assert_invalid(
+        &edit(&beam, "name = \"tlsph\"", "name = \"tl-potential\""),
+        "run.solve",
+        &["`tlsph`", "`kbm`", "`efg`"],
+    );
 }
 
 // ---------------------------------------------------------------------------------------

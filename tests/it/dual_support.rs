@@ -6,7 +6,6 @@
 use crate::common::{largest_v, noise, random_vector};
 use meshless::kernel::{Kernel, KernelKind};
 use meshless::material::{Material, MaterialModel};
-use meshless::methods::dual_support::sparse::BlockPattern;
 use meshless::methods::dual_support::{DualSupport, Statics, Support};
 use meshless::run::Engine;
 use meshless::scene::{Case, MaterialSpec, Plane};
@@ -67,7 +66,7 @@ fn total_energy<D: Dim>(m: &DualSupport<D>, u: &[D::V]) -> f64 {
 /// The dense tangent of a model at u, from its block pattern.
 fn dense<D: Dim>(m: &DualSupport<D>, u: &[D::V]) -> Vec<Vec<f64>> {
     let d = D::N;
-    let pattern = BlockPattern::new(&m.support);
+    let pattern = meshless::methods::dual_support::pattern(&m.support);
     let mut values = vec![0.0; pattern.blocks() * d * d];
     m.stiffness(&m.tangents(u), &pattern, &mut values);
     let n = m.len() * d;

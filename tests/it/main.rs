@@ -39,6 +39,7 @@ mod mixed;
 mod registry;
 mod runs;
 mod seed001_ring;
+mod seed001_cantilever;
 mod seed001_rod;
 #[cfg(feature = "gpu")]
 mod shaders;

@@ -286,6 +286,7 @@ impl<D: Dim> Corotated<D> {
             strain_energy,
             extra: Vec::new(),
             cells: &[],
+            quadrature: None,
         }
     }
 }

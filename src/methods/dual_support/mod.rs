@@ -1,17 +1,16 @@
 //! Implicit dual-support SPH (Ren, Zhuang, Rabczuk & Zhu; seed 004): a smoothing length
 //! per particle with supports and dual-supports ([`support`]), the variational internal
-//! force and hourglass energy with their tangent ([`model`]), sparse assembly and solvers
-//! ([`sparse`]), and the static Newton engine ([`statics`]). CPU only. Numerics notes:
+//! force and hourglass energy with their tangent ([`model`]), and the model of the static
+//! Newton engine of [`crate::statics`] ([`statics`]). CPU only. Numerics notes:
 //! `docs/methods/dual-support.md`.
 
 pub mod model;
-pub mod sparse;
 pub mod statics;
 pub mod support;
 
+pub use crate::statics::sparse::SolverKind;
 pub use model::{DualSupport, Energies};
-pub use sparse::SolverKind;
-pub use statics::Statics;
+pub use statics::{Statics, pattern};
 pub use support::Support;
 
 use super::{Feature, MethodFamily, Plan, Problem};
@@ -184,7 +183,7 @@ impl MethodFamily for DualSupportSpec {
         "linear_tolerance",
         "linear_max_iterations",
     ];
-    const FEATURES: &'static [Feature] = &[Feature::PrescribedDisplacement];
+    const FEATURES: &'static [Feature] = &[Feature::StaticSolve, Feature::StaticOnly];
     const GPU_ENGINE: bool = false;
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = &[];

@@ -3,9 +3,9 @@
 //! force −∂E/∂u (eq 18, and eq 28 with the sign of the hourglass term corrected), and the
 //! tangent ∂²E/∂u² assembled in two steps (eqs 39–41 and the corrected eq 29).
 
-use super::sparse::BlockPattern;
 use super::support::Support;
 use crate::material::{Material, Tangent};
+use crate::statics::sparse::BlockPattern;
 use crate::tensor::Dim;
 use rayon::prelude::*;
 

@@ -88,7 +88,7 @@ impl MethodFamily for EfgSpec {
         moving least-squares functions of a linear basis, integration at the particles or \
         at 2^d Gauss points of the lattice cells";
     const KEYS: &'static [&'static str] = &["integration", "mass"];
-    const FEATURES: &'static [Feature] = &[Feature::Contact];
+    const FEATURES: &'static [Feature] = &[Feature::Contact, Feature::StaticSolve];
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = super::galerkin::gpu::SHADERS;
 

@@ -43,7 +43,7 @@ impl MethodFamily for FemSpec {
         reference): bilinear quadrilaterals (trilinear hexahedra) on the lattice cells, 2^d \
         Gauss points, lumped mass, explicit";
     const KEYS: &'static [&'static str] = &["mass"];
-    const FEATURES: &'static [Feature] = &[Feature::Contact];
+    const FEATURES: &'static [Feature] = &[Feature::Contact, Feature::StaticSolve];
     const KERNEL: bool = false;
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = super::galerkin::gpu::SHADERS;

@@ -31,11 +31,12 @@ use crate::methods::shared::{BlowUp, MIN_CHUNK, Method, check_motion, particle_s
 use crate::methods::tlsph::system::stress_fields;
 use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::Csr;
-use crate::observe::Snapshot;
+use crate::observe::{Quadrature, Snapshot};
 use crate::quadrature::{Cells, Gather, QuadratureError, QuadraturePoints, Shapes};
 use crate::reference::Reference;
-use crate::run::{CpuEngine, Engine, EngineDim};
+use crate::run::{Engine, EngineDim};
 use crate::scene::{Case, CaseError};
+use crate::statics::explicit::AtRest;
 use crate::tensor::Dim;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -56,9 +57,9 @@ pub enum Mass {
 }
 
 /// The CPU engine of a total-Lagrangian Galerkin method (`MethodFamily::cpu_engine` of
-/// `tl-fem`, `tl-weak-form`, `kbm` and `efg`).
+/// `tl-fem`, `tl-weak-form`, `kbm` and `efg`): the time stepper, or the static solve.
 pub fn cpu_engine<D: EngineDim>(case: &Case) -> Result<Box<dyn Engine<D>>, CaseError> {
-    Ok(Box::new(CpuEngine::<D, TlGalerkin<D>>::new(case)?))
+    crate::statics::explicit::cpu_engine::<D, TlGalerkin<D>>(case)
 }
 
 /// The GPU engine of a total-Lagrangian Galerkin method.
@@ -491,6 +492,18 @@ impl<D: Dim> OdeSystem for TlGalerkin<D> {
     }
 }
 
+impl<D: Dim> AtRest<D> for TlGalerkin<D> {
+    /// u at the nodes, v = 0 (ρ and S of a rate model, which a static run refuses, as
+    /// initially).
+    fn at_rest(&self, u: &[D::V]) -> GalerkinState<D> {
+        GalerkinState {
+            u: u.to_vec(),
+            v: vec![D::zero(); u.len()],
+            ..self.initial_state()
+        }
+    }
+}
+
 impl<D: Dim> Method<D> for TlGalerkin<D> {
     /// Built through the method's spec, which chooses the points and shape functions.
     fn build(case: &Case, reference: Reference<D>) -> Result<Self, CaseError> {
@@ -561,8 +574,15 @@ impl<D: Dim> Method<D> for TlGalerkin<D> {
         self.point_fields(y).energy
     }
 
+    /// The nodal fields, and the points with u^h(X_q) = Σ_a N_a(X_q) u_a and F_q.
     fn snapshot<'a>(&'a self, y: &GalerkinState<D>) -> Snapshot<'a, D> {
         let fields = self.point_fields(y);
+        let quadrature = Quadrature {
+            x0: self.points.x0.clone(),
+            weight: self.points.weight.clone(),
+            u: self.shapes.interpolate(&y.u),
+            f: fields.f.clone(),
+        };
         Snapshot {
             x0: &self.x0,
             mass: &self.mass,
@@ -574,6 +594,7 @@ impl<D: Dim> Method<D> for TlGalerkin<D> {
             strain_energy: fields.energy,
             extra: Vec::new(),
             cells: &self.cells.corners,
+            quadrature: Some(quadrature),
         }
     }
 

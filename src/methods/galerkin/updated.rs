@@ -520,6 +520,7 @@ impl<D: Dim, P: MovingPoints<D>> Method<D> for UlGalerkin<D, P> {
             strain_energy: fields.energy,
             extra: Vec::new(),
             cells: self.points.cells(),
+            quadrature: None,
         }
     }
 

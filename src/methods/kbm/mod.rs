@@ -123,11 +123,18 @@ impl MethodFamily for KbmSpec {
         integration at the particles and at stress points in the cell centres";
     const KEYS: &'static [&'static str] =
         &["stress_points", "mass", "kernel_frame", "search_every"];
-    const FEATURES: &'static [Feature] = &[Feature::Contact];
+    const FEATURES: &'static [Feature] = &[Feature::Contact, Feature::StaticSolve];
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = super::galerkin::gpu::SHADERS;
 
-    fn validate(&self, _case: &Case) -> Result<(), Problem> {
+    fn validate(&self, case: &Case) -> Result<(), Problem> {
+        if self.kernel_frame == KernelFrame::Eulerian && case.is_static() {
+            return fail(
+                "method.kernel_frame",
+                "the static solve (run.solve = \"static\") takes the Lagrangian kernel only: \
+                 remove kernel_frame = \"eulerian\" or the static solve",
+            );
+        }
         match (self.kernel_frame, self.search_every) {
             (KernelFrame::Lagrangian, Some(_)) => fail(
                 "method.search_every",

@@ -906,6 +906,7 @@ impl<D: Dim> Method<D> for MixedSph<D> {
                 .into_iter()
                 .collect(),
             cells: &[],
+            quadrature: None,
         }
     }
 

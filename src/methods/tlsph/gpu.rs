@@ -780,6 +780,7 @@ impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
                 strain_energy,
                 extra: Vec::new(),
                 cells: &[],
+                quadrature: None,
             };
         }
         snapshot(

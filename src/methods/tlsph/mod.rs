@@ -11,7 +11,7 @@ pub use system::{TlState, Tlsph};
 
 use super::{Feature, MethodFamily, Plan, Problem};
 use crate::material::Material;
-use crate::run::{CpuEngine, Engine, EngineDim};
+use crate::run::{Engine, EngineDim};
 use crate::scene::Case;
 use crate::scene::validate::non_negative;
 use crate::tensor::Dim;
@@ -82,7 +82,7 @@ impl MethodFamily for TlsphSpec {
     const DESCRIPTION: &'static str = "total-Lagrangian SPH (Reveles; seed 000 §5.3): corrected \
         reference kernel, rate- or state-based stress, Monaghan artificial viscosity";
     const KEYS: &'static [&'static str] = &["artificial_viscosity", "viscosity_gradient"];
-    const FEATURES: &'static [Feature] = &[Feature::Contact];
+    const FEATURES: &'static [Feature] = &[Feature::Contact, Feature::StaticSolve];
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
 
@@ -136,7 +136,7 @@ impl MethodFamily for TlsphSpec {
         &self,
         case: &Case,
     ) -> Result<Box<dyn Engine<D>>, crate::scene::CaseError> {
-        Ok(Box::new(CpuEngine::<D, Tlsph<D>>::new(case)?))
+        crate::statics::explicit::cpu_engine::<D, Tlsph<D>>(case)
     }
 
     #[cfg(feature = "gpu")]

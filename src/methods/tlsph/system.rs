@@ -20,6 +20,7 @@ use crate::neighbour::Csr;
 use crate::observe::Snapshot;
 use crate::reference::Reference;
 use crate::scene::{Case, CaseError};
+use crate::statics::explicit::AtRest;
 use crate::tensor::Dim;
 use rayon::prelude::*;
 
@@ -127,6 +128,7 @@ pub fn snapshot<'a, D: Dim>(
         strain_energy,
         extra: Vec::new(),
         cells: &[],
+        quadrature: None,
     }
 }
 
@@ -354,6 +356,17 @@ impl<D: Dim> OdeSystem for Tlsph<D> {
     /// The interactions' work before the step (the contact forces of seed 000 §5.8).
     fn begin_step(&mut self, t: f64, dt: f64, y: &TlState<D>) {
         self.interactions.begin_step(t, dt, &self.x0, &y.u, &y.v);
+    }
+}
+
+impl<D: Dim> AtRest<D> for Tlsph<D> {
+    /// u, v = 0 (ρ and S of a rate model, which a static run refuses, as initially).
+    fn at_rest(&self, u: &[D::V]) -> TlState<D> {
+        TlState {
+            u: u.to_vec(),
+            v: vec![D::zero(); u.len()],
+            ..self.initial_state()
+        }
     }
 }
 

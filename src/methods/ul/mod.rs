@@ -468,6 +468,7 @@ pub fn snapshot<'a, D: Dim>(
             },
         ],
         cells: &[],
+        quadrature: None,
     }
 }
 

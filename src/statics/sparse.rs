@@ -1,41 +1,26 @@
-//! Sparse linear algebra of the static path: the block pattern of the tangent (built once),
-//! the system of the free degrees of freedom, and its two solvers: faer's sparse Cholesky
-//! with the symbolic factorisation kept across Newton iterations, and conjugate gradients
-//! with a Jacobi preconditioner.
+//! Sparse linear algebra of the static path: the block pattern of the stiffness (built
+//! once), the system of the free degrees of freedom, and its solvers: faer's sparse
+//! Cholesky (symmetric stiffness) or LU (unsymmetric) with the symbolic factorisation kept
+//! across Newton iterations, and conjugate gradients with a Jacobi preconditioner.
 
-use super::support::Support;
-use crate::tensor::Dim;
 use faer::Side;
-use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
+use faer::sparse::linalg::solvers::{Llt, Lu, SymbolicLlt, SymbolicLu};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-/// The coupling of the tangent at the level of particles: a and b are coupled when some
-/// element {i} ∪ S_i holds both (two hops through the supports). Rows sorted.
+/// The coupling of the stiffness at the level of particles: row a lists the particles b
+/// whose displacement the force on a depends on. Rows sorted; the pattern is symmetric (b
+/// in row a exactly when a in row b), which the LU solve relies on.
 pub struct BlockPattern {
     pub offsets: Vec<usize>,
     pub cols: Vec<u32>,
 }
 
 impl BlockPattern {
-    /// The pattern of the dual-support tangent: row a holds every node of every element
-    /// holding a (a itself and S'_a).
-    pub fn new<D: Dim>(s: &Support<D>) -> Self {
-        let rows: Vec<Vec<u32>> = (0..s.len())
-            .into_par_iter()
-            .map(|a| {
-                let mut row: Vec<u32> = s
-                    .elements_of(a)
-                    .flat_map(|(i, _)| s.nodes(i))
-                    .map(|n| n as u32)
-                    .collect();
-                row.sort_unstable();
-                row.dedup();
-                row
-            })
-            .collect();
+    /// The pattern of sorted, deduplicated rows.
+    pub fn from_rows(rows: Vec<Vec<u32>>) -> Self {
         let mut offsets = vec![0];
         for r in &rows {
             offsets.push(offsets.last().copied().unwrap_or(0) + r.len());
@@ -49,6 +34,53 @@ impl BlockPattern {
     /// Number of blocks.
     pub fn blocks(&self) -> usize {
         self.cols.len()
+    }
+
+    /// Number of particles (rows).
+    pub fn len(&self) -> usize {
+        self.offsets.len() - 1
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The columns of row a.
+    pub fn row(&self, a: usize) -> &[u32] {
+        &self.cols[self.offsets[a]..self.offsets[a + 1]]
+    }
+
+    /// Groups of particles no two of which share a row (a distance-2 colouring of the
+    /// coupling graph, greedy in particle order): displacing all the particles of a group
+    /// at once changes the force on every particle through at most one of them, so that
+    /// one force evaluation per group and component gives all their columns of the
+    /// stiffness (Curtis, Powell and Reid).
+    pub fn column_groups(&self) -> Vec<Vec<u32>> {
+        let n = self.len();
+        let mut colour = vec![u32::MAX; n];
+        // The last particle that marked each colour as taken.
+        let mut taken: Vec<usize> = Vec::new();
+        let mut groups: Vec<Vec<u32>> = Vec::new();
+        for b in 0..n {
+            for &a in self.row(b) {
+                for &c in self.row(a as usize) {
+                    let k = colour[c as usize];
+                    if k != u32::MAX {
+                        taken[k as usize] = b;
+                    }
+                }
+            }
+            let k = (0..groups.len())
+                .find(|&k| taken[k] != b)
+                .unwrap_or_else(|| {
+                    groups.push(Vec::new());
+                    taken.push(usize::MAX);
+                    groups.len() - 1
+                });
+            colour[b] = k as u32;
+            groups[k].push(b as u32);
+        }
+        groups
     }
 
     /// Every row as (row, its columns, its values), the values split from `values` with
@@ -70,7 +102,7 @@ impl BlockPattern {
     }
 }
 
-/// How the Newton step's linear system is solved (`method.solver`).
+/// How the dual-support Newton step's linear system is solved (`method.solver`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum SolverKind {
@@ -91,6 +123,13 @@ pub enum SolveError {
          state is past a stability limit"
     )]
     NotPositiveDefinite,
+    #[error(
+        "the stiffness is singular (the LU solve left a relative residual of {residual:e}): \
+         the boundary conditions leave a rigid-body motion free; prescribe enough \
+         displacement or velocity components (`fixed`, `displacement`, \
+         `solution-displacement`) to hold the body"
+    )]
+    Singular { residual: f64 },
     #[error(
         "conjugate gradients did not reach the relative residual {tolerance:e} in \
          {iterations} iterations (reached {reached:e}); raise method.linear_max_iterations \
@@ -115,6 +154,27 @@ pub enum SolveError {
     },
 }
 
+/// The linear solver of a free system.
+#[derive(Clone, Copy, Debug)]
+pub enum Linear {
+    /// Sparse Cholesky of a symmetric positive definite stiffness.
+    Cholesky,
+    /// Sparse LU with partial pivoting of an unsymmetric stiffness. The free system's rows
+    /// are then read as the columns of the matrix: the block values are those of Kᵀ.
+    Lu,
+    /// Jacobi-preconditioned conjugate gradients (symmetric positive definite).
+    Cg(CgSettings),
+}
+
+impl From<(SolverKind, CgSettings)> for Linear {
+    fn from((kind, cg): (SolverKind, CgSettings)) -> Self {
+        match kind {
+            SolverKind::Direct => Self::Cholesky,
+            SolverKind::Cg => Self::Cg(cg),
+        }
+    }
+}
+
 /// What a linear solve did.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct SolveStats {
@@ -123,11 +183,12 @@ pub struct SolveStats {
     pub seconds: f64,
 }
 
-/// The tangent restricted to the free degrees of freedom, as a full symmetric CSR matrix
-/// (which is also its CSC form), with for every entry the index of its value in the block
-/// values of the pattern.
+/// The stiffness restricted to the free degrees of freedom, as a full CSR matrix on the
+/// symmetric structure of the pattern (which is also its CSC structure), with for every
+/// entry the index of its value in the block values of the pattern.
 pub struct FreeSystem {
     pub n: usize,
+    kind: Linear,
     row_ptr: Vec<usize>,
     col: Vec<usize>,
     src: Vec<usize>,
@@ -135,9 +196,13 @@ pub struct FreeSystem {
 }
 
 enum Solver {
-    Direct {
+    Cholesky {
         matrix: SymbolicSparseColMat<usize>,
         symbolic: SymbolicLlt<usize>,
+    },
+    Lu {
+        matrix: SymbolicSparseColMat<usize>,
+        symbolic: SymbolicLu<usize>,
     },
     Cg {
         tolerance: f64,
@@ -152,7 +217,8 @@ pub struct CgSettings {
     pub max_iterations: usize,
 }
 
-/// Non-zeros of the Cholesky factor and the ratio to the lower triangle of the matrix.
+/// Non-zeros of the Cholesky factor and of the lower triangle of the matrix (the factor
+/// 0 for LU and CG).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Fill {
     pub factor: usize,
@@ -166,8 +232,7 @@ impl FreeSystem {
         pattern: &BlockPattern,
         d: usize,
         free: &[Option<u32>],
-        kind: SolverKind,
-        cg: CgSettings,
+        linear: Linear,
     ) -> Result<(Self, Fill), SolveError> {
         let n = free.iter().flatten().count();
         let mut row_ptr = vec![0usize; n + 1];
@@ -195,8 +260,8 @@ impl FreeSystem {
                     .count()
             })
             .sum();
-        let (solver, fill) = match kind {
-            SolverKind::Direct => {
+        let (solver, fill) = match linear {
+            Linear::Cholesky => {
                 let matrix =
                     SymbolicSparseColMat::new_checked(n, n, row_ptr.clone(), None, col.clone());
                 let factor = faer::sparse::linalg::cholesky::factorize_symbolic_cholesky(
@@ -220,9 +285,19 @@ impl FreeSystem {
                 }
                 let symbolic = SymbolicLlt::try_new(matrix.as_ref(), Side::Lower)
                     .map_err(|_| out_of_memory(n, factor, lower))?;
-                (Solver::Direct { matrix, symbolic }, Fill { factor, lower })
+                (
+                    Solver::Cholesky { matrix, symbolic },
+                    Fill { factor, lower },
+                )
             }
-            SolverKind::Cg => (
+            Linear::Lu => {
+                let matrix =
+                    SymbolicSparseColMat::new_checked(n, n, row_ptr.clone(), None, col.clone());
+                let symbolic =
+                    SymbolicLu::try_new(matrix.as_ref()).map_err(|_| out_of_memory(n, 0, lower))?;
+                (Solver::Lu { matrix, symbolic }, Fill { factor: 0, lower })
+            }
+            Linear::Cg(cg) => (
                 Solver::Cg {
                     tolerance: cg.tolerance,
                     max_iterations: cg.max_iterations,
@@ -233,6 +308,7 @@ impl FreeSystem {
         Ok((
             Self {
                 n,
+                kind: linear,
                 row_ptr,
                 col,
                 src,
@@ -240,6 +316,11 @@ impl FreeSystem {
             },
             fill,
         ))
+    }
+
+    /// The linear solver.
+    pub fn kind(&self) -> Linear {
+        self.kind
     }
 
     /// The free system's values from the pattern's block values.
@@ -260,13 +341,29 @@ impl FreeSystem {
     pub fn solve(&self, values: &[f64], b: &[f64]) -> Result<(Vec<f64>, SolveStats), SolveError> {
         let started = std::time::Instant::now();
         let (x, iterations) = match &self.solver {
-            Solver::Direct { matrix, symbolic } => {
+            Solver::Cholesky { matrix, symbolic } => {
                 let k = SparseColMatRef::new(matrix.as_ref(), values);
                 let llt = Llt::try_new_with_symbolic(symbolic.clone(), k, Side::Lower)
                     .map_err(|_| SolveError::NotPositiveDefinite)?;
                 let mut x = faer::Col::<f64>::from_fn(self.n, |r| b[r]);
                 faer::linalg::solvers::Solve::solve_in_place(&llt, &mut x);
                 ((0..self.n).map(|r| x[r]).collect(), 0)
+            }
+            Solver::Lu { matrix, symbolic } => {
+                let k = SparseColMatRef::new(matrix.as_ref(), values);
+                let singular = |residual| SolveError::Singular { residual };
+                let lu = Lu::try_new_with_symbolic(symbolic.clone(), k)
+                    .map_err(|_| singular(f64::INFINITY))?;
+                let mut x = faer::Col::<f64>::from_fn(self.n, |r| b[r]);
+                faer::linalg::solvers::Solve::solve_in_place(&lu, &mut x);
+                let x: Vec<f64> = (0..self.n).map(|r| x[r]).collect();
+                // A singular K gives no error from the factorisation but a non-finite x or
+                // one that does not solve the system: |K x − b| ≤ 1e-8 |b| is asked.
+                let residual = self.lu_residual(values, &x, b);
+                if residual.is_nan() || residual > 1e-8 {
+                    return Err(singular(residual));
+                }
+                (x, 0)
             }
             Solver::Cg {
                 tolerance,
@@ -280,6 +377,19 @@ impl FreeSystem {
                 seconds: started.elapsed().as_secs_f64(),
             },
         ))
+    }
+
+    /// |K x − b|/|b| with the values of Kᵀ by rows (the LU layout); 0 for b = 0 and x = 0.
+    fn lu_residual(&self, values: &[f64], x: &[f64], b: &[f64]) -> f64 {
+        let mut r = b.to_vec();
+        for (c, &xc) in x.iter().enumerate().take(self.n) {
+            for q in self.row_ptr[c]..self.row_ptr[c + 1] {
+                r[self.col[q]] -= values[q] * xc;
+            }
+        }
+        let norm = |v: &[f64]| v.iter().map(|a| a * a).sum::<f64>().sqrt();
+        let (nr, nb) = (norm(&r), norm(b));
+        if nb > 0.0 { nr / nb } else { nr }
     }
 
     /// Preconditioned conjugate gradients from x = 0, Jacobi preconditioner, stopped at

@@ -1,0 +1,518 @@
+//! The static path: equilibrium f_int(u) + λ f_ext = 0 by Newton–Raphson with load steps,
+//! behind the driver's [`Engine`] trait (seed 004 §2), for any [`Model`] that gives its
+//! internal force and its stiffness K = −∂f_int/∂u on a [`BlockPattern`]: the dual-support
+//! energy with its assembled tangent ([`crate::methods::dual_support`]), and the explicit
+//! methods through their own force evaluation with K by coloured finite differences
+//! ([`explicit`]). A driver step of size Δt is a load step in the pseudo-time of the run:
+//! the load factor is λ = t/end_time, tractions and prescribed displacements are scaled by
+//! it, prescribed velocities give u = v t.
+
+pub mod explicit;
+pub mod sparse;
+
+use crate::boundary::Boundary;
+use crate::methods::BlowUp;
+use crate::observe::Snapshot;
+use crate::run::{Engine, Failed, Iteration};
+use crate::scene::{Case, CaseError};
+use crate::tensor::Dim;
+use sparse::{BlockPattern, Fill, FreeSystem, Linear, SolveStats};
+use std::time::Instant;
+
+/// What the Newton engine solves: a discretisation's internal force and stiffness.
+pub trait Model<D: Dim> {
+    /// Reference positions X of the particles.
+    fn x0(&self) -> &[D::V];
+    /// The internal force f_int(u) on every particle (R = f_int + λ f_ext), or the
+    /// blow-up that the evaluation met.
+    fn force(&mut self, u: &[D::V]) -> Result<Vec<D::V>, BlowUp>;
+    /// K = −∂f_int/∂u at u into the d×d block values of `pattern`, row-major blocks (Kᵀ
+    /// for [`Linear::Lu`], see there).
+    fn stiffness(&mut self, u: &[D::V], pattern: &BlockPattern, values: &mut [f64]);
+    /// The first particle of state u with det F ≤ 0 or a non-finite F, as a blow-up.
+    fn inadmissible(&mut self, u: &[D::V]) -> Option<BlowUp>;
+    /// The state u as observers and frames read it, with the engine's masses and bodies.
+    fn snapshot<'a>(&'a mut self, u: &[D::V], mass: &'a [f64], body: &'a [u32]) -> Snapshot<'a, D>;
+    /// The `backend` line's account of the stiffness (how it is formed).
+    fn describe(&self) -> String {
+        String::new()
+    }
+}
+
+/// A constrained degree of freedom and its value u(t).
+#[derive(Clone, Copy, Debug)]
+struct Prescribed {
+    dof: usize,
+    /// u = velocity · t + displacement · t/end_time.
+    velocity: f64,
+    displacement: f64,
+}
+
+/// Why Newton stopped without converging.
+struct Stalled {
+    iterations: u32,
+    residual: f64,
+    particle: usize,
+    reason: String,
+}
+
+/// Newton settings.
+#[derive(Clone, Copy, Debug)]
+pub struct Newton {
+    /// Stop when |R| ≤ this × the force scale.
+    pub residual_tolerance: f64,
+    /// … or when |Δu| ≤ this × |u|.
+    pub increment_tolerance: f64,
+    /// Iterations of a load step before it is cut in half.
+    pub max_iterations: u32,
+    /// Halvings of a load step before the run fails.
+    pub max_cuts: u32,
+    /// Where `max_iterations` comes from, for the message of a stalled step.
+    pub max_iterations_key: &'static str,
+}
+
+/// The static engine of a model (CPU, f64).
+pub struct Statics<D: Dim, S: Model<D>> {
+    pub model: S,
+    mass: Vec<f64>,
+    body: Vec<u32>,
+    constrained: Vec<(u32, u8)>,
+    prescribed: Vec<Prescribed>,
+    /// External forces of the full load (tractions).
+    load: Vec<D::V>,
+    pattern: BlockPattern,
+    values: Vec<f64>,
+    system: FreeSystem,
+    /// Free index of every degree of freedom (a·d + k), None where prescribed.
+    free: Vec<Option<u32>>,
+    newton: Newton,
+    end_time: f64,
+    /// The converged state and its pseudo-time.
+    pub u: Vec<D::V>,
+    t: f64,
+    /// −f_int at the converged state: the forces of loads and supports on the body.
+    reaction: Vec<D::V>,
+    work: f64,
+    load_step: u64,
+    log: Vec<Iteration>,
+    /// Non-zeros of the Cholesky factor and of the tangent's lower triangle.
+    pub fill: Fill,
+}
+
+/// The parts of a static engine besides its model.
+pub struct Setup<'a, D: Dim> {
+    pub mass: Vec<f64>,
+    pub body: Vec<u32>,
+    pub boundary: &'a Boundary<D>,
+    pub pattern: BlockPattern,
+    pub linear: Linear,
+    pub newton: Newton,
+}
+
+impl<D: Dim, S: Model<D>> Statics<D, S> {
+    /// The engine of `model`: the prescribed components of the boundary conditions, the
+    /// loads and the free system of the pattern, built once. `key` names the case key
+    /// that chose the linear solver, for its errors.
+    pub fn with_model(
+        case: &Case,
+        model: S,
+        setup: Setup<'_, D>,
+        key: &str,
+    ) -> Result<Self, CaseError> {
+        let Setup {
+            mass,
+            body,
+            boundary,
+            pattern,
+            linear,
+            newton,
+        } = setup;
+        let n = mass.len();
+        let d = D::N;
+        let mut free = vec![Some(0u32); n * d];
+        let mut prescribed = Vec::new();
+        let velocity = |i: u32| {
+            boundary
+                .prescribed
+                .iter()
+                .find(|&&(p, _)| p == i)
+                .map_or(D::zero(), |&(_, v)| v)
+        };
+        for &(i, mask) in &boundary.constrained {
+            let (dmask, du) = boundary
+                .displacement
+                .iter()
+                .find(|&&(p, _, _)| p == i)
+                .map_or((0, D::zero()), |&(_, m, u)| (m, u));
+            let v = velocity(i);
+            for k in 0..d {
+                if mask & (1 << k) == 0 {
+                    continue;
+                }
+                let dof = i as usize * d + k;
+                free[dof] = None;
+                prescribed.push(if dmask & (1 << k) != 0 {
+                    Prescribed {
+                        dof,
+                        velocity: 0.0,
+                        displacement: D::comp(du, k),
+                    }
+                } else {
+                    Prescribed {
+                        dof,
+                        velocity: D::comp(v, k),
+                        displacement: 0.0,
+                    }
+                });
+            }
+        }
+        for (next, f) in free.iter_mut().flatten().enumerate() {
+            *f = next as u32;
+        }
+        let mut load = vec![D::zero(); n];
+        for &(i, a) in &boundary.external {
+            load[i as usize] += a * mass[i as usize];
+        }
+        let values = vec![0.0; pattern.blocks() * d * d];
+        let (system, fill) = FreeSystem::new(&pattern, d, &free, linear)
+            .map_err(|e| case.invalid(key, e.to_string()))?;
+        Ok(Self {
+            model,
+            mass,
+            body,
+            constrained: boundary.constrained.clone(),
+            prescribed,
+            load,
+            pattern,
+            values,
+            system,
+            free,
+            newton,
+            end_time: case.run.end_time,
+            u: vec![D::zero(); n],
+            t: 0.0,
+            reaction: vec![D::zero(); n],
+            work: 0.0,
+            load_step: 0,
+            log: Vec::new(),
+            fill,
+        })
+    }
+
+    /// Number of free degrees of freedom.
+    pub fn unknowns(&self) -> usize {
+        self.system.n
+    }
+
+    fn set(u: &mut [D::V], dof: usize, value: f64) {
+        let (i, k) = (dof / D::N, dof % D::N);
+        let mut c = D::to3(u[i]);
+        c[k] = value;
+        u[i] = D::from_slice(&c);
+    }
+
+    /// u + the free components of du.
+    fn add_free(&self, u: &mut [D::V], du: &[f64]) {
+        for (dof, f) in self.free.iter().enumerate() {
+            if let Some(q) = f {
+                let (i, k) = (dof / D::N, dof % D::N);
+                let mut c = D::to3(u[i]);
+                c[k] += du[*q as usize];
+                u[i] = D::from_slice(&c);
+            }
+        }
+    }
+
+    /// Solves for equilibrium at pseudo-time t from the current state (Newton–Raphson):
+    /// the prescribed components are moved to their values at t, then K Δu = R on the
+    /// free components until |R| ≤ residual_tolerance · (force scale) or
+    /// |Δu| ≤ increment_tolerance · |u|. Returns the iterations, or why it stalled.
+    fn solve_at(&mut self, t: f64) -> Result<u32, Stalled> {
+        let d = D::N;
+        let lambda = t / self.end_time;
+        let mut u = self.u.clone();
+        for p in &self.prescribed {
+            Self::set(&mut u, p.dof, p.velocity * t + p.displacement * lambda);
+        }
+        if let Some(predicted) = self.predict(&u) {
+            u = predicted;
+        }
+        let mut increment = 0.0;
+        let mut stats = SolveStats::default();
+        for iteration in 0..=self.newton.max_iterations {
+            let f_int = self.model.force(&u).map_err(|b| Stalled {
+                iterations: iteration,
+                residual: f64::NAN,
+                particle: b.particle,
+                reason: format!("{} = {:e}", b.quantity, b.value),
+            })?;
+            let mut r = vec![0.0; self.system.n];
+            let mut scale = 0.0;
+            for (a, (&fi, &fe)) in f_int.iter().zip(&self.load).enumerate() {
+                let (fi, fe) = (D::to3(fi), D::to3(fe));
+                for k in 0..d {
+                    let total = fi[k] + fe[k] * lambda;
+                    scale += fi[k] * fi[k] + (fe[k] * lambda).powi(2);
+                    if let Some(q) = self.free[a * d + k] {
+                        r[q as usize] = total;
+                    }
+                }
+            }
+            let norm = r.iter().map(|x| x * x).sum::<f64>().sqrt();
+            let scale = scale.sqrt();
+            let relative = if scale > 0.0 { norm / scale } else { 0.0 };
+            self.log.push(Iteration {
+                load_step: self.load_step,
+                time: t,
+                iteration,
+                residual: norm,
+                relative_residual: relative,
+                increment,
+                linear_iterations: stats.iterations as u32,
+                solve_seconds: stats.seconds,
+            });
+            let worst = || {
+                (0..self.mass.len())
+                    .max_by(|&a, &b| {
+                        let n = |i: usize| {
+                            (0..d)
+                                .filter_map(|k| self.free[i * d + k].map(|q| r[q as usize].powi(2)))
+                                .sum::<f64>()
+                        };
+                        n(a).total_cmp(&n(b))
+                    })
+                    .unwrap_or(0)
+            };
+            if !norm.is_finite() {
+                return Err(Stalled {
+                    iterations: iteration,
+                    residual: norm,
+                    particle: worst(),
+                    reason: "the residual is not finite".into(),
+                });
+            }
+            let u_norm = u.iter().map(|&v| D::norm2(v)).sum::<f64>().sqrt();
+            if relative <= self.newton.residual_tolerance
+                || (iteration > 0 && increment <= self.newton.increment_tolerance * u_norm)
+            {
+                self.u = u;
+                self.reaction = f_int.iter().map(|&f| -f).collect();
+                return Ok(iteration);
+            }
+            if iteration == self.newton.max_iterations {
+                return Err(Stalled {
+                    iterations: iteration,
+                    residual: norm,
+                    particle: worst(),
+                    reason: format!(
+                        "no convergence in {} = {} iterations",
+                        self.newton.max_iterations_key, self.newton.max_iterations
+                    ),
+                });
+            }
+            let started = Instant::now();
+            self.model.stiffness(&u, &self.pattern, &mut self.values);
+            let k = self.system.gather(&self.values);
+            let (du, s) = self.system.solve(&k, &r).map_err(|e| Stalled {
+                iterations: iteration,
+                residual: norm,
+                particle: worst(),
+                reason: e.to_string(),
+            })?;
+            stats = SolveStats {
+                iterations: s.iterations,
+                seconds: started.elapsed().as_secs_f64(),
+            };
+            self.add_free(&mut u, &du);
+            increment = du.iter().map(|x| x * x).sum::<f64>().sqrt();
+            if let Some(b) = self.model.inadmissible(&u) {
+                return Err(Stalled {
+                    iterations: iteration + 1,
+                    residual: norm,
+                    particle: b.particle,
+                    reason: "det F ≤ 0 after the update".into(),
+                });
+            }
+        }
+        unreachable!("the loop returns at max_iterations")
+    }
+
+    /// The linearised predictor of a load step that moves prescribed components: with
+    /// δ the move of the prescribed components from the converged state u₀ to `moved`,
+    /// K_ff Δu_f = (∂f_int/∂u)δ on the free components (the directional derivative by a
+    /// forward difference of 1e-7 δ), so that the free particles follow the prescribed
+    /// ones to first order instead of being left behind: a top row moved by several
+    /// spacings in one increment (seed 004 §6.5) otherwise inverts the particles next to
+    /// it in the first Newton iterate. None when nothing prescribed moves, the solve
+    /// fails or the predicted state has det F ≤ 0 (Newton then starts from `moved`).
+    fn predict(&mut self, moved: &[D::V]) -> Option<Vec<D::V>> {
+        let d = D::N;
+        let delta: Vec<D::V> = moved.iter().zip(&self.u).map(|(&a, &b)| a - b).collect();
+        let size = delta.iter().map(|&v| D::norm2(v)).sum::<f64>().sqrt();
+        if size == 0.0 {
+            return None;
+        }
+        let eps = 1e-7;
+        let probe: Vec<D::V> = self
+            .u
+            .iter()
+            .zip(&delta)
+            .map(|(&u, &v)| u + v * eps)
+            .collect();
+        let u0 = self.u.clone();
+        let (f0, f1) = (self.model.force(&u0).ok()?, self.model.force(&probe).ok()?);
+        let mut r = vec![0.0; self.system.n];
+        for (a, (&x0, &x1)) in f0.iter().zip(&f1).enumerate() {
+            let (x0, x1) = (D::to3(x0), D::to3(x1));
+            for k in 0..d {
+                if let Some(q) = self.free[a * d + k] {
+                    r[q as usize] = (x1[k] - x0[k]) / eps;
+                }
+            }
+        }
+        self.model.stiffness(&u0, &self.pattern, &mut self.values);
+        let k = self.system.gather(&self.values);
+        let (du, _) = self.system.solve(&k, &r).ok()?;
+        let mut u = moved.to_vec();
+        self.add_free(&mut u, &du);
+        (du.iter().all(|x| x.is_finite()) && self.model.inadmissible(&u).is_none()).then_some(u)
+    }
+}
+
+impl<D: Dim, S: Model<D>> Engine<D> for Statics<D, S> {
+    /// The converged state: its pseudo-time, load-step count, work, u and the reactions.
+    fn save(&mut self) -> Vec<f64> {
+        let mut out = vec![self.t, self.load_step as f64, self.work];
+        crate::methods::shared::save_field(&self.u, &mut out);
+        crate::methods::shared::save_field(&self.reaction, &mut out);
+        out
+    }
+
+    fn restore(&mut self, words: &[f64]) -> Result<(), String> {
+        let (&[t, load_step, work], mut rest) = words
+            .split_first_chunk()
+            .ok_or("the checkpoint holds no static state")?;
+        crate::methods::shared::load_field(&mut self.u, "u", &mut rest)?;
+        crate::methods::shared::load_field(&mut self.reaction, "reaction", &mut rest)?;
+        if !rest.is_empty() {
+            return Err(format!(
+                "{} words are left over after the static state",
+                rest.len()
+            ));
+        }
+        (self.t, self.load_step, self.work) = (t, load_step as u64, work);
+        Ok(())
+    }
+
+    /// "cpu", with the linear solver, its size and (Cholesky) the fill of the factor.
+    fn backend(&self) -> String {
+        let Fill { factor, lower } = self.fill;
+        let n = self.system.n;
+        let solver = match self.system.kind() {
+            Linear::Cholesky => format!(
+                "sparse Cholesky of {n} unknowns, factor {factor} non-zeros ({:.1}× the \
+                 tangent's lower triangle, {lower})",
+                factor as f64 / lower.max(1) as f64
+            ),
+            Linear::Lu => format!("sparse LU of {n} unknowns"),
+            Linear::Cg(_) => format!("conjugate gradients on {n} unknowns"),
+        };
+        format!("cpu; {solver}{}", self.model.describe())
+    }
+
+    fn reference(&self) -> &[D::V] {
+        self.model.x0()
+    }
+
+    fn constrained(&self) -> &[(u32, u8)] {
+        &self.constrained
+    }
+
+    /// `steps` load steps of size dt; a step whose Newton iteration stalls is cut in
+    /// halves (at most `max_cuts` times), each half solved in turn.
+    fn advance(&mut self, t: f64, dt: f64, steps: u32) -> Result<(), Failed> {
+        for k in 0..steps {
+            self.load_step += 1;
+            let target = t + f64::from(k + 1) * dt;
+            let mut h = target - self.t;
+            let mut cuts = 0;
+            while self.t < target * (1.0 - 1e-14) {
+                let to = (self.t + h).min(target);
+                let (u_before, reaction_before) = (self.u.clone(), self.reaction.clone());
+                match self.solve_at(to) {
+                    Ok(_) => {
+                        // Trapezoidal work of loads and supports on the body, Σ f·Δu.
+                        self.work += (0..self.u.len())
+                            .map(|i| {
+                                D::dot(
+                                    (reaction_before[i] + self.reaction[i]) * 0.5,
+                                    self.u[i] - u_before[i],
+                                )
+                            })
+                            .sum::<f64>();
+                        self.t = to;
+                    }
+                    Err(_) if cuts < self.newton.max_cuts => {
+                        self.u = u_before;
+                        self.reaction = reaction_before;
+                        h *= 0.5;
+                        cuts += 1;
+                    }
+                    Err(stalled) => {
+                        self.u = u_before;
+                        self.reaction = reaction_before;
+                        return Err(Failed {
+                            completed: k,
+                            cause: BlowUp::at::<D>(
+                                self.model.x0(),
+                                stalled.particle,
+                                &format!(
+                                    "Newton residual |R| at load factor {:.6} after {} \
+                                     iteration(s) and {cuts} cut(s) of the load step to \
+                                     {h:e} s ({}); the largest residual is at this particle",
+                                    (self.t + h) / self.end_time,
+                                    stalled.iterations,
+                                    stalled.reason
+                                ),
+                                stalled.residual,
+                            ),
+                        });
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// No wave speed: the static path steps the load by `method.dt`.
+    fn max_signal_speed(&mut self) -> f64 {
+        0.0
+    }
+
+    fn external_work(&mut self) -> f64 {
+        self.work
+    }
+
+    fn check(&mut self) -> Result<(), BlowUp> {
+        if let Some(i) = self.u.iter().position(|&u| !D::is_finite_v(u)) {
+            return Err(BlowUp::at::<D>(
+                self.model.x0(),
+                i,
+                "displacement |u|",
+                D::norm2(self.u[i]).sqrt(),
+            ));
+        }
+        match self.model.inadmissible(&self.u) {
+            Some(b) => Err(b),
+            None => Ok(()),
+        }
+    }
+
+    fn snapshot(&mut self) -> Snapshot<'_, D> {
+        self.model.snapshot(&self.u, &self.mass, &self.body)
+    }
+
+    fn iterations(&mut self) -> Vec<Iteration> {
+        std::mem::take(&mut self.log)
+    }
+}
