@@ -409,6 +409,7 @@ impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
     }
 
     fn begin_step(&mut self, t: f64, dt: f64, y: &UlGalerkinState<D>) {
+        self.boundary.begin_step(t, dt);
         self.interactions.begin_step(t, dt, &self.x0, &y.u, &y.v);
     }
 
