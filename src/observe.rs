@@ -122,6 +122,9 @@ pub struct Observers {
     bodies: usize,
     /// The closed form of the `velocity-error` observer, and ρ0 (volumes are m/ρ0).
     exact: Option<(Exact, f64)>,
+    /// The closed form of the `front-oscillation` observer, and the margin about its
+    /// jumps [m].
+    front: Option<(Exact, f64)>,
     names: Vec<String>,
 }
 
@@ -162,8 +165,25 @@ impl Observers {
                 Observer::NeckHeight => names.push("neck_height".into()),
                 Observer::Hourglass => names.push("hourglass_max".into()),
                 Observer::VelocityError(_) => names.push("velocity_error".into()),
+                Observer::FrontOscillation(_) => names.extend(
+                    [
+                        "ahead_oscillation",
+                        "behind_oscillation",
+                        "plateau_oscillation",
+                    ]
+                    .map(String::from),
+                ),
             }
         }
+        let front = list
+            .iter()
+            .find_map(|o| match o {
+                Observer::FrontOscillation(s) => Some(*s),
+                _ => None,
+            })
+            .map(|s| Exact::of(s, case).map_err(|m| case.invalid("output.observers", m)))
+            .transpose()?
+            .map(|e| (e, FRONT_MARGIN * case.smoothing_length()));
         let exact = list
             .iter()
             .find_map(|o| match o {
@@ -210,6 +230,7 @@ impl Observers {
             columns,
             bodies: case.bodies.len(),
             exact,
+            front,
             names,
         })
     }
@@ -279,6 +300,7 @@ impl Observers {
                         .fold(0.0, |a: f64, &b| a.max(b)),
                 ),
                 Observer::VelocityError(_) => row.push(self.velocity_error(snap, clock.t)),
+                Observer::FrontOscillation(_) => row.extend(self.front_oscillation(snap, clock.t)),
             }
         }
         for &i in &self.probes {
@@ -305,6 +327,46 @@ impl Observers {
             .flat_map(|&x| exact.velocity(D::to3(x), t)[..D::N].to_vec())
             .collect();
         relative_l2(&w, &v, &v_ex)
+    }
+}
+
+/// The margin about the jumps of a closed form that the `front-oscillation` observer
+/// leaves out, in smoothing lengths h: 4h, twice the support radius of the cubic spline
+/// (2h), the width over which one kernel smears a jump on either side.
+pub const FRONT_MARGIN: f64 = 4.0;
+
+impl Observers {
+    /// [ahead, behind, plateau] oscillations of the `front-oscillation` observer, over
+    /// the particles farther than the margin from every jump (0 where there is none): the
+    /// largest |v·d|/V where the closed form is at rest and the nearest jump runs towards
+    /// the particle (ahead of the pulse) or away from it (behind), and the largest
+    /// |(v − v_ex)·d|/V where it moves.
+    fn front_oscillation<D: Dim>(&self, snap: &Snapshot<D>, t: f64) -> [f64; 3] {
+        let Some((exact, margin)) = &self.front else {
+            return [f64::NAN; 3];
+        };
+        let d = exact.velocity_direction();
+        let axial = |w: [f64; 3]| -> f64 { (0..3).map(|k| w[k] * d[k]).sum() };
+        let mut worst = [0.0f64; 3];
+        for (&x, &v) in snap.x0.iter().zip(&snap.v) {
+            let x = D::to3(x);
+            let Some((amplitude, distance)) = exact.front_distance(x, t) else {
+                return [f64::NAN; 3];
+            };
+            if distance <= *margin {
+                continue;
+            }
+            let v_ex = axial(exact.velocity(x, t));
+            let k = if v_ex != 0.0 {
+                2
+            } else if exact.ahead(x, t, distance, *margin) {
+                0
+            } else {
+                1
+            };
+            worst[k] = worst[k].max((axial(D::to3(v)) - v_ex).abs() / amplitude.abs());
+        }
+        worst
     }
 }
 
