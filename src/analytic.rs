@@ -2,7 +2,7 @@
 //! errors are measured in.
 
 use crate::material::Material;
-use crate::scene::{Case, Shape, VelocityField};
+use crate::scene::{Case, Condition, Shape, VelocityField};
 use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::FRAC_PI_2;
@@ -468,6 +468,11 @@ pub enum AnalyticSolution {
     /// velocity along an axis of its box, both ends of the box free: a [`Rod`] with ends,
     /// at the bar speed of [`bar_wave_speed`].
     FreeRod,
+    /// The rod of seed 001 §9.2 case A: the first body's box at rest, one end driven at V
+    /// along an axis for t < t_p and free after, the other free ([`Rod::driven`]): V, the
+    /// axis and t_p from the case's one `velocity` condition with `until`, whose region
+    /// holds the end face at the box's lower bound along the axis.
+    DrivenRod,
 }
 
 /// d'Alembert's solution of the 1D wave equation ρ0 ∂v/∂t = ∂σ/∂s, ∂σ/∂t = ρ0 c² ∂v/∂s
@@ -512,6 +517,88 @@ impl Rod {
     }
 }
 
+/// The rod at rest whose end a is driven at velocity V from t = 0 to the release t_p and
+/// free after, the end b free (seed 001 §9.2 case A; c t_p ≤ L = b − a, so the pulse has
+/// left the driven end before it returns). With f the 2L-periodic function equal to V on
+/// (a − c t_p, a) modulo 2L and 0 elsewhere:
+///
+///   v(s, t) = f(s − ct) + H(t − t_p) f(2a − s − ct),
+///   σ(s, t) = ρ0 c [H(t − t_p) f(2a − s − ct) − f(s − ct)].
+///
+/// While driven (t < t_p) only the right-running wave f(s − ct) is in the rod: V on
+/// (a, a + ct), 0 ahead, the end keeping v = V. From the release both ends are free,
+/// where d'Alembert's v = F(s − ct) + G(s + ct) needs σ = ρ0 c (G − F) = 0: G(a + ct) =
+/// F(a − ct), so G(ξ) = F(2a − ξ), and F(b − ct) = F(2a − b − ct), so F is 2L-periodic;
+/// F = f matches the state at t_p, where f(2a − s − ct_p) vanishes on (a, b). The image
+/// term is the wave the free end reflects with its velocity sign kept (and its stress
+/// sign reversed). A right-running wave carries σ = −ρ0 c v: compression behind a pushed
+/// end. Momentum ρ0 V c min(t, t_p) per unit area, energy ρ0 V² c min(t, t_p), half of it
+/// kinetic.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DrivenEnd {
+    /// V [m/s].
+    pub amplitude: f64,
+    /// t_p [s].
+    pub duration: f64,
+}
+
+impl Rod {
+    /// f(ξ) of [`DrivenEnd`]: V on (a − c t_p, a) modulo 2L.
+    fn driven_profile(&self, end: DrivenEnd, xi: f64) -> f64 {
+        let [a, b] = self.ends.expect("a driven rod has ends");
+        let length = self.wave_speed * end.duration;
+        if (xi - (a - length)).rem_euclid(2.0 * (b - a)) < length {
+            end.amplitude
+        } else {
+            0.0
+        }
+    }
+
+    /// The right-running wave f(s − ct) and the image f(2a − s − ct) present from t_p.
+    fn driven_waves(&self, end: DrivenEnd, s: f64, t: f64) -> (f64, f64) {
+        let [a, _] = self.ends.expect("a driven rod has ends");
+        let ct = self.wave_speed * t;
+        let image = if t >= end.duration {
+            self.driven_profile(end, 2.0 * a - s - ct)
+        } else {
+            0.0
+        };
+        (self.driven_profile(end, s - ct), image)
+    }
+
+    /// v(s, t) of the rod driven at its end a ([`DrivenEnd`]).
+    pub fn driven(&self, end: DrivenEnd, s: f64, t: f64) -> f64 {
+        let (right, image) = self.driven_waves(end, s, t);
+        right + image
+    }
+
+    /// σ(s, t) of the rod driven at its end a ([`DrivenEnd`]).
+    pub fn driven_stress(&self, end: DrivenEnd, s: f64, t: f64) -> f64 {
+        let (right, image) = self.driven_waves(end, s, t);
+        self.density * self.wave_speed * (image - right)
+    }
+
+    /// The distance from s to the nearest jump of the driven rod's v at time t: the jumps
+    /// of f at a − c t_p and a (modulo 2L), carried by both waves.
+    pub fn driven_front_distance(&self, end: DrivenEnd, s: f64, t: f64) -> f64 {
+        let [a, b] = self.ends.expect("a driven rod has ends");
+        let (ct, length, period) = (
+            self.wave_speed * t,
+            self.wave_speed * end.duration,
+            2.0 * (b - a),
+        );
+        let mut jumps = vec![a - length + ct, a + ct];
+        if t >= end.duration {
+            // 2a − s − ct = ξ at s = 2a − ct − ξ.
+            jumps.extend([a + length - ct, a - ct]);
+        }
+        jumps
+            .into_iter()
+            .map(|p| ((s - p + 0.5 * period).rem_euclid(period) - 0.5 * period).abs())
+            .fold(f64::INFINITY, f64::min)
+    }
+}
+
 /// The speed of a longitudinal wave in a bar with free lateral faces, long waves:
 /// sqrt(E_bar/ρ0) with E_bar the modulus of uniaxial stress. In 3D E_bar = E =
 /// μ(3λ + 2μ)/(λ + μ). In 2D E_bar = 4μ(λ + μ)/(λ + 2μ) with the model's in-plane λ: E in
@@ -544,6 +631,13 @@ pub enum Exact {
         amplitude: f64,
         center: f64,
         width: f64,
+    },
+    /// The rod driven at its lower end along the unit axis d: v = v(s, t) d, s = X·d
+    /// ([`DrivenEnd`]).
+    Driven {
+        rod: Rod,
+        direction: [f64; 3],
+        end: DrivenEnd,
     },
 }
 
@@ -608,6 +702,12 @@ impl Exact {
                     width: *width,
                 })
             }
+            (AnalyticSolution::DrivenRod, None) => Self::driven(case, &material),
+            (AnalyticSolution::DrivenRod, Some(field)) => Err(format!(
+                "the analytic solution \"{name}\" is a rod at rest, driven at an end; the \
+                 first body has the initial velocity `{}`: remove it",
+                velocity_name(field)
+            )),
             (_, field) => Err(format!(
                 "the analytic solution \"{name}\" needs the matching initial velocity of the \
                  first body ({}), which has {}",
@@ -622,6 +722,129 @@ impl Exact {
         }
     }
 
+    /// The [`Exact::Driven`] rod of `case` (see [`AnalyticSolution::DrivenRod`]).
+    fn driven(case: &Case, material: &Material) -> Result<Self, String> {
+        let name = "\"driven-rod\"";
+        let body = &case.bodies[0];
+        let Shape::Box { min, max, .. } = &body.geometry else {
+            return Err(format!(
+                "{name} is a rod between the faces of a box: give the first body a `box` geometry"
+            ));
+        };
+        let released: Vec<usize> = (0..case.boundaries.len())
+            .filter(|&b| {
+                matches!(
+                    case.boundaries[b].condition,
+                    Condition::Velocity { until: Some(_), .. }
+                )
+            })
+            .collect();
+        let [b] = released[..] else {
+            return Err(format!(
+                "{name} needs one `velocity` condition with `until` (the driven end), the case \
+                 has {}",
+                released.len()
+            ));
+        };
+        let bc = &case.boundaries[b];
+        let Condition::Velocity {
+            vx,
+            vy,
+            vz,
+            law,
+            until: Some(until),
+        } = &bc.condition
+        else {
+            unreachable!("a velocity condition with a release")
+        };
+        if !law.is_constant() {
+            return Err(format!(
+                "{name} holds the driven end at a constant velocity; boundary.{b}.condition has \
+                 a time law: remove it"
+            ));
+        }
+        let given: Vec<(usize, f64)> = [vx, vy, vz]
+            .iter()
+            .enumerate()
+            .filter_map(|(k, v)| v.map(|v| (k, v)))
+            .collect();
+        let [(axis, amplitude)] = given[..] else {
+            return Err(format!(
+                "{name} drives the end along the rod's axis: boundary.{b}.condition must give \
+                 one velocity component, it gives {}",
+                given.len()
+            ));
+        };
+        let region = &bc.region;
+        let upper = [region.x_max, region.y_max, region.z_max][axis];
+        if upper.is_none_or(|u| (u - min[axis]).abs() > 0.5 * case.spacing) {
+            return Err(format!(
+                "{name} drives the box's lower end along {}: boundary.{b}.region must hold the \
+                 end face only, {}_max = {} (the box's lower bound)",
+                ["x", "y", "z"][axis],
+                ["x", "y", "z"][axis],
+                min[axis]
+            ));
+        }
+        let rod = Rod {
+            wave_speed: bar_wave_speed(material, case.dim()),
+            density: material.rho0,
+            ends: Some([min[axis], max[axis]]),
+        };
+        let length = max[axis] - min[axis];
+        if rod.wave_speed * until > length {
+            return Err(format!(
+                "{name} needs the pulse no longer than the rod: c t_p = {:.4e} m for `until` = \
+                 {until:e} s, the rod is {length:e} m long",
+                rod.wave_speed * until
+            ));
+        }
+        let mut direction = [0.0; 3];
+        direction[axis] = 1.0;
+        Ok(Self::Driven {
+            rod,
+            direction,
+            end: DrivenEnd {
+                amplitude,
+                duration: *until,
+            },
+        })
+    }
+
+    /// Of the driven rod: V, and the distance from reference position x to the nearest
+    /// jump of v at time t (None for the other solutions).
+    pub fn front_distance(&self, x: [f64; 3], t: f64) -> Option<(f64, f64)> {
+        match *self {
+            Self::Driven { rod, end, .. } => Some((
+                end.amplitude,
+                rod.driven_front_distance(end, self.coordinate(x), t),
+            )),
+            _ => None,
+        }
+    }
+
+    /// Of the driven rod, at a point at rest at distance d from the nearest jump: whether
+    /// that jump runs towards it (the point lies ahead of the pulse), i.e. whether it
+    /// moves at t + (d + δ)/c, once the jump has passed it by δ (less than the pulse's
+    /// length c t_p). False for the other solutions.
+    pub fn ahead(&self, x: [f64; 3], t: f64, distance: f64, delta: f64) -> bool {
+        match *self {
+            Self::Driven { rod, end, .. } => {
+                let later = t + (distance + delta) / rod.wave_speed;
+                rod.driven(end, self.coordinate(x), later) != 0.0
+            }
+            _ => false,
+        }
+    }
+
+    /// The unit direction d of a wave's velocity (NaN for the swinging mode).
+    pub fn velocity_direction(&self) -> [f64; 3] {
+        match *self {
+            Self::Wave { direction, .. } | Self::Driven { direction, .. } => direction,
+            Self::Swinging { .. } => [f64::NAN; 3],
+        }
+    }
+
     /// The velocity at reference position x (3 components, the unused ones 0) at time t.
     pub fn velocity(&self, x: [f64; 3], t: f64) -> [f64; 3] {
         match *self {
@@ -633,6 +856,14 @@ impl Exact {
                 let speed = rod.velocity(|s| self.profile(s), self.coordinate(x), t);
                 direction.map(|d| speed * d)
             }
+            Self::Driven {
+                rod,
+                direction,
+                end,
+            } => {
+                let speed = rod.driven(end, self.coordinate(x), t);
+                direction.map(|d| speed * d)
+            }
         }
     }
 
@@ -642,13 +873,16 @@ impl Exact {
         match *self {
             Self::Swinging { .. } => f64::NAN,
             Self::Wave { rod, .. } => rod.stress(|s| self.profile(s), self.coordinate(x), t),
+            Self::Driven { rod, end, .. } => rod.driven_stress(end, self.coordinate(x), t),
         }
     }
 
     /// s = X·d of a wave.
     fn coordinate(&self, x: [f64; 3]) -> f64 {
         match self {
-            Self::Wave { direction, .. } => (0..3).map(|k| x[k] * direction[k]).sum(),
+            Self::Wave { direction, .. } | Self::Driven { direction, .. } => {
+                (0..3).map(|k| x[k] * direction[k]).sum()
+            }
             Self::Swinging { .. } => f64::NAN,
         }
     }
@@ -662,7 +896,7 @@ impl Exact {
                 width,
                 ..
             } => amplitude * (-((s - center) / width).powi(2)).exp(),
-            Self::Swinging { .. } => f64::NAN,
+            Self::Swinging { .. } | Self::Driven { .. } => f64::NAN,
         }
     }
 }
@@ -858,5 +1092,110 @@ mod rod_tests {
         assert!((e - (1.0f64 / 7.0).sqrt()).abs() < 1e-15);
         assert!(relative_l2(&[1.0], &[1.0, 2.0], &[1.0]).is_nan());
         assert!(relative_l2(&[1.0], &[1.0], &[0.0]).is_nan());
+    }
+
+    /// Case A of seed 001 §9.2: V = 50 m/s for t_p = 5.8 µs at the end s = 0.
+    const DRIVEN: DrivenEnd = DrivenEnd {
+        amplitude: 50.0,
+        duration: 5.8e-6,
+    };
+
+    /// ∫ over [0, L] by the midpoint rule on n cells, whose cell edges the pulse's jumps
+    /// fall between: its error is at most one cell at each jump, bounded by the caller.
+    fn cells(n: usize, f: impl Fn(f64) -> f64) -> f64 {
+        let ds = L / n as f64;
+        (0..n).map(|k| f((k as f64 + 0.5) * ds)).sum::<f64>() * ds
+    }
+
+    #[test]
+    fn the_driven_pulse_carries_the_impulse_and_work_of_the_end() {
+        // Per unit area: the end pushes with σ = ρ0 c V at V for min(t, t_p), giving the
+        // momentum ρ0 V c min(t, t_p) and the energy ρ0 V² c min(t, t_p) (half kinetic,
+        // half strain; a pulse of c t_p = 30.1 mm). The midpoint rule on 240,000 cells
+        // misses at most a cell (2.5e-7 m) at each of four jumps: 4e-5 of c t_p; bound 1e-4.
+        let r = rod();
+        let n = 240_000;
+        for t in [2.1e-6f64, 5.7e-6, 8.0e-6, 1.4e-5, 2.0e-5, 2.6e-5, 4.2e-5] {
+            let held = C * t.min(DRIVEN.duration);
+            let p = cells(n, |s| RHO * r.driven(DRIVEN, s, t));
+            let p_ex = RHO * DRIVEN.amplitude * held;
+            assert!(
+                (p - p_ex).abs() < 1e-4 * p_ex,
+                "t = {t}: momentum {p} vs {p_ex}"
+            );
+            let kinetic = cells(n, |s| 0.5 * RHO * r.driven(DRIVEN, s, t).powi(2));
+            let strain = cells(n, |s| {
+                r.driven_stress(DRIVEN, s, t).powi(2) / (2.0 * RHO * C * C)
+            });
+            let e_ex = RHO * DRIVEN.amplitude.powi(2) * held;
+            assert!(
+                (kinetic + strain - e_ex).abs() < 1e-4 * e_ex,
+                "t = {t}: energy"
+            );
+            // Half and half, but while a reflection overlaps the pulse with itself (the
+            // strain cancels there): at 1.4e-5 s and 2.6e-5 s.
+            if ![1.4e-5, 2.6e-5].contains(&t) {
+                assert!(
+                    (kinetic - strain).abs() < 1e-4 * e_ex,
+                    "t = {t}: kinetic {kinetic}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn the_driven_end_holds_v_and_the_free_ends_carry_no_stress() {
+        // Exact values away from the jumps: v = V and σ = −ρ0 c V at the driven end while
+        // driven; σ = 0 at both ends once free (and at the right end always).
+        let r = rod();
+        let (v, sigma) = (DRIVEN.amplitude, RHO * C * DRIVEN.amplitude);
+        for t in [1e-7, 3.0e-6, 5.7e-6] {
+            assert_eq!(r.driven(DRIVEN, 0.0, t), v);
+            assert_eq!(r.driven_stress(DRIVEN, 0.0, t), -sigma);
+            assert_eq!(r.driven_stress(DRIVEN, L, t), 0.0);
+        }
+        for t in [6.0e-6, 1.2e-5, 1.4e-5, 2.4e-5, 2.6e-5, 3.5e-5] {
+            for end in [0.0, L] {
+                assert_eq!(r.driven_stress(DRIVEN, end, t), 0.0, "t = {t}, s = {end}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_pulse_folds_about_the_free_ends_with_its_velocity_sign_kept() {
+        // At t = 0.8, 1.8 and 2.8 L/c the pulse lies on (0.8L − c t_p, 0.8L) running right
+        // (compression, σ = −ρ0 c V), on (0.2L, 0.2L + c t_p) running left after the right
+        // end (tension, σ = +ρ0 c V), and on the first interval again running right after
+        // the left end: V everywhere on it, 0 elsewhere, 1.5 mm from the jumps.
+        let r = rod();
+        let (v, sigma, length) = (
+            DRIVEN.amplitude,
+            RHO * C * DRIVEN.amplitude,
+            C * DRIVEN.duration,
+        );
+        let period = L / C;
+        for (t, (lo, hi), stress) in [
+            (0.8 * period, (0.8 * L - length, 0.8 * L), -sigma),
+            (1.8 * period, (0.2 * L, 0.2 * L + length), sigma),
+            (2.8 * period, (0.8 * L - length, 0.8 * L), -sigma),
+        ] {
+            for s in grid(600) {
+                let (inside, away) = (s > lo && s < hi, (s - lo).abs().min((s - hi).abs()));
+                if away < 1.5e-3 {
+                    continue;
+                }
+                let expected = if inside { (v, stress) } else { (0.0, 0.0) };
+                let got = (r.driven(DRIVEN, s, t), r.driven_stress(DRIVEN, s, t));
+                assert_eq!(got, expected, "t = {t}, s = {s}");
+                // The jumps the observer measures from: lo and hi, nothing else.
+                let d = r.driven_front_distance(DRIVEN, s, t);
+                assert!((d - away).abs() < 1e-12, "t = {t}, s = {s}: {d} vs {away}");
+            }
+        }
+        // While the pulse reflects at the right end (L/c < t < L/c + t_p) the incoming and
+        // reflected halves overlap there: v = 2V and σ = 0 at the end.
+        let t = period + 0.5 * DRIVEN.duration;
+        assert_eq!(r.driven(DRIVEN, L - 1e-4, t), 2.0 * v);
+        assert_eq!(r.driven_stress(DRIVEN, L - 1e-4, t), 0.0);
     }
 }

@@ -1,8 +1,12 @@
 //! Boundary conditions on regions of the reference configuration.
 //!
 //! Prescribed velocity components are imposed on the initial state and their rates are
-//! zeroed at every evaluation, so every integrator keeps them exactly and the
-//! displacement of a prescribed component follows u = u0 + v t without overwriting.
+//! set at every evaluation (zero for a constant one), so every integrator keeps them
+//! exactly and the displacement of a prescribed component follows u = u0 + ∫ v dt
+//! without overwriting. A prescribed velocity under a time law, or released at a time
+//! (`until`), is a [`TimedVelocity`]: over each step its rate is the law's mean rate over
+//! the step, held through the step's stages, and it is released from the first step whose
+//! middle is at or after `until`.
 //!
 //! Loads that vary in time (a traction with a time law, a pressure) are not constant
 //! accelerations here but forces of [`timed_loads`], which the interaction
@@ -16,9 +20,14 @@ use crate::tensor::Dim;
 /// The constraints and external loads of a scene, as sparse per-particle lists.
 #[derive(Clone, Debug)]
 pub struct Boundary<D: Dim> {
-    /// (particle, bit mask of constrained velocity components).
+    /// (particle, bit mask of constrained velocity components): every component a
+    /// condition prescribes at some time.
     pub constrained: Vec<(u32, u8)>,
-    /// (particle, prescribed velocity; only the masked components are meaningful).
+    /// The mask of the components of each entry of `constrained` held for the whole run
+    /// (those of no [`TimedVelocity`]).
+    held: Vec<u8>,
+    /// (particle, prescribed velocity; only the masked components are meaningful; under a
+    /// time law, the velocity at law value 1).
     pub prescribed: Vec<(u32, D::V)>,
     /// (particle, bit mask of the constrained components whose displacement is
     /// prescribed (reached at the end time; static path), displacement): a subset of
@@ -26,6 +35,64 @@ pub struct Boundary<D: Dim> {
     pub displacement: Vec<(u32, u8, D::V)>,
     /// (particle, external acceleration from tractions).
     pub external: Vec<(u32, D::V)>,
+    /// The prescribed velocities that vary in time, one per condition.
+    pub timed: Vec<TimedVelocity>,
+    /// (particle, component k, index into `timed`, prescribed velocity at law value 1) of
+    /// every component a [`TimedVelocity`] prescribes, by particle and component.
+    pub timed_components: Vec<(u32, u8, u32, f64)>,
+    /// Each timed velocity over the current step (None: released).
+    step: Vec<Option<TimedStep>>,
+    /// The number of particles (the device's dense layout).
+    #[cfg(feature = "gpu")]
+    n: usize,
+}
+
+/// A prescribed velocity v_p·law(t) held while t < `until` (for the whole run without
+/// it), its components free from then on.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TimedVelocity {
+    pub law: TimeLaw,
+    pub until: Option<f64>,
+}
+
+/// A [`TimedVelocity`] over one step, on the component with v_p at law value 1: the
+/// rate v_p·`rate` held through the step's stages, and v_p·`value` at the step's end.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TimedStep {
+    pub rate: f64,
+    pub value: f64,
+}
+
+impl TimedVelocity {
+    /// Whether the condition holds over the step from t to t + Δt: its middle before
+    /// `until` (so the release is off by Δt/2 at most).
+    pub fn holds(&self, t: f64, dt: f64) -> bool {
+        self.until.is_none_or(|until| t + 0.5 * dt < until)
+    }
+
+    /// The condition over the step from t to t + Δt (Δt > 0), None once released: the
+    /// mean rate (law(t + Δt) − law(t))/Δt, which every integrator (its weights summing
+    /// to one) turns into v_p·law(t + Δt) at the step's end from v_p·law(t) at its start,
+    /// at jumps of a table as well.
+    pub fn over_step(&self, t: f64, dt: f64) -> Option<TimedStep> {
+        self.holds(t, dt).then(|| {
+            let value = self.law.at(t + dt);
+            TimedStep {
+                rate: (value - self.law.at(t)) / dt,
+                value,
+            }
+        })
+    }
+
+    /// The condition at the start t = 0, before any step: held at law(0), no rate.
+    fn at_start(&self) -> Option<TimedStep> {
+        self.until
+            .is_none_or(|until| until > 0.0)
+            .then(|| TimedStep {
+                rate: 0.0,
+                value: self.law.at(0.0),
+            })
+    }
 }
 
 impl<D: Dim> Boundary<D> {
@@ -36,6 +103,9 @@ impl<D: Dim> Boundary<D> {
         let mut external = vec![D::zero(); disc.x0.len()];
         let mut dmask = vec![0u8; disc.x0.len()];
         let mut dvalue = vec![[0.0; 3]; disc.x0.len()];
+        // The timed velocity of each component (index into `timed`), if one prescribes it.
+        let mut timed_of = vec![[None::<u32>; 3]; disc.x0.len()];
+        let mut timed = Vec::new();
         let area = case.spacing.powi(D::N as i32 - 1);
         for (b, bc) in case.boundaries.iter().enumerate() {
             let particles = selected::<D>(case, b, &disc.x0, &disc.body)?;
@@ -43,6 +113,17 @@ impl<D: Dim> Boundary<D> {
                 // Forces of `timed_loads`.
                 continue;
             }
+            // The timed velocity this condition is, if it is one.
+            let this_timed = match &bc.condition {
+                Condition::Velocity { law, until, .. } if bc.condition.is_timed_velocity() => {
+                    timed.push(TimedVelocity {
+                        law: law.clone(),
+                        until: *until,
+                    });
+                    Some(timed.len() as u32 - 1)
+                }
+                _ => None,
+            };
             // The extent of the region's particles: the face a traction patch is clipped to.
             let face = neighbour::bounding_box(particles.iter().map(|&i| D::to3(disc.x0[i])));
             for i in particles {
@@ -51,14 +132,16 @@ impl<D: Dim> Boundary<D> {
                         mask[i] = (1 << D::N) - 1;
                         dmask[i] = 0;
                         value[i] = D::zero();
+                        timed_of[i] = [None; 3];
                     }
-                    Condition::Velocity { vx, vy, vz } => {
+                    Condition::Velocity { vx, vy, vz, .. } => {
                         let mut v = D::to3(value[i]);
                         for (k, c) in [vx, vy, vz].iter().enumerate().take(D::N) {
                             if let Some(c) = c {
                                 mask[i] |= 1 << k;
                                 dmask[i] &= !(1 << k);
                                 v[k] = *c;
+                                timed_of[i][k] = this_timed;
                             }
                         }
                         value[i] = D::from_slice(&v);
@@ -70,6 +153,7 @@ impl<D: Dim> Boundary<D> {
                         let mut v = D::to3(value[i]);
                         v[k] = 0.0;
                         value[i] = D::from_slice(&v);
+                        timed_of[i][k] = None;
                     }
                     Condition::Traction { traction, .. } => {
                         external[i] += D::from_slice(traction) * (area / mass[i]);
@@ -81,6 +165,7 @@ impl<D: Dim> Boundary<D> {
                                 mask[i] |= 1 << k;
                                 dmask[i] |= 1 << k;
                                 dvalue[i][k] = *c;
+                                timed_of[i][k] = None;
                             }
                         }
                     }
@@ -94,6 +179,7 @@ impl<D: Dim> Boundary<D> {
                             mask[i] |= 1 << k;
                             dmask[i] |= 1 << k;
                             dvalue[i][k] = u[k];
+                            timed_of[i][k] = None;
                         }
                     }
                     Condition::SolutionTraction { solution, normal } => {
@@ -116,6 +202,18 @@ impl<D: Dim> Boundary<D> {
         let constrained: Vec<u32> = (0..mask.len() as u32)
             .filter(|&i| mask[i as usize] != 0)
             .collect();
+        let timed_mask = |i: usize| {
+            (0..D::N)
+                .filter(|&k| timed_of[i][k].is_some())
+                .fold(0u8, |m, k| m | 1 << k)
+        };
+        let timed_components = constrained
+            .iter()
+            .flat_map(|&i| {
+                let (timed_of, v) = (timed_of[i as usize], D::to3(value[i as usize]));
+                (0..D::N).filter_map(move |k| timed_of[k].map(|g| (i, k as u8, g, v[k])))
+            })
+            .collect();
         Ok(Self {
             displacement: constrained
                 .iter()
@@ -129,46 +227,91 @@ impl<D: Dim> Boundary<D> {
                 .iter()
                 .map(|&i| (i, value[i as usize]))
                 .collect(),
+            held: constrained
+                .iter()
+                .map(|&i| mask[i as usize] & !timed_mask(i as usize))
+                .collect(),
             constrained: constrained.iter().map(|&i| (i, mask[i as usize])).collect(),
             external: (0..mask.len() as u32)
                 .filter(|&i| external[i as usize] != D::zero())
                 .map(|i| (i, external[i as usize]))
                 .collect(),
+            step: timed.iter().map(TimedVelocity::at_start).collect(),
+            timed,
+            timed_components,
+            #[cfg(feature = "gpu")]
+            n: disc.x0.len(),
         })
     }
 
-    /// Overwrites the constrained components of velocities v with the prescribed ones.
-    pub fn impose(&self, v: &mut [D::V]) {
-        for &(i, prescribed) in &self.prescribed {
-            let mask = self.mask_of(i);
-            v[i as usize] = mix::<D>(mask, prescribed, v[i as usize]);
+    /// Sets the timed velocities for the step from t to t + Δt (before it, as the
+    /// interactions' `begin_step`).
+    pub fn begin_step(&mut self, t: f64, dt: f64) {
+        for (step, timed) in self.step.iter_mut().zip(&self.timed) {
+            *step = timed.over_step(t, dt);
         }
     }
 
-    fn mask_of(&self, i: u32) -> u8 {
-        let k = self.constrained.binary_search_by_key(&i, |&(p, _)| p);
-        k.map_or(0, |k| self.constrained[k].1)
+    /// Overwrites the constrained components of velocities v with the prescribed ones:
+    /// those of the timed velocities still held at their values at the end of the
+    /// current step (at t = 0 before the first step).
+    pub fn impose(&self, v: &mut [D::V]) {
+        for (&(i, prescribed), &held) in self.prescribed.iter().zip(&self.held) {
+            v[i as usize] = mix::<D>(held, prescribed, v[i as usize]);
+        }
+        for &(i, k, g, vp) in &self.timed_components {
+            if let Some(step) = self.step[g as usize] {
+                set_component::<D>(&mut v[i as usize], k, vp * step.value);
+            }
+        }
     }
 
-    /// Adds external accelerations and zeroes the constrained components of `a`.
-    /// Returns the power of the constraint reactions, −Σ m a_k v_k over constrained
+    /// Adds external accelerations and sets the constrained components of `a` to their
+    /// rates (zero, or a timed velocity's v_p·rate while it holds). Returns the power of
+    /// the constraint reactions, Σ m (a_k,prescribed − a_k) v_k over constrained
     /// components (the work rate of the supports on the body).
     pub fn apply(&self, a: &mut [D::V], v: &[D::V], mass: &[f64]) -> f64 {
         for &(i, g) in &self.external {
             a[i as usize] += g;
         }
         let mut power = 0.0;
-        for &(i, mask) in &self.constrained {
+        for (&(i, _), &held) in self.constrained.iter().zip(&self.held) {
             let i = i as usize;
             let (ai, vi) = (D::to3(a[i]), D::to3(v[i]));
             for k in 0..D::N {
-                if mask & (1 << k) != 0 {
+                if held & (1 << k) != 0 {
                     power -= mass[i] * ai[k] * vi[k];
                 }
             }
-            a[i] = mix::<D>(mask, D::zero(), a[i]);
+            a[i] = mix::<D>(held, D::zero(), a[i]);
+        }
+        for &(i, k, g, vp) in &self.timed_components {
+            if let Some(step) = self.step[g as usize] {
+                let (i, rate) = (i as usize, vp * step.rate);
+                let (ak, vk) = (D::to3(a[i])[k as usize], D::to3(v[i])[k as usize]);
+                power += mass[i] * (rate - ak) * vk;
+                set_component::<D>(&mut a[i], k, rate);
+            }
         }
         power
+    }
+
+    /// (particle, mask of the components prescribed over the current step) of every
+    /// constrained particle: the released components of the timed velocities left out.
+    pub fn held_now(&self) -> impl Iterator<Item = (u32, u8)> + '_ {
+        let mut timed = self.timed_components.iter().peekable();
+        self.constrained
+            .iter()
+            .zip(&self.held)
+            .map(move |(&(i, _), &held)| {
+                let mut mask = held;
+                while let Some(&(_, k, g, _)) = timed.next_if(|c| c.0 == i) {
+                    if self.step[g as usize].is_some() {
+                        mask |= 1 << k;
+                    }
+                }
+                (i, mask)
+            })
     }
 
     /// Power of the external (traction) loads, Σ m a_ext · v.
@@ -177,6 +320,75 @@ impl<D: Dim> Boundary<D> {
             .iter()
             .map(|&(i, g)| mass[i as usize] * D::dot(g, v[i as usize]))
             .sum()
+    }
+}
+
+/// Sets component k of x to c.
+fn set_component<D: Dim>(x: &mut D::V, k: u8, c: f64) {
+    let mut y = D::to3(*x);
+    y[k as usize] = c;
+    *x = D::from_slice(&y[..D::N]);
+}
+
+#[cfg(feature = "gpu")]
+impl<D: Dim> crate::interaction::gpu::GpuInteraction for Boundary<D> {
+    /// `shaders/common/prescribed.wgsl`: one invocation per particle sets the rates of
+    /// its timed components held over the step in `ext` and its mask in `reference`,
+    /// from the step's (held, rate) of every timed velocity (`steps`, written by the host
+    /// for every step it records).
+    fn pass(
+        &self,
+        gpu: &crate::gpu::context::Gpu,
+        compose: &dyn Fn(&crate::gpu::shaders::Source) -> String,
+        on: &crate::interaction::gpu::Bindings,
+    ) -> Result<crate::interaction::gpu::Pass, crate::gpu::GpuError> {
+        // Per particle: the mask held for the whole run, 1 + g per component, v_p.
+        let stride = 1 + 2 * D::N;
+        let mut dense = vec![0f32; stride * self.n];
+        for (&(i, _), &held) in self.constrained.iter().zip(&self.held) {
+            dense[stride * i as usize] = f32::from(held);
+        }
+        for &(i, k, g, vp) in &self.timed_components {
+            let base = stride * i as usize + 1 + k as usize;
+            dense[base] = (g + 1) as f32;
+            dense[base + D::N] = vp as f32;
+        }
+        let pipeline = gpu.pipeline(
+            "timed velocities",
+            &compose(&crate::gpu::shaders::PRESCRIBED),
+            "timed_velocities",
+        )?;
+        let timed = gpu.storage("timed velocities", &dense);
+        let steps = gpu.zeroed("timed velocities' steps", 8 * self.timed.len() as u64);
+        let bind = gpu.bind(
+            &pipeline,
+            &[
+                ("timed", &timed),
+                ("steps", &steps),
+                ("reference", on.reference),
+                ("ext", on.ext),
+            ],
+        )?;
+        Ok(crate::interaction::gpu::Pass {
+            pipeline,
+            bind,
+            params: None,
+            step_values: Some(crate::interaction::gpu::StepValues {
+                target: steps,
+                values: Box::new({
+                    let timed = self.timed.clone();
+                    move |t, dt| {
+                        timed
+                            .iter()
+                            .flat_map(|v| match v.over_step(t, dt) {
+                                Some(step) => [1.0, step.rate as f32],
+                                None => [0.0, 0.0],
+                            })
+                            .collect()
+                    }
+                }),
+            }),
+        })
     }
 }
 

@@ -143,6 +143,9 @@ pub struct Observers {
     stress_floor: f64,
     /// The closed form of the `solution-error` observer, and the material.
     solution: Option<(ClosedForm, Material)>,
+    /// The closed form of the `front-oscillation` observer, and the margin about its
+    /// jumps [m].
+    front: Option<(Exact, f64)>,
     names: Vec<String>,
 }
 
@@ -185,9 +188,18 @@ impl Observers {
                 Observer::VelocityError(_) => names.push("velocity_error".into()),
                 Observer::RingSymmetry => {
                     names.extend(["hoop_stress_spread", "hoop_gap_spread"].map(String::from))
+                }
                 Observer::SolutionError => {
                     names.extend(["displacement_error", "energy_error"].map(String::from))
                 }
+                Observer::FrontOscillation(_) => names.extend(
+                    [
+                        "ahead_oscillation",
+                        "behind_oscillation",
+                        "plateau_oscillation",
+                    ]
+                    .map(String::from),
+                ),
             }
         }
         let rings = if list.contains(&Observer::RingSymmetry) {
@@ -195,6 +207,15 @@ impl Observers {
         } else {
             Vec::new()
         };
+        let front = list
+            .iter()
+            .find_map(|o| match o {
+                Observer::FrontOscillation(s) => Some(*s),
+                _ => None,
+            })
+            .map(|s| Exact::of(s, case).map_err(|m| case.invalid("output.observers", m)))
+            .transpose()?
+            .map(|e| (e, FRONT_MARGIN * case.smoothing_length()));
         let exact = list
             .iter()
             .find_map(|o| match o {
@@ -259,6 +280,7 @@ impl Observers {
                 1e-9 * (mat.lambda + 2.0 * mat.mu)
             },
             solution,
+            front,
             names,
         })
     }
@@ -335,6 +357,7 @@ impl Observers {
                     Some((closed, mat)) => solution_errors(snap, closed, mat),
                     None => [f64::NAN; 2],
                 }),
+                Observer::FrontOscillation(_) => row.extend(self.front_oscillation(snap, clock.t)),
             }
         }
         for &i in &self.probes {
@@ -442,6 +465,8 @@ fn ring_spreads<D: Dim>(rings: &[Vec<usize>], snap: &Snapshot<D>, floor: f64) ->
         gap_spread = gap_spread.max(std / mean);
     }
     [stress_std / largest_mean.max(floor), gap_spread]
+}
+
 /// The relative displacement and energy errors of [`Observer::SolutionError`] against
 /// `closed` over the snapshot's quadrature points (the particles with V = m/ρ0 and their F
 /// where the method has no points of its own), with ψ of `mat`.
@@ -492,6 +517,46 @@ pub fn solution_of(case: &Case) -> Option<ClosedForm> {
         }
         _ => None,
     })
+}
+
+/// The margin about the jumps of a closed form that the `front-oscillation` observer
+/// leaves out, in smoothing lengths h: 4h, twice the support radius of the cubic spline
+/// (2h), the width over which one kernel smears a jump on either side.
+pub const FRONT_MARGIN: f64 = 4.0;
+
+impl Observers {
+    /// [ahead, behind, plateau] oscillations of the `front-oscillation` observer, over
+    /// the particles farther than the margin from every jump (0 where there is none): the
+    /// largest |v·d|/V where the closed form is at rest and the nearest jump runs towards
+    /// the particle (ahead of the pulse) or away from it (behind), and the largest
+    /// |(v − v_ex)·d|/V where it moves.
+    fn front_oscillation<D: Dim>(&self, snap: &Snapshot<D>, t: f64) -> [f64; 3] {
+        let Some((exact, margin)) = &self.front else {
+            return [f64::NAN; 3];
+        };
+        let d = exact.velocity_direction();
+        let axial = |w: [f64; 3]| -> f64 { (0..3).map(|k| w[k] * d[k]).sum() };
+        let mut worst = [0.0f64; 3];
+        for (&x, &v) in snap.x0.iter().zip(&snap.v) {
+            let x = D::to3(x);
+            let Some((amplitude, distance)) = exact.front_distance(x, t) else {
+                return [f64::NAN; 3];
+            };
+            if distance <= *margin {
+                continue;
+            }
+            let v_ex = axial(exact.velocity(x, t));
+            let k = if v_ex != 0.0 {
+                2
+            } else if exact.ahead(x, t, distance, *margin) {
+                0
+            } else {
+                1
+            };
+            worst[k] = worst[k].max((axial(D::to3(v)) - v_ex).abs() / amplitude.abs());
+        }
+        worst
+    }
 }
 
 /// Particles grouped by reference x (one group per lattice column), leaving out columns

@@ -135,7 +135,7 @@ pub fn check_f32_run<D: crate::tensor::Dim>(
         ));
     }
     for (b, bc) in case.boundaries.iter().enumerate() {
-        if let crate::scene::Condition::Velocity { vx, vy, vz } = &bc.condition {
+        if let crate::scene::Condition::Velocity { vx, vy, vz, .. } = &bc.condition {
             for (name, v) in [("vx", vx), ("vy", vy), ("vz", vz)] {
                 if let Some(v) = v.filter(|&v| !holds_f32(v)) {
                     return Err(beyond_f32(

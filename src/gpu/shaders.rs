@@ -160,6 +160,22 @@ pub const LOADS: Source = source!(
         ],
     }]
 );
+/// Prescribed velocities that vary in time (`boundary::TimedVelocity`): an item is a
+/// particle, whose timed components it reads (the mask, one index and one velocity each).
+pub const PRESCRIBED: Source = source!(
+    "common/prescribed.wgsl",
+    [],
+    [("ext", true)],
+    &[PassBytes {
+        entry: "timed_velocities",
+        traffic: &[
+            read("timed", [1, 2, 0], NONE),
+            read("steps", NONE, NONE),
+            write("reference", [1, 0, 0], NONE),
+            read_write("ext", [0, 1, 0], NONE),
+        ],
+    }]
+);
 /// Cell list and neighbour lists, with the constants of `gpu::neighbour::constants`. An
 /// item is a particle (a cell in `copy_cursor`, either in `clear_counts`); the cell
 /// starts, the sorted ids and a candidate's position are counted once per item, however

@@ -10,6 +10,7 @@
 //! them into the pass's buffer before the pass. Nothing is read back.
 
 use super::Interactions;
+use crate::boundary::Boundary;
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::shaders::Source;
 use crate::tensor::Dim;
@@ -104,18 +105,22 @@ pub struct GpuInteractions {
 }
 
 impl GpuInteractions {
-    /// The passes of `interactions` on the engine's `reference` and state `y`; `traction`
-    /// holds the loads, and the `ext` the rate passes read is [`GpuInteractions::ext`]:
-    /// `traction` itself when no pass writes.
+    /// The passes of `interactions` on the engine's `reference` and state `y`, then the
+    /// timed velocities of `boundary` (which overwrite the rates of the components they
+    /// hold in `ext`, so they come last); `traction` holds the loads, and the `ext` the
+    /// rate passes read is [`GpuInteractions::ext`]: `traction` itself when no pass writes.
     pub fn new<D: Dim>(
         gpu: &Gpu,
         interactions: &Interactions<D>,
+        boundary: &Boundary<D>,
         compose: &dyn Fn(&Source) -> String,
         reference: &wgpu::Buffer,
         y: &wgpu::Buffer,
         traction: wgpu::Buffer,
     ) -> Result<Self, GpuError> {
-        let mut passes = interactions.gpu_passes().peekable();
+        let timed: Option<&dyn GpuInteraction> =
+            (!boundary.timed.is_empty()).then_some(boundary as &dyn GpuInteraction);
+        let mut passes = interactions.gpu_passes().chain(timed).peekable();
         let ext = if passes.peek().is_some() {
             // The loads alone until the first step's passes add to them.
             let ext = gpu.zeroed("ext (traction + interactions)", traction.size());

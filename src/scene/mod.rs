@@ -325,11 +325,17 @@ pub struct Region {
 pub enum Condition {
     /// u = 0, v = 0.
     Fixed,
-    /// Prescribed velocity components (the others stay free); u follows as v·t.
+    /// Prescribed velocity components (the others stay free): v times the time law
+    /// (constant by default) while t < `until` [s] (for the whole run without it), the
+    /// components free from `until` on; u follows as ∫ v dt.
     Velocity {
         vx: Option<f64>,
         vy: Option<f64>,
         vz: Option<f64>,
+        #[serde(default, skip_serializing_if = "TimeLaw::is_constant")]
+        law: TimeLaw,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        until: Option<f64>,
     },
     /// Mirror plane with the given normal: the normal velocity component is zero.
     Symmetry { normal: Axis },
@@ -384,6 +390,15 @@ impl Condition {
         match self {
             Self::Traction { law, .. } => !law.is_constant(),
             Self::Pressure { .. } => true,
+            _ => false,
+        }
+    }
+
+    /// Whether the condition is a prescribed velocity that varies in time: under a time
+    /// law, or released at `until`.
+    pub fn is_timed_velocity(&self) -> bool {
+        match self {
+            Self::Velocity { law, until, .. } => !law.is_constant() || until.is_some(),
             _ => false,
         }
     }
@@ -568,6 +583,14 @@ pub enum Observer {
     /// ψ(I + ∇u_a)) (column `energy_error`; for the linear-elastic model ψ(I + H) =
     /// ½ ε:C:ε, so this is the energy norm sqrt(½ ∫ (P:Fᵀ of the difference)) of eq 74).
     SolutionError,
+    /// Oscillations about a closed form with jumps (`driven-rod`) away from them, relative
+    /// to its amplitude V, over the particles farther than
+    /// [`crate::observe::FRONT_MARGIN`] smoothing lengths along its axis d from every jump:
+    /// the largest |v·d|/V where the closed form is at rest and the nearest jump runs
+    /// towards the particle (column `ahead_oscillation`: ahead of the pulse) or away from
+    /// it (`behind_oscillation`), and the largest |(v − v_ex)·d|/V where it moves
+    /// (`plateau_oscillation`); in case files `{ front-oscillation = "driven-rod" }`.
+    FrontOscillation(crate::analytic::AnalyticSolution),
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]

@@ -7,8 +7,8 @@
 
 use super::{
     Axis, BodySpec, BoundarySpec, Case, Condition, ContactSpec, Lattice, MaterialSpec, Observer,
-    OutputSpec, Plane, ProbeSpec, Region, RingLattice, RunSpec, Shape, Solution, Solve,
-    TimeLaw, VelocityField, Volumes,
+    OutputSpec, Plane, ProbeSpec, Region, RingLattice, RunSpec, Shape, Solution, Solve, TimeLaw,
+    VelocityField, Volumes,
 };
 use crate::material::{Material, MaterialModel};
 use crate::methods::{Feature, MethodTable, Problem, REGISTRY, entry, quoted, supporting};
@@ -42,12 +42,15 @@ pub(super) fn check(case: &Case) -> Result<(), (String, String)> {
     bodies(&case.bodies, dim)?;
     for (i, boundary) in case.boundaries.iter().enumerate() {
         self::boundary(boundary, &format!("boundary.{i}"), &case.bodies, dim)?;
-        if boundary.condition.is_timed_load() && case.is_static() {
+        if (boundary.condition.is_timed_load() || boundary.condition.is_timed_velocity())
+            && case.is_static()
+        {
             return fail(
                 format!("boundary.{i}.condition"),
                 format!(
                     "the run of `{}` is static: its load steps scale the loads by t/end_time, \
-                     so it takes no pressure and no time law; give a constant `traction`",
+                     so it takes no pressure, no time law and no release (`until`); give a \
+                     constant `traction` or `velocity`",
                     case.method.name()
                 ),
             );
@@ -74,6 +77,7 @@ pub(super) fn check(case: &Case) -> Result<(), (String, String)> {
     statics(case)?;
     output(&case.output)?;
     analytic_observers(case)?;
+    front_observers(case)?;
     probes(&case.probes, dim)
 }
 
@@ -734,7 +738,13 @@ fn boundary(b: &BoundarySpec, key: &str, bodies: &[BodySpec], dim: usize) -> Che
     let key = format!("{key}.condition");
     match &b.condition {
         Condition::Fixed => Ok(()),
-        Condition::Velocity { vx, vy, vz } => {
+        Condition::Velocity {
+            vx,
+            vy,
+            vz,
+            law,
+            until,
+        } => {
             if vx.is_none() && vy.is_none() && vz.is_none() {
                 let allowed = if dim == 3 { "vx, vy, vz" } else { "vx, vy" };
                 return fail(
@@ -757,7 +767,10 @@ fn boundary(b: &BoundarySpec, key: &str, bodies: &[BodySpec], dim: usize) -> Che
                     finite(&format!("{key}.{name}"), *v)?;
                 }
             }
-            Ok(())
+            if let Some(until) = until {
+                positive(&format!("{key}.until"), *until)?;
+            }
+            time_law(law, &format!("{key}.law"))
         }
         Condition::Symmetry { normal } => {
             if dim != 3 && *normal == Axis::Z {
@@ -1133,6 +1146,40 @@ fn analytic_observers(case: &Case) -> Checked {
     }
 }
 
+/// At most one `front-oscillation` observer, and its closed form one with jumps that the
+/// case has.
+fn front_observers(case: &Case) -> Checked {
+    let solutions: Vec<_> = case
+        .output
+        .observers
+        .iter()
+        .filter_map(|o| match o {
+            Observer::FrontOscillation(s) => Some(*s),
+            _ => None,
+        })
+        .collect();
+    match solutions[..] {
+        [] => Ok(()),
+        [solution] => match crate::analytic::Exact::of(solution, case) {
+            Ok(exact) if exact.front_distance([0.0; 3], 0.0).is_some() => Ok(()),
+            Ok(_) => fail(
+                "output.observers",
+                format!(
+                    "`front-oscillation` measures about the jumps of a closed form; \
+                     \"{}\" has none: give \"driven-rod\"",
+                    toml_name(&solution)
+                ),
+            ),
+            Err(message) => fail("output.observers", message),
+        },
+        _ => fail(
+            "output.observers",
+            "lists `front-oscillation` more than once; its columns hold the oscillations \
+             about one closed form",
+        ),
+    }
+}
+
 fn probes(probes: &[ProbeSpec], dim: usize) -> Checked {
     let mut seen = HashSet::new();
     for (i, probe) in probes.iter().enumerate() {
@@ -1354,14 +1401,34 @@ mod tests {
             vx: None,
             vy: None,
             vz: None,
+            law: TimeLaw::Constant,
+            until: None,
         };
         assert_eq!(key_of(&c), "boundary.0.condition");
         c.boundaries[0].condition = Condition::Velocity {
             vx: Some(1.0),
             vy: None,
             vz: Some(0.0),
+            law: TimeLaw::Constant,
+            until: None,
         };
         assert_eq!(key_of(&c), "boundary.0.condition.vz");
+        c.boundaries[0].condition = Condition::Velocity {
+            vx: Some(1.0),
+            vy: None,
+            vz: None,
+            law: TimeLaw::Constant,
+            until: Some(0.0),
+        };
+        assert_eq!(key_of(&c), "boundary.0.condition.until");
+        c.boundaries[0].condition = Condition::Velocity {
+            vx: Some(1.0),
+            vy: None,
+            vz: None,
+            law: TimeLaw::Ramp { duration: -1.0 },
+            until: None,
+        };
+        assert_eq!(key_of(&c), "boundary.0.condition.law.duration");
         c.boundaries[0].condition = Condition::Symmetry { normal: Axis::Z };
         let (key, msg) = check(&c).unwrap_err();
         assert_eq!(key, "boundary.0.condition.normal");

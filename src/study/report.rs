@@ -52,6 +52,15 @@ pub fn reference_statement(suite: &Suite) -> String {
               stress error is the L2 norm of P_xx − σ_ex over that of ρ0 c |v_ex|, the stress \
               the exact velocity carries as a wave (at the returns σ_ex vanishes)."
             .into(),
+        Reference::Analytic {
+            solution: AnalyticSolution::DrivenRod,
+        } => "analytic: d'Alembert's solution of a rod at rest driven at one end at V for t_p \
+              and free after (v = f(s − ct) + H(t − t_p) f(2a − s − ct), f the rectangular pulse \
+              of V over c t_p, 2L-periodic, c the bar speed, sqrt(E/ρ0) at ν = 0). Errors are \
+              relative L2 norms at the end time, weighted by particle volume, of the velocity v \
+              (all components); the stress error is the L2 norm of P_xx − σ_ex over that of \
+              ρ0 c |v_ex|."
+            .into(),
         Reference::Invariant {
             quantity: InvariantKind::AngularMomentum,
         } => "invariant: the angular momentum H = Σ m x × v must stay at H(0) (no external \

@@ -38,13 +38,15 @@ mod loads;
 mod mixed;
 mod registry;
 mod runs;
-mod seed001_ring;
 mod seed001_cantilever;
+mod seed001_pulse;
+mod seed001_ring;
 mod seed001_rod;
 #[cfg(feature = "gpu")]
 mod shaders;
 #[cfg(feature = "study")]
 mod study;
+mod timed_velocity;
 mod tl_potential;
 mod tlsph;
 mod ul_galerkin;

@@ -14,7 +14,8 @@ use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{Reduced, Reduction, WorkBalance};
 use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
-    self, BOUNDARY, CONTACT, Constants, INTEGRATE, MECHANICS, REFERENCE, Source, Wgsl, source, wgsl,
+    self, BOUNDARY, CONTACT, Constants, INTEGRATE, LOADS, MECHANICS, PRESCRIBED, REFERENCE, Source,
+    Wgsl, source, wgsl,
 };
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
 use crate::integrate::Buf;
@@ -118,7 +119,7 @@ pub const SMOOTH: Source = source!(
 );
 
 /// The passes compiled with a Galerkin scene's constants ([`scene_constants`]).
-pub const SHADERS: &[Source] = &[RATES, REDUCE, SMOOTH, CONTACT, INTEGRATE];
+pub const SHADERS: &[Source] = &[RATES, REDUCE, SMOOTH, CONTACT, LOADS, PRESCRIBED, INTEGRATE];
 
 /// The flat buffers of a Galerkin scene of n nodes and q points: the state [u | v | ρ − ρ0
 /// | S] (ρ and S at the points, rate model only), the kinematics [H = F − I | P | w ψ
@@ -321,6 +322,7 @@ impl<D: GpuDim> GpuGalerkin<D> {
         let interactions = GpuInteractions::new(
             &gpu,
             &interactions,
+            host.boundary(),
             &compose,
             &device.reference,
             stepper.buffer(Buf::Y),

@@ -481,6 +481,7 @@ impl<D: Dim> OdeSystem for TlGalerkin<D> {
     }
 
     fn begin_step(&mut self, t: f64, dt: f64, y: &GalerkinState<D>) {
+        self.boundary.begin_step(t, dt);
         self.interactions.begin_step(t, dt, &self.x0, &y.u, &y.v);
     }
 

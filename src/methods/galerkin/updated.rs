@@ -439,6 +439,7 @@ impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
             self.shapes = on_lists::<D, P>(lists);
             self.gather = self.shapes.gather(self.x0.len());
         }
+        self.boundary.begin_step(t, dt);
         self.interactions.begin_step(t, dt, &self.x0, &y.u, &y.v);
     }
 

@@ -4,7 +4,8 @@
 
 use crate::gpu::profile::{NONE, PassBytes, Traffic, read, write};
 use crate::gpu::shaders::{
-    BOUNDARY, CONTACT, Constants, INTEGRATE, KERNEL, LOADS, MECHANICS, REFERENCE, Source, source,
+    BOUNDARY, CONTACT, Constants, INTEGRATE, KERNEL, LOADS, MECHANICS, PRESCRIBED, REFERENCE,
+    Source, source,
 };
 use crate::methods::ul::gpu::{
     CORE, PARTICLE_CORE, POSITIONS, POWER, RATES_CORE, REDUCE, STATUS, Scheme,
@@ -70,7 +71,7 @@ pub const PASSES: Source = source!(
 );
 
 /// The passes of a Godunov scene.
-pub const SHADERS: &[Source] = &[PASSES, CONTACT, LOADS, INTEGRATE, REDUCE];
+pub const SHADERS: &[Source] = &[PASSES, CONTACT, LOADS, PRESCRIBED, INTEGRATE, REDUCE];
 
 /// The scheme: no constants of its own.
 pub fn scheme() -> Scheme {

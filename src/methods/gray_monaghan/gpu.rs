@@ -5,8 +5,8 @@
 use super::GrayMonaghanSpec;
 use crate::gpu::profile::{NONE, PassBytes, Traffic, read, write};
 use crate::gpu::shaders::{
-    BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, KERNEL, LOADS, MECHANICS, REFERENCE, Source,
-    VISCOSITY, source,
+    BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, KERNEL, LOADS, MECHANICS, PRESCRIBED,
+    REFERENCE, Source, VISCOSITY, source,
 };
 use crate::methods::ul::gpu::{
     CORE, PARTICLE_CORE, POSITIONS, POWER, RATES_CORE, REDUCE, STATUS, Scheme,
@@ -77,7 +77,7 @@ pub const PASSES: Source = source!(
 );
 
 /// The passes of a Gray–Monaghan scene.
-pub const SHADERS: &[Source] = &[PASSES, CONTACT, LOADS, INTEGRATE, REDUCE];
+pub const SHADERS: &[Source] = &[PASSES, CONTACT, LOADS, PRESCRIBED, INTEGRATE, REDUCE];
 
 /// The scheme of a case with the spec's constants: viscosity, artificial stress with
 /// W(Δp) at Δp = the spacing, XSPH.

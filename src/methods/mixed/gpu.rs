@@ -21,8 +21,8 @@ use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{Reduced, Reduction, WorkBalance};
 use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
-    self, BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, LOADS, MECHANICS, PLASTICITY, REFERENCE,
-    Source, Wgsl, source, wgsl,
+    self, BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, LOADS, MECHANICS, PLASTICITY, PRESCRIBED,
+    REFERENCE, Source, Wgsl, source, wgsl,
 };
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
 use crate::integrate::IntegratorKind;
@@ -291,6 +291,7 @@ pub const PLASTIC: Source = source!(
 /// The passes compiled with a mixed scene's constants ([`scene`]).
 pub const SHADERS: &[Source] = &[
     GHOSTS, KINEMATICS, PLASTIC, BOND, SLOPES, FORCES, MOMENTUM, REDUCE, INTEGRATE, CONTACT, LOADS,
+    PRESCRIBED,
 ];
 
 /// The flat buffers of a mixed scene, each described once ([`Fields`]).
@@ -700,6 +701,7 @@ impl<D: GpuDim> GpuMixed<D> {
         let interactions = GpuInteractions::new(
             &gpu,
             cpu.interactions(),
+            cpu.boundary(),
             &compose,
             &device.reference,
             stepper.buffer(Buf::Y),

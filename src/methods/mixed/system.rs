@@ -724,6 +724,7 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
 
     fn begin_step(&mut self, t: f64, dt: f64, y: &MixedState<D>) {
         self.stage = 0;
+        self.boundary.begin_step(t, dt);
         self.interactions
             .begin_step(t, dt, &self.x0[..self.n], &y.u, &y.v);
         // The plastic history is committed once per step, from the state at its start.

@@ -267,6 +267,7 @@ impl<D: Dim> OdeSystem for Potential<D> {
 
     /// The interactions' work before the step (the contact forces of seed 000 §5.8).
     fn begin_step(&mut self, t: f64, dt: f64, y: &TlState<D>) {
+        self.boundary.begin_step(t, dt);
         self.interactions.begin_step(t, dt, &self.x0, &y.u, &y.v);
     }
 }

@@ -17,7 +17,7 @@ use crate::gpu::reduction::{Reduced, Reduction, WorkBalance};
 use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
     self, BOUNDARY, CONTACT, CORRECTION, Constants, INTEGRATE, LOADS, MECHANICS, PAIR_OFFSETS,
-    REFERENCE, Source, VISCOSITY, Wgsl, source, wgsl,
+    PRESCRIBED, REFERENCE, Source, VISCOSITY, Wgsl, source, wgsl,
 };
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
 use crate::integrate::Buf;
@@ -109,6 +109,7 @@ pub const SHADERS: &[Source] = &[
     ACCEL,
     CONTACT,
     LOADS,
+    PRESCRIBED,
     CORRECTION,
     INTEGRATE,
     PAIR_OFFSETS,
@@ -424,6 +425,7 @@ impl<D: GpuDim> GpuTlsph<D> {
         let interactions = GpuInteractions::new(
             &gpu,
             &interactions,
+            &disc.boundary,
             &compose,
             &device.reference,
             stepper.buffer(Buf::Y),

@@ -20,7 +20,8 @@ use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{Reduced, Reduction, WorkBalance};
 use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
-    self, CONTACT, Constants, INTEGRATE, MECHANICS, REFERENCE, Source, Wgsl, source, wgsl,
+    self, CONTACT, Constants, INTEGRATE, MECHANICS, PRESCRIBED, REFERENCE, Source, Wgsl, source,
+    wgsl,
 };
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range};
 use crate::integrate::Buf;
@@ -88,7 +89,7 @@ pub const POWER: Traffic = write("kin", [1, 0, 0], NONE);
 pub const STATUS: Traffic = read_write("status", NONE, NONE);
 
 /// The passes every UL engine compiles besides its scheme's.
-pub const SHARED: [Source; 3] = [CONTACT, INTEGRATE, REDUCE];
+pub const SHARED: [Source; 4] = [CONTACT, PRESCRIBED, INTEGRATE, REDUCE];
 
 /// One updated-Lagrangian method on the device.
 pub struct Scheme {
@@ -257,6 +258,7 @@ impl<D: GpuDim> GpuUl<D> {
         let interactions = GpuInteractions::new(
             &gpu,
             &interactions,
+            &disc.boundary,
             &compose,
             &device.reference,
             stepper.buffer(Buf::Y),

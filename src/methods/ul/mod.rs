@@ -241,10 +241,10 @@ impl<D: Dim> UlCore<D> {
         Ok(())
     }
 
-    /// Prescribed velocity components: ẋ takes them (a scheme's XSPH term is left out)
+    /// Velocity components prescribed over the step: ẋ takes them (a scheme's XSPH term is left out)
     /// and v̇ is zeroed; then the interactions' accelerations. Records the power.
     fn close(&mut self, y: &UlState<D>, d: &mut UlState<D>) {
-        for &(i, mask) in &self.boundary.constrained {
+        for (i, mask) in self.boundary.held_now() {
             let i = i as usize;
             let (mut x_dot, vi) = (D::to3(d.u[i]), D::to3(y.v[i]));
             for k in 0..D::N {
@@ -338,6 +338,7 @@ impl<D: Dim, S: PairScheme<D>> OdeSystem for UlSph<D, S> {
     /// The interactions' work before the step (the contact forces of seed 000 §5.8).
     fn begin_step(&mut self, t: f64, dt: f64, y: &UlState<D>) {
         let core = &mut self.core;
+        core.boundary.begin_step(t, dt);
         core.interactions.begin_step(t, dt, &core.x0, &y.u, &y.v);
     }
 }
