@@ -9,7 +9,7 @@ use glam::{DMat2, DVec2};
 use meshless::integrate::OdeSystem;
 use meshless::methods::Method;
 use meshless::methods::galerkin::TlGalerkin;
-use meshless::methods::galerkin::updated::{MovingPoints, Nodes, UlGalerkin, UlGalerkinState};
+use meshless::methods::galerkin::updated::{MovingPoints, UlGalerkin, UlGalerkinState};
 use meshless::methods::kbm::eulerian::{EulerianPoints, SEARCH_EVERY};
 use meshless::output::series::read_column;
 use meshless::reference::Reference;
@@ -165,24 +165,9 @@ fn the_eulerian_lists_are_searched_anew_on_the_current_configuration() {
     let m = eulerian();
     let mut points = EulerianPoints::<D2>::build(&case, &reference).unwrap();
     let first = points.lists().clone();
-    let moved = |map: DMat2| {
-        let y = affine(&m, map);
-        let x: Vec<DVec2> = m
-            .reference()
-            .iter()
-            .zip(&y.u)
-            .map(|(&x, &u)| x + u)
-            .collect();
-        (x, y)
-    };
-    let search = |points: &mut EulerianPoints<D2>, x: &[DVec2], y: &UlGalerkinState<D2>| {
-        let nodes = Nodes {
-            x0: m.reference(),
-            x,
-            mass: m.mass(),
-        };
+    let search = |points: &mut EulerianPoints<D2>, y: &UlGalerkinState<D2>| {
         let lists: Vec<_> = (0..SEARCH_EVERY)
-            .map(|_| points.relist(&nodes, y))
+            .map(|_| points.relist(m.reference(), y))
             .collect();
         assert!(
             lists[..SEARCH_EVERY as usize - 1]
@@ -195,8 +180,7 @@ fn the_eulerian_lists_are_searched_anew_on_the_current_configuration() {
             .flatten()
             .expect("a search at the last step")
     };
-    let (x, y) = moved(DMat2::from_angle(0.3));
-    let rotated = search(&mut points, &x, &y);
+    let rotated = search(&mut points, &affine(&m, DMat2::from_angle(0.3)));
     for q in 0..first.len() {
         let mut a = first.neighbours(q).to_vec();
         let mut b = rotated.neighbours(q).to_vec();
@@ -204,8 +188,10 @@ fn the_eulerian_lists_are_searched_anew_on_the_current_configuration() {
         b.sort_unstable();
         assert_eq!(a, b, "point {q}: lists before and after a rotation");
     }
-    let (x, y) = moved(DMat2::from_diagonal(DVec2::splat(1.5)));
-    let stretched = search(&mut points, &x, &y);
+    let stretched = search(
+        &mut points,
+        &affine(&m, DMat2::from_diagonal(DVec2::splat(1.5))),
+    );
     assert!(stretched.pair_count() < first.pair_count() / 2);
 }
 

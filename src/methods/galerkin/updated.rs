@@ -111,11 +111,11 @@ pub trait MovingPoints<D: Dim>: Sized + Send + Sync {
         row: ShapeRow<D>,
     ) -> Result<f64, Degenerate>;
 
-    /// New lists from the points to the nodes, searched on the configuration of state y
-    /// at the start of a step, when the method searches anew then (an Eulerian kernel;
+    /// New lists from the points to the nodes (at reference positions x0), searched on
+    /// the configuration of state y at the start of a step, when the method searches anew then (an Eulerian kernel;
     /// [`Self::lists`] are these lists afterwards);
     /// none keeps the lists (the default).
-    fn relist(&mut self, _nodes: &Nodes<D>, _y: &UlGalerkinState<D>) -> Option<Csr> {
+    fn relist(&mut self, _x0: &[D::V], _y: &UlGalerkinState<D>) -> Option<Csr> {
         None
     }
 
@@ -429,13 +429,7 @@ impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
 
     /// The points' new lists if they search anew, then the interactions.
     fn begin_step(&mut self, t: f64, dt: f64, y: &UlGalerkinState<D>) {
-        let x = self.positions(y);
-        let nodes = Nodes {
-            x0: &self.x0,
-            x: &x,
-            mass: &self.mass,
-        };
-        if let Some(lists) = self.points.relist(&nodes, y) {
+        if let Some(lists) = self.points.relist(&self.x0, y) {
             self.shapes = on_lists::<D, P>(lists);
             self.gather = self.shapes.gather(self.x0.len());
         }

@@ -172,16 +172,17 @@ impl<D: Dim> MovingPoints<D> for EulerianPoints<D> {
     }
 
     /// Every `search_every` steps: the lists on the current configuration.
-    fn relist(&mut self, nodes: &Nodes<D>, y: &UlGalerkinState<D>) -> Option<Csr> {
+    fn relist(&mut self, x0: &[D::V], y: &UlGalerkinState<D>) -> Option<Csr> {
         self.steps += 1;
         if self.steps < self.search_every {
             return None;
         }
         self.steps = 0;
+        let x: Vec<D::V> = x0.iter().zip(&y.u).map(|(&x0, &u)| x0 + u).collect();
         let at: Vec<D::V> = (0..self.points.len())
-            .map(|q| self.position(q, nodes.x, y))
+            .map(|q| self.position(q, &x, y))
             .collect();
-        self.lists = self.search(&at, nodes.x);
+        self.lists = self.search(&at, &x);
         Some(self.lists.clone())
     }
 }
