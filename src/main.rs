@@ -394,7 +394,7 @@ fn explain_command(case: &str, backend: Backend, set: &[String]) -> ExitCode {
             let gpu = match backend {
                 Backend::Cpu => false,
                 Backend::Gpu => true,
-                Backend::Auto => c.method.spec.runs_on_gpu() && has_adapter(),
+                Backend::Auto => meshless::run::cpu_only(&c).is_none() && has_adapter(),
             };
             println!("{}", meshless::run::explain(&c, gpu));
             ExitCode::SUCCESS

@@ -2,8 +2,9 @@
 //! closed form and point probes, sampled into the CSV time series.
 
 use crate::analytic::{ClosedForm, Exact, relative_l2};
-use crate::material::Material;
+use crate::material::{Material, MaterialModel};
 use crate::methods::shared::ordered_reduce;
+use crate::plasticity::PLASTIC_STRAIN;
 use crate::scene::{Case, CaseError, Observer};
 use crate::tensor::Dim;
 use std::collections::BTreeMap;
@@ -141,6 +142,8 @@ pub struct Observers {
     /// The stress below which a ring's mean σ_θθ is round-off: 1e-9 of the p-wave
     /// modulus λ + 2μ.
     stress_floor: f64,
+    /// Whether the material has a plastic history (`ring-symmetry` then measures ε_p).
+    plastic: bool,
     /// The closed form of the `solution-error` observer, and the material.
     solution: Option<(ClosedForm, Material)>,
     /// The closed form of the `front-oscillation` observer, and the margin about its
@@ -187,7 +190,10 @@ impl Observers {
                 Observer::Hourglass => names.push("hourglass_max".into()),
                 Observer::VelocityError(_) => names.push("velocity_error".into()),
                 Observer::RingSymmetry => {
-                    names.extend(["hoop_stress_spread", "hoop_gap_spread"].map(String::from))
+                    names.extend(["hoop_stress_spread", "hoop_gap_spread"].map(String::from));
+                    if case.material.model == MaterialModel::VonMisesPlastic {
+                        names.push("plastic_strain_spread".into());
+                    }
                 }
                 Observer::SolutionError => {
                     names.extend(["displacement_error", "energy_error"].map(String::from))
@@ -279,6 +285,7 @@ impl Observers {
                 let mat = crate::material::Material::new(&case.material);
                 1e-9 * (mat.lambda + 2.0 * mat.mu)
             },
+            plastic: case.material.model == MaterialModel::VonMisesPlastic,
             solution,
             front,
             names,
@@ -351,7 +358,10 @@ impl Observers {
                 ),
                 Observer::VelocityError(_) => row.push(self.velocity_error(snap, clock.t)),
                 Observer::RingSymmetry => {
-                    row.extend(ring_spreads(&self.rings, snap, self.stress_floor))
+                    row.extend(ring_spreads(&self.rings, snap, self.stress_floor));
+                    if self.plastic {
+                        row.push(plastic_strain_spread(&self.rings, snap));
+                    }
                 }
                 Observer::SolutionError => row.extend(match &self.solution {
                     Some((closed, mat)) => solution_errors(snap, closed, mat),
@@ -465,6 +475,26 @@ fn ring_spreads<D: Dim>(rings: &[Vec<usize>], snap: &Snapshot<D>, floor: f64) ->
         gap_spread = gap_spread.max(std / mean);
     }
     [stress_std / largest_mean.max(floor), gap_spread]
+}
+
+/// ε_p below which a ring's mean counts as elastic round-off in its spread: 1e-3.
+const PLASTIC_FLOOR: f64 = 1e-3;
+
+/// The largest std over mean of ε_p around a ring, the mean at least [`PLASTIC_FLOOR`],
+/// so that the first yielding particles of a ring are no spread of order one.
+fn plastic_strain_spread<D: Dim>(rings: &[Vec<usize>], snap: &Snapshot<D>) -> f64 {
+    let Some(eps_p) = snap.field(PLASTIC_STRAIN) else {
+        return f64::NAN;
+    };
+    rings
+        .iter()
+        .map(|ring| {
+            let n = ring.len() as f64;
+            let mean = ring.iter().map(|&i| eps_p[i]).sum::<f64>() / n;
+            let var = ring.iter().map(|&i| (eps_p[i] - mean).powi(2)).sum::<f64>() / n;
+            var.sqrt() / mean.max(PLASTIC_FLOOR)
+        })
+        .fold(0.0, f64::max)
 }
 
 /// The relative displacement and energy errors of [`Observer::SolutionError`] against

@@ -14,8 +14,12 @@
 //! left-hand side, so its root is the smaller of the two, which for H ≥ 0 is always the
 //! linear one. It needs 3μ + H > 0, which validation requires.
 
+use crate::methods::shared::{load_field, save_field};
 use crate::tensor::Dim;
 use glam::{DMat3, DVec3};
+
+/// The frame and snapshot field of the equivalent plastic strain ε_p.
+pub const PLASTIC_STRAIN: &str = "plastic_strain";
 
 /// Yield stress and hardening of the model.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -118,6 +122,63 @@ impl VonMises {
             eps_p: eps_p + dgamma,
             psi,
         }
+    }
+}
+
+/// The internal variables C_p⁻¹ and ε_p of a von Mises material at its material points
+/// (particles, or the quadrature points of a Galerkin method) at the start of the
+/// current step. A method commits them once per step from the state at its start, and
+/// evaluates the stress of every stage from them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct History {
+    pub model: VonMises,
+    pub cp_inv: Vec<DMat3>,
+    pub eps_p: Vec<f64>,
+}
+
+impl History {
+    /// n virgin points: C_p⁻¹ = I, ε_p = 0.
+    pub fn virgin(model: VonMises, n: usize) -> Self {
+        Self {
+            model,
+            cp_inv: vec![DMat3::IDENTITY; n],
+            eps_p: vec![0.0; n],
+        }
+    }
+
+    /// Algorithm 2 for point a at the deformation gradient f (F_zz = 1 in 2D) from its
+    /// committed history.
+    pub fn returned<D: Dim>(&self, a: usize, f: D::T) -> Returned {
+        self.model
+            .return_map(to_mat3::<D>(f, 1.0), self.cp_inv[a], self.eps_p[a])
+    }
+
+    /// Takes the returned variables of every point as the new history.
+    pub fn commit(&mut self, returned: &[Returned]) {
+        (self.cp_inv, self.eps_p) = returned.iter().map(|r| (r.cp_inv, r.eps_p)).unzip();
+    }
+
+    /// Appends C_p⁻¹ and ε_p to a checkpoint.
+    pub fn save(&self, out: &mut Vec<f64>) {
+        save_field(&self.cp_inv, out);
+        save_field(&self.eps_p, out);
+    }
+
+    /// Reads what [`Self::save`] wrote.
+    pub fn load(&mut self, words: &mut &[f64]) -> Result<(), String> {
+        load_field(&mut self.cp_inv, "C_p⁻¹", words)?;
+        load_field(&mut self.eps_p, "ε_p", words)
+    }
+}
+
+impl Returned {
+    /// The Cauchy stress σ = J⁻¹ P Fᵀ at the deformation gradient f it was returned at
+    /// (3 × 3; F_zz = 1 in 2D, so σ_zz is the plane-strain one).
+    pub fn cauchy<D: Dim>(&self, f: D::T) -> [[f64; 3]; 3] {
+        let f3 = to_mat3::<D>(f, 1.0);
+        (self.p * f3.transpose() * (1.0 / f3.determinant()))
+            .transpose()
+            .to_cols_array_2d()
     }
 }
 

@@ -122,10 +122,11 @@ pub trait MethodFamily: Sized {
         gpu: crate::gpu::Gpu,
     ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError>;
 
-    /// Whether this spec runs on the GPU engine ([`Self::GPU_ENGINE`] unless a key selects
-    /// a CPU-only variant).
-    fn runs_on_gpu(&self) -> bool {
-        Self::GPU_ENGINE
+    /// Why this spec has no GPU engine for `case`, as a phrase after the method's name,
+    /// or None: [`Self::GPU_ENGINE`] unless a key or the material selects a CPU-only
+    /// variant.
+    fn gpu_refusal(&self, _case: &Case) -> Option<&'static str> {
+        (!Self::GPU_ENGINE).then_some("has no GPU engine")
     }
 
     /// Whether this spec searches neighbours on the current configuration
@@ -238,9 +239,9 @@ macro_rules! registry {
                 }
             }
 
-            pub fn runs_on_gpu(&self) -> bool {
+            pub fn gpu_refusal(&self, case: &Case) -> Option<&'static str> {
                 match self {
-                    $(Self::$variant(s) => s.runs_on_gpu()),*
+                    $(Self::$variant(s) => s.gpu_refusal(case)),*
                 }
             }
 

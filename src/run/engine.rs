@@ -39,26 +39,18 @@ pub fn build_method<D: Dim, M: Method<D>>(case: &Case) -> Result<M, CaseError> {
 /// them. A static run (`run.solve = "static"`) is on the CPU only.
 pub fn engine<D: EngineDim>(case: &Case, backend: Backend) -> Result<Box<dyn Engine<D>>, RunError> {
     let spec = &case.method.spec;
-    if case.is_static() && backend == Backend::Gpu {
-        return Err(RunError::Backend(format!(
-            "{}: the static solve (run.solve = \"static\") runs on the CPU only; use \
-             --backend cpu (--backend auto picks the CPU for it)",
-            case.file.display()
-        )));
-    }
-    let backend = if backend == Backend::Auto && (!spec.runs_on_gpu() || case.is_static()) {
-        eprintln!(
-            "note: --backend auto: `{}` has no GPU engine{}; running on the CPU (rayon, f64)",
-            case.method.name(),
-            if case.is_static() {
-                " for a static run"
-            } else {
-                ""
-            }
-        );
-        Backend::Cpu
-    } else {
-        backend
+    let backend = match (backend, super::cpu_only(case)) {
+        (Backend::Gpu, Some(why)) => {
+            return Err(RunError::Backend(format!(
+                "{}: {why}; use --backend cpu (--backend auto picks the CPU for it)",
+                case.file.display()
+            )));
+        }
+        (Backend::Auto, Some(why)) => {
+            eprintln!("note: --backend auto: {why}; running on the CPU (rayon, f64)");
+            Backend::Cpu
+        }
+        (backend, _) => backend,
     };
     match gpu(backend)? {
         #[cfg(feature = "gpu")]

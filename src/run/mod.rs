@@ -197,7 +197,17 @@ pub fn with_threads<T: Send>(case: &Case, f: impl FnOnce() -> T + Send) -> Resul
 /// Whether a run of `case` on `backend` may use the GPU (the memory estimate then counts
 /// the device's share too): `gpu`, or `auto` for a method with a GPU engine.
 pub fn may_use_gpu(case: &Case, backend: Backend) -> bool {
-    backend != Backend::Cpu && case.method.spec.runs_on_gpu() && !case.is_static()
+    backend != Backend::Cpu && cpu_only(case).is_none()
+}
+
+/// Why a case runs on the CPU only (a static solve, or its method, keys or material), or
+/// None if it has a GPU engine.
+pub fn cpu_only(case: &Case) -> Option<String> {
+    if case.is_static() {
+        return Some("the static solve (run.solve = \"static\") runs on the CPU only".into());
+    }
+    let why = case.method.spec.gpu_refusal(case)?;
+    Some(format!("`{}` {why}", case.method.name()))
 }
 
 /// The plan of a run: what is built once, what runs per step, and what the scene leaves

@@ -574,7 +574,9 @@ pub enum Observer {
     /// the largest spread of σ_θθ around a ring, std over the largest |mean| of a ring
     /// (column `hoop_stress_spread`), and of the current gaps between neighbours on a ring,
     /// std over mean (column `hoop_gap_spread`). Both are zero under a rotationally
-    /// symmetric motion and grow where particles cluster.
+    /// symmetric motion and grow where particles cluster. With `von-mises-plastic`, also
+    /// the largest std over mean of ε_p around a ring, the mean at least 1e-3 (column
+    /// `plastic_strain_spread`), which grows where the plastic strain localises.
     RingSymmetry,
     /// The relative errors against the closed form of the case's `solution-displacement`
     /// condition, with the method's own quadrature (seed 001 eqs 71–74): of the

@@ -4,6 +4,7 @@
 use crate::analytic::{Exact, SwingingMode};
 use crate::material::Material;
 use crate::observe::Snapshot;
+use crate::plasticity::PLASTIC_STRAIN;
 use crate::scene::{Case, VelocityField};
 use crate::tensor::Dim;
 use std::collections::HashMap;
@@ -11,7 +12,9 @@ use std::io::{BufRead, Write};
 use std::path::Path;
 
 /// The end state of a run, independent of the dimension: reference positions, volumes,
-/// velocity and first Piola–Kirchhoff stress P = J σ F⁻ᵀ (in-plane block in 2D).
+/// velocity and first Piola–Kirchhoff stress P = J σ F⁻ᵀ (in-plane block in 2D), which
+/// the error norms read and [`Self::write_csv`] keeps; and the current positions, the
+/// Cauchy stress and ε_p (plastic models), which the suite's picture reads.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct FinalState {
     pub dim: usize,
@@ -19,6 +22,10 @@ pub struct FinalState {
     pub volume: Vec<f64>,
     pub v: Vec<[f64; 3]>,
     pub pk1: Vec<[[f64; 3]; 3]>,
+    pub x: Vec<[f64; 3]>,
+    pub sigma: Vec<[[f64; 3]; 3]>,
+    /// Empty for an elastic model.
+    pub plastic_strain: Vec<f64>,
 }
 
 impl FinalState {
@@ -45,6 +52,16 @@ impl FinalState {
             volume: snap.mass.iter().map(|m| m / rho0).collect(),
             v: snap.v.iter().map(|&v| D::to3(v)).collect(),
             pk1,
+            x: snap
+                .x0
+                .iter()
+                .zip(&snap.u)
+                .map(|(&x0, &u)| D::to3(x0 + u))
+                .collect(),
+            sigma: snap.sigma.clone(),
+            plastic_strain: snap
+                .field(PLASTIC_STRAIN)
+                .map_or_else(Vec::new, <[f64]>::to_vec),
         }
     }
 

@@ -10,6 +10,7 @@
 pub mod engine;
 pub mod fields;
 pub mod history;
+pub mod picture;
 pub mod plot;
 pub mod records;
 pub mod report;
@@ -106,6 +107,12 @@ pub fn run_suite(suite: &Suite, opts: &StudyOptions) -> std::io::Result<StudyOut
             state.write_csv(&reference_file(&opts.out_dir, &run.id))?;
             reference = Some(state.clone());
         }
+        if let (Some(p), Some(state)) = (&suite.picture, &state) {
+            let file = picture::points_file(&opts.out_dir, &run.id);
+            if let Err(e) = picture::write_points(&file, p, state) {
+                eprintln!("warning: {}: picture of run {}: {e}", suite.name, run.id);
+            }
+        }
         let line = summary_line(suite, &record);
         if bar.is_hidden() {
             if opts.progress {
@@ -128,6 +135,12 @@ pub fn run_suite(suite: &Suite, opts: &StudyOptions) -> std::io::Result<StudyOut
     let mut files = vec![results];
     files.extend(plot::plots(suite, &records, &opts.out_dir)?);
     files.extend(history::write(
+        suite,
+        &records,
+        &opts.out_dir,
+        &opts.out_dir,
+    )?);
+    files.extend(picture::write(
         suite,
         &records,
         &opts.out_dir,

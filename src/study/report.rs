@@ -1,10 +1,10 @@
 //! Markdown: the table of one suite's runs, the stability map, and the report over suites
 //! with its "which method for which job" section drawn from the records alone.
 
-use super::history;
 use super::plot::{metrics, pareto, plots, plottable};
 use super::records::{self, RunRecord, Status};
 use super::suite::{AnalyticSolution, InvariantKind, Reference, Suite, SuiteKind};
+use super::{history, picture};
 use std::fmt::Write;
 use std::path::Path;
 
@@ -474,12 +474,9 @@ pub fn write_report(
     for (suite, recs) in entries {
         records::write(&assets.join(format!("{}.csv", suite.name)), recs)?;
         let mut files = plots(suite, recs, &assets)?;
-        files.extend(history::write(
-            suite,
-            recs,
-            &out_root.join(&suite.name),
-            &assets,
-        )?);
+        let suite_dir = out_root.join(&suite.name);
+        files.extend(history::write(suite, recs, &suite_dir, &assets)?);
+        files.extend(picture::write(suite, recs, &suite_dir, &assets)?);
         let links: Vec<String> = files
             .iter()
             .filter(|f| f.extension().is_some_and(|e| e == "png"))

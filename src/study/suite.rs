@@ -141,6 +141,28 @@ pub struct History {
     pub published: Option<String>,
 }
 
+/// A field drawn on the particles' current positions (projected on the x–y plane) at the
+/// end of every run, or at its failure: one panel per run, y = `scale` × field.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Picture {
+    pub field: PictureField,
+    /// Label of the colour scale (of field × scale).
+    pub label: String,
+    #[serde(default = "unit_scale")]
+    pub scale: f64,
+}
+
+/// The fields a picture draws.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum PictureField {
+    /// σ_θθ = e_θ·σ e_θ about the centroid of the current positions (in-plane).
+    HoopStress,
+    /// The equivalent plastic strain ε_p (`von-mises-plastic`).
+    PlasticStrain,
+}
+
 fn unit_scale() -> f64 {
     1.0
 }
@@ -176,6 +198,8 @@ pub struct Suite {
     pub failure_measure: Option<TimeMeasure>,
     /// A series column plotted against time for every run.
     pub history: Option<History>,
+    /// A field drawn on the particles at the end of every run.
+    pub picture: Option<Picture>,
     /// Part of `meshless study all` (the published report).
     #[serde(default)]
     pub report: bool,

@@ -42,6 +42,7 @@ mod seed001_cantilever;
 mod seed001_pulse;
 mod seed001_ring;
 mod seed001_rod;
+mod seed001_steel_ring;
 #[cfg(feature = "gpu")]
 mod shaders;
 #[cfg(feature = "study")]

@@ -88,7 +88,8 @@ impl MethodFamily for EfgSpec {
         moving least-squares functions of a linear basis, integration at the particles or \
         at 2^d Gauss points of the lattice cells";
     const KEYS: &'static [&'static str] = &["integration", "mass"];
-    const FEATURES: &'static [Feature] = &[Feature::Contact, Feature::StaticSolve];
+    const FEATURES: &'static [Feature] =
+        &[Feature::Contact, Feature::Plasticity, Feature::StaticSolve];
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = super::galerkin::gpu::SHADERS;
 
@@ -142,6 +143,10 @@ impl MethodFamily for EfgSpec {
         gpu: crate::gpu::Gpu,
     ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
         super::galerkin::gpu_engine(case, gpu)
+    }
+
+    fn gpu_refusal(&self, case: &Case) -> Option<&'static str> {
+        super::galerkin::gpu_refusal(case)
     }
 
     /// Δt = α Δx/(c_p + max|v|) does not depend on the stretch.

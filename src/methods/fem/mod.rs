@@ -5,7 +5,7 @@
 
 use super::galerkin::{Mass, TlGalerkin};
 use super::{Feature, MethodFamily, Plan, Problem};
-use crate::material::Material;
+use crate::material::{Material, MaterialModel};
 use crate::quadrature::{QuadraturePoints, Rule, Shapes};
 use crate::reference::Reference;
 use crate::run::{Engine, EngineDim};
@@ -43,7 +43,8 @@ impl MethodFamily for FemSpec {
         reference): bilinear quadrilaterals (trilinear hexahedra) on the lattice cells, 2^d \
         Gauss points, lumped mass, explicit";
     const KEYS: &'static [&'static str] = &["mass"];
-    const FEATURES: &'static [Feature] = &[Feature::Contact, Feature::StaticSolve];
+    const FEATURES: &'static [Feature] =
+        &[Feature::Contact, Feature::Plasticity, Feature::StaticSolve];
     const KERNEL: bool = false;
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = super::galerkin::gpu::SHADERS;
@@ -97,6 +98,10 @@ impl MethodFamily for FemSpec {
         super::galerkin::gpu_engine(case, gpu)
     }
 
+    fn gpu_refusal(&self, case: &Case) -> Option<&'static str> {
+        super::galerkin::gpu_refusal(case)
+    }
+
     /// Δt = α Δx/(c_p + max|v|) does not depend on the stretch.
     fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
         0.0
@@ -107,6 +112,10 @@ impl MethodFamily for FemSpec {
 pub(crate) fn galerkin_state(mat: &Material) -> String {
     if mat.model.is_rate_based() {
         "u, v at the nodes; ρ, S at the quadrature points (rate model: Jaumann + linear EOS)".into()
+    } else if mat.model == MaterialModel::VonMisesPlastic {
+        "u, v at the nodes; the plastic history C_p⁻¹, ε_p at the quadrature points, committed \
+         once per step from the state at its start"
+            .into()
     } else {
         format!(
             "u, v at the nodes (state model {:?}: no ρ or S integrated)",

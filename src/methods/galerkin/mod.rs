@@ -26,12 +26,13 @@ pub mod gpu;
 use crate::boundary::Boundary;
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
-use crate::material::Material;
+use crate::material::{Material, MaterialModel};
 use crate::methods::shared::{BlowUp, MIN_CHUNK, Method, check_motion, particle_state};
 use crate::methods::tlsph::system::stress_fields;
 use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::Csr;
-use crate::observe::{Quadrature, Snapshot};
+use crate::observe::{Quadrature, ScalarField, Snapshot};
+use crate::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
 use crate::quadrature::{Cells, Gather, QuadratureError, QuadraturePoints, Shapes};
 use crate::reference::Reference;
 use crate::run::{Engine, EngineDim};
@@ -69,6 +70,15 @@ pub fn gpu_engine<D: EngineDim>(
     gpu: crate::gpu::Gpu,
 ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
     Ok(Box::new(gpu::GpuGalerkin::<D>::new(case, gpu)?))
+}
+
+/// Why a total-Lagrangian Galerkin method has no GPU engine for `case`: its GPU engine
+/// carries no plastic history at the quadrature points.
+pub fn gpu_refusal(case: &Case) -> Option<&'static str> {
+    (case.material.model == MaterialModel::VonMisesPlastic).then_some(
+        "has no GPU engine for `von-mises-plastic` (the plastic history at the quadrature \
+         points is kept on the CPU)",
+    )
 }
 
 /// The particle mass, as a serde default.
@@ -235,6 +245,8 @@ pub struct TlGalerkin<D: Dim> {
     material: Material,
     boundary: Boundary<D>,
     interactions: Interactions<D>,
+    /// The plastic history of the points (von Mises); None for the elastic models.
+    plastic: Option<History>,
     /// F_q and P_q of the last rate evaluation.
     f: Vec<D::T>,
     pk1: Vec<D::T>,
@@ -285,6 +297,7 @@ impl<D: Dim> TlGalerkin<D> {
             material,
             boundary,
             interactions,
+            plastic: material.von_mises().map(|model| History::virgin(model, n)),
             f: vec![D::identity(); n],
             pk1: vec![D::zero_t(); n],
             power: 0.0,
@@ -340,9 +353,13 @@ impl<D: Dim> TlGalerkin<D> {
                     (*pk1, *rho_dot, *s_dot) = (r.pk1, r.rho_dot, r.s_dot);
                 });
         } else {
+            let plastic = self.plastic.as_ref();
             each.with_min_len(MIN_CHUNK).for_each(|(q, (f, pk1))| {
                 *f = D::identity() + self.shapes.gradient(q, &y.u);
-                *pk1 = mat.pk1::<D>(*f);
+                *pk1 = match plastic {
+                    Some(pl) => from_mat3::<D>(pl.returned::<D>(q, *f).p),
+                    None => mat.pk1::<D>(*f),
+                };
             });
         }
         (self.f, self.pk1) = (f, pk1);
@@ -407,12 +424,41 @@ impl<D: Dim> TlGalerkin<D> {
         }
     }
 
-    /// F, σ and the stored energy Σ_q w_q ψ_q at the points of state y.
+    /// Algorithm 2 of seed 003 at every point at the deformation gradients f from the
+    /// committed history; None for the elastic models.
+    fn returned_all(&self, f: &[D::T]) -> Option<Vec<Returned>> {
+        let pl = self.plastic.as_ref()?;
+        Some(
+            f.par_iter()
+                .with_min_len(MIN_CHUNK)
+                .enumerate()
+                .map(|(q, &f)| pl.returned::<D>(q, f))
+                .collect(),
+        )
+    }
+
+    /// F, σ, the stored energy Σ_q w_q ψ_q and ε_p (plastic models) at the points of
+    /// state y.
     fn point_fields(&self, y: &GalerkinState<D>) -> PointFields<D> {
         let f = self.point_f(y);
-        let (sigma, energy) =
-            stress_fields::<D>(&self.material, &f, &y.s, &y.rho, &self.points.weight);
-        PointFields { f, sigma, energy }
+        let weight = &self.points.weight;
+        match self.returned_all(&f) {
+            Some(r) => PointFields {
+                sigma: r.iter().zip(&f).map(|(r, &f)| r.cauchy::<D>(f)).collect(),
+                energy: r.iter().zip(weight).map(|(r, w)| w * r.psi).sum(),
+                eps_p: Some(r.iter().map(|r| r.eps_p).collect()),
+                f,
+            },
+            None => {
+                let (sigma, energy) = stress_fields::<D>(&self.material, &f, &y.s, &y.rho, weight);
+                PointFields {
+                    f,
+                    sigma,
+                    energy,
+                    eps_p: None,
+                }
+            }
+        }
     }
 }
 
@@ -422,6 +468,8 @@ struct PointFields<D: Dim> {
     sigma: Vec<[[f64; 3]; 3]>,
     /// Σ_q w_q ψ_q.
     energy: f64,
+    /// ε_p of a plastic model.
+    eps_p: Option<Vec<f64>>,
 }
 
 /// m_a = ρ0 Σ_q w_q N_a(X_q) with the reference weights w_q and shapes; a particle no
@@ -480,9 +528,16 @@ impl<D: Dim> OdeSystem for TlGalerkin<D> {
         Ok(())
     }
 
+    /// The tractions' and interactions' step, and the plastic history committed from the
+    /// state at the step's start.
     fn begin_step(&mut self, t: f64, dt: f64, y: &GalerkinState<D>) {
         self.boundary.begin_step(t, dt);
         self.interactions.begin_step(t, dt, &self.x0, &y.u, &y.v);
+        if let Some(committed) = self.returned_all(&self.point_f(y))
+            && let Some(pl) = self.plastic.as_mut()
+        {
+            pl.commit(&committed);
+        }
     }
 
     /// The weak form's velocity smoothing, then the prescribed velocities again.
@@ -593,7 +648,14 @@ impl<D: Dim> Method<D> for TlGalerkin<D> {
             f: self.projected(&fields.f, D::identity()),
             sigma: self.stress_at_nodes(fields.sigma),
             strain_energy: fields.energy,
-            extra: Vec::new(),
+            extra: fields
+                .eps_p
+                .map(|eps_p| ScalarField {
+                    name: PLASTIC_STRAIN,
+                    values: self.projected(&eps_p, 0.0),
+                })
+                .into_iter()
+                .collect(),
             cells: &self.cells.corners,
             quadrature: Some(quadrature),
         }
@@ -611,6 +673,20 @@ impl<D: Dim> Method<D> for TlGalerkin<D> {
         check_motion::<D>(&self.x0, &y.u, &y.v)?;
         let node = |q| self.shapes.strongest_node(q);
         check_points::<D>(&self.x0, node, &y.rho, &y.s)
+    }
+
+    /// The plastic history C_p⁻¹, ε_p of the points.
+    fn save_history(&self, out: &mut Vec<f64>) {
+        if let Some(pl) = &self.plastic {
+            pl.save(out);
+        }
+    }
+
+    fn load_history(&mut self, words: &mut &[f64]) -> Result<(), String> {
+        match self.plastic.as_mut() {
+            Some(pl) => pl.load(words),
+            None => Ok(()),
+        }
     }
 }
 

@@ -17,7 +17,7 @@ use super::galerkin::updated::UlGalerkin;
 use super::galerkin::{Mass, TlGalerkin, particle_mass};
 use super::ul_fem::ul_galerkin_state;
 use super::{Feature, MethodFamily, Plan, Problem};
-use crate::material::Material;
+use crate::material::{Material, MaterialModel};
 use crate::quadrature::{Cells, QuadraturePoints, Shapes};
 use crate::reference::Reference;
 use crate::run::{CpuEngine, Engine, EngineDim};
@@ -123,7 +123,8 @@ impl MethodFamily for KbmSpec {
         integration at the particles and at stress points in the cell centres";
     const KEYS: &'static [&'static str] =
         &["stress_points", "mass", "kernel_frame", "search_every"];
-    const FEATURES: &'static [Feature] = &[Feature::Contact, Feature::StaticSolve];
+    const FEATURES: &'static [Feature] =
+        &[Feature::Contact, Feature::Plasticity, Feature::StaticSolve];
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = super::galerkin::gpu::SHADERS;
 
@@ -133,6 +134,16 @@ impl MethodFamily for KbmSpec {
                 "method.kernel_frame",
                 "the static solve (run.solve = \"static\") takes the Lagrangian kernel only: \
                  remove kernel_frame = \"eulerian\" or the static solve",
+            );
+        }
+        if self.kernel_frame == KernelFrame::Eulerian
+            && case.material.model == MaterialModel::VonMisesPlastic
+        {
+            return fail(
+                "method.kernel_frame",
+                "`von-mises-plastic` runs on the Lagrangian kernel only (the Eulerian \
+                 kernel's points keep no plastic history): remove kernel_frame = \"eulerian\" \
+                 or use an elastic model",
             );
         }
         match (self.kernel_frame, self.search_every) {
@@ -220,8 +231,11 @@ impl MethodFamily for KbmSpec {
         }
     }
 
-    fn runs_on_gpu(&self) -> bool {
-        self.kernel_frame == KernelFrame::Lagrangian
+    fn gpu_refusal(&self, case: &Case) -> Option<&'static str> {
+        match self.kernel_frame {
+            KernelFrame::Lagrangian => super::galerkin::gpu_refusal(case),
+            KernelFrame::Eulerian => Some("on an Eulerian kernel has no GPU engine"),
+        }
     }
 
     fn searches_current_configuration(&self) -> bool {

@@ -21,21 +21,18 @@ use crate::interaction::Interactions;
 use crate::material::Material;
 use crate::methods::not_run_by;
 use crate::methods::shared::{
-    BlowUp, MIN_CHUNK, Method, check_motion, load_field, neighbour_radius, ordered_reduce,
-    particle_state, reference_gradients, save_field,
+    BlowUp, MIN_CHUNK, Method, check_motion, neighbour_radius, ordered_reduce, particle_state,
+    reference_gradients,
 };
 use crate::mirror::Ghosts;
 use crate::neighbour::{self, Csr};
 use crate::observe::{ScalarField, Snapshot};
-use crate::plasticity::{Returned, VonMises, from_mat3, to_mat3};
+use crate::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
 use crate::reference::Reference;
 use crate::scene::{Case, CaseError};
-use crate::tensor::{D3, Dim, smallest_stretch_squared};
+use crate::tensor::{Dim, smallest_stretch_squared};
 use glam::DMat3;
 use rayon::prelude::*;
-
-/// The frame field of the equivalent plastic strain ε_p (plastic materials only).
-pub const PLASTIC_STRAIN: &str = "plastic_strain";
 
 /// Integrated state of a mixed method.
 #[derive(Clone, Debug)]
@@ -123,14 +120,6 @@ pub struct Fluxes<D: Dim> {
     pub dj: Vec<f64>,
 }
 
-/// The plastic history of a `von-mises-plastic` material: the internal variables of the
-/// real particles at the start of the current step (seed 003 Algorithm 2).
-struct PlasticHistory {
-    model: VonMises,
-    cp_inv: Vec<DMat3>,
-    eps_p: Vec<f64>,
-}
-
 /// Displacements, velocities and size of the current step at its start.
 type StepStart<D> = (Vec<<D as Dim>::V>, Vec<<D as Dim>::V>, f64);
 
@@ -159,8 +148,9 @@ pub struct MixedSph<D: Dim> {
     momentum: Momentum,
     /// V_b W̃_b(X_a) / |X_ab|² per pair, for the bond-based F; None for the evolved F.
     bond_weights: Option<Vec<f64>>,
-    /// None for the elastic models.
-    plastic: Option<PlasticHistory>,
+    /// The plastic history of the real particles (von Mises); None for the elastic
+    /// models.
+    plastic: Option<History>,
     stabilisation: Stabilisation,
     projection: bool,
     integrator: IntegratorKind,
@@ -342,11 +332,7 @@ impl<D: Dim> MixedSph<D> {
             conserved: options.variables,
             momentum: options.momentum,
             bond_weights,
-            plastic: material.von_mises().map(|model| PlasticHistory {
-                model,
-                cp_inv: vec![DMat3::IDENTITY; n],
-                eps_p: vec![0.0; n],
-            }),
+            plastic: material.von_mises().map(|model| History::virgin(model, n)),
             stabilisation,
             projection: options.projection(case),
             integrator: m.integrator,
@@ -395,10 +381,7 @@ impl<D: Dim> MixedSph<D> {
     /// Algorithm 2 of seed 003 for real particle a at F from its history at the start of
     /// the step; None for the elastic models.
     fn returned(&self, a: usize, f: D::T) -> Option<Returned> {
-        self.plastic.as_ref().map(|pl| {
-            pl.model
-                .return_map(to_mat3::<D>(f, 1.0), pl.cp_inv[a], pl.eps_p[a])
-        })
+        self.plastic.as_ref().map(|pl| pl.returned::<D>(a, f))
     }
 
     /// Algorithm 2 for every real particle at state y from the step's history; None for
@@ -731,7 +714,7 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
         if let Some(committed) = self.returned_all(y)
             && let Some(pl) = self.plastic.as_mut()
         {
-            (pl.cp_inv, pl.eps_p) = committed.iter().map(|r| (r.cp_inv, r.eps_p)).unzip();
+            pl.commit(&committed);
         }
         if self.projection && self.integrator == IntegratorKind::TvdRk2 {
             self.step_start = Some((y.u.clone(), y.v.clone(), dt));
@@ -857,9 +840,7 @@ impl<D: Dim> Method<D> for MixedSph<D> {
             .map(|a| {
                 let (f, h, j) = self.stress_arguments(y, a, &u_ext);
                 if let Some(r) = self.returned(a, f) {
-                    let f3 = to_mat3::<D>(f, 1.0);
-                    let sigma = r.p * f3.transpose() * (1.0 / f3.determinant());
-                    return D3::to3x3(sigma);
+                    return r.cauchy::<D>(f);
                 }
                 let sigma = mat.pk1_mixed::<D>(f, h, j) * D::transpose(f) * (1.0 / j);
                 let mut out = D::to3x3(sigma);
@@ -943,17 +924,15 @@ impl<D: Dim> Method<D> for MixedSph<D> {
     /// The plastic history C_p⁻¹, ε_p of a `von-mises-plastic` material.
     fn save_history(&self, out: &mut Vec<f64>) {
         if let Some(pl) = &self.plastic {
-            save_field(&pl.cp_inv, out);
-            save_field(&pl.eps_p, out);
+            pl.save(out);
         }
     }
 
     fn load_history(&mut self, words: &mut &[f64]) -> Result<(), String> {
-        if let Some(pl) = self.plastic.as_mut() {
-            load_field(&mut pl.cp_inv, "C_p⁻¹", words)?;
-            load_field(&mut pl.eps_p, "ε_p", words)?;
+        match self.plastic.as_mut() {
+            Some(pl) => pl.load(words),
+            None => Ok(()),
         }
-        Ok(())
     }
 }
 

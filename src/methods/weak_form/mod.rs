@@ -80,7 +80,8 @@ impl MethodFamily for WeakFormSpec {
         000 §5.6): RKPM shape functions at 2×2 Gauss points of the lattice cells, lumped \
         mass, velocity smoothing after each step";
     const KEYS: &'static [&'static str] = &["smoothing", "mass"];
-    const FEATURES: &'static [Feature] = &[Feature::Contact, Feature::StaticSolve];
+    const FEATURES: &'static [Feature] =
+        &[Feature::Contact, Feature::Plasticity, Feature::StaticSolve];
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = super::galerkin::gpu::SHADERS;
 
@@ -134,6 +135,10 @@ impl MethodFamily for WeakFormSpec {
         gpu: crate::gpu::Gpu,
     ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
         super::galerkin::gpu_engine(case, gpu)
+    }
+
+    fn gpu_refusal(&self, case: &Case) -> Option<&'static str> {
+        super::galerkin::gpu_refusal(case)
     }
 
     /// Δt = α Δx/(c_p + max|v|) does not depend on the stretch.

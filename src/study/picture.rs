@@ -1,0 +1,278 @@
+//! A suite's `[picture]`: a field on the particles' current positions at the end of every
+//! run (or at its failure), one panel per run, each on its own colour scale: σ_θθ on the
+//! rings of seed 001 (Figs. 18–19), ε_p on the steel ring (Fig. 17). The run writes its
+//! points (`runs/<id>/picture.csv`: x, y, value), the report draws them.
+
+use super::fields::FinalState;
+use super::plot::{register_font, write_figure};
+use super::records::{RunRecord, Status};
+use super::suite::{Picture, PictureField, Suite};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// The points file of a run.
+pub fn points_file(suite_dir: &Path, id: &str) -> PathBuf {
+    suite_dir.join("runs").join(id).join("picture.csv")
+}
+
+/// The field of picture `p` at every particle of `state`, scaled; Err if the state has
+/// no such field.
+pub fn values(p: &Picture, state: &FinalState) -> Result<Vec<f64>, String> {
+    let raw = match p.field {
+        PictureField::HoopStress => hoop_stress(state),
+        PictureField::PlasticStrain if state.plastic_strain.len() == state.x.len() => {
+            state.plastic_strain.clone()
+        }
+        PictureField::PlasticStrain => {
+            return Err(
+                "the picture's field `plastic-strain` needs a `von-mises-plastic` \
+                        material"
+                    .into(),
+            );
+        }
+    };
+    Ok(raw.into_iter().map(|v| v * p.scale).collect())
+}
+
+/// σ_θθ = e_θ·σ e_θ with e_θ = (−sin θ, cos θ) about the centroid of the current positions.
+fn hoop_stress(state: &FinalState) -> Vec<f64> {
+    let n = state.x.len().max(1) as f64;
+    let c = state
+        .x
+        .iter()
+        .fold([0.0; 2], |c, x| [c[0] + x[0] / n, c[1] + x[1] / n]);
+    state
+        .x
+        .iter()
+        .zip(&state.sigma)
+        .map(|(x, s)| {
+            let theta = (x[1] - c[1]).atan2(x[0] - c[0]);
+            let e = [-theta.sin(), theta.cos()];
+            (0..2)
+                .flat_map(|r| (0..2).map(move |k| e[r] * s[r][k] * e[k]))
+                .sum()
+        })
+        .collect()
+}
+
+/// Writes the points of picture `p` of a run's final state.
+pub fn write_points(path: &Path, p: &Picture, state: &FinalState) -> std::io::Result<()> {
+    let values = values(p, state).map_err(std::io::Error::other)?;
+    let mut text = String::from("x,y,value\n");
+    for (x, v) in state.x.iter().zip(values) {
+        let _ = writeln!(text, "{:e},{:e},{v:e}", x[0], x[1]);
+    }
+    crate::output::write_atomically(path, |w| std::io::Write::write_all(w, text.as_bytes()))
+}
+
+/// The points of a run's picture.
+fn read_points(path: &Path) -> Result<Vec<[f64; 3]>, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    text.lines()
+        .skip(1)
+        .map(|line| {
+            let v: Vec<f64> = line
+                .split(',')
+                .map(str::parse)
+                .collect::<Result<_, _>>()
+                .map_err(|e| format!("{}: {e}", path.display()))?;
+            match v[..] {
+                [x, y, value] => Ok([x, y, value]),
+                _ => Err(format!(
+                    "{}: a row of {} columns, not 3",
+                    path.display(),
+                    v.len()
+                )),
+            }
+        })
+        .collect()
+}
+
+/// One panel: its title (run, sweep value, end or failure time) and its points.
+struct Panel {
+    title: String,
+    points: Vec<[f64; 3]>,
+}
+
+/// Writes `<suite>-picture.png/svg` into `dir` from the points under `suite_dir`: a grid
+/// with a row per sweep value and a column per variant and backend.
+pub fn write(
+    suite: &Suite,
+    records: &[RunRecord],
+    suite_dir: &Path,
+    dir: &Path,
+) -> std::io::Result<Vec<PathBuf>> {
+    let Some(p) = &suite.picture else {
+        return Ok(Vec::new());
+    };
+    let mut lines: Vec<String> = Vec::new();
+    let mut values: Vec<&str> = Vec::new();
+    let mut panels: Vec<(String, String, Panel)> = Vec::new();
+    for r in records {
+        let failed = matches!(r.status, Status::Failed { .. });
+        if r.status != Status::Ok && !failed {
+            continue;
+        }
+        match read_points(&points_file(suite_dir, &r.id)) {
+            Ok(points) => {
+                let (line, value) = (r.line(), r.sweep_value.clone());
+                if !lines.contains(&line) {
+                    lines.push(line.clone());
+                }
+                if !values.contains(&r.sweep_value.as_str()) {
+                    values.push(&r.sweep_value);
+                }
+                let when = if failed {
+                    format!("failed at t = {:.3e} s", r.time)
+                } else {
+                    format!("t = {:.3e} s", r.time)
+                };
+                let title = format!("{line}, {} = {value}: {when}", suite.sweep.key);
+                panels.push((line, value, Panel { title, points }));
+            }
+            Err(e) => eprintln!("warning: {}: picture: {e}", suite.name),
+        }
+    }
+    if panels.is_empty() {
+        return Ok(Vec::new());
+    }
+    register_font();
+    let (cols, rows) = (lines.len(), values.len());
+    let grid: Vec<Option<&Panel>> = values
+        .iter()
+        .flat_map(|v| {
+            let panels = &panels;
+            lines.iter().map(move |l| {
+                panels
+                    .iter()
+                    .find(|(pl, pv, _)| pl == l && pv == v)
+                    .map(|x| &x.2)
+            })
+        })
+        .collect();
+    let size = (480 * cols as u32, 440 * rows as u32 + 40);
+    let title = format!("{}: {}", suite.name, p.label);
+    let stem = format!("{}-picture", suite.name);
+    write_figure(
+        dir,
+        &stem,
+        |path| {
+            draw(
+                BitMapBackend::new(path, size).into_drawing_area(),
+                &title,
+                &grid,
+                cols,
+            )
+        },
+        |path| {
+            draw(
+                SVGBackend::new(path, size).into_drawing_area(),
+                &title,
+                &grid,
+                cols,
+            )
+        },
+    )
+}
+
+fn draw<DB: DrawingBackend>(
+    area: DrawingArea<DB, Shift>,
+    title: &str,
+    grid: &[Option<&Panel>],
+    cols: usize,
+) -> Result<(), String> {
+    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    area.fill(&WHITE).map_err(err)?;
+    let area = area
+        .titled(title, ("sans-serif", 20).into_font())
+        .map_err(err)?;
+    let rows = grid.len().div_ceil(cols);
+    for (panel, cell) in grid.iter().zip(area.split_evenly((rows, cols))) {
+        if let Some(panel) = panel {
+            draw_panel(&cell, panel).map_err(err)?;
+        }
+    }
+    area.present().map_err(err)
+}
+
+/// A blue–white–red scale over [lo, hi] (white at the middle), readable in greyscale as
+/// dark–light–dark only at the ends, so the panel also prints its range.
+fn colour(t: f64) -> RGBColor {
+    let t = t.clamp(0.0, 1.0);
+    let mix = |a: f64, b: f64, s: f64| (a + (b - a) * s).round() as u8;
+    if t < 0.5 {
+        let s = t / 0.5;
+        RGBColor(
+            mix(33.0, 247.0, s),
+            mix(102.0, 247.0, s),
+            mix(172.0, 247.0, s),
+        )
+    } else {
+        let s = (t - 0.5) / 0.5;
+        RGBColor(
+            mix(247.0, 178.0, s),
+            mix(247.0, 24.0, s),
+            mix(247.0, 43.0, s),
+        )
+    }
+}
+
+fn draw_panel<DB: DrawingBackend>(
+    cell: &DrawingArea<DB, Shift>,
+    panel: &Panel,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    let (lo, hi) = panel
+        .points
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p[2]), hi.max(p[2]))
+        });
+    let (x0, x1, y0, y1) = panel.points.iter().fold(
+        (
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ),
+        |(a, b, c, d), p| (a.min(p[0]), b.max(p[0]), c.min(p[1]), d.max(p[1])),
+    );
+    // Equal scales on both axes: the larger extent fills the square plot.
+    let half = 0.55 * (x1 - x0).max(y1 - y0).max(f64::MIN_POSITIVE);
+    let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+    let (plot, bar) = cell.split_horizontally(cell.dim_in_pixel().0 - 70);
+    let mut chart = ChartBuilder::on(&plot)
+        .caption(&panel.title, ("sans-serif", 13))
+        .margin(8)
+        .build_cartesian_2d(cx - half..cx + half, cy - half..cy + half)?;
+    chart.configure_mesh().disable_mesh().draw()?;
+    let span = if hi > lo { hi - lo } else { 1.0 };
+    chart.draw_series(panel.points.iter().map(|p| {
+        let c = colour((p[2] - lo) / span);
+        Circle::new((p[0], p[1]), 2, c.filled())
+    }))?;
+    // The colour bar with its range.
+    let h = bar.dim_in_pixel().1;
+    let (top, bottom) = (40i32, h as i32 - 40);
+    let steps = 64;
+    for k in 0..steps {
+        let y0 = bottom - (bottom - top) * k / steps;
+        let y1 = bottom - (bottom - top) * (k + 1) / steps;
+        let c = colour(k as f64 / (steps - 1) as f64);
+        bar.draw(&Rectangle::new([(10, y1), (28, y0)], c.filled()))?;
+    }
+    let text = |y: i32, v: f64| Text::new(label(v), (6, y), ("sans-serif", 12));
+    bar.draw(&text(top - 18, hi))?;
+    bar.draw(&text(bottom + 6, lo))?;
+    Ok(())
+}
+
+/// A colour-bar end: four significant digits, in exponent form outside [0.01, 1e4).
+fn label(v: f64) -> String {
+    if v == 0.0 || (1e-2..1e4).contains(&v.abs()) {
+        format!("{v:.4}")
+    } else {
+        format!("{v:.3e}")
+    }
+}
