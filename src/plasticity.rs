@@ -1,8 +1,9 @@
 //! Von Mises hyperelastic-plastic model with linear isotropic hardening or softening
 //! (seed 003 Appendix A, Algorithm 2): Hencky (logarithmic) elastic strains, a radial
-//! return in the principal Kirchhoff stresses, and the internal variables C_p⁻¹ and ε_p,
-//! which the mixed methods commit once per step from the state at its start (the paper
-//! leaves the stages open). The algorithm works in 3 × 3 tensors; a 2D (plane-strain) F
+//! return in the principal Kirchhoff stresses, and the internal variables C_p⁻¹ and ε_p
+//! ([`History`]: per particle for the mixed methods, per quadrature point for the
+//! Galerkin ones), which the methods commit once per step from the state at its start
+//! (the paper leaves the stages open). The algorithm works in 3 × 3 tensors; a 2D (plane-strain) F
 //! enters with F_zz = 1.
 //!
 //! A negative modulus H softens (seed 001 §9.5: H = −E/10). The yield stress
@@ -158,16 +159,38 @@ impl History {
         (self.cp_inv, self.eps_p) = returned.iter().map(|r| (r.cp_inv, r.eps_p)).unzip();
     }
 
-    /// Appends C_p⁻¹ and ε_p to a checkpoint.
-    pub fn save(&self, out: &mut Vec<f64>) {
-        save_field(&self.cp_inv, out);
-        save_field(&self.eps_p, out);
+    /// A virgin point in the device's layout (`plasticity.wgsl`): C_p⁻¹ by columns, then ε_p.
+    pub const VIRGIN_F32: [f32; 10] = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+
+    /// Replaces the history by one read back from the device (10 floats per point, as
+    /// [`Self::VIRGIN_F32`]).
+    pub fn read_f32(&mut self, flat: &[f32]) {
+        (self.cp_inv, self.eps_p) = flat
+            .chunks_exact(10)
+            .map(|h| {
+                let m: [f64; 9] = std::array::from_fn(|k| f64::from(h[k]));
+                (DMat3::from_cols_array(&m), f64::from(h[9]))
+            })
+            .unzip();
+    }
+
+    /// Appends C_p⁻¹ and ε_p of a history, if any, to a checkpoint.
+    pub fn save(history: Option<&Self>, out: &mut Vec<f64>) {
+        if let Some(h) = history {
+            save_field(&h.cp_inv, out);
+            save_field(&h.eps_p, out);
+        }
     }
 
     /// Reads what [`Self::save`] wrote.
-    pub fn load(&mut self, words: &mut &[f64]) -> Result<(), String> {
-        load_field(&mut self.cp_inv, "C_p⁻¹", words)?;
-        load_field(&mut self.eps_p, "ε_p", words)
+    pub fn load(history: Option<&mut Self>, words: &mut &[f64]) -> Result<(), String> {
+        match history {
+            Some(h) => {
+                load_field(&mut h.cp_inv, "C_p⁻¹", words)?;
+                load_field(&mut h.eps_p, "ε_p", words)
+            }
+            None => Ok(()),
+        }
     }
 }
 

@@ -3,13 +3,14 @@
 // node's points through the transposed lists; each writes only its own point or node.
 //
 // Flat f32 buffers: the state y = [u | v (nodes) | ρ − ρ0 | S (points, rate model only)],
-// kin = [H = F − I | P | w ψ (points) | power (nodes)], pair = [∇0N_a] per
-// point–node pair of the points' CSR (offsets, ids), point = [w_q] and the reference
-// configuration of the nodes (reference.wgsl; its V is m/ρ0, so that RHO0·V is the nodal
-// mass). The gather lists, node → its points: gather = [offsets (N + 1) | the point of
-// each entry], and per entry entries = [w_q ∇0N_a(X_q) | N_a(X_q)]. Constants: N (nodes),
-// Q (points), DIM, RATE, MODEL, RHO0, MU, LAMBDA, BULK and the field offsets of
-// methods::galerkin::gpu::Layout.
+// kin = [H = F − I | P | ψ (points) | power (nodes)], pair = [∇0N_a] per point–node pair
+// of the points' CSR (offsets, ids), and the reference configuration of the nodes
+// (reference.wgsl; its V is m/ρ0, so that RHO0·V is the nodal mass). The gather lists,
+// node → its points: gather = [offsets (N + 1) | the point of each entry], and per entry
+// entries = [w_q ∇0N_a(X_q) | w_q N_a(X_q)]; the points' plastic history hist
+// (plasticity.wgsl; 10 floats of a dummy for the elastic models). Constants: N (nodes), Q
+// (points), DIM, RATE, MODEL, RHO0, MU, LAMBDA, BULK, YIELD, HARDENING and the field
+// offsets of methods::galerkin::gpu::Layout.
 
 @group(0) @binding(0) var<storage, read> offsets: array<u32>;
 @group(0) @binding(1) var<storage, read> ids: array<u32>;
@@ -19,7 +20,8 @@
 @group(0) @binding(5) var<storage, read_write> kin: array<f32>;
 @group(0) @binding(6) var<storage, read_write> d: array<f32>;
 @group(0) @binding(7) var<storage, read_write> status: array<atomic<u32>>;
-@group(0) @binding(8) var<storage, read> point: array<f32>;
+// Written by `commit` only; read by `points` with MODEL_VON_MISES_PLASTIC.
+@group(0) @binding(8) var<storage, read_write> hist: array<f32>;
 @group(0) @binding(9) var<storage, read> gather: array<u32>;
 @group(0) @binding(10) var<storage, read> entries: array<f32>;
 // External accelerations of tractions and interactions (DIM per node).
@@ -29,30 +31,44 @@ fn index(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
     return gid.x + gid.y * nwg.x * 256u;
 }
 
-// F_q = I + Σ_a u_a ⊗ ∇0N_a(X_q) (as Σ_a (u_a − u_first) ⊗ ∇0N_a, since Σ_a ∇0N_a = 0,
-// so that a rigid displacement keeps its digits), P_q, w_q ψ_q and, for the rate model,
-// Ḟ_q, ρ̇_q and the Jaumann Ṡ_q (Algorithm 6 steps 2–3).
+struct Gradients {
+    // H = F − I.
+    h: matd,
+    // Ḟ, with `rate` only.
+    f_dot: matd,
+}
+
+// F_q − I = Σ_a u_a ⊗ ∇0N_a(X_q) (as Σ_a (u_a − u_first) ⊗ ∇0N_a, since Σ_a ∇0N_a = 0,
+// so that a rigid displacement keeps its digits) and, with `rate`, Ḟ_q likewise.
+fn gradients(q: u32, rate: bool) -> Gradients {
+    let p_start = offsets[q];
+    let p_end = offsets[q + 1u];
+    let first = ids[p_start];
+    let u0 = vload_y(U_OFF + DIM * first);
+    let v0 = vload_y(V_OFF + DIM * first);
+    var out: Gradients;
+    for (var p = p_start; p < p_end; p++) {
+        let a = ids[p];
+        let g = vload_pair(PG_OFF + DIM * p);
+        out.h += outer(vload_y(U_OFF + DIM * a) - u0, g);
+        if rate {
+            out.f_dot += outer(vload_y(V_OFF + DIM * a) - v0, g);
+        }
+    }
+    return out;
+}
+
+// F_q, P_q, ψ_q and, for the rate model, Ḟ_q, ρ̇_q and the Jaumann Ṡ_q (Algorithm 6
+// steps 2–3); the von Mises model returns P_q and ψ_q from the point's committed history.
 @compute @workgroup_size(256)
 fn points(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let q = index(gid, nwg);
     if q >= Q {
         return;
     }
-    let p_start = offsets[q];
-    let p_end = offsets[q + 1u];
-    let first = ids[p_start];
-    let u0 = vload_y(U_OFF + DIM * first);
-    let v0 = vload_y(V_OFF + DIM * first);
-    var h: matd;
-    var f_dot: matd;
-    for (var p = p_start; p < p_end; p++) {
-        let a = ids[p];
-        let g = vload_pair(PG_OFF + DIM * p);
-        h += outer(vload_y(U_OFF + DIM * a) - u0, g);
-        if RATE == 1u {
-            f_dot += outer(vload_y(V_OFF + DIM * a) - v0, g);
-        }
-    }
+    let grads = gradients(q, RATE == 1u);
+    let h = grads.h;
+    let f_dot = grads.f_dot;
     let f = identity_d() + h;
     let jac = determinant(f);
     if !(jac > 0.0) {
@@ -61,21 +77,39 @@ fn points(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     let f_inv = inverse_d(f);
     let f_inv_t = transpose(f_inv);
     var pk: matd;
-    var s: matd;
-    var rho_dev = 0.0;
+    var psi: f32;
     if RATE == 1u {
         let l = f_dot * f_inv;
-        rho_dev = y[RHO_OFF + q];
-        s = mload_y(S_OFF + DIM * DIM * q);
+        let rho_dev = y[RHO_OFF + q];
+        let s = mload_y(S_OFF + DIM * DIM * q);
         d[RHO_OFF + q] = -(RHO0 + rho_dev) * trace_d(l);
         mstore_d(S_OFF + DIM * DIM * q, jaumann(s, l));
         pk = (s - identity_d() * pressure(rho_dev)) * f_inv_t * jac;
+        psi = energy_density(h, s, rho_dev);
+    } else if MODEL == MODEL_VON_MISES_PLASTIC {
+        let r = return_map(lift3(f, 1.0), history(q));
+        pk = lower3(r.p);
+        psi = r.psi;
     } else {
         pk = pk1(h, f_inv_t);
+        psi = energy_density(h, matd(), 0.0);
     }
     mstore_kin(KF_OFF + DIM * DIM * q, h);
     mstore_kin(KP_OFF + DIM * DIM * q, pk);
-    kin[KPSI_OFF + q] = point[QW_OFF + q] * energy_density(h, s, rho_dev);
+    kin[KPSI_OFF + q] = psi;
+}
+
+// The commit of the plastic history before every step (TlGalerkin::begin_step): one
+// invocation per point returns its F of the step's start state from its history and
+// stores the result in its own entries of hist (plastic_store.wgsl).
+@compute @workgroup_size(256)
+fn commit(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let q = index(gid, nwg);
+    if q >= Q {
+        return;
+    }
+    let f = identity_d() + gradients(q, false).h;
+    store_history(q, return_map(lift3(f, 1.0), history(q)));
 }
 
 // ü_a = −(1/m_a) Σ_q w_q P_q ∇0N_a(X_q) (Algorithm 6 step 4), the boundary conditions

@@ -84,6 +84,9 @@ pub const VISCOSITY: Wgsl = wgsl!("common/viscosity.wgsl");
 pub const EIGEN: Wgsl = wgsl!("common/eigen.wgsl");
 /// The von Mises return map (after [`EIGEN`]).
 pub const PLASTICITY: Wgsl = wgsl!("common/plasticity.wgsl");
+/// The store of a returned point into the plastic history (after [`PLASTICITY`], in a pass
+/// that writes `hist`).
+pub const PLASTIC_STORE: Wgsl = wgsl!("common/plastic_store.wgsl");
 
 /// Corrected reference gradients (Randles–Libersky, Shepard, none).
 pub const CORRECTION: Source = source!(
@@ -341,7 +344,8 @@ impl Constants {
     }
 
     /// MODEL (a choice), RHO0, MU, LAMBDA, BULK, RATE and the Mooney–Rivlin constants
-    /// MR_C1, MR_C2, MR_LAMBDA (zero for the other models) of a material (mechanics.wgsl).
+    /// MR_C1, MR_C2, MR_LAMBDA (zero for the other models), YIELD and HARDENING (zero but for
+    /// `von-mises-plastic`) of a material (mechanics.wgsl, plasticity.wgsl).
     pub fn material(self, material: &Material) -> Self {
         let model = match material.model {
             MaterialModel::Hypoelastic => 0,
@@ -374,6 +378,8 @@ impl Constants {
         .f32("MR_C1", rubber.map_or(0.0, |m| m.c1))
         .f32("MR_C2", rubber.map_or(0.0, |m| m.c2))
         .f32("MR_LAMBDA", rubber.map_or(0.0, |m| m.lambda))
+        .f32("YIELD", material.hardening.map_or(0.0, |h| h.yield_stress))
+        .f32("HARDENING", material.hardening.map_or(0.0, |h| h.modulus))
     }
 
     /// The first f32 constant whose value f32 cannot hold: infinite, or a nonzero value

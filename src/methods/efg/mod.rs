@@ -145,10 +145,6 @@ impl MethodFamily for EfgSpec {
         super::galerkin::gpu_engine(case, gpu)
     }
 
-    fn gpu_refusal(&self, case: &Case) -> Option<&'static str> {
-        super::galerkin::gpu_refusal(case)
-    }
-
     /// Δt = α Δx/(c_p + max|v|) does not depend on the stretch.
     fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
         0.0

@@ -14,8 +14,8 @@ use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{Reduced, Reduction, WorkBalance};
 use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
-    self, BOUNDARY, CONTACT, Constants, INTEGRATE, LOADS, MECHANICS, PRESCRIBED, REFERENCE, Source,
-    Wgsl, source, wgsl,
+    self, BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, LOADS, MECHANICS, PLASTIC_STORE,
+    PLASTICITY, PRESCRIBED, REFERENCE, Source, Wgsl, source, wgsl,
 };
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
 use crate::integrate::Buf;
@@ -25,13 +25,21 @@ use crate::material::Material;
 use crate::methods::{BlowUp, Method};
 use crate::neighbour::Csr;
 use crate::observe::{Invariants, Snapshot};
+use crate::plasticity::History;
 use crate::run::{Engine, Failed};
 use crate::scene::Case;
 
 /// The points and nodes passes of one rate evaluation.
 pub const RATES: Source = source!(
     "galerkin/galerkin.wgsl",
-    [MECHANICS, REFERENCE, BOUNDARY],
+    [
+        MECHANICS,
+        REFERENCE,
+        BOUNDARY,
+        EIGEN,
+        PLASTICITY,
+        PLASTIC_STORE
+    ],
     [
         ("y", false),
         ("pair", false),
@@ -41,8 +49,8 @@ pub const RATES: Source = source!(
         ("kin", true),
         ("d", true)
     ],
-    // Items: points, then nodes; pairs: the point–node pairs, which are also the nodes'
-    // gather entries.
+    // Items: points, then nodes, then points; pairs: the point–node pairs, which are also
+    // the nodes' gather entries.
     &[
         PassBytes {
             entry: "points",
@@ -51,12 +59,13 @@ pub const RATES: Source = source!(
                 read("ids", [1, 0, 0], [1, 0, 0]),
                 // ∇0N_a.
                 read("pair", NONE, [0, 1, 0]),
-                read("point", [1, 0, 0], NONE),
                 // u of the first node and of every node; v too, ρ − ρ0 and S, for the
                 // rate model.
                 read("y", [0, 1, 0], [0, 1, 0]),
                 read("y", [1, 1, 1], [0, 1, 0]).when(&["RATE"]),
-                // H, P, w ψ.
+                // The committed C_p⁻¹ and ε_p of a von Mises point.
+                read("hist", [10, 0, 0], NONE).when(&["MODEL==MODEL_VON_MISES_PLASTIC"]),
+                // H, P, ψ.
                 write("kin", [1, 0, 2], NONE),
                 write("d", [1, 0, 1], NONE).when(&["RATE"]),
                 read_write("status", NONE, NONE),
@@ -77,6 +86,16 @@ pub const RATES: Source = source!(
                 read("y", [0, 1, 0], NONE),
                 read("ext", [0, 1, 0], NONE),
                 write("d", [0, 2, 0], NONE),
+            ],
+        },
+        PassBytes {
+            entry: "commit",
+            traffic: &[
+                read("offsets", [1, 0, 0], NONE),
+                read("ids", [1, 0, 0], [1, 0, 0]),
+                read("pair", NONE, [0, 1, 0]),
+                read("y", [0, 1, 0], [0, 1, 0]),
+                read_write("hist", [10, 0, 0], NONE),
             ],
         },
     ]
@@ -122,11 +141,11 @@ pub const SMOOTH: Source = source!(
 pub const SHADERS: &[Source] = &[RATES, REDUCE, SMOOTH, CONTACT, LOADS, PRESCRIBED, INTEGRATE];
 
 /// The flat buffers of a Galerkin scene of n nodes and q points: the state [u | v | ρ − ρ0
-/// | S] (ρ and S at the points, rate model only), the kinematics [H = F − I | P | w ψ
+/// | S] (ρ and S at the points, rate model only), the kinematics [H = F − I | P | ψ
 /// (points) | power (nodes)], the per-pair gradients ∇0N_a of the points' lists, the
-/// point weights, the gather lists (u32: [offsets | the point of each entry]) with their
-/// per-entry data [w_q ∇0Φ_a(X_q) | N_a(X_q)] (Φ_a the test functions), the smoothing weights N_b(X_a) per pair and
-/// the nodes' reference fields.
+/// gather lists (u32: [offsets | the point of each entry]) with their per-entry data
+/// [w_q ∇0Φ_a(X_q) | w_q N_a(X_q)] (Φ_a the test functions), the smoothing weights N_b(X_a)
+/// per pair and the nodes' reference fields.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Layout {
     pub n: usize,
@@ -135,7 +154,6 @@ pub struct Layout {
     pub state: Fields,
     pub kin: Fields,
     pub pair: Fields,
-    pub point: Fields,
     pub gather: Fields,
     pub entries: Fields,
     pub smooth: Fields,
@@ -167,13 +185,12 @@ impl Layout {
                 .scalars("PSI", true, q)
                 .scalars("POW", true, n),
             pair: Fields::new("P", dim).vectors("G", true, pairs),
-            point: Fields::new("Q", dim).scalars("W", true, q),
             gather: Fields::new("G", dim)
                 .scalars("OFFSETS", true, n + 1)
                 .scalars("POINT", true, pairs),
             entries: Fields::new("E", dim)
                 .vectors("WG", true, pairs)
-                .scalars("N", true, pairs),
+                .scalars("WN", true, pairs),
             smooth: Fields::new("SW", dim).scalars("N", true, smooth_pairs),
             reference: reference::fields(n, dim, Extras::default()),
         }
@@ -202,7 +219,6 @@ pub fn scene_constants(case: &Case, layout: &Layout) -> Constants {
         &layout.state,
         &layout.kin,
         &layout.pair,
-        &layout.point,
         &layout.gather,
         &layout.entries,
         &layout.smooth,
@@ -245,6 +261,11 @@ pub struct GpuGalerkin<D: GpuDim> {
     /// without touching the integrator's rates).
     points_y: wgpu::BindGroup,
     smooth: Option<SmoothPasses>,
+    /// The points' plastic history (plasticity.wgsl; 10 floats of a dummy for the elastic
+    /// models).
+    hist: wgpu::Buffer,
+    /// The commit of the plastic history before every step (`commit` of galerkin.wgsl).
+    commit: Option<(Pipeline, wgpu::BindGroup)>,
     reduction: Reduction,
     interactions: GpuInteractions,
     work: WorkBalance,
@@ -288,9 +309,6 @@ impl<D: GpuDim> GpuGalerkin<D> {
         let mut pair = layout.pair.zeroed();
         layout.pair.write_v::<D>(&mut pair, "G", &shapes.grad);
         let pair = gpu.storage("per-pair shape functions", &pair);
-        let mut weights = layout.point.zeroed();
-        layout.point.write_s(&mut weights, "W", &points.weight, 0.0);
-        let point = gpu.storage("point weights", &weights);
         let u32s = |v: &[usize]| v.iter().map(|&o| o as u32).collect::<Vec<u32>>();
         let mut lists = u32s(&gather.offsets);
         lists.extend(&gather.point);
@@ -298,15 +316,21 @@ impl<D: GpuDim> GpuGalerkin<D> {
         let (weighted, values): (Vec<D::V>, Vec<f64>) = (0..gather.point.len())
             .map(|e| {
                 let (q, p) = (gather.point[e] as usize, gather.pair[e] as usize);
-                (shapes.test_gradient(p) * points.weight[q], shapes.n[p])
+                let w = points.weight[q];
+                (shapes.test_gradient(p) * w, w * shapes.n[p])
             })
             .unzip();
         let mut flat = layout.entries.zeroed();
         layout.entries.write_v::<D>(&mut flat, "WG", &weighted);
-        layout.entries.write_s(&mut flat, "N", &values, 0.0);
+        layout.entries.write_s(&mut flat, "WN", &values, 0.0);
         let entries = gpu.storage("gather entries", &flat);
         let status = gpu.storage("status", &[STATUS_OK]);
         let kin = gpu.zeroed("kinematics", layout.kin.bytes());
+        let plastic = host.plastic().is_some();
+        let hist = gpu.storage(
+            "plastic history",
+            &History::VIRGIN_F32.repeat(if plastic { q } else { 1 }),
+        );
 
         let mut y0 = layout.state.zeroed();
         layout.state.write_v::<D>(&mut y0, "V", &v0);
@@ -342,10 +366,10 @@ impl<D: GpuDim> GpuGalerkin<D> {
                 ("kin", &kin),
                 ("d", d),
                 ("status", &status),
-                ("point", &point),
                 ("gather", &gather_lists),
                 ("entries", &entries),
                 ("ext", interactions.ext()),
+                ("hist", &hist),
             ]
         };
         let rates_d = stepper.buffer(Buf::Rates);
@@ -358,6 +382,14 @@ impl<D: GpuDim> GpuGalerkin<D> {
         };
         let rates = [bound(Buf::Y)?, bound(Buf::Stage)?];
         let y = stepper.buffer(Buf::Y);
+        let commit = match plastic {
+            true => {
+                let pipeline = gpu.pipeline("galerkin plastic commit", &rates_source, "commit")?;
+                let bind = gpu.bind(&pipeline, &table(y, rates_d))?;
+                Some((pipeline, bind))
+            }
+            false => None,
+        };
         let points_y = gpu.bind(&points_pipeline, &table(y, stepper.buffer(Buf::Acc)))?;
         let reduction = Reduction::new(&gpu, &compose(&REDUCE), &table(y, rates_d), n)?;
         let smooth = match smoothing {
@@ -402,6 +434,8 @@ impl<D: GpuDim> GpuGalerkin<D> {
             rates,
             points_y,
             smooth,
+            hist,
+            commit,
             reduction,
             interactions,
             work: WorkBalance::default(),
@@ -437,6 +471,7 @@ impl<D: GpuDim> GpuGalerkin<D> {
             layout,
             interactions,
             smooth,
+            commit,
             ..
         } = self;
         let n = layout.n as u32;
@@ -455,7 +490,13 @@ impl<D: GpuDim> GpuGalerkin<D> {
                     let src = usize::from(e.src != Buf::Y);
                     Self::record_rates(gpu, layout, (points, nodes), encoder, &rates[src]);
                 },
-                |encoder| interactions.record(gpu, encoder, n),
+                |encoder| {
+                    interactions.record(gpu, encoder, n);
+                    if let Some((pipeline, bind)) = commit {
+                        let mut pass = encoder.begin_compute_pass(&Default::default());
+                        gpu.dispatch(&mut pass, pipeline, bind, layout.q as u32);
+                    }
+                },
             );
             if let Some(s) = smooth {
                 let mut pass = encoder.begin_compute_pass(&Default::default());
@@ -604,22 +645,30 @@ impl<D: GpuDim> Engine<D> for GpuGalerkin<D> {
         self.gpu.wait();
     }
 
-    /// The work balance and the state buffer (f32).
+    /// The work balance, the state buffer and the plastic history (f32).
     fn save(&mut self) -> Vec<f64> {
-        crate::gpu::save_buffers(&self.gpu, &self.work, &[self.stepper.buffer(Buf::Y)])
+        let buffers = [self.stepper.buffer(Buf::Y), &self.hist];
+        crate::gpu::save_buffers(&self.gpu, &self.work, &buffers)
     }
 
     fn restore(&mut self, words: &[f64]) -> Result<(), String> {
-        let y = [("state", self.stepper.buffer(Buf::Y))];
-        self.work = crate::gpu::load_buffers(&self.gpu, words, &y)?;
+        let buffers = [
+            ("state", self.stepper.buffer(Buf::Y)),
+            ("plastic history", &self.hist),
+        ];
+        self.work = crate::gpu::load_buffers(&self.gpu, words, &buffers)?;
         self.stepper.state_replaced();
         self.reduction.invalidate();
         Ok(())
     }
 
-    /// The host's outputs (nodal F and σ, Σ_q w_q ψ_q in f64) of the state read back.
+    /// The host's outputs (nodal F and σ, Σ_q w_q ψ_q in f64) of the state and the plastic
+    /// history read back.
     fn snapshot(&mut self) -> Snapshot<'_, D> {
         let y = self.state();
+        if let Some(history) = self.host.plastic_mut() {
+            history.read_f32(&self.gpu.read::<f32>(&self.hist));
+        }
         self.host.snapshot(&y)
     }
 }

@@ -26,7 +26,7 @@ pub mod gpu;
 use crate::boundary::Boundary;
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
-use crate::material::{Material, MaterialModel};
+use crate::material::Material;
 use crate::methods::shared::{BlowUp, MIN_CHUNK, Method, check_motion, particle_state};
 use crate::methods::tlsph::system::stress_fields;
 use crate::methods::{MethodSpec, not_run_by};
@@ -70,15 +70,6 @@ pub fn gpu_engine<D: EngineDim>(
     gpu: crate::gpu::Gpu,
 ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
     Ok(Box::new(gpu::GpuGalerkin::<D>::new(case, gpu)?))
-}
-
-/// Why a total-Lagrangian Galerkin method has no GPU engine for `case`: its GPU engine
-/// carries no plastic history at the quadrature points.
-pub fn gpu_refusal(case: &Case) -> Option<&'static str> {
-    (case.material.model == MaterialModel::VonMisesPlastic).then_some(
-        "has no GPU engine for `von-mises-plastic` (the plastic history at the quadrature \
-         points is kept on the CPU)",
-    )
 }
 
 /// The particle mass, as a serde default.
@@ -323,6 +314,16 @@ impl<D: Dim> TlGalerkin<D> {
     /// method has one.
     pub fn smoothing(&self) -> Option<&Shapes<D>> {
         self.smoothing.as_ref()
+    }
+
+    /// The points' plastic history (von Mises), committed at the start of the step.
+    pub fn plastic(&self) -> Option<&History> {
+        self.plastic.as_ref()
+    }
+
+    /// The plastic history, for the GPU engine to replace by its own before a snapshot.
+    pub(crate) fn plastic_mut(&mut self) -> Option<&mut History> {
+        self.plastic.as_mut()
     }
 
     /// P at every point of the last rate evaluation.
@@ -677,16 +678,11 @@ impl<D: Dim> Method<D> for TlGalerkin<D> {
 
     /// The plastic history C_p⁻¹, ε_p of the points.
     fn save_history(&self, out: &mut Vec<f64>) {
-        if let Some(pl) = &self.plastic {
-            pl.save(out);
-        }
+        History::save(self.plastic.as_ref(), out);
     }
 
     fn load_history(&mut self, words: &mut &[f64]) -> Result<(), String> {
-        match self.plastic.as_mut() {
-            Some(pl) => pl.load(words),
-            None => Ok(()),
-        }
+        History::load(self.plastic.as_mut(), words)
     }
 }
 

@@ -8,7 +8,8 @@
 //!
 //! - at each point: L_q = Σ_a v_a ⊗ ∇N_a(x_q), ρ̇_q = −ρ_q tr L_q, the Jaumann Ṡ_q and
 //!   σ_q = S_q − p(ρ_q) I (rate model), or σ_q from F_q = (Σ_a X_a ⊗ ∇N_a(x_q))⁻¹ (state
-//!   model);
+//!   model; the von Mises model returns it from the point's plastic history, committed
+//!   at the start of every step from F_q there);
 //! - at each node: m_a v̇_a = −Σ_q w_q σ_q ∇N_a(x_q), gathered over the node's points.
 
 use super::{
@@ -22,7 +23,8 @@ use crate::material::Material;
 use crate::methods::shared::{BlowUp, MIN_CHUNK, Method, check_motion, particle_state};
 use crate::methods::tlsph::system::stress_fields;
 use crate::neighbour::Csr;
-use crate::observe::Snapshot;
+use crate::observe::{ScalarField, Snapshot};
+use crate::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
 use crate::quadrature::{Gather, ShapeRow, Shapes};
 use crate::reference::Reference;
 use crate::scene::{Case, CaseError};
@@ -157,6 +159,8 @@ pub struct UlGalerkin<D: Dim, P: MovingPoints<D>> {
     x: Vec<D::V>,
     /// σ_q of the last rate evaluation.
     sigma: Vec<D::T>,
+    /// The points' plastic history (von Mises); None for the elastic models.
+    plastic: Option<History>,
     power: f64,
 }
 
@@ -259,6 +263,7 @@ impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
             boundary,
             interactions,
             sigma: vec![D::zero_t(); q],
+            plastic: material.von_mises().map(|model| History::virgin(model, q)),
             power: 0.0,
         })
     }
@@ -325,12 +330,33 @@ impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
                     *sigma = y.s[q] - D::identity() * mat.pressure(y.rho[q]);
                 });
         } else {
+            let plastic = self.plastic.as_ref();
             each.with_min_len(MIN_CHUNK).for_each(|(q, sigma)| {
                 let f = self.point_f(shapes, q);
-                *sigma = mat.pk1::<D>(f) * D::transpose(f) * (1.0 / D::det(f));
+                let p = match plastic {
+                    Some(pl) => from_mat3::<D>(pl.returned::<D>(q, f).p),
+                    None => mat.pk1::<D>(f),
+                };
+                *sigma = p * D::transpose(f) * (1.0 / D::det(f));
             });
         }
         self.sigma = sigma;
+    }
+
+    /// Algorithm 2 of seed 003 at every point at F_q of `shapes` from the committed
+    /// history, with those F_q; None for the elastic models.
+    fn returned_all(&self, shapes: &Shapes<D>) -> Option<(Vec<D::T>, Vec<Returned>)> {
+        let pl = self.plastic.as_ref()?;
+        Some(
+            (0..shapes.len())
+                .into_par_iter()
+                .with_min_len(MIN_CHUNK)
+                .map(|q| {
+                    let f = self.point_f(shapes, q);
+                    (f, pl.returned::<D>(q, f))
+                })
+                .unzip(),
+        )
     }
 
     /// The functions and weights at the points for state y, or the point that
@@ -356,28 +382,42 @@ impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
             .unwrap_or_else(|_| (self.shapes.clone(), self.weight.clone()))
     }
 
-    /// F and σ at the nodes and the stored energy Σ_q w0_q ψ_q, for state y.
+    /// F, σ and ε_p (plastic models) at the nodes and the stored energy Σ_q w0_q ψ_q, for
+    /// state y.
     fn node_fields(&self, y: &UlGalerkinState<D>) -> NodeFields<D> {
         let (shapes, weight) = self.shapes_of(y);
-        let f: Vec<D::T> = (0..shapes.len())
-            .into_par_iter()
-            .map(|q| self.point_f(&shapes, q))
-            .collect();
         let w0 = self.points.reference_weights();
-        let (sigma, energy) = stress_fields::<D>(&self.material, &f, &y.s, &y.rho, w0);
+        let (sigma, energy, eps_p, f) = match self.returned_all(&shapes) {
+            Some((f, r)) => (
+                r.iter().zip(&f).map(|(r, &f)| r.cauchy::<D>(f)).collect(),
+                r.iter().zip(w0).map(|(r, w)| w * r.psi).sum(),
+                Some(r.iter().map(|r| r.eps_p).collect::<Vec<f64>>()),
+                f,
+            ),
+            None => {
+                let f: Vec<D::T> = (0..shapes.len())
+                    .into_par_iter()
+                    .map(|q| self.point_f(&shapes, q))
+                    .collect();
+                let (sigma, energy) = stress_fields::<D>(&self.material, &f, &y.s, &y.rho, w0);
+                (sigma, energy, None, f)
+            }
+        };
         NodeFields {
             f: to_nodes(&self.gather, &shapes, &weight, &f, D::identity()),
             sigma: stress_at_nodes(&self.gather, &shapes, &weight, sigma),
             energy,
+            eps_p: eps_p.map(|e| to_nodes(&self.gather, &shapes, &weight, &e, 0.0)),
         }
     }
 }
 
-/// F and σ projected to the nodes, and the stored energy.
+/// F, σ and ε_p (plastic models) projected to the nodes, and the stored energy.
 struct NodeFields<D: Dim> {
     f: Vec<D::T>,
     sigma: Vec<[[f64; 3]; 3]>,
     energy: f64,
+    eps_p: Option<Vec<f64>>,
 }
 
 impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
@@ -427,11 +467,20 @@ impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
         Ok(())
     }
 
-    /// The points' new lists if they search anew, then the interactions.
+    /// The points' new lists if they search anew, the plastic history committed from the
+    /// state at the step's start (kept if its functions cannot be evaluated: the next rate
+    /// evaluation reports why), then the interactions.
     fn begin_step(&mut self, t: f64, dt: f64, y: &UlGalerkinState<D>) {
         if let Some(lists) = self.points.relist(&self.x0, y) {
             self.shapes = on_lists::<D, P>(lists);
             self.gather = self.shapes.gather(self.x0.len());
+        }
+        if self.plastic.is_some()
+            && let Ok((shapes, _)) = self.evaluated(y)
+            && let Some((_, committed)) = self.returned_all(&shapes)
+            && let Some(pl) = self.plastic.as_mut()
+        {
+            pl.commit(&committed);
         }
         self.boundary.begin_step(t, dt);
         self.interactions.begin_step(t, dt, &self.x0, &y.u, &y.v);
@@ -513,7 +562,14 @@ impl<D: Dim, P: MovingPoints<D>> Method<D> for UlGalerkin<D, P> {
             f: fields.f,
             sigma: fields.sigma,
             strain_energy: fields.energy,
-            extra: Vec::new(),
+            extra: fields
+                .eps_p
+                .map(|eps_p| ScalarField {
+                    name: PLASTIC_STRAIN,
+                    values: eps_p,
+                })
+                .into_iter()
+                .collect(),
             cells: self.points.cells(),
             quadrature: None,
         }
@@ -540,5 +596,14 @@ impl<D: Dim, P: MovingPoints<D>> Method<D> for UlGalerkin<D, P> {
         }
         self.check_densities(y)?;
         self.evaluated(y).map(|_| ())
+    }
+
+    /// The plastic history C_p⁻¹, ε_p of the points.
+    fn save_history(&self, out: &mut Vec<f64>) {
+        History::save(self.plastic.as_ref(), out);
+    }
+
+    fn load_history(&mut self, words: &mut &[f64]) -> Result<(), String> {
+        History::load(self.plastic.as_mut(), words)
     }
 }

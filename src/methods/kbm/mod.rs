@@ -17,7 +17,7 @@ use super::galerkin::updated::UlGalerkin;
 use super::galerkin::{Mass, TlGalerkin, particle_mass};
 use super::ul_fem::ul_galerkin_state;
 use super::{Feature, MethodFamily, Plan, Problem};
-use crate::material::{Material, MaterialModel};
+use crate::material::Material;
 use crate::quadrature::{Cells, QuadraturePoints, Shapes};
 use crate::reference::Reference;
 use crate::run::{CpuEngine, Engine, EngineDim};
@@ -136,16 +136,6 @@ impl MethodFamily for KbmSpec {
                  remove kernel_frame = \"eulerian\" or the static solve",
             );
         }
-        if self.kernel_frame == KernelFrame::Eulerian
-            && case.material.model == MaterialModel::VonMisesPlastic
-        {
-            return fail(
-                "method.kernel_frame",
-                "`von-mises-plastic` runs on the Lagrangian kernel only (the Eulerian \
-                 kernel's points keep no plastic history): remove kernel_frame = \"eulerian\" \
-                 or use an elastic model",
-            );
-        }
         match (self.kernel_frame, self.search_every) {
             (KernelFrame::Lagrangian, Some(_)) => fail(
                 "method.search_every",
@@ -231,11 +221,9 @@ impl MethodFamily for KbmSpec {
         }
     }
 
-    fn gpu_refusal(&self, case: &Case) -> Option<&'static str> {
-        match self.kernel_frame {
-            KernelFrame::Lagrangian => super::galerkin::gpu_refusal(case),
-            KernelFrame::Eulerian => Some("on an Eulerian kernel has no GPU engine"),
-        }
+    fn gpu_refusal(&self, _case: &Case) -> Option<&'static str> {
+        (self.kernel_frame == KernelFrame::Eulerian)
+            .then_some("on an Eulerian kernel has no GPU engine")
     }
 
     fn searches_current_configuration(&self) -> bool {

@@ -21,8 +21,8 @@ use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{Reduced, Reduction, WorkBalance};
 use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
-    self, BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, LOADS, MECHANICS, PLASTICITY, PRESCRIBED,
-    REFERENCE, Source, Wgsl, source, wgsl,
+    self, BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, LOADS, MECHANICS, PLASTIC_STORE,
+    PLASTICITY, PRESCRIBED, REFERENCE, Source, Wgsl, source, wgsl,
 };
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
 use crate::integrate::IntegratorKind;
@@ -31,11 +31,11 @@ use crate::interaction::gpu::GpuInteractions;
 use crate::material::MaterialModel;
 use crate::methods::{BlowUp, Method, not_run_by};
 use crate::observe::{Invariants, Snapshot};
+use crate::plasticity::History;
 use crate::run::{Engine, Failed, build_method};
 use crate::scene::Case;
 use crate::tensor::Dim;
 use bytemuck::{Pod, Zeroable};
-use glam::DMat3;
 
 /// Shared functions of the mixed passes: state and kinematics access, ghost maps.
 const MIXED: Wgsl = wgsl!("mixed/mixed.wgsl");
@@ -277,7 +277,7 @@ pub const REDUCE: Source = source!(
 /// The per-step commit of the plastic history.
 pub const PLASTIC: Source = source!(
     "mixed/mixed_plastic.wgsl",
-    [MIXED, EIGEN, PLASTICITY],
+    [MIXED, EIGEN, PLASTICITY, PLASTIC_STORE],
     [("y", false)],
     &[PassBytes {
         entry: "commit",
@@ -424,8 +424,6 @@ pub fn scene<D: GpuDim>(case: &Case, cpu: &MixedSph<D>) -> (MixedLayout, Constan
         .u32("BODIES", u(case.bodies.len()))
         .u32("NG", u(l.ghosts))
         .material(material)
-        .f32("YIELD", material.hardening.map_or(0.0, |h| h.yield_stress))
-        .f32("HARDENING", material.hardening.map_or(0.0, |h| h.modulus))
         .f32("C_P", material.p_wave_speed())
         .f32("C_S", material.s_wave_speed())
         .f32("SPACING", case.spacing)
@@ -684,11 +682,9 @@ impl<D: GpuDim> GpuMixed<D> {
         let status = gpu.storage("status", &STATUS_OK);
         let (gx, gy) = gpu.groups(n as u32);
         let partials = gpu.zeroed("balance partials", u64::from(gx * gy) * 16 * 4);
-        // [C_p⁻¹ by columns | ε_p] per real particle, from the virgin state.
-        let virgin = [1.0f32, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
         let hist = gpu.storage(
             "plastic history",
-            &virgin.repeat(if plastic { n } else { 1 }),
+            &History::VIRGIN_F32.repeat(if plastic { n } else { 1 }),
         );
 
         let stepper = Stepper::new(
@@ -1086,16 +1082,8 @@ impl<D: GpuDim> Engine<D> for GpuMixed<D> {
 
     fn snapshot(&mut self) -> Snapshot<'_, D> {
         let y = self.state();
-        if self.commit.is_some() {
-            let flat: Vec<f32> = self.gpu.read(&self.hist);
-            let (cp_inv, eps_p) = flat
-                .chunks_exact(10)
-                .map(|h| {
-                    let m: [f64; 9] = std::array::from_fn(|k| f64::from(h[k]));
-                    (DMat3::from_cols_array(&m), f64::from(h[9]))
-                })
-                .unzip();
-            self.cpu.set_plastic_history(cp_inv, eps_p);
+        if let Some(history) = self.cpu.plastic_mut() {
+            history.read_f32(&self.gpu.read::<f32>(&self.hist));
         }
         self.cpu.snapshot(&y)
     }

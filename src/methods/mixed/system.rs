@@ -31,7 +31,6 @@ use crate::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
 use crate::reference::Reference;
 use crate::scene::{Case, CaseError};
 use crate::tensor::{Dim, smallest_stretch_squared};
-use glam::DMat3;
 use rayon::prelude::*;
 
 /// Integrated state of a mixed method.
@@ -923,16 +922,11 @@ impl<D: Dim> Method<D> for MixedSph<D> {
 
     /// The plastic history C_p⁻¹, ε_p of a `von-mises-plastic` material.
     fn save_history(&self, out: &mut Vec<f64>) {
-        if let Some(pl) = &self.plastic {
-            pl.save(out);
-        }
+        History::save(self.plastic.as_ref(), out);
     }
 
     fn load_history(&mut self, words: &mut &[f64]) -> Result<(), String> {
-        match self.plastic.as_mut() {
-            Some(pl) => pl.load(words),
-            None => Ok(()),
-        }
+        History::load(self.plastic.as_mut(), words)
     }
 }
 
@@ -1001,11 +995,9 @@ impl<D: Dim> MixedSph<D> {
         self.projection
     }
 
-    /// Replaces the plastic history (the GPU engine's, read back for snapshots).
-    pub(crate) fn set_plastic_history(&mut self, cp_inv: Vec<DMat3>, eps_p: Vec<f64>) {
-        if let Some(pl) = self.plastic.as_mut() {
-            (pl.cp_inv, pl.eps_p) = (cp_inv, eps_p);
-        }
+    /// The plastic history, for the GPU engine to replace by its own before a snapshot.
+    pub(crate) fn plastic_mut(&mut self) -> Option<&mut History> {
+        self.plastic.as_mut()
     }
 
     pub(crate) fn cfl_wave_speed(&self) -> CflWaveSpeed {

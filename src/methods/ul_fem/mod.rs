@@ -8,7 +8,7 @@
 use super::galerkin::Mass;
 use super::galerkin::updated::{Degenerate, MovingPoints, Nodes, UlGalerkin, UlGalerkinState};
 use super::{Feature, MethodFamily, MethodSpec, Plan, Problem, not_run_by};
-use crate::material::Material;
+use crate::material::{Material, MaterialModel};
 use crate::neighbour::Csr;
 use crate::quadrature::{Cells, QuadraturePoints, Rule, ShapeRow, Shapes, isoparametric_shapes};
 use crate::reference::Reference;
@@ -161,6 +161,11 @@ impl MethodFamily for UlFemSpec {
 pub(crate) fn ul_galerkin_state(mat: &Material, points: &str) -> String {
     if mat.model.is_rate_based() {
         format!("u, v at the nodes; ρ, S at {points} (rate model: Jaumann + linear EOS)")
+    } else if mat.model == MaterialModel::VonMisesPlastic {
+        format!(
+            "u, v at the nodes; the plastic history C_p⁻¹, ε_p at {points}, committed once per \
+             step from F = (Σ_a X_a ⊗ ∇N_a)⁻¹ at the step's start"
+        )
     } else {
         format!(
             "u, v at the nodes (state model {:?}: σ from F = (Σ_a X_a ⊗ ∇N_a)⁻¹ at {points}, \
