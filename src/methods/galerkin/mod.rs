@@ -322,6 +322,7 @@ impl<D: Dim> TlGalerkin<D> {
     }
 
     /// The plastic history, for the GPU engine to replace by its own before a snapshot.
+    #[cfg(feature = "gpu")]
     pub(crate) fn plastic_mut(&mut self) -> Option<&mut History> {
         self.plastic.as_mut()
     }
