@@ -199,9 +199,10 @@ impl RunRecord {
         })
     }
 
-    /// `cpu` or `gpu`, without the adapter name.
+    /// `cpu` or `gpu`, without the adapter name (`gpu: <adapter>`) or the static solve's
+    /// linear solver (`cpu; <solver>`).
     pub fn backend_kind(&self) -> &str {
-        self.backend.split(':').next().unwrap_or("").trim()
+        self.backend.split([':', ';']).next().unwrap_or("").trim()
     }
 
     /// The line of a plot or a row of the stability map: variant, with the backend when
@@ -331,5 +332,50 @@ mod tests {
         let mut b = rec;
         b.error_stress = 0.0;
         assert_eq!(a, b);
+    }
+
+    #[test]
+    fn a_line_names_the_backend_kind_only_off_the_cpu() {
+        let mut rec = empty_record();
+        for (backend, line) in [
+            ("cpu", "v"),
+            (
+                "cpu; sparse LU of 96 unknowns; stiffness by finite differences",
+                "v",
+            ),
+            (
+                "gpu: llvmpipe (LLVM 15.0.6, 256 bits) (Vulkan, Cpu)",
+                "v (gpu)",
+            ),
+        ] {
+            rec.backend = backend.into();
+            assert_eq!(rec.line(), line, "backend {backend}");
+        }
+    }
+
+    /// A record of variant `v` and no measurements.
+    fn empty_record() -> RunRecord {
+        RunRecord {
+            id: "0".into(),
+            suite: "s".into(),
+            case: "c".into(),
+            variant: "v".into(),
+            backend: "cpu".into(),
+            sweep_key: "spacing".into(),
+            sweep_value: "0.05".into(),
+            spacing: 0.05,
+            particles: 0,
+            steps: 0,
+            dt_last: f64::NAN,
+            time: f64::NAN,
+            wall_seconds: f64::NAN,
+            error_velocity: f64::NAN,
+            error_stress: f64::NAN,
+            drift_angular_momentum: f64::NAN,
+            drift_energy: f64::NAN,
+            status: Status::Ok,
+            reason: String::new(),
+            machine: String::new(),
+        }
     }
 }
