@@ -101,6 +101,10 @@ pub trait MethodFamily: Sized {
     /// Whether it has a kernel, and so reads [`KERNEL_KEYS`] (`h_over_dx` then required);
     /// the finite elements have none.
     const KERNEL: bool = true;
+    /// Whether its kernel gradients take `method.correction` (false for a kernel method
+    /// that builds its own consistent functions: moving least squares, reproducing or
+    /// Krongauz–Belytschko functions, dual-support corrections).
+    const CORRECTED: bool = true;
     /// The GPU passes it compiles with a scene's constants.
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source];
@@ -155,6 +159,8 @@ pub struct Entry {
     pub neighbours: Rebuild,
     /// Whether it reads the kernel keys ([`KERNEL_KEYS`]).
     pub kernel: bool,
+    /// Whether it reads `correction` among them.
+    pub corrected: bool,
     #[cfg(feature = "gpu")]
     pub shaders: &'static [crate::gpu::shaders::Source],
 }
@@ -169,6 +175,7 @@ impl Entry {
             gpu_engine: S::GPU_ENGINE,
             neighbours: S::NEIGHBOURS,
             kernel: S::KERNEL,
+            corrected: S::KERNEL && S::CORRECTED,
             #[cfg(feature = "gpu")]
             shaders: S::SHADERS,
         }
@@ -176,9 +183,15 @@ impl Entry {
 
     /// Whether the method reads `key` of the `[method]` table.
     pub fn reads(&self, key: &str) -> bool {
-        key == "name"
-            || (COMMON_KEYS.contains(&key) && (self.kernel || !KERNEL_KEYS.contains(&key)))
-            || self.keys.contains(&key)
+        key == "name" || self.reads_common(key) || self.keys.contains(&key)
+    }
+
+    /// Whether the method reads `key`, one of the [`COMMON_KEYS`].
+    fn reads_common(&self, key: &str) -> bool {
+        match key {
+            "correction" => self.corrected,
+            _ => COMMON_KEYS.contains(&key) && (self.kernel || !KERNEL_KEYS.contains(&key)),
+        }
     }
 }
 
@@ -466,10 +479,15 @@ impl MethodTable {
         let (mut common, mut own, mut foreign) = (Table::new(), Table::new(), Vec::new());
         own.insert("name".into(), Value::String(name.into()));
         for (key, value) in rest {
-            if !entry.kernel && KERNEL_KEYS.contains(&key.as_str()) {
-                return Err(format!(
-                    "`{name}` has no kernel and reads no `method.{key}`; remove the key"
-                ));
+            if COMMON_KEYS.contains(&key.as_str()) && !entry.reads_common(&key) {
+                return Err(if entry.kernel {
+                    format!(
+                        "`{name}` builds its own consistent functions and reads no \
+                         `method.{key}`; remove the key"
+                    )
+                } else {
+                    format!("`{name}` has no kernel and reads no `method.{key}`; remove the key")
+                });
             }
             if COMMON_KEYS.contains(&key.as_str()) {
                 common.insert(key, value);

@@ -227,11 +227,14 @@ pub fn explain(case: &Case, gpu: bool) -> String {
             if case.bodies.len() == 1 { "y" } else { "ies" }
         ),
         if m.spec.entry().kernel {
+            let correction = match m.spec.entry().corrected {
+                true => format!(", {} correction", toml_name(&m.correction)),
+                false => String::new(),
+            };
             format!(
-                "method: {name} with {} kernel, h/Δx = {}, {} correction, {} integrator",
+                "method: {name} with {} kernel, h/Δx = {}{correction}, {} integrator",
                 toml_name(&m.kernel),
                 m.h_over_dx,
-                toml_name(&m.correction),
                 toml_name(&m.integrator)
             )
         } else {

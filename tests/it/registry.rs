@@ -113,6 +113,35 @@ fn a_change_of_method_drops_tlsph_viscosity_and_keeps_an_explicit_key() {
 }
 
 #[test]
+fn a_method_with_its_own_consistent_functions_refuses_a_correction_by_name() {
+    // `kbm`, `efg`, `tl-weak-form` and `dual-support-sph` build their own consistent
+    // functions, so `method.correction` would be read by none of their code: it is
+    // refused, naming the method; switching to one of them from a case that gives it
+    // (the SPH rod, `correction = "none"`) drops it with a note.
+    for name in ["kbm", "efg", "tl-weak-form", "dual-support-sph"] {
+        assert!(!entry(name).unwrap().reads("correction"), "{name}");
+    }
+    assert!(entry("tlsph").unwrap().reads("correction"));
+    let (_, shown) = load_error("rod-gaussian-kbm", &["method.correction=shepard"]);
+    assert!(
+        shown.contains(
+            "`kbm` builds its own consistent functions and reads no \
+             `method.correction`"
+        ),
+        "{shown}"
+    );
+    let switched = load("rod-gaussian", &["method.name=kbm"]);
+    assert!(
+        switched
+            .notes
+            .iter()
+            .any(|n| n.contains("`method.correction`")),
+        "{:?}",
+        switched.notes
+    );
+}
+
+#[test]
 fn every_method_has_one_name_in_case_files_listings_and_summaries() {
     // Every registered name parses as a case's method, and the case reports it back
     // under the same name (the summary's `method` is `case.method.name()`).
@@ -122,8 +151,8 @@ fn every_method_has_one_name_in_case_files_listings_and_summaries() {
             // The strip's hypoelastic model and Randles–Libersky correction suit these
             // (`ul-weak-form` reads no correction).
             "tlsph" | "gray-monaghan-sph" | "godunov-sph" | "ul-weak-form" => {}
-            // No kernel, so no correction.
-            _ if !e.kernel => set.push("material.model=neo-hookean".into()),
+            // No kernel, or functions of their own: no correction.
+            _ if !e.corrected => set.push("material.model=neo-hookean".into()),
             _ => set.extend([
                 "material.model=neo-hookean".into(),
                 "method.correction=cgck".into(),

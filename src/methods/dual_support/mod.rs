@@ -185,6 +185,7 @@ impl MethodFamily for DualSupportSpec {
     ];
     const FEATURES: &'static [Feature] = &[Feature::StaticSolve, Feature::StaticOnly];
     const GPU_ENGINE: bool = false;
+    const CORRECTED: bool = false;
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = &[];
 
@@ -237,10 +238,7 @@ impl MethodFamily for DualSupportSpec {
 
     fn plan(&self, case: &Case, _gpu: bool) -> Plan {
         let mat = Material::new(&case.material);
-        let mut left_out = vec![
-            "time integration (static)",
-            "the case's gradient correction",
-        ];
+        let mut left_out = vec!["time integration (static)"];
         if self.hourglass == 0.0 {
             left_out.push("hourglass energy");
         }

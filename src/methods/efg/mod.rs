@@ -90,6 +90,7 @@ impl MethodFamily for EfgSpec {
     const KEYS: &'static [&'static str] = &["integration", "mass"];
     const FEATURES: &'static [Feature] =
         &[Feature::Contact, Feature::Plasticity, Feature::StaticSolve];
+    const CORRECTED: bool = false;
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = super::galerkin::gpu::SHADERS;
 

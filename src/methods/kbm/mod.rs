@@ -125,6 +125,7 @@ impl MethodFamily for KbmSpec {
         &["stress_points", "mass", "kernel_frame", "search_every"];
     const FEATURES: &'static [Feature] =
         &[Feature::Contact, Feature::Plasticity, Feature::StaticSolve];
+    const CORRECTED: bool = false;
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = super::galerkin::gpu::SHADERS;
 

@@ -82,6 +82,7 @@ impl MethodFamily for WeakFormSpec {
     const KEYS: &'static [&'static str] = &["smoothing", "mass"];
     const FEATURES: &'static [Feature] =
         &[Feature::Contact, Feature::Plasticity, Feature::StaticSolve];
+    const CORRECTED: bool = false;
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = super::galerkin::gpu::SHADERS;
 
