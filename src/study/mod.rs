@@ -213,28 +213,14 @@ fn execute(
     reference: Option<&FinalState>,
     machine: &str,
 ) -> (RunRecord, Option<FinalState>) {
-    let mut record = RunRecord {
-        id: run.id.clone(),
-        suite: suite.name.clone(),
-        case: String::new(),
-        variant: run.variant.clone(),
-        backend: run.backend.as_str().to_string(),
-        sweep_key: suite.sweep.key.clone(),
-        sweep_value: run.value.clone(),
-        spacing: f64::NAN,
-        particles: 0,
-        steps: 0,
-        dt_last: f64::NAN,
-        time: f64::NAN,
-        wall_seconds: f64::NAN,
-        error_velocity: f64::NAN,
-        error_stress: f64::NAN,
-        drift_angular_momentum: f64::NAN,
-        drift_energy: f64::NAN,
-        status: Status::Error,
-        reason: String::new(),
-        machine: machine.to_string(),
-    };
+    let mut record = RunRecord::unmeasured(
+        run.id.clone(),
+        suite.name.clone(),
+        run.variant.clone(),
+        run.backend.as_str().to_string(),
+        (suite.sweep.key.clone(), run.value.clone()),
+        machine.to_string(),
+    );
     let case = match &run.case {
         Ok(c) => c,
         Err(e) => {

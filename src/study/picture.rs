@@ -107,9 +107,8 @@ pub fn write(
     let Some(p) = &suite.picture else {
         return Ok(Vec::new());
     };
-    let mut lines: Vec<String> = Vec::new();
-    let mut values: Vec<&str> = Vec::new();
-    let mut panels: Vec<(String, String, Panel)> = Vec::new();
+    let mut drawn: Vec<RunRecord> = Vec::new();
+    let mut panels: Vec<Panel> = Vec::new();
     for r in records {
         let failed = matches!(r.status, Status::Failed { .. });
         if r.status != Status::Ok && !failed {
@@ -117,20 +116,19 @@ pub fn write(
         }
         match read_points(&points_file(suite_dir, &r.id)) {
             Ok(points) => {
-                let (line, value) = (r.line(), r.sweep_value.clone());
-                if !lines.contains(&line) {
-                    lines.push(line.clone());
-                }
-                if !values.contains(&r.sweep_value.as_str()) {
-                    values.push(&r.sweep_value);
-                }
                 let when = if failed {
                     format!("failed at t = {:.3e} s", r.time)
                 } else {
                     format!("t = {:.3e} s", r.time)
                 };
-                let title = format!("{line}, {} = {value}: {when}", suite.sweep.key);
-                panels.push((line, value, Panel { title, points }));
+                let title = format!(
+                    "{}, {} = {}: {when}",
+                    r.line(),
+                    suite.sweep.key,
+                    r.sweep_value
+                );
+                panels.push(Panel { title, points });
+                drawn.push(r.clone());
             }
             Err(e) => eprintln!("warning: {}: picture: {e}", suite.name),
         }
@@ -139,16 +137,18 @@ pub fn write(
         return Ok(Vec::new());
     }
     register_font();
+    let (lines, values) = (super::report::lines(&drawn), super::report::values(&drawn));
     let (cols, rows) = (lines.len(), values.len());
+    // Row per sweep value, column per line.
     let grid: Vec<Option<&Panel>> = values
         .iter()
         .flat_map(|v| {
-            let panels = &panels;
+            let (drawn, panels) = (&drawn, &panels);
             lines.iter().map(move |l| {
-                panels
+                drawn
                     .iter()
-                    .find(|(pl, pv, _)| pl == l && pv == v)
-                    .map(|x| &x.2)
+                    .position(|r| &r.line() == l && &r.sweep_value == v)
+                    .map(|k| &panels[k])
             })
         })
         .collect();

@@ -117,6 +117,40 @@ fn field(s: &str) -> String {
 }
 
 impl RunRecord {
+    /// The record of a run that has measured nothing yet (an `error` until it says
+    /// otherwise): its id, suite, variant, backend, sweep key and value, and machine.
+    pub fn unmeasured(
+        id: String,
+        suite: String,
+        variant: String,
+        backend: String,
+        (sweep_key, sweep_value): (String, String),
+        machine: String,
+    ) -> Self {
+        Self {
+            id,
+            suite,
+            case: String::new(),
+            variant,
+            backend,
+            sweep_key,
+            sweep_value,
+            spacing: f64::NAN,
+            particles: 0,
+            steps: 0,
+            dt_last: f64::NAN,
+            time: f64::NAN,
+            wall_seconds: f64::NAN,
+            error_velocity: f64::NAN,
+            error_stress: f64::NAN,
+            drift_angular_momentum: f64::NAN,
+            drift_energy: f64::NAN,
+            status: Status::Error,
+            reason: String::new(),
+            machine,
+        }
+    }
+
     fn to_fields(&self) -> Vec<String> {
         let (ft, fs, fp, fq) = match &self.status {
             Status::Failed {
@@ -336,7 +370,14 @@ mod tests {
 
     #[test]
     fn a_line_names_the_backend_kind_only_off_the_cpu() {
-        let mut rec = empty_record();
+        let mut rec = RunRecord::unmeasured(
+            "0".into(),
+            "s".into(),
+            "v".into(),
+            "cpu".into(),
+            ("spacing".into(), "0.05".into()),
+            String::new(),
+        );
         for (backend, line) in [
             ("cpu", "v"),
             (
@@ -350,32 +391,6 @@ mod tests {
         ] {
             rec.backend = backend.into();
             assert_eq!(rec.line(), line, "backend {backend}");
-        }
-    }
-
-    /// A record of variant `v` and no measurements.
-    fn empty_record() -> RunRecord {
-        RunRecord {
-            id: "0".into(),
-            suite: "s".into(),
-            case: "c".into(),
-            variant: "v".into(),
-            backend: "cpu".into(),
-            sweep_key: "spacing".into(),
-            sweep_value: "0.05".into(),
-            spacing: 0.05,
-            particles: 0,
-            steps: 0,
-            dt_last: f64::NAN,
-            time: f64::NAN,
-            wall_seconds: f64::NAN,
-            error_velocity: f64::NAN,
-            error_stress: f64::NAN,
-            drift_angular_momentum: f64::NAN,
-            drift_energy: f64::NAN,
-            status: Status::Ok,
-            reason: String::new(),
-            machine: String::new(),
         }
     }
 }

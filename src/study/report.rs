@@ -141,7 +141,7 @@ pub fn runs_table(suite: &Suite, recs: &[RunRecord]) -> String {
 }
 
 /// Lines (variant and backend) in the order they first appear.
-fn lines(recs: &[RunRecord]) -> Vec<String> {
+pub(super) fn lines(recs: &[RunRecord]) -> Vec<String> {
     let mut out: Vec<String> = Vec::new();
     for r in recs {
         if !out.contains(&r.line()) {
@@ -152,7 +152,7 @@ fn lines(recs: &[RunRecord]) -> Vec<String> {
 }
 
 /// Sweep values in the order they first appear.
-fn values(recs: &[RunRecord]) -> Vec<String> {
+pub(super) fn values(recs: &[RunRecord]) -> Vec<String> {
     let mut out: Vec<String> = Vec::new();
     for r in recs {
         if !out.contains(&r.sweep_value) {
