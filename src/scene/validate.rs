@@ -1278,43 +1278,30 @@ mod tests {
         check(&c).unwrap();
     }
 
+    /// A ring about the origin of outer radius 1.
+    fn unit_ring(inner_radius: f64, lattice: RingLattice, sectors: Option<u32>) -> Shape {
+        Shape::Ring {
+            center: vec![0.0, 0.0],
+            inner_radius,
+            outer_radius: 1.0,
+            lattice,
+            sectors,
+        }
+    }
+
     #[test]
     fn bodies_and_shapes() {
         let mut c = minimal_case();
         c.bodies.push(c.bodies[0].clone());
         assert_eq!(key_of(&c), "body.1.name");
         c.bodies[1].name = "c".into();
-        c.bodies[1].geometry = Shape::Ring {
-            center: vec![0.0, 0.0],
-            inner_radius: 1.0,
-            outer_radius: 1.0,
-            lattice: RingLattice::Square,
-            sectors: None,
-        };
+        c.bodies[1].geometry = unit_ring(1.0, RingLattice::Square, None);
         assert_eq!(key_of(&c), "body.1.geometry.inner_radius");
-        c.bodies[1].geometry = Shape::Ring {
-            center: vec![0.0, 0.0],
-            inner_radius: 0.5,
-            outer_radius: 1.0,
-            lattice: RingLattice::Square,
-            sectors: Some(60),
-        };
+        c.bodies[1].geometry = unit_ring(0.5, RingLattice::Square, Some(60));
         assert_eq!(key_of(&c), "body.1.geometry.sectors");
-        c.bodies[1].geometry = Shape::Ring {
-            center: vec![0.0, 0.0],
-            inner_radius: 0.5,
-            outer_radius: 1.0,
-            lattice: RingLattice::Polar,
-            sectors: Some(2),
-        };
+        c.bodies[1].geometry = unit_ring(0.5, RingLattice::Polar, Some(2));
         assert_eq!(key_of(&c), "body.1.geometry.sectors");
-        c.bodies[1].geometry = Shape::Ring {
-            center: vec![0.0, 0.0],
-            inner_radius: 0.0,
-            outer_radius: 1.0,
-            lattice: RingLattice::Polar,
-            sectors: None,
-        };
+        c.bodies[1].geometry = unit_ring(0.0, RingLattice::Polar, None);
         assert_eq!(key_of(&c), "body.1.geometry.inner_radius");
         c.bodies[1].geometry = Shape::Cylinder {
             base: vec![0.0, 0.0, 0.0],
