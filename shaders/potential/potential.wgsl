@@ -14,18 +14,6 @@
 @group(0) @binding(5) var<storage, read_write> kin: array<f32>;
 @group(0) @binding(6) var<storage, read> ext: array<f32>;
 @group(0) @binding(7) var<storage, read_write> d: array<f32>;
-@group(0) @binding(8) var<storage, read> rev: array<u32>;
-
-// Set-up, one invocation per pair p = (i, j): ∇0W̃_ji, j's corrected gradient towards i.
-@compute @workgroup_size(256)
-fn reverse_gradients(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let p = gid.x + gid.y * nwg.x * 256u;
-    if p >= PAIRS {
-        return;
-    }
-    vstore_pair(PGREV_OFF + DIM * p, vload_pair(PG_OFF + DIM * rev[p]));
-}
-
 // m_i a_i = Σ_j [w_ij P_i ∇0W̃_ij − w_ji P_j ∇0W̃_ji] (eq 148 symmetrised) plus Monaghan
 // viscosity along ½(F_i⁻ᵀ ∇0W̃_ij − F_j⁻ᵀ ∇0W̃_ji), boundary conditions and u̇ = v.
 @compute @workgroup_size(256)

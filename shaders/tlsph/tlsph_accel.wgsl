@@ -1,4 +1,6 @@
-// Total-Lagrangian SPH accelerations (seed 000 eq 134) with Monaghan viscosity along the
+// Total-Lagrangian SPH accelerations (seed 000 eq 134, or with FORCE_VARIATIONAL the
+// pair force P_i ∇0W̃_ij − P_j ∇0W̃_ji from the reverse gradients GREV, which the set-up
+// entry of reverse_gradients.wgsl fills) with Monaghan viscosity along the
 // pushed-forward gradient F_i⁻ᵀ ∇0W̃_ij (or ∇0W̃_ij unmapped, AV_GRADIENT_REFERENCE: the
 // paper's form), boundary conditions (boundary.wgsl), and u̇ = v.
 // One invocation per particle; writes only its own particle. Layout and constants as in
@@ -6,7 +8,7 @@
 
 @group(0) @binding(0) var<storage, read> offsets: array<u32>;
 @group(0) @binding(1) var<storage, read> ids: array<u32>;
-@group(0) @binding(2) var<storage, read> pair: array<f32>;
+@group(0) @binding(2) var<storage, read_write> pair: array<f32>;
 @group(0) @binding(3) var<storage, read> reference: array<f32>;
 @group(0) @binding(4) var<storage, read> y: array<f32>;
 // The kinematics of the stress pass; this pass writes only the power (boundary.wgsl).
@@ -33,7 +35,12 @@ fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     for (var p = offsets[i]; p < p_end; p++) {
         let j = ids[p];
         let g = vload_pair(PG_OFF + DIM * p);
-        stress += (p_i + mload_kin(KP_OFF + DIM * DIM * j)) * g * vol_of(j);
+        let p_j = mload_kin(KP_OFF + DIM * DIM * j);
+        var flux = (p_i + p_j) * g;
+        if FORCE == FORCE_VARIATIONAL {
+            flux = p_i * g - p_j * vload_pair(PGREV_OFF + DIM * p);
+        }
+        stress += flux * vol_of(j);
         if AV == 1u {
             let x_ij = u_i - vload_y(U_OFF + DIM * j) - vload_pair(PDX_OFF + DIM * p);
             let rho_j = kin[KRHO_OFF + j];

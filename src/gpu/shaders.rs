@@ -79,6 +79,18 @@ pub const BOUNDARY: Wgsl = wgsl!("common/boundary.wgsl");
 pub const REFERENCE: Wgsl = wgsl!("common/reference.wgsl");
 /// Monaghan's artificial viscosity Π_ij of a pair.
 pub const VISCOSITY: Wgsl = wgsl!("common/viscosity.wgsl");
+/// The set-up entry `reverse_gradients` of the pair forces from Σ_i V_i ψ(F_i): ∇0W̃_ji
+/// into the pair data's field GREV.
+pub const REVERSE_GRADIENTS: Wgsl = wgsl!("common/reverse_gradients.wgsl");
+/// The bytes model of [`REVERSE_GRADIENTS`]' entry; an item is a pair.
+pub const REVERSE_GRADIENTS_BYTES: PassBytes = PassBytes {
+    entry: "reverse_gradients",
+    traffic: &[
+        read("rev", [1, 0, 0], NONE),
+        read("pair", [0, 1, 0], NONE),
+        write("pair", [0, 1, 0], NONE),
+    ],
+};
 /// Eigen-decomposition of symmetric tensors (cyclic Jacobi) and tensors from principal
 /// values.
 pub const EIGEN: Wgsl = wgsl!("common/eigen.wgsl");

@@ -159,6 +159,42 @@ pub(crate) fn reference_gradients<D: Dim>(
         .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))
 }
 
+/// For every pair (i, j) in CSR order, the index of the pair (j, i) in j's row. Lists
+/// that are not symmetric (a neighbour at the kernel support, by round-off) name the
+/// particle and the key to change.
+pub fn reverse_pairs(case: &Case, csr: &Csr) -> Result<Vec<u32>, CaseError> {
+    csr.map_rows(|i| {
+        csr.neighbours(i)
+            .iter()
+            .map(|&j| {
+                let row = j as usize;
+                let back = csr.neighbours(row).binary_search(&(i as u32));
+                back.map(|k| (csr.offsets[row] + k) as u32).map_err(|_| i)
+            })
+            .collect()
+    })
+    .map_err(|i| {
+        case.invalid(
+            "method.h_over_dx",
+            format!(
+                "particle {i} has a neighbour at the kernel support that does not list it \
+                 back; change h/dx slightly"
+            ),
+        )
+    })
+}
+
+/// ∇0W̃_ji (j's corrected gradient, evaluated at i) for every pair (i, j), in CSR order:
+/// the second gradient of a pair force that derives from Σ_i V_i ψ(F_i) (seed 000 eq 148).
+pub(crate) fn reverse_gradients<D: Dim>(
+    case: &Case,
+    csr: &Csr,
+    grad: &[D::V],
+) -> Result<Vec<D::V>, CaseError> {
+    let rev = reverse_pairs(case, csr)?;
+    Ok(rev.par_iter().map(|&q| grad[q as usize]).collect())
+}
+
 /// The first particle with a non-finite displacement or velocity, as a blow-up.
 pub fn check_motion<D: Dim>(x0: &[D::V], u: &[D::V], v: &[D::V]) -> Result<(), BlowUp> {
     let norm = |v: D::V| D::norm2(v).sqrt();

@@ -140,6 +140,12 @@ fn rates_match_the_cpu_on_the_rotating_disk() {
         );
         compare_rates::<D2>(&c, 50, 5e-6);
     }
+    // The variational pair force, with the reverse gradients of the device's set-up.
+    let c = load(
+        "rotating-disk",
+        &["method.dt=5e-6", "method.force=\"variational\""],
+    );
+    compare_rates::<D2>(&c, 200, 5e-6);
 }
 
 #[test]
@@ -169,6 +175,9 @@ fn rates_match_the_cpu_for_state_based_models_in_2d_and_3d() {
         let c = Case::from_toml(&cube(model), Path::new("cube.toml"), &[]).unwrap();
         compare_rates::<D3>(&c, 100, 2e-6);
     }
+    let variational = ["method.force=\"variational\"".to_string()];
+    let c = Case::from_toml(&cube("neo-hookean"), Path::new("cube.toml"), &variational).unwrap();
+    compare_rates::<D3>(&c, 100, 2e-6);
 }
 
 /// The paper's rubber (seed 001 eq 18): c1 = 1.265e5, c2 = 1.012e4, λ = 1.012e7 Pa

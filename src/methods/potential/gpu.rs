@@ -6,8 +6,8 @@
 use super::{PotentialForce, PotentialSpec};
 use crate::gpu::profile::{NONE, PassBytes, read, write};
 use crate::gpu::shaders::{
-    BOUNDARY, CONTACT, CORRECTION, INTEGRATE, MECHANICS, PAIR_OFFSETS, REFERENCE, Source,
-    VISCOSITY, Wgsl, source, wgsl,
+    BOUNDARY, CONTACT, CORRECTION, INTEGRATE, MECHANICS, PAIR_OFFSETS, REFERENCE,
+    REVERSE_GRADIENTS, REVERSE_GRADIENTS_BYTES, Source, VISCOSITY, Wgsl, source, wgsl,
 };
 use crate::methods::tlsph::gpu::{DET_F, Frame, STRESS, TlScheme, viscosity};
 
@@ -17,7 +17,7 @@ const ENERGY: Wgsl = wgsl!("potential/potential_energy.wgsl");
 /// The reverse gradients (set-up) and the symmetrised forces of eq 148 with viscosity.
 pub const ACCEL: Source = source!(
     "potential/potential.wgsl",
-    [BOUNDARY, REFERENCE, VISCOSITY],
+    [BOUNDARY, REFERENCE, VISCOSITY, REVERSE_GRADIENTS],
     [
         ("y", false),
         ("pair", true),
@@ -27,15 +27,7 @@ pub const ACCEL: Source = source!(
         ("d", true)
     ],
     &[
-        // Set-up; an item is a pair.
-        PassBytes {
-            entry: "reverse_gradients",
-            traffic: &[
-                read("rev", [1, 0, 0], NONE),
-                read("pair", [0, 1, 0], NONE),
-                write("pair", [0, 1, 0], NONE),
-            ],
-        },
+        REVERSE_GRADIENTS_BYTES,
         PassBytes {
             entry: "accel",
             traffic: &[

@@ -13,7 +13,7 @@ use crate::boundary::Boundary;
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::material::Material;
-use crate::methods::shared::{BlowUp, MIN_CHUNK, Method, reference_gradients};
+use crate::methods::shared::{BlowUp, MIN_CHUNK, Method, reference_gradients, reverse_gradients};
 use crate::methods::tlsph::{ArtificialViscosity, TlState, system as tl};
 use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::Csr;
@@ -34,21 +34,6 @@ struct Kinematics<D: Dim> {
     f_inv_t: D::T,
     /// Current density ρ0/J (artificial viscosity).
     rho: f64,
-}
-
-/// For every pair (i, j) in CSR order, the index of the pair (j, i) in j's row; Err(i)
-/// where it is missing (the lists are not symmetric).
-pub fn reverse_pairs(csr: &Csr) -> Result<Vec<u32>, usize> {
-    csr.map_rows(|i| {
-        csr.neighbours(i)
-            .iter()
-            .map(|&j| {
-                let row = j as usize;
-                let back = csr.neighbours(row).binary_search(&(i as u32));
-                back.map(|k| (csr.offsets[row] + k) as u32).map_err(|_| i)
-            })
-            .collect()
-    })
 }
 
 /// The factor 1/√V_min on c_p in the CFL step of the reference code's force, which is
@@ -107,16 +92,7 @@ impl<D: Dim> Potential<D> {
             ..
         } = reference;
         let grad = reference_gradients::<D>(case, &x0, &vol, &csr)?;
-        let rev = reverse_pairs(&csr).map_err(|i| {
-            case.invalid(
-                "method.h_over_dx",
-                format!(
-                    "particle {i} has a neighbour at the kernel support that does not list \
-                     it back; change h/dx slightly"
-                ),
-            )
-        })?;
-        let grad_rev = rev.par_iter().map(|&q| grad[q as usize]).collect();
+        let grad_rev = reverse_gradients::<D>(case, &csr, &grad)?;
         let interactions = Interactions::build(case, &x0, &body, || csr.clone())?;
         let identity = Kinematics {
             f: D::identity(),

@@ -6,8 +6,8 @@
 //! A whole step, or several, is recorded into one command encoder; the host reads back
 //! only when asked (outputs, observers, checks).
 
-use super::ViscosityGradient;
 use super::system::{TlState, check_state, snapshot};
+use super::{TlsphForce, ViscosityGradient};
 use crate::correction::{self, CorrectionKind};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim, flat_v};
@@ -17,7 +17,8 @@ use crate::gpu::reduction::{Reduced, Reduction, WorkBalance};
 use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
     self, BOUNDARY, CONTACT, CORRECTION, Constants, INTEGRATE, LOADS, MECHANICS, PAIR_OFFSETS,
-    PRESCRIBED, REFERENCE, Source, VISCOSITY, Wgsl, source, wgsl,
+    PRESCRIBED, REFERENCE, REVERSE_GRADIENTS, REVERSE_GRADIENTS_BYTES, Source, VISCOSITY, Wgsl,
+    source, wgsl,
 };
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
 use crate::integrate::Buf;
@@ -63,38 +64,43 @@ pub const STRESS: Source = source!(
         ],
     }]
 );
-/// Accelerations, artificial viscosity, boundary conditions.
+/// Accelerations, artificial viscosity, boundary conditions; the reverse gradients of
+/// the variational force (set-up).
 pub const ACCEL: Source = source!(
     "tlsph/tlsph_accel.wgsl",
-    [BOUNDARY, REFERENCE, VISCOSITY],
+    [BOUNDARY, REFERENCE, VISCOSITY, REVERSE_GRADIENTS],
     [
         ("y", false),
-        ("pair", false),
+        ("pair", true),
         ("reference", false),
         ("ext", false),
         ("kin", true),
         ("d", true)
     ],
-    &[PassBytes {
-        entry: "accel",
-        traffic: &[
-            read("offsets", [1, 0, 0], NONE),
-            read("ids", NONE, [1, 0, 0]),
-            // ∇0W̃_ij; X_j − X_i for the viscosity.
-            read("pair", NONE, [0, 1, 0]),
-            read("pair", NONE, [0, 1, 0]).when(&["AV"]),
-            // V, the boundary mask.
-            read("reference", [2, 0, 0], NONE),
-            // u, v.
-            read("y", [0, 2, 0], NONE),
-            // P, F⁻ᵀ, ρ in; the power of supports and loads out.
-            read("kin", [1, 0, 2], NONE),
-            write("kin", [1, 0, 0], NONE),
-            read("ext", [0, 1, 0], NONE),
-            // u̇ = v, v̇.
-            write("d", [0, 2, 0], NONE),
-        ],
-    }]
+    &[
+        REVERSE_GRADIENTS_BYTES,
+        PassBytes {
+            entry: "accel",
+            traffic: &[
+                read("offsets", [1, 0, 0], NONE),
+                read("ids", NONE, [1, 0, 0]),
+                // ∇0W̃_ij, and ∇0W̃_ji for the variational force; X_j − X_i for the viscosity.
+                read("pair", NONE, [0, 1, 0]),
+                read("pair", NONE, [0, 1, 0]).when(&["FORCE == FORCE_VARIATIONAL"]),
+                read("pair", NONE, [0, 1, 0]).when(&["AV"]),
+                // V, the boundary mask.
+                read("reference", [2, 0, 0], NONE),
+                // u, v.
+                read("y", [0, 2, 0], NONE),
+                // P, F⁻ᵀ, ρ in; the power of supports and loads out.
+                read("kin", [1, 0, 2], NONE),
+                write("kin", [1, 0, 0], NONE),
+                read("ext", [0, 1, 0], NONE),
+                // u̇ = v, v̇.
+                write("d", [0, 2, 0], NONE),
+            ],
+        }
+    ]
 );
 /// Energies, momenta and checks of a state.
 pub const REDUCE: Source = source!(
@@ -160,18 +166,25 @@ pub enum Frame {
 /// The failure TLSPH's stress pass records (slot 0).
 pub const DET_F: &[&str] = &["det F (f32, GPU)"];
 
-/// TLSPH's own force: eq 134 with the spec's viscosity.
+/// TLSPH's own force: eq 134, or the variational form, with the spec's viscosity.
 pub fn scheme(spec: &super::TlsphSpec) -> TlScheme {
+    let variational = spec.force == TlsphForce::Variational;
     TlScheme {
         stress: STRESS,
         accel: ACCEL,
         reduce: REDUCE,
-        reverse: false,
-        constants: viscosity(spec.artificial_viscosity.as_ref()).choice(
-            "AV_GRADIENT",
-            &["PUSHED_FORWARD", "REFERENCE"],
-            usize::from(spec.viscosity_gradient == ViscosityGradient::Reference),
-        ),
+        reverse: variational,
+        constants: viscosity(spec.artificial_viscosity.as_ref())
+            .choice(
+                "AV_GRADIENT",
+                &["PUSHED_FORWARD", "REFERENCE"],
+                usize::from(spec.viscosity_gradient == ViscosityGradient::Reference),
+            )
+            .choice(
+                "FORCE",
+                &["REVELES", "VARIATIONAL"],
+                usize::from(variational),
+            ),
         unit_weights: false,
         kin_tensors: &[],
         frame: Frame::Reference,
@@ -400,15 +413,7 @@ impl<D: GpuDim> GpuTlsph<D> {
                 .into());
         }
         if scheme.reverse {
-            let rev = crate::methods::potential::system::reverse_pairs(&csr).map_err(|i| {
-                case.invalid(
-                    "method.h_over_dx",
-                    format!(
-                        "particle {i} has a neighbour at the kernel support that does not \
-                         list it back; change h/dx slightly"
-                    ),
-                )
-            })?;
+            let rev = crate::methods::shared::reverse_pairs(case, &csr)?;
             reverse_gradients(&gpu, &compose(&scheme.accel), &rev, &pair)?;
         }
 

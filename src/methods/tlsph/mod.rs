@@ -65,6 +65,23 @@ pub enum ViscosityGradient {
     Reference,
 }
 
+/// The pair force of TLSPH.
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum TlsphForce {
+    /// m_i a_i = V_i Σ_j V_j (P_i + P_j) ∇0W̃_ij (seed 000 eq 134): i's corrected
+    /// gradient on both terms, as the paper and the reference code have it. With a
+    /// correction it is not the gradient of the strain energy: at a surface row it
+    /// carries about half a load, and the work of driven boundaries does not balance
+    /// the energy (docs/methods/tlsph.md).
+    #[default]
+    Reveles,
+    /// m_i a_i = V_i Σ_j V_j (P_i ∇0W̃_ij − P_j ∇0W̃_ji) = −∂Π/∂u_i with
+    /// Π = Σ_i V_i ψ(F_i) (the form of seed 000 eq 148): each term with its own side's
+    /// corrected gradient. Both coincide without a correction.
+    Variational,
+}
+
 /// The `[method]` keys of TLSPH.
 #[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
 pub struct TlsphSpec {
@@ -73,6 +90,9 @@ pub struct TlsphSpec {
     /// The direction of the viscous pair force.
     #[serde(default)]
     pub viscosity_gradient: ViscosityGradient,
+    /// The pair force (default `reveles`, eq 134).
+    #[serde(default)]
+    pub force: TlsphForce,
 }
 
 /// One rate evaluation on the GPU, as `--explain` prints it.
@@ -81,7 +101,7 @@ const GPU_RATES: &str = "stress pass (F, P, ρ̇, Ṡ) + acceleration pass (a, u
 impl MethodFamily for TlsphSpec {
     const DESCRIPTION: &'static str = "total-Lagrangian SPH (Reveles; seed 000 §5.3): corrected \
         reference kernel, rate- or state-based stress, Monaghan artificial viscosity";
-    const KEYS: &'static [&'static str] = &["artificial_viscosity", "viscosity_gradient"];
+    const KEYS: &'static [&'static str] = &["artificial_viscosity", "viscosity_gradient", "force"];
     const FEATURES: &'static [Feature] = &[Feature::Contact, Feature::StaticSolve];
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
@@ -111,10 +131,18 @@ impl MethodFamily for TlsphSpec {
         } else {
             "continuity and Jaumann rates"
         });
+        let (once, force) = match self.force {
+            TlsphForce::Reveles => ("", "(P_i + P_j) ∇0W̃_ij, eq 134"),
+            TlsphForce::Variational => (
+                " and their reverses ∇0W̃_ji",
+                "P_i ∇0W̃_ij − P_j ∇0W̃_ji, variational",
+            ),
+        };
         Plan {
-            once: "once, on the reference configuration: cell-list neighbours (CSR), corrected \
-                   gradients ∇0W̃_ij"
-                .into(),
+            once: format!(
+                "once, on the reference configuration: cell-list neighbours (CSR), corrected \
+                 gradients ∇0W̃_ij{once}"
+            ),
             state: if rate {
                 "u, v, ρ, S (rate model: Jaumann + linear EOS)".into()
             } else {
@@ -122,9 +150,9 @@ impl MethodFamily for TlsphSpec {
             },
             cfl_step: super::cfl_step(&mat),
             rates: if gpu {
-                GPU_RATES.into()
+                format!("{GPU_RATES}; pair force {force}")
             } else {
-                "two gathers: F and P, then the accelerations".into()
+                format!("two gathers: F and P, then the accelerations ({force})")
             },
             checked: "det F",
             check_note: String::new(),
@@ -167,6 +195,7 @@ mod tests {
                 eta: 0.1,
             }),
             viscosity_gradient: ViscosityGradient::PushedForward,
+            force: TlsphForce::Reveles,
         };
         let case = crate::scene::validate::minimal_case();
         spec(1.0).validate(&case).unwrap();

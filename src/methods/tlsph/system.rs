@@ -5,11 +5,11 @@
 //! velocity v and, for the rate-based (hypoelastic) model, the density ρ and the
 //! deviatoric stress S.
 
-use super::{ArtificialViscosity, ViscosityGradient};
+use super::{ArtificialViscosity, TlsphForce, ViscosityGradient};
 use crate::boundary::Boundary;
 use crate::interaction::Interactions;
 use crate::methods::shared::{
-    BlowUp, MIN_CHUNK, Method, check_motion, particle_state, reference_gradients,
+    BlowUp, MIN_CHUNK, Method, check_motion, particle_state, reference_gradients, reverse_gradients,
 };
 use crate::methods::{MethodSpec, not_run_by};
 
@@ -142,6 +142,8 @@ pub struct Tlsph<D: Dim> {
     csr: Csr,
     /// Corrected reference gradients ∇0W̃_ij, one per CSR pair.
     grad: Vec<D::V>,
+    /// ∇0W̃_ji for every pair (i, j), in CSR order: the variational force only.
+    grad_rev: Option<Vec<D::V>>,
     material: Material,
     av: Option<ArtificialViscosity>,
     /// The direction of the viscous pair force.
@@ -172,6 +174,10 @@ impl<D: Dim> Tlsph<D> {
             ..
         } = reference;
         let grad = reference_gradients::<D>(case, &x0, &vol, &csr)?;
+        let grad_rev = match spec.force {
+            TlsphForce::Reveles => None,
+            TlsphForce::Variational => Some(reverse_gradients::<D>(case, &csr, &grad)?),
+        };
         let interactions = Interactions::build(case, &x0, &body, || csr.clone())?;
         let identity = Kinematics {
             f: D::identity(),
@@ -188,6 +194,7 @@ impl<D: Dim> Tlsph<D> {
             v0,
             csr,
             grad,
+            grad_rev,
             material,
             av: spec.artificial_viscosity,
             av_gradient: spec.viscosity_gradient,
@@ -268,7 +275,8 @@ impl<D: Dim> Tlsph<D> {
         self.kin = kin;
     }
 
-    /// Pass 2: a_i = (1/ρ0) Σ_j V_j (P_i + P_j) ∇0W̃_ij (eq 134) plus artificial viscosity.
+    /// Pass 2: a_i = (1/ρ0) Σ_j V_j (P_i + P_j) ∇0W̃_ij (eq 134), or the variational
+    /// (1/ρ0) Σ_j V_j (P_i ∇0W̃_ij − P_j ∇0W̃_ji), plus artificial viscosity.
     ///
     /// The viscous term acts along the current-configuration gradient F_i⁻ᵀ ∇0W̃_ij, or, with
     /// `viscosity_gradient = "reference"`, along ∇0W̃_ij unmapped as the paper and the
@@ -291,7 +299,11 @@ impl<D: Dim> Tlsph<D> {
                     let j = self.csr.ids[p] as usize;
                     let kj = self.kin[j];
                     let g = self.grad[p];
-                    stress += (ki.p + kj.p) * g * self.vol[j];
+                    let flux = match &self.grad_rev {
+                        None => (ki.p + kj.p) * g,
+                        Some(rev) => ki.p * g - kj.p * rev[p],
+                    };
+                    stress += flux * self.vol[j];
                     if let Some(av) = &self.av {
                         let x_ij = xi - (self.x0[j] + y.u[j]);
                         let c = 0.5 * (ci + (bulk / kj.rho).sqrt());
