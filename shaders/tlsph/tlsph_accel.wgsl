@@ -2,7 +2,9 @@
 // pair force P_i ∇0W̃_ij − P_j ∇0W̃_ji from the reverse gradients GREV, which the set-up
 // entry of reverse_gradients.wgsl fills) with Monaghan viscosity along the
 // pushed-forward gradient F_i⁻ᵀ ∇0W̃_ij (or ∇0W̃_ij unmapped, AV_GRADIENT_REFERENCE: the
-// paper's form), boundary conditions (boundary.wgsl), and u̇ = v.
+// paper's form), with HOURGLASS the hourglass control −κ_ij δ_ij e_ij of every bond
+// (src/methods/tlsph/system.rs, `hourglass_acceleration`; κ_ij in the pair field HGK),
+// boundary conditions (boundary.wgsl), and u̇ = v.
 // One invocation per particle; writes only its own particle. Layout and constants as in
 // tlsph.wgsl.
 
@@ -29,8 +31,10 @@ fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     let v_i = vload_y(V_OFF + DIM * i);
     let u_i = vload_y(U_OFF + DIM * i);
     let c_i = sqrt(BULK / rho_i);
+    let h_i = mload_kin(KF_OFF + DIM * DIM * i);
     var stress: vecd;
     var viscous: vecd;
+    var hourglass: vecd;
     let p_end = offsets[i + 1u];
     for (var p = offsets[i]; p < p_end; p++) {
         let j = ids[p];
@@ -41,6 +45,14 @@ fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
             flux = p_i * g - p_j * vload_pair(PGREV_OFF + DIM * p);
         }
         stress += flux * vol_of(j);
+        if HOURGLASS == 1u {
+            // γ_ij = ½(H_i + H_j) X_ij − (u_j − u_i), δ_ij = ½ γ_ij·e_ij.
+            let dx0 = vload_pair(PDX_OFF + DIM * p);
+            let du = vload_y(U_OFF + DIM * j) - u_i;
+            let e = normalize(dx0 + du);
+            let gamma = 0.5 * ((h_i + mload_kin(KF_OFF + DIM * DIM * j)) * dx0) - du;
+            hourglass -= e * (0.5 * pair[PHGK_OFF + p] * dot(gamma, e));
+        }
         if AV == 1u {
             let x_ij = u_i - vload_y(U_OFF + DIM * j) - vload_pair(PDX_OFF + DIM * p);
             let rho_j = kin[KRHO_OFF + j];
@@ -55,7 +67,7 @@ fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
             }
         }
     }
-    let a = apply_boundary(i, stress * (1.0 / RHO0) + viscous, v_i, RHO0 * vol_of(i));
+    let a = apply_boundary(i, stress * (1.0 / RHO0) + viscous + hourglass, v_i, RHO0 * vol_of(i));
     vstore_d(V_OFF + DIM * i, a);
     vstore_d(U_OFF + DIM * i, v_i);
 }

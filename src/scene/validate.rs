@@ -102,7 +102,7 @@ fn finite(key: &str, value: f64) -> Checked {
 }
 
 /// Finite and strictly positive.
-fn positive(key: &str, value: f64) -> Checked {
+pub(crate) fn positive(key: &str, value: f64) -> Checked {
     if value.is_finite() && value > 0.0 {
         Ok(())
     } else {

@@ -32,6 +32,7 @@ mod gpu_tlsph;
 mod gpu_ul;
 mod gray_monaghan;
 mod hostile;
+mod hourglass_control;
 mod kbm_efg;
 mod loads;
 #[cfg(feature = "study")]

@@ -96,6 +96,7 @@ pub fn scheme(spec: &CorotatedSpec) -> TlScheme {
         accel: ACCEL,
         reduce: REDUCE,
         reverse: false,
+        hourglass: None,
         constants: viscosity(spec.artificial_viscosity.as_ref()),
         unit_weights: false,
         kin_tensors: &["R"],

@@ -73,6 +73,7 @@ pub fn scheme(spec: &PotentialSpec) -> TlScheme {
         accel: ACCEL,
         reduce: REDUCE,
         reverse: true,
+        hourglass: None,
         constants: viscosity(spec.artificial_viscosity.as_ref()).choice(
             "FORCE",
             &["CONSISTENT", "REFERENCE_CODE"],

@@ -6,7 +6,7 @@
 //! A whole step, or several, is recorded into one command encoder; the host reads back
 //! only when asked (outputs, observers, checks).
 
-use super::system::{TlState, check_state, snapshot};
+use super::system::{TlState, check_state, hourglass_stiffness, snapshot};
 use super::{TlsphForce, ViscosityGradient};
 use crate::correction::{self, CorrectionKind};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
@@ -88,6 +88,10 @@ pub const ACCEL: Source = source!(
                 read("pair", NONE, [0, 1, 0]),
                 read("pair", NONE, [0, 1, 0]).when(&["FORCE == FORCE_VARIATIONAL"]),
                 read("pair", NONE, [0, 1, 0]).when(&["AV"]),
+                // κ_ij and X_j − X_i, u_j and H_j for the hourglass control.
+                read("pair", NONE, [1, 1, 0]).when(&["HOURGLASS"]),
+                read("y", NONE, [0, 1, 0]).when(&["HOURGLASS"]),
+                read("kin", [0, 0, 1], [0, 0, 1]).when(&["HOURGLASS"]),
                 // V, the boundary mask.
                 read("reference", [2, 0, 0], NONE),
                 // u, v.
@@ -137,6 +141,9 @@ pub struct TlScheme {
     /// The pass file's set-up entry `reverse_gradients` fills ∇0W̃_ji of every pair (i, j)
     /// into the pair data (field GREV) from the index of the reverse pair (`rev`).
     pub reverse: bool,
+    /// The hourglass control's α: the host fills its stiffness κ_ij into the pair data
+    /// (field HGK), which the acceleration pass reads.
+    pub hourglass: Option<f64>,
     /// Its own compiled-in constants.
     pub constants: Constants,
     /// Its force derives from Σ_i ψ_i rather than Σ_i V_i ψ_i (the reference code's
@@ -174,7 +181,9 @@ pub fn scheme(spec: &super::TlsphSpec) -> TlScheme {
         accel: ACCEL,
         reduce: REDUCE,
         reverse: variational,
+        hourglass: spec.hourglass,
         constants: viscosity(spec.artificial_viscosity.as_ref())
+            .u32("HOURGLASS", u32::from(spec.hourglass.is_some()))
             .choice(
                 "AV_GRADIENT",
                 &["PUSHED_FORWARD", "REFERENCE"],
@@ -252,7 +261,8 @@ impl Layout {
             pair: Fields::new("P", dim)
                 .vectors("G", true, pairs)
                 .vectors("DX", true, pairs)
-                .vectors("GREV", scheme.reverse, pairs),
+                .vectors("GREV", scheme.reverse, pairs)
+                .scalars("HGK", scheme.hourglass.is_some(), pairs),
             reference: reference::fields(n, dim, EXTRAS),
         }
     }
@@ -411,6 +421,13 @@ impl<D: GpuDim> GpuTlsph<D> {
                     ),
                 )
                 .into());
+        }
+        if let Some(alpha) = scheme.hourglass {
+            let kappa = hourglass_stiffness::<D>(case, alpha, &disc.x0, &disc.vol, &csr);
+            let kappa: Vec<f32> = kappa.into_iter().map(|k| k as f32).collect();
+            let at = (layout.pair.offset("HGK") * 4) as u64;
+            gpu.queue
+                .write_buffer(&pair, at, bytemuck::cast_slice(&kappa));
         }
         if scheme.reverse {
             let rev = crate::methods::shared::reverse_pairs(case, &csr)?;

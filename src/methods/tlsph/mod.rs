@@ -13,7 +13,7 @@ use super::{Feature, MethodFamily, Plan, Problem};
 use crate::material::Material;
 use crate::run::{Engine, EngineDim};
 use crate::scene::Case;
-use crate::scene::validate::non_negative;
+use crate::scene::validate::{non_negative, positive};
 use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};
 
@@ -93,6 +93,9 @@ pub struct TlsphSpec {
     /// The pair force (default `reveles`, eq 134).
     #[serde(default)]
     pub force: TlsphForce,
+    /// Ganzenmüller's hourglass control with stiffness α (in units of Young's modulus);
+    /// none when absent.
+    pub hourglass: Option<f64>,
 }
 
 /// One rate evaluation on the GPU, as `--explain` prints it.
@@ -101,12 +104,20 @@ const GPU_RATES: &str = "stress pass (F, P, ρ̇, Ṡ) + acceleration pass (a, u
 impl MethodFamily for TlsphSpec {
     const DESCRIPTION: &'static str = "total-Lagrangian SPH (Reveles; seed 000 §5.3): corrected \
         reference kernel, rate- or state-based stress, Monaghan artificial viscosity";
-    const KEYS: &'static [&'static str] = &["artificial_viscosity", "viscosity_gradient", "force"];
+    const KEYS: &'static [&'static str] = &[
+        "artificial_viscosity",
+        "viscosity_gradient",
+        "force",
+        "hourglass",
+    ];
     const FEATURES: &'static [Feature] = &[Feature::Contact, Feature::StaticSolve];
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
 
     fn validate(&self, _case: &Case) -> Result<(), Problem> {
+        if let Some(alpha) = self.hourglass {
+            positive("method.hourglass", alpha)?;
+        }
         match &self.artificial_viscosity {
             Some(av) => av.validate(),
             None => Ok(()),
@@ -126,6 +137,9 @@ impl MethodFamily for TlsphSpec {
                 (Some(_), ViscosityGradient::Reference) => "viscosity along F⁻ᵀ ∇0W̃_ij",
             },
         );
+        if self.hourglass.is_none() {
+            left_out.push("hourglass control");
+        }
         left_out.push(if rate {
             "P(F) evaluation"
         } else {
@@ -137,6 +151,10 @@ impl MethodFamily for TlsphSpec {
                 " and their reverses ∇0W̃_ji",
                 "P_i ∇0W̃_ij − P_j ∇0W̃_ji, variational",
             ),
+        };
+        let force = match self.hourglass {
+            None => force.to_string(),
+            Some(alpha) => format!("{force}, hourglass control α = {alpha}"),
         };
         Plan {
             once: format!(
@@ -196,6 +214,7 @@ mod tests {
             }),
             viscosity_gradient: ViscosityGradient::PushedForward,
             force: TlsphForce::Reveles,
+            hourglass: None,
         };
         let case = crate::scene::validate::minimal_case();
         spec(1.0).validate(&case).unwrap();

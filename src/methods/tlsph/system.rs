@@ -132,6 +132,44 @@ pub fn snapshot<'a, D: Dim>(
     }
 }
 
+/// The stiffness κ_ij = α E V_j W(|X_ij|)/(ρ0 |X_ij|²) of the hourglass control of every
+/// pair, in CSR order: the acceleration of i per unit δ_ij ([`hourglass_acceleration`]).
+/// m_i κ_ij = α E V_i V_j W/|X_ij|² is symmetric, so the pair forces are equal and
+/// opposite.
+pub fn hourglass_stiffness<D: Dim>(
+    case: &Case,
+    alpha: f64,
+    x0: &[D::V],
+    vol: &[f64],
+    csr: &Csr,
+) -> Vec<f64> {
+    let kernel = &case.kernel(D::N);
+    let (e, _) = case.material.youngs_and_poisson();
+    let rho0 = case.material.density;
+    (0..csr.len())
+        .into_par_iter()
+        .flat_map_iter(|i| {
+            csr.range(i).map(move |p| {
+                let j = csr.ids[p] as usize;
+                let r0_squared = D::norm2(x0[j] - x0[i]);
+                alpha * e * vol[j] * kernel.w(r0_squared.sqrt()) / (rho0 * r0_squared)
+            })
+        })
+        .collect()
+}
+
+/// The hourglass control's acceleration of i from its bond to j (Ganzenmüller 2015, the
+/// stiffness form of LAMMPS's SMD package): −κ_ij δ_ij e_ij, with the error vector
+/// γ_ij = ½(F_i + F_j) X_ij − x_ij = ½(H_i + H_j) X_ij − (u_j − u_i) (H = F − I, which
+/// keeps the digits of a small mismatch), e_ij = x_ij/|x_ij| and δ_ij = ½ γ_ij·e_ij. It
+/// vanishes when F_i and F_j map the bond exactly, as for every affine motion.
+pub fn hourglass_acceleration<D: Dim>(kappa: f64, dx0: D::V, du: D::V, h_sum: D::T) -> D::V {
+    let dx = dx0 + du;
+    let e = dx * (1.0 / D::norm2(dx).sqrt());
+    let gamma = h_sum * dx0 * 0.5 - du;
+    e * (-0.5 * kappa * D::dot(gamma, e))
+}
+
 /// The TLSPH system on the CPU (f64, rayon).
 pub struct Tlsph<D: Dim> {
     x0: Vec<D::V>,
@@ -144,6 +182,8 @@ pub struct Tlsph<D: Dim> {
     grad: Vec<D::V>,
     /// ∇0W̃_ji for every pair (i, j), in CSR order: the variational force only.
     grad_rev: Option<Vec<D::V>>,
+    /// The hourglass stiffness κ_ij of every pair, in CSR order, with the control on.
+    hourglass: Option<Vec<f64>>,
     material: Material,
     av: Option<ArtificialViscosity>,
     /// The direction of the viscous pair force.
@@ -178,6 +218,9 @@ impl<D: Dim> Tlsph<D> {
             TlsphForce::Reveles => None,
             TlsphForce::Variational => Some(reverse_gradients::<D>(case, &csr, &grad)?),
         };
+        let hourglass = spec
+            .hourglass
+            .map(|alpha| hourglass_stiffness::<D>(case, alpha, &x0, &vol, &csr));
         let interactions = Interactions::build(case, &x0, &body, || csr.clone())?;
         let identity = Kinematics {
             f: D::identity(),
@@ -195,6 +238,7 @@ impl<D: Dim> Tlsph<D> {
             csr,
             grad,
             grad_rev,
+            hourglass,
             material,
             av: spec.artificial_viscosity,
             av_gradient: spec.viscosity_gradient,
@@ -276,7 +320,8 @@ impl<D: Dim> Tlsph<D> {
     }
 
     /// Pass 2: a_i = (1/ρ0) Σ_j V_j (P_i + P_j) ∇0W̃_ij (eq 134), or the variational
-    /// (1/ρ0) Σ_j V_j (P_i ∇0W̃_ij − P_j ∇0W̃_ji), plus artificial viscosity.
+    /// (1/ρ0) Σ_j V_j (P_i ∇0W̃_ij − P_j ∇0W̃_ji), plus artificial viscosity and the
+    /// hourglass control.
     ///
     /// The viscous term acts along the current-configuration gradient F_i⁻ᵀ ∇0W̃_ij, or, with
     /// `viscosity_gradient = "reference"`, along ∇0W̃_ij unmapped as the paper and the
@@ -295,6 +340,7 @@ impl<D: Dim> Tlsph<D> {
                 let ci = (bulk / ki.rho).sqrt();
                 let mut stress = D::zero();
                 let mut viscous = D::zero();
+                let mut hourglass = D::zero();
                 for p in self.csr.range(i) {
                     let j = self.csr.ids[p] as usize;
                     let kj = self.kin[j];
@@ -304,6 +350,11 @@ impl<D: Dim> Tlsph<D> {
                         Some(rev) => ki.p * g - kj.p * rev[p],
                     };
                     stress += flux * self.vol[j];
+                    if let Some(kappa) = &self.hourglass {
+                        let (dx0, du) = (self.x0[j] - self.x0[i], y.u[j] - y.u[i]);
+                        let h_sum = ki.f + kj.f - D::identity() * 2.0;
+                        hourglass += hourglass_acceleration::<D>(kappa[p], dx0, du, h_sum);
+                    }
                     if let Some(av) = &self.av {
                         let x_ij = xi - (self.x0[j] + y.u[j]);
                         let c = 0.5 * (ci + (bulk / kj.rho).sqrt());
@@ -316,7 +367,7 @@ impl<D: Dim> Tlsph<D> {
                         viscous -= along * (self.mass[j] * pi);
                     }
                 }
-                *a = stress * inv_rho0 + viscous;
+                *a = stress * inv_rho0 + viscous + hourglass;
             });
     }
 
