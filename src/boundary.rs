@@ -33,7 +33,7 @@ pub struct Boundary<D: Dim> {
     /// prescribed (reached at the end time; static path), displacement): a subset of
     /// `constrained`, whose other components have prescribed velocities.
     pub displacement: Vec<(u32, u8, D::V)>,
-    /// (particle, external acceleration from tractions).
+    /// (particle, external acceleration from tractions and body forces).
     pub external: Vec<(u32, D::V)>,
     /// The prescribed velocities that vary in time, one per condition.
     pub timed: Vec<TimedVelocity>,
@@ -157,6 +157,9 @@ impl<D: Dim> Boundary<D> {
                     }
                     Condition::Traction { traction, .. } => {
                         external[i] += D::from_slice(traction) * (area / mass[i]);
+                    }
+                    Condition::BodyForce { acceleration, .. } => {
+                        external[i] += D::from_slice(acceleration);
                     }
                     Condition::Pressure { .. } => unreachable!("a timed load"),
                     Condition::Displacement { ux, uy, uz } => {
@@ -460,37 +463,48 @@ fn mix<D: Dim>(mask: u8, on: D::V, off: D::V) -> D::V {
     D::from_slice(&c)
 }
 
-/// A load of [`timed_loads`]: one boundary condition's time law and the forces on its
-/// particles at law value 1.
+/// A load of [`timed_loads`]: one boundary condition's time law and the accelerations it
+/// gives its particles at law value 1.
 #[derive(Clone, Debug)]
 pub struct TimedLoad<D: Dim> {
     pub law: TimeLaw,
-    /// (particle, force).
-    pub forces: Vec<(u32, D::V)>,
+    /// (particle, acceleration).
+    pub accelerations: Vec<(u32, D::V)>,
 }
 
 /// The loads of a case that vary in time, one per condition: its time law and the
-/// (particle, force) of every particle it loads, from the reference positions x0 and the
-/// body of each particle. A traction with a time law gives f = t·Δx^(d−1) to each
-/// particle of its region, as a constant one; a pressure p on a circle of radius R gives
-/// each particle within Δx of it on the body's side f = p R Δθ n, Δθ half the angle
-/// between its neighbours along the circle (so that the shares sum to 2πR) and n the
-/// reference normal into the body, ±(X − c)/|X − c|.
+/// (particle, acceleration) of every particle it loads, from the discretisation and the
+/// particles' masses. A traction with a time law gives f = t·Δx^(d−1) to each particle of
+/// its region, as a constant one; a pressure p on a circle of radius R gives each particle
+/// within Δx of it on the body's side f = p R Δθ n, Δθ half the angle between its
+/// neighbours along the circle (so that the shares sum to 2πR) and n the reference normal
+/// into the body, ±(X − c)/|X − c|; a force's acceleration is f/m. A body force gives its
+/// acceleration g to each particle of its region.
 pub fn timed_loads<D: Dim>(
     case: &Case,
-    x0: &[D::V],
-    body: &[u32],
+    disc: &Discretised<D>,
+    mass: &[f64],
 ) -> Result<Vec<TimedLoad<D>>, CaseError> {
+    let (x0, body) = (&disc.x0[..], &disc.body[..]);
     let mut loads = Vec::new();
     for (b, bc) in case.boundaries.iter().enumerate() {
         if !bc.condition.is_timed_load() {
             continue;
         }
-        let (law, forces): (&TimeLaw, Vec<(u32, D::V)>) = match &bc.condition {
+        let per_mass = |(i, f): (usize, D::V)| (i as u32, f * (1.0 / mass[i]));
+        let (law, accelerations): (&TimeLaw, Vec<(u32, D::V)>) = match &bc.condition {
             Condition::Traction { traction, law } => {
                 let f = D::from_slice(traction) * case.spacing.powi(D::N as i32 - 1);
                 let particles = selected::<D>(case, b, x0, body)?;
-                (law, particles.into_iter().map(|i| (i as u32, f)).collect())
+                (
+                    law,
+                    particles.into_iter().map(|i| per_mass((i, f))).collect(),
+                )
+            }
+            Condition::BodyForce { acceleration, law } => {
+                let g = D::from_slice(acceleration);
+                let particles = selected::<D>(case, b, x0, body)?;
+                (law, particles.into_iter().map(|i| (i as u32, g)).collect())
             }
             Condition::Pressure {
                 pressure,
@@ -517,19 +531,19 @@ pub fn timed_loads<D: Dim>(
                     Surface::Outer => -1.0,
                 };
                 let shares = pressure_shares::<D>(case, b, x0, &on_circle, center)?;
-                let forces = shares
+                let accelerations = shares
                     .into_iter()
                     .map(|(i, dtheta, normal)| {
-                        (i as u32, normal * (sign * pressure * radius * dtheta))
+                        per_mass((i, normal * (sign * pressure * radius * dtheta)))
                     })
                     .collect();
-                (law, forces)
+                (law, accelerations)
             }
-            _ => unreachable!("the timed loads are tractions and pressures"),
+            _ => unreachable!("the timed loads are tractions, pressures and body forces"),
         };
         loads.push(TimedLoad {
             law: law.clone(),
-            forces,
+            accelerations,
         });
     }
     Ok(loads)

@@ -152,22 +152,25 @@ pub fn check_f32_run<D: crate::tensor::Dim>(
         .iter()
         .find(|(_, a)| D::to3(*a).iter().any(|&c| !holds_f32(c)));
     if let Some(&(i, a)) = load {
-        // The traction condition with the largest traction gives it.
+        // The traction or body force with the largest magnitude gives it.
         let magnitude = |t: &[f64]| t.iter().map(|c| c * c).sum::<f64>();
-        let b = (0..case.boundaries.len())
+        let (b, name) = (0..case.boundaries.len())
             .filter_map(|b| match &case.boundaries[b].condition {
                 crate::scene::Condition::Traction { traction, .. } => {
-                    Some((b, magnitude(traction)))
+                    Some((b, "traction", magnitude(traction)))
+                }
+                crate::scene::Condition::BodyForce { acceleration, .. } => {
+                    Some((b, "acceleration", magnitude(acceleration)))
                 }
                 _ => None,
             })
-            .max_by(|x, y| x.1.total_cmp(&y.1))
-            .map_or(0, |(b, _)| b);
+            .max_by(|x, y| x.2.total_cmp(&y.2))
+            .map_or((0, "traction"), |(b, name, _)| (b, name));
         return Err(beyond_f32(
             case,
-            format!("boundary.{b}.condition.traction"),
+            format!("boundary.{b}.condition.{name}"),
             format!(
-                "gives particle {i} the acceleration {:?} m/s² (t·Δx^(d−1)/m)",
+                "gives particle {i} the acceleration {:?} m/s² (t·Δx^(d−1)/m, or g)",
                 D::to3(a)
             ),
         ));

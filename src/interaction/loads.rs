@@ -1,7 +1,7 @@
-//! Loads that vary in time: the tractions with a time law and the pressures of a case
-//! ([`crate::boundary::timed_loads`]), each a group of per-particle accelerations
-//! g_i = f_i/(ρ0 V_i) (the masses the constant tractions of [`crate::boundary::Boundary`]
-//! take) scaled by its law. The law is evaluated at the middle of every step and held
+//! Loads that vary in time: the tractions and body forces with a time law and the
+//! pressures of a case ([`crate::boundary::timed_loads`]), each a group of per-particle
+//! accelerations (g_i = f_i/(ρ0 V_i) for a force, the masses the constant tractions of
+//! [`crate::boundary::Boundary`] take) scaled by its law. The law is evaluated at the middle of every step and held
 //! through the step's stages, as the contact forces are, on both backends: on the GPU the
 //! host writes each step's law values as it records the step, and the pass
 //! `shaders/common/loads.wgsl` adds Σ_g law_g g_g,i to `ext`.
@@ -30,17 +30,10 @@ impl<D: Dim> TimedLoads<D> {
         }
         let disc = discretise::<D>(case)?;
         let rho0 = crate::material::Material::new(&case.material).rho0;
-        let loads = crate::boundary::timed_loads::<D>(case, &disc.x0, &disc.body)?;
+        let mass: Vec<f64> = disc.vol.iter().map(|v| rho0 * v).collect();
+        let loads = crate::boundary::timed_loads::<D>(case, &disc, &mass)?;
         let laws: Vec<TimeLaw> = loads.iter().map(|l| l.law.clone()).collect();
-        let groups = loads
-            .into_iter()
-            .map(|l| {
-                l.forces
-                    .into_iter()
-                    .map(|(i, f)| (i, f * (1.0 / (rho0 * disc.vol[i as usize]))))
-                    .collect()
-            })
-            .collect();
+        let groups = loads.into_iter().map(|l| l.accelerations).collect();
         Ok(Some(Self {
             factors: laws.iter().map(|law| law.at(0.0)).collect(),
             laws,

@@ -359,6 +359,15 @@ pub enum Condition {
         #[serde(default, skip_serializing_if = "TimeLaw::is_constant")]
         law: TimeLaw,
     },
+    /// A body force: the acceleration g [m/s²] (gravity, or any other field) on every
+    /// particle of the region (`region = {}`: the whole scene; `{ body = "…" }`: one body),
+    /// whatever its volume, times the time law (constant by default). Its work enters the
+    /// energy balance with the other loads'.
+    BodyForce {
+        acceleration: Vec<f64>,
+        #[serde(default, skip_serializing_if = "TimeLaw::is_constant")]
+        law: TimeLaw,
+    },
     /// Prescribed displacement components [m] reached at the end time (static path: the
     /// load steps ramp them with the load factor t/end_time); the others stay free.
     Displacement {
@@ -385,10 +394,10 @@ pub enum Condition {
 
 impl Condition {
     /// Whether the condition is a load that `interaction::TimedLoads` applies: a traction
-    /// with a time law, or a pressure (constant or not).
+    /// or a body force with a time law, or a pressure (constant or not).
     pub fn is_timed_load(&self) -> bool {
         match self {
-            Self::Traction { law, .. } => !law.is_constant(),
+            Self::Traction { law, .. } | Self::BodyForce { law, .. } => !law.is_constant(),
             Self::Pressure { .. } => true,
             _ => false,
         }

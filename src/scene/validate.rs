@@ -789,6 +789,10 @@ fn boundary(b: &BoundarySpec, key: &str, bodies: &[BodySpec], dim: usize) -> Che
             vector(&format!("{key}.traction"), traction, dim)?;
             time_law(law, &format!("{key}.law"))
         }
+        Condition::BodyForce { acceleration, law } => {
+            vector(&format!("{key}.acceleration"), acceleration, dim)?;
+            time_law(law, &format!("{key}.law"))
+        }
         Condition::Pressure {
             pressure,
             center,

@@ -7,6 +7,7 @@
 //! the modules share are in `common`. Modules and tests that need the `gpu` or `study`
 //! feature are compiled only with it (both are on by default).
 
+mod body_force;
 mod case_errors;
 mod checkpoint;
 mod common;
