@@ -57,6 +57,12 @@ impl MaterialModel {
         self == Self::Hypoelastic
     }
 
+    /// Whether P reads the area map H and the volume map J of the mixed formulations
+    /// (seed 003 eq 1) beside F: only the polyconvex model does.
+    pub fn reads_h_and_j(self) -> bool {
+        self == Self::NearlyIncompressibleNeoHookean
+    }
+
     /// The models `which` selects as case files name them, quoted and joined ("`a`, `b`
     /// or `c`"), for messages.
     pub fn names_where(which: impl Fn(Self) -> bool) -> String {
@@ -245,7 +251,7 @@ impl Material {
     /// of F (seed 003 eq 1). Only the polyconvex model reads H and J; the others are
     /// functions of F alone.
     pub fn pk1_mixed<D: Dim>(&self, f: D::T, h: D::T, j: f64) -> D::T {
-        if self.model != MaterialModel::NearlyIncompressibleNeoHookean {
+        if !self.model.reads_h_and_j() {
             return self.pk1::<D>(f);
         }
         let ff = full_ddot::<D>(f);

@@ -105,7 +105,8 @@ pub fn cpu_options(dir: &Path, frames: bool) -> RunOptions {
 
 /// Every variant the mixed methods compile, on top of the overrides `base`: Upwind-SPH
 /// with and without reconstruction, JST-SPH, each with each set of conserved variables
-/// (the last override of each variant).
+/// (the last override of each variant); the sets with H or J on the polyconvex model, the
+/// one model that reads them (a model of F alone evolves {p, F}).
 pub fn mixed_variants(base: &[&str]) -> Vec<Vec<String>> {
     let methods: [&[&str]; 3] = [
         &["method.name=upwind-sph"],
@@ -117,6 +118,9 @@ pub fn mixed_variants(base: &[&str]) -> Vec<Vec<String>> {
         for variables in ["p-F", "p-F-J", "p-F-H-J"] {
             let mut set: Vec<String> = base.iter().map(|s| s.to_string()).collect();
             set.extend(method.iter().map(|s| s.to_string()));
+            if variables != "p-F" {
+                set.push("material.model=nearly-incompressible-neo-hookean".into());
+            }
             set.push(format!("method.variables={variables}"));
             out.push(set);
         }

@@ -127,7 +127,8 @@ pub enum DeformationGradient {
 /// The `[method]` keys both mixed methods read.
 #[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
 pub struct MixedOptions {
-    /// The conservation variables evolved (default {p, F, H, J}).
+    /// The conservation variables evolved (default {p, F, H, J}) where the material reads
+    /// them; see [`MixedOptions::evolved`].
     #[serde(default)]
     pub variables: Conserved,
     /// The angular-momentum-preserving projection of the internal force and of the
@@ -145,6 +146,19 @@ pub struct MixedOptions {
 }
 
 impl MixedOptions {
+    /// The variables evolved for `model`: `variables` where the model reads H and J (the
+    /// polyconvex nearly incompressible neo-Hookean of seed 003 eq 1), {p, F} for a
+    /// model of F alone. Evolved beside such a model, H and J would be read by nothing,
+    /// and J's stabilisation (eq 33), with no pressure to pull J back to det F, drives it
+    /// through zero next to a clamp, where the stress jumps most.
+    pub fn evolved(&self, model: MaterialModel) -> Conserved {
+        if model.reads_h_and_j() {
+            self.variables
+        } else {
+            Conserved::PF
+        }
+    }
+
     /// Whether the projection is on: as given, else on without mirror planes and off
     /// with them (their reactions are external forces).
     pub fn projection(&self, case: &Case) -> bool {
@@ -273,11 +287,16 @@ fn plan(m: &MixedOptions, stab: Stabiliser, case: &Case, gpu: bool) -> Plan {
     if !m.projection(case) {
         left_out.push("angular-momentum projection");
     }
-    if !m.variables.evolves_h() {
-        left_out.push("H evolution (H = cof F)");
-    }
-    if !m.variables.evolves_j() {
-        left_out.push("J evolution (J = det F)");
+    let evolved = m.evolved(case.material.model);
+    if evolved != m.variables {
+        left_out.push("H and J evolution: the material reads F alone (H = cof F, J = det F)");
+    } else {
+        if !evolved.evolves_h() {
+            left_out.push("H evolution (H = cof F)");
+        }
+        if !evolved.evolves_j() {
+            left_out.push("J evolution (J = det F)");
+        }
     }
     if !bond {
         left_out.push("bond-based F^c (P of the evolved F)");
@@ -295,9 +314,9 @@ fn plan(m: &MixedOptions, stab: Stabiliser, case: &Case, gpu: bool) -> Plan {
         ),
         state: format!(
             "u, v, F{}{} ({:?}; {:?})",
-            if m.variables.evolves_h() { ", H" } else { "" },
-            if m.variables.evolves_j() { ", J" } else { "" },
-            m.variables,
+            if evolved.evolves_h() { ", H" } else { "" },
+            if evolved.evolves_j() { ", J" } else { "" },
+            evolved,
             mat.model
         ),
         cfl_step: format!(
@@ -330,7 +349,8 @@ fn plan(m: &MixedOptions, stab: Stabiliser, case: &Case, gpu: bool) -> Plan {
 /// The passes of one rate evaluation (the GPU's dispatches, the CPU's loops).
 fn rate_passes(m: &MixedOptions, stab: Stabiliser, case: &Case) -> String {
     let ghosts = !case.mirrors.is_empty();
-    let (h, j) = (m.variables.evolves_h(), m.variables.evolves_j());
+    let evolved = m.evolved(case.material.model);
+    let (h, j) = (evolved.evolves_h(), evolved.evolves_j());
     let jst = matches!(stab, Stabiliser::Jst(_));
     let d_j = !jst && j;
     let bond = m.bond_based();

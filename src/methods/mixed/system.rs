@@ -328,7 +328,7 @@ impl<D: Dim> MixedSph<D> {
             normal,
             ls,
             material,
-            conserved: options.variables,
+            conserved: options.evolved(case.material.model),
             momentum: options.momentum,
             bond_weights,
             plastic: material.von_mises().map(|model| History::virgin(model, n)),
