@@ -2,7 +2,8 @@
 //! its points from CSV) and set the initial velocity field.
 
 use super::{
-    BodySpec, Case, CaseError, Lattice, RingLattice, Shape, VelocityField, VelocityNoise, Volumes,
+    BodySpec, Case, CaseError, Expression, Lattice, RingLattice, Shape, VelocityField,
+    VelocityNoise, Volumes,
 };
 use crate::analytic::SwingingMode;
 use crate::material::Material;
@@ -76,11 +77,32 @@ pub fn discretise<D: Dim>(case: &Case) -> Result<Discretised<D>, CaseError> {
         let noise = spec
             .velocity_noise
             .map_or_else(Vec::new, |n| velocity_noise::<D>(&n, points.len()));
+        let key = format!("body.{b}.initial_velocity");
+        let expressions = match spec
+            .initial_velocity
+            .as_ref()
+            .and_then(|f| f.expressions(&key, D::N))
+        {
+            Some(parsed) => parsed.map_err(|(key, message)| case.invalid(key, message))?,
+            None => Vec::new(),
+        };
         for (i, (&x, &v)) in points.iter().zip(&volumes).enumerate() {
             out.x0.push(x);
             out.vol.push(v);
             out.body.push(b as u32);
-            let v0 = initial_velocity::<D>(case, spec.initial_velocity.as_ref(), x);
+            let v0 = initial_velocity::<D>(case, spec.initial_velocity.as_ref(), &expressions, x);
+            if !D::to3(v0).iter().all(|c| c.is_finite()) {
+                return Err(case.invalid(
+                    key,
+                    format!(
+                        "gives the velocity {:?} m/s at X = {:?} (body `{}`), not a finite \
+                         one; make the field finite over the body",
+                        D::to3(v0),
+                        D::to3(x),
+                        spec.name
+                    ),
+                ));
+            }
             out.v0.push(noise.get(i).map_or(v0, |&dv| v0 + dv));
         }
     }
@@ -567,10 +589,20 @@ fn read_points<D: Dim>(path: &Path, cell: f64) -> Result<(Vec<D::V>, Vec<f64>), 
     Ok((points, vols))
 }
 
-fn initial_velocity<D: Dim>(case: &Case, field: Option<&VelocityField>, x: D::V) -> D::V {
+/// v0(X) of `field`; `expressions` are the parsed components of an `expression` field.
+fn initial_velocity<D: Dim>(
+    case: &Case,
+    field: Option<&VelocityField>,
+    expressions: &[Expression],
+    x: D::V,
+) -> D::V {
     let Some(field) = field else { return D::zero() };
     let p = D::to3(x);
     match field {
+        VelocityField::Expression { .. } => {
+            let v: Vec<f64> = expressions.iter().map(|e| e.at(p)).collect();
+            D::from_slice(&v)
+        }
         VelocityField::Uniform { value } => D::from_slice(value),
         VelocityField::Linear { gradient } => {
             let v: Vec<f64> = gradient

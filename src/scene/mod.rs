@@ -3,10 +3,12 @@
 //! A case is parsed completely and validated before anything runs; every error names
 //! the file, the key and what is allowed.
 
+mod expression;
 mod geometry;
 mod overrides;
 pub(crate) mod validate;
 
+pub use expression::Expression;
 pub use geometry::{BodySize, Discretised, PARTICLE_ID_LIMIT, discretise, estimate_particles};
 
 use crate::material::MaterialModel;
@@ -295,6 +297,51 @@ pub enum VelocityField {
         omega: f64,
         length: f64,
     },
+    /// Each component an expression of the reference coordinates x, y (z in 3D) and the
+    /// named `constants` ([`Expression`]), e.g. `vy = "0.05*c*sin(PI*x/L)"`.
+    Expression {
+        vx: String,
+        vy: String,
+        vz: Option<String>,
+        #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+        constants: std::collections::BTreeMap<String, f64>,
+    },
+}
+
+impl VelocityField {
+    /// The component expressions of an `expression` field, parsed for a `dim`-D scene
+    /// (with `vz` in 3D only), each with its key below `key`; None for the other fields.
+    pub fn expressions(
+        &self,
+        key: &str,
+        dim: usize,
+    ) -> Option<Result<Vec<Expression>, (String, String)>> {
+        let Self::Expression {
+            vx,
+            vy,
+            vz,
+            constants,
+        } = self
+        else {
+            return None;
+        };
+        let components = [("vx", Some(vx)), ("vy", Some(vy)), ("vz", vz.as_ref())];
+        Some(
+            components[..dim]
+                .iter()
+                .map(|&(name, text)| {
+                    let key = format!("{key}.{name}");
+                    let text = text.ok_or_else(|| {
+                        (
+                            key.clone(),
+                            "is required in 3D: give v_z as an expression".to_string(),
+                        )
+                    })?;
+                    Expression::parse(text, dim, constants).map_err(|e| (key, e))
+                })
+                .collect(),
+        )
+    }
 }
 
 /// A boundary condition on a region of the reference configuration.

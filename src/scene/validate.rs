@@ -681,6 +681,32 @@ fn velocity(field: &VelocityField, key: &str, dim: usize) -> Checked {
             positive(&format!("{key}.width"), *width)
         }
         VelocityField::Swinging { amplitude } => finite(&format!("{key}.amplitude"), *amplitude),
+        VelocityField::Expression { vz, constants, .. } => {
+            if dim != 3 && vz.is_some() {
+                return fail(
+                    format!("{key}.vz"),
+                    format!(
+                        "exists only in 3D, but the case has dimension = {dim}; give vx and vy"
+                    ),
+                );
+            }
+            for (name, &c) in constants {
+                if ["x", "y", "z", "PI", "E"].contains(&name.as_str())
+                    || !name.chars().all(|c| c.is_alphanumeric() || c == '_')
+                    || name.starts_with(|c: char| c.is_ascii_digit())
+                {
+                    return fail(
+                        format!("{key}.constants.{name}"),
+                        "is not a name a constant can have: use letters, digits and _ (not                          first a digit), other than x, y, z, PI and E",
+                    );
+                }
+                finite(&format!("{key}.constants.{name}"), c)?;
+            }
+            match field.expressions(key, dim) {
+                Some(Err((key, message))) => fail(key, message),
+                _ => Ok(()),
+            }
+        }
         VelocityField::Twist { omega, length } => {
             if dim != 3 {
                 return fail(

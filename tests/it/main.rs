@@ -34,6 +34,7 @@ mod gpu_ul;
 mod gray_monaghan;
 mod hostile;
 mod hourglass_control;
+mod initial_fields;
 mod kbm_efg;
 mod loads;
 #[cfg(feature = "study")]

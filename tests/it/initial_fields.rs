@@ -1,0 +1,70 @@
+//! Initial fields given as expressions of the reference coordinates
+//! (`initial_velocity = { type = "expression", … }`).
+
+use meshless::scene::{Case, discretise};
+use meshless::tensor::D2;
+use std::path::Path;
+
+/// The shipped rotating disk with its initial velocity replaced by `field`.
+fn disk(field: &str) -> Result<Case, meshless::scene::CaseError> {
+    let text = std::fs::read_to_string(crate::common::case_file("rotating-disk")).unwrap();
+    let text = text.replace(
+        r#"initial_velocity = { type = "rigid-rotation", omega = 50.0, center = [0.0, 0.0] }"#,
+        &format!("initial_velocity = {field}"),
+    );
+    Case::from_toml(&text, Path::new("disk.toml"), &[])
+}
+
+#[test]
+fn an_expression_gives_the_field_it_writes() {
+    // v = ω × X written out, against the built-in rigid rotation at every particle.
+    // Bound 1e-13 of ω R: the two evaluate the same products in a different order.
+    let rigid = discretise::<D2>(
+        &disk(r#"{ type = "rigid-rotation", omega = 50.0, center = [0.0, 0.0] }"#).unwrap(),
+    )
+    .unwrap();
+    let written = discretise::<D2>(
+        &disk(r#"{ type = "expression", vx = "-w*y", vy = "w*x", constants = { w = 50.0 } }"#)
+            .unwrap(),
+    )
+    .unwrap();
+    assert_eq!(rigid.v0.len(), written.v0.len());
+    for (a, b) in rigid.v0.iter().zip(&written.v0) {
+        assert!((*a - *b).length() < 1e-13 * 50.0, "{a} against {b}");
+    }
+}
+
+#[test]
+fn a_wrong_expression_is_refused_with_its_key_and_position() {
+    let shown = |field: &str| disk(field).unwrap_err().to_string();
+    let e = shown(r#"{ type = "expression", vx = "-w*y", vy = "w*xx", constants = { w = 50.0 } }"#);
+    assert!(
+        e.contains("disk.toml")
+            && e.contains("body.0.initial_velocity.vy")
+            && e.contains("`xx` at character 3")
+            && e.contains("x, y, w"),
+        "{e}"
+    );
+    let e = shown(r#"{ type = "expression", vx = "(y", vy = "0" }"#);
+    assert!(
+        e.contains("body.0.initial_velocity.vx") && e.contains("does not parse"),
+        "{e}"
+    );
+    let e = shown(r#"{ type = "expression", vx = "y", vy = "0", vz = "1" }"#);
+    assert!(
+        e.contains("body.0.initial_velocity.vz") && e.contains("only in 3D"),
+        "{e}"
+    );
+    let e = shown(r#"{ type = "expression", vx = "y", vy = "0", constants = { x = 1.0 } }"#);
+    assert!(e.contains("body.0.initial_velocity.constants.x"), "{e}");
+    // Finite everywhere is checked at the particles: sqrt of a negative number is NaN.
+    let case = disk(r#"{ type = "expression", vx = "sqrt(-1 - x*x)", vy = "0" }"#).unwrap();
+    let Err(e) = discretise::<D2>(&case) else {
+        panic!("a NaN velocity is accepted")
+    };
+    let e = e.to_string();
+    assert!(
+        e.contains("body.0.initial_velocity") && e.contains("not a finite"),
+        "{e}"
+    );
+}
