@@ -33,6 +33,8 @@ struct Sampled<D: Dim> {
     volumes: Vec<f64>,
     /// The corners of its cells (2^d each, VTK order), numbered within the body.
     corners: Vec<u32>,
+    /// Initial velocities of the points, where a points file gives them.
+    velocities: Option<Vec<D::V>>,
 }
 
 impl<D: Dim> From<(Vec<D::V>, Vec<f64>)> for Sampled<D> {
@@ -41,6 +43,7 @@ impl<D: Dim> From<(Vec<D::V>, Vec<f64>)> for Sampled<D> {
             points,
             volumes,
             corners: Vec::new(),
+            velocities: None,
         }
     }
 }
@@ -59,6 +62,7 @@ pub fn discretise<D: Dim>(case: &Case) -> Result<Discretised<D>, CaseError> {
             points,
             volumes,
             corners,
+            velocities,
         } = sample::<D>(case, b, spec)?;
         if points.is_empty() {
             return Err(case.invalid(
@@ -78,6 +82,13 @@ pub fn discretise<D: Dim>(case: &Case) -> Result<Discretised<D>, CaseError> {
             .velocity_noise
             .map_or_else(Vec::new, |n| velocity_noise::<D>(&n, points.len()));
         let key = format!("body.{b}.initial_velocity");
+        if velocities.is_some() && spec.initial_velocity.is_some() {
+            return Err(case.invalid(
+                key,
+                "is given twice: the points file of the body has velocity columns too; \
+                 remove the key or the columns",
+            ));
+        }
         let expressions = match spec
             .initial_velocity
             .as_ref()
@@ -90,7 +101,12 @@ pub fn discretise<D: Dim>(case: &Case) -> Result<Discretised<D>, CaseError> {
             out.x0.push(x);
             out.vol.push(v);
             out.body.push(b as u32);
-            let v0 = initial_velocity::<D>(case, spec.initial_velocity.as_ref(), &expressions, x);
+            let v0 = match &velocities {
+                Some(given) => given[i],
+                None => {
+                    initial_velocity::<D>(case, spec.initial_velocity.as_ref(), &expressions, x)
+                }
+            };
             if !D::to3(v0).iter().all(|c| c.is_finite()) {
                 return Err(case.invalid(
                     key,
@@ -225,14 +241,12 @@ fn sample<D: Dim>(case: &Case, b: usize, spec: &BodySpec) -> Result<Sampled<D>, 
         }
         Shape::Points { file } => {
             let path = case.base_dir().join(file);
-            read_points::<D>(&path, cell)
-                .map_err(|m| {
-                    case.invalid(
-                        format!("body.{b}.geometry.file"),
-                        format!("{}: {m}", path.display()),
-                    )
-                })?
-                .into()
+            read_points::<D>(&path, cell).map_err(|m| {
+                case.invalid(
+                    format!("body.{b}.geometry.file"),
+                    format!("{}: {m}", path.display()),
+                )
+            })?
         }
     })
 }
@@ -301,6 +315,7 @@ fn polar_ring<D: Dim>(
         points,
         volumes,
         corners,
+        velocities: None,
     }
 }
 
@@ -539,7 +554,7 @@ fn count_point_rows(path: &Path) -> Result<u64, String> {
 
 /// Reads `x,y[,z][,volume]` rows (header required, any column order). Without a volume
 /// column every point gets Δx^d. Errors name lines and columns, never the file's text.
-fn read_points<D: Dim>(path: &Path, cell: f64) -> Result<(Vec<D::V>, Vec<f64>), String> {
+fn read_points<D: Dim>(path: &Path, cell: f64) -> Result<Sampled<D>, String> {
     let text = read_points_file(path)?;
     let mut lines = text
         .lines()
@@ -547,7 +562,7 @@ fn read_points<D: Dim>(path: &Path, cell: f64) -> Result<(Vec<D::V>, Vec<f64>), 
         .filter(|(_, l)| !l.trim().is_empty());
     let (_, header) = lines
         .next()
-        .ok_or("empty file; expected a header line x,y[,z][,volume]")?;
+        .ok_or("empty file; expected a header line x,y[,z][,volume][,vx,vy[,vz]]")?;
     let names: Vec<&str> = header.split(',').map(str::trim).collect();
     let column = |name: &str| names.iter().position(|&c| c == name);
     let axes: Vec<usize> = ["x", "y", "z"][..D::N]
@@ -561,7 +576,19 @@ fn read_points<D: Dim>(path: &Path, cell: f64) -> Result<(Vec<D::V>, Vec<f64>), 
         })
         .collect::<Result<_, _>>()?;
     let volume = column("volume");
-    let (mut points, mut vols) = (Vec::new(), Vec::new());
+    let speeds: Vec<Option<usize>> = ["vx", "vy", "vz"][..D::N]
+        .iter()
+        .map(|&c| column(c))
+        .collect();
+    let velocity_columns: Option<Vec<usize>> = speeds.iter().copied().collect();
+    if velocity_columns.is_none() && speeds.iter().any(Option::is_some) {
+        return Err(format!(
+            "the header has some velocity columns but not all of {}; give every component \
+             or none",
+            ["vx", "vy", "vz"][..D::N].join(", ")
+        ));
+    }
+    let (mut points, mut vols, mut velocities) = (Vec::new(), Vec::new(), Vec::new());
     for (line_no, line) in lines {
         let fields: Vec<f64> = line
             .split(',')
@@ -585,8 +612,17 @@ fn read_points<D: Dim>(path: &Path, cell: f64) -> Result<(Vec<D::V>, Vec<f64>), 
             ));
         }
         vols.push(v);
+        if let Some(columns) = &velocity_columns {
+            let v: Vec<f64> = columns.iter().map(|&c| fields[c]).collect();
+            velocities.push(D::from_slice(&v));
+        }
     }
-    Ok((points, vols))
+    Ok(Sampled {
+        points,
+        volumes: vols,
+        corners: Vec::new(),
+        velocities: velocity_columns.map(|_| velocities),
+    })
 }
 
 /// v0(X) of `field`; `expressions` are the parsed components of an `expression` field.

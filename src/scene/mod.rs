@@ -244,7 +244,8 @@ pub enum Shape {
         #[serde(default)]
         lattice: Lattice,
     },
-    /// Points from a CSV file with a header naming columns x, y[, z][, volume].
+    /// Points from a CSV file with a header naming columns x, y[, z][, volume] and
+    /// optionally their initial velocities vx, vy[, vz].
     Points { file: PathBuf },
 }
 

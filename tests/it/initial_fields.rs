@@ -1,12 +1,12 @@
 //! Initial fields given as expressions of the reference coordinates
 //! (`initial_velocity = { type = "expression", … }`).
 
-use meshless::scene::{Case, discretise};
+use meshless::scene::{Case, CaseError, Discretised, discretise};
 use meshless::tensor::D2;
 use std::path::Path;
 
 /// The shipped rotating disk with its initial velocity replaced by `field`.
-fn disk(field: &str) -> Result<Case, meshless::scene::CaseError> {
+fn disk(field: &str) -> Result<Case, CaseError> {
     let text = std::fs::read_to_string(crate::common::case_file("rotating-disk")).unwrap();
     let text = text.replace(
         r#"initial_velocity = { type = "rigid-rotation", omega = 50.0, center = [0.0, 0.0] }"#,
@@ -66,5 +66,71 @@ fn a_wrong_expression_is_refused_with_its_key_and_position() {
     assert!(
         e.contains("body.0.initial_velocity") && e.contains("not a finite"),
         "{e}"
+    );
+}
+
+/// The discretised case of one body read from the points file `rows` (with its header),
+/// written beside the case file in a temporary folder, with `extra` lines in the body's
+/// table.
+fn from_points(rows: &str, extra: &str) -> Result<Discretised<D2>, CaseError> {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("pts.csv"), rows).unwrap();
+    let text = format!(
+        r#"
+name = "points"
+dimension = 2
+spacing = 0.1
+[material]
+model = "neo-hookean"
+density = 1000.0
+youngs_modulus = 1.0e6
+poisson_ratio = 0.3
+[method]
+name = "tlsph"
+h_over_dx = 1.3
+dt = 1.0e-5
+[[body]]
+name = "b"
+geometry = {{ shape = "points", file = "pts.csv" }}
+{extra}
+[run]
+end_time = 1.0e-4
+"#
+    );
+    let path = dir.path().join("points.toml");
+    std::fs::write(&path, &text).unwrap();
+    discretise::<D2>(&Case::load(&path, &[])?)
+}
+
+#[test]
+fn a_points_file_may_give_the_initial_velocities() {
+    // The velocity columns become v0 of their rows, exactly.
+    let d = from_points("x,y,volume,vx,vy\n0,0,0.01,1.5,-2\n0.1,0,0.01,0.25,3\n", "").unwrap();
+    assert_eq!(
+        d.v0,
+        [glam::DVec2::new(1.5, -2.0), glam::DVec2::new(0.25, 3.0)]
+    );
+}
+
+#[test]
+fn velocity_columns_must_be_whole_and_not_given_twice() {
+    let Err(partial) = from_points("x,y,vx\n0,0,1\n0.1,0,1\n", "") else {
+        panic!("a vx column without vy is accepted")
+    };
+    let partial = partial.to_string();
+    assert!(
+        partial.contains("body.0.geometry.file") && partial.contains("vx, vy"),
+        "{partial}"
+    );
+    let Err(twice) = from_points(
+        "x,y,vx,vy\n0,0,1,0\n0.1,0,1,0\n",
+        r#"initial_velocity = { type = "uniform", value = [1.0, 0.0] }"#,
+    ) else {
+        panic!("velocities given twice are accepted")
+    };
+    let twice = twice.to_string();
+    assert!(
+        twice.contains("body.0.initial_velocity") && twice.contains("given twice"),
+        "{twice}"
     );
 }
