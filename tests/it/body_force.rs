@@ -203,12 +203,7 @@ fn beam_sag(spacing: f64) -> f64 {
     let mut e = engine::<D2>(&case, Backend::Cpu).unwrap();
     e.advance(0.0, 1.0, 1).unwrap();
     let s = e.snapshot();
-    let tip = (0..s.x0.len())
-        .min_by(|&a, &b| {
-            let d = |i: usize| (s.x0[i] - glam::DVec2::new(10.0, 0.0)).length();
-            d(a).total_cmp(&d(b))
-        })
-        .unwrap();
+    let tip = crate::common::nearest(s.x0, [10.0, 0.0]);
     -s.u[tip].y / 1.4868e-2
 }
 

@@ -417,3 +417,11 @@ pub fn block_case(max: &[f64], model: &str, method: &str, method_keys: &str) -> 
 pub fn random_vector<D: Dim>(seed: &mut u64, scale: f64) -> D::V {
     D::from_slice(&(0..D::N).map(|_| scale * noise(seed)).collect::<Vec<_>>())
 }
+
+/// The particle of a 2D scene nearest to `point` in the reference configuration x0.
+pub fn nearest(x0: &[glam::DVec2], point: [f64; 2]) -> usize {
+    let d = |i: usize| (x0[i] - glam::DVec2::from_array(point)).length();
+    (0..x0.len())
+        .min_by(|&a, &b| d(a).total_cmp(&d(b)))
+        .unwrap()
+}

@@ -69,33 +69,16 @@ fn a_wrong_expression_is_refused_with_its_key_and_position() {
     );
 }
 
-/// The discretised case of one body read from the points file `rows` (with its header),
-/// written beside the case file in a temporary folder, with `extra` lines in the body's
-/// table.
+/// The discretised block case of `common::block_text` with its body read from the points
+/// file `rows` (with its header), written beside the case file in a temporary folder, and
+/// `extra` lines in the body's table.
 fn from_points(rows: &str, extra: &str) -> Result<Discretised<D2>, CaseError> {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("pts.csv"), rows).unwrap();
-    let text = format!(
-        r#"
-name = "points"
-dimension = 2
-spacing = 0.1
-[material]
-model = "neo-hookean"
-density = 1000.0
-youngs_modulus = 1.0e6
-poisson_ratio = 0.3
-[method]
-name = "tlsph"
-h_over_dx = 1.3
-dt = 1.0e-5
-[[body]]
-name = "b"
-geometry = {{ shape = "points", file = "pts.csv" }}
-{extra}
-[run]
-end_time = 1.0e-4
-"#
+    let text = crate::common::block_text(&[0.1, 0.1], "neo-hookean", "tlsph", "").replacen(
+        r#"geometry = { shape = "box", min = [0.0, 0.0], max = [0.1, 0.1] }"#,
+        &format!("geometry = {{ shape = \"points\", file = \"pts.csv\" }}\n{extra}"),
+        1,
     );
     let path = dir.path().join("points.toml");
     std::fs::write(&path, &text).unwrap();

@@ -601,11 +601,7 @@ fn swing_clamped_plate(model: &str, variables: &str) -> CpuEngine<D2, MixedSph<D
 
 /// The vertical displacement of the middle of the plate's free end.
 fn tip_deflection(e: &CpuEngine<D2, MixedSph<D2>>) -> f64 {
-    let d = |i: usize| (e.reference()[i] - glam::DVec2::new(2.0, 0.25)).length();
-    let tip = (0..e.y.u.len())
-        .min_by(|&a, &b| d(a).total_cmp(&d(b)))
-        .unwrap();
-    e.y.u[tip].y
+    e.y.u[crate::common::nearest(e.reference(), [2.0, 0.25])].y
 }
 
 #[test]

@@ -287,11 +287,7 @@ fn cantilever_half_period(spacing: f64) -> f64 {
     );
     let mut e = CpuEngine::<D2, Tlsph<D2>>::new(&case).unwrap();
     let dt = case.method.cfl.unwrap() * spacing / e.max_signal_speed();
-    let x0 = e.reference().to_vec();
-    let d = |i: usize| (x0[i] - glam::DVec2::new(2.0, 0.0)).length();
-    let tip = (0..x0.len())
-        .min_by(|&a, &b| d(a).total_cmp(&d(b)))
-        .unwrap();
+    let tip = crate::common::nearest(e.reference(), [2.0, 0.0]);
     let (mut t, mut before) = (0.0, 0.0);
     loop {
         e.advance(t, dt, 1).unwrap();
