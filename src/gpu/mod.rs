@@ -107,7 +107,7 @@ fn beyond_f32(case: &Case, key: impl Into<String>, what: String) -> CaseError {
     case.invalid(
         key,
         format!(
-            "{what}, which the f32 of the GPU backend cannot hold (normal f32 magnitudes lie              between 1.2e-38 and 3.4e38); run with --backend cpu (f64), or express the case              in other units"
+            "{what}, which the f32 of the GPU backend cannot hold (normal f32 magnitudes lie between 1.2e-38 and 3.4e38); run with --backend cpu (f64), or express the case in other units"
         ),
     )
 }

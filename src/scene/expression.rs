@@ -1,42 +1,45 @@
-//! Fields given as expressions of the reference coordinates X = (x, y, z) and named
-//! constants, e.g. an initial velocity `vy = "0.05*c*sin(PI*x/L)"`. `exmex` parses and
-//! evaluates them in f64 (floats only: `1/2` is 0.5), with its functions (sin, cos, tan,
-//! exp, ln, sqrt, abs, …) and constants (`PI`, `E`).
+//! Values given as expressions of named variables and constants: an initial velocity of
+//! the reference coordinates x, y, z (`vy = "0.05*c*sin(PI*x/L)"`), a time law of t.
+//! `exmex` parses and evaluates them in f64 (floats only: `1/2` is 0.5), with its
+//! functions (sin, cos, tan, exp, ln, sqrt, abs, …) and constants (`PI`, `E`).
 
 use exmex::{Express, FlatEx};
 use std::collections::BTreeMap;
 
-const COORDINATES: [&str; 3] = ["x", "y", "z"];
+/// The reference coordinates an initial field reads, of which a `dim`-D scene has the
+/// first `dim`.
+pub const COORDINATES: [&str; 3] = ["x", "y", "z"];
 
 /// A parsed expression with, for each of its variables, where its value comes from.
 #[derive(Clone, Debug)]
 pub struct Expression {
     ex: FlatEx<f64>,
-    /// Per variable of `ex`, in its order: a coordinate of X or a constant.
+    /// Per variable of `ex`, in its order: one of the variables or a constant.
     slots: Vec<Slot>,
 }
 
 #[derive(Clone, Copy, Debug)]
 enum Slot {
-    Coordinate(usize),
+    Variable(usize),
     Constant(f64),
 }
 
 impl Expression {
-    /// Parses `text` over the first `dim` coordinates and `constants`; Err says what is
-    /// wrong: the parser's message, or a name that is neither, with its position, and
-    /// the names allowed.
+    /// Parses `text` over `variables` (`what` says what they are, for the errors) and
+    /// `constants`; Err says what is wrong: the parser's message, or a name that is
+    /// neither, with its position, and the names allowed.
     pub fn parse(
         text: &str,
-        dim: usize,
+        variables: &[&str],
+        what: &str,
         constants: &BTreeMap<String, f64>,
     ) -> Result<Self, String> {
         let allowed = || {
-            let mut names: Vec<&str> = COORDINATES[..dim].to_vec();
+            let mut names: Vec<&str> = variables.to_vec();
             names.extend(constants.keys().map(String::as_str));
             format!(
-                "the names allowed are {} (the reference coordinates{}), PI, E and exmex's \
-                 functions (sin, cos, exp, sqrt, …)",
+                "the names allowed are {} ({what}{}), PI, E and exmex's functions (sin, cos, \
+                 exp, sqrt, …)",
                 names.join(", "),
                 if constants.is_empty() {
                     ""
@@ -51,8 +54,8 @@ impl Expression {
             .var_names()
             .iter()
             .map(|name| {
-                if let Some(k) = COORDINATES[..dim].iter().position(|c| c == name) {
-                    Ok(Slot::Coordinate(k))
+                if let Some(k) = variables.iter().position(|c| c == name) {
+                    Ok(Slot::Variable(k))
                 } else if let Some(&c) = constants.get(name) {
                     Ok(Slot::Constant(c))
                 } else {
@@ -67,17 +70,17 @@ impl Expression {
         Ok(Self { ex, slots })
     }
 
-    /// The value at the reference position x.
-    pub fn at(&self, x: [f64; 3]) -> f64 {
-        let values: Vec<f64> = self
+    /// The value at the given values of the variables, in their order.
+    pub fn at(&self, values: &[f64]) -> f64 {
+        let args: Vec<f64> = self
             .slots
             .iter()
             .map(|s| match *s {
-                Slot::Coordinate(k) => x[k],
+                Slot::Variable(k) => values[k],
                 Slot::Constant(c) => c,
             })
             .collect();
-        self.ex.eval(&values).unwrap_or(f64::NAN)
+        self.ex.eval(&args).unwrap_or(f64::NAN)
     }
 }
 
@@ -100,21 +103,29 @@ mod tests {
     #[test]
     fn coordinates_and_constants_take_their_values() {
         let constants = BTreeMap::from([("c".to_string(), 2.0), ("L".to_string(), 4.0)]);
-        let e = Expression::parse("c*sin(PI*x/L) + y^2 - 1/2", 2, &constants).unwrap();
-        let v = e.at([1.0, 3.0, 0.0]);
+        let e = Expression::parse(
+            "c*sin(PI*x/L) + y^2 - 1/2",
+            &COORDINATES[..2],
+            "",
+            &constants,
+        )
+        .unwrap();
+        let v = e.at(&[1.0, 3.0]);
         let exact = 2.0 * (std::f64::consts::PI / 4.0).sin() + 9.0 - 0.5;
         assert!((v - exact).abs() < 1e-14, "{v} against {exact}");
     }
 
     #[test]
     fn an_unknown_name_is_shown_with_its_position_and_the_names_allowed() {
-        let e = Expression::parse("2*x + zz*y", 2, &BTreeMap::new()).unwrap_err();
+        let xy = &COORDINATES[..2];
+        let what = "the reference coordinates";
+        let e = Expression::parse("2*x + zz*y", xy, what, &BTreeMap::new()).unwrap_err();
         assert!(e.contains("`zz` at character 7"), "{e}");
         assert!(e.contains("x, y (the reference coordinates)"), "{e}");
         // z is not a coordinate of a 2D scene.
-        let e = Expression::parse("z", 2, &BTreeMap::new()).unwrap_err();
+        let e = Expression::parse("z", xy, what, &BTreeMap::new()).unwrap_err();
         assert!(e.contains("`z` at character 1"), "{e}");
-        let e = Expression::parse("2*(x", 2, &BTreeMap::new()).unwrap_err();
+        let e = Expression::parse("2*(x", xy, what, &BTreeMap::new()).unwrap_err();
         assert!(e.contains("does not parse"), "{e}");
     }
 }

@@ -636,7 +636,7 @@ fn initial_velocity<D: Dim>(
     let p = D::to3(x);
     match field {
         VelocityField::Expression { .. } => {
-            let v: Vec<f64> = expressions.iter().map(|e| e.at(p)).collect();
+            let v: Vec<f64> = expressions.iter().map(|e| e.at(&p)).collect();
             D::from_slice(&v)
         }
         VelocityField::Uniform { value } => D::from_slice(value),

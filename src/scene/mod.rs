@@ -338,7 +338,13 @@ impl VelocityField {
                             "is required in 3D: give v_z as an expression".to_string(),
                         )
                     })?;
-                    Expression::parse(text, dim, constants).map_err(|e| (key, e))
+                    Expression::parse(
+                        text,
+                        &expression::COORDINATES[..dim],
+                        "the reference coordinates",
+                        constants,
+                    )
+                    .map_err(|e| (key, e))
                 })
                 .collect(),
         )
@@ -494,9 +500,24 @@ pub enum TimeLaw {
     /// second value holds from that time on (`[[0, 1], [1e-4, 1], [1e-4, 0]]` holds a load
     /// for 0.1 ms and removes it).
     Table { points: Vec<[f64; 2]> },
+    /// An expression of the time t [s] and named `constants` ([`Expression`]), e.g.
+    /// `value = "sin(2*PI*f*t)"` with `constants = { f = 50.0 }`.
+    Expression {
+        value: String,
+        #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+        constants: std::collections::BTreeMap<String, f64>,
+    },
 }
 
 impl TimeLaw {
+    /// The parsed expression of an `expression` law; None for the other laws.
+    pub fn expression(&self) -> Option<Result<Expression, String>> {
+        let Self::Expression { value, constants } = self else {
+            return None;
+        };
+        Some(Expression::parse(value, &["t"], "the time [s]", constants))
+    }
+
     pub fn is_constant(&self) -> bool {
         *self == Self::Constant
     }
@@ -518,6 +539,10 @@ impl TimeLaw {
                     }
                 }
             }
+            Self::Expression { .. } => self
+                .expression()
+                .and_then(Result::ok)
+                .map_or(f64::NAN, |e| e.at(&[t])),
         }
     }
 }

@@ -690,18 +690,7 @@ fn velocity(field: &VelocityField, key: &str, dim: usize) -> Checked {
                     ),
                 );
             }
-            for (name, &c) in constants {
-                if ["x", "y", "z", "PI", "E"].contains(&name.as_str())
-                    || !name.chars().all(|c| c.is_alphanumeric() || c == '_')
-                    || name.starts_with(|c: char| c.is_ascii_digit())
-                {
-                    return fail(
-                        format!("{key}.constants.{name}"),
-                        "is not a name a constant can have: use letters, digits and _ (not                          first a digit), other than x, y, z, PI and E",
-                    );
-                }
-                finite(&format!("{key}.constants.{name}"), c)?;
-            }
+            expression_constants(key, constants, &["x", "y", "z"])?;
             match field.expressions(key, dim) {
                 Some(Err((key, message))) => fail(key, message),
                 _ => Ok(()),
@@ -910,6 +899,32 @@ fn boundary(b: &BoundarySpec, key: &str, bodies: &[BodySpec], dim: usize) -> Che
 
 /// A time law: positive durations and time constants, a table of finite points with
 /// non-decreasing times.
+/// The named constants of an expression below `key`: names of letters, digits and _ (not
+/// first a digit) other than the expression's `variables`, PI and E; finite values.
+fn expression_constants(
+    key: &str,
+    constants: &std::collections::BTreeMap<String, f64>,
+    variables: &[&str],
+) -> Checked {
+    for (name, &c) in constants {
+        if variables.contains(&name.as_str())
+            || ["PI", "E"].contains(&name.as_str())
+            || !name.chars().all(|c| c.is_alphanumeric() || c == '_')
+            || name.starts_with(|c: char| c.is_ascii_digit())
+        {
+            return fail(
+                format!("{key}.constants.{name}"),
+                format!(
+                    "is not a name a constant can have: use letters, digits and _ (not first a digit), other than {}, PI and E",
+                    variables.join(", ")
+                ),
+            );
+        }
+        finite(&format!("{key}.constants.{name}"), c)?;
+    }
+    Ok(())
+}
+
 fn time_law(law: &TimeLaw, key: &str) -> Checked {
     match law {
         TimeLaw::Constant => Ok(()),
@@ -917,6 +932,13 @@ fn time_law(law: &TimeLaw, key: &str) -> Checked {
         TimeLaw::Exponential { tau, start } => {
             positive(&format!("{key}.tau"), *tau)?;
             non_negative(&format!("{key}.start"), *start)
+        }
+        TimeLaw::Expression { constants, .. } => {
+            expression_constants(key, constants, &["t"])?;
+            match law.expression() {
+                Some(Err(message)) => fail(format!("{key}.value"), message),
+                _ => Ok(()),
+            }
         }
         TimeLaw::Table { points } => {
             if points.is_empty() {

@@ -257,3 +257,29 @@ fn a_body_force_with_a_wrong_vector_or_a_time_law_on_the_static_path_is_refused_
         "{ramped}"
     );
 }
+
+#[test]
+fn a_time_law_may_be_an_expression_of_t() {
+    // g·t/T written as an expression gives the ramp's fall (the law is evaluated at the
+    // same mid-step times; bound 1e-12 of v, round-off of t/T against t·(1/T)); an unknown
+    // name is refused with its key and position.
+    let law = r#"{ type = "body-force", acceleration = [3.0, -9.81], law = { type = "expression", value = "t/T", constants = { T = 2.0e-3 } } }"#;
+    let run = |condition: &str| {
+        let mut e = engine::<D2>(&ring("tlsph", condition).unwrap(), Backend::Cpu).unwrap();
+        e.advance(0.0, DT, STEPS).unwrap();
+        e.snapshot().v
+    };
+    let (written, ramp) = (run(law), run(RAMPED));
+    let dv = largest_v::<D2>(written.iter().zip(&ramp).map(|(a, b)| *a - *b));
+    assert!(
+        dv < 1e-12 * largest_v::<D2>(ramp.iter().copied()),
+        "|Δv| = {dv:e}"
+    );
+    let wrong = ring("tlsph", &law.replace("t/T", "t/TT"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        wrong.contains("boundary.0.condition.law.value") && wrong.contains("`TT` at character 3"),
+        "{wrong}"
+    );
+}
