@@ -1,10 +1,10 @@
 //! Loads that vary in time: the tractions and body forces with a time law and the
 //! pressures of a case ([`crate::boundary::timed_loads`]), each a group of per-particle
 //! accelerations (g_i = f_i/(ρ0 V_i) for a force, the masses the constant tractions of
-//! [`crate::boundary::Boundary`] take) scaled by its law. The law is evaluated at the middle of every step and held
-//! through the step's stages, as the contact forces are, on both backends: on the GPU the
-//! host writes each step's law values as it records the step, and the pass
-//! `shaders/common/loads.wgsl` adds Σ_g law_g g_g,i to `ext`.
+//! [`crate::boundary::Boundary`] take) scaled by its law. The law is evaluated at the
+//! middle of every step and held through the step's stages, as the contact forces are,
+//! on both backends: on the GPU the host writes each step's law values as it records the
+//! step, and the pass `shaders/common/loads.wgsl` adds Σ_g law_g g_g,i to `ext`.
 
 use super::Interaction;
 use crate::scene::{Case, CaseError, TimeLaw, discretise};

@@ -1,8 +1,8 @@
 //! Interactions: forces that act on the bodies besides a method's internal forces
 //! (contact between bodies, and the loads that vary in time: tractions, pressures and
 //! body forces under a time law; constant tractions and body forces are the boundary's
-//! external accelerations, [`crate::boundary::Boundary::external`]). A method holds the scene's [`Interactions`] and calls them at
-//! named points of a step, on either backend:
+//! external accelerations, [`crate::boundary::Boundary::external`]). A method holds the
+//! scene's [`Interactions`] and calls them at named points of a step, on either backend:
 //!
 //! - before the step ([`Interaction::begin_step`]), from the positions and velocities at
 //!   its start;

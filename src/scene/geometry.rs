@@ -1,6 +1,7 @@
 //! Geometry generators: sample every body of a case on a lattice of spacing Δx (or read
 //! its points from CSV) and set the initial velocity field.
 
+use super::expression::COORDINATES;
 use super::{
     BodySpec, Case, CaseError, Expression, Lattice, RingLattice, Shape, VelocityField,
     VelocityNoise, Volumes,
@@ -552,8 +553,9 @@ fn count_point_rows(path: &Path) -> Result<u64, String> {
     Ok(rows.saturating_sub(1))
 }
 
-/// Reads `x,y[,z][,volume]` rows (header required, any column order). Without a volume
-/// column every point gets Δx^d. Errors name lines and columns, never the file's text.
+/// Reads `x,y[,z][,volume][,vx,vy[,vz]]` rows (header required, any column order).
+/// Without a volume column every point gets Δx^d; the velocity columns, all or none,
+/// give the points' initial velocities. Errors name lines and columns, never the file's text.
 fn read_points<D: Dim>(path: &Path, cell: f64) -> Result<Sampled<D>, String> {
     let text = read_points_file(path)?;
     let mut lines = text
@@ -565,7 +567,7 @@ fn read_points<D: Dim>(path: &Path, cell: f64) -> Result<Sampled<D>, String> {
         .ok_or("empty file; expected a header line x,y[,z][,volume][,vx,vy[,vz]]")?;
     let names: Vec<&str> = header.split(',').map(str::trim).collect();
     let column = |name: &str| names.iter().position(|&c| c == name);
-    let axes: Vec<usize> = ["x", "y", "z"][..D::N]
+    let axes: Vec<usize> = COORDINATES[..D::N]
         .iter()
         .map(|a| {
             column(a).ok_or(format!(

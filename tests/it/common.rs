@@ -425,3 +425,32 @@ pub fn nearest(x0: &[glam::DVec2], point: [f64; 2]) -> usize {
         .min_by(|&a, &b| d(a).total_cmp(&d(b)))
         .unwrap()
 }
+
+/// The largest hourglass indicator η after each of `steps` (increasing) steps of the
+/// system `m` from the state `y`, with the case's integrator and Δt; `fields` gives the
+/// displacements and deformation gradients of a state.
+pub fn hourglass_after<S: Method<meshless::tensor::D2>>(
+    case: &Case,
+    m: &mut S,
+    mut y: S::State,
+    steps: &[usize],
+    fields: impl Fn(&S, &S::State) -> (Vec<glam::DVec2>, Vec<glam::DMat2>),
+) -> Vec<f64> {
+    let x0 = m.reference().to_vec();
+    let indicator = meshless::hourglass::HourglassIndicator::new::<meshless::tensor::D2>(case, &x0);
+    let mut integrator = meshless::integrate::Integrator::new(case.method.integrator, &y);
+    let dt = case.method.dt.unwrap();
+    let mut done = 0;
+    steps
+        .iter()
+        .map(|&n| {
+            for k in done..n {
+                integrator.step(m, k as f64 * dt, dt, &mut y).unwrap();
+            }
+            done = n;
+            let (u, f) = fields(m, &y);
+            let eta = indicator.of::<meshless::tensor::D2>(&x0, &u, &f);
+            eta.into_iter().fold(0.0, f64::max)
+        })
+        .collect()
+}

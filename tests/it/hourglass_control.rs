@@ -3,8 +3,7 @@
 //! does not resist held down, and the GPU pass against the CPU.
 
 use glam::DVec2;
-use meshless::hourglass::HourglassIndicator;
-use meshless::integrate::{Integrator, OdeSystem};
+use meshless::integrate::OdeSystem;
 use meshless::methods::Method;
 use meshless::methods::tlsph::{TlState, Tlsph};
 use meshless::run::build_method;
@@ -43,23 +42,10 @@ fn checkerboard(case: &Case, m: &Tlsph<D2>) -> TlState<D2> {
 /// The largest hourglass indicator η after each of `steps` steps from the checkerboard.
 fn checkerboard_eta(case: &Case, steps: &[usize]) -> Vec<f64> {
     let mut m: Tlsph<D2> = build_method(case).unwrap();
-    let mut y = checkerboard(case, &m);
-    let indicator = HourglassIndicator::new::<D2>(case, m.reference());
-    let mut integrator = Integrator::new(case.method.integrator, &y);
-    let dt = case.method.dt.unwrap();
-    let mut done = 0;
-    steps
-        .iter()
-        .map(|&n| {
-            for k in done..n {
-                integrator.step(&mut m, k as f64 * dt, dt, &mut y).unwrap();
-            }
-            done = n;
-            let f = m.deformation_gradient(&y);
-            let eta = indicator.of::<D2>(m.reference(), &y.u, &f);
-            eta.into_iter().fold(0.0, f64::max)
-        })
-        .collect()
+    let y = checkerboard(case, &m);
+    crate::common::hourglass_after(case, &mut m, y, steps, |m, y| {
+        (y.u.clone(), m.deformation_gradient(y))
+    })
 }
 
 #[test]
@@ -190,7 +176,7 @@ fn the_gpu_control_tracks_the_cpu() {
     let run_cpu = |case: &Case| {
         let mut m: Tlsph<D2> = build_method(case).unwrap();
         let mut y = checkerboard(case, &m);
-        let mut integrator = Integrator::new(case.method.integrator, &y);
+        let mut integrator = meshless::integrate::Integrator::new(case.method.integrator, &y);
         let dt = case.method.dt.unwrap();
         for k in 0..steps {
             integrator.step(&mut m, k as f64 * dt, dt, &mut y).unwrap();

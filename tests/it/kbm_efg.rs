@@ -9,8 +9,7 @@
 use crate::common::{largest_v, random_vector};
 use crate::galerkin::block;
 use glam::{DMat2, DVec2};
-use meshless::hourglass::HourglassIndicator;
-use meshless::integrate::{Integrator, OdeSystem};
+use meshless::integrate::OdeSystem;
 use meshless::methods::Method;
 use meshless::methods::galerkin::{GalerkinState, TlGalerkin};
 use meshless::run::build_method;
@@ -241,7 +240,7 @@ fn stress_points_strain_the_modes_that_nodal_integration_does_not_see() {
 /// The largest hourglass indicator η at `steps` steps of a free block [0, 1.6] × [0, 1.2]
 /// set moving by the stripes v = v0 (−1)^i e_x under a smooth envelope that vanishes on
 /// the boundary, v0 = 1e-3 m/s.
-fn hourglass_after(case: &Case, steps: &[usize]) -> Vec<f64> {
+fn stripes_eta(case: &Case, steps: &[usize]) -> Vec<f64> {
     let mut m: TlGalerkin<D2> = build_method(case).unwrap();
     let mut y = m.initial_state();
     for (v, x) in y.v.iter_mut().zip(m.reference()) {
@@ -250,22 +249,9 @@ fn hourglass_after(case: &Case, steps: &[usize]) -> Vec<f64> {
         let sign = (-1f64).powi((x.x / case.spacing).round() as i32);
         *v = DVec2::new(1e-3 * sign * envelope, 0.0);
     }
-    let indicator = HourglassIndicator::new::<D2>(case, m.reference());
-    let mut integrator = Integrator::new(case.method.integrator, &y);
-    let dt = case.method.dt.unwrap();
-    let mut done = 0;
-    steps
-        .iter()
-        .map(|&n| {
-            for k in done..n {
-                integrator.step(&mut m, k as f64 * dt, dt, &mut y).unwrap();
-            }
-            done = n;
-            let f = m.deformation_gradient(&y);
-            let eta = indicator.of::<D2>(m.reference(), &y.u, &f);
-            eta.into_iter().fold(0.0, f64::max)
-        })
-        .collect()
+    crate::common::hourglass_after(case, &mut m, y, steps, |m, y| {
+        (y.u.clone(), m.deformation_gradient(y))
+    })
 }
 
 #[test]
@@ -279,7 +265,7 @@ fn a_stripe_perturbation_grows_under_nodal_integration_only() {
     // KBM (si) 1.365e-4 then 1.363e-4; bounds ×1.2 for the growth, ×1.05 for the bound.
     let eta = |keys: &str| {
         let case = block(&[1.6, 1.2], "saint-venant-kirchhoff", "kbm", keys);
-        let samples = hourglass_after(&case, &(1..=40).map(|k| 100 * k).collect::<Vec<_>>());
+        let samples = stripes_eta(&case, &(1..=40).map(|k| 100 * k).collect::<Vec<_>>());
         let peak = |s: &[f64]| s.iter().copied().fold(0.0, f64::max);
         [peak(&samples[..20]), peak(&samples[20..])]
     };
