@@ -26,6 +26,11 @@ pub struct Boundary<D: Dim> {
     /// The mask of the components of each entry of `constrained` held for the whole run
     /// (those of no [`TimedVelocity`]).
     held: Vec<u8>,
+    /// The support (index among the case's supports, [`supports`]) that prescribes each
+    /// component of each entry of `constrained`: the last condition to set it.
+    support_of: Vec<[u16; 3]>,
+    /// The number of supports.
+    supports: usize,
     /// (particle, prescribed velocity; only the masked components are meaningful; under a
     /// time law, the velocity at law value 1).
     pub prescribed: Vec<(u32, D::V)>,
@@ -45,6 +50,25 @@ pub struct Boundary<D: Dim> {
     /// The number of particles (the device's dense layout).
     #[cfg(feature = "gpu")]
     n: usize,
+}
+
+/// The force a support applies to hold the components it prescribes,
+/// R = Σ m (a_prescribed − a) over them, and its power R·v, at a rate evaluation.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Reaction {
+    pub force: [f64; 3],
+    pub power: f64,
+}
+
+/// The supports of a case, the boundary conditions that prescribe motion, in case order:
+/// (index among the case's boundary conditions, name).
+pub fn supports(case: &Case) -> Vec<(usize, String)> {
+    case.boundaries
+        .iter()
+        .enumerate()
+        .filter(|(_, b)| b.condition.is_support())
+        .map(|(k, b)| (k, b.name(k)))
+        .collect()
 }
 
 /// A prescribed velocity v_p·law(t) held while t < `until` (for the whole run without
@@ -105,6 +129,10 @@ impl<D: Dim> Boundary<D> {
         let mut dvalue = vec![[0.0; 3]; disc.x0.len()];
         // The timed velocity of each component (index into `timed`), if one prescribes it.
         let mut timed_of = vec![[None::<u32>; 3]; disc.x0.len()];
+        // The support of each component, for the prescribed ones.
+        let mut support_of = vec![[0u16; 3]; disc.x0.len()];
+        let supports = supports(case);
+        let support = |b: usize| supports.iter().position(|s| s.0 == b).unwrap_or(0) as u16;
         let mut timed = Vec::new();
         let area = case.spacing.powi(D::N as i32 - 1);
         for (b, bc) in case.boundaries.iter().enumerate() {
@@ -126,6 +154,7 @@ impl<D: Dim> Boundary<D> {
             };
             // The extent of the region's particles: the face a traction patch is clipped to.
             let face = neighbour::bounding_box(particles.iter().map(|&i| D::to3(disc.x0[i])));
+            let s = support(b);
             for i in particles {
                 match &bc.condition {
                     Condition::Fixed => {
@@ -133,6 +162,7 @@ impl<D: Dim> Boundary<D> {
                         dmask[i] = 0;
                         value[i] = D::zero();
                         timed_of[i] = [None; 3];
+                        support_of[i] = [s; 3];
                     }
                     Condition::Velocity { vx, vy, vz, .. } => {
                         let mut v = D::to3(value[i]);
@@ -142,6 +172,7 @@ impl<D: Dim> Boundary<D> {
                                 dmask[i] &= !(1 << k);
                                 v[k] = *c;
                                 timed_of[i][k] = this_timed;
+                                support_of[i][k] = s;
                             }
                         }
                         value[i] = D::from_slice(&v);
@@ -154,6 +185,7 @@ impl<D: Dim> Boundary<D> {
                         v[k] = 0.0;
                         value[i] = D::from_slice(&v);
                         timed_of[i][k] = None;
+                        support_of[i][k] = s;
                     }
                     Condition::Traction { traction, .. } => {
                         external[i] += D::from_slice(traction) * (area / mass[i]);
@@ -169,6 +201,7 @@ impl<D: Dim> Boundary<D> {
                                 dmask[i] |= 1 << k;
                                 dvalue[i][k] = *c;
                                 timed_of[i][k] = None;
+                                support_of[i][k] = s;
                             }
                         }
                     }
@@ -183,6 +216,7 @@ impl<D: Dim> Boundary<D> {
                             dmask[i] |= 1 << k;
                             dvalue[i][k] = u[k];
                             timed_of[i][k] = None;
+                            support_of[i][k] = s;
                         }
                     }
                     Condition::SolutionTraction { solution, normal } => {
@@ -234,6 +268,11 @@ impl<D: Dim> Boundary<D> {
                 .iter()
                 .map(|&i| mask[i as usize] & !timed_mask(i as usize))
                 .collect(),
+            support_of: constrained
+                .iter()
+                .map(|&i| support_of[i as usize])
+                .collect(),
+            supports: supports.len(),
             constrained: constrained.iter().map(|&i| (i, mask[i as usize])).collect(),
             external: (0..mask.len() as u32)
                 .filter(|&i| external[i as usize] != D::zero())
@@ -270,33 +309,74 @@ impl<D: Dim> Boundary<D> {
     }
 
     /// Adds external accelerations and sets the constrained components of `a` to their
-    /// rates (zero, or a timed velocity's v_p·rate while it holds). Returns the power of
-    /// the constraint reactions, Σ m (a_k,prescribed − a_k) v_k over constrained
-    /// components (the work rate of the supports on the body).
-    pub fn apply(&self, a: &mut [D::V], v: &[D::V], mass: &[f64]) -> f64 {
+    /// rates (zero, or a timed velocity's v_p·rate while it holds). Each support's
+    /// [`Reaction`] goes to `reactions` (one per support). Returns the power of the
+    /// supports, Σ m (a_k,prescribed − a_k) v_k over constrained components (their work
+    /// rate on the body).
+    pub fn apply(
+        &self,
+        a: &mut [D::V],
+        v: &[D::V],
+        mass: &[f64],
+        reactions: &mut Vec<Reaction>,
+    ) -> f64 {
         for &(i, g) in &self.external {
             a[i as usize] += g;
         }
-        let mut power = 0.0;
-        for (&(i, _), &held) in self.constrained.iter().zip(&self.held) {
-            let i = i as usize;
-            let (ai, vi) = (D::to3(a[i]), D::to3(v[i]));
-            for k in 0..D::N {
-                if held & (1 << k) != 0 {
-                    power -= mass[i] * ai[k] * vi[k];
-                }
+        reactions.clear();
+        reactions.resize(self.supports, Reaction::default());
+        // The reaction m (rate − a_k) on component k of the particle in `slot`.
+        let mut hold = |slot: usize, k: usize, rate: f64, a: &mut D::V| {
+            let i = self.constrained[slot].0 as usize;
+            let force = mass[i] * (rate - D::comp(*a, k));
+            self.book(reactions, slot, k, force, force * D::comp(v[i], k));
+            set_component::<D>(a, k as u8, rate);
+        };
+        for (slot, (&(i, _), &held)) in self.constrained.iter().zip(&self.held).enumerate() {
+            for k in (0..D::N).filter(|k| held & (1 << k) != 0) {
+                hold(slot, k, 0.0, &mut a[i as usize]);
             }
-            a[i] = mix::<D>(held, D::zero(), a[i]);
         }
         for &(i, k, g, vp) in &self.timed_components {
             if let Some(step) = self.step[g as usize] {
-                let (i, rate) = (i as usize, vp * step.rate);
-                let (ak, vk) = (D::to3(a[i])[k as usize], D::to3(v[i])[k as usize]);
-                power += mass[i] * (rate - ak) * vk;
-                set_component::<D>(&mut a[i], k, rate);
+                let slot = self.slot(i);
+                hold(slot, usize::from(k), vp * step.rate, &mut a[i as usize]);
             }
         }
-        power
+        reactions.iter().map(|r| r.power).sum()
+    }
+
+    /// The index in `constrained` of constrained particle i.
+    fn slot(&self, i: u32) -> usize {
+        self.constrained
+            .binary_search_by_key(&i, |c| c.0)
+            .expect("a timed component's particle is constrained")
+    }
+
+    /// Books the reaction force and power on component k of the particle in `slot` to the
+    /// support that prescribes it.
+    fn book(&self, reactions: &mut [Reaction], slot: usize, k: usize, force: f64, power: f64) {
+        let reaction = &mut reactions[usize::from(self.support_of[slot][k])];
+        reaction.force[k] += force;
+        reaction.power += power;
+    }
+
+    /// The supports' reactions from the reaction force and its power on each component of
+    /// every constrained particle (`force` and `power`, by entry of `constrained`; zero on
+    /// the components it does not prescribe).
+    pub fn reactions(&self, force: &[D::V], power: &[D::V]) -> Vec<Reaction> {
+        let mut reactions = vec![Reaction::default(); self.supports];
+        for (slot, (&(_, mask), (&f, &p))) in self
+            .constrained
+            .iter()
+            .zip(force.iter().zip(power))
+            .enumerate()
+        {
+            for k in (0..D::N).filter(|k| mask & (1 << k) != 0) {
+                self.book(&mut reactions, slot, k, D::comp(f, k), D::comp(p, k));
+            }
+        }
+        reactions
     }
 
     /// (particle, mask of the components prescribed over the current step) of every
@@ -336,7 +416,7 @@ fn set_component<D: Dim>(x: &mut D::V, k: u8, c: f64) {
 #[cfg(feature = "gpu")]
 impl<D: Dim> crate::interaction::gpu::GpuInteraction for Boundary<D> {
     /// `shaders/common/prescribed.wgsl`: one invocation per particle sets the rates of
-    /// its timed components held over the step in `ext` and its mask in `reference`,
+    /// its timed components held over the step and its mask in `reference`,
     /// from the step's (held, rate) of every timed velocity (`steps`, written by the host
     /// for every step it records).
     fn pass(
@@ -369,7 +449,6 @@ impl<D: Dim> crate::interaction::gpu::GpuInteraction for Boundary<D> {
                 ("timed", &timed),
                 ("steps", &steps),
                 ("reference", on.reference),
-                ("ext", on.ext),
             ],
         )?;
         Ok(crate::interaction::gpu::Pass {

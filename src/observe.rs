@@ -2,6 +2,7 @@
 //! closed form and point probes, sampled into the CSV time series.
 
 use crate::analytic::{ClosedForm, Exact, relative_l2};
+use crate::boundary::Reaction;
 use crate::material::{Material, MaterialModel};
 use crate::methods::shared::ordered_reduce;
 use crate::plasticity::PLASTIC_STRAIN;
@@ -149,7 +150,21 @@ pub struct Observers {
     /// The closed form of the `front-oscillation` observer, and the margin about its
     /// jumps [m].
     front: Option<(Exact, f64)>,
+    /// The number of supports the `reaction` observer writes.
+    supports: usize,
+    sections: Vec<Section>,
+    /// ρ0, for the volumes m/ρ0 of the sections.
+    rho0: f64,
     names: Vec<String>,
+}
+
+/// A section-force observer ([`crate::scene::SectionSpec`]): the normal axis, the body it
+/// is limited to, and every particle within Δx of the plane with its hat weight
+/// (1 − |X·N − at|/Δx)/Δx.
+struct Section {
+    axis: usize,
+    body: Option<u32>,
+    weights: Vec<(usize, f64)>,
 }
 
 impl Observers {
@@ -206,6 +221,12 @@ impl Observers {
                     ]
                     .map(String::from),
                 ),
+                Observer::Reaction => {
+                    for (_, name) in crate::boundary::supports(case) {
+                        names.extend((0..D::N).map(|k| format!("{name}.reaction_{}", AXES[k])));
+                        names.push(format!("{name}.power"));
+                    }
+                }
             }
         }
         let rings = if list.contains(&Observer::RingSymmetry) {
@@ -256,6 +277,9 @@ impl Observers {
                 names.extend((0..D::N).map(|k| format!("{}.{q}{}", probe.name, AXES[k])));
             }
         }
+        for section in &case.sections {
+            names.extend((0..D::N).map(|k| format!("{}.force_{}", section.name, AXES[k])));
+        }
         for (k, check) in case.output.checks.iter().enumerate() {
             if !names.contains(&check.column) {
                 return Err(case.invalid(
@@ -288,8 +312,20 @@ impl Observers {
             plastic: case.material.model == MaterialModel::VonMisesPlastic,
             solution,
             front,
+            supports: crate::boundary::supports(case).len(),
+            sections: case
+                .sections
+                .iter()
+                .map(|s| Section::new::<D>(s, case, x0))
+                .collect(),
+            rho0: case.material.density,
             names,
         })
+    }
+
+    /// Whether a row needs the supports' reactions.
+    pub fn need_reactions(&self) -> bool {
+        self.list.contains(&Observer::Reaction)
     }
 
     pub fn column_names(&self) -> &[String] {
@@ -302,13 +338,16 @@ impl Observers {
     }
 
     /// One row of the time series; `eta` is the hourglass indicator of every particle,
-    /// given when [`Self::need_hourglass`].
+    /// given when [`Self::need_hourglass`], and `reactions` the supports' reactions at the
+    /// last rate evaluation, when [`Self::need_reactions`] (NaN before the first step,
+    /// which has none).
     pub fn sample<D: Dim>(
         &self,
         snap: &Snapshot<D>,
         inv: &Invariants,
         clock: &Clock,
         eta: Option<&[f64]>,
+        reactions: &[Reaction],
     ) -> Vec<f64> {
         let (x0, u, v) = (snap.x0, &snap.u, &snap.v);
         let mut row = vec![clock.t, clock.step as f64, clock.dt];
@@ -368,7 +407,25 @@ impl Observers {
                     None => [f64::NAN; 2],
                 }),
                 Observer::FrontOscillation(_) => row.extend(self.front_oscillation(snap, clock.t)),
+                Observer::Reaction => {
+                    let unknown = Reaction {
+                        force: [f64::NAN; 3],
+                        power: f64::NAN,
+                    };
+                    let known = clock.step > 0 && reactions.len() == self.supports;
+                    let reactions = match known {
+                        true => reactions.to_vec(),
+                        false => vec![unknown; self.supports],
+                    };
+                    for r in reactions {
+                        row.extend(&r.force[..D::N]);
+                        row.push(r.power);
+                    }
+                }
             }
+        }
+        for section in &self.sections {
+            row.extend(&section.force(snap, self.rho0)[..D::N]);
         }
         for &i in &self.probes {
             row.extend((0..D::N).map(|k| D::comp(u[i], k)));
@@ -394,6 +451,43 @@ impl Observers {
             .flat_map(|&x| exact.velocity(D::to3(x), t)[..D::N].to_vec())
             .collect();
         relative_l2(&w, &v, &v_ex)
+    }
+}
+
+impl Section {
+    fn new<D: Dim>(spec: &crate::scene::SectionSpec, case: &Case, x0: &[D::V]) -> Self {
+        let (axis, dx) = (spec.normal.index(), case.spacing);
+        Self {
+            axis,
+            body: spec
+                .body
+                .as_ref()
+                .and_then(|name| case.bodies.iter().position(|b| &b.name == name))
+                .map(|b| b as u32),
+            weights: (0..x0.len())
+                .map(|i| (i, (1.0 - (D::comp(x0[i], axis) - spec.at).abs() / dx) / dx))
+                .filter(|&(_, w)| w > 0.0)
+                .collect(),
+        }
+    }
+
+    /// ∫ P·N dA ≈ Σ V P·N (hat weight) over the section's particles, with
+    /// P = J σ F⁻ᵀ (the in-plane block of σ in 2D) and V = m/ρ0.
+    fn force<D: Dim>(&self, snap: &Snapshot<D>, rho0: f64) -> [f64; 3] {
+        let n = unit::<D>(self.axis);
+        let mut force = [0.0; 3];
+        for &(i, w) in &self.weights {
+            if self.body.is_some_and(|b| snap.body[i] != b) {
+                continue;
+            }
+            let f = snap.f[i];
+            let g = D::to3(D::inverse(D::transpose(f)) * n);
+            let scale = D::det(f) * w * snap.mass[i] / rho0;
+            for (r, row) in snap.sigma[i].iter().enumerate().take(D::N) {
+                force[r] += scale * (0..D::N).map(|c| row[c] * g[c]).sum::<f64>();
+            }
+        }
+        force
     }
 }
 

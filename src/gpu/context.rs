@@ -577,7 +577,14 @@ impl Gpu {
 
     /// Copies a buffer back to the host (waits for the queue).
     pub fn read<T: Pod>(&self, buffer: &wgpu::Buffer) -> Vec<T> {
-        let size = buffer.size();
+        self.read_range(buffer, 0, buffer.size())
+    }
+
+    /// Reads `size` bytes of a buffer from byte `offset` (both multiples of 4).
+    pub fn read_range<T: Pod>(&self, buffer: &wgpu::Buffer, offset: u64, size: u64) -> Vec<T> {
+        if size == 0 {
+            return Vec::new();
+        }
         let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("readback"),
             size,
@@ -585,7 +592,7 @@ impl Gpu {
             mapped_at_creation: false,
         });
         let mut encoder = self.device.create_command_encoder(&Default::default());
-        encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
+        encoder.copy_buffer_to_buffer(buffer, offset, &staging, 0, size);
         self.queue.submit([encoder.finish()]);
         let slice = staging.slice(..);
         slice.map_async(wgpu::MapMode::Read, |r| {

@@ -114,8 +114,9 @@ fn beyond_f32(case: &Case, key: impl Into<String>, what: String) -> CaseError {
 
 /// Refuses the values a GPU run reaches from the case besides its constants and initial
 /// state: the time step in the integrator's coefficients (its smallest, Δt/6 of RK4;
-/// a CFL step estimated as α Δx / c_p), prescribed velocities and the accelerations of
-/// the traction loads, each named by its key.
+/// a CFL step estimated as α Δx / c_p), prescribed velocities, the number of constrained
+/// particles (their slots are f32 integers) and the accelerations of the traction loads,
+/// each named by its key.
 pub fn check_f32_run<D: crate::tensor::Dim>(
     case: &Case,
     boundary: &crate::boundary::Boundary<D>,
@@ -146,6 +147,17 @@ pub fn check_f32_run<D: crate::tensor::Dim>(
                 }
             }
         }
+    }
+    if boundary.constrained.len() > reference::MAX_SLOTS {
+        return Err(case.invalid(
+            "boundary",
+            format!(
+                "constrains {} particles, above the {} whose reactions the GPU indexes \
+                 exactly (f32 integers); run with --backend cpu",
+                boundary.constrained.len(),
+                reference::MAX_SLOTS
+            ),
+        ));
     }
     let load = boundary
         .external

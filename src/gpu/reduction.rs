@@ -2,9 +2,13 @@
 //! and loads, shared by the GPU engines: energies, momenta, the power of supports and
 //! loads, max |v|, a non-finite count and the largest pair wave speed of the CFL step, per
 //! workgroup on the device and summed on the host in f64. Only the partials (12 floats
-//! per 256 particles) are read back.
+//! per 256 particles) are read back; and, for the `reaction` observer, the reactions of
+//! the constrained particles (`shaders/common/boundary.wgsl`), which the host books to the
+//! supports.
 
 use super::context::{Gpu, GpuError, Pipeline};
+use super::layout::{Field, Fields, Flat};
+use crate::boundary::{Boundary, Reaction};
 use crate::observe::Invariants;
 
 /// Values per workgroup written by `reduce.wgsl`.
@@ -139,4 +143,32 @@ impl WorkBalance {
         self.last = (self.time, power);
         self.work
     }
+}
+
+/// Appends to an engine's `kin` fields the reaction (KRF) and its power per component
+/// (KRP) of each of the `constrained` particles, written by `boundary.wgsl`.
+pub fn with_reactions(kin: Fields, constrained: usize) -> Fields {
+    kin.vectors("RF", true, constrained)
+        .vectors("RP", true, constrained)
+}
+
+/// The supports' reactions at the last rate evaluation: the fields of
+/// [`with_reactions`] read from the engine's `kin` buffer and booked to the supports of
+/// `boundary` in f64.
+pub fn reactions<D: Flat>(
+    gpu: &Gpu,
+    kin: &wgpu::Buffer,
+    fields: &Fields,
+    boundary: &Boundary<D>,
+) -> Vec<Reaction> {
+    let (rf, rp) = (fields.field("RF"), fields.field("RP"));
+    let end = rp.offset + rp.count * rp.width;
+    let floats: Vec<f32> = gpu.read_range(kin, 4 * rf.offset as u64, 4 * (end - rf.offset) as u64);
+    let vectors = |field: &Field| -> Vec<D::V> {
+        floats[field.offset - rf.offset..][..field.count * field.width]
+            .chunks_exact(D::N)
+            .map(D::read_v)
+            .collect()
+    };
+    boundary.reactions(&vectors(rf), &vectors(rp))
 }

@@ -17,16 +17,24 @@ pub struct Extras {
     pub centred: bool,
 }
 
-/// The fields of the `reference` buffer of n particles: X (f32 hi part), X lo, X − X̄, V
-/// and the boundary mask (an f32 integer, bit k for velocity component k).
-pub fn fields(n: usize, dim: usize, extras: Extras) -> Fields {
+/// The fields of the `reference` buffer of n particles, `constrained` of them with
+/// prescribed components: X (f32 hi part), X lo, X − X̄, V, the boundary mask (an f32
+/// integer, bit k for velocity component k), the slot of a constrained particle (its index
+/// in `Boundary::constrained`, an f32 integer), and per slot the rates of its timed
+/// components over the current step (`prescribed.wgsl`).
+pub fn fields(n: usize, constrained: usize, dim: usize, extras: Extras) -> Fields {
     Fields::new("R", dim)
         .vectors("X", true, n)
         .vectors("XLO", extras.lo, n)
         .vectors("XREL", extras.centred, n)
         .scalars("VOL", true, n)
         .scalars("MASK", true, n)
+        .scalars("SLOT", true, n)
+        .vectors("RATE", true, constrained)
 }
+
+/// The most constrained particles whose slots an f32 integer holds exactly: 2^24.
+pub const MAX_SLOTS: usize = 1 << 24;
 
 /// The reference configuration and the neighbour lists, resident on the device.
 pub struct DeviceReference {
@@ -51,7 +59,7 @@ impl DeviceReference {
         extras: Extras,
     ) -> Self {
         let n = x0.len();
-        let fields = fields(n, D::N, extras);
+        let fields = fields(n, boundary.constrained.len(), D::N, extras);
         let mut flat = fields.zeroed();
         let hi = flat_v::<D>(x0.iter().copied());
         fields.write_v::<D>(&mut flat, "X", x0);
@@ -76,6 +84,11 @@ impl DeviceReference {
             mask[i as usize] = f64::from(m);
         }
         fields.write_s(&mut flat, "MASK", &mask, 0.0);
+        let mut slot = vec![0.0; n];
+        for (s, &(i, _)) in boundary.constrained.iter().enumerate() {
+            slot[i as usize] = s as f64;
+        }
+        fields.write_s(&mut flat, "SLOT", &slot, 0.0);
         let mut ext = vec![D::zero(); n];
         for &(i, a) in &boundary.external {
             ext[i as usize] = a;

@@ -180,14 +180,14 @@ pub const LOADS: Source = source!(
 pub const PRESCRIBED: Source = source!(
     "common/prescribed.wgsl",
     [],
-    [("ext", true)],
+    [],
     &[PassBytes {
         entry: "timed_velocities",
         traffic: &[
             read("timed", [1, 2, 0], NONE),
             read("steps", NONE, NONE),
-            write("reference", [1, 0, 0], NONE),
-            read_write("ext", [0, 1, 0], NONE),
+            read("reference", [1, 0, 0], NONE),
+            write("reference", [1, 1, 0], NONE),
         ],
     }]
 );

@@ -95,6 +95,8 @@ pub trait GpuInteraction {
 /// The device passes of a scene's interactions, for one engine.
 pub struct GpuInteractions {
     passes: Vec<Pass>,
+    /// Whether an interaction adds to `ext` (which is then a buffer of its own).
+    adds: bool,
     /// The traction loads, copied into `ext` before the passes add to it.
     traction: wgpu::Buffer,
     ext: wgpu::Buffer,
@@ -106,9 +108,9 @@ pub struct GpuInteractions {
 
 impl GpuInteractions {
     /// The passes of `interactions` on the engine's `reference` and state `y`, then the
-    /// timed velocities of `boundary` (which overwrite the rates of the components they
-    /// hold in `ext`, so they come last); `traction` holds the loads, and the `ext` the
-    /// rate passes read is [`GpuInteractions::ext`]: `traction` itself when no pass writes.
+    /// timed velocities of `boundary` (which write their rates into `reference`);
+    /// `traction` holds the loads, and the `ext` the rate passes read is
+    /// [`GpuInteractions::ext`]: `traction` itself when no interaction adds to it.
     pub fn new<D: Dim>(
         gpu: &Gpu,
         interactions: &Interactions<D>,
@@ -120,8 +122,8 @@ impl GpuInteractions {
     ) -> Result<Self, GpuError> {
         let timed: Option<&dyn GpuInteraction> =
             (!boundary.timed.is_empty()).then_some(boundary as &dyn GpuInteraction);
-        let mut passes = interactions.gpu_passes().chain(timed).peekable();
-        let ext = if passes.peek().is_some() {
+        let adds = interactions.gpu_passes().next().is_some();
+        let ext = if adds {
             // The loads alone until the first step's passes add to them.
             let ext = gpu.zeroed("ext (traction + interactions)", traction.size());
             let mut encoder = gpu.device.create_command_encoder(&Default::default());
@@ -136,11 +138,14 @@ impl GpuInteractions {
             y,
             ext: &ext,
         };
-        let passes = passes
+        let passes = interactions
+            .gpu_passes()
+            .chain(timed)
             .map(|p| p.pass(gpu, compose, &on))
             .collect::<Result<_, _>>()?;
         Ok(Self {
             passes,
+            adds,
             traction,
             ext,
             time: Cell::new(0.0),
@@ -178,7 +183,8 @@ impl GpuInteractions {
     }
 
     /// Records the work before a step: the step's values of the passes that take them,
-    /// `ext` = traction, then every pass over n particles; the clock moves on by Δt.
+    /// `ext` = traction (when an interaction adds to it), then every pass over n particles;
+    /// the clock moves on by Δt.
     pub fn record(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, n: u32) {
         if self.passes.is_empty() {
             return;
@@ -193,7 +199,9 @@ impl GpuInteractions {
             encoder.copy_buffer_to_buffer(buffer, offset, &feed.target, 0, bytes.len() as u64);
         }
         self.time.set(t + dt);
-        encoder.copy_buffer_to_buffer(&self.traction, 0, &self.ext, 0, self.traction.size());
+        if self.adds {
+            encoder.copy_buffer_to_buffer(&self.traction, 0, &self.ext, 0, self.traction.size());
+        }
         let mut pass = encoder.begin_compute_pass(&Default::default());
         for p in &self.passes {
             gpu.dispatch(&mut pass, &p.pipeline, &p.bind, n);

@@ -3,8 +3,10 @@
 //! state's field-wise arithmetic, and the reference neighbours and gradients of the
 //! total-Lagrangian methods.
 
+use crate::boundary::{Boundary, Reaction};
 use crate::correction;
 use crate::integrate::OdeSystem;
+use crate::interaction::Interactions;
 use crate::neighbour::Csr;
 use crate::observe::Snapshot;
 use crate::reference::{self, Reference};
@@ -207,6 +209,34 @@ pub fn check_motion<D: Dim>(x0: &[D::V], u: &[D::V], v: &[D::V]) -> Result<(), B
     Ok(())
 }
 
+/// What the end of a rate evaluation leaves for the work balance and the `reaction`
+/// observer.
+#[derive(Clone, Debug, Default)]
+pub struct BoundaryWork {
+    /// The power of supports, loads and interactions.
+    pub power: f64,
+    /// The reaction of every support of the case.
+    pub reactions: Vec<Reaction>,
+}
+
+impl BoundaryWork {
+    /// The end of a rate evaluation of every method: the interactions' accelerations, then
+    /// the boundary's loads and constraints, on the rates `a` at velocities v.
+    pub fn finish<D: Dim>(
+        &mut self,
+        interactions: &Interactions<D>,
+        boundary: &Boundary<D>,
+        v: &[D::V],
+        mass: &[f64],
+        a: &mut [D::V],
+    ) {
+        let interaction_power = interactions.accelerate(v, mass, a);
+        self.power = boundary.apply(a, v, mass, &mut self.reactions)
+            + boundary.external_power(v, mass)
+            + interaction_power;
+    }
+}
+
 /// A run stopped because the solution left the physically admissible set.
 #[derive(Clone, Debug, Error, PartialEq)]
 #[error("{quantity} = {value:e} at particle {particle} (reference position {position:?})")]
@@ -256,8 +286,9 @@ pub trait Method<D: Dim>: OdeSystem<Error = BlowUp> + Sized {
     fn snapshot<'a>(&'a self, y: &Self::State) -> Snapshot<'a, D>;
     /// Largest signal speed c_p + |v| for the CFL condition.
     fn max_signal_speed(&self, y: &Self::State) -> f64;
-    /// Power of the boundary reactions and external loads at the last rate evaluation.
-    fn boundary_power(&self) -> f64;
+    /// The power of supports, loads and interactions and the supports' reactions at the
+    /// last rate evaluation.
+    fn boundary_work(&self) -> &BoundaryWork;
     /// The first particle whose state is not finite, if any.
     fn check_finite(&self, y: &Self::State) -> Result<(), BlowUp>;
     /// What the method carries from step to step besides the state (a plastic

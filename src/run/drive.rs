@@ -203,7 +203,7 @@ pub fn drive<D: Dim, E: Engine<D>>(
             let inv0 = Invariants::of(&snap);
             let eta = eta_of(&snap, frames.will_write(0.0, true), true);
             series
-                .write_row(&observers.sample(&snap, &inv0, &clock, eta.as_deref()))
+                .write_row(&observers.sample(&snap, &inv0, &clock, eta.as_deref(), &[]))
                 .map_err(output_error(&series_path))?;
             frames.write(&snap, 0.0, true, eta.as_deref())?;
             let first_checkpoint = checkpoint_every.unwrap_or(f64::INFINITY);
@@ -291,6 +291,10 @@ pub fn drive<D: Dim, E: Engine<D>>(
             !e.is_finite() || (e > bound && bound > 0.0)
         };
         if output {
+            let reactions = match sample && observers.need_reactions() {
+                true => engine.reactions(),
+                false => Vec::new(),
+            };
             let snap = engine.snapshot();
             let inv = Invariants::of(&snap);
             if too_much(&inv) {
@@ -304,7 +308,7 @@ pub fn drive<D: Dim, E: Engine<D>>(
             }
             if sample {
                 series
-                    .write_row(&observers.sample(&snap, &inv, &clock, eta.as_deref()))
+                    .write_row(&observers.sample(&snap, &inv, &clock, eta.as_deref(), &reactions))
                     .map_err(output_error(&series_path))?;
                 next_sample = t + series_every;
             }

@@ -2,6 +2,7 @@
 //! its method's spec.
 
 use super::{Backend, RunError};
+use crate::boundary::Reaction;
 #[cfg(feature = "gpu")]
 use crate::gpu::{Gpu, SetupError};
 use crate::integrate::{Integrator, OdeState};
@@ -158,6 +159,9 @@ pub trait Engine<D: Dim> {
     fn max_signal_speed(&mut self) -> f64;
     /// Work done on the bodies by supports and loads so far.
     fn external_work(&mut self) -> f64;
+    /// The reaction of every support of the case ([`crate::boundary::supports`]) at the last
+    /// rate evaluation.
+    fn reactions(&mut self) -> Vec<Reaction>;
     /// Non-finite state or det F ≤ 0 since the start.
     fn check(&mut self) -> Result<(), BlowUp>;
     fn snapshot(&mut self) -> Snapshot<'_, D>;
@@ -211,6 +215,9 @@ impl<D: Dim> Engine<D> for Box<dyn Engine<D>> {
     }
     fn external_work(&mut self) -> f64 {
         (**self).external_work()
+    }
+    fn reactions(&mut self) -> Vec<Reaction> {
+        (**self).reactions()
     }
     fn check(&mut self) -> Result<(), BlowUp> {
         (**self).check()
@@ -290,7 +297,7 @@ impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
                     cause,
                 })?;
             // Trapezoidal work of the supports and loads, from successive step powers.
-            let power = self.method.boundary_power();
+            let power = self.method.boundary_work().power;
             self.work += 0.5 * (self.last_power + power) * dt;
             self.last_power = power;
         }
@@ -303,6 +310,10 @@ impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
 
     fn external_work(&mut self) -> f64 {
         self.work
+    }
+
+    fn reactions(&mut self) -> Vec<Reaction> {
+        self.method.boundary_work().reactions.clone()
     }
 
     fn check(&mut self) -> Result<(), BlowUp> {

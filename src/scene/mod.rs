@@ -44,6 +44,9 @@ pub struct Case {
     pub output: OutputSpec,
     #[serde(default, rename = "probe")]
     pub probes: Vec<ProbeSpec>,
+    /// Section-force observers: the resultant of P·N across a reference plane.
+    #[serde(default, rename = "section")]
+    pub sections: Vec<SectionSpec>,
     /// Penalty contact between the bodies (2D).
     pub contact: Option<ContactSpec>,
     /// The case file, named in errors; relative paths inside it are relative to its folder.
@@ -355,8 +358,19 @@ impl VelocityField {
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct BoundarySpec {
+    /// The prefix of the support's reaction columns (`reaction` observer); absent:
+    /// `boundary<k>`, k its index among the case's `[[boundary]]` tables.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
     pub region: Region,
     pub condition: Condition,
+}
+
+impl BoundarySpec {
+    /// The name of the `k`-th boundary condition of a case.
+    pub fn name(&self, k: usize) -> String {
+        self.name.clone().unwrap_or_else(|| format!("boundary{k}"))
+    }
 }
 
 /// Axis-aligned box in reference coordinates (every bound optional), optionally limited
@@ -455,6 +469,19 @@ impl Condition {
             Self::Pressure { .. } => true,
             _ => false,
         }
+    }
+
+    /// Whether the condition prescribes motion (velocity or displacement components), so
+    /// that a support holds it with a reaction force.
+    pub fn is_support(&self) -> bool {
+        matches!(
+            self,
+            Self::Fixed
+                | Self::Velocity { .. }
+                | Self::Symmetry { .. }
+                | Self::Displacement { .. }
+                | Self::SolutionDisplacement { .. }
+        )
     }
 
     /// Whether the condition is a prescribed velocity that varies in time: under a time
@@ -675,6 +702,12 @@ pub enum Observer {
     /// it (`behind_oscillation`), and the largest |(v − v_ex)·d|/V where it moves
     /// (`plateau_oscillation`); in case files `{ front-oscillation = "driven-rod" }`.
     FrontOscillation(crate::analytic::AnalyticSolution),
+    /// The force each support (a boundary condition that prescribes motion) applies to
+    /// hold its prescribed components, and its power, at the last rate evaluation:
+    /// R = Σ m (a_prescribed − a) over the components it holds, columns
+    /// `<name>.reaction_x`, … and `<name>.power` (R·v), with `<name>` the condition's
+    /// `name` (default `boundary<k>`).
+    Reaction,
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
@@ -756,6 +789,22 @@ impl Default for OutputSpec {
 pub struct ProbeSpec {
     pub name: String,
     pub position: Vec<f64>,
+}
+
+/// A section of the reference configuration, the plane X·e_normal = `at` (within one
+/// body if `body` is given), across which the series gives the resultant force ∫ P·N dA
+/// (columns `<name>.force_x`, …; N = e_normal, the force the material at larger X·N
+/// exerts on the rest). Per particle, V P·N times the hat weight
+/// max(0, 1 − |X·N − at|/Δx)/Δx, which sums to one over the rows of a lattice, so a
+/// uniform P gives ∫ P·N dA exactly wherever the plane lies between rows.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SectionSpec {
+    pub name: String,
+    pub normal: Axis,
+    pub at: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub body: Option<String>,
 }
 
 /// What is wrong with a case file.

@@ -78,7 +78,9 @@ pub(super) fn check(case: &Case) -> Result<(), (String, String)> {
     output(&case.output)?;
     analytic_observers(case)?;
     front_observers(case)?;
-    probes(&case.probes, dim)
+    supports(case)?;
+    probes(&case.probes, dim)?;
+    sections(case)
 }
 
 pub(crate) fn fail(key: impl Into<String>, message: impl Into<String>) -> Checked {
@@ -1255,6 +1257,86 @@ fn probes(probes: &[ProbeSpec], dim: usize) -> Checked {
     Ok(())
 }
 
+/// Names of boundary conditions: only supports have them (their reaction columns), each
+/// a column prefix unique among the supports; the `reaction` observer needs a support.
+fn supports(case: &Case) -> Checked {
+    let mut seen = HashSet::new();
+    for (i, b) in case.boundaries.iter().enumerate() {
+        let key = format!("boundary.{i}.name");
+        if let Some(name) = &b.name {
+            if !b.condition.is_support() {
+                return fail(
+                    key,
+                    format!(
+                        "names a condition that prescribes no motion ({name:?}); a name is the \
+                         prefix of a support's reaction columns, so only `fixed`, `velocity`, \
+                         `symmetry` and the displacement conditions take one"
+                    ),
+                );
+            }
+            identifier(&key, name, "boundary names become CSV column prefixes")?;
+        }
+        if b.condition.is_support() && !seen.insert(b.name(i)) {
+            return fail(
+                key,
+                format!(
+                    "{:?} is already the name of an earlier support (unnamed ones are \
+                     `boundary<k>`); support names must be unique",
+                    b.name(i)
+                ),
+            );
+        }
+    }
+    if case.output.observers.contains(&Observer::Reaction) && seen.is_empty() {
+        return fail(
+            "output.observers",
+            "lists `reaction`, but no boundary condition prescribes motion (`fixed`, \
+             `velocity`, `symmetry`, a displacement); add one or remove the observer",
+        );
+    }
+    Ok(())
+}
+
+fn sections(case: &Case) -> Checked {
+    let dim = case.dim();
+    let mut seen = HashSet::new();
+    for (i, section) in case.sections.iter().enumerate() {
+        let key = format!("section.{i}");
+        identifier(
+            &format!("{key}.name"),
+            &section.name,
+            "section names become CSV column prefixes",
+        )?;
+        if !seen.insert(section.name.as_str()) {
+            return fail(
+                format!("{key}.name"),
+                format!(
+                    "{:?} is already the name of an earlier section; section names must be \
+                     unique",
+                    section.name
+                ),
+            );
+        }
+        if section.normal.index() >= dim {
+            return fail(
+                format!("{key}.normal"),
+                "is \"z\", which exists only in 3D; in 2D use \"x\" or \"y\"",
+            );
+        }
+        finite(&format!("{key}.at"), section.at)?;
+        region(
+            &Region {
+                body: section.body.clone(),
+                ..Region::default()
+            },
+            &key,
+            &case.bodies,
+            dim,
+        )?;
+    }
+    Ok(())
+}
+
 /// A valid minimal case (2D box, hypoelastic, TLSPH with a fixed step) for unit tests
 /// that break one thing of it.
 #[cfg(test)]
@@ -1419,6 +1501,7 @@ mod tests {
     fn boundaries_run_output_probes() {
         let mut c = minimal_case();
         c.boundaries.push(BoundarySpec {
+            name: None,
             region: Region {
                 body: Some("nope".into()),
                 ..Region::default()

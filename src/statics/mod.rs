@@ -10,7 +10,7 @@
 pub mod explicit;
 pub mod sparse;
 
-use crate::boundary::Boundary;
+use crate::boundary::{Boundary, Reaction};
 use crate::methods::BlowUp;
 use crate::observe::Snapshot;
 use crate::run::{Engine, Failed, Iteration};
@@ -76,7 +76,8 @@ pub struct Statics<D: Dim, S: Model<D>> {
     pub model: S,
     mass: Vec<f64>,
     body: Vec<u32>,
-    constrained: Vec<(u32, u8)>,
+    boundary: Boundary<D>,
+    /// Every constrained component, in the order of `boundary.constrained`.
     prescribed: Vec<Prescribed>,
     /// External forces of the full load (tractions).
     load: Vec<D::V>,
@@ -180,7 +181,7 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
             model,
             mass,
             body,
-            constrained: boundary.constrained.clone(),
+            boundary: boundary.clone(),
             prescribed,
             load,
             pattern,
@@ -425,7 +426,31 @@ impl<D: Dim, S: Model<D>> Engine<D> for Statics<D, S> {
     }
 
     fn constrained(&self) -> &[(u32, u8)] {
-        &self.constrained
+        &self.boundary.constrained
+    }
+
+    /// The supports' reactions at the converged state: −f_int less the loads at the load
+    /// factor t/end_time on each prescribed component, whose power is at its pseudo-time
+    /// rate (u = velocity·t + displacement·t/end_time).
+    fn reactions(&mut self) -> Vec<Reaction> {
+        let factor = self.t / self.end_time;
+        let mut prescribed = self.prescribed.iter();
+        let (force, power): (Vec<D::V>, Vec<D::V>) = self
+            .boundary
+            .constrained
+            .iter()
+            .map(|&(i, mask)| {
+                let f = self.reaction[i as usize] - self.load[i as usize] * factor;
+                let (mut r, mut p) = ([0.0; 3], [0.0; 3]);
+                for k in (0..D::N).filter(|k| mask & (1 << k) != 0) {
+                    let c = prescribed.next().expect("one per constrained component");
+                    r[k] = D::comp(f, k);
+                    p[k] = r[k] * (c.velocity + c.displacement / self.end_time);
+                }
+                (D::from_slice(&r[..D::N]), D::from_slice(&p[..D::N]))
+            })
+            .unzip();
+        self.boundary.reactions(&force, &power)
     }
 
     /// `steps` load steps of size dt; a step whose Newton iteration stalls is cut in

@@ -94,6 +94,9 @@ impl<D: Dim, E: Engine<D>> Engine<D> for Tracked<'_, D, E> {
     fn external_work(&mut self) -> f64 {
         self.inner.external_work()
     }
+    fn reactions(&mut self) -> Vec<crate::boundary::Reaction> {
+        self.inner.reactions()
+    }
     fn check(&mut self) -> Result<(), BlowUp> {
         self.inner.check()
     }

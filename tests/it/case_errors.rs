@@ -1068,3 +1068,59 @@ fn coincident_particles_and_overlapping_bodies_are_refused() {
     );
     assert_eq!(reference_error(&beside), None);
 }
+
+#[test]
+fn reaction_and_section_observers_name_their_errors() {
+    let support = "[[boundary]]\nname = \"left\"\nregion = { x_max = 0.0 }\ncondition = { type = \"fixed\" }\n";
+    let with = |extra: &str| format!("{VALID}{extra}");
+    // A name on a load, a name that is no column prefix, a repeated name (the default of
+    // the first support is `boundary0`).
+    assert_invalid(
+        &with(
+            "[[boundary]]\nname = \"g\"\nregion = {}\ncondition = { type = \"body-force\", acceleration = [0.0, -9.81] }\n",
+        ),
+        "boundary.0.name",
+        &["prescribes no motion", "`fixed`"],
+    );
+    assert_invalid(
+        &with(&support.replace("\"left\"", "\"left grip\"")),
+        "boundary.0.name",
+        &["\"left grip\"", "' '", "column prefixes"],
+    );
+    assert_invalid(
+        &with(&format!(
+            "[[boundary]]\nregion = {{ x_min = 1.0 }}\ncondition = {{ type = \"fixed\" }}\n{}",
+            support.replace("\"left\"", "\"boundary0\"")
+        )),
+        "boundary.1.name",
+        &["\"boundary0\"", "must be unique"],
+    );
+    // The observer needs a support.
+    assert_invalid(
+        &with("[output]\nobservers = [\"reaction\"]\n"),
+        "output.observers",
+        &["`reaction`", "no boundary condition prescribes motion"],
+    );
+    // A section along z in 2D, at no number, in no body, named twice.
+    let section = "[[section]]\nname = \"mid\"\nnormal = \"x\"\nat = 0.5\n";
+    assert_invalid(
+        &with(&section.replace("\"x\"", "\"z\"")),
+        "section.0.normal",
+        &["only in 3D"],
+    );
+    assert_invalid(
+        &with(&section.replace("0.5", "nan")),
+        "section.0.at",
+        &["finite"],
+    );
+    assert_invalid(
+        &with(&format!("{section}body = \"nope\"\n")),
+        "section.0.body",
+        &["\"nope\"", "\"block\""],
+    );
+    assert_invalid(
+        &with(&format!("{section}{section}")),
+        "section.1.name",
+        &["\"mid\"", "must be unique"],
+    );
+}

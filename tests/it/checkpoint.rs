@@ -71,6 +71,9 @@ impl Engine<D2> for CutShort {
     fn external_work(&mut self) -> f64 {
         self.inner.external_work()
     }
+    fn reactions(&mut self) -> Vec<meshless::boundary::Reaction> {
+        self.inner.reactions()
+    }
     fn check(&mut self) -> Result<(), BlowUp> {
         self.inner.check()
     }

@@ -39,6 +39,7 @@ mod kbm_efg;
 mod loads;
 #[cfg(feature = "study")]
 mod mixed;
+mod reactions;
 mod registry;
 mod runs;
 mod seed001_cantilever;

@@ -122,7 +122,7 @@ fn check_all<D: GpuDim>() {
                 unreachable!("TLSPH variants")
             };
             let scheme = tlsph::scheme(spec);
-            let layout = Layout::new(100, D::N, rate, 1000, &scheme);
+            let layout = Layout::new(100, 10, D::N, rate, 1000, &scheme);
             let constants = scene_constants(&case, &layout, &scheme);
             for source in tlsph::SHADERS {
                 let src = shaders::compose::<D>(source, &constants);
@@ -146,7 +146,7 @@ fn check_all<D: GpuDim>() {
             _ => (godunov::scheme(), godunov::SHADERS),
         };
         let corrected = case.method.correction == CorrectionKind::RandlesLibersky;
-        let layout = ul::Layout::new(100, D::N, &scheme, corrected);
+        let layout = ul::Layout::new(100, 10, D::N, &scheme, corrected);
         let constants = ul::scene_constants(&case, &layout, &scheme);
         for source in sources {
             let src = shaders::compose::<D>(source, &constants);
@@ -166,7 +166,7 @@ fn check_all<D: GpuDim>() {
             unreachable!("a tl-potential case")
         };
         let scheme = potential::scheme(spec);
-        let layout = Layout::new(100, D::N, false, 1000, &scheme);
+        let layout = Layout::new(100, 10, D::N, false, 1000, &scheme);
         let constants = scene_constants(&case, &layout, &scheme);
         for source in potential::SHADERS {
             let src = shaders::compose::<D>(source, &constants);
@@ -203,7 +203,7 @@ fn check_all<D: GpuDim>() {
             unreachable!("a corotated-tlsph case")
         };
         let scheme = corotated::scheme(spec);
-        let layout = Layout::new(100, D::N, false, 1000, &scheme);
+        let layout = Layout::new(100, 10, D::N, false, 1000, &scheme);
         let constants = scene_constants(&case, &layout, &scheme);
         for source in corotated::SHADERS {
             let src = shaders::compose::<D>(source, &constants);
@@ -215,7 +215,7 @@ fn check_all<D: GpuDim>() {
     for model in ["hypoelastic", "neo-hookean"] {
         let case = block_case(max, model, "tl-weak-form", "");
         let rate = model == "hypoelastic";
-        let layout = galerkin::Layout::new(100, 400, 1600, 1000, D::N, rate);
+        let layout = galerkin::Layout::new(100, 10, 400, 1600, 1000, D::N, rate);
         let constants = galerkin::scene_constants(&case, &layout);
         for source in galerkin::SHADERS {
             let src = shaders::compose::<D>(source, &constants);

@@ -13,7 +13,9 @@ use crate::boundary::Boundary;
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::material::Material;
-use crate::methods::shared::{BlowUp, MIN_CHUNK, Method, ordered_reduce, reference_gradients};
+use crate::methods::shared::{
+    BlowUp, BoundaryWork, MIN_CHUNK, Method, ordered_reduce, reference_gradients,
+};
 use crate::methods::tlsph::{ArtificialViscosity, TlState, system as tl};
 use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::Csr;
@@ -102,7 +104,9 @@ pub struct Corotated<D: Dim> {
     boundary: Boundary<D>,
     interactions: Interactions<D>,
     kin: Vec<Kinematics<D>>,
-    power: f64,
+    /// The power of supports, loads and interactions and the supports' reactions at the
+    /// last rate evaluation.
+    boundary_work: BoundaryWork,
 }
 
 impl<D: Dim> Corotated<D> {
@@ -159,7 +163,7 @@ impl<D: Dim> Corotated<D> {
             h: kernel.h,
             boundary,
             interactions,
-            power: 0.0,
+            boundary_work: BoundaryWork::default(),
         })
     }
 
@@ -351,10 +355,13 @@ impl<D: Dim> OdeSystem for Corotated<D> {
             .with_min_len(MIN_CHUNK)
             .zip(&y.v)
             .for_each(|(u, &v)| *u = v);
-        let interaction_power = self.interactions.accelerate(&y.v, &self.mass, &mut d.v);
-        self.power = self.boundary.apply(&mut d.v, &y.v, &self.mass)
-            + self.boundary.external_power(&y.v, &self.mass)
-            + interaction_power;
+        self.boundary_work.finish(
+            &self.interactions,
+            &self.boundary,
+            &y.v,
+            &self.mass,
+            &mut d.v,
+        );
         Ok(())
     }
 
@@ -433,8 +440,8 @@ impl<D: Dim> Method<D> for Corotated<D> {
         self.material.p_wave_speed() + vmax
     }
 
-    fn boundary_power(&self) -> f64 {
-        self.power
+    fn boundary_work(&self) -> &BoundaryWork {
+        &self.boundary_work
     }
 
     fn check_finite(&self, y: &TlState<D>) -> Result<(), BlowUp> {

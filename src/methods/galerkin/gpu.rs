@@ -7,11 +7,12 @@
 //! one command encoder; the host reads back only at checks and outputs.
 
 use super::{GalerkinState, TlGalerkin};
+use crate::boundary::Reaction;
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::profile::{NONE, PassBytes, Scale, read, read_write, write};
 use crate::gpu::program::{StateLayout, Stepper};
-use crate::gpu::reduction::{Reduced, Reduction, WorkBalance};
+use crate::gpu::reduction::{self, Reduced, Reduction, WorkBalance};
 use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
     self, BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, LOADS, MECHANICS, PLASTIC_STORE,
@@ -161,9 +162,11 @@ pub struct Layout {
 }
 
 impl Layout {
-    /// n nodes, q points with `pairs` point–node pairs, `smooth_pairs` smoothing pairs.
+    /// n nodes (`constrained` of them with prescribed components), q points with `pairs`
+    /// point–node pairs, `smooth_pairs` smoothing pairs.
     pub fn new(
         n: usize,
+        constrained: usize,
         q: usize,
         pairs: usize,
         smooth_pairs: usize,
@@ -179,11 +182,14 @@ impl Layout {
                 .vectors("V", true, n)
                 .scalars("RHO", rate, q)
                 .tensors("S", rate, q),
-            kin: Fields::new("K", dim)
-                .tensors("F", true, q)
-                .tensors("P", true, q)
-                .scalars("PSI", true, q)
-                .scalars("POW", true, n),
+            kin: reduction::with_reactions(
+                Fields::new("K", dim)
+                    .tensors("F", true, q)
+                    .tensors("P", true, q)
+                    .scalars("PSI", true, q)
+                    .scalars("POW", true, n),
+                constrained,
+            ),
             pair: Fields::new("P", dim).vectors("G", true, pairs),
             gather: Fields::new("G", dim)
                 .scalars("OFFSETS", true, n + 1)
@@ -192,7 +198,7 @@ impl Layout {
                 .vectors("WG", true, pairs)
                 .scalars("WN", true, pairs),
             smooth: Fields::new("SW", dim).scalars("N", true, smooth_pairs),
-            reference: reference::fields(n, dim, Extras::default()),
+            reference: reference::fields(n, constrained, dim, Extras::default()),
         }
     }
 
@@ -283,6 +289,7 @@ impl<D: GpuDim> GpuGalerkin<D> {
         let smoothing = host.smoothing();
         let layout = Layout::new(
             n,
+            host.boundary().constrained.len(),
             q,
             shapes.csr.pair_count(),
             smoothing.map_or(0, |s| s.csr.pair_count()),
@@ -619,6 +626,10 @@ impl<D: GpuDim> Engine<D> for GpuGalerkin<D> {
     fn external_work(&mut self) -> f64 {
         let power = self.reduction().power;
         self.work.update(power)
+    }
+
+    fn reactions(&mut self) -> Vec<Reaction> {
+        reduction::reactions(&self.gpu, &self.kin, &self.layout.kin, self.host.boundary())
     }
 
     fn check(&mut self) -> Result<(), BlowUp> {

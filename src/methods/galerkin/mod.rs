@@ -27,7 +27,9 @@ use crate::boundary::Boundary;
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::material::Material;
-use crate::methods::shared::{BlowUp, MIN_CHUNK, Method, check_motion, particle_state};
+use crate::methods::shared::{
+    BlowUp, BoundaryWork, MIN_CHUNK, Method, check_motion, particle_state,
+};
 use crate::methods::tlsph::system::stress_fields;
 use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::Csr;
@@ -241,7 +243,9 @@ pub struct TlGalerkin<D: Dim> {
     /// F_q and P_q of the last rate evaluation.
     f: Vec<D::T>,
     pk1: Vec<D::T>,
-    power: f64,
+    /// The power of supports, loads and interactions and the supports' reactions at the
+    /// last rate evaluation.
+    boundary_work: BoundaryWork,
 }
 
 impl<D: Dim> TlGalerkin<D> {
@@ -291,7 +295,7 @@ impl<D: Dim> TlGalerkin<D> {
             plastic: material.von_mises().map(|model| History::virgin(model, n)),
             f: vec![D::identity(); n],
             pk1: vec![D::zero_t(); n],
-            power: 0.0,
+            boundary_work: BoundaryWork::default(),
         })
     }
 
@@ -523,10 +527,13 @@ impl<D: Dim> OdeSystem for TlGalerkin<D> {
             .with_min_len(MIN_CHUNK)
             .zip(&y.v)
             .for_each(|(u, &v)| *u = v);
-        let interaction_power = self.interactions.accelerate(&y.v, &self.mass, &mut d.v);
-        self.power = self.boundary.apply(&mut d.v, &y.v, &self.mass)
-            + self.boundary.external_power(&y.v, &self.mass)
-            + interaction_power;
+        self.boundary_work.finish(
+            &self.interactions,
+            &self.boundary,
+            &y.v,
+            &self.mass,
+            &mut d.v,
+        );
         Ok(())
     }
 
@@ -667,8 +674,8 @@ impl<D: Dim> Method<D> for TlGalerkin<D> {
         signal_speed::<D>(&self.material, &y.v)
     }
 
-    fn boundary_power(&self) -> f64 {
-        self.power
+    fn boundary_work(&self) -> &BoundaryWork {
+        &self.boundary_work
     }
 
     fn check_finite(&self, y: &GalerkinState<D>) -> Result<(), BlowUp> {

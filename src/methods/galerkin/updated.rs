@@ -20,7 +20,9 @@ use crate::boundary::Boundary;
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::material::Material;
-use crate::methods::shared::{BlowUp, MIN_CHUNK, Method, check_motion, particle_state};
+use crate::methods::shared::{
+    BlowUp, BoundaryWork, MIN_CHUNK, Method, check_motion, particle_state,
+};
 use crate::methods::tlsph::system::stress_fields;
 use crate::neighbour::Csr;
 use crate::observe::{ScalarField, Snapshot};
@@ -161,7 +163,9 @@ pub struct UlGalerkin<D: Dim, P: MovingPoints<D>> {
     sigma: Vec<D::T>,
     /// The points' plastic history (von Mises); None for the elastic models.
     plastic: Option<History>,
-    power: f64,
+    /// The power of supports, loads and interactions and the supports' reactions at the
+    /// last rate evaluation.
+    boundary_work: BoundaryWork,
 }
 
 /// The initial state: at rest in the reference configuration, v = v0, ρ = ρ0, S = 0.
@@ -264,7 +268,7 @@ impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
             interactions,
             sigma: vec![D::zero_t(); q],
             plastic: material.von_mises().map(|model| History::virgin(model, q)),
-            power: 0.0,
+            boundary_work: BoundaryWork::default(),
         })
     }
 
@@ -460,10 +464,13 @@ impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
             mass: &self.mass,
         };
         self.points.own_rates(&nodes, y, &self.shapes, d)?;
-        let interaction_power = self.interactions.accelerate(&y.v, &self.mass, &mut d.v);
-        self.power = self.boundary.apply(&mut d.v, &y.v, &self.mass)
-            + self.boundary.external_power(&y.v, &self.mass)
-            + interaction_power;
+        self.boundary_work.finish(
+            &self.interactions,
+            &self.boundary,
+            &y.v,
+            &self.mass,
+            &mut d.v,
+        );
         Ok(())
     }
 
@@ -579,8 +586,8 @@ impl<D: Dim, P: MovingPoints<D>> Method<D> for UlGalerkin<D, P> {
         signal_speed::<D>(&self.material, &y.v)
     }
 
-    fn boundary_power(&self) -> f64 {
-        self.power
+    fn boundary_work(&self) -> &BoundaryWork {
+        &self.boundary_work
     }
 
     /// Finite motion, ρ and S; then positive densities and points whose functions can

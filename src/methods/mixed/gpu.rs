@@ -14,11 +14,12 @@
 
 use super::system::{Fluxes, MixedSph, MixedState};
 use super::{CflWaveSpeed, DeformationGradient, Momentum};
+use crate::boundary::Reaction;
 use crate::gpu::context::{Gpu, GpuError, Pipeline, WORKGROUP};
 use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::profile::{NONE, PassBytes, Scale, Traffic, read, read_write, write};
 use crate::gpu::program::{StateLayout, Stepper};
-use crate::gpu::reduction::{Reduced, Reduction, WorkBalance};
+use crate::gpu::reduction::{self, Reduced, Reduction, WorkBalance};
 use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
     self, BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, LOADS, MECHANICS, PLASTIC_STORE,
@@ -331,6 +332,7 @@ impl MixedLayout {
         let upwind = !jst;
         let kin_h = upwind && evolves_j;
         let dim = D::N;
+        let constrained = cpu.boundary().constrained.len();
         Self {
             n,
             ghosts,
@@ -342,12 +344,15 @@ impl MixedLayout {
                 .tensors("F", true, n)
                 .tensors("H", evolves_h, n)
                 .scalars("J", evolves_j, n),
-            kin: Fields::new("K", dim)
-                .tensors("P", true, n + ghosts)
-                .tensors("H", kin_h, n + ghosts)
-                .vectors("GM", true, 2 * ghosts)
-                .tensors("FC", bond, n)
-                .scalars("POW", true, n),
+            kin: reduction::with_reactions(
+                Fields::new("K", dim)
+                    .tensors("P", true, n + ghosts)
+                    .tensors("H", kin_h, n + ghosts)
+                    .vectors("GM", true, 2 * ghosts)
+                    .tensors("FC", bond, n)
+                    .scalars("POW", true, n),
+                constrained,
+            ),
             force: Fields::new("F", dim)
                 .vectors("T", true, n)
                 .vectors("D", true, n)
@@ -361,7 +366,7 @@ impl MixedLayout {
                 .vectors("LS", upwind && cpu.reconstruction(), pairs)
                 .scalars("ELL", jst, pairs)
                 .scalars("W", bond, pairs),
-            reference: reference::fields(n, dim, EXTRAS),
+            reference: reference::fields(n, constrained, dim, EXTRAS),
         }
     }
 
@@ -1036,6 +1041,10 @@ impl<D: GpuDim> Engine<D> for GpuMixed<D> {
     fn external_work(&mut self) -> f64 {
         let power = self.reduction().power;
         self.work.update(power)
+    }
+
+    fn reactions(&mut self) -> Vec<Reaction> {
+        reduction::reactions(&self.gpu, &self.kin, &self.layout.kin, self.cpu.boundary())
     }
 
     fn check(&mut self) -> Result<(), BlowUp> {

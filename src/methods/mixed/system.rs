@@ -21,8 +21,8 @@ use crate::interaction::Interactions;
 use crate::material::Material;
 use crate::methods::not_run_by;
 use crate::methods::shared::{
-    BlowUp, MIN_CHUNK, Method, check_motion, neighbour_radius, ordered_reduce, particle_state,
-    reference_gradients,
+    BlowUp, BoundaryWork, MIN_CHUNK, Method, check_motion, neighbour_radius, ordered_reduce,
+    particle_state, reference_gradients,
 };
 use crate::mirror::Ghosts;
 use crate::neighbour::{self, Csr};
@@ -180,7 +180,9 @@ pub struct MixedSph<D: Dim> {
     /// positions 𝒳 at the second TVD-RK2 stage.
     step_start: Option<StepStart<D>>,
     stage: usize,
-    power: f64,
+    /// The power of supports, loads and interactions and the supports' reactions at the
+    /// last rate evaluation.
+    boundary_work: BoundaryWork,
 }
 
 impl<D: Dim> MixedSph<D> {
@@ -342,7 +344,7 @@ impl<D: Dim> MixedSph<D> {
             interactions,
             step_start: None,
             stage: 0,
-            power: 0.0,
+            boundary_work: BoundaryWork::default(),
         })
     }
 
@@ -770,10 +772,13 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
                 });
         }
         (self.forces, self.t, self.dp) = (forces, t, dp);
-        let interaction_power = self.interactions.accelerate(&y.v, &self.mass, &mut d.v);
-        self.power = self.boundary.apply(&mut d.v, &y.v, &self.mass)
-            + self.boundary.external_power(&y.v, &self.mass)
-            + interaction_power;
+        self.boundary_work.finish(
+            &self.interactions,
+            &self.boundary,
+            &y.v,
+            &self.mass,
+            &mut d.v,
+        );
         Ok(())
     }
 }
@@ -901,8 +906,8 @@ impl<D: Dim> Method<D> for MixedSph<D> {
         self.pair_wave_speed(y) + v2_max.sqrt()
     }
 
-    fn boundary_power(&self) -> f64 {
-        self.power
+    fn boundary_work(&self) -> &BoundaryWork {
+        &self.boundary_work
     }
 
     fn check_finite(&self, y: &MixedState<D>) -> Result<(), BlowUp> {

@@ -13,7 +13,9 @@ use crate::boundary::Boundary;
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::material::Material;
-use crate::methods::shared::{BlowUp, MIN_CHUNK, Method, reference_gradients, reverse_gradients};
+use crate::methods::shared::{
+    BlowUp, BoundaryWork, MIN_CHUNK, Method, reference_gradients, reverse_gradients,
+};
 use crate::methods::tlsph::{ArtificialViscosity, TlState, system as tl};
 use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::Csr;
@@ -69,7 +71,9 @@ pub struct Potential<D: Dim> {
     boundary: Boundary<D>,
     interactions: Interactions<D>,
     kin: Vec<Kinematics<D>>,
-    power: f64,
+    /// The power of supports, loads and interactions and the supports' reactions at the
+    /// last rate evaluation.
+    boundary_work: BoundaryWork,
 }
 
 impl<D: Dim> Potential<D> {
@@ -121,7 +125,7 @@ impl<D: Dim> Potential<D> {
             h: kernel.h,
             boundary,
             interactions,
-            power: 0.0,
+            boundary_work: BoundaryWork::default(),
         })
     }
 
@@ -234,10 +238,13 @@ impl<D: Dim> OdeSystem for Potential<D> {
             .with_min_len(MIN_CHUNK)
             .zip(&y.v)
             .for_each(|(u, &v)| *u = v);
-        let interaction_power = self.interactions.accelerate(&y.v, &self.mass, &mut d.v);
-        self.power = self.boundary.apply(&mut d.v, &y.v, &self.mass)
-            + self.boundary.external_power(&y.v, &self.mass)
-            + interaction_power;
+        self.boundary_work.finish(
+            &self.interactions,
+            &self.boundary,
+            &y.v,
+            &self.mass,
+            &mut d.v,
+        );
         Ok(())
     }
 
@@ -331,8 +338,8 @@ impl<D: Dim> Method<D> for Potential<D> {
         self.material.p_wave_speed() * scale + vmax
     }
 
-    fn boundary_power(&self) -> f64 {
-        self.power
+    fn boundary_work(&self) -> &BoundaryWork {
+        &self.boundary_work
     }
 
     fn check_finite(&self, y: &TlState<D>) -> Result<(), BlowUp> {

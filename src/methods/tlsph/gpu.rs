@@ -8,12 +8,13 @@
 
 use super::system::{TlState, check_state, hourglass_stiffness, snapshot};
 use super::{TlsphForce, ViscosityGradient};
+use crate::boundary::Reaction;
 use crate::correction::{self, CorrectionKind};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim, flat_v};
 use crate::gpu::profile::{NONE, PassBytes, Scale, read, read_write, write};
 use crate::gpu::program::{StateLayout, Stepper};
-use crate::gpu::reduction::{Reduced, Reduction, WorkBalance};
+use crate::gpu::reduction::{self, Reduced, Reduction, WorkBalance};
 use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
     self, BOUNDARY, CONTACT, CORRECTION, Constants, INTEGRATE, LOADS, MECHANICS, PAIR_OFFSETS,
@@ -237,7 +238,16 @@ pub struct Layout {
 }
 
 impl Layout {
-    pub fn new(n: usize, dim: usize, rate: bool, pairs: usize, scheme: &TlScheme) -> Self {
+    /// The layout of n particles, `constrained` of them with prescribed components, and
+    /// `pairs` neighbour pairs.
+    pub fn new(
+        n: usize,
+        constrained: usize,
+        dim: usize,
+        rate: bool,
+        pairs: usize,
+        scheme: &TlScheme,
+    ) -> Self {
         let kin = Fields::new("K", dim)
             .tensors("F", true, n)
             .tensors("P", true, n)
@@ -248,6 +258,7 @@ impl Layout {
             .kin_tensors
             .iter()
             .fold(kin, |k, &name| k.tensors(name, true, n));
+        let kin = reduction::with_reactions(kin, constrained);
         Self {
             n,
             dim,
@@ -263,7 +274,7 @@ impl Layout {
                 .vectors("DX", true, pairs)
                 .vectors("GREV", scheme.reverse, pairs)
                 .scalars("HGK", scheme.hourglass.is_some(), pairs),
-            reference: reference::fields(n, dim, EXTRAS),
+            reference: reference::fields(n, constrained, dim, EXTRAS),
         }
     }
 
@@ -364,6 +375,7 @@ impl<D: GpuDim> GpuTlsph<D> {
         let csr = disc.neighbours();
         let layout = Layout::new(
             n,
+            disc.boundary.constrained.len(),
             D::N,
             disc.material.model.is_rate_based(),
             csr.pair_count(),
@@ -736,6 +748,11 @@ impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
     fn external_work(&mut self) -> f64 {
         let power = self.reduction().power;
         self.work.update(power)
+    }
+
+    fn reactions(&mut self) -> Vec<Reaction> {
+        let boundary = &self.reference.boundary;
+        reduction::reactions(&self.gpu, &self.kin, &self.layout.kin, boundary)
     }
 
     fn check(&mut self) -> Result<(), BlowUp> {

@@ -9,7 +9,8 @@ use super::{ArtificialViscosity, TlsphForce, ViscosityGradient};
 use crate::boundary::Boundary;
 use crate::interaction::Interactions;
 use crate::methods::shared::{
-    BlowUp, MIN_CHUNK, Method, check_motion, particle_state, reference_gradients, reverse_gradients,
+    BlowUp, BoundaryWork, MIN_CHUNK, Method, check_motion, particle_state, reference_gradients,
+    reverse_gradients,
 };
 use crate::methods::{MethodSpec, not_run_by};
 
@@ -192,7 +193,9 @@ pub struct Tlsph<D: Dim> {
     boundary: Boundary<D>,
     interactions: Interactions<D>,
     kin: Vec<Kinematics<D>>,
-    power: f64,
+    /// The power of supports, loads and interactions and the supports' reactions at the
+    /// last rate evaluation.
+    boundary_work: BoundaryWork,
 }
 
 impl<D: Dim> Tlsph<D> {
@@ -245,7 +248,7 @@ impl<D: Dim> Tlsph<D> {
             h: kernel.h,
             boundary,
             interactions,
-            power: 0.0,
+            boundary_work: BoundaryWork::default(),
         })
     }
 
@@ -409,10 +412,13 @@ impl<D: Dim> OdeSystem for Tlsph<D> {
             .with_min_len(MIN_CHUNK)
             .zip(&y.v)
             .for_each(|(u, &v)| *u = v);
-        let interaction_power = self.interactions.accelerate(&y.v, &self.mass, &mut d.v);
-        self.power = self.boundary.apply(&mut d.v, &y.v, &self.mass)
-            + self.boundary.external_power(&y.v, &self.mass)
-            + interaction_power;
+        self.boundary_work.finish(
+            &self.interactions,
+            &self.boundary,
+            &y.v,
+            &self.mass,
+            &mut d.v,
+        );
         Ok(())
     }
 
@@ -509,8 +515,8 @@ impl<D: Dim> Method<D> for Tlsph<D> {
         self.material.p_wave_speed() + vmax
     }
 
-    fn boundary_power(&self) -> f64 {
-        self.power
+    fn boundary_work(&self) -> &BoundaryWork {
+        &self.boundary_work
     }
 
     fn check_finite(&self, y: &TlState<D>) -> Result<(), BlowUp> {

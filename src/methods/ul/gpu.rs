@@ -11,19 +11,20 @@
 //! flag holds and runs the batch again from its start.
 
 use super::{UlState, check_state, snapshot};
+use crate::boundary::Reaction;
 use crate::correction::CorrectionKind;
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::neighbour::{CellList, CellParams, Positions};
 use crate::gpu::profile::{Builds, NONE, PassBytes, Scale, Traffic, read, read_write, write};
 use crate::gpu::program::{StateLayout, Stepper};
-use crate::gpu::reduction::{Reduced, Reduction, WorkBalance};
+use crate::gpu::reduction::{self, Reduced, Reduction, WorkBalance};
 use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
     self, CONTACT, Constants, INTEGRATE, MECHANICS, PRESCRIBED, REFERENCE, Source, Wgsl, source,
     wgsl,
 };
-use crate::gpu::{SetupError, check_f32_particles, check_f32_range};
+use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
 use crate::integrate::Buf;
 use crate::interaction::Interactions;
 use crate::interaction::gpu::GpuInteractions;
@@ -118,7 +119,8 @@ pub struct Layout {
 }
 
 impl Layout {
-    pub fn new(n: usize, dim: usize, scheme: &Scheme, corrected: bool) -> Self {
+    /// The layout of n particles, `constrained` of them with prescribed components.
+    pub fn new(n: usize, constrained: usize, dim: usize, scheme: &Scheme, corrected: bool) -> Self {
         Self {
             n,
             dim,
@@ -128,15 +130,18 @@ impl Layout {
                 .scalars("RHO", true, n)
                 .tensors("S", true, n)
                 .tensors("F", true, n),
-            kin: Fields::new("K", dim)
-                .tensors("T", true, n)
-                .tensors("R", scheme.artificial_stress, n)
-                .tensors("AIT", corrected, n)
-                .scalars("VOL", true, n)
-                .scalars("C", true, n)
-                .scalars("P", scheme.pressure, n)
-                .scalars("POW", true, n),
-            reference: reference::fields(n, dim, Extras::default()),
+            kin: reduction::with_reactions(
+                Fields::new("K", dim)
+                    .tensors("T", true, n)
+                    .tensors("R", scheme.artificial_stress, n)
+                    .tensors("AIT", corrected, n)
+                    .scalars("VOL", true, n)
+                    .scalars("C", true, n)
+                    .scalars("P", scheme.pressure, n)
+                    .scalars("POW", true, n),
+                constrained,
+            ),
+            reference: reference::fields(n, constrained, dim, Extras::default()),
         }
     }
 
@@ -225,10 +230,11 @@ impl<D: GpuDim> GpuUl<D> {
     /// scheme's passes.
     pub fn new(case: &Case, gpu: Gpu, scheme: &Scheme) -> Result<Self, SetupError> {
         let disc = Reference::<D>::build(case)?;
+        check_f32_run(case, &disc.boundary)?;
         check_f32_particles::<D>(case, &disc.x0, &disc.v0, &disc.body)?;
         let n = disc.len();
         let corrected = case.method.correction == CorrectionKind::RandlesLibersky;
-        let layout = Layout::new(n, D::N, scheme, corrected);
+        let layout = Layout::new(n, disc.boundary.constrained.len(), D::N, scheme, corrected);
         let constants = scene_constants(case, &layout, scheme);
         check_f32_range(case, &constants)?;
         gpu.check_size("kinematics buffer", layout.kin.bytes())?;
@@ -608,6 +614,11 @@ impl<D: GpuDim> Engine<D> for GpuUl<D> {
     fn external_work(&mut self) -> f64 {
         let power = self.reduced().power;
         self.work.update(power)
+    }
+
+    fn reactions(&mut self) -> Vec<Reaction> {
+        let boundary = &self.reference.boundary;
+        reduction::reactions(&self.gpu, &self.kin, &self.layout.kin, boundary)
     }
 
     fn check(&mut self) -> Result<(), BlowUp> {

@@ -21,7 +21,9 @@ use crate::interaction::Interactions;
 use crate::kernel::Kernel;
 use crate::material::Material;
 use crate::methods::Problem;
-use crate::methods::shared::{BlowUp, MIN_CHUNK, Method, check_motion, particle_state};
+use crate::methods::shared::{
+    BlowUp, BoundaryWork, MIN_CHUNK, Method, check_motion, particle_state,
+};
 use crate::methods::tlsph::system::stress_fields;
 use crate::neighbour::{Csr, Neighbours, Rebuild};
 use crate::observe::{ScalarField, Snapshot};
@@ -143,7 +145,9 @@ pub struct UlCore<D: Dim> {
     /// Current positions x = X + u of the last rate evaluation.
     pub x: Vec<D::V>,
     interactions: Interactions<D>,
-    power: f64,
+    /// The power of supports, loads and interactions and the supports' reactions at the
+    /// last rate evaluation.
+    boundary_work: BoundaryWork,
 }
 
 impl<D: Dim> UlCore<D> {
@@ -176,7 +180,7 @@ impl<D: Dim> UlCore<D> {
             kernel,
             neighbours,
             interactions,
-            power: 0.0,
+            boundary_work: BoundaryWork::default(),
         })
     }
 
@@ -254,10 +258,13 @@ impl<D: Dim> UlCore<D> {
             }
             d.u[i] = D::from_slice(&x_dot[..D::N]);
         }
-        let interaction_power = self.interactions.accelerate(&y.v, &self.mass, &mut d.v);
-        self.power = self.boundary.apply(&mut d.v, &y.v, &self.mass)
-            + self.boundary.external_power(&y.v, &self.mass)
-            + interaction_power;
+        self.boundary_work.finish(
+            &self.interactions,
+            &self.boundary,
+            &y.v,
+            &self.mass,
+            &mut d.v,
+        );
     }
 }
 
@@ -426,8 +433,8 @@ impl<D: Dim, S: PairScheme<D>> Method<D> for UlSph<D, S> {
         self.core.material.p_wave_speed() + vmax
     }
 
-    fn boundary_power(&self) -> f64 {
-        self.core.power
+    fn boundary_work(&self) -> &BoundaryWork {
+        &self.core.boundary_work
     }
 
     fn check_finite(&self, y: &UlState<D>) -> Result<(), BlowUp> {
