@@ -615,6 +615,24 @@ pub fn bar_wave_speed(material: &Material, dim: usize) -> f64 {
     (modulus / material.rho0).sqrt()
 }
 
+/// The nominal stress P11 of compressible neo-Hooke (P = μ(F − F⁻ᵀ) + λ ln J F⁻ᵀ) in
+/// homogeneous uniaxial tension λ1 under plane strain (λ3 = 1, the lateral faces free):
+/// μ(λ1 − 1/λ1) + λ ln(λ1 λ2)/λ1, with the lateral stretch λ2 from P22 = 0,
+/// μ(λ2² − 1) + λ ln(λ1 λ2) = 0, solved by Newton's method from λ2 = 1 (the left side is
+/// increasing in λ2, so the root is unique) to round-off.
+pub fn neo_hooke_plane_strain_tension(lambda1: f64, mu: f64, lambda: f64) -> f64 {
+    let mut lambda2 = 1.0f64;
+    for _ in 0..100 {
+        let g = mu * (lambda2 * lambda2 - 1.0) + lambda * (lambda1 * lambda2).ln();
+        let step = g / (2.0 * mu * lambda2 + lambda / lambda2);
+        lambda2 -= step;
+        if step.abs() <= 1e-15 * lambda2 {
+            break;
+        }
+    }
+    mu * (lambda1 - 1.0 / lambda1) + lambda * (lambda1 * lambda2).ln() / lambda1
+}
+
 /// An [`AnalyticSolution`] resolved for a case: with its material, the first body's
 /// initial velocity and, for the free rod, its box.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -1197,5 +1215,48 @@ mod rod_tests {
         let t = period + 0.5 * DRIVEN.duration;
         assert_eq!(r.driven(DRIVEN, L - 1e-4, t), 2.0 * v);
         assert_eq!(r.driven_stress(DRIVEN, L - 1e-4, t), 0.0);
+    }
+}
+
+#[cfg(test)]
+mod tension_tests {
+    use super::neo_hooke_plane_strain_tension;
+    use crate::material::Material;
+    use crate::scene::MaterialSpec;
+    use crate::tensor::{D2, Dim};
+
+    /// Neo-Hooke, E = 1 MPa, ν = 0.45.
+    fn rubber() -> Material {
+        let spec: MaterialSpec = toml::from_str(
+            "model = \"neo-hookean\"\ndensity = 1000.0\nyoungs_modulus = 1.0e6\npoisson_ratio = 0.45",
+        )
+        .unwrap();
+        Material::new(&spec)
+    }
+
+    #[test]
+    fn uniaxial_plane_strain_tension_leaves_the_lateral_faces_free() {
+        let m = rubber();
+        // Small strain: the slope is the plane-strain bar modulus 4μ(λ + μ)/(λ + 2μ) =
+        // E/(1 − ν²), to the first-order term's relative 1e-3 at ε = 1e-6 (round-off).
+        let eps = 1e-6;
+        let slope = neo_hooke_plane_strain_tension(1.0 + eps, m.mu, m.lambda) / eps;
+        let bar = 4.0 * m.mu * (m.lambda + m.mu) / (m.lambda + 2.0 * m.mu);
+        assert!((slope / bar - 1.0).abs() < 1e-5, "{slope} vs {bar}");
+        // At λ1 = 1.5: the material's own P at F = diag(λ1, λ2), λ2 found by bisection
+        // on its P22, has P11 equal to the closed form and P12 = P21 = 0.
+        let p = |l2: f64| m.pk1::<D2>(glam::DMat2::from_diagonal(glam::DVec2::new(1.5, l2)));
+        let (mut lo, mut hi) = (0.3, 1.0);
+        for _ in 0..200 {
+            let mid = 0.5 * (lo + hi);
+            if D2::entry(p(mid), 1, 1) < 0.0 {
+                lo = mid
+            } else {
+                hi = mid
+            }
+        }
+        let p11 = D2::entry(p(lo), 0, 0);
+        let closed = neo_hooke_plane_strain_tension(1.5, m.mu, m.lambda);
+        assert!((closed / p11 - 1.0).abs() < 1e-12, "{closed} vs {p11}");
     }
 }

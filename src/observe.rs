@@ -1,5 +1,6 @@
 //! Observers: energies, momenta, body extents, neck height, the velocity error against a
-//! closed form and point probes, sampled into the CSV time series.
+//! closed form, support reactions, point probes and section forces, sampled into the CSV
+//! time series.
 
 use crate::analytic::{ClosedForm, Exact, relative_l2};
 use crate::boundary::Reaction;
@@ -424,12 +425,12 @@ impl Observers {
                 }
             }
         }
-        for section in &self.sections {
-            row.extend(&section.force(snap, self.rho0)[..D::N]);
-        }
         for &i in &self.probes {
             row.extend((0..D::N).map(|k| D::comp(u[i], k)));
             row.extend((0..D::N).map(|k| D::comp(v[i], k)));
+        }
+        for section in &self.sections {
+            row.extend(&section.force(snap, self.rho0)[..D::N]);
         }
         row
     }

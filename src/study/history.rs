@@ -28,18 +28,26 @@ pub fn series_file(suite_dir: &Path, id: &str) -> PathBuf {
     suite_dir.join("runs").join(id).join("series.csv")
 }
 
-/// Reads column `h.column` of a series file against its `time` column, scaled.
+/// Reads column `h.column` of a series file against its `time` column (or its
+/// `x_column`), scaled.
 pub fn read_series(path: &Path, h: &History) -> Result<Vec<(f64, f64)>, String> {
-    let points = read_column(path, &h.column).map_err(|e| match e {
-        ColumnError::NoColumn { .. } => format!(
-            "{e}; name one of them in the suite's [history] `column`, or add its observer to \
-             the case's `output.observers`"
-        ),
-        ColumnError::Unreadable(_) => e.to_string(),
-    })?;
-    Ok(points
-        .into_iter()
-        .map(|(t, c)| (h.x_scale * t, h.scale * c))
+    let read = |column: &str, key: &str| {
+        read_column(path, column).map_err(|e| match e {
+            ColumnError::NoColumn { .. } => format!(
+                "{e}; name one of them in the suite's [history] `{key}`, or add its observer \
+                 to the case's `output.observers`"
+            ),
+            ColumnError::Unreadable(_) => e.to_string(),
+        })
+    };
+    let points = read(&h.column, "column")?;
+    let x: Vec<f64> = match &h.x_column {
+        Some(column) => read(column, "x_column")?.into_iter().map(|p| p.1).collect(),
+        None => points.iter().map(|p| p.0).collect(),
+    };
+    Ok(x.into_iter()
+        .zip(points)
+        .map(|(x, (_, c))| (h.x_scale * x, h.scale * c))
         .collect())
 }
 
@@ -471,7 +479,7 @@ mod tests {
         let path = dir.join("series.csv");
         std::fs::write(
             &path,
-            "time,step,dt,neck_height\n0,0,1e-6,1.0\n0.01,10,1e-6,0.8\n",
+            "time,step,dt,neck_height,grip.ux\n0,0,1e-6,1.0,0\n0.01,10,1e-6,0.8,0.003\n",
         )
         .unwrap();
         let h = History {
@@ -480,12 +488,23 @@ mod tests {
             scale: 2.0,
             x_label: "extension [%]".into(),
             x_scale: 2000.0,
+            x_column: None,
             at: Vec::new(),
             published: None,
         };
         assert_eq!(
             read_series(&path, &h).unwrap(),
             vec![(0.0, 2.0), (20.0, 1.6)]
+        );
+        // Against another column: x = x_scale · grip.ux.
+        let against = History {
+            x_column: Some("grip.ux".into()),
+            x_scale: 1000.0,
+            ..h.clone()
+        };
+        assert_eq!(
+            read_series(&path, &against).unwrap(),
+            vec![(0.0, 2.0), (3.0, 1.6)]
         );
         let wrong = History {
             column: "left.extent_y".into(),

@@ -117,7 +117,9 @@ impl TimeMeasure {
 }
 
 /// A column of the runs' time series (`series.csv`) drawn against time, one line per run:
-/// y = `scale` × column, x = `x_scale` × t.
+/// y = `scale` × column, x = `x_scale` × t; or against another column (`x_column`):
+/// x = `x_scale` × that column (a stress–strain curve from a reaction and a grip's
+/// displacement, say).
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct History {
@@ -127,11 +129,13 @@ pub struct History {
     pub label: String,
     #[serde(default = "unit_scale")]
     pub scale: f64,
-    /// Label of the x axis (of t × x_scale).
+    /// Label of the x axis (of t, or of `x_column`, × x_scale).
     #[serde(default = "time_label")]
     pub x_label: String,
     #[serde(default = "unit_scale")]
     pub x_scale: f64,
+    /// The column on the x axis instead of the time.
+    pub x_column: Option<String>,
     /// Times [s] at which the column is tabulated, per run (linear interpolation between
     /// the rows around each): seed 001's errors at the rod's return times, say. Empty: the
     /// table gives the first, smallest, largest and last values instead.
@@ -286,6 +290,16 @@ impl Suite {
                  positive (got {} and {})",
                 h.scale, h.x_scale
             )));
+        }
+        if let Some(h) = &suite.history
+            && h.x_column.is_some()
+            && !h.at.is_empty()
+        {
+            return Err(invalid(
+                "[history]: `at` tabulates the column at times, which the x axis of \
+                 `x_column` does not show; give one of them"
+                    .into(),
+            ));
         }
         if let Some(h) = &suite.history
             && let Some(t) = h.at.iter().find(|t| !(t.is_finite() && **t >= 0.0))
