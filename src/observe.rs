@@ -120,14 +120,16 @@ fn angular_components<D: Dim>() -> std::ops::Range<usize> {
     if D::N == 2 { 2..3 } else { 0..3 }
 }
 
-/// Where a run stands: time, step count, last step size and the work done on the body by
-/// supports and loads so far.
+/// Where a run stands: time, step count, last step size, the work done on the body by
+/// supports and loads so far, and the energy the artificial viscosity dissipated (0 where
+/// the method does not book it).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Clock {
     pub t: f64,
     pub step: u64,
     pub dt: f64,
     pub external_work: f64,
+    pub viscous_dissipation: f64,
 }
 
 /// The observers of a run and the columns they fill.
@@ -153,6 +155,9 @@ pub struct Observers {
     front: Option<(Exact, f64)>,
     /// The number of supports the `reaction` observer writes.
     supports: usize,
+    /// Whether the engine books the viscous dissipation (a column of the `energy`
+    /// observer).
+    dissipation: bool,
     sections: Vec<Section>,
     /// ρ0, for the volumes m/ρ0 of the sections.
     rho0: f64,
@@ -170,11 +175,13 @@ struct Section {
 
 impl Observers {
     /// Observers of a case over particles at reference positions x0, of which
-    /// `constrained` have prescribed velocity components.
+    /// `constrained` have prescribed velocity components, on an engine that books the
+    /// viscous dissipation or not (`dissipation`).
     pub fn new<D: Dim>(
         case: &Case,
         x0: &[D::V],
         constrained: &[(u32, u8)],
+        dissipation: bool,
     ) -> Result<Self, CaseError> {
         let mut names = vec!["time".to_string(), "step".to_string(), "dt".to_string()];
         let mut list = case.output.observers.clone();
@@ -182,15 +189,20 @@ impl Observers {
         list.dedup();
         for obs in &list {
             match obs {
-                Observer::Energy => names.extend(
-                    [
-                        "kinetic_energy",
-                        "strain_energy",
-                        "total_energy",
-                        "external_work",
-                    ]
-                    .map(String::from),
-                ),
+                Observer::Energy => {
+                    names.extend(
+                        [
+                            "kinetic_energy",
+                            "strain_energy",
+                            "total_energy",
+                            "external_work",
+                        ]
+                        .map(String::from),
+                    );
+                    if dissipation {
+                        names.push("viscous_dissipation".into());
+                    }
+                }
                 Observer::LinearMomentum => {
                     names.extend((0..D::N).map(|k| format!("momentum_{}", AXES[k])))
                 }
@@ -314,6 +326,7 @@ impl Observers {
             solution,
             front,
             supports: crate::boundary::supports(case).len(),
+            dissipation,
             sections: case
                 .sections
                 .iter()
@@ -354,12 +367,17 @@ impl Observers {
         let mut row = vec![clock.t, clock.step as f64, clock.dt];
         for obs in &self.list {
             match obs {
-                Observer::Energy => row.extend([
-                    inv.kinetic,
-                    inv.strain,
-                    inv.total_energy(),
-                    clock.external_work,
-                ]),
+                Observer::Energy => {
+                    row.extend([
+                        inv.kinetic,
+                        inv.strain,
+                        inv.total_energy(),
+                        clock.external_work,
+                    ]);
+                    if self.dissipation {
+                        row.push(clock.viscous_dissipation);
+                    }
+                }
                 Observer::LinearMomentum => row.extend(&inv.linear[..D::N]),
                 Observer::AngularMomentum => {
                     row.extend(angular_components::<D>().map(|k| inv.angular[k]))

@@ -1,7 +1,9 @@
 // Global sums of one state, per workgroup: kinetic and strain energy, linear and angular
-// momentum, the power of supports and loads, max |v|², a count of non-finite entries and
-// the largest pair wave speed of the CFL step (`pair_wave_speed(i)`: Δx max_j C_p,ij / r_ij
-// for the mixed methods, seed 002 eqs 31–32; unused, 0, for TLSPH).
+// momentum, the power of supports and loads, max |v|², a count of non-finite entries, the
+// largest pair wave speed of the CFL step (`pair_wave_speed(i)`: Δx max_j C_p,ij / r_ij
+// for the mixed methods, seed 002 eqs 31–32; unused, 0, for TLSPH) and the viscous
+// dissipation of the last rate evaluation (`viscous_dissipation(i)`: the TLSPH family's
+// kin[KDIS_OFF + i]; 0 for the methods that do not book it).
 // One invocation per particle; a tree reduction in workgroup memory writes REDUCED values
 // per workgroup to `partials`, summed (max for |v|² and the pair wave speed) on the host in
 // f64. The method's `strain_energy(i)` (tlsph_energy.wgsl: from the stress pass's kin for
@@ -11,7 +13,7 @@
 // for its hooks (mixed_energy.wgsl: the neighbour lists). Constants: N, DIM, RHO0, U_OFF,
 // V_OFF, KPOW_OFF and the reference fields (reference.wgsl).
 
-const REDUCED: u32 = 12u;
+const REDUCED: u32 = 13u;
 
 @group(0) @binding(0) var<storage, read> y: array<f32>;
 // The method's per-particle scratch of the last rate evaluation (kinematics, power).
@@ -63,6 +65,7 @@ fn reduce(
         }
         q[10] = bad;
         q[11] = pair_wave_speed(i);
+        q[12] = viscous_dissipation(i);
     }
     sums[lid] = q;
     workgroupBarrier();

@@ -51,3 +51,8 @@ fn pair_wave_speed(i: u32) -> f32 {
     }
     return SPACING * fastest;
 }
+
+// The method does not separate its dissipation: no viscous power in the reduction.
+fn viscous_dissipation(i: u32) -> f32 {
+    return 0.0;
+}

@@ -13,7 +13,8 @@
 @group(0) @binding(2) var<storage, read_write> pair: array<f32>;
 @group(0) @binding(3) var<storage, read> reference: array<f32>;
 @group(0) @binding(4) var<storage, read> y: array<f32>;
-// The kinematics of the stress pass; this pass writes only the power (boundary.wgsl).
+// The kinematics of the stress pass; this pass writes only the power and reactions
+// (boundary.wgsl) and the viscous dissipation (KDIS).
 @group(0) @binding(5) var<storage, read_write> kin: array<f32>;
 // External acceleration from tractions and interactions (DIM per particle).
 @group(0) @binding(6) var<storage, read> ext: array<f32>;
@@ -67,6 +68,7 @@ fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
             }
         }
     }
+    kin[KDIS_OFF + i] = -RHO0 * vol_of(i) * dot(viscous, v_i);
     let a = apply_boundary(i, stress * (1.0 / RHO0) + viscous + hourglass, v_i, RHO0 * vol_of(i));
     vstore_d(V_OFF + DIM * i, a);
     vstore_d(U_OFF + DIM * i, v_i);

@@ -15,3 +15,8 @@ fn strain_energy(i: u32) -> f32 {
 fn pair_wave_speed(i: u32) -> f32 {
     return 0.0;
 }
+
+// The viscous dissipation −m_i a_visc·v_i of the last acceleration pass.
+fn viscous_dissipation(i: u32) -> f32 {
+    return kin[KDIS_OFF + i];
+}

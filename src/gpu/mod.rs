@@ -68,7 +68,7 @@ pub fn load_buffers(
     buffers: &[(&str, &wgpu::Buffer)],
 ) -> Result<reduction::WorkBalance, String> {
     let (&work, mut rest) = words
-        .split_first_chunk::<4>()
+        .split_first_chunk::<{ reduction::WORK_WORDS }>()
         .ok_or("the checkpoint holds no engine state")?;
     for (name, buffer) in buffers {
         let len = (buffer.size() / 4) as usize;

@@ -1,8 +1,8 @@
 //! The GPU reduction of a state (`shaders/common/reduce.wgsl`) and the work balance of supports
 //! and loads, shared by the GPU engines: energies, momenta, the power of supports and
-//! loads, max |v|, a non-finite count and the largest pair wave speed of the CFL step, per
-//! workgroup on the device and summed on the host in f64. Only the partials (12 floats
-//! per 256 particles) are read back; and, for the `reaction` observer, the reactions of
+//! loads, max |v|, a non-finite count, the largest pair wave speed of the CFL step and
+//! the viscous dissipation, per workgroup on the device and summed on the host in f64.
+//! Only the partials (13 floats per 256 particles) are read back; and, for the `reaction` observer, the reactions of
 //! the constrained particles (`shaders/common/boundary.wgsl`), which the host books to the
 //! supports.
 
@@ -12,7 +12,7 @@ use crate::boundary::{Boundary, Reaction};
 use crate::observe::Invariants;
 
 /// Values per workgroup written by `reduce.wgsl`.
-const REDUCED: usize = 12;
+const REDUCED: usize = 13;
 
 /// The GPU reduction of one state, summed on the host.
 #[derive(Clone, Copy, Debug)]
@@ -25,6 +25,9 @@ pub struct Reduced {
     /// Mixed methods: Δx max_ab C_p,ab / r_ab over the pairs of real particles (seed 002
     /// eqs 31–32, `MixedSph::pair_wave_speed`); 0 for TLSPH.
     pub pair_wave_speed: f64,
+    /// The artificial viscosity's dissipation −Σ m a_visc·v at the last rate evaluation
+    /// (the method's `viscous_dissipation(i)`; 0 for the methods that do not book it).
+    pub viscous_dissipation: f64,
 }
 
 /// The reduce pass of an engine and its cached result for the current state.
@@ -101,47 +104,80 @@ impl Reduction {
             max_speed: q[9].sqrt(),
             non_finite: q[10] != 0.0 || !q[..10].iter().all(|x| x.is_finite()),
             pair_wave_speed: q[11],
+            viscous_dissipation: q[12],
         };
         self.cached = Some(r);
         r
     }
 }
 
-/// Work done on the bodies by supports and loads: trapezoidal over the intervals between
-/// the reductions that give the power (the driver reduces at every check).
+/// Work done on the bodies by supports and loads, and the energy the artificial
+/// viscosity dissipated: each trapezoidal over the intervals between the reductions that
+/// give its power (the driver reduces at every check).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct WorkBalance {
     /// Simulated time advanced so far.
     time: f64,
-    work: f64,
+    work: Integral,
+    dissipated: Integral,
+}
+
+/// ∫ p dt, trapezoidal between updates.
+#[derive(Clone, Copy, Debug, Default)]
+struct Integral {
+    value: f64,
     /// Time and power of the last update.
     last: (f64, f64),
 }
+
+impl Integral {
+    fn update(&mut self, time: f64, power: f64) -> f64 {
+        let (t_last, p_last) = self.last;
+        self.value += 0.5 * (p_last + power) * (time - t_last);
+        self.last = (time, power);
+        self.value
+    }
+}
+
+/// The words of a [`WorkBalance`] in a checkpoint.
+pub const WORK_WORDS: usize = 7;
 
 impl WorkBalance {
     pub fn advance(&mut self, dt: f64, steps: u32) {
         self.time += dt * f64::from(steps);
     }
 
-    /// Its four numbers, for a checkpoint: time, work, time and power of the last update.
-    pub fn words(&self) -> [f64; 4] {
-        [self.time, self.work, self.last.0, self.last.1]
+    /// Its numbers, for a checkpoint: the time, then the work and the dissipation, each
+    /// with the time and power of its last update.
+    pub fn words(&self) -> [f64; WORK_WORDS] {
+        let (w, d) = (self.work, self.dissipated);
+        [
+            self.time, w.value, w.last.0, w.last.1, d.value, d.last.0, d.last.1,
+        ]
     }
 
-    pub fn from_words([time, work, t_last, p_last]: [f64; 4]) -> Self {
+    pub fn from_words([time, w, tw, pw, d, td, pd]: [f64; WORK_WORDS]) -> Self {
         Self {
             time,
-            work,
-            last: (t_last, p_last),
+            work: Integral {
+                value: w,
+                last: (tw, pw),
+            },
+            dissipated: Integral {
+                value: d,
+                last: (td, pd),
+            },
         }
     }
 
-    /// The work up to now, given the power at the current state.
+    /// The work up to now, given the power of supports and loads at the current state.
     pub fn update(&mut self, power: f64) -> f64 {
-        let (t_last, p_last) = self.last;
-        self.work += 0.5 * (p_last + power) * (self.time - t_last);
-        self.last = (self.time, power);
-        self.work
+        self.work.update(self.time, power)
+    }
+
+    /// The viscous dissipation up to now, given its power at the current state.
+    pub fn update_dissipation(&mut self, power: f64) -> f64 {
+        self.dissipated.update(self.time, power)
     }
 }
 

@@ -289,6 +289,12 @@ pub trait Method<D: Dim>: OdeSystem<Error = BlowUp> + Sized {
     /// The power of supports, loads and interactions and the supports' reactions at the
     /// last rate evaluation.
     fn boundary_work(&self) -> &BoundaryWork;
+    /// The power dissipated by the artificial viscosity at the last rate evaluation,
+    /// −Σ m a_visc·v, for the methods that book it (the total-Lagrangian SPH family; 0
+    /// without viscosity); None for those whose dissipation is not separated.
+    fn viscous_dissipation(&self) -> Option<f64> {
+        None
+    }
     /// The first particle whose state is not finite, if any.
     fn check_finite(&self, y: &Self::State) -> Result<(), BlowUp>;
     /// What the method carries from step to step besides the state (a plastic

@@ -26,7 +26,7 @@ use std::path::Path;
 /// The checkpoint's file name in a run's output folder.
 pub const FILE: &str = "checkpoint.bin";
 const MAGIC: &[u8; 8] = b"MESHCKPT";
-const VERSION: u32 = 1;
+const VERSION: u32 = 2;
 /// The largest header read (a header names a case and a method: a few hundred bytes).
 const HEADER_CAP: u32 = 1 << 16;
 

@@ -115,7 +115,9 @@ pub fn drive<D: Dim, E: Engine<D>>(
         None => time_step(case, &mut engine),
     };
     super::budget::check_steps(case, t_end / dt_first, dt_first, &opts.limits)?;
-    let observers = Observers::new::<D>(case, engine.reference(), engine.constrained())?;
+    let dissipation = engine.viscous_dissipation().is_some();
+    let observers =
+        Observers::new::<D>(case, engine.reference(), engine.constrained(), dissipation)?;
     std::fs::create_dir_all(&opts.out_dir).map_err(output_error(&opts.out_dir))?;
     let series_path = opts.out_dir.join("series.csv");
     let columns = observers.column_names();
@@ -191,6 +193,7 @@ pub fn drive<D: Dim, E: Engine<D>>(
                 step: p.step,
                 dt: p.dt,
                 external_work: engine.external_work(),
+                viscous_dissipation: engine.viscous_dissipation().unwrap_or(0.0),
             };
             (clock, p.e0, p.next_sample, p.next_checkpoint)
         }
@@ -272,6 +275,7 @@ pub fn drive<D: Dim, E: Engine<D>>(
             step: step + u64::from(steps),
             dt,
             external_work: engine.external_work(),
+            viscous_dissipation: engine.viscous_dissipation().unwrap_or(0.0),
         };
         let t = clock.t;
         if let Err(cause) = engine.check() {

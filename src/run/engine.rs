@@ -162,6 +162,11 @@ pub trait Engine<D: Dim> {
     /// The reaction of every support of the case ([`crate::boundary::supports`]) at the last
     /// rate evaluation.
     fn reactions(&mut self) -> Vec<Reaction>;
+    /// Energy dissipated by the artificial viscosity so far, for the methods that book it
+    /// ([`crate::methods::Method::viscous_dissipation`]); None for the others.
+    fn viscous_dissipation(&mut self) -> Option<f64> {
+        None
+    }
     /// Non-finite state or det F ≤ 0 since the start.
     fn check(&mut self) -> Result<(), BlowUp>;
     fn snapshot(&mut self) -> Snapshot<'_, D>;
@@ -219,6 +224,9 @@ impl<D: Dim> Engine<D> for Box<dyn Engine<D>> {
     fn reactions(&mut self) -> Vec<Reaction> {
         (**self).reactions()
     }
+    fn viscous_dissipation(&mut self) -> Option<f64> {
+        (**self).viscous_dissipation()
+    }
     fn check(&mut self) -> Result<(), BlowUp> {
         (**self).check()
     }
@@ -256,6 +264,10 @@ pub struct CpuEngine<D: Dim, M: Method<D>> {
     integrator: Integrator<M::State>,
     work: f64,
     last_power: f64,
+    /// The viscous dissipation so far and its power at the last step, when the method
+    /// books it.
+    dissipated: f64,
+    last_dissipation: f64,
     _dim: std::marker::PhantomData<D>,
 }
 
@@ -270,6 +282,8 @@ impl<D: Dim, M: Method<D>> CpuEngine<D, M> {
             integrator,
             work: 0.0,
             last_power: 0.0,
+            dissipated: 0.0,
+            last_dissipation: 0.0,
             _dim: std::marker::PhantomData,
         })
     }
@@ -296,10 +310,15 @@ impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
                     completed: k,
                     cause,
                 })?;
-            // Trapezoidal work of the supports and loads, from successive step powers.
+            // Trapezoidal work of the supports and loads, and dissipation, from successive
+            // step powers.
             let power = self.method.boundary_work().power;
             self.work += 0.5 * (self.last_power + power) * dt;
             self.last_power = power;
+            if let Some(dissipation) = self.method.viscous_dissipation() {
+                self.dissipated += 0.5 * (self.last_dissipation + dissipation) * dt;
+                self.last_dissipation = dissipation;
+            }
         }
         Ok(())
     }
@@ -316,6 +335,10 @@ impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
         self.method.boundary_work().reactions.clone()
     }
 
+    fn viscous_dissipation(&mut self) -> Option<f64> {
+        self.method.viscous_dissipation().map(|_| self.dissipated)
+    }
+
     fn check(&mut self) -> Result<(), BlowUp> {
         self.method.check_finite(&self.y)
     }
@@ -324,9 +347,15 @@ impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
         self.method.snapshot(&self.y)
     }
 
-    /// The work and last power, the state y, the integrator's and the method's history.
+    /// The work and last power, the dissipation and its last power, the state y, the
+    /// integrator's and the method's history.
     fn save(&mut self) -> Vec<f64> {
-        let mut out = vec![self.work, self.last_power];
+        let mut out = vec![
+            self.work,
+            self.last_power,
+            self.dissipated,
+            self.last_dissipation,
+        ];
         self.y.save(&mut out);
         self.integrator.save(&mut out);
         self.method.save_history(&mut out);
@@ -334,7 +363,7 @@ impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
     }
 
     fn restore(&mut self, words: &[f64]) -> Result<(), String> {
-        let (&[work, last_power], mut rest) = words
+        let (&[work, last_power, dissipated, last_dissipation], mut rest) = words
             .split_first_chunk()
             .ok_or("the checkpoint holds no engine state")?;
         self.y.load(&mut rest)?;
@@ -347,6 +376,7 @@ impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
             ));
         }
         (self.work, self.last_power) = (work, last_power);
+        (self.dissipated, self.last_dissipation) = (dissipated, last_dissipation);
         Ok(())
     }
 

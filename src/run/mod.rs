@@ -154,8 +154,14 @@ pub fn check(
 /// Builds a case's engine and its series' observers (probes, checks) as `run` does; the
 /// particle count.
 fn built<D: EngineDim>(case: &Case, backend: Backend) -> Result<usize, RunError> {
-    let engine = engine::<D>(case, backend)?;
-    crate::observe::Observers::new::<D>(case, engine.reference(), engine.constrained())?;
+    let mut engine = engine::<D>(case, backend)?;
+    let dissipation = engine.viscous_dissipation().is_some();
+    crate::observe::Observers::new::<D>(
+        case,
+        engine.reference(),
+        engine.constrained(),
+        dissipation,
+    )?;
     Ok(engine.reference().len())
 }
 

@@ -45,7 +45,7 @@ pub struct Case {
     #[serde(default, rename = "probe")]
     pub probes: Vec<ProbeSpec>,
     /// Section-force observers: the resultant of P·N across a reference plane.
-    #[serde(default, rename = "section")]
+    #[serde(default, rename = "section", skip_serializing_if = "Vec::is_empty")]
     pub sections: Vec<SectionSpec>,
     /// Penalty contact between the bodies (2D).
     pub contact: Option<ContactSpec>,

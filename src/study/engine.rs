@@ -97,6 +97,9 @@ impl<D: Dim, E: Engine<D>> Engine<D> for Tracked<'_, D, E> {
     fn reactions(&mut self) -> Vec<crate::boundary::Reaction> {
         self.inner.reactions()
     }
+    fn viscous_dissipation(&mut self) -> Option<f64> {
+        self.inner.viscous_dissipation()
+    }
     fn check(&mut self) -> Result<(), BlowUp> {
         self.inner.check()
     }

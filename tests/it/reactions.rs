@@ -230,7 +230,8 @@ fn the_shipped_pulled_strip_follows_uniaxial_neo_hooke_from_its_reaction() {
         column("end.ux"),
     );
     let material = meshless::material::Material::new(&case.material);
-    let area = ((0.02 / dx) as f64).round() * dx + dx;
+    // The 0.02 m height on N_y = 0.02/Δx + 1 rows of particles of volume Δx².
+    let area = ((0.02f64 / dx).round() + 1.0) * dx;
     let (mut worst, mut spread) = (0.0f64, 0.0f64);
     for k in 1..left.len() {
         let strain = end[k] / 0.1;

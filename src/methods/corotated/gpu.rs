@@ -62,7 +62,7 @@ pub const ACCEL: Source = source!(
             read("y", [0, 2, 0], NONE),
             // R, P̂, R F̂⁻ᵀ, ρ in; the power out.
             read("kin", [1, 0, 3], NONE),
-            write("kin", [1, 0, 0], NONE),
+            write("kin", [2, 0, 0], NONE),
             read("ext", [0, 1, 0], NONE),
             write("d", [0, 2, 0], NONE),
         ],

@@ -107,6 +107,8 @@ pub struct Corotated<D: Dim> {
     /// The power of supports, loads and interactions and the supports' reactions at the
     /// last rate evaluation.
     boundary_work: BoundaryWork,
+    /// Each particle's viscous dissipation −m a_visc·v at the last rate evaluation.
+    dissipation: Vec<f64>,
 }
 
 impl<D: Dim> Corotated<D> {
@@ -150,6 +152,7 @@ impl<D: Dim> Corotated<D> {
         };
         Ok(Self {
             kin: vec![identity; x0.len()],
+            dissipation: vec![0.0; x0.len()],
             x0,
             vol,
             mass,
@@ -212,14 +215,16 @@ impl<D: Dim> Corotated<D> {
 
     /// Pass 2: a_i = (1/ρ0) Σ_j V_j ½(R_i + R_j)(P̂_i + P̂_j) ∇0W_ij (eqs 154–155), plus
     /// Monaghan viscosity along ½(R_i F̂_i⁻ᵀ + R_j F̂_j⁻ᵀ) ∇0W_ij.
-    fn accelerations(&self, y: &TlState<D>, a: &mut [D::V]) {
+    /// Also writes each particle's viscous dissipation −m_i a_visc·v_i into `dissipation`.
+    fn accelerations(&self, y: &TlState<D>, a: &mut [D::V], dissipation: &mut [f64]) {
         let inv_rho0 = 1.0 / self.material.rho0;
         let bulk = self.material.bulk;
         let h = self.h;
         a.par_iter_mut()
+            .zip(dissipation.par_iter_mut())
             .with_min_len(MIN_CHUNK)
             .enumerate()
-            .for_each(|(i, a)| {
+            .for_each(|(i, (a, dissipation))| {
                 let ki = self.kin[i];
                 let xi = self.x0[i] + y.u[i];
                 let ci = (bulk / ki.rho).sqrt();
@@ -239,6 +244,7 @@ impl<D: Dim> Corotated<D> {
                     }
                 }
                 *a = stress * inv_rho0 + viscous;
+                *dissipation = -self.mass[i] * D::dot(viscous, y.v[i]);
             });
     }
 
@@ -350,7 +356,9 @@ impl<D: Dim> OdeSystem for Corotated<D> {
         if let Some(b) = self.first_inadmissible() {
             return Err(b);
         }
-        self.accelerations(y, &mut d.v);
+        let mut dissipation = std::mem::take(&mut self.dissipation);
+        self.accelerations(y, &mut d.v, &mut dissipation);
+        self.dissipation = dissipation;
         d.u.par_iter_mut()
             .with_min_len(MIN_CHUNK)
             .zip(&y.v)
@@ -442,6 +450,10 @@ impl<D: Dim> Method<D> for Corotated<D> {
 
     fn boundary_work(&self) -> &BoundaryWork {
         &self.boundary_work
+    }
+
+    fn viscous_dissipation(&self) -> Option<f64> {
+        Some(self.dissipation.iter().sum())
     }
 
     fn check_finite(&self, y: &TlState<D>) -> Result<(), BlowUp> {

@@ -74,6 +74,8 @@ pub struct Potential<D: Dim> {
     /// The power of supports, loads and interactions and the supports' reactions at the
     /// last rate evaluation.
     boundary_work: BoundaryWork,
+    /// Each particle's viscous dissipation −m a_visc·v at the last rate evaluation.
+    dissipation: Vec<f64>,
 }
 
 impl<D: Dim> Potential<D> {
@@ -110,6 +112,7 @@ impl<D: Dim> Potential<D> {
         };
         Ok(Self {
             kin: vec![identity; x0.len()],
+            dissipation: vec![0.0; x0.len()],
             x0,
             vol,
             mass,
@@ -184,13 +187,15 @@ impl<D: Dim> Potential<D> {
     /// plus Monaghan viscosity along ½(F_i⁻ᵀ ∇0W̃_ij − F_j⁻ᵀ ∇0W̃_ji): the TLSPH direction
     /// F_i⁻ᵀ ∇0W̃_ij made antisymmetric in the pair as the stress term is, so that the
     /// viscosity too keeps Σ m a = 0.
-    fn accelerations(&self, y: &TlState<D>, a: &mut [D::V]) {
+    /// Also writes each particle's viscous dissipation −m_i a_visc·v_i into `dissipation`.
+    fn accelerations(&self, y: &TlState<D>, a: &mut [D::V], dissipation: &mut [f64]) {
         let bulk = self.material.bulk;
         let h = self.h;
         a.par_iter_mut()
+            .zip(dissipation.par_iter_mut())
             .with_min_len(MIN_CHUNK)
             .enumerate()
-            .for_each(|(i, a)| {
+            .for_each(|(i, (a, dissipation))| {
                 let ki = self.kin[i];
                 let xi = self.x0[i] + y.u[i];
                 let ci = (bulk / ki.rho).sqrt();
@@ -211,6 +216,7 @@ impl<D: Dim> Potential<D> {
                     }
                 }
                 *a = force * (1.0 / self.mass[i]) + viscous;
+                *dissipation = -self.mass[i] * D::dot(viscous, y.v[i]);
             });
     }
 
@@ -233,7 +239,9 @@ impl<D: Dim> OdeSystem for Potential<D> {
         if let Some(b) = self.first_inadmissible() {
             return Err(b);
         }
-        self.accelerations(y, &mut d.v);
+        let mut dissipation = std::mem::take(&mut self.dissipation);
+        self.accelerations(y, &mut d.v, &mut dissipation);
+        self.dissipation = dissipation;
         d.u.par_iter_mut()
             .with_min_len(MIN_CHUNK)
             .zip(&y.v)
@@ -340,6 +348,10 @@ impl<D: Dim> Method<D> for Potential<D> {
 
     fn boundary_work(&self) -> &BoundaryWork {
         &self.boundary_work
+    }
+
+    fn viscous_dissipation(&self) -> Option<f64> {
+        Some(self.dissipation.iter().sum())
     }
 
     fn check_finite(&self, y: &TlState<D>) -> Result<(), BlowUp> {

@@ -97,9 +97,9 @@ pub const ACCEL: Source = source!(
                 read("reference", [2, 0, 0], NONE),
                 // u, v.
                 read("y", [0, 2, 0], NONE),
-                // P, F⁻ᵀ, ρ in; the power of supports and loads out.
+                // P, F⁻ᵀ, ρ in; the power of supports and loads and the viscous dissipation out.
                 read("kin", [1, 0, 2], NONE),
-                write("kin", [1, 0, 0], NONE),
+                write("kin", [2, 0, 0], NONE),
                 read("ext", [0, 1, 0], NONE),
                 // u̇ = v, v̇.
                 write("d", [0, 2, 0], NONE),
@@ -223,7 +223,8 @@ fn scheme_of(case: &Case) -> Result<TlScheme, CaseError> {
 
 /// The flat buffers of a TLSPH scene, each described once ([`Fields`]): the state
 /// [u | v | ρ − ρ0 | S] (ρ and S for the rate model only), the kinematics
-/// [H = F − I | P | F⁻ᵀ | ρ | power | the scheme's own tensors], the per-pair data
+/// [H = F − I | P | F⁻ᵀ | ρ | power | viscous dissipation | the scheme's own tensors |
+/// the constrained particles' reactions], the per-pair data
 /// [∇0W̃ | X_j − X_i | ∇0W̃_ji for the schemes that read it] and the reference
 /// configuration.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -253,7 +254,8 @@ impl Layout {
             .tensors("P", true, n)
             .tensors("FIT", true, n)
             .scalars("RHO", true, n)
-            .scalars("POW", true, n);
+            .scalars("POW", true, n)
+            .scalars("DIS", true, n);
         let kin = scheme
             .kin_tensors
             .iter()
@@ -748,6 +750,12 @@ impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
     fn external_work(&mut self) -> f64 {
         let power = self.reduction().power;
         self.work.update(power)
+    }
+
+    /// Trapezoidal over the intervals between calls, as the work.
+    fn viscous_dissipation(&mut self) -> Option<f64> {
+        let power = self.reduction().viscous_dissipation;
+        Some(self.work.update_dissipation(power))
     }
 
     fn reactions(&mut self) -> Vec<Reaction> {

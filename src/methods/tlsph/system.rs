@@ -196,6 +196,8 @@ pub struct Tlsph<D: Dim> {
     /// The power of supports, loads and interactions and the supports' reactions at the
     /// last rate evaluation.
     boundary_work: BoundaryWork,
+    /// Each particle's viscous dissipation −m a_visc·v at the last rate evaluation.
+    dissipation: Vec<f64>,
 }
 
 impl<D: Dim> Tlsph<D> {
@@ -233,6 +235,7 @@ impl<D: Dim> Tlsph<D> {
         };
         Ok(Self {
             kin: vec![identity; x0.len()],
+            dissipation: vec![0.0; x0.len()],
             x0,
             vol,
             mass,
@@ -330,14 +333,16 @@ impl<D: Dim> Tlsph<D> {
     /// `viscosity_gradient = "reference"`, along ∇0W̃_ij unmapped as the paper and the
     /// reference code have it; after a quarter turn of rigid rotation that direction points
     /// across the pair and feeds energy in (docs/methods/tlsph.md).
-    fn accelerations(&self, y: &TlState<D>, a: &mut [D::V]) {
+    /// Also writes each particle's viscous dissipation −m_i a_visc·v_i into `dissipation`.
+    fn accelerations(&self, y: &TlState<D>, a: &mut [D::V], dissipation: &mut [f64]) {
         let inv_rho0 = 1.0 / self.material.rho0;
         let bulk = self.material.bulk;
         let h = self.h;
         a.par_iter_mut()
+            .zip(dissipation.par_iter_mut())
             .with_min_len(MIN_CHUNK)
             .enumerate()
-            .for_each(|(i, a)| {
+            .for_each(|(i, (a, dissipation))| {
                 let ki = self.kin[i];
                 let xi = self.x0[i] + y.u[i];
                 let ci = (bulk / ki.rho).sqrt();
@@ -371,6 +376,7 @@ impl<D: Dim> Tlsph<D> {
                     }
                 }
                 *a = stress * inv_rho0 + viscous + hourglass;
+                *dissipation = -self.mass[i] * D::dot(viscous, y.v[i]);
             });
     }
 
@@ -407,7 +413,9 @@ impl<D: Dim> OdeSystem for Tlsph<D> {
         if let Some(b) = self.first_inadmissible() {
             return Err(b);
         }
-        self.accelerations(y, &mut d.v);
+        let mut dissipation = std::mem::take(&mut self.dissipation);
+        self.accelerations(y, &mut d.v, &mut dissipation);
+        self.dissipation = dissipation;
         d.u.par_iter_mut()
             .with_min_len(MIN_CHUNK)
             .zip(&y.v)
@@ -517,6 +525,10 @@ impl<D: Dim> Method<D> for Tlsph<D> {
 
     fn boundary_work(&self) -> &BoundaryWork {
         &self.boundary_work
+    }
+
+    fn viscous_dissipation(&self) -> Option<f64> {
+        Some(self.dissipation.iter().sum())
     }
 
     fn check_finite(&self, y: &TlState<D>) -> Result<(), BlowUp> {
