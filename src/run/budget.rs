@@ -229,7 +229,12 @@ fn particle_key(case: &Case, estimate: &Estimate) -> String {
     let largest = (0..estimate.bodies.len())
         .max_by(|&a, &b| estimate.bodies[a].total_cmp(&estimate.bodies[b]));
     match largest {
-        Some(b) if matches!(case.bodies[b].geometry, Shape::Points { .. }) => {
+        Some(b)
+            if matches!(
+                case.bodies[b].geometry,
+                Shape::Points { .. } | Shape::Mesh { .. }
+            ) =>
+        {
             format!("body.{b}.geometry.file")
         }
         _ => "spacing".into(),

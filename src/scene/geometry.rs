@@ -249,7 +249,27 @@ fn sample<D: Dim>(case: &Case, b: usize, spec: &BodySpec) -> Result<Sampled<D>, 
                 )
             })?
         }
+        Shape::Mesh { file } => {
+            let path = case.base_dir().join(file);
+            read_mesh::<D>(&path).map_err(|m| {
+                case.invalid(
+                    format!("body.{b}.geometry.file"),
+                    format!("{}: {m}", path.display()),
+                )
+            })?
+        }
     })
+}
+
+/// A particle at the centroid of each cell of a Gmsh mesh, with the cell's measure as its
+/// volume ([`super::mesh`]).
+fn read_mesh<D: Dim>(path: &Path) -> Result<Sampled<D>, String> {
+    let cells = super::mesh::cells(&read_points_file(path)?, D::N)?;
+    Ok(cells
+        .iter()
+        .map(|c| (D::from_slice(&c.centroid[..D::N]), c.measure))
+        .unzip::<_, _, Vec<D::V>, Vec<f64>>()
+        .into())
 }
 
 /// The noise's velocities, one per particle: per axis uniform in ±amplitude, from the
@@ -473,7 +493,8 @@ pub fn estimate_particles(case: &Case) -> Result<Vec<BodySize>, CaseError> {
                     hi[a] = base[a] + length;
                     size(box_of(&lo, &hi), annulus(*inner_radius, *radius))
                 }
-                Shape::Points { file } => {
+                Shape::Points { file } | Shape::Mesh { file } => {
+                    // A mesh has at most one cell per line.
                     let path = case.base_dir().join(file);
                     let rows = count_point_rows(&path).map_err(|m| {
                         case.invalid(
@@ -488,20 +509,20 @@ pub fn estimate_particles(case: &Case) -> Result<Vec<BodySize>, CaseError> {
         .collect()
 }
 
-/// The largest points file read [bytes]: 1 GiB, about 15 million rows of x, y, z and a
-/// volume.
+/// The largest points or mesh file read [bytes]: 1 GiB, about 15 million rows of x, y, z
+/// and a volume.
 const POINTS_FILE_CAP: u64 = 1 << 30;
 
-/// A points file that may be read: a regular file (not a device, pipe or folder) of at
-/// most [`POINTS_FILE_CAP`] bytes.
+/// A points or mesh file that may be read: a regular file (not a device, pipe or folder)
+/// of at most [`POINTS_FILE_CAP`] bytes.
 fn open_points_file(path: &Path) -> Result<std::fs::File, String> {
     let meta = std::fs::metadata(path).map_err(|e| format!("cannot read: {e}"))?;
     if !meta.is_file() {
-        return Err("is not a regular file; give a CSV file of points".into());
+        return Err("is not a regular file; give the path of a file".into());
     }
     if meta.len() > POINTS_FILE_CAP {
         return Err(format!(
-            "is larger than {POINTS_FILE_CAP} bytes, the most a points file may hold"
+            "is larger than {POINTS_FILE_CAP} bytes, the most a points or mesh file may hold"
         ));
     }
     std::fs::File::open(path).map_err(|e| format!("cannot read: {e}"))
@@ -518,7 +539,7 @@ fn read_points_file(path: &Path) -> Result<String, String> {
         .map_err(|e| format!("cannot read as UTF-8 text: {e}"))?;
     if text.len() as u64 > POINTS_FILE_CAP {
         return Err(format!(
-            "is larger than {POINTS_FILE_CAP} bytes, the most a points file may hold"
+            "is larger than {POINTS_FILE_CAP} bytes, the most a points or mesh file may hold"
         ));
     }
     Ok(text)

@@ -5,6 +5,7 @@
 
 mod expression;
 mod geometry;
+pub mod mesh;
 mod overrides;
 pub(crate) mod validate;
 
@@ -250,6 +251,10 @@ pub enum Shape {
     /// Points from a CSV file with a header naming columns x, y[, z][, volume] and
     /// optionally their initial velocities vx, vy[, vz].
     Points { file: PathBuf },
+    /// The cells of a Gmsh mesh (`.msh`, ASCII format 2.2 or 4.1; triangles and
+    /// quadrangles in 2D, tetrahedra and hexahedra in 3D): a particle at each cell's
+    /// centroid, the cell's area or volume its volume ([`mesh`]).
+    Mesh { file: PathBuf },
 }
 
 #[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]

@@ -625,6 +625,15 @@ fn shape(shape: &Shape, key: &str, dim: usize) -> Checked {
                 );
             }
         }
+        Shape::Mesh { file } => {
+            if file.as_os_str().is_empty() {
+                return fail(
+                    format!("{key}.file"),
+                    "must name a Gmsh mesh file (.msh, ASCII, relative to the case file); got an \
+                     empty path",
+                );
+            }
+        }
     }
     Ok(())
 }

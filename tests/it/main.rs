@@ -37,6 +37,7 @@ mod hourglass_control;
 mod initial_fields;
 mod kbm_efg;
 mod loads;
+mod mesh_input;
 #[cfg(feature = "study")]
 mod mixed;
 mod reactions;

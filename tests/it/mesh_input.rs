@@ -1,0 +1,157 @@
+//! Bodies from Gmsh meshes (`shape = "mesh"`): a particle per cell at its centroid with the
+//! cell's area as its volume, checked against the mesh's own area and the weight a support
+//! holds.
+
+use crate::common::cpu_options;
+use meshless::output::series::read_column;
+use meshless::reference::Reference;
+use meshless::run::run;
+use meshless::scene::Case;
+use meshless::tensor::D2;
+
+/// The box [0, L] × [0, H] as an nx × ny grid whose interior nodes are moved by up to a
+/// quarter of a cell in each direction (a fixed pseudo-random pattern), each quadrangle
+/// split into two triangles: Gmsh's ASCII format 4.1, with the boundary lines a mesher
+/// writes besides the cells (which the reader skips).
+fn irregular_box(l: f64, h: f64, nx: usize, ny: usize) -> String {
+    let (dx, dy) = (l / nx as f64, h / ny as f64);
+    let mut seed = 12345u64;
+    let mut jitter = move || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.5
+    };
+    let node = |i: usize, j: usize| (j * (nx + 1) + i + 1) as u64;
+    let mut coordinates = String::new();
+    for j in 0..=ny {
+        for i in 0..=nx {
+            let interior = i > 0 && i < nx && j > 0 && j < ny;
+            let (ex, ey) = if interior {
+                (jitter(), jitter())
+            } else {
+                (0.0, 0.0)
+            };
+            let (x, y) = ((i as f64 + ex) * dx, (j as f64 + ey) * dy);
+            coordinates.push_str(&format!("{x} {y} 0\n"));
+        }
+    }
+    let nodes = (nx + 1) * (ny + 1);
+    let tags: String = (1..=nodes).map(|t| format!("{t}\n")).collect();
+    let mut triangles = String::new();
+    let mut tag = 2;
+    for j in 0..ny {
+        for i in 0..nx {
+            let (a, b, c, d) = (
+                node(i, j),
+                node(i + 1, j),
+                node(i + 1, j + 1),
+                node(i, j + 1),
+            );
+            triangles.push_str(&format!("{tag} {a} {b} {c}\n{} {a} {c} {d}\n", tag + 1));
+            tag += 2;
+        }
+    }
+    let cells = 2 * nx * ny;
+    format!(
+        "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 {nodes} 1 {nodes}\n2 1 0 {nodes}\n\
+         {tags}{coordinates}$EndNodes\n$Elements\n2 {} 1 {}\n1 1 1 1\n1 1 2\n2 1 2 {cells}\n\
+         {triangles}$EndElements\n",
+        cells + 1,
+        cells + 1
+    )
+}
+
+#[test]
+fn a_meshed_block_has_the_mesh_area_and_its_support_holds_its_weight() {
+    // A 0.1 × 0.02 m block meshed by 20 × 4 distorted quadrangles split into 160
+    // triangles, resting on the cells with an edge on y = 0 (centroids at y = Δy/3 ± 0.42
+    // mm, below the region's 1 mm + Δx/4; the other cells of the bottom row lie above
+    // 2.5 mm), under gravity, solved statically with
+    // TLSPH (Randles–Libersky, h = 1.3 × 5 mm). The volumes are the triangles' areas, so
+    // they sum to the box's 2e-3 m² to round-off, and at equilibrium the support holds
+    // the weight ρ g Σ V to the Newton tolerance (relative 1e-8 of the load).
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("block.msh"),
+        irregular_box(0.1, 0.02, 20, 4),
+    )
+    .unwrap();
+    let text = r#"
+name = "meshed-block"
+dimension = 2
+spacing = 0.005
+[material]
+model = "linear-elastic"
+density = 1000.0
+youngs_modulus = 1.0e6
+poisson_ratio = 0.3
+[method]
+name = "tlsph"
+h_over_dx = 1.3
+force = "variational"
+dt = 1.0
+[[body]]
+name = "block"
+geometry = { shape = "mesh", file = "block.msh" }
+[[boundary]]
+name = "floor"
+region = { y_max = 0.001 }
+condition = { type = "fixed" }
+[[boundary]]
+region = {}
+condition = { type = "body-force", acceleration = [0.0, -9.81] }
+[run]
+end_time = 1.0
+solve = "static"
+[output]
+observers = ["reaction"]
+"#;
+    let case = Case::from_toml(text, &dir.path().join("meshed-block.toml"), &[]).unwrap();
+    let reference = Reference::<D2>::build(&case).unwrap();
+    assert_eq!(reference.x0.len(), 160);
+    let area: f64 = reference.vol.iter().sum();
+    assert!((area - 2e-3).abs() < 1e-17, "Σ V = {area:e}");
+    let held = reference.boundary.constrained.len();
+    assert_eq!(held, 20, "the bottom row's triangles with an edge on y = 0");
+
+    let out = tempfile::tempdir().unwrap();
+    run(&case, &cpu_options(out.path(), false)).unwrap();
+    let reaction = read_column(&out.path().join("series.csv"), "floor.reaction_y").unwrap();
+    let weight = 1000.0 * 9.81 * area;
+    let r = reaction.last().unwrap().1;
+    assert!(
+        (r - weight).abs() < 1e-8 * weight,
+        "R_y = {r} against the weight {weight}"
+    );
+}
+
+#[test]
+fn a_mesh_file_that_is_not_one_is_named_with_its_key() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("bad.msh"), "x,y\n0,0\n").unwrap();
+    let text = r#"
+name = "bad-mesh"
+dimension = 2
+spacing = 0.005
+[material]
+model = "linear-elastic"
+density = 1000.0
+youngs_modulus = 1.0e6
+poisson_ratio = 0.3
+[method]
+name = "tlsph"
+h_over_dx = 1.3
+dt = 1.0e-6
+[[body]]
+name = "block"
+geometry = { shape = "mesh", file = "bad.msh" }
+[run]
+end_time = 1.0e-5
+"#;
+    let case = Case::from_toml(text, &dir.path().join("bad.toml"), &[]).unwrap();
+    let err = Reference::<D2>::build(&case).err().unwrap().to_string();
+    for part in ["body.0.geometry.file", "bad.msh", "$MeshFormat"] {
+        assert!(err.contains(part), "{err}");
+    }
+}
