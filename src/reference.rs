@@ -21,6 +21,8 @@ pub struct Reference<D: Dim> {
     pub body: Vec<u32>,
     /// Initial velocities, with the boundary conditions imposed.
     pub v0: Vec<D::V>,
+    /// Initial displacements (zero unless a body sets `initial_displacement`).
+    pub u0: Vec<D::V>,
     pub boundary: Boundary<D>,
     pub material: Material,
     /// The case's kernel, at h = h_over_dx · Δx.
@@ -52,6 +54,7 @@ impl<D: Dim> Reference<D> {
             mass,
             body: disc.body,
             v0,
+            u0: disc.u0,
             boundary,
             material,
             kernel,

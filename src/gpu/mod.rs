@@ -17,17 +17,19 @@ use crate::scene::{Case, CaseError};
 use shaders::Constants;
 use thiserror::Error;
 
-/// Refuses reference positions and initial velocities beyond the f32 range of the
-/// device, naming the body whose geometry or initial velocity gives them.
+/// Refuses reference positions, initial displacements and initial velocities beyond the
+/// f32 range of the device, naming the body whose geometry or initial field gives them.
 pub fn check_f32_particles<D: crate::tensor::Dim>(
     case: &Case,
     x0: &[D::V],
+    u0: &[D::V],
     v0: &[D::V],
     body: &[u32],
 ) -> Result<(), CaseError> {
     let beyond = |v: &D::V| D::to3(*v).iter().any(|&c| !(c as f32).is_finite());
     for (key, what, values) in [
         ("geometry", "position", x0),
+        ("initial_displacement", "displacement", u0),
         ("initial_velocity", "velocity", v0),
     ] {
         if let Some(i) = values.iter().position(beyond) {

@@ -55,6 +55,9 @@ pub enum Feature {
     StaticSolve,
     /// Static only: every run solves for equilibrium load step by load step.
     StaticOnly,
+    /// An initial displacement (`body.initial_displacement`): the deformation gradient
+    /// follows from the displacement, so the state starts deformed.
+    InitialDisplacement,
 }
 
 /// What a run of a method does, for `meshless run --explain`.

@@ -23,6 +23,8 @@ pub struct Discretised<D: Dim> {
     pub body: Vec<u32>,
     /// Initial velocities.
     pub v0: Vec<D::V>,
+    /// Initial displacements (zero unless a body sets `initial_displacement`).
+    pub u0: Vec<D::V>,
     /// The cells of the bodies whose generator makes them (polar rings); the other
     /// bodies' cells are found on their lattice ([`crate::quadrature::lattice_cells`]).
     pub cells: Cells,
@@ -56,6 +58,7 @@ pub fn discretise<D: Dim>(case: &Case) -> Result<Discretised<D>, CaseError> {
         vol: Vec::new(),
         body: Vec::new(),
         v0: Vec::new(),
+        u0: Vec::new(),
         cells: Cells::default(),
     };
     for (b, spec) in case.bodies.iter().enumerate() {
@@ -98,6 +101,16 @@ pub fn discretise<D: Dim>(case: &Case) -> Result<Discretised<D>, CaseError> {
             Some(parsed) => parsed.map_err(|(key, message)| case.invalid(key, message))?,
             None => Vec::new(),
         };
+        let u_key = format!("body.{b}.initial_displacement");
+        let displacement = match &spec.initial_displacement {
+            Some(field) => Some((
+                field,
+                field
+                    .expressions(&u_key, D::N)
+                    .map_err(|(key, message)| case.invalid(key, message))?,
+            )),
+            None => None,
+        };
         for (i, (&x, &v)) in points.iter().zip(&volumes).enumerate() {
             out.x0.push(x);
             out.vol.push(v);
@@ -121,6 +134,21 @@ pub fn discretise<D: Dim>(case: &Case) -> Result<Discretised<D>, CaseError> {
                 ));
             }
             out.v0.push(noise.get(i).map_or(v0, |&dv| v0 + dv));
+            let u0 = displacement
+                .as_ref()
+                .map_or([0.0; 3], |(field, parsed)| field.at(parsed, D::to3(x)));
+            if !u0.iter().all(|c| c.is_finite()) {
+                return Err(case.invalid(
+                    u_key,
+                    format!(
+                        "gives the displacement {u0:?} m at X = {:?} (body `{}`), not a finite \
+                         one; make the field finite over the body",
+                        D::to3(x),
+                        spec.name
+                    ),
+                ));
+            }
+            out.u0.push(D::from_slice(&u0[..D::N]));
         }
     }
     Ok(out)

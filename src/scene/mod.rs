@@ -149,6 +149,9 @@ pub struct BodySpec {
     pub name: String,
     pub geometry: Shape,
     pub initial_velocity: Option<VelocityField>,
+    /// The displacement the state starts from (the methods whose F follows from u).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub initial_displacement: Option<DisplacementField>,
     /// An imperfection of the initial state: random velocities added to the initial ones.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub velocity_noise: Option<VelocityNoise>,
@@ -335,28 +338,94 @@ impl VelocityField {
             return None;
         };
         let components = [("vx", Some(vx)), ("vy", Some(vy)), ("vz", vz.as_ref())];
-        Some(
-            components[..dim]
-                .iter()
-                .map(|&(name, text)| {
-                    let key = format!("{key}.{name}");
-                    let text = text.ok_or_else(|| {
-                        (
-                            key.clone(),
-                            "is required in 3D: give v_z as an expression".to_string(),
-                        )
-                    })?;
-                    Expression::parse(
-                        text,
-                        &expression::COORDINATES[..dim],
-                        "the reference coordinates",
-                        constants,
-                    )
-                    .map_err(|e| (key, e))
-                })
-                .collect(),
-        )
+        Some(component_expressions(&components, constants, key, dim))
     }
+}
+
+/// Initial displacement fields u(X), for the methods whose deformation gradient follows
+/// from the displacement (the state starts at x = X + u(X)).
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum DisplacementField {
+    /// u = G X with G given row by row (G_ij = ∂u_i/∂X_j): the affine pre-deformation
+    /// F = I + G.
+    Linear { gradient: Vec<Vec<f64>> },
+    /// Each component an expression of the reference coordinates x, y (z in 3D) and the
+    /// named `constants` ([`Expression`]), e.g. `uy = "d*(x/L)^2"`.
+    Expression {
+        ux: String,
+        uy: String,
+        uz: Option<String>,
+        #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+        constants: std::collections::BTreeMap<String, f64>,
+    },
+}
+
+impl DisplacementField {
+    /// u(X) of the field; `expressions` are its parsed components ([`Self::expressions`]).
+    pub fn at(&self, expressions: &[Expression], x: [f64; 3]) -> [f64; 3] {
+        let mut u = [0.0; 3];
+        match self {
+            Self::Linear { gradient } => {
+                for (u, row) in u.iter_mut().zip(gradient) {
+                    *u = row.iter().zip(&x).map(|(g, x)| g * x).sum();
+                }
+            }
+            Self::Expression { .. } => {
+                for (u, e) in u.iter_mut().zip(expressions) {
+                    *u = e.at(&x);
+                }
+            }
+        }
+        u
+    }
+
+    /// The component expressions of an `expression` field, parsed for a `dim`-D scene,
+    /// each with its key below `key`; empty for the linear field.
+    pub fn expressions(&self, key: &str, dim: usize) -> Result<Vec<Expression>, (String, String)> {
+        match self {
+            Self::Linear { .. } => Ok(Vec::new()),
+            Self::Expression {
+                ux,
+                uy,
+                uz,
+                constants,
+            } => {
+                let components = [("ux", Some(ux)), ("uy", Some(uy)), ("uz", uz.as_ref())];
+                component_expressions(&components, constants, key, dim)
+            }
+        }
+    }
+}
+
+/// The first `dim` of the (name, text) components of a vector field, parsed as
+/// expressions of the reference coordinates, each with its key `key.name`; the third is
+/// required in 3D.
+fn component_expressions(
+    components: &[(&str, Option<&String>); 3],
+    constants: &std::collections::BTreeMap<String, f64>,
+    key: &str,
+    dim: usize,
+) -> Result<Vec<Expression>, (String, String)> {
+    components[..dim]
+        .iter()
+        .map(|&(name, text)| {
+            let key = format!("{key}.{name}");
+            let text = text.ok_or_else(|| {
+                (
+                    key.clone(),
+                    "is required in 3D: give the z component as an expression".to_string(),
+                )
+            })?;
+            Expression::parse(
+                text,
+                &expression::COORDINATES[..dim],
+                "the reference coordinates",
+                constants,
+            )
+            .map_err(|e| (key, e))
+        })
+        .collect()
 }
 
 /// A boundary condition on a region of the reference configuration.

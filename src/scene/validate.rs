@@ -6,9 +6,9 @@
 //! gives the same message.
 
 use super::{
-    Axis, BodySpec, BoundarySpec, Case, Condition, ContactSpec, Lattice, MaterialSpec, Observer,
-    OutputSpec, Plane, ProbeSpec, Region, RingLattice, RunSpec, Shape, Solution, Solve, TimeLaw,
-    VelocityField, Volumes,
+    Axis, BodySpec, BoundarySpec, Case, Condition, ContactSpec, DisplacementField, Lattice,
+    MaterialSpec, Observer, OutputSpec, Plane, ProbeSpec, Region, RingLattice, RunSpec, Shape,
+    Solution, Solve, TimeLaw, VelocityField, Volumes,
 };
 use crate::material::{Material, MaterialModel};
 use crate::methods::{Feature, MethodTable, Problem, REGISTRY, entry, quoted, supporting};
@@ -40,6 +40,11 @@ pub(super) fn check(case: &Case) -> Result<(), (String, String)> {
         )?;
     }
     bodies(&case.bodies, dim)?;
+    for (b, body) in case.bodies.iter().enumerate() {
+        if let Some(u) = &body.initial_displacement {
+            displacement(case, u, &format!("body.{b}.initial_displacement"))?;
+        }
+    }
     for (i, boundary) in case.boundaries.iter().enumerate() {
         self::boundary(boundary, &format!("boundary.{i}"), &case.bodies, dim)?;
         if (boundary.condition.is_timed_load() || boundary.condition.is_timed_velocity())
@@ -494,6 +499,7 @@ fn bodies(bodies: &[BodySpec], dim: usize) -> Checked {
         if let Some(v) = &body.initial_velocity {
             velocity(v, &format!("{key}.initial_velocity"), dim)?;
         }
+
         if let Some(noise) = &body.velocity_noise {
             non_negative(&format!("{key}.velocity_noise.amplitude"), noise.amplitude)?;
         }
@@ -636,6 +642,65 @@ fn shape(shape: &Shape, key: &str, dim: usize) -> Checked {
         }
     }
     Ok(())
+}
+
+/// An initial displacement: a method whose F follows from u, a dynamic run (the static
+/// path starts from the reference configuration), and a gradient of d rows of d numbers.
+fn displacement(case: &Case, field: &DisplacementField, key: &str) -> Checked {
+    feature(
+        case,
+        Feature::InitialDisplacement,
+        key,
+        "an initial displacement sets the state's u, from which F follows",
+        "remove the key",
+    )?;
+    if case.is_static() {
+        return fail(
+            key,
+            "the static path solves from the reference configuration; remove the key or run \
+             dynamically (run.solve = \"dynamic\")",
+        );
+    }
+    if case.material.model.is_rate_based() {
+        return fail(
+            key,
+            format!(
+                "`{}` integrates its stress from zero, so the body would start deformed but \
+                 unstressed; use a model whose stress follows from F",
+                toml_name(&case.material.model)
+            ),
+        );
+    }
+    let dim = case.dim();
+    match field {
+        DisplacementField::Linear { gradient } => {
+            if gradient.len() != dim {
+                return fail(
+                    format!("{key}.gradient"),
+                    format!(
+                        "must have {dim} rows (one per displacement component), got {}",
+                        gradient.len()
+                    ),
+                );
+            }
+            for (i, row) in gradient.iter().enumerate() {
+                vector(&format!("{key}.gradient.{i}"), row, dim)?;
+            }
+            Ok(())
+        }
+        DisplacementField::Expression { uz, constants, .. } => {
+            if dim != 3 && uz.is_some() {
+                return fail(
+                    format!("{key}.uz"),
+                    format!(
+                        "exists only in 3D, but the case has dimension = {dim}; give ux and uy"
+                    ),
+                );
+            }
+            expression_constants(key, constants, &["x", "y", "z"])?;
+            field.expressions(key, dim).map(|_| ())
+        }
+    }
 }
 
 fn velocity(field: &VelocityField, key: &str, dim: usize) -> Checked {

@@ -117,3 +117,124 @@ fn velocity_columns_must_be_whole_and_not_given_twice() {
         "{twice}"
     );
 }
+
+/// A 0.3 × 0.2 m block (Δx = 0.05) of Saint Venant–Kirchhoff rubber with `method` at rest
+/// under the initial displacement `field`, RK4 at Δt = 1e-5 s.
+fn prestretched(method: &str, field: &str) -> Result<Case, CaseError> {
+    let entry = meshless::methods::REGISTRY
+        .iter()
+        .find(|e| e.name == method)
+        .unwrap();
+    let kernel = if entry.kernel { "h_over_dx = 1.3" } else { "" };
+    let text = format!(
+        r#"
+name = "prestretched"
+dimension = 2
+spacing = 0.05
+[material]
+model = "saint-venant-kirchhoff"
+density = 1000.0
+youngs_modulus = 1.0e6
+poisson_ratio = 0.3
+[method]
+name = "{method}"
+{kernel}
+integrator = "rk4"
+dt = 1.0e-5
+[[body]]
+name = "block"
+geometry = {{ shape = "box", min = [0.0, 0.0], max = [0.3, 0.2] }}
+initial_displacement = {field}
+[run]
+end_time = 1.0e-4
+"#
+    );
+    Case::from_toml(&text, Path::new("prestretched.toml"), &[])
+}
+
+/// The affine pre-deformation F = I + G of the test below, as a linear field and as the
+/// same field written out.
+const G: [[f64; 2]; 2] = [[0.1, 0.05], [-0.02, 0.03]];
+const LINEAR: &str = "{ type = \"linear\", gradient = [[0.1, 0.05], [-0.02, 0.03]] }";
+const WRITTEN: &str = "{ type = \"expression\", ux = \"a*x + b*y\", uy = \"c*x + d*y\", constants = { a = 0.1, b = 0.05, c = -0.02, d = 0.03 } }";
+
+#[test]
+fn an_affine_initial_displacement_stores_the_energy_of_its_deformation_gradient() {
+    // u0 = G X: every method that takes an initial displacement reproduces linear fields
+    // (the corrected kernel gradients, the elements, the moving least squares), so every
+    // particle or quadrature point starts at F = I + G, and the stored energy is
+    // ψ(I + G) times the method's own volume (Σ V of the particles, Σ w of its
+    // quadrature points), to round-off (bound 1e-10). The same on the GPU engines, in f32
+    // (bound 1e-5: F carries f32's relative 1e-7 per pair sum).
+    let f = glam::DMat2::from_cols_array(&[1.0 + G[0][0], G[1][0], G[0][1], 1.0 + G[1][1]]);
+    let methods: Vec<&str> = meshless::methods::REGISTRY
+        .iter()
+        .filter(|e| {
+            e.features
+                .contains(&meshless::methods::Feature::InitialDisplacement)
+        })
+        .map(|e| e.name)
+        .collect();
+    assert_eq!(methods.len(), 7, "{methods:?}");
+    for method in methods {
+        for field in [LINEAR, WRITTEN] {
+            let case = prestretched(method, field).unwrap();
+            let material = meshless::material::Material::new(&case.material);
+            let psi = material.energy_density::<D2>(f, glam::DMat2::ZERO, material.rho0);
+            let mut backends = vec![(meshless::run::Backend::Cpu, 1e-10)];
+            if meshless::methods::REGISTRY
+                .iter()
+                .any(|e| e.name == method && e.gpu_engine)
+                && field == LINEAR
+            {
+                backends.push((meshless::run::Backend::Gpu, 1e-5));
+            }
+            for (backend, bound) in backends {
+                let mut engine = meshless::run::engine::<D2>(&case, backend).unwrap();
+                let snap = engine.snapshot();
+                let volume: f64 = match &snap.quadrature {
+                    Some(q) => q.weight.iter().sum(),
+                    None => snap.mass.iter().sum::<f64>() / material.rho0,
+                };
+                let stored = snap.strain_energy / (psi * volume);
+                assert!(
+                    (stored - 1.0).abs() < bound,
+                    "{method} on {backend:?}: stored energy over ψ(I + G) V = {stored}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn an_initial_displacement_is_refused_where_f_does_not_follow_from_u() {
+    let shown = |method: &str, field: &str, overrides: &[&str]| {
+        let case = prestretched(method, field).unwrap_or_else(|e| panic!("{e}"));
+        let text = toml::to_string(&case).unwrap();
+        let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
+        Case::from_toml(&text, Path::new("prestretched.toml"), &overrides)
+            .unwrap_err()
+            .to_string()
+    };
+    // The mixed methods evolve F on their own: refused, naming the methods that take it.
+    let e = prestretched("upwind-sph", LINEAR).unwrap_err().to_string();
+    for part in ["body.0.initial_displacement", "`tlsph`", "`tl-fem`"] {
+        assert!(e.contains(part), "{e}");
+    }
+    // A rate model would start unstressed; the static path starts from X.
+    let e = shown("tlsph", LINEAR, &["material.model=\"hypoelastic\""]);
+    assert!(
+        e.contains("`hypoelastic`") && e.contains("from zero"),
+        "{e}"
+    );
+    let e = shown("tlsph", LINEAR, &["run.solve=\"static\"", "method.dt=1.0"]);
+    assert!(e.contains("static path"), "{e}");
+    // An expression names its key and the variables it may use.
+    let e = prestretched("tlsph", &WRITTEN.replace("a*x", "a*q"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("body.0.initial_displacement.ux") && e.contains("q"),
+        "{e}"
+    );
+}

@@ -29,7 +29,7 @@ impl MethodFamily for CorotatedSpec {
         §5.5): shape-matching rotations, stress of the rotated displacements, forces rotated \
         back with ½(R_i + R_j), Monaghan artificial viscosity";
     const KEYS: &'static [&'static str] = &["artificial_viscosity"];
-    const FEATURES: &'static [Feature] = &[Feature::Contact];
+    const FEATURES: &'static [Feature] = &[Feature::Contact, Feature::InitialDisplacement];
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
 

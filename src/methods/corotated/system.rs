@@ -93,6 +93,8 @@ pub struct Corotated<D: Dim> {
     mass: Vec<f64>,
     body: Vec<u32>,
     v0: Vec<D::V>,
+    /// Initial displacements.
+    u0: Vec<D::V>,
     csr: Csr,
     /// Reference gradients ∇0W_ij (the paper's: uncorrected), one per CSR pair.
     grad: Vec<D::V>,
@@ -128,6 +130,7 @@ impl<D: Dim> Corotated<D> {
             mass,
             body,
             v0,
+            u0,
             boundary,
             material,
             kernel,
@@ -158,6 +161,7 @@ impl<D: Dim> Corotated<D> {
             mass,
             body,
             v0,
+            u0,
             csr,
             grad,
             shape,
@@ -387,7 +391,7 @@ impl<D: Dim> Method<D> for Corotated<D> {
 
     fn initial_state(&self) -> TlState<D> {
         TlState {
-            u: vec![D::zero(); self.x0.len()],
+            u: self.u0.clone(),
             v: self.v0.clone(),
             rho: Vec::new(),
             s: Vec::new(),

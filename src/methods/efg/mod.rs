@@ -88,8 +88,12 @@ impl MethodFamily for EfgSpec {
         moving least-squares functions of a linear basis, integration at the particles or \
         at 2^d Gauss points of the lattice cells";
     const KEYS: &'static [&'static str] = &["integration", "mass"];
-    const FEATURES: &'static [Feature] =
-        &[Feature::Contact, Feature::Plasticity, Feature::StaticSolve];
+    const FEATURES: &'static [Feature] = &[
+        Feature::Contact,
+        Feature::Plasticity,
+        Feature::StaticSolve,
+        Feature::InitialDisplacement,
+    ];
     const CORRECTED: bool = false;
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = super::galerkin::gpu::SHADERS;

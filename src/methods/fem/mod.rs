@@ -43,8 +43,12 @@ impl MethodFamily for FemSpec {
         reference): bilinear quadrilaterals (trilinear hexahedra) on the lattice cells, 2^d \
         Gauss points, lumped mass, explicit";
     const KEYS: &'static [&'static str] = &["mass"];
-    const FEATURES: &'static [Feature] =
-        &[Feature::Contact, Feature::Plasticity, Feature::StaticSolve];
+    const FEATURES: &'static [Feature] = &[
+        Feature::Contact,
+        Feature::Plasticity,
+        Feature::StaticSolve,
+        Feature::InitialDisplacement,
+    ];
     const KERNEL: bool = false;
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = super::galerkin::gpu::SHADERS;

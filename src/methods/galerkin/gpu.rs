@@ -282,8 +282,8 @@ impl<D: GpuDim> GpuGalerkin<D> {
     pub fn new(case: &Case, gpu: Gpu) -> Result<Self, SetupError> {
         let host: TlGalerkin<D> = crate::run::build_method(case)?;
         check_f32_run(case, host.boundary())?;
-        let v0 = host.initial_state().v;
-        check_f32_particles::<D>(case, host.reference(), &v0, host.body())?;
+        let y0_host = host.initial_state();
+        check_f32_particles::<D>(case, host.reference(), &y0_host.u, &y0_host.v, host.body())?;
         let (shapes, points, gather) = (host.shapes(), host.points(), host.gather());
         let (n, q) = (host.reference().len(), points.len());
         let smoothing = host.smoothing();
@@ -340,7 +340,8 @@ impl<D: GpuDim> GpuGalerkin<D> {
         );
 
         let mut y0 = layout.state.zeroed();
-        layout.state.write_v::<D>(&mut y0, "V", &v0);
+        layout.state.write_v::<D>(&mut y0, "U", &y0_host.u);
+        layout.state.write_v::<D>(&mut y0, "V", &y0_host.v);
         let stepper = Stepper::new(
             &gpu,
             case.method.integrator,

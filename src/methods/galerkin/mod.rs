@@ -228,6 +228,8 @@ pub struct TlGalerkin<D: Dim> {
     mass: Vec<f64>,
     body: Vec<u32>,
     v0: Vec<D::V>,
+    /// Initial displacements.
+    u0: Vec<D::V>,
     /// The cells the points lie in, shown in the frames.
     cells: Cells,
     points: QuadraturePoints<D>,
@@ -267,6 +269,7 @@ impl<D: Dim> TlGalerkin<D> {
             mass: particle_mass,
             body,
             v0,
+            u0,
             boundary,
             material,
             ..
@@ -284,6 +287,7 @@ impl<D: Dim> TlGalerkin<D> {
             mass,
             body,
             v0,
+            u0,
             cells,
             points,
             shapes,
@@ -582,10 +586,10 @@ impl<D: Dim> Method<D> for TlGalerkin<D> {
     }
 
     fn initial_state(&self) -> GalerkinState<D> {
-        let (n, q) = (self.x0.len(), self.points.len());
+        let q = self.points.len();
         let rate = self.material.model.is_rate_based();
         GalerkinState {
-            u: vec![D::zero(); n],
+            u: self.u0.clone(),
             v: self.v0.clone(),
             rho: if rate {
                 vec![self.material.rho0; q]

@@ -123,8 +123,12 @@ impl MethodFamily for KbmSpec {
         integration at the particles and at stress points in the cell centres";
     const KEYS: &'static [&'static str] =
         &["stress_points", "mass", "kernel_frame", "search_every"];
-    const FEATURES: &'static [Feature] =
-        &[Feature::Contact, Feature::Plasticity, Feature::StaticSolve];
+    const FEATURES: &'static [Feature] = &[
+        Feature::Contact,
+        Feature::Plasticity,
+        Feature::StaticSolve,
+        Feature::InitialDisplacement,
+    ];
     const CORRECTED: bool = false;
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = super::galerkin::gpu::SHADERS;

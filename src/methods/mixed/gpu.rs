@@ -642,7 +642,8 @@ impl<D: GpuDim> GpuMixed<D> {
         let (layout, constants) = scene(case, &cpu);
         check_f32_range(case, &constants)?;
         check_f32_run(case, cpu.boundary())?;
-        check_f32_particles::<D>(case, cpu.reference(), &cpu.initial_state().v, cpu.body())?;
+        let y0 = cpu.initial_state();
+        check_f32_particles::<D>(case, cpu.reference(), &y0.u, &y0.v, cpu.body())?;
         let compose = |s: &Source| shaders::compose::<D>(s, &constants);
         let (n, ng) = (layout.n, layout.ghosts);
         gpu.check_size("per-pair buffer", layout.pair.bytes())?;

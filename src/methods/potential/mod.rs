@@ -44,7 +44,7 @@ impl MethodFamily for PotentialSpec {
         (Müller et al.; seed 000 §5.4): symmetrised force −∂Π/∂u with corrected reference \
         gradients of both sides, state-based stress, Monaghan artificial viscosity";
     const KEYS: &'static [&'static str] = &["force", "artificial_viscosity"];
-    const FEATURES: &'static [Feature] = &[Feature::Contact];
+    const FEATURES: &'static [Feature] = &[Feature::Contact, Feature::InitialDisplacement];
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
 

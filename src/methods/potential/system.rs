@@ -55,6 +55,8 @@ pub struct Potential<D: Dim> {
     mass: Vec<f64>,
     body: Vec<u32>,
     v0: Vec<D::V>,
+    /// Initial displacements.
+    u0: Vec<D::V>,
     csr: Csr,
     /// Corrected reference gradients ∇0W̃_ij, one per CSR pair.
     grad: Vec<D::V>,
@@ -92,6 +94,7 @@ impl<D: Dim> Potential<D> {
             mass,
             body,
             v0,
+            u0,
             boundary,
             material,
             kernel,
@@ -118,6 +121,7 @@ impl<D: Dim> Potential<D> {
             mass,
             body,
             v0,
+            u0,
             csr,
             grad,
             grad_rev,
@@ -270,7 +274,7 @@ impl<D: Dim> Method<D> for Potential<D> {
 
     fn initial_state(&self) -> TlState<D> {
         TlState {
-            u: vec![D::zero(); self.x0.len()],
+            u: self.u0.clone(),
             v: self.v0.clone(),
             rho: Vec::new(),
             s: Vec::new(),

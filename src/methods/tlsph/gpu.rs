@@ -372,7 +372,7 @@ impl<D: GpuDim> GpuTlsph<D> {
         let scheme = scheme_of(case)?;
         let disc = Reference::<D>::build(case)?;
         check_f32_run(case, &disc.boundary)?;
-        check_f32_particles::<D>(case, &disc.x0, &disc.v0, &disc.body)?;
+        check_f32_particles::<D>(case, &disc.x0, &disc.u0, &disc.v0, &disc.body)?;
         let n = disc.len();
         let csr = disc.neighbours();
         let layout = Layout::new(
@@ -449,6 +449,7 @@ impl<D: GpuDim> GpuTlsph<D> {
         }
 
         let mut y0 = layout.state.zeroed();
+        layout.state.write_v::<D>(&mut y0, "U", &disc.u0);
         layout.state.write_v::<D>(&mut y0, "V", &disc.v0);
         let stepper = Stepper::new(
             &gpu,

@@ -110,7 +110,11 @@ impl MethodFamily for TlsphSpec {
         "force",
         "hourglass",
     ];
-    const FEATURES: &'static [Feature] = &[Feature::Contact, Feature::StaticSolve];
+    const FEATURES: &'static [Feature] = &[
+        Feature::Contact,
+        Feature::StaticSolve,
+        Feature::InitialDisplacement,
+    ];
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
 

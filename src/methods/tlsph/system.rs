@@ -178,6 +178,8 @@ pub struct Tlsph<D: Dim> {
     mass: Vec<f64>,
     body: Vec<u32>,
     v0: Vec<D::V>,
+    /// Initial displacements.
+    u0: Vec<D::V>,
     csr: Csr,
     /// Corrected reference gradients ∇0W̃_ij, one per CSR pair.
     grad: Vec<D::V>,
@@ -213,6 +215,7 @@ impl<D: Dim> Tlsph<D> {
             mass,
             body,
             v0,
+            u0,
             boundary,
             material,
             kernel,
@@ -241,6 +244,7 @@ impl<D: Dim> Tlsph<D> {
             mass,
             body,
             v0,
+            u0,
             csr,
             grad,
             grad_rev,
@@ -457,7 +461,7 @@ impl<D: Dim> Method<D> for Tlsph<D> {
         let n = self.x0.len();
         let rate = self.material.model.is_rate_based();
         TlState {
-            u: vec![D::zero(); n],
+            u: self.u0.clone(),
             v: self.v0.clone(),
             rho: if rate {
                 vec![self.material.rho0; n]

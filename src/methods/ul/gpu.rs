@@ -231,7 +231,7 @@ impl<D: GpuDim> GpuUl<D> {
     pub fn new(case: &Case, gpu: Gpu, scheme: &Scheme) -> Result<Self, SetupError> {
         let disc = Reference::<D>::build(case)?;
         check_f32_run(case, &disc.boundary)?;
-        check_f32_particles::<D>(case, &disc.x0, &disc.v0, &disc.body)?;
+        check_f32_particles::<D>(case, &disc.x0, &disc.u0, &disc.v0, &disc.body)?;
         let n = disc.len();
         let corrected = case.method.correction == CorrectionKind::RandlesLibersky;
         let layout = Layout::new(n, disc.boundary.constrained.len(), D::N, scheme, corrected);

@@ -80,8 +80,12 @@ impl MethodFamily for WeakFormSpec {
         000 §5.6): RKPM shape functions at 2×2 Gauss points of the lattice cells, lumped \
         mass, velocity smoothing after each step";
     const KEYS: &'static [&'static str] = &["smoothing", "mass"];
-    const FEATURES: &'static [Feature] =
-        &[Feature::Contact, Feature::Plasticity, Feature::StaticSolve];
+    const FEATURES: &'static [Feature] = &[
+        Feature::Contact,
+        Feature::Plasticity,
+        Feature::StaticSolve,
+        Feature::InitialDisplacement,
+    ];
     const CORRECTED: bool = false;
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = super::galerkin::gpu::SHADERS;
