@@ -432,11 +432,11 @@ impl Observers {
                         power: f64::NAN,
                     };
                     let known = clock.step > 0 && reactions.len() == self.supports;
-                    let reactions = match known {
-                        true => reactions.to_vec(),
-                        false => vec![unknown; self.supports],
+                    let shown = match known {
+                        true => reactions,
+                        false => &vec![unknown; self.supports][..],
                     };
-                    for r in reactions {
+                    for r in shown {
                         row.extend(&r.force[..D::N]);
                         row.push(r.power);
                     }

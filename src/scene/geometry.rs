@@ -121,33 +121,20 @@ pub fn discretise<D: Dim>(case: &Case) -> Result<Discretised<D>, CaseError> {
                     initial_velocity::<D>(case, spec.initial_velocity.as_ref(), &expressions, x)
                 }
             };
-            if !D::to3(v0).iter().all(|c| c.is_finite()) {
-                return Err(case.invalid(
-                    key,
-                    format!(
-                        "gives the velocity {:?} m/s at X = {:?} (body `{}`), not a finite \
-                         one; make the field finite over the body",
-                        D::to3(v0),
-                        D::to3(x),
-                        spec.name
-                    ),
-                ));
-            }
+            finite_field(
+                case,
+                &key,
+                "velocity",
+                "m/s",
+                D::to3(v0),
+                D::to3(x),
+                &spec.name,
+            )?;
             out.v0.push(noise.get(i).map_or(v0, |&dv| v0 + dv));
             let u0 = displacement
                 .as_ref()
                 .map_or([0.0; 3], |(field, parsed)| field.at(parsed, D::to3(x)));
-            if !u0.iter().all(|c| c.is_finite()) {
-                return Err(case.invalid(
-                    u_key,
-                    format!(
-                        "gives the displacement {u0:?} m at X = {:?} (body `{}`), not a finite \
-                         one; make the field finite over the body",
-                        D::to3(x),
-                        spec.name
-                    ),
-                ));
-            }
+            finite_field(case, &u_key, "displacement", "m", u0, D::to3(x), &spec.name)?;
             out.u0.push(D::from_slice(&u0[..D::N]));
         }
     }
@@ -676,6 +663,28 @@ fn read_points<D: Dim>(path: &Path, cell: f64) -> Result<Sampled<D>, String> {
     })
 }
 
+/// Refuses an initial field (key `key`) that is not finite at X of body `body`.
+fn finite_field(
+    case: &Case,
+    key: &str,
+    what: &str,
+    unit: &str,
+    value: [f64; 3],
+    x: [f64; 3],
+    body: &str,
+) -> Result<(), CaseError> {
+    if value.iter().all(|c| c.is_finite()) {
+        return Ok(());
+    }
+    Err(case.invalid(
+        key,
+        format!(
+            "gives the {what} {value:?} {unit} at X = {x:?} (body `{body}`), not a finite one; \
+             make the field finite over the body"
+        ),
+    ))
+}
+
 /// v0(X) of `field`; `expressions` are the parsed components of an `expression` field.
 fn initial_velocity<D: Dim>(
     case: &Case,
@@ -692,11 +701,7 @@ fn initial_velocity<D: Dim>(
         }
         VelocityField::Uniform { value } => D::from_slice(value),
         VelocityField::Linear { gradient } => {
-            let v: Vec<f64> = gradient
-                .iter()
-                .map(|row| row.iter().zip(&p).map(|(g, x)| g * x).sum())
-                .collect();
-            D::from_slice(&v)
+            D::from_slice(&super::linear_field(gradient, p)[..D::N])
         }
         VelocityField::RigidRotation {
             omega,

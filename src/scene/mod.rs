@@ -364,20 +364,16 @@ pub enum DisplacementField {
 impl DisplacementField {
     /// u(X) of the field; `expressions` are its parsed components ([`Self::expressions`]).
     pub fn at(&self, expressions: &[Expression], x: [f64; 3]) -> [f64; 3] {
-        let mut u = [0.0; 3];
         match self {
-            Self::Linear { gradient } => {
-                for (u, row) in u.iter_mut().zip(gradient) {
-                    *u = row.iter().zip(&x).map(|(g, x)| g * x).sum();
-                }
-            }
+            Self::Linear { gradient } => linear_field(gradient, x),
             Self::Expression { .. } => {
+                let mut u = [0.0; 3];
                 for (u, e) in u.iter_mut().zip(expressions) {
                     *u = e.at(&x);
                 }
+                u
             }
         }
-        u
     }
 
     /// The component expressions of an `expression` field, parsed for a `dim`-D scene,
@@ -396,6 +392,15 @@ impl DisplacementField {
             }
         }
     }
+}
+
+/// G X of a linear field, G given row by row (rows beyond the dimension absent).
+pub(crate) fn linear_field(gradient: &[Vec<f64>], x: [f64; 3]) -> [f64; 3] {
+    let mut y = [0.0; 3];
+    for (y, row) in y.iter_mut().zip(gradient) {
+        *y = row.iter().zip(&x).map(|(g, x)| g * x).sum();
+    }
+    y
 }
 
 /// The first `dim` of the (name, text) components of a vector field, parsed as

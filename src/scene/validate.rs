@@ -673,21 +673,7 @@ fn displacement(case: &Case, field: &DisplacementField, key: &str) -> Checked {
     }
     let dim = case.dim();
     match field {
-        DisplacementField::Linear { gradient } => {
-            if gradient.len() != dim {
-                return fail(
-                    format!("{key}.gradient"),
-                    format!(
-                        "must have {dim} rows (one per displacement component), got {}",
-                        gradient.len()
-                    ),
-                );
-            }
-            for (i, row) in gradient.iter().enumerate() {
-                vector(&format!("{key}.gradient.{i}"), row, dim)?;
-            }
-            Ok(())
-        }
+        DisplacementField::Linear { gradient } => gradient_rows(key, gradient, dim, "displacement"),
         DisplacementField::Expression { uz, constants, .. } => {
             if dim != 3 && uz.is_some() {
                 return fail(
@@ -703,24 +689,27 @@ fn displacement(case: &Case, field: &DisplacementField, key: &str) -> Checked {
     }
 }
 
+/// The gradient of a linear `field` (velocity, displacement): d rows of d finite numbers.
+fn gradient_rows(key: &str, gradient: &[Vec<f64>], dim: usize, field: &str) -> Checked {
+    if gradient.len() != dim {
+        return fail(
+            format!("{key}.gradient"),
+            format!(
+                "must have {dim} rows (one per {field} component), got {}",
+                gradient.len()
+            ),
+        );
+    }
+    for (i, row) in gradient.iter().enumerate() {
+        vector(&format!("{key}.gradient.{i}"), row, dim)?;
+    }
+    Ok(())
+}
+
 fn velocity(field: &VelocityField, key: &str, dim: usize) -> Checked {
     match field {
         VelocityField::Uniform { value } => vector(&format!("{key}.value"), value, dim),
-        VelocityField::Linear { gradient } => {
-            if gradient.len() != dim {
-                return fail(
-                    format!("{key}.gradient"),
-                    format!(
-                        "must have {dim} rows (one per velocity component), got {}",
-                        gradient.len()
-                    ),
-                );
-            }
-            for (i, row) in gradient.iter().enumerate() {
-                vector(&format!("{key}.gradient.{i}"), row, dim)?;
-            }
-            Ok(())
-        }
+        VelocityField::Linear { gradient } => gradient_rows(key, gradient, dim, "velocity"),
         VelocityField::RigidRotation {
             omega,
             center,
