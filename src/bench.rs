@@ -4,6 +4,7 @@
 use crate::run::{Backend, Engine, EngineDim, RunError, engine};
 use crate::scene::{Case, discretise};
 use crate::tensor::{D2, D3};
+use rayon::prelude::*;
 use std::time::Instant;
 
 /// One measured configuration.
@@ -25,6 +26,9 @@ pub struct BenchRow {
     pub neighbour_share: Option<f64>,
     /// On the GPU, the pass report of further steps run with profiling on.
     pub passes: Option<PassReport>,
+    /// On the CPU, the bytes per particle a step moves by the method's traffic model
+    /// (`Engine::traffic_per_step`).
+    pub bytes_per_particle_step: Option<f64>,
 }
 
 /// One pass of a [`PassReport`]: totals over the profiled steps.
@@ -141,11 +145,17 @@ impl std::fmt::Display for PassReport {
 }
 
 impl BenchRow {
-    pub const HEADER: &'static str = "case,backend,particles,steps,setup_s,seconds,particle_steps_per_s,rate_evaluations_per_s,neighbour_share";
+    /// The bandwidth the model's bytes reach at the measured throughput [bytes/s].
+    pub fn modelled_bandwidth(&self) -> Option<f64> {
+        self.bytes_per_particle_step
+            .map(|b| b * self.particle_steps_per_second)
+    }
+
+    pub const HEADER: &'static str = "case,backend,particles,steps,setup_s,seconds,particle_steps_per_s,rate_evaluations_per_s,neighbour_share,bytes_per_particle_step";
 
     pub fn csv(&self) -> String {
         format!(
-            "{},{},{},{},{:.6},{:.6},{:.6e},{:.6e},{}",
+            "{},{},{},{},{:.6},{:.6},{:.6e},{:.6e},{},{}",
             self.case,
             self.backend.replace(',', ";"),
             self.particles,
@@ -155,7 +165,9 @@ impl BenchRow {
             self.particle_steps_per_second,
             self.rate_evaluations_per_second,
             self.neighbour_share
-                .map_or(String::new(), |s| format!("{s:.4}"))
+                .map_or(String::new(), |s| format!("{s:.4}")),
+            self.bytes_per_particle_step
+                .map_or(String::new(), |b| format!("{b:.0}"))
         )
     }
 }
@@ -251,7 +263,31 @@ fn time_steps<D: EngineDim, E: Engine<D>>(
         rate_evaluations_per_second: rate * case.method.integrator.stages() as f64,
         neighbour_share,
         passes,
+        bytes_per_particle_step: engine.traffic_per_step(),
     })
+}
+
+/// The machine's memory bandwidth by the STREAM triad a = b + s·c on arrays of 2²⁵
+/// doubles each (256 MB, far beyond the caches) on rayon's threads: the best of five
+/// passes, counting 24 bytes per element as STREAM does [bytes/s].
+pub fn triad_bandwidth() -> f64 {
+    const N: usize = 1 << 25;
+    let (b, c) = (vec![1.0; N], vec![2.0; N]);
+    let mut a = vec![0.0; N];
+    (0..5)
+        .map(|k| {
+            let s = f64::from(k);
+            let timer = Instant::now();
+            a.par_iter_mut()
+                .with_min_len(1 << 14)
+                .zip(&b)
+                .zip(&c)
+                .for_each(|((a, &b), &c)| *a = b + s * c);
+            let seconds = timer.elapsed().as_secs_f64();
+            std::hint::black_box(&a);
+            24.0 * N as f64 / seconds
+        })
+        .fold(0.0, f64::max)
 }
 
 /// The pass report of `steps` further steps from time `t`, run with profiling on, on a

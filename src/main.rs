@@ -91,6 +91,11 @@ enum Command {
         /// Also write the table as CSV.
         #[arg(long)]
         csv: Option<PathBuf>,
+        /// Measure this machine's memory bandwidth (STREAM triad) first, and give each CPU
+        /// row the bytes per particle-step of its method's traffic model, the bandwidth
+        /// they reach and its fraction of the triad's.
+        #[arg(long)]
+        roofline: bool,
     },
     /// Run study suites: error against wall time and stability sweeps (see cases/studies/).
     #[cfg(feature = "study")]
@@ -180,7 +185,16 @@ fn main() -> ExitCode {
             steps,
             set,
             csv,
-        } => bench_command(&cases, backend, &particles, steps, &set, csv.as_deref()),
+            roofline,
+        } => bench_command(
+            &cases,
+            backend,
+            &particles,
+            steps,
+            &set,
+            csv.as_deref(),
+            roofline,
+        ),
         #[cfg(feature = "study")]
         Command::Study {
             suites,
@@ -413,13 +427,31 @@ fn bench_command(
     steps: u32,
     set: &[String],
     csv: Option<&Path>,
+    roofline: bool,
 ) -> ExitCode {
-    use meshless::bench::{BenchRow, measure, resize};
+    use meshless::bench::{BenchRow, measure, resize, triad_bandwidth};
     let mut rows = Vec::new();
+    let triad = roofline.then(|| {
+        let triad = triad_bandwidth();
+        println!(
+            "STREAM triad on {} thread(s): {:.2} GB/s\n",
+            rayon::current_num_threads(),
+            triad * 1e-9
+        );
+        triad
+    });
+    let roofline_header = if roofline {
+        " bytes/particle-step | GB/s | of triad |"
+    } else {
+        ""
+    };
     println!(
-        "| case | backend | particles | steps | set-up [s] | particle-steps/s | rate evaluations/s | neighbours [% of steps] |"
+        "| case | backend | particles | steps | set-up [s] | particle-steps/s | rate evaluations/s | neighbours [% of steps] |{roofline_header}"
     );
-    println!("|---|---|---|---|---|---|---|---|");
+    println!(
+        "|---|---|---|---|---|---|---|---|{}",
+        "---|".repeat(3 * usize::from(roofline))
+    );
     for name in cases {
         let path = resolve(name);
         for &target in particles {
@@ -433,8 +465,19 @@ fn bench_command(
                 .and_then(|case| measure(&case, backend, steps));
             match result {
                 Ok(r) => {
+                    let fractions = triad.map_or(String::new(), |triad| {
+                        let dash = || "–".to_string();
+                        let bandwidth = r.modelled_bandwidth();
+                        format!(
+                            " {} | {} | {} |",
+                            r.bytes_per_particle_step
+                                .map_or_else(dash, |b| format!("{b:.0}")),
+                            bandwidth.map_or_else(dash, |b| format!("{:.2}", b * 1e-9)),
+                            bandwidth.map_or_else(dash, |b| format!("{:.3}", b / triad))
+                        )
+                    });
                     println!(
-                        "| {} | {} | {} | {} | {:.2} | {:.3e} | {:.3e} | {} |",
+                        "| {} | {} | {} | {} | {:.2} | {:.3e} | {:.3e} | {} |{fractions}",
                         r.case,
                         r.backend,
                         r.particles,

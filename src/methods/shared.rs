@@ -309,4 +309,27 @@ pub trait Method<D: Dim>: OdeSystem<Error = BlowUp> + Sized {
     fn neighbour_seconds(&self) -> Option<f64> {
         None
     }
+    /// The bytes a rate evaluation moves on the CPU, for `meshless bench --roofline`;
+    /// none for a method without a model.
+    fn traffic(&self) -> Option<Traffic> {
+        None
+    }
+}
+
+/// The memory traffic of one rate evaluation on the CPU, by the minimum-traffic model:
+/// every array a pass reads or writes crosses the memory bus once per pass (a neighbour's
+/// record, gathered again by its other neighbours, comes from cache).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Traffic {
+    /// Bytes per particle: per-particle arrays, summed over the passes.
+    pub per_particle: f64,
+    /// Bytes per neighbour pair: per-pair arrays (ids, gradients), summed over passes.
+    pub per_pair: f64,
+    /// Bytes of the integrated state per particle, which the integrator's stage
+    /// operations move ([`crate::integrate::traffic`]).
+    pub state: f64,
+    /// Bytes of the velocity per particle (the leapfrog's kicks move only it).
+    pub velocity: f64,
+    /// Neighbour pairs per particle.
+    pub pairs_per_particle: f64,
 }

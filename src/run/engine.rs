@@ -5,7 +5,7 @@ use super::{Backend, RunError};
 use crate::boundary::Reaction;
 #[cfg(feature = "gpu")]
 use crate::gpu::{Gpu, SetupError};
-use crate::integrate::{Integrator, OdeState};
+use crate::integrate::{Integrator, OdeState, traffic};
 use crate::methods::{BlowUp, Method};
 use crate::observe::{Invariants, Snapshot};
 use crate::reference::Reference;
@@ -193,6 +193,12 @@ pub trait Engine<D: Dim> {
     fn neighbour_seconds(&mut self) -> Option<f64> {
         None
     }
+    /// Bytes per particle a step moves on the CPU by the method's traffic model (rate
+    /// evaluations and stage operations), for `meshless bench --roofline`; none for a
+    /// GPU engine or a method without a model.
+    fn traffic_per_step(&self) -> Option<f64> {
+        None
+    }
     /// A GPU engine's device, for the pass report, and what scales its passes' bytes
     /// (the pairs of its lists, the builds its device ran); none on the CPU.
     #[cfg(feature = "gpu")]
@@ -250,6 +256,9 @@ impl<D: Dim> Engine<D> for Box<dyn Engine<D>> {
     }
     fn neighbour_seconds(&mut self) -> Option<f64> {
         (**self).neighbour_seconds()
+    }
+    fn traffic_per_step(&self) -> Option<f64> {
+        (**self).traffic_per_step()
     }
     #[cfg(feature = "gpu")]
     fn device(&mut self) -> Option<(&Gpu, crate::gpu::profile::Scale)> {
@@ -337,6 +346,13 @@ impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
 
     fn viscous_dissipation(&mut self) -> Option<f64> {
         self.method.viscous_dissipation().map(|_| self.dissipated)
+    }
+
+    fn traffic_per_step(&self) -> Option<f64> {
+        let t = self.method.traffic()?;
+        let kind = self.integrator.kind();
+        let evaluation = t.per_particle + t.pairs_per_particle * t.per_pair;
+        Some(kind.stages() as f64 * evaluation + traffic(kind, t.state, t.velocity))
     }
 
     fn check(&mut self) -> Result<(), BlowUp> {

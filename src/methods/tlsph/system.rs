@@ -9,8 +9,8 @@ use super::{ArtificialViscosity, TlsphForce, ViscosityGradient};
 use crate::boundary::Boundary;
 use crate::interaction::Interactions;
 use crate::methods::shared::{
-    BlowUp, BoundaryWork, MIN_CHUNK, Method, check_motion, particle_state, reference_gradients,
-    reverse_gradients,
+    BlowUp, BoundaryWork, MIN_CHUNK, Method, Traffic, check_motion, particle_state,
+    reference_gradients, reverse_gradients,
 };
 use crate::methods::{MethodSpec, not_run_by};
 
@@ -24,6 +24,7 @@ use crate::scene::{Case, CaseError};
 use crate::statics::explicit::AtRest;
 use crate::tensor::Dim;
 use rayon::prelude::*;
+use std::mem::take;
 
 /// Integrated state of TLSPH.
 #[derive(Clone, Debug)]
@@ -39,17 +40,27 @@ pub struct TlState<D: Dim> {
 
 particle_state!(TlState { rho, s });
 
-/// Per-particle quantities of one rate evaluation.
+/// What the pair loop of the acceleration pass reads of each neighbour j, packed in
+/// one record (64 bytes in 2D) so that a neighbour costs one gather.
 #[derive(Clone, Copy, Debug)]
-struct Kinematics<D: Dim> {
-    /// Deformation gradient F = I + Σ_j V_j (u_j − u_i) ⊗ ∇0W̃_ij (eq 137).
-    f: D::T,
+struct Gathered<D: Dim> {
     /// First Piola–Kirchhoff stress P = J σ F⁻ᵀ.
     p: D::T,
-    /// F⁻ᵀ, which pushes reference gradients forward: ∇W = F⁻ᵀ ∇0W.
-    f_inv_t: D::T,
+    /// Current position x = X + u.
+    x: D::V,
+    /// Sound speed c = √(K/ρ).
+    c: f64,
     /// Current density (ρ, or ρ0/J for state-based models).
     rho: f64,
+}
+
+/// What the acceleration pass reads of particle i alone.
+#[derive(Clone, Copy, Debug)]
+struct Own<D: Dim> {
+    /// Deformation gradient F = I + Σ_j V_j (u_j − u_i) ⊗ ∇0W̃_ij (eq 137).
+    f: D::T,
+    /// F⁻ᵀ, which pushes reference gradients forward: ∇W = F⁻ᵀ ∇0W.
+    f_inv_t: D::T,
 }
 
 /// The first particle with a non-finite u, v, ρ or S, as a blow-up.
@@ -171,6 +182,22 @@ pub fn hourglass_acceleration<D: Dim>(kappa: f64, dx0: D::V, du: D::V, h_sum: D:
     e * (-0.5 * kappa * D::dot(gamma, e))
 }
 
+/// `Some(i)` when det F_i ≤ 0 or NaN: the particle's F is not admissible.
+#[inline]
+fn inadmissible<D: Dim>(i: usize, f: D::T) -> Option<usize> {
+    let det = D::det(f);
+    (det.is_nan() || det <= 0.0).then_some(i)
+}
+
+/// Each pair's vector scaled by the neighbour's volume V_j, in CSR order.
+fn weighted<D: Dim>(csr: &Csr, vol: &[f64], per_pair: Vec<D::V>) -> Vec<D::V> {
+    per_pair
+        .into_par_iter()
+        .zip(csr.ids.par_iter())
+        .map(|(g, &j)| g * vol[j as usize])
+        .collect()
+}
+
 /// The TLSPH system on the CPU (f64, rayon).
 pub struct Tlsph<D: Dim> {
     x0: Vec<D::V>,
@@ -181,10 +208,13 @@ pub struct Tlsph<D: Dim> {
     /// Initial displacements.
     u0: Vec<D::V>,
     csr: Csr,
-    /// Corrected reference gradients ∇0W̃_ij, one per CSR pair.
+    /// Corrected reference gradients weighted by the neighbour's volume, V_j ∇0W̃_ij, one
+    /// per CSR pair: every pair sum of the method carries that product.
     grad: Vec<D::V>,
-    /// ∇0W̃_ji for every pair (i, j), in CSR order: the variational force only.
+    /// V_j ∇0W̃_ji for every pair (i, j), in CSR order: the variational force only.
     grad_rev: Option<Vec<D::V>>,
+    /// Σ_j V_j ∇0W̃_ij of every particle.
+    grad_sum: Vec<D::V>,
     /// The hourglass stiffness κ_ij of every pair, in CSR order, with the control on.
     hourglass: Option<Vec<f64>>,
     material: Material,
@@ -194,7 +224,8 @@ pub struct Tlsph<D: Dim> {
     h: f64,
     boundary: Boundary<D>,
     interactions: Interactions<D>,
-    kin: Vec<Kinematics<D>>,
+    gathered: Vec<Gathered<D>>,
+    own: Vec<Own<D>>,
     /// The power of supports, loads and interactions and the supports' reactions at the
     /// last rate evaluation.
     boundary_work: BoundaryWork,
@@ -224,20 +255,34 @@ impl<D: Dim> Tlsph<D> {
         let grad = reference_gradients::<D>(case, &x0, &vol, &csr)?;
         let grad_rev = match spec.force {
             TlsphForce::Reveles => None,
-            TlsphForce::Variational => Some(reverse_gradients::<D>(case, &csr, &grad)?),
+            TlsphForce::Variational => Some(weighted::<D>(
+                &csr,
+                &vol,
+                reverse_gradients::<D>(case, &csr, &grad)?,
+            )),
         };
+        let grad = weighted::<D>(&csr, &vol, grad);
+        let grad_sum = (0..csr.len())
+            .into_par_iter()
+            .map(|i| csr.range(i).fold(D::zero(), |sum, p| sum + grad[p]))
+            .collect();
         let hourglass = spec
             .hourglass
             .map(|alpha| hourglass_stiffness::<D>(case, alpha, &x0, &vol, &csr));
         let interactions = Interactions::build(case, &x0, &body, || csr.clone())?;
-        let identity = Kinematics {
-            f: D::identity(),
+        let at_rest = Gathered {
             p: D::zero_t(),
-            f_inv_t: D::identity(),
+            x: D::zero(),
+            c: 0.0,
             rho: material.rho0,
         };
+        let identity = Own {
+            f: D::identity(),
+            f_inv_t: D::identity(),
+        };
         Ok(Self {
-            kin: vec![identity; x0.len()],
+            gathered: vec![at_rest; x0.len()],
+            own: vec![identity; x0.len()],
             dissipation: vec![0.0; x0.len()],
             x0,
             vol,
@@ -248,6 +293,7 @@ impl<D: Dim> Tlsph<D> {
             csr,
             grad,
             grad_rev,
+            grad_sum,
             hourglass,
             material,
             av: spec.artificial_viscosity,
@@ -269,19 +315,26 @@ impl<D: Dim> Tlsph<D> {
         &self.vol
     }
 
-    /// Corrected reference gradients, in CSR order.
-    pub fn gradients(&self) -> &[D::V] {
-        &self.grad
+    /// Corrected reference gradients ∇0W̃_ij, in CSR order.
+    pub fn gradients(&self) -> Vec<D::V> {
+        self.grad
+            .iter()
+            .zip(&self.csr.ids)
+            .map(|(&g, &j)| g * (1.0 / self.vol[j as usize]))
+            .collect()
     }
 
-    /// Σ_j V_j (f_j − f_i) ⊗ ∇0W̃_ij: the corrected gradient of a particle field.
+    /// Σ_j V_j (f_j − f_i) ⊗ ∇0W̃_ij of K particle fields in one pass over i's
+    /// neighbours: their corrected gradients.
     #[inline]
-    fn gradient_of(&self, i: usize, f: &[D::V]) -> D::T {
-        let mut g = D::zero_t();
-        let fi = f[i];
-        for p in self.csr.range(i) {
-            let j = self.csr.ids[p] as usize;
-            g += D::outer(f[j] - fi, self.grad[p]) * self.vol[j];
+    fn gradients_of<const K: usize>(&self, i: usize, fields: [&[D::V]; K]) -> [D::T; K] {
+        let mut g = [D::zero_t(); K];
+        let own = fields.map(|f| f[i]);
+        let range = self.csr.range(i);
+        for (&j, &w) in self.csr.ids[range.clone()].iter().zip(&self.grad[range]) {
+            for k in 0..K {
+                g[k] += D::outer(fields[k][j as usize] - own[k], w);
+            }
         }
         g
     }
@@ -290,43 +343,59 @@ impl<D: Dim> Tlsph<D> {
         BlowUp::at::<D>(&self.x0, i, quantity, value)
     }
 
-    /// Pass 1: F, P and current density per particle; ρ̇ and Ṡ for the rate model.
-    fn stresses(&mut self, y: &TlState<D>, d: &mut TlState<D>) {
+    /// Pass 1: F, P, current position, density and sound speed per particle; ρ̇ and Ṡ
+    /// for the rate model. Returns the first particle with det F ≤ 0 (or NaN).
+    fn stresses(&mut self, y: &TlState<D>, d: &mut TlState<D>) -> Option<BlowUp> {
         let mat = self.material;
-        let mut kin = std::mem::take(&mut self.kin);
-        if mat.model.is_rate_based() {
-            kin.par_iter_mut()
+        let (mut gathered, mut own) = (take(&mut self.gathered), take(&mut self.own));
+        let records = gathered.par_iter_mut().zip(own.par_iter_mut());
+        let bad = if mat.model.is_rate_based() {
+            records
+                .zip(d.rho.par_iter_mut().zip(d.s.par_iter_mut()))
                 .with_min_len(MIN_CHUNK)
-                .zip(d.rho.par_iter_mut())
-                .zip(d.s.par_iter_mut())
                 .enumerate()
-                .for_each(|(i, ((k, rho_dot), s_dot))| {
-                    let f = D::identity() + self.gradient_of(i, &y.u);
-                    let f_dot = self.gradient_of(i, &y.v); // eq 136
+                .filter_map(|(i, ((g, o), (rho_dot, s_dot)))| {
+                    let [h, f_dot] = self.gradients_of(i, [&y.u, &y.v]); // eqs 136–137
+                    let f = D::identity() + h;
                     let r = mat.rate_response::<D>(f, f_dot, y.rho[i], y.s[i]);
                     (*rho_dot, *s_dot) = (r.rho_dot, r.s_dot);
-                    *k = Kinematics {
+                    *o = Own {
                         f,
-                        p: r.pk1,
                         f_inv_t: r.f_inv_t,
-                        rho: y.rho[i],
                     };
-                });
+                    *g = self.gathered(i, y, r.pk1, y.rho[i]);
+                    inadmissible::<D>(i, f)
+                })
+                .min()
         } else {
-            kin.par_iter_mut()
+            records
                 .with_min_len(MIN_CHUNK)
                 .enumerate()
-                .for_each(|(i, k)| {
-                    let f = D::identity() + self.gradient_of(i, &y.u);
-                    *k = Kinematics {
+                .filter_map(|(i, (g, o))| {
+                    let [h] = self.gradients_of(i, [&y.u]);
+                    let f = D::identity() + h;
+                    *o = Own {
                         f,
-                        p: mat.pk1::<D>(f),
                         f_inv_t: D::transpose(D::inverse(f)),
-                        rho: mat.rho0 / D::det(f),
                     };
-                });
+                    *g = self.gathered(i, y, mat.pk1::<D>(f), mat.rho0 / D::det(f));
+                    inadmissible::<D>(i, f)
+                })
+                .min()
+        };
+        (self.gathered, self.own) = (gathered, own);
+        bad.map(|i| self.blow_up(i, "det F", D::det(self.own[i].f)))
+    }
+
+    /// The record neighbours gather of particle i, with stress P and density ρ.
+    #[inline]
+    fn gathered(&self, i: usize, y: &TlState<D>, p: D::T, rho: f64) -> Gathered<D> {
+        Gathered {
+            p,
+            x: self.x0[i] + y.u[i],
+            c: (self.material.bulk / rho).sqrt(),
+            rho,
         }
-        self.kin = kin;
     }
 
     /// Pass 2: a_i = (1/ρ0) Σ_j V_j (P_i + P_j) ∇0W̃_ij (eq 134), or the variational
@@ -338,72 +407,88 @@ impl<D: Dim> Tlsph<D> {
     /// reference code have it; after a quarter turn of rigid rotation that direction points
     /// across the pair and feeds energy in (docs/methods/tlsph.md).
     /// Also writes each particle's viscous dissipation −m_i a_visc·v_i into `dissipation`.
-    fn accelerations(&self, y: &TlState<D>, a: &mut [D::V], dissipation: &mut [f64]) {
+    fn accelerations(&self, y: &TlState<D>, d: &mut TlState<D>, dissipation: &mut [f64]) {
+        match (self.av.is_some(), self.hourglass.is_some()) {
+            (false, false) => self.accelerations_with::<false, false>(y, d, dissipation),
+            (false, true) => self.accelerations_with::<false, true>(y, d, dissipation),
+            (true, false) => self.accelerations_with::<true, false>(y, d, dissipation),
+            (true, true) => self.accelerations_with::<true, true>(y, d, dissipation),
+        }
+    }
+
+    /// [`Self::accelerations`] with the viscous and hourglass terms chosen at compile
+    /// time, so that the pair loop carries only the terms the case runs.
+    fn accelerations_with<const VISCOUS: bool, const HOURGLASS: bool>(
+        &self,
+        y: &TlState<D>,
+        d: &mut TlState<D>,
+        dissipation: &mut [f64],
+    ) {
         let inv_rho0 = 1.0 / self.material.rho0;
-        let bulk = self.material.bulk;
+        let rho0 = self.material.rho0;
         let h = self.h;
-        a.par_iter_mut()
+        let av = self.av;
+        let kappa = self.hourglass.as_deref().unwrap_or_default();
+        let pushed_forward = self.av_gradient == ViscosityGradient::PushedForward;
+        let rev = self.grad_rev.as_deref();
+        d.v.par_iter_mut()
+            .zip(d.u.par_iter_mut())
             .zip(dissipation.par_iter_mut())
             .with_min_len(MIN_CHUNK)
             .enumerate()
-            .for_each(|(i, (a, dissipation))| {
-                let ki = self.kin[i];
-                let xi = self.x0[i] + y.u[i];
-                let ci = (bulk / ki.rho).sqrt();
-                let mut stress = D::zero();
+            .for_each(|(i, ((a, u_dot), dissipation))| {
+                let (gi, oi, vi) = (self.gathered[i], self.own[i], y.v[i]);
+                // Σ_j P_j ∇0W̃_ij V_j (eq 134) or −Σ_j P_j ∇0W̃_ji V_j (variational); P_i's
+                // term is P_i Σ_j V_j ∇0W̃_ij, summed once on the reference.
+                let mut stress = gi.p * self.grad_sum[i];
+                // Σ_j m_j Π_ij ∇0W̃_ij: F_i⁻ᵀ applies once to the sum.
                 let mut viscous = D::zero();
                 let mut hourglass = D::zero();
-                for p in self.csr.range(i) {
-                    let j = self.csr.ids[p] as usize;
-                    let kj = self.kin[j];
-                    let g = self.grad[p];
-                    let flux = match &self.grad_rev {
-                        None => (ki.p + kj.p) * g,
-                        Some(rev) => ki.p * g - kj.p * rev[p],
+                let range = self.csr.range(i);
+                let pairs = self.csr.ids[range.clone()]
+                    .iter()
+                    .zip(&self.grad[range.clone()]);
+                for (p, (&j, &w)) in range.zip(pairs) {
+                    let j = j as usize;
+                    let gj = self.gathered[j];
+                    stress += match rev {
+                        None => gj.p * w,
+                        Some(rev) => -(gj.p * rev[p]),
                     };
-                    stress += flux * self.vol[j];
-                    if let Some(kappa) = &self.hourglass {
+                    if HOURGLASS {
                         let (dx0, du) = (self.x0[j] - self.x0[i], y.u[j] - y.u[i]);
-                        let h_sum = ki.f + kj.f - D::identity() * 2.0;
+                        let h_sum = oi.f + self.own[j].f - D::identity() * 2.0;
                         hourglass += hourglass_acceleration::<D>(kappa[p], dx0, du, h_sum);
                     }
-                    if let Some(av) = &self.av {
-                        let x_ij = xi - (self.x0[j] + y.u[j]);
-                        let c = 0.5 * (ci + (bulk / kj.rho).sqrt());
-                        let rho = 0.5 * (ki.rho + kj.rho);
-                        let pi = av.pi::<D>(h, x_ij, y.v[i] - y.v[j], c, rho);
-                        let along = match self.av_gradient {
-                            ViscosityGradient::PushedForward => ki.f_inv_t * g,
-                            ViscosityGradient::Reference => g,
-                        };
-                        viscous -= along * (self.mass[j] * pi);
+                    if VISCOUS && let Some(av) = av {
+                        let c = 0.5 * (gi.c + gj.c);
+                        let rho = 0.5 * (gi.rho + gj.rho);
+                        let pi = av.pi::<D>(h, gi.x - gj.x, vi - y.v[j], c, rho);
+                        // m_j = ρ0 V_j: every particle's mass is ρ0 V.
+                        viscous -= w * (rho0 * pi);
                     }
                 }
+                if pushed_forward {
+                    viscous = oi.f_inv_t * viscous;
+                }
                 *a = stress * inv_rho0 + viscous + hourglass;
-                *dissipation = -self.mass[i] * D::dot(viscous, y.v[i]);
+                *u_dot = vi;
+                *dissipation = -self.mass[i] * D::dot(viscous, vi);
             });
-    }
-
-    fn first_inadmissible(&self) -> Option<BlowUp> {
-        let i = self
-            .kin
-            .par_iter()
-            .position_first(|k| D::det(k.f).is_nan() || D::det(k.f) <= 0.0)?;
-        Some(self.blow_up(i, "det F", D::det(self.kin[i].f)))
     }
 
     /// First Piola–Kirchhoff stress of every particle.
     pub fn first_piola(&mut self, y: &TlState<D>) -> Vec<D::T> {
         let mut scratch = y.clone();
         self.stresses(y, &mut scratch);
-        self.kin.iter().map(|k| k.p).collect()
+        self.gathered.iter().map(|g| g.p).collect()
     }
 
     fn each_f(&self, y: &TlState<D>) -> Vec<D::T> {
         (0..self.x0.len())
             .into_par_iter()
             .with_min_len(MIN_CHUNK)
-            .map(|i| D::identity() + self.gradient_of(i, &y.u))
+            .map(|i| D::identity() + self.gradients_of(i, [&y.u])[0])
             .collect()
     }
 }
@@ -413,17 +498,12 @@ impl<D: Dim> OdeSystem for Tlsph<D> {
     type Error = BlowUp;
 
     fn rates(&mut self, _t: f64, y: &TlState<D>, d: &mut TlState<D>) -> Result<(), BlowUp> {
-        self.stresses(y, d);
-        if let Some(b) = self.first_inadmissible() {
+        if let Some(b) = self.stresses(y, d) {
             return Err(b);
         }
-        let mut dissipation = std::mem::take(&mut self.dissipation);
-        self.accelerations(y, &mut d.v, &mut dissipation);
+        let mut dissipation = take(&mut self.dissipation);
+        self.accelerations(y, d, &mut dissipation);
         self.dissipation = dissipation;
-        d.u.par_iter_mut()
-            .with_min_len(MIN_CHUNK)
-            .zip(&y.v)
-            .for_each(|(u, &v)| *u = v);
         self.boundary_work.finish(
             &self.interactions,
             &self.boundary,
@@ -533,6 +613,34 @@ impl<D: Dim> Method<D> for Tlsph<D> {
 
     fn viscous_dissipation(&self) -> Option<f64> {
         Some(self.dissipation.iter().sum())
+    }
+
+    /// Pass 1 reads u (and v, ρ, S of the rate model) and writes the two records (and ρ̇,
+    /// Ṡ); pass 2 reads the records, v, Σ V_j ∇0W̃_ij and m (and X, u with hourglass
+    /// control) and writes a, u̇ and the dissipation. Both read the ids and V_j ∇0W̃_ij of
+    /// every pair; the variational force also V_j ∇0W̃_ji, the hourglass control κ_ij.
+    fn traffic(&self) -> Option<Traffic> {
+        let (v, t, f) = (size_of::<D::V>(), size_of::<D::T>(), size_of::<f64>());
+        let records = size_of::<Gathered<D>>() + size_of::<Own<D>>();
+        let rate = if self.material.model.is_rate_based() {
+            2 * (f + t)
+        } else {
+            0
+        };
+        let hourglass = self.hourglass.is_some();
+        let pass_1 = v + records + rate;
+        let pass_2 = records + 4 * v + 2 * f + if hourglass { 2 * v } else { 0 };
+        let pair = size_of::<u32>() + v;
+        let per_pair =
+            2 * pair + if self.grad_rev.is_some() { v } else { 0 } + if hourglass { f } else { 0 };
+        let n = self.x0.len().max(1) as f64;
+        Some(Traffic {
+            per_particle: (pass_1 + pass_2) as f64,
+            per_pair: per_pair as f64,
+            state: (2 * v + rate / 2) as f64,
+            velocity: v as f64,
+            pairs_per_particle: self.csr.ids.len() as f64 / n,
+        })
     }
 
     fn check_finite(&self, y: &TlState<D>) -> Result<(), BlowUp> {
