@@ -503,7 +503,7 @@ impl IterationLog {
             }
             progress.println(format!(
                 "load step {}, t = {:.4e}: iteration {}, |R| = {:.3e} ({:.3e} relative), \
-                 |Δu| = {:.3e}{}",
+                 |Δu| = {:.3e}{}{}",
                 it.load_step,
                 it.time,
                 it.iteration,
@@ -514,6 +514,11 @@ impl IterationLog {
                     format!(", {} CG iterations", it.linear_iterations)
                 } else {
                     String::new()
+                },
+                if it.indefinite {
+                    ", tangent indefinite (solved by LU)"
+                } else {
+                    ""
                 }
             ));
         }

@@ -113,11 +113,13 @@ pub struct Iteration {
     pub linear_iterations: u32,
     /// Wall time of the tangent assembly and linear solve [s].
     pub solve_seconds: f64,
+    /// The solve that led here met an indefinite tangent (solved by LU).
+    pub indefinite: bool,
 }
 
 impl Iteration {
     /// The columns of `iterations.csv`.
-    pub const COLUMNS: [&'static str; 8] = [
+    pub const COLUMNS: [&'static str; 9] = [
         "load_step",
         "time",
         "iteration",
@@ -126,10 +128,11 @@ impl Iteration {
         "increment",
         "linear_iterations",
         "solve_seconds",
+        "indefinite",
     ];
 
     /// The row of `iterations.csv`.
-    pub fn row(&self) -> [f64; 8] {
+    pub fn row(&self) -> [f64; 9] {
         [
             self.load_step as f64,
             self.time,
@@ -139,6 +142,7 @@ impl Iteration {
             self.increment,
             f64::from(self.linear_iterations),
             self.solve_seconds,
+            f64::from(u8::from(self.indefinite)),
         ]
     }
 }

@@ -271,6 +271,7 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
                 increment,
                 linear_iterations: stats.iterations as u32,
                 solve_seconds: stats.seconds,
+                indefinite: stats.indefinite,
             });
             let worst = || {
                 (0..self.mass.len())
@@ -321,8 +322,8 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
                 reason: e.to_string(),
             })?;
             stats = SolveStats {
-                iterations: s.iterations,
                 seconds: started.elapsed().as_secs_f64(),
+                ..s
             };
             self.add_free(&mut u, &du);
             increment = du.iter().map(|x| x * x).sum::<f64>().sqrt();

@@ -8,6 +8,7 @@ use faer::sparse::linalg::solvers::{Llt, Lu, SymbolicLlt, SymbolicLu};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use std::sync::OnceLock;
 use thiserror::Error;
 
 /// The coupling of the stiffness at the level of particles: row a lists the particles b
@@ -118,9 +119,10 @@ pub enum SolverKind {
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum SolveError {
     #[error(
-        "the tangent is not positive definite (Cholesky failed): the boundary conditions \
-         may leave a rigid-body motion free (pin enough components; note §4.3), or the \
-         state is past a stability limit"
+        "the tangent is not positive definite, which conjugate gradients need: the \
+         boundary conditions may leave a rigid-body motion free (pin enough components; \
+         note §4.3), or the state is past a stability limit, where method.solver = \
+         \"direct\" still solves (by LU once Cholesky refuses the tangent)"
     )]
     NotPositiveDefinite,
     #[error(
@@ -181,6 +183,8 @@ pub struct SolveStats {
     /// CG iterations (0 for the direct solve).
     pub iterations: usize,
     pub seconds: f64,
+    /// The Cholesky factorisation refused the tangent (indefinite) and LU solved it.
+    pub indefinite: bool,
 }
 
 /// The stiffness restricted to the free degrees of freedom, as a full CSR matrix on the
@@ -199,6 +203,9 @@ enum Solver {
     Cholesky {
         matrix: SymbolicSparseColMat<usize>,
         symbolic: SymbolicLlt<usize>,
+        /// The symbolic LU of the same structure, made at the first tangent the Cholesky
+        /// factorisation refuses.
+        lu: OnceLock<SymbolicLu<usize>>,
     },
     Lu {
         matrix: SymbolicSparseColMat<usize>,
@@ -286,7 +293,11 @@ impl FreeSystem {
                 let symbolic = SymbolicLlt::try_new(matrix.as_ref(), Side::Lower)
                     .map_err(|_| out_of_memory(n, factor, lower))?;
                 (
-                    Solver::Cholesky { matrix, symbolic },
+                    Solver::Cholesky {
+                        matrix,
+                        symbolic,
+                        lu: OnceLock::new(),
+                    },
                     Fill { factor, lower },
                 )
             }
@@ -340,43 +351,78 @@ impl FreeSystem {
     /// Solves K x = b.
     pub fn solve(&self, values: &[f64], b: &[f64]) -> Result<(Vec<f64>, SolveStats), SolveError> {
         let started = std::time::Instant::now();
-        let (x, iterations) = match &self.solver {
-            Solver::Cholesky { matrix, symbolic } => {
+        let (x, iterations, indefinite) = match &self.solver {
+            Solver::Cholesky {
+                matrix,
+                symbolic,
+                lu,
+            } => {
                 let k = SparseColMatRef::new(matrix.as_ref(), values);
-                let llt = Llt::try_new_with_symbolic(symbolic.clone(), k, Side::Lower)
-                    .map_err(|_| SolveError::NotPositiveDefinite)?;
-                let mut x = faer::Col::<f64>::from_fn(self.n, |r| b[r]);
-                faer::linalg::solvers::Solve::solve_in_place(&llt, &mut x);
-                ((0..self.n).map(|r| x[r]).collect(), 0)
+                match Llt::try_new_with_symbolic(symbolic.clone(), k, Side::Lower) {
+                    Ok(llt) => {
+                        let mut x = faer::Col::<f64>::from_fn(self.n, |r| b[r]);
+                        faer::linalg::solvers::Solve::solve_in_place(&llt, &mut x);
+                        ((0..self.n).map(|r| x[r]).collect(), 0, false)
+                    }
+                    // Past a stability limit the symmetric tangent is indefinite: LU with
+                    // partial pivoting solves it all the same (a singular one it refuses).
+                    Err(_) => {
+                        let symbolic = match lu.get() {
+                            Some(symbolic) => symbolic,
+                            None => {
+                                let symbolic = SymbolicLu::try_new(matrix.as_ref())
+                                    .map_err(|_| SolveError::NotPositiveDefinite)?;
+                                lu.get_or_init(|| symbolic)
+                            }
+                        };
+                        (self.lu_solve(matrix, symbolic, values, b)?, 0, true)
+                    }
+                }
             }
             Solver::Lu { matrix, symbolic } => {
-                let k = SparseColMatRef::new(matrix.as_ref(), values);
-                let singular = |residual| SolveError::Singular { residual };
-                let lu = Lu::try_new_with_symbolic(symbolic.clone(), k)
-                    .map_err(|_| singular(f64::INFINITY))?;
-                let mut x = faer::Col::<f64>::from_fn(self.n, |r| b[r]);
-                faer::linalg::solvers::Solve::solve_in_place(&lu, &mut x);
-                let x: Vec<f64> = (0..self.n).map(|r| x[r]).collect();
-                // A singular K gives no error from the factorisation but a non-finite x or
-                // one that does not solve the system: |K x − b| ≤ 1e-8 |b| is asked.
-                let residual = self.lu_residual(values, &x, b);
-                if residual.is_nan() || residual > 1e-8 {
-                    return Err(singular(residual));
-                }
-                (x, 0)
+                (self.lu_solve(matrix, symbolic, values, b)?, 0, false)
             }
             Solver::Cg {
                 tolerance,
                 max_iterations,
-            } => self.cg(values, b, *tolerance, *max_iterations)?,
+            } => {
+                let (x, iterations) = self.cg(values, b, *tolerance, *max_iterations)?;
+                (x, iterations, false)
+            }
         };
         Ok((
             x,
             SolveStats {
                 iterations,
                 seconds: started.elapsed().as_secs_f64(),
+                indefinite,
             },
         ))
+    }
+
+    /// Solves K x = b by sparse LU with partial pivoting, the values read as Kᵀ by rows
+    /// (K itself for a symmetric K).
+    fn lu_solve(
+        &self,
+        matrix: &SymbolicSparseColMat<usize>,
+        symbolic: &SymbolicLu<usize>,
+        values: &[f64],
+        b: &[f64],
+    ) -> Result<Vec<f64>, SolveError> {
+        let k = SparseColMatRef::new(matrix.as_ref(), values);
+        let singular = |residual| SolveError::Singular { residual };
+        let lu =
+            Lu::try_new_with_symbolic(symbolic.clone(), k).map_err(|_| singular(f64::INFINITY))?;
+        let mut x = faer::Col::<f64>::from_fn(self.n, |r| b[r]);
+        faer::linalg::solvers::Solve::solve_in_place(&lu, &mut x);
+        let x: Vec<f64> = (0..self.n).map(|r| x[r]).collect();
+        // A singular K gives no error from the factorisation but a non-finite x or one
+        // that does not solve the system: |K x − b| ≤ 1e-8 |b| is asked.
+        let residual = self.lu_residual(values, &x, b);
+        if residual.is_nan() || residual > 1e-8 {
+            return Err(singular(residual));
+        }
+        Ok(x)
     }
 
     /// |K x − b|/|b| with the values of Kᵀ by rows (the LU layout); 0 for b = 0 and x = 0.

@@ -108,37 +108,48 @@ fn the_beam_error_has_a_minimum_in_the_smoothing_length() {
     assert!(best > 0 && best < ns.len() - 1, "{errors:?}");
 }
 
-/// The top displacement [m] reached by the rubber sheet, load step by load step, until
-/// Newton fails; with the shipped 40 increments of 0.25 mm.
-fn rubber(alpha: f64, extra: &[&str]) -> f64 {
+/// The rubber sheet with the shipped 40 increments of 0.25 mm: the top displacement [m]
+/// reached, load step by load step, until Newton fails, and the top displacement of the
+/// first load step whose Newton iterations met an indefinite tangent (solved by LU).
+fn rubber(alpha: f64, extra: &[&str]) -> (f64, Option<f64>) {
     let mut overrides = set(extra);
     overrides.push(format!("method.hourglass={alpha}"));
     let mut e = engine::<D2>("rubber-pull-2d", &overrides);
     let dt = 0.025;
+    let mut indefinite = None;
     for k in 0..40 {
-        if let Err(failed) = e.advance(f64::from(k) * dt, dt, 1) {
+        let outcome = e.advance(f64::from(k) * dt, dt, 1);
+        if indefinite.is_none() && e.iterations().iter().any(|it| it.indefinite) {
+            indefinite = Some(f64::from(k + 1) * 0.25e-3);
+        }
+        if let Err(failed) = outcome {
             eprintln!("α = {alpha}: {}", failed.cause.quantity);
-            return f64::from(k) * 0.25e-3;
+            return (f64::from(k) * 0.25e-3, indefinite);
         }
     }
-    10.0e-3
+    (10.0e-3, indefinite)
 }
 
 #[test]
-fn the_rubber_reaches_500_percent_with_hourglass_control_only() {
+fn the_rubber_loses_stability_without_hourglass_control_only() {
     // Seed 004 §6.5: without hourglass control Newton fails beyond 8 mm of the top
     // displacement (regular layout; 8.25 mm irregular); with α = 5μ the sheet reaches
-    // 10 mm (500 %). Measured on the shipped regular 20 × 20 sheet: the increment to 8.75
-    // mm fails without control (the tangent turns indefinite), 10 mm is reached with it.
-    // Bounds: with control 10 mm; without, the run fails after 5 mm and before 10 mm
-    // (the paper's 8 mm, with a margin for its unpublished layout). Without the
-    // linearised predictor of prescribed moves both fail at the first 0.25 mm increment.
-    let with = rubber(5.0, &[]);
-    let without = rubber(0.0, &[]);
+    // 10 mm (500 %). Measured on the shipped regular 20 × 20 sheet: without control the
+    // tangent turns indefinite at the increment to 8.75 mm, where Cholesky refuses it;
+    // LU solves it and Newton converges on to 10 mm. With control the tangent stays
+    // positive definite to 10 mm. Bounds: the loss of stability without control between
+    // 5 and 10 mm (the paper's 8 mm, with a margin for its unpublished layout); none
+    // with control. Without the linearised predictor of prescribed moves both fail at
+    // the first 0.25 mm increment.
+    let (with, with_indefinite) = rubber(5.0, &[]);
+    let (without, without_indefinite) = rubber(0.0, &[]);
     assert_eq!(with, 10.0e-3, "α = 5μ stopped at {with} m");
+    assert_eq!(with_indefinite, None, "α = 5μ met an indefinite tangent");
+    assert_eq!(without, 10.0e-3, "α = 0 stopped at {without} m");
+    let onset = without_indefinite.expect("α = 0 stays positive definite");
     assert!(
-        (5.0e-3..10.0e-3).contains(&without),
-        "α = 0 reached {without} m"
+        (5.0e-3..10.0e-3).contains(&onset),
+        "α = 0: indefinite at {onset} m"
     );
 }
 
@@ -225,7 +236,8 @@ fn paper_scale_figures() {
         "body.0.geometry={ shape = \"points\", file = \"points/rubber-irregular.csv\" }";
     for (name, extra) in [("regular", vec![]), ("irregular", vec![irregular])] {
         for a in [0.0, 5.0] {
-            println!("{name} {a} {:.3e}", rubber(a, &extra));
+            let (reached, indefinite) = rubber(a, &extra);
+            println!("{name} {a} {reached:.3e}, indefinite from {indefinite:?}");
         }
     }
 }
