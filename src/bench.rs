@@ -1,7 +1,7 @@
 //! `meshless bench`: throughput of a case on a backend at several sizes, in
 //! particle-steps per second, measured over whole steps after a warm-up.
 
-use crate::run::{Backend, Engine, EngineDim, RunError, engine};
+use crate::run::{Backend, Engine, EngineDim, RunError, StepTraffic, engine};
 use crate::scene::{Case, discretise};
 use crate::tensor::{D2, D3};
 use rayon::prelude::*;
@@ -26,9 +26,8 @@ pub struct BenchRow {
     pub neighbour_share: Option<f64>,
     /// On the GPU, the pass report of further steps run with profiling on.
     pub passes: Option<PassReport>,
-    /// On the CPU, the bytes per particle a step moves by the method's traffic model
-    /// (`Engine::traffic_per_step`).
-    pub bytes_per_particle_step: Option<f64>,
+    /// On the CPU, what a step moves by the method's traffic model (`Engine::traffic`).
+    pub traffic: Option<StepTraffic>,
 }
 
 /// One pass of a [`PassReport`]: totals over the profiled steps.
@@ -147,8 +146,15 @@ impl std::fmt::Display for PassReport {
 impl BenchRow {
     /// The bandwidth the model's bytes reach at the measured throughput [bytes/s].
     pub fn modelled_bandwidth(&self) -> Option<f64> {
-        self.bytes_per_particle_step
-            .map(|b| b * self.particle_steps_per_second)
+        self.traffic
+            .map(|t| t.bytes_per_particle * self.particle_steps_per_second)
+    }
+
+    /// The time per neighbour pair of one rate evaluation [s], for comparing methods and
+    /// dimensions whose pair counts differ.
+    pub fn seconds_per_pair(&self) -> Option<f64> {
+        self.traffic
+            .map(|t| 1.0 / (self.rate_evaluations_per_second * t.pairs_per_particle))
     }
 
     pub const HEADER: &'static str = "case,backend,particles,steps,setup_s,seconds,particle_steps_per_s,rate_evaluations_per_s,neighbour_share,bytes_per_particle_step";
@@ -166,8 +172,8 @@ impl BenchRow {
             self.rate_evaluations_per_second,
             self.neighbour_share
                 .map_or(String::new(), |s| format!("{s:.4}")),
-            self.bytes_per_particle_step
-                .map_or(String::new(), |b| format!("{b:.0}"))
+            self.traffic
+                .map_or(String::new(), |t| format!("{:.0}", t.bytes_per_particle))
         )
     }
 }
@@ -263,7 +269,7 @@ fn time_steps<D: EngineDim, E: Engine<D>>(
         rate_evaluations_per_second: rate * case.method.integrator.stages() as f64,
         neighbour_share,
         passes,
-        bytes_per_particle_step: engine.traffic_per_step(),
+        traffic: engine.traffic(),
     })
 }
 

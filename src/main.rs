@@ -441,7 +441,7 @@ fn bench_command(
         triad
     });
     let roofline_header = if roofline {
-        " bytes/particle-step | GB/s | of triad |"
+        " pairs/particle | ns per pair | bytes/particle-step | GB/s | of triad |"
     } else {
         ""
     };
@@ -450,7 +450,7 @@ fn bench_command(
     );
     println!(
         "|---|---|---|---|---|---|---|---|{}",
-        "---|".repeat(3 * usize::from(roofline))
+        "---|".repeat(5 * usize::from(roofline))
     );
     for name in cases {
         let path = resolve(name);
@@ -469,9 +469,13 @@ fn bench_command(
                         let dash = || "–".to_string();
                         let bandwidth = r.modelled_bandwidth();
                         format!(
-                            " {} | {} | {} |",
-                            r.bytes_per_particle_step
-                                .map_or_else(dash, |b| format!("{b:.0}")),
+                            " {} | {} | {} | {} | {} |",
+                            r.traffic
+                                .map_or_else(dash, |t| format!("{:.1}", t.pairs_per_particle)),
+                            r.seconds_per_pair()
+                                .map_or_else(dash, |s| format!("{:.2}", s * 1e9)),
+                            r.traffic
+                                .map_or_else(dash, |t| format!("{:.0}", t.bytes_per_particle)),
                             bandwidth.map_or_else(dash, |b| format!("{:.2}", b * 1e-9)),
                             bandwidth.map_or_else(dash, |b| format!("{:.3}", b / triad))
                         )

@@ -24,7 +24,7 @@ pub mod ul_fem;
 pub mod ul_weak_form;
 pub mod weak_form;
 
-pub use shared::{BlowUp, Method, check_motion};
+pub use shared::{BlowUp, Method, Traffic, check_motion};
 
 use crate::correction::CorrectionKind;
 use crate::integrate::IntegratorKind;

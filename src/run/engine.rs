@@ -197,10 +197,9 @@ pub trait Engine<D: Dim> {
     fn neighbour_seconds(&mut self) -> Option<f64> {
         None
     }
-    /// Bytes per particle a step moves on the CPU by the method's traffic model (rate
-    /// evaluations and stage operations), for `meshless bench --roofline`; none for a
-    /// GPU engine or a method without a model.
-    fn traffic_per_step(&self) -> Option<f64> {
+    /// What a step moves on the CPU by the method's traffic model, for `meshless bench
+    /// --roofline`; none for a GPU engine or a method without a model.
+    fn traffic(&self) -> Option<StepTraffic> {
         None
     }
     /// A GPU engine's device, for the pass report, and what scales its passes' bytes
@@ -261,13 +260,22 @@ impl<D: Dim> Engine<D> for Box<dyn Engine<D>> {
     fn neighbour_seconds(&mut self) -> Option<f64> {
         (**self).neighbour_seconds()
     }
-    fn traffic_per_step(&self) -> Option<f64> {
-        (**self).traffic_per_step()
+    fn traffic(&self) -> Option<StepTraffic> {
+        (**self).traffic()
     }
     #[cfg(feature = "gpu")]
     fn device(&mut self) -> Option<(&Gpu, crate::gpu::profile::Scale)> {
         (**self).device()
     }
+}
+
+/// A step's memory traffic by the method's model ([`crate::methods::Traffic`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StepTraffic {
+    /// Bytes per particle of the step: its rate evaluations and stage operations.
+    pub bytes_per_particle: f64,
+    /// Neighbour pairs per particle of the method's lists.
+    pub pairs_per_particle: f64,
 }
 
 /// The CPU reference engine: a method and an integrator (f64, rayon).
@@ -352,11 +360,15 @@ impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
         self.method.viscous_dissipation().map(|_| self.dissipated)
     }
 
-    fn traffic_per_step(&self) -> Option<f64> {
+    fn traffic(&self) -> Option<StepTraffic> {
         let t = self.method.traffic()?;
         let kind = self.integrator.kind();
         let evaluation = t.per_particle + t.pairs_per_particle * t.per_pair;
-        Some(kind.stages() as f64 * evaluation + traffic(kind, t.state, t.velocity))
+        Some(StepTraffic {
+            bytes_per_particle: kind.stages() as f64 * evaluation
+                + traffic(kind, t.state, t.velocity),
+            pairs_per_particle: t.pairs_per_particle,
+        })
     }
 
     fn check(&mut self) -> Result<(), BlowUp> {

@@ -12,7 +12,9 @@ mod progress;
 
 pub use budget::{Estimate, Limits};
 pub use drive::drive;
-pub use engine::{CpuEngine, Engine, EngineDim, Failed, Iteration, build_method, engine};
+pub use engine::{
+    CpuEngine, Engine, EngineDim, Failed, Iteration, StepTraffic, build_method, engine,
+};
 pub use frames::{FrameConstants, write_frame};
 pub use progress::ProgressDisplay;
 

@@ -2,7 +2,7 @@
 //! refinement, blow-up detection and the command line's exit codes.
 
 use crate::common::{case_file, cpu_options, load, shipped};
-use meshless::bench::{measure, resize};
+use meshless::bench::{BenchRow, measure, resize};
 use meshless::integrate::Integrator;
 use meshless::methods::Method;
 use meshless::methods::tlsph::Tlsph;
@@ -514,11 +514,37 @@ fn bench_reports_the_neighbour_share_of_the_methods_whose_lists_follow_the_parti
     assert!(share > 0.0 && share < 2.0, "GPU share {share}");
     let tl = measure(&shipped("rotating-disk"), Backend::Cpu, 5).unwrap();
     assert_eq!(tl.neighbour_share, None);
-    assert!(
-        cpu.csv()
-            .ends_with(&format!("{:.4}", cpu.neighbour_share.unwrap()))
-    );
-    assert!(tl.csv().ends_with(','));
+    let share = format!("{:.4}", cpu.neighbour_share.unwrap());
+    assert_eq!(csv_field(&cpu, "neighbour_share"), share);
+    assert_eq!(csv_field(&tl, "neighbour_share"), "");
+}
+
+/// The field `column` of a bench row's CSV line, found by the header.
+fn csv_field(row: &BenchRow, column: &str) -> String {
+    let k = BenchRow::HEADER.split(',').position(|c| c == column);
+    let line = row.csv();
+    line.split(',')
+        .nth(k.expect("a column of the header"))
+        .unwrap()
+        .to_string()
+}
+
+#[test]
+fn bench_gives_the_traffic_model_of_the_methods_that_have_one() {
+    // TLSPH declares its CPU traffic: the pairs per particle are those of the lists it
+    // builds, and the CSV carries the bytes. A method without a model gives none.
+    let case = shipped("rotating-disk");
+    let row = measure(&case, Backend::Cpu, 2).unwrap();
+    let traffic = row.traffic.expect("TLSPH has a traffic model");
+    let tlsph: Tlsph<D2> = build_method(&case).unwrap();
+    let pairs = tlsph.neighbours().pair_count() as f64 / tlsph.volume().len() as f64;
+    assert_eq!(traffic.pairs_per_particle, pairs);
+    assert!(traffic.bytes_per_particle > 0.0);
+    let bytes = format!("{:.0}", traffic.bytes_per_particle);
+    assert_eq!(csv_field(&row, "bytes_per_particle_step"), bytes);
+    let gray = measure(&shipped("rotating-disk-gray-monaghan"), Backend::Cpu, 2).unwrap();
+    assert_eq!(gray.traffic, None);
+    assert_eq!(csv_field(&gray, "bytes_per_particle_step"), "");
 }
 
 #[test]
