@@ -234,22 +234,24 @@ pub fn explain(case: &Case, gpu: bool) -> String {
             case.bodies.len(),
             if case.bodies.len() == 1 { "y" } else { "ies" }
         ),
-        if m.spec.entry().kernel {
-            let correction = match m.spec.entry().corrected {
-                true => format!(", {} correction", toml_name(&m.correction)),
-                false => String::new(),
+        {
+            let integrator = match case.is_static() {
+                true => String::new(),
+                false => format!(", {} integrator", toml_name(&m.integrator)),
             };
-            format!(
-                "method: {name} with {} kernel, h/Δx = {}{correction}, {} integrator",
-                toml_name(&m.kernel),
-                m.h_over_dx,
-                toml_name(&m.integrator)
-            )
-        } else {
-            format!(
-                "method: {name} (no kernel keys), {} integrator",
-                toml_name(&m.integrator)
-            )
+            if m.spec.entry().kernel {
+                let correction = match m.spec.entry().corrected {
+                    true => format!(", {} correction", toml_name(&m.correction)),
+                    false => String::new(),
+                };
+                format!(
+                    "method: {name} with {} kernel, h/Δx = {}{correction}{integrator}",
+                    toml_name(&m.kernel),
+                    m.h_over_dx
+                )
+            } else {
+                format!("method: {name} (no kernel keys){integrator}")
+            }
         },
         format!(
             "backend: {}",
@@ -261,16 +263,20 @@ pub fn explain(case: &Case, gpu: bool) -> String {
         ),
         plan.once,
         format!("state: {}", plan.state),
-        format!(
+    ];
+    if case.is_static() {
+        out.extend(load_step_lines(case, &plan.rates));
+    } else {
+        out.push(format!(
             "time step: {}",
             match (m.dt, m.cfl) {
                 (Some(dt), _) => format!("fixed Δt = {dt:e} s"),
                 (_, Some(cfl)) => format!("CFL {cfl}: {}, updated at every check", plan.cfl_step),
                 _ => unreachable!("validated"),
             }
-        ),
-    ];
-    out.extend(step_lines(case, gpu, &plan.rates));
+        ));
+        out.extend(step_lines(case, gpu, &plan.rates));
+    }
     if mat.hardening.is_some() {
         out.push(
             "before every step: the plastic history C_p⁻¹, ε_p committed from the step's start \
@@ -315,6 +321,31 @@ pub fn explain(case: &Case, gpu: bool) -> String {
         case.output.observers
     ));
     out.join("\n")
+}
+
+/// The per-load-step lines of a static run's plan: its load steps in pseudo-time and the
+/// Newton iterations of each; `rates` is what one evaluation of the method computes.
+fn load_step_lines(case: &Case, rates: &str) -> Vec<String> {
+    let dt = case
+        .method
+        .dt
+        .map_or_else(|| "method.dt".to_string(), |dt| format!("{dt:e} s"));
+    vec![
+        format!(
+            "load steps: {dt} of pseudo-time t to run.end_time = {:e} s, the loads and \
+             prescribed motions scaled by λ = t/end_time",
+            case.run.end_time
+        ),
+        "per load step:".to_string(),
+        "  the prescribed components moved to their values at t, the free ones predicted \
+         linearly"
+            .to_string(),
+        format!(
+            "  Newton–Raphson until the residual or the increment tolerance, each iteration: \
+             {rates}"
+        ),
+        "  a load step whose Newton iterations stall is cut".to_string(),
+    ]
 }
 
 /// The per-step lines of the plan: the integrator's program with the method's rate

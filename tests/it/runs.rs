@@ -767,3 +767,22 @@ fn sigint_and_sigterm_end_a_run_with_an_interrupted_summary() {
         assert!(rows.lines().count() >= 2, "{rows}");
     }
 }
+
+#[test]
+fn the_plan_of_a_static_run_gives_load_steps_and_newton_not_an_integrator() {
+    // A static run has no integrator: its plan names the load steps and the Newton
+    // iterations, where a time stepper's names the integrator's stage operations.
+    let static_plan = meshless::run::explain(&shipped("rubber-pull-2d"), false);
+    assert!(
+        static_plan.contains("load steps: 2.5e-2 s"),
+        "{static_plan}"
+    );
+    assert!(static_plan.contains("Newton–Raphson"), "{static_plan}");
+    for absent in ["integrator", "copy Y", "time step:"] {
+        assert!(!static_plan.contains(absent), "{absent}: {static_plan}");
+    }
+    let dynamic_plan = meshless::run::explain(&shipped("rotating-disk"), false);
+    assert!(dynamic_plan.contains("time step:"), "{dynamic_plan}");
+    assert!(dynamic_plan.contains("rates of Y"), "{dynamic_plan}");
+    assert!(!dynamic_plan.contains("load steps"), "{dynamic_plan}");
+}

@@ -260,10 +260,13 @@ impl MethodFamily for DualSupportSpec {
             state: format!("u (state model {:?}); no velocity", mat.model),
             cfl_step: "none: load steps of method.dt".into(),
             rates: format!(
-                "Newton iterations: F_i, P_i, 𝔸_i; R = f_int + λ f_ext; K = Σ_i V_i δF_iᵀ𝔸_iδF_i \
-                 + hourglass (α = {}μ); {} solve",
+                "F_i, P_i, 𝔸_i; R = f_int + λ f_ext; K = Σ_i V_i δF_iᵀ𝔸_iδF_i + hourglass \
+                 (α = {}μ); {}",
                 self.hourglass,
-                toml_name(&self.solver)
+                match self.solver {
+                    SolverKind::Direct => "sparse Cholesky (LU if the tangent is indefinite)",
+                    SolverKind::Cg => "conjugate gradients",
+                }
             ),
             checked: "det F",
             check_note: String::new(),
