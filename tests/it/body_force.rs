@@ -1,7 +1,7 @@
 //! Body forces (`type = "body-force"`): gravity on every method of the registry, on the
 //! CPU and on the GPU engines, against the exact free fall of an unsupported body.
 
-use crate::common::largest_v;
+use crate::common::{largest_v, material_and_method};
 use meshless::methods::REGISTRY;
 use meshless::run::{Backend, Engine, engine};
 use meshless::scene::{Case, CaseError};
@@ -30,27 +30,17 @@ fn g_norm() -> f64 {
 /// where it has a kernel, neo-Hookean, or hypoelastic for the updated-Lagrangian
 /// methods that integrate a stress rate.
 fn ring(method: &str, condition: &str) -> Result<Case, CaseError> {
-    let entry = REGISTRY.iter().find(|e| e.name == method).unwrap();
-    let kernel = if entry.kernel { "h_over_dx = 1.3" } else { "" };
     let model = match method {
         "gray-monaghan-sph" | "godunov-sph" | "ul-weak-form" | "ul-fem" => "hypoelastic",
         _ => "neo-hookean",
     };
+    let tables = material_and_method(model, method);
     let text = format!(
         r#"
 name = "falling-ring"
 dimension = 2
 spacing = 0.0125
-[material]
-model = "{model}"
-density = 1000.0
-youngs_modulus = 1.0e6
-poisson_ratio = 0.3
-[method]
-name = "{method}"
-{kernel}
-integrator = "rk4"
-dt = 1.0e-5
+{tables}
 [[body]]
 name = "ring"
 geometry = {{ shape = "ring", center = [0.0, 0.0], inner_radius = 0.05, outer_radius = 0.1, lattice = "polar", sectors = 48 }}

@@ -454,3 +454,26 @@ pub fn hourglass_after<S: Method<meshless::tensor::D2>>(
         })
         .collect()
 }
+
+/// The `[material]` and `[method]` tables of the tests' small cases: `model` at ρ0 =
+/// 1000 kg/m³, E = 1 MPa, ν = 0.3, and `method` on RK4 at Δt = 1e-5 s, with h/Δx = 1.3
+/// where the method has a kernel.
+pub fn material_and_method(model: &str, method: &str) -> String {
+    let entry = meshless::methods::REGISTRY
+        .iter()
+        .find(|e| e.name == method)
+        .unwrap();
+    let kernel = if entry.kernel { "h_over_dx = 1.3" } else { "" };
+    format!(
+        r#"[material]
+model = "{model}"
+density = 1000.0
+youngs_modulus = 1.0e6
+poisson_ratio = 0.3
+[method]
+name = "{method}"
+{kernel}
+integrator = "rk4"
+dt = 1.0e-5"#
+    )
+}

@@ -1,6 +1,7 @@
 //! Initial fields given as expressions of the reference coordinates
 //! (`initial_velocity = { type = "expression", … }`).
 
+use crate::common::material_and_method;
 use meshless::scene::{Case, CaseError, Discretised, discretise};
 use meshless::tensor::D2;
 use std::path::Path;
@@ -121,26 +122,13 @@ fn velocity_columns_must_be_whole_and_not_given_twice() {
 /// A 0.3 × 0.2 m block (Δx = 0.05) of Saint Venant–Kirchhoff rubber with `method` at rest
 /// under the initial displacement `field`, RK4 at Δt = 1e-5 s.
 fn prestretched(method: &str, field: &str) -> Result<Case, CaseError> {
-    let entry = meshless::methods::REGISTRY
-        .iter()
-        .find(|e| e.name == method)
-        .unwrap();
-    let kernel = if entry.kernel { "h_over_dx = 1.3" } else { "" };
+    let tables = material_and_method("saint-venant-kirchhoff", method);
     let text = format!(
         r#"
 name = "prestretched"
 dimension = 2
 spacing = 0.05
-[material]
-model = "saint-venant-kirchhoff"
-density = 1000.0
-youngs_modulus = 1.0e6
-poisson_ratio = 0.3
-[method]
-name = "{method}"
-{kernel}
-integrator = "rk4"
-dt = 1.0e-5
+{tables}
 [[body]]
 name = "block"
 geometry = {{ shape = "box", min = [0.0, 0.0], max = [0.3, 0.2] }}
