@@ -23,6 +23,7 @@ pub mod neighbour;
 pub mod observe;
 pub mod output;
 pub mod plasticity;
+pub mod pressure;
 pub mod quadrature;
 pub mod reference;
 pub mod run;

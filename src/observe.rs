@@ -7,6 +7,7 @@ use crate::boundary::Reaction;
 use crate::material::{Material, MaterialModel};
 use crate::methods::shared::ordered_reduce;
 use crate::plasticity::PLASTIC_STRAIN;
+use crate::pressure::{oscillation, pressures};
 use crate::scene::{Case, CaseError, Observer};
 use crate::tensor::Dim;
 use std::collections::BTreeMap;
@@ -60,6 +61,15 @@ impl<D: Dim> Snapshot<'_, D> {
             .find(|f| f.name == name)
             .map(|f| f.values.as_slice())
     }
+}
+
+/// The per-particle indicator fields of one output, each evaluated only when a frame, a
+/// series row or a run limit needs it: the hourglass indicator η
+/// ([`crate::hourglass`]) and the pressure deviation δp ([`crate::pressure`]).
+#[derive(Clone, Debug, Default)]
+pub struct IndicatorFields {
+    pub eta: Option<Vec<f64>>,
+    pub pressure_deviation: Option<Vec<f64>>,
 }
 
 /// Global invariants of a state.
@@ -234,6 +244,7 @@ impl Observers {
                     ]
                     .map(String::from),
                 ),
+                Observer::PressureOscillation => names.push("pressure_oscillation".into()),
                 Observer::Reaction => {
                     for (_, name) in crate::boundary::supports(case) {
                         names.extend((0..D::N).map(|k| format!("{name}.reaction_{}", AXES[k])));
@@ -351,8 +362,14 @@ impl Observers {
         self.list.contains(&Observer::Hourglass)
     }
 
-    /// One row of the time series; `eta` is the hourglass indicator of every particle,
-    /// given when [`Self::need_hourglass`], and `reactions` the supports' reactions at the
+    /// Whether a row needs the pressure deviation δp of every particle.
+    pub fn need_pressure_deviation(&self) -> bool {
+        self.list.contains(&Observer::PressureOscillation)
+    }
+
+    /// One row of the time series; `fields` holds the hourglass indicator of every
+    /// particle when [`Self::need_hourglass`] and the pressure deviation when
+    /// [`Self::need_pressure_deviation`], and `reactions` the supports' reactions at the
     /// last rate evaluation, when [`Self::need_reactions`] (NaN before the first step,
     /// which has none).
     pub fn sample<D: Dim>(
@@ -360,7 +377,7 @@ impl Observers {
         snap: &Snapshot<D>,
         inv: &Invariants,
         clock: &Clock,
-        eta: Option<&[f64]>,
+        fields: &IndicatorFields,
         reactions: &[Reaction],
     ) -> Vec<f64> {
         let (x0, u, v) = (snap.x0, &snap.u, &snap.v);
@@ -410,10 +427,21 @@ impl Observers {
                     );
                 }
                 Observer::Hourglass => row.push(
-                    eta.expect("η is computed when the hourglass observer is on")
+                    fields
+                        .eta
+                        .as_ref()
+                        .expect("η is computed when the hourglass observer is on")
                         .iter()
                         .fold(0.0, |a: f64, &b| a.max(b)),
                 ),
+                Observer::PressureOscillation => {
+                    let deviation = fields
+                        .pressure_deviation
+                        .as_ref()
+                        .expect("δp is computed when the pressure-oscillation observer is on");
+                    let volume: Vec<f64> = snap.mass.iter().map(|m| m / self.rho0).collect();
+                    row.push(oscillation(deviation, &pressures(&snap.sigma), &volume));
+                }
                 Observer::VelocityError(_) => row.push(self.velocity_error(snap, clock.t)),
                 Observer::RingSymmetry => {
                     row.extend(ring_spreads(&self.rings, snap, self.stress_floor));

@@ -7,9 +7,10 @@ use super::frames::{Frames, next_frame_time};
 use super::progress::{Progress, ProgressDisplay};
 use super::{Engine, Failed, Iteration, RunError, RunOptions, output_error};
 use crate::hourglass::HourglassIndicator;
-use crate::observe::{Clock, Invariants, Observers, Snapshot};
+use crate::observe::{Clock, IndicatorFields, Invariants, Observers, Snapshot};
 use crate::output::series::read_column;
 use crate::output::{CheckResult, RunSummary, SeriesWriter, write_summary};
+use crate::pressure::{PressureFit, pressures};
 use crate::scene::Case;
 use crate::scene::validate::toml_name;
 use crate::tensor::Dim;
@@ -133,18 +134,27 @@ pub fn drive<D: Dim, E: Engine<D>>(
         None => SeriesWriter::create(&series_path, columns),
     }
     .map_err(output_error(&series_path))?;
-    // η of every particle, evaluated at an output only when a frame, a series row with the
-    // observer or the limit needs it.
+    // η and δp of every particle, each evaluated at an output only when a frame, a series
+    // row with its observer or the hourglass limit needs it.
     let hourglass =
         (frames.on() || observers.need_hourglass() || case.run.hourglass_limit.is_some())
             .then(|| HourglassIndicator::new::<D>(case, engine.reference()));
-    let eta_of = |snap: &Snapshot<D>, frame: bool, row: bool| {
-        let needed =
+    let pressure_fit = std::cell::OnceCell::new();
+    let indicators_of = |snap: &Snapshot<D>, frame: bool, row: bool| {
+        let eta_needed =
             frame || (row && observers.need_hourglass()) || case.run.hourglass_limit.is_some();
-        hourglass
-            .as_ref()
-            .filter(|_| needed)
-            .map(|h| h.of::<D>(snap.x0, &snap.u, &snap.f))
+        let deviation_needed = frame || (row && observers.need_pressure_deviation());
+        IndicatorFields {
+            eta: hourglass
+                .as_ref()
+                .filter(|_| eta_needed)
+                .map(|h| h.of::<D>(snap.x0, &snap.u, &snap.f)),
+            pressure_deviation: deviation_needed.then(|| {
+                pressure_fit
+                    .get_or_init(|| PressureFit::new::<D>(case, snap.x0, snap.body))
+                    .deviation(&pressures(&snap.sigma))
+            }),
+        }
     };
     if opts.progress != ProgressDisplay::Off {
         eprintln!("{}: {n} particles on {backend}", case.name);
@@ -204,11 +214,11 @@ pub fn drive<D: Dim, E: Engine<D>>(
             };
             let snap = engine.snapshot();
             let inv0 = Invariants::of(&snap);
-            let eta = eta_of(&snap, frames.will_write(0.0, true), true);
+            let fields = indicators_of(&snap, frames.will_write(0.0, true), true);
             series
-                .write_row(&observers.sample(&snap, &inv0, &clock, eta.as_deref(), &[]))
+                .write_row(&observers.sample(&snap, &inv0, &clock, &fields, &[]))
                 .map_err(output_error(&series_path))?;
-            frames.write(&snap, 0.0, true, eta.as_deref())?;
+            frames.write(&snap, 0.0, true, &fields)?;
             let first_checkpoint = checkpoint_every.unwrap_or(f64::INFINITY);
             (clock, inv0.total_energy(), series_every, first_checkpoint)
         }
@@ -304,19 +314,19 @@ pub fn drive<D: Dim, E: Engine<D>>(
             if too_much(&inv) {
                 break Some(energy_blow_up::<D>(&snap, inv.total_energy(), bound));
             }
-            let eta = eta_of(&snap, frames.will_write(t, done(t)), sample);
-            if let (Some(limit), Some(eta)) = (case.run.hourglass_limit, &eta)
+            let fields = indicators_of(&snap, frames.will_write(t, done(t)), sample);
+            if let (Some(limit), Some(eta)) = (case.run.hourglass_limit, &fields.eta)
                 && let Some(cause) = hourglass_blow_up::<D>(&snap, eta, limit)
             {
                 break Some(cause);
             }
             if sample {
                 series
-                    .write_row(&observers.sample(&snap, &inv, &clock, eta.as_deref(), &reactions))
+                    .write_row(&observers.sample(&snap, &inv, &clock, &fields, &reactions))
                     .map_err(output_error(&series_path))?;
                 next_sample = t + series_every;
             }
-            frames.write(&snap, t, done(t), eta.as_deref())?;
+            frames.write(&snap, t, done(t), &fields)?;
         } else {
             let inv = engine.invariants();
             if too_much(&inv) {

@@ -2,8 +2,9 @@
 
 use super::{RunError, RunOptions, output_error};
 use crate::material::von_mises;
-use crate::observe::Snapshot;
+use crate::observe::{IndicatorFields, Snapshot};
 use crate::output::{Field, FieldData, Mesh, PvdIndex, write_vtu};
+use crate::pressure::pressures;
 use crate::scene::Case;
 use crate::tensor::Dim;
 use std::path::{Path, PathBuf};
@@ -107,24 +108,28 @@ impl Frames {
         self.index.is_some() && self.interval.is_some() && t >= self.next * (1.0 - 1e-9)
     }
 
-    /// Writes a frame when one is due (or `force`); `eta` is the hourglass indicator,
-    /// given whenever [`Self::will_write`].
+    /// Writes a frame when one is due (or `force`); `fields` holds the hourglass indicator
+    /// and the pressure deviation whenever [`Self::will_write`].
     pub(super) fn write<D: Dim>(
         &mut self,
         snap: &Snapshot<D>,
         t: f64,
         force: bool,
-        eta: Option<&[f64]>,
+        fields: &IndicatorFields,
     ) -> Result<(), RunError> {
         if !self.will_write(t, force) {
             return Ok(());
         }
-        let (Some(index), Some(eta)) = (&mut self.index, eta) else {
+        let (Some(index), Some(eta), Some(deviation)) =
+            (&mut self.index, &fields.eta, &fields.pressure_deviation)
+        else {
             return Ok(());
         };
         let file = frame_file(&self.name, self.count);
         let path = self.dir.join(&file);
-        write_frame::<D>(&path, snap, t, eta, self.constants).map_err(output_error(&path))?;
+        let indicators = [eta.as_slice(), deviation];
+        write_frame::<D>(&path, snap, t, indicators, self.constants)
+            .map_err(output_error(&path))?;
         index
             .push(t, &file)
             .map_err(output_error(&self.dir.join(format!("{}.pvd", self.name))))?;
@@ -157,7 +162,8 @@ pub(super) fn next_frame_time(previous: f64, interval: f64, t: f64) -> f64 {
 
 /// One VTU frame: current positions with the particle id, reference position X, u, v, F,
 /// σ, pressure p = −tr σ/3, von Mises stress, J, mass, volume V = V0 J, density ρ0/J,
-/// smoothing length, the hourglass indicator η, body, and the method's own fields (the
+/// smoothing length, the hourglass indicator η and the pressure deviation δp
+/// (`indicators`), body, and the method's own fields (the
 /// plastic strain ε_p of a plastic material), which replace the derived field of the same
 /// name (a UL method's own density, a per-particle smoothing length); the method's
 /// elements, if it has them, as cells on the particles.
@@ -165,9 +171,10 @@ pub fn write_frame<D: Dim>(
     path: &Path,
     snap: &Snapshot<D>,
     t: f64,
-    eta: &[f64],
+    indicators: [&[f64]; 2],
     constants: FrameConstants,
 ) -> std::io::Result<()> {
+    let [eta, pressure_deviation] = indicators;
     let points: Vec<[f64; 3]> = snap
         .x0
         .iter()
@@ -183,11 +190,7 @@ pub fn write_frame<D: Dim>(
     let body: Vec<i32> = snap.body.iter().map(|&b| b as i32).collect();
     let id: Vec<i32> = (0..snap.x0.len()).map(|i| i as i32).collect();
     let x0: Vec<[f64; 3]> = snap.x0.iter().map(|&a| D::to3(a)).collect();
-    let pressure: Vec<f64> = snap
-        .sigma
-        .iter()
-        .map(|s| -(s[0][0] + s[1][1] + s[2][2]) / 3.0)
-        .collect();
+    let pressure = pressures(&snap.sigma);
     let volume: Vec<f64> = snap
         .mass
         .iter()
@@ -254,6 +257,10 @@ pub fn write_frame<D: Dim>(
             data: FieldData::Scalar(eta),
         },
         Field {
+            name: "pressure_deviation",
+            data: FieldData::Scalar(pressure_deviation),
+        },
+        Field {
             name: "body",
             data: FieldData::Int(&body),
         },
@@ -302,7 +309,8 @@ mod tests {
     fn a_frame_carries_what_a_particle_code_user_expects() {
         // Two 2D particles of mass 2 and 3 at ρ0 = 4 (V0 = 0.5, 0.75), the first stretched
         // to J = 2, the second unstretched, with known stresses: V = V0 J, ρ = ρ0/J,
-        // p = −tr σ/3, the ids, X and the case's h; a method's own density replaces ρ0/J.
+        // p = −tr σ/3, the ids, X, the case's h and the indicators given; a method's own
+        // density replaces ρ0/J.
         let x0 = [[0.0, 0.0], [1.0, 0.5]].map(|p| D2::from_slice(&p));
         let mass = [2.0, 3.0];
         let body = [0, 0];
@@ -330,8 +338,11 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("frame.vtu");
         let constants = FrameConstants { rho0: 4.0, h: 0.13 };
-        write_frame(&path, &snapshot(Vec::new()), 0.0, &[0.0; 2], constants).unwrap();
+        let indicators = [&[0.5, 0.25][..], &[-1.5, 2.5][..]];
+        write_frame(&path, &snapshot(Vec::new()), 0.0, indicators, constants).unwrap();
         let field = |name| read_field(&path, name);
+        assert_eq!(field("hourglass"), [0.5, 0.25]);
+        assert_eq!(field("pressure_deviation"), [-1.5, 2.5]);
         assert_eq!(field("id"), [0.0, 1.0]);
         assert_eq!(field("X"), [0.0, 0.0, 0.0, 1.0, 0.5, 0.0]);
         assert_eq!(field("mass"), mass);
@@ -343,7 +354,14 @@ mod tests {
             name: "density",
             values: vec![5.0, 6.0],
         }];
-        write_frame(&path, &snapshot(own), 0.0, &[0.0; 2], constants).unwrap();
+        write_frame(
+            &path,
+            &snapshot(own),
+            0.0,
+            [&[0.0; 2], &[0.0; 2]],
+            constants,
+        )
+        .unwrap();
         assert_eq!(read_field(&path, "density"), [5.0, 6.0]);
     }
 

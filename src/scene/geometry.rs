@@ -3,7 +3,7 @@
 
 use super::expression::COORDINATES;
 use super::{
-    BodySpec, Case, CaseError, Expression, Lattice, RingLattice, Shape, VelocityField,
+    BodySpec, Case, CaseError, Expression, Hole, Lattice, RingLattice, Shape, VelocityField,
     VelocityNoise, Volumes,
 };
 use crate::analytic::SwingingMode;
@@ -67,7 +67,7 @@ pub fn discretise<D: Dim>(case: &Case) -> Result<Discretised<D>, CaseError> {
             volumes,
             corners,
             velocities,
-        } = sample::<D>(case, b, spec)?;
+        } = drill(sample::<D>(case, b, spec)?, &spec.holes);
         if points.is_empty() {
             return Err(case.invalid(
                 format!("body.{b}.geometry"),
@@ -274,6 +274,25 @@ fn sample<D: Dim>(case: &Case, b: usize, spec: &BodySpec) -> Result<Sampled<D>, 
             })?
         }
     })
+}
+
+/// The particles of a body outside all of its holes (validation keeps holes away from
+/// the generators that make cells).
+fn drill<D: Dim>(body: Sampled<D>, holes: &[Hole]) -> Sampled<D> {
+    if holes.is_empty() {
+        return body;
+    }
+    let kept: Vec<usize> = (0..body.points.len())
+        .filter(|&i| !holes.iter().any(|h| h.contains(D::to3(body.points[i]))))
+        .collect();
+    Sampled {
+        points: kept.iter().map(|&i| body.points[i]).collect(),
+        volumes: kept.iter().map(|&i| body.volumes[i]).collect(),
+        corners: body.corners,
+        velocities: body
+            .velocities
+            .map(|v| kept.iter().map(|&i| v[i]).collect()),
+    }
 }
 
 /// A particle at the centroid of each cell of a Gmsh mesh, with the cell's measure as its

@@ -155,6 +155,33 @@ pub struct BodySpec {
     /// An imperfection of the initial state: random velocities added to the initial ones.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub velocity_noise: Option<VelocityNoise>,
+    /// Holes through the body: the particles inside any of them are left out (the
+    /// perforated block of seed 003 §7.2). The others keep their volumes.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub holes: Vec<Hole>,
+}
+
+/// A hole through a body: in 2D the disk |X − c| < r, in 3D the points closer than r to
+/// the line through c along `axis` (a cylinder through the whole body).
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Hole {
+    pub center: Vec<f64>,
+    pub radius: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axis: Option<Axis>,
+}
+
+impl Hole {
+    /// Whether the point p (padded to 3D) is inside.
+    pub fn contains(&self, p: [f64; 3]) -> bool {
+        let along = self.axis.map(Axis::index);
+        let r2: f64 = (0..self.center.len())
+            .filter(|&k| Some(k) != along)
+            .map(|k| (p[k] - self.center[k]).powi(2))
+            .sum();
+        r2 < self.radius * self.radius
+    }
 }
 
 /// Velocities added to every particle's initial one: per axis a value uniform in
@@ -787,6 +814,11 @@ pub enum Observer {
     /// `<name>.reaction_x`, … and `<name>.power` (R·v), with `<name>` the condition's
     /// `name` (default `boundary<k>`).
     Reaction,
+    /// How much of the pressure is a spurious oscillation: ‖δp‖/‖p‖ over the particles,
+    /// δp the deviation of each particle's pressure from the linear fit over its
+    /// neighbours (column `pressure_oscillation`; [`crate::pressure`]). The frames carry
+    /// δp as `pressure_deviation` whether or not the observer is on.
+    PressureOscillation,
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]

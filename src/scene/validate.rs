@@ -6,7 +6,7 @@
 //! gives the same message.
 
 use super::{
-    Axis, BodySpec, BoundarySpec, Case, Condition, ContactSpec, DisplacementField, Lattice,
+    Axis, BodySpec, BoundarySpec, Case, Condition, ContactSpec, DisplacementField, Hole, Lattice,
     MaterialSpec, Observer, OutputSpec, Plane, ProbeSpec, Region, RingLattice, RunSpec, Shape,
     Solution, Solve, TimeLaw, VelocityField, Volumes,
 };
@@ -496,6 +496,9 @@ fn bodies(bodies: &[BodySpec], dim: usize) -> Checked {
             );
         }
         shape(&body.geometry, &format!("{key}.geometry"), dim)?;
+        for (k, hole) in body.holes.iter().enumerate() {
+            self::hole(hole, &body.geometry, &format!("{key}.holes.{k}"), dim)?;
+        }
         if let Some(v) = &body.initial_velocity {
             velocity(v, &format!("{key}.initial_velocity"), dim)?;
         }
@@ -505,6 +508,35 @@ fn bodies(bodies: &[BodySpec], dim: usize) -> Checked {
         }
     }
     Ok(())
+}
+
+fn hole(hole: &Hole, shape: &Shape, key: &str, dim: usize) -> Checked {
+    if let Shape::Ring {
+        lattice: RingLattice::Polar,
+        ..
+    } = shape
+    {
+        return fail(
+            key,
+            "a polar ring comes with its cells, which a hole would cut; use lattice = \
+             \"square\" or remove the hole",
+        );
+    }
+    vector(&format!("{key}.center"), &hole.center, dim)?;
+    positive(&format!("{key}.radius"), hole.radius)?;
+    match (dim, hole.axis) {
+        (3, None) => fail(
+            format!("{key}.axis"),
+            "is missing: a hole in 3D is a cylinder through the body along \"x\", \"y\" or \
+             \"z\"",
+        ),
+        (2, Some(_)) => fail(
+            format!("{key}.axis"),
+            "is for 3D holes only; in 2D a hole is the disk of `center` and `radius`, so \
+             remove the key",
+        ),
+        _ => Ok(()),
+    }
 }
 
 fn shape(shape: &Shape, key: &str, dim: usize) -> Checked {

@@ -389,6 +389,40 @@ fn ring_with_inner_radius_not_below_outer_is_rejected() {
 }
 
 #[test]
+fn holes_are_disks_in_2d_and_need_an_axis_in_3d() {
+    let box_2d = "{ shape = \"box\", min = [0.0, 0.0], max = [1.0, 0.5] }";
+    let with_hole = |hole: &str| edit(VALID, box_2d, &format!("{box_2d}\nholes = [{hole}]"));
+    assert_invalid(
+        &with_hole("{ center = [0.5, 0.25], radius = 0.1, axis = \"x\" }"),
+        "body.0.holes.0.axis",
+        &["3D holes only", "disk"],
+    );
+    assert_invalid(
+        &with_hole("{ center = [0.5, 0.25], radius = -0.1 }"),
+        "body.0.holes.0.radius",
+        &["-0.1"],
+    );
+    assert_invalid(
+        &with_hole("{ center = [0.5, 0.25, 0.0], radius = 0.1 }"),
+        "body.0.holes.0.center",
+        &["2 components", "got 3"],
+    );
+    let text_3d = edit(
+        VALID_3D,
+        "max = [1.0, 1.0, -0.1] }",
+        "max = [1.0, 1.0, -0.1] }\nholes = [{ center = [0.0, 0.0, 0.0], radius = 0.1 }]",
+    );
+    assert_invalid(&text_3d, "body.1.holes.0.axis", &["missing", "\"x\""]);
+    let polar = edit(
+        VALID,
+        box_2d,
+        "{ shape = \"ring\", center = [0.0, 0.0], inner_radius = 0.5, outer_radius = 1.0, \
+         lattice = \"polar\" }\nholes = [{ center = [0.75, 0.0], radius = 0.1 }]",
+    );
+    assert_invalid(&polar, "body.0.holes.0", &["polar ring", "\"square\""]);
+}
+
+#[test]
 fn duplicate_body_names_are_rejected() {
     let text = format!(
         "{VALID}\n[[body]]\nname = \"block\"\ngeometry = {{ shape = \"disk\", center = [3.0, 0.0], radius = 0.5 }}\n"

@@ -40,6 +40,8 @@ mod loads;
 mod mesh_input;
 #[cfg(feature = "study")]
 mod mixed;
+#[cfg(feature = "study")]
+mod perforated_block;
 mod reactions;
 mod registry;
 mod runs;
