@@ -177,6 +177,42 @@ fn projection_conserves_angular_momentum_to_round_off() {
     eprintln!("|ΔH/H| after 200 steps: {h_on:e} with, {h_off:e} without the projection");
 }
 
+/// Seed 003 §7.1.2 (Fig. 8): the satellite in free flight, coarse (Δx = 0.5 m, 812
+/// particles, arms 2 cells thick), 300 steps (5.5 s, 0.87 of a turn). With the projection the angular momentum keeps its initial
+/// value H0 = Σ m |X_xy|² Ω to round-off, at most ~1e-15 a step: bound 1e-12 relative
+/// (measured 1.1e-16); the linear momentum stays at zero to 1e-12 of Σ m |v| (measured
+/// 1.1e-17).
+#[test]
+fn the_satellite_keeps_its_momenta_in_free_flight() {
+    let case = load(
+        "satellite",
+        &[
+            "spacing=0.5",
+            "body.0.geometry.file=points/satellite-0.5.csv",
+        ],
+    );
+    let mut e = run_steps::<D3>(&case, 300);
+    let snap = e.snapshot();
+    let h0: f64 = snap
+        .x0
+        .iter()
+        .zip(snap.mass)
+        .map(|(x, m)| m * (x.x * x.x + x.y * x.y))
+        .sum();
+    let scale: f64 = snap
+        .x0
+        .iter()
+        .zip(snap.mass)
+        .map(|(x, m)| m * x.x.hypot(x.y))
+        .sum();
+    let inv = e.invariants();
+    let drift = (inv.angular[2] / h0 - 1.0).abs();
+    let linear = inv.linear.iter().map(|p| p * p).sum::<f64>().sqrt() / scale;
+    eprintln!("satellite: |ΔH/H0| = {drift:e}, |Σ m v| / Σ m|v| = {linear:e}");
+    assert!(drift < 1e-12, "|ΔH/H0| = {drift:e}");
+    assert!(linear < 1e-12, "|Σ m v| = {linear:e} of Σ m |v|");
+}
+
 #[test]
 fn twisting_column_keeps_its_axis_and_loses_energy() {
     // Seed 003 §7.3.1 for 0.02 s (600 steps): the lattice is symmetric under a quarter turn
@@ -311,6 +347,39 @@ fn swinging_plate_converges_at_second_order() {
                 "{name} {what}: L2 error {c:e} at Δx = 1/32, {f:e} at 1/64 (order {order:.2})"
             );
         }
+    }
+}
+
+/// Seed 003 Table 1 on the cube itself, at the paper's two finest spacings h = 1/16 and
+/// 1/24, with its tabulated variant (Upwind-SPH on {p, F, H, J}, neo-Hookean), to
+/// t = 0.002 s. Measured: v 5.39e-3 → 2.61e-3 (order 1.79), P 8.59e-3 → 3.23e-3 (2.41);
+/// the paper has 2.11 for p_x and 1.96 for P_xX. From 1/8 to 1/16 the order of v is 1.43:
+/// the pair is not yet asymptotic, so the bounds are 1.6 for v and 1.8 for P, with errors
+/// at 1/24 below 3e-3 (v) and 4e-3 (P); a first-order boundary layer fails both.
+#[test]
+fn swinging_cube_converges_at_second_order() {
+    let errors = |spacing: f64| {
+        run_errors(&load(
+            "swinging-cube",
+            &[
+                &format!("spacing={spacing}"),
+                "material.model=nearly-incompressible-neo-hookean",
+                "method.variables=p-F-H-J",
+            ],
+        ))
+    };
+    let coarse = errors(1.0 / 16.0);
+    let fine = errors(1.0 / 24.0);
+    for (what, c, f, order_bound, bound) in [
+        ("v", coarse.0, fine.0, 1.6, 3e-3),
+        ("P", coarse.1, fine.1, 1.8, 4e-3),
+    ] {
+        let order = (c / f).ln() / 1.5f64.ln();
+        eprintln!("cube {what}: {c:e} at h = 1/16, {f:e} at 1/24, order {order:.2}");
+        assert!(
+            f < bound && order > order_bound,
+            "{what}: L2 error {c:e} at h = 1/16, {f:e} at 1/24 (order {order:.2})"
+        );
     }
 }
 
