@@ -65,13 +65,36 @@ pub fn curves(h: &History, records: &[RunRecord], suite_dir: &Path) -> (Vec<Curv
             Ok(points) => curves.push(Curve {
                 name: r.line(),
                 sweep_value: r.sweep_value.clone(),
-                points: points.into_iter().filter(|p| p.1.is_finite()).collect(),
+                points: thinned(points.into_iter().filter(|p| p.1.is_finite()).collect()),
                 failed,
             }),
             Err(e) => missing.push(e),
         }
     }
     (curves, missing)
+}
+
+/// The most points of a run that its curve keeps.
+const MAX_POINTS: usize = 2000;
+
+/// A curve of at most about [`MAX_POINTS`] points: a longer series (a row at every step of
+/// a long run) keeps every k-th point and its first, smallest, largest and last, so that
+/// the table's values stand and the CSV and plots stay small.
+fn thinned(points: Vec<(f64, f64)>) -> Vec<(f64, f64)> {
+    if points.len() <= MAX_POINTS {
+        return points;
+    }
+    let stride = points.len().div_ceil(MAX_POINTS);
+    let by_y = |a: &(usize, &(f64, f64)), b: &(usize, &(f64, f64))| a.1.1.total_cmp(&b.1.1);
+    let smallest = points.iter().enumerate().min_by(by_y).map_or(0, |p| p.0);
+    let largest = points.iter().enumerate().max_by(by_y).map_or(0, |p| p.0);
+    let last = points.len() - 1;
+    points
+        .into_iter()
+        .enumerate()
+        .filter(|&(k, _)| k % stride == 0 || k == smallest || k == largest || k == last)
+        .map(|(_, p)| p)
+        .collect()
 }
 
 /// Writes `<suite>-history.csv` and, per sweep value, `<suite>-history[-k].png/svg` into
@@ -164,7 +187,8 @@ pub fn table(suite: &Suite, records: &[RunRecord], suite_dir: &Path, folder: &st
     }
     let g = |v: f64| format!("{v:.5}");
     let mut s = format!(
-        "{} per run ([`{}-history.csv`]({folder}{}-history.csv) has every point):\n\n\
+        "{} per run ([`{}-history.csv`]({folder}{}-history.csv) has the points, at most \
+         about 2000 per run):\n\n\
          | run | {} | first | min | max | last | at {} |\n|---|---|---|---|---|---|---|\n",
         h.label, suite.name, suite.name, suite.sweep.key, h.x_label
     );
@@ -419,6 +443,33 @@ fn draw<DB: DrawingBackend>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_long_series_is_thinned_keeping_its_first_extremes_and_last() {
+        // 10,001 points of a sine with its minimum and maximum off the stride: at most
+        // MAX_POINTS + 3 remain, in order, the four values the table shows among them.
+        let points: Vec<(f64, f64)> = (0..=10_000)
+            .map(|k| (k as f64, (k as f64 * 0.001_3 + 0.3).sin()))
+            .collect();
+        let kept = thinned(points.clone());
+        assert!(kept.len() <= MAX_POINTS + 3, "{}", kept.len());
+        assert!(kept.windows(2).all(|w| w[0].0 < w[1].0));
+        let y = |p: &[(f64, f64)], f: fn(f64, f64) -> f64, init: f64| {
+            p.iter().map(|q| q.1).fold(init, f)
+        };
+        assert_eq!(kept[0], points[0]);
+        assert_eq!(kept.last(), points.last());
+        assert_eq!(
+            y(&kept, f64::min, f64::INFINITY),
+            y(&points, f64::min, f64::INFINITY)
+        );
+        assert_eq!(
+            y(&kept, f64::max, f64::NEG_INFINITY),
+            y(&points, f64::max, f64::NEG_INFINITY)
+        );
+        // A short series is kept whole.
+        assert_eq!(thinned(points[..MAX_POINTS].to_vec()), points[..MAX_POINTS]);
+    }
 
     #[test]
     fn linear_axes_cover_the_data_in_round_steps() {

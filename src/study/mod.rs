@@ -326,6 +326,12 @@ fn within_time_limit<T>(limit: Duration, opts: &RunOptions, run: impl FnOnce() -
     let Some(stop) = opts.stop.clone() else {
         return (run(), false);
     };
+    if limit.is_zero() {
+        // Past the limit before it starts: stopped at its first check, whatever the
+        // watchdog thread's start-up latency.
+        stop.store(true, Ordering::Relaxed);
+        return (run(), true);
+    }
     let (done, finished) = std::sync::mpsc::channel::<()>();
     let watchdog = std::thread::spawn(move || {
         let fired = finished.recv_timeout(limit) == Err(std::sync::mpsc::RecvTimeoutError::Timeout);
