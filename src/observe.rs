@@ -54,6 +54,11 @@ pub struct ScalarField {
 }
 
 impl<D: Dim> Snapshot<'_, D> {
+    /// The reference volumes V0 = m/ρ0 of the particles.
+    pub fn reference_volumes(&self, rho0: f64) -> Vec<f64> {
+        self.mass.iter().map(|m| m / rho0).collect()
+    }
+
     /// The values of the method's own field `name`, if it has one.
     pub fn field(&self, name: &str) -> Option<&[f64]> {
         self.extra
@@ -439,7 +444,7 @@ impl Observers {
                         .pressure_deviation
                         .as_ref()
                         .expect("δp is computed when the pressure-oscillation observer is on");
-                    let volume: Vec<f64> = snap.mass.iter().map(|m| m / self.rho0).collect();
+                    let volume = snap.reference_volumes(self.rho0);
                     row.push(oscillation(deviation, &pressures(&snap.sigma), &volume));
                 }
                 Observer::VelocityError(_) => row.push(self.velocity_error(snap, clock.t)),
@@ -486,7 +491,7 @@ impl Observers {
         let Some((exact, rho0)) = &self.exact else {
             return f64::NAN;
         };
-        let w: Vec<f64> = snap.mass.iter().map(|m| m / rho0).collect();
+        let w = snap.reference_volumes(*rho0);
         let v: Vec<f64> = snap
             .v
             .iter()
@@ -650,7 +655,7 @@ pub fn solution_errors<D: Dim>(
     let (x0, weight, u, f) = match &snap.quadrature {
         Some(q) => (&q.x0[..], &q.weight[..], &q.u[..], &q.f[..]),
         None => {
-            particles = snap.mass.iter().map(|m| m / mat.rho0).collect::<Vec<f64>>();
+            particles = snap.reference_volumes(mat.rho0);
             (snap.x0, &particles[..], &snap.u[..], &snap.f[..])
         }
     };

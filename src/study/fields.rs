@@ -49,7 +49,7 @@ impl FinalState {
         Self {
             dim: D::N,
             x0: snap.x0.iter().map(|&x| D::to3(x)).collect(),
-            volume: snap.mass.iter().map(|m| m / rho0).collect(),
+            volume: snap.reference_volumes(rho0),
             v: snap.v.iter().map(|&v| D::to3(v)).collect(),
             pk1,
             x: snap

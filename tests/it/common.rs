@@ -387,11 +387,7 @@ pub fn block_text(max: &[f64], model: &str, method: &str, method_keys: &str) -> 
 name = "block"
 dimension = {dim}
 spacing = 0.1
-[material]
-model = "{model}"
-density = 1000.0
-youngs_modulus = 1.0e6
-poisson_ratio = 0.3
+{}
 [method]
 name = "{method}"
 h_over_dx = 1.3
@@ -403,7 +399,20 @@ geometry = {{ shape = "box", min = {:?}, max = {max:?} }}
 [run]
 end_time = 1.0e-4
 "#,
+        material_table(model),
         vec![0.0; dim]
+    )
+}
+
+/// The `[material]` table of the tests' small cases: `model` at ρ0 = 1000 kg/m³,
+/// E = 1 MPa, ν = 0.3.
+fn material_table(model: &str) -> String {
+    format!(
+        r#"[material]
+model = "{model}"
+density = 1000.0
+youngs_modulus = 1.0e6
+poisson_ratio = 0.3"#
     )
 }
 
@@ -455,8 +464,8 @@ pub fn hourglass_after<S: Method<meshless::tensor::D2>>(
         .collect()
 }
 
-/// The `[material]` and `[method]` tables of the tests' small cases: `model` at ρ0 =
-/// 1000 kg/m³, E = 1 MPa, ν = 0.3, and `method` on RK4 at Δt = 1e-5 s, with h/Δx = 1.3
+/// The `[material]` ([`material_table`]) and `[method]` tables of the tests' small cases:
+/// `method` on RK4 at Δt = 1e-5 s, with h/Δx = 1.3
 /// where the method has a kernel.
 pub fn material_and_method(model: &str, method: &str) -> String {
     let entry = meshless::methods::REGISTRY
@@ -465,15 +474,12 @@ pub fn material_and_method(model: &str, method: &str) -> String {
         .unwrap();
     let kernel = if entry.kernel { "h_over_dx = 1.3" } else { "" };
     format!(
-        r#"[material]
-model = "{model}"
-density = 1000.0
-youngs_modulus = 1.0e6
-poisson_ratio = 0.3
+        r#"{}
 [method]
 name = "{method}"
 {kernel}
 integrator = "rk4"
-dt = 1.0e-5"#
+dt = 1.0e-5"#,
+        material_table(model)
     )
 }
