@@ -254,9 +254,32 @@ impl Material {
         if !self.model.reads_h_and_j() {
             return self.pk1::<D>(f);
         }
+        self.pk1_with_pressure::<D>(f, h, j, self.bulk * (j - 1.0))
+    }
+
+    /// P(F, H, J) of the polyconvex nearly incompressible neo-Hookean model with the
+    /// pressure p given, for the pressure p = κ(J − 1) or the evolved pressure of
+    /// artificial compressibility (seed 003 eq 42): μJ^{-2/3}F + [p − (μ/3)J^{-5/3}(F:F)]H.
+    pub fn pk1_with_pressure<D: Dim>(&self, f: D::T, h: D::T, j: f64, p: f64) -> D::T {
         let ff = full_ddot::<D>(f);
         let j23 = j.powf(-2.0 / 3.0);
-        f * (self.mu * j23) + h * (self.bulk * (j - 1.0) - self.mu / 3.0 * j23 / j * ff)
+        f * (self.mu * j23) + h * (p - self.mu / 3.0 * j23 / j * ff)
+    }
+
+    /// The isochoric strain-energy density ½μ(J^{-2/3} F:F − 3) of the polyconvex model.
+    pub fn isochoric_energy_density<D: Dim>(&self, f: D::T, j: f64) -> f64 {
+        0.5 * self.mu * (j.powf(-2.0 / 3.0) * full_ddot::<D>(f) - 3.0)
+    }
+
+    /// σ_zz of the polyconvex model in plane strain with the pressure p: P_zz F_zz / J
+    /// with F_zz = 1 and H_zz = J; zero in 3D.
+    pub fn sigma_zz_with_pressure<D: Dim>(&self, f: D::T, p: f64) -> f64 {
+        if D::N == 3 {
+            return 0.0;
+        }
+        let j = D::det(f);
+        let j23 = j.powf(-2.0 / 3.0);
+        (self.mu * j23 + j * (p - self.mu / 3.0 * j23 / j * full_ddot::<D>(f))) / j
     }
 
     /// Strain-energy density ψ(F, J) of the mixed formulations (J evolved or det F).
@@ -264,8 +287,7 @@ impl Material {
         if self.model != MaterialModel::NearlyIncompressibleNeoHookean {
             return self.energy_density::<D>(f, D::zero_t(), self.rho0);
         }
-        0.5 * self.mu * (j.powf(-2.0 / 3.0) * full_ddot::<D>(f) - 3.0)
-            + 0.5 * self.bulk * (j - 1.0).powi(2)
+        self.isochoric_energy_density::<D>(f, j) + 0.5 * self.bulk * (j - 1.0).powi(2)
     }
 
     /// Strain-energy density per reference volume. For the hypoelastic model this is the
@@ -316,11 +338,7 @@ impl Material {
             MaterialModel::NeoHookean => self.lambda * j.ln() / j,
             MaterialModel::LinearElastic => self.lambda * D::trace(small_strain::<D>(f)),
             MaterialModel::NearlyIncompressibleNeoHookean => {
-                // P_zz with F_zz = 1, H_zz = J, then σ_zz = P_zz F_zz / J.
-                let j23 = j.powf(-2.0 / 3.0);
-                let pzz = self.mu * j23
-                    + j * (self.bulk * (j - 1.0) - self.mu / 3.0 * j23 / j * full_ddot::<D>(f));
-                pzz / j
+                self.sigma_zz_with_pressure::<D>(f, self.bulk * (j - 1.0))
             }
             MaterialModel::VonMisesPlastic => {
                 let f3 = to_mat3::<D>(f, 1.0);

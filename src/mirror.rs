@@ -66,6 +66,11 @@ impl Image {
         D::identity() + self.tensor::<D>(g - D::identity())
     }
 
+    /// σ s: the image of a scalar that changes sign with the stress, as the pressure.
+    pub fn scalar(&self, s: f64) -> f64 {
+        self.sigma * s
+    }
+
     /// 1 + σ (J − 1).
     pub fn unit_scalar(&self, j: f64) -> f64 {
         1.0 + self.sigma * (j - 1.0)

@@ -5,7 +5,7 @@
 use crate::analytic::{ClosedForm, Exact, relative_l2};
 use crate::boundary::Reaction;
 use crate::material::{Material, MaterialModel};
-use crate::methods::shared::ordered_reduce;
+use crate::methods::shared::{PseudoTime, ordered_reduce};
 use crate::plasticity::PLASTIC_STRAIN;
 use crate::pressure::{oscillation, pressures};
 use crate::scene::{Case, CaseError, Observer};
@@ -145,6 +145,19 @@ pub struct Clock {
     pub dt: f64,
     pub external_work: f64,
     pub viscous_dissipation: f64,
+    /// The pseudo-time iterations of artificial compressibility (zero without).
+    pub pseudo_time: PseudoTime,
+}
+
+/// The series columns an engine adds besides the observers'.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct EngineColumns {
+    /// The viscous dissipation, a column of the `energy` observer.
+    pub dissipation: bool,
+    /// The pseudo-time iterations of artificial compressibility: `pseudo_iterations` (of
+    /// the last step, over its stages), `pseudo_iterations_total` and `pseudo_residual`
+    /// (the largest of the last step's stages, over the velocity scale).
+    pub pseudo_time: bool,
 }
 
 /// The observers of a run and the columns they fill.
@@ -170,9 +183,8 @@ pub struct Observers {
     front: Option<(Exact, f64)>,
     /// The number of supports the `reaction` observer writes.
     supports: usize,
-    /// Whether the engine books the viscous dissipation (a column of the `energy`
-    /// observer).
-    dissipation: bool,
+    /// The columns the engine adds.
+    engine: EngineColumns,
     sections: Vec<Section>,
     /// ρ0, for the volumes m/ρ0 of the sections.
     rho0: f64,
@@ -190,13 +202,13 @@ struct Section {
 
 impl Observers {
     /// Observers of a case over particles at reference positions x0, of which
-    /// `constrained` have prescribed velocity components, on an engine that books the
-    /// viscous dissipation or not (`dissipation`).
+    /// `constrained` have prescribed velocity components, on an engine that adds the
+    /// columns `engine`.
     pub fn new<D: Dim>(
         case: &Case,
         x0: &[D::V],
         constrained: &[(u32, u8)],
-        dissipation: bool,
+        engine: EngineColumns,
     ) -> Result<Self, CaseError> {
         let mut names = vec!["time".to_string(), "step".to_string(), "dt".to_string()];
         let mut list = case.output.observers.clone();
@@ -214,7 +226,7 @@ impl Observers {
                         ]
                         .map(String::from),
                     );
-                    if dissipation {
+                    if engine.dissipation {
                         names.push("viscous_dissipation".into());
                     }
                 }
@@ -309,6 +321,16 @@ impl Observers {
         for section in &case.sections {
             names.extend((0..D::N).map(|k| format!("{}.force_{}", section.name, AXES[k])));
         }
+        if engine.pseudo_time {
+            names.extend(
+                [
+                    "pseudo_iterations",
+                    "pseudo_iterations_total",
+                    "pseudo_residual",
+                ]
+                .map(String::from),
+            );
+        }
         for (k, check) in case.output.checks.iter().enumerate() {
             if !names.contains(&check.column) {
                 return Err(case.invalid(
@@ -342,7 +364,7 @@ impl Observers {
             solution,
             front,
             supports: crate::boundary::supports(case).len(),
-            dissipation,
+            engine,
             sections: case
                 .sections
                 .iter()
@@ -396,7 +418,7 @@ impl Observers {
                         inv.total_energy(),
                         clock.external_work,
                     ]);
-                    if self.dissipation {
+                    if self.engine.dissipation {
                         row.push(clock.viscous_dissipation);
                     }
                 }
@@ -482,6 +504,10 @@ impl Observers {
         }
         for section in &self.sections {
             row.extend(&section.force(snap, self.rho0)[..D::N]);
+        }
+        if self.engine.pseudo_time {
+            let p = clock.pseudo_time;
+            row.extend([p.step as f64, p.total as f64, p.residual]);
         }
         row
     }

@@ -24,7 +24,7 @@ pub mod ul_fem;
 pub mod ul_weak_form;
 pub mod weak_form;
 
-pub use shared::{BlowUp, Method, Traffic, check_motion};
+pub use shared::{BlowUp, Method, PseudoTime, Traffic, check_motion};
 
 use crate::correction::CorrectionKind;
 use crate::integrate::IntegratorKind;
@@ -85,6 +85,16 @@ pub fn cfl_step(mat: &crate::material::Material) -> String {
         "Δt = cfl·Δx/(c_p + max|v|), c_p = {:.1} m/s",
         mat.p_wave_speed()
     )
+}
+
+/// The p-wave speed that sets a case's CFL step: the material's, or with artificial
+/// compressibility that of the fictitious bulk modulus κ̃.
+pub fn step_wave_speed(case: &Case) -> f64 {
+    let mat = crate::material::Material::new(&case.material);
+    match mixed::scheme(case).and_then(|(m, _)| m.artificial_compressibility) {
+        Some(ac) => ac.p_wave_speed(&mat),
+        None => mat.p_wave_speed(),
+    }
 }
 
 /// What the driver needs from a method. Implemented by the method's typed spec.

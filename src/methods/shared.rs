@@ -295,6 +295,11 @@ pub trait Method<D: Dim>: OdeSystem<Error = BlowUp> + Sized {
     fn viscous_dissipation(&self) -> Option<f64> {
         None
     }
+    /// The pseudo-time iterations of a method that iterates within its stages
+    /// (artificial compressibility); None for the others.
+    fn pseudo_time(&self) -> Option<PseudoTime> {
+        None
+    }
     /// The first particle whose state is not finite, if any.
     fn check_finite(&self, y: &Self::State) -> Result<(), BlowUp>;
     /// What the method carries from step to step besides the state (a plastic
@@ -314,6 +319,18 @@ pub trait Method<D: Dim>: OdeSystem<Error = BlowUp> + Sized {
     fn traffic(&self) -> Option<Traffic> {
         None
     }
+}
+
+/// Pseudo-time iterations of a run with artificial compressibility.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PseudoTime {
+    /// Iterations of the last step, summed over its stages.
+    pub step: u64,
+    /// Iterations since the run started.
+    pub total: u64,
+    /// The largest final residual of the last step's stages, relative to the velocity
+    /// scale.
+    pub residual: f64,
 }
 
 /// The memory traffic of one rate evaluation on the CPU, by the minimum-traffic model:

@@ -3,7 +3,6 @@
 //! a run that does not fit the machine, or passes the caps, is refused as a case error
 //! naming the key that sets the figure.
 
-use crate::material::Material;
 use crate::scene::{Case, CaseError, Shape, estimate_particles};
 
 /// Caps on what one run may ask for (`--max-particles`, `--max-steps`).
@@ -123,7 +122,7 @@ impl Estimate {
 fn first_step(case: &Case) -> f64 {
     match (case.method.dt, case.method.cfl) {
         (Some(dt), _) => dt,
-        (_, Some(cfl)) => cfl * case.spacing / Material::new(&case.material).p_wave_speed(),
+        (_, Some(cfl)) => cfl * case.spacing / crate::methods::step_wave_speed(case),
         _ => unreachable!("validation requires dt or cfl"),
     }
 }
@@ -205,7 +204,7 @@ pub fn check_steps(case: &Case, steps: f64, dt: f64, limits: &Limits) -> Result<
     if steps <= limits.max_steps {
         return Ok(());
     }
-    let c_p = Material::new(&case.material).p_wave_speed();
+    let c_p = crate::methods::step_wave_speed(case);
     let tiny = dt < 1e-3 * case.spacing / c_p;
     let key = match (tiny, case.method.dt.is_some()) {
         (false, _) => "run.end_time",

@@ -1,7 +1,6 @@
 //! Blow-up attribution of the driver's checks: the particle and quantity a failure of
 //! the energy bound, the hourglass limit or the CFL step is reported at.
 
-use crate::material::Material;
 use crate::methods::BlowUp;
 use crate::observe::Snapshot;
 use crate::scene::Case;
@@ -38,7 +37,7 @@ pub(super) fn hourglass_blow_up<D: Dim>(
 /// signal-speed estimate: the method's stretch-dependent part
 /// ([`crate::methods::MethodFamily::stretch_signal_speed`]) plus |v|.
 pub(super) fn step_collapse<D: Dim>(case: &Case, snap: &Snapshot<D>, floor: f64) -> BlowUp {
-    let c_p = Material::new(&case.material).p_wave_speed();
+    let c_p = crate::methods::step_wave_speed(case);
     let speed = |i: usize| {
         case.method.spec.stretch_signal_speed::<D>(c_p, snap.f[i]) + D::norm2(snap.v[i]).sqrt()
     };

@@ -116,9 +116,13 @@ pub fn drive<D: Dim, E: Engine<D>>(
         None => time_step(case, &mut engine),
     };
     super::budget::check_steps(case, t_end / dt_first, dt_first, &opts.limits)?;
-    let dissipation = engine.viscous_dissipation().is_some();
-    let observers =
-        Observers::new::<D>(case, engine.reference(), engine.constrained(), dissipation)?;
+    let engine_columns = engine.columns();
+    let observers = Observers::new::<D>(
+        case,
+        engine.reference(),
+        engine.constrained(),
+        engine_columns,
+    )?;
     std::fs::create_dir_all(&opts.out_dir).map_err(output_error(&opts.out_dir))?;
     let series_path = opts.out_dir.join("series.csv");
     let columns = observers.column_names();
@@ -204,6 +208,7 @@ pub fn drive<D: Dim, E: Engine<D>>(
                 dt: p.dt,
                 external_work: engine.external_work(),
                 viscous_dissipation: engine.viscous_dissipation().unwrap_or(0.0),
+                pseudo_time: engine.pseudo_time().unwrap_or_default(),
             };
             (clock, p.e0, p.next_sample, p.next_checkpoint)
         }
@@ -286,6 +291,7 @@ pub fn drive<D: Dim, E: Engine<D>>(
             dt,
             external_work: engine.external_work(),
             viscous_dissipation: engine.viscous_dissipation().unwrap_or(0.0),
+            pseudo_time: engine.pseudo_time().unwrap_or_default(),
         };
         let t = clock.t;
         if let Err(cause) = engine.check() {

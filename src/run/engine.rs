@@ -6,8 +6,8 @@ use crate::boundary::Reaction;
 #[cfg(feature = "gpu")]
 use crate::gpu::{Gpu, SetupError};
 use crate::integrate::{Integrator, OdeState, traffic};
-use crate::methods::{BlowUp, Method};
-use crate::observe::{Invariants, Snapshot};
+use crate::methods::{BlowUp, Method, PseudoTime};
+use crate::observe::{EngineColumns, Invariants, Snapshot};
 use crate::reference::Reference;
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
@@ -171,6 +171,18 @@ pub trait Engine<D: Dim> {
     fn viscous_dissipation(&mut self) -> Option<f64> {
         None
     }
+    /// Pseudo-time iterations of a method that iterates within its stages
+    /// ([`crate::methods::Method::pseudo_time`]); None for the others.
+    fn pseudo_time(&mut self) -> Option<PseudoTime> {
+        None
+    }
+    /// The series columns this engine adds besides the observers'.
+    fn columns(&mut self) -> EngineColumns {
+        EngineColumns {
+            dissipation: self.viscous_dissipation().is_some(),
+            pseudo_time: self.pseudo_time().is_some(),
+        }
+    }
     /// Non-finite state or det F ≤ 0 since the start.
     fn check(&mut self) -> Result<(), BlowUp>;
     fn snapshot(&mut self) -> Snapshot<'_, D>;
@@ -235,6 +247,9 @@ impl<D: Dim> Engine<D> for Box<dyn Engine<D>> {
     }
     fn viscous_dissipation(&mut self) -> Option<f64> {
         (**self).viscous_dissipation()
+    }
+    fn pseudo_time(&mut self) -> Option<PseudoTime> {
+        (**self).pseudo_time()
     }
     fn check(&mut self) -> Result<(), BlowUp> {
         (**self).check()
@@ -358,6 +373,10 @@ impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
 
     fn viscous_dissipation(&mut self) -> Option<f64> {
         self.method.viscous_dissipation().map(|_| self.dissipated)
+    }
+
+    fn pseudo_time(&mut self) -> Option<PseudoTime> {
+        self.method.pseudo_time()
     }
 
     fn traffic(&self) -> Option<StepTraffic> {

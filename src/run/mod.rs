@@ -157,13 +157,8 @@ pub fn check(
 /// particle count.
 fn built<D: EngineDim>(case: &Case, backend: Backend) -> Result<usize, RunError> {
     let mut engine = engine::<D>(case, backend)?;
-    let dissipation = engine.viscous_dissipation().is_some();
-    crate::observe::Observers::new::<D>(
-        case,
-        engine.reference(),
-        engine.constrained(),
-        dissipation,
-    )?;
+    let columns = engine.columns();
+    crate::observe::Observers::new::<D>(case, engine.reference(), engine.constrained(), columns)?;
     Ok(engine.reference().len())
 }
 

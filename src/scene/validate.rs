@@ -25,7 +25,10 @@ type Checked = Result<(), Problem>;
 pub(super) fn check(case: &Case) -> Result<(), (String, String)> {
     top_level(case)?;
     let dim = case.dim();
-    material(&case.material)?;
+    material(
+        &case.material,
+        crate::methods::mixed::accepts_incompressible(case),
+    )?;
     plane(&case.material, dim)?;
     method(&case.method)?;
     method_keys(case)?;
@@ -233,7 +236,8 @@ fn model_keys(m: &MaterialSpec) -> [ModelKey; 7] {
     ]
 }
 
-fn material(m: &MaterialSpec) -> Checked {
+/// Checks of the `[material]` table; ν = 0.5 where the method accepts it.
+fn material(m: &MaterialSpec, incompressible: bool) -> Checked {
     positive("material.density", m.density)?;
     for ModelKey {
         key,
@@ -272,13 +276,14 @@ fn material(m: &MaterialSpec) -> Checked {
         positive("material.youngs_modulus", e)?;
     }
     if let Some(nu) = m.poisson_ratio
-        && !(nu > -1.0 && nu < 0.5)
+        && !(nu > -1.0 && (nu < 0.5 || (nu == 0.5 && incompressible)))
     {
         return fail(
             "material.poisson_ratio",
             format!(
-                "is {nu:?}; it must lie in (−1, 0.5); 0.5 is incompressible, which these \
-                 compressible models cannot represent"
+                "is {nu:?}; it must lie in (−1, 0.5); 0.5 is incompressible, which only \
+                 `upwind-sph` and `jst-sph` with [method.artificial_compressibility] and the \
+                 `nearly-incompressible-neo-hookean` model run"
             ),
         );
     }

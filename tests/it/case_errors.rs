@@ -1158,3 +1158,79 @@ fn reaction_and_section_observers_name_their_errors() {
         &["\"mid\"", "must be unique"],
     );
 }
+
+/// ν = 0.5 only with artificial compressibility, and the table's own checks: the model,
+/// the variables, the integrator and the ranges of its keys.
+#[test]
+fn artificial_compressibility_alone_takes_nu_one_half_and_checks_its_keys() {
+    let plate = std::fs::read_to_string(cases_dir().join("spinning-plate.toml")).unwrap();
+    let incompressible = edit(&plate, "poisson_ratio = 0.45", "poisson_ratio = 0.5");
+    assert_invalid(
+        &incompressible,
+        "material.poisson_ratio",
+        &[
+            "0.5",
+            "`upwind-sph` and `jst-sph`",
+            "artificial_compressibility",
+        ],
+    );
+    let with = |table: &str| edit(&incompressible, "cfl = 0.3", &format!("cfl = 0.3\n{table}"));
+    let ac = with("artificial_compressibility = {}");
+    Case::from_toml(&ac, Path::new(FILE), &[]).expect("ν = 0.5 with artificial compressibility");
+    let key = "method.artificial_compressibility";
+    for (table, key, parts) in [
+        ("{ kappa = -1.0 }", format!("{key}.kappa"), &["> 0"][..]),
+        ("{ alpha = 1.5 }", format!("{key}.alpha"), &["[0, 1]"][..]),
+        (
+            "{ tolerance = 0.0 }",
+            format!("{key}.tolerance"),
+            &["(0, 1)"][..],
+        ),
+        (
+            "{ max_iterations = 0 }",
+            format!("{key}.max_iterations"),
+            &["1..="][..],
+        ),
+        ("{ gamma = 0.0 }", format!("{key}.gamma"), &["> 0"][..]),
+    ] {
+        assert_invalid(
+            &with(&format!("artificial_compressibility = {table}")),
+            &key,
+            parts,
+        );
+    }
+    let unknown = error(&with("artificial_compressibility = { kapa = 1e7 }"));
+    assert_mentions(&unknown, &["kapa", "kappa"]);
+    assert_invalid(
+        &edit(&ac, "integrator = \"tvd-rk2\"", "integrator = \"rk4\""),
+        "method.integrator",
+        &["`rk4`", "`tvd-rk2`", "`ssp-rk3`"],
+    );
+    assert_invalid(
+        &edit(&ac, "cfl = 0.3", "cfl = 0.3\nvariables = \"p-F-J\""),
+        "method.variables",
+        &["replaces J", "\"p-F-H-J\""],
+    );
+    let compressible = edit(
+        &plate,
+        "cfl = 0.3",
+        "cfl = 0.3\nartificial_compressibility = { kappa = 1e9 }",
+    );
+    assert_invalid(
+        &compressible,
+        "method.artificial_compressibility.kappa",
+        &["bulk modulus κ"],
+    );
+    assert_invalid(
+        &edit(
+            &compressible,
+            "nearly-incompressible-neo-hookean",
+            "neo-hookean",
+        ),
+        "material.model",
+        &[
+            "`nearly-incompressible-neo-hookean`",
+            "no separate pressure",
+        ],
+    );
+}

@@ -11,6 +11,7 @@ mod body_force;
 mod case_errors;
 mod checkpoint;
 mod common;
+mod compressibility;
 mod contact;
 mod corotated_tlsph;
 mod dual_support;

@@ -405,6 +405,7 @@ impl MixedLayout {
             f: l.read_t::<D>(flat, "F", one_t),
             h: l.read_t::<D>(flat, "H", one_t),
             j: l.read_s(flat, "J", one),
+            pressure: Vec::new(),
         }
     }
 }
@@ -635,6 +636,15 @@ impl<D: GpuDim> GpuMixed<D> {
                     "method.deformation_gradient",
                     "the GPU commits the plastic history from the evolved F; the bond-based F \
                      with `von-mises-plastic` runs with --backend cpu",
+                )
+                .into());
+        }
+        if options.artificial_compressibility.is_some() {
+            return Err(case
+                .invalid(
+                    "method.artificial_compressibility",
+                    "the pseudo-time corrector has no GPU passes yet; run this case with \
+                     --backend cpu",
                 )
                 .into());
         }

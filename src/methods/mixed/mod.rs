@@ -1,14 +1,17 @@
 //! Mixed {p, F, H, J} total-Lagrangian SPH (seed 003, with the options of seed 002):
 //! Upwind-SPH and JST-SPH. The specs, the CPU system ([`system`], with its pair weights
-//! in [`weights`] and the angular-momentum projection in [`projection`]) and the GPU
-//! engine ([`gpu`]). Numerics notes: `docs/methods/mixed.md`.
+//! in [`weights`], the angular-momentum projection in [`projection`] and artificial
+//! compressibility in [`compressibility`]) and the GPU engine ([`gpu`]). Numerics notes:
+//! `docs/methods/mixed.md`.
 
+pub mod compressibility;
 #[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod projection;
 pub mod system;
 pub mod weights;
 
+pub use compressibility::ArtificialCompressibility;
 #[cfg(feature = "gpu")]
 pub use gpu::GpuMixed;
 pub use system::{Fluxes, MixedSph, MixedState};
@@ -143,6 +146,10 @@ pub struct MixedOptions {
     /// With `cfl`: the pair wave speed C_p,ab of the step (default `pair`).
     #[serde(default)]
     pub cfl_wave_speed: CflWaveSpeed,
+    /// Artificial compressibility (seed 003 §5): the pressure evolved in place of J,
+    /// with a fictitious bulk modulus and a pseudo-time corrector; the only way to run
+    /// ν = 0.5.
+    pub artificial_compressibility: Option<ArtificialCompressibility>,
 }
 
 impl MixedOptions {
@@ -201,6 +208,12 @@ pub enum Stabiliser {
     Jst(Jst),
 }
 
+/// Whether the case's method accepts ν = 0.5: a mixed method with artificial
+/// compressibility.
+pub fn accepts_incompressible(case: &Case) -> bool {
+    scheme(case).is_some_and(|(m, _)| m.artificial_compressibility.is_some())
+}
+
 /// The options and stabilisation of a case's mixed method; None for another method.
 pub fn scheme(case: &Case) -> Option<(&MixedOptions, Stabiliser)> {
     match &case.method.spec {
@@ -254,6 +267,9 @@ fn validate(m: &MixedOptions, case: &Case) -> Result<(), Problem> {
              set method.variables = \"p-F\"",
         );
     }
+    if let Some(ac) = &m.artificial_compressibility {
+        ac.validate(case)?;
+    }
     if !case.mirrors.is_empty() && m.projection == Some(true) {
         return fail(
             "method.projection",
@@ -288,6 +304,10 @@ fn plan(m: &MixedOptions, stab: Stabiliser, case: &Case, gpu: bool) -> Plan {
         left_out.push("angular-momentum projection");
     }
     let evolved = m.evolved(case.material.model);
+    let ac = m.artificial_compressibility;
+    if ac.is_none() {
+        left_out.push("artificial compressibility (J evolved or det F)");
+    }
     if evolved != m.variables {
         left_out.push("H and J evolution: the material reads F alone (H = cof F, J = det F)");
     } else {
@@ -296,6 +316,9 @@ fn plan(m: &MixedOptions, stab: Stabiliser, case: &Case, gpu: bool) -> Plan {
         }
         if !evolved.evolves_j() {
             left_out.push("J evolution (J = det F)");
+        }
+        if ac.is_some() {
+            left_out.push("J evolution (the pressure p in its place; J = det F)");
         }
     }
     if !bond {
@@ -313,20 +336,38 @@ fn plan(m: &MixedOptions, stab: Stabiliser, case: &Case, gpu: bool) -> Plan {
             }
         ),
         state: format!(
-            "u, v, F{}{} ({:?}; {:?})",
+            "u, v, F{}{} ({}; {:?})",
             if evolved.evolves_h() { ", H" } else { "" },
-            if evolved.evolves_j() { ", J" } else { "" },
-            evolved,
+            match ac {
+                Some(_) => ", p",
+                None if evolved.evolves_j() => ", J",
+                None => "",
+            },
+            match ac {
+                Some(_) if evolved.evolves_h() => "{p, F, H, p}".to_string(),
+                Some(_) => "{p, F, p}".to_string(),
+                None => format!("{evolved:?}"),
+            },
             mat.model
         ),
         cfl_step: format!(
             "Δt = cfl·min_ab r_ab/C_p,ab with C_p,ab = {} (seed 002 eqs 31–32), C_p^Lin = \
-             {:.1} m/s",
+             {:.1} m/s{}",
             match m.cfl_wave_speed {
                 CflWaveSpeed::Pair => "C_p^Lin/½(λ_a + λ_b)",
                 CflWaveSpeed::Linear => "C_p^Lin",
             },
-            mat.p_wave_speed()
+            match ac {
+                Some(ac) => ac.p_wave_speed(&mat),
+                None => mat.p_wave_speed(),
+            },
+            match ac {
+                Some(ac) => format!(
+                    " (of the fictitious bulk modulus κ̃ = {:e} Pa, seed 003 eq 46)",
+                    ac.kappa(&mat)
+                ),
+                None => String::new(),
+            }
         ),
         rates: rate_passes(m, stab, case),
         checked: "det F, J",
@@ -400,6 +441,20 @@ fn rate_passes(m: &MixedOptions, stab: Stabiliser, case: &Case) -> String {
     } else {
         passes.push("rates (ρ0 v̇ = D(p) − T, BCs, u̇ = v)".into());
     }
+    if let Some(ac) = m.artificial_compressibility {
+        passes.push(format!(
+            "corrector (seed 003 eqs 52–58): pseudo-time TVD-RK2 on v, p to a residual of {:e} \
+             of max|v| (at most {} iterations{}), then −T[(p − p^n)H^n]{}",
+            ac.tolerance,
+            ac.max_iterations,
+            if ac.alpha > 0.0 {
+                format!(", pseudo-viscosity α = {}", ac.alpha)
+            } else {
+                String::new()
+            },
+            if m.projection(case) { " projected" } else { "" }
+        ));
+    }
     passes.join(" → ")
 }
 
@@ -424,6 +479,7 @@ impl MixedMethod for UpwindSpec {
         "momentum",
         "deformation_gradient",
         "cfl_wave_speed",
+        "artificial_compressibility",
         "reconstruction",
     ];
 
@@ -451,6 +507,7 @@ impl MixedMethod for JstSpec {
         "momentum",
         "deformation_gradient",
         "cfl_wave_speed",
+        "artificial_compressibility",
         "jst",
     ];
 

@@ -11,6 +11,7 @@
 //! and every per-particle field are extended to them, and only real particles are
 //! integrated.
 
+use super::compressibility::{Corrector, Pairs, StageStart};
 use super::projection::{Balance, Sums};
 use super::weights::{brookshaw_weights, correct_laplacian, least_squares_weights, pair_map};
 use super::{CflWaveSpeed, Conserved, DeformationGradient, JstLaplacian, Momentum, Stabiliser};
@@ -21,8 +22,8 @@ use crate::interaction::Interactions;
 use crate::material::Material;
 use crate::methods::not_run_by;
 use crate::methods::shared::{
-    BlowUp, BoundaryWork, MIN_CHUNK, Method, check_motion, neighbour_radius, ordered_reduce,
-    particle_state, reference_gradients,
+    BlowUp, BoundaryWork, MIN_CHUNK, Method, PseudoTime, check_motion, neighbour_radius,
+    ordered_reduce, particle_state, reference_gradients,
 };
 use crate::mirror::Ghosts;
 use crate::neighbour::{self, Csr};
@@ -44,11 +45,14 @@ pub struct MixedState<D: Dim> {
     pub f: Vec<D::T>,
     /// Area map H (eq 1c); empty unless {p, F, H, J}.
     pub h: Vec<D::T>,
-    /// Volume map J (eq 1d); empty for {p, F}.
+    /// Volume map J (eq 1d); empty for {p, F} and with artificial compressibility.
     pub j: Vec<f64>,
+    /// Pressure p of the {p, F, H, p} system (eq 42); empty without artificial
+    /// compressibility.
+    pub pressure: Vec<f64>,
 }
 
-particle_state!(MixedState { f, h, j });
+particle_state!(MixedState { f, h, j, pressure });
 
 /// The stabilising flux of a mixed method.
 #[derive(Clone, Debug)]
@@ -151,6 +155,11 @@ pub struct MixedSph<D: Dim> {
     /// models.
     plastic: Option<History>,
     stabilisation: Stabilisation,
+    /// The pseudo-time corrector of artificial compressibility; None without.
+    compressibility: Option<Corrector<D>>,
+    /// The p-wave speed of the fluxes and the CFL step: c_p, or c̃_p of the fictitious
+    /// bulk modulus of artificial compressibility.
+    c_p: f64,
     projection: bool,
     integrator: IntegratorKind,
     /// Particle spacing Δx: the driver's CFL step is α Δx / signal speed.
@@ -180,6 +189,8 @@ pub struct MixedSph<D: Dim> {
     /// positions 𝒳 at the second TVD-RK2 stage.
     step_start: Option<StepStart<D>>,
     stage: usize,
+    /// The size of the current step.
+    dt: f64,
     /// The power of supports, loads and interactions and the supports' reactions at the
     /// last rate evaluation.
     boundary_work: BoundaryWork,
@@ -221,7 +232,7 @@ impl<D: Dim> MixedSph<D> {
                 ),
             )
         })?;
-        let grad_rev = rev
+        let grad_rev: Vec<D::V> = rev
             .par_iter()
             .map(|&(q, image)| {
                 let g = grad[q as usize];
@@ -284,6 +295,21 @@ impl<D: Dim> MixedSph<D> {
         ghosts.fill(&mut body, |a| body_real[a], |_, b| b);
         let interactions = Interactions::build(case, &x0[..n], &body, || csr.clone())?;
         let n_ext = x0.len();
+        let compressibility = options.artificial_compressibility.map(|spec| {
+            let pairs = Pairs {
+                csr: &csr,
+                grad: &grad,
+                grad_rev: &grad_rev,
+                vol: &vol,
+                ghosts: &ghosts,
+                momentum: options.momentum,
+            };
+            Corrector::new(&spec, case, &pairs, &x0, &normal)
+        });
+        let c_p = match options.artificial_compressibility {
+            Some(spec) => spec.p_wave_speed(&material),
+            None => material.p_wave_speed(),
+        };
         Ok(Self {
             kin: vec![
                 Kinematics {
@@ -335,6 +361,8 @@ impl<D: Dim> MixedSph<D> {
             bond_weights,
             plastic: material.von_mises().map(|model| History::virgin(model, n)),
             stabilisation,
+            compressibility,
+            c_p,
             projection: options.projection(case),
             integrator: m.integrator,
             spacing: case.spacing,
@@ -344,6 +372,7 @@ impl<D: Dim> MixedSph<D> {
             interactions,
             step_start: None,
             stage: 0,
+            dt: 0.0,
             boundary_work: BoundaryWork::default(),
         })
     }
@@ -371,12 +400,14 @@ impl<D: Dim> MixedSph<D> {
         } else {
             D::cof(f)
         };
-        let j = if self.conserved.evolves_j() {
-            y.j[a]
-        } else {
-            D::det(f)
-        };
+        let j = if self.evolves_j() { y.j[a] } else { D::det(f) };
         (f, h, j)
+    }
+
+    /// Whether J is evolved: as the variables say, unless artificial compressibility
+    /// evolves the pressure in its place.
+    fn evolves_j(&self) -> bool {
+        self.conserved.evolves_j() && self.compressibility.is_none()
     }
 
     /// Algorithm 2 of seed 003 for real particle a at F from its history at the start of
@@ -399,10 +430,14 @@ impl<D: Dim> MixedSph<D> {
             .collect()
     }
 
-    /// P(F, H, J) of real particle a.
-    fn stress(&self, a: usize, f: D::T, h: D::T, j: f64) -> D::T {
+    /// P(F, H, J) of real particle a of state y, with the evolved pressure under
+    /// artificial compressibility.
+    fn stress(&self, y: &MixedState<D>, a: usize, f: D::T, h: D::T, j: f64) -> D::T {
         match self.returned(a, f) {
             Some(r) => from_mat3::<D>(r.p),
+            None if self.compressibility.is_some() => {
+                self.material.pk1_with_pressure::<D>(f, h, j, y.pressure[a])
+            }
             None => self.material.pk1_mixed::<D>(f, h, j),
         }
     }
@@ -456,7 +491,7 @@ impl<D: Dim> MixedSph<D> {
                 grad_v += D::outer(self.v_ext[b] - self.v_ext[a], self.grad[q]) * self.vol[b];
             }
             Kinematics {
-                p: self.stress(a, f, h, j),
+                p: self.stress(y, a, f, h, j),
                 h,
                 grad_v,
                 j,
@@ -533,7 +568,12 @@ impl<D: Dim> MixedSph<D> {
     /// every real particle, into `out`.
     fn forces(&self, y: &MixedState<D>, out: &mut [Forces<D>]) {
         let mat = &self.material;
-        let (c_p, c_s) = (mat.p_wave_speed(), mat.s_wave_speed());
+        let (c_p, c_s) = (self.c_p, mat.s_wave_speed());
+        // The J dissipation takes the material's c_p, zero at κ = ∞: with artificial
+        // compressibility's c̃_p it is a compact Laplacian of P/(2c̃_p) that the
+        // corrector inverts with its wide DIV, and amplifies the pressure checkerboard
+        // (docs/methods/mixed.md).
+        let c_p_j = mat.p_wave_speed();
         let (u, v) = (&self.u_ext, &self.v_ext);
         out.par_iter_mut()
             .with_min_len(MIN_CHUNK)
@@ -548,14 +588,7 @@ impl<D: Dim> MixedSph<D> {
                     let b = self.csr.ids[q] as usize;
                     let kb = self.kin[b];
                     let (g_ab, g_ba) = (self.grad[q], self.grad_rev[q]);
-                    t += match self.momentum {
-                        // seed 003 eq 21: V_b [P_b ∇̃W̃_a(X_b) − P_a ∇̃W̃_b(X_a)].
-                        Momentum::Weak => (kb.p * g_ba - ka.p * g_ab) * self.vol[b],
-                        // seed 002 eq 22: −½ V_b (P_a + P_b)(∇W̃_b(X_a) − ∇W̃_a(X_b)).
-                        Momentum::Symmetrised => {
-                            (ka.p + kb.p) * (g_ab - g_ba) * (-0.5 * self.vol[b])
-                        }
-                    };
+                    t += pair_force::<D>(self.momentum, self.vol[b], ka.p, kb.p, g_ab, g_ba);
                     match &self.stabilisation {
                         Stabilisation::Upwind { reconstruction } => {
                             let n_ref = self.normal[q];
@@ -579,7 +612,7 @@ impl<D: Dim> MixedSph<D> {
                             d += s_dp * (2.0 * self.vol[b] * D::dot(n_ref, g_ave));
                             // eq 28: p^stab = n (n · ΔP N_ab)/(2 c_p); eq 33 with the
                             // dissipative sign: V_b p^stab/ρ0 · (H_a g_ab − H_b g_ba).
-                            let p_stab = n * (D::dot(n, dp * n_ref) / (2.0 * c_p));
+                            let p_stab = n * (D::dot(n, dp * n_ref) / (2.0 * c_p_j));
                             let h_g = ka.h * g_ab - kb.h * g_ba;
                             dj += self.vol[b] / mat.rho0 * D::dot(p_stab, h_g);
                         }
@@ -641,6 +674,90 @@ impl<D: Dim> MixedSph<D> {
         Ok(())
     }
 
+    /// Artificial compressibility: the pressure rate of the predictor and the corrector
+    /// of the stage (eqs 51d, 52–58) on the rates `d` of the explicit stage, before loads
+    /// and supports. v^int and p^int are the predictor's stage ends, loads, contact and
+    /// supports included; the converged pressure's force −T[(p^{n+1} − p^n)H^n] is
+    /// added to v̇ (projected with the stage's other forces), and ṗ = (p^{n+1} − p^n)/Δt.
+    fn correct(&mut self, y: &MixedState<D>, d: &mut MixedState<D>) -> Result<(), BlowUp> {
+        let mut corrector = self
+            .compressibility
+            .take()
+            .expect("correct runs with artificial compressibility");
+        let (n, dt) = (self.n, self.dt);
+        let kappa_tilde = corrector.kappa_tilde();
+        // eq 51d: (p^int − p^n)/Δt = κ̃ (H^n : ∇0v^n + D(J^n)).
+        d.pressure
+            .par_iter_mut()
+            .with_min_len(MIN_CHUNK)
+            .enumerate()
+            .for_each(|(a, p)| {
+                let k = self.kin[a];
+                *p = kappa_tilde * (D::ddot(k.h, k.grad_v) + self.forces[a].dj);
+            });
+        let p_int: Vec<f64> = (0..n).map(|a| y.pressure[a] + dt * d.pressure[a]).collect();
+        let mut a_int = d.v.clone();
+        let mut work = BoundaryWork::default();
+        work.finish(
+            &self.interactions,
+            &self.boundary,
+            &y.v,
+            &self.mass,
+            &mut a_int,
+        );
+        let v_int: Vec<D::V> = (0..n).map(|a| y.v[a] + a_int[a] * dt).collect();
+        let mut held = vec![0u8; n];
+        for (i, mask) in self.boundary.held_now() {
+            held[i as usize] = mask;
+        }
+        let h: Vec<D::T> = self.kin[..n].iter().map(|k| k.h).collect();
+        let dj: Vec<f64> = self.forces.iter().map(|f| f.dj).collect();
+        let stage = StageStart {
+            dt,
+            v_int: &v_int,
+            v_n: &y.v,
+            p_n: &y.pressure,
+            p_int: &p_int,
+            h: &h,
+            dj: &dj,
+            held: &held,
+        };
+        let pairs = Pairs {
+            csr: &self.csr,
+            grad: &self.grad,
+            grad_rev: &self.grad_rev,
+            vol: &self.vol,
+            ghosts: &self.ghosts,
+            momentum: self.momentum,
+        };
+        let solved = corrector.solve(&pairs, &stage);
+        let mut force = a_int;
+        if solved.is_ok() {
+            corrector.force(&pairs, &stage, &mut force);
+        }
+        let p_next = corrector.p().to_vec();
+        self.compressibility = Some(corrector);
+        solved.map_err(|u| {
+            self.blow_up(
+                u.particle,
+                "pseudo-time residual of artificial compressibility over the velocity scale, \
+                 at max_iterations (raise method.artificial_compressibility.max_iterations or \
+                 tolerance)",
+                u.residual,
+            )
+        })?;
+        if self.projection {
+            let balance = Balance::<D>::new(&self.points, &self.vol[..n], &mut self.sums);
+            balance.project(&mut force, &mut self.sums);
+        }
+        let inv_rho0 = 1.0 / self.material.rho0;
+        for a in 0..n {
+            d.v[a] += force[a] * inv_rho0;
+            d.pressure[a] = (p_next[a] - y.pressure[a]) / dt;
+        }
+        Ok(())
+    }
+
     /// Δx max_ab C_p,ab / r_ab over the neighbour pairs of real particles (seed 002 eqs
     /// 31–32): the speed that crosses the spacing Δx in the shortest time r_ab / C_p,ab
     /// a wave takes across a pair, r_ab = |x_b − x_a| the current distance.
@@ -667,7 +784,7 @@ impl<D: Dim> MixedSph<D> {
             }
             CflWaveSpeed::Linear => vec![1.0; self.n],
         };
-        let c_p = self.material.p_wave_speed();
+        let c_p = self.c_p;
         let fastest = (0..self.n)
             .into_par_iter()
             .with_min_len(MIN_CHUNK)
@@ -697,6 +814,24 @@ impl<D: Dim> MixedSph<D> {
     }
 }
 
+/// Pair b's share of the internal force T_a (per unit reference volume) of the stresses
+/// P_a, P_b with g_ab = ∇̃W̃_b(X_a), g_ba = ∇̃W̃_a(X_b).
+pub(super) fn pair_force<D: Dim>(
+    momentum: Momentum,
+    vol_b: f64,
+    p_a: D::T,
+    p_b: D::T,
+    g_ab: D::V,
+    g_ba: D::V,
+) -> D::V {
+    match momentum {
+        // seed 003 eq 21: V_b [P_b ∇̃W̃_a(X_b) − P_a ∇̃W̃_b(X_a)].
+        Momentum::Weak => (p_b * g_ba - p_a * g_ab) * vol_b,
+        // seed 002 eq 22: −½ V_b (P_a + P_b)(∇W̃_b(X_a) − ∇W̃_a(X_b)).
+        Momentum::Symmetrised => (p_a + p_b) * (g_ab - g_ba) * (-0.5 * vol_b),
+    }
+}
+
 /// `real` into out[..n] and the ghosts' images σR v into the rest.
 fn fill_extended<D: Dim>(ghosts: &Ghosts<D>, out: &mut [D::V], real: &[D::V]) {
     ghosts.fill(out, |a| real[a], |m, v| m.vector::<D>(v));
@@ -719,6 +854,10 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
         }
         if self.projection && self.integrator == IntegratorKind::TvdRk2 {
             self.step_start = Some((y.u.clone(), y.v.clone(), dt));
+        }
+        self.dt = dt;
+        if let Some(c) = self.compressibility.as_mut() {
+            c.begin_step();
         }
     }
 
@@ -762,7 +901,7 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
                 .enumerate()
                 .for_each(|(a, h)| *h = D::cof_rate(y.f[a], self.kin[a].grad_v));
         }
-        if self.conserved.evolves_j() {
+        if self.evolves_j() {
             d.j.par_iter_mut()
                 .with_min_len(MIN_CHUNK)
                 .enumerate()
@@ -772,6 +911,9 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
                 });
         }
         (self.forces, self.t, self.dp) = (forces, t, dp);
+        if self.compressibility.is_some() {
+            self.correct(y, d)?;
+        }
         self.boundary_work.finish(
             &self.interactions,
             &self.boundary,
@@ -799,8 +941,13 @@ impl<D: Dim> Method<D> for MixedSph<D> {
             } else {
                 Vec::new()
             },
-            j: if self.conserved.evolves_j() {
+            j: if self.evolves_j() {
                 vec![1.0; n]
+            } else {
+                Vec::new()
+            },
+            pressure: if self.compressibility.is_some() {
+                vec![0.0; n]
             } else {
                 Vec::new()
             },
@@ -846,10 +993,13 @@ impl<D: Dim> Method<D> for MixedSph<D> {
                 if let Some(r) = self.returned(a, f) {
                     return r.cauchy::<D>(f);
                 }
-                let sigma = mat.pk1_mixed::<D>(f, h, j) * D::transpose(f) * (1.0 / j);
+                let sigma = self.stress(y, a, f, h, j) * D::transpose(f) * (1.0 / j);
                 let mut out = D::to3x3(sigma);
                 if D::N == 2 {
-                    out[2][2] = mat.sigma_zz::<D>(f, D::zero_t(), mat.rho0);
+                    out[2][2] = match self.compressibility {
+                        Some(_) => mat.sigma_zz_with_pressure::<D>(f, y.pressure[a]),
+                        None => mat.sigma_zz::<D>(f, D::zero_t(), mat.rho0),
+                    };
                 }
                 out
             })
@@ -866,6 +1016,11 @@ impl<D: Dim> Method<D> for MixedSph<D> {
                 self.vol[a]
                     * match self.returned(a, f) {
                         Some(r) => r.psi,
+                        // ψ = ψ_iso + p²/(2κ): no volumetric energy at κ = ∞.
+                        None if self.compressibility.is_some() => {
+                            self.material.isochoric_energy_density::<D>(f, j)
+                                + y.pressure[a].powi(2) / (2.0 * self.material.bulk)
+                        }
                         None => self.material.energy_density_mixed::<D>(f, j),
                     }
             },
@@ -910,6 +1065,10 @@ impl<D: Dim> Method<D> for MixedSph<D> {
         &self.boundary_work
     }
 
+    fn pseudo_time(&self) -> Option<PseudoTime> {
+        self.compressibility.as_ref().map(|c| c.stats)
+    }
+
     fn check_finite(&self, y: &MixedState<D>) -> Result<(), BlowUp> {
         check_motion::<D>(&self.x0, &y.u, &y.v)?;
         let norm_t = |t: D::T| D::ddot(t, t).sqrt();
@@ -921,6 +1080,9 @@ impl<D: Dim> Method<D> for MixedSph<D> {
         }
         if let Some(i) = y.j.par_iter().position_first(|j| !j.is_finite()) {
             return Err(self.blow_up(i, "J", y.j[i]));
+        }
+        if let Some(i) = y.pressure.par_iter().position_first(|p| !p.is_finite()) {
+            return Err(self.blow_up(i, "pressure", y.pressure[i]));
         }
         Ok(())
     }
