@@ -100,6 +100,9 @@ impl<D: Dim, E: Engine<D>> Engine<D> for Tracked<'_, D, E> {
     fn viscous_dissipation(&mut self) -> Option<f64> {
         self.inner.viscous_dissipation()
     }
+    fn pseudo_time(&mut self) -> Option<crate::methods::PseudoTime> {
+        self.inner.pseudo_time()
+    }
     fn check(&mut self) -> Result<(), BlowUp> {
         self.inner.check()
     }

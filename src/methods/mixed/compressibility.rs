@@ -4,15 +4,19 @@
 //! Every stage of the time integrator (a forward-Euler step of TVD-RK2 or SSP-RK3) is
 //!
 //! - a *predictor*, the explicit stage with the pressure rate of a fictitious bulk
-//!   modulus κ̃ (eqs 51, with 46): p^int = p^n + Δt κ̃ (H^n : ∇0v^n + D(J^n)); the CFL
-//!   step and the upwind fluxes take the wave speed c̃_p of κ̃;
+//!   modulus κ̃ (eqs 51, with 46): p^int = p^n + Δt κ̃ H^n : ∇0v^n; the CFL step and the
+//!   upwind fluxes take the wave speed c̃_p of κ̃;
 //! - a *corrector* (eqs 52–58) that makes the velocity and pressure of the stage's end
 //!   consistent with the true κ, iterated in pseudo time τ (TVD-RK2) to a steady state:
 //!
 //!   ∂v/∂τ = DIV[(p − p^n) H^n]/ρ0 − (v − v^int)/Δt,
-//!   (1/γ) ∂p/∂τ = H^n : ∇0v + D(J^n) − (p − p^n)/(κΔt) + η ℒ[p].
+//!   (1/γ) ∂p/∂τ = H^n : ∇0v − (p − p^n)/(κΔt) + η ℒ[p].
 //!
-//! κ = ∞ (ν = 0.5) is allowed: the constraint is then H^n : ∇0v^{n+1} + D(J^n) = 0.
+//! κ = ∞ (ν = 0.5) is allowed: the constraint is then H^n : ∇0v^{n+1} + η ℒ[p] = 0.
+//! The J dissipation D(J) of eqs 51d and 52b is left out (docs/methods/mixed.md: in the
+//! constraint it is a compact Laplacian of P that the corrector's wide DIV cannot
+//! balance, and it grows the pressure checkerboard); the pseudo-viscosity ℒ takes its
+//! place.
 //! DIV is the method's own discrete divergence of the momentum equation (eq 21 or seed
 //! 002 eq 22), so the corrector's forces come in equal and opposite pairs and the
 //! stage conserves linear momentum exactly; eq 52a's gradient form would not.
@@ -191,8 +195,6 @@ pub(super) struct StageStart<'a, D: Dim> {
     pub p_int: &'a [f64],
     /// H^n.
     pub h: &'a [D::T],
-    /// D(J^n) of the predictor (eq 51d).
-    pub dj: &'a [f64],
     /// Components held by supports over the step (bit k: component k).
     pub held: &'a [u8],
 }
@@ -453,7 +455,7 @@ impl<D: Dim> Corrector<D> {
                 }
                 *rv = r;
                 // eqs 52b, 53–54, 58.
-                *rp = gamma * (div + s.dj[a] - (p[a] - s.p_n[a]) * relax_p + eta * lap);
+                *rp = gamma * (div - (p[a] - s.p_n[a]) * relax_p + eta * lap);
                 let size = (D::norm2(r).sqrt() * s.dt).max(rp.abs() * self.spacing / gamma);
                 (a, size)
             })

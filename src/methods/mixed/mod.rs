@@ -363,7 +363,7 @@ fn plan(m: &MixedOptions, stab: Stabiliser, case: &Case, gpu: bool) -> Plan {
             },
             match ac {
                 Some(ac) => format!(
-                    " (of the fictitious bulk modulus κ̃ = {:e} Pa, seed 003 eq 46)",
+                    " (of the fictitious bulk modulus κ̃ = {:.4e} Pa, seed 003 eq 46)",
                     ac.kappa(&mat)
                 ),
                 None => String::new(),
@@ -393,7 +393,7 @@ fn rate_passes(m: &MixedOptions, stab: Stabiliser, case: &Case) -> String {
     let evolved = m.evolved(case.material.model);
     let (h, j) = (evolved.evolves_h(), evolved.evolves_j());
     let jst = matches!(stab, Stabiliser::Jst(_));
-    let d_j = !jst && j;
+    let d_j = !jst && j && m.artificial_compressibility.is_none();
     let bond = m.bond_based();
     let mut passes = Vec::new();
     if ghosts {
@@ -406,7 +406,11 @@ fn rate_passes(m: &MixedOptions, stab: Stabiliser, case: &Case) -> String {
         "kinematics (P{}, ∇0v, Ḟ{}{})",
         if bond { "(F^c)" } else { "" },
         if h { ", Ḣ" } else { "" },
-        if j { ", J̇" } else { "" }
+        match (m.artificial_compressibility, j) {
+            (Some(_), _) => ", ṗ (κ̃)",
+            (None, true) => ", J̇",
+            (None, false) => "",
+        }
     ));
     if ghosts {
         passes.push(format!("ghost P{}", if d_j { ", H" } else { "" }));

@@ -569,11 +569,10 @@ impl<D: Dim> MixedSph<D> {
     fn forces(&self, y: &MixedState<D>, out: &mut [Forces<D>]) {
         let mat = &self.material;
         let (c_p, c_s) = (self.c_p, mat.s_wave_speed());
-        // The J dissipation takes the material's c_p, zero at κ = ∞: with artificial
-        // compressibility's c̃_p it is a compact Laplacian of P/(2c̃_p) that the
-        // corrector inverts with its wide DIV, and amplifies the pressure checkerboard
-        // (docs/methods/mixed.md).
-        let c_p_j = mat.p_wave_speed();
+        // Artificial compressibility leaves D(J) out: in the corrector's constraint it is a
+        // compact Laplacian of P that the wide DIV of the pair sums cannot balance, and it
+        // grows the pressure checkerboard (docs/methods/mixed.md).
+        let dissipates_j = self.compressibility.is_none();
         let (u, v) = (&self.u_ext, &self.v_ext);
         out.par_iter_mut()
             .with_min_len(MIN_CHUNK)
@@ -612,9 +611,11 @@ impl<D: Dim> MixedSph<D> {
                             d += s_dp * (2.0 * self.vol[b] * D::dot(n_ref, g_ave));
                             // eq 28: p^stab = n (n · ΔP N_ab)/(2 c_p); eq 33 with the
                             // dissipative sign: V_b p^stab/ρ0 · (H_a g_ab − H_b g_ba).
-                            let p_stab = n * (D::dot(n, dp * n_ref) / (2.0 * c_p_j));
-                            let h_g = ka.h * g_ab - kb.h * g_ba;
-                            dj += self.vol[b] / mat.rho0 * D::dot(p_stab, h_g);
+                            if dissipates_j {
+                                let p_stab = n * (D::dot(n, dp * n_ref) / (2.0 * c_p));
+                                let h_g = ka.h * g_ab - kb.h * g_ba;
+                                dj += self.vol[b] / mat.rho0 * D::dot(p_stab, h_g);
+                            }
                         }
                         Stabilisation::Jst {
                             coefficients, s, ..
@@ -675,7 +676,7 @@ impl<D: Dim> MixedSph<D> {
     }
 
     /// Artificial compressibility: the pressure rate of the predictor and the corrector
-    /// of the stage (eqs 51d, 52–58) on the rates `d` of the explicit stage, before loads
+    /// of the stage (eqs 51d, 52–58, without D(J)) on the rates `d` of the explicit stage, before loads
     /// and supports. v^int and p^int are the predictor's stage ends, loads, contact and
     /// supports included; the converged pressure's force −T[(p^{n+1} − p^n)H^n] is
     /// added to v̇ (projected with the stage's other forces), and ṗ = (p^{n+1} − p^n)/Δt.
@@ -686,15 +687,12 @@ impl<D: Dim> MixedSph<D> {
             .expect("correct runs with artificial compressibility");
         let (n, dt) = (self.n, self.dt);
         let kappa_tilde = corrector.kappa_tilde();
-        // eq 51d: (p^int − p^n)/Δt = κ̃ (H^n : ∇0v^n + D(J^n)).
+        // eq 51d without D(J): (p^int − p^n)/Δt = κ̃ H^n : ∇0v^n.
         d.pressure
             .par_iter_mut()
             .with_min_len(MIN_CHUNK)
-            .enumerate()
-            .for_each(|(a, p)| {
-                let k = self.kin[a];
-                *p = kappa_tilde * (D::ddot(k.h, k.grad_v) + self.forces[a].dj);
-            });
+            .zip(&self.kin[..n])
+            .for_each(|(p, k)| *p = kappa_tilde * D::ddot(k.h, k.grad_v));
         let p_int: Vec<f64> = (0..n).map(|a| y.pressure[a] + dt * d.pressure[a]).collect();
         let mut a_int = d.v.clone();
         let mut work = BoundaryWork::default();
@@ -711,7 +709,6 @@ impl<D: Dim> MixedSph<D> {
             held[i as usize] = mask;
         }
         let h: Vec<D::T> = self.kin[..n].iter().map(|k| k.h).collect();
-        let dj: Vec<f64> = self.forces.iter().map(|f| f.dj).collect();
         let stage = StageStart {
             dt,
             v_int: &v_int,
@@ -719,7 +716,6 @@ impl<D: Dim> MixedSph<D> {
             p_n: &y.pressure,
             p_int: &p_int,
             h: &h,
-            dj: &dj,
             held: &held,
         };
         let pairs = Pairs {
