@@ -10,7 +10,7 @@
 use meshless::gpu::Gpu;
 use meshless::methods::Method;
 use meshless::methods::mixed::{MixedSph, MixedState};
-use meshless::run::{Backend, ProgressDisplay, RunOptions};
+use meshless::run::{Backend, CpuEngine, Engine, ProgressDisplay, RunOptions};
 use meshless::scene::Case;
 use meshless::tensor::Dim;
 use std::ops::Sub;
@@ -482,4 +482,13 @@ integrator = "rk4"
 dt = 1.0e-5"#,
         material_table(model)
     )
+}
+
+/// A mixed method's CPU engine on `case` after `steps` steps at the CFL step of the
+/// initial state.
+pub fn run_mixed_steps<D: Dim>(case: &Case, steps: u32) -> CpuEngine<D, MixedSph<D>> {
+    let mut e = CpuEngine::<D, MixedSph<D>>::new(case).unwrap();
+    let dt = case.method.cfl.unwrap() * case.spacing / e.max_signal_speed();
+    e.advance(0.0, dt, steps).unwrap();
+    e
 }

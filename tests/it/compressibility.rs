@@ -2,7 +2,7 @@
 //! at ν = 0.5, the volume the corrector keeps, the limit κ̃ → κ, Δt → 0 (the explicit
 //! scheme), and the pseudo-viscosity's effect on the iteration counts.
 
-use crate::common::load;
+use crate::common::{load, run_mixed_steps};
 use meshless::methods::mixed::MixedSph;
 use meshless::run::{CpuEngine, Engine};
 use meshless::scene::Case;
@@ -14,14 +14,6 @@ fn incompressible(nu: f64, alpha: f64) -> Vec<String> {
         format!("material.poisson_ratio={nu}"),
         format!("method.artificial_compressibility={{ alpha = {alpha:?} }}"),
     ]
-}
-
-/// Runs `steps` steps at the CFL step of the initial state.
-fn run_steps<D: Dim>(case: &Case, steps: u32) -> CpuEngine<D, MixedSph<D>> {
-    let mut e = CpuEngine::<D, MixedSph<D>>::new(case).unwrap();
-    let dt = case.method.cfl.unwrap() * case.spacing / e.max_signal_speed();
-    e.advance(0.0, dt, steps).unwrap();
-    e
 }
 
 /// Σ V0 det F over the particles: the current volume of the body.
@@ -163,7 +155,7 @@ fn the_pseudo_viscosity_cuts_the_pseudo_time_iterations() {
         let mut overrides = incompressible(0.5, alpha);
         overrides.push("method.artificial_compressibility.max_iterations=20000".into());
         let case = column(&overrides);
-        let mut e = run_steps::<D3>(&case, 10);
+        let mut e = run_mixed_steps::<D3>(&case, 10);
         e.pseudo_time().unwrap().total
     };
     let (without, with) = (iterations(0.0), iterations(0.2));

@@ -2,7 +2,7 @@
 //! of the stabilisation, exactness on linear fields, momenta with and without the
 //! angular-momentum projection, and the symmetry of the twisting column.
 
-use crate::common::{cpu_options, load, noise, random_state, shipped};
+use crate::common::{cpu_options, load, noise, random_state, run_mixed_steps, shipped};
 use meshless::analytic::SwingingMode;
 use meshless::integrate::OdeSystem;
 use meshless::material::Material;
@@ -138,14 +138,6 @@ fn linear_fields_give_exact_gradients_and_no_dissipation() {
     );
 }
 
-/// Runs `steps` steps at the CFL step of the initial state; returns the engine.
-fn run_steps<D: Dim>(case: &Case, steps: u32) -> CpuEngine<D, MixedSph<D>> {
-    let mut e = CpuEngine::<D, MixedSph<D>>::new(case).unwrap();
-    let dt = case.method.cfl.unwrap() * case.spacing / e.max_signal_speed();
-    e.advance(0.0, dt, steps).unwrap();
-    e
-}
-
 #[test]
 fn projection_conserves_angular_momentum_to_round_off() {
     // The free spinning plate: with the projection of Appendix B and TVD-RK2 the step
@@ -157,7 +149,7 @@ fn projection_conserves_angular_momentum_to_round_off() {
             "spinning-plate",
             &[&format!("method.projection={projection}")],
         );
-        let mut e = run_steps::<D2>(&case, 200);
+        let mut e = run_mixed_steps::<D2>(&case, 200);
         let h0 = 373527.0; // Σ m |X|² ω for the 21 × 21 lattice at ω = 105 rad/s
         let inv = e.invariants();
         let scale: f64 = e.snapshot().mass.iter().sum::<f64>() * 105.0;
@@ -191,7 +183,7 @@ fn the_satellite_keeps_its_momenta_in_free_flight() {
             "body.0.geometry.file=points/satellite-0.5.csv",
         ],
     );
-    let mut e = run_steps::<D3>(&case, 300);
+    let mut e = run_mixed_steps::<D3>(&case, 300);
     let snap = e.snapshot();
     let h0: f64 = snap
         .x0
@@ -220,7 +212,7 @@ fn twisting_column_keeps_its_axis_and_loses_energy() {
     // off-axis displacement is round-off (bound 1e-12 m against a 0.1 m twist). The upwind
     // fluxes only dissipate: the total energy must not grow (bound: 1e-9 relative).
     let case = shipped("twisting-column");
-    let mut e = run_steps::<D3>(&case, 600);
+    let mut e = run_mixed_steps::<D3>(&case, 600);
     let e0 = 7402038.57421875; // kinetic energy of the initial twist on this lattice
     let snap = e.snapshot();
     let mut off_axis: f64 = 0.0;
