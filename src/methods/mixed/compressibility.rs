@@ -17,6 +17,7 @@
 //! constraint it is a compact Laplacian of P that the corrector's wide DIV cannot
 //! balance, and it grows the pressure checkerboard); the pseudo-viscosity ℒ takes its
 //! place.
+//!
 //! DIV is the method's own discrete divergence of the momentum equation (eq 21 or seed
 //! 002 eq 22), so the corrector's forces come in equal and opposite pairs and the
 //! stage conserves linear momentum exactly; eq 52a's gradient form would not.
@@ -240,8 +241,8 @@ pub(super) struct Corrector<D: Dim> {
 }
 
 impl<D: Dim> Corrector<D> {
-    /// The corrector of `spec` for `n` real particles at reference positions x0 (real
-    /// then ghosts), with unit normals N_ab and gradients g_ab, g_ba per pair.
+    /// The corrector of `spec` for the real particles of `pairs`, at reference positions
+    /// x0 (real then ghosts), with the unit normals N_ab of their pairs.
     pub fn new(
         spec: &ArtificialCompressibility,
         case: &Case,
