@@ -499,3 +499,24 @@ fn plastic_flow_matches_the_cpu() {
         "{eps_deviation:e} of {eps_max}"
     );
 }
+
+/// Artificial compressibility has no GPU passes yet: the GPU engine refuses the case and
+/// names the key and the backend that runs it, rather than running the explicit scheme
+/// in its place.
+#[test]
+fn the_gpu_refuses_artificial_compressibility_and_names_the_cpu_backend() {
+    let case = load(
+        "spinning-plate",
+        &[
+            "material.poisson_ratio=0.5",
+            "method.artificial_compressibility={ alpha = 0.2 }",
+        ],
+    );
+    let message = match GpuMixed::<D2>::new(&case, gpu()) {
+        Ok(_) => panic!("the GPU engine ran artificial compressibility"),
+        Err(e) => e.to_string(),
+    };
+    for part in ["method.artificial_compressibility", "--backend cpu"] {
+        assert!(message.contains(part), "{message}");
+    }
+}
