@@ -500,9 +500,9 @@ fn plastic_flow_matches_the_cpu() {
     );
 }
 
-/// Artificial compressibility has no GPU passes yet: the GPU engine refuses the case and
-/// names the key and the backend that runs it, rather than running the explicit scheme
-/// in its place.
+/// Artificial compressibility has no GPU passes yet: `--backend auto` picks the CPU for
+/// it, and the GPU engine refuses the case and names the key and the backend that runs
+/// it, rather than running the explicit scheme in its place.
 #[test]
 fn the_gpu_refuses_artificial_compressibility_and_names_the_cpu_backend() {
     let case = load(
@@ -512,6 +512,8 @@ fn the_gpu_refuses_artificial_compressibility_and_names_the_cpu_backend() {
             "method.artificial_compressibility={ alpha = 0.2 }",
         ],
     );
+    let why = meshless::run::cpu_only(&case).expect("the case runs on the CPU only");
+    assert!(why.contains("artificial compressibility"), "{why}");
     let message = match GpuMixed::<D2>::new(&case, gpu()) {
         Ok(_) => panic!("the GPU engine ran artificial compressibility"),
         Err(e) => e.to_string(),

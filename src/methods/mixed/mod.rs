@@ -546,6 +546,12 @@ impl<S: MixedMethod> MethodFamily for S {
         plan(self.options(), self.stabiliser(), case, gpu)
     }
 
+    fn gpu_refusal(&self, _case: &Case) -> Option<&'static str> {
+        self.options()
+            .artificial_compressibility
+            .map(|_| "with artificial compressibility has no GPU engine yet")
+    }
+
     fn cpu_engine<D: EngineDim>(&self, case: &Case) -> Result<Box<dyn Engine<D>>, CaseError> {
         Ok(Box::new(CpuEngine::<D, MixedSph<D>>::new(case)?))
     }
