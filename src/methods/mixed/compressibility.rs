@@ -463,15 +463,10 @@ impl<D: Dim> Corrector<D> {
             .reduce(|| (0, 0.0), |x, y| if y.1 > x.1 { y } else { x })
     }
 
-    /// −T_a[(p − p^n)H^n] of every real particle at the pressure p (the iteration's
-    /// last), into `out`: the corrector's force per unit reference volume.
-    pub fn force(&mut self, pairs: &Pairs<D>, s: &StageStart<D>, out: &mut [D::V]) {
-        let p = &self.p;
-        pairs.ghosts.fill(
-            &mut self.dp_ext,
-            |a| s.h[a] * (p[a] - s.p_n[a]),
-            |m, t| m.tensor::<D>(t),
-        );
+    /// −T_a[(p − p^n)H^n] of every real particle at the converged pressure, into `out`:
+    /// the corrector's force per unit reference volume. [`Self::solve`] stops right
+    /// after the residual of that pressure, so (p − p^n)H^n is still in `dp_ext`.
+    pub fn force(&self, pairs: &Pairs<D>, out: &mut [D::V]) {
         let dp_ext = &self.dp_ext;
         out.par_iter_mut()
             .with_min_len(MIN_CHUNK)

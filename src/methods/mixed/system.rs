@@ -729,7 +729,7 @@ impl<D: Dim> MixedSph<D> {
         let solved = corrector.solve(&pairs, &stage);
         let mut force = a_int;
         if solved.is_ok() {
-            corrector.force(&pairs, &stage, &mut force);
+            corrector.force(&pairs, &mut force);
         }
         let p_next = corrector.p().to_vec();
         self.compressibility = Some(corrector);
