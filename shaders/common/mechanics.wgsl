@@ -142,9 +142,16 @@ fn pk1_mixed(f: matd, h: matd, j: f32) -> matd {
         }
         return pk1(f, f_inv_t);
     }
+    return pk1_pressure(f, h, j, BULK * j);
+}
+
+// P(F, H, J) of the polyconvex model with the pressure p given (Material::pk1_with_pressure):
+// κ(J − 1) in pk1_mixed, the evolved pressure of artificial compressibility (seed 003 eq
+// 42) in the corrector's passes.
+fn pk1_pressure(f: matd, h: matd, j: f32, p: f32) -> matd {
     let hh = identity_d() + h;
     let c = (ff_excess(f) / 3.0 - j) / (1.0 + j);
-    return (f - h - hh * c) * (MU * exp(-2.0 / 3.0 * log_1p(j))) + hh * (BULK * j);
+    return (f - h - hh * c) * (MU * exp(-2.0 / 3.0 * log_1p(j))) + hh * p;
 }
 
 // Strain-energy density per reference volume. Rate model: the complementary energy
@@ -187,12 +194,16 @@ fn energy_density(h: matd, s: matd, rho_dev: f32) -> f32 {
 // q = x − tr H: J^(−2/3) F:F − 3 = 3(e^y − 1 − y) + (F:F − 3 − 2 ln J) + (e^y − 1)(F:F − 3)
 // and F:F − 3 − 2 ln J = H:H + 2((x − ln(1 + x)) − q).
 fn polyconvex_energy(h: matd, x: f32) -> f32 {
+    return isochoric_energy(h, x) + 0.5 * BULK * x * x;
+}
+
+// The isochoric part μ/2 (J^(−2/3) F:F − 3) of polyconvex_energy.
+fn isochoric_energy(h: matd, x: f32) -> f32 {
     let q = x - trace_d(h);
     let y = -2.0 / 3.0 * log_1p(x);
     let a = ff_excess(h);
     let g = exp_minus_1_minus(y);
-    let iso = 3.0 * g + ddot_d(h, h) + 2.0 * (x_minus_log_1p(x) - q) + (g + y) * a;
-    return 0.5 * MU * iso + 0.5 * BULK * x * x;
+    return 0.5 * MU * (3.0 * g + ddot_d(h, h) + 2.0 * (x_minus_log_1p(x) - q) + (g + y) * a);
 }
 
 // ψ(F, J) of the mixed formulations (Material::energy_density_mixed) from f = F − I and

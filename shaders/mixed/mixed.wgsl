@@ -27,3 +27,13 @@ const SLOPE: u32 = (DIM + 1u) * DIM * DIM;
 fn index(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
     return gid.x + gid.y * nwg.x * 256u;
 }
+
+// Pair b's share of the internal force T_a of the stresses P_a, P_b with G_ab = V_b g_ab
+// and G_ba = V_b g_ba (pair_force of system.rs): P_b G_ba − P_a G_ab (eq 21), or
+// −½ (P_a + P_b)(G_ab − G_ba) (seed 002 eq 22).
+fn pair_force(p_a: matd, p_b: matd, g_ab: vecd, g_ba: vecd) -> vecd {
+    if MOMENTUM == MOMENTUM_SYMMETRISED {
+        return (p_a + p_b) * (g_ab - g_ba) * -0.5;
+    }
+    return p_b * g_ba - p_a * g_ab;
+}

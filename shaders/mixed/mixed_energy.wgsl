@@ -2,7 +2,8 @@
 
 // V_i ψ(F_i, J_i) of a mixed-method particle, from the F − I of the stress
 // (stress_excess, mixed_motion.wgsl: the evolved F, or the bond-based F^c − I), and J − 1
-// (det F − 1 when J is not evolved); for the von Mises model the Hencky energy of the
+// (det F − 1 when J is not evolved), with the evolved pressure under artificial
+// compressibility; for the von Mises model the Hencky energy of the
 // returned elastic stretches.
 fn strain_energy(i: u32) -> f32 {
     let f = stress_excess(i);
@@ -10,6 +11,11 @@ fn strain_energy(i: u32) -> f32 {
         return vol_of(i) * return_map(lift3(identity_d() + f, 1.0), history(i)).psi;
     }
     var j = det_excess(f);
+    if AC == 1u {
+        // ψ = ψ_iso + p²/(2κ): no volumetric energy at κ = ∞ (INV_BULK = 1/κ = 0).
+        let p = y[PRES_OFF + i];
+        return vol_of(i) * (isochoric_energy(f, j) + 0.5 * INV_BULK * p * p);
+    }
     if EVOLVE_J == 1u {
         j = y[J_OFF + i];
     }

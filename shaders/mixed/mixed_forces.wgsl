@@ -63,11 +63,7 @@ fn forces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
         let g_ab = vload_pair(PG_OFF + DIM * p);
         let g_ba = vload_pair(PGR_OFF + DIM * p);
         let p_b = mload_kin(KP_OFF + DIM * DIM * b);
-        if MOMENTUM == MOMENTUM_SYMMETRISED {
-            t -= (p_a + p_b) * (g_ab - g_ba) * 0.5;
-        } else {
-            t += p_b * g_ba - p_a * g_ab;
-        }
+        t += pair_force(p_a, p_b, g_ab, g_ba);
         let v_b = velocity(b);
         if STAB == STAB_UPWIND {
             let d_ab = vload_pair(PDX_OFF + DIM * p);

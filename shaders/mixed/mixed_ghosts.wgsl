@@ -1,7 +1,6 @@
 // Ghost fills of the mixed passes (src/mirror.rs): ghost k (extended index N + k) takes its
-// source's fields through its image, with r the diagonal of the reflection R and σ = −1
-// per skew-symmetric plane: vectors v' = σ R v; two-point tensors and the excesses F − I,
-// H − I: T' = σ R T R; slopes ∂P'/∂X'_l = r_l σ R (∂P/∂X_l) R. One invocation per ghost.
+// source's fields through its image (mixed_images.wgsl); slopes ∂P'/∂X'_l =
+// r_l σ R (∂P/∂X_l) R. One invocation per ghost.
 
 @group(0) @binding(0) var<storage, read> ghost_src: array<u32>;
 // r_0 … r_{DIM−1}, σ per ghost.
@@ -10,24 +9,6 @@
 // and H), or in place the slopes or Laplacians of the extended particles.
 @group(0) @binding(2) var<storage, read_write> field: array<f32>;
 @group(0) @binding(3) var<storage, read> y: array<f32>;
-
-fn reflection(k: u32) -> vecd {
-    return vload_ghost_img((DIM + 1u) * k);
-}
-
-fn sigma(k: u32) -> f32 {
-    return ghost_img[(DIM + 1u) * k + DIM];
-}
-
-fn map_vector(k: u32, v: vecd) -> vecd {
-    return reflection(k) * v * sigma(k);
-}
-
-// (σ R T R)_kl = σ r_k r_l T_kl.
-fn map_tensor(k: u32, t: matd) -> matd {
-    let r = reflection(k);
-    return hadamard(t, outer(r, r) * sigma(k));
-}
 
 @compute @workgroup_size(256)
 fn ghost_motion(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {

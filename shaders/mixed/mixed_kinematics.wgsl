@@ -1,7 +1,8 @@
 // Pass 1 of a mixed rate evaluation (MixedSph::kinematics), one invocation per real
 // particle: P(F, H, J) (mechanics.wgsl) and ∇0v_a = Σ_b V_b (v_b − v_a) ⊗ g_ab, and from
 // them the rates Ḟ = ∇0v, Ḣ = F × ∇0v and J̇ = H : ∇0v (eqs 39b–d; the rates pass adds
-// D(J)). P, and H = cof F and J = det F where they are not evolved, take the F of the
+// D(J)). Under artificial compressibility (AC = 1) P takes the evolved pressure p of the
+// state and ṗ = κ̃ H : ∇0v is the predictor's (mixed_corrector.wgsl corrects it). P, and H = cof F and J = det F where they are not evolved, take the F of the
 // stress (stress_excess: the evolved F or the bond-based F^c); Ḣ takes the evolved F. det F ≤ 0 records the
 // particle in status[0], J ≤ 0 in status[1] (u32 atomicMin). The von Mises model
 // (MODEL 5) returns F from the particle's history instead (plasticity.wgsl). Layout and
@@ -31,10 +32,7 @@ fn kinematics(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
         grad_v += outer(velocity(ids[p]) - v_a, vload_pair(PG_OFF + DIM * p));
     }
     let f = stress_excess(a);
-    var h = cof_excess(f);
-    if EVOLVE_H == 1u {
-        h = mload_y(H_OFF + DIM * DIM * a);
-    }
+    let h = h_excess(a, f);
     let det_f = det_excess(f);
     var j = det_f;
     if EVOLVE_J == 1u {
@@ -49,6 +47,8 @@ fn kinematics(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     if MODEL == MODEL_VON_MISES_PLASTIC {
         let returned = return_map(lift3(identity_d() + f, 1.0), history(a));
         mstore_kin(KP_OFF + DIM * DIM * a, lower3(returned.p));
+    } else if AC == 1u {
+        mstore_kin(KP_OFF + DIM * DIM * a, pk1_pressure(f, h, j, y[PRES_OFF + a]));
     } else {
         mstore_kin(KP_OFF + DIM * DIM * a, pk1_mixed(f, h, j));
     }
@@ -61,5 +61,9 @@ fn kinematics(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     }
     if EVOLVE_J == 1u {
         d[J_OFF + a] = ddot_d(identity_d() + h, grad_v);
+    }
+    if AC == 1u {
+        // eq 51d without D(J): the predictor's ṗ = κ̃ H : ∇0v (BULK is κ̃).
+        d[PRES_OFF + a] = BULK * ddot_d(identity_d() + h, grad_v);
     }
 }

@@ -25,3 +25,11 @@ fn stress_excess(a: u32) -> matd {
     }
     return mload_y(F_OFF + DIM * DIM * a);
 }
+
+// H − I of real particle a whose stress takes f = F − I: the evolved H, or cof F.
+fn h_excess(a: u32, f: matd) -> matd {
+    if EVOLVE_H == 1u {
+        return mload_y(H_OFF + DIM * DIM * a);
+    }
+    return cof_excess(f);
+}

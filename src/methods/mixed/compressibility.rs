@@ -86,10 +86,21 @@ impl ArtificialCompressibility {
         self.kappa.unwrap_or(10.0 * mat.mu)
     }
 
+    /// The material of the predictor: `mat` with the fictitious bulk modulus κ̃ (and
+    /// λ̃ = κ̃ − 2μ/3).
+    pub fn predictor(&self, mat: &Material) -> Material {
+        let bulk = self.kappa(mat);
+        Material {
+            bulk,
+            lambda: bulk - 2.0 * mat.mu / 3.0,
+            ..*mat
+        }
+    }
+
     /// c̃_p = sqrt((κ̃ + 4μ/3)/ρ0): the p-wave speed of the predictor, its fluxes and its
     /// CFL step.
     pub fn p_wave_speed(&self, mat: &Material) -> f64 {
-        ((self.kappa(mat) + 4.0 * mat.mu / 3.0) / mat.rho0).sqrt()
+        self.predictor(mat).p_wave_speed()
     }
 
     /// Checks of the table against the case: the polyconvex model (the only one with a
@@ -316,8 +327,32 @@ impl<D: Dim> Corrector<D> {
         self.stats.residual = 0.0;
     }
 
+    /// κ, infinite at ν = 0.5.
+    pub fn kappa(&self) -> f64 {
+        self.kappa
+    }
+
+    /// The iteration's stopping tolerance and its limit of pseudo steps per stage.
+    pub fn tolerance(&self) -> f64 {
+        self.tolerance
+    }
+
+    pub fn max_iterations(&self) -> u32 {
+        self.max_iterations
+    }
+
+    /// ℓ_ab of the pseudo-viscosity (eq 58) in CSR order; None when α = 0.
+    pub fn laplacian_weights(&self) -> Option<&[f64]> {
+        (self.alpha > 0.0).then_some(&self.ell[..])
+    }
+
+    /// η = α Δt/ρ0 of a stage of size Δt (eq 54).
+    pub fn eta(&self, dt: f64) -> f64 {
+        self.alpha * dt / self.rho0
+    }
+
     /// γ of a stage of size Δt.
-    fn gamma(&self, dt: f64) -> f64 {
+    pub fn gamma(&self, dt: f64) -> f64 {
         self.gamma.unwrap_or_else(|| {
             let critical = self.size / (2.0 * std::f64::consts::PI * dt);
             (self.rho0 * critical.max(self.c_p).powi(2)).min(self.kappa)
@@ -327,11 +362,11 @@ impl<D: Dim> Corrector<D> {
     /// The pseudo-time step: a fraction of the pseudo-acoustic crossing time of Δx, and
     /// within the stability bounds of the relaxation terms (rates 1/Δt and γ/(κΔt)) and
     /// of the pseudo-viscosity (rate γη max_a Σ_b |ℓ_ab|).
-    fn pseudo_step(&self, dt: f64, gamma: f64) -> f64 {
+    pub fn pseudo_step(&self, dt: f64, gamma: f64) -> f64 {
         let mut dtau = (PSEUDO_CFL * self.spacing * (self.rho0 / gamma).sqrt())
             .min(dt)
             .min(self.kappa * dt / gamma);
-        let eta = self.alpha * dt / self.rho0;
+        let eta = self.eta(dt);
         if eta > 0.0 {
             dtau = dtau.min(1.0 / (gamma * eta * self.ell_sum));
         }
@@ -411,7 +446,7 @@ impl<D: Dim> Corrector<D> {
             |a| s.h[a] * (p[a] - s.p_n[a]),
             |m, t| m.tensor::<D>(t),
         );
-        let eta = self.alpha * s.dt / self.rho0;
+        let eta = self.eta(s.dt);
         if eta > 0.0 {
             g.fill(&mut self.p_ext, |a| p[a], |m, p| m.scalar(p));
         }

@@ -12,6 +12,7 @@
 //! solve] → rates of v and u with the boundary conditions. A whole step, or several, is
 //! recorded into one command encoder; the host reads back only when asked.
 
+use super::gpu_corrector::{CORRECTOR, DeviceCorrector};
 use super::system::{Fluxes, MixedSph, MixedState};
 use super::{CflWaveSpeed, DeformationGradient, Momentum};
 use crate::boundary::Reaction;
@@ -30,6 +31,7 @@ use crate::integrate::IntegratorKind;
 use crate::integrate::{Buf, Evaluation, evaluations};
 use crate::interaction::gpu::GpuInteractions;
 use crate::material::MaterialModel;
+use crate::methods::shared::PseudoTime;
 use crate::methods::{BlowUp, Method, not_run_by};
 use crate::observe::{Invariants, Snapshot};
 use crate::plasticity::History;
@@ -38,10 +40,12 @@ use crate::scene::Case;
 use crate::tensor::Dim;
 use bytemuck::{Pod, Zeroable};
 
-/// Shared functions of the mixed passes: state and kinematics access, ghost maps.
-const MIXED: Wgsl = wgsl!("mixed/mixed.wgsl");
-/// Current positions and pair geometry.
-const MOTION: Wgsl = wgsl!("mixed/mixed_motion.wgsl");
+/// Shared functions of the mixed passes: indexing, the pair force.
+pub(super) const MIXED: Wgsl = wgsl!("mixed/mixed.wgsl");
+/// Positions, velocities and the F and H of the stress.
+pub(super) const MOTION: Wgsl = wgsl!("mixed/mixed_motion.wgsl");
+/// The images of ghosts.
+pub(super) const IMAGES: Wgsl = wgsl!("mixed/mixed_images.wgsl");
 /// Strain energy and the CFL pair wave speed, for the reduction.
 const ENERGY: Wgsl = wgsl!("mixed/mixed_energy.wgsl");
 
@@ -55,7 +59,7 @@ const GHOST_MAP: [Traffic; 2] = [
 /// once each, counted here, not in the gathers.
 pub const GHOSTS: Source = source!(
     "mixed/mixed_ghosts.wgsl",
-    [MIXED],
+    [MIXED, IMAGES],
     [("ghost_img", false), ("field", true), ("y", false)],
     &[
         PassBytes {
@@ -110,20 +114,22 @@ pub const KINEMATICS: Source = source!(
             read("ids", NONE, [1, 0, 0]),
             // ∇0W̃_ab.
             read("pair", NONE, [0, 1, 0]),
-            // v, F; H and J where evolved; ghosts' v and the bond-based F^c from kin.
+            // v, F; H, J and p where evolved; ghosts' v and the bond-based F^c from kin.
             read("y", [0, 1, 1], NONE),
             read("y", [0, 0, 1], NONE).when(&["EVOLVE_H"]),
             read("y", [1, 0, 0], NONE).when(&["EVOLVE_J"]),
+            read("y", [1, 0, 0], NONE).when(&["AC"]),
             read("kin", NONE, NONE),
             read("kin", [0, 0, 1], NONE).when(&["BOND"]),
             read("hist", [10, 0, 0], NONE).when(&["MODEL == MODEL_VON_MISES_PLASTIC"]),
             // P (and H).
             write("kin", [0, 0, 1], NONE),
             write("kin", [0, 0, 1], NONE).when(&["KIN_H"]),
-            // Ḟ, Ḣ, J̇.
+            // Ḟ, Ḣ, J̇, ṗ.
             write("d", [0, 0, 1], NONE),
             write("d", [0, 0, 1], NONE).when(&["EVOLVE_H"]),
             write("d", [1, 0, 0], NONE).when(&["EVOLVE_J"]),
+            write("d", [1, 0, 0], NONE).when(&["AC"]),
             read_write("status", NONE, NONE),
         ],
     }]
@@ -291,8 +297,8 @@ pub const PLASTIC: Source = source!(
 
 /// The passes compiled with a mixed scene's constants ([`scene`]).
 pub const SHADERS: &[Source] = &[
-    GHOSTS, KINEMATICS, PLASTIC, BOND, SLOPES, FORCES, MOMENTUM, REDUCE, INTEGRATE, CONTACT, LOADS,
-    PRESCRIBED,
+    GHOSTS, KINEMATICS, PLASTIC, BOND, SLOPES, FORCES, MOMENTUM, CORRECTOR, REDUCE, INTEGRATE,
+    CONTACT, LOADS, PRESCRIBED,
 ];
 
 /// The flat buffers of a mixed scene, each described once ([`Fields`]).
@@ -304,8 +310,8 @@ pub struct MixedLayout {
     pub dim: usize,
     /// The kinematics keep H for the D(J) gather (Upwind-SPH with J evolved).
     pub kin_h: bool,
-    /// The state [u | v | F − I | H − I | J − 1] of the real particles (H and J where
-    /// evolved).
+    /// The state [u | v | F − I | H − I | J − 1 | p] of the real particles (H and J where
+    /// evolved, the pressure p under artificial compressibility).
     pub state: Fields,
     /// [P | H − I] of the real particles then the ghosts, the ghost motion [u | v], the
     /// bond-based F^c − I and the power of supports and loads.
@@ -315,9 +321,12 @@ pub struct MixedLayout {
     pub force: Fields,
     /// Per pair in CSR order: G_ab = V_b g_ab, G_ba = V_b g_ba, d_ab = X_b − X_a (upwind
     /// flux, bond-based F), s_ab (JST), w_ab (least-squares slopes), ℓ_ab (JST
-    /// Laplacian), w_ab (bond-based F).
+    /// Laplacian), w_ab (bond-based F), ℓ_ab of the pseudo-viscosity (eq 58).
     pub pair: Fields,
     pub reference: Fields,
+    /// The corrector of artificial compressibility (mixed_corrector.wgsl): the iterate
+    /// [v | δp], its pseudo stage, their rates, v^int, p^n and H^n.
+    pub corr: Fields,
 }
 
 impl MixedLayout {
@@ -327,7 +336,10 @@ impl MixedLayout {
         let ghosts = cpu.extended_reference().0.len() - n;
         let pairs = cpu.neighbours().pair_count();
         let conserved = cpu.conserved();
-        let (evolves_h, evolves_j) = (conserved.evolves_h(), conserved.evolves_j());
+        let (evolves_h, evolves_j) = (conserved.evolves_h(), cpu.evolves_j());
+        let corrector = cpu.corrector();
+        let ac = corrector.is_some();
+        let pseudo_viscosity = corrector.is_some_and(|c| c.laplacian_weights().is_some());
         let (jst, bond) = (cpu.jst().is_some(), cpu.bond_weights().is_some());
         let upwind = !jst;
         let kin_h = upwind && evolves_j;
@@ -343,7 +355,8 @@ impl MixedLayout {
                 .vectors("V", true, n)
                 .tensors("F", true, n)
                 .tensors("H", evolves_h, n)
-                .scalars("J", evolves_j, n),
+                .scalars("J", evolves_j, n)
+                .scalars("PRES", ac, n),
             kin: reduction::with_reactions(
                 Fields::new("K", dim)
                     .tensors("P", true, n + ghosts)
@@ -365,8 +378,19 @@ impl MixedLayout {
                 .scalars("S", jst, pairs)
                 .vectors("LS", upwind && cpu.reconstruction(), pairs)
                 .scalars("ELL", jst, pairs)
-                .scalars("W", bond, pairs),
+                .scalars("W", bond, pairs)
+                .scalars("BL", pseudo_viscosity, pairs),
             reference: reference::fields(n, constrained, dim, EXTRAS),
+            corr: Fields::new("C", dim)
+                .vectors("V", ac, n)
+                .scalars("Q", ac, n)
+                .vectors("V1", ac, n)
+                .scalars("Q1", ac, n)
+                .vectors("RV", ac, n)
+                .scalars("RQ", ac, n)
+                .vectors("VI", ac, n)
+                .scalars("PN", ac, n)
+                .tensors("HN", ac, n),
         }
     }
 
@@ -388,6 +412,7 @@ impl MixedLayout {
         l.write_t::<D>(&mut flat, "F", &y.f, D::identity());
         l.write_t::<D>(&mut flat, "H", &y.h, D::identity());
         l.write_s(&mut flat, "J", &y.j, 1.0);
+        l.write_s(&mut flat, "PRES", &y.pressure, 0.0);
         flat
     }
 
@@ -405,7 +430,7 @@ impl MixedLayout {
             f: l.read_t::<D>(flat, "F", one_t),
             h: l.read_t::<D>(flat, "H", one_t),
             j: l.read_s(flat, "J", one),
-            pressure: Vec::new(),
+            pressure: l.read_s(flat, "PRES", 0.0),
         }
     }
 }
@@ -417,10 +442,19 @@ const EXTRAS: Extras = Extras {
 };
 
 /// The layout and compiled-in constants of a scene's mixed passes, from its CPU set-up.
+///
+/// Under artificial compressibility the material's constants are the predictor's: BULK
+/// and LAMBDA of κ̃, and C_P = c̃_p; the true κ enters the corrector as INV_BULK = 1/κ,
+/// zero at ν = 0.5.
 pub fn scene<D: GpuDim>(case: &Case, cpu: &MixedSph<D>) -> (MixedLayout, Constants) {
     let layout = MixedLayout::of(cpu);
     let l = &layout;
-    let material = cpu.material();
+    let spec = super::scheme(case).and_then(|(o, _)| o.artificial_compressibility);
+    let material = &match spec {
+        Some(ac) => ac.predictor(cpu.material()),
+        None => *cpu.material(),
+    };
+    let corrector = cpu.corrector();
     let total_vol: f64 = cpu.volume().iter().sum();
     let jst = cpu.jst();
     let (eps2, eps4) = jst.map_or((0.0, 0.0), |(c, ..)| (c.eps2, c.eps4));
@@ -454,8 +488,16 @@ pub fn scene<D: GpuDim>(case: &Case, cpu: &MixedSph<D>) -> (MixedLayout, Constan
         .u32("PROJECTION", u32::from(cpu.projection()))
         .u32("GROUPS", u(l.n).div_ceil(WORKGROUP))
         .f32("TOTAL_VOL", total_vol)
-        .u32("REST_OFF", u(l.state.offset("F")));
-    let constants = [&l.state, &l.kin, &l.force, &l.pair, &l.reference]
+        .u32("REST_OFF", u(l.state.offset("F")))
+        .u32("AC", u32::from(corrector.is_some()))
+        .f32("INV_BULK", corrector.map_or(0.0, |c| 1.0 / c.kappa()))
+        .f32("TOLERANCE", corrector.map_or(0.0, |c| c.tolerance()))
+        .u32(
+            "MAX_ITERATIONS",
+            corrector.map_or(0, |c| c.max_iterations()),
+        )
+        .u32("PSEUDO_VISCOSITY", u32::from(l.pair.has("BL")));
+    let constants = [&l.state, &l.kin, &l.force, &l.pair, &l.reference, &l.corr]
         .into_iter()
         .fold(constants, |c, fields| fields.constants(c));
     (layout, constants)
@@ -491,6 +533,9 @@ fn pair_data<D: GpuDim>(cpu: &MixedSph<D>, l: &Fields) -> Vec<f32> {
     }
     if let Some(w) = cpu.bond_weights() {
         l.write_s(&mut flat, "W", w, 0.0);
+    }
+    if let Some(ell) = cpu.corrector().and_then(|c| c.laplacian_weights()) {
+        l.write_s(&mut flat, "BL", ell, 0.0);
     }
     flat
 }
@@ -532,11 +577,15 @@ struct Bound {
     balance_sums: wgpu::BindGroup,
     balance_solve: wgpu::BindGroup,
     rates: wgpu::BindGroup,
+    /// The corrector's start, under artificial compressibility.
+    corrector_start: Option<wgpu::BindGroup>,
 }
 
 /// The passes of a rate evaluation and their bind groups.
 struct Evaluator {
     passes: Passes,
+    /// The corrector of every stage under artificial compressibility.
+    corrector: Option<DeviceCorrector>,
     /// Bind groups by [`Evaluator::key`].
     bound: Vec<((Buf, bool), Bound)>,
     n: u32,
@@ -591,11 +640,23 @@ impl Evaluator {
             }
         }
         gpu.dispatch(&mut pass, &p.forces, &b.forces, n);
-        if self.projection {
-            gpu.dispatch(&mut pass, &p.balance_sums, &b.balance_sums, n);
-            gpu.dispatch(&mut pass, &p.balance_solve, &b.balance_solve, 1);
+        self.record_rates(gpu, &mut pass, b);
+        if let (Some(corrector), Some(start)) = (&self.corrector, &b.corrector_start) {
+            // The predictor's rates give v^int; the corrector adds its force to T, and
+            // the rates follow again from the forces of the stage.
+            corrector.record(gpu, &mut pass, start);
+            self.record_rates(gpu, &mut pass, b);
         }
-        gpu.dispatch(&mut pass, &p.rates, &b.rates, n);
+    }
+
+    /// The projection of the forces and the rates with the boundary conditions.
+    fn record_rates(&self, gpu: &Gpu, pass: &mut wgpu::ComputePass<'_>, b: &Bound) {
+        let (p, n) = (&self.passes, self.n);
+        if self.projection {
+            gpu.dispatch(pass, &p.balance_sums, &b.balance_sums, n);
+            gpu.dispatch(pass, &p.balance_solve, &b.balance_solve, 1);
+        }
+        gpu.dispatch(pass, &p.rates, &b.rates, n);
     }
 }
 
@@ -636,15 +697,6 @@ impl<D: GpuDim> GpuMixed<D> {
                     "method.deformation_gradient",
                     "the GPU commits the plastic history from the evolved F; the bond-based F \
                      with `von-mises-plastic` runs with --backend cpu",
-                )
-                .into());
-        }
-        if options.artificial_compressibility.is_some() {
-            return Err(case
-                .invalid(
-                    "method.artificial_compressibility",
-                    "the pseudo-time corrector has no GPU passes yet; run this case with \
-                     --backend cpu",
                 )
                 .into());
         }
@@ -762,6 +814,7 @@ impl<D: GpuDim> GpuMixed<D> {
         );
         let mut evaluator = Evaluator {
             passes,
+            corrector: None,
             bound: Vec::new(),
             n: n as u32,
             ghosts: ng as u32,
@@ -810,6 +863,17 @@ impl<D: GpuDim> GpuMixed<D> {
             false => None,
         };
         let p = &evaluator.passes;
+        let corr = gpu.zeroed("corrector", layout.corr.bytes());
+        let state_bytes = layout.state.bytes();
+        let corrector = match cpu.corrector() {
+            Some(c) => {
+                let mut t = table(y_start, &stage_points);
+                t.push(("corr", &corr));
+                let source = compose(&CORRECTOR);
+                Some(DeviceCorrector::new(&gpu, &source, c, n, state_bytes, &t)?)
+            }
+            None => None,
+        };
         let bind = |(src, mid): (Buf, bool)| -> Result<Bound, GpuError> {
             let points = if mid { &mid_points } else { &stage_points };
             let t = table(stepper.buffer(src), points);
@@ -832,12 +896,17 @@ impl<D: GpuDim> GpuMixed<D> {
                 balance_sums: gpu.bind(&p.balance_sums, &t)?,
                 balance_solve: gpu.bind(&p.balance_solve, &t)?,
                 rates: gpu.bind(&p.rates, &t)?,
+                corrector_start: corrector
+                    .as_ref()
+                    .map(|c| c.bind_start(&gpu, &[t.as_slice(), &[("corr", &corr)]].concat()))
+                    .transpose()?,
             })
         };
         evaluator.bound = keys
             .into_iter()
             .map(|k| Ok((k, bind(k)?)))
             .collect::<Result<_, GpuError>>()?;
+        evaluator.corrector = corrector;
         let reduction = Reduction::new(&gpu, &compose(&REDUCE), &table(y_start, &stage_points), n)?;
         Ok(Self {
             gpu,
@@ -880,21 +949,49 @@ impl<D: GpuDim> GpuMixed<D> {
     }
 
     /// Records `steps` steps of size `dt` into one command encoder and submits them.
+    /// Under artificial compressibility the batch runs again from its start when a stage
+    /// ran out of the pseudo steps recorded for it ([`DeviceCorrector`]).
     pub fn advance_steps(&mut self, dt: f64, steps: u32) {
         self.work.advance(dt, steps);
         self.reduction.invalidate();
         self.set_dt(dt);
         self.interactions.set_step(&self.gpu, dt);
+        let start = self.interactions.time();
+        loop {
+            self.interactions.set_time(start);
+            self.record_steps(dt, steps);
+            let Some(corrector) = self.evaluator.corrector.as_mut() else {
+                return;
+            };
+            if corrector.finish_batch(&self.gpu) {
+                return;
+            }
+            corrector.restore_flags(&self.gpu, &self.status);
+            self.stepper
+                .restart_from(&self.gpu, corrector.saved_state());
+        }
+    }
+
+    /// Records the steps of one batch and submits them; under artificial
+    /// compressibility the state and failure flags at its start are saved first.
+    fn record_steps(&mut self, dt: f64, steps: u32) {
         let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
         let Self {
             gpu,
+            cpu,
             stepper,
             evaluator,
             commit,
             layout,
             interactions,
+            status,
             ..
         } = self;
+        if let (Some(c), Some(cpu)) = (&evaluator.corrector, cpu.corrector()) {
+            c.set_dt(gpu, dt, cpu);
+            c.save(&mut encoder, stepper.buffer(Buf::Y), status);
+        }
+        let evaluator = &*evaluator;
         stepper.record(
             gpu,
             &mut encoder,
@@ -906,6 +1003,9 @@ impl<D: GpuDim> GpuMixed<D> {
                 if let Some((pipeline, bind)) = commit {
                     let mut pass = encoder.begin_compute_pass(&Default::default());
                     gpu.dispatch(&mut pass, pipeline, bind, layout.n as u32);
+                }
+                if let Some(c) = &evaluator.corrector {
+                    c.begin_step(encoder);
                 }
             },
         );
@@ -1060,6 +1160,18 @@ impl<D: GpuDim> Engine<D> for GpuMixed<D> {
 
     fn check(&mut self) -> Result<(), BlowUp> {
         let x0 = self.cpu.reference();
+        if let Some(c) = &self.evaluator.corrector
+            && let Some(u) = c.unconverged(&self.gpu)
+        {
+            return Err(BlowUp::at::<D>(
+                x0,
+                u.particle,
+                "pseudo-time residual of artificial compressibility over the velocity scale \
+                 (f32, GPU), at max_iterations (raise \
+                 method.artificial_compressibility.max_iterations or tolerance)",
+                u.residual,
+            ));
+        }
         for (failed, quantity) in self
             .failed_particles()
             .into_iter()
@@ -1077,6 +1189,10 @@ impl<D: GpuDim> Engine<D> for GpuMixed<D> {
 
     fn invariants(&mut self) -> Invariants {
         self.reduction().invariants
+    }
+
+    fn pseudo_time(&mut self) -> Option<PseudoTime> {
+        self.evaluator.corrector.as_ref().map(|c| c.stats)
     }
 
     fn finish(&mut self) {

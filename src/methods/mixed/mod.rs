@@ -1,12 +1,15 @@
 //! Mixed {p, F, H, J} total-Lagrangian SPH (seed 003, with the options of seed 002):
 //! Upwind-SPH and JST-SPH. The specs, the CPU system ([`system`], with its pair weights
 //! in [`weights`], the angular-momentum projection in [`projection`] and artificial
-//! compressibility in [`compressibility`]) and the GPU engine ([`gpu`]). Numerics notes:
+//! compressibility in [`compressibility`]) and the GPU engine ([`gpu`], with the
+//! corrector of artificial compressibility in `gpu_corrector`). Numerics notes:
 //! `docs/methods/mixed.md`.
 
 pub mod compressibility;
 #[cfg(feature = "gpu")]
 pub mod gpu;
+#[cfg(feature = "gpu")]
+mod gpu_corrector;
 pub mod projection;
 pub mod system;
 pub mod weights;
@@ -544,12 +547,6 @@ impl<S: MixedMethod> MethodFamily for S {
 
     fn plan(&self, case: &Case, gpu: bool) -> Plan {
         plan(self.options(), self.stabiliser(), case, gpu)
-    }
-
-    fn gpu_refusal(&self, _case: &Case) -> Option<&'static str> {
-        self.options()
-            .artificial_compressibility
-            .map(|_| "with artificial compressibility has no GPU engine yet")
     }
 
     fn cpu_engine<D: EngineDim>(&self, case: &Case) -> Result<Box<dyn Engine<D>>, CaseError> {

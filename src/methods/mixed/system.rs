@@ -406,7 +406,7 @@ impl<D: Dim> MixedSph<D> {
 
     /// Whether J is evolved: as the variables say, unless artificial compressibility
     /// evolves the pressure in its place.
-    fn evolves_j(&self) -> bool {
+    pub(super) fn evolves_j(&self) -> bool {
         self.conserved.evolves_j() && self.compressibility.is_none()
     }
 
@@ -1161,6 +1161,11 @@ impl<D: Dim> MixedSph<D> {
     /// The plastic history, for the GPU engine to replace by its own before a snapshot.
     pub(crate) fn plastic_mut(&mut self) -> Option<&mut History> {
         self.plastic.as_mut()
+    }
+
+    /// The pseudo-time corrector of artificial compressibility; None without.
+    pub(super) fn corrector(&self) -> Option<&Corrector<D>> {
+        self.compressibility.as_ref()
     }
 
     pub(crate) fn cfl_wave_speed(&self) -> CflWaveSpeed {

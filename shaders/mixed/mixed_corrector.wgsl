@@ -1,0 +1,315 @@
+// The pseudo-time corrector of artificial compressibility (seed 003 eqs 52–58;
+// compressibility.rs `Corrector`, which documents the choices) for one stage, after the
+// predictor's rate evaluation. The iterate is (v, δp) with δp = p − p^n, so that the
+// corrector's stress δp H^n and the rate ṗ = δp/Δt keep their digits in f32:
+//
+//   ∂v/∂τ = −T[δp H^n]/ρ0 − (v − v^int)/Δt,
+//   ∂δp/∂τ = γ (H^n : ∇0v − δp/(κΔt) + η ℒ[p^n + δp]).
+//
+//   start           per particle: v^int = v^n + Δt v̇ (the predictor's stage end, loads and
+//                   supports included), the iterate v = v^int, δp = Δt ṗ, and p^n, H^n of
+//                   the stage state; per workgroup max(|v^int|², |v^n|²);
+//   begin           one invocation: the velocity scale; opens the iteration;
+//   residual        per particle: R = (∂v/∂τ, ∂δp/∂τ) of the iterate, and per workgroup
+//                   the largest residual as a velocity, max(Δt |∂v/∂τ|, Δx |∂δp/∂τ|/γ);
+//   check           one invocation: stops the iteration when that residual is within
+//                   TOLERANCE of the scale, at MAX_ITERATIONS (failure: the particle and
+//                   the residual are kept) or at the budget of pseudo steps recorded
+//                   (the host runs the steps again with a larger one); else counts a
+//                   pseudo step;
+//   euler           y1 = y + Δτ R(y);
+//   residual_stage  R(y1);
+//   average         y ← ½(y + y1 + Δτ R(y1)): one TVD-RK2 step in τ;
+//   correct         T_a += T_a[δp H^n] of the converged iterate (the rates pass then
+//                   projects and applies it with the predictor's forces), ṗ = δp/Δt.
+//
+// The passes after `begin` run indirectly from `args`, which `check` sets to zero
+// workgroups once the iteration stops: nothing is read back per step. Ghost neighbours
+// take their source's values through its image (mixed_images.wgsl). Layout and constants:
+// mixed.wgsl, and the corrector's fields C*_OFF of methods::mixed::gpu::MixedLayout.
+
+struct Tau {
+    // Δt of the step, Δτ, γ, η = α Δt/ρ0 and 1/(κ Δt) (0 at ν = 0.5).
+    dt: f32,
+    dtau: f32,
+    gamma: f32,
+    eta: f32,
+    relax: f32,
+    // Pseudo steps recorded per stage.
+    budget: u32,
+    // Workgroups of a per-particle pass (x, y).
+    groups_x: u32,
+    groups_y: u32,
+}
+
+@group(0) @binding(0) var<uniform> tau: Tau;
+@group(0) @binding(1) var<storage, read> offsets: array<u32>;
+@group(0) @binding(2) var<storage, read> ids: array<u32>;
+// G_ab, G_ba and the Laplacian weights ℓ_ab of eq 58 at PBL_OFF.
+@group(0) @binding(3) var<storage, read> pair: array<f32>;
+// The stage state and its rates (after the predictor's rates pass).
+@group(0) @binding(4) var<storage, read> y: array<f32>;
+@group(0) @binding(5) var<storage, read_write> d: array<f32>;
+@group(0) @binding(6) var<storage, read> kin: array<f32>;
+// [v | δp | v1 | δp1 | R_v | R_δp | v^int | p^n | H^n] of the real particles.
+@group(0) @binding(7) var<storage, read_write> corr: array<f32>;
+@group(0) @binding(8) var<storage, read> ghost_src: array<u32>;
+@group(0) @binding(9) var<storage, read> ghost_img: array<f32>;
+@group(0) @binding(10) var<storage, read> reference: array<f32>;
+// The words below, then per workgroup a maximum and its particle.
+@group(0) @binding(11) var<storage, read_write> control: array<u32>;
+// The workgroup counts of the indirect passes.
+@group(0) @binding(12) var<storage, read_write> args: array<u32>;
+@group(0) @binding(13) var<storage, read_write> force: array<f32>;
+
+// Words of `control`: 1 while the stage iterates; its pseudo steps; the velocity scale
+// (f32 bits); the step's pseudo steps and largest final residual over the scale (f32
+// bits), cleared at each step; the pseudo steps since the host last read them; 1 when a
+// stage reached the budget; the first particle that failed to converge at MAX_ITERATIONS
+// (u32::MAX: none) and its residual (f32 bits); the most pseudo steps a stage took.
+const RUN: u32 = 0u;
+const ITERATIONS: u32 = 1u;
+const SCALE: u32 = 2u;
+const STEP_ITERATIONS: u32 = 3u;
+const STEP_RESIDUAL: u32 = 4u;
+const TOTAL: u32 = 5u;
+const EXHAUSTED: u32 = 6u;
+const FAILED: u32 = 7u;
+const FAILED_RESIDUAL: u32 = 8u;
+const MOST: u32 = 9u;
+const PARTIALS: u32 = 10u;
+
+var<workgroup> best: array<f32, 256>;
+var<workgroup> who: array<u32, 256>;
+
+// The largest `value` of the workgroup and its particle, into its partial.
+fn workgroup_max(lid: u32, group: u32, value: f32, particle: u32) {
+    best[lid] = value;
+    who[lid] = particle;
+    workgroupBarrier();
+    for (var stride = 128u; stride > 0u; stride >>= 1u) {
+        if lid < stride && best[lid + stride] > best[lid] {
+            best[lid] = best[lid + stride];
+            who[lid] = who[lid + stride];
+        }
+        workgroupBarrier();
+    }
+    if lid == 0u {
+        control[PARTIALS + 2u * group] = bitcast<u32>(best[0]);
+        control[PARTIALS + 2u * group + 1u] = who[0];
+    }
+}
+
+// The largest partial and its particle; a partial that is not finite comes first.
+fn largest_partial() -> vec2<u32> {
+    var r = 0.0;
+    var worst = 0u;
+    for (var g = 0u; g < GROUPS; g++) {
+        let s = bitcast<f32>(control[PARTIALS + 2u * g]);
+        if !(s <= 3.4e38) {
+            return vec2<u32>(bitcast<u32>(s), control[PARTIALS + 2u * g + 1u]);
+        }
+        if s > r {
+            r = s;
+            worst = control[PARTIALS + 2u * g + 1u];
+        }
+    }
+    return vec2<u32>(bitcast<u32>(r), worst);
+}
+
+@compute @workgroup_size(256)
+fn start(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+    @builtin(workgroup_id) wid: vec3<u32>,
+) {
+    let a = index(gid, nwg);
+    var speed2 = 0.0;
+    if a < N {
+        let v_n = vload_y(V_OFF + DIM * a);
+        let v_int = v_n + vload_d(V_OFF + DIM * a) * tau.dt;
+        vstore_corr(CVI_OFF + DIM * a, v_int);
+        vstore_corr(CV_OFF + DIM * a, v_int);
+        corr[CQ_OFF + a] = tau.dt * d[PRES_OFF + a];
+        corr[CPN_OFF + a] = y[PRES_OFF + a];
+        mstore_corr(CHN_OFF + DIM * DIM * a, identity_d() + h_excess(a, stress_excess(a)));
+        speed2 = max(dot(v_int, v_int), dot(v_n, v_n));
+    }
+    workgroup_max(lid, wid.x + wid.y * nwg.x, speed2, a);
+}
+
+@compute @workgroup_size(1)
+fn begin() {
+    control[SCALE] = bitcast<u32>(sqrt(bitcast<f32>(largest_partial().x)));
+    control[ITERATIONS] = 0u;
+    control[RUN] = 1u;
+    args[0] = tau.groups_x;
+    args[1] = tau.groups_y;
+    args[2] = 1u;
+}
+
+// v, δp H^n and p^n + δp of extended particle b in the iterate whose v and δp are at
+// v_at and q_at of corr.
+struct Extended {
+    v: vecd,
+    dp: matd,
+    p: f32,
+}
+
+fn extended(b: u32, v_at: u32, q_at: u32) -> Extended {
+    var s = b;
+    if b >= N {
+        s = ghost_src[b - N];
+    }
+    let q = corr[q_at + s];
+    var e = Extended(vload_corr(v_at + DIM * s), mload_corr(CHN_OFF + DIM * DIM * s) * q, corr[CPN_OFF + s] + q);
+    if b >= N {
+        let k = b - N;
+        e = Extended(map_vector(k, e.v), map_tensor(k, e.dp), map_scalar(k, e.p));
+    }
+    return e;
+}
+
+// T_a[δp H^n] of the iterate at v_at, q_at (eq 21 or seed 002 eq 22, as the forces pass).
+fn corrector_force(a: u32, v_at: u32, q_at: u32) -> vecd {
+    let dp_a = extended(a, v_at, q_at).dp;
+    var t: vecd;
+    let p_end = offsets[a + 1u];
+    for (var p = offsets[a]; p < p_end; p++) {
+        let e_b = extended(ids[p], v_at, q_at);
+        t += pair_force(dp_a, e_b.dp, vload_pair(PG_OFF + DIM * p), vload_pair(PGR_OFF + DIM * p));
+    }
+    return t;
+}
+
+// The pseudo-time rates of real particle a at the iterate v_at, q_at into R_v, R_δp
+// (eqs 52, 53–54, 58 with the divergence of eq 21); returns the residual as a velocity.
+fn pseudo_rates(a: u32, v_at: u32, q_at: u32) -> f32 {
+    let e_a = extended(a, v_at, q_at);
+    let h_a = mload_corr(CHN_OFF + DIM * DIM * a);
+    var t: vecd;
+    var div = 0.0;
+    var lap = 0.0;
+    let p_end = offsets[a + 1u];
+    for (var p = offsets[a]; p < p_end; p++) {
+        let e_b = extended(ids[p], v_at, q_at);
+        let g_ab = vload_pair(PG_OFF + DIM * p);
+        t += pair_force(e_a.dp, e_b.dp, g_ab, vload_pair(PGR_OFF + DIM * p));
+        // H_a : (v_b − v_a) ⊗ V_b g_ab.
+        div += dot(e_b.v - e_a.v, h_a * g_ab);
+        if PSEUDO_VISCOSITY == 1u {
+            lap += pair[PBL_OFF + p] * (e_b.p - e_a.p);
+        }
+    }
+    var r_v = t * (-1.0 / RHO0) - (e_a.v - vload_corr(CVI_OFF + DIM * a)) * (1.0 / tau.dt);
+    let held = mask_of(a);
+    for (var k = 0u; k < DIM; k++) {
+        if ((held >> k) & 1u) != 0u {
+            r_v[k] = 0.0;
+        }
+    }
+    let r_q = tau.gamma * (div - corr[q_at + a] * tau.relax + tau.eta * lap);
+    vstore_corr(CRV_OFF + DIM * a, r_v);
+    corr[CRQ_OFF + a] = r_q;
+    return max(length(r_v) * tau.dt, abs(r_q) * SPACING / tau.gamma);
+}
+
+@compute @workgroup_size(256)
+fn residual(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+    @builtin(workgroup_id) wid: vec3<u32>,
+) {
+    let a = index(gid, nwg);
+    var size = 0.0;
+    if a < N {
+        size = pseudo_rates(a, CV_OFF, CQ_OFF);
+    }
+    workgroup_max(lid, wid.x + wid.y * nwg.x, size, a);
+}
+
+@compute @workgroup_size(256)
+fn residual_stage(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let a = index(gid, nwg);
+    if a < N {
+        pseudo_rates(a, CV1_OFF, CQ1_OFF);
+    }
+}
+
+// Ends the stage's iteration: no more workgroups for the indirect passes.
+fn stop() {
+    control[RUN] = 0u;
+    args[0] = 0u;
+    args[1] = 0u;
+    args[2] = 0u;
+}
+
+@compute @workgroup_size(1)
+fn check() {
+    if control[RUN] == 0u {
+        return;
+    }
+    let largest = largest_partial();
+    let r = bitcast<f32>(largest.x);
+    let scale = bitcast<f32>(control[SCALE]);
+    let relative = select(r, r / scale, scale > 0.0);
+    let iterations = control[ITERATIONS];
+    if r <= TOLERANCE * scale {
+        stop();
+        control[STEP_ITERATIONS] += iterations;
+        control[TOTAL] += iterations;
+        control[STEP_RESIDUAL] = bitcast<u32>(max(bitcast<f32>(control[STEP_RESIDUAL]), relative));
+        control[MOST] = max(control[MOST], iterations);
+        return;
+    }
+    if iterations == MAX_ITERATIONS || !(r <= 3.4e38) {
+        stop();
+        if control[FAILED] == 0xffffffffu {
+            control[FAILED] = largest.y;
+            control[FAILED_RESIDUAL] = bitcast<u32>(relative);
+        }
+        return;
+    }
+    if iterations == tau.budget {
+        stop();
+        control[EXHAUSTED] = 1u;
+        return;
+    }
+    control[ITERATIONS] = iterations + 1u;
+}
+
+@compute @workgroup_size(256)
+fn euler(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let a = index(gid, nwg);
+    if a >= N {
+        return;
+    }
+    let h = tau.dtau;
+    vstore_corr(CV1_OFF + DIM * a, vload_corr(CV_OFF + DIM * a) + vload_corr(CRV_OFF + DIM * a) * h);
+    corr[CQ1_OFF + a] = corr[CQ_OFF + a] + corr[CRQ_OFF + a] * h;
+}
+
+@compute @workgroup_size(256)
+fn average(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let a = index(gid, nwg);
+    if a >= N {
+        return;
+    }
+    let h = tau.dtau;
+    let v = vload_corr(CV_OFF + DIM * a) + vload_corr(CV1_OFF + DIM * a) + vload_corr(CRV_OFF + DIM * a) * h;
+    vstore_corr(CV_OFF + DIM * a, v * 0.5);
+    corr[CQ_OFF + a] = 0.5 * (corr[CQ_OFF + a] + corr[CQ1_OFF + a] + corr[CRQ_OFF + a] * h);
+}
+
+@compute @workgroup_size(256)
+fn correct(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let a = index(gid, nwg);
+    if a >= N {
+        return;
+    }
+    let t = vload_force(FT_OFF + DIM * a) + corrector_force(a, CV_OFF, CQ_OFF);
+    vstore_force(FT_OFF + DIM * a, t);
+    d[PRES_OFF + a] = corr[CQ_OFF + a] / tau.dt;
+}

@@ -1,0 +1,399 @@
+//! Artificial compressibility on the GPU: the pseudo-time corrector of every stage
+//! (`shaders/mixed/mixed_corrector.wgsl`), after the predictor's rate evaluation, as the
+//! CPU's [`super::compressibility::Corrector`] does it.
+//!
+//! The iteration runs on the device without a read-back: its passes are dispatched
+//! indirectly, and the check that ends it sets their workgroup counts to zero. A step's
+//! command buffer holds a budget of pseudo steps per stage. The budget starts at
+//! [`FIRST_BUDGET`] and follows twice the most a stage took, read back once per batch of
+//! steps. When a stage reaches it without converging, the batch runs again from its
+//! start with a larger budget, up to `max_iterations`: the result is the one of an
+//! unlimited budget.
+
+use super::compressibility::Corrector;
+use super::gpu::{IMAGES, MIXED, MOTION};
+use crate::gpu::context::{Gpu, GpuError, Pipeline};
+use crate::gpu::profile::{NONE, PassBytes, read, read_write, write};
+use crate::gpu::shaders::{REFERENCE, Source, source};
+use crate::methods::shared::PseudoTime;
+use crate::tensor::Dim;
+use bytemuck::{Pod, Zeroable};
+
+/// The words of the per-pair gathers of the iterate: v, δp, H^n and p^n of a neighbour
+/// (the ghost maps of ghost neighbours not counted).
+const ITERATE: [u32; 3] = [2, 1, 1];
+
+/// The corrector's passes.
+pub const CORRECTOR: Source = source!(
+    "mixed/mixed_corrector.wgsl",
+    [MIXED, MOTION, IMAGES, REFERENCE],
+    [
+        ("pair", false),
+        ("y", false),
+        ("d", true),
+        ("kin", false),
+        ("corr", true),
+        ("ghost_img", false),
+        ("reference", false),
+        ("force", true)
+    ],
+    &[
+        PassBytes {
+            entry: "start",
+            traffic: &[
+                // v and p^n; F or H.
+                read("y", [1, 1, 1], NONE),
+                read("kin", [0, 0, 1], NONE).when(&["BOND"]),
+                read("d", [1, 1, 0], NONE),
+                // v^int, v, δp, p^n, H^n; per workgroup a maximum (not counted).
+                write("corr", [2, 2, 1], NONE),
+                write("control", NONE, NONE),
+            ],
+        },
+        // One item: the partials in (not counted), the scale and the workgroup counts out.
+        PassBytes {
+            entry: "begin",
+            traffic: &[
+                read("control", NONE, NONE),
+                write("control", [3, 0, 0], NONE),
+                write("args", [3, 0, 0], NONE),
+            ],
+        },
+        PassBytes {
+            entry: "residual",
+            traffic: &[
+                read("offsets", [1, 0, 0], NONE),
+                read("ids", NONE, [1, 0, 0]),
+                read("pair", NONE, [0, 2, 0]),
+                read("pair", NONE, [1, 0, 0]).when(&["PSEUDO_VISCOSITY"]),
+                // The particle's iterate, v^int and H^n; the neighbours'.
+                read("corr", [2, 2, 1], ITERATE),
+                read("ghost_src", NONE, NONE),
+                read("ghost_img", NONE, NONE),
+                read("reference", [1, 0, 0], NONE),
+                write("corr", [1, 1, 0], NONE),
+                write("control", NONE, NONE),
+            ],
+        },
+        PassBytes {
+            entry: "residual_stage",
+            traffic: &[
+                read("offsets", [1, 0, 0], NONE),
+                read("ids", NONE, [1, 0, 0]),
+                read("pair", NONE, [0, 2, 0]),
+                read("pair", NONE, [1, 0, 0]).when(&["PSEUDO_VISCOSITY"]),
+                read("corr", [2, 2, 1], ITERATE),
+                read("ghost_src", NONE, NONE),
+                read("ghost_img", NONE, NONE),
+                read("reference", [1, 0, 0], NONE),
+                write("corr", [1, 1, 0], NONE),
+            ],
+        },
+        // One item: the partials in (not counted), the decision out.
+        PassBytes {
+            entry: "check",
+            traffic: &[
+                read_write("control", [8, 0, 0], NONE),
+                write("args", [3, 0, 0], NONE),
+            ],
+        },
+        PassBytes {
+            entry: "euler",
+            traffic: &[
+                read("corr", [2, 2, 0], NONE),
+                write("corr", [1, 1, 0], NONE)
+            ],
+        },
+        PassBytes {
+            entry: "average",
+            traffic: &[
+                read("corr", [3, 3, 0], NONE),
+                write("corr", [1, 1, 0], NONE)
+            ],
+        },
+        PassBytes {
+            entry: "correct",
+            traffic: &[
+                read("offsets", [1, 0, 0], NONE),
+                read("ids", NONE, [1, 0, 0]),
+                read("pair", NONE, [0, 2, 0]),
+                read("corr", [1, 0, 1], [2, 0, 1]),
+                read("ghost_src", NONE, NONE),
+                read("ghost_img", NONE, NONE),
+                read_write("force", [0, 1, 0], NONE),
+                write("d", [1, 0, 0], NONE),
+            ],
+        },
+    ]
+);
+
+/// Pseudo steps recorded per stage before the first read-back.
+const FIRST_BUDGET: u32 = 64;
+
+/// The factor on the budget when a stage ran out of it: each rerun records up to this
+/// many times the pseudo steps of the last, and `max_iterations` is reached after a few.
+const BUDGET_GROWTH: u32 = 4;
+
+/// The words of `control` (mixed_corrector.wgsl): the step's pseudo steps and residual
+/// are cleared at each step, the words from [`TOTAL`] on are read back after a batch.
+const STEP_ITERATIONS: u64 = 3;
+const TOTAL: u64 = 5;
+const FAILED: u64 = 7;
+const PARTIALS: u64 = 10;
+
+/// The uniform `Tau` of mixed_corrector.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+struct Tau {
+    dt: f32,
+    dtau: f32,
+    gamma: f32,
+    eta: f32,
+    relax: f32,
+    budget: u32,
+    groups_x: u32,
+    groups_y: u32,
+}
+
+/// What a batch of steps reports (control words 3 to 9).
+struct Report {
+    step: u32,
+    residual: f32,
+    total: u32,
+    exhausted: bool,
+    most: u32,
+}
+
+/// Where the iteration failed to converge within `max_iterations`.
+pub(super) struct Unconverged {
+    pub particle: usize,
+    pub residual: f64,
+}
+
+/// The corrector's pipelines, buffers and bind groups.
+pub(super) struct DeviceCorrector {
+    start: Pipeline,
+    begin: Pipeline,
+    residual: Pipeline,
+    residual_stage: Pipeline,
+    check: Pipeline,
+    euler: Pipeline,
+    average: Pipeline,
+    correct: Pipeline,
+    /// Bind groups of the passes other than `start`, which binds the stage state.
+    bound: [wgpu::BindGroup; 7],
+    tau: wgpu::Buffer,
+    control: wgpu::Buffer,
+    args: wgpu::Buffer,
+    /// The state at the start of a batch, and the failure flags (the kinematics'
+    /// `status`, then [`FAILED`] and its residual), for running it again.
+    saved_state: wgpu::Buffer,
+    saved_flags: wgpu::Buffer,
+    n: u32,
+    groups: (u32, u32),
+    budget: u32,
+    max_iterations: u32,
+    pub stats: PseudoTime,
+}
+
+impl DeviceCorrector {
+    /// The passes of `source` (mixed_corrector.wgsl composed with the scene's constants)
+    /// for `n` particles and a state of `state_bytes`, with the other buffers of the mixed
+    /// passes by binding name in `table`.
+    pub fn new<D: Dim>(
+        gpu: &Gpu,
+        source: &str,
+        cpu: &Corrector<D>,
+        n: usize,
+        state_bytes: u64,
+        table: &[(&str, &wgpu::Buffer)],
+    ) -> Result<Self, GpuError> {
+        let pipeline = |entry: &str| gpu.pipeline(&format!("corrector {entry}"), source, entry);
+        let groups = gpu.groups(n as u32);
+        let tau = gpu.uniform("pseudo-time constants", &Tau::default());
+        let control_words = PARTIALS as usize + 2 * (groups.0 * groups.1) as usize;
+        let mut words = vec![0u32; control_words];
+        words[FAILED as usize] = u32::MAX;
+        let control = gpu.storage("corrector control", &words);
+        let args = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("corrector workgroups"),
+            size: 12,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT,
+            mapped_at_creation: false,
+        });
+        let saved_state = gpu.zeroed("state at the batch start", state_bytes);
+        let saved_flags = gpu.zeroed("failure flags at the batch start", 16);
+        let mut full = table.to_vec();
+        full.extend([("tau", &tau), ("control", &control), ("args", &args)]);
+        let (begin, residual, residual_stage, check, euler, average, correct) = (
+            pipeline("begin")?,
+            pipeline("residual")?,
+            pipeline("residual_stage")?,
+            pipeline("check")?,
+            pipeline("euler")?,
+            pipeline("average")?,
+            pipeline("correct")?,
+        );
+        let bound = [
+            &begin,
+            &residual,
+            &residual_stage,
+            &check,
+            &euler,
+            &average,
+            &correct,
+        ]
+        .map(|p| gpu.bind(p, &full));
+        let [b0, b1, b2, b3, b4, b5, b6] = bound;
+        Ok(Self {
+            start: pipeline("start")?,
+            begin,
+            residual,
+            residual_stage,
+            check,
+            euler,
+            average,
+            correct,
+            bound: [b0?, b1?, b2?, b3?, b4?, b5?, b6?],
+            tau,
+            control,
+            args,
+            saved_state,
+            saved_flags,
+            n: n as u32,
+            groups,
+            budget: FIRST_BUDGET.min(cpu.max_iterations()),
+            max_iterations: cpu.max_iterations(),
+            stats: PseudoTime::default(),
+        })
+    }
+
+    /// The bind group of `start` for the stage state and rates in `table`.
+    pub fn bind_start(
+        &self,
+        gpu: &Gpu,
+        table: &[(&str, &wgpu::Buffer)],
+    ) -> Result<wgpu::BindGroup, GpuError> {
+        let mut full = table.to_vec();
+        full.extend([("tau", &self.tau), ("control", &self.control)]);
+        gpu.bind(&self.start, &full)
+    }
+
+    /// Writes the constants of a stage of size `dt` (those of the CPU's corrector `cpu`)
+    /// and the budget into `tau`.
+    pub fn set_dt<D: Dim>(&self, gpu: &Gpu, dt: f64, cpu: &Corrector<D>) {
+        let gamma = cpu.gamma(dt);
+        let t = Tau {
+            dt: dt as f32,
+            dtau: cpu.pseudo_step(dt, gamma) as f32,
+            gamma: gamma as f32,
+            eta: cpu.eta(dt) as f32,
+            relax: (1.0 / (cpu.kappa() * dt)) as f32,
+            budget: self.budget,
+            groups_x: self.groups.0,
+            groups_y: self.groups.1,
+        };
+        gpu.queue.write_buffer(&self.tau, 0, bytemuck::bytes_of(&t));
+    }
+
+    /// Records the copies of the state `y` and the failure flags (`status`) at the start
+    /// of a batch.
+    pub fn save(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        y: &wgpu::Buffer,
+        status: &wgpu::Buffer,
+    ) {
+        encoder.copy_buffer_to_buffer(y, 0, &self.saved_state, 0, self.saved_state.size());
+        encoder.copy_buffer_to_buffer(status, 0, &self.saved_flags, 0, 8);
+        encoder.copy_buffer_to_buffer(&self.control, 4 * FAILED, &self.saved_flags, 8, 8);
+    }
+
+    /// The state saved at the start of the batch.
+    pub fn saved_state(&self) -> &wgpu::Buffer {
+        &self.saved_state
+    }
+
+    /// Puts the failure flags saved at the start of the batch back: a failure in a batch
+    /// that runs again is the rerun's to find.
+    pub fn restore_flags(&self, gpu: &Gpu, status: &wgpu::Buffer) {
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        encoder.copy_buffer_to_buffer(&self.saved_flags, 0, status, 0, 8);
+        encoder.copy_buffer_to_buffer(&self.saved_flags, 8, &self.control, 4 * FAILED, 8);
+        gpu.queue.submit([encoder.finish()]);
+    }
+
+    /// Clears the step's count and residual (before each step).
+    pub fn begin_step(&self, encoder: &mut wgpu::CommandEncoder) {
+        encoder.clear_buffer(&self.control, 4 * STEP_ITERATIONS, Some(8));
+    }
+
+    /// Records the corrector of one stage, whose `start` binds its state, into `pass`:
+    /// the start, then the budget's pseudo steps, each checked, then the force.
+    pub fn record(&self, gpu: &Gpu, pass: &mut wgpu::ComputePass<'_>, start: &wgpu::BindGroup) {
+        let [
+            begin,
+            residual,
+            residual_stage,
+            check,
+            euler,
+            average,
+            correct,
+        ] = &self.bound;
+        let n = self.n;
+        let items = u64::from(n);
+        let args = (&self.args, 0);
+        gpu.dispatch(pass, &self.start, start, n);
+        gpu.dispatch(pass, &self.begin, begin, 1);
+        let checked = |pass: &mut wgpu::ComputePass<'_>| {
+            gpu.dispatch_indirect(pass, &self.residual, residual, args, items);
+            gpu.dispatch(pass, &self.check, check, 1);
+        };
+        checked(pass);
+        for _ in 0..self.budget {
+            gpu.dispatch_indirect(pass, &self.euler, euler, args, items);
+            gpu.dispatch_indirect(pass, &self.residual_stage, residual_stage, args, items);
+            gpu.dispatch_indirect(pass, &self.average, average, args, items);
+            checked(pass);
+        }
+        gpu.dispatch(pass, &self.correct, correct, n);
+    }
+
+    /// Reads the batch's report back (waits for the queue) and clears its words. When a
+    /// stage ran out of budget, raises the budget [`BUDGET_GROWTH`]-fold (at most to
+    /// `max_iterations`) and returns false: the batch runs again. Else books the counts
+    /// and sets the next budget, twice the most a stage took.
+    pub fn finish_batch(&mut self, gpu: &Gpu) -> bool {
+        let w: Vec<u32> = gpu.read_range(&self.control, 4 * STEP_ITERATIONS, 4 * 7);
+        let r = Report {
+            step: w[0],
+            residual: f32::from_bits(w[1]),
+            total: w[2],
+            exhausted: w[3] != 0,
+            most: w[6],
+        };
+        // TOTAL, EXHAUSTED, and after FAILED and its residual, MOST.
+        gpu.queue
+            .write_buffer(&self.control, 4 * TOTAL, bytemuck::cast_slice(&[0u32; 2]));
+        gpu.queue
+            .write_buffer(&self.control, 4 * 9, bytemuck::bytes_of(&0u32));
+        if r.exhausted {
+            self.budget = (BUDGET_GROWTH * self.budget).min(self.max_iterations);
+            return false;
+        }
+        self.stats.step = u64::from(r.step);
+        self.stats.total += u64::from(r.total);
+        self.stats.residual = f64::from(r.residual);
+        self.budget = (2 * r.most).max(FIRST_BUDGET).min(self.max_iterations);
+        true
+    }
+
+    /// The first particle whose iteration did not converge within `max_iterations`.
+    pub fn unconverged(&self, gpu: &Gpu) -> Option<Unconverged> {
+        let w: Vec<u32> = gpu.read_range(&self.control, 4 * FAILED, 8);
+        (w[0] != u32::MAX).then(|| Unconverged {
+            particle: w[0] as usize,
+            residual: f64::from(f32::from_bits(w[1])),
+        })
+    }
+}
