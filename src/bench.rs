@@ -307,7 +307,7 @@ fn profile<D: EngineDim, E: Engine<D>>(
 ) -> Result<Option<PassReport>, crate::run::Failed> {
     let Some(builds) = engine.device().map(|(gpu, scale)| {
         gpu.profile(true);
-        scale.builds
+        scale.indirect
     }) else {
         return Ok(None);
     };
@@ -317,8 +317,8 @@ fn profile<D: EngineDim, E: Engine<D>>(
     let wall = timer.elapsed().as_secs_f64();
     let particles = engine.reference().len();
     let (gpu, mut scale) = engine.device().expect("a GPU engine");
-    scale.builds = scale
-        .builds
+    scale.indirect = scale
+        .indirect
         .zip(builds)
         .map(|(after, before)| after - before);
     let report = PassReport {

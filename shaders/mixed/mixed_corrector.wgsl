@@ -1,17 +1,25 @@
 // The pseudo-time corrector of artificial compressibility (seed 003 eqs 52–58;
 // compressibility.rs `Corrector`, which documents the choices) for one stage, after the
-// predictor's rate evaluation. The iterate is (v, δp) with δp = p − p^n, so that the
-// corrector's stress δp H^n and the rate ṗ = δp/Δt keep their digits in f32:
+// predictor's rate evaluation. The iterate is the increment (w, δp) = (v − v^int, p − p^n)
+// of the CPU's (v, p): the same equations,
 //
-//   ∂v/∂τ = −T[δp H^n]/ρ0 − (v − v^int)/Δt,
-//   ∂δp/∂τ = γ (H^n : ∇0v − δp/(κΔt) + η ℒ[p^n + δp]).
+//   ∂w/∂τ = −T[δp H^n]/ρ0 − w/Δt,
+//   ∂δp/∂τ = γ (c + H^n : ∇0w − δp/(κΔt) + η ℒ[δp]),  c = H^n : ∇0v^int + η ℒ[p^n],
+//
+// whose varying terms are small, so that their f32 rounding stays far below the
+// tolerance: an iterate v of |v| carries ε|v| of rounding into every pseudo step, which
+// the slow modes of the iteration accumulate (the twisting column on 8 × 48 × 8 at ν = 0.5
+// stalled at 2.4e-6 of the scale that way, against the default tolerance 1e-6; in this
+// form it takes the CPU's pseudo steps). The corrector's stress δp H^n and the rate
+// ṗ = δp/Δt keep their digits for the same reason.
 //
 //   start           per particle: v^int = v^n + Δt v̇ (the predictor's stage end, loads and
-//                   supports included), the iterate v = v^int, δp = Δt ṗ, and p^n, H^n of
-//                   the stage state; per workgroup max(|v^int|², |v^n|²);
+//                   supports included), the iterate w = 0, δp = Δt ṗ, and p^n, H^n of the
+//                   stage state; per workgroup max(|v^int|², |v^n|²);
+//   constraint      per particle: the constant part c of the pressure equation;
 //   begin           one invocation: the velocity scale; opens the iteration;
-//   residual        per particle: R = (∂v/∂τ, ∂δp/∂τ) of the iterate, and per workgroup
-//                   the largest residual as a velocity, max(Δt |∂v/∂τ|, Δx |∂δp/∂τ|/γ);
+//   residual        per particle: R = (∂w/∂τ, ∂δp/∂τ) of the iterate, and per workgroup
+//                   the largest residual as a velocity, max(Δt |∂w/∂τ|, Δx |∂δp/∂τ|/γ);
 //   check           one invocation: stops the iteration when that residual is within
 //                   TOLERANCE of the scale, at MAX_ITERATIONS (failure: the particle and
 //                   the residual are kept) or at the budget of pseudo steps recorded
@@ -51,7 +59,7 @@ struct Tau {
 @group(0) @binding(4) var<storage, read> y: array<f32>;
 @group(0) @binding(5) var<storage, read_write> d: array<f32>;
 @group(0) @binding(6) var<storage, read> kin: array<f32>;
-// [v | δp | v1 | δp1 | R_v | R_δp | v^int | p^n | H^n] of the real particles.
+// [w | δp | w1 | δp1 | R_w | R_δp | v^int | p^n | H^n | c] of the real particles.
 @group(0) @binding(7) var<storage, read_write> corr: array<f32>;
 @group(0) @binding(8) var<storage, read> ghost_src: array<u32>;
 @group(0) @binding(9) var<storage, read> ghost_img: array<f32>;
@@ -130,7 +138,7 @@ fn start(
         let v_n = vload_y(V_OFF + DIM * a);
         let v_int = v_n + vload_d(V_OFF + DIM * a) * tau.dt;
         vstore_corr(CVI_OFF + DIM * a, v_int);
-        vstore_corr(CV_OFF + DIM * a, v_int);
+        vstore_corr(CV_OFF + DIM * a, vecd(0.0));
         corr[CQ_OFF + a] = tau.dt * d[PRES_OFF + a];
         corr[CPN_OFF + a] = y[PRES_OFF + a];
         mstore_corr(CHN_OFF + DIM * DIM * a, identity_d() + h_excess(a, stress_excess(a)));
@@ -149,42 +157,79 @@ fn begin() {
     args[2] = 1u;
 }
 
-// v, δp H^n and p^n + δp of extended particle b in the iterate whose v and δp are at
-// v_at and q_at of corr.
+// A vector, a tensor and a scalar of extended particle b: its own, or for a ghost its
+// source's images.
 struct Extended {
     v: vecd,
-    dp: matd,
-    p: f32,
+    t: matd,
+    s: f32,
 }
 
-fn extended(b: u32, v_at: u32, q_at: u32) -> Extended {
-    var s = b;
+// The source of extended particle b.
+fn source_of(b: u32) -> u32 {
     if b >= N {
-        s = ghost_src[b - N];
+        return ghost_src[b - N];
     }
-    let q = corr[q_at + s];
-    var e = Extended(vload_corr(v_at + DIM * s), mload_corr(CHN_OFF + DIM * DIM * s) * q, corr[CPN_OFF + s] + q);
+    return b;
+}
+
+fn image(b: u32, e: Extended) -> Extended {
     if b >= N {
         let k = b - N;
-        e = Extended(map_vector(k, e.v), map_tensor(k, e.dp), map_scalar(k, e.p));
+        return Extended(map_vector(k, e.v), map_tensor(k, e.t), map_scalar(k, e.s));
     }
     return e;
 }
 
+// w, δp H^n and δp of extended particle b in the iterate at v_at, q_at of corr.
+fn extended(b: u32, v_at: u32, q_at: u32) -> Extended {
+    let s = source_of(b);
+    let q = corr[q_at + s];
+    return image(b, Extended(vload_corr(v_at + DIM * s), mload_corr(CHN_OFF + DIM * DIM * s) * q, q));
+}
+
+// v^int and p^n of extended particle b.
+fn stage_end(b: u32) -> Extended {
+    let s = source_of(b);
+    return image(b, Extended(vload_corr(CVI_OFF + DIM * s), matd(), corr[CPN_OFF + s]));
+}
+
+@compute @workgroup_size(256)
+fn constraint(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let a = index(gid, nwg);
+    if a >= N {
+        return;
+    }
+    let e_a = stage_end(a);
+    let h_a = mload_corr(CHN_OFF + DIM * DIM * a);
+    var div = 0.0;
+    var lap = 0.0;
+    let p_end = offsets[a + 1u];
+    for (var p = offsets[a]; p < p_end; p++) {
+        let e_b = stage_end(ids[p]);
+        div += dot(e_b.v - e_a.v, h_a * vload_pair(PG_OFF + DIM * p));
+        if PSEUDO_VISCOSITY == 1u {
+            lap += pair[PBL_OFF + p] * (e_b.s - e_a.s);
+        }
+    }
+    corr[CC_OFF + a] = div + tau.eta * lap;
+}
+
 // T_a[δp H^n] of the iterate at v_at, q_at (eq 21 or seed 002 eq 22, as the forces pass).
 fn corrector_force(a: u32, v_at: u32, q_at: u32) -> vecd {
-    let dp_a = extended(a, v_at, q_at).dp;
+    let dp_a = extended(a, v_at, q_at).t;
     var t: vecd;
     let p_end = offsets[a + 1u];
     for (var p = offsets[a]; p < p_end; p++) {
         let e_b = extended(ids[p], v_at, q_at);
-        t += pair_force(dp_a, e_b.dp, vload_pair(PG_OFF + DIM * p), vload_pair(PGR_OFF + DIM * p));
+        t += pair_force(dp_a, e_b.t, vload_pair(PG_OFF + DIM * p), vload_pair(PGR_OFF + DIM * p));
     }
     return t;
 }
 
-// The pseudo-time rates of real particle a at the iterate v_at, q_at into R_v, R_δp
-// (eqs 52, 53–54, 58 with the divergence of eq 21); returns the residual as a velocity.
+// The pseudo-time rates of real particle a at the iterate v_at, q_at into R_w, R_δp
+// (eqs 52, 53–54, 58 with the divergence of eq 21). Returns the residual as a velocity,
+// max(Δt |∂w/∂τ|, Δx |∂δp/∂τ|/γ).
 fn pseudo_rates(a: u32, v_at: u32, q_at: u32) -> f32 {
     let e_a = extended(a, v_at, q_at);
     let h_a = mload_corr(CHN_OFF + DIM * DIM * a);
@@ -195,21 +240,23 @@ fn pseudo_rates(a: u32, v_at: u32, q_at: u32) -> f32 {
     for (var p = offsets[a]; p < p_end; p++) {
         let e_b = extended(ids[p], v_at, q_at);
         let g_ab = vload_pair(PG_OFF + DIM * p);
-        t += pair_force(e_a.dp, e_b.dp, g_ab, vload_pair(PGR_OFF + DIM * p));
-        // H_a : (v_b − v_a) ⊗ V_b g_ab.
+        let g_ba = vload_pair(PGR_OFF + DIM * p);
+        t += pair_force(e_a.t, e_b.t, g_ab, g_ba);
+        // H_a : (w_b − w_a) ⊗ V_b g_ab.
         div += dot(e_b.v - e_a.v, h_a * g_ab);
         if PSEUDO_VISCOSITY == 1u {
-            lap += pair[PBL_OFF + p] * (e_b.p - e_a.p);
+            lap += pair[PBL_OFF + p] * (e_b.s - e_a.s);
         }
     }
-    var r_v = t * (-1.0 / RHO0) - (e_a.v - vload_corr(CVI_OFF + DIM * a)) * (1.0 / tau.dt);
+    var r_v = t * (-1.0 / RHO0) - e_a.v * (1.0 / tau.dt);
     let held = mask_of(a);
     for (var k = 0u; k < DIM; k++) {
         if ((held >> k) & 1u) != 0u {
             r_v[k] = 0.0;
         }
     }
-    let r_q = tau.gamma * (div - corr[q_at + a] * tau.relax + tau.eta * lap);
+    let q = corr[q_at + a];
+    let r_q = tau.gamma * (corr[CC_OFF + a] + div - q * tau.relax + tau.eta * lap);
     vstore_corr(CRV_OFF + DIM * a, r_v);
     corr[CRQ_OFF + a] = r_q;
     return max(length(r_v) * tau.dt, abs(r_q) * SPACING / tau.gamma);

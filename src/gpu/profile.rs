@@ -327,14 +327,16 @@ impl Profiler {
     }
 }
 
-/// The device neighbour builds of an engine whose lists are rebuilt when due.
+/// The runs of an engine's indirect passes, which the device skips when they are not due
+/// (the neighbour builds of a list rebuilt on drift, the pseudo steps of a converged
+/// corrector), against the runs recorded.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Builds {
+pub struct IndirectRuns {
     pub ran: u64,
     pub recorded: u64,
 }
 
-impl std::ops::Sub for Builds {
+impl std::ops::Sub for IndirectRuns {
     type Output = Self;
     fn sub(self, before: Self) -> Self {
         Self {
@@ -345,11 +347,11 @@ impl std::ops::Sub for Builds {
 }
 
 /// What scales a step's bytes: the neighbour pairs of the engine's lists and, for an
-/// engine whose lists are rebuilt on the device when due, its builds.
+/// engine with indirect passes, their runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Scale {
     pub pairs: u64,
-    pub builds: Option<Builds>,
+    pub indirect: Option<IndirectRuns>,
 }
 
 /// Bytes a copy-bandwidth measurement copies (at most; the device's binding limit may cut
@@ -460,8 +462,8 @@ impl Gpu {
             .passes
             .iter()
             .map(|p| {
-                // An indirect pass moves its bytes only in the builds that ran.
-                let runs = match (p.indirect, scale.builds) {
+                // An indirect pass moves its bytes only in the runs that were due.
+                let runs = match (p.indirect, scale.indirect) {
                     (true, Some(b)) => p.dispatches * b.ran / b.recorded.max(1),
                     _ => p.dispatches,
                 };

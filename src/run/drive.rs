@@ -29,12 +29,13 @@ fn time_step<D: Dim>(case: &Case, engine: &mut impl Engine<D>) -> f64 {
     }
 }
 
-/// Where a profiled run started: when, at which step, and the device builds so far.
+/// Where a profiled run started: when, at which step, and the runs of the indirect passes
+/// so far.
 #[cfg(feature = "gpu")]
 struct Profiled {
     started: Instant,
     step: u64,
-    builds: Option<crate::gpu::profile::Builds>,
+    indirect: Option<crate::gpu::profile::IndirectRuns>,
 }
 
 /// Without the GPU backend no run is profiled.
@@ -49,7 +50,7 @@ fn start_profile<D: Dim>(engine: &mut impl Engine<D>, step: u64) -> Option<Profi
     Some(Profiled {
         started: Instant::now(),
         step,
-        builds: scale.builds,
+        indirect: scale.indirect,
     })
 }
 
@@ -68,7 +69,10 @@ fn pass_report<D: Dim>(
     let wall = from.started.elapsed().as_secs_f64();
     let particles = engine.reference().len();
     let (gpu, mut scale) = engine.device()?;
-    scale.builds = scale.builds.zip(from.builds).map(|(now, then)| now - then);
+    scale.indirect = scale
+        .indirect
+        .zip(from.indirect)
+        .map(|(now, then)| now - then);
     let steps = u32::try_from(step - from.step).unwrap_or(u32::MAX);
     let report = crate::bench::PassReport {
         particles,

@@ -553,8 +553,9 @@ fn incompressible(nu: f64) -> [String; 2] {
 /// stage, above the first budget of pseudo steps recorded, so the first batch runs
 /// again); the swinging plate at ν = 0.4999 (its analytic initial velocity needs
 /// ν < 0.5) with the polyconvex model, whose mirror planes put ghosts in the
-/// corrector's gathers; the twisting column at ν = 0.4999 in 3D,
-/// clamped at its base (held components).
+/// corrector's gathers; the twisting column at ν = 0.5 in 3D on 8 × 48 × 8 particles,
+/// clamped at its base (held components), where an f32 iterate of v rather than of its
+/// increment stalls at 2.4e-6 of the scale, above the tolerance.
 #[test]
 fn artificial_compressibility_tracks_the_cpu() {
     let nu_half = incompressible(0.5);
@@ -565,10 +566,10 @@ fn artificial_compressibility_tracks_the_cpu() {
     let mut swinging = nearly.clone();
     swinging.push("material.model=nearly-incompressible-neo-hookean");
     compare_corrected_runs::<D2>(&load("swinging-plate", &swinging), 10);
-    let mut column = nearly;
-    column.extend(["spacing=0.25", "body.0.geometry.lattice=cell-centred"]);
+    let mut column = plate;
+    column.extend(["spacing=0.125", "body.0.geometry.lattice=cell-centred"]);
     column.push("boundary.0.region.y_max=0.1");
-    compare_corrected_runs::<D3>(&load("twisting-column", &column), 6);
+    compare_corrected_runs::<D3>(&load("twisting-column", &column), 2);
 }
 
 /// A stage that does not converge within `max_iterations` stops the run with the

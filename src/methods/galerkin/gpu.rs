@@ -600,7 +600,7 @@ impl<D: GpuDim> Engine<D> for GpuGalerkin<D> {
     fn device(&mut self) -> Option<(&Gpu, Scale)> {
         let scale = Scale {
             pairs: self.host.shapes().csr.pair_count() as u64,
-            builds: None,
+            indirect: None,
         };
         Some((&self.gpu, scale))
     }

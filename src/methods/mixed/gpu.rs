@@ -325,7 +325,8 @@ pub struct MixedLayout {
     pub pair: Fields,
     pub reference: Fields,
     /// The corrector of artificial compressibility (mixed_corrector.wgsl): the iterate
-    /// [v | δp], its pseudo stage, their rates, v^int, p^n and H^n.
+    /// [w | δp] = [v − v^int | p − p^n], its pseudo stage, their rates, v^int, p^n, H^n
+    /// and the constant part c of the pressure equation.
     pub corr: Fields,
 }
 
@@ -390,7 +391,8 @@ impl MixedLayout {
                 .scalars("RQ", ac, n)
                 .vectors("VI", ac, n)
                 .scalars("PN", ac, n)
-                .tensors("HN", ac, n),
+                .tensors("HN", ac, n)
+                .scalars("C", ac, n),
         }
     }
 
@@ -987,7 +989,8 @@ impl<D: GpuDim> GpuMixed<D> {
             status,
             ..
         } = self;
-        if let (Some(c), Some(cpu)) = (&evaluator.corrector, cpu.corrector()) {
+        if let (Some(c), Some(cpu)) = (&mut evaluator.corrector, cpu.corrector()) {
+            c.record_batch(u64::from(steps) * evaluations(stepper.kind()).len() as u64);
             c.set_dt(gpu, dt, cpu);
             c.save(&mut encoder, stepper.buffer(Buf::Y), status);
         }
@@ -1026,7 +1029,8 @@ impl<D: GpuDim> GpuMixed<D> {
         self.reduction.invalidate();
     }
 
-    /// Rates of a given state (balanced about its own positions), read back.
+    /// Rates of a given state (balanced about its own positions), read back. Under
+    /// artificial compressibility the corrector takes the Δt of the last step.
     pub fn rates(&mut self, y: &MixedState<D>) -> MixedState<D> {
         self.set_state(y);
         self.evaluate(Evaluation {
@@ -1119,7 +1123,7 @@ impl<D: GpuDim> Engine<D> for GpuMixed<D> {
     fn device(&mut self) -> Option<(&Gpu, Scale)> {
         let scale = Scale {
             pairs: self.cpu.neighbours().pair_count() as u64,
-            builds: None,
+            indirect: self.evaluator.corrector.as_ref().map(|c| c.runs),
         };
         Some((&self.gpu, scale))
     }

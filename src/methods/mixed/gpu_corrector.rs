@@ -13,15 +13,15 @@
 use super::compressibility::Corrector;
 use super::gpu::{IMAGES, MIXED, MOTION};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
-use crate::gpu::profile::{NONE, PassBytes, read, read_write, write};
+use crate::gpu::profile::{IndirectRuns, NONE, PassBytes, read, read_write, write};
 use crate::gpu::shaders::{REFERENCE, Source, source};
 use crate::methods::shared::PseudoTime;
 use crate::tensor::Dim;
 use bytemuck::{Pod, Zeroable};
 
-/// The words of the per-pair gathers of the iterate: v, δp, H^n and p^n of a neighbour
-/// (the ghost maps of ghost neighbours not counted).
-const ITERATE: [u32; 3] = [2, 1, 1];
+/// The words of the per-pair gathers of the iterate: w, δp and H^n of a neighbour (the
+/// ghost maps of ghost neighbours not counted).
+const ITERATE: [u32; 3] = [1, 1, 1];
 
 /// The corrector's passes.
 pub const CORRECTOR: Source = source!(
@@ -45,9 +45,23 @@ pub const CORRECTOR: Source = source!(
                 read("y", [1, 1, 1], NONE),
                 read("kin", [0, 0, 1], NONE).when(&["BOND"]),
                 read("d", [1, 1, 0], NONE),
-                // v^int, v, δp, p^n, H^n; per workgroup a maximum (not counted).
+                // v^int, w, δp, p^n, H^n; per workgroup a maximum (not counted).
                 write("corr", [2, 2, 1], NONE),
                 write("control", NONE, NONE),
+            ],
+        },
+        PassBytes {
+            entry: "constraint",
+            traffic: &[
+                read("offsets", [1, 0, 0], NONE),
+                read("ids", NONE, [1, 0, 0]),
+                read("pair", NONE, [0, 1, 0]),
+                read("pair", NONE, [1, 0, 0]).when(&["PSEUDO_VISCOSITY"]),
+                // The particle's and its neighbours' v^int and p^n, its H^n.
+                read("corr", [1, 1, 1], [1, 1, 0]),
+                read("ghost_src", NONE, NONE),
+                read("ghost_img", NONE, NONE),
+                write("corr", [1, 0, 0], NONE),
             ],
         },
         // One item: the partials in (not counted), the scale and the workgroup counts out.
@@ -66,8 +80,8 @@ pub const CORRECTOR: Source = source!(
                 read("ids", NONE, [1, 0, 0]),
                 read("pair", NONE, [0, 2, 0]),
                 read("pair", NONE, [1, 0, 0]).when(&["PSEUDO_VISCOSITY"]),
-                // The particle's iterate, v^int and H^n; the neighbours'.
-                read("corr", [2, 2, 1], ITERATE),
+                // The particle's iterate, c and H^n; the neighbours' iterate and H^n.
+                read("corr", [2, 1, 1], ITERATE),
                 read("ghost_src", NONE, NONE),
                 read("ghost_img", NONE, NONE),
                 read("reference", [1, 0, 0], NONE),
@@ -82,7 +96,7 @@ pub const CORRECTOR: Source = source!(
                 read("ids", NONE, [1, 0, 0]),
                 read("pair", NONE, [0, 2, 0]),
                 read("pair", NONE, [1, 0, 0]).when(&["PSEUDO_VISCOSITY"]),
-                read("corr", [2, 2, 1], ITERATE),
+                read("corr", [2, 1, 1], ITERATE),
                 read("ghost_src", NONE, NONE),
                 read("ghost_img", NONE, NONE),
                 read("reference", [1, 0, 0], NONE),
@@ -173,6 +187,7 @@ pub(super) struct Unconverged {
 /// The corrector's pipelines, buffers and bind groups.
 pub(super) struct DeviceCorrector {
     start: Pipeline,
+    constraint: Pipeline,
     begin: Pipeline,
     residual: Pipeline,
     residual_stage: Pipeline,
@@ -181,7 +196,7 @@ pub(super) struct DeviceCorrector {
     average: Pipeline,
     correct: Pipeline,
     /// Bind groups of the passes other than `start`, which binds the stage state.
-    bound: [wgpu::BindGroup; 7],
+    bound: [wgpu::BindGroup; 8],
     tau: wgpu::Buffer,
     control: wgpu::Buffer,
     args: wgpu::Buffer,
@@ -194,6 +209,8 @@ pub(super) struct DeviceCorrector {
     budget: u32,
     max_iterations: u32,
     pub stats: PseudoTime,
+    /// Pseudo steps run (discarded runs included) and recorded, for the pass report.
+    pub runs: IndirectRuns,
 }
 
 impl DeviceCorrector {
@@ -225,7 +242,8 @@ impl DeviceCorrector {
         let saved_flags = gpu.zeroed("failure flags at the batch start", 16);
         let mut full = table.to_vec();
         full.extend([("tau", &tau), ("control", &control), ("args", &args)]);
-        let (begin, residual, residual_stage, check, euler, average, correct) = (
+        let (constraint, begin, residual, residual_stage, check, euler, average, correct) = (
+            pipeline("constraint")?,
             pipeline("begin")?,
             pipeline("residual")?,
             pipeline("residual_stage")?,
@@ -235,6 +253,7 @@ impl DeviceCorrector {
             pipeline("correct")?,
         );
         let bound = [
+            &constraint,
             &begin,
             &residual,
             &residual_stage,
@@ -244,9 +263,10 @@ impl DeviceCorrector {
             &correct,
         ]
         .map(|p| gpu.bind(p, &full));
-        let [b0, b1, b2, b3, b4, b5, b6] = bound;
+        let [b0, b1, b2, b3, b4, b5, b6, b7] = bound;
         Ok(Self {
             start: pipeline("start")?,
+            constraint,
             begin,
             residual,
             residual_stage,
@@ -254,7 +274,7 @@ impl DeviceCorrector {
             euler,
             average,
             correct,
-            bound: [b0?, b1?, b2?, b3?, b4?, b5?, b6?],
+            bound: [b0?, b1?, b2?, b3?, b4?, b5?, b6?, b7?],
             tau,
             control,
             args,
@@ -265,6 +285,10 @@ impl DeviceCorrector {
             budget: FIRST_BUDGET.min(cpu.max_iterations()),
             max_iterations: cpu.max_iterations(),
             stats: PseudoTime::default(),
+            runs: IndirectRuns {
+                ran: 0,
+                recorded: 0,
+            },
         })
     }
 
@@ -329,9 +353,11 @@ impl DeviceCorrector {
     }
 
     /// Records the corrector of one stage, whose `start` binds its state, into `pass`:
-    /// the start, then the budget's pseudo steps, each checked, then the force.
+    /// the start and the constant part of the constraint, then the budget's pseudo steps,
+    /// each checked, then the force.
     pub fn record(&self, gpu: &Gpu, pass: &mut wgpu::ComputePass<'_>, start: &wgpu::BindGroup) {
         let [
+            constraint,
             begin,
             residual,
             residual_stage,
@@ -344,6 +370,7 @@ impl DeviceCorrector {
         let items = u64::from(n);
         let args = (&self.args, 0);
         gpu.dispatch(pass, &self.start, start, n);
+        gpu.dispatch(pass, &self.constraint, constraint, n);
         gpu.dispatch(pass, &self.begin, begin, 1);
         let checked = |pass: &mut wgpu::ComputePass<'_>| {
             gpu.dispatch_indirect(pass, &self.residual, residual, args, items);
@@ -357,6 +384,11 @@ impl DeviceCorrector {
             checked(pass);
         }
         gpu.dispatch(pass, &self.correct, correct, n);
+    }
+
+    /// Books the pseudo steps a batch of `stages` stages records.
+    pub fn record_batch(&mut self, stages: u64) {
+        self.runs.recorded += stages * u64::from(self.budget);
     }
 
     /// Reads the batch's report back (waits for the queue) and clears its words. When a
@@ -377,7 +409,10 @@ impl DeviceCorrector {
             .write_buffer(&self.control, 4 * TOTAL, bytemuck::cast_slice(&[0u32; 2]));
         gpu.queue
             .write_buffer(&self.control, 4 * 9, bytemuck::bytes_of(&0u32));
+        self.runs.ran += u64::from(r.total);
         if r.exhausted {
+            // The stages that ran out of budget are not in the total: at least one did.
+            self.runs.ran += u64::from(self.budget);
             self.budget = (BUDGET_GROWTH * self.budget).min(self.max_iterations);
             return false;
         }

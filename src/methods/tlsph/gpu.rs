@@ -724,7 +724,7 @@ impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
     fn device(&mut self) -> Option<(&Gpu, Scale)> {
         let scale = Scale {
             pairs: self.pairs,
-            builds: None,
+            indirect: None,
         };
         Some((&self.gpu, scale))
     }

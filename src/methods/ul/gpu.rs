@@ -16,7 +16,7 @@ use crate::correction::CorrectionKind;
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::neighbour::{CellList, CellParams, Positions};
-use crate::gpu::profile::{Builds, NONE, PassBytes, Scale, Traffic, read, read_write, write};
+use crate::gpu::profile::{IndirectRuns, NONE, PassBytes, Scale, Traffic, read, read_write, write};
 use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{self, Reduced, Reduction, WorkBalance};
 use crate::gpu::reference::{self, DeviceReference, Extras};
@@ -570,13 +570,13 @@ impl<D: GpuDim> Engine<D> for GpuUl<D> {
     fn device(&mut self) -> Option<(&Gpu, Scale)> {
         let cells = &self.lists().cells;
         let offsets: Vec<u32> = self.gpu.read(&cells.offsets);
-        let builds = Builds {
+        let builds = IndirectRuns {
             ran: u64::from(cells.builds(&self.gpu)),
             recorded: cells.recorded(),
         };
         let scale = Scale {
             pairs: u64::from(offsets[self.layout.n]),
-            builds: Some(builds),
+            indirect: Some(builds),
         };
         Some((&self.gpu, scale))
     }
