@@ -327,25 +327,6 @@ impl<D: Dim> Corrector<D> {
         self.stats.residual = 0.0;
     }
 
-    /// κ, infinite at ν = 0.5.
-    pub fn kappa(&self) -> f64 {
-        self.kappa
-    }
-
-    /// The iteration's stopping tolerance and its limit of pseudo steps per stage.
-    pub fn tolerance(&self) -> f64 {
-        self.tolerance
-    }
-
-    pub fn max_iterations(&self) -> u32 {
-        self.max_iterations
-    }
-
-    /// ℓ_ab of the pseudo-viscosity (eq 58) in CSR order; None when α = 0.
-    pub fn laplacian_weights(&self) -> Option<&[f64]> {
-        (self.alpha > 0.0).then_some(&self.ell[..])
-    }
-
     /// η = α Δt/ρ0 of a stage of size Δt (eq 54).
     pub fn eta(&self, dt: f64) -> f64 {
         self.alpha * dt / self.rho0
@@ -521,6 +502,29 @@ impl<D: Dim> Corrector<D> {
                 }
                 *out = t * -1.0;
             });
+    }
+}
+
+/// The constants and weights the GPU's corrector takes (`gpu_corrector`).
+#[cfg(feature = "gpu")]
+impl<D: Dim> Corrector<D> {
+    /// κ, infinite at ν = 0.5.
+    pub fn kappa(&self) -> f64 {
+        self.kappa
+    }
+
+    /// The iteration's stopping tolerance and its limit of pseudo steps per stage.
+    pub fn tolerance(&self) -> f64 {
+        self.tolerance
+    }
+
+    pub fn max_iterations(&self) -> u32 {
+        self.max_iterations
+    }
+
+    /// ℓ_ab of the pseudo-viscosity (eq 58) in CSR order; None when α = 0.
+    pub fn laplacian_weights(&self) -> Option<&[f64]> {
+        (self.alpha > 0.0).then_some(&self.ell[..])
     }
 }
 
