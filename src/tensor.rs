@@ -9,7 +9,7 @@ use std::ops::{Add, AddAssign, Mul, Neg, Sub, SubAssign};
 
 /// Space dimension: the vector and tensor types and the operations the methods need.
 pub trait Dim: Copy + Send + Sync + Debug + 'static {
-    /// Number of spatial components (2 or 3).
+    /// Number of spatial components (1, 2 or 3).
     const N: usize;
     /// Position, velocity, acceleration.
     type V: Copy
@@ -121,6 +121,12 @@ glam_words! {
     DMat3: 9, to_cols_array, from_cols_slice;
 }
 
+/// One dimension: vectors and tensors are scalars. For the 1D gradient tests of seed 002
+/// §4.1; no method runs in 1D. The kernels keep their 3D normalisation σ_d here, which
+/// the corrected kernels (Shepard, RKPM, CGCK) divide out.
+#[derive(Clone, Copy, Debug)]
+pub struct D1;
+
 /// Two dimensions (plane strain).
 #[derive(Clone, Copy, Debug)]
 pub struct D2;
@@ -128,6 +134,65 @@ pub struct D2;
 /// Three dimensions.
 #[derive(Clone, Copy, Debug)]
 pub struct D3;
+
+impl Dim for D1 {
+    const N: usize = 1;
+    type V = f64;
+    type T = f64;
+
+    fn zero() -> f64 {
+        0.0
+    }
+    fn zero_t() -> f64 {
+        0.0
+    }
+    fn identity() -> f64 {
+        1.0
+    }
+    fn dot(a: f64, b: f64) -> f64 {
+        a * b
+    }
+    fn outer(a: f64, b: f64) -> f64 {
+        a * b
+    }
+    fn transpose(t: f64) -> f64 {
+        t
+    }
+    fn det(t: f64) -> f64 {
+        t
+    }
+    fn inverse(t: f64) -> f64 {
+        1.0 / t
+    }
+    fn trace(t: f64) -> f64 {
+        t
+    }
+    fn ddot(a: f64, b: f64) -> f64 {
+        a * b
+    }
+    fn comp(v: f64, _k: usize) -> f64 {
+        v
+    }
+    fn from_slice(s: &[f64]) -> f64 {
+        s[0]
+    }
+    fn to3(v: f64) -> [f64; 3] {
+        [v, 0.0, 0.0]
+    }
+    fn to3x3(t: f64) -> [[f64; 3]; 3] {
+        [[t, 0.0, 0.0], [0.0; 3], [0.0; 3]]
+    }
+    fn cross3(_r: f64, _p: f64) -> [f64; 3] {
+        [0.0; 3]
+    }
+    /// cof F = det F F⁻ᵀ = 1.
+    fn cof(_a: f64) -> f64 {
+        1.0
+    }
+    fn cof_rate(_f: f64, _f_dot: f64) -> f64 {
+        0.0
+    }
+}
 
 impl Dim for D2 {
     const N: usize = 2;

@@ -32,6 +32,7 @@ mod gpu_profile;
 mod gpu_tlsph;
 #[cfg(feature = "gpu")]
 mod gpu_ul;
+mod gradients_1d;
 mod gray_monaghan;
 mod hostile;
 mod hourglass_control;
