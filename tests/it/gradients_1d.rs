@@ -123,25 +123,23 @@ fn fig_5_the_self_bond_scales_the_quadratic_error_by_the_self_weight() {
     let e = estimates(1.0 / 8.0, |x| x * x);
     let n = e.at.len();
     let exact: Vec<f64> = e.at.iter().map(|x| 2.0 * x).collect();
-    for i in 0..n {
-        let (e33, e36) = (e.standard[i] - exact[i], e.improved[i] - exact[i]);
+    let error = |estimate: &[f64]| -> Vec<f64> {
+        estimate.iter().zip(&exact).map(|(a, b)| a - b).collect()
+    };
+    let (e33, e36) = (error(&e.standard), error(&e.improved));
+    for (((x, w), e33), e36) in e.at.iter().zip(&e.self_weight).zip(&e33).zip(&e36) {
         assert!(
-            (e36 - e.self_weight[i] * e33).abs() < 1e-9,
-            "X = {}: error(36) = {e36:e}, w_ii error(33) = {:e}",
-            e.at[i],
-            e.self_weight[i] * e33
+            (e36 - w * e33).abs() < 1e-9,
+            "X = {x}: error(36) = {e36:e}, w_ii error(33) = {:e}",
+            w * e33
         );
-        assert!((0.0..1.0).contains(&e.self_weight[i]));
+        assert!((0.0..1.0).contains(w));
     }
     let interior = worst(&e.standard, &exact, 8..n - 8);
     assert!(interior < 1e-10, "interior error of (33) {interior:e}");
-    for i in 0..3 {
-        let (e33, e36) = (e.standard[i] - exact[i], e.improved[i] - exact[i]);
-        eprintln!(
-            "x = X², X = {}: w_ii {:.3}, error (33) {e33:.3e}, (36) {e36:.3e}",
-            e.at[i], e.self_weight[i]
-        );
-        assert!(e33.abs() > 1e-2, "(33) is exact at X = {}", e.at[i]);
+    for (((x, w), e33), e36) in e.at.iter().zip(&e.self_weight).zip(&e33).zip(&e36).take(3) {
+        eprintln!("x = X², X = {x}: w_ii {w:.3}, error (33) {e33:.3e}, (36) {e36:.3e}");
+        assert!(e33.abs() > 1e-2, "(33) is exact at X = {x}");
     }
     assert!((e.self_weight[0] - 0.878).abs() < 1e-3);
     assert!(e.self_weight[1] < 0.4 && e.self_weight[2] < 0.35);
