@@ -211,6 +211,29 @@ pub(super) struct StageStart<'a, D: Dim> {
     pub held: &'a [u8],
 }
 
+/// The arrays the method fills for a stage's [`StageStart`] (v^int, the predictor's
+/// acceleration, which then takes the corrector's force, p^int, H^n, the held
+/// components), kept between stages.
+pub(super) struct StageBuffers<D: Dim> {
+    pub v_int: Vec<D::V>,
+    pub a_int: Vec<D::V>,
+    pub p_int: Vec<f64>,
+    pub h: Vec<D::T>,
+    pub held: Vec<u8>,
+}
+
+impl<D: Dim> Default for StageBuffers<D> {
+    fn default() -> Self {
+        Self {
+            v_int: Vec::new(),
+            a_int: Vec::new(),
+            p_int: Vec::new(),
+            h: Vec::new(),
+            held: Vec::new(),
+        }
+    }
+}
+
 /// Where the pseudo-time iteration stopped short of its tolerance: the particle of the
 /// largest residual and that residual relative to the velocity scale.
 pub(super) struct Unconverged {
@@ -248,6 +271,8 @@ pub(super) struct Corrector<D: Dim> {
     v_ext: Vec<D::V>,
     dp_ext: Vec<D::T>,
     p_ext: Vec<f64>,
+    /// The caller's arrays of a stage.
+    pub buffers: StageBuffers<D>,
     pub stats: PseudoTime,
 }
 
@@ -312,6 +337,7 @@ impl<D: Dim> Corrector<D> {
             v_ext: vec![D::zero(); n_ext],
             dp_ext: vec![D::zero_t(); n_ext],
             p_ext: vec![0.0; n_ext],
+            buffers: StageBuffers::default(),
             stats: PseudoTime::default(),
         }
     }

@@ -693,30 +693,36 @@ impl<D: Dim> MixedSph<D> {
             .with_min_len(MIN_CHUNK)
             .zip(&self.kin[..n])
             .for_each(|(p, k)| *p = kappa_tilde * D::ddot(k.h, k.grad_v));
-        let p_int: Vec<f64> = (0..n).map(|a| y.pressure[a] + dt * d.pressure[a]).collect();
-        let mut a_int = d.v.clone();
+        let mut b = std::mem::take(&mut corrector.buffers);
+        b.p_int.clear();
+        b.p_int
+            .extend((0..n).map(|a| y.pressure[a] + dt * d.pressure[a]));
+        b.a_int.clone_from(&d.v);
         let mut work = BoundaryWork::default();
         work.finish(
             &self.interactions,
             &self.boundary,
             &y.v,
             &self.mass,
-            &mut a_int,
+            &mut b.a_int,
         );
-        let v_int: Vec<D::V> = (0..n).map(|a| y.v[a] + a_int[a] * dt).collect();
-        let mut held = vec![0u8; n];
+        b.v_int.clear();
+        b.v_int.extend((0..n).map(|a| y.v[a] + b.a_int[a] * dt));
+        b.held.clear();
+        b.held.resize(n, 0);
         for (i, mask) in self.boundary.held_now() {
-            held[i as usize] = mask;
+            b.held[i as usize] = mask;
         }
-        let h: Vec<D::T> = self.kin[..n].iter().map(|k| k.h).collect();
+        b.h.clear();
+        b.h.extend(self.kin[..n].iter().map(|k| k.h));
         let stage = StageStart {
             dt,
-            v_int: &v_int,
+            v_int: &b.v_int,
             v_n: &y.v,
             p_n: &y.pressure,
-            p_int: &p_int,
-            h: &h,
-            held: &held,
+            p_int: &b.p_int,
+            h: &b.h,
+            held: &b.held,
         };
         let pairs = Pairs {
             csr: &self.csr,
@@ -726,14 +732,7 @@ impl<D: Dim> MixedSph<D> {
             ghosts: &self.ghosts,
             momentum: self.momentum,
         };
-        let solved = corrector.solve(&pairs, &stage);
-        let mut force = a_int;
-        if solved.is_ok() {
-            corrector.force(&pairs, &mut force);
-        }
-        let p_next = corrector.p().to_vec();
-        self.compressibility = Some(corrector);
-        solved.map_err(|u| {
+        let solved = corrector.solve(&pairs, &stage).map_err(|u| {
             self.blow_up(
                 u.particle,
                 "pseudo-time residual of artificial compressibility over the velocity scale, \
@@ -741,17 +740,25 @@ impl<D: Dim> MixedSph<D> {
                  tolerance)",
                 u.residual,
             )
-        })?;
-        if self.projection {
-            let balance = Balance::<D>::new(&self.points, &self.vol[..n], &mut self.sums);
-            balance.project(&mut force, &mut self.sums);
+        });
+        if solved.is_ok() {
+            // The corrector's force, into the predictor's stage ends' array.
+            let force = &mut b.a_int;
+            corrector.force(&pairs, force);
+            if self.projection {
+                let balance = Balance::<D>::new(&self.points, &self.vol[..n], &mut self.sums);
+                balance.project(force, &mut self.sums);
+            }
+            let inv_rho0 = 1.0 / self.material.rho0;
+            let p_next = corrector.p();
+            for a in 0..n {
+                d.v[a] += force[a] * inv_rho0;
+                d.pressure[a] = (p_next[a] - y.pressure[a]) / dt;
+            }
         }
-        let inv_rho0 = 1.0 / self.material.rho0;
-        for a in 0..n {
-            d.v[a] += force[a] * inv_rho0;
-            d.pressure[a] = (p_next[a] - y.pressure[a]) / dt;
-        }
-        Ok(())
+        corrector.buffers = b;
+        self.compressibility = Some(corrector);
+        solved
     }
 
     /// Δx max_ab C_p,ab / r_ab over the neighbour pairs of real particles (seed 002 eqs
