@@ -576,8 +576,8 @@ fn jst_on_the_brookshaw_laplacian_survives_the_pull_the_corrected_one_does_not()
 /// the FEM and FVM references of the paper's Table 2, 0.695–0.700 cm: the rim is a
 /// particle layer and approaches from below by O(Δx). The report's `taylor-ladder` suite
 /// (to 80 µs; the radius moves by less than 0.02 mm after 40 µs) measures 1.27, 1.24 and
-/// 1.10 Δx below 0.6975 cm at 3, 4 and 6 particles per radius; bound: between 0 and
-/// 1.5 Δx below. An elastic bar would stay near 3.2 mm. The plastic work is dissipated: the total energy
+/// 1.10 Δx below 0.6975 cm at 3, 4 and 6 particles per radius, and the shipped case 0.69 Δx
+/// at 8; bound: between 0 and 1.5 Δx below. An elastic bar would stay near 3.2 mm. The plastic work is dissipated: the total energy
 /// must fall by more than half by this time.
 #[test]
 fn the_taylor_bar_mushrooms_to_the_published_radius() {

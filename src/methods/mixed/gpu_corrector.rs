@@ -13,7 +13,7 @@
 use super::compressibility::Corrector;
 use super::gpu::{IMAGES, MIXED, MOTION};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
-use crate::gpu::profile::{IndirectRuns, NONE, PassBytes, read, read_write, write};
+use crate::gpu::profile::{IndirectRuns, NONE, PassBytes, Traffic, read, read_write, write};
 use crate::gpu::shaders::{REFERENCE, Source, source};
 use crate::methods::shared::PseudoTime;
 use crate::tensor::Dim;
@@ -22,6 +22,20 @@ use bytemuck::{Pod, Zeroable};
 /// The words of the per-pair gathers of the iterate: w, δp and H^n of a neighbour (the
 /// ghost maps of ghost neighbours not counted).
 const ITERATE: [u32; 3] = [1, 1, 1];
+
+/// The pseudo-time rates of a particle, by `residual` and `residual_stage`.
+const RATES: [Traffic; 9] = [
+    read("offsets", [1, 0, 0], NONE),
+    read("ids", NONE, [1, 0, 0]),
+    read("pair", NONE, [0, 2, 0]),
+    read("pair", NONE, [1, 0, 0]).when(&["PSEUDO_VISCOSITY"]),
+    // The particle's iterate, c and H^n; the neighbours' iterate and H^n.
+    read("corr", [2, 1, 1], ITERATE),
+    read("ghost_src", NONE, NONE),
+    read("ghost_img", NONE, NONE),
+    read("reference", [1, 0, 0], NONE),
+    write("corr", [1, 1, 0], NONE),
+];
 
 /// The corrector's passes.
 pub const CORRECTOR: Source = source!(
@@ -76,32 +90,22 @@ pub const CORRECTOR: Source = source!(
         PassBytes {
             entry: "residual",
             traffic: &[
-                read("offsets", [1, 0, 0], NONE),
-                read("ids", NONE, [1, 0, 0]),
-                read("pair", NONE, [0, 2, 0]),
-                read("pair", NONE, [1, 0, 0]).when(&["PSEUDO_VISCOSITY"]),
-                // The particle's iterate, c and H^n; the neighbours' iterate and H^n.
-                read("corr", [2, 1, 1], ITERATE),
-                read("ghost_src", NONE, NONE),
-                read("ghost_img", NONE, NONE),
-                read("reference", [1, 0, 0], NONE),
-                write("corr", [1, 1, 0], NONE),
+                RATES[0],
+                RATES[1],
+                RATES[2],
+                RATES[3],
+                RATES[4],
+                RATES[5],
+                RATES[6],
+                RATES[7],
+                RATES[8],
+                // Per workgroup a maximum (not counted).
                 write("control", NONE, NONE),
             ],
         },
         PassBytes {
             entry: "residual_stage",
-            traffic: &[
-                read("offsets", [1, 0, 0], NONE),
-                read("ids", NONE, [1, 0, 0]),
-                read("pair", NONE, [0, 2, 0]),
-                read("pair", NONE, [1, 0, 0]).when(&["PSEUDO_VISCOSITY"]),
-                read("corr", [2, 1, 1], ITERATE),
-                read("ghost_src", NONE, NONE),
-                read("ghost_img", NONE, NONE),
-                read("reference", [1, 0, 0], NONE),
-                write("corr", [1, 1, 0], NONE),
-            ],
+            traffic: &RATES,
         },
         // One item: the partials in (not counted), the decision out.
         PassBytes {
