@@ -234,6 +234,11 @@ impl<D: Dim> Default for StageBuffers<D> {
     }
 }
 
+/// The quantity of the blow-up a stage that does not converge stops the run with.
+pub(super) const UNCONVERGED: &str = "pseudo-time residual of artificial compressibility over \
+     the velocity scale, at max_iterations (raise method.artificial_compressibility.\
+     max_iterations or tolerance)";
+
 /// Where the pseudo-time iteration stopped short of its tolerance: the particle of the
 /// largest residual and that residual relative to the velocity scale.
 pub(super) struct Unconverged {

@@ -12,6 +12,7 @@
 //! solve] → rates of v and u with the boundary conditions. A whole step, or several, is
 //! recorded into one command encoder; the host reads back only when asked.
 
+use super::compressibility::UNCONVERGED;
 use super::gpu_corrector::{CORRECTOR, DeviceCorrector};
 use super::system::{Fluxes, MixedSph, MixedState};
 use super::{CflWaveSpeed, DeformationGradient, Momentum};
@@ -1167,14 +1168,8 @@ impl<D: GpuDim> Engine<D> for GpuMixed<D> {
         if let Some(c) = &self.evaluator.corrector
             && let Some(u) = c.unconverged(&self.gpu)
         {
-            return Err(BlowUp::at::<D>(
-                x0,
-                u.particle,
-                "pseudo-time residual of artificial compressibility over the velocity scale \
-                 (f32, GPU), at max_iterations (raise \
-                 method.artificial_compressibility.max_iterations or tolerance)",
-                u.residual,
-            ));
+            let quantity = format!("{UNCONVERGED}; f32 on the GPU");
+            return Err(BlowUp::at::<D>(x0, u.particle, &quantity, u.residual));
         }
         for (failed, quantity) in self
             .failed_particles()

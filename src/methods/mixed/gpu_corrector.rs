@@ -10,7 +10,7 @@
 //! start with a larger budget, up to `max_iterations`: the result is the one of an
 //! unlimited budget.
 
-use super::compressibility::Corrector;
+use super::compressibility::{Corrector, Unconverged};
 use super::gpu::{IMAGES, MIXED, MOTION};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::profile::{IndirectRuns, NONE, PassBytes, Traffic, read, read_write, write};
@@ -171,21 +171,6 @@ struct Tau {
     budget: u32,
     groups_x: u32,
     groups_y: u32,
-}
-
-/// What a batch of steps reports (control words 3 to 9).
-struct Report {
-    step: u32,
-    residual: f32,
-    total: u32,
-    exhausted: bool,
-    most: u32,
-}
-
-/// Where the iteration failed to converge within `max_iterations`.
-pub(super) struct Unconverged {
-    pub particle: usize,
-    pub residual: f64,
 }
 
 /// The corrector's pipelines, buffers and bind groups.
@@ -400,30 +385,27 @@ impl DeviceCorrector {
     /// `max_iterations`) and returns false: the batch runs again. Else books the counts
     /// and sets the next budget, twice the most a stage took.
     pub fn finish_batch(&mut self, gpu: &Gpu) -> bool {
+        // Words STEP_ITERATIONS to MOST: the last step's pseudo steps and residual, the
+        // total, whether a stage ran out of budget, (FAILED and its residual), the most.
         let w: Vec<u32> = gpu.read_range(&self.control, 4 * STEP_ITERATIONS, 4 * 7);
-        let r = Report {
-            step: w[0],
-            residual: f32::from_bits(w[1]),
-            total: w[2],
-            exhausted: w[3] != 0,
-            most: w[6],
-        };
+        let (step, residual, total, exhausted, most) =
+            (w[0], f32::from_bits(w[1]), w[2], w[3] != 0, w[6]);
         // TOTAL, EXHAUSTED, and after FAILED and its residual, MOST.
         gpu.queue
             .write_buffer(&self.control, 4 * TOTAL, bytemuck::cast_slice(&[0u32; 2]));
         gpu.queue
             .write_buffer(&self.control, 4 * 9, bytemuck::bytes_of(&0u32));
-        self.runs.ran += u64::from(r.total);
-        if r.exhausted {
+        self.runs.ran += u64::from(total);
+        if exhausted {
             // The stages that ran out of budget are not in the total: at least one did.
             self.runs.ran += u64::from(self.budget);
             self.budget = (BUDGET_GROWTH * self.budget).min(self.max_iterations);
             return false;
         }
-        self.stats.step = u64::from(r.step);
-        self.stats.total += u64::from(r.total);
-        self.stats.residual = f64::from(r.residual);
-        self.budget = (2 * r.most).max(FIRST_BUDGET).min(self.max_iterations);
+        self.stats.step = u64::from(step);
+        self.stats.total += u64::from(total);
+        self.stats.residual = f64::from(residual);
+        self.budget = (2 * most).max(FIRST_BUDGET).min(self.max_iterations);
         true
     }
 

@@ -11,7 +11,7 @@
 //! and every per-particle field are extended to them, and only real particles are
 //! integrated.
 
-use super::compressibility::{Corrector, Pairs, StageStart};
+use super::compressibility::{Corrector, Pairs, StageStart, UNCONVERGED};
 use super::projection::{Balance, Sums};
 use super::weights::{brookshaw_weights, correct_laplacian, least_squares_weights, pair_map};
 use super::{CflWaveSpeed, Conserved, DeformationGradient, JstLaplacian, Momentum, Stabiliser};
@@ -732,15 +732,9 @@ impl<D: Dim> MixedSph<D> {
             ghosts: &self.ghosts,
             momentum: self.momentum,
         };
-        let solved = corrector.solve(&pairs, &stage).map_err(|u| {
-            self.blow_up(
-                u.particle,
-                "pseudo-time residual of artificial compressibility over the velocity scale, \
-                 at max_iterations (raise method.artificial_compressibility.max_iterations or \
-                 tolerance)",
-                u.residual,
-            )
-        });
+        let solved = corrector
+            .solve(&pairs, &stage)
+            .map_err(|u| self.blow_up(u.particle, UNCONVERGED, u.residual));
         if solved.is_ok() {
             // The corrector's force, into the predictor's stage ends' array.
             let force = &mut b.a_int;
