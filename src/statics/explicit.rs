@@ -16,6 +16,11 @@
 //! For the linear-elastic model the force is linear in u, and two Newton iterations reach
 //! the discrete equilibrium to 1e-10 of the load; other state models iterate with this
 //! stiffness at every iterate.
+//!
+//! A method that knows its stiffness in closed form ([`ClosedForm`]: the total-Lagrangian
+//! Galerkin methods on a model with a tangent 𝔸 = ∂P/∂F) assembles it instead, on the
+//! exact pattern of the nodes that share a point; a symmetric one (Bubnov–Galerkin) is
+//! then solved by sparse Cholesky, with LU where the tangent turns indefinite.
 
 use super::sparse::{BlockPattern, Linear};
 use super::{Model, Newton, Setup, Statics};
@@ -32,6 +37,24 @@ use crate::tensor::Dim;
 pub trait AtRest<D: Dim>: Method<D> {
     /// The state with displacement u and velocity zero.
     fn at_rest(&self, u: &[D::V]) -> Self::State;
+    /// The method's stiffness in closed form for this case, where it has one; the static
+    /// solve forms it by finite differences otherwise.
+    fn closed_form(&self) -> Option<&dyn ClosedForm<D>> {
+        None
+    }
+}
+
+/// A stiffness K = −∂f_int/∂u known in closed form.
+pub trait ClosedForm<D: Dim> {
+    /// The coupling of K: row b holds b and every particle whose force depends on u_b.
+    fn pattern(&self) -> BlockPattern;
+    /// Whether K is symmetric.
+    fn symmetric(&self) -> bool;
+    /// K at u into the values of `pattern` as the blocks of Kᵀ (block (b, a) holds
+    /// K_(a,k),(b,l) at [l][k], the LU layout, which is K's own for a symmetric K).
+    fn assemble(&self, u: &[D::V], pattern: &BlockPattern, values: &mut [f64]);
+    /// The `backend` line's account of K.
+    fn describe(&self) -> String;
 }
 
 /// The CPU engine of an explicit method: the static solve of this module when the case is
@@ -88,18 +111,11 @@ impl<D: Dim, M: AtRest<D>> Statics<D, Explicit<D, M>> {
         let bodies: Vec<&str> = case.bodies.iter().map(|b| b.name.as_str()).collect();
         rigid_motions_held::<D>(x0, method.body(), &bodies, &boundary.constrained)
             .map_err(|m| case.invalid("boundary", m))?;
-        let reach = 2.0 * neighbour_radius(&case.kernel(D::N));
-        let pairs = neighbour::build::<D>(x0, reach);
-        let pattern = BlockPattern::from_rows(
-            (0..x0.len())
-                .map(|a| {
-                    let mut row = pairs.neighbours(a).to_vec();
-                    row.push(a as u32);
-                    row.sort_unstable();
-                    row
-                })
-                .collect(),
-        );
+        let (pattern, linear) = match method.closed_form() {
+            Some(k) if k.symmetric() => (k.pattern(), Linear::Cholesky),
+            Some(k) => (k.pattern(), Linear::Lu),
+            None => (difference_pattern::<D>(case, x0), Linear::Lu),
+        };
         let mut external = vec![D::zero(); x0.len()];
         for &(i, a) in &boundary.external {
             external[i as usize] += a * mass[i as usize];
@@ -109,7 +125,7 @@ impl<D: Dim, M: AtRest<D>> Statics<D, Explicit<D, M>> {
             body: method.body().to_vec(),
             boundary: &boundary,
             pattern,
-            linear: Linear::Lu,
+            linear,
             newton: Newton {
                 residual_tolerance: RESIDUAL_TOLERANCE,
                 increment_tolerance: INCREMENT_TOLERANCE,
@@ -126,9 +142,27 @@ impl<D: Dim, M: AtRest<D>> Statics<D, Explicit<D, M>> {
             step: STEP_PER_SPACING * case.spacing,
         };
         let mut engine = Self::with_model(case, model, setup, "run.solve")?;
-        engine.model.groups = engine.pattern.column_groups();
+        if engine.model.method.closed_form().is_none() {
+            engine.model.groups = engine.pattern.column_groups();
+        }
         Ok(engine)
     }
+}
+
+/// The stiffness's pattern for finite differences: the pairs within two kernel supports.
+fn difference_pattern<D: Dim>(case: &Case, x0: &[D::V]) -> BlockPattern {
+    let reach = 2.0 * neighbour_radius(&case.kernel(D::N));
+    let pairs = neighbour::build::<D>(x0, reach);
+    BlockPattern::from_rows(
+        (0..x0.len())
+            .map(|a| {
+                let mut row = pairs.neighbours(a).to_vec();
+                row.push(a as u32);
+                row.sort_unstable();
+                row
+            })
+            .collect(),
+    )
 }
 
 impl<D: Dim, M: AtRest<D>> Model<D> for Explicit<D, M> {
@@ -149,11 +183,15 @@ impl<D: Dim, M: AtRest<D>> Model<D> for Explicit<D, M> {
             .collect())
     }
 
-    /// K = −∂f_int/∂u by forward differences of step ε, one force evaluation per column
-    /// group and component: block (b, a) holds ∂f_a/∂u_b transposed, K_(a,k),(b,l) at
-    /// [l][k] (the LU layout). A force evaluation that fails leaves NaN, which the solve
-    /// reports.
+    /// K = −∂f_int/∂u in the method's closed form, or by forward differences of step ε,
+    /// one force evaluation per column group and component: block (b, a) holds ∂f_a/∂u_b
+    /// transposed, K_(a,k),(b,l) at [l][k] (the LU layout). A force evaluation that fails
+    /// leaves NaN, which the solve reports.
     fn stiffness(&mut self, u: &[D::V], pattern: &BlockPattern, values: &mut [f64]) {
+        if let Some(k) = self.method.closed_form() {
+            k.assemble(u, pattern, values);
+            return;
+        }
         let d = D::N;
         let bs = d * d;
         let f0 = match self.force(u) {
@@ -207,6 +245,9 @@ impl<D: Dim, M: AtRest<D>> Model<D> for Explicit<D, M> {
     }
 
     fn describe(&self) -> String {
+        if let Some(k) = self.method.closed_form() {
+            return format!("; {}", k.describe());
+        }
         format!(
             "; stiffness by finite differences of the method's forces, {} column groups × {} \
              components",

@@ -51,8 +51,8 @@ fn orders(e: &[f64]) -> Vec<f64> {
 fn the_static_solve_passes_the_patch_test_with_finite_elements() {
     // Uniaxial stress σ = 1e4 along x on a 4 × 2 block of bilinear elements (tl-fem),
     // u_x prescribed on x = 0 (and u_y at one point), the traction σ on x = 4: the exact
-    // field is linear, which the elements contain, so the static solve (finite-difference
-    // stiffness of the method's own forces, sparse LU, Newton to 1e-10 of the load) must
+    // field is linear, which the elements contain, so the static solve (closed-form
+    // stiffness, sparse Cholesky, Newton to 1e-10 of the load) must
     // give it: bound 1e-9 relative in u (a wrong stiffness column or load is off by far
     // more).
     let text = r#"

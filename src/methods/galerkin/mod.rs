@@ -39,7 +39,8 @@ use crate::quadrature::{Cells, Gather, QuadratureError, QuadraturePoints, Shapes
 use crate::reference::Reference;
 use crate::run::{Engine, EngineDim};
 use crate::scene::{Case, CaseError};
-use crate::statics::explicit::AtRest;
+use crate::statics::explicit::{AtRest, ClosedForm};
+use crate::statics::sparse::BlockPattern;
 use crate::tensor::Dim;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -570,6 +571,111 @@ impl<D: Dim> AtRest<D> for TlGalerkin<D> {
             v: vec![D::zero(); u.len()],
             ..self.initial_state()
         }
+    }
+
+    /// The closed form on a model with a tangent (every model a static run accepts but
+    /// the Mooney–Rivlin and polyconvex ones).
+    fn closed_form(&self) -> Option<&dyn ClosedForm<D>> {
+        self.material
+            .model
+            .has_tangent()
+            .then_some(self as &dyn ClosedForm<D>)
+    }
+}
+
+impl<D: Dim> ClosedForm<D> for TlGalerkin<D> {
+    /// Row b: b and the nodes of every point of b.
+    fn pattern(&self) -> BlockPattern {
+        let (gather, shapes) = (&self.gather, &self.shapes);
+        BlockPattern::from_rows(
+            (0..self.x0.len())
+                .into_par_iter()
+                .map(|b| {
+                    let mut row: Vec<u32> = gather
+                        .range(b)
+                        .flat_map(|e| {
+                            let q = gather.point[e] as usize;
+                            shapes.csr.ids[shapes.csr.range(q)].iter().copied()
+                        })
+                        .chain([b as u32])
+                        .collect();
+                    row.sort_unstable();
+                    row.dedup();
+                    row
+                })
+                .collect(),
+        )
+    }
+
+    /// Test and trial functions are the same but for `kbm`.
+    fn symmetric(&self) -> bool {
+        self.shapes.test.is_empty()
+    }
+
+    /// K_(a,k),(b,l) = Σ_q w_q ∇0Φ_a,J 𝔸_q[kJ][lL] ∇0N_b,L: the derivative of
+    /// f_a = −Σ_q w_q P_q ∇0Φ_a(X_q) (seed 000 eq 156) with F_q = I + Σ_b u_b ⊗ ∇0N_b(X_q),
+    /// the material stiffness Bᵀ𝔸B of total-Lagrangian FEM. Row b is gathered by node b
+    /// over its points, so no two threads write one value.
+    fn assemble(&self, u: &[D::V], pattern: &BlockPattern, values: &mut [f64]) {
+        let d = D::N;
+        let bs = d * d;
+        let (gather, shapes, weight) = (&self.gather, &self.shapes, &self.points.weight);
+        let tangents: Vec<_> = (0..self.points.len())
+            .into_par_iter()
+            .with_min_len(MIN_CHUNK)
+            .map(|q| {
+                let f = D::identity() + shapes.gradient(q, u);
+                self.material.tangent::<D>(f)
+            })
+            .collect();
+        pattern
+            .rows_mut(values, bs)
+            .into_par_iter()
+            .for_each(|(b, cols, row)| {
+                row.fill(0.0);
+                for e in gather.range(b) {
+                    let q = gather.point[e] as usize;
+                    let grad_b = D::to3(shapes.grad[gather.pair[e] as usize]);
+                    let tan = &tangents[q];
+                    // t[k][l][J] = w_q Σ_L 𝔸[kJ][lL] ∇0N_b,L.
+                    let mut t = [[[0.0; 3]; 3]; 3];
+                    for (k, tk) in t.iter_mut().enumerate().take(d) {
+                        for (l, tl) in tk.iter_mut().enumerate().take(d) {
+                            for (j, tj) in tl.iter_mut().enumerate().take(d) {
+                                *tj = weight[q]
+                                    * (0..d)
+                                        .map(|m| tan[3 * k + j][3 * l + m] * grad_b[m])
+                                        .sum::<f64>();
+                            }
+                        }
+                    }
+                    for p in shapes.csr.range(q) {
+                        let a = shapes.csr.ids[p];
+                        let col = cols
+                            .binary_search(&a)
+                            .expect("the pattern holds the nodes of every point");
+                        let test_a = D::to3(shapes.test_gradient(p));
+                        let block = &mut row[col * bs..(col + 1) * bs];
+                        for l in 0..d {
+                            for k in 0..d {
+                                block[l * d + k] +=
+                                    (0..d).map(|j| t[k][l][j] * test_a[j]).sum::<f64>();
+                            }
+                        }
+                    }
+                }
+            });
+    }
+
+    fn describe(&self) -> String {
+        format!(
+            "closed-form stiffness Σ_q w_q ∇Φ_a·𝔸_q·∇N_b on the nodes sharing a point ({})",
+            if self.symmetric() {
+                "symmetric"
+            } else {
+                "unsymmetric: Petrov–Galerkin"
+            }
+        )
     }
 }
 
