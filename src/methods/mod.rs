@@ -53,8 +53,9 @@ pub enum Feature {
     Plasticity,
     /// The static solve of `run.solve = "static"` ([`crate::statics`]).
     StaticSolve,
-    /// Static only: every run solves for equilibrium load step by load step.
-    StaticOnly,
+    /// Static by default: a run solves for equilibrium load step by load step unless
+    /// `run.solve = "dynamic"`.
+    StaticDefault,
     /// An initial displacement (`body.initial_displacement`): the deformation gradient
     /// follows from the displacement, so the state starts deformed.
     InitialDisplacement,

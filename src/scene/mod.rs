@@ -1031,13 +1031,15 @@ impl Case {
     /// Whether the run solves for static equilibrium load step by load step: `run.solve
     /// = "static"`, or a static-only method.
     pub fn is_static(&self) -> bool {
-        self.run.solve == Some(Solve::Static)
-            || self
+        match self.run.solve {
+            Some(solve) => solve == Solve::Static,
+            None => self
                 .method
                 .spec
                 .entry()
                 .features
-                .contains(&crate::methods::Feature::StaticOnly)
+                .contains(&crate::methods::Feature::StaticDefault),
+        }
     }
 
     pub fn smoothing_length(&self) -> f64 {

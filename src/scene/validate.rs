@@ -1146,24 +1146,16 @@ fn region(r: &Region, key: &str, bodies: &[BodySpec], dim: usize) -> Checked {
 /// load steps of `method.dt`, a state model without history and no contact.
 fn statics(case: &Case) -> Checked {
     let features = case.method.spec.entry().features;
-    let name = case.method.name();
-    match case.run.solve {
-        Some(Solve::Dynamic) if features.contains(&Feature::StaticOnly) => {
-            return fail(
-                "run.solve",
-                format!("`{name}` is static only: give run.solve = \"static\" or remove the key"),
-            );
-        }
-        Some(Solve::Static) => feature(
+    if case.run.solve == Some(Solve::Static) {
+        feature(
             case,
             Feature::StaticSolve,
             "run.solve",
             "`static` is the static solve",
             "give run.solve = \"dynamic\"",
-        )?,
-        _ => {}
+        )?;
     }
-    if !case.is_static() || features.contains(&Feature::StaticOnly) {
+    if !case.is_static() || features.contains(&Feature::StaticDefault) {
         return Ok(());
     }
     if case.method.dt.is_none() || case.method.cfl.is_some() {

@@ -1,14 +1,17 @@
 //! Implicit dual-support SPH (Ren, Zhuang, Rabczuk & Zhu; seed 004): a smoothing length
 //! per particle with supports and dual-supports ([`support`]), the variational internal
-//! force and hourglass energy with their tangent ([`model`]), and the model of the static
-//! Newton engine of [`crate::statics`] ([`statics`]). CPU only. Numerics notes:
+//! force and hourglass energy with their tangent ([`model`]), the model of the static
+//! Newton engine of [`crate::statics`] ([`statics`]), and the explicit dynamic variant on
+//! the same forces ([`dynamics`], `run.solve = "dynamic"`). CPU only. Numerics notes:
 //! `docs/methods/dual-support.md`.
 
+pub mod dynamics;
 pub mod model;
 pub mod statics;
 pub mod support;
 
 pub use crate::statics::sparse::SolverKind;
+pub use dynamics::DualSupportDynamics;
 pub use model::{DualSupport, Energies};
 pub use statics::{Statics, pattern};
 pub use support::Support;
@@ -17,7 +20,7 @@ use super::{Feature, MethodFamily, Plan, Problem};
 use crate::material::Material;
 use crate::neighbour;
 use crate::reference::Reference;
-use crate::run::{Engine, EngineDim};
+use crate::run::{CpuEngine, Engine, EngineDim};
 use crate::scene::validate::{fail, non_negative, toml_name};
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
@@ -171,7 +174,8 @@ fn nearest_distances<D: Dim>(x0: &[D::V], k: usize, spacing: f64) -> Vec<f64> {
 impl MethodFamily for DualSupportSpec {
     const DESCRIPTION: &'static str = "implicit dual-support SPH (Ren et al.; seed 004): \
         smoothing length per particle, variational force with dual-supports, hourglass \
-        energy, assembled tangent and static Newton–Raphson with load steps (CPU only)";
+        energy, assembled tangent and static Newton–Raphson with load steps; explicit in \
+        time with run.solve = \"dynamic\" (CPU only)";
     const KEYS: &'static [&'static str] = &[
         "hourglass",
         "smoothing_length",
@@ -183,7 +187,11 @@ impl MethodFamily for DualSupportSpec {
         "linear_tolerance",
         "linear_max_iterations",
     ];
-    const FEATURES: &'static [Feature] = &[Feature::StaticSolve, Feature::StaticOnly];
+    const FEATURES: &'static [Feature] = &[
+        Feature::StaticSolve,
+        Feature::StaticDefault,
+        Feature::InitialDisplacement,
+    ];
     const GPU_ENGINE: bool = false;
     const CORRECTED: bool = false;
     #[cfg(feature = "gpu")]
@@ -191,18 +199,29 @@ impl MethodFamily for DualSupportSpec {
 
     fn validate(&self, case: &Case) -> Result<(), Problem> {
         let model = case.material.model;
-        if !model.has_tangent() {
+        if model.is_rate_based() {
+            return fail(
+                "material.model",
+                format!(
+                    "`dual-support-sph` derives its force from the strain energy ψ(F): use a \
+                     model whose stress follows from F, not {}",
+                    toml_name(&model)
+                ),
+            );
+        }
+        if case.is_static() && !model.has_tangent() {
             return fail(
                 "material.model",
                 format!(
                     "`dual-support-sph` needs the tangent ∂P/∂F of its model: use \
                      `linear-elastic`, `neo-hookean`, `nearly-incompressible-neo-hookean` or \
-                     `saint-venant-kirchhoff`, not {}",
+                     `saint-venant-kirchhoff`, not {} (or run it in time with run.solve = \
+                     \"dynamic\")",
                     toml_name(&model)
                 ),
             );
         }
-        if case.method.dt.is_none() || case.method.cfl.is_some() {
+        if case.is_static() && (case.method.dt.is_none() || case.method.cfl.is_some()) {
             return fail(
                 "method.dt",
                 "`dual-support-sph` is static: give method.dt, the load step in the \
@@ -238,6 +257,33 @@ impl MethodFamily for DualSupportSpec {
 
     fn plan(&self, case: &Case, _gpu: bool) -> Plan {
         let mat = Material::new(&case.material);
+        let smoothing = match self.smoothing_length {
+            SmoothingLength::Uniform => "uniform".to_string(),
+            SmoothingLength::Volume => "h_over_dx · V^(1/d)".to_string(),
+            SmoothingLength::Nearest(k) => format!("{k} nearest"),
+        };
+        if !case.is_static() {
+            let mut left_out = vec!["the tangent and the linear solver (explicit in time)"];
+            if self.hourglass == 0.0 {
+                left_out.push("hourglass energy");
+            }
+            return Plan {
+                once: format!(
+                    "once, on the reference configuration: smoothing lengths ({smoothing}), \
+                     supports S_i and dual-supports S'_i, corrected gradients g_ij = \
+                     L_i⁻¹∇W_i V_j"
+                ),
+                state: format!("u, v (state model {:?})", mat.model),
+                cfl_step: "Δt = cfl · Δx / (c_p + max |v|)".into(),
+                rates: format!(
+                    "F_i, P_i; m_i ü_i = f_i (eq 18) + hourglass (eq 28, α = {}μ) + loads",
+                    self.hourglass
+                ),
+                checked: "det F",
+                check_note: String::new(),
+                left_out,
+            };
+        }
         let mut left_out = vec!["time integration (static)"];
         if self.hourglass == 0.0 {
             left_out.push("hourglass energy");
@@ -247,11 +293,7 @@ impl MethodFamily for DualSupportSpec {
                 "once, on the reference configuration: smoothing lengths ({}), supports S_i \
                  and dual-supports S'_i, corrected gradients g_ij = L_i⁻¹∇W_i V_j, the \
                  two-hop pattern of the tangent and the {} set-up",
-                match self.smoothing_length {
-                    SmoothingLength::Uniform => "uniform".to_string(),
-                    SmoothingLength::Volume => "h_over_dx · V^(1/d)".to_string(),
-                    SmoothingLength::Nearest(k) => format!("{k} nearest"),
-                },
+                smoothing,
                 match self.solver {
                     SolverKind::Direct => "symbolic Cholesky",
                     SolverKind::Cg => "CG",
@@ -275,7 +317,11 @@ impl MethodFamily for DualSupportSpec {
     }
 
     fn cpu_engine<D: EngineDim>(&self, case: &Case) -> Result<Box<dyn Engine<D>>, CaseError> {
-        Ok(Box::new(Statics::<D>::new(case, self)?))
+        Ok(if case.is_static() {
+            Box::new(Statics::<D>::new(case, self)?)
+        } else {
+            Box::new(CpuEngine::<D, DualSupportDynamics<D>>::new(case)?)
+        })
     }
 
     #[cfg(feature = "gpu")]
@@ -287,8 +333,8 @@ impl MethodFamily for DualSupportSpec {
         Err(super::no_gpu_engine(case).into())
     }
 
-    /// No CFL step.
-    fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
-        0.0
+    /// c_p, the wave speed of the dynamic variant's step (the static path has none).
+    fn stretch_signal_speed<D: Dim>(&self, c_p: f64, _f: D::T) -> f64 {
+        c_p
     }
 }

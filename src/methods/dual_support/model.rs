@@ -5,6 +5,8 @@
 
 use super::support::Support;
 use crate::material::{Material, Tangent};
+use crate::methods::BlowUp;
+use crate::observe::{ScalarField, Snapshot};
 use crate::statics::sparse::BlockPattern;
 use crate::tensor::Dim;
 use rayon::prelude::*;
@@ -50,10 +52,27 @@ impl<D: Dim> DualSupport<D> {
 
     /// F_i of every particle (eq 12).
     pub fn deformation_gradients(&self, u: &[D::V]) -> Vec<D::T> {
+        self.displacement_gradients(u)
+            .into_iter()
+            .map(|h| D::identity() + h)
+            .collect()
+    }
+
+    /// H_i = F_i − I of every particle (eq 12).
+    pub fn displacement_gradients(&self, u: &[D::V]) -> Vec<D::T> {
         (0..self.len())
             .into_par_iter()
-            .map(|i| D::identity() + self.support.displacement_gradient(u, i))
+            .map(|i| self.support.displacement_gradient(u, i))
             .collect()
+    }
+
+    /// The first particle with det F ≤ 0 or a non-finite F among H = F − I, as a blow-up.
+    pub fn first_inadmissible(&self, h: &[D::T]) -> Option<BlowUp> {
+        let det = |h: D::T| D::det(D::identity() + h);
+        let i = h
+            .par_iter()
+            .position_first(|&h| !D::is_finite_t(h) || det(h) <= 0.0 || det(h).is_nan())?;
+        Some(BlowUp::at::<D>(&self.support.x0, i, "det F", det(h[i])))
     }
 
     /// e_ij = x_ij − F_i X_ij = u_ij − H_i X_ij of pair slot p = (i, j): the error of the
@@ -111,11 +130,12 @@ impl<D: Dim> DualSupport<D> {
     ///     + 2 V_a c_a Σ_j w_aj e_aj − Σ_{i∈S'_a} 2 V_i c_i w_ia e_ia.
     /// Every pair term enters two particles with opposite signs: Σ_a f_a = 0.
     pub fn internal_force(&self, u: &[D::V], with_hourglass: bool) -> Vec<D::V> {
+        self.internal_force_at(u, &self.displacement_gradients(u), with_hourglass)
+    }
+
+    /// [`Self::internal_force`] with the displacement gradients h = F − I of u given.
+    pub fn internal_force_at(&self, u: &[D::V], h: &[D::T], with_hourglass: bool) -> Vec<D::V> {
         let s = &self.support;
-        let h: Vec<D::T> = (0..self.len())
-            .into_par_iter()
-            .map(|i| s.displacement_gradient(u, i))
-            .collect();
         // V_i P_i, and per pair the hourglass term 2 V_i c_i w_ij e_ij.
         let vp: Vec<D::T> = (0..self.len())
             .into_par_iter()
@@ -154,6 +174,62 @@ impl<D: Dim> DualSupport<D> {
                 f
             })
             .collect()
+    }
+
+    /// What observers and frames read at displacement u and velocity v: F, σ, the strain
+    /// energy Σ V ψ (with `stored_hourglass`, plus the hourglass energy: the whole energy
+    /// the force derives from), and the hourglass energy density and smoothing length of
+    /// every particle.
+    pub fn snapshot<'a>(
+        &'a self,
+        u: Vec<D::V>,
+        v: Vec<D::V>,
+        mass: &'a [f64],
+        body: &'a [u32],
+        stored_hourglass: bool,
+    ) -> Snapshot<'a, D> {
+        let f = self.deformation_gradients(&u);
+        let material = &self.material;
+        let sigma = f
+            .par_iter()
+            .map(|&f| {
+                let mut s = D::to3x3(material.pk1::<D>(f) * D::transpose(f) * (1.0 / D::det(f)));
+                if D::N == 2 {
+                    s[2][2] = material.sigma_zz::<D>(f, D::zero_t(), material.rho0);
+                }
+                s
+            })
+            .collect();
+        let energies = self.energies(&u);
+        let hourglass = self.hourglass_densities(&u);
+        Snapshot {
+            x0: &self.support.x0,
+            mass,
+            body,
+            u,
+            v,
+            f,
+            sigma,
+            strain_energy: energies.strain
+                + if stored_hourglass {
+                    energies.hourglass
+                } else {
+                    0.0
+                },
+            extra: vec![
+                ScalarField {
+                    name: "hourglass_energy_density",
+                    values: hourglass,
+                },
+                // The frames' smoothing length: this method's own, per particle.
+                ScalarField {
+                    name: "smoothing_length",
+                    values: self.support.h.clone(),
+                },
+            ],
+            cells: &[],
+            quadrature: None,
+        }
     }
 
     /// 𝔸_i = ∂P/∂F of every particle at displacement u.

@@ -6,7 +6,7 @@ use super::DualSupportSpec;
 use super::model::DualSupport;
 use super::support::Support;
 use crate::methods::BlowUp;
-use crate::observe::{ScalarField, Snapshot};
+use crate::observe::Snapshot;
 use crate::reference::Reference;
 use crate::scene::{Case, CaseError};
 use crate::statics::sparse::{BlockPattern, CgSettings, Linear};
@@ -94,50 +94,12 @@ impl<D: Dim> Model<D> for DualSupport<D> {
     }
 
     fn inadmissible(&mut self, u: &[D::V]) -> Option<BlowUp> {
-        let f = self.deformation_gradients(u);
-        let i = f
-            .par_iter()
-            .position_first(|&f| !D::is_finite_t(f) || D::det(f) <= 0.0 || D::det(f).is_nan())?;
-        Some(BlowUp::at::<D>(&self.support.x0, i, "det F", D::det(f[i])))
+        self.first_inadmissible(&self.displacement_gradients(u))
     }
 
+    /// The strain energy Σ V ψ alone: the hourglass energy is a field of its own.
     fn snapshot<'a>(&'a mut self, u: &[D::V], mass: &'a [f64], body: &'a [u32]) -> Snapshot<'a, D> {
-        let f = self.deformation_gradients(u);
-        let material = &self.material;
-        let sigma = f
-            .par_iter()
-            .map(|&f| {
-                let mut s = D::to3x3(material.pk1::<D>(f) * D::transpose(f) * (1.0 / D::det(f)));
-                if D::N == 2 {
-                    s[2][2] = material.sigma_zz::<D>(f, D::zero_t(), material.rho0);
-                }
-                s
-            })
-            .collect();
-        let energies = self.energies(u);
-        let hourglass = self.hourglass_densities(u);
-        Snapshot {
-            x0: &self.support.x0,
-            mass,
-            body,
-            u: u.to_vec(),
-            v: vec![D::zero(); u.len()],
-            f,
-            sigma,
-            strain_energy: energies.strain,
-            extra: vec![
-                ScalarField {
-                    name: "hourglass_energy_density",
-                    values: hourglass,
-                },
-                // The frames' smoothing length: this method's own, per particle.
-                ScalarField {
-                    name: "smoothing_length",
-                    values: self.support.h.clone(),
-                },
-            ],
-            cells: &[],
-            quadrature: None,
-        }
+        let v = vec![D::zero(); u.len()];
+        DualSupport::snapshot(self, u.to_vec(), v, mass, body, false)
     }
 }
