@@ -7,31 +7,69 @@ use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::FRAC_PI_2;
 
-/// The swinging cube (3D) and plate (2D, plane strain) of seed 003 §7.1.1 on [0, 1]^d:
-/// u(X, t) = U0 sin(ωt) Φ(X), Φ_k = sin(πX_k/2) Π_{m≠k} cos(πX_m/2) (A = B = C = 1).
+/// The swinging modes u(X, t) = U0 sin(ωt) Φ(X) of linear elastodynamics, which start
+/// undeformed (F = I) with velocity U0 ω Φ(X).
 ///
-/// Φ = −(2/π)∇Π cos(πX_m/2) is a gradient, so Δu = ∇(∇·u) = −d (π/2)² u and linear
-/// elastodynamics ρ0 ü = (λ + 2μ) Δu holds with ω = (π/2) √d c_d, c_d = √((λ+2μ)/ρ0).
-/// u_k = 0 on X_k = 0 (symmetry) and the tangential u = 0 on X_k = 1 (skew-symmetry).
-/// The sine form starts undeformed (F = I) with velocity U0 ω Φ(X).
+/// - [`SwingingKind::Dilatational`]: the swinging cube (3D) and plate (2D, plane strain)
+///   of seed 003 §7.1.1 on [0, 1]^d, Φ_k = sin(πX_k/2) Π_{m≠k} cos(πX_m/2)
+///   (A = B = C = 1). Φ = −(2/π)∇Π cos(πX_m/2) is a gradient, so Δu = ∇(∇·u) =
+///   −d (π/2)² u and ρ0 ü = (λ + 2μ) Δu holds with ω = (π/2) √d c_d, c_d = √((λ+2μ)/ρ0).
+///   u_k = 0 on X_k = 0 (symmetry) and the tangential u = 0 on X_k = 1 (skew-symmetry).
+/// - [`SwingingKind::Shear`]: the swinging plate of seed 002 §5.1 (eqs 42–43, 2D) on
+///   [0, 2]², Φ = (−sin(πX_1/2) cos(πX_2/2), cos(πX_1/2) sin(πX_2/2)). Φ is
+///   divergence-free, so ρ0 ü = μ Δu holds with ω = (π/2) √2 c_s, c_s = √(μ/ρ0); the
+///   normal component of u vanishes on every edge of the square (rollers).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SwingingMode {
     /// Displacement amplitude U0 [m].
     pub amplitude: f64,
     /// Angular frequency ω [rad/s].
     pub omega: f64,
+    pub kind: SwingingKind,
+}
+
+/// Which swinging mode ([`SwingingMode`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SwingingKind {
+    /// Seed 003's mode on [0, 1]^d (2D and 3D).
+    #[default]
+    Dilatational,
+    /// Seed 002's divergence-free mode on [0, 2]² (2D only).
+    Shear,
 }
 
 impl SwingingMode {
-    pub fn new(amplitude: f64, material: &Material, dim: usize) -> Self {
+    pub fn new(amplitude: f64, material: &Material, dim: usize, kind: SwingingKind) -> Self {
+        let omega = match kind {
+            SwingingKind::Dilatational => FRAC_PI_2 * (dim as f64).sqrt() * material.p_wave_speed(),
+            SwingingKind::Shear => {
+                FRAC_PI_2 * std::f64::consts::SQRT_2 * (material.mu / material.rho0).sqrt()
+            }
+        };
         Self {
             amplitude,
-            omega: FRAC_PI_2 * (dim as f64).sqrt() * material.p_wave_speed(),
+            omega,
+            kind,
         }
     }
 
-    /// Φ(X) and its gradient ∂Φ_k/∂X_l.
-    fn shape<D: Dim>(x: D::V) -> (D::V, D::T) {
+    /// Φ(X) and its gradient ∂Φ_k/∂X_l: the shear mode is the dilatational one with its
+    /// first component negated.
+    fn shape<D: Dim>(&self, x: D::V) -> (D::V, D::T) {
+        let (phi, grad) = Self::dilatational::<D>(x);
+        match self.kind {
+            SwingingKind::Dilatational => (phi, grad),
+            SwingingKind::Shear => {
+                let e1 = D::from_slice(&[1.0, 0.0, 0.0][..D::N]);
+                let flip = D::identity() - D::outer(e1, e1) * 2.0;
+                (flip * phi, flip * grad)
+            }
+        }
+    }
+
+    /// Φ(X) and ∂Φ_k/∂X_l of the dilatational mode.
+    fn dilatational<D: Dim>(x: D::V) -> (D::V, D::T) {
         let p = D::to3(x);
         let (s, c): (Vec<f64>, Vec<f64>) = (0..D::N)
             .map(|k| ((FRAC_PI_2 * p[k]).sin(), (FRAC_PI_2 * p[k]).cos()))
@@ -62,16 +100,16 @@ impl SwingingMode {
     }
 
     pub fn displacement<D: Dim>(&self, x: D::V, t: f64) -> D::V {
-        Self::shape::<D>(x).0 * (self.amplitude * (self.omega * t).sin())
+        self.shape::<D>(x).0 * (self.amplitude * (self.omega * t).sin())
     }
 
     pub fn velocity<D: Dim>(&self, x: D::V, t: f64) -> D::V {
-        Self::shape::<D>(x).0 * (self.amplitude * self.omega * (self.omega * t).cos())
+        self.shape::<D>(x).0 * (self.amplitude * self.omega * (self.omega * t).cos())
     }
 
     /// Displacement gradient ∇0u.
     pub fn displacement_gradient<D: Dim>(&self, x: D::V, t: f64) -> D::T {
-        Self::shape::<D>(x).1 * (self.amplitude * (self.omega * t).sin())
+        self.shape::<D>(x).1 * (self.amplitude * (self.omega * t).sin())
     }
 
     /// Linear-elastic first Piola–Kirchhoff stress λ tr(∇u) I + μ(∇u + ∇uᵀ).
@@ -105,12 +143,17 @@ mod tests {
 
     /// ρ0 ü = DIV P at interior points, by central differences of the analytic stress
     /// (step 1e-4: truncation ~1e-8 relative, well inside the 1e-6 bound).
-    fn satisfies_elastodynamics<D: Dim>() {
+    fn satisfies_elastodynamics<D: Dim>(kind: SwingingKind) {
         let mat = material();
-        let mode = SwingingMode::new(5e-4, &mat, D::N);
+        let mode = SwingingMode::new(5e-4, &mat, D::N, kind);
         let t = 0.3 / mode.omega;
         let h = 1e-4;
-        for x in [[0.3, 0.6, 0.2], [0.85, 0.1, 0.5], [0.5, 0.5, 0.9]] {
+        for x in [
+            [0.3, 0.6, 0.2],
+            [0.85, 0.1, 0.5],
+            [0.5, 0.5, 0.9],
+            [1.7, 1.2, 0.4],
+        ] {
             let x = D::from_slice(&x);
             let accel = mode.displacement::<D>(x, t) * (-mode.omega * mode.omega * mat.rho0);
             let mut div = vec![0.0; D::N];
@@ -133,13 +176,37 @@ mod tests {
 
     #[test]
     fn swinging_plate_and_cube_solve_linear_elastodynamics() {
-        satisfies_elastodynamics::<D2>();
-        satisfies_elastodynamics::<D3>();
+        satisfies_elastodynamics::<D2>(SwingingKind::Dilatational);
+        satisfies_elastodynamics::<D3>(SwingingKind::Dilatational);
+        satisfies_elastodynamics::<D2>(SwingingKind::Shear);
+    }
+
+    #[test]
+    fn the_shear_mode_is_seed_002s_with_rollers_on_the_square() {
+        // Eq 42 at a = π/2, ω of eq 43 (159.708 rad/s at E = 17 MPa, ν = 0.495 in the
+        // note's derivation, here at ν = 0.3 from the same formula), and u·n = 0 on the
+        // four edges of [0, 2]².
+        let mat = material();
+        let mode = SwingingMode::new(0.01, &mat, 2, SwingingKind::Shear);
+        assert!((mode.omega - FRAC_PI_2 * (2.0 * mat.mu / mat.rho0).sqrt()).abs() < 1e-9);
+        let t = 0.2 / mode.omega;
+        let (x1, x2) = (0.7, 1.3);
+        let u = mode.displacement::<D2>(D2::from_slice(&[x1, x2]), t);
+        let a = FRAC_PI_2;
+        let s = 0.01 * (mode.omega * t).sin();
+        assert!((u.x + s * (a * x1).sin() * (a * x2).cos()).abs() < 1e-15);
+        assert!((u.y - s * (a * x1).cos() * (a * x2).sin()).abs() < 1e-15);
+        for e in [0.0, 2.0] {
+            for q in [0.3, 1.1] {
+                assert!(mode.displacement::<D2>(D2::from_slice(&[e, q]), t).x.abs() < 1e-15);
+                assert!(mode.displacement::<D2>(D2::from_slice(&[q, e]), t).y.abs() < 1e-15);
+            }
+        }
     }
 
     #[test]
     fn swinging_mode_meets_its_boundary_conditions() {
-        let mode = SwingingMode::new(1.0, &material(), 3);
+        let mode = SwingingMode::new(1.0, &material(), 3, SwingingKind::Dilatational);
         let u0 = D3::to3(mode.displacement::<D3>(D3::from_slice(&[0.0, 0.4, 0.7]), 1e-3));
         assert_eq!(u0[0], 0.0);
         let u1 = D3::to3(mode.displacement::<D3>(D3::from_slice(&[1.0, 0.4, 0.7]), 1e-3));
@@ -667,9 +734,9 @@ impl Exact {
         let dim = case.dim();
         let name = crate::scene::validate::toml_name(&solution);
         match (solution, &body.initial_velocity) {
-            (AnalyticSolution::Swinging, Some(VelocityField::Swinging { amplitude })) => {
+            (AnalyticSolution::Swinging, Some(VelocityField::Swinging { amplitude, mode })) => {
                 Ok(Self::Swinging {
-                    mode: SwingingMode::new(*amplitude, &material, dim),
+                    mode: SwingingMode::new(*amplitude, &material, dim, *mode),
                     dim,
                 })
             }

@@ -760,8 +760,8 @@ fn initial_velocity<D: Dim>(
             // ω ŷ × X = (ω Z, 0, −ω X).
             D::from_slice(&[w * p[2], 0.0, -w * p[0]])
         }
-        VelocityField::Swinging { amplitude } => {
-            SwingingMode::new(*amplitude, &Material::new(&case.material), D::N)
+        VelocityField::Swinging { amplitude, mode } => {
+            SwingingMode::new(*amplitude, &Material::new(&case.material), D::N, *mode)
                 .velocity::<D>(x, 0.0)
         }
     }

@@ -325,10 +325,13 @@ pub enum VelocityField {
         center: f64,
         width: f64,
     },
-    /// The swinging plate/cube mode of seed 003 §7.1.1 on [0, 1]^d at t = 0 of its sine
-    /// form: v = U0 ω Φ(X) (see [`crate::analytic::SwingingMode`]).
+    /// A swinging mode at t = 0 of its sine form, v = U0 ω Φ(X)
+    /// ([`crate::analytic::SwingingMode`]): `dilatational` (the default), seed 003
+    /// §7.1.1's plate/cube on [0, 1]^d; `shear`, seed 002 §5.1's plate on [0, 2]².
     Swinging {
         amplitude: f64,
+        #[serde(default)]
+        mode: crate::analytic::SwingingKind,
     },
     /// The twisting column of seed 003 §7.3.1: v = ω(Y) × X with ω = Ω sin(πY/(2L)) ŷ,
     /// about the Y axis through the origin.

@@ -782,7 +782,18 @@ fn velocity(field: &VelocityField, key: &str, dim: usize) -> Checked {
             finite(&format!("{key}.center"), *center)?;
             positive(&format!("{key}.width"), *width)
         }
-        VelocityField::Swinging { amplitude } => finite(&format!("{key}.amplitude"), *amplitude),
+        VelocityField::Swinging { amplitude, mode } => {
+            if *mode == crate::analytic::SwingingKind::Shear && dim != 2 {
+                return fail(
+                    format!("{key}.mode"),
+                    format!(
+                        "the `shear` mode is seed 002's plate, 2D only, but the case has \
+                         dimension = {dim}; use `dilatational`"
+                    ),
+                );
+            }
+            finite(&format!("{key}.amplitude"), *amplitude)
+        }
         VelocityField::Expression { vz, constants, .. } => {
             if dim != 3 && vz.is_some() {
                 return fail(

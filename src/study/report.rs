@@ -30,8 +30,8 @@ pub fn reference_statement(suite: &Suite) -> String {
     match &suite.reference {
         Reference::Analytic {
             solution: AnalyticSolution::Swinging,
-        } => "analytic: the swinging plate/cube mode of seed 003 §7.1.1 (linear elastodynamics). \
-              Errors are relative L2 norms at the end time, weighted by particle volume, \
+        } => "analytic: the swinging plate/cube mode of the case (linear elastodynamics: seed \
+              003 §7.1.1's dilatational mode, or seed 002 §5.1's shear mode). Errors are relative L2 norms at the end time, weighted by particle volume, \
               e = sqrt(Σ V |q − q_ex|²)/sqrt(Σ V |q_ex|²), of the velocity v and of the \
               first Piola–Kirchhoff stress P = J σ F⁻ᵀ (all in-plane components)."
             .into(),

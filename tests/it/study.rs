@@ -88,8 +88,13 @@ fn analytic_errors_of_a_manufactured_swinging_state() {
     assert!((ev - eps).abs() < 1e-12, "e(v) = {ev}");
     assert!((es - 2.0 * eps).abs() < 1e-12, "e(P) = {es}");
     // The exact fields themselves: |v| peaks at U0 ω |cos ωt| at the corner X = (1, 0).
-    let omega =
-        meshless::analytic::SwingingMode::new(5e-4, &Material::new(&case.material), 2).omega;
+    let omega = meshless::analytic::SwingingMode::new(
+        5e-4,
+        &Material::new(&case.material),
+        2,
+        meshless::analytic::SwingingKind::Dilatational,
+    )
+    .omega;
     let vmax = v_ex.chunks(2).map(|v| v[0].hypot(v[1])).fold(0.0, f64::max);
     assert!((vmax - 5e-4 * omega * (omega * t).cos().abs()).abs() < 1e-12);
 }
