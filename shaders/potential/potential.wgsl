@@ -3,7 +3,11 @@
 // (F, P = ∂ψ/∂F, F⁻ᵀ, ρ0/J in kin). Buffers as in tlsph.wgsl, with the per-pair data
 // pair = [∇0W̃ | X_j − X_i | ∇0W̃_ji] and rev, the index of pair (j, i) for every pair
 // (i, j). Scheme constants: FORCE (FORCE_CONSISTENT: weights V_i V_j on both terms;
-// FORCE_REFERENCE_CODE: V_i and V_j, seed 000 §3.4), AV, AV_ALPHA, AV_BETA, AV_ETA.
+// FORCE_REFERENCE_CODE: V_i and V_j, seed 000 §3.4), AV, AV_ALPHA, AV_BETA, AV_ETA, and
+// HOURGLASS_DS: dual-support SPH's hourglass force (seed 004 eq 28 with its sign
+// corrected; methods::dual_support::model), on its lists S_i ∪ S'_i with
+// ∇0W̃_ij = g_ij/V_j (zero where j ∉ S_i) and the stiffnesses k_ij = 2 V_i c_i w_ij (HGK)
+// and k_ji (HGKR) of both sides of every pair.
 
 @group(0) @binding(0) var<storage, read> offsets: array<u32>;
 @group(0) @binding(1) var<storage, read> ids: array<u32>;
@@ -16,7 +20,9 @@
 @group(0) @binding(6) var<storage, read> ext: array<f32>;
 @group(0) @binding(7) var<storage, read_write> d: array<f32>;
 // m_i a_i = Σ_j [w_ij P_i ∇0W̃_ij − w_ji P_j ∇0W̃_ji] (eq 148 symmetrised) plus Monaghan
-// viscosity along ½(F_i⁻ᵀ ∇0W̃_ij − F_j⁻ᵀ ∇0W̃_ji), boundary conditions and u̇ = v.
+// viscosity along ½(F_i⁻ᵀ ∇0W̃_ij − F_j⁻ᵀ ∇0W̃_ji), the dual-support hourglass force
+// Σ_j [(k_ij + k_ji)(u_j − u_i) − (k_ij H_i + k_ji H_j) X_ij], boundary conditions and
+// u̇ = v.
 @compute @workgroup_size(256)
 fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let i = gid.x + gid.y * nwg.x * 256u;
@@ -30,6 +36,7 @@ fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     let u_i = vload_y(U_OFF + DIM * i);
     let c_i = sqrt(BULK / rho_i);
     let m_i = RHO0 * vol_of(i);
+    let h_i = mload_kin(KF_OFF + DIM * DIM * i);
     var force: vecd;
     var viscous: vecd;
     let p_end = offsets[i + 1u];
@@ -45,6 +52,13 @@ fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
         }
         force += p_i * g * w_ij
             - mload_kin(KP_OFF + DIM * DIM * j) * g_rev * w_ji;
+        if HOURGLASS_DS == 1u {
+            let k_ij = pair[PHGK_OFF + p];
+            let k_ji = pair[PHGKR_OFF + p];
+            let h_j = mload_kin(KF_OFF + DIM * DIM * j);
+            force += (vload_y(U_OFF + DIM * j) - u_i) * (k_ij + k_ji)
+                - (h_i * k_ij + h_j * k_ji) * vload_pair(PDX_OFF + DIM * p);
+        }
         if AV == 1u {
             let x_ij = u_i - vload_y(U_OFF + DIM * j) - vload_pair(PDX_OFF + DIM * p);
             let rho_j = kin[KRHO_OFF + j];

@@ -1,13 +1,14 @@
 //! Every WGSL pass validates with naga (and lowers to an IR) without any adapter, in both
 //! dimensions and for every scene variant the solver compiles.
 
-use crate::common::{block_case, load, mixed_variants, shipped, validate_wgsl};
+use crate::common::{block_case, block_text, load, mixed_variants, shipped, validate_wgsl};
 use meshless::correction::CorrectionKind;
 use meshless::gpu::context::reflect;
 use meshless::gpu::layout::GpuDim;
 use meshless::gpu::shaders::{self, Constants};
 use meshless::methods::MethodSpec;
 use meshless::methods::corotated::gpu as corotated;
+use meshless::methods::dual_support::gpu as dual_support;
 use meshless::methods::galerkin::gpu as galerkin;
 use meshless::methods::godunov::gpu as godunov;
 use meshless::methods::gray_monaghan::gpu as gray_monaghan;
@@ -18,6 +19,7 @@ use meshless::methods::ul::gpu as ul;
 use meshless::run::build_method;
 use meshless::scene::Case;
 use meshless::tensor::{D2, D3};
+use std::path::Path;
 
 /// TLSPH scenes: each material model, kernel and correction the GPU passes compile.
 fn variants() -> Vec<Case> {
@@ -210,6 +212,31 @@ fn check_all<D: GpuDim>() {
             validate_wgsl(&format!("{}D {} ({model})", D::N, source.name), &src);
         }
     }
+    // Dual-support SPH in time: each state model of the block's material keys.
+    for model in [
+        "linear-elastic",
+        "saint-venant-kirchhoff",
+        "neo-hookean",
+        "nearly-incompressible-neo-hookean",
+    ] {
+        let text = block_text(max, model, "dual-support-sph", "");
+        let case = Case::from_toml(
+            &text,
+            Path::new("block.toml"),
+            &["run.solve=dynamic".to_string()],
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let MethodSpec::DualSupportSph(spec) = &case.method.spec else {
+            unreachable!("a dual-support-sph case")
+        };
+        let scheme = dual_support::scheme(spec);
+        let layout = Layout::new(100, 10, D::N, false, 1000, &scheme);
+        let constants = scene_constants(&case, &layout, &scheme);
+        for source in dual_support::SHADERS {
+            let src = shaders::compose::<D>(source, &constants);
+            validate_wgsl(&format!("{}D {} ({model})", D::N, source.name), &src);
+        }
+    }
     // The total-Lagrangian Galerkin passes, rate and state models (the weak form's and
     // the elements' passes are the same files).
     for model in ["hypoelastic", "neo-hookean"] {
@@ -229,6 +256,7 @@ fn check_all<D: GpuDim>() {
         potential::SHADERS,
         corotated::SHADERS,
         galerkin::SHADERS,
+        dual_support::SHADERS,
     ]
     .concat();
     for source in meshless::methods::shaders() {

@@ -8,7 +8,7 @@ use crate::gpu::shaders::{
     BOUNDARY, CONTACT, CORRECTION, INTEGRATE, KERNEL, MECHANICS, PAIR_OFFSETS, REFERENCE, Source,
     VISCOSITY, source,
 };
-use crate::methods::tlsph::gpu::{Frame, REDUCE, TlScheme, viscosity};
+use crate::methods::tlsph::gpu::{Frame, Lists, REDUCE, TlScheme, viscosity};
 
 /// Per particle: shape matching A_i and its rotation R_i (eq 151), the corotated gradient
 /// F̂_i (eqs 152–153), P̂_i = P(F̂_i), R_i F̂_i⁻ᵀ and ρ0/det F̂_i.
@@ -97,6 +97,7 @@ pub fn scheme(spec: &CorotatedSpec) -> TlScheme {
         reduce: REDUCE,
         reverse: false,
         hourglass: None,
+        lists: Lists::Kernel,
         constants: viscosity(spec.artificial_viscosity.as_ref()),
         unit_weights: false,
         kin_tensors: &["R"],

@@ -178,6 +178,11 @@ impl<D: Dim> Method<D> for DualSupportDynamics<D> {
         &self.boundary_work
     }
 
+    /// No viscosity: 0, as `tl-potential` without one (and the GPU engine) books it.
+    fn viscous_dissipation(&self) -> Option<f64> {
+        Some(0.0)
+    }
+
     fn check_finite(&self, y: &TlState<D>) -> Result<(), BlowUp> {
         tl::check_state(&self.model.support.x0, y)
     }

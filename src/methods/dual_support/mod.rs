@@ -2,10 +2,12 @@
 //! per particle with supports and dual-supports ([`support`]), the variational internal
 //! force and hourglass energy with their tangent ([`model`]), the model of the static
 //! Newton engine of [`crate::statics`] ([`statics`]), and the explicit dynamic variant on
-//! the same forces ([`dynamics`], `run.solve = "dynamic"`). CPU only. Numerics notes:
-//! `docs/methods/dual-support.md`.
+//! the same forces ([`dynamics`], `run.solve = "dynamic"`; also on the GPU, [`gpu`]).
+//! Numerics notes: `docs/methods/dual-support.md`.
 
 pub mod dynamics;
+#[cfg(feature = "gpu")]
+pub mod gpu;
 pub mod model;
 pub mod statics;
 pub mod support;
@@ -174,8 +176,8 @@ fn nearest_distances<D: Dim>(x0: &[D::V], k: usize, spacing: f64) -> Vec<f64> {
 impl MethodFamily for DualSupportSpec {
     const DESCRIPTION: &'static str = "implicit dual-support SPH (Ren et al.; seed 004): \
         smoothing length per particle, variational force with dual-supports, hourglass \
-        energy, assembled tangent and static Newton–Raphson with load steps; explicit in \
-        time with run.solve = \"dynamic\" (CPU only)";
+        energy, assembled tangent and static Newton–Raphson with load steps (CPU); explicit \
+        in time with run.solve = \"dynamic\" (CPU and GPU)";
     const KEYS: &'static [&'static str] = &[
         "hourglass",
         "smoothing_length",
@@ -192,10 +194,10 @@ impl MethodFamily for DualSupportSpec {
         Feature::StaticDefault,
         Feature::InitialDisplacement,
     ];
-    const GPU_ENGINE: bool = false;
+    const GPU_ENGINE: bool = true;
     const CORRECTED: bool = false;
     #[cfg(feature = "gpu")]
-    const SHADERS: &'static [crate::gpu::shaders::Source] = &[];
+    const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
 
     fn validate(&self, case: &Case) -> Result<(), Problem> {
         let model = case.material.model;
@@ -324,13 +326,25 @@ impl MethodFamily for DualSupportSpec {
         })
     }
 
+    /// The dynamic variant; the static solve runs on the CPU only.
     #[cfg(feature = "gpu")]
     fn gpu_engine<D: EngineDim>(
         &self,
         case: &Case,
-        _gpu: crate::gpu::Gpu,
+        gpu: crate::gpu::Gpu,
     ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
-        Err(super::no_gpu_engine(case).into())
+        if case.is_static() {
+            return Err(case
+                .invalid(
+                    "run.solve",
+                    "the static solve of `dual-support-sph` runs on the CPU only; run it with \
+                     `--backend cpu`, or give run.solve = \"dynamic\" for the GPU",
+                )
+                .into());
+        }
+        Ok(Box::new(crate::methods::tlsph::gpu::GpuTlsph::<D>::new(
+            case, gpu,
+        )?))
     }
 
     /// c_p, the wave speed of the dynamic variant's step (the static path has none).

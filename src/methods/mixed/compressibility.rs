@@ -220,6 +220,8 @@ pub(super) struct StageBuffers<D: Dim> {
     pub p_int: Vec<f64>,
     pub h: Vec<D::T>,
     pub held: Vec<u8>,
+    /// The predictor's loads and supports on a^int (its reactions' list kept).
+    pub work: crate::methods::shared::BoundaryWork,
 }
 
 impl<D: Dim> Default for StageBuffers<D> {
@@ -230,6 +232,7 @@ impl<D: Dim> Default for StageBuffers<D> {
             p_int: Vec::new(),
             h: Vec::new(),
             held: Vec::new(),
+            work: Default::default(),
         }
     }
 }

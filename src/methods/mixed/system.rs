@@ -698,8 +698,7 @@ impl<D: Dim> MixedSph<D> {
         b.p_int
             .extend((0..n).map(|a| y.pressure[a] + dt * d.pressure[a]));
         b.a_int.clone_from(&d.v);
-        let mut work = BoundaryWork::default();
-        work.finish(
+        b.work.finish(
             &self.interactions,
             &self.boundary,
             &y.v,

@@ -9,7 +9,7 @@ use crate::gpu::shaders::{
     BOUNDARY, CONTACT, CORRECTION, INTEGRATE, MECHANICS, PAIR_OFFSETS, REFERENCE,
     REVERSE_GRADIENTS, REVERSE_GRADIENTS_BYTES, Source, VISCOSITY, Wgsl, source, wgsl,
 };
-use crate::methods::tlsph::gpu::{DET_F, Frame, STRESS, TlScheme, viscosity};
+use crate::methods::tlsph::gpu::{DET_F, Frame, Lists, STRESS, TlScheme, viscosity};
 
 /// The strain energy of the reduction (V_i ψ_i, or ψ_i for the reference code's force).
 const ENERGY: Wgsl = wgsl!("potential/potential_energy.wgsl");
@@ -36,10 +36,14 @@ pub const ACCEL: Source = source!(
                 // ∇0W̃_ij and the reverse ∇0W̃_ji; X_j − X_i for the viscosity.
                 read("pair", NONE, [0, 2, 0]),
                 read("pair", NONE, [0, 1, 0]).when(&["AV"]),
+                // k_ij, k_ji and X_j − X_i of dual-support SPH's hourglass force.
+                read("pair", NONE, [2, 1, 0]).when(&["HOURGLASS_DS"]),
                 read("reference", [2, 0, 0], NONE),
                 read("y", [0, 2, 0], NONE),
                 // P, F⁻ᵀ, ρ in; the power out.
                 read("kin", [1, 0, 2], NONE),
+                // H for the hourglass force.
+                read("kin", [0, 0, 1], NONE).when(&["HOURGLASS_DS"]),
                 write("kin", [2, 0, 0], NONE),
                 read("ext", [0, 1, 0], NONE),
                 write("d", [0, 2, 0], NONE),
@@ -74,11 +78,14 @@ pub fn scheme(spec: &PotentialSpec) -> TlScheme {
         reduce: REDUCE,
         reverse: true,
         hourglass: None,
-        constants: viscosity(spec.artificial_viscosity.as_ref()).choice(
-            "FORCE",
-            &["CONSISTENT", "REFERENCE_CODE"],
-            usize::from(reference_code),
-        ),
+        lists: Lists::Kernel,
+        constants: viscosity(spec.artificial_viscosity.as_ref())
+            .choice(
+                "FORCE",
+                &["CONSISTENT", "REFERENCE_CODE"],
+                usize::from(reference_code),
+            )
+            .u32("HOURGLASS_DS", 0),
         unit_weights: reference_code,
         kin_tensors: &[],
         frame: Frame::Reference,

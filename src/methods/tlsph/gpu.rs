@@ -145,6 +145,8 @@ pub struct TlScheme {
     /// The hourglass control's α: the host fills its stiffness κ_ij into the pair data
     /// (field HGK), which the acceleration pass reads.
     pub hourglass: Option<f64>,
+    /// Where the pair lists and gradients come from.
+    pub lists: Lists,
     /// Its own compiled-in constants.
     pub constants: Constants,
     /// Its force derives from Σ_i ψ_i rather than Σ_i V_i ψ_i (the reference code's
@@ -159,6 +161,18 @@ pub struct TlScheme {
     /// The quantities whose failure the stress pass records, one status slot each (the
     /// first particle, by `atomicMin`), as a blow-up names them.
     pub checks: &'static [&'static str],
+}
+
+/// The pair lists and corrected gradients of a scheme.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Lists {
+    /// The reference neighbours within the kernel's support and the case's correction.
+    Kernel,
+    /// Dual-support SPH's ([`crate::methods::dual_support::gpu::lists`]): the supports
+    /// and dual-supports S_i ∪ S'_i with each particle's own h, g_ij/V_j (zero where
+    /// j ∉ S_i), the hourglass stiffnesses of both sides of every pair (fields HGK and
+    /// HGKR), and the host's model for the outputs.
+    DualSupport(crate::methods::dual_support::DualSupportSpec),
 }
 
 /// What the kinematics' H = F − I measures, for snapshots.
@@ -183,6 +197,7 @@ pub fn scheme(spec: &super::TlsphSpec) -> TlScheme {
         reduce: REDUCE,
         reverse: variational,
         hourglass: spec.hourglass,
+        lists: Lists::Kernel,
         constants: viscosity(spec.artificial_viscosity.as_ref())
             .u32("HOURGLASS", u32::from(spec.hourglass.is_some()))
             .choice(
@@ -217,6 +232,7 @@ fn scheme_of(case: &Case) -> Result<TlScheme, CaseError> {
         MethodSpec::Tlsph(spec) => Ok(scheme(spec)),
         MethodSpec::TlPotential(spec) => Ok(crate::methods::potential::gpu::scheme(spec)),
         MethodSpec::CorotatedTlsph(spec) => Ok(crate::methods::corotated::gpu::scheme(spec)),
+        MethodSpec::DualSupportSph(spec) => Ok(crate::methods::dual_support::gpu::scheme(spec)),
         _ => Err(not_run_by(case, "GpuTlsph")),
     }
 }
@@ -249,6 +265,7 @@ impl Layout {
         pairs: usize,
         scheme: &TlScheme,
     ) -> Self {
+        let dual = matches!(scheme.lists, Lists::DualSupport(_));
         let kin = Fields::new("K", dim)
             .tensors("F", true, n)
             .tensors("P", true, n)
@@ -275,7 +292,8 @@ impl Layout {
                 .vectors("G", true, pairs)
                 .vectors("DX", true, pairs)
                 .vectors("GREV", scheme.reverse, pairs)
-                .scalars("HGK", scheme.hourglass.is_some(), pairs),
+                .scalars("HGK", scheme.hourglass.is_some() || dual, pairs)
+                .scalars("HGKR", dual, pairs),
             reference: reference::fields(n, constrained, dim, EXTRAS),
         }
     }
@@ -341,6 +359,9 @@ pub struct GpuTlsph<D: GpuDim> {
     frame: Frame,
     /// The quantity of each status slot (`TlScheme::checks`).
     checks: &'static [&'static str],
+    /// Dual-support SPH's model on the host, whose f64 outputs the snapshots take from
+    /// the state read back ([`Lists::DualSupport`]).
+    dual_support: Option<crate::methods::dual_support::DualSupport<D>>,
     layout: Layout,
     /// Neighbour pairs of the reference lists.
     pairs: u64,
@@ -374,7 +395,15 @@ impl<D: GpuDim> GpuTlsph<D> {
         check_f32_run(case, &disc.boundary)?;
         check_f32_particles::<D>(case, &disc.x0, &disc.u0, &disc.v0, &disc.body)?;
         let n = disc.len();
-        let csr = disc.neighbours();
+        let dual = match &scheme.lists {
+            Lists::Kernel => None,
+            Lists::DualSupport(spec) => Some(crate::methods::dual_support::gpu::lists::<D>(
+                case, spec, &disc,
+            )?),
+        };
+        let csr = dual
+            .as_ref()
+            .map_or_else(|| disc.neighbours(), |d| d.csr.clone());
         let layout = Layout::new(
             n,
             disc.boundary.constrained.len(),
@@ -403,17 +432,27 @@ impl<D: GpuDim> GpuTlsph<D> {
         // X_j − X_i, then (but for the host's RKPM and CGCK) the corrected gradients.
         let offsets_pass = (compose(&PAIR_OFFSETS), "pair_offsets");
         let correct_pass = (compose(&CORRECTION), "correct");
-        let host_solved = matches!(
-            case.method.correction,
-            CorrectionKind::Rkpm | CorrectionKind::Cgck
-        );
+        let host_solved = dual.is_some()
+            || matches!(
+                case.method.correction,
+                CorrectionKind::Rkpm | CorrectionKind::Cgck
+            );
         let passes = if host_solved {
             vec![offsets_pass]
         } else {
             vec![offsets_pass, correct_pass]
         };
         run_once(&gpu, &passes, &set_up, n)?;
-        if host_solved {
+        let write_pair = |field: &str, values: &[f32]| {
+            let at = (layout.pair.offset(field) * 4) as u64;
+            gpu.queue
+                .write_buffer(&pair, at, bytemuck::cast_slice(values));
+        };
+        if let Some(d) = &dual {
+            write_pair("G", &flat_v::<D>(d.g.clone()));
+            write_pair("HGK", &d.hgk);
+            write_pair("HGKR", &d.hgk_rev);
+        } else if host_solved {
             let g = correction::gradients::<D>(
                 case.method.correction,
                 &disc.x0,
@@ -422,9 +461,7 @@ impl<D: GpuDim> GpuTlsph<D> {
                 &disc.kernel,
             )
             .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
-            let at = (layout.pair.offset("G") * 4) as u64;
-            gpu.queue
-                .write_buffer(&pair, at, bytemuck::cast_slice(&flat_v::<D>(g)));
+            write_pair("G", &flat_v::<D>(g));
         } else if let Some((i, _)) = read_status(&gpu, &status) {
             return Err(case
                 .invalid(
@@ -439,9 +476,7 @@ impl<D: GpuDim> GpuTlsph<D> {
         if let Some(alpha) = scheme.hourglass {
             let kappa = hourglass_stiffness::<D>(case, alpha, &disc.x0, &disc.vol, &csr);
             let kappa: Vec<f32> = kappa.into_iter().map(|k| k as f32).collect();
-            let at = (layout.pair.offset("HGK") * 4) as u64;
-            gpu.queue
-                .write_buffer(&pair, at, bytemuck::cast_slice(&kappa));
+            write_pair("HGK", &kappa);
         }
         if scheme.reverse {
             let rev = crate::methods::shared::reverse_pairs(case, &csr)?;
@@ -515,6 +550,7 @@ impl<D: GpuDim> GpuTlsph<D> {
             wave_speed_scale,
             frame: scheme.frame,
             checks: scheme.checks,
+            dual_support: dual.map(|d| d.model),
             layout,
             stepper,
             kin,
@@ -810,8 +846,11 @@ impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
         }
         self.gpu.queue.submit([encoder.finish()]);
         let y = self.state();
-        let (f, _) = self.kinematics();
         let r = &self.reference;
+        if let Some(model) = &self.dual_support {
+            return model.snapshot(y.u, y.v, &r.mass, &r.body, true);
+        }
+        let (f, _) = self.kinematics();
         if self.frame == Frame::Corotated {
             let rot = self.kin_tensor("R");
             let crate::methods::corotated::system::Outputs {

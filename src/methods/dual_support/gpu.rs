@@ -1,0 +1,139 @@
+//! The explicit dynamic variant of dual-support SPH on the GPU: the total-Lagrangian
+//! engine of [`crate::methods::tlsph::gpu`] with the elastic potential's force pass
+//! (`shaders/potential/potential.wgsl`), on lists and gradients built here on the host.
+//!
+//! With F_i = I + Σ_{j∈S_i} (u_j − u_i) ⊗ g_ij, the force −∂(Σ_i V_i ψ(F_i))/∂u of eq 18,
+//! f_a = V_a P_a Σ_j g_aj − Σ_{i∈S'_a} V_i P_i g_ia, is the potential's pair form
+//! f_a = Σ_j [V_a P_a g_aj − V_j P_j g_ja] over the union S_a ∪ S'_a, where g_aj = 0 for
+//! j ∉ S_a: the union lists are symmetric, so every pair has its reverse. The hourglass
+//! force (eq 28) and energy (eq 21) take the stiffness k_ij = 2 V_i c_i w_ij of both sides
+//! of each pair. The CPU system ([`super::dynamics`]) is the reference it is checked
+//! against.
+
+use super::DualSupportSpec;
+use super::model::DualSupport;
+use super::support::Support;
+use crate::gpu::shaders::{MECHANICS, REFERENCE, Source, Wgsl, source, wgsl};
+use crate::methods::potential::gpu::ACCEL;
+use crate::methods::tlsph::gpu::{DET_F, Frame, Lists, STRESS, TlScheme, viscosity};
+use crate::neighbour::Csr;
+use crate::reference::Reference;
+use crate::scene::{Case, CaseError};
+use crate::tensor::Dim;
+
+/// The energy of the reduction: V_i ψ_i plus the hourglass energy of i's support.
+const ENERGY: Wgsl = wgsl!("dual_support/dual_support_energy.wgsl");
+
+/// Energies, momenta and checks of a state.
+pub const REDUCE: Source = source!(
+    "common/reduce.wgsl",
+    [MECHANICS, ENERGY, REFERENCE],
+    [
+        ("y", false),
+        ("kin", false),
+        ("reference", false),
+        ("pair", false)
+    ]
+);
+
+/// The passes of a dual-support scene.
+pub const SHADERS: &[Source] = &[
+    STRESS,
+    ACCEL,
+    crate::gpu::shaders::INTEGRATE,
+    crate::gpu::shaders::PAIR_OFFSETS,
+    REDUCE,
+];
+
+/// The scheme of the dynamic variant: the potential's consistent force with the
+/// dual-support hourglass term.
+pub fn scheme(spec: &DualSupportSpec) -> TlScheme {
+    TlScheme {
+        stress: STRESS,
+        accel: ACCEL,
+        reduce: REDUCE,
+        reverse: true,
+        hourglass: None,
+        lists: Lists::DualSupport(spec.clone()),
+        constants: viscosity(None)
+            .choice("FORCE", &["CONSISTENT", "REFERENCE_CODE"], 0)
+            .u32("HOURGLASS_DS", 1),
+        unit_weights: false,
+        kin_tensors: &[],
+        frame: Frame::Reference,
+        checks: DET_F,
+    }
+}
+
+/// An entry of the union list of particle i: (j, the slot of (i, j) in S_i, the slot of
+/// (j, i) in S_j).
+type Entry = (u32, Option<usize>, Option<usize>);
+
+/// The device's lists and pair data, and the host model they come from.
+pub struct DeviceLists<D: Dim> {
+    /// S_i ∪ S'_i of every particle, ascending.
+    pub csr: Csr,
+    /// g_ij/V_j for j ∈ S_i, zero otherwise, in `csr` order.
+    pub g: Vec<D::V>,
+    /// k_ij = 2 V_i c_i w_ij (zero where j ∉ S_i) and k_ji of the reverse pair.
+    pub hgk: Vec<f32>,
+    pub hgk_rev: Vec<f32>,
+    pub model: DualSupport<D>,
+}
+
+/// Smoothing lengths, supports and dual-supports of the reference configuration
+/// `reference` of `case`, and the device's lists and pair data from them.
+pub fn lists<D: Dim>(
+    case: &Case,
+    spec: &DualSupportSpec,
+    reference: &Reference<D>,
+) -> Result<DeviceLists<D>, CaseError> {
+    let h = spec.smoothing_lengths::<D>(case, reference)?;
+    let support = Support::<D>::new(
+        reference.x0.clone(),
+        reference.vol.clone(),
+        h,
+        case.method.kernel,
+    )
+    .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
+    let model = DualSupport::new(support, reference.material, spec.hourglass);
+    let s = &model.support;
+    let n = s.len();
+    let mut rows: Vec<Vec<Entry>> = vec![Vec::new(); n];
+    for (i, row) in rows.iter_mut().enumerate() {
+        for p in s.lists.range(i) {
+            row.push((s.lists.ids[p], Some(p), None));
+        }
+        for q in s.dual.range(i) {
+            let j = s.dual.ids[q];
+            let back = Some(s.dual_slot[q] as usize);
+            match row.iter_mut().find(|e| e.0 == j) {
+                Some(e) => e.2 = back,
+                None => row.push((j, None, back)),
+            }
+        }
+        row.sort_unstable_by_key(|e| e.0);
+    }
+    let stiffness = |i: usize, p: usize| (2.0 * s.vol[i] * model.hourglass[i] * s.w[p]) as f32;
+    let mut csr = Csr {
+        offsets: vec![0],
+        ids: Vec::new(),
+    };
+    let (mut g, mut hgk, mut hgk_rev) = (Vec::new(), Vec::new(), Vec::new());
+    for (i, row) in rows.iter().enumerate() {
+        for &(j, own, back) in row {
+            csr.ids.push(j);
+            g.push(own.map_or(D::zero(), |p| s.g[p] * (1.0 / s.vol[j as usize])));
+            hgk.push(own.map_or(0.0, |p| stiffness(i, p)));
+            hgk_rev.push(back.map_or(0.0, |p| stiffness(j as usize, p)));
+        }
+        csr.offsets.push(csr.ids.len());
+    }
+    Ok(DeviceLists {
+        csr,
+        g,
+        hgk,
+        hgk_rev,
+        model,
+    })
+}
