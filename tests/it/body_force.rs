@@ -26,7 +26,7 @@ fn g_norm() -> f64 {
 
 /// A ring on the polar lattice (4 layers of 48 particles whose volumes grow with the
 /// radius, 2.3-fold from the inner layer to the outer), RK4 at Δt = 1e-5 s (c_p Δt/Δx =
-/// 0.03), under the body force `condition`, with `method` and its defaults: h/Δx = 1.3
+/// 0.03), run in time, under the body force `condition`, with `method` and its defaults: h/Δx = 1.3
 /// where it has a kernel, neo-Hookean, or hypoelastic for the updated-Lagrangian
 /// methods that integrate a stress rate.
 fn ring(method: &str, condition: &str) -> Result<Case, CaseError> {
@@ -49,18 +49,15 @@ region = {{}}
 condition = {condition}
 [run]
 end_time = 1.0e-3
+solve = "dynamic"
 "#
     );
     Case::from_toml(&text, Path::new("falling-ring.toml"), &[])
 }
 
-/// The methods that step in time (the static dual-support method sags under gravity in
-/// the beam test instead).
+/// Every method, stepping in time (dual-support SPH's dynamic variant too).
 fn dynamic_methods() -> impl Iterator<Item = &'static str> {
-    REGISTRY
-        .iter()
-        .filter(|e| e.name != "dual-support-sph")
-        .map(|e| e.name)
+    REGISTRY.iter().map(|e| e.name)
 }
 
 /// Runs [`STEPS`] steps in batches of 10, booking the work after each batch (the GPU
