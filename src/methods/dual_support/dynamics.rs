@@ -6,9 +6,7 @@
 //! energy is conserved but for the integrator's error, and Σ_i f_i^int = 0 to round-off.
 //! The state is u and v, as for total-Lagrangian SPH ([`TlState`]).
 
-use super::DualSupportSpec;
 use super::model::DualSupport;
-use super::support::Support;
 use crate::boundary::Boundary;
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
@@ -35,29 +33,23 @@ pub struct DualSupportDynamics<D: Dim> {
 
 impl<D: Dim> DualSupportDynamics<D> {
     /// Smoothing lengths, supports and dual-supports on the reference configuration.
-    pub fn new(case: &Case, mut reference: Reference<D>) -> Result<Self, CaseError> {
+    pub fn new(case: &Case, reference: Reference<D>) -> Result<Self, CaseError> {
         let MethodSpec::DualSupportSph(spec) = &case.method.spec else {
             return Err(not_run_by(case, "DualSupportDynamics"));
         };
-        let spec: &DualSupportSpec = spec;
-        reference.h = spec.smoothing_lengths::<D>(case, &reference)?;
+        let model = spec.model(case, &reference)?;
         let Reference {
-            x0,
-            vol,
             mass,
             body,
             v0,
             u0,
             boundary,
-            material,
-            h,
             ..
         } = reference;
-        let support = Support::<D>::new(x0, vol, h, case.method.kernel)
-            .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
-        let interactions = Interactions::build(case, &support.x0, &body, || support.lists.clone())?;
+        let s = &model.support;
+        let interactions = Interactions::build(case, &s.x0, &body, || s.lists.clone())?;
         Ok(Self {
-            model: DualSupport::new(support, material, spec.hourglass),
+            model,
             mass,
             body,
             v0,

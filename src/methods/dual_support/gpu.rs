@@ -12,7 +12,6 @@
 
 use super::DualSupportSpec;
 use super::model::DualSupport;
-use super::support::Support;
 use crate::gpu::shaders::{MECHANICS, REFERENCE, Source, Wgsl, source, wgsl};
 use crate::methods::potential::gpu::ACCEL;
 use crate::methods::tlsph::gpu::{DET_F, Frame, Lists, STRESS, TlScheme, viscosity};
@@ -88,15 +87,7 @@ pub fn lists<D: Dim>(
     spec: &DualSupportSpec,
     reference: &Reference<D>,
 ) -> Result<DeviceLists<D>, CaseError> {
-    let h = spec.smoothing_lengths::<D>(case, reference)?;
-    let support = Support::<D>::new(
-        reference.x0.clone(),
-        reference.vol.clone(),
-        h,
-        case.method.kernel,
-    )
-    .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
-    let model = DualSupport::new(support, reference.material, spec.hourglass);
+    let model = spec.model(case, reference)?;
     let s = &model.support;
     let n = s.len();
     let mut rows: Vec<Vec<Entry>> = vec![Vec::new(); n];

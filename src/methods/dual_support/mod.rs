@@ -150,6 +150,27 @@ impl DualSupportSpec {
     }
 }
 
+impl DualSupportSpec {
+    /// The method on the reference configuration of `case`: smoothing lengths, supports,
+    /// dual-supports and the hourglass coefficients (the static, dynamic and GPU paths
+    /// alike).
+    pub fn model<D: Dim>(
+        &self,
+        case: &Case,
+        reference: &Reference<D>,
+    ) -> Result<DualSupport<D>, CaseError> {
+        let h = self.smoothing_lengths::<D>(case, reference)?;
+        let (x0, vol) = (reference.x0.clone(), reference.vol.clone());
+        let support = Support::<D>::new(x0, vol, h, case.method.kernel)
+            .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
+        Ok(DualSupport::new(
+            support,
+            reference.material,
+            self.hourglass,
+        ))
+    }
+}
+
 /// The distance from every particle to its k-th nearest other particle (a radius search
 /// doubled until every particle has k neighbours).
 fn nearest_distances<D: Dim>(x0: &[D::V], k: usize, spacing: f64) -> Vec<f64> {

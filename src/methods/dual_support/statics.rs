@@ -40,21 +40,14 @@ pub fn pattern<D: Dim>(s: &Support<D>) -> BlockPattern {
 impl<D: Dim> crate::statics::Statics<D, DualSupport<D>> {
     /// Builds supports, the tangent's pattern and the free system once.
     pub fn new(case: &Case, spec: &DualSupportSpec) -> Result<Self, CaseError> {
-        let mut reference = Reference::<D>::build(case)?;
-        reference.h = spec.smoothing_lengths::<D>(case, &reference)?;
+        let reference = Reference::<D>::build(case)?;
+        let model = spec.model(case, &reference)?;
         let Reference {
-            x0,
-            vol,
             mass,
             body,
             boundary,
-            material,
-            h,
             ..
         } = reference;
-        let support = Support::<D>::new(x0, vol, h, case.method.kernel)
-            .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
-        let model = DualSupport::new(support, material, spec.hourglass);
         let cg = CgSettings {
             tolerance: spec.linear_tolerance,
             max_iterations: spec.linear_max_iterations as usize,
