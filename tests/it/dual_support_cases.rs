@@ -166,6 +166,22 @@ fn by_step(log: &[Iteration]) -> Vec<Vec<f64>> {
     steps
 }
 
+/// The relative residuals of each of the four load steps of a log, asserting that each
+/// converges within 10 iterations and quadratically: r_k+1 < 100 r_k² once r_k < 1e-3.
+fn quadratic_in_four_steps(log: &[Iteration]) -> Vec<Vec<f64>> {
+    let steps = by_step(log);
+    assert_eq!(steps.len(), 4, "{steps:?}");
+    for s in &steps {
+        assert!(s.len() - 1 <= 10, "{steps:?}");
+        for w in s.windows(2) {
+            if w[0] < 1e-3 && w[1] > 1e-13 {
+                assert!(w[1] < 100.0 * w[0] * w[0], "not quadratic: {steps:?}");
+            }
+        }
+    }
+    steps
+}
+
 #[test]
 fn the_cube_converges_quadratically_in_each_load_sub_step() {
     // Seed 004 §6.6: 4 load sub-steps, Newton iterations (4, 4, 5, 7). On 9³ particles
@@ -180,16 +196,7 @@ fn the_cube_converges_quadratically_in_each_load_sub_step() {
         &set(&["spacing=0.125", "method.solver=direct"]),
     );
     e.advance(0.0, 0.25, 4).unwrap_or_else(|f| panic!("{f:?}"));
-    let steps = by_step(&e.iterations());
-    assert_eq!(steps.len(), 4, "{steps:?}");
-    for s in &steps {
-        assert!(s.len() - 1 <= 10, "{steps:?}");
-        for w in s.windows(2) {
-            if w[0] < 1e-3 && w[1] > 1e-13 {
-                assert!(w[1] < 100.0 * w[0] * w[0], "not quadratic: {steps:?}");
-            }
-        }
-    }
+    let steps = quadratic_in_four_steps(&e.iterations());
     assert!(steps[3].len() >= steps[0].len(), "{steps:?}");
     let uz = e.u.iter().map(|u| u.z).fold(f64::INFINITY, f64::min);
     eprintln!(
@@ -243,16 +250,7 @@ fn the_trilinear_cube_converges_quadratically_towards_the_particle_solution() {
     // this coarse mesh already.
     let mut e = any_engine::<D3>("hyperelastic-cube-fem", &set(&["spacing=0.125"]));
     e.advance(0.0, 0.25, 4).unwrap_or_else(|f| panic!("{f:?}"));
-    let steps = by_step(&e.iterations());
-    assert_eq!(steps.len(), 4, "{steps:?}");
-    for s in &steps {
-        assert!(s.len() - 1 <= 10, "{steps:?}");
-        for w in s.windows(2) {
-            if w[0] < 1e-3 && w[1] > 1e-13 {
-                assert!(w[1] < 100.0 * w[0] * w[0], "not quadratic: {steps:?}");
-            }
-        }
-    }
+    quadratic_in_four_steps(&e.iterations());
     let snap = e.snapshot();
     let corner = snap
         .x0
