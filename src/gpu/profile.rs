@@ -23,21 +23,26 @@ use std::time::Instant;
 
 /// f32 or u32 words of one item or pair: scalars, DIM-vectors, DIM×DIM tensors and
 /// slopes (a tensor and its DIM derivatives, (DIM + 1)·DIM² words: the mixed methods'
-/// least-squares slopes of v and P).
+/// least-squares slopes of v and P) and moduli (a fourth-order tensor such as ∂P/∂F, DIM⁴
+/// words).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Words {
     pub scalars: u32,
     pub vectors: u32,
     pub tensors: u32,
     pub slopes: u32,
+    pub moduli: u32,
 }
 
 impl Words {
     /// Bytes of these words in dimension `dim`.
     pub const fn bytes(self, dim: u32) -> u64 {
         let d2 = dim * dim;
-        4 * (self.scalars + self.vectors * dim + self.tensors * d2 + self.slopes * (dim + 1) * d2)
-            as u64
+        4 * (self.scalars
+            + self.vectors * dim
+            + self.tensors * d2
+            + self.slopes * (dim + 1) * d2
+            + self.moduli * d2 * d2) as u64
     }
 }
 
@@ -79,6 +84,17 @@ impl Traffic {
         Self { when, ..self }
     }
 
+    /// And `moduli` fourth-order tensors per item.
+    pub const fn moduli(self, moduli: u32) -> Self {
+        Self {
+            item: Words {
+                moduli,
+                ..self.item
+            },
+            ..self
+        }
+    }
+
     /// And `slopes` slope blocks per item.
     pub const fn slopes(self, slopes: u32) -> Self {
         Self {
@@ -97,6 +113,7 @@ const fn words(w: [u32; 3]) -> Words {
         vectors: w[1],
         tensors: w[2],
         slopes: 0,
+        moduli: 0,
     }
 }
 

@@ -53,6 +53,8 @@ pub enum Feature {
     Plasticity,
     /// The static solve of `run.solve = "static"` ([`crate::statics`]).
     StaticSolve,
+    /// The static solve on the GPU as well (`--backend gpu`).
+    GpuStaticSolve,
     /// Static by default: a run solves for equilibrium load step by load step unless
     /// `run.solve = "dynamic"`.
     StaticDefault,

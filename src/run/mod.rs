@@ -203,11 +203,19 @@ pub fn may_use_gpu(case: &Case, backend: Backend) -> bool {
     backend != Backend::Cpu && cpu_only(case).is_none()
 }
 
-/// Why a case runs on the CPU only (a static solve, or its method, keys or material), or
-/// None if it has a GPU engine.
+/// Why a case runs on the CPU only (a static solve of a method without one on the GPU,
+/// or its method, keys or material), or None if it has a GPU engine.
 pub fn cpu_only(case: &Case) -> Option<String> {
-    if case.is_static() {
-        return Some("the static solve (run.solve = \"static\") runs on the CPU only".into());
+    let features = case.method.spec.entry().features;
+    if case.is_static() && !features.contains(&crate::methods::Feature::GpuStaticSolve) {
+        return Some(format!(
+            "the static solve (run.solve = \"static\") of `{}` runs on the CPU only (on the \
+             GPU: {})",
+            case.method.name(),
+            crate::methods::quoted(crate::methods::supporting(
+                crate::methods::Feature::GpuStaticSolve
+            ))
+        ));
     }
     let why = case.method.spec.gpu_refusal(case)?;
     Some(format!("`{}` {why}", case.method.name()))

@@ -23,7 +23,7 @@
 //! then solved by sparse Cholesky, with LU where the tangent turns indefinite.
 
 use super::sparse::{BlockPattern, Linear};
-use super::{Model, Newton, Setup, Statics};
+use super::{Linearisation, Model, Newton, Setup, Statics};
 use crate::methods::{BlowUp, Method};
 use crate::neighbour;
 use crate::observe::Snapshot;
@@ -111,10 +111,14 @@ impl<D: Dim, M: AtRest<D>> Statics<D, Explicit<D, M>> {
         let bodies: Vec<&str> = case.bodies.iter().map(|b| b.name.as_str()).collect();
         rigid_motions_held::<D>(x0, method.body(), &bodies, &boundary.constrained)
             .map_err(|m| case.invalid("boundary", m))?;
-        let (pattern, linear) = match method.closed_form() {
-            Some(k) if k.symmetric() => (k.pattern(), Linear::Cholesky),
-            Some(k) => (k.pattern(), Linear::Lu),
-            None => (difference_pattern::<D>(case, x0), Linear::Lu),
+        let (pattern, linear, groups) = match method.closed_form() {
+            Some(k) if k.symmetric() => (k.pattern(), Linear::Cholesky, Vec::new()),
+            Some(k) => (k.pattern(), Linear::Lu, Vec::new()),
+            None => {
+                let pattern = difference_pattern::<D>(case, x0);
+                let groups = pattern.column_groups();
+                (pattern, Linear::Lu, groups)
+            }
         };
         let mut external = vec![D::zero(); x0.len()];
         for &(i, a) in &boundary.external {
@@ -124,8 +128,7 @@ impl<D: Dim, M: AtRest<D>> Statics<D, Explicit<D, M>> {
             mass: mass.to_vec(),
             body: method.body().to_vec(),
             boundary: &boundary,
-            pattern,
-            linear,
+            linearisation: Linearisation::Assembled(pattern, linear),
             newton: Newton {
                 residual_tolerance: RESIDUAL_TOLERANCE,
                 increment_tolerance: INCREMENT_TOLERANCE,
@@ -138,14 +141,10 @@ impl<D: Dim, M: AtRest<D>> Statics<D, Explicit<D, M>> {
             rates: method.initial_state(),
             method,
             external,
-            groups: Vec::new(),
+            groups,
             step: STEP_PER_SPACING * case.spacing,
         };
-        let mut engine = Self::with_model(case, model, setup, "run.solve")?;
-        if engine.model.method.closed_form().is_none() {
-            engine.model.groups = engine.pattern.column_groups();
-        }
-        Ok(engine)
+        Self::with_model(case, model, setup, "run.solve")
     }
 }
 

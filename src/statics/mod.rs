@@ -16,7 +16,7 @@ use crate::observe::Snapshot;
 use crate::run::{Engine, Failed, Iteration};
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
-use sparse::{BlockPattern, Fill, FreeSystem, Linear, SolveStats};
+use sparse::{BlockPattern, Fill, FreeSystem, Linear, SolveError, SolveStats};
 use std::time::Instant;
 
 /// What the Newton engine solves: a discretisation's internal force and stiffness.
@@ -37,6 +37,44 @@ pub trait Model<D: Dim> {
     fn describe(&self) -> String {
         String::new()
     }
+}
+
+/// Newton's linear step without an assembled stiffness: K(u) Δu = R solved from the
+/// model's tangent by products alone (the GPU's matrix-free Krylov solve of dual-support
+/// SPH, [`crate::methods::dual_support::krylov`]).
+pub trait MatrixFree<D: Dim, S> {
+    /// Solves K(u) Δu = r for `model` at displacement u, r and Δu on the free components
+    /// (`free[a·d + k]` is the free index of component k of particle a, None where it is
+    /// prescribed).
+    fn solve(
+        &mut self,
+        model: &mut S,
+        u: &[D::V],
+        free: &[Option<u32>],
+        r: &[f64],
+    ) -> Result<(Vec<f64>, SolveStats), SolveError>;
+    /// The `backend` line's account of the solver on `unknowns` unknowns.
+    fn describe(&self, unknowns: usize) -> String;
+}
+
+/// How Newton's linear step is formed and solved.
+pub enum Linearisation<D: Dim, S> {
+    /// K assembled on the pattern by [`Model::stiffness`], solved by the sparse solver.
+    Assembled(BlockPattern, Linear),
+    /// K never formed ([`MatrixFree`]).
+    MatrixFree(Box<dyn MatrixFree<D, S>>),
+}
+
+/// The linear step of an engine, built on its free numbering.
+enum Step<D: Dim, S> {
+    Assembled {
+        pattern: BlockPattern,
+        values: Vec<f64>,
+        system: FreeSystem,
+        /// Non-zeros of the Cholesky factor and of the tangent's lower triangle.
+        fill: Fill,
+    },
+    MatrixFree(Box<dyn MatrixFree<D, S>>),
 }
 
 /// A constrained degree of freedom and its value u(t).
@@ -81,9 +119,9 @@ pub struct Statics<D: Dim, S: Model<D>> {
     prescribed: Vec<Prescribed>,
     /// External forces of the full load (tractions).
     load: Vec<D::V>,
-    pattern: BlockPattern,
-    values: Vec<f64>,
-    system: FreeSystem,
+    step: Step<D, S>,
+    /// Number of free degrees of freedom.
+    unknowns: usize,
     /// Free index of every degree of freedom (a·d + k), None where prescribed.
     free: Vec<Option<u32>>,
     newton: Newton,
@@ -96,17 +134,14 @@ pub struct Statics<D: Dim, S: Model<D>> {
     work: f64,
     load_step: u64,
     log: Vec<Iteration>,
-    /// Non-zeros of the Cholesky factor and of the tangent's lower triangle.
-    pub fill: Fill,
 }
 
 /// The parts of a static engine besides its model.
-pub struct Setup<'a, D: Dim> {
+pub struct Setup<'a, D: Dim, S> {
     pub mass: Vec<f64>,
     pub body: Vec<u32>,
     pub boundary: &'a Boundary<D>,
-    pub pattern: BlockPattern,
-    pub linear: Linear,
+    pub linearisation: Linearisation<D, S>,
     pub newton: Newton,
 }
 
@@ -117,15 +152,14 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
     pub fn with_model(
         case: &Case,
         model: S,
-        setup: Setup<'_, D>,
+        setup: Setup<'_, D, S>,
         key: &str,
     ) -> Result<Self, CaseError> {
         let Setup {
             mass,
             body,
             boundary,
-            pattern,
-            linear,
+            linearisation,
             newton,
         } = setup;
         let n = mass.len();
@@ -174,9 +208,20 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
         for &(i, a) in &boundary.external {
             load[i as usize] += a * mass[i as usize];
         }
-        let values = vec![0.0; pattern.blocks() * d * d];
-        let (system, fill) = FreeSystem::new(&pattern, d, &free, linear)
-            .map_err(|e| case.invalid(key, e.to_string()))?;
+        let unknowns = free.iter().flatten().count();
+        let step = match linearisation {
+            Linearisation::Assembled(pattern, linear) => {
+                let (system, fill) = FreeSystem::new(&pattern, d, &free, linear)
+                    .map_err(|e| case.invalid(key, e.to_string()))?;
+                Step::Assembled {
+                    values: vec![0.0; pattern.blocks() * d * d],
+                    pattern,
+                    system,
+                    fill,
+                }
+            }
+            Linearisation::MatrixFree(solver) => Step::MatrixFree(solver),
+        };
         Ok(Self {
             model,
             mass,
@@ -184,9 +229,8 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
             boundary: boundary.clone(),
             prescribed,
             load,
-            pattern,
-            values,
-            system,
+            step,
+            unknowns,
             free,
             newton,
             end_time: case.run.end_time,
@@ -196,13 +240,34 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
             work: 0.0,
             load_step: 0,
             log: Vec::new(),
-            fill,
         })
     }
 
     /// Number of free degrees of freedom.
     pub fn unknowns(&self) -> usize {
-        self.system.n
+        self.unknowns
+    }
+
+    /// Solves K(u) Δu = r on the free components by the linear step of `model`.
+    fn solve_step(
+        step: &mut Step<D, S>,
+        model: &mut S,
+        free: &[Option<u32>],
+        u: &[D::V],
+        r: &[f64],
+    ) -> Result<(Vec<f64>, SolveStats), SolveError> {
+        match step {
+            Step::Assembled {
+                pattern,
+                values,
+                system,
+                ..
+            } => {
+                model.stiffness(u, pattern, values);
+                system.solve(&system.gather(values), r)
+            }
+            Step::MatrixFree(solver) => solver.solve(model, u, free, r),
+        }
     }
 
     fn set(u: &mut [D::V], dof: usize, value: f64) {
@@ -247,7 +312,7 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
                 particle: b.particle,
                 reason: format!("{} = {:e}", b.quantity, b.value),
             })?;
-            let mut r = vec![0.0; self.system.n];
+            let mut r = vec![0.0; self.unknowns];
             let mut scale = 0.0;
             for (a, (&fi, &fe)) in f_int.iter().zip(&self.load).enumerate() {
                 let (fi, fe) = (D::to3(fi), D::to3(fe));
@@ -313,9 +378,8 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
                 });
             }
             let started = Instant::now();
-            self.model.stiffness(&u, &self.pattern, &mut self.values);
-            let k = self.system.gather(&self.values);
-            let (du, s) = self.system.solve(&k, &r).map_err(|e| Stalled {
+            let solved = Self::solve_step(&mut self.step, &mut self.model, &self.free, &u, &r);
+            let (du, s) = solved.map_err(|e| Stalled {
                 iterations: iteration,
                 residual: norm,
                 particle: worst(),
@@ -363,7 +427,7 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
             .collect();
         let u0 = self.u.clone();
         let (f0, f1) = (self.model.force(&u0).ok()?, self.model.force(&probe).ok()?);
-        let mut r = vec![0.0; self.system.n];
+        let mut r = vec![0.0; self.unknowns];
         for (a, (&x0, &x1)) in f0.iter().zip(&f1).enumerate() {
             let (x0, x1) = (D::to3(x0), D::to3(x1));
             for k in 0..d {
@@ -372,9 +436,8 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
                 }
             }
         }
-        self.model.stiffness(&u0, &self.pattern, &mut self.values);
-        let k = self.system.gather(&self.values);
-        let (du, _) = self.system.solve(&k, &r).ok()?;
+        let solved = Self::solve_step(&mut self.step, &mut self.model, &self.free, &u0, &r);
+        let (du, _) = solved.ok()?;
         let mut u = moved.to_vec();
         self.add_free(&mut u, &du);
         (du.iter().all(|x| x.is_finite()) && self.model.inadmissible(&u).is_none()).then_some(u)
@@ -406,11 +469,17 @@ impl<D: Dim, S: Model<D>> Engine<D> for Statics<D, S> {
         Ok(())
     }
 
-    /// "cpu", with the linear solver, its size and (Cholesky) the fill of the factor.
+    /// "cpu", with the linear solver, its size and (Cholesky) the fill of the factor; or
+    /// the matrix-free solver's account.
     fn backend(&self) -> String {
-        let Fill { factor, lower } = self.fill;
-        let n = self.system.n;
-        let solver = match self.system.kind() {
+        let n = self.unknowns;
+        let (system, Fill { factor, lower }) = match &self.step {
+            Step::Assembled { system, fill, .. } => (system, *fill),
+            Step::MatrixFree(solver) => {
+                return format!("{}{}", solver.describe(n), self.model.describe());
+            }
+        };
+        let solver = match system.kind() {
             Linear::Cholesky => format!(
                 "sparse Cholesky of {n} unknowns, factor {factor} non-zeros ({:.1}× the \
                  tangent's lower triangle, {lower})",

@@ -8,6 +8,8 @@
 pub mod dynamics;
 #[cfg(feature = "gpu")]
 pub mod gpu;
+#[cfg(feature = "gpu")]
+pub mod krylov;
 pub mod model;
 pub mod statics;
 pub mod support;
@@ -212,6 +214,7 @@ impl MethodFamily for DualSupportSpec {
     ];
     const FEATURES: &'static [Feature] = &[
         Feature::StaticSolve,
+        Feature::GpuStaticSolve,
         Feature::StaticDefault,
         Feature::InitialDisplacement,
     ];
@@ -347,7 +350,8 @@ impl MethodFamily for DualSupportSpec {
         })
     }
 
-    /// The dynamic variant; the static solve runs on the CPU only.
+    /// The dynamic variant, or the static solve with its Newton steps solved matrix-free
+    /// on the device ([`krylov`]).
     #[cfg(feature = "gpu")]
     fn gpu_engine<D: EngineDim>(
         &self,
@@ -355,13 +359,13 @@ impl MethodFamily for DualSupportSpec {
         gpu: crate::gpu::Gpu,
     ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
         if case.is_static() {
-            return Err(case
-                .invalid(
-                    "run.solve",
-                    "the static solve of `dual-support-sph` runs on the CPU only; run it with \
-                     `--backend cpu`, or give run.solve = \"dynamic\" for the GPU",
-                )
-                .into());
+            let reference = Reference::<D>::build(case)?;
+            let lists = gpu::lists(case, self, &reference)?;
+            let iterations = self.linear_max_iterations as usize;
+            let solver = krylov::NewtonKrylov::new(gpu, &lists, self.linear_tolerance, iterations)?;
+            let linearisation = crate::statics::Linearisation::MatrixFree(Box::new(solver));
+            let engine = Statics::<D>::on(case, self, reference, lists.model, linearisation)?;
+            return Ok(Box::new(engine));
         }
         Ok(Box::new(crate::methods::tlsph::gpu::GpuTlsph::<D>::new(
             case, gpu,

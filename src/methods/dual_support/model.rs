@@ -244,61 +244,106 @@ impl<D: Dim> DualSupport<D> {
     }
 
     /// The tangent K = ∂²E/∂u² into the values of `pattern` (d×d blocks, row-major), in
-    /// two steps: the nodal matrices K_i = V_i δF_iᵀ 𝔸_i δF_i (eq 41) plus the hourglass
-    /// blocks 2 V_i c_i (C_kl − g_k·L_i g_l) I (eq 29 with its factor 2 restored; constant),
-    /// summed into the global pattern (global assembly). Each row of blocks is gathered by
-    /// its own particle a from the elements holding it (a itself and S'_a), so every block
-    /// of every K_i is computed once and no two threads write one value.
+    /// two steps: the nodal matrices K_i (eq 41 and the hourglass blocks,
+    /// [`Self::element_blocks`]) summed into the global pattern (global assembly). Each row
+    /// of blocks is gathered by its own particle a from the elements holding it (a itself
+    /// and S'_a), so every block of every K_i is computed once and no two threads write
+    /// one value.
     pub fn stiffness(&self, tangents: &[Tangent], pattern: &BlockPattern, values: &mut [f64]) {
         let s = &self.support;
         let d = D::N;
         let bs = d * d;
-        let comp = |v: D::V| -> [f64; 3] { D::to3(v) };
         pattern
             .rows_mut(values, bs)
             .into_par_iter()
             .for_each(|(a, cols, row)| {
                 row.iter_mut().for_each(|v| *v = 0.0);
                 for (i, ka) in s.elements_of(a) {
-                    let gk = comp(s.weight(i, ka));
-                    let tan = &tangents[i];
-                    let vi = s.vol[i];
-                    // T[a'][b][C] = Σ_B 𝔸[a'B][bC] g_k,B.
-                    let mut t = [[[0.0; 3]; 3]; 3];
-                    for (ap, ta) in t.iter_mut().enumerate().take(d) {
-                        for (b, tb) in ta.iter_mut().enumerate().take(d) {
-                            for (c, tc) in tb.iter_mut().enumerate().take(d) {
-                                *tc = (0..d)
-                                    .map(|bb| tan[3 * ap + bb][3 * b + c] * gk[bb])
-                                    .sum::<f64>()
-                                    * vi;
-                            }
-                        }
-                    }
-                    let hg = 2.0 * vi * self.hourglass[i];
-                    let lg = comp(s.l[i] * s.weight(i, ka));
-                    for (l, node) in s.nodes(i).enumerate() {
+                    let nodes = s.nodes(i).enumerate();
+                    self.element_blocks(&tangents[i], i, ka, nodes, |node, k| {
                         let col = cols
                             .binary_search(&(node as u32))
                             .expect("the pattern holds every pair of an element");
                         let block = &mut row[col * bs..(col + 1) * bs];
-                        let gl = comp(s.weight(i, l));
                         for ap in 0..d {
                             for b in 0..d {
-                                block[ap * d + b] +=
-                                    (0..d).map(|c| t[ap][b][c] * gl[c]).sum::<f64>();
+                                block[ap * d + b] += k[ap][b];
                             }
                         }
-                        if hg != 0.0 {
-                            let c_kl = laplacian(s, i, ka, l);
-                            let g_lg = (0..d).map(|c| lg[c] * gl[c]).sum::<f64>();
-                            for ap in 0..d {
-                                block[ap * d + ap] += hg * (c_kl - g_lg);
-                            }
-                        }
-                    }
+                    });
                 }
             });
+    }
+
+    /// The diagonal of K: per particle a, the diagonal entries of its d×d block K_aa,
+    /// the Jacobi preconditioner of a matrix-free solve.
+    pub fn diagonal(&self, tangents: &[Tangent]) -> Vec<D::V> {
+        let s = &self.support;
+        (0..self.len())
+            .into_par_iter()
+            .map(|a| {
+                let mut diag = [0.0; 3];
+                for (i, ka) in s.elements_of(a) {
+                    let own = std::iter::once((ka, a));
+                    self.element_blocks(&tangents[i], i, ka, own, |_, k| {
+                        for (c, v) in diag.iter_mut().enumerate().take(D::N) {
+                            *v += k[c][c];
+                        }
+                    });
+                }
+                D::from_slice(&diag[..D::N])
+            })
+            .collect()
+    }
+
+    /// The blocks of row ka of element i's nodal matrix with the columns of its local
+    /// nodes `nodes` (local index l, particle): V_i δF_kᵀ 𝔸_i δF_l (eq 41) plus the
+    /// hourglass block 2 V_i c_i (C_kl − g_k·L_i g_l) I (eq 29 with its factor 2 restored;
+    /// constant), each handed to `add` with its particle.
+    fn element_blocks(
+        &self,
+        tan: &Tangent,
+        i: usize,
+        ka: usize,
+        nodes: impl Iterator<Item = (usize, usize)>,
+        mut add: impl FnMut(usize, [[f64; 3]; 3]),
+    ) {
+        let s = &self.support;
+        let d = D::N;
+        let comp = |v: D::V| -> [f64; 3] { D::to3(v) };
+        let gk = comp(s.weight(i, ka));
+        let vi = s.vol[i];
+        // T[a'][b][C] = Σ_B 𝔸[a'B][bC] g_k,B.
+        let mut t = [[[0.0; 3]; 3]; 3];
+        for (ap, ta) in t.iter_mut().enumerate().take(d) {
+            for (b, tb) in ta.iter_mut().enumerate().take(d) {
+                for (c, tc) in tb.iter_mut().enumerate().take(d) {
+                    *tc = (0..d)
+                        .map(|bb| tan[3 * ap + bb][3 * b + c] * gk[bb])
+                        .sum::<f64>()
+                        * vi;
+                }
+            }
+        }
+        let hg = 2.0 * vi * self.hourglass[i];
+        let lg = comp(s.l[i] * s.weight(i, ka));
+        for (l, node) in nodes {
+            let gl = comp(s.weight(i, l));
+            let mut k = [[0.0; 3]; 3];
+            for ap in 0..d {
+                for b in 0..d {
+                    k[ap][b] = (0..d).map(|c| t[ap][b][c] * gl[c]).sum::<f64>();
+                }
+            }
+            if hg != 0.0 {
+                let c_kl = laplacian(s, i, ka, l);
+                let g_lg = (0..d).map(|c| lg[c] * gl[c]).sum::<f64>();
+                for (ap, row) in k.iter_mut().enumerate().take(d) {
+                    row[ap] += hg * (c_kl - g_lg);
+                }
+            }
+            add(node, k);
+        }
     }
 }
 

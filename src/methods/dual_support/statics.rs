@@ -10,7 +10,7 @@ use crate::observe::Snapshot;
 use crate::reference::Reference;
 use crate::scene::{Case, CaseError};
 use crate::statics::sparse::{BlockPattern, CgSettings, Linear};
-use crate::statics::{Model, Newton, Setup};
+use crate::statics::{Linearisation, Model, Newton, Setup};
 use crate::tensor::Dim;
 use rayon::prelude::*;
 
@@ -38,26 +38,39 @@ pub fn pattern<D: Dim>(s: &Support<D>) -> BlockPattern {
 }
 
 impl<D: Dim> crate::statics::Statics<D, DualSupport<D>> {
-    /// Builds supports, the tangent's pattern and the free system once.
+    /// Builds supports, the tangent's pattern and the free system once (the CPU's
+    /// assembled tangent and `method.solver`).
     pub fn new(case: &Case, spec: &DualSupportSpec) -> Result<Self, CaseError> {
         let reference = Reference::<D>::build(case)?;
         let model = spec.model(case, &reference)?;
+        let cg = CgSettings {
+            tolerance: spec.linear_tolerance,
+            max_iterations: spec.linear_max_iterations as usize,
+        };
+        let linearisation =
+            Linearisation::Assembled(pattern(&model.support), Linear::from((spec.solver, cg)));
+        Self::on(case, spec, reference, model, linearisation)
+    }
+
+    /// The engine of `model` on `reference` with Newton's linear step `linearisation`.
+    pub fn on(
+        case: &Case,
+        spec: &DualSupportSpec,
+        reference: Reference<D>,
+        model: DualSupport<D>,
+        linearisation: Linearisation<D, DualSupport<D>>,
+    ) -> Result<Self, CaseError> {
         let Reference {
             mass,
             body,
             boundary,
             ..
         } = reference;
-        let cg = CgSettings {
-            tolerance: spec.linear_tolerance,
-            max_iterations: spec.linear_max_iterations as usize,
-        };
         let setup = Setup {
             mass,
             body,
             boundary: &boundary,
-            pattern: pattern(&model.support),
-            linear: Linear::from((spec.solver, cg)),
+            linearisation,
             newton: Newton {
                 residual_tolerance: spec.residual_tolerance,
                 increment_tolerance: spec.increment_tolerance,

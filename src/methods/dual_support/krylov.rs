@@ -1,0 +1,447 @@
+//! The static solve of dual-support SPH on the GPU: Newton–Raphson on the host in f64
+//! (residual, load steps, step cutting: [`crate::statics`]) with each Newton step
+//! K(u) Δu = R solved matrix-free on the device by Jacobi-preconditioned conjugate
+//! gradients (`shaders/dual_support/krylov.wgsl`). K is never assembled: its product with
+//! a direction is the force pass's gather on the union lists S_i ∪ S'_i, with P replaced by
+//! 𝔸_i : δH_i and the hourglass force taken along the direction, so the memory is that of
+//! the explicit variant plus 𝔸 and five vectors, not the two-hop pattern of the
+//! assembled tangent.
+//!
+//! Scaling. The device solves for the increment Δu only, never for positions X + u (at
+//! u/X ≈ 1e-6, f32 rounds X + u to X); the right-hand side is scaled to unit norm, and
+//! the Jacobi preconditioner makes the iteration that of D^(−1/2) K D^(−1/2), whose
+//! diagonal is 1: every quantity of the iteration is O(1) whatever E and the load. 𝔸 and
+//! the diagonal are computed on the host in f64 at the Newton state and rounded once. The
+//! recursive residual of f32 CG keeps falling after the true one stalls near 1e-6 (f32
+//! sums of ~1e2 terms per row), so the device stops at the relative residual
+//! max(method.linear_tolerance, [`F32_TOLERANCE`]) and the f64 Newton residual on the host
+//! does the rest: an inexact Newton method, linear at the rate of the solve's true
+//! residual where the direct solve is quadratic.
+
+use super::gpu::DeviceLists;
+use super::model::DualSupport;
+use crate::gpu::context::{Gpu, GpuError, Pipeline};
+use crate::gpu::layout::GpuDim;
+use crate::gpu::profile::{NONE, PassBytes, read, read_write, write};
+use crate::gpu::shaders::{Constants, Source, compose, source};
+use crate::statics::MatrixFree;
+use crate::statics::sparse::{SolveError, SolveStats};
+use crate::tensor::Dim;
+use std::time::Instant;
+
+/// The lowest relative residual the device's f32 iteration is asked for.
+pub const F32_TOLERANCE: f64 = 1e-5;
+
+/// CG iterations recorded per submission; the host reads the iteration's state (eight
+/// words) after each batch. Iterations past convergence in a batch are no-ops (α = 0).
+const BATCH: u32 = 32;
+
+/// The scalars of the iteration on the device (krylov.wgsl).
+const SCALARS: usize = 8;
+const RR: usize = 3;
+const THRESHOLD: usize = 4;
+const STATE: usize = 5;
+const ITERATIONS: usize = 6;
+/// The values of its state word.
+const CONVERGED: f32 = 1.0;
+const INDEFINITE: f32 = 2.0;
+
+/// The passes of the matrix-free solve. Items: particles (strain, product), degrees of
+/// freedom (start, update, direction) and workgroup partials (begin, alpha, beta).
+pub const KRYLOV: Source = source!(
+    "dual_support/krylov.wgsl",
+    [],
+    [
+        ("p", false),
+        ("pair", false),
+        ("inv_diag", false),
+        ("q", true),
+        ("lin", true)
+    ],
+    &[
+        PassBytes {
+            entry: "strain",
+            traffic: &[
+                read("offsets", [1, 0, 0], NONE),
+                read("ids", NONE, [1, 0, 0]),
+                read("pair", NONE, [0, 1, 0]),
+                read("tangent", NONE, NONE).moduli(1),
+                read("p", [0, 1, 0], NONE),
+                write("lin", [0, 0, 2], NONE),
+            ],
+        },
+        PassBytes {
+            entry: "product",
+            traffic: &[
+                read("offsets", [1, 0, 0], NONE),
+                read("ids", NONE, [1, 0, 0]),
+                // g_ij and g_ji; k_ij, k_ji and X_j − X_i with the hourglass term.
+                read("pair", NONE, [0, 2, 0]),
+                read("pair", NONE, [2, 1, 0]).when(&["HOURGLASS"]),
+                read("lin", [0, 0, 2], NONE),
+                read("p", [0, 1, 0], NONE),
+                read("inv_diag", [0, 1, 0], NONE),
+                write("q", [0, 1, 0], NONE),
+                write("partials", NONE, NONE),
+            ],
+        },
+        PassBytes {
+            entry: "start",
+            traffic: &[
+                read("inv_diag", [1, 0, 0], NONE),
+                read("r", [1, 0, 0], NONE),
+                write("p", [1, 0, 0], NONE),
+                write("x", [1, 0, 0], NONE),
+                write("partials", NONE, NONE),
+            ],
+        },
+        PassBytes {
+            entry: "begin",
+            traffic: &[
+                read("partials", [2, 0, 0], NONE),
+                read_write("scalars", NONE, NONE),
+            ],
+        },
+        PassBytes {
+            entry: "alpha",
+            traffic: &[
+                read("partials", [2, 0, 0], NONE),
+                read_write("scalars", NONE, NONE),
+            ],
+        },
+        PassBytes {
+            entry: "update",
+            traffic: &[
+                read("scalars", NONE, NONE),
+                read_write("x", [1, 0, 0], NONE),
+                read_write("r", [1, 0, 0], NONE),
+                read("p", [1, 0, 0], NONE),
+                read("q", [1, 0, 0], NONE),
+                read("inv_diag", [1, 0, 0], NONE),
+                write("partials", NONE, NONE),
+            ],
+        },
+        PassBytes {
+            entry: "beta",
+            traffic: &[
+                read("partials", [2, 0, 0], NONE),
+                read_write("scalars", NONE, NONE),
+            ],
+        },
+        PassBytes {
+            entry: "direction",
+            traffic: &[
+                read("scalars", NONE, NONE),
+                read("inv_diag", [1, 0, 0], NONE),
+                read("r", [1, 0, 0], NONE),
+                read_write("p", [1, 0, 0], NONE),
+            ],
+        },
+    ]
+);
+
+/// Words per pair of the `pair` buffer: g_ij, g_ji, X_j − X_i, k_ij, k_ji.
+const fn pair_words(dim: usize) -> usize {
+    3 * dim + 2
+}
+
+/// The scene constants of the passes on n particles with `pairs` union pairs.
+pub fn constants(gpu: &Gpu, dim: usize, n: usize, hourglass: bool) -> Constants {
+    let (particles, dofs) = (gpu.groups(n as u32), gpu.groups((n * dim) as u32));
+    Constants::default()
+        .u32("N", n as u32)
+        .u32("NDOF", (n * dim) as u32)
+        .u32("PAIR", pair_words(dim) as u32)
+        .u32("LP_OFF", (n * dim * dim) as u32)
+        .u32("HOURGLASS", u32::from(hourglass))
+        .u32("GROUPS_N", particles.0 * particles.1)
+        .u32("GROUPS_DOF", dofs.0 * dofs.1)
+}
+
+/// What a pass runs over.
+#[derive(Clone, Copy, Debug)]
+enum Items {
+    Particles,
+    DegreesOfFreedom,
+    /// One workgroup summing the partials of the degree-of-freedom passes (begin, beta) or
+    /// of the particle passes (alpha).
+    Partials {
+        of_particles: bool,
+    },
+}
+
+/// The entry points of one CG iteration, in order, and of the start.
+const ITERATION: [(&str, Items); 6] = [
+    ("strain", Items::Particles),
+    ("product", Items::Particles),
+    ("alpha", Items::Partials { of_particles: true }),
+    ("update", Items::DegreesOfFreedom),
+    (
+        "beta",
+        Items::Partials {
+            of_particles: false,
+        },
+    ),
+    ("direction", Items::DegreesOfFreedom),
+];
+const START: [(&str, Items); 2] = [
+    ("start", Items::DegreesOfFreedom),
+    (
+        "begin",
+        Items::Partials {
+            of_particles: false,
+        },
+    ),
+];
+
+/// A pass with its bind group and items.
+type Pass = (Pipeline, wgpu::BindGroup, Items);
+
+/// The device's matrix-free solver of one dual-support model.
+pub struct NewtonKrylov {
+    gpu: Gpu,
+    n: usize,
+    dim: usize,
+    /// The passes of an iteration and of the start.
+    iteration: Vec<Pass>,
+    start: Vec<Pass>,
+    tangent: wgpu::Buffer,
+    inv_diag: wgpu::Buffer,
+    x: wgpu::Buffer,
+    r: wgpu::Buffer,
+    scalars: wgpu::Buffer,
+    /// The device's relative residual and iteration limit.
+    tolerance: f64,
+    max_iterations: usize,
+}
+
+impl NewtonKrylov {
+    /// The passes and buffers on the union lists of `lists` (the pairs' g_ij, g_ji,
+    /// X_j − X_i and hourglass stiffnesses, uploaded once); CG stops at the relative
+    /// residual max(`tolerance`, [`F32_TOLERANCE`]) or fails after `max_iterations`.
+    pub fn new<D: GpuDim>(
+        gpu: Gpu,
+        lists: &DeviceLists<D>,
+        tolerance: f64,
+        max_iterations: usize,
+    ) -> Result<Self, GpuError> {
+        let (n, dim) = (lists.model.len(), D::N);
+        let x0 = &lists.model.support.x0;
+        let vol = &lists.model.support.vol;
+        let csr = &lists.csr;
+        let stride = pair_words(dim);
+        let mut pair = vec![0.0f32; csr.ids.len() * stride];
+        for i in 0..n {
+            for k in csr.offsets[i]..csr.offsets[i + 1] {
+                let j = csr.ids[k] as usize;
+                let back = csr.offsets[j]
+                    + csr
+                        .neighbours(j)
+                        .binary_search(&(i as u32))
+                        .expect("the union lists are symmetric");
+                let words = &mut pair[k * stride..(k + 1) * stride];
+                let g = lists.g[k] * vol[j];
+                let g_rev = lists.g[back] * vol[i];
+                let dx = x0[j] - x0[i];
+                for c in 0..dim {
+                    words[c] = D::comp(g, c) as f32;
+                    words[dim + c] = D::comp(g_rev, c) as f32;
+                    words[2 * dim + c] = D::comp(dx, c) as f32;
+                }
+                words[3 * dim] = lists.hgk[k];
+                words[3 * dim + 1] = lists.hgk_rev[k];
+            }
+        }
+        let nd = (n * dim) as u64 * 4;
+        let moduli = nd * (dim * dim * dim) as u64;
+        gpu.check_size("per-pair buffer", pair.len() as u64 * 4)?;
+        gpu.check_size("tangent buffer", moduli)?;
+        let hourglass = lists.model.hourglass.iter().any(|&c| c != 0.0);
+        let text = compose::<D>(&KRYLOV, &constants(&gpu, dim, n, hourglass));
+        let (groups_n, groups_dof) = (gpu.groups(n as u32), gpu.groups((n * dim) as u32));
+        let partials = (groups_n.0 * groups_n.1).max(groups_dof.0 * groups_dof.1) as u64 * 8;
+        let offsets: Vec<u32> = csr.offsets.iter().map(|&o| o as u32).collect();
+        let offsets = gpu.storage("offsets", &offsets);
+        let ids = gpu.storage("ids", &csr.ids);
+        let pair = gpu.storage("pair", &pair);
+        let tangent = gpu.zeroed("tangent", moduli);
+        let inv_diag = gpu.zeroed("inv_diag", nd);
+        let (x, r, p, q) = (
+            gpu.zeroed("x", nd),
+            gpu.zeroed("r", nd),
+            gpu.zeroed("p", nd),
+            gpu.zeroed("q", nd),
+        );
+        let lin = gpu.zeroed("lin", 2 * nd * dim as u64);
+        let partials = gpu.zeroed("partials", partials);
+        let scalars = gpu.zeroed("scalars", SCALARS as u64 * 4);
+        let resources = [
+            ("offsets", &offsets),
+            ("ids", &ids),
+            ("pair", &pair),
+            ("tangent", &tangent),
+            ("inv_diag", &inv_diag),
+            ("x", &x),
+            ("r", &r),
+            ("p", &p),
+            ("q", &q),
+            ("lin", &lin),
+            ("partials", &partials),
+            ("scalars", &scalars),
+        ];
+        let passes = |entries: &[(&str, Items)]| -> Result<Vec<Pass>, GpuError> {
+            entries
+                .iter()
+                .map(|&(entry, items)| {
+                    let pipeline = gpu.pipeline("dual-support Krylov", &text, entry)?;
+                    let bind = gpu.bind(&pipeline, &resources)?;
+                    Ok((pipeline, bind, items))
+                })
+                .collect()
+        };
+        let (iteration, start) = (passes(&ITERATION)?, passes(&START)?);
+        Ok(Self {
+            n,
+            dim,
+            iteration,
+            start,
+            tangent,
+            inv_diag,
+            x,
+            r,
+            scalars,
+            tolerance: tolerance.max(F32_TOLERANCE),
+            max_iterations,
+            gpu,
+        })
+    }
+
+    /// Records the passes `passes` once each into `pass`.
+    fn record(&self, pass: &mut wgpu::ComputePass<'_>, passes: &[Pass]) {
+        let gpu = &self.gpu;
+        let (n, nd) = (self.n as u32, (self.n * self.dim) as u32);
+        for (pipeline, bind, items) in passes {
+            match *items {
+                Items::Particles => gpu.dispatch(pass, pipeline, bind, n),
+                Items::DegreesOfFreedom => gpu.dispatch(pass, pipeline, bind, nd),
+                Items::Partials { of_particles } => {
+                    let (gx, gy) = gpu.groups(if of_particles { n } else { nd });
+                    gpu.dispatch_groups(pass, pipeline, bind, (1, 1), u64::from(gx * gy));
+                }
+            }
+        }
+    }
+
+    /// Solves K x = b on the device for b of unit norm (zero on prescribed components),
+    /// with `inv_diag` and the tangent uploaded: x and the iterations.
+    fn iterate(&self, b: &[f32]) -> Result<(Vec<f32>, usize), SolveError> {
+        let gpu = &self.gpu;
+        gpu.queue.write_buffer(&self.r, 0, bytemuck::cast_slice(b));
+        let mut scalars = [0.0f32; SCALARS];
+        scalars[THRESHOLD] = (self.tolerance * self.tolerance) as f32;
+        gpu.queue
+            .write_buffer(&self.scalars, 0, bytemuck::cast_slice(&scalars));
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            self.record(&mut pass, &self.start);
+        }
+        gpu.queue.submit([encoder.finish()]);
+        loop {
+            let mut encoder = gpu.device.create_command_encoder(&Default::default());
+            {
+                let mut pass = encoder.begin_compute_pass(&Default::default());
+                for _ in 0..BATCH {
+                    self.record(&mut pass, &self.iteration);
+                }
+            }
+            gpu.queue.submit([encoder.finish()]);
+            let s: Vec<f32> = gpu.read(&self.scalars);
+            let iterations = s[ITERATIONS] as usize;
+            if s[STATE] == CONVERGED {
+                return Ok((gpu.read(&self.x), iterations));
+            }
+            if s[STATE] == INDEFINITE || !s[RR].is_finite() {
+                return Err(SolveError::NotPositiveDefinite);
+            }
+            if iterations >= self.max_iterations {
+                return Err(SolveError::NoConvergence {
+                    tolerance: self.tolerance,
+                    iterations,
+                    reached: f64::from(s[RR]).sqrt(),
+                });
+            }
+        }
+    }
+}
+
+impl<D: Dim> MatrixFree<D, DualSupport<D>> for NewtonKrylov {
+    /// 𝔸 and the diagonal at u on the host (f64, rounded once), the scaled right-hand
+    /// side, the device's CG, and Δu = |r| x on the free components.
+    fn solve(
+        &mut self,
+        model: &mut DualSupport<D>,
+        u: &[D::V],
+        free: &[Option<u32>],
+        r: &[f64],
+    ) -> Result<(Vec<f64>, SolveStats), SolveError> {
+        let started = Instant::now();
+        let (d, unknowns) = (self.dim, r.len());
+        let norm = r.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if norm == 0.0 {
+            return Ok((vec![0.0; unknowns], SolveStats::default()));
+        }
+        let tangents = model.tangents(u);
+        let diag = model.diagonal(&tangents);
+        let mut inv_diag = vec![0.0f32; self.n * d];
+        let mut b = vec![0.0f32; self.n * d];
+        for (dof, f) in free.iter().enumerate() {
+            if let Some(q) = f {
+                let k = D::comp(diag[dof / d], dof % d);
+                if k.is_nan() || k <= 0.0 {
+                    return Err(SolveError::NotPositiveDefinite);
+                }
+                inv_diag[dof] = (1.0 / k) as f32;
+                b[dof] = (r[*q as usize] / norm) as f32;
+            }
+        }
+        let vol = &model.support.vol;
+        let moduli: Vec<f32> = tangents
+            .iter()
+            .zip(vol)
+            .flat_map(|(a, &v)| {
+                (0..d * d).flat_map(move |kj| {
+                    (0..d * d)
+                        .map(move |ll| (a[3 * (kj / d) + kj % d][3 * (ll / d) + ll % d] * v) as f32)
+                })
+            })
+            .collect();
+        let queue = &self.gpu.queue;
+        queue.write_buffer(&self.tangent, 0, bytemuck::cast_slice(&moduli));
+        queue.write_buffer(&self.inv_diag, 0, bytemuck::cast_slice(&inv_diag));
+        let (x, iterations) = self.iterate(&b)?;
+        let mut du = vec![0.0; unknowns];
+        for (dof, f) in free.iter().enumerate() {
+            if let Some(q) = f {
+                du[*q as usize] = f64::from(x[dof]) * norm;
+            }
+        }
+        Ok((
+            du,
+            SolveStats {
+                iterations,
+                seconds: started.elapsed().as_secs_f64(),
+                indefinite: false,
+            },
+        ))
+    }
+
+    fn describe(&self, unknowns: usize) -> String {
+        format!(
+            "gpu {}; matrix-free Jacobi conjugate gradients on {unknowns} unknowns (f32, \
+             relative residual {:e}), Newton in f64 on the host",
+            self.gpu.name(),
+            self.tolerance
+        )
+    }
+}
