@@ -67,14 +67,17 @@ pub enum Linearisation<D: Dim, S> {
 
 /// The linear step of an engine, built on its free numbering.
 enum Step<D: Dim, S> {
-    Assembled {
-        pattern: BlockPattern,
-        values: Vec<f64>,
-        system: FreeSystem,
-        /// Non-zeros of the Cholesky factor and of the tangent's lower triangle.
-        fill: Fill,
-    },
+    Assembled(Box<Assembled>),
     MatrixFree(Box<dyn MatrixFree<D, S>>),
+}
+
+/// The assembled tangent's pattern, values and sparse solver.
+struct Assembled {
+    pattern: BlockPattern,
+    values: Vec<f64>,
+    system: FreeSystem,
+    /// Non-zeros of the Cholesky factor and of the tangent's lower triangle.
+    fill: Fill,
 }
 
 /// A constrained degree of freedom and its value u(t).
@@ -213,12 +216,12 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
             Linearisation::Assembled(pattern, linear) => {
                 let (system, fill) = FreeSystem::new(&pattern, d, &free, linear)
                     .map_err(|e| case.invalid(key, e.to_string()))?;
-                Step::Assembled {
+                Step::Assembled(Box::new(Assembled {
                     values: vec![0.0; pattern.blocks() * d * d],
                     pattern,
                     system,
                     fill,
-                }
+                }))
             }
             Linearisation::MatrixFree(solver) => Step::MatrixFree(solver),
         };
@@ -257,14 +260,9 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
         r: &[f64],
     ) -> Result<(Vec<f64>, SolveStats), SolveError> {
         match step {
-            Step::Assembled {
-                pattern,
-                values,
-                system,
-                ..
-            } => {
-                model.stiffness(u, pattern, values);
-                system.solve(&system.gather(values), r)
+            Step::Assembled(a) => {
+                model.stiffness(u, &a.pattern, &mut a.values);
+                a.system.solve(&a.system.gather(&a.values), r)
             }
             Step::MatrixFree(solver) => solver.solve(model, u, free, r),
         }
@@ -474,7 +472,7 @@ impl<D: Dim, S: Model<D>> Engine<D> for Statics<D, S> {
     fn backend(&self) -> String {
         let n = self.unknowns;
         let (system, Fill { factor, lower }) = match &self.step {
-            Step::Assembled { system, fill, .. } => (system, *fill),
+            Step::Assembled(a) => (&a.system, a.fill),
             Step::MatrixFree(solver) => {
                 return format!("{}{}", solver.describe(n), self.model.describe());
             }

@@ -19,6 +19,8 @@ mod dual_support_cases;
 mod galerkin;
 mod godunov;
 #[cfg(feature = "gpu")]
+mod gpu_dual_support;
+#[cfg(feature = "gpu")]
 mod gpu_galerkin;
 #[cfg(feature = "gpu")]
 mod gpu_materials;

@@ -9,6 +9,7 @@ use meshless::gpu::shaders::{self, Constants};
 use meshless::methods::MethodSpec;
 use meshless::methods::corotated::gpu as corotated;
 use meshless::methods::dual_support::gpu as dual_support;
+use meshless::methods::dual_support::krylov;
 use meshless::methods::galerkin::gpu as galerkin;
 use meshless::methods::godunov::gpu as godunov;
 use meshless::methods::gray_monaghan::gpu as gray_monaghan;
@@ -232,10 +233,19 @@ fn check_all<D: GpuDim>() {
         let scheme = dual_support::scheme(spec);
         let layout = Layout::new(100, 10, D::N, false, 1000, &scheme);
         let constants = scene_constants(&case, &layout, &scheme);
-        for source in dual_support::SHADERS {
+        for source in dual_support::SHADERS
+            .iter()
+            .filter(|s| **s != krylov::KRYLOV)
+        {
             let src = shaders::compose::<D>(source, &constants);
             validate_wgsl(&format!("{}D {} ({model})", D::N, source.name), &src);
         }
+    }
+    // Dual-support SPH's matrix-free static solve, with and without the hourglass term.
+    for hourglass in [false, true] {
+        let constants = krylov::constants(D::N, 100, hourglass, (1, 1));
+        let src = shaders::compose::<D>(&krylov::KRYLOV, &constants);
+        validate_wgsl(&format!("{}D krylov (hourglass {hourglass})", D::N), &src);
     }
     // The total-Lagrangian Galerkin passes, rate and state models (the weak form's and
     // the elements' passes are the same files).

@@ -35,13 +35,15 @@ pub const REDUCE: Source = source!(
     ]
 );
 
-/// The passes of a dual-support scene.
+/// The passes of a dual-support scene: the dynamic variant's, and the static solve's
+/// matrix-free conjugate gradients ([`super::krylov`]).
 pub const SHADERS: &[Source] = &[
     STRESS,
     ACCEL,
     crate::gpu::shaders::INTEGRATE,
     crate::gpu::shaders::PAIR_OFFSETS,
     REDUCE,
+    super::krylov::KRYLOV,
 ];
 
 /// The scheme of the dynamic variant: the potential's consistent force with the

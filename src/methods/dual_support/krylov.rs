@@ -145,17 +145,17 @@ const fn pair_words(dim: usize) -> usize {
     3 * dim + 2
 }
 
-/// The scene constants of the passes on n particles with `pairs` union pairs.
-pub fn constants(gpu: &Gpu, dim: usize, n: usize, hourglass: bool) -> Constants {
-    let (particles, dofs) = (gpu.groups(n as u32), gpu.groups((n * dim) as u32));
+/// The scene constants of the passes on n particles in `dim` dimensions, dispatched as
+/// `groups` = (workgroups over the particles, over the degrees of freedom).
+pub fn constants(dim: usize, n: usize, hourglass: bool, groups: (u32, u32)) -> Constants {
     Constants::default()
         .u32("N", n as u32)
         .u32("NDOF", (n * dim) as u32)
         .u32("PAIR", pair_words(dim) as u32)
         .u32("LP_OFF", (n * dim * dim) as u32)
         .u32("HOURGLASS", u32::from(hourglass))
-        .u32("GROUPS_N", particles.0 * particles.1)
-        .u32("GROUPS_DOF", dofs.0 * dofs.1)
+        .u32("GROUPS_N", groups.0)
+        .u32("GROUPS_DOF", groups.1)
 }
 
 /// What a pass runs over.
@@ -209,6 +209,8 @@ pub struct NewtonKrylov {
     inv_diag: wgpu::Buffer,
     x: wgpu::Buffer,
     r: wgpu::Buffer,
+    p: wgpu::Buffer,
+    q: wgpu::Buffer,
     scalars: wgpu::Buffer,
     /// The device's relative residual and iteration limit.
     tolerance: f64,
@@ -257,9 +259,10 @@ impl NewtonKrylov {
         gpu.check_size("per-pair buffer", pair.len() as u64 * 4)?;
         gpu.check_size("tangent buffer", moduli)?;
         let hourglass = lists.model.hourglass.iter().any(|&c| c != 0.0);
-        let text = compose::<D>(&KRYLOV, &constants(&gpu, dim, n, hourglass));
         let (groups_n, groups_dof) = (gpu.groups(n as u32), gpu.groups((n * dim) as u32));
-        let partials = (groups_n.0 * groups_n.1).max(groups_dof.0 * groups_dof.1) as u64 * 8;
+        let groups = (groups_n.0 * groups_n.1, groups_dof.0 * groups_dof.1);
+        let text = compose::<D>(&KRYLOV, &constants(dim, n, hourglass, groups));
+        let partials = u64::from(groups.0.max(groups.1)) * 8;
         let offsets: Vec<u32> = csr.offsets.iter().map(|&o| o as u32).collect();
         let offsets = gpu.storage("offsets", &offsets);
         let ids = gpu.storage("ids", &csr.ids);
@@ -309,6 +312,8 @@ impl NewtonKrylov {
             inv_diag,
             x,
             r,
+            p,
+            q,
             scalars,
             tolerance: tolerance.max(F32_TOLERANCE),
             max_iterations,
@@ -330,6 +335,67 @@ impl NewtonKrylov {
                 }
             }
         }
+    }
+
+    /// Uploads V_i 𝔸_i and the inverse diagonal of K (0 on prescribed components) of
+    /// `model` at displacement u, both from the host's f64.
+    fn linearise<D: Dim>(
+        &self,
+        model: &DualSupport<D>,
+        u: &[D::V],
+        free: &[Option<u32>],
+    ) -> Result<(), SolveError> {
+        let d = self.dim;
+        let tangents = model.tangents(u);
+        let diag = model.diagonal(&tangents);
+        let mut inv_diag = vec![0.0f32; self.n * d];
+        for (dof, f) in free.iter().enumerate() {
+            if f.is_some() {
+                let k = D::comp(diag[dof / d], dof % d);
+                if k.is_nan() || k <= 0.0 {
+                    return Err(SolveError::NotPositiveDefinite);
+                }
+                inv_diag[dof] = (1.0 / k) as f32;
+            }
+        }
+        let vol = &model.support.vol;
+        let moduli: Vec<f32> = tangents
+            .iter()
+            .zip(vol)
+            .flat_map(|(a, &v)| {
+                (0..d * d).flat_map(move |kj| {
+                    (0..d * d)
+                        .map(move |ll| (a[3 * (kj / d) + kj % d][3 * (ll / d) + ll % d] * v) as f32)
+                })
+            })
+            .collect();
+        let queue = &self.gpu.queue;
+        queue.write_buffer(&self.tangent, 0, bytemuck::cast_slice(&moduli));
+        queue.write_buffer(&self.inv_diag, 0, bytemuck::cast_slice(&inv_diag));
+        Ok(())
+    }
+
+    /// K(u) v on the device, zero on the prescribed components (the product of the
+    /// iteration, for checks against the assembled tangent); v has d components per
+    /// particle.
+    pub fn product<D: Dim>(
+        &mut self,
+        model: &DualSupport<D>,
+        u: &[D::V],
+        free: &[Option<u32>],
+        v: &[f32],
+    ) -> Result<Vec<f32>, SolveError> {
+        self.linearise(model, u, free)?;
+        self.gpu
+            .queue
+            .write_buffer(&self.p, 0, bytemuck::cast_slice(v));
+        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            self.record(&mut pass, &self.iteration[..2]);
+        }
+        self.gpu.queue.submit([encoder.finish()]);
+        Ok(self.gpu.read(&self.q))
     }
 
     /// Solves K x = b on the device for b of unit norm (zero on prescribed components),
@@ -386,39 +452,18 @@ impl<D: Dim> MatrixFree<D, DualSupport<D>> for NewtonKrylov {
         r: &[f64],
     ) -> Result<(Vec<f64>, SolveStats), SolveError> {
         let started = Instant::now();
-        let (d, unknowns) = (self.dim, r.len());
+        let unknowns = r.len();
         let norm = r.iter().map(|x| x * x).sum::<f64>().sqrt();
         if norm == 0.0 {
             return Ok((vec![0.0; unknowns], SolveStats::default()));
         }
-        let tangents = model.tangents(u);
-        let diag = model.diagonal(&tangents);
-        let mut inv_diag = vec![0.0f32; self.n * d];
-        let mut b = vec![0.0f32; self.n * d];
+        self.linearise(model, u, free)?;
+        let mut b = vec![0.0f32; self.n * self.dim];
         for (dof, f) in free.iter().enumerate() {
             if let Some(q) = f {
-                let k = D::comp(diag[dof / d], dof % d);
-                if k.is_nan() || k <= 0.0 {
-                    return Err(SolveError::NotPositiveDefinite);
-                }
-                inv_diag[dof] = (1.0 / k) as f32;
                 b[dof] = (r[*q as usize] / norm) as f32;
             }
         }
-        let vol = &model.support.vol;
-        let moduli: Vec<f32> = tangents
-            .iter()
-            .zip(vol)
-            .flat_map(|(a, &v)| {
-                (0..d * d).flat_map(move |kj| {
-                    (0..d * d)
-                        .map(move |ll| (a[3 * (kj / d) + kj % d][3 * (ll / d) + ll % d] * v) as f32)
-                })
-            })
-            .collect();
-        let queue = &self.gpu.queue;
-        queue.write_buffer(&self.tangent, 0, bytemuck::cast_slice(&moduli));
-        queue.write_buffer(&self.inv_diag, 0, bytemuck::cast_slice(&inv_diag));
         let (x, iterations) = self.iterate(&b)?;
         let mut du = vec![0.0; unknowns];
         for (dof, f) in free.iter().enumerate() {
