@@ -13,29 +13,31 @@
 //   + Σ_j [(k_aj + k_ja)(p_j − p_a) − (k_aj δH_a + k_ja δH_j) X_aj],
 // with g_aj = 0 for j ∉ S_a and k_aj = 2 V_a c_a w_aj.
 //
-// Buffers: the union CSR lists (offsets, ids); pair = per pair [g_ij | g_ji | X_j − X_i |
-// k_ij | k_ji] (PAIR words); tangent = V_i 𝔸_i per particle, DIM⁴ words,
-// [(k·DIM + J)·DIM² + l·DIM + L] = V_i ∂P_kJ/∂F_lL; inv_diag = 1/K_kk per degree of
-// freedom, 0 where it is prescribed (so that z, p and x stay 0 there and K p is masked to
-// the free components); the CG vectors x, r, p, q = K p (DIM per particle); lin = [δH | V δP]
-// per particle (DIM² each, V δP at LP_OFF); partials = two sums per workgroup; scalars =
-// [ρ, α, β, |r|², stop threshold, state, iterations, p·Kp] with state 0 running,
-// 1 converged, 2 p·Kp ≤ 0 (not positive definite).
-// Constants: N, NDOF = N·DIM, PAIR, LP_OFF, HOURGLASS, GROUPS_N and GROUPS_DOF (the
-// workgroups of the particle and degree-of-freedom passes: the partials each writes).
+// Buffers: lists = the union CSR lists, N + 1 offsets then the ids (at IDS_OFF); per pair
+// k, g = g_ij, grev = g_ji (DIM each) and hg = [X_j − X_i | k_ij | k_ji] (DIM + 2), apart
+// so that no pair buffer outgrows a binding before the others; tangent = V_i 𝔸_i per
+// particle, DIM⁴ words, [(k·DIM + J)·DIM² + l·DIM + L] = V_i ∂P_kJ/∂F_lL; inv_diag = 1/K_kk
+// per degree of freedom, 0 where it is prescribed (z, p, x and r stay 0 there, so the
+// prescribed rows of K p never enter); the CG vectors x, r, p, q = K p (DIM per particle);
+// lin = [δH | V δP] per particle (DIM² each, V δP at LP_OFF); partials = two sums per
+// workgroup; scalars = [ρ, α, β, |r|², stop threshold, state, iterations, p·Kp] with
+// state 0 running, 1 converged, 2 p·Kp ≤ 0 (not positive definite).
+// Constants: N, NDOF = N·DIM, IDS_OFF = N + 1, LP_OFF, HOURGLASS, GROUPS_N and GROUPS_DOF
+// (the workgroups of the particle and degree-of-freedom passes: the partials each writes).
 
-@group(0) @binding(0) var<storage, read> offsets: array<u32>;
-@group(0) @binding(1) var<storage, read> ids: array<u32>;
-@group(0) @binding(2) var<storage, read> pair: array<f32>;
-@group(0) @binding(3) var<storage, read> tangent: array<f32>;
-@group(0) @binding(4) var<storage, read> inv_diag: array<f32>;
-@group(0) @binding(5) var<storage, read_write> x: array<f32>;
-@group(0) @binding(6) var<storage, read_write> r: array<f32>;
-@group(0) @binding(7) var<storage, read_write> p: array<f32>;
-@group(0) @binding(8) var<storage, read_write> q: array<f32>;
-@group(0) @binding(9) var<storage, read_write> lin: array<f32>;
-@group(0) @binding(10) var<storage, read_write> partials: array<f32>;
-@group(0) @binding(11) var<storage, read_write> scalars: array<f32>;
+@group(0) @binding(0) var<storage, read> lists: array<u32>;
+@group(0) @binding(1) var<storage, read> g: array<f32>;
+@group(0) @binding(2) var<storage, read> grev: array<f32>;
+@group(0) @binding(3) var<storage, read> hg: array<f32>;
+@group(0) @binding(4) var<storage, read> tangent: array<f32>;
+@group(0) @binding(5) var<storage, read> inv_diag: array<f32>;
+@group(0) @binding(6) var<storage, read_write> x: array<f32>;
+@group(0) @binding(7) var<storage, read_write> r: array<f32>;
+@group(0) @binding(8) var<storage, read_write> p: array<f32>;
+@group(0) @binding(9) var<storage, read_write> q: array<f32>;
+@group(0) @binding(10) var<storage, read_write> lin: array<f32>;
+@group(0) @binding(11) var<storage, read_write> partials: array<f32>;
+@group(0) @binding(12) var<storage, read_write> scalars: array<f32>;
 
 const RHO: u32 = 0u;
 const ALPHA: u32 = 1u;
@@ -91,9 +93,9 @@ fn strain(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     }
     let p_i = vload_p(DIM * i);
     var dh: matd;
-    let p_end = offsets[i + 1u];
-    for (var k = offsets[i]; k < p_end; k++) {
-        dh += outer(vload_p(DIM * ids[k]) - p_i, vload_pair(PAIR * k));
+    let p_end = lists[i + 1u];
+    for (var k = lists[i]; k < p_end; k++) {
+        dh += outer(vload_p(DIM * lists[IDS_OFF + k]) - p_i, vload_g(DIM * k));
     }
     // (V δP)_kJ = Σ_lL V 𝔸[kJ][lL] δH_lL; matd is column-major, m[col][row].
     var dp: matd;
@@ -114,7 +116,8 @@ fn strain(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     mstore_lin(LP_OFF + DIM * DIM * i, dp);
 }
 
-// Per particle: q_a = (K p)_a on the free components, and the workgroup's sum of p·q.
+// Per particle: q_a = (K p)_a, and the workgroup's sum of p·q (p is 0 on the prescribed
+// components, so only the free rows enter).
 @compute @workgroup_size(256)
 fn product(
     @builtin(global_invocation_id) gid: vec3<u32>,
@@ -129,21 +132,18 @@ fn product(
         let dh_a = mload_lin(DIM * DIM * a);
         let p_a = vload_p(DIM * a);
         var df: vecd;
-        let p_end = offsets[a + 1u];
-        for (var k = offsets[a]; k < p_end; k++) {
-            let j = ids[k];
-            df += vdp_a * vload_pair(PAIR * k)
-                - mload_lin(LP_OFF + DIM * DIM * j) * vload_pair(PAIR * k + DIM);
+        let p_end = lists[a + 1u];
+        for (var k = lists[a]; k < p_end; k++) {
+            let j = lists[IDS_OFF + k];
+            df += vdp_a * vload_g(DIM * k) - mload_lin(LP_OFF + DIM * DIM * j) * vload_grev(DIM * k);
             if HOURGLASS == 1u {
-                let k_aj = pair[PAIR * k + 3u * DIM];
-                let k_ja = pair[PAIR * k + 3u * DIM + 1u];
+                let k_aj = hg[(DIM + 2u) * k + DIM];
+                let k_ja = hg[(DIM + 2u) * k + DIM + 1u];
                 df += (vload_p(DIM * j) - p_a) * (k_aj + k_ja)
-                    - (dh_a * k_aj + mload_lin(DIM * DIM * j) * k_ja)
-                    * vload_pair(PAIR * k + 2u * DIM);
+                    - (dh_a * k_aj + mload_lin(DIM * DIM * j) * k_ja) * vload_hg((DIM + 2u) * k);
             }
         }
-        let free = select(vecd(0.0), vecd(1.0), vload_inv_diag(DIM * a) != vecd(0.0));
-        let kp = -df * free;
+        let kp = -df;
         vstore_q(DIM * a, kp);
         pq = dot(p_a, kp);
     }
@@ -216,7 +216,8 @@ fn alpha(@builtin(local_invocation_index) lid: u32) {
     }
 }
 
-// Per degree of freedom: x += α p, r −= α q; partials of r·z and r·r with z = r/diag.
+// Per degree of freedom: x += α p, r −= α q on the free components; partials of r·z and
+// r·r with z = r/diag.
 @compute @workgroup_size(256)
 fn update(
     @builtin(global_invocation_id) gid: vec3<u32>,
@@ -230,7 +231,7 @@ fn update(
     if k < NDOF {
         let a = scalars[ALPHA];
         x[k] += a * p[k];
-        let r_k = r[k] - a * q[k];
+        let r_k = select(0.0, r[k] - a * q[k], inv_diag[k] != 0.0);
         r[k] = r_k;
         rz = r_k * inv_diag[k] * r_k;
         rr = r_k * r_k;

@@ -55,6 +55,10 @@ pub trait MatrixFree<D: Dim, S> {
     ) -> Result<(Vec<f64>, SolveStats), SolveError>;
     /// The `backend` line's account of the solver on `unknowns` unknowns.
     fn describe(&self, unknowns: usize) -> String;
+    /// The device it solves on and what scales its passes' bytes, for the pass report
+    /// (`--profile`).
+    #[cfg(feature = "gpu")]
+    fn device(&mut self) -> Option<(&crate::gpu::Gpu, crate::gpu::profile::Scale)>;
 }
 
 /// How Newton's linear step is formed and solved.
@@ -607,5 +611,14 @@ impl<D: Dim, S: Model<D>> Engine<D> for Statics<D, S> {
 
     fn iterations(&mut self) -> Vec<Iteration> {
         std::mem::take(&mut self.log)
+    }
+
+    /// The matrix-free solver's device, if it has one.
+    #[cfg(feature = "gpu")]
+    fn device(&mut self) -> Option<(&crate::gpu::Gpu, crate::gpu::profile::Scale)> {
+        match &mut self.step {
+            Step::MatrixFree(solver) => solver.device(),
+            Step::Assembled(_) => None,
+        }
     }
 }

@@ -115,6 +115,10 @@ pub enum SolverKind {
     Cg,
 }
 
+/// Bytes per entry of an assembled tangent: column and source index (usize each), the
+/// value in the pattern's blocks and in the free system (f64 each).
+const ASSEMBLED_BYTES: f64 = 32.0;
+
 /// A linear solve that failed.
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum SolveError {
@@ -141,6 +145,18 @@ pub enum SolveError {
         tolerance: f64,
         iterations: usize,
         reached: f64,
+    },
+    #[error(
+        "the assembled tangent of {dofs} unknowns needs {needed_mb:.0} MB ({entries} \
+         entries) and {available_mb:.0} MB are available: coarsen the case (spacing), or, \
+         for `dual-support-sph`, run on the GPU (--backend gpu), whose matrix-free solve \
+         assembles no tangent"
+    )]
+    TangentTooLarge {
+        dofs: usize,
+        entries: usize,
+        needed_mb: f64,
+        available_mb: f64,
     },
     #[error(
         "the Cholesky factor of {dofs} unknowns needs {needed_mb:.0} MB ({fill} non-zeros, \
@@ -242,8 +258,22 @@ impl FreeSystem {
         linear: Linear,
     ) -> Result<(Self, Fill), SolveError> {
         let n = free.iter().flatten().count();
+        // The assembled tangent's memory before any of it is allocated: per entry its
+        // column and source index, its value in the pattern and in the free system.
+        let entries = pattern.blocks() * d * d;
+        let needed = entries as f64 * ASSEMBLED_BYTES;
+        if let Some(available) = available_memory()
+            && needed > available
+        {
+            return Err(SolveError::TangentTooLarge {
+                dofs: n,
+                entries,
+                needed_mb: needed / 1e6,
+                available_mb: available / 1e6,
+            });
+        }
         let mut row_ptr = vec![0usize; n + 1];
-        let (mut col, mut src) = (Vec::new(), Vec::new());
+        let (mut col, mut src) = (Vec::with_capacity(entries), Vec::with_capacity(entries));
         for a in 0..pattern.offsets.len() - 1 {
             for k in 0..d {
                 let Some(r) = free[a * d + k] else { continue };

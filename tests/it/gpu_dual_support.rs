@@ -32,7 +32,7 @@ fn deformation<D: Dim>(x0: &[D::V]) -> Vec<D::V> {
 }
 
 /// The largest difference between the device's K(u) v and the CPU's assembled tangent
-/// times v, on the free components, and the largest |K v|; particle 0 prescribed.
+/// times v, and the largest |K v|; particle 0 prescribed (v = 0 there).
 fn product_error<D: GpuDim>(name: &str, set: &[&str]) -> (f64, f64) {
     let set: Vec<String> = set.iter().map(|s| s.to_string()).collect();
     let case = load(name, &set);
@@ -63,7 +63,7 @@ fn product_error<D: GpuDim>(name: &str, set: &[&str]) -> (f64, f64) {
     let mut values = vec![0.0; pat.blocks() * d * d];
     model.stiffness(&model.tangents(&u), &pat, &mut values);
     let (mut err, mut scale) = (0.0f64, 0.0f64);
-    for a in 1..n {
+    for a in 0..n {
         for k in 0..d {
             let kv: f64 = (pat.offsets[a]..pat.offsets[a + 1])
                 .map(|slot| {
@@ -76,9 +76,6 @@ fn product_error<D: GpuDim>(name: &str, set: &[&str]) -> (f64, f64) {
             scale = scale.max(kv.abs());
             err = err.max((kv - f64::from(q[a * d + k])).abs());
         }
-    }
-    for (k, &qk) in q.iter().enumerate().take(d) {
-        assert_eq!(qk, 0.0, "the product's prescribed component {k}");
     }
     (err, scale)
 }

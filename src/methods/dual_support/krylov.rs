@@ -22,7 +22,7 @@ use super::gpu::DeviceLists;
 use super::model::DualSupport;
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::GpuDim;
-use crate::gpu::profile::{NONE, PassBytes, read, read_write, write};
+use crate::gpu::profile::{NONE, PassBytes, Scale, read, read_write, write};
 use crate::gpu::shaders::{Constants, Source, compose, source};
 use crate::statics::MatrixFree;
 use crate::statics::sparse::{SolveError, SolveStats};
@@ -53,8 +53,9 @@ pub const KRYLOV: Source = source!(
     [],
     [
         ("p", false),
-        ("pair", false),
-        ("inv_diag", false),
+        ("g", false),
+        ("grev", false),
+        ("hg", false),
         ("q", true),
         ("lin", true)
     ],
@@ -62,9 +63,8 @@ pub const KRYLOV: Source = source!(
         PassBytes {
             entry: "strain",
             traffic: &[
-                read("offsets", [1, 0, 0], NONE),
-                read("ids", NONE, [1, 0, 0]),
-                read("pair", NONE, [0, 1, 0]),
+                read("lists", [1, 0, 0], [1, 0, 0]),
+                read("g", NONE, [0, 1, 0]),
                 read("tangent", NONE, NONE).moduli(1),
                 read("p", [0, 1, 0], NONE),
                 write("lin", [0, 0, 2], NONE),
@@ -73,14 +73,13 @@ pub const KRYLOV: Source = source!(
         PassBytes {
             entry: "product",
             traffic: &[
-                read("offsets", [1, 0, 0], NONE),
-                read("ids", NONE, [1, 0, 0]),
-                // g_ij and g_ji; k_ij, k_ji and X_j − X_i with the hourglass term.
-                read("pair", NONE, [0, 2, 0]),
-                read("pair", NONE, [2, 1, 0]).when(&["HOURGLASS"]),
+                read("lists", [1, 0, 0], [1, 0, 0]),
+                read("g", NONE, [0, 1, 0]),
+                read("grev", NONE, [0, 1, 0]),
+                // k_ij, k_ji and X_j − X_i with the hourglass term.
+                read("hg", NONE, [2, 1, 0]).when(&["HOURGLASS"]),
                 read("lin", [0, 0, 2], NONE),
                 read("p", [0, 1, 0], NONE),
-                read("inv_diag", [0, 1, 0], NONE),
                 write("q", [0, 1, 0], NONE),
                 write("partials", NONE, NONE),
             ],
@@ -140,18 +139,13 @@ pub const KRYLOV: Source = source!(
     ]
 );
 
-/// Words per pair of the `pair` buffer: g_ij, g_ji, X_j − X_i, k_ij, k_ji.
-const fn pair_words(dim: usize) -> usize {
-    3 * dim + 2
-}
-
 /// The scene constants of the passes on n particles in `dim` dimensions, dispatched as
 /// `groups` = (workgroups over the particles, over the degrees of freedom).
 pub fn constants(dim: usize, n: usize, hourglass: bool, groups: (u32, u32)) -> Constants {
     Constants::default()
         .u32("N", n as u32)
         .u32("NDOF", (n * dim) as u32)
-        .u32("PAIR", pair_words(dim) as u32)
+        .u32("IDS_OFF", n as u32 + 1)
         .u32("LP_OFF", (n * dim * dim) as u32)
         .u32("HOURGLASS", u32::from(hourglass))
         .u32("GROUPS_N", groups.0)
@@ -212,6 +206,8 @@ pub struct NewtonKrylov {
     p: wgpu::Buffer,
     q: wgpu::Buffer,
     scalars: wgpu::Buffer,
+    /// Pairs of the union lists.
+    pairs: u64,
     /// The device's relative residual and iteration limit.
     tolerance: f64,
     max_iterations: usize,
@@ -231,8 +227,9 @@ impl NewtonKrylov {
         let x0 = &lists.model.support.x0;
         let vol = &lists.model.support.vol;
         let csr = &lists.csr;
-        let stride = pair_words(dim);
-        let mut pair = vec![0.0f32; csr.ids.len() * stride];
+        let pairs = csr.ids.len();
+        let (mut g, mut grev) = (vec![0.0f32; pairs * dim], vec![0.0f32; pairs * dim]);
+        let mut hg = vec![0.0f32; pairs * (dim + 2)];
         for i in 0..n {
             for k in csr.offsets[i]..csr.offsets[i + 1] {
                 let j = csr.ids[k] as usize;
@@ -241,32 +238,36 @@ impl NewtonKrylov {
                         .neighbours(j)
                         .binary_search(&(i as u32))
                         .expect("the union lists are symmetric");
-                let words = &mut pair[k * stride..(k + 1) * stride];
-                let g = lists.g[k] * vol[j];
-                let g_rev = lists.g[back] * vol[i];
+                let (g_ij, g_ji) = (lists.g[k] * vol[j], lists.g[back] * vol[i]);
                 let dx = x0[j] - x0[i];
                 for c in 0..dim {
-                    words[c] = D::comp(g, c) as f32;
-                    words[dim + c] = D::comp(g_rev, c) as f32;
-                    words[2 * dim + c] = D::comp(dx, c) as f32;
+                    g[k * dim + c] = D::comp(g_ij, c) as f32;
+                    grev[k * dim + c] = D::comp(g_ji, c) as f32;
+                    hg[k * (dim + 2) + c] = D::comp(dx, c) as f32;
                 }
-                words[3 * dim] = lists.hgk[k];
-                words[3 * dim + 1] = lists.hgk_rev[k];
+                hg[k * (dim + 2) + dim] = lists.hgk[k];
+                hg[k * (dim + 2) + dim + 1] = lists.hgk_rev[k];
             }
         }
+        let list: Vec<u32> = (csr.offsets.iter().map(|&o| o as u32))
+            .chain(csr.ids.iter().copied())
+            .collect();
         let nd = (n * dim) as u64 * 4;
         let moduli = nd * (dim * dim * dim) as u64;
-        gpu.check_size("per-pair buffer", pair.len() as u64 * 4)?;
+        gpu.check_size("neighbour lists", list.len() as u64 * 4)?;
+        gpu.check_size("per-pair buffer", hg.len() as u64 * 4)?;
         gpu.check_size("tangent buffer", moduli)?;
         let hourglass = lists.model.hourglass.iter().any(|&c| c != 0.0);
         let (groups_n, groups_dof) = (gpu.groups(n as u32), gpu.groups((n * dim) as u32));
         let groups = (groups_n.0 * groups_n.1, groups_dof.0 * groups_dof.1);
         let text = compose::<D>(&KRYLOV, &constants(dim, n, hourglass, groups));
         let partials = u64::from(groups.0.max(groups.1)) * 8;
-        let offsets: Vec<u32> = csr.offsets.iter().map(|&o| o as u32).collect();
-        let offsets = gpu.storage("offsets", &offsets);
-        let ids = gpu.storage("ids", &csr.ids);
-        let pair = gpu.storage("pair", &pair);
+        let list = gpu.storage("lists", &list);
+        let (g, grev, hg) = (
+            gpu.storage("g", &g),
+            gpu.storage("grev", &grev),
+            gpu.storage("hg", &hg),
+        );
         let tangent = gpu.zeroed("tangent", moduli);
         let inv_diag = gpu.zeroed("inv_diag", nd);
         let (x, r, p, q) = (
@@ -279,9 +280,10 @@ impl NewtonKrylov {
         let partials = gpu.zeroed("partials", partials);
         let scalars = gpu.zeroed("scalars", SCALARS as u64 * 4);
         let resources = [
-            ("offsets", &offsets),
-            ("ids", &ids),
-            ("pair", &pair),
+            ("lists", &list),
+            ("g", &g),
+            ("grev", &grev),
+            ("hg", &hg),
             ("tangent", &tangent),
             ("inv_diag", &inv_diag),
             ("x", &x),
@@ -315,6 +317,7 @@ impl NewtonKrylov {
             p,
             q,
             scalars,
+            pairs: csr.ids.len() as u64,
             tolerance: tolerance.max(F32_TOLERANCE),
             max_iterations,
             gpu,
@@ -375,9 +378,9 @@ impl NewtonKrylov {
         Ok(())
     }
 
-    /// K(u) v on the device, zero on the prescribed components (the product of the
-    /// iteration, for checks against the assembled tangent); v has d components per
-    /// particle.
+    /// K(u) v on the device, every row (the iteration keeps the prescribed components of
+    /// its vectors at 0, so their rows never enter it; for checks against the assembled
+    /// tangent); v has d components per particle.
     pub fn product<D: Dim>(
         &mut self,
         model: &DualSupport<D>,
@@ -479,6 +482,14 @@ impl<D: Dim> MatrixFree<D, DualSupport<D>> for NewtonKrylov {
                 indefinite: false,
             },
         ))
+    }
+
+    fn device(&mut self) -> Option<(&Gpu, Scale)> {
+        let scale = Scale {
+            pairs: self.pairs,
+            indirect: None,
+        };
+        Some((&self.gpu, scale))
     }
 
     fn describe(&self, unknowns: usize) -> String {

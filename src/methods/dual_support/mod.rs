@@ -1,8 +1,9 @@
 //! Implicit dual-support SPH (Ren, Zhuang, Rabczuk & Zhu; seed 004): a smoothing length
 //! per particle with supports and dual-supports ([`support`]), the variational internal
 //! force and hourglass energy with their tangent ([`model`]), the model of the static
-//! Newton engine of [`crate::statics`] ([`statics`]), and the explicit dynamic variant on
-//! the same forces ([`dynamics`], `run.solve = "dynamic"`; also on the GPU, [`gpu`]).
+//! Newton engine of [`crate::statics`] ([`statics`]; on the GPU with its Newton steps
+//! solved matrix-free, [`krylov`]), and the explicit dynamic variant on the same forces
+//! ([`dynamics`], `run.solve = "dynamic"`; also on the GPU, [`gpu`]).
 //! Numerics notes: `docs/methods/dual-support.md`.
 
 pub mod dynamics;
@@ -54,7 +55,8 @@ pub struct DualSupportSpec {
     pub hourglass: f64,
     #[serde(default)]
     pub smoothing_length: SmoothingLength,
-    /// `direct` (sparse Cholesky, the default) or `cg` (Jacobi-preconditioned CG).
+    /// `direct` (sparse Cholesky, the default) or `cg` (Jacobi-preconditioned CG), on the
+    /// CPU; the GPU solves matrix-free by Jacobi CG whatever this says.
     #[serde(default)]
     pub solver: SolverKind,
     /// Newton stops when |R| ≤ this × the force scale (the norm of the internal and
@@ -70,7 +72,8 @@ pub struct DualSupportSpec {
     /// Halvings of a load step before the run fails. Default 6.
     #[serde(default = "max_cuts")]
     pub max_cuts: u32,
-    /// CG's relative residual. Default 1e-10.
+    /// CG's relative residual. Default 1e-10 (the GPU's f32 CG stops at no less than
+    /// 1e-5, `krylov::F32_TOLERANCE`).
     #[serde(default = "linear_tolerance")]
     pub linear_tolerance: f64,
     /// CG's iteration limit. Default 20000.
@@ -199,8 +202,8 @@ fn nearest_distances<D: Dim>(x0: &[D::V], k: usize, spacing: f64) -> Vec<f64> {
 impl MethodFamily for DualSupportSpec {
     const DESCRIPTION: &'static str = "implicit dual-support SPH (Ren et al.; seed 004): \
         smoothing length per particle, variational force with dual-supports, hourglass \
-        energy, assembled tangent and static Newton–Raphson with load steps (CPU); explicit \
-        in time with run.solve = \"dynamic\" (CPU and GPU)";
+        energy, tangent and static Newton–Raphson with load steps (CPU: assembled tangent; \
+        GPU: matrix-free CG); explicit in time with run.solve = \"dynamic\" (CPU and GPU)";
     const KEYS: &'static [&'static str] = &[
         "hourglass",
         "smoothing_length",
@@ -281,7 +284,7 @@ impl MethodFamily for DualSupportSpec {
         Ok(())
     }
 
-    fn plan(&self, case: &Case, _gpu: bool) -> Plan {
+    fn plan(&self, case: &Case, gpu: bool) -> Plan {
         let mat = Material::new(&case.material);
         let smoothing = match self.smoothing_length {
             SmoothingLength::Uniform => "uniform".to_string(),
@@ -320,9 +323,10 @@ impl MethodFamily for DualSupportSpec {
                  and dual-supports S'_i, corrected gradients g_ij = L_i⁻¹∇W_i V_j, the \
                  two-hop pattern of the tangent and the {} set-up",
                 smoothing,
-                match self.solver {
-                    SolverKind::Direct => "symbolic Cholesky",
-                    SolverKind::Cg => "CG",
+                match (gpu, self.solver) {
+                    (true, _) => "device's union lists and Krylov buffers (no pattern)",
+                    (false, SolverKind::Direct) => "symbolic Cholesky",
+                    (false, SolverKind::Cg) => "CG",
                 }
             ),
             state: format!("u (state model {:?}); no velocity", mat.model),
@@ -331,9 +335,15 @@ impl MethodFamily for DualSupportSpec {
                 "F_i, P_i, 𝔸_i; R = f_int + λ f_ext; K = Σ_i V_i δF_iᵀ𝔸_iδF_i + hourglass \
                  (α = {}μ); {}",
                 self.hourglass,
-                match self.solver {
-                    SolverKind::Direct => "sparse Cholesky (LU if the tangent is indefinite)",
-                    SolverKind::Cg => "conjugate gradients",
+                match (gpu, self.solver) {
+                    (true, _) => {
+                        "K never assembled: Jacobi CG on the device (f32, K p by the force \
+                         pass's gather with P → 𝔸:δH), 𝔸 and diag K from the host's f64"
+                    }
+                    (false, SolverKind::Direct) => {
+                        "sparse Cholesky (LU if the tangent is indefinite)"
+                    }
+                    (false, SolverKind::Cg) => "conjugate gradients",
                 }
             ),
             checked: "det F",
