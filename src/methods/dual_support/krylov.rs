@@ -494,7 +494,7 @@ impl<D: Dim> MatrixFree<D, DualSupport<D>> for NewtonKrylov {
 
     fn describe(&self, unknowns: usize) -> String {
         format!(
-            "gpu {}; matrix-free Jacobi conjugate gradients on {unknowns} unknowns (f32, \
+            "gpu: {}; matrix-free Jacobi conjugate gradients on {unknowns} unknowns (f32, \
              relative residual {:e}), Newton in f64 on the host",
             self.gpu.name(),
             self.tolerance
