@@ -156,37 +156,23 @@ pub fn constants(dim: usize, n: usize, hourglass: bool, groups: (u32, u32)) -> C
 #[derive(Clone, Copy, Debug)]
 enum Items {
     Particles,
-    DegreesOfFreedom,
-    /// One workgroup summing the partials of the degree-of-freedom passes (begin, beta) or
-    /// of the particle passes (alpha).
-    Partials {
-        of_particles: bool,
-    },
+    Dofs,
+    /// One workgroup summing the partials of the particle passes (alpha).
+    ParticleSums,
+    /// One workgroup summing the partials of the degree-of-freedom passes (begin, beta).
+    DofSums,
 }
 
 /// The entry points of one CG iteration, in order, and of the start.
 const ITERATION: [(&str, Items); 6] = [
     ("strain", Items::Particles),
     ("product", Items::Particles),
-    ("alpha", Items::Partials { of_particles: true }),
-    ("update", Items::DegreesOfFreedom),
-    (
-        "beta",
-        Items::Partials {
-            of_particles: false,
-        },
-    ),
-    ("direction", Items::DegreesOfFreedom),
+    ("alpha", Items::ParticleSums),
+    ("update", Items::Dofs),
+    ("beta", Items::DofSums),
+    ("direction", Items::Dofs),
 ];
-const START: [(&str, Items); 2] = [
-    ("start", Items::DegreesOfFreedom),
-    (
-        "begin",
-        Items::Partials {
-            of_particles: false,
-        },
-    ),
-];
+const START: [(&str, Items); 2] = [("start", Items::Dofs), ("begin", Items::DofSums)];
 
 /// A pass with its bind group and items.
 type Pass = (Pipeline, wgpu::BindGroup, Items);
@@ -328,14 +314,17 @@ impl NewtonKrylov {
     fn record(&self, pass: &mut wgpu::ComputePass<'_>, passes: &[Pass]) {
         let gpu = &self.gpu;
         let (n, nd) = (self.n as u32, (self.n * self.dim) as u32);
+        // The items of a summing pass: the workgroups whose partials it sums.
+        let sums = |over: u32| {
+            let (gx, gy) = gpu.groups(over);
+            u64::from(gx * gy)
+        };
         for (pipeline, bind, items) in passes {
             match *items {
                 Items::Particles => gpu.dispatch(pass, pipeline, bind, n),
-                Items::DegreesOfFreedom => gpu.dispatch(pass, pipeline, bind, nd),
-                Items::Partials { of_particles } => {
-                    let (gx, gy) = gpu.groups(if of_particles { n } else { nd });
-                    gpu.dispatch_groups(pass, pipeline, bind, (1, 1), u64::from(gx * gy));
-                }
+                Items::Dofs => gpu.dispatch(pass, pipeline, bind, nd),
+                Items::ParticleSums => gpu.dispatch_groups(pass, pipeline, bind, (1, 1), sums(n)),
+                Items::DofSums => gpu.dispatch_groups(pass, pipeline, bind, (1, 1), sums(nd)),
             }
         }
     }
