@@ -320,13 +320,17 @@ impl MethodFamily for DualSupportSpec {
         Plan {
             once: format!(
                 "once, on the reference configuration: smoothing lengths ({}), supports S_i \
-                 and dual-supports S'_i, corrected gradients g_ij = L_i⁻¹∇W_i V_j, the \
-                 two-hop pattern of the tangent and the {} set-up",
+                 and dual-supports S'_i, corrected gradients g_ij = L_i⁻¹∇W_i V_j, {}",
                 smoothing,
                 match (gpu, self.solver) {
-                    (true, _) => "device's union lists and Krylov buffers (no pattern)",
-                    (false, SolverKind::Direct) => "symbolic Cholesky",
-                    (false, SolverKind::Cg) => "CG",
+                    (true, _) => {
+                        "the device's union lists S_i ∪ S'_i with their pair data and the \
+                         Krylov buffers (no tangent pattern)"
+                    }
+                    (false, SolverKind::Direct) => {
+                        "the two-hop pattern of the tangent and its symbolic Cholesky"
+                    }
+                    (false, SolverKind::Cg) => "the two-hop pattern of the tangent",
                 }
             ),
             state: format!("u (state model {:?}); no velocity", mat.model),
