@@ -73,6 +73,17 @@ fn workgroup_sums(lid: u32, a: f32, b: f32) {
     }
 }
 
+// The workgroup's sums of a and b into its partials (workgroup w of the dispatch).
+// Called in uniform control flow.
+fn store_sums(lid: u32, wid: vec3<u32>, nwg: vec3<u32>, a: f32, b: f32) {
+    workgroup_sums(lid, a, b);
+    if lid == 0u {
+        let w = wid.x + wid.y * nwg.x;
+        partials[2u * w] = sum_a[0];
+        partials[2u * w + 1u] = sum_b[0];
+    }
+}
+
 // One workgroup: the sums of the partials of `groups` workgroups (a: even words, b: odd).
 fn total_partials(lid: u32, groups: u32) {
     var a = 0.0;
@@ -147,12 +158,7 @@ fn product(
         vstore_q(DIM * a, kp);
         pq = dot(p_a, kp);
     }
-    workgroup_sums(lid, pq, 0.0);
-    if lid == 0u {
-        let w = wid.x + wid.y * nwg.x;
-        partials[2u * w] = sum_a[0];
-        partials[2u * w + 1u] = 0.0;
-    }
+    store_sums(lid, wid, nwg, pq, 0.0);
 }
 
 // Per degree of freedom, from x = 0 and r = b (the host's): p = z = r/diag; partials of
@@ -174,12 +180,7 @@ fn start(
         rz = r[k] * z;
         rr = r[k] * r[k];
     }
-    workgroup_sums(lid, rz, rr);
-    if lid == 0u {
-        let w = wid.x + wid.y * nwg.x;
-        partials[2u * w] = sum_a[0];
-        partials[2u * w + 1u] = sum_b[0];
-    }
+    store_sums(lid, wid, nwg, rz, rr);
 }
 
 // One workgroup: ρ = r·z and |r|² of the start; the stop threshold (tolerance², from the
@@ -236,12 +237,7 @@ fn update(
         rz = r_k * inv_diag[k] * r_k;
         rr = r_k * r_k;
     }
-    workgroup_sums(lid, rz, rr);
-    if lid == 0u {
-        let w = wid.x + wid.y * nwg.x;
-        partials[2u * w] = sum_a[0];
-        partials[2u * w + 1u] = sum_b[0];
-    }
+    store_sums(lid, wid, nwg, rz, rr);
 }
 
 // One workgroup: the iteration's |r|², its stop test, and β = ρ_new/ρ.
