@@ -6,13 +6,15 @@
 //! tensile strip and the spinning 3D block (SSP-RK3); plus the TLSPH set-up (cell-list
 //! neighbour build, pair offsets, corrected gradients); and `gpu_methods`, 10 steps of
 //! every method of the registry with a GPU engine on a case of its own at about 2,000
-//! particles (`common`). Runs on the adapter `Gpu::new` picks (`MESHLESS_ADAPTER` to
-//! choose); without one it stops with the reason.
+//! particles (`common`), and for the static dual-support method one load step of the
+//! plate (400 particles, Newton with matrix-free CG on the device) from a freshly built
+//! engine, the build not timed. Runs on the adapter `Gpu::new` picks (`MESHLESS_ADAPTER`
+//! to choose); without one it stops with the reason.
 
 mod common;
 
 use criterion::{
-    BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main,
+    BatchSize, BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main,
 };
 use meshless::bench::resize;
 use meshless::gpu::Gpu;
@@ -130,19 +132,26 @@ fn methods(c: &mut Criterion) {
         .sampling_mode(SamplingMode::Flat);
     for entry in REGISTRY.iter().filter(|e| e.gpu_engine) {
         let (case, kind) = common::method_case(entry.name);
-        assert_eq!(
-            kind,
-            common::Kind::Dynamic,
-            "{}: a GPU engine steps time",
-            entry.name
-        );
-        let mut engine = case
-            .method
-            .spec
-            .gpu_engine::<D2>(&case, gpu())
-            .unwrap_or_else(|e| panic!("GPU set-up of {}: {e}", entry.name));
+        let build = || {
+            case.method
+                .spec
+                .gpu_engine::<D2>(&case, gpu())
+                .unwrap_or_else(|e| panic!("GPU set-up of {}: {e}", entry.name))
+        };
+        let mut engine = build();
         let dt = common::time_step(&case, engine.as_mut());
         let n = engine.reference().len();
+        if kind == common::Kind::Static {
+            g.throughput(Throughput::Elements(n as u64));
+            g.bench_function(BenchmarkId::new(entry.name, n), |b| {
+                b.iter_batched(
+                    build,
+                    |mut e| e.advance(0.0, dt, 1).expect("load step converges"),
+                    BatchSize::PerIteration,
+                )
+            });
+            continue;
+        }
         g.throughput(Throughput::Elements(
             n as u64 * u64::from(STEPS_PER_ITERATION),
         ));
