@@ -474,8 +474,16 @@ fn the_iterative_solver_gives_the_direct_solution() {
 
 #[test]
 fn the_static_solve_runs_on_both_backends_and_needs_a_load_step() {
+    // Dual-support SPH solves statically on both backends; the explicit methods' static
+    // solve runs on the CPU, and the message names the method that has one on the GPU.
     let case = plate_case("linear-elastic", "");
     assert_eq!(meshless::run::cpu_only(&case), None);
+    let tlsph = crate::common::load("cantilever-convergence", &[] as &[&str]);
+    let why = meshless::run::cpu_only(&tlsph).expect("tlsph's static solve is CPU only");
+    assert!(
+        why.contains("`tlsph` runs on the CPU only") && why.contains("`dual-support-sph`"),
+        "{why}"
+    );
     let text = std::fs::read_to_string(crate::common::case_file("cantilever-3d")).unwrap();
     let err = Case::from_toml(&text.replace("dt = ", "cfl = "), Path::new("c.toml"), &[])
         .unwrap_err()
