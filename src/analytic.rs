@@ -2,13 +2,14 @@
 //! errors are measured in.
 
 use crate::material::Material;
-use crate::scene::{Case, Condition, Shape, VelocityField};
-use crate::tensor::Dim;
+use crate::scene::{Case, Condition, DisplacementField, Shape, VelocityField};
+use crate::tensor::{D2, D3, Dim};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::FRAC_PI_2;
 
-/// The swinging modes u(X, t) = U0 sin(ωt) Φ(X) of linear elastodynamics, which start
-/// undeformed (F = I) with velocity U0 ω Φ(X).
+/// The swinging modes u(X, t) = U0 sin(ωt + φ) Φ(X) of linear elastodynamics: the sine
+/// form (φ = 0) starts undeformed (F = I) with velocity U0 ω Φ(X), the cosine form
+/// (φ = π/2, seed 003 §E.5) at rest, displaced by U0 Φ(X).
 ///
 /// - [`SwingingKind::Dilatational`]: the swinging cube (3D) and plate (2D, plane strain)
 ///   of seed 003 §7.1.1 on [0, 1]^d, Φ_k = sin(πX_k/2) Π_{m≠k} cos(πX_m/2)
@@ -25,6 +26,8 @@ pub struct SwingingMode {
     pub amplitude: f64,
     /// Angular frequency ω [rad/s].
     pub omega: f64,
+    /// Phase φ [rad]: 0 for the sine form, π/2 for the cosine form.
+    pub phase: f64,
     pub kind: SwingingKind,
 }
 
@@ -50,7 +53,31 @@ impl SwingingMode {
         Self {
             amplitude,
             omega,
+            phase: 0.0,
             kind,
+        }
+    }
+
+    /// The cosine form u = U0 cos(ωt) Φ(X): at rest and displaced by U0 Φ(X) at t = 0.
+    pub fn cosine(self) -> Self {
+        Self {
+            phase: FRAC_PI_2,
+            ..self
+        }
+    }
+
+    /// Φ(X) of the mode `kind` in `dim` dimensions: the cosine form's initial displacement
+    /// per unit amplitude.
+    pub fn shape_at(kind: SwingingKind, dim: usize, x: [f64; 3]) -> [f64; 3] {
+        let unit = Self {
+            amplitude: 1.0,
+            omega: 0.0,
+            phase: 0.0,
+            kind,
+        };
+        match dim {
+            2 => D2::to3(unit.shape::<D2>(D2::from_slice(&x[..2])).0),
+            _ => D3::to3(unit.shape::<D3>(D3::from_slice(&x)).0),
         }
     }
 
@@ -100,16 +127,16 @@ impl SwingingMode {
     }
 
     pub fn displacement<D: Dim>(&self, x: D::V, t: f64) -> D::V {
-        self.shape::<D>(x).0 * (self.amplitude * (self.omega * t).sin())
+        self.shape::<D>(x).0 * (self.amplitude * (self.omega * t + self.phase).sin())
     }
 
     pub fn velocity<D: Dim>(&self, x: D::V, t: f64) -> D::V {
-        self.shape::<D>(x).0 * (self.amplitude * self.omega * (self.omega * t).cos())
+        self.shape::<D>(x).0 * (self.amplitude * self.omega * (self.omega * t + self.phase).cos())
     }
 
     /// Displacement gradient ∇0u.
     pub fn displacement_gradient<D: Dim>(&self, x: D::V, t: f64) -> D::T {
-        self.shape::<D>(x).1 * (self.amplitude * (self.omega * t).sin())
+        self.shape::<D>(x).1 * (self.amplitude * (self.omega * t + self.phase).sin())
     }
 
     /// Linear-elastic first Piola–Kirchhoff stress λ tr(∇u) I + μ(∇u + ∇uᵀ).
@@ -145,7 +172,13 @@ mod tests {
     /// (step 1e-4: truncation ~1e-8 relative, well inside the 1e-6 bound).
     fn satisfies_elastodynamics<D: Dim>(kind: SwingingKind) {
         let mat = material();
-        let mode = SwingingMode::new(5e-4, &mat, D::N, kind);
+        let sine = SwingingMode::new(5e-4, &mat, D::N, kind);
+        for mode in [sine, sine.cosine()] {
+            satisfies_elastodynamics_in::<D>(&mat, mode);
+        }
+    }
+
+    fn satisfies_elastodynamics_in<D: Dim>(mat: &Material, mode: SwingingMode) {
         let t = 0.3 / mode.omega;
         let h = 1e-4;
         for x in [
@@ -160,8 +193,8 @@ mod tests {
             for l in 0..D::N {
                 let mut e = [0.0; 3];
                 e[l] = h;
-                let dp = mode.stress::<D>(&mat, x + D::from_slice(&e), t)
-                    - mode.stress::<D>(&mat, x - D::from_slice(&e), t);
+                let dp = mode.stress::<D>(mat, x + D::from_slice(&e), t)
+                    - mode.stress::<D>(mat, x - D::from_slice(&e), t);
                 for (k, d) in div.iter_mut().enumerate() {
                     *d += D::entry(dp, k, l) / (2.0 * h);
                 }
@@ -179,6 +212,32 @@ mod tests {
         satisfies_elastodynamics::<D2>(SwingingKind::Dilatational);
         satisfies_elastodynamics::<D3>(SwingingKind::Dilatational);
         satisfies_elastodynamics::<D2>(SwingingKind::Shear);
+    }
+
+    #[test]
+    fn the_cosine_form_starts_at_rest_displaced_by_the_shape() {
+        // u = U0 cos(ωt) Φ: u(0) = U0 Φ as `shape_at` gives it, v(0) = 0, and at any t
+        // the sine form a quarter period later (exact identities, so round-off bounds).
+        let mat = material();
+        let sine = SwingingMode::new(5e-4, &mat, 3, SwingingKind::Dilatational);
+        let cosine = sine.cosine();
+        let x = [0.3, 0.6, 0.2];
+        let xv = D3::from_slice(&x);
+        let u0 = D3::to3(cosine.displacement::<D3>(xv, 0.0));
+        let phi = SwingingMode::shape_at(SwingingKind::Dilatational, 3, x);
+        for k in 0..3 {
+            assert!((u0[k] - 5e-4 * phi[k]).abs() < 1e-18, "{u0:?} vs {phi:?}");
+        }
+        // cos(π/2) is 6.1e-17 in f64: v(0) is that fraction of U0 ω.
+        let v0 = D3::norm2(cosine.velocity::<D3>(xv, 0.0)).sqrt();
+        assert!(v0 < 1e-16 * 5e-4 * sine.omega, "v(0) = {v0:e}");
+        let t = 1.3e-3;
+        let quarter = FRAC_PI_2 / sine.omega;
+        let (a, b) = (
+            cosine.velocity::<D3>(xv, t),
+            sine.velocity::<D3>(xv, t + quarter),
+        );
+        assert!(D3::norm2(a - b).sqrt() < 1e-12 * D3::norm2(b).sqrt());
     }
 
     #[test]
@@ -735,11 +794,29 @@ impl Exact {
         let name = crate::scene::validate::toml_name(&solution);
         match (solution, &body.initial_velocity) {
             (AnalyticSolution::Swinging, Some(VelocityField::Swinging { amplitude, mode })) => {
+                if body.initial_displacement.is_some() {
+                    return Err(format!(
+                        "the analytic solution \"{name}\" in its sine form starts undeformed; \
+                         remove the first body's initial displacement (or its velocity, for \
+                         the cosine form)"
+                    ));
+                }
                 Ok(Self::Swinging {
                     mode: SwingingMode::new(*amplitude, &material, dim, *mode),
                     dim,
                 })
             }
+            (AnalyticSolution::Swinging, None) => match &body.initial_displacement {
+                Some(DisplacementField::Swinging { amplitude, mode }) => Ok(Self::Swinging {
+                    mode: SwingingMode::new(*amplitude, &material, dim, *mode).cosine(),
+                    dim,
+                }),
+                _ => Err(format!(
+                    "the analytic solution \"{name}\" needs the first body to start in a \
+                     swinging mode: a `swinging` initial velocity (sine form) or initial \
+                     displacement (cosine form)"
+                )),
+            },
             (
                 AnalyticSolution::RodPulse | AnalyticSolution::FreeRod,
                 Some(VelocityField::GaussianPulse {

@@ -131,9 +131,9 @@ pub fn discretise<D: Dim>(case: &Case) -> Result<Discretised<D>, CaseError> {
                 &spec.name,
             )?;
             out.v0.push(noise.get(i).map_or(v0, |&dv| v0 + dv));
-            let u0 = displacement
-                .as_ref()
-                .map_or([0.0; 3], |(field, parsed)| field.at(parsed, D::to3(x)));
+            let u0 = displacement.as_ref().map_or([0.0; 3], |(field, parsed)| {
+                field.at(parsed, D::to3(x), D::N)
+            });
             finite_field(case, &u_key, "displacement", "m", u0, D::to3(x), &spec.name)?;
             out.u0.push(D::from_slice(&u0[..D::N]));
         }

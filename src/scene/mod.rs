@@ -389,13 +389,25 @@ pub enum DisplacementField {
         #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
         constants: std::collections::BTreeMap<String, f64>,
     },
+    /// A swinging mode at t = 0 of its cosine form, u = U0 Φ(X), at rest
+    /// ([`crate::analytic::SwingingMode`], seed 003 §E.5): `dilatational` (the default),
+    /// seed 003 §7.1.1's plate/cube on [0, 1]^d; `shear`, seed 002 §5.1's plate on [0, 2]².
+    Swinging {
+        amplitude: f64,
+        #[serde(default)]
+        mode: crate::analytic::SwingingKind,
+    },
 }
 
 impl DisplacementField {
-    /// u(X) of the field; `expressions` are its parsed components ([`Self::expressions`]).
-    pub fn at(&self, expressions: &[Expression], x: [f64; 3]) -> [f64; 3] {
+    /// u(X) of the field in a `dim`-D scene; `expressions` are its parsed components
+    /// ([`Self::expressions`]).
+    pub fn at(&self, expressions: &[Expression], x: [f64; 3], dim: usize) -> [f64; 3] {
         match self {
             Self::Linear { gradient } => linear_field(gradient, x),
+            Self::Swinging { amplitude, mode } => {
+                crate::analytic::SwingingMode::shape_at(*mode, dim, x).map(|phi| amplitude * phi)
+            }
             Self::Expression { .. } => {
                 let mut u = [0.0; 3];
                 for (u, e) in u.iter_mut().zip(expressions) {
@@ -407,10 +419,10 @@ impl DisplacementField {
     }
 
     /// The component expressions of an `expression` field, parsed for a `dim`-D scene,
-    /// each with its key below `key`; empty for the linear field.
+    /// each with its key below `key`; empty for the other fields.
     pub fn expressions(&self, key: &str, dim: usize) -> Result<Vec<Expression>, (String, String)> {
         match self {
-            Self::Linear { .. } => Ok(Vec::new()),
+            Self::Linear { .. } | Self::Swinging { .. } => Ok(Vec::new()),
             Self::Expression {
                 ux,
                 uy,

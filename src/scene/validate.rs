@@ -723,7 +723,25 @@ fn displacement(case: &Case, field: &DisplacementField, key: &str) -> Checked {
             expression_constants(key, constants, &["x", "y", "z"])?;
             field.expressions(key, dim).map(|_| ())
         }
+        DisplacementField::Swinging { amplitude, mode } => {
+            swinging_mode(&format!("{key}.mode"), *mode, dim)?;
+            finite(&format!("{key}.amplitude"), *amplitude)
+        }
     }
+}
+
+/// A swinging mode that exists in the scene's dimension.
+fn swinging_mode(key: &str, mode: crate::analytic::SwingingKind, dim: usize) -> Checked {
+    if mode == crate::analytic::SwingingKind::Shear && dim != 2 {
+        return fail(
+            key,
+            format!(
+                "the `shear` mode is seed 002's plate, 2D only, but the case has dimension = \
+                 {dim}; use `dilatational`"
+            ),
+        );
+    }
+    Ok(())
 }
 
 /// The gradient of a linear `field` (velocity, displacement): d rows of d finite numbers.
@@ -783,15 +801,7 @@ fn velocity(field: &VelocityField, key: &str, dim: usize) -> Checked {
             positive(&format!("{key}.width"), *width)
         }
         VelocityField::Swinging { amplitude, mode } => {
-            if *mode == crate::analytic::SwingingKind::Shear && dim != 2 {
-                return fail(
-                    format!("{key}.mode"),
-                    format!(
-                        "the `shear` mode is seed 002's plate, 2D only, but the case has \
-                         dimension = {dim}; use `dilatational`"
-                    ),
-                );
-            }
+            swinging_mode(&format!("{key}.mode"), *mode, dim)?;
             finite(&format!("{key}.amplitude"), *amplitude)
         }
         VelocityField::Expression { vz, constants, .. } => {

@@ -272,6 +272,17 @@ fn validate(m: &MixedOptions, case: &Case) -> Result<(), Problem> {
     }
     if let Some(ac) = &m.artificial_compressibility {
         ac.validate(case)?;
+        if let Some(b) = case
+            .bodies
+            .iter()
+            .position(|b| b.initial_displacement.is_some())
+        {
+            return fail(
+                format!("body.{b}.initial_displacement"),
+                "artificial compressibility starts its pressure at zero, out of balance with \
+                 a displaced start; remove the key or method.artificial_compressibility",
+            );
+        }
     }
     if !case.mirrors.is_empty() && m.projection == Some(true) {
         return fail(
@@ -535,8 +546,12 @@ impl MixedMethod for JstSpec {
 impl<S: MixedMethod> MethodFamily for S {
     const DESCRIPTION: &'static str = S::DESCRIPTION;
     const KEYS: &'static [&'static str] = S::KEYS;
-    const FEATURES: &'static [Feature] =
-        &[Feature::Contact, Feature::MirrorPlanes, Feature::Plasticity];
+    const FEATURES: &'static [Feature] = &[
+        Feature::Contact,
+        Feature::InitialDisplacement,
+        Feature::MirrorPlanes,
+        Feature::Plasticity,
+    ];
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
 

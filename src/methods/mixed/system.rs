@@ -137,6 +137,8 @@ pub struct MixedSph<D: Dim> {
     mass: Vec<f64>,
     body: Vec<u32>,
     v0: Vec<D::V>,
+    /// Initial displacements of the real particles.
+    u0: Vec<D::V>,
     csr: Csr,
     /// g_ab = ∇̃0W̃_b(X_a), CSR order.
     grad: Vec<D::V>,
@@ -208,6 +210,7 @@ impl<D: Dim> MixedSph<D> {
             mass,
             body: body_real,
             v0,
+            u0,
             boundary,
             material,
             kernel,
@@ -350,6 +353,7 @@ impl<D: Dim> MixedSph<D> {
             mass,
             body: body_real,
             v0,
+            u0,
             csr,
             grad,
             grad_rev,
@@ -458,6 +462,28 @@ impl<D: Dim> MixedSph<D> {
         fc
     }
 
+    /// The corrected gradient Σ_b V_b (φ_b − φ_a) ⊗ ∇̃0W̃_b(X_a) of a field φ given at the
+    /// real particles and their ghosts.
+    fn gradient(&self, phi_ext: &[D::V], a: usize) -> D::T {
+        let mut grad = D::zero_t();
+        for q in self.csr.range(a) {
+            let b = self.csr.ids[q] as usize;
+            grad += D::outer(phi_ext[b] - phi_ext[a], self.grad[q]) * self.vol[b];
+        }
+        grad
+    }
+
+    /// F0 = I + ∇̃0u0 of the initial displacement (I where there is none), so that the
+    /// evolved F starts as the gradient of the initial motion.
+    fn initial_deformation_gradient(&self) -> Vec<D::T> {
+        let mut u_ext = vec![D::zero(); self.x0.len()];
+        fill_extended(&self.ghosts, &mut u_ext, &self.u0);
+        (0..self.n)
+            .into_par_iter()
+            .map(|a| D::identity() + self.gradient(&u_ext, a))
+            .collect()
+    }
+
     /// Displacements of the real particles and the ghosts, when the bond-based F needs
     /// them outside a rate evaluation (outputs); empty otherwise.
     fn extended_displacement(&self, u: &[D::V]) -> Vec<D::V> {
@@ -485,15 +511,10 @@ impl<D: Dim> MixedSph<D> {
         let mut kin = std::mem::take(&mut self.kin);
         let kinematics = |a: usize| {
             let (f, h, j) = self.stress_arguments(y, a, &self.u_ext);
-            let mut grad_v = D::zero_t();
-            for q in self.csr.range(a) {
-                let b = self.csr.ids[q] as usize;
-                grad_v += D::outer(self.v_ext[b] - self.v_ext[a], self.grad[q]) * self.vol[b];
-            }
             Kinematics {
                 p: self.stress(y, a, f, h, j),
                 h,
-                grad_v,
+                grad_v: self.gradient(&self.v_ext, a),
                 j,
                 det_f: D::det(f),
             }
@@ -928,20 +949,21 @@ impl<D: Dim> Method<D> for MixedSph<D> {
 
     fn initial_state(&self) -> MixedState<D> {
         let n = self.n;
+        let f = self.initial_deformation_gradient();
         MixedState {
-            u: vec![D::zero(); n],
+            u: self.u0.clone(),
             v: self.v0.clone(),
-            f: vec![D::identity(); n],
             h: if self.conserved.evolves_h() {
-                vec![D::identity(); n]
+                f.iter().map(|&f| D::cof(f)).collect()
             } else {
                 Vec::new()
             },
             j: if self.evolves_j() {
-                vec![1.0; n]
+                f.iter().map(|&f| D::det(f)).collect()
             } else {
                 Vec::new()
             },
+            f,
             pressure: if self.compressibility.is_some() {
                 vec![0.0; n]
             } else {
