@@ -639,14 +639,16 @@ fn draw<DB: DrawingBackend>(
 
     // The sweep value by each point, where it has room: boxes with 2 px of padding, kept
     // clear of the Pareto rings.
-    let labelled: Vec<(f64, f64, &str)> = lines
+    let shown: Vec<(f64, f64, String)> = lines
         .iter()
         .flat_map(|l| l.points.iter())
         .map(|(t, e, v)| {
             let (x, y) = px(*t, *e);
-            (f64::from(x), f64::from(y), v.as_str())
+            (f64::from(x), f64::from(y), super::report::short_value(v))
         })
         .collect();
+    let labelled: Vec<(f64, f64, &str)> =
+        shown.iter().map(|(x, y, v)| (*x, *y, v.as_str())).collect();
     let label_font = ("sans-serif", 13).into_font().color(&grey);
     let size = |s: &str| {
         let (w, h) = area

@@ -278,6 +278,210 @@ pub fn suite_section(
     s
 }
 
+/// A sweep value as a point label or in running text: numbers to four significant
+/// digits (`0.04167` for 0.041666666666666664), anything else as it is.
+pub fn short_value(v: &str) -> String {
+    match v.parse::<f64>() {
+        Ok(x) if x.is_finite() && x != 0.0 && v.len() > 8 => {
+            let magnitude = x.abs().log10().floor();
+            if !(-3.0..5.0).contains(&magnitude) {
+                let text = format!("{x:.3e}");
+                let (mantissa, exponent) = text.split_once('e').unwrap_or((&text, "0"));
+                let mantissa = mantissa.trim_end_matches('0').trim_end_matches('.');
+                format!("{mantissa}e{exponent}")
+            } else {
+                let decimals = (3.0 - magnitude).max(0.0) as usize;
+                let text = format!("{x:.decimals$}");
+                if text.contains('.') {
+                    text.trim_end_matches('0').trim_end_matches('.').to_string()
+                } else {
+                    text
+                }
+            }
+        }
+        _ => v.to_string(),
+    }
+}
+
+/// How much larger than the recommended line's error another's must be to be listed as
+/// one to avoid.
+const AVOID_ERROR_RATIO: f64 = 10.0;
+
+/// The row of a suite in the report's "which method for which job" table: the job, the
+/// line (variant and backend) to use with its evidence, and the lines to avoid with why.
+/// Accuracy suites recommend the line whose most expensive finished run has the smallest
+/// headline error, among the lines that never failed; they list the lines that failed and
+/// those whose error is more than [`AVOID_ERROR_RATIO`] times that. Stability suites
+/// recommend the line that stays stable furthest into the sweep (then the cheapest), and
+/// list the lines that fail, earliest first.
+pub fn recommendation(suite: &Suite, recs: &[RunRecord]) -> String {
+    let job = if suite.job.is_empty() {
+        suite.name.as_str()
+    } else {
+        suite.job.as_str()
+    };
+    let key = &suite.sweep.key;
+    let failure = |r: &RunRecord| match &r.status {
+        Status::Failed { time, quantity, .. } => Some(format!(
+            "fails at {key} = {} ({}, {})",
+            short_value(&r.sweep_value),
+            failure_time(suite, *time, 2),
+            short_quantity(quantity)
+        )),
+        _ => None,
+    };
+    let first_failure = |line: &str| recs.iter().filter(|r| r.line() == line).find_map(failure);
+    let all_lines = lines(recs);
+    let (recommended, evidence, mut avoid) = match metrics(suite).first() {
+        Some(m) if suite.kind == SuiteKind::Accuracy => {
+            let pts = plottable(suite, recs, m);
+            // Each line at its most expensive finished run.
+            let longest: Vec<(String, &RunRecord, f64, f64)> = all_lines
+                .iter()
+                .filter_map(|line| {
+                    pts.iter()
+                        .filter(|p| &p.0.line() == line)
+                        .max_by(|a, b| a.1.total_cmp(&b.1))
+                        .map(|&(r, t, e)| (line.clone(), r, t, e))
+                })
+                .collect();
+            let never_failed: Vec<_> = longest
+                .iter()
+                .filter(|l| first_failure(&l.0).is_none())
+                .collect();
+            let pool = if never_failed.is_empty() {
+                longest.iter().collect()
+            } else {
+                never_failed
+            };
+            let Some(best) = pool
+                .into_iter()
+                .min_by(|a, b| a.3.total_cmp(&b.3).then(a.2.total_cmp(&b.2)))
+            else {
+                return format!("| {job} (`{}`) | – | no finished run | – |", suite.name);
+            };
+            let avoid: Vec<String> = all_lines
+                .iter()
+                .filter(|line| **line != best.0)
+                .filter_map(|line| match first_failure(line) {
+                    Some(f) => Some(format!("`{line}`: {f}")),
+                    None => longest
+                        .iter()
+                        .find(|l| &l.0 == line && l.3 > AVOID_ERROR_RATIO * best.3)
+                        .map(|l| {
+                            format!(
+                                "`{line}`: {} {:.0}× the recommended's ({} at {key} = {})",
+                                m.symbol,
+                                l.3 / best.3,
+                                sci(l.3),
+                                short_value(&l.1.sweep_value)
+                            )
+                        }),
+                })
+                .collect();
+            (
+                best.0.clone(),
+                format!(
+                    "{} = {} at {key} = {}, {:.3} s",
+                    m.symbol,
+                    sci(best.3),
+                    short_value(&best.1.sweep_value),
+                    best.2
+                ),
+                avoid,
+            )
+        }
+        _ => {
+            let vals = values(recs);
+            // Per line: how many sweep values it passes before its first failure, and the
+            // wall time of its finished runs.
+            let reach = |line: &str| {
+                let mut stable = 0;
+                for v in &vals {
+                    match recs
+                        .iter()
+                        .find(|r| r.line() == line && &r.sweep_value == v)
+                    {
+                        Some(r) if r.status == Status::Ok => stable += 1,
+                        Some(r) if matches!(r.status, Status::Failed { .. }) => break,
+                        _ => {}
+                    }
+                }
+                stable
+            };
+            let wall = |line: &str| -> f64 {
+                recs.iter()
+                    .filter(|r| r.line() == line && r.status == Status::Ok)
+                    .map(|r| r.wall_seconds)
+                    .sum()
+            };
+            let Some(best) = all_lines
+                .iter()
+                .filter(|l| reach(l) > 0)
+                .max_by(|a, b| reach(a).cmp(&reach(b)).then(wall(b).total_cmp(&wall(a))))
+            else {
+                let why: Vec<String> = all_lines
+                    .iter()
+                    .filter_map(|l| first_failure(l).map(|f| format!("`{l}`: {f}")))
+                    .collect();
+                return format!(
+                    "| {job} (`{}`) | – | no line stable at any {key} | {} |",
+                    suite.name,
+                    if why.is_empty() {
+                        "–".into()
+                    } else {
+                        why.join("; ")
+                    }
+                );
+            };
+            let last_stable = vals
+                .iter()
+                .rfind(|v| {
+                    recs.iter().any(|r| {
+                        &r.line() == best && &r.sweep_value == *v && r.status == Status::Ok
+                    })
+                })
+                .map(|v| short_value(v))
+                .unwrap_or_default();
+            let evidence = match first_failure(best) {
+                None => format!(
+                    "stable over the sweep ({key} to {last_stable}), {:.1} s in all",
+                    wall(best)
+                ),
+                Some(f) => format!("stable to {key} = {last_stable}, {f}"),
+            };
+            let mut failing: Vec<&String> = all_lines
+                .iter()
+                .filter(|l| *l != best && first_failure(l).is_some())
+                .collect();
+            failing.sort_by_key(|l| reach(l));
+            let avoid = failing
+                .into_iter()
+                .map(|l| format!("`{l}`: {}", first_failure(l).unwrap_or_default()))
+                .collect();
+            (best.clone(), evidence, avoid)
+        }
+    };
+    if avoid.is_empty() {
+        avoid.push("–".into());
+    }
+    format!(
+        "| {job} (`{}`) | `{recommended}` | {evidence} | {} |",
+        suite.name,
+        cell(&avoid.join("; "))
+    )
+}
+
+/// The "which method for which job" table over suites.
+pub fn recommendations(entries: &[(Suite, Vec<RunRecord>)]) -> String {
+    let mut s =
+        String::from("| job (suite) | use | evidence | avoid, and why |\n|---|---|---|---|\n");
+    for (suite, recs) in entries {
+        let _ = writeln!(s, "{}", recommendation(suite, recs));
+    }
+    s
+}
+
 /// Findings of one suite, drawn from its records only.
 pub fn findings(suite: &Suite, recs: &[RunRecord]) -> String {
     let job = if suite.job.is_empty() {
@@ -303,7 +507,7 @@ pub fn findings(suite: &Suite, recs: &[RunRecord]) -> String {
                         "`{}` at {} = {} (e = {e:.2e} in {t:.2} s)",
                         r.line(),
                         r.sweep_key,
-                        r.sweep_value
+                        short_value(&r.sweep_value)
                     )
                 };
                 let best = (0..pts.len())
@@ -347,7 +551,7 @@ pub fn findings(suite: &Suite, recs: &[RunRecord]) -> String {
                         "`{}` at {} = {} ({}, {})",
                         r.line(),
                         r.sweep_key,
-                        r.sweep_value,
+                        short_value(&r.sweep_value),
                         failure_time(suite, *time, 2),
                         short_quantity(quantity)
                     )),
@@ -374,10 +578,11 @@ pub fn findings(suite: &Suite, recs: &[RunRecord]) -> String {
                         continue;
                     };
                     match &r.status {
-                        Status::Ok if first_fail.is_none() => last_stable = Some(v.clone()),
+                        Status::Ok if first_fail.is_none() => last_stable = Some(short_value(v)),
                         Status::Failed { time, quantity, .. } if first_fail.is_none() => {
                             first_fail = Some(format!(
-                                "fails at {v} ({}, {})",
+                                "fails at {} ({}, {})",
+                                short_value(v),
                                 failure_time(suite, *time, 2),
                                 short_quantity(quantity)
                             ))
@@ -392,7 +597,8 @@ pub fn findings(suite: &Suite, recs: &[RunRecord]) -> String {
                     (None, None) => format!("`{line}` not run"),
                 });
             }
-            s += &format!("over {} = {}: ", suite.sweep.key, vals.join(", "));
+            let shown: Vec<String> = vals.iter().map(|v| short_value(v)).collect();
+            s += &format!("over {} = {}: ", suite.sweep.key, shown.join(", "));
             s += &parts.join("; ");
             s += ".";
         }
@@ -465,8 +671,17 @@ pub fn write_report(
     let _ = writeln!(s, "## Which method for which job\n");
     let _ = writeln!(
         s,
-        "Read off the measurements below, suite by suite (nothing here is extrapolated):\n"
+        "Read off the measurements below, suite by suite (nothing here is extrapolated). \
+         Accuracy suites recommend the variant whose most expensive finished run has the \
+         smallest headline error among the variants that never failed, and list the ones \
+         that failed or whose error is over {AVOID_ERROR_RATIO:.0} times that; stability \
+         suites recommend the variant stable furthest into the sweep (then the cheapest) and \
+         list the ones that fail, earliest first. A recommendation holds for the suite's \
+         case and the variants it compares; the suite's section below says what its \
+         figures mean.\n\n{}",
+        recommendations(entries)
     );
+    let _ = writeln!(s, "In detail:\n");
     for (suite, recs) in entries {
         let _ = writeln!(s, "{}", findings(suite, recs));
     }
@@ -517,4 +732,135 @@ pub fn write_report(
         );
     }
     crate::output::write_atomically(path, |w| std::io::Write::write_all(w, s.as_bytes()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn suite(kind: &str, reference: &str) -> Suite {
+        toml::from_str(&format!(
+            r#"
+name = "s"
+job = "the job"
+kind = "{kind}"
+case = "c"
+sweep = {{ key = "spacing", values = [0.1, 0.05] }}
+reference = {reference}
+[[variant]]
+name = "a"
+"#
+        ))
+        .unwrap()
+    }
+
+    fn record(variant: &str, sweep: &str, wall: f64, error: f64, status: Status) -> RunRecord {
+        RunRecord {
+            id: format!("{variant}-{sweep}"),
+            suite: "s".into(),
+            case: "c".into(),
+            variant: variant.into(),
+            backend: "cpu".into(),
+            sweep_key: "spacing".into(),
+            sweep_value: sweep.into(),
+            spacing: 0.1,
+            particles: 100,
+            steps: 10,
+            dt_last: 1e-6,
+            time: 1e-5,
+            wall_seconds: wall,
+            error_velocity: error,
+            error_stress: error,
+            drift_angular_momentum: f64::NAN,
+            drift_energy: f64::NAN,
+            status,
+            reason: String::new(),
+            machine: "m".into(),
+        }
+    }
+
+    fn failed(time: f64) -> Status {
+        Status::Failed {
+            time,
+            step: 7,
+            particle: 3,
+            quantity: "det F".into(),
+        }
+    }
+
+    #[test]
+    fn long_numbers_are_shown_to_four_significant_digits() {
+        assert_eq!(short_value("0.041666666666666664"), "0.04167");
+        assert_eq!(short_value("0.0010666666666666667"), "0.001067");
+        assert_eq!(short_value("5.333333333333333e-4"), "5.333e-4");
+        assert_eq!(short_value("0.16666666666666666"), "0.1667");
+        assert_eq!(short_value("166.66666666666666"), "166.7");
+        assert_eq!(short_value("123456.78901"), "1.235e5");
+        // Short numbers and words stay as written.
+        assert_eq!(short_value("8e-4"), "8e-4");
+        assert_eq!(short_value("0.125"), "0.125");
+        assert_eq!(short_value("p-F-H-J"), "p-F-H-J");
+    }
+
+    #[test]
+    fn accuracy_suites_recommend_the_most_accurate_line_that_never_failed() {
+        // `b` is the most accurate at its longest run but failed at the coarse spacing;
+        // `a` is the best of the others; `c` is 20 times worse than `a`; `d` is 5 times
+        // worse, within the ratio, so not listed.
+        let s = suite(
+            "accuracy",
+            r#"{ type = "analytic", solution = "swinging" }"#,
+        );
+        let recs = vec![
+            record("a", "0.1", 1.0, 1e-2, Status::Ok),
+            record("a", "0.05", 8.0, 2.5e-3, Status::Ok),
+            record("b", "0.1", 0.5, 1.0, failed(0.25)),
+            record("b", "0.05", 4.0, 1e-3, Status::Ok),
+            record("c", "0.05", 2.0, 5e-2, Status::Ok),
+            record("d", "0.05", 3.0, 1.25e-2, Status::Ok),
+        ];
+        let row = recommendation(&s, &recs);
+        assert!(
+            row.starts_with("| the job (`s`) | `a` | e(v) = 2.50e-3 at spacing = 0.05, 8.000 s |"),
+            "{row}"
+        );
+        assert!(
+            row.contains("`b`: fails at spacing = 0.1 (t = 2.50e-1 s, det F)"),
+            "{row}"
+        );
+        assert!(
+            row.contains("`c`: e(v) 20× the recommended's (5.00e-2 at spacing = 0.05)"),
+            "{row}"
+        );
+        assert!(!row.contains("`d`"), "{row}");
+    }
+
+    #[test]
+    fn stability_suites_recommend_the_line_stable_furthest_then_the_cheapest() {
+        // `a` and `b` pass both values, `b` faster; `c` fails at the second value, `e`
+        // at the first: listed earliest first.
+        let s = suite("stability", r#"{ type = "none" }"#);
+        let recs = vec![
+            record("a", "0.1", 2.0, f64::NAN, Status::Ok),
+            record("a", "0.05", 9.0, f64::NAN, Status::Ok),
+            record("b", "0.1", 1.0, f64::NAN, Status::Ok),
+            record("b", "0.05", 3.0, f64::NAN, Status::Ok),
+            record("c", "0.1", 1.0, f64::NAN, Status::Ok),
+            record("c", "0.05", 3.0, f64::NAN, failed(0.5)),
+            record("e", "0.1", 1.0, f64::NAN, failed(0.01)),
+        ];
+        let row = recommendation(&s, &recs);
+        assert!(
+            row.starts_with(
+                "| the job (`s`) | `b` | stable over the sweep (spacing to 0.05), 4.0 s in all |"
+            ),
+            "{row}"
+        );
+        let (e, c) = (
+            row.find("`e`: fails at spacing = 0.1").unwrap(),
+            row.find("`c`: fails at spacing = 0.05").unwrap(),
+        );
+        assert!(e < c, "earliest failure first: {row}");
+        assert!(!row.contains("`a`"), "{row}");
+    }
 }
