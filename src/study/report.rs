@@ -3,7 +3,7 @@
 
 use super::plot::{metrics, pareto, plots, plottable};
 use super::records::{self, RunRecord, Status};
-use super::suite::{AnalyticSolution, InvariantKind, Reference, Suite, SuiteKind};
+use super::suite::{AnalyticSolution, Choice, InvariantKind, Reference, Suite, SuiteKind};
 use super::{history, picture};
 use std::fmt::Write;
 use std::path::Path;
@@ -332,7 +332,10 @@ pub fn recommendation(suite: &Suite, recs: &[RunRecord]) -> String {
     };
     let first_failure = |line: &str| recs.iter().filter(|r| r.line() == line).find_map(failure);
     let all_lines = lines(recs);
-    let (recommended, evidence, mut avoid) = match metrics(suite).first() {
+    if suite.choice == Choice::Sweep {
+        return sweep_recommendation(suite, recs, job);
+    }
+    let (recommended, evidence, avoid) = match metrics(suite).first() {
         Some(m) if suite.kind == SuiteKind::Accuracy => {
             let pts = plottable(suite, recs, m);
             // Each line at its most expensive finished run.
@@ -370,9 +373,9 @@ pub fn recommendation(suite: &Suite, recs: &[RunRecord]) -> String {
                         .find(|l| &l.0 == line && l.3 > AVOID_ERROR_RATIO * best.3)
                         .map(|l| {
                             format!(
-                                "`{line}`: {} {:.0}× the recommended's ({} at {key} = {})",
+                                "`{line}`: {} = {} at {key} = {}, over {AVOID_ERROR_RATIO:.0}× \
+                                 the recommended's",
                                 m.symbol,
-                                l.3 / best.3,
                                 sci(l.3),
                                 short_value(&l.1.sweep_value)
                             )
@@ -420,18 +423,35 @@ pub fn recommendation(suite: &Suite, recs: &[RunRecord]) -> String {
                 .filter(|l| reach(l) > 0)
                 .max_by(|a, b| reach(a).cmp(&reach(b)).then(wall(b).total_cmp(&wall(a))))
             else {
-                let why: Vec<String> = all_lines
+                // Every line fails at its first sweep value (a run to failure): the one
+                // that lasts longest there, the others shortest first.
+                let lasts = |line: &str| {
+                    recs.iter()
+                        .find(|r| r.line() == line && Some(&r.sweep_value) == vals.first())
+                        .and_then(|r| match r.status {
+                            Status::Failed { time, .. } => Some(time),
+                            _ => None,
+                        })
+                };
+                let mut ranked: Vec<(&String, f64)> = all_lines
                     .iter()
-                    .filter_map(|l| first_failure(l).map(|f| format!("`{l}`: {f}")))
+                    .filter_map(|l| lasts(l).map(|t| (l, t)))
+                    .collect();
+                ranked.sort_by(|a, b| b.1.total_cmp(&a.1));
+                let Some((best, _)) = ranked.first().copied() else {
+                    return format!("| {job} (`{}`) | – | no finished run | – |", suite.name);
+                };
+                let why = |l: &str| first_failure(l).unwrap_or_default();
+                let avoid = ranked[1..]
+                    .iter()
+                    .rev()
+                    .map(|(l, _)| format!("`{l}`: {}", why(l)))
                     .collect();
                 return format!(
-                    "| {job} (`{}`) | – | no line stable at any {key} | {} |",
+                    "| {job} (`{}`) | `{best}` | lasts longest: {} | {} |",
                     suite.name,
-                    if why.is_empty() {
-                        "–".into()
-                    } else {
-                        why.join("; ")
-                    }
+                    why(best),
+                    avoid_cell(avoid)
                 );
             };
             let last_stable = vals
@@ -462,13 +482,72 @@ pub fn recommendation(suite: &Suite, recs: &[RunRecord]) -> String {
             (best.clone(), evidence, avoid)
         }
     };
-    if avoid.is_empty() {
-        avoid.push("–".into());
-    }
     format!(
         "| {job} (`{}`) | `{recommended}` | {evidence} | {} |",
         suite.name,
-        cell(&avoid.join("; "))
+        avoid_cell(avoid)
+    )
+}
+
+/// The most entries the "avoid" cell lists before it counts the rest.
+const AVOID_SHOWN: usize = 4;
+
+fn avoid_cell(mut avoid: Vec<String>) -> String {
+    if avoid.is_empty() {
+        return "–".into();
+    }
+    let more = avoid.len().saturating_sub(AVOID_SHOWN);
+    avoid.truncate(AVOID_SHOWN);
+    if more > 0 {
+        avoid.push(format!("{more} more in the section"));
+    }
+    cell(&avoid.join("; "))
+}
+
+/// The row of a suite whose choice is the sweep value (its variants are scenes): the
+/// values stable on every variant, and those that fail on some, with the first failure.
+fn sweep_recommendation(suite: &Suite, recs: &[RunRecord], job: &str) -> String {
+    let key = &suite.sweep.key;
+    let all_lines = lines(recs);
+    let mut stable = Vec::new();
+    let mut avoid = Vec::new();
+    for v in values(recs) {
+        let runs: Vec<&RunRecord> = recs.iter().filter(|r| r.sweep_value == v).collect();
+        let failure = runs.iter().find_map(|r| match &r.status {
+            Status::Failed { time, quantity, .. } => Some(format!(
+                "{key} = {}: fails on `{}` ({}, {})",
+                short_value(&v),
+                r.line(),
+                failure_time(suite, *time, 2),
+                short_quantity(quantity)
+            )),
+            _ => None,
+        });
+        match failure {
+            Some(f) => avoid.push(f),
+            None if runs.len() == all_lines.len()
+                && runs.iter().all(|r| r.status == Status::Ok) =>
+            {
+                stable.push(short_value(&v))
+            }
+            None => {}
+        }
+    }
+    let compared = suite
+        .history
+        .as_ref()
+        .map(|h| format!("; its section compares them on {}", h.label))
+        .unwrap_or_default();
+    let use_ = if stable.is_empty() {
+        "–".to_string()
+    } else {
+        format!("{key} = {}", stable.join(", "))
+    };
+    format!(
+        "| {job} (`{}`) | {use_} | stable on all {} variants{compared} | {} |",
+        suite.name,
+        all_lines.len(),
+        avoid_cell(avoid)
     )
 }
 
@@ -829,10 +908,46 @@ name = "a"
             "{row}"
         );
         assert!(
-            row.contains("`c`: e(v) 20× the recommended's (5.00e-2 at spacing = 0.05)"),
+            row.contains("`c`: e(v) = 5.00e-2 at spacing = 0.05, over 10× the recommended's"),
             "{row}"
         );
         assert!(!row.contains("`d`"), "{row}");
+    }
+
+    #[test]
+    fn runs_to_failure_recommend_the_line_that_lasts_longest() {
+        let s = suite("stability", r#"{ type = "none" }"#);
+        let recs = vec![
+            record("a", "0.1", 1.0, f64::NAN, failed(0.5)),
+            record("b", "0.1", 1.0, f64::NAN, failed(0.9)),
+            record("c", "0.1", 1.0, f64::NAN, failed(0.2)),
+        ];
+        let row = recommendation(&s, &recs);
+        assert_eq!(
+            row,
+            "| the job (`s`) | `b` | lasts longest: fails at spacing = 0.1 (t = 9.00e-1 s, det \
+             F) | `c`: fails at spacing = 0.1 (t = 2.00e-1 s, det F); `a`: fails at spacing = \
+             0.1 (t = 5.00e-1 s, det F) |"
+        );
+    }
+
+    #[test]
+    fn a_sweep_choice_recommends_the_values_stable_on_every_variant() {
+        // Variants `a` and `b` are scenes; 0.1 is stable on both, 0.05 fails on `b`.
+        let mut s = suite("stability", r#"{ type = "none" }"#);
+        s.choice = Choice::Sweep;
+        let recs = vec![
+            record("a", "0.1", 1.0, f64::NAN, Status::Ok),
+            record("b", "0.1", 1.0, f64::NAN, Status::Ok),
+            record("a", "0.05", 1.0, f64::NAN, Status::Ok),
+            record("b", "0.05", 1.0, f64::NAN, failed(0.5)),
+        ];
+        let row = recommendation(&s, &recs);
+        assert_eq!(
+            row,
+            "| the job (`s`) | spacing = 0.1 | stable on all 2 variants | spacing = 0.05: fails \
+             on `b` (t = 5.00e-1 s, det F) |"
+        );
     }
 
     #[test]

@@ -17,6 +17,16 @@ pub enum SuiteKind {
     Stability,
 }
 
+/// What a user of the suite chooses between: its variants (methods, options; the default)
+/// or its sweep values (when the variants are scenes and the sweep is the option).
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum Choice {
+    #[default]
+    Variants,
+    Sweep,
+}
+
 /// Compute backend of a run, as named in suite files.
 #[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, Hash, PartialOrd, Ord)]
 #[serde(rename_all = "lowercase")]
@@ -187,6 +197,9 @@ pub struct Suite {
     #[serde(default)]
     pub job: String,
     pub kind: SuiteKind,
+    /// What the report's recommendation chooses between.
+    #[serde(default)]
+    pub choice: Choice,
     /// Base case: a shipped case name or a path relative to the suite file.
     pub case: String,
     /// Overrides applied to every run (before the variant's and the sweep's).
