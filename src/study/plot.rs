@@ -727,10 +727,17 @@ fn draw<DB: DrawingBackend>(
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
-    fn record(variant: &str, backend: &str, sweep: &str, wall: f64, error: f64) -> RunRecord {
+    /// A finished run of suite `s` with the given error in v and P.
+    pub(in crate::study) fn record(
+        variant: &str,
+        backend: &str,
+        sweep: &str,
+        wall: f64,
+        error: f64,
+    ) -> RunRecord {
         RunRecord {
             id: format!("{variant}-{backend}-{sweep}"),
             suite: "s".into(),

@@ -835,26 +835,8 @@ name = "a"
 
     fn record(variant: &str, sweep: &str, wall: f64, error: f64, status: Status) -> RunRecord {
         RunRecord {
-            id: format!("{variant}-{sweep}"),
-            suite: "s".into(),
-            case: "c".into(),
-            variant: variant.into(),
-            backend: "cpu".into(),
-            sweep_key: "spacing".into(),
-            sweep_value: sweep.into(),
-            spacing: 0.1,
-            particles: 100,
-            steps: 10,
-            dt_last: 1e-6,
-            time: 1e-5,
-            wall_seconds: wall,
-            error_velocity: error,
-            error_stress: error,
-            drift_angular_momentum: f64::NAN,
-            drift_energy: f64::NAN,
             status,
-            reason: String::new(),
-            machine: "m".into(),
+            ..crate::study::plot::tests::record(variant, "cpu", sweep, wall, error)
         }
     }
 
