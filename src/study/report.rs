@@ -307,10 +307,14 @@ pub fn short_value(v: &str) -> String {
 /// one to avoid.
 const AVOID_ERROR_RATIO: f64 = 10.0;
 
+/// Errors within this factor of the lowest count as equal: the energy drift decides.
+const TIE_RATIO: f64 = 1.1;
+
 /// The row of a suite in the report's "which method for which job" table: the job, the
 /// line (variant and backend) to use with its evidence, and the lines to avoid with why.
 /// Accuracy suites recommend the line whose most expensive finished run has the smallest
-/// headline error, among the lines that never failed; they list the lines that failed and
+/// headline error, among the lines that never failed (errors within [`TIE_RATIO`] of it
+/// count as equal, and the smaller energy drift decides); they list the lines that failed and
 /// those whose error is more than [`AVOID_ERROR_RATIO`] times that. Stability suites
 /// recommend the line that stays stable furthest into the sweep (then the cheapest), and
 /// list the lines that fail, earliest first.
@@ -357,12 +361,23 @@ pub fn recommendation(suite: &Suite, recs: &[RunRecord]) -> String {
             } else {
                 never_failed
             };
-            let Some(best) = pool
-                .into_iter()
-                .min_by(|a, b| a.3.total_cmp(&b.3).then(a.2.total_cmp(&b.2)))
-            else {
+            let Some(lowest) = pool.iter().map(|l| l.3).min_by(f64::total_cmp) else {
                 return format!("| {job} (`{}`) | – | no finished run | – |", suite.name);
             };
+            // Among the errors within TIE_RATIO of the lowest, the smallest energy drift
+            // (a run whose energy grew is no recommendation), then the fastest.
+            let drift = |r: &RunRecord| {
+                if r.drift_energy.is_finite() {
+                    r.drift_energy
+                } else {
+                    0.0
+                }
+            };
+            let best = pool
+                .into_iter()
+                .filter(|l| l.3 <= TIE_RATIO * lowest)
+                .min_by(|a, b| drift(a.1).total_cmp(&drift(b.1)).then(a.2.total_cmp(&b.2)))
+                .expect("the lowest error is in the pool");
             let avoid: Vec<String> = all_lines
                 .iter()
                 .filter(|line| **line != best.0)
@@ -752,12 +767,14 @@ pub fn write_report(
         s,
         "Read off the measurements below, suite by suite (nothing here is extrapolated). \
          Accuracy suites recommend the variant whose most expensive finished run has the \
-         smallest headline error among the variants that never failed, and list the ones \
+         smallest headline error among the variants that never failed (errors within \
+         {:.0} % of it count as equal, and the smaller energy drift decides), and list the ones \
          that failed or whose error is over {AVOID_ERROR_RATIO:.0} times that; stability \
          suites recommend the variant stable furthest into the sweep (then the cheapest) and \
          list the ones that fail, earliest first. A recommendation holds for the suite's \
          case and the variants it compares; the suite's section below says what its \
          figures mean.\n\n{}",
+        (TIE_RATIO - 1.0) * 100.0,
         recommendations(entries)
     );
     let _ = writeln!(s, "In detail:\n");
@@ -894,6 +911,21 @@ name = "a"
             "{row}"
         );
         assert!(!row.contains("`d`"), "{row}");
+    }
+
+    #[test]
+    fn near_equal_errors_are_decided_by_the_energy_drift() {
+        // `a` is 5 % more accurate than `b` but its energy grew by 24 %: `b` is used.
+        let s = suite(
+            "accuracy",
+            r#"{ type = "analytic", solution = "swinging" }"#,
+        );
+        let mut a = record("a", "0.05", 1.0, 2.10e-2, Status::Ok);
+        a.drift_energy = 0.24;
+        let mut b = record("b", "0.05", 2.0, 2.20e-2, Status::Ok);
+        b.drift_energy = 0.04;
+        let row = recommendation(&s, &[a, b]);
+        assert!(row.starts_with("| the job (`s`) | `b` |"), "{row}");
     }
 
     #[test]
