@@ -365,12 +365,13 @@ pub fn recommendation(suite: &Suite, recs: &[RunRecord]) -> String {
                 return format!("| {job} (`{}`) | – | no finished run | – |", suite.name);
             };
             // Among the errors within TIE_RATIO of the lowest, the smallest energy drift
-            // (a run whose energy grew is no recommendation), then the fastest.
+            // (a run whose energy grew is no recommendation; an unmeasured drift ranks
+            // last), then the fastest.
             let drift = |r: &RunRecord| {
                 if r.drift_energy.is_finite() {
                     r.drift_energy
                 } else {
-                    0.0
+                    f64::INFINITY
                 }
             };
             let best = pool
