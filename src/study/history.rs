@@ -3,7 +3,7 @@
 //! Fig. 7), the strip's neck height against extension (Fig. 9), a ring's height (Fig. 12).
 //! Also written as one long CSV (`variant,backend,sweep_value,x,y`) for plotting scripts.
 
-use super::plot::{draw_marker, draw_path, line_style, register_font, write_figure};
+use super::plot::{draw_marker, draw_path, legend_width, line_style, register_font, write_figure};
 use super::records::{RunRecord, Status};
 use super::suite::{History, Suite};
 use crate::output::series::{ColumnError, read_column};
@@ -378,7 +378,19 @@ fn draw<DB: DrawingBackend>(
     let (y_lo, y_hi, y_step) = linear_axis(fold(|p| p.1).0, fold(|p| p.1).1);
     let root = root.titled(title, ("sans-serif", 20)).map_err(err)?;
     let (width, _) = root.dim_in_pixel();
-    let (plot_area, legend_area) = root.split_horizontally(width.saturating_sub(250));
+    let font = ("sans-serif", 14).into_font();
+    let names: Vec<String> = curves
+        .iter()
+        .map(|c| {
+            if c.failed {
+                format!("{} (failed, ×)", c.name)
+            } else {
+                c.name.clone()
+            }
+        })
+        .collect();
+    let legend = legend_width(&root, names.iter().map(String::as_str), &font);
+    let (plot_area, legend_area) = root.split_horizontally(width.saturating_sub(legend));
     let mut chart = ChartBuilder::on(&plot_area)
         .margin(12)
         .x_label_area_size(48)
@@ -405,7 +417,6 @@ fn draw<DB: DrawingBackend>(
     };
     // Markers every ~1/12 of the x range, so that dense series stay lines.
     let every = (x_hi - x_lo) / 12.0;
-    let font = ("sans-serif", 14).into_font();
     let mut y = 40;
     for (k, c) in curves.iter().enumerate() {
         let style = line_style(k);
@@ -426,13 +437,8 @@ fn draw<DB: DrawingBackend>(
         }
         draw_path(&legend_area, vec![(8, y), (48, y)], &style).map_err(err)?;
         draw_marker(&legend_area, style.marker, (28, y), style.colour).map_err(err)?;
-        let name = if c.failed {
-            format!("{} (failed, ×)", c.name)
-        } else {
-            c.name.clone()
-        };
         legend_area
-            .draw(&Text::new(name, (56, y - 8), font.clone()))
+            .draw(&Text::new(names[k].as_str(), (56, y - 8), font.clone()))
             .map_err(err)?;
         y += 22;
     }

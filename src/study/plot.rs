@@ -235,6 +235,23 @@ pub fn lines(points: &[(&RunRecord, f64, f64)]) -> Vec<Line> {
     out
 }
 
+/// The width of the legend column right of a chart: the widest of `labels` after the
+/// 56-pixel line sample, at least 250 pixels and at most half the figure.
+pub(super) fn legend_width<'a, DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    labels: impl Iterator<Item = &'a str>,
+    font: &FontDesc,
+) -> u32 {
+    let (width, _) = root.dim_in_pixel();
+    let style = TextStyle::from(font.clone());
+    let widest = labels
+        .filter_map(|l| root.estimate_text_size(l, &style).ok())
+        .map(|(w, _)| w)
+        .max()
+        .unwrap_or(0);
+    (widest + 64).clamp(250, (width / 2).max(250))
+}
+
 /// A logarithmic axis: its range and the values that carry a label.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LogAxis {
@@ -562,7 +579,10 @@ fn draw<DB: DrawingBackend>(
     // The legend goes in a column right of the chart, never over the points.
     let root = root.titled(title, ("sans-serif", 20)).map_err(err)?;
     let (width, _) = root.dim_in_pixel();
-    let (plot_area, legend_area) = root.split_horizontally(width.saturating_sub(250));
+    let font = ("sans-serif", 14).into_font();
+    let lines = lines(points);
+    let legend = legend_width(&root, lines.iter().map(|l| l.name.as_str()), &font);
+    let (plot_area, legend_area) = root.split_horizontally(width.saturating_sub(legend));
     let mut chart = ChartBuilder::on(&plot_area)
         .margin(12)
         .x_label_area_size(48)
@@ -615,7 +635,6 @@ fn draw<DB: DrawingBackend>(
         .map_err(err)?;
     }
 
-    let lines = lines(points);
     let coords: Vec<(f64, f64)> = points.iter().map(|&(_, t, e)| (t, e)).collect();
     let front: Vec<(i32, i32)> = pareto(&coords)
         .into_iter()
@@ -673,7 +692,6 @@ fn draw<DB: DrawingBackend>(
     }
 
     // Legend: line sample with its marker, the name, and a note on noisy timings.
-    let font = ("sans-serif", 14).into_font();
     let mut y = 40;
     for (k, line) in lines.iter().enumerate() {
         let style = line_style(k);
