@@ -1,7 +1,7 @@
 //! Markdown: the table of one suite's runs, the stability map, and the report over suites
 //! with its "which method for which job" section drawn from the records alone.
 
-use super::plot::{metrics, pareto, plots, plottable};
+use super::plot::{Metric, metrics, pareto, plots, plottable};
 use super::records::{self, RunRecord, Status};
 use super::suite::{AnalyticSolution, Choice, InvariantKind, Reference, Suite, SuiteKind};
 use super::{history, picture};
@@ -310,6 +310,41 @@ const AVOID_ERROR_RATIO: f64 = 10.0;
 /// Errors within this factor of the lowest count as equal: the energy drift decides.
 const TIE_RATIO: f64 = 1.1;
 
+/// The job a suite's table row and findings name: its `job`, else its name.
+fn job_name(suite: &Suite) -> &str {
+    if suite.job.is_empty() {
+        &suite.name
+    } else {
+        &suite.job
+    }
+}
+
+/// "fails at key = v (t = …, quantity)" of a line's first failed run.
+fn first_failure(suite: &Suite, recs: &[RunRecord], line: &str) -> Option<String> {
+    recs.iter()
+        .filter(|r| r.line() == line)
+        .find_map(|r| match &r.status {
+            Status::Failed { time, quantity, .. } => Some(format!(
+                "fails at {} = {} ({}, {})",
+                suite.sweep.key,
+                short_value(&r.sweep_value),
+                failure_time(suite, *time, 2),
+                short_quantity(quantity)
+            )),
+            _ => None,
+        })
+}
+
+/// A table row: job and suite, what to use, the evidence, what to avoid.
+fn row(suite: &Suite, use_: &str, evidence: &str, avoid: Vec<String>) -> String {
+    format!(
+        "| {} (`{}`) | {use_} | {evidence} | {} |",
+        job_name(suite),
+        suite.name,
+        avoid_cell(avoid)
+    )
+}
+
 /// The row of a suite in the report's "which method for which job" table: the job, the
 /// line (variant and backend) to use with its evidence, and the lines to avoid with why.
 /// Accuracy suites recommend the line whose most expensive finished run has the smallest
@@ -317,191 +352,181 @@ const TIE_RATIO: f64 = 1.1;
 /// count as equal, and the smaller energy drift decides); they list the lines that failed and
 /// those whose error is more than [`AVOID_ERROR_RATIO`] times that. Stability suites
 /// recommend the line that stays stable furthest into the sweep (then the cheapest), and
-/// list the lines that fail, earliest first.
+/// list the lines that fail, earliest first; where every line fails at once (a run to
+/// failure), the one that lasts longest.
 pub fn recommendation(suite: &Suite, recs: &[RunRecord]) -> String {
-    let job = if suite.job.is_empty() {
-        suite.name.as_str()
-    } else {
-        suite.job.as_str()
-    };
-    let key = &suite.sweep.key;
-    let failure = |r: &RunRecord| match &r.status {
-        Status::Failed { time, quantity, .. } => Some(format!(
-            "fails at {key} = {} ({}, {})",
-            short_value(&r.sweep_value),
-            failure_time(suite, *time, 2),
-            short_quantity(quantity)
-        )),
-        _ => None,
-    };
-    let first_failure = |line: &str| recs.iter().filter(|r| r.line() == line).find_map(failure);
-    let all_lines = lines(recs);
-    if suite.choice == Choice::Sweep {
-        return sweep_recommendation(suite, recs, job);
+    match (suite.choice, metrics(suite).first()) {
+        (Choice::Sweep, _) => sweep_recommendation(suite, recs),
+        (Choice::Variants, Some(m)) if suite.kind == SuiteKind::Accuracy => {
+            accuracy_recommendation(suite, recs, m)
+        }
+        _ => stability_recommendation(suite, recs),
     }
-    let (recommended, evidence, avoid) = match metrics(suite).first() {
-        Some(m) if suite.kind == SuiteKind::Accuracy => {
-            let pts = plottable(suite, recs, m);
-            // Each line at its most expensive finished run.
-            let longest: Vec<(String, &RunRecord, f64, f64)> = all_lines
-                .iter()
-                .filter_map(|line| {
-                    pts.iter()
-                        .filter(|p| &p.0.line() == line)
-                        .max_by(|a, b| a.1.total_cmp(&b.1))
-                        .map(|&(r, t, e)| (line.clone(), r, t, e))
-                })
-                .collect();
-            let never_failed: Vec<_> = longest
-                .iter()
-                .filter(|l| first_failure(&l.0).is_none())
-                .collect();
-            let pool = if never_failed.is_empty() {
-                longest.iter().collect()
-            } else {
-                never_failed
-            };
-            let Some(lowest) = pool.iter().map(|l| l.3).min_by(f64::total_cmp) else {
-                return format!("| {job} (`{}`) | – | no finished run | – |", suite.name);
-            };
-            // Among the errors within TIE_RATIO of the lowest, the smallest energy drift
-            // (a run whose energy grew is no recommendation; an unmeasured drift ranks
-            // last), then the fastest.
-            let drift = |r: &RunRecord| {
-                if r.drift_energy.is_finite() {
-                    r.drift_energy
-                } else {
-                    f64::INFINITY
-                }
-            };
-            let best = pool
-                .into_iter()
-                .filter(|l| l.3 <= TIE_RATIO * lowest)
-                .min_by(|a, b| drift(a.1).total_cmp(&drift(b.1)).then(a.2.total_cmp(&b.2)))
-                .expect("the lowest error is in the pool");
-            let avoid: Vec<String> = all_lines
-                .iter()
-                .filter(|line| **line != best.0)
-                .filter_map(|line| match first_failure(line) {
-                    Some(f) => Some(format!("`{line}`: {f}")),
-                    None => longest
-                        .iter()
-                        .find(|l| &l.0 == line && l.3 > AVOID_ERROR_RATIO * best.3)
-                        .map(|l| {
-                            format!(
-                                "`{line}`: {} = {} at {key} = {}, over {AVOID_ERROR_RATIO:.0}× \
-                                 the recommended's",
-                                m.symbol,
-                                sci(l.3),
-                                short_value(&l.1.sweep_value)
-                            )
-                        }),
-                })
-                .collect();
-            (
-                best.0.clone(),
-                format!(
-                    "{} = {} at {key} = {}, {:.3} s",
-                    m.symbol,
-                    sci(best.3),
-                    short_value(&best.1.sweep_value),
-                    best.2
-                ),
-                avoid,
-            )
-        }
-        _ => {
-            let vals = values(recs);
-            // Per line: how many sweep values it passes before its first failure, and the
-            // wall time of its finished runs.
-            let reach = |line: &str| {
-                let mut stable = 0;
-                for v in &vals {
-                    match recs
-                        .iter()
-                        .find(|r| r.line() == line && &r.sweep_value == v)
-                    {
-                        Some(r) if r.status == Status::Ok => stable += 1,
-                        Some(r) if matches!(r.status, Status::Failed { .. }) => break,
-                        _ => {}
-                    }
-                }
-                stable
-            };
-            let wall = |line: &str| -> f64 {
-                recs.iter()
-                    .filter(|r| r.line() == line && r.status == Status::Ok)
-                    .map(|r| r.wall_seconds)
-                    .sum()
-            };
-            let Some(best) = all_lines
-                .iter()
-                .filter(|l| reach(l) > 0)
-                .max_by(|a, b| reach(a).cmp(&reach(b)).then(wall(b).total_cmp(&wall(a))))
-            else {
-                // Every line fails at its first sweep value (a run to failure): the one
-                // that lasts longest there, the others shortest first.
-                let lasts = |line: &str| {
-                    recs.iter()
-                        .find(|r| r.line() == line && Some(&r.sweep_value) == vals.first())
-                        .and_then(|r| match r.status {
-                            Status::Failed { time, .. } => Some(time),
-                            _ => None,
-                        })
-                };
-                let mut ranked: Vec<(&String, f64)> = all_lines
-                    .iter()
-                    .filter_map(|l| lasts(l).map(|t| (l, t)))
-                    .collect();
-                ranked.sort_by(|a, b| b.1.total_cmp(&a.1));
-                let Some((best, _)) = ranked.first().copied() else {
-                    return format!("| {job} (`{}`) | – | no finished run | – |", suite.name);
-                };
-                let why = |l: &str| first_failure(l).unwrap_or_default();
-                let avoid = ranked[1..]
-                    .iter()
-                    .rev()
-                    .map(|(l, _)| format!("`{l}`: {}", why(l)))
-                    .collect();
-                return format!(
-                    "| {job} (`{}`) | `{best}` | lasts longest: {} | {} |",
-                    suite.name,
-                    why(best),
-                    avoid_cell(avoid)
-                );
-            };
-            let last_stable = vals
-                .iter()
-                .rfind(|v| {
-                    recs.iter().any(|r| {
-                        &r.line() == best && &r.sweep_value == *v && r.status == Status::Ok
-                    })
-                })
-                .map(|v| short_value(v))
-                .unwrap_or_default();
-            let evidence = match first_failure(best) {
-                None => format!(
-                    "stable over the sweep ({key} to {last_stable}), {:.1} s in all",
-                    wall(best)
-                ),
-                Some(f) => format!("stable to {key} = {last_stable}, {f}"),
-            };
-            let mut failing: Vec<&String> = all_lines
-                .iter()
-                .filter(|l| *l != best && first_failure(l).is_some())
-                .collect();
-            failing.sort_by_key(|l| reach(l));
-            let avoid = failing
-                .into_iter()
-                .map(|l| format!("`{l}`: {}", first_failure(l).unwrap_or_default()))
-                .collect();
-            (best.clone(), evidence, avoid)
+}
+
+fn accuracy_recommendation(suite: &Suite, recs: &[RunRecord], m: &Metric) -> String {
+    let key = &suite.sweep.key;
+    let pts = plottable(suite, recs, m);
+    let all_lines = lines(recs);
+    // Each line at its most expensive finished run.
+    let longest: Vec<(String, &RunRecord, f64, f64)> = all_lines
+        .iter()
+        .filter_map(|line| {
+            pts.iter()
+                .filter(|p| &p.0.line() == line)
+                .max_by(|a, b| a.1.total_cmp(&b.1))
+                .map(|&(r, t, e)| (line.clone(), r, t, e))
+        })
+        .collect();
+    let never_failed: Vec<_> = longest
+        .iter()
+        .filter(|l| first_failure(suite, recs, &l.0).is_none())
+        .collect();
+    let pool = if never_failed.is_empty() {
+        longest.iter().collect()
+    } else {
+        never_failed
+    };
+    let Some(lowest) = pool.iter().map(|l| l.3).min_by(f64::total_cmp) else {
+        return row(suite, "–", "no finished run", Vec::new());
+    };
+    // Among the errors within TIE_RATIO of the lowest, the smallest energy drift (a run
+    // whose energy grew is no recommendation; an unmeasured drift ranks last), then the
+    // fastest.
+    let drift = |r: &RunRecord| {
+        if r.drift_energy.is_finite() {
+            r.drift_energy
+        } else {
+            f64::INFINITY
         }
     };
-    format!(
-        "| {job} (`{}`) | `{recommended}` | {evidence} | {} |",
-        suite.name,
-        avoid_cell(avoid)
+    let best = pool
+        .into_iter()
+        .filter(|l| l.3 <= TIE_RATIO * lowest)
+        .min_by(|a, b| drift(a.1).total_cmp(&drift(b.1)).then(a.2.total_cmp(&b.2)))
+        .expect("the lowest error is in the pool");
+    let avoid: Vec<String> = all_lines
+        .iter()
+        .filter(|line| **line != best.0)
+        .filter_map(|line| match first_failure(suite, recs, line) {
+            Some(f) => Some(format!("`{line}`: {f}")),
+            None => longest
+                .iter()
+                .find(|l| &l.0 == line && l.3 > AVOID_ERROR_RATIO * best.3)
+                .map(|l| {
+                    format!(
+                        "`{line}`: {} = {} at {key} = {}, over {AVOID_ERROR_RATIO:.0}× the \
+                         recommended's",
+                        m.symbol,
+                        sci(l.3),
+                        short_value(&l.1.sweep_value)
+                    )
+                }),
+        })
+        .collect();
+    let evidence = format!(
+        "{} = {} at {key} = {}, {:.3} s",
+        m.symbol,
+        sci(best.3),
+        short_value(&best.1.sweep_value),
+        best.2
+    );
+    row(suite, &format!("`{}`", best.0), &evidence, avoid)
+}
+
+fn stability_recommendation(suite: &Suite, recs: &[RunRecord]) -> String {
+    let key = &suite.sweep.key;
+    let vals = values(recs);
+    let all_lines = lines(recs);
+    let first_failure = |line: &str| first_failure(suite, recs, line);
+    // Per line: how many sweep values it passes before its first failure, and the wall
+    // time of its finished runs.
+    let reach = |line: &str| {
+        let mut stable = 0;
+        for v in &vals {
+            match recs
+                .iter()
+                .find(|r| r.line() == line && &r.sweep_value == v)
+            {
+                Some(r) if r.status == Status::Ok => stable += 1,
+                Some(r) if matches!(r.status, Status::Failed { .. }) => break,
+                _ => {}
+            }
+        }
+        stable
+    };
+    let wall = |line: &str| -> f64 {
+        recs.iter()
+            .filter(|r| r.line() == line && r.status == Status::Ok)
+            .map(|r| r.wall_seconds)
+            .sum()
+    };
+    let Some(best) = all_lines
+        .iter()
+        .filter(|l| reach(l) > 0)
+        .max_by(|a, b| reach(a).cmp(&reach(b)).then(wall(b).total_cmp(&wall(a))))
+    else {
+        return failure_recommendation(suite, recs);
+    };
+    let last_stable = vals
+        .iter()
+        .rfind(|v| {
+            recs.iter()
+                .any(|r| &r.line() == best && &r.sweep_value == *v && r.status == Status::Ok)
+        })
+        .map(|v| short_value(v))
+        .unwrap_or_default();
+    let evidence = match first_failure(best) {
+        None => format!(
+            "stable over the sweep ({key} to {last_stable}), {:.1} s in all",
+            wall(best)
+        ),
+        Some(f) => format!("stable to {key} = {last_stable}, {f}"),
+    };
+    let mut failing: Vec<&String> = all_lines
+        .iter()
+        .filter(|l| *l != best && first_failure(l).is_some())
+        .collect();
+    failing.sort_by_key(|l| reach(l));
+    let avoid = failing
+        .into_iter()
+        .map(|l| format!("`{l}`: {}", first_failure(l).unwrap_or_default()))
+        .collect();
+    row(suite, &format!("`{best}`"), &evidence, avoid)
+}
+
+/// Every line fails at its first sweep value (a run to failure): the one that lasts
+/// longest there, the others shortest first.
+fn failure_recommendation(suite: &Suite, recs: &[RunRecord]) -> String {
+    let vals = values(recs);
+    let lasts = |line: &str| {
+        recs.iter()
+            .find(|r| r.line() == line && Some(&r.sweep_value) == vals.first())
+            .and_then(|r| match r.status {
+                Status::Failed { time, .. } => Some(time),
+                _ => None,
+            })
+    };
+    let all_lines = lines(recs);
+    let mut ranked: Vec<(&String, f64)> = all_lines
+        .iter()
+        .filter_map(|l| lasts(l).map(|t| (l, t)))
+        .collect();
+    ranked.sort_by(|a, b| b.1.total_cmp(&a.1));
+    let Some((best, _)) = ranked.first().copied() else {
+        return row(suite, "–", "no finished run", Vec::new());
+    };
+    let why = |l: &str| first_failure(suite, recs, l).unwrap_or_default();
+    let avoid = ranked[1..]
+        .iter()
+        .rev()
+        .map(|(l, _)| format!("`{l}`: {}", why(l)))
+        .collect();
+    row(
+        suite,
+        &format!("`{best}`"),
+        &format!("lasts longest: {}", why(best)),
+        avoid,
     )
 }
 
@@ -522,7 +547,7 @@ fn avoid_cell(mut avoid: Vec<String>) -> String {
 
 /// The row of a suite whose choice is the sweep value (its variants are scenes): the
 /// values stable on every variant, and those that fail on some, with the first failure.
-fn sweep_recommendation(suite: &Suite, recs: &[RunRecord], job: &str) -> String {
+fn sweep_recommendation(suite: &Suite, recs: &[RunRecord]) -> String {
     let key = &suite.sweep.key;
     let all_lines = lines(recs);
     let mut stable = Vec::new();
@@ -559,12 +584,8 @@ fn sweep_recommendation(suite: &Suite, recs: &[RunRecord], job: &str) -> String 
     } else {
         format!("{key} = {}", stable.join(", "))
     };
-    format!(
-        "| {job} (`{}`) | {use_} | stable on all {} variants{compared} | {} |",
-        suite.name,
-        all_lines.len(),
-        avoid_cell(avoid)
-    )
+    let evidence = format!("stable on all {} variants{compared}", all_lines.len());
+    row(suite, &use_, &evidence, avoid)
 }
 
 /// The "which method for which job" table over suites.
@@ -579,12 +600,7 @@ pub fn recommendations(entries: &[(Suite, Vec<RunRecord>)]) -> String {
 
 /// Findings of one suite, drawn from its records only.
 pub fn findings(suite: &Suite, recs: &[RunRecord]) -> String {
-    let job = if suite.job.is_empty() {
-        suite.name.clone()
-    } else {
-        suite.job.clone()
-    };
-    let mut s = format!("- **{job}** (`{}`): ", suite.name);
+    let mut s = format!("- **{}** (`{}`): ", job_name(suite), suite.name);
     match suite.kind {
         SuiteKind::Accuracy => {
             let ms = metrics(suite);
