@@ -405,25 +405,29 @@ fn accuracy_recommendation(suite: &Suite, recs: &[RunRecord], m: &Metric) -> Str
         .filter(|l| l.3 <= TIE_RATIO * lowest)
         .min_by(|a, b| drift(a.1).total_cmp(&drift(b.1)).then(a.2.total_cmp(&b.2)))
         .expect("the lowest error is in the pool");
-    let avoid: Vec<String> = all_lines
+    // Failed lines first, then the others over 10× the best error, the largest first.
+    let mut avoid: Vec<(f64, String)> = all_lines
         .iter()
         .filter(|line| **line != best.0)
         .filter_map(|line| match first_failure(suite, recs, line) {
-            Some(f) => Some(format!("`{line}`: {f}")),
+            Some(f) => Some((f64::INFINITY, format!("`{line}`: {f}"))),
             None => longest
                 .iter()
                 .find(|l| &l.0 == line && l.3 > AVOID_ERROR_RATIO * best.3)
                 .map(|l| {
-                    format!(
+                    let why = format!(
                         "`{line}`: {} = {} at {key} = {}, over {AVOID_ERROR_RATIO:.0}× the \
                          recommended's",
                         m.symbol,
                         sci(l.3),
                         short_value(&l.1.sweep_value)
-                    )
+                    );
+                    (l.3, why)
                 }),
         })
         .collect();
+    avoid.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let avoid = avoid.into_iter().map(|(_, why)| why).collect();
     let evidence = format!(
         "{} = {} at {key} = {}, {:.3} s",
         m.symbol,
@@ -786,9 +790,10 @@ pub fn write_report(
          Accuracy suites recommend the variant whose most expensive finished run has the \
          smallest headline error among the variants that never failed (errors within \
          {:.0} % of it count as equal, and the smaller energy drift decides), and list the ones \
-         that failed or whose error is over {AVOID_ERROR_RATIO:.0} times that; stability \
-         suites recommend the variant stable furthest into the sweep (then the cheapest) and \
-         list the ones that fail, earliest first. A recommendation holds for the suite's \
+         that failed, then those whose error is over {AVOID_ERROR_RATIO:.0} times that, the \
+         largest first; stability suites recommend the variant stable furthest into the sweep (then the cheapest) and \
+         list the ones that fail, earliest first. A row shows at most {AVOID_SHOWN} to avoid and \
+         counts the rest, which the suite's section lists. A recommendation holds for the suite's \
          case and the variants it compares; the suite's section below says what its \
          figures mean.\n\n{}",
         (TIE_RATIO - 1.0) * 100.0,
@@ -900,8 +905,9 @@ name = "a"
     #[test]
     fn accuracy_suites_recommend_the_most_accurate_line_that_never_failed() {
         // `b` is the most accurate at its longest run but failed at the coarse spacing;
-        // `a` is the best of the others; `c` is 20 times worse than `a`; `d` is 5 times
-        // worse, within the ratio, so not listed.
+        // `a` is the best of the others; `e` and `c` are 40 and 20 times worse than `a`;
+        // `d` is 5 times worse, within the ratio, so not listed. The failure comes first,
+        // then the larger error.
         let s = suite(
             "accuracy",
             r#"{ type = "analytic", solution = "swinging" }"#,
@@ -913,6 +919,7 @@ name = "a"
             record("b", "0.05", 4.0, 1e-3, Status::Ok),
             record("c", "0.05", 2.0, 5e-2, Status::Ok),
             record("d", "0.05", 3.0, 1.25e-2, Status::Ok),
+            record("e", "0.05", 2.0, 1e-1, Status::Ok),
         ];
         let row = recommendation(&s, &recs);
         assert!(
@@ -928,6 +935,8 @@ name = "a"
             "{row}"
         );
         assert!(!row.contains("`d`"), "{row}");
+        let at = |line: &str| row.find(&format!("`{line}`:")).expect(line);
+        assert!(at("b") < at("e") && at("e") < at("c"), "{row}");
     }
 
     #[test]

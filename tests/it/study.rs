@@ -368,6 +368,34 @@ fn shipped_suites_load_and_plan_valid_cases() {
 }
 
 #[test]
+fn every_method_of_the_registry_runs_the_swinging_plate() {
+    // The report compares every method on one analytic case: each registry entry must
+    // have a variant of the `swinging-plate` suite whose planned case is valid and runs
+    // it, so a method added to the registry without one fails here.
+    let suite = Suite::load(&studies().join("swinging-plate.toml")).unwrap();
+    let planned: std::collections::BTreeSet<&str> = suite
+        .plan()
+        .iter()
+        .map(|run| {
+            let case = run
+                .case
+                .as_ref()
+                .unwrap_or_else(|e| panic!("{}: {e}", run.variant));
+            case.method.spec.entry().name
+        })
+        .collect();
+    let missing: Vec<&str> = meshless::methods::REGISTRY
+        .iter()
+        .map(|e| e.name)
+        .filter(|n| !planned.contains(n))
+        .collect();
+    assert!(
+        missing.is_empty(),
+        "no swinging-plate variant runs {missing:?}"
+    );
+}
+
+#[test]
 fn a_run_past_the_estimate_or_the_time_limit_is_recorded_and_the_study_goes_on() {
     // One sweep value asks for ~1e600 particles (spacing 1e-300): refused by the resource
     // estimate before anything is allocated, recorded as an error naming `spacing`; the

@@ -35,7 +35,8 @@ pub struct EfgSpec {
     /// `cells` (the default, EFG (ci)) or `nodal` (EFG (ni)).
     #[serde(default)]
     pub integration: Integration,
-    /// The nodal masses (default `particle`, the Voronoi masses of seed 001 eq 70).
+    /// The nodal masses (default `particle`, ρ0 V of each particle: the Voronoi masses of
+    /// seed 001 eq 70 on a lattice of tributary volumes, `geometry.volumes = "tributary"`).
     #[serde(default = "particle_mass")]
     pub mass: Mass,
 }

@@ -39,7 +39,8 @@ pub struct KbmSpec {
     /// true, the paper's KBM (si)); false integrates at the particles only (KBM (ni)).
     #[serde(default = "yes")]
     pub stress_points: bool,
-    /// The nodal masses (default `particle`, the Voronoi masses of eq 70).
+    /// The nodal masses (default `particle`, ρ0 V of each particle: the Voronoi masses of
+    /// eq 70 on a lattice of tributary volumes, `geometry.volumes = "tributary"`).
     #[serde(default = "particle_mass")]
     pub mass: Mass,
     /// The configuration of the kernel (default `lagrangian`).
