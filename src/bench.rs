@@ -28,6 +28,9 @@ pub struct BenchRow {
     pub passes: Option<PassReport>,
     /// On the CPU, what a step moves by the method's traffic model (`Engine::traffic`).
     pub traffic: Option<StepTraffic>,
+    /// On the CPU, the pairs per particle a rate evaluation loops over
+    /// (`Engine::pairs_per_particle`).
+    pub pairs_per_particle: Option<f64>,
 }
 
 /// One pass of a [`PassReport`]: totals over the profiled steps.
@@ -153,15 +156,15 @@ impl BenchRow {
     /// The time per neighbour pair of one rate evaluation [s], for comparing methods and
     /// dimensions whose pair counts differ.
     pub fn seconds_per_pair(&self) -> Option<f64> {
-        self.traffic
-            .map(|t| 1.0 / (self.rate_evaluations_per_second * t.pairs_per_particle))
+        self.pairs_per_particle
+            .map(|pairs| 1.0 / (self.rate_evaluations_per_second * pairs))
     }
 
-    pub const HEADER: &'static str = "case,backend,particles,steps,setup_s,seconds,particle_steps_per_s,rate_evaluations_per_s,neighbour_share,bytes_per_particle_step";
+    pub const HEADER: &'static str = "case,backend,particles,steps,setup_s,seconds,particle_steps_per_s,rate_evaluations_per_s,neighbour_share,pairs_per_particle,ns_per_pair,bytes_per_particle_step";
 
     pub fn csv(&self) -> String {
         format!(
-            "{},{},{},{},{:.6},{:.6},{:.6e},{:.6e},{},{}",
+            "{},{},{},{},{:.6},{:.6},{:.6e},{:.6e},{},{},{},{}",
             self.case,
             self.backend.replace(',', ";"),
             self.particles,
@@ -172,6 +175,10 @@ impl BenchRow {
             self.rate_evaluations_per_second,
             self.neighbour_share
                 .map_or(String::new(), |s| format!("{s:.4}")),
+            self.pairs_per_particle
+                .map_or(String::new(), |p| format!("{p:.2}")),
+            self.seconds_per_pair()
+                .map_or(String::new(), |s| format!("{:.3}", s * 1e9)),
             self.traffic
                 .map_or(String::new(), |t| format!("{:.0}", t.bytes_per_particle))
         )
@@ -270,6 +277,7 @@ fn time_steps<D: EngineDim, E: Engine<D>>(
         neighbour_share,
         passes,
         traffic: engine.traffic(),
+        pairs_per_particle: engine.pairs_per_particle(),
     })
 }
 

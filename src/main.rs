@@ -441,17 +441,18 @@ fn bench_command(
         triad
     });
     let roofline_header = if roofline {
-        " pairs/particle | ns per pair | bytes/particle-step | GB/s | of triad |"
+        " bytes/particle-step | GB/s | of triad |"
     } else {
         ""
     };
     println!(
-        "| case | backend | particles | steps | set-up [s] | particle-steps/s | rate evaluations/s | neighbours [% of steps] |{roofline_header}"
+        "| case | backend | particles | steps | set-up [s] | particle-steps/s | rate evaluations/s | neighbours [% of steps] | pairs/particle | ns per pair |{roofline_header}"
     );
     println!(
-        "|---|---|---|---|---|---|---|---|{}",
-        "---|".repeat(5 * usize::from(roofline))
+        "|---|---|---|---|---|---|---|---|---|---|{}",
+        "---|".repeat(3 * usize::from(roofline))
     );
+    let dash = || "–".to_string();
     for name in cases {
         let path = resolve(name);
         for &target in particles {
@@ -466,14 +467,9 @@ fn bench_command(
             match result {
                 Ok(r) => {
                     let fractions = triad.map_or(String::new(), |triad| {
-                        let dash = || "–".to_string();
                         let bandwidth = r.modelled_bandwidth();
                         format!(
-                            " {} | {} | {} | {} | {} |",
-                            r.traffic
-                                .map_or_else(dash, |t| format!("{:.1}", t.pairs_per_particle)),
-                            r.seconds_per_pair()
-                                .map_or_else(dash, |s| format!("{:.2}", s * 1e9)),
+                            " {} | {} | {} |",
                             r.traffic
                                 .map_or_else(dash, |t| format!("{:.0}", t.bytes_per_particle)),
                             bandwidth.map_or_else(dash, |b| format!("{:.2}", b * 1e-9)),
@@ -481,7 +477,7 @@ fn bench_command(
                         )
                     });
                     println!(
-                        "| {} | {} | {} | {} | {:.2} | {:.3e} | {:.3e} | {} |{fractions}",
+                        "| {} | {} | {} | {} | {:.2} | {:.3e} | {:.3e} | {} | {} | {} |{fractions}",
                         r.case,
                         r.backend,
                         r.particles,
@@ -490,7 +486,11 @@ fn bench_command(
                         r.particle_steps_per_second,
                         r.rate_evaluations_per_second,
                         r.neighbour_share
-                            .map_or("–".into(), |s| format!("{:.1}", 100.0 * s))
+                            .map_or_else(dash, |s| format!("{:.1}", 100.0 * s)),
+                        r.pairs_per_particle
+                            .map_or_else(dash, |p| format!("{p:.1}")),
+                        r.seconds_per_pair()
+                            .map_or_else(dash, |s| format!("{:.2}", s * 1e9)),
                     );
                     rows.push(r);
                 }

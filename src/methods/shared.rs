@@ -314,6 +314,10 @@ pub trait Method<D: Dim>: OdeSystem<Error = BlowUp> + Sized {
     fn neighbour_seconds(&self) -> Option<f64> {
         None
     }
+    /// The ordered pairs of the lists a rate evaluation loops over (particle–neighbour
+    /// pairs; point–node pairs of a Galerkin method's shape functions), for the cost per
+    /// pair `meshless bench` reports.
+    fn pairs(&self) -> usize;
     /// The bytes a rate evaluation moves on the CPU, for `meshless bench --roofline`;
     /// none for a method without a model.
     fn traffic(&self) -> Option<Traffic> {
@@ -347,6 +351,4 @@ pub struct Traffic {
     pub state: f64,
     /// Bytes of the velocity per particle (the leapfrog's kicks move only it).
     pub velocity: f64,
-    /// Neighbour pairs per particle.
-    pub pairs_per_particle: f64,
 }

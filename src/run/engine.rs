@@ -214,6 +214,11 @@ pub trait Engine<D: Dim> {
     fn traffic(&self) -> Option<StepTraffic> {
         None
     }
+    /// The pairs per particle a rate evaluation loops over ([`crate::methods::shared::Method::pairs`]),
+    /// for `meshless bench`'s cost per pair; none for a GPU or static engine.
+    fn pairs_per_particle(&self) -> Option<f64> {
+        None
+    }
     /// A GPU engine's device, for the pass report, and what scales its passes' bytes
     /// (the pairs of its lists, the builds its device ran); none on the CPU.
     #[cfg(feature = "gpu")]
@@ -278,6 +283,9 @@ impl<D: Dim> Engine<D> for Box<dyn Engine<D>> {
     fn traffic(&self) -> Option<StepTraffic> {
         (**self).traffic()
     }
+    fn pairs_per_particle(&self) -> Option<f64> {
+        (**self).pairs_per_particle()
+    }
     #[cfg(feature = "gpu")]
     fn device(&mut self) -> Option<(&Gpu, crate::gpu::profile::Scale)> {
         (**self).device()
@@ -289,8 +297,6 @@ impl<D: Dim> Engine<D> for Box<dyn Engine<D>> {
 pub struct StepTraffic {
     /// Bytes per particle of the step: its rate evaluations and stage operations.
     pub bytes_per_particle: f64,
-    /// Neighbour pairs per particle of the method's lists.
-    pub pairs_per_particle: f64,
 }
 
 /// The CPU reference engine: a method and an integrator (f64, rayon).
@@ -382,12 +388,16 @@ impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
     fn traffic(&self) -> Option<StepTraffic> {
         let t = self.method.traffic()?;
         let kind = self.integrator.kind();
-        let evaluation = t.per_particle + t.pairs_per_particle * t.per_pair;
+        let evaluation = t.per_particle + self.pairs_per_particle()? * t.per_pair;
         Some(StepTraffic {
             bytes_per_particle: kind.stages() as f64 * evaluation
                 + traffic(kind, t.state, t.velocity),
-            pairs_per_particle: t.pairs_per_particle,
         })
+    }
+
+    fn pairs_per_particle(&self) -> Option<f64> {
+        let n = self.method.reference().len();
+        (n > 0).then(|| self.method.pairs() as f64 / n as f64)
     }
 
     fn check(&mut self) -> Result<(), BlowUp> {

@@ -532,19 +532,27 @@ fn csv_field(row: &BenchRow, column: &str) -> String {
 #[test]
 fn bench_gives_the_traffic_model_of_the_methods_that_have_one() {
     // TLSPH declares its CPU traffic: the pairs per particle are those of the lists it
-    // builds, and the CSV carries the bytes. A method without a model gives none.
+    // builds, and the CSV carries the bytes. A method without a model gives none, but
+    // its pairs per particle and cost per pair all the same.
     let case = shipped("rotating-disk");
     let row = measure(&case, Backend::Cpu, 2).unwrap();
     let traffic = row.traffic.expect("TLSPH has a traffic model");
     let tlsph: Tlsph<D2> = build_method(&case).unwrap();
     let pairs = tlsph.neighbours().pair_count() as f64 / tlsph.volume().len() as f64;
-    assert_eq!(traffic.pairs_per_particle, pairs);
+    assert_eq!(row.pairs_per_particle, Some(pairs));
+    let ns = 1e9 / (row.rate_evaluations_per_second * pairs);
+    assert_eq!(csv_field(&row, "ns_per_pair"), format!("{ns:.3}"));
     assert!(traffic.bytes_per_particle > 0.0);
     let bytes = format!("{:.0}", traffic.bytes_per_particle);
     assert_eq!(csv_field(&row, "bytes_per_particle_step"), bytes);
     let gray = measure(&shipped("rotating-disk-gray-monaghan"), Backend::Cpu, 2).unwrap();
     assert_eq!(gray.traffic, None);
     assert_eq!(csv_field(&gray, "bytes_per_particle_step"), "");
+    // Its support radius is 2h = 3.4 Δx: about π 3.4² = 36 pairs inside, fewer at the rim.
+    let gray_pairs = gray
+        .pairs_per_particle
+        .expect("every CPU method counts its pairs");
+    assert!(gray_pairs > 10.0 && gray_pairs < 40.0, "{gray_pairs}");
 }
 
 #[test]

@@ -460,6 +460,10 @@ impl<D: Dim> Method<D> for Corotated<D> {
         Some(self.dissipation.iter().sum())
     }
 
+    fn pairs(&self) -> usize {
+        self.csr.pair_count()
+    }
+
     fn check_finite(&self, y: &TlState<D>) -> Result<(), BlowUp> {
         tl::check_state(&self.x0, y)
     }

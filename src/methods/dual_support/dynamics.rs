@@ -175,6 +175,10 @@ impl<D: Dim> Method<D> for DualSupportDynamics<D> {
         Some(0.0)
     }
 
+    fn pairs(&self) -> usize {
+        self.model.support.lists.pair_count()
+    }
+
     fn check_finite(&self, y: &TlState<D>) -> Result<(), BlowUp> {
         tl::check_state(&self.model.support.x0, y)
     }

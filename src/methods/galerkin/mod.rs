@@ -788,6 +788,10 @@ impl<D: Dim> Method<D> for TlGalerkin<D> {
         &self.boundary_work
     }
 
+    fn pairs(&self) -> usize {
+        self.shapes.csr.pair_count()
+    }
+
     fn check_finite(&self, y: &GalerkinState<D>) -> Result<(), BlowUp> {
         check_motion::<D>(&self.x0, &y.u, &y.v)?;
         let node = |q| self.shapes.strongest_node(q);

@@ -592,6 +592,10 @@ impl<D: Dim, P: MovingPoints<D>> Method<D> for UlGalerkin<D, P> {
 
     /// Finite motion, ρ and S; then positive densities and points whose functions can
     /// be evaluated.
+    fn pairs(&self) -> usize {
+        self.shapes.csr.pair_count()
+    }
+
     fn check_finite(&self, y: &UlGalerkinState<D>) -> Result<(), BlowUp> {
         check_motion::<D>(&self.x0, &y.u, &y.v)?;
         let node = |q: usize| self.shapes.csr.ids[self.shapes.csr.offsets[q]] as usize;

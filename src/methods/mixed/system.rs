@@ -1087,6 +1087,10 @@ impl<D: Dim> Method<D> for MixedSph<D> {
         self.compressibility.as_ref().map(|c| c.stats)
     }
 
+    fn pairs(&self) -> usize {
+        self.csr.pair_count()
+    }
+
     fn check_finite(&self, y: &MixedState<D>) -> Result<(), BlowUp> {
         check_motion::<D>(&self.x0, &y.u, &y.v)?;
         let norm_t = |t: D::T| D::ddot(t, t).sqrt();

@@ -615,6 +615,10 @@ impl<D: Dim> Method<D> for Tlsph<D> {
         Some(self.dissipation.iter().sum())
     }
 
+    fn pairs(&self) -> usize {
+        self.csr.pair_count()
+    }
+
     /// Pass 1 reads u (and v, ρ, S of the rate model) and writes the two records (and ρ̇,
     /// Ṡ); pass 2 reads the records, v, Σ V_j ∇0W̃_ij and m (and X, u with hourglass
     /// control) and writes a, u̇ and the dissipation. Both read the ids and V_j ∇0W̃_ij of
@@ -633,13 +637,11 @@ impl<D: Dim> Method<D> for Tlsph<D> {
         let pair = size_of::<u32>() + v;
         let per_pair =
             2 * pair + if self.grad_rev.is_some() { v } else { 0 } + if hourglass { f } else { 0 };
-        let n = self.x0.len().max(1) as f64;
         Some(Traffic {
             per_particle: (pass_1 + pass_2) as f64,
             per_pair: per_pair as f64,
             state: (2 * v + rate / 2) as f64,
             velocity: v as f64,
-            pairs_per_particle: self.csr.ids.len() as f64 / n,
         })
     }
 

@@ -437,6 +437,10 @@ impl<D: Dim, S: PairScheme<D>> Method<D> for UlSph<D, S> {
         &self.core.boundary_work
     }
 
+    fn pairs(&self) -> usize {
+        self.core.neighbours().pair_count()
+    }
+
     fn check_finite(&self, y: &UlState<D>) -> Result<(), BlowUp> {
         check_state(&self.core.x0, y)
     }
