@@ -10,7 +10,7 @@ use super::model::DualSupport;
 use crate::boundary::Boundary;
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
-use crate::methods::shared::{BlowUp, BoundaryWork, MIN_CHUNK, Method};
+use crate::methods::shared::{BlowUp, BoundaryWork, MIN_CHUNK, Method, Traffic};
 use crate::methods::tlsph::{TlState, system as tl};
 use crate::methods::{MethodSpec, not_run_by};
 use crate::observe::Snapshot;
@@ -177,6 +177,30 @@ impl<D: Dim> Method<D> for DualSupportDynamics<D> {
 
     fn pairs(&self) -> usize {
         self.model.support.lists.pair_count()
+    }
+
+    /// Pass 1 reads u and the ids and g_ij of every pair and writes H = F − I; the det F
+    /// check reads H; pass 2 reads H and V and writes V P; the force gather reads V P,
+    /// g_i0, the ids and pair slots of the dual-support and g_ij through the slot, and
+    /// writes f, evaluating each pair's hourglass term at both ends (X, u, H, V and c of
+    /// the owner; the ids and w_ij of every pair, in each direction); the last passes
+    /// write a = f/m (reading m) and u̇ = v.
+    fn traffic(&self) -> Option<Traffic> {
+        let (v, t, f, id) = (
+            size_of::<D::V>(),
+            size_of::<D::T>(),
+            size_of::<f64>(),
+            size_of::<u32>(),
+        );
+        let gather = t + 2 * v + (2 * v + t + 2 * f);
+        let per_particle = (v + t) + t + (2 * t + f) + gather + (2 * v + f) + 2 * v;
+        let per_pair = (id + v) + (2 * id + v) + 2 * (id + f);
+        Some(Traffic {
+            per_particle: per_particle as f64,
+            per_pair: per_pair as f64,
+            state: (2 * v) as f64,
+            velocity: v as f64,
+        })
     }
 
     fn check_finite(&self, y: &TlState<D>) -> Result<(), BlowUp> {

@@ -136,25 +136,15 @@ impl<D: Dim> DualSupport<D> {
     /// [`Self::internal_force`] with the displacement gradients h = F − I of u given.
     pub fn internal_force_at(&self, u: &[D::V], h: &[D::T], with_hourglass: bool) -> Vec<D::V> {
         let s = &self.support;
-        // V_i P_i, and per pair the hourglass term 2 V_i c_i w_ij e_ij.
         let vp: Vec<D::T> = (0..self.len())
             .into_par_iter()
             .map(|i| self.material.pk1::<D>(D::identity() + h[i]) * s.vol[i])
             .collect();
-        let hg: Vec<D::V> = if with_hourglass {
-            s.lists
-                .map_rows(|i| {
-                    let k = 2.0 * s.vol[i] * self.hourglass[i];
-                    Ok::<_, ()>(
-                        s.lists
-                            .range(i)
-                            .map(|p| self.pair_error(u, h[i], i, p) * (k * s.w[p]))
-                            .collect(),
-                    )
-                })
-                .unwrap_or_default()
-        } else {
-            Vec::new()
+        // The hourglass term 2 V_i c_i w_ij e_ij of pair slot p = (i, j), evaluated by
+        // both particles that gather it rather than stored per pair.
+        let hourglass = |i: usize, p: usize| {
+            let k = 2.0 * s.vol[i] * self.hourglass[i];
+            self.pair_error(u, h[i], i, p) * (k * s.w[p])
         };
         (0..self.len())
             .into_par_iter()
@@ -165,10 +155,10 @@ impl<D: Dim> DualSupport<D> {
                 }
                 if with_hourglass {
                     for p in s.lists.range(a) {
-                        f += hg[p];
+                        f += hourglass(a, p);
                     }
-                    for q in s.dual.range(a) {
-                        f -= hg[s.dual_slot[q] as usize];
+                    for (q, &i) in s.dual.range(a).zip(&s.dual.ids[s.dual.range(a)]) {
+                        f -= hourglass(i as usize, s.dual_slot[q] as usize);
                     }
                 }
                 f

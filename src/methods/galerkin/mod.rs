@@ -28,7 +28,7 @@ use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::material::Material;
 use crate::methods::shared::{
-    BlowUp, BoundaryWork, MIN_CHUNK, Method, check_motion, particle_state,
+    BlowUp, BoundaryWork, MIN_CHUNK, Method, Traffic, check_motion, particle_state,
 };
 use crate::methods::tlsph::system::stress_fields;
 use crate::methods::{MethodSpec, not_run_by};
@@ -790,6 +790,36 @@ impl<D: Dim> Method<D> for TlGalerkin<D> {
 
     fn pairs(&self) -> usize {
         self.shapes.csr.pair_count()
+    }
+
+    /// Pass 1 at the points reads the ids and ∇N of every pair and u at the nodes (and v,
+    /// ρ, S of the rate model, or C_p⁻¹ and ε_p) and writes F and P (and ρ̇, Ṡ); the det F
+    /// check reads F; pass 2 at the nodes reads the gather's point and pair ids and ∇Φ of
+    /// every pair, P and w of the points and m, and writes a; the last pass writes u̇ = v.
+    /// The bytes of the points count per particle by points per particle. The velocity
+    /// smoothing runs after the step, outside the rate evaluation.
+    fn traffic(&self) -> Option<Traffic> {
+        let (v, t, f, id) = (
+            size_of::<D::V>(),
+            size_of::<D::T>(),
+            size_of::<f64>(),
+            size_of::<u32>(),
+        );
+        let rate = self.material.model.is_rate_based();
+        let plastic = if self.plastic.is_some() {
+            size_of::<glam::DMat3>() + f
+        } else {
+            0
+        };
+        let per_node = v + if rate { v } else { 0 } + (f + v) + 2 * v;
+        let per_point = 2 * t + if rate { 2 * (f + t) } else { plastic } + t + (t + f);
+        let points = self.points.len() as f64 / self.x0.len().max(1) as f64;
+        Some(Traffic {
+            per_particle: per_node as f64 + points * per_point as f64,
+            per_pair: (3 * id + 2 * v) as f64,
+            state: (2 * v) as f64 + if rate { points * (f + t) as f64 } else { 0.0 },
+            velocity: v as f64,
+        })
     }
 
     fn check_finite(&self, y: &GalerkinState<D>) -> Result<(), BlowUp> {

@@ -21,7 +21,7 @@ use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::material::Material;
 use crate::methods::shared::{
-    BlowUp, BoundaryWork, MIN_CHUNK, Method, check_motion, particle_state,
+    BlowUp, BoundaryWork, MIN_CHUNK, Method, Traffic, check_motion, particle_state,
 };
 use crate::methods::tlsph::system::stress_fields;
 use crate::neighbour::Csr;
@@ -122,6 +122,11 @@ pub trait MovingPoints<D: Dim>: Sized + Send + Sync {
     fn relist(&mut self, _x0: &[D::V], _y: &UlGalerkinState<D>) -> Option<Csr> {
         None
     }
+
+    /// Bytes [per point, per pair of the lists, per node] that [`Self::shapes_at`] and
+    /// [`Self::own_rates`] move beyond the passes every family shares, by the
+    /// minimum-traffic model of `meshless bench --roofline`.
+    fn shape_traffic(&self) -> [f64; 3];
 
     /// The rates of `node_rho` and `point_u`, with `shapes` the functions at the points
     /// of this evaluation; nothing by default.
@@ -594,6 +599,44 @@ impl<D: Dim, P: MovingPoints<D>> Method<D> for UlGalerkin<D, P> {
     /// be evaluated.
     fn pairs(&self) -> usize {
         self.shapes.csr.pair_count()
+    }
+
+    /// x = X + u (with ρ > 0 checked first); the functions recomputed at the points (the
+    /// ids read, N and ∇N (∇Φ) written per pair, w per point, x gathered per node, and
+    /// what each family's points read, [`MovingPoints::shape_traffic`]); the point pass
+    /// reads the ids and ∇N of every pair, v (or X) at the nodes and ρ, S of the rate
+    /// model (or the plastic history) and writes σ (and ρ̇, Ṡ); the gather reads the
+    /// point and pair ids and ∇Φ of every pair, σ and w of the points and m, and writes a;
+    /// then u̇ = v and the points' own rates. The bytes of the points count per particle
+    /// by points per particle.
+    fn traffic(&self) -> Option<Traffic> {
+        let (v, t, f, id) = (
+            size_of::<D::V>(),
+            size_of::<D::T>(),
+            size_of::<f64>(),
+            size_of::<u32>(),
+        );
+        let rate = self.material.model.is_rate_based();
+        let plastic = if self.plastic.is_some() {
+            size_of::<glam::DMat3>() + f
+        } else {
+            0
+        };
+        let node_rho = if P::NODE_DENSITY { f } else { 0 };
+        let per_node = node_rho + 3 * v + v + v + (f + v) + 2 * v;
+        let stress = if rate { 2 * f + 3 * t } else { t + plastic };
+        let per_point = if rate { f } else { 0 } + f + stress + (t + f);
+        let test = if P::PETROV_GALERKIN { v } else { 0 };
+        let per_pair = (id + f + v + test) + (id + v) + (2 * id + v);
+        let [own_point, own_pair, own_node] = self.points.shape_traffic();
+        let points = self.shapes.len() as f64 / self.x0.len().max(1) as f64;
+        let state_point = if rate { f + t } else { 0 } + if P::OWN_MOTION { v } else { 0 };
+        Some(Traffic {
+            per_particle: (per_node as f64 + own_node) + points * (per_point as f64 + own_point),
+            per_pair: per_pair as f64 + own_pair,
+            state: (2 * v + node_rho) as f64 + points * state_point as f64,
+            velocity: v as f64,
+        })
     }
 
     fn check_finite(&self, y: &UlGalerkinState<D>) -> Result<(), BlowUp> {

@@ -91,6 +91,10 @@ impl<D: Dim> PairScheme<D> for Scheme {
     }
 
     /// A singular correction matrix.
+    fn corrected(&self) -> bool {
+        self.correction == CorrectionKind::RandlesLibersky
+    }
+
     fn inadmissible(&self, core: &UlCore<D>, particles: &[Particle<D>]) -> Option<BlowUp> {
         core.first_singular(particles.par_iter().map(|p| &p.correction))
     }

@@ -126,6 +126,14 @@ impl<D: Dim> MovingPoints<D> for EulerianPoints<D> {
     /// The functions at the point's current position among its listed particles at
     /// theirs; w_q = w0_q ρ0/ρ_q (rate model) or w0_q det F_q with F_q = (Σ_a X_a ⊗
     /// G_a)⁻¹ (state model).
+    /// Each point reads X_q, u_q and w0_q (and ρ_q), and writes ẋ_q, interpolated over
+    /// the ids and N of every pair; the particles copy their v.
+    fn shape_traffic(&self) -> [f64; 3] {
+        let (v, f) = (size_of::<D::V>(), size_of::<f64>());
+        let pair = size_of::<u32>() + f;
+        [(3 * v + 2 * f) as f64, pair as f64, v as f64]
+    }
+
     fn shapes_at(
         &self,
         q: usize,

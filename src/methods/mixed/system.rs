@@ -22,7 +22,7 @@ use crate::interaction::Interactions;
 use crate::material::Material;
 use crate::methods::not_run_by;
 use crate::methods::shared::{
-    BlowUp, BoundaryWork, MIN_CHUNK, Method, PseudoTime, check_motion, neighbour_radius,
+    BlowUp, BoundaryWork, MIN_CHUNK, Method, PseudoTime, Traffic, check_motion, neighbour_radius,
     ordered_reduce, particle_state, reference_gradients,
 };
 use crate::mirror::Ghosts;
@@ -1089,6 +1089,72 @@ impl<D: Dim> Method<D> for MixedSph<D> {
 
     fn pairs(&self) -> usize {
         self.csr.pair_count()
+    }
+
+    /// Two copies extend u and v to the ghosts. Pass 1 reads F, v, V (H, J, p when
+    /// evolved; X and u with the bond-based F; C_p⁻¹, ε_p when plastic) and writes the
+    /// kinematics, which the admissibility check reads again; pass 2 reads v and writes
+    /// ∇²v (JST), or also reads the kinematics and writes the slopes (reconstruction);
+    /// pass 3 reads the kinematics, X, u, v, V (the slopes or ∇²v) and writes the forces,
+    /// split next into T and D(p). The projection moves its points, V and both fields;
+    /// the rates read T, D(p), v and the kinematics and write v̇, u̇, Ḟ (Ḣ, J̇). Per pair:
+    /// the ids and g_ab (w_ab) in pass 1, the ids and least-squares weights or ℓ_ab in
+    /// pass 2, the ids, g_ab, g_ba and N_ab or s_ab in pass 3. Real particles only: the
+    /// ghosts' records, the TVD-RK2 balance points and the pseudo-time corrector are left
+    /// out.
+    fn traffic(&self) -> Option<Traffic> {
+        let (v, t, f, id) = (
+            size_of::<D::V>(),
+            size_of::<D::T>(),
+            size_of::<f64>(),
+            size_of::<u32>(),
+        );
+        let (kin, slopes, forces) = (
+            size_of::<Kinematics<D>>(),
+            size_of::<Slopes<D>>(),
+            size_of::<Forces<D>>(),
+        );
+        let when = |on: bool, bytes: usize| if on { bytes } else { 0 };
+        let (upwind, reconstruction, jst) = match self.stabilisation {
+            Stabilisation::Upwind { reconstruction } => (true, reconstruction, false),
+            Stabilisation::Jst { .. } => (false, false, true),
+        };
+        let (evolves_h, evolves_j) = (self.conserved.evolves_h(), self.evolves_j());
+        let pressure = self.compressibility.is_some();
+        let bond = self.bond_weights.is_some();
+        let extend = 4 * v;
+        let pass_1 = t
+            + v
+            + f
+            + 2 * kin
+            + when(evolves_h, t)
+            + when(evolves_j, f)
+            + when(pressure, f)
+            + when(bond, 2 * v)
+            + when(self.plastic.is_some(), size_of::<glam::DMat3>() + f);
+        let pass_2 = when(reconstruction, kin + v + slopes) + when(jst, 2 * v);
+        let pass_3 = kin
+            + 3 * v
+            + f
+            + forces
+            + when(upwind, v)
+            + when(reconstruction, slopes)
+            + when(jst, v);
+        let split = forces + 2 * v;
+        let projection = when(self.projection, 15 * v + 5 * f);
+        let rates =
+            5 * v + kin + t + when(evolves_h, 2 * t + kin) + when(evolves_j, kin + forces + f);
+        let per_pair = (id + v + when(bond, f))
+            + when(reconstruction, id + v)
+            + when(jst, id + f)
+            + (id + 2 * v + when(upwind, v) + when(jst, f));
+        let state = 2 * v + t + when(evolves_h, t) + when(evolves_j, f) + when(pressure, f);
+        Some(Traffic {
+            per_particle: (extend + pass_1 + pass_2 + pass_3 + split + projection + rates) as f64,
+            per_pair: per_pair as f64,
+            state: state as f64,
+            velocity: v as f64,
+        })
     }
 
     fn check_finite(&self, y: &MixedState<D>) -> Result<(), BlowUp> {

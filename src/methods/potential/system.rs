@@ -14,7 +14,7 @@ use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::material::Material;
 use crate::methods::shared::{
-    BlowUp, BoundaryWork, MIN_CHUNK, Method, reference_gradients, reverse_gradients,
+    BlowUp, BoundaryWork, MIN_CHUNK, Method, Traffic, reference_gradients, reverse_gradients,
 };
 use crate::methods::tlsph::{ArtificialViscosity, TlState, system as tl};
 use crate::methods::{MethodSpec, not_run_by};
@@ -360,6 +360,28 @@ impl<D: Dim> Method<D> for Potential<D> {
 
     fn pairs(&self) -> usize {
         self.csr.pair_count()
+    }
+
+    /// Pass 1 reads u and V and writes the kinematics records (F, P, F⁻ᵀ, ρ); the det F
+    /// check reads the records; pass 2 reads the records, X, u, v, V and m and writes a
+    /// and the dissipation; the last pass copies v into u̇. Pass 1 reads the ids and
+    /// ∇0W̃_ij of every pair, pass 2 the ids, ∇0W̃_ij and ∇0W̃_ji. Neither the force nor
+    /// the viscosity changes the bytes (X_i and u_i are read with or without it).
+    fn traffic(&self) -> Option<Traffic> {
+        let (v, f, k) = (
+            size_of::<D::V>(),
+            size_of::<f64>(),
+            size_of::<Kinematics<D>>(),
+        );
+        let pass_1 = v + f + k;
+        let pass_2 = k + 4 * v + 3 * f;
+        let pair = size_of::<u32>() + v;
+        Some(Traffic {
+            per_particle: (pass_1 + k + pass_2 + 2 * v) as f64,
+            per_pair: (2 * pair + v) as f64,
+            state: (2 * v) as f64,
+            velocity: v as f64,
+        })
     }
 
     fn check_finite(&self, y: &TlState<D>) -> Result<(), BlowUp> {

@@ -619,20 +619,21 @@ impl<D: Dim> Method<D> for Tlsph<D> {
         self.csr.pair_count()
     }
 
-    /// Pass 1 reads u (and v, ρ, S of the rate model) and writes the two records (and ρ̇,
-    /// Ṡ); pass 2 reads the records, v, Σ V_j ∇0W̃_ij and m (and X, u with hourglass
+    /// Pass 1 reads X and u (and v, ρ, S of the rate model) and writes the two records (and
+    /// ρ̇, Ṡ); pass 2 reads the records, v, Σ V_j ∇0W̃_ij and m (and X, u with hourglass
     /// control) and writes a, u̇ and the dissipation. Both read the ids and V_j ∇0W̃_ij of
     /// every pair; the variational force also V_j ∇0W̃_ji, the hourglass control κ_ij.
     fn traffic(&self) -> Option<Traffic> {
         let (v, t, f) = (size_of::<D::V>(), size_of::<D::T>(), size_of::<f64>());
         let records = size_of::<Gathered<D>>() + size_of::<Own<D>>();
+        // ρ and S of the rate model, each read and its rate written.
         let rate = if self.material.model.is_rate_based() {
-            2 * (f + t)
+            f + t
         } else {
             0
         };
         let hourglass = self.hourglass.is_some();
-        let pass_1 = v + records + rate;
+        let pass_1 = 2 * v + records + 2 * rate + if rate > 0 { v } else { 0 };
         let pass_2 = records + 4 * v + 2 * f + if hourglass { 2 * v } else { 0 };
         let pair = size_of::<u32>() + v;
         let per_pair =
@@ -640,7 +641,7 @@ impl<D: Dim> Method<D> for Tlsph<D> {
         Some(Traffic {
             per_particle: (pass_1 + pass_2) as f64,
             per_pair: per_pair as f64,
-            state: (2 * v + rate / 2) as f64,
+            state: (2 * v + rate) as f64,
             velocity: v as f64,
         })
     }

@@ -22,7 +22,7 @@ use crate::kernel::Kernel;
 use crate::material::Material;
 use crate::methods::Problem;
 use crate::methods::shared::{
-    BlowUp, BoundaryWork, MIN_CHUNK, Method, check_motion, particle_state,
+    BlowUp, BoundaryWork, MIN_CHUNK, Method, Traffic, check_motion, particle_state,
 };
 use crate::methods::tlsph::system::stress_fields;
 use crate::neighbour::{Csr, Neighbours, Rebuild};
@@ -285,6 +285,9 @@ pub trait PairScheme<D: Dim>: Sized + Send + Sync {
     /// The first particle whose quantities are inadmissible, if any.
     fn inadmissible(&self, core: &UlCore<D>, particles: &[Self::Particle]) -> Option<BlowUp>;
 
+    /// Whether the particle pass sums the Randles–Libersky correction over the pairs.
+    fn corrected(&self) -> bool;
+
     /// The rates of particle i from its neighbours.
     fn rates_of(
         &self,
@@ -439,6 +442,32 @@ impl<D: Dim, S: PairScheme<D>> Method<D> for UlSph<D, S> {
 
     fn pairs(&self) -> usize {
         self.core.neighbours().pair_count()
+    }
+
+    /// x = X + u; the lists' drift check reads x and the positions of the last build (a
+    /// rebuild, on drift only, is left out) and ρ > 0 reads ρ; the particle pass reads ρ,
+    /// S and m (with the Randles–Libersky correction also x and the ids of every pair)
+    /// and writes the scheme's records, which the admissibility check reads again; the
+    /// pair pass reads the records, x, v, ρ, S, F and m and the ids of every pair and
+    /// writes u̇, v̇, ρ̇, Ṡ and Ḟ. The kernel is evaluated per pair, not stored.
+    fn traffic(&self) -> Option<Traffic> {
+        let (v, t, f, id) = (
+            size_of::<D::V>(),
+            size_of::<D::T>(),
+            size_of::<f64>(),
+            size_of::<u32>(),
+        );
+        let record = size_of::<S::Particle>();
+        let corrected = self.scheme.corrected();
+        let positions = 3 * v + (v + size_of::<[f64; 3]>()) + f;
+        let particle = 2 * f + t + record + if corrected { v } else { 0 };
+        let pair_pass = record + 2 * v + 2 * f + 2 * t + (2 * v + f + 2 * t);
+        Some(Traffic {
+            per_particle: (positions + particle + record + pair_pass) as f64,
+            per_pair: (id + if corrected { id } else { 0 }) as f64,
+            state: (2 * v + f + 2 * t) as f64,
+            velocity: v as f64,
+        })
     }
 
     fn check_finite(&self, y: &UlState<D>) -> Result<(), BlowUp> {

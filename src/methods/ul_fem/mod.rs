@@ -78,6 +78,12 @@ impl<D: Dim> MovingPoints<D> for Elements<D> {
     /// The bilinear (trilinear) functions of the point's cell with its corners at their
     /// current positions: w_q = det J (UL FEM step 1); an inverted cell (det J ≤ 0)
     /// degenerates.
+    /// Each point reads its cell and its ξ.
+    fn shape_traffic(&self) -> [f64; 3] {
+        let per_point = size_of::<u32>() + size_of::<[f64; 3]>();
+        [per_point as f64, 0.0, 0.0]
+    }
+
     fn shapes_at(
         &self,
         q: usize,

@@ -177,6 +177,22 @@ impl<D: Dim> MovingPoints<D> for StressPoints<D> {
     /// Steps 1–3 at stress point q: its ellipse and h among its candidates at their
     /// current positions, the reproducing-kernel functions with V_j = m_j/ρ_j, and
     /// w_q = V_q = m_q/ρ_q (the Riemann weight of the one point per cell).
+    /// Each point reads X_q, u_q, w0_q and ρ_q and writes ẋ_q, interpolated over the ids
+    /// and N of every pair; the particles' own functions are recomputed (x, m, ρ read,
+    /// their ids read and N, ∇N written per own pair) and give ρ̇ (v, ρ read, ρ̇ written,
+    /// the ids and ∇N of every own pair read), own pairs counted per particle.
+    fn shape_traffic(&self) -> [f64; 3] {
+        let (v, f, id) = (size_of::<D::V>(), size_of::<f64>(), size_of::<u32>());
+        let own = &self.particle_shapes;
+        let own_pairs = own.csr.pair_count() as f64 / own.len().max(1) as f64;
+        let per_node = (v + 2 * f) + (v + 2 * f);
+        [
+            (3 * v + 2 * f) as f64,
+            (id + f) as f64,
+            per_node as f64 + own_pairs * (2 * id + f + 2 * v) as f64,
+        ]
+    }
+
     fn shapes_at(
         &self,
         q: usize,
