@@ -1,7 +1,7 @@
 //! `meshless bench`: throughput of a case on a backend at several sizes, in
 //! particle-steps per second, measured over whole steps after a warm-up.
 
-use crate::run::{Backend, Engine, EngineDim, RunError, StepTraffic, engine};
+use crate::run::{Backend, Engine, EngineDim, RunError, StepTraffic, engine, with_threads};
 use crate::scene::{Case, discretise};
 use crate::tensor::{D2, D3};
 use rayon::prelude::*;
@@ -208,12 +208,13 @@ pub fn resize(case: &Case, particles: f64) -> Result<Vec<String>, RunError> {
     Ok(set)
 }
 
-/// Measures `steps` steps of a case after one warm-up step.
+/// Measures `steps` steps of a case after one warm-up step, on the case's threads as
+/// `run` has them ([`with_threads`]).
 pub fn measure(case: &Case, backend: Backend, steps: u32) -> Result<BenchRow, RunError> {
-    match case.dimension {
+    with_threads(case, || match case.dimension {
         2 => measure_dim::<D2>(case, backend, steps),
         _ => measure_dim::<D3>(case, backend, steps),
-    }
+    })?
 }
 
 fn measure_dim<D: EngineDim>(

@@ -180,10 +180,11 @@ pub fn run(case: &Case, opts: &RunOptions) -> Result<RunSummary, RunError> {
 }
 
 /// Runs `f` in a pool of the case's `run.threads` CPU threads, or in the global pool (every
-/// core) when the case sets none.
+/// core) when the case sets none. Either way `f` runs on one of the pool's threads, so a
+/// step's parallel loops start there without handing every loop to another thread.
 pub fn with_threads<T: Send>(case: &Case, f: impl FnOnce() -> T + Send) -> Result<T, RunError> {
     match case.run.threads {
-        None => Ok(f()),
+        None => Ok(rayon::scope(|_| f())),
         Some(n) => rayon::ThreadPoolBuilder::new()
             .num_threads(n)
             .build()
