@@ -8,7 +8,6 @@ use meshless::methods::Method;
 use meshless::methods::tlsph::Tlsph;
 use meshless::reference::Reference;
 use meshless::run::{Backend, RunError, build_method, run};
-use meshless::study::Suite;
 use meshless::tensor::D2;
 use std::path::Path;
 use std::process::Command;
@@ -545,26 +544,6 @@ fn bench_gives_the_pairs_and_the_traffic_model_of_the_method() {
     assert_eq!(csv_field(&row, "ns_per_pair"), format!("{ns:.3}"));
     let bytes = format!("{:.0}", traffic.bytes_per_particle);
     assert_eq!(csv_field(&row, "bytes_per_particle_step"), bytes);
-}
-
-#[test]
-fn every_method_counts_its_pairs_and_models_its_traffic() {
-    // The swinging plate's suite runs every method of the registry (checked in
-    // `study::every_method_of_the_registry_runs_the_swinging_plate`). At its coarsest
-    // spacing (121 particles) every one measures on the CPU its pairs per particle, at
-    // least one (each particle or point reaches a neighbour or node), and the bytes of a
-    // step by its traffic model, at least the 4-byte ids of every pair it loops over.
-    let suite = Suite::load(&case_file("studies/swinging-plate")).unwrap();
-    let plan = suite.plan();
-    let coarsest = &plan[0].value;
-    for run in plan.iter().filter(|r| &r.value == coarsest) {
-        let case = run.case.as_ref().unwrap();
-        let row = measure(case, Backend::Cpu, 1).unwrap();
-        let pairs = row.pairs_per_particle.expect(&run.variant);
-        assert!(pairs >= 1.0, "{}: {pairs} pairs per particle", run.variant);
-        let bytes = row.traffic.expect(&run.variant).bytes_per_particle;
-        assert!(bytes >= 4.0 * pairs, "{}: {bytes} bytes", run.variant);
-    }
 }
 
 #[test]

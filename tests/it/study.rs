@@ -396,6 +396,26 @@ fn every_method_of_the_registry_runs_the_swinging_plate() {
 }
 
 #[test]
+fn every_method_counts_its_pairs_and_models_its_traffic() {
+    // The swinging plate's suite runs every method of the registry (checked in
+    // `study::every_method_of_the_registry_runs_the_swinging_plate`). At its coarsest
+    // spacing (121 particles) every one measures on the CPU its pairs per particle, at
+    // least one (each particle or point reaches a neighbour or node), and the bytes of a
+    // step by its traffic model, at least the 4-byte ids of every pair it loops over.
+    let suite = Suite::load(&studies().join("swinging-plate.toml")).unwrap();
+    let plan = suite.plan();
+    let coarsest = &plan[0].value;
+    for run in plan.iter().filter(|r| &r.value == coarsest) {
+        let case = run.case.as_ref().unwrap();
+        let row = meshless::bench::measure(case, meshless::run::Backend::Cpu, 1).unwrap();
+        let pairs = row.pairs_per_particle.expect(&run.variant);
+        assert!(pairs >= 1.0, "{}: {pairs} pairs per particle", run.variant);
+        let bytes = row.traffic.expect(&run.variant).bytes_per_particle;
+        assert!(bytes >= 4.0 * pairs, "{}: {bytes} bytes", run.variant);
+    }
+}
+
+#[test]
 fn a_run_past_the_estimate_or_the_time_limit_is_recorded_and_the_study_goes_on() {
     // One sweep value asks for ~1e600 particles (spacing 1e-300): refused by the resource
     // estimate before anything is allocated, recorded as an error naming `spacing`; the
