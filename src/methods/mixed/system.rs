@@ -594,6 +594,15 @@ impl<D: Dim> MixedSph<D> {
         // compact Laplacian of P that the wide DIV of the pair sums cannot balance, and it
         // grows the pressure checkerboard (docs/methods/mixed.md).
         let dissipates_j = self.compressibility.is_none();
+        // JST's ε⁽²⁾h, ε⁽⁴⁾h³ and ½ c_p ρ0 of eq 26, once for all pairs.
+        let (e2_h, e4_h3, jst_scale) = match &self.stabilisation {
+            Stabilisation::Jst { coefficients, .. } => (
+                coefficients.eps2 * self.h,
+                coefficients.eps4 * self.h.powi(3),
+                0.5 * c_p * mat.rho0,
+            ),
+            Stabilisation::Upwind { .. } => (0.0, 0.0, 0.0),
+        };
         let (u, v) = (&self.u_ext, &self.v_ext);
         out.par_iter_mut()
             .with_min_len(MIN_CHUNK)
@@ -638,14 +647,10 @@ impl<D: Dim> MixedSph<D> {
                                 dj += self.vol[b] / mat.rho0 * D::dot(p_stab, h_g);
                             }
                         }
-                        Stabilisation::Jst {
-                            coefficients, s, ..
-                        } => {
-                            let (e2, e4) = (coefficients.eps2, coefficients.eps4);
+                        Stabilisation::Jst { s, .. } => {
                             let lap = self.lap[b] - self.lap[a];
                             let dv = v[b] - v[a];
-                            d += (dv * (e2 * self.h) - lap * (e4 * self.h.powi(3)))
-                                * (0.5 * c_p * mat.rho0 * s[q]);
+                            d += (dv * e2_h - lap * e4_h3) * (jst_scale * s[q]);
                         }
                     }
                 }
@@ -883,12 +888,12 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
         let mut forces = std::mem::take(&mut self.forces);
         self.forces(y, &mut forces);
         let (mut t, mut dp) = (std::mem::take(&mut self.t), std::mem::take(&mut self.dp));
-        t.par_iter_mut()
-            .with_min_len(MIN_CHUNK)
-            .zip(dp.par_iter_mut())
-            .zip(&forces)
-            .for_each(|((t, dp), f)| (*t, *dp) = (f.t, f.d));
         if self.projection {
+            t.par_iter_mut()
+                .with_min_len(MIN_CHUNK)
+                .zip(dp.par_iter_mut())
+                .zip(&forces)
+                .for_each(|((t, dp), f)| (*t, *dp) = (f.t, f.d));
             let mut points = std::mem::take(&mut self.points);
             self.balance_points(y, &mut points);
             let balance = Balance::<D>::new(&points, &self.vol[..self.n], &mut self.sums);
@@ -898,20 +903,24 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
         }
         self.stage += 1;
         let inv_rho0 = 1.0 / self.material.rho0;
-        // eq 38a: dp/dt = −T + D(p); the state holds v = p/ρ0.
+        let projected = self.projection;
+        // eq 38a: dp/dt = −T + D(p) (the state holds v = p/ρ0); u̇ = v; eq 39b: Ḟ = ∇0v.
         d.v.par_iter_mut()
+            .zip(d.u.par_iter_mut())
+            .zip(d.f.par_iter_mut())
+            .enumerate()
             .with_min_len(MIN_CHUNK)
-            .zip(t.par_iter().zip(&dp))
-            .for_each(|(a, (&t, &dp))| *a = (dp - t) * inv_rho0);
-        d.u.par_iter_mut()
-            .with_min_len(MIN_CHUNK)
-            .zip(&y.v)
-            .for_each(|(u, &v)| *u = v);
-        // eqs 38b–d in the difference form 39b–d.
-        d.f.par_iter_mut()
-            .with_min_len(MIN_CHUNK)
-            .zip(&self.kin)
-            .for_each(|(f, k)| *f = k.grad_v);
+            .for_each(|(a, ((v_dot, u_dot), f_dot))| {
+                let (t_a, dp_a) = if projected {
+                    (t[a], dp[a])
+                } else {
+                    (forces[a].t, forces[a].d)
+                };
+                *v_dot = (dp_a - t_a) * inv_rho0;
+                *u_dot = y.v[a];
+                *f_dot = self.kin[a].grad_v;
+            });
+        // eqs 38c–d in the difference form 39c–d.
         if self.conserved.evolves_h() {
             d.h.par_iter_mut()
                 .with_min_len(MIN_CHUNK)
