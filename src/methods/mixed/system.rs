@@ -1104,9 +1104,10 @@ impl<D: Dim> Method<D> for MixedSph<D> {
     /// evolved; X and u with the bond-based F; C_p⁻¹, ε_p when plastic) and writes the
     /// kinematics, which the admissibility check reads again; pass 2 reads v and writes
     /// ∇²v (JST), or also reads the kinematics and writes the slopes (reconstruction);
-    /// pass 3 reads the kinematics, X, u, v, V (the slopes or ∇²v) and writes the forces,
-    /// split next into T and D(p). The projection moves its points, V and both fields;
-    /// the rates read T, D(p), v and the kinematics and write v̇, u̇, Ḟ (Ḣ, J̇). Per pair:
+    /// pass 3 reads the kinematics, X, u, v, V (the slopes or ∇²v) and writes the forces.
+    /// The projection splits them into T and D(p) and moves its points, V and both
+    /// fields; one pass then reads the forces (or the projected T and D(p)), v and the
+    /// kinematics and writes v̇, u̇ and Ḟ, and others Ḣ and J̇. Per pair:
     /// the ids and g_ab (w_ab) in pass 1, the ids and least-squares weights or ℓ_ab in
     /// pass 2, the ids, g_ab, g_ba and N_ab or s_ab in pass 3. Real particles only: the
     /// ghosts' records, the TVD-RK2 balance points and the pseudo-time corrector are left
@@ -1149,17 +1150,22 @@ impl<D: Dim> Method<D> for MixedSph<D> {
             + when(upwind, v)
             + when(reconstruction, slopes)
             + when(jst, v);
-        let split = forces + 2 * v;
-        let projection = when(self.projection, 15 * v + 5 * f);
-        let rates =
-            5 * v + kin + t + when(evolves_h, 2 * t + kin) + when(evolves_j, kin + forces + f);
+        let projection = when(self.projection, forces + 2 * v + 15 * v + 5 * f);
+        let stage_forces = if self.projection { 2 * v } else { forces };
+        let rates = stage_forces
+            + v
+            + kin
+            + 2 * v
+            + t
+            + when(evolves_h, 2 * t + kin)
+            + when(evolves_j, kin + forces + f);
         let per_pair = (id + v + when(bond, f))
             + when(reconstruction, id + v)
             + when(jst, id + f)
             + (id + 2 * v + when(upwind, v) + when(jst, f));
         let state = 2 * v + t + when(evolves_h, t) + when(evolves_j, f) + when(pressure, f);
         Some(Traffic {
-            per_particle: (extend + pass_1 + pass_2 + pass_3 + split + projection + rates) as f64,
+            per_particle: (extend + pass_1 + pass_2 + pass_3 + projection + rates) as f64,
             per_pair: per_pair as f64,
             state: state as f64,
             velocity: v as f64,
