@@ -325,6 +325,32 @@ pub trait Method<D: Dim>: OdeSystem<Error = BlowUp> + Sized {
     }
 }
 
+/// The element sizes a traffic model counts in [bytes]: a vector, a tensor and a scalar
+/// of the dimension, and a pair's id.
+#[derive(Clone, Copy, Debug)]
+pub struct Sizes {
+    pub v: usize,
+    pub t: usize,
+    pub f: usize,
+    pub id: usize,
+}
+
+impl Sizes {
+    pub fn of<D: Dim>() -> Self {
+        Self {
+            v: size_of::<D::V>(),
+            t: size_of::<D::T>(),
+            f: size_of::<f64>(),
+            id: size_of::<u32>(),
+        }
+    }
+
+    /// A point's plastic history: C_p⁻¹ (3 × 3 in 2D too) and ε_p.
+    pub fn plastic_history() -> usize {
+        size_of::<glam::DMat3>() + size_of::<f64>()
+    }
+}
+
 /// Pseudo-time iterations of a run with artificial compressibility.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PseudoTime {

@@ -10,7 +10,7 @@ use super::model::DualSupport;
 use crate::boundary::Boundary;
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
-use crate::methods::shared::{BlowUp, BoundaryWork, MIN_CHUNK, Method, Traffic};
+use crate::methods::shared::{BlowUp, BoundaryWork, MIN_CHUNK, Method, Sizes, Traffic};
 use crate::methods::tlsph::{TlState, system as tl};
 use crate::methods::{MethodSpec, not_run_by};
 use crate::observe::Snapshot;
@@ -186,12 +186,7 @@ impl<D: Dim> Method<D> for DualSupportDynamics<D> {
     /// the owner; the ids and w_ij of every pair, in each direction); the last passes
     /// write a = f/m (reading m) and u̇ = v.
     fn traffic(&self) -> Option<Traffic> {
-        let (v, t, f, id) = (
-            size_of::<D::V>(),
-            size_of::<D::T>(),
-            size_of::<f64>(),
-            size_of::<u32>(),
-        );
+        let Sizes { v, t, f, id } = Sizes::of::<D>();
         let gather = t + 2 * v + (2 * v + t + 2 * f);
         let per_particle = (v + t) + t + (2 * t + f) + gather + (2 * v + f) + 2 * v;
         let per_pair = (id + v) + (2 * id + v) + 2 * (id + f);

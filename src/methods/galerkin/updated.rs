@@ -21,7 +21,7 @@ use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::material::Material;
 use crate::methods::shared::{
-    BlowUp, BoundaryWork, MIN_CHUNK, Method, Traffic, check_motion, particle_state,
+    BlowUp, BoundaryWork, MIN_CHUNK, Method, Sizes, Traffic, check_motion, particle_state,
 };
 use crate::methods::tlsph::system::stress_fields;
 use crate::neighbour::Csr;
@@ -610,15 +610,10 @@ impl<D: Dim, P: MovingPoints<D>> Method<D> for UlGalerkin<D, P> {
     /// then u̇ = v and the points' own rates. The bytes of the points count per particle
     /// by points per particle.
     fn traffic(&self) -> Option<Traffic> {
-        let (v, t, f, id) = (
-            size_of::<D::V>(),
-            size_of::<D::T>(),
-            size_of::<f64>(),
-            size_of::<u32>(),
-        );
+        let Sizes { v, t, f, id } = Sizes::of::<D>();
         let rate = self.material.model.is_rate_based();
         let plastic = if self.plastic.is_some() {
-            size_of::<glam::DMat3>() + f
+            Sizes::plastic_history()
         } else {
             0
         };

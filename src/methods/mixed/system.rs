@@ -22,8 +22,8 @@ use crate::interaction::Interactions;
 use crate::material::Material;
 use crate::methods::not_run_by;
 use crate::methods::shared::{
-    BlowUp, BoundaryWork, MIN_CHUNK, Method, PseudoTime, Traffic, check_motion, neighbour_radius,
-    ordered_reduce, particle_state, reference_gradients,
+    BlowUp, BoundaryWork, MIN_CHUNK, Method, PseudoTime, Sizes, Traffic, check_motion,
+    neighbour_radius, ordered_reduce, particle_state, reference_gradients,
 };
 use crate::mirror::Ghosts;
 use crate::neighbour::{self, Csr};
@@ -1113,12 +1113,7 @@ impl<D: Dim> Method<D> for MixedSph<D> {
     /// ghosts' records, the TVD-RK2 balance points and the pseudo-time corrector are left
     /// out.
     fn traffic(&self) -> Option<Traffic> {
-        let (v, t, f, id) = (
-            size_of::<D::V>(),
-            size_of::<D::T>(),
-            size_of::<f64>(),
-            size_of::<u32>(),
-        );
+        let Sizes { v, t, f, id } = Sizes::of::<D>();
         let (kin, slopes, forces) = (
             size_of::<Kinematics<D>>(),
             size_of::<Slopes<D>>(),
@@ -1141,7 +1136,7 @@ impl<D: Dim> Method<D> for MixedSph<D> {
             + when(evolves_j, f)
             + when(pressure, f)
             + when(bond, 2 * v)
-            + when(self.plastic.is_some(), size_of::<glam::DMat3>() + f);
+            + when(self.plastic.is_some(), Sizes::plastic_history());
         let pass_2 = when(reconstruction, kin + v + slopes) + when(jst, 2 * v);
         let pass_3 = kin
             + 3 * v

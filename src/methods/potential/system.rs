@@ -14,7 +14,7 @@ use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::material::Material;
 use crate::methods::shared::{
-    BlowUp, BoundaryWork, MIN_CHUNK, Method, Traffic, reference_gradients, reverse_gradients,
+    BlowUp, BoundaryWork, MIN_CHUNK, Method, Sizes, Traffic, reference_gradients, reverse_gradients,
 };
 use crate::methods::tlsph::{ArtificialViscosity, TlState, system as tl};
 use crate::methods::{MethodSpec, not_run_by};
@@ -368,14 +368,10 @@ impl<D: Dim> Method<D> for Potential<D> {
     /// ∇0W̃_ij of every pair, pass 2 the ids, ∇0W̃_ij and ∇0W̃_ji. Neither the force nor
     /// the viscosity changes the bytes (X_i and u_i are read with or without it).
     fn traffic(&self) -> Option<Traffic> {
-        let (v, f, k) = (
-            size_of::<D::V>(),
-            size_of::<f64>(),
-            size_of::<Kinematics<D>>(),
-        );
+        let (Sizes { v, f, id, .. }, k) = (Sizes::of::<D>(), size_of::<Kinematics<D>>());
         let pass_1 = v + f + k;
         let pass_2 = k + 4 * v + 3 * f;
-        let pair = size_of::<u32>() + v;
+        let pair = id + v;
         Some(Traffic {
             per_particle: (pass_1 + k + pass_2 + 2 * v) as f64,
             per_pair: (2 * pair + v) as f64,

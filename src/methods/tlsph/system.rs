@@ -9,7 +9,7 @@ use super::{ArtificialViscosity, TlsphForce, ViscosityGradient};
 use crate::boundary::Boundary;
 use crate::interaction::Interactions;
 use crate::methods::shared::{
-    BlowUp, BoundaryWork, MIN_CHUNK, Method, Traffic, check_motion, particle_state,
+    BlowUp, BoundaryWork, MIN_CHUNK, Method, Sizes, Traffic, check_motion, particle_state,
     reference_gradients, reverse_gradients,
 };
 use crate::methods::{MethodSpec, not_run_by};
@@ -624,7 +624,7 @@ impl<D: Dim> Method<D> for Tlsph<D> {
     /// control) and writes a, u̇ and the dissipation. Both read the ids and V_j ∇0W̃_ij of
     /// every pair; the variational force also V_j ∇0W̃_ji, the hourglass control κ_ij.
     fn traffic(&self) -> Option<Traffic> {
-        let (v, t, f) = (size_of::<D::V>(), size_of::<D::T>(), size_of::<f64>());
+        let Sizes { v, t, f, id } = Sizes::of::<D>();
         let records = size_of::<Gathered<D>>() + size_of::<Own<D>>();
         // ρ and S of the rate model, each read and its rate written.
         let rate = if self.material.model.is_rate_based() {
@@ -635,7 +635,7 @@ impl<D: Dim> Method<D> for Tlsph<D> {
         let hourglass = self.hourglass.is_some();
         let pass_1 = 2 * v + records + 2 * rate + if rate > 0 { v } else { 0 };
         let pass_2 = records + 4 * v + 2 * f + if hourglass { 2 * v } else { 0 };
-        let pair = size_of::<u32>() + v;
+        let pair = id + v;
         let per_pair =
             2 * pair + if self.grad_rev.is_some() { v } else { 0 } + if hourglass { f } else { 0 };
         Some(Traffic {

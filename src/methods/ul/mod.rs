@@ -22,7 +22,7 @@ use crate::kernel::Kernel;
 use crate::material::Material;
 use crate::methods::Problem;
 use crate::methods::shared::{
-    BlowUp, BoundaryWork, MIN_CHUNK, Method, Traffic, check_motion, particle_state,
+    BlowUp, BoundaryWork, MIN_CHUNK, Method, Sizes, Traffic, check_motion, particle_state,
 };
 use crate::methods::tlsph::system::stress_fields;
 use crate::neighbour::{Csr, Neighbours, Rebuild};
@@ -451,12 +451,7 @@ impl<D: Dim, S: PairScheme<D>> Method<D> for UlSph<D, S> {
     /// pair pass reads the records, x, v, ρ, S, F and m and the ids of every pair and
     /// writes u̇, v̇, ρ̇, Ṡ and Ḟ. The kernel is evaluated per pair, not stored.
     fn traffic(&self) -> Option<Traffic> {
-        let (v, t, f, id) = (
-            size_of::<D::V>(),
-            size_of::<D::T>(),
-            size_of::<f64>(),
-            size_of::<u32>(),
-        );
+        let Sizes { v, t, f, id } = Sizes::of::<D>();
         let record = size_of::<S::Particle>();
         let corrected = self.scheme.corrected();
         let positions = 3 * v + (v + size_of::<[f64; 3]>()) + f;
