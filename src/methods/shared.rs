@@ -345,9 +345,14 @@ impl Sizes {
         }
     }
 
-    /// A point's plastic history: C_p⁻¹ (3 × 3 in 2D too) and ε_p.
-    pub fn plastic_history() -> usize {
-        size_of::<glam::DMat3>() + size_of::<f64>()
+    /// A point's plastic history, C_p⁻¹ (3 × 3 in 2D too) and ε_p, when the model keeps
+    /// one; nothing otherwise.
+    pub fn plastic_history(kept: bool) -> usize {
+        if kept {
+            size_of::<glam::DMat3>() + size_of::<f64>()
+        } else {
+            0
+        }
     }
 }
 

@@ -801,11 +801,7 @@ impl<D: Dim> Method<D> for TlGalerkin<D> {
     fn traffic(&self) -> Option<Traffic> {
         let Sizes { v, t, f, id } = Sizes::of::<D>();
         let rate = self.material.model.is_rate_based();
-        let plastic = if self.plastic.is_some() {
-            Sizes::plastic_history()
-        } else {
-            0
-        };
+        let plastic = Sizes::plastic_history(self.plastic.is_some());
         let per_node = v + if rate { v } else { 0 } + (f + v) + 2 * v;
         let per_point = 2 * t + if rate { 2 * (f + t) } else { plastic } + t + (t + f);
         let points = self.points.len() as f64 / self.x0.len().max(1) as f64;

@@ -595,8 +595,6 @@ impl<D: Dim, P: MovingPoints<D>> Method<D> for UlGalerkin<D, P> {
         &self.boundary_work
     }
 
-    /// Finite motion, ρ and S; then positive densities and points whose functions can
-    /// be evaluated.
     fn pairs(&self) -> usize {
         self.shapes.csr.pair_count()
     }
@@ -612,11 +610,7 @@ impl<D: Dim, P: MovingPoints<D>> Method<D> for UlGalerkin<D, P> {
     fn traffic(&self) -> Option<Traffic> {
         let Sizes { v, t, f, id } = Sizes::of::<D>();
         let rate = self.material.model.is_rate_based();
-        let plastic = if self.plastic.is_some() {
-            Sizes::plastic_history()
-        } else {
-            0
-        };
+        let plastic = Sizes::plastic_history(self.plastic.is_some());
         let node_rho = if P::NODE_DENSITY { f } else { 0 };
         let per_node = node_rho + 3 * v + v + v + (f + v) + 2 * v;
         let stress = if rate { 2 * f + 3 * t } else { t + plastic };
@@ -634,6 +628,8 @@ impl<D: Dim, P: MovingPoints<D>> Method<D> for UlGalerkin<D, P> {
         })
     }
 
+    /// Finite motion, ρ and S; then positive densities and points whose functions can
+    /// be evaluated.
     fn check_finite(&self, y: &UlGalerkinState<D>) -> Result<(), BlowUp> {
         check_motion::<D>(&self.x0, &y.u, &y.v)?;
         let node = |q: usize| self.shapes.csr.ids[self.shapes.csr.offsets[q]] as usize;

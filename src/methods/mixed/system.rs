@@ -1136,7 +1136,7 @@ impl<D: Dim> Method<D> for MixedSph<D> {
             + when(evolves_j, f)
             + when(pressure, f)
             + when(bond, 2 * v)
-            + when(self.plastic.is_some(), Sizes::plastic_history());
+            + Sizes::plastic_history(self.plastic.is_some());
         let pass_2 = when(reconstruction, kin + v + slopes) + when(jst, 2 * v);
         let pass_3 = kin
             + 3 * v
