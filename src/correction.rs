@@ -77,22 +77,24 @@ pub fn gradients<D: Dim>(
     csr: &Csr,
     kernel: &Kernel,
 ) -> Result<Vec<D::V>, CorrectionError> {
-    csr.map_rows(|i| match kind {
-        CorrectionKind::None => Ok(plain::<D>(i, x, csr, kernel).collect()),
-        CorrectionKind::Shepard => Ok(shepard::<D>(i, x, vol, csr, kernel)),
-        CorrectionKind::RandlesLibersky => linear_correction::<D>(
-            kind,
-            i,
-            x,
-            vol,
-            csr,
-            plain::<D>(i, x, csr, kernel).collect(),
-        ),
-        CorrectionKind::Cgck => {
-            let grads = shepard_kernel_gradients::<D>(i, x, vol, csr, kernel);
-            linear_correction::<D>(kind, i, x, vol, csr, grads)
+    csr.fill_rows(|i, g| match kind {
+        CorrectionKind::None => {
+            plain::<D>(i, x, csr, kernel, g);
+            Ok(())
         }
-        CorrectionKind::Rkpm => rkpm::<D>(i, x, vol, csr, kernel),
+        CorrectionKind::Shepard => {
+            shepard::<D>(i, x, vol, csr, kernel, g);
+            Ok(())
+        }
+        CorrectionKind::RandlesLibersky => {
+            plain::<D>(i, x, csr, kernel, g);
+            linear_correction::<D>(kind, i, x, vol, csr, g)
+        }
+        CorrectionKind::Cgck => {
+            shepard_kernel_gradients::<D>(i, x, vol, csr, kernel, g);
+            linear_correction::<D>(kind, i, x, vol, csr, g)
+        }
+        CorrectionKind::Rkpm => rkpm::<D>(i, x, vol, csr, kernel, g),
     })
 }
 
@@ -121,7 +123,7 @@ pub fn kernel_weights<D: Dim>(
                 .neighbours(i)
                 .iter()
                 .map(|&j| vol[j as usize] * w(j) / s)
-                .collect());
+                .collect::<Vec<_>>());
         }
         let (c, _) = particle_coefficients::<D>(i, x, vol, csr, kernel)?;
         Ok(csr
@@ -131,42 +133,41 @@ pub fn kernel_weights<D: Dim>(
                 let p = linear_basis::<D>(x[i] - x[j as usize]);
                 vol[j as usize] * w(j) * (0..=D::N).map(|a| c[a] * p[a]).sum::<f64>()
             })
-            .collect())
+            .collect::<Vec<_>>())
     })
 }
 
-fn plain<'a, D: Dim>(
-    i: usize,
-    x: &'a [D::V],
-    csr: &'a Csr,
-    kernel: &'a Kernel,
-) -> impl Iterator<Item = D::V> + 'a {
-    csr.neighbours(i)
-        .iter()
-        .map(move |&j| kernel.grad::<D>(x[i] - x[j as usize]))
+/// ∇W(x_i − x_j) of row i's pairs, into `g`.
+fn plain<D: Dim>(i: usize, x: &[D::V], csr: &Csr, kernel: &Kernel, g: &mut [D::V]) {
+    for (g, &j) in g.iter_mut().zip(csr.neighbours(i)) {
+        *g = kernel.grad::<D>(x[i] - x[j as usize]);
+    }
 }
 
-fn shepard<D: Dim>(i: usize, x: &[D::V], vol: &[f64], csr: &Csr, kernel: &Kernel) -> Vec<D::V> {
+/// ∇W_j(x_i) / Σ_k V_k W_k(x_i) of row i's pairs (self term in the sum), into `g`.
+fn shepard<D: Dim>(i: usize, x: &[D::V], vol: &[f64], csr: &Csr, kernel: &Kernel, g: &mut [D::V]) {
     let c = vol[i] * kernel.w(0.0)
         + csr
             .neighbours(i)
             .iter()
             .map(|&j| vol[j as usize] * kernel.w(D::norm2(x[i] - x[j as usize]).sqrt()))
             .sum::<f64>();
-    plain::<D>(i, x, csr, kernel)
-        .map(|g| g * (1.0 / c))
-        .collect()
+    plain::<D>(i, x, csr, kernel, g);
+    for g in g {
+        *g = *g * (1.0 / c);
+    }
 }
 
 /// ∇W̃_j(x_i) of the Shepard kernel W̃_j = W_j/S (Bonet & Lok 1999 eq 4.14, with the W_j
-/// factor on ∇S that seed 002 eq 13 drops).
+/// factor on ∇S that seed 002 eq 13 drops) of row i's pairs, into `g`.
 fn shepard_kernel_gradients<D: Dim>(
     i: usize,
     x: &[D::V],
     vol: &[f64],
     csr: &Csr,
     kernel: &Kernel,
-) -> Vec<D::V> {
+    g: &mut [D::V],
+) {
     let mut s = vol[i] * kernel.w(0.0);
     let mut grad_s = D::zero();
     for &j in csr.neighbours(i) {
@@ -174,27 +175,25 @@ fn shepard_kernel_gradients<D: Dim>(
         s += vol[j as usize] * kernel.w(D::norm2(r).sqrt());
         grad_s += kernel.grad::<D>(r) * vol[j as usize];
     }
-    csr.neighbours(i)
-        .iter()
-        .map(|&j| {
-            let r = x[i] - x[j as usize];
-            let w = kernel.w(D::norm2(r).sqrt());
-            (kernel.grad::<D>(r) - grad_s * (w / s)) * (1.0 / s)
-        })
-        .collect()
+    for (g, &j) in g.iter_mut().zip(csr.neighbours(i)) {
+        let r = x[i] - x[j as usize];
+        let w = kernel.w(D::norm2(r).sqrt());
+        *g = (kernel.grad::<D>(r) - grad_s * (w / s)) * (1.0 / s);
+    }
 }
 
-/// L_i g with L_i = [Σ_j V_j g_j ⊗ (x_j − x_i)]⁻¹, so that Σ_j V_j (x_j − x_i) ⊗ L_i g_j = I.
+/// g ← L_i g with L_i = [Σ_j V_j g_j ⊗ (x_j − x_i)]⁻¹, so that
+/// Σ_j V_j (x_j − x_i) ⊗ L_i g_j = I, in place on row i's gradients.
 fn linear_correction<D: Dim>(
     kind: CorrectionKind,
     i: usize,
     x: &[D::V],
     vol: &[f64],
     csr: &Csr,
-    grads: Vec<D::V>,
-) -> Result<Vec<D::V>, CorrectionError> {
+    g: &mut [D::V],
+) -> Result<(), CorrectionError> {
     let mut a = D::zero_t();
-    for (&j, &g) in csr.neighbours(i).iter().zip(&grads) {
+    for (&j, &g) in csr.neighbours(i).iter().zip(&*g) {
         a += D::outer(x[j as usize] - x[i], g) * vol[j as usize];
     }
     let det = D::det(a);
@@ -203,12 +202,15 @@ fn linear_correction<D: Dim>(
             kind,
             particle: i,
             position: D::to3(x[i]),
-            neighbours: grads.len(),
+            neighbours: g.len(),
             det,
         });
     }
     let a_inv_t = D::transpose(D::inverse(a));
-    Ok(grads.into_iter().map(|g| a_inv_t * g).collect())
+    for g in g {
+        *g = a_inv_t * *g;
+    }
+    Ok(())
 }
 
 /// Dense square matrix of order n ≤ 4 (the RKPM moment matrix, n = d + 1).
@@ -336,13 +338,13 @@ fn rkpm<D: Dim>(
     vol: &[f64],
     csr: &Csr,
     kernel: &Kernel,
-) -> Result<Vec<D::V>, CorrectionError> {
+    g: &mut [D::V],
+) -> Result<(), CorrectionError> {
     let (c, dc) = particle_coefficients::<D>(i, x, vol, csr, kernel)?;
-    Ok(csr
-        .neighbours(i)
-        .iter()
-        .map(|&j| rkpm_shape::<D>(&c, &dc, x[i] - x[j as usize], kernel).1)
-        .collect())
+    for (g, &j) in g.iter_mut().zip(csr.neighbours(i)) {
+        *g = rkpm_shape::<D>(&c, &dc, x[i] - x[j as usize], kernel).1;
+    }
+    Ok(())
 }
 
 /// RKPM shape functions with a linear basis at a point y (not one of the nodes) from the

@@ -31,8 +31,9 @@ impl IntegratorKind {
     }
 }
 
-/// The integrated state of a method, and the same layout for its rates.
-pub trait OdeState: Clone + Send + Sync {
+/// The integrated state of a method, and the same layout for its rates; the default is
+/// an empty one (of no particles).
+pub trait OdeState: Clone + Default + Send + Sync {
     /// self += a · rate.
     fn axpy(&mut self, a: f64, rate: &Self);
     /// self = a · self + b · other.
@@ -110,6 +111,18 @@ pub enum Op {
     Kick { out: Buf, h: OfDt },
     /// u(out) += h·v(out); every field after v += h·rates.
     Drift { out: Buf, h: OfDt },
+}
+
+impl Op {
+    /// The two buffers the operation reads or writes (`Rates` for a kick or a drift).
+    fn buffers(self) -> [Buf; 2] {
+        match self {
+            Self::Rates { src, .. } => [src, Buf::Rates],
+            Self::Copy { from, to } => [from, to],
+            Self::Blend { out, x, .. } => [out, x],
+            Self::Kick { out, .. } | Self::Drift { out, .. } => [out, Buf::Rates],
+        }
+    }
 }
 
 /// One rate evaluation of a step: of the state in `src` into `Rates`, the `index`-th of
@@ -268,12 +281,22 @@ pub struct Integrator<S: OdeState> {
 }
 
 impl<S: OdeState> Integrator<S> {
-    /// Stage buffers shaped like `template`.
+    /// Stage buffers shaped like `template`, those the integrator's program uses (the
+    /// others stay empty).
     pub fn new(kind: IntegratorKind, template: &S) -> Self {
+        let program = program(kind);
+        let used = |b: Buf| program.iter().any(|op| op.buffers().contains(&b));
+        let buffer = |b: Buf| {
+            if used(b) {
+                template.clone()
+            } else {
+                S::default()
+            }
+        };
         Self {
             kind,
-            program: program(kind),
-            buffers: [template.clone(), template.clone(), template.clone()],
+            buffers: [buffer(Buf::Stage), buffer(Buf::Rates), buffer(Buf::Acc)],
+            program,
             primed: false,
         }
     }
@@ -380,7 +403,7 @@ mod tests {
     use super::*;
 
     /// Harmonic oscillator ẍ = −x as (x, v) with an extra first-order field z, ż = −z.
-    #[derive(Clone)]
+    #[derive(Clone, Default)]
     struct Osc {
         x: f64,
         v: f64,

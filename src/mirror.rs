@@ -282,7 +282,7 @@ impl<D: Dim> Ghosts<D> {
                     let back = csr.neighbours(row).binary_search(&partner).map_err(|_| a)?;
                     Ok(((csr.offsets[row] + back) as u32, image))
                 })
-                .collect()
+                .collect::<Result<Vec<_>, _>>()
         })
     }
 }

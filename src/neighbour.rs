@@ -39,15 +39,28 @@ impl Csr {
 
     /// One value per pair in CSR order: `row(i)` gives the values of row i's pairs, in
     /// order; the rows run in parallel. The first row (in order) that fails fails all.
-    pub fn map_rows<T: Send, E: Send>(
+    pub fn map_rows<T, E, I>(&self, row: impl Fn(usize) -> Result<I, E> + Sync) -> Result<Vec<T>, E>
+    where
+        T: Default + Clone + Send,
+        E: Send,
+        I: IntoIterator<Item = T>,
+    {
+        self.fill_rows(|i, out| {
+            for (o, value) in out.iter_mut().zip(row(i)?) {
+                *o = value;
+            }
+            Ok(())
+        })
+    }
+
+    /// One value per pair in CSR order: `row(i, values)` writes row i's values in place,
+    /// in order; the rows run in parallel. The first row (in order) that fails fails all.
+    pub fn fill_rows<T: Default + Clone + Send, E: Send>(
         &self,
-        row: impl Fn(usize) -> Result<Vec<T>, E> + Sync + Send,
+        row: impl Fn(usize, &mut [T]) -> Result<(), E> + Sync,
     ) -> Result<Vec<T>, E> {
-        let rows: Vec<Result<Vec<T>, E>> = (0..self.len()).into_par_iter().map(row).collect();
-        let mut out = Vec::with_capacity(self.pair_count());
-        for r in rows {
-            out.extend(r?);
-        }
+        let mut out = vec![T::default(); self.pair_count()];
+        split_rows(0, &self.offsets, &mut out, &row)?;
         Ok(out)
     }
 
@@ -197,6 +210,30 @@ pub fn build<D: Dim>(x: &[D::V], radius: f64) -> Csr {
     build_within::<D>(x, Reach::Uniform(radius), None)
 }
 
+/// The first pair within `radius`: the smallest i with a particle j ≠ i within it, and
+/// the smallest such j. One pass over the candidates, without lists: the check for
+/// coincident particles.
+pub fn first_pair<D: Dim>(x: &[D::V], radius: f64) -> Option<(usize, u32)> {
+    let points: Vec<[f64; 3]> = x.iter().map(|&p| D::to3(p)).collect();
+    if points.is_empty() {
+        return None;
+    }
+    let mut grid = CellGrid::default();
+    grid.sort(&points, radius, D::N);
+    (0..x.len())
+        .into_par_iter()
+        .with_min_len(MIN_ROWS)
+        .find_map_first(|i| {
+            let mut nearest: Option<u32> = None;
+            grid.for_each_candidate(&points[i], |j| {
+                if j as usize != i && D::norm2(x[i] - x[j as usize]) <= radius * radius {
+                    nearest = Some(nearest.map_or(j, |k| k.min(j)));
+                }
+            });
+            nearest.map(|j| (i, j))
+        })
+}
+
 /// All pairs (i, j), i ≠ j, within reach, and with `body` only pairs of one body
 /// (body[i] = body[j]: the per-body lists of a method that keeps bodies apart for
 /// contact).
@@ -294,7 +331,7 @@ impl CellList {
             out.offsets[i + 1] += out.offsets[i];
         }
         out.ids.resize(out.offsets[x.len()], 0);
-        fill_rows(0, &out.offsets, &mut out.ids, &|i, row: &mut [u32]| {
+        let Ok(()) = split_rows(0, &out.offsets, &mut out.ids, &|i, row: &mut [u32]| {
             let mut k = 0;
             grid.for_each_candidate(&points[i], |j| {
                 if within(i, j) {
@@ -303,35 +340,40 @@ impl CellList {
                 }
             });
             row.sort_unstable();
+            Ok::<(), std::convert::Infallible>(())
         });
     }
 }
 
-/// Calls `fill(i, row)` for every row of `ids` (rows `first..` with the offsets
+/// Calls `fill(i, row)` for every row of `values` (rows `first..` with the offsets
 /// `offsets`, which start at the first row's), splitting the rows in halves in parallel.
-fn fill_rows(
+/// Every row is filled; the error is the first row's (in order) that failed.
+fn split_rows<T: Send, E: Send>(
     first: usize,
     offsets: &[usize],
-    ids: &mut [u32],
-    fill: &(impl Fn(usize, &mut [u32]) + Sync),
-) {
+    values: &mut [T],
+    fill: &(impl Fn(usize, &mut [T]) -> Result<(), E> + Sync),
+) -> Result<(), E> {
     let rows = offsets.len() - 1;
     if rows <= MIN_ROWS {
         let base = offsets[0];
+        let mut first_error = Ok(());
         for r in 0..rows {
-            fill(
+            let done = fill(
                 first + r,
-                &mut ids[offsets[r] - base..offsets[r + 1] - base],
+                &mut values[offsets[r] - base..offsets[r + 1] - base],
             );
+            first_error = first_error.and(done);
         }
-        return;
+        return first_error;
     }
     let mid = rows / 2;
-    let (a, b) = ids.split_at_mut(offsets[mid] - offsets[0]);
-    rayon::join(
-        || fill_rows(first, &offsets[..=mid], a, fill),
-        || fill_rows(first + mid, &offsets[mid..], b, fill),
+    let (a, b) = values.split_at_mut(offsets[mid] - offsets[0]);
+    let (a, b) = rayon::join(
+        || split_rows(first, &offsets[..=mid], a, fill),
+        || split_rows(first + mid, &offsets[mid..], b, fill),
     );
+    a.and(b)
 }
 
 /// When a method's neighbour lists are built: the method declares it
@@ -656,5 +698,55 @@ mod tests {
         let centre = 220;
         assert_eq!(build::<D2>(&x, 2.6).neighbours(centre).len() + 1, 21);
         assert_eq!(build::<D2>(&x, 3.4).neighbours(centre).len() + 1, 37);
+    }
+
+    #[test]
+    fn the_first_pair_is_the_brute_force_first_pair() {
+        // A random cloud with a few points repeated: the first pair, in row order then
+        // neighbour order, of the brute-force lists, and none without the repeats.
+        let mut s = 11;
+        let mut x: Vec<DVec2> = (0..2000)
+            .map(|_| DVec2::new(lcg(&mut s), lcg(&mut s)))
+            .collect();
+        assert_eq!(first_pair::<D2>(&x, 1e-9), None);
+        x[1700] = x[1500];
+        x[900] = x[1900];
+        x[1200] = x[900];
+        let radius = 1e-9;
+        let expected = brute::<D2>(&x, radius)
+            .iter()
+            .enumerate()
+            .find_map(|(i, row)| row.first().map(|&j| (i, j)));
+        assert_eq!(expected, Some((900, 1200)));
+        assert_eq!(first_pair::<D2>(&x, radius), expected);
+    }
+
+    #[test]
+    fn rows_fill_in_place_and_the_first_failing_row_fails_all() {
+        // Rows enough to split across threads (more than MIN_ROWS): every value lands in
+        // its pair's slot, and of two failing rows the error names the first.
+        let x: Vec<DVec2> = (0..4000)
+            .map(|k| DVec2::new((k % 63) as f64, (k / 63) as f64))
+            .collect();
+        let csr = build::<D2>(&x, 1.5);
+        let ids = csr
+            .fill_rows(|i, out: &mut [u32]| {
+                out.copy_from_slice(csr.neighbours(i));
+                Ok::<(), usize>(())
+            })
+            .unwrap();
+        assert_eq!(ids, csr.ids);
+        let mapped = csr
+            .map_rows(|i| Ok::<_, usize>(csr.neighbours(i).iter().map(move |&j| j + i as u32)))
+            .unwrap();
+        let expected: Vec<u32> = (0..csr.len())
+            .flat_map(|i| csr.neighbours(i).iter().map(move |&j| j + i as u32))
+            .collect();
+        assert_eq!(mapped, expected);
+        let failed = csr.fill_rows(|i, _: &mut [u32]| match i {
+            3500 | 700 => Err(i),
+            _ => Ok(()),
+        });
+        assert_eq!(failed, Err(700));
     }
 }

@@ -431,8 +431,7 @@ impl<D: Dim> Shapes<D> {
             Ok(nodes
                 .iter()
                 .zip(shapes)
-                .map(|(&j, (psi, grad))| (vol[j as usize] * psi, grad * vol[j as usize]))
-                .collect())
+                .map(|(&j, (psi, grad))| (vol[j as usize] * psi, grad * vol[j as usize])))
         })?;
         let (n, grad) = rows.into_iter().unzip();
         Ok(Self {

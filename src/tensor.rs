@@ -13,6 +13,7 @@ pub trait Dim: Copy + Send + Sync + Debug + 'static {
     const N: usize;
     /// Position, velocity, acceleration.
     type V: Copy
+        + Default
         + Send
         + Sync
         + Debug

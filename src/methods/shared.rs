@@ -66,11 +66,21 @@ pub(crate) fn blend<T: Copy + Send + Sync + Add<Output = T> + Mul<f64, Output = 
         .for_each(|(y, &x)| *y = *y * a + x * b);
 }
 
-/// `OdeState` for a particle state of displacement `u`, velocity `v` and further fields,
-/// each with a rate of its own: RK stages combine every field; the leapfrog drift moves u
-/// with the state's own v and the other fields with their rates.
+/// `OdeState` (and an empty `Default`) for a particle state of displacement `u`, velocity
+/// `v` and further fields, each with a rate of its own: RK stages combine every field; the
+/// leapfrog drift moves u with the state's own v and the other fields with their rates.
 macro_rules! particle_state {
     ($state:ident { $($field:ident),* }) => {
+        impl<D: Dim> Default for $state<D> {
+            fn default() -> Self {
+                Self {
+                    u: Vec::new(),
+                    v: Vec::new(),
+                    $($field: Vec::new(),)*
+                }
+            }
+        }
+
         impl<D: Dim> crate::integrate::OdeState for $state<D> {
             fn axpy(&mut self, a: f64, r: &Self) {
                 crate::methods::shared::axpy(&mut self.u, a, &r.u);
@@ -173,7 +183,7 @@ pub fn reverse_pairs(case: &Case, csr: &Csr) -> Result<Vec<u32>, CaseError> {
                 let back = csr.neighbours(row).binary_search(&(i as u32));
                 back.map(|k| (csr.offsets[row] + k) as u32).map_err(|_| i)
             })
-            .collect()
+            .collect::<Result<Vec<_>, _>>()
     })
     .map_err(|i| {
         case.invalid(

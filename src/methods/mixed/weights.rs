@@ -33,13 +33,10 @@ pub(super) fn least_squares_weights<D: Dim>(
             return Err(a);
         }
         let m_inv = D::inverse(m);
-        Ok(csr
-            .range(a)
-            .map(|q| {
-                let d = D::norm2(x0[csr.ids[q] as usize] - x0[a]).sqrt();
-                m_inv * normal[q] * (1.0 / d)
-            })
-            .collect())
+        Ok(csr.range(a).map(move |q| {
+            let d = D::norm2(x0[csr.ids[q] as usize] - x0[a]).sqrt();
+            m_inv * normal[q] * (1.0 / d)
+        }))
     })
 }
 
@@ -70,7 +67,7 @@ pub(super) fn correct_laplacian<D: Dim>(
 ) -> Result<Vec<f64>, usize> {
     let n = D::N + 1;
     csr.map_rows(|a| {
-        let basis = |q: usize| {
+        let basis = move |q: usize| {
             let x = x0[csr.ids[q] as usize] - x0[a];
             let mut p = [0.0; 4];
             for (k, c) in p.iter_mut().enumerate().take(D::N) {
@@ -92,13 +89,10 @@ pub(super) fn correct_laplacian<D: Dim>(
             }
         }
         let c = solve_small(m, rhs, n).ok_or(a)?;
-        Ok(csr
-            .range(a)
-            .map(|q| {
-                let p = basis(q);
-                w[q] * (1.0 + (0..n).map(|k| c[k] * p[k]).sum::<f64>())
-            })
-            .collect())
+        Ok(csr.range(a).map(move |q| {
+            let p = basis(q);
+            w[q] * (1.0 + (0..n).map(|k| c[k] * p[k]).sum::<f64>())
+        }))
     })
 }
 

@@ -190,12 +190,12 @@ fn inadmissible<D: Dim>(i: usize, f: D::T) -> Option<usize> {
 }
 
 /// Each pair's vector scaled by the neighbour's volume V_j, in CSR order.
-fn weighted<D: Dim>(csr: &Csr, vol: &[f64], per_pair: Vec<D::V>) -> Vec<D::V> {
+fn weighted<D: Dim>(csr: &Csr, vol: &[f64], mut per_pair: Vec<D::V>) -> Vec<D::V> {
     per_pair
-        .into_par_iter()
+        .par_iter_mut()
         .zip(csr.ids.par_iter())
-        .map(|(g, &j)| g * vol[j as usize])
-        .collect()
+        .for_each(|(g, &j)| *g = *g * vol[j as usize]);
+    per_pair
 }
 
 /// The TLSPH system on the CPU (f64, rayon).
