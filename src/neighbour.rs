@@ -258,34 +258,20 @@ pub fn between<D: Dim>(
     if !nodes.is_empty() {
         grid.sort(&nodes, radius, D::N);
     }
-    let rows: Vec<Vec<u32>> = points
-        .par_iter()
-        .with_min_len(MIN_ROWS)
-        .enumerate()
-        .map(|(q, &y)| {
-            let mut row = Vec::new();
-            if nodes.is_empty() {
-                return row;
+    let mut csr = Csr::default();
+    gather_rows(points.len(), &mut Vec::new(), &mut csr, |q, found| {
+        if nodes.is_empty() {
+            return;
+        }
+        let start = found.len();
+        grid.for_each_candidate(&D::to3(points[q]), |j| {
+            let same_body = body.is_none_or(|(bq, bx)| bq[q] == bx[j as usize]);
+            if same_body && D::norm2(points[q] - x[j as usize]) <= radius * radius {
+                found.push(j);
             }
-            grid.for_each_candidate(&D::to3(y), |j| {
-                let same_body = body.is_none_or(|(bq, bx)| bq[q] == bx[j as usize]);
-                if same_body && D::norm2(y - x[j as usize]) <= radius * radius {
-                    row.push(j);
-                }
-            });
-            row.sort_unstable();
-            row
-        })
-        .collect();
-    let mut csr = Csr {
-        offsets: Vec::with_capacity(points.len() + 1),
-        ids: Vec::with_capacity(rows.iter().map(Vec::len).sum()),
-    };
-    csr.offsets.push(0);
-    for row in rows {
-        csr.ids.extend(row);
-        csr.offsets.push(csr.ids.len());
-    }
+        });
+        found[start..].sort_unstable();
+    });
     csr
 }
 
@@ -295,54 +281,76 @@ pub fn between<D: Dim>(
 pub struct CellList {
     points: Vec<[f64; 3]>,
     grid: CellGrid,
+    /// The ids found by each chunk of rows of [`gather_rows`].
+    found: Vec<Vec<u32>>,
 }
 
 /// Rows a task of the parallel fill handles at least.
 const MIN_ROWS: usize = 256;
 
 impl CellList {
-    /// Writes into `out` the lists of [`build_within`]: a pass that counts every row's
-    /// neighbours, their prefix sum into the offsets, and a pass that fills and sorts
-    /// every row in place.
+    /// Writes into `out` the lists of [`build_within`], in one pass over the candidates
+    /// ([`gather_rows`]).
     pub fn build<D: Dim>(&mut self, x: &[D::V], reach: Reach, body: Option<&[u32]>, out: &mut Csr) {
         self.points.clear();
         self.points.extend(x.iter().map(|&p| D::to3(p)));
-        out.offsets.clear();
-        out.offsets.resize(x.len() + 1, 0);
-        out.ids.clear();
-        if x.is_empty() {
-            return;
+        if !x.is_empty() {
+            self.grid.sort(&self.points, reach.largest(), D::N);
         }
-        self.grid.sort(&self.points, reach.largest(), D::N);
         let (grid, points) = (&self.grid, &self.points);
         let same_body = |i: usize, j: usize| body.is_none_or(|b| b[i] == b[j]);
-        let within = |i: usize, j: u32| {
-            let j = j as usize;
-            j != i && same_body(i, j) && D::norm2(x[i] - x[j]) <= reach.squared(i, j)
-        };
-        out.offsets[1..]
-            .par_iter_mut()
-            .with_min_len(MIN_ROWS)
-            .enumerate()
-            .for_each(|(i, count)| {
-                grid.for_each_candidate(&points[i], |j| *count += usize::from(within(i, j)));
-            });
-        for i in 0..x.len() {
-            out.offsets[i + 1] += out.offsets[i];
-        }
-        out.ids.resize(out.offsets[x.len()], 0);
-        let Ok(()) = split_rows(0, &out.offsets, &mut out.ids, &|i, row: &mut [u32]| {
-            let mut k = 0;
+        gather_rows(x.len(), &mut self.found, out, |i, found| {
+            let start = found.len();
             grid.for_each_candidate(&points[i], |j| {
-                if within(i, j) {
-                    row[k] = j;
-                    k += 1;
+                let k = j as usize;
+                if k != i && same_body(i, k) && D::norm2(x[i] - x[k]) <= reach.squared(i, k) {
+                    found.push(j);
                 }
             });
-            row.sort_unstable();
-            Ok::<(), std::convert::Infallible>(())
+            found[start..].sort_unstable();
         });
     }
+}
+
+/// Lists of `rows` rows into `out`, `row(i, found)` pushing row i's ids onto `found` in
+/// the order the lists keep: chunks of [`MIN_ROWS`] rows run in parallel, each into a
+/// buffer of `chunks` (kept from one build to the next) while it counts its rows; the
+/// counts' prefix sum gives the offsets, and every row is then copied into place. One
+/// pass over the candidates, not one to count and one to fill.
+fn gather_rows(
+    rows: usize,
+    chunks: &mut Vec<Vec<u32>>,
+    out: &mut Csr,
+    row: impl Fn(usize, &mut Vec<u32>) + Sync,
+) {
+    let Csr { offsets, ids } = out;
+    offsets.clear();
+    offsets.resize(rows + 1, 0);
+    chunks.resize_with(rows.div_ceil(MIN_ROWS), Vec::new);
+    offsets[1..]
+        .par_chunks_mut(MIN_ROWS)
+        .zip(chunks.par_iter_mut())
+        .enumerate()
+        .for_each(|(c, (counts, found))| {
+            found.clear();
+            for (k, count) in counts.iter_mut().enumerate() {
+                let before = found.len();
+                row(c * MIN_ROWS + k, found);
+                *count = found.len() - before;
+            }
+        });
+    for i in 0..rows {
+        offsets[i + 1] += offsets[i];
+    }
+    ids.clear();
+    ids.resize(offsets[rows], 0);
+    let offsets = &*offsets;
+    let Ok(()) = split_rows(0, offsets, ids, &|i, dst: &mut [u32]| {
+        let base = offsets[i / MIN_ROWS * MIN_ROWS];
+        let found = &chunks[i / MIN_ROWS];
+        dst.copy_from_slice(&found[offsets[i] - base..offsets[i + 1] - base]);
+        Ok::<(), std::convert::Infallible>(())
+    });
 }
 
 /// Calls `fill(i, row)` for every row of `values` (rows `first..` with the offsets
