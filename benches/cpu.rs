@@ -15,8 +15,9 @@
 //! - `neighbour_build`: the cell-list neighbour build on the ~1e5-particle disk.
 //! - `methods`: one step of every method of the registry (`meshless list`) on a case of
 //!   its own at about 2,000 particles (`common`), through the engine `meshless run`
-//!   builds, on the global thread pool; for the static dual-support method, one load step
-//!   of the plate (400 particles) from a freshly built engine, the build not timed.
+//!   builds, on a thread of the global pool; each sample steps an engine of its own,
+//!   built untimed. For the static dual-support method, one load step of the plate (400
+//!   particles) from a freshly built engine, the build not timed.
 
 mod common;
 
@@ -161,29 +162,32 @@ fn methods(c: &mut Criterion) {
     for entry in REGISTRY {
         let (case, kind) = common::method_case(entry.name);
         let build = || engine::<D2>(&case, Backend::Cpu).expect("CPU engine builds");
-        let mut stepper = build();
-        let dt = common::time_step(&case, stepper.as_mut());
-        let n = stepper.reference().len();
+        let mut probe = build();
+        let dt = common::time_step(&case, probe.as_mut());
+        let n = probe.reference().len();
         g.throughput(Throughput::Elements(n as u64));
         let id = BenchmarkId::new(entry.name, n);
-        if kind == common::Kind::Static {
-            g.bench_function(id, |b| {
-                b.iter_batched(
+        // Each sample builds its engine (untimed) and steps it on a thread of the global
+        // pool, as `meshless run` and `meshless bench` do: a step's parallel loops then
+        // start inside the pool instead of handing over from the bench's thread.
+        g.bench_function(id, |b| {
+            rayon::scope(|_| match kind {
+                common::Kind::Static => b.iter_batched(
                     build,
                     |mut e| e.advance(0.0, dt, 1).expect("load step converges"),
                     BatchSize::PerIteration,
-                )
-            });
-            continue;
-        }
-        let mut t = 0.0;
-        g.bench_function(id, |b| {
-            b.iter(|| {
-                stepper.advance(t, dt, 1).expect("step stays finite");
-                t += dt;
+                ),
+                common::Kind::Dynamic => {
+                    let mut stepper = build();
+                    let mut t = 0.0;
+                    b.iter(|| {
+                        stepper.advance(t, dt, 1).expect("step stays finite");
+                        t += dt;
+                    });
+                    stepper.check().expect("state stays finite");
+                }
             })
         });
-        stepper.check().expect("state stays finite");
     }
     g.finish();
 }
