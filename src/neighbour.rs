@@ -285,7 +285,8 @@ pub struct CellList {
     found: Vec<Vec<u32>>,
 }
 
-/// Rows a task of the parallel fill handles at least.
+/// Rows a task of the parallel fills handles at least, and the rows of a chunk of
+/// [`gather_rows`].
 const MIN_ROWS: usize = 256;
 
 impl CellList {
