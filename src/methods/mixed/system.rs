@@ -93,15 +93,13 @@ struct Slopes<D: Dim> {
 }
 
 impl<D: Dim> Slopes<D> {
-    /// What reconstructing v and P to the mid-pair faces adds to their jumps across the
-    /// pair (a, b) of slopes `self` and `b`, d = X_b − X_a (eq 37): (v_b − ½∇v_b d) −
-    /// (v_a + ½∇v_a d) − (v_b − v_a) = −½(∇v_a + ∇v_b) d, and likewise for P.
-    fn mid_pair_jump(&self, b: &Self, d: D::V) -> (D::V, D::T) {
+    /// Change of v and P from the particle to X_a + s d (s = ±½ for the faces).
+    fn along(&self, d: D::V, s: f64) -> (D::V, D::T) {
         let mut dp = D::zero_t();
         for l in 0..D::N {
-            dp += (self.grad_p[l] + b.grad_p[l]) * (-0.5 * D::comp(d, l));
+            dp += self.grad_p[l] * (s * D::comp(d, l));
         }
-        ((self.grad_v + b.grad_v) * d * -0.5, dp)
+        (self.grad_v * d * s, dp)
     }
 }
 
@@ -590,108 +588,74 @@ impl<D: Dim> MixedSph<D> {
     /// Pass 3: the internal force, the stabilisation of p and the dissipation of J of
     /// every real particle, into `out`.
     fn forces(&self, y: &MixedState<D>, out: &mut [Forces<D>]) {
-        match &self.stabilisation {
-            Stabilisation::Upwind { reconstruction } => self.upwind_forces(y, *reconstruction, out),
-            Stabilisation::Jst {
-                coefficients, s, ..
-            } => self.jst_forces(coefficients, s, out),
-        }
-    }
-
-    /// Pass 3 with the stabilisation's share of pair (a, b), `stabilise(a, q, b, ka, kb,
-    /// g_ab, g_ba)` = (D(p) part, D(J) part) at pair index q, beside the internal force T_a.
-    fn each_force(
-        &self,
-        out: &mut [Forces<D>],
-        stabilise: impl Fn(
-            usize,
-            usize,
-            usize,
-            &Kinematics<D>,
-            &Kinematics<D>,
-            D::V,
-            D::V,
-        ) -> (D::V, f64)
-        + Sync,
-    ) {
-        out.par_iter_mut()
-            .with_min_len(MIN_CHUNK)
-            .enumerate()
-            .for_each(|(a, out)| {
-                let ka = &self.kin[a];
-                let mut t = D::zero();
-                let mut d = D::zero();
-                let mut dj = 0.0;
-                let pairs = self.csr.range(a);
-                let first = pairs.start;
-                let ids = &self.csr.ids[pairs.clone()];
-                let grads = self.grad[pairs.clone()].iter().zip(&self.grad_rev[pairs]);
-                for (k, (&b, (&g_ab, &g_ba))) in ids.iter().zip(grads).enumerate() {
-                    let b = b as usize;
-                    let kb = &self.kin[b];
-                    t += pair_force::<D>(self.momentum, self.vol[b], ka.p, kb.p, g_ab, g_ba);
-                    let (d_ab, dj_ab) = stabilise(a, first + k, b, ka, kb, g_ab, g_ba);
-                    d += d_ab;
-                    dj += dj_ab;
-                }
-                *out = Forces { t, d, dj };
-            });
-    }
-
-    /// Pass 3 of Upwind-SPH: the acoustic Riemann solver's D(p) (eqs 28, 32) and D(J) (eq
-    /// 33), on the mid-pair reconstruction (eq 37) with `reconstruction`.
-    fn upwind_forces(&self, y: &MixedState<D>, reconstruction: bool, out: &mut [Forces<D>]) {
         let mat = &self.material;
-        let (c_p, c_s, rho0) = (self.c_p, mat.s_wave_speed(), mat.rho0);
+        let (c_p, c_s) = (self.c_p, mat.s_wave_speed());
         // Artificial compressibility leaves D(J) out: in the corrector's constraint it is a
         // compact Laplacian of P that the wide DIV of the pair sums cannot balance, and it
         // grows the pressure checkerboard (docs/methods/mixed.md).
         let dissipates_j = self.compressibility.is_none();
-        let (inv_2c_p, inv_rho0) = (1.0 / (2.0 * c_p), 1.0 / rho0);
+        // JST's ε⁽²⁾h, ε⁽⁴⁾h³ and ½ c_p ρ0 of eq 26, once for all pairs.
+        let (e2_h, e4_h3, jst_scale) = match &self.stabilisation {
+            Stabilisation::Jst { coefficients, .. } => (
+                coefficients.eps2 * self.h,
+                coefficients.eps4 * self.h.powi(3),
+                0.5 * c_p * mat.rho0,
+            ),
+            Stabilisation::Upwind { .. } => (0.0, 0.0, 0.0),
+        };
         let (u, v) = (&self.u_ext, &self.v_ext);
-        self.each_force(out, |a, q, b, ka, kb, g_ab, g_ba| {
-            let n_ref = self.normal[q];
-            let (mut dv, mut dp) = (v[b] - v[a], kb.p - ka.p);
-            if reconstruction {
-                // eq 37: faces at the mid-pair, p_f⁻ from a, p_f⁺ from b.
-                let d_ab = self.x0[b] - self.x0[a];
-                let (jump_v, jump_p) = self.slopes[a].mid_pair_jump(&self.slopes[b], d_ab);
-                dv += jump_v;
-                dp += jump_p;
-            }
-            let x_ab = self.x0[b] + u[b] - (self.x0[a] + y.u[a]);
-            let n = x_ab * (1.0 / D::norm2(x_ab).sqrt());
-            // eq 28: S^p Δp = ½[c_p n (n·Δp) + c_s (Δp − n (n·Δp))].
-            let dp_mom = dv * rho0;
-            let normal_part = n * D::dot(n, dp_mom);
-            let s_dp = (normal_part * c_p + (dp_mom - normal_part) * c_s) * 0.5;
-            // eq 32: 2 V_b (S^p Δp)(N_ab · ∇̃W̃^Ave_b(X_a)).
-            let g_ave = (g_ab - g_ba) * 0.5;
-            let d = s_dp * (2.0 * self.vol[b] * D::dot(n_ref, g_ave));
-            // eq 28: p^stab = n (n · ΔP N_ab)/(2 c_p); eq 33 with the dissipative sign:
-            // V_b p^stab/ρ0 · (H_a g_ab − H_b g_ba).
-            let dj = if dissipates_j {
-                let p_stab = n * (D::dot(n, dp * n_ref) * inv_2c_p);
-                let h_g = ka.h * g_ab - kb.h * g_ba;
-                self.vol[b] * inv_rho0 * D::dot(p_stab, h_g)
-            } else {
-                0.0
-            };
-            (d, dj)
-        });
-    }
-
-    /// Pass 3 of JST-SPH: ½c_pρ0 s_ab [ε⁽²⁾h Δv − ε⁽⁴⁾h³ Δ(∇²v)] (seed 002 eqs 26, 28).
-    fn jst_forces(&self, coefficients: &super::Jst, s: &[f64], out: &mut [Forces<D>]) {
-        // ε⁽²⁾h, ε⁽⁴⁾h³ and ½ c_p ρ0 of eq 26, once for all pairs.
-        let e2_h = coefficients.eps2 * self.h;
-        let e4_h3 = coefficients.eps4 * self.h.powi(3);
-        let scale = 0.5 * self.c_p * self.material.rho0;
-        let (v, lap) = (&self.v_ext, &self.lap);
-        self.each_force(out, |a, q, b, _, _, _, _| {
-            let d = ((v[b] - v[a]) * e2_h - (lap[b] - lap[a]) * e4_h3) * (scale * s[q]);
-            (d, 0.0)
-        });
+        out.par_iter_mut()
+            .with_min_len(MIN_CHUNK)
+            .enumerate()
+            .for_each(|(a, out)| {
+                let ka = self.kin[a];
+                let xa = self.x0[a] + y.u[a];
+                let mut t = D::zero();
+                let mut d = D::zero();
+                let mut dj = 0.0;
+                for q in self.csr.range(a) {
+                    let b = self.csr.ids[q] as usize;
+                    let kb = self.kin[b];
+                    let (g_ab, g_ba) = (self.grad[q], self.grad_rev[q]);
+                    t += pair_force::<D>(self.momentum, self.vol[b], ka.p, kb.p, g_ab, g_ba);
+                    match &self.stabilisation {
+                        Stabilisation::Upwind { reconstruction } => {
+                            let n_ref = self.normal[q];
+                            let (mut dv, mut dp) = (v[b] - v[a], kb.p - ka.p);
+                            if *reconstruction {
+                                // eq 37: faces at the mid-pair, p_f⁻ from a, p_f⁺ from b.
+                                let d_ab = self.x0[b] - self.x0[a];
+                                let (va, pa) = self.slopes[a].along(d_ab, 0.5);
+                                let (vb, pb) = self.slopes[b].along(d_ab, -0.5);
+                                dv = dv + vb - va;
+                                dp = dp + pb - pa;
+                            }
+                            let x_ab = self.x0[b] + u[b] - xa;
+                            let n = x_ab * (1.0 / D::norm2(x_ab).sqrt());
+                            // eq 28: S^p Δp = ½[c_p n (n·Δp) + c_s (Δp − n (n·Δp))].
+                            let dp_mom = dv * mat.rho0;
+                            let normal_part = n * D::dot(n, dp_mom);
+                            let s_dp = (normal_part * c_p + (dp_mom - normal_part) * c_s) * 0.5;
+                            // eq 32: 2 V_b (S^p Δp)(N_ab · ∇̃W̃^Ave_b(X_a)).
+                            let g_ave = (g_ab - g_ba) * 0.5;
+                            d += s_dp * (2.0 * self.vol[b] * D::dot(n_ref, g_ave));
+                            // eq 28: p^stab = n (n · ΔP N_ab)/(2 c_p); eq 33 with the
+                            // dissipative sign: V_b p^stab/ρ0 · (H_a g_ab − H_b g_ba).
+                            if dissipates_j {
+                                let p_stab = n * (D::dot(n, dp * n_ref) / (2.0 * c_p));
+                                let h_g = ka.h * g_ab - kb.h * g_ba;
+                                dj += self.vol[b] / mat.rho0 * D::dot(p_stab, h_g);
+                            }
+                        }
+                        Stabilisation::Jst { s, .. } => {
+                            let lap = self.lap[b] - self.lap[a];
+                            let dv = v[b] - v[a];
+                            d += (dv * e2_h - lap * e4_h3) * (jst_scale * s[q]);
+                        }
+                    }
+                }
+                *out = Forces { t, d, dj };
+            });
     }
 
     /// Positions 𝒳_a about which angular momentum is balanced (eq B.1): the stage
