@@ -6,6 +6,7 @@
 use super::support::Support;
 use crate::material::{Material, Tangent};
 use crate::methods::BlowUp;
+use crate::methods::shared::ordered_reduce;
 use crate::observe::{ScalarField, Snapshot};
 use crate::statics::sparse::BlockPattern;
 use crate::tensor::Dim;
@@ -108,9 +109,10 @@ impl<D: Dim> DualSupport<D> {
     /// The strain and hourglass energies of displacement u.
     pub fn energies(&self, u: &[D::V]) -> Energies {
         let s = &self.support;
-        let (strain, hourglass) = (0..self.len())
-            .into_par_iter()
-            .map(|i| {
+        let (strain, hourglass) = ordered_reduce(
+            self.len(),
+            || (0.0, 0.0),
+            |i| {
                 let h = s.displacement_gradient(u, i);
                 let psi = self.material.energy_density::<D>(
                     D::identity() + h,
@@ -118,8 +120,9 @@ impl<D: Dim> DualSupport<D> {
                     self.material.rho0,
                 );
                 (s.vol[i] * psi, s.vol[i] * self.hourglass_density(u, h, i))
-            })
-            .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
+            },
+            |a, b| (a.0 + b.0, a.1 + b.1),
+        );
         Energies { strain, hourglass }
     }
 
