@@ -66,9 +66,10 @@ pub(crate) fn blend<T: Copy + Send + Sync + Add<Output = T> + Mul<f64, Output = 
         .for_each(|(y, &x)| *y = *y * a + x * b);
 }
 
-/// `OdeState` (and an empty `Default`) for a particle state of displacement `u`, velocity
-/// `v` and further fields, each with a rate of its own: RK stages combine every field; the
-/// leapfrog drift moves u with the state's own v and the other fields with their rates.
+/// `OdeState`, `Clone` (whose `clone_from` copies into the buffers there are) and an
+/// empty `Default` for a particle state of displacement `u`, velocity `v` and further
+/// fields, each with a rate of its own: RK stages combine every field; the leapfrog drift
+/// moves u with the state's own v and the other fields with their rates.
 macro_rules! particle_state {
     ($state:ident { $($field:ident),* }) => {
         impl<D: Dim> Default for $state<D> {
@@ -78,6 +79,24 @@ macro_rules! particle_state {
                     v: Vec::new(),
                     $($field: Vec::new(),)*
                 }
+            }
+        }
+
+        impl<D: Dim> Clone for $state<D> {
+            fn clone(&self) -> Self {
+                Self {
+                    u: self.u.clone(),
+                    v: self.v.clone(),
+                    $($field: self.$field.clone(),)*
+                }
+            }
+
+            /// Field by field into the buffers there are: the integrators' stage copies
+            /// allocate nothing.
+            fn clone_from(&mut self, source: &Self) {
+                self.u.clone_from(&source.u);
+                self.v.clone_from(&source.v);
+                $(self.$field.clone_from(&source.$field);)*
             }
         }
 

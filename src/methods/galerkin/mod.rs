@@ -92,7 +92,7 @@ impl Mass {
 
 /// The integrated state: u and v at the nodes; ρ and S at the quadrature points (rate
 /// model only, empty otherwise).
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct GalerkinState<D: Dim> {
     pub u: Vec<D::V>,
     pub v: Vec<D::V>,

@@ -35,7 +35,7 @@ use crate::tensor::{Dim, smallest_stretch_squared};
 use rayon::prelude::*;
 
 /// Integrated state of a mixed method.
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct MixedState<D: Dim> {
     /// Displacement u = x − X.
     pub u: Vec<D::V>,

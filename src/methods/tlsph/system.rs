@@ -27,7 +27,7 @@ use rayon::prelude::*;
 use std::mem::take;
 
 /// Integrated state of TLSPH.
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct TlState<D: Dim> {
     /// Displacement u = x − X.
     pub u: Vec<D::V>,

@@ -34,7 +34,7 @@ use crate::tensor::Dim;
 use rayon::prelude::*;
 
 /// Integrated state of an updated-Lagrangian SPH method.
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct UlState<D: Dim> {
     /// Displacement u = x − X.
     pub u: Vec<D::V>,
