@@ -370,13 +370,36 @@ pub fn reproducing_shapes_of<D: Dim>(
     nodes: &[(D::V, f64)],
     kernel: &Kernel,
 ) -> Option<Vec<(f64, D::V)>> {
-    let (c, dc) = rkpm_coefficients::<D>(nodes.iter().copied(), kernel)?;
-    Some(
-        nodes
-            .iter()
-            .map(|&(r, _)| rkpm_shape::<D>(&c, &dc, r, kernel))
-            .collect(),
-    )
+    let at = Rkpm::<D>::at(nodes.iter().copied(), kernel)?;
+    Some(nodes.iter().map(|&(r, _)| at.shape(r)).collect())
+}
+
+/// The reproducing-kernel coefficients C and ∂_k C at a point, which give every node's
+/// function there ([`Rkpm::shape`]).
+pub struct Rkpm<'a, D: Dim> {
+    c: [f64; 4],
+    dc: [[f64; 4]; 3],
+    kernel: &'a Kernel,
+    dim: std::marker::PhantomData<D>,
+}
+
+impl<'a, D: Dim> Rkpm<'a, D> {
+    /// The coefficients at a point from its nodes' offsets r_j and volumes V_j; None when
+    /// they do not span the linear basis there.
+    pub fn at(nodes: impl Iterator<Item = (D::V, f64)>, kernel: &'a Kernel) -> Option<Self> {
+        let (c, dc) = rkpm_coefficients::<D>(nodes, kernel)?;
+        Some(Self {
+            c,
+            dc,
+            kernel,
+            dim: std::marker::PhantomData,
+        })
+    }
+
+    /// Ψ_j and ∇Ψ_j of the node at offset r_j.
+    pub fn shape(&self, r: D::V) -> (f64, D::V) {
+        rkpm_shape::<D>(&self.c, &self.dc, r, self.kernel)
+    }
 }
 
 #[cfg(test)]

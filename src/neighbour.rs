@@ -60,7 +60,7 @@ impl Csr {
         row: impl Fn(usize, &mut [T]) -> Result<(), E> + Sync,
     ) -> Result<Vec<T>, E> {
         let mut out = vec![T::default(); self.pair_count()];
-        split_rows(0, &self.offsets, &mut out, &row)?;
+        split_rows(0, &self.offsets, &mut out[..], MIN_ROWS, &row)?;
         Ok(out)
     }
 
@@ -346,7 +346,7 @@ fn gather_rows(
     ids.clear();
     ids.resize(offsets[rows], 0);
     let offsets = &*offsets;
-    let Ok(()) = split_rows(0, offsets, ids, &|i, dst: &mut [u32]| {
+    let Ok(()) = split_rows(0, offsets, &mut ids[..], MIN_ROWS, &|i, dst: &mut [u32]| {
         let base = offsets[i / MIN_ROWS * MIN_ROWS];
         let found = &chunks[i / MIN_ROWS];
         dst.copy_from_slice(&found[offsets[i] - base..offsets[i + 1] - base]);
@@ -354,33 +354,46 @@ fn gather_rows(
     });
 }
 
+/// Storage of rows that splits at a row boundary: per-pair values, or several fields of
+/// the same rows together (see [`split_rows`]).
+pub(crate) trait Rows: Send + Sized {
+    /// The first `rows` rows, which hold `pairs` pairs, and the rest.
+    fn split_at(self, rows: usize, pairs: usize) -> (Self, Self);
+}
+
+impl<T: Send> Rows for &mut [T] {
+    fn split_at(self, _rows: usize, pairs: usize) -> (Self, Self) {
+        self.split_at_mut(pairs)
+    }
+}
+
 /// Calls `fill(i, row)` for every row of `values` (rows `first..` with the offsets
-/// `offsets`, which start at the first row's), splitting the rows in halves in parallel.
-/// Every row is filled; the error is the first row's (in order) that failed.
-fn split_rows<T: Send, E: Send>(
+/// `offsets`, which start at the first row's), splitting the rows in halves in parallel
+/// down to `min_rows`. Every row is filled; the error is the first row's (in order) that
+/// failed.
+pub(crate) fn split_rows<V: Rows, E: Send>(
     first: usize,
     offsets: &[usize],
-    values: &mut [T],
-    fill: &(impl Fn(usize, &mut [T]) -> Result<(), E> + Sync),
+    values: V,
+    min_rows: usize,
+    fill: &(impl Fn(usize, V) -> Result<(), E> + Sync),
 ) -> Result<(), E> {
     let rows = offsets.len() - 1;
-    if rows <= MIN_ROWS {
-        let base = offsets[0];
+    if rows <= min_rows {
+        let mut rest = values;
         let mut first_error = Ok(());
         for r in 0..rows {
-            let done = fill(
-                first + r,
-                &mut values[offsets[r] - base..offsets[r + 1] - base],
-            );
-            first_error = first_error.and(done);
+            let (row, tail) = rest.split_at(1, offsets[r + 1] - offsets[r]);
+            rest = tail;
+            first_error = first_error.and(fill(first + r, row));
         }
         return first_error;
     }
     let mid = rows / 2;
-    let (a, b) = values.split_at_mut(offsets[mid] - offsets[0]);
+    let (a, b) = values.split_at(mid, offsets[mid] - offsets[0]);
     let (a, b) = rayon::join(
-        || split_rows(first, &offsets[..=mid], a, fill),
-        || split_rows(first + mid, &offsets[mid..], b, fill),
+        || split_rows(first, &offsets[..=mid], a, min_rows, fill),
+        || split_rows(first + mid, &offsets[mid..], b, min_rows, fill),
     );
     a.and(b)
 }

@@ -16,7 +16,7 @@
 
 use crate::correction;
 use crate::kernel::Kernel;
-use crate::neighbour::{self, Csr};
+use crate::neighbour::{self, Csr, Rows, split_rows};
 use crate::tensor::Dim;
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -295,30 +295,22 @@ impl<D: Dim> QuadraturePoints<D> {
 }
 
 /// The isoparametric shape functions N_a(ξ) = Π_k (1 + ξ_a,k ξ_k)/2 of the 2^d corners
-/// and their parent derivatives ∂N_a/∂ξ_k.
-fn isoparametric<D: Dim>(xi: [f64; 3]) -> (Vec<f64>, Vec<[f64; 3]>) {
-    let corners = &CORNERS[..1 << D::N];
+/// and their parent derivatives ∂N_a/∂ξ_k, in the first 2^d entries (the rest are zero).
+fn isoparametric<D: Dim>(xi: [f64; 3]) -> ([f64; 8], [[f64; 3]; 8]) {
     let sign = |c: i64| if c == 0 { -1.0 } else { 1.0 };
     let factor = |c: &[i64; 3], k: usize| 0.5 * (1.0 + sign(c[k]) * xi[k]);
-    let n = corners
-        .iter()
-        .map(|c| (0..D::N).map(|k| factor(c, k)).product())
-        .collect();
-    let dn = corners
-        .iter()
-        .map(|c| {
-            let mut d = [0.0; 3];
-            for (k, dk) in d.iter_mut().enumerate().take(D::N) {
-                *dk = 0.5
-                    * sign(c[k])
-                    * (0..D::N)
-                        .filter(|&l| l != k)
-                        .map(|l| factor(c, l))
-                        .product::<f64>();
-            }
-            d
-        })
-        .collect();
+    let (mut n, mut dn) = ([0.0; 8], [[0.0; 3]; 8]);
+    for ((c, n), d) in CORNERS[..1 << D::N].iter().zip(&mut n).zip(&mut dn) {
+        *n = (0..D::N).map(|k| factor(c, k)).product();
+        for (k, dk) in d.iter_mut().enumerate().take(D::N) {
+            *dk = 0.5
+                * sign(c[k])
+                * (0..D::N)
+                    .filter(|&l| l != k)
+                    .map(|l| factor(c, l))
+                    .product::<f64>();
+        }
+    }
     (n, dn)
 }
 
@@ -342,7 +334,7 @@ pub fn isoparametric_shapes<D: Dim>(
     let (values, dn) = isoparametric::<D>(xi);
     let j = jacobian::<D>(corners, x, &dn);
     let j_inv_t = D::transpose(D::inverse(j));
-    n.copy_from_slice(&values);
+    n.copy_from_slice(&values[..n.len()]);
     for (g, d) in grad.iter_mut().zip(&dn) {
         *g = j_inv_t * D::from_slice(&d[..D::N]);
     }
@@ -551,29 +543,33 @@ impl<D: Dim> Shapes<D> {
     /// Recomputes the values on the same lists, every point in parallel: `at(q, nodes,
     /// row)` writes N_a(x_q), ∇N_a(x_q) (and the test gradients ∇Φ_a(x_q) of a
     /// Petrov–Galerkin method; the row's `test` is empty otherwise) of point q's nodes into
-    /// its pairs and returns a value of the point (its weight), collected in point order.
-    /// The first point (in order) that fails fails all, with its index.
+    /// its pairs and returns a value of the point (its weight), written to `weight[q]`
+    /// (dropped if `weight` is empty). Every point is computed; the first point (in order)
+    /// that fails fails all, with its index.
     pub fn recompute<E: Send>(
         &mut self,
+        weight: &mut [f64],
         at: impl Fn(usize, &[u32], ShapeRow<D>) -> Result<f64, E> + Sync + Send,
-    ) -> Result<Vec<f64>, (usize, E)> {
+    ) -> Result<(), (usize, E)> {
         let csr = &self.csr;
-        let test = if self.test.is_empty() {
-            (0..csr.len()).map(|_| &mut [][..]).collect()
-        } else {
-            rows_mut(csr, &mut self.test)
+        let rows = PointRows {
+            n: &mut self.n,
+            grad: &mut self.grad,
+            test: &mut self.test,
+            weight,
         };
-        let rows: Vec<Result<f64, (usize, E)>> = rows_mut(csr, &mut self.n)
-            .into_par_iter()
-            .zip(rows_mut(csr, &mut self.grad))
-            .zip(test)
-            .enumerate()
-            .with_min_len(MIN_ROWS)
-            .map(|(q, ((n, grad), test))| {
-                at(q, csr.neighbours(q), ShapeRow { n, grad, test }).map_err(|e| (q, e))
-            })
-            .collect();
-        rows.into_iter().collect()
+        split_rows(0, &csr.offsets, rows, MIN_ROWS, &|q, row: PointRows<D>| {
+            let shapes = ShapeRow {
+                n: row.n,
+                grad: row.grad,
+                test: row.test,
+            };
+            let value = at(q, csr.neighbours(q), shapes).map_err(|e| (q, e))?;
+            if let [w] = row.weight {
+                *w = value;
+            }
+            Ok(())
+        })
     }
 
     /// The transposed lists, for the per-node gather.
@@ -656,15 +652,36 @@ pub fn krongauz_belytschko_shapes<D: Dim>(
 /// Rows a task of the parallel loops over points handles at least.
 const MIN_ROWS: usize = 64;
 
-/// The rows of a per-pair field `data` on the lists `csr`, as disjoint slices.
-fn rows_mut<'a, T>(csr: &Csr, mut data: &'a mut [T]) -> Vec<&'a mut [T]> {
-    let mut rows = Vec::with_capacity(csr.len());
-    for q in 0..csr.len() {
-        let (row, rest) = std::mem::take(&mut data).split_at_mut(csr.range(q).len());
-        rows.push(row);
-        data = rest;
+/// The fields [`Shapes::recompute`] writes, for a range of points: per pair `n`, `grad`
+/// and `test` (empty unless Petrov–Galerkin), per point `weight` (empty if dropped).
+struct PointRows<'a, D: Dim> {
+    n: &'a mut [f64],
+    grad: &'a mut [D::V],
+    test: &'a mut [D::V],
+    weight: &'a mut [f64],
+}
+
+impl<D: Dim> Rows for PointRows<'_, D> {
+    fn split_at(self, rows: usize, pairs: usize) -> (Self, Self) {
+        let (n, n_rest) = self.n.split_at_mut(pairs);
+        let (grad, grad_rest) = self.grad.split_at_mut(pairs);
+        let (test, test_rest) = self.test.split_at_mut(pairs.min(self.test.len()));
+        let (weight, weight_rest) = self.weight.split_at_mut(rows.min(self.weight.len()));
+        (
+            Self {
+                n,
+                grad,
+                test,
+                weight,
+            },
+            Self {
+                n: n_rest,
+                grad: grad_rest,
+                test: test_rest,
+                weight: weight_rest,
+            },
+        )
     }
-    rows
 }
 
 /// From each node a to the pairs (q, p) of [`Shapes`] that hold it, in ascending q:

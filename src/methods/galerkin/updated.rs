@@ -36,7 +36,7 @@ use rayon::prelude::*;
 /// The integrated state: u, v at the nodes; ρ, S at the points (rate model; empty for a
 /// state model); and, for points that move on their own (the weak form's stress points),
 /// ρ at the nodes and the points' displacements (empty otherwise).
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct UlGalerkinState<D: Dim> {
     pub u: Vec<D::V>,
     pub v: Vec<D::V>,
@@ -204,15 +204,16 @@ fn on_lists<D: Dim, P: MovingPoints<D>>(lists: Csr) -> Shapes<D> {
     }
 }
 
-/// N_a(x_q), ∇N_a(x_q) of every point into `shapes` and the weights w_q, for the nodes at
-/// `nodes.x` and state y; the first point that degenerates, with why.
+/// N_a(x_q), ∇N_a(x_q) of every point into `shapes` and the weights w_q into `weight`,
+/// for the nodes at `nodes.x` and state y; the first point that degenerates, with why.
 fn evaluate<D: Dim, P: MovingPoints<D>>(
     points: &P,
     nodes: &Nodes<D>,
     y: &UlGalerkinState<D>,
     shapes: &mut Shapes<D>,
-) -> Result<Vec<f64>, (usize, Degenerate)> {
-    shapes.recompute(|q, _, row| points.shapes_at(q, nodes, y, row))
+    weight: &mut [f64],
+) -> Result<(), (usize, Degenerate)> {
+    shapes.recompute(weight, |q, _, row| points.shapes_at(q, nodes, y, row))
 }
 
 impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
@@ -235,7 +236,8 @@ impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
             x: &x0,
             mass: &particle_mass,
         };
-        let weight = evaluate(&points, &nodes, &y0, &mut shapes).map_err(|(q, e)| {
+        let mut weight = vec![0.0; shapes.len()];
+        evaluate(&points, &nodes, &y0, &mut shapes, &mut weight).map_err(|(q, e)| {
             case.invalid(
                 "body",
                 format!(
@@ -289,7 +291,15 @@ impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
 
     /// x = X + u.
     fn positions(&self, y: &UlGalerkinState<D>) -> Vec<D::V> {
-        self.x0.iter().zip(&y.u).map(|(&x0, &u)| x0 + u).collect()
+        let mut x = Vec::with_capacity(self.x0.len());
+        self.positions_into(y, &mut x);
+        x
+    }
+
+    /// x = X + u, into `x`.
+    fn positions_into(&self, y: &UlGalerkinState<D>, x: &mut Vec<D::V>) {
+        x.clear();
+        x.extend(self.x0.iter().zip(&y.u).map(|(&x0, &u)| x0 + u));
     }
 
     /// A point that degenerated, as a blow-up at the first node of its list.
@@ -378,7 +388,8 @@ impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
             mass: &self.mass,
         };
         let mut shapes = self.shapes.clone();
-        let weight = evaluate(&self.points, &nodes, y, &mut shapes)
+        let mut weight = vec![0.0; shapes.len()];
+        evaluate(&self.points, &nodes, y, &mut shapes, &mut weight)
             .map_err(|(q, e)| self.degenerate(q, e))?;
         Ok((shapes, weight))
     }
@@ -440,16 +451,19 @@ impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
         d: &mut UlGalerkinState<D>,
     ) -> Result<(), BlowUp> {
         self.check_densities(y)?;
-        self.x = self.positions(y);
+        let mut x = std::mem::take(&mut self.x);
+        self.positions_into(y, &mut x);
+        self.x = x;
         let mut shapes = std::mem::take(&mut self.shapes);
+        self.weight.resize(shapes.len(), 0.0);
         let nodes = Nodes {
             x0: &self.x0,
             x: &self.x,
             mass: &self.mass,
         };
-        let weight = evaluate(&self.points, &nodes, y, &mut shapes);
+        let evaluated = evaluate(&self.points, &nodes, y, &mut shapes, &mut self.weight);
         self.shapes = shapes;
-        self.weight = weight.map_err(|(q, e)| self.degenerate(q, e))?;
+        evaluated.map_err(|(q, e)| self.degenerate(q, e))?;
         self.point_stresses(y, d);
         gather_accelerations(
             &self.gather,

@@ -75,28 +75,33 @@ pub fn ellipse_shapes<D: Dim>(
     n: &mut [f64],
     grad: &mut [D::V],
 ) -> Result<(), Degenerate> {
-    let offsets: Vec<D::V> = candidates.iter().map(|&j| centre - x[j as usize]).collect();
-    let ellipse = Ellipse::<D>::new(&offsets).ok_or(Degenerate {
+    // The offsets x_q − x_j wait in the gradients' slots until their functions replace them.
+    for (r, &j) in grad.iter_mut().zip(candidates) {
+        *r = centre - x[j as usize];
+    }
+    let ellipse = Ellipse::<D>::new(grad).ok_or(Degenerate {
         quantity: "candidates spanning no ellipse (all on one line)",
-        value: offsets.len() as f64,
+        value: candidates.len() as f64,
     })?;
     let kernel = Kernel::new(KernelKind::CubicSpline, ellipse.h, D::N);
-    let kept: Vec<usize> = (0..offsets.len())
-        .filter(|&p| ellipse.contains(offsets[p]))
-        .collect();
-    let nodes: Vec<(D::V, f64)> = kept
-        .iter()
-        .map(|&p| (offsets[p], vol(candidates[p] as usize)))
-        .collect();
-    let shapes = correction::reproducing_shapes_of::<D>(&nodes, &kernel).ok_or(Degenerate {
+    let kept = || {
+        grad.iter()
+            .zip(candidates)
+            .filter(|&(&r, _)| ellipse.contains(r))
+            .map(|(&r, &j)| (r, vol(j as usize)))
+    };
+    let rkpm = correction::Rkpm::<D>::at(kept(), &kernel).ok_or_else(|| Degenerate {
         quantity: "particles in the ellipse (too few or on one line for RKPM)",
-        value: kept.len() as f64,
+        value: kept().count() as f64,
     })?;
-    n.fill(0.0);
-    grad.fill(D::zero());
-    for ((&p, (psi, g)), &(_, v)) in kept.iter().zip(shapes).zip(&nodes) {
-        n[p] = v * psi;
-        grad[p] = g * v;
+    for ((n, g), &j) in n.iter_mut().zip(grad.iter_mut()).zip(candidates) {
+        (*n, *g) = if ellipse.contains(*g) {
+            let v = vol(j as usize);
+            let (psi, grad_psi) = rkpm.shape(*g);
+            (v * psi, grad_psi * v)
+        } else {
+            (0.0, D::zero())
+        };
     }
     Ok(())
 }
@@ -110,11 +115,10 @@ impl<D: Dim> StressPoints<D> {
     ) -> Result<(), (usize, Degenerate)> {
         let vol = |j: usize| nodes.mass[j] / node_rho[j];
         self.particle_shapes
-            .recompute(|i, candidates, row| {
+            .recompute(&mut [], |i, candidates, row| {
                 ellipse_shapes::<D>(nodes.x[i], candidates, nodes.x, vol, row.n, row.grad)
                     .map(|()| 0.0)
             })
-            .map(|_| ())
     }
 
     /// The stress points' reference positions and volumes.
