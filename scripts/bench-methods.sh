@@ -5,23 +5,68 @@
 # ns per pair, bytes per particle-step and the fraction of the STREAM triad.
 #
 #   scripts/bench-methods.sh [particles, default 2e4] [steps, default 40]
+#   scripts/bench-methods.sh --instructions [particles, default 5e3] [steps, default 8]
 #
-# RAYON_NUM_THREADS sets the threads; MESHLESS the binary (default: the release build).
+# With --instructions every method runs on one thread under valgrind's callgrind, twice
+# (`steps` and 2·`steps` steps), and the table gives the instructions one step adds per
+# pair and rate evaluation: a count that, unlike a time, does not move with the host's
+# load. RAYON_NUM_THREADS sets the threads; MESHLESS the binary (default: the release
+# build).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-sizes=${1:-2e4}
-steps=${2:-40}
+count=false
+if [ "${1:-}" = --instructions ]; then
+    count=true
+    shift
+fi
+if $count; then
+    sizes=${1:-5e3}
+    steps=${2:-8}
+else
+    sizes=${1:-2e4}
+    steps=${2:-40}
+fi
 bin=${MESHLESS:-./target/release/meshless}
 plate=cases/studies/cases/swinging-plate.toml
 [ -x "$bin" ] || cargo build --release
+# The instructions of a bench run of $1 steps (the rest of the arguments), and its table row.
+instructions() {
+    local n=$1 out
+    shift
+    out=$(mktemp)
+    RAYON_NUM_THREADS=1 valgrind --tool=callgrind --callgrind-out-file=/dev/null \
+        "$bin" bench "$@" --backend cpu --particles "$sizes" --steps "$n" >"$out" 2>&1
+    echo "$(grep -o 'Collected : [0-9]*' "$out" | grep -o '[0-9]*$') $(grep '^| swinging-plate' "$out")"
+    rm -f "$out"
+}
 bench() {
     local name=$1 n=$2
     shift 2
-    "$bin" bench "$@" --backend cpu --particles "$sizes" --steps "$n" --roofline |
-        grep '^| swinging-plate' | sed "s/^| swinging-plate/| $name/"
+    if $count; then
+        local a b
+        a=$(instructions "$n" "$@")
+        b=$(instructions $((2 * n)) "$@")
+        # Of the row split at '|': particles $4, particle-steps/s $7, rate
+        # evaluations/s $8, pairs/particle $10.
+        local ir_a=${a%% *} ir_b=${b%% *} row=${a#* }
+        echo "$row" | awk -F'|' -v name="$name" -v n="$n" -v ia="$ir_a" -v ib="$ir_b" '{
+            particles = $4; evaluations = $8 / $7; pairs = $10
+            per_step = (ib - ia) / n
+            printf "| %s | %d | %.1f | %.0f | %.0f | %.1f |\n", name, particles, pairs, evaluations,
+                per_step / particles, per_step / (particles * evaluations * pairs)
+        }'
+    else
+        "$bin" bench "$@" --backend cpu --particles "$sizes" --steps "$n" --roofline |
+            grep '^| swinging-plate' | sed "s/^| swinging-plate/| $name/"
+    fi
 }
-echo "| method | backend | particles | steps | set-up [s] | particle-steps/s | rate evaluations/s | neighbours [% of steps] | pairs/particle | ns per pair | bytes/particle-step | GB/s | of triad |"
-echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+if $count; then
+    echo "| method | particles | pairs/particle | rate evaluations/step | instructions/particle-step | instructions per pair and evaluation |"
+    echo "|---|---|---|---|---|---|"
+else
+    echo "| method | backend | particles | steps | set-up [s] | particle-steps/s | rate evaluations/s | neighbours [% of steps] | pairs/particle | ns per pair | bytes/particle-step | GB/s | of triad |"
+    echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+fi
 bench tlsph "$steps" "$plate"
 bench tlsph-hypoelastic "$steps" "$plate" --set material.model=hypoelastic
 bench upwind-sph "$steps" swinging-plate --set method.name=upwind-sph
