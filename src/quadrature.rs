@@ -1007,4 +1007,40 @@ mod tests {
         assert_eq!(gather.range(0).len(), 4);
         assert_eq!(gather.range(5).len(), 16);
     }
+
+    #[test]
+    fn recompute_writes_each_point_into_its_own_slots_and_fails_at_the_first_point() {
+        // Points enough to split across threads (more than MIN_ROWS): each point's values
+        // land in its own pairs' slots and its weight in its own entry, the test gradients
+        // too (Petrov–Galerkin); of two failing points the error names the first in order.
+        let x = lattice(20, 12, 1.0);
+        let cells = lattice_cells::<D2>(&x, &[0; 240], 1.0, &Cells::default()).unwrap();
+        let points = QuadraturePoints::<D2>::new(&cells, &x, Rule::Gauss2);
+        let mut shapes = Shapes::isoparametric(&cells, &points, &x);
+        shapes.test = vec![DVec2::ZERO; shapes.csr.pair_count()];
+        let mut weight = vec![0.0; shapes.len()];
+        let written = shapes.recompute(&mut weight, |q, nodes, row| {
+            for (k, &a) in nodes.iter().enumerate() {
+                row.n[k] = (q * 10 + k) as f64;
+                row.grad[k] = DVec2::new(a as f64, q as f64);
+                row.test[k] = DVec2::new(q as f64, k as f64);
+            }
+            Ok::<f64, ()>(-(q as f64))
+        });
+        assert_eq!(written, Ok(()));
+        for q in 0..shapes.len() {
+            assert_eq!(weight[q], -(q as f64));
+            for (k, p) in shapes.csr.range(q).enumerate() {
+                assert_eq!(shapes.n[p], (q * 10 + k) as f64);
+                let a = shapes.csr.ids[p] as f64;
+                assert_eq!(shapes.grad[p], DVec2::new(a, q as f64));
+                assert_eq!(shapes.test[p], DVec2::new(q as f64, k as f64));
+            }
+        }
+        let failed = shapes.recompute(&mut [], |q, _, _| match q {
+            700 | 300 => Err(q),
+            _ => Ok(0.0),
+        });
+        assert_eq!(failed, Err((300, 300)));
+    }
 }
