@@ -1028,8 +1028,9 @@ mod tests {
             Ok::<f64, ()>(-(q as f64))
         });
         assert_eq!(written, Ok(()));
-        for q in 0..shapes.len() {
-            assert_eq!(weight[q], -(q as f64));
+        assert_eq!(weight.len(), shapes.len());
+        for (q, &w) in weight.iter().enumerate() {
+            assert_eq!(w, -(q as f64));
             for (k, p) in shapes.csr.range(q).enumerate() {
                 assert_eq!(shapes.n[p], (q * 10 + k) as f64);
                 let a = shapes.csr.ids[p] as f64;
