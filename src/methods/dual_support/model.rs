@@ -143,11 +143,19 @@ impl<D: Dim> DualSupport<D> {
             .into_par_iter()
             .map(|i| self.material.pk1::<D>(D::identity() + h[i]) * s.vol[i])
             .collect();
-        // The hourglass term 2 V_i c_i w_ij e_ij of pair slot p = (i, j), evaluated by
-        // both particles that gather it rather than stored per pair.
-        let hourglass = |i: usize, p: usize| {
-            let k = 2.0 * s.vol[i] * self.hourglass[i];
-            self.pair_error(u, h[i], i, p) * (k * s.w[p])
+        // The hourglass term 2 V_i c_i w_ij e_ij of every pair slot p = (i, j), once per
+        // slot: both particles of the pair gather it.
+        let hourglass = if with_hourglass {
+            let Ok(terms) = s.lists.fill_rows(|i, out: &mut [D::V]| {
+                let k = 2.0 * s.vol[i] * self.hourglass[i];
+                for (term, p) in out.iter_mut().zip(s.lists.range(i)) {
+                    *term = self.pair_error(u, h[i], i, p) * (k * s.w[p]);
+                }
+                Ok::<(), std::convert::Infallible>(())
+            });
+            terms
+        } else {
+            Vec::new()
         };
         (0..self.len())
             .into_par_iter()
@@ -157,11 +165,11 @@ impl<D: Dim> DualSupport<D> {
                     f -= vp[i as usize] * s.g[s.dual_slot[q] as usize];
                 }
                 if with_hourglass {
-                    for p in s.lists.range(a) {
-                        f += hourglass(a, p);
+                    for term in &hourglass[s.lists.range(a)] {
+                        f += *term;
                     }
-                    for (q, &i) in s.dual.range(a).zip(&s.dual.ids[s.dual.range(a)]) {
-                        f -= hourglass(i as usize, s.dual_slot[q] as usize);
+                    for q in s.dual.range(a) {
+                        f -= hourglass[s.dual_slot[q] as usize];
                     }
                 }
                 f
