@@ -551,6 +551,7 @@ impl<D: Dim> Shapes<D> {
         weight: &mut [f64],
         at: impl Fn(usize, &[u32], ShapeRow<D>) -> Result<f64, E> + Sync + Send,
     ) -> Result<(), (usize, E)> {
+        debug_assert!(weight.is_empty() || weight.len() == self.len());
         let csr = &self.csr;
         let rows = PointRows {
             n: &mut self.n,
