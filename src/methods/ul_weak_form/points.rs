@@ -75,7 +75,9 @@ pub fn ellipse_shapes<D: Dim>(
     n: &mut [f64],
     grad: &mut [D::V],
 ) -> Result<(), Degenerate> {
-    // The offsets x_q − x_j wait in the gradients' slots until their functions replace them.
+    // The offsets x_q − x_j wait in the gradients' slots, and the volumes V_j in the
+    // functions' slots (zero outside the ellipse, where a node adds nothing), until the
+    // functions replace them.
     for (r, &j) in grad.iter_mut().zip(candidates) {
         *r = centre - x[j as usize];
     }
@@ -83,22 +85,28 @@ pub fn ellipse_shapes<D: Dim>(
         quantity: "candidates spanning no ellipse (all on one line)",
         value: candidates.len() as f64,
     })?;
+    for ((v, &r), &j) in n.iter_mut().zip(grad.iter()).zip(candidates) {
+        *v = if ellipse.contains(r) {
+            vol(j as usize)
+        } else {
+            0.0
+        };
+    }
     let kernel = Kernel::new(KernelKind::CubicSpline, ellipse.h, D::N);
     let kept = || {
         grad.iter()
-            .zip(candidates)
-            .filter(|&(&r, _)| ellipse.contains(r))
-            .map(|(&r, &j)| (r, vol(j as usize)))
+            .zip(n.iter())
+            .filter(|&(_, &v)| v != 0.0)
+            .map(|(&r, &v)| (r, v))
     };
     let rkpm = correction::Rkpm::<D>::at(kept(), &kernel).ok_or_else(|| Degenerate {
         quantity: "particles in the ellipse (too few or on one line for RKPM)",
         value: kept().count() as f64,
     })?;
-    for ((n, g), &j) in n.iter_mut().zip(grad.iter_mut()).zip(candidates) {
-        (*n, *g) = if ellipse.contains(*g) {
-            let v = vol(j as usize);
+    for (n, g) in n.iter_mut().zip(grad.iter_mut()) {
+        (*n, *g) = if *n != 0.0 {
             let (psi, grad_psi) = rkpm.shape(*g);
-            (v * psi, grad_psi * v)
+            (*n * psi, grad_psi * *n)
         } else {
             (0.0, D::zero())
         };
