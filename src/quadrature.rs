@@ -554,18 +554,15 @@ impl<D: Dim> Shapes<D> {
         debug_assert!(weight.is_empty() || weight.len() == self.len());
         let csr = &self.csr;
         let rows = PointRows {
-            n: &mut self.n,
-            grad: &mut self.grad,
-            test: &mut self.test,
+            shapes: ShapeRow {
+                n: &mut self.n,
+                grad: &mut self.grad,
+                test: &mut self.test,
+            },
             weight,
         };
         split_rows(0, &csr.offsets, rows, MIN_ROWS, &|q, row: PointRows<D>| {
-            let shapes = ShapeRow {
-                n: row.n,
-                grad: row.grad,
-                test: row.test,
-            };
-            let value = at(q, csr.neighbours(q), shapes).map_err(|e| (q, e))?;
+            let value = at(q, csr.neighbours(q), row.shapes).map_err(|e| (q, e))?;
             if let [w] = row.weight {
                 *w = value;
             }
@@ -653,32 +650,37 @@ pub fn krongauz_belytschko_shapes<D: Dim>(
 /// Rows a task of the parallel loops over points handles at least.
 const MIN_ROWS: usize = 64;
 
-/// The fields [`Shapes::recompute`] writes, for a range of points: per pair `n`, `grad`
-/// and `test` (empty unless Petrov–Galerkin), per point `weight` (empty if dropped).
+/// The fields [`Shapes::recompute`] writes, for a range of points: their functions'
+/// rows, and per point `weight` (empty if dropped).
 struct PointRows<'a, D: Dim> {
-    n: &'a mut [f64],
-    grad: &'a mut [D::V],
-    test: &'a mut [D::V],
+    shapes: ShapeRow<'a, D>,
     weight: &'a mut [f64],
 }
 
-impl<D: Dim> Rows for PointRows<'_, D> {
-    fn split_at(self, rows: usize, pairs: usize) -> (Self, Self) {
+impl<D: Dim> Rows for ShapeRow<'_, D> {
+    fn split_at(self, _rows: usize, pairs: usize) -> (Self, Self) {
         let (n, n_rest) = self.n.split_at_mut(pairs);
         let (grad, grad_rest) = self.grad.split_at_mut(pairs);
         let (test, test_rest) = self.test.split_at_mut(pairs.min(self.test.len()));
-        let (weight, weight_rest) = self.weight.split_at_mut(rows.min(self.weight.len()));
         (
-            Self {
-                n,
-                grad,
-                test,
-                weight,
-            },
+            Self { n, grad, test },
             Self {
                 n: n_rest,
                 grad: grad_rest,
                 test: test_rest,
+            },
+        )
+    }
+}
+
+impl<D: Dim> Rows for PointRows<'_, D> {
+    fn split_at(self, rows: usize, pairs: usize) -> (Self, Self) {
+        let (shapes, shapes_rest) = self.shapes.split_at(rows, pairs);
+        let (weight, weight_rest) = self.weight.split_at_mut(rows.min(self.weight.len()));
+        (
+            Self { shapes, weight },
+            Self {
+                shapes: shapes_rest,
                 weight: weight_rest,
             },
         )
