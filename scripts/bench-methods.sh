@@ -29,6 +29,10 @@ fi
 bin=${MESHLESS:-./target/release/meshless}
 plate=cases/studies/cases/swinging-plate.toml
 [ -x "$bin" ] || cargo build --release
+if $count && ! command -v valgrind >/dev/null; then
+    echo "bench-methods.sh --instructions needs valgrind (Debian: apt-get install valgrind)" >&2
+    exit 1
+fi
 # The instructions of a bench run of $1 steps (the rest of the arguments), and its table row.
 instructions() {
     local n=$1 out
