@@ -10,8 +10,11 @@
 # With --instructions every method runs on one thread under valgrind's callgrind, twice
 # (`steps` and 2·`steps` steps), and the table gives the instructions one step adds per
 # pair and rate evaluation: a count that, unlike a time, does not move with the host's
-# load. RAYON_NUM_THREADS sets the threads; MESHLESS the binary (default: the release
-# build).
+# load. It also gives the f64 operations among them (scripts/flops.py: each lane of an
+# add, subtract, multiply, divide, square root, min or max, two per fused multiply-add)
+# and the instructions per f64 operation, which tell the arithmetic a method's
+# equations ask for from what the code spends around it. RAYON_NUM_THREADS sets the
+# threads; MESHLESS the binary (default: the release build).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 count=false
@@ -29,19 +32,27 @@ fi
 bin=${MESHLESS:-./target/release/meshless}
 plate=cases/studies/cases/swinging-plate.toml
 [ -x "$bin" ] || cargo build --release
-if $count && ! command -v valgrind >/dev/null; then
-    echo "bench-methods.sh --instructions needs valgrind (Debian: apt-get install valgrind)" >&2
-    exit 1
-fi
-# The instructions of a bench run of $1 steps (the rest of the arguments), and its table row.
+for tool in valgrind objdump python3; do
+    if $count && ! command -v $tool >/dev/null; then
+        echo "bench-methods.sh --instructions needs valgrind, objdump and python3" \
+            "(Debian: apt-get install valgrind binutils python3); $tool is missing" >&2
+        exit 1
+    fi
+done
+# The instructions and f64 operations of a bench run of $1 steps (the rest of the
+# arguments), and its table row.
 instructions() {
-    local n=$1 out
+    local n=$1 out profile
     shift
     out=$(mktemp)
-    RAYON_NUM_THREADS=1 valgrind --tool=callgrind --callgrind-out-file=/dev/null \
+    profile=$(mktemp)
+    RAYON_NUM_THREADS=1 valgrind --tool=callgrind --dump-instr=yes --dump-line=no \
+        --callgrind-out-file="$profile" \
         "$bin" bench "$@" --backend cpu --particles "$sizes" --steps "$n" >"$out" 2>&1
-    echo "$(grep -o 'Collected : [0-9]*' "$out" | grep -o '[0-9]*$') $(grep '^| swinging-plate' "$out")"
-    rm -f "$out"
+    local flops
+    flops=$(python3 scripts/flops.py "$profile" "$(realpath "$bin")")
+    echo "$(grep -o 'Collected : [0-9]*' "$out" | grep -o '[0-9]*$') ${flops#* } $(grep '^| swinging-plate' "$out")"
+    rm -f "$out" "$profile"
 }
 bench() {
     local name=$1 n=$2
@@ -52,12 +63,15 @@ bench() {
         b=$(instructions $((2 * n)) "$@")
         # Of the row split at '|': particles $4, particle-steps/s $7, rate
         # evaluations/s $8, pairs/particle $10.
-        local ir_a=${a%% *} ir_b=${b%% *} row=${a#* }
-        echo "$row" | awk -F'|' -v name="$name" -v n="$n" -v ia="$ir_a" -v ib="$ir_b" '{
+        read -r ir_a fl_a row <<<"$a"
+        read -r ir_b fl_b _ <<<"$b"
+        echo "$row" | awk -F'|' -v name="$name" -v n="$n" -v ia="$ir_a" -v ib="$ir_b" \
+            -v fa="$fl_a" -v fb="$fl_b" '{
             particles = $4; evaluations = $8 / $7; pairs = $10
-            per_step = (ib - ia) / n
-            printf "| %s | %d | %.1f | %.0f | %.0f | %.1f |\n", name, particles, pairs, evaluations,
-                per_step / particles, per_step / (particles * evaluations * pairs)
+            per_step = (ib - ia) / n; flops = (fb - fa) / n
+            per_pair = particles * evaluations * pairs
+            printf "| %s | %d | %.1f | %.0f | %.0f | %.1f | %.1f | %.2f |\n", name, particles, pairs,
+                evaluations, per_step / particles, per_step / per_pair, flops / per_pair, per_step / flops
         }'
     else
         "$bin" bench "$@" --backend cpu --particles "$sizes" --steps "$n" --roofline |
@@ -65,8 +79,8 @@ bench() {
     fi
 }
 if $count; then
-    echo "| method | particles | pairs/particle | rate evaluations/step | instructions/particle-step | instructions per pair and evaluation |"
-    echo "|---|---|---|---|---|---|"
+    echo "| method | particles | pairs/particle | rate evaluations/step | instructions/particle-step | instructions per pair and evaluation | f64 operations per pair and evaluation | instructions per f64 operation |"
+    echo "|---|---|---|---|---|---|---|---|"
 else
     echo "| method | backend | particles | steps | set-up [s] | particle-steps/s | rate evaluations/s | neighbours [% of steps] | pairs/particle | ns per pair | bytes/particle-step | GB/s | of triad |"
     echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|"
