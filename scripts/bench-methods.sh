@@ -14,7 +14,8 @@
 # add, subtract, multiply, divide, square root, min or max, two per fused multiply-add)
 # and the instructions per f64 operation, which tell the arithmetic a method's
 # equations ask for from what the code spends around it. RAYON_NUM_THREADS sets the
-# threads; MESHLESS the binary (default: the release build).
+# threads; MESHLESS the binary (default: the release build); METHODS a regular
+# expression that picks the methods to run (default: all).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 count=false
@@ -57,6 +58,7 @@ instructions() {
 bench() {
     local name=$1 n=$2
     shift 2
+    [[ $name =~ ^(${METHODS:-.*})$ ]] || return 0
     if $count; then
         local a b
         a=$(instructions "$n" "$@")

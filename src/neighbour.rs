@@ -59,9 +59,20 @@ impl Csr {
         &self,
         row: impl Fn(usize, &mut [T]) -> Result<(), E> + Sync,
     ) -> Result<Vec<T>, E> {
-        let mut out = vec![T::default(); self.pair_count()];
-        split_rows(0, &self.offsets, &mut out[..], MIN_ROWS, &row)?;
+        let mut out = Vec::new();
+        self.fill_rows_into(&mut out, row)?;
         Ok(out)
+    }
+
+    /// [`Self::fill_rows`] into `out`, resized to one value per pair: a buffer kept from
+    /// one evaluation to the next is written once per evaluation, not zeroed first.
+    pub fn fill_rows_into<T: Default + Clone + Send, E: Send>(
+        &self,
+        out: &mut Vec<T>,
+        row: impl Fn(usize, &mut [T]) -> Result<(), E> + Sync,
+    ) -> Result<(), E> {
+        out.resize(self.pair_count(), T::default());
+        split_rows(0, &self.offsets, &mut out[..], MIN_ROWS, &row)
     }
 
     /// Keeps the lists of the first n particles (their ids may still exceed n).

@@ -198,7 +198,7 @@ fn force_is_minus_gradient<D: Dim>(law: MaterialModel, hourglass: f64) {
     // truncation O(δ²)·E‴ and cancellation ε·E/δ ~ 1e-4 N against forces ~1e5 N, so 1e-7
     // relative to the largest force. Eq 27 taken literally (the hourglass sign) fails by
     // 100 %, a missing dual-support term by O(1).
-    let m = model::<D>(5, 17, law, hourglass);
+    let mut m = model::<D>(5, 17, law, hourglass);
     let u = random_u::<D>(m.len(), 23, 0.05);
     let f = m.internal_force(&u, true);
     let scale = largest_v::<D>(f.iter().copied());
@@ -227,7 +227,7 @@ fn the_internal_force_is_minus_the_gradient_of_the_energy() {
 fn momentum<D: Dim>() {
     // Spec §5.5: Σ f = 0 to round-off (1e-12 of the largest force) for any field; Σ x × f
     // = 0 for the objective laws with hourglass energy (rotation-invariant energy).
-    let m = model::<D>(6, 29, MaterialModel::NeoHookean, 2.0);
+    let mut m = model::<D>(6, 29, MaterialModel::NeoHookean, 2.0);
     let u = random_u::<D>(m.len(), 31, 0.1);
     let f = m.internal_force(&u, true);
     let scale = largest_v::<D>(f.iter().copied());
@@ -254,7 +254,7 @@ fn tangent_is_jacobian<D: Dim>(law: MaterialModel, hourglass: f64) {
     // Spec §5.6: K = −∂f/∂u by central differences (δ = 1e-6, O(δ²) truncation, 1e-6
     // relative to the largest stiffness entry), and K = Kᵀ to round-off (1e-12). A hourglass
     // stiffness without the factor 2 of the corrected eq 29 fails by 50 %.
-    let m = model::<D>(4, 37, law, hourglass);
+    let mut m = model::<D>(4, 37, law, hourglass);
     let u = random_u::<D>(m.len(), 41, 0.05);
     let k = dense(&m, &u);
     let n = k.len();

@@ -29,6 +29,9 @@ pub struct DualSupport<D: Dim> {
     /// c_i = α/m_{L_i} with m_{L_i} = tr L_i < 0 and the penalty α = (factor) μ ≥ 0, so
     /// that c_i w_ij ≥ 0 and 𝓕^hg ≥ 0 (note §1.6: keep the signs of W′ and m_L together).
     pub hourglass: Vec<f64>,
+    /// The hourglass term 2 V_i c_i w_ij e_ij of every pair slot, kept from one force
+    /// evaluation to the next.
+    pair_terms: Vec<D::V>,
 }
 
 impl<D: Dim> DualSupport<D> {
@@ -40,6 +43,7 @@ impl<D: Dim> DualSupport<D> {
             support,
             material,
             hourglass,
+            pair_terms: Vec::new(),
         }
     }
 
@@ -76,12 +80,23 @@ impl<D: Dim> DualSupport<D> {
         Some(BlowUp::at::<D>(&self.support.x0, i, "det F", det(h[i])))
     }
 
-    /// e_ij = x_ij − F_i X_ij = u_ij − H_i X_ij of pair slot p = (i, j): the error of the
-    /// affine map of i at j.
-    fn pair_error(&self, u: &[D::V], h_i: D::T, i: usize, p: usize) -> D::V {
+    /// e_ij = x_ij − F_i X_ij = u_ij − H_i X_ij of particle i and its neighbour j: the
+    /// error of the affine map of i at j.
+    #[inline]
+    fn pair_error(&self, u: &[D::V], h_i: D::T, i: usize, j: u32) -> D::V {
+        let (x0, j) = (&self.support.x0, j as usize);
+        (u[j] - u[i]) - h_i * (x0[j] - x0[i])
+    }
+
+    /// 2 V_i c_i w_ij e_ij of the pairs of row i, into `out` (eq 28's hourglass term).
+    fn hourglass_terms(&self, u: &[D::V], h_i: D::T, i: usize, out: &mut [D::V]) {
         let s = &self.support;
-        let j = s.lists.ids[p] as usize;
-        (u[j] - u[i]) - h_i * (s.x0[j] - s.x0[i])
+        let k = 2.0 * s.vol[i] * self.hourglass[i];
+        let row = s.lists.range(i);
+        let pairs = s.lists.ids[row.clone()].iter().zip(&s.w[row]);
+        for (term, (&j, &w)) in out.iter_mut().zip(pairs) {
+            *term = self.pair_error(u, h_i, i, j) * (k * w);
+        }
     }
 
     /// 𝓕_i^hg = c_i Σ_j w_ij |e_ij|² (eq 21, first form), an energy density.
@@ -94,7 +109,7 @@ impl<D: Dim> DualSupport<D> {
         c * s
             .lists
             .range(i)
-            .map(|p| s.w[p] * D::norm2(self.pair_error(u, h_i, i, p)))
+            .map(|p| s.w[p] * D::norm2(self.pair_error(u, h_i, i, s.lists.ids[p])))
             .sum::<f64>()
     }
 
@@ -132,31 +147,35 @@ impl<D: Dim> DualSupport<D> {
     /// f_a = V_a P_a Σ_j g_aj − Σ_{i∈S'_a} V_i P_i g_ia
     ///     + 2 V_a c_a Σ_j w_aj e_aj − Σ_{i∈S'_a} 2 V_i c_i w_ia e_ia.
     /// Every pair term enters two particles with opposite signs: Σ_a f_a = 0.
-    pub fn internal_force(&self, u: &[D::V], with_hourglass: bool) -> Vec<D::V> {
-        self.internal_force_at(u, &self.displacement_gradients(u), with_hourglass)
+    pub fn internal_force(&mut self, u: &[D::V], with_hourglass: bool) -> Vec<D::V> {
+        let h = self.displacement_gradients(u);
+        self.internal_force_at(u, &h, with_hourglass)
     }
 
     /// [`Self::internal_force`] with the displacement gradients h = F − I of u given.
-    pub fn internal_force_at(&self, u: &[D::V], h: &[D::T], with_hourglass: bool) -> Vec<D::V> {
+    pub fn internal_force_at(&mut self, u: &[D::V], h: &[D::T], with_hourglass: bool) -> Vec<D::V> {
+        // The hourglass term of every pair slot p = (i, j), once per slot: both particles
+        // of the pair gather it.
+        let mut hourglass = std::mem::take(&mut self.pair_terms);
+        if with_hourglass {
+            let Ok(()) = self.support.lists.fill_rows_into(&mut hourglass, |i, out| {
+                self.hourglass_terms(u, h[i], i, out);
+                Ok::<(), std::convert::Infallible>(())
+            });
+        }
+        let f = self.gather_force(h, with_hourglass.then_some(&hourglass[..]));
+        self.pair_terms = hourglass;
+        f
+    }
+
+    /// f_a = −Σ V P ∇W over a's support and dual-support, plus the hourglass terms of its
+    /// pair slots minus those of the slots that hold a (eq 18, eq 28).
+    fn gather_force(&self, h: &[D::T], hourglass: Option<&[D::V]>) -> Vec<D::V> {
         let s = &self.support;
         let vp: Vec<D::T> = (0..self.len())
             .into_par_iter()
             .map(|i| self.material.pk1::<D>(D::identity() + h[i]) * s.vol[i])
             .collect();
-        // The hourglass term 2 V_i c_i w_ij e_ij of every pair slot p = (i, j), once per
-        // slot: both particles of the pair gather it.
-        let hourglass = if with_hourglass {
-            let Ok(terms) = s.lists.fill_rows(|i, out: &mut [D::V]| {
-                let k = 2.0 * s.vol[i] * self.hourglass[i];
-                for (term, p) in out.iter_mut().zip(s.lists.range(i)) {
-                    *term = self.pair_error(u, h[i], i, p) * (k * s.w[p]);
-                }
-                Ok::<(), std::convert::Infallible>(())
-            });
-            terms
-        } else {
-            Vec::new()
-        };
         (0..self.len())
             .into_par_iter()
             .map(|a| {
@@ -164,7 +183,7 @@ impl<D: Dim> DualSupport<D> {
                 for (q, &i) in s.dual.range(a).zip(&s.dual.ids[s.dual.range(a)]) {
                     f -= vp[i as usize] * s.g[s.dual_slot[q] as usize];
                 }
-                if with_hourglass {
+                if let Some(hourglass) = hourglass {
                     for term in &hourglass[s.lists.range(a)] {
                         f += *term;
                     }
