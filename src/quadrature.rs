@@ -488,10 +488,16 @@ impl<D: Dim> Shapes<D> {
     /// Bubnov–Galerkin method).
     #[inline]
     pub fn test_gradient(&self, p: usize) -> D::V {
+        self.test_gradients()[p]
+    }
+
+    /// ∇Φ_a(x_q) of every pair ([`Self::test_gradient`]).
+    #[inline]
+    pub fn test_gradients(&self) -> &[D::V] {
         if self.test.is_empty() {
-            self.grad[p]
+            &self.grad
         } else {
-            self.test[p]
+            &self.test
         }
     }
 
@@ -525,8 +531,10 @@ impl<D: Dim> Shapes<D> {
     /// The gradient Σ_a f_a ⊗ ∇N_a(x_q) of a nodal field f at point q.
     #[inline]
     pub fn gradient(&self, q: usize, f: &[D::V]) -> D::T {
-        self.csr.range(q).fold(D::zero_t(), |g, p| {
-            g + D::outer(f[self.csr.ids[p] as usize], self.grad[p])
+        let row = self.csr.range(q);
+        let pairs = self.csr.ids[row.clone()].iter().zip(&self.grad[row]);
+        pairs.fold(D::zero_t(), |g, (&a, &grad)| {
+            g + D::outer(f[a as usize], grad)
         })
     }
 

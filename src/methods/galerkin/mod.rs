@@ -137,13 +137,18 @@ pub fn gather_accelerations<D: Dim>(
     mass: &[f64],
     a: &mut [D::V],
 ) {
+    let test = shapes.test_gradients();
     a.par_iter_mut()
         .with_min_len(MIN_CHUNK)
         .enumerate()
         .for_each(|(node, a)| {
-            let force = gather.range(node).fold(D::zero(), |f, e| {
-                let q = gather.point[e] as usize;
-                f - stress[q] * shapes.test_gradient(gather.pair[e] as usize) * weight[q]
+            let entries = gather.range(node);
+            let entries = gather.point[entries.clone()]
+                .iter()
+                .zip(&gather.pair[entries]);
+            let force = entries.fold(D::zero(), |f, (&q, &p)| {
+                let q = q as usize;
+                f - stress[q] * test[p as usize] * weight[q]
             });
             *a = force * (1.0 / mass[node]);
         });
@@ -384,10 +389,7 @@ impl<D: Dim> TlGalerkin<D> {
     }
 
     fn first_inadmissible(&self) -> Option<BlowUp> {
-        let q = self
-            .f
-            .par_iter()
-            .position_first(|&f| D::det(f).is_nan() || D::det(f) <= 0.0)?;
+        let q = self.f.par_iter().position_first(|&f| !(D::det(f) > 0.0))?; // det F ≤ 0 or NaN
         let what = format!("det F at quadrature point {q} next to it");
         Some(BlowUp::at::<D>(
             &self.x0,
@@ -543,11 +545,12 @@ impl<D: Dim> OdeSystem for TlGalerkin<D> {
     }
 
     /// The tractions' and interactions' step, and the plastic history committed from the
-    /// state at the step's start.
+    /// state at the step's start (F at the points is taken for a plastic model only).
     fn begin_step(&mut self, t: f64, dt: f64, y: &GalerkinState<D>) {
         self.boundary.begin_step(t, dt);
         self.interactions.begin_step(t, dt, &self.x0, &y.u, &y.v);
-        if let Some(committed) = self.returned_all(&self.point_f(y))
+        if self.plastic.is_some()
+            && let Some(committed) = self.returned_all(&self.point_f(y))
             && let Some(pl) = self.plastic.as_mut()
         {
             pl.commit(&committed);
