@@ -389,7 +389,10 @@ impl<D: Dim> TlGalerkin<D> {
     }
 
     fn first_inadmissible(&self) -> Option<BlowUp> {
-        let q = self.f.par_iter().position_first(|&f| !(D::det(f) > 0.0))?; // det F ≤ 0 or NaN
+        let q = self.f.par_iter().position_first(|&f| {
+            let det = D::det(f);
+            det.is_nan() || det <= 0.0
+        })?;
         let what = format!("det F at quadrature point {q} next to it");
         Some(BlowUp::at::<D>(
             &self.x0,
