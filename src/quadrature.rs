@@ -193,8 +193,10 @@ pub struct QuadraturePoints<D: Dim> {
     pub cell: Vec<u32>,
     /// The body of every point.
     pub body: Vec<u32>,
-    /// Parent coordinates ξ_q of every point in its cell (empty as `cell`).
-    pub xi: Vec<[f64; 3]>,
+    /// The parent points of the rule with their functions, one per point of a cell.
+    pub rule: Vec<Parent>,
+    /// Which of the rule's parent points each point is (empty as `cell`).
+    pub parent: Vec<u8>,
     /// How many of the first points are the particles themselves, in their order: all of
     /// them for nodal and stress-point integration, none for Gauss points.
     pub particles: usize,
@@ -203,7 +205,7 @@ pub struct QuadraturePoints<D: Dim> {
 impl<D: Dim> QuadraturePoints<D> {
     /// The points of `rule` in every cell, mapped isoparametrically from the parent cell.
     pub fn new(cells: &Cells, x0: &[D::V], rule: Rule) -> Self {
-        let parent: Vec<[f64; 3]> = match rule {
+        let parents: Vec<[f64; 3]> = match rule {
             Rule::Centre => vec![[0.0; 3]],
             Rule::Gauss2 => {
                 let g = 1.0 / 3f64.sqrt();
@@ -223,23 +225,23 @@ impl<D: Dim> QuadraturePoints<D> {
             weight: Vec::new(),
             cell: Vec::new(),
             body: Vec::new(),
-            xi: Vec::new(),
+            rule: parents.into_iter().map(Parent::at::<D>).collect(),
+            parent: Vec::new(),
             particles: 0,
         };
         for c in 0..cells.len() {
             let corners = cells.of::<D>(c);
-            for &xi in &parent {
-                let (n, dn) = isoparametric::<D>(xi);
+            for (k, parent) in points.rule.iter().enumerate() {
                 let x = corners
                     .iter()
-                    .zip(&n)
+                    .zip(&parent.n)
                     .fold(D::zero(), |s, (&a, &na)| s + x0[a as usize] * na);
-                let j = jacobian::<D>(corners, x0, &dn);
+                let j = jacobian::<D>(corners, x0, &parent.dn);
                 points.x0.push(x);
                 points.weight.push(gauss_weight * D::det(j));
                 points.cell.push(c as u32);
                 points.body.push(cells.body[c]);
-                points.xi.push(xi);
+                points.parent.push(k as u8);
             }
         }
         points
@@ -253,7 +255,8 @@ impl<D: Dim> QuadraturePoints<D> {
             weight: vol.to_vec(),
             cell: Vec::new(),
             body: body.to_vec(),
-            xi: Vec::new(),
+            rule: Vec::new(),
+            parent: Vec::new(),
             particles: x0.len(),
         }
     }
@@ -279,7 +282,8 @@ impl<D: Dim> QuadraturePoints<D> {
             weight,
             cell: Vec::new(),
             body: body.iter().chain(&centres.body).copied().collect(),
-            xi: Vec::new(),
+            rule: Vec::new(),
+            parent: Vec::new(),
             particles: x0.len(),
         }
     }
@@ -314,6 +318,22 @@ fn isoparametric<D: Dim>(xi: [f64; 3]) -> ([f64; 8], [[f64; 3]; 8]) {
     (n, dn)
 }
 
+/// A parent point ξ of a rule with the isoparametric functions N_a(ξ) and their parent
+/// derivatives ∂N_a/∂ξ there, which depend on ξ alone: a rule tabulates them once for all
+/// its cells.
+#[derive(Clone, Copy, Debug)]
+pub struct Parent {
+    n: [f64; 8],
+    dn: [[f64; 3]; 8],
+}
+
+impl Parent {
+    fn at<D: Dim>(xi: [f64; 3]) -> Self {
+        let (n, dn) = isoparametric::<D>(xi);
+        Self { n, dn }
+    }
+}
+
 /// J = ∂X/∂ξ = Σ_a X_a ⊗ ∂N_a/∂ξ.
 fn jacobian<D: Dim>(corners: &[u32], x0: &[D::V], dn: &[[f64; 3]]) -> D::T {
     corners.iter().zip(dn).fold(D::zero_t(), |j, (&a, d)| {
@@ -321,21 +341,20 @@ fn jacobian<D: Dim>(corners: &[u32], x0: &[D::V], dn: &[[f64; 3]]) -> D::T {
     })
 }
 
-/// The isoparametric functions of a cell with corners at x, at parent point ξ: N_a into
+/// The isoparametric functions of a cell with corners at x, at a parent point: N_a into
 /// `n` and ∇N_a = J⁻ᵀ ∂N_a/∂ξ into `grad`, in corner order; returns det J (∇N_a are not
 /// finite when it vanishes).
 pub fn isoparametric_shapes<D: Dim>(
     corners: &[u32],
     x: &[D::V],
-    xi: [f64; 3],
+    parent: &Parent,
     n: &mut [f64],
     grad: &mut [D::V],
 ) -> f64 {
-    let (values, dn) = isoparametric::<D>(xi);
-    let j = jacobian::<D>(corners, x, &dn);
+    let j = jacobian::<D>(corners, x, &parent.dn);
     let j_inv_t = D::transpose(D::inverse(j));
-    n.copy_from_slice(&values[..n.len()]);
-    for (g, d) in grad.iter_mut().zip(&dn) {
+    n.copy_from_slice(&parent.n[..n.len()]);
+    for (g, d) in grad.iter_mut().zip(&parent.dn) {
         *g = j_inv_t * D::from_slice(&d[..D::N]);
     }
     D::det(j)
@@ -382,14 +401,14 @@ impl<D: Dim> Shapes<D> {
             grad: vec![D::zero(); points.len() * k],
             test: Vec::new(),
         };
-        for (q, &xi) in points.xi.iter().enumerate() {
+        for (q, &k) in points.parent.iter().enumerate() {
             let corners = cells.of::<D>(points.cell[q] as usize);
             shapes.csr.ids.extend(corners);
             let r = shapes.csr.range(q);
             isoparametric_shapes::<D>(
                 corners,
                 x0,
-                xi,
+                &points.rule[k as usize],
                 &mut shapes.n[r.clone()],
                 &mut shapes.grad[r],
             );

@@ -75,15 +75,16 @@ impl<D: Dim> MovingPoints<D> for Elements<D> {
         self.mass
     }
 
-    /// The bilinear (trilinear) functions of the point's cell with its corners at their
-    /// current positions: w_q = det J (UL FEM step 1); an inverted cell (det J ≤ 0)
-    /// degenerates.
-    /// Each point reads its cell and its ξ.
+    /// Each point reads its cell and which parent point of the rule it is (the rule's
+    /// tabulated functions stay in cache).
     fn shape_traffic(&self) -> [f64; 3] {
-        let per_point = size_of::<u32>() + size_of::<[f64; 3]>();
+        let per_point = size_of::<u32>() + size_of::<u8>();
         [per_point as f64, 0.0, 0.0]
     }
 
+    /// The bilinear (trilinear) functions of the point's cell with its corners at their
+    /// current positions, from the rule's tabulated N_a and ∂N_a/∂ξ: w_q = det J (UL FEM
+    /// step 1); an inverted cell (det J ≤ 0) degenerates.
     fn shapes_at(
         &self,
         q: usize,
@@ -92,7 +93,8 @@ impl<D: Dim> MovingPoints<D> for Elements<D> {
         row: ShapeRow<D>,
     ) -> Result<f64, Degenerate> {
         let corners = self.cells.of::<D>(self.points.cell[q] as usize);
-        let det = isoparametric_shapes::<D>(corners, nodes.x, self.points.xi[q], row.n, row.grad);
+        let parent = &self.points.rule[self.points.parent[q] as usize];
+        let det = isoparametric_shapes::<D>(corners, nodes.x, parent, row.n, row.grad);
         if det.is_nan() || det <= 0.0 {
             return Err(Degenerate {
                 quantity: "det J (an inverted element)",
