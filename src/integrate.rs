@@ -115,7 +115,7 @@ pub enum Op {
 
 impl Op {
     /// The two buffers the operation reads or writes (`Rates` for a kick or a drift).
-    fn buffers(self) -> [Buf; 2] {
+    pub fn buffers(self) -> [Buf; 2] {
         match self {
             Self::Rates { src, .. } => [src, Buf::Rates],
             Self::Copy { from, to } => [from, to],
@@ -132,6 +132,11 @@ impl Op {
 pub struct Evaluation {
     pub src: Buf,
     pub index: usize,
+}
+
+/// Whether any operation of `program` reads or writes buffer `b`.
+pub fn uses(program: &[Op], b: Buf) -> bool {
+    program.iter().any(|op| op.buffers().contains(&b))
 }
 
 /// The operations of one step of each integrator. The leapfrog starts from the rates of
@@ -285,9 +290,8 @@ impl<S: OdeState> Integrator<S> {
     /// others stay empty).
     pub fn new(kind: IntegratorKind, template: &S) -> Self {
         let program = program(kind);
-        let used = |b: Buf| program.iter().any(|op| op.buffers().contains(&b));
         let buffer = |b: Buf| {
-            if used(b) {
+            if uses(&program, b) {
                 template.clone()
             } else {
                 S::default()

@@ -5,7 +5,7 @@
 //! into one command encoder.
 
 use super::context::{Gpu, GpuError, Pipeline};
-use crate::integrate::{Buf, Evaluation, IntegratorKind, Op, program};
+use crate::integrate::{Buf, Evaluation, IntegratorKind, Op, program, uses};
 use bytemuck::{Pod, Zeroable};
 
 /// A flat state of n particles: u at 0 and v at n·DIM (DIM each), then the fields that
@@ -43,7 +43,7 @@ enum Recorded {
 pub struct Stepper {
     kind: IntegratorKind,
     layout: StateLayout,
-    /// y, stage, rates, acc.
+    /// y, stage (one word for a scheme without it), rates, acc.
     states: [wgpu::Buffer; 4],
     /// blend, kick, drift.
     stages: [Pipeline; 3],
@@ -65,9 +65,15 @@ impl Stepper {
         y0: &[f32],
     ) -> Result<Self, GpuError> {
         let bytes = layout.len as u64 * 4;
+        let ops = program(kind);
+        // `Stage` holds a state only where the scheme uses it (not the leapfrog). The
+        // engines bind it as their second evaluation source either way, which a scheme
+        // without it never runs: one word then. `Acc` is the engines' scratch for the
+        // rates of `Y` that outputs read, so every scheme has it.
+        let stage = if uses(&ops, Buf::Stage) { bytes } else { 4 };
         let states = [
             gpu.storage("y", y0),
-            gpu.zeroed("stage", bytes),
+            gpu.zeroed("stage", stage),
             gpu.zeroed("rates", bytes),
             gpu.zeroed("acc", bytes),
         ];
@@ -78,7 +84,7 @@ impl Stepper {
         ];
         let (nd, rest) = (layout.n * layout.dim, layout.len - layout.rest);
         let mut index = 0;
-        let steps = program(kind)
+        let steps = ops
             .into_iter()
             .map(|op| {
                 let (pipeline, out, x, invocations) = match op {
