@@ -32,6 +32,20 @@ impl Csr {
         &self.ids[self.range(i)]
     }
 
+    /// Particle i's neighbours j with their entries of a per-pair field, in CSR order.
+    #[inline]
+    pub fn pairs<'a, T>(
+        &'a self,
+        i: usize,
+        per_pair: &'a [T],
+    ) -> impl Iterator<Item = (usize, &'a T)> + 'a {
+        let r = self.range(i);
+        self.ids[r.clone()]
+            .iter()
+            .map(|&j| j as usize)
+            .zip(&per_pair[r])
+    }
+
     /// Total number of stored (ordered) pairs.
     pub fn pair_count(&self) -> usize {
         self.ids.len()

@@ -550,11 +550,8 @@ impl<D: Dim> Shapes<D> {
     /// The gradient Σ_a f_a ⊗ ∇N_a(x_q) of a nodal field f at point q.
     #[inline]
     pub fn gradient(&self, q: usize, f: &[D::V]) -> D::T {
-        let row = self.csr.range(q);
-        let pairs = self.csr.ids[row.clone()].iter().zip(&self.grad[row]);
-        pairs.fold(D::zero_t(), |g, (&a, &grad)| {
-            g + D::outer(f[a as usize], grad)
-        })
+        let pairs = self.csr.pairs(q, &self.grad);
+        pairs.fold(D::zero_t(), |g, (a, &grad)| g + D::outer(f[a], grad))
     }
 
     /// The node whose shape function is largest at point q.

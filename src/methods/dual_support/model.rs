@@ -83,8 +83,8 @@ impl<D: Dim> DualSupport<D> {
     /// e_ij = x_ij − F_i X_ij = u_ij − H_i X_ij of particle i and its neighbour j: the
     /// error of the affine map of i at j.
     #[inline]
-    fn pair_error(&self, u: &[D::V], h_i: D::T, i: usize, j: u32) -> D::V {
-        let (x0, j) = (&self.support.x0, j as usize);
+    fn pair_error(&self, u: &[D::V], h_i: D::T, i: usize, j: usize) -> D::V {
+        let x0 = &self.support.x0;
         (u[j] - u[i]) - h_i * (x0[j] - x0[i])
     }
 
@@ -92,9 +92,7 @@ impl<D: Dim> DualSupport<D> {
     fn hourglass_terms(&self, u: &[D::V], h_i: D::T, i: usize, out: &mut [D::V]) {
         let s = &self.support;
         let k = 2.0 * s.vol[i] * self.hourglass[i];
-        let row = s.lists.range(i);
-        let pairs = s.lists.ids[row.clone()].iter().zip(&s.w[row]);
-        for (term, (&j, &w)) in out.iter_mut().zip(pairs) {
+        for (term, (j, &w)) in out.iter_mut().zip(s.lists.pairs(i, &s.w)) {
             *term = self.pair_error(u, h_i, i, j) * (k * w);
         }
     }
@@ -108,8 +106,8 @@ impl<D: Dim> DualSupport<D> {
         let s = &self.support;
         c * s
             .lists
-            .range(i)
-            .map(|p| s.w[p] * D::norm2(self.pair_error(u, h_i, i, s.lists.ids[p])))
+            .pairs(i, &s.w)
+            .map(|(j, &w)| w * D::norm2(self.pair_error(u, h_i, i, j)))
             .sum::<f64>()
     }
 
@@ -180,15 +178,15 @@ impl<D: Dim> DualSupport<D> {
             .into_par_iter()
             .map(|a| {
                 let mut f = -(vp[a] * s.g_self[a]);
-                for (q, &i) in s.dual.range(a).zip(&s.dual.ids[s.dual.range(a)]) {
-                    f -= vp[i as usize] * s.g[s.dual_slot[q] as usize];
+                for (i, &slot) in s.dual.pairs(a, &s.dual_slot) {
+                    f -= vp[i] * s.g[slot as usize];
                 }
                 if let Some(hourglass) = hourglass {
                     for term in &hourglass[s.lists.range(a)] {
                         f += *term;
                     }
-                    for q in s.dual.range(a) {
-                        f -= hourglass[s.dual_slot[q] as usize];
+                    for &slot in &s.dual_slot[s.dual.range(a)] {
+                        f -= hourglass[slot as usize];
                     }
                 }
                 f

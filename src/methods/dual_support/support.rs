@@ -186,11 +186,8 @@ impl<D: Dim> Support<D> {
     /// H_i = F_i − I = Σ_j u_ij ⊗ g_ij (eq 12 written in displacements, so that strains of
     /// 1e-7 keep their digits).
     pub fn displacement_gradient(&self, u: &[D::V], i: usize) -> D::T {
-        let row = self.lists.range(i);
-        let pairs = self.lists.ids[row.clone()].iter().zip(&self.g[row]);
-        pairs.fold(D::zero_t(), |acc, (&j, &g)| {
-            acc + D::outer(u[j as usize] - u[i], g)
-        })
+        let pairs = self.lists.pairs(i, &self.g);
+        pairs.fold(D::zero_t(), |acc, (j, &g)| acc + D::outer(u[j] - u[i], g))
     }
 }
 

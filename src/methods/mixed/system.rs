@@ -453,9 +453,7 @@ impl<D: Dim> MixedSph<D> {
     /// `w` holds V_b W̃_b(X_a) / |X_ab|² per pair.
     fn bond_based_f(&self, a: usize, f: D::T, u_ext: &[D::V], w: &[f64]) -> D::T {
         let mut fc = f;
-        let row = self.csr.range(a);
-        for (&b, &w) in self.csr.ids[row.clone()].iter().zip(&w[row]) {
-            let b = b as usize;
+        for (b, &w) in self.csr.pairs(a, w) {
             let x_ab = self.x0[b] - self.x0[a];
             let dx = x_ab + u_ext[b] - u_ext[a];
             fc += D::outer(dx - f * x_ab, x_ab) * w;
@@ -467,9 +465,7 @@ impl<D: Dim> MixedSph<D> {
     /// real particles and their ghosts.
     fn gradient(&self, phi_ext: &[D::V], a: usize) -> D::T {
         let mut grad = D::zero_t();
-        let row = self.csr.range(a);
-        for (&b, &g) in self.csr.ids[row.clone()].iter().zip(&self.grad[row]) {
-            let b = b as usize;
+        for (b, &g) in self.csr.pairs(a, &self.grad) {
             grad += D::outer(phi_ext[b] - phi_ext[a], g) * self.vol[b];
         }
         grad
@@ -546,9 +542,7 @@ impl<D: Dim> MixedSph<D> {
             let mut grad_v = D::zero_t();
             let mut grad_p = [D::zero_t(); 3];
             let pa = self.kin[a].p;
-            let row = self.csr.range(a);
-            for (&b, &w) in self.csr.ids[row.clone()].iter().zip(&self.ls[row]) {
-                let b = b as usize;
+            for (b, &w) in self.csr.pairs(a, &self.ls) {
                 grad_v += D::outer(self.v_ext[b] - self.v_ext[a], w);
                 let dp = self.kin[b].p - pa;
                 for (l, g) in grad_p.iter_mut().enumerate().take(D::N) {
@@ -576,9 +570,8 @@ impl<D: Dim> MixedSph<D> {
         let mut lap = std::mem::take(&mut self.lap);
         let laplacian = |a: usize| {
             let mut sum = D::zero();
-            let row = self.csr.range(a);
-            for (&b, &ell) in self.csr.ids[row.clone()].iter().zip(&ell[row]) {
-                sum += (self.v_ext[b as usize] - self.v_ext[a]) * ell;
+            for (b, &ell) in self.csr.pairs(a, ell) {
+                sum += (self.v_ext[b] - self.v_ext[a]) * ell;
             }
             sum
         };
@@ -616,12 +609,11 @@ impl<D: Dim> MixedSph<D> {
                 let mut d = D::zero();
                 let mut dj = 0.0;
                 let row = self.csr.range(a);
-                let gradients = self.grad[row.clone()]
-                    .iter()
+                let pairs = self
+                    .csr
+                    .pairs(a, &self.grad)
                     .zip(&self.grad_rev[row.clone()]);
-                let pairs = self.csr.ids[row.clone()].iter().zip(gradients);
-                for (q, (&b, (&g_ab, &g_ba))) in row.zip(pairs) {
-                    let b = b as usize;
+                for (q, ((b, &g_ab), &g_ba)) in row.zip(pairs) {
                     let kb = self.kin[b];
                     t += pair_force::<D>(self.momentum, self.vol[b], ka.p, kb.p, g_ab, g_ba);
                     match &self.stabilisation {

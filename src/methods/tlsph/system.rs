@@ -330,10 +330,9 @@ impl<D: Dim> Tlsph<D> {
     fn gradients_of<const K: usize>(&self, i: usize, fields: [&[D::V]; K]) -> [D::T; K] {
         let mut g = [D::zero_t(); K];
         let own = fields.map(|f| f[i]);
-        let range = self.csr.range(i);
-        for (&j, &w) in self.csr.ids[range.clone()].iter().zip(&self.grad[range]) {
+        for (j, &w) in self.csr.pairs(i, &self.grad) {
             for k in 0..K {
-                g[k] += D::outer(fields[k][j as usize] - own[k], w);
+                g[k] += D::outer(fields[k][j] - own[k], w);
             }
         }
         g
@@ -444,12 +443,8 @@ impl<D: Dim> Tlsph<D> {
                 // Σ_j m_j Π_ij ∇0W̃_ij: F_i⁻ᵀ applies once to the sum.
                 let mut viscous = D::zero();
                 let mut hourglass = D::zero();
-                let range = self.csr.range(i);
-                let pairs = self.csr.ids[range.clone()]
-                    .iter()
-                    .zip(&self.grad[range.clone()]);
-                for (p, (&j, &w)) in range.zip(pairs) {
-                    let j = j as usize;
+                let pairs = self.csr.range(i).zip(self.csr.pairs(i, &self.grad));
+                for (p, (j, &w)) in pairs {
                     let gj = self.gathered[j];
                     stress += match rev {
                         None => gj.p * w,
