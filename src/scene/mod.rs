@@ -745,6 +745,10 @@ pub struct RunSpec {
     /// method's own (static for the static-only methods, dynamic for the others).
     #[serde(default)]
     pub solve: Option<Solve>,
+    /// Newton's convergence tolerances of a static run, `{ residual = …, increment = … }`
+    /// (each optional; the defaults and the force scale: [`crate::statics::Tolerance`]).
+    #[serde(default, skip_serializing_if = "crate::statics::Tolerance::is_unset")]
+    pub tolerance: crate::statics::Tolerance,
     /// Stop as failed when the total energy exceeds this factor times the initial
     /// energy plus the work done by boundary conditions.
     #[serde(default = "default_energy_growth")]

@@ -83,6 +83,7 @@ pub(super) fn check(case: &Case) -> Result<(), (String, String)> {
     contact(case)?;
     run(&case.run, &case.method)?;
     statics(case)?;
+    tolerance(case)?;
     output(&case.output)?;
     analytic_observers(case)?;
     front_observers(case)?;
@@ -1205,6 +1206,36 @@ fn statics(case: &Case) -> Checked {
             "contact",
             "a static run has no contact (penalty contact acts through the time step); \
              remove the [contact] table or give run.solve = \"dynamic\"",
+        );
+    }
+    Ok(())
+}
+
+/// `run.tolerance`: each key in [ε, 1) (ε the double-precision epsilon, which no f64
+/// residual falls below but to zero; 1 would accept the first iterate), on a static run.
+fn tolerance(case: &Case) -> Checked {
+    let t = case.run.tolerance;
+    for (key, value) in [
+        ("run.tolerance.residual", t.residual),
+        ("run.tolerance.increment", t.increment),
+    ] {
+        let Some(v) = value else { continue };
+        if !(v.is_finite() && (crate::statics::Tolerance::SMALLEST..1.0).contains(&v)) {
+            return fail(
+                key,
+                format!(
+                    "must be a number in [{:e}, 1) (a fraction of the force scale or of |u|; \
+                     below the double-precision epsilon no residual can reach it), got {v:?}",
+                    crate::statics::Tolerance::SMALLEST
+                ),
+            );
+        }
+    }
+    if !t.is_unset() && !case.is_static() {
+        return fail(
+            "run.tolerance",
+            "is the Newton tolerance of a static run, and this run is dynamic (it has no \
+             Newton iteration): remove run.tolerance or give run.solve = \"static\"",
         );
     }
     Ok(())

@@ -16,6 +16,7 @@ use crate::observe::Snapshot;
 use crate::run::{Engine, Failed, Iteration};
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
+use serde::{Deserialize, Serialize};
 use sparse::{BlockPattern, Fill, FreeSystem, Linear, SolveError, SolveStats};
 use std::time::Instant;
 
@@ -99,12 +100,102 @@ struct Stalled {
     residual: f64,
     particle: usize,
     reason: String,
+    /// The iterations ran out after the relative residual had fallen below
+    /// [`ROUND_OFF_DROP`] of its first value and then stopped falling (the last iteration
+    /// left it above a tenth of the smallest before it): Newton converged as far as
+    /// round-off lets it, and a smaller load step would not get further (its floor
+    /// relative to its smaller load is higher), so the step is not cut.
+    at_round_off: bool,
+}
+
+/// The fall of the relative residual within a load step beyond which a step whose
+/// residual then stops falling is taken to have stalled at round-off, rather than to have
+/// left Newton's region of convergence (a residual that grows or stays near its first
+/// value, which cutting the step cures) or to be still converging.
+const ROUND_OFF_DROP: f64 = 1e-6;
+
+/// `run.tolerance`: when Newton's iteration of a load step has converged, for every
+/// static engine. A load step has converged when
+///
+/// - |R| ≤ `residual` × the force scale, |R| the residual on the free components, or
+/// - |Δu| ≤ `increment` × |u|, the last Newton correction against the displacement
+///   (all components), after at least one solve.
+///
+/// **The force scale** is √(|λ f_ext|² + |r|² + |f_int|²) at the current iterate, over all
+/// components: the applied loads, the supports' reactions r = −(f_int + λ f_ext) on the
+/// prescribed components, and the internal force. Under loads alone the first is the
+/// load; under prescribed displacements alone (no f_ext) the second is the force that
+/// moves them; the third is the size of the stresses the residual is computed from,
+/// which balance both and whose round-off the residual carries. So the scale is never
+/// near zero for a loaded problem, whichever way it is loaded. It lies within √3 of the
+/// largest of the three (at equilibrium |f_int| holds most of the other two); the root of
+/// the sum of squares rather than the largest alone keeps it at least the scale the
+/// static path had before (√(|λ f_ext|² + |f_int|²)), so that no solve that converged
+/// then fails now. One number per iterate, not per particle: interior particles carry no
+/// load and would divide by ~0.
+///
+/// **Why the defaults are these sizes.** The residual of a converged solve does not fall
+/// to 1e-16 of the force scale. Every method computes its stress from F = I + H, whose
+/// entries of size 1 hold a strain H ~ ε to 1e-16 absolute, 1e-16/ε relative; the
+/// residual, a sum over neighbours of such stresses that cancel, stalls near 1e-15/ε of
+/// the force scale. Measured on a steel cantilever (E = 2e11 Pa) at a peak strain of
+/// 1e-6 (`tests/it/static_tolerance.rs`): 8e-10 to 9e-10 with `tl-fem`, 2e-10 to 4e-10
+/// with `efg`, `kbm`, `tlsph`, `tl-weak-form` and `dual-support-sph`; 64 times that at
+/// 1/64 of the load. The former fixed 1e-10 lay below that floor, and the run failed.
+/// [`Tolerance::RESIDUAL`] = 1e-8 lies a decade above the largest floor at 1e-6, so the
+/// residual alone ends solves at strains down to ~1e-7; on neo-Hookean rubber stretched
+/// 500 % (floor ~1e-14) it is met one or two iterations after quadratic convergence sets
+/// in, and the support reactions agree with those of a solve to 1e-13 within 2e-12. A
+/// tighter default would fail realistic small-strain parts; a looser one would gain
+/// nothing on a nonlinear solve, whose quadratic step from 1e-8 to round-off is a single
+/// iteration, and leave its linear convergence (finite-difference tangents, the GPU's
+/// f32 Krylov steps) further from the solution. The increment criterion ends a solve at
+/// round-off where the residual cannot: at the floor Newton's corrections are the
+/// round-off of u, |Δu|/|u| ~ 1e-17/ε (measured 1.5e-12 to 1.4e-11 at ε = 1e-6), so
+/// [`Tolerance::INCREMENT`] = 1e-10 stops a stalled solve at strains down to ~1e-7 as
+/// well, with u exact to about ten digits, yet lies far below any correction of a solve
+/// still converging (the former 1e-12 lay below the floor of 1e-6 strains).
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Tolerance {
+    /// |R| ≤ this × the force scale; absent: [`Tolerance::RESIDUAL`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub residual: Option<f64>,
+    /// |Δu| ≤ this × |u|; absent: [`Tolerance::INCREMENT`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub increment: Option<f64>,
+}
+
+impl Tolerance {
+    /// The default of `run.tolerance.residual` (see the type's notes for its size).
+    pub const RESIDUAL: f64 = 1e-8;
+    /// The default of `run.tolerance.increment` (see the type's notes for its size).
+    pub const INCREMENT: f64 = 1e-10;
+    /// The smallest value either key takes: the double-precision epsilon, below which no
+    /// residual or increment computed in f64 can fall (but exactly to zero).
+    pub const SMALLEST: f64 = f64::EPSILON;
+
+    /// The residual tolerance, given or default.
+    pub fn residual(&self) -> f64 {
+        self.residual.unwrap_or(Self::RESIDUAL)
+    }
+
+    /// The increment tolerance, given or default.
+    pub fn increment(&self) -> f64 {
+        self.increment.unwrap_or(Self::INCREMENT)
+    }
+
+    /// Neither key given (the table is then left out of the case's serialisation, so that
+    /// a case's fingerprint does not change with it).
+    pub fn is_unset(&self) -> bool {
+        self.residual.is_none() && self.increment.is_none()
+    }
 }
 
 /// Newton settings.
 #[derive(Clone, Copy, Debug)]
 pub struct Newton {
-    /// Stop when |R| ≤ this × the force scale.
+    /// Stop when |R| ≤ this × the force scale ([`Tolerance`]).
     pub residual_tolerance: f64,
     /// … or when |Δu| ≤ this × |u|.
     pub increment_tolerance: f64,
@@ -114,6 +205,23 @@ pub struct Newton {
     pub max_cuts: u32,
     /// Where `max_iterations` comes from, for the message of a stalled step.
     pub max_iterations_key: &'static str,
+    /// Where the two tolerances come from (`run.tolerance.residual` and
+    /// `run.tolerance.increment`), for the message of a stalled step.
+    pub tolerance_keys: [&'static str; 2],
+}
+
+impl Newton {
+    /// The settings of a case's `run.tolerance` with these iteration limits.
+    pub fn of(case: &Case, max_iterations: u32, max_cuts: u32, key: &'static str) -> Self {
+        Self {
+            residual_tolerance: case.run.tolerance.residual(),
+            increment_tolerance: case.run.tolerance.increment(),
+            max_iterations,
+            max_cuts,
+            max_iterations_key: key,
+            tolerance_keys: ["run.tolerance.residual", "run.tolerance.increment"],
+        }
+    }
 }
 
 /// The static engine of a model (CPU, f64).
@@ -294,7 +402,8 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
     /// Solves for equilibrium at pseudo-time t from the current state (Newton–Raphson):
     /// the prescribed components are moved to their values at t, then K Δu = R on the
     /// free components until |R| ≤ residual_tolerance · (force scale) or
-    /// |Δu| ≤ increment_tolerance · |u|. Returns the iterations, or why it stalled.
+    /// |Δu| ≤ increment_tolerance · |u| ([`Tolerance`]). Returns the iterations, or why
+    /// it stalled.
     fn solve_at(&mut self, t: f64) -> Result<u32, Stalled> {
         let d = D::N;
         let lambda = t / self.end_time;
@@ -307,27 +416,36 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
         }
         let mut increment = 0.0;
         let mut stats = SolveStats::default();
+        // The smallest relative residual and relative increment met, for the message of
+        // a step that does not converge.
+        let (mut best_residual, mut best_increment) = (f64::INFINITY, f64::INFINITY);
+        let mut first_residual = f64::NAN;
         for iteration in 0..=self.newton.max_iterations {
             let f_int = self.model.force(&u).map_err(|b| Stalled {
                 iterations: iteration,
                 residual: f64::NAN,
                 particle: b.particle,
                 reason: format!("{} = {:e}", b.quantity, b.value),
+                at_round_off: false,
             })?;
+            // R on the free components; the force scale √(|λ f_ext|² + |r|² + |f_int|²)
+            // of [`Tolerance`], r the reactions on the prescribed components.
             let mut r = vec![0.0; self.unknowns];
-            let mut scale = 0.0;
+            let (mut load, mut support, mut internal) = (0.0, 0.0, 0.0);
             for (a, (&fi, &fe)) in f_int.iter().zip(&self.load).enumerate() {
                 let (fi, fe) = (D::to3(fi), D::to3(fe));
                 for k in 0..d {
                     let total = fi[k] + fe[k] * lambda;
-                    scale += fi[k] * fi[k] + (fe[k] * lambda).powi(2);
-                    if let Some(q) = self.free[a * d + k] {
-                        r[q as usize] = total;
+                    load += (fe[k] * lambda).powi(2);
+                    internal += fi[k] * fi[k];
+                    match self.free[a * d + k] {
+                        Some(q) => r[q as usize] = total,
+                        None => support += total * total,
                     }
                 }
             }
             let norm = r.iter().map(|x| x * x).sum::<f64>().sqrt();
-            let scale = scale.sqrt();
+            let scale = (load + support + internal).sqrt();
             let relative = if scale > 0.0 { norm / scale } else { 0.0 };
             self.log.push(Iteration {
                 load_step: self.load_step,
@@ -358,9 +476,23 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
                     residual: norm,
                     particle: worst(),
                     reason: "the residual is not finite".into(),
+                    at_round_off: false,
                 });
             }
             let u_norm = u.iter().map(|&v| D::norm2(v)).sum::<f64>().sqrt();
+            // The smallest relative residual before this iterate's.
+            let earlier_best = best_residual;
+            best_residual = best_residual.min(relative);
+            if iteration == 0 {
+                first_residual = relative;
+            }
+            if iteration > 0 {
+                best_increment = best_increment.min(if u_norm > 0.0 {
+                    increment / u_norm
+                } else {
+                    f64::INFINITY
+                });
+            }
             if relative <= self.newton.residual_tolerance
                 || (iteration > 0 && increment <= self.newton.increment_tolerance * u_norm)
             {
@@ -369,14 +501,24 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
                 return Ok(iteration);
             }
             if iteration == self.newton.max_iterations {
+                let [residual_key, increment_key] = self.newton.tolerance_keys;
                 return Err(Stalled {
                     iterations: iteration,
                     residual: norm,
                     particle: worst(),
                     reason: format!(
-                        "no convergence in {} = {} iterations",
-                        self.newton.max_iterations_key, self.newton.max_iterations
+                        "no convergence in {} = {} iterations: the relative residual |R|/(force \
+                         scale) fell to {best_residual:.1e}, not to {residual_key} = {:e}, and \
+                         |Δu|/|u| to {best_increment:.1e}, not to {increment_key} = {:e}; a \
+                         residual that stops falling is at the round-off of this load (about \
+                         1e-15 ÷ the strain): give a larger {residual_key}",
+                        self.newton.max_iterations_key,
+                        self.newton.max_iterations,
+                        self.newton.residual_tolerance,
+                        self.newton.increment_tolerance,
                     ),
+                    at_round_off: best_residual <= ROUND_OFF_DROP * first_residual
+                        && relative > 0.1 * earlier_best,
                 });
             }
             let started = Instant::now();
@@ -386,6 +528,7 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
                 residual: norm,
                 particle: worst(),
                 reason: e.to_string(),
+                at_round_off: false,
             })?;
             stats = SolveStats {
                 seconds: started.elapsed().as_secs_f64(),
@@ -399,6 +542,7 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
                     residual: norm,
                     particle: b.particle,
                     reason: "det F ≤ 0 after the update".into(),
+                    at_round_off: false,
                 });
             }
         }
@@ -549,7 +693,7 @@ impl<D: Dim, S: Model<D>> Engine<D> for Statics<D, S> {
                             .sum::<f64>();
                         self.t = to;
                     }
-                    Err(_) if cuts < self.newton.max_cuts => {
+                    Err(stalled) if cuts < self.newton.max_cuts && !stalled.at_round_off => {
                         self.u = u_before;
                         self.reaction = reaction_before;
                         h *= 0.5;
@@ -566,10 +710,17 @@ impl<D: Dim, S: Model<D>> Engine<D> for Statics<D, S> {
                                 &format!(
                                     "Newton residual |R| at load factor {:.6} after {} \
                                      iteration(s) and {cuts} cut(s) of the load step to \
-                                     {h:e} s ({}); the largest residual is at this particle",
+                                     {h:e} s ({}{}); the largest residual is at this particle",
                                     (self.t + h) / self.end_time,
                                     stalled.iterations,
-                                    stalled.reason
+                                    stalled.reason,
+                                    if stalled.at_round_off && cuts < self.newton.max_cuts {
+                                        "; not cut, as the residual had fallen by more than \
+                                         six decades and stopped falling, and a smaller step \
+                                         stalls the same way"
+                                    } else {
+                                        ""
+                                    }
                                 ),
                                 stalled.residual,
                             ),

@@ -59,13 +59,15 @@ pub struct DualSupportSpec {
     /// CPU; the GPU solves matrix-free by Jacobi CG whatever this says.
     #[serde(default)]
     pub solver: SolverKind,
-    /// Newton stops when |R| ≤ this × the force scale (the norm of the internal and
-    /// external forces). Default 1e-8.
-    #[serde(default = "residual_tolerance")]
-    pub residual_tolerance: f64,
-    /// … or when |Δu| ≤ this × |u|. Default 1e-12.
-    #[serde(default = "increment_tolerance")]
-    pub increment_tolerance: f64,
+    /// Newton stops when |R| ≤ this × the force scale: this method's older name of
+    /// `run.tolerance.residual` ([`crate::statics::Tolerance`]), which it overrides;
+    /// absent: run.tolerance's (default 1e-8). Not both.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub residual_tolerance: Option<f64>,
+    /// … or when |Δu| ≤ this × |u|: the older name of `run.tolerance.increment`, as
+    /// above (default 1e-10).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub increment_tolerance: Option<f64>,
     /// Newton iterations of a load step before it is cut in half. Default 20.
     #[serde(default = "max_iterations")]
     pub max_iterations: u32,
@@ -83,12 +85,6 @@ pub struct DualSupportSpec {
 
 fn one() -> f64 {
     1.0
-}
-fn residual_tolerance() -> f64 {
-    1e-8
-}
-fn increment_tolerance() -> f64 {
-    1e-12
 }
 fn max_iterations() -> u32 {
     20
@@ -109,8 +105,8 @@ impl Default for DualSupportSpec {
             hourglass: one(),
             smoothing_length: SmoothingLength::default(),
             solver: SolverKind::default(),
-            residual_tolerance: residual_tolerance(),
-            increment_tolerance: increment_tolerance(),
+            residual_tolerance: None,
+            increment_tolerance: None,
             max_iterations: max_iterations(),
             max_cuts: max_cuts(),
             linear_tolerance: linear_tolerance(),
@@ -261,10 +257,35 @@ impl MethodFamily for DualSupportSpec {
         for (key, v) in [
             ("method.residual_tolerance", self.residual_tolerance),
             ("method.increment_tolerance", self.increment_tolerance),
-            ("method.linear_tolerance", self.linear_tolerance),
+            ("method.linear_tolerance", Some(self.linear_tolerance)),
         ] {
-            if !(v.is_finite() && v > 0.0 && v < 1.0) {
+            if let Some(v) = v
+                && !(v.is_finite() && v > 0.0 && v < 1.0)
+            {
                 return fail(key, format!("must lie in (0, 1), got {v:?}"));
+            }
+        }
+        for (key, own, run) in [
+            (
+                "residual",
+                self.residual_tolerance,
+                case.run.tolerance.residual,
+            ),
+            (
+                "increment",
+                self.increment_tolerance,
+                case.run.tolerance.increment,
+            ),
+        ] {
+            if own.is_some() && run.is_some() {
+                return fail(
+                    format!("method.{key}_tolerance"),
+                    format!(
+                        "and run.tolerance.{key} are the same tolerance: give \
+                         run.tolerance.{key} only (method.{key}_tolerance is this method's \
+                         older name of it)"
+                    ),
+                );
             }
         }
         for (key, v) in [

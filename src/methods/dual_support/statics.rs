@@ -71,15 +71,31 @@ impl<D: Dim> crate::statics::Statics<D, DualSupport<D>> {
             body,
             boundary: &boundary,
             linearisation,
-            newton: Newton {
-                residual_tolerance: spec.residual_tolerance,
-                increment_tolerance: spec.increment_tolerance,
-                max_iterations: spec.max_iterations,
-                max_cuts: spec.max_cuts,
-                max_iterations_key: "method.max_iterations",
-            },
+            newton: spec.newton(case),
         };
         Self::with_model(case, model, setup, "method.solver")
+    }
+}
+
+impl DualSupportSpec {
+    /// Newton's settings: `run.tolerance`, or this method's older keys for it where given
+    /// (named in the message of a stalled step), and its iteration limits.
+    pub fn newton(&self, case: &Case) -> Newton {
+        let mut newton = Newton::of(
+            case,
+            self.max_iterations,
+            self.max_cuts,
+            "method.max_iterations",
+        );
+        if let Some(v) = self.residual_tolerance {
+            newton.residual_tolerance = v;
+            newton.tolerance_keys[0] = "method.residual_tolerance";
+        }
+        if let Some(v) = self.increment_tolerance {
+            newton.increment_tolerance = v;
+            newton.tolerance_keys[1] = "method.increment_tolerance";
+        }
+        newton
     }
 }
 
