@@ -38,7 +38,13 @@ pub struct Boundary<D: Dim> {
     /// prescribed (reached at the end time; static path), displacement): a subset of
     /// `constrained`, whose other components have prescribed velocities.
     pub displacement: Vec<(u32, u8, D::V)>,
-    /// (particle, external acceleration from tractions and body forces).
+    /// (particle, force) of the constant tractions: ∫ t dA over the particle's patch of
+    /// the loaded face ([`Patch`]), whatever the particle's mass.
+    forces: Vec<(u32, D::V)>,
+    /// (particle, acceleration g) of the constant body forces.
+    gravity: Vec<(u32, D::V)>,
+    /// (particle, external acceleration f/m + g) for the masses of the method that holds
+    /// the boundary ([`Self::use_masses`]; the particle masses ρ0 V0 until then).
     pub external: Vec<(u32, D::V)>,
     /// The prescribed velocities that vary in time, one per condition.
     pub timed: Vec<TimedVelocity>,
@@ -124,7 +130,8 @@ impl<D: Dim> Boundary<D> {
     pub fn build(case: &Case, disc: &Discretised<D>, mass: &[f64]) -> Result<Self, CaseError> {
         let mut mask = vec![0u8; disc.x0.len()];
         let mut value = vec![D::zero(); disc.x0.len()];
-        let mut external = vec![D::zero(); disc.x0.len()];
+        let mut force = vec![D::zero(); disc.x0.len()];
+        let mut gravity = vec![D::zero(); disc.x0.len()];
         let mut dmask = vec![0u8; disc.x0.len()];
         let mut dvalue = vec![[0.0; 3]; disc.x0.len()];
         // The timed velocity of each component (index into `timed`), if one prescribes it.
@@ -134,7 +141,6 @@ impl<D: Dim> Boundary<D> {
         let supports = supports(case);
         let support = |b: usize| supports.iter().position(|s| s.0 == b).unwrap_or(0) as u16;
         let mut timed = Vec::new();
-        let area = case.spacing.powi(D::N as i32 - 1);
         for (b, bc) in case.boundaries.iter().enumerate() {
             let particles = selected::<D>(case, b, &disc.x0, &disc.body)?;
             if bc.condition.is_timed_load() {
@@ -152,8 +158,12 @@ impl<D: Dim> Boundary<D> {
                 }
                 _ => None,
             };
-            // The extent of the region's particles: the face a traction patch is clipped to.
-            let face = neighbour::bounding_box(particles.iter().map(|&i| D::to3(disc.x0[i])));
+            if matches!(bc.condition, Condition::Pressure { .. }) {
+                for (i, f) in pressure_forces::<D>(case, b, &disc.x0, &disc.body)? {
+                    force[i] += f;
+                }
+            }
+            let face = Face::of::<D>(case, b, &particles, &disc.x0, &disc.body);
             let s = support(b);
             for i in particles {
                 match &bc.condition {
@@ -188,12 +198,14 @@ impl<D: Dim> Boundary<D> {
                         support_of[i][k] = s;
                     }
                     Condition::Traction { traction, .. } => {
-                        external[i] += D::from_slice(traction) * (area / mass[i]);
+                        let t = std::array::from_fn(|k| traction.get(k).copied().unwrap_or(0.0));
+                        let f = face.patch::<D>(disc.x0[i]).force(|_| t);
+                        force[i] += D::from_slice(&f[..D::N]);
                     }
                     Condition::BodyForce { acceleration, .. } => {
-                        external[i] += D::from_slice(acceleration);
+                        gravity[i] += D::from_slice(acceleration);
                     }
-                    Condition::Pressure { .. } => unreachable!("a timed load"),
+                    Condition::Pressure { .. } => {} // its forces, below
                     Condition::Displacement { ux, uy, uz } => {
                         for (k, c) in [ux, uy, uz].iter().enumerate().take(D::N) {
                             if let Some(c) = c {
@@ -221,17 +233,11 @@ impl<D: Dim> Boundary<D> {
                     }
                     Condition::SolutionTraction { solution, normal } => {
                         let closed = ClosedForm::of(solution, &case.material);
-                        let patch = Patch {
-                            centre: D::to3(disc.x0[i]),
-                            half: 0.5 * case.spacing,
-                            face: &face,
-                            normal,
-                        };
-                        let f = patch.force::<D>(|x| {
+                        let f = face.patch::<D>(disc.x0[i]).force(|x| {
                             let s = closed.stress3(x);
                             std::array::from_fn(|r| (0..D::N).map(|c| s[r][c] * normal[c]).sum())
                         });
-                        external[i] += D::from_slice(&f) * (1.0 / mass[i]);
+                        force[i] += D::from_slice(&f[..D::N]);
                     }
                 }
             }
@@ -251,7 +257,13 @@ impl<D: Dim> Boundary<D> {
                 (0..D::N).filter_map(move |k| timed_of[k].map(|g| (i, k as u8, g, v[k])))
             })
             .collect();
-        Ok(Self {
+        let nonzero = |field: Vec<D::V>| {
+            (0..field.len() as u32)
+                .filter(|&i| field[i as usize] != D::zero())
+                .map(|i| (i, field[i as usize]))
+                .collect()
+        };
+        let mut boundary = Self {
             displacement: constrained
                 .iter()
                 .filter(|&&i| dmask[i as usize] != 0)
@@ -274,16 +286,47 @@ impl<D: Dim> Boundary<D> {
                 .collect(),
             supports: supports.len(),
             constrained: constrained.iter().map(|&i| (i, mask[i as usize])).collect(),
-            external: (0..mask.len() as u32)
-                .filter(|&i| external[i as usize] != D::zero())
-                .map(|i| (i, external[i as usize]))
-                .collect(),
+            forces: nonzero(force),
+            gravity: nonzero(gravity),
+            external: Vec::new(),
             step: timed.iter().map(TimedVelocity::at_start).collect(),
             timed,
             timed_components,
             #[cfg(feature = "gpu")]
             n: disc.x0.len(),
-        })
+        };
+        boundary.use_masses(mass);
+        Ok(boundary)
+    }
+
+    /// Sets the external accelerations f/m + g for the nodal masses m of the method that
+    /// holds the boundary, so that the loads' forces do not depend on how a method lumps
+    /// its mass (a row-sum mass gives a corner node a quarter of a particle's).
+    pub fn use_masses(&mut self, mass: &[f64]) {
+        let mut external = vec![D::zero(); mass.len()];
+        for &(i, f) in &self.forces {
+            external[i as usize] += f * (1.0 / mass[i as usize]);
+        }
+        for &(i, g) in &self.gravity {
+            external[i as usize] += g;
+        }
+        self.external = (0..mass.len() as u32)
+            .filter(|&i| external[i as usize] != D::zero())
+            .map(|i| (i, external[i as usize]))
+            .collect();
+    }
+
+    /// The external force f + m g on every particle for the nodal masses m: the applied
+    /// load of a static solve.
+    pub fn external_forces(&self, mass: &[f64]) -> Vec<D::V> {
+        let mut load = vec![D::zero(); mass.len()];
+        for &(i, f) in &self.forces {
+            load[i as usize] += f;
+        }
+        for &(i, g) in &self.gravity {
+            load[i as usize] += g * mass[i as usize];
+        }
+        load
     }
 
     /// Sets the timed velocities for the step from t to t + Δt (before it, as the
@@ -397,7 +440,8 @@ impl<D: Dim> Boundary<D> {
             })
     }
 
-    /// Power of the external (traction) loads, Σ m a_ext · v.
+    /// Power of the external loads (tractions and body forces), Σ m a_ext · v, for the
+    /// masses of [`Self::use_masses`].
     pub fn external_power(&self, v: &[D::V], mass: &[f64]) -> f64 {
         self.external
             .iter()
@@ -474,37 +518,122 @@ impl<D: Dim> crate::interaction::gpu::GpuInteraction for Boundary<D> {
     }
 }
 
+/// The face a traction region loads: the axes along it, and the extent its particles'
+/// patches are clipped to, the named shapes' bounds (and the region's own, where it sets
+/// them) along those axes. On a vertex lattice the edge and corner particles then carry
+/// half and a quarter of a patch, on a cell-centred one whole patches, and on either the
+/// patches tile the face the case names. A body without a named extent (a points file, a
+/// mesh) extends Δx/2 past its particles, as a sample of cell centres does (a mesh's
+/// centroids, the shipped irregular points files).
+struct Face {
+    along: Vec<usize>,
+    bounds: ([f64; 3], [f64; 3]),
+    half: f64,
+}
+
+impl Face {
+    /// The face of boundary condition b's region, whose particles are `particles`: normal
+    /// to the condition's `normal` if it has one, else to the axis along which the
+    /// particles spread least.
+    fn of<D: Dim>(case: &Case, b: usize, particles: &[usize], x0: &[D::V], body: &[u32]) -> Self {
+        let spread = neighbour::bounding_box(particles.iter().map(|&i| D::to3(x0[i])));
+        let normal = match &case.boundaries[b].condition {
+            Condition::SolutionTraction { normal, .. } => {
+                (0..D::N).find(|&k| normal[k] != 0.0).unwrap_or(0)
+            }
+            _ => (0..D::N)
+                .min_by(|&j, &k| {
+                    (spread.1[j] - spread.0[j]).total_cmp(&(spread.1[k] - spread.0[k]))
+                })
+                .unwrap_or(0),
+        };
+        let mut bodies: Vec<usize> = particles.iter().map(|&i| body[i] as usize).collect();
+        bodies.sort_unstable();
+        bodies.dedup();
+        let half = 0.5 * case.spacing;
+        let mut bounds = bodies
+            .iter()
+            .map(|&b| {
+                case.bodies[b].geometry.extent(D::N).unwrap_or_else(|| {
+                    let (lo, hi) = neighbour::bounding_box(
+                        (0..x0.len())
+                            .filter(|&i| body[i] as usize == b)
+                            .map(|i| D::to3(x0[i])),
+                    );
+                    (lo.map(|c| c - half), hi.map(|c| c + half))
+                })
+            })
+            .fold(
+                ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]),
+                |acc, (lo, hi)| {
+                    (
+                        std::array::from_fn(|k| acc.0[k].min(lo[k])),
+                        std::array::from_fn(|k| acc.1[k].max(hi[k])),
+                    )
+                },
+            );
+        let region = &case.boundaries[b].region;
+        let limits = [
+            (region.x_min, region.x_max),
+            (region.y_min, region.y_max),
+            (region.z_min, region.z_max),
+        ];
+        for (k, (lo, hi)) in limits.into_iter().enumerate() {
+            if let Some(lo) = lo {
+                bounds.0[k] = bounds.0[k].max(lo);
+            }
+            if let Some(hi) = hi {
+                bounds.1[k] = bounds.1[k].min(hi);
+            }
+        }
+        Self {
+            along: (0..D::N).filter(|&k| k != normal).collect(),
+            bounds,
+            half,
+        }
+    }
+
+    /// The patch of the particle at reference position x.
+    fn patch<D: Dim>(&self, x: D::V) -> Patch<'_> {
+        Patch {
+            centre: D::to3(x),
+            face: self,
+        }
+    }
+}
+
 /// The patch of a face that a particle carries the traction of: Δx wide in each
-/// direction of the face, centred at the particle, clipped to the extent of the region's
-/// particles (so that on a vertex lattice the edge and corner particles carry half and a
-/// quarter of a patch, and the patches tile the face).
+/// direction of the face, centred at the particle, clipped to the face's bounds.
 struct Patch<'a> {
     centre: [f64; 3],
-    half: f64,
-    face: &'a ([f64; 3], [f64; 3]),
-    normal: &'a [f64],
+    face: &'a Face,
 }
 
 impl Patch<'_> {
     /// ∫ t dA over the patch: 2-point Gauss in each direction of the face (exact for
     /// tractions quadratic in X).
-    fn force<D: Dim>(&self, t: impl Fn([f64; 3]) -> [f64; 3]) -> [f64; 3] {
-        let along: Vec<usize> = (0..D::N).filter(|&k| self.normal[k] == 0.0).collect();
+    fn force(&self, t: impl Fn([f64; 3]) -> [f64; 3]) -> [f64; 3] {
+        let Face {
+            along,
+            bounds: face,
+            half,
+        } = self.face;
+        let half = *half;
         let bounds: Vec<(f64, f64)> = along
             .iter()
             .map(|&k| {
-                let lo = (self.centre[k] - self.half).max(self.face.0[k]);
-                let hi = (self.centre[k] + self.half).min(self.face.1[k]);
+                let lo = (self.centre[k] - half).max(face.0[k]);
+                let hi = (self.centre[k] + half).min(face.1[k]);
                 (lo, hi.max(lo))
             })
             .collect();
         // A region one particle thick along a direction of the face: a full patch there.
         let bounds: Vec<(f64, f64)> = bounds
             .iter()
-            .zip(&along)
+            .zip(along)
             .map(|(&(lo, hi), &k)| {
-                if hi - lo < 1e-12 * self.half {
-                    (self.centre[k] - self.half, self.centre[k] + self.half)
+                if hi - lo < 1e-12 * half {
+                    (self.centre[k] - half, self.centre[k] + half)
                 } else {
                     (lo, hi)
                 }
@@ -553,12 +682,11 @@ pub struct TimedLoad<D: Dim> {
 
 /// The loads of a case that vary in time, one per condition: its time law and the
 /// (particle, acceleration) of every particle it loads, from the discretisation and the
-/// particles' masses. A traction with a time law gives f = t·Δx^(d−1) to each particle of
-/// its region, as a constant one; a pressure p on a circle of radius R gives each particle
-/// within Δx of it on the body's side f = p R Δθ n, Δθ half the angle between its
-/// neighbours along the circle (so that the shares sum to 2πR) and n the reference normal
-/// into the body, ±(X − c)/|X − c|; a force's acceleration is f/m. A body force gives its
-/// acceleration g to each particle of its region.
+/// nodal masses of the method that applies them. A traction with a time law gives each
+/// particle of its region the force over its patch of the face, as a constant one does
+/// ([`Face`]), a pressure its share of the circle ([`pressure_forces`]); a force's
+/// acceleration is f/m. A body force gives its acceleration g to each particle of its
+/// region.
 pub fn timed_loads<D: Dim>(
     case: &Case,
     disc: &Discretised<D>,
@@ -573,11 +701,16 @@ pub fn timed_loads<D: Dim>(
         let per_mass = |(i, f): (usize, D::V)| (i as u32, f * (1.0 / mass[i]));
         let (law, accelerations): (&TimeLaw, Vec<(u32, D::V)>) = match &bc.condition {
             Condition::Traction { traction, law } => {
-                let f = D::from_slice(traction) * case.spacing.powi(D::N as i32 - 1);
                 let particles = selected::<D>(case, b, x0, body)?;
+                let face = Face::of::<D>(case, b, &particles, x0, body);
+                let t = std::array::from_fn(|k| traction.get(k).copied().unwrap_or(0.0));
+                let force = |i: usize| {
+                    let f = face.patch::<D>(x0[i]).force(|_| t);
+                    (i, D::from_slice(&f[..D::N]))
+                };
                 (
                     law,
-                    particles.into_iter().map(|i| per_mass((i, f))).collect(),
+                    particles.into_iter().map(|i| per_mass(force(i))).collect(),
                 )
             }
             Condition::BodyForce { acceleration, law } => {
@@ -585,38 +718,9 @@ pub fn timed_loads<D: Dim>(
                 let particles = selected::<D>(case, b, x0, body)?;
                 (law, particles.into_iter().map(|i| (i as u32, g)).collect())
             }
-            Condition::Pressure {
-                pressure,
-                center,
-                radius,
-                surface,
-                law,
-            } => {
-                // Within Δx of the circle on the body's side, with a round-off margin on
-                // both ends (a lattice point on the circle, a layer Δx off it).
-                let (dx, tol) = (case.spacing, 1e-9 * case.spacing);
-                let on_circle: Vec<usize> = selected::<D>(case, b, x0, body)?
-                    .into_iter()
-                    .filter(|&i| {
-                        let r = D::norm2(x0[i] - D::from_slice(center)).sqrt();
-                        match surface {
-                            Surface::Inner => r >= radius - tol && r < radius + dx - tol,
-                            Surface::Outer => r <= radius + tol && r > radius - dx + tol,
-                        }
-                    })
-                    .collect();
-                let sign = match surface {
-                    Surface::Inner => 1.0,
-                    Surface::Outer => -1.0,
-                };
-                let shares = pressure_shares::<D>(case, b, x0, &on_circle, center)?;
-                let accelerations = shares
-                    .into_iter()
-                    .map(|(i, dtheta, normal)| {
-                        per_mass((i, normal * (sign * pressure * radius * dtheta)))
-                    })
-                    .collect();
-                (law, accelerations)
+            Condition::Pressure { law, .. } => {
+                let forces = pressure_forces::<D>(case, b, x0, body)?;
+                (law, forces.into_iter().map(per_mass).collect())
             }
             _ => unreachable!("the timed loads are tractions, pressures and body forces"),
         };
@@ -626,6 +730,49 @@ pub fn timed_loads<D: Dim>(
         });
     }
     Ok(loads)
+}
+
+/// The forces of boundary condition b, a pressure p on a circle of radius R: each particle
+/// within Δx of it on the body's side carries f = p R Δθ n, Δθ half the angle between its
+/// neighbours along the circle (so that the shares sum to 2πR) and n the reference normal
+/// into the body, ±(X − c)/|X − c|.
+fn pressure_forces<D: Dim>(
+    case: &Case,
+    b: usize,
+    x0: &[D::V],
+    body: &[u32],
+) -> Result<Vec<(usize, D::V)>, CaseError> {
+    let Condition::Pressure {
+        pressure,
+        center,
+        radius,
+        surface,
+        ..
+    } = &case.boundaries[b].condition
+    else {
+        unreachable!("boundary condition {b} is a pressure")
+    };
+    // Within Δx of the circle on the body's side, with a round-off margin on both ends (a
+    // lattice point on the circle, a layer Δx off it).
+    let (dx, tol) = (case.spacing, 1e-9 * case.spacing);
+    let on_circle: Vec<usize> = selected::<D>(case, b, x0, body)?
+        .into_iter()
+        .filter(|&i| {
+            let r = D::norm2(x0[i] - D::from_slice(center)).sqrt();
+            match surface {
+                Surface::Inner => r >= radius - tol && r < radius + dx - tol,
+                Surface::Outer => r <= radius + tol && r > radius - dx + tol,
+            }
+        })
+        .collect();
+    let sign = match surface {
+        Surface::Inner => 1.0,
+        Surface::Outer => -1.0,
+    };
+    Ok(pressure_shares::<D>(case, b, x0, &on_circle, center)?
+        .into_iter()
+        .map(|(i, dtheta, normal)| (i, normal * (sign * pressure * radius * dtheta)))
+        .collect())
 }
 
 /// The particles `on_circle` about `center` by angle, each with its share Δθ of the

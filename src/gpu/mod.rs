@@ -184,7 +184,7 @@ pub fn check_f32_run<D: crate::tensor::Dim>(
             case,
             format!("boundary.{b}.condition.{name}"),
             format!(
-                "gives particle {i} the acceleration {:?} m/s² (t·Δx^(d−1)/m, or g)",
+                "gives particle {i} the acceleration {:?} m/s² (f/m, or g)",
                 D::to3(a)
             ),
         ));

@@ -23,15 +23,14 @@ pub struct TimedLoads<D: Dim> {
 }
 
 impl<D: Dim> TimedLoads<D> {
-    /// The case's timed loads, or None if it has none.
-    pub fn build(case: &Case) -> Result<Option<Self>, CaseError> {
+    /// The case's timed loads on particles of nodal masses `mass` (the method's: the
+    /// forces do not depend on them, the accelerations do), or None if it has none.
+    pub fn build(case: &Case, mass: &[f64]) -> Result<Option<Self>, CaseError> {
         if !case.boundaries.iter().any(|b| b.condition.is_timed_load()) {
             return Ok(None);
         }
         let disc = discretise::<D>(case)?;
-        let rho0 = crate::material::Material::new(&case.material).rho0;
-        let mass: Vec<f64> = disc.vol.iter().map(|v| rho0 * v).collect();
-        let loads = crate::boundary::timed_loads::<D>(case, &disc, &mass)?;
+        let loads = crate::boundary::timed_loads::<D>(case, &disc, &mass[..disc.x0.len()])?;
         let laws: Vec<TimeLaw> = loads.iter().map(|l| l.law.clone()).collect();
         let groups = loads.into_iter().map(|l| l.accelerations).collect();
         Ok(Some(Self {

@@ -49,16 +49,18 @@ pub struct Interactions<D: Dim> {
 impl<D: Dim> Interactions<D> {
     /// The case's interactions on the particles at reference positions x0, with
     /// `neighbours` giving the neighbour lists of a total-Lagrangian method (read only by
-    /// contact: its kernels must not join two bodies) and `body` the body of every
-    /// particle those lists name (the particles of x0 first, then any ghosts).
+    /// contact: its kernels must not join two bodies), `body` the body of every
+    /// particle those lists name (the particles of x0 first, then any ghosts) and `mass`
+    /// the method's nodal mass of the particles of x0.
     pub fn build(
         case: &Case,
         x0: &[D::V],
         body: &[u32],
+        mass: &[f64],
         neighbours: impl FnOnce() -> Csr,
     ) -> Result<Self, CaseError> {
         let mut list: Vec<Box<dyn Interaction<D>>> = Vec::new();
-        if let Some(loads) = TimedLoads::<D>::build(case)? {
+        if let Some(loads) = TimedLoads::<D>::build(case, mass)? {
             list.push(Box::new(loads));
         }
         if let Some(spec) = case.contact {

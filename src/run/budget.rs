@@ -258,6 +258,7 @@ mod tests {
         c.bodies[0].geometry = Shape::Disk {
             center: vec![0.0, 0.0],
             radius: 2.0,
+            volumes: None,
         };
         let n = discretise::<D2>(&c).unwrap().x0.len() as f64;
         let e = Estimate::of(&c).unwrap().particles;
@@ -270,6 +271,7 @@ mod tests {
             inner_radius: 0.5,
             length: 1.0,
             lattice: Lattice::Vertex,
+            volumes: None,
         };
         let n = discretise::<D3>(&c).unwrap().x0.len() as f64;
         let e = Estimate::of(&c).unwrap().particles;

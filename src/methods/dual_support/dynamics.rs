@@ -47,7 +47,7 @@ impl<D: Dim> DualSupportDynamics<D> {
             ..
         } = reference;
         let s = &model.support;
-        let interactions = Interactions::build(case, &s.x0, &body, || s.lists.clone())?;
+        let interactions = Interactions::build(case, &s.x0, &body, &mass, || s.lists.clone())?;
         Ok(Self {
             model,
             mass,

@@ -349,8 +349,13 @@ impl<D: GpuDim> GpuGalerkin<D> {
             layout.stepped(),
             &y0,
         )?;
-        let interactions =
-            Interactions::<D>::build(case, host.reference(), host.body(), Csr::default)?;
+        let interactions = Interactions::<D>::build(
+            case,
+            host.reference(),
+            host.body(),
+            host.mass(),
+            Csr::default,
+        )?;
         let interactions = GpuInteractions::new(
             &gpu,
             &interactions,

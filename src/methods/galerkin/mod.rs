@@ -276,7 +276,7 @@ impl<D: Dim> TlGalerkin<D> {
             body,
             v0,
             u0,
-            boundary,
+            mut boundary,
             material,
             ..
         } = reference;
@@ -286,7 +286,8 @@ impl<D: Dim> TlGalerkin<D> {
         };
         // The shape functions of a point reach only its own body's nodes: no kernel spans
         // two bodies, whatever their distance.
-        let interactions = Interactions::build(case, &x0, &body, Csr::default)?;
+        boundary.use_masses(&mass);
+        let interactions = Interactions::build(case, &x0, &body, &mass, Csr::default)?;
         let n = points.len();
         Ok(Self {
             x0,

@@ -226,7 +226,7 @@ impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
             mass: particle_mass,
             body,
             v0,
-            boundary,
+            mut boundary,
             material,
             ..
         } = reference;
@@ -258,7 +258,8 @@ impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
             )?,
         };
         // The shape functions of a point reach only its own body's nodes.
-        let interactions = Interactions::build(case, &x0, &body, Csr::default)?;
+        boundary.use_masses(&mass);
+        let interactions = Interactions::build(case, &x0, &body, &mass, Csr::default)?;
         let q = shapes.len();
         Ok(Self {
             x: x0.clone(),

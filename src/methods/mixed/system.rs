@@ -296,7 +296,7 @@ impl<D: Dim> MixedSph<D> {
         };
         let mut body = vec![0; x0.len()];
         ghosts.fill(&mut body, |a| body_real[a], |_, b| b);
-        let interactions = Interactions::build(case, &x0[..n], &body, || csr.clone())?;
+        let interactions = Interactions::build(case, &x0[..n], &body, &mass, || csr.clone())?;
         let n_ext = x0.len();
         let compressibility = options.artificial_compressibility.map(|spec| {
             let pairs = Pairs {

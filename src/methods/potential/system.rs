@@ -102,7 +102,7 @@ impl<D: Dim> Potential<D> {
         } = reference;
         let grad = reference_gradients::<D>(case, &x0, &vol, &csr)?;
         let grad_rev = reverse_gradients::<D>(case, &csr, &grad)?;
-        let interactions = Interactions::build(case, &x0, &body, || csr.clone())?;
+        let interactions = Interactions::build(case, &x0, &body, &mass, || csr.clone())?;
         let identity = Kinematics {
             f: D::identity(),
             p: D::zero_t(),

@@ -260,7 +260,7 @@ impl<D: GpuDim> GpuUl<D> {
         )?;
         let per_body = case.contact.is_some();
         let interactions =
-            Interactions::<D>::build(case, &disc.x0, &disc.body, || disc.neighbours())?;
+            Interactions::<D>::build(case, &disc.x0, &disc.body, &disc.mass, || disc.neighbours())?;
         let interactions = GpuInteractions::new(
             &gpu,
             &interactions,

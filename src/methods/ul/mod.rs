@@ -167,7 +167,8 @@ impl<D: Dim> UlCore<D> {
             kernel,
             ..
         } = reference;
-        let interactions = Interactions::build(case, &x0, &body, || neighbours.lists().clone())?;
+        let interactions =
+            Interactions::build(case, &x0, &body, &mass, || neighbours.lists().clone())?;
         Ok(Self {
             x: x0.clone(),
             x0,
