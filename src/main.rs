@@ -552,10 +552,14 @@ fn check_command(cases: &[String], backend: Backend, set: &[String], limits: &Li
     ExitCode::SUCCESS
 }
 
-/// What loading changed in a case (keys dropped by a change of method).
+/// What loading changed in a case (keys dropped by a change of method), and the method's
+/// warning for a combination of keys known to give wrong answers.
 fn show_notes(case: &Case) {
     for note in &case.notes {
         eprintln!("note: {}: {note}", case.file.display());
+    }
+    if let Some(warning) = case.method.spec.warning(case) {
+        eprintln!("warning: {}: {warning}", case.file.display());
     }
 }
 

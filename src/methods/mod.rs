@@ -159,6 +159,21 @@ pub trait MethodFamily: Sized {
     /// (beyond |v|), with c_p the linear p-wave speed and F the particle's deformation
     /// gradient: it names the particle a collapse of the step is attributed to.
     fn stretch_signal_speed<D: Dim>(&self, c_p: f64, f: D::T) -> f64;
+
+    /// Whether this spec integrates over the cells between the particles of a lattice
+    /// (elements, Gauss points or stress points of the cells): its boxes and cylinders
+    /// are then sampled on the vertex lattice whatever `lattice` says, so that the cells
+    /// span the shape the case names (on a cell-centred lattice they would stop Δx/2
+    /// inside every face).
+    fn lattice_cells(&self) -> bool {
+        false
+    }
+    /// A warning for a combination of keys that runs but is known to give wrong answers
+    /// on standard problems, with the reason and the key that fixes it; said at the start
+    /// of every run and by `meshless check`.
+    fn warning(&self, _case: &Case) -> Option<String> {
+        None
+    }
 }
 
 /// A method as listed: its name and what its spec declares.
@@ -283,6 +298,18 @@ macro_rules! registry {
             pub fn stretch_signal_speed<D: Dim>(&self, c_p: f64, f: D::T) -> f64 {
                 match self {
                     $(Self::$variant(s) => s.stretch_signal_speed::<D>(c_p, f)),*
+                }
+            }
+
+            pub fn lattice_cells(&self) -> bool {
+                match self {
+                    $(Self::$variant(s) => s.lattice_cells()),*
+                }
+            }
+
+            pub fn warning(&self, case: &Case) -> Option<String> {
+                match self {
+                    $(Self::$variant(s) => s.warning(case)),*
                 }
             }
         }

@@ -65,6 +65,35 @@ pub(super) fn fixed_step_warning(dt: f64, cfl_step: f64) -> Option<String> {
     })
 }
 
+/// The bodies whose mass as the method lumps it differs from ρ0 times the volume of the
+/// shape the case names (beyond round-off, 1e-9), each with the difference: a lattice that
+/// does not fit the shape within `body.N.volume_tolerance`, said at the start of a run.
+pub(super) fn mass_notes<D: Dim>(case: &Case, snap: &Snapshot<D>) -> Vec<String> {
+    let rho0 = crate::material::Material::new(&case.material).rho0;
+    case.bodies
+        .iter()
+        .enumerate()
+        .filter(|(_, body)| body.holes.is_empty())
+        .filter_map(|(b, body)| {
+            let named = rho0 * body.geometry.volume(D::N)?;
+            let mass: f64 = (0..snap.mass.len())
+                .filter(|&i| snap.body[i] as usize == b)
+                .map(|i| snap.mass[i])
+                .sum();
+            let difference = mass / named - 1.0;
+            (difference.abs() > 1e-9).then(|| {
+                format!(
+                    "body `{}` has mass {mass:.6e} kg, {:+.3} % of ρ0 times the volume of \
+                     the named shape ({named:.6e} kg): the lattice of spacing {} does not fit it",
+                    body.name,
+                    100.0 * difference,
+                    case.spacing
+                )
+            })
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::fixed_step_warning;

@@ -2,7 +2,9 @@
 //! checks, outputs and the summary.
 
 use super::checkpoint;
-use super::checks::{energy_blow_up, fixed_step_warning, hourglass_blow_up, step_collapse};
+use super::checks::{
+    energy_blow_up, fixed_step_warning, hourglass_blow_up, mass_notes, step_collapse,
+};
 use super::frames::{Frames, next_frame_time};
 use super::progress::{Progress, ProgressDisplay};
 use super::{Engine, Failed, Iteration, RunError, RunOptions, output_error};
@@ -197,6 +199,11 @@ pub fn drive<D: Dim, E: Engine<D>>(
             fixed_step_warning(dt_first, case.spacing / engine.max_signal_speed())
     {
         eprintln!("warning: {}: {warning}", case.file.display());
+    }
+    if resumed.is_none() {
+        for note in mass_notes(case, &engine.snapshot()) {
+            eprintln!("note: {}: {note}", case.file.display());
+        }
     }
     let mut progress = Progress::new(opts.progress, case);
     let mut iterations = IterationLog::new(&opts.out_dir);

@@ -159,7 +159,18 @@ pub struct BodySpec {
     /// perforated block of seed 003 §7.2). The others keep their volumes.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub holes: Vec<Hole>,
+    /// The largest relative difference between the sampled volume Σ V and the volume of
+    /// the shape the case names that a run accepts (default 0.02): past it the lattice
+    /// does not fit the shape (a side that is not a multiple of Δx, a round shape on too
+    /// few particles) and the run is refused.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub volume_tolerance: Option<f64>,
 }
+
+/// The default of `body.N.volume_tolerance`: 2 %, the sampled area of a disk of radius
+/// 10Δx on the square lattice (within about 1 % of πr²) with room to spare, and a fifth of
+/// the mass a vertex lattice with Δx^d volumes adds to a 20Δx square (10 %).
+pub const VOLUME_TOLERANCE: f64 = 0.02;
 
 /// A hole through a body: in 2D the disk |X − c| < r, in 3D the points closer than r to
 /// the line through c along `axis` (a cylinder through the whole body).
@@ -197,12 +208,24 @@ pub struct VelocityNoise {
 }
 
 /// How lattice particles share the volume of their body.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Volumes {
-    #[default]
     Uniform,
     Tributary,
+    Scaled,
+}
+
+impl Volumes {
+    /// The volumes of a lattice when a case gives none: `tributary` on a vertex lattice,
+    /// whose outer particles lie on the faces, `uniform` on a cell-centred one; either
+    /// way they sum to the volume of a box whose sides are multiples of Δx.
+    pub fn or_default_for(volumes: Option<Volumes>, lattice: Lattice) -> Volumes {
+        volumes.unwrap_or(match lattice {
+            Lattice::Vertex => Volumes::Tributary,
+            Lattice::CellCentred => Volumes::Uniform,
+        })
+    }
 }
 
 /// Where a box's lattice points sit.
@@ -240,17 +263,27 @@ pub enum Shape {
     Box {
         min: Vec<f64>,
         max: Vec<f64>,
-        /// Particle volumes: `uniform` (Δx^d each, the default) or `tributary` (the dual
-        /// cell of a vertex lattice: halved on every face a particle lies on, so the
-        /// volumes sum to the box's volume when its sides are multiples of Δx).
-        #[serde(default)]
-        volumes: Volumes,
+        /// Particle volumes: `tributary` (the dual cell of a vertex lattice: halved on
+        /// every face a particle lies on, so the volumes sum to the box's volume when its
+        /// sides are multiples of Δx; the default on a vertex lattice) or `uniform` (Δx^d
+        /// each; the default on a cell-centred lattice, where they sum to the box's
+        /// volume too).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        volumes: Option<Volumes>,
         /// `vertex` (the default) or `cell-centred`.
         #[serde(default)]
         lattice: Lattice,
     },
     /// Disk of points with |x − c| < r (2D).
-    Disk { center: Vec<f64>, radius: f64 },
+    Disk {
+        center: Vec<f64>,
+        radius: f64,
+        /// Particle volumes: `scaled` (the default: Δx^d times the one factor that makes
+        /// them sum to the named shape's volume) or `uniform` (Δx^d each, as the lattice
+        /// falls: the mass is off by the cells the boundary cuts).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        volumes: Option<Volumes>,
+    },
     /// Annulus (2D): the square-lattice points with r_i ≤ |x − c| < r_o (`square`, the
     /// default), or a polar lattice of rings and rays (`polar`, see [`RingLattice`]).
     Ring {
@@ -263,6 +296,11 @@ pub enum Shape {
         /// circumference over Δx).
         #[serde(default)]
         sectors: Option<u32>,
+        /// Particle volumes of the square lattice: `scaled` (the default: Δx^d times the one factor that makes
+        /// them sum to the named shape's volume) or `uniform` (Δx^d each, as the lattice
+        /// falls: the mass is off by the cells the boundary cuts).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        volumes: Option<Volumes>,
     },
     /// Solid or hollow cylinder along a coordinate axis (3D); `base` is the centre of
     /// the bottom face.
@@ -277,6 +315,11 @@ pub enum Shape {
         /// centres of the Δx cells of the bounding box, Δx/2 inside its faces).
         #[serde(default)]
         lattice: Lattice,
+        /// Particle volumes: `scaled` (the default: Δx^d times the one factor that makes
+        /// them sum to the named shape's volume) or `uniform` (Δx^d each, as the lattice
+        /// falls: the mass is off by the cells the boundary cuts).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        volumes: Option<Volumes>,
     },
     /// Points from a CSV file with a header naming columns x, y[, z][, volume] and
     /// optionally their initial velocities vx, vy[, vz].
@@ -528,8 +571,10 @@ pub enum Condition {
     },
     /// Mirror plane with the given normal: the normal velocity component is zero.
     Symmetry { normal: Axis },
-    /// Surface traction t [Pa] on the region's particles, f = t·Δx^(d−1) each, times the
-    /// time law (constant by default).
+    /// Surface traction t [Pa] on the face the region's particles lie on: each carries
+    /// f = ∫ t dA over its patch of the face, Δx wide in each direction along it and
+    /// clipped to the named shape (half a patch at the edge of a vertex lattice), times the
+    /// time law (constant by default). The force does not depend on a method's masses.
     Traction {
         traction: Vec<f64>,
         #[serde(default, skip_serializing_if = "TimeLaw::is_constant")]
@@ -582,12 +627,13 @@ pub enum Condition {
 }
 
 impl Condition {
-    /// Whether the condition is a load that `interaction::TimedLoads` applies: a traction
-    /// or a body force with a time law, or a pressure (constant or not).
+    /// Whether the condition is a load that `interaction::TimedLoads` applies: a traction,
+    /// pressure or body force with a time law (a constant one is the boundary's).
     pub fn is_timed_load(&self) -> bool {
         match self {
-            Self::Traction { law, .. } | Self::BodyForce { law, .. } => !law.is_constant(),
-            Self::Pressure { .. } => true,
+            Self::Traction { law, .. }
+            | Self::BodyForce { law, .. }
+            | Self::Pressure { law, .. } => !law.is_constant(),
             _ => false,
         }
     }

@@ -57,8 +57,8 @@ pub(super) fn check(case: &Case) -> Result<(), (String, String)> {
                 format!("boundary.{i}.condition"),
                 format!(
                     "the run of `{}` is static: its load steps scale the loads by t/end_time, \
-                     so it takes no pressure, no time law and no release (`until`); give a \
-                     constant `traction` or `velocity`",
+                     so it takes no time law and no release (`until`); give a constant \
+                     `traction`, `pressure` or `velocity`",
                     case.method.name()
                 ),
             );
@@ -512,6 +512,22 @@ fn bodies(bodies: &[BodySpec], dim: usize) -> Checked {
         if let Some(noise) = &body.velocity_noise {
             non_negative(&format!("{key}.velocity_noise.amplitude"), noise.amplitude)?;
         }
+        if let Some(tolerance) = body.volume_tolerance {
+            non_negative(&format!("{key}.volume_tolerance"), tolerance)?;
+        }
+    }
+    Ok(())
+}
+
+/// A round shape's `volumes`: `scaled` or `uniform`, no `tributary` (the halving on the
+/// faces of a box's vertex lattice).
+fn round_volumes(key: &str, volumes: Option<Volumes>) -> Checked {
+    if volumes == Some(Volumes::Tributary) {
+        return fail(
+            format!("{key}.volumes"),
+            "`tributary` halves the volumes on the faces of a box's vertex lattice; a round \
+             shape takes `scaled` (the default: summing to the shape) or `uniform` (Δx^d)",
+        );
     }
     Ok(())
 }
@@ -564,7 +580,15 @@ fn shape(shape: &Shape, key: &str, dim: usize) -> Checked {
         } => {
             vector(&format!("{key}.min"), min, dim)?;
             vector(&format!("{key}.max"), max, dim)?;
-            if (*volumes, *lattice) == (Volumes::Tributary, Lattice::CellCentred) {
+            if *volumes == Some(Volumes::Scaled) {
+                return fail(
+                    format!("{key}.volumes"),
+                    "`scaled` is for round shapes, whose lattice cannot follow the boundary; a \
+                     box's `tributary` (vertex lattice) or `uniform` (cell-centred) volumes sum \
+                     to it",
+                );
+            }
+            if (*volumes, *lattice) == (Some(Volumes::Tributary), Lattice::CellCentred) {
                 return fail(
                     format!("{key}.volumes"),
                     "`tributary` halves the volumes of the particles on the faces of a vertex \
@@ -583,7 +607,12 @@ fn shape(shape: &Shape, key: &str, dim: usize) -> Checked {
                 }
             }
         }
-        Shape::Disk { center, radius } => {
+        Shape::Disk {
+            center,
+            radius,
+            volumes,
+        } => {
+            round_volumes(key, *volumes)?;
             if dim != 2 {
                 return only("disk", 2, "\"cylinder\" or \"box\"");
             }
@@ -596,6 +625,7 @@ fn shape(shape: &Shape, key: &str, dim: usize) -> Checked {
             outer_radius,
             lattice,
             sectors,
+            volumes,
         } => {
             if dim != 2 {
                 return only("ring", 2, "\"cylinder\" with an inner_radius");
@@ -610,6 +640,14 @@ fn shape(shape: &Shape, key: &str, dim: usize) -> Checked {
                         "must be smaller than outer_radius = {outer_radius:?} (0 ≤ inner < \
                          outer), got {inner_radius:?}"
                     ),
+                );
+            }
+            round_volumes(key, *volumes)?;
+            if *lattice == RingLattice::Polar && volumes.is_some() {
+                return fail(
+                    format!("{key}.volumes"),
+                    "a polar ring's volumes are a quarter of each adjacent cell, which sum to \
+                     the ring: remove the key, or use lattice = \"square\"",
                 );
             }
             match (lattice, sectors) {
@@ -642,7 +680,9 @@ fn shape(shape: &Shape, key: &str, dim: usize) -> Checked {
             inner_radius,
             length,
             lattice: _,
+            volumes,
         } => {
+            round_volumes(key, *volumes)?;
             if dim != 3 {
                 return only("cylinder", 3, "\"disk\" or \"ring\"");
             }
@@ -1564,6 +1604,7 @@ mod tests {
             outer_radius: 1.0,
             lattice,
             sectors,
+            volumes: None,
         }
     }
 
@@ -1588,6 +1629,7 @@ mod tests {
             inner_radius: 0.0,
             length: 1.0,
             lattice: Lattice::Vertex,
+            volumes: None,
         };
         let (key, msg) = check(&c).unwrap_err();
         assert_eq!(key, "body.1.geometry.shape");
@@ -1595,7 +1637,7 @@ mod tests {
         c.bodies[1].geometry = Shape::Box {
             min: vec![0.0, 1.0],
             max: vec![1.0, 1.0],
-            volumes: Default::default(),
+            volumes: None,
             lattice: Default::default(),
         };
         assert_eq!(key_of(&c), "body.1.geometry.max");
@@ -1631,6 +1673,7 @@ mod tests {
             inner_radius: 0.5,
             length: 1.0,
             lattice: Lattice::Vertex,
+            volumes: None,
         };
         check(&c).unwrap();
         c.bodies[0].initial_velocity = Some(VelocityField::RigidRotation {

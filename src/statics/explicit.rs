@@ -84,7 +84,8 @@ pub struct Explicit<D: Dim, M: AtRest<D>> {
     pub method: M,
     /// The rates of the last force evaluation.
     rates: M::State,
-    /// m ⊙ the external accelerations the rate evaluation adds (the full load).
+    /// The external forces f + m g, m ⊙ the accelerations the rate evaluation adds (the
+    /// full load).
     external: Vec<D::V>,
     groups: Vec<Vec<u32>>,
     step: f64,
@@ -116,10 +117,7 @@ impl<D: Dim, M: AtRest<D>> Statics<D, Explicit<D, M>> {
                 (pattern, Linear::Lu, groups)
             }
         };
-        let mut external = vec![D::zero(); x0.len()];
-        for &(i, a) in &boundary.external {
-            external[i as usize] += a * mass[i as usize];
-        }
+        let external = boundary.external_forces(mass);
         let setup = Setup {
             mass: mass.to_vec(),
             body: method.body().to_vec(),

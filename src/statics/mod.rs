@@ -319,10 +319,7 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
         for (next, f) in free.iter_mut().flatten().enumerate() {
             *f = next as u32;
         }
-        let mut load = vec![D::zero(); n];
-        for &(i, a) in &boundary.external {
-            load[i as usize] += a * mass[i as usize];
-        }
+        let load = boundary.external_forces(&mass);
         let unknowns = free.iter().flatten().count();
         let step = match linearisation {
             Linearisation::Assembled(pattern, linear) => {

@@ -63,3 +63,4 @@ mod timed_velocity;
 mod tl_potential;
 mod tlsph;
 mod ul_galerkin;
+mod verification;

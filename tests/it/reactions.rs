@@ -18,7 +18,8 @@ const T_RAMP: f64 = 5.0e-3;
 const T_END: f64 = 2.0e-2;
 
 /// A plane-stress linear-elastic strip (E = 1e7 Pa, ρ = 1000 kg/m³: c = 100 m/s, one
-/// transit of the length in 1 ms) on a vertex lattice of spacing `dx`, held in x at
+/// transit of the length in 1 ms) on a vertex lattice of spacing `dx` with Δx² volumes
+/// (the rows carry N_y Δx, [`sigma_a`]), held in x at
 /// x = 0 (`left`) and pinned in y at its lower-left corner (`pin`), its right end pulled
 /// at V with the speed ramped over 5 ms (`grip`): 20 transits to t = 20 ms, so the pull is
 /// quasi-static. A section at mid-length; `method` with `keys`, `model`, CFL 0.3.
@@ -40,7 +41,7 @@ name = "{method}"
 cfl = 0.3
 [[body]]
 name = "strip"
-geometry = {{ shape = "box", min = [0.0, 0.0], max = [{LENGTH}, {HEIGHT}] }}
+geometry = {{ shape = "box", min = [0.0, 0.0], max = [{LENGTH}, {HEIGHT}], volumes = "uniform" }}
 [[boundary]]
 name = "left"
 region = {{ x_max = 0.0 }}
@@ -262,4 +263,109 @@ fn the_shipped_pulled_strip_follows_uniaxial_neo_hooke_from_its_reaction() {
     // 2.5 mm; 0.6 % during the ramp). A reaction booked to the wrong support or a section
     // column out of place would be off by the whole force.
     assert!(spread < 0.008, "{spread}");
+}
+
+/// A plane-stress linear-elastic bar (E = 1e7 Pa, ν = 0.3) of 2 × 0.5 m on a cell-centred
+/// lattice of Δx = 0.05 m (40 × 10 particles), TLSPH with the Randles–Libersky correction
+/// and no `force` key, solved statically: the column at x = Δx/2 fixed (`clamp`), the
+/// column at x = L − Δx/2 loaded by the traction t = 1e4 Pa along x (its 10
+/// particles take t·Δx each, so tH = 5000 N/m in all, the same on any rule that gives
+/// the loaded face its length H), a section at mid-length. `set` overrides.
+fn static_bar(set: &[&str]) -> Case {
+    let (dx, length, height) = (0.05, 2.0, 0.5);
+    let text = format!(
+        r#"
+name = "static-bar"
+dimension = 2
+spacing = {dx}
+[material]
+model = "linear-elastic"
+plane = "stress"
+density = 1000.0
+youngs_modulus = 1.0e7
+poisson_ratio = 0.3
+[method]
+name = "tlsph"
+h_over_dx = 1.3
+correction = "randles-libersky"
+dt = 1.0
+[[body]]
+name = "bar"
+geometry = {{ shape = "box", min = [0.0, 0.0], max = [{length}, {height}], lattice = "cell-centred" }}
+[[boundary]]
+name = "clamp"
+region = {{ x_max = {clamp} }}
+condition = {{ type = "fixed" }}
+[[boundary]]
+region = {{ x_min = {end} }}
+condition = {{ type = "traction", traction = [1.0e4, 0.0] }}
+[[section]]
+name = "mid"
+normal = "x"
+at = {mid}
+[run]
+end_time = 1.0
+solve = "static"
+[output]
+observers = ["reaction"]
+"#,
+        clamp = 0.5 * dx,
+        end = length - 0.5 * dx,
+        mid = 0.5 * length,
+    );
+    let set: Vec<String> = set.iter().map(|s| s.to_string()).collect();
+    Case::from_toml(&text, Path::new("static-bar.toml"), &set).unwrap_or_else(|e| panic!("{e}"))
+}
+
+#[test]
+fn a_static_tlsph_bar_is_held_by_its_end_traction_with_the_default_force() {
+    // TLSPH as a case writes it without a `force` key (the variational force): at static
+    // equilibrium the clamp holds the whole load, −R_x = tH, and the section at mid-length
+    // carries it. The variational pair terms are equal and opposite, Σ_i f_int,i = 0, so
+    // the reaction is the load to Newton's tolerance whatever the stresses. Eq 134
+    // (`force = "reveles"`, the default before) uses i's corrected gradient on both
+    // stresses: its internal forces do not sum to zero at the surface rows, and the bar
+    // carries about half the load between its ends. Measured: the default's −R_x/tH − 1
+    // is −2.3e-10 (Newton's residual) and its section 1.00001 tH; eq 134's reaction is
+    // 1.00046 tH (the surplus forces of the two ends nearly cancel) and its section
+    // 0.520 tH.
+    let load = 1.0e4 * 0.5;
+    let columns = ["clamp.reaction_x", "clamp.reaction_y", "mid.force_x"];
+    let [rx, ry, mid] = ends(&static_bar(&[]), Backend::Cpu, &columns)[..] else {
+        unreachable!()
+    };
+    let eq134 = ends(
+        &static_bar(&["method.force=\"reveles\""]),
+        Backend::Cpu,
+        &columns,
+    );
+    eprintln!(
+        "load tH = {load} N/m; default force: −R_x/tH − 1 = {:.2e}, R_y = {ry:.2e} N/m, \
+         section/tH = {:.5}; eq 134: −R_x/tH = {:.5}, section/tH = {:.5}",
+        -rx / load - 1.0,
+        mid / load,
+        -eq134[0] / load,
+        eq134[2] / load
+    );
+    // The reaction is the load less Newton's residual on the free particles, which the
+    // solve leaves far below 1e-6 of the load.
+    assert!(
+        (rx + load).abs() < 1e-6 * load,
+        "clamp {rx} N/m, load {load} N/m"
+    );
+    assert!(ry.abs() < 1e-6 * load, "clamp R_y {ry} N/m");
+    // The section samples the stress of the particles within Δx of it; the bar's
+    // nodal integration leaves it within 1 % of the load.
+    assert!((mid / load - 1.0).abs() < 0.01, "section {mid} N/m");
+    // Eq 134 fails both.
+    assert!(
+        (eq134[0] + load).abs() > 1e-4 * load,
+        "eq 134: clamp {}",
+        eq134[0]
+    );
+    assert!(
+        (eq134[2] / load - 1.0).abs() > 0.3,
+        "eq 134: section {}",
+        eq134[2]
+    );
 }

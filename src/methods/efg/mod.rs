@@ -155,4 +155,18 @@ impl MethodFamily for EfgSpec {
     fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
         0.0
     }
+
+    fn warning(&self, _case: &Case) -> Option<String> {
+        (self.integration == Integration::Nodal).then(|| {
+            "method.integration = \"nodal\" integrates at the particles without \
+             stabilisation: the stripes even about every particle are zero-energy modes \
+             (docs/methods/seed001.md), and static bending gives deflections of the wrong \
+             sign or several times too large; use integration = \"cells\" (the default)"
+                .to_string()
+        })
+    }
+
+    fn lattice_cells(&self) -> bool {
+        self.integration == Integration::Cells
+    }
 }

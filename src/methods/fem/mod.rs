@@ -106,6 +106,10 @@ impl MethodFamily for FemSpec {
     fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
         0.0
     }
+
+    fn lattice_cells(&self) -> bool {
+        true
+    }
 }
 
 /// The state of a Galerkin method with material `mat`, for `--explain`.

@@ -240,6 +240,20 @@ impl MethodFamily for KbmSpec {
     fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
         0.0
     }
+
+    fn warning(&self, _case: &Case) -> Option<String> {
+        (!self.stress_points).then(|| {
+            "method.stress_points = false integrates at the particles without \
+             stabilisation: the stripes even about every particle are zero-energy modes \
+             (docs/methods/seed001.md), and static bending gives deflections of the wrong \
+             sign or several times too large; keep stress_points = true (the default)"
+                .to_string()
+        })
+    }
+
+    fn lattice_cells(&self) -> bool {
+        self.stress_points
+    }
 }
 
 impl KbmSpec {

@@ -162,6 +162,10 @@ impl MethodFamily for UlFemSpec {
     fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
         0.0
     }
+
+    fn lattice_cells(&self) -> bool {
+        true
+    }
 }
 
 /// The state of an updated-Lagrangian Galerkin method whose stress lives at `points`, for

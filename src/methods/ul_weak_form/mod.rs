@@ -121,4 +121,8 @@ impl MethodFamily for UlWeakFormSpec {
     fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
         0.0
     }
+
+    fn lattice_cells(&self) -> bool {
+        true
+    }
 }

@@ -1,0 +1,290 @@
+//! The verification matrix: the methods with a static path, each with its defaults (only
+//! the keys a method requires are given), on problems whose answers do not come from this
+//! code: a bar under an end traction (the reaction equals the load; the extension FL/EA,
+//! the patch test), a bar under its own weight (the reaction equals ρ g times the named
+//! area) and Timoshenko's cantilever (the elasticity solution, its displacement on the
+//! clamp and its traction on the loaded end), with the observed order of convergence.
+//! docs/verification.md has the matrix's figures.
+
+use meshless::analytic::Cantilever;
+use meshless::run::{Backend, Engine, engine};
+use meshless::scene::Case;
+use meshless::tensor::D2;
+use std::path::Path;
+
+/// A row of the matrix: a method name, the keys it requires, its documented order of
+/// convergence in the displacement and the cantilever's error bound at Δx = 0.125 m.
+struct Row {
+    method: &'static str,
+    keys: &'static str,
+    order: f64,
+    cantilever_error: f64,
+}
+
+/// Every method with a static path (`run.solve = "static"`, or static by default). The
+/// orders: two for the linearly complete Galerkin methods with cell quadrature (tl-fem,
+/// tl-weak-form, EFG (ci)), one for KBM (si) (docs/methods/seed001.md), for dual-support
+/// SPH (docs/methods/dual-support.md) and for TLSPH's nodal integration. The error
+/// bounds are 1.5 times the errors measured at Δx = 0.125 m (docs/verification.md), so
+/// that a change that adds half the error fails.
+const ROWS: [Row; 6] = [
+    Row {
+        method: "tlsph",
+        keys: "h_over_dx = 1.3",
+        order: 1.0,
+        cantilever_error: 0.07,
+    },
+    Row {
+        method: "tl-fem",
+        keys: "",
+        order: 2.0,
+        cantilever_error: 2.8e-3,
+    },
+    Row {
+        method: "tl-weak-form",
+        keys: "h_over_dx = 1.3",
+        order: 2.0,
+        cantilever_error: 7.2e-3,
+    },
+    Row {
+        method: "efg",
+        keys: "h_over_dx = 1.3",
+        order: 2.0,
+        cantilever_error: 3.7e-3,
+    },
+    Row {
+        method: "kbm",
+        keys: "h_over_dx = 1.3",
+        order: 1.0,
+        cantilever_error: 0.115,
+    },
+    Row {
+        method: "dual-support-sph",
+        keys: "h_over_dx = 1.0",
+        order: 1.0,
+        cantilever_error: 1.04e-2,
+    },
+];
+
+/// Young's modulus [Pa], Poisson's ratio and density [kg/m³] of every cell.
+const E: f64 = 1.0e7;
+const NU: f64 = 0.3;
+const RHO: f64 = 1000.0;
+
+/// A plane-stress linear-elastic box from `min` to `max` on the default (vertex) lattice
+/// of spacing `dx`, solved statically in one load step, with `boundaries` appended.
+fn static_case(row: &Row, dx: f64, min: [f64; 2], max: [f64; 2], boundaries: &str) -> Case {
+    let text = format!(
+        r#"
+name = "verification"
+dimension = 2
+spacing = {dx}
+[material]
+model = "linear-elastic"
+plane = "stress"
+density = {RHO}
+youngs_modulus = {E}
+poisson_ratio = {NU}
+[method]
+name = "{method}"
+{keys}
+dt = 1.0
+[[body]]
+name = "body"
+geometry = {{ shape = "box", min = {min:?}, max = {max:?} }}
+{boundaries}
+[run]
+solve = "static"
+end_time = 1.0
+"#,
+        method = row.method,
+        keys = row.keys,
+    );
+    Case::from_toml(&text, Path::new("verification.toml"), &[])
+        .unwrap_or_else(|e| panic!("{}: {e}", row.method))
+}
+
+/// The static engine of `case` after its one load step.
+fn solved(case: &Case) -> Box<dyn Engine<D2>> {
+    let mut e = engine::<D2>(case, Backend::Cpu).unwrap_or_else(|e| panic!("{e}"));
+    e.advance(0.0, 1.0, 1)
+        .unwrap_or_else(|f| panic!("{}: {f:?}", case.method.name()));
+    e
+}
+
+/// The roller supports of a uniaxial bar: the end x = 0 held in x, its lower corner in y.
+const ROLLERS: &str = r#"
+[[boundary]]
+name = "end"
+region = { x_max = 0.0 }
+condition = { type = "velocity", vx = 0.0 }
+[[boundary]]
+name = "pin"
+region = { x_max = 0.0, y_max = 0.0 }
+condition = { type = "velocity", vy = 0.0 }
+"#;
+
+/// The bar 4 m × 1 m on rollers pulled by t = 1e4 Pa on its free end, solved by `row`:
+/// (the supports' reaction, the mean u_x of the loaded end).
+fn pulled_bar(row: &Row) -> (f64, f64) {
+    let (l, t) = (4.0, 1.0e4);
+    let load = format!(
+        "{ROLLERS}[[boundary]]\nregion = {{ x_min = {l} }}\ncondition = {{ type = \"traction\", traction = [{t}, 0.0] }}\n"
+    );
+    let case = static_case(row, 0.125, [0.0, 0.0], [l, 1.0], &load);
+    let mut e = solved(&case);
+    let reaction = e.reactions()[0].force[0];
+    let s = e.snapshot();
+    let end: Vec<usize> = (0..s.x0.len())
+        .filter(|&i| (s.x0[i].x - l).abs() < 1e-9)
+        .collect();
+    let stretch = end.iter().map(|&i| s.u[i].x).sum::<f64>() / end.len() as f64;
+    eprintln!(
+        "{}: reaction {reaction:.9e}, end u_x {stretch:.9e} (tL/E {:e})",
+        row.method,
+        t * l / E
+    );
+    (reaction, stretch)
+}
+
+#[test]
+fn every_static_method_holds_an_end_traction() {
+    // The reaction of the bar is −t H at equilibrium whatever the method, mass or lattice
+    // (the traction is a force over each particle's patch of the face, the corners half
+    // a patch), to the Newton tolerance: bound 1e-8 of the load (the residual is judged
+    // at 1e-10 of the load scale, with room for its round-off). With t·Δx on every end
+    // particle it was 1.125 t H, and with the row-sum mass 0.5 t H.
+    let load = 1.0e4;
+    let failures: Vec<String> = ROWS
+        .iter()
+        .filter_map(|row| {
+            let (reaction, _) = pulled_bar(row);
+            ((reaction + load).abs() > 1e-8 * load)
+                .then(|| format!("{}: reaction {reaction} against {}", row.method, -load))
+        })
+        .collect();
+    assert!(failures.is_empty(), "{failures:#?}");
+}
+
+#[test]
+fn the_finite_elements_pass_the_patch_test_under_a_traction() {
+    // The stress is uniform and u_x = t x/E is in the bilinear space, and the patches'
+    // loads are the consistent nodal forces ∫ N t dΓ of bilinear elements: the end's
+    // mean u_x is tL/E to round-off of a conditioned solve (bound 1e-9).
+    let (_, stretch) = pulled_bar(&ROWS[1]);
+    let exact = 1.0e4 * 4.0 / E;
+    assert!(
+        (stretch / exact - 1.0).abs() < 1e-9,
+        "{stretch} against {exact}"
+    );
+}
+
+#[test]
+#[ignore = "finding: docs/verification.md, the patch test under a traction"]
+fn every_linearly_complete_method_passes_the_patch_test_under_a_traction() {
+    // Issue 47's patch test: u_x = t x/E is reproduced by every linearly complete method,
+    // within 1e-6 of tL/E. It holds for tl-fem only: the meshfree Galerkin methods take
+    // the patch loads, not their own ∫ N t dΓ, and TLSPH and dual-support SPH their nodal
+    // forces (measured 0.4–5.5 % off, docs/verification.md).
+    let exact = 1.0e4 * 4.0 / E;
+    let failures: Vec<String> = ROWS
+        .iter()
+        .filter_map(|row| {
+            let (_, stretch) = pulled_bar(row);
+            ((stretch / exact - 1.0).abs() > 1e-6)
+                .then(|| format!("{}: u_x {stretch} against {exact}", row.method))
+        })
+        .collect();
+    assert!(failures.is_empty(), "{failures:#?}");
+}
+
+#[test]
+fn every_static_method_holds_the_weight_of_the_named_body() {
+    // The same bar hanging from its end x = 0 under g = 9.81 m/s² along −x: the supports
+    // hold ρ g L H, the weight of the box the case names (its particles' volumes sum to
+    // it, the lattice's outer rows carrying half cells), to the Newton tolerance (1e-8).
+    let (l, h, g) = (4.0, 1.0, 9.81);
+    let load = format!(
+        "{ROLLERS}[[boundary]]\nregion = {{}}\ncondition = {{ type = \"body-force\", acceleration = [{}, 0.0] }}\n",
+        -g
+    );
+    let weight = RHO * g * l * h;
+    let mut failures = Vec::new();
+    for row in &ROWS {
+        let case = static_case(row, 0.125, [0.0, 0.0], [l, h], &load);
+        let mut e = solved(&case);
+        let reaction = e.reactions()[0].force[0];
+        eprintln!(
+            "{}: reaction {reaction:.9e} (weight {weight:e})",
+            row.method
+        );
+        if (reaction - weight).abs() > 1e-8 * weight {
+            failures.push(format!(
+                "{}: reaction {reaction} against {weight}",
+                row.method
+            ));
+        }
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
+}
+
+/// Timoshenko's cantilever of length 8 m and depth 2 m (centred on y = 0) under an end
+/// load P = −1e3 N/m at spacing `dx`: the relative volume-weighted L2 error of u.
+fn cantilever_error(row: &Row, dx: f64) -> f64 {
+    let (l, d, p) = (8.0, 2.0, -1.0e3);
+    let solution = format!(
+        "solution = {{ type = \"timoshenko-cantilever\", load = {p}, length = {l}, depth = {d} }}"
+    );
+    let boundaries = format!(
+        r#"
+[[boundary]]
+name = "clamp"
+region = {{ x_max = 0.0 }}
+condition = {{ type = "solution-displacement", components = ["x", "y"], {solution} }}
+[[boundary]]
+region = {{ x_min = {l} }}
+condition = {{ type = "solution-traction", normal = [1.0, 0.0], {solution} }}
+"#
+    );
+    let case = static_case(row, dx, [0.0, -d / 2.0], [l, d / 2.0], &boundaries);
+    let mut e = solved(&case);
+    let exact = Cantilever {
+        load: p,
+        length: l,
+        depth: d,
+        youngs_modulus: E,
+        poisson_ratio: NU,
+    };
+    let s = e.snapshot();
+    let (mut num, mut den) = (0.0, 0.0);
+    for ((x, u), m) in s.x0.iter().zip(&s.u).zip(s.mass) {
+        let [ux, uy] = exact.displacement(x.x, x.y);
+        num += ((ux - u.x).powi(2) + (uy - u.y).powi(2)) * m;
+        den += (ux * ux + uy * uy) * m;
+    }
+    (num / den).sqrt()
+}
+
+#[test]
+fn every_static_method_converges_to_timoshenkos_cantilever() {
+    // The error at Δx = 0.125 m under the row's bound, and the observed order from 0.25
+    // m at least 0.8 for a first-order method and 1.6 for a second-order one (issue 47's
+    // rule).
+    let mut failures = Vec::new();
+    for row in &ROWS {
+        let coarse = cantilever_error(row, 0.25);
+        let fine = cantilever_error(row, 0.125);
+        let order = (coarse / fine).log2();
+        eprintln!(
+            "{}: error {coarse:.3e} → {fine:.3e}, order {order:.2}",
+            row.method
+        );
+        if fine > row.cantilever_error || order < 0.8 * row.order {
+            failures.push(format!(
+                "{}: error {coarse:.3e} → {fine:.3e}, order {order:.2}",
+                row.method
+            ));
+        }
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
+}
