@@ -91,8 +91,11 @@ bench tlsph "$steps" "$plate"
 bench tlsph-hypoelastic "$steps" "$plate" --set material.model=hypoelastic
 bench upwind-sph "$steps" swinging-plate --set method.name=upwind-sph
 bench jst-sph "$steps" swinging-plate --set method.name=jst-sph
-bench tl-potential "$steps" "$plate" --set method.name=tl-potential
-bench corotated-tlsph "$steps" "$plate" --set method.name=corotated-tlsph --set method.correction=none
+# The plate's `force = "reveles"` is TLSPH's: the potential takes its own default, corotated
+# TLSPH the reference code's force of its suite variant.
+bench tl-potential "$steps" "$plate" --set method.name=tl-potential --set method.force=
+bench corotated-tlsph "$steps" "$plate" --set method.name=corotated-tlsph --set method.correction=none \
+    '--set=method.force="reference-code"'
 bench gray-monaghan-sph "$steps" "$plate" --set method.name=gray-monaghan-sph \
     --set material.model=hypoelastic --set method.kernel=cubic-spline --set method.correction=none \
     "--set=method.artificial_viscosity={ alpha = 1.0, beta = 1.0, eta = 0.1 }" \

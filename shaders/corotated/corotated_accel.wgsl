@@ -1,14 +1,16 @@
 // Corotated total-Lagrangian SPH on the device (seed 000 §5.5), pass 2 of a rate
-// evaluation: m_i a_i = Σ_j V_i V_j ½(R_i + R_j)(P̂_i + P̂_j)∇0W_ij (eqs 154–155 as the
-// reference code writes them) plus Monaghan viscosity along ½(R_iF̂_i⁻ᵀ + R_jF̂_j⁻ᵀ)∇0W_ij,
-// boundary conditions (boundary.wgsl) and u̇ = v. One invocation per particle; writes
-// only its own particle. Buffers and constants as in corotated.wgsl, with ext (the
-// external accelerations, DIM per particle) and the rates d = [u̇ | v̇]; AV, AV_ALPHA,
-// AV_BETA, AV_ETA (viscosity.wgsl).
+// evaluation: with FORCE_VARIATIONAL m_i a_i = Σ_j V_i V_j (R_i P̂_i ∇0W_ij −
+// R_j P̂_j ∇0W_ji), the reverse gradients GREV filled by the set-up entry of
+// reverse_gradients.wgsl; with FORCE_REFERENCE_CODE Σ_j V_i V_j ½(R_i + R_j)(P̂_i + P̂_j)
+// ∇0W_ij (eqs 154–155 as the reference code writes them); plus Monaghan viscosity along
+// ½(R_iF̂_i⁻ᵀ + R_jF̂_j⁻ᵀ)∇0W_ij, boundary conditions (boundary.wgsl) and u̇ = v. One
+// invocation per particle; writes only its own particle. Buffers and constants as in
+// corotated.wgsl, with ext (the external accelerations, DIM per particle) and the rates
+// d = [u̇ | v̇]; AV, AV_ALPHA, AV_BETA, AV_ETA (viscosity.wgsl).
 
 @group(0) @binding(0) var<storage, read> offsets: array<u32>;
 @group(0) @binding(1) var<storage, read> ids: array<u32>;
-@group(0) @binding(2) var<storage, read> pair: array<f32>;
+@group(0) @binding(2) var<storage, read_write> pair: array<f32>;
 @group(0) @binding(3) var<storage, read> reference: array<f32>;
 @group(0) @binding(4) var<storage, read> y: array<f32>;
 // The kinematics of the shape-matching pass; this pass writes only the power and
@@ -36,9 +38,16 @@ fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     for (var p = offsets[i]; p < p_end; p++) {
         let j = ids[p];
         let g = vload_pair(PG_OFF + DIM * p);
-        // ½(R_i + R_j)(P̂_i + P̂_j)∇0W_ij V_j (eq 155).
-        let r_sum = r_i + mload_kin(KR_OFF + DIM * DIM * j);
-        stress += r_sum * ((p_i + mload_kin(KP_OFF + DIM * DIM * j)) * g) * (0.5 * vol_of(j));
+        let r_j = mload_kin(KR_OFF + DIM * DIM * j);
+        let p_j = mload_kin(KP_OFF + DIM * DIM * j);
+        if FORCE == FORCE_VARIATIONAL {
+            // (R_i P̂_i ∇0W_ij − R_j P̂_j ∇0W_ji) V_j.
+            let g_rev = vload_pair(PGREV_OFF + DIM * p);
+            stress += (r_i * (p_i * g) - r_j * (p_j * g_rev)) * vol_of(j);
+        } else {
+            // ½(R_i + R_j)(P̂_i + P̂_j)∇0W_ij V_j (eq 155).
+            stress += (r_i + r_j) * ((p_i + p_j) * g) * (0.5 * vol_of(j));
+        }
         if AV == 1u {
             let x_ij = u_i - vload_y(U_OFF + DIM * j) - vload_pair(PDX_OFF + DIM * p);
             let rho_j = kin[KRHO_OFF + j];

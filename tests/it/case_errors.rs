@@ -987,8 +987,10 @@ fn time_laws_and_pressures_are_checked() {
         "method.dt",
         &["load steps", "no method.cfl"],
     );
+    // (The beam's `force = "reveles"` is a TLSPH value, not the potential's.)
+    let potential = edit(&beam, "name = \"tlsph\"", "name = \"tl-potential\"");
     assert_invalid(
-        &edit(&beam, "name = \"tlsph\"", "name = \"tl-potential\""),
+        &edit(&potential, "force = \"reveles\"", ""),
         "run.solve",
         &["`tlsph`", "`kbm`", "`efg`"],
     );

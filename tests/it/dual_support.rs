@@ -630,6 +630,7 @@ fn the_dynamic_variant_without_hourglass_control_is_tl_potential() {
     let mut ds = CpuEngine::<D2, DualSupportDynamics<D2>>::new(&swinging_plate(&dynamic)).unwrap();
     let mut tl = CpuEngine::<D2, Potential<D2>>::new(&swinging_plate(&[
         "method.name=tl-potential",
+        "method.force=",
         "method.correction=randles-libersky",
     ]))
     .unwrap();

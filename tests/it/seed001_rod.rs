@@ -24,7 +24,8 @@ const H_OVER_DX: f64 = 1.3;
 
 /// A 1.0 × 0.6 m block on a vertex lattice of Δx = 0.1 m (11 × 7 particles) with
 /// tributary volumes, Saint Venant–Kirchhoff in plane strain, the cubic spline at h/Δx =
-/// 1.3 and the given correction; no boundary condition.
+/// 1.3 and the given correction, and Table 1's force (eq 134, `force = "reveles"`: B_I
+/// of particle I on both stress terms); no boundary condition.
 fn block(correction: &str) -> Case {
     let text = format!(
         r#"
@@ -41,6 +42,7 @@ name = "tlsph"
 kernel = "cubic-spline"
 h_over_dx = {H_OVER_DX}
 correction = "{correction}"
+force = "reveles"
 dt = 1.0e-5
 [[body]]
 name = "b"

@@ -2,11 +2,11 @@
 //! (`shaders/corotated/`) on the total-Lagrangian engine of [`crate::methods::tlsph::gpu`].
 //! The CPU system ([`super::system`]) is the reference it is checked against.
 
-use super::CorotatedSpec;
+use super::{CorotatedForce, CorotatedSpec};
 use crate::gpu::profile::{NONE, PassBytes, read, read_write, write};
 use crate::gpu::shaders::{
-    BOUNDARY, CONTACT, CORRECTION, INTEGRATE, KERNEL, MECHANICS, PAIR_OFFSETS, REFERENCE, Source,
-    VISCOSITY, source,
+    BOUNDARY, CONTACT, CORRECTION, INTEGRATE, KERNEL, MECHANICS, PAIR_OFFSETS, REFERENCE,
+    REVERSE_GRADIENTS, REVERSE_GRADIENTS_BYTES, Source, VISCOSITY, source,
 };
 use crate::methods::tlsph::gpu::{Frame, Lists, REDUCE, TlScheme, viscosity};
 
@@ -38,35 +38,41 @@ pub const STRESS: Source = source!(
         ],
     }]
 );
-/// The forces ½(R_i + R_j)(P̂_i + P̂_j)∇0W_ij (eqs 154–155) with viscosity, boundary
-/// conditions.
+/// The forces R_i P̂_i ∇0W_ij − R_j P̂_j ∇0W_ji (variational) or
+/// ½(R_i + R_j)(P̂_i + P̂_j)∇0W_ij (eqs 154–155 as the reference code writes them) with
+/// viscosity, boundary conditions; the reverse gradients of the variational force (set-up).
 pub const ACCEL: Source = source!(
     "corotated/corotated_accel.wgsl",
-    [BOUNDARY, REFERENCE, VISCOSITY],
+    [BOUNDARY, REFERENCE, VISCOSITY, REVERSE_GRADIENTS],
     [
         ("y", false),
-        ("pair", false),
+        ("pair", true),
         ("reference", false),
         ("ext", false),
         ("kin", true),
         ("d", true)
     ],
-    &[PassBytes {
-        entry: "accel",
-        traffic: &[
-            read("offsets", [1, 0, 0], NONE),
-            read("ids", NONE, [1, 0, 0]),
-            read("pair", NONE, [0, 1, 0]),
-            read("pair", NONE, [0, 1, 0]).when(&["AV"]),
-            read("reference", [2, 0, 0], NONE),
-            read("y", [0, 2, 0], NONE),
-            // R, P̂, R F̂⁻ᵀ, ρ in; the power out.
-            read("kin", [1, 0, 3], NONE),
-            write("kin", [2, 0, 0], NONE),
-            read("ext", [0, 1, 0], NONE),
-            write("d", [0, 2, 0], NONE),
-        ],
-    }]
+    &[
+        REVERSE_GRADIENTS_BYTES,
+        PassBytes {
+            entry: "accel",
+            traffic: &[
+                read("offsets", [1, 0, 0], NONE),
+                read("ids", NONE, [1, 0, 0]),
+                // ∇0W_ij, and ∇0W_ji for the variational force; X_j − X_i for the viscosity.
+                read("pair", NONE, [0, 1, 0]),
+                read("pair", NONE, [0, 1, 0]).when(&["FORCE == FORCE_VARIATIONAL"]),
+                read("pair", NONE, [0, 1, 0]).when(&["AV"]),
+                read("reference", [2, 0, 0], NONE),
+                read("y", [0, 2, 0], NONE),
+                // R, P̂, R F̂⁻ᵀ, ρ in; the power out.
+                read("kin", [1, 0, 3], NONE),
+                write("kin", [2, 0, 0], NONE),
+                read("ext", [0, 1, 0], NONE),
+                write("d", [0, 2, 0], NONE),
+            ],
+        }
+    ]
 );
 
 /// The passes of a corotated scene (the strain energy Σ V ψ(F̂) is TLSPH's reduction of
@@ -88,17 +94,23 @@ const CHECKS: &[&str] = &[
     "det R (shape matching: A_i has no rotation as its polar factor; f32, GPU)",
 ];
 
-/// Corotated TLSPH with the spec's viscosity: its own per-particle pass, which keeps R_i
-/// in the kinematics (`KR`) beside F̂_i − I, P̂_i, R_i F̂_i⁻ᵀ and ρ_i.
+/// Corotated TLSPH with the spec's force and viscosity: its own per-particle pass, which
+/// keeps R_i in the kinematics (`KR`) beside F̂_i − I, P̂_i, R_i F̂_i⁻ᵀ and ρ_i; the
+/// variational force reads the reverse gradients ∇0W_ji (field GREV).
 pub fn scheme(spec: &CorotatedSpec) -> TlScheme {
+    let variational = spec.force == CorotatedForce::Variational;
     TlScheme {
         stress: STRESS,
         accel: ACCEL,
         reduce: REDUCE,
-        reverse: false,
+        reverse: variational,
         hourglass: None,
         lists: Lists::Kernel,
-        constants: viscosity(spec.artificial_viscosity.as_ref()),
+        constants: viscosity(spec.artificial_viscosity.as_ref()).choice(
+            "FORCE",
+            &["REFERENCE_CODE", "VARIATIONAL"],
+            usize::from(variational),
+        ),
         unit_weights: false,
         kin_tensors: &["R"],
         frame: Frame::Corotated,

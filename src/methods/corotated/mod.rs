@@ -17,18 +17,38 @@ use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};
 
+/// The pair force of corotated TLSPH.
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum CorotatedForce {
+    /// m_i a_i = V_i Σ_j V_j (R_i P̂_i ∇0W_ij − R_j P̂_j ∇0W_ji): each side's stress
+    /// rotated back by its own rotation on its own corrected gradient, −∂Π/∂u_i of
+    /// Π = Σ_i V_i ψ(F̂_i) with the rotations held (TLSPH's `variational`). The default:
+    /// it carries surface loads whole and keeps linear momentum with every correction.
+    #[default]
+    Variational,
+    /// m_i a_i = V_i Σ_j V_j ½(R_i + R_j)(P̂_i + P̂_j) ∇0W_ij (seed 000 eq 155 as the
+    /// reference code writes it): i's gradient on both stresses, like TLSPH's eq 134.
+    /// With a correction it carries about half a surface load. The seed-000 cases set it.
+    ReferenceCode,
+}
+
 /// The `[method]` keys of corotated TLSPH.
 #[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
 pub struct CorotatedSpec {
     /// Monaghan artificial viscosity; none when absent.
     pub artificial_viscosity: Option<ArtificialViscosity>,
+    /// The pair force (default `variational`; `reference-code` is eq 155 of the code).
+    #[serde(default)]
+    pub force: CorotatedForce,
 }
 
 impl MethodFamily for CorotatedSpec {
     const DESCRIPTION: &'static str = "corotated total-Lagrangian SPH (Becker et al.; seed 000 \
-        §5.5): shape-matching rotations, stress of the rotated displacements, forces rotated \
-        back with ½(R_i + R_j), Monaghan artificial viscosity";
-    const KEYS: &'static [&'static str] = &["artificial_viscosity"];
+        §5.5): shape-matching rotations, stress of the rotated displacements, each side's \
+        force rotated back with its own R (or with ½(R_i + R_j), the reference code's), \
+        Monaghan artificial viscosity";
+    const KEYS: &'static [&'static str] = &["artificial_viscosity", "force"];
     const FEATURES: &'static [Feature] = &[Feature::Contact, Feature::InitialDisplacement];
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
@@ -46,6 +66,15 @@ impl MethodFamily for CorotatedSpec {
         if self.artificial_viscosity.is_none() {
             left_out.push("artificial viscosity");
         }
+        let (reverse, force) = match self.force {
+            CorotatedForce::Variational => (
+                " and their reverses ∇0W_ji",
+                "R_i P̂_i ∇0W_ij − R_j P̂_j ∇0W_ji, variational",
+            ),
+            CorotatedForce::ReferenceCode => {
+                ("", "½(R_i + R_j)(P̂_i + P̂_j)∇0W_ij, the reference code's")
+            }
+        };
         let rotation = if case.dimension == 2 {
             "closed form"
         } else {
@@ -54,7 +83,7 @@ impl MethodFamily for CorotatedSpec {
         Plan {
             once: format!(
                 "once, on the reference configuration: cell-list neighbours (CSR), reference \
-                 gradients ∇0W_ij ({} correction), {}",
+                 gradients ∇0W_ij ({} correction){reverse}, {}",
                 toml_name(&case.method.correction),
                 if gpu {
                     "pair offsets X_j − X_i"
@@ -68,12 +97,12 @@ impl MethodFamily for CorotatedSpec {
                 format!(
                     "shape-matching pass (A_i, its rotation R_i ({rotation}), F̂_i, \
                      P̂(F̂_i); R_i kept per particle) + acceleration pass (the forces \
-                     ½(R_i + R_j)(P̂_i + P̂_j)∇0W_ij, a, u̇ = v, BCs)"
+                     {force}, a, u̇ = v, BCs)"
                 )
             } else {
                 format!(
                     "two gathers: shape matching A_i, its rotation R_i ({rotation}), F̂_i and \
-                     P̂(F̂_i); then the forces ½(R_i + R_j)(P̂_i + P̂_j)∇0W_ij"
+                     P̂(F̂_i); then the forces {force}"
                 )
             },
             checked: "det R, det F̂",

@@ -4,17 +4,20 @@
 //! Every rate evaluation finds each particle's rotation R_i by shape matching (the polar
 //! factor of A_i = Σ_j m_j W_ij (x_j − x_i) ⊗ (X_j − X_i), eq 151), measures the
 //! displacement gradient in the rotated frame, F̂_i = I + Σ_j V_j [R_iᵀ x_ji − X_ji] ⊗
-//! ∇0W_ij (eqs 152–153), evaluates the stress P̂(F̂) of a state model and rotates the pair
-//! forces back with ½(R_i + R_j) (eq 155 as the reference code writes it). The state is
-//! u = x − X and v.
+//! ∇0W_ij (eqs 152–153), evaluates the stress P̂(F̂) of a state model and rotates each
+//! side's stress back with its own rotation on its own gradient, R_i P̂_i ∇0W_ij −
+//! R_j P̂_j ∇0W_ji (`force = "variational"`, the default), or the pair's stresses with
+//! ½(R_i + R_j) on i's gradient (`"reference-code"`: eq 155 as the reference code writes
+//! it). The state is u = x − X and v.
 
-use super::CorotatedSpec;
+use super::{CorotatedForce, CorotatedSpec};
 use crate::boundary::Boundary;
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::material::Material;
 use crate::methods::shared::{
     BlowUp, BoundaryWork, MIN_CHUNK, Method, Sizes, Traffic, ordered_reduce, reference_gradients,
+    reverse_gradients,
 };
 use crate::methods::tlsph::{ArtificialViscosity, TlState, system as tl};
 use crate::methods::{MethodSpec, not_run_by};
@@ -98,6 +101,8 @@ pub struct Corotated<D: Dim> {
     csr: Csr,
     /// Reference gradients ∇0W_ij (the paper's: uncorrected), one per CSR pair.
     grad: Vec<D::V>,
+    /// ∇0W_ji for every pair (i, j), in CSR order: the variational force only.
+    grad_rev: Option<Vec<D::V>>,
     /// Shape-matching weights m_j W(|X_ij|) (eq 151), one per CSR pair.
     shape: Vec<f64>,
     material: Material,
@@ -119,6 +124,7 @@ impl<D: Dim> Corotated<D> {
     pub fn new(case: &Case, reference: Reference<D>) -> Result<Self, CaseError> {
         let MethodSpec::CorotatedTlsph(CorotatedSpec {
             artificial_viscosity,
+            force,
         }) = &case.method.spec
         else {
             return Err(not_run_by(case, "Corotated"));
@@ -137,6 +143,10 @@ impl<D: Dim> Corotated<D> {
             ..
         } = reference;
         let grad = reference_gradients::<D>(case, &x0, &vol, &csr)?;
+        let grad_rev = match force {
+            CorotatedForce::ReferenceCode => None,
+            CorotatedForce::Variational => Some(reverse_gradients::<D>(case, &csr, &grad)?),
+        };
         let (m, x) = (&mass, &x0);
         let shape = (0..x0.len())
             .into_par_iter()
@@ -145,7 +155,7 @@ impl<D: Dim> Corotated<D> {
                 csr.neighbours(i).iter().map(move |&j| w(j as usize))
             })
             .collect();
-        let interactions = Interactions::build(case, &x0, &body, || csr.clone())?;
+        let interactions = Interactions::build(case, &x0, &body, &mass, || csr.clone())?;
         let identity = Kinematics {
             r: D::identity(),
             f_hat: D::identity(),
@@ -164,6 +174,7 @@ impl<D: Dim> Corotated<D> {
             u0,
             csr,
             grad,
+            grad_rev,
             shape,
             material,
             av: *artificial_viscosity,
@@ -217,8 +228,9 @@ impl<D: Dim> Corotated<D> {
             .collect()
     }
 
-    /// Pass 2: a_i = (1/ρ0) Σ_j V_j ½(R_i + R_j)(P̂_i + P̂_j) ∇0W_ij (eqs 154–155), plus
-    /// Monaghan viscosity along ½(R_i F̂_i⁻ᵀ + R_j F̂_j⁻ᵀ) ∇0W_ij.
+    /// Pass 2: a_i = (1/ρ0) Σ_j V_j (R_i P̂_i ∇0W_ij − R_j P̂_j ∇0W_ji) (variational), or
+    /// (1/ρ0) Σ_j V_j ½(R_i + R_j)(P̂_i + P̂_j) ∇0W_ij (eqs 154–155 as the reference code
+    /// writes them), plus Monaghan viscosity along ½(R_i F̂_i⁻ᵀ + R_j F̂_j⁻ᵀ) ∇0W_ij.
     /// Also writes each particle's viscous dissipation −m_i a_visc·v_i into `dissipation`.
     fn accelerations(&self, y: &TlState<D>, a: &mut [D::V], dissipation: &mut [f64]) {
         let inv_rho0 = 1.0 / self.material.rho0;
@@ -238,7 +250,12 @@ impl<D: Dim> Corotated<D> {
                     let j = self.csr.ids[p] as usize;
                     let kj = self.kin[j];
                     let g = self.grad[p];
-                    stress += (ki.r + kj.r) * ((ki.p_hat + kj.p_hat) * g) * (0.5 * self.vol[j]);
+                    stress += match &self.grad_rev {
+                        Some(rev) => {
+                            (ki.r * (ki.p_hat * g) - kj.r * (kj.p_hat * rev[p])) * self.vol[j]
+                        }
+                        None => (ki.r + kj.r) * ((ki.p_hat + kj.p_hat) * g) * (0.5 * self.vol[j]),
+                    };
                     if let Some(av) = &self.av {
                         let x_ij = xi - (self.x0[j] + y.u[j]);
                         let c = 0.5 * (ci + (bulk / kj.rho).sqrt());
@@ -467,16 +484,18 @@ impl<D: Dim> Method<D> for Corotated<D> {
     /// Pass 1 reads X, u and V and writes the kinematics records (R, F̂, P̂, R F̂⁻ᵀ, ρ);
     /// the det check reads the records; pass 2 reads the records, X, u, v, V and m and
     /// writes a and the dissipation; the last pass copies v into u̇. Pass 1 reads the
-    /// ids, shape-matching weights and ∇0W_ij of every pair, pass 2 the ids and ∇0W_ij.
+    /// ids, shape-matching weights and ∇0W_ij of every pair, pass 2 the ids and ∇0W_ij
+    /// (and ∇0W_ji for the variational force).
     /// The viscosity does not change the bytes (X_i and u_i are read with or without it).
     fn traffic(&self) -> Option<Traffic> {
         let (Sizes { v, f, id, .. }, k) = (Sizes::of::<D>(), size_of::<Kinematics<D>>());
         let pass_1 = 2 * v + f + k;
         let pass_2 = k + 4 * v + 3 * f;
         let pair = id + v;
+        let reverse = if self.grad_rev.is_some() { v } else { 0 };
         Some(Traffic {
             per_particle: (pass_1 + k + pass_2 + 2 * v) as f64,
-            per_pair: (2 * pair + f) as f64,
+            per_pair: (2 * pair + f + reverse) as f64,
             state: (2 * v) as f64,
             velocity: v as f64,
         })

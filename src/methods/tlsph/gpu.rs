@@ -493,7 +493,8 @@ impl<D: GpuDim> GpuTlsph<D> {
             layout.stepped(),
             &y0,
         )?;
-        let interactions = Interactions::<D>::build(case, &disc.x0, &disc.body, || csr.clone())?;
+        let interactions =
+            Interactions::<D>::build(case, &disc.x0, &disc.body, &disc.mass, || csr.clone())?;
         let interactions = GpuInteractions::new(
             &gpu,
             &interactions,

@@ -76,12 +76,13 @@ pub enum TlsphForce {
     /// gradient on both terms, as the paper and the reference code have it. With a
     /// correction it is not the gradient of the strain energy: at a surface row it
     /// carries about half a load, and the work of driven boundaries does not balance
-    /// the energy (docs/methods/tlsph.md).
-    #[default]
+    /// the energy (docs/methods/tlsph.md). The seed-000 and seed-001 cases set it.
     Reveles,
     /// m_i a_i = V_i Σ_j V_j (P_i ∇0W̃_ij − P_j ∇0W̃_ji) = −∂Π/∂u_i with
     /// Π = Σ_i V_i ψ(F_i) (the form of seed 000 eq 148): each term with its own side's
-    /// corrected gradient. Both coincide without a correction.
+    /// corrected gradient. Both coincide without a correction. The default: it carries
+    /// surface loads whole and closes the energy balance of driven boundaries.
+    #[default]
     Variational,
 }
 
@@ -93,7 +94,7 @@ pub struct TlsphSpec {
     /// The direction of the viscous pair force.
     #[serde(default)]
     pub viscosity_gradient: ViscosityGradient,
-    /// The pair force (default `reveles`, eq 134).
+    /// The pair force (default `variational`, −∂Π/∂u; `reveles` is eq 134).
     #[serde(default)]
     pub force: TlsphForce,
     /// Ganzenmüller's hourglass control with stiffness α (in units of Young's modulus);

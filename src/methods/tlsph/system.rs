@@ -269,7 +269,7 @@ impl<D: Dim> Tlsph<D> {
         let hourglass = spec
             .hourglass
             .map(|alpha| hourglass_stiffness::<D>(case, alpha, &x0, &vol, &csr));
-        let interactions = Interactions::build(case, &x0, &body, || csr.clone())?;
+        let interactions = Interactions::build(case, &x0, &body, &mass, || csr.clone())?;
         let at_rest = Gathered {
             p: D::zero_t(),
             x: D::zero(),
