@@ -77,7 +77,7 @@ fn from_points(rows: &str, extra: &str) -> Result<Discretised<D2>, CaseError> {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("pts.csv"), rows).unwrap();
     let text = crate::common::block_text(&[0.1, 0.1], "neo-hookean", "tlsph", "").replacen(
-        r#"geometry = { shape = "box", min = [0.0, 0.0], max = [0.1, 0.1] }"#,
+        r#"geometry = { shape = "box", min = [0.0, 0.0], max = [0.1, 0.1], volumes = "uniform" }"#,
         &format!("geometry = {{ shape = \"points\", file = \"pts.csv\" }}\n{extra}"),
         1,
     );
