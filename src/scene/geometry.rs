@@ -366,14 +366,13 @@ fn sample<D: Dim>(case: &Case, b: usize, spec: &BodySpec) -> Result<Sampled<D>, 
             axis,
             radius,
             inner_radius,
-            length,
             lattice,
             volumes,
+            ..
         } => {
             let a = axis.index();
-            let (mut lo, mut hi) = around(base, *radius);
-            lo[a] = base[a];
-            hi[a] = base[a] + length;
+            let (lo, hi) = geometry.extent(3).expect("a cylinder has its bounding box");
+            let (mut lo, mut hi) = (lo.to_vec(), hi.to_vec());
             if *lattice == Lattice::CellCentred {
                 lo.iter_mut().for_each(|x| *x += 0.5 * dx);
                 hi.iter_mut().for_each(|x| *x -= 0.5 * dx);
