@@ -711,17 +711,11 @@ pub fn estimate_particles(case: &Case) -> Result<Vec<BodySize>, CaseError> {
                     size(box_of(&lo, &hi), annulus(*inner_radius, *outer_radius))
                 }
                 Shape::Cylinder {
-                    base,
-                    axis,
                     radius,
                     inner_radius,
-                    length,
                     ..
                 } => {
-                    let a = axis.index();
-                    let (mut lo, mut hi) = around(base, *radius);
-                    lo[a] = base[a];
-                    hi[a] = base[a] + length;
+                    let (lo, hi) = spec.geometry.extent(3).expect("a cylinder has its box");
                     size(box_of(&lo, &hi), annulus(*inner_radius, *radius))
                 }
                 Shape::Points { file } | Shape::Mesh { file } => {

@@ -176,38 +176,14 @@ fn linear_momentum_is_conserved_by_the_variational_force_with_every_correction()
 /// the bar carries σ_xx = t), RK4 at Δt = 5e-4 s to 3 s; corotated TLSPH with the
 /// Randles–Libersky correction and the pair force `force`.
 fn ramped_bar(force: &str) -> Case {
-    let text = format!(
-        r#"
-name = "ramped-bar"
-dimension = 2
-spacing = 0.05
-[material]
-model = "linear-elastic"
-density = 1000.0
-youngs_modulus = 1.0e6
-poisson_ratio = 0.3
-plane = "stress"
-[method]
-name = "corotated-tlsph"
-h_over_dx = 1.3
-correction = "randles-libersky"
-force = "{force}"
-integrator = "rk4"
-dt = 5.0e-4
-[[body]]
-name = "bar"
-geometry = {{ shape = "box", min = [0.0, 0.0], max = [1.0, 0.2], lattice = "cell-centred" }}
-[[boundary]]
-region = {{ x_max = 0.025 }}
-condition = {{ type = "velocity", vx = 0.0 }}
-[[boundary]]
-region = {{ x_min = 0.975 }}
-condition = {{ type = "traction", traction = [1.0e4, 0.0], law = {{ type = "ramp", duration = 2.0 }} }}
-[run]
-end_time = 3.0
-"#
+    let method = format!(
+        "name = \"corotated-tlsph\"\nh_over_dx = 1.3\ncorrection = \"randles-libersky\"\nforce = \"{force}\""
     );
-    Case::from_toml(&text, Path::new("ramped-bar.toml"), &[]).unwrap_or_else(|e| panic!("{e}"))
+    crate::loads::bar(
+        &method,
+        "cell-centred",
+        "{ type = \"ramp\", duration = 2.0 }",
+    )
 }
 
 #[test]

@@ -13,7 +13,7 @@ use std::path::Path;
 /// left column held in x and its right column pulled by a traction of 1e4 Pa under
 /// `law`, RK4 with Δt = 5e-4 s (a third of Δx/c_p); `method` is the `[method]` table's
 /// name and keys, `lattice` the box's lattice.
-fn bar(method: &str, lattice: &str, law: &str) -> Case {
+pub fn bar(method: &str, lattice: &str, law: &str) -> Case {
     let text = format!(
         r#"
 name = "ramped-bar"
