@@ -38,13 +38,18 @@ pub struct Boundary<D: Dim> {
     /// prescribed (reached at the end time; static path), displacement): a subset of
     /// `constrained`, whose other components have prescribed velocities.
     pub displacement: Vec<(u32, u8, D::V)>,
-    /// (particle, force) of the constant tractions: ∫ t dA over the particle's patch of
-    /// the loaded face ([`Patch`]), whatever the particle's mass.
+    /// The points of the constant surface loads (tractions and pressures) and their
+    /// forces ([`SurfacePoint`]).
+    surface: Vec<SurfacePoint<D>>,
+    /// (particle, force) of the constant surface loads, carried to the nodes as the
+    /// method that holds the boundary does it ([`Self::use_method`]; each point's force
+    /// to the particle whose patch holds it until then), whatever the nodal masses.
     forces: Vec<(u32, D::V)>,
     /// (particle, acceleration g) of the constant body forces.
     gravity: Vec<(u32, D::V)>,
-    /// (particle, external acceleration f/m + g) for the masses of the method that holds
-    /// the boundary ([`Self::use_masses`]; the particle masses ρ0 V0 until then).
+    /// (particle, external acceleration f/m + g) for the nodal forces and masses of the
+    /// method that holds the boundary ([`Self::use_method`]; the particle masses ρ0 V0
+    /// until then).
     pub external: Vec<(u32, D::V)>,
     /// The prescribed velocities that vary in time, one per condition.
     pub timed: Vec<TimedVelocity>,
@@ -130,7 +135,7 @@ impl<D: Dim> Boundary<D> {
     pub fn build(case: &Case, disc: &Discretised<D>, mass: &[f64]) -> Result<Self, CaseError> {
         let mut mask = vec![0u8; disc.x0.len()];
         let mut value = vec![D::zero(); disc.x0.len()];
-        let mut force = vec![D::zero(); disc.x0.len()];
+        let mut surface = Vec::new();
         let mut gravity = vec![D::zero(); disc.x0.len()];
         let mut dmask = vec![0u8; disc.x0.len()];
         let mut dvalue = vec![[0.0; 3]; disc.x0.len()];
@@ -159,9 +164,7 @@ impl<D: Dim> Boundary<D> {
                 _ => None,
             };
             if matches!(bc.condition, Condition::Pressure { .. }) {
-                for (i, f) in pressure_forces::<D>(case, b, &disc.x0, &disc.body)? {
-                    force[i] += f;
-                }
+                surface.extend(pressure_points::<D>(case, b, &disc.x0, &disc.body)?);
             }
             let face = Face::of::<D>(case, b, &particles, &disc.x0, &disc.body);
             let s = support(b);
@@ -199,8 +202,7 @@ impl<D: Dim> Boundary<D> {
                     }
                     Condition::Traction { traction, .. } => {
                         let t = std::array::from_fn(|k| traction.get(k).copied().unwrap_or(0.0));
-                        let f = face.patch::<D>(disc.x0[i]).force(|_| t);
-                        force[i] += D::from_slice(&f[..D::N]);
+                        surface.extend(face.patch::<D>(disc.x0[i]).points(i, |_| t));
                     }
                     Condition::BodyForce { acceleration, .. } => {
                         gravity[i] += D::from_slice(acceleration);
@@ -233,11 +235,10 @@ impl<D: Dim> Boundary<D> {
                     }
                     Condition::SolutionTraction { solution, normal } => {
                         let closed = ClosedForm::of(solution, &case.material);
-                        let f = face.patch::<D>(disc.x0[i]).force(|x| {
+                        surface.extend(face.patch::<D>(disc.x0[i]).points(i, |x| {
                             let s = closed.stress3(x);
                             std::array::from_fn(|r| (0..D::N).map(|c| s[r][c] * normal[c]).sum())
-                        });
-                        force[i] += D::from_slice(&f[..D::N]);
+                        }));
                     }
                 }
             }
@@ -257,12 +258,6 @@ impl<D: Dim> Boundary<D> {
                 (0..D::N).filter_map(move |k| timed_of[k].map(|g| (i, k as u8, g, v[k])))
             })
             .collect();
-        let nonzero = |field: Vec<D::V>| {
-            (0..field.len() as u32)
-                .filter(|&i| field[i as usize] != D::zero())
-                .map(|i| (i, field[i as usize]))
-                .collect()
-        };
         let mut boundary = Self {
             displacement: constrained
                 .iter()
@@ -286,8 +281,12 @@ impl<D: Dim> Boundary<D> {
                 .collect(),
             supports: supports.len(),
             constrained: constrained.iter().map(|&i| (i, mask[i as usize])).collect(),
-            forces: nonzero(force),
-            gravity: nonzero(gravity),
+            surface,
+            forces: Vec::new(),
+            gravity: summed::<D>(
+                gravity.len(),
+                gravity.into_iter().enumerate().map(|(i, g)| (i as u32, g)),
+            ),
             external: Vec::new(),
             step: timed.iter().map(TimedVelocity::at_start).collect(),
             timed,
@@ -295,14 +294,20 @@ impl<D: Dim> Boundary<D> {
             #[cfg(feature = "gpu")]
             n: disc.x0.len(),
         };
-        boundary.use_masses(mass);
+        boundary.use_method(&OnPatches, mass)?;
         Ok(boundary)
     }
 
-    /// Sets the external accelerations f/m + g for the nodal masses m of the method that
-    /// holds the boundary, so that the loads' forces do not depend on how a method lumps
-    /// its mass (a row-sum mass gives a corner node a quarter of a particle's).
-    pub fn use_masses(&mut self, mass: &[f64]) {
+    /// Sets the nodal forces of the surface loads as the method that holds the boundary
+    /// carries them (`nodal`) and the external accelerations f/m + g for its nodal
+    /// masses m, so that the loads' forces do not depend on how a method lumps its mass
+    /// (a row-sum mass gives a corner node a quarter of a particle's).
+    pub fn use_method(
+        &mut self,
+        nodal: &dyn NodalForces<D>,
+        mass: &[f64],
+    ) -> Result<(), CaseError> {
+        self.forces = summed::<D>(mass.len(), nodal.spread(&self.surface)?);
         let mut external = vec![D::zero(); mass.len()];
         for &(i, f) in &self.forces {
             external[i as usize] += f * (1.0 / mass[i as usize]);
@@ -314,6 +319,7 @@ impl<D: Dim> Boundary<D> {
             .filter(|&i| external[i as usize] != D::zero())
             .map(|i| (i, external[i as usize]))
             .collect();
+        Ok(())
     }
 
     /// The external force f + m g on every particle for the nodal masses m: the applied
@@ -441,7 +447,7 @@ impl<D: Dim> Boundary<D> {
     }
 
     /// Power of the external loads (tractions and body forces), Σ m a_ext · v, for the
-    /// masses of [`Self::use_masses`].
+    /// masses of [`Self::use_method`].
     pub fn external_power(&self, v: &[D::V], mass: &[f64]) -> f64 {
         self.external
             .iter()
@@ -610,9 +616,14 @@ struct Patch<'a> {
 }
 
 impl Patch<'_> {
-    /// ∫ t dA over the patch: 2-point Gauss in each direction of the face (exact for
-    /// tractions quadratic in X).
-    fn force(&self, t: impl Fn([f64; 3]) -> [f64; 3]) -> [f64; 3] {
+    /// The points of 2-point Gauss rules in each direction of the face over the patch
+    /// (exact for tractions quadratic in X), each with its share t(X) dA of ∫ t dA, held
+    /// by `particle`.
+    fn points<D: Dim>(
+        &self,
+        particle: usize,
+        t: impl Fn([f64; 3]) -> [f64; 3],
+    ) -> Vec<SurfacePoint<D>> {
         let Face {
             along,
             bounds: face,
@@ -641,25 +652,69 @@ impl Patch<'_> {
             .collect();
         let area: f64 = bounds.iter().map(|(lo, hi)| hi - lo).product();
         let gauss = 0.5 / 3f64.sqrt();
-        let points = 1usize << along.len();
-        let mut force = [0.0; 3];
-        for corner in 0..points {
-            let mut p = self.centre;
-            for (bit, (&k, &(lo, hi))) in along.iter().zip(&bounds).enumerate() {
-                let s = if corner & (1 << bit) != 0 {
-                    gauss
-                } else {
-                    -gauss
-                };
-                p[k] = 0.5 * (lo + hi) + s * (hi - lo);
-            }
-            let tp = t(p);
-            for k in 0..3 {
-                force[k] += tp[k] * area / points as f64;
-            }
-        }
-        force
+        let count = 1usize << along.len();
+        let centre = self.centre;
+        (0..count)
+            .map(|corner| {
+                let mut p = centre;
+                for (bit, (&k, &(lo, hi))) in along.iter().zip(&bounds).enumerate() {
+                    let s = if corner & (1 << bit) != 0 {
+                        gauss
+                    } else {
+                        -gauss
+                    };
+                    p[k] = 0.5 * (lo + hi) + s * (hi - lo);
+                }
+                let tp = t(p);
+                SurfacePoint {
+                    particle: particle as u32,
+                    x: D::from_slice(&p[..D::N]),
+                    force: D::from_slice(&tp[..D::N]) * (area / count as f64),
+                }
+            })
+            .collect()
     }
+}
+
+/// A point of a loaded surface of the reference configuration: the particle whose patch
+/// of the surface holds it, its position X, and the force t dA of its share of the patch.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfacePoint<D: Dim> {
+    pub particle: u32,
+    pub x: D::V,
+    pub force: D::V,
+}
+
+/// How a method carries the forces of its loaded surfaces to its nodes: the nodal forces
+/// f_a = Σ_q Φ_a(X_q) f_q of its functions Φ_a at the surface points, ∫ Φ_a t dΓ.
+pub trait NodalForces<D: Dim> {
+    /// The (node, force) of the points' forces; a node may come more than once.
+    fn spread(&self, points: &[SurfacePoint<D>]) -> Result<Vec<(u32, D::V)>, CaseError>;
+}
+
+/// Each point's force to the particle whose patch holds it: the tributary forces of the
+/// collocation methods, and the consistent forces of bilinear elements on a vertex
+/// lattice (their functions integrate to the patches under a traction constant along
+/// the face).
+pub struct OnPatches;
+
+impl<D: Dim> NodalForces<D> for OnPatches {
+    fn spread(&self, points: &[SurfacePoint<D>]) -> Result<Vec<(u32, D::V)>, CaseError> {
+        Ok(points.iter().map(|p| (p.particle, p.force)).collect())
+    }
+}
+
+/// The non-zero sums, by particle in ascending order, of (particle, value) entries over
+/// n particles.
+fn summed<D: Dim>(n: usize, entries: impl IntoIterator<Item = (u32, D::V)>) -> Vec<(u32, D::V)> {
+    let mut total = vec![D::zero(); n];
+    for (i, v) in entries {
+        total[i as usize] += v;
+    }
+    (0..n as u32)
+        .filter(|&i| total[i as usize] != D::zero())
+        .map(|i| (i, total[i as usize]))
+        .collect()
 }
 
 /// Components of `on` where `mask` is set, of `off` elsewhere.
@@ -676,42 +731,46 @@ fn mix<D: Dim>(mask: u8, on: D::V, off: D::V) -> D::V {
 #[derive(Clone, Debug)]
 pub struct TimedLoad<D: Dim> {
     pub law: TimeLaw,
-    /// (particle, acceleration).
+    /// (particle, acceleration), by particle.
     pub accelerations: Vec<(u32, D::V)>,
 }
 
 /// The loads of a case that vary in time, one per condition: its time law and the
-/// (particle, acceleration) of every particle it loads, from the discretisation and the
-/// nodal masses of the method that applies them. A traction with a time law gives each
-/// particle of its region the force over its patch of the face, as a constant one does
-/// ([`Face`]), a pressure its share of the circle ([`pressure_forces`]); a force's
-/// acceleration is f/m. A body force gives its acceleration g to each particle of its
-/// region.
+/// (particle, acceleration) of every particle it loads, from the discretisation, the way
+/// the method carries surface forces to its nodes (`nodal`) and its nodal masses. A
+/// traction with a time law has the points of the particles' patches of the face, as a
+/// constant one does ([`Face`]), a pressure those of the particles' arcs of the circle
+/// ([`pressure_points`]); a force's acceleration is f/m. A body force gives its
+/// acceleration g to each particle of its region.
 pub fn timed_loads<D: Dim>(
     case: &Case,
     disc: &Discretised<D>,
+    nodal: &dyn NodalForces<D>,
     mass: &[f64],
 ) -> Result<Vec<TimedLoad<D>>, CaseError> {
     let (x0, body) = (&disc.x0[..], &disc.body[..]);
     let mut loads = Vec::new();
+    let per_mass = |points: Vec<SurfacePoint<D>>| -> Result<Vec<(u32, D::V)>, CaseError> {
+        let forces = summed::<D>(mass.len(), nodal.spread(&points)?);
+        Ok(forces
+            .into_iter()
+            .map(|(i, f)| (i, f * (1.0 / mass[i as usize])))
+            .collect())
+    };
     for (b, bc) in case.boundaries.iter().enumerate() {
         if !bc.condition.is_timed_load() {
             continue;
         }
-        let per_mass = |(i, f): (usize, D::V)| (i as u32, f * (1.0 / mass[i]));
         let (law, accelerations): (&TimeLaw, Vec<(u32, D::V)>) = match &bc.condition {
             Condition::Traction { traction, law } => {
                 let particles = selected::<D>(case, b, x0, body)?;
                 let face = Face::of::<D>(case, b, &particles, x0, body);
                 let t = std::array::from_fn(|k| traction.get(k).copied().unwrap_or(0.0));
-                let force = |i: usize| {
-                    let f = face.patch::<D>(x0[i]).force(|_| t);
-                    (i, D::from_slice(&f[..D::N]))
-                };
-                (
-                    law,
-                    particles.into_iter().map(|i| per_mass(force(i))).collect(),
-                )
+                let points = particles
+                    .into_iter()
+                    .flat_map(|i| face.patch::<D>(x0[i]).points(i, |_| t))
+                    .collect();
+                (law, per_mass(points)?)
             }
             Condition::BodyForce { acceleration, law } => {
                 let g = D::from_slice(acceleration);
@@ -719,8 +778,7 @@ pub fn timed_loads<D: Dim>(
                 (law, particles.into_iter().map(|i| (i as u32, g)).collect())
             }
             Condition::Pressure { law, .. } => {
-                let forces = pressure_forces::<D>(case, b, x0, body)?;
-                (law, forces.into_iter().map(per_mass).collect())
+                (law, per_mass(pressure_points::<D>(case, b, x0, body)?)?)
             }
             _ => unreachable!("the timed loads are tractions, pressures and body forces"),
         };
@@ -732,16 +790,17 @@ pub fn timed_loads<D: Dim>(
     Ok(loads)
 }
 
-/// The forces of boundary condition b, a pressure p on a circle of radius R: each particle
-/// within Δx of it on the body's side carries f = p R Δθ n, Δθ half the angle between its
-/// neighbours along the circle (so that the shares sum to 2πR) and n the reference normal
-/// into the body, ±(X − c)/|X − c|.
-fn pressure_forces<D: Dim>(
+/// The surface points of boundary condition b, a pressure p on a circle of radius R: each
+/// particle within Δx of it on the body's side holds the point of the circle at its
+/// angle, X = c + R n, with the force p R Δθ n, Δθ half the angle between its neighbours
+/// along the circle (so that the shares sum to 2πR) and n the reference normal into the
+/// body, ±(X − c)/|X − c| (a midpoint rule over its arc).
+fn pressure_points<D: Dim>(
     case: &Case,
     b: usize,
     x0: &[D::V],
     body: &[u32],
-) -> Result<Vec<(usize, D::V)>, CaseError> {
+) -> Result<Vec<SurfacePoint<D>>, CaseError> {
     let Condition::Pressure {
         pressure,
         center,
@@ -769,9 +828,14 @@ fn pressure_forces<D: Dim>(
         Surface::Inner => 1.0,
         Surface::Outer => -1.0,
     };
+    let c = D::from_slice(center);
     Ok(pressure_shares::<D>(case, b, x0, &on_circle, center)?
         .into_iter()
-        .map(|(i, dtheta, normal)| (i, normal * (sign * pressure * radius * dtheta)))
+        .map(|(i, dtheta, radial)| SurfacePoint {
+            particle: i as u32,
+            x: c + radial * *radius,
+            force: radial * (sign * pressure * radius * dtheta),
+        })
         .collect())
 }
 

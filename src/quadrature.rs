@@ -375,6 +375,9 @@ pub struct Shapes<D: Dim> {
     pub n: Vec<f64>,
     pub grad: Vec<D::V>,
     pub test: Vec<D::V>,
+    /// The meshfree functions these are, which any point near the nodes has; None for
+    /// functions that live on cells (the isoparametric ones) or on a moving configuration.
+    pub family: Option<Family>,
 }
 
 impl<D: Dim> Default for Shapes<D> {
@@ -384,6 +387,39 @@ impl<D: Dim> Default for Shapes<D> {
             n: Vec::new(),
             grad: Vec::new(),
             test: Vec::new(),
+            family: None,
+        }
+    }
+}
+
+/// The meshfree functions of the total-Lagrangian Galerkin methods, on the reference
+/// positions of their nodes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Family {
+    /// [`Shapes::reproducing`].
+    Reproducing,
+    /// [`Shapes::moving_least_squares`].
+    MovingLeastSquares,
+    /// [`Shapes::krongauz_belytschko`].
+    KrongauzBelytschko,
+}
+
+impl Family {
+    /// The family's functions at the points `at` (of bodies `at_body`) over the particles
+    /// x (volumes V, bodies `body`) within the kernel's support of each point.
+    pub fn at<D: Dim>(
+        self,
+        at: &[D::V],
+        at_body: &[u32],
+        x: &[D::V],
+        vol: &[f64],
+        body: &[u32],
+        kernel: &Kernel,
+    ) -> Result<Shapes<D>, QuadratureError> {
+        match self {
+            Self::Reproducing => Shapes::reproducing(at, at_body, x, vol, body, kernel),
+            Self::MovingLeastSquares => Shapes::moving_least_squares(at, at_body, x, body, kernel),
+            Self::KrongauzBelytschko => Shapes::krongauz_belytschko(at, at_body, x, body, kernel),
         }
     }
 }
@@ -400,6 +436,7 @@ impl<D: Dim> Shapes<D> {
             n: vec![0.0; points.len() * k],
             grad: vec![D::zero(); points.len() * k],
             test: Vec::new(),
+            family: None,
         };
         for (q, &k) in points.parent.iter().enumerate() {
             let corners = cells.of::<D>(points.cell[q] as usize);
@@ -450,6 +487,7 @@ impl<D: Dim> Shapes<D> {
             n,
             grad,
             test: Vec::new(),
+            family: Some(Family::Reproducing),
         })
     }
 
@@ -465,7 +503,11 @@ impl<D: Dim> Shapes<D> {
         body: &[u32],
         kernel: &Kernel,
     ) -> Result<Self, QuadratureError> {
-        Self::reproducing(at, at_body, x, &vec![1.0; x.len()], body, kernel)
+        let shapes = Self::reproducing(at, at_body, x, &vec![1.0; x.len()], body, kernel)?;
+        Ok(Self {
+            family: Some(Family::MovingLeastSquares),
+            ..shapes
+        })
     }
 
     /// Krongauz–Belytschko functions (seed 001 §3.2) of the particles within the kernel's
@@ -493,6 +535,7 @@ impl<D: Dim> Shapes<D> {
         })?;
         let mut shapes = Self {
             csr,
+            family: Some(Family::KrongauzBelytschko),
             ..Self::default()
         };
         for (n, grad, test) in rows {

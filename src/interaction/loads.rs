@@ -1,12 +1,14 @@
 //! Loads that vary in time: the tractions and body forces with a time law and the
 //! pressures of a case ([`crate::boundary::timed_loads`]), each a group of per-particle
-//! accelerations (g_i = f_i/(ρ0 V_i) for a force, the masses the constant tractions of
-//! [`crate::boundary::Boundary`] take) scaled by its law. The law is evaluated at the
-//! middle of every step and held through the step's stages, as the contact forces are,
-//! on both backends: on the GPU the host writes each step's law values as it records the
-//! step, and the pass `shaders/common/loads.wgsl` adds Σ_g law_g g_g,i to `ext`.
+//! accelerations (g_a = f_a/m_a for a surface load, its forces carried to the nodes and
+//! divided by the nodal masses as the method does it for the constant loads of
+//! [`crate::boundary::Boundary`]) scaled by its law. The law is evaluated at the middle
+//! of every step and held through the step's stages, as the contact forces are, on both
+//! backends: on the GPU the host writes each step's law values as it records the step,
+//! and the pass `shaders/common/loads.wgsl` adds Σ_g law_g g_g,i to `ext`.
 
 use super::Interaction;
+use crate::boundary::NodalForces;
 use crate::scene::{Case, CaseError, TimeLaw, discretise};
 use crate::tensor::Dim;
 
@@ -24,13 +26,18 @@ pub struct TimedLoads<D: Dim> {
 
 impl<D: Dim> TimedLoads<D> {
     /// The case's timed loads on particles of nodal masses `mass` (the method's: the
-    /// forces do not depend on them, the accelerations do), or None if it has none.
-    pub fn build(case: &Case, mass: &[f64]) -> Result<Option<Self>, CaseError> {
+    /// forces do not depend on them, the accelerations do), their surface forces carried
+    /// to the nodes by `nodal`, or None if it has none.
+    pub fn build(
+        case: &Case,
+        nodal: &dyn NodalForces<D>,
+        mass: &[f64],
+    ) -> Result<Option<Self>, CaseError> {
         if !case.boundaries.iter().any(|b| b.condition.is_timed_load()) {
             return Ok(None);
         }
         let disc = discretise::<D>(case)?;
-        let loads = crate::boundary::timed_loads::<D>(case, &disc, &mass[..disc.x0.len()])?;
+        let loads = crate::boundary::timed_loads::<D>(case, &disc, nodal, &mass[..disc.x0.len()])?;
         let laws: Vec<TimeLaw> = loads.iter().map(|l| l.law.clone()).collect();
         let groups = loads.into_iter().map(|l| l.accelerations).collect();
         Ok(Some(Self {

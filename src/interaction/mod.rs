@@ -22,6 +22,7 @@ pub mod loads;
 pub use contact::Contact;
 pub use loads::TimedLoads;
 
+use crate::boundary::NodalForces;
 use crate::neighbour::Csr;
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
@@ -51,16 +52,18 @@ impl<D: Dim> Interactions<D> {
     /// `neighbours` giving the neighbour lists of a total-Lagrangian method (read only by
     /// contact: its kernels must not join two bodies), `body` the body of every
     /// particle those lists name (the particles of x0 first, then any ghosts) and `mass`
-    /// the method's nodal mass of the particles of x0.
+    /// the method's nodal mass of the particles of x0, and `nodal` how the method carries
+    /// the forces of a loaded surface to its nodes.
     pub fn build(
         case: &Case,
         x0: &[D::V],
         body: &[u32],
+        nodal: &dyn NodalForces<D>,
         mass: &[f64],
         neighbours: impl FnOnce() -> Csr,
     ) -> Result<Self, CaseError> {
         let mut list: Vec<Box<dyn Interaction<D>>> = Vec::new();
-        if let Some(loads) = TimedLoads::<D>::build(case, mass)? {
+        if let Some(loads) = TimedLoads::<D>::build(case, nodal, mass)? {
             list.push(Box::new(loads));
         }
         if let Some(spec) = case.contact {

@@ -2,7 +2,7 @@
 //! against its quasi-static stress, the shares of a ring's internal pressure, and the GPU
 //! against the CPU.
 
-use meshless::boundary::{Boundary, timed_loads};
+use meshless::boundary::{Boundary, OnPatches, timed_loads};
 use meshless::run::{Backend, Engine, engine};
 use meshless::scene::{Case, discretise};
 use meshless::tensor::D2;
@@ -167,7 +167,7 @@ fn a_pressure_shares_its_circle_among_the_particles_along_it() {
     let unit = vec![1.0; disc.x0.len()];
     let constant = Boundary::build(&case, &disc, &unit).unwrap().external;
     let timed = ring(p, "{ type = \"ramp\", duration = 1.0 }");
-    let loads = timed_loads::<D2>(&timed, &disc, &unit).unwrap();
+    let loads = timed_loads::<D2>(&timed, &disc, &OnPatches, &unit).unwrap();
     assert_eq!(loads.len(), 1);
     let mut by_particle = loads[0].accelerations.clone();
     by_particle.sort_by_key(|&(i, _)| i);

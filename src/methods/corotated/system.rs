@@ -11,7 +11,7 @@
 //! it). The state is u = x − X and v.
 
 use super::{CorotatedForce, CorotatedSpec};
-use crate::boundary::Boundary;
+use crate::boundary::{Boundary, OnPatches};
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::material::Material;
@@ -155,7 +155,8 @@ impl<D: Dim> Corotated<D> {
                 csr.neighbours(i).iter().map(move |&j| w(j as usize))
             })
             .collect();
-        let interactions = Interactions::build(case, &x0, &body, &mass, || csr.clone())?;
+        let interactions =
+            Interactions::build(case, &x0, &body, &OnPatches, &mass, || csr.clone())?;
         let identity = Kinematics {
             r: D::identity(),
             f_hat: D::identity(),

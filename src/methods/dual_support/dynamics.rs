@@ -7,7 +7,7 @@
 //! The state is u and v, as for total-Lagrangian SPH ([`TlState`]).
 
 use super::model::DualSupport;
-use crate::boundary::Boundary;
+use crate::boundary::{Boundary, OnPatches};
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::methods::shared::{BlowUp, BoundaryWork, MIN_CHUNK, Method, Sizes, Traffic};
@@ -47,7 +47,8 @@ impl<D: Dim> DualSupportDynamics<D> {
             ..
         } = reference;
         let s = &model.support;
-        let interactions = Interactions::build(case, &s.x0, &body, &mass, || s.lists.clone())?;
+        let interactions =
+            Interactions::build(case, &s.x0, &body, &OnPatches, &mass, || s.lists.clone())?;
         Ok(Self {
             model,
             mass,

@@ -20,11 +20,9 @@ use crate::gpu::shaders::{
 };
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
 use crate::integrate::Buf;
-use crate::interaction::Interactions;
 use crate::interaction::gpu::GpuInteractions;
 use crate::material::Material;
 use crate::methods::{BlowUp, Method};
-use crate::neighbour::Csr;
 use crate::observe::{Invariants, Snapshot};
 use crate::plasticity::History;
 use crate::run::{Engine, Failed};
@@ -349,16 +347,9 @@ impl<D: GpuDim> GpuGalerkin<D> {
             layout.stepped(),
             &y0,
         )?;
-        let interactions = Interactions::<D>::build(
-            case,
-            host.reference(),
-            host.body(),
-            host.mass(),
-            Csr::default,
-        )?;
         let interactions = GpuInteractions::new(
             &gpu,
-            &interactions,
+            host.interactions(),
             host.boundary(),
             &compose,
             &device.reference,

@@ -23,7 +23,7 @@ pub mod updated;
 #[cfg(feature = "gpu")]
 pub mod gpu;
 
-use crate::boundary::Boundary;
+use crate::boundary::{Boundary, NodalForces, OnPatches, SurfacePoint};
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::material::Material;
@@ -35,7 +35,7 @@ use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::Csr;
 use crate::observe::{Quadrature, ScalarField, Snapshot};
 use crate::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
-use crate::quadrature::{Cells, Gather, QuadratureError, QuadraturePoints, Shapes};
+use crate::quadrature::{Cells, Family, Gather, QuadratureError, QuadraturePoints, Shapes};
 use crate::reference::Reference;
 use crate::run::{Engine, EngineDim};
 use crate::scene::{Case, CaseError};
@@ -270,24 +270,47 @@ impl<D: Dim> TlGalerkin<D> {
         smoothing: Option<Shapes<D>>,
     ) -> Result<Self, CaseError> {
         let gather = shapes.gather(reference.len());
-        let Reference {
-            x0,
-            mass: particle_mass,
-            body,
-            v0,
-            u0,
-            mut boundary,
-            material,
-            ..
-        } = reference;
+        let mut reference = reference;
+        let rho0 = reference.material.rho0;
         let mass = match mass {
-            Mass::Particle => particle_mass,
-            Mass::RowSum => row_sums(case, &points.weight, &shapes, &gather, material.rho0)?,
+            Mass::Particle => reference.mass.clone(),
+            Mass::RowSum => row_sums(case, &points.weight, &shapes, &gather, rho0)?,
         };
         // The shape functions of a point reach only its own body's nodes: no kernel spans
         // two bodies, whatever their distance.
-        boundary.use_masses(&mass);
-        let interactions = Interactions::build(case, &x0, &body, &mass, Csr::default)?;
+        let consistent;
+        let nodal: &dyn NodalForces<D> = match shapes.family {
+            Some(family) => {
+                consistent = ConsistentForces {
+                    case,
+                    family,
+                    x0: &reference.x0,
+                    vol: &reference.vol,
+                    body: &reference.body,
+                    kernel: &reference.kernel,
+                };
+                &consistent
+            }
+            None => &OnPatches,
+        };
+        reference.boundary.use_method(nodal, &mass)?;
+        let interactions = Interactions::build(
+            case,
+            &reference.x0,
+            &reference.body,
+            nodal,
+            &mass,
+            Csr::default,
+        )?;
+        let Reference {
+            x0,
+            body,
+            v0,
+            u0,
+            boundary,
+            material,
+            ..
+        } = reference;
         let n = points.len();
         Ok(Self {
             x0,
@@ -353,6 +376,11 @@ impl<D: Dim> TlGalerkin<D> {
 
     pub fn boundary(&self) -> &Boundary<D> {
         &self.boundary
+    }
+
+    /// The interactions, with the timed loads carried to the nodes as the constant ones.
+    pub fn interactions(&self) -> &Interactions<D> {
+        &self.interactions
     }
 
     /// F_q and P_q at every point; ρ̇_q and Ṡ_q for the rate model.
@@ -476,6 +504,46 @@ impl<D: Dim> TlGalerkin<D> {
                 }
             }
         }
+    }
+}
+
+/// The consistent nodal forces of a meshfree Galerkin method, f_a = Σ_q Φ_a(X_q) f_q =
+/// ∫ Φ_a t dΓ: its (test) functions Φ_a, of `family` on the reference particles, at the
+/// points of the loaded surfaces. A point's functions reach the particles of the body
+/// whose patch holds it.
+struct ConsistentForces<'a, D: Dim> {
+    case: &'a Case,
+    family: Family,
+    x0: &'a [D::V],
+    vol: &'a [f64],
+    body: &'a [u32],
+    kernel: &'a crate::kernel::Kernel,
+}
+
+impl<D: Dim> NodalForces<D> for ConsistentForces<'_, D> {
+    fn spread(&self, points: &[SurfacePoint<D>]) -> Result<Vec<(u32, D::V)>, CaseError> {
+        let at: Vec<D::V> = points.iter().map(|p| p.x).collect();
+        let at_body: Vec<u32> = points
+            .iter()
+            .map(|p| self.body[p.particle as usize])
+            .collect();
+        let shapes = &self
+            .family
+            .at::<D>(&at, &at_body, self.x0, self.vol, self.body, self.kernel)
+            .map_err(|e| {
+                let reason = format!("the functions at a point of a loaded surface: {e}");
+                self.case.invalid("method.h_over_dx", reason)
+            })?;
+        Ok(points
+            .iter()
+            .enumerate()
+            .flat_map(|(q, p)| {
+                shapes
+                    .csr
+                    .range(q)
+                    .map(move |e| (shapes.csr.ids[e], p.force * shapes.n[e]))
+            })
+            .collect())
     }
 }
 

@@ -16,7 +16,7 @@ use super::{
     Mass, check_points, gather_accelerations, row_sums, signal_speed, smooth_velocities,
     stress_at_nodes, to_nodes,
 };
-use crate::boundary::Boundary;
+use crate::boundary::{Boundary, OnPatches};
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::material::Material;
@@ -201,6 +201,7 @@ fn on_lists<D: Dim, P: MovingPoints<D>>(lists: Csr) -> Shapes<D> {
         n: vec![0.0; pairs],
         grad: vec![D::zero(); pairs],
         test: vec![D::zero(); test],
+        family: None,
     }
 }
 
@@ -258,8 +259,8 @@ impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
             )?,
         };
         // The shape functions of a point reach only its own body's nodes.
-        boundary.use_masses(&mass);
-        let interactions = Interactions::build(case, &x0, &body, &mass, Csr::default)?;
+        boundary.use_method(&OnPatches, &mass)?;
+        let interactions = Interactions::build(case, &x0, &body, &OnPatches, &mass, Csr::default)?;
         let q = shapes.len();
         Ok(Self {
             x: x0.clone(),

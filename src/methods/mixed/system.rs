@@ -15,7 +15,7 @@ use super::compressibility::{Corrector, Pairs, StageStart, UNCONVERGED};
 use super::projection::{Balance, Sums};
 use super::weights::{brookshaw_weights, correct_laplacian, least_squares_weights, pair_map};
 use super::{CflWaveSpeed, Conserved, DeformationGradient, JstLaplacian, Momentum, Stabiliser};
-use crate::boundary::Boundary;
+use crate::boundary::{Boundary, OnPatches};
 use crate::correction;
 use crate::integrate::{IntegratorKind, OdeSystem};
 use crate::interaction::Interactions;
@@ -296,7 +296,8 @@ impl<D: Dim> MixedSph<D> {
         };
         let mut body = vec![0; x0.len()];
         ghosts.fill(&mut body, |a| body_real[a], |_, b| b);
-        let interactions = Interactions::build(case, &x0[..n], &body, &mass, || csr.clone())?;
+        let interactions =
+            Interactions::build(case, &x0[..n], &body, &OnPatches, &mass, || csr.clone())?;
         let n_ext = x0.len();
         let compressibility = options.artificial_compressibility.map(|spec| {
             let pairs = Pairs {

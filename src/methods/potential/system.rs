@@ -9,7 +9,7 @@
 //! stress is integrated.
 
 use super::PotentialForce;
-use crate::boundary::Boundary;
+use crate::boundary::{Boundary, OnPatches};
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::material::Material;
@@ -102,7 +102,8 @@ impl<D: Dim> Potential<D> {
         } = reference;
         let grad = reference_gradients::<D>(case, &x0, &vol, &csr)?;
         let grad_rev = reverse_gradients::<D>(case, &csr, &grad)?;
-        let interactions = Interactions::build(case, &x0, &body, &mass, || csr.clone())?;
+        let interactions =
+            Interactions::build(case, &x0, &body, &OnPatches, &mass, || csr.clone())?;
         let identity = Kinematics {
             f: D::identity(),
             p: D::zero_t(),

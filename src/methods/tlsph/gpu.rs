@@ -8,7 +8,7 @@
 
 use super::system::{TlState, check_state, hourglass_stiffness, snapshot};
 use super::{TlsphForce, ViscosityGradient};
-use crate::boundary::Reaction;
+use crate::boundary::{OnPatches, Reaction};
 use crate::correction::{self, CorrectionKind};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim, flat_v};
@@ -494,7 +494,9 @@ impl<D: GpuDim> GpuTlsph<D> {
             &y0,
         )?;
         let interactions =
-            Interactions::<D>::build(case, &disc.x0, &disc.body, &disc.mass, || csr.clone())?;
+            Interactions::<D>::build(case, &disc.x0, &disc.body, &OnPatches, &disc.mass, || {
+                csr.clone()
+            })?;
         let interactions = GpuInteractions::new(
             &gpu,
             &interactions,

@@ -6,7 +6,7 @@
 //! deviatoric stress S.
 
 use super::{ArtificialViscosity, TlsphForce, ViscosityGradient};
-use crate::boundary::Boundary;
+use crate::boundary::{Boundary, OnPatches};
 use crate::interaction::Interactions;
 use crate::methods::shared::{
     BlowUp, BoundaryWork, MIN_CHUNK, Method, Sizes, Traffic, check_motion, particle_state,
@@ -269,7 +269,8 @@ impl<D: Dim> Tlsph<D> {
         let hourglass = spec
             .hourglass
             .map(|alpha| hourglass_stiffness::<D>(case, alpha, &x0, &vol, &csr));
-        let interactions = Interactions::build(case, &x0, &body, &mass, || csr.clone())?;
+        let interactions =
+            Interactions::build(case, &x0, &body, &OnPatches, &mass, || csr.clone())?;
         let at_rest = Gathered {
             p: D::zero_t(),
             x: D::zero(),

@@ -11,7 +11,7 @@
 //! flag holds and runs the batch again from its start.
 
 use super::{UlState, check_state, snapshot};
-use crate::boundary::Reaction;
+use crate::boundary::{OnPatches, Reaction};
 use crate::correction::CorrectionKind;
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
@@ -260,7 +260,9 @@ impl<D: GpuDim> GpuUl<D> {
         )?;
         let per_body = case.contact.is_some();
         let interactions =
-            Interactions::<D>::build(case, &disc.x0, &disc.body, &disc.mass, || disc.neighbours())?;
+            Interactions::<D>::build(case, &disc.x0, &disc.body, &OnPatches, &disc.mass, || {
+                disc.neighbours()
+            })?;
         let interactions = GpuInteractions::new(
             &gpu,
             &interactions,

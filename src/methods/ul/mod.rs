@@ -14,7 +14,7 @@
 #[cfg(feature = "gpu")]
 pub mod gpu;
 
-use crate::boundary::Boundary;
+use crate::boundary::{Boundary, OnPatches};
 use crate::correction::CorrectionKind;
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
@@ -167,8 +167,9 @@ impl<D: Dim> UlCore<D> {
             kernel,
             ..
         } = reference;
-        let interactions =
-            Interactions::build(case, &x0, &body, &mass, || neighbours.lists().clone())?;
+        let interactions = Interactions::build(case, &x0, &body, &OnPatches, &mass, || {
+            neighbours.lists().clone()
+        })?;
         Ok(Self {
             x: x0.clone(),
             x0,

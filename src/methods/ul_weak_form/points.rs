@@ -167,6 +167,7 @@ impl<D: Dim> MovingPoints<D> for StressPoints<D> {
                 n: vec![0.0; pairs],
                 grad: vec![D::zero(); pairs],
                 test: Vec::new(),
+                family: None,
             },
             smoothing: spec.smoothing,
             rho0: reference.material.rho0,
