@@ -132,8 +132,8 @@ impl MethodFamily for EfgSpec {
         Plan {
             once: format!(
                 "once, on the reference configuration: {points}, the particles within the \
-                 kernel support of every point, the MLS functions Φ_a and ∇0Φ_a there, and \
-                 the node-to-point gather lists"
+                 kernel support of every point (with SCNI, of its cell's boundary too), the \
+                 MLS functions Φ_a and ∇0Φ_a there, and the node-to-point gather lists"
             ),
             state: galerkin_state(&mat),
             cfl_step: super::cfl_step(&mat),
