@@ -6,11 +6,16 @@
 //! - [`QuadraturePoints`]: Gauss points in those cells, with their weights w_q; or the
 //!   particles themselves (nodal integration), alone or with a stress point at every cell
 //!   centre (seed 001 §5.2);
+//! - [`SmoothingCells`]: the representative domain of every particle for stabilised
+//!   conforming nodal integration (SCNI; Chen, Wu, Yoon and You 2001), with the Gauss
+//!   points of its faces;
 //! - [`Shapes`]: the nodes (particles) whose shape functions reach each point, as a CSR
 //!   from points to nodes, with N_a(x_q) and ∇N_a(x_q) per pair: bilinear (trilinear)
 //!   isoparametric functions of the cells, reproducing-kernel (RKPM) or moving
 //!   least-squares (MLS) functions, or Shepard functions with the Krongauz–Belytschko
-//!   corrected gradient, whose test functions differ from the trial functions;
+//!   corrected gradient, whose test functions differ from the trial functions; or the
+//!   meshfree functions at the particles with gradients smoothed over their smoothing
+//!   cells (SCNI);
 //! - [`Gather`]: the transposed lists, from each node to its pairs, so that the forces
 //!   f_a = −Σ_q w_q P_q ∇N_a(x_q) are gathered per node rather than scattered per point.
 
@@ -57,8 +62,9 @@ pub enum QuadratureError {
     NoCell { body: u32 },
     #[error(
         "the corrected shape functions at point {point} at {position:?} (a quadrature \
-         point, or a particle) are singular: {nodes} particles reach it, too few or all \
-         on one line; increase h/dx"
+         point, a particle, or a point on the boundary of the smoothing cell of particle \
+         {point}) are singular: {nodes} particles reach it, too few or all on one line; \
+         increase h/dx"
     )]
     Singular {
         point: usize,
@@ -295,6 +301,101 @@ impl<D: Dim> QuadraturePoints<D> {
 
     pub fn is_empty(&self) -> bool {
         self.x0.is_empty()
+    }
+}
+
+/// The smoothing cells of stabilised conforming nodal integration (Chen, Wu, Yoon and You
+/// 2001): the representative domain Ω_L of every particle L, the box [lo_L, hi_L], here
+/// the Δx square (cube) about the particle clipped to the box of its body; on a vertex
+/// lattice these are the tributary cells whose areas the particles carry as volumes, on
+/// a cell-centred one the lattice's own cells. Cells of neighbouring particles share
+/// whole faces, so the faces inside a body cancel in Σ_L ∮_{Γ_L}.
+#[derive(Clone, Debug, Default)]
+pub struct SmoothingCells {
+    pub lo: Vec<[f64; 3]>,
+    pub hi: Vec<[f64; 3]>,
+}
+
+impl SmoothingCells {
+    /// The cells of particles x (bodies `body`) on a lattice of spacing Δx, each clipped to
+    /// its body's box `boxes[body] = (min, max)` (padded with zeros past d).
+    pub fn clipped<D: Dim>(
+        x: &[D::V],
+        body: &[u32],
+        spacing: f64,
+        boxes: &[([f64; 3], [f64; 3])],
+    ) -> Self {
+        let (lo, hi) = x
+            .iter()
+            .zip(body)
+            .map(|(&x, &b)| {
+                let (min, max) = boxes[b as usize];
+                let x = D::to3(x);
+                let (mut lo, mut hi) = ([0.0; 3], [0.0; 3]);
+                for k in 0..D::N {
+                    lo[k] = (x[k] - spacing / 2.0).max(min[k]);
+                    hi[k] = (x[k] + spacing / 2.0).min(max[k]);
+                }
+                (lo, hi)
+            })
+            .unzip();
+        Self { lo, hi }
+    }
+
+    /// Number of cells (particles).
+    pub fn len(&self) -> usize {
+        self.lo.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.lo.is_empty()
+    }
+
+    /// A_L, the area (volume) of every cell: the weight of its particle as a point.
+    pub fn volumes<D: Dim>(&self) -> Vec<f64> {
+        self.lo
+            .iter()
+            .zip(&self.hi)
+            .map(|(lo, hi)| (0..D::N).map(|k| hi[k] - lo[k]).product())
+            .collect()
+    }
+
+    /// The Gauss points of the boundary Γ_L of cell l, 2 per edge in 2D and 2×2 per face in
+    /// 3D (exact for the linear fields the patch test needs), each with n w: the outward
+    /// unit normal times the point's weight (its share of the face's length or area).
+    pub fn boundary_points<D: Dim>(&self, l: usize) -> Vec<(D::V, D::V)> {
+        let (lo, hi) = (self.lo[l], self.hi[l]);
+        let g = 1.0 / 3f64.sqrt();
+        let others = 1 << (D::N - 1);
+        let mut points = Vec::with_capacity(2 * D::N * others);
+        for k in 0..D::N {
+            for (side, sign) in [(lo[k], -1.0), (hi[k], 1.0)] {
+                for corner in 0..others {
+                    let (mut y, mut n) = ([0.0; 3], [0.0; 3]);
+                    let mut weight = 1.0;
+                    y[k] = side;
+                    for (bit, j) in (0..D::N).filter(|&j| j != k).enumerate() {
+                        let (mid, half) = ((lo[j] + hi[j]) / 2.0, (hi[j] - lo[j]) / 2.0);
+                        let xi = if corner >> bit & 1 == 0 { -g } else { g };
+                        y[j] = mid + xi * half;
+                        weight *= half;
+                    }
+                    n[k] = sign * weight;
+                    points.push((D::from_slice(&y[..D::N]), D::from_slice(&n[..D::N])));
+                }
+            }
+        }
+        points
+    }
+
+    /// The largest distance from a particle to a point of its cell's boundary, bounded by
+    /// the cell's diagonal.
+    fn reach(&self) -> f64 {
+        self.lo
+            .iter()
+            .zip(&self.hi)
+            .map(|(lo, hi)| (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum::<f64>().sqrt())
+            .fold(0.0, f64::max)
     }
 }
 
@@ -546,6 +647,89 @@ impl<D: Dim> Shapes<D> {
         Ok(shapes)
     }
 
+    /// Stabilised conforming nodal integration (SCNI; Chen, Wu, Yoon and You 2001) of the
+    /// moving least-squares functions ([`Self::moving_least_squares`]): at every particle
+    /// X_L, a point of weight A_L (the area of its cell in `cells`), the values Φ_a(X_L)
+    /// and the smoothed gradients b̃_a(X_L) = (1/A_L) ∮_{Γ_L} Φ_a n dΓ, by the Gauss points
+    /// of the cell's faces. Its nodes are the particles of its body whose support reaches
+    /// X_L or one of those points. The faces inside a body cancel, so Σ_L A_L b̃_a(X_L) is
+    /// the boundary quadrature of ∮_Γ Φ_a n dΓ (the integration constraint) and a linear
+    /// field's gradient is exact.
+    pub fn smoothed_moving_least_squares(
+        cells: &SmoothingCells,
+        x: &[D::V],
+        body: &[u32],
+        kernel: &Kernel,
+    ) -> Result<Self, QuadratureError> {
+        let unit = vec![1.0; x.len()];
+        let values = |y: D::V, nodes: &[u32]| {
+            let shapes = correction::reproducing_shapes::<D>(y, nodes, x, &unit, kernel)?;
+            Some(shapes.into_iter().map(|(phi, _)| phi).collect())
+        };
+        let rows = smoothed_rows::<D>(cells, x, body, kernel, values)?;
+        Ok(Self::from_rows(
+            Family::MovingLeastSquares,
+            rows.into_iter().map(|row| (row, Vec::new())),
+        ))
+    }
+
+    /// SCNI of the Krongauz–Belytschko functions ([`Self::krongauz_belytschko`]): at every
+    /// particle X_L the Shepard values W^S_a(X_L), the smoothed test gradients ∇̃W^S_a =
+    /// (1/A_L) ∮_{Γ_L} W^S_a n dΓ, and the trial gradients corrected as eq 31 corrects the
+    /// pointwise ones, G̃_a = M̃⁻¹ ∇̃W^S_a with M̃ = Σ_a ∇̃W^S_a ⊗ (X_a − X_L), so that
+    /// Σ_a X_a ⊗ G̃_a = I (Σ_a ∇̃W^S_a = (1/A_L) ∮ n dΓ = 0 allows the shift by X_L).
+    pub fn smoothed_krongauz_belytschko(
+        cells: &SmoothingCells,
+        x: &[D::V],
+        body: &[u32],
+        kernel: &Kernel,
+    ) -> Result<Self, QuadratureError> {
+        let values = |y: D::V, nodes: &[u32]| {
+            let shepard = shepard_functions::<D>(y, nodes, x, kernel)?;
+            Some(shepard.into_iter().map(|(w, _)| w).collect())
+        };
+        let rows = smoothed_rows::<D>(cells, x, body, kernel, values)?;
+        let rows =
+            rows.into_iter()
+                .enumerate()
+                .map(|(l, mut row)| {
+                    let corrected = corrected_gradients::<D>(x[l], &row.nodes, x, &row.grad)
+                        .ok_or(QuadratureError::Singular {
+                            point: l,
+                            position: D::to3(x[l]),
+                            nodes: row.nodes.len(),
+                        })?;
+                    let test = std::mem::replace(&mut row.grad, corrected);
+                    Ok((row, test))
+                })
+                .collect::<Result<Vec<_>, _>>()?;
+        Ok(Self::from_rows(Family::KrongauzBelytschko, rows))
+    }
+
+    /// The shapes of `family` on rows of nodes with their values, trial gradients and
+    /// (empty for a Bubnov–Galerkin method) test gradients, one row per point in order.
+    fn from_rows(
+        family: Family,
+        rows: impl IntoIterator<Item = (SmoothedRow<D>, Vec<D::V>)>,
+    ) -> Self {
+        let mut shapes = Self {
+            csr: Csr {
+                offsets: vec![0],
+                ids: Vec::new(),
+            },
+            family: Some(family),
+            ..Self::default()
+        };
+        for (row, test) in rows {
+            shapes.csr.ids.extend(&row.nodes);
+            shapes.csr.offsets.push(shapes.csr.ids.len());
+            shapes.n.extend(row.n);
+            shapes.grad.extend(row.grad);
+            shapes.test.extend(test);
+        }
+        shapes
+    }
+
     /// ∇Φ_a(x_q) of pair p: the test function's gradient (the trial function's for a
     /// Bubnov–Galerkin method).
     #[inline]
@@ -685,6 +869,26 @@ pub fn krongauz_belytschko_shapes<D: Dim>(
     x: &[D::V],
     kernel: &Kernel,
 ) -> Option<Vec<KbShape<D>>> {
+    let shepard = shepard_functions::<D>(y, nodes, x, kernel)?;
+    let test: Vec<D::V> = shepard.iter().map(|s| s.1).collect();
+    let trial = corrected_gradients::<D>(y, nodes, x, &test)?;
+    Some(
+        shepard
+            .into_iter()
+            .zip(trial)
+            .map(|((w, g), trial)| (w, trial, g))
+            .collect(),
+    )
+}
+
+/// The Shepard functions W^S_a = W_a / Σ_b W_b (seed 001 eq 28) at y of the particles
+/// `nodes` of x and their gradients, per node in order; none where the kernels sum to zero.
+fn shepard_functions<D: Dim>(
+    y: D::V,
+    nodes: &[u32],
+    x: &[D::V],
+    kernel: &Kernel,
+) -> Option<Vec<(f64, D::V)>> {
     let kernels: Vec<(f64, D::V)> = nodes
         .iter()
         .map(|&a| {
@@ -698,20 +902,90 @@ pub fn krongauz_belytschko_shapes<D: Dim>(
     }
     let grad_sum = kernels.iter().fold(D::zero(), |s, k| s + k.1);
     // ∇W^S_a = (∇W_a − W^S_a Σ_b ∇W_b) / Σ_b W_b.
-    let shepard: Vec<(f64, D::V)> = kernels
-        .iter()
-        .map(|&(w, g)| (w / sum, (g - grad_sum * (w / sum)) * (1.0 / sum)))
-        .collect();
-    // M = Σ_a ∇W^S_a ⊗ (X_a − X_q): eq 31 with the shift that Σ_a ∇W^S_a = 0 allows.
-    let m = nodes.iter().zip(&shepard).fold(D::zero_t(), |m, (&a, s)| {
-        m + D::outer(s.1, x[a as usize] - y)
+    Some(
+        kernels
+            .iter()
+            .map(|&(w, g)| (w / sum, (g - grad_sum * (w / sum)) * (1.0 / sum)))
+            .collect(),
+    )
+}
+
+/// The Krongauz–Belytschko correction (seed 001 eqs 27, 31) of gradients g_a at y that
+/// sum to zero: G_a = M⁻¹ g_a with M = Σ_a g_a ⊗ (X_a − y) (eq 31 with the shift that Σ_a
+/// g_a = 0 allows), so that Σ_a X_a ⊗ G_a = I; none where M is singular (|det M| ≤ 1e-10
+/// of its scale).
+fn corrected_gradients<D: Dim>(
+    y: D::V,
+    nodes: &[u32],
+    x: &[D::V],
+    g: &[D::V],
+) -> Option<Vec<D::V>> {
+    let m = nodes.iter().zip(g).fold(D::zero_t(), |m, (&a, &g)| {
+        m + D::outer(g, x[a as usize] - y)
     });
     let scale = D::ddot(m, m).sqrt() / (D::N as f64).sqrt();
     if D::det(m).abs() <= 1e-10 * scale.powi(D::N as i32) {
         return None;
     }
     let a = D::inverse(m);
-    Some(shepard.into_iter().map(|(w, g)| (w, a * g, g)).collect())
+    Some(g.iter().map(|&g| a * g).collect())
+}
+
+/// One point's row of [`Shapes`] under SCNI: its nodes, their values at the particle and
+/// their smoothed gradients.
+struct SmoothedRow<D: Dim> {
+    nodes: Vec<u32>,
+    n: Vec<f64>,
+    grad: Vec<D::V>,
+}
+
+/// The SCNI rows of the particles x of `cells` (see [`Shapes::smoothed_moving_least_squares`]):
+/// per particle L, its nodes (the particles of its body whose support reaches X_L or a
+/// boundary point of its cell), `values(X_L)` and (1/A_L) Σ_g values(Y_g) n_g w_g over the
+/// cell's boundary points Y_g. `values(y, nodes)` gives the functions of the nodes at y,
+/// none where they are singular; the first particle (in order) whose functions fail
+/// fails all.
+fn smoothed_rows<D: Dim>(
+    cells: &SmoothingCells,
+    x: &[D::V],
+    body: &[u32],
+    kernel: &Kernel,
+    values: impl Fn(D::V, &[u32]) -> Option<Vec<f64>> + Sync,
+) -> Result<Vec<SmoothedRow<D>>, QuadratureError> {
+    let reach = crate::reference::neighbour_radius(kernel);
+    let candidates = neighbour::between::<D>(x, x, reach + cells.reach(), Some((body, body)));
+    let volumes = cells.volumes::<D>();
+    let rows: Vec<Result<SmoothedRow<D>, QuadratureError>> = (0..x.len())
+        .into_par_iter()
+        .with_min_len(MIN_ROWS)
+        .map(|l| {
+            let boundary = cells.boundary_points::<D>(l);
+            let reaches = |a: u32, y: D::V| kernel.w(D::norm2(y - x[a as usize]).sqrt()) > 0.0;
+            let nodes: Vec<u32> = candidates
+                .neighbours(l)
+                .iter()
+                .copied()
+                .filter(|&a| reaches(a, x[l]) || boundary.iter().any(|&(y, _)| reaches(a, y)))
+                .collect();
+            let singular = |y: D::V| QuadratureError::Singular {
+                point: l,
+                position: D::to3(y),
+                nodes: nodes.len(),
+            };
+            let n = values(x[l], &nodes).ok_or_else(|| singular(x[l]))?;
+            let mut grad = vec![D::zero(); nodes.len()];
+            for &(y, nw) in &boundary {
+                let phi = values(y, &nodes).ok_or_else(|| singular(y))?;
+                for (g, phi) in grad.iter_mut().zip(phi) {
+                    *g += nw * phi;
+                }
+            }
+            let inverse = 1.0 / volumes[l];
+            grad.iter_mut().for_each(|g| *g = *g * inverse);
+            Ok(SmoothedRow { nodes, n, grad })
+        })
+        .collect();
+    rows.into_iter().collect()
 }
 
 /// Rows a task of the parallel loops over points handles at least.

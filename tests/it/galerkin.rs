@@ -191,7 +191,7 @@ fn the_closed_form_stiffness_is_the_derivative_of_the_forces() {
         ("tl-fem", ""),
         ("tl-weak-form", ""),
         ("kbm", ""),
-        ("kbm", "stress_points = false"),
+        ("kbm", "integration = \"nodal\""),
         ("efg", ""),
         ("efg", "integration = \"nodal\""),
     ];

@@ -49,6 +49,7 @@ mod perforated_block;
 mod reactions;
 mod registry;
 mod runs;
+mod scni;
 mod seed001_cantilever;
 mod seed001_pulse;
 mod seed001_ring;

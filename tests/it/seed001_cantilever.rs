@@ -17,7 +17,7 @@ use std::path::Path;
 const SPH: &[&str] = &[];
 const RLM: &[&str] = &["method.correction=randles-libersky"];
 const KBM_SI: &[&str] = &["method.name=kbm"];
-const KBM_NI: &[&str] = &["method.name=kbm", "method.stress_points=false"];
+const KBM_NI: &[&str] = &["method.name=kbm", "method.integration=nodal"];
 const EFG_NI: &[&str] = &["method.name=efg", "method.integration=nodal"];
 const EFG_CI: &[&str] = &["method.name=efg"];
 

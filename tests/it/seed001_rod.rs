@@ -419,7 +419,7 @@ fn the_galerkin_particle_methods_on_the_rod() {
         rod_errors(case, &set)
     };
     let kbm_si = coarse("rod-gaussian-kbm", "");
-    let kbm_ni = coarse("rod-gaussian-kbm", "method.stress_points=false");
+    let kbm_ni = coarse("rod-gaussian-kbm", "method.integration=nodal");
     let efg_ni = coarse("rod-gaussian-efg", "method.integration=nodal");
     let efg_ci = coarse("rod-gaussian-efg", "");
     let sph = coarse("rod-gaussian", "");

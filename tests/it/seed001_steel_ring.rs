@@ -93,7 +93,7 @@ fn a_uniaxial_strain_path_gives_every_point_the_closed_form_plastic_history() {
     // increment, ~2e-3.
     for (method, keys) in [
         ("kbm", ""),
-        ("kbm", "stress_points = false"),
+        ("kbm", "integration = \"nodal\""),
         ("efg", ""),
         ("tl-fem", ""),
     ] {

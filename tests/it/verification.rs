@@ -15,12 +15,12 @@ use std::path::Path;
 /// A row of the matrix: a method name, the keys it requires, its documented order of
 /// convergence in the displacement and the error bounds at Δx = 0.125 m of the
 /// cantilever and of the patch test under a traction (the end's mean u_x).
-struct Row {
-    method: &'static str,
-    keys: &'static str,
-    order: f64,
-    cantilever_error: f64,
-    patch_error: f64,
+pub struct Row {
+    pub method: &'static str,
+    pub keys: &'static str,
+    pub order: f64,
+    pub cantilever_error: f64,
+    pub patch_error: f64,
 }
 
 /// Every method with a static path (`run.solve = "static"`, or static by default). The
@@ -250,7 +250,7 @@ fn every_static_method_holds_the_weight_of_the_named_body() {
 
 /// Timoshenko's cantilever of length 8 m and depth 2 m (centred on y = 0) under an end
 /// load P = −1e3 N/m at spacing `dx`: the relative volume-weighted L2 error of u.
-fn cantilever_error(row: &Row, dx: f64) -> f64 {
+pub fn cantilever_error(row: &Row, dx: f64) -> f64 {
     let (l, d, p) = (8.0, 2.0, -1.0e3);
     let solution = format!(
         "solution = {{ type = \"timoshenko-cantilever\", load = {p}, length = {l}, depth = {d} }}"

@@ -1,13 +1,14 @@
 //! The element-free Galerkin method as seed 001 compares it (§3.4, §5): a Bubnov–Galerkin
 //! method on a Lagrangian kernel with moving least-squares functions of a linear basis
-//! (eqs 37–42), integrated at the particles ("EFG (ni)", eqs 59–60) or at 2×2 (2×2×2)
-//! Gauss points of the lattice cells ("EFG (ci)", eqs 66–69), F_q = I + Σ_a u_a ⊗
-//! ∇0Φ_a(X_q) and f_a = Σ_q w_q ∇0Φ_a(X_q)·P_q. Everything is built once on the reference
-//! configuration. It runs on the shared Galerkin system ([`crate::methods::galerkin`]).
+//! (eqs 37–42), integrated at the particles ("EFG (ni)", eqs 59–60), at the particles
+//! with the gradients smoothed over their cells (stabilised conforming nodal integration,
+//! Chen, Wu, Yoon and You 2001) or at 2×2 (2×2×2) Gauss points of the lattice cells
+//! ("EFG (ci)", eqs 66–69), F_q = I + Σ_a u_a ⊗ ∇0Φ_a(X_q) and f_a = Σ_q w_q
+//! ∇0Φ_a(X_q)·P_q. Everything is built once on the reference configuration. It runs on the shared Galerkin system ([`crate::methods::galerkin`]).
 //! Numerics notes: `docs/methods/seed001.md`.
 
 use super::fem::galerkin_state;
-use super::galerkin::{Mass, TlGalerkin, particle_mass};
+use super::galerkin::{Mass, TlGalerkin, particle_mass, smoothing_cells};
 use super::{Feature, MethodFamily, Plan, Problem};
 use crate::material::Material;
 use crate::quadrature::{Cells, QuadraturePoints, Rule, Shapes};
@@ -23,6 +24,9 @@ use serde::{Deserialize, Serialize};
 pub enum Integration {
     /// At the particles, weighted by their volumes: EFG (ni).
     Nodal,
+    /// At the particles, weighted by the areas of their cells, with the gradients
+    /// smoothed over the cells: stabilised conforming nodal integration.
+    Scni,
     /// At 2^d Gauss points of every lattice cell: EFG (ci).
     #[default]
     Cells,
@@ -32,7 +36,8 @@ pub enum Integration {
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct EfgSpec {
-    /// `cells` (the default, EFG (ci)) or `nodal` (EFG (ni)).
+    /// `cells` (the default, EFG (ci)), `nodal` (EFG (ni)) or `scni` (stabilised
+    /// conforming nodal integration).
     #[serde(default)]
     pub integration: Integration,
     /// The nodal masses (default `particle`, ρ0 V of each particle: the Voronoi masses of
@@ -51,43 +56,46 @@ impl Default for EfgSpec {
 }
 
 impl EfgSpec {
-    /// The Galerkin system with the MLS functions of the particles at the particles or at
-    /// the Gauss points of the lattice cells.
+    /// The Galerkin system with the MLS functions of the particles at the particles (their
+    /// gradients smoothed over the particles' cells with SCNI) or at the Gauss points of
+    /// the lattice cells.
     pub fn system<D: Dim>(
         &self,
         case: &Case,
         reference: Reference<D>,
     ) -> Result<TlGalerkin<D>, CaseError> {
-        let (cells, points) = match self.integration {
+        let (x0, body, kernel) = (&reference.x0, &reference.body, &reference.kernel);
+        let (cells, points, shapes) = match self.integration {
             Integration::Cells => {
                 let cells = reference
                     .cells(case.spacing)
                     .map_err(|e| case.invalid("method.integration", e.to_string()))?;
-                let points = QuadraturePoints::new(&cells, &reference.x0, Rule::Gauss2);
-                (cells, points)
+                let points = QuadraturePoints::new(&cells, x0, Rule::Gauss2);
+                let shapes =
+                    Shapes::moving_least_squares(&points.x0, &points.body, x0, body, kernel);
+                (cells, points, shapes)
             }
             Integration::Nodal => {
-                let points =
-                    QuadraturePoints::at_particles(&reference.x0, &reference.vol, &reference.body);
-                (Cells::default(), points)
+                let points = QuadraturePoints::at_particles(x0, &reference.vol, body);
+                let shapes = Shapes::moving_least_squares(x0, body, x0, body, kernel);
+                (Cells::default(), points, shapes)
+            }
+            Integration::Scni => {
+                let smoothing = smoothing_cells(case, &reference, "method.integration")?;
+                let points = QuadraturePoints::at_particles(x0, &smoothing.volumes::<D>(), body);
+                let shapes = Shapes::smoothed_moving_least_squares(&smoothing, x0, body, kernel);
+                (Cells::default(), points, shapes)
             }
         };
-        let shapes = Shapes::moving_least_squares(
-            &points.x0,
-            &points.body,
-            &reference.x0,
-            &reference.body,
-            &reference.kernel,
-        )
-        .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
+        let shapes = shapes.map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
         TlGalerkin::new(case, reference, cells, points, shapes, self.mass, None)
     }
 }
 
 impl MethodFamily for EfgSpec {
     const DESCRIPTION: &'static str = "element-free Galerkin (seed 001): Lagrangian kernel, \
-        moving least-squares functions of a linear basis, integration at the particles or \
-        at 2^d Gauss points of the lattice cells";
+        moving least-squares functions of a linear basis, integration at the particles \
+        (unstabilised or SCNI) or at 2^d Gauss points of the lattice cells";
     const KEYS: &'static [&'static str] = &["integration", "mass"];
     const FEATURES: &'static [Feature] = &[
         Feature::Contact,
@@ -114,12 +122,18 @@ impl MethodFamily for EfgSpec {
         let points = match self.integration {
             Integration::Cells => "the lattice cells with 2^d Gauss points each",
             Integration::Nodal => "the particles as points, weighted by their volumes",
+            Integration::Scni => {
+                "the particles as points, weighted by the areas (volumes) of their Δx cells \
+                 clipped to the body's box, with the gradients smoothed over the cells \
+                 (SCNI: ∇̃Φ_a(X_L) = (1/A_L) Σ_g Φ_a(Y_g) n_g w_g over 2 Gauss points per \
+                 cell edge, 2×2 per face in 3D)"
+            }
         };
         Plan {
             once: format!(
                 "once, on the reference configuration: {points}, the particles within the \
-                 kernel support of every point, the MLS functions Φ_a and ∇0Φ_a there, and \
-                 the node-to-point gather lists"
+                 kernel support of every point (with SCNI, of its cell's boundary too), the \
+                 MLS functions Φ_a and ∇0Φ_a there, and the node-to-point gather lists"
             ),
             state: galerkin_state(&mat),
             cfl_step: super::cfl_step(&mat),
@@ -161,7 +175,8 @@ impl MethodFamily for EfgSpec {
             "method.integration = \"nodal\" integrates at the particles without \
              stabilisation: the stripes even about every particle are zero-energy modes \
              (docs/methods/seed001.md), and static bending gives deflections of the wrong \
-             sign or several times too large; use integration = \"cells\" (the default)"
+             sign or several times too large; use integration = \"scni\" (stabilised \
+             conforming nodal integration) or \"cells\" (the default)"
                 .to_string()
         })
     }

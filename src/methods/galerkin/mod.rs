@@ -35,10 +35,12 @@ use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::Csr;
 use crate::observe::{Quadrature, ScalarField, Snapshot};
 use crate::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
-use crate::quadrature::{Cells, Family, Gather, QuadratureError, QuadraturePoints, Shapes};
+use crate::quadrature::{
+    Cells, Family, Gather, QuadratureError, QuadraturePoints, Shapes, SmoothingCells,
+};
 use crate::reference::Reference;
 use crate::run::{Engine, EngineDim};
-use crate::scene::{Case, CaseError};
+use crate::scene::{Case, CaseError, Shape};
 use crate::statics::explicit::{AtRest, ClosedForm};
 use crate::statics::sparse::BlockPattern;
 use crate::tensor::Dim;
@@ -115,6 +117,44 @@ pub fn smoothing_shapes<D: Dim>(reference: &Reference<D>) -> Result<Shapes<D>, Q
         &reference.body,
         &reference.kernel,
     )
+}
+
+/// The smoothing cells of stabilised conforming nodal integration (`integration = "scni"`
+/// of `efg` and `kbm`): every particle's Δx square (cube) clipped to its body's box. The
+/// cells must tile the body the case names, so only boxes without holes take them; any
+/// other geometry is refused naming its key (`key` names the integration key).
+pub fn smoothing_cells<D: Dim>(
+    case: &Case,
+    reference: &Reference<D>,
+    key: &str,
+) -> Result<SmoothingCells, CaseError> {
+    let mut boxes = Vec::with_capacity(case.bodies.len());
+    for (b, spec) in case.bodies.iter().enumerate() {
+        let refuse = |at: String, what: &str| {
+            Err(case.invalid(
+                at,
+                format!(
+                    "{key} = \"scni\" smooths the gradients over the Δx cells of a box's \
+                     lattice, and body `{}` {what}; use a box (`shape = \"box\"`) without \
+                     holes, or another {key}",
+                    spec.name
+                ),
+            ))
+        };
+        if !spec.holes.is_empty() {
+            return refuse(format!("body.{b}.holes"), "has holes");
+        }
+        match (&spec.geometry, spec.geometry.extent(D::N)) {
+            (Shape::Box { .. }, Some(extent)) => boxes.push(extent),
+            _ => return refuse(format!("body.{b}.geometry"), "is not a box"),
+        }
+    }
+    Ok(SmoothingCells::clipped::<D>(
+        &reference.x0,
+        &reference.body,
+        case.spacing,
+        &boxes,
+    ))
 }
 
 /// The velocity smoothing after each step of the reproducing-kernel weak forms (seed 000

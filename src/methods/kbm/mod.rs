@@ -4,7 +4,9 @@
 //! gradient, F_q = I + Σ_a u_a ⊗ G_a(X_q) and f_a = Σ_q V_q ∇0W^S_a(X_q)·P_q (eq 64, spec
 //! §7.4). Its points are the particles (nodal integration, "KBM (ni)") and, by default, a
 //! stress point at the centre of every lattice cell ("KBM (si)", §5.2), weighted by the
-//! Voronoi diagram of both (eq 65). Everything is built once on the reference
+//! Voronoi diagram of both (eq 65); or the particles with the test gradients smoothed over
+//! their cells and the trial gradients corrected from those (stabilised conforming nodal
+//! integration, Chen, Wu, Yoon and You 2001). Everything is built once on the reference
 //! configuration (§2.2). It runs on the shared Galerkin system
 //! ([`crate::methods::galerkin`]). `kernel_frame = "eulerian"` selects the same method on
 //! an Eulerian kernel ([`eulerian`], updated-Lagrangian, CPU only). Numerics notes:
@@ -14,7 +16,7 @@ pub mod eulerian;
 
 use super::fem::galerkin_state;
 use super::galerkin::updated::UlGalerkin;
-use super::galerkin::{Mass, TlGalerkin, particle_mass};
+use super::galerkin::{Mass, TlGalerkin, particle_mass, smoothing_cells};
 use super::ul_fem::ul_galerkin_state;
 use super::{Feature, MethodFamily, Plan, Problem};
 use crate::material::Material;
@@ -27,18 +29,30 @@ use crate::tensor::Dim;
 use eulerian::EulerianPoints;
 use serde::{Deserialize, Serialize};
 
-fn yes() -> bool {
-    true
+/// Where the Krongauz–Belytschko method integrates (`method.integration`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Integration {
+    /// At the particles and a stress point at the centre of every lattice cell, weighted
+    /// by their joint Voronoi cells: KBM (si).
+    #[default]
+    StressPoints,
+    /// At the particles, weighted by their volumes: KBM (ni).
+    Nodal,
+    /// At the particles, weighted by the areas of their cells, with the test gradients
+    /// smoothed over the cells and the trial gradients corrected from them: stabilised
+    /// conforming nodal integration.
+    Scni,
 }
 
 /// The `[method]` keys of the Krongauz–Belytschko method.
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct KbmSpec {
-    /// A stress point at the centre of every lattice cell besides the particles (default
-    /// true, the paper's KBM (si)); false integrates at the particles only (KBM (ni)).
-    #[serde(default = "yes")]
-    pub stress_points: bool,
+    /// `stress-points` (the default, the paper's KBM (si)), `nodal` (KBM (ni)) or `scni`
+    /// (stabilised conforming nodal integration).
+    #[serde(default)]
+    pub integration: Integration,
     /// The nodal masses (default `particle`, ρ0 V of each particle: the Voronoi masses of
     /// eq 70 on a lattice of tributary volumes, `geometry.volumes = "tributary"`).
     #[serde(default = "particle_mass")]
@@ -68,7 +82,7 @@ pub enum KernelFrame {
 impl Default for KbmSpec {
     fn default() -> Self {
         Self {
-            stress_points: true,
+            integration: Integration::StressPoints,
             mass: Mass::Particle,
             kernel_frame: KernelFrame::Lagrangian,
             search_every: None,
@@ -77,17 +91,18 @@ impl Default for KbmSpec {
 }
 
 impl KbmSpec {
-    /// The cells (stress points only) and the points: the particles, then with stress
-    /// points one at the centre of every cell, weighted by their joint Voronoi cells.
+    /// The cells (stress points only) and the points of KBM (si) and (ni): the particles,
+    /// then with stress points one at the centre of every cell, weighted by their joint
+    /// Voronoi cells.
     pub fn points<D: Dim>(
         &self,
         case: &Case,
         reference: &Reference<D>,
     ) -> Result<(Cells, QuadraturePoints<D>), CaseError> {
-        Ok(if self.stress_points {
+        Ok(if self.integration == Integration::StressPoints {
             let cells = reference
                 .cells(case.spacing)
-                .map_err(|e| case.invalid("method.stress_points", e.to_string()))?;
+                .map_err(|e| case.invalid("method.integration", e.to_string()))?;
             let points =
                 QuadraturePoints::with_stress_points(&cells, &reference.x0, &reference.body);
             (cells, points)
@@ -99,21 +114,25 @@ impl KbmSpec {
     }
 
     /// The Galerkin system with the Krongauz–Belytschko functions at the particles and,
-    /// with stress points, at the cell centres.
+    /// with stress points, at the cell centres; or with SCNI their smoothed gradients at
+    /// the particles.
     pub fn system<D: Dim>(
         &self,
         case: &Case,
         reference: Reference<D>,
     ) -> Result<TlGalerkin<D>, CaseError> {
-        let (cells, points) = self.points(case, &reference)?;
-        let shapes = Shapes::krongauz_belytschko(
-            &points.x0,
-            &points.body,
-            &reference.x0,
-            &reference.body,
-            &reference.kernel,
-        )
-        .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
+        let (x0, body, kernel) = (&reference.x0, &reference.body, &reference.kernel);
+        let (cells, points, shapes) = if self.integration == Integration::Scni {
+            let smoothing = smoothing_cells(case, &reference, "method.integration")?;
+            let points = QuadraturePoints::at_particles(x0, &smoothing.volumes::<D>(), body);
+            let shapes = Shapes::smoothed_krongauz_belytschko(&smoothing, x0, body, kernel);
+            (Cells::default(), points, shapes)
+        } else {
+            let (cells, points) = self.points(case, &reference)?;
+            let shapes = Shapes::krongauz_belytschko(&points.x0, &points.body, x0, body, kernel);
+            (cells, points, shapes)
+        };
+        let shapes = shapes.map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
         TlGalerkin::new(case, reference, cells, points, shapes, self.mass, None)
     }
 }
@@ -121,9 +140,9 @@ impl KbmSpec {
 impl MethodFamily for KbmSpec {
     const DESCRIPTION: &'static str = "Krongauz–Belytschko Petrov–Galerkin method (seed \
         001, EFG–KBM): Lagrangian kernel, Shepard test functions, corrected trial gradient, \
-        integration at the particles and at stress points in the cell centres";
-    const KEYS: &'static [&'static str] =
-        &["stress_points", "mass", "kernel_frame", "search_every"];
+        integration at the particles and at stress points in the cell centres, or at the \
+        particles alone (unstabilised or SCNI)";
+    const KEYS: &'static [&'static str] = &["integration", "mass", "kernel_frame", "search_every"];
     const FEATURES: &'static [Feature] = &[
         Feature::Contact,
         Feature::Plasticity,
@@ -135,6 +154,14 @@ impl MethodFamily for KbmSpec {
     const SHADERS: &'static [crate::gpu::shaders::Source] = super::galerkin::gpu::SHADERS;
 
     fn validate(&self, case: &Case) -> Result<(), Problem> {
+        if self.kernel_frame == KernelFrame::Eulerian && self.integration == Integration::Scni {
+            return fail(
+                "method.integration",
+                "\"scni\" takes the Lagrangian kernel only (its smoothing cells are built \
+                 once on the reference configuration): use integration = \"stress-points\" \
+                 or \"nodal\" with kernel_frame = \"eulerian\", or remove kernel_frame",
+            );
+        }
         if self.kernel_frame == KernelFrame::Eulerian && case.is_static() {
             return fail(
                 "method.kernel_frame",
@@ -162,7 +189,7 @@ impl MethodFamily for KbmSpec {
         }
         let mat = Material::new(&case.material);
         let mut left_out = Vec::new();
-        if !self.stress_points {
+        if self.integration == Integration::Nodal {
             left_out.push("stress points (nodal integration only: KBM (ni))");
         }
         left_out.push(if mat.model.is_rate_based() {
@@ -170,17 +197,29 @@ impl MethodFamily for KbmSpec {
         } else {
             "continuity and Jaumann rates"
         });
-        let points = if self.stress_points {
-            "the particles and a stress point at every lattice-cell centre, weighted by \
-             their joint Voronoi cells"
-        } else {
-            "the particles, weighted by their volumes"
+        let (points, gradients) = match self.integration {
+            Integration::StressPoints => (
+                "the particles and a stress point at every lattice-cell centre, weighted by \
+                 their joint Voronoi cells",
+                "the Shepard functions W^S_a and ∇0W^S_a there",
+            ),
+            Integration::Nodal => (
+                "the particles, weighted by their volumes",
+                "the Shepard functions W^S_a and ∇0W^S_a there",
+            ),
+            Integration::Scni => (
+                "the particles, weighted by the areas (volumes) A_L of their Δx cells \
+                 clipped to the body's box",
+                "the Shepard functions W^S_a there and their gradients smoothed over the \
+                 cells (SCNI: ∇̃W^S_a = (1/A_L) Σ_g W^S_a(Y_g) n_g w_g over 2 Gauss points \
+                 per cell edge, 2×2 per face in 3D), in M and G_a in place of ∇0W^S_a",
+            ),
         };
         Plan {
             once: format!(
                 "once, on the reference configuration: the points ({points}), the particles \
-                 within the kernel support of every point, the Shepard functions W^S_a and \
-                 ∇0W^S_a there, M = Σ_a ∇0W^S_a ⊗ (X_a − X_q) and G_a = M⁻¹ ∇0W^S_a, and the \
+                 within the kernel support of every point (and of its cell's boundary), \
+                 {gradients}, M = Σ_a ∇0W^S_a ⊗ (X_a − X_q) and G_a = M⁻¹ ∇0W^S_a, and the \
                  node-to-point gather lists"
             ),
             state: galerkin_state(&mat),
@@ -242,17 +281,18 @@ impl MethodFamily for KbmSpec {
     }
 
     fn warning(&self, _case: &Case) -> Option<String> {
-        (!self.stress_points).then(|| {
-            "method.stress_points = false integrates at the particles without \
+        (self.integration == Integration::Nodal).then(|| {
+            "method.integration = \"nodal\" integrates at the particles without \
              stabilisation: the stripes even about every particle are zero-energy modes \
              (docs/methods/seed001.md), and static bending gives deflections of the wrong \
-             sign or several times too large; keep stress_points = true (the default)"
+             sign or several times too large; use integration = \"scni\" (stabilised \
+             conforming nodal integration) or \"stress-points\" (the default)"
                 .to_string()
         })
     }
 
     fn lattice_cells(&self) -> bool {
-        self.stress_points
+        self.integration == Integration::StressPoints
     }
 }
 
@@ -260,14 +300,14 @@ impl KbmSpec {
     /// The run plan of the Eulerian kernel.
     fn eulerian_plan(&self, case: &Case) -> Plan {
         let mat = Material::new(&case.material);
-        let points = if self.stress_points {
+        let points = if self.integration == Integration::StressPoints {
             "the particles and a stress point at every cell centre (moving with the Shepard \
              interpolant of the velocities)"
         } else {
             "the particles"
         };
         let mut left_out = Vec::new();
-        if !self.stress_points {
+        if self.integration == Integration::Nodal {
             left_out.push("stress points (nodal integration only: KBM (ni))");
         }
         Plan {
