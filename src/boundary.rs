@@ -869,3 +869,66 @@ fn selected<D: Dim>(
     }
     Ok(inside)
 }
+
+/// What one boundary condition acts on: its region's particles and, for a load (a
+/// traction, pressure, body force or a solution's traction), the total force it applies
+/// at law value 1, the sum of its particles' forces (∫ t dA over their patches of the
+/// face, p R Δθ n along a circle, m g on the masses given).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ConditionTotal {
+    pub particles: usize,
+    pub force: Option<[f64; 3]>,
+}
+
+/// The [`ConditionTotal`] of every boundary condition of a case, in case order, on the
+/// particles at reference positions x0 with bodies `body` and nodal masses `mass` (which
+/// only a body force's total depends on): for `--explain`, and the applied-force columns
+/// of the named loads in the series.
+pub fn condition_totals<D: Dim>(
+    case: &Case,
+    x0: &[D::V],
+    body: &[u32],
+    mass: &[f64],
+) -> Result<Vec<ConditionTotal>, CaseError> {
+    let sum = |forces: &mut dyn Iterator<Item = D::V>| {
+        let total = forces.fold(D::zero(), |a, f| a + f);
+        Some(D::to3(total))
+    };
+    (0..case.boundaries.len())
+        .map(|b| {
+            let particles = selected::<D>(case, b, x0, body)?;
+            let force = match &case.boundaries[b].condition {
+                Condition::Traction { traction, .. } => {
+                    let face = Face::of::<D>(case, b, &particles, x0, body);
+                    let t = std::array::from_fn(|k| traction.get(k).copied().unwrap_or(0.0));
+                    sum(&mut particles
+                        .iter()
+                        .map(|&i| D::from_slice(&face.patch::<D>(x0[i]).force(|_| t)[..D::N])))
+                }
+                Condition::SolutionTraction { solution, normal } => {
+                    let face = Face::of::<D>(case, b, &particles, x0, body);
+                    let closed = ClosedForm::of(solution, &case.material);
+                    sum(&mut particles.iter().map(|&i| {
+                        let f = face.patch::<D>(x0[i]).force(|x| {
+                            let s = closed.stress3(x);
+                            std::array::from_fn(|r| (0..D::N).map(|c| s[r][c] * normal[c]).sum())
+                        });
+                        D::from_slice(&f[..D::N])
+                    }))
+                }
+                Condition::Pressure { .. } => sum(&mut pressure_forces::<D>(case, b, x0, body)?
+                    .into_iter()
+                    .map(|(_, f)| f)),
+                Condition::BodyForce { acceleration, .. } => {
+                    let g = D::from_slice(acceleration);
+                    sum(&mut particles.iter().map(|&i| g * mass[i]))
+                }
+                _ => None,
+            };
+            Ok(ConditionTotal {
+                particles: particles.len(),
+                force,
+            })
+        })
+        .collect()
+}

@@ -166,13 +166,37 @@ fn to_named_volume(
 /// Refuses a body whose sampled volume Σ V differs from the volume of the shape the case
 /// names by more than `volume_tolerance`, saying by how much and what to change. A body
 /// with holes is not checked (its named volume is not computed), nor one whose `volumes`
-/// the case gives: the case asked for them (the run says the difference in mass).
+/// the case gives: the case asked for them (the run says the difference in mass). A
+/// cylinder whose sampled length differs from the named one by more than the tolerance is
+/// refused whatever its volumes ([`Shape::sampled_length`]): scaled volumes keep its mass
+/// but not its shape.
 fn sampled_volume_fits(
     case: &Case,
     b: usize,
     spec: &BodySpec,
     volumes: &[f64],
 ) -> Result<(), CaseError> {
+    let tolerance = spec.volume_tolerance.unwrap_or(super::VOLUME_TOLERANCE);
+    if let Some((sampled, named)) = spec
+        .geometry
+        .sampled_length(case.spacing, case.method.spec.lattice_cells())
+        .filter(|(sampled, named)| (sampled / named - 1.0).abs() > tolerance)
+    {
+        return Err(case.invalid(
+            format!("body.{b}.geometry.length"),
+            format!(
+                "body `{}` is sampled {sampled:.6e} long along its axis against the named \
+                 {named:.6e} ({:+.2} %), past the volume_tolerance of {:.2} %: the length is \
+                 {:.3} spacings; give a length that is a whole multiple of `spacing` (e.g. \
+                 spacing = {:e}), or raise `body.{b}.volume_tolerance` to accept the difference",
+                spec.name,
+                100.0 * (sampled / named - 1.0),
+                100.0 * tolerance,
+                named / case.spacing,
+                named / (named / case.spacing).round().max(1.0)
+            ),
+        ));
+    }
     let Some(named) = spec.geometry.volume(case.dimension as usize) else {
         return Ok(());
     };
@@ -185,7 +209,6 @@ fn sampled_volume_fits(
         return Ok(());
     }
     let difference = sampled / named - 1.0;
-    let tolerance = spec.volume_tolerance.unwrap_or(super::VOLUME_TOLERANCE);
     if difference.abs() <= tolerance {
         return Ok(());
     }
@@ -521,6 +544,28 @@ fn polar_counts(inner: f64, outer: f64, dx: f64, sectors: Option<u32>) -> (f64, 
 }
 
 impl Shape {
+    /// A cylinder's length along its axis as its lattice of spacing Δx samples it, and the
+    /// length the case names: the span (n − 1)Δx of the n layers of a vertex lattice from
+    /// the base, or the n layers Δx thick of a cell-centred one; the methods that
+    /// integrate over lattice cells (`cells`) take the vertex lattice. They differ when
+    /// the length is no multiple of Δx, which scaled volumes hide from the mass. None for
+    /// the other shapes.
+    pub fn sampled_length(&self, dx: f64, cells: bool) -> Option<(f64, f64)> {
+        let Shape::Cylinder {
+            length, lattice, ..
+        } = self
+        else {
+            return None;
+        };
+        let sampled = match lattice {
+            Lattice::CellCentred if !cells => {
+                lattice_counts(&[0.5 * dx], &[length - 0.5 * dx], dx)[0] * dx
+            }
+            _ => (lattice_counts(&[0.0], &[*length], dx)[0] - 1.0) * dx,
+        };
+        Some((sampled, *length))
+    }
+
     /// Whether the case gives the shape's `volumes` key.
     pub fn volumes_given(&self) -> bool {
         match self {

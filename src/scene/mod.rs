@@ -522,8 +522,9 @@ fn component_expressions(
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct BoundarySpec {
-    /// The prefix of the support's reaction columns (`reaction` observer); absent:
-    /// `boundary<k>`, k its index among the case's `[[boundary]]` tables.
+    /// The prefix of the condition's columns of the `reaction` observer: a support's
+    /// reaction, a load's applied force; absent: `boundary<k>` for a support, k its index
+    /// among the case's `[[boundary]]` tables, and no column for a load.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub name: Option<String>,
     pub region: Region,
@@ -635,6 +636,18 @@ impl Condition {
             | Self::BodyForce { law, .. }
             | Self::Pressure { law, .. } => !law.is_constant(),
             _ => false,
+        }
+    }
+
+    /// The condition's time law (constant for the conditions without one).
+    pub fn law(&self) -> &TimeLaw {
+        const CONSTANT: &TimeLaw = &TimeLaw::Constant;
+        match self {
+            Self::Traction { law, .. }
+            | Self::BodyForce { law, .. }
+            | Self::Pressure { law, .. }
+            | Self::Velocity { law, .. } => law,
+            _ => CONSTANT,
         }
     }
 
@@ -877,7 +890,11 @@ pub enum Observer {
     /// hold its prescribed components, and its power, at the last rate evaluation:
     /// R = Σ m (a_prescribed − a) over the components it holds, columns
     /// `<name>.reaction_x`, … and `<name>.power` (R·v), with `<name>` the condition's
-    /// `name` (default `boundary<k>`).
+    /// `name` (default `boundary<k>`); and for every load with a `name` (a traction,
+    /// pressure, body force or a solution's traction), the total external force it applies
+    /// at the row's time, `<name>.applied_force_x`, …: the sum of its particles' forces
+    /// (a body force's on the method's masses) times its time law at t, or times the load
+    /// factor t/end_time on the static path.
     Reaction,
     /// How much of the pressure is a spurious oscillation: ‖δp‖/‖p‖ over the particles,
     /// δp the deviation of each particle's pressure from the linear fit over its

@@ -87,7 +87,7 @@ pub(super) fn check(case: &Case) -> Result<(), (String, String)> {
     output(&case.output)?;
     analytic_observers(case)?;
     front_observers(case)?;
-    supports(case)?;
+    boundary_names(case)?;
     probes(&case.probes, dim)?;
     sections(case)
 }
@@ -1441,41 +1441,35 @@ fn probes(probes: &[ProbeSpec], dim: usize) -> Checked {
     Ok(())
 }
 
-/// Names of boundary conditions: only supports have them (their reaction columns), each
-/// a column prefix unique among the supports; the `reaction` observer needs a support.
-fn supports(case: &Case) -> Checked {
+/// Names of boundary conditions: each a column prefix (a support's reaction columns, a
+/// load's applied-force columns) unique among the conditions, the unnamed supports
+/// counting as `boundary<k>`; the `reaction` observer needs a support or a named load.
+fn boundary_names(case: &Case) -> Checked {
     let mut seen = HashSet::new();
+    let mut columns = false;
     for (i, b) in case.boundaries.iter().enumerate() {
         let key = format!("boundary.{i}.name");
         if let Some(name) = &b.name {
-            if !b.condition.is_support() {
-                return fail(
-                    key,
-                    format!(
-                        "names a condition that prescribes no motion ({name:?}); a name is the \
-                         prefix of a support's reaction columns, so only `fixed`, `velocity`, \
-                         `symmetry` and the displacement conditions take one"
-                    ),
-                );
-            }
             identifier(&key, name, "boundary names become CSV column prefixes")?;
         }
-        if b.condition.is_support() && !seen.insert(b.name(i)) {
+        if (b.name.is_some() || b.condition.is_support()) && !seen.insert(b.name(i)) {
             return fail(
                 key,
                 format!(
-                    "{:?} is already the name of an earlier support (unnamed ones are \
-                     `boundary<k>`); support names must be unique",
+                    "{:?} is already the name of an earlier boundary condition (unnamed \
+                     supports are `boundary<k>`); boundary names must be unique",
                     b.name(i)
                 ),
             );
         }
+        columns |= b.name.is_some() || b.condition.is_support();
     }
-    if case.output.observers.contains(&Observer::Reaction) && seen.is_empty() {
+    if case.output.observers.contains(&Observer::Reaction) && !columns {
         return fail(
             "output.observers",
             "lists `reaction`, but no boundary condition prescribes motion (`fixed`, \
-             `velocity`, `symmetry`, a displacement); add one or remove the observer",
+             `velocity`, `symmetry`, a displacement) and no load has a `name`; add one or \
+             remove the observer",
         );
     }
     Ok(())
