@@ -409,6 +409,13 @@ fn sample<D: Dim>(case: &Case, b: usize, spec: &BodySpec) -> Result<Sampled<D>, 
             })?;
             (points, to_named_volume(geometry, *volumes, D::N, vol)).into()
         }
+        Shape::Polygon { vertices, volumes } => {
+            let (lo, hi) = super::polygon::bounds(vertices);
+            let tol = 1e-9 * dx;
+            let (points, vol) =
+                lattice_of(&lo, &hi, &|p| super::polygon::contains(vertices, p, tol))?;
+            (points, to_named_volume(geometry, *volumes, D::N, vol)).into()
+        }
         Shape::Points { file } => {
             let path = case.base_dir().join(file);
             read_points::<D>(&path, cell).map_err(|m| {
@@ -572,7 +579,8 @@ impl Shape {
             Shape::Box { volumes, .. }
             | Shape::Disk { volumes, .. }
             | Shape::Ring { volumes, .. }
-            | Shape::Cylinder { volumes, .. } => volumes.is_some(),
+            | Shape::Cylinder { volumes, .. }
+            | Shape::Polygon { volumes, .. } => volumes.is_some(),
             Shape::Points { .. } | Shape::Mesh { .. } => false,
         }
     }
@@ -595,6 +603,7 @@ impl Shape {
                 length,
                 ..
             } => Some(pi * (radius * radius - inner_radius * inner_radius) * length),
+            Shape::Polygon { vertices, .. } => Some(super::polygon::area(vertices)),
             Shape::Points { .. } | Shape::Mesh { .. } => None,
         }
     }
@@ -624,6 +633,7 @@ impl Shape {
                 hi[a] = base[a] + length;
                 (lo, hi)
             }
+            Shape::Polygon { vertices, .. } => super::polygon::bounds(vertices),
             Shape::Points { .. } | Shape::Mesh { .. } => return None,
         };
         let pad = |v: &[f64]| std::array::from_fn(|k| if k < d { v[k] } else { 0.0 });
@@ -762,6 +772,11 @@ pub fn estimate_particles(case: &Case) -> Result<Vec<BodySize>, CaseError> {
                 } => {
                     let (lo, hi) = spec.geometry.extent(3).expect("a cylinder has its box");
                     size(box_of(&lo, &hi), annulus(*inner_radius, *radius))
+                }
+                Shape::Polygon { vertices, .. } => {
+                    let (lo, hi) = super::polygon::bounds(vertices);
+                    let bounding: f64 = (0..2).map(|k| hi[k] - lo[k]).product();
+                    size(box_of(&lo, &hi), super::polygon::area(vertices) / bounding)
                 }
                 Shape::Points { file } | Shape::Mesh { file } => {
                     // A mesh has at most one cell per line.

@@ -7,6 +7,7 @@ mod expression;
 mod geometry;
 pub mod mesh;
 mod overrides;
+mod polygon;
 pub(crate) mod validate;
 
 pub use expression::Expression;
@@ -318,6 +319,15 @@ pub enum Shape {
         /// Particle volumes: `scaled` (the default: Δx^d times the one factor that makes
         /// them sum to the named shape's volume) or `uniform` (Δx^d each, as the lattice
         /// falls: the mass is off by the cells the boundary cuts).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        volumes: Option<Volumes>,
+    },
+    /// A simple polygon (2D): the lattice points inside it or on its edges (within 1e-9
+    /// of a spacing), the vertices in either orientation, no edge crossing another.
+    Polygon {
+        vertices: Vec<Vec<f64>>,
+        /// Particle volumes: `scaled` (the default: Δx^d times the one factor that makes
+        /// them sum to the polygon's area) or `uniform` (Δx^d each, as the lattice falls).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         volumes: Option<Volumes>,
     },

@@ -519,14 +519,15 @@ fn bodies(bodies: &[BodySpec], dim: usize) -> Checked {
     Ok(())
 }
 
-/// A round shape's `volumes`: `scaled` or `uniform`, no `tributary` (the halving on the
-/// faces of a box's vertex lattice).
+/// The `volumes` of a shape that is not a box (round, or a polygon): `scaled` or
+/// `uniform`, no `tributary` (the halving on the faces of a box's vertex lattice).
 fn round_volumes(key: &str, volumes: Option<Volumes>) -> Checked {
     if volumes == Some(Volumes::Tributary) {
         return fail(
             format!("{key}.volumes"),
-            "`tributary` halves the volumes on the faces of a box's vertex lattice; a round \
-             shape takes `scaled` (the default: summing to the shape) or `uniform` (Δx^d)",
+            "`tributary` halves the volumes on the faces of a box's vertex lattice; a disk, \
+             ring, cylinder or polygon takes `scaled` (the default: summing to the shape) or \
+             `uniform` (Δx^d)",
         );
     }
     Ok(())
@@ -699,6 +700,18 @@ fn shape(shape: &Shape, key: &str, dim: usize) -> Checked {
                 );
             }
             positive(&format!("{key}.length"), *length)?;
+        }
+        Shape::Polygon { vertices, volumes } => {
+            if dim != 2 {
+                return only("polygon", 2, "\"box\", \"cylinder\" or \"mesh\"");
+            }
+            round_volumes(key, *volumes)?;
+            for (k, v) in vertices.iter().enumerate() {
+                vector(&format!("{key}.vertices.{k}"), v, dim)?;
+            }
+            if let Some(why) = super::polygon::not_simple(vertices) {
+                return fail(format!("{key}.vertices"), why);
+            }
         }
         Shape::Points { file } => {
             if file.as_os_str().is_empty() {
