@@ -3,8 +3,8 @@
 
 use super::expression::COORDINATES;
 use super::{
-    BodySpec, Case, CaseError, Expression, Hole, Lattice, RingLattice, Shape, VelocityField,
-    VelocityNoise, Volumes,
+    BodySpec, Case, CaseError, Expression, Hole, Lattice, MeshNodes, RingLattice, Shape,
+    VelocityField, VelocityNoise, Volumes,
 };
 use crate::analytic::SwingingMode;
 use crate::material::Material;
@@ -25,8 +25,9 @@ pub struct Discretised<D: Dim> {
     pub v0: Vec<D::V>,
     /// Initial displacements (zero unless a body sets `initial_displacement`).
     pub u0: Vec<D::V>,
-    /// The cells of the bodies whose generator makes them (polar rings); the other
-    /// bodies' cells are found on their lattice ([`crate::quadrature::lattice_cells`]).
+    /// The cells of the bodies whose generator makes them (polar rings, meshes read at
+    /// their vertices); the other bodies' cells are found on their lattice
+    /// ([`crate::quadrature::lattice_cells`]).
     pub cells: Cells,
 }
 
@@ -425,9 +426,9 @@ fn sample<D: Dim>(case: &Case, b: usize, spec: &BodySpec) -> Result<Sampled<D>, 
                 )
             })?
         }
-        Shape::Mesh { file } => {
+        Shape::Mesh { file, nodes } => {
             let path = case.base_dir().join(file);
-            read_mesh::<D>(&path).map_err(|m| {
+            read_mesh::<D>(&path, *nodes).map_err(|m| {
                 case.invalid(
                     format!("body.{b}.geometry.file"),
                     format!("{}: {m}", path.display()),
@@ -456,10 +457,33 @@ fn drill<D: Dim>(body: Sampled<D>, holes: &[Hole]) -> Sampled<D> {
     }
 }
 
-/// A particle at the centroid of each cell of a Gmsh mesh, with the cell's measure as its
-/// volume ([`super::mesh`]).
-fn read_mesh<D: Dim>(path: &Path) -> Result<Sampled<D>, String> {
-    let cells = super::mesh::cells(&read_points_file(path)?, D::N)?;
+/// The particles of a Gmsh mesh ([`super::mesh`]): at the centroid of each cell, with
+/// the cell's measure as its volume; or at the vertices of its quadrangles (hexahedra),
+/// which are the body's cells, each vertex with a 2^-d share of every cell it is a corner
+/// of, so that the volumes sum to the mesh's.
+fn read_mesh<D: Dim>(path: &Path, nodes: MeshNodes) -> Result<Sampled<D>, String> {
+    let text = read_points_file(path)?;
+    if nodes == MeshNodes::Vertices {
+        let mesh = super::mesh::vertex_cells(&text, D::N)?;
+        let mut volumes = vec![0.0; mesh.points.len()];
+        let share = 1.0 / f64::from(1u32 << D::N);
+        for (corners, measure) in mesh.corners.chunks(1 << D::N).zip(&mesh.measures) {
+            for &a in corners {
+                volumes[a as usize] += share * measure;
+            }
+        }
+        return Ok(Sampled {
+            points: mesh
+                .points
+                .iter()
+                .map(|x| D::from_slice(&x[..D::N]))
+                .collect(),
+            volumes,
+            corners: mesh.corners,
+            velocities: None,
+        });
+    }
+    let cells = super::mesh::cells(&text, D::N)?;
     Ok(cells
         .iter()
         .map(|c| (D::from_slice(&c.centroid[..D::N]), c.measure))
@@ -778,7 +802,7 @@ pub fn estimate_particles(case: &Case) -> Result<Vec<BodySize>, CaseError> {
                     let bounding: f64 = (0..2).map(|k| hi[k] - lo[k]).product();
                     size(box_of(&lo, &hi), super::polygon::area(vertices) / bounding)
                 }
-                Shape::Points { file } | Shape::Mesh { file } => {
+                Shape::Points { file } | Shape::Mesh { file, .. } => {
                     // A mesh has at most one cell per line.
                     let path = case.base_dir().join(file);
                     let rows = count_point_rows(&path).map_err(|m| {

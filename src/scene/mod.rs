@@ -336,8 +336,35 @@ pub enum Shape {
     Points { file: PathBuf },
     /// The cells of a Gmsh mesh (`.msh`, ASCII format 2.2 or 4.1; triangles and
     /// quadrangles in 2D, tetrahedra and hexahedra in 3D): a particle at each cell's
-    /// centroid, the cell's area or volume its volume ([`mesh`]).
-    Mesh { file: PathBuf },
+    /// centroid, the cell's area or volume its volume ([`mesh`]); or, with `nodes =
+    /// "vertices"`, a particle at each vertex and the cells as the cells of the Galerkin
+    /// methods ([`MeshNodes`]).
+    Mesh {
+        file: PathBuf,
+        #[serde(default, skip_serializing_if = "MeshNodes::is_centroids")]
+        nodes: MeshNodes,
+    },
+}
+
+/// Where a mesh body's particles sit.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum MeshNodes {
+    /// At the centroid of every cell, the cell's measure its volume: a particle set for
+    /// the methods that integrate at their particles.
+    #[default]
+    Centroids,
+    /// At the vertices of the cells, which must be quadrangles (2D) or hexahedra (3D):
+    /// the cells are then the body's cells for the methods that integrate over cells
+    /// (bilinear or trilinear, as the lattice's), each vertex's volume its 2^-d share of
+    /// the measure of every cell it is a corner of.
+    Vertices,
+}
+
+impl MeshNodes {
+    fn is_centroids(&self) -> bool {
+        *self == Self::Centroids
+    }
 }
 
 #[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]

@@ -7,8 +7,8 @@
 
 use super::{
     Axis, BodySpec, BoundarySpec, Case, Condition, ContactSpec, DisplacementField, Hole, Lattice,
-    MaterialSpec, Observer, OutputSpec, Plane, ProbeSpec, Region, RingLattice, RunSpec, Shape,
-    Solution, Solve, TimeLaw, VelocityField, Volumes,
+    MaterialSpec, MeshNodes, Observer, OutputSpec, Plane, ProbeSpec, Region, RingLattice, RunSpec,
+    Shape, Solution, Solve, TimeLaw, VelocityField, Volumes,
 };
 use crate::material::{Material, MaterialModel};
 use crate::methods::{Feature, MethodTable, Problem, REGISTRY, entry, quoted, supporting};
@@ -44,6 +44,24 @@ pub(super) fn check(case: &Case) -> Result<(), (String, String)> {
     }
     bodies(&case.bodies, dim)?;
     for (b, body) in case.bodies.iter().enumerate() {
+        if let Shape::Mesh {
+            nodes: MeshNodes::Vertices,
+            ..
+        } = body.geometry
+            && !case.method.spec.lattice_cells()
+        {
+            return fail(
+                format!("body.{b}.geometry.nodes"),
+                format!(
+                    "\"vertices\" makes the mesh's cells the cells of the methods that \
+                     integrate over cells (tl-fem, ul-fem, tl-weak-form, ul-weak-form, efg \
+                     with integration = \"cells\", kbm with stress points), and `{}` \
+                     integrates at its particles; remove the key (a particle at every cell's \
+                     centroid) or choose one of those methods",
+                    case.method.name()
+                ),
+            );
+        }
         if let Some(u) = &body.initial_displacement {
             displacement(case, u, &format!("body.{b}.initial_displacement"))?;
         }
@@ -534,16 +552,28 @@ fn round_volumes(key: &str, volumes: Option<Volumes>) -> Checked {
 }
 
 fn hole(hole: &Hole, shape: &Shape, key: &str, dim: usize) -> Checked {
-    if let Shape::Ring {
-        lattice: RingLattice::Polar,
-        ..
-    } = shape
-    {
-        return fail(
-            key,
-            "a polar ring comes with its cells, which a hole would cut; use lattice = \
-             \"square\" or remove the hole",
-        );
+    match shape {
+        Shape::Ring {
+            lattice: RingLattice::Polar,
+            ..
+        } => {
+            return fail(
+                key,
+                "a polar ring comes with its cells, which a hole would cut; use lattice = \
+                 \"square\" or remove the hole",
+            );
+        }
+        Shape::Mesh {
+            nodes: MeshNodes::Vertices,
+            ..
+        } => {
+            return fail(
+                key,
+                "a mesh with nodes = \"vertices\" comes with its cells, which a hole would \
+                 cut; mesh the hole, or remove it",
+            );
+        }
+        _ => {}
     }
     vector(&format!("{key}.center"), &hole.center, dim)?;
     positive(&format!("{key}.radius"), hole.radius)?;
@@ -722,7 +752,7 @@ fn shape(shape: &Shape, key: &str, dim: usize) -> Checked {
                 );
             }
         }
-        Shape::Mesh { file } => {
+        Shape::Mesh { file, .. } => {
             if file.as_os_str().is_empty() {
                 return fail(
                     format!("{key}.file"),
