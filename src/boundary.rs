@@ -163,10 +163,9 @@ impl<D: Dim> Boundary<D> {
                 }
                 _ => None,
             };
-            if matches!(bc.condition, Condition::Pressure { .. }) {
-                surface.extend(pressure_points::<D>(case, b, &disc.x0, &disc.body)?);
-            }
-            let face = Face::of::<D>(case, b, &particles, &disc.x0, &disc.body);
+            surface.extend(surface_points::<D>(
+                case, b, &particles, &disc.x0, &disc.body,
+            )?);
             let s = support(b);
             for i in particles {
                 match &bc.condition {
@@ -200,14 +199,13 @@ impl<D: Dim> Boundary<D> {
                         timed_of[i][k] = None;
                         support_of[i][k] = s;
                     }
-                    Condition::Traction { traction, .. } => {
-                        let t = std::array::from_fn(|k| traction.get(k).copied().unwrap_or(0.0));
-                        surface.extend(face.patch::<D>(disc.x0[i]).points(i, |_| t));
-                    }
                     Condition::BodyForce { acceleration, .. } => {
                         gravity[i] += D::from_slice(acceleration);
                     }
-                    Condition::Pressure { .. } => {} // its forces, below
+                    // Their points, above.
+                    Condition::Traction { .. }
+                    | Condition::SolutionTraction { .. }
+                    | Condition::Pressure { .. } => {}
                     Condition::Displacement { ux, uy, uz } => {
                         for (k, c) in [ux, uy, uz].iter().enumerate().take(D::N) {
                             if let Some(c) = c {
@@ -232,13 +230,6 @@ impl<D: Dim> Boundary<D> {
                             timed_of[i][k] = None;
                             support_of[i][k] = s;
                         }
-                    }
-                    Condition::SolutionTraction { solution, normal } => {
-                        let closed = ClosedForm::of(solution, &case.material);
-                        surface.extend(face.patch::<D>(disc.x0[i]).points(i, |x| {
-                            let s = closed.stress3(x);
-                            std::array::from_fn(|r| (0..D::N).map(|c| s[r][c] * normal[c]).sum())
-                        }));
                     }
                 }
             }
@@ -762,23 +753,15 @@ pub fn timed_loads<D: Dim>(
             continue;
         }
         let (law, accelerations): (&TimeLaw, Vec<(u32, D::V)>) = match &bc.condition {
-            Condition::Traction { traction, law } => {
+            Condition::Traction { law, .. } | Condition::Pressure { law, .. } => {
                 let particles = selected::<D>(case, b, x0, body)?;
-                let face = Face::of::<D>(case, b, &particles, x0, body);
-                let t = std::array::from_fn(|k| traction.get(k).copied().unwrap_or(0.0));
-                let points = particles
-                    .into_iter()
-                    .flat_map(|i| face.patch::<D>(x0[i]).points(i, |_| t))
-                    .collect();
+                let points = surface_points::<D>(case, b, &particles, x0, body)?;
                 (law, per_mass(points)?)
             }
             Condition::BodyForce { acceleration, law } => {
                 let g = D::from_slice(acceleration);
                 let particles = selected::<D>(case, b, x0, body)?;
                 (law, particles.into_iter().map(|i| (i as u32, g)).collect())
-            }
-            Condition::Pressure { law, .. } => {
-                (law, per_mass(pressure_points::<D>(case, b, x0, body)?)?)
             }
             _ => unreachable!("the timed loads are tractions, pressures and body forces"),
         };
@@ -788,6 +771,41 @@ pub fn timed_loads<D: Dim>(
         });
     }
     Ok(loads)
+}
+
+/// The surface points of boundary condition b over its particles: the points of their
+/// patches of the face for a traction, constant or timed, or a closed-form solution's
+/// traction ([`Face`]), those of their arcs for a pressure ([`pressure_points`]); none for
+/// the other conditions.
+fn surface_points<D: Dim>(
+    case: &Case,
+    b: usize,
+    particles: &[usize],
+    x0: &[D::V],
+    body: &[u32],
+) -> Result<Vec<SurfacePoint<D>>, CaseError> {
+    let on_face = |t: &dyn Fn([f64; 3]) -> [f64; 3]| {
+        let face = Face::of::<D>(case, b, particles, x0, body);
+        particles
+            .iter()
+            .flat_map(|&i| face.patch::<D>(x0[i]).points(i, t))
+            .collect()
+    };
+    Ok(match &case.boundaries[b].condition {
+        Condition::Traction { traction, .. } => {
+            let t: [f64; 3] = std::array::from_fn(|k| traction.get(k).copied().unwrap_or(0.0));
+            on_face(&|_| t)
+        }
+        Condition::SolutionTraction { solution, normal } => {
+            let closed = ClosedForm::of(solution, &case.material);
+            on_face(&|x| {
+                let s = closed.stress3(x);
+                std::array::from_fn(|r| (0..D::N).map(|c| s[r][c] * normal[c]).sum())
+            })
+        }
+        Condition::Pressure { .. } => pressure_points::<D>(case, b, x0, body)?,
+        _ => Vec::new(),
+    })
 }
 
 /// The surface points of boundary condition b, a pressure p on a circle of radius R: each
@@ -932,4 +950,52 @@ fn selected<D: Dim>(
         ));
     }
     Ok(inside)
+}
+
+/// What one boundary condition acts on: its region's particles and, for a load (a
+/// traction, pressure, body force or a solution's traction), the total force it applies
+/// at law value 1, the sum of its particles' forces (∫ t dA over their patches of the
+/// face, p R Δθ n along a circle, m g on the masses given).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ConditionTotal {
+    pub particles: usize,
+    pub force: Option<[f64; 3]>,
+}
+
+/// The [`ConditionTotal`] of every boundary condition of a case, in case order, on the
+/// particles at reference positions x0 with bodies `body` and nodal masses `mass` (which
+/// only a body force's total depends on): for `--explain`, and the applied-force columns
+/// of the named loads in the series.
+pub fn condition_totals<D: Dim>(
+    case: &Case,
+    x0: &[D::V],
+    body: &[u32],
+    mass: &[f64],
+) -> Result<Vec<ConditionTotal>, CaseError> {
+    let sum = |forces: &mut dyn Iterator<Item = D::V>| {
+        let total = forces.fold(D::zero(), |a, f| a + f);
+        Some(D::to3(total))
+    };
+    (0..case.boundaries.len())
+        .map(|b| {
+            let particles = selected::<D>(case, b, x0, body)?;
+            let force = match &case.boundaries[b].condition {
+                Condition::BodyForce { acceleration, .. } => {
+                    let g = D::from_slice(acceleration);
+                    sum(&mut particles.iter().map(|&i| g * mass[i]))
+                }
+                Condition::Traction { .. }
+                | Condition::SolutionTraction { .. }
+                | Condition::Pressure { .. } => {
+                    let points = surface_points::<D>(case, b, &particles, x0, body)?;
+                    sum(&mut points.iter().map(|p| p.force))
+                }
+                _ => None,
+            };
+            Ok(ConditionTotal {
+                particles: particles.len(),
+                force,
+            })
+        })
+        .collect()
 }

@@ -8,7 +8,7 @@ use crate::material::{Material, MaterialModel};
 use crate::methods::shared::{PseudoTime, ordered_reduce};
 use crate::plasticity::PLASTIC_STRAIN;
 use crate::pressure::{oscillation, pressures};
-use crate::scene::{Case, CaseError, Observer};
+use crate::scene::{Case, CaseError, Observer, TimeLaw};
 use crate::tensor::Dim;
 use std::collections::BTreeMap;
 
@@ -183,6 +183,11 @@ pub struct Observers {
     front: Option<(Exact, f64)>,
     /// The number of supports the `reaction` observer writes.
     supports: usize,
+    /// The named loads the `reaction` observer writes: each one's total force at law value
+    /// 1 and its time law.
+    applied: Vec<([f64; 3], TimeLaw)>,
+    /// The end time of a static run, whose loads scale with t/end_time.
+    static_end: Option<f64>,
     /// The columns the engine adds.
     engine: EngineColumns,
     sections: Vec<Section>,
@@ -201,15 +206,17 @@ struct Section {
 }
 
 impl Observers {
-    /// Observers of a case over particles at reference positions x0, of which
-    /// `constrained` have prescribed velocity components, on an engine that adds the
-    /// columns `engine`.
+    /// Observers of a case over the particles of `snap` (reference positions, bodies and
+    /// the method's masses), of which `constrained` have prescribed velocity components,
+    /// on an engine that adds the columns `engine`.
     pub fn new<D: Dim>(
         case: &Case,
-        x0: &[D::V],
+        snap: &Snapshot<D>,
         constrained: &[(u32, u8)],
         engine: EngineColumns,
     ) -> Result<Self, CaseError> {
+        let x0 = snap.x0;
+        let mut applied = Vec::new();
         let mut names = vec!["time".to_string(), "step".to_string(), "dt".to_string()];
         let mut list = case.output.observers.clone();
         list.sort();
@@ -266,6 +273,16 @@ impl Observers {
                     for (_, name) in crate::boundary::supports(case) {
                         names.extend((0..D::N).map(|k| format!("{name}.reaction_{}", AXES[k])));
                         names.push(format!("{name}.power"));
+                    }
+                    let totals =
+                        crate::boundary::condition_totals::<D>(case, x0, snap.body, snap.mass)?;
+                    for (bc, total) in case.boundaries.iter().zip(totals) {
+                        let (Some(name), Some(force)) = (&bc.name, total.force) else {
+                            continue;
+                        };
+                        names
+                            .extend((0..D::N).map(|k| format!("{name}.applied_force_{}", AXES[k])));
+                        applied.push((force, bc.condition.law().clone()));
                     }
                 }
             }
@@ -364,6 +381,8 @@ impl Observers {
             solution,
             front,
             supports: crate::boundary::supports(case).len(),
+            applied,
+            static_end: case.is_static().then_some(case.run.end_time),
             engine,
             sections: case
                 .sections
@@ -494,6 +513,13 @@ impl Observers {
                     for r in shown {
                         row.extend(&r.force[..D::N]);
                         row.push(r.power);
+                    }
+                    for (force, law) in &self.applied {
+                        let factor = match self.static_end {
+                            Some(end) => clock.t / end,
+                            None => law.at(clock.t),
+                        };
+                        row.extend(force[..D::N].iter().map(|f| f * factor));
                     }
                 }
             }

@@ -99,9 +99,9 @@ impl Cells {
     }
 }
 
-/// The cells of the bodies: those `given` by their generator (a polar ring's), then for
-/// every other body each square (cube) of the lattice of spacing Δx whose 2^d corners are
-/// particles of the body. A body's lattice is anchored at its smallest coordinates; a
+/// The cells of the bodies: those `given` by their generator (a polar ring's, a mesh's
+/// read at its vertices), then for every other body each square (cube) of the lattice of
+/// spacing Δx whose 2^d corners are particles of the body. A body's lattice is anchored at its smallest coordinates; a
 /// particle off it is an error, as is a body without a cell.
 pub fn lattice_cells<D: Dim>(
     x0: &[D::V],

@@ -30,7 +30,8 @@ pub struct Reference<D: Dim> {
     /// The smoothing length of every particle (all the kernel's h until a case sets them
     /// per particle); the neighbour search reaches the support of the larger of a pair's.
     pub h: Vec<f64>,
-    /// The cells the geometry generators make (polar rings); see [`Self::cells`].
+    /// The cells the geometry generators make (polar rings, meshes read at their
+    /// vertices); see [`Self::cells`].
     pub generated_cells: Cells,
 }
 
@@ -61,8 +62,8 @@ impl<D: Dim> Reference<D> {
         })
     }
 
-    /// The background cells of the bodies: the generators' (polar rings), and the
-    /// lattice squares (cubes) of spacing Δx of the others.
+    /// The background cells of the bodies: the generators' (polar rings, meshes at their
+    /// vertices), and the lattice squares (cubes) of spacing Δx of the others.
     pub fn cells(&self, spacing: f64) -> Result<Cells, QuadratureError> {
         lattice_cells::<D>(&self.x0, &self.body, spacing, &self.generated_cells)
     }

@@ -3,7 +3,7 @@
 
 use super::checkpoint;
 use super::checks::{
-    energy_blow_up, fixed_step_warning, hourglass_blow_up, mass_notes, step_collapse,
+    energy_blow_up, fixed_step_warning, hourglass_blow_up, length_notes, mass_notes, step_collapse,
 };
 use super::frames::{Frames, next_frame_time};
 use super::progress::{Progress, ProgressDisplay};
@@ -123,12 +123,8 @@ pub fn drive<D: Dim, E: Engine<D>>(
     };
     super::budget::check_steps(case, t_end / dt_first, dt_first, &opts.limits)?;
     let engine_columns = engine.columns();
-    let observers = Observers::new::<D>(
-        case,
-        engine.reference(),
-        engine.constrained(),
-        engine_columns,
-    )?;
+    let constrained = engine.constrained().to_vec();
+    let observers = Observers::new::<D>(case, &engine.snapshot(), &constrained, engine_columns)?;
     std::fs::create_dir_all(&opts.out_dir).map_err(output_error(&opts.out_dir))?;
     let series_path = opts.out_dir.join("series.csv");
     let columns = observers.column_names();
@@ -201,7 +197,9 @@ pub fn drive<D: Dim, E: Engine<D>>(
         eprintln!("warning: {}: {warning}", case.file.display());
     }
     if resumed.is_none() {
-        for note in mass_notes(case, &engine.snapshot()) {
+        let mut notes = mass_notes(case, &engine.snapshot());
+        notes.extend(length_notes(case));
+        for note in notes {
             eprintln!("note: {}: {note}", case.file.display());
         }
     }

@@ -158,7 +158,8 @@ pub fn check(
 fn built<D: EngineDim>(case: &Case, backend: Backend) -> Result<usize, RunError> {
     let mut engine = engine::<D>(case, backend)?;
     let columns = engine.columns();
-    crate::observe::Observers::new::<D>(case, engine.reference(), engine.constrained(), columns)?;
+    let constrained = engine.constrained().to_vec();
+    crate::observe::Observers::new::<D>(case, &engine.snapshot(), &constrained, columns)?;
     Ok(engine.reference().len())
 }
 
@@ -265,9 +266,12 @@ pub fn explain(case: &Case, gpu: bool) -> String {
                 "CPU (rayon, f64)"
             }
         ),
-        plan.once,
-        format!("state: {}", plan.state),
     ];
+    out.extend(match case.dimension {
+        2 => discretisation_lines::<D2>(case),
+        _ => discretisation_lines::<D3>(case),
+    });
+    out.extend([plan.once, format!("state: {}", plan.state)]);
     if case.is_static() {
         out.extend(load_step_lines(case, &plan.rates));
     } else {
@@ -325,6 +329,128 @@ pub fn explain(case: &Case, gpu: bool) -> String {
         case.output.observers
     ));
     out.join("\n")
+}
+
+/// The discretisation lines of the plan: the lattice the method samples on and why
+/// ([`crate::methods::MethodFamily::lattice_cells`]), its cells, every body's particles,
+/// named volume and Σ V, and every boundary condition's region with its particles and,
+/// for a load, its total force at law value 1 (a body force's on the particle masses
+/// ρ0 V). A case that cannot be sampled says why instead.
+fn discretisation_lines<D: crate::tensor::Dim>(case: &Case) -> Vec<String> {
+    let name = case.method.name();
+    let cells = case.method.spec.lattice_cells();
+    let mut out = vec![if cells {
+        format!(
+            "lattice: vertex: `{name}` integrates over the lattice's cells, so boxes and \
+             cylinders are sampled on the vertex lattice, whose cells span the shape, \
+             whatever their `lattice` key"
+        )
+    } else {
+        format!(
+            "lattice: as each body's `lattice` key says (vertex by default): `{name}` does not \
+             integrate over lattice cells"
+        )
+    }];
+    let disc = match crate::scene::discretise::<D>(case) {
+        Ok(disc) => disc,
+        Err(e) => {
+            out.push(format!("bodies: cannot be sampled: {e}"));
+            return out;
+        }
+    };
+    let (area, force) = match D::N {
+        2 => ("m² (per unit thickness)", "N/m"),
+        _ => ("m³", "N"),
+    };
+    let body_of = &disc.body;
+    let members = |b: usize| (0..body_of.len()).filter(move |&i| body_of[i] as usize == b);
+    if cells {
+        match crate::quadrature::lattice_cells::<D>(&disc.x0, &disc.body, case.spacing, &disc.cells)
+        {
+            Ok(found) => {
+                let mut corner = vec![false; disc.x0.len()];
+                found
+                    .corners
+                    .iter()
+                    .for_each(|&a| corner[a as usize] = true);
+                let orphans = corner.iter().filter(|&&c| !c).count();
+                out.push(format!(
+                    "cells: {} (a quadrilateral or hexahedron per lattice square or cube whose \
+                     corners are all particles of one body, or a generator's own){}",
+                    found.len(),
+                    match orphans {
+                        0 => String::new(),
+                        n => format!("; {n} particles are the corner of no cell"),
+                    }
+                ));
+            }
+            Err(e) => out.push(format!("cells: none can be built: {e}")),
+        }
+    } else {
+        out.push("cells: none (the method integrates at its particles)".into());
+    }
+    for (b, body) in case.bodies.iter().enumerate() {
+        let sum: f64 = members(b).map(|i| disc.vol[i]).sum();
+        let named = match body.geometry.volume(D::N) {
+            Some(v) if body.holes.is_empty() => format!("named volume {v:.6e}"),
+            Some(_) => "named volume not computed (holes)".into(),
+            None => "no named volume (its points are the shape)".into(),
+        };
+        out.push(format!(
+            "body `{}`: {} particles, {named}, Σ V = {sum:.6e} {area}",
+            body.name,
+            members(b).count()
+        ));
+    }
+    let rho0 = Material::new(&case.material).rho0;
+    let mass: Vec<f64> = disc.vol.iter().map(|v| v * rho0).collect();
+    match crate::boundary::condition_totals::<D>(case, &disc.x0, &disc.body, &mass) {
+        Ok(totals) => {
+            for (k, (bc, total)) in case.boundaries.iter().zip(totals).enumerate() {
+                let kind = serde_json::to_value(&bc.condition)
+                    .ok()
+                    .and_then(|v| Some(v.get("type")?.as_str()?.to_string()))
+                    .unwrap_or_default();
+                let region = serde_json::to_value(&bc.region)
+                    .ok()
+                    .and_then(|v| v.as_object().cloned())
+                    .map(|bounds| {
+                        bounds
+                            .iter()
+                            .filter(|(_, v)| !v.is_null())
+                            .map(|(key, v)| format!("{key} = {v}"))
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    })
+                    .unwrap_or_default();
+                let loaded = total.force.map_or_else(String::new, |f| {
+                    let components: Vec<String> =
+                        f[..D::N].iter().map(|c| format!("{c:.6e}")).collect();
+                    format!(
+                        ", total force ({}) {force}{}{}",
+                        components.join(", "),
+                        match bc.condition {
+                            crate::scene::Condition::BodyForce { .. } => {
+                                " on the particle masses ρ0 V"
+                            }
+                            _ => "",
+                        },
+                        match bc.condition.law().is_constant() {
+                            true => "",
+                            false => " at law value 1",
+                        }
+                    )
+                });
+                out.push(format!(
+                    "boundary `{}` ({kind}) on {{ {region} }}: {} particles{loaded}",
+                    bc.name(k),
+                    total.particles
+                ));
+            }
+        }
+        Err(e) => out.push(format!("boundary conditions: cannot be resolved: {e}")),
+    }
+    out
 }
 
 /// The per-load-step lines of a static run's plan: its load steps in pseudo-time and the

@@ -3,8 +3,8 @@
 
 use super::expression::COORDINATES;
 use super::{
-    BodySpec, Case, CaseError, Expression, Hole, Lattice, RingLattice, Shape, VelocityField,
-    VelocityNoise, Volumes,
+    BodySpec, Case, CaseError, Expression, Hole, Lattice, MeshNodes, RingLattice, Shape,
+    VelocityField, VelocityNoise, Volumes,
 };
 use crate::analytic::SwingingMode;
 use crate::material::Material;
@@ -25,8 +25,9 @@ pub struct Discretised<D: Dim> {
     pub v0: Vec<D::V>,
     /// Initial displacements (zero unless a body sets `initial_displacement`).
     pub u0: Vec<D::V>,
-    /// The cells of the bodies whose generator makes them (polar rings); the other
-    /// bodies' cells are found on their lattice ([`crate::quadrature::lattice_cells`]).
+    /// The cells of the bodies whose generator makes them (polar rings, meshes read at
+    /// their vertices); the other bodies' cells are found on their lattice
+    /// ([`crate::quadrature::lattice_cells`]).
     pub cells: Cells,
 }
 
@@ -166,13 +167,37 @@ fn to_named_volume(
 /// Refuses a body whose sampled volume Σ V differs from the volume of the shape the case
 /// names by more than `volume_tolerance`, saying by how much and what to change. A body
 /// with holes is not checked (its named volume is not computed), nor one whose `volumes`
-/// the case gives: the case asked for them (the run says the difference in mass).
+/// the case gives: the case asked for them (the run says the difference in mass). A
+/// cylinder whose sampled length differs from the named one by more than the tolerance is
+/// refused whatever its volumes ([`Shape::sampled_length`]): scaled volumes keep its mass
+/// but not its shape.
 fn sampled_volume_fits(
     case: &Case,
     b: usize,
     spec: &BodySpec,
     volumes: &[f64],
 ) -> Result<(), CaseError> {
+    let tolerance = spec.volume_tolerance.unwrap_or(super::VOLUME_TOLERANCE);
+    if let Some((sampled, named)) = spec
+        .geometry
+        .sampled_length(case.spacing, case.method.spec.lattice_cells())
+        .filter(|(sampled, named)| (sampled / named - 1.0).abs() > tolerance)
+    {
+        return Err(case.invalid(
+            format!("body.{b}.geometry.length"),
+            format!(
+                "body `{}` is sampled {sampled:.6e} long along its axis against the named \
+                 {named:.6e} ({:+.2} %), past the volume_tolerance of {:.2} %: the length is \
+                 {:.3} spacings; give a length that is a whole multiple of `spacing` (e.g. \
+                 spacing = {:e}), or raise `body.{b}.volume_tolerance` to accept the difference",
+                spec.name,
+                100.0 * (sampled / named - 1.0),
+                100.0 * tolerance,
+                named / case.spacing,
+                named / (named / case.spacing).round().max(1.0)
+            ),
+        ));
+    }
     let Some(named) = spec.geometry.volume(case.dimension as usize) else {
         return Ok(());
     };
@@ -185,7 +210,6 @@ fn sampled_volume_fits(
         return Ok(());
     }
     let difference = sampled / named - 1.0;
-    let tolerance = spec.volume_tolerance.unwrap_or(super::VOLUME_TOLERANCE);
     if difference.abs() <= tolerance {
         return Ok(());
     }
@@ -386,6 +410,13 @@ fn sample<D: Dim>(case: &Case, b: usize, spec: &BodySpec) -> Result<Sampled<D>, 
             })?;
             (points, to_named_volume(geometry, *volumes, D::N, vol)).into()
         }
+        Shape::Polygon { vertices, volumes } => {
+            let (lo, hi) = super::polygon::bounds(vertices);
+            let tol = 1e-9 * dx;
+            let (points, vol) =
+                lattice_of(&lo, &hi, &|p| super::polygon::contains(vertices, p, tol))?;
+            (points, to_named_volume(geometry, *volumes, D::N, vol)).into()
+        }
         Shape::Points { file } => {
             let path = case.base_dir().join(file);
             read_points::<D>(&path, cell).map_err(|m| {
@@ -395,9 +426,9 @@ fn sample<D: Dim>(case: &Case, b: usize, spec: &BodySpec) -> Result<Sampled<D>, 
                 )
             })?
         }
-        Shape::Mesh { file } => {
+        Shape::Mesh { file, nodes } => {
             let path = case.base_dir().join(file);
-            read_mesh::<D>(&path).map_err(|m| {
+            read_mesh::<D>(&path, *nodes).map_err(|m| {
                 case.invalid(
                     format!("body.{b}.geometry.file"),
                     format!("{}: {m}", path.display()),
@@ -426,10 +457,33 @@ fn drill<D: Dim>(body: Sampled<D>, holes: &[Hole]) -> Sampled<D> {
     }
 }
 
-/// A particle at the centroid of each cell of a Gmsh mesh, with the cell's measure as its
-/// volume ([`super::mesh`]).
-fn read_mesh<D: Dim>(path: &Path) -> Result<Sampled<D>, String> {
-    let cells = super::mesh::cells(&read_points_file(path)?, D::N)?;
+/// The particles of a Gmsh mesh ([`super::mesh`]): at the centroid of each cell, with
+/// the cell's measure as its volume; or at the vertices of its quadrangles (hexahedra),
+/// which are the body's cells, each vertex with a 2^-d share of every cell it is a corner
+/// of, so that the volumes sum to the mesh's.
+fn read_mesh<D: Dim>(path: &Path, nodes: MeshNodes) -> Result<Sampled<D>, String> {
+    let text = read_points_file(path)?;
+    if nodes == MeshNodes::Vertices {
+        let mesh = super::mesh::vertex_cells(&text, D::N)?;
+        let mut volumes = vec![0.0; mesh.points.len()];
+        let share = 1.0 / f64::from(1u32 << D::N);
+        for (corners, measure) in mesh.corners.chunks(1 << D::N).zip(&mesh.measures) {
+            for &a in corners {
+                volumes[a as usize] += share * measure;
+            }
+        }
+        return Ok(Sampled {
+            points: mesh
+                .points
+                .iter()
+                .map(|x| D::from_slice(&x[..D::N]))
+                .collect(),
+            volumes,
+            corners: mesh.corners,
+            velocities: None,
+        });
+    }
+    let cells = super::mesh::cells(&text, D::N)?;
     Ok(cells
         .iter()
         .map(|c| (D::from_slice(&c.centroid[..D::N]), c.measure))
@@ -521,13 +575,36 @@ fn polar_counts(inner: f64, outer: f64, dx: f64, sectors: Option<u32>) -> (f64, 
 }
 
 impl Shape {
+    /// A cylinder's length along its axis as its lattice of spacing Δx samples it, and the
+    /// length the case names: the span (n − 1)Δx of the n layers of a vertex lattice from
+    /// the base, or the n layers Δx thick of a cell-centred one; the methods that
+    /// integrate over lattice cells (`cells`) take the vertex lattice. They differ when
+    /// the length is no multiple of Δx, which scaled volumes hide from the mass. None for
+    /// the other shapes.
+    pub fn sampled_length(&self, dx: f64, cells: bool) -> Option<(f64, f64)> {
+        let Shape::Cylinder {
+            length, lattice, ..
+        } = self
+        else {
+            return None;
+        };
+        let sampled = match lattice {
+            Lattice::CellCentred if !cells => {
+                lattice_counts(&[0.5 * dx], &[length - 0.5 * dx], dx)[0] * dx
+            }
+            _ => (lattice_counts(&[0.0], &[*length], dx)[0] - 1.0) * dx,
+        };
+        Some((sampled, *length))
+    }
+
     /// Whether the case gives the shape's `volumes` key.
     pub fn volumes_given(&self) -> bool {
         match self {
             Shape::Box { volumes, .. }
             | Shape::Disk { volumes, .. }
             | Shape::Ring { volumes, .. }
-            | Shape::Cylinder { volumes, .. } => volumes.is_some(),
+            | Shape::Cylinder { volumes, .. }
+            | Shape::Polygon { volumes, .. } => volumes.is_some(),
             Shape::Points { .. } | Shape::Mesh { .. } => false,
         }
     }
@@ -550,6 +627,7 @@ impl Shape {
                 length,
                 ..
             } => Some(pi * (radius * radius - inner_radius * inner_radius) * length),
+            Shape::Polygon { vertices, .. } => Some(super::polygon::area(vertices)),
             Shape::Points { .. } | Shape::Mesh { .. } => None,
         }
     }
@@ -579,6 +657,7 @@ impl Shape {
                 hi[a] = base[a] + length;
                 (lo, hi)
             }
+            Shape::Polygon { vertices, .. } => super::polygon::bounds(vertices),
             Shape::Points { .. } | Shape::Mesh { .. } => return None,
         };
         let pad = |v: &[f64]| std::array::from_fn(|k| if k < d { v[k] } else { 0.0 });
@@ -718,7 +797,12 @@ pub fn estimate_particles(case: &Case) -> Result<Vec<BodySize>, CaseError> {
                     let (lo, hi) = spec.geometry.extent(3).expect("a cylinder has its box");
                     size(box_of(&lo, &hi), annulus(*inner_radius, *radius))
                 }
-                Shape::Points { file } | Shape::Mesh { file } => {
+                Shape::Polygon { vertices, .. } => {
+                    let (lo, hi) = super::polygon::bounds(vertices);
+                    let bounding: f64 = (0..2).map(|k| hi[k] - lo[k]).product();
+                    size(box_of(&lo, &hi), super::polygon::area(vertices) / bounding)
+                }
+                Shape::Points { file } | Shape::Mesh { file, .. } => {
                     // A mesh has at most one cell per line.
                     let path = case.base_dir().join(file);
                     let rows = count_point_rows(&path).map_err(|m| {

@@ -31,6 +31,75 @@ fn skipped_corners(kind: u32) -> Option<usize> {
 /// The cells of dimension `dim` of the Gmsh file `text`. Errors say what is wrong and
 /// where (a section or a line), never quote the file.
 pub fn cells(text: &str, dim: usize) -> Result<Vec<Cell>, String> {
+    Ok(parse(text, dim)?.1.into_iter().map(|c| c.cell).collect())
+}
+
+/// The vertices of the cells of dimension `dim` of the Gmsh file `text`, which must all be
+/// quadrangles (2D) or hexahedra (3D): the positions of the nodes the cells name, in
+/// order of their tags (nodes no cell names are left out), and the corners of every
+/// cell, 2^d each in Gmsh's order (the VTK order of quadrilaterals and hexahedra), as
+/// indices into the positions, with each cell's measure.
+pub fn vertex_cells(text: &str, dim: usize) -> Result<VertexCells, String> {
+    let corners = 1usize << dim;
+    let (nodes, parsed) = parse(text, dim)?;
+    if let Some(c) = parsed.iter().find(|c| c.nodes.len() != corners) {
+        return Err(format!(
+            "element {} is a {}; nodes = \"vertices\" makes the cells of the Galerkin methods, \
+             which are {} only: mesh with them (Gmsh: Recombine{})",
+            c.tag,
+            if dim == 2 { "triangle" } else { "tetrahedron" },
+            if dim == 2 { "quadrangles" } else { "hexahedra" },
+            if dim == 2 {
+                " on the surface"
+            } else {
+                " and a transfinite or extruded volume"
+            }
+        ));
+    }
+    let mut tags: Vec<u64> = parsed
+        .iter()
+        .flat_map(|c| c.nodes.iter().copied())
+        .collect();
+    tags.sort_unstable();
+    tags.dedup();
+    let index = |tag: u64| {
+        tags.binary_search(&tag)
+            .expect("every corner tag is listed") as u32
+    };
+    let position = |tag: u64| {
+        let k = nodes.binary_search_by_key(&tag, |n| n.0);
+        nodes[k.expect("`parse` found every node a cell names")].1
+    };
+    Ok(VertexCells {
+        points: tags.iter().map(|&t| position(t)).collect(),
+        corners: parsed
+            .iter()
+            .flat_map(|c| c.nodes.iter().map(|&t| index(t)))
+            .collect(),
+        measures: parsed.iter().map(|c| c.cell.measure).collect(),
+    })
+}
+
+/// The cells of a mesh by their vertices ([`vertex_cells`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct VertexCells {
+    pub points: Vec<[f64; 3]>,
+    pub corners: Vec<u32>,
+    pub measures: Vec<f64>,
+}
+
+/// A parsed cell: its element tag, corner node tags, centroid and measure.
+struct Parsed {
+    tag: u64,
+    nodes: Vec<u64>,
+    cell: Cell,
+}
+
+/// The nodes (tag, position; sorted by tag) and the cells of dimension `dim` of the Gmsh
+/// file `text`, each cell's nodes in $Nodes and its measure positive.
+type Mesh = (Vec<(u64, [f64; 3])>, Vec<Parsed>);
+
+fn parse(text: &str, dim: usize) -> Result<Mesh, String> {
     let format = section(text, "MeshFormat")?;
     let mut header = format.split_whitespace();
     let version = header.next().ok_or("$MeshFormat is empty")?;
@@ -81,7 +150,11 @@ pub fn cells(text: &str, dim: usize) -> Result<Vec<Cell>, String> {
                 cell.measure
             ));
         }
-        out.push(cell);
+        out.push(Parsed {
+            tag,
+            nodes: tags,
+            cell,
+        });
     }
     if out.is_empty() {
         return Err(format!(
@@ -94,7 +167,7 @@ pub fn cells(text: &str, dim: usize) -> Result<Vec<Cell>, String> {
             if dim == 2 { "surface" } else { "volume" }
         ));
     }
-    Ok(out)
+    Ok((nodes, out))
 }
 
 /// The text between `$name` and `$Endname`.

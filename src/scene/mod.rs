@@ -7,6 +7,7 @@ mod expression;
 mod geometry;
 pub mod mesh;
 mod overrides;
+mod polygon;
 pub(crate) mod validate;
 
 pub use expression::Expression;
@@ -321,13 +322,49 @@ pub enum Shape {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         volumes: Option<Volumes>,
     },
+    /// A simple polygon (2D): the lattice points inside it or on its edges (within 1e-9
+    /// of a spacing), the vertices in either orientation, no edge crossing another.
+    Polygon {
+        vertices: Vec<Vec<f64>>,
+        /// Particle volumes: `scaled` (the default: Δx^d times the one factor that makes
+        /// them sum to the polygon's area) or `uniform` (Δx^d each, as the lattice falls).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        volumes: Option<Volumes>,
+    },
     /// Points from a CSV file with a header naming columns x, y[, z][, volume] and
     /// optionally their initial velocities vx, vy[, vz].
     Points { file: PathBuf },
     /// The cells of a Gmsh mesh (`.msh`, ASCII format 2.2 or 4.1; triangles and
     /// quadrangles in 2D, tetrahedra and hexahedra in 3D): a particle at each cell's
-    /// centroid, the cell's area or volume its volume ([`mesh`]).
-    Mesh { file: PathBuf },
+    /// centroid, the cell's area or volume its volume ([`mesh`]); or, with `nodes =
+    /// "vertices"`, a particle at each vertex and the cells as the cells of the Galerkin
+    /// methods ([`MeshNodes`]).
+    Mesh {
+        file: PathBuf,
+        #[serde(default, skip_serializing_if = "MeshNodes::is_centroids")]
+        nodes: MeshNodes,
+    },
+}
+
+/// Where a mesh body's particles sit.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum MeshNodes {
+    /// At the centroid of every cell, the cell's measure its volume: a particle set for
+    /// the methods that integrate at their particles.
+    #[default]
+    Centroids,
+    /// At the vertices of the cells, which must be quadrangles (2D) or hexahedra (3D):
+    /// the cells are then the body's cells for the methods that integrate over cells
+    /// (bilinear or trilinear, as the lattice's), each vertex's volume its 2^-d share of
+    /// the measure of every cell it is a corner of.
+    Vertices,
+}
+
+impl MeshNodes {
+    fn is_centroids(&self) -> bool {
+        *self == Self::Centroids
+    }
 }
 
 #[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
@@ -522,8 +559,9 @@ fn component_expressions(
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct BoundarySpec {
-    /// The prefix of the support's reaction columns (`reaction` observer); absent:
-    /// `boundary<k>`, k its index among the case's `[[boundary]]` tables.
+    /// The prefix of the condition's columns of the `reaction` observer: a support's
+    /// reaction, a load's applied force; absent: `boundary<k>` for a support, k its index
+    /// among the case's `[[boundary]]` tables, and no column for a load.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub name: Option<String>,
     pub region: Region,
@@ -635,6 +673,18 @@ impl Condition {
             | Self::BodyForce { law, .. }
             | Self::Pressure { law, .. } => !law.is_constant(),
             _ => false,
+        }
+    }
+
+    /// The condition's time law (constant for the conditions without one).
+    pub fn law(&self) -> &TimeLaw {
+        const CONSTANT: &TimeLaw = &TimeLaw::Constant;
+        match self {
+            Self::Traction { law, .. }
+            | Self::BodyForce { law, .. }
+            | Self::Pressure { law, .. }
+            | Self::Velocity { law, .. } => law,
+            _ => CONSTANT,
         }
     }
 
@@ -877,7 +927,11 @@ pub enum Observer {
     /// hold its prescribed components, and its power, at the last rate evaluation:
     /// R = Σ m (a_prescribed − a) over the components it holds, columns
     /// `<name>.reaction_x`, … and `<name>.power` (R·v), with `<name>` the condition's
-    /// `name` (default `boundary<k>`).
+    /// `name` (default `boundary<k>`); and for every load with a `name` (a traction,
+    /// pressure, body force or a solution's traction), the total external force it applies
+    /// at the row's time, `<name>.applied_force_x`, …: the sum of its particles' forces
+    /// (a body force's on the method's masses) times its time law at t, or times the load
+    /// factor t/end_time on the static path.
     Reaction,
     /// How much of the pressure is a spurious oscillation: ‖δp‖/‖p‖ over the particles,
     /// δp the deviation of each particle's pressure from the linear fit over its

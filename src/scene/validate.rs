@@ -7,8 +7,8 @@
 
 use super::{
     Axis, BodySpec, BoundarySpec, Case, Condition, ContactSpec, DisplacementField, Hole, Lattice,
-    MaterialSpec, Observer, OutputSpec, Plane, ProbeSpec, Region, RingLattice, RunSpec, Shape,
-    Solution, Solve, TimeLaw, VelocityField, Volumes,
+    MaterialSpec, MeshNodes, Observer, OutputSpec, Plane, ProbeSpec, Region, RingLattice, RunSpec,
+    Shape, Solution, Solve, TimeLaw, VelocityField, Volumes,
 };
 use crate::material::{Material, MaterialModel};
 use crate::methods::{Feature, MethodTable, Problem, REGISTRY, entry, quoted, supporting};
@@ -44,6 +44,24 @@ pub(super) fn check(case: &Case) -> Result<(), (String, String)> {
     }
     bodies(&case.bodies, dim)?;
     for (b, body) in case.bodies.iter().enumerate() {
+        if let Shape::Mesh {
+            nodes: MeshNodes::Vertices,
+            ..
+        } = body.geometry
+            && !case.method.spec.lattice_cells()
+        {
+            return fail(
+                format!("body.{b}.geometry.nodes"),
+                format!(
+                    "\"vertices\" makes the mesh's cells the cells of the methods that \
+                     integrate over cells (tl-fem, ul-fem, tl-weak-form, ul-weak-form, efg \
+                     with integration = \"cells\", kbm with stress points), and `{}` \
+                     integrates at its particles; remove the key (a particle at every cell's \
+                     centroid) or choose one of those methods",
+                    case.method.name()
+                ),
+            );
+        }
         if let Some(u) = &body.initial_displacement {
             displacement(case, u, &format!("body.{b}.initial_displacement"))?;
         }
@@ -87,7 +105,7 @@ pub(super) fn check(case: &Case) -> Result<(), (String, String)> {
     output(&case.output)?;
     analytic_observers(case)?;
     front_observers(case)?;
-    supports(case)?;
+    boundary_names(case)?;
     probes(&case.probes, dim)?;
     sections(case)
 }
@@ -519,30 +537,43 @@ fn bodies(bodies: &[BodySpec], dim: usize) -> Checked {
     Ok(())
 }
 
-/// A round shape's `volumes`: `scaled` or `uniform`, no `tributary` (the halving on the
-/// faces of a box's vertex lattice).
+/// The `volumes` of a shape that is not a box (round, or a polygon): `scaled` or
+/// `uniform`, no `tributary` (the halving on the faces of a box's vertex lattice).
 fn round_volumes(key: &str, volumes: Option<Volumes>) -> Checked {
     if volumes == Some(Volumes::Tributary) {
         return fail(
             format!("{key}.volumes"),
-            "`tributary` halves the volumes on the faces of a box's vertex lattice; a round \
-             shape takes `scaled` (the default: summing to the shape) or `uniform` (Δx^d)",
+            "`tributary` halves the volumes on the faces of a box's vertex lattice; a disk, \
+             ring, cylinder or polygon takes `scaled` (the default: summing to the shape) or \
+             `uniform` (Δx^d)",
         );
     }
     Ok(())
 }
 
 fn hole(hole: &Hole, shape: &Shape, key: &str, dim: usize) -> Checked {
-    if let Shape::Ring {
-        lattice: RingLattice::Polar,
-        ..
-    } = shape
-    {
-        return fail(
-            key,
-            "a polar ring comes with its cells, which a hole would cut; use lattice = \
-             \"square\" or remove the hole",
-        );
+    match shape {
+        Shape::Ring {
+            lattice: RingLattice::Polar,
+            ..
+        } => {
+            return fail(
+                key,
+                "a polar ring comes with its cells, which a hole would cut; use lattice = \
+                 \"square\" or remove the hole",
+            );
+        }
+        Shape::Mesh {
+            nodes: MeshNodes::Vertices,
+            ..
+        } => {
+            return fail(
+                key,
+                "a mesh with nodes = \"vertices\" comes with its cells, which a hole would \
+                 cut; mesh the hole, or remove it",
+            );
+        }
+        _ => {}
     }
     vector(&format!("{key}.center"), &hole.center, dim)?;
     positive(&format!("{key}.radius"), hole.radius)?;
@@ -700,6 +731,18 @@ fn shape(shape: &Shape, key: &str, dim: usize) -> Checked {
             }
             positive(&format!("{key}.length"), *length)?;
         }
+        Shape::Polygon { vertices, volumes } => {
+            if dim != 2 {
+                return only("polygon", 2, "\"box\", \"cylinder\" or \"mesh\"");
+            }
+            round_volumes(key, *volumes)?;
+            for (k, v) in vertices.iter().enumerate() {
+                vector(&format!("{key}.vertices.{k}"), v, dim)?;
+            }
+            if let Some(why) = super::polygon::not_simple(vertices) {
+                return fail(format!("{key}.vertices"), why);
+            }
+        }
         Shape::Points { file } => {
             if file.as_os_str().is_empty() {
                 return fail(
@@ -709,7 +752,7 @@ fn shape(shape: &Shape, key: &str, dim: usize) -> Checked {
                 );
             }
         }
-        Shape::Mesh { file } => {
+        Shape::Mesh { file, .. } => {
             if file.as_os_str().is_empty() {
                 return fail(
                     format!("{key}.file"),
@@ -1441,41 +1484,35 @@ fn probes(probes: &[ProbeSpec], dim: usize) -> Checked {
     Ok(())
 }
 
-/// Names of boundary conditions: only supports have them (their reaction columns), each
-/// a column prefix unique among the supports; the `reaction` observer needs a support.
-fn supports(case: &Case) -> Checked {
+/// Names of boundary conditions: each a column prefix (a support's reaction columns, a
+/// load's applied-force columns) unique among the conditions, the unnamed supports
+/// counting as `boundary<k>`; the `reaction` observer needs a support or a named load.
+fn boundary_names(case: &Case) -> Checked {
     let mut seen = HashSet::new();
+    let mut columns = false;
     for (i, b) in case.boundaries.iter().enumerate() {
         let key = format!("boundary.{i}.name");
         if let Some(name) = &b.name {
-            if !b.condition.is_support() {
-                return fail(
-                    key,
-                    format!(
-                        "names a condition that prescribes no motion ({name:?}); a name is the \
-                         prefix of a support's reaction columns, so only `fixed`, `velocity`, \
-                         `symmetry` and the displacement conditions take one"
-                    ),
-                );
-            }
             identifier(&key, name, "boundary names become CSV column prefixes")?;
         }
-        if b.condition.is_support() && !seen.insert(b.name(i)) {
+        if (b.name.is_some() || b.condition.is_support()) && !seen.insert(b.name(i)) {
             return fail(
                 key,
                 format!(
-                    "{:?} is already the name of an earlier support (unnamed ones are \
-                     `boundary<k>`); support names must be unique",
+                    "{:?} is already the name of an earlier boundary condition (unnamed \
+                     supports are `boundary<k>`); boundary names must be unique",
                     b.name(i)
                 ),
             );
         }
+        columns |= b.name.is_some() || b.condition.is_support();
     }
-    if case.output.observers.contains(&Observer::Reaction) && seen.is_empty() {
+    if case.output.observers.contains(&Observer::Reaction) && !columns {
         return fail(
             "output.observers",
             "lists `reaction`, but no boundary condition prescribes motion (`fixed`, \
-             `velocity`, `symmetry`, a displacement); add one or remove the observer",
+             `velocity`, `symmetry`, a displacement) and no load has a `name`; add one or \
+             remove the observer",
         );
     }
     Ok(())

@@ -43,6 +43,12 @@ pub trait AtRest<D: Dim>: Method<D> {
     fn closed_form(&self) -> Option<&dyn ClosedForm<D>> {
         None
     }
+    /// Whether any of the method's points reaches particle a: a Galerkin node that is the
+    /// corner of no cell is not, so no force depends on its displacement and the
+    /// stiffness is singular at its free components.
+    fn reached(&self, _a: usize) -> bool {
+        true
+    }
 }
 
 /// A stiffness K = −∂f_int/∂u known in closed form.
@@ -105,6 +111,14 @@ impl<D: Dim, M: AtRest<D>> Statics<D, Explicit<D, M>> {
         reference.boundary.displacement.clear();
         let method = M::build(case, reference)?;
         let (x0, mass) = (method.reference(), method.mass());
+        let full = (1u8 << D::N) - 1;
+        let mut held = vec![0u8; x0.len()];
+        for &(i, mask) in &boundary.constrained {
+            held[i as usize] = mask;
+        }
+        if let Some(a) = (0..x0.len()).find(|&a| held[a] != full && !method.reached(a)) {
+            return Err(unreached(case, &method, a));
+        }
         let bodies: Vec<&str> = case.bodies.iter().map(|b| b.name.as_str()).collect();
         rigid_motions_held::<D>(x0, method.body(), &bodies, &boundary.constrained)
             .map_err(|m| case.invalid("boundary", m))?;
@@ -134,6 +148,27 @@ impl<D: Dim, M: AtRest<D>> Statics<D, Explicit<D, M>> {
         };
         Self::with_model(case, model, setup, "run.solve")
     }
+}
+
+/// The error of a static run whose particle a, free in some component, no point of the
+/// method reaches (the corner of no cell): its stiffness is singular there, which is no
+/// free rigid motion, so the error names the particle and the fixes.
+fn unreached<D: Dim, M: AtRest<D>>(case: &Case, method: &M, a: usize) -> CaseError {
+    let b = method.body()[a] as usize;
+    case.invalid(
+        format!("body.{b}.geometry"),
+        format!(
+            "particle {a} at {:?} of body `{}` is the corner of no cell of `{}` (its lattice \
+             squares or cubes leave the shape, as at a round or slanted boundary), so no \
+             force depends on its displacement and the static solve's stiffness is singular \
+             there; give the body a shape whose every lattice point is a cell corner (a box, a \
+             polar ring, a polygon whose edges follow the lattice), or hold the particle with \
+             a boundary condition",
+            D::to3(method.reference()[a]),
+            case.bodies[b].name,
+            case.method.name()
+        ),
+    )
 }
 
 /// The stiffness's pattern for finite differences: the pairs within two kernel supports.

@@ -1109,14 +1109,15 @@ fn coincident_particles_and_overlapping_bodies_are_refused() {
 fn reaction_and_section_observers_name_their_errors() {
     let support = "[[boundary]]\nname = \"left\"\nregion = { x_max = 0.0 }\ncondition = { type = \"fixed\" }\n";
     let with = |extra: &str| format!("{VALID}{extra}");
-    // A name on a load, a name that is no column prefix, a repeated name (the default of
-    // the first support is `boundary0`).
+    // A load's name repeated by a support, a name that is no column prefix, a repeated
+    // name (the default of the first support is `boundary0`).
     assert_invalid(
-        &with(
-            "[[boundary]]\nname = \"g\"\nregion = {}\ncondition = { type = \"body-force\", acceleration = [0.0, -9.81] }\n",
-        ),
-        "boundary.0.name",
-        &["prescribes no motion", "`fixed`"],
+        &with(&format!(
+            "[[boundary]]\nname = \"g\"\nregion = {{}}\ncondition = {{ type = \"body-force\", acceleration = [0.0, -9.81] }}\n{}",
+            support.replace("\"left\"", "\"g\"")
+        )),
+        "boundary.1.name",
+        &["\"g\"", "must be unique"],
     );
     assert_invalid(
         &with(&support.replace("\"left\"", "\"left grip\"")),
@@ -1131,11 +1132,15 @@ fn reaction_and_section_observers_name_their_errors() {
         "boundary.1.name",
         &["\"boundary0\"", "must be unique"],
     );
-    // The observer needs a support.
+    // The observer needs a support or a named load.
     assert_invalid(
         &with("[output]\nobservers = [\"reaction\"]\n"),
         "output.observers",
-        &["`reaction`", "no boundary condition prescribes motion"],
+        &[
+            "`reaction`",
+            "no boundary condition prescribes motion",
+            "no load has a `name`",
+        ],
     );
     // A section along z in 2D, at no number, in no body, named twice.
     let section = "[[section]]\nname = \"mid\"\nnormal = \"x\"\nat = 0.5\n";

@@ -57,6 +57,7 @@ mod seed001_rod;
 mod seed001_steel_ring;
 #[cfg(feature = "gpu")]
 mod shaders;
+mod shapes;
 mod static_tolerance;
 #[cfg(feature = "study")]
 mod study;

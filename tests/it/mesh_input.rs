@@ -1,6 +1,7 @@
 //! Bodies from Gmsh meshes (`shape = "mesh"`): a particle per cell at its centroid with the
 //! cell's area as its volume, checked against the mesh's own area and the weight a support
-//! holds.
+//! holds; and a particle per vertex with the quadrangles as the Galerkin cells
+//! (`nodes = "vertices"`), checked against the lattice's FEM bar.
 
 use crate::common::cpu_options;
 use meshless::output::series::read_column;
@@ -154,4 +155,164 @@ end_time = 1.0e-5
     for part in ["body.0.geometry.file", "bad.msh", "$MeshFormat"] {
         assert!(err.contains(part), "{err}");
     }
+}
+
+/// The box [0, L] × [0, H] as a structured nx × ny grid of quadrangles (counter-clockwise
+/// corners), Gmsh's ASCII format 2.2, with the nodes numbered from the top row down so
+/// that the particles' order differs from a lattice's.
+fn structured_quads(l: f64, h: f64, nx: usize, ny: usize) -> String {
+    let (dx, dy) = (l / nx as f64, h / ny as f64);
+    let node = |i: usize, j: usize| ((ny - j) * (nx + 1) + i + 1) as u64;
+    let mut nodes = String::new();
+    for j in (0..=ny).rev() {
+        for i in 0..=nx {
+            nodes.push_str(&format!(
+                "{} {} {} 0\n",
+                node(i, j),
+                i as f64 * dx,
+                j as f64 * dy
+            ));
+        }
+    }
+    let mut quads = String::new();
+    let mut tag = 1;
+    for j in 0..ny {
+        for i in 0..nx {
+            let (a, b, c, d) = (
+                node(i, j),
+                node(i + 1, j),
+                node(i + 1, j + 1),
+                node(i, j + 1),
+            );
+            quads.push_str(&format!("{tag} 3 2 0 1 {a} {b} {c} {d}\n"));
+            tag += 1;
+        }
+    }
+    format!(
+        "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n{}\n{nodes}$EndNodes\n$Elements\n{}\n\
+         {quads}$EndElements\n",
+        (nx + 1) * (ny + 1),
+        nx * ny
+    )
+}
+
+/// A static plane-stress linear-elastic `tl-fem` bar 4 × 1 m at Δx = 0.125 m with `geometry`,
+/// on rollers at x = 0 and pulled by t = 1e4 Pa at x = 4 (the region's y bounds clip the
+/// face, as a mesh has no named extent); the mean u_x of the loaded end.
+fn pulled_fem_bar(dir: &std::path::Path, geometry: &str) -> f64 {
+    let text = format!(
+        r#"
+name = "bar"
+dimension = 2
+spacing = 0.125
+[material]
+model = "linear-elastic"
+plane = "stress"
+density = 1000.0
+youngs_modulus = 1.0e7
+poisson_ratio = 0.3
+[method]
+name = "tl-fem"
+dt = 1.0
+[[body]]
+name = "bar"
+geometry = {geometry}
+[[boundary]]
+region = {{ x_max = 0.0 }}
+condition = {{ type = "velocity", vx = 0.0 }}
+[[boundary]]
+region = {{ x_max = 0.0, y_max = 0.0 }}
+condition = {{ type = "velocity", vy = 0.0 }}
+[[boundary]]
+region = {{ x_min = 4.0, y_min = 0.0, y_max = 1.0 }}
+condition = {{ type = "traction", traction = [1.0e4, 0.0] }}
+[run]
+solve = "static"
+end_time = 1.0
+"#
+    );
+    let case = Case::from_toml(&text, &dir.join("bar.toml"), &[]).unwrap();
+    let mut e = meshless::run::engine::<D2>(&case, meshless::run::Backend::Cpu).unwrap();
+    e.advance(0.0, 1.0, 1).unwrap_or_else(|f| panic!("{f:?}"));
+    let s = e.snapshot();
+    let end: Vec<usize> = (0..s.x0.len())
+        .filter(|&i| (s.x0[i].x - 4.0).abs() < 1e-9)
+        .collect();
+    assert_eq!(end.len(), 9);
+    end.iter().map(|&i| s.u[i].x).sum::<f64>() / end.len() as f64
+}
+
+#[test]
+fn a_quad_mesh_at_its_vertices_is_the_fem_bar_of_the_lattice() {
+    // The mesh's 32 × 8 quadrangles are the lattice's cells with the nodes numbered
+    // otherwise: the extension is the lattice bar's to the round-off of a reordered
+    // sparse solve (1e-10), and tL/E (4e-3 m) as the FEM's patch test gives it (the
+    // verification matrix's bound, 1e-9; measured 1e-10).
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("bar.msh"),
+        structured_quads(4.0, 1.0, 32, 8),
+    )
+    .unwrap();
+    let mesh = pulled_fem_bar(
+        dir.path(),
+        "{ shape = \"mesh\", file = \"bar.msh\", nodes = \"vertices\" }",
+    );
+    let lattice = pulled_fem_bar(
+        dir.path(),
+        "{ shape = \"box\", min = [0.0, 0.0], max = [4.0, 1.0] }",
+    );
+    let exact = 1.0e4 * 4.0 / 1.0e7;
+    eprintln!("end u_x: mesh {mesh:.15e}, lattice {lattice:.15e}, tL/E {exact:e}");
+    assert!(
+        (mesh / lattice - 1.0).abs() < 1e-10,
+        "{mesh} against {lattice}"
+    );
+    assert!((mesh / exact - 1.0).abs() < 1e-9, "{mesh} against {exact}");
+    // The vertices' volumes are the quarter shares of their cells: they sum to the mesh's
+    // 4 m² (to round-off), and the mesh's cells are the body's.
+    let case = Case::from_toml(
+        "name = \"bar\"\ndimension = 2\nspacing = 0.125\n[material]\nmodel = \
+         \"linear-elastic\"\ndensity = 1000.0\nyoungs_modulus = 1e7\npoisson_ratio = 0.3\n\
+         [method]\nname = \"tl-fem\"\ndt = 1e-5\n[[body]]\nname = \"bar\"\ngeometry = { \
+         shape = \"mesh\", file = \"bar.msh\", nodes = \"vertices\" }\n[run]\nend_time = \
+         1e-4\n",
+        &dir.path().join("bar.toml"),
+        &[],
+    )
+    .unwrap();
+    let r = Reference::<D2>::build(&case).unwrap();
+    let total: f64 = r.vol.iter().sum();
+    assert!((total - 4.0).abs() < 1e-13, "{total}");
+    assert_eq!(r.cells(0.125).unwrap().len(), 32 * 8);
+}
+
+#[test]
+fn mesh_vertices_are_refused_for_particle_methods_and_triangles() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("tri.msh"), irregular_box(1.0, 1.0, 4, 4)).unwrap();
+    let case = |method: &str, keys: &str| {
+        Case::from_toml(
+            &format!(
+                "name = \"m\"\ndimension = 2\nspacing = 0.25\n[material]\nmodel = \
+                 \"linear-elastic\"\ndensity = 1000.0\nyoungs_modulus = 1e7\npoisson_ratio = \
+                 0.3\n[method]\nname = \"{method}\"\n{keys}\ndt = 1e-5\n[[body]]\nname = \
+                 \"b\"\ngeometry = {{ shape = \"mesh\", file = \"tri.msh\", nodes = \
+                 \"vertices\" }}\n[run]\nend_time = 1e-4\n"
+            ),
+            &dir.path().join("m.toml"),
+            &[],
+        )
+    };
+    let e = case("tlsph", "h_over_dx = 1.3").unwrap_err().to_string();
+    assert!(
+        e.contains("key `body.0.geometry.nodes`") && e.contains("`tlsph`"),
+        "{e}"
+    );
+    let c = case("tl-fem", "").unwrap();
+    let e = Reference::<D2>::build(&c).err().unwrap().to_string();
+    assert!(
+        e.contains("key `body.0.geometry.file`") && e.contains("is a triangle"),
+        "{e}"
+    );
 }

@@ -696,6 +696,12 @@ impl<D: Dim> AtRest<D> for TlGalerkin<D> {
             .has_tangent()
             .then_some(self as &dyn ClosedForm<D>)
     }
+
+    /// Whether a point reaches node a (for the isoparametric functions: whether it is
+    /// the corner of a cell).
+    fn reached(&self, a: usize) -> bool {
+        !self.gather.is_orphan(a)
+    }
 }
 
 impl<D: Dim> ClosedForm<D> for TlGalerkin<D> {
