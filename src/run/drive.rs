@@ -191,6 +191,7 @@ pub fn drive<D: Dim, E: Engine<D>>(
         status: "running".into(),
         failure: None,
         final_invariants: Default::default(),
+        energy_balance: Default::default(),
         checks: Vec::new(),
     };
     write_summary(&summary_path, &running).map_err(output_error(&summary_path))?;
@@ -395,17 +396,13 @@ pub fn drive<D: Dim, E: Engine<D>>(
     let wall = started.elapsed().as_secs_f64();
     let passes = profiled.and_then(|from| pass_report(&mut engine, from, step));
     let inv = engine.invariants();
-    // The final invariants with the energy balance's terms and residue.
-    let mut final_invariants = inv.named::<D>();
-    final_invariants.extend(
-        Balance {
-            kinetic: inv.kinetic,
-            stored: inv.strain,
-            booked: engine.booked(),
-            e0,
-        }
-        .named(),
-    );
+    let energy_balance = Balance {
+        kinetic: inv.kinetic,
+        stored: inv.strain,
+        booked: engine.booked(),
+        e0,
+    }
+    .named();
     let summary = RunSummary {
         passes,
         steps: step,
@@ -427,7 +424,8 @@ pub fn drive<D: Dim, E: Engine<D>>(
             };
             format!("{steps}, t = {failed_time:e} s: {c}")
         }),
-        final_invariants,
+        final_invariants: inv.named::<D>(),
+        energy_balance,
         checks: evaluate_checks(case, &series_path),
         ..running
     };

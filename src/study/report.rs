@@ -107,7 +107,7 @@ pub fn runs_table(suite: &Suite, recs: &[RunRecord]) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "| variant | backend | {} | particles | steps | wall [s] | e(v) | e(P) | ΔH/H0 | ΔE/E0 | status |",
+        "| variant | backend | {} | particles | steps | wall [s] | e(v) | e(P) | ΔH/H0 | R/S | status |",
         suite.sweep.key
     );
     let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|");
@@ -198,7 +198,7 @@ pub fn stability_map(suite: &Suite, recs: &[RunRecord]) -> String {
                     Some(r) => match &r.status {
                         Status::Ok => match &metric {
                             Some(m) => format!("stable ({} {})", m.symbol, sci((m.value)(r))),
-                            None => format!("stable (ΔE/E0 {})", sci(r.drift_energy)),
+                            None => format!("stable (R/S {})", sci(r.drift_energy)),
                         },
                         Status::Failed { time, quantity, .. } => format!(
                             "**failed** at {}: {}",
