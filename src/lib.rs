@@ -6,6 +6,7 @@
 //! them is the CPU path alone.
 
 pub mod analytic;
+pub mod balance;
 pub mod bench;
 pub mod boundary;
 pub mod correction;

@@ -3,6 +3,7 @@
 //! time series.
 
 use crate::analytic::{ClosedForm, Exact, relative_l2};
+use crate::balance::{self, Balance, Booked};
 use crate::boundary::Reaction;
 use crate::material::{Material, MaterialModel};
 use crate::methods::shared::{PseudoTime, ordered_reduce};
@@ -135,16 +136,15 @@ fn angular_components<D: Dim>() -> std::ops::Range<usize> {
     if D::N == 2 { 2..3 } else { 0..3 }
 }
 
-/// Where a run stands: time, step count, last step size, the work done on the body by
-/// supports and loads so far, and the energy the artificial viscosity dissipated (0 where
-/// the method does not book it).
+/// Where a run stands: time, step count, last step size, the terms of the energy balance
+/// the engine booked so far ([`crate::balance`]) and the initial energy E_0.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Clock {
     pub t: f64,
     pub step: u64,
     pub dt: f64,
-    pub external_work: f64,
-    pub viscous_dissipation: f64,
+    pub booked: Booked,
+    pub e0: f64,
     /// The pseudo-time iterations of artificial compressibility (zero without).
     pub pseudo_time: PseudoTime,
 }
@@ -152,8 +152,6 @@ pub struct Clock {
 /// The series columns an engine adds besides the observers'.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct EngineColumns {
-    /// The viscous dissipation, a column of the `energy` observer.
-    pub dissipation: bool,
     /// The pseudo-time iterations of artificial compressibility: `pseudo_iterations` (of
     /// the last step, over its stages), `pseudo_iterations_total` and `pseudo_residual`
     /// (the largest of the last step's stages, over the velocity scale).
@@ -223,20 +221,7 @@ impl Observers {
         list.dedup();
         for obs in &list {
             match obs {
-                Observer::Energy => {
-                    names.extend(
-                        [
-                            "kinetic_energy",
-                            "strain_energy",
-                            "total_energy",
-                            "external_work",
-                        ]
-                        .map(String::from),
-                    );
-                    if engine.dissipation {
-                        names.push("viscous_dissipation".into());
-                    }
-                }
+                Observer::Energy => names.extend(balance::COLUMNS.map(String::from)),
                 Observer::LinearMomentum => {
                     names.extend((0..D::N).map(|k| format!("momentum_{}", AXES[k])))
                 }
@@ -430,17 +415,15 @@ impl Observers {
         let mut row = vec![clock.t, clock.step as f64, clock.dt];
         for obs in &self.list {
             match obs {
-                Observer::Energy => {
-                    row.extend([
-                        inv.kinetic,
-                        inv.strain,
-                        inv.total_energy(),
-                        clock.external_work,
-                    ]);
-                    if self.engine.dissipation {
-                        row.push(clock.viscous_dissipation);
+                Observer::Energy => row.extend(
+                    Balance {
+                        kinetic: inv.kinetic,
+                        stored: inv.strain,
+                        booked: clock.booked,
+                        e0: clock.e0,
                     }
-                }
+                    .row(),
+                ),
                 Observer::LinearMomentum => row.extend(&inv.linear[..D::N]),
                 Observer::AngularMomentum => {
                     row.extend(angular_components::<D>().map(|k| inv.angular[k]))

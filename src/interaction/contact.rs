@@ -128,6 +128,10 @@ impl<D: Dim> Interaction<D> for Contact<D> {
             .sum()
     }
 
+    fn contact(&self) -> bool {
+        true
+    }
+
     #[cfg(feature = "gpu")]
     fn gpu_pass(&self) -> Option<&dyn super::gpu::GpuInteraction> {
         Some(self)

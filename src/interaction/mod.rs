@@ -37,9 +37,23 @@ pub trait Interaction<D: Dim>: Send + Sync {
     /// and masses m; returns their power Σ m a·v.
     fn accelerate(&self, v: &[D::V], mass: &[f64], a: &mut [D::V]) -> f64;
 
+    /// Whether its forces are contact between the bodies, whose work the energy balance
+    /// books apart from the work of the loads ([`crate::balance`]).
+    fn contact(&self) -> bool {
+        false
+    }
+
     /// The interaction's device pass, if it has one.
     #[cfg(feature = "gpu")]
     fn gpu_pass(&self) -> Option<&dyn gpu::GpuInteraction>;
+}
+
+/// The power of the interactions at a rate evaluation, Σ m a·v: of the loads, and of
+/// contact.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Power {
+    pub external: f64,
+    pub contact: f64,
 }
 
 /// The interactions a case asks for, in the order they act.
@@ -89,9 +103,18 @@ impl<D: Dim> Interactions<D> {
         }
     }
 
-    /// Adds every interaction's accelerations to `a`; returns their total power.
-    pub fn accelerate(&self, v: &[D::V], mass: &[f64], a: &mut [D::V]) -> f64 {
-        self.list.iter().map(|i| i.accelerate(v, mass, a)).sum()
+    /// Adds every interaction's accelerations to `a`; returns their power, the loads'
+    /// and the contact's.
+    pub fn accelerate(&self, v: &[D::V], mass: &[f64], a: &mut [D::V]) -> Power {
+        let mut power = Power::default();
+        for i in &self.list {
+            let p = i.accelerate(v, mass, a);
+            match i.contact() {
+                true => power.contact += p,
+                false => power.external += p,
+            }
+        }
+        power
     }
 
     /// The device passes of the interactions.

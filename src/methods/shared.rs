@@ -151,6 +151,15 @@ pub(crate) fn save_field<T: Words>(field: &[T], out: &mut Vec<f64>) {
     }
 }
 
+/// Reads one word, `name`, from the front of a checkpoint's words.
+pub(crate) fn load_word(words: &mut &[f64], name: &str) -> Result<f64, String> {
+    let (&word, rest) = words
+        .split_first()
+        .ok_or_else(|| format!("the checkpoint ends before {name}"))?;
+    *words = rest;
+    Ok(word)
+}
+
 /// Reads a field [`save_field`] wrote into `field`, which must have its length.
 pub(crate) fn load_field<T: Words>(
     field: &mut [T],
@@ -242,8 +251,10 @@ pub fn check_motion<D: Dim>(x0: &[D::V], u: &[D::V], v: &[D::V]) -> Result<(), B
 /// observer.
 #[derive(Clone, Debug, Default)]
 pub struct BoundaryWork {
-    /// The power of supports, loads and interactions.
+    /// The power of supports, loads and the interactions other than contact.
     pub power: f64,
+    /// The power of the contact forces on the bodies (seed 000 §5.8).
+    pub contact: f64,
     /// The reaction of every support of the case.
     pub reactions: Vec<Reaction>,
 }
@@ -259,10 +270,11 @@ impl BoundaryWork {
         mass: &[f64],
         a: &mut [D::V],
     ) {
-        let interaction_power = interactions.accelerate(v, mass, a);
+        let interaction = interactions.accelerate(v, mass, a);
+        self.contact = interaction.contact;
         self.power = boundary.apply(a, v, mass, &mut self.reactions)
             + boundary.external_power(v, mass)
-            + interaction_power;
+            + interaction.external;
     }
 }
 
@@ -318,11 +330,28 @@ pub trait Method<D: Dim>: OdeSystem<Error = BlowUp> + Sized {
     /// The power of supports, loads and interactions and the supports' reactions at the
     /// last rate evaluation.
     fn boundary_work(&self) -> &BoundaryWork;
-    /// The power dissipated by the artificial viscosity at the last rate evaluation,
-    /// −Σ m a_visc·v, for the methods that book it (the total-Lagrangian SPH family; 0
-    /// without viscosity); None for those whose dissipation is not separated.
-    fn viscous_dissipation(&self) -> Option<f64> {
-        None
+    /// The power of the artificial dissipation at the last rate evaluation, −Σ m a_art·v
+    /// with a_art the acceleration of the artificial viscosity, of a mixed method's
+    /// stabilisation or of a Riemann solver's velocity jump (each method's document says
+    /// which part of its dissipation this is); 0 for a method without one.
+    fn dissipation_power(&self) -> f64 {
+        0.0
+    }
+    /// The power against the hourglass control at the last rate evaluation, −Σ m a_hg·v;
+    /// 0 for a method without one.
+    fn hourglass_power(&self) -> f64 {
+        0.0
+    }
+    /// The energy the method took out at the ends of the steps so far (the kinetic
+    /// energy a velocity smoothing removes), booked with the artificial dissipation.
+    fn step_dissipation(&self) -> f64 {
+        0.0
+    }
+    /// The plastic work Σ_q w_q ∫ τ_y dε̄_p up to state y (the committed history's and
+    /// the current step's, [`crate::plasticity::History::work_at`]); 0 for an elastic
+    /// material.
+    fn plastic_work(&self, _y: &Self::State) -> f64 {
+        0.0
     }
     /// The pseudo-time iterations of a method that iterates within its stages
     /// (artificial compressibility); None for the others.

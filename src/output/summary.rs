@@ -62,6 +62,11 @@ pub struct RunSummary {
     /// Conserved or monitored quantities at the end of the run.
     #[serde(with = "non_finite_values_as_null")]
     pub final_invariants: BTreeMap<String, f64>,
+    /// The energy balance's terms booked by the end and its residue over its scale
+    /// (`crate::balance`: `external_work`, `dissipated`, `hourglass_work`, `plastic_work`,
+    /// `contact_energy`, `energy_residue`); null for a term the engine does not book.
+    #[serde(default, with = "non_finite_values_as_null")]
+    pub energy_balance: BTreeMap<String, f64>,
     /// The case's documented checks (`[[output.check]]`) on the series written.
     #[serde(default)]
     pub checks: Vec<CheckResult>,
@@ -169,6 +174,7 @@ mod tests {
             particle_steps_per_second: 1.0 / 3.0 * 1e9,
             status: "completed".into(),
             failure: None,
+            energy_balance: BTreeMap::new(),
             final_invariants: BTreeMap::from([
                 ("energy_total".to_string(), 0.1 + 0.2),
                 ("momentum_x".to_string(), -1e-300),

@@ -8,6 +8,7 @@ use super::checks::{
 use super::frames::{Frames, next_frame_time};
 use super::progress::{Progress, ProgressDisplay};
 use super::{Engine, Failed, Iteration, RunError, RunOptions, output_error};
+use crate::balance::Balance;
 use crate::hourglass::HourglassIndicator;
 use crate::observe::{Clock, IndicatorFields, Invariants, Observers, Snapshot};
 use crate::output::series::read_column;
@@ -186,6 +187,7 @@ pub fn drive<D: Dim, E: Engine<D>>(
         status: "running".into(),
         failure: None,
         final_invariants: Default::default(),
+        energy_balance: Default::default(),
         checks: Vec::new(),
     };
     write_summary(&summary_path, &running).map_err(output_error(&summary_path))?;
@@ -215,19 +217,20 @@ pub fn drive<D: Dim, E: Engine<D>>(
                 t: p.t,
                 step: p.step,
                 dt: p.dt,
-                external_work: engine.external_work(),
-                viscous_dissipation: engine.viscous_dissipation().unwrap_or(0.0),
+                booked: engine.booked(),
+                e0: p.e0,
                 pseudo_time: engine.pseudo_time().unwrap_or_default(),
             };
             (clock, p.e0, p.next_sample, p.next_checkpoint)
         }
         None => {
-            let clock = Clock {
-                dt: dt_first,
-                ..Clock::default()
-            };
             let snap = engine.snapshot();
             let inv0 = Invariants::of(&snap);
+            let clock = Clock {
+                dt: dt_first,
+                e0: inv0.total_energy(),
+                ..Clock::default()
+            };
             let fields = indicators_of(&snap, frames.will_write(0.0, true), true);
             series
                 .write_row(&observers.sample(&snap, &inv0, &clock, &fields, &[]))
@@ -298,8 +301,8 @@ pub fn drive<D: Dim, E: Engine<D>>(
             t: t + f64::from(steps) * dt,
             step: step + u64::from(steps),
             dt,
-            external_work: engine.external_work(),
-            viscous_dissipation: engine.viscous_dissipation().unwrap_or(0.0),
+            booked: engine.booked(),
+            e0,
             pseudo_time: engine.pseudo_time().unwrap_or_default(),
         };
         let t = clock.t;
@@ -312,7 +315,7 @@ pub fn drive<D: Dim, E: Engine<D>>(
         // other checks use the engine's invariants (a reduction on the GPU).
         let sample = t + 0.5 * dt >= next_sample || done(t);
         let output = sample || frames.due(t) || done(t);
-        let bound = case.run.energy_growth_limit * (e0 + clock.external_work.max(0.0));
+        let bound = case.run.energy_growth_limit * (e0 + clock.booked.external_work.max(0.0));
         // A non-finite energy (an overflowing velocity of a rigid motion, which leaves F
         // finite) is a blow-up whatever the bound.
         let too_much = |inv: &Invariants| {
@@ -391,6 +394,13 @@ pub fn drive<D: Dim, E: Engine<D>>(
     let wall = started.elapsed().as_secs_f64();
     let passes = profiled.and_then(|from| pass_report(&mut engine, from, step));
     let inv = engine.invariants();
+    let energy_balance = Balance {
+        kinetic: inv.kinetic,
+        stored: inv.strain,
+        booked: engine.booked(),
+        e0,
+    }
+    .named();
     let summary = RunSummary {
         passes,
         steps: step,
@@ -413,6 +423,7 @@ pub fn drive<D: Dim, E: Engine<D>>(
             format!("{steps}, t = {failed_time:e} s: {c}")
         }),
         final_invariants: inv.named::<D>(),
+        energy_balance,
         checks: evaluate_checks(case, &series_path),
         ..running
     };

@@ -2,6 +2,7 @@
 //! its method's spec.
 
 use super::{Backend, RunError};
+use crate::balance::Booked;
 use crate::boundary::Reaction;
 #[cfg(feature = "gpu")]
 use crate::gpu::{Gpu, SetupError};
@@ -166,11 +167,9 @@ pub trait Engine<D: Dim> {
     /// The reaction of every support of the case ([`crate::boundary::supports`]) at the last
     /// rate evaluation.
     fn reactions(&mut self) -> Vec<Reaction>;
-    /// Energy dissipated by the artificial viscosity so far, for the methods that book it
-    /// ([`crate::methods::Method::viscous_dissipation`]); None for the others.
-    fn viscous_dissipation(&mut self) -> Option<f64> {
-        None
-    }
+    /// The terms of the energy balance booked so far ([`crate::balance`]): the work of
+    /// supports and loads, and the others this engine books.
+    fn booked(&mut self) -> Booked;
     /// Pseudo-time iterations of a method that iterates within its stages
     /// ([`crate::methods::Method::pseudo_time`]); None for the others.
     fn pseudo_time(&mut self) -> Option<PseudoTime> {
@@ -179,7 +178,6 @@ pub trait Engine<D: Dim> {
     /// The series columns this engine adds besides the observers'.
     fn columns(&mut self) -> EngineColumns {
         EngineColumns {
-            dissipation: self.viscous_dissipation().is_some(),
             pseudo_time: self.pseudo_time().is_some(),
         }
     }
@@ -250,8 +248,8 @@ impl<D: Dim> Engine<D> for Box<dyn Engine<D>> {
     fn reactions(&mut self) -> Vec<Reaction> {
         (**self).reactions()
     }
-    fn viscous_dissipation(&mut self) -> Option<f64> {
-        (**self).viscous_dissipation()
+    fn booked(&mut self) -> Booked {
+        (**self).booked()
     }
     fn pseudo_time(&mut self) -> Option<PseudoTime> {
         (**self).pseudo_time()
@@ -299,17 +297,32 @@ pub struct StepTraffic {
     pub bytes_per_particle: f64,
 }
 
+/// The integral of a power over the steps, trapezoidal from the powers at the last rate
+/// evaluation of successive steps, and the last of those powers.
+#[derive(Clone, Copy, Debug, Default)]
+struct Trapezoid {
+    integral: f64,
+    last: f64,
+}
+
+impl Trapezoid {
+    fn add(&mut self, power: f64, dt: f64) {
+        self.integral += 0.5 * (self.last + power) * dt;
+        self.last = power;
+    }
+}
+
 /// The CPU reference engine: a method and an integrator (f64, rayon).
 pub struct CpuEngine<D: Dim, M: Method<D>> {
     pub method: M,
     pub y: M::State,
     integrator: Integrator<M::State>,
-    work: f64,
-    last_power: f64,
-    /// The viscous dissipation so far and its power at the last step, when the method
-    /// books it.
-    dissipated: f64,
-    last_dissipation: f64,
+    /// The power of supports and loads, of the artificial dissipation, against the
+    /// hourglass control and of contact, integrated over the steps.
+    external: Trapezoid,
+    dissipation: Trapezoid,
+    hourglass: Trapezoid,
+    contact: Trapezoid,
     _dim: std::marker::PhantomData<D>,
 }
 
@@ -322,12 +335,22 @@ impl<D: Dim, M: Method<D>> CpuEngine<D, M> {
             method,
             y,
             integrator,
-            work: 0.0,
-            last_power: 0.0,
-            dissipated: 0.0,
-            last_dissipation: 0.0,
+            external: Trapezoid::default(),
+            dissipation: Trapezoid::default(),
+            hourglass: Trapezoid::default(),
+            contact: Trapezoid::default(),
             _dim: std::marker::PhantomData,
         })
+    }
+
+    /// The integrated powers, in the order a checkpoint holds them.
+    fn powers(&mut self) -> [&mut Trapezoid; 4] {
+        [
+            &mut self.external,
+            &mut self.dissipation,
+            &mut self.hourglass,
+            &mut self.contact,
+        ]
     }
 }
 
@@ -352,15 +375,13 @@ impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
                     completed: k,
                     cause,
                 })?;
-            // Trapezoidal work of the supports and loads, and dissipation, from successive
-            // step powers.
-            let power = self.method.boundary_work().power;
-            self.work += 0.5 * (self.last_power + power) * dt;
-            self.last_power = power;
-            if let Some(dissipation) = self.method.viscous_dissipation() {
-                self.dissipated += 0.5 * (self.last_dissipation + dissipation) * dt;
-                self.last_dissipation = dissipation;
-            }
+            // The balance's powers, trapezoidal over successive steps; the work against
+            // contact is minus its power on the bodies.
+            let boundary = self.method.boundary_work();
+            self.external.add(boundary.power, dt);
+            self.contact.add(-boundary.contact, dt);
+            self.dissipation.add(self.method.dissipation_power(), dt);
+            self.hourglass.add(self.method.hourglass_power(), dt);
         }
         Ok(())
     }
@@ -370,15 +391,21 @@ impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
     }
 
     fn external_work(&mut self) -> f64 {
-        self.work
+        self.external.integral
     }
 
     fn reactions(&mut self) -> Vec<Reaction> {
         self.method.boundary_work().reactions.clone()
     }
 
-    fn viscous_dissipation(&mut self) -> Option<f64> {
-        self.method.viscous_dissipation().map(|_| self.dissipated)
+    fn booked(&mut self) -> Booked {
+        Booked {
+            external_work: self.external.integral,
+            dissipated: Some(self.dissipation.integral + self.method.step_dissipation()),
+            hourglass_work: Some(self.hourglass.integral),
+            plastic_work: Some(self.method.plastic_work(&self.y)),
+            contact_energy: Some(self.contact.integral),
+        }
     }
 
     fn pseudo_time(&mut self) -> Option<PseudoTime> {
@@ -408,15 +435,14 @@ impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
         self.method.snapshot(&self.y)
     }
 
-    /// The work and last power, the dissipation and its last power, the state y, the
+    /// The integrals of the balance's powers and their last powers, the state y, the
     /// integrator's and the method's history.
     fn save(&mut self) -> Vec<f64> {
-        let mut out = vec![
-            self.work,
-            self.last_power,
-            self.dissipated,
-            self.last_dissipation,
-        ];
+        let mut out: Vec<f64> = self
+            .powers()
+            .iter()
+            .flat_map(|p| [p.integral, p.last])
+            .collect();
         self.y.save(&mut out);
         self.integrator.save(&mut out);
         self.method.save_history(&mut out);
@@ -424,7 +450,7 @@ impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
     }
 
     fn restore(&mut self, words: &[f64]) -> Result<(), String> {
-        let (&[work, last_power, dissipated, last_dissipation], mut rest) = words
+        let (powers, mut rest): (&[f64; 8], _) = words
             .split_first_chunk()
             .ok_or("the checkpoint holds no engine state")?;
         self.y.load(&mut rest)?;
@@ -436,8 +462,9 @@ impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
                 rest.len()
             ));
         }
-        (self.work, self.last_power) = (work, last_power);
-        (self.dissipated, self.last_dissipation) = (dissipated, last_dissipation);
+        for (p, w) in self.powers().into_iter().zip(powers.chunks_exact(2)) {
+            (p.integral, p.last) = (w[0], w[1]);
+        }
         Ok(())
     }
 

@@ -10,6 +10,7 @@
 pub mod explicit;
 pub mod sparse;
 
+use crate::balance::Booked;
 use crate::boundary::{Boundary, Reaction};
 use crate::methods::BlowUp;
 use crate::observe::Snapshot;
@@ -736,6 +737,12 @@ impl<D: Dim, S: Model<D>> Engine<D> for Statics<D, S> {
 
     fn external_work(&mut self) -> f64 {
         self.work
+    }
+
+    /// The work of the loads alone: a static solve has no kinetic energy, and its
+    /// balance is the equilibrium, not these terms.
+    fn booked(&mut self) -> Booked {
+        Booked::external(self.work)
     }
 
     fn check(&mut self) -> Result<(), BlowUp> {

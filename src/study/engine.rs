@@ -3,6 +3,7 @@
 //! and reads the final state.
 
 use super::fields::FinalState;
+use crate::balance::{Balance, Booked};
 use crate::methods::BlowUp;
 use crate::observe::{Invariants, Snapshot};
 use crate::output::RunSummary;
@@ -20,7 +21,8 @@ use std::time::Instant;
 pub struct Drift {
     /// max |H(t) − H(0)| / |H(0)| (NaN when H(0) = 0).
     pub angular_momentum: f64,
-    /// max |E(t) − W_ext(t) − E(0)| / max(E(0), |W_ext(t)|).
+    /// The largest |energy_residue| of the energy balance ([`crate::balance`]): its
+    /// residue over its scale.
     pub energy: f64,
     /// Number of states checked.
     pub samples: usize,
@@ -44,17 +46,23 @@ impl Drift {
         self.samples = 1;
     }
 
-    /// Records the invariants of one state with the external work done so far.
-    pub fn record(&mut self, inv: &Invariants, external_work: f64) {
+    /// Records the invariants of one state with the terms of the energy balance booked so
+    /// far.
+    pub fn record(&mut self, inv: &Invariants, booked: Booked) {
         if self.samples == 0 {
             self.start(inv, 0.0);
         }
         self.samples += 1;
         let dh = [0, 1, 2].map(|k| inv.angular[k] - self.h0[k]);
         let h = norm(dh) / norm(self.h0);
-        // Scaled by E(0), or by the work done so far when the body starts at rest.
-        let e =
-            (inv.total_energy() - external_work - self.e0).abs() / self.e0.max(external_work.abs());
+        let e = Balance {
+            kinetic: inv.kinetic,
+            stored: inv.strain,
+            booked,
+            e0: self.e0,
+        }
+        .relative_residue()
+        .abs();
         // NaN (a state past a blow-up) does not replace a finite maximum.
         if !self.angular_momentum.is_nan() {
             self.angular_momentum = self.angular_momentum.max(h);
@@ -97,8 +105,8 @@ impl<D: Dim, E: Engine<D>> Engine<D> for Tracked<'_, D, E> {
     fn reactions(&mut self) -> Vec<crate::boundary::Reaction> {
         self.inner.reactions()
     }
-    fn viscous_dissipation(&mut self) -> Option<f64> {
-        self.inner.viscous_dissipation()
+    fn booked(&mut self) -> Booked {
+        self.inner.booked()
     }
     fn pseudo_time(&mut self) -> Option<crate::methods::PseudoTime> {
         self.inner.pseudo_time()
@@ -107,7 +115,7 @@ impl<D: Dim, E: Engine<D>> Engine<D> for Tracked<'_, D, E> {
         self.inner.check()
     }
     fn snapshot(&mut self) -> Snapshot<'_, D> {
-        let work = self.inner.external_work();
+        let booked = self.inner.booked();
         let snap = self.inner.snapshot();
         let inv = Invariants::of(&snap);
         if self.drift.samples == 0 {
@@ -119,14 +127,14 @@ impl<D: Dim, E: Engine<D>> Engine<D> for Tracked<'_, D, E> {
                 .sum();
             self.drift.start(&inv, scale);
         } else {
-            self.drift.record(&inv, work);
+            self.drift.record(&inv, booked);
         }
         snap
     }
     fn invariants(&mut self) -> Invariants {
-        let work = self.inner.external_work();
+        let booked = self.inner.booked();
         let inv = self.inner.invariants();
-        self.drift.record(&inv, work);
+        self.drift.record(&inv, booked);
         inv
     }
     fn finish(&mut self) {

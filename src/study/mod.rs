@@ -183,7 +183,7 @@ fn summary_line(suite: &Suite, r: &RunRecord) -> String {
                 opt(" e_v", r.error_velocity),
                 opt(" e_P", r.error_stress)
             ) + &opt(" ΔH/H0", r.drift_angular_momentum)
-                + &opt(" ΔE/E0", r.drift_energy)
+                + &opt(" R/S", r.drift_energy)
         }
         Status::Failed { time, quantity, .. } => format!(
             "failed at {}: {quantity}",

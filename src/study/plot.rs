@@ -63,8 +63,8 @@ pub fn metrics(suite: &Suite) -> Vec<Metric> {
             quantity: InvariantKind::Energy,
         } => vec![Metric {
             tag: "energy",
-            symbol: "ΔE/E0",
-            label: "max |E(t) - W(t) - E(0)| / max(E(0), |W|)",
+            symbol: "R/S",
+            label: "max |R(t)| / S(t), the energy balance's residue",
             value: |r| r.drift_energy,
         }],
         Reference::None => Vec::new(),

@@ -74,8 +74,8 @@ impl Engine<D2> for CutShort {
     fn reactions(&mut self) -> Vec<meshless::boundary::Reaction> {
         self.inner.reactions()
     }
-    fn viscous_dissipation(&mut self) -> Option<f64> {
-        self.inner.viscous_dissipation()
+    fn booked(&mut self) -> meshless::balance::Booked {
+        self.inner.booked()
     }
     fn check(&mut self) -> Result<(), BlowUp> {
         self.inner.check()

@@ -664,8 +664,12 @@ fn the_dynamic_variant_conserves_energy_and_momentum() {
         &["method.smoothing_length={ nearest = 8 }"],
     ]
     .concat();
-    let mut e = meshless::run::engine::<D2>(&swinging_plate(&set), meshless::run::Backend::Cpu)
+    let plate = swinging_plate(&set);
+    let rho0 = plate.material.density;
+    let mut e = meshless::run::engine::<D2>(&plate, meshless::run::Backend::Cpu)
         .unwrap_or_else(|e| panic!("{e}"));
+    // E_kin + E_strain + E_hg, the hourglass energy Σ V 𝓕^hg from the frames' field
+    // (V = m/ρ0): the snapshot's strain energy is E_strain alone.
     let energy = |e: &mut Box<dyn Engine<D2>>| {
         let s = e.snapshot();
         let kinetic: f64 =
@@ -673,7 +677,11 @@ fn the_dynamic_variant_conserves_energy_and_momentum() {
                 .zip(s.mass)
                 .map(|(v, m)| 0.5 * m * v.length_squared())
                 .sum();
-        kinetic + s.strain_energy
+        let hourglass: f64 = (s.field("hourglass_energy_density").unwrap().iter())
+            .zip(s.mass)
+            .map(|(f, m)| m / rho0 * f)
+            .sum();
+        kinetic + s.strain_energy + hourglass
     };
     let e0 = energy(&mut e);
     e.advance(0.0, 0.0220608 / 107.0, 107)

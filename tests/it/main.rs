@@ -16,6 +16,7 @@ mod contact;
 mod corotated_tlsph;
 mod dual_support;
 mod dual_support_cases;
+mod energy_balance;
 mod galerkin;
 mod godunov;
 #[cfg(feature = "gpu")]

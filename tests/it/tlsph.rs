@@ -349,7 +349,7 @@ fn the_viscous_dissipation_closes_the_energy_balance_with_artificial_viscosity()
         };
         engine.advance(0.0, dt, (end / dt).ceil() as u32).unwrap();
         let (e, w) = (engine.invariants().total_energy(), engine.external_work());
-        let d = engine.viscous_dissipation().unwrap();
+        let d = engine.booked().dissipated.unwrap();
         let scale = w.abs().max(e0);
         let residue = (e + d - w - e0) / scale;
         eprintln!(

@@ -474,8 +474,8 @@ impl<D: Dim> Method<D> for Corotated<D> {
         &self.boundary_work
     }
 
-    fn viscous_dissipation(&self) -> Option<f64> {
-        Some(self.dissipation.iter().sum())
+    fn dissipation_power(&self) -> f64 {
+        self.dissipation.iter().sum()
     }
 
     fn pairs(&self) -> usize {

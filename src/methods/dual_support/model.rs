@@ -166,6 +166,24 @@ impl<D: Dim> DualSupport<D> {
         f
     }
 
+    /// The power against the hourglass control at velocities v, from the hourglass terms
+    /// of the last [`Self::internal_force_at`] with them: −Σ_a f_a^hg·v_a = Σ over the pair
+    /// slots (i, j) of T_ij·(v_j − v_i), each slot's term acting on i and, opposite, on j.
+    pub fn hourglass_power(&self, v: &[D::V]) -> f64 {
+        let s = &self.support;
+        ordered_reduce(
+            self.len(),
+            || 0.0,
+            |i| {
+                s.lists
+                    .pairs(i, &self.pair_terms)
+                    .map(|(j, &term)| D::dot(term, v[j] - v[i]))
+                    .sum::<f64>()
+            },
+            |a, b| a + b,
+        )
+    }
+
     /// f_a = −Σ V P ∇W over a's support and dual-support, plus the hourglass terms of its
     /// pair slots minus those of the slots that hold a (eq 18, eq 28).
     fn gather_force(&self, h: &[D::T], hourglass: Option<&[D::V]>) -> Vec<D::V> {

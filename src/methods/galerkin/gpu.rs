@@ -7,6 +7,7 @@
 //! one command encoder; the host reads back only at checks and outputs.
 
 use super::{GalerkinState, TlGalerkin};
+use crate::balance::Booked;
 use crate::boundary::Reaction;
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
@@ -273,6 +274,11 @@ pub struct GpuGalerkin<D: GpuDim> {
     reduction: Reduction,
     interactions: GpuInteractions,
     work: WorkBalance,
+    /// The balance's terms besides the work of supports and loads: zero where the case has
+    /// none, None where it has them and they are not booked here (the velocity smoothing's
+    /// dissipation; the plastic work, committed on the device; contact's, which `ext`
+    /// adds to the loads' power).
+    unbooked: Booked,
 }
 
 impl<D: GpuDim> GpuGalerkin<D> {
@@ -426,6 +432,7 @@ impl<D: GpuDim> GpuGalerkin<D> {
             }
             None => None,
         };
+        let unsmoothed = smooth.is_none();
         Ok(Self {
             gpu,
             host,
@@ -443,6 +450,12 @@ impl<D: GpuDim> GpuGalerkin<D> {
             reduction,
             interactions,
             work: WorkBalance::default(),
+            unbooked: Booked {
+                dissipated: unsmoothed.then_some(0.0),
+                plastic_work: (!plastic).then_some(0.0),
+                contact_energy: case.contact.is_none().then_some(0.0),
+                ..Booked::default()
+            },
         })
     }
 
@@ -623,6 +636,13 @@ impl<D: GpuDim> Engine<D> for GpuGalerkin<D> {
     fn external_work(&mut self) -> f64 {
         let power = self.reduction().power;
         self.work.update(power)
+    }
+
+    fn booked(&mut self) -> Booked {
+        Booked {
+            external_work: self.external_work(),
+            ..self.unbooked
+        }
     }
 
     fn reactions(&mut self) -> Vec<Reaction> {

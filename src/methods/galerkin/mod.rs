@@ -28,7 +28,8 @@ use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::material::Material;
 use crate::methods::shared::{
-    BlowUp, BoundaryWork, MIN_CHUNK, Method, Sizes, Traffic, check_motion, particle_state,
+    BlowUp, BoundaryWork, MIN_CHUNK, Method, Sizes, Traffic, check_motion, load_word,
+    ordered_reduce, particle_state,
 };
 use crate::methods::tlsph::system::stress_fields;
 use crate::methods::{MethodSpec, not_run_by};
@@ -160,10 +161,26 @@ pub fn smoothing_cells<D: Dim>(
 /// The velocity smoothing after each step of the reproducing-kernel weak forms (seed 000
 /// §5.6 and §5.7, the "virtual to actual" conversion): v_i ← Σ_j N_j(x_i) v_j =
 /// Σ_j V_j Ψ_j(x_i) v_j with the particles' own functions `shapes` (one point per
-/// particle), then the prescribed velocities again.
-pub fn smooth_velocities<D: Dim>(shapes: &Shapes<D>, boundary: &Boundary<D>, v: &mut Vec<D::V>) {
-    *v = shapes.interpolate(v);
-    boundary.impose(v);
+/// particle), then the prescribed velocities again. Returns the kinetic energy it took
+/// out, ½ Σ m (|v_before|² − |v_after|²) with the nodal masses m, which the energy balance
+/// books with the artificial dissipation.
+pub fn smooth_velocities<D: Dim>(
+    shapes: &Shapes<D>,
+    boundary: &Boundary<D>,
+    mass: &[f64],
+    v: &mut Vec<D::V>,
+) -> f64 {
+    let smoothed = shapes.interpolate(v);
+    let mut next = smoothed;
+    boundary.impose(&mut next);
+    let taken = ordered_reduce(
+        v.len(),
+        || 0.0,
+        |i| 0.5 * mass[i] * (D::norm2(v[i]) - D::norm2(next[i])),
+        |a, b| a + b,
+    );
+    *v = next;
+    taken
 }
 
 /// a_a = −(1/m_a) Σ_q w_q T_q ∇Φ_a(x_q), gathered per node over its points: the internal
@@ -288,6 +305,8 @@ pub struct TlGalerkin<D: Dim> {
     interactions: Interactions<D>,
     /// The plastic history of the points (von Mises); None for the elastic models.
     plastic: Option<History>,
+    /// The kinetic energy the velocity smoothing took out so far.
+    smoothed: f64,
     /// F_q and P_q of the last rate evaluation.
     f: Vec<D::T>,
     pk1: Vec<D::T>,
@@ -367,6 +386,7 @@ impl<D: Dim> TlGalerkin<D> {
             boundary,
             interactions,
             plastic: material.von_mises().map(|model| History::virgin(model, n)),
+            smoothed: 0.0,
             f: vec![D::identity(); n],
             pk1: vec![D::zero_t(); n],
             boundary_work: BoundaryWork::default(),
@@ -665,14 +685,14 @@ impl<D: Dim> OdeSystem for TlGalerkin<D> {
             && let Some(committed) = self.returned_all(&self.point_f(y))
             && let Some(pl) = self.plastic.as_mut()
         {
-            pl.commit(&committed);
+            pl.commit(&committed, &self.points.weight);
         }
     }
 
     /// The weak form's velocity smoothing, then the prescribed velocities again.
     fn end_step(&mut self, _t: f64, y: &mut GalerkinState<D>) {
         if let Some(shapes) = &self.smoothing {
-            smooth_velocities(shapes, &self.boundary, &mut y.v);
+            self.smoothed += smooth_velocities(shapes, &self.boundary, &self.mass, &mut y.v);
         }
     }
 }
@@ -870,6 +890,15 @@ impl<D: Dim> Method<D> for TlGalerkin<D> {
         self.point_fields(y).energy
     }
 
+    /// The committed plastic work and the current step's, over the point weights w_q.
+    fn plastic_work(&self, y: &GalerkinState<D>) -> f64 {
+        let Some(pl) = &self.plastic else {
+            return 0.0;
+        };
+        self.returned_all(&self.point_f(y))
+            .map_or(0.0, |r| pl.work_at(&r, &self.points.weight))
+    }
+
     /// The nodal fields, and the points with u^h(X_q) = Σ_a N_a(X_q) u_a and F_q.
     fn snapshot<'a>(&'a self, y: &GalerkinState<D>) -> Snapshot<'a, D> {
         let fields = self.point_fields(y);
@@ -943,10 +972,17 @@ impl<D: Dim> Method<D> for TlGalerkin<D> {
     /// The plastic history C_p⁻¹, ε_p of the points.
     fn save_history(&self, out: &mut Vec<f64>) {
         History::save(self.plastic.as_ref(), out);
+        out.push(self.smoothed);
     }
 
     fn load_history(&mut self, words: &mut &[f64]) -> Result<(), String> {
-        History::load(self.plastic.as_mut(), words)
+        History::load(self.plastic.as_mut(), words)?;
+        self.smoothed = load_word(words, "the smoothing's dissipation")?;
+        Ok(())
+    }
+
+    fn step_dissipation(&self) -> f64 {
+        self.smoothed
     }
 }
 

@@ -21,7 +21,8 @@ use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::material::Material;
 use crate::methods::shared::{
-    BlowUp, BoundaryWork, MIN_CHUNK, Method, Sizes, Traffic, check_motion, particle_state,
+    BlowUp, BoundaryWork, MIN_CHUNK, Method, Sizes, Traffic, check_motion, load_word,
+    particle_state,
 };
 use crate::methods::tlsph::system::stress_fields;
 use crate::neighbour::Csr;
@@ -168,6 +169,8 @@ pub struct UlGalerkin<D: Dim, P: MovingPoints<D>> {
     sigma: Vec<D::T>,
     /// The points' plastic history (von Mises); None for the elastic models.
     plastic: Option<History>,
+    /// The kinetic energy the velocity smoothing took out so far.
+    smoothed: f64,
     /// The power of supports, loads and interactions and the supports' reactions at the
     /// last rate evaluation.
     boundary_work: BoundaryWork,
@@ -277,6 +280,7 @@ impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
             interactions,
             sigma: vec![D::zero_t(); q],
             plastic: material.von_mises().map(|model| History::virgin(model, q)),
+            smoothed: 0.0,
             boundary_work: BoundaryWork::default(),
         })
     }
@@ -508,7 +512,7 @@ impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
             && let Some((_, committed)) = self.returned_all(&shapes)
             && let Some(pl) = self.plastic.as_mut()
         {
-            pl.commit(&committed);
+            pl.commit(&committed, self.points.reference_weights());
         }
         self.boundary.begin_step(t, dt);
         self.interactions.begin_step(t, dt, &self.x0, &y.u, &y.v);
@@ -525,7 +529,7 @@ impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
             mass: &self.mass,
         };
         if let Some(shapes) = self.points.smoothing(&nodes, y) {
-            smooth_velocities(shapes, &self.boundary, &mut y.v);
+            self.smoothed += smooth_velocities(shapes, &self.boundary, &self.mass, &mut y.v);
         }
     }
 }
@@ -577,6 +581,17 @@ impl<D: Dim, P: MovingPoints<D>> Method<D> for UlGalerkin<D, P> {
     /// Σ_q w0_q ψ_q.
     fn strain_energy(&self, y: &UlGalerkinState<D>) -> f64 {
         self.node_fields(y).energy
+    }
+
+    /// The committed plastic work and the current step's, over the reference weights.
+    fn plastic_work(&self, y: &UlGalerkinState<D>) -> f64 {
+        let Some(pl) = &self.plastic else {
+            return 0.0;
+        };
+        let (shapes, _) = self.shapes_of(y);
+        self.returned_all(&shapes).map_or(0.0, |(_, r)| {
+            pl.work_at(&r, self.points.reference_weights())
+        })
     }
 
     fn snapshot<'a>(&'a self, y: &UlGalerkinState<D>) -> Snapshot<'a, D> {
@@ -662,9 +677,16 @@ impl<D: Dim, P: MovingPoints<D>> Method<D> for UlGalerkin<D, P> {
     /// The plastic history C_p⁻¹, ε_p of the points.
     fn save_history(&self, out: &mut Vec<f64>) {
         History::save(self.plastic.as_ref(), out);
+        out.push(self.smoothed);
     }
 
     fn load_history(&mut self, words: &mut &[f64]) -> Result<(), String> {
-        History::load(self.plastic.as_mut(), words)
+        History::load(self.plastic.as_mut(), words)?;
+        self.smoothed = load_word(words, "the smoothing's dissipation")?;
+        Ok(())
+    }
+
+    fn step_dissipation(&self) -> f64 {
+        self.smoothed
     }
 }

@@ -112,6 +112,7 @@ impl<D: Dim> PairScheme<D> for Scheme {
         let mut l = D::zero_t();
         let mut rho_dot = 0.0;
         let mut a = D::zero();
+        let mut jump = D::zero();
         for &j in core.neighbours().neighbours(i) {
             let j = j as usize;
             let pj = particles[j];
@@ -131,11 +132,15 @@ impl<D: Dim> PairScheme<D> for Scheme {
             // Momentum with the Riemann traction (eq 132), on the axis e = −n.
             let e = -n;
             let t_star = contact_traction::<D>(pi.z, pi.sigma * e, vi, pj.z, pj.sigma * e, y.v[j]);
-            a -= t_star * (2.0 / rho_i * pj.vol * dw);
+            let scale = 2.0 / rho_i * pj.vol * dw;
+            a -= t_star * scale;
+            // The dissipative part of t*, Z_i Z_j/(Z_i + Z_j) (v_j − v_i), booked apart.
+            jump -= (y.v[j] - vi) * (pi.z * pj.z / (pi.z + pj.z) * scale);
         }
         PairRates {
             x_dot: vi,
             v_dot: a,
+            v_dot_dissipative: jump,
             rho_dot,
             l,
         }

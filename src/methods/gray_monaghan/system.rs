@@ -174,6 +174,7 @@ impl<D: Dim> PairScheme<D> for Scheme {
         let mut l = D::zero_t();
         let mut a = D::zero();
         let mut xsph = D::zero();
+        let mut viscous = D::zero();
         for &j in core.neighbours().neighbours(i) {
             let j = j as usize;
             let pj = particles[j];
@@ -196,7 +197,7 @@ impl<D: Dim> PairScheme<D> for Scheme {
                     let mu = h * vx / (r * r + av.eta * av.eta * h * h);
                     let c = 0.5 * (pi.c + pj.c);
                     let pi_ij = (-av.alpha * c * mu + av.beta * mu * mu) / rho_bar;
-                    a -= grad * (core.mass[j] * pi_ij);
+                    viscous -= grad * (core.mass[j] * pi_ij);
                 }
             }
             if self.xsph.is_some() {
@@ -205,7 +206,8 @@ impl<D: Dim> PairScheme<D> for Scheme {
         }
         PairRates {
             x_dot: vi + xsph * self.xsph.unwrap_or(0.0),
-            v_dot: a,
+            v_dot: a + viscous,
+            v_dot_dissipative: viscous,
             rho_dot: -rho_i * D::trace(l), // eq 104
             l,
         }

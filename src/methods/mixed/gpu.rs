@@ -16,6 +16,7 @@ use super::compressibility::UNCONVERGED;
 use super::gpu_corrector::{CORRECTOR, DeviceCorrector};
 use super::system::{Fluxes, MixedSph, MixedState};
 use super::{CflWaveSpeed, DeformationGradient, Momentum};
+use crate::balance::Booked;
 use crate::boundary::Reaction;
 use crate::gpu::context::{Gpu, GpuError, Pipeline, WORKGROUP};
 use crate::gpu::layout::{Fields, GpuDim};
@@ -687,6 +688,11 @@ pub struct GpuMixed<D: GpuDim> {
     /// Passes before every step (contact) and the `ext` they write.
     interactions: GpuInteractions,
     work: WorkBalance,
+    /// The balance's terms besides the work of supports and loads: zero where the case has
+    /// none, None where it has them and they are not booked here (the stabilisation's
+    /// dissipation; the plastic work, committed on the device; contact's, which `ext`
+    /// adds to the loads' power).
+    unbooked: Booked,
 }
 
 impl<D: GpuDim> GpuMixed<D> {
@@ -927,6 +933,12 @@ impl<D: GpuDim> GpuMixed<D> {
             commit,
             interactions,
             work: WorkBalance::default(),
+            unbooked: Booked {
+                dissipated: None,
+                plastic_work: (!plastic).then_some(0.0),
+                contact_energy: case.contact.is_none().then_some(0.0),
+                ..Booked::default()
+            },
         })
     }
 }
@@ -1157,6 +1169,13 @@ impl<D: GpuDim> Engine<D> for GpuMixed<D> {
     fn external_work(&mut self) -> f64 {
         let power = self.reduction().power;
         self.work.update(power)
+    }
+
+    fn booked(&mut self) -> Booked {
+        Booked {
+            external_work: self.external_work(),
+            ..self.unbooked
+        }
     }
 
     fn reactions(&mut self) -> Vec<Reaction> {

@@ -8,6 +8,7 @@
 
 use super::system::{TlState, check_state, hourglass_stiffness, snapshot};
 use super::{TlsphForce, ViscosityGradient};
+use crate::balance::Booked;
 use crate::boundary::{OnPatches, Reaction};
 use crate::correction::{self, CorrectionKind};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
@@ -380,6 +381,10 @@ pub struct GpuTlsph<D: GpuDim> {
     /// Passes before every step (contact) and the `ext` they write.
     interactions: GpuInteractions,
     work: WorkBalance,
+    /// The balance's terms besides the work and the dissipation: zero where the case has
+    /// none, None where it has them and they are not booked here (the hourglass control's
+    /// work; contact's, which `ext` adds to the loads' power).
+    unbooked: Booked,
 }
 
 /// Value of `status[0]` when no particle failed.
@@ -545,6 +550,9 @@ impl<D: GpuDim> GpuTlsph<D> {
             1.0
         };
         let kinematics_y = gpu.bind(&stress, &table(y, stepper.buffer(Buf::Acc)))?;
+        let dual_hourglass = dual
+            .as_ref()
+            .is_some_and(|d| d.model.hourglass.iter().any(|&c| c != 0.0));
         Ok(Self {
             gpu,
             pairs: csr.pair_count() as u64,
@@ -566,6 +574,11 @@ impl<D: GpuDim> GpuTlsph<D> {
             reduction,
             interactions,
             work: WorkBalance::default(),
+            unbooked: Booked {
+                hourglass_work: (scheme.hourglass.is_none() && !dual_hourglass).then_some(0.0),
+                contact_energy: case.contact.is_none().then_some(0.0),
+                ..Booked::default()
+            },
         })
     }
 }
@@ -792,10 +805,14 @@ impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
         self.work.update(power)
     }
 
-    /// Trapezoidal over the intervals between calls, as the work.
-    fn viscous_dissipation(&mut self) -> Option<f64> {
-        let power = self.reduction().viscous_dissipation;
-        Some(self.work.update_dissipation(power))
+    /// The work and the viscous dissipation, trapezoidal over the intervals between calls.
+    fn booked(&mut self) -> Booked {
+        let r = self.reduction();
+        Booked {
+            external_work: self.work.update(r.power),
+            dissipated: Some(self.work.update_dissipation(r.viscous_dissipation)),
+            ..self.unbooked
+        }
     }
 
     fn reactions(&mut self) -> Vec<Reaction> {

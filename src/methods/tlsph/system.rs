@@ -229,8 +229,9 @@ pub struct Tlsph<D: Dim> {
     /// The power of supports, loads and interactions and the supports' reactions at the
     /// last rate evaluation.
     boundary_work: BoundaryWork,
-    /// Each particle's viscous dissipation −m a_visc·v at the last rate evaluation.
-    dissipation: Vec<f64>,
+    /// Each particle's power of the viscosity and against the hourglass control,
+    /// [−m a_visc·v, −m a_hg·v], at the last rate evaluation.
+    powers: Vec<[f64; 2]>,
 }
 
 impl<D: Dim> Tlsph<D> {
@@ -284,7 +285,7 @@ impl<D: Dim> Tlsph<D> {
         Ok(Self {
             gathered: vec![at_rest; x0.len()],
             own: vec![identity; x0.len()],
-            dissipation: vec![0.0; x0.len()],
+            powers: vec![[0.0; 2]; x0.len()],
             x0,
             vol,
             mass,
@@ -406,13 +407,13 @@ impl<D: Dim> Tlsph<D> {
     /// `viscosity_gradient = "reference"`, along ∇0W̃_ij unmapped as the paper and the
     /// reference code have it; after a quarter turn of rigid rotation that direction points
     /// across the pair and feeds energy in (docs/methods/tlsph.md).
-    /// Also writes each particle's viscous dissipation −m_i a_visc·v_i into `dissipation`.
-    fn accelerations(&self, y: &TlState<D>, d: &mut TlState<D>, dissipation: &mut [f64]) {
+    /// Also writes each particle's powers [−m_i a_visc·v_i, −m_i a_hg·v_i] into `powers`.
+    fn accelerations(&self, y: &TlState<D>, d: &mut TlState<D>, powers: &mut [[f64; 2]]) {
         match (self.av.is_some(), self.hourglass.is_some()) {
-            (false, false) => self.accelerations_with::<false, false>(y, d, dissipation),
-            (false, true) => self.accelerations_with::<false, true>(y, d, dissipation),
-            (true, false) => self.accelerations_with::<true, false>(y, d, dissipation),
-            (true, true) => self.accelerations_with::<true, true>(y, d, dissipation),
+            (false, false) => self.accelerations_with::<false, false>(y, d, powers),
+            (false, true) => self.accelerations_with::<false, true>(y, d, powers),
+            (true, false) => self.accelerations_with::<true, false>(y, d, powers),
+            (true, true) => self.accelerations_with::<true, true>(y, d, powers),
         }
     }
 
@@ -422,7 +423,7 @@ impl<D: Dim> Tlsph<D> {
         &self,
         y: &TlState<D>,
         d: &mut TlState<D>,
-        dissipation: &mut [f64],
+        powers: &mut [[f64; 2]],
     ) {
         let inv_rho0 = 1.0 / self.material.rho0;
         let rho0 = self.material.rho0;
@@ -433,10 +434,10 @@ impl<D: Dim> Tlsph<D> {
         let rev = self.grad_rev.as_deref();
         d.v.par_iter_mut()
             .zip(d.u.par_iter_mut())
-            .zip(dissipation.par_iter_mut())
+            .zip(powers.par_iter_mut())
             .with_min_len(MIN_CHUNK)
             .enumerate()
-            .for_each(|(i, ((a, u_dot), dissipation))| {
+            .for_each(|(i, ((a, u_dot), powers))| {
                 let (gi, oi, vi) = (self.gathered[i], self.own[i], y.v[i]);
                 // Σ_j P_j ∇0W̃_ij V_j (eq 134) or −Σ_j P_j ∇0W̃_ji V_j (variational); P_i's
                 // term is P_i Σ_j V_j ∇0W̃_ij, summed once on the reference.
@@ -469,7 +470,10 @@ impl<D: Dim> Tlsph<D> {
                 }
                 *a = stress * inv_rho0 + viscous + hourglass;
                 *u_dot = vi;
-                *dissipation = -self.mass[i] * D::dot(viscous, vi);
+                *powers = [
+                    -self.mass[i] * D::dot(viscous, vi),
+                    -self.mass[i] * D::dot(hourglass, vi),
+                ];
             });
     }
 
@@ -497,9 +501,9 @@ impl<D: Dim> OdeSystem for Tlsph<D> {
         if let Some(b) = self.stresses(y, d) {
             return Err(b);
         }
-        let mut dissipation = take(&mut self.dissipation);
-        self.accelerations(y, d, &mut dissipation);
-        self.dissipation = dissipation;
+        let mut powers = take(&mut self.powers);
+        self.accelerations(y, d, &mut powers);
+        self.powers = powers;
         self.boundary_work.finish(
             &self.interactions,
             &self.boundary,
@@ -607,8 +611,12 @@ impl<D: Dim> Method<D> for Tlsph<D> {
         &self.boundary_work
     }
 
-    fn viscous_dissipation(&self) -> Option<f64> {
-        Some(self.dissipation.iter().sum())
+    fn dissipation_power(&self) -> f64 {
+        self.powers.iter().map(|p| p[0]).sum()
+    }
+
+    fn hourglass_power(&self) -> f64 {
+        self.powers.iter().map(|p| p[1]).sum()
     }
 
     fn pairs(&self) -> usize {

@@ -11,6 +11,7 @@
 //! flag holds and runs the batch again from its start.
 
 use super::{UlState, check_state, snapshot};
+use crate::balance::Booked;
 use crate::boundary::{OnPatches, Reaction};
 use crate::correction::CorrectionKind;
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
@@ -220,6 +221,11 @@ pub struct GpuUl<D: GpuDim> {
     reduction: Reduction,
     interactions: GpuInteractions,
     work: WorkBalance,
+    /// The balance's terms besides the work of supports and loads: zero where the case has
+    /// none, None where it has them and they are not booked here (the artificial
+    /// viscosity's or the Riemann solver's dissipation; contact's, which `ext` adds to the
+    /// loads' power).
+    unbooked: Booked,
     /// Neighbour builds of the lists that growth replaced, less those of
     /// [`Self::time_rebuild`].
     builds_before: i64,
@@ -314,6 +320,11 @@ impl<D: GpuDim> GpuUl<D> {
             reduction,
             interactions,
             work: WorkBalance::default(),
+            unbooked: Booked {
+                dissipated: None,
+                contact_energy: case.contact.is_none().then_some(0.0),
+                ..Booked::default()
+            },
             builds_before: 0,
         };
         engine.lists = Some(engine.bind_lists(capacity)?);
@@ -616,6 +627,13 @@ impl<D: GpuDim> Engine<D> for GpuUl<D> {
     fn external_work(&mut self) -> f64 {
         let power = self.reduced().power;
         self.work.update(power)
+    }
+
+    fn booked(&mut self) -> Booked {
+        Booked {
+            external_work: self.external_work(),
+            ..self.unbooked
+        }
     }
 
     fn reactions(&mut self) -> Vec<Reaction> {

@@ -55,6 +55,9 @@ particle_state!(UlState { rho, s, f });
 pub struct PairRates<D: Dim> {
     pub x_dot: D::V,
     pub v_dot: D::V,
+    /// The part of v̇ from the scheme's artificial dissipation (the artificial viscosity,
+    /// the Riemann solver's velocity jump), whose power the energy balance books.
+    pub v_dot_dissipative: D::V,
     pub rho_dot: f64,
     pub l: D::T,
 }
@@ -305,6 +308,9 @@ pub struct UlSph<D: Dim, S: PairScheme<D>> {
     pub core: UlCore<D>,
     pub scheme: S,
     particles: Vec<S::Particle>,
+    /// Each particle's power of the artificial dissipation, −m a_art·v, at the last rate
+    /// evaluation.
+    dissipation: Vec<f64>,
 }
 
 impl<D: Dim, S: PairScheme<D>> UlSph<D, S> {
@@ -330,19 +336,24 @@ impl<D: Dim, S: PairScheme<D>> OdeSystem for UlSph<D, S> {
             return Err(b);
         }
         let particles = &self.particles;
+        self.dissipation.resize(y.u.len(), 0.0);
         d.u.par_iter_mut()
             .with_min_len(MIN_CHUNK)
             .zip(d.v.par_iter_mut())
             .zip(d.rho.par_iter_mut())
             .zip(d.s.par_iter_mut())
             .zip(d.f.par_iter_mut())
+            .zip(self.dissipation.par_iter_mut())
             .enumerate()
-            .for_each(|(i, ((((u_dot, v_dot), rho_dot), s_dot), f_dot))| {
-                let r = scheme.rates_of(core, particles, i, y);
-                (*u_dot, *v_dot, *rho_dot) = (r.x_dot, r.v_dot, r.rho_dot);
-                *s_dot = core.material.jaumann_rate::<D>(y.s[i], r.l);
-                *f_dot = r.l * y.f[i];
-            });
+            .for_each(
+                |(i, (((((u_dot, v_dot), rho_dot), s_dot), f_dot), dissipation))| {
+                    let r = scheme.rates_of(core, particles, i, y);
+                    (*u_dot, *v_dot, *rho_dot) = (r.x_dot, r.v_dot, r.rho_dot);
+                    *dissipation = -core.mass[i] * D::dot(r.v_dot_dissipative, y.v[i]);
+                    *s_dot = core.material.jaumann_rate::<D>(y.s[i], r.l);
+                    *f_dot = r.l * y.f[i];
+                },
+            );
         self.core.close(y, d);
         Ok(())
     }
@@ -363,6 +374,7 @@ impl<D: Dim, S: PairScheme<D>> Method<D> for UlSph<D, S> {
             core,
             scheme,
             particles: Vec::new(),
+            dissipation: Vec::new(),
         })
     }
 
@@ -427,6 +439,10 @@ impl<D: Dim, S: PairScheme<D>> Method<D> for UlSph<D, S> {
 
     fn neighbour_seconds(&self) -> Option<f64> {
         Some(self.core.neighbours.seconds())
+    }
+
+    fn dissipation_power(&self) -> f64 {
+        self.dissipation.iter().sum()
     }
 
     fn max_signal_speed(&self, y: &UlState<D>) -> f64 {
