@@ -925,13 +925,12 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
         // The stabilisation's power on the bodies, Σ_a V_a D(p_a)·v_a (D per unit reference
         // volume, m_a = ρ0 V_a): minus the power the balance books as dissipated. D(J) acts
         // on J, not on the momentum, and stays in the residue (docs/methods/mixed.md).
+        // A serial sum in particle order: deterministic, and without the chunks' buffer
+        // that a parallel ordered reduction allocates at every rate evaluation.
         let stabilisation = |a: usize| if projected { dp[a] } else { forces[a].d };
-        let power = ordered_reduce(
-            self.n,
-            || 0.0,
-            |a| self.vol[a] * D::dot(stabilisation(a), y.v[a]),
-            |x, z| x + z,
-        );
+        let power: f64 = (0..self.n)
+            .map(|a| self.vol[a] * D::dot(stabilisation(a), y.v[a]))
+            .sum();
         self.dissipation = -power;
         // eqs 38c–d in the difference form 39c–d.
         if self.conserved.evolves_h() {
