@@ -280,15 +280,24 @@ impl MethodFamily for KbmSpec {
         0.0
     }
 
-    fn warning(&self, _case: &Case) -> Option<String> {
-        (self.integration == Integration::Nodal).then(|| {
+    fn warning(&self, case: &Case) -> Option<String> {
+        let nodal = (self.integration == Integration::Nodal).then_some(
             "method.integration = \"nodal\" integrates at the particles without \
              stabilisation: the stripes even about every particle are zero-energy modes \
              (docs/methods/seed001.md), and static bending gives deflections of the wrong \
              sign or several times too large; use integration = \"scni\" (stabilised \
-             conforming nodal integration) or \"stress-points\" (the default)"
-                .to_string()
-        })
+             conforming nodal integration) or \"stress-points\" (the default)",
+        );
+        let dynamic = (!case.is_static()).then_some(
+            "kbm's Petrov–Galerkin force is not the gradient of an energy, and in a free \
+             bending vibration a mode grows: a plate released in its first mode \
+             (cases/cantilever-mode.toml, period about 1 s) blows up at 0.37 s at Δx = \
+             0.02 m and at 1.2 s at 0.04 m, with RK4 or leapfrog, at cfl 0.3 or 0.1, with \
+             stress points or SCNI (docs/verification.md); for vibrations longer than a \
+             fraction of a period use efg or tl-fem",
+        );
+        let both: Vec<&str> = nodal.into_iter().chain(dynamic).collect();
+        (!both.is_empty()).then(|| both.join("; also, "))
     }
 
     fn lattice_cells(&self) -> bool {
