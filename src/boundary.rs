@@ -299,17 +299,11 @@ impl<D: Dim> Boundary<D> {
         mass: &[f64],
     ) -> Result<(), CaseError> {
         self.forces = summed::<D>(mass.len(), nodal.spread(&self.surface)?);
-        let mut external = vec![D::zero(); mass.len()];
-        for &(i, f) in &self.forces {
-            external[i as usize] += f * (1.0 / mass[i as usize]);
-        }
-        for &(i, g) in &self.gravity {
-            external[i as usize] += g;
-        }
-        self.external = (0..mass.len() as u32)
-            .filter(|&i| external[i as usize] != D::zero())
-            .map(|i| (i, external[i as usize]))
-            .collect();
+        let per_mass = self
+            .forces
+            .iter()
+            .map(|&(i, f)| (i, f * (1.0 / mass[i as usize])));
+        self.external = summed::<D>(mass.len(), per_mass.chain(self.gravity.iter().copied()));
         Ok(())
     }
 

@@ -164,6 +164,16 @@ pub fn not_simple(vertices: &[Vec<f64>]) -> Option<String> {
 mod tests {
     use super::*;
 
+    /// An L-shape, three quarters of the 2 m square, its reflex vertex at (1, 1).
+    const L_SHAPE: [[f64; 2]; 6] = [
+        [0.0, 0.0],
+        [2.0, 0.0],
+        [2.0, 1.0],
+        [1.0, 1.0],
+        [1.0, 2.0],
+        [0.0, 2.0],
+    ];
+
     fn polygon(points: &[[f64; 2]]) -> Vec<Vec<f64>> {
         points.iter().map(|p| p.to_vec()).collect()
     }
@@ -171,14 +181,7 @@ mod tests {
     #[test]
     fn areas_of_an_l_shape_and_a_triangle_in_either_orientation() {
         // Exact in binary: sums of products of small integers and halves.
-        let l = polygon(&[
-            [0.0, 0.0],
-            [2.0, 0.0],
-            [2.0, 1.0],
-            [1.0, 1.0],
-            [1.0, 2.0],
-            [0.0, 2.0],
-        ]);
+        let l = polygon(&L_SHAPE);
         assert_eq!(area(&l), 3.0);
         let reversed: Vec<Vec<f64>> = l.iter().rev().cloned().collect();
         assert_eq!(area(&reversed), 3.0);
@@ -187,14 +190,7 @@ mod tests {
 
     #[test]
     fn points_on_edges_and_at_vertices_are_inside_and_rays_through_vertices_count_once() {
-        let l = polygon(&[
-            [0.0, 0.0],
-            [2.0, 0.0],
-            [2.0, 1.0],
-            [1.0, 1.0],
-            [1.0, 2.0],
-            [0.0, 2.0],
-        ]);
+        let l = polygon(&L_SHAPE);
         let tol = 1e-12;
         // On an edge, at a convex vertex and at the reflex vertex (1, 1).
         for p in [[1.0, 0.0], [2.0, 0.0], [1.0, 1.0], [1.5, 1.0], [0.0, 1.5]] {
@@ -230,14 +226,7 @@ mod tests {
         // A vertex touching a non-adjacent edge.
         let touching = polygon(&[[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [1.0, 0.0], [0.0, 2.0]]);
         assert!(not_simple(&touching).is_some());
-        let l = polygon(&[
-            [0.0, 0.0],
-            [2.0, 0.0],
-            [2.0, 1.0],
-            [1.0, 1.0],
-            [1.0, 2.0],
-            [0.0, 2.0],
-        ]);
+        let l = polygon(&L_SHAPE);
         assert_eq!(not_simple(&l), None);
     }
 }

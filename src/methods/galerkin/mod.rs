@@ -321,7 +321,7 @@ impl<D: Dim> TlGalerkin<D> {
     /// each step if given.
     pub fn new(
         case: &Case,
-        reference: Reference<D>,
+        mut reference: Reference<D>,
         cells: Cells,
         points: QuadraturePoints<D>,
         shapes: Shapes<D>,
@@ -329,7 +329,6 @@ impl<D: Dim> TlGalerkin<D> {
         smoothing: Option<Shapes<D>>,
     ) -> Result<Self, CaseError> {
         let gather = shapes.gather(reference.len());
-        let mut reference = reference;
         let rho0 = reference.material.rho0;
         let mass = match mass {
             Mass::Particle => reference.mass.clone(),
