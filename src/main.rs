@@ -100,7 +100,8 @@ enum Command {
     /// Run study suites: error against wall time and stability sweeps (see cases/studies/).
     #[cfg(feature = "study")]
     Study {
-        /// Suite files, names of suites in cases/studies/, or `all` (the report's suites).
+        /// Suite files, names of suites in cases/studies/, groups (`verification`: every
+        /// verification-*.toml there), or `all` (the report's suites).
         #[arg(required = true)]
         suites: Vec<String>,
         /// Results root; each suite writes into <DIR>/<suite name>/ (default: out/study).

@@ -397,27 +397,45 @@ fn errors(
     }
 }
 
-/// The suite files named on the command line: paths, names of files in `dir`, or `all`
-/// (every suite in `dir` with `report = true`).
+/// The suite files named on the command line: paths, names of files in `dir`, groups
+/// (a name with no file of its own: every `<name>-*.toml` in `dir`, as `verification`),
+/// or `all` (every suite in `dir` with `report = true`).
 pub fn resolve_suites(names: &[String], dir: &Path) -> Result<Vec<PathBuf>, String> {
+    let suite_files = || -> Result<Vec<PathBuf>, String> {
+        let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+            .map_err(|e| format!("{}: {e}", dir.display()))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+            .collect();
+        files.sort();
+        Ok(files)
+    };
     let mut out = Vec::new();
     for name in names {
-        if name == "all" {
-            let mut all: Vec<PathBuf> = std::fs::read_dir(dir)
-                .map_err(|e| format!("{}: {e}", dir.display()))?
-                .filter_map(|e| e.ok().map(|e| e.path()))
-                .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-                .filter(|p| Suite::load(p).is_ok_and(|s| s.report))
-                .collect();
-            all.sort();
-            out.extend(all);
-            continue;
-        }
         let given = PathBuf::from(name);
-        if given.exists() || name.ends_with(".toml") {
+        let file = dir.join(format!("{name}.toml"));
+        if name == "all" {
+            let all = suite_files()?.into_iter();
+            out.extend(all.filter(|p| Suite::load(p).is_ok_and(|s| s.report)));
+        } else if given.exists() || name.ends_with(".toml") {
             out.push(given);
+        } else if file.exists() {
+            out.push(file);
         } else {
-            out.push(dir.join(format!("{name}.toml")));
+            let prefix = format!("{name}-");
+            let group: Vec<PathBuf> = suite_files()?
+                .into_iter()
+                .filter(|p| {
+                    p.file_stem()
+                        .and_then(|s| s.to_str())
+                        .is_some_and(|s| s.starts_with(&prefix))
+                })
+                .collect();
+            // No group either: the missing file, which loading names.
+            if group.is_empty() {
+                out.push(file);
+            }
+            out.extend(group);
         }
     }
     Ok(out)
@@ -467,4 +485,32 @@ pub enum StudyError {
     Suite(#[from] suite::SuiteError),
     #[error("output: {0}")]
     Io(#[from] std::io::Error),
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_name_without_a_file_of_its_own_is_the_group_of_its_prefix() {
+        let dir = tempfile::tempdir().unwrap();
+        for name in [
+            "check-b.toml",
+            "check-a.toml",
+            "check.toml.bak",
+            "checked.toml",
+        ] {
+            std::fs::write(dir.path().join(name), "").unwrap();
+        }
+        let resolve = |name: &str| resolve_suites(&[name.to_string()], dir.path()).unwrap();
+        let names = |paths: Vec<PathBuf>| -> Vec<String> {
+            let name = |p: &PathBuf| p.file_name().unwrap().to_string_lossy().into_owned();
+            paths.iter().map(name).collect()
+        };
+        assert_eq!(names(resolve("check")), ["check-a.toml", "check-b.toml"]);
+        assert_eq!(names(resolve("checked")), ["checked.toml"]);
+        assert_eq!(names(resolve("check-b")), ["check-b.toml"]);
+        // Neither a file nor a group: the missing file, for loading to name.
+        assert_eq!(names(resolve("other")), ["other.toml"]);
+    }
 }
