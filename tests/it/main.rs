@@ -41,6 +41,7 @@ mod hostile;
 mod hourglass_control;
 mod initial_fields;
 mod kbm_efg;
+mod layers;
 mod loads;
 mod mesh_input;
 #[cfg(feature = "study")]

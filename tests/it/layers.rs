@@ -1,0 +1,391 @@
+//! The layer order of `src/`: a module uses only modules declared below it, so that the
+//! core and the physics read without the methods, the methods without the driver, and a
+//! new method family touches its own folder and the registry. The test reads every
+//! `crate::` path of the library's code (comments and unit-test modules left out) and
+//! compares the paths that point up the order with [`UPWARD`], the imports against the
+//! order that the code still has: a new one fails, and so does an entry of the list that
+//! the code no longer needs, so the list only shrinks.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+/// The modules from the bottom up, in layers. Within a layer too a module uses only the
+/// ones before it. A `methods/<family>` folder is a module of its own; `methods` is the
+/// registry (`methods/mod.rs`).
+const ORDER: &[(&str, &[&str])] = &[
+    (
+        "core maths, kernels and neighbours",
+        &[
+            "tensor",
+            "kernel",
+            "neighbour",
+            "correction",
+            "quadrature",
+            "integrate",
+        ],
+    ),
+    (
+        "physics",
+        &[
+            "mooney_rivlin",
+            "plasticity",
+            "material",
+            "pressure",
+            "hourglass",
+            "mirror",
+            "analytic",
+            "balance",
+        ],
+    ),
+    (
+        "reference state, GPU machinery, loads and contact, observers, the static solver",
+        &[
+            "gpu",
+            "reference",
+            "boundary",
+            "interaction",
+            "observe",
+            "statics",
+        ],
+    ),
+    (
+        "method cores",
+        &[
+            "methods/shared",
+            "methods/tlsph",
+            "methods/ul",
+            "methods/galerkin",
+        ],
+    ),
+    (
+        "method families",
+        &[
+            "methods/potential",
+            "methods/corotated",
+            "methods/dual_support",
+            "methods/gray_monaghan",
+            "methods/godunov",
+            "methods/mixed",
+            "methods/weak_form",
+            "methods/fem",
+            "methods/ul_weak_form",
+            "methods/ul_fem",
+            "methods/kbm",
+            "methods/efg",
+        ],
+    ),
+    (
+        "registry, case files, output, driver, benchmarks and studies",
+        &["methods", "scene", "output", "run", "bench", "study"],
+    ),
+];
+
+/// The imports against [`ORDER`] that the code still has, (from, to). Most are the whole
+/// case (`scene::Case`) handed to every layer, and the engine contracts (`Engine`,
+/// `CpuEngine`, `Method`, `BlowUp`) that sit in the driver and the registry instead of a
+/// layer below the methods. Remove an entry with the import; never add one.
+const UPWARD: &[(&str, &str)] = &[
+    ("analytic", "scene"),
+    ("boundary", "interaction"),
+    ("boundary", "scene"),
+    ("gpu", "bench"),
+    ("gpu", "boundary"),
+    ("gpu", "methods"),
+    ("gpu", "observe"),
+    ("gpu", "scene"),
+    ("hourglass", "scene"),
+    ("interaction", "methods/shared"),
+    ("interaction", "scene"),
+    ("material", "scene"),
+    ("methods", "run"),
+    ("methods", "scene"),
+    ("methods/corotated", "methods"),
+    ("methods/corotated", "run"),
+    ("methods/corotated", "scene"),
+    ("methods/dual_support", "methods"),
+    ("methods/dual_support", "run"),
+    ("methods/dual_support", "scene"),
+    ("methods/efg", "run"),
+    ("methods/efg", "scene"),
+    ("methods/fem", "run"),
+    ("methods/fem", "scene"),
+    ("methods/galerkin", "methods"),
+    ("methods/galerkin", "run"),
+    ("methods/galerkin", "scene"),
+    ("methods/godunov", "methods"),
+    ("methods/godunov", "run"),
+    ("methods/godunov", "scene"),
+    ("methods/gray_monaghan", "methods"),
+    ("methods/gray_monaghan", "run"),
+    ("methods/gray_monaghan", "scene"),
+    ("methods/kbm", "methods"),
+    ("methods/kbm", "run"),
+    ("methods/kbm", "scene"),
+    ("methods/mixed", "methods"),
+    ("methods/mixed", "run"),
+    ("methods/mixed", "scene"),
+    ("methods/potential", "methods"),
+    ("methods/potential", "run"),
+    ("methods/potential", "scene"),
+    ("methods/shared", "scene"),
+    ("methods/tlsph", "methods"),
+    ("methods/tlsph", "methods/corotated"),
+    ("methods/tlsph", "methods/dual_support"),
+    ("methods/tlsph", "methods/potential"),
+    ("methods/tlsph", "run"),
+    ("methods/tlsph", "scene"),
+    ("methods/ul", "methods"),
+    ("methods/ul", "run"),
+    ("methods/ul", "scene"),
+    ("methods/ul_fem", "run"),
+    ("methods/ul_fem", "scene"),
+    ("methods/ul_weak_form", "methods"),
+    ("methods/ul_weak_form", "run"),
+    ("methods/ul_weak_form", "scene"),
+    ("methods/weak_form", "run"),
+    ("methods/weak_form", "scene"),
+    ("mirror", "methods/shared"),
+    ("mirror", "scene"),
+    ("observe", "methods/shared"),
+    ("observe", "scene"),
+    ("output", "bench"),
+    ("plasticity", "methods/shared"),
+    ("pressure", "scene"),
+    ("quadrature", "reference"),
+    ("reference", "boundary"),
+    ("reference", "scene"),
+    ("run", "bench"),
+    ("statics", "methods"),
+    ("statics", "methods/shared"),
+    ("statics", "run"),
+    ("statics", "scene"),
+];
+
+/// The module a file of `src/` belongs to, or None for the crate roots and unit-test
+/// files.
+fn module_of(file: &Path, src: &Path) -> Option<String> {
+    let rel = file.strip_prefix(src).ok()?;
+    let parts: Vec<String> = rel
+        .iter()
+        .map(|p| p.to_string_lossy().trim_end_matches(".rs").to_string())
+        .collect();
+    match parts.as_slice() {
+        [root] if root == "lib" || root == "main" => None,
+        [.., last] if last == "tests" => None,
+        [methods, family, ..] if methods == "methods" && family != "mod" => {
+            Some(format!("methods/{family}"))
+        }
+        [first, ..] => Some(first.clone()),
+        [] => None,
+    }
+}
+
+/// The code of a file without its comments and its unit-test module.
+fn code(text: &str) -> String {
+    let text = match text.find("#[cfg(test)]\nmod tests") {
+        Some(i) => &text[..i],
+        None => text,
+    };
+    text.lines()
+        .map(|line| match line.find("//") {
+            Some(i) => &line[..i],
+            None => line,
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// The first two segments of every path that starts with `crate::` in `code`, with the
+/// groups of a `use crate::{a::b, c::{d, e}}` spread out.
+fn crate_paths(code: &str) -> Vec<[String; 2]> {
+    let mut out = Vec::new();
+    let mut rest = code;
+    while let Some(i) = rest.find("crate::") {
+        rest = &rest[i + "crate::".len()..];
+        tree(rest, &[], &mut out);
+    }
+    out
+}
+
+/// Reads one use-tree at the start of `text` under the segments `prefix`: an identifier
+/// followed by `::` and a tree, or a brace group of trees.
+fn tree(text: &str, prefix: &[String], out: &mut Vec<[String; 2]>) {
+    let text = text.trim_start();
+    if let Some(group) = text.strip_prefix('{') {
+        let mut depth = 0;
+        let mut start = 0;
+        for (i, c) in group.char_indices() {
+            match c {
+                '{' => depth += 1,
+                '}' if depth == 0 => {
+                    tree(&group[start..i], prefix, out);
+                    return;
+                }
+                '}' => depth -= 1,
+                ',' if depth == 0 => {
+                    tree(&group[start..i], prefix, out);
+                    start = i + 1;
+                }
+                _ => {}
+            }
+        }
+        return;
+    }
+    let end = text
+        .find(|c: char| !(c.is_alphanumeric() || c == '_'))
+        .unwrap_or(text.len());
+    let ident = &text[..end];
+    if ident.is_empty() || ident == "self" {
+        if prefix.len() == 1 {
+            out.push([prefix[0].clone(), String::new()]);
+        }
+        return;
+    }
+    let mut path = prefix.to_vec();
+    path.push(ident.to_string());
+    if path.len() == 2 {
+        out.push([path[0].clone(), path[1].clone()]);
+        return;
+    }
+    match text[end..].trim_start().strip_prefix("::") {
+        Some(next) => tree(next, &path, out),
+        None => out.push([path[0].clone(), String::new()]),
+    }
+}
+
+/// The module a path's first two segments name: `methods/<family>` where that is a
+/// module, else the first segment.
+fn target(path: &[String; 2], modules: &BTreeSet<String>) -> String {
+    let family = format!("methods/{}", path[1]);
+    if path[0] == "methods" && modules.contains(&family) {
+        family
+    } else {
+        path[0].clone()
+    }
+}
+
+/// The rank of every module in [`ORDER`].
+fn ranks() -> BTreeMap<&'static str, usize> {
+    let all = ORDER
+        .iter()
+        .flat_map(|(_, modules)| modules.iter().copied());
+    all.enumerate().map(|(i, m)| (m, i)).collect()
+}
+
+fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            rust_files(&path, out);
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            out.push(path);
+        }
+    }
+}
+
+/// The imports against the order in `files` (module and code): (from, to) → the files.
+fn upward_imports(
+    files: &[(String, String, String)],
+    ranks: &BTreeMap<&'static str, usize>,
+) -> BTreeMap<(String, String), BTreeSet<String>> {
+    let modules: BTreeSet<String> = files.iter().map(|(m, _, _)| m.clone()).collect();
+    let mut found: BTreeMap<(String, String), BTreeSet<String>> = BTreeMap::new();
+    for (from, name, code) in files {
+        for path in crate_paths(code) {
+            let to = target(&path, &modules);
+            let (Some(&a), Some(&b)) = (ranks.get(from.as_str()), ranks.get(to.as_str())) else {
+                continue;
+            };
+            if b > a {
+                found
+                    .entry((from.clone(), to))
+                    .or_default()
+                    .insert(name.clone());
+            }
+        }
+    }
+    found
+}
+
+/// Every library file of `src/`: (module, file name, code).
+fn library() -> Vec<(String, String, String)> {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    files.sort();
+    files
+        .iter()
+        .filter_map(|f| {
+            let module = module_of(f, &src)?;
+            let name = f.strip_prefix(&src).unwrap().display().to_string();
+            Some((module, name, code(&std::fs::read_to_string(f).unwrap())))
+        })
+        .collect()
+}
+
+#[test]
+fn every_module_has_its_place_in_the_order() {
+    let ranks = ranks();
+    assert_eq!(
+        ranks.len(),
+        ORDER.iter().map(|(_, m)| m.len()).sum::<usize>(),
+        "a module is declared twice"
+    );
+    let modules: BTreeSet<String> = library().into_iter().map(|(m, _, _)| m).collect();
+    let placed: BTreeSet<String> = ranks.keys().map(|m| m.to_string()).collect();
+    let unplaced: Vec<_> = modules.difference(&placed).collect();
+    let gone: Vec<_> = placed.difference(&modules).collect();
+    assert!(
+        unplaced.is_empty() && gone.is_empty(),
+        "modules without a place in ORDER: {unplaced:?}; places without a module: {gone:?}"
+    );
+}
+
+#[test]
+fn modules_import_only_down_the_order_but_for_the_listed_debt() {
+    let found = upward_imports(&library(), &ranks());
+    let known: BTreeSet<(String, String)> = UPWARD
+        .iter()
+        .map(|&(a, b)| (a.to_string(), b.to_string()))
+        .collect();
+    let new: Vec<String> = found
+        .iter()
+        .filter(|(edge, _)| !known.contains(*edge))
+        .map(|((a, b), files)| format!("{a} → {b} ({files:?})"))
+        .collect();
+    let stale: Vec<_> = known.iter().filter(|e| !found.contains_key(*e)).collect();
+    eprintln!("{} imports against the order remain", found.len());
+    assert!(
+        new.is_empty(),
+        "imports against the layer order (tests/it/layers.rs, ORDER): {new:#?}"
+    );
+    assert!(
+        stale.is_empty(),
+        "gone from the code, remove them from UPWARD: {stale:?}"
+    );
+}
+
+#[test]
+fn a_planted_upward_import_is_found() {
+    // The checker itself: the kernel using the driver, in each form a path takes, is
+    // found; its use of the tensors below it is not.
+    let ranks = ranks();
+    for text in [
+        "use crate::run::Engine;",
+        "use crate::{tensor::Dim, run::{Engine, drive}};",
+        "fn f() { crate::run::drive(); }",
+        "use crate::{\n    tensor::Dim,\n    run::Engine,\n};",
+    ] {
+        let files = [("kernel".to_string(), "kernel.rs".to_string(), code(text))];
+        let found = upward_imports(&files, &ranks);
+        let edges: Vec<_> = found.keys().collect();
+        assert_eq!(
+            edges,
+            [&("kernel".to_string(), "run".to_string())],
+            "{text}"
+        );
+    }
+    let comment = code("// see crate::run::drive\nuse crate::tensor::Dim;");
+    let files = [("kernel".to_string(), "kernel.rs".to_string(), comment)];
+    assert!(upward_imports(&files, &ranks).is_empty());
+}
