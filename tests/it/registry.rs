@@ -196,3 +196,27 @@ fn every_method_has_a_bench_case_that_loads() {
         assert_eq!(case.method.name(), entry.name);
     }
 }
+
+#[test]
+fn every_method_has_a_row_and_a_page_in_the_methods_index() {
+    // docs/methods/README.md: one table row per registered method, `| \`name\` |
+    // [page](page) |`, whose page exists; a method added without one fails.
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/methods");
+    let index = std::fs::read_to_string(dir.join("README.md")).unwrap();
+    for entry in REGISTRY {
+        let row = index
+            .lines()
+            .find(|l| l.starts_with(&format!("| `{}` | [", entry.name)))
+            .unwrap_or_else(|| panic!("{}: no row in docs/methods/README.md", entry.name));
+        let page = row
+            .split("](")
+            .nth(1)
+            .and_then(|s| s.split(')').next())
+            .unwrap();
+        assert!(
+            dir.join(page).is_file(),
+            "{}: {page} does not exist",
+            entry.name
+        );
+    }
+}
