@@ -1,0 +1,114 @@
+//! Loading a case: the file read, the `--set` overrides applied in order (with the rule
+//! for a change of `method.name`), the table parsed and validated.
+
+use super::{Case, overrides, validate};
+use crate::methods::drop_foreign_keys;
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+/// What is wrong with a case file.
+#[derive(Debug, Error)]
+pub enum CaseError {
+    #[error("{file}: cannot read: {source}")]
+    Read {
+        file: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{file}: {message}")]
+    Parse { file: PathBuf, message: String },
+    #[error("{file}: --set {assignment}: {message}")]
+    Override {
+        file: PathBuf,
+        assignment: String,
+        message: String,
+    },
+    #[error("{file}: key `{key}`: {message}")]
+    Invalid {
+        file: PathBuf,
+        key: String,
+        message: String,
+    },
+}
+
+/// `method.name` of a case table, if it is a string.
+fn method_name(table: &toml::Table) -> Option<String> {
+    table
+        .get("method")?
+        .get("name")?
+        .as_str()
+        .map(str::to_string)
+}
+
+/// A change of method by `--set method.name=X`, applied where it stands among the
+/// overrides: the keys of the previous method that X also reads are kept, the others are
+/// dropped (unless an override of the command sets them, so that a wrong one is still
+/// reported), and a note names the dropped ones.
+fn method_change(method: &mut toml::Table, name: &str, overrides: &[String]) -> Option<String> {
+    let set: Vec<String> = overrides
+        .iter()
+        .filter_map(|a| a.split_once('=')?.0.trim().strip_prefix("method."))
+        .map(|path| path.split('.').next().unwrap_or(path).to_string())
+        .collect();
+    let dropped = drop_foreign_keys(method, name, &set);
+    (!dropped.is_empty()).then(|| {
+        format!(
+            "method.name = \"{name}\" does not read {}; dropped from the case",
+            dropped
+                .iter()
+                .map(|k| format!("`method.{k}`"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    })
+}
+
+impl Case {
+    /// Reads, overrides (`key.path=value`) and validates a case file.
+    pub fn load(path: &Path, overrides: &[String]) -> Result<Case, CaseError> {
+        let text = std::fs::read_to_string(path).map_err(|source| CaseError::Read {
+            file: path.to_path_buf(),
+            source,
+        })?;
+        Self::from_toml(&text, path, overrides)
+    }
+
+    /// Parses case text; `file` names it in errors and anchors relative paths.
+    pub fn from_toml(text: &str, file: &Path, overrides: &[String]) -> Result<Case, CaseError> {
+        let parse_error = |e: toml::de::Error| CaseError::Parse {
+            file: file.to_path_buf(),
+            message: e.to_string().trim_end().to_string(),
+        };
+        let mut notes = Vec::new();
+        let mut case: Case = if overrides.is_empty() {
+            toml::from_str(text).map_err(parse_error)?
+        } else {
+            let mut table: toml::Table = toml::from_str(text).map_err(parse_error)?;
+            for assignment in overrides {
+                let name_before = method_name(&table);
+                overrides::apply(&mut table, assignment).map_err(|message| {
+                    CaseError::Override {
+                        file: file.to_path_buf(),
+                        assignment: assignment.clone(),
+                        message,
+                    }
+                })?;
+                if let Some(name) = method_name(&table).filter(|n| Some(n) != name_before.as_ref())
+                    && let Some(toml::Value::Table(method)) = table.get_mut("method")
+                {
+                    notes.extend(method_change(method, &name, overrides));
+                }
+            }
+            Case::deserialize(table).map_err(parse_error)?
+        };
+        case.notes = notes;
+        case.file = file.to_path_buf();
+        case.overrides = overrides.to_vec();
+        validate::check(&case).map_err(|(key, message)| CaseError::Invalid {
+            file: file.to_path_buf(),
+            key,
+            message,
+        })?;
+        Ok(case)
+    }
+}

@@ -1,0 +1,153 @@
+//! `[material]`: the keys each model reads, their ranges, and the plane assumption.
+
+use super::{Checked, fail, finite, non_negative, positive, toml_name};
+use crate::material::{Material, MaterialModel};
+use crate::scene::{MaterialSpec, Plane};
+
+/// A key of `[material]` that only some models read.
+struct ModelKey {
+    key: &'static str,
+    value: Option<f64>,
+    reads: fn(MaterialModel) -> bool,
+    /// What a model that reads it must be given.
+    needs: &'static str,
+}
+
+/// The keys of `[material]` that only some models read.
+fn model_keys(m: &MaterialSpec) -> [ModelKey; 7] {
+    let elastic = |model: MaterialModel| !model.reads_mooney_rivlin_constants();
+    let plastic = |model| model == MaterialModel::VonMisesPlastic;
+    let rubber = MaterialModel::reads_mooney_rivlin_constants;
+    const E_NU: &str = "give `youngs_modulus` (E [Pa], > 0) and `poisson_ratio` (ν in (−1, 0.5))";
+    const PLASTIC: &str = "give `yield_stress` (τ_y⁰ [Pa], > 0) and `hardening_modulus` (H \
+                           [Pa], > −3μ; negative softens, the yield stress stopping at zero)";
+    const RUBBER: &str = "give `c1` [Pa] (> 0), `c2` [Pa] (≥ 0) and `lambda` [Pa] (> 0), the \
+                          constants of seed 001 eq 18";
+    let key = |key, value, reads, needs| ModelKey {
+        key,
+        value,
+        reads,
+        needs,
+    };
+    [
+        key("youngs_modulus", m.youngs_modulus, elastic, E_NU),
+        key("poisson_ratio", m.poisson_ratio, elastic, E_NU),
+        key("yield_stress", m.yield_stress, plastic, PLASTIC),
+        key("hardening_modulus", m.hardening_modulus, plastic, PLASTIC),
+        key("c1", m.c1, rubber, RUBBER),
+        key("c2", m.c2, rubber, RUBBER),
+        key("lambda", m.lambda, rubber, RUBBER),
+    ]
+}
+
+/// Checks of the `[material]` table; ν = 0.5 where the method accepts it.
+pub(super) fn check(m: &MaterialSpec, incompressible: bool) -> Checked {
+    positive("material.density", m.density)?;
+    for ModelKey {
+        key,
+        value,
+        reads,
+        needs,
+    } in model_keys(m)
+    {
+        let key = format!("material.{key}");
+        match value {
+            Some(_) if !reads(m.model) => {
+                let names: Vec<String> = MaterialModel::ALL
+                    .iter()
+                    .filter(|&&r| reads(r))
+                    .map(|r| format!("`{}`", toml_name(r)))
+                    .collect();
+                return fail(
+                    key,
+                    format!(
+                        "is read only by {}, not by `{}`; remove it",
+                        names.join(", "),
+                        toml_name(&m.model)
+                    ),
+                );
+            }
+            None if reads(m.model) => {
+                return fail(
+                    key,
+                    format!("the `{}` model needs it: {needs}", toml_name(&m.model)),
+                );
+            }
+            _ => {}
+        }
+    }
+    if let Some(e) = m.youngs_modulus {
+        positive("material.youngs_modulus", e)?;
+    }
+    if let Some(nu) = m.poisson_ratio
+        && !(nu > -1.0 && (nu < 0.5 || (nu == 0.5 && incompressible)))
+    {
+        return fail(
+            "material.poisson_ratio",
+            format!(
+                "is {nu:?}; it must lie in (−1, 0.5); 0.5 is incompressible, which only \
+                 `upwind-sph` and `jst-sph` with [method.artificial_compressibility] and the \
+                 `nearly-incompressible-neo-hookean` model run"
+            ),
+        );
+    }
+    if let Some(y) = m.yield_stress {
+        positive("material.yield_stress", y)?;
+    }
+    if let Some(h) = m.hardening_modulus {
+        finite("material.hardening_modulus", h)?;
+        // Δγ = f/(3μ + H) of the radial return needs 3μ + H > 0: the yield function then
+        // decreases along the return and has one root.
+        let mu = Material::new(m).mu;
+        if h <= -3.0 * mu {
+            return fail(
+                "material.hardening_modulus",
+                format!(
+                    "is {h:?}; softening (H < 0) must stay above −3μ = {:e} Pa (μ = E/(2(1 + \
+                     ν))), where the radial return has no unique solution",
+                    -3.0 * mu
+                ),
+            );
+        }
+    }
+    if let Some(c1) = m.c1 {
+        positive("material.c1", c1)?;
+    }
+    if let Some(c2) = m.c2 {
+        non_negative("material.c2", c2)?;
+    }
+    if let Some(lambda) = m.lambda {
+        positive("material.lambda", lambda)?;
+    }
+    Ok(())
+}
+
+/// Plane stress is a 2D assumption, which the models linear in their strain measure take.
+pub(super) fn plane(m: &MaterialSpec, dim: usize) -> Checked {
+    if m.plane == Plane::Strain {
+        return Ok(());
+    }
+    if dim != 2 {
+        return fail(
+            "material.plane",
+            "applies to 2D scenes (dimension = 2) only; remove it from a 3D case",
+        );
+    }
+    if !MaterialModel::PLANE_STRESS.contains(&m.model) {
+        let models: Vec<String> = MaterialModel::PLANE_STRESS
+            .iter()
+            .map(|m| format!("`{}`", toml_name(m)))
+            .collect();
+        return fail(
+            "material.plane",
+            format!(
+                "\"stress\" is taken by the models {} (linear in their strain measure), not \
+                 by `{}`, whose σ_zz = 0 would need a per-particle solve for F_zz; use \
+                 plane = \"strain\" or one of those models",
+                models.join(", "),
+                toml_name(&m.model)
+            ),
+        );
+    }
+    Ok(())
+}
