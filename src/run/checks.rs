@@ -1,13 +1,79 @@
-//! Blow-up attribution of the driver's checks: the particle and quantity a failure of
-//! the energy bound, the hourglass limit or the CFL step is reported at.
+//! The driver's checks: the blow-up checks after each batch (the energy bound and the
+//! hourglass limit), the notes and warnings said at the start, and the attribution of a
+//! failure (of those or of the CFL step) to a particle and a quantity.
 
+use super::batch::{Batch, Callback};
+use super::{Engine, RunError};
 use crate::methods::BlowUp;
 use crate::observe::Snapshot;
 use crate::scene::Case;
 use crate::tensor::Dim;
 
+/// The blow-up checks after each batch: the total energy against
+/// `run.energy_growth_limit` × (E0 + W_ext), and η against `run.hourglass_limit`.
+pub(super) struct BlowUpChecks {
+    energy_growth_limit: f64,
+    hourglass_limit: Option<f64>,
+}
+
+impl BlowUpChecks {
+    /// The checks of `case`; says the start's warning (a fixed step above the CFL step)
+    /// and, unless `resumed`, its notes (mass and length of the sampled bodies).
+    pub(super) fn new<D: Dim>(
+        case: &Case,
+        engine: &mut dyn Engine<D>,
+        dt_first: f64,
+        resumed: bool,
+    ) -> Self {
+        if case.method.dt.is_some()
+            && let Some(warning) =
+                fixed_step_warning(dt_first, case.spacing / engine.max_signal_speed())
+        {
+            eprintln!("warning: {}: {warning}", case.file.display());
+        }
+        if !resumed {
+            let mut notes = mass_notes(case, &engine.snapshot());
+            notes.extend(length_notes(case));
+            for note in notes {
+                eprintln!("note: {}: {note}", case.file.display());
+            }
+        }
+        Self {
+            energy_growth_limit: case.run.energy_growth_limit,
+            hourglass_limit: case.run.hourglass_limit,
+        }
+    }
+}
+
+impl<D: Dim> Callback<D> for BlowUpChecks {
+    fn after_batch(&mut self, batch: &mut Batch<D>) -> Result<Option<BlowUp>, RunError> {
+        if batch.start {
+            return Ok(None);
+        }
+        let clock = &batch.clock;
+        let bound = self.energy_growth_limit * (clock.e0 + clock.booked.external_work.max(0.0));
+        // A non-finite energy (an overflowing velocity of a rigid motion, which leaves F
+        // finite) is a blow-up whatever the bound.
+        let e = batch.inv.total_energy();
+        if !e.is_finite() || (e > bound && bound > 0.0) {
+            return Ok(Some(
+                batch.with_snapshot(|snap| energy_blow_up::<D>(snap, e, bound)),
+            ));
+        }
+        let (Some(limit), Some((snap, _)), Some(fields)) =
+            (self.hourglass_limit, batch.state(), batch.fields())
+        else {
+            return Ok(None);
+        };
+        Ok(fields
+            .eta
+            .as_ref()
+            .and_then(|eta| hourglass_blow_up::<D>(snap, eta, limit)))
+    }
+}
+
 /// Energy-growth failure, attributed to the particle with the largest kinetic energy.
-pub(super) fn energy_blow_up<D: Dim>(snap: &Snapshot<D>, energy: f64, bound: f64) -> BlowUp {
+fn energy_blow_up<D: Dim>(snap: &Snapshot<D>, energy: f64, bound: f64) -> BlowUp {
     let (v, m) = (&snap.v, snap.mass);
     let i = (0..m.len())
         .max_by(|&a, &b| (m[a] * D::norm2(v[a])).total_cmp(&(m[b] * D::norm2(v[b]))))
@@ -21,11 +87,7 @@ pub(super) fn energy_blow_up<D: Dim>(snap: &Snapshot<D>, energy: f64, bound: f64
 }
 
 /// Hourglass failure: the particle with the largest η, when η exceeds the limit.
-pub(super) fn hourglass_blow_up<D: Dim>(
-    snap: &Snapshot<D>,
-    eta: &[f64],
-    limit: f64,
-) -> Option<BlowUp> {
+fn hourglass_blow_up<D: Dim>(snap: &Snapshot<D>, eta: &[f64], limit: f64) -> Option<BlowUp> {
     let (i, &worst) = eta.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1))?;
     (worst > limit).then(|| {
         let quantity = format!("hourglass indicator η (run.hourglass_limit = {limit})");
@@ -53,7 +115,7 @@ pub(super) fn step_collapse<D: Dim>(case: &Case, snap: &Snapshot<D>, floor: f64)
 
 /// A fixed step above the method's CFL step Δx/(signal speed) at the start: a Courant
 /// number above 1, where explicit steps of these methods blow up.
-pub(super) fn fixed_step_warning(dt: f64, cfl_step: f64) -> Option<String> {
+fn fixed_step_warning(dt: f64, cfl_step: f64) -> Option<String> {
     let courant = dt / cfl_step;
     (courant > 1.0).then(|| {
         format!(
@@ -68,7 +130,7 @@ pub(super) fn fixed_step_warning(dt: f64, cfl_step: f64) -> Option<String> {
 /// The bodies whose mass as the method lumps it differs from ρ0 times the volume of the
 /// shape the case names (beyond round-off, 1e-9), each with the difference: a lattice that
 /// does not fit the shape within `body.N.volume_tolerance`, said at the start of a run.
-pub(super) fn mass_notes<D: Dim>(case: &Case, snap: &Snapshot<D>) -> Vec<String> {
+fn mass_notes<D: Dim>(case: &Case, snap: &Snapshot<D>) -> Vec<String> {
     let rho0 = crate::material::Material::new(&case.material).rho0;
     case.bodies
         .iter()
@@ -98,7 +160,7 @@ pub(super) fn mass_notes<D: Dim>(case: &Case, snap: &Snapshot<D>) -> Vec<String>
 /// round-off (1e-9), each with the difference ([`crate::scene::Shape::sampled_length`]):
 /// their volumes are scaled to the named shape, so the mass does not show it; said at the
 /// start of a run (past `body.N.volume_tolerance` the case is refused).
-pub(super) fn length_notes(case: &Case) -> Vec<String> {
+fn length_notes(case: &Case) -> Vec<String> {
     let cells = case.method.spec.lattice_cells();
     case.bodies
         .iter()

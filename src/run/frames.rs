@@ -1,7 +1,10 @@
 //! Output callbacks of the driver: VTU frames at their interval and the PVD index.
 
-use super::{RunError, RunOptions, output_error};
+use super::batch::{Batch, Callback, Needs};
+use super::{RunError, RunOptions, checkpoint, output_error};
 use crate::material::von_mises;
+use crate::methods::BlowUp;
+use crate::observe::Clock;
 use crate::observe::{IndicatorFields, Snapshot};
 use crate::output::{Field, FieldData, Mesh, PvdIndex, write_vtu};
 use crate::pressure::pressures;
@@ -138,6 +141,31 @@ impl Frames {
             self.next = next_frame_time(self.next, interval, t);
         }
         Ok(())
+    }
+}
+
+impl<D: Dim> Callback<D> for Frames {
+    fn next_time(&self) -> f64 {
+        Frames::next_time(self)
+    }
+
+    fn needs(&self, clock: &Clock, last: bool) -> Needs {
+        Needs {
+            state: self.due(clock.t) || last,
+            frame: self.will_write(clock.t, last),
+            ..Needs::default()
+        }
+    }
+
+    fn after_batch(&mut self, batch: &mut Batch<D>) -> Result<Option<BlowUp>, RunError> {
+        if let (Some((snap, _)), Some(fields)) = (batch.state(), batch.fields()) {
+            self.write(snap, batch.clock.t, batch.last, fields)?;
+        }
+        Ok(None)
+    }
+
+    fn save(&self, at: &mut checkpoint::Progress) {
+        (at.next_frame, at.frames) = self.progress();
     }
 }
 

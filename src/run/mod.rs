@@ -2,12 +2,15 @@
 //! integrates it to the end time with observers, frames and blow-up checks ([`drive`]),
 //! and writes the summary. The driver knows stages, not methods.
 
+mod batch;
 pub mod budget;
 pub mod checkpoint;
 mod checks;
 mod drive;
 mod engine;
 mod frames;
+mod outputs;
+mod profile;
 mod progress;
 
 pub use budget::{Estimate, Limits};

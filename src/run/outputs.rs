@@ -1,0 +1,160 @@
+//! The series callback (`series.csv`: a row of the observers at each sample) and the
+//! files around a run: the earlier run's files cleared, the summary's checks.
+
+use super::batch::{Batch, Callback, Needs};
+use super::progress::ITERATIONS;
+use super::{RunError, checkpoint, output_error};
+use crate::methods::BlowUp;
+use crate::observe::{Clock, Observers};
+use crate::output::series::read_column;
+use crate::output::{CheckResult, SeriesWriter};
+use crate::scene::Case;
+use crate::scene::validate::toml_name;
+use crate::tensor::Dim;
+use std::path::{Path, PathBuf};
+
+/// `series.csv`: a row of the observers every `output.series_interval` (every batch
+/// without one) and at the end.
+pub(super) struct Series {
+    observers: Observers,
+    writer: SeriesWriter,
+    path: PathBuf,
+    every: f64,
+    /// The time of the next row.
+    next: f64,
+}
+
+impl Series {
+    /// A new `series.csv` in `dir`, or, resumed, the one there cut to `resumed`'s length
+    /// and its next sample time.
+    pub(super) fn new(
+        case: &Case,
+        dir: &Path,
+        observers: Observers,
+        resumed: Option<&checkpoint::Progress>,
+    ) -> Result<Self, RunError> {
+        let path = dir.join("series.csv");
+        let columns = observers.column_names();
+        let (writer, next) = match resumed {
+            Some(p) => (
+                SeriesWriter::resume(&path, columns, p.series_bytes),
+                p.next_sample,
+            ),
+            None => (SeriesWriter::create(&path, columns), 0.0),
+        };
+        Ok(Self {
+            writer: writer.map_err(output_error(&path))?,
+            observers,
+            path,
+            every: case.output.series_interval.unwrap_or(0.0),
+            next,
+        })
+    }
+
+    pub(super) fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Whether a row is due after a step of `clock.dt` that ends at `clock.t` (the last
+    /// batch always writes one).
+    fn due(&self, clock: &Clock, last: bool) -> bool {
+        clock.t + 0.5 * clock.dt >= self.next || last
+    }
+}
+
+impl<D: Dim> Callback<D> for Series {
+    fn next_time(&self) -> f64 {
+        self.next
+    }
+
+    fn needs(&self, clock: &Clock, last: bool) -> Needs {
+        let sample = self.due(clock, last);
+        Needs {
+            state: sample,
+            row: sample,
+            reactions: sample && self.observers.need_reactions(),
+            ..Needs::default()
+        }
+    }
+
+    fn after_batch(&mut self, batch: &mut Batch<D>) -> Result<Option<BlowUp>, RunError> {
+        let clock = &batch.clock;
+        if !self.due(clock, batch.last) {
+            return Ok(None);
+        }
+        let (Some((snap, reactions)), Some(fields)) = (batch.state(), batch.fields()) else {
+            return Ok(None);
+        };
+        let row = self
+            .observers
+            .sample(snap, &batch.inv, clock, fields, reactions);
+        self.writer
+            .write_row(&row)
+            .map_err(output_error(&self.path))?;
+        self.next = clock.t + self.every;
+        Ok(None)
+    }
+
+    fn save(&self, at: &mut checkpoint::Progress) {
+        at.next_sample = self.next;
+        at.series_bytes = self.writer.bytes();
+    }
+}
+
+/// Removes what an earlier run wrote into `dir`, and nothing else: its summary, its
+/// series, its checkpoint, and each PVD index with the frames it lists, so that no stale file of it is
+/// left beside the new run's.
+pub(super) fn clear_previous_run(dir: &Path) -> Result<(), RunError> {
+    let remove = |path: &Path| match std::fs::remove_file(path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(output_error(path)(e)),
+        _ => Ok(()),
+    };
+    for name in ["summary.json", "series.csv", checkpoint::FILE, ITERATIONS] {
+        remove(&dir.join(name))?;
+    }
+    let entries = std::fs::read_dir(dir).map_err(output_error(dir))?;
+    for entry in entries {
+        let index = entry.map_err(output_error(dir))?.path();
+        if index.extension().is_none_or(|e| e != "pvd") {
+            continue;
+        }
+        let text = std::fs::read_to_string(&index).unwrap_or_default();
+        for frame in text
+            .split("file=\"")
+            .skip(1)
+            .filter_map(|t| t.split('"').next())
+        {
+            let frame = Path::new(frame);
+            // Only frames the index names in this folder (a name, no path).
+            if frame.components().count() == 1 && frame.extension().is_some_and(|e| e == "vtu") {
+                remove(&dir.join(frame))?;
+            }
+        }
+        remove(&index)?;
+    }
+    Ok(())
+}
+
+/// The case's checks on the series written so far; a check whose column cannot be read
+/// has the value NaN.
+pub(super) fn evaluate_checks(case: &Case, series: &Path) -> Vec<CheckResult> {
+    case.output
+        .checks
+        .iter()
+        .map(|c| {
+            let values: Vec<f64> = read_column(series, &c.column)
+                .map(|rows| rows.into_iter().map(|(_, v)| v).collect())
+                .unwrap_or_default();
+            let value = c.statistic.of(&values);
+            CheckResult {
+                label: c.label.clone(),
+                column: c.column.clone(),
+                statistic: toml_name(&c.statistic),
+                value,
+                expected: c.expected,
+                source: c.source.clone(),
+                within: c.expected.map(|[lo, hi]| value >= lo && value <= hi),
+            }
+        })
+        .collect()
+}
