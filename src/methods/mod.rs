@@ -18,6 +18,7 @@ pub mod kbm;
 pub mod mixed;
 pub mod potential;
 pub mod shared;
+pub mod tl;
 pub mod tlsph;
 pub mod ul;
 pub mod ul_fem;

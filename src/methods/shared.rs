@@ -1,18 +1,23 @@
 //! What the CPU systems of the methods share: the [`Method`] trait (an [`OdeSystem`] plus
 //! the fields and energies that observers and outputs read), [`BlowUp`], the particle
-//! state's field-wise arithmetic, and the reference neighbours and gradients of the
-//! total-Lagrangian methods.
+//! state's field-wise arithmetic, the reference neighbours and gradients of the
+//! total-Lagrangian methods, and the physics several families share: Monaghan's artificial
+//! viscosity and the stress fields of a deformation gradient and a rate state.
 
 use crate::boundary::{Boundary, Reaction};
 use crate::correction;
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
+use crate::material::Material;
+use crate::methods::Problem;
 use crate::neighbour::Csr;
 use crate::observe::Snapshot;
 use crate::reference::{self, Reference};
+use crate::scene::validate::non_negative;
 use crate::scene::{Case, CaseError};
 use crate::tensor::{Dim, Words};
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 use std::ops::{Add, Mul};
 use thiserror::Error;
 
@@ -440,4 +445,79 @@ pub struct Traffic {
     pub state: f64,
     /// Bytes of the velocity per particle (the leapfrog's kicks move only it).
     pub velocity: f64,
+}
+
+/// Monaghan artificial viscosity Π_ij = (−α c̄ μ_ij + β μ_ij²)/ρ̄_ij (seed 000 §3.1 step 6).
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ArtificialViscosity {
+    pub alpha: f64,
+    pub beta: f64,
+    #[serde(default = "default_eta")]
+    pub eta: f64,
+}
+
+fn default_eta() -> f64 {
+    0.1
+}
+
+impl ArtificialViscosity {
+    /// The coefficients must not be negative.
+    pub fn validate(&self) -> Result<(), Problem> {
+        non_negative("method.artificial_viscosity.alpha", self.alpha)?;
+        non_negative("method.artificial_viscosity.beta", self.beta)?;
+        non_negative("method.artificial_viscosity.eta", self.eta)
+    }
+
+    /// Π_ij of a pair at distance x_ij = x_i − x_j with relative velocity v_ij, mean sound
+    /// speed c̄ and mean density ρ̄, smoothing length h: μ_ij = h v_ij·x_ij/(|x_ij|² + η²h²)
+    /// for approaching pairs, and zero for separating ones (v_ij·x_ij ≥ 0).
+    ///
+    /// With one division, as Π = h v·x (−α c̄ d + β h v·x)/(d² ρ̄), d = |x_ij|² + η²h².
+    #[inline]
+    pub fn pi<D: Dim>(&self, h: f64, x_ij: D::V, v_ij: D::V, c: f64, rho: f64) -> f64 {
+        let vx = D::dot(v_ij, x_ij);
+        if vx >= 0.0 {
+            return 0.0;
+        }
+        let d = D::norm2(x_ij) + self.eta * self.eta * h * h;
+        h * vx * (-self.alpha * c * d + self.beta * h * vx) / (d * d * rho)
+    }
+}
+
+/// Cauchy stress (3×3; 2D plane strain fills σ_zz) and strain energy Σ V0 ψ of every
+/// particle from F and, for the rate model, S and ρ (empty slices for state models).
+/// Shared by the CPU and GPU paths for their outputs.
+pub fn stress_fields<D: Dim>(
+    mat: &Material,
+    f: &[D::T],
+    s: &[D::T],
+    rho: &[f64],
+    vol: &[f64],
+) -> (Vec<[[f64; 3]; 3]>, f64) {
+    let rate = mat.model.is_rate_based();
+    let per_particle: Vec<([[f64; 3]; 3], f64)> = f
+        .par_iter()
+        .enumerate()
+        .map(|(i, &f)| {
+            let (s, rho) = if rate {
+                (s[i], rho[i])
+            } else {
+                (D::zero_t(), mat.rho0 / D::det(f))
+            };
+            let sigma = if rate {
+                s - D::identity() * mat.pressure(rho)
+            } else {
+                mat.pk1::<D>(f) * D::transpose(f) * (1.0 / D::det(f))
+            };
+            let mut out = D::to3x3(sigma);
+            if D::N == 2 {
+                out[2][2] = mat.sigma_zz::<D>(f, s, rho);
+            }
+            let energy_rho = if rate { rho } else { mat.rho0 };
+            (out, vol[i] * mat.energy_density::<D>(f, s, energy_rho))
+        })
+        .collect();
+    let energy = per_particle.iter().map(|p| p.1).sum();
+    (per_particle.into_iter().map(|p| p.0).collect(), energy)
 }

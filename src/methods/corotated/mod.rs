@@ -6,7 +6,7 @@
 pub mod gpu;
 pub mod system;
 
-pub use system::{Corotated, rotation};
+pub use system::{Corotated, CorotatedScheme, outputs, rotation};
 
 use super::{Feature, MethodFamily, Plan, Problem, state_model};
 use crate::material::Material;

@@ -11,15 +11,14 @@
 //! it). The state is u = x − X and v.
 
 use super::{CorotatedForce, CorotatedSpec};
-use crate::boundary::{Boundary, OnPatches};
-use crate::integrate::OdeSystem;
-use crate::interaction::Interactions;
 use crate::material::Material;
 use crate::methods::shared::{
-    BlowUp, BoundaryWork, MIN_CHUNK, Method, Sizes, Traffic, ordered_reduce, reference_gradients,
-    reverse_gradients,
+    ArtificialViscosity, BlowUp, MIN_CHUNK, Sizes, Traffic, ordered_reduce,
 };
-use crate::methods::tlsph::{ArtificialViscosity, TlState, system as tl};
+use crate::methods::tl::{
+    Fields, ReferencePairs, TlCore, TlScheme, TlSph, TlState, ViscousPairs, displacement_rates,
+    viscous_pair_pass,
+};
 use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::Csr;
 use crate::observe::Snapshot;
@@ -90,14 +89,10 @@ struct Kinematics<D: Dim> {
 }
 
 /// The corotated TLSPH system on the CPU (f64, rayon).
-pub struct Corotated<D: Dim> {
-    x0: Vec<D::V>,
-    vol: Vec<f64>,
-    mass: Vec<f64>,
-    body: Vec<u32>,
-    v0: Vec<D::V>,
-    /// Initial displacements.
-    u0: Vec<D::V>,
+pub type Corotated<D> = TlSph<D, CorotatedScheme<D>>;
+
+/// The shape matching, stress pass and pair force of corotated TLSPH.
+pub struct CorotatedScheme<D: Dim> {
     csr: Csr,
     /// Reference gradients ∇0W_ij (the paper's: uncorrected), one per CSR pair.
     grad: Vec<D::V>,
@@ -105,94 +100,21 @@ pub struct Corotated<D: Dim> {
     grad_rev: Option<Vec<D::V>>,
     /// Shape-matching weights m_j W(|X_ij|) (eq 151), one per CSR pair.
     shape: Vec<f64>,
-    material: Material,
     av: Option<ArtificialViscosity>,
-    h: f64,
-    boundary: Boundary<D>,
-    interactions: Interactions<D>,
     kin: Vec<Kinematics<D>>,
-    /// The power of supports, loads and interactions and the supports' reactions at the
-    /// last rate evaluation.
-    boundary_work: BoundaryWork,
     /// Each particle's viscous dissipation −m a_visc·v at the last rate evaluation.
     dissipation: Vec<f64>,
 }
 
-impl<D: Dim> Corotated<D> {
-    /// Builds neighbours, reference gradients and shape-matching weights on the reference
-    /// configuration.
-    pub fn new(case: &Case, reference: Reference<D>) -> Result<Self, CaseError> {
-        let MethodSpec::CorotatedTlsph(CorotatedSpec {
-            artificial_viscosity,
-            force,
-        }) = &case.method.spec
-        else {
-            return Err(not_run_by(case, "Corotated"));
-        };
-        let csr = reference.neighbours();
-        let Reference {
-            x0,
-            vol,
-            mass,
-            body,
-            v0,
-            u0,
-            boundary,
-            material,
-            kernel,
-            ..
-        } = reference;
-        let grad = reference_gradients::<D>(case, &x0, &vol, &csr)?;
-        let grad_rev = match force {
-            CorotatedForce::ReferenceCode => None,
-            CorotatedForce::Variational => Some(reverse_gradients::<D>(case, &csr, &grad)?),
-        };
-        let (m, x) = (&mass, &x0);
-        let shape = (0..x0.len())
-            .into_par_iter()
-            .flat_map_iter(|i| {
-                let w = move |j: usize| m[j] * kernel.w(D::norm2(x[j] - x[i]).sqrt());
-                csr.neighbours(i).iter().map(move |&j| w(j as usize))
-            })
-            .collect();
-        let interactions =
-            Interactions::build(case, &x0, &body, &OnPatches, &mass, || csr.clone())?;
-        let identity = Kinematics {
-            r: D::identity(),
-            f_hat: D::identity(),
-            p_hat: D::zero_t(),
-            push: D::identity(),
-            rho: material.rho0,
-        };
-        Ok(Self {
-            kin: vec![identity; x0.len()],
-            dissipation: vec![0.0; x0.len()],
-            x0,
-            vol,
-            mass,
-            body,
-            v0,
-            u0,
-            csr,
-            grad,
-            grad_rev,
-            shape,
-            material,
-            av: *artificial_viscosity,
-            h: kernel.h,
-            boundary,
-            interactions,
-            boundary_work: BoundaryWork::default(),
-        })
-    }
-
+impl<D: Dim> CorotatedScheme<D> {
     /// R_i, F̂_i, P̂_i, R_i F̂_i⁻ᵀ and ρ0/det F̂_i of particle i at displacements u.
-    fn kinematics_of(&self, i: usize, u: &[D::V]) -> Kinematics<D> {
-        let xi = self.x0[i] + u[i];
+    fn kinematics_of(&self, core: &TlCore<D>, i: usize, u: &[D::V]) -> Kinematics<D> {
+        let x0 = &core.x0;
+        let xi = core.x(i, u);
         let mut a = D::zero_t();
         for p in self.csr.range(i) {
             let j = self.csr.ids[p] as usize;
-            a += D::outer(self.x0[j] + u[j] - xi, self.x0[j] - self.x0[i]) * self.shape[p];
+            a += D::outer(x0[j] + u[j] - xi, x0[j] - x0[i]) * self.shape[p];
         }
         let Some(r) = rotation::<D>(a) else {
             return Kinematics {
@@ -208,69 +130,28 @@ impl<D: Dim> Corotated<D> {
         for p in self.csr.range(i) {
             let j = self.csr.ids[p] as usize;
             // û_ij = R_iᵀ (x_j − x_i) − (X_j − X_i) (eq 152).
-            let u_hat = r_t * (self.x0[j] + u[j] - xi) - (self.x0[j] - self.x0[i]);
-            h += D::outer(u_hat, self.grad[p]) * self.vol[j];
+            let u_hat = r_t * (x0[j] + u[j] - xi) - (x0[j] - x0[i]);
+            h += D::outer(u_hat, self.grad[p]) * core.vol[j];
         }
         let f_hat = D::identity() + h;
         Kinematics {
             r,
             f_hat,
-            p_hat: self.material.pk1::<D>(f_hat),
+            p_hat: core.material.pk1::<D>(f_hat),
             push: r * D::transpose(D::inverse(f_hat)),
-            rho: self.material.rho0 / D::det(f_hat),
+            rho: core.material.rho0 / D::det(f_hat),
         }
     }
 
-    fn each_kinematics(&self, u: &[D::V]) -> Vec<Kinematics<D>> {
-        (0..self.x0.len())
+    fn each_kinematics(&self, core: &TlCore<D>, u: &[D::V]) -> Vec<Kinematics<D>> {
+        (0..u.len())
             .into_par_iter()
             .with_min_len(MIN_CHUNK)
-            .map(|i| self.kinematics_of(i, u))
+            .map(|i| self.kinematics_of(core, i, u))
             .collect()
     }
 
-    /// Pass 2: a_i = (1/ρ0) Σ_j V_j (R_i P̂_i ∇0W_ij − R_j P̂_j ∇0W_ji) (variational), or
-    /// (1/ρ0) Σ_j V_j ½(R_i + R_j)(P̂_i + P̂_j) ∇0W_ij (eqs 154–155 as the reference code
-    /// writes them), plus Monaghan viscosity along ½(R_i F̂_i⁻ᵀ + R_j F̂_j⁻ᵀ) ∇0W_ij.
-    /// Also writes each particle's viscous dissipation −m_i a_visc·v_i into `dissipation`.
-    fn accelerations(&self, y: &TlState<D>, a: &mut [D::V], dissipation: &mut [f64]) {
-        let inv_rho0 = 1.0 / self.material.rho0;
-        let bulk = self.material.bulk;
-        let h = self.h;
-        a.par_iter_mut()
-            .zip(dissipation.par_iter_mut())
-            .with_min_len(MIN_CHUNK)
-            .enumerate()
-            .for_each(|(i, (a, dissipation))| {
-                let ki = self.kin[i];
-                let xi = self.x0[i] + y.u[i];
-                let ci = (bulk / ki.rho).sqrt();
-                let mut stress = D::zero();
-                let mut viscous = D::zero();
-                for p in self.csr.range(i) {
-                    let j = self.csr.ids[p] as usize;
-                    let kj = self.kin[j];
-                    let g = self.grad[p];
-                    stress += match &self.grad_rev {
-                        Some(rev) => {
-                            (ki.r * (ki.p_hat * g) - kj.r * (kj.p_hat * rev[p])) * self.vol[j]
-                        }
-                        None => (ki.r + kj.r) * ((ki.p_hat + kj.p_hat) * g) * (0.5 * self.vol[j]),
-                    };
-                    if let Some(av) = &self.av {
-                        let x_ij = xi - (self.x0[j] + y.u[j]);
-                        let c = 0.5 * (ci + (bulk / kj.rho).sqrt());
-                        let rho = 0.5 * (ki.rho + kj.rho);
-                        let pi = av.pi::<D>(h, x_ij, y.v[i] - y.v[j], c, rho);
-                        viscous -= (ki.push + kj.push) * g * (0.5 * self.mass[j] * pi);
-                    }
-                }
-                *a = stress * inv_rho0 + viscous;
-                *dissipation = -self.mass[i] * D::dot(viscous, y.v[i]);
-            });
-    }
-
-    fn first_inadmissible(&self) -> Option<BlowUp> {
+    fn first_inadmissible(&self, core: &TlCore<D>) -> Option<BlowUp> {
         let det = |k: &Kinematics<D>| D::det(k.f_hat);
         let bad = |k: &Kinematics<D>| D::det(k.r).is_nan() || D::det(k.r) <= 0.0;
         let i = self
@@ -280,63 +161,31 @@ impl<D: Dim> Corotated<D> {
         let k = &self.kin[i];
         Some(if bad(k) {
             let quantity = "det R (shape matching: A_i has no rotation as its polar factor)";
-            BlowUp::at::<D>(&self.x0, i, quantity, D::det(k.r))
+            core.blow_up(i, quantity, D::det(k.r))
         } else {
-            BlowUp::at::<D>(&self.x0, i, "det F̂", det(k))
+            core.blow_up(i, "det F̂", det(k))
         })
     }
+}
 
+impl<D: Dim> Corotated<D> {
     /// Shape-matching rotations R_i at state y (zero where A_i has no polar factor).
     pub fn rotations(&self, y: &TlState<D>) -> Vec<D::T> {
-        self.each_kinematics(&y.u).iter().map(|k| k.r).collect()
+        let kin = self.scheme.each_kinematics(&self.core, &y.u);
+        kin.iter().map(|k| k.r).collect()
     }
 
     /// Corotated deformation gradients F̂_i at state y.
     pub fn corotated_gradients(&self, y: &TlState<D>) -> Vec<D::T> {
-        self.each_kinematics(&y.u).iter().map(|k| k.f_hat).collect()
+        let kin = self.scheme.each_kinematics(&self.core, &y.u);
+        kin.iter().map(|k| k.f_hat).collect()
     }
-
-    /// The snapshot of state y: F = R F̂, the Cauchy stress σ = R (P̂ F̂ᵀ/det F̂) Rᵀ (2D:
-    /// with σ_zz of F̂) and Σ V ψ(F̂).
-    fn fields(&self, y: &TlState<D>) -> Snapshot<'_, D> {
-        let kin = self.each_kinematics(&y.u);
-        let r: Vec<D::T> = kin.iter().map(|k| k.r).collect();
-        let f_hat: Vec<D::T> = kin.iter().map(|k| k.f_hat).collect();
-        let Outputs {
-            f,
-            sigma,
-            strain_energy,
-        } = outputs::<D>(&self.material, &self.vol, &r, &f_hat);
-        Snapshot {
-            x0: &self.x0,
-            mass: &self.mass,
-            body: &self.body,
-            u: y.u.clone(),
-            v: y.v.clone(),
-            f,
-            sigma,
-            strain_energy,
-            extra: Vec::new(),
-            cells: &[],
-            quadrature: None,
-        }
-    }
-}
-
-/// The fields outputs read of a corotated state.
-pub struct Outputs<D: Dim> {
-    /// F = R F̂.
-    pub f: Vec<D::T>,
-    /// σ = R (P̂ F̂ᵀ/det F̂) Rᵀ (3 × 3; 2D: with σ_zz of F̂).
-    pub sigma: Vec<[[f64; 3]; 3]>,
-    /// Σ V ψ(F̂).
-    pub strain_energy: f64,
 }
 
 /// The outputs of rotations R_i and corotated gradients F̂_i: F = R F̂, the Cauchy stress
 /// σ = R (P̂ F̂ᵀ/det F̂) Rᵀ (2D: with σ_zz of F̂) and the strain energy Σ V ψ(F̂). Shared by
 /// the CPU system and the GPU engine (which reads R and F̂ back).
-pub fn outputs<D: Dim>(mat: &Material, vol: &[f64], r: &[D::T], f_hat: &[D::T]) -> Outputs<D> {
+pub fn outputs<D: Dim>(mat: &Material, vol: &[f64], r: &[D::T], f_hat: &[D::T]) -> Fields<D> {
     let f = r.iter().zip(f_hat).map(|(&r, &f_hat)| r * f_hat).collect();
     let sigma = r
         .par_iter()
@@ -357,129 +206,140 @@ pub fn outputs<D: Dim>(mat: &Material, vol: &[f64], r: &[D::T], f_hat: &[D::T]) 
         |a| vol[a] * mat.energy_density::<D>(f_hat[a], D::zero_t(), mat.rho0),
         |x, y| x + y,
     );
-    Outputs {
+    Fields {
         f,
         sigma,
         strain_energy,
     }
 }
 
-impl<D: Dim> OdeSystem for Corotated<D> {
-    type State = TlState<D>;
-    type Error = BlowUp;
+impl<D: Dim> ViscousPairs<D> for CorotatedScheme<D> {
+    fn pair_lists(&self) -> &Csr {
+        &self.csr
+    }
 
-    fn rates(&mut self, _t: f64, y: &TlState<D>, d: &mut TlState<D>) -> Result<(), BlowUp> {
+    fn viscosity(&self) -> Option<&ArtificialViscosity> {
+        self.av.as_ref()
+    }
+
+    fn rho(&self, i: usize) -> f64 {
+        self.kin[i].rho
+    }
+
+    /// V_j (R_i P̂_i ∇0W_ij − R_j P̂_j ∇0W_ji), or V_j ½(R_i + R_j)(P̂_i + P̂_j) ∇0W_ij.
+    fn stress(&self, core: &TlCore<D>, i: usize, j: usize, p: usize) -> D::V {
+        let (ki, kj, g, vol) = (self.kin[i], self.kin[j], self.grad[p], &core.vol);
+        match &self.grad_rev {
+            Some(rev) => (ki.r * (ki.p_hat * g) - kj.r * (kj.p_hat * rev[p])) * vol[j],
+            None => (ki.r + kj.r) * ((ki.p_hat + kj.p_hat) * g) * (0.5 * vol[j]),
+        }
+    }
+
+    /// (R_i F̂_i⁻ᵀ + R_j F̂_j⁻ᵀ) ∇0W_ij.
+    fn viscous_direction(&self, i: usize, j: usize, p: usize) -> D::V {
+        (self.kin[i].push + self.kin[j].push) * self.grad[p]
+    }
+
+    /// Σ/ρ0.
+    fn acceleration(&self, core: &TlCore<D>, _i: usize, stress: D::V) -> D::V {
+        stress * (1.0 / core.material.rho0)
+    }
+}
+
+impl<D: Dim> TlScheme<D> for CorotatedScheme<D> {
+    /// Builds neighbours, reference gradients and shape-matching weights on the reference
+    /// configuration.
+    fn new(case: &Case, reference: &Reference<D>) -> Result<Self, CaseError> {
+        let MethodSpec::CorotatedTlsph(CorotatedSpec {
+            artificial_viscosity,
+            force,
+        }) = &case.method.spec
+        else {
+            return Err(not_run_by(case, "Corotated"));
+        };
+        let pairs = ReferencePairs::new(case, reference)?;
+        let grad_rev = match force {
+            CorotatedForce::ReferenceCode => None,
+            CorotatedForce::Variational => Some(pairs.reverse(case)?),
+        };
+        let ReferencePairs { csr, grad } = pairs;
+        let (m, x, kernel) = (&reference.mass, &reference.x0, &reference.kernel);
+        let shape = (0..x.len())
+            .into_par_iter()
+            .flat_map_iter(|i| {
+                let w = move |j: usize| m[j] * kernel.w(D::norm2(x[j] - x[i]).sqrt());
+                csr.neighbours(i).iter().map(move |&j| w(j as usize))
+            })
+            .collect();
+        let identity = Kinematics {
+            r: D::identity(),
+            f_hat: D::identity(),
+            p_hat: D::zero_t(),
+            push: D::identity(),
+            rho: reference.material.rho0,
+        };
+        Ok(Self {
+            kin: vec![identity; x.len()],
+            dissipation: vec![0.0; x.len()],
+            csr,
+            grad,
+            grad_rev,
+            shape,
+            av: *artificial_viscosity,
+        })
+    }
+
+    fn lists(&self) -> &Csr {
+        &self.csr
+    }
+
+    /// Pass 1: shape matching and the stress of every particle; det R > 0 and det F̂ > 0.
+    fn stresses(
+        &mut self,
+        core: &TlCore<D>,
+        y: &TlState<D>,
+        _d: &mut TlState<D>,
+    ) -> Option<BlowUp> {
         let mut kin = std::mem::take(&mut self.kin);
         kin.par_iter_mut()
             .with_min_len(MIN_CHUNK)
             .enumerate()
-            .for_each(|(i, k)| *k = self.kinematics_of(i, &y.u));
+            .for_each(|(i, k)| *k = self.kinematics_of(core, i, &y.u));
         self.kin = kin;
-        if let Some(b) = self.first_inadmissible() {
-            return Err(b);
-        }
+        self.first_inadmissible(core)
+    }
+
+    /// Pass 2: a_i = (1/ρ0) Σ_j V_j (R_i P̂_i ∇0W_ij − R_j P̂_j ∇0W_ji) (variational), or
+    /// (1/ρ0) Σ_j V_j ½(R_i + R_j)(P̂_i + P̂_j) ∇0W_ij (eqs 154–155 as the reference code
+    /// writes them), plus Monaghan viscosity along ½(R_i F̂_i⁻ᵀ + R_j F̂_j⁻ᵀ) ∇0W_ij; then
+    /// u̇ = v.
+    fn forces(&mut self, core: &TlCore<D>, y: &TlState<D>, d: &mut TlState<D>) {
         let mut dissipation = std::mem::take(&mut self.dissipation);
-        self.accelerations(y, &mut d.v, &mut dissipation);
+        viscous_pair_pass(self, core, y, &mut d.v, &mut dissipation);
         self.dissipation = dissipation;
-        d.u.par_iter_mut()
-            .with_min_len(MIN_CHUNK)
-            .zip(&y.v)
-            .for_each(|(u, &v)| *u = v);
-        self.boundary_work.finish(
-            &self.interactions,
-            &self.boundary,
-            &y.v,
-            &self.mass,
-            &mut d.v,
-        );
-        Ok(())
-    }
-
-    /// The interactions' work before the step (the contact forces of seed 000 §5.8).
-    fn begin_step(&mut self, t: f64, dt: f64, y: &TlState<D>) {
-        self.boundary.begin_step(t, dt);
-        self.interactions.begin_step(t, dt, &self.x0, &y.u, &y.v);
-    }
-}
-
-impl<D: Dim> Method<D> for Corotated<D> {
-    fn build(case: &Case, reference: Reference<D>) -> Result<Self, CaseError> {
-        Self::new(case, reference)
-    }
-
-    fn initial_state(&self) -> TlState<D> {
-        TlState {
-            u: self.u0.clone(),
-            v: self.v0.clone(),
-            rho: Vec::new(),
-            s: Vec::new(),
-        }
-    }
-
-    fn displacement<'a>(&self, y: &'a TlState<D>) -> &'a [D::V] {
-        &y.u
-    }
-
-    fn velocity<'a>(&self, y: &'a TlState<D>) -> &'a [D::V] {
-        &y.v
-    }
-
-    fn reference(&self) -> &[D::V] {
-        &self.x0
-    }
-
-    fn mass(&self) -> &[f64] {
-        &self.mass
-    }
-
-    fn body(&self) -> &[u32] {
-        &self.body
-    }
-
-    fn constrained(&self) -> &[(u32, u8)] {
-        &self.boundary.constrained
+        displacement_rates::<D>(&mut d.u, &y.v);
     }
 
     /// F = R F̂: the corotated gradient rotated back to the current configuration.
-    fn deformation_gradient(&self, y: &TlState<D>) -> Vec<D::T> {
-        self.each_kinematics(&y.u)
+    fn deformation_gradient(&self, core: &TlCore<D>, y: &TlState<D>) -> Vec<D::T> {
+        self.each_kinematics(core, &y.u)
             .iter()
             .map(|k| k.r * k.f_hat)
             .collect()
     }
 
-    fn cauchy_stress(&self, y: &TlState<D>) -> Vec<[[f64; 3]; 3]> {
-        self.fields(y).sigma
-    }
-
-    /// Σ V ψ(F̂): the energy of the corotated strains.
-    fn strain_energy(&self, y: &TlState<D>) -> f64 {
-        self.fields(y).strain_energy
-    }
-
-    fn snapshot<'a>(&'a self, y: &TlState<D>) -> Snapshot<'a, D> {
-        self.fields(y)
-    }
-
-    fn max_signal_speed(&self, y: &TlState<D>) -> f64 {
-        let vmax =
-            y.v.par_iter()
-                .map(|&v| D::norm2(v))
-                .reduce(|| 0.0, f64::max)
-                .sqrt();
-        self.material.p_wave_speed() + vmax
-    }
-
-    fn boundary_work(&self) -> &BoundaryWork {
-        &self.boundary_work
+    /// F = R F̂, the Cauchy stress σ = R (P̂ F̂ᵀ/det F̂) Rᵀ (2D: with σ_zz of F̂) and
+    /// Σ V ψ(F̂), the energy of the corotated strains.
+    fn snapshot<'a>(&'a self, core: &'a TlCore<D>, y: &TlState<D>) -> Snapshot<'a, D> {
+        let kin = self.each_kinematics(core, &y.u);
+        let r: Vec<D::T> = kin.iter().map(|k| k.r).collect();
+        let f_hat: Vec<D::T> = kin.iter().map(|k| k.f_hat).collect();
+        let fields = outputs::<D>(&core.material, &core.vol, &r, &f_hat);
+        fields.snapshot(&core.x0, &core.mass, &core.body, y.clone())
     }
 
     fn dissipation_power(&self) -> f64 {
         self.dissipation.iter().sum()
-    }
-
-    fn pairs(&self) -> usize {
-        self.csr.pair_count()
     }
 
     /// Pass 1 reads X, u and V and writes the kinematics records (R, F̂, P̂, R F̂⁻ᵀ, ρ);
@@ -488,21 +348,17 @@ impl<D: Dim> Method<D> for Corotated<D> {
     /// ids, shape-matching weights and ∇0W_ij of every pair, pass 2 the ids and ∇0W_ij
     /// (and ∇0W_ji for the variational force).
     /// The viscosity does not change the bytes (X_i and u_i are read with or without it).
-    fn traffic(&self) -> Option<Traffic> {
+    fn traffic(&self, _core: &TlCore<D>) -> Traffic {
         let (Sizes { v, f, id, .. }, k) = (Sizes::of::<D>(), size_of::<Kinematics<D>>());
         let pass_1 = 2 * v + f + k;
         let pass_2 = k + 4 * v + 3 * f;
         let pair = id + v;
         let reverse = if self.grad_rev.is_some() { v } else { 0 };
-        Some(Traffic {
+        Traffic {
             per_particle: (pass_1 + k + pass_2 + 2 * v) as f64,
             per_pair: (2 * pair + f + reverse) as f64,
             state: (2 * v) as f64,
             velocity: v as f64,
-        })
-    }
-
-    fn check_finite(&self, y: &TlState<D>) -> Result<(), BlowUp> {
-        tl::check_state(&self.x0, y)
+        }
     }
 }

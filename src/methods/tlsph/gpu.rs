@@ -6,7 +6,7 @@
 //! A whole step, or several, is recorded into one command encoder; the host reads back
 //! only when asked (outputs, observers, checks).
 
-use super::system::{TlState, check_state, hourglass_stiffness, snapshot};
+use super::system::hourglass_stiffness;
 use super::{TlsphForce, ViscosityGradient};
 use crate::balance::Booked;
 use crate::boundary::{OnPatches, Reaction};
@@ -27,6 +27,7 @@ use crate::integrate::Buf;
 use crate::interaction::Interactions;
 use crate::interaction::gpu::GpuInteractions;
 use crate::material::Material;
+use crate::methods::tl::{TlState, check_state, snapshot};
 use crate::methods::{BlowUp, MethodSpec, not_run_by};
 use crate::observe::{Invariants, Snapshot};
 use crate::reference::Reference;
@@ -873,24 +874,8 @@ impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
         let (f, _) = self.kinematics();
         if self.frame == Frame::Corotated {
             let rot = self.kin_tensor("R");
-            let crate::methods::corotated::system::Outputs {
-                f,
-                sigma,
-                strain_energy,
-            } = crate::methods::corotated::system::outputs::<D>(&r.material, &r.vol, &rot, &f);
-            return Snapshot {
-                x0: &r.x0,
-                mass: &r.mass,
-                body: &r.body,
-                u: y.u,
-                v: y.v,
-                f,
-                sigma,
-                strain_energy,
-                extra: Vec::new(),
-                cells: &[],
-                quadrature: None,
-            };
+            let fields = crate::methods::corotated::outputs::<D>(&r.material, &r.vol, &rot, &f);
+            return fields.snapshot(&r.x0, &r.mass, &r.body, y);
         }
         snapshot(
             &r.material,
