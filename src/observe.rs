@@ -194,6 +194,68 @@ pub struct Observers {
     names: Vec<String>,
 }
 
+/// The series columns of observer `obs` into `names`, and for `reaction` the named loads'
+/// total forces at law value 1 with their time laws into `applied`.
+fn observer_columns<D: Dim>(
+    case: &Case,
+    obs: &Observer,
+    snap: &Snapshot<D>,
+    names: &mut Vec<String>,
+    applied: &mut Vec<([f64; 3], TimeLaw)>,
+) -> Result<(), CaseError> {
+    match obs {
+        Observer::Energy => names.extend(balance::COLUMNS.map(String::from)),
+        Observer::LinearMomentum => {
+            names.extend((0..D::N).map(|k| format!("momentum_{}", AXES[k])))
+        }
+        Observer::AngularMomentum => {
+            names.extend(angular_components::<D>().map(|k| format!("angular_momentum_{}", AXES[k])))
+        }
+        Observer::Extent => {
+            for b in &case.bodies {
+                names.extend((0..D::N).map(|k| format!("{}.extent_{}", b.name, AXES[k])));
+            }
+        }
+        Observer::NeckHeight => names.push("neck_height".into()),
+        Observer::Hourglass => names.push("hourglass_max".into()),
+        Observer::VelocityError(_) => names.push("velocity_error".into()),
+        Observer::RingSymmetry => {
+            names.extend(["hoop_stress_spread", "hoop_gap_spread"].map(String::from));
+            if case.material.model == MaterialModel::VonMisesPlastic {
+                names.push("plastic_strain_spread".into());
+            }
+        }
+        Observer::SolutionError => {
+            names.extend(["displacement_error", "energy_error"].map(String::from))
+        }
+        Observer::FrontOscillation(_) => names.extend(
+            [
+                "ahead_oscillation",
+                "behind_oscillation",
+                "plateau_oscillation",
+            ]
+            .map(String::from),
+        ),
+        Observer::PressureOscillation => names.push("pressure_oscillation".into()),
+        Observer::Reaction => {
+            for (_, name) in crate::boundary::supports(case) {
+                names.extend((0..D::N).map(|k| format!("{name}.reaction_{}", AXES[k])));
+                names.push(format!("{name}.power"));
+            }
+            let totals =
+                crate::boundary::condition_totals::<D>(case, snap.x0, snap.body, snap.mass)?;
+            for (bc, total) in case.boundaries.iter().zip(totals) {
+                let (Some(name), Some(force)) = (&bc.name, total.force) else {
+                    continue;
+                };
+                names.extend((0..D::N).map(|k| format!("{name}.applied_force_{}", AXES[k])));
+                applied.push((force, bc.condition.law().clone()));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// A section-force observer ([`crate::scene::SectionSpec`]): the normal axis, the body it
 /// is limited to, and every particle within Δx of the plane with its hat weight
 /// (1 − |X·N − at|/Δx)/Δx.
@@ -220,57 +282,7 @@ impl Observers {
         list.sort();
         list.dedup();
         for obs in &list {
-            match obs {
-                Observer::Energy => names.extend(balance::COLUMNS.map(String::from)),
-                Observer::LinearMomentum => {
-                    names.extend((0..D::N).map(|k| format!("momentum_{}", AXES[k])))
-                }
-                Observer::AngularMomentum => names.extend(
-                    angular_components::<D>().map(|k| format!("angular_momentum_{}", AXES[k])),
-                ),
-                Observer::Extent => {
-                    for b in &case.bodies {
-                        names.extend((0..D::N).map(|k| format!("{}.extent_{}", b.name, AXES[k])));
-                    }
-                }
-                Observer::NeckHeight => names.push("neck_height".into()),
-                Observer::Hourglass => names.push("hourglass_max".into()),
-                Observer::VelocityError(_) => names.push("velocity_error".into()),
-                Observer::RingSymmetry => {
-                    names.extend(["hoop_stress_spread", "hoop_gap_spread"].map(String::from));
-                    if case.material.model == MaterialModel::VonMisesPlastic {
-                        names.push("plastic_strain_spread".into());
-                    }
-                }
-                Observer::SolutionError => {
-                    names.extend(["displacement_error", "energy_error"].map(String::from))
-                }
-                Observer::FrontOscillation(_) => names.extend(
-                    [
-                        "ahead_oscillation",
-                        "behind_oscillation",
-                        "plateau_oscillation",
-                    ]
-                    .map(String::from),
-                ),
-                Observer::PressureOscillation => names.push("pressure_oscillation".into()),
-                Observer::Reaction => {
-                    for (_, name) in crate::boundary::supports(case) {
-                        names.extend((0..D::N).map(|k| format!("{name}.reaction_{}", AXES[k])));
-                        names.push(format!("{name}.power"));
-                    }
-                    let totals =
-                        crate::boundary::condition_totals::<D>(case, x0, snap.body, snap.mass)?;
-                    for (bc, total) in case.boundaries.iter().zip(totals) {
-                        let (Some(name), Some(force)) = (&bc.name, total.force) else {
-                            continue;
-                        };
-                        names
-                            .extend((0..D::N).map(|k| format!("{name}.applied_force_{}", AXES[k])));
-                        applied.push((force, bc.condition.law().clone()));
-                    }
-                }
-            }
+            observer_columns(case, obs, snap, &mut names, &mut applied)?;
         }
         let rings = if list.contains(&Observer::RingSymmetry) {
             rings::<D>(case, x0)?

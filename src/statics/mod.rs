@@ -397,13 +397,51 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
         }
     }
 
+    /// R = f_int + λ f_ext on the free components, |R| and |R| over the force scale
+    /// √(|λ f_ext|² + |r|² + |f_int|²) of [`Tolerance`], r the reactions on the prescribed
+    /// components (zero where the scale is).
+    fn residual(&self, f_int: &[D::V], lambda: f64) -> (Vec<f64>, f64, f64) {
+        let d = D::N;
+        let mut r = vec![0.0; self.unknowns];
+        let (mut load, mut support, mut internal) = (0.0, 0.0, 0.0);
+        for (a, (&fi, &fe)) in f_int.iter().zip(&self.load).enumerate() {
+            let (fi, fe) = (D::to3(fi), D::to3(fe));
+            for k in 0..d {
+                let total = fi[k] + fe[k] * lambda;
+                load += (fe[k] * lambda).powi(2);
+                internal += fi[k] * fi[k];
+                match self.free[a * d + k] {
+                    Some(q) => r[q as usize] = total,
+                    None => support += total * total,
+                }
+            }
+        }
+        let norm = r.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let scale = (load + support + internal).sqrt();
+        let relative = if scale > 0.0 { norm / scale } else { 0.0 };
+        (r, norm, relative)
+    }
+
+    /// The particle, of `particles`, with the largest residual |R_a| on its free
+    /// components (`free`: the unknown of each component).
+    fn worst_particle(free: &[Option<u32>], particles: usize, r: &[f64]) -> usize {
+        let d = D::N;
+        let n = |i: usize| {
+            (0..d)
+                .filter_map(|k| free[i * d + k].map(|q| r[q as usize].powi(2)))
+                .sum::<f64>()
+        };
+        (0..particles)
+            .max_by(|&a, &b| n(a).total_cmp(&n(b)))
+            .unwrap_or(0)
+    }
+
     /// Solves for equilibrium at pseudo-time t from the current state (Newton–Raphson):
     /// the prescribed components are moved to their values at t, then K Δu = R on the
     /// free components until |R| ≤ residual_tolerance · (force scale) or
     /// |Δu| ≤ increment_tolerance · |u| ([`Tolerance`]). Returns the iterations, or why
     /// it stalled.
     fn solve_at(&mut self, t: f64) -> Result<u32, Stalled> {
-        let d = D::N;
         let lambda = t / self.end_time;
         let mut u = self.u.clone();
         for p in &self.prescribed {
@@ -426,25 +464,7 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
                 reason: format!("{} = {:e}", b.quantity, b.value),
                 at_round_off: false,
             })?;
-            // R on the free components; the force scale √(|λ f_ext|² + |r|² + |f_int|²)
-            // of [`Tolerance`], r the reactions on the prescribed components.
-            let mut r = vec![0.0; self.unknowns];
-            let (mut load, mut support, mut internal) = (0.0, 0.0, 0.0);
-            for (a, (&fi, &fe)) in f_int.iter().zip(&self.load).enumerate() {
-                let (fi, fe) = (D::to3(fi), D::to3(fe));
-                for k in 0..d {
-                    let total = fi[k] + fe[k] * lambda;
-                    load += (fe[k] * lambda).powi(2);
-                    internal += fi[k] * fi[k];
-                    match self.free[a * d + k] {
-                        Some(q) => r[q as usize] = total,
-                        None => support += total * total,
-                    }
-                }
-            }
-            let norm = r.iter().map(|x| x * x).sum::<f64>().sqrt();
-            let scale = (load + support + internal).sqrt();
-            let relative = if scale > 0.0 { norm / scale } else { 0.0 };
+            let (r, norm, relative) = self.residual(&f_int, lambda);
             self.log.push(Iteration {
                 load_step: self.load_step,
                 time: t,
@@ -456,18 +476,7 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
                 solve_seconds: stats.seconds,
                 indefinite: stats.indefinite,
             });
-            let worst = || {
-                (0..self.mass.len())
-                    .max_by(|&a, &b| {
-                        let n = |i: usize| {
-                            (0..d)
-                                .filter_map(|k| self.free[i * d + k].map(|q| r[q as usize].powi(2)))
-                                .sum::<f64>()
-                        };
-                        n(a).total_cmp(&n(b))
-                    })
-                    .unwrap_or(0)
-            };
+            let worst = || Self::worst_particle(&self.free, self.mass.len(), &r);
             if !norm.is_finite() {
                 return Err(Stalled {
                     iterations: iteration,

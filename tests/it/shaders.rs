@@ -99,11 +99,7 @@ fn mixed_cases(dim: usize) -> Vec<Case> {
 /// Updated-Lagrangian scenes of dimension `dim`: each method, with and without the
 /// correction, and Gray–Monaghan with and without each of its terms.
 fn ul_cases(dim: usize) -> Vec<Case> {
-    let max: &[f64] = if dim == 2 {
-        &[1.0, 0.6]
-    } else {
-        &[0.5, 0.4, 0.3]
-    };
+    let max = block_max(dim);
     let all = "artificial_viscosity = { alpha = 1.0, beta = 1.0 }\n\
                artificial_stress = { epsilon = 0.3, n = 4.0 }\nxsph = 0.5";
     let mut cases = Vec::new();
@@ -119,6 +115,18 @@ fn ul_cases(dim: usize) -> Vec<Case> {
 }
 
 fn check_all<D: GpuDim>() {
+    check_tlsph::<D>();
+    check_mixed::<D>();
+    check_ul::<D>();
+    check_potential::<D>();
+    check_corotated::<D>();
+    check_dual_support::<D>();
+    check_galerkin::<D>();
+    check_without_constants::<D>();
+}
+
+/// TLSPH: every variant, state and rate models.
+fn check_tlsph<D: GpuDim>() {
     for case in variants() {
         for rate in [false, true] {
             let MethodSpec::Tlsph(spec) = &case.method.spec else {
@@ -133,6 +141,10 @@ fn check_all<D: GpuDim>() {
             }
         }
     }
+}
+
+/// Mixed SPH: the Upwind-SPH and JST-SPH variants.
+fn check_mixed<D: GpuDim>() {
     for case in mixed_cases(D::N) {
         let cpu: MixedSph<D> = build_method(&case).unwrap();
         let (_, constants) = mixed::scene(&case, &cpu);
@@ -141,6 +153,10 @@ fn check_all<D: GpuDim>() {
             validate_wgsl(&format!("{}D {} ({})", D::N, source.name, case.name), &src);
         }
     }
+}
+
+/// Godunov-SPH and Gray–Monaghan SPH, with and without correction.
+fn check_ul<D: GpuDim>() {
     for case in ul_cases(D::N) {
         let (scheme, sources) = match &case.method.spec {
             MethodSpec::GrayMonaghanSph(spec) => {
@@ -156,14 +172,14 @@ fn check_all<D: GpuDim>() {
             validate_wgsl(&format!("{}D {} ({})", D::N, source.name, case.name), &src);
         }
     }
+}
+
+/// TL-potential SPH: both forces, with viscosity.
+fn check_potential<D: GpuDim>() {
     for force in ["consistent", "reference-code"] {
         let keys =
             format!("force = \"{force}\"\nartificial_viscosity = {{ alpha = 1.0, beta = 1.0 }}");
-        let max: &[f64] = if D::N == 2 {
-            &[1.0, 0.6]
-        } else {
-            &[0.5, 0.4, 0.3]
-        };
+        let max = block_max(D::N);
         let case = block_case(max, "saint-venant-kirchhoff", "tl-potential", &keys);
         let MethodSpec::TlPotential(spec) = &case.method.spec else {
             unreachable!("a tl-potential case")
@@ -176,14 +192,13 @@ fn check_all<D: GpuDim>() {
             validate_wgsl(&format!("{}D {} ({force})", D::N, source.name), &src);
         }
     }
-    // Corotated TLSPH: each state model, each correction (the RKPM and CGCK gradients are
-    // solved on the host and compile as the linear correction), each kernel, with and
-    // without viscosity.
-    let max: &[f64] = if D::N == 2 {
-        &[1.0, 0.6]
-    } else {
-        &[0.5, 0.4, 0.3]
-    };
+}
+
+/// Corotated TLSPH: each state model, each correction (the RKPM and CGCK gradients are
+/// solved on the host and compile as the linear correction), each kernel, with and
+/// without viscosity.
+fn check_corotated<D: GpuDim>() {
+    let max = block_max(D::N);
     let av = "artificial_viscosity = { alpha = 1.0, beta = 1.0 }";
     for (model, keys) in [
         ("linear-elastic", "correction = \"none\""),
@@ -213,7 +228,11 @@ fn check_all<D: GpuDim>() {
             validate_wgsl(&format!("{}D {} ({model})", D::N, source.name), &src);
         }
     }
-    // Dual-support SPH in time: each state model of the block's material keys.
+}
+
+/// Dual-support SPH in time: each state model of the block's material keys.
+fn check_dual_support<D: GpuDim>() {
+    let max = block_max(D::N);
     for model in [
         "linear-elastic",
         "saint-venant-kirchhoff",
@@ -247,8 +266,12 @@ fn check_all<D: GpuDim>() {
         let src = shaders::compose::<D>(&krylov::KRYLOV, &constants);
         validate_wgsl(&format!("{}D krylov (hourglass {hourglass})", D::N), &src);
     }
-    // The total-Lagrangian Galerkin passes, rate and state models (the weak form's and
-    // the elements' passes are the same files).
+}
+
+/// The total-Lagrangian Galerkin passes, rate and state models (the weak form's and
+/// the elements' passes are the same files).
+fn check_galerkin<D: GpuDim>() {
+    let max = block_max(D::N);
     for model in ["hypoelastic", "neo-hookean"] {
         let case = block_case(max, model, "tl-weak-form", "");
         let rate = model == "hypoelastic";
@@ -259,7 +282,10 @@ fn check_all<D: GpuDim>() {
             validate_wgsl(&format!("{}D {} ({model})", D::N, source.name), &src);
         }
     }
-    // Passes without scene constants (neighbour build, scans) validate on their own.
+}
+
+/// Passes without scene constants (neighbour build, scans) validate on their own.
+fn check_without_constants<D: GpuDim>() {
     let ul_shaders = [
         gray_monaghan::SHADERS,
         godunov::SHADERS,
@@ -280,6 +306,15 @@ fn check_all<D: GpuDim>() {
             };
             validate_wgsl(source.name, &shaders::compose::<D>(&source, &constants));
         }
+    }
+}
+
+/// The extent of the test block in 2D and 3D.
+fn block_max(dim: usize) -> &'static [f64] {
+    if dim == 2 {
+        &[1.0, 0.6]
+    } else {
+        &[0.5, 0.4, 0.3]
     }
 }
 

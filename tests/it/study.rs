@@ -7,7 +7,9 @@ use meshless::material::Material;
 use meshless::scene::Case;
 use meshless::study::fields::{FinalState, analytic_fields, matched_fields, relative_l2};
 use meshless::study::suite::{AnalyticSolution, TimeMeasure};
-use meshless::study::{RUN_TIME_LIMIT, Status, StudyOptions, Suite, records, report, run_suite};
+use meshless::study::{
+    RUN_TIME_LIMIT, RunRecord, Status, StudyOptions, Suite, records, report, run_suite,
+};
 use std::path::PathBuf;
 
 fn studies() -> PathBuf {
@@ -152,80 +154,9 @@ fn a_blow_up_is_recorded_and_the_study_goes_on_then_resumes_without_redoing() {
         (n, n, 0)
     );
 
-    // The leapfrog variant at c_p·Δt/Δx = 2.2 and 4.3 (listed first) blows up at both spacings: failed, with
-    // time, step, particle, quantity and the driver's reason.
-    for r in first
-        .records
-        .iter()
-        .filter(|r| r.variant == "leapfrog-dt3e-3")
-    {
-        let Status::Failed {
-            time,
-            step,
-            particle,
-            quantity,
-        } = &r.status
-        else {
-            panic!("expected a failure, got {r:?}")
-        };
-        assert!(*time > 0.0 && *time < 0.01226 && *step >= 1, "{r:?}");
-        assert!(*particle < r.particles && !quantity.is_empty(), "{r:?}");
-        assert!(r.reason.contains("particle"), "{}", r.reason);
-        assert!(r.error_velocity.is_nan());
-    }
-    // The runs after it finished, with analytic errors that fall with the spacing.
-    // Measured (rl-rk4): e(v) = 0.30 at Δx = 0.2, 0.14 at 0.1; bound 0.5 and a fall.
-    for v in ["rl-rk4", "rkpm-leapfrog"] {
-        let e: Vec<f64> = first
-            .records
-            .iter()
-            .filter(|r| r.variant == v)
-            .map(|r| {
-                assert_eq!(r.status, Status::Ok, "{r:?}");
-                r.error_velocity
-            })
-            .collect();
-        assert!(e.len() == 2 && e[1] < e[0] && e[0] < 0.5, "{v}: {e:?}");
-    }
+    check_failures_and_errors(&first.records);
 
-    // Files: results CSV, the Markdown table and both plots.
-    for f in [
-        "results.csv",
-        "results.md",
-        "ci-velocity.png",
-        "ci-velocity.svg",
-        "ci-stress.png",
-        "ci-history-1.png",
-        "ci-history-2.svg",
-        "ci-history.csv",
-    ] {
-        let len = std::fs::metadata(dir.join(f)).unwrap().len();
-        assert!(len > 100, "{f}: {len} bytes");
-    }
-    // The history: every run's total energy against t in ms; a finished run's curve ends at
-    // the end time (12.26 ms, to within the series interval of 0.2 ms plus the last step),
-    // a failed one's before it.
-    let history = std::fs::read_to_string(dir.join("ci-history.csv")).unwrap();
-    let mut last_x = std::collections::BTreeMap::<String, f64>::new();
-    for line in history.lines().skip(1) {
-        let f: Vec<&str> = line.split(',').collect();
-        last_x.insert(format!("{}@{}", f[0], f[1]), f[2].parse().unwrap());
-    }
-    assert_eq!(last_x.len(), n, "one curve per run: {last_x:?}");
-    for (run, x) in &last_x {
-        if run.starts_with("leapfrog") {
-            assert!(*x < 12.0, "{run} failed early, its curve ends at {x} ms");
-        } else {
-            assert!((x - 12.26).abs() < 0.21, "{run} ends at {x} ms");
-        }
-    }
-    let png = std::fs::read(dir.join("ci-velocity.png")).unwrap();
-    assert_eq!(&png[1..4], b"PNG");
-    let svg = std::fs::read_to_string(dir.join("ci-velocity.svg")).unwrap();
-    assert!(
-        svg.contains("Pareto front") && svg.contains("rl-rk4"),
-        "labels in the SVG"
-    );
+    check_files(&dir, n);
 
     // Half-finished: drop the last two rows, as if the study had been stopped there.
     let path = dir.join("results.csv");
@@ -284,6 +215,84 @@ fn a_blow_up_is_recorded_and_the_study_goes_on_then_resumes_without_redoing() {
             assert!(table.contains(&shown), "{shown} not in\n{table}");
         }
     }
+}
+
+/// The first pass of the CI suite: the leapfrog variant failed with its time, step,
+/// particle, quantity and reason; the others finished with errors that fall with the
+/// spacing.
+fn check_failures_and_errors(recs: &[RunRecord]) {
+    // The leapfrog variant at c_p·Δt/Δx = 2.2 and 4.3 (listed first) blows up at both spacings: failed, with
+    // time, step, particle, quantity and the driver's reason.
+    for r in recs.iter().filter(|r| r.variant == "leapfrog-dt3e-3") {
+        let Status::Failed {
+            time,
+            step,
+            particle,
+            quantity,
+        } = &r.status
+        else {
+            panic!("expected a failure, got {r:?}")
+        };
+        assert!(*time > 0.0 && *time < 0.01226 && *step >= 1, "{r:?}");
+        assert!(*particle < r.particles && !quantity.is_empty(), "{r:?}");
+        assert!(r.reason.contains("particle"), "{}", r.reason);
+        assert!(r.error_velocity.is_nan());
+    }
+    // The runs after it finished, with analytic errors that fall with the spacing.
+    // Measured (rl-rk4): e(v) = 0.30 at Δx = 0.2, 0.14 at 0.1; bound 0.5 and a fall.
+    for v in ["rl-rk4", "rkpm-leapfrog"] {
+        let e: Vec<f64> = recs
+            .iter()
+            .filter(|r| r.variant == v)
+            .map(|r| {
+                assert_eq!(r.status, Status::Ok, "{r:?}");
+                r.error_velocity
+            })
+            .collect();
+        assert!(e.len() == 2 && e[1] < e[0] && e[0] < 0.5, "{v}: {e:?}");
+    }
+}
+
+/// The suite's output files, its energy history and its plot.
+fn check_files(dir: &std::path::Path, n: usize) {
+    // Files: results CSV, the Markdown table and both plots.
+    for f in [
+        "results.csv",
+        "results.md",
+        "ci-velocity.png",
+        "ci-velocity.svg",
+        "ci-stress.png",
+        "ci-history-1.png",
+        "ci-history-2.svg",
+        "ci-history.csv",
+    ] {
+        let len = std::fs::metadata(dir.join(f)).unwrap().len();
+        assert!(len > 100, "{f}: {len} bytes");
+    }
+    // The history: every run's total energy against t in ms; a finished run's curve ends at
+    // the end time (12.26 ms, to within the series interval of 0.2 ms plus the last step),
+    // a failed one's before it.
+    let history = std::fs::read_to_string(dir.join("ci-history.csv")).unwrap();
+    let mut last_x = std::collections::BTreeMap::<String, f64>::new();
+    for line in history.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        last_x.insert(format!("{}@{}", f[0], f[1]), f[2].parse().unwrap());
+    }
+    assert_eq!(last_x.len(), n, "one curve per run: {last_x:?}");
+    for (run, x) in &last_x {
+        if run.starts_with("leapfrog") {
+            assert!(*x < 12.0, "{run} failed early, its curve ends at {x} ms");
+        } else {
+            assert!((x - 12.26).abs() < 0.21, "{run} ends at {x} ms");
+        }
+    }
+    let png = std::fs::read(dir.join("ci-velocity.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    let svg = std::fs::read_to_string(dir.join("ci-velocity.svg")).unwrap();
+    assert!(
+        svg.contains("Pareto front") && svg.contains("rl-rk4"),
+        "labels in the SVG"
+    );
 }
 
 #[test]

@@ -26,6 +26,7 @@ use crate::material::Material;
 use crate::methods::{BlowUp, Method};
 use crate::observe::{Invariants, Snapshot};
 use crate::plasticity::History;
+use crate::quadrature::Shapes;
 use crate::run::{Engine, Failed};
 use crate::scene::Case;
 
@@ -245,6 +246,90 @@ struct SmoothPasses {
     settle: (Pipeline, wgpu::BindGroup),
 }
 
+/// The nodes' reference with V = m/ρ0, so that RHO0·V is the nodal mass, and the lists
+/// of the host's shape functions.
+fn upload_nodes<D: GpuDim>(gpu: &Gpu, host: &TlGalerkin<D>) -> DeviceReference {
+    let rho0 = host.material().rho0;
+    let mass_volume: Vec<f64> = host.mass().iter().map(|m| m / rho0).collect();
+    DeviceReference::upload::<D>(
+        gpu,
+        host.reference(),
+        &mass_volume,
+        host.boundary(),
+        &host.shapes().csr,
+        Extras::default(),
+    )
+}
+
+/// The flat u32 copy of a list of offsets.
+fn u32s(v: &[usize]) -> Vec<u32> {
+    v.iter().map(|&o| o as u32).collect()
+}
+
+/// The gather lists (offsets, then the point of every entry) and the entries' weighted
+/// test gradients w_q ∇Φ_a(X_q) and values w_q N_a(X_q) of the host's shape functions.
+fn gather_buffers<D: GpuDim>(
+    gpu: &Gpu,
+    layout: &Layout,
+    host: &TlGalerkin<D>,
+) -> (wgpu::Buffer, wgpu::Buffer) {
+    let (shapes, points, gather) = (host.shapes(), host.points(), host.gather());
+    let mut lists = u32s(&gather.offsets);
+    lists.extend(&gather.point);
+    let gather_lists = gpu.storage("gather lists", &lists);
+    let (weighted, values): (Vec<D::V>, Vec<f64>) = (0..gather.point.len())
+        .map(|e| {
+            let (q, p) = (gather.point[e] as usize, gather.pair[e] as usize);
+            let w = points.weight[q];
+            (shapes.test_gradient(p) * w, w * shapes.n[p])
+        })
+        .unzip();
+    let mut flat = layout.entries.zeroed();
+    layout.entries.write_v::<D>(&mut flat, "WG", &weighted);
+    layout.entries.write_s(&mut flat, "WN", &values, 0.0);
+    let entries = gpu.storage("gather entries", &flat);
+    (gather_lists, entries)
+}
+
+impl SmoothPasses {
+    /// The passes of the velocity smoothing with the functions `s` at the nodes, bound to
+    /// the state `y` and the nodes' `reference`.
+    fn new<D: GpuDim>(
+        gpu: &Gpu,
+        layout: &Layout,
+        s: &Shapes<D>,
+        compose: &dyn Fn(&Source) -> String,
+        reference: &wgpu::Buffer,
+        y: &wgpu::Buffer,
+        n: usize,
+    ) -> Result<Self, GpuError> {
+        let mut w = layout.smooth.zeroed();
+        layout.smooth.write_s(&mut w, "N", &s.n, 0.0);
+        let source = compose(&SMOOTH);
+        let smooth = gpu.pipeline("smooth velocities", &source, "smooth_velocities")?;
+        let settle = gpu.pipeline("settle", &source, "settle")?;
+        let (offsets, ids, weights) = (
+            gpu.storage("smoothing offsets", &u32s(&s.csr.offsets)),
+            gpu.storage("smoothing ids", &s.csr.ids),
+            gpu.storage("smoothing weights", &w),
+        );
+        let smoothed = gpu.zeroed("smoothed velocities", (n * D::N * 4) as u64);
+        let table = [
+            ("smooth_offsets", &offsets),
+            ("smooth_ids", &ids),
+            ("smooth_weights", &weights),
+            ("reference", reference),
+            ("y", y),
+            ("smoothed", &smoothed),
+        ];
+        let (smooth_bind, settle_bind) = (gpu.bind(&smooth, &table)?, gpu.bind(&settle, &table)?);
+        Ok(Self {
+            smooth: (smooth, smooth_bind),
+            settle: (settle, settle_bind),
+        })
+    }
+}
+
 /// Value of `status[0]` when no point failed.
 const STATUS_OK: u32 = u32::MAX;
 
@@ -288,7 +373,7 @@ impl<D: GpuDim> GpuGalerkin<D> {
         check_f32_run(case, host.boundary())?;
         let y0_host = host.initial_state();
         check_f32_particles::<D>(case, host.reference(), &y0_host.u, &y0_host.v, host.body())?;
-        let (shapes, points, gather) = (host.shapes(), host.points(), host.gather());
+        let (shapes, points) = (host.shapes(), host.points());
         let (n, q) = (host.reference().len(), points.len());
         let smoothing = host.smoothing();
         let layout = Layout::new(
@@ -306,35 +391,11 @@ impl<D: GpuDim> GpuGalerkin<D> {
         gpu.check_size("kinematics buffer", layout.kin.bytes())?;
         let compose = |s: &Source| shaders::compose::<D>(s, &constants);
 
-        // The nodes' reference with V = m/ρ0, so that RHO0·V is the nodal mass.
-        let rho0 = host.material().rho0;
-        let mass_volume: Vec<f64> = host.mass().iter().map(|m| m / rho0).collect();
-        let device = DeviceReference::upload::<D>(
-            &gpu,
-            host.reference(),
-            &mass_volume,
-            host.boundary(),
-            &shapes.csr,
-            Extras::default(),
-        );
+        let device = upload_nodes(&gpu, &host);
         let mut pair = layout.pair.zeroed();
         layout.pair.write_v::<D>(&mut pair, "G", &shapes.grad);
         let pair = gpu.storage("per-pair shape functions", &pair);
-        let u32s = |v: &[usize]| v.iter().map(|&o| o as u32).collect::<Vec<u32>>();
-        let mut lists = u32s(&gather.offsets);
-        lists.extend(&gather.point);
-        let gather_lists = gpu.storage("gather lists", &lists);
-        let (weighted, values): (Vec<D::V>, Vec<f64>) = (0..gather.point.len())
-            .map(|e| {
-                let (q, p) = (gather.point[e] as usize, gather.pair[e] as usize);
-                let w = points.weight[q];
-                (shapes.test_gradient(p) * w, w * shapes.n[p])
-            })
-            .unzip();
-        let mut flat = layout.entries.zeroed();
-        layout.entries.write_v::<D>(&mut flat, "WG", &weighted);
-        layout.entries.write_s(&mut flat, "WN", &values, 0.0);
-        let entries = gpu.storage("gather entries", &flat);
+        let (gather_lists, entries) = gather_buffers(&gpu, &layout, &host);
         let status = gpu.storage("status", &[STATUS_OK]);
         let kin = gpu.zeroed("kinematics", layout.kin.bytes());
         let plastic = host.plastic().is_some();
@@ -402,36 +463,9 @@ impl<D: GpuDim> GpuGalerkin<D> {
         };
         let points_y = gpu.bind(&points_pipeline, &table(y, stepper.buffer(Buf::Acc)))?;
         let reduction = Reduction::new(&gpu, &compose(&REDUCE), &table(y, rates_d), n)?;
-        let smooth = match smoothing {
-            Some(s) => {
-                let mut w = layout.smooth.zeroed();
-                layout.smooth.write_s(&mut w, "N", &s.n, 0.0);
-                let source = compose(&SMOOTH);
-                let smooth = gpu.pipeline("smooth velocities", &source, "smooth_velocities")?;
-                let settle = gpu.pipeline("settle", &source, "settle")?;
-                let (offsets, ids, weights) = (
-                    gpu.storage("smoothing offsets", &u32s(&s.csr.offsets)),
-                    gpu.storage("smoothing ids", &s.csr.ids),
-                    gpu.storage("smoothing weights", &w),
-                );
-                let smoothed = gpu.zeroed("smoothed velocities", (n * D::N * 4) as u64);
-                let table = [
-                    ("smooth_offsets", &offsets),
-                    ("smooth_ids", &ids),
-                    ("smooth_weights", &weights),
-                    ("reference", &device.reference),
-                    ("y", y),
-                    ("smoothed", &smoothed),
-                ];
-                let (smooth_bind, settle_bind) =
-                    (gpu.bind(&smooth, &table)?, gpu.bind(&settle, &table)?);
-                Some(SmoothPasses {
-                    smooth: (smooth, smooth_bind),
-                    settle: (settle, settle_bind),
-                })
-            }
-            None => None,
-        };
+        let smooth = smoothing
+            .map(|s| SmoothPasses::new(&gpu, &layout, s, &compose, &device.reference, y, n))
+            .transpose()?;
         let unsmoothed = smooth.is_none();
         Ok(Self {
             gpu,

@@ -42,625 +42,72 @@ use crate::scene::Case;
 use crate::tensor::Dim;
 use bytemuck::{Pod, Zeroable};
 
-/// Shared functions of the mixed passes: indexing, the pair force.
-pub(super) const MIXED: Wgsl = wgsl!("mixed/mixed.wgsl");
-/// Positions, velocities and the F and H of the stress.
-pub(super) const MOTION: Wgsl = wgsl!("mixed/mixed_motion.wgsl");
-/// The images of ghosts.
-pub(super) const IMAGES: Wgsl = wgsl!("mixed/mixed_images.wgsl");
-/// Strain energy and the CFL pair wave speed, for the reduction.
-const ENERGY: Wgsl = wgsl!("mixed/mixed_energy.wgsl");
+mod evaluator;
+mod layout;
+mod sources;
 
-/// A ghost's source particle and its image (reflection and sign), per ghost.
-const GHOST_MAP: [Traffic; 2] = [
-    read("ghost_src", [1, 0, 0], NONE),
-    read("ghost_img", [1, 1, 0], NONE),
-];
+use evaluator::{Bound, Evaluator, Passes, StagePoints};
+use layout::{EXTRAS, pair_data};
+pub use layout::{MixedLayout, scene};
+pub use sources::{BOND, FORCES, GHOSTS, KINEMATICS, MOMENTUM, PLASTIC, REDUCE, SHADERS, SLOPES};
+pub(super) use sources::{IMAGES, MIXED, MOTION};
 
-/// Ghost motion and ghost fields; an item is a ghost. The gathers read a ghost's values
-/// once each, counted here, not in the gathers.
-pub const GHOSTS: Source = source!(
-    "mixed/mixed_ghosts.wgsl",
-    [MIXED, IMAGES],
-    [("ghost_img", false), ("field", true), ("y", false)],
-    &[
-        PassBytes {
-            entry: "ghost_motion",
-            traffic: &[
-                GHOST_MAP[0],
-                GHOST_MAP[1],
-                read("y", [0, 2, 0], NONE),
-                write("field", [0, 2, 0], NONE),
-            ],
-        },
-        PassBytes {
-            entry: "ghost_kin",
-            traffic: &[
-                GHOST_MAP[0],
-                GHOST_MAP[1],
-                read("field", [0, 0, 1], NONE),
-                write("field", [0, 0, 1], NONE),
-                read("field", [0, 0, 1], NONE).when(&["KIN_H"]),
-                write("field", [0, 0, 1], NONE).when(&["KIN_H"]),
-            ],
-        },
-        PassBytes {
-            entry: "ghost_slopes",
-            traffic: &[
-                GHOST_MAP[0],
-                GHOST_MAP[1],
-                read("field", NONE, NONE).slopes(1),
-                write("field", NONE, NONE).slopes(1),
-            ],
-        },
-        PassBytes {
-            entry: "ghost_laplacian",
-            traffic: &[
-                GHOST_MAP[0],
-                GHOST_MAP[1],
-                read("field", [0, 1, 0], NONE),
-                write("field", [0, 1, 0], NONE),
-            ],
-        },
-    ]
-);
-/// ∇0v, P(F, H, J) and the rates of F, H, J.
-pub const KINEMATICS: Source = source!(
-    "mixed/mixed_kinematics.wgsl",
-    [MECHANICS, MIXED, MOTION, EIGEN, PLASTICITY],
-    [("pair", false), ("y", false), ("kin", true), ("d", true)],
-    &[PassBytes {
-        entry: "kinematics",
-        traffic: &[
-            read("offsets", [1, 0, 0], NONE),
-            read("ids", NONE, [1, 0, 0]),
-            // ∇0W̃_ab.
-            read("pair", NONE, [0, 1, 0]),
-            // v, F; H, J and p where evolved; ghosts' v and the bond-based F^c from kin.
-            read("y", [0, 1, 1], NONE),
-            read("y", [0, 0, 1], NONE).when(&["EVOLVE_H"]),
-            read("y", [1, 0, 0], NONE).when(&["EVOLVE_J"]),
-            read("y", [1, 0, 0], NONE).when(&["AC"]),
-            read("kin", NONE, NONE),
-            read("kin", [0, 0, 1], NONE).when(&["BOND"]),
-            read("hist", [10, 0, 0], NONE).when(&["MODEL == MODEL_VON_MISES_PLASTIC"]),
-            // P (and H).
-            write("kin", [0, 0, 1], NONE),
-            write("kin", [0, 0, 1], NONE).when(&["KIN_H"]),
-            // Ḟ, Ḣ, J̇, ṗ.
-            write("d", [0, 0, 1], NONE),
-            write("d", [0, 0, 1], NONE).when(&["EVOLVE_H"]),
-            write("d", [1, 0, 0], NONE).when(&["EVOLVE_J"]),
-            write("d", [1, 0, 0], NONE).when(&["AC"]),
-            read_write("status", NONE, NONE),
-        ],
-    }]
-);
-/// The bond-based F^c (seed 002 eqs 37, 39).
-pub const BOND: Source = source!(
-    "mixed/mixed_bond.wgsl",
-    [MIXED, MOTION],
-    [("pair", false), ("y", false), ("kin", true)],
-    &[PassBytes {
-        entry: "bond_f",
-        traffic: &[
-            read("offsets", [1, 0, 0], NONE),
-            read("ids", NONE, [1, 0, 0]),
-            // X_b − X_a and the bond weight.
-            read("pair", NONE, [1, 1, 0]),
-            // u, F; ghosts' u from kin.
-            read("y", [0, 1, 1], NONE),
-            read("kin", NONE, NONE),
-            write("kin", [0, 0, 1], NONE),
-        ],
-    }]
-);
-/// Least-squares slopes of v and P, or the Laplacian ∇²v.
-pub const SLOPES: Source = source!(
-    "mixed/mixed_slopes.wgsl",
-    [MIXED, MOTION],
-    [("pair", false), ("y", false), ("out", true), ("kin", false)],
-    &[
-        PassBytes {
-            entry: "slopes",
-            traffic: &[
-                read("offsets", [1, 0, 0], NONE),
-                read("ids", NONE, [1, 0, 0]),
-                // Least-squares weights.
-                read("pair", NONE, [0, 1, 0]),
-                read("y", [0, 1, 0], NONE),
-                // P (and ghosts' v).
-                read("kin", [0, 0, 1], NONE),
-                write("out", NONE, NONE).slopes(1),
-            ],
-        },
-        PassBytes {
-            entry: "laplacian",
-            traffic: &[
-                read("offsets", [1, 0, 0], NONE),
-                read("ids", NONE, [1, 0, 0]),
-                // Laplacian weights.
-                read("pair", NONE, [1, 0, 0]),
-                read("y", [0, 1, 0], NONE),
-                read("kin", NONE, NONE),
-                write("out", [0, 1, 0], NONE),
-            ],
-        },
-    ]
-);
-/// T, D(p) and D(J) per particle.
-pub const FORCES: Source = source!(
-    "mixed/mixed_forces.wgsl",
-    [MIXED, MOTION],
-    [
-        ("pair", false),
-        ("y", false),
-        ("kin", false),
-        ("force", true),
-        ("second", false)
-    ],
-    &[PassBytes {
-        entry: "forces",
-        traffic: &[
-            read("offsets", [1, 0, 0], NONE),
-            read("ids", NONE, [1, 0, 0]),
-            // ∇0W̃_ab, ∇0W̃_ba; X_b − X_a (upwind) or the JST scale.
-            read("pair", NONE, [0, 2, 0]),
-            read("pair", NONE, [0, 1, 0]).when(&["STAB == STAB_UPWIND"]),
-            read("pair", NONE, [1, 0, 0]).when(&["STAB == STAB_JST"]),
-            read("y", [0, 2, 0], NONE),
-            // P (and H).
-            read("kin", [0, 0, 1], NONE),
-            read("kin", [0, 0, 1], NONE).when(&["KIN_H"]),
-            // The Laplacian (JST) or the slopes (reconstruction).
-            read("second", [0, 1, 0], NONE).when(&["STAB == STAB_JST"]),
-            read("second", NONE, NONE)
-                .slopes(1)
-                .when(&["STAB == STAB_UPWIND", "RECON"]),
-            // T, D(p), D(J).
-            write("force", [1, 2, 0], NONE),
-        ],
-    }]
-);
-/// The projection's sums and solve, and the rates with the boundary conditions.
-pub const MOMENTUM: Source = source!(
-    "mixed/mixed_momentum.wgsl",
-    [MIXED, BOUNDARY, REFERENCE],
-    [
-        ("force", false),
-        ("y", false),
-        ("y0", false),
-        ("reference", false),
-        ("ext", false),
-        ("kin", true),
-        ("d", true)
-    ],
-    &[
-        // Per workgroup, 16 partial sums (not counted).
-        PassBytes {
-            entry: "balance_sums",
-            traffic: &[
-                read("reference", [1, 1, 0], NONE),
-                read("y", [0, 2, 0], NONE),
-                read("y0", [0, 2, 0], NONE),
-                read("force", [0, 2, 0], NONE),
-                write("partials", NONE, NONE),
-            ],
-        },
-        // One item: the partial sums of every workgroup in (not counted), the rotation,
-        // translation and centre of the projection out.
-        PassBytes {
-            entry: "balance_solve",
-            traffic: &[
-                read("partials", NONE, NONE),
-                write("force", [9, 0, 0], NONE)
-            ],
-        },
-        PassBytes {
-            entry: "rates",
-            traffic: &[
-                // T, D(p); D(J) with H kept.
-                read("force", [0, 2, 0], NONE),
-                read("force", [1, 0, 0], NONE).when(&["KIN_H"]),
-                read("y", [0, 1, 0], NONE),
-                read("y", [0, 1, 0], NONE).when(&["PROJECTION"]),
-                read("y0", [0, 2, 0], NONE).when(&["PROJECTION"]),
-                read("reference", [2, 0, 0], NONE),
-                read("reference", [0, 1, 0], NONE).when(&["PROJECTION"]),
-                read("ext", [0, 1, 0], NONE),
-                write("kin", [1, 0, 0], NONE),
-                write("d", [0, 2, 0], NONE),
-                read_write("d", [1, 0, 0], NONE).when(&["KIN_H"]),
-            ],
-        },
-    ]
-);
-/// Energies, momenta, checks and the CFL pair wave speed of a state.
-pub const REDUCE: Source = source!(
-    "common/reduce.wgsl",
-    [
-        MECHANICS, MIXED, MOTION, ENERGY, EIGEN, PLASTICITY, REFERENCE
-    ],
-    [("y", false), ("kin", false), ("reference", false)]
-);
-/// The per-step commit of the plastic history.
-pub const PLASTIC: Source = source!(
-    "mixed/mixed_plastic.wgsl",
-    [MIXED, EIGEN, PLASTICITY, PLASTIC_STORE],
-    [("y", false)],
-    &[PassBytes {
-        entry: "commit",
-        traffic: &[
-            read("y", [0, 0, 1], NONE),
-            read_write("hist", [10, 0, 0], NONE),
-        ],
-    }]
-);
-
-/// The passes compiled with a mixed scene's constants ([`scene`]).
-pub const SHADERS: &[Source] = &[
-    GHOSTS, KINEMATICS, PLASTIC, BOND, SLOPES, FORCES, MOMENTUM, CORRECTOR, REDUCE, INTEGRATE,
-    CONTACT, LOADS, PRESCRIBED,
-];
-
-/// The flat buffers of a mixed scene, each described once ([`Fields`]).
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct MixedLayout {
-    /// Real particles and ghosts.
-    pub n: usize,
-    pub ghosts: usize,
-    pub dim: usize,
-    /// The kinematics keep H for the D(J) gather (Upwind-SPH with J evolved).
-    pub kin_h: bool,
-    /// The state [u | v | F − I | H − I | J − 1 | p] of the real particles (H and J where
-    /// evolved, the pressure p under artificial compressibility).
-    pub state: Fields,
-    /// [P | H − I] of the real particles then the ghosts, the ghost motion [u | v], the
-    /// bond-based F^c − I and the power of supports and loads.
-    pub kin: Fields,
-    /// [T | D(p) | D(J)] of the real particles and the projection's λ, μ, c − X̄ (vec3
-    /// padded to four floats each).
-    pub force: Fields,
-    /// Per pair in CSR order: G_ab = V_b g_ab, G_ba = V_b g_ba, d_ab = X_b − X_a (upwind
-    /// flux, bond-based F), s_ab (JST), w_ab (least-squares slopes), ℓ_ab (JST
-    /// Laplacian), w_ab (bond-based F), ℓ_ab of the pseudo-viscosity (eq 58).
-    pub pair: Fields,
-    pub reference: Fields,
-    /// The corrector of artificial compressibility (mixed_corrector.wgsl): the iterate
-    /// [w | δp] = [v − v^int | p − p^n], its pseudo stage, their rates, v^int, p^n, H^n
-    /// and the constant part c of the pressure equation.
-    pub corr: Fields,
+/// The length of the slopes (upwind with reconstruction) or Laplacians (JST) of the
+/// extended particles, in floats; zero without either.
+fn second_len<D: GpuDim>(layout: &MixedLayout) -> usize {
+    let (n, ng) = (layout.n, layout.ghosts);
+    if layout.pair.has("ELL") {
+        (n + ng) * D::N
+    } else if layout.pair.has("LS") {
+        (n + ng) * (D::N + 1) * D::N * D::N
+    } else {
+        0
+    }
 }
 
-impl MixedLayout {
-    /// The layout of the scene set up in `cpu`.
-    pub fn of<D: Dim>(cpu: &MixedSph<D>) -> Self {
-        let n = cpu.reference().len();
-        let ghosts = cpu.extended_reference().0.len() - n;
-        let pairs = cpu.neighbours().pair_count();
-        let conserved = cpu.conserved();
-        let (evolves_h, evolves_j) = (conserved.evolves_h(), cpu.evolves_j());
-        let corrector = cpu.corrector();
-        let ac = corrector.is_some();
-        let pseudo_viscosity = corrector.is_some_and(|c| c.laplacian_weights().is_some());
-        let (jst, bond) = (cpu.jst().is_some(), cpu.bond_weights().is_some());
-        let upwind = !jst;
-        let kin_h = upwind && evolves_j;
-        let dim = D::N;
-        let constrained = cpu.boundary().constrained.len();
+/// The ghost table: the source and the image (r, σ) of every ghost.
+fn ghost_table<D: GpuDim>(gpu: &Gpu, cpu: &MixedSph<D>) -> (wgpu::Buffer, wgpu::Buffer) {
+    let table = cpu.ghosts().table();
+    let ghost_src: Vec<u32> = table.iter().map(|&(s, _)| s).collect();
+    let ghost_img: Vec<f32> = table
+        .iter()
+        .flat_map(|(_, m)| {
+            (0..D::N)
+                .map(|l| m.axis_sign(l) as f32)
+                .chain([m.sign() as f32])
+        })
+        .collect();
+    (
+        gpu.storage("ghost sources", &ghost_src),
+        gpu.storage("ghost images", &ghost_img),
+    )
+}
+
+/// The buffers the passes write besides the state and its rates.
+struct Scratch {
+    kin: wgpu::Buffer,
+    force: wgpu::Buffer,
+    status: wgpu::Buffer,
+    /// The projection's partial sums, per workgroup.
+    partials: wgpu::Buffer,
+    /// The plastic history (plasticity.wgsl; 10 floats of a dummy for elastic models).
+    hist: wgpu::Buffer,
+}
+
+impl Scratch {
+    fn new(gpu: &Gpu, layout: &MixedLayout, plastic: bool) -> Self {
+        let n = layout.n;
+        let (gx, gy) = gpu.groups(n as u32);
         Self {
-            n,
-            ghosts,
-            dim,
-            kin_h,
-            state: Fields::new("", dim)
-                .vectors("U", true, n)
-                .vectors("V", true, n)
-                .tensors("F", true, n)
-                .tensors("H", evolves_h, n)
-                .scalars("J", evolves_j, n)
-                .scalars("PRES", ac, n),
-            kin: reduction::with_reactions(
-                Fields::new("K", dim)
-                    .tensors("P", true, n + ghosts)
-                    .tensors("H", kin_h, n + ghosts)
-                    .vectors("GM", true, 2 * ghosts)
-                    .tensors("FC", bond, n)
-                    .scalars("POW", true, n),
-                constrained,
+            kin: gpu.zeroed("kinematics", layout.kin.bytes()),
+            force: gpu.zeroed("forces", layout.force.bytes()),
+            status: gpu.storage("status", &STATUS_OK),
+            partials: gpu.zeroed("balance partials", u64::from(gx * gy) * 16 * 4),
+            hist: gpu.storage(
+                "plastic history",
+                &History::VIRGIN_F32.repeat(if plastic { n } else { 1 }),
             ),
-            force: Fields::new("F", dim)
-                .vectors("T", true, n)
-                .vectors("D", true, n)
-                .scalars("J", true, n)
-                .block("PROJ", true, 3, 4),
-            pair: Fields::new("P", dim)
-                .vectors("G", true, pairs)
-                .vectors("GR", true, pairs)
-                .vectors("DX", upwind || bond, pairs)
-                .scalars("S", jst, pairs)
-                .vectors("LS", upwind && cpu.reconstruction(), pairs)
-                .scalars("ELL", jst, pairs)
-                .scalars("W", bond, pairs)
-                .scalars("BL", pseudo_viscosity, pairs),
-            reference: reference::fields(n, constrained, dim, EXTRAS),
-            corr: Fields::new("C", dim)
-                .vectors("V", ac, n)
-                .scalars("Q", ac, n)
-                .vectors("V1", ac, n)
-                .scalars("Q1", ac, n)
-                .vectors("RV", ac, n)
-                .scalars("RQ", ac, n)
-                .vectors("VI", ac, n)
-                .scalars("PN", ac, n)
-                .tensors("HN", ac, n)
-                .scalars("C", ac, n),
         }
-    }
-
-    fn stepped(&self) -> StateLayout {
-        StateLayout {
-            n: self.n,
-            dim: self.dim,
-            rest: self.state.offset("F"),
-            len: self.state.len(),
-        }
-    }
-
-    /// A mixed state as a flat f32 state: F − I, H − I and J − 1 are formed in f64.
-    fn encode<D: GpuDim>(&self, y: &MixedState<D>) -> Vec<f32> {
-        let l = &self.state;
-        let mut flat = l.zeroed();
-        l.write_v::<D>(&mut flat, "U", &y.u);
-        l.write_v::<D>(&mut flat, "V", &y.v);
-        l.write_t::<D>(&mut flat, "F", &y.f, D::identity());
-        l.write_t::<D>(&mut flat, "H", &y.h, D::identity());
-        l.write_s(&mut flat, "J", &y.j, 1.0);
-        l.write_s(&mut flat, "PRES", &y.pressure, 0.0);
-        flat
-    }
-
-    /// Decodes a flat state (`excess`: F, H, J are stored less I, I, 1) or rate buffer.
-    fn decode<D: GpuDim>(&self, flat: &[f32], excess: bool) -> MixedState<D> {
-        let (one_t, one) = if excess {
-            (D::identity(), 1.0)
-        } else {
-            (D::zero_t(), 0.0)
-        };
-        let l = &self.state;
-        MixedState {
-            u: l.read_v::<D>(flat, "U"),
-            v: l.read_v::<D>(flat, "V"),
-            f: l.read_t::<D>(flat, "F", one_t),
-            h: l.read_t::<D>(flat, "H", one_t),
-            j: l.read_s(flat, "J", one),
-            pressure: l.read_s(flat, "PRES", 0.0),
-        }
-    }
-}
-
-/// The reference fields the mixed passes read besides X and V: X − X̄ for the projection.
-const EXTRAS: Extras = Extras {
-    lo: false,
-    centred: true,
-};
-
-/// The layout and compiled-in constants of a scene's mixed passes, from its CPU set-up.
-///
-/// Under artificial compressibility the material's constants are the predictor's: BULK
-/// and LAMBDA of κ̃, and C_P = c̃_p; the true κ enters the corrector as INV_BULK = 1/κ,
-/// zero at ν = 0.5.
-pub fn scene<D: GpuDim>(case: &Case, cpu: &MixedSph<D>) -> (MixedLayout, Constants) {
-    let layout = MixedLayout::of(cpu);
-    let l = &layout;
-    let spec = super::scheme(case).and_then(|(o, _)| o.artificial_compressibility);
-    let material = &match spec {
-        Some(ac) => ac.predictor(cpu.material()),
-        None => *cpu.material(),
-    };
-    let corrector = cpu.corrector();
-    let total_vol: f64 = cpu.volume().iter().sum();
-    let jst = cpu.jst();
-    let (eps2, eps4) = jst.map_or((0.0, 0.0), |(c, ..)| (c.eps2, c.eps4));
-    let u = |x: usize| x as u32;
-    let constants = Constants::default()
-        .u32("N", u(l.n))
-        .u32("BODIES", u(case.bodies.len()))
-        .u32("NG", u(l.ghosts))
-        .material(material)
-        .f32("C_P", material.p_wave_speed())
-        .f32("C_S", material.s_wave_speed())
-        .f32("SPACING", case.spacing)
-        .u32(
-            "PAIR_STRETCH",
-            u32::from(cpu.cfl_wave_speed() == CflWaveSpeed::Pair),
-        )
-        .f32("H", cpu.smoothing_length())
-        .choice("STAB", &["UPWIND", "JST"], usize::from(jst.is_some()))
-        .u32("RECON", u32::from(cpu.reconstruction()))
-        .f32("EPS2", eps2)
-        .f32("EPS4", eps4)
-        .choice(
-            "MOMENTUM",
-            &["WEAK", "SYMMETRISED"],
-            usize::from(cpu.momentum() == Momentum::Symmetrised),
-        )
-        .u32("EVOLVE_H", u32::from(l.state.has("H")))
-        .u32("EVOLVE_J", u32::from(l.state.has("J")))
-        .u32("KIN_H", u32::from(l.kin_h))
-        .u32("BOND", u32::from(l.kin.has("FC")))
-        .u32("PROJECTION", u32::from(cpu.projection()))
-        .u32("GROUPS", u(l.n).div_ceil(WORKGROUP))
-        .f32("TOTAL_VOL", total_vol)
-        .u32("REST_OFF", u(l.state.offset("F")))
-        .u32("AC", u32::from(corrector.is_some()))
-        .f32("INV_BULK", corrector.map_or(0.0, |c| 1.0 / c.kappa()))
-        .f32("TOLERANCE", corrector.map_or(0.0, |c| c.tolerance()))
-        .u32(
-            "MAX_ITERATIONS",
-            corrector.map_or(0, |c| c.max_iterations()),
-        )
-        .u32("PSEUDO_VISCOSITY", u32::from(l.pair.has("BL")));
-    let constants = [&l.state, &l.kin, &l.force, &l.pair, &l.reference, &l.corr]
-        .into_iter()
-        .fold(constants, |c, fields| fields.constants(c));
-    (layout, constants)
-}
-
-/// The per-pair buffer of the scene set up in `cpu`, host side (f32).
-fn pair_data<D: GpuDim>(cpu: &MixedSph<D>, l: &Fields) -> Vec<f32> {
-    let csr = cpu.neighbours();
-    let (x0, vol) = cpu.extended_reference();
-    let (grad, grad_rev) = cpu.pair_gradients();
-    let rows = || (0..csr.len()).flat_map(|a| csr.range(a).map(move |q| (a, q)));
-    // Gradients scaled by V_b: G_b(X_a) = V_b g_ab.
-    let scaled = |g: &[D::V]| -> Vec<D::V> {
-        rows()
-            .map(|(_, q)| g[q] * vol[csr.ids[q] as usize])
-            .collect()
-    };
-    let mut flat = l.zeroed();
-    l.write_v::<D>(&mut flat, "G", &scaled(grad));
-    l.write_v::<D>(&mut flat, "GR", &scaled(grad_rev));
-    if l.has("DX") {
-        let d: Vec<D::V> = rows()
-            .map(|(a, q)| x0[csr.ids[q] as usize] - x0[a])
-            .collect();
-        l.write_v::<D>(&mut flat, "DX", &d);
-    }
-    if let Some((_, ell, s)) = cpu.jst() {
-        l.write_s(&mut flat, "S", s, 0.0);
-        l.write_s(&mut flat, "ELL", ell, 0.0);
-    }
-    if l.has("LS") {
-        l.write_v::<D>(&mut flat, "LS", cpu.ls_weights());
-    }
-    if let Some(w) = cpu.bond_weights() {
-        l.write_s(&mut flat, "W", w, 0.0);
-    }
-    if let Some(ell) = cpu.corrector().and_then(|c| c.laplacian_weights()) {
-        l.write_s(&mut flat, "BL", ell, 0.0);
-    }
-    flat
-}
-
-/// The uniform `Stage` of `mixed_momentum.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-struct StagePoints {
-    half_dt: f32,
-    mid: u32,
-}
-
-/// The pipelines of the mixed passes.
-struct Passes {
-    ghost_motion: Pipeline,
-    ghost_kin: Pipeline,
-    /// Ghost slopes or Laplacians.
-    ghost_second: Pipeline,
-    /// The bond-based F^c, where the scene uses it.
-    bond: Option<Pipeline>,
-    kinematics: Pipeline,
-    /// Slopes or Laplacians.
-    second: Pipeline,
-    forces: Pipeline,
-    balance_sums: Pipeline,
-    balance_solve: Pipeline,
-    rates: Pipeline,
-}
-
-/// The bind groups of one rate evaluation (a source state and its balance points).
-struct Bound {
-    ghost_motion: wgpu::BindGroup,
-    ghost_kin: wgpu::BindGroup,
-    bond: Option<wgpu::BindGroup>,
-    kinematics: wgpu::BindGroup,
-    /// Slopes or Laplacians, and their ghost fill.
-    second: Option<(wgpu::BindGroup, wgpu::BindGroup)>,
-    forces: wgpu::BindGroup,
-    balance_sums: wgpu::BindGroup,
-    balance_solve: wgpu::BindGroup,
-    rates: wgpu::BindGroup,
-    /// The corrector's start, under artificial compressibility.
-    corrector_start: Option<wgpu::BindGroup>,
-}
-
-/// The passes of a rate evaluation and their bind groups.
-struct Evaluator {
-    passes: Passes,
-    /// The corrector of every stage under artificial compressibility.
-    corrector: Option<DeviceCorrector>,
-    /// Bind groups by [`Evaluator::key`].
-    bound: Vec<((Buf, bool), Bound)>,
-    n: u32,
-    ghosts: u32,
-    projection: bool,
-    /// The second TVD-RK2 stage balances about x^n + Δt/2 (v^n + v*) (projection on).
-    tvd_mid: bool,
-}
-
-impl Evaluator {
-    /// The source buffer of an evaluation, and whether it balances about the mid-step
-    /// points.
-    fn key(&self, e: Evaluation) -> (Buf, bool) {
-        (e.src, self.tvd_mid && e.index == 1)
-    }
-
-    fn bound(&self, key: (Buf, bool)) -> &Bound {
-        &self
-            .bound
-            .iter()
-            .find(|(k, _)| *k == key)
-            .expect("every evaluation of the program is bound")
-            .1
-    }
-
-    /// The motion of the ghosts and, with the bond-based F, F^c − I of the state bound
-    /// in `b`: what the kinematics read besides the state.
-    fn record_motion(&self, gpu: &Gpu, pass: &mut wgpu::ComputePass<'_>, b: &Bound) {
-        let p = &self.passes;
-        if self.ghosts > 0 {
-            gpu.dispatch(pass, &p.ghost_motion, &b.ghost_motion, self.ghosts);
-        }
-        if let (Some(pipeline), Some(bond)) = (&p.bond, &b.bond) {
-            gpu.dispatch(pass, pipeline, bond, self.n);
-        }
-    }
-
-    /// Records one rate evaluation into one compute pass.
-    fn record(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, e: Evaluation) {
-        let b = self.bound(self.key(e));
-        let (p, n, ng) = (&self.passes, self.n, self.ghosts);
-        let mut pass = encoder.begin_compute_pass(&Default::default());
-        self.record_motion(gpu, &mut pass, b);
-        gpu.dispatch(&mut pass, &p.kinematics, &b.kinematics, n);
-        if ng > 0 {
-            gpu.dispatch(&mut pass, &p.ghost_kin, &b.ghost_kin, ng);
-        }
-        if let Some((second, ghost_second)) = &b.second {
-            gpu.dispatch(&mut pass, &p.second, second, n);
-            if ng > 0 {
-                gpu.dispatch(&mut pass, &p.ghost_second, ghost_second, ng);
-            }
-        }
-        gpu.dispatch(&mut pass, &p.forces, &b.forces, n);
-        self.record_rates(gpu, &mut pass, b);
-        if let (Some(corrector), Some(start)) = (&self.corrector, &b.corrector_start) {
-            // The predictor's rates give v^int; the corrector adds its force to T, and
-            // the rates follow again from the forces of the stage.
-            corrector.record(gpu, &mut pass, start);
-            self.record_rates(gpu, &mut pass, b);
-        }
-    }
-
-    /// The projection of the forces and the rates with the boundary conditions.
-    fn record_rates(&self, gpu: &Gpu, pass: &mut wgpu::ComputePass<'_>, b: &Bound) {
-        let (p, n) = (&self.passes, self.n);
-        if self.projection {
-            gpu.dispatch(pass, &p.balance_sums, &b.balance_sums, n);
-            gpu.dispatch(pass, &p.balance_solve, &b.balance_solve, 1);
-        }
-        gpu.dispatch(pass, &p.rates, &b.rates, n);
     }
 }
 
@@ -698,17 +145,7 @@ pub struct GpuMixed<D: GpuDim> {
 impl<D: GpuDim> GpuMixed<D> {
     /// Builds the CPU set-up of the case and uploads it with the initial state.
     pub fn new(case: &Case, gpu: Gpu) -> Result<Self, SetupError> {
-        let (options, _) = super::scheme(case).ok_or_else(|| not_run_by(case, "GpuMixed"))?;
-        let plastic = case.material.model == MaterialModel::VonMisesPlastic;
-        if plastic && options.deformation_gradient == DeformationGradient::BondBased {
-            return Err(case
-                .invalid(
-                    "method.deformation_gradient",
-                    "the GPU commits the plastic history from the evolved F; the bond-based F \
-                     with `von-mises-plastic` runs with --backend cpu",
-                )
-                .into());
-        }
+        let plastic = plastic_on_device(case)?;
         let cpu: MixedSph<D> = build_method(case)?;
         let (layout, constants) = scene(case, &cpu);
         check_f32_range(case, &constants)?;
@@ -716,7 +153,7 @@ impl<D: GpuDim> GpuMixed<D> {
         let y0 = cpu.initial_state();
         check_f32_particles::<D>(case, cpu.reference(), &y0.u, &y0.v, cpu.body())?;
         let compose = |s: &Source| shaders::compose::<D>(s, &constants);
-        let (n, ng) = (layout.n, layout.ghosts);
+        let n = layout.n;
         gpu.check_size("per-pair buffer", layout.pair.bytes())?;
         gpu.check_size("kinematics buffer", layout.kin.bytes())?;
         let (x0, vol) = cpu.extended_reference();
@@ -729,40 +166,13 @@ impl<D: GpuDim> GpuMixed<D> {
             EXTRAS,
         );
         let pair = gpu.storage("per-pair data", &pair_data(&cpu, &layout.pair));
-        // Slopes (upwind with reconstruction) or Laplacians (JST) of the extended particles.
-        let second_len = if layout.pair.has("ELL") {
-            (n + ng) * D::N
-        } else if layout.pair.has("LS") {
-            (n + ng) * (D::N + 1) * D::N * D::N
-        } else {
-            0
-        };
+        let second_len = second_len::<D>(&layout);
         gpu.check_size("slope buffer", second_len as u64 * 4)?;
         let second = gpu.zeroed("slopes or Laplacians", second_len as u64 * 4);
 
-        // Ghost table: source and (r, σ) of every ghost.
-        let table = cpu.ghosts().table();
-        let ghost_src: Vec<u32> = table.iter().map(|&(s, _)| s).collect();
-        let ghost_img: Vec<f32> = table
-            .iter()
-            .flat_map(|(_, m)| {
-                (0..D::N)
-                    .map(|l| m.axis_sign(l) as f32)
-                    .chain([m.sign() as f32])
-            })
-            .collect();
-        let ghost_src = gpu.storage("ghost sources", &ghost_src);
-        let ghost_img = gpu.storage("ghost images", &ghost_img);
+        let (ghost_src, ghost_img) = ghost_table(&gpu, &cpu);
 
-        let kin = gpu.zeroed("kinematics", layout.kin.bytes());
-        let force = gpu.zeroed("forces", layout.force.bytes());
-        let status = gpu.storage("status", &STATUS_OK);
-        let (gx, gy) = gpu.groups(n as u32);
-        let partials = gpu.zeroed("balance partials", u64::from(gx * gy) * 16 * 4);
-        let hist = gpu.storage(
-            "plastic history",
-            &History::VIRGIN_F32.repeat(if plastic { n } else { 1 }),
-        );
+        let scratch = Scratch::new(&gpu, &layout, plastic);
 
         let stepper = Stepper::new(
             &gpu,
@@ -781,62 +191,12 @@ impl<D: GpuDim> GpuMixed<D> {
             device.traction,
         )?;
 
-        let ghosts_src = compose(&GHOSTS);
-        let slopes_src = compose(&SLOPES);
-        let momentum_src = compose(&MOMENTUM);
-        let pipeline = |label: &str, src: &str, entry: &str| gpu.pipeline(label, src, entry);
-        let (second_entry, ghost_second_entry) = if layout.pair.has("ELL") {
-            ("laplacian", "ghost_laplacian")
-        } else {
-            ("slopes", "ghost_slopes")
-        };
-        let passes = Passes {
-            ghost_motion: pipeline("ghost motion", &ghosts_src, "ghost_motion")?,
-            ghost_kin: pipeline("ghost kinematics", &ghosts_src, "ghost_kin")?,
-            ghost_second: pipeline("ghost slopes", &ghosts_src, ghost_second_entry)?,
-            bond: layout
-                .kin
-                .has("FC")
-                .then(|| pipeline("bond-based F", &compose(&BOND), "bond_f"))
-                .transpose()?,
-            kinematics: pipeline("mixed kinematics", &compose(&KINEMATICS), "kinematics")?,
-            second: pipeline("slopes", &slopes_src, second_entry)?,
-            forces: pipeline("mixed forces", &compose(&FORCES), "forces")?,
-            balance_sums: pipeline("balance sums", &momentum_src, "balance_sums")?,
-            balance_solve: pipeline("balance solve", &momentum_src, "balance_solve")?,
-            rates: pipeline("mixed rates", &momentum_src, "rates")?,
-        };
+        let passes = Passes::new(&gpu, &layout, &compose)?;
 
-        let stage_points = gpu.uniform(
-            "stage points",
-            &StagePoints {
-                half_dt: 0.0,
-                mid: 0,
-            },
-        );
-        let mid_points = gpu.uniform(
-            "mid-step points",
-            &StagePoints {
-                half_dt: 0.0,
-                mid: 1,
-            },
-        );
-        let mut evaluator = Evaluator {
-            passes,
-            corrector: None,
-            bound: Vec::new(),
-            n: n as u32,
-            ghosts: ng as u32,
-            projection: cpu.projection(),
-            tvd_mid: cpu.projection() && case.method.integrator == IntegratorKind::TvdRk2,
-        };
-        let mut keys = vec![(Buf::Y, false)];
-        for e in evaluations(case.method.integrator) {
-            let key = evaluator.key(e);
-            if !keys.contains(&key) {
-                keys.push(key);
-            }
-        }
+        let stage_points = StagePoints::uniform(&gpu, "stage points", 0);
+        let mid_points = StagePoints::uniform(&gpu, "mid-step points", 1);
+        let mut evaluator = Evaluator::new(passes, &layout, &cpu, case.method.integrator);
+        let keys = evaluator.keys(case.method.integrator);
         let y_start = stepper.buffer(Buf::Y);
         // Every buffer of the passes by binding name, with the state `y` an evaluation
         // reads and the balance points of its stage.
@@ -848,14 +208,14 @@ impl<D: GpuDim> GpuMixed<D> {
                 ("pair", &pair),
                 ("ghost_src", &ghost_src),
                 ("ghost_img", &ghost_img),
-                ("field", &kin),
-                ("kin", &kin),
+                ("field", &scratch.kin),
+                ("kin", &scratch.kin),
                 ("second", &second),
                 ("out", &second),
-                ("force", &force),
-                ("status", &status),
-                ("hist", &hist),
-                ("partials", &partials),
+                ("force", &scratch.force),
+                ("status", &scratch.status),
+                ("hist", &scratch.hist),
+                ("partials", &scratch.partials),
                 ("ext", interactions.ext()),
                 ("y0", y_start),
                 ("d", stepper.buffer(Buf::Rates)),
@@ -873,43 +233,19 @@ impl<D: GpuDim> GpuMixed<D> {
         };
         let p = &evaluator.passes;
         let corr = gpu.zeroed("corrector", layout.corr.bytes());
-        let state_bytes = layout.state.bytes();
-        let corrector = match cpu.corrector() {
-            Some(c) => {
-                let mut t = table(y_start, &stage_points);
-                t.push(("corr", &corr));
+        let corrector = cpu
+            .corrector()
+            .map(|c| {
+                let t = [table(y_start, &stage_points), vec![("corr", &corr)]].concat();
                 let source = compose(&CORRECTOR);
-                Some(DeviceCorrector::new(&gpu, &source, c, n, state_bytes, &t)?)
-            }
-            None => None,
-        };
+                DeviceCorrector::new(&gpu, &source, c, n, layout.state.bytes(), &t)
+            })
+            .transpose()?;
         let bind = |(src, mid): (Buf, bool)| -> Result<Bound, GpuError> {
             let points = if mid { &mid_points } else { &stage_points };
             let t = table(stepper.buffer(src), points);
-            let mut with_second = t.clone();
-            with_second.push(("field", &second));
-            let second = match second_len {
-                0 => None,
-                _ => Some((
-                    gpu.bind(&p.second, &t)?,
-                    gpu.bind(&p.ghost_second, &with_second)?,
-                )),
-            };
-            Ok(Bound {
-                ghost_motion: gpu.bind(&p.ghost_motion, &t)?,
-                ghost_kin: gpu.bind(&p.ghost_kin, &t)?,
-                bond: p.bond.as_ref().map(|b| gpu.bind(b, &t)).transpose()?,
-                kinematics: gpu.bind(&p.kinematics, &t)?,
-                second,
-                forces: gpu.bind(&p.forces, &t)?,
-                balance_sums: gpu.bind(&p.balance_sums, &t)?,
-                balance_solve: gpu.bind(&p.balance_solve, &t)?,
-                rates: gpu.bind(&p.rates, &t)?,
-                corrector_start: corrector
-                    .as_ref()
-                    .map(|c| c.bind_start(&gpu, &[t.as_slice(), &[("corr", &corr)]].concat()))
-                    .transpose()?,
-            })
+            let second = (second_len > 0).then_some(&second);
+            Bound::new(&gpu, p, &t, second, corrector.as_ref(), &corr)
         };
         evaluator.bound = keys
             .into_iter()
@@ -925,21 +261,44 @@ impl<D: GpuDim> GpuMixed<D> {
             evaluator,
             mid_points,
             dt: f64::NAN,
-            kin,
-            force,
-            status,
+            kin: scratch.kin,
+            force: scratch.force,
+            status: scratch.status,
             reduction,
-            hist,
+            hist: scratch.hist,
             commit,
             interactions,
             work: WorkBalance::default(),
-            unbooked: Booked {
-                dissipated: None,
-                plastic_work: (!plastic).then_some(0.0),
-                contact_energy: case.contact.is_none().then_some(0.0),
-                ..Booked::default()
-            },
+            unbooked: unbooked(case, plastic),
         })
+    }
+}
+
+/// Whether the plastic history is committed on the device; an error for the bond-based F
+/// with plasticity, which the GPU does not run.
+fn plastic_on_device(case: &Case) -> Result<bool, SetupError> {
+    let (options, _) = super::scheme(case).ok_or_else(|| not_run_by(case, "GpuMixed"))?;
+    let plastic = case.material.model == MaterialModel::VonMisesPlastic;
+    if plastic && options.deformation_gradient == DeformationGradient::BondBased {
+        return Err(case
+            .invalid(
+                "method.deformation_gradient",
+                "the GPU commits the plastic history from the evolved F; the bond-based F \
+                 with `von-mises-plastic` runs with --backend cpu",
+            )
+            .into());
+    }
+    Ok(plastic)
+}
+
+/// The balance's terms besides the work of supports and loads, as [`GpuMixed::unbooked`]
+/// holds them.
+fn unbooked(case: &Case, plastic: bool) -> Booked {
+    Booked {
+        dissipated: None,
+        plastic_work: (!plastic).then_some(0.0),
+        contact_energy: case.contact.is_none().then_some(0.0),
+        ..Booked::default()
     }
 }
 

@@ -1,0 +1,244 @@
+//! The flat buffers of a mixed scene, its compiled-in constants and its per-pair data.
+
+use super::*;
+
+/// The flat buffers of a mixed scene, each described once ([`Fields`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct MixedLayout {
+    /// Real particles and ghosts.
+    pub n: usize,
+    pub ghosts: usize,
+    pub dim: usize,
+    /// The kinematics keep H for the D(J) gather (Upwind-SPH with J evolved).
+    pub kin_h: bool,
+    /// The state [u | v | F − I | H − I | J − 1 | p] of the real particles (H and J where
+    /// evolved, the pressure p under artificial compressibility).
+    pub state: Fields,
+    /// [P | H − I] of the real particles then the ghosts, the ghost motion [u | v], the
+    /// bond-based F^c − I and the power of supports and loads.
+    pub kin: Fields,
+    /// [T | D(p) | D(J)] of the real particles and the projection's λ, μ, c − X̄ (vec3
+    /// padded to four floats each).
+    pub force: Fields,
+    /// Per pair in CSR order: G_ab = V_b g_ab, G_ba = V_b g_ba, d_ab = X_b − X_a (upwind
+    /// flux, bond-based F), s_ab (JST), w_ab (least-squares slopes), ℓ_ab (JST
+    /// Laplacian), w_ab (bond-based F), ℓ_ab of the pseudo-viscosity (eq 58).
+    pub pair: Fields,
+    pub reference: Fields,
+    /// The corrector of artificial compressibility (mixed_corrector.wgsl): the iterate
+    /// [w | δp] = [v − v^int | p − p^n], its pseudo stage, their rates, v^int, p^n, H^n
+    /// and the constant part c of the pressure equation.
+    pub corr: Fields,
+}
+
+impl MixedLayout {
+    /// The layout of the scene set up in `cpu`.
+    pub fn of<D: Dim>(cpu: &MixedSph<D>) -> Self {
+        let n = cpu.reference().len();
+        let ghosts = cpu.extended_reference().0.len() - n;
+        let pairs = cpu.neighbours().pair_count();
+        let conserved = cpu.conserved();
+        let (evolves_h, evolves_j) = (conserved.evolves_h(), cpu.evolves_j());
+        let corrector = cpu.corrector();
+        let ac = corrector.is_some();
+        let pseudo_viscosity = corrector.is_some_and(|c| c.laplacian_weights().is_some());
+        let (jst, bond) = (cpu.jst().is_some(), cpu.bond_weights().is_some());
+        let upwind = !jst;
+        let kin_h = upwind && evolves_j;
+        let dim = D::N;
+        let constrained = cpu.boundary().constrained.len();
+        Self {
+            n,
+            ghosts,
+            dim,
+            kin_h,
+            state: Fields::new("", dim)
+                .vectors("U", true, n)
+                .vectors("V", true, n)
+                .tensors("F", true, n)
+                .tensors("H", evolves_h, n)
+                .scalars("J", evolves_j, n)
+                .scalars("PRES", ac, n),
+            kin: reduction::with_reactions(
+                Fields::new("K", dim)
+                    .tensors("P", true, n + ghosts)
+                    .tensors("H", kin_h, n + ghosts)
+                    .vectors("GM", true, 2 * ghosts)
+                    .tensors("FC", bond, n)
+                    .scalars("POW", true, n),
+                constrained,
+            ),
+            force: Fields::new("F", dim)
+                .vectors("T", true, n)
+                .vectors("D", true, n)
+                .scalars("J", true, n)
+                .block("PROJ", true, 3, 4),
+            pair: Fields::new("P", dim)
+                .vectors("G", true, pairs)
+                .vectors("GR", true, pairs)
+                .vectors("DX", upwind || bond, pairs)
+                .scalars("S", jst, pairs)
+                .vectors("LS", upwind && cpu.reconstruction(), pairs)
+                .scalars("ELL", jst, pairs)
+                .scalars("W", bond, pairs)
+                .scalars("BL", pseudo_viscosity, pairs),
+            reference: reference::fields(n, constrained, dim, EXTRAS),
+            corr: Fields::new("C", dim)
+                .vectors("V", ac, n)
+                .scalars("Q", ac, n)
+                .vectors("V1", ac, n)
+                .scalars("Q1", ac, n)
+                .vectors("RV", ac, n)
+                .scalars("RQ", ac, n)
+                .vectors("VI", ac, n)
+                .scalars("PN", ac, n)
+                .tensors("HN", ac, n)
+                .scalars("C", ac, n),
+        }
+    }
+
+    pub(super) fn stepped(&self) -> StateLayout {
+        StateLayout {
+            n: self.n,
+            dim: self.dim,
+            rest: self.state.offset("F"),
+            len: self.state.len(),
+        }
+    }
+
+    /// A mixed state as a flat f32 state: F − I, H − I and J − 1 are formed in f64.
+    pub(super) fn encode<D: GpuDim>(&self, y: &MixedState<D>) -> Vec<f32> {
+        let l = &self.state;
+        let mut flat = l.zeroed();
+        l.write_v::<D>(&mut flat, "U", &y.u);
+        l.write_v::<D>(&mut flat, "V", &y.v);
+        l.write_t::<D>(&mut flat, "F", &y.f, D::identity());
+        l.write_t::<D>(&mut flat, "H", &y.h, D::identity());
+        l.write_s(&mut flat, "J", &y.j, 1.0);
+        l.write_s(&mut flat, "PRES", &y.pressure, 0.0);
+        flat
+    }
+
+    /// Decodes a flat state (`excess`: F, H, J are stored less I, I, 1) or rate buffer.
+    pub(super) fn decode<D: GpuDim>(&self, flat: &[f32], excess: bool) -> MixedState<D> {
+        let (one_t, one) = if excess {
+            (D::identity(), 1.0)
+        } else {
+            (D::zero_t(), 0.0)
+        };
+        let l = &self.state;
+        MixedState {
+            u: l.read_v::<D>(flat, "U"),
+            v: l.read_v::<D>(flat, "V"),
+            f: l.read_t::<D>(flat, "F", one_t),
+            h: l.read_t::<D>(flat, "H", one_t),
+            j: l.read_s(flat, "J", one),
+            pressure: l.read_s(flat, "PRES", 0.0),
+        }
+    }
+}
+
+/// The reference fields the mixed passes read besides X and V: X − X̄ for the projection.
+pub(super) const EXTRAS: Extras = Extras {
+    lo: false,
+    centred: true,
+};
+
+/// The layout and compiled-in constants of a scene's mixed passes, from its CPU set-up.
+///
+/// Under artificial compressibility the material's constants are the predictor's: BULK
+/// and LAMBDA of κ̃, and C_P = c̃_p; the true κ enters the corrector as INV_BULK = 1/κ,
+/// zero at ν = 0.5.
+pub fn scene<D: GpuDim>(case: &Case, cpu: &MixedSph<D>) -> (MixedLayout, Constants) {
+    let layout = MixedLayout::of(cpu);
+    let l = &layout;
+    let spec = crate::methods::mixed::scheme(case).and_then(|(o, _)| o.artificial_compressibility);
+    let material = &match spec {
+        Some(ac) => ac.predictor(cpu.material()),
+        None => *cpu.material(),
+    };
+    let corrector = cpu.corrector();
+    let total_vol: f64 = cpu.volume().iter().sum();
+    let jst = cpu.jst();
+    let (eps2, eps4) = jst.map_or((0.0, 0.0), |(c, ..)| (c.eps2, c.eps4));
+    let u = |x: usize| x as u32;
+    let constants = Constants::default()
+        .u32("N", u(l.n))
+        .u32("BODIES", u(case.bodies.len()))
+        .u32("NG", u(l.ghosts))
+        .material(material)
+        .f32("C_P", material.p_wave_speed())
+        .f32("C_S", material.s_wave_speed())
+        .f32("SPACING", case.spacing)
+        .u32(
+            "PAIR_STRETCH",
+            u32::from(cpu.cfl_wave_speed() == CflWaveSpeed::Pair),
+        )
+        .f32("H", cpu.smoothing_length())
+        .choice("STAB", &["UPWIND", "JST"], usize::from(jst.is_some()))
+        .u32("RECON", u32::from(cpu.reconstruction()))
+        .f32("EPS2", eps2)
+        .f32("EPS4", eps4)
+        .choice(
+            "MOMENTUM",
+            &["WEAK", "SYMMETRISED"],
+            usize::from(cpu.momentum() == Momentum::Symmetrised),
+        )
+        .u32("EVOLVE_H", u32::from(l.state.has("H")))
+        .u32("EVOLVE_J", u32::from(l.state.has("J")))
+        .u32("KIN_H", u32::from(l.kin_h))
+        .u32("BOND", u32::from(l.kin.has("FC")))
+        .u32("PROJECTION", u32::from(cpu.projection()))
+        .u32("GROUPS", u(l.n).div_ceil(WORKGROUP))
+        .f32("TOTAL_VOL", total_vol)
+        .u32("REST_OFF", u(l.state.offset("F")))
+        .u32("AC", u32::from(corrector.is_some()))
+        .f32("INV_BULK", corrector.map_or(0.0, |c| 1.0 / c.kappa()))
+        .f32("TOLERANCE", corrector.map_or(0.0, |c| c.tolerance()))
+        .u32(
+            "MAX_ITERATIONS",
+            corrector.map_or(0, |c| c.max_iterations()),
+        )
+        .u32("PSEUDO_VISCOSITY", u32::from(l.pair.has("BL")));
+    let constants = [&l.state, &l.kin, &l.force, &l.pair, &l.reference, &l.corr]
+        .into_iter()
+        .fold(constants, |c, fields| fields.constants(c));
+    (layout, constants)
+}
+
+/// The per-pair buffer of the scene set up in `cpu`, host side (f32).
+pub(super) fn pair_data<D: GpuDim>(cpu: &MixedSph<D>, l: &Fields) -> Vec<f32> {
+    let csr = cpu.neighbours();
+    let (x0, vol) = cpu.extended_reference();
+    let (grad, grad_rev) = cpu.pair_gradients();
+    let rows = || (0..csr.len()).flat_map(|a| csr.range(a).map(move |q| (a, q)));
+    // Gradients scaled by V_b: G_b(X_a) = V_b g_ab.
+    let scaled = |g: &[D::V]| -> Vec<D::V> {
+        rows()
+            .map(|(_, q)| g[q] * vol[csr.ids[q] as usize])
+            .collect()
+    };
+    let mut flat = l.zeroed();
+    l.write_v::<D>(&mut flat, "G", &scaled(grad));
+    l.write_v::<D>(&mut flat, "GR", &scaled(grad_rev));
+    if l.has("DX") {
+        let d: Vec<D::V> = rows()
+            .map(|(a, q)| x0[csr.ids[q] as usize] - x0[a])
+            .collect();
+        l.write_v::<D>(&mut flat, "DX", &d);
+    }
+    if let Some((_, ell, s)) = cpu.jst() {
+        l.write_s(&mut flat, "S", s, 0.0);
+        l.write_s(&mut flat, "ELL", ell, 0.0);
+    }
+    if l.has("LS") {
+        l.write_v::<D>(&mut flat, "LS", cpu.ls_weights());
+    }
+    if let Some(w) = cpu.bond_weights() {
+        l.write_s(&mut flat, "W", w, 0.0);
+    }
+    if let Some(ell) = cpu.corrector().and_then(|c| c.laplacian_weights()) {
+        l.write_s(&mut flat, "BL", ell, 0.0);
+    }
+    flat
+}
