@@ -1,7 +1,7 @@
 //! `[[body]]`: names, geometries and holes; the initial fields are checked in `fields`.
 
 use super::fields::{displacement, velocity};
-use super::{Checked, fail, identifier, non_negative, positive, vector};
+use super::{Checked, fail, non_negative, positive, unique_name, vector};
 use crate::scene::{BodySpec, Case, Hole, Lattice, MeshNodes, RingLattice, Shape, Volumes};
 use std::collections::HashSet;
 
@@ -15,20 +15,13 @@ pub(super) fn check(bodies: &[BodySpec], dim: usize) -> Checked {
     let mut seen = HashSet::new();
     for (i, body) in bodies.iter().enumerate() {
         let key = format!("body.{i}");
-        identifier(
-            &format!("{key}.name"),
+        unique_name(
+            &key,
             &body.name,
+            &mut seen,
+            "body",
             "body names label output fields and boundary regions",
         )?;
-        if !seen.insert(body.name.as_str()) {
-            return fail(
-                format!("{key}.name"),
-                format!(
-                    "{:?} is already the name of an earlier body; body names must be unique",
-                    body.name
-                ),
-            );
-        }
         shape(&body.geometry, &format!("{key}.geometry"), dim)?;
         for (k, hole) in body.holes.iter().enumerate() {
             self::hole(hole, &body.geometry, &format!("{key}.holes.{k}"), dim)?;

@@ -25,6 +25,7 @@ use super::Case;
 use crate::material::MaterialModel;
 use crate::methods::{Feature, Problem, quoted, supporting};
 use serde::Serialize;
+use std::collections::HashSet;
 
 type Checked = Result<(), Problem>;
 
@@ -153,6 +154,27 @@ fn identifier(key: &str, value: &str, what: &str) -> Checked {
             format!(
                 "{value:?} contains {c:?}; {what}, so only ASCII letters, digits, '-' and '_' \
                  are allowed"
+            ),
+        );
+    }
+    Ok(())
+}
+
+/// The name of a table of one `kind` (`body`, `probe`, `section`) below `key`: an
+/// identifier (`becomes` says what it becomes) that no earlier table of the kind has.
+fn unique_name<'a>(
+    key: &str,
+    name: &'a str,
+    seen: &mut HashSet<&'a str>,
+    kind: &str,
+    becomes: &str,
+) -> Checked {
+    identifier(&format!("{key}.name"), name, becomes)?;
+    if !seen.insert(name) {
+        return fail(
+            format!("{key}.name"),
+            format!(
+                "{name:?} is already the name of an earlier {kind}; {kind} names must be unique"
             ),
         );
     }

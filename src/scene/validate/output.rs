@@ -1,7 +1,7 @@
 //! `[output]` (frames, series, observers, checks), `[[probe]]` and `[[section]]`.
 
 use super::boundary::region;
-use super::{Checked, fail, finite, identifier, positive, toml_name, vector};
+use super::{Checked, fail, finite, positive, toml_name, unique_name, vector};
 use crate::scene::{Case, Observer, OutputSpec, ProbeSpec, Region};
 use std::collections::HashSet;
 
@@ -103,20 +103,13 @@ pub(super) fn probes(probes: &[ProbeSpec], dim: usize) -> Checked {
     let mut seen = HashSet::new();
     for (i, probe) in probes.iter().enumerate() {
         let key = format!("probe.{i}");
-        identifier(
-            &format!("{key}.name"),
+        unique_name(
+            &key,
             &probe.name,
+            &mut seen,
+            "probe",
             "probe names become CSV column prefixes",
         )?;
-        if !seen.insert(probe.name.as_str()) {
-            return fail(
-                format!("{key}.name"),
-                format!(
-                    "{:?} is already the name of an earlier probe; probe names must be unique",
-                    probe.name
-                ),
-            );
-        }
         vector(&format!("{key}.position"), &probe.position, dim)?;
     }
     Ok(())
@@ -126,21 +119,13 @@ pub(super) fn sections(case: &Case) -> Checked {
     let mut seen = HashSet::new();
     for (i, section) in case.sections.iter().enumerate() {
         let key = format!("section.{i}");
-        identifier(
-            &format!("{key}.name"),
+        unique_name(
+            &key,
             &section.name,
+            &mut seen,
+            "section",
             "section names become CSV column prefixes",
         )?;
-        if !seen.insert(section.name.as_str()) {
-            return fail(
-                format!("{key}.name"),
-                format!(
-                    "{:?} is already the name of an earlier section; section names must be \
-                     unique",
-                    section.name
-                ),
-            );
-        }
         if section.normal.index() >= dim {
             return fail(
                 format!("{key}.normal"),
