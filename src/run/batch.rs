@@ -35,7 +35,9 @@ pub(super) trait Callback<D: Dim> {
 
     /// After a batch that passed the engine's check (and for the outputs at t = 0): a
     /// failure found ends the run, and no later callback sees the batch.
-    fn after_batch(&mut self, batch: &mut Batch<D>) -> Result<Option<BlowUp>, RunError>;
+    fn after_batch(&mut self, _batch: &mut Batch<D>) -> Result<Option<BlowUp>, RunError> {
+        Ok(None)
+    }
 
     /// Its part of a checkpoint, from which [`Self`] goes on when the run is resumed.
     fn save(&self, _at: &mut checkpoint::Progress) {}

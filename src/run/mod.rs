@@ -1,6 +1,6 @@
 //! The run driver: builds a case's engine through its method's spec ([`engine`]),
-//! integrates it to the end time with observers, frames and blow-up checks ([`drive`]),
-//! and writes the summary. The driver knows stages, not methods.
+//! integrates it to the end time ([`drive`]: a scheduler of events whose callbacks are
+//! the outputs, the blow-up checks and the logs), and writes the summary. The driver knows stages, not methods.
 
 mod batch;
 pub mod budget;

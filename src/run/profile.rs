@@ -2,9 +2,7 @@
 //! its resumption) to its end, in the summary; the CPU has none.
 
 use super::Engine;
-use super::RunError;
-use super::batch::{Batch, Callback, End};
-use crate::methods::BlowUp;
+use super::batch::{Callback, End};
 use crate::observe::Clock;
 use crate::tensor::Dim;
 
@@ -25,10 +23,6 @@ impl<D: Dim> Callback<D> for Profile {
         if self.on {
             self.from = start_profile(engine, clock.step);
         }
-    }
-
-    fn after_batch(&mut self, _: &mut Batch<D>) -> Result<Option<BlowUp>, RunError> {
-        Ok(None)
     }
 
     fn on_end(&mut self, end: &mut End<D>) {

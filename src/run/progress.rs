@@ -188,8 +188,4 @@ impl<D: Dim> Callback<D> for IterationLog<'_> {
             .iter()
             .try_for_each(|it| self.record(it))
     }
-
-    fn after_batch(&mut self, _: &mut Batch<D>) -> Result<Option<BlowUp>, RunError> {
-        Ok(None)
-    }
 }
