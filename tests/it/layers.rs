@@ -52,6 +52,7 @@ const ORDER: &[(&str, &[&str])] = &[
         "method cores",
         &[
             "methods/shared",
+            "methods/tl",
             "methods/tlsph",
             "methods/ul",
             "methods/galerkin",
@@ -127,7 +128,9 @@ const UPWARD: &[(&str, &str)] = &[
     ("methods/potential", "methods"),
     ("methods/potential", "run"),
     ("methods/potential", "scene"),
+    ("methods/shared", "methods"),
     ("methods/shared", "scene"),
+    ("methods/tl", "scene"),
     ("methods/tlsph", "methods"),
     ("methods/tlsph", "methods/corotated"),
     ("methods/tlsph", "methods/dual_support"),
