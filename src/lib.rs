@@ -23,6 +23,7 @@ pub mod mooney_rivlin;
 pub mod neighbour;
 pub mod observe;
 pub mod output;
+pub mod passes;
 pub mod plasticity;
 pub mod pressure;
 pub mod quadrature;

@@ -18,7 +18,7 @@
 
 use super::context::{Gpu, Pipeline};
 use super::shaders::{COPY, Constants, compose};
-use crate::bench::{PassReport, PassRow};
+use crate::passes::{PassReport, PassRow};
 use std::time::Instant;
 
 /// f32 or u32 words of one item or pair: scalars, DIM-vectors, DIM×DIM tensors and

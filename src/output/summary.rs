@@ -19,7 +19,7 @@ pub struct RunSummary {
     pub case: String,
     /// The GPU pass report of a run with `--profile` (not written to the file).
     #[serde(skip)]
-    pub passes: Option<crate::bench::PassReport>,
+    pub passes: Option<crate::passes::PassReport>,
     /// The version of meshless that ran it.
     #[serde(default)]
     pub version: String,

@@ -51,7 +51,7 @@ pub(super) struct End<'a, D: Dim> {
     pub engine: &'a mut dyn Engine<D>,
     pub clock: Clock,
     /// With `--profile` on a GPU engine: the pass report of the run's steps.
-    pub passes: Option<crate::bench::PassReport>,
+    pub passes: Option<crate::passes::PassReport>,
 }
 
 /// What the callbacks need read back after a batch; the union of theirs is read.

@@ -5,9 +5,10 @@
 //! error, which they unwrap.
 
 use crate::common::{cpu_options, load};
-use meshless::bench::{PassReport, measure};
+use meshless::bench::measure;
 use meshless::gpu::profile::{NONE, PassBytes, read, read_write, write};
 use meshless::integrate::{Op, program};
+use meshless::passes::PassReport;
 use meshless::reference::Reference;
 use meshless::run::{Backend, RunOptions, run};
 use meshless::scene::Case;
@@ -39,7 +40,7 @@ fn blends(case: &Case) -> u64 {
         .count() as u64
 }
 
-fn row<'a>(report: &'a PassReport, pass: &str) -> &'a meshless::bench::PassRow {
+fn row<'a>(report: &'a PassReport, pass: &str) -> &'a meshless::passes::PassRow {
     report
         .rows
         .iter()
