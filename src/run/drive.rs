@@ -151,7 +151,10 @@ fn resume<D: Dim>(
         return Ok(None);
     }
     let n = engine.reference().len();
-    let (progress, words) = checkpoint::read(&opts.out_dir, case, backend, n)?;
+    // An engine saves its state and what a step carries to the next: at most one more
+    // copy of the state (a multistep integrator's last rates, absent at the start).
+    let engine_words = 2 * engine.save().len();
+    let (progress, words) = checkpoint::read(&opts.out_dir, case, backend, n, engine_words)?;
     engine
         .restore(&words)
         .map_err(|message| RunError::Checkpoint {

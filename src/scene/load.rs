@@ -63,13 +63,20 @@ fn method_change(method: &mut toml::Table, name: &str, overrides: &[String]) -> 
     })
 }
 
+/// The largest case file read [bytes]: 16 MiB (a case is a few kilobytes; bulk data
+/// goes in points and mesh files).
+const CASE_FILE_CAP: u64 = 16 << 20;
+
 impl Case {
     /// Reads, overrides (`key.path=value`) and validates a case file.
     pub fn load(path: &Path, overrides: &[String]) -> Result<Case, CaseError> {
-        let text = std::fs::read_to_string(path).map_err(|source| CaseError::Read {
-            file: path.to_path_buf(),
-            source,
-        })?;
+        let text =
+            super::geometry::read_capped(path, CASE_FILE_CAP, "a case file").map_err(|source| {
+                CaseError::Read {
+                    file: path.to_path_buf(),
+                    source,
+                }
+            })?;
         Self::from_toml(&text, path, overrides)
     }
 

@@ -153,7 +153,16 @@ impl Case {
 
 /// 64-bit FNV-1a: a hash that stays the same across Rust versions and platforms.
 pub fn fnv1a(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+    fnv1a_extend(FNV_OFFSET, bytes)
+}
+
+/// FNV-1a's starting value.
+pub const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
+
+/// The FNV-1a hash `h` of some bytes extended by `bytes`: a change of any one byte
+/// changes the hash, as each byte's step is a bijection of the state.
+pub fn fnv1a_extend(h: u64, bytes: &[u8]) -> u64 {
+    bytes.iter().fold(h, |h, &b| {
         (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
     })
 }

@@ -617,6 +617,26 @@ fn missing_file_is_named() {
     assert_mentions(&e.to_string(), &["does-not-exist.toml", "cannot read"]);
 }
 
+/// The case path itself is read only if it is a regular file of bounded size: a device
+/// (an endless read), a folder and a file past the cap are refused before reading.
+#[test]
+fn a_case_path_that_is_not_a_bounded_regular_file_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    for path in [Path::new("/dev/zero"), dir.path()] {
+        let e = Case::load(path, &[]).unwrap_err();
+        assert!(matches!(e, CaseError::Read { .. }), "{e}");
+        assert_mentions(&e.to_string(), &["cannot read", "not a regular file"]);
+    }
+    let big = dir.path().join("big.toml");
+    let file = std::fs::File::create(&big).unwrap();
+    file.set_len((16 << 20) + 1).unwrap();
+    let e = Case::load(&big, &[]).unwrap_err().to_string();
+    assert_mentions(
+        &e,
+        &["big.toml", "larger than 16777216 bytes", "a case file"],
+    );
+}
+
 // ---------------------------------------------------------------------------------------
 // Method-specific keys and requirements of the mixed methods
 

@@ -238,6 +238,74 @@ fn a_checkpoint_of_another_case_or_method_is_refused() {
     assert!(e.contains("not a meshless checkpoint"), "{e}");
 }
 
+/// A damaged checkpoint is refused before anything is restored, naming the damage: a
+/// flipped bit anywhere (the checksum), a driver state that a run cannot reach however
+/// its checksum is made (a time that is NaN or past the end), and a file grown far past
+/// its announced words (refused from its length, without reading or allocating them).
+#[test]
+fn a_damaged_checkpoint_is_refused_before_anything_is_restored() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = plate(&["run.end_time=5e-4"]);
+    run(&case, &cpu_options(dir.path(), false)).unwrap();
+    let path = dir.path().join("checkpoint.bin");
+    let good = std::fs::read(&path).unwrap();
+    let resumed = |bytes: &[u8]| {
+        std::fs::write(&path, bytes).unwrap();
+        let opts = RunOptions {
+            resume: true,
+            ..cpu_options(dir.path(), false)
+        };
+        match run(&case, &opts) {
+            Err(RunError::Checkpoint { message, .. }) => message,
+            other => panic!("resumed: {:?}", other.map(|s| s.status)),
+        }
+    };
+    // One bit of a state word, near the end of the file.
+    let mut flipped = good.clone();
+    let k = good.len() - 100;
+    flipped[k] ^= 0x10;
+    let e = resumed(&flipped);
+    assert!(e.contains("checksum does not match"), "{e}");
+    // The time word (the first after the header and the count), rewritten with a
+    // checksum that matches.
+    let header = u32::from_le_bytes(good[12..16].try_into().unwrap()) as usize;
+    let t_at = 16 + header + 8;
+    let with_time = |t: f64| {
+        let mut bytes = good.clone();
+        bytes[t_at..t_at + 8].copy_from_slice(&t.to_le_bytes());
+        let body = bytes.len() - 8;
+        let sum = meshless::scene::fnv1a(&bytes[..body]);
+        bytes[body..].copy_from_slice(&sum.to_le_bytes());
+        bytes
+    };
+    let e = resumed(&with_time(f64::NAN));
+    assert!(e.contains("time t = NaN is not in [0, run.end_time"), "{e}");
+    let e = resumed(&with_time(1.0));
+    assert!(
+        e.contains("time t = 1 is not in") && e.contains("raise run.end_time"),
+        "{e}"
+    );
+    // 60 GiB more, as a sparse tail: refused from the length alone.
+    std::fs::write(&path, &good).unwrap();
+    let file = std::fs::OpenOptions::new().write(true).open(&path).unwrap();
+    file.set_len(good.len() as u64 + (60 << 30)).unwrap();
+    drop(file);
+    let opts = RunOptions {
+        resume: true,
+        ..cpu_options(dir.path(), false)
+    };
+    let Err(RunError::Checkpoint { message, .. }) = run(&case, &opts) else {
+        panic!("a grown checkpoint is resumed")
+    };
+    assert!(
+        message.contains("announces") && message.contains("holds"),
+        "{message}"
+    );
+    // The undamaged file still resumes.
+    std::fs::write(&path, &good).unwrap();
+    run(&case, &opts).unwrap();
+}
+
 #[cfg(feature = "gpu")]
 #[test]
 fn a_resumed_gpu_run_ends_where_the_uninterrupted_one_does() {

@@ -33,6 +33,12 @@ fn an_expression_gives_the_field_it_writes() {
     for (a, b) in rigid.v0.iter().zip(&written.v0) {
         assert!((*a - *b).length() < 1e-13 * 50.0, "{a} against {b}");
     }
+    // ω in scientific notation reads as the same number: the same field to the bit.
+    let scientific = discretise::<D2>(
+        &disk(r#"{ type = "expression", vx = "-5e1*y", vy = "5.0E+1*x" }"#).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(scientific.v0, written.v0);
 }
 
 #[test]

@@ -40,47 +40,60 @@ pub(super) fn read_mesh<D: Dim>(path: &Path, nodes: MeshNodes) -> Result<Sampled
         .into())
 }
 
+/// A file that may be read: a regular file (not a device, pipe or folder) of at most
+/// `cap` bytes, `what` it is named in the error.
+fn open_capped(path: &Path, cap: u64, what: &str) -> std::io::Result<std::fs::File> {
+    let meta = std::fs::metadata(path)?;
+    if !meta.is_file() {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "it is not a regular file; give the path of a file",
+        ));
+    }
+    if meta.len() > cap {
+        return Err(too_large(cap, what));
+    }
+    std::fs::File::open(path)
+}
+
+fn too_large(cap: u64, what: &str) -> std::io::Error {
+    std::io::Error::new(
+        std::io::ErrorKind::InvalidInput,
+        format!("it is larger than {cap} bytes, the most {what} may hold"),
+    )
+}
+
+/// A file as UTF-8 text (see [`open_capped`]); at most the cap is read, should the file
+/// grow after its size was checked.
+pub(crate) fn read_capped(path: &Path, cap: u64, what: &str) -> std::io::Result<String> {
+    use std::io::Read;
+    let mut text = String::new();
+    open_capped(path, cap, what)?
+        .take(cap + 1)
+        .read_to_string(&mut text)?;
+    if text.len() as u64 > cap {
+        return Err(too_large(cap, what));
+    }
+    Ok(text)
+}
+
 /// The largest points or mesh file read [bytes]: 1 GiB, about 15 million rows of x, y, z
 /// and a volume.
 const POINTS_FILE_CAP: u64 = 1 << 30;
+const POINTS_FILE: &str = "a points or mesh file";
 
-/// A points or mesh file that may be read: a regular file (not a device, pipe or folder)
-/// of at most [`POINTS_FILE_CAP`] bytes.
-fn open_points_file(path: &Path) -> Result<std::fs::File, String> {
-    let meta = std::fs::metadata(path).map_err(|e| format!("cannot read: {e}"))?;
-    if !meta.is_file() {
-        return Err("is not a regular file; give the path of a file".into());
-    }
-    if meta.len() > POINTS_FILE_CAP {
-        return Err(format!(
-            "is larger than {POINTS_FILE_CAP} bytes, the most a points or mesh file may hold"
-        ));
-    }
-    std::fs::File::open(path).map_err(|e| format!("cannot read: {e}"))
-}
-
-/// A points file as text (see [`open_points_file`]); at most the cap is read, should the
-/// file grow after its size was checked.
+/// A points or mesh file as text.
 fn read_points_file(path: &Path) -> Result<String, String> {
-    use std::io::Read;
-    let mut text = String::new();
-    open_points_file(path)?
-        .take(POINTS_FILE_CAP + 1)
-        .read_to_string(&mut text)
-        .map_err(|e| format!("cannot read as UTF-8 text: {e}"))?;
-    if text.len() as u64 > POINTS_FILE_CAP {
-        return Err(format!(
-            "is larger than {POINTS_FILE_CAP} bytes, the most a points or mesh file may hold"
-        ));
-    }
-    Ok(text)
+    read_capped(path, POINTS_FILE_CAP, POINTS_FILE).map_err(|e| format!("cannot read: {e}"))
 }
 
 /// The data rows of a points file (its non-empty lines after the header), counted in
 /// chunks without holding the file.
 pub(super) fn count_point_rows(path: &Path) -> Result<u64, String> {
     use std::io::Read;
-    let mut file = open_points_file(path)?.take(POINTS_FILE_CAP + 1);
+    let mut file = open_capped(path, POINTS_FILE_CAP, POINTS_FILE)
+        .map_err(|e| format!("cannot read: {e}"))?
+        .take(POINTS_FILE_CAP + 1);
     let mut chunk = vec![0u8; 1 << 16];
     let (mut rows, mut blank) = (0u64, true);
     loop {

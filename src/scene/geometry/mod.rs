@@ -11,6 +11,7 @@ mod lattice;
 mod shape;
 
 pub use estimate::{BodySize, estimate_particles};
+pub(crate) use files::read_capped;
 pub use lattice::PARTICLE_ID_LIMIT;
 
 use super::{BodySpec, Case, CaseError, Expression, Hole, Shape, VelocityField, VelocityNoise};
