@@ -82,11 +82,11 @@ impl<D: Dim> MixedSph<D> {
     }
 
     pub(crate) fn boundary(&self) -> &Boundary<D> {
-        &self.boundary
+        &self.surroundings.boundary
     }
 
     pub(crate) fn interactions(&self) -> &Interactions<D> {
-        &self.interactions
+        &self.surroundings.interactions
     }
 
     pub(crate) fn smoothing_length(&self) -> f64 {
