@@ -15,7 +15,7 @@ use super::compressibility::{Corrector, Pairs, StageStart, UNCONVERGED};
 use super::projection::{Balance, Sums};
 use super::weights::{brookshaw_weights, correct_laplacian, least_squares_weights, pair_map};
 use super::{CflWaveSpeed, Conserved, DeformationGradient, JstLaplacian, Momentum, Stabiliser};
-use crate::boundary::{Boundary, OnPatches};
+use crate::boundary::OnPatches;
 use crate::correction;
 use crate::integrate::{IntegratorKind, OdeSystem};
 use crate::interaction::Interactions;

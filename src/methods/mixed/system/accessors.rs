@@ -1,6 +1,7 @@
 //! Read access to the reference set-up, for the GPU engine.
 
 use super::*;
+use crate::boundary::Boundary;
 
 /// Read access to the reference set-up, for the GPU engine ([`crate::methods::mixed::gpu`]).
 #[cfg(feature = "gpu")]
