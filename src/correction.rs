@@ -490,6 +490,28 @@ mod tests {
             .fold(0.0, f64::max)
     }
 
+    /// The first-order corrections (Randles–Libersky, RKPM, CGCK) reproduce the gradient
+    /// of a linear field f = A x + b at every particle.
+    fn assert_linear_exact<D: Dim>(
+        x: &[D::V],
+        vol: &[f64],
+        csr: &Csr,
+        kernel: &Kernel,
+        a: D::T,
+        what: &str,
+    ) {
+        for kind in [
+            CorrectionKind::RandlesLibersky,
+            CorrectionKind::Rkpm,
+            CorrectionKind::Cgck,
+        ] {
+            let g = gradients::<D>(kind, x, vol, csr, kernel).unwrap();
+            // Exact up to round-off of O(N) sums of O(1/dx) terms: 1e-10 relative to |A| ~ 3.
+            let e = linear_error::<D>(x, vol, csr, &g, a);
+            assert!(e < 1e-10, "{kind:?} {what}: error {e:e}");
+        }
+    }
+
     #[test]
     fn first_order_corrections_reproduce_linear_fields_in_2d() {
         let a = DMat2::from_cols_array(&[0.7, -1.3, 2.1, 0.4]);
@@ -500,19 +522,8 @@ mod tests {
             for kernel_kind in KernelKind::ALL {
                 let kernel = Kernel::new(kernel_kind, 1.3 * dx, 2);
                 let csr = neighbour::build::<D2>(&x, kernel.support());
-                for kind in [
-                    CorrectionKind::RandlesLibersky,
-                    CorrectionKind::Rkpm,
-                    CorrectionKind::Cgck,
-                ] {
-                    let g = gradients::<D2>(kind, &x, &vol, &csr, &kernel).unwrap();
-                    // Exact up to round-off of O(N) sums of O(1/dx) terms: 1e-10 relative to |A| ~ 3.
-                    let e = linear_error::<D2>(&x, &vol, &csr, &g, a);
-                    assert!(
-                        e < 1e-10,
-                        "{kind:?} {kernel_kind:?} jitter {amp}: error {e:e}"
-                    );
-                }
+                let what = format!("{kernel_kind:?} jitter {amp}");
+                assert_linear_exact::<D2>(&x, &vol, &csr, &kernel, a, &what);
                 // The plain gradient is not first-order: it must fail at the boundary.
                 let g = gradients::<D2>(CorrectionKind::None, &x, &vol, &csr, &kernel).unwrap();
                 assert!(linear_error::<D2>(&x, &vol, &csr, &g, a) > 0.1);
@@ -538,15 +549,7 @@ mod tests {
         let kernel = Kernel::new(KernelKind::WendlandC2, 1.3 * dx, 3);
         let csr = neighbour::build::<D3>(&x, kernel.support());
         let a = DMat3::from_cols_array(&[0.7, -1.3, 2.1, 0.4, 0.5, -0.6, 0.9, 0.2, -1.1]);
-        for kind in [
-            CorrectionKind::RandlesLibersky,
-            CorrectionKind::Rkpm,
-            CorrectionKind::Cgck,
-        ] {
-            let g = gradients::<D3>(kind, &x, &vol, &csr, &kernel).unwrap();
-            let e = linear_error::<D3>(&x, &vol, &csr, &g, a);
-            assert!(e < 1e-10, "{kind:?}: error {e:e}");
-        }
+        assert_linear_exact::<D3>(&x, &vol, &csr, &kernel, a, "Wendland C2");
     }
 
     #[test]

@@ -68,13 +68,30 @@ impl Cantilever {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ClosedForm {
     Cantilever(Cantilever),
-    /// Uniaxial stress σ along the axis a: u_a = σX_a/E, u_k = −νσX_k/E (k ≠ a).
-    Uniaxial {
-        stress: f64,
-        axis: usize,
-        youngs_modulus: f64,
-        poisson_ratio: f64,
-    },
+    Uniaxial(Uniaxial),
+}
+
+/// Uniaxial stress σ along the axis a: u_a = σX_a/E, u_k = −νσX_k/E (k ≠ a).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Uniaxial {
+    pub stress: f64,
+    pub axis: usize,
+    pub youngs_modulus: f64,
+    pub poisson_ratio: f64,
+}
+
+impl Uniaxial {
+    /// The principal strains: ε_a = σ/E along the axis, ε_k = −νσ/E across it.
+    pub fn strains(&self) -> [f64; 3] {
+        let e = self.stress / self.youngs_modulus;
+        std::array::from_fn(|k| {
+            if k == self.axis {
+                e
+            } else {
+                -self.poisson_ratio * e
+            }
+        })
+    }
 }
 
 impl ClosedForm {
@@ -92,12 +109,12 @@ impl ClosedForm {
                 youngs_modulus,
                 poisson_ratio,
             }),
-            crate::scene::Solution::UniaxialStress { stress, axis } => Self::Uniaxial {
+            crate::scene::Solution::UniaxialStress { stress, axis } => Self::Uniaxial(Uniaxial {
                 stress,
                 axis: axis.index(),
                 youngs_modulus,
                 poisson_ratio,
-            },
+            }),
         }
     }
 
@@ -109,20 +126,9 @@ impl ClosedForm {
                 let [ux, uy] = c.displacement(x[0], x[1]);
                 [ux, uy, 0.0]
             }
-            Self::Uniaxial {
-                stress,
-                axis,
-                youngs_modulus,
-                poisson_ratio,
-            } => {
-                let e = stress / youngs_modulus;
-                std::array::from_fn(|k| {
-                    if k == axis {
-                        e * x[k]
-                    } else {
-                        -poisson_ratio * e * x[k]
-                    }
-                })
+            Self::Uniaxial(u) => {
+                let strain = u.strains();
+                std::array::from_fn(|k| strain[k] * x[k])
             }
         }
     }
@@ -134,19 +140,10 @@ impl ClosedForm {
                 let g = c.displacement_gradient(x[0], x[1]);
                 [[g[0][0], g[0][1], 0.0], [g[1][0], g[1][1], 0.0], [0.0; 3]]
             }
-            Self::Uniaxial {
-                stress,
-                axis,
-                youngs_modulus,
-                poisson_ratio,
-            } => {
-                let e = stress / youngs_modulus;
+            Self::Uniaxial(u) => {
+                let strain = u.strains();
                 std::array::from_fn(|k| {
-                    std::array::from_fn(|l| match (k == l, k == axis) {
-                        (false, _) => 0.0,
-                        (true, true) => e,
-                        (true, false) => -poisson_ratio * e,
-                    })
+                    std::array::from_fn(|l| if k == l { strain[k] } else { 0.0 })
                 })
             }
         }
@@ -159,9 +156,9 @@ impl ClosedForm {
                 let [sxx, syy, txy] = c.stress(x[0], x[1]);
                 [[sxx, txy, 0.0], [txy, syy, 0.0], [0.0, 0.0, 0.0]]
             }
-            Self::Uniaxial { stress, axis, .. } => {
+            Self::Uniaxial(u) => {
                 let mut s = [[0.0; 3]; 3];
-                s[axis][axis] = stress;
+                s[u.axis][u.axis] = u.stress;
                 s
             }
         }

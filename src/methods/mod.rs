@@ -16,6 +16,7 @@ pub mod godunov;
 pub mod gray_monaghan;
 pub mod kbm;
 pub mod mixed;
+pub mod particles;
 pub mod potential;
 pub mod shared;
 pub mod tl;

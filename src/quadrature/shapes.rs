@@ -113,21 +113,14 @@ impl<D: Dim> Shapes<D> {
         body: &[u32],
         kernel: &Kernel,
     ) -> Result<Self, QuadratureError> {
-        let reach = crate::reference::neighbour_radius(kernel);
-        let csr = neighbour::between::<D>(at, x, reach, Some((at_body, body)));
-        let rows = csr.map_rows(|q| {
-            let nodes = csr.neighbours(q);
-            let shapes = correction::reproducing_shapes::<D>(at[q], nodes, x, vol, kernel).ok_or(
-                QuadratureError::Singular {
-                    point: q,
-                    position: D::to3(at[q]),
-                    nodes: nodes.len(),
-                },
-            )?;
-            Ok(nodes
-                .iter()
-                .zip(shapes)
-                .map(|(&j, (psi, grad))| (vol[j as usize] * psi, grad * vol[j as usize])))
+        let (csr, rows) = Self::rows_within(at, at_body, x, body, kernel, |y, nodes| {
+            let shapes = correction::reproducing_shapes::<D>(y, nodes, x, vol, kernel)?;
+            let scaled = nodes.iter().zip(shapes);
+            Some(
+                scaled
+                    .map(|(&j, (psi, grad))| (vol[j as usize] * psi, grad * vol[j as usize]))
+                    .collect(),
+            )
         })?;
         let (n, grad) = rows.into_iter().unzip();
         Ok(Self {
@@ -137,6 +130,30 @@ impl<D: Dim> Shapes<D> {
             test: Vec::new(),
             family: Some(Family::Reproducing),
         })
+    }
+
+    /// The lists of the nodes (positions x, bodies `body`) within the kernel's support of
+    /// each point y_q (of body `at_body[q]`), and the values `row(y_q, nodes)` of every
+    /// pair in CSR order; a point whose row is None is singular.
+    fn rows_within<T: Default + Clone + Send>(
+        at: &[D::V],
+        at_body: &[u32],
+        x: &[D::V],
+        body: &[u32],
+        kernel: &Kernel,
+        row: impl Fn(D::V, &[u32]) -> Option<Vec<T>> + Sync,
+    ) -> Result<(Csr, Vec<T>), QuadratureError> {
+        let reach = crate::reference::neighbour_radius(kernel);
+        let csr = neighbour::between::<D>(at, x, reach, Some((at_body, body)));
+        let rows = csr.map_rows(|q| {
+            let nodes = csr.neighbours(q);
+            row(at[q], nodes).ok_or(QuadratureError::Singular {
+                point: q,
+                position: D::to3(at[q]),
+                nodes: nodes.len(),
+            })
+        })?;
+        Ok((csr, rows))
     }
 
     /// Moving least-squares functions with a linear basis (seed 001 eqs 37–42), Φ_a(X) =
@@ -169,17 +186,8 @@ impl<D: Dim> Shapes<D> {
         body: &[u32],
         kernel: &Kernel,
     ) -> Result<Self, QuadratureError> {
-        let reach = crate::reference::neighbour_radius(kernel);
-        let csr = neighbour::between::<D>(at, x, reach, Some((at_body, body)));
-        let rows = csr.map_rows(|q| {
-            let nodes = csr.neighbours(q);
-            krongauz_belytschko_shapes::<D>(at[q], nodes, x, kernel).ok_or(
-                QuadratureError::Singular {
-                    point: q,
-                    position: D::to3(at[q]),
-                    nodes: nodes.len(),
-                },
-            )
+        let (csr, rows) = Self::rows_within(at, at_body, x, body, kernel, |y, nodes| {
+            krongauz_belytschko_shapes::<D>(y, nodes, x, kernel)
         })?;
         let mut shapes = Self {
             csr,

@@ -3,7 +3,9 @@
 //! Fig. 7), the strip's neck height against extension (Fig. 9), a ring's height (Fig. 12).
 //! Also written as one long CSV (`variant,backend,sweep_value,x,y`) for plotting scripts.
 
-use super::plot::{draw_marker, draw_path, legend_width, line_style, register_font, write_figure};
+use super::plot::{
+    draw_marker, draw_path, legend_width, line_style, register_font, styled_mesh, write_figure,
+};
 use super::records::{RunRecord, Status};
 use super::suite::{History, Suite};
 use crate::output::series::{ColumnError, read_column};
@@ -397,18 +399,16 @@ fn draw<DB: DrawingBackend>(
         .y_label_area_size(78)
         .build_cartesian_2d(x_lo..x_hi, y_lo..y_hi)
         .map_err(err)?;
-    chart
-        .configure_mesh()
-        .x_desc(h.x_label.as_str())
-        .y_desc(h.label.as_str())
-        .x_label_formatter(&|v| tick(*v, x_step))
-        .y_label_formatter(&|v| tick(*v, y_step))
-        .bold_line_style(RGBColor(190, 190, 190))
-        .light_line_style(RGBColor(235, 235, 235))
-        .label_style(("sans-serif", 15))
-        .axis_desc_style(("sans-serif", 16))
-        .draw()
-        .map_err(err)?;
+    let (x_label, y_label) = (|v: &f64| tick(*v, x_step), |v: &f64| tick(*v, y_step));
+    styled_mesh(
+        &mut chart.configure_mesh(),
+        &h.x_label,
+        &h.label,
+        &x_label,
+        &y_label,
+    )
+    .draw()
+    .map_err(err)?;
     let area = chart.plotting_area().strip_coord_spec();
     let base = area.get_base_pixel();
     let px = |x: f64, y: f64| {

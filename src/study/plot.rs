@@ -9,6 +9,7 @@
 
 use super::records::{RunRecord, Status};
 use super::suite::{InvariantKind, Reference, Suite, SuiteKind};
+use plotters::chart::MeshStyle;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
@@ -549,6 +550,24 @@ pub(super) fn draw_marker<DB: DrawingBackend>(
 }
 
 /// Draws a polyline in pixels of `area`, solid or dashed.
+/// The grid, fonts, axis descriptions and tick labels of the study's charts.
+pub(super) fn styled_mesh<'m, 'a, 'b, X: Ranged, Y: Ranged, DB: DrawingBackend>(
+    mesh: &'m mut MeshStyle<'a, 'b, X, Y, DB>,
+    x_desc: &str,
+    y_desc: &str,
+    x_label: &'b dyn Fn(&X::ValueType) -> String,
+    y_label: &'b dyn Fn(&Y::ValueType) -> String,
+) -> &'m mut MeshStyle<'a, 'b, X, Y, DB> {
+    mesh.x_desc(x_desc)
+        .y_desc(y_desc)
+        .x_label_formatter(x_label)
+        .y_label_formatter(y_label)
+        .bold_line_style(RGBColor(190, 190, 190))
+        .light_line_style(RGBColor(235, 235, 235))
+        .label_style(("sans-serif", 15))
+        .axis_desc_style(("sans-serif", 16))
+}
+
 pub(super) fn draw_path<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     path: Vec<(i32, i32)>,
@@ -603,18 +622,16 @@ fn draw<DB: DrawingBackend>(
         .map_err(err)?;
     let x_label = |x: &f64| tick_label(*x, xa.plain);
     let y_label = |y: &f64| tick_label(*y, ya.plain);
-    chart
-        .configure_mesh()
-        .x_desc("wall time [s] (set-up + time loop)")
-        .y_desc(m.label)
-        .x_label_formatter(&x_label)
-        .y_label_formatter(&y_label)
-        .bold_line_style(RGBColor(190, 190, 190))
-        .light_line_style(RGBColor(235, 235, 235))
-        .label_style(("sans-serif", 15))
-        .axis_desc_style(("sans-serif", 16))
-        .draw()
-        .map_err(err)?;
+    let x_desc = "wall time [s] (set-up + time loop)";
+    styled_mesh(
+        &mut chart.configure_mesh(),
+        x_desc,
+        m.label,
+        &x_label,
+        &y_label,
+    )
+    .draw()
+    .map_err(err)?;
 
     // Everything else in pixels of the plotting area.
     let area = chart.plotting_area().strip_coord_spec();

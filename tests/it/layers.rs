@@ -53,6 +53,7 @@ const ORDER: &[(&str, &[&str])] = &[
         "method cores",
         &[
             "methods/shared",
+            "methods/particles",
             "methods/tl",
             "methods/tlsph",
             "methods/ul",

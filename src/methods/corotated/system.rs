@@ -16,8 +16,7 @@ use crate::methods::shared::{
     ArtificialViscosity, BlowUp, MIN_CHUNK, Sizes, Traffic, ordered_reduce,
 };
 use crate::methods::tl::{
-    Fields, ReferencePairs, TlCore, TlScheme, TlSph, TlState, ViscousPairs, displacement_rates,
-    viscous_pair_pass,
+    Fields, ReferencePairs, TlCore, TlScheme, TlSph, TlState, ViscousPairs, viscous_pair_pass,
 };
 use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::Csr;
@@ -102,8 +101,6 @@ pub struct CorotatedScheme<D: Dim> {
     shape: Vec<f64>,
     av: Option<ArtificialViscosity>,
     kin: Vec<Kinematics<D>>,
-    /// Each particle's viscous dissipation −m a_visc·v at the last rate evaluation.
-    dissipation: Vec<f64>,
 }
 
 impl<D: Dim> CorotatedScheme<D> {
@@ -214,10 +211,6 @@ pub fn outputs<D: Dim>(mat: &Material, vol: &[f64], r: &[D::T], f_hat: &[D::T]) 
 }
 
 impl<D: Dim> ViscousPairs<D> for CorotatedScheme<D> {
-    fn pair_lists(&self) -> &Csr {
-        &self.csr
-    }
-
     fn viscosity(&self) -> Option<&ArtificialViscosity> {
         self.av.as_ref()
     }
@@ -280,7 +273,6 @@ impl<D: Dim> TlScheme<D> for CorotatedScheme<D> {
         };
         Ok(Self {
             kin: vec![identity; x.len()],
-            dissipation: vec![0.0; x.len()],
             csr,
             grad,
             grad_rev,
@@ -313,11 +305,8 @@ impl<D: Dim> TlScheme<D> for CorotatedScheme<D> {
     /// (1/ρ0) Σ_j V_j ½(R_i + R_j)(P̂_i + P̂_j) ∇0W_ij (eqs 154–155 as the reference code
     /// writes them), plus Monaghan viscosity along ½(R_i F̂_i⁻ᵀ + R_j F̂_j⁻ᵀ) ∇0W_ij; then
     /// u̇ = v.
-    fn forces(&mut self, core: &TlCore<D>, y: &TlState<D>, d: &mut TlState<D>) {
-        let mut dissipation = std::mem::take(&mut self.dissipation);
-        viscous_pair_pass(self, core, y, &mut d.v, &mut dissipation);
-        self.dissipation = dissipation;
-        displacement_rates::<D>(&mut d.u, &y.v);
+    fn forces(&mut self, core: &mut TlCore<D>, y: &TlState<D>, d: &mut TlState<D>) {
+        viscous_pair_pass(self, core, y, d);
     }
 
     /// F = R F̂: the corotated gradient rotated back to the current configuration.
@@ -336,10 +325,6 @@ impl<D: Dim> TlScheme<D> for CorotatedScheme<D> {
         let f_hat: Vec<D::T> = kin.iter().map(|k| k.f_hat).collect();
         let fields = outputs::<D>(&core.material, &core.vol, &r, &f_hat);
         fields.snapshot(&core.x0, &core.mass, &core.body, y.clone())
-    }
-
-    fn dissipation_power(&self) -> f64 {
-        self.dissipation.iter().sum()
     }
 
     /// Pass 1 reads X, u and V and writes the kinematics records (R, F̂, P̂, R F̂⁻ᵀ, ρ);

@@ -59,7 +59,7 @@ impl<D: Dim> TlScheme<D> for DynamicsScheme<D> {
     }
 
     /// u̇ = v, v̇ = f^int/m.
-    fn forces(&mut self, core: &TlCore<D>, y: &TlState<D>, d: &mut TlState<D>) {
+    fn forces(&mut self, core: &mut TlCore<D>, y: &TlState<D>, d: &mut TlState<D>) {
         let f = self.model.internal_force_at(&y.u, &self.h, true);
         self.hourglass_power = self.model.hourglass_power(&y.v);
         d.v.par_iter_mut()

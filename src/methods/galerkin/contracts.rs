@@ -2,6 +2,7 @@
 //! stiffness, its state and accessors.
 
 use super::*;
+use crate::methods::particles::{particle_accessors, signal_speed};
 
 impl<D: Dim> OdeSystem for TlGalerkin<D> {
     type State = GalerkinState<D>;
@@ -22,21 +23,14 @@ impl<D: Dim> OdeSystem for TlGalerkin<D> {
             .with_min_len(MIN_CHUNK)
             .zip(&y.v)
             .for_each(|(u, &v)| *u = v);
-        self.boundary_work.finish(
-            &self.interactions,
-            &self.boundary,
-            &y.v,
-            &self.mass,
-            &mut d.v,
-        );
+        self.surroundings.close(&y.v, &self.mass, &mut d.v);
         Ok(())
     }
 
     /// The tractions' and interactions' step, and the plastic history committed from the
     /// state at the step's start (F at the points is taken for a plastic model only).
     fn begin_step(&mut self, t: f64, dt: f64, y: &GalerkinState<D>) {
-        self.boundary.begin_step(t, dt);
-        self.interactions.begin_step(t, dt, &self.x0, &y.u, &y.v);
+        self.surroundings.begin_step(t, dt, &self.x0, &y.u, &y.v);
         if self.plastic.is_some()
             && let Some(committed) = self.returned_all(&self.point_f(y))
             && let Some(pl) = self.plastic.as_mut()
@@ -48,7 +42,8 @@ impl<D: Dim> OdeSystem for TlGalerkin<D> {
     /// The weak form's velocity smoothing, then the prescribed velocities again.
     fn end_step(&mut self, _t: f64, y: &mut GalerkinState<D>) {
         if let Some(shapes) = &self.smoothing {
-            self.smoothed += smooth_velocities(shapes, &self.boundary, &self.mass, &mut y.v);
+            self.smoothed +=
+                smooth_velocities(shapes, &self.surroundings.boundary, &self.mass, &mut y.v);
         }
     }
 }
@@ -207,28 +202,10 @@ impl<D: Dim> Method<D> for TlGalerkin<D> {
         }
     }
 
-    fn displacement<'a>(&self, y: &'a GalerkinState<D>) -> &'a [D::V] {
-        &y.u
-    }
-
-    fn velocity<'a>(&self, y: &'a GalerkinState<D>) -> &'a [D::V] {
-        &y.v
-    }
+    particle_accessors!(GalerkinState<D>);
 
     fn reference(&self) -> &[D::V] {
         &self.x0
-    }
-
-    fn mass(&self) -> &[f64] {
-        &self.mass
-    }
-
-    fn body(&self) -> &[u32] {
-        &self.body
-    }
-
-    fn constrained(&self) -> &[(u32, u8)] {
-        &self.boundary.constrained
     }
 
     /// F at the nodes, projected from the points.
@@ -288,10 +265,6 @@ impl<D: Dim> Method<D> for TlGalerkin<D> {
 
     fn max_signal_speed(&self, y: &GalerkinState<D>) -> f64 {
         signal_speed::<D>(&self.material, &y.v)
-    }
-
-    fn boundary_work(&self) -> &BoundaryWork {
-        &self.boundary_work
     }
 
     fn pairs(&self) -> usize {

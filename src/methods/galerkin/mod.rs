@@ -29,6 +29,7 @@ use crate::boundary::{Boundary, NodalForces, OnPatches, SurfacePoint};
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::material::Material;
+use crate::methods::particles::{Surroundings, check_stresses};
 use crate::methods::shared::{
     BlowUp, BoundaryWork, MIN_CHUNK, Method, Sizes, Traffic, check_motion, load_word,
     ordered_reduce, particle_state,
@@ -264,27 +265,10 @@ pub fn check_points<D: Dim>(
     rho: &[f64],
     s: &[D::T],
 ) -> Result<(), BlowUp> {
-    let at = |q: usize, quantity: &str, value: f64| {
+    check_stresses::<D>(rho, s, |q, quantity, value| {
         let what = format!("{quantity} at quadrature point {q} next to it");
         BlowUp::at::<D>(x0, node(q), &what, value)
-    };
-    if let Some(q) = rho.par_iter().position_first(|r| !r.is_finite()) {
-        return Err(at(q, "density", rho[q]));
-    }
-    if let Some(q) = s.par_iter().position_first(|&s| !D::is_finite_t(s)) {
-        return Err(at(q, "deviatoric stress |S|", D::ddot(s[q], s[q]).sqrt()));
-    }
-    Ok(())
-}
-
-/// c_p + max |v|: the signal speed of the Galerkin methods' CFL step.
-pub fn signal_speed<D: Dim>(material: &Material, v: &[D::V]) -> f64 {
-    let vmax = v
-        .par_iter()
-        .map(|&v| D::norm2(v))
-        .reduce(|| 0.0, f64::max)
-        .sqrt();
-    material.p_wave_speed() + vmax
+    })
 }
 
 /// A total-Lagrangian Galerkin system on the CPU (f64, rayon).
@@ -303,8 +287,7 @@ pub struct TlGalerkin<D: Dim> {
     /// The particles' own functions for the velocity smoothing after each step, if any.
     smoothing: Option<Shapes<D>>,
     material: Material,
-    boundary: Boundary<D>,
-    interactions: Interactions<D>,
+    surroundings: Surroundings<D>,
     /// The plastic history of the points (von Mises); None for the elastic models.
     plastic: Option<History>,
     /// The kinetic energy the velocity smoothing took out so far.
@@ -312,9 +295,6 @@ pub struct TlGalerkin<D: Dim> {
     /// F_q and P_q of the last rate evaluation.
     f: Vec<D::T>,
     pk1: Vec<D::T>,
-    /// The power of supports, loads and interactions and the supports' reactions at the
-    /// last rate evaluation.
-    boundary_work: BoundaryWork,
 }
 
 impl<D: Dim> TlGalerkin<D> {
@@ -384,13 +364,11 @@ impl<D: Dim> TlGalerkin<D> {
             gather,
             smoothing,
             material,
-            boundary,
-            interactions,
+            surroundings: Surroundings::new(boundary, interactions),
             plastic: material.von_mises().map(|model| History::virgin(model, n)),
             smoothed: 0.0,
             f: vec![D::identity(); n],
             pk1: vec![D::zero_t(); n],
-            boundary_work: BoundaryWork::default(),
         })
     }
 
@@ -436,12 +414,12 @@ impl<D: Dim> TlGalerkin<D> {
     }
 
     pub fn boundary(&self) -> &Boundary<D> {
-        &self.boundary
+        &self.surroundings.boundary
     }
 
     /// The interactions, with the timed loads carried to the nodes as the constant ones.
     pub fn interactions(&self) -> &Interactions<D> {
-        &self.interactions
+        &self.surroundings.interactions
     }
 
     /// F_q and P_q at every point; ρ̇_q and Ṡ_q for the rate model.

@@ -13,13 +13,14 @@
 //! - at each node: m_a v̇_a = −Σ_q w_q σ_q ∇N_a(x_q), gathered over the node's points.
 
 use super::{
-    Mass, check_points, gather_accelerations, row_sums, signal_speed, smooth_velocities,
-    stress_at_nodes, to_nodes,
+    Mass, check_points, gather_accelerations, row_sums, smooth_velocities, stress_at_nodes,
+    to_nodes,
 };
-use crate::boundary::{Boundary, OnPatches};
+use crate::boundary::OnPatches;
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::material::Material;
+use crate::methods::particles::{Surroundings, particle_accessors, signal_speed};
 use crate::methods::shared::{
     BlowUp, BoundaryWork, MIN_CHUNK, Method, Sizes, Traffic, check_motion, load_word,
     particle_state,
@@ -161,8 +162,7 @@ pub struct UlGalerkin<D: Dim, P: MovingPoints<D>> {
     weight: Vec<f64>,
     gather: Gather,
     material: Material,
-    boundary: Boundary<D>,
-    interactions: Interactions<D>,
+    surroundings: Surroundings<D>,
     /// Current node positions x = X + u of the last rate evaluation.
     x: Vec<D::V>,
     /// σ_q of the last rate evaluation.
@@ -171,9 +171,6 @@ pub struct UlGalerkin<D: Dim, P: MovingPoints<D>> {
     plastic: Option<History>,
     /// The kinetic energy the velocity smoothing took out so far.
     smoothed: f64,
-    /// The power of supports, loads and interactions and the supports' reactions at the
-    /// last rate evaluation.
-    boundary_work: BoundaryWork,
 }
 
 /// The initial state: at rest in the reference configuration, v = v0, ρ = ρ0, S = 0.
@@ -276,12 +273,10 @@ impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
             weight,
             gather,
             material,
-            boundary,
-            interactions,
+            surroundings: Surroundings::new(boundary, interactions),
             sigma: vec![D::zero_t(); q],
             plastic: material.von_mises().map(|model| History::virgin(model, q)),
             smoothed: 0.0,
-            boundary_work: BoundaryWork::default(),
         })
     }
 
@@ -489,13 +484,7 @@ impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
             mass: &self.mass,
         };
         self.points.own_rates(&nodes, y, &self.shapes, d)?;
-        self.boundary_work.finish(
-            &self.interactions,
-            &self.boundary,
-            &y.v,
-            &self.mass,
-            &mut d.v,
-        );
+        self.surroundings.close(&y.v, &self.mass, &mut d.v);
         Ok(())
     }
 
@@ -514,8 +503,7 @@ impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
         {
             pl.commit(&committed, self.points.reference_weights());
         }
-        self.boundary.begin_step(t, dt);
-        self.interactions.begin_step(t, dt, &self.x0, &y.u, &y.v);
+        self.surroundings.begin_step(t, dt, &self.x0, &y.u, &y.v);
     }
 
     /// The weak form's velocity smoothing with the nodes' functions at the step's end,
@@ -529,7 +517,8 @@ impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
             mass: &self.mass,
         };
         if let Some(shapes) = self.points.smoothing(&nodes, y) {
-            self.smoothed += smooth_velocities(shapes, &self.boundary, &self.mass, &mut y.v);
+            self.smoothed +=
+                smooth_velocities(shapes, &self.surroundings.boundary, &self.mass, &mut y.v);
         }
     }
 }
@@ -544,28 +533,10 @@ impl<D: Dim, P: MovingPoints<D>> Method<D> for UlGalerkin<D, P> {
         initial::<D, P>(&self.material, &self.v0, self.shapes.len())
     }
 
-    fn displacement<'a>(&self, y: &'a UlGalerkinState<D>) -> &'a [D::V] {
-        &y.u
-    }
-
-    fn velocity<'a>(&self, y: &'a UlGalerkinState<D>) -> &'a [D::V] {
-        &y.v
-    }
+    particle_accessors!(UlGalerkinState<D>);
 
     fn reference(&self) -> &[D::V] {
         &self.x0
-    }
-
-    fn mass(&self) -> &[f64] {
-        &self.mass
-    }
-
-    fn body(&self) -> &[u32] {
-        &self.body
-    }
-
-    fn constrained(&self) -> &[(u32, u8)] {
-        &self.boundary.constrained
     }
 
     /// F at the nodes, projected from F_q = (Σ_a X_a ⊗ ∇N_a(x_q))⁻¹.
@@ -620,10 +591,6 @@ impl<D: Dim, P: MovingPoints<D>> Method<D> for UlGalerkin<D, P> {
 
     fn max_signal_speed(&self, y: &UlGalerkinState<D>) -> f64 {
         signal_speed::<D>(&self.material, &y.v)
-    }
-
-    fn boundary_work(&self) -> &BoundaryWork {
-        &self.boundary_work
     }
 
     fn pairs(&self) -> usize {

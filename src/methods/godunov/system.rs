@@ -11,13 +11,11 @@
 
 use super::GodunovSpec;
 use crate::correction::CorrectionKind;
-use crate::methods::shared::BlowUp;
 use crate::methods::ul::{Correction, PairRates, PairScheme, UlCore, UlSph, UlState};
 use crate::methods::{MethodFamily, MethodSpec, not_run_by};
 use crate::neighbour::Rebuild;
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
-use rayon::prelude::*;
 
 /// The Godunov SPH system on the CPU (f64, rayon).
 pub type Godunov<D> = UlSph<D, Scheme>;
@@ -90,13 +88,12 @@ impl<D: Dim> PairScheme<D> for Scheme {
         }
     }
 
-    /// A singular correction matrix.
-    fn corrected(&self) -> bool {
-        self.correction == CorrectionKind::RandlesLibersky
+    fn correction(&self) -> CorrectionKind {
+        self.correction
     }
 
-    fn inadmissible(&self, core: &UlCore<D>, particles: &[Particle<D>]) -> Option<BlowUp> {
-        core.first_singular(particles.par_iter().map(|p| &p.correction))
+    fn correction_of(particle: &Particle<D>) -> &Correction<D> {
+        &particle.correction
     }
 
     /// Steps 3–7 for particle i.

@@ -9,7 +9,6 @@
 
 use super::{ArtificialStress, GrayMonaghanSpec};
 use crate::correction::CorrectionKind;
-use crate::methods::shared::BlowUp;
 use crate::methods::tlsph::ArtificialViscosity;
 use crate::methods::ul::{Correction, PairRates, PairScheme, UlCore, UlSph, UlState};
 use crate::methods::{MethodFamily, MethodSpec, not_run_by};
@@ -17,7 +16,6 @@ use crate::neighbour::Rebuild;
 use crate::plasticity::{symmetric_eigen, to_mat3};
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
-use rayon::prelude::*;
 
 /// f^n, by repeated squaring for the integer exponents of every seed set-up (n = 4): the
 /// products of `f64::powi`, here inline in the pair loop, where `powi` with an exponent
@@ -150,13 +148,12 @@ impl<D: Dim> PairScheme<D> for Scheme {
         }
     }
 
-    /// A singular correction matrix.
-    fn corrected(&self) -> bool {
-        self.correction == CorrectionKind::RandlesLibersky
+    fn correction(&self) -> CorrectionKind {
+        self.correction
     }
 
-    fn inadmissible(&self, core: &UlCore<D>, particles: &[Particle<D>]) -> Option<BlowUp> {
-        core.first_singular(particles.par_iter().map(|p| &p.correction))
+    fn correction_of(particle: &Particle<D>) -> &Correction<D> {
+        &particle.correction
     }
 
     /// Steps 4–11 for particle i.

@@ -476,6 +476,20 @@ fn rate_passes(m: &MixedOptions, stab: Stabiliser, case: &Case) -> String {
     passes.join(" → ")
 }
 
+/// The keys of a mixed method's table: those of [`MixedOptions`] and its stabilisation's
+/// own.
+const fn keys(own: &'static str) -> [&'static str; 7] {
+    [
+        "variables",
+        "projection",
+        "momentum",
+        "deformation_gradient",
+        "cfl_wave_speed",
+        "artificial_compressibility",
+        own,
+    ]
+}
+
 /// What distinguishes the two mixed methods; everything else of their
 /// [`MethodFamily`] is shared.
 trait MixedMethod {
@@ -491,15 +505,7 @@ impl MixedMethod for UpwindSpec {
     const DESCRIPTION: &'static str = "mixed {p, F, H, J} total-Lagrangian SPH with the \
         acoustic Riemann (upwind) stabilisation on p and J, linear reconstruction and the \
         angular-momentum projection (Lee et al. 2018; seed 003)";
-    const KEYS: &'static [&'static str] = &[
-        "variables",
-        "projection",
-        "momentum",
-        "deformation_gradient",
-        "cfl_wave_speed",
-        "artificial_compressibility",
-        "reconstruction",
-    ];
+    const KEYS: &'static [&'static str] = &keys("reconstruction");
 
     fn options(&self) -> &MixedOptions {
         &self.mixed
@@ -519,15 +525,7 @@ impl MixedMethod for UpwindSpec {
 impl MixedMethod for JstSpec {
     const DESCRIPTION: &'static str = "mixed {p, F, H, J} total-Lagrangian SPH with \
         Jameson–Schmidt–Turkel dissipation on p (Lee et al. 2016; seed 002 eqs 26–28)";
-    const KEYS: &'static [&'static str] = &[
-        "variables",
-        "projection",
-        "momentum",
-        "deformation_gradient",
-        "cfl_wave_speed",
-        "artificial_compressibility",
-        "jst",
-    ];
+    const KEYS: &'static [&'static str] = &keys("jst");
 
     fn options(&self) -> &MixedOptions {
         &self.mixed

@@ -15,13 +15,14 @@ use super::compressibility::{Corrector, Pairs, StageStart, UNCONVERGED};
 use super::projection::{Balance, Sums};
 use super::weights::{brookshaw_weights, correct_laplacian, least_squares_weights, pair_map};
 use super::{CflWaveSpeed, Conserved, DeformationGradient, JstLaplacian, Momentum, Stabiliser};
-use crate::boundary::{Boundary, OnPatches};
+use crate::boundary::OnPatches;
 use crate::correction;
 use crate::integrate::{IntegratorKind, OdeSystem};
 use crate::interaction::Interactions;
 use crate::kernel::Kernel;
 use crate::material::Material;
 use crate::methods::not_run_by;
+use crate::methods::particles::Surroundings;
 use crate::methods::shared::{
     BlowUp, BoundaryWork, MIN_CHUNK, Method, PseudoTime, Sizes, Traffic, check_motion,
     neighbour_radius, ordered_reduce, particle_state, reference_gradients,
@@ -201,9 +202,7 @@ pub struct MixedSph<D: Dim> {
     /// C_p,ab of the CFL step.
     cfl_wave_speed: CflWaveSpeed,
     h: f64,
-    boundary: Boundary<D>,
-    /// Forces from outside the method (contact).
-    interactions: Interactions<D>,
+    surroundings: Surroundings<D>,
     /// Displacements and velocities of real particles and ghosts at the current stage.
     u_ext: Vec<D::V>,
     v_ext: Vec<D::V>,
@@ -227,9 +226,6 @@ pub struct MixedSph<D: Dim> {
     stage: usize,
     /// The size of the current step.
     dt: f64,
-    /// The power of supports, loads and interactions and the supports' reactions at the
-    /// last rate evaluation.
-    boundary_work: BoundaryWork,
 }
 
 impl<D: Dim> MixedSph<D> {
@@ -342,12 +338,10 @@ impl<D: Dim> MixedSph<D> {
             spacing: case.spacing,
             cfl_wave_speed: options.cfl_wave_speed,
             h: kernel.h,
-            boundary,
-            interactions,
+            surroundings: Surroundings::new(boundary, interactions),
             step_start: None,
             stage: 0,
             dt: 0.0,
-            boundary_work: BoundaryWork::default(),
         })
     }
 

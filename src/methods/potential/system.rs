@@ -13,8 +13,7 @@ use crate::methods::shared::{
     ArtificialViscosity, BlowUp, MIN_CHUNK, Sizes, Traffic, stress_fields,
 };
 use crate::methods::tl::{
-    ReferencePairs, TlCore, TlScheme, TlSph, TlState, ViscousPairs, displacement_rates, snapshot,
-    viscous_pair_pass,
+    ReferencePairs, TlCore, TlScheme, TlSph, TlState, ViscousPairs, snapshot, viscous_pair_pass,
 };
 use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::Csr;
@@ -64,8 +63,6 @@ pub struct PotentialScheme<D: Dim> {
     energy_weight: Vec<f64>,
     av: Option<ArtificialViscosity>,
     kin: Vec<Kinematics<D>>,
-    /// Each particle's viscous dissipation −m a_visc·v at the last rate evaluation.
-    dissipation: Vec<f64>,
 }
 
 impl<D: Dim> PotentialScheme<D> {
@@ -131,10 +128,6 @@ impl<D: Dim> PotentialScheme<D> {
 }
 
 impl<D: Dim> ViscousPairs<D> for PotentialScheme<D> {
-    fn pair_lists(&self) -> &Csr {
-        &self.csr
-    }
-
     fn viscosity(&self) -> Option<&ArtificialViscosity> {
         self.av.as_ref()
     }
@@ -184,7 +177,6 @@ impl<D: Dim> TlScheme<D> for PotentialScheme<D> {
         };
         Ok(Self {
             kin: vec![identity; n],
-            dissipation: vec![0.0; n],
             csr,
             grad,
             grad_rev,
@@ -213,11 +205,8 @@ impl<D: Dim> TlScheme<D> for PotentialScheme<D> {
     /// plus Monaghan viscosity along ½(F_i⁻ᵀ ∇0W̃_ij − F_j⁻ᵀ ∇0W̃_ji): the TLSPH direction
     /// F_i⁻ᵀ ∇0W̃_ij made antisymmetric in the pair as the stress term is, so that the
     /// viscosity too keeps Σ m a = 0; then u̇ = v.
-    fn forces(&mut self, core: &TlCore<D>, y: &TlState<D>, d: &mut TlState<D>) {
-        let mut dissipation = std::mem::take(&mut self.dissipation);
-        viscous_pair_pass(self, core, y, &mut d.v, &mut dissipation);
-        self.dissipation = dissipation;
-        displacement_rates::<D>(&mut d.u, &y.v);
+    fn forces(&mut self, core: &mut TlCore<D>, y: &TlState<D>, d: &mut TlState<D>) {
+        viscous_pair_pass(self, core, y, d);
     }
 
     fn deformation_gradient(&self, core: &TlCore<D>, y: &TlState<D>) -> Vec<D::T> {
@@ -251,10 +240,6 @@ impl<D: Dim> TlScheme<D> for PotentialScheme<D> {
             PotentialForce::ReferenceCode => unit_weight_wave_speed_scale(&core.vol),
         };
         core.material.p_wave_speed() * scale
-    }
-
-    fn dissipation_power(&self) -> f64 {
-        self.dissipation.iter().sum()
     }
 
     /// Pass 1 reads u and V and writes the kinematics records (F, P, F⁻ᵀ, ρ); the det F

@@ -10,10 +10,11 @@
 //! gradients that the SPH schemes compute once on the reference configuration. The state
 //! is [`TlState`]: u = x − X, v and, for the rate-based (hypoelastic) model, ρ and S.
 
-use crate::boundary::{Boundary, OnPatches};
+use crate::boundary::OnPatches;
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::material::Material;
+use crate::methods::particles::{Surroundings, check_stresses, max_speed, particle_accessors};
 use crate::methods::shared::{
     ArtificialViscosity, BlowUp, BoundaryWork, MIN_CHUNK, Method, Traffic, check_motion,
     particle_state, reference_gradients, reverse_gradients, stress_fields,
@@ -43,18 +44,9 @@ particle_state!(TlState { rho, s });
 /// The first particle with a non-finite u, v, ρ or S, as a blow-up.
 pub fn check_state<D: Dim>(x0: &[D::V], y: &TlState<D>) -> Result<(), BlowUp> {
     check_motion::<D>(x0, &y.u, &y.v)?;
-    let fail = |i: usize, quantity: &str, value: f64| BlowUp::at::<D>(x0, i, quantity, value);
-    if let Some(i) = y.rho.par_iter().position_first(|r| !r.is_finite()) {
-        return Err(fail(i, "density", y.rho[i]));
-    }
-    if let Some(i) = y.s.par_iter().position_first(|&s| !D::is_finite_t(s)) {
-        return Err(fail(
-            i,
-            "deviatoric stress |S|",
-            D::ddot(y.s[i], y.s[i]).sqrt(),
-        ));
-    }
-    Ok(())
+    check_stresses::<D>(&y.rho, &y.s, |i, quantity, value| {
+        BlowUp::at::<D>(x0, i, quantity, value)
+    })
 }
 
 /// The fields of a total-Lagrangian state that its frames and observers read.
@@ -155,11 +147,10 @@ pub struct TlCore<D: Dim> {
     pub material: Material,
     /// The smoothing length of the case's kernel.
     pub h: f64,
-    pub boundary: Boundary<D>,
-    interactions: Interactions<D>,
-    /// The power of supports, loads and interactions and the supports' reactions at the
-    /// last rate evaluation.
-    boundary_work: BoundaryWork,
+    pub surroundings: Surroundings<D>,
+    /// Each particle's power of the artificial viscosity, −m a_visc·v, at the last rate
+    /// evaluation ([`viscous_pair_pass`]; zero for a scheme without the pass).
+    dissipation: Vec<f64>,
 }
 
 impl<D: Dim> TlCore<D> {
@@ -180,6 +171,7 @@ impl<D: Dim> TlCore<D> {
         } = reference;
         let interactions =
             Interactions::build(case, &x0, &body, &OnPatches, &mass, || lists.clone())?;
+        let dissipation = vec![0.0; x0.len()];
         Ok(Self {
             x0,
             vol,
@@ -189,9 +181,8 @@ impl<D: Dim> TlCore<D> {
             u0,
             material,
             h: kernel.h,
-            boundary,
-            interactions,
-            boundary_work: BoundaryWork::default(),
+            surroundings: Surroundings::new(boundary, interactions),
+            dissipation,
         })
     }
 
@@ -218,9 +209,7 @@ pub fn displacement_rates<D: Dim>(u_dot: &mut [D::V], v: &[D::V]) {
 
 /// A pair force with Monaghan viscosity along a pair direction of the scheme, for
 /// [`viscous_pair_pass`].
-pub trait ViscousPairs<D: Dim>: Sync {
-    /// The neighbour lists.
-    fn pair_lists(&self) -> &Csr;
+pub trait ViscousPairs<D: Dim>: TlScheme<D> {
     /// The viscosity; none without it.
     fn viscosity(&self) -> Option<&ArtificialViscosity>;
     /// The current density of particle i (its sound speed is √(K/ρ)).
@@ -233,17 +222,30 @@ pub trait ViscousPairs<D: Dim>: Sync {
     fn acceleration(&self, core: &TlCore<D>, i: usize, stress: D::V) -> D::V;
 }
 
-/// The pair pass of a [`ViscousPairs`] scheme: a_i = acceleration(Σ_j stress_ij) −
-/// Σ_j dir_ij ½ m_j Π_ij, with Π_ij of the pair's mean sound speed and density; writes
-/// each particle's viscous dissipation −m_i a_visc·v_i into `dissipation`.
+/// The forces of a [`ViscousPairs`] scheme: a_i = acceleration(Σ_j stress_ij) −
+/// Σ_j dir_ij ½ m_j Π_ij, with Π_ij of the pair's mean sound speed and density, each
+/// particle's viscous dissipation −m_i a_visc·v_i into the core's record, then u̇ = v.
 pub fn viscous_pair_pass<D: Dim, S: ViscousPairs<D>>(
+    scheme: &S,
+    core: &mut TlCore<D>,
+    y: &TlState<D>,
+    d: &mut TlState<D>,
+) {
+    let mut dissipation = std::mem::take(&mut core.dissipation);
+    viscous_accelerations(scheme, core, y, &mut d.v, &mut dissipation);
+    core.dissipation = dissipation;
+    displacement_rates::<D>(&mut d.u, &y.v);
+}
+
+/// The accelerations and dissipation of [`viscous_pair_pass`].
+fn viscous_accelerations<D: Dim, S: ViscousPairs<D>>(
     scheme: &S,
     core: &TlCore<D>,
     y: &TlState<D>,
     a: &mut [D::V],
     dissipation: &mut [f64],
 ) {
-    let (bulk, h, mass, csr) = (core.material.bulk, core.h, &core.mass, scheme.pair_lists());
+    let (bulk, h, mass, csr) = (core.material.bulk, core.h, &core.mass, scheme.lists());
     a.par_iter_mut()
         .zip(dissipation.par_iter_mut())
         .with_min_len(MIN_CHUNK)
@@ -291,7 +293,7 @@ pub trait TlScheme<D: Dim>: Sized + Send + Sync {
     fn stresses(&mut self, core: &TlCore<D>, y: &TlState<D>, d: &mut TlState<D>) -> Option<BlowUp>;
 
     /// The pair force: u̇ and v̇ of state y before the supports, loads and interactions.
-    fn forces(&mut self, core: &TlCore<D>, y: &TlState<D>, d: &mut TlState<D>);
+    fn forces(&mut self, core: &mut TlCore<D>, y: &TlState<D>, d: &mut TlState<D>);
 
     /// The deformation gradient F of every particle.
     fn deformation_gradient(&self, core: &TlCore<D>, y: &TlState<D>) -> Vec<D::T>;
@@ -314,9 +316,10 @@ pub trait TlScheme<D: Dim>: Sized + Send + Sync {
         core.material.p_wave_speed()
     }
 
-    /// [`Method::dissipation_power`].
-    fn dissipation_power(&self) -> f64 {
-        0.0
+    /// [`Method::dissipation_power`]: the sum of the core's record of the artificial
+    /// viscosity's power.
+    fn dissipation_power(&self, core: &TlCore<D>) -> f64 {
+        core.dissipation.iter().sum()
     }
 
     /// [`Method::hourglass_power`].
@@ -372,21 +375,14 @@ impl<D: Dim, S: TlScheme<D>> OdeSystem for TlSph<D, S> {
             return Err(b);
         }
         self.scheme.forces(core, y, d);
-        core.boundary_work.finish(
-            &core.interactions,
-            &core.boundary,
-            &y.v,
-            &core.mass,
-            &mut d.v,
-        );
+        core.surroundings.close(&y.v, &core.mass, &mut d.v);
         Ok(())
     }
 
     /// The interactions' work before the step (the contact forces of seed 000 §5.8).
     fn begin_step(&mut self, t: f64, dt: f64, y: &TlState<D>) {
         let core = &mut self.core;
-        core.boundary.begin_step(t, dt);
-        core.interactions.begin_step(t, dt, &core.x0, &y.u, &y.v);
+        core.surroundings.begin_step(t, dt, &core.x0, &y.u, &y.v);
     }
 }
 
@@ -415,28 +411,10 @@ impl<D: Dim, S: TlScheme<D>> Method<D> for TlSph<D, S> {
         }
     }
 
-    fn displacement<'a>(&self, y: &'a TlState<D>) -> &'a [D::V] {
-        &y.u
-    }
-
-    fn velocity<'a>(&self, y: &'a TlState<D>) -> &'a [D::V] {
-        &y.v
-    }
+    particle_accessors!(TlState<D>, core);
 
     fn reference(&self) -> &[D::V] {
         &self.core.x0
-    }
-
-    fn mass(&self) -> &[f64] {
-        &self.core.mass
-    }
-
-    fn body(&self) -> &[u32] {
-        &self.core.body
-    }
-
-    fn constrained(&self) -> &[(u32, u8)] {
-        &self.core.boundary.constrained
     }
 
     fn deformation_gradient(&self, y: &TlState<D>) -> Vec<D::T> {
@@ -457,20 +435,11 @@ impl<D: Dim, S: TlScheme<D>> Method<D> for TlSph<D, S> {
 
     /// The scheme's wave speed plus max |v|.
     fn max_signal_speed(&self, y: &TlState<D>) -> f64 {
-        let vmax =
-            y.v.par_iter()
-                .map(|&v| D::norm2(v))
-                .reduce(|| 0.0, f64::max)
-                .sqrt();
-        self.scheme.wave_speed(&self.core) + vmax
-    }
-
-    fn boundary_work(&self) -> &BoundaryWork {
-        &self.core.boundary_work
+        self.scheme.wave_speed(&self.core) + max_speed::<D>(&y.v)
     }
 
     fn dissipation_power(&self) -> f64 {
-        self.scheme.dissipation_power()
+        self.scheme.dissipation_power(&self.core)
     }
 
     fn hourglass_power(&self) -> f64 {

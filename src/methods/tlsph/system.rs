@@ -341,7 +341,7 @@ impl<D: Dim> TlScheme<D> for TlsphScheme<D> {
         bad.map(|i| core.blow_up(i, "det F", D::det(self.own[i].f)))
     }
 
-    fn forces(&mut self, core: &TlCore<D>, y: &TlState<D>, d: &mut TlState<D>) {
+    fn forces(&mut self, core: &mut TlCore<D>, y: &TlState<D>, d: &mut TlState<D>) {
         let mut powers = take(&mut self.powers);
         self.accelerations(core, y, d, &mut powers);
         self.powers = powers;
@@ -365,7 +365,7 @@ impl<D: Dim> TlScheme<D> for TlsphScheme<D> {
         snapshot(&core.material, x0, mass, body, vol, y.clone(), f)
     }
 
-    fn dissipation_power(&self) -> f64 {
+    fn dissipation_power(&self, _core: &TlCore<D>) -> f64 {
         self.powers.iter().map(|p| p[0]).sum()
     }
 

@@ -14,13 +14,16 @@
 #[cfg(feature = "gpu")]
 pub mod gpu;
 
-use crate::boundary::{Boundary, OnPatches};
+use crate::boundary::OnPatches;
 use crate::correction::CorrectionKind;
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::kernel::Kernel;
 use crate::material::Material;
 use crate::methods::Problem;
+use crate::methods::particles::{
+    Surroundings, check_stresses, check_tensors, particle_accessors, signal_speed,
+};
 use crate::methods::shared::{
     BlowUp, BoundaryWork, MIN_CHUNK, Method, Sizes, Traffic, check_motion, particle_state,
 };
@@ -140,17 +143,13 @@ pub struct UlCore<D: Dim> {
     pub mass: Vec<f64>,
     pub body: Vec<u32>,
     v0: Vec<D::V>,
-    pub boundary: Boundary<D>,
+    pub surroundings: Surroundings<D>,
     pub material: Material,
     /// The case's kernel (one smoothing length, as in seed 000).
     pub kernel: Kernel,
     neighbours: Neighbours,
     /// Current positions x = X + u of the last rate evaluation.
     pub x: Vec<D::V>,
-    interactions: Interactions<D>,
-    /// The power of supports, loads and interactions and the supports' reactions at the
-    /// last rate evaluation.
-    boundary_work: BoundaryWork,
 }
 
 impl<D: Dim> UlCore<D> {
@@ -180,12 +179,10 @@ impl<D: Dim> UlCore<D> {
             mass,
             body,
             v0,
-            boundary,
+            surroundings: Surroundings::new(boundary, interactions),
             material,
             kernel,
             neighbours,
-            interactions,
-            boundary_work: BoundaryWork::default(),
         })
     }
 
@@ -253,7 +250,7 @@ impl<D: Dim> UlCore<D> {
     /// Velocity components prescribed over the step: ẋ takes them (a scheme's XSPH term is left out)
     /// and v̇ is zeroed; then the interactions' accelerations. Records the power.
     fn close(&mut self, y: &UlState<D>, d: &mut UlState<D>) {
-        for (i, mask) in self.boundary.held_now() {
+        for (i, mask) in self.surroundings.boundary.held_now() {
             let i = i as usize;
             let (mut x_dot, vi) = (D::to3(d.u[i]), D::to3(y.v[i]));
             for k in 0..D::N {
@@ -263,13 +260,7 @@ impl<D: Dim> UlCore<D> {
             }
             d.u[i] = D::from_slice(&x_dot[..D::N]);
         }
-        self.boundary_work.finish(
-            &self.interactions,
-            &self.boundary,
-            &y.v,
-            &self.mass,
-            &mut d.v,
-        );
+        self.surroundings.close(&y.v, &self.mass, &mut d.v);
     }
 }
 
@@ -287,11 +278,11 @@ pub trait PairScheme<D: Dim>: Sized + Send + Sync {
     /// current).
     fn particle(&self, core: &UlCore<D>, i: usize, y: &UlState<D>) -> Self::Particle;
 
-    /// The first particle whose quantities are inadmissible, if any.
-    fn inadmissible(&self, core: &UlCore<D>, particles: &[Self::Particle]) -> Option<BlowUp>;
+    /// The correction of the velocity gradient that the particle pass computes.
+    fn correction(&self) -> CorrectionKind;
 
-    /// Whether the particle pass sums the Randles–Libersky correction over the pairs.
-    fn corrected(&self) -> bool;
+    /// The correction in a particle's quantities: a singular one is inadmissible.
+    fn correction_of(particle: &Self::Particle) -> &Correction<D>;
 
     /// The rates of particle i from its neighbours.
     fn rates_of(
@@ -332,7 +323,8 @@ impl<D: Dim, S: PairScheme<D>> OdeSystem for UlSph<D, S> {
             .with_min_len(MIN_CHUNK)
             .map(|i| scheme.particle(core, i, y))
             .collect_into_vec(&mut self.particles);
-        if let Some(b) = scheme.inadmissible(core, &self.particles) {
+        let corrections = self.particles.par_iter().map(S::correction_of);
+        if let Some(b) = core.first_singular(corrections) {
             return Err(b);
         }
         let particles = &self.particles;
@@ -361,8 +353,7 @@ impl<D: Dim, S: PairScheme<D>> OdeSystem for UlSph<D, S> {
     /// The interactions' work before the step (the contact forces of seed 000 §5.8).
     fn begin_step(&mut self, t: f64, dt: f64, y: &UlState<D>) {
         let core = &mut self.core;
-        core.boundary.begin_step(t, dt);
-        core.interactions.begin_step(t, dt, &core.x0, &y.u, &y.v);
+        core.surroundings.begin_step(t, dt, &core.x0, &y.u, &y.v);
     }
 }
 
@@ -389,28 +380,10 @@ impl<D: Dim, S: PairScheme<D>> Method<D> for UlSph<D, S> {
         }
     }
 
-    fn displacement<'a>(&self, y: &'a UlState<D>) -> &'a [D::V] {
-        &y.u
-    }
-
-    fn velocity<'a>(&self, y: &'a UlState<D>) -> &'a [D::V] {
-        &y.v
-    }
+    particle_accessors!(UlState<D>, core);
 
     fn reference(&self) -> &[D::V] {
         &self.core.x0
-    }
-
-    fn mass(&self) -> &[f64] {
-        &self.core.mass
-    }
-
-    fn body(&self) -> &[u32] {
-        &self.core.body
-    }
-
-    fn constrained(&self) -> &[(u32, u8)] {
-        &self.core.boundary.constrained
     }
 
     fn deformation_gradient(&self, y: &UlState<D>) -> Vec<D::T> {
@@ -446,16 +419,7 @@ impl<D: Dim, S: PairScheme<D>> Method<D> for UlSph<D, S> {
     }
 
     fn max_signal_speed(&self, y: &UlState<D>) -> f64 {
-        let vmax =
-            y.v.par_iter()
-                .map(|&v| D::norm2(v))
-                .reduce(|| 0.0, f64::max)
-                .sqrt();
-        self.core.material.p_wave_speed() + vmax
-    }
-
-    fn boundary_work(&self) -> &BoundaryWork {
-        &self.core.boundary_work
+        signal_speed::<D>(&self.core.material, &y.v)
     }
 
     fn pairs(&self) -> usize {
@@ -471,7 +435,8 @@ impl<D: Dim, S: PairScheme<D>> Method<D> for UlSph<D, S> {
     fn traffic(&self) -> Option<Traffic> {
         let Sizes { v, t, f, id } = Sizes::of::<D>();
         let record = size_of::<S::Particle>();
-        let corrected = self.scheme.corrected();
+        // The particle pass sums the Randles–Libersky correction over the pairs.
+        let corrected = self.scheme.correction() == CorrectionKind::RandlesLibersky;
         let positions = 3 * v + (v + size_of::<[f64; 3]>()) + f;
         let particle = 2 * f + t + record + if corrected { v } else { 0 };
         let pair_pass = record + 2 * v + 2 * f + 2 * t + (2 * v + f + 2 * t);
@@ -529,23 +494,7 @@ pub fn snapshot<'a, D: Dim>(
 /// The first non-finite entry of a UL state, as a blow-up at its particle.
 pub fn check_state<D: Dim>(x0: &[D::V], y: &UlState<D>) -> Result<(), BlowUp> {
     check_motion::<D>(x0, &y.u, &y.v)?;
-    let fail = |i: usize, quantity: &str, value: f64| BlowUp::at::<D>(x0, i, quantity, value);
-    if let Some(i) = y.rho.par_iter().position_first(|r| !r.is_finite()) {
-        return Err(fail(i, "density", y.rho[i]));
-    }
-    if let Some(i) = y.s.par_iter().position_first(|&s| !D::is_finite_t(s)) {
-        return Err(fail(
-            i,
-            "deviatoric stress |S|",
-            D::ddot(y.s[i], y.s[i]).sqrt(),
-        ));
-    }
-    if let Some(i) = y.f.par_iter().position_first(|&f| !D::is_finite_t(f)) {
-        return Err(fail(
-            i,
-            "deformation gradient |F|",
-            D::ddot(y.f[i], y.f[i]).sqrt(),
-        ));
-    }
-    Ok(())
+    let at = |i: usize, quantity: &str, value: f64| BlowUp::at::<D>(x0, i, quantity, value);
+    check_stresses::<D>(&y.rho, &y.s, at)?;
+    check_tensors::<D>(&y.f, "deformation gradient |F|", at)
 }

@@ -58,6 +58,19 @@ fn unit_ring(inner_radius: f64, lattice: RingLattice, sectors: Option<u32>) -> S
     }
 }
 
+/// A cylinder of unit radius and length along z, at the origin.
+fn unit_cylinder(inner_radius: f64) -> Shape {
+    Shape::Cylinder {
+        base: vec![0.0, 0.0, 0.0],
+        axis: Axis::Z,
+        radius: 1.0,
+        inner_radius,
+        length: 1.0,
+        lattice: Lattice::Vertex,
+        volumes: None,
+    }
+}
+
 #[test]
 fn bodies_and_shapes() {
     let mut c = minimal_case();
@@ -72,15 +85,7 @@ fn bodies_and_shapes() {
     assert_eq!(key_of(&c), "body.1.geometry.sectors");
     c.bodies[1].geometry = unit_ring(0.0, RingLattice::Polar, None);
     assert_eq!(key_of(&c), "body.1.geometry.inner_radius");
-    c.bodies[1].geometry = Shape::Cylinder {
-        base: vec![0.0, 0.0, 0.0],
-        axis: Axis::Z,
-        radius: 1.0,
-        inner_radius: 0.0,
-        length: 1.0,
-        lattice: Lattice::Vertex,
-        volumes: None,
-    };
+    c.bodies[1].geometry = unit_cylinder(0.0);
     let (key, msg) = check(&c).unwrap_err();
     assert_eq!(key, "body.1.geometry.shape");
     assert!(msg.contains("only in 3D"), "{msg}");
@@ -116,15 +121,7 @@ fn three_d_requirements() {
     let mut c = minimal_case();
     c.dimension = 3;
     assert_eq!(key_of(&c), "body.0.geometry.min");
-    c.bodies[0].geometry = Shape::Cylinder {
-        base: vec![0.0, 0.0, 0.0],
-        axis: Axis::Z,
-        radius: 1.0,
-        inner_radius: 0.5,
-        length: 1.0,
-        lattice: Lattice::Vertex,
-        volumes: None,
-    };
+    c.bodies[0].geometry = unit_cylinder(0.5);
     check(&c).unwrap();
     c.bodies[0].initial_velocity = Some(VelocityField::RigidRotation {
         omega: 1.0,

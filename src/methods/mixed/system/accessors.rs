@@ -1,6 +1,7 @@
 //! Read access to the reference set-up, for the GPU engine.
 
 use super::*;
+use crate::boundary::Boundary;
 
 /// Read access to the reference set-up, for the GPU engine ([`crate::methods::mixed::gpu`]).
 #[cfg(feature = "gpu")]
@@ -82,11 +83,11 @@ impl<D: Dim> MixedSph<D> {
     }
 
     pub(crate) fn boundary(&self) -> &Boundary<D> {
-        &self.boundary
+        &self.surroundings.boundary
     }
 
     pub(crate) fn interactions(&self) -> &Interactions<D> {
-        &self.interactions
+        &self.surroundings.interactions
     }
 
     pub(crate) fn smoothing_length(&self) -> f64 {

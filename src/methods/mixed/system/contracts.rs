@@ -2,6 +2,7 @@
 //! traffic.
 
 use super::*;
+use crate::methods::particles::{max_speed, particle_accessors};
 
 impl<D: Dim> OdeSystem for MixedSph<D> {
     type State = MixedState<D>;
@@ -9,9 +10,8 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
 
     fn begin_step(&mut self, t: f64, dt: f64, y: &MixedState<D>) {
         self.stage = 0;
-        self.boundary.begin_step(t, dt);
-        self.interactions
-            .begin_step(t, dt, &self.x0[..self.n], &y.u, &y.v);
+        let x0 = &self.x0[..self.n];
+        self.surroundings.begin_step(t, dt, x0, &y.u, &y.v);
         // The plastic history is committed once per step, from the state at its start.
         if let Some(committed) = self.returned_all(y)
             && let Some(pl) = self.plastic.as_mut()
@@ -94,13 +94,7 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
         if self.compressibility.is_some() {
             self.correct(y, d)?;
         }
-        self.boundary_work.finish(
-            &self.interactions,
-            &self.boundary,
-            &y.v,
-            &self.mass,
-            &mut d.v,
-        );
+        self.surroundings.close(&y.v, &self.mass, &mut d.v);
         Ok(())
     }
 }
@@ -135,28 +129,10 @@ impl<D: Dim> Method<D> for MixedSph<D> {
         }
     }
 
-    fn displacement<'a>(&self, y: &'a MixedState<D>) -> &'a [D::V] {
-        &y.u
-    }
-
-    fn velocity<'a>(&self, y: &'a MixedState<D>) -> &'a [D::V] {
-        &y.v
-    }
+    particle_accessors!(MixedState<D>);
 
     fn reference(&self) -> &[D::V] {
         &self.x0[..self.n]
-    }
-
-    fn mass(&self) -> &[f64] {
-        &self.mass
-    }
-
-    fn body(&self) -> &[u32] {
-        &self.body
-    }
-
-    fn constrained(&self) -> &[(u32, u8)] {
-        &self.boundary.constrained
     }
 
     fn deformation_gradient(&self, y: &MixedState<D>) -> Vec<D::T> {
@@ -248,15 +224,7 @@ impl<D: Dim> Method<D> for MixedSph<D> {
     /// Δx max_ab C_p,ab / r_ab + max |v| ([`MixedSph::pair_wave_speed`]): with v = 0 the
     /// driver's Δt = α Δx / signal speed is seed 002 eq 31, α min_ab r_ab / C_p,ab.
     fn max_signal_speed(&self, y: &MixedState<D>) -> f64 {
-        let v2_max =
-            y.v.par_iter()
-                .map(|&v| D::norm2(v))
-                .reduce(|| 0.0, f64::max);
-        self.pair_wave_speed(y) + v2_max.sqrt()
-    }
-
-    fn boundary_work(&self) -> &BoundaryWork {
-        &self.boundary_work
+        self.pair_wave_speed(y) + max_speed::<D>(&y.v)
     }
 
     fn pseudo_time(&self) -> Option<PseudoTime> {

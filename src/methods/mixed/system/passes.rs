@@ -233,9 +233,10 @@ impl<D: Dim> MixedSph<D> {
         b.p_int
             .extend((0..n).map(|a| y.pressure[a] + dt * d.pressure[a]));
         b.a_int.clone_from(&d.v);
+        let surroundings = &self.surroundings;
         b.work.finish(
-            &self.interactions,
-            &self.boundary,
+            &surroundings.interactions,
+            &surroundings.boundary,
             &y.v,
             &self.mass,
             &mut b.a_int,
@@ -244,7 +245,7 @@ impl<D: Dim> MixedSph<D> {
         b.v_int.extend((0..n).map(|a| y.v[a] + b.a_int[a] * dt));
         b.held.clear();
         b.held.resize(n, 0);
-        for (i, mask) in self.boundary.held_now() {
+        for (i, mask) in surroundings.boundary.held_now() {
             b.held[i as usize] = mask;
         }
         b.h.clear();
