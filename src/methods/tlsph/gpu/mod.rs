@@ -1,346 +1,44 @@
-//! Total-Lagrangian SPH on the GPU: the passes of `shaders/tlsph/`, the integrator
-//! program of [`crate::gpu::program`], and the set-up done once: the reference
+//! Total-Lagrangian SPH on the GPU: the passes of `shaders/tlsph/` ([`scheme`]: the pass
+//! files, the schemes of the methods this engine runs, the buffers' layout), the
+//! integrator program of [`crate::gpu::program`], and the set-up done once: the reference
 //! configuration and neighbours uploaded from the host, the pair offsets and corrected
-//! gradients derived on the device. The CPU system ([`super::system`]) is the reference it is checked against.
+//! gradients derived on the device. The CPU system ([`super::system`]) is the reference
+//! it is checked against.
 //!
 //! A whole step, or several, is recorded into one command encoder; the host reads back
 //! only when asked (outputs, observers, checks).
 
+mod scheme;
+
+pub use scheme::{
+    ACCEL, DET_F, Frame, Layout, Lists, REDUCE, SHADERS, STRESS, TlScheme, scene_constants, scheme,
+    viscosity,
+};
+
 use super::system::hourglass_stiffness;
-use super::{TlsphForce, ViscosityGradient};
 use crate::balance::Booked;
 use crate::boundary::{OnPatches, Reaction};
 use crate::correction::{self, CorrectionKind};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
-use crate::gpu::layout::{Fields, GpuDim, flat_v};
-use crate::gpu::profile::{NONE, PassBytes, Scale, read, read_write, write};
-use crate::gpu::program::{StateLayout, Stepper};
+use crate::gpu::layout::{GpuDim, flat_v};
+use crate::gpu::profile::Scale;
+use crate::gpu::program::Stepper;
 use crate::gpu::reduction::{self, Reduced, Reduction, WorkBalance};
-use crate::gpu::reference::{self, DeviceReference, Extras};
-use crate::gpu::shaders::{
-    self, BOUNDARY, CONTACT, CORRECTION, Constants, INTEGRATE, LOADS, MECHANICS, PAIR_OFFSETS,
-    PRESCRIBED, REFERENCE, REVERSE_GRADIENTS, REVERSE_GRADIENTS_BYTES, Source, VISCOSITY, Wgsl,
-    source, wgsl,
-};
+use crate::gpu::reference::DeviceReference;
+use crate::gpu::shaders::{self, CORRECTION, INTEGRATE, PAIR_OFFSETS, Source};
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
 use crate::integrate::Buf;
 use crate::interaction::Interactions;
 use crate::interaction::gpu::GpuInteractions;
-use crate::material::Material;
+use crate::methods::BlowUp;
+use crate::methods::dual_support::gpu::DeviceLists;
 use crate::methods::tl::{TlState, check_state, snapshot};
-use crate::methods::{BlowUp, MethodSpec, not_run_by};
+use crate::neighbour::Csr;
 use crate::observe::{Invariants, Snapshot};
 use crate::reference::Reference;
 use crate::run::{Engine, Failed};
-use crate::scene::{Case, CaseError};
-
-/// Strain energy densities of the TLSPH models, for the reduction.
-const ENERGY: Wgsl = wgsl!("tlsph/tlsph_energy.wgsl");
-
-/// F, P (and ρ̇, Ṡ of the rate model) per particle.
-pub const STRESS: Source = source!(
-    "tlsph/tlsph.wgsl",
-    [MECHANICS, REFERENCE],
-    [
-        ("y", false),
-        ("pair", false),
-        ("reference", false),
-        ("d", true),
-        ("kin", true)
-    ],
-    &[PassBytes {
-        entry: "stress",
-        traffic: &[
-            read("offsets", [1, 0, 0], NONE),
-            read("ids", NONE, [1, 0, 0]),
-            // ∇0W̃_ij.
-            read("pair", NONE, [0, 1, 0]),
-            // V_j.
-            read("reference", [1, 0, 0], NONE),
-            // u, v; ρ − ρ0 and S of the rate model.
-            read("y", [0, 2, 0], NONE),
-            read("y", [1, 0, 1], NONE).when(&["RATE"]),
-            // H, P, F⁻ᵀ, ρ.
-            write("kin", [1, 0, 3], NONE),
-            write("d", [1, 0, 1], NONE).when(&["RATE"]),
-            read_write("status", NONE, NONE),
-        ],
-    }]
-);
-/// Accelerations, artificial viscosity, boundary conditions; the reverse gradients of
-/// the variational force (set-up).
-pub const ACCEL: Source = source!(
-    "tlsph/tlsph_accel.wgsl",
-    [BOUNDARY, REFERENCE, VISCOSITY, REVERSE_GRADIENTS],
-    [
-        ("y", false),
-        ("pair", true),
-        ("reference", false),
-        ("ext", false),
-        ("kin", true),
-        ("d", true)
-    ],
-    &[
-        REVERSE_GRADIENTS_BYTES,
-        PassBytes {
-            entry: "accel",
-            traffic: &[
-                read("offsets", [1, 0, 0], NONE),
-                read("ids", NONE, [1, 0, 0]),
-                // ∇0W̃_ij, and ∇0W̃_ji for the variational force; X_j − X_i for the viscosity.
-                read("pair", NONE, [0, 1, 0]),
-                read("pair", NONE, [0, 1, 0]).when(&["FORCE == FORCE_VARIATIONAL"]),
-                read("pair", NONE, [0, 1, 0]).when(&["AV"]),
-                // κ_ij and X_j − X_i, u_j and H_j for the hourglass control.
-                read("pair", NONE, [1, 1, 0]).when(&["HOURGLASS"]),
-                read("y", NONE, [0, 1, 0]).when(&["HOURGLASS"]),
-                read("kin", [0, 0, 1], [0, 0, 1]).when(&["HOURGLASS"]),
-                // V, the boundary mask.
-                read("reference", [2, 0, 0], NONE),
-                // u, v.
-                read("y", [0, 2, 0], NONE),
-                // P, F⁻ᵀ, ρ in; the power of supports and loads and the viscous dissipation out.
-                read("kin", [1, 0, 2], NONE),
-                write("kin", [2, 0, 0], NONE),
-                read("ext", [0, 1, 0], NONE),
-                // u̇ = v, v̇.
-                write("d", [0, 2, 0], NONE),
-            ],
-        }
-    ]
-);
-/// Energies, momenta and checks of a state.
-pub const REDUCE: Source = source!(
-    "common/reduce.wgsl",
-    [MECHANICS, ENERGY, REFERENCE],
-    [("y", false), ("kin", false), ("reference", false)]
-);
-
-/// The passes compiled with a TLSPH scene's constants ([`scene_constants`]).
-pub const SHADERS: &[Source] = &[
-    STRESS,
-    ACCEL,
-    CONTACT,
-    LOADS,
-    PRESCRIBED,
-    CORRECTION,
-    INTEGRATE,
-    PAIR_OFFSETS,
-    REDUCE,
-];
-
-/// The force of one total-Lagrangian method on this engine: TLSPH's own, another method's
-/// on the same stress pass (the elastic potential's), or a method's with its own
-/// per-particle pass (corotated TLSPH's shape matching).
-pub struct TlScheme {
-    /// Its per-particle pass file (entry point `stress`): [`STRESS`], or the method's own.
-    /// It writes the kinematics H, P, F⁻ᵀ and ρ (and its own `kin_tensors`) and records
-    /// failed particles in `status` (slot k for the quantity `checks[k]`).
-    pub stress: Source,
-    /// Its acceleration pass file (entry point `accel`).
-    pub accel: Source,
-    /// Its reduction (`reduce`, with the method's strain energy).
-    pub reduce: Source,
-    /// The pass file's set-up entry `reverse_gradients` fills ∇0W̃_ji of every pair (i, j)
-    /// into the pair data (field GREV) from the index of the reverse pair (`rev`).
-    pub reverse: bool,
-    /// The hourglass control's α: the host fills its stiffness κ_ij into the pair data
-    /// (field HGK), which the acceleration pass reads.
-    pub hourglass: Option<f64>,
-    /// Where the pair lists and gradients come from.
-    pub lists: Lists,
-    /// Its own compiled-in constants.
-    pub constants: Constants,
-    /// Its force derives from Σ_i ψ_i rather than Σ_i V_i ψ_i (the reference code's
-    /// potential force): the strain energy weighs each ψ_i by 1 and the wave speed of the
-    /// CFL step is c_p/√V_min.
-    pub unit_weights: bool,
-    /// Per-particle tensors its stress pass keeps in the kinematics besides H, P and F⁻ᵀ
-    /// (field `K{name}`: corotated TLSPH's rotation R).
-    pub kin_tensors: &'static [&'static str],
-    /// What the kinematics' H = F − I is the excess of, for the outputs.
-    pub frame: Frame,
-    /// The quantities whose failure the stress pass records, one status slot each (the
-    /// first particle, by `atomicMin`), as a blow-up names them.
-    pub checks: &'static [&'static str],
-}
-
-/// The pair lists and corrected gradients of a scheme.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Lists {
-    /// The reference neighbours within the kernel's support and the case's correction.
-    Kernel,
-    /// Dual-support SPH's ([`crate::methods::dual_support::gpu::lists`]): the supports
-    /// and dual-supports S_i ∪ S'_i with each particle's own h, g_ij/V_j (zero where
-    /// j ∉ S_i), the hourglass stiffnesses of both sides of every pair (fields HGK and
-    /// HGKR), and the host's model for the outputs.
-    DualSupport(crate::methods::dual_support::DualSupportSpec),
-}
-
-/// What the kinematics' H = F − I measures, for snapshots.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Frame {
-    /// The deformation gradient F itself.
-    Reference,
-    /// The corotated gradient F̂ in the frame of the kinematics' rotation R (field `KR`):
-    /// F = R F̂ (seed 000 §5.5).
-    Corotated,
-}
-
-/// The failure TLSPH's stress pass records (slot 0).
-pub const DET_F: &[&str] = &["det F (f32, GPU)"];
-
-/// TLSPH's own force: eq 134, or the variational form, with the spec's viscosity.
-pub fn scheme(spec: &super::TlsphSpec) -> TlScheme {
-    let variational = spec.force == TlsphForce::Variational;
-    TlScheme {
-        stress: STRESS,
-        accel: ACCEL,
-        reduce: REDUCE,
-        reverse: variational,
-        hourglass: spec.hourglass,
-        lists: Lists::Kernel,
-        constants: viscosity(spec.artificial_viscosity.as_ref())
-            .u32("HOURGLASS", u32::from(spec.hourglass.is_some()))
-            .choice(
-                "AV_GRADIENT",
-                &["PUSHED_FORWARD", "REFERENCE"],
-                usize::from(spec.viscosity_gradient == ViscosityGradient::Reference),
-            )
-            .choice(
-                "FORCE",
-                &["REVELES", "VARIATIONAL"],
-                usize::from(variational),
-            ),
-        unit_weights: false,
-        kin_tensors: &[],
-        frame: Frame::Reference,
-        checks: DET_F,
-    }
-}
-
-/// The constants AV, AV_ALPHA, AV_BETA and AV_ETA of a Monaghan viscosity, if any.
-pub fn viscosity(av: Option<&super::ArtificialViscosity>) -> Constants {
-    Constants::default()
-        .u32("AV", u32::from(av.is_some()))
-        .f32("AV_ALPHA", av.map_or(0.0, |a| a.alpha))
-        .f32("AV_BETA", av.map_or(0.0, |a| a.beta))
-        .f32("AV_ETA", av.map_or(0.0, |a| a.eta))
-}
-
-/// The scheme of a case's method on this engine.
-fn scheme_of(case: &Case) -> Result<TlScheme, CaseError> {
-    match &case.method.spec {
-        MethodSpec::Tlsph(spec) => Ok(scheme(spec)),
-        MethodSpec::TlPotential(spec) => Ok(crate::methods::potential::gpu::scheme(spec)),
-        MethodSpec::CorotatedTlsph(spec) => Ok(crate::methods::corotated::gpu::scheme(spec)),
-        MethodSpec::DualSupportSph(spec) => Ok(crate::methods::dual_support::gpu::scheme(spec)),
-        _ => Err(not_run_by(case, "GpuTlsph")),
-    }
-}
-
-/// The flat buffers of a TLSPH scene, each described once ([`Fields`]): the state
-/// [u | v | ρ − ρ0 | S] (ρ and S for the rate model only), the kinematics
-/// [H = F − I | P | F⁻ᵀ | ρ | power | viscous dissipation | the scheme's own tensors |
-/// the constrained particles' reactions], the per-pair data
-/// [∇0W̃ | X_j − X_i | ∇0W̃_ji for the schemes that read it] and the reference
-/// configuration.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Layout {
-    pub n: usize,
-    pub dim: usize,
-    pub rate: bool,
-    pub state: Fields,
-    pub kin: Fields,
-    pub pair: Fields,
-    pub reference: Fields,
-}
-
-impl Layout {
-    /// The layout of n particles, `constrained` of them with prescribed components, and
-    /// `pairs` neighbour pairs.
-    pub fn new(
-        n: usize,
-        constrained: usize,
-        dim: usize,
-        rate: bool,
-        pairs: usize,
-        scheme: &TlScheme,
-    ) -> Self {
-        let dual = matches!(scheme.lists, Lists::DualSupport(_));
-        let kin = Fields::new("K", dim)
-            .tensors("F", true, n)
-            .tensors("P", true, n)
-            .tensors("FIT", true, n)
-            .scalars("RHO", true, n)
-            .scalars("POW", true, n)
-            .scalars("DIS", true, n);
-        let kin = scheme
-            .kin_tensors
-            .iter()
-            .fold(kin, |k, &name| k.tensors(name, true, n));
-        let kin = reduction::with_reactions(kin, constrained);
-        Self {
-            n,
-            dim,
-            rate,
-            state: Fields::new("", dim)
-                .vectors("U", true, n)
-                .vectors("V", true, n)
-                .scalars("RHO", rate, n)
-                .tensors("S", rate, n),
-            kin,
-            pair: Fields::new("P", dim)
-                .vectors("G", true, pairs)
-                .vectors("DX", true, pairs)
-                .vectors("GREV", scheme.reverse, pairs)
-                .scalars("HGK", scheme.hourglass.is_some() || dual, pairs)
-                .scalars("HGKR", dual, pairs),
-            reference: reference::fields(n, constrained, dim, EXTRAS),
-        }
-    }
-
-    fn stepped(&self) -> StateLayout {
-        StateLayout {
-            n: self.n,
-            dim: self.dim,
-            rest: self.state.offset("RHO"),
-            len: self.state.len(),
-        }
-    }
-}
-
-/// The reference fields the TLSPH passes read besides X and V: the lo part of X, for the
-/// exact pair offsets.
-const EXTRAS: Extras = Extras {
-    lo: true,
-    centred: false,
-};
-
-/// The compiled-in constants of a scene's TLSPH passes with the scheme's own.
-pub fn scene_constants(case: &Case, layout: &Layout, scheme: &TlScheme) -> Constants {
-    let material = Material::new(&case.material);
-    let kernel = case.kernel(layout.dim);
-    let correction = match case.method.correction {
-        CorrectionKind::None => 0,
-        CorrectionKind::Shepard => 1,
-        CorrectionKind::RandlesLibersky | CorrectionKind::Rkpm | CorrectionKind::Cgck => 2,
-    };
-    let u = |x: usize| x as u32;
-    let constants = scheme
-        .constants
-        .clone()
-        .kernel(&kernel)
-        .u32("N", u(layout.n))
-        .u32("PAIRS", u(layout.pair.field("G").count))
-        .u32("BODIES", u(case.bodies.len()))
-        .material(&material)
-        .choice("CORRECTION", &["NONE", "SHEPARD", "LINEAR"], correction)
-        .u32("REST_OFF", u(layout.state.offset("RHO")));
-    [&layout.state, &layout.kin, &layout.pair, &layout.reference]
-        .into_iter()
-        .fold(constants, |c, fields| fields.constants(c))
-}
+use crate::scene::Case;
+use scheme::{EXTRAS, scheme_of};
 
 /// The stress and acceleration passes of one rate evaluation, bound to a source state.
 struct Rates {
@@ -426,68 +124,16 @@ impl<D: GpuDim> GpuTlsph<D> {
 
         let device =
             DeviceReference::upload::<D>(&gpu, &disc.x0, &disc.vol, &disc.boundary, &csr, EXTRAS);
-        let pair = gpu.zeroed("per-pair data", layout.pair.bytes());
-        let status = gpu.storage("status", &vec![STATUS_OK; scheme.checks.len().max(1)]);
-        let set_up: [(&str, &wgpu::Buffer); 5] = [
-            ("offsets", &device.offsets),
-            ("ids", &device.ids),
-            ("reference", &device.reference),
-            ("pair", &pair),
-            ("status", &status),
-        ];
-        // X_j − X_i, then (but for the host's RKPM and CGCK) the corrected gradients.
-        let offsets_pass = (compose(&PAIR_OFFSETS), "pair_offsets");
-        let correct_pass = (compose(&CORRECTION), "correct");
-        let host_solved = dual.is_some()
-            || matches!(
-                case.method.correction,
-                CorrectionKind::Rkpm | CorrectionKind::Cgck
-            );
-        let passes = if host_solved {
-            vec![offsets_pass]
-        } else {
-            vec![offsets_pass, correct_pass]
+        let set_up = SetUp {
+            case,
+            gpu: &gpu,
+            scheme: &scheme,
+            disc: &disc,
+            csr: &csr,
+            layout: &layout,
+            compose: &compose,
         };
-        run_once(&gpu, &passes, &set_up, n)?;
-        let write_pair = |field: &str, values: &[f32]| {
-            let at = (layout.pair.offset(field) * 4) as u64;
-            gpu.queue
-                .write_buffer(&pair, at, bytemuck::cast_slice(values));
-        };
-        if let Some(d) = &dual {
-            write_pair("G", &flat_v::<D>(d.g.clone()));
-            write_pair("HGK", &d.hgk);
-            write_pair("HGKR", &d.hgk_rev);
-        } else if host_solved {
-            let g = correction::gradients::<D>(
-                case.method.correction,
-                &disc.x0,
-                &disc.vol,
-                &csr,
-                &disc.kernel,
-            )
-            .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
-            write_pair("G", &flat_v::<D>(g));
-        } else if let Some((i, _)) = read_status(&gpu, &status) {
-            return Err(case
-                .invalid(
-                    "method.h_over_dx",
-                    format!(
-                        "the Randles–Libersky matrix of particle {i} is singular on the GPU \
-                         (f32): too few neighbours; increase h/dx"
-                    ),
-                )
-                .into());
-        }
-        if let Some(alpha) = scheme.hourglass {
-            let kappa = hourglass_stiffness::<D>(case, alpha, &disc.x0, &disc.vol, &csr);
-            let kappa: Vec<f32> = kappa.into_iter().map(|k| k as f32).collect();
-            write_pair("HGK", &kappa);
-        }
-        if scheme.reverse {
-            let rev = crate::methods::shared::reverse_pairs(case, &csr)?;
-            reverse_gradients(&gpu, &compose(&scheme.accel), &rev, &pair)?;
-        }
+        let (pair, status) = set_up.pair_data(&device, dual.as_ref())?;
 
         let mut y0 = layout.state.zeroed();
         layout.state.write_v::<D>(&mut y0, "U", &disc.u0);
@@ -540,17 +186,13 @@ impl<D: GpuDim> GpuTlsph<D> {
         let rates = [bound(Buf::Y)?, bound(Buf::Stage)?];
         let y = stepper.buffer(Buf::Y);
         let reduction = Reduction::new(&gpu, &compose(&scheme.reduce), &table(y, rates_d), n)?;
-        let energy_weight = if scheme.unit_weights {
-            vec![1.0; n]
-        } else {
-            disc.vol.clone()
-        };
-        let wave_speed_scale = if scheme.unit_weights {
-            crate::methods::potential::system::unit_weight_wave_speed_scale(&disc.vol)
-        } else {
-            1.0
-        };
         let kinematics_y = gpu.bind(&stress, &table(y, stepper.buffer(Buf::Acc)))?;
+        let (energy_weight, wave_speed_scale) = if scheme.unit_weights {
+            let scale = crate::methods::potential::system::unit_weight_wave_speed_scale(&disc.vol);
+            (vec![1.0; n], scale)
+        } else {
+            (disc.vol.clone(), 1.0)
+        };
         let dual_hourglass = dual
             .as_ref()
             .is_some_and(|d| d.model.hourglass.iter().any(|&c| c != 0.0));
@@ -581,6 +223,103 @@ impl<D: GpuDim> GpuTlsph<D> {
                 ..Booked::default()
             },
         })
+    }
+}
+
+/// What the set-up of the per-pair data reads: the case, its scheme, its reference
+/// configuration and lists, the layout and the passes' composer.
+struct SetUp<'a, D: GpuDim> {
+    case: &'a Case,
+    gpu: &'a Gpu,
+    scheme: &'a TlScheme,
+    disc: &'a Reference<D>,
+    csr: &'a Csr,
+    layout: &'a Layout,
+    compose: &'a dyn Fn(&Source) -> String,
+}
+
+impl<D: GpuDim> SetUp<'_, D> {
+    /// The per-pair data and the status buffer: X_j − X_i, the corrected gradients (on
+    /// the device, or the host's RKPM and CGCK or dual-support lists'), the hourglass
+    /// stiffnesses and the reverse gradients of the schemes that read them.
+    fn pair_data(
+        &self,
+        device: &DeviceReference,
+        dual: Option<&DeviceLists<D>>,
+    ) -> Result<(wgpu::Buffer, wgpu::Buffer), SetupError> {
+        let Self {
+            case,
+            gpu,
+            scheme,
+            disc,
+            csr,
+            layout,
+            compose,
+        } = self;
+        let n = disc.len();
+        let pair = gpu.zeroed("per-pair data", layout.pair.bytes());
+        let status = gpu.storage("status", &vec![STATUS_OK; scheme.checks.len().max(1)]);
+        let set_up: [(&str, &wgpu::Buffer); 5] = [
+            ("offsets", &device.offsets),
+            ("ids", &device.ids),
+            ("reference", &device.reference),
+            ("pair", &pair),
+            ("status", &status),
+        ];
+        // X_j − X_i, then (but for the host's RKPM and CGCK) the corrected gradients.
+        let offsets_pass = (compose(&PAIR_OFFSETS), "pair_offsets");
+        let correct_pass = (compose(&CORRECTION), "correct");
+        let host_solved = dual.is_some()
+            || matches!(
+                case.method.correction,
+                CorrectionKind::Rkpm | CorrectionKind::Cgck
+            );
+        let passes = if host_solved {
+            vec![offsets_pass]
+        } else {
+            vec![offsets_pass, correct_pass]
+        };
+        run_once(gpu, &passes, &set_up, n)?;
+        let write_pair = |field: &str, values: &[f32]| {
+            let at = (layout.pair.offset(field) * 4) as u64;
+            gpu.queue
+                .write_buffer(&pair, at, bytemuck::cast_slice(values));
+        };
+        if let Some(d) = dual {
+            write_pair("G", &flat_v::<D>(d.g.clone()));
+            write_pair("HGK", &d.hgk);
+            write_pair("HGKR", &d.hgk_rev);
+        } else if host_solved {
+            let g = correction::gradients::<D>(
+                case.method.correction,
+                &disc.x0,
+                &disc.vol,
+                csr,
+                &disc.kernel,
+            )
+            .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
+            write_pair("G", &flat_v::<D>(g));
+        } else if let Some((i, _)) = read_status(gpu, &status) {
+            return Err(case
+                .invalid(
+                    "method.h_over_dx",
+                    format!(
+                        "the Randles–Libersky matrix of particle {i} is singular on the GPU \
+                         (f32): too few neighbours; increase h/dx"
+                    ),
+                )
+                .into());
+        }
+        if let Some(alpha) = scheme.hourglass {
+            let kappa = hourglass_stiffness::<D>(case, alpha, &disc.x0, &disc.vol, csr);
+            let kappa: Vec<f32> = kappa.into_iter().map(|k| k as f32).collect();
+            write_pair("HGK", &kappa);
+        }
+        if scheme.reverse {
+            let rev = crate::methods::shared::reverse_pairs(case, csr)?;
+            reverse_gradients(gpu, &compose(&scheme.accel), &rev, &pair)?;
+        }
+        Ok((pair, status))
     }
 }
 
