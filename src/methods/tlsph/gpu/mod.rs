@@ -23,9 +23,10 @@ use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{GpuDim, flat_v};
 use crate::gpu::profile::Scale;
 use crate::gpu::program::Stepper;
-use crate::gpu::reduction::{self, Reduced, Reduction, WorkBalance};
+use crate::gpu::reduction::{Reduced, Reduction};
 use crate::gpu::reference::DeviceReference;
 use crate::gpu::shaders::{self, CORRECTION, INTEGRATE, PAIR_OFFSETS, Source};
+use crate::gpu::shell::Shell;
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
 use crate::integrate::Buf;
 use crate::interaction::Interactions;
@@ -48,7 +49,10 @@ struct Rates {
 
 /// The TLSPH system resident on the GPU.
 pub struct GpuTlsph<D: GpuDim> {
-    gpu: Gpu,
+    /// The device, the stepper, the reduction, the work balance and the kinematics. The
+    /// balance's terms it does not book besides the work and the dissipation: the
+    /// hourglass control's work; contact's, which `ext` adds to the loads' power.
+    shell: Shell,
     /// The host's f64 reference configuration, which the device's was uploaded from.
     reference: Reference<D>,
     /// The weight of each particle's ψ in the strain energy (`TlScheme::unit_weights`).
@@ -65,8 +69,6 @@ pub struct GpuTlsph<D: GpuDim> {
     layout: Layout,
     /// Neighbour pairs of the reference lists.
     pairs: u64,
-    stepper: Stepper,
-    kin: wgpu::Buffer,
     pair: wgpu::Buffer,
     status: wgpu::Buffer,
     stress: Pipeline,
@@ -76,14 +78,8 @@ pub struct GpuTlsph<D: GpuDim> {
     /// The stress pass on `Y` writing into `Acc` (for snapshots: F at the current state
     /// without touching the integrator's rates).
     kinematics_y: wgpu::BindGroup,
-    reduction: Reduction,
     /// Passes before every step (contact) and the `ext` they write.
     interactions: GpuInteractions,
-    work: WorkBalance,
-    /// The balance's terms besides the work and the dissipation: zero where the case has
-    /// none, None where it has them and they are not booked here (the hourglass control's
-    /// work; contact's, which `ext` adds to the loads' power).
-    unbooked: Booked,
 }
 
 /// Value of `status[0]` when no particle failed.
@@ -193,11 +189,9 @@ impl<D: GpuDim> GpuTlsph<D> {
         } else {
             (disc.vol.clone(), 1.0)
         };
-        let dual_hourglass = dual
-            .as_ref()
-            .is_some_and(|d| d.model.hourglass.iter().any(|&c| c != 0.0));
+        let unbooked = unbooked(case, &scheme, dual.as_ref());
         Ok(Self {
-            gpu,
+            shell: Shell::new(gpu, stepper, reduction, kin, &layout.kin, unbooked),
             pairs: csr.pair_count() as u64,
             reference: disc,
             energy_weight,
@@ -206,23 +200,26 @@ impl<D: GpuDim> GpuTlsph<D> {
             checks: scheme.checks,
             dual_support: dual.map(|d| d.model),
             layout,
-            stepper,
-            kin,
             pair,
             status,
             stress,
             accel,
             rates,
             kinematics_y,
-            reduction,
             interactions,
-            work: WorkBalance::default(),
-            unbooked: Booked {
-                hourglass_work: (scheme.hourglass.is_none() && !dual_hourglass).then_some(0.0),
-                contact_energy: case.contact.is_none().then_some(0.0),
-                ..Booked::default()
-            },
         })
+    }
+}
+
+/// The balance's terms the engine does not book besides the work and the dissipation,
+/// zero where the case has none: the hourglass control's work (the scheme's or
+/// dual-support SPH's); contact's, which `ext` adds to the loads' power.
+fn unbooked<D: GpuDim>(case: &Case, scheme: &TlScheme, dual: Option<&DeviceLists<D>>) -> Booked {
+    let dual_hourglass = dual.is_some_and(|d| d.model.hourglass.iter().any(|&c| c != 0.0));
+    Booked {
+        hourglass_work: (scheme.hourglass.is_none() && !dual_hourglass).then_some(0.0),
+        contact_energy: case.contact.is_none().then_some(0.0),
+        ..Booked::default()
     }
 }
 
@@ -382,7 +379,7 @@ impl<D: GpuDim> GpuTlsph<D> {
     }
 
     pub fn gpu(&self) -> &Gpu {
-        &self.gpu
+        &self.shell.gpu
     }
 
     /// The host's reference configuration of the scene.
@@ -405,13 +402,15 @@ impl<D: GpuDim> GpuTlsph<D> {
 
     /// Records `steps` steps of size `dt` into one command encoder and submits them.
     pub fn advance_steps(&mut self, dt: f64, steps: u32) {
-        self.work.advance(dt, steps);
-        self.reduction.invalidate();
-        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
-        self.interactions.set_step(&self.gpu, dt);
+        self.shell.work.advance(dt, steps);
+        self.shell.reduction.invalidate();
+        let mut encoder = self
+            .gpu()
+            .device
+            .create_command_encoder(&Default::default());
+        self.interactions.set_step(&self.shell.gpu, dt);
         let Self {
-            gpu,
-            stepper,
+            shell: Shell { gpu, stepper, .. },
             stress,
             accel,
             rates,
@@ -431,13 +430,12 @@ impl<D: GpuDim> GpuTlsph<D> {
             },
             |encoder| interactions.record(gpu, encoder, n),
         );
-        self.gpu.queue.submit([encoder.finish()]);
+        self.gpu().queue.submit([encoder.finish()]);
     }
 
     /// Reads the current state back (waits for the queue).
     pub fn state(&self) -> TlState<D> {
-        let flat: Vec<f32> = self.gpu.read(self.stepper.buffer(Buf::Y));
-        self.decode(&flat, self.reference.material.rho0)
+        self.decode(&self.shell.read_state(), self.reference.material.rho0)
     }
 
     /// Decodes a flat state (`rho0` = ρ0: the density is stored as ρ − ρ0) or rate
@@ -460,33 +458,33 @@ impl<D: GpuDim> GpuTlsph<D> {
         l.write_v::<D>(&mut flat, "V", &y.v);
         l.write_s(&mut flat, "RHO", &y.rho, self.reference.material.rho0);
         l.write_t::<D>(&mut flat, "S", &y.s, D::zero_t());
-        self.stepper.set_state(&self.gpu, &flat);
-        self.reduction.invalidate();
+        self.shell.set_state(&flat);
     }
 
     /// Rates of a given state: (dy/dt, F, P) per particle, read back.
     pub fn rates(&mut self, y: &TlState<D>) -> (TlState<D>, Vec<D::T>, Vec<D::T>) {
         self.set_state(y);
-        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+        let gpu = self.gpu();
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
         let n = self.layout.n as u32;
         let pipelines = (&self.stress, &self.accel);
-        Self::record_rates(&self.gpu, n, pipelines, &mut encoder, &self.rates[0]);
-        self.gpu.queue.submit([encoder.finish()]);
-        let d: Vec<f32> = self.gpu.read(self.stepper.buffer(Buf::Rates));
+        Self::record_rates(gpu, n, pipelines, &mut encoder, &self.rates[0]);
+        gpu.queue.submit([encoder.finish()]);
+        let d: Vec<f32> = gpu.read(self.shell.stepper.buffer(Buf::Rates));
         let (f, p) = self.kinematics();
         (self.decode(&d, 0.0), f, p)
     }
 
     /// The corrected reference gradients, in CSR order.
     pub fn gradients(&self) -> Vec<D::V> {
-        let pair: Vec<f32> = self.gpu.read(&self.pair);
+        let pair: Vec<f32> = self.gpu().read(&self.pair);
         self.layout.pair.read_v::<D>(&pair, "G")
     }
 
     /// F and P of the last rate evaluation (the GPU keeps H = F − I; I is added in f64);
     /// the corotated F̂ and P̂ of a [`Frame::Corotated`] scheme.
     pub fn kinematics(&self) -> (Vec<D::T>, Vec<D::T>) {
-        let kin: Vec<f32> = self.gpu.read(&self.kin);
+        let kin: Vec<f32> = self.gpu().read(&self.shell.kin);
         let l = &self.layout.kin;
         (
             l.read_t::<D>(&kin, "F", D::identity()),
@@ -497,20 +495,20 @@ impl<D: GpuDim> GpuTlsph<D> {
     /// A per-particle tensor of the scheme's own (`TlScheme::kin_tensors`) of the last
     /// rate evaluation: corotated TLSPH's rotations R.
     pub fn kin_tensor(&self, name: &str) -> Vec<D::T> {
-        let kin: Vec<f32> = self.gpu.read(&self.kin);
+        let kin: Vec<f32> = self.gpu().read(&self.shell.kin);
         self.layout.kin.read_t::<D>(&kin, name, D::zero_t())
     }
 
     /// The first particle whose stress pass failed (det F ≤ 0 or NaN, or the scheme's
     /// other checks) in any evaluation so far.
     pub fn failed_particle(&self) -> Option<usize> {
-        read_status(&self.gpu, &self.status).map(|(i, _)| i)
+        read_status(self.gpu(), &self.status).map(|(i, _)| i)
     }
 }
 
 impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
     fn backend(&self) -> String {
-        format!("gpu: {}", self.gpu.name())
+        self.shell.backend()
     }
 
     fn device(&mut self) -> Option<(&Gpu, Scale)> {
@@ -518,7 +516,7 @@ impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
             pairs: self.pairs,
             indirect: None,
         };
-        Some((&self.gpu, scale))
+        Some((&self.shell.gpu, scale))
     }
 
     fn reference(&self) -> &[D::V] {
@@ -542,26 +540,25 @@ impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
     /// Trapezoidal over the intervals between calls (the driver calls it at every check).
     fn external_work(&mut self) -> f64 {
         let power = self.reduction().power;
-        self.work.update(power)
+        self.shell.external_work(power)
     }
 
     /// The work and the viscous dissipation, trapezoidal over the intervals between calls.
     fn booked(&mut self) -> Booked {
         let r = self.reduction();
         Booked {
-            external_work: self.work.update(r.power),
-            dissipated: Some(self.work.update_dissipation(r.viscous_dissipation)),
-            ..self.unbooked
+            external_work: self.shell.external_work(r.power),
+            dissipated: Some(self.shell.work.update_dissipation(r.viscous_dissipation)),
+            ..self.shell.unbooked
         }
     }
 
     fn reactions(&mut self) -> Vec<Reaction> {
-        let boundary = &self.reference.boundary;
-        reduction::reactions(&self.gpu, &self.kin, &self.layout.kin, boundary)
+        self.shell.reactions(&self.reference.boundary)
     }
 
     fn check(&mut self) -> Result<(), BlowUp> {
-        if let Some((i, slot)) = read_status(&self.gpu, &self.status) {
+        if let Some((i, slot)) = read_status(self.gpu(), &self.status) {
             return Err(BlowUp {
                 particle: i,
                 position: D::to3(self.reference.x0[i]),
@@ -580,31 +577,27 @@ impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
     }
 
     fn finish(&mut self) {
-        self.gpu.wait();
+        self.gpu().wait();
     }
 
     /// The work balance and the state buffer (f32).
     fn save(&mut self) -> Vec<f64> {
-        crate::gpu::save_buffers(&self.gpu, &self.work, &[self.stepper.buffer(Buf::Y)])
+        self.shell.save()
     }
 
     fn restore(&mut self, words: &[f64]) -> Result<(), String> {
-        let y = [("state", self.stepper.buffer(Buf::Y))];
-        self.work = crate::gpu::load_buffers(&self.gpu, words, &y)?;
-        self.stepper.state_replaced();
-        self.reduction.invalidate();
-        Ok(())
+        self.shell.restore(words)
     }
 
     fn snapshot(&mut self) -> Snapshot<'_, D> {
-        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+        let gpu = self.gpu();
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
             let n = self.layout.n as u32;
-            self.gpu
-                .dispatch(&mut pass, &self.stress, &self.kinematics_y, n);
+            gpu.dispatch(&mut pass, &self.stress, &self.kinematics_y, n);
         }
-        self.gpu.queue.submit([encoder.finish()]);
+        gpu.queue.submit([encoder.finish()]);
         let y = self.state();
         let r = &self.reference;
         if let Some(model) = &self.dual_support {
@@ -632,15 +625,12 @@ impl<D: GpuDim> GpuTlsph<D> {
     /// Stress pass on the current state (F into the kinematics) and the reduction.
     fn reduction(&mut self) -> Reduced {
         let Self {
-            gpu,
+            shell,
             stress,
             kinematics_y,
             layout,
-            reduction,
             ..
         } = self;
-        reduction.get(gpu, |pass| {
-            gpu.dispatch(pass, stress, kinematics_y, layout.n as u32)
-        })
+        shell.reduced(|gpu, pass| gpu.dispatch(pass, stress, kinematics_y, layout.n as u32))
     }
 }
