@@ -68,10 +68,6 @@ fn position(i: u32) -> vecd {
     return vload_x(POS_OFF + DIM * i);
 }
 
-fn particle_index(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
-    return gid.x + gid.y * nwg.x * 256u;
-}
-
 fn cell_of(p: vecd) -> vec3<u32> {
     return cell_coords(p, params.origin, params.inv_cell, params.dims);
 }
@@ -85,7 +81,7 @@ fn bin_particles(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(num_workgroups) nwg: vec3<u32>,
 ) {
-    let i = particle_index(gid, nwg);
+    let i = index(gid, nwg);
     if i >= params.n {
         return;
     }
@@ -99,7 +95,7 @@ fn scatter(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(num_workgroups) nwg: vec3<u32>,
 ) {
-    let i = particle_index(gid, nwg);
+    let i = index(gid, nwg);
     if i >= params.n {
         return;
     }
@@ -160,7 +156,7 @@ fn count_neighbours(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(num_workgroups) nwg: vec3<u32>,
 ) {
-    let i = particle_index(gid, nwg);
+    let i = index(gid, nwg);
     if i >= params.n {
         return;
     }
@@ -172,7 +168,7 @@ fn fill_neighbours(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(num_workgroups) nwg: vec3<u32>,
 ) {
-    let i = particle_index(gid, nwg);
+    let i = index(gid, nwg);
     if i >= params.n {
         return;
     }
@@ -188,7 +184,7 @@ fn check_drift(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(num_workgroups) nwg: vec3<u32>,
 ) {
-    let i = particle_index(gid, nwg);
+    let i = index(gid, nwg);
     if i >= params.n {
         return;
     }
@@ -222,7 +218,7 @@ fn clear_counts(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(num_workgroups) nwg: vec3<u32>,
 ) {
-    let i = particle_index(gid, nwg);
+    let i = index(gid, nwg);
     if i <= params.ncells {
         atomicStore(&cell_start[i], 0u);
     }
@@ -236,7 +232,7 @@ fn copy_cursor(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(num_workgroups) nwg: vec3<u32>,
 ) {
-    let c = particle_index(gid, nwg);
+    let c = index(gid, nwg);
     if c < params.ncells {
         atomicStore(&cursor[c], atomicLoad(&cell_start[c]));
     }
@@ -247,7 +243,7 @@ fn save_built(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(num_workgroups) nwg: vec3<u32>,
 ) {
-    let i = particle_index(gid, nwg);
+    let i = index(gid, nwg);
     if i >= params.n {
         return;
     }

@@ -39,7 +39,7 @@ fn turned_left(t: vecd) -> vecd {
 
 @compute @workgroup_size(256)
 fn contact(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let s = gid.x + gid.y * nwg.x * 256u;
+    let s = index(gid, nwg);
     if s >= N {
         return;
     }

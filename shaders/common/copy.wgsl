@@ -6,7 +6,7 @@
 
 @compute @workgroup_size(256)
 fn copy(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let k = gid.x + gid.y * nwg.x * 256u;
+    let k = index(gid, nwg);
     if k < arrayLength(&dst) {
         dst[k] = src[k];
     }

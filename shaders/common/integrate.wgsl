@@ -11,14 +11,10 @@ struct Coefficients {
 @group(0) @binding(1) var<storage, read_write> out: array<f32>;
 @group(0) @binding(2) var<storage, read> x: array<f32>;
 
-fn flat(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
-    return gid.x + gid.y * nwg.x * 256u;
-}
-
 // out = a·out + b·x (blend, axpy with a = 1).
 @compute @workgroup_size(256)
 fn blend(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let k = flat(gid, nwg);
+    let k = index(gid, nwg);
     if k < LEN {
         out[k] = c.a * out[k] + c.b * x[k];
     }
@@ -27,7 +23,7 @@ fn blend(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
 // Leapfrog kick: v += b·(rate of v).
 @compute @workgroup_size(256)
 fn kick(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let k = flat(gid, nwg);
+    let k = index(gid, nwg);
     if k < N * DIM {
         out[V_OFF + k] += c.b * x[V_OFF + k];
     }
@@ -36,7 +32,7 @@ fn kick(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
 // Leapfrog drift: u += b·v (own velocity); every field after v += b·rate.
 @compute @workgroup_size(256)
 fn drift(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let k = flat(gid, nwg);
+    let k = index(gid, nwg);
     if k < N * DIM {
         out[U_OFF + k] += c.b * out[V_OFF + k];
     } else if REST_OFF + k - N * DIM < LEN {

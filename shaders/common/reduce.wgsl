@@ -35,7 +35,7 @@ fn reduce(
     @builtin(local_invocation_index) lid: u32,
     @builtin(workgroup_id) wid: vec3<u32>,
 ) {
-    let i = gid.x + gid.y * nwg.x * 256u;
+    let i = index(gid, nwg);
     var q: array<f32, REDUCED>;
     if i < N {
         let m = RHO0 * vol_of(i);
@@ -82,7 +82,7 @@ fn reduce(
         workgroupBarrier();
     }
     if lid == 0u {
-        let group = wid.x + wid.y * nwg.x;
+        let group = group_index(wid, nwg);
         for (var k = 0u; k < REDUCED; k++) {
             partials[group * REDUCED + k] = sums[0][k];
         }

@@ -8,7 +8,7 @@
 // One invocation per pair p = (i, j): ∇0W̃_ji, j's corrected gradient towards i.
 @compute @workgroup_size(256)
 fn reverse_gradients(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let p = gid.x + gid.y * nwg.x * 256u;
+    let p = index(gid, nwg);
     if p >= PAIRS {
         return;
     }

@@ -30,7 +30,7 @@ fn scan_blocks(
     @builtin(num_workgroups) nwg: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
 ) {
-    let block = wid.x + wid.y * nwg.x;
+    let block = group_index(wid, nwg);
     // Uniform per workgroup: the padding groups of a 2D dispatch leave before any barrier.
     if block >= (scan.n + SCAN_BLOCK - 1u) / SCAN_BLOCK {
         return;
@@ -86,7 +86,7 @@ fn add_block_sums(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(num_workgroups) nwg: vec3<u32>,
 ) {
-    let i = gid.x + gid.y * nwg.x * 256u;
+    let i = index(gid, nwg);
     if i >= scan.n {
         return;
     }

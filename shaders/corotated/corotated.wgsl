@@ -66,7 +66,7 @@ fn polar_rotation(a: matd) -> matd {
 
 @compute @workgroup_size(256)
 fn stress(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let i = gid.x + gid.y * nwg.x * 256u;
+    let i = index(gid, nwg);
     if i >= N {
         return;
     }

@@ -54,10 +54,6 @@ const INDEFINITE: f32 = 2.0;
 var<workgroup> sum_a: array<f32, 256>;
 var<workgroup> sum_b: array<f32, 256>;
 
-fn flat(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
-    return gid.x + gid.y * nwg.x * 256u;
-}
-
 // Sums a and b over the workgroup (a tree in workgroup memory); the totals in sum_a[0]
 // and sum_b[0]. Called in uniform control flow.
 fn workgroup_sums(lid: u32, a: f32, b: f32) {
@@ -78,7 +74,7 @@ fn workgroup_sums(lid: u32, a: f32, b: f32) {
 fn store_sums(lid: u32, wid: vec3<u32>, nwg: vec3<u32>, a: f32, b: f32) {
     workgroup_sums(lid, a, b);
     if lid == 0u {
-        let w = wid.x + wid.y * nwg.x;
+        let w = group_index(wid, nwg);
         partials[2u * w] = sum_a[0];
         partials[2u * w + 1u] = sum_b[0];
     }
@@ -98,7 +94,7 @@ fn total_partials(lid: u32, groups: u32) {
 // Per particle: δH_i and V_i δP_i = V_i 𝔸_i : δH_i along the direction p.
 @compute @workgroup_size(256)
 fn strain(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let i = flat(gid, nwg);
+    let i = index(gid, nwg);
     if i >= N {
         return;
     }
@@ -136,7 +132,7 @@ fn product(
     @builtin(workgroup_id) wid: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
 ) {
-    let a = flat(gid, nwg);
+    let a = index(gid, nwg);
     var pq = 0.0;
     if a < N {
         let vdp_a = mload_lin(LP_OFF + DIM * DIM * a);
@@ -170,7 +166,7 @@ fn start(
     @builtin(workgroup_id) wid: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
 ) {
-    let k = flat(gid, nwg);
+    let k = index(gid, nwg);
     var rz = 0.0;
     var rr = 0.0;
     if k < NDOF {
@@ -226,7 +222,7 @@ fn update(
     @builtin(workgroup_id) wid: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
 ) {
-    let k = flat(gid, nwg);
+    let k = index(gid, nwg);
     var rz = 0.0;
     var rr = 0.0;
     if k < NDOF {
@@ -263,7 +259,7 @@ fn beta(@builtin(local_invocation_index) lid: u32) {
 // Per degree of freedom: p = z + β p.
 @compute @workgroup_size(256)
 fn direction(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let k = flat(gid, nwg);
+    let k = index(gid, nwg);
     if k < NDOF {
         p[k] = inv_diag[k] * r[k] + scalars[BETA] * p[k];
     }

@@ -27,10 +27,6 @@
 // External accelerations of tractions and interactions (DIM per node).
 @group(0) @binding(11) var<storage, read> ext: array<f32>;
 
-fn index(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
-    return gid.x + gid.y * nwg.x * 256u;
-}
-
 struct Gradients {
     // H = F − I.
     h: matd,

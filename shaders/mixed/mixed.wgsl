@@ -24,10 +24,6 @@
 // Size of one particle's slopes: ∇0v, then ∂P/∂X_l for l < DIM.
 const SLOPE: u32 = (DIM + 1u) * DIM * DIM;
 
-fn index(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
-    return gid.x + gid.y * nwg.x * 256u;
-}
-
 // Pair b's share of the internal force T_a of the stresses P_a, P_b with G_ab = V_b g_ab
 // and G_ba = V_b g_ba (pair_force of system.rs): P_b G_ba − P_a G_ab (eq 21), or
 // −½ (P_a + P_b)(G_ab − G_ba) (seed 002 eq 22).

@@ -144,7 +144,7 @@ fn start(
         mstore_corr(CHN_OFF + DIM * DIM * a, identity_d() + h_excess(a, stress_excess(a)));
         speed2 = max(dot(v_int, v_int), dot(v_n, v_n));
     }
-    workgroup_max(lid, wid.x + wid.y * nwg.x, speed2, a);
+    workgroup_max(lid, group_index(wid, nwg), speed2, a);
 }
 
 @compute @workgroup_size(1)
@@ -274,7 +274,7 @@ fn residual(
     if a < N {
         size = pseudo_rates(a, CV_OFF, CQ_OFF);
     }
-    workgroup_max(lid, wid.x + wid.y * nwg.x, size, a);
+    workgroup_max(lid, group_index(wid, nwg), size, a);
 }
 
 @compute @workgroup_size(256)

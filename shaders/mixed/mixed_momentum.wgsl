@@ -86,7 +86,7 @@ fn balance_sums(
         workgroupBarrier();
     }
     if lid == 0u {
-        let group = wid.x + wid.y * nwg.x;
+        let group = group_index(wid, nwg);
         for (var k = 0u; k < BALANCED; k++) {
             for (var c = 0u; c < 4u; c++) {
                 partials[4u * (group * BALANCED + k) + c] = tile[0][k][c];

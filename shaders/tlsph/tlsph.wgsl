@@ -20,10 +20,6 @@
 @group(0) @binding(6) var<storage, read_write> d: array<f32>;
 @group(0) @binding(7) var<storage, read_write> status: array<atomic<u32>>;
 
-fn index(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
-    return gid.x + gid.y * nwg.x * 256u;
-}
-
 // Pass 1: F = I + Σ V_j (u_j − u_i) ⊗ ∇0W̃_ij (eq 137), P, and ρ̇, Ṡ of the rate model.
 @compute @workgroup_size(256)
 fn stress(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {

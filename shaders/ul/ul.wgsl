@@ -23,10 +23,6 @@
 @group(0) @binding(7) var<storage, read_write> d: array<f32>;
 @group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>>;
 
-fn index(gid: vec3<u32>, nwg: vec3<u32>) -> u32 {
-    return gid.x + gid.y * nwg.x * 256u;
-}
-
 // x = X + u, for the cell list and the pair sums.
 @compute @workgroup_size(256)
 fn positions(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {

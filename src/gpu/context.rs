@@ -495,7 +495,7 @@ impl Gpu {
     }
 
     /// Workgroup counts covering `n` invocations of `WORKGROUP`: 2D past 65,535 groups.
-    /// Shaders flatten with `gid.x + gid.y * num_workgroups.x * WORKGROUP`.
+    /// Shaders flatten with `index(gid, nwg)` of `shaders/common/dispatch.wgsl`.
     pub fn groups(&self, n: u32) -> (u32, u32) {
         let groups = n.div_ceil(WORKGROUP).max(1);
         let max = self.limits.max_compute_workgroups_per_dimension;

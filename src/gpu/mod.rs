@@ -1,5 +1,6 @@
 //! The GPU backend's shared machinery: wgpu compute shaders (WGSL) on storage buffers,
-//! f32. The methods' GPU engines (`methods::<method>::gpu`) stand on it.
+//! f32. The methods' GPU engines (`methods::<method>::gpu`) stand on it, each in a
+//! [`shell::Shell`] that holds what they share.
 
 pub mod context;
 pub mod layout;
@@ -9,6 +10,7 @@ pub mod program;
 pub mod reduction;
 pub mod reference;
 pub mod shaders;
+pub mod shell;
 
 pub use context::{Gpu, GpuError};
 pub use layout::GpuDim;

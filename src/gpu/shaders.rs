@@ -1,10 +1,11 @@
 //! WGSL sources and their composition into scene-specific variants.
 //!
-//! A shader is the dimension prelude (`shaders/common/dim2.wgsl` or `dim3.wgsl`), a
-//! block of scene constants, the function files it names, and the pass file. Scene
-//! constants are compiled in (one variant per scene), so a 2D scene runs 2D code only.
-//! Shared files live in `shaders/common/` and are declared here; a method's own in
-//! `shaders/<method>/`, declared by its GPU engine.
+//! A shader is the dimension prelude (`shaders/common/dim2.wgsl` or `dim3.wgsl`), the
+//! dispatch prelude ([`DISPATCH`]: an invocation's flat index), a block of scene
+//! constants, the function files it names, and the pass file. Scene constants are
+//! compiled in (one variant per scene), so a 2D scene runs 2D code only. Shared files
+//! live in `shaders/common/` and are declared here; a method's own in `shaders/<method>/`,
+//! declared by its GPU engine.
 
 use super::layout::GpuDim;
 use super::profile::{NONE, PassBytes, read, read_write, write};
@@ -69,6 +70,9 @@ macro_rules! source {
 }
 pub(crate) use source;
 
+/// The flat index of an invocation, `index(gid, nwg)`, and of a workgroup,
+/// `group_index(wid, nwg)`, in a dispatch of `Gpu::groups`: in every shader.
+pub const DISPATCH: Wgsl = wgsl!("common/dispatch.wgsl");
 /// Kernel functions W and ∇W of the scene's kernel.
 pub const KERNEL: Wgsl = wgsl!("common/kernel.wgsl");
 /// Stresses and strain energies of the material models, in H = F − I.
@@ -420,6 +424,7 @@ impl Constants {
 pub fn compose<D: GpuDim>(source: &Source, constants: &Constants) -> String {
     let mut text = String::new();
     text.push_str(D::PRELUDE);
+    text.push_str(DISPATCH.text);
     text.push_str(&constants.render());
     for file in source.common {
         text.push_str(file.text);

@@ -319,11 +319,15 @@ fn block_max(dim: usize) -> &'static [f64] {
 }
 
 /// Every `.wgsl` file under `shaders/` is a pass of some method (or a shared pass), a
-/// function file one of them includes, or a dimension prelude: so the checks above
+/// function file one of them includes, or a prelude (dimension, dispatch): so the checks above
 /// validate every file there is.
 #[test]
 fn every_wgsl_file_is_a_validated_pass_or_included() {
-    let mut reached: Vec<&str> = vec!["common/dim2.wgsl", "common/dim3.wgsl"];
+    let mut reached: Vec<&str> = vec![
+        "common/dim2.wgsl",
+        "common/dim3.wgsl",
+        meshless::gpu::shaders::DISPATCH.name,
+    ];
     for source in meshless::methods::shaders() {
         reached.push(source.name);
         reached.extend(source.common.iter().map(|f| f.name));

@@ -13,12 +13,13 @@ use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::profile::{NONE, PassBytes, Scale, read, read_write, write};
 use crate::gpu::program::{StateLayout, Stepper};
-use crate::gpu::reduction::{self, Reduced, Reduction, WorkBalance};
+use crate::gpu::reduction::{self, Reduced, Reduction};
 use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
     self, BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, LOADS, MECHANICS, PLASTIC_STORE,
     PLASTICITY, PRESCRIBED, REFERENCE, Source, Wgsl, source, wgsl,
 };
+use crate::gpu::shell::Shell;
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
 use crate::integrate::Buf;
 use crate::interaction::gpu::GpuInteractions;
@@ -335,13 +336,15 @@ const STATUS_OK: u32 = u32::MAX;
 
 /// A total-Lagrangian Galerkin system resident on the GPU.
 pub struct GpuGalerkin<D: GpuDim> {
-    gpu: Gpu,
+    /// The device, the stepper, the reduction, the work balance, the kinematics and the
+    /// plastic history in checkpoints. The balance's terms it does not book besides the
+    /// work of supports and loads: the velocity smoothing's dissipation; the plastic work,
+    /// committed on the device; contact's, which `ext` adds to the loads' power.
+    shell: Shell,
     /// The host's f64 system the device's set-up was uploaded from; outputs are computed
     /// from the state read back.
     host: TlGalerkin<D>,
     layout: Layout,
-    stepper: Stepper,
-    kin: wgpu::Buffer,
     status: wgpu::Buffer,
     points: Pipeline,
     nodes: Pipeline,
@@ -356,14 +359,7 @@ pub struct GpuGalerkin<D: GpuDim> {
     hist: wgpu::Buffer,
     /// The commit of the plastic history before every step (`commit` of galerkin.wgsl).
     commit: Option<(Pipeline, wgpu::BindGroup)>,
-    reduction: Reduction,
     interactions: GpuInteractions,
-    work: WorkBalance,
-    /// The balance's terms besides the work of supports and loads: zero where the case has
-    /// none, None where it has them and they are not booked here (the velocity smoothing's
-    /// dissipation; the plastic work, committed on the device; contact's, which `ext`
-    /// adds to the loads' power).
-    unbooked: Booked,
 }
 
 impl<D: GpuDim> GpuGalerkin<D> {
@@ -467,12 +463,18 @@ impl<D: GpuDim> GpuGalerkin<D> {
             .map(|s| SmoothPasses::new(&gpu, &layout, s, &compose, &device.reference, y, n))
             .transpose()?;
         let unsmoothed = smooth.is_none();
+        let unbooked = Booked {
+            dissipated: unsmoothed.then_some(0.0),
+            plastic_work: (!plastic).then_some(0.0),
+            contact_energy: case.contact.is_none().then_some(0.0),
+            ..Booked::default()
+        };
+        let shell = Shell::new(gpu, stepper, reduction, kin, &layout.kin, unbooked)
+            .save_also("plastic history", &hist);
         Ok(Self {
-            gpu,
+            shell,
             host,
             layout,
-            stepper,
-            kin,
             status,
             points: points_pipeline,
             nodes: nodes_pipeline,
@@ -481,15 +483,7 @@ impl<D: GpuDim> GpuGalerkin<D> {
             smooth,
             hist,
             commit,
-            reduction,
             interactions,
-            work: WorkBalance::default(),
-            unbooked: Booked {
-                dissipated: unsmoothed.then_some(0.0),
-                plastic_work: (!plastic).then_some(0.0),
-                contact_energy: case.contact.is_none().then_some(0.0),
-                ..Booked::default()
-            },
         })
     }
 
@@ -509,13 +503,16 @@ impl<D: GpuDim> GpuGalerkin<D> {
     /// Records `steps` steps of size dt, each followed by the smoothing if the method has
     /// one, into one command encoder, and submits them.
     pub fn advance_steps(&mut self, dt: f64, steps: u32) {
-        self.work.advance(dt, steps);
-        self.reduction.invalidate();
-        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
-        self.interactions.set_step(&self.gpu, dt);
+        self.shell.work.advance(dt, steps);
+        self.shell.reduction.invalidate();
+        let mut encoder = self
+            .shell
+            .gpu
+            .device
+            .create_command_encoder(&Default::default());
+        self.interactions.set_step(&self.shell.gpu, dt);
         let Self {
-            gpu,
-            stepper,
+            shell: Shell { gpu, stepper, .. },
             points,
             nodes,
             rates,
@@ -556,13 +553,12 @@ impl<D: GpuDim> GpuGalerkin<D> {
                 }
             }
         }
-        self.gpu.queue.submit([encoder.finish()]);
+        self.shell.gpu.queue.submit([encoder.finish()]);
     }
 
     /// Reads the current state back (waits for the queue).
     pub fn state(&self) -> GalerkinState<D> {
-        let flat: Vec<f32> = self.gpu.read(self.stepper.buffer(Buf::Y));
-        self.decode(&flat, self.host.material().rho0)
+        self.decode(&self.shell.read_state(), self.host.material().rho0)
     }
 
     /// Decodes a flat state (`rho0` = ρ0: the density is stored as ρ − ρ0) or rate buffer
@@ -585,25 +581,28 @@ impl<D: GpuDim> GpuGalerkin<D> {
         l.write_v::<D>(&mut flat, "V", &y.v);
         l.write_s(&mut flat, "RHO", &y.rho, self.host.material().rho0);
         l.write_t::<D>(&mut flat, "S", &y.s, D::zero_t());
-        self.stepper.set_state(&self.gpu, &flat);
-        self.reduction.invalidate();
+        self.shell.set_state(&flat);
     }
 
     /// The rates of a given state, read back, and P at every point.
     pub fn rates(&mut self, y: &GalerkinState<D>) -> (GalerkinState<D>, Vec<D::T>) {
         self.set_state(y);
-        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+        let mut encoder = self
+            .shell
+            .gpu
+            .device
+            .create_command_encoder(&Default::default());
         let pipelines = (&self.points, &self.nodes);
         Self::record_rates(
-            &self.gpu,
+            &self.shell.gpu,
             &self.layout,
             pipelines,
             &mut encoder,
             &self.rates[0],
         );
-        self.gpu.queue.submit([encoder.finish()]);
-        let d: Vec<f32> = self.gpu.read(self.stepper.buffer(Buf::Rates));
-        let kin: Vec<f32> = self.gpu.read(&self.kin);
+        self.shell.gpu.queue.submit([encoder.finish()]);
+        let d: Vec<f32> = self.shell.gpu.read(self.shell.stepper.buffer(Buf::Rates));
+        let kin: Vec<f32> = self.shell.gpu.read(&self.shell.kin);
         let p = self.layout.kin.read_t::<D>(&kin, "P", D::zero_t());
         (self.decode(&d, 0.0), p)
     }
@@ -615,29 +614,26 @@ impl<D: GpuDim> GpuGalerkin<D> {
 
     /// The first point whose points pass failed (det F ≤ 0 or NaN) so far.
     fn failed_point(&self) -> Option<usize> {
-        let s: Vec<u32> = self.gpu.read(&self.status);
+        let s: Vec<u32> = self.shell.gpu.read(&self.status);
         (s[0] != STATUS_OK).then_some(s[0] as usize)
     }
 
     /// The points pass on the current state (its kinematics) and the reduction.
     fn reduction(&mut self) -> Reduced {
         let Self {
-            gpu,
+            shell,
             points,
             points_y,
             layout,
-            reduction,
             ..
         } = self;
-        reduction.get(gpu, |pass| {
-            gpu.dispatch(pass, points, points_y, layout.q as u32)
-        })
+        shell.reduced(|gpu, pass| gpu.dispatch(pass, points, points_y, layout.q as u32))
     }
 }
 
 impl<D: GpuDim> Engine<D> for GpuGalerkin<D> {
     fn backend(&self) -> String {
-        format!("gpu: {}", self.gpu.name())
+        self.shell.backend()
     }
 
     fn device(&mut self) -> Option<(&Gpu, Scale)> {
@@ -645,7 +641,7 @@ impl<D: GpuDim> Engine<D> for GpuGalerkin<D> {
             pairs: self.host.shapes().csr.pair_count() as u64,
             indirect: None,
         };
-        Some((&self.gpu, scale))
+        Some((&self.shell.gpu, scale))
     }
 
     fn reference(&self) -> &[D::V] {
@@ -669,18 +665,16 @@ impl<D: GpuDim> Engine<D> for GpuGalerkin<D> {
     /// Trapezoidal over the intervals between calls (the driver calls it at every check).
     fn external_work(&mut self) -> f64 {
         let power = self.reduction().power;
-        self.work.update(power)
+        self.shell.external_work(power)
     }
 
     fn booked(&mut self) -> Booked {
-        Booked {
-            external_work: self.external_work(),
-            ..self.unbooked
-        }
+        let power = self.reduction().power;
+        self.shell.booked(power)
     }
 
     fn reactions(&mut self) -> Vec<Reaction> {
-        reduction::reactions(&self.gpu, &self.kin, &self.layout.kin, self.host.boundary())
+        self.shell.reactions(self.host.boundary())
     }
 
     fn check(&mut self) -> Result<(), BlowUp> {
@@ -704,24 +698,16 @@ impl<D: GpuDim> Engine<D> for GpuGalerkin<D> {
     }
 
     fn finish(&mut self) {
-        self.gpu.wait();
+        self.shell.gpu.wait();
     }
 
     /// The work balance, the state buffer and the plastic history (f32).
     fn save(&mut self) -> Vec<f64> {
-        let buffers = [self.stepper.buffer(Buf::Y), &self.hist];
-        crate::gpu::save_buffers(&self.gpu, &self.work, &buffers)
+        self.shell.save()
     }
 
     fn restore(&mut self, words: &[f64]) -> Result<(), String> {
-        let buffers = [
-            ("state", self.stepper.buffer(Buf::Y)),
-            ("plastic history", &self.hist),
-        ];
-        self.work = crate::gpu::load_buffers(&self.gpu, words, &buffers)?;
-        self.stepper.state_replaced();
-        self.reduction.invalidate();
-        Ok(())
+        self.shell.restore(words)
     }
 
     /// The host's outputs (nodal F and σ, Σ_q w_q ψ_q in f64) of the state and the plastic
@@ -729,7 +715,7 @@ impl<D: GpuDim> Engine<D> for GpuGalerkin<D> {
     fn snapshot(&mut self) -> Snapshot<'_, D> {
         let y = self.state();
         if let Some(history) = self.host.plastic_mut() {
-            history.read_f32(&self.gpu.read::<f32>(&self.hist));
+            history.read_f32(&self.shell.gpu.read::<f32>(&self.hist));
         }
         self.host.snapshot(&y)
     }

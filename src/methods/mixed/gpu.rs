@@ -22,12 +22,13 @@ use crate::gpu::context::{Gpu, GpuError, Pipeline, WORKGROUP};
 use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::profile::{NONE, PassBytes, Scale, Traffic, read, read_write, write};
 use crate::gpu::program::{StateLayout, Stepper};
-use crate::gpu::reduction::{self, Reduced, Reduction, WorkBalance};
+use crate::gpu::reduction::{self, Reduced, Reduction};
 use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
     self, BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, LOADS, MECHANICS, PLASTIC_STORE,
     PLASTICITY, PRESCRIBED, REFERENCE, Source, Wgsl, source, wgsl,
 };
+use crate::gpu::shell::Shell;
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
 use crate::integrate::IntegratorKind;
 use crate::integrate::{Buf, Evaluation, evaluations};
@@ -116,30 +117,25 @@ const STATUS_OK: [u32; 2] = [u32::MAX; 2];
 
 /// The mixed system resident on the GPU.
 pub struct GpuMixed<D: GpuDim> {
-    gpu: Gpu,
+    /// The device, the stepper, the reduction, the work balance, the kinematics and the
+    /// plastic history in checkpoints. The balance's terms it does not book besides the
+    /// work of supports and loads: the stabilisation's dissipation; the plastic work,
+    /// committed on the device; contact's, which `ext` adds to the loads' power.
+    shell: Shell,
     cpu: MixedSph<D>,
     layout: MixedLayout,
-    stepper: Stepper,
     evaluator: Evaluator,
     /// The `Stage` uniform of the mid-step points (Δt/2 rewritten when Δt changes).
     mid_points: wgpu::Buffer,
     dt: f64,
-    kin: wgpu::Buffer,
     force: wgpu::Buffer,
     status: wgpu::Buffer,
-    reduction: Reduction,
     /// The plastic history (plasticity.wgsl; 10 floats of a dummy for elastic models).
     hist: wgpu::Buffer,
     /// The commit of the plastic history before every step (mixed_plastic.wgsl).
     commit: Option<(Pipeline, wgpu::BindGroup)>,
     /// Passes before every step (contact) and the `ext` they write.
     interactions: GpuInteractions,
-    work: WorkBalance,
-    /// The balance's terms besides the work of supports and loads: zero where the case has
-    /// none, None where it has them and they are not booked here (the stabilisation's
-    /// dissipation; the plastic work, committed on the device; contact's, which `ext`
-    /// adds to the loads' power).
-    unbooked: Booked,
 }
 
 impl<D: GpuDim> GpuMixed<D> {
@@ -253,23 +249,21 @@ impl<D: GpuDim> GpuMixed<D> {
             .collect::<Result<_, GpuError>>()?;
         evaluator.corrector = corrector;
         let reduction = Reduction::new(&gpu, &compose(&REDUCE), &table(y_start, &stage_points), n)?;
+        let unbooked = unbooked(case, plastic);
+        let shell = Shell::new(gpu, stepper, reduction, scratch.kin, &layout.kin, unbooked)
+            .save_also("plastic history", &scratch.hist);
         Ok(Self {
-            gpu,
+            shell,
             cpu,
             layout,
-            stepper,
             evaluator,
             mid_points,
             dt: f64::NAN,
-            kin: scratch.kin,
             force: scratch.force,
             status: scratch.status,
-            reduction,
             hist: scratch.hist,
             commit,
             interactions,
-            work: WorkBalance::default(),
-            unbooked: unbooked(case, plastic),
         })
     }
 }
@@ -291,8 +285,8 @@ fn plastic_on_device(case: &Case) -> Result<bool, SetupError> {
     Ok(plastic)
 }
 
-/// The balance's terms besides the work of supports and loads, as [`GpuMixed::unbooked`]
-/// holds them.
+/// The balance's terms besides the work of supports and loads, as the shell of
+/// [`GpuMixed`] holds them.
 fn unbooked(case: &Case, plastic: bool) -> Booked {
     Booked {
         dissipated: None,
@@ -316,7 +310,8 @@ impl<D: GpuDim> GpuMixed<D> {
                 half_dt: (0.5 * dt) as f32,
                 mid: 1,
             };
-            self.gpu
+            self.shell
+                .gpu
                 .queue
                 .write_buffer(&self.mid_points, 0, bytemuck::bytes_of(&points));
         }
@@ -326,10 +321,10 @@ impl<D: GpuDim> GpuMixed<D> {
     /// Under artificial compressibility the batch runs again from its start when a stage
     /// ran out of the pseudo steps recorded for it ([`DeviceCorrector`]).
     pub fn advance_steps(&mut self, dt: f64, steps: u32) {
-        self.work.advance(dt, steps);
-        self.reduction.invalidate();
+        self.shell.work.advance(dt, steps);
+        self.shell.reduction.invalidate();
         self.set_dt(dt);
-        self.interactions.set_step(&self.gpu, dt);
+        self.interactions.set_step(&self.shell.gpu, dt);
         let start = self.interactions.time();
         loop {
             self.interactions.set_time(start);
@@ -337,23 +332,27 @@ impl<D: GpuDim> GpuMixed<D> {
             let Some(corrector) = self.evaluator.corrector.as_mut() else {
                 return;
             };
-            if corrector.finish_batch(&self.gpu) {
+            if corrector.finish_batch(&self.shell.gpu) {
                 return;
             }
-            corrector.restore_flags(&self.gpu, &self.status);
-            self.stepper
-                .restart_from(&self.gpu, corrector.saved_state());
+            corrector.restore_flags(&self.shell.gpu, &self.status);
+            self.shell
+                .stepper
+                .restart_from(&self.shell.gpu, corrector.saved_state());
         }
     }
 
     /// Records the steps of one batch and submits them; under artificial
     /// compressibility the state and failure flags at its start are saved first.
     fn record_steps(&mut self, dt: f64, steps: u32) {
-        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+        let mut encoder = self
+            .shell
+            .gpu
+            .device
+            .create_command_encoder(&Default::default());
         let Self {
-            gpu,
+            shell: Shell { gpu, stepper, .. },
             cpu,
-            stepper,
             evaluator,
             commit,
             layout,
@@ -384,21 +383,20 @@ impl<D: GpuDim> GpuMixed<D> {
                 }
             },
         );
-        self.gpu.queue.submit([encoder.finish()]);
+        self.shell.gpu.queue.submit([encoder.finish()]);
     }
 }
 
 impl<D: GpuDim> GpuMixed<D> {
     /// Reads the current state back (waits for the queue).
     pub fn state(&self) -> MixedState<D> {
-        let flat: Vec<f32> = self.gpu.read(self.stepper.buffer(Buf::Y));
-        self.layout.decode(&flat, true)
+        self.layout.decode(&self.shell.read_state(), true)
     }
 
     /// Replaces the state (e.g. to cross-check rates on a given state).
     pub fn set_state(&mut self, y: &MixedState<D>) {
-        self.stepper.set_state(&self.gpu, &self.layout.encode(y));
-        self.reduction.invalidate();
+        let flat = self.layout.encode(y);
+        self.shell.set_state(&flat);
     }
 
     /// Rates of a given state (balanced about its own positions), read back. Under
@@ -421,14 +419,14 @@ impl<D: GpuDim> GpuMixed<D> {
         dt: f64,
     ) -> MixedState<D> {
         assert_eq!(
-            self.stepper.kind(),
+            self.shell.stepper.kind(),
             IntegratorKind::TvdRk2,
             "the scene's integrator must be TVD-RK2"
         );
         self.set_state(start);
         let flat = self.layout.encode(stage);
-        self.gpu.queue.write_buffer(
-            self.stepper.buffer(Buf::Stage),
+        self.shell.gpu.queue.write_buffer(
+            self.shell.stepper.buffer(Buf::Stage),
             0,
             bytemuck::cast_slice(&flat),
         );
@@ -441,16 +439,20 @@ impl<D: GpuDim> GpuMixed<D> {
 
     /// Records one evaluation alone and reads its rates back.
     fn evaluate(&mut self, e: Evaluation) -> MixedState<D> {
-        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
-        self.evaluator.record(&self.gpu, &mut encoder, e);
-        self.gpu.queue.submit([encoder.finish()]);
-        let d: Vec<f32> = self.gpu.read(self.stepper.buffer(Buf::Rates));
+        let mut encoder = self
+            .shell
+            .gpu
+            .device
+            .create_command_encoder(&Default::default());
+        self.evaluator.record(&self.shell.gpu, &mut encoder, e);
+        self.shell.gpu.queue.submit([encoder.finish()]);
+        let d: Vec<f32> = self.shell.gpu.read(self.shell.stepper.buffer(Buf::Rates));
         self.layout.decode(&d, false)
     }
 
     /// P of the real particles at the last rate evaluation.
     pub fn first_piola(&self) -> Vec<D::T> {
-        let kin: Vec<f32> = self.gpu.read(&self.kin);
+        let kin: Vec<f32> = self.shell.gpu.read(&self.shell.kin);
         let mut p = self.layout.kin.read_t::<D>(&kin, "P", D::zero_t());
         p.truncate(self.layout.n);
         p
@@ -459,7 +461,7 @@ impl<D: GpuDim> GpuMixed<D> {
     /// T, D(p) and D(J) of the last rate evaluation, before the projection (D(J) is zero
     /// where the scene does not evolve J or is JST-SPH: nothing reads it there).
     pub fn fluxes(&self) -> Fluxes<D> {
-        let f: Vec<f32> = self.gpu.read(&self.force);
+        let f: Vec<f32> = self.shell.gpu.read(&self.force);
         let l = &self.layout.force;
         Fluxes {
             t: l.read_v::<D>(&f, "T"),
@@ -470,7 +472,7 @@ impl<D: GpuDim> GpuMixed<D> {
 
     /// The first particles whose det F ≤ 0 and whose J ≤ 0 (or NaN) in any evaluation.
     pub fn failed_particles(&self) -> [Option<usize>; 2] {
-        let s: Vec<u32> = self.gpu.read(&self.status);
+        let s: Vec<u32> = self.shell.gpu.read(&self.status);
         [0, 1].map(|k| (s[k] != STATUS_OK[k]).then_some(s[k] as usize))
     }
 
@@ -478,12 +480,9 @@ impl<D: GpuDim> GpuMixed<D> {
     /// F^c − I of the state, recorded first.
     fn reduction(&mut self) -> Reduced {
         let Self {
-            gpu,
-            evaluator,
-            reduction,
-            ..
+            shell, evaluator, ..
         } = self;
-        reduction.get(gpu, |pass| {
+        shell.reduced(|gpu, pass| {
             if evaluator.passes.bond.is_some() {
                 evaluator.record_motion(gpu, pass, evaluator.bound((Buf::Y, false)));
             }
@@ -497,11 +496,11 @@ impl<D: GpuDim> Engine<D> for GpuMixed<D> {
             pairs: self.cpu.neighbours().pair_count() as u64,
             indirect: self.evaluator.corrector.as_ref().map(|c| c.runs),
         };
-        Some((&self.gpu, scale))
+        Some((&self.shell.gpu, scale))
     }
 
     fn backend(&self) -> String {
-        format!("gpu: {}", self.gpu.name())
+        self.shell.backend()
     }
 
     fn reference(&self) -> &[D::V] {
@@ -527,24 +526,22 @@ impl<D: GpuDim> Engine<D> for GpuMixed<D> {
     /// Trapezoidal over the intervals between calls (the driver calls it at every check).
     fn external_work(&mut self) -> f64 {
         let power = self.reduction().power;
-        self.work.update(power)
+        self.shell.external_work(power)
     }
 
     fn booked(&mut self) -> Booked {
-        Booked {
-            external_work: self.external_work(),
-            ..self.unbooked
-        }
+        let power = self.reduction().power;
+        self.shell.booked(power)
     }
 
     fn reactions(&mut self) -> Vec<Reaction> {
-        reduction::reactions(&self.gpu, &self.kin, &self.layout.kin, self.cpu.boundary())
+        self.shell.reactions(self.cpu.boundary())
     }
 
     fn check(&mut self) -> Result<(), BlowUp> {
         let x0 = self.cpu.reference();
         if let Some(c) = &self.evaluator.corrector
-            && let Some(u) = c.unconverged(&self.gpu)
+            && let Some(u) = c.unconverged(&self.shell.gpu)
         {
             let quantity = format!("{UNCONVERGED}; f32 on the GPU");
             return Err(BlowUp::at::<D>(x0, u.particle, &quantity, u.residual));
@@ -573,30 +570,22 @@ impl<D: GpuDim> Engine<D> for GpuMixed<D> {
     }
 
     fn finish(&mut self) {
-        self.gpu.wait();
+        self.shell.gpu.wait();
     }
 
     /// The work balance, the state buffer and the plastic history (f32).
     fn save(&mut self) -> Vec<f64> {
-        let buffers = [self.stepper.buffer(Buf::Y), &self.hist];
-        crate::gpu::save_buffers(&self.gpu, &self.work, &buffers)
+        self.shell.save()
     }
 
     fn restore(&mut self, words: &[f64]) -> Result<(), String> {
-        let buffers = [
-            ("state", self.stepper.buffer(Buf::Y)),
-            ("plastic history", &self.hist),
-        ];
-        self.work = crate::gpu::load_buffers(&self.gpu, words, &buffers)?;
-        self.stepper.state_replaced();
-        self.reduction.invalidate();
-        Ok(())
+        self.shell.restore(words)
     }
 
     fn snapshot(&mut self) -> Snapshot<'_, D> {
         let y = self.state();
         if let Some(history) = self.cpu.plastic_mut() {
-            history.read_f32(&self.gpu.read::<f32>(&self.hist));
+            history.read_f32(&self.shell.gpu.read::<f32>(&self.hist));
         }
         self.cpu.snapshot(&y)
     }

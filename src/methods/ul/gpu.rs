@@ -19,12 +19,13 @@ use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::neighbour::{CellList, CellParams, Positions};
 use crate::gpu::profile::{IndirectRuns, NONE, PassBytes, Scale, Traffic, read, read_write, write};
 use crate::gpu::program::{StateLayout, Stepper};
-use crate::gpu::reduction::{self, Reduced, Reduction, WorkBalance};
+use crate::gpu::reduction::{self, Reduced, Reduction};
 use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
     self, CONTACT, Constants, INTEGRATE, MECHANICS, PRESCRIBED, REFERENCE, Source, Wgsl, source,
     wgsl,
 };
+use crate::gpu::shell::Shell;
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
 use crate::integrate::Buf;
 use crate::interaction::Interactions;
@@ -200,15 +201,17 @@ struct Lists {
 
 /// An updated-Lagrangian system resident on the GPU.
 pub struct GpuUl<D: GpuDim> {
-    gpu: Gpu,
+    /// The device, the stepper, the reduction, the work balance and the kinematics. The
+    /// balance's terms it does not book besides the work of supports and loads: the
+    /// artificial viscosity's or the Riemann solver's dissipation; contact's, which `ext`
+    /// adds to the loads' power.
+    shell: Shell,
     /// The host's f64 reference configuration, which the device's was uploaded from.
     reference: Reference<D>,
     layout: Layout,
-    stepper: Stepper,
     device: DeviceReference,
     /// x = X + u of the last positions pass.
     x: wgpu::Buffer,
-    kin: wgpu::Buffer,
     status: wgpu::Buffer,
     /// The body of each particle for per-body lists (with contact).
     body: Option<wgpu::Buffer>,
@@ -218,14 +221,7 @@ pub struct GpuUl<D: GpuDim> {
     lists: Option<Lists>,
     /// `Y` at the start of the batch, to run it again after the lists grew.
     start: wgpu::Buffer,
-    reduction: Reduction,
     interactions: GpuInteractions,
-    work: WorkBalance,
-    /// The balance's terms besides the work of supports and loads: zero where the case has
-    /// none, None where it has them and they are not booked here (the artificial
-    /// viscosity's or the Riemann solver's dissipation; contact's, which `ext` adds to the
-    /// loads' power).
-    unbooked: Booked,
     /// Neighbour builds of the lists that growth replaced, less those of
     /// [`Self::time_rebuild`].
     builds_before: i64,
@@ -303,28 +299,24 @@ impl<D: GpuDim> GpuUl<D> {
         // Room for twice the reference configuration's pairs: compression adds
         // neighbours, and a build that needs more grows the lists.
         let capacity = 2 * disc.neighbours().pair_count().max(n) as u32;
+        let unbooked = Booked {
+            dissipated: None,
+            contact_energy: case.contact.is_none().then_some(0.0),
+            ..Booked::default()
+        };
         let mut engine = Self {
-            gpu,
+            shell: Shell::new(gpu, stepper, reduction, kin, &layout.kin, unbooked),
             reference: disc,
             layout,
-            stepper,
             device,
             x,
-            kin,
             status,
             body,
             grid,
             passes,
             lists: None,
             start,
-            reduction,
             interactions,
-            work: WorkBalance::default(),
-            unbooked: Booked {
-                dissipated: None,
-                contact_energy: case.contact.is_none().then_some(0.0),
-                ..Booked::default()
-            },
             builds_before: 0,
         };
         engine.lists = Some(engine.bind_lists(capacity)?);
@@ -342,25 +334,25 @@ impl<D: GpuDim> GpuUl<D> {
             body: self.body.as_ref(),
         };
         let drift = 0.5 * SKIN * self.reference.kernel.support();
-        let cells = CellList::new::<D>(&self.gpu, at, &self.grid, capacity, drift)?;
-        let rates_d = self.stepper.buffer(Buf::Rates);
+        let cells = CellList::new::<D>(&self.shell.gpu, at, &self.grid, capacity, drift)?;
+        let rates_d = self.shell.stepper.buffer(Buf::Rates);
         let bound = |src: Buf| -> Result<Bound, GpuError> {
             let table: [(&str, &wgpu::Buffer); 9] = [
                 ("offsets", &cells.offsets),
                 ("ids", &cells.ids),
                 ("reference", &self.device.reference),
-                ("y", self.stepper.buffer(src)),
+                ("y", self.shell.stepper.buffer(src)),
                 ("x", &self.x),
-                ("kin", &self.kin),
+                ("kin", &self.shell.kin),
                 ("ext", self.interactions.ext()),
                 ("d", rates_d),
                 ("status", &self.status),
             ];
             let p = &self.passes;
             Ok(Bound {
-                positions: self.gpu.bind(&p.positions, &table)?,
-                particle: self.gpu.bind(&p.particle, &table)?,
-                rates: self.gpu.bind(&p.rates, &table)?,
+                positions: self.shell.gpu.bind(&p.positions, &table)?,
+                particle: self.shell.gpu.bind(&p.particle, &table)?,
+                rates: self.shell.gpu.bind(&p.rates, &table)?,
             })
         };
         let rates = [bound(Buf::Y)?, bound(Buf::Stage)?];
@@ -393,13 +385,16 @@ impl<D: GpuDim> GpuUl<D> {
     /// Records `steps` steps of size dt from the state in `Y` (kept in `start`) and
     /// submits them.
     fn record_steps(&mut self, dt: f64, steps: u32) {
-        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+        let mut encoder = self
+            .shell
+            .gpu
+            .device
+            .create_command_encoder(&Default::default());
         let bytes = self.layout.state.bytes();
-        encoder.copy_buffer_to_buffer(self.stepper.buffer(Buf::Y), 0, &self.start, 0, bytes);
-        self.interactions.set_step(&self.gpu, dt);
+        encoder.copy_buffer_to_buffer(self.shell.stepper.buffer(Buf::Y), 0, &self.start, 0, bytes);
+        self.interactions.set_step(&self.shell.gpu, dt);
         let Self {
-            gpu,
-            stepper,
+            shell: Shell { gpu, stepper, .. },
             passes,
             lists,
             interactions,
@@ -431,51 +426,58 @@ impl<D: GpuDim> GpuUl<D> {
         self.builds_before -= i64::from(REPEATS);
         let lists = self.lists();
         let bound = &lists.rates[0];
-        self.gpu.wait();
+        self.shell.gpu.wait();
         let started = std::time::Instant::now();
-        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+        let mut encoder = self
+            .shell
+            .gpu
+            .device
+            .create_command_encoder(&Default::default());
         for _ in 0..REPEATS {
             {
                 let mut pass = encoder.begin_compute_pass(&Default::default());
                 let n = self.layout.n as u32;
-                self.gpu
+                self.shell
+                    .gpu
                     .dispatch(&mut pass, &self.passes.positions, &bound.positions, n);
             }
-            lists.cells.record(&self.gpu, &mut encoder);
+            lists.cells.record(&self.shell.gpu, &mut encoder);
         }
-        self.gpu.queue.submit([encoder.finish()]);
-        self.gpu.wait();
+        self.shell.gpu.queue.submit([encoder.finish()]);
+        self.shell.gpu.wait();
         started.elapsed().as_secs_f64() / f64::from(REPEATS)
     }
 
     /// The neighbour builds the device ran for the steps so far (reads one u32 back).
     pub fn builds(&self) -> i64 {
-        self.builds_before + i64::from(self.lists().cells.builds(&self.gpu))
+        self.builds_before + i64::from(self.lists().cells.builds(&self.shell.gpu))
     }
 
     /// Advances `steps` steps; when a rebuild overflowed the lists, grows them to the
     /// pairs it needed (with a quarter more) and runs the steps again from their start.
     pub fn advance_steps(&mut self, dt: f64, steps: u32) -> Result<(), GpuError> {
-        self.reduction.invalidate();
+        self.shell.reduction.invalidate();
         let start = self.interactions.time();
         loop {
             // The steps run again from their start time too.
             self.interactions.set_time(start);
             self.record_steps(dt, steps);
-            let Some(needed) = self.lists().cells.overflow(&self.gpu) else {
+            let Some(needed) = self.lists().cells.overflow(&self.shell.gpu) else {
                 break;
             };
             self.set_capacity(needed.saturating_add(needed / 4))?;
-            self.stepper.restart_from(&self.gpu, &self.start);
+            self.shell
+                .stepper
+                .restart_from(&self.shell.gpu, &self.start);
         }
-        self.work.advance(dt, steps);
+        self.shell.work.advance(dt, steps);
         Ok(())
     }
 
     /// Makes the device's lists anew with room for `capacity` pairs (a rebuild that needs
     /// more grows them again).
     pub fn set_capacity(&mut self, capacity: u32) -> Result<(), GpuError> {
-        self.builds_before += i64::from(self.lists().cells.builds(&self.gpu));
+        self.builds_before += i64::from(self.lists().cells.builds(&self.shell.gpu));
         self.lists = Some(self.bind_lists(capacity)?);
         Ok(())
     }
@@ -487,13 +489,16 @@ impl<D: GpuDim> GpuUl<D> {
 
     /// The lists of the last rate evaluation, read back.
     pub fn neighbours(&self) -> Csr {
-        self.lists().cells.lists(&self.gpu)
+        self.lists().cells.lists(&self.shell.gpu)
     }
 
     /// Reads the current state back (waits for the queue).
     pub fn state(&self) -> UlState<D> {
-        let flat: Vec<f32> = self.gpu.read(self.stepper.buffer(Buf::Y));
-        self.decode(&flat, self.reference.material.rho0, D::identity())
+        self.decode(
+            &self.shell.read_state(),
+            self.reference.material.rho0,
+            D::identity(),
+        )
     }
 
     /// Decodes a flat state (`rho0` = ρ0 and `f0` = I: ρ and F are stored as ρ − ρ0 and
@@ -518,25 +523,28 @@ impl<D: GpuDim> GpuUl<D> {
         l.write_s(&mut flat, "RHO", &y.rho, self.reference.material.rho0);
         l.write_t::<D>(&mut flat, "S", &y.s, D::zero_t());
         l.write_t::<D>(&mut flat, "F", &y.f, D::identity());
-        self.stepper.set_state(&self.gpu, &flat);
-        self.reduction.invalidate();
+        self.shell.set_state(&flat);
     }
 
     /// The rates of a given state, read back (the lists are built from its positions).
     pub fn rates(&mut self, y: &UlState<D>) -> UlState<D> {
         self.set_state(y);
-        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+        let mut encoder = self
+            .shell
+            .gpu
+            .device
+            .create_command_encoder(&Default::default());
         let n = self.layout.n as u32;
         record_rates(
-            &self.gpu,
+            &self.shell.gpu,
             &self.passes,
             self.lists(),
             n,
             &mut encoder,
             Buf::Y,
         );
-        self.gpu.queue.submit([encoder.finish()]);
-        let d: Vec<f32> = self.gpu.read(self.stepper.buffer(Buf::Rates));
+        self.shell.gpu.queue.submit([encoder.finish()]);
+        let d: Vec<f32> = self.shell.gpu.read(self.shell.stepper.buffer(Buf::Rates));
         self.decode(&d, 0.0, D::zero_t())
     }
 
@@ -548,12 +556,12 @@ impl<D: GpuDim> GpuUl<D> {
 
     /// The first particle with a singular correction, and with ρ ≤ 0, since the start.
     fn failed(&self) -> [Option<usize>; 2] {
-        let s: Vec<u32> = self.gpu.read(&self.status);
+        let s: Vec<u32> = self.shell.gpu.read(&self.status);
         [0, 1].map(|k| (s[k] != u32::MAX).then_some(s[k] as usize))
     }
 
     fn reduced(&mut self) -> Reduced {
-        self.reduction.get(&self.gpu, |_| {})
+        self.shell.reduced(|_, _| {})
     }
 }
 
@@ -582,20 +590,20 @@ impl<D: GpuDim> Engine<D> for GpuUl<D> {
     /// The pairs of the last build (read back), and the builds run and recorded so far.
     fn device(&mut self) -> Option<(&Gpu, Scale)> {
         let cells = &self.lists().cells;
-        let offsets: Vec<u32> = self.gpu.read(&cells.offsets);
+        let offsets: Vec<u32> = self.shell.gpu.read(&cells.offsets);
         let builds = IndirectRuns {
-            ran: u64::from(cells.builds(&self.gpu)),
+            ran: u64::from(cells.builds(&self.shell.gpu)),
             recorded: cells.recorded(),
         };
         let scale = Scale {
             pairs: u64::from(offsets[self.layout.n]),
             indirect: Some(builds),
         };
-        Some((&self.gpu, scale))
+        Some((&self.shell.gpu, scale))
     }
 
     fn backend(&self) -> String {
-        format!("gpu: {}", self.gpu.name())
+        self.shell.backend()
     }
 
     fn reference(&self) -> &[D::V] {
@@ -626,19 +634,16 @@ impl<D: GpuDim> Engine<D> for GpuUl<D> {
     /// Trapezoidal over the intervals between calls (the driver calls it at every check).
     fn external_work(&mut self) -> f64 {
         let power = self.reduced().power;
-        self.work.update(power)
+        self.shell.external_work(power)
     }
 
     fn booked(&mut self) -> Booked {
-        Booked {
-            external_work: self.external_work(),
-            ..self.unbooked
-        }
+        let power = self.reduced().power;
+        self.shell.booked(power)
     }
 
     fn reactions(&mut self) -> Vec<Reaction> {
-        let boundary = &self.reference.boundary;
-        reduction::reactions(&self.gpu, &self.kin, &self.layout.kin, boundary)
+        self.shell.reactions(&self.reference.boundary)
     }
 
     fn check(&mut self) -> Result<(), BlowUp> {
@@ -662,7 +667,7 @@ impl<D: GpuDim> Engine<D> for GpuUl<D> {
     }
 
     fn finish(&mut self) {
-        self.gpu.wait();
+        self.shell.gpu.wait();
     }
 
     /// The builds the device ran so far (those its drift checks asked for, and one at the
@@ -675,15 +680,11 @@ impl<D: GpuDim> Engine<D> for GpuUl<D> {
     }
 
     fn save(&mut self) -> Vec<f64> {
-        crate::gpu::save_buffers(&self.gpu, &self.work, &[self.stepper.buffer(Buf::Y)])
+        self.shell.save()
     }
 
     fn restore(&mut self, words: &[f64]) -> Result<(), String> {
-        let y = [("state", self.stepper.buffer(Buf::Y))];
-        self.work = crate::gpu::load_buffers(&self.gpu, words, &y)?;
-        self.stepper.state_replaced();
-        self.reduction.invalidate();
-        Ok(())
+        self.shell.restore(words)
     }
 
     fn snapshot(&mut self) -> Snapshot<'_, D> {

@@ -1,0 +1,636 @@
+//! Total-Lagrangian SPH on the GPU: the passes of `shaders/tlsph/` ([`scheme`]: the pass
+//! files, the schemes of the methods this engine runs, the buffers' layout), the
+//! integrator program of [`crate::gpu::program`], and the set-up done once: the reference
+//! configuration and neighbours uploaded from the host, the pair offsets and corrected
+//! gradients derived on the device. The CPU system ([`super::system`]) is the reference
+//! it is checked against.
+//!
+//! A whole step, or several, is recorded into one command encoder; the host reads back
+//! only when asked (outputs, observers, checks).
+
+mod scheme;
+
+pub use scheme::{
+    ACCEL, DET_F, Frame, Layout, Lists, REDUCE, SHADERS, STRESS, TlScheme, scene_constants, scheme,
+    viscosity,
+};
+
+use super::system::hourglass_stiffness;
+use crate::balance::Booked;
+use crate::boundary::{OnPatches, Reaction};
+use crate::correction::{self, CorrectionKind};
+use crate::gpu::context::{Gpu, GpuError, Pipeline};
+use crate::gpu::layout::{GpuDim, flat_v};
+use crate::gpu::profile::Scale;
+use crate::gpu::program::Stepper;
+use crate::gpu::reduction::{Reduced, Reduction};
+use crate::gpu::reference::DeviceReference;
+use crate::gpu::shaders::{self, CORRECTION, INTEGRATE, PAIR_OFFSETS, Source};
+use crate::gpu::shell::Shell;
+use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
+use crate::integrate::Buf;
+use crate::interaction::Interactions;
+use crate::interaction::gpu::GpuInteractions;
+use crate::methods::BlowUp;
+use crate::methods::dual_support::gpu::DeviceLists;
+use crate::methods::tl::{TlState, check_state, snapshot};
+use crate::neighbour::Csr;
+use crate::observe::{Invariants, Snapshot};
+use crate::reference::Reference;
+use crate::run::{Engine, Failed};
+use crate::scene::Case;
+use scheme::{EXTRAS, scheme_of};
+
+/// The stress and acceleration passes of one rate evaluation, bound to a source state.
+struct Rates {
+    stress: wgpu::BindGroup,
+    accel: wgpu::BindGroup,
+}
+
+/// The TLSPH system resident on the GPU.
+pub struct GpuTlsph<D: GpuDim> {
+    /// The device, the stepper, the reduction, the work balance and the kinematics. The
+    /// balance's terms it does not book besides the work and the dissipation: the
+    /// hourglass control's work; contact's, which `ext` adds to the loads' power.
+    shell: Shell,
+    /// The host's f64 reference configuration, which the device's was uploaded from.
+    reference: Reference<D>,
+    /// The weight of each particle's ψ in the strain energy (`TlScheme::unit_weights`).
+    energy_weight: Vec<f64>,
+    /// The factor on c_p in the CFL step's wave speed (`TlScheme::unit_weights`).
+    wave_speed_scale: f64,
+    /// What the kinematics' H measures (`TlScheme::frame`).
+    frame: Frame,
+    /// The quantity of each status slot (`TlScheme::checks`).
+    checks: &'static [&'static str],
+    /// Dual-support SPH's model on the host, whose f64 outputs the snapshots take from
+    /// the state read back ([`Lists::DualSupport`]).
+    dual_support: Option<crate::methods::dual_support::DualSupport<D>>,
+    layout: Layout,
+    /// Neighbour pairs of the reference lists.
+    pairs: u64,
+    pair: wgpu::Buffer,
+    status: wgpu::Buffer,
+    stress: Pipeline,
+    accel: Pipeline,
+    /// Rate evaluations of the states in `Y` and in `Stage`.
+    rates: [Rates; 2],
+    /// The stress pass on `Y` writing into `Acc` (for snapshots: F at the current state
+    /// without touching the integrator's rates).
+    kinematics_y: wgpu::BindGroup,
+    /// Passes before every step (contact) and the `ext` they write.
+    interactions: GpuInteractions,
+}
+
+/// Value of `status[0]` when no particle failed.
+const STATUS_OK: u32 = u32::MAX;
+
+impl<D: GpuDim> GpuTlsph<D> {
+    /// Uploads the case's reference configuration and initial state, and derives the
+    /// reference pair offsets and corrected gradients on the device (the RKPM and CGCK
+    /// corrections on the host, in f64).
+    pub fn new(case: &Case, gpu: Gpu) -> Result<Self, SetupError> {
+        let scheme = scheme_of(case)?;
+        let disc = Reference::<D>::build(case)?;
+        check_f32_run(case, &disc.boundary)?;
+        check_f32_particles::<D>(case, &disc.x0, &disc.u0, &disc.v0, &disc.body)?;
+        let n = disc.len();
+        let dual = match &scheme.lists {
+            Lists::Kernel => None,
+            Lists::DualSupport(spec) => Some(crate::methods::dual_support::gpu::lists::<D>(
+                case, spec, &disc,
+            )?),
+        };
+        let csr = dual
+            .as_ref()
+            .map_or_else(|| disc.neighbours(), |d| d.csr.clone());
+        let layout = Layout::new(
+            n,
+            disc.boundary.constrained.len(),
+            D::N,
+            disc.material.model.is_rate_based(),
+            csr.pair_count(),
+            &scheme,
+        );
+        let constants = scene_constants(case, &layout, &scheme);
+        check_f32_range(case, &constants)?;
+        gpu.check_size("per-pair buffer", layout.pair.bytes())?;
+        gpu.check_size("kinematics buffer", layout.kin.bytes())?;
+        let compose = |s: &Source| shaders::compose::<D>(s, &constants);
+
+        let device =
+            DeviceReference::upload::<D>(&gpu, &disc.x0, &disc.vol, &disc.boundary, &csr, EXTRAS);
+        let set_up = SetUp {
+            case,
+            gpu: &gpu,
+            scheme: &scheme,
+            disc: &disc,
+            csr: &csr,
+            layout: &layout,
+            compose: &compose,
+        };
+        let (pair, status) = set_up.pair_data(&device, dual.as_ref())?;
+
+        let mut y0 = layout.state.zeroed();
+        layout.state.write_v::<D>(&mut y0, "U", &disc.u0);
+        layout.state.write_v::<D>(&mut y0, "V", &disc.v0);
+        let stepper = Stepper::new(
+            &gpu,
+            case.method.integrator,
+            &compose(&INTEGRATE),
+            layout.stepped(),
+            &y0,
+        )?;
+        let interactions =
+            Interactions::<D>::build(case, &disc.x0, &disc.body, &OnPatches, &disc.mass, || {
+                csr.clone()
+            })?;
+        let interactions = GpuInteractions::new(
+            &gpu,
+            &interactions,
+            &disc.boundary,
+            &compose,
+            &device.reference,
+            stepper.buffer(Buf::Y),
+            device.traction,
+        )?;
+        let kin = gpu.zeroed("kinematics", layout.kin.bytes());
+
+        let stress = gpu.pipeline("tl stress", &compose(&scheme.stress), "stress")?;
+        let accel = gpu.pipeline("tl accel", &compose(&scheme.accel), "accel")?;
+        let table = |y, d| -> [(&str, &wgpu::Buffer); 9] {
+            [
+                ("offsets", &device.offsets),
+                ("ids", &device.ids),
+                ("pair", &pair),
+                ("reference", &device.reference),
+                ("kin", &kin),
+                ("status", &status),
+                ("ext", interactions.ext()),
+                ("y", y),
+                ("d", d),
+            ]
+        };
+        let rates_d = stepper.buffer(Buf::Rates);
+        let bound = |src| -> Result<Rates, GpuError> {
+            let t = table(stepper.buffer(src), rates_d);
+            Ok(Rates {
+                stress: gpu.bind(&stress, &t)?,
+                accel: gpu.bind(&accel, &t)?,
+            })
+        };
+        let rates = [bound(Buf::Y)?, bound(Buf::Stage)?];
+        let y = stepper.buffer(Buf::Y);
+        let reduction = Reduction::new(&gpu, &compose(&scheme.reduce), &table(y, rates_d), n)?;
+        let kinematics_y = gpu.bind(&stress, &table(y, stepper.buffer(Buf::Acc)))?;
+        let (energy_weight, wave_speed_scale) = if scheme.unit_weights {
+            let scale = crate::methods::potential::system::unit_weight_wave_speed_scale(&disc.vol);
+            (vec![1.0; n], scale)
+        } else {
+            (disc.vol.clone(), 1.0)
+        };
+        let unbooked = unbooked(case, &scheme, dual.as_ref());
+        Ok(Self {
+            shell: Shell::new(gpu, stepper, reduction, kin, &layout.kin, unbooked),
+            pairs: csr.pair_count() as u64,
+            reference: disc,
+            energy_weight,
+            wave_speed_scale,
+            frame: scheme.frame,
+            checks: scheme.checks,
+            dual_support: dual.map(|d| d.model),
+            layout,
+            pair,
+            status,
+            stress,
+            accel,
+            rates,
+            kinematics_y,
+            interactions,
+        })
+    }
+}
+
+/// The balance's terms the engine does not book besides the work and the dissipation,
+/// zero where the case has none: the hourglass control's work (the scheme's or
+/// dual-support SPH's); contact's, which `ext` adds to the loads' power.
+fn unbooked<D: GpuDim>(case: &Case, scheme: &TlScheme, dual: Option<&DeviceLists<D>>) -> Booked {
+    let dual_hourglass = dual.is_some_and(|d| d.model.hourglass.iter().any(|&c| c != 0.0));
+    Booked {
+        hourglass_work: (scheme.hourglass.is_none() && !dual_hourglass).then_some(0.0),
+        contact_energy: case.contact.is_none().then_some(0.0),
+        ..Booked::default()
+    }
+}
+
+/// What the set-up of the per-pair data reads: the case, its scheme, its reference
+/// configuration and lists, the layout and the passes' composer.
+struct SetUp<'a, D: GpuDim> {
+    case: &'a Case,
+    gpu: &'a Gpu,
+    scheme: &'a TlScheme,
+    disc: &'a Reference<D>,
+    csr: &'a Csr,
+    layout: &'a Layout,
+    compose: &'a dyn Fn(&Source) -> String,
+}
+
+impl<D: GpuDim> SetUp<'_, D> {
+    /// The per-pair data and the status buffer: X_j − X_i, the corrected gradients (on
+    /// the device, or the host's RKPM and CGCK or dual-support lists'), the hourglass
+    /// stiffnesses and the reverse gradients of the schemes that read them.
+    fn pair_data(
+        &self,
+        device: &DeviceReference,
+        dual: Option<&DeviceLists<D>>,
+    ) -> Result<(wgpu::Buffer, wgpu::Buffer), SetupError> {
+        let Self {
+            case,
+            gpu,
+            scheme,
+            disc,
+            csr,
+            layout,
+            compose,
+        } = self;
+        let n = disc.len();
+        let pair = gpu.zeroed("per-pair data", layout.pair.bytes());
+        let status = gpu.storage("status", &vec![STATUS_OK; scheme.checks.len().max(1)]);
+        let set_up: [(&str, &wgpu::Buffer); 5] = [
+            ("offsets", &device.offsets),
+            ("ids", &device.ids),
+            ("reference", &device.reference),
+            ("pair", &pair),
+            ("status", &status),
+        ];
+        // X_j − X_i, then (but for the host's RKPM and CGCK) the corrected gradients.
+        let offsets_pass = (compose(&PAIR_OFFSETS), "pair_offsets");
+        let correct_pass = (compose(&CORRECTION), "correct");
+        let host_solved = dual.is_some()
+            || matches!(
+                case.method.correction,
+                CorrectionKind::Rkpm | CorrectionKind::Cgck
+            );
+        let passes = if host_solved {
+            vec![offsets_pass]
+        } else {
+            vec![offsets_pass, correct_pass]
+        };
+        run_once(gpu, &passes, &set_up, n)?;
+        let write_pair = |field: &str, values: &[f32]| {
+            let at = (layout.pair.offset(field) * 4) as u64;
+            gpu.queue
+                .write_buffer(&pair, at, bytemuck::cast_slice(values));
+        };
+        if let Some(d) = dual {
+            write_pair("G", &flat_v::<D>(d.g.clone()));
+            write_pair("HGK", &d.hgk);
+            write_pair("HGKR", &d.hgk_rev);
+        } else if host_solved {
+            let g = correction::gradients::<D>(
+                case.method.correction,
+                &disc.x0,
+                &disc.vol,
+                csr,
+                &disc.kernel,
+            )
+            .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
+            write_pair("G", &flat_v::<D>(g));
+        } else if let Some((i, _)) = read_status(gpu, &status) {
+            return Err(case
+                .invalid(
+                    "method.h_over_dx",
+                    format!(
+                        "the Randles–Libersky matrix of particle {i} is singular on the GPU \
+                         (f32): too few neighbours; increase h/dx"
+                    ),
+                )
+                .into());
+        }
+        if let Some(alpha) = scheme.hourglass {
+            let kappa = hourglass_stiffness::<D>(case, alpha, &disc.x0, &disc.vol, csr);
+            let kappa: Vec<f32> = kappa.into_iter().map(|k| k as f32).collect();
+            write_pair("HGK", &kappa);
+        }
+        if scheme.reverse {
+            let rev = crate::methods::shared::reverse_pairs(case, csr)?;
+            reverse_gradients(gpu, &compose(&scheme.accel), &rev, &pair)?;
+        }
+        Ok((pair, status))
+    }
+}
+
+/// Compiles the entry points `(source, entry)`, binds them from `table` and runs them
+/// once, in order, over n particles (set-up passes), in one compute pass.
+fn run_once(
+    gpu: &Gpu,
+    passes: &[(String, &str)],
+    table: &[(&str, &wgpu::Buffer)],
+    n: usize,
+) -> Result<(), GpuError> {
+    let mut bound = Vec::new();
+    for (source, entry) in passes {
+        let pipeline = gpu.pipeline(entry, source, entry)?;
+        let bind = gpu.bind(&pipeline, table)?;
+        bound.push((pipeline, bind));
+    }
+    let mut encoder = gpu.device.create_command_encoder(&Default::default());
+    {
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        for (pipeline, bind) in &bound {
+            gpu.dispatch(&mut pass, pipeline, bind, n as u32);
+        }
+    }
+    gpu.queue.submit([encoder.finish()]);
+    Ok(())
+}
+
+/// Runs the pass file's `reverse_gradients` set-up entry: ∇0W̃_ji of every pair (i, j)
+/// into GREV, from `rev`, the index of the pair (j, i) of each.
+fn reverse_gradients(
+    gpu: &Gpu,
+    source: &str,
+    rev: &[u32],
+    pair: &wgpu::Buffer,
+) -> Result<(), GpuError> {
+    let index = gpu.storage("reverse pairs", rev);
+    let pipeline = gpu.pipeline("reverse_gradients", source, "reverse_gradients")?;
+    let bind = gpu.bind(&pipeline, &[("pair", pair), ("rev", &index)])?;
+    let mut encoder = gpu.device.create_command_encoder(&Default::default());
+    {
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        gpu.dispatch(&mut pass, &pipeline, &bind, rev.len() as u32);
+    }
+    gpu.queue.submit([encoder.finish()]);
+    Ok(())
+}
+
+/// The first failed particle recorded in a status buffer, if any, and its slot: the
+/// lowest particle of any slot, the later slot on a tie.
+fn read_status(gpu: &Gpu, status: &wgpu::Buffer) -> Option<(usize, usize)> {
+    let s: Vec<u32> = gpu.read(status);
+    let (slot, &i) = s.iter().enumerate().rev().min_by_key(|&(_, &i)| i)?;
+    (i != STATUS_OK).then_some((i as usize, slot))
+}
+
+impl<D: GpuDim> GpuTlsph<D> {
+    pub fn layout(&self) -> &Layout {
+        &self.layout
+    }
+
+    pub fn gpu(&self) -> &Gpu {
+        &self.shell.gpu
+    }
+
+    /// The host's reference configuration of the scene.
+    pub fn reference(&self) -> &Reference<D> {
+        &self.reference
+    }
+
+    /// Records one rate evaluation: the stress and acceleration passes on `rates`.
+    fn record_rates(
+        gpu: &Gpu,
+        n: u32,
+        (stress, accel): (&Pipeline, &Pipeline),
+        encoder: &mut wgpu::CommandEncoder,
+        rates: &Rates,
+    ) {
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        gpu.dispatch(&mut pass, stress, &rates.stress, n);
+        gpu.dispatch(&mut pass, accel, &rates.accel, n);
+    }
+
+    /// Records `steps` steps of size `dt` into one command encoder and submits them.
+    pub fn advance_steps(&mut self, dt: f64, steps: u32) {
+        self.shell.work.advance(dt, steps);
+        self.shell.reduction.invalidate();
+        let mut encoder = self
+            .gpu()
+            .device
+            .create_command_encoder(&Default::default());
+        self.interactions.set_step(&self.shell.gpu, dt);
+        let Self {
+            shell: Shell { gpu, stepper, .. },
+            stress,
+            accel,
+            rates,
+            layout,
+            interactions,
+            ..
+        } = self;
+        let n = layout.n as u32;
+        stepper.record(
+            gpu,
+            &mut encoder,
+            dt,
+            steps,
+            |encoder, e| {
+                let src = usize::from(e.src != Buf::Y);
+                Self::record_rates(gpu, n, (stress, accel), encoder, &rates[src]);
+            },
+            |encoder| interactions.record(gpu, encoder, n),
+        );
+        self.gpu().queue.submit([encoder.finish()]);
+    }
+
+    /// Reads the current state back (waits for the queue).
+    pub fn state(&self) -> TlState<D> {
+        self.decode(&self.shell.read_state(), self.reference.material.rho0)
+    }
+
+    /// Decodes a flat state (`rho0` = ρ0: the density is stored as ρ − ρ0) or rate
+    /// buffer (`rho0` = 0).
+    fn decode(&self, flat: &[f32], rho0: f64) -> TlState<D> {
+        let l = &self.layout.state;
+        TlState {
+            u: l.read_v::<D>(flat, "U"),
+            v: l.read_v::<D>(flat, "V"),
+            rho: l.read_s(flat, "RHO", rho0),
+            s: l.read_t::<D>(flat, "S", D::zero_t()),
+        }
+    }
+
+    /// Replaces the state (e.g. to cross-check rates on a given state).
+    pub fn set_state(&mut self, y: &TlState<D>) {
+        let l = &self.layout.state;
+        let mut flat = l.zeroed();
+        l.write_v::<D>(&mut flat, "U", &y.u);
+        l.write_v::<D>(&mut flat, "V", &y.v);
+        l.write_s(&mut flat, "RHO", &y.rho, self.reference.material.rho0);
+        l.write_t::<D>(&mut flat, "S", &y.s, D::zero_t());
+        self.shell.set_state(&flat);
+    }
+
+    /// Rates of a given state: (dy/dt, F, P) per particle, read back.
+    pub fn rates(&mut self, y: &TlState<D>) -> (TlState<D>, Vec<D::T>, Vec<D::T>) {
+        self.set_state(y);
+        let gpu = self.gpu();
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        let n = self.layout.n as u32;
+        let pipelines = (&self.stress, &self.accel);
+        Self::record_rates(gpu, n, pipelines, &mut encoder, &self.rates[0]);
+        gpu.queue.submit([encoder.finish()]);
+        let d: Vec<f32> = gpu.read(self.shell.stepper.buffer(Buf::Rates));
+        let (f, p) = self.kinematics();
+        (self.decode(&d, 0.0), f, p)
+    }
+
+    /// The corrected reference gradients, in CSR order.
+    pub fn gradients(&self) -> Vec<D::V> {
+        let pair: Vec<f32> = self.gpu().read(&self.pair);
+        self.layout.pair.read_v::<D>(&pair, "G")
+    }
+
+    /// F and P of the last rate evaluation (the GPU keeps H = F − I; I is added in f64);
+    /// the corotated F̂ and P̂ of a [`Frame::Corotated`] scheme.
+    pub fn kinematics(&self) -> (Vec<D::T>, Vec<D::T>) {
+        let kin: Vec<f32> = self.gpu().read(&self.shell.kin);
+        let l = &self.layout.kin;
+        (
+            l.read_t::<D>(&kin, "F", D::identity()),
+            l.read_t::<D>(&kin, "P", D::zero_t()),
+        )
+    }
+
+    /// A per-particle tensor of the scheme's own (`TlScheme::kin_tensors`) of the last
+    /// rate evaluation: corotated TLSPH's rotations R.
+    pub fn kin_tensor(&self, name: &str) -> Vec<D::T> {
+        let kin: Vec<f32> = self.gpu().read(&self.shell.kin);
+        self.layout.kin.read_t::<D>(&kin, name, D::zero_t())
+    }
+
+    /// The first particle whose stress pass failed (det F ≤ 0 or NaN, or the scheme's
+    /// other checks) in any evaluation so far.
+    pub fn failed_particle(&self) -> Option<usize> {
+        read_status(self.gpu(), &self.status).map(|(i, _)| i)
+    }
+}
+
+impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
+    fn backend(&self) -> String {
+        self.shell.backend()
+    }
+
+    fn device(&mut self) -> Option<(&Gpu, Scale)> {
+        let scale = Scale {
+            pairs: self.pairs,
+            indirect: None,
+        };
+        Some((&self.shell.gpu, scale))
+    }
+
+    fn reference(&self) -> &[D::V] {
+        &self.reference.x0
+    }
+
+    fn constrained(&self) -> &[(u32, u8)] {
+        &self.reference.boundary.constrained
+    }
+
+    fn advance(&mut self, t: f64, dt: f64, steps: u32) -> Result<(), Failed> {
+        self.interactions.set_time(t);
+        self.advance_steps(dt, steps);
+        Ok(())
+    }
+
+    fn max_signal_speed(&mut self) -> f64 {
+        self.wave_speed_scale * self.reference.material.p_wave_speed() + self.reduction().max_speed
+    }
+
+    /// Trapezoidal over the intervals between calls (the driver calls it at every check).
+    fn external_work(&mut self) -> f64 {
+        let power = self.reduction().power;
+        self.shell.external_work(power)
+    }
+
+    /// The work and the viscous dissipation, trapezoidal over the intervals between calls.
+    fn booked(&mut self) -> Booked {
+        let r = self.reduction();
+        Booked {
+            external_work: self.shell.external_work(r.power),
+            dissipated: Some(self.shell.work.update_dissipation(r.viscous_dissipation)),
+            ..self.shell.unbooked
+        }
+    }
+
+    fn reactions(&mut self) -> Vec<Reaction> {
+        self.shell.reactions(&self.reference.boundary)
+    }
+
+    fn check(&mut self) -> Result<(), BlowUp> {
+        if let Some((i, slot)) = read_status(self.gpu(), &self.status) {
+            return Err(BlowUp {
+                particle: i,
+                position: D::to3(self.reference.x0[i]),
+                quantity: self.checks[slot].into(),
+                value: 0.0,
+            });
+        }
+        if self.reduction().non_finite {
+            return check_state(&self.reference.x0, &self.state());
+        }
+        Ok(())
+    }
+
+    fn invariants(&mut self) -> Invariants {
+        self.reduction().invariants
+    }
+
+    fn finish(&mut self) {
+        self.gpu().wait();
+    }
+
+    /// The work balance and the state buffer (f32).
+    fn save(&mut self) -> Vec<f64> {
+        self.shell.save()
+    }
+
+    fn restore(&mut self, words: &[f64]) -> Result<(), String> {
+        self.shell.restore(words)
+    }
+
+    fn snapshot(&mut self) -> Snapshot<'_, D> {
+        let gpu = self.gpu();
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            let n = self.layout.n as u32;
+            gpu.dispatch(&mut pass, &self.stress, &self.kinematics_y, n);
+        }
+        gpu.queue.submit([encoder.finish()]);
+        let y = self.state();
+        let r = &self.reference;
+        if let Some(model) = &self.dual_support {
+            return model.snapshot(y.u, y.v, &r.mass, &r.body, true);
+        }
+        let (f, _) = self.kinematics();
+        if self.frame == Frame::Corotated {
+            let rot = self.kin_tensor("R");
+            let fields = crate::methods::corotated::outputs::<D>(&r.material, &r.vol, &rot, &f);
+            return fields.snapshot(&r.x0, &r.mass, &r.body, y);
+        }
+        snapshot(
+            &r.material,
+            &r.x0,
+            &r.mass,
+            &r.body,
+            &self.energy_weight,
+            y,
+            f,
+        )
+    }
+}
+
+impl<D: GpuDim> GpuTlsph<D> {
+    /// Stress pass on the current state (F into the kinematics) and the reduction.
+    fn reduction(&mut self) -> Reduced {
+        let Self {
+            shell,
+            stress,
+            kinematics_y,
+            layout,
+            ..
+        } = self;
+        shell.reduced(|gpu, pass| gpu.dispatch(pass, stress, kinematics_y, layout.n as u32))
+    }
+}
