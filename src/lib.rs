@@ -23,6 +23,7 @@ pub mod mooney_rivlin;
 pub mod neighbour;
 pub mod observe;
 pub mod output;
+pub mod parallel;
 pub mod passes;
 pub mod plasticity;
 pub mod pressure;
@@ -34,3 +35,4 @@ pub mod statics;
 #[cfg(feature = "study")]
 pub mod study;
 pub mod tensor;
+pub mod viscosity;

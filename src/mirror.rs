@@ -18,8 +18,8 @@
 //!
 //! Ghosts are indexed after the n real particles: extended index n + k is ghost k.
 
-use crate::methods::shared::MIN_CHUNK;
 use crate::neighbour::Csr;
+use crate::parallel::MIN_CHUNK;
 use crate::scene::{Case, CaseError, MirrorKind};
 use crate::tensor::Dim;
 use rayon::prelude::*;

@@ -1,191 +1,22 @@
 //! What the CPU systems of the methods share: the [`Method`] trait (an [`OdeSystem`] plus
-//! the fields and energies that observers and outputs read), [`BlowUp`], the particle
-//! state's field-wise arithmetic, the reference neighbours and gradients of the
-//! total-Lagrangian methods, and the physics several families share: Monaghan's artificial
-//! viscosity and the stress fields of a deformation gradient and a rate state.
+//! the fields and energies that observers and outputs read), [`BlowUp`], the reference
+//! neighbours and gradients of the total-Lagrangian methods and the check of the
+//! artificial viscosity's coefficients.
 
 use crate::boundary::{Boundary, Reaction};
 use crate::correction;
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
-use crate::material::Material;
 use crate::methods::Problem;
 use crate::neighbour::Csr;
 use crate::observe::Snapshot;
 use crate::reference::{self, Reference};
 use crate::scene::validate::non_negative;
 use crate::scene::{Case, CaseError};
-use crate::tensor::{Dim, Words};
+use crate::tensor::Dim;
+use crate::viscosity::ArtificialViscosity;
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
-use std::ops::{Add, Mul};
 use thiserror::Error;
-
-/// Smallest slice length rayon splits down to: below it the per-task overhead dominates.
-pub(crate) const MIN_CHUNK: usize = 256;
-
-/// Reduces map(0), …, map(n − 1) with `add` in parallel, deterministically: in fixed
-/// chunks of [`MIN_CHUNK`] indices, each folded in order, and the chunks' results then
-/// folded in order, so the sum has the same bits whatever the number of threads and
-/// however rayon steals work (rayon's `reduce` and `sum` combine in an order that
-/// depends on both). Every floating-point sum over particles goes through it.
-pub(crate) fn ordered_reduce<T: Send>(
-    n: usize,
-    identity: impl Fn() -> T + Sync,
-    map: impl Fn(usize) -> T + Sync,
-    add: impl Fn(T, T) -> T + Sync,
-) -> T {
-    let chunks: Vec<T> = (0..n.div_ceil(MIN_CHUNK))
-        .into_par_iter()
-        .map(|c| {
-            (c * MIN_CHUNK..n.min((c + 1) * MIN_CHUNK))
-                .map(&map)
-                .fold(identity(), &add)
-        })
-        .collect();
-    chunks.into_iter().fold(identity(), add)
-}
-
-/// y += a x, field by field.
-pub(crate) fn axpy<T: Copy + Send + Sync + Add<Output = T> + Mul<f64, Output = T>>(
-    y: &mut [T],
-    a: f64,
-    x: &[T],
-) {
-    y.par_iter_mut()
-        .with_min_len(MIN_CHUNK)
-        .zip(x)
-        .for_each(|(y, &x)| *y = *y + x * a);
-}
-
-/// y = a y + b x, field by field.
-pub(crate) fn blend<T: Copy + Send + Sync + Add<Output = T> + Mul<f64, Output = T>>(
-    y: &mut [T],
-    a: f64,
-    b: f64,
-    x: &[T],
-) {
-    y.par_iter_mut()
-        .with_min_len(MIN_CHUNK)
-        .zip(x)
-        .for_each(|(y, &x)| *y = *y * a + x * b);
-}
-
-/// `OdeState`, `Clone` (whose `clone_from` copies into the buffers there are) and an
-/// empty `Default` for a particle state of displacement `u`, velocity `v` and further
-/// fields, each with a rate of its own: RK stages combine every field; the leapfrog drift
-/// moves u with the state's own v and the other fields with their rates.
-macro_rules! particle_state {
-    ($state:ident { $($field:ident),* }) => {
-        impl<D: Dim> Default for $state<D> {
-            fn default() -> Self {
-                Self {
-                    u: Vec::new(),
-                    v: Vec::new(),
-                    $($field: Vec::new(),)*
-                }
-            }
-        }
-
-        impl<D: Dim> Clone for $state<D> {
-            fn clone(&self) -> Self {
-                Self {
-                    u: self.u.clone(),
-                    v: self.v.clone(),
-                    $($field: self.$field.clone(),)*
-                }
-            }
-
-            /// Field by field into the buffers there are: the integrators' stage copies
-            /// allocate nothing.
-            fn clone_from(&mut self, source: &Self) {
-                self.u.clone_from(&source.u);
-                self.v.clone_from(&source.v);
-                $(self.$field.clone_from(&source.$field);)*
-            }
-        }
-
-        impl<D: Dim> crate::integrate::OdeState for $state<D> {
-            fn axpy(&mut self, a: f64, r: &Self) {
-                crate::methods::shared::axpy(&mut self.u, a, &r.u);
-                crate::methods::shared::axpy(&mut self.v, a, &r.v);
-                $(crate::methods::shared::axpy(&mut self.$field, a, &r.$field);)*
-            }
-
-            fn blend(&mut self, a: f64, b: f64, o: &Self) {
-                crate::methods::shared::blend(&mut self.u, a, b, &o.u);
-                crate::methods::shared::blend(&mut self.v, a, b, &o.v);
-                $(crate::methods::shared::blend(&mut self.$field, a, b, &o.$field);)*
-            }
-
-            fn kick(&mut self, h: f64, r: &Self) {
-                crate::methods::shared::axpy(&mut self.v, h, &r.v);
-            }
-
-            fn drift(&mut self, h: f64, r: &Self) {
-                crate::methods::shared::axpy(&mut self.u, h, &self.v);
-                $(crate::methods::shared::axpy(&mut self.$field, h, &r.$field);)*
-            }
-
-            fn save(&self, out: &mut Vec<f64>) {
-                crate::methods::shared::save_field(&self.u, out);
-                crate::methods::shared::save_field(&self.v, out);
-                $(crate::methods::shared::save_field(&self.$field, out);)*
-            }
-
-            fn load(&mut self, words: &mut &[f64]) -> Result<(), String> {
-                crate::methods::shared::load_field(&mut self.u, "u", words)?;
-                crate::methods::shared::load_field(&mut self.v, "v", words)?;
-                $(crate::methods::shared::load_field(
-                    &mut self.$field,
-                    stringify!($field),
-                    words,
-                )?;)*
-                Ok(())
-            }
-        }
-    };
-}
-pub(crate) use particle_state;
-
-/// Appends a field for a checkpoint: its length, then its values.
-pub(crate) fn save_field<T: Words>(field: &[T], out: &mut Vec<f64>) {
-    out.push(field.len() as f64);
-    for x in field {
-        x.put(out);
-    }
-}
-
-/// Reads one word, `name`, from the front of a checkpoint's words.
-pub(crate) fn load_word(words: &mut &[f64], name: &str) -> Result<f64, String> {
-    let (&word, rest) = words
-        .split_first()
-        .ok_or_else(|| format!("the checkpoint ends before {name}"))?;
-    *words = rest;
-    Ok(word)
-}
-
-/// Reads a field [`save_field`] wrote into `field`, which must have its length.
-pub(crate) fn load_field<T: Words>(
-    field: &mut [T],
-    name: &str,
-    words: &mut &[f64],
-) -> Result<(), String> {
-    let (&len, rest) = words
-        .split_first()
-        .ok_or_else(|| format!("the checkpoint ends before the field {name}"))?;
-    if len != field.len() as f64 || rest.len() < field.len() * T::LEN {
-        return Err(format!(
-            "the field {name} holds {len} values in the checkpoint and {} in this run",
-            field.len()
-        ));
-    }
-    for (x, w) in field.iter_mut().zip(rest.chunks_exact(T::LEN)) {
-        *x = T::take(w);
-    }
-    *words = &rest[field.len() * T::LEN..];
-    Ok(())
-}
 
 /// The kernel support of a case, with the margin of [`crate::reference::neighbour_radius`].
 pub(crate) fn neighbour_radius<D: Dim>(case: &Case) -> f64 {
@@ -447,20 +278,6 @@ pub struct Traffic {
     pub velocity: f64,
 }
 
-/// Monaghan artificial viscosity Π_ij = (−α c̄ μ_ij + β μ_ij²)/ρ̄_ij (seed 000 §3.1 step 6).
-#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct ArtificialViscosity {
-    pub alpha: f64,
-    pub beta: f64,
-    #[serde(default = "default_eta")]
-    pub eta: f64,
-}
-
-fn default_eta() -> f64 {
-    0.1
-}
-
 impl ArtificialViscosity {
     /// The coefficients must not be negative.
     pub fn validate(&self) -> Result<(), Problem> {
@@ -468,56 +285,4 @@ impl ArtificialViscosity {
         non_negative("method.artificial_viscosity.beta", self.beta)?;
         non_negative("method.artificial_viscosity.eta", self.eta)
     }
-
-    /// Π_ij of a pair at distance x_ij = x_i − x_j with relative velocity v_ij, mean sound
-    /// speed c̄ and mean density ρ̄, smoothing length h: μ_ij = h v_ij·x_ij/(|x_ij|² + η²h²)
-    /// for approaching pairs, and zero for separating ones (v_ij·x_ij ≥ 0).
-    ///
-    /// With one division, as Π = h v·x (−α c̄ d + β h v·x)/(d² ρ̄), d = |x_ij|² + η²h².
-    #[inline]
-    pub fn pi<D: Dim>(&self, h: f64, x_ij: D::V, v_ij: D::V, c: f64, rho: f64) -> f64 {
-        let vx = D::dot(v_ij, x_ij);
-        if vx >= 0.0 {
-            return 0.0;
-        }
-        let d = D::norm2(x_ij) + self.eta * self.eta * h * h;
-        h * vx * (-self.alpha * c * d + self.beta * h * vx) / (d * d * rho)
-    }
-}
-
-/// Cauchy stress (3×3; 2D plane strain fills σ_zz) and strain energy Σ V0 ψ of every
-/// particle from F and, for the rate model, S and ρ (empty slices for state models).
-/// Shared by the CPU and GPU paths for their outputs.
-pub fn stress_fields<D: Dim>(
-    mat: &Material,
-    f: &[D::T],
-    s: &[D::T],
-    rho: &[f64],
-    vol: &[f64],
-) -> (Vec<[[f64; 3]; 3]>, f64) {
-    let rate = mat.model.is_rate_based();
-    let per_particle: Vec<([[f64; 3]; 3], f64)> = f
-        .par_iter()
-        .enumerate()
-        .map(|(i, &f)| {
-            let (s, rho) = if rate {
-                (s[i], rho[i])
-            } else {
-                (D::zero_t(), mat.rho0 / D::det(f))
-            };
-            let sigma = if rate {
-                s - D::identity() * mat.pressure(rho)
-            } else {
-                mat.pk1::<D>(f) * D::transpose(f) * (1.0 / D::det(f))
-            };
-            let mut out = D::to3x3(sigma);
-            if D::N == 2 {
-                out[2][2] = mat.sigma_zz::<D>(f, s, rho);
-            }
-            let energy_rho = if rate { rho } else { mat.rho0 };
-            (out, vol[i] * mat.energy_density::<D>(f, s, energy_rho))
-        })
-        .collect();
-    let energy = per_particle.iter().map(|p| p.1).sum();
-    (per_particle.into_iter().map(|p| p.0).collect(), energy)
 }

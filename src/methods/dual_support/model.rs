@@ -6,8 +6,8 @@
 use super::support::Support;
 use crate::material::{Material, Tangent};
 use crate::methods::BlowUp;
-use crate::methods::shared::ordered_reduce;
 use crate::observe::{ScalarField, Snapshot};
+use crate::parallel::ordered_reduce;
 use crate::statics::sparse::BlockPattern;
 use crate::tensor::Dim;
 use rayon::prelude::*;

@@ -29,14 +29,12 @@ use crate::boundary::{Boundary, NodalForces, OnPatches, SurfacePoint};
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::material::Material;
-use crate::methods::shared::{
-    BlowUp, BoundaryWork, MIN_CHUNK, Method, Sizes, Traffic, check_motion, load_word,
-    ordered_reduce, particle_state,
-};
-use crate::methods::tlsph::system::stress_fields;
+use crate::material::stress_fields;
+use crate::methods::shared::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
 use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::Csr;
 use crate::observe::{Quadrature, ScalarField, Snapshot};
+use crate::parallel::{MIN_CHUNK, load_word, ordered_reduce, particle_state};
 use crate::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
 use crate::quadrature::{
     Cells, Family, Gather, QuadratureError, QuadraturePoints, Shapes, SmoothingCells,

@@ -20,13 +20,11 @@ use crate::boundary::{Boundary, OnPatches};
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::material::Material;
-use crate::methods::shared::{
-    BlowUp, BoundaryWork, MIN_CHUNK, Method, Sizes, Traffic, check_motion, load_word,
-    particle_state,
-};
-use crate::methods::tlsph::system::stress_fields;
+use crate::material::stress_fields;
+use crate::methods::shared::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
 use crate::neighbour::Csr;
 use crate::observe::{ScalarField, Snapshot};
+use crate::parallel::{MIN_CHUNK, load_word, particle_state};
 use crate::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
 use crate::quadrature::{Gather, ShapeRow, Shapes};
 use crate::reference::Reference;

@@ -9,7 +9,6 @@ pub mod system;
 
 pub use system::GrayMonaghan;
 
-use super::tlsph::ArtificialViscosity;
 use super::{Feature, MethodFamily, Plan, Problem};
 use crate::integrate::IntegratorKind;
 use crate::material::Material;
@@ -18,6 +17,7 @@ use crate::run::{CpuEngine, Engine, EngineDim};
 use crate::scene::Case;
 use crate::scene::validate::{fail, non_negative};
 use crate::tensor::Dim;
+use crate::viscosity::ArtificialViscosity;
 use serde::{Deserialize, Serialize};
 
 /// The artificial stress of Gray, Monaghan and Swift (eqs 118–125): R_i from the tensile

@@ -10,13 +10,13 @@
 use super::{ArtificialStress, GrayMonaghanSpec};
 use crate::correction::CorrectionKind;
 use crate::methods::shared::BlowUp;
-use crate::methods::tlsph::ArtificialViscosity;
 use crate::methods::ul::{Correction, PairRates, PairScheme, UlCore, UlSph, UlState};
 use crate::methods::{MethodFamily, MethodSpec, not_run_by};
 use crate::neighbour::Rebuild;
 use crate::plasticity::{symmetric_eigen, to_mat3};
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
+use crate::viscosity::ArtificialViscosity;
 use rayon::prelude::*;
 
 /// f^n, by repeated squaring for the integer exponents of every seed set-up (n = 4): the

@@ -23,12 +23,13 @@ use crate::kernel::Kernel;
 use crate::material::Material;
 use crate::methods::not_run_by;
 use crate::methods::shared::{
-    BlowUp, BoundaryWork, MIN_CHUNK, Method, PseudoTime, Sizes, Traffic, check_motion,
-    neighbour_radius, ordered_reduce, particle_state, reference_gradients,
+    BlowUp, BoundaryWork, Method, PseudoTime, Sizes, Traffic, check_motion, neighbour_radius,
+    reference_gradients,
 };
 use crate::mirror::{Ghosts, Image};
 use crate::neighbour::{self, Csr};
 use crate::observe::{ScalarField, Snapshot};
+use crate::parallel::{MIN_CHUNK, ordered_reduce, particle_state};
 use crate::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
 use crate::reference::Reference;
 use crate::scene::{Case, CaseError};

@@ -14,15 +14,17 @@ use crate::boundary::{Boundary, OnPatches};
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::material::Material;
+use crate::material::stress_fields;
 use crate::methods::shared::{
-    ArtificialViscosity, BlowUp, BoundaryWork, MIN_CHUNK, Method, Traffic, check_motion,
-    particle_state, reference_gradients, reverse_gradients, stress_fields,
+    BlowUp, BoundaryWork, Method, Traffic, check_motion, reference_gradients, reverse_gradients,
 };
 use crate::neighbour::Csr;
 use crate::observe::Snapshot;
+use crate::parallel::{MIN_CHUNK, particle_state};
 use crate::reference::Reference;
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
+use crate::viscosity::ArtificialViscosity;
 use rayon::prelude::*;
 use std::ops::Deref;
 

@@ -5,7 +5,6 @@
 pub mod gpu;
 pub mod system;
 
-pub use crate::methods::shared::ArtificialViscosity;
 pub use crate::methods::tl::TlState;
 #[cfg(feature = "gpu")]
 pub use gpu::GpuTlsph;
@@ -17,6 +16,7 @@ use crate::run::{Engine, EngineDim};
 use crate::scene::Case;
 use crate::scene::validate::positive;
 use crate::tensor::Dim;
+use crate::viscosity::ArtificialViscosity;
 use serde::{Deserialize, Serialize};
 
 /// The direction along which TLSPH's artificial viscosity acts on a pair.

@@ -20,13 +20,12 @@ use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::kernel::Kernel;
 use crate::material::Material;
+use crate::material::stress_fields;
 use crate::methods::Problem;
-use crate::methods::shared::{
-    BlowUp, BoundaryWork, MIN_CHUNK, Method, Sizes, Traffic, check_motion, particle_state,
-};
-use crate::methods::tlsph::system::stress_fields;
+use crate::methods::shared::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
 use crate::neighbour::{Csr, Neighbours, Rebuild};
 use crate::observe::{ScalarField, Snapshot};
+use crate::parallel::{MIN_CHUNK, particle_state};
 use crate::reference::Reference;
 use crate::scene::validate::{fail, toml_name};
 use crate::scene::{Case, CaseError};
