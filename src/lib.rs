@@ -10,6 +10,7 @@ pub mod balance;
 pub mod bench;
 pub mod boundary;
 pub mod correction;
+pub mod engine;
 #[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod hourglass;

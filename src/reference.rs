@@ -9,6 +9,18 @@ use crate::quadrature::{Cells, QuadratureError, lattice_cells};
 use crate::scene::{Case, CaseError, discretise};
 use crate::tensor::Dim;
 
+/// A method's CPU system, built on the reference configuration of a case.
+pub trait Build<D: Dim>: Sized {
+    /// Builds the system on `reference`; a case that names a method this system does not
+    /// run is an error.
+    fn build(case: &Case, reference: Reference<D>) -> Result<Self, CaseError>;
+}
+
+/// Builds the CPU system `M` of a case on its reference configuration.
+pub fn build_method<D: Dim, M: Build<D>>(case: &Case) -> Result<M, CaseError> {
+    M::build(case, Reference::build(case)?)
+}
+
 /// Particles of a case in the reference configuration.
 pub struct Reference<D: Dim> {
     /// Reference positions X.

@@ -25,13 +25,13 @@ pub mod ul_fem;
 pub mod ul_weak_form;
 pub mod weak_form;
 
-pub use shared::{BlowUp, Method, PseudoTime, Traffic, check_motion};
+pub use crate::engine::{BlowUp, Method};
 
 use crate::correction::CorrectionKind;
+use crate::engine::{Engine, EngineDim, Problem};
 use crate::integrate::IntegratorKind;
 use crate::kernel::KernelKind;
 use crate::neighbour::Rebuild;
-use crate::run::{Engine, EngineDim};
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use serde::de::{self, DeserializeSeed, MapAccess, Visitor};
@@ -39,9 +39,6 @@ use serde::{Deserialize, Deserializer, Serialize};
 use std::fmt;
 use std::sync::OnceLock;
 use toml::{Table, Value};
-
-/// A check that failed: the dotted key and what is wrong with it.
-pub type Problem = (String, String);
 
 /// Scene features a method may or may not run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -4,8 +4,8 @@
 
 use super::{Engine, RunError, checkpoint};
 use crate::boundary::Reaction;
+use crate::engine::BlowUp;
 use crate::hourglass::HourglassIndicator;
-use crate::methods::BlowUp;
 use crate::observe::{Clock, IndicatorFields, Invariants, Snapshot};
 use crate::pressure::{PressureFit, pressures};
 use crate::scene::Case;

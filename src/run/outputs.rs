@@ -4,7 +4,7 @@
 use super::batch::{Batch, Callback, Needs};
 use super::progress::ITERATIONS;
 use super::{RunError, checkpoint, output_error};
-use crate::methods::BlowUp;
+use crate::engine::BlowUp;
 use crate::observe::{Clock, Observers};
 use crate::output::series::read_column;
 use crate::output::{CheckResult, SeriesWriter};

@@ -12,9 +12,9 @@ pub mod sparse;
 
 use crate::balance::Booked;
 use crate::boundary::{Boundary, Reaction};
-use crate::methods::BlowUp;
+use crate::engine::BlowUp;
+use crate::engine::{Engine, Failed, Iteration};
 use crate::observe::Snapshot;
-use crate::run::{Engine, Failed, Iteration};
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};

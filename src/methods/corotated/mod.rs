@@ -8,9 +8,11 @@ pub mod system;
 
 pub use system::{Corotated, CorotatedScheme, outputs, rotation};
 
-use super::{Feature, MethodFamily, Plan, Problem, state_model};
+use super::{Feature, MethodFamily, Plan, state_model};
+
+use crate::engine::Problem;
+use crate::engine::{CpuEngine, Engine, EngineDim};
 use crate::material::Material;
-use crate::run::{CpuEngine, Engine, EngineDim};
 use crate::scene::validate::toml_name;
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;

@@ -11,8 +11,8 @@
 //! it). The state is u = x − X and v.
 
 use super::{CorotatedForce, CorotatedSpec};
+use crate::engine::{BlowUp, Sizes, Traffic};
 use crate::material::Material;
-use crate::methods::shared::{BlowUp, Sizes, Traffic};
 use crate::methods::tl::{
     Fields, ReferencePairs, TlCore, TlScheme, TlSph, TlState, ViscousPairs, displacement_rates,
     viscous_pair_pass,

@@ -7,7 +7,7 @@
 //! The state is u and v, as for total-Lagrangian SPH ([`TlState`]).
 
 use super::model::DualSupport;
-use crate::methods::shared::{BlowUp, Sizes, Traffic};
+use crate::engine::{BlowUp, Sizes, Traffic};
 use crate::methods::tl::{TlCore, TlScheme, TlSph, TlState, displacement_rates};
 use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::Csr;

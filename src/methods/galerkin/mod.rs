@@ -26,11 +26,12 @@ pub mod gpu;
 mod contracts;
 
 use crate::boundary::{Boundary, NodalForces, OnPatches, SurfacePoint};
+use crate::engine::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
+use crate::engine::{Engine, EngineDim};
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::material::Material;
 use crate::material::stress_fields;
-use crate::methods::shared::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
 use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::Csr;
 use crate::observe::{Quadrature, ScalarField, Snapshot};
@@ -40,7 +41,6 @@ use crate::quadrature::{
     Cells, Family, Gather, QuadratureError, QuadraturePoints, Shapes, SmoothingCells,
 };
 use crate::reference::Reference;
-use crate::run::{Engine, EngineDim};
 use crate::scene::{Case, CaseError, Shape};
 use crate::statics::explicit::{AtRest, ClosedForm};
 use crate::statics::sparse::BlockPattern;

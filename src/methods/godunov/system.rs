@@ -11,7 +11,7 @@
 
 use super::GodunovSpec;
 use crate::correction::CorrectionKind;
-use crate::methods::shared::BlowUp;
+use crate::engine::BlowUp;
 use crate::methods::ul::{Correction, PairRates, PairScheme, UlCore, UlSph, UlState};
 use crate::methods::{MethodFamily, MethodSpec, not_run_by};
 use crate::neighbour::Rebuild;

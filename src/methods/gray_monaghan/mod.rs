@@ -9,11 +9,13 @@ pub mod system;
 
 pub use system::GrayMonaghan;
 
-use super::{Feature, MethodFamily, Plan, Problem};
+use super::{Feature, MethodFamily, Plan};
+
+use crate::engine::Problem;
+use crate::engine::{CpuEngine, Engine, EngineDim};
 use crate::integrate::IntegratorKind;
 use crate::material::Material;
 use crate::neighbour::Rebuild;
-use crate::run::{CpuEngine, Engine, EngineDim};
 use crate::scene::Case;
 use crate::scene::validate::{fail, non_negative};
 use crate::tensor::Dim;

@@ -9,7 +9,7 @@
 
 use super::{ArtificialStress, GrayMonaghanSpec};
 use crate::correction::CorrectionKind;
-use crate::methods::shared::BlowUp;
+use crate::engine::BlowUp;
 use crate::methods::ul::{Correction, PairRates, PairScheme, UlCore, UlSph, UlState};
 use crate::methods::{MethodFamily, MethodSpec, not_run_by};
 use crate::neighbour::Rebuild;

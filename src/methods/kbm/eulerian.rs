@@ -9,10 +9,10 @@
 //! velocities; the particles are points at their own positions.
 
 use super::KbmSpec;
+use crate::engine::BlowUp;
 use crate::kernel::Kernel;
 use crate::methods::galerkin::Mass;
 use crate::methods::galerkin::updated::{Degenerate, MovingPoints, Nodes, UlGalerkinState};
-use crate::methods::shared::BlowUp;
 use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::{self, Csr, SKIN};
 use crate::quadrature::{QuadraturePoints, ShapeRow, Shapes, krongauz_belytschko_shapes};

@@ -24,9 +24,9 @@
 
 use super::Momentum;
 use super::system::pair_force;
+use crate::engine::Problem;
+use crate::integrate::PseudoTime;
 use crate::material::{Material, MaterialModel};
-use crate::methods::Problem;
-use crate::methods::shared::PseudoTime;
 use crate::mirror::Ghosts;
 use crate::neighbour::Csr;
 use crate::parallel::MIN_CHUNK;
@@ -222,7 +222,7 @@ pub(super) struct StageBuffers<D: Dim> {
     pub h: Vec<D::T>,
     pub held: Vec<u8>,
     /// The predictor's loads and supports on a^int (its reactions' list kept).
-    pub work: crate::methods::shared::BoundaryWork,
+    pub work: crate::engine::BoundaryWork,
 }
 
 impl<D: Dim> Default for StageBuffers<D> {

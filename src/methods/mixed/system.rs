@@ -17,15 +17,14 @@ use super::weights::{brookshaw_weights, correct_laplacian, least_squares_weights
 use super::{CflWaveSpeed, Conserved, DeformationGradient, JstLaplacian, Momentum, Stabiliser};
 use crate::boundary::{Boundary, OnPatches};
 use crate::correction;
+use crate::engine::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
+use crate::integrate::PseudoTime;
 use crate::integrate::{IntegratorKind, OdeSystem};
 use crate::interaction::Interactions;
 use crate::kernel::Kernel;
 use crate::material::Material;
 use crate::methods::not_run_by;
-use crate::methods::shared::{
-    BlowUp, BoundaryWork, Method, PseudoTime, Sizes, Traffic, check_motion, neighbour_radius,
-    reference_gradients,
-};
+use crate::methods::shared::{neighbour_radius, reference_gradients};
 use crate::mirror::{Ghosts, Image};
 use crate::neighbour::{self, Csr};
 use crate::observe::{ScalarField, Snapshot};

@@ -9,8 +9,8 @@
 //! stress is integrated.
 
 use super::PotentialForce;
+use crate::engine::{BlowUp, Sizes, Traffic};
 use crate::material::stress_fields;
-use crate::methods::shared::{BlowUp, Sizes, Traffic};
 use crate::methods::tl::{
     ReferencePairs, TlCore, TlScheme, TlSph, TlState, ViscousPairs, displacement_rates, snapshot,
     viscous_pair_pass,

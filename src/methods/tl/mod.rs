@@ -11,17 +11,16 @@
 //! is [`TlState`]: u = x − X, v and, for the rate-based (hypoelastic) model, ρ and S.
 
 use crate::boundary::{Boundary, OnPatches};
+use crate::engine::{BlowUp, BoundaryWork, Method, Traffic, check_motion};
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::material::Material;
 use crate::material::stress_fields;
-use crate::methods::shared::{
-    BlowUp, BoundaryWork, Method, Traffic, check_motion, reference_gradients, reverse_gradients,
-};
+use crate::methods::shared::{reference_gradients, reverse_gradients};
 use crate::neighbour::Csr;
 use crate::observe::Snapshot;
 use crate::parallel::{MIN_CHUNK, particle_state};
-use crate::reference::Reference;
+use crate::reference::{Build, Reference};
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use crate::viscosity::ArtificialViscosity;
@@ -392,11 +391,13 @@ impl<D: Dim, S: TlScheme<D>> OdeSystem for TlSph<D, S> {
     }
 }
 
-impl<D: Dim, S: TlScheme<D>> Method<D> for TlSph<D, S> {
+impl<D: Dim, S: TlScheme<D>> Build<D> for TlSph<D, S> {
     fn build(case: &Case, reference: Reference<D>) -> Result<Self, CaseError> {
         Self::new(case, reference)
     }
+}
 
+impl<D: Dim, S: TlScheme<D>> Method<D> for TlSph<D, S> {
     fn initial_state(&self) -> TlState<D> {
         let core = &self.core;
         let n = core.x0.len();

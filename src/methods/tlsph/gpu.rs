@@ -11,6 +11,8 @@ use super::{TlsphForce, ViscosityGradient};
 use crate::balance::Booked;
 use crate::boundary::{OnPatches, Reaction};
 use crate::correction::{self, CorrectionKind};
+use crate::engine::BlowUp;
+use crate::engine::{Engine, Failed};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim, flat_v};
 use crate::gpu::profile::{NONE, PassBytes, Scale, read, read_write, write};
@@ -28,10 +30,9 @@ use crate::interaction::Interactions;
 use crate::interaction::gpu::GpuInteractions;
 use crate::material::Material;
 use crate::methods::tl::{TlState, check_state, snapshot};
-use crate::methods::{BlowUp, MethodSpec, not_run_by};
+use crate::methods::{MethodSpec, not_run_by};
 use crate::observe::{Invariants, Snapshot};
 use crate::reference::Reference;
-use crate::run::{Engine, Failed};
 use crate::scene::{Case, CaseError};
 
 /// Strain energy densities of the TLSPH models, for the reduction.

@@ -10,9 +10,11 @@ pub use crate::methods::tl::TlState;
 pub use gpu::GpuTlsph;
 pub use system::{Tlsph, TlsphScheme};
 
-use super::{Feature, MethodFamily, Plan, Problem};
+use super::{Feature, MethodFamily, Plan};
+
+use crate::engine::Problem;
+use crate::engine::{Engine, EngineDim};
 use crate::material::Material;
-use crate::run::{Engine, EngineDim};
 use crate::scene::Case;
 use crate::scene::validate::positive;
 use crate::tensor::Dim;

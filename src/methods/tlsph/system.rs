@@ -6,9 +6,9 @@
 //! deviatoric stress S.
 
 use super::{ArtificialViscosity, TlsphForce, ViscosityGradient};
+use crate::engine::Method;
+use crate::engine::{BlowUp, Sizes, Traffic};
 use crate::material::stress_fields;
-use crate::methods::shared::Method;
-use crate::methods::shared::{BlowUp, Sizes, Traffic};
 use crate::methods::tl::{
     ReferencePairs, TlCore, TlScheme, TlSph, TlState, inadmissible, snapshot,
 };

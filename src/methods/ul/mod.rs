@@ -16,17 +16,17 @@ pub mod gpu;
 
 use crate::boundary::{Boundary, OnPatches};
 use crate::correction::CorrectionKind;
+use crate::engine::Problem;
+use crate::engine::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::kernel::Kernel;
 use crate::material::Material;
 use crate::material::stress_fields;
-use crate::methods::Problem;
-use crate::methods::shared::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
 use crate::neighbour::{Csr, Neighbours, Rebuild};
 use crate::observe::{ScalarField, Snapshot};
 use crate::parallel::{MIN_CHUNK, particle_state};
-use crate::reference::Reference;
+use crate::reference::{Build, Reference};
 use crate::scene::validate::{fail, toml_name};
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
@@ -365,7 +365,7 @@ impl<D: Dim, S: PairScheme<D>> OdeSystem for UlSph<D, S> {
     }
 }
 
-impl<D: Dim, S: PairScheme<D>> Method<D> for UlSph<D, S> {
+impl<D: Dim, S: PairScheme<D>> Build<D> for UlSph<D, S> {
     fn build(case: &Case, reference: Reference<D>) -> Result<Self, CaseError> {
         let core = UlCore::new(case, reference, S::REBUILD)?;
         let scheme = S::new(case, &core)?;
@@ -376,7 +376,9 @@ impl<D: Dim, S: PairScheme<D>> Method<D> for UlSph<D, S> {
             dissipation: Vec::new(),
         })
     }
+}
 
+impl<D: Dim, S: PairScheme<D>> Method<D> for UlSph<D, S> {
     fn initial_state(&self) -> UlState<D> {
         let n = self.core.x0.len();
         UlState {

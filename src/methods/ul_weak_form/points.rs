@@ -4,10 +4,10 @@
 
 use super::ellipse::Ellipse;
 use crate::correction;
+use crate::engine::BlowUp;
 use crate::kernel::{Kernel, KernelKind};
 use crate::methods::galerkin::Mass;
 use crate::methods::galerkin::updated::{Degenerate, MovingPoints, Nodes, UlGalerkinState};
-use crate::methods::shared::BlowUp;
 use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::{self, Csr};
 use crate::parallel::MIN_CHUNK;

@@ -22,8 +22,9 @@ mod run;
 mod tests;
 
 use super::Case;
+use crate::engine::Problem;
 use crate::material::MaterialModel;
-use crate::methods::{Feature, Problem, quoted, supporting};
+use crate::methods::{Feature, quoted, supporting};
 use serde::Serialize;
 use std::collections::HashSet;
 
