@@ -9,6 +9,7 @@ pub mod analytic;
 pub mod balance;
 pub mod bench;
 pub mod boundary;
+pub mod check;
 pub mod correction;
 pub mod engine;
 #[cfg(feature = "gpu")]

@@ -1,5 +1,6 @@
 //! Monaghan's artificial viscosity (seed 000 §3.1 step 6), which the SPH families share.
 
+use crate::check::{Problem, non_negative};
 use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};
 
@@ -18,6 +19,13 @@ fn default_eta() -> f64 {
 }
 
 impl ArtificialViscosity {
+    /// The coefficients must not be negative.
+    pub fn validate(&self) -> Result<(), Problem> {
+        non_negative("method.artificial_viscosity.alpha", self.alpha)?;
+        non_negative("method.artificial_viscosity.beta", self.beta)?;
+        non_negative("method.artificial_viscosity.eta", self.eta)
+    }
+
     /// Π_ij of a pair at distance x_ij = x_i − x_j with relative velocity v_ij, mean sound
     /// speed c̄ and mean density ρ̄, smoothing length h: μ_ij = h v_ij·x_ij/(|x_ij|² + η²h²)
     /// for approaching pairs, and zero for separating ones (v_ij·x_ij ≥ 0).

@@ -22,7 +22,8 @@ impl Trapezoid {
     }
 }
 
-/// The CPU reference engine: a method and an integrator (f64, rayon).
+/// The CPU reference engine: a method and an integrator (f64, rayon). Built from the two
+/// ([`Self::with`]), or from a case by `CpuEngine::new` ([`crate::methods::shared`]).
 pub struct CpuEngine<D: Dim, M: Method<D>> {
     pub method: M,
     pub y: M::State,

@@ -19,9 +19,6 @@ use crate::integrate::PseudoTime;
 use crate::observe::{EngineColumns, Invariants, Snapshot};
 use crate::tensor::Dim;
 
-/// A check that failed: the dotted key and what is wrong with it.
-pub type Problem = (String, String);
-
 /// A blow-up found during [`Engine::advance`], after `completed` whole steps of it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Failed {

@@ -27,8 +27,9 @@ pub mod weak_form;
 
 pub use crate::engine::{BlowUp, Method};
 
+use crate::check::Problem;
 use crate::correction::CorrectionKind;
-use crate::engine::{Engine, EngineDim, Problem};
+use crate::engine::{Engine, EngineDim};
 use crate::integrate::IntegratorKind;
 use crate::kernel::KernelKind;
 use crate::neighbour::Rebuild;
@@ -609,7 +610,7 @@ pub fn no_gpu_engine(case: &Case) -> CaseError {
 /// The check of a method that evaluates P = ∂ψ/∂F: the material must be a state model.
 pub fn state_model(case: &Case) -> Result<(), Problem> {
     if case.material.model.is_rate_based() {
-        return crate::scene::validate::fail(
+        return crate::check::fail(
             "material.model",
             format!(
                 "`{}` evaluates the stress from F: use a state model ({}), not {}",
@@ -617,7 +618,7 @@ pub fn state_model(case: &Case) -> Result<(), Problem> {
                 crate::material::MaterialModel::names_where(
                     |m| !m.is_rate_based() && m != crate::material::MaterialModel::VonMisesPlastic
                 ),
-                crate::scene::validate::toml_name(&case.material.model)
+                crate::check::toml_name(&case.material.model)
             ),
         );
     }

@@ -1,15 +1,12 @@
-//! What the method cores take from a case: the CPU engine of a system built on it, the
-//! reference neighbours and gradients of the total-Lagrangian methods and the check of the
-//! artificial viscosity's coefficients.
+//! What the method cores take from a case: the CPU engine of a system built on it, and
+//! the reference neighbours and gradients of the total-Lagrangian methods.
 
 use crate::correction;
-use crate::engine::{CpuEngine, Method, Problem};
+use crate::engine::{CpuEngine, Method};
 use crate::neighbour::Csr;
 use crate::reference::{self, Build, build_method};
-use crate::scene::validate::non_negative;
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
-use crate::viscosity::ArtificialViscosity;
 use rayon::prelude::*;
 
 impl<D: Dim, M: Method<D> + Build<D>> CpuEngine<D, M> {
@@ -73,13 +70,4 @@ pub(crate) fn reverse_gradients<D: Dim>(
 ) -> Result<Vec<D::V>, CaseError> {
     let rev = reverse_pairs(case, csr)?;
     Ok(rev.par_iter().map(|&q| grad[q as usize]).collect())
-}
-
-impl ArtificialViscosity {
-    /// The coefficients must not be negative.
-    pub fn validate(&self) -> Result<(), Problem> {
-        non_negative("method.artificial_viscosity.alpha", self.alpha)?;
-        non_negative("method.artificial_viscosity.beta", self.beta)?;
-        non_negative("method.artificial_viscosity.eta", self.eta)
-    }
 }

@@ -21,11 +21,11 @@ pub use engine::engine;
 pub use frames::{FrameConstants, write_frame};
 pub use progress::ProgressDisplay;
 
+use crate::check::toml_name;
 use crate::engine::BlowUp;
 use crate::material::Material;
 use crate::methods::{Feature, supporting};
 use crate::output::RunSummary;
-use crate::scene::validate::toml_name;
 use crate::scene::{Case, CaseError};
 use crate::tensor::{D2, D3};
 use std::path::PathBuf;

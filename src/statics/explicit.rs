@@ -25,8 +25,7 @@
 
 use super::sparse::{BlockPattern, Linear};
 use super::{Linearisation, Model, Newton, Setup, Statics};
-use crate::engine::{BlowUp, Method};
-use crate::engine::{CpuEngine, Engine, EngineDim};
+use crate::engine::{BlowUp, CpuEngine, Engine, EngineDim, Method};
 use crate::neighbour;
 use crate::observe::Snapshot;
 use crate::reference::{Build, Reference, build_method, neighbour_radius};

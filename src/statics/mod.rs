@@ -12,8 +12,7 @@ pub mod sparse;
 
 use crate::balance::Booked;
 use crate::boundary::{Boundary, Reaction};
-use crate::engine::BlowUp;
-use crate::engine::{Engine, Failed, Iteration};
+use crate::engine::{BlowUp, Engine, Failed, Iteration};
 use crate::observe::Snapshot;
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;

@@ -4,8 +4,7 @@
 
 use super::fields::FinalState;
 use crate::balance::{Balance, Booked};
-use crate::engine::BlowUp;
-use crate::engine::{Engine, EngineDim, Failed};
+use crate::engine::{BlowUp, Engine, EngineDim, Failed};
 use crate::observe::{Invariants, Snapshot};
 use crate::output::RunSummary;
 use crate::run::{Backend, RunError, RunOptions, budget, drive, engine, may_use_gpu, with_threads};

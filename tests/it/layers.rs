@@ -16,6 +16,7 @@ const ORDER: &[(&str, &[&str])] = &[
     (
         "core maths, kernels and neighbours",
         &[
+            "check",
             "tensor",
             "kernel",
             "neighbour",
@@ -101,7 +102,6 @@ const UPWARD: &[(&str, &str)] = &[
     ("hourglass", "scene"),
     ("interaction", "methods/shared"),
     ("interaction", "scene"),
-    ("material", "scene"),
     ("methods", "scene"),
     ("methods/corotated", "methods"),
     ("methods/corotated", "scene"),
@@ -133,7 +133,6 @@ const UPWARD: &[(&str, &str)] = &[
     ("methods/ul_weak_form", "methods"),
     ("methods/ul_weak_form", "scene"),
     ("methods/weak_form", "scene"),
-    ("mirror", "scene"),
     ("observe", "scene"),
     ("pressure", "scene"),
     ("quadrature", "reference"),

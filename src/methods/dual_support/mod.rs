@@ -23,12 +23,11 @@ pub use support::Support;
 
 use super::{Feature, MethodFamily, Plan};
 
-use crate::engine::Problem;
+use crate::check::{Problem, fail, non_negative, toml_name};
 use crate::engine::{CpuEngine, Engine, EngineDim};
 use crate::material::Material;
 use crate::neighbour;
 use crate::reference::Reference;
-use crate::scene::validate::{fail, non_negative, toml_name};
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};

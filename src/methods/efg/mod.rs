@@ -10,7 +10,7 @@
 use super::fem::galerkin_state;
 use super::galerkin::{Mass, TlGalerkin, particle_mass, smoothing_cells};
 use super::{Feature, MethodFamily, Plan};
-use crate::engine::Problem;
+use crate::check::Problem;
 use crate::engine::{Engine, EngineDim};
 use crate::material::Material;
 use crate::quadrature::{Cells, QuadraturePoints, Rule, Shapes};

@@ -5,7 +5,7 @@
 
 use super::galerkin::{Mass, TlGalerkin};
 use super::{Feature, MethodFamily, Plan};
-use crate::engine::Problem;
+use crate::check::Problem;
 use crate::engine::{Engine, EngineDim};
 use crate::material::{Material, MaterialModel};
 use crate::quadrature::{QuadraturePoints, Rule, Shapes};

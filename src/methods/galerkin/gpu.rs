@@ -9,8 +9,7 @@
 use super::{GalerkinState, TlGalerkin};
 use crate::balance::Booked;
 use crate::boundary::Reaction;
-use crate::engine::{BlowUp, Method};
-use crate::engine::{Engine, Failed};
+use crate::engine::{BlowUp, Engine, Failed, Method};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::profile::{NONE, PassBytes, Scale, read, read_write, write};

@@ -26,12 +26,12 @@ pub mod gpu;
 mod contracts;
 
 use crate::boundary::{Boundary, NodalForces, OnPatches, SurfacePoint};
-use crate::engine::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
-use crate::engine::{Engine, EngineDim};
+use crate::engine::{
+    BlowUp, BoundaryWork, Engine, EngineDim, Method, Sizes, Traffic, check_motion,
+};
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
-use crate::material::Material;
-use crate::material::stress_fields;
+use crate::material::{Material, stress_fields};
 use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::Csr;
 use crate::observe::{Quadrature, ScalarField, Snapshot};

@@ -10,7 +10,7 @@ pub use system::Godunov;
 
 use super::{Feature, MethodFamily, Plan};
 
-use crate::engine::Problem;
+use crate::check::Problem;
 use crate::engine::{CpuEngine, Engine, EngineDim};
 use crate::material::Material;
 use crate::neighbour::Rebuild;

@@ -18,8 +18,7 @@ use super::system::{Fluxes, MixedSph, MixedState};
 use super::{CflWaveSpeed, DeformationGradient, Momentum};
 use crate::balance::Booked;
 use crate::boundary::Reaction;
-use crate::engine::{BlowUp, Method};
-use crate::engine::{Engine, Failed};
+use crate::engine::{BlowUp, Engine, Failed, Method};
 use crate::gpu::context::{Gpu, GpuError, Pipeline, WORKGROUP};
 use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::profile::{NONE, PassBytes, Scale, Traffic, read, read_write, write};
@@ -31,9 +30,7 @@ use crate::gpu::shaders::{
     PLASTICITY, PRESCRIBED, REFERENCE, Source, Wgsl, source, wgsl,
 };
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
-use crate::integrate::IntegratorKind;
-use crate::integrate::PseudoTime;
-use crate::integrate::{Buf, Evaluation, evaluations};
+use crate::integrate::{Buf, Evaluation, IntegratorKind, PseudoTime, evaluations};
 use crate::interaction::gpu::GpuInteractions;
 use crate::material::MaterialModel;
 use crate::methods::not_run_by;

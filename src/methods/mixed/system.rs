@@ -18,8 +18,7 @@ use super::{CflWaveSpeed, Conserved, DeformationGradient, JstLaplacian, Momentum
 use crate::boundary::{Boundary, OnPatches};
 use crate::correction;
 use crate::engine::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
-use crate::integrate::PseudoTime;
-use crate::integrate::{IntegratorKind, OdeSystem};
+use crate::integrate::{IntegratorKind, OdeSystem, PseudoTime};
 use crate::interaction::Interactions;
 use crate::kernel::Kernel;
 use crate::material::Material;
@@ -253,7 +252,8 @@ impl<D: Dim> MixedSph<D> {
         let m = &case.method;
         let n = x_real.len();
         let radius = neighbour_radius::<D>(case);
-        let ghosts = Ghosts::build(case, &x_real, &vol_real, radius)?;
+        let ghosts = Ghosts::build(&case.mirrors, case.spacing, &x_real, &vol_real, radius)
+            .map_err(|(key, message)| case.invalid(key, message))?;
         let (x0, vol) = ghosts.extend_reference(&x_real, &vol_real);
         // Real and ghost particles together: the ghosts close the real rows' lists.
         let mut csr = neighbour::build::<D>(&x0, radius);

@@ -10,10 +10,9 @@ pub use system::Potential;
 
 use super::{Feature, MethodFamily, Plan, state_model};
 
-use crate::engine::Problem;
+use crate::check::{Problem, toml_name};
 use crate::engine::{CpuEngine, Engine, EngineDim};
 use crate::material::Material;
-use crate::scene::validate::toml_name;
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use crate::viscosity::ArtificialViscosity;

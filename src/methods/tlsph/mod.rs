@@ -12,11 +12,10 @@ pub use system::{Tlsph, TlsphScheme};
 
 use super::{Feature, MethodFamily, Plan};
 
-use crate::engine::Problem;
+use crate::check::{Problem, positive};
 use crate::engine::{Engine, EngineDim};
 use crate::material::Material;
 use crate::scene::Case;
-use crate::scene::validate::positive;
 use crate::tensor::Dim;
 use crate::viscosity::ArtificialViscosity;
 use serde::{Deserialize, Serialize};

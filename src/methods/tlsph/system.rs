@@ -6,8 +6,7 @@
 //! deviatoric stress S.
 
 use super::{ArtificialViscosity, TlsphForce, ViscosityGradient};
-use crate::engine::Method;
-use crate::engine::{BlowUp, Sizes, Traffic};
+use crate::engine::{BlowUp, Method, Sizes, Traffic};
 use crate::material::stress_fields;
 use crate::methods::tl::{
     ReferencePairs, TlCore, TlScheme, TlSph, TlState, inadmissible, snapshot,

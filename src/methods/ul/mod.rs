@@ -15,19 +15,17 @@
 pub mod gpu;
 
 use crate::boundary::{Boundary, OnPatches};
+use crate::check::{Problem, fail, toml_name};
 use crate::correction::CorrectionKind;
-use crate::engine::Problem;
 use crate::engine::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::kernel::Kernel;
-use crate::material::Material;
-use crate::material::stress_fields;
+use crate::material::{Material, stress_fields};
 use crate::neighbour::{Csr, Neighbours, Rebuild};
 use crate::observe::{ScalarField, Snapshot};
 use crate::parallel::{MIN_CHUNK, particle_state};
 use crate::reference::{Build, Reference};
-use crate::scene::validate::{fail, toml_name};
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use rayon::prelude::*;

@@ -8,7 +8,7 @@
 use super::galerkin::Mass;
 use super::galerkin::updated::{Degenerate, MovingPoints, Nodes, UlGalerkin, UlGalerkinState};
 use super::{Feature, MethodFamily, MethodSpec, Plan, not_run_by};
-use crate::engine::Problem;
+use crate::check::Problem;
 use crate::engine::{CpuEngine, Engine, EngineDim};
 use crate::material::{Material, MaterialModel};
 use crate::neighbour::Csr;

@@ -9,7 +9,7 @@
 use super::fem::galerkin_state;
 use super::galerkin::{Mass, TlGalerkin, particle_mass, smoothing_shapes};
 use super::{Feature, MethodFamily, Plan};
-use crate::engine::Problem;
+use crate::check::Problem;
 use crate::engine::{Engine, EngineDim};
 use crate::material::Material;
 use crate::quadrature::{QuadraturePoints, Rule, Shapes};

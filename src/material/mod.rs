@@ -7,9 +7,12 @@
 //! exactly through λ* = 2λμ/(λ + 2μ) in place of λ. The models are described in
 //! docs/materials.md.
 
+mod spec;
+
+pub use spec::{MaterialSpec, Plane};
+
 use crate::mooney_rivlin::MooneyRivlin;
 use crate::plasticity::{Hardening, Returned, VonMises, from_mat3, to_mat3};
-use crate::scene::{MaterialSpec, Plane};
 use crate::tensor::Dim;
 use glam::DMat3;
 use rayon::prelude::*;
@@ -70,7 +73,7 @@ impl MaterialModel {
         let names: Vec<String> = Self::ALL
             .iter()
             .filter(|&&m| which(m))
-            .map(|m| format!("`{}`", crate::scene::validate::toml_name(m)))
+            .map(|m| format!("`{}`", crate::check::toml_name(m)))
             .collect();
         match names.split_last() {
             Some((last, rest)) if !rest.is_empty() => format!("{} or {last}", rest.join(", ")),
