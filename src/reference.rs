@@ -2,7 +2,7 @@
 //! them, built once on the host in f64 and held (or uploaded) by the method.
 
 use crate::boundary::Boundary;
-use crate::kernel::Kernel;
+use crate::kernel::{Kernel, neighbour_radius};
 use crate::material::Material;
 use crate::neighbour::{self, Csr, Neighbours, Rebuild};
 use crate::quadrature::{Cells, QuadratureError, lattice_cells};
@@ -140,10 +140,4 @@ fn no_coincident_particles<D: Dim>(
             D::to3(x0[i])
         ),
     ))
-}
-
-/// The kernel support, with a relative margin so that lattice neighbours exactly at the
-/// support are found on both sides despite round-off (their W and ∇W vanish).
-pub fn neighbour_radius(kernel: &Kernel) -> f64 {
-    kernel.support() * (1.0 + 1e-9)
 }

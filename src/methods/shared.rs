@@ -3,8 +3,9 @@
 
 use crate::correction;
 use crate::engine::{CpuEngine, Method};
+use crate::kernel;
 use crate::neighbour::Csr;
-use crate::reference::{self, Build, build_method};
+use crate::reference::{Build, build_method};
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use rayon::prelude::*;
@@ -19,9 +20,9 @@ impl<D: Dim, M: Method<D> + Build<D>> CpuEngine<D, M> {
     }
 }
 
-/// The kernel support of a case, with the margin of [`crate::reference::neighbour_radius`].
+/// The kernel support of a case, with the margin of [`crate::kernel::neighbour_radius`].
 pub(crate) fn neighbour_radius<D: Dim>(case: &Case) -> f64 {
-    reference::neighbour_radius(&case.kernel(D::N))
+    kernel::neighbour_radius(&case.kernel(D::N))
 }
 
 /// Corrected gradients g_ij on the neighbour lists `csr` of the reference positions x0

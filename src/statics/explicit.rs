@@ -26,9 +26,10 @@
 use super::sparse::{BlockPattern, Linear};
 use super::{Linearisation, Model, Newton, Setup, Statics};
 use crate::engine::{BlowUp, CpuEngine, Engine, EngineDim, Method};
+use crate::kernel::neighbour_radius;
 use crate::neighbour;
 use crate::observe::Snapshot;
-use crate::reference::{Build, Reference, build_method, neighbour_radius};
+use crate::reference::{Build, Reference, build_method};
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 

@@ -45,8 +45,8 @@ const ORDER: &[(&str, &[&str])] = &[
         &[
             "passes",
             "gpu",
-            "reference",
             "boundary",
+            "reference",
             "interaction",
             "observe",
         ],
@@ -99,8 +99,6 @@ const UPWARD: &[(&str, &str)] = &[
     ("gpu", "methods"),
     ("gpu", "observe"),
     ("gpu", "scene"),
-    ("hourglass", "scene"),
-    ("interaction", "methods/shared"),
     ("interaction", "scene"),
     ("methods", "scene"),
     ("methods/corotated", "methods"),
@@ -134,9 +132,6 @@ const UPWARD: &[(&str, &str)] = &[
     ("methods/ul_weak_form", "scene"),
     ("methods/weak_form", "scene"),
     ("observe", "scene"),
-    ("pressure", "scene"),
-    ("quadrature", "reference"),
-    ("reference", "boundary"),
     ("reference", "scene"),
     ("statics", "scene"),
 ];

@@ -10,13 +10,13 @@
 
 use super::KbmSpec;
 use crate::engine::BlowUp;
-use crate::kernel::Kernel;
+use crate::kernel::{Kernel, neighbour_radius};
 use crate::methods::galerkin::Mass;
 use crate::methods::galerkin::updated::{Degenerate, MovingPoints, Nodes, UlGalerkinState};
 use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::{self, Csr, SKIN};
 use crate::quadrature::{QuadraturePoints, ShapeRow, Shapes, krongauz_belytschko_shapes};
-use crate::reference::{Reference, neighbour_radius};
+use crate::reference::Reference;
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 
