@@ -250,7 +250,7 @@ impl Exact {
         let body = case.bodies.first().ok_or("the case has no body")?;
         let material = Material::new(&case.material);
         let dim = case.dim();
-        let name = crate::scene::validate::toml_name(&solution);
+        let name = crate::check::toml_name(&solution);
         match (solution, &body.initial_velocity) {
             (AnalyticSolution::Swinging, Some(VelocityField::Swinging { amplitude, mode })) => {
                 if body.initial_displacement.is_some() {
@@ -538,7 +538,7 @@ fn velocity_name(field: &VelocityField) -> String {
 mod tension_tests {
     use super::neo_hooke_plane_strain_tension;
     use crate::material::Material;
-    use crate::scene::MaterialSpec;
+    use crate::material::MaterialSpec;
     use crate::tensor::{D2, Dim};
 
     /// Neo-Hooke, E = 1 MPa, ν = 0.45.

@@ -1,8 +1,9 @@
 //! `meshless bench`: throughput of a case on a backend at several sizes, in
 //! particle-steps per second, measured over whole steps after a warm-up.
 
+use crate::engine::{Engine, EngineDim, StepTraffic};
 use crate::passes::PassReport;
-use crate::run::{Backend, Engine, EngineDim, RunError, StepTraffic, engine, with_threads};
+use crate::run::{Backend, RunError, engine, with_threads};
 use crate::scene::{Case, discretise};
 use crate::tensor::{D2, D3};
 use rayon::prelude::*;
@@ -201,7 +202,7 @@ fn profile<D: EngineDim, E: Engine<D>>(
     dt: f64,
     t: f64,
     steps: u32,
-) -> Result<Option<PassReport>, crate::run::Failed> {
+) -> Result<Option<PassReport>, crate::engine::Failed> {
     let Some(builds) = engine.device().map(|(gpu, scale)| {
         gpu.profile(true);
         scale.indirect
@@ -233,10 +234,10 @@ fn profile<D: EngineDim, E: Engine<D>>(
     _: f64,
     _: f64,
     _: u32,
-) -> Result<Option<PassReport>, crate::run::Failed> {
+) -> Result<Option<PassReport>, crate::engine::Failed> {
     Ok(None)
 }
 
-fn blow_up(case: &Case, cause: crate::methods::BlowUp) -> RunError {
+fn blow_up(case: &Case, cause: crate::engine::BlowUp) -> RunError {
     RunError::Benchmark(format!("benchmark of `{}` blew up: {cause}", case.name))
 }

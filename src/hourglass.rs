@@ -5,8 +5,8 @@
 //! affine motion (rigid rotations included), is O(Δx |∇F|) for a smooth one and O(1)
 //! when neighbours oscillate about the particle's F, as in an hourglass mode.
 
+use crate::kernel::Kernel;
 use crate::neighbour::{self, Csr};
-use crate::scene::Case;
 use crate::tensor::Dim;
 use rayon::prelude::*;
 
@@ -18,8 +18,7 @@ pub struct HourglassIndicator {
 }
 
 impl HourglassIndicator {
-    pub fn new<D: Dim>(case: &Case, x0: &[D::V]) -> Self {
-        let kernel = case.kernel(D::N);
+    pub fn new<D: Dim>(kernel: &Kernel, x0: &[D::V]) -> Self {
         let csr = neighbour::build::<D>(x0, kernel.support());
         let w = (0..csr.len())
             .into_par_iter()
@@ -65,6 +64,7 @@ impl HourglassIndicator {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::Case;
     use crate::tensor::D2;
     use glam::{DMat2, DVec2};
 
@@ -82,7 +82,7 @@ mod tests {
     #[test]
     fn vanishes_for_affine_motion_and_flags_a_checkerboard() {
         let (case, x0) = plate();
-        let hg = HourglassIndicator::new::<D2>(&case, &x0);
+        let hg = HourglassIndicator::new::<D2>(&case.kernel(2), &x0);
         // Rotation by 1 rad with stretch and translation: η is round-off (1e-14).
         let f = DMat2::from_angle(1.0) * DMat2::from_cols_array(&[1.5, 0.2, -0.1, 0.7]);
         let u: Vec<DVec2> = x0

@@ -63,6 +63,18 @@ pub trait OdeSystem {
     fn end_step(&mut self, _t: f64, _y: &mut Self::State) {}
 }
 
+/// Pseudo-time iterations of a run with artificial compressibility.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PseudoTime {
+    /// Iterations of the last step, summed over its stages.
+    pub step: u64,
+    /// Iterations since the run started.
+    pub total: u64,
+    /// The largest final residual of the last step's stages, relative to the velocity
+    /// scale.
+    pub residual: f64,
+}
+
 /// One of the four state-sized buffers of a step.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Buf {

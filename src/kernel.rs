@@ -157,6 +157,12 @@ impl Kernel {
     }
 }
 
+/// The kernel support, with a relative margin so that lattice neighbours exactly at the
+/// support are found on both sides despite round-off (their W and ∇W vanish).
+pub fn neighbour_radius(kernel: &Kernel) -> f64 {
+    kernel.support() * (1.0 + 1e-9)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -9,7 +9,9 @@ pub mod analytic;
 pub mod balance;
 pub mod bench;
 pub mod boundary;
+pub mod check;
 pub mod correction;
+pub mod engine;
 #[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod hourglass;
@@ -23,6 +25,7 @@ pub mod mooney_rivlin;
 pub mod neighbour;
 pub mod observe;
 pub mod output;
+pub mod parallel;
 pub mod passes;
 pub mod plasticity;
 pub mod pressure;
@@ -34,3 +37,4 @@ pub mod statics;
 #[cfg(feature = "study")]
 pub mod study;
 pub mod tensor;
+pub mod viscosity;

@@ -18,13 +18,32 @@
 //!
 //! Ghosts are indexed after the n real particles: extended index n + k is ghost k.
 
-use crate::methods::shared::MIN_CHUNK;
+use crate::check::Problem;
 use crate::neighbour::Csr;
-use crate::scene::{Case, CaseError, MirrorKind};
-use crate::tensor::Dim;
+use crate::parallel::MIN_CHUNK;
+use crate::tensor::{Axis, Dim};
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 use std::marker::PhantomData;
+
+/// A plane X_k = `at` across which the solution continues as its mirror image: for
+/// `symmetric`, u'(X') = R u(X) (normal displacement zero on the plane); for
+/// `skew-symmetric`, u'(X') = −R u(X) (tangential displacement zero), R the reflection.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct MirrorSpec {
+    pub normal: Axis,
+    pub at: f64,
+    pub kind: MirrorKind,
+}
+
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum MirrorKind {
+    Symmetric,
+    SkewSymmetric,
+}
 
 /// A composition of reflections in planes of distinct normals.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -110,12 +129,17 @@ pub struct Ghosts<D: Dim> {
 }
 
 impl<D: Dim> Ghosts<D> {
-    /// Ghosts of the real particles x0 (volumes vol) within `radius` of the planes of the
-    /// case. Errors name the plane when a particle lies on it, when the body lies on both
-    /// of its sides, or when a particle is within `radius` of two parallel planes.
-    pub fn build(case: &Case, x0: &[D::V], vol: &[f64], radius: f64) -> Result<Self, CaseError> {
-        let planes = &case.mirrors;
-        let tol = 1e-6 * case.spacing;
+    /// Ghosts of the real particles x0 (volumes vol, spacing Δx) within `radius` of the
+    /// `planes`. Errors name the plane when a particle lies on it, when the body lies on
+    /// both of its sides, or when a particle is within `radius` of two parallel planes.
+    pub fn build(
+        planes: &[MirrorSpec],
+        spacing: f64,
+        x0: &[D::V],
+        vol: &[f64],
+        radius: f64,
+    ) -> Result<Self, Problem> {
+        let tol = 1e-6 * spacing;
         // Signed distance of every particle to every plane, oriented into the body.
         let mut dist = vec![Vec::with_capacity(x0.len()); planes.len()];
         for (i, plane) in planes.iter().enumerate() {
@@ -123,7 +147,7 @@ impl<D: Dim> Ghosts<D> {
             let k = plane.normal.index();
             let signed: Vec<f64> = x0.iter().map(|&x| D::comp(x, k) - plane.at).collect();
             if let Some(a) = signed.iter().position(|s| s.abs() <= tol) {
-                return Err(case.invalid(
+                return Err((
                     key,
                     format!(
                         "particle {a} at {:?} lies on the plane; ghosts need the plane to pass \
@@ -135,7 +159,7 @@ impl<D: Dim> Ghosts<D> {
             }
             let below = signed.iter().filter(|s| **s < 0.0).count();
             if below != 0 && below != signed.len() {
-                return Err(case.invalid(
+                return Err((
                     key,
                     format!(
                         "the particles lie on both sides of the plane {} = {} ({below} below, \
@@ -152,7 +176,7 @@ impl<D: Dim> Ghosts<D> {
             for (j, q) in planes.iter().enumerate().skip(i + 1) {
                 let both = (0..x0.len()).find(|&a| dist[i][a] < radius && dist[j][a] < radius);
                 if let (true, Some(a)) = (p.normal == q.normal, both) {
-                    return Err(case.invalid(
+                    return Err((
                         format!("mirror.{j}.at"),
                         format!(
                             "particle {a} is within a kernel support ({radius}) of both \

@@ -5,8 +5,9 @@
 use crate::analytic::{ClosedForm, Exact, relative_l2};
 use crate::balance::{self, Balance, Booked};
 use crate::boundary::Reaction;
+use crate::integrate::PseudoTime;
 use crate::material::{Material, MaterialModel};
-use crate::methods::shared::{PseudoTime, ordered_reduce};
+use crate::parallel::ordered_reduce;
 use crate::plasticity::PLASTIC_STRAIN;
 use crate::pressure::{oscillation, pressures};
 use crate::scene::{Case, CaseError, Observer, TimeLaw};

@@ -15,7 +15,7 @@
 //! left-hand side, so its root is the smaller of the two, which for H ≥ 0 is always the
 //! linear one. It needs 3μ + H > 0, which validation requires.
 
-use crate::methods::shared::{load_field, load_word, save_field};
+use crate::parallel::{load_field, load_word, save_field};
 use crate::tensor::Dim;
 use glam::{DMat3, DVec3};
 

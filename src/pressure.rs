@@ -10,8 +10,8 @@
 //! §7.2 that D(J) removes.
 
 use crate::correction::reproducing_shapes;
+use crate::kernel::Kernel;
 use crate::neighbour::{self, Csr, Reach};
-use crate::scene::Case;
 use crate::tensor::Dim;
 use rayon::prelude::*;
 
@@ -27,8 +27,7 @@ impl PressureFit {
     /// The weights on reference positions x0 of particles of bodies `body`; neighbours
     /// are of one body only. A particle whose neighbours do not span a linear field (too
     /// few, or all on a line) is its own fit, δp = 0.
-    pub fn new<D: Dim>(case: &Case, x0: &[D::V], body: &[u32]) -> Self {
-        let kernel = case.kernel(D::N);
+    pub fn new<D: Dim>(kernel: &Kernel, x0: &[D::V], body: &[u32]) -> Self {
         let csr = neighbour::build_within::<D>(x0, Reach::Uniform(kernel.support()), Some(body));
         let unit = vec![1.0; x0.len()];
         let rows: Vec<(f64, Vec<f64>)> = (0..x0.len())
@@ -36,7 +35,7 @@ impl PressureFit {
             .map(|a| {
                 let mut nodes = vec![a as u32];
                 nodes.extend_from_slice(csr.neighbours(a));
-                match reproducing_shapes::<D>(x0[a], &nodes, x0, &unit, &kernel) {
+                match reproducing_shapes::<D>(x0[a], &nodes, x0, &unit, kernel) {
                     Some(shapes) => (shapes[0].0, shapes[1..].iter().map(|s| s.0).collect()),
                     None => (1.0, vec![0.0; nodes.len() - 1]),
                 }
@@ -91,6 +90,7 @@ pub fn oscillation(deviation: &[f64], p: &[f64], volume: &[f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::Case;
     use crate::tensor::D2;
     use glam::DVec2;
 
@@ -109,7 +109,7 @@ mod tests {
     fn vanishes_for_a_linear_pressure_and_flags_a_checkerboard() {
         let n = 12;
         let (case, x0) = plate(n);
-        let fit = PressureFit::new::<D2>(&case, &x0, &vec![0; x0.len()]);
+        let fit = PressureFit::new::<D2>(&case.kernel(2), &x0, &vec![0; x0.len()]);
         let volume = vec![1.0; x0.len()];
         // Linear in X, boundary included: the reproducing kernel is exact for it, so δp is
         // the round-off of the moment-matrix solve and of O(10) products, asserted below
@@ -152,7 +152,7 @@ mod tests {
         let n = 8;
         let (case, x0) = plate(n);
         let body: Vec<u32> = x0.iter().map(|x| (x.x > 0.35) as u32).collect();
-        let fit = PressureFit::new::<D2>(&case, &x0, &body);
+        let fit = PressureFit::new::<D2>(&case.kernel(2), &x0, &body);
         let p: Vec<f64> = body.iter().map(|&b| 1.0 + 9.0 * b as f64).collect();
         let d = fit.deviation(&p);
         assert!(d.iter().all(|x| x.abs() < 1e-12), "{d:?}");

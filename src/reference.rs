@@ -2,12 +2,24 @@
 //! them, built once on the host in f64 and held (or uploaded) by the method.
 
 use crate::boundary::Boundary;
-use crate::kernel::Kernel;
+use crate::kernel::{Kernel, neighbour_radius};
 use crate::material::Material;
 use crate::neighbour::{self, Csr, Neighbours, Rebuild};
 use crate::quadrature::{Cells, QuadratureError, lattice_cells};
 use crate::scene::{Case, CaseError, discretise};
 use crate::tensor::Dim;
+
+/// A method's CPU system, built on the reference configuration of a case.
+pub trait Build<D: Dim>: Sized {
+    /// Builds the system on `reference`; a case that names a method this system does not
+    /// run is an error.
+    fn build(case: &Case, reference: Reference<D>) -> Result<Self, CaseError>;
+}
+
+/// Builds the CPU system `M` of a case on its reference configuration.
+pub fn build_method<D: Dim, M: Build<D>>(case: &Case) -> Result<M, CaseError> {
+    M::build(case, Reference::build(case)?)
+}
 
 /// Particles of a case in the reference configuration.
 pub struct Reference<D: Dim> {
@@ -128,10 +140,4 @@ fn no_coincident_particles<D: Dim>(
             D::to3(x0[i])
         ),
     ))
-}
-
-/// The kernel support, with a relative margin so that lattice neighbours exactly at the
-/// support are found on both sides despite round-off (their W and ∇W vanish).
-pub fn neighbour_radius(kernel: &Kernel) -> f64 {
-    kernel.support() * (1.0 + 1e-9)
 }

@@ -4,6 +4,7 @@
 //! `DVec2`/`DMat2` and never pays for 3D tensor algebra.
 
 use glam::{DMat2, DMat3, DVec2, DVec3};
+use serde::{Deserialize, Serialize};
 use std::fmt::Debug;
 use std::ops::{Add, AddAssign, Mul, Neg, Sub, SubAssign};
 
@@ -387,6 +388,21 @@ pub fn smallest_stretch_squared<D: Dim>(f: D::T) -> f64 {
     let b = (c - D::identity() * q) * (1.0 / p);
     let phi = (0.5 * D::det(b)).clamp(-1.0, 1.0).acos() / 3.0;
     q + 2.0 * p * (phi + 2.0 * std::f64::consts::FRAC_PI_3).cos()
+}
+
+/// A coordinate axis, as case files name it (`x`, `y`, `z`).
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum Axis {
+    X,
+    Y,
+    Z,
+}
+
+impl Axis {
+    pub fn index(self) -> usize {
+        self as usize
+    }
 }
 
 #[cfg(test)]

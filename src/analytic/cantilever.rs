@@ -95,7 +95,7 @@ impl Uniaxial {
 }
 
 impl ClosedForm {
-    pub fn of(solution: &crate::scene::Solution, material: &crate::scene::MaterialSpec) -> Self {
+    pub fn of(solution: &crate::scene::Solution, material: &crate::material::MaterialSpec) -> Self {
         let (youngs_modulus, poisson_ratio) = material.youngs_and_poisson();
         match *solution {
             crate::scene::Solution::TimoshenkoCantilever {

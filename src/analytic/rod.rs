@@ -148,7 +148,7 @@ mod tests {
     use super::*;
     use crate::analytic::relative_l2;
     use crate::material::MaterialModel;
-    use crate::scene::{MaterialSpec, Plane};
+    use crate::material::{MaterialSpec, Plane};
 
     /// Seed 001 §9.2's rod: L = 60 mm, c = sqrt(E/ρ0) of steel, a Gaussian of α = 0.025
     /// mm⁻² at x0 (m).

@@ -1,6 +1,5 @@
 use super::*;
-use crate::material::MaterialModel;
-use crate::scene::MaterialSpec;
+use crate::material::{MaterialModel, MaterialSpec};
 use crate::tensor::{D2, D3};
 
 fn material() -> Material {
@@ -14,7 +13,7 @@ fn material() -> Material {
         c1: None,
         c2: None,
         lambda: None,
-        plane: crate::scene::Plane::Strain,
+        plane: crate::material::Plane::Strain,
     })
 }
 

@@ -14,7 +14,7 @@
 //! gains energy, as a ball struck by a bat does.
 
 use super::Interaction;
-use crate::methods::shared::neighbour_radius;
+use crate::kernel::neighbour_radius;
 use crate::neighbour::Csr;
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
@@ -212,7 +212,7 @@ pub(super) fn apart<D: Dim>(case: &Case, csr: &Csr, body: &[u32]) -> Result<(), 
                      the kernels would bond the bodies; move them apart by more than the support",
                     name(i),
                     name(j),
-                    neighbour_radius::<D>(case)
+                    neighbour_radius(&case.kernel(D::N))
                 ),
             ))
         }

@@ -26,13 +26,14 @@ pub mod ul_fem;
 pub mod ul_weak_form;
 pub mod weak_form;
 
-pub use shared::{BlowUp, Method, PseudoTime, Traffic, check_motion};
+pub use crate::engine::{BlowUp, Method};
 
+use crate::check::Problem;
 use crate::correction::CorrectionKind;
+use crate::engine::{Engine, EngineDim};
 use crate::integrate::IntegratorKind;
 use crate::kernel::KernelKind;
 use crate::neighbour::Rebuild;
-use crate::run::{Engine, EngineDim};
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use serde::de::{self, DeserializeSeed, MapAccess, Visitor};
@@ -40,9 +41,6 @@ use serde::{Deserialize, Deserializer, Serialize};
 use std::fmt;
 use std::sync::OnceLock;
 use toml::{Table, Value};
-
-/// A check that failed: the dotted key and what is wrong with it.
-pub type Problem = (String, String);
 
 /// Scene features a method may or may not run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -613,7 +611,7 @@ pub fn no_gpu_engine(case: &Case) -> CaseError {
 /// The check of a method that evaluates P = ∂ψ/∂F: the material must be a state model.
 pub fn state_model(case: &Case) -> Result<(), Problem> {
     if case.material.model.is_rate_based() {
-        return crate::scene::validate::fail(
+        return crate::check::fail(
             "material.model",
             format!(
                 "`{}` evaluates the stress from F: use a state model ({}), not {}",
@@ -621,7 +619,7 @@ pub fn state_model(case: &Case) -> Result<(), Problem> {
                 crate::material::MaterialModel::names_where(
                     |m| !m.is_rate_based() && m != crate::material::MaterialModel::VonMisesPlastic
                 ),
-                crate::scene::validate::toml_name(&case.material.model)
+                crate::check::toml_name(&case.material.model)
             ),
         );
     }

@@ -5,9 +5,9 @@
 //! particles from outside the method ([`Surroundings`]).
 
 use crate::boundary::Boundary;
+use crate::engine::{BlowUp, BoundaryWork};
 use crate::interaction::Interactions;
 use crate::material::Material;
-use crate::methods::shared::{BlowUp, BoundaryWork};
 use crate::tensor::Dim;
 use rayon::prelude::*;
 

@@ -143,7 +143,7 @@ impl<D: Dim> Shapes<D> {
         kernel: &Kernel,
         row: impl Fn(D::V, &[u32]) -> Option<Vec<T>> + Sync,
     ) -> Result<(Csr, Vec<T>), QuadratureError> {
-        let reach = crate::reference::neighbour_radius(kernel);
+        let reach = crate::kernel::neighbour_radius(kernel);
         let csr = neighbour::between::<D>(at, x, reach, Some((at_body, body)));
         let rows = csr.map_rows(|q| {
             let nodes = csr.neighbours(q);
@@ -507,7 +507,7 @@ fn smoothed_rows<D: Dim>(
     kernel: &Kernel,
     values: impl Fn(D::V, &[u32]) -> Option<Vec<f64>> + Sync,
 ) -> Result<Vec<SmoothedRow<D>>, QuadratureError> {
-    let reach = crate::reference::neighbour_radius(kernel);
+    let reach = crate::kernel::neighbour_radius(kernel);
     let candidates = neighbour::between::<D>(x, x, reach + cells.reach(), Some((body, body)));
     let volumes = cells.volumes::<D>();
     let rows: Vec<Result<SmoothedRow<D>, QuadratureError>> = (0..x.len())

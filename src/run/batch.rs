@@ -4,8 +4,8 @@
 
 use super::{Engine, RunError, checkpoint};
 use crate::boundary::Reaction;
+use crate::engine::BlowUp;
 use crate::hourglass::HourglassIndicator;
-use crate::methods::BlowUp;
 use crate::observe::{Clock, IndicatorFields, Invariants, Snapshot};
 use crate::pressure::{PressureFit, pressures};
 use crate::scene::Case;
@@ -188,7 +188,7 @@ impl<'a, D: Dim> Indicators<'a, D> {
         row_deviation: bool,
     ) -> Self {
         let hourglass = (frames_on || row_eta || case.run.hourglass_limit.is_some())
-            .then(|| HourglassIndicator::new::<D>(case, x0));
+            .then(|| HourglassIndicator::new::<D>(&case.kernel(D::N), x0));
         Self {
             case,
             hourglass,
@@ -211,7 +211,9 @@ impl<'a, D: Dim> Indicators<'a, D> {
                 .map(|h| h.of::<D>(snap.x0, &snap.u, &snap.f)),
             pressure_deviation: deviation_needed.then(|| {
                 self.pressure_fit
-                    .get_or_init(|| PressureFit::new::<D>(self.case, snap.x0, snap.body))
+                    .get_or_init(|| {
+                        PressureFit::new::<D>(&self.case.kernel(D::N), snap.x0, snap.body)
+                    })
                     .deviation(&pressures(&snap.sigma))
             }),
         }

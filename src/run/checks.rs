@@ -4,7 +4,7 @@
 
 use super::batch::{Batch, Callback};
 use super::{Engine, RunError};
-use crate::methods::BlowUp;
+use crate::engine::BlowUp;
 use crate::observe::Snapshot;
 use crate::scene::Case;
 use crate::tensor::Dim;

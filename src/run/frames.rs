@@ -2,8 +2,8 @@
 
 use super::batch::{Batch, Callback, Needs};
 use super::{RunError, RunOptions, checkpoint, output_error};
+use crate::engine::BlowUp;
 use crate::material::von_mises;
-use crate::methods::BlowUp;
 use crate::observe::{Clock, IndicatorFields, Snapshot};
 use crate::output::{Field, FieldData, Mesh, PvdIndex, write_vtu};
 use crate::pressure::pressures;

@@ -13,18 +13,19 @@ mod outputs;
 mod profile;
 mod progress;
 
+pub use crate::engine::{CpuEngine, Engine, EngineDim, Failed, Iteration, StepTraffic};
+pub use crate::reference::build_method;
 pub use budget::{Estimate, Limits};
 pub use drive::drive;
-pub use engine::{
-    CpuEngine, Engine, EngineDim, Failed, Iteration, StepTraffic, build_method, engine,
-};
+pub use engine::engine;
 pub use frames::{FrameConstants, write_frame};
 pub use progress::ProgressDisplay;
 
+use crate::check::toml_name;
+use crate::engine::BlowUp;
 use crate::material::Material;
-use crate::methods::{BlowUp, Feature, supporting};
+use crate::methods::{Feature, supporting};
 use crate::output::RunSummary;
-use crate::scene::validate::toml_name;
 use crate::scene::{Case, CaseError};
 use crate::tensor::{D2, D3};
 use std::path::PathBuf;

@@ -4,7 +4,7 @@
 
 use super::batch::{Batch, Callback, End};
 use super::{Engine, Iteration, RunError, output_error};
-use crate::methods::BlowUp;
+use crate::engine::BlowUp;
 use crate::output::SeriesWriter;
 use crate::scene::Case;
 use crate::tensor::Dim;

@@ -263,24 +263,6 @@ fn x_axis() -> Axis {
     Axis::X
 }
 
-/// A plane X_k = `at` across which the solution continues as its mirror image: for
-/// `symmetric`, u'(X') = R u(X) (normal displacement zero on the plane); for
-/// `skew-symmetric`, u'(X') = −R u(X) (tangential displacement zero), R the reflection.
-#[derive(Clone, Debug, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct MirrorSpec {
-    pub normal: Axis,
-    pub at: f64,
-    pub kind: MirrorKind,
-}
-
-#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
-#[serde(rename_all = "kebab-case")]
-pub enum MirrorKind {
-    Symmetric,
-    SkewSymmetric,
-}
-
 #[cfg(test)]
 mod tests {
     use super::TimeLaw;

@@ -14,7 +14,6 @@ mod expression;
 mod fields;
 mod geometry;
 mod load;
-mod material;
 pub mod mesh;
 mod output;
 mod overrides;
@@ -22,19 +21,19 @@ mod polygon;
 mod run;
 pub(crate) mod validate;
 
+pub use crate::material::{MaterialSpec, Plane};
+pub use crate::mirror::{MirrorKind, MirrorSpec};
+pub use crate::tensor::Axis;
 pub use body::{
     BodySpec, ContactSpec, Hole, Lattice, MeshNodes, RingLattice, Shape, VOLUME_TOLERANCE,
     VelocityNoise, Volumes,
 };
-pub use boundary::{
-    BoundarySpec, Condition, MirrorKind, MirrorSpec, Region, Solution, Surface, TimeLaw,
-};
+pub use boundary::{BoundarySpec, Condition, Region, Solution, Surface, TimeLaw};
 pub use expression::Expression;
 pub(crate) use fields::linear_field;
 pub use fields::{DisplacementField, VelocityField};
 pub use geometry::{BodySize, Discretised, PARTICLE_ID_LIMIT, discretise, estimate_particles};
 pub use load::CaseError;
-pub use material::{MaterialSpec, Plane};
 pub use output::{CheckSpec, Observer, OutputSpec, ProbeSpec, SectionSpec, Statistic};
 pub use run::{RunSpec, Solve};
 
@@ -83,20 +82,6 @@ pub struct Case {
     /// The `--set` overrides applied to the file, in order.
     #[serde(skip)]
     pub overrides: Vec<String>,
-}
-
-#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
-#[serde(rename_all = "lowercase")]
-pub enum Axis {
-    X,
-    Y,
-    Z,
-}
-
-impl Axis {
-    pub fn index(self) -> usize {
-        self as usize
-    }
 }
 
 impl Case {

@@ -25,17 +25,17 @@
 
 use super::sparse::{BlockPattern, Linear};
 use super::{Linearisation, Model, Newton, Setup, Statics};
-use crate::methods::{BlowUp, Method};
+use crate::engine::{BlowUp, CpuEngine, Engine, EngineDim, Method};
+use crate::kernel::neighbour_radius;
 use crate::neighbour;
 use crate::observe::Snapshot;
-use crate::reference::{Reference, neighbour_radius};
-use crate::run::{CpuEngine, Engine, EngineDim};
+use crate::reference::{Build, Reference, build_method};
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 
 /// A method whose force depends on the displacement alone (a state model), so that a
 /// displacement field is a whole state of it.
-pub trait AtRest<D: Dim>: Method<D> {
+pub trait AtRest<D: Dim>: Method<D> + Build<D> {
     /// The state with displacement u and velocity zero.
     fn at_rest(&self, u: &[D::V]) -> Self::State;
     /// The method's stiffness in closed form for this case, where it has one; the static
@@ -72,7 +72,10 @@ pub fn cpu_engine<D: EngineDim, M: AtRest<D> + 'static>(
     Ok(if case.is_static() {
         Box::new(Statics::<D, Explicit<D, M>>::new(case)?)
     } else {
-        Box::new(CpuEngine::<D, M>::new(case)?)
+        Box::new(CpuEngine::with(
+            build_method::<D, M>(case)?,
+            case.method.integrator,
+        ))
     })
 }
 

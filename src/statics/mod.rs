@@ -12,9 +12,8 @@ pub mod sparse;
 
 use crate::balance::Booked;
 use crate::boundary::{Boundary, Reaction};
-use crate::methods::BlowUp;
+use crate::engine::{BlowUp, Engine, Failed, Iteration};
 use crate::observe::Snapshot;
-use crate::run::{Engine, Failed, Iteration};
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};
@@ -601,8 +600,8 @@ impl<D: Dim, S: Model<D>> Engine<D> for Statics<D, S> {
     /// The converged state: its pseudo-time, load-step count, work, u and the reactions.
     fn save(&mut self) -> Vec<f64> {
         let mut out = vec![self.t, self.load_step as f64, self.work];
-        crate::methods::shared::save_field(&self.u, &mut out);
-        crate::methods::shared::save_field(&self.reaction, &mut out);
+        crate::parallel::save_field(&self.u, &mut out);
+        crate::parallel::save_field(&self.reaction, &mut out);
         out
     }
 
@@ -610,8 +609,8 @@ impl<D: Dim, S: Model<D>> Engine<D> for Statics<D, S> {
         let (&[t, load_step, work], mut rest) = words
             .split_first_chunk()
             .ok_or("the checkpoint holds no static state")?;
-        crate::methods::shared::load_field(&mut self.u, "u", &mut rest)?;
-        crate::methods::shared::load_field(&mut self.reaction, "reaction", &mut rest)?;
+        crate::parallel::load_field(&mut self.u, "u", &mut rest)?;
+        crate::parallel::load_field(&mut self.reaction, "reaction", &mut rest)?;
         if !rest.is_empty() {
             return Err(format!(
                 "{} words are left over after the static state",

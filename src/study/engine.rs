@@ -4,13 +4,10 @@
 
 use super::fields::FinalState;
 use crate::balance::{Balance, Booked};
-use crate::methods::BlowUp;
+use crate::engine::{BlowUp, Engine, EngineDim, Failed};
 use crate::observe::{Invariants, Snapshot};
 use crate::output::RunSummary;
-use crate::run::{
-    Backend, Engine, EngineDim, Failed, RunError, RunOptions, budget, drive, engine, may_use_gpu,
-    with_threads,
-};
+use crate::run::{Backend, RunError, RunOptions, budget, drive, engine, may_use_gpu, with_threads};
 use crate::scene::Case;
 use crate::tensor::{D2, D3, Dim};
 use std::marker::PhantomData;
@@ -108,7 +105,7 @@ impl<D: Dim, E: Engine<D>> Engine<D> for Tracked<'_, D, E> {
     fn booked(&mut self) -> Booked {
         self.inner.booked()
     }
-    fn pseudo_time(&mut self) -> Option<crate::methods::PseudoTime> {
+    fn pseudo_time(&mut self) -> Option<crate::integrate::PseudoTime> {
         self.inner.pseudo_time()
     }
     fn check(&mut self) -> Result<(), BlowUp> {
@@ -146,7 +143,7 @@ impl<D: Dim, E: Engine<D>> Engine<D> for Tracked<'_, D, E> {
     fn restore(&mut self, words: &[f64]) -> Result<(), String> {
         self.inner.restore(words)
     }
-    fn iterations(&mut self) -> Vec<crate::run::Iteration> {
+    fn iterations(&mut self) -> Vec<crate::engine::Iteration> {
         self.inner.iterations()
     }
 }

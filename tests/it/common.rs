@@ -447,7 +447,8 @@ pub fn hourglass_after<S: Method<meshless::tensor::D2>>(
     fields: impl Fn(&S, &S::State) -> (Vec<glam::DVec2>, Vec<glam::DMat2>),
 ) -> Vec<f64> {
     let x0 = m.reference().to_vec();
-    let indicator = meshless::hourglass::HourglassIndicator::new::<meshless::tensor::D2>(case, &x0);
+    let indicator =
+        meshless::hourglass::HourglassIndicator::new::<meshless::tensor::D2>(&case.kernel(2), &x0);
     let mut integrator = meshless::integrate::Integrator::new(case.method.integrator, &y);
     let dt = case.method.dt.unwrap();
     let mut done = 0;

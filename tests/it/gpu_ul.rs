@@ -15,6 +15,7 @@ use meshless::methods::ul::gpu::{GpuUl, Scheme};
 use meshless::methods::ul::{PairScheme, UlSph, UlState};
 use meshless::methods::{Method, MethodSpec};
 use meshless::neighbour::SKIN;
+use meshless::reference::Build;
 use meshless::run::{CpuEngine, Engine, build_method};
 use meshless::scene::Case;
 use meshless::tensor::{D2, D3, Dim};
@@ -119,7 +120,7 @@ fn godunov_rates_match_the_cpu_in_2d_and_3d() {
 
 /// Runs `steps` steps of the shipped disk of `name` on both backends and compares the
 /// final states; then the device's lists of that state against brute force.
-fn compare_runs<M: Method<D2, State = UlState<D2>>>(
+fn compare_runs<M: Method<D2, State = UlState<D2>> + Build<D2>>(
     name: &str,
     dt: f64,
     steps: u32,

@@ -10,10 +10,11 @@ use meshless::integrate::OdeSystem;
 use meshless::material::Material;
 use meshless::methods::Method;
 use meshless::methods::potential::Potential;
-use meshless::methods::tlsph::{ArtificialViscosity, TlState};
+use meshless::methods::tlsph::TlState;
 use meshless::run::{CpuEngine, Engine, build_method};
 use meshless::scene::Case;
 use meshless::tensor::{D2, D3, Dim};
+use meshless::viscosity::ArtificialViscosity;
 use std::path::Path;
 
 const AV: &str = "artificial_viscosity = { alpha = 1.0, beta = 1.0, eta = 0.1 }";

@@ -15,6 +15,7 @@ use meshless::methods::ul_fem::Elements;
 use meshless::methods::ul_weak_form::ellipse::Ellipse;
 use meshless::methods::ul_weak_form::points::{CANDIDATE_BOX, StressPoints, box_candidates};
 use meshless::quadrature::Shapes;
+use meshless::reference::Build;
 use meshless::run::{CpuEngine, Engine, build_method};
 use meshless::tensor::{D2, Dim};
 
@@ -283,7 +284,12 @@ fn the_ul_fem_patch_test() {
 }
 
 /// The nodal displacements of `case` on method M after `steps` steps of Δt.
-fn displacement<M: Method<D2>>(case: &str, set: &[&str], dt: f64, steps: u32) -> Vec<DVec2> {
+fn displacement<M: Method<D2> + Build<D2>>(
+    case: &str,
+    set: &[&str],
+    dt: f64,
+    steps: u32,
+) -> Vec<DVec2> {
     let mut engine = CpuEngine::<D2, M>::new(&load(case, set)).unwrap();
     engine.advance(0.0, dt, steps).unwrap();
     engine.method.displacement(&engine.y).to_vec()
@@ -332,7 +338,7 @@ fn ul_fem_closes_the_energy_balance_at_driven_boundaries() {
 }
 
 /// H(t)/H(0) − 1 of `case` on method M after `steps` steps of Δt.
-fn angular_drift<M: Method<D2>>(case: &str, set: &[&str], dt: f64, steps: u32) -> f64 {
+fn angular_drift<M: Method<D2> + Build<D2>>(case: &str, set: &[&str], dt: f64, steps: u32) -> f64 {
     let mut engine = CpuEngine::<D2, M>::new(&load(case, set)).unwrap();
     let h0 = engine.invariants().angular[2];
     engine.advance(0.0, dt, steps).unwrap();

@@ -8,13 +8,14 @@ pub mod system;
 
 pub use system::{Corotated, CorotatedScheme, outputs, rotation};
 
-use super::{Feature, MethodFamily, Plan, Problem, state_model};
+use super::{Feature, MethodFamily, Plan, state_model};
+
+use crate::check::{Problem, toml_name};
+use crate::engine::{CpuEngine, Engine, EngineDim};
 use crate::material::Material;
-use crate::methods::tlsph::ArtificialViscosity;
-use crate::run::{CpuEngine, Engine, EngineDim};
-use crate::scene::validate::toml_name;
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
+use crate::viscosity::ArtificialViscosity;
 use serde::{Deserialize, Serialize};
 
 /// The pair force of corotated TLSPH.

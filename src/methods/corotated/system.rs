@@ -11,19 +11,19 @@
 //! it). The state is u = x − X and v.
 
 use super::{CorotatedForce, CorotatedSpec};
+use crate::engine::{BlowUp, Sizes, Traffic};
 use crate::material::Material;
-use crate::methods::shared::{
-    ArtificialViscosity, BlowUp, MIN_CHUNK, Sizes, Traffic, ordered_reduce,
-};
 use crate::methods::tl::{
     Fields, ReferencePairs, TlCore, TlScheme, TlSph, TlState, ViscousPairs, viscous_pair_pass,
 };
 use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::Csr;
 use crate::observe::Snapshot;
+use crate::parallel::{MIN_CHUNK, ordered_reduce};
 use crate::reference::Reference;
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
+use crate::viscosity::ArtificialViscosity;
 use rayon::prelude::*;
 
 /// Most iterations of the 3D polar decomposition; scaled Newton converges in under ten

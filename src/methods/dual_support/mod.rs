@@ -21,12 +21,13 @@ pub use model::{DualSupport, Energies};
 pub use statics::{Statics, pattern};
 pub use support::Support;
 
-use super::{Feature, MethodFamily, Plan, Problem};
+use super::{Feature, MethodFamily, Plan};
+
+use crate::check::{Problem, fail, non_negative, toml_name};
+use crate::engine::{CpuEngine, Engine, EngineDim};
 use crate::material::Material;
 use crate::neighbour;
 use crate::reference::Reference;
-use crate::run::{CpuEngine, Engine, EngineDim};
-use crate::scene::validate::{fail, non_negative, toml_name};
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};

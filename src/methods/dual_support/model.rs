@@ -4,10 +4,10 @@
 //! tangent ∂²E/∂u² assembled in two steps (eqs 39–41 and the corrected eq 29).
 
 use super::support::Support;
+use crate::engine::BlowUp;
 use crate::material::{Material, Tangent};
-use crate::methods::BlowUp;
-use crate::methods::shared::ordered_reduce;
 use crate::observe::{ScalarField, Snapshot};
+use crate::parallel::ordered_reduce;
 use crate::statics::sparse::BlockPattern;
 use crate::tensor::Dim;
 use rayon::prelude::*;

@@ -5,7 +5,7 @@
 use super::DualSupportSpec;
 use super::model::DualSupport;
 use super::support::Support;
-use crate::methods::BlowUp;
+use crate::engine::BlowUp;
 use crate::observe::Snapshot;
 use crate::reference::Reference;
 use crate::scene::{Case, CaseError};

@@ -4,11 +4,12 @@
 //! ([`crate::methods::galerkin`]). Numerics notes: `docs/methods/galerkin.md`.
 
 use super::galerkin::{Mass, TlGalerkin};
-use super::{Feature, MethodFamily, Plan, Problem};
+use super::{Feature, MethodFamily, Plan};
+use crate::check::Problem;
+use crate::engine::{Engine, EngineDim};
 use crate::material::{Material, MaterialModel};
 use crate::quadrature::{QuadraturePoints, Rule, Shapes};
 use crate::reference::Reference;
-use crate::run::{Engine, EngineDim};
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};

@@ -3,6 +3,7 @@
 
 use super::*;
 use crate::methods::particles::{particle_accessors, signal_speed};
+use crate::reference::Build;
 
 impl<D: Dim> OdeSystem for TlGalerkin<D> {
     type State = GalerkinState<D>;
@@ -171,7 +172,7 @@ impl<D: Dim> ClosedForm<D> for TlGalerkin<D> {
     }
 }
 
-impl<D: Dim> Method<D> for TlGalerkin<D> {
+impl<D: Dim> Build<D> for TlGalerkin<D> {
     /// Built through the method's spec, which chooses the points and shape functions.
     fn build(case: &Case, reference: Reference<D>) -> Result<Self, CaseError> {
         match &case.method.spec {
@@ -182,7 +183,9 @@ impl<D: Dim> Method<D> for TlGalerkin<D> {
             _ => Err(not_run_by(case, "TlGalerkin")),
         }
     }
+}
 
+impl<D: Dim> Method<D> for TlGalerkin<D> {
     fn initial_state(&self) -> GalerkinState<D> {
         let q = self.points.len();
         let rate = self.material.model.is_rate_based();

@@ -9,6 +9,7 @@
 use super::{GalerkinState, TlGalerkin};
 use crate::balance::Booked;
 use crate::boundary::Reaction;
+use crate::engine::{BlowUp, Engine, Failed, Method};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::profile::{NONE, PassBytes, Scale, read, read_write, write};
@@ -24,11 +25,9 @@ use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run
 use crate::integrate::Buf;
 use crate::interaction::gpu::GpuInteractions;
 use crate::material::Material;
-use crate::methods::{BlowUp, Method};
 use crate::observe::{Invariants, Snapshot};
 use crate::plasticity::History;
 use crate::quadrature::Shapes;
-use crate::run::{Engine, Failed};
 use crate::scene::Case;
 
 /// The points and nodes passes of one rate evaluation.
@@ -365,7 +364,7 @@ pub struct GpuGalerkin<D: GpuDim> {
 impl<D: GpuDim> GpuGalerkin<D> {
     /// Builds the host system of the case and uploads it with the initial state.
     pub fn new(case: &Case, gpu: Gpu) -> Result<Self, SetupError> {
-        let host: TlGalerkin<D> = crate::run::build_method(case)?;
+        let host: TlGalerkin<D> = crate::reference::build_method(case)?;
         check_f32_run(case, host.boundary())?;
         let y0_host = host.initial_state();
         check_f32_particles::<D>(case, host.reference(), &y0_host.u, &y0_host.v, host.body())?;

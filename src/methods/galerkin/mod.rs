@@ -26,24 +26,22 @@ pub mod gpu;
 mod contracts;
 
 use crate::boundary::{Boundary, NodalForces, OnPatches, SurfacePoint};
+use crate::engine::{
+    BlowUp, BoundaryWork, Engine, EngineDim, Method, Sizes, Traffic, check_motion,
+};
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
-use crate::material::Material;
+use crate::material::{Material, stress_fields};
 use crate::methods::particles::{Surroundings, check_stresses};
-use crate::methods::shared::{
-    BlowUp, BoundaryWork, MIN_CHUNK, Method, Sizes, Traffic, check_motion, load_word,
-    ordered_reduce, particle_state,
-};
-use crate::methods::tlsph::system::stress_fields;
 use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::Csr;
 use crate::observe::{Quadrature, ScalarField, Snapshot};
+use crate::parallel::{MIN_CHUNK, load_word, ordered_reduce, particle_state};
 use crate::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
 use crate::quadrature::{
     Cells, Family, Gather, QuadratureError, QuadraturePoints, Shapes, SmoothingCells,
 };
 use crate::reference::Reference;
-use crate::run::{Engine, EngineDim};
 use crate::scene::{Case, CaseError, Shape};
 use crate::statics::explicit::{AtRest, ClosedForm};
 use crate::statics::sparse::BlockPattern;

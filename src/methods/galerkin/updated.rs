@@ -17,20 +17,17 @@ use super::{
     to_nodes,
 };
 use crate::boundary::OnPatches;
+use crate::engine::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
-use crate::material::Material;
+use crate::material::{Material, stress_fields};
 use crate::methods::particles::{Surroundings, particle_accessors, signal_speed};
-use crate::methods::shared::{
-    BlowUp, BoundaryWork, MIN_CHUNK, Method, Sizes, Traffic, check_motion, load_word,
-    particle_state,
-};
-use crate::methods::tlsph::system::stress_fields;
 use crate::neighbour::Csr;
 use crate::observe::{ScalarField, Snapshot};
+use crate::parallel::{MIN_CHUNK, load_word, particle_state};
 use crate::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
 use crate::quadrature::{Gather, ShapeRow, Shapes};
-use crate::reference::Reference;
+use crate::reference::{Build, Reference};
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use rayon::prelude::*;
@@ -523,12 +520,14 @@ impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
     }
 }
 
-impl<D: Dim, P: MovingPoints<D>> Method<D> for UlGalerkin<D, P> {
+impl<D: Dim, P: MovingPoints<D>> Build<D> for UlGalerkin<D, P> {
     fn build(case: &Case, reference: Reference<D>) -> Result<Self, CaseError> {
         let points = P::build(case, &reference)?;
         Self::new(case, reference, points)
     }
+}
 
+impl<D: Dim, P: MovingPoints<D>> Method<D> for UlGalerkin<D, P> {
     fn initial_state(&self) -> UlGalerkinState<D> {
         initial::<D, P>(&self.material, &self.v0, self.shapes.len())
     }

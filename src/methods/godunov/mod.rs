@@ -8,10 +8,12 @@ pub mod system;
 
 pub use system::Godunov;
 
-use super::{Feature, MethodFamily, Plan, Problem};
+use super::{Feature, MethodFamily, Plan};
+
+use crate::check::Problem;
+use crate::engine::{CpuEngine, Engine, EngineDim};
 use crate::material::Material;
 use crate::neighbour::Rebuild;
-use crate::run::{CpuEngine, Engine, EngineDim};
 use crate::scene::Case;
 use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};

@@ -9,15 +9,16 @@ pub mod system;
 
 pub use system::GrayMonaghan;
 
-use super::tlsph::ArtificialViscosity;
-use super::{Feature, MethodFamily, Plan, Problem};
+use super::{Feature, MethodFamily, Plan};
+
+use crate::check::{Problem, fail, non_negative};
+use crate::engine::{CpuEngine, Engine, EngineDim};
 use crate::integrate::IntegratorKind;
 use crate::material::Material;
 use crate::neighbour::Rebuild;
-use crate::run::{CpuEngine, Engine, EngineDim};
 use crate::scene::Case;
-use crate::scene::validate::{fail, non_negative};
 use crate::tensor::Dim;
+use crate::viscosity::ArtificialViscosity;
 use serde::{Deserialize, Serialize};
 
 /// The artificial stress of Gray, Monaghan and Swift (eqs 118–125): R_i from the tensile
@@ -54,10 +55,8 @@ impl MethodFamily for GrayMonaghanSpec {
 
     fn validate(&self, case: &Case) -> Result<(), Problem> {
         super::ul::validate(case)?;
-        if let Some(ArtificialViscosity { alpha, beta, eta }) = self.artificial_viscosity {
-            non_negative("method.artificial_viscosity.alpha", alpha)?;
-            non_negative("method.artificial_viscosity.beta", beta)?;
-            non_negative("method.artificial_viscosity.eta", eta)?;
+        if let Some(av) = &self.artificial_viscosity {
+            av.validate()?;
         }
         if let Some(ArtificialStress { epsilon, n }) = self.artificial_stress {
             non_negative("method.artificial_stress.epsilon", epsilon)?;

@@ -9,13 +9,13 @@
 
 use super::{ArtificialStress, GrayMonaghanSpec};
 use crate::correction::CorrectionKind;
-use crate::methods::tlsph::ArtificialViscosity;
 use crate::methods::ul::{Correction, PairRates, PairScheme, UlCore, UlSph, UlState};
 use crate::methods::{MethodFamily, MethodSpec, not_run_by};
 use crate::neighbour::Rebuild;
 use crate::plasticity::{symmetric_eigen, to_mat3};
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
+use crate::viscosity::ArtificialViscosity;
 
 /// f^n, by repeated squaring for the integer exponents of every seed set-up (n = 4): the
 /// products of `f64::powi`, here inline in the pair loop, where `powi` with an exponent

@@ -9,14 +9,14 @@
 //! velocities; the particles are points at their own positions.
 
 use super::KbmSpec;
-use crate::kernel::Kernel;
+use crate::engine::BlowUp;
+use crate::kernel::{Kernel, neighbour_radius};
 use crate::methods::galerkin::Mass;
 use crate::methods::galerkin::updated::{Degenerate, MovingPoints, Nodes, UlGalerkinState};
-use crate::methods::shared::BlowUp;
 use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::{self, Csr, SKIN};
 use crate::quadrature::{QuadraturePoints, ShapeRow, Shapes, krongauz_belytschko_shapes};
-use crate::reference::{Reference, neighbour_radius};
+use crate::reference::Reference;
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 

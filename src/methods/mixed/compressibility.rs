@@ -24,13 +24,13 @@
 
 use super::Momentum;
 use super::system::pair_force;
+use crate::check::{Problem, fail, positive, toml_name};
+use crate::integrate::PseudoTime;
 use crate::material::{Material, MaterialModel};
-use crate::methods::Problem;
-use crate::methods::shared::{MIN_CHUNK, PseudoTime};
 use crate::mirror::Ghosts;
 use crate::neighbour::Csr;
+use crate::parallel::MIN_CHUNK;
 use crate::scene::Case;
-use crate::scene::validate::{fail, positive, toml_name};
 use crate::tensor::Dim;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -221,7 +221,7 @@ pub(super) struct StageBuffers<D: Dim> {
     pub h: Vec<D::T>,
     pub held: Vec<u8>,
     /// The predictor's loads and supports on a^int (its reactions' list kept).
-    pub work: crate::methods::shared::BoundaryWork,
+    pub work: crate::engine::BoundaryWork,
 }
 
 impl<D: Dim> Default for StageBuffers<D> {

@@ -15,7 +15,7 @@ use super::gpu::{IMAGES, MIXED, MOTION};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::profile::{IndirectRuns, NONE, PassBytes, Traffic, read, read_write, write};
 use crate::gpu::shaders::{REFERENCE, Source, source};
-use crate::methods::shared::PseudoTime;
+use crate::integrate::PseudoTime;
 use crate::tensor::Dim;
 use bytemuck::{Pod, Zeroable};
 

@@ -19,10 +19,11 @@ pub use compressibility::ArtificialCompressibility;
 pub use gpu::GpuMixed;
 pub use system::{Fluxes, MixedSph, MixedState};
 
-use super::{Feature, MethodFamily, MethodSpec, Plan, Problem};
+use super::{Feature, MethodFamily, MethodSpec, Plan};
+
+use crate::check::{Problem, fail, non_negative, toml_name};
+use crate::engine::{CpuEngine, Engine, EngineDim};
 use crate::material::{Material, MaterialModel};
-use crate::run::{CpuEngine, Engine, EngineDim};
-use crate::scene::validate::{fail, non_negative, toml_name};
 use crate::scene::{Case, CaseError};
 use crate::tensor::{Dim, smallest_stretch_squared};
 use serde::{Deserialize, Serialize};

@@ -1,6 +1,6 @@
 //! The angular-momentum-preserving projection of seed 003 Appendix B.
 
-use crate::methods::shared::MIN_CHUNK;
+use crate::parallel::MIN_CHUNK;
 use crate::tensor::Dim;
 use rayon::prelude::*;
 
@@ -21,7 +21,7 @@ impl<D: Dim> Default for Sums<D> {
 }
 
 /// The sum of map(0..n) in fixed chunks of [`MIN_CHUNK`], folded in order (the chunks
-/// and order of `shared::ordered_reduce`, so the same bits), the chunks' sums kept in
+/// and order of `parallel::ordered_reduce`, so the same bits), the chunks' sums kept in
 /// `chunks`.
 fn reduce_in<T: Copy + Send>(
     chunks: &mut Vec<T>,

@@ -17,19 +17,19 @@ use super::weights::{brookshaw_weights, correct_laplacian, least_squares_weights
 use super::{CflWaveSpeed, Conserved, DeformationGradient, JstLaplacian, Momentum, Stabiliser};
 use crate::boundary::OnPatches;
 use crate::correction;
-use crate::integrate::{IntegratorKind, OdeSystem};
+use crate::engine::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
+use crate::integrate::{IntegratorKind, OdeSystem, PseudoTime};
 use crate::interaction::Interactions;
 use crate::kernel::Kernel;
+
 use crate::material::Material;
 use crate::methods::not_run_by;
 use crate::methods::particles::Surroundings;
-use crate::methods::shared::{
-    BlowUp, BoundaryWork, MIN_CHUNK, Method, PseudoTime, Sizes, Traffic, check_motion,
-    neighbour_radius, ordered_reduce, particle_state, reference_gradients,
-};
+use crate::methods::shared::{neighbour_radius, reference_gradients};
 use crate::mirror::{Ghosts, Image};
 use crate::neighbour::{self, Csr};
 use crate::observe::{ScalarField, Snapshot};
+use crate::parallel::{MIN_CHUNK, ordered_reduce, particle_state};
 use crate::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
 use crate::reference::Reference;
 use crate::scene::{Case, CaseError};
@@ -249,7 +249,8 @@ impl<D: Dim> MixedSph<D> {
         let m = &case.method;
         let n = x_real.len();
         let radius = neighbour_radius::<D>(case);
-        let ghosts = Ghosts::build(case, &x_real, &vol_real, radius)?;
+        let ghosts = Ghosts::build(&case.mirrors, case.spacing, &x_real, &vol_real, radius)
+            .map_err(|(key, message)| case.invalid(key, message))?;
         let (x0, vol) = ghosts.extend_reference(&x_real, &vol_real);
         // Real and ghost particles together: the ghosts close the real rows' lists.
         let mut csr = neighbour::build::<D>(&x0, radius);

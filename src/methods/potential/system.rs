@@ -9,18 +9,19 @@
 //! stress is integrated.
 
 use super::PotentialForce;
-use crate::methods::shared::{
-    ArtificialViscosity, BlowUp, MIN_CHUNK, Sizes, Traffic, stress_fields,
-};
+use crate::engine::{BlowUp, Sizes, Traffic};
+use crate::material::stress_fields;
 use crate::methods::tl::{
     ReferencePairs, TlCore, TlScheme, TlSph, TlState, ViscousPairs, snapshot, viscous_pair_pass,
 };
 use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::Csr;
 use crate::observe::Snapshot;
+use crate::parallel::MIN_CHUNK;
 use crate::reference::Reference;
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
+use crate::viscosity::ArtificialViscosity;
 use rayon::prelude::*;
 
 /// Per-particle quantities of one rate evaluation.

@@ -11,19 +11,20 @@
 //! is [`TlState`]: u = x − X, v and, for the rate-based (hypoelastic) model, ρ and S.
 
 use crate::boundary::OnPatches;
+use crate::engine::{BlowUp, BoundaryWork, Method, Traffic, check_motion};
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
-use crate::material::Material;
+use crate::material::{Material, stress_fields};
 use crate::methods::particles::{Surroundings, check_stresses, max_speed, particle_accessors};
-use crate::methods::shared::{
-    ArtificialViscosity, BlowUp, BoundaryWork, MIN_CHUNK, Method, Traffic, check_motion,
-    particle_state, reference_gradients, reverse_gradients, stress_fields,
-};
+
+use crate::methods::shared::{reference_gradients, reverse_gradients};
 use crate::neighbour::Csr;
 use crate::observe::Snapshot;
-use crate::reference::Reference;
+use crate::parallel::{MIN_CHUNK, particle_state};
+use crate::reference::{Build, Reference};
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
+use crate::viscosity::ArtificialViscosity;
 use rayon::prelude::*;
 use std::ops::Deref;
 
@@ -386,11 +387,13 @@ impl<D: Dim, S: TlScheme<D>> OdeSystem for TlSph<D, S> {
     }
 }
 
-impl<D: Dim, S: TlScheme<D>> Method<D> for TlSph<D, S> {
+impl<D: Dim, S: TlScheme<D>> Build<D> for TlSph<D, S> {
     fn build(case: &Case, reference: Reference<D>) -> Result<Self, CaseError> {
         Self::new(case, reference)
     }
+}
 
+impl<D: Dim, S: TlScheme<D>> Method<D> for TlSph<D, S> {
     fn initial_state(&self) -> TlState<D> {
         let core = &self.core;
         let n = core.x0.len();

@@ -5,18 +5,19 @@
 pub mod gpu;
 pub mod system;
 
-pub use crate::methods::shared::ArtificialViscosity;
 pub use crate::methods::tl::TlState;
 #[cfg(feature = "gpu")]
 pub use gpu::GpuTlsph;
 pub use system::{Tlsph, TlsphScheme};
 
-use super::{Feature, MethodFamily, Plan, Problem};
+use super::{Feature, MethodFamily, Plan};
+
+use crate::check::{Problem, positive};
+use crate::engine::{Engine, EngineDim};
 use crate::material::Material;
-use crate::run::{Engine, EngineDim};
 use crate::scene::Case;
-use crate::scene::validate::positive;
 use crate::tensor::Dim;
+use crate::viscosity::ArtificialViscosity;
 use serde::{Deserialize, Serialize};
 
 /// The direction along which TLSPH's artificial viscosity acts on a pair.

@@ -6,15 +6,15 @@
 //! deviatoric stress S.
 
 use super::{ArtificialViscosity, TlsphForce, ViscosityGradient};
-use crate::methods::shared::Method;
-pub use crate::methods::shared::stress_fields;
-use crate::methods::shared::{BlowUp, MIN_CHUNK, Sizes, Traffic};
+use crate::engine::{BlowUp, Method, Sizes, Traffic};
+use crate::material::stress_fields;
 use crate::methods::tl::{
     ReferencePairs, TlCore, TlScheme, TlSph, TlState, inadmissible, snapshot,
 };
 use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::Csr;
 use crate::observe::Snapshot;
+use crate::parallel::MIN_CHUNK;
 use crate::reference::Reference;
 use crate::scene::{Case, CaseError};
 use crate::statics::explicit::AtRest;

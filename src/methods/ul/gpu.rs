@@ -14,6 +14,7 @@ use super::{UlState, check_state, snapshot};
 use crate::balance::Booked;
 use crate::boundary::{OnPatches, Reaction};
 use crate::correction::CorrectionKind;
+use crate::engine::{BlowUp, Engine, Failed};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::neighbour::{CellList, CellParams, Positions};
@@ -30,11 +31,9 @@ use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run
 use crate::integrate::Buf;
 use crate::interaction::Interactions;
 use crate::interaction::gpu::GpuInteractions;
-use crate::methods::BlowUp;
 use crate::neighbour::{Csr, SKIN, bounding_box};
 use crate::observe::{Invariants, Snapshot};
 use crate::reference::Reference;
-use crate::run::{Engine, Failed};
 use crate::scene::Case;
 
 /// The core's bindings, positions pass, correction and closing of the rates, which each

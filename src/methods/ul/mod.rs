@@ -15,23 +15,20 @@
 pub mod gpu;
 
 use crate::boundary::OnPatches;
+use crate::check::{Problem, fail, toml_name};
 use crate::correction::CorrectionKind;
+use crate::engine::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::kernel::Kernel;
-use crate::material::Material;
-use crate::methods::Problem;
+use crate::material::{Material, stress_fields};
 use crate::methods::particles::{
     Surroundings, check_stresses, check_tensors, particle_accessors, signal_speed,
 };
-use crate::methods::shared::{
-    BlowUp, BoundaryWork, MIN_CHUNK, Method, Sizes, Traffic, check_motion, particle_state,
-};
-use crate::methods::tlsph::system::stress_fields;
 use crate::neighbour::{Csr, Neighbours, Rebuild};
 use crate::observe::{ScalarField, Snapshot};
-use crate::reference::Reference;
-use crate::scene::validate::{fail, toml_name};
+use crate::parallel::{MIN_CHUNK, particle_state};
+use crate::reference::{Build, Reference};
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use rayon::prelude::*;
@@ -357,7 +354,7 @@ impl<D: Dim, S: PairScheme<D>> OdeSystem for UlSph<D, S> {
     }
 }
 
-impl<D: Dim, S: PairScheme<D>> Method<D> for UlSph<D, S> {
+impl<D: Dim, S: PairScheme<D>> Build<D> for UlSph<D, S> {
     fn build(case: &Case, reference: Reference<D>) -> Result<Self, CaseError> {
         let core = UlCore::new(case, reference, S::REBUILD)?;
         let scheme = S::new(case, &core)?;
@@ -368,7 +365,9 @@ impl<D: Dim, S: PairScheme<D>> Method<D> for UlSph<D, S> {
             dissipation: Vec::new(),
         })
     }
+}
 
+impl<D: Dim, S: PairScheme<D>> Method<D> for UlSph<D, S> {
     fn initial_state(&self) -> UlState<D> {
         let n = self.core.x0.len();
         UlState {

@@ -13,11 +13,11 @@ pub mod points;
 
 use super::galerkin::updated::UlGalerkin;
 use super::ul_fem::ul_galerkin_state;
-use super::{Feature, MethodFamily, Plan, Problem};
+use super::{Feature, MethodFamily, Plan};
+use crate::check::{Problem, fail, toml_name};
+use crate::engine::{CpuEngine, Engine, EngineDim};
 use crate::material::Material;
 use crate::neighbour::Rebuild;
-use crate::run::{CpuEngine, Engine, EngineDim};
-use crate::scene::validate::{fail, toml_name};
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use points::StressPoints;

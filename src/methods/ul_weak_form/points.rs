@@ -4,12 +4,13 @@
 
 use super::ellipse::Ellipse;
 use crate::correction;
+use crate::engine::BlowUp;
 use crate::kernel::{Kernel, KernelKind};
 use crate::methods::galerkin::Mass;
 use crate::methods::galerkin::updated::{Degenerate, MovingPoints, Nodes, UlGalerkinState};
-use crate::methods::shared::{BlowUp, MIN_CHUNK};
 use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::{self, Csr};
+use crate::parallel::MIN_CHUNK;
 use crate::quadrature::{QuadraturePoints, Rule, ShapeRow, Shapes};
 use crate::reference::Reference;
 use crate::scene::{Case, CaseError};

@@ -8,11 +8,12 @@
 
 use super::fem::galerkin_state;
 use super::galerkin::{Mass, TlGalerkin, particle_mass, smoothing_shapes};
-use super::{Feature, MethodFamily, Plan, Problem};
+use super::{Feature, MethodFamily, Plan};
+use crate::check::Problem;
+use crate::engine::{Engine, EngineDim};
 use crate::material::Material;
 use crate::quadrature::{QuadraturePoints, Rule, Shapes};
 use crate::reference::Reference;
-use crate::run::{Engine, EngineDim};
 use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};

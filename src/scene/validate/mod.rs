@@ -22,12 +22,10 @@ mod run;
 mod tests;
 
 use super::Case;
+use crate::check::{Checked, fail, non_negative, positive, toml_name};
 use crate::material::MaterialModel;
-use crate::methods::{Feature, Problem, quoted, supporting};
-use serde::Serialize;
+use crate::methods::{Feature, quoted, supporting};
 use std::collections::HashSet;
-
-type Checked = Result<(), Problem>;
 
 /// Semantic checks after parsing. Err((key, message)): the dotted key path, e.g. `material.poisson_ratio` or `body.1.geometry.radius` or `boundary.0.condition.vx`, and a message that says what is wrong and what is allowed, quoting the offending value.
 pub(super) fn check(case: &Case) -> Result<(), (String, String)> {
@@ -66,41 +64,11 @@ pub(super) fn check(case: &Case) -> Result<(), (String, String)> {
     output::sections(case)
 }
 
-pub(crate) fn fail(key: impl Into<String>, message: impl Into<String>) -> Checked {
-    Err((key.into(), message.into()))
-}
-
-/// The name a unit enum variant has in case files (`neck-height`, `z`).
-pub(crate) fn toml_name<T: Serialize>(value: &T) -> String {
-    serde_json::to_value(value)
-        .ok()
-        .and_then(|v| v.as_str().map(str::to_string))
-        .unwrap_or_else(|| "?".to_string())
-}
-
 fn finite(key: &str, value: f64) -> Checked {
     if value.is_finite() {
         Ok(())
     } else {
         fail(key, format!("must be a finite number, got {value:?}"))
-    }
-}
-
-/// Finite and strictly positive.
-pub(crate) fn positive(key: &str, value: f64) -> Checked {
-    if value.is_finite() && value > 0.0 {
-        Ok(())
-    } else {
-        fail(key, format!("must be a finite number > 0, got {value:?}"))
-    }
-}
-
-/// Finite and ≥ 0.
-pub(crate) fn non_negative(key: &str, value: f64) -> Checked {
-    if value.is_finite() && value >= 0.0 {
-        Ok(())
-    } else {
-        fail(key, format!("must be a finite number ≥ 0, got {value:?}"))
     }
 }
 

@@ -3,6 +3,7 @@
 
 use super::*;
 use crate::methods::particles::{max_speed, particle_accessors};
+use crate::reference::Build;
 
 impl<D: Dim> OdeSystem for MixedSph<D> {
     type State = MixedState<D>;
@@ -99,11 +100,13 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
     }
 }
 
-impl<D: Dim> Method<D> for MixedSph<D> {
+impl<D: Dim> Build<D> for MixedSph<D> {
     fn build(case: &Case, reference: Reference<D>) -> Result<Self, CaseError> {
         Self::new(case, reference)
     }
+}
 
+impl<D: Dim> Method<D> for MixedSph<D> {
     fn initial_state(&self) -> MixedState<D> {
         let n = self.n;
         let f = self.initial_deformation_gradient();

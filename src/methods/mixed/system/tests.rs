@@ -27,7 +27,7 @@ fn check_stretched_step<D: Dim>(case: &Case, s: [f64; 3], wave: CflWaveSpeed) {
         _ => panic!("{} is not a mixed case", case.name),
     }
     let case = &case;
-    let m: MixedSph<D> = crate::run::build_method(case).unwrap();
+    let m: MixedSph<D> = crate::reference::build_method(case).unwrap();
     let (alpha, dx) = (case.method.cfl.unwrap(), case.spacing);
     let c_p = m.material.p_wave_speed();
     let axis = |k: usize| {

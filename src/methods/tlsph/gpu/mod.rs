@@ -19,6 +19,7 @@ use super::system::hourglass_stiffness;
 use crate::balance::Booked;
 use crate::boundary::{OnPatches, Reaction};
 use crate::correction::{self, CorrectionKind};
+use crate::engine::{BlowUp, Engine, Failed};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{GpuDim, flat_v};
 use crate::gpu::profile::Scale;
@@ -31,13 +32,11 @@ use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run
 use crate::integrate::Buf;
 use crate::interaction::Interactions;
 use crate::interaction::gpu::GpuInteractions;
-use crate::methods::BlowUp;
 use crate::methods::dual_support::gpu::DeviceLists;
 use crate::methods::tl::{TlState, check_state, snapshot};
 use crate::neighbour::Csr;
 use crate::observe::{Invariants, Snapshot};
 use crate::reference::Reference;
-use crate::run::{Engine, Failed};
 use crate::scene::Case;
 use scheme::{EXTRAS, scheme_of};
 

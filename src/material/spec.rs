@@ -1,6 +1,7 @@
-//! `[material]`: the constitutive model and its constants.
+//! The `[material]` table of a case: the constitutive model and its constants, which
+//! [`super::Material`] is built from.
 
-use crate::material::MaterialModel;
+use super::MaterialModel;
 use crate::mooney_rivlin::MooneyRivlin;
 use serde::{Deserialize, Serialize};
 

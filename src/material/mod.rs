@@ -7,11 +7,15 @@
 //! exactly through λ* = 2λμ/(λ + 2μ) in place of λ. The models are described in
 //! docs/materials.md.
 
+mod spec;
+
+pub use spec::{MaterialSpec, Plane};
+
 use crate::mooney_rivlin::MooneyRivlin;
 use crate::plasticity::{Hardening, Returned, VonMises, from_mat3, to_mat3};
-use crate::scene::{MaterialSpec, Plane};
 use crate::tensor::Dim;
 use glam::DMat3;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// Constitutive model, as named in case files.
@@ -69,7 +73,7 @@ impl MaterialModel {
         let names: Vec<String> = Self::ALL
             .iter()
             .filter(|&&m| which(m))
-            .map(|m| format!("`{}`", crate::scene::validate::toml_name(m)))
+            .map(|m| format!("`{}`", crate::check::toml_name(m)))
             .collect();
         match names.split_last() {
             Some((last, rest)) if !rest.is_empty() => format!("{} or {last}", rest.join(", ")),
@@ -538,6 +542,43 @@ pub struct RateResponse<D: Dim> {
     pub rho_dot: f64,
     /// Jaumann rate of the deviatoric stress.
     pub s_dot: D::T,
+}
+
+/// Cauchy stress (3×3; 2D plane strain fills σ_zz) and strain energy Σ V0 ψ of every
+/// particle from F and, for the rate model, S and ρ (empty slices for state models).
+/// Shared by the CPU and GPU paths for their outputs.
+pub fn stress_fields<D: Dim>(
+    mat: &Material,
+    f: &[D::T],
+    s: &[D::T],
+    rho: &[f64],
+    vol: &[f64],
+) -> (Vec<[[f64; 3]; 3]>, f64) {
+    let rate = mat.model.is_rate_based();
+    let per_particle: Vec<([[f64; 3]; 3], f64)> = f
+        .par_iter()
+        .enumerate()
+        .map(|(i, &f)| {
+            let (s, rho) = if rate {
+                (s[i], rho[i])
+            } else {
+                (D::zero_t(), mat.rho0 / D::det(f))
+            };
+            let sigma = if rate {
+                s - D::identity() * mat.pressure(rho)
+            } else {
+                mat.pk1::<D>(f) * D::transpose(f) * (1.0 / D::det(f))
+            };
+            let mut out = D::to3x3(sigma);
+            if D::N == 2 {
+                out[2][2] = mat.sigma_zz::<D>(f, s, rho);
+            }
+            let energy_rho = if rate { rho } else { mat.rho0 };
+            (out, vol[i] * mat.energy_density::<D>(f, s, energy_rho))
+        })
+        .collect();
+    let energy = per_particle.iter().map(|p| p.1).sum();
+    (per_particle.into_iter().map(|p| p.0).collect(), energy)
 }
 
 #[cfg(test)]

@@ -1,0 +1,185 @@
+//! The CPU reference engine: a [`Method`] and an integrator (f64, rayon).
+
+use super::{BlowUp, Engine, Failed, Method, StepTraffic};
+use crate::balance::Booked;
+use crate::boundary::Reaction;
+use crate::integrate::{Integrator, IntegratorKind, OdeState, PseudoTime, traffic};
+use crate::observe::Snapshot;
+use crate::tensor::Dim;
+
+/// The integral of a power over the steps, trapezoidal from the powers at the last rate
+/// evaluation of successive steps, and the last of those powers.
+#[derive(Clone, Copy, Debug, Default)]
+struct Trapezoid {
+    integral: f64,
+    last: f64,
+}
+
+impl Trapezoid {
+    fn add(&mut self, power: f64, dt: f64) {
+        self.integral += 0.5 * (self.last + power) * dt;
+        self.last = power;
+    }
+}
+
+/// The CPU reference engine: a method and an integrator (f64, rayon). Built from the two
+/// ([`Self::with`]), or from a case by `CpuEngine::new` ([`crate::methods::shared`]).
+pub struct CpuEngine<D: Dim, M: Method<D>> {
+    pub method: M,
+    pub y: M::State,
+    integrator: Integrator<M::State>,
+    /// The power of supports and loads, of the artificial dissipation, against the
+    /// hourglass control and of contact, integrated over the steps.
+    external: Trapezoid,
+    dissipation: Trapezoid,
+    hourglass: Trapezoid,
+    contact: Trapezoid,
+    _dim: std::marker::PhantomData<D>,
+}
+
+impl<D: Dim, M: Method<D>> CpuEngine<D, M> {
+    /// The engine of `method` from its initial state, stepped by `integrator`.
+    pub fn with(method: M, integrator: IntegratorKind) -> Self {
+        let y = method.initial_state();
+        let integrator = Integrator::new(integrator, &y);
+        Self {
+            method,
+            y,
+            integrator,
+            external: Trapezoid::default(),
+            dissipation: Trapezoid::default(),
+            hourglass: Trapezoid::default(),
+            contact: Trapezoid::default(),
+            _dim: std::marker::PhantomData,
+        }
+    }
+
+    /// The integrated powers, in the order a checkpoint holds them.
+    fn powers(&mut self) -> [&mut Trapezoid; 4] {
+        [
+            &mut self.external,
+            &mut self.dissipation,
+            &mut self.hourglass,
+            &mut self.contact,
+        ]
+    }
+}
+
+impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
+    fn backend(&self) -> String {
+        "cpu".into()
+    }
+
+    fn reference(&self) -> &[D::V] {
+        self.method.reference()
+    }
+
+    fn constrained(&self) -> &[(u32, u8)] {
+        self.method.constrained()
+    }
+
+    fn advance(&mut self, t: f64, dt: f64, steps: u32) -> Result<(), Failed> {
+        for k in 0..steps {
+            self.integrator
+                .step(&mut self.method, t + f64::from(k) * dt, dt, &mut self.y)
+                .map_err(|cause| Failed {
+                    completed: k,
+                    cause,
+                })?;
+            // The balance's powers, trapezoidal over successive steps; the work against
+            // contact is minus its power on the bodies.
+            let boundary = self.method.boundary_work();
+            self.external.add(boundary.power, dt);
+            self.contact.add(-boundary.contact, dt);
+            self.dissipation.add(self.method.dissipation_power(), dt);
+            self.hourglass.add(self.method.hourglass_power(), dt);
+        }
+        Ok(())
+    }
+
+    fn max_signal_speed(&mut self) -> f64 {
+        self.method.max_signal_speed(&self.y)
+    }
+
+    fn external_work(&mut self) -> f64 {
+        self.external.integral
+    }
+
+    fn reactions(&mut self) -> Vec<Reaction> {
+        self.method.boundary_work().reactions.clone()
+    }
+
+    fn booked(&mut self) -> Booked {
+        Booked {
+            external_work: self.external.integral,
+            dissipated: Some(self.dissipation.integral + self.method.step_dissipation()),
+            hourglass_work: Some(self.hourglass.integral),
+            plastic_work: Some(self.method.plastic_work(&self.y)),
+            contact_energy: Some(self.contact.integral),
+        }
+    }
+
+    fn pseudo_time(&mut self) -> Option<PseudoTime> {
+        self.method.pseudo_time()
+    }
+
+    fn traffic(&self) -> Option<StepTraffic> {
+        let t = self.method.traffic()?;
+        let kind = self.integrator.kind();
+        let evaluation = t.per_particle + self.pairs_per_particle()? * t.per_pair;
+        Some(StepTraffic {
+            bytes_per_particle: kind.stages() as f64 * evaluation
+                + traffic(kind, t.state, t.velocity),
+        })
+    }
+
+    fn pairs_per_particle(&self) -> Option<f64> {
+        let n = self.method.reference().len();
+        (n > 0).then(|| self.method.pairs() as f64 / n as f64)
+    }
+
+    fn check(&mut self) -> Result<(), BlowUp> {
+        self.method.check_finite(&self.y)
+    }
+
+    fn snapshot(&mut self) -> Snapshot<'_, D> {
+        self.method.snapshot(&self.y)
+    }
+
+    /// The integrals of the balance's powers and their last powers, the state y, the
+    /// integrator's and the method's history.
+    fn save(&mut self) -> Vec<f64> {
+        let mut out: Vec<f64> = self
+            .powers()
+            .iter()
+            .flat_map(|p| [p.integral, p.last])
+            .collect();
+        self.y.save(&mut out);
+        self.integrator.save(&mut out);
+        self.method.save_history(&mut out);
+        out
+    }
+
+    fn restore(&mut self, words: &[f64]) -> Result<(), String> {
+        let (powers, mut rest): (&[f64; 8], _) = words
+            .split_first_chunk()
+            .ok_or("the checkpoint holds no engine state")?;
+        self.y.load(&mut rest)?;
+        self.integrator.load(&mut rest)?;
+        self.method.load_history(&mut rest)?;
+        if !rest.is_empty() {
+            return Err(format!(
+                "{} words are left over after the engine's state",
+                rest.len()
+            ));
+        }
+        for (p, w) in self.powers().into_iter().zip(powers.chunks_exact(2)) {
+            (p.integral, p.last) = (w[0], w[1]);
+        }
+        Ok(())
+    }
+
+    fn neighbour_seconds(&mut self) -> Option<f64> {
+        self.method.neighbour_seconds()
+    }
+}
