@@ -5,6 +5,8 @@
 //! the report) and `cli` (the command line); all on by default, and the library without
 //! them is the CPU path alone.
 
+#![deny(clippy::too_many_lines)]
+
 pub mod analytic;
 pub mod balance;
 pub mod bench;

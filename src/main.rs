@@ -1,5 +1,7 @@
 //! The `meshless` command line.
 
+#![deny(clippy::too_many_lines)]
+
 use clap::{Parser, Subcommand};
 use meshless::methods::REGISTRY;
 use meshless::run::{
