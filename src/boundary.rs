@@ -113,7 +113,7 @@ impl<D: Dim> Prescribed<D> {
         timed: Option<u32>,
     ) {
         match condition {
-            Condition::Fixed => {
+            Condition::Fixed {} => {
                 self.mask[i] = (1 << D::N) - 1;
                 self.dmask[i] = 0;
                 self.value[i] = D::zero();

@@ -43,8 +43,10 @@ pub struct Region {
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
 pub enum Condition {
-    /// u = 0, v = 0.
-    Fixed,
+    /// u = 0, v = 0. A struct variant, without fields, so that a key given to it (such
+    /// as `vx`) is refused by `deny_unknown_fields`, as an internally tagged unit variant's
+    /// keys are not.
+    Fixed {},
     /// Prescribed velocity components (the others stay free): v times the time law
     /// (constant by default) while t < `until` [s] (for the whole run without it), the
     /// components free from `until` on; u follows as ∫ v dt.
@@ -143,7 +145,7 @@ impl Condition {
     pub fn is_support(&self) -> bool {
         matches!(
             self,
-            Self::Fixed
+            Self::Fixed {}
                 | Self::Velocity { .. }
                 | Self::Symmetry { .. }
                 | Self::Displacement { .. }

@@ -608,6 +608,16 @@ fn invalid_file_reports_its_path_and_key() {
     );
 }
 
+/// A key that a fixed support does not take is refused, not ignored: `vx` on `fixed`
+/// would otherwise read as a prescribed velocity that never acts.
+#[test]
+fn a_velocity_on_a_fixed_support_is_refused() {
+    let text = format!(
+        "{VALID}\n[[boundary]]\nregion = {{ x_max = 0.0 }}\ncondition = {{ type = \"fixed\", vx = 1.0 }}\n"
+    );
+    assert_mentions(&error(&text), &[FILE, "unknown field `vx`"]);
+}
+
 #[test]
 fn missing_file_is_named() {
     let dir = tempfile::tempdir().unwrap();
@@ -1069,6 +1079,13 @@ fn points_files_are_regular_files_whose_text_errors_never_echo() {
     let shown = points_error(&secret);
     assert_mentions(&shown, &["no column `x`", "header"]);
     assert!(!shown.contains("password"), "{shown}");
+    // A column the dimension does not read (z in 2D) is refused, named by its place.
+    std::fs::write(&secret, "x,y,z\n0.0,0.0,0.0\n").unwrap();
+    let shown = points_error(&secret);
+    assert_mentions(
+        &shown,
+        &["column 3 is not one a 2D points file takes", "x, y, volume"],
+    );
     std::fs::write(&secret, "x,y\n0.0,0.0\n1.0,token-on-line-3\n").unwrap();
     let shown = points_error(&secret);
     assert_mentions(&shown, &["line 3"]);
@@ -1184,6 +1201,39 @@ fn reaction_and_section_observers_name_their_errors() {
         "section.1.name",
         &["\"mid\"", "must be unique"],
     );
+}
+
+/// The error of running `text` on the CPU, where it loads but is refused at set-up.
+fn setup_error(text: &str) -> String {
+    let case = Case::from_toml(text, Path::new(FILE), &[]).expect("the file validates");
+    let dir = tempfile::tempdir().unwrap();
+    match meshless::run::run(&case, &crate::common::cpu_options(dir.path(), false)) {
+        Ok(_) => panic!("the run went ahead:\n{text}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+/// An observer that could watch nothing is refused, not run: a probe far outside the
+/// block (which would watch the nearest particle under another name) and a section plane
+/// that crosses no particle (whose force would read zero whatever the load). A probe on
+/// the block's corner, Δx/2 from its nearest particle, and a plane through it run.
+#[test]
+fn probes_and_sections_outside_the_bodies_are_refused() {
+    let probe = |at: &str| format!("{VALID}[[probe]]\nname = \"p\"\nposition = {at}\n");
+    let shown = setup_error(&probe("[100.0, 0.0]"));
+    assert_mentions(&shown, &[FILE, "probe.0.position", "outside the bodies"]);
+    let section =
+        |at: &str| format!("{VALID}[[section]]\nname = \"s\"\nnormal = \"x\"\nat = {at}\n");
+    let shown = setup_error(&section("7.5"));
+    assert_mentions(&shown, &[FILE, "section.0.at", "no particle"]);
+    let dir = tempfile::tempdir().unwrap();
+    let short = |text: String| {
+        let case = Case::from_toml(&text, Path::new(FILE), &["run.end_time=1e-5".into()])
+            .expect("the file validates");
+        meshless::run::run(&case, &crate::common::cpu_options(dir.path(), false))
+    };
+    short(probe("[0.0, 0.0]")).expect("a probe on the corner runs");
+    short(section("0.5")).expect("a plane through the block runs");
 }
 
 /// ν = 0.5 only with artificial compressibility, and the table's own checks: the model,

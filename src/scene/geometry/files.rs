@@ -155,6 +155,20 @@ pub(super) fn read_points<D: Dim>(path: &Path, cell: f64) -> Result<Sampled<D>, 
             ["vx", "vy", "vz"][..D::N].join(", ")
         ));
     }
+    let known: Vec<&str> = COORDINATES[..D::N]
+        .iter()
+        .copied()
+        .chain(["volume"])
+        .chain(["vx", "vy", "vz"][..D::N].iter().copied())
+        .collect();
+    if let Some(k) = names.iter().position(|c| !known.contains(c)) {
+        return Err(format!(
+            "the header's column {} is not one a {}D points file takes ({}); remove it",
+            k + 1,
+            D::N,
+            known.join(", ")
+        ));
+    }
     let (mut points, mut vols, mut velocities) = (Vec::new(), Vec::new(), Vec::new());
     for (line_no, line) in lines {
         let fields: Vec<f64> = line

@@ -52,7 +52,7 @@ fn boundary(b: &BoundarySpec, key: &str, bodies: &[BodySpec], dim: usize) -> Che
     region(&b.region, &format!("{key}.region"), bodies, dim)?;
     let key = format!("{key}.condition");
     match &b.condition {
-        Condition::Fixed => Ok(()),
+        Condition::Fixed {} => Ok(()),
         Condition::Velocity {
             vx,
             vy,

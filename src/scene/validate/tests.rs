@@ -140,7 +140,7 @@ fn boundaries_run_output_probes() {
             body: Some("nope".into()),
             ..Region::default()
         },
-        condition: Condition::Fixed,
+        condition: Condition::Fixed {},
     });
     let (key, msg) = check(&c).unwrap_err();
     assert_eq!(key, "boundary.0.region.body");

@@ -2,13 +2,18 @@
 //! closed form, support reactions, point probes and section forces, sampled into the CSV
 //! time series.
 
+mod rings;
+mod sections;
+
+use rings::{plastic_strain_spread, ring_spreads, rings};
+use sections::{Section, probe_particles};
+
 use crate::analytic::{ClosedForm, Exact, relative_l2};
 use crate::balance::{self, Balance, Booked};
 use crate::boundary::Reaction;
 use crate::integrate::PseudoTime;
 use crate::material::{Material, MaterialModel};
 use crate::parallel::ordered_reduce;
-use crate::plasticity::PLASTIC_STRAIN;
 use crate::pressure::{oscillation, pressures};
 use crate::scene::{Case, CaseError, Observer, TimeLaw};
 use crate::tensor::Dim;
@@ -257,15 +262,6 @@ fn observer_columns<D: Dim>(
     Ok(())
 }
 
-/// A section-force observer ([`crate::scene::SectionSpec`]): the normal axis, the body it
-/// is limited to, and every particle within Δx of the plane with its hat weight
-/// (1 − |X·N − at|/Δx)/Δx.
-struct Section {
-    axis: usize,
-    body: Option<u32>,
-    weights: Vec<(usize, f64)>,
-}
-
 impl Observers {
     /// Observers of a case over the particles of `snap` (reference positions, bodies and
     /// the method's masses), of which `constrained` have prescribed velocity components,
@@ -320,19 +316,7 @@ impl Observers {
         } else {
             None
         };
-        let mut probes = Vec::new();
-        for (p, probe) in case.probes.iter().enumerate() {
-            let target = D::from_slice(&probe.position);
-            let nearest = (0..x0.len())
-                .min_by(|&a, &b| D::norm2(x0[a] - target).total_cmp(&D::norm2(x0[b] - target)))
-                .ok_or_else(|| {
-                    case.invalid(format!("probe.{p}.position"), "the scene has no particles")
-                })?;
-            probes.push(nearest);
-            for q in ["u", "v"] {
-                names.extend((0..D::N).map(|k| format!("{}.{q}{}", probe.name, AXES[k])));
-            }
-        }
+        let probes = probe_particles::<D>(case, x0, &mut names)?;
         for section in &case.sections {
             names.extend((0..D::N).map(|k| format!("{}.force_{}", section.name, AXES[k])));
         }
@@ -385,8 +369,9 @@ impl Observers {
             sections: case
                 .sections
                 .iter()
-                .map(|s| Section::new::<D>(s, case, x0))
-                .collect(),
+                .enumerate()
+                .map(|(k, s)| Section::new::<D>(k, s, case, x0, snap.body))
+                .collect::<Result<_, _>>()?,
             rho0: case.material.density,
             names,
         })
@@ -552,143 +537,6 @@ impl Observers {
             .collect();
         relative_l2(&w, &v, &v_ex)
     }
-}
-
-impl Section {
-    fn new<D: Dim>(spec: &crate::scene::SectionSpec, case: &Case, x0: &[D::V]) -> Self {
-        let (axis, dx) = (spec.normal.index(), case.spacing);
-        Self {
-            axis,
-            body: spec
-                .body
-                .as_ref()
-                .and_then(|name| case.bodies.iter().position(|b| &b.name == name))
-                .map(|b| b as u32),
-            weights: (0..x0.len())
-                .map(|i| (i, (1.0 - (D::comp(x0[i], axis) - spec.at).abs() / dx) / dx))
-                .filter(|&(_, w)| w > 0.0)
-                .collect(),
-        }
-    }
-
-    /// ∫ P·N dA ≈ Σ V P·N (hat weight) over the section's particles, with
-    /// P = J σ F⁻ᵀ (the in-plane block of σ in 2D) and V = m/ρ0.
-    fn force<D: Dim>(&self, snap: &Snapshot<D>, rho0: f64) -> [f64; 3] {
-        let n = unit::<D>(self.axis);
-        let mut force = [0.0; 3];
-        for &(i, w) in &self.weights {
-            if self.body.is_some_and(|b| snap.body[i] != b) {
-                continue;
-            }
-            let f = snap.f[i];
-            let g = D::to3(D::inverse(D::transpose(f)) * n);
-            let scale = D::det(f) * w * snap.mass[i] / rho0;
-            for (r, row) in snap.sigma[i].iter().enumerate().take(D::N) {
-                force[r] += scale * (0..D::N).map(|c| row[c] * g[c]).sum::<f64>();
-            }
-        }
-        force
-    }
-}
-
-/// The fewest particles a ring of the `ring-symmetry` observer has.
-const RING_MIN: usize = 8;
-
-/// The particles grouped by reference radius |X − X̄| about their centroid X̄ (to 1e-6 Δx),
-/// each group in order of reference angle; groups of fewer than [`RING_MIN`] are left
-/// out. Err: a 3D case, or no such group (the body is no ring on a polar lattice).
-fn rings<D: Dim>(case: &Case, x0: &[D::V]) -> Result<Vec<Vec<usize>>, CaseError> {
-    let invalid = |m: &str| case.invalid("output.observers", format!("`ring-symmetry` {m}"));
-    if D::N != 2 {
-        return Err(invalid("is a 2D observer; remove it from this 3D case"));
-    }
-    let centre = x0.iter().fold(D::zero(), |s, &x| s + x) * (1.0 / x0.len().max(1) as f64);
-    let polar = |i: usize| {
-        let d = D::to3(x0[i] - centre);
-        (d[0].hypot(d[1]), d[1].atan2(d[0]))
-    };
-    let mut groups: BTreeMap<i64, Vec<usize>> = BTreeMap::new();
-    for i in 0..x0.len() {
-        let key = (polar(i).0 / case.spacing * 1e6).round() as i64;
-        groups.entry(key).or_default().push(i);
-    }
-    let rings: Vec<Vec<usize>> = groups
-        .into_values()
-        .filter(|g| g.len() >= RING_MIN)
-        .map(|mut g| {
-            g.sort_by(|&a, &b| polar(a).1.total_cmp(&polar(b).1));
-            g
-        })
-        .collect();
-    if rings.is_empty() {
-        return Err(invalid(&format!(
-            "finds no ring of {RING_MIN} or more particles at one radius about their centroid; \
-             sample the body as a ring with lattice = \"polar\""
-        )));
-    }
-    Ok(rings)
-}
-
-/// The spreads of σ_θθ and of the gaps around the rings (see [`Observer::RingSymmetry`]);
-/// the largest ring mean counts as at least `floor`, so that an unstressed ring's
-/// round-off is no spread.
-fn ring_spreads<D: Dim>(rings: &[Vec<usize>], snap: &Snapshot<D>, floor: f64) -> [f64; 2] {
-    let x = |i: usize| D::to3(snap.x0[i] + snap.u[i]);
-    let centre = (0..snap.x0.len()).fold([0.0; 3], |c, i| {
-        let xi = x(i);
-        [c[0] + xi[0], c[1] + xi[1], 0.0]
-    });
-    let centre = centre.map(|c| c / snap.x0.len() as f64);
-    let hoop = |i: usize| {
-        let xi = x(i);
-        let theta = (xi[1] - centre[1]).atan2(xi[0] - centre[0]);
-        let e = [-theta.sin(), theta.cos()];
-        let s = &snap.sigma[i];
-        (0..2)
-            .flat_map(|r| (0..2).map(move |c| e[r] * s[r][c] * e[c]))
-            .sum::<f64>()
-    };
-    let mean_std = |values: &[f64]| {
-        let mean = values.iter().sum::<f64>() / values.len() as f64;
-        let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / values.len() as f64;
-        (mean, var.sqrt())
-    };
-    let (mut largest_mean, mut stress_std, mut gap_spread) = (0.0f64, 0.0f64, 0.0f64);
-    for ring in rings {
-        let stresses: Vec<f64> = ring.iter().map(|&i| hoop(i)).collect();
-        let (mean, std) = mean_std(&stresses);
-        largest_mean = largest_mean.max(mean.abs());
-        stress_std = stress_std.max(std);
-        let gaps: Vec<f64> = (0..ring.len())
-            .map(|k| {
-                let (a, b) = (x(ring[k]), x(ring[(k + 1) % ring.len()]));
-                (a[0] - b[0]).hypot(a[1] - b[1])
-            })
-            .collect();
-        let (mean, std) = mean_std(&gaps);
-        gap_spread = gap_spread.max(std / mean);
-    }
-    [stress_std / largest_mean.max(floor), gap_spread]
-}
-
-/// ε_p below which a ring's mean counts as elastic round-off in its spread: 1e-3.
-const PLASTIC_FLOOR: f64 = 1e-3;
-
-/// The largest std over mean of ε_p around a ring, the mean at least [`PLASTIC_FLOOR`],
-/// so that the first yielding particles of a ring are no spread of order one.
-fn plastic_strain_spread<D: Dim>(rings: &[Vec<usize>], snap: &Snapshot<D>) -> f64 {
-    let Some(eps_p) = snap.field(PLASTIC_STRAIN) else {
-        return f64::NAN;
-    };
-    rings
-        .iter()
-        .map(|ring| {
-            let n = ring.len() as f64;
-            let mean = ring.iter().map(|&i| eps_p[i]).sum::<f64>() / n;
-            let var = ring.iter().map(|&i| (eps_p[i] - mean).powi(2)).sum::<f64>() / n;
-            var.sqrt() / mean.max(PLASTIC_FLOOR)
-        })
-        .fold(0.0, f64::max)
 }
 
 /// The relative displacement and energy errors of [`Observer::SolutionError`] against
