@@ -14,7 +14,6 @@ use crate::check::{Problem, toml_name};
 use crate::engine::{CpuEngine, Engine, EngineDim};
 use crate::material::Material;
 use crate::scene::{Case, CaseError};
-use crate::tensor::Dim;
 use crate::viscosity::ArtificialViscosity;
 use serde::{Deserialize, Serialize};
 
@@ -124,11 +123,6 @@ impl MethodFamily for CorotatedSpec {
     ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
         let engine = crate::methods::tlsph::GpuTlsph::<D>::new(case, gpu)?;
         Ok(Box::new(engine))
-    }
-
-    /// The step Δt = α Δx/(c_p + max|v|) does not depend on the stretch.
-    fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
-        0.0
     }
 
     fn warning(&self, case: &Case) -> Option<String> {

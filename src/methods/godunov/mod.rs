@@ -15,7 +15,6 @@ use crate::engine::{CpuEngine, Engine, EngineDim};
 use crate::material::Material;
 use crate::neighbour::Rebuild;
 use crate::scene::Case;
-use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};
 
 /// The `[method]` keys of Godunov SPH: none besides the common ones.
@@ -68,10 +67,5 @@ impl MethodFamily for GodunovSpec {
     ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
         let engine = crate::methods::ul::gpu::GpuUl::<D>::new(case, gpu, &gpu::scheme())?;
         Ok(Box::new(engine))
-    }
-
-    /// The step Δt = cfl Δx/(c_p + max|v|) does not depend on the stretch.
-    fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
-        0.0
     }
 }

@@ -17,7 +17,6 @@ use crate::integrate::IntegratorKind;
 use crate::material::Material;
 use crate::neighbour::Rebuild;
 use crate::scene::Case;
-use crate::tensor::Dim;
 use crate::viscosity::ArtificialViscosity;
 use serde::{Deserialize, Serialize};
 
@@ -120,10 +119,5 @@ impl MethodFamily for GrayMonaghanSpec {
     ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
         let engine = crate::methods::ul::gpu::GpuUl::<D>::new(case, gpu, &gpu::scheme(case, self))?;
         Ok(Box::new(engine))
-    }
-
-    /// The step Δt = cfl Δx/(c_p + max|v|) does not depend on the stretch.
-    fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
-        0.0
     }
 }

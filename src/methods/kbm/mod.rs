@@ -275,11 +275,6 @@ impl MethodFamily for KbmSpec {
         self.kernel_frame == KernelFrame::Eulerian
     }
 
-    /// Δt = α Δx/(c_p + max|v|) does not depend on the stretch.
-    fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
-        0.0
-    }
-
     fn warning(&self, case: &Case) -> Option<String> {
         let nodal = (self.integration == Integration::Nodal).then_some(
             "method.integration = \"nodal\" integrates at the particles without \

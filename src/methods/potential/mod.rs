@@ -14,7 +14,6 @@ use crate::check::{Problem, toml_name};
 use crate::engine::{CpuEngine, Engine, EngineDim};
 use crate::material::Material;
 use crate::scene::{Case, CaseError};
-use crate::tensor::Dim;
 use crate::viscosity::ArtificialViscosity;
 use serde::{Deserialize, Serialize};
 
@@ -97,10 +96,5 @@ impl MethodFamily for PotentialSpec {
     ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
         let engine = crate::methods::tlsph::GpuTlsph::<D>::new(case, gpu)?;
         Ok(Box::new(engine))
-    }
-
-    /// The step Δt = α Δx/(c_p + max|v|) does not depend on the stretch.
-    fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
-        0.0
     }
 }

@@ -16,7 +16,6 @@ use crate::check::{Problem, positive};
 use crate::engine::{Engine, EngineDim};
 use crate::material::Material;
 use crate::scene::Case;
-use crate::tensor::Dim;
 use crate::viscosity::ArtificialViscosity;
 use serde::{Deserialize, Serialize};
 
@@ -165,11 +164,6 @@ impl MethodFamily for TlsphSpec {
         gpu: crate::gpu::Gpu,
     ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
         Ok(Box::new(GpuTlsph::<D>::new(case, gpu)?))
-    }
-
-    /// TLSPH's step Δt = α Δx/(c_p + max|v|) does not depend on the stretch.
-    fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
-        0.0
     }
 }
 

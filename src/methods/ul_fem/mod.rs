@@ -150,20 +150,6 @@ impl MethodFamily for UlFemSpec {
         )?))
     }
 
-    #[cfg(feature = "gpu")]
-    fn gpu_engine<D: EngineDim>(
-        &self,
-        case: &Case,
-        _gpu: crate::gpu::Gpu,
-    ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
-        Err(super::no_gpu_engine(case).into())
-    }
-
-    /// Δt = α Δx/(c_p + max|v|) does not depend on the stretch.
-    fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
-        0.0
-    }
-
     fn lattice_cells(&self) -> bool {
         true
     }
