@@ -100,6 +100,14 @@ pub fn step_wave_speed(case: &Case) -> f64 {
     }
 }
 
+/// A method's CPU engine for a case, or the case's error ([`MethodFamily::cpu_engine`]).
+pub type CpuBuild<D> = Result<Box<dyn Engine<D>>, CaseError>;
+
+/// A method's GPU engine for a case, or why it could not be set up
+/// ([`MethodFamily::gpu_engine`]).
+#[cfg(feature = "gpu")]
+pub type GpuBuild<D> = Result<Box<dyn Engine<D>>, crate::gpu::SetupError>;
+
 /// What the driver needs from a method. Implemented by the method's typed spec.
 pub trait MethodFamily: Sized {
     /// One line for `meshless list`.
@@ -132,16 +140,12 @@ pub trait MethodFamily: Sized {
     fn plan(&self, case: &Case, gpu: bool) -> Plan;
 
     /// The CPU reference engine (f64, rayon).
-    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> Result<Box<dyn Engine<D>>, CaseError>;
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> CpuBuild<D>;
 
     /// The GPU engine (wgpu, f32); by default none, the error [`no_gpu_engine`] of a
     /// method without one ([`Self::GPU_ENGINE`] false).
     #[cfg(feature = "gpu")]
-    fn gpu_engine<D: EngineDim>(
-        &self,
-        case: &Case,
-        _gpu: crate::gpu::Gpu,
-    ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
+    fn gpu_engine<D: EngineDim>(&self, case: &Case, _gpu: crate::gpu::Gpu) -> GpuBuild<D> {
         Err(no_gpu_engine(case).into())
     }
 

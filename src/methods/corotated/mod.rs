@@ -11,9 +11,9 @@ pub use system::{Corotated, CorotatedScheme, outputs, rotation};
 use super::{Feature, MethodFamily, Plan, state_model};
 
 use crate::check::{Problem, toml_name};
-use crate::engine::{CpuEngine, Engine, EngineDim};
+use crate::engine::{CpuEngine, EngineDim};
 use crate::material::Material;
-use crate::scene::{Case, CaseError};
+use crate::scene::Case;
 use crate::viscosity::ArtificialViscosity;
 use serde::{Deserialize, Serialize};
 
@@ -111,16 +111,12 @@ impl MethodFamily for CorotatedSpec {
         }
     }
 
-    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> Result<Box<dyn Engine<D>>, CaseError> {
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> super::CpuBuild<D> {
         Ok(Box::new(CpuEngine::<D, Corotated<D>>::new(case)?))
     }
 
     #[cfg(feature = "gpu")]
-    fn gpu_engine<D: EngineDim>(
-        &self,
-        case: &Case,
-        gpu: crate::gpu::Gpu,
-    ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
+    fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> super::GpuBuild<D> {
         let engine = crate::methods::tlsph::GpuTlsph::<D>::new(case, gpu)?;
         Ok(Box::new(engine))
     }

@@ -87,7 +87,7 @@ macro_rules! tl_galerkin_engines {
         fn cpu_engine<D: $crate::engine::EngineDim>(
             &self,
             case: &$crate::scene::Case,
-        ) -> Result<Box<dyn $crate::engine::Engine<D>>, $crate::scene::CaseError> {
+        ) -> $crate::methods::CpuBuild<D> {
             $crate::methods::galerkin::cpu_engine(case)
         }
 
@@ -96,7 +96,7 @@ macro_rules! tl_galerkin_engines {
             &self,
             case: &$crate::scene::Case,
             gpu: $crate::gpu::Gpu,
-        ) -> Result<Box<dyn $crate::engine::Engine<D>>, $crate::gpu::SetupError> {
+        ) -> $crate::methods::GpuBuild<D> {
             $crate::methods::galerkin::gpu_engine(case, gpu)
         }
     };

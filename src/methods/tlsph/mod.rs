@@ -13,7 +13,7 @@ pub use system::{Tlsph, TlsphScheme};
 use super::{Feature, MethodFamily, Plan};
 
 use crate::check::{Problem, positive};
-use crate::engine::{Engine, EngineDim};
+use crate::engine::EngineDim;
 use crate::material::Material;
 use crate::scene::Case;
 use crate::viscosity::ArtificialViscosity;
@@ -150,19 +150,12 @@ impl MethodFamily for TlsphSpec {
         }
     }
 
-    fn cpu_engine<D: EngineDim>(
-        &self,
-        case: &Case,
-    ) -> Result<Box<dyn Engine<D>>, crate::scene::CaseError> {
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> super::CpuBuild<D> {
         crate::statics::explicit::cpu_engine::<D, Tlsph<D>>(case)
     }
 
     #[cfg(feature = "gpu")]
-    fn gpu_engine<D: EngineDim>(
-        &self,
-        case: &Case,
-        gpu: crate::gpu::Gpu,
-    ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
+    fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> super::GpuBuild<D> {
         Ok(Box::new(GpuTlsph::<D>::new(case, gpu)?))
     }
 }

@@ -15,10 +15,10 @@ use super::galerkin::updated::UlGalerkin;
 use super::ul_fem::ul_galerkin_state;
 use super::{Feature, MethodFamily, Plan};
 use crate::check::{Problem, fail, toml_name};
-use crate::engine::{CpuEngine, Engine, EngineDim};
+use crate::engine::{CpuEngine, EngineDim};
 use crate::material::Material;
 use crate::neighbour::Rebuild;
-use crate::scene::{Case, CaseError};
+use crate::scene::Case;
 use points::StressPoints;
 use serde::{Deserialize, Serialize};
 
@@ -101,7 +101,7 @@ impl MethodFamily for UlWeakFormSpec {
         }
     }
 
-    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> Result<Box<dyn Engine<D>>, CaseError> {
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> super::CpuBuild<D> {
         Ok(Box::new(
             CpuEngine::<D, UlGalerkin<D, StressPoints<D>>>::new(case)?,
         ))
