@@ -100,6 +100,14 @@ pub fn step_wave_speed(case: &Case) -> f64 {
     }
 }
 
+/// A method's CPU engine for a case, or the case's error ([`MethodFamily::cpu_engine`]).
+pub type CpuBuild<D> = Result<Box<dyn Engine<D>>, CaseError>;
+
+/// A method's GPU engine for a case, or why it could not be set up
+/// ([`MethodFamily::gpu_engine`]).
+#[cfg(feature = "gpu")]
+pub type GpuBuild<D> = Result<Box<dyn Engine<D>>, crate::gpu::SetupError>;
+
 /// What the driver needs from a method. Implemented by the method's typed spec.
 pub trait MethodFamily: Sized {
     /// One line for `meshless list`.
@@ -132,15 +140,14 @@ pub trait MethodFamily: Sized {
     fn plan(&self, case: &Case, gpu: bool) -> Plan;
 
     /// The CPU reference engine (f64, rayon).
-    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> Result<Box<dyn Engine<D>>, CaseError>;
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> CpuBuild<D>;
 
-    /// The GPU engine (wgpu, f32).
+    /// The GPU engine (wgpu, f32); by default none, the error [`no_gpu_engine`] of a
+    /// method without one ([`Self::GPU_ENGINE`] false).
     #[cfg(feature = "gpu")]
-    fn gpu_engine<D: EngineDim>(
-        &self,
-        case: &Case,
-        gpu: crate::gpu::Gpu,
-    ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError>;
+    fn gpu_engine<D: EngineDim>(&self, case: &Case, _gpu: crate::gpu::Gpu) -> GpuBuild<D> {
+        Err(no_gpu_engine(case).into())
+    }
 
     /// Why this spec has no GPU engine for `case`, as a phrase after the method's name,
     /// or None: [`Self::GPU_ENGINE`] unless a key or the material selects a CPU-only
@@ -157,8 +164,12 @@ pub trait MethodFamily: Sized {
 
     /// The stretch-dependent part of a particle's signal speed in the method's CFL step
     /// (beyond |v|), with c_p the linear p-wave speed and F the particle's deformation
-    /// gradient: it names the particle a collapse of the step is attributed to.
-    fn stretch_signal_speed<D: Dim>(&self, c_p: f64, f: D::T) -> f64;
+    /// gradient: it names the particle a collapse of the step is attributed to. By default
+    /// none: the step Δt = cfl·Δx/(c_p + max|v|) of most methods does not depend on the
+    /// stretch.
+    fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
+        0.0
+    }
 
     /// Whether this spec integrates over the cells between the particles of a lattice
     /// (elements, Gauss points or stress points of the cells): its boxes and cylinders

@@ -11,10 +11,9 @@ pub use system::{Corotated, CorotatedScheme, outputs, rotation};
 use super::{Feature, MethodFamily, Plan, state_model};
 
 use crate::check::{Problem, toml_name};
-use crate::engine::{CpuEngine, Engine, EngineDim};
+use crate::engine::{CpuEngine, EngineDim};
 use crate::material::Material;
-use crate::scene::{Case, CaseError};
-use crate::tensor::Dim;
+use crate::scene::Case;
 use crate::viscosity::ArtificialViscosity;
 use serde::{Deserialize, Serialize};
 
@@ -112,23 +111,14 @@ impl MethodFamily for CorotatedSpec {
         }
     }
 
-    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> Result<Box<dyn Engine<D>>, CaseError> {
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> super::CpuBuild<D> {
         Ok(Box::new(CpuEngine::<D, Corotated<D>>::new(case)?))
     }
 
     #[cfg(feature = "gpu")]
-    fn gpu_engine<D: EngineDim>(
-        &self,
-        case: &Case,
-        gpu: crate::gpu::Gpu,
-    ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
+    fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> super::GpuBuild<D> {
         let engine = crate::methods::tlsph::GpuTlsph::<D>::new(case, gpu)?;
         Ok(Box::new(engine))
-    }
-
-    /// The step Δt = α Δx/(c_p + max|v|) does not depend on the stretch.
-    fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
-        0.0
     }
 
     fn warning(&self, case: &Case) -> Option<String> {

@@ -24,7 +24,7 @@ pub use support::Support;
 use super::{Feature, MethodFamily, Plan};
 
 use crate::check::{Problem, fail, non_negative, toml_name};
-use crate::engine::{CpuEngine, Engine, EngineDim};
+use crate::engine::{CpuEngine, EngineDim};
 use crate::material::Material;
 use crate::neighbour;
 use crate::reference::Reference;
@@ -378,7 +378,7 @@ impl MethodFamily for DualSupportSpec {
         }
     }
 
-    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> Result<Box<dyn Engine<D>>, CaseError> {
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> super::CpuBuild<D> {
         Ok(if case.is_static() {
             Box::new(Statics::<D>::new(case, self)?)
         } else {
@@ -389,11 +389,7 @@ impl MethodFamily for DualSupportSpec {
     /// The dynamic variant, or the static solve with its Newton steps solved matrix-free
     /// on the device ([`krylov`]).
     #[cfg(feature = "gpu")]
-    fn gpu_engine<D: EngineDim>(
-        &self,
-        case: &Case,
-        gpu: crate::gpu::Gpu,
-    ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
+    fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> super::GpuBuild<D> {
         if case.is_static() {
             let reference = Reference::<D>::build(case)?;
             let lists = gpu::lists(case, self, &reference)?;

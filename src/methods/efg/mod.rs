@@ -11,7 +11,6 @@ use super::fem::galerkin_state;
 use super::galerkin::{Mass, TlGalerkin, particle_mass, smoothing_cells};
 use super::{Feature, MethodFamily, Plan};
 use crate::check::Problem;
-use crate::engine::{Engine, EngineDim};
 use crate::material::Material;
 use crate::quadrature::{Cells, QuadraturePoints, Rule, Shapes};
 use crate::reference::Reference;
@@ -153,23 +152,7 @@ impl MethodFamily for EfgSpec {
         }
     }
 
-    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> Result<Box<dyn Engine<D>>, CaseError> {
-        super::galerkin::cpu_engine(case)
-    }
-
-    #[cfg(feature = "gpu")]
-    fn gpu_engine<D: EngineDim>(
-        &self,
-        case: &Case,
-        gpu: crate::gpu::Gpu,
-    ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
-        super::galerkin::gpu_engine(case, gpu)
-    }
-
-    /// Δt = α Δx/(c_p + max|v|) does not depend on the stretch.
-    fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
-        0.0
-    }
+    super::galerkin::tl_galerkin_engines!();
 
     fn warning(&self, _case: &Case) -> Option<String> {
         (self.integration == Integration::Nodal).then(|| {

@@ -79,6 +79,30 @@ pub fn gpu_engine<D: EngineDim>(
     Ok(Box::new(gpu::GpuGalerkin::<D>::new(case, gpu)?))
 }
 
+/// The engine hooks of the [`MethodFamily`](crate::methods::MethodFamily) implementation
+/// of a total-Lagrangian Galerkin method whose engines do not depend on its keys (`tl-fem`,
+/// `tl-weak-form`, `efg`): [`cpu_engine`] and [`gpu_engine`].
+macro_rules! tl_galerkin_engines {
+    () => {
+        fn cpu_engine<D: $crate::engine::EngineDim>(
+            &self,
+            case: &$crate::scene::Case,
+        ) -> $crate::methods::CpuBuild<D> {
+            $crate::methods::galerkin::cpu_engine(case)
+        }
+
+        #[cfg(feature = "gpu")]
+        fn gpu_engine<D: $crate::engine::EngineDim>(
+            &self,
+            case: &$crate::scene::Case,
+            gpu: $crate::gpu::Gpu,
+        ) -> $crate::methods::GpuBuild<D> {
+            $crate::methods::galerkin::gpu_engine(case, gpu)
+        }
+    };
+}
+pub(crate) use tl_galerkin_engines;
+
 /// The particle mass, as a serde default.
 pub fn particle_mass() -> Mass {
     Mass::Particle

@@ -11,11 +11,10 @@ pub use system::Godunov;
 use super::{Feature, MethodFamily, Plan};
 
 use crate::check::Problem;
-use crate::engine::{CpuEngine, Engine, EngineDim};
+use crate::engine::{CpuEngine, EngineDim};
 use crate::material::Material;
 use crate::neighbour::Rebuild;
 use crate::scene::Case;
-use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};
 
 /// The `[method]` keys of Godunov SPH: none besides the common ones.
@@ -53,25 +52,13 @@ impl MethodFamily for GodunovSpec {
         }
     }
 
-    fn cpu_engine<D: EngineDim>(
-        &self,
-        case: &Case,
-    ) -> Result<Box<dyn Engine<D>>, crate::scene::CaseError> {
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> super::CpuBuild<D> {
         Ok(Box::new(CpuEngine::<D, Godunov<D>>::new(case)?))
     }
 
     #[cfg(feature = "gpu")]
-    fn gpu_engine<D: EngineDim>(
-        &self,
-        case: &Case,
-        gpu: crate::gpu::Gpu,
-    ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
+    fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> super::GpuBuild<D> {
         let engine = crate::methods::ul::gpu::GpuUl::<D>::new(case, gpu, &gpu::scheme())?;
         Ok(Box::new(engine))
-    }
-
-    /// The step Δt = cfl Δx/(c_p + max|v|) does not depend on the stretch.
-    fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
-        0.0
     }
 }

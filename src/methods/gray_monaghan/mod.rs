@@ -12,12 +12,11 @@ pub use system::GrayMonaghan;
 use super::{Feature, MethodFamily, Plan};
 
 use crate::check::{Problem, fail, non_negative};
-use crate::engine::{CpuEngine, Engine, EngineDim};
+use crate::engine::{CpuEngine, EngineDim};
 use crate::integrate::IntegratorKind;
 use crate::material::Material;
 use crate::neighbour::Rebuild;
 use crate::scene::Case;
-use crate::tensor::Dim;
 use crate::viscosity::ArtificialViscosity;
 use serde::{Deserialize, Serialize};
 
@@ -105,25 +104,13 @@ impl MethodFamily for GrayMonaghanSpec {
         }
     }
 
-    fn cpu_engine<D: EngineDim>(
-        &self,
-        case: &Case,
-    ) -> Result<Box<dyn Engine<D>>, crate::scene::CaseError> {
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> super::CpuBuild<D> {
         Ok(Box::new(CpuEngine::<D, GrayMonaghan<D>>::new(case)?))
     }
 
     #[cfg(feature = "gpu")]
-    fn gpu_engine<D: EngineDim>(
-        &self,
-        case: &Case,
-        gpu: crate::gpu::Gpu,
-    ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
+    fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> super::GpuBuild<D> {
         let engine = crate::methods::ul::gpu::GpuUl::<D>::new(case, gpu, &gpu::scheme(case, self))?;
         Ok(Box::new(engine))
-    }
-
-    /// The step Δt = cfl Δx/(c_p + max|v|) does not depend on the stretch.
-    fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
-        0.0
     }
 }

@@ -20,7 +20,7 @@ use super::galerkin::{Mass, TlGalerkin, particle_mass, smoothing_cells};
 use super::ul_fem::ul_galerkin_state;
 use super::{Feature, MethodFamily, Plan};
 use crate::check::{Problem, fail};
-use crate::engine::{CpuEngine, Engine, EngineDim};
+use crate::engine::{CpuEngine, EngineDim};
 use crate::material::Material;
 use crate::quadrature::{Cells, QuadraturePoints, Shapes};
 use crate::reference::Reference;
@@ -239,7 +239,7 @@ impl MethodFamily for KbmSpec {
         }
     }
 
-    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> Result<Box<dyn Engine<D>>, CaseError> {
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> super::CpuBuild<D> {
         match self.kernel_frame {
             KernelFrame::Lagrangian => super::galerkin::cpu_engine(case),
             KernelFrame::Eulerian => Ok(Box::new(
@@ -249,11 +249,7 @@ impl MethodFamily for KbmSpec {
     }
 
     #[cfg(feature = "gpu")]
-    fn gpu_engine<D: EngineDim>(
-        &self,
-        case: &Case,
-        gpu: crate::gpu::Gpu,
-    ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
+    fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> super::GpuBuild<D> {
         match self.kernel_frame {
             KernelFrame::Lagrangian => super::galerkin::gpu_engine(case, gpu),
             KernelFrame::Eulerian => Err(case
@@ -273,11 +269,6 @@ impl MethodFamily for KbmSpec {
 
     fn searches_current_configuration(&self) -> bool {
         self.kernel_frame == KernelFrame::Eulerian
-    }
-
-    /// Δt = α Δx/(c_p + max|v|) does not depend on the stretch.
-    fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
-        0.0
     }
 
     fn warning(&self, case: &Case) -> Option<String> {

@@ -22,9 +22,9 @@ pub use system::{Fluxes, MixedSph, MixedState};
 use super::{Feature, MethodFamily, MethodSpec, Plan};
 
 use crate::check::{Problem, fail, non_negative, toml_name};
-use crate::engine::{CpuEngine, Engine, EngineDim};
+use crate::engine::{CpuEngine, EngineDim};
 use crate::material::{Material, MaterialModel};
-use crate::scene::{Case, CaseError};
+use crate::scene::Case;
 use crate::tensor::{Dim, smallest_stretch_squared};
 use serde::{Deserialize, Serialize};
 
@@ -563,16 +563,12 @@ impl<S: MixedMethod> MethodFamily for S {
         plan(self.options(), self.stabiliser(), case, gpu)
     }
 
-    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> Result<Box<dyn Engine<D>>, CaseError> {
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> super::CpuBuild<D> {
         Ok(Box::new(CpuEngine::<D, MixedSph<D>>::new(case)?))
     }
 
     #[cfg(feature = "gpu")]
-    fn gpu_engine<D: EngineDim>(
-        &self,
-        case: &Case,
-        gpu: crate::gpu::Gpu,
-    ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
+    fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> super::GpuBuild<D> {
         Ok(Box::new(GpuMixed::<D>::new(case, gpu)?))
     }
 

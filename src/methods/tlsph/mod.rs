@@ -13,10 +13,9 @@ pub use system::{Tlsph, TlsphScheme};
 use super::{Feature, MethodFamily, Plan};
 
 use crate::check::{Problem, positive};
-use crate::engine::{Engine, EngineDim};
+use crate::engine::EngineDim;
 use crate::material::Material;
 use crate::scene::Case;
-use crate::tensor::Dim;
 use crate::viscosity::ArtificialViscosity;
 use serde::{Deserialize, Serialize};
 
@@ -151,25 +150,13 @@ impl MethodFamily for TlsphSpec {
         }
     }
 
-    fn cpu_engine<D: EngineDim>(
-        &self,
-        case: &Case,
-    ) -> Result<Box<dyn Engine<D>>, crate::scene::CaseError> {
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> super::CpuBuild<D> {
         crate::statics::explicit::cpu_engine::<D, Tlsph<D>>(case)
     }
 
     #[cfg(feature = "gpu")]
-    fn gpu_engine<D: EngineDim>(
-        &self,
-        case: &Case,
-        gpu: crate::gpu::Gpu,
-    ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
+    fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> super::GpuBuild<D> {
         Ok(Box::new(GpuTlsph::<D>::new(case, gpu)?))
-    }
-
-    /// TLSPH's step Δt = α Δx/(c_p + max|v|) does not depend on the stretch.
-    fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
-        0.0
     }
 }
 

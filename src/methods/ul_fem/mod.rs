@@ -9,7 +9,7 @@ use super::galerkin::Mass;
 use super::galerkin::updated::{Degenerate, MovingPoints, Nodes, UlGalerkin, UlGalerkinState};
 use super::{Feature, MethodFamily, MethodSpec, Plan, not_run_by};
 use crate::check::Problem;
-use crate::engine::{CpuEngine, Engine, EngineDim};
+use crate::engine::{CpuEngine, EngineDim};
 use crate::material::{Material, MaterialModel};
 use crate::neighbour::Csr;
 use crate::quadrature::{Cells, QuadraturePoints, Rule, ShapeRow, Shapes, isoparametric_shapes};
@@ -144,24 +144,10 @@ impl MethodFamily for UlFemSpec {
         }
     }
 
-    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> Result<Box<dyn Engine<D>>, CaseError> {
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> super::CpuBuild<D> {
         Ok(Box::new(CpuEngine::<D, UlGalerkin<D, Elements<D>>>::new(
             case,
         )?))
-    }
-
-    #[cfg(feature = "gpu")]
-    fn gpu_engine<D: EngineDim>(
-        &self,
-        case: &Case,
-        _gpu: crate::gpu::Gpu,
-    ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
-        Err(super::no_gpu_engine(case).into())
-    }
-
-    /// Δt = α Δx/(c_p + max|v|) does not depend on the stretch.
-    fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
-        0.0
     }
 
     fn lattice_cells(&self) -> bool {

@@ -15,11 +15,10 @@ use super::galerkin::updated::UlGalerkin;
 use super::ul_fem::ul_galerkin_state;
 use super::{Feature, MethodFamily, Plan};
 use crate::check::{Problem, fail, toml_name};
-use crate::engine::{CpuEngine, Engine, EngineDim};
+use crate::engine::{CpuEngine, EngineDim};
 use crate::material::Material;
 use crate::neighbour::Rebuild;
-use crate::scene::{Case, CaseError};
-use crate::tensor::Dim;
+use crate::scene::Case;
 use points::StressPoints;
 use serde::{Deserialize, Serialize};
 
@@ -102,24 +101,10 @@ impl MethodFamily for UlWeakFormSpec {
         }
     }
 
-    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> Result<Box<dyn Engine<D>>, CaseError> {
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> super::CpuBuild<D> {
         Ok(Box::new(
             CpuEngine::<D, UlGalerkin<D, StressPoints<D>>>::new(case)?,
         ))
-    }
-
-    #[cfg(feature = "gpu")]
-    fn gpu_engine<D: EngineDim>(
-        &self,
-        case: &Case,
-        _gpu: crate::gpu::Gpu,
-    ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
-        Err(super::no_gpu_engine(case).into())
-    }
-
-    /// Δt = α Δx/(c_p + max|v|) does not depend on the stretch.
-    fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
-        0.0
     }
 
     fn lattice_cells(&self) -> bool {
