@@ -12,9 +12,6 @@
 struct ContactParams {
     // α / Δt².
     scale: f32,
-    _pad0: f32,
-    _pad1: f32,
-    _pad2: f32,
 }
 
 @group(0) @binding(0) var<uniform> params: ContactParams;

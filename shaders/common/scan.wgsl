@@ -10,9 +10,6 @@
 struct ScanParams {
     // Number of entries scanned at this level.
     n: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
 }
 
 const SCAN_BLOCK: u32 = 512u;

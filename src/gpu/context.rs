@@ -1,7 +1,10 @@
-//! The wgpu device: adapter selection, buffers, pipelines, dispatch sizes and readback.
+//! The wgpu device: adapter selection, buffers (uniforms laid out by encase from their
+//! `ShaderType` structs), pipelines, dispatch sizes and readback.
 
 use super::profile::{Cost, PassBytes, Profiler};
 use bytemuck::Pod;
+use encase::ShaderType;
+use encase::internal::WriteInto;
 use std::borrow::Cow;
 use std::sync::Mutex;
 use thiserror::Error;
@@ -106,6 +109,47 @@ fn describe(info: &wgpu::AdapterInfo) -> String {
 
 fn instance() -> wgpu::Instance {
     wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env())
+}
+
+/// A WGSL `vec3<T>` in a uniform struct: 12 bytes aligned to 16, where `[T; 3]` would be
+/// an array (stride 16 in the uniform address space).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Vec3<T>(pub [T; 3]);
+
+impl<T> AsRef<[T; 3]> for Vec3<T> {
+    fn as_ref(&self) -> &[T; 3] {
+        &self.0
+    }
+}
+
+encase::impl_vector!(3, Vec3<T>; using AsRef);
+
+/// The bytes of a uniform struct laid out by WGSL's uniform rules (encase's `ShaderType`
+/// checks alignment, strides and the offsets of its fields).
+pub fn uniform_bytes<T: ShaderType + WriteInto>(value: &T) -> Vec<u8> {
+    let mut buffer = encase::UniformBuffer::new(Vec::new());
+    // A growable Vec takes any struct: writing into it has no failure to report.
+    buffer
+        .write(value)
+        .expect("a Vec grows to hold the uniform struct");
+    buffer.into_inner()
+}
+
+/// The size naga gives the struct `name` of a WGSL file (its declaration parsed alone),
+/// for checking a uniform struct's `ShaderType` against the WGSL it mirrors.
+#[cfg(test)]
+pub(crate) fn wgsl_struct_size(wgsl: &str, name: &str) -> u32 {
+    let start = wgsl
+        .find(&format!("struct {name} {{"))
+        .expect("the struct is declared");
+    let end = start + wgsl[start..].find('}').expect("the struct is closed") + 1;
+    let module = naga::front::wgsl::parse_str(&wgsl[start..end]).expect("it parses alone");
+    let (_, ty) = module
+        .types
+        .iter()
+        .find(|(_, ty)| ty.name.as_deref() == Some(name))
+        .expect("naga has the struct");
+    ty.inner.size(module.to_ctx())
 }
 
 /// What an entry point of a WGSL source binds (naga reflection of the module wgpu
@@ -405,14 +449,19 @@ impl Gpu {
         })
     }
 
-    /// A uniform buffer holding `value`.
-    pub fn uniform<T: Pod>(&self, label: &str, value: &T) -> wgpu::Buffer {
+    /// A uniform buffer holding `value`, laid out by WGSL's uniform rules.
+    pub fn uniform<T: ShaderType + WriteInto>(&self, label: &str, value: &T) -> wgpu::Buffer {
         self.device
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
-                contents: bytemuck::bytes_of(value),
+                contents: &uniform_bytes(value),
                 usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             })
+    }
+
+    /// Writes `value` over the uniform buffer `buffer` (made by [`Gpu::uniform`]).
+    pub fn write_uniform<T: ShaderType + WriteInto>(&self, buffer: &wgpu::Buffer, value: &T) {
+        self.queue.write_buffer(buffer, 0, &uniform_bytes(value));
     }
 
     /// The compute pipeline of entry point `entry` of a WGSL pass, after checking that it

@@ -16,11 +16,11 @@
 //! `ids`; a build that needs more records the pair count in an overflow flag, which the
 //! owner reads when it checks the run (the only readback) to grow the lists.
 
-use super::context::{Gpu, GpuError, Pipeline, WORKGROUP};
+use super::context::{Gpu, GpuError, Pipeline, Vec3, WORKGROUP};
 use super::layout::GpuDim;
 use super::shaders::{CELL_LIST, Constants, SCAN, compose};
 use crate::tensor::D2;
-use bytemuck::{Pod, Zeroable};
+use encase::ShaderType;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Entries scanned by one workgroup of `scan_blocks` (two per invocation).
@@ -30,14 +30,12 @@ pub const SCAN_BLOCK: u32 = 2 * WORKGROUP;
 /// up to this bound keep an error far below one cell (see [`CellParams::new`]).
 const MAX_CELLS_PER_AXIS: f64 = 65_536.0;
 
-/// The uniform `CellParams` of `cell_list.wgsl` (48 bytes: `origin` is a vec3 at offset 0
-/// and `dims` a vec3 at offset 16, each followed by a 4-byte scalar in its tail).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+/// The uniform `CellParams` of `cell_list.wgsl`.
+#[derive(Clone, Copy, Debug, PartialEq, ShaderType)]
 pub struct CellParams {
-    pub origin: [f32; 3],
+    pub origin: Vec3<f32>,
     pub inv_cell: f32,
-    pub dims: [u32; 3],
+    pub dims: Vec3<u32>,
     pub n: u32,
     pub radius2: f32,
     pub ncells: u32,
@@ -97,9 +95,9 @@ impl CellParams {
             origin[k] = lo[k] as f32;
         }
         Ok(Self {
-            origin,
+            origin: Vec3(origin),
             inv_cell: (1.0 / cell) as f32,
-            dims: dims.map(|d| d as u32),
+            dims: Vec3(dims.map(|d| d as u32)),
             n,
             radius2: (radius * radius) as f32,
             ncells: ncells as u32,
@@ -110,11 +108,9 @@ impl CellParams {
 }
 
 /// The uniform `ScanParams` of `scan.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+#[derive(Clone, Copy, Debug, ShaderType)]
 struct ScanParams {
     n: u32,
-    _pad: [u32; 3],
 }
 
 /// The pipelines of the exclusive prefix sum.
@@ -176,13 +172,7 @@ impl Scan {
         loop {
             let blocks = len.div_ceil(SCAN_BLOCK).max(1);
             let sums = gpu.zeroed("scan block sums", u64::from(blocks) * 4);
-            let params = gpu.uniform(
-                "scan params",
-                &ScanParams {
-                    n: len,
-                    _pad: [0; 3],
-                },
-            );
+            let params = gpu.uniform("scan params", &ScanParams { n: len });
             let table = [("scan", &params), ("data", &level), ("block_sums", &sums)];
             scans.push(Step {
                 pipeline: self.blocks.clone(),
@@ -510,5 +500,21 @@ pub fn build<D: GpuDim>(
             None => return Ok(list),
             Some(needed) => capacity = needed,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::context::wgsl_struct_size;
+
+    /// The uniform struct is laid out as naga lays out its WGSL twin (exact: sizes in
+    /// bytes).
+    #[test]
+    fn uniforms_match_wgsl() {
+        let cell = wgsl_struct_size(CELL_LIST.text, "CellParams");
+        assert_eq!(CellParams::min_size().get(), u64::from(cell));
+        let scan = wgsl_struct_size(SCAN.text, "ScanParams");
+        assert_eq!(ScanParams::min_size().get(), u64::from(scan));
     }
 }

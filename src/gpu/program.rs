@@ -6,7 +6,7 @@
 
 use super::context::{Gpu, GpuError, Pipeline};
 use crate::integrate::{Buf, Evaluation, IntegratorKind, Op, program, uses};
-use bytemuck::{Pod, Zeroable};
+use encase::ShaderType;
 
 /// A flat state of n particles: u at 0 and v at n·DIM (DIM each), then the fields that
 /// are integrated with their rates, from `rest` to `len` (f32 entries).
@@ -18,8 +18,8 @@ pub struct StateLayout {
     pub len: usize,
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+/// The uniform `Coefficients` of `integrate.wgsl`.
+#[derive(Clone, Copy, Debug, ShaderType)]
 struct Coefficients {
     a: f32,
     b: f32,
@@ -182,8 +182,7 @@ impl Stepper {
                     a: a as f32,
                     b: b as f32,
                 };
-                gpu.queue
-                    .write_buffer(coefficients, 0, bytemuck::bytes_of(&c));
+                gpu.write_uniform(coefficients, &c);
             }
         }
     }
@@ -235,5 +234,20 @@ impl Stepper {
                 }
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::context::wgsl_struct_size;
+
+    /// The uniform struct is laid out as naga lays out its WGSL twin (exact: sizes in
+    /// bytes).
+    #[test]
+    fn coefficients_match_wgsl() {
+        let wgsl = crate::gpu::shaders::INTEGRATE.text;
+        let size = wgsl_struct_size(wgsl, "Coefficients");
+        assert_eq!(Coefficients::min_size().get(), u64::from(size));
     }
 }

@@ -138,6 +138,13 @@ impl<D: Dim> Interaction<D> for Contact<D> {
     }
 }
 
+/// The uniform `ContactParams` of `contact.wgsl`: α/Δt².
+#[cfg(feature = "gpu")]
+#[derive(Clone, Copy, Debug, encase::ShaderType)]
+struct ContactParams {
+    scale: f32,
+}
+
 #[cfg(feature = "gpu")]
 impl<D: Dim> super::gpu::GpuInteraction for Contact<D> {
     /// `shaders/common/contact.wgsl`: one invocation per slave over the other bodies'
@@ -160,7 +167,7 @@ impl<D: Dim> super::gpu::GpuInteraction for Contact<D> {
             &compose(&crate::gpu::shaders::CONTACT),
             "contact",
         )?;
-        let params = gpu.uniform("contact params", &[0.0f32; 4]);
+        let params = gpu.uniform("contact params", &ContactParams { scale: 0.0 });
         let (body, hull, hull_start) = (
             gpu.storage("body", &self.body),
             gpu.storage("hull", &hull),
@@ -184,7 +191,10 @@ impl<D: Dim> super::gpu::GpuInteraction for Contact<D> {
             bind,
             params: Some((
                 params,
-                Box::new(move |dt| [(penalty / (dt * dt)) as f32, 0.0, 0.0, 0.0]),
+                Box::new(move |dt| {
+                    let scale = (penalty / (dt * dt)) as f32;
+                    crate::gpu::context::uniform_bytes(&ContactParams { scale })
+                }),
             )),
             step_values: None,
         })
@@ -291,6 +301,17 @@ mod tests {
     use super::*;
     use crate::tensor::D2;
     use glam::DVec2;
+
+    /// The uniform struct is laid out as naga lays out its WGSL twin (exact: sizes in
+    /// bytes).
+    #[cfg(feature = "gpu")]
+    #[test]
+    fn contact_params_match_wgsl() {
+        use encase::ShaderType;
+        let wgsl = crate::gpu::shaders::CONTACT.text;
+        let size = crate::gpu::context::wgsl_struct_size(wgsl, "ContactParams");
+        assert_eq!(ContactParams::min_size().get(), u64::from(size));
+    }
 
     /// A master square [0, 1]² sampled on a 5 × 5 lattice (body 0) and slave particles,
     /// each a body of its own (bodies 1, 2, …), which has no area and so is no master.

@@ -37,8 +37,9 @@ pub struct Pass {
     pub step_values: Option<StepValues>,
 }
 
-/// A pass's uniform for a step of size Δt.
-pub type Uniform = Box<dyn Fn(f64) -> [f32; 4] + Send + Sync>;
+/// The bytes of a pass's uniform for a step of size Δt (see
+/// [`crate::gpu::context::uniform_bytes`]).
+pub type Uniform = Box<dyn Fn(f64) -> Vec<u8> + Send + Sync>;
 
 /// Values a pass reads that change from step to step.
 pub struct StepValues {
@@ -177,8 +178,7 @@ impl GpuInteractions {
         self.dt.set(dt);
         self.staging.borrow_mut().at = (0, 0);
         for (params, uniform) in self.passes.iter().filter_map(|p| p.params.as_ref()) {
-            gpu.queue
-                .write_buffer(params, 0, bytemuck::cast_slice(&uniform(dt)));
+            gpu.queue.write_buffer(params, 0, &uniform(dt));
         }
     }
 

@@ -40,7 +40,7 @@ use crate::plasticity::History;
 use crate::reference::build_method;
 use crate::scene::Case;
 use crate::tensor::Dim;
-use bytemuck::{Pod, Zeroable};
+use encase::ShaderType;
 
 mod evaluator;
 mod layout;
@@ -309,10 +309,7 @@ impl<D: GpuDim> GpuMixed<D> {
                 half_dt: (0.5 * dt) as f32,
                 mid: 1,
             };
-            self.shell
-                .gpu
-                .queue
-                .write_buffer(&self.mid_points, 0, bytemuck::bytes_of(&points));
+            self.shell.gpu.write_uniform(&self.mid_points, &points);
         }
     }
 

@@ -17,7 +17,7 @@ use crate::gpu::profile::{IndirectRuns, NONE, PassBytes, Traffic, read, read_wri
 use crate::gpu::shaders::{REFERENCE, Source, source};
 use crate::integrate::PseudoTime;
 use crate::tensor::Dim;
-use bytemuck::{Pod, Zeroable};
+use encase::ShaderType;
 
 /// The words of the per-pair gathers of the iterate: w, δp and H^n of a neighbour (the
 /// ghost maps of ghost neighbours not counted).
@@ -160,8 +160,7 @@ const FAILED: u64 = 7;
 const PARTIALS: u64 = 10;
 
 /// The uniform `Tau` of mixed_corrector.wgsl.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+#[derive(Clone, Copy, Debug, Default, ShaderType)]
 struct Tau {
     dt: f32,
     dtau: f32,
@@ -306,7 +305,7 @@ impl DeviceCorrector {
             groups_x: self.groups.0,
             groups_y: self.groups.1,
         };
-        gpu.queue.write_buffer(&self.tau, 0, bytemuck::bytes_of(&t));
+        gpu.write_uniform(&self.tau, &t);
     }
 
     /// Records the copies of the state `y` and the failure flags (`status`) at the start
@@ -416,5 +415,19 @@ impl DeviceCorrector {
             particle: w[0] as usize,
             residual: f64::from(f32::from_bits(w[1])),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::context::wgsl_struct_size;
+
+    /// The uniform struct is laid out as naga lays out its WGSL twin (exact: sizes in
+    /// bytes).
+    #[test]
+    fn tau_matches_wgsl() {
+        let size = wgsl_struct_size(CORRECTOR.text, "Tau");
+        assert_eq!(Tau::min_size().get(), u64::from(size));
     }
 }

@@ -3,8 +3,7 @@
 use super::*;
 
 /// The uniform `Stage` of `mixed_momentum.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+#[derive(Clone, Copy, Debug, ShaderType)]
 pub(super) struct StagePoints {
     pub(super) half_dt: f32,
     pub(super) mid: u32,
@@ -230,5 +229,19 @@ impl Evaluator {
             gpu.dispatch(pass, &p.balance_solve, &b.balance_solve, 1);
         }
         gpu.dispatch(pass, &p.rates, &b.rates, n);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::context::wgsl_struct_size;
+
+    /// The uniform struct is laid out as naga lays out its WGSL twin (exact: sizes in
+    /// bytes).
+    #[test]
+    fn stage_points_match_wgsl() {
+        let size = wgsl_struct_size(MOMENTUM.text, "Stage");
+        assert_eq!(StagePoints::min_size().get(), u64::from(size));
     }
 }
