@@ -50,7 +50,7 @@ const DEVICE_PAIR_BYTES: [f64; 2] = [60.0, 130.0];
 #[derive(Clone, Debug, PartialEq)]
 pub struct Estimate {
     /// Particles of every body (the lattice points of its bounding box times the fraction
-    /// the shape fills, or the rows of a points file).
+    /// the shape fills, or the points of a points or mesh file).
     pub bodies: Vec<f64>,
     pub particles: f64,
     /// Neighbour pairs within the kernel support, body by body ([`crate::scene::BodySize::pairs`]: from

@@ -266,7 +266,9 @@ pub fn read(
         )));
     }
     // The driver's words name the frame count; with the engine's they bound the whole.
-    let mut words = file.words(count.min(10) as usize).map_err(torn)?;
+    let mut words = Vec::new();
+    file.words(count.min(10) as usize, &mut words)
+        .map_err(torn)?;
     let frames = words.get(9).copied().and_then(whole);
     let step = words.get(1).copied().and_then(whole);
     let most = match (frames, step) {
@@ -283,7 +285,8 @@ pub fn read(
     words
         .try_reserve_exact(count as usize - words.len())
         .map_err(|_| refuse(format!("its {count} words do not fit in memory")))?;
-    words.extend(file.words(count as usize - words.len()).map_err(torn)?);
+    file.words(count as usize - words.len(), &mut words)
+        .map_err(torn)?;
     let sum = file.hash;
     if u64::from_le_bytes(file.array().map_err(torn)?) != sum {
         return Err(refuse(
@@ -345,12 +348,12 @@ impl Hashed {
         Ok(buf)
     }
 
-    /// The next `n` f64 words, read in chunks of [`CHUNK`] bytes.
-    fn words(&mut self, n: usize) -> std::io::Result<Vec<f64>> {
-        let mut out = Vec::with_capacity(n.min(CHUNK / 8));
+    /// Appends the next `n` f64 words to `out`, read in chunks of [`CHUNK`] bytes.
+    fn words(&mut self, n: usize, out: &mut Vec<f64>) -> std::io::Result<()> {
+        let end = out.len() + n;
         let mut buf = vec![0; CHUNK];
-        while out.len() < n {
-            let bytes = &mut buf[..(8 * (n - out.len())).min(CHUNK)];
+        while out.len() < end {
+            let bytes = &mut buf[..(8 * (end - out.len())).min(CHUNK)];
             self.fill(bytes)?;
             out.extend(
                 bytes
@@ -358,6 +361,6 @@ impl Hashed {
                     .map(|b| f64::from_le_bytes(b.try_into().expect("eight bytes"))),
             );
         }
-        Ok(out)
+        Ok(())
     }
 }

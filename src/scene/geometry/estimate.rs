@@ -3,7 +3,7 @@
 //! points or mesh file actually holds.
 
 use super::file_error;
-use super::files::{count_point_rows, read_mesh, read_points};
+use super::files::{read_mesh, read_points};
 use super::lattice::{around, lattice_counts, polar_counts};
 use crate::scene::{Case, CaseError, Lattice, RingLattice, Shape};
 use crate::tensor::{D2, D3, Dim};
@@ -14,8 +14,8 @@ use std::path::Path;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BodySize {
     /// Its particles: the lattice points of its bounding box times the fraction of the
-    /// box the shape fills (exact for a box; π/4 of the box for a disk), or the data rows
-    /// of a points file (counted, not parsed).
+    /// box the shape fills (exact for a box; π/4 of the box for a disk), or the points a
+    /// points or mesh file gives (read as the sampler reads them).
     pub particles: f64,
     /// The lattice points the sampler visits to find them (its bounding box's).
     pub visited: f64,
@@ -111,10 +111,7 @@ pub fn estimate_particles(case: &Case) -> Result<Vec<BodySize>, CaseError> {
                     )
                 }
                 Shape::Points { file } | Shape::Mesh { file, .. } => {
-                    // A mesh has at most one cell per line.
                     let path = case.base_dir().join(file);
-                    let rows =
-                        count_point_rows(&path).map_err(|m| file_error(case, b, &path, m))? as f64;
                     let points = match d {
                         2 => file_points::<D2>(&spec.geometry, &path, dx),
                         _ => file_points::<D3>(&spec.geometry, &path, dx),
@@ -122,7 +119,7 @@ pub fn estimate_particles(case: &Case) -> Result<Vec<BodySize>, CaseError> {
                     .map_err(|m| file_error(case, b, &path, m))?;
                     BodySize {
                         pairs: histogram_pairs(&points, d, reach * dx),
-                        ..size(rows, 1.0)
+                        ..size(points.len() as f64, 1.0)
                     }
                 }
             })

@@ -1,4 +1,4 @@
-//! Points and mesh files: read within a size cap, their rows counted without holding them.
+//! Points and mesh files, read within a size cap; and the case file, read under the same guard.
 
 use super::Sampled;
 use crate::scene::MeshNodes;
@@ -85,37 +85,6 @@ const POINTS_FILE: &str = "a points or mesh file";
 /// A points or mesh file as text.
 fn read_points_file(path: &Path) -> Result<String, String> {
     read_capped(path, POINTS_FILE_CAP, POINTS_FILE).map_err(|e| format!("cannot read: {e}"))
-}
-
-/// The data rows of a points file (its non-empty lines after the header), counted in
-/// chunks without holding the file.
-pub(super) fn count_point_rows(path: &Path) -> Result<u64, String> {
-    use std::io::Read;
-    let mut file = open_capped(path, POINTS_FILE_CAP, POINTS_FILE)
-        .map_err(|e| format!("cannot read: {e}"))?
-        .take(POINTS_FILE_CAP + 1);
-    let mut chunk = vec![0u8; 1 << 16];
-    let (mut rows, mut blank) = (0u64, true);
-    loop {
-        let read = file
-            .read(&mut chunk)
-            .map_err(|e| format!("cannot read: {e}"))?;
-        if read == 0 {
-            break;
-        }
-        for &byte in &chunk[..read] {
-            match byte {
-                b'\n' => {
-                    rows += u64::from(!blank);
-                    blank = true;
-                }
-                b' ' | b'\t' | b'\r' => {}
-                _ => blank = false,
-            }
-        }
-    }
-    rows += u64::from(!blank);
-    Ok(rows.saturating_sub(1))
 }
 
 /// Reads `x,y[,z][,volume][,vx,vy[,vz]]` rows (header required, any column order).
