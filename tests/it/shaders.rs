@@ -360,7 +360,7 @@ fn every_wgsl_file_is_a_validated_pass_or_included() {
 /// No `for` loop condition reads memory (an index or a call): a loop bound from a buffer is
 /// read into a `let` before the loop. Mesa's llvmpipe through GL (22.3) reuses the load of
 /// a loop condition for the same load after the loop, where an invocation that left the
-/// loop before the last iteration of its SIMD group reads 0 (ARCHITECTURE.md, GPU engine):
+/// loop before the last iteration of its SIMD group reads 0 (docs/gpu.md, "Adapters"):
 /// a second loop over the same CSR row then ran zero times.
 #[test]
 fn no_loop_condition_reads_a_buffer() {
