@@ -109,35 +109,49 @@ impl<D: Dim> Reference<D> {
     }
 }
 
-/// Refuses particles closer than 1e-6 of the spacing to another, naming both, their
-/// bodies and the position: a row repeated in a points file, or two bodies laid over each
-/// other, which would double the mass there (and collapse the CFL step). Sampled lattices
-/// are a spacing apart, so the bound leaves six decades of room.
+/// Refuses particles of one body closer than 1e-6 of the spacing to each other, and
+/// particles of two bodies closer than half a spacing, naming both, their bodies and the
+/// position. The first is a row repeated in a points file, which would double the mass
+/// there (and collapse the CFL step); sampled lattices are a spacing apart, so the bound
+/// leaves six decades of room. The second is two bodies laid over each other (offset
+/// lattices, a ring inside a hole of another body): their particles would count each
+/// other's mass and volume, while the lattices of bodies that touch along a face stay a
+/// spacing apart.
 fn no_coincident_particles<D: Dim>(
     case: &Case,
     x0: &[D::V],
     body: &[u32],
 ) -> Result<(), CaseError> {
-    let Some((i, j)) = neighbour::first_pair::<D>(x0, 1e-6 * case.spacing) else {
-        return Ok(());
-    };
-    let (bi, bj) = (body[i] as usize, body[j as usize] as usize);
     let name = |b: usize| &case.bodies[b].name;
-    let what = if bi == bj {
-        format!("particles {i} and {j} of body `{}`", name(bi))
-    } else {
-        format!(
-            "particle {i} of body `{}` and particle {j} of body `{}` (the bodies overlap)",
-            name(bi),
-            name(bj)
-        )
-    };
-    Err(case.invalid(
-        format!("body.{}.geometry", bi.max(bj)),
-        format!(
-            "{what} coincide at {:?} (closer than 1e-6 of the spacing); remove the repeated \
-             point or move the bodies apart",
-            D::to3(x0[i])
-        ),
-    ))
+    let at = |i: usize| D::to3(x0[i]);
+    let one_body = |i: usize, j: usize| body[i] == body[j];
+    if let Some((i, j)) = neighbour::first_pair::<D>(x0, 1e-6 * case.spacing, one_body) {
+        let b = body[i] as usize;
+        return Err(case.invalid(
+            format!("body.{b}.geometry"),
+            format!(
+                "particles {i} and {j} of body `{}` coincide at {:?} (closer than 1e-6 of \
+                 the spacing); remove the repeated point",
+                name(b),
+                at(i)
+            ),
+        ));
+    }
+    let two_bodies = |i: usize, j: usize| body[i] != body[j];
+    if let Some((i, j)) = neighbour::first_pair::<D>(x0, 0.5 * case.spacing, two_bodies) {
+        let (bi, bj) = (body[i] as usize, body[j as usize] as usize);
+        return Err(case.invalid(
+            format!("body.{}.geometry", bi.max(bj)),
+            format!(
+                "particle {i} of body `{}` and particle {j} of body `{}` are {:.3e} apart at \
+                 {:?}, closer than half the spacing: the bodies overlap; move them apart \
+                 or cut one out of the other",
+                name(bi),
+                name(bj),
+                D::norm2(x0[i] - x0[j as usize]).sqrt(),
+                at(i)
+            ),
+        ));
+    }
+    Ok(())
 }

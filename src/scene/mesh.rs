@@ -142,12 +142,19 @@ fn parse(text: &str, dim: usize) -> Result<Mesh, String> {
     for (tag, tags) in corners {
         let x: Vec<[f64; 3]> = tags.iter().map(|&t| point(t)).collect::<Result<_, _>>()?;
         let cell = measure(&x, dim);
+        let what = if dim == 2 { "area" } else { "volume" };
         if cell.measure.is_nan() || cell.measure <= 0.0 {
             return Err(format!(
-                "element {tag} has {} {:e}; cells must not be degenerate (check its corner \
-                 order and that the mesh is {dim}D)",
-                if dim == 2 { "area" } else { "volume" },
+                "element {tag} has {what} {:e}; cells must not be degenerate (check its \
+                 corner order and that the mesh is {dim}D)",
                 cell.measure
+            ));
+        }
+        if !(cell.measure.is_finite() && cell.centroid.iter().all(|c| c.is_finite())) {
+            return Err(format!(
+                "element {tag} has {what} {:e} and centroid {:?}, past the range of f64; \
+                 give the mesh in units that keep its coordinates within about 1e100",
+                cell.measure, cell.centroid
             ));
         }
         out.push(Parsed {

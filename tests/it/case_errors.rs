@@ -1134,6 +1134,22 @@ fn coincident_particles_and_overlapping_bodies_are_refused() {
         &shown,
         &["body.1.geometry", "`block`", "`copy`", "the bodies overlap"],
     );
+    // The same box offset by 0.3 of the spacing: no particle coincides, every one lies
+    // within 0.3·√2 Δx < Δx/2 of one of the first body's.
+    let offset = format!(
+        "{VALID}\n[[body]]\nname = \"offset\"\n\
+         geometry = {{ shape = \"box\", min = [0.03, 0.03], max = [1.03, 0.53] }}\n"
+    );
+    let shown = reference_error(&offset).expect("offset lattices are refused");
+    assert_mentions(
+        &shown,
+        &[
+            "body.1.geometry",
+            "`block`",
+            "`offset`",
+            "the bodies overlap",
+        ],
+    );
     // Bodies side by side a spacing apart build.
     let beside = format!(
         "{VALID}\n[[body]]\nname = \"beside\"\n\

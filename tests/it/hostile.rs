@@ -107,10 +107,10 @@ fn every_malformed_case_is_refused_with_its_file_and_key() {
 }
 
 /// A deterministic generator (64-bit LCG, Knuth's constants; the high bits).
-struct Lcg(u64);
+pub(crate) struct Lcg(pub(crate) u64);
 
 impl Lcg {
-    fn below(&mut self, n: usize) -> usize {
+    pub(crate) fn below(&mut self, n: usize) -> usize {
         self.0 = self
             .0
             .wrapping_mul(6_364_136_223_846_793_005)
@@ -118,7 +118,7 @@ impl Lcg {
         ((self.0 >> 33) % n as u64) as usize
     }
 
-    fn pick<'a, T>(&mut self, items: &'a [T]) -> &'a T {
+    pub(crate) fn pick<'a, T>(&mut self, items: &'a [T]) -> &'a T {
         &items[self.below(items.len())]
     }
 }
@@ -167,7 +167,7 @@ const WORDS: &[&str] = &[
 
 /// One mutation of a case's text: a number or a string replaced, a line deleted or
 /// repeated, the text cut short, or a byte inserted.
-fn mutate(text: &str, rng: &mut Lcg) -> String {
+pub(crate) fn mutate(text: &str, rng: &mut Lcg) -> String {
     let lines: Vec<&str> = text.lines().collect();
     if lines.is_empty() {
         return format!("{text}=");

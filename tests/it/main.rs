@@ -17,6 +17,7 @@ mod corotated_tlsph;
 mod dual_support;
 mod dual_support_cases;
 mod energy_balance;
+mod fuzz;
 mod galerkin;
 mod godunov;
 #[cfg(feature = "gpu")]
