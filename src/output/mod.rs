@@ -86,6 +86,55 @@ pub(crate) fn create_temporary_with(path: &Path, tail: &str) -> io::Result<(File
     Err(last.unwrap_or_else(|| io::Error::other("no temporary name left")))
 }
 
+/// Opens `path` for reading if it is a regular file: never a FIFO or a device, whose
+/// opening or reading could block the run, nor a link (the entry itself is checked, so
+/// no output read follows one).
+pub fn open_regular(path: &Path) -> io::Result<File> {
+    let meta = fs::symlink_metadata(path)?;
+    if !meta.is_file() {
+        return Err(invalid_input(format!(
+            "`{}` is not a regular file (a link, FIFO, device or folder); remove it",
+            path.display()
+        )));
+    }
+    File::open(path)
+}
+
+/// The text of the regular file `path` ([`open_regular`]), of at most `cap` bytes.
+pub fn read_regular(path: &Path, cap: u64) -> io::Result<String> {
+    use std::io::Read;
+    let mut text = String::new();
+    open_regular(path)?
+        .take(cap + 1)
+        .read_to_string(&mut text)?;
+    if text.len() as u64 > cap {
+        return Err(invalid_input(format!(
+            "`{}` is longer than {cap} bytes, more than this run writes there",
+            path.display()
+        )));
+    }
+    Ok(text)
+}
+
+/// An exclusive lock on the output folder `dir`, held until the returned handle drops
+/// (or the process dies: the operating system releases it, so `--resume` after a kill
+/// finds the folder free). Err(WouldBlock) when another process holds it.
+#[cfg(unix)]
+pub fn lock_folder(dir: &Path) -> io::Result<File> {
+    let folder = File::open(dir)?;
+    match folder.try_lock() {
+        Ok(()) => Ok(folder),
+        Err(fs::TryLockError::WouldBlock) => Err(io::ErrorKind::WouldBlock.into()),
+        Err(fs::TryLockError::Error(e)) => Err(e),
+    }
+}
+
+/// Elsewhere no lock is taken: a folder cannot be opened as a file there.
+#[cfg(not(unix))]
+pub fn lock_folder(dir: &Path) -> io::Result<()> {
+    fs::metadata(dir).map(|_| ())
+}
+
 /// Formats `x` so that it parses back to the same bits, in plain notation for
 /// moderate magnitudes and in scientific notation otherwise
 /// (`0.25`, `1e-9`, `6.02214076e23`, `NaN`, `inf`).

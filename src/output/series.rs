@@ -19,10 +19,14 @@ pub enum ColumnError {
     Unreadable(String),
 }
 
+/// The longest series file read back [bytes]: 4 GiB, rows of a few hundred bytes at
+/// every step of millions.
+const SERIES_CAP: u64 = 4 << 30;
+
 /// Column `column` of a series file against its `time` column, one (t, value) per row.
 pub fn read_column(path: &Path, column: &str) -> Result<Vec<(f64, f64)>, ColumnError> {
     let file = path.display().to_string();
-    let text = std::fs::read_to_string(path)
+    let text = super::read_regular(path, SERIES_CAP)
         .map_err(|e| ColumnError::Unreadable(format!("{file}: {e}")))?;
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap_or("").split(',').collect();
@@ -120,7 +124,9 @@ impl SeriesWriter {
     pub fn resume(path: &Path, columns: &[String], len: u64) -> io::Result<Self> {
         use std::io::Read;
         let mut kept = Vec::new();
-        File::open(path)?.take(len).read_to_end(&mut kept)?;
+        super::open_regular(path)?
+            .take(len)
+            .read_to_end(&mut kept)?;
         let header = format!("{}\n", columns.join(","));
         if kept.len() as u64 != len || !kept.starts_with(header.as_bytes()) {
             return Err(invalid_input(format!(

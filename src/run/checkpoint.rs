@@ -314,18 +314,12 @@ struct Hashed {
 }
 
 impl Hashed {
-    /// Opens a regular file (never a FIFO or a device, on which a read could block).
+    /// Opens a regular file ([`crate::output::open_regular`]).
     fn open(path: &Path) -> std::io::Result<Self> {
-        let meta = std::fs::metadata(path)?;
-        if !meta.is_file() {
-            return Err(std::io::Error::new(
-                std::io::ErrorKind::InvalidInput,
-                "not a regular file",
-            ));
-        }
+        let file = crate::output::open_regular(path)?;
         Ok(Self {
-            reader: BufReader::new(std::fs::File::open(path)?),
-            left: meta.len(),
+            left: file.metadata()?.len(),
+            reader: BufReader::new(file),
             hash: FNV_OFFSET,
         })
     }

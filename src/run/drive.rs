@@ -23,7 +23,7 @@ use std::time::Instant;
 pub(super) const CHECK_EVERY: u64 = 100;
 
 /// Time-step size: fixed, or from the CFL number.
-fn time_step<D: Dim>(case: &Case, engine: &mut dyn Engine<D>) -> f64 {
+pub(super) fn time_step<D: Dim>(case: &Case, engine: &mut dyn Engine<D>) -> f64 {
     match (case.method.dt, case.method.cfl) {
         (Some(dt), _) => dt,
         (None, Some(cfl)) => cfl * case.spacing / engine.max_signal_speed(),
@@ -40,6 +40,14 @@ pub fn drive<D: Dim, E: Engine<D>>(
     let engine: &mut dyn Engine<D> = &mut engine;
     let backend = engine.backend();
     let n = engine.reference().len();
+    // The folder's lock before its checkpoint is read, held to the end of the run.
+    std::fs::create_dir_all(&opts.out_dir).map_err(output_error(&opts.out_dir))?;
+    let _lock = crate::output::lock_folder(&opts.out_dir).map_err(|e| match e.kind() {
+        std::io::ErrorKind::WouldBlock => RunError::Busy {
+            dir: opts.out_dir.clone(),
+        },
+        _ => output_error(&opts.out_dir)(e),
+    })?;
     let resumed = resume(opts, case, &backend, engine)?;
     // The step count once the first Δt is known, before anything is written.
     let dt_first = match &resumed {
@@ -51,9 +59,8 @@ pub fn drive<D: Dim, E: Engine<D>>(
     let engine_columns = engine.columns();
     let constrained = engine.constrained().to_vec();
     let observers = Observers::new::<D>(case, &engine.snapshot(), &constrained, engine_columns)?;
-    std::fs::create_dir_all(&opts.out_dir).map_err(output_error(&opts.out_dir))?;
     if resumed.is_none() {
-        clear_previous_run(&opts.out_dir)?;
+        clear_previous_run(&opts.out_dir, &case.name)?;
     }
     let mut frames = Frames::new(case, opts)?;
     if let Some(p) = &resumed {

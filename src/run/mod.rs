@@ -91,6 +91,12 @@ pub enum RunError {
         path: PathBuf,
         source: std::io::Error,
     },
+    #[error(
+        "output folder {} is in use: another meshless run holds its lock until it ends; \
+         wait for it, or choose another folder with --out",
+        dir.display()
+    )]
+    Busy { dir: PathBuf },
     #[error("backend: {0}")]
     Backend(String),
     /// A benchmark's steps failed (they write no outputs).
@@ -128,11 +134,13 @@ pub const EXIT_INTERRUPTED: u8 = 130;
 
 impl RunError {
     /// The command line's exit code: 2 for input a run cannot start from (the case, the
-    /// backend, a checkpoint), 1 for a run that failed (blow-up, output), 130 for one
+    /// backend, a checkpoint, an output folder in use), 1 for a run that failed (blow-up, output), 130 for one
     /// interrupted.
     pub fn exit_code(&self) -> u8 {
         match self {
-            Self::Case(_) | Self::Backend(_) | Self::Checkpoint { .. } => EXIT_INPUT,
+            Self::Case(_) | Self::Backend(_) | Self::Checkpoint { .. } | Self::Busy { .. } => {
+                EXIT_INPUT
+            }
             Self::Output { .. } | Self::BlowUp { .. } | Self::Benchmark(_) => EXIT_FAILED,
             Self::Interrupted { .. } => EXIT_INTERRUPTED,
         }
@@ -151,16 +159,18 @@ pub fn check(
 ) -> Result<(Estimate, usize), RunError> {
     let estimate = budget::check(case, may_use_gpu(case, backend), limits)?;
     let particles = match case.dimension {
-        2 => built::<D2>(case, backend)?,
-        _ => built::<D3>(case, backend)?,
+        2 => built::<D2>(case, backend, limits)?,
+        _ => built::<D3>(case, backend, limits)?,
     };
     Ok((estimate, particles))
 }
 
-/// Builds a case's engine and its series' observers (probes, checks) as `run` does; the
-/// particle count.
-fn built<D: EngineDim>(case: &Case, backend: Backend) -> Result<usize, RunError> {
+/// Builds a case's engine and its series' observers (probes, checks) as `run` does, and
+/// checks the step count with the first Δt; the particle count.
+fn built<D: EngineDim>(case: &Case, backend: Backend, limits: &Limits) -> Result<usize, RunError> {
     let mut engine = engine::<D>(case, backend)?;
+    let dt_first = drive::time_step(case, &mut engine);
+    budget::check_steps(case, case.run.end_time / dt_first, dt_first, limits)?;
     let columns = engine.columns();
     let constrained = engine.constrained().to_vec();
     crate::observe::Observers::new::<D>(case, &engine.snapshot(), &constrained, columns)?;

@@ -101,38 +101,50 @@ impl<D: Dim> Callback<D> for Series {
     }
 }
 
-/// Removes what an earlier run wrote into `dir`, and nothing else: its summary, its
-/// series, its checkpoint, and each PVD index with the frames it lists, so that no stale file of it is
-/// left beside the new run's.
-pub(super) fn clear_previous_run(dir: &Path) -> Result<(), RunError> {
+/// The largest PVD index read back [bytes]: a few hundred bytes a frame.
+const INDEX_CAP: u64 = 256 << 20;
+
+/// Removes what an earlier run of the case `name` wrote into `dir`, and nothing else:
+/// the summary, the series, the checkpoint and the iteration log (one run's files a
+/// folder), and the case's PVD index (`<name>.pvd`) with the frames it lists under the
+/// case's name (`<name>_*.vtu`), so that no stale file of it is left beside the new
+/// run's. Another case's index and frames in the folder stay. Only a regular file is
+/// read as the index: a FIFO there is never waited on.
+pub(super) fn clear_previous_run(dir: &Path, name: &str) -> Result<(), RunError> {
     let remove = |path: &Path| match std::fs::remove_file(path) {
         Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(output_error(path)(e)),
         _ => Ok(()),
     };
-    for name in ["summary.json", "series.csv", checkpoint::FILE, ITERATIONS] {
-        remove(&dir.join(name))?;
+    for file in ["summary.json", "series.csv", checkpoint::FILE, ITERATIONS] {
+        remove(&dir.join(file))?;
     }
-    let entries = std::fs::read_dir(dir).map_err(output_error(dir))?;
-    for entry in entries {
-        let index = entry.map_err(output_error(dir))?.path();
-        if index.extension().is_none_or(|e| e != "pvd") {
-            continue;
-        }
-        let text = std::fs::read_to_string(&index).unwrap_or_default();
-        for frame in text
-            .split("file=\"")
-            .skip(1)
-            .filter_map(|t| t.split('"').next())
-        {
-            let frame = Path::new(frame);
-            // Only frames the index names in this folder (a name, no path).
-            if frame.components().count() == 1 && frame.extension().is_some_and(|e| e == "vtu") {
-                remove(&dir.join(frame))?;
-            }
-        }
-        remove(&index)?;
+    let index = dir.join(format!("{name}.pvd"));
+    let text = match std::fs::symlink_metadata(&index) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        Err(e) => return Err(output_error(&index)(e)),
+        // A link, FIFO or device under the index's name: removed (the entry, not what it
+        // points to), never read.
+        Ok(meta) if !meta.is_file() => return remove(&index),
+        Ok(_) => crate::output::read_regular(&index, INDEX_CAP).map_err(output_error(&index))?,
+    };
+    let ours = |frame: &Path| {
+        // A name in this folder (no path) of one of the case's frames.
+        frame.components().count() == 1
+            && frame.extension().is_some_and(|e| e == "vtu")
+            && frame
+                .to_str()
+                .is_some_and(|f| f.strip_prefix(name).is_some_and(|r| r.starts_with('_')))
+    };
+    for frame in text
+        .split("file=\"")
+        .skip(1)
+        .filter_map(|t| t.split('"').next())
+        .map(Path::new)
+        .filter(|f| ours(f))
+    {
+        remove(&dir.join(frame))?;
     }
-    Ok(())
+    remove(&index)
 }
 
 /// The case's checks on the series written so far; a check whose column cannot be read

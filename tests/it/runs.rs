@@ -725,6 +725,95 @@ fn a_run_clears_the_previous_runs_files_and_nothing_else() {
     assert_eq!(written["steps"], summary.steps);
 }
 
+/// The files of `dir` named `<prefix>_*.vtu`.
+fn frames_of(dir: &Path, prefix: &str) -> usize {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| e.ok()?.file_name().into_string().ok())
+        .filter(|n| n.starts_with(&format!("{prefix}_")) && n.ends_with(".vtu"))
+        .count()
+}
+
+#[cfg(unix)]
+#[test]
+fn another_cases_frames_stay_and_a_folder_in_use_is_refused() {
+    // Two cases with frames into one folder: the second removes nothing of the first
+    // (its index and its six frames stay). While the folder's lock is held, as by a run
+    // still going, a third run is refused at once with exit code 2 and the folder named;
+    // once it is released the run goes ahead.
+    let dir = tempfile::tempdir().unwrap();
+    let set = ["run.end_time=1e-5", "output.frame_interval=2e-6"];
+    let first = load("tensile-strip", &set);
+    run(&first, &cpu_options(dir.path(), true)).unwrap();
+    let mut other = set.to_vec();
+    other.push("name=\"other\"");
+    run(
+        &load("tensile-strip", &other),
+        &cpu_options(dir.path(), true),
+    )
+    .unwrap();
+    for name in ["tensile-strip", "other"] {
+        assert!(
+            dir.path().join(format!("{name}.pvd")).is_file(),
+            "{name}.pvd"
+        );
+        assert_eq!(frames_of(dir.path(), name), 6, "the frames of {name}");
+    }
+    let held = meshless::output::lock_folder(dir.path()).unwrap();
+    let e = run(&first, &cpu_options(dir.path(), false)).unwrap_err();
+    let shown = e.to_string();
+    assert!(matches!(e, RunError::Busy { .. }), "{shown}");
+    assert_eq!(e.exit_code(), 2);
+    assert!(shown.contains(&dir.path().display().to_string()) && shown.contains("--out"));
+    drop(held);
+    run(&first, &cpu_options(dir.path(), false)).unwrap();
+    assert_eq!(frames_of(dir.path(), "tensile-strip"), 0);
+    assert_eq!(frames_of(dir.path(), "other"), 6);
+}
+
+#[cfg(unix)]
+#[test]
+fn fifos_in_the_output_folder_are_never_waited_on() {
+    // FIFOs under the names of the index, the series and the summary: opened for reading
+    // they would block until a writer came. The run removes the entries, writes its own
+    // files and ends within the time limit (it takes well under a second). A FIFO in place
+    // of the checkpoint of a resume is refused with the reason.
+    let dir = tempfile::tempdir().unwrap();
+    for name in ["tensile-strip.pvd", "series.csv", "summary.json"] {
+        let made = Command::new("mkfifo").arg(dir.path().join(name)).status();
+        assert!(made.unwrap().success(), "mkfifo {name}");
+    }
+    let out = dir.path().to_path_buf();
+    let (sender, receiver) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let case = load("tensile-strip", &["run.end_time=2e-6"]);
+        let _ = sender.send(run(&case, &cpu_options(&out, true)).map(|s| s.status));
+    });
+    let status = receiver
+        .recv_timeout(std::time::Duration::from_secs(120))
+        .expect("the run waits on a FIFO")
+        .unwrap();
+    assert_eq!(status, "completed");
+    for name in ["tensile-strip.pvd", "series.csv", "summary.json"] {
+        assert!(
+            dir.path().join(name).is_file(),
+            "{name} is the run's own file"
+        );
+    }
+    std::fs::remove_file(dir.path().join("checkpoint.bin")).ok();
+    let made = Command::new("mkfifo")
+        .arg(dir.path().join("checkpoint.bin"))
+        .status();
+    assert!(made.unwrap().success());
+    let case = load("tensile-strip", &["run.end_time=2e-6"]);
+    let opts = meshless::run::RunOptions {
+        resume: true,
+        ..cpu_options(dir.path(), false)
+    };
+    let e = run(&case, &opts).unwrap_err();
+    assert!(e.to_string().contains("not a regular file"), "{e}");
+}
+
 #[test]
 fn sigint_and_sigterm_end_a_run_with_an_interrupted_summary() {
     // The rotating disk (150,000 steps, a minute or more) started from the command line:

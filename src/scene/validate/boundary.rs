@@ -15,7 +15,8 @@ use std::collections::HashSet;
 pub(super) fn check(case: &Case) -> Checked {
     let dim = case.dim();
     for (i, boundary) in case.boundaries.iter().enumerate() {
-        self::boundary(boundary, &format!("boundary.{i}"), &case.bodies, dim)?;
+        let span = case.run.end_time;
+        self::boundary(boundary, &format!("boundary.{i}"), &case.bodies, dim, span)?;
         if (boundary.condition.is_timed_load() || boundary.condition.is_timed_velocity())
             && case.is_static()
         {
@@ -48,7 +49,8 @@ pub(super) fn check(case: &Case) -> Checked {
     Ok(())
 }
 
-fn boundary(b: &BoundarySpec, key: &str, bodies: &[BodySpec], dim: usize) -> Checked {
+/// One boundary condition of a run that ends at `span` [s].
+fn boundary(b: &BoundarySpec, key: &str, bodies: &[BodySpec], dim: usize, span: f64) -> Checked {
     region(&b.region, &format!("{key}.region"), bodies, dim)?;
     let key = format!("{key}.condition");
     match &b.condition {
@@ -69,7 +71,11 @@ fn boundary(b: &BoundarySpec, key: &str, bodies: &[BodySpec], dim: usize) -> Che
             if let Some(until) = until {
                 positive(&format!("{key}.until"), *until)?;
             }
-            time_law(law, &format!("{key}.law"))
+            let largest = [vx, vy, vz]
+                .iter()
+                .filter_map(|v| v.map(f64::abs))
+                .fold(0.0, f64::max);
+            time_law(law, &format!("{key}.law"), span, largest)
         }
         Condition::Symmetry { normal } => {
             if dim != 3 && *normal == Axis::Z {
@@ -86,11 +92,11 @@ fn boundary(b: &BoundarySpec, key: &str, bodies: &[BodySpec], dim: usize) -> Che
         }
         Condition::Traction { traction, law } => {
             vector(&format!("{key}.traction"), traction, dim)?;
-            time_law(law, &format!("{key}.law"))
+            time_law(law, &format!("{key}.law"), span, norm(traction))
         }
         Condition::BodyForce { acceleration, law } => {
             vector(&format!("{key}.acceleration"), acceleration, dim)?;
-            time_law(law, &format!("{key}.law"))
+            time_law(law, &format!("{key}.law"), span, norm(acceleration))
         }
         Condition::Pressure {
             pressure,
@@ -111,7 +117,7 @@ fn boundary(b: &BoundarySpec, key: &str, bodies: &[BodySpec], dim: usize) -> Che
             finite(&format!("{key}.pressure"), *pressure)?;
             vector(&format!("{key}.center"), center, dim)?;
             positive(&format!("{key}.radius"), *radius)?;
-            time_law(law, &format!("{key}.law"))
+            time_law(law, &format!("{key}.law"), span, pressure.abs())
         }
         Condition::Displacement { ux, uy, uz } => components(
             &key,
@@ -190,9 +196,52 @@ fn components(key: &str, what: &str, given: [(&str, Option<f64>); 3], dim: usize
     Ok(())
 }
 
+/// The Euclidean norm of a vector of the case.
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+/// Times at which a time law is sampled over a run: enough that a law that leaves the
+/// finite numbers over a stretch of 1/4096 of the run is caught.
+const LAW_SAMPLES: usize = 4096;
+
 /// A time law: positive durations and time constants, a table of finite points with
-/// non-decreasing times.
-fn time_law(law: &TimeLaw, key: &str) -> Checked {
+/// non-decreasing times; and over the run, [0, `span`], finite values whose product with
+/// the condition's `magnitude` stays within f32's range, which the GPU computes in.
+fn time_law(law: &TimeLaw, key: &str, span: f64, magnitude: f64) -> Checked {
+    time_law_keys(law, key)?;
+    if !(span.is_finite() && span > 0.0) {
+        return Ok(()); // run.end_time's own check names it
+    }
+    for k in 0..=LAW_SAMPLES {
+        let t = span * k as f64 / LAW_SAMPLES as f64;
+        let value = law.at(t);
+        if !value.is_finite() {
+            return fail(
+                key,
+                format!(
+                    "is {value} at t = {t:.4e} s, within the run (0 to run.end_time = {span:e} \
+                     s); a law must be a finite number at every time of the run"
+                ),
+            );
+        }
+        if (value * magnitude).abs() > f64::from(f32::MAX) {
+            return fail(
+                key,
+                format!(
+                    "is {value:.4e} at t = {t:.4e} s, which makes the condition {:.4e}, past \
+                     3.4e38, the largest f32 (the GPU's numbers) and any physical load",
+                    value * magnitude
+                ),
+            );
+        }
+    }
+    Ok(())
+}
+
+/// The keys of a time law: positive durations and time constants, a table of finite
+/// points with non-decreasing times, an expression that parses.
+fn time_law_keys(law: &TimeLaw, key: &str) -> Checked {
     match law {
         TimeLaw::Constant => Ok(()),
         TimeLaw::Ramp { duration } => positive(&format!("{key}.duration"), *duration),

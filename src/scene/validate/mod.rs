@@ -103,6 +103,11 @@ fn direction(key: &str, value: &[f64], dim: usize) -> Checked {
 }
 
 /// Names that become file names or CSV column prefixes.
+/// The longest name (of a case, body, probe or section) [characters]: output files are
+/// named `<case>_<frame>.vtu`, written through `.<file>.<pid>-<k>.tmp`, and a file name
+/// holds 255 bytes on the common file systems.
+const NAME_LIMIT: usize = 128;
+
 fn identifier(key: &str, value: &str, what: &str) -> Checked {
     if value.is_empty() {
         return fail(
@@ -110,6 +115,16 @@ fn identifier(key: &str, value: &str, what: &str) -> Checked {
             format!(
                 "must not be empty; {what}, so use only letters, digits, '-' and '_' \
                  (e.g. \"beam-1\")"
+            ),
+        );
+    }
+    if value.len() > NAME_LIMIT {
+        return fail(
+            key,
+            format!(
+                "is {} characters long; {what}, and a file name holds 255 bytes with the \
+                 frame number and a temporary suffix, so at most {NAME_LIMIT}",
+                value.len()
             ),
         );
     }
