@@ -12,7 +12,7 @@ use crate::boundary::Boundary;
 use crate::engine::{BlowUp, GpuEngine, GpuFamily, Method};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
-use crate::gpu::profile::{NONE, PassBytes, Scale, read, read_write, write};
+use crate::gpu::profile::{NONE, PassBytes, Scale, count, loads, stores};
 use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{self, Reduced, Reduction};
 use crate::gpu::reference::{self, DeviceReference, Extras};
@@ -56,47 +56,47 @@ pub const RATES: Source = source!(
         PassBytes {
             entry: "points",
             traffic: &[
-                read("offsets", [1, 0, 0], NONE),
-                read("ids", [1, 0, 0], [1, 0, 0]),
+                count("offsets", [1, 0, 0], NONE),
+                count("ids", [1, 0, 0], [1, 0, 0]),
                 // ∇0N_a.
-                read("pair", NONE, [0, 1, 0]),
+                count("pair", NONE, [0, 1, 0]),
                 // u of the first node and of every node; v too, ρ − ρ0 and S, for the
                 // rate model.
-                read("y", [0, 1, 0], [0, 1, 0]),
-                read("y", [1, 1, 1], [0, 1, 0]).when(&["RATE"]),
+                count("y", [0, 1, 0], [0, 1, 0]),
+                count("y", [1, 1, 1], [0, 1, 0]).when(&["RATE"]),
                 // The committed C_p⁻¹ and ε_p of a von Mises point.
-                read("hist", [10, 0, 0], NONE).when(&["MODEL==MODEL_VON_MISES_PLASTIC"]),
+                count("hist", [10, 0, 0], NONE).when(&["MODEL==MODEL_VON_MISES_PLASTIC"]),
                 // H, P, ψ.
-                write("kin", [1, 0, 2], NONE),
-                write("d", [1, 0, 1], NONE).when(&["RATE"]),
-                read_write("status", NONE, NONE),
+                count("kin", [1, 0, 2], NONE),
+                count("d", [1, 0, 1], NONE).when(&["RATE"]),
+                count("status", NONE, NONE),
             ],
         },
         PassBytes {
             entry: "nodes",
             traffic: &[
                 // The row end, and the point of every entry.
-                read("gather", [1, 0, 0], [1, 0, 0]),
+                count("gather", [1, 0, 0], [1, 0, 0]),
                 // w_q ∇0N_a(X_q).
-                read("entries", NONE, [0, 1, 0]),
+                count("entries", NONE, [0, 1, 0]),
                 // P_q in; the power out.
-                read("kin", NONE, [0, 0, 1]),
-                write("kin", [1, 0, 0], NONE),
+                loads("kin", NONE, [0, 0, 1]),
+                stores("kin", [1, 0, 0], NONE),
                 // V and the mask.
-                read("reference", [2, 0, 0], NONE),
-                read("y", [0, 1, 0], NONE),
-                read("ext", [0, 1, 0], NONE),
-                write("d", [0, 2, 0], NONE),
+                count("reference", [2, 0, 0], NONE),
+                count("y", [0, 1, 0], NONE),
+                count("ext", [0, 1, 0], NONE),
+                count("d", [0, 2, 0], NONE),
             ],
         },
         PassBytes {
             entry: "commit",
             traffic: &[
-                read("offsets", [1, 0, 0], NONE),
-                read("ids", [1, 0, 0], [1, 0, 0]),
-                read("pair", NONE, [0, 1, 0]),
-                read("y", [0, 1, 0], [0, 1, 0]),
-                read_write("hist", [10, 0, 0], NONE),
+                count("offsets", [1, 0, 0], NONE),
+                count("ids", [1, 0, 0], [1, 0, 0]),
+                count("pair", NONE, [0, 1, 0]),
+                count("y", [0, 1, 0], [0, 1, 0]),
+                count("hist", [10, 0, 0], NONE),
             ],
         },
     ]
@@ -120,19 +120,19 @@ pub const SMOOTH: Source = source!(
         PassBytes {
             entry: "smooth_velocities",
             traffic: &[
-                read("smooth_offsets", [1, 0, 0], NONE),
-                read("smooth_ids", NONE, [1, 0, 0]),
-                read("smooth_weights", NONE, [1, 0, 0]),
-                read("y", NONE, [0, 1, 0]),
-                write("smoothed", [0, 1, 0], NONE),
+                count("smooth_offsets", [1, 0, 0], NONE),
+                count("smooth_ids", NONE, [1, 0, 0]),
+                count("smooth_weights", NONE, [1, 0, 0]),
+                count("y", NONE, [0, 1, 0]),
+                count("smoothed", [0, 1, 0], NONE),
             ],
         },
         PassBytes {
             entry: "settle",
             traffic: &[
-                read("reference", [1, 0, 0], NONE),
-                read("smoothed", [0, 1, 0], NONE),
-                write("y", [0, 1, 0], NONE),
+                count("reference", [1, 0, 0], NONE),
+                count("smoothed", [0, 1, 0], NONE),
+                count("y", [0, 1, 0], NONE),
             ],
         },
     ]

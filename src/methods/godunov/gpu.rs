@@ -2,7 +2,7 @@
 //! of [`crate::methods::ul::gpu`]. The CPU system ([`super::system`]) is the reference it
 //! is checked against.
 
-use crate::gpu::profile::{NONE, PassBytes, Traffic, read, write};
+use crate::gpu::profile::{NONE, PassBytes, Traffic, count, loads};
 use crate::gpu::shaders::{
     BOUNDARY, CONTACT, Constants, INTEGRATE, KERNEL, LOADS, MECHANICS, PRESCRIBED, REFERENCE,
     Source, source,
@@ -22,8 +22,8 @@ const PARTICLE: [Traffic; 10] = {
         e,
         f,
         g,
-        read("y", [0, 0, 1], NONE),
-        write("kin", [2, 0, 1], NONE),
+        count("y", [0, 0, 1], NONE),
+        count("kin", [2, 0, 1], NONE),
         STATUS,
     ]
 };
@@ -40,7 +40,7 @@ const RATES: [Traffic; 11] = {
         g,
         h,
         i,
-        read("kin", [2, 0, 1], NONE),
+        loads("kin", [2, 0, 1], NONE),
         POWER,
     ]
 };

@@ -3,7 +3,7 @@
 //! ([`super::system`]) is the reference it is checked against.
 
 use super::GrayMonaghanSpec;
-use crate::gpu::profile::{NONE, PassBytes, Traffic, read, write};
+use crate::gpu::profile::{NONE, PassBytes, Traffic, count, loads};
 use crate::gpu::shaders::{
     BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, KERNEL, LOADS, MECHANICS, PRESCRIBED,
     REFERENCE, Source, VISCOSITY, source,
@@ -23,9 +23,9 @@ const PARTICLE: [Traffic; 11] = {
         e,
         f,
         g,
-        read("y", [0, 0, 1], NONE),
-        write("kin", [1, 0, 1], NONE),
-        write("kin", [0, 0, 1], NONE).when(&["AS"]),
+        count("y", [0, 0, 1], NONE),
+        count("kin", [1, 0, 1], NONE),
+        count("kin", [0, 0, 1], NONE).when(&["AS"]),
         STATUS,
     ]
 };
@@ -42,8 +42,8 @@ const RATES: [Traffic; 12] = {
         g,
         h,
         i,
-        read("kin", [1, 0, 1], NONE),
-        read("kin", [0, 0, 1], NONE).when(&["AS"]),
+        loads("kin", [1, 0, 1], NONE),
+        loads("kin", [0, 0, 1], NONE).when(&["AS"]),
         POWER,
     ]
 };

@@ -18,7 +18,7 @@ use crate::engine::{BlowUp, GpuEngine, GpuFamily};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::neighbour::{CellList, CellParams, Positions};
-use crate::gpu::profile::{IndirectRuns, NONE, PassBytes, Scale, Traffic, read, read_write, write};
+use crate::gpu::profile::{IndirectRuns, NONE, PassBytes, Scale, Traffic, count, loads, stores};
 use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{self, Reduced, Reduction};
 use crate::gpu::reference::{self, DeviceReference, Extras};
@@ -51,44 +51,44 @@ pub const REDUCE: Source = source!(
 pub const POSITIONS: PassBytes = PassBytes {
     entry: "positions",
     traffic: &[
-        read("reference", [0, 1, 0], NONE),
-        read("y", [0, 1, 0], NONE),
-        write("x", [0, 1, 0], NONE),
+        count("reference", [0, 1, 0], NONE),
+        count("y", [0, 1, 0], NONE),
+        count("x", [0, 1, 0], NONE),
     ],
 };
 
 /// The traffic of the core's part of a scheme's `particle` pass: V = m/ρ (m from the
 /// reference volume, ρ from the state), the linear correction's A⁻ᵀ (a gather over x).
 pub const PARTICLE_CORE: [Traffic; 7] = [
-    read("reference", [1, 0, 0], NONE),
-    read("y", [1, 0, 0], NONE),
-    write("kin", [1, 0, 0], NONE),
-    write("kin", [0, 0, 1], NONE).when(&["CORRECTION == CORRECTION_LINEAR"]),
-    read("offsets", [1, 0, 0], NONE).when(&["CORRECTION == CORRECTION_LINEAR"]),
-    read("ids", NONE, [1, 0, 0]).when(&["CORRECTION == CORRECTION_LINEAR"]),
-    read("x", [0, 1, 0], NONE).when(&["CORRECTION == CORRECTION_LINEAR"]),
+    count("reference", [1, 0, 0], NONE),
+    count("y", [1, 0, 0], NONE),
+    count("kin", [1, 0, 0], NONE),
+    count("kin", [0, 0, 1], NONE).when(&["CORRECTION == CORRECTION_LINEAR"]),
+    count("offsets", [1, 0, 0], NONE).when(&["CORRECTION == CORRECTION_LINEAR"]),
+    count("ids", NONE, [1, 0, 0]).when(&["CORRECTION == CORRECTION_LINEAR"]),
+    count("x", [0, 1, 0], NONE).when(&["CORRECTION == CORRECTION_LINEAR"]),
 ];
 
 /// The traffic of the core's part of a scheme's `rates` pass: the row, x, the state
 /// (v, ρ, S, F), V, A⁻ᵀ, the boundary conditions (V and mask, ext, the power) and the
 /// rates (u̇, v̇, ρ̇, Ṡ, Ḟ).
 pub const RATES_CORE: [Traffic; 9] = [
-    read("offsets", [1, 0, 0], NONE),
-    read("ids", NONE, [1, 0, 0]),
-    read("x", [0, 1, 0], NONE),
-    read("y", [1, 1, 2], NONE),
-    read("kin", [1, 0, 0], NONE),
-    read("kin", [0, 0, 1], NONE).when(&["CORRECTION == CORRECTION_LINEAR"]),
-    read("reference", [2, 0, 0], NONE),
-    read("ext", [0, 1, 0], NONE),
-    write("d", [1, 2, 2], NONE),
+    count("offsets", [1, 0, 0], NONE),
+    count("ids", NONE, [1, 0, 0]),
+    count("x", [0, 1, 0], NONE),
+    count("y", [1, 1, 2], NONE),
+    loads("kin", [1, 0, 0], NONE),
+    loads("kin", [0, 0, 1], NONE).when(&["CORRECTION == CORRECTION_LINEAR"]),
+    count("reference", [2, 0, 0], NONE),
+    count("ext", [0, 1, 0], NONE),
+    count("d", [1, 2, 2], NONE),
 ];
 
 /// The power of supports and loads, which the rates pass writes into `kin`.
-pub const POWER: Traffic = write("kin", [1, 0, 0], NONE);
+pub const POWER: Traffic = stores("kin", [1, 0, 0], NONE);
 
 /// The failure flags (det A, ρ > 0) of the particle pass.
-pub const STATUS: Traffic = read_write("status", NONE, NONE);
+pub const STATUS: Traffic = count("status", NONE, NONE);
 
 /// The passes every UL engine compiles besides its scheme's.
 pub const SHARED: [Source; 4] = [CONTACT, PRESCRIBED, INTEGRATE, REDUCE];
