@@ -196,6 +196,22 @@ pub const fn stores(binding: &'static str, item: [u32; 3], pair: [u32; 3]) -> Tr
 /// No words.
 pub const NONE: [u32; 3] = [0, 0, 0];
 
+/// The rows of `first`, then those of `then`: a shared part of a pass's table (a core's)
+/// and its own. N is A + B (checked when the constant is evaluated).
+pub const fn joined<const A: usize, const B: usize, const N: usize>(
+    first: [Traffic; A],
+    then: [Traffic; B],
+) -> [Traffic; N] {
+    assert!(A + B == N, "a joined table has the rows of both");
+    let mut rows = [count("", NONE, NONE); N];
+    let mut k = 0;
+    while k < N {
+        rows[k] = if k < A { first[k] } else { then[k - A] };
+        k += 1;
+    }
+    rows
+}
+
 /// The bytes model of one entry point of a pass file: its storage bindings' traffic.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PassBytes {

@@ -46,8 +46,8 @@ pub struct Source {
 }
 
 /// The [`Source`] of a pass file under `shaders/` with the function files it calls, its
-/// flat buffers `(name, writable)` and the bytes model of its entry points
-/// ([`PassBytes`]).
+/// flat buffers `(name, writable)` (or `flat = ` a list shared by several files) and the
+/// bytes model of its entry points ([`PassBytes`]).
 macro_rules! source {
     ($path:literal) => {
         $crate::gpu::shaders::source!($path, [], [], &[])
@@ -59,11 +59,14 @@ macro_rules! source {
         $crate::gpu::shaders::source!($path, [$($common),*], [$(($buf, $rw)),*], &[])
     };
     ($path:literal, [$($common:expr),*], [$(($buf:literal, $rw:literal)),*], $bytes:expr) => {
+        $crate::gpu::shaders::source!($path, [$($common),*], flat = &[$(($buf, $rw)),*], $bytes)
+    };
+    ($path:literal, [$($common:expr),*], flat = $flat:expr, $bytes:expr) => {
         $crate::gpu::shaders::Source {
             name: $path,
             text: $crate::gpu::shaders::wgsl!($path).text,
             common: &[$($common),*],
-            flat: &[$(($buf, $rw)),*],
+            flat: $flat,
             bytes: $bytes,
         }
     };

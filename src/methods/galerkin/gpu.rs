@@ -201,15 +201,6 @@ impl Layout {
             reference: reference::fields(n, constrained, dim, Extras::default()),
         }
     }
-
-    fn stepped(&self) -> StateLayout {
-        StateLayout {
-            n: self.n,
-            dim: self.dim,
-            rest: self.state.offset("RHO"),
-            len: self.state.len(),
-        }
-    }
 }
 
 /// The compiled-in constants of a Galerkin scene.
@@ -407,7 +398,7 @@ impl<D: GpuDim> GpuGalerkin<D> {
             &gpu,
             case.method.integrator,
             &compose(&INTEGRATE),
-            layout.stepped(),
+            StateLayout::of(&layout.state, "RHO"),
             &y0,
         )?;
         let interactions = GpuInteractions::new(

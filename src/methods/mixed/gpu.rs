@@ -172,7 +172,7 @@ impl<D: GpuDim> GpuMixed<D> {
             &gpu,
             case.method.integrator,
             &compose(&INTEGRATE),
-            layout.stepped(),
+            StateLayout::of(&layout.state, "F"),
             &layout.encode(&cpu.initial_state()),
         )?;
         let interactions = GpuInteractions::new(

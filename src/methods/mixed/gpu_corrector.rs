@@ -13,7 +13,7 @@
 use super::compressibility::{Corrector, Unconverged};
 use super::gpu::{IMAGES, MIXED, MOTION};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
-use crate::gpu::profile::{IndirectRuns, NONE, PassBytes, Traffic, count, loads, stores};
+use crate::gpu::profile::{IndirectRuns, NONE, PassBytes, Traffic, count, joined, loads, stores};
 use crate::gpu::shaders::{REFERENCE, Source, source};
 use crate::integrate::PseudoTime;
 use crate::tensor::Dim;
@@ -88,19 +88,8 @@ pub const CORRECTOR: Source = source!(
         },
         PassBytes {
             entry: "residual",
-            traffic: &[
-                RATES[0],
-                RATES[1],
-                RATES[2],
-                RATES[3],
-                RATES[4],
-                RATES[5],
-                RATES[6],
-                RATES[7],
-                RATES[8],
-                // Per workgroup a maximum (not counted).
-                count("control", NONE, NONE),
-            ],
+            // Per workgroup a maximum (not counted).
+            traffic: &joined::<9, 1, 10>(RATES, [count("control", NONE, NONE)]),
         },
         PassBytes {
             entry: "residual_stage",

@@ -90,6 +90,36 @@ pub const POWER: Traffic = stores("kin", [1, 0, 0], NONE);
 /// The failure flags (det A, ρ > 0) of the particle pass.
 pub const STATUS: Traffic = count("status", NONE, NONE);
 
+/// The flat buffers of a scheme's pass file.
+pub const FLAT: &[(&str, bool)] = &[
+    ("y", false),
+    ("x", true),
+    ("kin", true),
+    ("d", true),
+    ("reference", false),
+    ("ext", false),
+];
+
+/// The bytes model of a scheme's pass file: the core's `positions`, and its `particle`
+/// and `rates` (each the core's part, [`PARTICLE_CORE`] and [`RATES_CORE`], and the
+/// scheme's).
+pub const fn scheme_bytes(
+    particle: &'static [Traffic],
+    rates: &'static [Traffic],
+) -> [PassBytes; 3] {
+    [
+        POSITIONS,
+        PassBytes {
+            entry: "particle",
+            traffic: particle,
+        },
+        PassBytes {
+            entry: "rates",
+            traffic: rates,
+        },
+    ]
+}
+
 /// The passes every UL engine compiles besides its scheme's.
 pub const SHARED: [Source; 4] = [CONTACT, PRESCRIBED, INTEGRATE, REDUCE];
 
@@ -143,15 +173,6 @@ impl Layout {
                 constrained,
             ),
             reference: reference::fields(n, constrained, dim, Extras::default()),
-        }
-    }
-
-    fn stepped(&self) -> StateLayout {
-        StateLayout {
-            n: self.n,
-            dim: self.dim,
-            rest: self.state.offset("RHO"),
-            len: self.state.len(),
         }
     }
 }
@@ -258,7 +279,7 @@ impl<D: GpuDim> GpuUl<D> {
             &gpu,
             case.method.integrator,
             &compose(&INTEGRATE),
-            layout.stepped(),
+            StateLayout::of(&layout.state, "RHO"),
             &y0,
         )?;
         let per_body = case.contact.is_some();

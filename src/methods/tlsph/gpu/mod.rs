@@ -23,7 +23,7 @@ use crate::engine::{BlowUp, GpuEngine, GpuFamily};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{GpuDim, flat_v};
 use crate::gpu::profile::Scale;
-use crate::gpu::program::Stepper;
+use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{Reduced, Reduction};
 use crate::gpu::reference::DeviceReference;
 use crate::gpu::shaders::{self, CORRECTION, INTEGRATE, PAIR_OFFSETS, Source};
@@ -137,7 +137,7 @@ impl<D: GpuDim> GpuTlsph<D> {
             &gpu,
             case.method.integrator,
             &compose(&INTEGRATE),
-            layout.stepped(),
+            StateLayout::of(&layout.state, "RHO"),
             &y0,
         )?;
         let interactions =

@@ -6,7 +6,6 @@ use super::super::{TlsphForce, ViscosityGradient};
 use crate::correction::CorrectionKind;
 use crate::gpu::layout::Fields;
 use crate::gpu::profile::{NONE, PassBytes, count, loads, stores};
-use crate::gpu::program::StateLayout;
 use crate::gpu::reduction;
 use crate::gpu::reference::{self, Extras};
 use crate::gpu::shaders::{
@@ -281,15 +280,6 @@ impl Layout {
                 .scalars("HGK", scheme.hourglass.is_some() || dual, pairs)
                 .scalars("HGKR", dual, pairs),
             reference: reference::fields(n, constrained, dim, EXTRAS),
-        }
-    }
-
-    pub(super) fn stepped(&self) -> StateLayout {
-        StateLayout {
-            n: self.n,
-            dim: self.dim,
-            rest: self.state.offset("RHO"),
-            len: self.state.len(),
         }
     }
 }
