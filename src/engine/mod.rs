@@ -1,14 +1,18 @@
 //! The engine contracts: what the driver steps ([`Engine`]), what a method's CPU system
 //! gives the driver, observers and outputs ([`Method`]), the CPU engine that integrates one
-//! ([`CpuEngine`]), and what a step reports (a [`BlowUp`], [`Iteration`]s of a static
-//! solve, the traffic of a step). Below the method cores and families and the driver,
-//! which both speak through it; the factory that picks a case's engine is
-//! [`crate::run::engine`].
+//! ([`CpuEngine`]), the GPU engine of every device family (`GpuEngine` on a `GpuFamily`,
+//! in `gpu.rs`), and what a step reports (a [`BlowUp`], [`Iteration`]s of a static solve,
+//! the traffic of a step). Below the method cores and families and the driver, which both
+//! speak through it; the factory that picks a case's engine is [`crate::run::engine`].
 
 mod cpu;
+#[cfg(feature = "gpu")]
+mod gpu;
 mod method;
 
 pub use cpu::CpuEngine;
+#[cfg(feature = "gpu")]
+pub use gpu::{GpuEngine, GpuFamily};
 pub use method::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
 
 use crate::balance::Booked;

@@ -1,7 +1,7 @@
 //! The wgpu device: adapter selection, buffers (uniforms laid out by encase from their
 //! `ShaderType` structs), pipelines, dispatch sizes and readback.
 
-use super::profile::{Cost, PassBytes, Profiler};
+use super::profile::{Access, BindingUse, Cost, PassBytes, Profiler};
 use bytemuck::Pod;
 use encase::ShaderType;
 use encase::internal::WriteInto;
@@ -153,15 +153,35 @@ pub(crate) fn wgsl_struct_size(wgsl: &str, name: &str) -> u32 {
 }
 
 /// What an entry point of a WGSL source binds (naga reflection of the module wgpu
-/// compiles): its bindings in group 0 by variable name, how many are storage buffers, and
+/// compiles): its bindings in group 0 by variable name, how many are storage buffers,
 /// which storage buffers it reads and writes (loads and stores in the entry point and the
-/// functions it calls; an atomic counts as both).
+/// functions it calls; an atomic counts as both) and the bytes of an element of each
+/// storage buffer's array.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Reflection {
     pub bindings: Vec<(u32, String)>,
     pub storage_buffers: u32,
     pub reads: Vec<String>,
     pub writes: Vec<String>,
+    pub element_bytes: Vec<(String, u32)>,
+}
+
+impl Reflection {
+    /// How the entry point uses the storage binding `name`; None: not at all.
+    pub fn binding_use(&self, name: &str) -> Option<BindingUse> {
+        let has = |list: &[String]| list.iter().any(|n| n == name);
+        let access = match (has(&self.reads), has(&self.writes)) {
+            (true, true) => Access::ReadWrite,
+            (true, false) => Access::Read,
+            (false, true) => Access::Write,
+            (false, false) => return None,
+        };
+        let (_, element_bytes) = self.element_bytes.iter().find(|(n, _)| n == name)?;
+        Some(BindingUse {
+            access,
+            element_bytes: *element_bytes,
+        })
+    }
 }
 
 /// The module of a WGSL source and its validation info; Err: naga's message.
@@ -204,6 +224,7 @@ fn reflect_module(
         storage_buffers: 0,
         reads: Vec::new(),
         writes: Vec::new(),
+        element_bytes: Vec::new(),
     };
     for (handle, var) in used {
         let binding = var.binding.as_ref().map_or(0, |b| b.binding);
@@ -211,6 +232,12 @@ fn reflect_module(
         reflection.bindings.push((binding, name.clone()));
         if matches!(var.space, naga::AddressSpace::Storage { .. }) {
             reflection.storage_buffers += 1;
+            let element = match module.types[var.ty].inner {
+                naga::TypeInner::Array { base, .. } => &module.types[base].inner,
+                ref whole => whole,
+            };
+            let bytes = element.size(module.to_ctx());
+            reflection.element_bytes.push((name.clone(), bytes));
             let used = uses[handle];
             if used.intersects(GlobalUse::READ | GlobalUse::ATOMIC) {
                 reflection.reads.push(name.clone());
@@ -254,18 +281,28 @@ pub fn pass_model(source: &str, entry: &str) -> Option<&'static PassBytes> {
 /// The bytes model of entry point `entry` of a composed pass ([`pass_model`]) in the
 /// variant its constants select. Err: the model names a constant the variant lacks.
 pub fn pass_cost(source: &str, entry: &str) -> Result<Option<Cost>, String> {
-    let (module, _) = validated(source)?;
-    cost_in(&module, source, entry)
+    let (module, info) = validated(source)?;
+    let reflection = reflect_module(&module, &info, entry)?;
+    cost_in(&module, &reflection, source, entry)
 }
 
-/// [`pass_cost`] of the parsed `module` of `source`.
-fn cost_in(module: &naga::Module, source: &str, entry: &str) -> Result<Option<Cost>, String> {
+/// [`pass_cost`] of the parsed `module` of `source`: each binding's access and element
+/// type from the entry point's `reflection`.
+fn cost_in(
+    module: &naga::Module,
+    reflection: &Reflection,
+    source: &str,
+    entry: &str,
+) -> Result<Option<Cost>, String> {
     let Some(model) = pass_model(source, entry) else {
         return Ok(None);
     };
     let constants = integer_constants(module);
     model
-        .cost(|name| constants.iter().find(|(n, _)| n == name).map(|c| c.1))
+        .cost(
+            |name| constants.iter().find(|(n, _)| n == name).map(|c| c.1),
+            |name| reflection.binding_use(name),
+        )
         .map(Some)
 }
 
@@ -474,7 +511,7 @@ impl Gpu {
         };
         let (module, info) = validated(source).map_err(shader)?;
         let reflection = reflect_module(&module, &info, entry).map_err(shader)?;
-        let cost = cost_in(&module, source, entry).map_err(shader)?;
+        let cost = cost_in(&module, &reflection, source, entry).map_err(shader)?;
         let limit = self.limits.max_storage_buffers_per_shader_stage;
         if reflection.storage_buffers > limit {
             return Err(GpuError::TooManyBuffers {

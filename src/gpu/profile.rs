@@ -1,8 +1,10 @@
 //! The pass report: per compute pass, the time its dispatches took on the device
 //! (timestamp queries, where the adapter has them), the bytes it moves by a model declared
-//! beside its WGSL ([`PassBytes`], in each pass file's [`Source`](super::shaders::Source)),
-//! the achieved bandwidth, and its fraction of the adapter's own copy bandwidth, measured
-//! once with `shaders/common/copy.wgsl`.
+//! beside its WGSL ([`PassBytes`], in each pass file's [`Source`](super::shaders::Source):
+//! the elements each binding moves per item and per pair; whether the entry point reads
+//! or writes the binding, and the bytes of its element, come from naga's reflection of
+//! the WGSL, [`super::context::Reflection`]), the achieved bandwidth, and its fraction of
+//! the adapter's own copy bandwidth, measured once with `shaders/common/copy.wgsl`.
 //!
 //! Profiling is off unless asked for ([`Gpu::profile`]): a dispatch then writes a
 //! timestamp before and after itself, and the timestamps are resolved and read back only
@@ -21,10 +23,11 @@ use super::shaders::{COPY, Constants, compose};
 use crate::passes::{PassReport, PassRow};
 use std::time::Instant;
 
-/// f32 or u32 words of one item or pair: scalars, DIM-vectors, DIM×DIM tensors and
-/// slopes (a tensor and its DIM derivatives, (DIM + 1)·DIM² words: the mixed methods'
-/// least-squares slopes of v and P) and moduli (a fourth-order tensor such as ∂P/∂F, DIM⁴
-/// words).
+/// Elements of a binding's array for one item or pair: scalars, DIM-vectors, DIM×DIM
+/// tensors and slopes (a tensor and its DIM derivatives, (DIM + 1)·DIM² elements: the
+/// mixed methods' least-squares slopes of v and P) and moduli (a fourth-order tensor such
+/// as ∂P/∂F, DIM⁴ elements). An element's bytes are the array's element type's, from the
+/// WGSL ([`BindingUse`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Words {
     pub scalars: u32,
@@ -35,10 +38,10 @@ pub struct Words {
 }
 
 impl Words {
-    /// Bytes of these words in dimension `dim`.
-    pub const fn bytes(self, dim: u32) -> u64 {
+    /// The elements of these words in dimension `dim`.
+    pub const fn elements(self, dim: u32) -> u64 {
         let d2 = dim * dim;
-        4 * (self.scalars
+        (self.scalars
             + self.vectors * dim
             + self.tensors * d2
             + self.slopes * (dim + 1) * d2
@@ -65,14 +68,34 @@ impl Access {
     }
 }
 
-/// One storage binding's traffic in a pass: words per item and per neighbour pair, each
-/// counted once per direction of `access` (a [`Access::ReadWrite`] twice), in the scene
-/// variants where every condition of `when` holds (`"AV"`: the scene constant AV is 1;
-/// `"STAB == STAB_UPWIND"`: two constants, or a constant and a number, are equal).
+/// How an entry point uses a storage binding, by naga's reflection of its WGSL: the
+/// access, and the bytes of an element of its array.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BindingUse {
+    pub access: Access,
+    pub element_bytes: u32,
+}
+
+/// The directions of a binding a [`Traffic`] counts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Part {
+    /// Every direction the entry point uses it in (a read-modify-write twice).
+    Used,
+    /// Its loads alone, of a binding the entry point reads and writes in other amounts.
+    Loads,
+    /// Its stores alone, likewise.
+    Stores,
+}
+
+/// One storage binding's traffic in a pass: elements per item and per neighbour pair,
+/// counted once per direction of `part`, in the scene variants where every condition of
+/// `when` holds (`"AV"`: the scene constant AV is 1; `"STAB == STAB_UPWIND"`: two
+/// constants, or a constant and a number, are equal). Whether the binding is read or
+/// written, and its element type, are the WGSL's.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Traffic {
     pub binding: &'static str,
-    pub access: Access,
+    pub part: Part,
     pub item: Words,
     pub pair: Words,
     pub when: &'static [&'static str],
@@ -105,6 +128,31 @@ impl Traffic {
             ..self
         }
     }
+
+    /// The directions counted of a binding the entry point uses as `used`; Err: the
+    /// entry point does not use it so.
+    fn times(&self, entry: &str, used: Option<Access>) -> Result<u64, String> {
+        let binding = self.binding;
+        let used = used.ok_or_else(|| {
+            format!(
+                "the bytes model of `{entry}` counts `{binding}`, a binding the entry point \
+                 does not use"
+            )
+        })?;
+        let (reads, writes) = match self.part {
+            Part::Used => (used.reads(), used.writes()),
+            Part::Loads => (true, false),
+            Part::Stores => (false, true),
+        };
+        if (reads && !used.reads()) || (writes && !used.writes()) {
+            return Err(format!(
+                "the bytes model of `{entry}` counts the {} of `{binding}`, which the entry \
+                 point does not make",
+                if reads { "loads" } else { "stores" }
+            ));
+        }
+        Ok(u64::from(reads) + u64::from(writes))
+    }
 }
 
 const fn words(w: [u32; 3]) -> Words {
@@ -117,35 +165,52 @@ const fn words(w: [u32; 3]) -> Words {
     }
 }
 
-/// `binding` read: `[scalars, vectors, tensors]` per item and per pair.
-pub const fn read(binding: &'static str, item: [u32; 3], pair: [u32; 3]) -> Traffic {
+/// `binding`'s `[scalars, vectors, tensors]` per item and per pair, in every direction
+/// the entry point uses it.
+pub const fn count(binding: &'static str, item: [u32; 3], pair: [u32; 3]) -> Traffic {
     Traffic {
         binding,
-        access: Access::Read,
+        part: Part::Used,
         item: words(item),
         pair: words(pair),
         when: &[],
     }
 }
 
-/// `binding` written.
-pub const fn write(binding: &'static str, item: [u32; 3], pair: [u32; 3]) -> Traffic {
+/// `binding`'s loads, of a binding also stored in other amounts.
+pub const fn loads(binding: &'static str, item: [u32; 3], pair: [u32; 3]) -> Traffic {
     Traffic {
-        access: Access::Write,
-        ..read(binding, item, pair)
+        part: Part::Loads,
+        ..count(binding, item, pair)
     }
 }
 
-/// `binding` read and written.
-pub const fn read_write(binding: &'static str, item: [u32; 3], pair: [u32; 3]) -> Traffic {
+/// `binding`'s stores, of a binding also loaded in other amounts.
+pub const fn stores(binding: &'static str, item: [u32; 3], pair: [u32; 3]) -> Traffic {
     Traffic {
-        access: Access::ReadWrite,
-        ..read(binding, item, pair)
+        part: Part::Stores,
+        ..count(binding, item, pair)
     }
 }
 
 /// No words.
 pub const NONE: [u32; 3] = [0, 0, 0];
+
+/// The rows of `first`, then those of `then`: a shared part of a pass's table (a core's)
+/// and its own. N is A + B (checked when the constant is evaluated).
+pub const fn joined<const A: usize, const B: usize, const N: usize>(
+    first: [Traffic; A],
+    then: [Traffic; B],
+) -> [Traffic; N] {
+    assert!(A + B == N, "a joined table has the rows of both");
+    let mut rows = [count("", NONE, NONE); N];
+    let mut k = 0;
+    while k < N {
+        rows[k] = if k < A { first[k] } else { then[k - A] };
+        k += 1;
+    }
+    rows
+}
 
 /// The bytes model of one entry point of a pass file: its storage bindings' traffic.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -163,8 +228,15 @@ pub struct Cost {
 
 impl PassBytes {
     /// The bytes per item and per pair in the variant whose scene constants `constant`
-    /// gives by name (None: no such constant, or not an integer); dimension from `DIM`.
-    pub fn cost(&self, constant: impl Fn(&str) -> Option<i64>) -> Result<Cost, String> {
+    /// gives by name (None: no such constant, or not an integer) and whose entry point
+    /// uses each storage binding as `binding` gives by name (None: not at all);
+    /// dimension from `DIM`. Err: a condition names no constant, or a count names a
+    /// binding, or a direction of one, that the entry point does not use.
+    pub fn cost(
+        &self,
+        constant: impl Fn(&str) -> Option<i64>,
+        binding: impl Fn(&str) -> Option<BindingUse>,
+    ) -> Result<Cost, String> {
         let dim = constant("DIM").ok_or("the pass has no constant DIM")? as u32;
         let value = |side: &str| -> Result<i64, String> {
             let side = side.trim();
@@ -189,14 +261,16 @@ impl PassBytes {
         };
         let mut cost = Cost { item: 0, pair: 0 };
         for t in self.traffic {
+            let used = binding(t.binding);
+            let times = t.times(self.entry, used.map(|u| u.access))?;
             let mut counted = true;
             for condition in t.when {
                 counted &= holds(condition)?;
             }
             if counted {
-                let times = u64::from(t.access.reads()) + u64::from(t.access.writes());
-                cost.item += times * t.item.bytes(dim);
-                cost.pair += times * t.pair.bytes(dim);
+                let bytes = times * u64::from(used.map_or(0, |u| u.element_bytes));
+                cost.item += bytes * t.item.elements(dim);
+                cost.pair += bytes * t.pair.elements(dim);
             }
         }
         Ok(cost)

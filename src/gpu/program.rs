@@ -5,6 +5,7 @@
 //! into one command encoder.
 
 use super::context::{Gpu, GpuError, Pipeline};
+use super::layout::Fields;
 use crate::integrate::{Buf, Evaluation, IntegratorKind, Op, program, uses};
 use encase::ShaderType;
 
@@ -16,6 +17,20 @@ pub struct StateLayout {
     pub dim: usize,
     pub rest: usize,
     pub len: usize,
+}
+
+impl StateLayout {
+    /// The layout of a state buffer with the fields `state`: the vectors U and V first,
+    /// the fields integrated with their rates from the field `rest` on.
+    pub fn of(state: &Fields, rest: &str) -> Self {
+        let u = state.field("U");
+        Self {
+            n: u.count,
+            dim: u.width,
+            rest: state.offset(rest),
+            len: state.len(),
+        }
+    }
 }
 
 /// The uniform `Coefficients` of `integrate.wgsl`.
@@ -56,7 +71,7 @@ pub struct Stepper {
 impl Stepper {
     /// The program of `kind` on a state starting at `y0`; `integrate` is
     /// `shaders/common/integrate.wgsl` composed with the scene's constants (N, DIM, U_OFF, V_OFF,
-    /// REST_OFF, LEN of `layout`).
+    /// REST_OFF, LEN of `layout`, [`StateLayout::of`] the state's fields).
     pub fn new(
         gpu: &Gpu,
         kind: IntegratorKind,

@@ -8,7 +8,7 @@
 //! declared by its GPU engine.
 
 use super::layout::GpuDim;
-use super::profile::{NONE, PassBytes, read, read_write, write};
+use super::profile::{NONE, PassBytes, count, loads, stores};
 use crate::kernel::{Kernel, KernelKind};
 use crate::material::{Material, MaterialModel};
 
@@ -46,8 +46,8 @@ pub struct Source {
 }
 
 /// The [`Source`] of a pass file under `shaders/` with the function files it calls, its
-/// flat buffers `(name, writable)` and the bytes model of its entry points
-/// ([`PassBytes`]).
+/// flat buffers `(name, writable)` (or `flat = ` a list shared by several files) and the
+/// bytes model of its entry points ([`PassBytes`]).
 macro_rules! source {
     ($path:literal) => {
         $crate::gpu::shaders::source!($path, [], [], &[])
@@ -59,11 +59,14 @@ macro_rules! source {
         $crate::gpu::shaders::source!($path, [$($common),*], [$(($buf, $rw)),*], &[])
     };
     ($path:literal, [$($common:expr),*], [$(($buf:literal, $rw:literal)),*], $bytes:expr) => {
+        $crate::gpu::shaders::source!($path, [$($common),*], flat = &[$(($buf, $rw)),*], $bytes)
+    };
+    ($path:literal, [$($common:expr),*], flat = $flat:expr, $bytes:expr) => {
         $crate::gpu::shaders::Source {
             name: $path,
             text: $crate::gpu::shaders::wgsl!($path).text,
             common: &[$($common),*],
-            flat: &[$(($buf, $rw)),*],
+            flat: $flat,
             bytes: $bytes,
         }
     };
@@ -90,9 +93,9 @@ pub const REVERSE_GRADIENTS: Wgsl = wgsl!("common/reverse_gradients.wgsl");
 pub const REVERSE_GRADIENTS_BYTES: PassBytes = PassBytes {
     entry: "reverse_gradients",
     traffic: &[
-        read("rev", [1, 0, 0], NONE),
-        read("pair", [0, 1, 0], NONE),
-        write("pair", [0, 1, 0], NONE),
+        count("rev", [1, 0, 0], NONE),
+        loads("pair", [0, 1, 0], NONE),
+        stores("pair", [0, 1, 0], NONE),
     ],
 };
 /// Eigen-decomposition of symmetric tensors (cyclic Jacobi) and tensors from principal
@@ -117,26 +120,17 @@ pub const INTEGRATE: Source = source!(
         // out = a·out + b·x.
         PassBytes {
             entry: "blend",
-            traffic: &[
-                read_write("out", [1, 0, 0], NONE),
-                read("x", [1, 0, 0], NONE)
-            ],
+            traffic: &[count("out", [1, 0, 0], NONE), count("x", [1, 0, 0], NONE)],
         },
         // v += b·v̇.
         PassBytes {
             entry: "kick",
-            traffic: &[
-                read_write("out", [1, 0, 0], NONE),
-                read("x", [1, 0, 0], NONE)
-            ],
+            traffic: &[count("out", [1, 0, 0], NONE), count("x", [1, 0, 0], NONE)],
         },
         // u += b·v, and every field after v += b·rate: one more read either way.
         PassBytes {
             entry: "drift",
-            traffic: &[
-                read_write("out", [1, 0, 0], NONE),
-                read("x", [1, 0, 0], NONE)
-            ],
+            traffic: &[count("out", [1, 0, 0], NONE), count("x", [1, 0, 0], NONE)],
         },
     ]
 );
@@ -155,12 +149,12 @@ pub const CONTACT: Source = source!(
     &[PassBytes {
         entry: "contact",
         traffic: &[
-            read("reference", [0, 1, 0], NONE),
-            read("y", [0, 1, 0], NONE),
-            read("body", [1, 0, 0], NONE),
-            read("hull", [1, 0, 0], NONE),
-            read("hull_start", NONE, NONE),
-            read_write("ext", [0, 1, 0], NONE),
+            count("reference", [0, 1, 0], NONE),
+            count("y", [0, 1, 0], NONE),
+            count("body", [1, 0, 0], NONE),
+            count("hull", [1, 0, 0], NONE),
+            count("hull_start", NONE, NONE),
+            count("ext", [0, 1, 0], NONE),
         ],
     }]
 );
@@ -173,9 +167,9 @@ pub const LOADS: Source = source!(
     &[PassBytes {
         entry: "timed_loads",
         traffic: &[
-            read("loads", [0, 1, 0], NONE),
-            read("law", NONE, NONE),
-            read_write("ext", [0, 1, 0], NONE),
+            count("loads", [0, 1, 0], NONE),
+            count("law", NONE, NONE),
+            count("ext", [0, 1, 0], NONE),
         ],
     }]
 );
@@ -188,10 +182,10 @@ pub const PRESCRIBED: Source = source!(
     &[PassBytes {
         entry: "timed_velocities",
         traffic: &[
-            read("timed", [1, 2, 0], NONE),
-            read("steps", NONE, NONE),
-            read("reference", [1, 0, 0], NONE),
-            write("reference", [1, 1, 0], NONE),
+            count("timed", [1, 2, 0], NONE),
+            count("steps", NONE, NONE),
+            loads("reference", [1, 0, 0], NONE),
+            stores("reference", [1, 1, 0], NONE),
         ],
     }]
 );
@@ -207,68 +201,68 @@ pub const CELL_LIST: Source = source!(
         PassBytes {
             entry: "clear_counts",
             traffic: &[
-                write("cell_start", [1, 0, 0], NONE),
-                write("offsets", [1, 0, 0], NONE),
+                count("cell_start", [1, 0, 0], NONE),
+                count("offsets", [1, 0, 0], NONE),
             ],
         },
         PassBytes {
             entry: "bin_particles",
             traffic: &[
-                read("x", [0, 1, 0], NONE),
-                write("cell", [1, 0, 0], NONE),
-                read_write("cell_start", [1, 0, 0], NONE),
+                count("x", [0, 1, 0], NONE),
+                count("cell", [1, 0, 0], NONE),
+                count("cell_start", [1, 0, 0], NONE),
             ],
         },
         PassBytes {
             entry: "copy_cursor",
             traffic: &[
-                read("cell_start", [1, 0, 0], NONE),
-                write("cursor", [1, 0, 0], NONE),
+                count("cell_start", [1, 0, 0], NONE),
+                count("cursor", [1, 0, 0], NONE),
             ],
         },
         PassBytes {
             entry: "scatter",
             traffic: &[
-                read("cell", [1, 0, 0], NONE),
-                read_write("cursor", [1, 0, 0], NONE),
-                write("sorted", [1, 0, 0], NONE),
+                count("cell", [1, 0, 0], NONE),
+                count("cursor", [1, 0, 0], NONE),
+                count("sorted", [1, 0, 0], NONE),
             ],
         },
         PassBytes {
             entry: "count_neighbours",
             traffic: &[
-                read("x", [0, 1, 0], NONE),
-                read("cell_start", [1, 0, 0], NONE),
-                read("sorted", [1, 0, 0], NONE),
-                read("body", [1, 0, 0], NONE).when(&["MASKED"]),
-                write("offsets", [1, 0, 0], NONE),
+                count("x", [0, 1, 0], NONE),
+                count("cell_start", [1, 0, 0], NONE),
+                count("sorted", [1, 0, 0], NONE),
+                count("body", [1, 0, 0], NONE).when(&["MASKED"]),
+                count("offsets", [1, 0, 0], NONE),
                 // The search it shares with `fill_neighbours` fills ids there only.
-                read_write("ids", NONE, NONE),
+                count("ids", NONE, NONE),
             ],
         },
         // The ids of a row are sorted in place as they are found: read and written.
         PassBytes {
             entry: "fill_neighbours",
             traffic: &[
-                read("x", [0, 1, 0], NONE),
-                read("cell_start", [1, 0, 0], NONE),
-                read("sorted", [1, 0, 0], NONE),
-                read("body", [1, 0, 0], NONE).when(&["MASKED"]),
-                read("offsets", [1, 0, 0], NONE),
-                read_write("ids", NONE, [1, 0, 0]),
-                read_write("overflow", NONE, NONE),
+                count("x", [0, 1, 0], NONE),
+                count("cell_start", [1, 0, 0], NONE),
+                count("sorted", [1, 0, 0], NONE),
+                count("body", [1, 0, 0], NONE).when(&["MASKED"]),
+                count("offsets", [1, 0, 0], NONE),
+                count("ids", NONE, [1, 0, 0]),
+                count("overflow", NONE, NONE),
             ],
         },
         PassBytes {
             entry: "save_built",
-            traffic: &[read("x", [0, 1, 0], NONE), write("built", [0, 1, 0], NONE)],
+            traffic: &[count("x", [0, 1, 0], NONE), count("built", [0, 1, 0], NONE)],
         },
         PassBytes {
             entry: "check_drift",
             traffic: &[
-                read("x", [0, 1, 0], NONE),
-                read("built", [0, 1, 0], NONE),
-                read_write("due", NONE, NONE),
+                count("x", [0, 1, 0], NONE),
+                count("built", [0, 1, 0], NONE),
+                count("due", NONE, NONE),
             ],
         },
         // One item: 3 workgroup counts of each of a build's dispatches (12 with one
@@ -276,9 +270,9 @@ pub const CELL_LIST: Source = source!(
         PassBytes {
             entry: "arm",
             traffic: &[
-                read_write("due", [2, 0, 0], NONE),
-                read("full", [36, 0, 0], NONE),
-                write("args", [36, 0, 0], NONE),
+                count("due", [2, 0, 0], NONE),
+                count("full", [36, 0, 0], NONE),
+                count("args", [36, 0, 0], NONE),
             ],
         },
     ]
@@ -291,25 +285,26 @@ pub const SCAN: Source = source!(
         PassBytes {
             entry: "scan_blocks",
             traffic: &[
-                read_write("data", [2, 0, 0], NONE),
-                write("block_sums", NONE, NONE),
+                count("data", [2, 0, 0], NONE),
+                count("block_sums", NONE, NONE),
             ],
         },
         PassBytes {
             entry: "add_block_sums",
             traffic: &[
-                read_write("data", [1, 0, 0], NONE),
-                read("block_sums", NONE, NONE),
+                count("data", [1, 0, 0], NONE),
+                count("block_sums", NONE, NONE),
             ],
         },
     ]
 );
-/// The copy that measures an adapter's copy bandwidth (`gpu::profile`): 16 bytes an item.
+/// The copy that measures an adapter's copy bandwidth (`gpu::profile`): 16 bytes an item,
+/// one `vec4<f32>` element.
 pub const COPY: Source = source!(
     "common/copy.wgsl",
     bytes = &[PassBytes {
         entry: "copy",
-        traffic: &[read("src", [4, 0, 0], NONE), write("dst", [4, 0, 0], NONE)],
+        traffic: &[count("src", [1, 0, 0], NONE), count("dst", [1, 0, 0], NONE)],
     }]
 );
 

@@ -167,7 +167,7 @@ fn whole_runs_track_the_cpu() {
         let steps = 100;
         let (cpu, y) = cpu_run::<D2>(&case, steps, dt);
         let mut g = GpuGalerkin::<D2>::new(&case, gpu()).unwrap();
-        g.advance_steps(dt, steps as u32);
+        g.advance_steps(dt, steps as u32).unwrap();
         let yg = g.state();
         let (ev, scale) = max_v::<D2>(&y.v, &yg.v);
         assert!(ev < 1e-4 * scale, "{name}: max |Δv| = {ev:e} of {scale:e}");
@@ -203,7 +203,7 @@ fn the_seed_001_rod_tracks_the_cpu() {
         let (dt, steps) = (case.method.dt.unwrap(), 500);
         let (_, y) = cpu_run::<D2>(&case, steps, dt);
         let mut g = GpuGalerkin::<D2>::new(&case, gpu()).unwrap();
-        g.advance_steps(dt, steps as u32);
+        g.advance_steps(dt, steps as u32).unwrap();
         g.check().unwrap();
         let (ev, scale) = max_v::<D2>(&y.v, &g.state().v);
         eprintln!("{name}: max |Δv| = {ev:e} of {scale:e}");

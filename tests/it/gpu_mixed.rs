@@ -250,7 +250,7 @@ fn compare_runs<D: GpuDim>(c: &Case, steps: u32) {
     let e_cpu = Invariants::of(&cpu.snapshot(&y));
 
     let mut g: GpuMixed<D> = GpuMixed::new(c, gpu()).unwrap();
-    g.advance_steps(dt, steps);
+    g.advance_steps(dt, steps).unwrap();
     Engine::<D>::check(&mut g).unwrap();
     let yg = g.state();
     let e_gpu = Engine::<D>::invariants(&mut g);
@@ -375,7 +375,7 @@ fn spinning_plate_drift(projection: bool, steps: u32) -> f64 {
     let dt = c.method.cfl.unwrap() * c.spacing / Engine::<D2>::max_signal_speed(&mut g);
     let mut worst: f64 = 0.0;
     for _ in 0..steps / 10 {
-        g.advance_steps(dt, 10);
+        g.advance_steps(dt, 10).unwrap();
         worst = worst.max((l(&g.state()) / l0 - 1.0).abs());
     }
     Engine::<D2>::check(&mut g).unwrap();

@@ -6,7 +6,7 @@
 
 use crate::common::{cpu_options, load};
 use meshless::bench::measure;
-use meshless::gpu::profile::{NONE, PassBytes, read, read_write, write};
+use meshless::gpu::profile::{Access, BindingUse, NONE, PassBytes, count, loads, stores};
 use meshless::integrate::{Op, program};
 use meshless::passes::PassReport;
 use meshless::reference::Reference;
@@ -239,23 +239,42 @@ fn the_mixed_report_has_every_pass_of_a_stage() {
     );
 }
 
-/// A model's bytes: each direction of a binding once, conditions on the variant's
-/// constants, slopes (DIM + 1)·DIM² words.
+/// A model's bytes: each direction the WGSL uses a binding in once (a binding read and
+/// written twice, or its loads and stores apart), times the bytes of the binding's
+/// element; conditions on the variant's constants, slopes (DIM + 1)·DIM² elements. A
+/// count of a binding, or of a direction of one, that the entry point does not use is an
+/// error.
 #[test]
 fn a_bytes_model_counts_directions_conditions_and_slopes() {
     const MODEL: PassBytes = PassBytes {
         entry: "pass",
         traffic: &[
-            read("a", [1, 1, 1], [1, 0, 0]),
-            write("b", [0, 1, 0], NONE).when(&["AV"]),
-            read_write("c", NONE, NONE)
-                .slopes(1)
-                .when(&["STAB == STAB_JST"]),
+            count("a", [1, 1, 1], [1, 0, 0]),
+            count("b", [0, 1, 0], NONE).when(&["AV"]),
+            count("c", NONE, NONE).slopes(1).when(&["STAB == STAB_JST"]),
         ],
     };
     const MISSING: PassBytes = PassBytes {
         entry: "pass",
-        traffic: &[read("a", [1, 0, 0], NONE).when(&["XSPH"])],
+        traffic: &[count("a", [1, 0, 0], NONE).when(&["XSPH"])],
+    };
+    // A binding read and written with one tensor loaded and a scalar stored per item, and
+    // a vec4<f32> (16 bytes) read per item.
+    const SPLIT: PassBytes = PassBytes {
+        entry: "pass",
+        traffic: &[
+            loads("c", [0, 0, 1], NONE),
+            stores("c", [1, 0, 0], NONE),
+            count("v", [1, 0, 0], NONE),
+        ],
+    };
+    const UNUSED: PassBytes = PassBytes {
+        entry: "pass",
+        traffic: &[count("e", [1, 0, 0], NONE)],
+    };
+    const NOT_STORED: PassBytes = PassBytes {
+        entry: "pass",
+        traffic: &[stores("a", [1, 0, 0], NONE)],
     };
     let constants = |av: i64, stab: i64| {
         move |name: &str| match name {
@@ -266,12 +285,33 @@ fn a_bytes_model_counts_directions_conditions_and_slopes() {
             _ => None,
         }
     };
-    let cost = MODEL.cost(constants(0, 0)).unwrap();
+    // As naga's reflection of a WGSL source would give them: a read, b written, c read
+    // and written, f32 elements; v read, vec4<f32> elements; e not used.
+    let uses = |name: &str| {
+        let (access, element_bytes) = match name {
+            "a" => (Access::Read, 4),
+            "b" => (Access::Write, 4),
+            "c" => (Access::ReadWrite, 4),
+            "v" => (Access::Read, 16),
+            _ => return None,
+        };
+        Some(BindingUse {
+            access,
+            element_bytes,
+        })
+    };
+    let cost = MODEL.cost(constants(0, 0), uses).unwrap();
     assert_eq!((cost.item, cost.pair), (4 * (1 + 3 + 9), 4));
-    let cost = MODEL.cost(constants(1, 1)).unwrap();
+    let cost = MODEL.cost(constants(1, 1), uses).unwrap();
     assert_eq!(cost.item, 4 * (1 + 3 + 9 + 3 + 2 * 4 * 9));
-    let err = MISSING.cost(constants(0, 0)).unwrap_err();
+    let err = MISSING.cost(constants(0, 0), uses).unwrap_err();
     assert!(err.contains("XSPH"), "{err}");
+    let cost = SPLIT.cost(constants(0, 0), uses).unwrap();
+    assert_eq!((cost.item, cost.pair), (4 * 9 + 4 + 16, 0));
+    let err = UNUSED.cost(constants(0, 0), uses).unwrap_err();
+    assert!(err.contains("`e`") && err.contains("does not use"), "{err}");
+    let err = NOT_STORED.cost(constants(0, 0), uses).unwrap_err();
+    assert!(err.contains("stores of `a`"), "{err}");
 }
 
 /// `meshless run --profile` on the GPU: the summary carries the report of every step of

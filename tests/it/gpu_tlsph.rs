@@ -242,7 +242,7 @@ fn whole_runs_track_the_cpu() {
     let mut y = cpu.initial_state();
     cpu_run(&mut cpu, &mut y, c.method.integrator, dt, steps);
     let mut g: GpuTlsph<D2> = GpuTlsph::new(&c, gpu()).unwrap();
-    g.advance_steps(dt, steps as u32);
+    g.advance_steps(dt, steps as u32).unwrap();
     let yg = g.state();
     // |v| ≤ 1 m/s: f32 round-off per step ~1e-7, 120 steps ⇒ ≤ 1e-5 m/s; bound 1e-4 of the
     // amplitude.
@@ -261,7 +261,7 @@ fn whole_runs_track_the_cpu() {
         cpu_run(&mut cpu, &mut y, c.method.integrator, dt, steps);
         let mut g: GpuTlsph<D2> = GpuTlsph::new(&c, gpu()).unwrap();
         for _ in 0..10 {
-            g.advance_steps(dt, (steps / 10) as u32);
+            g.advance_steps(dt, (steps / 10) as u32).unwrap();
         }
         let yg = g.state();
         // After 0.005 s (0.25 rad) |u| ~ 0.25 m; f32 accumulation of 1,000 increments of

@@ -189,7 +189,8 @@ fn the_gpu_control_tracks_the_cpu() {
     let host: Tlsph<D2> = build_method(&case).unwrap();
     let mut gpu = GpuTlsph::<D2>::new(&case, crate::common::gpu()).unwrap();
     gpu.set_state(&checkerboard(&case, &host));
-    gpu.advance_steps(case.method.dt.unwrap(), steps as u32);
+    gpu.advance_steps(case.method.dt.unwrap(), steps as u32)
+        .unwrap();
     let on_gpu = gpu.state().u;
     let largest = |a: &[DVec2], b: &[DVec2]| {
         a.iter()

@@ -3,7 +3,7 @@
 //! The CPU system ([`super::system`]) is the reference it is checked against.
 
 use super::{CorotatedForce, CorotatedSpec};
-use crate::gpu::profile::{NONE, PassBytes, read, read_write, write};
+use crate::gpu::profile::{NONE, PassBytes, count, loads, stores};
 use crate::gpu::shaders::{
     BOUNDARY, CONTACT, CORRECTION, INTEGRATE, KERNEL, MECHANICS, PAIR_OFFSETS, REFERENCE,
     REVERSE_GRADIENTS, REVERSE_GRADIENTS_BYTES, Source, VISCOSITY, source,
@@ -24,17 +24,17 @@ pub const STRESS: Source = source!(
     &[PassBytes {
         entry: "stress",
         traffic: &[
-            read("offsets", [1, 0, 0], NONE),
+            count("offsets", [1, 0, 0], NONE),
             // Both loops over a row: the second reads it from the cache.
-            read("ids", NONE, [1, 0, 0]),
+            count("ids", NONE, [1, 0, 0]),
             // X_j − X_i, ∇0W̃_ij.
-            read("pair", NONE, [0, 2, 0]),
-            read("reference", [1, 0, 0], NONE),
+            count("pair", NONE, [0, 2, 0]),
+            count("reference", [1, 0, 0], NONE),
             // u.
-            read("y", [0, 1, 0], NONE),
+            count("y", [0, 1, 0], NONE),
             // F̂ − I, P̂, R F̂⁻ᵀ, ρ, R.
-            write("kin", [1, 0, 4], NONE),
-            read_write("status", NONE, NONE),
+            count("kin", [1, 0, 4], NONE),
+            count("status", NONE, NONE),
         ],
     }]
 );
@@ -57,19 +57,19 @@ pub const ACCEL: Source = source!(
         PassBytes {
             entry: "accel",
             traffic: &[
-                read("offsets", [1, 0, 0], NONE),
-                read("ids", NONE, [1, 0, 0]),
+                count("offsets", [1, 0, 0], NONE),
+                count("ids", NONE, [1, 0, 0]),
                 // ∇0W_ij, and ∇0W_ji for the variational force; X_j − X_i for the viscosity.
-                read("pair", NONE, [0, 1, 0]),
-                read("pair", NONE, [0, 1, 0]).when(&["FORCE == FORCE_VARIATIONAL"]),
-                read("pair", NONE, [0, 1, 0]).when(&["AV"]),
-                read("reference", [2, 0, 0], NONE),
-                read("y", [0, 2, 0], NONE),
+                count("pair", NONE, [0, 1, 0]),
+                count("pair", NONE, [0, 1, 0]).when(&["FORCE == FORCE_VARIATIONAL"]),
+                count("pair", NONE, [0, 1, 0]).when(&["AV"]),
+                count("reference", [2, 0, 0], NONE),
+                count("y", [0, 2, 0], NONE),
                 // R, P̂, R F̂⁻ᵀ, ρ in; the power out.
-                read("kin", [1, 0, 3], NONE),
-                write("kin", [2, 0, 0], NONE),
-                read("ext", [0, 1, 0], NONE),
-                write("d", [0, 2, 0], NONE),
+                loads("kin", [1, 0, 3], NONE),
+                stores("kin", [2, 0, 0], NONE),
+                count("ext", [0, 1, 0], NONE),
+                count("d", [0, 2, 0], NONE),
             ],
         }
     ]

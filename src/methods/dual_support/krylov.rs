@@ -22,7 +22,7 @@ use super::gpu::DeviceLists;
 use super::model::DualSupport;
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::GpuDim;
-use crate::gpu::profile::{NONE, PassBytes, Scale, read, read_write, write};
+use crate::gpu::profile::{NONE, PassBytes, Scale, count};
 use crate::gpu::shaders::{Constants, Source, compose, source};
 use crate::statics::MatrixFree;
 use crate::statics::sparse::{SolveError, SolveStats};
@@ -63,77 +63,77 @@ pub const KRYLOV: Source = source!(
         PassBytes {
             entry: "strain",
             traffic: &[
-                read("lists", [1, 0, 0], [1, 0, 0]),
-                read("g", NONE, [0, 1, 0]),
-                read("tangent", NONE, NONE).moduli(1),
-                read("p", [0, 1, 0], NONE),
-                write("lin", [0, 0, 2], NONE),
+                count("lists", [1, 0, 0], [1, 0, 0]),
+                count("g", NONE, [0, 1, 0]),
+                count("tangent", NONE, NONE).moduli(1),
+                count("p", [0, 1, 0], NONE),
+                count("lin", [0, 0, 2], NONE),
             ],
         },
         PassBytes {
             entry: "product",
             traffic: &[
-                read("lists", [1, 0, 0], [1, 0, 0]),
-                read("g", NONE, [0, 1, 0]),
-                read("grev", NONE, [0, 1, 0]),
+                count("lists", [1, 0, 0], [1, 0, 0]),
+                count("g", NONE, [0, 1, 0]),
+                count("grev", NONE, [0, 1, 0]),
                 // k_ij, k_ji and X_j − X_i with the hourglass term.
-                read("hg", NONE, [2, 1, 0]).when(&["HOURGLASS"]),
-                read("lin", [0, 0, 2], NONE),
-                read("p", [0, 1, 0], NONE),
-                write("q", [0, 1, 0], NONE),
-                write("partials", NONE, NONE),
+                count("hg", NONE, [2, 1, 0]).when(&["HOURGLASS"]),
+                count("lin", [0, 0, 2], NONE),
+                count("p", [0, 1, 0], NONE),
+                count("q", [0, 1, 0], NONE),
+                count("partials", NONE, NONE),
             ],
         },
         PassBytes {
             entry: "start",
             traffic: &[
-                read("inv_diag", [1, 0, 0], NONE),
-                read("r", [1, 0, 0], NONE),
-                write("p", [1, 0, 0], NONE),
-                write("x", [1, 0, 0], NONE),
-                write("partials", NONE, NONE),
+                count("inv_diag", [1, 0, 0], NONE),
+                count("r", [1, 0, 0], NONE),
+                count("p", [1, 0, 0], NONE),
+                count("x", [1, 0, 0], NONE),
+                count("partials", NONE, NONE),
             ],
         },
         PassBytes {
             entry: "begin",
             traffic: &[
-                read("partials", [2, 0, 0], NONE),
-                read_write("scalars", NONE, NONE),
+                count("partials", [2, 0, 0], NONE),
+                count("scalars", NONE, NONE),
             ],
         },
         PassBytes {
             entry: "alpha",
             traffic: &[
-                read("partials", [2, 0, 0], NONE),
-                read_write("scalars", NONE, NONE),
+                count("partials", [2, 0, 0], NONE),
+                count("scalars", NONE, NONE),
             ],
         },
         PassBytes {
             entry: "update",
             traffic: &[
-                read("scalars", NONE, NONE),
-                read_write("x", [1, 0, 0], NONE),
-                read_write("r", [1, 0, 0], NONE),
-                read("p", [1, 0, 0], NONE),
-                read("q", [1, 0, 0], NONE),
-                read("inv_diag", [1, 0, 0], NONE),
-                write("partials", NONE, NONE),
+                count("scalars", NONE, NONE),
+                count("x", [1, 0, 0], NONE),
+                count("r", [1, 0, 0], NONE),
+                count("p", [1, 0, 0], NONE),
+                count("q", [1, 0, 0], NONE),
+                count("inv_diag", [1, 0, 0], NONE),
+                count("partials", NONE, NONE),
             ],
         },
         PassBytes {
             entry: "beta",
             traffic: &[
-                read("partials", [2, 0, 0], NONE),
-                read_write("scalars", NONE, NONE),
+                count("partials", [2, 0, 0], NONE),
+                count("scalars", NONE, NONE),
             ],
         },
         PassBytes {
             entry: "direction",
             traffic: &[
-                read("scalars", NONE, NONE),
-                read("inv_diag", [1, 0, 0], NONE),
-                read("r", [1, 0, 0], NONE),
-                read_write("p", [1, 0, 0], NONE),
+                count("scalars", NONE, NONE),
+                count("inv_diag", [1, 0, 0], NONE),
+                count("r", [1, 0, 0], NONE),
+                count("p", [1, 0, 0], NONE),
             ],
         },
     ]

@@ -3,16 +3,16 @@
 //! weights that the host's f64 system ([`TlGalerkin`]) builds once and uploads. A rate
 //! evaluation is a points pass (F, P, w ψ and the rate model's rates per quadrature point)
 //! and a nodes pass (the force gathered over each node's points, the boundary conditions);
-//! the weak form's smoothing is two passes after each step. Whole steps are recorded into
-//! one command encoder; the host reads back only at checks and outputs.
+//! the weak form's smoothing is two passes after each step. The engine is the
+//! [`GpuEngine`] on the family [`GalerkinDevice`].
 
 use super::{GalerkinState, TlGalerkin};
 use crate::balance::Booked;
-use crate::boundary::Reaction;
-use crate::engine::{BlowUp, Engine, Failed, Method};
+use crate::boundary::Boundary;
+use crate::engine::{BlowUp, GpuEngine, GpuFamily, Method};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
-use crate::gpu::profile::{NONE, PassBytes, Scale, read, read_write, write};
+use crate::gpu::profile::{NONE, PassBytes, Scale, count, loads, stores};
 use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{self, Reduced, Reduction};
 use crate::gpu::reference::{self, DeviceReference, Extras};
@@ -22,10 +22,10 @@ use crate::gpu::shaders::{
 };
 use crate::gpu::shell::Shell;
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
-use crate::integrate::Buf;
+use crate::integrate::{Buf, Evaluation};
 use crate::interaction::gpu::GpuInteractions;
 use crate::material::Material;
-use crate::observe::{Invariants, Snapshot};
+use crate::observe::Snapshot;
 use crate::plasticity::History;
 use crate::quadrature::Shapes;
 use crate::scene::Case;
@@ -56,47 +56,47 @@ pub const RATES: Source = source!(
         PassBytes {
             entry: "points",
             traffic: &[
-                read("offsets", [1, 0, 0], NONE),
-                read("ids", [1, 0, 0], [1, 0, 0]),
+                count("offsets", [1, 0, 0], NONE),
+                count("ids", [1, 0, 0], [1, 0, 0]),
                 // ∇0N_a.
-                read("pair", NONE, [0, 1, 0]),
+                count("pair", NONE, [0, 1, 0]),
                 // u of the first node and of every node; v too, ρ − ρ0 and S, for the
                 // rate model.
-                read("y", [0, 1, 0], [0, 1, 0]),
-                read("y", [1, 1, 1], [0, 1, 0]).when(&["RATE"]),
+                count("y", [0, 1, 0], [0, 1, 0]),
+                count("y", [1, 1, 1], [0, 1, 0]).when(&["RATE"]),
                 // The committed C_p⁻¹ and ε_p of a von Mises point.
-                read("hist", [10, 0, 0], NONE).when(&["MODEL==MODEL_VON_MISES_PLASTIC"]),
+                count("hist", [10, 0, 0], NONE).when(&["MODEL==MODEL_VON_MISES_PLASTIC"]),
                 // H, P, ψ.
-                write("kin", [1, 0, 2], NONE),
-                write("d", [1, 0, 1], NONE).when(&["RATE"]),
-                read_write("status", NONE, NONE),
+                count("kin", [1, 0, 2], NONE),
+                count("d", [1, 0, 1], NONE).when(&["RATE"]),
+                count("status", NONE, NONE),
             ],
         },
         PassBytes {
             entry: "nodes",
             traffic: &[
                 // The row end, and the point of every entry.
-                read("gather", [1, 0, 0], [1, 0, 0]),
+                count("gather", [1, 0, 0], [1, 0, 0]),
                 // w_q ∇0N_a(X_q).
-                read("entries", NONE, [0, 1, 0]),
+                count("entries", NONE, [0, 1, 0]),
                 // P_q in; the power out.
-                read("kin", NONE, [0, 0, 1]),
-                write("kin", [1, 0, 0], NONE),
+                loads("kin", NONE, [0, 0, 1]),
+                stores("kin", [1, 0, 0], NONE),
                 // V and the mask.
-                read("reference", [2, 0, 0], NONE),
-                read("y", [0, 1, 0], NONE),
-                read("ext", [0, 1, 0], NONE),
-                write("d", [0, 2, 0], NONE),
+                count("reference", [2, 0, 0], NONE),
+                count("y", [0, 1, 0], NONE),
+                count("ext", [0, 1, 0], NONE),
+                count("d", [0, 2, 0], NONE),
             ],
         },
         PassBytes {
             entry: "commit",
             traffic: &[
-                read("offsets", [1, 0, 0], NONE),
-                read("ids", [1, 0, 0], [1, 0, 0]),
-                read("pair", NONE, [0, 1, 0]),
-                read("y", [0, 1, 0], [0, 1, 0]),
-                read_write("hist", [10, 0, 0], NONE),
+                count("offsets", [1, 0, 0], NONE),
+                count("ids", [1, 0, 0], [1, 0, 0]),
+                count("pair", NONE, [0, 1, 0]),
+                count("y", [0, 1, 0], [0, 1, 0]),
+                count("hist", [10, 0, 0], NONE),
             ],
         },
     ]
@@ -120,19 +120,19 @@ pub const SMOOTH: Source = source!(
         PassBytes {
             entry: "smooth_velocities",
             traffic: &[
-                read("smooth_offsets", [1, 0, 0], NONE),
-                read("smooth_ids", NONE, [1, 0, 0]),
-                read("smooth_weights", NONE, [1, 0, 0]),
-                read("y", NONE, [0, 1, 0]),
-                write("smoothed", [0, 1, 0], NONE),
+                count("smooth_offsets", [1, 0, 0], NONE),
+                count("smooth_ids", NONE, [1, 0, 0]),
+                count("smooth_weights", NONE, [1, 0, 0]),
+                count("y", NONE, [0, 1, 0]),
+                count("smoothed", [0, 1, 0], NONE),
             ],
         },
         PassBytes {
             entry: "settle",
             traffic: &[
-                read("reference", [1, 0, 0], NONE),
-                read("smoothed", [0, 1, 0], NONE),
-                write("y", [0, 1, 0], NONE),
+                count("reference", [1, 0, 0], NONE),
+                count("smoothed", [0, 1, 0], NONE),
+                count("y", [0, 1, 0], NONE),
             ],
         },
     ]
@@ -199,15 +199,6 @@ impl Layout {
                 .scalars("WN", true, pairs),
             smooth: Fields::new("SW", dim).scalars("N", true, smooth_pairs),
             reference: reference::fields(n, constrained, dim, Extras::default()),
-        }
-    }
-
-    fn stepped(&self) -> StateLayout {
-        StateLayout {
-            n: self.n,
-            dim: self.dim,
-            rest: self.state.offset("RHO"),
-            len: self.state.len(),
         }
     }
 }
@@ -334,12 +325,14 @@ impl SmoothPasses {
 const STATUS_OK: u32 = u32::MAX;
 
 /// A total-Lagrangian Galerkin system resident on the GPU.
-pub struct GpuGalerkin<D: GpuDim> {
-    /// The device, the stepper, the reduction, the work balance, the kinematics and the
-    /// plastic history in checkpoints. The balance's terms it does not book besides the
-    /// work of supports and loads: the velocity smoothing's dissipation; the plastic work,
-    /// committed on the device; contact's, which `ext` adds to the loads' power.
-    shell: Shell,
+pub type GpuGalerkin<D> = GpuEngine<D, GalerkinDevice<D>>;
+
+/// The total-Lagrangian Galerkin family on the device: the host's system, the buffers and
+/// the passes. The shell's checkpoints hold the plastic history too. The balance's terms
+/// the engine does not book besides the work of supports and loads: the velocity
+/// smoothing's dissipation; the plastic work, committed on the device; contact's, which
+/// `ext` adds to the loads' power.
+pub struct GalerkinDevice<D: GpuDim> {
     /// The host's f64 system the device's set-up was uploaded from; outputs are computed
     /// from the state read back.
     host: TlGalerkin<D>,
@@ -358,7 +351,6 @@ pub struct GpuGalerkin<D: GpuDim> {
     hist: wgpu::Buffer,
     /// The commit of the plastic history before every step (`commit` of galerkin.wgsl).
     commit: Option<(Pipeline, wgpu::BindGroup)>,
-    interactions: GpuInteractions,
 }
 
 impl<D: GpuDim> GpuGalerkin<D> {
@@ -406,7 +398,7 @@ impl<D: GpuDim> GpuGalerkin<D> {
             &gpu,
             case.method.integrator,
             &compose(&INTEGRATE),
-            layout.stepped(),
+            StateLayout::of(&layout.state, "RHO"),
             &y0,
         )?;
         let interactions = GpuInteractions::new(
@@ -470,8 +462,7 @@ impl<D: GpuDim> GpuGalerkin<D> {
         };
         let shell = Shell::new(gpu, stepper, reduction, kin, &layout.kin, unbooked)
             .save_also("plastic history", &hist);
-        Ok(Self {
-            shell,
+        let family = GalerkinDevice {
             host,
             layout,
             status,
@@ -482,82 +473,17 @@ impl<D: GpuDim> GpuGalerkin<D> {
             smooth,
             hist,
             commit,
-            interactions,
-        })
-    }
-
-    /// Records one rate evaluation: the points and nodes passes.
-    fn record_rates(
-        gpu: &Gpu,
-        layout: &Layout,
-        (points, nodes): (&Pipeline, &Pipeline),
-        encoder: &mut wgpu::CommandEncoder,
-        rates: &Rates,
-    ) {
-        let mut pass = encoder.begin_compute_pass(&Default::default());
-        gpu.dispatch(&mut pass, points, &rates.points, layout.q as u32);
-        gpu.dispatch(&mut pass, nodes, &rates.nodes, layout.n as u32);
-    }
-
-    /// Records `steps` steps of size dt, each followed by the smoothing if the method has
-    /// one, into one command encoder, and submits them.
-    pub fn advance_steps(&mut self, dt: f64, steps: u32) {
-        self.shell.work.advance(dt, steps);
-        self.shell.reduction.invalidate();
-        let mut encoder = self
-            .shell
-            .gpu
-            .device
-            .create_command_encoder(&Default::default());
-        self.interactions.set_step(&self.shell.gpu, dt);
-        let Self {
-            shell: Shell { gpu, stepper, .. },
-            points,
-            nodes,
-            rates,
-            layout,
-            interactions,
-            smooth,
-            commit,
-            ..
-        } = self;
-        let n = layout.n as u32;
-        // With a smoothing the steps are recorded one by one, each followed by its passes.
-        let (batches, per_batch) = match smooth {
-            Some(_) => (steps, 1),
-            None => (1, steps),
         };
-        for _ in 0..batches {
-            stepper.record(
-                gpu,
-                &mut encoder,
-                dt,
-                per_batch,
-                |encoder, e| {
-                    let src = usize::from(e.src != Buf::Y);
-                    Self::record_rates(gpu, layout, (points, nodes), encoder, &rates[src]);
-                },
-                |encoder| {
-                    interactions.record(gpu, encoder, n);
-                    if let Some((pipeline, bind)) = commit {
-                        let mut pass = encoder.begin_compute_pass(&Default::default());
-                        gpu.dispatch(&mut pass, pipeline, bind, layout.q as u32);
-                    }
-                },
-            );
-            if let Some(s) = smooth {
-                let mut pass = encoder.begin_compute_pass(&Default::default());
-                for (pipeline, bind) in [&s.smooth, &s.settle] {
-                    gpu.dispatch(&mut pass, pipeline, bind, n);
-                }
-            }
-        }
-        self.shell.gpu.queue.submit([encoder.finish()]);
+        Ok(Self::assemble(shell, interactions, family))
     }
+}
 
-    /// Reads the current state back (waits for the queue).
-    pub fn state(&self) -> GalerkinState<D> {
-        self.decode(&self.shell.read_state(), self.host.material().rho0)
+impl<D: GpuDim> GalerkinDevice<D> {
+    /// Records one rate evaluation: the points and nodes passes on `rates`.
+    fn record(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, rates: &Rates) {
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        gpu.dispatch(&mut pass, &self.points, &rates.points, self.layout.q as u32);
+        gpu.dispatch(&mut pass, &self.nodes, &rates.nodes, self.layout.n as u32);
     }
 
     /// Decodes a flat state (`rho0` = ρ0: the density is stored as ρ − ρ0) or rate buffer
@@ -571,14 +497,22 @@ impl<D: GpuDim> GpuGalerkin<D> {
             s: l.read_t::<D>(flat, "S", D::zero_t()),
         }
     }
+}
+
+impl<D: GpuDim> GpuGalerkin<D> {
+    /// Reads the current state back (waits for the queue).
+    pub fn state(&self) -> GalerkinState<D> {
+        let rho0 = self.family.host.material().rho0;
+        self.family.decode(&self.shell.read_state(), rho0)
+    }
 
     /// Replaces the state (to cross-check rates on a given state).
     pub fn set_state(&mut self, y: &GalerkinState<D>) {
-        let l = &self.layout.state;
+        let l = &self.family.layout.state;
         let mut flat = l.zeroed();
         l.write_v::<D>(&mut flat, "U", &y.u);
         l.write_v::<D>(&mut flat, "V", &y.v);
-        l.write_s(&mut flat, "RHO", &y.rho, self.host.material().rho0);
+        l.write_s(&mut flat, "RHO", &y.rho, self.family.host.material().rho0);
         l.write_t::<D>(&mut flat, "S", &y.s, D::zero_t());
         self.shell.set_state(&flat);
     }
@@ -586,135 +520,105 @@ impl<D: GpuDim> GpuGalerkin<D> {
     /// The rates of a given state, read back, and P at every point.
     pub fn rates(&mut self, y: &GalerkinState<D>) -> (GalerkinState<D>, Vec<D::T>) {
         self.set_state(y);
-        let mut encoder = self
-            .shell
-            .gpu
-            .device
-            .create_command_encoder(&Default::default());
-        let pipelines = (&self.points, &self.nodes);
-        Self::record_rates(
-            &self.shell.gpu,
-            &self.layout,
-            pipelines,
-            &mut encoder,
-            &self.rates[0],
-        );
-        self.shell.gpu.queue.submit([encoder.finish()]);
-        let d: Vec<f32> = self.shell.gpu.read(self.shell.stepper.buffer(Buf::Rates));
-        let kin: Vec<f32> = self.shell.gpu.read(&self.shell.kin);
-        let p = self.layout.kin.read_t::<D>(&kin, "P", D::zero_t());
-        (self.decode(&d, 0.0), p)
+        let gpu = self.gpu();
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        self.family.record(gpu, &mut encoder, &self.family.rates[0]);
+        gpu.queue.submit([encoder.finish()]);
+        let d: Vec<f32> = gpu.read(self.shell.stepper.buffer(Buf::Rates));
+        let kin: Vec<f32> = gpu.read(&self.shell.kin);
+        let p = self.family.layout.kin.read_t::<D>(&kin, "P", D::zero_t());
+        (self.family.decode(&d, 0.0), p)
     }
 
     /// The host's system, which the device's set-up came from.
     pub fn host(&self) -> &TlGalerkin<D> {
-        &self.host
-    }
-
-    /// The first point whose points pass failed (det F ≤ 0 or NaN) so far.
-    fn failed_point(&self) -> Option<usize> {
-        let s: Vec<u32> = self.shell.gpu.read(&self.status);
-        (s[0] != STATUS_OK).then_some(s[0] as usize)
-    }
-
-    /// The points pass on the current state (its kinematics) and the reduction.
-    fn reduction(&mut self) -> Reduced {
-        let Self {
-            shell,
-            points,
-            points_y,
-            layout,
-            ..
-        } = self;
-        shell.reduced(|gpu, pass| gpu.dispatch(pass, points, points_y, layout.q as u32))
+        &self.family.host
     }
 }
 
-impl<D: GpuDim> Engine<D> for GpuGalerkin<D> {
-    fn backend(&self) -> String {
-        self.shell.backend()
-    }
-
-    fn device(&mut self) -> Option<(&Gpu, Scale)> {
-        let scale = Scale {
-            pairs: self.host.shapes().csr.pair_count() as u64,
-            indirect: None,
-        };
-        Some((&self.shell.gpu, scale))
+impl<D: GpuDim> GpuFamily<D> for GalerkinDevice<D> {
+    fn nodes(&self) -> u32 {
+        self.layout.n as u32
     }
 
     fn reference(&self) -> &[D::V] {
         self.host.reference()
     }
 
-    fn constrained(&self) -> &[(u32, u8)] {
-        self.host.constrained()
+    fn boundary(&self) -> &Boundary<D> {
+        self.host.boundary()
     }
 
-    fn advance(&mut self, t: f64, dt: f64, steps: u32) -> Result<(), Failed> {
-        self.interactions.set_time(t);
-        self.advance_steps(dt, steps);
-        Ok(())
-    }
-
-    fn max_signal_speed(&mut self) -> f64 {
-        self.host.material().p_wave_speed() + self.reduction().max_speed
-    }
-
-    /// Trapezoidal over the intervals between calls (the driver calls it at every check).
-    fn external_work(&mut self) -> f64 {
-        let power = self.reduction().power;
-        self.shell.external_work(power)
-    }
-
-    fn booked(&mut self) -> Booked {
-        let power = self.reduction().power;
-        self.shell.booked(power)
-    }
-
-    fn reactions(&mut self) -> Vec<Reaction> {
-        self.shell.reactions(self.host.boundary())
-    }
-
-    fn check(&mut self) -> Result<(), BlowUp> {
-        if let Some(q) = self.failed_point() {
-            let node = self.host.shapes().strongest_node(q);
-            return Err(BlowUp::at::<D>(
-                self.host.reference(),
-                node,
-                &format!("det F (f32, GPU) at quadrature point {q} next to it"),
-                0.0,
-            ));
+    fn scale(&self, _gpu: &Gpu) -> Scale {
+        Scale {
+            pairs: self.host.shapes().csr.pair_count() as u64,
+            indirect: None,
         }
-        if self.reduction().non_finite {
-            return self.host.check_finite(&self.state());
+    }
+
+    fn record_rates(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, e: Evaluation) {
+        self.record(gpu, encoder, &self.rates[usize::from(e.src != Buf::Y)]);
+    }
+
+    /// The commit of the plastic history.
+    fn begin_step(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder) {
+        if let Some((pipeline, bind)) = &self.commit {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            gpu.dispatch(&mut pass, pipeline, bind, self.layout.q as u32);
         }
-        Ok(())
     }
 
-    fn invariants(&mut self) -> Invariants {
-        self.reduction().invariants
+    /// With the weak form's smoothing.
+    fn ends_steps(&self) -> bool {
+        self.smooth.is_some()
     }
 
-    fn finish(&mut self) {
-        self.shell.gpu.wait();
+    /// The weak form's velocity smoothing.
+    fn end_step(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder) {
+        if let Some(s) = &self.smooth {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            for (pipeline, bind) in [&s.smooth, &s.settle] {
+                gpu.dispatch(&mut pass, pipeline, bind, self.layout.n as u32);
+            }
+        }
     }
 
-    /// The work balance, the state buffer and the plastic history (f32).
-    fn save(&mut self) -> Vec<f64> {
-        self.shell.save()
+    /// The points pass on the current state (its kinematics).
+    fn before_reduction(&self, gpu: &Gpu, pass: &mut wgpu::ComputePass<'_>) {
+        gpu.dispatch(pass, &self.points, &self.points_y, self.layout.q as u32);
     }
 
-    fn restore(&mut self, words: &[f64]) -> Result<(), String> {
-        self.shell.restore(words)
+    fn signal_speed(&self, reduced: &Reduced) -> f64 {
+        self.host.material().p_wave_speed() + reduced.max_speed
+    }
+
+    /// The first point whose points pass failed (det F ≤ 0 or NaN) so far.
+    fn flagged(&self, gpu: &Gpu) -> Result<(), BlowUp> {
+        let s: Vec<u32> = gpu.read(&self.status);
+        if s[0] == STATUS_OK {
+            return Ok(());
+        }
+        let q = s[0] as usize;
+        let node = self.host.shapes().strongest_node(q);
+        Err(BlowUp::at::<D>(
+            self.host.reference(),
+            node,
+            &format!("det F (f32, GPU) at quadrature point {q} next to it"),
+            0.0,
+        ))
+    }
+
+    fn check_state(&self, flat: &[f32]) -> Result<(), BlowUp> {
+        let y = self.decode(flat, self.host.material().rho0);
+        self.host.check_finite(&y)
     }
 
     /// The host's outputs (nodal F and σ, Σ_q w_q ψ_q in f64) of the state and the plastic
     /// history read back.
-    fn snapshot(&mut self) -> Snapshot<'_, D> {
-        let y = self.state();
+    fn snapshot(&mut self, shell: &Shell) -> Snapshot<'_, D> {
+        let y = self.decode(&shell.read_state(), self.host.material().rho0);
         if let Some(history) = self.host.plastic_mut() {
-            history.read_f32(&self.shell.gpu.read::<f32>(&self.hist));
+            history.read_f32(&shell.gpu.read::<f32>(&self.hist));
         }
         self.host.snapshot(&y)
     }

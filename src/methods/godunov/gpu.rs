@@ -2,72 +2,33 @@
 //! of [`crate::methods::ul::gpu`]. The CPU system ([`super::system`]) is the reference it
 //! is checked against.
 
-use crate::gpu::profile::{NONE, PassBytes, Traffic, read, write};
+use crate::gpu::profile::{NONE, Traffic, count, joined, loads};
 use crate::gpu::shaders::{
     BOUNDARY, CONTACT, Constants, INTEGRATE, KERNEL, LOADS, MECHANICS, PRESCRIBED, REFERENCE,
     Source, source,
 };
 use crate::methods::ul::gpu::{
-    CORE, PARTICLE_CORE, POSITIONS, POWER, RATES_CORE, REDUCE, STATUS, Scheme,
+    CORE, FLAT, PARTICLE_CORE, POWER, RATES_CORE, REDUCE, STATUS, Scheme, scheme_bytes,
 };
 
 /// The core's part of `particle` and the method's: ρ − ρ0, S in; σ, p, Z = ρc out.
-const PARTICLE: [Traffic; 10] = {
-    let [a, b, c, d, e, f, g] = PARTICLE_CORE;
+const PARTICLE: [Traffic; 10] = joined(
+    PARTICLE_CORE,
     [
-        a,
-        b,
-        c,
-        d,
-        e,
-        f,
-        g,
-        read("y", [0, 0, 1], NONE),
-        write("kin", [2, 0, 1], NONE),
+        count("y", [0, 0, 1], NONE),
+        count("kin", [2, 0, 1], NONE),
         STATUS,
-    ]
-};
+    ],
+);
 /// The core's part of `rates` and the method's: σ, p, Z of both particles.
-const RATES: [Traffic; 11] = {
-    let [a, b, c, d, e, f, g, h, i] = RATES_CORE;
-    [
-        a,
-        b,
-        c,
-        d,
-        e,
-        f,
-        g,
-        h,
-        i,
-        read("kin", [2, 0, 1], NONE),
-        POWER,
-    ]
-};
+const RATES: [Traffic; 11] = joined(RATES_CORE, [loads("kin", [2, 0, 1], NONE), POWER]);
 
 /// Per-particle quantities (σ, p, Z, V, the correction) and the Riemann pair gather.
 pub const PASSES: Source = source!(
     "godunov/godunov.wgsl",
     [KERNEL, MECHANICS, REFERENCE, BOUNDARY, CORE],
-    [
-        ("y", false),
-        ("x", true),
-        ("kin", true),
-        ("d", true),
-        ("reference", false),
-        ("ext", false)
-    ],
-    &[
-        POSITIONS,
-        PassBytes {
-            entry: "particle",
-            traffic: &PARTICLE
-        },
-        PassBytes {
-            entry: "rates",
-            traffic: &RATES
-        },
-    ]
+    flat = FLAT,
+    &scheme_bytes(&PARTICLE, &RATES)
 );
 
 /// The passes of a Godunov scene.

@@ -3,50 +3,34 @@
 //! ([`super::system`]) is the reference it is checked against.
 
 use super::GrayMonaghanSpec;
-use crate::gpu::profile::{NONE, PassBytes, Traffic, read, write};
+use crate::gpu::profile::{NONE, Traffic, count, joined, loads};
 use crate::gpu::shaders::{
     BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, KERNEL, LOADS, MECHANICS, PRESCRIBED,
     REFERENCE, Source, VISCOSITY, source,
 };
 use crate::methods::ul::gpu::{
-    CORE, PARTICLE_CORE, POSITIONS, POWER, RATES_CORE, REDUCE, STATUS, Scheme,
+    CORE, FLAT, PARTICLE_CORE, POWER, RATES_CORE, REDUCE, STATUS, Scheme, scheme_bytes,
 };
 
 /// The core's part of `particle` and the method's: ρ − ρ0, S in; σ/ρ², c (and R) out.
-const PARTICLE: [Traffic; 11] = {
-    let [a, b, c, d, e, f, g] = PARTICLE_CORE;
+const PARTICLE: [Traffic; 11] = joined(
+    PARTICLE_CORE,
     [
-        a,
-        b,
-        c,
-        d,
-        e,
-        f,
-        g,
-        read("y", [0, 0, 1], NONE),
-        write("kin", [1, 0, 1], NONE),
-        write("kin", [0, 0, 1], NONE).when(&["AS"]),
+        count("y", [0, 0, 1], NONE),
+        count("kin", [1, 0, 1], NONE),
+        count("kin", [0, 0, 1], NONE).when(&["AS"]),
         STATUS,
-    ]
-};
+    ],
+);
 /// The core's part of `rates` and the method's: σ/ρ², c (and R) of both particles.
-const RATES: [Traffic; 12] = {
-    let [a, b, c, d, e, f, g, h, i] = RATES_CORE;
+const RATES: [Traffic; 12] = joined(
+    RATES_CORE,
     [
-        a,
-        b,
-        c,
-        d,
-        e,
-        f,
-        g,
-        h,
-        i,
-        read("kin", [1, 0, 1], NONE),
-        read("kin", [0, 0, 1], NONE).when(&["AS"]),
+        loads("kin", [1, 0, 1], NONE),
+        loads("kin", [0, 0, 1], NONE).when(&["AS"]),
         POWER,
-    ]
-};
+    ],
+);
 use crate::scene::Case;
 
 /// Per-particle quantities (σ/ρ², R, c, V, the correction) and the pair gather.
@@ -55,25 +39,8 @@ pub const PASSES: Source = source!(
     [
         KERNEL, MECHANICS, REFERENCE, BOUNDARY, EIGEN, VISCOSITY, CORE
     ],
-    [
-        ("y", false),
-        ("x", true),
-        ("kin", true),
-        ("d", true),
-        ("reference", false),
-        ("ext", false)
-    ],
-    &[
-        POSITIONS,
-        PassBytes {
-            entry: "particle",
-            traffic: &PARTICLE
-        },
-        PassBytes {
-            entry: "rates",
-            traffic: &RATES
-        },
-    ]
+    flat = FLAT,
+    &scheme_bytes(&PARTICLE, &RATES)
 );
 
 /// The passes of a Gray–Monaghan scene.

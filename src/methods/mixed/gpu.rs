@@ -9,19 +9,19 @@
 //! One rate evaluation, all on the device and recorded in one compute pass:
 //! ghost motion → [bond-based F^c] → kinematics (P, ∇0v, Ḟ, Ḣ, J̇) → ghost kinematics →
 //! [slopes or Laplacians → their ghosts] → forces (T, D(p), D(J)) → [projection sums →
-//! solve] → rates of v and u with the boundary conditions. A whole step, or several, is
-//! recorded into one command encoder; the host reads back only when asked.
+//! solve] → rates of v and u with the boundary conditions. The engine is the
+//! [`GpuEngine`] on the family [`MixedDevice`].
 
 use super::compressibility::UNCONVERGED;
 use super::gpu_corrector::{CORRECTOR, DeviceCorrector};
 use super::system::{Fluxes, MixedSph, MixedState};
 use super::{CflWaveSpeed, DeformationGradient, Momentum};
 use crate::balance::Booked;
-use crate::boundary::Reaction;
-use crate::engine::{BlowUp, Engine, Failed, Method};
+use crate::boundary::Boundary;
+use crate::engine::{BlowUp, GpuEngine, GpuFamily, Method};
 use crate::gpu::context::{Gpu, GpuError, Pipeline, WORKGROUP};
 use crate::gpu::layout::{Fields, GpuDim};
-use crate::gpu::profile::{NONE, PassBytes, Scale, Traffic, read, read_write, write};
+use crate::gpu::profile::{NONE, PassBytes, Scale, Traffic, count, loads, stores};
 use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{self, Reduced, Reduction};
 use crate::gpu::reference::{self, DeviceReference, Extras};
@@ -35,7 +35,7 @@ use crate::integrate::{Buf, Evaluation, IntegratorKind, PseudoTime, evaluations}
 use crate::interaction::gpu::GpuInteractions;
 use crate::material::MaterialModel;
 use crate::methods::not_run_by;
-use crate::observe::{Invariants, Snapshot};
+use crate::observe::Snapshot;
 use crate::plasticity::History;
 use crate::reference::build_method;
 use crate::scene::Case;
@@ -115,12 +115,13 @@ impl Scratch {
 const STATUS_OK: [u32; 2] = [u32::MAX; 2];
 
 /// The mixed system resident on the GPU.
-pub struct GpuMixed<D: GpuDim> {
-    /// The device, the stepper, the reduction, the work balance, the kinematics and the
-    /// plastic history in checkpoints. The balance's terms it does not book besides the
-    /// work of supports and loads: the stabilisation's dissipation; the plastic work,
-    /// committed on the device; contact's, which `ext` adds to the loads' power.
-    shell: Shell,
+pub type GpuMixed<D> = GpuEngine<D, MixedDevice<D>>;
+
+/// The mixed family on the device: the CPU set-up, the buffers and the passes. The
+/// shell's checkpoints hold the plastic history too. The balance's terms the engine does
+/// not book besides the work of supports and loads: the stabilisation's dissipation; the
+/// plastic work, committed on the device; contact's, which `ext` adds to the loads' power.
+pub struct MixedDevice<D: GpuDim> {
     cpu: MixedSph<D>,
     layout: MixedLayout,
     evaluator: Evaluator,
@@ -133,8 +134,6 @@ pub struct GpuMixed<D: GpuDim> {
     hist: wgpu::Buffer,
     /// The commit of the plastic history before every step (mixed_plastic.wgsl).
     commit: Option<(Pipeline, wgpu::BindGroup)>,
-    /// Passes before every step (contact) and the `ext` they write.
-    interactions: GpuInteractions,
 }
 
 impl<D: GpuDim> GpuMixed<D> {
@@ -173,7 +172,7 @@ impl<D: GpuDim> GpuMixed<D> {
             &gpu,
             case.method.integrator,
             &compose(&INTEGRATE),
-            layout.stepped(),
+            StateLayout::of(&layout.state, "F"),
             &layout.encode(&cpu.initial_state()),
         )?;
         let interactions = GpuInteractions::new(
@@ -251,8 +250,7 @@ impl<D: GpuDim> GpuMixed<D> {
         let unbooked = unbooked(case, plastic);
         let shell = Shell::new(gpu, stepper, reduction, scratch.kin, &layout.kin, unbooked)
             .save_also("plastic history", &scratch.hist);
-        Ok(Self {
-            shell,
+        let family = MixedDevice {
             cpu,
             layout,
             evaluator,
@@ -262,8 +260,8 @@ impl<D: GpuDim> GpuMixed<D> {
             status: scratch.status,
             hist: scratch.hist,
             commit,
-            interactions,
-        })
+        };
+        Ok(Self::assemble(shell, interactions, family))
     }
 }
 
@@ -295,103 +293,40 @@ fn unbooked(case: &Case, plastic: bool) -> Booked {
     }
 }
 
-impl<D: GpuDim> GpuMixed<D> {
-    /// The CPU reference of the same scene (its set-up is the one uploaded).
-    pub fn cpu(&self) -> &MixedSph<D> {
-        &self.cpu
-    }
-
+impl<D: GpuDim> MixedDevice<D> {
     /// Writes Δt/2 into the uniform of the mid-step balance points when Δt changes.
-    fn set_dt(&mut self, dt: f64) {
+    fn set_dt(&mut self, gpu: &Gpu, dt: f64) {
         if dt != self.dt {
             self.dt = dt;
             let points = StagePoints {
                 half_dt: (0.5 * dt) as f32,
                 mid: 1,
             };
-            self.shell.gpu.write_uniform(&self.mid_points, &points);
+            gpu.write_uniform(&self.mid_points, &points);
         }
     }
 
-    /// Records `steps` steps of size `dt` into one command encoder and submits them.
-    /// Under artificial compressibility the batch runs again from its start when a stage
-    /// ran out of the pseudo steps recorded for it ([`DeviceCorrector`]).
-    pub fn advance_steps(&mut self, dt: f64, steps: u32) {
-        self.shell.work.advance(dt, steps);
-        self.shell.reduction.invalidate();
-        self.set_dt(dt);
-        self.interactions.set_step(&self.shell.gpu, dt);
-        let start = self.interactions.time();
-        loop {
-            self.interactions.set_time(start);
-            self.record_steps(dt, steps);
-            let Some(corrector) = self.evaluator.corrector.as_mut() else {
-                return;
-            };
-            if corrector.finish_batch(&self.shell.gpu) {
-                return;
-            }
-            corrector.restore_flags(&self.shell.gpu, &self.status);
-            self.shell
-                .stepper
-                .restart_from(&self.shell.gpu, corrector.saved_state());
-        }
-    }
-
-    /// Records the steps of one batch and submits them; under artificial
-    /// compressibility the state and failure flags at its start are saved first.
-    fn record_steps(&mut self, dt: f64, steps: u32) {
-        let mut encoder = self
-            .shell
-            .gpu
-            .device
-            .create_command_encoder(&Default::default());
-        let Self {
-            shell: Shell { gpu, stepper, .. },
-            cpu,
-            evaluator,
-            commit,
-            layout,
-            interactions,
-            status,
-            ..
-        } = self;
-        if let (Some(c), Some(cpu)) = (&mut evaluator.corrector, cpu.corrector()) {
-            c.record_batch(u64::from(steps) * evaluations(stepper.kind()).len() as u64);
-            c.set_dt(gpu, dt, cpu);
-            c.save(&mut encoder, stepper.buffer(Buf::Y), status);
-        }
-        let evaluator = &*evaluator;
-        stepper.record(
-            gpu,
-            &mut encoder,
-            dt,
-            steps,
-            |encoder, e| evaluator.record(gpu, encoder, e),
-            |encoder| {
-                interactions.record(gpu, encoder, layout.n as u32);
-                if let Some((pipeline, bind)) = commit {
-                    let mut pass = encoder.begin_compute_pass(&Default::default());
-                    gpu.dispatch(&mut pass, pipeline, bind, layout.n as u32);
-                }
-                if let Some(c) = &evaluator.corrector {
-                    c.begin_step(encoder);
-                }
-            },
-        );
-        self.shell.gpu.queue.submit([encoder.finish()]);
+    /// The first particles whose det F ≤ 0 and whose J ≤ 0 (or NaN) in any evaluation.
+    fn failed_particles(&self, gpu: &Gpu) -> [Option<usize>; 2] {
+        let s: Vec<u32> = gpu.read(&self.status);
+        [0, 1].map(|k| (s[k] != STATUS_OK[k]).then_some(s[k] as usize))
     }
 }
 
 impl<D: GpuDim> GpuMixed<D> {
+    /// The CPU reference of the same scene (its set-up is the one uploaded).
+    pub fn cpu(&self) -> &MixedSph<D> {
+        &self.family.cpu
+    }
+
     /// Reads the current state back (waits for the queue).
     pub fn state(&self) -> MixedState<D> {
-        self.layout.decode(&self.shell.read_state(), true)
+        self.family.layout.decode(&self.shell.read_state(), true)
     }
 
     /// Replaces the state (e.g. to cross-check rates on a given state).
     pub fn set_state(&mut self, y: &MixedState<D>) {
-        let flat = self.layout.encode(y);
+        let flat = self.family.layout.encode(y);
         self.shell.set_state(&flat);
     }
 
@@ -420,13 +355,13 @@ impl<D: GpuDim> GpuMixed<D> {
             "the scene's integrator must be TVD-RK2"
         );
         self.set_state(start);
-        let flat = self.layout.encode(stage);
+        let flat = self.family.layout.encode(stage);
         self.shell.gpu.queue.write_buffer(
             self.shell.stepper.buffer(Buf::Stage),
             0,
             bytemuck::cast_slice(&flat),
         );
-        self.set_dt(dt);
+        self.family.set_dt(&self.shell.gpu, dt);
         self.evaluate(Evaluation {
             src: Buf::Stage,
             index: 1,
@@ -435,30 +370,28 @@ impl<D: GpuDim> GpuMixed<D> {
 
     /// Records one evaluation alone and reads its rates back.
     fn evaluate(&mut self, e: Evaluation) -> MixedState<D> {
-        let mut encoder = self
-            .shell
-            .gpu
-            .device
-            .create_command_encoder(&Default::default());
-        self.evaluator.record(&self.shell.gpu, &mut encoder, e);
-        self.shell.gpu.queue.submit([encoder.finish()]);
-        let d: Vec<f32> = self.shell.gpu.read(self.shell.stepper.buffer(Buf::Rates));
-        self.layout.decode(&d, false)
+        let gpu = &self.shell.gpu;
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        self.family.evaluator.record(gpu, &mut encoder, e);
+        gpu.queue.submit([encoder.finish()]);
+        let d: Vec<f32> = gpu.read(self.shell.stepper.buffer(Buf::Rates));
+        self.family.layout.decode(&d, false)
     }
 
     /// P of the real particles at the last rate evaluation.
     pub fn first_piola(&self) -> Vec<D::T> {
         let kin: Vec<f32> = self.shell.gpu.read(&self.shell.kin);
-        let mut p = self.layout.kin.read_t::<D>(&kin, "P", D::zero_t());
-        p.truncate(self.layout.n);
+        let layout = &self.family.layout;
+        let mut p = layout.kin.read_t::<D>(&kin, "P", D::zero_t());
+        p.truncate(layout.n);
         p
     }
 
     /// T, D(p) and D(J) of the last rate evaluation, before the projection (D(J) is zero
     /// where the scene does not evolve J or is JST-SPH: nothing reads it there).
     pub fn fluxes(&self) -> Fluxes<D> {
-        let f: Vec<f32> = self.shell.gpu.read(&self.force);
-        let l = &self.layout.force;
+        let f: Vec<f32> = self.shell.gpu.read(&self.family.force);
+        let l = &self.family.layout.force;
         Fluxes {
             t: l.read_v::<D>(&f, "T"),
             d: l.read_v::<D>(&f, "D"),
@@ -468,82 +401,102 @@ impl<D: GpuDim> GpuMixed<D> {
 
     /// The first particles whose det F ≤ 0 and whose J ≤ 0 (or NaN) in any evaluation.
     pub fn failed_particles(&self) -> [Option<usize>; 2] {
-        let s: Vec<u32> = self.shell.gpu.read(&self.status);
-        [0, 1].map(|k| (s[k] != STATUS_OK[k]).then_some(s[k] as usize))
-    }
-
-    /// The reduction of the current state; with the bond-based F its strain energy reads
-    /// F^c − I of the state, recorded first.
-    fn reduction(&mut self) -> Reduced {
-        let Self {
-            shell, evaluator, ..
-        } = self;
-        shell.reduced(|gpu, pass| {
-            if evaluator.passes.bond.is_some() {
-                evaluator.record_motion(gpu, pass, evaluator.bound((Buf::Y, false)));
-            }
-        })
+        self.family.failed_particles(&self.shell.gpu)
     }
 }
 
-impl<D: GpuDim> Engine<D> for GpuMixed<D> {
-    fn device(&mut self) -> Option<(&Gpu, Scale)> {
-        let scale = Scale {
-            pairs: self.cpu.neighbours().pair_count() as u64,
-            indirect: self.evaluator.corrector.as_ref().map(|c| c.runs),
-        };
-        Some((&self.shell.gpu, scale))
-    }
-
-    fn backend(&self) -> String {
-        self.shell.backend()
+impl<D: GpuDim> GpuFamily<D> for MixedDevice<D> {
+    fn nodes(&self) -> u32 {
+        self.layout.n as u32
     }
 
     fn reference(&self) -> &[D::V] {
         self.cpu.reference()
     }
 
-    fn constrained(&self) -> &[(u32, u8)] {
-        self.cpu.constrained()
+    fn boundary(&self) -> &Boundary<D> {
+        self.cpu.boundary()
     }
 
-    fn advance(&mut self, t: f64, dt: f64, steps: u32) -> Result<(), Failed> {
-        self.interactions.set_time(t);
-        self.advance_steps(dt, steps);
-        Ok(())
+    fn scale(&self, _gpu: &Gpu) -> Scale {
+        Scale {
+            pairs: self.cpu.neighbours().pair_count() as u64,
+            indirect: self.evaluator.corrector.as_ref().map(|c| c.runs),
+        }
     }
 
-    fn max_signal_speed(&mut self) -> f64 {
-        // As the CPU's MixedSph::max_signal_speed (seed 002 eqs 31–32).
-        let r = self.reduction();
-        r.pair_wave_speed + r.max_speed
+    fn record_rates(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, e: Evaluation) {
+        self.evaluator.record(gpu, encoder, e);
     }
 
-    /// Trapezoidal over the intervals between calls (the driver calls it at every check).
-    fn external_work(&mut self) -> f64 {
-        let power = self.reduction().power;
-        self.shell.external_work(power)
+    /// Δt/2 of the mid-step points; under artificial compressibility the corrector's
+    /// pseudo steps for the batch, and the state and failure flags at its start saved.
+    fn begin_batch(
+        &mut self,
+        gpu: &Gpu,
+        stepper: &Stepper,
+        encoder: &mut wgpu::CommandEncoder,
+        dt: f64,
+        steps: u32,
+    ) {
+        self.set_dt(gpu, dt);
+        if let (Some(c), Some(cpu)) = (&mut self.evaluator.corrector, self.cpu.corrector()) {
+            c.record_batch(u64::from(steps) * evaluations(stepper.kind()).len() as u64);
+            c.set_dt(gpu, dt, cpu);
+            c.save(encoder, stepper.buffer(Buf::Y), &self.status);
+        }
     }
 
-    fn booked(&mut self) -> Booked {
-        let power = self.reduction().power;
-        self.shell.booked(power)
+    /// The commit of the plastic history and the corrector's start of a step.
+    fn begin_step(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder) {
+        if let Some((pipeline, bind)) = &self.commit {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            gpu.dispatch(&mut pass, pipeline, bind, self.layout.n as u32);
+        }
+        if let Some(c) = &self.evaluator.corrector {
+            c.begin_step(encoder);
+        }
     }
 
-    fn reactions(&mut self) -> Vec<Reaction> {
-        self.shell.reactions(self.cpu.boundary())
+    /// Under artificial compressibility, when a stage ran out of the pseudo steps recorded
+    /// for it ([`DeviceCorrector`]): the state and flags at the batch's start put back.
+    fn again(&mut self, shell: &mut Shell) -> Result<bool, GpuError> {
+        let Some(corrector) = self.evaluator.corrector.as_mut() else {
+            return Ok(false);
+        };
+        if corrector.finish_batch(&shell.gpu) {
+            return Ok(false);
+        }
+        corrector.restore_flags(&shell.gpu, &self.status);
+        shell
+            .stepper
+            .restart_from(&shell.gpu, corrector.saved_state());
+        Ok(true)
     }
 
-    fn check(&mut self) -> Result<(), BlowUp> {
+    /// With the bond-based F the strain energy reads F^c − I of the state, recorded first.
+    fn before_reduction(&self, gpu: &Gpu, pass: &mut wgpu::ComputePass<'_>) {
+        let evaluator = &self.evaluator;
+        if evaluator.passes.bond.is_some() {
+            evaluator.record_motion(gpu, pass, evaluator.bound((Buf::Y, false)));
+        }
+    }
+
+    /// As the CPU's MixedSph::max_signal_speed (seed 002 eqs 31–32).
+    fn signal_speed(&self, reduced: &Reduced) -> f64 {
+        reduced.pair_wave_speed + reduced.max_speed
+    }
+
+    fn flagged(&self, gpu: &Gpu) -> Result<(), BlowUp> {
         let x0 = self.cpu.reference();
         if let Some(c) = &self.evaluator.corrector
-            && let Some(u) = c.unconverged(&self.shell.gpu)
+            && let Some(u) = c.unconverged(gpu)
         {
             let quantity = format!("{UNCONVERGED}; f32 on the GPU");
             return Err(BlowUp::at::<D>(x0, u.particle, &quantity, u.residual));
         }
         for (failed, quantity) in self
-            .failed_particles()
+            .failed_particles(gpu)
             .into_iter()
             .zip(["det F (f32, GPU)", "J (f32, GPU)"])
         {
@@ -551,37 +504,21 @@ impl<D: GpuDim> Engine<D> for GpuMixed<D> {
                 return Err(BlowUp::at::<D>(x0, i, quantity, 0.0));
             }
         }
-        if self.reduction().non_finite {
-            return self.cpu.check_finite(&self.state());
-        }
         Ok(())
     }
 
-    fn invariants(&mut self) -> Invariants {
-        self.reduction().invariants
+    fn check_state(&self, flat: &[f32]) -> Result<(), BlowUp> {
+        self.cpu.check_finite(&self.layout.decode(flat, true))
     }
 
-    fn pseudo_time(&mut self) -> Option<PseudoTime> {
+    fn pseudo_time(&self) -> Option<PseudoTime> {
         self.evaluator.corrector.as_ref().map(|c| c.stats)
     }
 
-    fn finish(&mut self) {
-        self.shell.gpu.wait();
-    }
-
-    /// The work balance, the state buffer and the plastic history (f32).
-    fn save(&mut self) -> Vec<f64> {
-        self.shell.save()
-    }
-
-    fn restore(&mut self, words: &[f64]) -> Result<(), String> {
-        self.shell.restore(words)
-    }
-
-    fn snapshot(&mut self) -> Snapshot<'_, D> {
-        let y = self.state();
+    fn snapshot(&mut self, shell: &Shell) -> Snapshot<'_, D> {
+        let y = self.layout.decode(&shell.read_state(), true);
         if let Some(history) = self.cpu.plastic_mut() {
-            history.read_f32(&self.shell.gpu.read::<f32>(&self.hist));
+            history.read_f32(&shell.gpu.read::<f32>(&self.hist));
         }
         self.cpu.snapshot(&y)
     }

@@ -13,7 +13,7 @@
 use super::compressibility::{Corrector, Unconverged};
 use super::gpu::{IMAGES, MIXED, MOTION};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
-use crate::gpu::profile::{IndirectRuns, NONE, PassBytes, Traffic, read, read_write, write};
+use crate::gpu::profile::{IndirectRuns, NONE, PassBytes, Traffic, count, joined, loads, stores};
 use crate::gpu::shaders::{REFERENCE, Source, source};
 use crate::integrate::PseudoTime;
 use crate::tensor::Dim;
@@ -25,16 +25,16 @@ const ITERATE: [u32; 3] = [1, 1, 1];
 
 /// The pseudo-time rates of a particle, by `residual` and `residual_stage`.
 const RATES: [Traffic; 9] = [
-    read("offsets", [1, 0, 0], NONE),
-    read("ids", NONE, [1, 0, 0]),
-    read("pair", NONE, [0, 2, 0]),
-    read("pair", NONE, [1, 0, 0]).when(&["PSEUDO_VISCOSITY"]),
+    count("offsets", [1, 0, 0], NONE),
+    count("ids", NONE, [1, 0, 0]),
+    count("pair", NONE, [0, 2, 0]),
+    count("pair", NONE, [1, 0, 0]).when(&["PSEUDO_VISCOSITY"]),
     // The particle's iterate, c and H^n; the neighbours' iterate and H^n.
-    read("corr", [2, 1, 1], ITERATE),
-    read("ghost_src", NONE, NONE),
-    read("ghost_img", NONE, NONE),
-    read("reference", [1, 0, 0], NONE),
-    write("corr", [1, 1, 0], NONE),
+    loads("corr", [2, 1, 1], ITERATE),
+    count("ghost_src", NONE, NONE),
+    count("ghost_img", NONE, NONE),
+    count("reference", [1, 0, 0], NONE),
+    stores("corr", [1, 1, 0], NONE),
 ];
 
 /// The corrector's passes.
@@ -56,52 +56,40 @@ pub const CORRECTOR: Source = source!(
             entry: "start",
             traffic: &[
                 // v and p^n; F or H.
-                read("y", [1, 1, 1], NONE),
-                read("kin", [0, 0, 1], NONE).when(&["BOND"]),
-                read("d", [1, 1, 0], NONE),
+                count("y", [1, 1, 1], NONE),
+                count("kin", [0, 0, 1], NONE).when(&["BOND"]),
+                count("d", [1, 1, 0], NONE),
                 // v^int, w, δp, p^n, H^n; per workgroup a maximum (not counted).
-                write("corr", [2, 2, 1], NONE),
-                write("control", NONE, NONE),
+                count("corr", [2, 2, 1], NONE),
+                count("control", NONE, NONE),
             ],
         },
         PassBytes {
             entry: "constraint",
             traffic: &[
-                read("offsets", [1, 0, 0], NONE),
-                read("ids", NONE, [1, 0, 0]),
-                read("pair", NONE, [0, 1, 0]),
-                read("pair", NONE, [1, 0, 0]).when(&["PSEUDO_VISCOSITY"]),
+                count("offsets", [1, 0, 0], NONE),
+                count("ids", NONE, [1, 0, 0]),
+                count("pair", NONE, [0, 1, 0]),
+                count("pair", NONE, [1, 0, 0]).when(&["PSEUDO_VISCOSITY"]),
                 // The particle's and its neighbours' v^int and p^n, its H^n.
-                read("corr", [1, 1, 1], [1, 1, 0]),
-                read("ghost_src", NONE, NONE),
-                read("ghost_img", NONE, NONE),
-                write("corr", [1, 0, 0], NONE),
+                loads("corr", [1, 1, 1], [1, 1, 0]),
+                count("ghost_src", NONE, NONE),
+                count("ghost_img", NONE, NONE),
+                stores("corr", [1, 0, 0], NONE),
             ],
         },
         // One item: the partials in (not counted), the scale and the workgroup counts out.
         PassBytes {
             entry: "begin",
             traffic: &[
-                read("control", NONE, NONE),
-                write("control", [3, 0, 0], NONE),
-                write("args", [3, 0, 0], NONE),
+                stores("control", [3, 0, 0], NONE),
+                count("args", [3, 0, 0], NONE),
             ],
         },
         PassBytes {
             entry: "residual",
-            traffic: &[
-                RATES[0],
-                RATES[1],
-                RATES[2],
-                RATES[3],
-                RATES[4],
-                RATES[5],
-                RATES[6],
-                RATES[7],
-                RATES[8],
-                // Per workgroup a maximum (not counted).
-                write("control", NONE, NONE),
-            ],
+            // Per workgroup a maximum (not counted).
+            traffic: &joined::<9, 1, 10>(RATES, [count("control", NONE, NONE)]),
         },
         PassBytes {
             entry: "residual_stage",
@@ -111,35 +99,35 @@ pub const CORRECTOR: Source = source!(
         PassBytes {
             entry: "check",
             traffic: &[
-                read_write("control", [8, 0, 0], NONE),
-                write("args", [3, 0, 0], NONE),
+                count("control", [8, 0, 0], NONE),
+                count("args", [3, 0, 0], NONE),
             ],
         },
         PassBytes {
             entry: "euler",
             traffic: &[
-                read("corr", [2, 2, 0], NONE),
-                write("corr", [1, 1, 0], NONE)
+                loads("corr", [2, 2, 0], NONE),
+                stores("corr", [1, 1, 0], NONE)
             ],
         },
         PassBytes {
             entry: "average",
             traffic: &[
-                read("corr", [3, 3, 0], NONE),
-                write("corr", [1, 1, 0], NONE)
+                loads("corr", [3, 3, 0], NONE),
+                stores("corr", [1, 1, 0], NONE)
             ],
         },
         PassBytes {
             entry: "correct",
             traffic: &[
-                read("offsets", [1, 0, 0], NONE),
-                read("ids", NONE, [1, 0, 0]),
-                read("pair", NONE, [0, 2, 0]),
-                read("corr", [1, 0, 1], [2, 0, 1]),
-                read("ghost_src", NONE, NONE),
-                read("ghost_img", NONE, NONE),
-                read_write("force", [0, 1, 0], NONE),
-                write("d", [1, 0, 0], NONE),
+                count("offsets", [1, 0, 0], NONE),
+                count("ids", NONE, [1, 0, 0]),
+                count("pair", NONE, [0, 2, 0]),
+                count("corr", [1, 0, 1], [2, 0, 1]),
+                count("ghost_src", NONE, NONE),
+                count("ghost_img", NONE, NONE),
+                count("force", [0, 1, 0], NONE),
+                count("d", [1, 0, 0], NONE),
             ],
         },
     ]

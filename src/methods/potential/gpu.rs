@@ -4,7 +4,7 @@
 //! against.
 
 use super::{PotentialForce, PotentialSpec};
-use crate::gpu::profile::{NONE, PassBytes, read, write};
+use crate::gpu::profile::{NONE, PassBytes, count, loads, stores};
 use crate::gpu::shaders::{
     BOUNDARY, CONTACT, CORRECTION, INTEGRATE, MECHANICS, PAIR_OFFSETS, REFERENCE,
     REVERSE_GRADIENTS, REVERSE_GRADIENTS_BYTES, Source, VISCOSITY, Wgsl, source, wgsl,
@@ -31,22 +31,22 @@ pub const ACCEL: Source = source!(
         PassBytes {
             entry: "accel",
             traffic: &[
-                read("offsets", [1, 0, 0], NONE),
-                read("ids", NONE, [1, 0, 0]),
+                count("offsets", [1, 0, 0], NONE),
+                count("ids", NONE, [1, 0, 0]),
                 // ∇0W̃_ij and the reverse ∇0W̃_ji; X_j − X_i for the viscosity.
-                read("pair", NONE, [0, 2, 0]),
-                read("pair", NONE, [0, 1, 0]).when(&["AV"]),
+                count("pair", NONE, [0, 2, 0]),
+                count("pair", NONE, [0, 1, 0]).when(&["AV"]),
                 // k_ij, k_ji and X_j − X_i of dual-support SPH's hourglass force.
-                read("pair", NONE, [2, 1, 0]).when(&["HOURGLASS_DS"]),
-                read("reference", [2, 0, 0], NONE),
-                read("y", [0, 2, 0], NONE),
+                count("pair", NONE, [2, 1, 0]).when(&["HOURGLASS_DS"]),
+                count("reference", [2, 0, 0], NONE),
+                count("y", [0, 2, 0], NONE),
                 // P, F⁻ᵀ, ρ in; the power out.
-                read("kin", [1, 0, 2], NONE),
+                loads("kin", [1, 0, 2], NONE),
                 // H for the hourglass force.
-                read("kin", [0, 0, 1], NONE).when(&["HOURGLASS_DS"]),
-                write("kin", [2, 0, 0], NONE),
-                read("ext", [0, 1, 0], NONE),
-                write("d", [0, 2, 0], NONE),
+                loads("kin", [0, 0, 1], NONE).when(&["HOURGLASS_DS"]),
+                stores("kin", [2, 0, 0], NONE),
+                count("ext", [0, 1, 0], NONE),
+                count("d", [0, 2, 0], NONE),
             ],
         }
     ]

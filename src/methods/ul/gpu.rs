@@ -12,13 +12,13 @@
 
 use super::{UlState, check_state, snapshot};
 use crate::balance::Booked;
-use crate::boundary::{OnPatches, Reaction};
+use crate::boundary::{Boundary, OnPatches};
 use crate::correction::CorrectionKind;
-use crate::engine::{BlowUp, Engine, Failed};
+use crate::engine::{BlowUp, GpuEngine, GpuFamily};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::neighbour::{CellList, CellParams, Positions};
-use crate::gpu::profile::{IndirectRuns, NONE, PassBytes, Scale, Traffic, read, read_write, write};
+use crate::gpu::profile::{IndirectRuns, NONE, PassBytes, Scale, Traffic, count, loads, stores};
 use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{self, Reduced, Reduction};
 use crate::gpu::reference::{self, DeviceReference, Extras};
@@ -28,11 +28,11 @@ use crate::gpu::shaders::{
 };
 use crate::gpu::shell::Shell;
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
-use crate::integrate::Buf;
+use crate::integrate::{Buf, Evaluation};
 use crate::interaction::Interactions;
 use crate::interaction::gpu::GpuInteractions;
 use crate::neighbour::{Csr, SKIN, bounding_box};
-use crate::observe::{Invariants, Snapshot};
+use crate::observe::Snapshot;
 use crate::reference::Reference;
 use crate::scene::Case;
 
@@ -51,44 +51,74 @@ pub const REDUCE: Source = source!(
 pub const POSITIONS: PassBytes = PassBytes {
     entry: "positions",
     traffic: &[
-        read("reference", [0, 1, 0], NONE),
-        read("y", [0, 1, 0], NONE),
-        write("x", [0, 1, 0], NONE),
+        count("reference", [0, 1, 0], NONE),
+        count("y", [0, 1, 0], NONE),
+        count("x", [0, 1, 0], NONE),
     ],
 };
 
 /// The traffic of the core's part of a scheme's `particle` pass: V = m/ρ (m from the
 /// reference volume, ρ from the state), the linear correction's A⁻ᵀ (a gather over x).
 pub const PARTICLE_CORE: [Traffic; 7] = [
-    read("reference", [1, 0, 0], NONE),
-    read("y", [1, 0, 0], NONE),
-    write("kin", [1, 0, 0], NONE),
-    write("kin", [0, 0, 1], NONE).when(&["CORRECTION == CORRECTION_LINEAR"]),
-    read("offsets", [1, 0, 0], NONE).when(&["CORRECTION == CORRECTION_LINEAR"]),
-    read("ids", NONE, [1, 0, 0]).when(&["CORRECTION == CORRECTION_LINEAR"]),
-    read("x", [0, 1, 0], NONE).when(&["CORRECTION == CORRECTION_LINEAR"]),
+    count("reference", [1, 0, 0], NONE),
+    count("y", [1, 0, 0], NONE),
+    count("kin", [1, 0, 0], NONE),
+    count("kin", [0, 0, 1], NONE).when(&["CORRECTION == CORRECTION_LINEAR"]),
+    count("offsets", [1, 0, 0], NONE).when(&["CORRECTION == CORRECTION_LINEAR"]),
+    count("ids", NONE, [1, 0, 0]).when(&["CORRECTION == CORRECTION_LINEAR"]),
+    count("x", [0, 1, 0], NONE).when(&["CORRECTION == CORRECTION_LINEAR"]),
 ];
 
 /// The traffic of the core's part of a scheme's `rates` pass: the row, x, the state
 /// (v, ρ, S, F), V, A⁻ᵀ, the boundary conditions (V and mask, ext, the power) and the
 /// rates (u̇, v̇, ρ̇, Ṡ, Ḟ).
 pub const RATES_CORE: [Traffic; 9] = [
-    read("offsets", [1, 0, 0], NONE),
-    read("ids", NONE, [1, 0, 0]),
-    read("x", [0, 1, 0], NONE),
-    read("y", [1, 1, 2], NONE),
-    read("kin", [1, 0, 0], NONE),
-    read("kin", [0, 0, 1], NONE).when(&["CORRECTION == CORRECTION_LINEAR"]),
-    read("reference", [2, 0, 0], NONE),
-    read("ext", [0, 1, 0], NONE),
-    write("d", [1, 2, 2], NONE),
+    count("offsets", [1, 0, 0], NONE),
+    count("ids", NONE, [1, 0, 0]),
+    count("x", [0, 1, 0], NONE),
+    count("y", [1, 1, 2], NONE),
+    loads("kin", [1, 0, 0], NONE),
+    loads("kin", [0, 0, 1], NONE).when(&["CORRECTION == CORRECTION_LINEAR"]),
+    count("reference", [2, 0, 0], NONE),
+    count("ext", [0, 1, 0], NONE),
+    count("d", [1, 2, 2], NONE),
 ];
 
 /// The power of supports and loads, which the rates pass writes into `kin`.
-pub const POWER: Traffic = write("kin", [1, 0, 0], NONE);
+pub const POWER: Traffic = stores("kin", [1, 0, 0], NONE);
 
 /// The failure flags (det A, ρ > 0) of the particle pass.
-pub const STATUS: Traffic = read_write("status", NONE, NONE);
+pub const STATUS: Traffic = count("status", NONE, NONE);
+
+/// The flat buffers of a scheme's pass file.
+pub const FLAT: &[(&str, bool)] = &[
+    ("y", false),
+    ("x", true),
+    ("kin", true),
+    ("d", true),
+    ("reference", false),
+    ("ext", false),
+];
+
+/// The bytes model of a scheme's pass file: the core's `positions`, and its `particle`
+/// and `rates` (each the core's part, [`PARTICLE_CORE`] and [`RATES_CORE`], and the
+/// scheme's).
+pub const fn scheme_bytes(
+    particle: &'static [Traffic],
+    rates: &'static [Traffic],
+) -> [PassBytes; 3] {
+    [
+        POSITIONS,
+        PassBytes {
+            entry: "particle",
+            traffic: particle,
+        },
+        PassBytes {
+            entry: "rates",
+            traffic: rates,
+        },
+    ]
+}
 
 /// The passes every UL engine compiles besides its scheme's.
 pub const SHARED: [Source; 4] = [CONTACT, PRESCRIBED, INTEGRATE, REDUCE];
@@ -145,15 +175,6 @@ impl Layout {
             reference: reference::fields(n, constrained, dim, Extras::default()),
         }
     }
-
-    fn stepped(&self) -> StateLayout {
-        StateLayout {
-            n: self.n,
-            dim: self.dim,
-            rest: self.state.offset("RHO"),
-            len: self.state.len(),
-        }
-    }
 }
 
 /// The compiled-in constants of a scene's UL passes: the scheme's, the kernel, the
@@ -199,12 +220,13 @@ struct Lists {
 }
 
 /// An updated-Lagrangian system resident on the GPU.
-pub struct GpuUl<D: GpuDim> {
-    /// The device, the stepper, the reduction, the work balance and the kinematics. The
-    /// balance's terms it does not book besides the work of supports and loads: the
-    /// artificial viscosity's or the Riemann solver's dissipation; contact's, which `ext`
-    /// adds to the loads' power.
-    shell: Shell,
+pub type GpuUl<D> = GpuEngine<D, UlDevice<D>>;
+
+/// The updated-Lagrangian family on the device: the reference configuration, the buffers,
+/// the scheme's passes and the device's neighbour lists. The balance's terms the engine
+/// does not book besides the work of supports and loads: the artificial viscosity's or
+/// the Riemann solver's dissipation; contact's, which `ext` adds to the loads' power.
+pub struct UlDevice<D: GpuDim> {
     /// The host's f64 reference configuration, which the device's was uploaded from.
     reference: Reference<D>,
     layout: Layout,
@@ -212,6 +234,8 @@ pub struct GpuUl<D: GpuDim> {
     /// x = X + u of the last positions pass.
     x: wgpu::Buffer,
     status: wgpu::Buffer,
+    /// The interactions' `ext`, which the rates pass reads.
+    ext: wgpu::Buffer,
     /// The body of each particle for per-body lists (with contact).
     body: Option<wgpu::Buffer>,
     grid: CellParams,
@@ -220,9 +244,8 @@ pub struct GpuUl<D: GpuDim> {
     lists: Option<Lists>,
     /// `Y` at the start of the batch, to run it again after the lists grew.
     start: wgpu::Buffer,
-    interactions: GpuInteractions,
     /// Neighbour builds of the lists that growth replaced, less those of
-    /// [`Self::time_rebuild`].
+    /// [`GpuUl::time_rebuild`].
     builds_before: i64,
 }
 
@@ -256,7 +279,7 @@ impl<D: GpuDim> GpuUl<D> {
             &gpu,
             case.method.integrator,
             &compose(&INTEGRATE),
-            layout.stepped(),
+            StateLayout::of(&layout.state, "RHO"),
             &y0,
         )?;
         let per_body = case.contact.is_some();
@@ -303,28 +326,30 @@ impl<D: GpuDim> GpuUl<D> {
             contact_energy: case.contact.is_none().then_some(0.0),
             ..Booked::default()
         };
-        let mut engine = Self {
-            shell: Shell::new(gpu, stepper, reduction, kin, &layout.kin, unbooked),
+        let shell = Shell::new(gpu, stepper, reduction, kin, &layout.kin, unbooked);
+        let mut family = UlDevice {
             reference: disc,
             layout,
             device,
             x,
             status,
+            ext: interactions.ext().clone(),
             body,
             grid,
             passes,
             lists: None,
             start,
-            interactions,
             builds_before: 0,
         };
-        engine.lists = Some(engine.bind_lists(capacity)?);
-        Ok(engine)
+        family.lists = Some(family.bind_lists(&shell, capacity)?);
+        Ok(Self::assemble(shell, interactions, family))
     }
+}
 
+impl<D: GpuDim> UlDevice<D> {
     /// Neighbour lists with room for `capacity` pairs and the rate evaluations bound to
     /// them.
-    fn bind_lists(&self, capacity: u32) -> Result<Lists, GpuError> {
+    fn bind_lists(&self, shell: &Shell, capacity: u32) -> Result<Lists, GpuError> {
         let n = self.layout.n as u32;
         let at = Positions {
             x: &self.x,
@@ -333,29 +358,89 @@ impl<D: GpuDim> GpuUl<D> {
             body: self.body.as_ref(),
         };
         let drift = 0.5 * SKIN * self.reference.kernel.support();
-        let cells = CellList::new::<D>(&self.shell.gpu, at, &self.grid, capacity, drift)?;
-        let rates_d = self.shell.stepper.buffer(Buf::Rates);
+        let cells = CellList::new::<D>(&shell.gpu, at, &self.grid, capacity, drift)?;
+        let rates_d = shell.stepper.buffer(Buf::Rates);
         let bound = |src: Buf| -> Result<Bound, GpuError> {
             let table: [(&str, &wgpu::Buffer); 9] = [
                 ("offsets", &cells.offsets),
                 ("ids", &cells.ids),
                 ("reference", &self.device.reference),
-                ("y", self.shell.stepper.buffer(src)),
+                ("y", shell.stepper.buffer(src)),
                 ("x", &self.x),
-                ("kin", &self.shell.kin),
-                ("ext", self.interactions.ext()),
+                ("kin", &shell.kin),
+                ("ext", &self.ext),
                 ("d", rates_d),
                 ("status", &self.status),
             ];
             let p = &self.passes;
             Ok(Bound {
-                positions: self.shell.gpu.bind(&p.positions, &table)?,
-                particle: self.shell.gpu.bind(&p.particle, &table)?,
-                rates: self.shell.gpu.bind(&p.rates, &table)?,
+                positions: shell.gpu.bind(&p.positions, &table)?,
+                particle: shell.gpu.bind(&p.particle, &table)?,
+                rates: shell.gpu.bind(&p.rates, &table)?,
             })
         };
         let rates = [bound(Buf::Y)?, bound(Buf::Stage)?];
         Ok(Lists { cells, rates })
+    }
+
+    /// Makes the device's lists anew with room for `capacity` pairs (a rebuild that needs
+    /// more grows them again).
+    fn grow(&mut self, shell: &Shell, capacity: u32) -> Result<(), GpuError> {
+        self.builds_before += i64::from(self.lists().cells.builds(&shell.gpu));
+        self.lists = Some(self.bind_lists(shell, capacity)?);
+        Ok(())
+    }
+
+    fn lists(&self) -> &Lists {
+        self.lists
+            .as_ref()
+            .expect("the lists are bound when the engine is built")
+    }
+
+    /// The neighbour builds the device ran for the steps so far (reads one u32 back).
+    fn builds(&self, gpu: &Gpu) -> i64 {
+        self.builds_before + i64::from(self.lists().cells.builds(gpu))
+    }
+
+    /// The wall time of one neighbour rebuild (positions pass and cell list) from the
+    /// current state, timed alone over `REPEATS` rebuilds in one submission [s].
+    fn time_rebuild(&mut self, gpu: &Gpu) -> f64 {
+        const REPEATS: u32 = 20;
+        self.builds_before -= i64::from(REPEATS);
+        let lists = self.lists();
+        let bound = &lists.rates[0];
+        gpu.wait();
+        let started = std::time::Instant::now();
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        for _ in 0..REPEATS {
+            {
+                let mut pass = encoder.begin_compute_pass(&Default::default());
+                let n = self.layout.n as u32;
+                gpu.dispatch(&mut pass, &self.passes.positions, &bound.positions, n);
+            }
+            lists.cells.record(gpu, &mut encoder);
+        }
+        gpu.queue.submit([encoder.finish()]);
+        gpu.wait();
+        started.elapsed().as_secs_f64() / f64::from(REPEATS)
+    }
+
+    /// Decodes a flat state (`rho0` = ρ0 and `f0` = I: ρ and F are stored as ρ − ρ0 and
+    /// F − I) or rate buffer (`rho0` = 0, `f0` = 0).
+    fn decode(&self, flat: &[f32], rho0: f64, f0: D::T) -> UlState<D> {
+        let l = &self.layout.state;
+        UlState {
+            u: l.read_v::<D>(flat, "U"),
+            v: l.read_v::<D>(flat, "V"),
+            rho: l.read_s(flat, "RHO", rho0),
+            s: l.read_t::<D>(flat, "S", D::zero_t()),
+            f: l.read_t::<D>(flat, "F", f0),
+        }
+    }
+
+    /// A state read back.
+    fn decode_state(&self, flat: &[f32]) -> UlState<D> {
+        self.decode(flat, self.reference.material.rho0, D::identity())
     }
 }
 
@@ -378,148 +463,53 @@ fn grid<D: GpuDim>(gpu: &Gpu, disc: &Reference<D>, n: u32) -> Result<CellParams,
 impl<D: GpuDim> GpuUl<D> {
     /// The host's reference configuration of the scene.
     pub fn reference(&self) -> &Reference<D> {
-        &self.reference
-    }
-
-    /// Records `steps` steps of size dt from the state in `Y` (kept in `start`) and
-    /// submits them.
-    fn record_steps(&mut self, dt: f64, steps: u32) {
-        let mut encoder = self
-            .shell
-            .gpu
-            .device
-            .create_command_encoder(&Default::default());
-        let bytes = self.layout.state.bytes();
-        encoder.copy_buffer_to_buffer(self.shell.stepper.buffer(Buf::Y), 0, &self.start, 0, bytes);
-        self.interactions.set_step(&self.shell.gpu, dt);
-        let Self {
-            shell: Shell { gpu, stepper, .. },
-            passes,
-            lists,
-            interactions,
-            layout,
-            ..
-        } = self;
-        let lists = lists
-            .as_ref()
-            .expect("the lists are bound when the engine is built");
-        let n = layout.n as u32;
-        // The batch may run again from its start (lists grown): its first evaluation
-        // builds from its own positions, whatever the lists held.
-        lists.cells.force(&mut encoder);
-        stepper.record(
-            gpu,
-            &mut encoder,
-            dt,
-            steps,
-            |encoder, e| record_rates(gpu, passes, lists, n, encoder, e.src),
-            |encoder| interactions.record(gpu, encoder, n),
-        );
-        gpu.queue.submit([encoder.finish()]);
+        &self.family.reference
     }
 
     /// The wall time of one neighbour rebuild (positions pass and cell list) from the
-    /// current state, timed alone over `REPEATS` rebuilds in one submission [s].
+    /// current state [s].
     pub fn time_rebuild(&mut self) -> f64 {
-        const REPEATS: u32 = 20;
-        self.builds_before -= i64::from(REPEATS);
-        let lists = self.lists();
-        let bound = &lists.rates[0];
-        self.shell.gpu.wait();
-        let started = std::time::Instant::now();
-        let mut encoder = self
-            .shell
-            .gpu
-            .device
-            .create_command_encoder(&Default::default());
-        for _ in 0..REPEATS {
-            {
-                let mut pass = encoder.begin_compute_pass(&Default::default());
-                let n = self.layout.n as u32;
-                self.shell
-                    .gpu
-                    .dispatch(&mut pass, &self.passes.positions, &bound.positions, n);
-            }
-            lists.cells.record(&self.shell.gpu, &mut encoder);
-        }
-        self.shell.gpu.queue.submit([encoder.finish()]);
-        self.shell.gpu.wait();
-        started.elapsed().as_secs_f64() / f64::from(REPEATS)
+        self.family.time_rebuild(&self.shell.gpu)
     }
 
     /// The neighbour builds the device ran for the steps so far (reads one u32 back).
     pub fn builds(&self) -> i64 {
-        self.builds_before + i64::from(self.lists().cells.builds(&self.shell.gpu))
-    }
-
-    /// Advances `steps` steps; when a rebuild overflowed the lists, grows them to the
-    /// pairs it needed (with a quarter more) and runs the steps again from their start.
-    pub fn advance_steps(&mut self, dt: f64, steps: u32) -> Result<(), GpuError> {
-        self.shell.reduction.invalidate();
-        let start = self.interactions.time();
-        loop {
-            // The steps run again from their start time too.
-            self.interactions.set_time(start);
-            self.record_steps(dt, steps);
-            let Some(needed) = self.lists().cells.overflow(&self.shell.gpu) else {
-                break;
-            };
-            self.set_capacity(needed.saturating_add(needed / 4))?;
-            self.shell
-                .stepper
-                .restart_from(&self.shell.gpu, &self.start);
-        }
-        self.shell.work.advance(dt, steps);
-        Ok(())
+        self.family.builds(&self.shell.gpu)
     }
 
     /// Makes the device's lists anew with room for `capacity` pairs (a rebuild that needs
     /// more grows them again).
     pub fn set_capacity(&mut self, capacity: u32) -> Result<(), GpuError> {
-        self.builds_before += i64::from(self.lists().cells.builds(&self.shell.gpu));
-        self.lists = Some(self.bind_lists(capacity)?);
-        Ok(())
+        self.family.grow(&self.shell, capacity)
     }
 
     /// Room for pairs in the device's lists.
     pub fn capacity(&self) -> u32 {
-        self.lists().cells.capacity()
+        self.family.lists().cells.capacity()
     }
 
     /// The lists of the last rate evaluation, read back.
     pub fn neighbours(&self) -> Csr {
-        self.lists().cells.lists(&self.shell.gpu)
+        self.family.lists().cells.lists(&self.shell.gpu)
     }
 
     /// Reads the current state back (waits for the queue).
     pub fn state(&self) -> UlState<D> {
-        self.decode(
-            &self.shell.read_state(),
-            self.reference.material.rho0,
-            D::identity(),
-        )
-    }
-
-    /// Decodes a flat state (`rho0` = ρ0 and `f0` = I: ρ and F are stored as ρ − ρ0 and
-    /// F − I) or rate buffer (`rho0` = 0, `f0` = 0).
-    fn decode(&self, flat: &[f32], rho0: f64, f0: D::T) -> UlState<D> {
-        let l = &self.layout.state;
-        UlState {
-            u: l.read_v::<D>(flat, "U"),
-            v: l.read_v::<D>(flat, "V"),
-            rho: l.read_s(flat, "RHO", rho0),
-            s: l.read_t::<D>(flat, "S", D::zero_t()),
-            f: l.read_t::<D>(flat, "F", f0),
-        }
+        self.family.decode_state(&self.shell.read_state())
     }
 
     /// Replaces the state (e.g. to cross-check rates on a given state).
     pub fn set_state(&mut self, y: &UlState<D>) {
-        let l = &self.layout.state;
+        let l = &self.family.layout.state;
         let mut flat = l.zeroed();
         l.write_v::<D>(&mut flat, "U", &y.u);
         l.write_v::<D>(&mut flat, "V", &y.v);
-        l.write_s(&mut flat, "RHO", &y.rho, self.reference.material.rho0);
+        l.write_s(
+            &mut flat,
+            "RHO",
+            &y.rho,
+            self.family.reference.material.rho0,
+        );
         l.write_t::<D>(&mut flat, "S", &y.s, D::zero_t());
         l.write_t::<D>(&mut flat, "F", &y.f, D::identity());
         self.shell.set_state(&flat);
@@ -528,166 +518,121 @@ impl<D: GpuDim> GpuUl<D> {
     /// The rates of a given state, read back (the lists are built from its positions).
     pub fn rates(&mut self, y: &UlState<D>) -> UlState<D> {
         self.set_state(y);
-        let mut encoder = self
-            .shell
-            .gpu
-            .device
-            .create_command_encoder(&Default::default());
-        let n = self.layout.n as u32;
-        record_rates(
-            &self.shell.gpu,
-            &self.passes,
-            self.lists(),
-            n,
-            &mut encoder,
-            Buf::Y,
-        );
-        self.shell.gpu.queue.submit([encoder.finish()]);
-        let d: Vec<f32> = self.shell.gpu.read(self.shell.stepper.buffer(Buf::Rates));
-        self.decode(&d, 0.0, D::zero_t())
-    }
-
-    fn lists(&self) -> &Lists {
-        self.lists
-            .as_ref()
-            .expect("the lists are bound when the engine is built")
-    }
-
-    /// The first particle with a singular correction, and with ρ ≤ 0, since the start.
-    fn failed(&self) -> [Option<usize>; 2] {
-        let s: Vec<u32> = self.shell.gpu.read(&self.status);
-        [0, 1].map(|k| (s[k] != u32::MAX).then_some(s[k] as usize))
-    }
-
-    fn reduced(&mut self) -> Reduced {
-        self.shell.reduced(|_, _| {})
+        let gpu = self.gpu();
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        let e = Evaluation {
+            src: Buf::Y,
+            index: 0,
+        };
+        self.family.record_rates(gpu, &mut encoder, e);
+        gpu.queue.submit([encoder.finish()]);
+        let d: Vec<f32> = gpu.read(self.shell.stepper.buffer(Buf::Rates));
+        self.family.decode(&d, 0.0, D::zero_t())
     }
 }
 
-/// Records one rate evaluation on the state in `src` (`Y` or `Stage`): positions, the
-/// rebuild of the lists, the scheme's particle and pair passes.
-fn record_rates(
-    gpu: &Gpu,
-    passes: &Passes,
-    lists: &Lists,
-    n: u32,
-    encoder: &mut wgpu::CommandEncoder,
-    src: Buf,
-) {
-    let bound = &lists.rates[usize::from(src != Buf::Y)];
-    {
-        let mut pass = encoder.begin_compute_pass(&Default::default());
-        gpu.dispatch(&mut pass, &passes.positions, &bound.positions, n);
-    }
-    lists.cells.record_on_drift(gpu, encoder);
-    let mut pass = encoder.begin_compute_pass(&Default::default());
-    gpu.dispatch(&mut pass, &passes.particle, &bound.particle, n);
-    gpu.dispatch(&mut pass, &passes.rates, &bound.rates, n);
-}
-
-impl<D: GpuDim> Engine<D> for GpuUl<D> {
-    /// The pairs of the last build (read back), and the builds run and recorded so far.
-    fn device(&mut self) -> Option<(&Gpu, Scale)> {
-        let cells = &self.lists().cells;
-        let offsets: Vec<u32> = self.shell.gpu.read(&cells.offsets);
-        let builds = IndirectRuns {
-            ran: u64::from(cells.builds(&self.shell.gpu)),
-            recorded: cells.recorded(),
-        };
-        let scale = Scale {
-            pairs: u64::from(offsets[self.layout.n]),
-            indirect: Some(builds),
-        };
-        Some((&self.shell.gpu, scale))
-    }
-
-    fn backend(&self) -> String {
-        self.shell.backend()
+impl<D: GpuDim> GpuFamily<D> for UlDevice<D> {
+    fn nodes(&self) -> u32 {
+        self.layout.n as u32
     }
 
     fn reference(&self) -> &[D::V] {
         &self.reference.x0
     }
 
-    fn constrained(&self) -> &[(u32, u8)] {
-        &self.reference.boundary.constrained
+    fn boundary(&self) -> &Boundary<D> {
+        &self.reference.boundary
     }
 
-    fn advance(&mut self, t: f64, dt: f64, steps: u32) -> Result<(), Failed> {
-        self.interactions.set_time(t);
-        self.advance_steps(dt, steps).map_err(|e| Failed {
-            completed: 0,
-            cause: BlowUp {
-                particle: 0,
-                position: [0.0; 3],
-                quantity: format!("neighbour lists (GPU): {e}"),
-                value: f64::NAN,
-            },
-        })
+    /// The pairs of the last build (read back), and the builds run and recorded so far.
+    fn scale(&self, gpu: &Gpu) -> Scale {
+        let cells = &self.lists().cells;
+        let offsets: Vec<u32> = gpu.read(&cells.offsets);
+        let builds = IndirectRuns {
+            ran: u64::from(cells.builds(gpu)),
+            recorded: cells.recorded(),
+        };
+        Scale {
+            pairs: u64::from(offsets[self.layout.n]),
+            indirect: Some(builds),
+        }
     }
 
-    fn max_signal_speed(&mut self) -> f64 {
-        self.reference.material.p_wave_speed() + self.reduced().max_speed
+    /// Records one rate evaluation on the state in `Y` or `Stage`: positions, the
+    /// rebuild of the lists, the scheme's particle and pair passes.
+    fn record_rates(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, e: Evaluation) {
+        let (passes, lists, n) = (&self.passes, self.lists(), self.layout.n as u32);
+        let bound = &lists.rates[usize::from(e.src != Buf::Y)];
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            gpu.dispatch(&mut pass, &passes.positions, &bound.positions, n);
+        }
+        lists.cells.record_on_drift(gpu, encoder);
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        gpu.dispatch(&mut pass, &passes.particle, &bound.particle, n);
+        gpu.dispatch(&mut pass, &passes.rates, &bound.rates, n);
     }
 
-    /// Trapezoidal over the intervals between calls (the driver calls it at every check).
-    fn external_work(&mut self) -> f64 {
-        let power = self.reduced().power;
-        self.shell.external_work(power)
+    /// Keeps `Y` in `start`. The batch may run again from its start (lists grown): its
+    /// first evaluation builds from its own positions, whatever the lists held.
+    fn begin_batch(
+        &mut self,
+        _gpu: &Gpu,
+        stepper: &Stepper,
+        encoder: &mut wgpu::CommandEncoder,
+        _dt: f64,
+        _steps: u32,
+    ) {
+        let bytes = self.layout.state.bytes();
+        encoder.copy_buffer_to_buffer(stepper.buffer(Buf::Y), 0, &self.start, 0, bytes);
+        self.lists().cells.force(encoder);
     }
 
-    fn booked(&mut self) -> Booked {
-        let power = self.reduced().power;
-        self.shell.booked(power)
+    /// When a rebuild overflowed the lists: grows them to the pairs it needed (with a
+    /// quarter more) and puts back the state at the batch's start.
+    fn again(&mut self, shell: &mut Shell) -> Result<bool, GpuError> {
+        let Some(needed) = self.lists().cells.overflow(&shell.gpu) else {
+            return Ok(false);
+        };
+        self.grow(shell, needed.saturating_add(needed / 4))?;
+        shell.stepper.restart_from(&shell.gpu, &self.start);
+        Ok(true)
     }
 
-    fn reactions(&mut self) -> Vec<Reaction> {
-        self.shell.reactions(&self.reference.boundary)
+    fn signal_speed(&self, reduced: &Reduced) -> f64 {
+        self.reference.material.p_wave_speed() + reduced.max_speed
     }
 
-    fn check(&mut self) -> Result<(), BlowUp> {
-        let [singular, density] = self.failed();
-        for (i, quantity) in [
-            (singular, "det A (Randles–Libersky, f32, GPU)"),
-            (density, "density (f32, GPU)"),
-        ] {
-            if let Some(i) = i {
+    /// The first particle with a singular correction, and with ρ ≤ 0, since the start.
+    fn flagged(&self, gpu: &Gpu) -> Result<(), BlowUp> {
+        let s: Vec<u32> = gpu.read(&self.status);
+        for (k, quantity) in ["det A (Randles–Libersky, f32, GPU)", "density (f32, GPU)"]
+            .into_iter()
+            .enumerate()
+        {
+            if s[k] != u32::MAX {
+                let i = s[k] as usize;
                 return Err(BlowUp::at::<D>(&self.reference.x0, i, quantity, 0.0));
             }
-        }
-        if self.reduced().non_finite {
-            return check_state(&self.reference.x0, &self.state());
         }
         Ok(())
     }
 
-    fn invariants(&mut self) -> Invariants {
-        self.reduced().invariants
-    }
-
-    fn finish(&mut self) {
-        self.shell.gpu.wait();
+    fn check_state(&self, flat: &[f32]) -> Result<(), BlowUp> {
+        check_state(&self.reference.x0, &self.decode_state(flat))
     }
 
     /// The builds the device ran so far (those its drift checks asked for, and one at the
-    /// start of each batch) times one build timed alone ([`Self::time_rebuild`]): the
+    /// start of each batch) times one build timed alone ([`GpuUl::time_rebuild`]): the
     /// device's passes are not timed one by one inside a step, and the drift checks (one
     /// position read per particle and evaluation) are left out.
-    fn neighbour_seconds(&mut self) -> Option<f64> {
-        let seconds = self.time_rebuild();
-        Some(self.builds() as f64 * seconds)
+    fn neighbour_seconds(&mut self, shell: &Shell) -> Option<f64> {
+        let seconds = self.time_rebuild(&shell.gpu);
+        Some(self.builds(&shell.gpu) as f64 * seconds)
     }
 
-    fn save(&mut self) -> Vec<f64> {
-        self.shell.save()
-    }
-
-    fn restore(&mut self, words: &[f64]) -> Result<(), String> {
-        self.shell.restore(words)
-    }
-
-    fn snapshot(&mut self) -> Snapshot<'_, D> {
-        let y = self.state();
+    fn snapshot(&mut self, shell: &Shell) -> Snapshot<'_, D> {
+        let y = self.decode_state(&shell.read_state());
         let r = &self.reference;
         snapshot(&r.material, &r.x0, &r.mass, &r.body, &r.vol, y)
     }

@@ -97,15 +97,6 @@ impl MixedLayout {
         }
     }
 
-    pub(super) fn stepped(&self) -> StateLayout {
-        StateLayout {
-            n: self.n,
-            dim: self.dim,
-            rest: self.state.offset("F"),
-            len: self.state.len(),
-        }
-    }
-
     /// A mixed state as a flat f32 state: F − I, H − I and J − 1 are formed in f64.
     pub(super) fn encode<D: GpuDim>(&self, y: &MixedState<D>) -> Vec<f32> {
         let l = &self.state;

@@ -13,8 +13,8 @@ const ENERGY: Wgsl = wgsl!("mixed/mixed_energy.wgsl");
 
 /// A ghost's source particle and its image (reflection and sign), per ghost.
 const GHOST_MAP: [Traffic; 2] = [
-    read("ghost_src", [1, 0, 0], NONE),
-    read("ghost_img", [1, 1, 0], NONE),
+    count("ghost_src", [1, 0, 0], NONE),
+    count("ghost_img", [1, 1, 0], NONE),
 ];
 
 /// Ghost motion and ghost fields; an item is a ghost. The gathers read a ghost's values
@@ -29,8 +29,8 @@ pub const GHOSTS: Source = source!(
             traffic: &[
                 GHOST_MAP[0],
                 GHOST_MAP[1],
-                read("y", [0, 2, 0], NONE),
-                write("field", [0, 2, 0], NONE),
+                count("y", [0, 2, 0], NONE),
+                count("field", [0, 2, 0], NONE),
             ],
         },
         PassBytes {
@@ -38,10 +38,10 @@ pub const GHOSTS: Source = source!(
             traffic: &[
                 GHOST_MAP[0],
                 GHOST_MAP[1],
-                read("field", [0, 0, 1], NONE),
-                write("field", [0, 0, 1], NONE),
-                read("field", [0, 0, 1], NONE).when(&["KIN_H"]),
-                write("field", [0, 0, 1], NONE).when(&["KIN_H"]),
+                loads("field", [0, 0, 1], NONE),
+                stores("field", [0, 0, 1], NONE),
+                loads("field", [0, 0, 1], NONE).when(&["KIN_H"]),
+                stores("field", [0, 0, 1], NONE).when(&["KIN_H"]),
             ],
         },
         PassBytes {
@@ -49,8 +49,8 @@ pub const GHOSTS: Source = source!(
             traffic: &[
                 GHOST_MAP[0],
                 GHOST_MAP[1],
-                read("field", NONE, NONE).slopes(1),
-                write("field", NONE, NONE).slopes(1),
+                loads("field", NONE, NONE).slopes(1),
+                stores("field", NONE, NONE).slopes(1),
             ],
         },
         PassBytes {
@@ -58,8 +58,8 @@ pub const GHOSTS: Source = source!(
             traffic: &[
                 GHOST_MAP[0],
                 GHOST_MAP[1],
-                read("field", [0, 1, 0], NONE),
-                write("field", [0, 1, 0], NONE),
+                loads("field", [0, 1, 0], NONE),
+                stores("field", [0, 1, 0], NONE),
             ],
         },
     ]
@@ -72,27 +72,26 @@ pub const KINEMATICS: Source = source!(
     &[PassBytes {
         entry: "kinematics",
         traffic: &[
-            read("offsets", [1, 0, 0], NONE),
-            read("ids", NONE, [1, 0, 0]),
+            count("offsets", [1, 0, 0], NONE),
+            count("ids", NONE, [1, 0, 0]),
             // ∇0W̃_ab.
-            read("pair", NONE, [0, 1, 0]),
+            count("pair", NONE, [0, 1, 0]),
             // v, F; H, J and p where evolved; ghosts' v and the bond-based F^c from kin.
-            read("y", [0, 1, 1], NONE),
-            read("y", [0, 0, 1], NONE).when(&["EVOLVE_H"]),
-            read("y", [1, 0, 0], NONE).when(&["EVOLVE_J"]),
-            read("y", [1, 0, 0], NONE).when(&["AC"]),
-            read("kin", NONE, NONE),
-            read("kin", [0, 0, 1], NONE).when(&["BOND"]),
-            read("hist", [10, 0, 0], NONE).when(&["MODEL == MODEL_VON_MISES_PLASTIC"]),
+            count("y", [0, 1, 1], NONE),
+            count("y", [0, 0, 1], NONE).when(&["EVOLVE_H"]),
+            count("y", [1, 0, 0], NONE).when(&["EVOLVE_J"]),
+            count("y", [1, 0, 0], NONE).when(&["AC"]),
+            loads("kin", [0, 0, 1], NONE).when(&["BOND"]),
+            count("hist", [10, 0, 0], NONE).when(&["MODEL == MODEL_VON_MISES_PLASTIC"]),
             // P (and H).
-            write("kin", [0, 0, 1], NONE),
-            write("kin", [0, 0, 1], NONE).when(&["KIN_H"]),
+            stores("kin", [0, 0, 1], NONE),
+            stores("kin", [0, 0, 1], NONE).when(&["KIN_H"]),
             // Ḟ, Ḣ, J̇, ṗ.
-            write("d", [0, 0, 1], NONE),
-            write("d", [0, 0, 1], NONE).when(&["EVOLVE_H"]),
-            write("d", [1, 0, 0], NONE).when(&["EVOLVE_J"]),
-            write("d", [1, 0, 0], NONE).when(&["AC"]),
-            read_write("status", NONE, NONE),
+            count("d", [0, 0, 1], NONE),
+            count("d", [0, 0, 1], NONE).when(&["EVOLVE_H"]),
+            count("d", [1, 0, 0], NONE).when(&["EVOLVE_J"]),
+            count("d", [1, 0, 0], NONE).when(&["AC"]),
+            count("status", NONE, NONE),
         ],
     }]
 );
@@ -104,14 +103,13 @@ pub const BOND: Source = source!(
     &[PassBytes {
         entry: "bond_f",
         traffic: &[
-            read("offsets", [1, 0, 0], NONE),
-            read("ids", NONE, [1, 0, 0]),
+            count("offsets", [1, 0, 0], NONE),
+            count("ids", NONE, [1, 0, 0]),
             // X_b − X_a and the bond weight.
-            read("pair", NONE, [1, 1, 0]),
+            count("pair", NONE, [1, 1, 0]),
             // u, F; ghosts' u from kin.
-            read("y", [0, 1, 1], NONE),
-            read("kin", NONE, NONE),
-            write("kin", [0, 0, 1], NONE),
+            count("y", [0, 1, 1], NONE),
+            stores("kin", [0, 0, 1], NONE),
         ],
     }]
 );
@@ -124,26 +122,26 @@ pub const SLOPES: Source = source!(
         PassBytes {
             entry: "slopes",
             traffic: &[
-                read("offsets", [1, 0, 0], NONE),
-                read("ids", NONE, [1, 0, 0]),
+                count("offsets", [1, 0, 0], NONE),
+                count("ids", NONE, [1, 0, 0]),
                 // Least-squares weights.
-                read("pair", NONE, [0, 1, 0]),
-                read("y", [0, 1, 0], NONE),
+                count("pair", NONE, [0, 1, 0]),
+                count("y", [0, 1, 0], NONE),
                 // P (and ghosts' v).
-                read("kin", [0, 0, 1], NONE),
-                write("out", NONE, NONE).slopes(1),
+                count("kin", [0, 0, 1], NONE),
+                count("out", NONE, NONE).slopes(1),
             ],
         },
         PassBytes {
             entry: "laplacian",
             traffic: &[
-                read("offsets", [1, 0, 0], NONE),
-                read("ids", NONE, [1, 0, 0]),
+                count("offsets", [1, 0, 0], NONE),
+                count("ids", NONE, [1, 0, 0]),
                 // Laplacian weights.
-                read("pair", NONE, [1, 0, 0]),
-                read("y", [0, 1, 0], NONE),
-                read("kin", NONE, NONE),
-                write("out", [0, 1, 0], NONE),
+                count("pair", NONE, [1, 0, 0]),
+                count("y", [0, 1, 0], NONE),
+                count("kin", NONE, NONE),
+                count("out", [0, 1, 0], NONE),
             ],
         },
     ]
@@ -162,23 +160,23 @@ pub const FORCES: Source = source!(
     &[PassBytes {
         entry: "forces",
         traffic: &[
-            read("offsets", [1, 0, 0], NONE),
-            read("ids", NONE, [1, 0, 0]),
+            count("offsets", [1, 0, 0], NONE),
+            count("ids", NONE, [1, 0, 0]),
             // ∇0W̃_ab, ∇0W̃_ba; X_b − X_a (upwind) or the JST scale.
-            read("pair", NONE, [0, 2, 0]),
-            read("pair", NONE, [0, 1, 0]).when(&["STAB == STAB_UPWIND"]),
-            read("pair", NONE, [1, 0, 0]).when(&["STAB == STAB_JST"]),
-            read("y", [0, 2, 0], NONE),
+            count("pair", NONE, [0, 2, 0]),
+            count("pair", NONE, [0, 1, 0]).when(&["STAB == STAB_UPWIND"]),
+            count("pair", NONE, [1, 0, 0]).when(&["STAB == STAB_JST"]),
+            count("y", [0, 2, 0], NONE),
             // P (and H).
-            read("kin", [0, 0, 1], NONE),
-            read("kin", [0, 0, 1], NONE).when(&["KIN_H"]),
+            count("kin", [0, 0, 1], NONE),
+            count("kin", [0, 0, 1], NONE).when(&["KIN_H"]),
             // The Laplacian (JST) or the slopes (reconstruction).
-            read("second", [0, 1, 0], NONE).when(&["STAB == STAB_JST"]),
-            read("second", NONE, NONE)
+            count("second", [0, 1, 0], NONE).when(&["STAB == STAB_JST"]),
+            count("second", NONE, NONE)
                 .slopes(1)
                 .when(&["STAB == STAB_UPWIND", "RECON"]),
             // T, D(p), D(J).
-            write("force", [1, 2, 0], NONE),
+            count("force", [1, 2, 0], NONE),
         ],
     }]
 );
@@ -200,11 +198,11 @@ pub const MOMENTUM: Source = source!(
         PassBytes {
             entry: "balance_sums",
             traffic: &[
-                read("reference", [1, 1, 0], NONE),
-                read("y", [0, 2, 0], NONE),
-                read("y0", [0, 2, 0], NONE),
-                read("force", [0, 2, 0], NONE),
-                write("partials", NONE, NONE),
+                count("reference", [1, 1, 0], NONE),
+                count("y", [0, 2, 0], NONE),
+                count("y0", [0, 2, 0], NONE),
+                count("force", [0, 2, 0], NONE),
+                count("partials", NONE, NONE),
             ],
         },
         // One item: the partial sums of every workgroup in (not counted), the rotation,
@@ -212,25 +210,25 @@ pub const MOMENTUM: Source = source!(
         PassBytes {
             entry: "balance_solve",
             traffic: &[
-                read("partials", NONE, NONE),
-                write("force", [9, 0, 0], NONE)
+                count("partials", NONE, NONE),
+                count("force", [9, 0, 0], NONE)
             ],
         },
         PassBytes {
             entry: "rates",
             traffic: &[
                 // T, D(p); D(J) with H kept.
-                read("force", [0, 2, 0], NONE),
-                read("force", [1, 0, 0], NONE).when(&["KIN_H"]),
-                read("y", [0, 1, 0], NONE),
-                read("y", [0, 1, 0], NONE).when(&["PROJECTION"]),
-                read("y0", [0, 2, 0], NONE).when(&["PROJECTION"]),
-                read("reference", [2, 0, 0], NONE),
-                read("reference", [0, 1, 0], NONE).when(&["PROJECTION"]),
-                read("ext", [0, 1, 0], NONE),
-                write("kin", [1, 0, 0], NONE),
-                write("d", [0, 2, 0], NONE),
-                read_write("d", [1, 0, 0], NONE).when(&["KIN_H"]),
+                count("force", [0, 2, 0], NONE),
+                count("force", [1, 0, 0], NONE).when(&["KIN_H"]),
+                count("y", [0, 1, 0], NONE),
+                count("y", [0, 1, 0], NONE).when(&["PROJECTION"]),
+                count("y0", [0, 2, 0], NONE).when(&["PROJECTION"]),
+                count("reference", [2, 0, 0], NONE),
+                count("reference", [0, 1, 0], NONE).when(&["PROJECTION"]),
+                count("ext", [0, 1, 0], NONE),
+                count("kin", [1, 0, 0], NONE),
+                stores("d", [0, 2, 0], NONE),
+                count("d", [1, 0, 0], NONE).when(&["KIN_H"]),
             ],
         },
     ]
@@ -250,10 +248,7 @@ pub const PLASTIC: Source = source!(
     [("y", false)],
     &[PassBytes {
         entry: "commit",
-        traffic: &[
-            read("y", [0, 0, 1], NONE),
-            read_write("hist", [10, 0, 0], NONE),
-        ],
+        traffic: &[count("y", [0, 0, 1], NONE), count("hist", [10, 0, 0], NONE),],
     }]
 );
 

@@ -5,8 +5,8 @@
 //! gradients derived on the device. The CPU system ([`super::system`]) is the reference
 //! it is checked against.
 //!
-//! A whole step, or several, is recorded into one command encoder; the host reads back
-//! only when asked (outputs, observers, checks).
+//! The engine is the [`GpuEngine`] on the family [`TlDevice`]: a rate evaluation is the
+//! stress and acceleration passes.
 
 mod scheme;
 
@@ -17,25 +17,25 @@ pub use scheme::{
 
 use super::system::hourglass_stiffness;
 use crate::balance::Booked;
-use crate::boundary::{OnPatches, Reaction};
+use crate::boundary::{Boundary, OnPatches};
 use crate::correction::{self, CorrectionKind};
-use crate::engine::{BlowUp, Engine, Failed};
+use crate::engine::{BlowUp, GpuEngine, GpuFamily};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{GpuDim, flat_v};
 use crate::gpu::profile::Scale;
-use crate::gpu::program::Stepper;
+use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{Reduced, Reduction};
 use crate::gpu::reference::DeviceReference;
 use crate::gpu::shaders::{self, CORRECTION, INTEGRATE, PAIR_OFFSETS, Source};
 use crate::gpu::shell::Shell;
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
-use crate::integrate::Buf;
+use crate::integrate::{Buf, Evaluation};
 use crate::interaction::Interactions;
 use crate::interaction::gpu::GpuInteractions;
 use crate::methods::dual_support::gpu::DeviceLists;
 use crate::methods::tl::{TlState, check_state, snapshot};
 use crate::neighbour::Csr;
-use crate::observe::{Invariants, Snapshot};
+use crate::observe::Snapshot;
 use crate::reference::Reference;
 use crate::scene::Case;
 use scheme::{EXTRAS, scheme_of};
@@ -47,11 +47,13 @@ struct Rates {
 }
 
 /// The TLSPH system resident on the GPU.
-pub struct GpuTlsph<D: GpuDim> {
-    /// The device, the stepper, the reduction, the work balance and the kinematics. The
-    /// balance's terms it does not book besides the work and the dissipation: the
-    /// hourglass control's work; contact's, which `ext` adds to the loads' power.
-    shell: Shell,
+pub type GpuTlsph<D> = GpuEngine<D, TlDevice<D>>;
+
+/// The total-Lagrangian family on the device: its reference configuration, buffers and
+/// passes. The balance's terms the engine does not book besides the work and the
+/// dissipation: the hourglass control's work; contact's, which `ext` adds to the loads'
+/// power.
+pub struct TlDevice<D: GpuDim> {
     /// The host's f64 reference configuration, which the device's was uploaded from.
     reference: Reference<D>,
     /// The weight of each particle's ψ in the strain energy (`TlScheme::unit_weights`).
@@ -77,8 +79,6 @@ pub struct GpuTlsph<D: GpuDim> {
     /// The stress pass on `Y` writing into `Acc` (for snapshots: F at the current state
     /// without touching the integrator's rates).
     kinematics_y: wgpu::BindGroup,
-    /// Passes before every step (contact) and the `ext` they write.
-    interactions: GpuInteractions,
 }
 
 /// Value of `status[0]` when no particle failed.
@@ -137,7 +137,7 @@ impl<D: GpuDim> GpuTlsph<D> {
             &gpu,
             case.method.integrator,
             &compose(&INTEGRATE),
-            layout.stepped(),
+            StateLayout::of(&layout.state, "RHO"),
             &y0,
         )?;
         let interactions =
@@ -189,8 +189,8 @@ impl<D: GpuDim> GpuTlsph<D> {
             (disc.vol.clone(), 1.0)
         };
         let unbooked = unbooked(case, &scheme, dual.as_ref());
-        Ok(Self {
-            shell: Shell::new(gpu, stepper, reduction, kin, &layout.kin, unbooked),
+        let shell = Shell::new(gpu, stepper, reduction, kin, &layout.kin, unbooked);
+        let family = TlDevice {
             pairs: csr.pair_count() as u64,
             reference: disc,
             energy_weight,
@@ -205,8 +205,8 @@ impl<D: GpuDim> GpuTlsph<D> {
             accel,
             rates,
             kinematics_y,
-            interactions,
-        })
+        };
+        Ok(Self::assemble(shell, interactions, family))
     }
 }
 
@@ -372,69 +372,13 @@ fn read_status(gpu: &Gpu, status: &wgpu::Buffer) -> Option<(usize, usize)> {
     (i != STATUS_OK).then_some((i as usize, slot))
 }
 
-impl<D: GpuDim> GpuTlsph<D> {
-    pub fn layout(&self) -> &Layout {
-        &self.layout
-    }
-
-    pub fn gpu(&self) -> &Gpu {
-        &self.shell.gpu
-    }
-
-    /// The host's reference configuration of the scene.
-    pub fn reference(&self) -> &Reference<D> {
-        &self.reference
-    }
-
+impl<D: GpuDim> TlDevice<D> {
     /// Records one rate evaluation: the stress and acceleration passes on `rates`.
-    fn record_rates(
-        gpu: &Gpu,
-        n: u32,
-        (stress, accel): (&Pipeline, &Pipeline),
-        encoder: &mut wgpu::CommandEncoder,
-        rates: &Rates,
-    ) {
+    fn record(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, rates: &Rates) {
         let mut pass = encoder.begin_compute_pass(&Default::default());
-        gpu.dispatch(&mut pass, stress, &rates.stress, n);
-        gpu.dispatch(&mut pass, accel, &rates.accel, n);
-    }
-
-    /// Records `steps` steps of size `dt` into one command encoder and submits them.
-    pub fn advance_steps(&mut self, dt: f64, steps: u32) {
-        self.shell.work.advance(dt, steps);
-        self.shell.reduction.invalidate();
-        let mut encoder = self
-            .gpu()
-            .device
-            .create_command_encoder(&Default::default());
-        self.interactions.set_step(&self.shell.gpu, dt);
-        let Self {
-            shell: Shell { gpu, stepper, .. },
-            stress,
-            accel,
-            rates,
-            layout,
-            interactions,
-            ..
-        } = self;
-        let n = layout.n as u32;
-        stepper.record(
-            gpu,
-            &mut encoder,
-            dt,
-            steps,
-            |encoder, e| {
-                let src = usize::from(e.src != Buf::Y);
-                Self::record_rates(gpu, n, (stress, accel), encoder, &rates[src]);
-            },
-            |encoder| interactions.record(gpu, encoder, n),
-        );
-        self.gpu().queue.submit([encoder.finish()]);
-    }
-
-    /// Reads the current state back (waits for the queue).
-    pub fn state(&self) -> TlState<D> {
-        self.decode(&self.shell.read_state(), self.reference.material.rho0)
+        let n = self.layout.n as u32;
+        gpu.dispatch(&mut pass, &self.stress, &rates.stress, n);
+        gpu.dispatch(&mut pass, &self.accel, &rates.accel, n);
     }
 
     /// Decodes a flat state (`rho0` = ρ0: the density is stored as ρ − ρ0) or rate
@@ -449,13 +393,40 @@ impl<D: GpuDim> GpuTlsph<D> {
         }
     }
 
+    /// F of a kinematics buffer read back (the GPU keeps H = F − I; I is added in f64).
+    fn deformation_gradient(&self, kin: &[f32]) -> Vec<D::T> {
+        self.layout.kin.read_t::<D>(kin, "F", D::identity())
+    }
+}
+
+impl<D: GpuDim> GpuTlsph<D> {
+    pub fn layout(&self) -> &Layout {
+        &self.family.layout
+    }
+
+    /// The host's reference configuration of the scene.
+    pub fn reference(&self) -> &Reference<D> {
+        &self.family.reference
+    }
+
+    /// Reads the current state back (waits for the queue).
+    pub fn state(&self) -> TlState<D> {
+        let rho0 = self.family.reference.material.rho0;
+        self.family.decode(&self.shell.read_state(), rho0)
+    }
+
     /// Replaces the state (e.g. to cross-check rates on a given state).
     pub fn set_state(&mut self, y: &TlState<D>) {
-        let l = &self.layout.state;
+        let l = &self.family.layout.state;
         let mut flat = l.zeroed();
         l.write_v::<D>(&mut flat, "U", &y.u);
         l.write_v::<D>(&mut flat, "V", &y.v);
-        l.write_s(&mut flat, "RHO", &y.rho, self.reference.material.rho0);
+        l.write_s(
+            &mut flat,
+            "RHO",
+            &y.rho,
+            self.family.reference.material.rho0,
+        );
         l.write_t::<D>(&mut flat, "S", &y.s, D::zero_t());
         self.shell.set_state(&flat);
     }
@@ -465,146 +436,111 @@ impl<D: GpuDim> GpuTlsph<D> {
         self.set_state(y);
         let gpu = self.gpu();
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
-        let n = self.layout.n as u32;
-        let pipelines = (&self.stress, &self.accel);
-        Self::record_rates(gpu, n, pipelines, &mut encoder, &self.rates[0]);
+        self.family.record(gpu, &mut encoder, &self.family.rates[0]);
         gpu.queue.submit([encoder.finish()]);
         let d: Vec<f32> = gpu.read(self.shell.stepper.buffer(Buf::Rates));
         let (f, p) = self.kinematics();
-        (self.decode(&d, 0.0), f, p)
+        (self.family.decode(&d, 0.0), f, p)
     }
 
     /// The corrected reference gradients, in CSR order.
     pub fn gradients(&self) -> Vec<D::V> {
-        let pair: Vec<f32> = self.gpu().read(&self.pair);
-        self.layout.pair.read_v::<D>(&pair, "G")
+        let pair: Vec<f32> = self.gpu().read(&self.family.pair);
+        self.family.layout.pair.read_v::<D>(&pair, "G")
     }
 
     /// F and P of the last rate evaluation (the GPU keeps H = F − I; I is added in f64);
     /// the corotated F̂ and P̂ of a [`Frame::Corotated`] scheme.
     pub fn kinematics(&self) -> (Vec<D::T>, Vec<D::T>) {
         let kin: Vec<f32> = self.gpu().read(&self.shell.kin);
-        let l = &self.layout.kin;
-        (
-            l.read_t::<D>(&kin, "F", D::identity()),
-            l.read_t::<D>(&kin, "P", D::zero_t()),
-        )
+        let p = self.family.layout.kin.read_t::<D>(&kin, "P", D::zero_t());
+        (self.family.deformation_gradient(&kin), p)
     }
 
     /// A per-particle tensor of the scheme's own (`TlScheme::kin_tensors`) of the last
     /// rate evaluation: corotated TLSPH's rotations R.
     pub fn kin_tensor(&self, name: &str) -> Vec<D::T> {
         let kin: Vec<f32> = self.gpu().read(&self.shell.kin);
-        self.layout.kin.read_t::<D>(&kin, name, D::zero_t())
+        self.family.layout.kin.read_t::<D>(&kin, name, D::zero_t())
     }
 
     /// The first particle whose stress pass failed (det F ≤ 0 or NaN, or the scheme's
     /// other checks) in any evaluation so far.
     pub fn failed_particle(&self) -> Option<usize> {
-        read_status(self.gpu(), &self.status).map(|(i, _)| i)
+        read_status(self.gpu(), &self.family.status).map(|(i, _)| i)
     }
 }
 
-impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
-    fn backend(&self) -> String {
-        self.shell.backend()
-    }
+impl<D: GpuDim> GpuFamily<D> for TlDevice<D> {
+    /// The viscous dissipation of the artificial viscosity.
+    const BOOKS_DISSIPATION: bool = true;
 
-    fn device(&mut self) -> Option<(&Gpu, Scale)> {
-        let scale = Scale {
-            pairs: self.pairs,
-            indirect: None,
-        };
-        Some((&self.shell.gpu, scale))
+    fn nodes(&self) -> u32 {
+        self.layout.n as u32
     }
 
     fn reference(&self) -> &[D::V] {
         &self.reference.x0
     }
 
-    fn constrained(&self) -> &[(u32, u8)] {
-        &self.reference.boundary.constrained
+    fn boundary(&self) -> &Boundary<D> {
+        &self.reference.boundary
     }
 
-    fn advance(&mut self, t: f64, dt: f64, steps: u32) -> Result<(), Failed> {
-        self.interactions.set_time(t);
-        self.advance_steps(dt, steps);
-        Ok(())
-    }
-
-    fn max_signal_speed(&mut self) -> f64 {
-        self.wave_speed_scale * self.reference.material.p_wave_speed() + self.reduction().max_speed
-    }
-
-    /// Trapezoidal over the intervals between calls (the driver calls it at every check).
-    fn external_work(&mut self) -> f64 {
-        let power = self.reduction().power;
-        self.shell.external_work(power)
-    }
-
-    /// The work and the viscous dissipation, trapezoidal over the intervals between calls.
-    fn booked(&mut self) -> Booked {
-        let r = self.reduction();
-        Booked {
-            external_work: self.shell.external_work(r.power),
-            dissipated: Some(self.shell.work.update_dissipation(r.viscous_dissipation)),
-            ..self.shell.unbooked
+    fn scale(&self, _gpu: &Gpu) -> Scale {
+        Scale {
+            pairs: self.pairs,
+            indirect: None,
         }
     }
 
-    fn reactions(&mut self) -> Vec<Reaction> {
-        self.shell.reactions(&self.reference.boundary)
+    fn record_rates(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, e: Evaluation) {
+        self.record(gpu, encoder, &self.rates[usize::from(e.src != Buf::Y)]);
     }
 
-    fn check(&mut self) -> Result<(), BlowUp> {
-        if let Some((i, slot)) = read_status(self.gpu(), &self.status) {
-            return Err(BlowUp {
+    /// The stress pass on the current state (F into the kinematics).
+    fn before_reduction(&self, gpu: &Gpu, pass: &mut wgpu::ComputePass<'_>) {
+        gpu.dispatch(pass, &self.stress, &self.kinematics_y, self.layout.n as u32);
+    }
+
+    fn signal_speed(&self, reduced: &Reduced) -> f64 {
+        self.wave_speed_scale * self.reference.material.p_wave_speed() + reduced.max_speed
+    }
+
+    fn flagged(&self, gpu: &Gpu) -> Result<(), BlowUp> {
+        match read_status(gpu, &self.status) {
+            Some((i, slot)) => Err(BlowUp {
                 particle: i,
                 position: D::to3(self.reference.x0[i]),
                 quantity: self.checks[slot].into(),
                 value: 0.0,
-            });
+            }),
+            None => Ok(()),
         }
-        if self.reduction().non_finite {
-            return check_state(&self.reference.x0, &self.state());
-        }
-        Ok(())
     }
 
-    fn invariants(&mut self) -> Invariants {
-        self.reduction().invariants
+    fn check_state(&self, flat: &[f32]) -> Result<(), BlowUp> {
+        let y = self.decode(flat, self.reference.material.rho0);
+        check_state(&self.reference.x0, &y)
     }
 
-    fn finish(&mut self) {
-        self.gpu().wait();
-    }
-
-    /// The work balance and the state buffer (f32).
-    fn save(&mut self) -> Vec<f64> {
-        self.shell.save()
-    }
-
-    fn restore(&mut self, words: &[f64]) -> Result<(), String> {
-        self.shell.restore(words)
-    }
-
-    fn snapshot(&mut self) -> Snapshot<'_, D> {
-        let gpu = self.gpu();
+    fn snapshot(&mut self, shell: &Shell) -> Snapshot<'_, D> {
+        let gpu = &shell.gpu;
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
-            let n = self.layout.n as u32;
-            gpu.dispatch(&mut pass, &self.stress, &self.kinematics_y, n);
+            self.before_reduction(gpu, &mut pass);
         }
         gpu.queue.submit([encoder.finish()]);
-        let y = self.state();
+        let y = self.decode(&shell.read_state(), self.reference.material.rho0);
         let r = &self.reference;
         if let Some(model) = &self.dual_support {
             return model.snapshot(y.u, y.v, &r.mass, &r.body, true);
         }
-        let (f, _) = self.kinematics();
+        let kin: Vec<f32> = gpu.read(&shell.kin);
+        let f = self.deformation_gradient(&kin);
         if self.frame == Frame::Corotated {
-            let rot = self.kin_tensor("R");
+            let rot = self.layout.kin.read_t::<D>(&kin, "R", D::zero_t());
             let fields = crate::methods::corotated::outputs::<D>(&r.material, &r.vol, &rot, &f);
             return fields.snapshot(&r.x0, &r.mass, &r.body, y);
         }
@@ -617,19 +553,5 @@ impl<D: GpuDim> Engine<D> for GpuTlsph<D> {
             y,
             f,
         )
-    }
-}
-
-impl<D: GpuDim> GpuTlsph<D> {
-    /// Stress pass on the current state (F into the kinematics) and the reduction.
-    fn reduction(&mut self) -> Reduced {
-        let Self {
-            shell,
-            stress,
-            kinematics_y,
-            layout,
-            ..
-        } = self;
-        shell.reduced(|gpu, pass| gpu.dispatch(pass, stress, kinematics_y, layout.n as u32))
     }
 }

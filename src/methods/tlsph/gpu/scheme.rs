@@ -5,8 +5,7 @@
 use super::super::{TlsphForce, ViscosityGradient};
 use crate::correction::CorrectionKind;
 use crate::gpu::layout::Fields;
-use crate::gpu::profile::{NONE, PassBytes, read, read_write, write};
-use crate::gpu::program::StateLayout;
+use crate::gpu::profile::{NONE, PassBytes, count, loads, stores};
 use crate::gpu::reduction;
 use crate::gpu::reference::{self, Extras};
 use crate::gpu::shaders::{
@@ -35,19 +34,19 @@ pub const STRESS: Source = source!(
     &[PassBytes {
         entry: "stress",
         traffic: &[
-            read("offsets", [1, 0, 0], NONE),
-            read("ids", NONE, [1, 0, 0]),
+            count("offsets", [1, 0, 0], NONE),
+            count("ids", NONE, [1, 0, 0]),
             // ∇0W̃_ij.
-            read("pair", NONE, [0, 1, 0]),
+            count("pair", NONE, [0, 1, 0]),
             // V_j.
-            read("reference", [1, 0, 0], NONE),
+            count("reference", [1, 0, 0], NONE),
             // u, v; ρ − ρ0 and S of the rate model.
-            read("y", [0, 2, 0], NONE),
-            read("y", [1, 0, 1], NONE).when(&["RATE"]),
+            count("y", [0, 2, 0], NONE),
+            count("y", [1, 0, 1], NONE).when(&["RATE"]),
             // H, P, F⁻ᵀ, ρ.
-            write("kin", [1, 0, 3], NONE),
-            write("d", [1, 0, 1], NONE).when(&["RATE"]),
-            read_write("status", NONE, NONE),
+            count("kin", [1, 0, 3], NONE),
+            count("d", [1, 0, 1], NONE).when(&["RATE"]),
+            count("status", NONE, NONE),
         ],
     }]
 );
@@ -69,26 +68,26 @@ pub const ACCEL: Source = source!(
         PassBytes {
             entry: "accel",
             traffic: &[
-                read("offsets", [1, 0, 0], NONE),
-                read("ids", NONE, [1, 0, 0]),
+                count("offsets", [1, 0, 0], NONE),
+                count("ids", NONE, [1, 0, 0]),
                 // ∇0W̃_ij, and ∇0W̃_ji for the variational force; X_j − X_i for the viscosity.
-                read("pair", NONE, [0, 1, 0]),
-                read("pair", NONE, [0, 1, 0]).when(&["FORCE == FORCE_VARIATIONAL"]),
-                read("pair", NONE, [0, 1, 0]).when(&["AV"]),
+                count("pair", NONE, [0, 1, 0]),
+                count("pair", NONE, [0, 1, 0]).when(&["FORCE == FORCE_VARIATIONAL"]),
+                count("pair", NONE, [0, 1, 0]).when(&["AV"]),
                 // κ_ij and X_j − X_i, u_j and H_j for the hourglass control.
-                read("pair", NONE, [1, 1, 0]).when(&["HOURGLASS"]),
-                read("y", NONE, [0, 1, 0]).when(&["HOURGLASS"]),
-                read("kin", [0, 0, 1], [0, 0, 1]).when(&["HOURGLASS"]),
+                count("pair", NONE, [1, 1, 0]).when(&["HOURGLASS"]),
+                count("y", NONE, [0, 1, 0]).when(&["HOURGLASS"]),
+                loads("kin", [0, 0, 1], [0, 0, 1]).when(&["HOURGLASS"]),
                 // V, the boundary mask.
-                read("reference", [2, 0, 0], NONE),
+                count("reference", [2, 0, 0], NONE),
                 // u, v.
-                read("y", [0, 2, 0], NONE),
+                count("y", [0, 2, 0], NONE),
                 // P, F⁻ᵀ, ρ in; the power of supports and loads and the viscous dissipation out.
-                read("kin", [1, 0, 2], NONE),
-                write("kin", [2, 0, 0], NONE),
-                read("ext", [0, 1, 0], NONE),
+                loads("kin", [1, 0, 2], NONE),
+                stores("kin", [2, 0, 0], NONE),
+                count("ext", [0, 1, 0], NONE),
                 // u̇ = v, v̇.
-                write("d", [0, 2, 0], NONE),
+                count("d", [0, 2, 0], NONE),
             ],
         }
     ]
@@ -281,15 +280,6 @@ impl Layout {
                 .scalars("HGK", scheme.hourglass.is_some() || dual, pairs)
                 .scalars("HGKR", dual, pairs),
             reference: reference::fields(n, constrained, dim, EXTRAS),
-        }
-    }
-
-    pub(super) fn stepped(&self) -> StateLayout {
-        StateLayout {
-            n: self.n,
-            dim: self.dim,
-            rest: self.state.offset("RHO"),
-            len: self.state.len(),
         }
     }
 }
