@@ -24,12 +24,12 @@ mod common;
 use criterion::{
     BatchSize, BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main,
 };
+use meshless::case::Case;
 use meshless::integrate::Integrator;
 use meshless::kernel::Kernel;
 use meshless::methods::tlsph::Tlsph;
 use meshless::methods::{Method, REGISTRY};
 use meshless::run::{Backend, Engine, build_method, engine};
-use meshless::scene::Case;
 use meshless::tensor::D2;
 use std::hint::black_box;
 use std::path::PathBuf;

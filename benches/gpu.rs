@@ -17,11 +17,11 @@ use criterion::{
     BatchSize, BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main,
 };
 use meshless::bench::resize;
+use meshless::case::Case;
 use meshless::gpu::Gpu;
 use meshless::methods::REGISTRY;
 use meshless::methods::tlsph::GpuTlsph;
 use meshless::run::{Engine, EngineDim};
-use meshless::scene::Case;
 use meshless::tensor::{D2, D3};
 use std::path::PathBuf;
 use std::time::Duration;

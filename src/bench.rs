@@ -1,10 +1,10 @@
 //! `meshless bench`: throughput of a case on a backend at several sizes, in
 //! particle-steps per second, measured over whole steps after a warm-up.
 
+use crate::case::{Case, discretise};
 use crate::engine::{Engine, EngineDim, StepTraffic};
 use crate::passes::PassReport;
 use crate::run::{Backend, RunError, engine, with_threads};
-use crate::scene::{Case, discretise};
 use crate::tensor::{D2, D3};
 use rayon::prelude::*;
 use std::time::Instant;

@@ -64,7 +64,7 @@ impl HourglassIndicator {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Case;
+    use crate::case::Case;
     use crate::tensor::D2;
     use glam::{DMat2, DVec2};
 

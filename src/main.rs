@@ -3,11 +3,11 @@
 #![deny(clippy::too_many_lines)]
 
 use clap::{Parser, Subcommand};
+use meshless::case::Case;
 use meshless::methods::REGISTRY;
 use meshless::run::{
     Backend, EXIT_FAILED, EXIT_INPUT, Limits, ProgressDisplay, RunError, RunOptions, run,
 };
-use meshless::scene::Case;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Arc;

@@ -90,7 +90,7 @@ pub fn oscillation(deviation: &[f64], p: &[f64], volume: &[f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Case;
+    use crate::case::Case;
     use crate::tensor::D2;
     use glam::DVec2;
 

@@ -2,11 +2,11 @@
 //! them, built once on the host in f64 and held (or uploaded) by the method.
 
 use crate::boundary::Boundary;
+use crate::case::{Case, CaseError, discretise};
 use crate::kernel::{Kernel, neighbour_radius};
 use crate::material::Material;
 use crate::neighbour::{self, Csr, Neighbours, Rebuild};
 use crate::quadrature::{Cells, QuadratureError, lattice_cells};
-use crate::scene::{Case, CaseError, discretise};
 use crate::tensor::Dim;
 
 /// A method's CPU system, built on the reference configuration of a case.

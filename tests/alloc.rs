@@ -2,11 +2,11 @@
 //! global allocator counts the allocations of the thread that evaluates the rates, while
 //! it evaluates them (the test harness's own threads allocate when they will).
 
+use meshless::case::Case;
 use meshless::integrate::OdeSystem;
 use meshless::methods::Method;
 use meshless::methods::mixed::MixedSph;
 use meshless::run::build_method;
-use meshless::scene::Case;
 use meshless::tensor::D2;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;

@@ -3,8 +3,8 @@
 //! [`PARTICLES`] particles by `meshless bench`'s rule, with a fixed Δt.
 
 use meshless::bench::resize;
+use meshless::case::Case;
 use meshless::run::Engine;
-use meshless::scene::Case;
 use meshless::tensor::D2;
 use std::path::PathBuf;
 

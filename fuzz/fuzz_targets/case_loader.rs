@@ -6,7 +6,7 @@
 
 use libfuzzer_sys::fuzz_target;
 use meshless::run::{Backend, Limits, check};
-use meshless::scene::Case;
+use meshless::case::Case;
 use std::path::Path;
 
 fuzz_target!(|data: &[u8]| {

@@ -28,13 +28,13 @@ pub mod weak_form;
 
 pub use crate::engine::{BlowUp, Method};
 
+use crate::case::{Case, CaseError};
 use crate::check::Problem;
 use crate::correction::CorrectionKind;
 use crate::engine::{Engine, EngineDim};
 use crate::integrate::IntegratorKind;
 use crate::kernel::KernelKind;
 use crate::neighbour::Rebuild;
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use serde::de::{self, DeserializeSeed, MapAccess, Visitor};
 use serde::{Deserialize, Deserializer, Serialize};

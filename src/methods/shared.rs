@@ -1,12 +1,12 @@
 //! What the method cores take from a case: the CPU engine of a system built on it, and
 //! the reference neighbours and gradients of the total-Lagrangian methods.
 
+use crate::case::{Case, CaseError};
 use crate::correction;
 use crate::engine::{CpuEngine, Method};
 use crate::kernel;
 use crate::neighbour::Csr;
 use crate::reference::{Build, build_method};
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use rayon::prelude::*;
 

@@ -4,11 +4,11 @@
 
 use super::{Engine, RunError, checkpoint};
 use crate::boundary::Reaction;
+use crate::case::Case;
 use crate::engine::BlowUp;
 use crate::hourglass::HourglassIndicator;
 use crate::observe::{Clock, IndicatorFields, Invariants, Snapshot};
 use crate::pressure::{PressureFit, pressures};
-use crate::scene::Case;
 use crate::tensor::Dim;
 use std::cell::OnceCell;
 

@@ -3,7 +3,7 @@
 //! a run that does not fit the machine, or passes the caps, is refused as a case error
 //! naming the key that sets the figure.
 
-use crate::scene::{Case, CaseError, Shape, estimate_particles};
+use crate::case::{Case, CaseError, Shape, estimate_particles};
 
 /// Caps on what one run may ask for (`--max-particles`, `--max-steps`).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -53,7 +53,7 @@ pub struct Estimate {
     /// the shape fills, or the points of a points or mesh file).
     pub bodies: Vec<f64>,
     pub particles: f64,
-    /// Neighbour pairs within the kernel support, body by body ([`crate::scene::BodySize::pairs`]: from
+    /// Neighbour pairs within the kernel support, body by body ([`crate::case::BodySize::pairs`]: from
     /// the lattice's density, or the points a file holds).
     pub pairs: f64,
     /// Host memory of a CPU run [bytes].
@@ -246,8 +246,8 @@ fn particle_key(case: &Case, estimate: &Estimate) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::case::{Lattice, discretise};
     use crate::scene::validate::minimal_case;
-    use crate::scene::{Lattice, discretise};
     use crate::tensor::{D2, D3};
 
     #[test]
@@ -288,7 +288,7 @@ mod tests {
         c.dimension = 3;
         c.bodies[0].geometry = Shape::Cylinder {
             base: vec![0.0, 0.0, 0.0],
-            axis: crate::scene::Axis::Y,
+            axis: crate::case::Axis::Y,
             radius: 1.0,
             inner_radius: 0.5,
             length: 1.0,

@@ -24,8 +24,8 @@
 //! times in order up to t), before anything is restored.
 
 use super::RunError;
+use crate::case::{Case, FNV_OFFSET, fnv1a_extend};
 use crate::output::write_atomically;
-use crate::scene::{Case, FNV_OFFSET, fnv1a_extend};
 use std::io::{BufReader, Read, Write};
 use std::path::Path;
 

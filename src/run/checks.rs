@@ -4,9 +4,9 @@
 
 use super::batch::{Batch, Callback};
 use super::{Engine, RunError};
+use crate::case::Case;
 use crate::engine::BlowUp;
 use crate::observe::Snapshot;
-use crate::scene::Case;
 use crate::tensor::Dim;
 
 /// The blow-up checks after each batch: the total energy against
@@ -157,7 +157,7 @@ fn mass_notes<D: Dim>(case: &Case, snap: &Snapshot<D>) -> Vec<String> {
 }
 
 /// The cylinders whose sampled length along the axis differs from the named one beyond
-/// round-off (1e-9), each with the difference ([`crate::scene::Shape::sampled_length`]):
+/// round-off (1e-9), each with the difference ([`crate::case::Shape::sampled_length`]):
 /// their volumes are scaled to the named shape, so the mass does not show it; said at the
 /// start of a run (past `body.N.volume_tolerance` the case is refused).
 fn length_notes(case: &Case) -> Vec<String> {
@@ -184,8 +184,8 @@ fn length_notes(case: &Case) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::{fixed_step_warning, length_notes};
+    use crate::case::{Axis, Lattice, Shape};
     use crate::scene::validate::minimal_case;
-    use crate::scene::{Axis, Lattice, Shape};
 
     #[test]
     fn a_cylinder_sampled_short_of_its_length_is_said() {

@@ -12,10 +12,10 @@ use super::profile::Profile;
 use super::progress::{IterationLog, Progress, ProgressDisplay, ShowProgress};
 use super::{Engine, Failed, RunError, RunOptions, output_error};
 use crate::balance::Balance;
+use crate::case::Case;
 use crate::engine::BlowUp;
 use crate::observe::{Clock, Observers};
 use crate::output::{RunSummary, write_summary};
-use crate::scene::Case;
 use crate::tensor::Dim;
 use std::time::Instant;
 

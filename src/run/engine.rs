@@ -2,10 +2,10 @@
 //! method's spec, on the backend the run asks for.
 
 use super::{Backend, RunError};
+use crate::case::Case;
 use crate::engine::{Engine, EngineDim};
 #[cfg(feature = "gpu")]
 use crate::gpu::{Gpu, SetupError};
-use crate::scene::Case;
 
 /// The engine a case runs on: the GPU when `backend` asks for it (or `auto` finds an
 /// adapter and the method has a GPU engine), the CPU otherwise; the method's spec builds

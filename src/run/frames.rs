@@ -2,12 +2,12 @@
 
 use super::batch::{Batch, Callback, Needs};
 use super::{RunError, RunOptions, checkpoint, output_error};
+use crate::case::Case;
 use crate::engine::BlowUp;
 use crate::material::von_mises;
 use crate::observe::{Clock, IndicatorFields, Snapshot};
 use crate::output::{Field, FieldData, Mesh, PvdIndex, write_vtu};
 use crate::pressure::pressures;
-use crate::scene::Case;
 use crate::tensor::Dim;
 use std::path::{Path, PathBuf};
 

@@ -21,12 +21,12 @@ pub use engine::engine;
 pub use frames::{FrameConstants, write_frame};
 pub use progress::ProgressDisplay;
 
+use crate::case::{Case, CaseError};
 use crate::check::toml_name;
 use crate::engine::BlowUp;
 use crate::material::Material;
 use crate::methods::{Feature, supporting};
 use crate::output::RunSummary;
-use crate::scene::{Case, CaseError};
 use crate::tensor::{D2, D3};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -355,7 +355,7 @@ fn discretisation_lines<D: crate::tensor::Dim>(case: &Case) -> Vec<String> {
              integrate over lattice cells"
         )
     }];
-    let disc = match crate::scene::discretise::<D>(case) {
+    let disc = match crate::case::discretise::<D>(case) {
         Ok(disc) => disc,
         Err(e) => {
             out.push(format!("bodies: cannot be sampled: {e}"));
@@ -434,7 +434,7 @@ fn discretisation_lines<D: crate::tensor::Dim>(case: &Case) -> Vec<String> {
                         ", total force ({}) {force}{}{}",
                         components.join(", "),
                         match bc.condition {
-                            crate::scene::Condition::BodyForce { .. } => {
+                            crate::case::Condition::BodyForce { .. } => {
                                 " on the particle masses ρ0 V"
                             }
                             _ => "",

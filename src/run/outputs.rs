@@ -4,12 +4,12 @@
 use super::batch::{Batch, Callback, Needs};
 use super::progress::ITERATIONS;
 use super::{RunError, checkpoint, output_error};
+use crate::case::Case;
 use crate::check::toml_name;
 use crate::engine::BlowUp;
 use crate::observe::{Clock, Observers};
 use crate::output::series::read_column;
 use crate::output::{CheckResult, SeriesWriter};
-use crate::scene::Case;
 use crate::tensor::Dim;
 use std::path::{Path, PathBuf};
 

@@ -4,9 +4,9 @@
 
 use super::batch::{Batch, Callback, End};
 use super::{Engine, Iteration, RunError, output_error};
+use crate::case::Case;
 use crate::engine::BlowUp;
 use crate::output::SeriesWriter;
-use crate::scene::Case;
 use crate::tensor::Dim;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::cell::Cell;

@@ -1,35 +1,11 @@
 //! Loading a case: the file read, the `--set` overrides applied in order (with the rule
 //! for a change of `method.name`), the table parsed and validated.
 
-use super::{Case, overrides, validate};
+use super::{overrides, validate};
+use crate::case::{Case, CaseError, read_capped};
 use crate::methods::drop_foreign_keys;
 use serde::Deserialize;
-use std::path::{Path, PathBuf};
-use thiserror::Error;
-
-/// What is wrong with a case file.
-#[derive(Debug, Error)]
-pub enum CaseError {
-    #[error("{file}: cannot read: {source}")]
-    Read {
-        file: PathBuf,
-        source: std::io::Error,
-    },
-    #[error("{file}: {message}")]
-    Parse { file: PathBuf, message: String },
-    #[error("{file}: --set {assignment}: {message}")]
-    Override {
-        file: PathBuf,
-        assignment: String,
-        message: String,
-    },
-    #[error("{file}: key `{key}`: {message}")]
-    Invalid {
-        file: PathBuf,
-        key: String,
-        message: String,
-    },
-}
+use std::path::Path;
 
 /// `method.name` of a case table, if it is a string.
 fn method_name(table: &toml::Table) -> Option<String> {
@@ -71,11 +47,9 @@ impl Case {
     /// Reads, overrides (`key.path=value`) and validates a case file.
     pub fn load(path: &Path, overrides: &[String]) -> Result<Case, CaseError> {
         let text =
-            super::geometry::read_capped(path, CASE_FILE_CAP, "a case file").map_err(|source| {
-                CaseError::Read {
-                    file: path.to_path_buf(),
-                    source,
-                }
+            read_capped(path, CASE_FILE_CAP, "a case file").map_err(|source| CaseError::Read {
+                file: path.to_path_buf(),
+                source,
             })?;
         Self::from_toml(&text, path, overrides)
     }

@@ -16,7 +16,7 @@
 //! For the linear-elastic model the force is linear in u, and two Newton iterations reach
 //! the discrete equilibrium to round-off (the cantilever of seed 001: a relative residual
 //! of 1e-6 after the first, 3e-11 after the second); other state models iterate with this
-//! stiffness at every iterate, until `run.tolerance` ([`super::Tolerance`]).
+//! stiffness at every iterate, until `run.tolerance` ([`crate::case::Tolerance`]).
 //!
 //! A method that knows its stiffness in closed form ([`ClosedForm`]: the total-Lagrangian
 //! Galerkin methods on a model with a tangent 𝔸 = ∂P/∂F) assembles it instead, on the
@@ -25,12 +25,12 @@
 
 use super::sparse::{BlockPattern, Linear};
 use super::{Linearisation, Model, Newton, Setup, Statics};
+use crate::case::{Case, CaseError};
 use crate::engine::{BlowUp, CpuEngine, Engine, EngineDim, Method};
 use crate::kernel::neighbour_radius;
 use crate::neighbour;
 use crate::observe::Snapshot;
 use crate::reference::{Build, Reference, build_method};
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 
 /// A method whose force depends on the displacement alone (a state model), so that a

@@ -4,11 +4,11 @@
 
 use super::fields::FinalState;
 use crate::balance::{Balance, Booked};
+use crate::case::Case;
 use crate::engine::{BlowUp, Engine, EngineDim, Failed};
 use crate::observe::{Invariants, Snapshot};
 use crate::output::RunSummary;
 use crate::run::{Backend, RunError, RunOptions, budget, drive, engine, may_use_gpu, with_threads};
-use crate::scene::Case;
 use crate::tensor::{D2, D3, Dim};
 use std::marker::PhantomData;
 use std::time::Instant;

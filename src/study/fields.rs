@@ -2,10 +2,10 @@
 //! final state of a converged run matched by reference position.
 
 use crate::analytic::{Exact, SwingingMode};
+use crate::case::{Case, VelocityField};
 use crate::material::Material;
 use crate::observe::Snapshot;
 use crate::plasticity::PLASTIC_STRAIN;
-use crate::scene::{Case, VelocityField};
 use crate::tensor::Dim;
 use std::collections::HashMap;
 use std::io::{BufRead, Write};

@@ -1,7 +1,7 @@
 //! Suite files (`cases/studies/*.toml`): a base case, variants, a sweep and a reference,
 //! expanded into the runs of a study.
 
-use crate::scene::{Case, CaseError};
+use crate::case::{Case, CaseError};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
@@ -473,4 +473,4 @@ fn number(v: &Value) -> f64 {
     }
 }
 
-pub use crate::scene::fnv1a;
+pub use crate::case::fnv1a;

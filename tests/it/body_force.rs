@@ -2,9 +2,9 @@
 //! CPU and on the GPU engines, against the exact free fall of an unsupported body.
 
 use crate::common::{largest_v, material_and_method};
+use meshless::case::{Case, CaseError};
 use meshless::methods::REGISTRY;
 use meshless::run::{Backend, Engine, engine};
-use meshless::scene::{Case, CaseError};
 use meshless::tensor::{D2, Dim};
 use std::path::Path;
 

@@ -5,7 +5,7 @@
 //! the other tests cannot pass merely because everything fails.
 
 use crate::common::{cases_dir, toml_files};
-use meshless::scene::{Case, CaseError};
+use meshless::case::{Case, CaseError};
 use meshless::tensor::D2;
 use std::path::Path;
 
@@ -1037,8 +1037,8 @@ fn every_shipped_case_validates_and_discretises() {
     for path in toml_files(&cases_dir()) {
         let case = Case::load(&path, &[]).unwrap_or_else(|e| panic!("{e}"));
         let particles = match case.dimension {
-            2 => meshless::scene::discretise::<D2>(&case).map(|d| d.x0.len()),
-            _ => meshless::scene::discretise::<meshless::tensor::D3>(&case).map(|d| d.x0.len()),
+            2 => meshless::case::discretise::<D2>(&case).map(|d| d.x0.len()),
+            _ => meshless::case::discretise::<meshless::tensor::D3>(&case).map(|d| d.x0.len()),
         }
         .unwrap_or_else(|e| panic!("{e}"));
         assert!(particles > 0, "{}: no particle", path.display());
@@ -1061,7 +1061,7 @@ fn points_error(file: &Path) -> String {
         ),
     );
     let case = Case::from_toml(&text, Path::new(FILE), &[]).expect("the file validates");
-    match meshless::scene::discretise::<D2>(&case) {
+    match meshless::case::discretise::<D2>(&case) {
         Ok(_) => panic!("{} was sampled", file.display()),
         Err(e) => e.to_string(),
     }

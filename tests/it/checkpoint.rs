@@ -4,10 +4,10 @@
 //! case or method is refused.
 
 use crate::common::{cpu_options, load};
+use meshless::case::Case;
 use meshless::methods::BlowUp;
 use meshless::observe::{Invariants, Snapshot};
 use meshless::run::{Engine, Failed, RunError, RunOptions, drive, engine, run};
-use meshless::scene::Case;
 use meshless::tensor::D2;
 use std::path::Path;
 use std::sync::Arc;
@@ -274,7 +274,7 @@ fn a_damaged_checkpoint_is_refused_before_anything_is_restored() {
         let mut bytes = good.clone();
         bytes[t_at..t_at + 8].copy_from_slice(&t.to_le_bytes());
         let body = bytes.len() - 8;
-        let sum = meshless::scene::fnv1a(&bytes[..body]);
+        let sum = meshless::case::fnv1a(&bytes[..body]);
         bytes[body..].copy_from_slice(&sum.to_le_bytes());
         bytes
     };

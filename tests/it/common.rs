@@ -6,12 +6,12 @@
 //! build without them leaves those unused.
 #![cfg_attr(not(all(feature = "gpu", feature = "study")), allow(dead_code))]
 
+use meshless::case::Case;
 #[cfg(feature = "gpu")]
 use meshless::gpu::Gpu;
 use meshless::methods::Method;
 use meshless::methods::mixed::{MixedSph, MixedState};
 use meshless::run::{Backend, CpuEngine, Engine, ProgressDisplay, RunOptions};
-use meshless::scene::Case;
 use meshless::tensor::Dim;
 use std::ops::Sub;
 use std::path::{Path, PathBuf};

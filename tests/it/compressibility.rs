@@ -3,9 +3,9 @@
 //! scheme), and the pseudo-viscosity's effect on the iteration counts.
 
 use crate::common::{load, run_mixed_steps};
+use meshless::case::Case;
 use meshless::methods::mixed::MixedSph;
 use meshless::run::{CpuEngine, Engine};
-use meshless::scene::Case;
 use meshless::tensor::{D2, D3, Dim};
 
 /// The keys that switch a mixed case to artificial compressibility at Poisson ratio ν.

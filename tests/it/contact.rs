@@ -3,8 +3,8 @@
 //! installs Mesa lavapipe).
 
 use crate::common::case_file;
+use meshless::case::{Case, CaseError};
 use meshless::run::{Backend, Engine, engine};
-use meshless::scene::{Case, CaseError};
 use meshless::tensor::D2;
 
 /// The shipped rings case on the nbox = 20 lattice (Δx = 0.08/19): the centres at ∓47.5 mm,

@@ -4,11 +4,11 @@
 //! constitutive tangents, and one Newton iteration for a linear problem.
 
 use crate::common::{largest_v, noise, random_vector};
+use meshless::case::{Case, MaterialSpec, Plane};
 use meshless::kernel::{Kernel, KernelKind};
 use meshless::material::{Material, MaterialModel};
 use meshless::methods::dual_support::{DualSupport, Statics, Support};
 use meshless::run::Engine;
-use meshless::scene::{Case, MaterialSpec, Plane};
 use meshless::tensor::{D2, D3, Dim};
 use std::path::Path;
 

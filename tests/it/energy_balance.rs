@@ -7,9 +7,9 @@
 
 use crate::common::material_and_method;
 use meshless::balance::{Balance, Booked};
+use meshless::case::Case;
 use meshless::methods::REGISTRY;
 use meshless::run::{Backend, Engine, engine};
-use meshless::scene::Case;
 use meshless::tensor::D2;
 use std::path::Path;
 

@@ -7,11 +7,11 @@
 
 use crate::common::{block_text, largest_v, load, random_vector};
 use glam::{DMat2, DVec2};
+use meshless::case::Case;
 use meshless::integrate::OdeSystem;
 use meshless::methods::Method;
 use meshless::methods::galerkin::{GalerkinState, TlGalerkin};
 use meshless::run::{CpuEngine, Engine, build_method};
-use meshless::scene::Case;
 use meshless::statics::explicit::AtRest;
 use meshless::tensor::{D2, D3, Dim};
 use std::path::Path;

@@ -5,6 +5,7 @@
 
 use crate::common::{gpu, load, max_s, max_t, max_v, noise, random_tensor, random_vector};
 use crate::galerkin::block;
+use meshless::case::Case;
 use meshless::gpu::layout::GpuDim;
 use meshless::integrate::{Integrator, OdeSystem};
 use meshless::methods::Method;
@@ -12,7 +13,6 @@ use meshless::methods::galerkin::gpu::GpuGalerkin;
 use meshless::methods::galerkin::{GalerkinState, TlGalerkin};
 use meshless::plasticity::PLASTIC_STRAIN;
 use meshless::run::{CpuEngine, Engine, build_method};
-use meshless::scene::Case;
 use meshless::tensor::{D2, D3, Dim};
 
 /// One rate evaluation of a random state (|u| ~ 1 mm, |v| ~ 1 m/s, ρ within 1 % of ρ0,

@@ -5,6 +5,7 @@
 use crate::common::{
     gpu, gpus, load, max_s, max_t, max_v, mixed_variants, random_state, random_tensor, shipped,
 };
+use meshless::case::Case;
 use meshless::gpu::Gpu;
 use meshless::gpu::layout::GpuDim;
 use meshless::integrate::{Integrator, OdeSystem};
@@ -13,7 +14,6 @@ use meshless::methods::mixed::{GpuMixed, MixedOptions, MixedSph, MixedState, Sta
 use meshless::observe::Invariants;
 use meshless::plasticity::PLASTIC_STRAIN;
 use meshless::run::{Backend, CpuEngine, Engine, build_method};
-use meshless::scene::Case;
 use meshless::tensor::{D2, D3};
 
 /// Asserts `error ≤ tol · scale` and reports the ratio.

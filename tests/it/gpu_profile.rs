@@ -6,12 +6,12 @@
 
 use crate::common::{cpu_options, load};
 use meshless::bench::measure;
+use meshless::case::Case;
 use meshless::gpu::profile::{NONE, PassBytes, read, read_write, write};
 use meshless::integrate::{Op, program};
 use meshless::passes::PassReport;
 use meshless::reference::Reference;
 use meshless::run::{Backend, RunOptions, run};
-use meshless::scene::Case;
 use meshless::tensor::D2;
 
 /// Steps of each report: enough dispatches to time, few enough for lavapipe.

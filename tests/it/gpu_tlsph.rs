@@ -2,6 +2,7 @@
 //! A missing adapter fails these tests: the GPU path is part of what CI checks.
 
 use crate::common::{gpu, gpus, largest_v, load, max_t, max_v};
+use meshless::case::Case;
 use meshless::gpu::Gpu;
 use meshless::gpu::layout::GpuDim;
 use meshless::integrate::{Integrator, OdeSystem};
@@ -10,7 +11,6 @@ use meshless::methods::Method;
 use meshless::methods::tlsph::GpuTlsph;
 use meshless::methods::tlsph::{TlState, Tlsph};
 use meshless::run::{CpuEngine, Engine, build_method};
-use meshless::scene::Case;
 use meshless::tensor::{D2, D3, Dim};
 use std::path::Path;
 

@@ -5,6 +5,7 @@
 
 use crate::common::{block_case, gpu, gpus, load, max_s, max_t, max_v, shipped};
 use crate::gray_monaghan::random_state;
+use meshless::case::Case;
 use meshless::gpu::Gpu;
 use meshless::gpu::layout::GpuDim;
 use meshless::methods::godunov::system::Scheme as GodunovScheme;
@@ -17,7 +18,6 @@ use meshless::methods::{Method, MethodSpec};
 use meshless::neighbour::SKIN;
 use meshless::reference::Build;
 use meshless::run::{CpuEngine, Engine, build_method};
-use meshless::scene::Case;
 use meshless::tensor::{D2, D3, Dim};
 
 /// The GPU scheme of a UL case.

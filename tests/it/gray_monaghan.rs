@@ -5,6 +5,7 @@
 
 use crate::common::{load, noise, random_tensor};
 use glam::{DMat2, DVec2};
+use meshless::case::{Case, CaseError};
 use meshless::integrate::OdeSystem;
 use meshless::kernel::Kernel;
 use meshless::methods::Method;
@@ -12,7 +13,6 @@ use meshless::methods::gray_monaghan::GrayMonaghan;
 use meshless::methods::gray_monaghan::system::{artificial_stress, principal_stresses};
 use meshless::methods::ul::{PairScheme, UlSph, UlState};
 use meshless::run::build_method;
-use meshless::scene::{Case, CaseError};
 use meshless::tensor::{D2, D3, Dim};
 use std::path::Path;
 

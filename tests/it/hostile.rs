@@ -4,8 +4,8 @@
 //! process. No input may panic, hang or do anything but load or exit with 2.
 
 use crate::common::{cases_dir, toml_files};
+use meshless::case::Case;
 use meshless::run::{Backend, Limits, RunError, check};
-use meshless::scene::Case;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};

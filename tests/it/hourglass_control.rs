@@ -3,11 +3,11 @@
 //! does not resist held down, and the GPU pass against the CPU.
 
 use glam::DVec2;
+use meshless::case::Case;
 use meshless::integrate::OdeSystem;
 use meshless::methods::Method;
 use meshless::methods::tlsph::{TlState, Tlsph};
 use meshless::run::build_method;
-use meshless::scene::Case;
 use meshless::tensor::D2;
 use std::path::Path;
 

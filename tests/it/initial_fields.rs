@@ -2,7 +2,7 @@
 //! (`initial_velocity = { type = "expression", … }`).
 
 use crate::common::material_and_method;
-use meshless::scene::{Case, CaseError, Discretised, discretise};
+use meshless::case::{Case, CaseError, Discretised, discretise};
 use meshless::tensor::D2;
 use std::path::Path;
 

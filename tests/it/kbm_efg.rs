@@ -9,11 +9,11 @@
 use crate::common::{largest_v, random_vector};
 use crate::galerkin::block;
 use glam::{DMat2, DVec2};
+use meshless::case::Case;
 use meshless::integrate::OdeSystem;
 use meshless::methods::Method;
 use meshless::methods::galerkin::{GalerkinState, TlGalerkin};
 use meshless::run::build_method;
-use meshless::scene::Case;
 use meshless::tensor::{D2, D3, Dim};
 
 /// The four variants: (method, keys, the paper's name).

@@ -3,8 +3,8 @@
 //! against the CPU.
 
 use meshless::boundary::{Boundary, OnPatches, timed_loads};
+use meshless::case::{Case, discretise};
 use meshless::run::{Backend, Engine, engine};
-use meshless::scene::{Case, discretise};
 use meshless::tensor::D2;
 use std::path::Path;
 

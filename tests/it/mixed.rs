@@ -4,12 +4,12 @@
 
 use crate::common::{cpu_options, load, noise, random_state, run_mixed_steps, shipped};
 use meshless::analytic::SwingingMode;
+use meshless::case::Case;
 use meshless::integrate::OdeSystem;
 use meshless::material::Material;
 use meshless::methods::Method;
 use meshless::methods::mixed::{Fluxes, MixedSph};
 use meshless::run::{Backend, CpuEngine, Engine, build_method};
-use meshless::scene::Case;
 use meshless::study::engine::run_case;
 use meshless::study::fields::{analytic_fields, relative_l2};
 use meshless::study::suite::AnalyticSolution;

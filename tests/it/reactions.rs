@@ -3,9 +3,9 @@
 //! the GPU engines against the CPU.
 
 use crate::common::cpu_options;
+use meshless::case::Case;
 use meshless::output::series::read_column;
 use meshless::run::{Backend, run};
-use meshless::scene::Case;
 use std::path::Path;
 
 /// Young's modulus [Pa], the strip's height [m] and length between the grips [m].

@@ -2,9 +2,9 @@
 //! `--set method.name=X` does to the keys of the previous method.
 
 use crate::common::{case_file, load, shipped};
+use meshless::case::{Case, CaseError};
 use meshless::methods::mixed::{Conserved, DeformationGradient, Jst, Momentum};
 use meshless::methods::{COMMON_KEYS, MethodSpec, REGISTRY, entry};
-use meshless::scene::{Case, CaseError};
 
 /// The error of a shipped case with overrides; panics if it loads.
 fn load_error(name: &str, overrides: &[&str]) -> (CaseError, String) {

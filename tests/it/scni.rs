@@ -7,13 +7,13 @@
 
 use crate::verification::{Row, cantilever_error};
 use glam::{DMat2, DVec2};
+use meshless::case::Case;
 use meshless::integrate::Integrator;
 use meshless::kernel::{Kernel, KernelKind};
 use meshless::methods::Method;
 use meshless::methods::galerkin::{GalerkinState, TlGalerkin};
 use meshless::quadrature::{Shapes, SmoothingCells};
 use meshless::run::{Backend, build_method, engine};
-use meshless::scene::Case;
 use meshless::tensor::{D2, D3, Dim};
 use std::path::Path;
 

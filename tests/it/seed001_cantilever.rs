@@ -6,10 +6,10 @@
 //! `cases/studies/seed001-cantilever.toml`; docs/methods/seed001.md has its orders.
 
 use crate::common::load;
+use meshless::case::Case;
 use meshless::material::Material;
 use meshless::observe::{solution_errors, solution_of};
 use meshless::run::{Backend, Engine, engine};
-use meshless::scene::Case;
 use meshless::tensor::D2;
 use std::path::Path;
 

@@ -6,6 +6,7 @@
 
 use crate::common::{cpu_options, load, random_vector};
 use glam::{DMat2, DVec2};
+use meshless::case::{Case, VelocityNoise};
 use meshless::integrate::OdeSystem;
 use meshless::methods::Method;
 use meshless::methods::galerkin::TlGalerkin;
@@ -14,7 +15,6 @@ use meshless::methods::kbm::eulerian::{EulerianPoints, SEARCH_EVERY};
 use meshless::output::series::read_column;
 use meshless::reference::Reference;
 use meshless::run::{RunError, build_method, run};
-use meshless::scene::{Case, VelocityNoise};
 use meshless::tensor::D2;
 
 type Eulerian = UlGalerkin<D2, EulerianPoints<D2>>;

@@ -6,13 +6,13 @@
 
 use crate::common::{cpu_options, load, noise};
 use glam::{DMat2, DVec2};
+use meshless::case::Case;
 use meshless::integrate::OdeSystem;
 use meshless::methods::Method;
 use meshless::methods::tlsph::Tlsph;
 use meshless::output::series::read_column;
 use meshless::reference::Reference;
 use meshless::run::{build_method, run};
-use meshless::scene::Case;
 use meshless::tensor::D2;
 use std::f64::consts::PI;
 use std::path::Path;

@@ -5,6 +5,7 @@
 
 use crate::common::{block_text, cpu_options, load};
 use glam::DVec2;
+use meshless::case::Case;
 use meshless::methods::Method;
 use meshless::methods::galerkin::TlGalerkin;
 use meshless::methods::galerkin::updated::UlGalerkin;
@@ -12,7 +13,6 @@ use meshless::methods::kbm::eulerian::EulerianPoints;
 use meshless::output::series::read_column;
 use meshless::plasticity::PLASTIC_STRAIN;
 use meshless::run::{RunError, build_method, run};
-use meshless::scene::Case;
 use meshless::tensor::D2;
 use std::path::Path;
 

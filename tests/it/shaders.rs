@@ -2,6 +2,7 @@
 //! dimensions and for every scene variant the solver compiles.
 
 use crate::common::{block_case, block_text, load, mixed_variants, shipped, validate_wgsl};
+use meshless::case::Case;
 use meshless::correction::CorrectionKind;
 use meshless::gpu::context::reflect;
 use meshless::gpu::layout::GpuDim;
@@ -18,7 +19,6 @@ use meshless::methods::potential::gpu as potential;
 use meshless::methods::tlsph::gpu::{self as tlsph, Layout, scene_constants};
 use meshless::methods::ul::gpu as ul;
 use meshless::run::build_method;
-use meshless::scene::Case;
 use meshless::tensor::{D2, D3};
 use std::path::Path;
 

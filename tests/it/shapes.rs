@@ -5,9 +5,9 @@
 
 use crate::common::cpu_options;
 use meshless::boundary::condition_totals;
+use meshless::case::{Case, CaseError, discretise};
 use meshless::output::series::read_column;
 use meshless::run::{Backend, engine, explain, run};
-use meshless::scene::{Case, CaseError, discretise};
 use meshless::tensor::{D2, D3};
 use std::path::Path;
 

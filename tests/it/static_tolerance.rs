@@ -3,9 +3,9 @@
 //! and on rubber stretched 500 %.
 
 use meshless::analytic::Cantilever;
+use meshless::case::Case;
+use meshless::case::Tolerance;
 use meshless::run::{Backend, Engine, Iteration, engine};
-use meshless::scene::Case;
-use meshless::statics::Tolerance;
 use meshless::tensor::D2;
 use std::path::Path;
 

@@ -3,8 +3,8 @@
 //! and the files a suite writes.
 
 use crate::common::{cases_dir, toml_files};
+use meshless::case::Case;
 use meshless::material::Material;
-use meshless::scene::Case;
 use meshless::study::fields::{FinalState, analytic_fields, matched_fields, relative_l2};
 use meshless::study::suite::{AnalyticSolution, TimeMeasure};
 use meshless::study::{

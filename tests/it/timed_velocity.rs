@@ -3,8 +3,8 @@
 //! supports book, the refusals, and the GPU against the CPU.
 
 use meshless::boundary::TimedVelocity;
+use meshless::case::{Case, TimeLaw};
 use meshless::run::{Backend, Engine, engine};
-use meshless::scene::{Case, TimeLaw};
 use meshless::tensor::D2;
 use std::path::Path;
 

@@ -6,13 +6,13 @@
 
 use crate::common::{block_case, block_text, largest_v, random_vector, shipped};
 use glam::{DMat2, DMat3, DVec2, DVec3};
+use meshless::case::Case;
 use meshless::integrate::OdeSystem;
 use meshless::material::Material;
 use meshless::methods::Method;
 use meshless::methods::potential::Potential;
 use meshless::methods::tlsph::TlState;
 use meshless::run::{CpuEngine, Engine, build_method};
-use meshless::scene::Case;
 use meshless::tensor::{D2, D3, Dim};
 use meshless::viscosity::ArtificialViscosity;
 use std::path::Path;

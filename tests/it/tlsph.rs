@@ -3,11 +3,11 @@
 
 use crate::common::{largest_t, largest_v, shipped};
 use glam::{DMat2, DMat3, DVec2, DVec3};
+use meshless::case::Case;
 use meshless::integrate::OdeSystem;
 use meshless::methods::Method;
 use meshless::methods::tlsph::Tlsph;
 use meshless::run::{CpuEngine, Engine, build_method};
-use meshless::scene::Case;
 use meshless::tensor::{D2, D3};
 use std::f64::consts::PI;
 use std::path::Path;

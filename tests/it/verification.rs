@@ -8,8 +8,8 @@
 //! docs/verification.md has the matrix's figures.
 
 use meshless::analytic::Cantilever;
+use meshless::case::Case;
 use meshless::run::{Backend, Engine, engine};
-use meshless::scene::Case;
 use meshless::tensor::D2;
 use std::path::Path;
 
@@ -641,7 +641,7 @@ fn dual_support_sph_has_no_dynamic_path_and_says_so() {
         "method.name=dual-support-sph".to_string(),
         "output.check=".into(),
     ];
-    let error = meshless::scene::Case::load(&crate::common::case_file("bar-mode"), &overrides)
+    let error = meshless::case::Case::load(&crate::common::case_file("bar-mode"), &overrides)
         .unwrap_err()
         .to_string();
     assert!(error.contains("is static"), "{error}");

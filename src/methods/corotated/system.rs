@@ -11,6 +11,7 @@
 //! it). The state is u = x − X and v.
 
 use super::{CorotatedForce, CorotatedSpec};
+use crate::case::{Case, CaseError};
 use crate::engine::{BlowUp, Sizes, Traffic};
 use crate::material::Material;
 use crate::methods::tl::{
@@ -21,7 +22,6 @@ use crate::neighbour::Csr;
 use crate::observe::Snapshot;
 use crate::parallel::{MIN_CHUNK, ordered_reduce};
 use crate::reference::Reference;
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use crate::viscosity::ArtificialViscosity;
 use rayon::prelude::*;

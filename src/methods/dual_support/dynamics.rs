@@ -7,6 +7,7 @@
 //! The state is u and v, as for total-Lagrangian SPH ([`TlState`]).
 
 use super::model::DualSupport;
+use crate::case::{Case, CaseError};
 use crate::engine::{BlowUp, Sizes, Traffic};
 use crate::methods::tl::{TlCore, TlScheme, TlSph, TlState, displacement_rates};
 use crate::methods::{MethodSpec, not_run_by};
@@ -14,7 +15,6 @@ use crate::neighbour::Csr;
 use crate::observe::Snapshot;
 use crate::parallel::MIN_CHUNK;
 use crate::reference::Reference;
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use rayon::prelude::*;
 

@@ -23,12 +23,12 @@ pub use support::Support;
 
 use super::{Feature, MethodFamily, Plan};
 
+use crate::case::{Case, CaseError};
 use crate::check::{Problem, fail, non_negative, toml_name};
 use crate::engine::{CpuEngine, EngineDim};
 use crate::material::Material;
 use crate::neighbour;
 use crate::reference::Reference;
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};
 
@@ -61,7 +61,7 @@ pub struct DualSupportSpec {
     #[serde(default)]
     pub solver: SolverKind,
     /// Newton stops when |R| ≤ this × the force scale: this method's older name of
-    /// `run.tolerance.residual` ([`crate::statics::Tolerance`]), which it overrides;
+    /// `run.tolerance.residual` ([`crate::case::Tolerance`]), which it overrides;
     /// absent: run.tolerance's (default 1e-8). Not both.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub residual_tolerance: Option<f64>,

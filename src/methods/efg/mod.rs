@@ -10,11 +10,11 @@
 use super::fem::galerkin_state;
 use super::galerkin::{Mass, TlGalerkin, particle_mass, smoothing_cells};
 use super::{Feature, MethodFamily, Plan};
+use crate::case::{Case, CaseError};
 use crate::check::Problem;
 use crate::material::Material;
 use crate::quadrature::{Cells, QuadraturePoints, Rule, Shapes};
 use crate::reference::Reference;
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};
 

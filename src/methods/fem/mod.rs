@@ -5,11 +5,11 @@
 
 use super::galerkin::{Mass, TlGalerkin};
 use super::{Feature, MethodFamily, Plan};
+use crate::case::{Case, CaseError};
 use crate::check::Problem;
 use crate::material::{Material, MaterialModel};
 use crate::quadrature::{QuadraturePoints, Rule, Shapes};
 use crate::reference::Reference;
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};
 

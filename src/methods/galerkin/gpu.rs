@@ -9,6 +9,7 @@
 use super::{GalerkinState, TlGalerkin};
 use crate::balance::Booked;
 use crate::boundary::Reaction;
+use crate::case::Case;
 use crate::engine::{BlowUp, Engine, Failed, Method};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
@@ -28,7 +29,6 @@ use crate::material::Material;
 use crate::observe::{Invariants, Snapshot};
 use crate::plasticity::History;
 use crate::quadrature::Shapes;
-use crate::scene::Case;
 
 /// The points and nodes passes of one rate evaluation.
 pub const RATES: Source = source!(

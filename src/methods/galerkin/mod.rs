@@ -26,6 +26,7 @@ pub mod gpu;
 mod contracts;
 
 use crate::boundary::{Boundary, NodalForces, OnPatches, SurfacePoint};
+use crate::case::{Case, CaseError, Shape};
 use crate::engine::{
     BlowUp, BoundaryWork, Engine, EngineDim, Method, Sizes, Traffic, check_motion,
 };
@@ -42,7 +43,6 @@ use crate::quadrature::{
     Cells, Family, Gather, QuadratureError, QuadraturePoints, Shapes, SmoothingCells,
 };
 use crate::reference::Reference;
-use crate::scene::{Case, CaseError, Shape};
 use crate::statics::explicit::{AtRest, ClosedForm};
 use crate::statics::sparse::BlockPattern;
 use crate::tensor::Dim;
@@ -86,7 +86,7 @@ macro_rules! tl_galerkin_engines {
     () => {
         fn cpu_engine<D: $crate::engine::EngineDim>(
             &self,
-            case: &$crate::scene::Case,
+            case: &$crate::case::Case,
         ) -> $crate::methods::CpuBuild<D> {
             $crate::methods::galerkin::cpu_engine(case)
         }
@@ -94,7 +94,7 @@ macro_rules! tl_galerkin_engines {
         #[cfg(feature = "gpu")]
         fn gpu_engine<D: $crate::engine::EngineDim>(
             &self,
-            case: &$crate::scene::Case,
+            case: &$crate::case::Case,
             gpu: $crate::gpu::Gpu,
         ) -> $crate::methods::GpuBuild<D> {
             $crate::methods::galerkin::gpu_engine(case, gpu)

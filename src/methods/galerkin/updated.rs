@@ -17,6 +17,7 @@ use super::{
     to_nodes,
 };
 use crate::boundary::OnPatches;
+use crate::case::{Case, CaseError};
 use crate::engine::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
@@ -28,7 +29,6 @@ use crate::parallel::{MIN_CHUNK, load_word, particle_state};
 use crate::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
 use crate::quadrature::{Gather, ShapeRow, Shapes};
 use crate::reference::{Build, Reference};
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use rayon::prelude::*;
 

@@ -10,11 +10,11 @@ pub use system::Godunov;
 
 use super::{Feature, MethodFamily, Plan};
 
+use crate::case::Case;
 use crate::check::Problem;
 use crate::engine::{CpuEngine, EngineDim};
 use crate::material::Material;
 use crate::neighbour::Rebuild;
-use crate::scene::Case;
 use serde::{Deserialize, Serialize};
 
 /// The `[method]` keys of Godunov SPH: none besides the common ones.

@@ -10,11 +10,11 @@
 //! `randles-libersky`).
 
 use super::GodunovSpec;
+use crate::case::{Case, CaseError};
 use crate::correction::CorrectionKind;
 use crate::methods::ul::{Correction, PairRates, PairScheme, UlCore, UlSph, UlState};
 use crate::methods::{MethodFamily, MethodSpec, not_run_by};
 use crate::neighbour::Rebuild;
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 
 /// The Godunov SPH system on the CPU (f64, rayon).

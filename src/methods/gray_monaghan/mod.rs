@@ -11,12 +11,12 @@ pub use system::GrayMonaghan;
 
 use super::{Feature, MethodFamily, Plan};
 
+use crate::case::Case;
 use crate::check::{Problem, fail, non_negative};
 use crate::engine::{CpuEngine, EngineDim};
 use crate::integrate::IntegratorKind;
 use crate::material::Material;
 use crate::neighbour::Rebuild;
-use crate::scene::Case;
 use crate::viscosity::ArtificialViscosity;
 use serde::{Deserialize, Serialize};
 

@@ -8,12 +8,12 @@
 //! velocity gradient L_i of eq 105, which feeds ρ̇, Ṡ and Ḟ.
 
 use super::{ArtificialStress, GrayMonaghanSpec};
+use crate::case::{Case, CaseError};
 use crate::correction::CorrectionKind;
 use crate::methods::ul::{Correction, PairRates, PairScheme, UlCore, UlSph, UlState};
 use crate::methods::{MethodFamily, MethodSpec, not_run_by};
 use crate::neighbour::Rebuild;
 use crate::plasticity::{symmetric_eigen, to_mat3};
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use crate::viscosity::ArtificialViscosity;
 

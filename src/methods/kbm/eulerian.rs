@@ -9,6 +9,7 @@
 //! velocities; the particles are points at their own positions.
 
 use super::KbmSpec;
+use crate::case::{Case, CaseError};
 use crate::engine::BlowUp;
 use crate::kernel::{Kernel, neighbour_radius};
 use crate::methods::galerkin::Mass;
@@ -17,7 +18,6 @@ use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::{self, Csr, SKIN};
 use crate::quadrature::{QuadraturePoints, ShapeRow, Shapes, krongauz_belytschko_shapes};
 use crate::reference::Reference;
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 
 /// The points of the Eulerian-kernel KBM: the particles and (KBM (si)) the stress points,

@@ -24,13 +24,13 @@
 
 use super::Momentum;
 use super::system::pair_force;
+use crate::case::Case;
 use crate::check::{Problem, fail, positive, toml_name};
 use crate::integrate::PseudoTime;
 use crate::material::{Material, MaterialModel};
 use crate::mirror::Ghosts;
 use crate::neighbour::Csr;
 use crate::parallel::MIN_CHUNK;
-use crate::scene::Case;
 use crate::tensor::Dim;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};

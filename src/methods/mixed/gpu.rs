@@ -18,6 +18,7 @@ use super::system::{Fluxes, MixedSph, MixedState};
 use super::{CflWaveSpeed, DeformationGradient, Momentum};
 use crate::balance::Booked;
 use crate::boundary::Reaction;
+use crate::case::Case;
 use crate::engine::{BlowUp, Engine, Failed, Method};
 use crate::gpu::context::{Gpu, GpuError, Pipeline, WORKGROUP};
 use crate::gpu::layout::{Fields, GpuDim};
@@ -38,7 +39,6 @@ use crate::methods::not_run_by;
 use crate::observe::{Invariants, Snapshot};
 use crate::plasticity::History;
 use crate::reference::build_method;
-use crate::scene::Case;
 use crate::tensor::Dim;
 use encase::ShaderType;
 

@@ -21,10 +21,10 @@ pub use system::{Fluxes, MixedSph, MixedState};
 
 use super::{Feature, MethodFamily, MethodSpec, Plan};
 
+use crate::case::Case;
 use crate::check::{Problem, fail, non_negative, toml_name};
 use crate::engine::{CpuEngine, EngineDim};
 use crate::material::{Material, MaterialModel};
-use crate::scene::Case;
 use crate::tensor::{Dim, smallest_stretch_squared};
 use serde::{Deserialize, Serialize};
 

@@ -22,6 +22,7 @@ use crate::integrate::{IntegratorKind, OdeSystem, PseudoTime};
 use crate::interaction::Interactions;
 use crate::kernel::Kernel;
 
+use crate::case::{Case, CaseError};
 use crate::material::Material;
 use crate::methods::not_run_by;
 use crate::methods::particles::Surroundings;
@@ -32,7 +33,6 @@ use crate::observe::{ScalarField, Snapshot};
 use crate::parallel::{MIN_CHUNK, ordered_reduce, particle_state};
 use crate::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
 use crate::reference::Reference;
-use crate::scene::{Case, CaseError};
 use crate::tensor::{Dim, smallest_stretch_squared};
 use rayon::prelude::*;
 

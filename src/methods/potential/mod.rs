@@ -10,10 +10,10 @@ pub use system::Potential;
 
 use super::{Feature, MethodFamily, Plan, state_model};
 
+use crate::case::Case;
 use crate::check::{Problem, toml_name};
 use crate::engine::{CpuEngine, EngineDim};
 use crate::material::Material;
-use crate::scene::Case;
 use crate::viscosity::ArtificialViscosity;
 use serde::{Deserialize, Serialize};
 

@@ -9,6 +9,7 @@
 //! stress is integrated.
 
 use super::PotentialForce;
+use crate::case::{Case, CaseError};
 use crate::engine::{BlowUp, Sizes, Traffic};
 use crate::material::stress_fields;
 use crate::methods::tl::{
@@ -19,7 +20,6 @@ use crate::neighbour::Csr;
 use crate::observe::Snapshot;
 use crate::parallel::MIN_CHUNK;
 use crate::reference::Reference;
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use crate::viscosity::ArtificialViscosity;
 use rayon::prelude::*;

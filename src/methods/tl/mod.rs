@@ -17,12 +17,12 @@ use crate::interaction::Interactions;
 use crate::material::{Material, stress_fields};
 use crate::methods::particles::{Surroundings, check_stresses, max_speed, particle_accessors};
 
+use crate::case::{Case, CaseError};
 use crate::methods::shared::{reference_gradients, reverse_gradients};
 use crate::neighbour::Csr;
 use crate::observe::Snapshot;
 use crate::parallel::{MIN_CHUNK, particle_state};
 use crate::reference::{Build, Reference};
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use crate::viscosity::ArtificialViscosity;
 use rayon::prelude::*;

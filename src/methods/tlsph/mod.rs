@@ -12,10 +12,10 @@ pub use system::{Tlsph, TlsphScheme};
 
 use super::{Feature, MethodFamily, Plan};
 
+use crate::case::Case;
 use crate::check::{Problem, positive};
 use crate::engine::EngineDim;
 use crate::material::Material;
-use crate::scene::Case;
 use crate::viscosity::ArtificialViscosity;
 use serde::{Deserialize, Serialize};
 

@@ -6,6 +6,7 @@
 //! deviatoric stress S.
 
 use super::{ArtificialViscosity, TlsphForce, ViscosityGradient};
+use crate::case::{Case, CaseError};
 use crate::engine::{BlowUp, Method, Sizes, Traffic};
 use crate::material::stress_fields;
 use crate::methods::tl::{
@@ -16,7 +17,6 @@ use crate::neighbour::Csr;
 use crate::observe::Snapshot;
 use crate::parallel::MIN_CHUNK;
 use crate::reference::Reference;
-use crate::scene::{Case, CaseError};
 use crate::statics::explicit::AtRest;
 use crate::tensor::Dim;
 use rayon::prelude::*;

@@ -15,6 +15,7 @@
 pub mod gpu;
 
 use crate::boundary::OnPatches;
+use crate::case::{Case, CaseError};
 use crate::check::{Problem, fail, toml_name};
 use crate::correction::CorrectionKind;
 use crate::engine::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
@@ -29,7 +30,6 @@ use crate::neighbour::{Csr, Neighbours, Rebuild};
 use crate::observe::{ScalarField, Snapshot};
 use crate::parallel::{MIN_CHUNK, particle_state};
 use crate::reference::{Build, Reference};
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use rayon::prelude::*;
 

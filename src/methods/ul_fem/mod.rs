@@ -8,13 +8,13 @@
 use super::galerkin::Mass;
 use super::galerkin::updated::{Degenerate, MovingPoints, Nodes, UlGalerkin, UlGalerkinState};
 use super::{Feature, MethodFamily, MethodSpec, Plan, not_run_by};
+use crate::case::{Case, CaseError};
 use crate::check::Problem;
 use crate::engine::{CpuEngine, EngineDim};
 use crate::material::{Material, MaterialModel};
 use crate::neighbour::Csr;
 use crate::quadrature::{Cells, QuadraturePoints, Rule, ShapeRow, Shapes, isoparametric_shapes};
 use crate::reference::Reference;
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};
 

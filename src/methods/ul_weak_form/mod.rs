@@ -14,11 +14,11 @@ pub mod points;
 use super::galerkin::updated::UlGalerkin;
 use super::ul_fem::ul_galerkin_state;
 use super::{Feature, MethodFamily, Plan};
+use crate::case::Case;
 use crate::check::{Problem, fail, toml_name};
 use crate::engine::{CpuEngine, EngineDim};
 use crate::material::Material;
 use crate::neighbour::Rebuild;
-use crate::scene::Case;
 use points::StressPoints;
 use serde::{Deserialize, Serialize};
 

@@ -3,6 +3,7 @@
 //! recomputed on the current configuration.
 
 use super::ellipse::Ellipse;
+use crate::case::{Case, CaseError};
 use crate::correction;
 use crate::engine::BlowUp;
 use crate::kernel::{Kernel, KernelKind};
@@ -13,7 +14,6 @@ use crate::neighbour::{self, Csr};
 use crate::parallel::MIN_CHUNK;
 use crate::quadrature::{QuadraturePoints, Rule, ShapeRow, Shapes};
 use crate::reference::Reference;
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use rayon::prelude::*;
 

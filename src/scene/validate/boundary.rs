@@ -5,10 +5,10 @@ use super::{
     Checked, expression_constants, fail, finite, identifier, non_negative, positive, toml_name,
     vector,
 };
-use crate::methods::{Feature, quoted, supporting};
-use crate::scene::{
+use crate::case::{
     Axis, BodySpec, BoundarySpec, Case, Condition, Observer, Region, Solution, TimeLaw,
 };
+use crate::methods::{Feature, quoted, supporting};
 use std::collections::HashSet;
 
 /// Every boundary condition, and whether the run (static or dynamic) takes it.

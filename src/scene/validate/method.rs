@@ -2,8 +2,8 @@
 //! methods. A method's own keys are its spec's (`MethodFamily::validate`).
 
 use super::{Checked, fail, positive, toml_name};
+use crate::case::Case;
 use crate::methods::{MethodTable, REGISTRY, entry, quoted};
-use crate::scene::Case;
 
 /// `h_over_dx` against the kernel's support, and one of `dt` and `cfl`.
 pub(super) fn check(m: &MethodTable) -> Checked {

@@ -21,7 +21,7 @@ mod run;
 #[cfg(test)]
 mod tests;
 
-use super::Case;
+use crate::case::Case;
 use crate::check::{Checked, fail, non_negative, positive, toml_name};
 use crate::material::MaterialModel;
 use crate::methods::{Feature, quoted, supporting};

@@ -1,9 +1,9 @@
 //! `[run]`: the end time, the limits of a run, and the static path's keys.
 
 use super::{Checked, fail, feature, positive, toml_name};
+use crate::case::{Case, RunSpec, Solve};
 use crate::material::MaterialModel;
 use crate::methods::{Feature, MethodTable};
-use crate::scene::{Case, RunSpec, Solve};
 
 /// Largest `run.threads`: more than any machine this runs on, few enough that a typo
 /// (`run.threads = 20000`) is refused rather than spawning the threads.
@@ -108,13 +108,13 @@ pub(super) fn tolerance(case: &Case) -> Checked {
         ("run.tolerance.increment", t.increment),
     ] {
         let Some(v) = value else { continue };
-        if !(v.is_finite() && (crate::statics::Tolerance::SMALLEST..1.0).contains(&v)) {
+        if !(v.is_finite() && (crate::case::Tolerance::SMALLEST..1.0).contains(&v)) {
             return fail(
                 key,
                 format!(
                     "must be a number in [{:e}, 1) (a fraction of the force scale or of |u|; \
                      below the double-precision epsilon no residual can reach it), got {v:?}",
-                    crate::statics::Tolerance::SMALLEST
+                    crate::case::Tolerance::SMALLEST
                 ),
             );
         }

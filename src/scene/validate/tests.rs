@@ -1,5 +1,5 @@
 use super::{check, minimal_case};
-use crate::scene::{
+use crate::case::{
     Axis, BoundarySpec, Case, Condition, Lattice, Observer, ProbeSpec, Region, RingLattice, Shape,
     TimeLaw, VelocityField,
 };

@@ -18,6 +18,7 @@ pub use scheme::{
 use super::system::hourglass_stiffness;
 use crate::balance::Booked;
 use crate::boundary::{OnPatches, Reaction};
+use crate::case::Case;
 use crate::correction::{self, CorrectionKind};
 use crate::engine::{BlowUp, Engine, Failed};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
@@ -37,7 +38,6 @@ use crate::methods::tl::{TlState, check_state, snapshot};
 use crate::neighbour::Csr;
 use crate::observe::{Invariants, Snapshot};
 use crate::reference::Reference;
-use crate::scene::Case;
 use scheme::{EXTRAS, scheme_of};
 
 /// The stress and acceleration passes of one rate evaluation, bound to a source state.

@@ -3,6 +3,7 @@
 //! in their folders) and the layout of its buffers with the constants compiled from them.
 
 use super::super::{TlsphForce, ViscosityGradient};
+use crate::case::{Case, CaseError};
 use crate::correction::CorrectionKind;
 use crate::gpu::layout::Fields;
 use crate::gpu::profile::{NONE, PassBytes, read, read_write, write};
@@ -16,7 +17,6 @@ use crate::gpu::shaders::{
 };
 use crate::material::Material;
 use crate::methods::{MethodSpec, not_run_by};
-use crate::scene::{Case, CaseError};
 
 /// Strain energy densities of the TLSPH models, for the reduction.
 const ENERGY: Wgsl = wgsl!("tlsph/tlsph_energy.wgsl");

@@ -2,8 +2,8 @@
 
 use super::files::{read_mesh, read_points};
 use super::{Sampled, file_error};
-use crate::scene::polygon;
-use crate::scene::{BodySpec, Case, CaseError, Lattice, RingLattice, Shape, Volumes};
+use crate::case::polygon;
+use crate::case::{BodySpec, Case, CaseError, Lattice, RingLattice, Shape, Volumes};
 use crate::tensor::Dim;
 
 /// The particles of body `b` as its shape's generator makes them.
