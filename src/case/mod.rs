@@ -14,6 +14,7 @@ mod expression;
 mod fields;
 mod geometry;
 pub mod mesh;
+mod method;
 mod output;
 pub(crate) mod polygon;
 mod run;
@@ -33,17 +34,20 @@ pub(crate) use fields::linear_field;
 pub use fields::{DisplacementField, VelocityField};
 pub(crate) use geometry::read_capped;
 pub use geometry::{BodySize, Discretised, PARTICLE_ID_LIMIT, discretise, estimate_particles};
+pub use method::MethodKeys;
 pub use output::{CheckSpec, Observer, OutputSpec, ProbeSpec, SectionSpec, Statistic};
 pub use run::{RunSpec, Solve, Tolerance};
 
-use crate::methods::MethodTable;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
-/// A complete, validated scene description.
+/// A complete, validated scene description, with `M` the `[method]` table: the
+/// [`MethodKeys`] every layer reads. Loading ([`crate::scene`]) reads the file with the
+/// registry's table in its place, which holds the method's typed spec as well, and then
+/// parts the two ([`Case::with_method`]).
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
-pub struct Case {
+pub struct Case<M = MethodKeys> {
     /// Scene name, used for output file names.
     pub name: String,
     #[serde(default)]
@@ -53,7 +57,7 @@ pub struct Case {
     /// Particle spacing Δx of the lattices that sample every body.
     pub spacing: f64,
     pub material: MaterialSpec,
-    pub method: MethodTable,
+    pub method: M,
     #[serde(rename = "body")]
     pub bodies: Vec<BodySpec>,
     #[serde(default, rename = "boundary")]
@@ -83,41 +87,52 @@ pub struct Case {
     pub overrides: Vec<String>,
 }
 
-impl Case {
+impl<M> Case<M> {
     pub fn dim(&self) -> usize {
         self.dimension as usize
     }
 
-    /// The smoothing length h = h_over_dx · Δx.
-    /// Whether the run solves for static equilibrium load step by load step: `run.solve
-    /// = "static"`, or a static-only method.
-    pub fn is_static(&self) -> bool {
-        match self.run.solve {
-            Some(solve) => solve == Solve::Static,
-            None => self
-                .method
-                .spec
-                .entry()
-                .features
-                .contains(&crate::methods::Feature::StaticDefault),
-        }
-    }
-
-    pub fn smoothing_length(&self) -> f64 {
-        self.method.h_over_dx * self.spacing
-    }
-
-    /// The case's kernel in `dim` dimensions.
-    pub fn kernel(&self, dim: usize) -> crate::kernel::Kernel {
-        crate::kernel::Kernel::new(self.method.kernel, self.smoothing_length(), dim)
-    }
-
-    /// A hash of everything in the case but its end time: a checkpoint of a run of this
-    /// case, or of the same case run longer, has it.
-    pub fn fingerprint(&self) -> u64 {
-        let mut case = self.clone();
-        case.run.end_time = 0.0;
-        fnv1a(toml::to_string(&case).unwrap_or_default().as_bytes())
+    /// This case with the `[method]` table `method` in place of its own, and its own.
+    pub fn with_method<N>(self, method: N) -> (Case<N>, M) {
+        let Self {
+            name,
+            description,
+            dimension,
+            spacing,
+            material,
+            method: own,
+            bodies,
+            boundaries,
+            mirrors,
+            run,
+            output,
+            probes,
+            sections,
+            contact,
+            file,
+            notes,
+            overrides,
+        } = self;
+        let case = Case {
+            name,
+            description,
+            dimension,
+            spacing,
+            material,
+            method,
+            bodies,
+            boundaries,
+            mirrors,
+            run,
+            output,
+            probes,
+            sections,
+            contact,
+            file,
+            notes,
+            overrides,
+        };
+        (case, own)
     }
 
     /// Folder that relative paths in the case are resolved against.
@@ -132,6 +147,27 @@ impl Case {
             key: key.into(),
             message: message.into(),
         }
+    }
+}
+
+impl Case {
+    /// Whether the run solves for static equilibrium load step by load step: `run.solve
+    /// = "static"`, or a static-only method.
+    pub fn is_static(&self) -> bool {
+        match self.run.solve {
+            Some(solve) => solve == Solve::Static,
+            None => self.method.static_default,
+        }
+    }
+
+    /// The smoothing length h = h_over_dx · Δx.
+    pub fn smoothing_length(&self) -> f64 {
+        self.method.h_over_dx * self.spacing
+    }
+
+    /// The case's kernel in `dim` dimensions.
+    pub fn kernel(&self, dim: usize) -> crate::kernel::Kernel {
+        crate::kernel::Kernel::new(self.method.kernel, self.smoothing_length(), dim)
     }
 }
 

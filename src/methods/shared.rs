@@ -11,10 +11,11 @@ use crate::tensor::Dim;
 use rayon::prelude::*;
 
 impl<D: Dim, M: Method<D> + Build<D>> CpuEngine<D, M> {
-    /// The engine of the system `M` built on a case, stepped by the case's integrator.
-    pub fn new(case: &Case) -> Result<Self, CaseError> {
+    /// The engine of the system `M` of a method's spec built on a case, stepped by the
+    /// case's integrator.
+    pub fn new(case: &Case, spec: &M::Spec) -> Result<Self, CaseError> {
         Ok(Self::with(
-            build_method::<D, M>(case)?,
+            build_method::<D, M>(case, spec)?,
             case.method.integrator,
         ))
     }

@@ -4,12 +4,12 @@
 use super::batch::{Batch, Callback, Needs};
 use super::progress::ITERATIONS;
 use super::{RunError, checkpoint, output_error};
-use crate::case::Case;
 use crate::check::toml_name;
 use crate::engine::BlowUp;
 use crate::observe::{Clock, Observers};
 use crate::output::series::read_column;
 use crate::output::{CheckResult, SeriesWriter};
+use crate::scene::Scene;
 use crate::tensor::Dim;
 use std::path::{Path, PathBuf};
 
@@ -28,7 +28,7 @@ impl Series {
     /// A new `series.csv` in `dir`, or, resumed, the one there cut to `resumed`'s length
     /// and its next sample time.
     pub(super) fn new(
-        case: &Case,
+        case: &Scene,
         dir: &Path,
         observers: Observers,
         resumed: Option<&checkpoint::Progress>,
@@ -137,7 +137,7 @@ pub(super) fn clear_previous_run(dir: &Path) -> Result<(), RunError> {
 
 /// The case's checks on the series written so far; a check whose column cannot be read
 /// has the value NaN.
-pub(super) fn evaluate_checks(case: &Case, series: &Path) -> Vec<CheckResult> {
+pub(super) fn evaluate_checks(case: &Scene, series: &Path) -> Vec<CheckResult> {
     case.output
         .checks
         .iter()

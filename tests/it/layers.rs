@@ -62,6 +62,7 @@ const ORDER: &[(&str, &[&str])] = &[
     (
         "method cores",
         &[
+            "methods/family",
             "methods/shared",
             "methods/particles",
             "methods/tl",
@@ -98,23 +99,12 @@ const ORDER: &[(&str, &[&str])] = &[
 /// one.
 const UPWARD: &[(&str, &str)] = &[
     ("boundary", "interaction"),
-    ("case", "methods"),
     ("gpu", "boundary"),
     ("gpu", "methods"),
     ("gpu", "observe"),
-    ("methods/corotated", "methods"),
-    ("methods/dual_support", "methods"),
-    ("methods/galerkin", "methods"),
-    ("methods/godunov", "methods"),
-    ("methods/gray_monaghan", "methods"),
-    ("methods/kbm", "methods"),
-    ("methods/mixed", "methods"),
-    ("methods/potential", "methods"),
-    ("methods/tlsph", "methods"),
     ("methods/tlsph", "methods/corotated"),
     ("methods/tlsph", "methods/dual_support"),
     ("methods/tlsph", "methods/potential"),
-    ("methods/ul_weak_form", "methods"),
 ];
 
 /// The module a file of `src/` belongs to, or None for the crate roots and unit-test

@@ -19,7 +19,7 @@ pub(super) fn sample<D: Dim>(
     };
     // The methods that integrate over the lattice's cells take the vertex lattice, whose
     // cells span the shape ([`crate::methods::MethodFamily::lattice_cells`]).
-    let vertex = on_vertex_lattice(&spec.geometry, case.method.spec.lattice_cells());
+    let vertex = on_vertex_lattice(&spec.geometry, case.method.lattice_cells);
     let geometry = vertex.as_ref().unwrap_or(&spec.geometry);
     Ok(match geometry {
         Shape::Ring {

@@ -21,7 +21,9 @@ pub use model::{DualSupport, Energies};
 pub use statics::{Statics, pattern};
 pub use support::Support;
 
-use super::{Feature, MethodFamily, Plan};
+#[cfg(feature = "gpu")]
+use crate::methods::family::GpuBuild;
+use crate::methods::family::{CpuBuild, Feature, MethodFamily, Plan};
 
 use crate::case::{Case, CaseError};
 use crate::check::{Problem, fail, non_negative, toml_name};
@@ -378,18 +380,18 @@ impl MethodFamily for DualSupportSpec {
         }
     }
 
-    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> super::CpuBuild<D> {
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> CpuBuild<D> {
         Ok(if case.is_static() {
             Box::new(Statics::<D>::new(case, self)?)
         } else {
-            Box::new(CpuEngine::<D, DualSupportDynamics<D>>::new(case)?)
+            Box::new(CpuEngine::<D, DualSupportDynamics<D>>::new(case, self)?)
         })
     }
 
     /// The dynamic variant, or the static solve with its Newton steps solved matrix-free
     /// on the device ([`krylov`]).
     #[cfg(feature = "gpu")]
-    fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> super::GpuBuild<D> {
+    fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> GpuBuild<D> {
         if case.is_static() {
             let reference = Reference::<D>::build(case)?;
             let lists = gpu::lists(case, self, &reference)?;
@@ -399,8 +401,9 @@ impl MethodFamily for DualSupportSpec {
             let engine = Statics::<D>::on(case, self, reference, lists.model, linearisation)?;
             return Ok(Box::new(engine));
         }
+        let scheme = gpu::scheme(self);
         Ok(Box::new(crate::methods::tlsph::gpu::GpuTlsph::<D>::new(
-            case, gpu,
+            case, scheme, gpu,
         )?))
     }
 

@@ -363,8 +363,12 @@ pub struct GpuGalerkin<D: GpuDim> {
 
 impl<D: GpuDim> GpuGalerkin<D> {
     /// Builds the host system of the case and uploads it with the initial state.
-    pub fn new(case: &Case, gpu: Gpu) -> Result<Self, SetupError> {
-        let host: TlGalerkin<D> = crate::reference::build_method(case)?;
+    pub fn new(
+        case: &Case,
+        spec: &(dyn super::TlSystem<D> + 'static),
+        gpu: Gpu,
+    ) -> Result<Self, SetupError> {
+        let host: TlGalerkin<D> = crate::reference::build_method(case, spec)?;
         check_f32_run(case, host.boundary())?;
         let y0_host = host.initial_state();
         check_f32_particles::<D>(case, host.reference(), &y0_host.u, &y0_host.v, host.body())?;

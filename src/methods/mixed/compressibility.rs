@@ -106,7 +106,11 @@ impl ArtificialCompressibility {
     /// Checks of the table against the case: the polyconvex model (the only one with a
     /// separate pressure), the variables, an integrator made of forward-Euler stages
     /// and the ranges of the keys.
-    pub(super) fn validate(&self, case: &Case) -> Result<(), Problem> {
+    pub(super) fn validate(
+        &self,
+        options: &super::MixedOptions,
+        case: &Case,
+    ) -> Result<(), Problem> {
         const KEY: &str = "method.artificial_compressibility";
         let model = case.material.model;
         if model != MaterialModel::NearlyIncompressibleNeoHookean {
@@ -120,9 +124,7 @@ impl ArtificialCompressibility {
                 ),
             );
         }
-        if let Some((options, _)) = super::scheme(case)
-            && options.variables == super::Conserved::PFJ
-        {
+        if options.variables == super::Conserved::PFJ {
             return fail(
                 "method.variables",
                 "with artificial compressibility the pressure replaces J: use \"p-F-H-J\" (the \

@@ -48,7 +48,7 @@ pub(super) fn against_method(case: &Case) -> Checked {
             nodes: MeshNodes::Vertices,
             ..
         } = body.geometry
-            && !case.method.spec.lattice_cells()
+            && !case.method.lattice_cells
         {
             return fail(
                 format!("body.{b}.geometry.nodes"),
@@ -58,7 +58,7 @@ pub(super) fn against_method(case: &Case) -> Checked {
                      with integration = \"cells\", kbm with stress points), and `{}` \
                      integrates at its particles; remove the key (a particle at every cell's \
                      centroid) or choose one of those methods",
-                    case.method.name()
+                    case.method.name
                 ),
             );
         }

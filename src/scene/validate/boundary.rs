@@ -25,7 +25,7 @@ pub(super) fn check(case: &Case) -> Checked {
                     "the run of `{}` is static: its load steps scale the loads by t/end_time, \
                      so it takes no time law and no release (`until`); give a constant \
                      `traction`, `pressure` or `velocity`",
-                    case.method.name()
+                    case.method.name
                 ),
             );
         }
