@@ -3,8 +3,9 @@
 //! A case is parsed completely and validated before anything runs; every error names
 //! the file, the key and what is allowed. The schema the file is read into is
 //! [`crate::case`]; this module adds what needs the method registry: `load` reads a file,
-//! applies the overrides of `overrides` and resolves the `[method]` table; `validate`
-//! checks the result, each method its own keys.
+//! applies the overrides of `overrides` and parts the `[method]` table into the keys the
+//! case keeps and the method's typed spec, which the [`Scene`] holds beside the case;
+//! `validate` checks the result, each method its own keys.
 
 mod load;
 mod overrides;
