@@ -29,7 +29,7 @@ use meshless::kernel::Kernel;
 use meshless::methods::tlsph::Tlsph;
 use meshless::methods::{Method, REGISTRY};
 use meshless::run::{Backend, Engine, build_method, engine};
-use meshless::scene::Case;
+use meshless::scene::Scene;
 use meshless::tensor::D2;
 use std::hint::black_box;
 use std::path::PathBuf;
@@ -55,18 +55,18 @@ fn pool(threads: usize) -> rayon::ThreadPool {
 }
 
 /// Loads a case with `--set`-style overrides; a refined `spacing` also gets a scaled dt.
-fn load(file: &str, spacing: Option<f64>, extra: &[&str]) -> Case {
+fn load(file: &str, spacing: Option<f64>, extra: &[&str]) -> Scene {
     let mut overrides: Vec<String> = extra.iter().map(|s| s.to_string()).collect();
     if let Some(dx) = spacing {
         overrides.push(format!("spacing={dx:e}"));
         let dt = (CFL * dx / WAVE_SPEED).min(1.0e-6);
         overrides.push(format!("method.dt={dt:e}"));
     }
-    Case::load(&case_path(file), &overrides).expect("case loads")
+    Scene::load(&case_path(file), &overrides).expect("case loads")
 }
 
 /// Benchmarks one time step of `case` on 1 and 2 threads as `label/threads=n/particles`.
-fn bench_steps(c: &mut Criterion, group: &str, label: &str, case: &Case) {
+fn bench_steps(c: &mut Criterion, group: &str, label: &str, case: &Scene) {
     let mut g = c.benchmark_group(group);
     g.sample_size(10)
         .warm_up_time(Duration::from_millis(300))

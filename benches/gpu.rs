@@ -18,25 +18,26 @@ use criterion::{
 };
 use meshless::bench::resize;
 use meshless::gpu::Gpu;
-use meshless::methods::REGISTRY;
 use meshless::methods::tlsph::GpuTlsph;
+use meshless::methods::tlsph::gpu::scheme;
+use meshless::methods::{MethodSpec, REGISTRY};
 use meshless::run::{Engine, EngineDim};
-use meshless::scene::Case;
+use meshless::scene::Scene;
 use meshless::tensor::{D2, D3};
 use std::path::PathBuf;
 use std::time::Duration;
 
 const STEPS_PER_ITERATION: u32 = 10;
 
-fn load(name: &str, particles: f64) -> Case {
+fn load(name: &str, particles: f64) -> Scene {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("cases")
         .join(name);
-    let base = Case::load(&path, &[]).expect("case loads");
+    let base = Scene::load(&path, &[]).expect("case loads");
     let mut sizes = resize(&base, particles).expect("case resizes");
     // A fixed step at the case's Courant number, so every iteration does the same work.
     if let Some(dt) = base.method.dt {
-        let spacing = Case::load(&path, &sizes)
+        let spacing = Scene::load(&path, &sizes)
             .expect("resized case loads")
             .spacing;
         sizes.push(format!("method.dt={:e}", dt * spacing / base.spacing));
@@ -46,7 +47,7 @@ fn load(name: &str, particles: f64) -> Case {
             0.3 * base.spacing / 5000.0 * (particles / 1e4).powf(-1.0 / f64::from(base.dimension));
         sizes.extend(["method.cfl=".into(), format!("method.dt={dt:e}")]);
     }
-    Case::load(&path, &sizes).expect("resized case loads")
+    Scene::load(&path, &sizes).expect("resized case loads")
 }
 
 fn gpu() -> Gpu {
@@ -62,7 +63,6 @@ fn steps<D: EngineDim>(c: &mut Criterion, group: &str, name: &str) {
     for particles in [1e3, 1e4, 1e5] {
         let case = load(name, particles);
         let mut engine = case
-            .method
             .spec
             .gpu_engine::<D>(&case, gpu())
             .unwrap_or_else(|e| panic!("GPU set-up of {name}: {e}"));
@@ -91,7 +91,14 @@ fn setup(c: &mut Criterion) {
     let n = case.spacing;
     g.bench_function(
         BenchmarkId::new("rotating_disk", format!("spacing={n:.4}")),
-        |b| b.iter(|| GpuTlsph::<D2>::new(&case, gpu()).expect("GPU set-up")),
+        |b| {
+            b.iter(|| {
+                let MethodSpec::Tlsph(spec) = &case.spec else {
+                    panic!("rotating-disk runs tlsph")
+                };
+                GpuTlsph::<D2>::new(&case, scheme(spec), gpu()).expect("GPU set-up")
+            })
+        },
     );
     g.finish();
 }
@@ -133,8 +140,7 @@ fn methods(c: &mut Criterion) {
     for entry in REGISTRY.iter().filter(|e| e.gpu_engine) {
         let (case, kind) = common::method_case(entry.name);
         let build = || {
-            case.method
-                .spec
+            case.spec
                 .gpu_engine::<D2>(&case, gpu())
                 .unwrap_or_else(|e| panic!("GPU set-up of {}: {e}", entry.name))
         };

@@ -1,10 +1,11 @@
 //! `meshless bench`: throughput of a case on a backend at several sizes, in
 //! particle-steps per second, measured over whole steps after a warm-up.
 
+use crate::case::discretise;
 use crate::engine::{Engine, EngineDim, StepTraffic};
 use crate::passes::PassReport;
 use crate::run::{Backend, RunError, engine, with_threads};
-use crate::scene::{Case, discretise};
+use crate::scene::Scene;
 use crate::tensor::{D2, D3};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -79,7 +80,7 @@ impl BenchRow {
 /// own, so that lattices anchored at the bodies' corners keep points on the bounds the
 /// case's regions select (a grip at the far end of a strip); a fixed Δt scales with the
 /// spacing (same Courant number).
-pub fn resize(case: &Case, particles: f64) -> Result<Vec<String>, RunError> {
+pub fn resize(case: &Scene, particles: f64) -> Result<Vec<String>, RunError> {
     let n0 = match case.dimension {
         2 => discretise::<D2>(case)?.x0.len(),
         _ => discretise::<D3>(case)?.x0.len(),
@@ -99,7 +100,7 @@ pub fn resize(case: &Case, particles: f64) -> Result<Vec<String>, RunError> {
 
 /// Measures `steps` steps of a case after one warm-up step, on the case's threads as
 /// `run` has them ([`with_threads`]).
-pub fn measure(case: &Case, backend: Backend, steps: u32) -> Result<BenchRow, RunError> {
+pub fn measure(case: &Scene, backend: Backend, steps: u32) -> Result<BenchRow, RunError> {
     with_threads(case, || match case.dimension {
         2 => measure_dim::<D2>(case, backend, steps),
         _ => measure_dim::<D3>(case, backend, steps),
@@ -107,7 +108,7 @@ pub fn measure(case: &Case, backend: Backend, steps: u32) -> Result<BenchRow, Ru
 }
 
 fn measure_dim<D: EngineDim>(
-    case: &Case,
+    case: &Scene,
     backend: Backend,
     steps: u32,
 ) -> Result<BenchRow, RunError> {
@@ -119,7 +120,7 @@ fn measure_dim<D: EngineDim>(
 const CHUNK: u32 = 100;
 
 fn time_steps<D: EngineDim, E: Engine<D>>(
-    case: &Case,
+    case: &Scene,
     mut engine: E,
     started: Instant,
     steps: u32,
@@ -238,6 +239,6 @@ fn profile<D: EngineDim, E: Engine<D>>(
     Ok(None)
 }
 
-fn blow_up(case: &Case, cause: crate::engine::BlowUp) -> RunError {
+fn blow_up(case: &Scene, cause: crate::engine::BlowUp) -> RunError {
     RunError::Benchmark(format!("benchmark of `{}` blew up: {cause}", case.name))
 }

@@ -14,7 +14,7 @@
 
 use crate::analytic::ClosedForm;
 
-use crate::scene::{Case, CaseError, Condition, Discretised, TimeLaw};
+use crate::case::{Case, CaseError, Condition, Discretised, TimeLaw};
 use crate::tensor::Dim;
 
 mod loads;

@@ -64,14 +64,14 @@ impl HourglassIndicator {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Case;
+    use crate::scene::Scene;
     use crate::tensor::D2;
     use glam::{DMat2, DVec2};
 
-    fn plate() -> (Case, Vec<DVec2>) {
+    fn plate() -> (Scene, Vec<DVec2>) {
         let path =
             std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/swinging-plate.toml");
-        let case = Case::load(&path, &["spacing=0.1".to_string()]).unwrap();
+        let case = Scene::load(&path, &["spacing=0.1".to_string()]).unwrap();
         let dx = case.spacing;
         let x0 = (0..100)
             .map(|k| DVec2::new((k % 10) as f64, (k / 10) as f64) * dx)

@@ -11,6 +11,7 @@ pub mod analytic;
 pub mod balance;
 pub mod bench;
 pub mod boundary;
+pub mod case;
 pub mod check;
 pub mod correction;
 pub mod engine;

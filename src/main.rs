@@ -7,7 +7,7 @@ use meshless::methods::REGISTRY;
 use meshless::run::{
     Backend, EXIT_FAILED, EXIT_INPUT, Limits, ProgressDisplay, RunError, RunOptions, run,
 };
-use meshless::scene::Case;
+use meshless::scene::Scene;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Arc;
@@ -311,7 +311,7 @@ fn run_command(
     limits: Limits,
 ) -> ExitCode {
     let path = resolve(case);
-    let case = match Case::load(&path, set) {
+    let case = match Scene::load(&path, set) {
         Ok(c) => {
             show_notes(&c);
             c
@@ -392,7 +392,7 @@ fn list() -> ExitCode {
     entries.retain(|p| p.extension().is_some_and(|e| e == "toml"));
     entries.sort();
     for path in entries {
-        match Case::load(&path, &[]) {
+        match Scene::load(&path, &[]) {
             Ok(c) => println!("  {:<24} {}D  {}", c.name, c.dimension, c.description),
             Err(e) => println!("  {:<24} invalid: {e}", path.display()),
         }
@@ -405,7 +405,7 @@ fn list() -> ExitCode {
 }
 
 fn explain_command(case: &str, backend: Backend, set: &[String]) -> ExitCode {
-    match Case::load(&resolve(case), set) {
+    match Scene::load(&resolve(case), set) {
         Ok(c) => {
             show_notes(&c);
             let gpu = match backend {
@@ -459,12 +459,12 @@ fn bench_command(
     for name in cases {
         let path = resolve(name);
         for &target in particles {
-            let result = Case::load(&path, set)
+            let result = Scene::load(&path, set)
                 .map_err(RunError::from)
                 .and_then(|base| resize(&base, target))
                 .and_then(|sizes| {
                     let all: Vec<String> = set.iter().cloned().chain(sizes).collect();
-                    Ok(Case::load(&path, &all)?)
+                    Ok(Scene::load(&path, &all)?)
                 })
                 .and_then(|case| measure(&case, backend, steps));
             match result {
@@ -531,7 +531,7 @@ fn bench_command(
 fn check_command(cases: &[String], backend: Backend, set: &[String], limits: &Limits) -> ExitCode {
     for name in cases {
         let path = resolve(name);
-        let built = Case::load(&path, set)
+        let built = Scene::load(&path, set)
             .map_err(RunError::from)
             .and_then(|case| {
                 show_notes(&case);
@@ -543,7 +543,7 @@ fn check_command(cases: &[String], backend: Backend, set: &[String], limits: &Li
                 "{}: ok ({}D, {particles} particles, {}; estimated {})",
                 path.display(),
                 case.dimension,
-                case.method.name(),
+                case.method.name,
                 estimate.describe()
             ),
             Err(e) => {
@@ -557,11 +557,11 @@ fn check_command(cases: &[String], backend: Backend, set: &[String], limits: &Li
 
 /// What loading changed in a case (keys dropped by a change of method), and the method's
 /// warning for a combination of keys known to give wrong answers.
-fn show_notes(case: &Case) {
+fn show_notes(case: &Scene) {
     for note in &case.notes {
         eprintln!("note: {}: {note}", case.file.display());
     }
-    if let Some(warning) = case.method.spec.warning(case) {
+    if let Some(warning) = case.spec.warning(case) {
         eprintln!("warning: {}: {warning}", case.file.display());
     }
 }

@@ -90,14 +90,14 @@ pub fn oscillation(deviation: &[f64], p: &[f64], volume: &[f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Case;
+    use crate::scene::Scene;
     use crate::tensor::D2;
     use glam::DVec2;
 
-    fn plate(n: usize) -> (Case, Vec<DVec2>) {
+    fn plate(n: usize) -> (Scene, Vec<DVec2>) {
         let path =
             std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/swinging-plate.toml");
-        let case = Case::load(&path, &["spacing=0.1".to_string()]).unwrap();
+        let case = Scene::load(&path, &["spacing=0.1".to_string()]).unwrap();
         let dx = case.spacing;
         let x0 = (0..n * n)
             .map(|k| DVec2::new((k % n) as f64, (k / n) as f64) * dx)

@@ -2,23 +2,26 @@
 //! them, built once on the host in f64 and held (or uploaded) by the method.
 
 use crate::boundary::Boundary;
+use crate::case::{Case, CaseError, discretise};
 use crate::kernel::{Kernel, neighbour_radius};
 use crate::material::Material;
 use crate::neighbour::{self, Csr, Neighbours, Rebuild};
 use crate::quadrature::{Cells, QuadratureError, lattice_cells};
-use crate::scene::{Case, CaseError, discretise};
 use crate::tensor::Dim;
 
 /// A method's CPU system, built on the reference configuration of a case.
 pub trait Build<D: Dim>: Sized {
-    /// Builds the system on `reference`; a case that names a method this system does not
-    /// run is an error.
-    fn build(case: &Case, reference: Reference<D>) -> Result<Self, CaseError>;
+    /// The typed spec of the methods the system runs (the method's keys besides the
+    /// case's common ones).
+    type Spec: ?Sized;
+
+    /// Builds the system of `spec` on `reference`.
+    fn build(case: &Case, spec: &Self::Spec, reference: Reference<D>) -> Result<Self, CaseError>;
 }
 
-/// Builds the CPU system `M` of a case on its reference configuration.
-pub fn build_method<D: Dim, M: Build<D>>(case: &Case) -> Result<M, CaseError> {
-    M::build(case, Reference::build(case)?)
+/// Builds the CPU system `M` of a case's method `spec` on its reference configuration.
+pub fn build_method<D: Dim, M: Build<D>>(case: &Case, spec: &M::Spec) -> Result<M, CaseError> {
+    M::build(case, spec, Reference::build(case)?)
 }
 
 /// Particles of a case in the reference configuration.

@@ -6,7 +6,7 @@ use meshless::integrate::OdeSystem;
 use meshless::methods::Method;
 use meshless::methods::mixed::MixedSph;
 use meshless::run::build_method;
-use meshless::scene::Case;
+use meshless::scene::Scene;
 use meshless::tensor::D2;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
@@ -75,7 +75,7 @@ fn a_mixed_rate_evaluation_does_not_allocate() {
         ),
     ] {
         let set: Vec<String> = set.iter().map(|s| s.to_string()).collect();
-        let case = Case::load(std::path::Path::new(&path(name)), &set).unwrap();
+        let case = Scene::load(std::path::Path::new(&path(name)), &set).unwrap();
         let mut system: MixedSph<D2> = build_method(&case).unwrap();
         let y = system.initial_state();
         let mut rates = y.clone();

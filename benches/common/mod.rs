@@ -4,7 +4,7 @@
 
 use meshless::bench::resize;
 use meshless::run::Engine;
-use meshless::scene::Case;
+use meshless::scene::Scene;
 use meshless::tensor::D2;
 use std::path::PathBuf;
 
@@ -91,7 +91,7 @@ const CASES: &[(&str, &str, &[&str], Kind)] = &[
 
 /// The 2D bench case of method `name` and how it is stepped; panics, naming the method,
 /// when it has none (a new method adds its line to `CASES`).
-pub fn method_case(name: &str) -> (Case, Kind) {
+pub fn method_case(name: &str) -> (Scene, Kind) {
     let &(_, file, extra, kind) = CASES
         .iter()
         .find(|(method, ..)| *method == name)
@@ -100,15 +100,15 @@ pub fn method_case(name: &str) -> (Case, Kind) {
         .join("cases")
         .join(file);
     let mut set: Vec<String> = extra.iter().map(|s| s.to_string()).collect();
-    let base = Case::load(&path, &set).expect("case loads");
+    let base = Scene::load(&path, &set).expect("case loads");
     if kind == Kind::Dynamic {
         set.extend(resize(&base, PARTICLES).expect("case resizes"));
     }
-    (Case::load(&path, &set).expect("resized case loads"), kind)
+    (Scene::load(&path, &set).expect("resized case loads"), kind)
 }
 
 /// The case's fixed Δt, or its CFL step at the engine's initial signal speed.
-pub fn time_step(case: &Case, engine: &mut dyn Engine<D2>) -> f64 {
+pub fn time_step(case: &Scene, engine: &mut dyn Engine<D2>) -> f64 {
     match (case.method.dt, case.method.cfl) {
         (Some(dt), _) => dt,
         (_, Some(cfl)) => cfl * case.spacing / engine.max_signal_speed(),

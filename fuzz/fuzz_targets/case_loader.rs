@@ -6,7 +6,7 @@
 
 use libfuzzer_sys::fuzz_target;
 use meshless::run::{Backend, Limits, check};
-use meshless::scene::Case;
+use meshless::scene::Scene;
 use std::path::Path;
 
 fuzz_target!(|data: &[u8]| {
@@ -17,7 +17,7 @@ fuzz_target!(|data: &[u8]| {
         max_particles: 2000.0,
         max_steps: Limits::MAX_STEPS,
     };
-    if let Ok(case) = Case::from_toml(text, Path::new("fuzz/case.toml"), &[]) {
+    if let Ok(case) = Scene::from_toml(text, Path::new("fuzz/case.toml"), &[]) {
         let _ = check(&case, Backend::Cpu, &limits);
     }
 });

@@ -1,5 +1,8 @@
 //! The closed-form static solutions: the Timoshenko–Goodier cantilever and uniaxial
-//! stress.
+//! stress, and the solutions a boundary condition can take its values from.
+
+use crate::tensor::Axis;
+use serde::{Deserialize, Serialize};
 
 /// The cantilever of Timoshenko & Goodier with a parabolic shear P at x = L (seed 004 eqs
 /// 53–55; plane stress, I = D³/12 per unit thickness): u_y(L, y) = −P/(6EI) [(4 + 5ν)
@@ -94,11 +97,33 @@ impl Uniaxial {
     }
 }
 
+/// Closed-form solutions that boundary conditions can take their values from.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum Solution {
+    /// The cantilever with a parabolic end shear of Timoshenko & Goodier (seed 004 eqs
+    /// 53–55, plane stress, the material's E and ν): x ∈ [0, length] from the clamped
+    /// end, y ∈ [−depth/2, depth/2], end load `load` per unit thickness [N/m].
+    TimoshenkoCantilever { load: f64, length: f64, depth: f64 },
+    /// Uniaxial stress σ_aa = `stress` [Pa] along `axis` (default x; seed 004 §6.3): u_a =
+    /// σX_a/E, the other components −νσX_k/E. As a traction on the face normal to that
+    /// axis it is a uniform pressure −`stress` (§6.2's plate, §6.6's cube).
+    UniaxialStress {
+        stress: f64,
+        #[serde(default = "x_axis")]
+        axis: Axis,
+    },
+}
+
+fn x_axis() -> Axis {
+    Axis::X
+}
+
 impl ClosedForm {
-    pub fn of(solution: &crate::scene::Solution, material: &crate::material::MaterialSpec) -> Self {
+    pub fn of(solution: &Solution, material: &crate::material::MaterialSpec) -> Self {
         let (youngs_modulus, poisson_ratio) = material.youngs_and_poisson();
         match *solution {
-            crate::scene::Solution::TimoshenkoCantilever {
+            Solution::TimoshenkoCantilever {
                 load,
                 length,
                 depth,
@@ -109,7 +134,7 @@ impl ClosedForm {
                 youngs_modulus,
                 poisson_ratio,
             }),
-            crate::scene::Solution::UniaxialStress { stress, axis } => Self::Uniaxial(Uniaxial {
+            Solution::UniaxialStress { stress, axis } => Self::Uniaxial(Uniaxial {
                 stress,
                 axis: axis.index(),
                 youngs_modulus,

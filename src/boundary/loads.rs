@@ -3,8 +3,8 @@
 
 use super::summed;
 use crate::analytic::ClosedForm;
+use crate::case::{Case, CaseError, Condition, Discretised, Surface, TimeLaw};
 use crate::neighbour;
-use crate::scene::{Case, CaseError, Condition, Discretised, Surface, TimeLaw};
 use crate::tensor::Dim;
 
 /// The face a traction region loads: the axes along it, and the extent its particles'

@@ -15,7 +15,7 @@ pub mod shell;
 pub use context::{Gpu, GpuError};
 pub use layout::GpuDim;
 
-use crate::scene::{Case, CaseError};
+use crate::case::{Case, CaseError};
 use shaders::Constants;
 use thiserror::Error;
 
@@ -140,7 +140,7 @@ pub fn check_f32_run<D: crate::tensor::Dim>(
         ));
     }
     for (b, bc) in case.boundaries.iter().enumerate() {
-        if let crate::scene::Condition::Velocity { vx, vy, vz, .. } = &bc.condition {
+        if let crate::case::Condition::Velocity { vx, vy, vz, .. } = &bc.condition {
             for (name, v) in [("vx", vx), ("vy", vy), ("vz", vz)] {
                 if let Some(v) = v.filter(|&v| !holds_f32(v)) {
                     return Err(beyond_f32(
@@ -172,10 +172,10 @@ pub fn check_f32_run<D: crate::tensor::Dim>(
         let magnitude = |t: &[f64]| t.iter().map(|c| c * c).sum::<f64>();
         let (b, name) = (0..case.boundaries.len())
             .filter_map(|b| match &case.boundaries[b].condition {
-                crate::scene::Condition::Traction { traction, .. } => {
+                crate::case::Condition::Traction { traction, .. } => {
                     Some((b, "traction", magnitude(traction)))
                 }
-                crate::scene::Condition::BodyForce { acceleration, .. } => {
+                crate::case::Condition::BodyForce { acceleration, .. } => {
                     Some((b, "acceleration", magnitude(acceleration)))
                 }
                 _ => None,

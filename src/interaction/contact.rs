@@ -14,9 +14,9 @@
 //! gains energy, as a ball struck by a bat does.
 
 use super::Interaction;
+use crate::case::{Case, CaseError};
 use crate::kernel::neighbour_radius;
 use crate::neighbour::Csr;
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use rayon::prelude::*;
 

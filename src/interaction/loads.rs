@@ -9,7 +9,7 @@
 
 use super::Interaction;
 use crate::boundary::NodalForces;
-use crate::scene::{Case, CaseError, TimeLaw, discretise};
+use crate::case::{Case, CaseError, TimeLaw, discretise};
 use crate::tensor::Dim;
 
 /// The time-dependent loads of a case, one group per boundary condition.

@@ -23,8 +23,8 @@ pub use contact::Contact;
 pub use loads::TimedLoads;
 
 use crate::boundary::NodalForces;
+use crate::case::{Case, CaseError};
 use crate::neighbour::Csr;
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 
 /// A force on the particles from outside the method, at named points of a step.

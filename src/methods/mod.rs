@@ -5,11 +5,14 @@
 //! `--explain` plan, the CPU and GPU engines, blow-up attribution), its CPU system and its
 //! GPU engine. The driver, the command line, validation, benchmarks and studies go through
 //! [`MethodSpec`] and [`REGISTRY`] and never name a method: adding one is a folder here
-//! and one line in [`registry!`].
+//! and one line in [`registry!`]. A family implements the hooks of [`family`] and imports
+//! nothing from this file; the registry hands each hook its typed spec, and [`Runs`]
+//! finds a system's spec in a case's method.
 
 pub mod corotated;
 pub mod dual_support;
 pub mod efg;
+pub mod family;
 pub mod fem;
 pub mod galerkin;
 pub mod godunov;
@@ -27,165 +30,27 @@ pub mod ul_weak_form;
 pub mod weak_form;
 
 pub use crate::engine::{BlowUp, Method};
+#[cfg(feature = "gpu")]
+pub use family::GpuBuild;
+pub use family::{
+    COMMON_KEYS, CpuBuild, Feature, KERNEL_KEYS, MethodFamily, Plan, cfl_step, no_gpu_engine,
+    state_model,
+};
 
+use crate::case::{Case, CaseError, MethodKeys};
 use crate::check::Problem;
 use crate::correction::CorrectionKind;
 use crate::engine::{Engine, EngineDim};
 use crate::integrate::IntegratorKind;
 use crate::kernel::KernelKind;
+use crate::material::Material;
 use crate::neighbour::Rebuild;
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use serde::de::{self, DeserializeSeed, MapAccess, Visitor};
 use serde::{Deserialize, Deserializer, Serialize};
 use std::fmt;
 use std::sync::OnceLock;
 use toml::{Table, Value};
-
-/// Scene features a method may or may not run.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Feature {
-    /// Penalty contact between bodies (`[contact]`).
-    Contact,
-    /// Symmetry planes closed by ghost particles (`[[mirror]]`).
-    MirrorPlanes,
-    /// A material with a plastic history (`von-mises-plastic`).
-    Plasticity,
-    /// The static solve of `run.solve = "static"` ([`crate::statics`]).
-    StaticSolve,
-    /// The static solve on the GPU as well (`--backend gpu`).
-    GpuStaticSolve,
-    /// Static by default: a run solves for equilibrium load step by load step unless
-    /// `run.solve = "dynamic"`.
-    StaticDefault,
-    /// An initial displacement (`body.initial_displacement`): the deformation gradient
-    /// follows from the displacement, so the state starts deformed.
-    InitialDisplacement,
-}
-
-/// What a run of a method does, for `meshless run --explain`.
-#[derive(Clone, Debug, Default)]
-pub struct Plan {
-    /// What is built once on the reference configuration.
-    pub once: String,
-    /// The integrated state.
-    pub state: String,
-    /// The adaptive step rule, for `method.cfl`.
-    pub cfl_step: String,
-    /// One rate evaluation (the GPU passes, or the CPU's gathers).
-    pub rates: String,
-    /// Per-particle quantities checked besides finiteness (`det F`, `J`).
-    pub checked: &'static str,
-    /// A remark on the host checks, if any.
-    pub check_note: String,
-    /// What this scene leaves out of the method.
-    pub left_out: Vec<&'static str>,
-}
-
-/// The `--explain` line of the step Δt = cfl·Δx/(c_p + max|v|) that most methods take.
-pub fn cfl_step(mat: &crate::material::Material) -> String {
-    format!(
-        "Δt = cfl·Δx/(c_p + max|v|), c_p = {:.1} m/s",
-        mat.p_wave_speed()
-    )
-}
-
-/// The p-wave speed that sets a case's CFL step: the material's, or with artificial
-/// compressibility that of the fictitious bulk modulus κ̃.
-pub fn step_wave_speed(case: &Case) -> f64 {
-    let mat = crate::material::Material::new(&case.material);
-    match mixed::scheme(case).and_then(|(m, _)| m.artificial_compressibility) {
-        Some(ac) => ac.p_wave_speed(&mat),
-        None => mat.p_wave_speed(),
-    }
-}
-
-/// A method's CPU engine for a case, or the case's error ([`MethodFamily::cpu_engine`]).
-pub type CpuBuild<D> = Result<Box<dyn Engine<D>>, CaseError>;
-
-/// A method's GPU engine for a case, or why it could not be set up
-/// ([`MethodFamily::gpu_engine`]).
-#[cfg(feature = "gpu")]
-pub type GpuBuild<D> = Result<Box<dyn Engine<D>>, crate::gpu::SetupError>;
-
-/// What the driver needs from a method. Implemented by the method's typed spec.
-pub trait MethodFamily: Sized {
-    /// One line for `meshless list`.
-    const DESCRIPTION: &'static str;
-    /// The `[method]` keys this method reads besides [`COMMON_KEYS`].
-    const KEYS: &'static [&'static str];
-    /// The scene features it runs.
-    const FEATURES: &'static [Feature];
-    /// Whether it has a GPU engine (`--backend auto` runs the others on the CPU).
-    const GPU_ENGINE: bool = true;
-    /// When its neighbour lists are built: once on the reference configuration
-    /// (total-Lagrangian), or from the current positions at every rate evaluation
-    /// (updated-Lagrangian).
-    const NEIGHBOURS: Rebuild = Rebuild::Once;
-    /// Whether it has a kernel, and so reads [`KERNEL_KEYS`] (`h_over_dx` then required);
-    /// the finite elements have none.
-    const KERNEL: bool = true;
-    /// Whether its kernel gradients take `method.correction` (false for a kernel method
-    /// that builds its own consistent functions: moving least squares, reproducing or
-    /// Krongauz–Belytschko functions, dual-support corrections).
-    const CORRECTED: bool = true;
-    /// The GPU passes it compiles with a scene's constants.
-    #[cfg(feature = "gpu")]
-    const SHADERS: &'static [crate::gpu::shaders::Source];
-
-    /// Checks of the case that concern this method (its keys, model, correction).
-    fn validate(&self, case: &Case) -> Result<(), Problem>;
-
-    /// The method's part of the run plan; `gpu` selects the GPU passes.
-    fn plan(&self, case: &Case, gpu: bool) -> Plan;
-
-    /// The CPU reference engine (f64, rayon).
-    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> CpuBuild<D>;
-
-    /// The GPU engine (wgpu, f32); by default none, the error [`no_gpu_engine`] of a
-    /// method without one ([`Self::GPU_ENGINE`] false).
-    #[cfg(feature = "gpu")]
-    fn gpu_engine<D: EngineDim>(&self, case: &Case, _gpu: crate::gpu::Gpu) -> GpuBuild<D> {
-        Err(no_gpu_engine(case).into())
-    }
-
-    /// Why this spec has no GPU engine for `case`, as a phrase after the method's name,
-    /// or None: [`Self::GPU_ENGINE`] unless a key or the material selects a CPU-only
-    /// variant.
-    fn gpu_refusal(&self, _case: &Case) -> Option<&'static str> {
-        (!Self::GPU_ENGINE).then_some("has no GPU engine")
-    }
-
-    /// Whether this spec searches neighbours on the current configuration
-    /// ([`Self::NEIGHBOURS`] other than once, unless a key selects such a variant).
-    fn searches_current_configuration(&self) -> bool {
-        Self::NEIGHBOURS != Rebuild::Once
-    }
-
-    /// The stretch-dependent part of a particle's signal speed in the method's CFL step
-    /// (beyond |v|), with c_p the linear p-wave speed and F the particle's deformation
-    /// gradient: it names the particle a collapse of the step is attributed to. By default
-    /// none: the step Δt = cfl·Δx/(c_p + max|v|) of most methods does not depend on the
-    /// stretch.
-    fn stretch_signal_speed<D: Dim>(&self, _c_p: f64, _f: D::T) -> f64 {
-        0.0
-    }
-
-    /// Whether this spec integrates over the cells between the particles of a lattice
-    /// (elements, Gauss points or stress points of the cells): its boxes and cylinders
-    /// are then sampled on the vertex lattice whatever `lattice` says, so that the cells
-    /// span the shape the case names (on a cell-centred lattice they would stop Δx/2
-    /// inside every face).
-    fn lattice_cells(&self) -> bool {
-        false
-    }
-    /// A warning for a combination of keys that runs but is known to give wrong answers
-    /// on standard problems, with the reason and the key that fixes it; said at the start
-    /// of every run and by `meshless check`.
-    fn warning(&self, _case: &Case) -> Option<String> {
-        None
-    }
-}
 
 /// A method as listed: its name and what its spec declares.
 #[derive(Clone, Copy, Debug)]
@@ -323,7 +188,28 @@ macro_rules! registry {
                     $(Self::$variant(s) => s.warning(case)),*
                 }
             }
+
+            pub fn step_wave_speed(&self, mat: &Material) -> f64 {
+                match self {
+                    $(Self::$variant(s) => s.step_wave_speed(mat)),*
+                }
+            }
+
+            pub fn accepts_incompressible(&self) -> bool {
+                match self {
+                    $(Self::$variant(s) => s.accepts_incompressible()),*
+                }
+            }
         }
+
+        $(impl Runs for $spec {
+            fn spec_of(method: &MethodSpec) -> Option<&Self> {
+                match method {
+                    MethodSpec::$variant(s) => Some(s),
+                    _ => None,
+                }
+            }
+        })*
     };
 }
 
@@ -378,20 +264,6 @@ pub fn supporting(feature: Feature) -> impl Iterator<Item = &'static str> {
         .map(|e| e.name)
 }
 
-/// The keys of `[method]` that only the methods with a kernel read.
-pub const KERNEL_KEYS: &[&str] = &["kernel", "h_over_dx", "correction"];
-
-/// The keys of `[method]` that every method reads (the [`KERNEL_KEYS`] only those with a
-/// kernel).
-pub const COMMON_KEYS: &[&str] = &[
-    "kernel",
-    "h_over_dx",
-    "correction",
-    "integrator",
-    "dt",
-    "cfl",
-];
-
 /// The `[method]` table of a case: the keys every method reads, and the method's spec.
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct MethodTable {
@@ -414,10 +286,70 @@ pub struct MethodTable {
 }
 
 impl MethodTable {
-    /// The case-file name of the method.
-    pub fn name(&self) -> &'static str {
-        self.spec.entry().name
+    /// The keys every method reads, with what the registry resolves of the method for
+    /// the layers below it.
+    pub fn keys(&self) -> MethodKeys {
+        let entry = self.spec.entry();
+        MethodKeys {
+            name: entry.name,
+            kernel: self.kernel,
+            h_over_dx: self.h_over_dx,
+            correction: self.correction,
+            integrator: self.integrator,
+            dt: self.dt,
+            cfl: self.cfl,
+            static_default: entry.features.contains(&Feature::StaticDefault),
+            lattice_cells: self.spec.lattice_cells(),
+        }
     }
+
+    /// The table of a method's common keys and spec, as a case file gives it.
+    pub fn of(keys: &MethodKeys, spec: &MethodSpec) -> Self {
+        Self {
+            kernel: keys.kernel,
+            h_over_dx: keys.h_over_dx,
+            correction: keys.correction,
+            integrator: keys.integrator,
+            dt: keys.dt,
+            cfl: keys.cfl,
+            spec: spec.clone(),
+            foreign: Vec::new(),
+        }
+    }
+}
+
+/// The spec a system is built from ([`crate::reference::Build::Spec`]), as a case's
+/// method holds it.
+pub trait Runs {
+    /// The spec in `method`, or None for a method that does not run the system.
+    fn spec_of(method: &MethodSpec) -> Option<&Self>;
+}
+
+impl Runs for dyn mixed::MixedScheme {
+    fn spec_of(method: &MethodSpec) -> Option<&Self> {
+        match method {
+            MethodSpec::UpwindSph(s) => Some(s),
+            MethodSpec::JstSph(s) => Some(s),
+            _ => None,
+        }
+    }
+}
+
+impl<D: Dim> Runs for dyn galerkin::TlSystem<D> {
+    fn spec_of(method: &MethodSpec) -> Option<&Self> {
+        match method {
+            MethodSpec::TlFem(s) => Some(s),
+            MethodSpec::TlWeakForm(s) => Some(s),
+            MethodSpec::Kbm(s) => Some(s),
+            MethodSpec::Efg(s) => Some(s),
+            _ => None,
+        }
+    }
+}
+
+/// The scene features the method `name` runs (none for a name not registered).
+pub fn features(name: &str) -> &'static [Feature] {
+    entry(name).map_or(&[], |e| e.features)
 }
 
 /// The keys every method reads, with their defaults.
@@ -596,45 +528,6 @@ pub fn drop_foreign_keys(table: &mut Table, name: &str, kept: &[String]) -> Vec<
         table.remove(key);
     }
     dropped
-}
-
-/// The error of a system built for a case that names another method.
-pub fn not_run_by(case: &Case, system: &str) -> CaseError {
-    case.invalid(
-        "method.name",
-        format!("{system} does not run `{}`", case.method.name()),
-    )
-}
-
-/// The error of a GPU run of a method without a GPU engine: it names the method and the
-/// backend that runs it.
-pub fn no_gpu_engine(case: &Case) -> CaseError {
-    case.invalid(
-        "method.name",
-        format!(
-            "`{}` has no GPU engine; run it with `--backend cpu` (`--backend auto` picks the \
-             CPU for it)",
-            case.method.name()
-        ),
-    )
-}
-
-/// The check of a method that evaluates P = ∂ψ/∂F: the material must be a state model.
-pub fn state_model(case: &Case) -> Result<(), Problem> {
-    if case.material.model.is_rate_based() {
-        return crate::check::fail(
-            "material.model",
-            format!(
-                "`{}` evaluates the stress from F: use a state model ({}), not {}",
-                case.method.name(),
-                crate::material::MaterialModel::names_where(
-                    |m| !m.is_rate_based() && m != crate::material::MaterialModel::VonMisesPlastic
-                ),
-                crate::check::toml_name(&case.material.model)
-            ),
-        );
-    }
-    Ok(())
 }
 
 #[cfg(test)]

@@ -1,20 +1,21 @@
 //! What the method cores take from a case: the CPU engine of a system built on it, and
 //! the reference neighbours and gradients of the total-Lagrangian methods.
 
+use crate::case::{Case, CaseError};
 use crate::correction;
 use crate::engine::{CpuEngine, Method};
 use crate::kernel;
 use crate::neighbour::Csr;
 use crate::reference::{Build, build_method};
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use rayon::prelude::*;
 
 impl<D: Dim, M: Method<D> + Build<D>> CpuEngine<D, M> {
-    /// The engine of the system `M` built on a case, stepped by the case's integrator.
-    pub fn new(case: &Case) -> Result<Self, CaseError> {
+    /// The engine of the system `M` of a method's spec built on a case, stepped by the
+    /// case's integrator.
+    pub fn new(case: &Case, spec: &M::Spec) -> Result<Self, CaseError> {
         Ok(Self::with(
-            build_method::<D, M>(case)?,
+            build_method::<D, M>(case, spec)?,
             case.method.integrator,
         ))
     }

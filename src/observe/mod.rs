@@ -11,11 +11,11 @@ use sections::{Section, probe_particles};
 use crate::analytic::{ClosedForm, Exact, relative_l2};
 use crate::balance::{self, Balance, Booked};
 use crate::boundary::Reaction;
+use crate::case::{Case, CaseError, Observer, TimeLaw};
 use crate::integrate::PseudoTime;
 use crate::material::{Material, MaterialModel};
 use crate::parallel::ordered_reduce;
 use crate::pressure::{oscillation, pressures};
-use crate::scene::{Case, CaseError, Observer, TimeLaw};
 use crate::tensor::Dim;
 use std::collections::BTreeMap;
 
@@ -584,7 +584,7 @@ fn unit<D: Dim>(k: usize) -> D::V {
 /// The closed form of a case's first `solution-displacement` condition.
 pub fn solution_of(case: &Case) -> Option<ClosedForm> {
     case.boundaries.iter().find_map(|b| match &b.condition {
-        crate::scene::Condition::SolutionDisplacement { solution, .. } => {
+        crate::case::Condition::SolutionDisplacement { solution, .. } => {
             Some(ClosedForm::of(solution, &case.material))
         }
         _ => None,

@@ -2,8 +2,8 @@
 //! grouped by reference radius, and the spreads around each ring.
 
 use super::Snapshot;
+use crate::case::{Case, CaseError};
 use crate::plasticity::PLASTIC_STRAIN;
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use std::collections::BTreeMap;
 

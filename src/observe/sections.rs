@@ -2,10 +2,10 @@
 //! nearest a position) and the section forces (the resultant of P·N across a plane).
 
 use super::{AXES, Snapshot, unit};
-use crate::scene::{Case, CaseError};
+use crate::case::{Case, CaseError};
 use crate::tensor::Dim;
 
-/// A section-force observer ([`crate::scene::SectionSpec`]): the normal axis, the body it
+/// A section-force observer ([`crate::case::SectionSpec`]): the normal axis, the body it
 /// is limited to, and every particle within Δx of the plane with its hat weight
 /// (1 − |X·N − at|/Δx)/Δx.
 pub(super) struct Section {
@@ -19,7 +19,7 @@ impl Section {
     /// (or of the scene), so that its force would read zero whatever the load.
     pub(super) fn new<D: Dim>(
         k: usize,
-        spec: &crate::scene::SectionSpec,
+        spec: &crate::case::SectionSpec,
         case: &Case,
         x0: &[D::V],
         bodies: &[u32],

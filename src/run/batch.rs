@@ -8,7 +8,7 @@ use crate::engine::BlowUp;
 use crate::hourglass::HourglassIndicator;
 use crate::observe::{Clock, IndicatorFields, Invariants, Snapshot};
 use crate::pressure::{PressureFit, pressures};
-use crate::scene::Case;
+use crate::scene::Scene;
 use crate::tensor::Dim;
 use std::cell::OnceCell;
 
@@ -168,7 +168,7 @@ impl<'a, D: Dim> Batch<'a, D> {
 /// η and δp of every particle, each evaluated at an output only when a frame, a series
 /// row with its observer or the hourglass limit needs it.
 pub(super) struct Indicators<'a, D: Dim> {
-    case: &'a Case,
+    case: &'a Scene,
     hourglass: Option<HourglassIndicator>,
     pressure_fit: OnceCell<PressureFit>,
     /// The series' observers need η, δp.
@@ -181,7 +181,7 @@ impl<'a, D: Dim> Indicators<'a, D> {
     /// The indicators of a run whose frames are `frames_on` and whose rows need η and δp
     /// as `row_eta` and `row_deviation` say.
     pub(super) fn new(
-        case: &'a Case,
+        case: &'a Scene,
         x0: &[D::V],
         frames_on: bool,
         row_eta: bool,

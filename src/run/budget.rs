@@ -3,7 +3,8 @@
 //! a run that does not fit the machine, or passes the caps, is refused as a case error
 //! naming the key that sets the figure.
 
-use crate::scene::{Case, CaseError, Shape, estimate_particles};
+use crate::case::{CaseError, Shape, estimate_particles};
+use crate::scene::Scene;
 
 /// Caps on what one run may ask for (`--max-particles`, `--max-steps`).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -53,7 +54,7 @@ pub struct Estimate {
     /// the shape fills, or the points of a points or mesh file).
     pub bodies: Vec<f64>,
     pub particles: f64,
-    /// Neighbour pairs within the kernel support, body by body ([`crate::scene::BodySize::pairs`]: from
+    /// Neighbour pairs within the kernel support, body by body ([`crate::case::BodySize::pairs`]: from
     /// the lattice's density, or the points a file holds).
     pub pairs: f64,
     /// Host memory of a CPU run [bytes].
@@ -73,7 +74,7 @@ const VISITS_PER_PARTICLE: f64 = 100.0;
 
 impl Estimate {
     /// Estimates the resources of a case without building it.
-    pub fn of(case: &Case) -> Result<Self, CaseError> {
+    pub fn of(case: &Scene) -> Result<Self, CaseError> {
         let sizes = estimate_particles(case)?;
         let bodies: Vec<f64> = sizes.iter().map(|s| s.particles).collect();
         let particles: f64 = bodies.iter().sum();
@@ -112,10 +113,10 @@ impl Estimate {
 }
 
 /// The first time step: the fixed Δt, or the CFL step α Δx / c_p.
-fn first_step(case: &Case) -> f64 {
+fn first_step(case: &Scene) -> f64 {
     match (case.method.dt, case.method.cfl) {
         (Some(dt), _) => dt,
-        (_, Some(cfl)) => cfl * case.spacing / crate::methods::step_wave_speed(case),
+        (_, Some(cfl)) => cfl * case.spacing / case.step_wave_speed(),
         _ => unreachable!("validation requires dt or cfl"),
     }
 }
@@ -136,7 +137,7 @@ pub fn available_memory() -> Option<f64> {
 /// Refuses a case whose estimate passes the particle cap or the machine's available
 /// memory on `gpu` or the CPU, or whose step count passes the step cap; returns the
 /// estimate otherwise.
-pub fn check(case: &Case, gpu: bool, limits: &Limits) -> Result<Estimate, CaseError> {
+pub fn check(case: &Scene, gpu: bool, limits: &Limits) -> Result<Estimate, CaseError> {
     let estimate = Estimate::of(case)?;
     let key = particle_key(case, &estimate);
     if estimate.particles > limits.max_particles {
@@ -203,11 +204,11 @@ pub fn check(case: &Case, gpu: bool, limits: &Limits) -> Result<Estimate, CaseEr
 /// Refuses a run of `steps` steps of `dt` (the first Δt) past the step cap, naming the
 /// time step's key when the step is far below the CFL step α = 1 would give (1e-3 of
 /// it), and `run.end_time` otherwise.
-pub fn check_steps(case: &Case, steps: f64, dt: f64, limits: &Limits) -> Result<(), CaseError> {
+pub fn check_steps(case: &Scene, steps: f64, dt: f64, limits: &Limits) -> Result<(), CaseError> {
     if steps <= limits.max_steps {
         return Ok(());
     }
-    let c_p = crate::methods::step_wave_speed(case);
+    let c_p = case.step_wave_speed();
     let tiny = dt < 1e-3 * case.spacing / c_p;
     let key = match (tiny, case.method.dt.is_some()) {
         (false, _) => "run.end_time",
@@ -227,7 +228,7 @@ pub fn check_steps(case: &Case, steps: f64, dt: f64, limits: &Limits) -> Result<
 
 /// The key that sets the particle count: the points file of the largest body when it
 /// is one, `spacing` otherwise.
-fn particle_key(case: &Case, estimate: &Estimate) -> String {
+fn particle_key(case: &Scene, estimate: &Estimate) -> String {
     let largest = (0..estimate.bodies.len())
         .max_by(|&a, &b| estimate.bodies[a].total_cmp(&estimate.bodies[b]));
     match largest {
@@ -246,8 +247,8 @@ fn particle_key(case: &Case, estimate: &Estimate) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::case::{Lattice, discretise};
     use crate::scene::validate::minimal_case;
-    use crate::scene::{Lattice, discretise};
     use crate::tensor::{D2, D3};
 
     #[test]
@@ -288,7 +289,7 @@ mod tests {
         c.dimension = 3;
         c.bodies[0].geometry = Shape::Cylinder {
             base: vec![0.0, 0.0, 0.0],
-            axis: crate::scene::Axis::Y,
+            axis: crate::case::Axis::Y,
             radius: 1.0,
             inner_radius: 0.5,
             length: 1.0,
@@ -393,7 +394,7 @@ mod tests {
     #[test]
     fn step_counts_past_the_cap_name_the_key_at_fault() {
         let limits = Limits::default();
-        let key = |c: &Case| match check(c, false, &limits) {
+        let key = |c: &Scene| match check(c, false, &limits) {
             Err(CaseError::Invalid { key, .. }) => key,
             other => panic!("{other:?}"),
         };

@@ -10,7 +10,7 @@
 //! | 8 | `MESHCKPT` |
 //! | 4 | the version, u32 (3) |
 //! | 4 | the header's length H, u32 |
-//! | H | the header, UTF-8 `key = value` lines: `case`, `method`, `backend`, `dimension`, `particles` and `fingerprint` (FNV-1a of the case with its end time left out, [`Case::fingerprint`]) |
+//! | H | the header, UTF-8 `key = value` lines: `case`, `method`, `backend`, `dimension`, `particles` and `fingerprint` (FNV-1a of the case with its end time left out, [`Scene::fingerprint`]) |
 //! | 8 | the number W of words, u64 |
 //! | 8 W | the words, f64: the driver's ([`Progress`]: t, step, Δt, the first Δt, E0, the next series sample, checkpoint and frame times, the series' length in bytes, the frame count and each frame's time), then the engine's ([`super::Engine::save`]: the state and what a step carries to the next) |
 //! | 8 | FNV-1a (64 bits) of every byte before it, u64 |
@@ -24,8 +24,9 @@
 //! times in order up to t), before anything is restored.
 
 use super::RunError;
+use crate::case::{FNV_OFFSET, fnv1a_extend};
 use crate::output::write_atomically;
-use crate::scene::{Case, FNV_OFFSET, fnv1a_extend};
+use crate::scene::Scene;
 use std::io::{BufReader, Read, Write};
 use std::path::Path;
 
@@ -148,10 +149,10 @@ fn whole(x: f64) -> Option<u64> {
 }
 
 /// What identifies the run a checkpoint belongs to.
-fn header(case: &Case, backend: &str, particles: usize) -> Vec<(&'static str, String)> {
+fn header(case: &Scene, backend: &str, particles: usize) -> Vec<(&'static str, String)> {
     vec![
         ("case", case.name.clone()),
-        ("method", case.method.name().to_string()),
+        ("method", case.method.name.to_string()),
         ("backend", backend_kind(backend).to_string()),
         ("dimension", case.dimension.to_string()),
         ("particles", particles.to_string()),
@@ -167,7 +168,7 @@ fn backend_kind(backend: &str) -> &str {
 /// Writes the checkpoint of a run atomically into `dir`.
 pub fn write(
     dir: &Path,
-    case: &Case,
+    case: &Scene,
     backend: &str,
     particles: usize,
     progress: &Progress,
@@ -204,7 +205,7 @@ pub fn write(
 /// the engine's words.
 pub fn read(
     dir: &Path,
-    case: &Case,
+    case: &Scene,
     backend: &str,
     particles: usize,
     engine_words: usize,

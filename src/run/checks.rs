@@ -6,7 +6,7 @@ use super::batch::{Batch, Callback};
 use super::{Engine, RunError};
 use crate::engine::BlowUp;
 use crate::observe::Snapshot;
-use crate::scene::Case;
+use crate::scene::Scene;
 use crate::tensor::Dim;
 
 /// The blow-up checks after each batch: the total energy against
@@ -20,7 +20,7 @@ impl BlowUpChecks {
     /// The checks of `case`; says the start's warning (a fixed step above the CFL step)
     /// and, unless `resumed`, its notes (mass and length of the sampled bodies).
     pub(super) fn new<D: Dim>(
-        case: &Case,
+        case: &Scene,
         engine: &mut dyn Engine<D>,
         dt_first: f64,
         resumed: bool,
@@ -98,11 +98,10 @@ fn hourglass_blow_up<D: Dim>(snap: &Snapshot<D>, eta: &[f64], limit: f64) -> Opt
 /// Collapse of the CFL step below `floor`, attributed to the particle with the largest
 /// signal-speed estimate: the method's stretch-dependent part
 /// ([`crate::methods::MethodFamily::stretch_signal_speed`]) plus |v|.
-pub(super) fn step_collapse<D: Dim>(case: &Case, snap: &Snapshot<D>, floor: f64) -> BlowUp {
-    let c_p = crate::methods::step_wave_speed(case);
-    let speed = |i: usize| {
-        case.method.spec.stretch_signal_speed::<D>(c_p, snap.f[i]) + D::norm2(snap.v[i]).sqrt()
-    };
+pub(super) fn step_collapse<D: Dim>(case: &Scene, snap: &Snapshot<D>, floor: f64) -> BlowUp {
+    let c_p = case.step_wave_speed();
+    let speed =
+        |i: usize| case.spec.stretch_signal_speed::<D>(c_p, snap.f[i]) + D::norm2(snap.v[i]).sqrt();
     let i = (0..snap.v.len())
         .max_by(|&a, &b| speed(a).total_cmp(&speed(b)))
         .unwrap_or(0);
@@ -130,7 +129,7 @@ fn fixed_step_warning(dt: f64, cfl_step: f64) -> Option<String> {
 /// The bodies whose mass as the method lumps it differs from ρ0 times the volume of the
 /// shape the case names (beyond round-off, 1e-9), each with the difference: a lattice that
 /// does not fit the shape within `body.N.volume_tolerance`, said at the start of a run.
-fn mass_notes<D: Dim>(case: &Case, snap: &Snapshot<D>) -> Vec<String> {
+fn mass_notes<D: Dim>(case: &Scene, snap: &Snapshot<D>) -> Vec<String> {
     let rho0 = crate::material::Material::new(&case.material).rho0;
     case.bodies
         .iter()
@@ -157,11 +156,11 @@ fn mass_notes<D: Dim>(case: &Case, snap: &Snapshot<D>) -> Vec<String> {
 }
 
 /// The cylinders whose sampled length along the axis differs from the named one beyond
-/// round-off (1e-9), each with the difference ([`crate::scene::Shape::sampled_length`]):
+/// round-off (1e-9), each with the difference ([`crate::case::Shape::sampled_length`]):
 /// their volumes are scaled to the named shape, so the mass does not show it; said at the
 /// start of a run (past `body.N.volume_tolerance` the case is refused).
-fn length_notes(case: &Case) -> Vec<String> {
-    let cells = case.method.spec.lattice_cells();
+fn length_notes(case: &Scene) -> Vec<String> {
+    let cells = case.method.lattice_cells;
     case.bodies
         .iter()
         .filter_map(|body| {
@@ -184,8 +183,8 @@ fn length_notes(case: &Case) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::{fixed_step_warning, length_notes};
+    use crate::case::{Axis, Lattice, Shape};
     use crate::scene::validate::minimal_case;
-    use crate::scene::{Axis, Lattice, Shape};
 
     #[test]
     fn a_cylinder_sampled_short_of_its_length_is_said() {

@@ -15,7 +15,7 @@ use crate::balance::Balance;
 use crate::engine::BlowUp;
 use crate::observe::{Clock, Observers};
 use crate::output::{RunSummary, write_summary};
-use crate::scene::Case;
+use crate::scene::Scene;
 use crate::tensor::Dim;
 use std::time::Instant;
 
@@ -23,7 +23,7 @@ use std::time::Instant;
 pub(super) const CHECK_EVERY: u64 = 100;
 
 /// Time-step size: fixed, or from the CFL number.
-pub(super) fn time_step<D: Dim>(case: &Case, engine: &mut dyn Engine<D>) -> f64 {
+pub(super) fn time_step<D: Dim>(case: &Scene, engine: &mut dyn Engine<D>) -> f64 {
     match (case.method.dt, case.method.cfl) {
         (Some(dt), _) => dt,
         (None, Some(cfl)) => cfl * case.spacing / engine.max_signal_speed(),
@@ -33,7 +33,7 @@ pub(super) fn time_step<D: Dim>(case: &Case, engine: &mut dyn Engine<D>) -> f64 
 
 /// Runs an engine to the end time with observers, frames, checks and the summary.
 pub fn drive<D: Dim, E: Engine<D>>(
-    case: &Case,
+    case: &Scene,
     opts: &RunOptions,
     mut engine: E,
 ) -> Result<RunSummary, RunError> {
@@ -150,7 +150,7 @@ pub fn drive<D: Dim, E: Engine<D>>(
 /// None for a run that starts.
 fn resume<D: Dim>(
     opts: &RunOptions,
-    case: &Case,
+    case: &Scene,
     backend: &str,
     engine: &mut dyn Engine<D>,
 ) -> Result<Option<checkpoint::Progress>, RunError> {
@@ -172,15 +172,15 @@ fn resume<D: Dim>(
 }
 
 /// The summary written before the first step: the case, the method and status "running".
-fn running_summary(case: &Case, backend: String, particles: usize) -> RunSummary {
+fn running_summary(case: &Scene, backend: String, particles: usize) -> RunSummary {
     RunSummary {
         passes: None,
         case: case.name.clone(),
         version: env!("CARGO_PKG_VERSION").into(),
         case_file: case.file.display().to_string(),
         overrides: case.overrides.clone(),
-        resolved_case: serde_json::to_value(case).unwrap_or_default(),
-        method: case.method.name().to_string(),
+        resolved_case: serde_json::to_value(case.resolved()).unwrap_or_default(),
+        method: case.method.name.to_string(),
         backend,
         dimension: case.dimension,
         particles,
@@ -218,7 +218,7 @@ fn batch_steps(t: f64, dt: f64, t_end: f64, events: impl Iterator<Item = f64>) -
 
 /// What the scheduler holds through a run.
 struct Scheduler<'a, D: Dim> {
-    case: &'a Case,
+    case: &'a Scene,
     opts: &'a RunOptions,
     n: usize,
     dt_first: f64,

@@ -5,13 +5,16 @@ use super::{Backend, RunError};
 use crate::engine::{Engine, EngineDim};
 #[cfg(feature = "gpu")]
 use crate::gpu::{Gpu, SetupError};
-use crate::scene::Case;
+use crate::scene::Scene;
 
 /// The engine a case runs on: the GPU when `backend` asks for it (or `auto` finds an
 /// adapter and the method has a GPU engine), the CPU otherwise; the method's spec builds
 /// them. A static run (`run.solve = "static"`) is on the CPU only.
-pub fn engine<D: EngineDim>(case: &Case, backend: Backend) -> Result<Box<dyn Engine<D>>, RunError> {
-    let spec = &case.method.spec;
+pub fn engine<D: EngineDim>(
+    case: &Scene,
+    backend: Backend,
+) -> Result<Box<dyn Engine<D>>, RunError> {
+    let spec = &case.spec;
     let backend = match (backend, super::cpu_only(case)) {
         (Backend::Gpu, Some(why)) => {
             return Err(RunError::Backend(format!(

@@ -7,7 +7,7 @@ use crate::material::von_mises;
 use crate::observe::{Clock, IndicatorFields, Snapshot};
 use crate::output::{Field, FieldData, Mesh, PvdIndex, write_vtu};
 use crate::pressure::pressures;
-use crate::scene::Case;
+use crate::scene::Scene;
 use crate::tensor::Dim;
 use std::path::{Path, PathBuf};
 
@@ -32,7 +32,7 @@ pub struct FrameConstants {
 }
 
 impl FrameConstants {
-    pub fn of(case: &Case) -> Self {
+    pub fn of(case: &Scene) -> Self {
         Self {
             rho0: case.material.density,
             h: case.smoothing_length(),
@@ -41,7 +41,7 @@ impl FrameConstants {
 }
 
 impl Frames {
-    pub(super) fn new(case: &Case, opts: &RunOptions) -> Result<Self, RunError> {
+    pub(super) fn new(case: &Scene, opts: &RunOptions) -> Result<Self, RunError> {
         let index = if opts.frames {
             Some(
                 PvdIndex::create(&opts.out_dir, &case.name).map_err(output_error(

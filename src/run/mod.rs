@@ -14,19 +14,20 @@ mod profile;
 mod progress;
 
 pub use crate::engine::{CpuEngine, Engine, EngineDim, Failed, Iteration, StepTraffic};
-pub use crate::reference::build_method;
+pub use crate::scene::build_method;
 pub use budget::{Estimate, Limits};
 pub use drive::drive;
 pub use engine::engine;
 pub use frames::{FrameConstants, write_frame};
 pub use progress::ProgressDisplay;
 
+use crate::case::CaseError;
 use crate::check::toml_name;
 use crate::engine::BlowUp;
 use crate::material::Material;
 use crate::methods::{Feature, supporting};
 use crate::output::RunSummary;
-use crate::scene::{Case, CaseError};
+use crate::scene::Scene;
 use crate::tensor::{D2, D3};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -153,7 +154,7 @@ impl RunError {
 /// the GPU its passes and the f32 range of what reaches the device). Returns the
 /// estimate and the particle count. `meshless check` is this.
 pub fn check(
-    case: &Case,
+    case: &Scene,
     backend: Backend,
     limits: &Limits,
 ) -> Result<(Estimate, usize), RunError> {
@@ -167,7 +168,7 @@ pub fn check(
 
 /// Builds a case's engine and its series' observers (probes, checks) as `run` does, and
 /// checks the step count with the first Δt; the particle count.
-fn built<D: EngineDim>(case: &Case, backend: Backend, limits: &Limits) -> Result<usize, RunError> {
+fn built<D: EngineDim>(case: &Scene, backend: Backend, limits: &Limits) -> Result<usize, RunError> {
     let mut engine = engine::<D>(case, backend)?;
     let dt_first = drive::time_step(case, &mut engine);
     budget::check_steps(case, case.run.end_time / dt_first, dt_first, limits)?;
@@ -186,7 +187,7 @@ pub(crate) fn output_error(path: &std::path::Path) -> impl FnOnce(std::io::Error
 /// Runs a case to its end time; returns the summary (also written as `summary.json`).
 /// The case's resources are estimated first ([`budget::check`]): nothing is allocated for
 /// a run that would not fit.
-pub fn run(case: &Case, opts: &RunOptions) -> Result<RunSummary, RunError> {
+pub fn run(case: &Scene, opts: &RunOptions) -> Result<RunSummary, RunError> {
     budget::check(case, may_use_gpu(case, opts.backend), &opts.limits)?;
     with_threads(case, || match case.dimension {
         2 => drive::<D2, _>(case, opts, engine::<D2>(case, opts.backend)?),
@@ -197,7 +198,7 @@ pub fn run(case: &Case, opts: &RunOptions) -> Result<RunSummary, RunError> {
 /// Runs `f` in a pool of the case's `run.threads` CPU threads, or in the global pool (every
 /// core) when the case sets none. Either way `f` runs on one of the pool's threads, so a
 /// step's parallel loops start there without handing every loop to another thread.
-pub fn with_threads<T: Send>(case: &Case, f: impl FnOnce() -> T + Send) -> Result<T, RunError> {
+pub fn with_threads<T: Send>(case: &Scene, f: impl FnOnce() -> T + Send) -> Result<T, RunError> {
     match case.run.threads {
         None => Ok(rayon::scope(|_| f())),
         Some(n) => rayon::ThreadPoolBuilder::new()
@@ -215,34 +216,34 @@ pub fn with_threads<T: Send>(case: &Case, f: impl FnOnce() -> T + Send) -> Resul
 
 /// Whether a run of `case` on `backend` may use the GPU (the memory estimate then counts
 /// the device's share too): `gpu`, or `auto` for a method with a GPU engine.
-pub fn may_use_gpu(case: &Case, backend: Backend) -> bool {
+pub fn may_use_gpu(case: &Scene, backend: Backend) -> bool {
     backend != Backend::Cpu && cpu_only(case).is_none()
 }
 
 /// Why a case runs on the CPU only (a static solve of a method without one on the GPU,
 /// or its method, keys or material), or None if it has a GPU engine.
-pub fn cpu_only(case: &Case) -> Option<String> {
-    let features = case.method.spec.entry().features;
+pub fn cpu_only(case: &Scene) -> Option<String> {
+    let features = case.spec.entry().features;
     if case.is_static() && !features.contains(&crate::methods::Feature::GpuStaticSolve) {
         return Some(format!(
             "the static solve (run.solve = \"static\") of `{}` runs on the CPU only (on the \
              GPU: {})",
-            case.method.name(),
+            case.method.name,
             crate::methods::quoted(crate::methods::supporting(
                 crate::methods::Feature::GpuStaticSolve
             ))
         ));
     }
-    let why = case.method.spec.gpu_refusal(case)?;
-    Some(format!("`{}` {why}", case.method.name()))
+    let why = case.spec.gpu_refusal(case)?;
+    Some(format!("`{}` {why}", case.method.name))
 }
 
 /// The plan of a run: what is built once, what runs per step, and what the scene leaves
 /// out. `gpu` selects the GPU pass list.
-pub fn explain(case: &Case, gpu: bool) -> String {
+pub fn explain(case: &Scene, gpu: bool) -> String {
     let m = &case.method;
-    let name = m.name();
-    let plan = m.spec.plan(case, gpu);
+    let name = m.name;
+    let plan = case.spec.plan(case, gpu);
     let mat = Material::new(&case.material);
     let mut out = vec![
         format!(
@@ -258,8 +259,8 @@ pub fn explain(case: &Case, gpu: bool) -> String {
                 true => String::new(),
                 false => format!(", {} integrator", toml_name(&m.integrator)),
             };
-            if m.spec.entry().kernel {
-                let correction = match m.spec.entry().corrected {
+            if case.spec.entry().kernel {
+                let correction = match case.spec.entry().corrected {
                     true => format!(", {} correction", toml_name(&m.correction)),
                     false => String::new(),
                 };
@@ -315,7 +316,7 @@ pub fn explain(case: &Case, gpu: bool) -> String {
         ));
     }
     let mut left_out = Vec::new();
-    if !m.spec.searches_current_configuration() {
+    if !case.spec.searches_current_configuration() {
         left_out.push("neighbour rebuild (total-Lagrangian)");
     }
     let runs = |f: Feature| supporting(f).any(|n| n == name);
@@ -350,9 +351,9 @@ pub fn explain(case: &Case, gpu: bool) -> String {
 /// named volume and Σ V, and every boundary condition's region with its particles and,
 /// for a load, its total force at law value 1 (a body force's on the particle masses
 /// ρ0 V). A case that cannot be sampled says why instead.
-fn discretisation_lines<D: crate::tensor::Dim>(case: &Case) -> Vec<String> {
-    let name = case.method.name();
-    let cells = case.method.spec.lattice_cells();
+fn discretisation_lines<D: crate::tensor::Dim>(case: &Scene) -> Vec<String> {
+    let name = case.method.name;
+    let cells = case.method.lattice_cells;
     let mut out = vec![if cells {
         format!(
             "lattice: vertex: `{name}` integrates over the lattice's cells, so boxes and \
@@ -365,7 +366,7 @@ fn discretisation_lines<D: crate::tensor::Dim>(case: &Case) -> Vec<String> {
              integrate over lattice cells"
         )
     }];
-    let disc = match crate::scene::discretise::<D>(case) {
+    let disc = match crate::case::discretise::<D>(case) {
         Ok(disc) => disc,
         Err(e) => {
             out.push(format!("bodies: cannot be sampled: {e}"));
@@ -444,7 +445,7 @@ fn discretisation_lines<D: crate::tensor::Dim>(case: &Case) -> Vec<String> {
                         ", total force ({}) {force}{}{}",
                         components.join(", "),
                         match bc.condition {
-                            crate::scene::Condition::BodyForce { .. } => {
+                            crate::case::Condition::BodyForce { .. } => {
                                 " on the particle masses ρ0 V"
                             }
                             _ => "",
@@ -469,7 +470,7 @@ fn discretisation_lines<D: crate::tensor::Dim>(case: &Case) -> Vec<String> {
 
 /// The per-load-step lines of a static run's plan: its load steps in pseudo-time and the
 /// Newton iterations of each; `rates` is what one evaluation of the method computes.
-fn load_step_lines(case: &Case, rates: &str) -> Vec<String> {
+fn load_step_lines(case: &Scene, rates: &str) -> Vec<String> {
     let dt = case
         .method
         .dt
@@ -494,7 +495,7 @@ fn load_step_lines(case: &Case, rates: &str) -> Vec<String> {
 
 /// The per-step lines of the plan: the integrator's program with the method's rate
 /// evaluations (the same on both backends).
-fn step_lines(case: &Case, gpu: bool, rates: &str) -> Vec<String> {
+fn step_lines(case: &Scene, gpu: bool, rates: &str) -> Vec<String> {
     let mut lines = vec![if gpu {
         "per step (one command encoder for all steps between host checks):".to_string()
     } else {

@@ -9,7 +9,7 @@ use crate::engine::BlowUp;
 use crate::observe::{Clock, Observers};
 use crate::output::series::read_column;
 use crate::output::{CheckResult, SeriesWriter};
-use crate::scene::Case;
+use crate::scene::Scene;
 use crate::tensor::Dim;
 use std::path::{Path, PathBuf};
 
@@ -28,7 +28,7 @@ impl Series {
     /// A new `series.csv` in `dir`, or, resumed, the one there cut to `resumed`'s length
     /// and its next sample time.
     pub(super) fn new(
-        case: &Case,
+        case: &Scene,
         dir: &Path,
         observers: Observers,
         resumed: Option<&checkpoint::Progress>,
@@ -149,7 +149,7 @@ pub(super) fn clear_previous_run(dir: &Path, name: &str) -> Result<(), RunError>
 
 /// The case's checks on the series written so far; a check whose column cannot be read
 /// has the value NaN.
-pub(super) fn evaluate_checks(case: &Case, series: &Path) -> Vec<CheckResult> {
+pub(super) fn evaluate_checks(case: &Scene, series: &Path) -> Vec<CheckResult> {
     case.output
         .checks
         .iter()

@@ -6,7 +6,7 @@ use super::batch::{Batch, Callback, End};
 use super::{Engine, Iteration, RunError, output_error};
 use crate::engine::BlowUp;
 use crate::output::SeriesWriter;
-use crate::scene::Case;
+use crate::scene::Scene;
 use crate::tensor::Dim;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::cell::Cell;
@@ -46,7 +46,7 @@ pub(super) struct Progress {
 }
 
 impl Progress {
-    pub(super) fn new(display: ProgressDisplay, case: &Case) -> Self {
+    pub(super) fn new(display: ProgressDisplay, case: &Scene) -> Self {
         let bar = if display == ProgressDisplay::Bar {
             let bar = ProgressBar::new(1000);
             bar.set_style(

@@ -1,35 +1,11 @@
 //! Loading a case: the file read, the `--set` overrides applied in order (with the rule
 //! for a change of `method.name`), the table parsed and validated.
 
-use super::{Case, overrides, validate};
-use crate::methods::drop_foreign_keys;
+use super::{Scene, overrides, validate};
+use crate::case::{Case, CaseError, read_capped};
+use crate::methods::{MethodTable, drop_foreign_keys};
 use serde::Deserialize;
-use std::path::{Path, PathBuf};
-use thiserror::Error;
-
-/// What is wrong with a case file.
-#[derive(Debug, Error)]
-pub enum CaseError {
-    #[error("{file}: cannot read: {source}")]
-    Read {
-        file: PathBuf,
-        source: std::io::Error,
-    },
-    #[error("{file}: {message}")]
-    Parse { file: PathBuf, message: String },
-    #[error("{file}: --set {assignment}: {message}")]
-    Override {
-        file: PathBuf,
-        assignment: String,
-        message: String,
-    },
-    #[error("{file}: key `{key}`: {message}")]
-    Invalid {
-        file: PathBuf,
-        key: String,
-        message: String,
-    },
-}
+use std::path::Path;
 
 /// `method.name` of a case table, if it is a string.
 fn method_name(table: &toml::Table) -> Option<String> {
@@ -67,27 +43,25 @@ fn method_change(method: &mut toml::Table, name: &str, overrides: &[String]) -> 
 /// goes in points and mesh files).
 const CASE_FILE_CAP: u64 = 16 << 20;
 
-impl Case {
+impl Scene {
     /// Reads, overrides (`key.path=value`) and validates a case file.
-    pub fn load(path: &Path, overrides: &[String]) -> Result<Case, CaseError> {
+    pub fn load(path: &Path, overrides: &[String]) -> Result<Scene, CaseError> {
         let text =
-            super::geometry::read_capped(path, CASE_FILE_CAP, "a case file").map_err(|source| {
-                CaseError::Read {
-                    file: path.to_path_buf(),
-                    source,
-                }
+            read_capped(path, CASE_FILE_CAP, "a case file").map_err(|source| CaseError::Read {
+                file: path.to_path_buf(),
+                source,
             })?;
         Self::from_toml(&text, path, overrides)
     }
 
     /// Parses case text; `file` names it in errors and anchors relative paths.
-    pub fn from_toml(text: &str, file: &Path, overrides: &[String]) -> Result<Case, CaseError> {
+    pub fn from_toml(text: &str, file: &Path, overrides: &[String]) -> Result<Scene, CaseError> {
         let parse_error = |e: toml::de::Error| CaseError::Parse {
             file: file.to_path_buf(),
             message: e.to_string().trim_end().to_string(),
         };
         let mut notes = Vec::new();
-        let mut case: Case = if overrides.is_empty() {
+        let mut case: Case<MethodTable> = if overrides.is_empty() {
             toml::from_str(text).map_err(parse_error)?
         } else {
             let mut table: toml::Table = toml::from_str(text).map_err(parse_error)?;
@@ -106,16 +80,17 @@ impl Case {
                     notes.extend(method_change(method, &name, overrides));
                 }
             }
-            Case::deserialize(table).map_err(parse_error)?
+            Case::<MethodTable>::deserialize(table).map_err(parse_error)?
         };
         case.notes = notes;
         case.file = file.to_path_buf();
         case.overrides = overrides.to_vec();
-        validate::check(&case).map_err(|(key, message)| CaseError::Invalid {
+        let scene = Scene::new(case);
+        validate::check(&scene).map_err(|(key, message)| CaseError::Invalid {
             file: file.to_path_buf(),
             key,
             message,
         })?;
-        Ok(case)
+        Ok(scene)
     }
 }

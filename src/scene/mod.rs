@@ -1,153 +1,113 @@
-//! Case files: the schema of `cases/*.toml`, loading with `--set` overrides, and validation.
+//! Case files: loading `cases/*.toml` with `--set` overrides, and validation.
 //!
 //! A case is parsed completely and validated before anything runs; every error names
-//! the file, the key and what is allowed.
-//!
-//! The schema has one file per section of the case (`material`, `body` with `fields`,
-//! `boundary`, `run`, `output`); this file holds the [`Case`] that gathers them. `load`
-//! reads a file and applies the overrides of `overrides`; `validate` checks the result;
-//! `geometry` samples the bodies into particles.
+//! the file, the key and what is allowed. The schema the file is read into is
+//! [`crate::case`]; this module adds what needs the method registry: `load` reads a file,
+//! applies the overrides of `overrides` and parts the `[method]` table into the keys the
+//! case keeps and the method's typed spec, which the [`Scene`] holds beside the case;
+//! `validate` checks the result, each method its own keys.
 
-mod body;
-mod boundary;
-mod expression;
-mod fields;
-mod geometry;
 mod load;
-pub mod mesh;
-mod output;
 mod overrides;
-mod polygon;
-mod run;
 pub(crate) mod validate;
 
-pub use crate::material::{MaterialSpec, Plane};
-pub use crate::mirror::{MirrorKind, MirrorSpec};
-pub use crate::tensor::Axis;
-pub use body::{
-    BodySpec, ContactSpec, Hole, Lattice, MeshNodes, RingLattice, Shape, VOLUME_TOLERANCE,
-    VelocityNoise, Volumes,
-};
-pub use boundary::{BoundarySpec, Condition, Region, Solution, Surface, TimeLaw};
-pub use expression::Expression;
-pub(crate) use fields::linear_field;
-pub use fields::{DisplacementField, VelocityField};
-pub use geometry::{BodySize, Discretised, PARTICLE_ID_LIMIT, discretise, estimate_particles};
-pub use load::CaseError;
-pub use output::{CheckSpec, Observer, OutputSpec, ProbeSpec, SectionSpec, Statistic};
-pub use run::{RunSpec, Solve};
+use crate::case::{Case, CaseError, fnv1a};
+use crate::engine::{CpuEngine, Method};
+use crate::methods::{MethodSpec, MethodTable, Runs};
+use crate::reference::Build;
+use crate::tensor::Dim;
+use std::ops::{Deref, DerefMut};
 
-use crate::methods::MethodTable;
-use serde::{Deserialize, Serialize};
-use std::path::{Path, PathBuf};
-
-/// A complete, validated scene description.
-#[derive(Clone, Debug, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct Case {
-    /// Scene name, used for output file names.
-    pub name: String,
-    #[serde(default)]
-    pub description: String,
-    /// 2 (plane strain) or 3.
-    pub dimension: u32,
-    /// Particle spacing Δx of the lattices that sample every body.
-    pub spacing: f64,
-    pub material: MaterialSpec,
-    pub method: MethodTable,
-    #[serde(rename = "body")]
-    pub bodies: Vec<BodySpec>,
-    #[serde(default, rename = "boundary")]
-    pub boundaries: Vec<BoundarySpec>,
-    /// Symmetry and skew-symmetry planes, closed by mirror (ghost) particles.
-    #[serde(default, rename = "mirror")]
-    pub mirrors: Vec<MirrorSpec>,
-    pub run: RunSpec,
-    #[serde(default)]
-    pub output: OutputSpec,
-    #[serde(default, rename = "probe")]
-    pub probes: Vec<ProbeSpec>,
-    /// Section-force observers: the resultant of P·N across a reference plane.
-    #[serde(default, rename = "section", skip_serializing_if = "Vec::is_empty")]
-    pub sections: Vec<SectionSpec>,
-    /// Penalty contact between the bodies (2D).
-    pub contact: Option<ContactSpec>,
-    /// The case file, named in errors; relative paths inside it are relative to its folder.
-    #[serde(skip)]
-    pub file: PathBuf,
-    /// What loading changed beyond the file and the overrides (keys dropped by a change
-    /// of method), for the command line to show.
-    #[serde(skip)]
-    pub notes: Vec<String>,
-    /// The `--set` overrides applied to the file, in order.
-    #[serde(skip)]
-    pub overrides: Vec<String>,
+/// A loaded case with its method's typed spec: what the driver holds. It dereferences to
+/// the [`Case`] every layer reads; the spec reaches the method's hooks through the
+/// registry ([`MethodSpec`]).
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub case: Case,
+    /// The method's own keys, typed.
+    pub spec: MethodSpec,
+    /// Keys of other methods found in the `[method]` table (well-typed for those
+    /// methods), which validation reports with the methods that read them.
+    pub foreign: Vec<String>,
 }
 
-impl Case {
-    pub fn dim(&self) -> usize {
-        self.dimension as usize
-    }
-
-    /// The smoothing length h = h_over_dx · Δx.
-    /// Whether the run solves for static equilibrium load step by load step: `run.solve
-    /// = "static"`, or a static-only method.
-    pub fn is_static(&self) -> bool {
-        match self.run.solve {
-            Some(solve) => solve == Solve::Static,
-            None => self
-                .method
-                .spec
-                .entry()
-                .features
-                .contains(&crate::methods::Feature::StaticDefault),
+impl Scene {
+    /// The scene of a case read with the registry's `[method]` table.
+    fn new(case: Case<MethodTable>) -> Self {
+        let keys = case.method.keys();
+        let (case, table) = case.with_method(keys);
+        Self {
+            case,
+            spec: table.spec,
+            foreign: table.foreign,
         }
     }
 
-    pub fn smoothing_length(&self) -> f64 {
-        self.method.h_over_dx * self.spacing
+    /// The case with its whole `[method]` table, the method's own keys with the common
+    /// ones, as the run's summary records it.
+    pub fn resolved(&self) -> Case<MethodTable> {
+        let table = MethodTable::of(&self.case.method, &self.spec);
+        self.case.clone().with_method(table).0
     }
 
-    /// The case's kernel in `dim` dimensions.
-    pub fn kernel(&self, dim: usize) -> crate::kernel::Kernel {
-        crate::kernel::Kernel::new(self.method.kernel, self.smoothing_length(), dim)
-    }
-
-    /// A hash of everything in the case but its end time: a checkpoint of a run of this
-    /// case, or of the same case run longer, has it.
+    /// A hash of everything in the case (the method's keys with it) but its end time: a
+    /// checkpoint of a run of this case, or of the same case run longer, has it.
     pub fn fingerprint(&self) -> u64 {
-        let mut case = self.clone();
+        let mut case = self.resolved();
         case.run.end_time = 0.0;
         fnv1a(toml::to_string(&case).unwrap_or_default().as_bytes())
     }
 
-    /// Folder that relative paths in the case are resolved against.
-    pub fn base_dir(&self) -> &Path {
-        self.file.parent().unwrap_or(Path::new("."))
-    }
-
-    /// An error about `key` in this case's file.
-    pub fn invalid(&self, key: impl Into<String>, message: impl Into<String>) -> CaseError {
-        CaseError::Invalid {
-            file: self.file.clone(),
-            key: key.into(),
-            message: message.into(),
-        }
+    /// The p-wave speed that sets the CFL step: the material's, or that of the method's
+    /// own (a mixed method's artificial compressibility).
+    pub fn step_wave_speed(&self) -> f64 {
+        self.spec
+            .step_wave_speed(&crate::material::Material::new(&self.material))
     }
 }
 
-/// 64-bit FNV-1a: a hash that stays the same across Rust versions and platforms.
-pub fn fnv1a(bytes: &[u8]) -> u64 {
-    fnv1a_extend(FNV_OFFSET, bytes)
+impl Deref for Scene {
+    type Target = Case;
+    fn deref(&self) -> &Case {
+        &self.case
+    }
 }
 
-/// FNV-1a's starting value.
-pub const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
+impl DerefMut for Scene {
+    fn deref_mut(&mut self) -> &mut Case {
+        &mut self.case
+    }
+}
 
-/// The FNV-1a hash `h` of some bytes extended by `bytes`: a change of any one byte
-/// changes the hash, as each byte's step is a bijection of the state.
-pub fn fnv1a_extend(h: u64, bytes: &[u8]) -> u64 {
-    bytes.iter().fold(h, |h, &b| {
-        (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
-    })
+/// Builds the CPU system `M` of a scene's method on its reference configuration; an
+/// error if the method does not run `M`.
+pub fn build_method<D: Dim, M: Build<D>>(scene: &Scene) -> Result<M, CaseError>
+where
+    M::Spec: Runs,
+{
+    let spec = M::Spec::spec_of(&scene.spec).ok_or_else(|| {
+        scene.invalid(
+            "method.name",
+            format!(
+                "{} does not run `{}`",
+                std::any::type_name::<M>(),
+                scene.method.name
+            ),
+        )
+    })?;
+    crate::reference::build_method::<D, M>(scene, spec)
+}
+
+/// The CPU engine of the system `M` of a scene's method, stepped by the case's
+/// integrator; an error if the method does not run `M`.
+pub fn cpu_engine<D: Dim, M: Method<D> + Build<D>>(
+    scene: &Scene,
+) -> Result<CpuEngine<D, M>, CaseError>
+where
+    M::Spec: Runs,
+{
+    Ok(CpuEngine::with(
+        build_method(scene)?,
+        scene.method.integrator,
+    ))
 }

@@ -16,7 +16,7 @@
 //! For the linear-elastic model the force is linear in u, and two Newton iterations reach
 //! the discrete equilibrium to round-off (the cantilever of seed 001: a relative residual
 //! of 1e-6 after the first, 3e-11 after the second); other state models iterate with this
-//! stiffness at every iterate, until `run.tolerance` ([`super::Tolerance`]).
+//! stiffness at every iterate, until `run.tolerance` ([`crate::case::Tolerance`]).
 //!
 //! A method that knows its stiffness in closed form ([`ClosedForm`]: the total-Lagrangian
 //! Galerkin methods on a model with a tangent 𝔸 = ∂P/∂F) assembles it instead, on the
@@ -25,12 +25,12 @@
 
 use super::sparse::{BlockPattern, Linear};
 use super::{Linearisation, Model, Newton, Setup, Statics};
+use crate::case::{Case, CaseError};
 use crate::engine::{BlowUp, CpuEngine, Engine, EngineDim, Method};
 use crate::kernel::neighbour_radius;
 use crate::neighbour;
 use crate::observe::Snapshot;
 use crate::reference::{Build, Reference, build_method};
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 
 /// A method whose force depends on the displacement alone (a state model), so that a
@@ -68,12 +68,13 @@ pub trait ClosedForm<D: Dim> {
 /// static (`run.solve = "static"`), the method with its integrator otherwise.
 pub fn cpu_engine<D: EngineDim, M: AtRest<D> + 'static>(
     case: &Case,
+    spec: &M::Spec,
 ) -> Result<Box<dyn Engine<D>>, CaseError> {
     Ok(if case.is_static() {
-        Box::new(Statics::<D, Explicit<D, M>>::new(case)?)
+        Box::new(Statics::<D, Explicit<D, M>>::new(case, spec)?)
     } else {
         Box::new(CpuEngine::with(
-            build_method::<D, M>(case)?,
+            build_method::<D, M>(case, spec)?,
             case.method.integrator,
         ))
     })
@@ -103,7 +104,7 @@ pub struct Explicit<D: Dim, M: AtRest<D>> {
 impl<D: Dim, M: AtRest<D>> Statics<D, Explicit<D, M>> {
     /// The method on the case's reference configuration, the stiffness's pattern and
     /// column groups, and the free system (sparse LU).
-    pub fn new(case: &Case) -> Result<Self, CaseError> {
+    pub fn new(case: &Case, spec: &M::Spec) -> Result<Self, CaseError> {
         let mut reference = Reference::<D>::build(case)?;
         let boundary = reference.boundary.clone();
         // The method keeps the loads but not the constraints, which the engine holds: its
@@ -112,7 +113,7 @@ impl<D: Dim, M: AtRest<D>> Statics<D, Explicit<D, M>> {
         reference.boundary.constrained.clear();
         reference.boundary.prescribed.clear();
         reference.boundary.displacement.clear();
-        let method = M::build(case, reference)?;
+        let method = M::build(case, spec, reference)?;
         let (x0, mass) = (method.reference(), method.mass());
         let full = (1u8 << D::N) - 1;
         let mut held = vec![0u8; x0.len()];
@@ -169,7 +170,7 @@ fn unreached<D: Dim, M: AtRest<D>>(case: &Case, method: &M, a: usize) -> CaseErr
              a boundary condition",
             D::to3(method.reference()[a]),
             case.bodies[b].name,
-            case.method.name()
+            case.method.name
         ),
     )
 }

@@ -12,11 +12,10 @@ pub mod sparse;
 
 use crate::balance::Booked;
 use crate::boundary::{Boundary, Reaction};
+use crate::case::{Case, CaseError};
 use crate::engine::{BlowUp, Engine, Failed, Iteration};
 use crate::observe::Snapshot;
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
-use serde::{Deserialize, Serialize};
 use sparse::{BlockPattern, Fill, FreeSystem, Linear, SolveError, SolveStats};
 use std::time::Instant;
 
@@ -114,88 +113,10 @@ struct Stalled {
 /// value, which cutting the step cures) or to be still converging.
 const ROUND_OFF_DROP: f64 = 1e-6;
 
-/// `run.tolerance`: when Newton's iteration of a load step has converged, for every
-/// static engine. A load step has converged when
-///
-/// - |R| ≤ `residual` × the force scale, |R| the residual on the free components, or
-/// - |Δu| ≤ `increment` × |u|, the last Newton correction against the displacement
-///   (all components), after at least one solve.
-///
-/// **The force scale** is √(|λ f_ext|² + |r|² + |f_int|²) at the current iterate, over all
-/// components: the applied loads, the supports' reactions r = −(f_int + λ f_ext) on the
-/// prescribed components, and the internal force. Under loads alone the first is the
-/// load; under prescribed displacements alone (no f_ext) the second is the force that
-/// moves them; the third is the size of the stresses the residual is computed from,
-/// which balance both and whose round-off the residual carries. So the scale is never
-/// near zero for a loaded problem, whichever way it is loaded. It lies within √3 of the
-/// largest of the three (at equilibrium |f_int| holds most of the other two); the root of
-/// the sum of squares rather than the largest alone keeps it at least the scale the
-/// static path had before (√(|λ f_ext|² + |f_int|²)), so that no solve that converged
-/// then fails now. One number per iterate, not per particle: interior particles carry no
-/// load and would divide by ~0.
-///
-/// **Why the defaults are these sizes.** The residual of a converged solve does not fall
-/// to 1e-16 of the force scale. Every method computes its stress from F = I + H, whose
-/// entries of size 1 hold a strain H ~ ε to 1e-16 absolute, 1e-16/ε relative; the
-/// residual, a sum over neighbours of such stresses that cancel, stalls near 1e-15/ε of
-/// the force scale. Measured on a steel cantilever (E = 2e11 Pa) at a peak strain of
-/// 1e-6 (`tests/it/static_tolerance.rs`): 8e-10 to 9e-10 with `tl-fem`, 2e-10 to 4e-10
-/// with `efg`, `kbm`, `tlsph`, `tl-weak-form` and `dual-support-sph`; 64 times that at
-/// 1/64 of the load. The former fixed 1e-10 lay below that floor, and the run failed.
-/// [`Tolerance::RESIDUAL`] = 1e-8 lies a decade above the largest floor at 1e-6, so the
-/// residual alone ends solves at strains down to ~1e-7; on neo-Hookean rubber stretched
-/// 500 % (floor ~1e-14) it is met one or two iterations after quadratic convergence sets
-/// in, and the support reactions agree with those of a solve to 1e-13 within 2e-12. A
-/// tighter default would fail realistic small-strain parts; a looser one would gain
-/// nothing on a nonlinear solve, whose quadratic step from 1e-8 to round-off is a single
-/// iteration, and leave its linear convergence (finite-difference tangents, the GPU's
-/// f32 Krylov steps) further from the solution. The increment criterion ends a solve at
-/// round-off where the residual cannot: at the floor Newton's corrections are the
-/// round-off of u, |Δu|/|u| ~ 1e-17/ε (measured 1.5e-12 to 1.4e-11 at ε = 1e-6), so
-/// [`Tolerance::INCREMENT`] = 1e-10 stops a stalled solve at strains down to ~1e-7 as
-/// well, with u exact to about ten digits, yet lies far below any correction of a solve
-/// still converging (the former 1e-12 lay below the floor of 1e-6 strains).
-#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct Tolerance {
-    /// |R| ≤ this × the force scale; absent: [`Tolerance::RESIDUAL`].
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub residual: Option<f64>,
-    /// |Δu| ≤ this × |u|; absent: [`Tolerance::INCREMENT`].
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub increment: Option<f64>,
-}
-
-impl Tolerance {
-    /// The default of `run.tolerance.residual` (see the type's notes for its size).
-    pub const RESIDUAL: f64 = 1e-8;
-    /// The default of `run.tolerance.increment` (see the type's notes for its size).
-    pub const INCREMENT: f64 = 1e-10;
-    /// The smallest value either key takes: the double-precision epsilon, below which no
-    /// residual or increment computed in f64 can fall (but exactly to zero).
-    pub const SMALLEST: f64 = f64::EPSILON;
-
-    /// The residual tolerance, given or default.
-    pub fn residual(&self) -> f64 {
-        self.residual.unwrap_or(Self::RESIDUAL)
-    }
-
-    /// The increment tolerance, given or default.
-    pub fn increment(&self) -> f64 {
-        self.increment.unwrap_or(Self::INCREMENT)
-    }
-
-    /// Neither key given (the table is then left out of the case's serialisation, so that
-    /// a case's fingerprint does not change with it).
-    pub fn is_unset(&self) -> bool {
-        self.residual.is_none() && self.increment.is_none()
-    }
-}
-
 /// Newton settings.
 #[derive(Clone, Copy, Debug)]
 pub struct Newton {
-    /// Stop when |R| ≤ this × the force scale ([`Tolerance`]).
+    /// Stop when |R| ≤ this × the force scale ([`crate::case::Tolerance`]).
     pub residual_tolerance: f64,
     /// … or when |Δu| ≤ this × |u|.
     pub increment_tolerance: f64,
@@ -397,7 +318,7 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
     }
 
     /// R = f_int + λ f_ext on the free components, |R| and |R| over the force scale
-    /// √(|λ f_ext|² + |r|² + |f_int|²) of [`Tolerance`], r the reactions on the prescribed
+    /// √(|λ f_ext|² + |r|² + |f_int|²) of [`crate::case::Tolerance`], r the reactions on the prescribed
     /// components (zero where the scale is).
     fn residual(&self, f_int: &[D::V], lambda: f64) -> (Vec<f64>, f64, f64) {
         let d = D::N;
@@ -438,7 +359,7 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
     /// Solves for equilibrium at pseudo-time t from the current state (Newton–Raphson):
     /// the prescribed components are moved to their values at t, then K Δu = R on the
     /// free components until |R| ≤ residual_tolerance · (force scale) or
-    /// |Δu| ≤ increment_tolerance · |u| ([`Tolerance`]). Returns the iterations, or why
+    /// |Δu| ≤ increment_tolerance · |u| ([`crate::case::Tolerance`]). Returns the iterations, or why
     /// it stalled.
     fn solve_at(&mut self, t: f64) -> Result<u32, Stalled> {
         let lambda = t / self.end_time;

@@ -8,7 +8,7 @@ use crate::engine::{BlowUp, Engine, EngineDim, Failed};
 use crate::observe::{Invariants, Snapshot};
 use crate::output::RunSummary;
 use crate::run::{Backend, RunError, RunOptions, budget, drive, engine, may_use_gpu, with_threads};
-use crate::scene::Case;
+use crate::scene::Scene;
 use crate::tensor::{D2, D3, Dim};
 use std::marker::PhantomData;
 use std::time::Instant;
@@ -162,7 +162,7 @@ pub struct Outcome {
 }
 
 /// Runs a case on a backend (no frames, no progress bar) and reads its final state.
-pub fn run_case(case: &Case, backend: Backend, opts: &RunOptions) -> Outcome {
+pub fn run_case(case: &Scene, backend: Backend, opts: &RunOptions) -> Outcome {
     with_threads(case, || match case.dimension {
         2 => run_dim::<D2>(case, backend, opts),
         _ => run_dim::<D3>(case, backend, opts),
@@ -180,7 +180,7 @@ fn failed(error: RunError) -> Outcome {
     }
 }
 
-fn run_dim<D: EngineDim>(case: &Case, backend: Backend, opts: &RunOptions) -> Outcome {
+fn run_dim<D: EngineDim>(case: &Scene, backend: Backend, opts: &RunOptions) -> Outcome {
     let started = Instant::now();
     if let Err(e) = budget::check(case, may_use_gpu(case, backend), &opts.limits) {
         return failed(e.into());
@@ -192,7 +192,7 @@ fn run_dim<D: EngineDim>(case: &Case, backend: Backend, opts: &RunOptions) -> Ou
 }
 
 fn drive_tracked<D: Dim, E: Engine<D>>(
-    case: &Case,
+    case: &Scene,
     opts: &RunOptions,
     engine: &mut E,
     started: Instant,

@@ -2,10 +2,11 @@
 //! final state of a converged run matched by reference position.
 
 use crate::analytic::{Exact, SwingingMode};
+use crate::case::VelocityField;
 use crate::material::Material;
 use crate::observe::Snapshot;
 use crate::plasticity::PLASTIC_STRAIN;
-use crate::scene::{Case, VelocityField};
+use crate::scene::Scene;
 use crate::tensor::Dim;
 use std::collections::HashMap;
 use std::io::{BufRead, Write};
@@ -145,7 +146,7 @@ pub use crate::analytic::relative_l2;
 /// components are zero in the exact solution but depend on the constitutive model).
 pub fn analytic_fields(
     solution: super::suite::AnalyticSolution,
-    case: &Case,
+    case: &Scene,
     state: &FinalState,
     t: f64,
 ) -> Result<(Vec<f64>, Vec<f64>), String> {
@@ -167,7 +168,7 @@ pub fn analytic_fields(
 }
 
 /// Axial stress d·P·d of a state (the rod pulse's stress measure).
-pub fn axial_stress(state: &FinalState, case: &Case) -> Vec<f64> {
+pub fn axial_stress(state: &FinalState, case: &Scene) -> Vec<f64> {
     let dir = match case
         .bodies
         .first()

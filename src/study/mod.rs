@@ -349,7 +349,7 @@ fn within_time_limit<T>(limit: Duration, opts: &RunOptions, run: impl FnOnce() -
 /// the reference measures no field).
 fn errors(
     suite: &Suite,
-    case: &crate::scene::Case,
+    case: &crate::scene::Scene,
     state: &FinalState,
     time: f64,
     reference: Option<&FinalState>,

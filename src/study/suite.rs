@@ -1,7 +1,8 @@
 //! Suite files (`cases/studies/*.toml`): a base case, variants, a sweep and a reference,
 //! expanded into the runs of a study.
 
-use crate::scene::{Case, CaseError};
+use crate::case::CaseError;
+use crate::scene::Scene;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
@@ -257,7 +258,7 @@ pub struct PlannedRun {
     /// All overrides of the run, in order.
     pub overrides: Vec<String>,
     /// The resolved case, or why it is invalid.
-    pub case: Result<Box<Case>, String>,
+    pub case: Result<Box<Scene>, String>,
 }
 
 impl Suite {
@@ -423,9 +424,9 @@ impl Suite {
                         .chain([format!("{}={}", self.sweep.key, value)])
                         .chain(fixed_h)
                         .collect();
-                    let case = Case::load(&path, &overrides).map_err(|e| e.to_string());
+                    let case = Scene::load(&path, &overrides).map_err(|e| e.to_string());
                     let identity = match &case {
-                        Ok(c) => toml::to_string(c).unwrap_or_else(|e| e.to_string()),
+                        Ok(c) => toml::to_string(&c.resolved()).unwrap_or_else(|e| e.to_string()),
                         Err(_) => format!("{}\n{}", path.display(), overrides.join("\n")),
                     };
                     runs.push(PlannedRun {
@@ -473,4 +474,4 @@ fn number(v: &Value) -> f64 {
     }
 }
 
-pub use crate::scene::fnv1a;
+pub use crate::case::fnv1a;

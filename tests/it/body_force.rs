@@ -2,9 +2,10 @@
 //! CPU and on the GPU engines, against the exact free fall of an unsupported body.
 
 use crate::common::{largest_v, material_and_method};
+use meshless::case::CaseError;
 use meshless::methods::REGISTRY;
 use meshless::run::{Backend, Engine, engine};
-use meshless::scene::{Case, CaseError};
+use meshless::scene::Scene;
 use meshless::tensor::{D2, Dim};
 use std::path::Path;
 
@@ -29,7 +30,7 @@ fn g_norm() -> f64 {
 /// 0.03), run in time, under the body force `condition`, with `method` and its defaults: h/Δx = 1.3
 /// where it has a kernel, neo-Hookean, or hypoelastic for the updated-Lagrangian
 /// methods that integrate a stress rate.
-fn ring(method: &str, condition: &str) -> Result<Case, CaseError> {
+fn ring(method: &str, condition: &str) -> Result<Scene, CaseError> {
     let model = match method {
         "gray-monaghan-sph" | "godunov-sph" | "ul-weak-form" | "ul-fem" => "hypoelastic",
         _ => "neo-hookean",
@@ -52,7 +53,7 @@ end_time = 1.0e-3
 solve = "dynamic"
 "#
     );
-    Case::from_toml(&text, Path::new("falling-ring.toml"), &[])
+    Scene::from_toml(&text, Path::new("falling-ring.toml"), &[])
 }
 
 /// Every method, stepping in time (dual-support SPH's dynamic variant too).
@@ -233,7 +234,7 @@ fn a_body_force_with_a_wrong_vector_or_a_time_law_on_the_static_path_is_refused_
         infinite.contains("boundary.0.condition.acceleration"),
         "{infinite}"
     );
-    let ramped = Case::load(
+    let ramped = Scene::load(
         &crate::common::case_file("beam-gravity"),
         &["boundary.1.condition.law={ type = \"ramp\", duration = 1.0 }".to_string()],
     )

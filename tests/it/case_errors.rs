@@ -5,7 +5,8 @@
 //! the other tests cannot pass merely because everything fails.
 
 use crate::common::{cases_dir, toml_files};
-use meshless::scene::{Case, CaseError};
+use meshless::case::CaseError;
+use meshless::scene::Scene;
 use meshless::tensor::D2;
 use std::path::Path;
 
@@ -97,7 +98,7 @@ fn edit(base: &str, from: &str, to: &str) -> String {
 /// Display text of the error for `text` with `overrides`; panics if the case loads.
 fn error_with(text: &str, overrides: &[&str]) -> (CaseError, String) {
     let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
-    match Case::from_toml(text, Path::new(FILE), &overrides) {
+    match Scene::from_toml(text, Path::new(FILE), &overrides) {
         Ok(_) => panic!("bad case was accepted:\n{text}"),
         Err(e) => {
             let shown = e.to_string();
@@ -136,7 +137,7 @@ fn assert_invalid(text: &str, key: &str, parts: &[&str]) {
 
 #[test]
 fn valid_minimal_case_loads() {
-    let case = Case::from_toml(VALID, Path::new(FILE), &[]).expect("minimal case is valid");
+    let case = Scene::from_toml(VALID, Path::new(FILE), &[]).expect("minimal case is valid");
     assert_eq!(case.name, "minimal");
     assert_eq!(case.dim(), 2);
     assert_eq!(case.bodies.len(), 1);
@@ -147,7 +148,7 @@ fn valid_minimal_case_loads() {
 
 #[test]
 fn valid_3d_case_with_boundaries_and_probes_loads() {
-    let case = Case::from_toml(VALID_3D, Path::new(FILE), &[]).expect("3D case is valid");
+    let case = Scene::from_toml(VALID_3D, Path::new(FILE), &[]).expect("3D case is valid");
     assert_eq!(case.dim(), 3);
     assert_eq!(case.boundaries.len(), 3);
     assert_eq!(case.probes.len(), 1);
@@ -158,7 +159,7 @@ fn valid_case_loads_from_file_with_override() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("ok.toml");
     std::fs::write(&path, VALID).unwrap();
-    let case = Case::load(&path, &["method.dt=2e-5".to_string()]).expect("valid");
+    let case = Scene::load(&path, &["method.dt=2e-5".to_string()]).expect("valid");
     assert_eq!(case.method.dt, Some(2e-5));
     assert_eq!(case.base_dir(), dir.path());
 }
@@ -211,7 +212,7 @@ fn wrong_material_model_lists_allowed_models() {
 fn plane_stress_is_2d_and_for_the_models_linear_in_their_strain() {
     let stress = "poisson_ratio = 0.3\nplane = \"stress\"";
     let plane_stress = edit(VALID, "poisson_ratio = 0.3", stress);
-    Case::from_toml(&plane_stress, Path::new(FILE), &[]).unwrap();
+    Scene::from_toml(&plane_stress, Path::new(FILE), &[]).unwrap();
     assert_invalid(
         &edit(&plane_stress, "\"hypoelastic\"", "\"neo-hookean\""),
         "material.plane",
@@ -580,7 +581,7 @@ fn set_on_a_file_reports_the_file_path() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("beam.toml");
     std::fs::write(&path, VALID).unwrap();
-    let e = Case::load(&path, &["method.dt=-1".to_string()]).unwrap_err();
+    let e = Scene::load(&path, &["method.dt=-1".to_string()]).unwrap_err();
     let shown = e.to_string();
     assert_mentions(
         &shown,
@@ -597,7 +598,7 @@ fn invalid_file_reports_its_path_and_key() {
         edit(VALID, "poisson_ratio = 0.3", "poisson_ratio = 0.5"),
     )
     .unwrap();
-    let shown = Case::load(&path, &[]).unwrap_err().to_string();
+    let shown = Scene::load(&path, &[]).unwrap_err().to_string();
     assert_mentions(
         &shown,
         &[
@@ -622,7 +623,7 @@ fn a_velocity_on_a_fixed_support_is_refused() {
 fn missing_file_is_named() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("does-not-exist.toml");
-    let e = Case::load(&path, &[]).unwrap_err();
+    let e = Scene::load(&path, &[]).unwrap_err();
     assert!(matches!(e, CaseError::Read { .. }), "{e}");
     assert_mentions(&e.to_string(), &["does-not-exist.toml", "cannot read"]);
 }
@@ -633,14 +634,14 @@ fn missing_file_is_named() {
 fn a_case_path_that_is_not_a_bounded_regular_file_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     for path in [Path::new("/dev/zero"), dir.path()] {
-        let e = Case::load(path, &[]).unwrap_err();
+        let e = Scene::load(path, &[]).unwrap_err();
         assert!(matches!(e, CaseError::Read { .. }), "{e}");
         assert_mentions(&e.to_string(), &["cannot read", "not a regular file"]);
     }
     let big = dir.path().join("big.toml");
     let file = std::fs::File::create(&big).unwrap();
     file.set_len((16 << 20) + 1).unwrap();
-    let e = Case::load(&big, &[]).unwrap_err().to_string();
+    let e = Scene::load(&big, &[]).unwrap_err().to_string();
     assert_mentions(
         &e,
         &["big.toml", "larger than 16777216 bytes", "a case file"],
@@ -662,7 +663,7 @@ fn mixed_method_rejects_rate_models_plain_gradients_and_viscosity() {
         "h_over_dx = 1.3",
         "h_over_dx = 1.3\ncorrection = \"cgck\"",
     );
-    Case::from_toml(&mixed, Path::new(FILE), &[]).expect("a valid mixed case");
+    Scene::from_toml(&mixed, Path::new(FILE), &[]).expect("a valid mixed case");
     assert_invalid(
         &edit(
             &mixed,
@@ -692,7 +693,7 @@ fn mixed_method_rejects_rate_models_plain_gradients_and_viscosity() {
         &["jst-sph"],
     );
     let linear = "cfl = 0.3\ncfl_wave_speed = \"linear\"";
-    Case::from_toml(&edit(&mixed, "dt = 1e-5", linear), Path::new(FILE), &[])
+    Scene::from_toml(&edit(&mixed, "dt = 1e-5", linear), Path::new(FILE), &[])
         .expect("C_p^Lin with a CFL step");
     assert_invalid(
         &edit(
@@ -742,7 +743,7 @@ fn mirror_planes_are_checked() {
         "h_over_dx = 1.3",
         "h_over_dx = 1.3\ncorrection = \"cgck\"",
     );
-    Case::from_toml(&format!("{mixed}{plane}"), Path::new(FILE), &[]).expect("a valid mirror");
+    Scene::from_toml(&format!("{mixed}{plane}"), Path::new(FILE), &[]).expect("a valid mirror");
     assert_invalid(
         &format!("{mixed}{}", plane.replace("\"x\"", "\"z\"")),
         "mirror.0.normal",
@@ -794,7 +795,7 @@ fn two_blocks(penalty: &str) -> String {
 
 #[test]
 fn contact_needs_a_penalty_in_range_2d_and_two_bodies() {
-    Case::from_toml(&two_blocks("0.1"), Path::new(FILE), &[]).expect("valid contact");
+    Scene::from_toml(&two_blocks("0.1"), Path::new(FILE), &[]).expect("valid contact");
     assert_invalid(
         &two_blocks("1.5"),
         "contact.penalty",
@@ -814,7 +815,7 @@ fn contact_needs_a_penalty_in_range_2d_and_two_bodies() {
         "h_over_dx = 1.3\ncorrection = \"cgck\"",
     );
     // Contact is an interaction of the scene, which every method runs.
-    Case::from_toml(&mixed, Path::new(FILE), &[]).expect("contact under jst-sph");
+    Scene::from_toml(&mixed, Path::new(FILE), &[]).expect("contact under jst-sph");
     let spun = edit(VALID_3D, "\n[run]", "\n[contact]\npenalty = 0.1\n\n[run]");
     assert_invalid(&spun, "contact", &["2D", "3D"]);
 }
@@ -823,7 +824,7 @@ fn contact_needs_a_penalty_in_range_2d_and_two_bodies() {
 fn contact_between_bodies_that_a_kernel_spans_is_rejected() {
     // The lid 0.1 m (one Δx) above the block: within the support 2h = 0.26 m.
     let close = edit(&two_blocks("0.1"), "min = [0.0, 1.0]", "min = [0.0, 0.6]");
-    let case = Case::from_toml(&close, Path::new(FILE), &[]).expect("parses and validates");
+    let case = Scene::from_toml(&close, Path::new(FILE), &[]).expect("parses and validates");
     let e = match meshless::run::build_method::<D2, meshless::methods::tlsph::Tlsph<D2>>(&case) {
         Ok(_) => panic!("bodies within the kernel support were accepted"),
         Err(e) => e.to_string(),
@@ -855,7 +856,7 @@ fn the_plastic_model_needs_its_hardening_and_a_mixed_method() {
         "model = \"hypoelastic\"",
         "model = \"von-mises-plastic\"\nyield_stress = 1e5\nhardening_modulus = 1e4",
     );
-    Case::from_toml(&plastic, Path::new(FILE), &[]).expect("a valid plastic case");
+    Scene::from_toml(&plastic, Path::new(FILE), &[]).expect("a valid plastic case");
     assert_invalid(
         &edit(&plastic, "yield_stress = 1e5\n", ""),
         "material.yield_stress",
@@ -881,7 +882,7 @@ fn the_plastic_model_needs_its_hardening_and_a_mixed_method() {
         "hardening_modulus = 1e4",
         "hardening_modulus = -1e5",
     );
-    Case::from_toml(&softening, Path::new(FILE), &[]).expect("a softening plastic case");
+    Scene::from_toml(&softening, Path::new(FILE), &[]).expect("a softening plastic case");
     assert_invalid(
         &edit(
             &plastic,
@@ -915,7 +916,7 @@ fn the_mooney_rivlin_model_takes_c1_c2_and_lambda_instead_of_e_and_nu() {
         elastic,
         constants,
     );
-    Case::from_toml(&rubber, Path::new(FILE), &[]).expect("a valid Mooney–Rivlin case");
+    Scene::from_toml(&rubber, Path::new(FILE), &[]).expect("a valid Mooney–Rivlin case");
     assert_invalid(
         &edit(
             &rubber,
@@ -968,7 +969,7 @@ fn time_laws_and_pressures_are_checked() {
     let traction = "[[boundary]]\nregion = { x_min = 1.0 }\ncondition = { type = \"traction\", \
                     traction = [1e4, 0.0], law = LAW }\n\n[run]";
     let with_law = |law: &str| edit(VALID, "[run]", &traction.replace("LAW", law));
-    Case::from_toml(
+    Scene::from_toml(
         &with_law("{ type = \"exponential\", tau = 1e-4 }"),
         Path::new(FILE),
         &[],
@@ -1035,10 +1036,10 @@ fn every_shipped_case_validates_and_discretises() {
     // or a geometry that holds no particle fails here, before any run.
     let mut count = 0;
     for path in toml_files(&cases_dir()) {
-        let case = Case::load(&path, &[]).unwrap_or_else(|e| panic!("{e}"));
+        let case = Scene::load(&path, &[]).unwrap_or_else(|e| panic!("{e}"));
         let particles = match case.dimension {
-            2 => meshless::scene::discretise::<D2>(&case).map(|d| d.x0.len()),
-            _ => meshless::scene::discretise::<meshless::tensor::D3>(&case).map(|d| d.x0.len()),
+            2 => meshless::case::discretise::<D2>(&case).map(|d| d.x0.len()),
+            _ => meshless::case::discretise::<meshless::tensor::D3>(&case).map(|d| d.x0.len()),
         }
         .unwrap_or_else(|e| panic!("{e}"));
         assert!(particles > 0, "{}: no particle", path.display());
@@ -1060,8 +1061,8 @@ fn points_error(file: &Path) -> String {
             file.display().to_string()
         ),
     );
-    let case = Case::from_toml(&text, Path::new(FILE), &[]).expect("the file validates");
-    match meshless::scene::discretise::<D2>(&case) {
+    let case = Scene::from_toml(&text, Path::new(FILE), &[]).expect("the file validates");
+    match meshless::case::discretise::<D2>(&case) {
         Ok(_) => panic!("{} was sampled", file.display()),
         Err(e) => e.to_string(),
     }
@@ -1094,7 +1095,7 @@ fn points_files_are_regular_files_whose_text_errors_never_echo() {
 
 /// The error of building `text`'s reference configuration (None if it builds).
 fn reference_error(text: &str) -> Option<String> {
-    let case = Case::from_toml(text, Path::new(FILE), &[]).expect("the file validates");
+    let case = Scene::from_toml(text, Path::new(FILE), &[]).expect("the file validates");
     meshless::reference::Reference::<D2>::build(&case)
         .err()
         .map(|e| e.to_string())
@@ -1221,7 +1222,7 @@ fn reaction_and_section_observers_name_their_errors() {
 
 /// The error of running `text` on the CPU, where it loads but is refused at set-up.
 fn setup_error(text: &str) -> String {
-    let case = Case::from_toml(text, Path::new(FILE), &[]).expect("the file validates");
+    let case = Scene::from_toml(text, Path::new(FILE), &[]).expect("the file validates");
     let dir = tempfile::tempdir().unwrap();
     match meshless::run::run(&case, &crate::common::cpu_options(dir.path(), false)) {
         Ok(_) => panic!("the run went ahead:\n{text}"),
@@ -1244,7 +1245,7 @@ fn probes_and_sections_outside_the_bodies_are_refused() {
     assert_mentions(&shown, &[FILE, "section.0.at", "no particle"]);
     let dir = tempfile::tempdir().unwrap();
     let short = |text: String| {
-        let case = Case::from_toml(&text, Path::new(FILE), &["run.end_time=1e-5".into()])
+        let case = Scene::from_toml(&text, Path::new(FILE), &["run.end_time=1e-5".into()])
             .expect("the file validates");
         meshless::run::run(&case, &crate::common::cpu_options(dir.path(), false))
     };
@@ -1269,7 +1270,7 @@ fn artificial_compressibility_alone_takes_nu_one_half_and_checks_its_keys() {
     );
     let with = |table: &str| edit(&incompressible, "cfl = 0.3", &format!("cfl = 0.3\n{table}"));
     let ac = with("artificial_compressibility = {}");
-    Case::from_toml(&ac, Path::new(FILE), &[]).expect("ν = 0.5 with artificial compressibility");
+    Scene::from_toml(&ac, Path::new(FILE), &[]).expect("ν = 0.5 with artificial compressibility");
     let key = "method.artificial_compressibility";
     for (table, key, parts) in [
         ("{ kappa = -1.0 }", format!("{key}.kappa"), &["> 0"][..]),

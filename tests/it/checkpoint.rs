@@ -7,7 +7,7 @@ use crate::common::{cpu_options, load};
 use meshless::methods::BlowUp;
 use meshless::observe::{Invariants, Snapshot};
 use meshless::run::{Engine, Failed, RunError, RunOptions, drive, engine, run};
-use meshless::scene::Case;
+use meshless::scene::Scene;
 use meshless::tensor::D2;
 use std::path::Path;
 use std::sync::Arc;
@@ -16,7 +16,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 /// The spinning plate (Upwind-SPH {p, F, H, J} with the angular-momentum projection,
 /// TVD-RK2, a CFL step updated at every check) at 1,681 particles, to 4 ms (about 100
 /// steps in some 40 batches), with checkpoints every 0.5 ms.
-fn plate(extra: &[&str]) -> Case {
+fn plate(extra: &[&str]) -> Scene {
     let mut set = vec![
         "spacing=0.05",
         "run.end_time=4e-3",
@@ -206,7 +206,7 @@ fn a_checkpoint_of_another_case_or_method_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let case = plate(&["run.end_time=5e-4"]);
     run(&case, &cpu_options(dir.path(), false)).unwrap();
-    let resumed = |case: &Case| {
+    let resumed = |case: &Scene| {
         let opts = RunOptions {
             resume: true,
             ..cpu_options(dir.path(), false)
@@ -274,7 +274,7 @@ fn a_damaged_checkpoint_is_refused_before_anything_is_restored() {
         let mut bytes = good.clone();
         bytes[t_at..t_at + 8].copy_from_slice(&t.to_le_bytes());
         let body = bytes.len() - 8;
-        let sum = meshless::scene::fnv1a(&bytes[..body]);
+        let sum = meshless::case::fnv1a(&bytes[..body]);
         bytes[body..].copy_from_slice(&sum.to_le_bytes());
         bytes
     };

@@ -8,10 +8,10 @@
 
 #[cfg(feature = "gpu")]
 use meshless::gpu::Gpu;
-use meshless::methods::Method;
 use meshless::methods::mixed::{MixedSph, MixedState};
+use meshless::methods::{Method, Runs};
 use meshless::run::{Backend, CpuEngine, Engine, ProgressDisplay, RunOptions};
-use meshless::scene::Case;
+use meshless::scene::Scene;
 use meshless::tensor::Dim;
 use std::ops::Sub;
 use std::path::{Path, PathBuf};
@@ -57,6 +57,27 @@ pub fn gpus() -> Vec<Gpu> {
     all
 }
 
+#[cfg(feature = "gpu")]
+/// The GPU scheme of a total-Lagrangian SPH case's method (`tlsph`, `tl-potential`,
+/// `corotated-tlsph`, `dual-support-sph`), as the method's GPU engine builds it.
+pub fn tl_scheme(case: &Scene) -> meshless::methods::tlsph::gpu::TlScheme {
+    use meshless::methods::{MethodSpec, corotated, dual_support, potential, tlsph};
+    match &case.spec {
+        MethodSpec::Tlsph(s) => tlsph::gpu::scheme(s),
+        MethodSpec::TlPotential(s) => potential::gpu::scheme(s),
+        MethodSpec::CorotatedTlsph(s) => corotated::gpu::scheme(s),
+        MethodSpec::DualSupportSph(s) => dual_support::gpu::scheme(s),
+        other => panic!("{other:?} has no GpuTlsph scheme"),
+    }
+}
+
+/// The spec of the system `S` runs in a case's method (the registry's [`Runs`]); panics
+/// for a method that does not run it.
+pub fn spec_of<S: Runs + ?Sized>(case: &Scene) -> &S {
+    S::spec_of(&case.spec)
+        .unwrap_or_else(|| panic!("`{}` does not run this system", case.method.name))
+}
+
 /// The folder of the shipped cases.
 pub fn cases_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("cases")
@@ -78,14 +99,14 @@ pub fn toml_files(dir: &Path) -> Vec<PathBuf> {
 
 /// The shipped case `name` with `--set` overrides (`key=value`); panics if it does not
 /// load.
-pub fn load(name: &str, overrides: &[impl AsRef<str>]) -> Case {
+pub fn load(name: &str, overrides: &[impl AsRef<str>]) -> Scene {
     let overrides: Vec<String> = overrides.iter().map(|s| s.as_ref().to_string()).collect();
-    Case::load(&case_file(name), &overrides).unwrap()
+    Scene::load(&case_file(name), &overrides).unwrap()
 }
 
 /// The shipped case `name` as its file has it.
-pub fn shipped(name: &str) -> Case {
-    Case::load(&case_file(name), &[]).unwrap()
+pub fn shipped(name: &str) -> Scene {
+    Scene::load(&case_file(name), &[]).unwrap()
 }
 
 /// Options of a CPU run into `dir`: series and summary, frames if `frames`, no progress
@@ -410,9 +431,9 @@ poisson_ratio = 0.3"#
 }
 
 /// The case of [`block_text`]; panics if it does not load.
-pub fn block_case(max: &[f64], model: &str, method: &str, method_keys: &str) -> Case {
+pub fn block_case(max: &[f64], model: &str, method: &str, method_keys: &str) -> Scene {
     let text = block_text(max, model, method, method_keys);
-    Case::from_toml(&text, Path::new("block.toml"), &[]).unwrap_or_else(|e| panic!("{e}"))
+    Scene::from_toml(&text, Path::new("block.toml"), &[]).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// A vector with components scale × noise.
@@ -432,7 +453,7 @@ pub fn nearest(x0: &[glam::DVec2], point: [f64; 2]) -> usize {
 /// system `m` from the state `y`, with the case's integrator and Δt; `fields` gives the
 /// displacements and deformation gradients of a state.
 pub fn hourglass_after<S: Method<meshless::tensor::D2>>(
-    case: &Case,
+    case: &Scene,
     m: &mut S,
     mut y: S::State,
     steps: &[usize],
@@ -480,8 +501,8 @@ dt = 1.0e-5"#,
 
 /// A mixed method's CPU engine on `case` after `steps` steps at the CFL step of the
 /// initial state.
-pub fn run_mixed_steps<D: Dim>(case: &Case, steps: u32) -> CpuEngine<D, MixedSph<D>> {
-    let mut e = CpuEngine::<D, MixedSph<D>>::new(case).unwrap();
+pub fn run_mixed_steps<D: Dim>(case: &Scene, steps: u32) -> CpuEngine<D, MixedSph<D>> {
+    let mut e = meshless::scene::cpu_engine::<D, MixedSph<D>>(case).unwrap();
     let dt = case.method.cfl.unwrap() * case.spacing / e.max_signal_speed();
     e.advance(0.0, dt, steps).unwrap();
     e

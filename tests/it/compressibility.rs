@@ -5,7 +5,7 @@
 use crate::common::{load, run_mixed_steps};
 use meshless::methods::mixed::MixedSph;
 use meshless::run::{CpuEngine, Engine};
-use meshless::scene::Case;
+use meshless::scene::Scene;
 use meshless::tensor::{D2, D3, Dim};
 
 /// The keys that switch a mixed case to artificial compressibility at Poisson ratio ν.
@@ -46,7 +46,7 @@ fn at_nu_one_half_the_spinning_plate_keeps_its_momenta_and_its_volume_to_first_o
     let h0 = 373527.0; // Σ m |X|² ω for the 21 × 21 lattice at ω = 105 rad/s
     let case = load("spinning-plate", &incompressible(0.5, 0.2));
     let run = |halves: u32| {
-        let mut e = CpuEngine::<D2, MixedSph<D2>>::new(&case).unwrap();
+        let mut e = meshless::scene::cpu_engine::<D2, MixedSph<D2>>(&case).unwrap();
         let v0 = volume(&mut e, rho0);
         let dt = case.method.cfl.unwrap() * case.spacing / e.max_signal_speed();
         let steps = (2e-3 / dt).round() as u32;
@@ -84,7 +84,7 @@ fn at_nu_one_half_the_spinning_plate_keeps_its_momenta_and_its_volume_to_first_o
 
 /// The twisting column of seed 003 §7.3.1 on 4 × 24 × 4 particles at the cell centres
 /// (`twisting-column` with the paper's lattice), with `overrides`.
-fn column(overrides: &[String]) -> Case {
+fn column(overrides: &[String]) -> Scene {
     let mut all: Vec<String> = [
         "spacing=0.25",
         "body.0.geometry.lattice=cell-centred",
@@ -100,7 +100,7 @@ fn column(overrides: &[String]) -> Case {
 /// u of the column's top corner (0.375, 5.875, 0.375) after 0.02 s at the fixed step Δt.
 fn top_corner(overrides: &[String], dt: f64) -> glam::DVec3 {
     let case = column(overrides);
-    let mut e = CpuEngine::<D3, MixedSph<D3>>::new(&case).unwrap();
+    let mut e = meshless::scene::cpu_engine::<D3, MixedSph<D3>>(&case).unwrap();
     let steps = (0.02 / dt).round() as u32;
     e.advance(0.0, dt, steps).unwrap();
     let snap = e.snapshot();

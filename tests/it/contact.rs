@@ -3,8 +3,9 @@
 //! installs Mesa lavapipe).
 
 use crate::common::case_file;
+use meshless::case::CaseError;
 use meshless::run::{Backend, Engine, engine};
-use meshless::scene::{Case, CaseError};
+use meshless::scene::Scene;
 use meshless::tensor::D2;
 
 /// The shipped rings case on the nbox = 20 lattice (Δx = 0.08/19): the centres at ∓47.5 mm,
@@ -12,7 +13,7 @@ use meshless::tensor::D2;
 /// 2h = 3.4Δx = 14.3 mm; Δt scaled with Δx (c_p Δt/Δx = 0.44); plane strain, the
 /// material every method here reads the same way (the shipped case is the seed's plane
 /// stress).
-pub(crate) fn rings(extra: &[&str]) -> Result<Case, CaseError> {
+pub(crate) fn rings(extra: &[&str]) -> Result<Scene, CaseError> {
     let mut set = vec![
         "material.plane=\"strain\"",
         "spacing=4.2105263157894736e-3",
@@ -22,11 +23,11 @@ pub(crate) fn rings(extra: &[&str]) -> Result<Case, CaseError> {
     ];
     set.extend_from_slice(extra);
     let set: Vec<String> = set.iter().map(|s| s.to_string()).collect();
-    Case::load(&case_file("rings-impact"), &set)
+    Scene::load(&case_file("rings-impact"), &set)
 }
 
 /// Centre-of-mass velocity v_x of each ring after `time` on an engine.
-fn ring_velocities_on(e: &mut impl Engine<D2>, case: &Case, time: f64) -> [f64; 2] {
+fn ring_velocities_on(e: &mut impl Engine<D2>, case: &Scene, time: f64) -> [f64; 2] {
     let dt = case.method.dt.unwrap();
     e.advance(0.0, dt, (time / dt).round() as u32).unwrap();
     let s = e.snapshot();
@@ -39,7 +40,7 @@ fn ring_velocities_on(e: &mut impl Engine<D2>, case: &Case, time: f64) -> [f64; 
 }
 
 /// The same on the CPU reference of the case's method.
-fn ring_velocities(case: &Case, time: f64) -> [f64; 2] {
+fn ring_velocities(case: &Scene, time: f64) -> [f64; 2] {
     let mut e = engine::<D2>(case, Backend::Cpu).unwrap();
     ring_velocities_on(&mut e, case, time)
 }
@@ -117,12 +118,12 @@ fn the_gpu_contact_pass_matches_the_cpu_on_the_elastic_potential() {
 
 /// The rings of `case` after `end`: each reversed to a restitution e = −v_after/180 m/s in
 /// (0, 1], and opposite by mirror symmetry to 1e-9 of the impact speed.
-fn assert_rebound(case: &Case, end: f64) {
+fn assert_rebound(case: &Scene, end: f64) {
     let [left, right] = ring_velocities(case, end);
     let restitution = -left / 180.0;
     eprintln!(
         "{} rings after {end:e} s: v_x = {left} and {right} m/s, e = {restitution}",
-        case.method.name()
+        case.method.name
     );
     assert!(
         restitution > 0.0 && restitution <= 1.0,
@@ -164,13 +165,13 @@ fn the_gpu_contact_pass_matches_the_cpu() {
 /// The rings' velocities after `end` on the GPU engine of the case's method against its
 /// CPU reference, within 1e-4 of the impact speed.
 #[cfg(feature = "gpu")]
-pub(crate) fn assert_gpu_matches_cpu(case: &Case, end: f64) {
+pub(crate) fn assert_gpu_matches_cpu(case: &Scene, end: f64) {
     let mut g = engine::<D2>(case, Backend::Gpu).unwrap();
     let on_gpu = ring_velocities_on(&mut g, case, end);
     let on_cpu = ring_velocities(case, end);
     eprintln!(
         "{} ring v_x after the impact: GPU {on_gpu:?}, CPU {on_cpu:?} m/s",
-        case.method.name()
+        case.method.name
     );
     for (g, c) in on_gpu.iter().zip(&on_cpu) {
         assert!(

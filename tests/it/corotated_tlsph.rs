@@ -15,14 +15,14 @@ use meshless::methods::Method;
 use meshless::methods::corotated::{Corotated, rotation};
 use meshless::methods::tlsph::TlState;
 use meshless::run::{Backend, CpuEngine, Engine, build_method};
-use meshless::scene::Case;
+use meshless::scene::Scene;
 use meshless::tensor::{D2, D3, Dim};
 use std::path::Path;
 
 const AV: &str = "artificial_viscosity = { alpha = 1.0, beta = 1.0, eta = 0.1 }";
 
 /// The paper's set-up: the uncorrected kernel and small-strain elasticity.
-fn case(max: &[f64], keys: &str) -> Case {
+fn case(max: &[f64], keys: &str) -> Scene {
     let keys = format!("correction = \"none\"\n{keys}");
     block_case(max, "linear-elastic", "corotated-tlsph", &keys)
 }
@@ -133,7 +133,7 @@ fn linear_momentum_is_conserved_by_the_variational_force_with_every_correction()
     let balance = |correction: &str, av: &str, force: &str| {
         let keys = format!("correction = \"{correction}\"\n{av}\nforce = \"{force}\"");
         let text = block_text(&[1.0, 0.6], "linear-elastic", "corotated-tlsph", &keys);
-        let case = Case::from_toml(&text, Path::new("block.toml"), &[]).unwrap();
+        let case = Scene::from_toml(&text, Path::new("block.toml"), &[]).unwrap();
         let mut m: Corotated<D2> = build_method(&case).unwrap();
         let mut seed = 23;
         let mut y = m.initial_state();
@@ -175,7 +175,7 @@ fn linear_momentum_is_conserved_by_the_variational_force_with_every_correction()
 /// traction of 1e4 Pa ramped over 2 s and held (each of its four particles takes t·Δx, so
 /// the bar carries σ_xx = t), RK4 at Δt = 5e-4 s to 3 s; corotated TLSPH with the
 /// Randles–Libersky correction and the pair force `force`.
-fn ramped_bar(force: &str) -> Case {
+fn ramped_bar(force: &str) -> Scene {
     let method = format!(
         "name = \"corotated-tlsph\"\nh_over_dx = 1.3\ncorrection = \"randles-libersky\"\nforce = \"{force}\""
     );
@@ -196,7 +196,7 @@ fn the_variational_force_carries_the_whole_traction() {
     // eq 134, passes about half of it (measured 0.565 t), which the second bound pins.
     let stress = |force: &str| {
         let case = ramped_bar(force);
-        let mut e: CpuEngine<D2, Corotated<D2>> = CpuEngine::new(&case).unwrap();
+        let mut e: CpuEngine<D2, Corotated<D2>> = meshless::scene::cpu_engine(&case).unwrap();
         e.advance(0.0, 5e-4, 6000).unwrap();
         let s = e.snapshot();
         let middle: Vec<usize> = (0..s.x0.len())
@@ -230,7 +230,7 @@ fn the_variational_bar_on_the_gpu_follows_the_cpu() {
     // of the ramp's speed (5.2e-5 m/s; 3.0e-5 m/s with the reference code's force, 1.1e-5
     // for TLSPH's variational force on the same bar); bound 5e-2.
     let case = ramped_bar("variational");
-    let mut cpu: CpuEngine<D2, Corotated<D2>> = CpuEngine::new(&case).unwrap();
+    let mut cpu: CpuEngine<D2, Corotated<D2>> = meshless::scene::cpu_engine(&case).unwrap();
     let mut gpu = meshless::run::engine::<D2>(&case, Backend::Gpu).unwrap();
     cpu.advance(0.0, 5e-4, 6000).unwrap();
     gpu.advance(0.0, 5e-4, 6000).unwrap();
@@ -265,7 +265,7 @@ fn an_affine_stretch_gives_the_analytic_stress_inside() {
     // σ = P̂ Aᵀ/det A in closed form (1e-9 of |σ| ~ 3e4 Pa). Within one support of the
     // surface the shape matching of a one-sided neighbourhood turns R away from I.
     let text = block_text(&[1.6, 1.6], "linear-elastic", "corotated-tlsph", "");
-    let case = Case::from_toml(&text, Path::new("block.toml"), &[]).unwrap();
+    let case = Scene::from_toml(&text, Path::new("block.toml"), &[]).unwrap();
     let m: Corotated<D2> = build_method(&case).unwrap();
     let a_mat = DMat2::from_diagonal(DVec2::new(1.02, 0.99));
     let mut y = m.initial_state();
@@ -302,7 +302,7 @@ fn an_affine_stretch_gives_the_analytic_stress_inside() {
 #[test]
 fn the_method_needs_a_state_model_and_auto_runs_it_on_the_gpu() {
     let text = block_text(&[1.0, 0.6], "hypoelastic", "corotated-tlsph", "");
-    let e = Case::from_toml(&text, Path::new("block.toml"), &[])
+    let e = Scene::from_toml(&text, Path::new("block.toml"), &[])
         .unwrap_err()
         .to_string();
     assert!(
@@ -333,7 +333,7 @@ fn the_seed_disk_keeps_its_angular_momentum() {
     // method grows from the start. H(0)/H̄ = 0.94746 is checklist 17 (5e-6: the printed
     // digits).
     let case = shipped("rotating-disk-corotated");
-    let mut e: CpuEngine<D2, Corotated<D2>> = CpuEngine::new(&case).unwrap();
+    let mut e: CpuEngine<D2, Corotated<D2>> = meshless::scene::cpu_engine(&case).unwrap();
     let start = e.invariants();
     assert!((start.angular[2] / (25.0 * std::f64::consts::PI) - 0.94746).abs() < 5e-6);
     e.advance(0.0, 2.5e-6, 4000).unwrap();
@@ -387,12 +387,12 @@ struct Differences {
 
 /// One rate evaluation and the outputs of a state on the GPU against the CPU.
 #[cfg(feature = "gpu")]
-fn differences<D: meshless::gpu::layout::GpuDim>(c: &Case, q: D::T) -> Differences {
+fn differences<D: meshless::gpu::layout::GpuDim>(c: &Scene, q: D::T) -> Differences {
     use meshless::methods::tlsph::GpuTlsph;
     let mut cpu: Corotated<D> = build_method(c).unwrap();
     let y = rotated_random(&cpu, q, 11, 0.01, 1.0);
     let a = rates(&mut cpu, &y);
-    let mut g = GpuTlsph::<D>::new(c, crate::common::gpu()).unwrap();
+    let mut g = GpuTlsph::<D>::new(c, crate::common::tl_scheme(c), crate::common::gpu()).unwrap();
     let (d, f_hat, _) = g.rates(&y);
     let rot = g.kin_tensor("R");
     let relative_t = |gpu: &[D::T], cpu: &[D::T], base: D::T| {
@@ -482,14 +482,14 @@ fn the_gpu_rates_stress_and_energy_match_the_cpu_in_2d_and_3d() {
     };
     for (model, keys) in &variants {
         let text = block_text(&[1.0, 0.6], model, "corotated-tlsph", keys);
-        let c = Case::from_toml(&text, Path::new("block.toml"), &[]).unwrap();
+        let c = Scene::from_toml(&text, Path::new("block.toml"), &[]).unwrap();
         check(format!("2D {model} {keys}"), differences::<D2>(&c, q2));
         let text = block_text(&[0.5, 0.4, 0.3], model, "corotated-tlsph", keys);
-        let c = Case::from_toml(&text, Path::new("block.toml"), &[]).unwrap();
+        let c = Scene::from_toml(&text, Path::new("block.toml"), &[]).unwrap();
         check(format!("3D {model} {keys}"), differences::<D3>(&c, q3));
     }
     // Plane stress (λ* in the constants, σ_zz = 0 in the outputs).
-    let c = Case::load(
+    let c = Scene::load(
         &crate::common::case_file("rotating-disk-corotated"),
         &["spacing=0.2".to_string()],
     )
@@ -510,7 +510,7 @@ fn the_seed_disk_on_the_gpu_follows_the_cpu() {
     // (1e-7 of Δx) and their accumulated drift are a larger part of them: measured 9.4e-3
     // of the largest |σ| and 1.0e-4 of Σ V ψ(F̂); bounds 5e-2 and 1e-3.
     let case = shipped("rotating-disk-corotated");
-    let mut cpu: CpuEngine<D2, Corotated<D2>> = CpuEngine::new(&case).unwrap();
+    let mut cpu: CpuEngine<D2, Corotated<D2>> = meshless::scene::cpu_engine(&case).unwrap();
     let mut gpu = meshless::run::engine::<D2>(&case, Backend::Gpu).unwrap();
     let steps = 400;
     cpu.advance(0.0, 2.5e-6, steps).unwrap();
@@ -577,7 +577,8 @@ fn an_inverted_neighbourhood_stops_the_gpu_run() {
     let mut cpu_m: Corotated<D3> = build_method(&c).unwrap();
     let mut d = y.clone();
     let on_cpu = cpu_m.rates(0.0, &y, &mut d).unwrap_err();
-    let mut g = GpuTlsph::<D3>::new(&c, crate::common::gpu()).unwrap();
+    let mut g =
+        GpuTlsph::<D3>::new(&c, crate::common::tl_scheme(&c), crate::common::gpu()).unwrap();
     g.rates(&y);
     let on_gpu = g.check().unwrap_err();
     eprintln!("CPU: {on_cpu}\nGPU: {on_gpu}");

@@ -4,11 +4,12 @@
 //! constitutive tangents, and one Newton iteration for a linear problem.
 
 use crate::common::{largest_v, noise, random_vector};
+use meshless::case::{MaterialSpec, Plane};
 use meshless::kernel::{Kernel, KernelKind};
 use meshless::material::{Material, MaterialModel};
 use meshless::methods::dual_support::{DualSupport, Statics, Support};
 use meshless::run::Engine;
-use meshless::scene::{Case, MaterialSpec, Plane};
+use meshless::scene::Scene;
 use meshless::tensor::{D2, D3, Dim};
 use std::path::Path;
 
@@ -375,7 +376,7 @@ fn the_material_tangents_are_the_derivatives_of_the_stress() {
 
 /// A plate [0, 1] × [0, 0.4] clamped on the left and pulled and sheared on the right, in
 /// one load step.
-fn plate_case(model: &str, keys: &str) -> Case {
+fn plate_case(model: &str, keys: &str) -> Scene {
     let text = format!(
         r#"
 name = "plate"
@@ -405,11 +406,11 @@ condition = {{ type = "traction", traction = [2.0e4, 5.0e3] }}
 end_time = 1.0
 "#
     );
-    Case::from_toml(&text, Path::new("plate.toml"), &[]).unwrap_or_else(|e| panic!("{e}"))
+    Scene::from_toml(&text, Path::new("plate.toml"), &[]).unwrap_or_else(|e| panic!("{e}"))
 }
 
-fn solve(case: &Case) -> (Statics<D2>, Vec<meshless::run::Iteration>) {
-    let meshless::methods::MethodSpec::DualSupportSph(spec) = &case.method.spec else {
+fn solve(case: &Scene) -> (Statics<D2>, Vec<meshless::run::Iteration>) {
+    let meshless::methods::MethodSpec::DualSupportSph(spec) = &case.spec else {
         panic!("a dual-support case")
     };
     let mut engine = Statics::<D2>::new(case, spec).unwrap_or_else(|e| panic!("{e}"));
@@ -485,14 +486,14 @@ fn the_static_solve_runs_on_both_backends_and_needs_a_load_step() {
         "{why}"
     );
     let text = std::fs::read_to_string(crate::common::case_file("cantilever-3d")).unwrap();
-    let err = Case::from_toml(&text.replace("dt = ", "cfl = "), Path::new("c.toml"), &[])
+    let err = Scene::from_toml(&text.replace("dt = ", "cfl = "), Path::new("c.toml"), &[])
         .unwrap_err()
         .to_string();
     assert!(
         err.contains("method.dt") && err.contains("load step"),
         "{err}"
     );
-    let err = Case::from_toml(
+    let err = Scene::from_toml(
         &text,
         Path::new("c.toml"),
         &["method.name=tlsph".to_string()],
@@ -508,7 +509,7 @@ fn the_static_solve_runs_on_both_backends_and_needs_a_load_step() {
 /// The tip deflection u_y at (8, 0, 1) of the shipped cantilever at spacing Δx.
 fn cantilever_tip(spacing: f64) -> f64 {
     let case = crate::common::load("cantilever-3d", &[format!("spacing={spacing}")]);
-    let meshless::methods::MethodSpec::DualSupportSph(spec) = &case.method.spec else {
+    let meshless::methods::MethodSpec::DualSupportSph(spec) = &case.spec else {
         panic!("the cantilever runs dual-support-sph")
     };
     let mut engine = Statics::<D3>::new(&case, spec).unwrap_or_else(|e| panic!("{e}"));
@@ -550,7 +551,7 @@ fn bar_energy(hourglass: f64) -> f64 {
             format!("method.hourglass={hourglass}"),
         ],
     );
-    let meshless::methods::MethodSpec::DualSupportSph(spec) = &case.method.spec else {
+    let meshless::methods::MethodSpec::DualSupportSph(spec) = &case.spec else {
         panic!("the bar runs dual-support-sph")
     };
     let mut engine = Statics::<D3>::new(&case, spec).unwrap_or_else(|e| panic!("{e}"));
@@ -584,7 +585,7 @@ fn a_stalling_load_step_is_cut_and_a_failure_names_the_load() {
     assert!(diff < 1e-6 * scale, "{diff} vs {scale}");
     // Without cuts the run fails at its step, naming the load factor and the reason.
     let case = plate_case("neo-hookean", "max_iterations = 3\nmax_cuts = 0");
-    let meshless::methods::MethodSpec::DualSupportSph(spec) = &case.method.spec else {
+    let meshless::methods::MethodSpec::DualSupportSph(spec) = &case.spec else {
         panic!("a dual-support case")
     };
     let mut engine = Statics::<D2>::new(&case, spec).unwrap();
@@ -598,12 +599,12 @@ fn a_stalling_load_step_is_cut_and_a_failure_names_the_load() {
 }
 
 /// The study's swinging plate at Δx = 0.1 m (121 particles) with overrides.
-fn swinging_plate(set: &[&str]) -> Case {
+fn swinging_plate(set: &[&str]) -> Scene {
     let path = crate::common::cases_dir().join("studies/cases/swinging-plate.toml");
     let text = std::fs::read_to_string(&path).unwrap();
     let mut overrides: Vec<String> = vec!["spacing=0.1".into()];
     overrides.extend(set.iter().map(|s| s.to_string()));
-    Case::from_toml(&text, &path, &overrides).unwrap_or_else(|e| panic!("{e}"))
+    Scene::from_toml(&text, &path, &overrides).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// The dynamic variant's overrides of the TLSPH plate: the method, α and h rule.
@@ -624,11 +625,12 @@ fn the_dynamic_variant_without_hourglass_control_is_tl_potential() {
     // moves them by O(Δt²) per step, far above it.
     use meshless::methods::dual_support::DualSupportDynamics;
     use meshless::methods::potential::system::Potential;
-    use meshless::run::CpuEngine;
     let mut dynamic = DYNAMIC.to_vec();
     dynamic.push("method.hourglass=0");
-    let mut ds = CpuEngine::<D2, DualSupportDynamics<D2>>::new(&swinging_plate(&dynamic)).unwrap();
-    let mut tl = CpuEngine::<D2, Potential<D2>>::new(&swinging_plate(&[
+    let mut ds =
+        meshless::scene::cpu_engine::<D2, DualSupportDynamics<D2>>(&swinging_plate(&dynamic))
+            .unwrap();
+    let mut tl = meshless::scene::cpu_engine::<D2, Potential<D2>>(&swinging_plate(&[
         "method.name=tl-potential",
         "method.force=",
         "method.correction=randles-libersky",
@@ -719,7 +721,7 @@ fn the_dynamic_variant_conserves_energy_and_momentum() {
 
 #[test]
 fn the_dynamic_variant_refuses_a_rate_model() {
-    let err = Case::from_toml(
+    let err = Scene::from_toml(
         &std::fs::read_to_string(
             crate::common::cases_dir().join("studies/cases/swinging-plate.toml"),
         )

@@ -13,7 +13,7 @@ use meshless::tensor::{D2, D3, Dim};
 /// The static engine of a shipped case with overrides.
 fn engine<D: Dim>(name: &str, set: &[String]) -> Statics<D> {
     let case = crate::common::load(name, set);
-    let meshless::methods::MethodSpec::DualSupportSph(spec) = &case.method.spec else {
+    let meshless::methods::MethodSpec::DualSupportSph(spec) = &case.spec else {
         panic!("{name} runs dual-support-sph")
     };
     Statics::<D>::new(&case, spec).unwrap_or_else(|e| panic!("{e}"))

@@ -9,7 +9,7 @@ use crate::common::material_and_method;
 use meshless::balance::{Balance, Booked};
 use meshless::methods::REGISTRY;
 use meshless::run::{Backend, Engine, engine};
-use meshless::scene::Case;
+use meshless::scene::Scene as Case;
 use meshless::tensor::D2;
 use std::path::Path;
 
@@ -116,7 +116,7 @@ fn measure(case: &Case, dt: f64) -> Measured {
     for k in 0..10 {
         let (from, to) = (k * steps / 10, (k + 1) * steps / 10);
         e.advance(f64::from(from) * dt, dt, to - from)
-            .unwrap_or_else(|f| panic!("{}: {}", case.method.name(), f.cause));
+            .unwrap_or_else(|f| panic!("{}: {}", case.method.name, f.cause));
         let balance = balance_of(&mut *e, e0);
         error = error.max(balance.relative_residue().abs());
         end = Some(balance);

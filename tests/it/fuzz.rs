@@ -9,8 +9,9 @@
 
 use crate::common::{cases_dir, cpu_options, load};
 use crate::hostile::{Lcg, mutate};
+use meshless::case::{Expression, fnv1a, mesh};
 use meshless::run::{Backend, Limits, RunError, check, checkpoint, run};
-use meshless::scene::{Case, Expression, fnv1a, mesh};
+use meshless::scene::Scene;
 use std::collections::BTreeMap;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::sync::mpsc;
@@ -247,7 +248,7 @@ fn mutated_points_files_are_read_or_refused_by_name() {
         let (text, file) = (case_text.clone(), case_file.clone());
         let what = format!("points mutant {k}");
         let outcome = guarded(what.clone(), Duration::from_secs(20), move || {
-            Case::from_toml(&text, &file, &[])
+            Scene::from_toml(&text, &file, &[])
                 .map_err(RunError::from)
                 .and_then(|case| check(&case, Backend::Cpu, &Limits::default()))
                 .map(|_| ())

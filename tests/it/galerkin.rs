@@ -10,8 +10,8 @@ use glam::{DMat2, DVec2};
 use meshless::integrate::OdeSystem;
 use meshless::methods::Method;
 use meshless::methods::galerkin::{GalerkinState, TlGalerkin};
-use meshless::run::{CpuEngine, Engine, build_method};
-use meshless::scene::Case;
+use meshless::run::{Engine, build_method};
+use meshless::scene::Scene;
 use meshless::statics::explicit::AtRest;
 use meshless::tensor::{D2, D3, Dim};
 use std::path::Path;
@@ -19,14 +19,14 @@ use std::path::Path;
 /// A block of spacing 0.1 from the origin to `max` with material `model` under the
 /// Galerkin method `method` (at h/dx 1.3 unless `keys` set it, if the method has a
 /// kernel), with further `[method]` keys.
-pub fn block(max: &[f64], model: &str, method: &str, keys: &str) -> Case {
+pub fn block(max: &[f64], model: &str, method: &str, keys: &str) -> Scene {
     let mut text = block_text(max, model, method, keys);
     let kernel = meshless::methods::entry(method).is_some_and(|e| e.kernel);
     if !kernel || keys.contains("h_over_dx") {
         // The template's own line, which comes before `keys`.
         text = text.replacen("h_over_dx = 1.3\n", "", 1);
     }
-    Case::from_toml(&text, Path::new("block.toml"), &[]).unwrap_or_else(|e| panic!("{e}"))
+    Scene::from_toml(&text, Path::new("block.toml"), &[]).unwrap_or_else(|e| panic!("{e}"))
 }
 
 const METHODS: [&str; 2] = ["tl-fem", "tl-weak-form"];
@@ -314,7 +314,7 @@ fn the_elements_close_the_energy_balance_at_driven_boundaries() {
         "tensile-strip-fem",
         &["material.model=saint-venant-kirchhoff", "run.end_time=5e-3"],
     );
-    let mut engine = CpuEngine::<D2, TlGalerkin<D2>>::new(&case).unwrap();
+    let mut engine = meshless::scene::cpu_engine::<D2, TlGalerkin<D2>>(&case).unwrap();
     let e0 = engine.invariants().total_energy();
     engine.advance(0.0, 1e-6, 5000).unwrap();
     let (e, w) = (engine.invariants().total_energy(), engine.external_work());
@@ -333,7 +333,7 @@ fn angular_momentum_on_the_rotating_disk() {
     // momentum-preserving and dissipates (the paper's "slight numerical dissipation").
     let h = |name: &str, set: &[&str]| {
         let case = load(name, set);
-        let mut engine = CpuEngine::<D2, TlGalerkin<D2>>::new(&case).unwrap();
+        let mut engine = meshless::scene::cpu_engine::<D2, TlGalerkin<D2>>(&case).unwrap();
         let h0 = engine.invariants().angular[2];
         engine.advance(0.0, 1e-6, 2000).unwrap();
         engine.invariants().angular[2] / h0 - 1.0

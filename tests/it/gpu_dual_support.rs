@@ -36,7 +36,7 @@ fn deformation<D: Dim>(x0: &[D::V]) -> Vec<D::V> {
 fn product_error<D: GpuDim>(name: &str, set: &[&str]) -> (f64, f64) {
     let set: Vec<String> = set.iter().map(|s| s.to_string()).collect();
     let case = load(name, &set);
-    let MethodSpec::DualSupportSph(spec) = &case.method.spec else {
+    let MethodSpec::DualSupportSph(spec) = &case.spec else {
         panic!("{name} runs dual-support-sph")
     };
     let reference = Reference::<D>::build(&case).unwrap();

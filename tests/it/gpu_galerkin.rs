@@ -11,13 +11,13 @@ use meshless::methods::Method;
 use meshless::methods::galerkin::gpu::GpuGalerkin;
 use meshless::methods::galerkin::{GalerkinState, TlGalerkin};
 use meshless::plasticity::PLASTIC_STRAIN;
-use meshless::run::{CpuEngine, Engine, build_method};
-use meshless::scene::Case;
+use meshless::run::{Engine, build_method};
+use meshless::scene::Scene;
 use meshless::tensor::{D2, D3, Dim};
 
 /// One rate evaluation of a random state (|u| ~ 1 mm, |v| ~ 1 m/s, ρ within 1 % of ρ0,
 /// |S| ~ 1e4 Pa) on both backends.
-fn compare_rates<D: GpuDim>(case: &Case) {
+fn compare_rates<D: GpuDim>(case: &Scene) {
     let mut cpu: TlGalerkin<D> = build_method(case).unwrap();
     let mut seed = 11;
     let mut y = cpu.initial_state();
@@ -31,9 +31,9 @@ fn compare_rates<D: GpuDim>(case: &Case) {
     }
     let mut d = y.clone();
     cpu.rates(0.0, &y, &mut d).unwrap();
-    let mut g = GpuGalerkin::<D>::new(case, gpu()).unwrap();
+    let mut g = GpuGalerkin::<D>::new(case, crate::common::spec_of(case), gpu()).unwrap();
     let (dg, pg) = g.rates(&y);
-    let what = format!("{} {}D {:?}", case.method.name(), D::N, case.material.model);
+    let what = format!("{} {}D {:?}", case.method.name, D::N, case.material.model);
     // P_q from F_q = I + Σ_a (u_a − u_first) ⊗ ∇0N_a: ≤ 40 f32 terms of |u|·|∇N| ~ 1e-2
     // (ε = 6e-8) and the f32 stress state: relative 1e-5 of max |P|.
     let (ep, scale_p) = max_t::<D>(cpu.first_piola(), &pg);
@@ -138,7 +138,7 @@ fn scni_rates_match_the_cpu() {
 }
 
 /// Runs `steps` CPU steps of size dt.
-fn cpu_run<D: Dim>(case: &Case, steps: usize, dt: f64) -> (TlGalerkin<D>, GalerkinState<D>) {
+fn cpu_run<D: Dim>(case: &Scene, steps: usize, dt: f64) -> (TlGalerkin<D>, GalerkinState<D>) {
     let mut m: TlGalerkin<D> = build_method(case).unwrap();
     let mut y = m.initial_state();
     let mut integrator = Integrator::new(case.method.integrator, &y);
@@ -166,7 +166,7 @@ fn whole_runs_track_the_cpu() {
         let case = load(name, &[] as &[&str]);
         let steps = 100;
         let (cpu, y) = cpu_run::<D2>(&case, steps, dt);
-        let mut g = GpuGalerkin::<D2>::new(&case, gpu()).unwrap();
+        let mut g = GpuGalerkin::<D2>::new(&case, crate::common::spec_of(&case), gpu()).unwrap();
         g.advance_steps(dt, steps as u32).unwrap();
         let yg = g.state();
         let (ev, scale) = max_v::<D2>(&y.v, &yg.v);
@@ -202,7 +202,7 @@ fn the_seed_001_rod_tracks_the_cpu() {
         let case = load(name, &["spacing=5e-4"]);
         let (dt, steps) = (case.method.dt.unwrap(), 500);
         let (_, y) = cpu_run::<D2>(&case, steps, dt);
-        let mut g = GpuGalerkin::<D2>::new(&case, gpu()).unwrap();
+        let mut g = GpuGalerkin::<D2>::new(&case, crate::common::spec_of(&case), gpu()).unwrap();
         g.advance_steps(dt, steps as u32).unwrap();
         g.check().unwrap();
         let (ev, scale) = max_v::<D2>(&y.v, &g.state().v);
@@ -231,9 +231,9 @@ fn the_seed_001_steel_ring_flows_plastically_as_on_the_cpu() {
         ],
     );
     let (dt, steps) = (1.6e-7, 300);
-    let mut cpu = CpuEngine::<D2, TlGalerkin<D2>>::new(&case).unwrap();
+    let mut cpu = meshless::scene::cpu_engine::<D2, TlGalerkin<D2>>(&case).unwrap();
     cpu.advance(0.0, dt, steps).unwrap();
-    let mut g = GpuGalerkin::<D2>::new(&case, gpu()).unwrap();
+    let mut g = GpuGalerkin::<D2>::new(&case, crate::common::spec_of(&case), gpu()).unwrap();
     Engine::<D2>::advance(&mut g, 0.0, dt, steps).unwrap();
     g.check().unwrap();
     let (on_cpu, on_gpu) = (cpu.snapshot(), Engine::<D2>::snapshot(&mut g));

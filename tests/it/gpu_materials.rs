@@ -6,12 +6,12 @@
 //! differs is the device's f32 arithmetic alone.
 
 use crate::common::{gpu, noise, random_tensor};
+use meshless::case::{MaterialSpec, Plane};
 use meshless::gpu::Gpu;
 use meshless::gpu::layout::{Flat, GpuDim};
 use meshless::gpu::shaders::{Constants, EIGEN, MECHANICS, PLASTICITY, Source, compose};
 use meshless::material::{Material, MaterialModel};
 use meshless::plasticity::{Hardening, VonMises};
-use meshless::scene::{MaterialSpec, Plane};
 use meshless::tensor::{D2, D3, Dim};
 
 /// P and W of each H = F − I in `h` (DIM² floats each, column-major): DIM² + 1 floats

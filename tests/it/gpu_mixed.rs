@@ -9,11 +9,13 @@ use meshless::gpu::Gpu;
 use meshless::gpu::layout::GpuDim;
 use meshless::integrate::{Integrator, OdeSystem};
 use meshless::methods::Method;
-use meshless::methods::mixed::{GpuMixed, MixedOptions, MixedSph, MixedState, Stabiliser, scheme};
+use meshless::methods::mixed::{
+    GpuMixed, MixedOptions, MixedScheme, MixedSph, MixedState, Stabiliser,
+};
 use meshless::observe::Invariants;
 use meshless::plasticity::PLASTIC_STRAIN;
-use meshless::run::{Backend, CpuEngine, Engine, build_method};
-use meshless::scene::Case;
+use meshless::run::{Backend, Engine, build_method};
+use meshless::scene::Scene;
 use meshless::tensor::{D2, D3};
 
 /// Asserts `error ≤ tol · scale` and reports the ratio.
@@ -29,12 +31,13 @@ fn check(label: &str, field: &str, (error, scale): (f64, f64), tol: f64) {
 }
 
 /// The options and stabilisation of a mixed case.
-fn mixed(c: &Case) -> (&MixedOptions, Stabiliser) {
-    scheme(c).expect("a mixed case")
+fn mixed(c: &Scene) -> (&MixedOptions, Stabiliser) {
+    let spec: &dyn MixedScheme = crate::common::spec_of(c);
+    (spec.options(), spec.stabiliser())
 }
 
 /// The seed 002 options a case sets (those other than the defaults), for the labels.
-fn seed_002_options(c: &Case) -> String {
+fn seed_002_options(c: &Scene) -> String {
     let (m, _) = mixed(c);
     let default = MixedOptions::default();
     [
@@ -57,12 +60,12 @@ fn seed_002_options(c: &Case) -> String {
 /// then its slopes, then the reconstructed jumps; ∇0v, then Ḣ and J̇). u̇ = v is a copy:
 /// the f32 rounding of v, 1e-7. Measured: 3e-8 (u̇) to 1.0e-6 (P of the polyconvex model,
 /// through exp and log in f32).
-fn compare_rates<D: GpuDim>(c: &Case, gpu: Gpu) {
+fn compare_rates<D: GpuDim>(c: &Scene, gpu: Gpu) {
     let label = format!(
         "{}D {} {} {:?}{}{}",
         D::N,
         c.name,
-        c.method.name(),
+        c.method.name,
         mixed(c).0.variables,
         match mixed(c).1 {
             Stabiliser::Upwind {
@@ -80,7 +83,7 @@ fn compare_rates<D: GpuDim>(c: &Case, gpu: Gpu) {
     let p = cpu.first_piola(&y).unwrap();
     let fluxes = cpu.fluxes(&y).unwrap();
 
-    let mut g: GpuMixed<D> = GpuMixed::new(c, gpu).unwrap();
+    let mut g: GpuMixed<D> = GpuMixed::new(c, crate::common::spec_of(c), gpu).unwrap();
     let dg = g.rates(&y);
     let pg = g.first_piola();
     let fg = g.fluxes();
@@ -229,12 +232,12 @@ fn rates_match_the_cpu_with_the_seed_002_options_on_the_bending_column() {
 /// against its final size). The energy is summed on the GPU in f32 per workgroup of 256
 /// particles (≤ 256 ε = 1.5e-5 relative) from a state within 2e-5, whose kinetic energy
 /// is then within 4e-5: bound 1e-4 of E(0). Measured: v 4e-7, u 2.7e-6, E 1.2e-7.
-fn compare_runs<D: GpuDim>(c: &Case, steps: u32) {
+fn compare_runs<D: GpuDim>(c: &Scene, steps: u32) {
     let label = format!(
         "{}D {} {} {:?}{}",
         D::N,
         c.name,
-        c.method.name(),
+        c.method.name,
         c.method.integrator,
         seed_002_options(c)
     );
@@ -249,7 +252,7 @@ fn compare_runs<D: GpuDim>(c: &Case, steps: u32) {
     }
     let e_cpu = Invariants::of(&cpu.snapshot(&y));
 
-    let mut g: GpuMixed<D> = GpuMixed::new(c, gpu()).unwrap();
+    let mut g: GpuMixed<D> = GpuMixed::new(c, crate::common::spec_of(c), gpu()).unwrap();
     g.advance_steps(dt, steps).unwrap();
     Engine::<D>::check(&mut g).unwrap();
     let yg = g.state();
@@ -345,7 +348,7 @@ fn the_second_tvd_rk2_stage_balances_about_the_mid_step_points() {
     cpu.rates(0.0, &start, &mut d).unwrap();
     cpu.rates(dt, &stage, &mut d).unwrap();
 
-    let mut g: GpuMixed<D2> = GpuMixed::new(&c, gpu()).unwrap();
+    let mut g: GpuMixed<D2> = GpuMixed::new(&c, crate::common::spec_of(&c), gpu()).unwrap();
     let dg = g.second_stage_rates(&start, &stage, dt);
     let label = "2D spinning-plate, second TVD-RK2 stage";
     check(label, "v̇", max_v::<D2>(&d.v, &dg.v), 1e-5);
@@ -364,7 +367,7 @@ fn spinning_plate_drift(projection: bool, steps: u32) -> f64 {
         "spinning-plate",
         &[&format!("method.projection={projection}")],
     );
-    let mut g: GpuMixed<D2> = GpuMixed::new(&c, gpu()).unwrap();
+    let mut g: GpuMixed<D2> = GpuMixed::new(&c, crate::common::spec_of(&c), gpu()).unwrap();
     let (x0, mass) = (g.cpu().reference().to_vec(), g.cpu().mass().to_vec());
     let l = |y: &MixedState<D2>| -> f64 {
         (0..x0.len())
@@ -411,11 +414,11 @@ fn projection_keeps_the_angular_momentum_of_the_spinning_plate() {
 /// (eigenvalues within p ≈ 3e-3 of each other), where the 3D cubic has a near-triple
 /// root and its f32 solution is only good to a fraction of p: within 1e-3, ample for a
 /// time step.
-fn check_signal_speed<D: GpuDim>(c: &Case, stretched: D::T) {
+fn check_signal_speed<D: GpuDim>(c: &Scene, stretched: D::T) {
     let cpu: MixedSph<D> = build_method(c).unwrap();
     let mut y = random_state(&cpu, &mut 11, 0.01);
     y.f[3] = stretched;
-    let mut g: GpuMixed<D> = GpuMixed::new(c, gpu()).unwrap();
+    let mut g: GpuMixed<D> = GpuMixed::new(c, crate::common::spec_of(c), gpu()).unwrap();
     let mut compare = |label: &str, y: &MixedState<D>, tol: f64| {
         g.set_state(y);
         let (on_gpu, on_cpu) = (g.max_signal_speed(), cpu.max_signal_speed(y));
@@ -474,8 +477,8 @@ fn plastic_flow_matches_the_cpu() {
             "method.dt=2e-8",
         ],
     );
-    let mut cpu = meshless::run::CpuEngine::<D3, MixedSph<D3>>::new(&c).unwrap();
-    let mut g: GpuMixed<D3> = GpuMixed::new(&c, gpu()).unwrap();
+    let mut cpu = meshless::scene::cpu_engine::<D3, MixedSph<D3>>(&c).unwrap();
+    let mut g: GpuMixed<D3> = GpuMixed::new(&c, crate::common::spec_of(&c), gpu()).unwrap();
     let e0 = cpu.invariants().total_energy();
     cpu.advance(0.0, 2e-8, 500).unwrap();
     Engine::<D3>::advance(&mut g, 0.0, 2e-8, 500).unwrap();
@@ -525,13 +528,13 @@ fn plastic_flow_matches_the_cpu() {
 /// r γ Δt/Δx, and over the run's stages 1e-3 of the largest |p| bounds it. The
 /// iteration counts follow the same iterates, and an f32 residual crosses the
 /// tolerance a pseudo step or two earlier or later in a stage: within 10 % of the CPU's.
-fn compare_corrected_runs<D: GpuDim>(case: &Case, steps: u32) {
-    let label = format!("{}D {} {}", D::N, case.name, case.method.name());
-    let mut cpu = CpuEngine::<D, MixedSph<D>>::new(case).unwrap();
+fn compare_corrected_runs<D: GpuDim>(case: &Scene, steps: u32) {
+    let label = format!("{}D {} {}", D::N, case.name, case.method.name);
+    let mut cpu = meshless::scene::cpu_engine::<D, MixedSph<D>>(case).unwrap();
     let dt = case.method.cfl.unwrap() * case.spacing / cpu.max_signal_speed();
     let (_, v0) = max_v::<D>(&cpu.y.v, &cpu.y.v);
     cpu.advance(0.0, dt, steps).unwrap();
-    let mut g: GpuMixed<D> = GpuMixed::new(case, gpu()).unwrap();
+    let mut g: GpuMixed<D> = GpuMixed::new(case, crate::common::spec_of(case), gpu()).unwrap();
     Engine::<D>::advance(&mut g, 0.0, dt, steps).unwrap();
     Engine::<D>::check(&mut g).unwrap();
     let yg = g.state();
@@ -593,7 +596,7 @@ fn an_unconverged_corrector_names_the_particle_and_the_key() {
             "method.artificial_compressibility={ alpha = 0.2, max_iterations = 5 }",
         ],
     );
-    let mut g: GpuMixed<D2> = GpuMixed::new(&case, gpu()).unwrap();
+    let mut g: GpuMixed<D2> = GpuMixed::new(&case, crate::common::spec_of(&case), gpu()).unwrap();
     let dt = case.method.cfl.unwrap() * case.spacing / Engine::<D2>::max_signal_speed(&mut g);
     Engine::<D2>::advance(&mut g, 0.0, dt, 2).unwrap();
     let message = Engine::<D2>::check(&mut g)

@@ -11,7 +11,7 @@ use meshless::integrate::{Op, program};
 use meshless::passes::PassReport;
 use meshless::reference::Reference;
 use meshless::run::{Backend, RunOptions, run};
-use meshless::scene::Case;
+use meshless::scene::Scene;
 use meshless::tensor::D2;
 
 /// Steps of each report: enough dispatches to time, few enough for lavapipe.
@@ -19,7 +19,7 @@ const STEPS: u32 = 6;
 
 /// The pass report of `STEPS` steps of `case` on the GPU, with its particles and pairs
 /// (the host's reference lists, built here independently of the engine's count).
-fn profiled(case: &Case) -> (PassReport, u64, u64) {
+fn profiled(case: &Scene) -> (PassReport, u64, u64) {
     let row = measure(case, Backend::Gpu, STEPS).unwrap_or_else(|e| {
         panic!(
             "the pass report needs a GPU adapter (CI installs Mesa lavapipe: apt-get install \
@@ -33,7 +33,7 @@ fn profiled(case: &Case) -> (PassReport, u64, u64) {
 }
 
 /// Dispatches per step of the blends of the case's integrator.
-fn blends(case: &Case) -> u64 {
+fn blends(case: &Scene) -> u64 {
     program(case.method.integrator)
         .iter()
         .filter(|op| matches!(op, Op::Blend { .. }))

@@ -9,8 +9,8 @@ use meshless::material::Material;
 use meshless::methods::Method;
 use meshless::methods::tlsph::GpuTlsph;
 use meshless::methods::tlsph::{TlState, Tlsph};
-use meshless::run::{CpuEngine, Engine, build_method};
-use meshless::scene::Case;
+use meshless::run::{Engine, build_method};
+use meshless::scene::Scene;
 use meshless::tensor::{D2, D3, Dim};
 use std::path::Path;
 
@@ -29,12 +29,12 @@ fn cpu_run<D: Dim>(
 }
 
 /// Compares one rate evaluation on a deformed, stressed state on the adapter `gpu()` picks.
-fn compare_rates<D: GpuDim>(c: &Case, steps: usize, dt: f64) {
+fn compare_rates<D: GpuDim>(c: &Scene, steps: usize, dt: f64) {
     compare_rates_on::<D>(c, steps, dt, gpu());
 }
 
 /// Compares one rate evaluation on a deformed, stressed state on `gpu`.
-fn compare_rates_on<D: GpuDim>(c: &Case, steps: usize, dt: f64, gpu: Gpu) {
+fn compare_rates_on<D: GpuDim>(c: &Scene, steps: usize, dt: f64, gpu: Gpu) {
     let mut cpu: Tlsph<D> = build_method(c).unwrap();
     let mut y = cpu.initial_state();
     cpu_run(&mut cpu, &mut y, c.method.integrator, dt, steps);
@@ -42,7 +42,7 @@ fn compare_rates_on<D: GpuDim>(c: &Case, steps: usize, dt: f64, gpu: Gpu) {
     cpu.rates(0.0, &y, &mut d).unwrap();
     let f_cpu = cpu.deformation_gradient(&y);
 
-    let mut g: GpuTlsph<D> = GpuTlsph::new(c, gpu).unwrap();
+    let mut g: GpuTlsph<D> = GpuTlsph::new(c, crate::common::tl_scheme(c), gpu).unwrap();
     let (d_gpu, f_gpu, _) = g.rates(&y);
     // Corrected gradients: each is A⁻ᵀ∇W from ~40 f32 terms: relative 1e-5 of max |g|.
     let (gc, gg) = (cpu.gradients().to_vec(), g.gradients());
@@ -161,7 +161,7 @@ fn rates_match_the_cpu_on_every_adapter() {
     }
     for gpu in gpus() {
         println!("adapter {}", gpu.name());
-        let c = Case::from_toml(&cube("neo-hookean"), Path::new("cube.toml"), &[]).unwrap();
+        let c = Scene::from_toml(&cube("neo-hookean"), Path::new("cube.toml"), &[]).unwrap();
         compare_rates_on::<D3>(&c, 100, 2e-6, gpu);
     }
 }
@@ -172,11 +172,11 @@ fn rates_match_the_cpu_for_state_based_models_in_2d_and_3d() {
         let mut set = material(model);
         set.push("method.dt=5e-6".into());
         compare_rates::<D2>(&load("rotating-disk", &set), 100, 5e-6);
-        let c = Case::from_toml(&cube(model), Path::new("cube.toml"), &[]).unwrap();
+        let c = Scene::from_toml(&cube(model), Path::new("cube.toml"), &[]).unwrap();
         compare_rates::<D3>(&c, 100, 2e-6);
     }
     let variational = ["method.force=\"variational\"".to_string()];
-    let c = Case::from_toml(&cube("neo-hookean"), Path::new("cube.toml"), &variational).unwrap();
+    let c = Scene::from_toml(&cube("neo-hookean"), Path::new("cube.toml"), &variational).unwrap();
     compare_rates::<D3>(&c, 100, 2e-6);
 }
 
@@ -241,7 +241,7 @@ fn whole_runs_track_the_cpu() {
     let mut cpu: Tlsph<D2> = build_method(&c).unwrap();
     let mut y = cpu.initial_state();
     cpu_run(&mut cpu, &mut y, c.method.integrator, dt, steps);
-    let mut g: GpuTlsph<D2> = GpuTlsph::new(&c, gpu()).unwrap();
+    let mut g: GpuTlsph<D2> = GpuTlsph::new(&c, crate::common::tl_scheme(&c), gpu()).unwrap();
     g.advance_steps(dt, steps as u32).unwrap();
     let yg = g.state();
     // |v| ≤ 1 m/s: f32 round-off per step ~1e-7, 120 steps ⇒ ≤ 1e-5 m/s; bound 1e-4 of the
@@ -259,7 +259,7 @@ fn whole_runs_track_the_cpu() {
         let mut cpu: Tlsph<D2> = build_method(&c).unwrap();
         let mut y = cpu.initial_state();
         cpu_run(&mut cpu, &mut y, c.method.integrator, dt, steps);
-        let mut g: GpuTlsph<D2> = GpuTlsph::new(&c, gpu()).unwrap();
+        let mut g: GpuTlsph<D2> = GpuTlsph::new(&c, crate::common::tl_scheme(&c), gpu()).unwrap();
         for _ in 0..10 {
             g.advance_steps(dt, (steps / 10) as u32).unwrap();
         }
@@ -295,9 +295,9 @@ fn a_mooney_rivlin_disk_tracks_the_cpu() {
     set.push("method.dt=5e-6".into());
     let c = load("rotating-disk", &set);
     let (steps, dt) = (1000, 5e-6);
-    let mut cpu = CpuEngine::<D2, Tlsph<D2>>::new(&c).unwrap();
+    let mut cpu = meshless::scene::cpu_engine::<D2, Tlsph<D2>>(&c).unwrap();
     cpu.advance(0.0, dt, steps).unwrap();
-    let mut g: GpuTlsph<D2> = GpuTlsph::new(&c, gpu()).unwrap();
+    let mut g: GpuTlsph<D2> = GpuTlsph::new(&c, crate::common::tl_scheme(&c), gpu()).unwrap();
     for k in 0..10 {
         let t = f64::from(k * steps / 10) * dt;
         Engine::<D2>::advance(&mut g, t, dt, steps / 10).unwrap();
@@ -318,10 +318,10 @@ fn reductions_match_the_cpu() {
         let mut set = material(model);
         set.push("method.dt=5e-6".into());
         let c = load("rotating-disk", &set);
-        let mut cpu = CpuEngine::<D2, Tlsph<D2>>::new(&c).unwrap();
+        let mut cpu = meshless::scene::cpu_engine::<D2, Tlsph<D2>>(&c).unwrap();
         cpu.advance(0.0, 5e-6, 200).unwrap();
         let reference = cpu.invariants();
-        let mut g: GpuTlsph<D2> = GpuTlsph::new(&c, gpu()).unwrap();
+        let mut g: GpuTlsph<D2> = GpuTlsph::new(&c, crate::common::tl_scheme(&c), gpu()).unwrap();
         g.set_state(&cpu.y);
         let inv = Engine::<D2>::invariants(&mut g);
         let rel = |a: f64, b: f64| (a - b).abs() / b.abs();
@@ -398,7 +398,7 @@ fn values_beyond_f32_are_refused_with_their_key() {
         ),
     ] {
         let case = load("tensile-strip", &[set]);
-        match GpuTlsph::<D2>::new(&case, gpu()) {
+        match GpuTlsph::<D2>::new(&case, crate::common::tl_scheme(&case), gpu()) {
             Err(meshless::gpu::SetupError::Case(e)) => {
                 let shown = e.to_string();
                 assert!(
@@ -417,7 +417,11 @@ fn values_beyond_f32_are_refused_with_their_key() {
         ("method.cfl=1e-37", "method.cfl"),
     ] {
         let plate = load("swinging-plate", &[set]);
-        match meshless::methods::mixed::GpuMixed::<D2>::new(&plate, gpu()) {
+        match meshless::methods::mixed::GpuMixed::<D2>::new(
+            &plate,
+            crate::common::spec_of(&plate),
+            gpu(),
+        ) {
             Err(meshless::gpu::SetupError::Case(e)) => {
                 assert!(e.to_string().contains(&format!("key `{key}`")), "{e}")
             }
@@ -487,10 +491,10 @@ fn dual_support_dynamics_tracks_the_cpu() {
         ],
     );
     let dt = 5e-5;
-    let mut cpu = CpuEngine::<D2, DualSupportDynamics<D2>>::new(&c).unwrap();
+    let mut cpu = meshless::scene::cpu_engine::<D2, DualSupportDynamics<D2>>(&c).unwrap();
     let amplitude = largest_v::<D2>(cpu.y.v.iter().copied());
     cpu.advance(0.0, dt, 107).unwrap();
-    let mut g: GpuTlsph<D2> = GpuTlsph::new(&c, gpu()).unwrap();
+    let mut g: GpuTlsph<D2> = GpuTlsph::new(&c, crate::common::tl_scheme(&c), gpu()).unwrap();
     Engine::<D2>::advance(&mut g, 0.0, dt, 107).unwrap();
     let yg = g.state();
     let (eu, u) = max_v::<D2>(&cpu.y.u, &yg.u);

@@ -13,16 +13,16 @@ use meshless::methods::gray_monaghan::system::Scheme as GmScheme;
 use meshless::methods::gray_monaghan::{GrayMonaghan, gpu as gray_monaghan};
 use meshless::methods::ul::gpu::{GpuUl, Scheme};
 use meshless::methods::ul::{PairScheme, UlSph, UlState};
-use meshless::methods::{Method, MethodSpec};
+use meshless::methods::{Method, MethodSpec, Runs};
 use meshless::neighbour::SKIN;
 use meshless::reference::Build;
-use meshless::run::{CpuEngine, Engine, build_method};
-use meshless::scene::Case;
+use meshless::run::{Engine, build_method};
+use meshless::scene::Scene;
 use meshless::tensor::{D2, D3, Dim};
 
 /// The GPU scheme of a UL case.
-fn scheme(case: &Case) -> Scheme {
-    match &case.method.spec {
+fn scheme(case: &Scene) -> Scheme {
+    match &case.spec {
         MethodSpec::GrayMonaghanSph(spec) => gray_monaghan::scheme(case, spec),
         MethodSpec::GodunovSph(_) => godunov::scheme(),
         other => panic!("not an updated-Lagrangian method: {other:?}"),
@@ -44,12 +44,18 @@ fn rate_errors<D: Dim>(d: &UlState<D>, g: &UlState<D>) -> [(&'static str, f64); 
 
 /// One rate evaluation of the CPU system and of the GPU engine on a disordered state
 /// (|u| ~ 0.2 Δx, |v| ~ 10 m/s, ρ within 1 %, |S| ~ 1e5 Pa in tension and compression).
-fn compare_rates<D: GpuDim, S: PairScheme<D>>(case: &Case) {
+fn compare_rates<D: GpuDim, S: PairScheme<D>>(case: &Scene)
+where
+    S::Spec: Runs,
+{
     compare_rates_on::<D, S>(case, gpu());
 }
 
 /// [`compare_rates`] on `gpu`.
-fn compare_rates_on<D: GpuDim, S: PairScheme<D>>(case: &Case, gpu: Gpu) {
+fn compare_rates_on<D: GpuDim, S: PairScheme<D>>(case: &Scene, gpu: Gpu)
+where
+    S::Spec: Runs,
+{
     let mut cpu: UlSph<D, S> = build_method(case).unwrap();
     let y = random_state(&cpu, case.spacing, &mut 17);
     let mut d = y.clone();
@@ -71,7 +77,7 @@ fn compare_rates_on<D: GpuDim, S: PairScheme<D>>(case: &Case, gpu: Gpu) {
     }
 }
 
-fn block(dim: usize, method: &str, keys: &str) -> Case {
+fn block(dim: usize, method: &str, keys: &str) -> Scene {
     let max: &[f64] = if dim == 2 {
         &[1.0, 0.6]
     } else {
@@ -120,14 +126,14 @@ fn godunov_rates_match_the_cpu_in_2d_and_3d() {
 
 /// Runs `steps` steps of the shipped disk of `name` on both backends and compares the
 /// final states; then the device's lists of that state against brute force.
-fn compare_runs<M: Method<D2, State = UlState<D2>> + Build<D2>>(
+fn compare_runs<M: Method<D2, State = UlState<D2>> + Build<D2, Spec: Runs>>(
     name: &str,
     dt: f64,
     steps: u32,
     min_builds: i64,
 ) {
     let case = load(name, &[&format!("method.dt={dt}")]);
-    let mut cpu = CpuEngine::<D2, M>::new(&case).unwrap();
+    let mut cpu = meshless::scene::cpu_engine::<D2, M>(&case).unwrap();
     cpu.advance(0.0, dt, steps).unwrap();
     let mut g = GpuUl::<D2>::new(&case, gpu(), &scheme(&case)).unwrap();
     let built = g.builds();

@@ -5,14 +5,15 @@
 
 use crate::common::{load, noise, random_tensor};
 use glam::{DMat2, DVec2};
+use meshless::case::CaseError;
 use meshless::integrate::OdeSystem;
 use meshless::kernel::Kernel;
-use meshless::methods::Method;
 use meshless::methods::gray_monaghan::GrayMonaghan;
 use meshless::methods::gray_monaghan::system::{artificial_stress, principal_stresses};
 use meshless::methods::ul::{PairScheme, UlSph, UlState};
+use meshless::methods::{Method, Runs};
 use meshless::run::build_method;
-use meshless::scene::{Case, CaseError};
+use meshless::scene::Scene;
 use meshless::tensor::{D2, D3, Dim};
 use std::path::Path;
 
@@ -24,7 +25,10 @@ fn disk(overrides: &[&str]) -> GrayMonaghan<D2> {
 
 /// A 3D block of 6 × 5 × 4 particles under the UL method `name` with the `[method]`
 /// lines `keys`.
-pub fn block_3d<S: PairScheme<D3>>(name: &str, correction: &str, keys: &str) -> UlSph<D3, S> {
+pub fn block_3d<S: PairScheme<D3>>(name: &str, correction: &str, keys: &str) -> UlSph<D3, S>
+where
+    S::Spec: Runs,
+{
     let text = format!(
         r#"
 name = "block"
@@ -48,7 +52,7 @@ geometry = {{ shape = "box", min = [0.0, 0.0, 0.0], max = [0.5, 0.4, 0.3] }}
 end_time = 1.0e-4
 "#
     );
-    build_method(&Case::from_toml(&text, Path::new("block.toml"), &[]).unwrap()).unwrap()
+    build_method(&Scene::from_toml(&text, Path::new("block.toml"), &[]).unwrap()).unwrap()
 }
 
 /// The 3D block under Gray–Monaghan with every stabilisation.
@@ -453,12 +457,12 @@ fn refused(overrides: &[&str]) -> (String, String) {
     let mut set = vec!["method.name=gray-monaghan-sph"];
     set.extend_from_slice(overrides);
     let set: Vec<String> = set.iter().map(|s| s.to_string()).collect();
-    match Case::load(
+    match Scene::load(
         &crate::common::case_file("rotating-disk-gray-monaghan"),
         &set,
     ) {
         Err(CaseError::Invalid { key, message, .. }) => (key, message),
-        other => panic!("{overrides:?}: {:?}", other.map(|c| c.name)),
+        other => panic!("{overrides:?}: {:?}", other.map(|c| c.name.clone())),
     }
 }
 

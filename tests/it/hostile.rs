@@ -5,7 +5,7 @@
 
 use crate::common::{cases_dir, toml_files};
 use meshless::run::{Backend, Limits, RunError, check};
-use meshless::scene::Case;
+use meshless::scene::Scene;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
@@ -28,7 +28,7 @@ fn outcome(text: String, file: PathBuf, limits: Limits, time_limit: Duration) ->
     let (sender, receiver) = mpsc::channel();
     std::thread::spawn(move || {
         let result = std::panic::catch_unwind(|| {
-            Case::from_toml(&text, &file, &[])
+            Scene::from_toml(&text, &file, &[])
                 .map_err(RunError::from)
                 .and_then(|case| check(&case, Backend::Cpu, &limits))
         });

@@ -7,7 +7,7 @@ use meshless::integrate::OdeSystem;
 use meshless::methods::Method;
 use meshless::methods::tlsph::{TlState, Tlsph};
 use meshless::run::build_method;
-use meshless::scene::Case;
+use meshless::scene::Scene;
 use meshless::tensor::D2;
 use std::path::Path;
 
@@ -20,15 +20,15 @@ fn block_source() -> String {
 }
 
 /// The block with the `--set` overrides `set`.
-fn block(set: &[&str]) -> Case {
+fn block(set: &[&str]) -> Scene {
     let set: Vec<String> = set.iter().map(|s| s.to_string()).collect();
-    Case::from_toml(&block_source(), Path::new("block.toml"), &set)
+    Scene::from_toml(&block_source(), Path::new("block.toml"), &set)
         .unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// The block at rest but for the checkerboard v = v0 (−1)^(i+j) e_y under a smooth
 /// envelope that vanishes on the boundary, v0 = 1e-3 m/s.
-fn checkerboard(case: &Case, m: &Tlsph<D2>) -> TlState<D2> {
+fn checkerboard(case: &Scene, m: &Tlsph<D2>) -> TlState<D2> {
     let mut y = m.initial_state();
     for (v, x) in y.v.iter_mut().zip(m.reference()) {
         let envelope =
@@ -40,7 +40,7 @@ fn checkerboard(case: &Case, m: &Tlsph<D2>) -> TlState<D2> {
 }
 
 /// The largest hourglass indicator η after each of `steps` steps from the checkerboard.
-fn checkerboard_eta(case: &Case, steps: &[usize]) -> Vec<f64> {
+fn checkerboard_eta(case: &Scene, steps: &[usize]) -> Vec<f64> {
     let mut m: Tlsph<D2> = build_method(case).unwrap();
     let y = checkerboard(case, &m);
     crate::common::hourglass_after(case, &mut m, y, steps, |m, y| {
@@ -57,7 +57,7 @@ fn the_control_holds_down_a_checkerboard() {
     // η is sampled every 50 steps over 1,000 steps (0.5 s). Measured largest η: 4.7e-3
     // without the control, 2.3e-5 with it (1/200); bound 1/20.
     let steps: Vec<usize> = (1..=20).map(|k| 50 * k).collect();
-    let peak = |case: &Case| {
+    let peak = |case: &Scene| {
         let eta = checkerboard_eta(case, &steps);
         eta.iter().copied().fold(0.0, f64::max)
     };
@@ -135,7 +135,7 @@ fn affine_motion_has_no_hourglass_force_and_the_pair_forces_balance() {
 
 #[test]
 fn a_bad_coefficient_is_refused_by_key() {
-    let err = Case::from_toml(
+    let err = Scene::from_toml(
         &block_source(),
         Path::new("block.toml"),
         &["method.hourglass=-1.0".to_string()],
@@ -153,7 +153,7 @@ fn a_bad_coefficient_is_refused_by_key() {
         "kbm",
         "hourglass = 10.0",
     );
-    let err = Case::from_toml(&text, Path::new("block.toml"), &[])
+    let err = Scene::from_toml(&text, Path::new("block.toml"), &[])
         .unwrap_err()
         .to_string();
     assert!(
@@ -173,7 +173,7 @@ fn the_gpu_control_tracks_the_cpu() {
     // runs with and without it, which the test measures too.
     use meshless::methods::tlsph::GpuTlsph;
     let steps = 400;
-    let run_cpu = |case: &Case| {
+    let run_cpu = |case: &Scene| {
         let mut m: Tlsph<D2> = build_method(case).unwrap();
         let mut y = checkerboard(case, &m);
         let mut integrator = meshless::integrate::Integrator::new(case.method.integrator, &y);
@@ -187,7 +187,8 @@ fn the_gpu_control_tracks_the_cpu() {
     let cpu = run_cpu(&case);
     let free = run_cpu(&block(&[]));
     let host: Tlsph<D2> = build_method(&case).unwrap();
-    let mut gpu = GpuTlsph::<D2>::new(&case, crate::common::gpu()).unwrap();
+    let mut gpu =
+        GpuTlsph::<D2>::new(&case, crate::common::tl_scheme(&case), crate::common::gpu()).unwrap();
     gpu.set_state(&checkerboard(&case, &host));
     gpu.advance_steps(case.method.dt.unwrap(), steps as u32)
         .unwrap();

@@ -2,18 +2,19 @@
 //! (`initial_velocity = { type = "expression", … }`).
 
 use crate::common::material_and_method;
-use meshless::scene::{Case, CaseError, Discretised, discretise};
+use meshless::case::{CaseError, Discretised, discretise};
+use meshless::scene::Scene;
 use meshless::tensor::D2;
 use std::path::Path;
 
 /// The shipped rotating disk with its initial velocity replaced by `field`.
-fn disk(field: &str) -> Result<Case, CaseError> {
+fn disk(field: &str) -> Result<Scene, CaseError> {
     let text = std::fs::read_to_string(crate::common::case_file("rotating-disk")).unwrap();
     let text = text.replace(
         r#"initial_velocity = { type = "rigid-rotation", omega = 50.0, center = [0.0, 0.0] }"#,
         &format!("initial_velocity = {field}"),
     );
-    Case::from_toml(&text, Path::new("disk.toml"), &[])
+    Scene::from_toml(&text, Path::new("disk.toml"), &[])
 }
 
 #[test]
@@ -89,7 +90,8 @@ fn from_points(rows: &str, extra: &str) -> Result<Discretised<D2>, CaseError> {
     );
     let path = dir.path().join("points.toml");
     std::fs::write(&path, &text).unwrap();
-    discretise::<D2>(&Case::load(&path, &[])?)
+    let scene = Scene::load(&path, &[])?;
+    discretise::<D2>(&scene)
 }
 
 #[test]
@@ -128,12 +130,12 @@ fn velocity_columns_must_be_whole_and_not_given_twice() {
 /// A 0.3 × 0.2 m block (Δx = 0.05) of Saint Venant–Kirchhoff rubber with `method` at rest
 /// under the initial displacement `field`, RK4 at Δt = 1e-5 s (dynamic, also for the
 /// methods that are static by default).
-fn prestretched(method: &str, field: &str) -> Result<Case, CaseError> {
+fn prestretched(method: &str, field: &str) -> Result<Scene, CaseError> {
     prestretched_in("saint-venant-kirchhoff", method, field)
 }
 
 /// [`prestretched`] with the material model `model`.
-fn prestretched_in(model: &str, method: &str, field: &str) -> Result<Case, CaseError> {
+fn prestretched_in(model: &str, method: &str, field: &str) -> Result<Scene, CaseError> {
     let tables = material_and_method(model, method);
     let text = format!(
         r#"
@@ -150,7 +152,7 @@ end_time = 1.0e-4
 solve = "dynamic"
 "#
     );
-    Case::from_toml(&text, Path::new("prestretched.toml"), &[])
+    Scene::from_toml(&text, Path::new("prestretched.toml"), &[])
 }
 
 /// The affine pre-deformation F = I + G of the test below, as a linear field and as the
@@ -211,9 +213,9 @@ fn an_affine_initial_displacement_stores_the_energy_of_its_deformation_gradient(
 fn an_initial_displacement_is_refused_where_f_does_not_follow_from_u() {
     let shown_in = |model: &str, method: &str, overrides: &[&str]| {
         let case = prestretched_in(model, method, LINEAR).unwrap_or_else(|e| panic!("{e}"));
-        let text = toml::to_string(&case).unwrap();
+        let text = toml::to_string(&case.resolved()).unwrap();
         let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
-        Case::from_toml(&text, Path::new("prestretched.toml"), &overrides)
+        Scene::from_toml(&text, Path::new("prestretched.toml"), &overrides)
             .unwrap_err()
             .to_string()
     };

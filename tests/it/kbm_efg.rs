@@ -13,7 +13,7 @@ use meshless::integrate::OdeSystem;
 use meshless::methods::Method;
 use meshless::methods::galerkin::{GalerkinState, TlGalerkin};
 use meshless::run::build_method;
-use meshless::scene::Case;
+use meshless::scene::Scene;
 use meshless::tensor::{D2, D3, Dim};
 
 /// The four variants: (method, keys, the paper's name).
@@ -256,7 +256,7 @@ fn scni_does_not_strain_the_stripes_inside_either() {
 /// The largest hourglass indicator η at `steps` steps of a free block [0, 1.6] × [0, 1.2]
 /// set moving by the stripes v = v0 (−1)^i e_x under a smooth envelope that vanishes on
 /// the boundary, v0 = 1e-3 m/s.
-fn stripes_eta(case: &Case, steps: &[usize]) -> Vec<f64> {
+fn stripes_eta(case: &Scene, steps: &[usize]) -> Vec<f64> {
     let mut m: TlGalerkin<D2> = build_method(case).unwrap();
     let mut y = m.initial_state();
     for (v, x) in y.v.iter_mut().zip(m.reference()) {

@@ -3,8 +3,9 @@
 //! against the CPU.
 
 use meshless::boundary::{Boundary, OnPatches, timed_loads};
+use meshless::case::discretise;
 use meshless::run::{Backend, Engine, engine};
-use meshless::scene::{Case, discretise};
+use meshless::scene::Scene;
 use meshless::tensor::D2;
 use std::path::Path;
 
@@ -13,7 +14,7 @@ use std::path::Path;
 /// left column held in x and its right column pulled by a traction of 1e4 Pa under
 /// `law`, RK4 with Δt = 5e-4 s (a third of Δx/c_p); `method` is the `[method]` table's
 /// name and keys, `lattice` the box's lattice.
-pub fn bar(method: &str, lattice: &str, law: &str) -> Case {
+pub fn bar(method: &str, lattice: &str, law: &str) -> Scene {
     let text = format!(
         r#"
 name = "ramped-bar"
@@ -42,12 +43,12 @@ condition = {{ type = "traction", traction = [1.0e4, 0.0], law = {law} }}
 end_time = 3.0
 "#
     );
-    Case::from_toml(&text, Path::new("ramped-bar.toml"), &[]).unwrap_or_else(|e| panic!("{e}"))
+    Scene::from_toml(&text, Path::new("ramped-bar.toml"), &[]).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// TLSPH with the Randles–Libersky correction and the pair force `force` on the
 /// cell-centred bar (20 × 4 particles).
-fn tlsph_bar(force: &str, law: &str) -> Case {
+fn tlsph_bar(force: &str, law: &str) -> Scene {
     let method = format!(
         "name = \"tlsph\"\nh_over_dx = 1.3\ncorrection = \"randles-libersky\"\nforce = \"{force}\""
     );
@@ -122,7 +123,7 @@ fn the_variational_tlsph_force_carries_the_whole_traction() {
 
 /// A ring of inner radius 0.51 m and outer radius 1 m about the origin, Δx = 0.05 (no
 /// lattice point on either circle), under a pressure `p` on its inner circle with `law`.
-fn ring(p: f64, law: &str) -> Case {
+fn ring(p: f64, law: &str) -> Scene {
     let text = format!(
         r#"
 name = "pressurised-ring"
@@ -149,7 +150,7 @@ condition = {{ type = "pressure", pressure = {p}, center = [0.0, 0.0], radius = 
 end_time = 1.0
 "#
     );
-    Case::from_toml(&text, Path::new("ring.toml"), &[]).unwrap_or_else(|e| panic!("{e}"))
+    Scene::from_toml(&text, Path::new("ring.toml"), &[]).unwrap_or_else(|e| panic!("{e}"))
 }
 
 #[test]
@@ -206,11 +207,12 @@ fn a_pressure_shares_its_circle_among_the_particles_along_it() {
 /// batches of 100 steps from the driver's times, and returns (max |u_GPU − u_CPU|, max
 /// |u_CPU|).
 #[cfg(feature = "gpu")]
-fn both_backends(case: &Case, dt: f64, steps: u32) -> (f64, f64) {
+fn both_backends(case: &Scene, dt: f64, steps: u32) -> (f64, f64) {
     use meshless::methods::tlsph::{GpuTlsph, Tlsph};
-    let mut cpu = meshless::run::CpuEngine::<D2, Tlsph<D2>>::new(case).unwrap();
+    let mut cpu = meshless::scene::cpu_engine::<D2, Tlsph<D2>>(case).unwrap();
     cpu.advance(0.0, dt, steps).unwrap();
-    let mut gpu: GpuTlsph<D2> = GpuTlsph::new(case, crate::common::gpu()).unwrap();
+    let mut gpu: GpuTlsph<D2> =
+        GpuTlsph::new(case, crate::common::tl_scheme(case), crate::common::gpu()).unwrap();
     for k in (0..steps).step_by(100) {
         Engine::<D2>::advance(&mut gpu, f64::from(k) * dt, dt, 100.min(steps - k)).unwrap();
     }

@@ -7,7 +7,7 @@ use crate::common::cpu_options;
 use meshless::output::series::read_column;
 use meshless::reference::Reference;
 use meshless::run::run;
-use meshless::scene::Case;
+use meshless::scene::Scene;
 use meshless::tensor::D2;
 
 /// The box [0, L] × [0, H] as an nx × ny grid whose interior nodes are moved by up to a
@@ -108,7 +108,7 @@ solve = "static"
 [output]
 observers = ["reaction"]
 "#;
-    let case = Case::from_toml(text, &dir.path().join("meshed-block.toml"), &[]).unwrap();
+    let case = Scene::from_toml(text, &dir.path().join("meshed-block.toml"), &[]).unwrap();
     let reference = Reference::<D2>::build(&case).unwrap();
     assert_eq!(reference.x0.len(), 160);
     let area: f64 = reference.vol.iter().sum();
@@ -150,7 +150,7 @@ geometry = { shape = "mesh", file = "bad.msh" }
 [run]
 end_time = 1.0e-5
 "#;
-    let case = Case::from_toml(text, &dir.path().join("bad.toml"), &[]).unwrap();
+    let case = Scene::from_toml(text, &dir.path().join("bad.toml"), &[]).unwrap();
     let err = Reference::<D2>::build(&case).err().unwrap().to_string();
     for part in ["body.0.geometry.file", "bad.msh", "$MeshFormat"] {
         assert!(err.contains(part), "{err}");
@@ -235,7 +235,7 @@ solve = "static"
 end_time = 1.0
 "#
     );
-    let case = Case::from_toml(&text, &dir.join("bar.toml"), &[]).unwrap();
+    let case = Scene::from_toml(&text, &dir.join("bar.toml"), &[]).unwrap();
     let mut e = meshless::run::engine::<D2>(&case, meshless::run::Backend::Cpu).unwrap();
     e.advance(0.0, 1.0, 1).unwrap_or_else(|f| panic!("{f:?}"));
     let s = e.snapshot();
@@ -275,7 +275,7 @@ fn a_quad_mesh_at_its_vertices_is_the_fem_bar_of_the_lattice() {
     assert!((mesh / exact - 1.0).abs() < 1e-9, "{mesh} against {exact}");
     // The vertices' volumes are the quarter shares of their cells: they sum to the mesh's
     // 4 m² (to round-off), and the mesh's cells are the body's.
-    let case = Case::from_toml(
+    let case = Scene::from_toml(
         "name = \"bar\"\ndimension = 2\nspacing = 0.125\n[material]\nmodel = \
          \"linear-elastic\"\ndensity = 1000.0\nyoungs_modulus = 1e7\npoisson_ratio = 0.3\n\
          [method]\nname = \"tl-fem\"\ndt = 1e-5\n[[body]]\nname = \"bar\"\ngeometry = { \
@@ -296,7 +296,7 @@ fn mesh_vertices_are_refused_for_particle_methods_and_triangles() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("tri.msh"), irregular_box(1.0, 1.0, 4, 4)).unwrap();
     let case = |method: &str, keys: &str| {
-        Case::from_toml(
+        Scene::from_toml(
             &format!(
                 "name = \"m\"\ndimension = 2\nspacing = 0.25\n[material]\nmodel = \
                  \"linear-elastic\"\ndensity = 1000.0\nyoungs_modulus = 1e7\npoisson_ratio = \
@@ -371,7 +371,7 @@ end_time = 4.0e-3
         );
         // The methods that integrate at their particles refuse the vertices, and the
         // Jaumann-rate ones this model.
-        let case = match Case::from_toml(&text, &dir.path().join("skew.toml"), &[]) {
+        let case = match Scene::from_toml(&text, &dir.path().join("skew.toml"), &[]) {
             Ok(case) => case,
             Err(e) => {
                 eprintln!("{}: {e}", entry.name);

@@ -9,7 +9,7 @@ use meshless::material::Material;
 use meshless::methods::Method;
 use meshless::methods::mixed::{Fluxes, MixedSph};
 use meshless::run::{Backend, CpuEngine, Engine, build_method};
-use meshless::scene::Case;
+use meshless::scene::Scene;
 use meshless::study::engine::run_case;
 use meshless::study::fields::{analytic_fields, relative_l2};
 use meshless::study::suite::AnalyticSolution;
@@ -27,7 +27,7 @@ fn sum_v<D: Dim>(f: &[D::V], vol: &[f64]) -> (D::V, f64) {
 
 /// Σ_a V_a T_a = Σ_a V_a D(p_a) = Σ_a V_a D(J_a) = 0 for any state (seed 003 §6 check 2):
 /// every pair term is antisymmetric. Round-off of O(N·k) terms: 1e-12 of Σ V |f|.
-fn fluxes_are_conservative<D: Dim>(case: &Case) {
+fn fluxes_are_conservative<D: Dim>(case: &Scene) {
     let mut m: MixedSph<D> = build_method(case).unwrap();
     let y = random_state(&m, &mut 11, 0.0);
     let Fluxes { t, d, dj } = m.fluxes(&y).unwrap();
@@ -37,7 +37,7 @@ fn fluxes_are_conservative<D: Dim>(case: &Case) {
         assert!(
             D::norm2(total).sqrt() < 1e-12 * scale,
             "{} {}D: |Σ V {name}| = {:e} of {scale:e}",
-            case.method.name(),
+            case.method.name,
             D::N,
             D::norm2(total).sqrt()
         );
@@ -314,7 +314,7 @@ fn swinging_run_errors(spacing: f64, name: &str) -> (f64, f64) {
 }
 
 /// Relative L2 errors of v and P of a swinging case at its end time.
-fn run_errors(case: &Case) -> (f64, f64) {
+fn run_errors(case: &Scene) -> (f64, f64) {
     let dir = tempfile::tempdir().unwrap();
     let opts = cpu_options(dir.path(), false);
     let out = run_case(case, Backend::Cpu, &opts);
@@ -682,7 +682,7 @@ fn the_taylor_bar_mushrooms_to_the_published_radius() {
 /// A plate 10 particles thick (2 × 0.5 m, Δx = 0.05 m, 400 particles, ν = 0.45) of
 /// `model`, clamped by fixed particles on x ≤ 0.1 m, released with v_y = 1·X (close to
 /// its first bending mode), Upwind-SPH on `variables`, TVD-RK2 at Δt = 6e-5 s (CFL 0.3).
-fn clamped_plate(model: &str, variables: &str) -> Case {
+fn clamped_plate(model: &str, variables: &str) -> Scene {
     let text = format!(
         r#"
 name = "clamped-plate"
@@ -711,13 +711,14 @@ condition = {{ type = "fixed" }}
 end_time = 0.15
 "#
     );
-    Case::from_toml(&text, std::path::Path::new("clamped-plate.toml"), &[]).unwrap()
+    Scene::from_toml(&text, std::path::Path::new("clamped-plate.toml"), &[]).unwrap()
 }
 
 /// 2,500 steps (to 0.15 s) of the clamped plate, checked every 100 as the driver does
 /// (det F, J, finiteness); returns the engine.
 fn swing_clamped_plate(model: &str, variables: &str) -> CpuEngine<D2, MixedSph<D2>> {
-    let mut e = CpuEngine::<D2, MixedSph<D2>>::new(&clamped_plate(model, variables)).unwrap();
+    let mut e =
+        meshless::scene::cpu_engine::<D2, MixedSph<D2>>(&clamped_plate(model, variables)).unwrap();
     for k in 0..25 {
         e.advance(f64::from(100 * k) * 6.0e-5, 6.0e-5, 100).unwrap();
         e.check()

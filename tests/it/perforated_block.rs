@@ -3,9 +3,9 @@
 //! indicator.
 
 use crate::common::{cpu_options, load};
+use meshless::case::discretise;
 use meshless::output::series::read_column;
 use meshless::run::Backend;
-use meshless::scene::discretise;
 use meshless::study::engine::run_case;
 use meshless::tensor::D3;
 

@@ -5,7 +5,7 @@
 use crate::common::cpu_options;
 use meshless::output::series::read_column;
 use meshless::run::{Backend, run};
-use meshless::scene::Case;
+use meshless::scene::Scene;
 use std::path::Path;
 
 /// Young's modulus [Pa], the strip's height [m] and length between the grips [m].
@@ -23,7 +23,7 @@ const T_END: f64 = 2.0e-2;
 /// x = 0 (`left`) and pinned in y at its lower-left corner (`pin`), its right end pulled
 /// at V with the speed ramped over 5 ms (`grip`): 20 transits to t = 20 ms, so the pull is
 /// quasi-static. A section at mid-length; `method` with `keys`, `model`, CFL 0.3.
-fn strip(dx: f64, method: &str, keys: &str, model: &str) -> Case {
+fn strip(dx: f64, method: &str, keys: &str, model: &str) -> Scene {
     let text = format!(
         r#"
 name = "pulled-strip"
@@ -66,11 +66,11 @@ observers = ["energy", "reaction"]
 "#,
         mid = 0.5 * LENGTH
     );
-    Case::from_toml(&text, Path::new("pulled-strip.toml"), &[]).unwrap()
+    Scene::from_toml(&text, Path::new("pulled-strip.toml"), &[]).unwrap()
 }
 
 /// The end value of each of `columns` of a run of `case` on `backend`.
-fn ends(case: &Case, backend: Backend, columns: &[&str]) -> Vec<f64> {
+fn ends(case: &Scene, backend: Backend, columns: &[&str]) -> Vec<f64> {
     let dir = tempfile::tempdir().unwrap();
     let opts = meshless::run::RunOptions {
         backend,
@@ -271,7 +271,7 @@ fn the_shipped_pulled_strip_follows_uniaxial_neo_hooke_from_its_reaction() {
 /// column at x = L − Δx/2 loaded by the traction t = 1e4 Pa along x (its 10
 /// particles take t·Δx each, so tH = 5000 N/m in all, the same on any rule that gives
 /// the loaded face its length H), a section at mid-length. `set` overrides.
-fn static_bar(set: &[&str]) -> Case {
+fn static_bar(set: &[&str]) -> Scene {
     let (dx, length, height) = (0.05, 2.0, 0.5);
     let text = format!(
         r#"
@@ -314,7 +314,7 @@ observers = ["reaction"]
         mid = 0.5 * length,
     );
     let set: Vec<String> = set.iter().map(|s| s.to_string()).collect();
-    Case::from_toml(&text, Path::new("static-bar.toml"), &set).unwrap_or_else(|e| panic!("{e}"))
+    Scene::from_toml(&text, Path::new("static-bar.toml"), &set).unwrap_or_else(|e| panic!("{e}"))
 }
 
 #[test]

@@ -2,15 +2,16 @@
 //! `--set method.name=X` does to the keys of the previous method.
 
 use crate::common::{case_file, load, shipped};
+use meshless::case::CaseError;
 use meshless::methods::mixed::{Conserved, DeformationGradient, Jst, Momentum};
 use meshless::methods::{COMMON_KEYS, MethodSpec, REGISTRY, entry};
-use meshless::scene::{Case, CaseError};
+use meshless::scene::Scene;
 
 /// The error of a shipped case with overrides; panics if it loads.
 fn load_error(name: &str, overrides: &[&str]) -> (CaseError, String) {
     let path = case_file(name);
     let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
-    match Case::load(&path, &overrides) {
+    match Scene::load(&path, &overrides) {
         Ok(_) => panic!("{name} with {overrides:?} was accepted"),
         Err(e) => {
             let shown = e.to_string();
@@ -24,15 +25,15 @@ fn a_change_of_method_keeps_the_keys_both_read_and_drops_the_others() {
     // The bending column is JST-SPH {p, F} with the symmetrised momentum, the bond-based F,
     // no projection and its own ε⁽⁴⁾. Upwind-SPH reads all of these but `jst`.
     let jst = shipped("bending-column");
-    let MethodSpec::JstSph(before) = &jst.method.spec else {
+    let MethodSpec::JstSph(before) = &jst.spec else {
         panic!("the bending column is a jst-sph case")
     };
     assert_eq!(before.jst.eps4, 0.015625);
     assert!(jst.notes.is_empty(), "{:?}", jst.notes);
 
     let upwind = load("bending-column", &["method.name=upwind-sph"]);
-    let MethodSpec::UpwindSph(after) = &upwind.method.spec else {
-        panic!("method.name=upwind-sph gave {:?}", upwind.method.spec)
+    let MethodSpec::UpwindSph(after) = &upwind.spec else {
+        panic!("method.name=upwind-sph gave {:?}", upwind.spec)
     };
     assert_eq!(
         after.mixed, before.mixed,
@@ -70,8 +71,8 @@ fn a_change_of_method_keeps_the_keys_both_read_and_drops_the_others() {
         "bending-column",
         &["method.name=upwind-sph", "method.name=jst-sph"],
     );
-    let MethodSpec::JstSph(again) = &back.method.spec else {
-        panic!("method.name=jst-sph gave {:?}", back.method.spec)
+    let MethodSpec::JstSph(again) = &back.spec else {
+        panic!("method.name=jst-sph gave {:?}", back.spec)
     };
     assert_eq!(again.jst, Jst::default());
 }
@@ -86,7 +87,7 @@ fn a_change_of_method_drops_tlsph_viscosity_and_keeps_an_explicit_key() {
         "method.correction=cgck",
     ];
     let case = load("tensile-strip", &mixed);
-    assert_eq!(case.method.name(), "upwind-sph");
+    assert_eq!(case.method.name, "upwind-sph");
     assert!(
         case.notes
             .iter()
@@ -144,7 +145,7 @@ fn a_method_with_its_own_consistent_functions_refuses_a_correction_by_name() {
 #[test]
 fn every_method_has_one_name_in_case_files_listings_and_summaries() {
     // Every registered name parses as a case's method, and the case reports it back
-    // under the same name (the summary's `method` is `case.method.name()`).
+    // under the same name (the summary's `method` is `case.method.name`).
     for e in REGISTRY {
         let mut set = vec![format!("method.name={}", e.name)];
         if e.name != "tlsph" && e.keys.contains(&"force") {
@@ -164,8 +165,8 @@ fn every_method_has_one_name_in_case_files_listings_and_summaries() {
         }
         let set: Vec<&str> = set.iter().map(String::as_str).collect();
         let case = load("tensile-strip", &set);
-        assert_eq!(case.method.name(), e.name);
-        assert_eq!(case.method.spec.entry().name, e.name);
+        assert_eq!(case.method.name, e.name);
+        assert_eq!(case.spec.entry().name, e.name);
         assert!(entry(e.name).is_some_and(|x| std::ptr::eq(x, e)));
         assert!(!e.description.is_empty());
         for key in e.keys {
@@ -193,7 +194,7 @@ fn every_method_has_a_bench_case_that_loads() {
     // one would panic there.
     for entry in REGISTRY {
         let (case, _) = bench_cases::method_case(entry.name);
-        assert_eq!(case.method.name(), entry.name);
+        assert_eq!(case.method.name, entry.name);
     }
 }
 

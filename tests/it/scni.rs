@@ -13,7 +13,7 @@ use meshless::methods::Method;
 use meshless::methods::galerkin::{GalerkinState, TlGalerkin};
 use meshless::quadrature::{Shapes, SmoothingCells};
 use meshless::run::{Backend, build_method, engine};
-use meshless::scene::Case;
+use meshless::scene::Scene;
 use meshless::tensor::{D2, D3, Dim};
 use std::path::Path;
 
@@ -168,7 +168,7 @@ solve = "static"
 end_time = 1.0
 "#
     );
-    let case = Case::from_toml(&text, Path::new("patch.toml"), &[]).unwrap();
+    let case = Scene::from_toml(&text, Path::new("patch.toml"), &[]).unwrap();
     let mut e = engine::<D2>(&case, Backend::Cpu).unwrap();
     e.advance(0.0, 1.0, 1).unwrap();
     let s = e.snapshot();
@@ -277,7 +277,7 @@ fn scni_converges_to_timoshenkos_cantilever() {
 /// A plane-stress SVK cantilever, L = 1 m free, D = 0.2 m, clamped by the three columns
 /// behind x = 0, released in Euler–Bernoulli's first bending mode (0.1 m/s at the tip),
 /// under `method` with `keys` on the leapfrog at Δt = 1e-4 s (CFL 0.3).
-fn released_cantilever(method: &str, keys: &str) -> Case {
+fn released_cantilever(method: &str, keys: &str) -> Scene {
     let text = format!(
         r#"
 name = "released"
@@ -306,7 +306,7 @@ condition = {{ type = "fixed" }}
 end_time = 1.0
 "#
     );
-    Case::from_toml(&text, Path::new("released.toml"), &[]).unwrap()
+    Scene::from_toml(&text, Path::new("released.toml"), &[]).unwrap()
 }
 
 /// The largest |E(t)/E(0) − 1| of the total energy (kinetic + stored) and the largest
@@ -401,7 +401,7 @@ name = "plate"
 end_time = 1.0e-4
 "#
         );
-        Case::from_toml(&text, Path::new("refused.toml"), &[])
+        Scene::from_toml(&text, Path::new("refused.toml"), &[])
     };
     let disk = "geometry = { shape = \"disk\", center = [0.0, 0.0], radius = 1.0 }";
     let holed = "geometry = { shape = \"box\", min = [0.0, 0.0], max = [1.0, 1.0] }\n\

@@ -9,7 +9,7 @@ use crate::common::load;
 use meshless::material::Material;
 use meshless::observe::{solution_errors, solution_of};
 use meshless::run::{Backend, Engine, engine};
-use meshless::scene::Case;
+use meshless::scene::Scene;
 use meshless::tensor::D2;
 use std::path::Path;
 
@@ -22,7 +22,7 @@ const EFG_NI: &[&str] = &["method.name=efg", "method.integration=nodal"];
 const EFG_CI: &[&str] = &["method.name=efg"];
 
 /// The static solve of a case: (displacement error, energy error).
-fn solve(case: &Case) -> (f64, f64) {
+fn solve(case: &Scene) -> (f64, f64) {
     let mut e = engine::<D2>(case, Backend::Cpu).unwrap_or_else(|e| panic!("{e}"));
     e.advance(0.0, 1.0, 1)
         .unwrap_or_else(|f| panic!("{}", f.cause));
@@ -85,7 +85,7 @@ end_time = 1.0
 solve = "static"
 "#;
     let case =
-        Case::from_toml(text, Path::new("patch.toml"), &[]).unwrap_or_else(|e| panic!("{e}"));
+        Scene::from_toml(text, Path::new("patch.toml"), &[]).unwrap_or_else(|e| panic!("{e}"));
     let mut e = engine::<D2>(&case, Backend::Cpu).unwrap();
     e.advance(0.0, 1.0, 1)
         .unwrap_or_else(|f| panic!("{}", f.cause));

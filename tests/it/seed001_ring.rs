@@ -6,6 +6,7 @@
 
 use crate::common::{cpu_options, load, random_vector};
 use glam::{DMat2, DVec2};
+use meshless::case::VelocityNoise;
 use meshless::integrate::OdeSystem;
 use meshless::methods::Method;
 use meshless::methods::galerkin::TlGalerkin;
@@ -14,18 +15,18 @@ use meshless::methods::kbm::eulerian::{EulerianPoints, SEARCH_EVERY};
 use meshless::output::series::read_column;
 use meshless::reference::Reference;
 use meshless::run::{RunError, build_method, run};
-use meshless::scene::{Case, VelocityNoise};
+use meshless::scene::Scene;
 use meshless::tensor::D2;
 
 type Eulerian = UlGalerkin<D2, EulerianPoints<D2>>;
 
 /// The rubber ring case (9 × 60 polar lattice, KBM (si)) with overrides.
-fn ring(overrides: &[&str]) -> Case {
+fn ring(overrides: &[&str]) -> Scene {
     load("rubber-ring-kbm", overrides)
 }
 
 /// The ring unloaded (its pressure removed), with overrides.
-fn unloaded(overrides: &[&str]) -> Case {
+fn unloaded(overrides: &[&str]) -> Scene {
     let mut case = ring(overrides);
     case.boundaries.clear();
     case
@@ -163,7 +164,8 @@ fn the_eulerian_lists_are_searched_anew_on_the_current_configuration() {
     let case = unloaded(&["method.kernel_frame=eulerian"]);
     let reference = Reference::<D2>::build(&case).unwrap();
     let m = eulerian();
-    let mut points = EulerianPoints::<D2>::build(&case, &reference).unwrap();
+    let mut points =
+        EulerianPoints::<D2>::build(&case, crate::common::spec_of(&case), &reference).unwrap();
     let first = points.lists().clone();
     let search = |points: &mut EulerianPoints<D2>, y: &UlGalerkinState<D2>| {
         let lists: Vec<_> = (0..SEARCH_EVERY)

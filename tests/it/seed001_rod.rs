@@ -12,7 +12,7 @@ use meshless::methods::tlsph::Tlsph;
 use meshless::output::series::read_column;
 use meshless::reference::Reference;
 use meshless::run::{build_method, run};
-use meshless::scene::Case;
+use meshless::scene::Scene;
 use meshless::tensor::D2;
 use std::f64::consts::PI;
 use std::path::Path;
@@ -26,7 +26,7 @@ const H_OVER_DX: f64 = 1.3;
 /// tributary volumes, Saint Venant–Kirchhoff in plane strain, the cubic spline at h/Δx =
 /// 1.3 and the given correction, and Table 1's force (eq 134, `force = "reveles"`: B_I
 /// of particle I on both stress terms); no boundary condition.
-fn block(correction: &str) -> Case {
+fn block(correction: &str) -> Scene {
     let text = format!(
         r#"
 name = "table1"
@@ -51,12 +51,12 @@ geometry = {{ shape = "box", min = [0.0, 0.0], max = [1.0, 0.6], volumes = "trib
 end_time = 1.0e-4
 "#
     );
-    Case::from_toml(&text, Path::new("table1.toml"), &[]).unwrap_or_else(|e| panic!("{e}"))
+    Scene::from_toml(&text, Path::new("table1.toml"), &[]).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// The block's reference configuration with every particle moved by up to 0.2 Δx and its
 /// volume (and mass) scaled by up to ±20 %, reproducibly.
-fn perturbed(case: &Case, seed: &mut u64) -> Reference<D2> {
+fn perturbed(case: &Scene, seed: &mut u64) -> Reference<D2> {
     let mut r = Reference::<D2>::build(case).unwrap();
     let dx = case.spacing;
     for i in 0..r.len() {
@@ -185,7 +185,7 @@ fn tlsph_on_perturbed_block(correction: &str) -> Compared {
         reference.vol.clone(),
         reference.mass.clone(),
     );
-    let mut m = Tlsph::<D2>::new(&case, reference).unwrap();
+    let mut m = Tlsph::<D2>::new(&case, crate::common::spec_of(&case), reference).unwrap();
     let mut y = m.initial_state();
     for (u, &x) in y.u.iter_mut().zip(&x0) {
         *u = displacement(x);
@@ -465,8 +465,8 @@ fn the_error_observer_names_a_closed_form_the_case_has() {
     // The shipped case survives the round trip through TOML that a study's run id takes,
     // observer and all.
     let case = load("rod-gaussian", &[] as &[&str]);
-    let text = toml::to_string(&case).unwrap();
-    let again = Case::from_toml(&text, Path::new("again.toml"), &[]).unwrap();
+    let text = toml::to_string(&case.resolved()).unwrap();
+    let again = Scene::from_toml(&text, Path::new("again.toml"), &[]).unwrap();
     assert_eq!(again.output.observers, case.output.observers);
     // A free rod needs a Gaussian pulse along an axis of a box; a swinging mode, the
     // `swinging` velocity: each refusal names the key and what is missing.
@@ -485,7 +485,7 @@ fn the_error_observer_names_a_closed_form_the_case_has() {
         ),
     ] {
         let path = crate::common::case_file("rod-gaussian");
-        let e = Case::load(&path, &[set.to_string()])
+        let e = Scene::load(&path, &[set.to_string()])
             .unwrap_err()
             .to_string();
         assert!(

@@ -12,7 +12,7 @@ use meshless::methods::kbm::eulerian::EulerianPoints;
 use meshless::output::series::read_column;
 use meshless::plasticity::PLASTIC_STRAIN;
 use meshless::run::{RunError, build_method, run};
-use meshless::scene::Case;
+use meshless::scene::Scene;
 use meshless::tensor::D2;
 use std::path::Path;
 
@@ -24,7 +24,7 @@ const H: f64 = -1e5;
 
 /// The block of spacing 0.1 over [0, 0.6] × [0, 0.4] in this von Mises material under
 /// `method` with `[method]` keys.
-fn plastic_block(method: &str, keys: &str) -> Case {
+fn plastic_block(method: &str, keys: &str) -> Scene {
     let material =
         format!("poisson_ratio = {NU}\nyield_stress = {TAU_Y:e}\nhardening_modulus = {H:e}\n");
     let mut text = block_text(&[0.6, 0.4], "von-mises-plastic", method, keys).replacen(
@@ -35,7 +35,7 @@ fn plastic_block(method: &str, keys: &str) -> Case {
     if !meshless::methods::entry(method).is_some_and(|e| e.kernel) {
         text = text.replacen("h_over_dx = 1.3\n", "", 1);
     }
-    Case::from_toml(&text, Path::new("block.toml"), &[]).unwrap_or_else(|e| panic!("{e}"))
+    Scene::from_toml(&text, Path::new("block.toml"), &[]).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// Drives `m` along u = (e^ε − 1) X e_x, ε from 0 to 0.1 in 50 increments (`state(m, ε)`

@@ -18,12 +18,12 @@ use meshless::methods::potential::gpu as potential;
 use meshless::methods::tlsph::gpu::{self as tlsph, Layout, scene_constants};
 use meshless::methods::ul::gpu as ul;
 use meshless::run::build_method;
-use meshless::scene::Case;
+use meshless::scene::Scene;
 use meshless::tensor::{D2, D3};
 use std::path::Path;
 
 /// TLSPH scenes: each material model, kernel and correction the GPU passes compile.
-fn variants() -> Vec<Case> {
+fn variants() -> Vec<Scene> {
     vec![
         shipped("rotating-disk"),
         load(
@@ -50,7 +50,7 @@ fn variants() -> Vec<Case> {
 /// material model the mixed methods allow, projection on and off, Upwind-SPH with and
 /// without reconstruction and JST-SPH, each set of conserved variables, and each method
 /// with the seed 002 options (symmetrised momentum, bond-based F with {p, F}).
-fn mixed_cases(dim: usize) -> Vec<Case> {
+fn mixed_cases(dim: usize) -> Vec<Scene> {
     let bases: Vec<(&str, Vec<&str>)> = if dim == 2 {
         vec![
             ("swinging-plate", vec!["spacing=0.125"]),
@@ -98,7 +98,7 @@ fn mixed_cases(dim: usize) -> Vec<Case> {
 
 /// Updated-Lagrangian scenes of dimension `dim`: each method, with and without the
 /// correction, and Gray–Monaghan with and without each of its terms.
-fn ul_cases(dim: usize) -> Vec<Case> {
+fn ul_cases(dim: usize) -> Vec<Scene> {
     let max = block_max(dim);
     let all = "artificial_viscosity = { alpha = 1.0, beta = 1.0 }\n\
                artificial_stress = { epsilon = 0.3, n = 4.0 }\nxsph = 0.5";
@@ -129,7 +129,7 @@ fn check_all<D: GpuDim>() {
 fn check_tlsph<D: GpuDim>() {
     for case in variants() {
         for rate in [false, true] {
-            let MethodSpec::Tlsph(spec) = &case.method.spec else {
+            let MethodSpec::Tlsph(spec) = &case.spec else {
                 unreachable!("TLSPH variants")
             };
             let scheme = tlsph::scheme(spec);
@@ -147,7 +147,8 @@ fn check_tlsph<D: GpuDim>() {
 fn check_mixed<D: GpuDim>() {
     for case in mixed_cases(D::N) {
         let cpu: MixedSph<D> = build_method(&case).unwrap();
-        let (_, constants) = mixed::scene(&case, &cpu);
+        let spec: &dyn meshless::methods::mixed::MixedScheme = crate::common::spec_of(&case);
+        let (_, constants) = mixed::scene(&case, spec.options(), &cpu);
         for source in mixed::SHADERS {
             let src = shaders::compose::<D>(source, &constants);
             validate_wgsl(&format!("{}D {} ({})", D::N, source.name, case.name), &src);
@@ -158,7 +159,7 @@ fn check_mixed<D: GpuDim>() {
 /// Godunov-SPH and Gray–Monaghan SPH, with and without correction.
 fn check_ul<D: GpuDim>() {
     for case in ul_cases(D::N) {
-        let (scheme, sources) = match &case.method.spec {
+        let (scheme, sources) = match &case.spec {
             MethodSpec::GrayMonaghanSph(spec) => {
                 (gray_monaghan::scheme(&case, spec), gray_monaghan::SHADERS)
             }
@@ -181,7 +182,7 @@ fn check_potential<D: GpuDim>() {
             format!("force = \"{force}\"\nartificial_viscosity = {{ alpha = 1.0, beta = 1.0 }}");
         let max = block_max(D::N);
         let case = block_case(max, "saint-venant-kirchhoff", "tl-potential", &keys);
-        let MethodSpec::TlPotential(spec) = &case.method.spec else {
+        let MethodSpec::TlPotential(spec) = &case.spec else {
             unreachable!("a tl-potential case")
         };
         let scheme = potential::scheme(spec);
@@ -217,7 +218,7 @@ fn check_corotated<D: GpuDim>() {
         ),
     ] {
         let case = block_case(max, model, "corotated-tlsph", keys);
-        let MethodSpec::CorotatedTlsph(spec) = &case.method.spec else {
+        let MethodSpec::CorotatedTlsph(spec) = &case.spec else {
             unreachable!("a corotated-tlsph case")
         };
         let scheme = corotated::scheme(spec);
@@ -240,13 +241,13 @@ fn check_dual_support<D: GpuDim>() {
         "nearly-incompressible-neo-hookean",
     ] {
         let text = block_text(max, model, "dual-support-sph", "");
-        let case = Case::from_toml(
+        let case = Scene::from_toml(
             &text,
             Path::new("block.toml"),
             &["run.solve=dynamic".to_string()],
         )
         .unwrap_or_else(|e| panic!("{e}"));
-        let MethodSpec::DualSupportSph(spec) = &case.method.spec else {
+        let MethodSpec::DualSupportSph(spec) = &case.spec else {
             unreachable!("a dual-support-sph case")
         };
         let scheme = dual_support::scheme(spec);

@@ -5,9 +5,10 @@
 
 use crate::common::cpu_options;
 use meshless::boundary::condition_totals;
+use meshless::case::{CaseError, discretise};
 use meshless::output::series::read_column;
 use meshless::run::{Backend, engine, explain, run};
-use meshless::scene::{Case, CaseError, discretise};
+use meshless::scene::Scene;
 use meshless::tensor::{D2, D3};
 use std::path::Path;
 
@@ -22,7 +23,7 @@ const L_SHAPE: &str = "[[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [1.0, 1.0], [1.0, 2.
 
 /// A plane-stress linear-elastic 2D case at Δx = 0.125 m: `method` with `keys` (method.dt
 /// among them), the body `geometry`, then `rest` (boundaries, run and output tables).
-fn case(method: &str, keys: &str, geometry: &str, rest: &str) -> Result<Case, CaseError> {
+fn case(method: &str, keys: &str, geometry: &str, rest: &str) -> Result<Scene, CaseError> {
     let text = format!(
         r#"
 name = "shapes"
@@ -43,7 +44,7 @@ geometry = {geometry}
 {rest}
 "#
     );
-    Case::from_toml(&text, Path::new("shapes.toml"), &[])
+    Scene::from_toml(&text, Path::new("shapes.toml"), &[])
 }
 
 /// A static run in one load step, and the method keys of TLSPH for it.
@@ -51,7 +52,7 @@ const STATIC_RUN: &str = "[run]\nsolve = \"static\"\nend_time = 1.0\n";
 const TLSPH: &str = "h_over_dx = 1.3\ndt = 1.0";
 
 /// The key and message of a refused case.
-fn refusal(result: Result<Case, CaseError>) -> (String, String) {
+fn refusal(result: Result<Scene, CaseError>) -> (String, String) {
     match result {
         Err(CaseError::Invalid { key, message, .. }) => (key, message),
         other => panic!("expected a refusal naming a key, got {other:?}"),
@@ -154,14 +155,14 @@ geometry = {{ shape = "polygon", vertices = {L_SHAPE} }}
 end_time = 1e-3
 "#
     );
-    let (key, message) = refusal(Case::from_toml(&three_d, Path::new("shapes.toml"), &[]));
+    let (key, message) = refusal(Scene::from_toml(&three_d, Path::new("shapes.toml"), &[]));
     assert_eq!(key, "body.0.geometry.shape");
     assert!(message.contains("only in 2D"), "{message}");
 }
 
 /// The L-shape clamped on its edge x = 0 and pulled by t = (1e4, −2e3) Pa on its edge x = 2,
 /// y ∈ [0, 1] (the region's y_max clips the face there), with the load named `pull`.
-fn pulled_l(method: &str, keys: &str) -> Case {
+fn pulled_l(method: &str, keys: &str) -> Scene {
     let rest = format!(
         r#"
 [[boundary]]
@@ -330,7 +331,7 @@ fn a_static_galerkin_particle_in_no_cell_is_named_not_called_a_rigid_motion() {
 }
 
 /// A 3D TLSPH cylinder of radius 0.3 m and `length` at Δx = 0.1 m.
-fn cylinder(length: f64) -> Result<Case, CaseError> {
+fn cylinder(length: f64) -> Result<Scene, CaseError> {
     let text = format!(
         r#"
 name = "cylinder"
@@ -352,7 +353,7 @@ geometry = {{ shape = "cylinder", base = [0.0, 0.0, 0.0], axis = "z", radius = 0
 end_time = 1e-3
 "#
     );
-    Case::from_toml(&text, Path::new("cylinder.toml"), &[])
+    Scene::from_toml(&text, Path::new("cylinder.toml"), &[])
 }
 
 #[test]

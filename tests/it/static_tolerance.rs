@@ -3,9 +3,9 @@
 //! and on rubber stretched 500 %.
 
 use meshless::analytic::Cantilever;
+use meshless::case::Tolerance;
 use meshless::run::{Backend, Engine, Iteration, engine};
-use meshless::scene::Case;
-use meshless::statics::Tolerance;
+use meshless::scene::Scene;
 use meshless::tensor::D2;
 use std::path::Path;
 
@@ -81,16 +81,16 @@ end_time = 1.0
 solve = "static"
 "#;
 
-fn case(text: &str, set: &[&str]) -> Result<Case, String> {
+fn case(text: &str, set: &[&str]) -> Result<Scene, String> {
     let set: Vec<String> = set.iter().map(|s| s.to_string()).collect();
-    Case::from_toml(text, Path::new("static.toml"), &set).map_err(|e| e.to_string())
+    Scene::from_toml(text, Path::new("static.toml"), &set).map_err(|e| e.to_string())
 }
 
 /// A solved engine, or why it failed.
 type Solved = Result<Box<dyn Engine<D2>>, String>;
 
 /// The run of `steps` load steps of a case, or the failure's message, with its Newton log.
-fn solve(case: &Case, steps: u32) -> (Solved, Vec<Iteration>) {
+fn solve(case: &Scene, steps: u32) -> (Solved, Vec<Iteration>) {
     let mut e = engine::<D2>(case, Backend::Cpu).unwrap_or_else(|e| panic!("{e}"));
     let dt = case.run.end_time / f64::from(steps);
     let outcome = e.advance(0.0, dt, steps);

@@ -4,7 +4,7 @@
 
 use crate::common::{cases_dir, toml_files};
 use meshless::material::Material;
-use meshless::scene::Case;
+use meshless::scene::Scene;
 use meshless::study::fields::{FinalState, analytic_fields, matched_fields, relative_l2};
 use meshless::study::suite::{AnalyticSolution, TimeMeasure};
 use meshless::study::{
@@ -66,7 +66,7 @@ fn relative_l2_of_a_scaled_field_is_the_scale_error() {
 fn analytic_errors_of_a_manufactured_swinging_state() {
     // The exact swinging-plate state with v scaled by (1 + ε) and P by (1 − 2ε) must give
     // e(v) = ε and e(P) = 2ε (tolerance 1e-12).
-    let case = Case::load(&studies().join("cases/swinging-plate.toml"), &[]).unwrap();
+    let case = Scene::load(&studies().join("cases/swinging-plate.toml"), &[]).unwrap();
     let mut state = lattice(0.05);
     let t = 0.013;
     let (v_ex, p_ex) = analytic_fields(AnalyticSolution::Swinging, &case, &state, t).unwrap();
@@ -332,16 +332,16 @@ fn a_variant_runs_its_own_case_and_run_threads_sizes_the_pool() {
             _ => ("tlsph", 1e-6),
         };
         assert_eq!(
-            (case.method.name(), case.method.dt),
+            (case.method.name, case.method.dt),
             (expected.0, Some(expected.1)),
             "{}",
             run.variant
         );
     }
     // run.threads = n runs in a pool of n threads; without it, in the global pool.
-    let base = Case::load(&cases_dir().join("rotating-disk.toml"), &[]).unwrap();
+    let base = Scene::load(&cases_dir().join("rotating-disk.toml"), &[]).unwrap();
     for n in [1, 3] {
-        let case = Case::load(
+        let case = Scene::load(
             &cases_dir().join("rotating-disk.toml"),
             &[format!("run.threads={n}")],
         )
@@ -390,7 +390,7 @@ fn every_method_of_the_registry_runs_the_swinging_plate() {
                 .case
                 .as_ref()
                 .unwrap_or_else(|e| panic!("{}: {e}", run.variant));
-            case.method.spec.entry().name
+            case.spec.entry().name
         })
         .collect();
     let missing: Vec<&str> = meshless::methods::REGISTRY

@@ -3,8 +3,9 @@
 //! supports book, the refusals, and the GPU against the CPU.
 
 use meshless::boundary::TimedVelocity;
+use meshless::case::TimeLaw;
 use meshless::run::{Backend, Engine, engine};
-use meshless::scene::{Case, TimeLaw};
+use meshless::scene::Scene;
 use meshless::tensor::D2;
 use std::path::Path;
 
@@ -13,8 +14,8 @@ use std::path::Path;
 /// column driven along x by `left` (the condition's keys after `vx`) and its right column
 /// along y by `right`, `integrator` at Δt = 5e-4 s (a third of Δx/c_p); `method` is the
 /// `[method]` table's name and keys.
-fn bar(method: &str, integrator: &str, left: &str, right: &str) -> Case {
-    Case::from_toml(
+fn bar(method: &str, integrator: &str, left: &str, right: &str) -> Scene {
+    Scene::from_toml(
         &bar_text(method, integrator, left, right),
         Path::new("driven-bar.toml"),
         &[],
@@ -244,7 +245,7 @@ fn a_bad_law_or_release_names_its_key() {
         ),
     ] {
         let text = bar_text(TLSPH, "rk4", RAMPED, right);
-        let error = Case::from_toml(&text, Path::new("bad.toml"), &[])
+        let error = Scene::from_toml(&text, Path::new("bad.toml"), &[])
             .err()
             .unwrap_or_else(|| panic!("{right} accepted"))
             .to_string();
@@ -256,7 +257,7 @@ fn a_bad_law_or_release_names_its_key() {
     // The static path scales its loads by the load factor and refuses a law and a release.
     let method = "name = \"dual-support-sph\"\nh_over_dx = 2.0";
     let text = bar_text(method, "rk4", "0.0", RELEASED);
-    let error = Case::from_toml(&text, Path::new("static.toml"), &[])
+    let error = Scene::from_toml(&text, Path::new("static.toml"), &[])
         .expect_err("a release on the static path")
         .to_string();
     assert!(
@@ -293,7 +294,7 @@ fn the_gpu_holds_ramps_and_releases_as_the_cpu() {
         } else {
             text
         };
-        let case = Case::from_toml(&text, Path::new("driven-bar.toml"), &[]).unwrap();
+        let case = Scene::from_toml(&text, Path::new("driven-bar.toml"), &[]).unwrap();
         let mut cpu = engine::<D2>(&case, Backend::Cpu).unwrap();
         let mut gpu = engine::<D2>(&case, Backend::Gpu).unwrap();
         // The GPU books the work by the trapezoidal rule between the reductions of its
@@ -308,17 +309,17 @@ fn the_gpu_holds_ramps_and_releases_as_the_cpu() {
         let (du, largest) = crate::common::max_v::<D2>(&cpu.snapshot().u, &gpu.snapshot().u);
         eprintln!(
             "{}: max |Δu| = {du:e} of {largest:e} m; work {work_cpu:e} / {work_gpu:e} J",
-            case.method.name()
+            case.method.name
         );
         assert!(
             du < 1e-4 * largest,
             "{}: {du:e} of {largest:e}",
-            case.method.name()
+            case.method.name
         );
         assert!(
             (work_cpu - work_gpu).abs() < 3e-3 * work_cpu.abs(),
             "{}: work {work_cpu:e} against {work_gpu:e}",
-            case.method.name()
+            case.method.name
         );
     }
 }

@@ -12,14 +12,14 @@ use meshless::methods::Method;
 use meshless::methods::potential::Potential;
 use meshless::methods::tlsph::TlState;
 use meshless::run::{CpuEngine, Engine, build_method};
-use meshless::scene::Case;
+use meshless::scene::Scene;
 use meshless::tensor::{D2, D3, Dim};
 use meshless::viscosity::ArtificialViscosity;
 use std::path::Path;
 
 const AV: &str = "artificial_viscosity = { alpha = 1.0, beta = 1.0, eta = 0.1 }";
 
-fn case(max: &[f64], keys: &str) -> Case {
+fn case(max: &[f64], keys: &str) -> Scene {
     block_case(max, "saint-venant-kirchhoff", "tl-potential", keys)
 }
 
@@ -242,7 +242,7 @@ fn an_affine_stretch_gives_the_analytic_stress_and_no_interior_force() {
 fn the_method_needs_a_state_model() {
     // The hypoelastic model has no P(F): refused by name at validation.
     let text = block_text(&[1.0, 0.6], "hypoelastic", "tl-potential", "");
-    let e = Case::from_toml(&text, Path::new("block.toml"), &[])
+    let e = Scene::from_toml(&text, Path::new("block.toml"), &[])
         .unwrap_err()
         .to_string();
     assert!(
@@ -261,7 +261,8 @@ fn compare_on_the_gpu<D: meshless::gpu::layout::GpuDim>(max: &[f64]) {
         let mut cpu: Potential<D> = build_method(&c).unwrap();
         let y = random(&cpu, 11, 0.01, 1.0);
         let a = rates(&mut cpu, &y);
-        let mut g = GpuTlsph::<D>::new(&c, crate::common::gpu()).unwrap();
+        let mut g =
+            GpuTlsph::<D>::new(&c, crate::common::tl_scheme(&c), crate::common::gpu()).unwrap();
         let (d, _, _) = g.rates(&y);
         // Each acceleration sums 20–80 pair terms P ∇0W̃ V V of the random state, which do
         // not cancel; P comes from H = F − I summed in f32 (|H| ~ 0.3, 6e-8 relative per
@@ -302,7 +303,7 @@ fn a_free_vibration_conserves_energy_and_both_momenta() {
     // round-off (1e-14 measured); Σ m x × v is quadratic, kept to RK4's truncation error
     // (8e-11 of Σ m |v| measured); bound 1e-9 of Σ m |v| for both.
     let case = case(&[1.0, 0.6], "");
-    let mut e: CpuEngine<D2, Potential<D2>> = CpuEngine::new(&case).unwrap();
+    let mut e: CpuEngine<D2, Potential<D2>> = meshless::scene::cpu_engine(&case).unwrap();
     let mut seed = 31;
     for v in e.y.v.iter_mut() {
         *v = random_vector::<D2>(&mut seed, 1.0);

@@ -6,13 +6,13 @@ use glam::{DMat2, DMat3, DVec2, DVec3};
 use meshless::integrate::OdeSystem;
 use meshless::methods::Method;
 use meshless::methods::tlsph::Tlsph;
-use meshless::run::{CpuEngine, Engine, build_method};
-use meshless::scene::Case;
+use meshless::run::{Engine, build_method};
+use meshless::scene::Scene;
 use meshless::tensor::{D2, D3};
 use std::f64::consts::PI;
 use std::path::Path;
 
-fn block(dim: u32, model: &str) -> Case {
+fn block(dim: u32, model: &str) -> Scene {
     let (min, max, ext) = if dim == 2 {
         ("[0.0, 0.0]", "[1.0, 0.6]", "")
     } else {
@@ -39,7 +39,7 @@ geometry = {{ shape = "box", min = {min}, max = {max} }}
 end_time = 1.0e-4
 "#
     );
-    Case::from_toml(&text, Path::new("block.toml"), &[]).unwrap()
+    Scene::from_toml(&text, Path::new("block.toml"), &[]).unwrap()
 }
 
 #[test]
@@ -206,7 +206,7 @@ fn the_variational_force_closes_the_energy_balance_at_driven_boundaries() {
             format!("method.force=\"{force}\""),
         ];
         let case = crate::common::load("tensile-strip", &set);
-        let mut engine = CpuEngine::<D2, Tlsph<D2>>::new(&case).unwrap();
+        let mut engine = meshless::scene::cpu_engine::<D2, Tlsph<D2>>(&case).unwrap();
         let e0 = engine.invariants().total_energy();
         engine.advance(0.0, 1e-6, 5000).unwrap();
         let (e, w) = (engine.invariants().total_energy(), engine.external_work());
@@ -255,8 +255,8 @@ end_time = 1.0
 "#;
     let drift = |force: &str| {
         let set = [format!("method.force=\"{force}\"")];
-        let case = Case::from_toml(text, Path::new("clamped-plate.toml"), &set).unwrap();
-        let mut engine = CpuEngine::<D2, Tlsph<D2>>::new(&case).unwrap();
+        let case = Scene::from_toml(text, Path::new("clamped-plate.toml"), &set).unwrap();
+        let mut engine = meshless::scene::cpu_engine::<D2, Tlsph<D2>>(&case).unwrap();
         let e0 = engine.invariants().total_energy();
         let mut worst: f64 = 0.0;
         for k in 0..50 {
@@ -285,7 +285,7 @@ fn cantilever_half_period(spacing: f64) -> f64 {
             format!("body.0.geometry.min=[{}, -0.1]", -3.0 * spacing),
         ],
     );
-    let mut e = CpuEngine::<D2, Tlsph<D2>>::new(&case).unwrap();
+    let mut e = meshless::scene::cpu_engine::<D2, Tlsph<D2>>(&case).unwrap();
     let dt = case.method.cfl.unwrap() * spacing / e.max_signal_speed();
     let tip = crate::common::nearest(e.reference(), [2.0, 0.0]);
     let (mut t, mut before) = (0.0, 0.0);
@@ -341,7 +341,7 @@ fn the_viscous_dissipation_closes_the_energy_balance_with_artificial_viscosity()
         ],
     );
     for (name, case, end) in [("strip", strip, 5e-3), ("plate", plate, 0.2)] {
-        let mut engine = CpuEngine::<D2, Tlsph<D2>>::new(&case).unwrap();
+        let mut engine = meshless::scene::cpu_engine::<D2, Tlsph<D2>>(&case).unwrap();
         let e0 = engine.invariants().total_energy();
         let dt = match case.method.cfl {
             Some(cfl) => cfl * case.spacing / engine.max_signal_speed(),

@@ -8,15 +8,15 @@ use crate::common::{largest_v, load, max_v, noise, random_tensor, random_vector}
 use crate::galerkin::block;
 use glam::{DMat2, DVec2};
 use meshless::integrate::OdeSystem;
-use meshless::methods::Method;
 use meshless::methods::galerkin::TlGalerkin;
 use meshless::methods::galerkin::updated::{MovingPoints, UlGalerkin, UlGalerkinState};
 use meshless::methods::ul_fem::Elements;
 use meshless::methods::ul_weak_form::ellipse::Ellipse;
 use meshless::methods::ul_weak_form::points::{CANDIDATE_BOX, StressPoints, box_candidates};
+use meshless::methods::{Method, Runs};
 use meshless::quadrature::Shapes;
 use meshless::reference::Build;
-use meshless::run::{CpuEngine, Engine, build_method};
+use meshless::run::{Engine, build_method};
 use meshless::tensor::{D2, Dim};
 
 type UlFem = UlGalerkin<D2, Elements<D2>>;
@@ -207,7 +207,7 @@ fn random<P: MovingPoints<D2>>(m: &UlGalerkin<D2, P>, seed: u64) -> UlGalerkinSt
     y
 }
 
-fn sum_of_forces<P: MovingPoints<D2>>(method: &str) {
+fn sum_of_forces<P: MovingPoints<D2, Spec: Runs>>(method: &str) {
     let mut m: UlGalerkin<D2, P> =
         build_method(&block(&[1.0, 0.6], "hypoelastic", method, "")).unwrap();
     let y = random(&m, 3);
@@ -284,13 +284,13 @@ fn the_ul_fem_patch_test() {
 }
 
 /// The nodal displacements of `case` on method M after `steps` steps of Δt.
-fn displacement<M: Method<D2> + Build<D2>>(
+fn displacement<M: Method<D2> + Build<D2, Spec: Runs>>(
     case: &str,
     set: &[&str],
     dt: f64,
     steps: u32,
 ) -> Vec<DVec2> {
-    let mut engine = CpuEngine::<D2, M>::new(&load(case, set)).unwrap();
+    let mut engine = meshless::scene::cpu_engine::<D2, M>(&load(case, set)).unwrap();
     engine.advance(0.0, dt, steps).unwrap();
     engine.method.displacement(&engine.y).to_vec()
 }
@@ -326,7 +326,7 @@ fn ul_fem_closes_the_energy_balance_at_driven_boundaries() {
         "tensile-strip-ul-fem",
         &["material.model=saint-venant-kirchhoff", "run.end_time=3e-3"],
     );
-    let mut engine = CpuEngine::<D2, UlFem>::new(&case).unwrap();
+    let mut engine = meshless::scene::cpu_engine::<D2, UlFem>(&case).unwrap();
     let e0 = engine.invariants().total_energy();
     engine.advance(0.0, 1e-6, 3000).unwrap();
     let (e, w) = (engine.invariants().total_energy(), engine.external_work());
@@ -338,8 +338,13 @@ fn ul_fem_closes_the_energy_balance_at_driven_boundaries() {
 }
 
 /// H(t)/H(0) − 1 of `case` on method M after `steps` steps of Δt.
-fn angular_drift<M: Method<D2> + Build<D2>>(case: &str, set: &[&str], dt: f64, steps: u32) -> f64 {
-    let mut engine = CpuEngine::<D2, M>::new(&load(case, set)).unwrap();
+fn angular_drift<M: Method<D2> + Build<D2, Spec: Runs>>(
+    case: &str,
+    set: &[&str],
+    dt: f64,
+    steps: u32,
+) -> f64 {
+    let mut engine = meshless::scene::cpu_engine::<D2, M>(&load(case, set)).unwrap();
     let h0 = engine.invariants().angular[2];
     engine.advance(0.0, dt, steps).unwrap();
     engine.invariants().angular[2] / h0 - 1.0

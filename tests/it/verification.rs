@@ -9,7 +9,7 @@
 
 use meshless::analytic::Cantilever;
 use meshless::run::{Backend, Engine, engine};
-use meshless::scene::Case;
+use meshless::scene::Scene;
 use meshless::tensor::D2;
 use std::path::Path;
 
@@ -83,14 +83,14 @@ const RHO: f64 = 1000.0;
 
 /// A plane-stress linear-elastic box from `min` to `max` on the default (vertex) lattice
 /// of spacing `dx`, solved statically in one load step, with `boundaries` appended.
-fn static_case(row: &Row, dx: f64, min: [f64; 2], max: [f64; 2], boundaries: &str) -> Case {
+fn static_case(row: &Row, dx: f64, min: [f64; 2], max: [f64; 2], boundaries: &str) -> Scene {
     let geometry = format!("{{ shape = \"box\", min = {min:?}, max = {max:?} }}");
     static_body(row, dx, &geometry, boundaries)
 }
 
 /// A plane-stress linear-elastic body of `geometry` at spacing `dx`, solved statically
 /// in one load step, with `boundaries` appended.
-fn static_body(row: &Row, dx: f64, geometry: &str, boundaries: &str) -> Case {
+fn static_body(row: &Row, dx: f64, geometry: &str, boundaries: &str) -> Scene {
     let text = format!(
         r#"
 name = "verification"
@@ -117,15 +117,15 @@ end_time = 1.0
         method = row.method,
         keys = row.keys,
     );
-    Case::from_toml(&text, Path::new("verification.toml"), &[])
+    Scene::from_toml(&text, Path::new("verification.toml"), &[])
         .unwrap_or_else(|e| panic!("{}: {e}", row.method))
 }
 
 /// The static engine of `case` after its one load step.
-fn solved(case: &Case) -> Box<dyn Engine<D2>> {
+fn solved(case: &Scene) -> Box<dyn Engine<D2>> {
     let mut e = engine::<D2>(case, Backend::Cpu).unwrap_or_else(|e| panic!("{e}"));
     e.advance(0.0, 1.0, 1)
-        .unwrap_or_else(|f| panic!("{}: {f:?}", case.method.name()));
+        .unwrap_or_else(|f| panic!("{}: {f:?}", case.method.name));
     e
 }
 
@@ -331,7 +331,7 @@ fn released_plate(method: &str, overrides: &[&str], end: f64) -> (f64, bool) {
     ];
     all.extend(overrides.iter().map(|s| s.to_string()));
     let case = crate::common::load("cantilever-mode", &all);
-    let warned = case.method.spec.warning(&case).is_some();
+    let warned = case.spec.warning(&case).is_some();
     let dir = tempfile::tempdir().unwrap();
     meshless::run::run(&case, &crate::common::cpu_options(dir.path(), false))
         .unwrap_or_else(|e| panic!("{method} {overrides:?}: {e}"));
@@ -461,12 +461,12 @@ fn kbm_is_warned_about_in_dynamics_where_a_released_plate_blows_up() {
             "output.series_interval=0.01",
         ],
     );
-    assert!(case.method.spec.warning(&case).is_some());
+    assert!(case.spec.warning(&case).is_some());
     let dir = tempfile::tempdir().unwrap();
     let run = meshless::run::run(&case, &crate::common::cpu_options(dir.path(), false));
     assert!(run.is_err(), "kbm ran the plate to 1.3 s");
     let statics = static_case(&ROWS[4], 0.25, [0.0, 0.0], [4.0, 1.0], ROLLERS);
-    assert!(statics.method.spec.warning(&statics).is_none());
+    assert!(statics.spec.warning(&statics).is_none());
 }
 
 /// The closed-form first period of `cases/bar-mode.toml`: T = 4 L/c, L = 2 m, c =
@@ -641,7 +641,7 @@ fn dual_support_sph_has_no_dynamic_path_and_says_so() {
         "method.name=dual-support-sph".to_string(),
         "output.check=".into(),
     ];
-    let error = meshless::scene::Case::load(&crate::common::case_file("bar-mode"), &overrides)
+    let error = meshless::scene::Scene::load(&crate::common::case_file("bar-mode"), &overrides)
         .unwrap_err()
         .to_string();
     assert!(error.contains("is static"), "{error}");

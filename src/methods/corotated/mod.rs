@@ -8,12 +8,14 @@ pub mod system;
 
 pub use system::{Corotated, CorotatedScheme, outputs, rotation};
 
-use super::{Feature, MethodFamily, Plan, state_model};
+#[cfg(feature = "gpu")]
+use crate::methods::family::GpuBuild;
+use crate::methods::family::{CpuBuild, Feature, MethodFamily, Plan, cfl_step, state_model};
 
+use crate::case::Case;
 use crate::check::{Problem, toml_name};
 use crate::engine::{CpuEngine, EngineDim};
 use crate::material::Material;
-use crate::scene::Case;
 use crate::viscosity::ArtificialViscosity;
 use serde::{Deserialize, Serialize};
 
@@ -92,7 +94,7 @@ impl MethodFamily for CorotatedSpec {
                 }
             ),
             state: format!("u, v (state model {:?} of the corotated F̂)", mat.model),
-            cfl_step: super::cfl_step(&mat),
+            cfl_step: cfl_step(&mat),
             rates: if gpu {
                 format!(
                     "shape-matching pass (A_i, its rotation R_i ({rotation}), F̂_i, \
@@ -111,13 +113,13 @@ impl MethodFamily for CorotatedSpec {
         }
     }
 
-    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> super::CpuBuild<D> {
-        Ok(Box::new(CpuEngine::<D, Corotated<D>>::new(case)?))
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> CpuBuild<D> {
+        Ok(Box::new(CpuEngine::<D, Corotated<D>>::new(case, self)?))
     }
 
     #[cfg(feature = "gpu")]
-    fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> super::GpuBuild<D> {
-        let engine = crate::methods::tlsph::GpuTlsph::<D>::new(case, gpu)?;
+    fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> GpuBuild<D> {
+        let engine = crate::methods::tlsph::GpuTlsph::<D>::new(case, gpu::scheme(self), gpu)?;
         Ok(Box::new(engine))
     }
 

@@ -11,17 +11,16 @@
 //! it). The state is u = x − X and v.
 
 use super::{CorotatedForce, CorotatedSpec};
+use crate::case::{Case, CaseError};
 use crate::engine::{BlowUp, Sizes, Traffic};
 use crate::material::Material;
 use crate::methods::tl::{
     Fields, ReferencePairs, TlCore, TlScheme, TlSph, TlState, ViscousPairs, viscous_pair_pass,
 };
-use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::Csr;
 use crate::observe::Snapshot;
 use crate::parallel::{MIN_CHUNK, ordered_reduce};
 use crate::reference::Reference;
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use crate::viscosity::ArtificialViscosity;
 use rayon::prelude::*;
@@ -242,14 +241,13 @@ impl<D: Dim> ViscousPairs<D> for CorotatedScheme<D> {
 impl<D: Dim> TlScheme<D> for CorotatedScheme<D> {
     /// Builds neighbours, reference gradients and shape-matching weights on the reference
     /// configuration.
-    fn new(case: &Case, reference: &Reference<D>) -> Result<Self, CaseError> {
-        let MethodSpec::CorotatedTlsph(CorotatedSpec {
+    type Spec = CorotatedSpec;
+
+    fn new(case: &Case, spec: &CorotatedSpec, reference: &Reference<D>) -> Result<Self, CaseError> {
+        let CorotatedSpec {
             artificial_viscosity,
             force,
-        }) = &case.method.spec
-        else {
-            return Err(not_run_by(case, "Corotated"));
-        };
+        } = spec;
         let pairs = ReferencePairs::new(case, reference)?;
         let grad_rev = match force {
             CorotatedForce::ReferenceCode => None,

@@ -6,15 +6,15 @@
 //! energy is conserved but for the integrator's error, and Σ_i f_i^int = 0 to round-off.
 //! The state is u and v, as for total-Lagrangian SPH ([`TlState`]).
 
+use super::DualSupportSpec;
 use super::model::DualSupport;
+use crate::case::{Case, CaseError};
 use crate::engine::{BlowUp, Sizes, Traffic};
 use crate::methods::tl::{TlCore, TlScheme, TlSph, TlState, displacement_rates};
-use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::Csr;
 use crate::observe::Snapshot;
 use crate::parallel::MIN_CHUNK;
 use crate::reference::Reference;
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use rayon::prelude::*;
 
@@ -32,10 +32,13 @@ pub struct DynamicsScheme<D: Dim> {
 
 impl<D: Dim> TlScheme<D> for DynamicsScheme<D> {
     /// Smoothing lengths, supports and dual-supports on the reference configuration.
-    fn new(case: &Case, reference: &Reference<D>) -> Result<Self, CaseError> {
-        let MethodSpec::DualSupportSph(spec) = &case.method.spec else {
-            return Err(not_run_by(case, "DualSupportDynamics"));
-        };
+    type Spec = DualSupportSpec;
+
+    fn new(
+        case: &Case,
+        spec: &DualSupportSpec,
+        reference: &Reference<D>,
+    ) -> Result<Self, CaseError> {
         Ok(Self {
             model: spec.model(case, reference)?,
             h: Vec::new(),

@@ -12,12 +12,12 @@
 
 use super::DualSupportSpec;
 use super::model::DualSupport;
+use crate::case::{Case, CaseError};
 use crate::gpu::shaders::{MECHANICS, REFERENCE, Source, Wgsl, source, wgsl};
 use crate::methods::potential::gpu::ACCEL;
 use crate::methods::tlsph::gpu::{DET_F, Frame, Lists, STRESS, TlScheme, viscosity};
 use crate::neighbour::Csr;
 use crate::reference::Reference;
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 
 /// The energy of the reduction: V_i ψ_i plus the hourglass energy of i's support.

@@ -21,14 +21,16 @@ pub use model::{DualSupport, Energies};
 pub use statics::{Statics, pattern};
 pub use support::Support;
 
-use super::{Feature, MethodFamily, Plan};
+#[cfg(feature = "gpu")]
+use crate::methods::family::GpuBuild;
+use crate::methods::family::{CpuBuild, Feature, MethodFamily, Plan};
 
+use crate::case::{Case, CaseError};
 use crate::check::{Problem, fail, non_negative, toml_name};
 use crate::engine::{CpuEngine, EngineDim};
 use crate::material::Material;
 use crate::neighbour;
 use crate::reference::Reference;
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};
 
@@ -61,7 +63,7 @@ pub struct DualSupportSpec {
     #[serde(default)]
     pub solver: SolverKind,
     /// Newton stops when |R| ≤ this × the force scale: this method's older name of
-    /// `run.tolerance.residual` ([`crate::statics::Tolerance`]), which it overrides;
+    /// `run.tolerance.residual` ([`crate::case::Tolerance`]), which it overrides;
     /// absent: run.tolerance's (default 1e-8). Not both.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub residual_tolerance: Option<f64>,
@@ -378,18 +380,18 @@ impl MethodFamily for DualSupportSpec {
         }
     }
 
-    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> super::CpuBuild<D> {
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> CpuBuild<D> {
         Ok(if case.is_static() {
             Box::new(Statics::<D>::new(case, self)?)
         } else {
-            Box::new(CpuEngine::<D, DualSupportDynamics<D>>::new(case)?)
+            Box::new(CpuEngine::<D, DualSupportDynamics<D>>::new(case, self)?)
         })
     }
 
     /// The dynamic variant, or the static solve with its Newton steps solved matrix-free
     /// on the device ([`krylov`]).
     #[cfg(feature = "gpu")]
-    fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> super::GpuBuild<D> {
+    fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> GpuBuild<D> {
         if case.is_static() {
             let reference = Reference::<D>::build(case)?;
             let lists = gpu::lists(case, self, &reference)?;
@@ -399,8 +401,9 @@ impl MethodFamily for DualSupportSpec {
             let engine = Statics::<D>::on(case, self, reference, lists.model, linearisation)?;
             return Ok(Box::new(engine));
         }
+        let scheme = gpu::scheme(self);
         Ok(Box::new(crate::methods::tlsph::gpu::GpuTlsph::<D>::new(
-            case, gpu,
+            case, scheme, gpu,
         )?))
     }
 

@@ -5,10 +5,10 @@
 use super::DualSupportSpec;
 use super::model::DualSupport;
 use super::support::Support;
+use crate::case::{Case, CaseError};
 use crate::engine::BlowUp;
 use crate::observe::Snapshot;
 use crate::reference::Reference;
-use crate::scene::{Case, CaseError};
 use crate::statics::sparse::{BlockPattern, CgSettings, Linear};
 use crate::statics::{Linearisation, Model, Newton, Setup};
 use crate::tensor::Dim;

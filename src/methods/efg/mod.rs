@@ -8,13 +8,13 @@
 //! Numerics notes: `docs/methods/seed001.md`.
 
 use super::fem::galerkin_state;
-use super::galerkin::{Mass, TlGalerkin, particle_mass, smoothing_cells};
-use super::{Feature, MethodFamily, Plan};
+use super::galerkin::{Mass, TlGalerkin, TlSystem, particle_mass, smoothing_cells};
+use crate::case::{Case, CaseError};
 use crate::check::Problem;
 use crate::material::Material;
+use crate::methods::family::{Feature, MethodFamily, Plan, cfl_step};
 use crate::quadrature::{Cells, QuadraturePoints, Rule, Shapes};
 use crate::reference::Reference;
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};
 
@@ -55,15 +55,11 @@ impl Default for EfgSpec {
     }
 }
 
-impl EfgSpec {
+impl<D: Dim> TlSystem<D> for EfgSpec {
     /// The Galerkin system with the MLS functions of the particles at the particles (their
     /// gradients smoothed over the particles' cells with SCNI) or at the Gauss points of
     /// the lattice cells.
-    pub fn system<D: Dim>(
-        &self,
-        case: &Case,
-        reference: Reference<D>,
-    ) -> Result<TlGalerkin<D>, CaseError> {
+    fn system(&self, case: &Case, reference: Reference<D>) -> Result<TlGalerkin<D>, CaseError> {
         let (x0, body, kernel) = (&reference.x0, &reference.body, &reference.kernel);
         let (cells, points, shapes) = match self.integration {
             Integration::Cells => {
@@ -136,7 +132,7 @@ impl MethodFamily for EfgSpec {
                  MLS functions Φ_a and ∇0Φ_a there, and the node-to-point gather lists"
             ),
             state: galerkin_state(&mat),
-            cfl_step: super::cfl_step(&mat),
+            cfl_step: cfl_step(&mat),
             rates: if gpu {
                 "points pass (F_q, P_q, w_q ψ_q, ρ̇_q, Ṡ_q) + nodes pass (−Σ_q w_q P_q \
                  ∇0Φ_a(X_q) gathered per particle, BCs)"

@@ -3,13 +3,13 @@
 //! total-Lagrangian weak form with a lumped mass, explicit, on the shared Galerkin system
 //! ([`crate::methods::galerkin`]). Numerics notes: `docs/methods/galerkin.md`.
 
-use super::galerkin::{Mass, TlGalerkin};
-use super::{Feature, MethodFamily, Plan};
+use super::galerkin::{Mass, TlGalerkin, TlSystem};
+use crate::case::{Case, CaseError};
 use crate::check::Problem;
 use crate::material::{Material, MaterialModel};
+use crate::methods::family::{Feature, MethodFamily, Plan, cfl_step};
 use crate::quadrature::{QuadraturePoints, Rule, Shapes};
 use crate::reference::Reference;
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};
 
@@ -22,13 +22,9 @@ pub struct FemSpec {
     pub mass: Mass,
 }
 
-impl FemSpec {
+impl<D: Dim> TlSystem<D> for FemSpec {
     /// The Galerkin system on the bilinear (trilinear) elements of the lattice cells.
-    pub fn system<D: Dim>(
-        &self,
-        case: &Case,
-        reference: Reference<D>,
-    ) -> Result<TlGalerkin<D>, CaseError> {
+    fn system(&self, case: &Case, reference: Reference<D>) -> Result<TlGalerkin<D>, CaseError> {
         let cells = reference
             .cells(case.spacing)
             .map_err(|e| case.invalid("body", e.to_string()))?;
@@ -73,7 +69,7 @@ impl MethodFamily for FemSpec {
                 self.mass.name()
             ),
             state: galerkin_state(&mat),
-            cfl_step: super::cfl_step(&mat),
+            cfl_step: cfl_step(&mat),
             rates: if gpu {
                 "points pass (F_q, P_q, w_q ψ_q, ρ̇_q, Ṡ_q) + nodes pass (−Σ_q w_q P_q \
                  ∇0N_a(X_q) gathered per node, BCs)"

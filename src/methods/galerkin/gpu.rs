@@ -9,6 +9,7 @@
 use super::{GalerkinState, TlGalerkin};
 use crate::balance::Booked;
 use crate::boundary::Boundary;
+use crate::case::Case;
 use crate::engine::{BlowUp, GpuEngine, GpuFamily, Method};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
@@ -28,7 +29,6 @@ use crate::material::Material;
 use crate::observe::Snapshot;
 use crate::plasticity::History;
 use crate::quadrature::Shapes;
-use crate::scene::Case;
 
 /// The points and nodes passes of one rate evaluation.
 pub const RATES: Source = source!(
@@ -355,8 +355,12 @@ pub struct GalerkinDevice<D: GpuDim> {
 
 impl<D: GpuDim> GpuGalerkin<D> {
     /// Builds the host system of the case and uploads it with the initial state.
-    pub fn new(case: &Case, gpu: Gpu) -> Result<Self, SetupError> {
-        let host: TlGalerkin<D> = crate::reference::build_method(case)?;
+    pub fn new(
+        case: &Case,
+        spec: &(dyn super::TlSystem<D> + 'static),
+        gpu: Gpu,
+    ) -> Result<Self, SetupError> {
+        let host: TlGalerkin<D> = crate::reference::build_method(case, spec)?;
         check_f32_run(case, host.boundary())?;
         let y0_host = host.initial_state();
         check_f32_particles::<D>(case, host.reference(), &y0_host.u, &y0_host.v, host.body())?;

@@ -25,7 +25,10 @@ pub mod gpu;
 
 mod contracts;
 
+pub use contracts::TlSystem;
+
 use crate::boundary::{Boundary, NodalForces, OnPatches, SurfacePoint};
+use crate::case::{Case, CaseError, Shape};
 use crate::engine::{
     BlowUp, BoundaryWork, Engine, EngineDim, Method, Sizes, Traffic, check_motion,
 };
@@ -33,7 +36,6 @@ use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::material::{Material, stress_fields};
 use crate::methods::particles::{Surroundings, check_stresses};
-use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::Csr;
 use crate::observe::{Quadrature, ScalarField, Snapshot};
 use crate::parallel::{MIN_CHUNK, load_word, ordered_reduce, particle_state};
@@ -42,7 +44,6 @@ use crate::quadrature::{
     Cells, Family, Gather, QuadratureError, QuadraturePoints, Shapes, SmoothingCells,
 };
 use crate::reference::Reference;
-use crate::scene::{Case, CaseError, Shape};
 use crate::statics::explicit::{AtRest, ClosedForm};
 use crate::statics::sparse::BlockPattern;
 use crate::tensor::Dim;
@@ -66,38 +67,42 @@ pub enum Mass {
 
 /// The CPU engine of a total-Lagrangian Galerkin method (`MethodFamily::cpu_engine` of
 /// `tl-fem`, `tl-weak-form`, `kbm` and `efg`): the time stepper, or the static solve.
-pub fn cpu_engine<D: EngineDim>(case: &Case) -> Result<Box<dyn Engine<D>>, CaseError> {
-    crate::statics::explicit::cpu_engine::<D, TlGalerkin<D>>(case)
+pub fn cpu_engine<D: EngineDim>(
+    case: &Case,
+    spec: &(dyn TlSystem<D> + 'static),
+) -> Result<Box<dyn Engine<D>>, CaseError> {
+    crate::statics::explicit::cpu_engine::<D, TlGalerkin<D>>(case, spec)
 }
 
 /// The GPU engine of a total-Lagrangian Galerkin method.
 #[cfg(feature = "gpu")]
 pub fn gpu_engine<D: EngineDim>(
     case: &Case,
+    spec: &(dyn TlSystem<D> + 'static),
     gpu: crate::gpu::Gpu,
 ) -> Result<Box<dyn Engine<D>>, crate::gpu::SetupError> {
-    Ok(Box::new(gpu::GpuGalerkin::<D>::new(case, gpu)?))
+    Ok(Box::new(gpu::GpuGalerkin::<D>::new(case, spec, gpu)?))
 }
 
-/// The engine hooks of the [`MethodFamily`](crate::methods::MethodFamily) implementation
+/// The engine hooks of the [`MethodFamily`](crate::methods::family::MethodFamily) implementation
 /// of a total-Lagrangian Galerkin method whose engines do not depend on its keys (`tl-fem`,
 /// `tl-weak-form`, `efg`): [`cpu_engine`] and [`gpu_engine`].
 macro_rules! tl_galerkin_engines {
     () => {
         fn cpu_engine<D: $crate::engine::EngineDim>(
             &self,
-            case: &$crate::scene::Case,
-        ) -> $crate::methods::CpuBuild<D> {
-            $crate::methods::galerkin::cpu_engine(case)
+            case: &$crate::case::Case,
+        ) -> $crate::methods::family::CpuBuild<D> {
+            $crate::methods::galerkin::cpu_engine(case, self)
         }
 
         #[cfg(feature = "gpu")]
         fn gpu_engine<D: $crate::engine::EngineDim>(
             &self,
-            case: &$crate::scene::Case,
+            case: &$crate::case::Case,
             gpu: $crate::gpu::Gpu,
-        ) -> $crate::methods::GpuBuild<D> {
-            $crate::methods::galerkin::gpu_engine(case, gpu)
+        ) -> $crate::methods::family::GpuBuild<D> {
+            $crate::methods::galerkin::gpu_engine(case, self, gpu)
         }
     };
 }

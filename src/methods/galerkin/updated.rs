@@ -17,6 +17,7 @@ use super::{
     to_nodes,
 };
 use crate::boundary::OnPatches;
+use crate::case::{Case, CaseError};
 use crate::engine::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
@@ -28,7 +29,6 @@ use crate::parallel::{MIN_CHUNK, load_word, particle_state};
 use crate::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
 use crate::quadrature::{Gather, ShapeRow, Shapes};
 use crate::reference::{Build, Reference};
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use rayon::prelude::*;
 
@@ -84,9 +84,11 @@ pub trait MovingPoints<D: Dim>: Sized + Send + Sync {
     /// shapes then carry test gradients ([`Shapes::test_gradient`]).
     const PETROV_GALERKIN: bool = false;
 
-    /// The points of the case's method on the reference configuration; a case that names
-    /// another method is an error.
-    fn build(case: &Case, reference: &Reference<D>) -> Result<Self, CaseError>;
+    /// The typed spec of the points' method.
+    type Spec;
+
+    /// The points of a method's spec on the reference configuration.
+    fn build(case: &Case, spec: &Self::Spec, reference: &Reference<D>) -> Result<Self, CaseError>;
 
     /// The fixed lists from every point to the nodes that may reach it.
     fn lists(&self) -> &Csr;
@@ -521,8 +523,10 @@ impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
 }
 
 impl<D: Dim, P: MovingPoints<D>> Build<D> for UlGalerkin<D, P> {
-    fn build(case: &Case, reference: Reference<D>) -> Result<Self, CaseError> {
-        let points = P::build(case, &reference)?;
+    type Spec = P::Spec;
+
+    fn build(case: &Case, spec: &P::Spec, reference: Reference<D>) -> Result<Self, CaseError> {
+        let points = P::build(case, spec, &reference)?;
         Self::new(case, reference, points)
     }
 }

@@ -8,13 +8,15 @@ pub mod system;
 
 pub use system::Godunov;
 
-use super::{Feature, MethodFamily, Plan};
+#[cfg(feature = "gpu")]
+use crate::methods::family::GpuBuild;
+use crate::methods::family::{CpuBuild, Feature, MethodFamily, Plan, cfl_step};
 
+use crate::case::Case;
 use crate::check::Problem;
 use crate::engine::{CpuEngine, EngineDim};
 use crate::material::Material;
 use crate::neighbour::Rebuild;
-use crate::scene::Case;
 use serde::{Deserialize, Serialize};
 
 /// The `[method]` keys of Godunov SPH: none besides the common ones.
@@ -41,7 +43,7 @@ impl MethodFamily for GodunovSpec {
         Plan {
             once: "nothing: the neighbour lists follow the particles (see the rates)".into(),
             state: "u, v, ρ, S, and F integrated by Ḟ = L F for the outputs".into(),
-            cfl_step: super::cfl_step(&mat),
+            cfl_step: cfl_step(&mat),
             rates: format!(
                 "{}, Ṡ, Ḟ, and ρ̇ and a from the pairs' acoustic Riemann solutions",
                 super::ul::plan_rebuild(case, gpu)
@@ -52,12 +54,12 @@ impl MethodFamily for GodunovSpec {
         }
     }
 
-    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> super::CpuBuild<D> {
-        Ok(Box::new(CpuEngine::<D, Godunov<D>>::new(case)?))
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> CpuBuild<D> {
+        Ok(Box::new(CpuEngine::<D, Godunov<D>>::new(case, self)?))
     }
 
     #[cfg(feature = "gpu")]
-    fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> super::GpuBuild<D> {
+    fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> GpuBuild<D> {
         let engine = crate::methods::ul::gpu::GpuUl::<D>::new(case, gpu, &gpu::scheme())?;
         Ok(Box::new(engine))
     }

@@ -10,11 +10,11 @@
 //! `randles-libersky`).
 
 use super::GodunovSpec;
+use crate::case::{Case, CaseError};
 use crate::correction::CorrectionKind;
+use crate::methods::family::MethodFamily;
 use crate::methods::ul::{Correction, PairRates, PairScheme, UlCore, UlSph, UlState};
-use crate::methods::{MethodFamily, MethodSpec, not_run_by};
 use crate::neighbour::Rebuild;
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 
 /// The Godunov SPH system on the CPU (f64, rayon).
@@ -67,10 +67,9 @@ impl<D: Dim> PairScheme<D> for Scheme {
     type Particle = Particle<D>;
     const REBUILD: Rebuild = GodunovSpec::NEIGHBOURS;
 
-    fn new(case: &Case, _core: &UlCore<D>) -> Result<Self, CaseError> {
-        let MethodSpec::GodunovSph(_) = &case.method.spec else {
-            return Err(not_run_by(case, "Godunov"));
-        };
+    type Spec = GodunovSpec;
+
+    fn new(case: &Case, _spec: &GodunovSpec, _core: &UlCore<D>) -> Result<Self, CaseError> {
         Ok(Self {
             correction: case.method.correction,
         })

@@ -31,7 +31,7 @@ const RATES: [Traffic; 12] = joined(
         POWER,
     ],
 );
-use crate::scene::Case;
+use crate::case::Case;
 
 /// Per-particle quantities (σ/ρ², R, c, V, the correction) and the pair gather.
 pub const PASSES: Source = source!(

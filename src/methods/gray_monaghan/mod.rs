@@ -9,14 +9,16 @@ pub mod system;
 
 pub use system::GrayMonaghan;
 
-use super::{Feature, MethodFamily, Plan};
+#[cfg(feature = "gpu")]
+use crate::methods::family::GpuBuild;
+use crate::methods::family::{CpuBuild, Feature, MethodFamily, Plan, cfl_step};
 
+use crate::case::Case;
 use crate::check::{Problem, fail, non_negative};
 use crate::engine::{CpuEngine, EngineDim};
 use crate::integrate::IntegratorKind;
 use crate::material::Material;
 use crate::neighbour::Rebuild;
-use crate::scene::Case;
 use crate::viscosity::ArtificialViscosity;
 use serde::{Deserialize, Serialize};
 
@@ -96,7 +98,7 @@ impl MethodFamily for GrayMonaghanSpec {
             once: "nothing but W(Δp): the neighbour lists follow the particles (see the rates)"
                 .into(),
             state: "u, v, ρ, S, and F integrated by Ḟ = L F for the outputs".into(),
-            cfl_step: super::cfl_step(&mat),
+            cfl_step: cfl_step(&mat),
             rates: format!("{}, ρ̇, Ṡ, Ḟ, a, ẋ", super::ul::plan_rebuild(case, gpu)),
             checked: "ρ",
             check_note: String::new(),
@@ -104,12 +106,12 @@ impl MethodFamily for GrayMonaghanSpec {
         }
     }
 
-    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> super::CpuBuild<D> {
-        Ok(Box::new(CpuEngine::<D, GrayMonaghan<D>>::new(case)?))
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> CpuBuild<D> {
+        Ok(Box::new(CpuEngine::<D, GrayMonaghan<D>>::new(case, self)?))
     }
 
     #[cfg(feature = "gpu")]
-    fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> super::GpuBuild<D> {
+    fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> GpuBuild<D> {
         let engine = crate::methods::ul::gpu::GpuUl::<D>::new(case, gpu, &gpu::scheme(case, self))?;
         Ok(Box::new(engine))
     }

@@ -8,12 +8,12 @@
 //! velocity gradient L_i of eq 105, which feeds ρ̇, Ṡ and Ḟ.
 
 use super::{ArtificialStress, GrayMonaghanSpec};
+use crate::case::{Case, CaseError};
 use crate::correction::CorrectionKind;
+use crate::methods::family::MethodFamily;
 use crate::methods::ul::{Correction, PairRates, PairScheme, UlCore, UlSph, UlState};
-use crate::methods::{MethodFamily, MethodSpec, not_run_by};
 use crate::neighbour::Rebuild;
 use crate::plasticity::{symmetric_eigen, to_mat3};
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use crate::viscosity::ArtificialViscosity;
 
@@ -120,10 +120,9 @@ impl<D: Dim> PairScheme<D> for Scheme {
     type Particle = Particle<D>;
     const REBUILD: Rebuild = GrayMonaghanSpec::NEIGHBOURS;
 
-    fn new(case: &Case, core: &UlCore<D>) -> Result<Self, CaseError> {
-        let MethodSpec::GrayMonaghanSph(spec) = &case.method.spec else {
-            return Err(not_run_by(case, "GrayMonaghan"));
-        };
+    type Spec = GrayMonaghanSpec;
+
+    fn new(case: &Case, spec: &GrayMonaghanSpec, core: &UlCore<D>) -> Result<Self, CaseError> {
         Ok(Self {
             correction: case.method.correction,
             av: spec.artificial_viscosity,

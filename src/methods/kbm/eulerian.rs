@@ -9,15 +9,14 @@
 //! velocities; the particles are points at their own positions.
 
 use super::KbmSpec;
+use crate::case::{Case, CaseError};
 use crate::engine::BlowUp;
 use crate::kernel::{Kernel, neighbour_radius};
 use crate::methods::galerkin::Mass;
 use crate::methods::galerkin::updated::{Degenerate, MovingPoints, Nodes, UlGalerkinState};
-use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::{self, Csr, SKIN};
 use crate::quadrature::{QuadraturePoints, ShapeRow, Shapes, krongauz_belytschko_shapes};
 use crate::reference::Reference;
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 
 /// The points of the Eulerian-kernel KBM: the particles and (KBM (si)) the stress points,
@@ -90,10 +89,9 @@ impl<D: Dim> MovingPoints<D> for EulerianPoints<D> {
 
     /// The points of KBM (si) or (ni) on the reference configuration, and their first
     /// lists.
-    fn build(case: &Case, reference: &Reference<D>) -> Result<Self, CaseError> {
-        let MethodSpec::Kbm(spec) = &case.method.spec else {
-            return Err(not_run_by(case, "the Eulerian-kernel KBM points"));
-        };
+    type Spec = KbmSpec;
+
+    fn build(case: &Case, spec: &KbmSpec, reference: &Reference<D>) -> Result<Self, CaseError> {
         let (_, points) = spec.points(case, reference)?;
         let kernel = reference.kernel;
         let mut eulerian = Self {

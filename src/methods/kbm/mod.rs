@@ -16,15 +16,17 @@ pub mod eulerian;
 
 use super::fem::galerkin_state;
 use super::galerkin::updated::UlGalerkin;
-use super::galerkin::{Mass, TlGalerkin, particle_mass, smoothing_cells};
+use super::galerkin::{Mass, TlGalerkin, TlSystem, particle_mass, smoothing_cells};
 use super::ul_fem::ul_galerkin_state;
-use super::{Feature, MethodFamily, Plan};
+use crate::case::{Case, CaseError};
 use crate::check::{Problem, fail};
 use crate::engine::{CpuEngine, EngineDim};
 use crate::material::Material;
+#[cfg(feature = "gpu")]
+use crate::methods::family::GpuBuild;
+use crate::methods::family::{CpuBuild, Feature, MethodFamily, Plan, cfl_step};
 use crate::quadrature::{Cells, QuadraturePoints, Shapes};
 use crate::reference::Reference;
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use eulerian::EulerianPoints;
 use serde::{Deserialize, Serialize};
@@ -112,15 +114,13 @@ impl KbmSpec {
             (Cells::default(), points)
         })
     }
+}
 
+impl<D: Dim> TlSystem<D> for KbmSpec {
     /// The Galerkin system with the Krongauz–Belytschko functions at the particles and,
     /// with stress points, at the cell centres; or with SCNI their smoothed gradients at
     /// the particles.
-    pub fn system<D: Dim>(
-        &self,
-        case: &Case,
-        reference: Reference<D>,
-    ) -> Result<TlGalerkin<D>, CaseError> {
+    fn system(&self, case: &Case, reference: Reference<D>) -> Result<TlGalerkin<D>, CaseError> {
         let (x0, body, kernel) = (&reference.x0, &reference.body, &reference.kernel);
         let (cells, points, shapes) = if self.integration == Integration::Scni {
             let smoothing = smoothing_cells(case, &reference, "method.integration")?;
@@ -223,7 +223,7 @@ impl MethodFamily for KbmSpec {
                  node-to-point gather lists"
             ),
             state: galerkin_state(&mat),
-            cfl_step: super::cfl_step(&mat),
+            cfl_step: cfl_step(&mat),
             rates: if gpu {
                 "points pass (F_q = I + Σ_a u_a ⊗ G_a, P_q, w_q ψ_q, ρ̇_q, Ṡ_q) + nodes pass \
                  (−Σ_q w_q P_q ∇0W^S_a(X_q) gathered per particle, BCs)"
@@ -239,19 +239,19 @@ impl MethodFamily for KbmSpec {
         }
     }
 
-    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> super::CpuBuild<D> {
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> CpuBuild<D> {
         match self.kernel_frame {
-            KernelFrame::Lagrangian => super::galerkin::cpu_engine(case),
+            KernelFrame::Lagrangian => super::galerkin::cpu_engine(case, self),
             KernelFrame::Eulerian => Ok(Box::new(
-                CpuEngine::<D, UlGalerkin<D, EulerianPoints<D>>>::new(case)?,
+                CpuEngine::<D, UlGalerkin<D, EulerianPoints<D>>>::new(case, self)?,
             )),
         }
     }
 
     #[cfg(feature = "gpu")]
-    fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> super::GpuBuild<D> {
+    fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> GpuBuild<D> {
         match self.kernel_frame {
-            KernelFrame::Lagrangian => super::galerkin::gpu_engine(case, gpu),
+            KernelFrame::Lagrangian => super::galerkin::gpu_engine(case, self, gpu),
             KernelFrame::Eulerian => Err(case
                 .invalid(
                     "method.kernel_frame",
@@ -317,7 +317,7 @@ impl KbmSpec {
                  kernel)"
             ),
             state: ul_galerkin_state(&mat, "the points") + "; the stress points' displacements",
-            cfl_step: super::cfl_step(&mat),
+            cfl_step: cfl_step(&mat),
             rates: format!(
                 "on the CPU, on the current configuration: W^S_a, ∇W^S_a, M and G_a = M⁻¹∇W^S_a \
                  at every point among the particles of its list (searched within 2h·(1 + \

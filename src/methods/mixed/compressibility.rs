@@ -24,13 +24,13 @@
 
 use super::Momentum;
 use super::system::pair_force;
+use crate::case::Case;
 use crate::check::{Problem, fail, positive, toml_name};
 use crate::integrate::PseudoTime;
 use crate::material::{Material, MaterialModel};
 use crate::mirror::Ghosts;
 use crate::neighbour::Csr;
 use crate::parallel::MIN_CHUNK;
-use crate::scene::Case;
 use crate::tensor::Dim;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -106,7 +106,11 @@ impl ArtificialCompressibility {
     /// Checks of the table against the case: the polyconvex model (the only one with a
     /// separate pressure), the variables, an integrator made of forward-Euler stages
     /// and the ranges of the keys.
-    pub(super) fn validate(&self, case: &Case) -> Result<(), Problem> {
+    pub(super) fn validate(
+        &self,
+        options: &super::MixedOptions,
+        case: &Case,
+    ) -> Result<(), Problem> {
         const KEY: &str = "method.artificial_compressibility";
         let model = case.material.model;
         if model != MaterialModel::NearlyIncompressibleNeoHookean {
@@ -120,9 +124,7 @@ impl ArtificialCompressibility {
                 ),
             );
         }
-        if let Some((options, _)) = super::scheme(case)
-            && options.variables == super::Conserved::PFJ
-        {
+        if options.variables == super::Conserved::PFJ {
             return fail(
                 "method.variables",
                 "with artificial compressibility the pressure replaces J: use \"p-F-H-J\" (the \

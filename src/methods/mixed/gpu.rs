@@ -15,9 +15,10 @@
 use super::compressibility::UNCONVERGED;
 use super::gpu_corrector::{CORRECTOR, DeviceCorrector};
 use super::system::{Fluxes, MixedSph, MixedState};
-use super::{CflWaveSpeed, DeformationGradient, Momentum};
+use super::{CflWaveSpeed, DeformationGradient, MixedOptions, MixedScheme, Momentum};
 use crate::balance::Booked;
 use crate::boundary::Boundary;
+use crate::case::Case;
 use crate::engine::{BlowUp, GpuEngine, GpuFamily, Method};
 use crate::gpu::context::{Gpu, GpuError, Pipeline, WORKGROUP};
 use crate::gpu::layout::{Fields, GpuDim};
@@ -34,11 +35,9 @@ use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run
 use crate::integrate::{Buf, Evaluation, IntegratorKind, PseudoTime, evaluations};
 use crate::interaction::gpu::GpuInteractions;
 use crate::material::MaterialModel;
-use crate::methods::not_run_by;
 use crate::observe::Snapshot;
 use crate::plasticity::History;
 use crate::reference::build_method;
-use crate::scene::Case;
 use crate::tensor::Dim;
 use encase::ShaderType;
 
@@ -138,10 +137,14 @@ pub struct MixedDevice<D: GpuDim> {
 
 impl<D: GpuDim> GpuMixed<D> {
     /// Builds the CPU set-up of the case and uploads it with the initial state.
-    pub fn new(case: &Case, gpu: Gpu) -> Result<Self, SetupError> {
-        let plastic = plastic_on_device(case)?;
-        let cpu: MixedSph<D> = build_method(case)?;
-        let (layout, constants) = scene(case, &cpu);
+    pub fn new(
+        case: &Case,
+        spec: &(dyn MixedScheme + 'static),
+        gpu: Gpu,
+    ) -> Result<Self, SetupError> {
+        let plastic = plastic_on_device(case, spec.options())?;
+        let cpu: MixedSph<D> = build_method(case, spec)?;
+        let (layout, constants) = scene(case, spec.options(), &cpu);
         check_f32_range(case, &constants)?;
         check_f32_run(case, cpu.boundary())?;
         let y0 = cpu.initial_state();
@@ -267,8 +270,7 @@ impl<D: GpuDim> GpuMixed<D> {
 
 /// Whether the plastic history is committed on the device; an error for the bond-based F
 /// with plasticity, which the GPU does not run.
-fn plastic_on_device(case: &Case) -> Result<bool, SetupError> {
-    let (options, _) = super::scheme(case).ok_or_else(|| not_run_by(case, "GpuMixed"))?;
+fn plastic_on_device(case: &Case, options: &MixedOptions) -> Result<bool, SetupError> {
     let plastic = case.material.model == MaterialModel::VonMisesPlastic;
     if plastic && options.deformation_gradient == DeformationGradient::BondBased {
         return Err(case

@@ -19,12 +19,14 @@ pub use compressibility::ArtificialCompressibility;
 pub use gpu::GpuMixed;
 pub use system::{Fluxes, MixedSph, MixedState};
 
-use super::{Feature, MethodFamily, MethodSpec, Plan};
+#[cfg(feature = "gpu")]
+use crate::methods::family::GpuBuild;
+use crate::methods::family::{CpuBuild, Feature, MethodFamily, Plan};
 
+use crate::case::Case;
 use crate::check::{Problem, fail, non_negative, toml_name};
 use crate::engine::{CpuEngine, EngineDim};
 use crate::material::{Material, MaterialModel};
-use crate::scene::Case;
 use crate::tensor::{Dim, smallest_stretch_squared};
 use serde::{Deserialize, Serialize};
 
@@ -212,31 +214,17 @@ pub enum Stabiliser {
     Jst(Jst),
 }
 
-/// Whether the case's method accepts ν = 0.5: a mixed method with artificial
-/// compressibility.
-pub fn accepts_incompressible(case: &Case) -> bool {
-    scheme(case).is_some_and(|(m, _)| m.artificial_compressibility.is_some())
-}
-
-/// The options and stabilisation of a case's mixed method; None for another method.
-pub fn scheme(case: &Case) -> Option<(&MixedOptions, Stabiliser)> {
-    match &case.method.spec {
-        MethodSpec::UpwindSph(s) => Some((
-            &s.mixed,
-            Stabiliser::Upwind {
-                reconstruction: s.reconstruction,
-            },
-        )),
-        MethodSpec::JstSph(s) => Some((&s.mixed, Stabiliser::Jst(s.jst))),
-        _ => None,
-    }
+/// What a mixed system reads of its method's spec ([`UpwindSpec`], [`JstSpec`]).
+pub trait MixedScheme {
+    fn options(&self) -> &MixedOptions;
+    fn stabiliser(&self) -> Stabiliser;
 }
 
 /// Checks both mixed methods share: a first-order correction, a state model, the CFL
 /// wave speed only with a CFL step, the bond-based F with {p, F}, no projection against
 /// mirror planes.
 fn validate(m: &MixedOptions, case: &Case) -> Result<(), Problem> {
-    let name = case.method.name();
+    let name = case.method.name;
     if !case.method.correction.is_first_order() {
         return fail(
             "method.correction",
@@ -272,7 +260,7 @@ fn validate(m: &MixedOptions, case: &Case) -> Result<(), Problem> {
         );
     }
     if let Some(ac) = &m.artificial_compressibility {
-        ac.validate(case)?;
+        ac.validate(m, case)?;
         if let Some(b) = case
             .bodies
             .iter()
@@ -493,11 +481,9 @@ const fn keys(own: &'static str) -> [&'static str; 7] {
 
 /// What distinguishes the two mixed methods; everything else of their
 /// [`MethodFamily`] is shared.
-trait MixedMethod {
+trait MixedMethod: MixedScheme {
     const DESCRIPTION: &'static str;
     const KEYS: &'static [&'static str];
-    fn options(&self) -> &MixedOptions;
-    fn stabiliser(&self) -> Stabiliser;
     /// Checks of the stabilisation's own keys.
     fn validate_own(&self) -> Result<(), Problem>;
 }
@@ -508,6 +494,12 @@ impl MixedMethod for UpwindSpec {
         angular-momentum projection (Lee et al. 2018; seed 003)";
     const KEYS: &'static [&'static str] = &keys("reconstruction");
 
+    fn validate_own(&self) -> Result<(), Problem> {
+        Ok(())
+    }
+}
+
+impl MixedScheme for UpwindSpec {
     fn options(&self) -> &MixedOptions {
         &self.mixed
     }
@@ -517,10 +509,6 @@ impl MixedMethod for UpwindSpec {
             reconstruction: self.reconstruction,
         }
     }
-
-    fn validate_own(&self) -> Result<(), Problem> {
-        Ok(())
-    }
 }
 
 impl MixedMethod for JstSpec {
@@ -528,6 +516,13 @@ impl MixedMethod for JstSpec {
         Jameson–Schmidt–Turkel dissipation on p (Lee et al. 2016; seed 002 eqs 26–28)";
     const KEYS: &'static [&'static str] = &keys("jst");
 
+    fn validate_own(&self) -> Result<(), Problem> {
+        non_negative("method.jst.eps2", self.jst.eps2)?;
+        non_negative("method.jst.eps4", self.jst.eps4)
+    }
+}
+
+impl MixedScheme for JstSpec {
     fn options(&self) -> &MixedOptions {
         &self.mixed
     }
@@ -535,14 +530,9 @@ impl MixedMethod for JstSpec {
     fn stabiliser(&self) -> Stabiliser {
         Stabiliser::Jst(self.jst)
     }
-
-    fn validate_own(&self) -> Result<(), Problem> {
-        non_negative("method.jst.eps2", self.jst.eps2)?;
-        non_negative("method.jst.eps4", self.jst.eps4)
-    }
 }
 
-impl<S: MixedMethod> MethodFamily for S {
+impl<S: MixedMethod + 'static> MethodFamily for S {
     const DESCRIPTION: &'static str = S::DESCRIPTION;
     const KEYS: &'static [&'static str] = S::KEYS;
     const FEATURES: &'static [Feature] = &[
@@ -563,13 +553,26 @@ impl<S: MixedMethod> MethodFamily for S {
         plan(self.options(), self.stabiliser(), case, gpu)
     }
 
-    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> super::CpuBuild<D> {
-        Ok(Box::new(CpuEngine::<D, MixedSph<D>>::new(case)?))
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> CpuBuild<D> {
+        Ok(Box::new(CpuEngine::<D, MixedSph<D>>::new(case, self)?))
     }
 
     #[cfg(feature = "gpu")]
-    fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> super::GpuBuild<D> {
-        Ok(Box::new(GpuMixed::<D>::new(case, gpu)?))
+    fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> GpuBuild<D> {
+        Ok(Box::new(GpuMixed::<D>::new(case, self, gpu)?))
+    }
+
+    /// With artificial compressibility, that of the fictitious bulk modulus κ̃.
+    fn step_wave_speed(&self, mat: &Material) -> f64 {
+        match self.options().artificial_compressibility {
+            Some(ac) => ac.p_wave_speed(mat),
+            None => mat.p_wave_speed(),
+        }
+    }
+
+    /// With artificial compressibility: its pressure replaces J.
+    fn accepts_incompressible(&self) -> bool {
+        self.options().artificial_compressibility.is_some()
     }
 
     /// c_p/λ²_min: the per-pair step of seed 002 eqs 31–32 falls as r_ab λ_ab, and

@@ -14,7 +14,9 @@
 use super::compressibility::{Corrector, Pairs, StageStart, UNCONVERGED};
 use super::projection::{Balance, Sums};
 use super::weights::{brookshaw_weights, correct_laplacian, least_squares_weights, pair_map};
-use super::{CflWaveSpeed, Conserved, DeformationGradient, JstLaplacian, Momentum, Stabiliser};
+use super::{
+    CflWaveSpeed, Conserved, DeformationGradient, JstLaplacian, MixedScheme, Momentum, Stabiliser,
+};
 use crate::boundary::OnPatches;
 use crate::correction;
 use crate::engine::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
@@ -22,8 +24,8 @@ use crate::integrate::{IntegratorKind, OdeSystem, PseudoTime};
 use crate::interaction::Interactions;
 use crate::kernel::Kernel;
 
+use crate::case::{Case, CaseError};
 use crate::material::Material;
-use crate::methods::not_run_by;
 use crate::methods::particles::Surroundings;
 use crate::methods::shared::{neighbour_radius, reference_gradients};
 use crate::mirror::{Ghosts, Image};
@@ -32,7 +34,6 @@ use crate::observe::{ScalarField, Snapshot};
 use crate::parallel::{MIN_CHUNK, ordered_reduce, particle_state};
 use crate::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
 use crate::reference::Reference;
-use crate::scene::{Case, CaseError};
 use crate::tensor::{Dim, smallest_stretch_squared};
 use rayon::prelude::*;
 
@@ -231,9 +232,12 @@ pub struct MixedSph<D: Dim> {
 impl<D: Dim> MixedSph<D> {
     /// Builds neighbours, corrected gradients and the per-pair weights on the reference
     /// configuration.
-    pub fn new(case: &Case, reference: Reference<D>) -> Result<Self, CaseError> {
-        let (options, stabiliser) =
-            super::scheme(case).ok_or_else(|| not_run_by(case, "MixedSph"))?;
+    pub fn new(
+        case: &Case,
+        spec: &dyn MixedScheme,
+        reference: Reference<D>,
+    ) -> Result<Self, CaseError> {
+        let (options, stabiliser) = (spec.options(), spec.stabiliser());
         let Reference {
             x0: x_real,
             vol: vol_real,

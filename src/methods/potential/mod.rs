@@ -8,12 +8,14 @@ pub mod system;
 
 pub use system::Potential;
 
-use super::{Feature, MethodFamily, Plan, state_model};
+#[cfg(feature = "gpu")]
+use crate::methods::family::GpuBuild;
+use crate::methods::family::{CpuBuild, Feature, MethodFamily, Plan, cfl_step, state_model};
 
+use crate::case::Case;
 use crate::check::{Problem, toml_name};
 use crate::engine::{CpuEngine, EngineDim};
 use crate::material::Material;
-use crate::scene::Case;
 use crate::viscosity::ArtificialViscosity;
 use serde::{Deserialize, Serialize};
 
@@ -67,7 +69,7 @@ impl MethodFamily for PotentialSpec {
                 .into(),
             state: format!("u, v (state model {:?})", mat.model),
             cfl_step: match self.force {
-                PotentialForce::Consistent => super::cfl_step(&mat),
+                PotentialForce::Consistent => cfl_step(&mat),
                 PotentialForce::ReferenceCode => format!(
                     "Δt = cfl·Δx/(c_p/√V_min + max|v|), c_p = {:.1} m/s (the reference \
                      code's force is 1/V stiffer)",
@@ -84,13 +86,13 @@ impl MethodFamily for PotentialSpec {
         }
     }
 
-    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> super::CpuBuild<D> {
-        Ok(Box::new(CpuEngine::<D, Potential<D>>::new(case)?))
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> CpuBuild<D> {
+        Ok(Box::new(CpuEngine::<D, Potential<D>>::new(case, self)?))
     }
 
     #[cfg(feature = "gpu")]
-    fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> super::GpuBuild<D> {
-        let engine = crate::methods::tlsph::GpuTlsph::<D>::new(case, gpu)?;
+    fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> GpuBuild<D> {
+        let engine = crate::methods::tlsph::GpuTlsph::<D>::new(case, gpu::scheme(self), gpu)?;
         Ok(Box::new(engine))
     }
 }

@@ -8,18 +8,17 @@
 //! correction (seed 000 checklist 13). The state is u = x − X and v: no density or
 //! stress is integrated.
 
-use super::PotentialForce;
+use super::{PotentialForce, PotentialSpec};
+use crate::case::{Case, CaseError};
 use crate::engine::{BlowUp, Sizes, Traffic};
 use crate::material::stress_fields;
 use crate::methods::tl::{
     ReferencePairs, TlCore, TlScheme, TlSph, TlState, ViscousPairs, snapshot, viscous_pair_pass,
 };
-use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::Csr;
 use crate::observe::Snapshot;
 use crate::parallel::MIN_CHUNK;
 use crate::reference::Reference;
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use crate::viscosity::ArtificialViscosity;
 use rayon::prelude::*;
@@ -158,10 +157,9 @@ impl<D: Dim> ViscousPairs<D> for PotentialScheme<D> {
 impl<D: Dim> TlScheme<D> for PotentialScheme<D> {
     /// Builds neighbours, corrected gradients and their reverses on the reference
     /// configuration.
-    fn new(case: &Case, reference: &Reference<D>) -> Result<Self, CaseError> {
-        let MethodSpec::TlPotential(spec) = &case.method.spec else {
-            return Err(not_run_by(case, "Potential"));
-        };
+    type Spec = PotentialSpec;
+
+    fn new(case: &Case, spec: &PotentialSpec, reference: &Reference<D>) -> Result<Self, CaseError> {
         let pairs = ReferencePairs::new(case, reference)?;
         let grad_rev = pairs.reverse(case)?;
         let ReferencePairs { csr, grad } = pairs;

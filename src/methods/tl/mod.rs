@@ -17,12 +17,12 @@ use crate::interaction::Interactions;
 use crate::material::{Material, stress_fields};
 use crate::methods::particles::{Surroundings, check_stresses, max_speed, particle_accessors};
 
+use crate::case::{Case, CaseError};
 use crate::methods::shared::{reference_gradients, reverse_gradients};
 use crate::neighbour::Csr;
 use crate::observe::Snapshot;
 use crate::parallel::{MIN_CHUNK, particle_state};
 use crate::reference::{Build, Reference};
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use crate::viscosity::ArtificialViscosity;
 use rayon::prelude::*;
@@ -279,7 +279,11 @@ fn viscous_accelerations<D: Dim, S: ViscousPairs<D>>(
 pub trait TlScheme<D: Dim>: Sized + Send + Sync {
     /// The scheme of a case on its reference configuration; an error if the case names
     /// another method.
-    fn new(case: &Case, reference: &Reference<D>) -> Result<Self, CaseError>;
+    /// The typed spec of the scheme's method.
+    type Spec;
+
+    /// The scheme of a method's spec on the reference configuration.
+    fn new(case: &Case, spec: &Self::Spec, reference: &Reference<D>) -> Result<Self, CaseError>;
 
     /// The neighbour lists of the reference configuration (those of the interactions).
     fn lists(&self) -> &Csr;
@@ -349,8 +353,8 @@ impl<D: Dim, S: TlScheme<D>> Deref for TlSph<D, S> {
 
 impl<D: Dim, S: TlScheme<D>> TlSph<D, S> {
     /// The scheme's set-up on the reference configuration, then the core's.
-    pub fn new(case: &Case, reference: Reference<D>) -> Result<Self, CaseError> {
-        let scheme = S::new(case, &reference)?;
+    pub fn new(case: &Case, spec: &S::Spec, reference: Reference<D>) -> Result<Self, CaseError> {
+        let scheme = S::new(case, spec, &reference)?;
         let core = TlCore::new(case, reference, scheme.lists())?;
         Ok(Self { core, scheme })
     }
@@ -388,8 +392,10 @@ impl<D: Dim, S: TlScheme<D>> OdeSystem for TlSph<D, S> {
 }
 
 impl<D: Dim, S: TlScheme<D>> Build<D> for TlSph<D, S> {
-    fn build(case: &Case, reference: Reference<D>) -> Result<Self, CaseError> {
-        Self::new(case, reference)
+    type Spec = S::Spec;
+
+    fn build(case: &Case, spec: &S::Spec, reference: Reference<D>) -> Result<Self, CaseError> {
+        Self::new(case, spec, reference)
     }
 }
 

@@ -10,12 +10,14 @@ pub use crate::methods::tl::TlState;
 pub use gpu::GpuTlsph;
 pub use system::{Tlsph, TlsphScheme};
 
-use super::{Feature, MethodFamily, Plan};
+#[cfg(feature = "gpu")]
+use crate::methods::family::GpuBuild;
+use crate::methods::family::{CpuBuild, Feature, MethodFamily, Plan, cfl_step};
 
+use crate::case::Case;
 use crate::check::{Problem, positive};
 use crate::engine::EngineDim;
 use crate::material::Material;
-use crate::scene::Case;
 use crate::viscosity::ArtificialViscosity;
 use serde::{Deserialize, Serialize};
 
@@ -138,7 +140,7 @@ impl MethodFamily for TlsphSpec {
             } else {
                 format!("u, v (state model {:?}: no ρ or S integrated)", mat.model)
             },
-            cfl_step: super::cfl_step(&mat),
+            cfl_step: cfl_step(&mat),
             rates: if gpu {
                 format!("{GPU_RATES}; pair force {force}")
             } else {
@@ -150,13 +152,13 @@ impl MethodFamily for TlsphSpec {
         }
     }
 
-    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> super::CpuBuild<D> {
-        crate::statics::explicit::cpu_engine::<D, Tlsph<D>>(case)
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> CpuBuild<D> {
+        crate::statics::explicit::cpu_engine::<D, Tlsph<D>>(case, self)
     }
 
     #[cfg(feature = "gpu")]
-    fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> super::GpuBuild<D> {
-        Ok(Box::new(GpuTlsph::<D>::new(case, gpu)?))
+    fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> GpuBuild<D> {
+        Ok(Box::new(GpuTlsph::<D>::new(case, gpu::scheme(self), gpu)?))
     }
 }
 

@@ -5,18 +5,17 @@
 //! velocity v and, for the rate-based (hypoelastic) model, the density ρ and the
 //! deviatoric stress S.
 
-use super::{ArtificialViscosity, TlsphForce, ViscosityGradient};
+use super::{ArtificialViscosity, TlsphForce, TlsphSpec, ViscosityGradient};
+use crate::case::{Case, CaseError};
 use crate::engine::{BlowUp, Method, Sizes, Traffic};
 use crate::material::stress_fields;
 use crate::methods::tl::{
     ReferencePairs, TlCore, TlScheme, TlSph, TlState, inadmissible, snapshot,
 };
-use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::Csr;
 use crate::observe::Snapshot;
 use crate::parallel::MIN_CHUNK;
 use crate::reference::Reference;
-use crate::scene::{Case, CaseError};
 use crate::statics::explicit::AtRest;
 use crate::tensor::Dim;
 use rayon::prelude::*;
@@ -246,10 +245,9 @@ fn gathered_of<D: Dim>(
 
 impl<D: Dim> TlScheme<D> for TlsphScheme<D> {
     /// Builds neighbours and corrected gradients on the reference configuration.
-    fn new(case: &Case, reference: &Reference<D>) -> Result<Self, CaseError> {
-        let MethodSpec::Tlsph(spec) = &case.method.spec else {
-            return Err(not_run_by(case, "Tlsph"));
-        };
+    type Spec = TlsphSpec;
+
+    fn new(case: &Case, spec: &TlsphSpec, reference: &Reference<D>) -> Result<Self, CaseError> {
         let pairs = ReferencePairs::new(case, reference)?;
         let (x0, vol) = (&reference.x0, &reference.vol);
         let grad_rev = match spec.force {

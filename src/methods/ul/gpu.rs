@@ -13,6 +13,7 @@
 use super::{UlState, check_state, snapshot};
 use crate::balance::Booked;
 use crate::boundary::{Boundary, OnPatches};
+use crate::case::Case;
 use crate::correction::CorrectionKind;
 use crate::engine::{BlowUp, GpuEngine, GpuFamily};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
@@ -34,7 +35,6 @@ use crate::interaction::gpu::GpuInteractions;
 use crate::neighbour::{Csr, SKIN, bounding_box};
 use crate::observe::Snapshot;
 use crate::reference::Reference;
-use crate::scene::Case;
 
 /// The core's bindings, positions pass, correction and closing of the rates, which each
 /// scheme's pass file includes last.

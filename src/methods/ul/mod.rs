@@ -15,6 +15,7 @@
 pub mod gpu;
 
 use crate::boundary::OnPatches;
+use crate::case::{Case, CaseError};
 use crate::check::{Problem, fail, toml_name};
 use crate::correction::CorrectionKind;
 use crate::engine::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
@@ -29,7 +30,6 @@ use crate::neighbour::{Csr, Neighbours, Rebuild};
 use crate::observe::{ScalarField, Snapshot};
 use crate::parallel::{MIN_CHUNK, particle_state};
 use crate::reference::{Build, Reference};
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use rayon::prelude::*;
 
@@ -84,7 +84,7 @@ const CORRECTIONS: [CorrectionKind; 2] = [CorrectionKind::None, CorrectionKind::
 /// The checks every UL method makes of a case: the hypoelastic model and a correction of
 /// [`CORRECTIONS`].
 pub fn validate(case: &Case) -> Result<(), Problem> {
-    let name = case.method.name();
+    let name = case.method.name;
     if !case.material.model.is_rate_based() {
         return fail(
             "material.model",
@@ -268,8 +268,11 @@ pub trait PairScheme<D: Dim>: Sized + Send + Sync {
     /// The family's neighbour policy.
     const REBUILD: Rebuild;
 
-    /// The scheme of a case; an error if the case names another method.
-    fn new(case: &Case, core: &UlCore<D>) -> Result<Self, CaseError>;
+    /// The typed spec of the scheme's method.
+    type Spec;
+
+    /// The scheme of a method's spec on the case's core.
+    fn new(case: &Case, spec: &Self::Spec, core: &UlCore<D>) -> Result<Self, CaseError>;
 
     /// The quantities of particle i at state y (the core's positions and lists are
     /// current).
@@ -355,9 +358,11 @@ impl<D: Dim, S: PairScheme<D>> OdeSystem for UlSph<D, S> {
 }
 
 impl<D: Dim, S: PairScheme<D>> Build<D> for UlSph<D, S> {
-    fn build(case: &Case, reference: Reference<D>) -> Result<Self, CaseError> {
+    type Spec = S::Spec;
+
+    fn build(case: &Case, spec: &S::Spec, reference: Reference<D>) -> Result<Self, CaseError> {
         let core = UlCore::new(case, reference, S::REBUILD)?;
-        let scheme = S::new(case, &core)?;
+        let scheme = S::new(case, spec, &core)?;
         Ok(Self {
             core,
             scheme,

@@ -7,14 +7,14 @@
 
 use super::galerkin::Mass;
 use super::galerkin::updated::{Degenerate, MovingPoints, Nodes, UlGalerkin, UlGalerkinState};
-use super::{Feature, MethodFamily, MethodSpec, Plan, not_run_by};
+use crate::case::{Case, CaseError};
 use crate::check::Problem;
 use crate::engine::{CpuEngine, EngineDim};
 use crate::material::{Material, MaterialModel};
+use crate::methods::family::{CpuBuild, Feature, MethodFamily, Plan, cfl_step};
 use crate::neighbour::Csr;
 use crate::quadrature::{Cells, QuadraturePoints, Rule, ShapeRow, Shapes, isoparametric_shapes};
 use crate::reference::Reference;
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};
 
@@ -42,10 +42,9 @@ const RULE: Rule = Rule::Gauss2;
 impl<D: Dim> MovingPoints<D> for Elements<D> {
     const OWN_MOTION: bool = false;
 
-    fn build(case: &Case, reference: &Reference<D>) -> Result<Self, CaseError> {
-        let MethodSpec::UlFem(spec) = &case.method.spec else {
-            return Err(not_run_by(case, "UlGalerkin with elements"));
-        };
+    type Spec = UlFemSpec;
+
+    fn build(case: &Case, spec: &UlFemSpec, reference: &Reference<D>) -> Result<Self, CaseError> {
         let cells = reference
             .cells(case.spacing)
             .map_err(|e| case.invalid("body", e.to_string()))?;
@@ -131,7 +130,7 @@ impl MethodFamily for UlFemSpec {
                 self.mass.name()
             ),
             state: ul_galerkin_state(&mat, "the Gauss points"),
-            cfl_step: super::cfl_step(&mat),
+            cfl_step: cfl_step(&mat),
             rates: format!(
                 "on the CPU: x = X + u; at every Gauss point of the current cells N_a, \
                  ∇N_a = J⁻ᵀ ∂N_a/∂ξ and w_q = det J, then {}; each node gathers \
@@ -144,9 +143,9 @@ impl MethodFamily for UlFemSpec {
         }
     }
 
-    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> super::CpuBuild<D> {
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> CpuBuild<D> {
         Ok(Box::new(CpuEngine::<D, UlGalerkin<D, Elements<D>>>::new(
-            case,
+            case, self,
         )?))
     }
 

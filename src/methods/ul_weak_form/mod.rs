@@ -13,12 +13,12 @@ pub mod points;
 
 use super::galerkin::updated::UlGalerkin;
 use super::ul_fem::ul_galerkin_state;
-use super::{Feature, MethodFamily, Plan};
+use crate::case::Case;
 use crate::check::{Problem, fail, toml_name};
 use crate::engine::{CpuEngine, EngineDim};
 use crate::material::Material;
+use crate::methods::family::{CpuBuild, Feature, MethodFamily, Plan, cfl_step};
 use crate::neighbour::Rebuild;
-use crate::scene::Case;
 use points::StressPoints;
 use serde::{Deserialize, Serialize};
 
@@ -87,7 +87,7 @@ impl MethodFamily for UlWeakFormSpec {
                 "{}; ρ at the particles; the stress points' displacements",
                 ul_galerkin_state(&mat, "the stress points")
             ),
-            cfl_step: super::cfl_step(&mat),
+            cfl_step: cfl_step(&mat),
             rates: "on the CPU: covariance ellipses, h and RKPM N_j = V_j Ψ_j at every \
                     stress point and particle (V_j = m_j/ρ_j); L, ρ̇, Jaumann Ṡ, σ and \
                     ẋ_q = Σ_j N_j v_j at the stress points, ρ̇ at the particles; each particle \
@@ -101,9 +101,9 @@ impl MethodFamily for UlWeakFormSpec {
         }
     }
 
-    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> super::CpuBuild<D> {
+    fn cpu_engine<D: EngineDim>(&self, case: &Case) -> CpuBuild<D> {
         Ok(Box::new(
-            CpuEngine::<D, UlGalerkin<D, StressPoints<D>>>::new(case)?,
+            CpuEngine::<D, UlGalerkin<D, StressPoints<D>>>::new(case, self)?,
         ))
     }
 

@@ -3,17 +3,16 @@
 //! recomputed on the current configuration.
 
 use super::ellipse::Ellipse;
+use crate::case::{Case, CaseError};
 use crate::correction;
 use crate::engine::BlowUp;
 use crate::kernel::{Kernel, KernelKind};
 use crate::methods::galerkin::Mass;
 use crate::methods::galerkin::updated::{Degenerate, MovingPoints, Nodes, UlGalerkinState};
-use crate::methods::{MethodSpec, not_run_by};
 use crate::neighbour::{self, Csr};
 use crate::parallel::MIN_CHUNK;
 use crate::quadrature::{QuadraturePoints, Rule, ShapeRow, Shapes};
 use crate::reference::Reference;
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use rayon::prelude::*;
 
@@ -147,10 +146,13 @@ impl<D: Dim> MovingPoints<D> for StressPoints<D> {
 
     /// One stress point per lattice cell at its centre (Rule::Centre, w0 = Δx^d), and the
     /// candidate lists of the stress points and particles on the reference positions.
-    fn build(case: &Case, reference: &Reference<D>) -> Result<Self, CaseError> {
-        let MethodSpec::UlWeakForm(spec) = &case.method.spec else {
-            return Err(not_run_by(case, "UlGalerkin with stress points"));
-        };
+    type Spec = super::UlWeakFormSpec;
+
+    fn build(
+        case: &Case,
+        spec: &super::UlWeakFormSpec,
+        reference: &Reference<D>,
+    ) -> Result<Self, CaseError> {
         let (x0, body) = (&reference.x0, &reference.body);
         let cells = reference
             .cells(case.spacing)

@@ -7,13 +7,13 @@
 //! notes: `docs/methods/galerkin.md`.
 
 use super::fem::galerkin_state;
-use super::galerkin::{Mass, TlGalerkin, particle_mass, smoothing_shapes};
-use super::{Feature, MethodFamily, Plan};
+use super::galerkin::{Mass, TlGalerkin, TlSystem, particle_mass, smoothing_shapes};
+use crate::case::{Case, CaseError};
 use crate::check::Problem;
 use crate::material::Material;
+use crate::methods::family::{Feature, MethodFamily, Plan, cfl_step};
 use crate::quadrature::{QuadraturePoints, Rule, Shapes};
 use crate::reference::Reference;
-use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};
 
@@ -40,14 +40,10 @@ impl Default for WeakFormSpec {
     }
 }
 
-impl WeakFormSpec {
+impl<D: Dim> TlSystem<D> for WeakFormSpec {
     /// The Galerkin system with the RKPM functions of the particles at the Gauss points of
     /// the lattice cells.
-    pub fn system<D: Dim>(
-        &self,
-        case: &Case,
-        reference: Reference<D>,
-    ) -> Result<TlGalerkin<D>, CaseError> {
+    fn system(&self, case: &Case, reference: Reference<D>) -> Result<TlGalerkin<D>, CaseError> {
         let cells = reference
             .cells(case.spacing)
             .map_err(|e| case.invalid("body", e.to_string()))?;
@@ -110,7 +106,7 @@ impl MethodFamily for WeakFormSpec {
                    particles' own RKPM weights for the smoothing"
                 .into(),
             state: galerkin_state(&mat),
-            cfl_step: super::cfl_step(&mat),
+            cfl_step: cfl_step(&mat),
             rates: if gpu {
                 "points pass (F_q, P_q, w_q ψ_q, ρ̇_q, Ṡ_q) + nodes pass (−Σ_q w_q P_q \
                  ∇0N_a(X_q) gathered per particle, BCs); after each step the smooth and settle \

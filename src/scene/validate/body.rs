@@ -2,7 +2,7 @@
 
 use super::fields::{displacement, velocity};
 use super::{Checked, fail, non_negative, positive, unique_name, vector};
-use crate::scene::{BodySpec, Case, Hole, Lattice, MeshNodes, RingLattice, Shape, Volumes};
+use crate::case::{BodySpec, Case, Hole, Lattice, MeshNodes, RingLattice, Shape, Volumes};
 use std::collections::HashSet;
 
 pub(super) fn check(bodies: &[BodySpec], dim: usize) -> Checked {
@@ -48,7 +48,7 @@ pub(super) fn against_method(case: &Case) -> Checked {
             nodes: MeshNodes::Vertices,
             ..
         } = body.geometry
-            && !case.method.spec.lattice_cells()
+            && !case.method.lattice_cells
         {
             return fail(
                 format!("body.{b}.geometry.nodes"),
@@ -58,7 +58,7 @@ pub(super) fn against_method(case: &Case) -> Checked {
                      with integration = \"cells\", kbm with stress points), and `{}` \
                      integrates at its particles; remove the key (a particle at every cell's \
                      centroid) or choose one of those methods",
-                    case.method.name()
+                    case.method.name
                 ),
             );
         }
@@ -216,7 +216,7 @@ fn shape(shape: &Shape, key: &str, dim: usize) -> Checked {
             for (k, v) in vertices.iter().enumerate() {
                 vector(&format!("{key}.vertices.{k}"), v, dim)?;
             }
-            if let Some(why) = crate::scene::polygon::not_simple(vertices) {
+            if let Some(why) = crate::case::polygon::not_simple(vertices) {
                 return fail(format!("{key}.vertices"), why);
             }
         }

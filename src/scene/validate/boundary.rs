@@ -5,10 +5,10 @@ use super::{
     Checked, expression_constants, fail, finite, identifier, non_negative, positive, toml_name,
     vector,
 };
-use crate::methods::{Feature, quoted, supporting};
-use crate::scene::{
+use crate::case::{
     Axis, BodySpec, BoundarySpec, Case, Condition, Observer, Region, Solution, TimeLaw,
 };
+use crate::methods::{Feature, quoted, supporting};
 use std::collections::HashSet;
 
 /// Every boundary condition, and whether the run (static or dynamic) takes it.
@@ -26,7 +26,7 @@ pub(super) fn check(case: &Case) -> Checked {
                     "the run of `{}` is static: its load steps scale the loads by t/end_time, \
                      so it takes no time law and no release (`until`); give a constant \
                      `traction`, `pressure` or `velocity`",
-                    case.method.name()
+                    case.method.name
                 ),
             );
         }

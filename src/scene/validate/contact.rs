@@ -1,8 +1,8 @@
 //! `[contact]`: penalty contact between the bodies.
 
 use super::{Checked, fail, feature};
+use crate::case::{Case, ContactSpec};
 use crate::methods::Feature;
-use crate::scene::{Case, ContactSpec};
 
 /// Penalty contact: 2D, a method that runs it, at least two bodies, 0 < α ≤ 1. That the bodies lie
 /// apart by more than the kernel support is checked on their particles, when the method

@@ -3,8 +3,8 @@
 use super::{
     Checked, direction, expression_constants, fail, feature, finite, positive, toml_name, vector,
 };
+use crate::case::{Case, DisplacementField, VelocityField};
 use crate::methods::Feature;
-use crate::scene::{Case, DisplacementField, VelocityField};
 
 /// An initial displacement: a method whose F follows from u, a dynamic run (the static
 /// path starts from the reference configuration), and a gradient of d rows of d numbers.

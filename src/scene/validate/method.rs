@@ -2,11 +2,12 @@
 //! methods. A method's own keys are its spec's (`MethodFamily::validate`).
 
 use super::{Checked, fail, positive, toml_name};
-use crate::methods::{MethodTable, REGISTRY, entry, quoted};
-use crate::scene::Case;
+use crate::case::MethodKeys;
+use crate::methods::{REGISTRY, entry, quoted};
+use crate::scene::Scene;
 
 /// `h_over_dx` against the kernel's support, and one of `dt` and `cfl`.
-pub(super) fn check(m: &MethodTable) -> Checked {
+pub(super) fn check(m: &MethodKeys) -> Checked {
     // The support radius (support factor × h) must reach the nearest lattice neighbour:
     // h ≥ Δx/2 for the kernels of support 2h, Δx/3 for the quintic (support 3h; seed 004
     // §6.4's smallest support, 0.9 times a particle's diameter, is h = 0.338 Δx).
@@ -54,11 +55,11 @@ pub(super) fn check(m: &MethodTable) -> Checked {
 
 /// Keys of other methods in the `[method]` table: named with the methods that read them
 /// and the keys this one reads.
-pub(super) fn foreign_keys(case: &Case) -> Checked {
-    let Some(key) = case.method.foreign.first() else {
+pub(super) fn foreign_keys(scene: &Scene) -> Checked {
+    let Some(key) = scene.foreign.first() else {
         return Ok(());
     };
-    let name = case.method.name();
+    let name = scene.method.name;
     let owners = REGISTRY
         .iter()
         .filter(|e| e.keys.contains(&key.as_str()))

@@ -1,8 +1,8 @@
 //! `[[mirror]]`: symmetry and skew-symmetry planes closed by ghost particles.
 
 use super::{Checked, fail, feature, finite, toml_name};
+use crate::case::Case;
 use crate::methods::Feature;
-use crate::scene::Case;
 
 /// Mirror planes: a method that runs them, at most two per axis. Where the particles lie
 /// against the planes is checked when the ghosts are built.

@@ -21,24 +21,23 @@ mod run;
 #[cfg(test)]
 mod tests;
 
-use super::Case;
+use super::Scene;
+use crate::case::Case;
 use crate::check::{Checked, fail, non_negative, positive, toml_name};
 use crate::material::MaterialModel;
-use crate::methods::{Feature, quoted, supporting};
+use crate::methods::{Feature, features, quoted, supporting};
 use std::collections::HashSet;
 
 /// Semantic checks after parsing. Err((key, message)): the dotted key path, e.g. `material.poisson_ratio` or `body.1.geometry.radius` or `boundary.0.condition.vx`, and a message that says what is wrong and what is allowed, quoting the offending value.
-pub(super) fn check(case: &Case) -> Result<(), (String, String)> {
+pub(super) fn check(scene: &Scene) -> Result<(), (String, String)> {
+    let case = &scene.case;
     top_level(case)?;
     let dim = case.dim();
-    material::check(
-        &case.material,
-        crate::methods::mixed::accepts_incompressible(case),
-    )?;
+    material::check(&case.material, scene.spec.accepts_incompressible())?;
     material::plane(&case.material, dim)?;
     method::check(&case.method)?;
-    method::foreign_keys(case)?;
-    case.method.spec.validate(case)?;
+    method::foreign_keys(scene)?;
+    scene.spec.validate(case)?;
     if case.material.model == MaterialModel::VonMisesPlastic {
         feature(
             case,
@@ -181,8 +180,8 @@ fn top_level(case: &Case) -> Checked {
 
 /// A scene feature the case's method must run: names the methods that do.
 fn feature(case: &Case, feature: Feature, key: &str, what: &str, instead: &str) -> Checked {
-    let name = case.method.name();
-    if case.method.spec.entry().features.contains(&feature) {
+    let name = case.method.name;
+    if features(name).contains(&feature) {
         return Ok(());
     }
     fail(
@@ -223,8 +222,8 @@ fn expression_constants(
 /// A valid minimal case (2D box, hypoelastic, TLSPH with a fixed step) for unit tests
 /// that break one thing of it.
 #[cfg(test)]
-pub(crate) fn minimal_case() -> Case {
-    toml::from_str(
+pub(crate) fn minimal_case() -> Scene {
+    let case: Case<crate::methods::MethodTable> = toml::from_str(
         r#"
         name = "ok"
         dimension = 2
@@ -245,5 +244,6 @@ pub(crate) fn minimal_case() -> Case {
         end_time = 1e-3
         "#,
     )
-    .unwrap()
+    .unwrap();
+    Scene::new(case)
 }

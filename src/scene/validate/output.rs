@@ -2,7 +2,7 @@
 
 use super::boundary::region;
 use super::{Checked, fail, finite, positive, toml_name, unique_name, vector};
-use crate::scene::{Case, Observer, OutputSpec, ProbeSpec, Region};
+use crate::case::{Case, Observer, OutputSpec, ProbeSpec, Region};
 use std::collections::HashSet;
 
 pub(super) fn check(o: &OutputSpec) -> Checked {

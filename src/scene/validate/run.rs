@@ -1,15 +1,15 @@
 //! `[run]`: the end time, the limits of a run, and the static path's keys.
 
 use super::{Checked, fail, feature, positive, toml_name};
+use crate::case::{Case, MethodKeys, RunSpec, Solve};
 use crate::material::MaterialModel;
-use crate::methods::{Feature, MethodTable};
-use crate::scene::{Case, RunSpec, Solve};
+use crate::methods::{Feature, features};
 
 /// Largest `run.threads`: more than any machine this runs on, few enough that a typo
 /// (`run.threads = 20000`) is refused rather than spawning the threads.
 const MAX_THREADS: usize = 4096;
 
-pub(super) fn check(r: &RunSpec, m: &MethodTable) -> Checked {
+pub(super) fn check(r: &RunSpec, m: &MethodKeys) -> Checked {
     positive("run.end_time", r.end_time)?;
     if let Some(interval) = r.checkpoint_interval {
         positive("run.checkpoint_interval", interval)?;
@@ -55,7 +55,7 @@ pub(super) fn check(r: &RunSpec, m: &MethodTable) -> Checked {
 /// `run.solve`: a method that runs it; the static solve of an explicit method takes
 /// load steps of `method.dt`, a state model without history and no contact.
 pub(super) fn statics(case: &Case) -> Checked {
-    let features = case.method.spec.entry().features;
+    let features = features(case.method.name);
     if case.run.solve == Some(Solve::Static) {
         feature(
             case,
@@ -108,13 +108,13 @@ pub(super) fn tolerance(case: &Case) -> Checked {
         ("run.tolerance.increment", t.increment),
     ] {
         let Some(v) = value else { continue };
-        if !(v.is_finite() && (crate::statics::Tolerance::SMALLEST..1.0).contains(&v)) {
+        if !(v.is_finite() && (crate::case::Tolerance::SMALLEST..1.0).contains(&v)) {
             return fail(
                 key,
                 format!(
                     "must be a number in [{:e}, 1) (a fraction of the force scale or of |u|; \
                      below the double-precision epsilon no residual can reach it), got {v:?}",
-                    crate::statics::Tolerance::SMALLEST
+                    crate::case::Tolerance::SMALLEST
                 ),
             );
         }

@@ -1,17 +1,18 @@
 use super::{check, minimal_case};
-use crate::scene::{
-    Axis, BoundarySpec, Case, Condition, Lattice, Observer, ProbeSpec, Region, RingLattice, Shape,
+use crate::case::{
+    Axis, BoundarySpec, Condition, Lattice, Observer, ProbeSpec, Region, RingLattice, Shape,
     TimeLaw, VelocityField,
 };
+use crate::scene::Scene;
 
-fn key_of(case: &Case) -> String {
+fn key_of(case: &Scene) -> String {
     check(case).unwrap_err().0
 }
 
 #[test]
 fn valid_case_passes() {
     let c = minimal_case();
-    assert_eq!(c.method.name(), "tlsph");
+    assert_eq!(c.method.name, "tlsph");
     check(&c).unwrap();
 }
 
@@ -74,7 +75,8 @@ fn unit_cylinder(inner_radius: f64) -> Shape {
 #[test]
 fn bodies_and_shapes() {
     let mut c = minimal_case();
-    c.bodies.push(c.bodies[0].clone());
+    let body = c.bodies[0].clone();
+    c.bodies.push(body);
     assert_eq!(key_of(&c), "body.1.name");
     c.bodies[1].name = "c".into();
     c.bodies[1].geometry = unit_ring(1.0, RingLattice::Square, None);
@@ -212,7 +214,8 @@ fn boundaries_run_output_probes() {
     });
     assert_eq!(key_of(&c), "probe.0.name");
     c.probes[0].name = "tip".into();
-    c.probes.push(c.probes[0].clone());
+    let probe = c.probes[0].clone();
+    c.probes.push(probe);
     assert_eq!(key_of(&c), "probe.1.name");
     c.probes[1].name = "mid".into();
     c.probes[1].position = vec![0.0];

@@ -140,10 +140,14 @@ pub(super) const EXTRAS: Extras = Extras {
 /// Under artificial compressibility the material's constants are the predictor's: BULK
 /// and LAMBDA of κ̃, and C_P = c̃_p; the true κ enters the corrector as INV_BULK = 1/κ,
 /// zero at ν = 0.5.
-pub fn scene<D: GpuDim>(case: &Case, cpu: &MixedSph<D>) -> (MixedLayout, Constants) {
+pub fn scene<D: GpuDim>(
+    case: &Case,
+    options: &MixedOptions,
+    cpu: &MixedSph<D>,
+) -> (MixedLayout, Constants) {
     let layout = MixedLayout::of(cpu);
     let l = &layout;
-    let spec = crate::methods::mixed::scheme(case).and_then(|(o, _)| o.artificial_compressibility);
+    let spec = options.artificial_compressibility;
     let material = &match spec {
         Some(ac) => ac.predictor(cpu.material()),
         None => *cpu.material(),

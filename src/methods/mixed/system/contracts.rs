@@ -101,8 +101,14 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
 }
 
 impl<D: Dim> Build<D> for MixedSph<D> {
-    fn build(case: &Case, reference: Reference<D>) -> Result<Self, CaseError> {
-        Self::new(case, reference)
+    type Spec = dyn MixedScheme;
+
+    fn build(
+        case: &Case,
+        spec: &dyn MixedScheme,
+        reference: Reference<D>,
+    ) -> Result<Self, CaseError> {
+        Self::new(case, spec, reference)
     }
 }
 

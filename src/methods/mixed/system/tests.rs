@@ -1,13 +1,14 @@
 use super::*;
 use crate::methods::MethodSpec;
+use crate::scene::{Scene, build_method};
 use crate::tensor::{D2, D3};
 
 /// A shipped case.
-fn shipped(name: &str) -> Case {
+fn shipped(name: &str) -> Scene {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("cases")
         .join(format!("{name}.toml"));
-    Case::load(&path, &[]).unwrap()
+    Scene::load(&path, &[]).unwrap()
 }
 
 /// The driver's CFL step α Δx / signal speed of a case's lattice at rest with the
@@ -19,15 +20,15 @@ fn shipped(name: &str) -> Case {
 /// per-particle λ²_min would give α Δx λ²_min / c_p). With C_p^Lin for every pair the
 /// stretches drop out: λ is 1 in both. Round-off of the distances and the eigenvalue:
 /// 1e-12.
-fn check_stretched_step<D: Dim>(case: &Case, s: [f64; 3], wave: CflWaveSpeed) {
+fn check_stretched_step<D: Dim>(case: &Scene, s: [f64; 3], wave: CflWaveSpeed) {
     let mut case = case.clone();
-    match &mut case.method.spec {
+    match &mut case.spec {
         MethodSpec::UpwindSph(s) => s.mixed.cfl_wave_speed = wave,
         MethodSpec::JstSph(s) => s.mixed.cfl_wave_speed = wave,
         _ => panic!("{} is not a mixed case", case.name),
     }
     let case = &case;
-    let m: MixedSph<D> = crate::reference::build_method(case).unwrap();
+    let m: MixedSph<D> = build_method(case).unwrap();
     let (alpha, dx) = (case.method.cfl.unwrap(), case.spacing);
     let c_p = m.material.p_wave_speed();
     let axis = |k: usize| {

@@ -18,6 +18,7 @@ pub use scheme::{
 use super::system::hourglass_stiffness;
 use crate::balance::Booked;
 use crate::boundary::{Boundary, OnPatches};
+use crate::case::Case;
 use crate::correction::{self, CorrectionKind};
 use crate::engine::{BlowUp, GpuEngine, GpuFamily};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
@@ -37,8 +38,7 @@ use crate::methods::tl::{TlState, check_state, snapshot};
 use crate::neighbour::Csr;
 use crate::observe::Snapshot;
 use crate::reference::Reference;
-use crate::scene::Case;
-use scheme::{EXTRAS, scheme_of};
+use scheme::EXTRAS;
 
 /// The stress and acceleration passes of one rate evaluation, bound to a source state.
 struct Rates {
@@ -87,9 +87,9 @@ const STATUS_OK: u32 = u32::MAX;
 impl<D: GpuDim> GpuTlsph<D> {
     /// Uploads the case's reference configuration and initial state, and derives the
     /// reference pair offsets and corrected gradients on the device (the RKPM and CGCK
-    /// corrections on the host, in f64).
-    pub fn new(case: &Case, gpu: Gpu) -> Result<Self, SetupError> {
-        let scheme = scheme_of(case)?;
+    /// corrections on the host, in f64), for the method's `scheme` ([`scheme`] and the
+    /// other families' of the same name).
+    pub fn new(case: &Case, scheme: TlScheme, gpu: Gpu) -> Result<Self, SetupError> {
         let disc = Reference::<D>::build(case)?;
         check_f32_run(case, &disc.boundary)?;
         check_f32_particles::<D>(case, &disc.x0, &disc.u0, &disc.v0, &disc.body)?;

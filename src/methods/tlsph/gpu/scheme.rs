@@ -3,6 +3,7 @@
 //! in their folders) and the layout of its buffers with the constants compiled from them.
 
 use super::super::{TlsphForce, ViscosityGradient};
+use crate::case::Case;
 use crate::correction::CorrectionKind;
 use crate::gpu::layout::Fields;
 use crate::gpu::profile::{NONE, PassBytes, count, loads, stores};
@@ -14,8 +15,6 @@ use crate::gpu::shaders::{
     source, wgsl,
 };
 use crate::material::Material;
-use crate::methods::{MethodSpec, not_run_by};
-use crate::scene::{Case, CaseError};
 
 /// Strain energy densities of the TLSPH models, for the reduction.
 const ENERGY: Wgsl = wgsl!("tlsph/tlsph_energy.wgsl");
@@ -209,17 +208,6 @@ pub fn viscosity(av: Option<&super::super::ArtificialViscosity>) -> Constants {
         .f32("AV_ALPHA", av.map_or(0.0, |a| a.alpha))
         .f32("AV_BETA", av.map_or(0.0, |a| a.beta))
         .f32("AV_ETA", av.map_or(0.0, |a| a.eta))
-}
-
-/// The scheme of a case's method on this engine.
-pub(super) fn scheme_of(case: &Case) -> Result<TlScheme, CaseError> {
-    match &case.method.spec {
-        MethodSpec::Tlsph(spec) => Ok(scheme(spec)),
-        MethodSpec::TlPotential(spec) => Ok(crate::methods::potential::gpu::scheme(spec)),
-        MethodSpec::CorotatedTlsph(spec) => Ok(crate::methods::corotated::gpu::scheme(spec)),
-        MethodSpec::DualSupportSph(spec) => Ok(crate::methods::dual_support::gpu::scheme(spec)),
-        _ => Err(not_run_by(case, "GpuTlsph")),
-    }
 }
 
 /// The flat buffers of a TLSPH scene, each described once ([`Fields`]): the state

@@ -2,7 +2,7 @@
 //! conditions take their values from; and `[[mirror]]`, the planes closed by ghost
 //! particles.
 
-use super::{Axis, Expression};
+use super::{Axis, Expression, Solution};
 use serde::{Deserialize, Serialize};
 
 /// A boundary condition on a region of the reference configuration.
@@ -241,28 +241,6 @@ impl TimeLaw {
                 .map_or(f64::NAN, |e| e.at(&[t])),
         }
     }
-}
-
-/// Closed-form solutions that boundary conditions can take their values from.
-#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
-#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
-pub enum Solution {
-    /// The cantilever with a parabolic end shear of Timoshenko & Goodier (seed 004 eqs
-    /// 53–55, plane stress, the material's E and ν): x ∈ [0, length] from the clamped
-    /// end, y ∈ [−depth/2, depth/2], end load `load` per unit thickness [N/m].
-    TimoshenkoCantilever { load: f64, length: f64, depth: f64 },
-    /// Uniaxial stress σ_aa = `stress` [Pa] along `axis` (default x; seed 004 §6.3): u_a =
-    /// σX_a/E, the other components −νσX_k/E. As a traction on the face normal to that
-    /// axis it is a uniform pressure −`stress` (§6.2's plate, §6.6's cube).
-    UniaxialStress {
-        stress: f64,
-        #[serde(default = "x_axis")]
-        axis: Axis,
-    },
-}
-
-fn x_axis() -> Axis {
-    Axis::X
 }
 
 #[cfg(test)]

@@ -5,7 +5,7 @@
 use super::file_error;
 use super::files::{read_mesh, read_points};
 use super::lattice::{around, lattice_counts, polar_counts};
-use crate::scene::{Case, CaseError, Lattice, RingLattice, Shape};
+use crate::case::{Case, CaseError, Lattice, RingLattice, Shape};
 use crate::tensor::{D2, D3, Dim};
 use std::collections::HashMap;
 use std::path::Path;
@@ -103,11 +103,11 @@ pub fn estimate_particles(case: &Case) -> Result<Vec<BodySize>, CaseError> {
                     size(box_of(&lo, &hi), annulus(*inner_radius, *radius))
                 }
                 Shape::Polygon { vertices, .. } => {
-                    let (lo, hi) = crate::scene::polygon::bounds(vertices);
+                    let (lo, hi) = crate::case::polygon::bounds(vertices);
                     let bounding: f64 = (0..2).map(|k| hi[k] - lo[k]).product();
                     size(
                         box_of(&lo, &hi),
-                        crate::scene::polygon::area(vertices) / bounding,
+                        crate::case::polygon::area(vertices) / bounding,
                     )
                 }
                 Shape::Points { file } | Shape::Mesh { file, .. } => {

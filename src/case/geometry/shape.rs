@@ -1,7 +1,7 @@
 //! What a shape names: its volume, its bounding box, and a cylinder's sampled length.
 
 use super::lattice::{around, lattice_counts};
-use crate::scene::{Lattice, Shape};
+use crate::case::{Lattice, Shape};
 
 impl Shape {
     /// A cylinder's length along its axis as its lattice of spacing Δx samples it, and the
@@ -56,7 +56,7 @@ impl Shape {
                 length,
                 ..
             } => Some(pi * (radius * radius - inner_radius * inner_radius) * length),
-            Shape::Polygon { vertices, .. } => Some(crate::scene::polygon::area(vertices)),
+            Shape::Polygon { vertices, .. } => Some(crate::case::polygon::area(vertices)),
             Shape::Points { .. } | Shape::Mesh { .. } => None,
         }
     }
@@ -86,7 +86,7 @@ impl Shape {
                 hi[a] = base[a] + length;
                 (lo, hi)
             }
-            Shape::Polygon { vertices, .. } => crate::scene::polygon::bounds(vertices),
+            Shape::Polygon { vertices, .. } => crate::case::polygon::bounds(vertices),
             Shape::Points { .. } | Shape::Mesh { .. } => return None,
         };
         let pad = |v: &[f64]| std::array::from_fn(|k| if k < d { v[k] } else { 0.0 });

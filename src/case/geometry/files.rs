@@ -1,8 +1,8 @@
 //! Points and mesh files, read within a size cap; and the case file, read under the same guard.
 
 use super::Sampled;
-use crate::scene::MeshNodes;
-use crate::scene::expression::COORDINATES;
+use crate::case::MeshNodes;
+use crate::case::expression::COORDINATES;
 use crate::tensor::Dim;
 use std::path::Path;
 
@@ -13,7 +13,7 @@ use std::path::Path;
 pub(super) fn read_mesh<D: Dim>(path: &Path, nodes: MeshNodes) -> Result<Sampled<D>, String> {
     let text = read_points_file(path)?;
     if nodes == MeshNodes::Vertices {
-        let mesh = crate::scene::mesh::vertex_cells(&text, D::N)?;
+        let mesh = crate::case::mesh::vertex_cells(&text, D::N)?;
         let mut volumes = vec![0.0; mesh.points.len()];
         let share = 1.0 / f64::from(1u32 << D::N);
         for (corners, measure) in mesh.corners.chunks(1 << D::N).zip(&mesh.measures) {
@@ -32,7 +32,7 @@ pub(super) fn read_mesh<D: Dim>(path: &Path, nodes: MeshNodes) -> Result<Sampled
             velocities: None,
         });
     }
-    let cells = crate::scene::mesh::cells(&text, D::N)?;
+    let cells = crate::case::mesh::cells(&text, D::N)?;
     Ok(cells
         .iter()
         .map(|c| (D::from_slice(&c.centroid[..D::N]), c.measure))

@@ -168,7 +168,7 @@ fn sampled_volume_fits(
     let tolerance = spec.volume_tolerance.unwrap_or(super::VOLUME_TOLERANCE);
     if let Some((sampled, named)) = spec
         .geometry
-        .sampled_length(case.spacing, case.method.spec.lattice_cells())
+        .sampled_length(case.spacing, case.method.lattice_cells)
         .filter(|(sampled, named)| (sampled / named - 1.0).abs() > tolerance)
     {
         return Err(case.invalid(

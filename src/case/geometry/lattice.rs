@@ -2,8 +2,8 @@
 
 use super::files::{read_mesh, read_points};
 use super::{Sampled, file_error};
-use crate::scene::polygon;
-use crate::scene::{BodySpec, Case, CaseError, Lattice, RingLattice, Shape, Volumes};
+use crate::case::polygon;
+use crate::case::{BodySpec, Case, CaseError, Lattice, RingLattice, Shape, Volumes};
 use crate::tensor::Dim;
 
 /// The particles of body `b` as its shape's generator makes them.
@@ -19,7 +19,7 @@ pub(super) fn sample<D: Dim>(
     };
     // The methods that integrate over the lattice's cells take the vertex lattice, whose
     // cells span the shape ([`crate::methods::MethodFamily::lattice_cells`]).
-    let vertex = on_vertex_lattice(&spec.geometry, case.method.spec.lattice_cells());
+    let vertex = on_vertex_lattice(&spec.geometry, case.method.lattice_cells);
     let geometry = vertex.as_ref().unwrap_or(&spec.geometry);
     Ok(match geometry {
         Shape::Ring {

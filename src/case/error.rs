@@ -1,0 +1,29 @@
+//! The error of a case: a file that cannot be read or parsed, an override that does not
+//! apply, or a key whose value is not allowed.
+
+use std::path::PathBuf;
+use thiserror::Error;
+
+/// What is wrong with a case file.
+#[derive(Debug, Error)]
+pub enum CaseError {
+    #[error("{file}: cannot read: {source}")]
+    Read {
+        file: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{file}: {message}")]
+    Parse { file: PathBuf, message: String },
+    #[error("{file}: --set {assignment}: {message}")]
+    Override {
+        file: PathBuf,
+        assignment: String,
+        message: String,
+    },
+    #[error("{file}: key `{key}`: {message}")]
+    Invalid {
+        file: PathBuf,
+        key: String,
+        message: String,
+    },
+}
