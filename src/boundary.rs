@@ -502,18 +502,12 @@ fn set_component<D: Dim>(x: &mut D::V, k: u8, c: f64) {
 }
 
 #[cfg(feature = "gpu")]
-impl<D: Dim> crate::interaction::gpu::GpuInteraction for Boundary<D> {
-    /// `shaders/common/prescribed.wgsl`: one invocation per particle sets the rates of
-    /// its timed components held over the step and its mask in `reference`,
-    /// from the step's (held, rate) of every timed velocity (`steps`, written by the host
-    /// for every step it records).
-    fn pass(
-        &self,
-        gpu: &crate::gpu::context::Gpu,
-        compose: &dyn Fn(&crate::gpu::shaders::Source) -> String,
-        on: &crate::interaction::gpu::Bindings,
-    ) -> Result<crate::interaction::gpu::Pass, crate::gpu::GpuError> {
-        // Per particle: the mask held for the whole run, 1 + g per component, v_p.
+impl<D: Dim> Boundary<D> {
+    /// The timed velocities as `shaders/common/prescribed.wgsl` reads them, per particle
+    /// (a stride of 1 + 2·DIM): the mask held for the whole run, 1 + g per component (g
+    /// the timed velocity's index, 0 for a component none holds), the prescribed velocity
+    /// v_p at law value 1.
+    pub fn timed_table(&self) -> Vec<f32> {
         let stride = 1 + 2 * D::N;
         let mut dense = vec![0f32; stride * self.n];
         for (&(i, _), &held) in self.constrained.iter().zip(&self.held) {
@@ -524,40 +518,21 @@ impl<D: Dim> crate::interaction::gpu::GpuInteraction for Boundary<D> {
             dense[base] = (g + 1) as f32;
             dense[base + D::N] = vp as f32;
         }
-        let pipeline = gpu.pipeline(
-            "timed velocities",
-            &compose(&crate::gpu::shaders::PRESCRIBED),
-            "timed_velocities",
-        )?;
-        let timed = gpu.storage("timed velocities", &dense);
-        let steps = gpu.zeroed("timed velocities' steps", 8 * self.timed.len() as u64);
-        let bind = gpu.bind(
-            &pipeline,
-            &[
-                ("timed", &timed),
-                ("steps", &steps),
-                ("reference", on.reference),
-            ],
-        )?;
-        Ok(crate::interaction::gpu::Pass {
-            pipeline,
-            bind,
-            params: None,
-            step_values: Some(crate::interaction::gpu::StepValues {
-                target: steps,
-                values: Box::new({
-                    let timed = self.timed.clone();
-                    move |t, dt| {
-                        timed
-                            .iter()
-                            .flat_map(|v| match v.over_step(t, dt) {
-                                Some(step) => [1.0, step.rate as f32],
-                                None => [0.0, 0.0],
-                            })
-                            .collect()
-                    }
-                }),
-            }),
+        dense
+    }
+
+    /// The values of the step from t to t + Δt of every timed velocity: (1, its rate over
+    /// the step) while held, (0, 0) once released.
+    pub fn timed_step_values(&self) -> Box<dyn Fn(f64, f64) -> Vec<f32> + Send + Sync> {
+        let timed = self.timed.clone();
+        Box::new(move |t, dt| {
+            timed
+                .iter()
+                .flat_map(|v| match v.over_step(t, dt) {
+                    Some(step) => [1.0, step.rate as f32],
+                    None => [0.0, 0.0],
+                })
+                .collect()
         })
     }
 }

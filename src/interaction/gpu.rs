@@ -208,3 +208,41 @@ impl GpuInteractions {
         }
     }
 }
+
+impl<D: Dim> GpuInteraction for Boundary<D> {
+    /// `shaders/common/prescribed.wgsl`: one invocation per particle sets the rates of
+    /// its timed components held over the step and its mask in `reference`, from the
+    /// step's (held, rate) of every timed velocity (`steps`, written by the host for every
+    /// step it records).
+    fn pass(
+        &self,
+        gpu: &Gpu,
+        compose: &dyn Fn(&Source) -> String,
+        on: &Bindings,
+    ) -> Result<Pass, GpuError> {
+        let pipeline = gpu.pipeline(
+            "timed velocities",
+            &compose(&crate::gpu::shaders::PRESCRIBED),
+            "timed_velocities",
+        )?;
+        let timed = gpu.storage("timed velocities", &self.timed_table());
+        let steps = gpu.zeroed("timed velocities' steps", 8 * self.timed.len() as u64);
+        let bind = gpu.bind(
+            &pipeline,
+            &[
+                ("timed", &timed),
+                ("steps", &steps),
+                ("reference", on.reference),
+            ],
+        )?;
+        Ok(Pass {
+            pipeline,
+            bind,
+            params: None,
+            step_values: Some(StepValues {
+                target: steps,
+                values: self.timed_step_values(),
+            }),
+        })
+    }
+}

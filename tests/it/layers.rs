@@ -45,14 +45,14 @@ const ORDER: &[(&str, &[&str])] = &[
         &["case"],
     ),
     (
-        "reference state, GPU machinery, loads and contact, observers",
+        "reference state, observers, GPU machinery, loads and contact",
         &[
             "passes",
-            "gpu",
             "boundary",
             "reference",
-            "interaction",
             "observe",
+            "gpu",
+            "interaction",
         ],
     ),
     (
@@ -98,10 +98,7 @@ const ORDER: &[(&str, &[&str])] = &[
 /// case (`case::Case`) handed to every layer. Remove an entry with the import; never add
 /// one.
 const UPWARD: &[(&str, &str)] = &[
-    ("boundary", "interaction"),
-    ("gpu", "boundary"),
     ("gpu", "methods"),
-    ("gpu", "observe"),
     ("methods/tlsph", "methods/corotated"),
     ("methods/tlsph", "methods/dual_support"),
     ("methods/tlsph", "methods/potential"),
