@@ -12,6 +12,7 @@
 //!   at the start of every step from F_q there);
 //! - at each node: m_a v̇_a = −Σ_q w_q σ_q ∇N_a(x_q), gathered over the node's points.
 
+use super::contracts::galerkin_accessors;
 use super::{
     Mass, check_points, gather_accelerations, row_sums, smooth_velocities, stress_at_nodes,
     to_nodes,
@@ -21,10 +22,10 @@ use crate::engine::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::material::{Material, stress_fields};
-use crate::methods::particles::{Surroundings, particle_accessors, signal_speed};
+use crate::methods::particles::Surroundings;
 use crate::neighbour::Csr;
 use crate::observe::{ScalarField, Snapshot};
-use crate::parallel::{MIN_CHUNK, load_word, particle_state};
+use crate::parallel::{MIN_CHUNK, particle_state};
 use crate::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
 use crate::quadrature::{Gather, ShapeRow, Shapes};
 use crate::reference::{Build, Reference};
@@ -32,27 +33,19 @@ use crate::scene::{Case, CaseError};
 use crate::tensor::Dim;
 use rayon::prelude::*;
 
-/// The integrated state: u, v at the nodes; ρ, S at the points (rate model; empty for a
-/// state model); and, for points that move on their own (the weak form's stress points),
-/// ρ at the nodes and the points' displacements (empty otherwise).
-#[derive(Debug)]
-pub struct UlGalerkinState<D: Dim> {
-    pub u: Vec<D::V>,
-    pub v: Vec<D::V>,
-    pub rho: Vec<f64>,
-    pub s: Vec<D::T>,
-    /// ρ at the nodes, whose volumes m_a/ρ_a the shape functions use.
-    pub node_rho: Vec<f64>,
-    /// x_q − X_q of the points, advected with the interpolated velocity (eq 169).
-    pub point_u: Vec<D::V>,
+particle_state! {
+    /// The integrated state: u, v at the nodes; ρ, S at the points (rate model; empty for
+    /// a state model); and, for points that move on their own (the weak form's stress
+    /// points), ρ at the nodes and the points' displacements (empty otherwise).
+    pub struct UlGalerkinState {
+        pub rho: Vec<f64>,
+        pub s: Vec<D::T>,
+        /// ρ at the nodes, whose volumes m_a/ρ_a the shape functions use.
+        pub node_rho: Vec<f64>,
+        /// x_q − X_q of the points, advected with the interpolated velocity (eq 169).
+        pub point_u: Vec<D::V>,
+    }
 }
-
-particle_state!(UlGalerkinState {
-    rho,
-    s,
-    node_rho,
-    point_u
-});
 
 /// Why a point's shape functions cannot be evaluated in a configuration: the quantity that
 /// degenerated and its value.
@@ -532,11 +525,7 @@ impl<D: Dim, P: MovingPoints<D>> Method<D> for UlGalerkin<D, P> {
         initial::<D, P>(&self.material, &self.v0, self.shapes.len())
     }
 
-    particle_accessors!(UlGalerkinState<D>);
-
-    fn reference(&self) -> &[D::V] {
-        &self.x0
-    }
+    galerkin_accessors!(UlGalerkinState<D>);
 
     /// F at the nodes, projected from F_q = (Σ_a X_a ⊗ ∇N_a(x_q))⁻¹.
     fn deformation_gradient(&self, y: &UlGalerkinState<D>) -> Vec<D::T> {
@@ -588,14 +577,6 @@ impl<D: Dim, P: MovingPoints<D>> Method<D> for UlGalerkin<D, P> {
         }
     }
 
-    fn max_signal_speed(&self, y: &UlGalerkinState<D>) -> f64 {
-        signal_speed::<D>(&self.material, &y.v)
-    }
-
-    fn pairs(&self) -> usize {
-        self.shapes.csr.pair_count()
-    }
-
     /// x = X + u (with ρ > 0 checked first); the functions recomputed at the points (the
     /// ids read, N and ∇N (∇Φ) written per pair, w per point, x gathered per node, and
     /// what each family's points read, [`MovingPoints::shape_traffic`]); the point pass
@@ -638,21 +619,5 @@ impl<D: Dim, P: MovingPoints<D>> Method<D> for UlGalerkin<D, P> {
         }
         self.check_densities(y)?;
         self.evaluated(y).map(|_| ())
-    }
-
-    /// The plastic history C_p⁻¹, ε_p of the points.
-    fn save_history(&self, out: &mut Vec<f64>) {
-        History::save(self.plastic.as_ref(), out);
-        out.push(self.smoothed);
-    }
-
-    fn load_history(&mut self, words: &mut &[f64]) -> Result<(), String> {
-        History::load(self.plastic.as_mut(), words)?;
-        self.smoothed = load_word(words, "the smoothing's dissipation")?;
-        Ok(())
-    }
-
-    fn step_dissipation(&self) -> f64 {
-        self.smoothed
     }
 }
