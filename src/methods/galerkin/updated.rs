@@ -55,11 +55,13 @@ pub struct Degenerate {
     pub value: f64,
 }
 
-/// The nodes as the points see them: reference and current positions, masses.
+/// The nodes as the points see them: reference and current positions, masses, and the
+/// state y of that configuration.
 pub struct Nodes<'a, D: Dim> {
     pub x0: &'a [D::V],
     pub x: &'a [D::V],
     pub mass: &'a [f64],
+    pub y: &'a UlGalerkinState<D>,
 }
 
 /// The points of an updated-Lagrangian Galerkin method, with their shape functions on the
@@ -98,14 +100,9 @@ pub trait MovingPoints<D: Dim>: Sized + Send + Sync {
 
     /// N_a(x_q) and ∇N_a(x_q) (and ∇Φ_a(x_q) if Petrov–Galerkin) of point q into its
     /// pairs of the lists (zero for a node that does not reach it in this configuration),
-    /// for the nodes at `nodes.x` and state y; returns the point's weight w_q there.
-    fn shapes_at(
-        &self,
-        q: usize,
-        nodes: &Nodes<D>,
-        y: &UlGalerkinState<D>,
-        row: ShapeRow<D>,
-    ) -> Result<f64, Degenerate>;
+    /// for the nodes at `nodes.x` and state `nodes.y`; returns the point's weight w_q
+    /// there.
+    fn shapes_at(&self, q: usize, nodes: &Nodes<D>, row: ShapeRow<D>) -> Result<f64, Degenerate>;
 
     /// New lists from the points to the nodes (at reference positions x0), searched on
     /// the configuration of state y at the start of a step, when the method searches anew then (an Eulerian kernel;
@@ -125,7 +122,6 @@ pub trait MovingPoints<D: Dim>: Sized + Send + Sync {
     fn own_rates(
         &mut self,
         _nodes: &Nodes<D>,
-        _y: &UlGalerkinState<D>,
         _shapes: &Shapes<D>,
         _d: &mut UlGalerkinState<D>,
     ) -> Result<(), BlowUp> {
@@ -133,8 +129,8 @@ pub trait MovingPoints<D: Dim>: Sized + Send + Sync {
     }
 
     /// The nodes' own functions that the velocities are smoothed with after a step, at
-    /// state y; none by default.
-    fn smoothing(&mut self, _nodes: &Nodes<D>, _y: &UlGalerkinState<D>) -> Option<&Shapes<D>> {
+    /// state `nodes.y`; none by default.
+    fn smoothing(&mut self, _nodes: &Nodes<D>) -> Option<&Shapes<D>> {
         None
     }
 }
@@ -196,15 +192,15 @@ fn on_lists<D: Dim, P: MovingPoints<D>>(lists: Csr) -> Shapes<D> {
 }
 
 /// N_a(x_q), ∇N_a(x_q) of every point into `shapes` and the weights w_q into `weight`,
-/// for the nodes at `nodes.x` and state y; the first point that degenerates, with why.
+/// for the nodes at `nodes.x` and state `nodes.y`; the first point that degenerates, with
+/// why.
 fn evaluate<D: Dim, P: MovingPoints<D>>(
     points: &P,
     nodes: &Nodes<D>,
-    y: &UlGalerkinState<D>,
     shapes: &mut Shapes<D>,
     weight: &mut [f64],
 ) -> Result<(), (usize, Degenerate)> {
-    shapes.recompute(weight, |q, _, row| points.shapes_at(q, nodes, y, row))
+    shapes.recompute(weight, |q, _, row| points.shapes_at(q, nodes, row))
 }
 
 impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
@@ -226,9 +222,10 @@ impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
             x0: &x0,
             x: &x0,
             mass: &particle_mass,
+            y: &y0,
         };
         let mut weight = vec![0.0; shapes.len()];
-        evaluate(&points, &nodes, &y0, &mut shapes, &mut weight).map_err(|(q, e)| {
+        evaluate(&points, &nodes, &mut shapes, &mut weight).map_err(|(q, e)| {
             case.invalid(
                 "body",
                 format!(
@@ -377,10 +374,11 @@ impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
             x0: &self.x0,
             x: &x,
             mass: &self.mass,
+            y,
         };
         let mut shapes = self.shapes.clone();
         let mut weight = vec![0.0; shapes.len()];
-        evaluate(&self.points, &nodes, y, &mut shapes, &mut weight)
+        evaluate(&self.points, &nodes, &mut shapes, &mut weight)
             .map_err(|(q, e)| self.degenerate(q, e))?;
         Ok((shapes, weight))
     }
@@ -451,8 +449,9 @@ impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
             x0: &self.x0,
             x: &self.x,
             mass: &self.mass,
+            y,
         };
-        let evaluated = evaluate(&self.points, &nodes, y, &mut shapes, &mut self.weight);
+        let evaluated = evaluate(&self.points, &nodes, &mut shapes, &mut self.weight);
         self.shapes = shapes;
         evaluated.map_err(|(q, e)| self.degenerate(q, e))?;
         self.point_stresses(y, d);
@@ -472,8 +471,9 @@ impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
             x0: &self.x0,
             x: &self.x,
             mass: &self.mass,
+            y,
         };
-        self.points.own_rates(&nodes, y, &self.shapes, d)?;
+        self.points.own_rates(&nodes, &self.shapes, d)?;
         self.surroundings.close(&y.v, &self.mass, &mut d.v);
         Ok(())
     }
@@ -505,8 +505,9 @@ impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
             x0: &self.x0,
             x: &x,
             mass: &self.mass,
+            y,
         };
-        if let Some(shapes) = self.points.smoothing(&nodes, y) {
+        if let Some(shapes) = self.points.smoothing(&nodes) {
             self.smoothed +=
                 smooth_velocities(shapes, &self.surroundings.boundary, &self.mass, &mut y.v);
         }
