@@ -152,8 +152,12 @@ fn time_steps<D: EngineDim, E: Engine<D>>(
         .zip(neighbours_before)
         .map(|(after, before)| (after - before) / seconds);
     engine.check().map_err(|cause| blow_up(case, cause))?;
+    #[cfg(feature = "gpu")]
     let passes = profile(&mut engine, dt, f64::from(steps + 1) * dt, CHUNK.min(steps))
         .map_err(|f| blow_up(case, f.cause))?;
+    // No pass report without the GPU backend.
+    #[cfg(not(feature = "gpu"))]
+    let passes = None;
     let n = engine.reference().len();
     let rate = n as f64 * f64::from(steps) / seconds;
     Ok(BenchRow {
@@ -226,17 +230,6 @@ fn profile<D: EngineDim, E: Engine<D>>(
     };
     gpu.profile(false);
     Ok(Some(report))
-}
-
-/// No pass report without the GPU backend.
-#[cfg(not(feature = "gpu"))]
-fn profile<D: EngineDim, E: Engine<D>>(
-    _: &mut E,
-    _: f64,
-    _: f64,
-    _: u32,
-) -> Result<Option<PassReport>, crate::engine::Failed> {
-    Ok(None)
 }
 
 fn blow_up(case: &Scene, cause: crate::engine::BlowUp) -> RunError {

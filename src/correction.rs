@@ -54,18 +54,141 @@ pub enum CorrectionError {
     },
 }
 
-/// Shepard sums C_i = Σ_k V_k W_ik, self term included.
-pub fn shepard_sums<D: Dim>(x: &[D::V], vol: &[f64], csr: &Csr, kernel: &Kernel) -> Vec<f64> {
-    (0..x.len())
-        .into_par_iter()
-        .map(|i| {
-            let own = vol[i] * kernel.w(0.0);
-            own + csr
+/// What every correction reads: the particles' positions x and volumes V, their pairs
+/// and the kernel.
+struct Cloud<'a, D: Dim> {
+    x: &'a [D::V],
+    vol: &'a [f64],
+    csr: &'a Csr,
+    kernel: &'a Kernel,
+}
+
+impl<'a, D: Dim> Cloud<'a, D> {
+    fn new(x: &'a [D::V], vol: &'a [f64], csr: &'a Csr, kernel: &'a Kernel) -> Self {
+        Self {
+            x,
+            vol,
+            csr,
+            kernel,
+        }
+    }
+
+    /// W(|x_i − x_j|).
+    fn w(&self, i: usize, j: u32) -> f64 {
+        self.kernel
+            .w(D::norm2(self.x[i] - self.x[j as usize]).sqrt())
+    }
+
+    /// The Shepard sum C_i = Σ_k V_k W_ik, self term included.
+    fn shepard_sum(&self, i: usize) -> f64 {
+        self.vol[i] * self.kernel.w(0.0)
+            + self
+                .csr
                 .neighbours(i)
                 .iter()
-                .map(|&j| vol[j as usize] * kernel.w(D::norm2(x[i] - x[j as usize]).sqrt()))
+                .map(|&j| self.vol[j as usize] * self.w(i, j))
                 .sum::<f64>()
-        })
+    }
+
+    /// ∇W(x_i − x_j) of row i's pairs, into `g`.
+    fn plain(&self, i: usize, g: &mut [D::V]) {
+        for (g, &j) in g.iter_mut().zip(self.csr.neighbours(i)) {
+            *g = self.kernel.grad::<D>(self.x[i] - self.x[j as usize]);
+        }
+    }
+
+    /// ∇W_j(x_i) / Σ_k V_k W_k(x_i) of row i's pairs (self term in the sum), into `g`.
+    fn shepard(&self, i: usize, g: &mut [D::V]) {
+        let c = self.shepard_sum(i);
+        self.plain(i, g);
+        for g in g {
+            *g = *g * (1.0 / c);
+        }
+    }
+
+    /// ∇W̃_j(x_i) of the Shepard kernel W̃_j = W_j/S (Bonet & Lok 1999 eq 4.14, with the
+    /// W_j factor on ∇S that seed 002 eq 13 drops) of row i's pairs, into `g`.
+    fn shepard_kernel_gradients(&self, i: usize, g: &mut [D::V]) {
+        let (x, vol, kernel) = (self.x, self.vol, self.kernel);
+        let mut s = vol[i] * kernel.w(0.0);
+        let mut grad_s = D::zero();
+        for &j in self.csr.neighbours(i) {
+            let r = x[i] - x[j as usize];
+            s += vol[j as usize] * kernel.w(D::norm2(r).sqrt());
+            grad_s += kernel.grad::<D>(r) * vol[j as usize];
+        }
+        for (g, &j) in g.iter_mut().zip(self.csr.neighbours(i)) {
+            let r = x[i] - x[j as usize];
+            let w = kernel.w(D::norm2(r).sqrt());
+            *g = (kernel.grad::<D>(r) - grad_s * (w / s)) * (1.0 / s);
+        }
+    }
+
+    /// g ← L_i g with L_i = [Σ_j V_j g_j ⊗ (x_j − x_i)]⁻¹, so that
+    /// Σ_j V_j (x_j − x_i) ⊗ L_i g_j = I, in place on row i's gradients.
+    fn linear_correction(
+        &self,
+        kind: CorrectionKind,
+        i: usize,
+        g: &mut [D::V],
+    ) -> Result<(), CorrectionError> {
+        let (x, vol) = (self.x, self.vol);
+        let mut a = D::zero_t();
+        for (&j, &g) in self.csr.neighbours(i).iter().zip(&*g) {
+            a += D::outer(x[j as usize] - x[i], g) * vol[j as usize];
+        }
+        let det = D::det(a);
+        if det.is_nan() || det.abs() <= 1e-10 {
+            return Err(self.singular(kind, i, det));
+        }
+        let a_inv_t = D::transpose(D::inverse(a));
+        for g in g {
+            *g = a_inv_t * *g;
+        }
+        Ok(())
+    }
+
+    /// The correction `kind` of particle i failed: its matrix has determinant `det`.
+    fn singular(&self, kind: CorrectionKind, i: usize, det: f64) -> CorrectionError {
+        CorrectionError::Singular {
+            kind,
+            particle: i,
+            position: D::to3(self.x[i]),
+            neighbours: self.csr.neighbours(i).len(),
+            det,
+        }
+    }
+
+    /// The reproducing-kernel coefficients of particle i, its own term included in the
+    /// moments.
+    fn coefficients(&self, i: usize) -> Result<([f64; 4], [[f64; 4]; 3]), CorrectionError> {
+        let (x, vol) = (self.x, self.vol);
+        let own = std::iter::once((D::zero(), vol[i]));
+        let others = self
+            .csr
+            .neighbours(i)
+            .iter()
+            .map(|&j| (x[i] - x[j as usize], vol[j as usize]));
+        rkpm_coefficients::<D>(own.chain(others), self.kernel)
+            .ok_or_else(|| self.singular(CorrectionKind::Rkpm, i, 0.0))
+    }
+
+    /// ∇Ψ_j(x_i) of the reproducing kernel of row i's pairs, into `g`.
+    fn rkpm(&self, i: usize, g: &mut [D::V]) -> Result<(), CorrectionError> {
+        let (c, dc) = self.coefficients(i)?;
+        for (g, &j) in g.iter_mut().zip(self.csr.neighbours(i)) {
+            *g = rkpm_shape::<D>(&c, &dc, self.x[i] - self.x[j as usize], self.kernel).1;
+        }
+        Ok(())
+    }
+}
+
+/// Shepard sums C_i = Σ_k V_k W_ik, self term included.
+pub fn shepard_sums<D: Dim>(x: &[D::V], vol: &[f64], csr: &Csr, kernel: &Kernel) -> Vec<f64> {
+    let cloud = Cloud::<D>::new(x, vol, csr, kernel);
+    (0..x.len())
+        .into_par_iter()
+        .map(|i| cloud.shepard_sum(i))
         .collect()
 }
 
@@ -77,24 +200,25 @@ pub fn gradients<D: Dim>(
     csr: &Csr,
     kernel: &Kernel,
 ) -> Result<Vec<D::V>, CorrectionError> {
+    let cloud = Cloud::<D>::new(x, vol, csr, kernel);
     csr.fill_rows(|i, g| match kind {
         CorrectionKind::None => {
-            plain::<D>(i, x, csr, kernel, g);
+            cloud.plain(i, g);
             Ok(())
         }
         CorrectionKind::Shepard => {
-            shepard::<D>(i, x, vol, csr, kernel, g);
+            cloud.shepard(i, g);
             Ok(())
         }
         CorrectionKind::RandlesLibersky => {
-            plain::<D>(i, x, csr, kernel, g);
-            linear_correction::<D>(kind, i, x, vol, csr, g)
+            cloud.plain(i, g);
+            cloud.linear_correction(kind, i, g)
         }
         CorrectionKind::Cgck => {
-            shepard_kernel_gradients::<D>(i, x, vol, csr, kernel, g);
-            linear_correction::<D>(kind, i, x, vol, csr, g)
+            cloud.shepard_kernel_gradients(i, g);
+            cloud.linear_correction(kind, i, g)
         }
-        CorrectionKind::Rkpm => rkpm::<D>(i, x, vol, csr, kernel, g),
+        CorrectionKind::Rkpm => cloud.rkpm(i, g),
     })
 }
 
@@ -110,107 +234,26 @@ pub fn kernel_weights<D: Dim>(
     csr: &Csr,
     kernel: &Kernel,
 ) -> Result<Vec<f64>, CorrectionError> {
+    let cloud = Cloud::<D>::new(x, vol, csr, kernel);
     csr.map_rows(|i| {
-        let w = |j: u32| kernel.w(D::norm2(x[i] - x[j as usize]).sqrt());
         if kind != CorrectionKind::Rkpm {
-            let s = vol[i] * kernel.w(0.0)
-                + csr
-                    .neighbours(i)
-                    .iter()
-                    .map(|&j| vol[j as usize] * w(j))
-                    .sum::<f64>();
+            let s = cloud.shepard_sum(i);
             return Ok(csr
                 .neighbours(i)
                 .iter()
-                .map(|&j| vol[j as usize] * w(j) / s)
+                .map(|&j| vol[j as usize] * cloud.w(i, j) / s)
                 .collect::<Vec<_>>());
         }
-        let (c, _) = particle_coefficients::<D>(i, x, vol, csr, kernel)?;
+        let (c, _) = cloud.coefficients(i)?;
         Ok(csr
             .neighbours(i)
             .iter()
             .map(|&j| {
                 let p = linear_basis::<D>(x[i] - x[j as usize]);
-                vol[j as usize] * w(j) * (0..=D::N).map(|a| c[a] * p[a]).sum::<f64>()
+                vol[j as usize] * cloud.w(i, j) * (0..=D::N).map(|a| c[a] * p[a]).sum::<f64>()
             })
             .collect::<Vec<_>>())
     })
-}
-
-/// ∇W(x_i − x_j) of row i's pairs, into `g`.
-fn plain<D: Dim>(i: usize, x: &[D::V], csr: &Csr, kernel: &Kernel, g: &mut [D::V]) {
-    for (g, &j) in g.iter_mut().zip(csr.neighbours(i)) {
-        *g = kernel.grad::<D>(x[i] - x[j as usize]);
-    }
-}
-
-/// ∇W_j(x_i) / Σ_k V_k W_k(x_i) of row i's pairs (self term in the sum), into `g`.
-fn shepard<D: Dim>(i: usize, x: &[D::V], vol: &[f64], csr: &Csr, kernel: &Kernel, g: &mut [D::V]) {
-    let c = vol[i] * kernel.w(0.0)
-        + csr
-            .neighbours(i)
-            .iter()
-            .map(|&j| vol[j as usize] * kernel.w(D::norm2(x[i] - x[j as usize]).sqrt()))
-            .sum::<f64>();
-    plain::<D>(i, x, csr, kernel, g);
-    for g in g {
-        *g = *g * (1.0 / c);
-    }
-}
-
-/// ∇W̃_j(x_i) of the Shepard kernel W̃_j = W_j/S (Bonet & Lok 1999 eq 4.14, with the W_j
-/// factor on ∇S that seed 002 eq 13 drops) of row i's pairs, into `g`.
-fn shepard_kernel_gradients<D: Dim>(
-    i: usize,
-    x: &[D::V],
-    vol: &[f64],
-    csr: &Csr,
-    kernel: &Kernel,
-    g: &mut [D::V],
-) {
-    let mut s = vol[i] * kernel.w(0.0);
-    let mut grad_s = D::zero();
-    for &j in csr.neighbours(i) {
-        let r = x[i] - x[j as usize];
-        s += vol[j as usize] * kernel.w(D::norm2(r).sqrt());
-        grad_s += kernel.grad::<D>(r) * vol[j as usize];
-    }
-    for (g, &j) in g.iter_mut().zip(csr.neighbours(i)) {
-        let r = x[i] - x[j as usize];
-        let w = kernel.w(D::norm2(r).sqrt());
-        *g = (kernel.grad::<D>(r) - grad_s * (w / s)) * (1.0 / s);
-    }
-}
-
-/// g ← L_i g with L_i = [Σ_j V_j g_j ⊗ (x_j − x_i)]⁻¹, so that
-/// Σ_j V_j (x_j − x_i) ⊗ L_i g_j = I, in place on row i's gradients.
-fn linear_correction<D: Dim>(
-    kind: CorrectionKind,
-    i: usize,
-    x: &[D::V],
-    vol: &[f64],
-    csr: &Csr,
-    g: &mut [D::V],
-) -> Result<(), CorrectionError> {
-    let mut a = D::zero_t();
-    for (&j, &g) in csr.neighbours(i).iter().zip(&*g) {
-        a += D::outer(x[j as usize] - x[i], g) * vol[j as usize];
-    }
-    let det = D::det(a);
-    if det.is_nan() || det.abs() <= 1e-10 {
-        return Err(CorrectionError::Singular {
-            kind,
-            particle: i,
-            position: D::to3(x[i]),
-            neighbours: g.len(),
-            det,
-        });
-    }
-    let a_inv_t = D::transpose(D::inverse(a));
-    for g in g {
-        *g = a_inv_t * *g;
-    }
-    Ok(())
 }
 
 /// Dense square matrix of order n ≤ 4 (the RKPM moment matrix, n = d + 1).
@@ -310,43 +353,6 @@ fn rkpm_shape<D: Dim>(c: &[f64; 4], dc: &[[f64; 4]; 3], r: D::V, kernel: &Kernel
     (cp * w, D::from_slice(&g))
 }
 
-/// The coefficients of particle i, its own term included in the moments.
-fn particle_coefficients<D: Dim>(
-    i: usize,
-    x: &[D::V],
-    vol: &[f64],
-    csr: &Csr,
-    kernel: &Kernel,
-) -> Result<([f64; 4], [[f64; 4]; 3]), CorrectionError> {
-    let own = std::iter::once((D::zero(), vol[i]));
-    let others = csr
-        .neighbours(i)
-        .iter()
-        .map(|&j| (x[i] - x[j as usize], vol[j as usize]));
-    rkpm_coefficients::<D>(own.chain(others), kernel).ok_or_else(|| CorrectionError::Singular {
-        kind: CorrectionKind::Rkpm,
-        particle: i,
-        position: D::to3(x[i]),
-        neighbours: csr.neighbours(i).len(),
-        det: 0.0,
-    })
-}
-
-fn rkpm<D: Dim>(
-    i: usize,
-    x: &[D::V],
-    vol: &[f64],
-    csr: &Csr,
-    kernel: &Kernel,
-    g: &mut [D::V],
-) -> Result<(), CorrectionError> {
-    let (c, dc) = particle_coefficients::<D>(i, x, vol, csr, kernel)?;
-    for (g, &j) in g.iter_mut().zip(csr.neighbours(i)) {
-        *g = rkpm_shape::<D>(&c, &dc, x[i] - x[j as usize], kernel).1;
-    }
-    Ok(())
-}
-
 /// RKPM shape functions with a linear basis at a point y (not one of the nodes) from the
 /// nodes x_j with volumes V_j that reach it: Ψ_j(y) and ∇Ψ_j(y) of every node, in the
 /// order given (seed 000 eqs 42–59). None when the nodes do not span the linear basis at
@@ -437,7 +443,8 @@ mod tests {
                     * kernel.w(0.0)
                     * match kind {
                         CorrectionKind::Rkpm => {
-                            particle_coefficients::<D2>(i, &x, &vol, &csr, &kernel)
+                            Cloud::<D2>::new(&x, &vol, &csr, &kernel)
+                                .coefficients(i)
                                 .unwrap()
                                 .0[0]
                         }

@@ -169,44 +169,42 @@ pub fn program(kind: IntegratorKind) -> Vec<Op> {
         a,
         b: Weight::Const(b),
     };
+    // TVD-RK2 and SSP-RK3 in Shu–Osher form begin alike, with two forward Euler steps
+    // (Stage = Y + Δt f(Y), then Stage += Δt f(Stage) at t + Δt), before their blends.
+    let shu_osher = |blends: Vec<Op>| {
+        let mut ops = vec![
+            rates(Y, 0.0),
+            copy(Y, Stage),
+            axpy(Stage, Rates, 1.0, 1.0),
+            rates(Stage, 1.0),
+            axpy(Stage, Rates, 1.0, 1.0),
+        ];
+        ops.extend(blends);
+        ops
+    };
     match kind {
-        IntegratorKind::Rk4 => vec![
-            rates(Y, 0.0),
-            copy(Y, Acc),
-            axpy(Acc, Rates, 1.0, 6.0),
-            copy(Y, Stage),
-            axpy(Stage, Rates, 1.0, 2.0),
-            rates(Stage, 0.5),
-            axpy(Acc, Rates, 1.0, 3.0),
-            copy(Y, Stage),
-            axpy(Stage, Rates, 1.0, 2.0),
-            rates(Stage, 0.5),
-            axpy(Acc, Rates, 1.0, 3.0),
-            copy(Y, Stage),
-            axpy(Stage, Rates, 1.0, 1.0),
-            rates(Stage, 1.0),
-            axpy(Acc, Rates, 1.0, 6.0),
-            copy(Acc, Y),
-        ],
-        IntegratorKind::TvdRk2 => vec![
-            rates(Y, 0.0),
-            copy(Y, Stage),
-            axpy(Stage, Rates, 1.0, 1.0),
-            rates(Stage, 1.0),
-            axpy(Stage, Rates, 1.0, 1.0),
-            mix(Y, Stage, 0.5, 0.5),
-        ],
-        IntegratorKind::SspRk3 => vec![
-            rates(Y, 0.0),
-            copy(Y, Stage),
-            axpy(Stage, Rates, 1.0, 1.0),
-            rates(Stage, 1.0),
-            axpy(Stage, Rates, 1.0, 1.0),
+        IntegratorKind::Rk4 => {
+            // k1 at t, into Acc = Y + Δt k1/6; then each later stage's rates at Y + Δt
+            // k_prev/a_den at t + cΔt, into Acc with weight 1/b_den (the classical tableau).
+            let mut ops = vec![rates(Y, 0.0), copy(Y, Acc), axpy(Acc, Rates, 1.0, 6.0)];
+            for (a_den, c, b_den) in [(2.0, 0.5, 3.0), (2.0, 0.5, 3.0), (1.0, 1.0, 6.0)] {
+                ops.extend([
+                    copy(Y, Stage),
+                    axpy(Stage, Rates, 1.0, a_den),
+                    rates(Stage, c),
+                    axpy(Acc, Rates, 1.0, b_den),
+                ]);
+            }
+            ops.push(copy(Acc, Y));
+            ops
+        }
+        IntegratorKind::TvdRk2 => shu_osher(vec![mix(Y, Stage, 0.5, 0.5)]),
+        IntegratorKind::SspRk3 => shu_osher(vec![
             mix(Stage, Y, 0.25, 0.75),
             rates(Stage, 0.5),
             axpy(Stage, Rates, 1.0, 1.0),
             mix(Y, Stage, 1.0 / 3.0, 2.0 / 3.0),
-        ],
+        ]),
         IntegratorKind::Leapfrog => vec![
             Op::Kick {
                 out: Y,

@@ -555,7 +555,7 @@ impl Neighbours {
 mod tests {
     use super::*;
     use crate::tensor::{D2, D3};
-    use glam::{DVec2, DVec3};
+    use glam::DVec2;
 
     /// Deterministic pseudo-random numbers in [0, 1) (64-bit LCG), so tests need no RNG crate.
     fn lcg(seed: &mut u64) -> f64 {
@@ -563,6 +563,13 @@ mod tests {
             .wrapping_mul(6364136223846793005)
             .wrapping_add(1442695040888963407);
         (*seed >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// n pseudo-random points in the box [0, extent_k], k < D::N, drawn from `seed`.
+    fn cloud<D: Dim>(n: usize, extent: &[f64], seed: &mut u64) -> Vec<D::V> {
+        (0..n)
+            .map(|_| D::from_slice(&extent.iter().map(|e| lcg(seed) * e).collect::<Vec<_>>()))
+            .collect()
     }
 
     fn brute<D: Dim>(x: &[D::V], radius: f64) -> Vec<Vec<u32>> {
@@ -589,9 +596,7 @@ mod tests {
     #[test]
     fn cell_list_equals_brute_force_2d() {
         let mut s = 7;
-        let random: Vec<DVec2> = (0..600)
-            .map(|_| DVec2::new(lcg(&mut s) * 3.0, lcg(&mut s)))
-            .collect();
+        let random = cloud::<D2>(600, &[3.0, 1.0], &mut s);
         check::<D2>(&random, 0.13);
         let lattice: Vec<DVec2> = (0..400)
             .map(|k| DVec2::new((k % 20) as f64 * 0.1, (k / 20) as f64 * 0.1))
@@ -603,9 +608,7 @@ mod tests {
     #[test]
     fn cell_list_equals_brute_force_3d() {
         let mut s = 11;
-        let random: Vec<DVec3> = (0..700)
-            .map(|_| DVec3::new(lcg(&mut s), lcg(&mut s) * 2.0, lcg(&mut s)))
-            .collect();
+        let random = cloud::<D3>(700, &[1.0, 2.0, 1.0], &mut s);
         check::<D3>(&random, 0.21);
     }
 
@@ -614,9 +617,7 @@ mod tests {
         // Random radii between 0.05 and 0.2 (a pair within the larger of its two radii)
         // and three bodies: the lists are the brute-force ones, and symmetric.
         let mut s = 5;
-        let x: Vec<DVec2> = (0..500)
-            .map(|_| DVec2::new(lcg(&mut s) * 2.0, lcg(&mut s)))
-            .collect();
+        let x = cloud::<D2>(500, &[2.0, 1.0], &mut s);
         let radius: Vec<f64> = (0..x.len()).map(|_| 0.05 + 0.15 * lcg(&mut s)).collect();
         let body: Vec<u32> = (0..x.len() as u32).map(|i| i % 3).collect();
         for mask in [None, Some(body.as_slice())] {
@@ -654,9 +655,7 @@ mod tests {
         // about four times the pairs of any later one). `Once` keeps the first lists
         // whatever the particles do.
         let mut s = 23;
-        let x0: Vec<DVec2> = (0..500)
-            .map(|_| DVec2::new(lcg(&mut s) * 2.0, lcg(&mut s)))
-            .collect();
+        let x0 = cloud::<D2>(500, &[2.0, 1.0], &mut s);
         let radius = 0.1;
         let reach = vec![radius; x0.len()];
         let mut every = Neighbours::new::<D2>(Rebuild::EveryStage, &x0, reach.clone(), None);
@@ -690,9 +689,7 @@ mod tests {
         // extra pairs no farther than radius·(1 + SKIN) + 2·drift; the lists are rebuilt
         // only when some particle moved more than half the skin since the last build.
         let mut s = 29;
-        let mut x: Vec<DVec2> = (0..400)
-            .map(|_| DVec2::new(lcg(&mut s) * 2.0, lcg(&mut s)))
-            .collect();
+        let mut x = cloud::<D2>(400, &[2.0, 1.0], &mut s);
         let radius = 0.1;
         let mut drift = Neighbours::new::<D2>(Rebuild::OnDrift, &x, vec![radius; 400], None);
         let mut since = vec![DVec2::ZERO; x.len()];
@@ -757,9 +754,7 @@ mod tests {
         // A random cloud with a few points repeated: the first pair, in row order then
         // neighbour order, of the brute-force lists, and none without the repeats.
         let mut s = 11;
-        let mut x: Vec<DVec2> = (0..2000)
-            .map(|_| DVec2::new(lcg(&mut s), lcg(&mut s)))
-            .collect();
+        let mut x = cloud::<D2>(2000, &[1.0, 1.0], &mut s);
         let any = |_: usize, _: usize| true;
         assert_eq!(first_pair::<D2>(&x, 1e-9, any), None);
         x[1700] = x[1500];

@@ -1,8 +1,8 @@
 //! Deterministic parallel loops over particles and the field-wise arithmetic of a
 //! particle state: the ordered reduction every floating-point sum over particles goes
-//! through, y += a x and y = a y + b x on rayon, the [`particle_state!`] macro that makes a
-//! state of per-particle fields an [`crate::integrate::OdeState`], and the checkpoint
-//! words of a field.
+//! through, y += a x and y = a y + b x on rayon, the [`particle_state!`] macro that declares
+//! a state of per-particle fields (u, v and the method's own) and makes it an
+//! [`crate::integrate::OdeState`], and the checkpoint words of a field.
 
 use crate::tensor::Words;
 use rayon::prelude::*;
@@ -58,12 +58,28 @@ pub(crate) fn blend<T: Copy + Send + Sync + Add<Output = T> + Mul<f64, Output = 
         .for_each(|(y, &x)| *y = *y * a + x * b);
 }
 
-/// `OdeState`, `Clone` (whose `clone_from` copies into the buffers there are) and an
-/// empty `Default` for a particle state of displacement `u`, velocity `v` and further
-/// fields, each with a rate of its own: RK stages combine every field; the leapfrog drift
-/// moves u with the state's own v and the other fields with their rates.
+/// A particle state: the struct of displacement `u`, velocity `v` and the further fields
+/// given, and its `OdeState`, `Clone` (whose `clone_from` copies into the buffers there
+/// are) and empty `Default`. Every field has a rate of its own: RK stages combine every
+/// field; the leapfrog drift moves u with the state's own v and the other fields with
+/// their rates.
 macro_rules! particle_state {
-    ($state:ident { $($field:ident),* }) => {
+    (
+        $(#[$meta:meta])*
+        pub struct $state:ident {
+            $($(#[$field_meta:meta])* pub $field:ident: $type:ty,)*
+        }
+    ) => {
+        $(#[$meta])*
+        #[derive(Debug)]
+        pub struct $state<D: Dim> {
+            /// Displacement u = x − X.
+            pub u: Vec<D::V>,
+            /// Velocity v.
+            pub v: Vec<D::V>,
+            $($(#[$field_meta])* pub $field: $type,)*
+        }
+
         impl<D: Dim> Default for $state<D> {
             fn default() -> Self {
                 Self {

@@ -1,45 +1,46 @@
 //! Dimension abstraction: small vectors and second-order tensors in 2D or 3D.
 //!
 //! Every numerical routine is generic over [`Dim`], so a 2D scene works on
-//! `DVec2`/`DMat2` and never pays for 3D tensor algebra.
+//! `DVec2`/`DMat2` and never pays for 3D tensor algebra. [`Linear`] names what vectors and
+//! tensors share (a real vector space stored as f64 words); `glam_dim!` writes the members
+//! of `Dim` that read alike in 2D and 3D once.
 
 use glam::{DMat2, DMat3, DVec2, DVec3};
 use serde::{Deserialize, Serialize};
 use std::fmt::Debug;
 use std::ops::{Add, AddAssign, Mul, Neg, Sub, SubAssign};
 
+/// What vectors and tensors alike are: elements of a real vector space (sums, differences,
+/// scaling by f64), copied freely and stored as f64 words.
+pub trait Linear:
+    Copy
+    + Send
+    + Sync
+    + Debug
+    + PartialEq
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<f64, Output = Self>
+    + AddAssign
+    + SubAssign
+    + Words
+{
+}
+
+impl Linear for f64 {}
+impl Linear for DVec2 {}
+impl Linear for DVec3 {}
+impl Linear for DMat2 {}
+impl Linear for DMat3 {}
+
 /// Space dimension: the vector and tensor types and the operations the methods need.
 pub trait Dim: Copy + Send + Sync + Debug + 'static {
     /// Number of spatial components (1, 2 or 3).
     const N: usize;
     /// Position, velocity, acceleration.
-    type V: Copy
-        + Default
-        + Send
-        + Sync
-        + Debug
-        + PartialEq
-        + Add<Output = Self::V>
-        + Sub<Output = Self::V>
-        + Neg<Output = Self::V>
-        + Mul<f64, Output = Self::V>
-        + AddAssign
-        + SubAssign
-        + Words;
+    type V: Linear + Default + Neg<Output = Self::V>;
     /// Second-order tensor (F, P, σ, correction matrices).
-    type T: Copy
-        + Send
-        + Sync
-        + Debug
-        + PartialEq
-        + Add<Output = Self::T>
-        + Sub<Output = Self::T>
-        + Mul<f64, Output = Self::T>
-        + Mul<Self::V, Output = Self::V>
-        + Mul<Self::T, Output = Self::T>
-        + AddAssign
-        + SubAssign
-        + Words;
+    type T: Linear + Mul<Self::V, Output = Self::V> + Mul<Self::T, Output = Self::T>;
 
     fn zero() -> Self::V;
     fn zero_t() -> Self::T;
@@ -196,43 +197,58 @@ impl Dim for D1 {
     }
 }
 
-impl Dim for D2 {
-    const N: usize = 2;
-    type V = DVec2;
-    type T = DMat2;
+/// `Dim` on glam's vectors and matrices: the members that read alike in 2D and 3D once,
+/// the rest (`$own`) per dimension.
+macro_rules! glam_dim {
+    ($d:ty, $n:expr, $v:ty, $t:ty, { $($own:tt)* }) => {
+        impl Dim for $d {
+            const N: usize = $n;
+            type V = $v;
+            type T = $t;
 
-    #[inline]
-    fn zero() -> DVec2 {
-        DVec2::ZERO
-    }
-    #[inline]
-    fn zero_t() -> DMat2 {
-        DMat2::ZERO
-    }
-    #[inline]
-    fn identity() -> DMat2 {
-        DMat2::IDENTITY
-    }
-    #[inline]
-    fn dot(a: DVec2, b: DVec2) -> f64 {
-        a.dot(b)
-    }
+            #[inline]
+            fn zero() -> $v {
+                <$v>::ZERO
+            }
+            #[inline]
+            fn zero_t() -> $t {
+                <$t>::ZERO
+            }
+            #[inline]
+            fn identity() -> $t {
+                <$t>::IDENTITY
+            }
+            #[inline]
+            fn dot(a: $v, b: $v) -> f64 {
+                a.dot(b)
+            }
+            #[inline]
+            fn transpose(t: $t) -> $t {
+                t.transpose()
+            }
+            #[inline]
+            fn det(t: $t) -> f64 {
+                t.determinant()
+            }
+            #[inline]
+            fn inverse(t: $t) -> $t {
+                t.inverse()
+            }
+            #[inline]
+            fn comp(v: $v, k: usize) -> f64 {
+                v[k]
+            }
+
+            $($own)*
+        }
+    };
+}
+
+glam_dim!(D2, 2, DVec2, DMat2, {
     #[inline]
     fn outer(a: DVec2, b: DVec2) -> DMat2 {
         // glam stores columns: column l is a * b_l.
         DMat2::from_cols(a * b.x, a * b.y)
-    }
-    #[inline]
-    fn transpose(t: DMat2) -> DMat2 {
-        t.transpose()
-    }
-    #[inline]
-    fn det(t: DMat2) -> f64 {
-        t.determinant()
-    }
-    #[inline]
-    fn inverse(t: DMat2) -> DMat2 {
-        t.inverse()
     }
     #[inline]
     fn trace(t: DMat2) -> f64 {
@@ -241,10 +257,6 @@ impl Dim for D2 {
     #[inline]
     fn ddot(a: DMat2, b: DMat2) -> f64 {
         a.x_axis.dot(b.x_axis) + a.y_axis.dot(b.y_axis)
-    }
-    #[inline]
-    fn comp(v: DVec2, k: usize) -> f64 {
-        v[k]
     }
     fn from_slice(s: &[f64]) -> DVec2 {
         DVec2::new(s[0], s[1])
@@ -275,44 +287,12 @@ impl Dim for D2 {
     fn cof_rate(_f: DMat2, f_dot: DMat2) -> DMat2 {
         Self::cof(f_dot)
     }
-}
+});
 
-impl Dim for D3 {
-    const N: usize = 3;
-    type V = DVec3;
-    type T = DMat3;
-
-    #[inline]
-    fn zero() -> DVec3 {
-        DVec3::ZERO
-    }
-    #[inline]
-    fn zero_t() -> DMat3 {
-        DMat3::ZERO
-    }
-    #[inline]
-    fn identity() -> DMat3 {
-        DMat3::IDENTITY
-    }
-    #[inline]
-    fn dot(a: DVec3, b: DVec3) -> f64 {
-        a.dot(b)
-    }
+glam_dim!(D3, 3, DVec3, DMat3, {
     #[inline]
     fn outer(a: DVec3, b: DVec3) -> DMat3 {
         DMat3::from_cols(a * b.x, a * b.y, a * b.z)
-    }
-    #[inline]
-    fn transpose(t: DMat3) -> DMat3 {
-        t.transpose()
-    }
-    #[inline]
-    fn det(t: DMat3) -> f64 {
-        t.determinant()
-    }
-    #[inline]
-    fn inverse(t: DMat3) -> DMat3 {
-        t.inverse()
     }
     #[inline]
     fn trace(t: DMat3) -> f64 {
@@ -321,10 +301,6 @@ impl Dim for D3 {
     #[inline]
     fn ddot(a: DMat3, b: DMat3) -> f64 {
         a.x_axis.dot(b.x_axis) + a.y_axis.dot(b.y_axis) + a.z_axis.dot(b.z_axis)
-    }
-    #[inline]
-    fn comp(v: DVec3, k: usize) -> f64 {
-        v[k]
     }
     fn from_slice(s: &[f64]) -> DVec3 {
         DVec3::new(s[0], s[1], s[2])
@@ -365,7 +341,7 @@ impl Dim for D3 {
             std::array::from_fn(|row| entry(row, col))
         }))
     }
-}
+});
 
 /// The smallest principal stretch squared of F: the smallest eigenvalue of C = FᵀF, in
 /// closed form (2D), or by the trigonometric solution of the characteristic cubic (3D).

@@ -8,7 +8,7 @@ mod sections;
 use rings::{plastic_strain_spread, ring_spreads, rings};
 use sections::{Section, probe_particles};
 
-use crate::analytic::{ClosedForm, Exact, relative_l2};
+use crate::analytic::{AnalyticSolution, ClosedForm, Exact, relative_l2};
 use crate::balance::{self, Balance, Booked};
 use crate::boundary::Reaction;
 use crate::case::{Case, CaseError, Observer, TimeLaw};
@@ -286,24 +286,23 @@ impl Observers {
         } else {
             Vec::new()
         };
-        let front = list
-            .iter()
-            .find_map(|o| match o {
-                Observer::FrontOscillation(s) => Some(*s),
-                _ => None,
-            })
-            .map(|s| Exact::of(s, case).map_err(|m| case.invalid("output.observers", m)))
-            .transpose()?
-            .map(|e| (e, FRONT_MARGIN * case.smoothing_length()));
-        let exact = list
-            .iter()
-            .find_map(|o| match o {
-                Observer::VelocityError(s) => Some(*s),
-                _ => None,
-            })
-            .map(|s| Exact::of(s, case).map_err(|m| case.invalid("output.observers", m)))
-            .transpose()?
-            .map(|e| (e, case.material.density));
+        // The closed form of the observer that `pick` selects, if the list has it.
+        let exact_of = |pick: fn(&Observer) -> Option<AnalyticSolution>| {
+            list.iter()
+                .find_map(pick)
+                .map(|s| Exact::of(s, case).map_err(|m| case.invalid("output.observers", m)))
+                .transpose()
+        };
+        let front = exact_of(|o| match o {
+            Observer::FrontOscillation(s) => Some(*s),
+            _ => None,
+        })?
+        .map(|e| (e, FRONT_MARGIN * case.smoothing_length()));
+        let exact = exact_of(|o| match o {
+            Observer::VelocityError(s) => Some(*s),
+            _ => None,
+        })?
+        .map(|e| (e, case.material.density));
         let solution = if list.contains(&Observer::SolutionError) {
             let closed = solution_of(case).ok_or_else(|| {
                 case.invalid(

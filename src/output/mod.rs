@@ -10,6 +10,8 @@
 //! there is replaced, its target untouched). The CSV series is created the same
 //! way and then appended to through its open handle.
 
+#[cfg(test)]
+pub(crate) mod scratch;
 pub mod series;
 pub mod summary;
 pub mod vtu;
@@ -154,11 +156,13 @@ fn invalid_input(message: String) -> io::Error {
 #[cfg(test)]
 mod tests {
     use super::*;
+    #[cfg(unix)]
+    use scratch::Planted;
+    use scratch::scratch;
 
     #[test]
     fn atomic_write_replaces_file_and_leaves_no_tmp() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("out.txt");
+        let (dir, path) = scratch("out.txt");
         fs::write(&path, "old").unwrap();
 
         write_atomically(&path, |w| w.write_all(b"new contents")).unwrap();
@@ -169,8 +173,7 @@ mod tests {
 
     #[test]
     fn atomic_write_failure_keeps_old_file_and_removes_tmp() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("out.txt");
+        let (dir, path) = scratch("out.txt");
         fs::write(&path, "old").unwrap();
 
         let err = write_atomically(&path, |w| {
@@ -190,23 +193,18 @@ mod tests {
         // The final name and the next temporary name are both symlinks to a file outside
         // the folder: the write replaces the link at the final name, skips the taken
         // temporary name, and the target keeps its contents.
-        let outside = tempfile::tempdir().unwrap();
-        let target = outside.path().join("precious");
-        fs::write(&target, "keep").unwrap();
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("summary.json");
-        std::os::unix::fs::symlink(&target, &path).unwrap();
+        let planted = Planted::new("summary.json");
         let next = TEMPORARIES.load(Ordering::Relaxed);
         for k in next..next + 8 {
-            let planted = dir
+            let taken = planted
+                .dir
                 .path()
                 .join(format!(".summary.json.{}-{k}.tmp", std::process::id()));
-            std::os::unix::fs::symlink(&target, planted).unwrap();
+            std::os::unix::fs::symlink(&planted.target, taken).unwrap();
         }
-        write_atomically(&path, |w| w.write_all(b"new")).unwrap();
-        assert_eq!(fs::read_to_string(&target).unwrap(), "keep");
-        assert!(!fs::symlink_metadata(&path).unwrap().is_symlink());
-        assert_eq!(fs::read_to_string(&path).unwrap(), "new");
+        write_atomically(&planted.path, |w| w.write_all(b"new")).unwrap();
+        planted.assert_replaced();
+        assert_eq!(fs::read_to_string(&planted.path).unwrap(), "new");
         assert!(create_temporary(Path::new("/")).is_err());
     }
 

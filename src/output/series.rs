@@ -184,6 +184,9 @@ impl SeriesWriter {
 #[cfg(test)]
 mod tests {
     use super::*;
+    #[cfg(unix)]
+    use crate::output::scratch::Planted;
+    use crate::output::scratch::scratch;
     use std::fs;
 
     fn names(columns: &[&str]) -> Vec<String> {
@@ -199,8 +202,7 @@ mod tests {
 
     #[test]
     fn csv_writes_header_and_rows_bit_exact() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("energy.csv");
+        let (_dir, path) = scratch("energy.csv");
         let rows = [
             [0.0, 1.0, -0.0],
             [1e-9, 1.0 / 3.0, 6.022_140_76e23],
@@ -230,8 +232,7 @@ mod tests {
 
     #[test]
     fn csv_rejects_wrong_row_length() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("s.csv");
+        let (_dir, path) = scratch("s.csv");
         let mut series = SeriesWriter::create(&path, &names(&["a", "b"])).unwrap();
 
         for bad in [&[1.0][..], &[1.0, 2.0, 3.0], &[]] {
@@ -245,8 +246,7 @@ mod tests {
 
     #[test]
     fn csv_rejects_bad_column_names() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("s.csv");
+        let (_dir, path) = scratch("s.csv");
 
         for columns in [
             names(&["a,b"]),
@@ -264,23 +264,16 @@ mod tests {
     #[cfg(unix)]
     #[test]
     fn a_symlink_planted_as_the_series_is_replaced_not_followed() {
-        let outside = tempfile::tempdir().unwrap();
-        let target = outside.path().join("precious");
-        fs::write(&target, "keep").unwrap();
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("series.csv");
-        std::os::unix::fs::symlink(&target, &path).unwrap();
-        let mut series = SeriesWriter::create(&path, &names(&["t"])).unwrap();
+        let planted = Planted::new("series.csv");
+        let mut series = SeriesWriter::create(&planted.path, &names(&["t"])).unwrap();
         series.write_row(&[1.0]).unwrap();
-        assert_eq!(fs::read_to_string(&target).unwrap(), "keep");
-        assert!(!fs::symlink_metadata(&path).unwrap().is_symlink());
-        assert_eq!(fs::read_to_string(&path).unwrap(), "t\n1\n");
+        planted.assert_replaced();
+        assert_eq!(fs::read_to_string(&planted.path).unwrap(), "t\n1\n");
     }
 
     #[test]
     fn csv_rows_reach_disk_without_flush_or_drop() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("s.csv");
+        let (_dir, path) = scratch("s.csv");
         let mut series = SeriesWriter::create(&path, &names(&["t", "x"])).unwrap();
         series.write_row(&[0.0, 1.5]).unwrap();
         series.write_row(&[0.5, -2.0]).unwrap();

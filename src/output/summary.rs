@@ -153,6 +153,7 @@ mod non_finite_values_as_null {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::output::scratch::scratch;
     use std::fs;
 
     fn sample() -> RunSummary {
@@ -193,8 +194,7 @@ mod tests {
 
     #[test]
     fn summary_round_trips_through_json() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("summary.json");
+        let (dir, path) = scratch("summary.json");
         let mut summary = sample();
         write_summary(&path, &summary).unwrap();
 
@@ -219,8 +219,7 @@ mod tests {
 
     #[test]
     fn summary_writes_non_finite_as_null_and_reads_nan() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("summary.json");
+        let (_dir, path) = scratch("summary.json");
         let mut summary = sample();
         summary.status = "failed".into();
         summary.dt_last = f64::NAN;

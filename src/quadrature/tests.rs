@@ -10,6 +10,13 @@ fn lattice(nx: usize, ny: usize, dx: f64) -> Vec<DVec2> {
         .collect()
 }
 
+/// The particles of an nx × ny lattice of spacing dx, all of body 0.
+fn one_body(nx: usize, ny: usize, dx: f64) -> (Vec<DVec2>, Vec<u32>) {
+    let x = lattice(nx, ny, dx);
+    let body = vec![0; x.len()];
+    (x, body)
+}
+
 #[test]
 fn a_rectangle_has_its_lattice_squares_as_cells() {
     // (nx − 1)(ny − 1) cells, each of area dx²: the 2×2 Gauss weights sum to the
@@ -115,9 +122,8 @@ fn reproducing_functions_reproduce_linear_fields_at_every_point() {
     // cells included (the moment conditions, eqs 44–45). Round-off of sums of O(30)
     // terms of O(1): 1e-12.
     let dx = 0.1;
-    let x = lattice(9, 7, dx);
+    let (x, body) = one_body(9, 7, dx);
     let vol = vec![dx * dx; x.len()];
-    let body = vec![0; x.len()];
     let cells = lattice_cells::<D2>(&x, &body, dx, &Cells::default()).unwrap();
     let points = QuadraturePoints::<D2>::new(&cells, &x, Rule::Gauss2);
     let kernel = Kernel::new(KernelKind::CubicSpline, 1.5 * dx, 2);
@@ -143,8 +149,7 @@ fn stress_point_weights_are_the_joint_voronoi_cells() {
     // lattice form a lattice rotated by 45°, whose Voronoi cells are diamonds of
     // Δx²/2, cut to Δx²/4 on an edge and Δx²/8 at a corner. Exact in binary: 1e-15.
     let (nx, ny, dx) = (5, 4, 0.5);
-    let x = lattice(nx, ny, dx);
-    let body = vec![0; x.len()];
+    let (x, body) = one_body(nx, ny, dx);
     let cells = lattice_cells::<D2>(&x, &body, dx, &Cells::default()).unwrap();
     let points = QuadraturePoints::<D2>::with_stress_points(&cells, &x, &body);
     assert_eq!(points.len(), nx * ny + (nx - 1) * (ny - 1));
@@ -211,8 +216,7 @@ fn krongauz_belytschko_gradients_are_linearly_complete_at_every_point() {
     // O(20) terms of O(1/Δx) against 1: 1e-10 · (1/Δx).
     let dx = 0.1;
     let kernel = Kernel::new(KernelKind::CubicSpline, 1.3 * dx, 2);
-    let x = lattice(9, 7, dx);
-    let body = vec![0; x.len()];
+    let (x, body) = one_body(9, 7, dx);
     let cells = lattice_cells::<D2>(&x, &body, dx, &Cells::default()).unwrap();
     let points = QuadraturePoints::<D2>::with_stress_points(&cells, &x, &body);
     let kb =
@@ -251,8 +255,7 @@ fn moving_least_squares_functions_are_those_of_eqs_40_to_42() {
     // MLS functions must ignore; and linear completeness. Round-off: 1e-12.
     let dx = 0.1;
     let kernel = Kernel::new(KernelKind::CubicSpline, 1.5 * dx, 2);
-    let x = lattice(8, 6, dx);
-    let body = vec![0; x.len()];
+    let (x, body) = one_body(8, 6, dx);
     let at = [
         DVec2::new(0.0, 0.0),
         DVec2::new(0.33, 0.21),

@@ -329,6 +329,7 @@ fn flatten(m: [[f64; 3]; 3]) -> [f64; 9] {
 mod tests {
     use super::{FrameConstants, next_frame_time, write_frame};
     use crate::observe::{ScalarField, Snapshot};
+    use crate::output::scratch::scratch;
     use crate::output::vtu::tests::read_field;
     use crate::tensor::{D2, Dim};
 
@@ -362,8 +363,7 @@ mod tests {
             cells: &[],
             quadrature: None,
         };
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("frame.vtu");
+        let (_dir, path) = scratch("frame.vtu");
         let constants = FrameConstants { rho0: 4.0, h: 0.13 };
         let indicators = [&[0.5, 0.25][..], &[-1.5, 2.5][..]];
         write_frame(&path, &snapshot(Vec::new()), 0.0, indicators, constants).unwrap();

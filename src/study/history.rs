@@ -4,7 +4,8 @@
 //! Also written as one long CSV (`variant,backend,sweep_value,x,y`) for plotting scripts.
 
 use super::plot::{
-    draw_marker, draw_path, legend_width, line_style, register_font, styled_mesh, write_figure,
+    draw_marker, draw_path, legend_width, line_style, pixel_area, register_font, styled_mesh,
+    write_figure,
 };
 use super::records::{RunRecord, Status};
 use super::suite::{History, Suite};
@@ -409,12 +410,7 @@ fn draw<DB: DrawingBackend>(
     )
     .draw()
     .map_err(err)?;
-    let area = chart.plotting_area().strip_coord_spec();
-    let base = area.get_base_pixel();
-    let px = |x: f64, y: f64| {
-        let (a, b) = chart.backend_coord(&(x, y));
-        (a - base.0, b - base.1)
-    };
+    let (area, px) = pixel_area(&chart);
     // Markers every ~1/12 of the x range, so that dense series stay lines.
     let every = (x_hi - x_lo) / 12.0;
     let mut y = 40;

@@ -133,19 +133,7 @@ pub fn run_suite(suite: &Suite, opts: &StudyOptions) -> std::io::Result<StudyOut
     records.sort_by_key(|r| plan.iter().position(|p| p.id == r.id));
     records::write(&results, &records)?;
     let mut files = vec![results];
-    files.extend(plot::plots(suite, &records, &opts.out_dir)?);
-    files.extend(history::write(
-        suite,
-        &records,
-        &opts.out_dir,
-        &opts.out_dir,
-    )?);
-    files.extend(picture::write(
-        suite,
-        &records,
-        &opts.out_dir,
-        &opts.out_dir,
-    )?);
+    files.extend(figures(suite, &records, &opts.out_dir, &opts.out_dir)?);
     let md = opts.out_dir.join("results.md");
     let section = report::suite_section(suite, &records, &[], 3)
         + &history::table(suite, &records, &opts.out_dir, "");
@@ -170,6 +158,20 @@ fn progress(show: bool, len: u64, name: &str) -> ProgressBar {
     );
     bar.set_prefix(name.to_string());
     bar
+}
+
+/// A suite's figures, written into `dir`: the accuracy plots, then the history and the
+/// picture, drawn from the runs' files under `suite_dir`.
+fn figures(
+    suite: &Suite,
+    records: &[RunRecord],
+    suite_dir: &Path,
+    dir: &Path,
+) -> std::io::Result<Vec<PathBuf>> {
+    let mut files = plot::plots(suite, records, dir)?;
+    files.extend(history::write(suite, records, suite_dir, dir)?);
+    files.extend(picture::write(suite, records, suite_dir, dir)?);
+    Ok(files)
 }
 
 fn summary_line(suite: &Suite, r: &RunRecord) -> String {

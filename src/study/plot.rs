@@ -549,7 +549,6 @@ pub(super) fn draw_marker<DB: DrawingBackend>(
     }
 }
 
-/// Draws a polyline in pixels of `area`, solid or dashed.
 /// The grid, fonts, axis descriptions and tick labels of the study's charts.
 pub(super) fn styled_mesh<'m, 'a, 'b, X: Ranged, Y: Ranged, DB: DrawingBackend>(
     mesh: &'m mut MeshStyle<'a, 'b, X, Y, DB>,
@@ -568,6 +567,26 @@ pub(super) fn styled_mesh<'m, 'a, 'b, X: Ranged, Y: Ranged, DB: DrawingBackend>(
         .axis_desc_style(("sans-serif", 16))
 }
 
+/// The plotting area of `chart` on its own, with the map from a point (x, y) of the
+/// chart's coordinates to the area's pixels.
+pub(super) fn pixel_area<'c, DB, X, Y>(
+    chart: &'c ChartContext<'_, DB, Cartesian2d<X, Y>>,
+) -> (DrawingArea<DB, Shift>, impl Fn(f64, f64) -> (i32, i32) + 'c)
+where
+    DB: DrawingBackend,
+    X: Ranged<ValueType = f64>,
+    Y: Ranged<ValueType = f64>,
+{
+    let area = chart.plotting_area().strip_coord_spec();
+    let base = area.get_base_pixel();
+    let px = move |x: f64, y: f64| {
+        let (a, b) = chart.backend_coord(&(x, y));
+        (a - base.0, b - base.1)
+    };
+    (area, px)
+}
+
+/// Draws a polyline in pixels of `area`, solid or dashed.
 pub(super) fn draw_path<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     path: Vec<(i32, i32)>,
@@ -634,12 +653,7 @@ fn draw<DB: DrawingBackend>(
     .map_err(err)?;
 
     // Everything else in pixels of the plotting area.
-    let area = chart.plotting_area().strip_coord_spec();
-    let base = area.get_base_pixel();
-    let px = |t: f64, e: f64| {
-        let (x, y) = chart.backend_coord(&(t, e));
-        (x - base.0, y - base.1)
-    };
+    let (area, px) = pixel_area(&chart);
     let (aw, ah) = area.dim_in_pixel();
 
     // Wall times below the noise floor: a shaded band, explained in the legend.

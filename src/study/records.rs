@@ -325,11 +325,11 @@ pub fn machine() -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::output::scratch::scratch;
 
     #[test]
     fn records_round_trip_with_quoted_reasons() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("results.csv");
+        let (_dir, path) = scratch("results.csv");
         let rec = RunRecord {
             id: "00ff".into(),
             suite: "s".into(),

@@ -1,10 +1,10 @@
 //! Markdown: the table of one suite's runs, the stability map, and the report over suites
 //! with its "which method for which job" section drawn from the records alone.
 
-use super::plot::{Metric, metrics, pareto, plots, plottable};
+use super::history;
+use super::plot::{Metric, metrics, pareto, plottable};
 use super::records::{self, RunRecord, Status};
 use super::suite::{AnalyticSolution, Choice, InvariantKind, Reference, Suite, SuiteKind};
-use super::{history, picture};
 use std::fmt::Write;
 use std::path::Path;
 
@@ -524,10 +524,7 @@ pub fn write_report(
     let _ = writeln!(s, "\n## Suites\n");
     for (suite, recs) in entries {
         records::write(&assets.join(format!("{}.csv", suite.name)), recs)?;
-        let mut files = plots(suite, recs, &assets)?;
-        let suite_dir = out_root.join(&suite.name);
-        files.extend(history::write(suite, recs, &suite_dir, &assets)?);
-        files.extend(picture::write(suite, recs, &suite_dir, &assets)?);
+        let files = super::figures(suite, recs, &out_root.join(&suite.name), &assets)?;
         let links: Vec<String> = files
             .iter()
             .filter(|f| f.extension().is_some_and(|e| e == "png"))

@@ -2,8 +2,46 @@
 //! stiffness, its state and accessors.
 
 use super::*;
-use crate::methods::particles::{particle_accessors, signal_speed};
 use crate::reference::Build;
+
+/// The `Method` members that the total- and updated-Lagrangian Galerkin cores give
+/// alike: the particles' accessors, the reference positions, the signal speed c_p +
+/// max |v|, the pairs of the shape functions' lists, and the history words (the points'
+/// plastic history, then the dissipation of the velocity smoothing).
+macro_rules! galerkin_accessors {
+    ($state:ty) => {
+        $crate::methods::particles::particle_accessors!($state);
+
+        fn reference(&self) -> &[D::V] {
+            &self.x0
+        }
+
+        fn max_signal_speed(&self, y: &$state) -> f64 {
+            $crate::methods::particles::signal_speed::<D>(&self.material, &y.v)
+        }
+
+        fn pairs(&self) -> usize {
+            self.shapes.csr.pair_count()
+        }
+
+        /// The plastic history C_p⁻¹, ε_p of the points.
+        fn save_history(&self, out: &mut Vec<f64>) {
+            $crate::plasticity::History::save(self.plastic.as_ref(), out);
+            out.push(self.smoothed);
+        }
+
+        fn load_history(&mut self, words: &mut &[f64]) -> Result<(), String> {
+            $crate::plasticity::History::load(self.plastic.as_mut(), words)?;
+            self.smoothed = $crate::parallel::load_word(words, "the smoothing's dissipation")?;
+            Ok(())
+        }
+
+        fn step_dissipation(&self) -> f64 {
+            self.smoothed
+        }
+    };
+}
+pub(super) use galerkin_accessors;
 
 impl<D: Dim> OdeSystem for TlGalerkin<D> {
     type State = GalerkinState<D>;
@@ -53,11 +91,7 @@ impl<D: Dim> AtRest<D> for TlGalerkin<D> {
     /// u at the nodes, v = 0 (ρ and S of a rate model, which a static run refuses, as
     /// initially).
     fn at_rest(&self, u: &[D::V]) -> GalerkinState<D> {
-        GalerkinState {
-            u: u.to_vec(),
-            v: vec![D::zero(); u.len()],
-            ..self.initial_state()
-        }
+        self.initial_state().at_rest(u)
     }
 
     /// The closed form on a model with a tangent (every model a static run accepts but
@@ -194,29 +228,12 @@ impl<D: Dim> Build<D> for TlGalerkin<D> {
 
 impl<D: Dim> Method<D> for TlGalerkin<D> {
     fn initial_state(&self) -> GalerkinState<D> {
-        let q = self.points.len();
         let rate = self.material.model.is_rate_based();
-        GalerkinState {
-            u: self.u0.clone(),
-            v: self.v0.clone(),
-            rho: if rate {
-                vec![self.material.rho0; q]
-            } else {
-                Vec::new()
-            },
-            s: if rate {
-                vec![D::zero_t(); q]
-            } else {
-                Vec::new()
-            },
-        }
+        let stresses = if rate { self.points.len() } else { 0 };
+        GalerkinState::initial(&self.u0, &self.v0, self.material.rho0, stresses)
     }
 
-    particle_accessors!(GalerkinState<D>);
-
-    fn reference(&self) -> &[D::V] {
-        &self.x0
-    }
+    galerkin_accessors!(GalerkinState<D>);
 
     /// F at the nodes, projected from the points.
     fn deformation_gradient(&self, y: &GalerkinState<D>) -> Vec<D::T> {
@@ -273,14 +290,6 @@ impl<D: Dim> Method<D> for TlGalerkin<D> {
         }
     }
 
-    fn max_signal_speed(&self, y: &GalerkinState<D>) -> f64 {
-        signal_speed::<D>(&self.material, &y.v)
-    }
-
-    fn pairs(&self) -> usize {
-        self.shapes.csr.pair_count()
-    }
-
     /// Pass 1 at the points reads the ids and ∇N of every pair and u at the nodes (and v,
     /// ρ, S of the rate model, or C_p⁻¹ and ε_p) and writes F and P (and ρ̇, Ṡ); the det F
     /// check reads F; pass 2 at the nodes reads the gather's point and pair ids and ∇Φ of
@@ -306,21 +315,5 @@ impl<D: Dim> Method<D> for TlGalerkin<D> {
         check_motion::<D>(&self.x0, &y.u, &y.v)?;
         let node = |q| self.shapes.strongest_node(q);
         check_points::<D>(&self.x0, node, &y.rho, &y.s)
-    }
-
-    /// The plastic history C_p⁻¹, ε_p of the points.
-    fn save_history(&self, out: &mut Vec<f64>) {
-        History::save(self.plastic.as_ref(), out);
-        out.push(self.smoothed);
-    }
-
-    fn load_history(&mut self, words: &mut &[f64]) -> Result<(), String> {
-        History::load(self.plastic.as_mut(), words)?;
-        self.smoothed = load_word(words, "the smoothing's dissipation")?;
-        Ok(())
-    }
-
-    fn step_dissipation(&self) -> f64 {
-        self.smoothed
     }
 }

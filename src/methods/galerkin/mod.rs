@@ -38,7 +38,7 @@ use crate::material::{Material, stress_fields};
 use crate::methods::particles::{Surroundings, check_stresses};
 use crate::neighbour::Csr;
 use crate::observe::{Quadrature, ScalarField, Snapshot};
-use crate::parallel::{MIN_CHUNK, load_word, ordered_reduce, particle_state};
+use crate::parallel::{MIN_CHUNK, ordered_reduce};
 use crate::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
 use crate::quadrature::{
     Cells, Family, Gather, QuadratureError, QuadraturePoints, Shapes, SmoothingCells,
@@ -124,16 +124,8 @@ impl Mass {
 }
 
 /// The integrated state: u and v at the nodes; ρ and S at the quadrature points (rate
-/// model only, empty otherwise).
-#[derive(Debug)]
-pub struct GalerkinState<D: Dim> {
-    pub u: Vec<D::V>,
-    pub v: Vec<D::V>,
-    pub rho: Vec<f64>,
-    pub s: Vec<D::T>,
-}
-
-particle_state!(GalerkinState { rho, s });
+/// model only, empty otherwise): the fields of the total-Lagrangian state.
+pub type GalerkinState<D> = crate::methods::tl::TlState<D>;
 
 /// The particles' own reproducing-kernel functions on their reference positions, N_j(X_i)
 /// = V_j Ψ_j(X_i) over the particles of i's body within the kernel's support, i itself

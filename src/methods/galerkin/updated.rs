@@ -12,6 +12,7 @@
 //!   at the start of every step from F_q there);
 //! - at each node: m_a v̇_a = −Σ_q w_q σ_q ∇N_a(x_q), gathered over the node's points.
 
+use super::contracts::galerkin_accessors;
 use super::{
     Mass, check_points, gather_accelerations, row_sums, smooth_velocities, stress_at_nodes,
     to_nodes,
@@ -22,37 +23,29 @@ use crate::engine::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
 use crate::material::{Material, stress_fields};
-use crate::methods::particles::{Surroundings, particle_accessors, signal_speed};
+use crate::methods::particles::Surroundings;
 use crate::neighbour::Csr;
 use crate::observe::{ScalarField, Snapshot};
-use crate::parallel::{MIN_CHUNK, load_word, particle_state};
+use crate::parallel::{MIN_CHUNK, particle_state};
 use crate::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
 use crate::quadrature::{Gather, ShapeRow, Shapes};
 use crate::reference::{Build, Reference};
 use crate::tensor::Dim;
 use rayon::prelude::*;
 
-/// The integrated state: u, v at the nodes; ρ, S at the points (rate model; empty for a
-/// state model); and, for points that move on their own (the weak form's stress points),
-/// ρ at the nodes and the points' displacements (empty otherwise).
-#[derive(Debug)]
-pub struct UlGalerkinState<D: Dim> {
-    pub u: Vec<D::V>,
-    pub v: Vec<D::V>,
-    pub rho: Vec<f64>,
-    pub s: Vec<D::T>,
-    /// ρ at the nodes, whose volumes m_a/ρ_a the shape functions use.
-    pub node_rho: Vec<f64>,
-    /// x_q − X_q of the points, advected with the interpolated velocity (eq 169).
-    pub point_u: Vec<D::V>,
+particle_state! {
+    /// The integrated state: u, v at the nodes; ρ, S at the points (rate model; empty for
+    /// a state model); and, for points that move on their own (the weak form's stress
+    /// points), ρ at the nodes and the points' displacements (empty otherwise).
+    pub struct UlGalerkinState {
+        pub rho: Vec<f64>,
+        pub s: Vec<D::T>,
+        /// ρ at the nodes, whose volumes m_a/ρ_a the shape functions use.
+        pub node_rho: Vec<f64>,
+        /// x_q − X_q of the points, advected with the interpolated velocity (eq 169).
+        pub point_u: Vec<D::V>,
+    }
 }
-
-particle_state!(UlGalerkinState {
-    rho,
-    s,
-    node_rho,
-    point_u
-});
 
 /// Why a point's shape functions cannot be evaluated in a configuration: the quantity that
 /// degenerated and its value.
@@ -62,11 +55,13 @@ pub struct Degenerate {
     pub value: f64,
 }
 
-/// The nodes as the points see them: reference and current positions, masses.
+/// The nodes as the points see them: reference and current positions, masses, and the
+/// state y of that configuration.
 pub struct Nodes<'a, D: Dim> {
     pub x0: &'a [D::V],
     pub x: &'a [D::V],
     pub mass: &'a [f64],
+    pub y: &'a UlGalerkinState<D>,
 }
 
 /// The points of an updated-Lagrangian Galerkin method, with their shape functions on the
@@ -107,14 +102,9 @@ pub trait MovingPoints<D: Dim>: Sized + Send + Sync {
 
     /// N_a(x_q) and ∇N_a(x_q) (and ∇Φ_a(x_q) if Petrov–Galerkin) of point q into its
     /// pairs of the lists (zero for a node that does not reach it in this configuration),
-    /// for the nodes at `nodes.x` and state y; returns the point's weight w_q there.
-    fn shapes_at(
-        &self,
-        q: usize,
-        nodes: &Nodes<D>,
-        y: &UlGalerkinState<D>,
-        row: ShapeRow<D>,
-    ) -> Result<f64, Degenerate>;
+    /// for the nodes at `nodes.x` and state `nodes.y`; returns the point's weight w_q
+    /// there.
+    fn shapes_at(&self, q: usize, nodes: &Nodes<D>, row: ShapeRow<D>) -> Result<f64, Degenerate>;
 
     /// New lists from the points to the nodes (at reference positions x0), searched on
     /// the configuration of state y at the start of a step, when the method searches anew then (an Eulerian kernel;
@@ -134,7 +124,6 @@ pub trait MovingPoints<D: Dim>: Sized + Send + Sync {
     fn own_rates(
         &mut self,
         _nodes: &Nodes<D>,
-        _y: &UlGalerkinState<D>,
         _shapes: &Shapes<D>,
         _d: &mut UlGalerkinState<D>,
     ) -> Result<(), BlowUp> {
@@ -142,8 +131,8 @@ pub trait MovingPoints<D: Dim>: Sized + Send + Sync {
     }
 
     /// The nodes' own functions that the velocities are smoothed with after a step, at
-    /// state y; none by default.
-    fn smoothing(&mut self, _nodes: &Nodes<D>, _y: &UlGalerkinState<D>) -> Option<&Shapes<D>> {
+    /// state `nodes.y`; none by default.
+    fn smoothing(&mut self, _nodes: &Nodes<D>) -> Option<&Shapes<D>> {
         None
     }
 }
@@ -205,15 +194,15 @@ fn on_lists<D: Dim, P: MovingPoints<D>>(lists: Csr) -> Shapes<D> {
 }
 
 /// N_a(x_q), ∇N_a(x_q) of every point into `shapes` and the weights w_q into `weight`,
-/// for the nodes at `nodes.x` and state y; the first point that degenerates, with why.
+/// for the nodes at `nodes.x` and state `nodes.y`; the first point that degenerates, with
+/// why.
 fn evaluate<D: Dim, P: MovingPoints<D>>(
     points: &P,
     nodes: &Nodes<D>,
-    y: &UlGalerkinState<D>,
     shapes: &mut Shapes<D>,
     weight: &mut [f64],
 ) -> Result<(), (usize, Degenerate)> {
-    shapes.recompute(weight, |q, _, row| points.shapes_at(q, nodes, y, row))
+    shapes.recompute(weight, |q, _, row| points.shapes_at(q, nodes, row))
 }
 
 impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
@@ -235,9 +224,10 @@ impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
             x0: &x0,
             x: &x0,
             mass: &particle_mass,
+            y: &y0,
         };
         let mut weight = vec![0.0; shapes.len()];
-        evaluate(&points, &nodes, &y0, &mut shapes, &mut weight).map_err(|(q, e)| {
+        evaluate(&points, &nodes, &mut shapes, &mut weight).map_err(|(q, e)| {
             case.invalid(
                 "body",
                 format!(
@@ -386,10 +376,11 @@ impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
             x0: &self.x0,
             x: &x,
             mass: &self.mass,
+            y,
         };
         let mut shapes = self.shapes.clone();
         let mut weight = vec![0.0; shapes.len()];
-        evaluate(&self.points, &nodes, y, &mut shapes, &mut weight)
+        evaluate(&self.points, &nodes, &mut shapes, &mut weight)
             .map_err(|(q, e)| self.degenerate(q, e))?;
         Ok((shapes, weight))
     }
@@ -460,8 +451,9 @@ impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
             x0: &self.x0,
             x: &self.x,
             mass: &self.mass,
+            y,
         };
-        let evaluated = evaluate(&self.points, &nodes, y, &mut shapes, &mut self.weight);
+        let evaluated = evaluate(&self.points, &nodes, &mut shapes, &mut self.weight);
         self.shapes = shapes;
         evaluated.map_err(|(q, e)| self.degenerate(q, e))?;
         self.point_stresses(y, d);
@@ -481,8 +473,9 @@ impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
             x0: &self.x0,
             x: &self.x,
             mass: &self.mass,
+            y,
         };
-        self.points.own_rates(&nodes, y, &self.shapes, d)?;
+        self.points.own_rates(&nodes, &self.shapes, d)?;
         self.surroundings.close(&y.v, &self.mass, &mut d.v);
         Ok(())
     }
@@ -514,8 +507,9 @@ impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
             x0: &self.x0,
             x: &x,
             mass: &self.mass,
+            y,
         };
-        if let Some(shapes) = self.points.smoothing(&nodes, y) {
+        if let Some(shapes) = self.points.smoothing(&nodes) {
             self.smoothed +=
                 smooth_velocities(shapes, &self.surroundings.boundary, &self.mass, &mut y.v);
         }
@@ -536,11 +530,7 @@ impl<D: Dim, P: MovingPoints<D>> Method<D> for UlGalerkin<D, P> {
         initial::<D, P>(&self.material, &self.v0, self.shapes.len())
     }
 
-    particle_accessors!(UlGalerkinState<D>);
-
-    fn reference(&self) -> &[D::V] {
-        &self.x0
-    }
+    galerkin_accessors!(UlGalerkinState<D>);
 
     /// F at the nodes, projected from F_q = (Σ_a X_a ⊗ ∇N_a(x_q))⁻¹.
     fn deformation_gradient(&self, y: &UlGalerkinState<D>) -> Vec<D::T> {
@@ -592,14 +582,6 @@ impl<D: Dim, P: MovingPoints<D>> Method<D> for UlGalerkin<D, P> {
         }
     }
 
-    fn max_signal_speed(&self, y: &UlGalerkinState<D>) -> f64 {
-        signal_speed::<D>(&self.material, &y.v)
-    }
-
-    fn pairs(&self) -> usize {
-        self.shapes.csr.pair_count()
-    }
-
     /// x = X + u (with ρ > 0 checked first); the functions recomputed at the points (the
     /// ids read, N and ∇N (∇Φ) written per pair, w per point, x gathered per node, and
     /// what each family's points read, [`MovingPoints::shape_traffic`]); the point pass
@@ -642,21 +624,5 @@ impl<D: Dim, P: MovingPoints<D>> Method<D> for UlGalerkin<D, P> {
         }
         self.check_densities(y)?;
         self.evaluated(y).map(|_| ())
-    }
-
-    /// The plastic history C_p⁻¹, ε_p of the points.
-    fn save_history(&self, out: &mut Vec<f64>) {
-        History::save(self.plastic.as_ref(), out);
-        out.push(self.smoothed);
-    }
-
-    fn load_history(&mut self, words: &mut &[f64]) -> Result<(), String> {
-        History::load(self.plastic.as_mut(), words)?;
-        self.smoothed = load_word(words, "the smoothing's dissipation")?;
-        Ok(())
-    }
-
-    fn step_dissipation(&self) -> f64 {
-        self.smoothed
     }
 }

@@ -132,13 +132,8 @@ impl<D: Dim> MovingPoints<D> for EulerianPoints<D> {
         [(3 * v + 2 * f) as f64, pair as f64, v as f64]
     }
 
-    fn shapes_at(
-        &self,
-        q: usize,
-        nodes: &Nodes<D>,
-        y: &UlGalerkinState<D>,
-        row: ShapeRow<D>,
-    ) -> Result<f64, Degenerate> {
+    fn shapes_at(&self, q: usize, nodes: &Nodes<D>, row: ShapeRow<D>) -> Result<f64, Degenerate> {
+        let y = nodes.y;
         let list = self.lists.neighbours(q);
         let centre = self.position(q, nodes.x, y);
         let mut row = row;
@@ -166,11 +161,11 @@ impl<D: Dim> MovingPoints<D> for EulerianPoints<D> {
     /// velocity).
     fn own_rates(
         &mut self,
-        _nodes: &Nodes<D>,
-        y: &UlGalerkinState<D>,
+        nodes: &Nodes<D>,
         shapes: &Shapes<D>,
         d: &mut UlGalerkinState<D>,
     ) -> Result<(), BlowUp> {
+        let y = nodes.y;
         d.point_u = shapes.interpolate(&y.v);
         let n = self.points.particles;
         d.point_u[..n].copy_from_slice(&y.v);

@@ -31,7 +31,7 @@ use crate::material::{Material, MaterialModel};
 use crate::mirror::Ghosts;
 use crate::neighbour::Csr;
 use crate::parallel::MIN_CHUNK;
-use crate::tensor::Dim;
+use crate::tensor::{Dim, Linear};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -565,12 +565,7 @@ impl<D: Dim> Corrector<D> {
 }
 
 /// out = y + h r.
-fn euler<T: Copy + Send + Sync + std::ops::Add<Output = T> + std::ops::Mul<f64, Output = T>>(
-    out: &mut [T],
-    y: &[T],
-    r: &[T],
-    h: f64,
-) {
+fn euler<T: Linear>(out: &mut [T], y: &[T], r: &[T], h: f64) {
     out.par_iter_mut()
         .with_min_len(MIN_CHUNK)
         .zip(y.par_iter().zip(r))
@@ -578,12 +573,7 @@ fn euler<T: Copy + Send + Sync + std::ops::Add<Output = T> + std::ops::Mul<f64, 
 }
 
 /// y ← ½(y + y1 + h r).
-fn average<T: Copy + Send + Sync + std::ops::Add<Output = T> + std::ops::Mul<f64, Output = T>>(
-    y: &mut [T],
-    y1: &[T],
-    r: &[T],
-    h: f64,
-) {
+fn average<T: Linear>(y: &mut [T], y1: &[T], r: &[T], h: f64) {
     y.par_iter_mut()
         .with_min_len(MIN_CHUNK)
         .zip(y1.par_iter().zip(r))

@@ -37,25 +37,20 @@ use crate::reference::Reference;
 use crate::tensor::{Dim, smallest_stretch_squared};
 use rayon::prelude::*;
 
-/// Integrated state of a mixed method.
-#[derive(Debug)]
-pub struct MixedState<D: Dim> {
-    /// Displacement u = x − X.
-    pub u: Vec<D::V>,
-    /// Velocity v = p/ρ0.
-    pub v: Vec<D::V>,
-    /// Deformation gradient (eq 1b).
-    pub f: Vec<D::T>,
-    /// Area map H (eq 1c); empty unless {p, F, H, J}.
-    pub h: Vec<D::T>,
-    /// Volume map J (eq 1d); empty for {p, F} and with artificial compressibility.
-    pub j: Vec<f64>,
-    /// Pressure p of the {p, F, H, p} system (eq 42); empty without artificial
-    /// compressibility.
-    pub pressure: Vec<f64>,
+particle_state! {
+    /// Integrated state of a mixed method (its velocity v = p/ρ0).
+    pub struct MixedState {
+        /// Deformation gradient (eq 1b).
+        pub f: Vec<D::T>,
+        /// Area map H (eq 1c); empty unless {p, F, H, J}.
+        pub h: Vec<D::T>,
+        /// Volume map J (eq 1d); empty for {p, F} and with artificial compressibility.
+        pub j: Vec<f64>,
+        /// Pressure p of the {p, F, H, p} system (eq 42); empty without artificial
+        /// compressibility.
+        pub pressure: Vec<f64>,
+    }
 }
-
-particle_state!(MixedState { f, h, j, pressure });
 
 /// The stabilising flux of a mixed method.
 #[derive(Clone, Debug)]

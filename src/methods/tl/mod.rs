@@ -28,19 +28,39 @@ use crate::viscosity::ArtificialViscosity;
 use rayon::prelude::*;
 use std::ops::Deref;
 
-/// Integrated state of a total-Lagrangian method.
-#[derive(Debug)]
-pub struct TlState<D: Dim> {
-    /// Displacement u = x − X.
-    pub u: Vec<D::V>,
-    pub v: Vec<D::V>,
-    /// Density (rate-based model only; empty otherwise).
-    pub rho: Vec<f64>,
-    /// Deviatoric Cauchy stress (rate-based model only; empty otherwise).
-    pub s: Vec<D::T>,
+particle_state! {
+    /// Integrated state of a total-Lagrangian method: u and v of the particles (or of a
+    /// Galerkin method's nodes), and a rate model's ρ and S of the particles (or of the
+    /// Galerkin method's quadrature points).
+    pub struct TlState {
+        /// Density (rate-based model only; empty otherwise).
+        pub rho: Vec<f64>,
+        /// Deviatoric Cauchy stress (rate-based model only; empty otherwise).
+        pub s: Vec<D::T>,
+    }
 }
 
-particle_state!(TlState { rho, s });
+impl<D: Dim> TlState<D> {
+    /// The state u0, v0 with ρ = ρ0 and S = 0 at `stresses` places (a rate model's
+    /// particles or points; none for a state model).
+    pub fn initial(u0: &[D::V], v0: &[D::V], rho0: f64, stresses: usize) -> Self {
+        Self {
+            u: u0.to_vec(),
+            v: v0.to_vec(),
+            rho: vec![rho0; stresses],
+            s: vec![D::zero_t(); stresses],
+        }
+    }
+
+    /// This state with displacement u and v = 0: a static solve's state of u.
+    pub fn at_rest(self, u: &[D::V]) -> Self {
+        Self {
+            u: u.to_vec(),
+            v: vec![D::zero(); u.len()],
+            ..self
+        }
+    }
+}
 
 /// The first particle with a non-finite u, v, ρ or S, as a blow-up.
 pub fn check_state<D: Dim>(x0: &[D::V], y: &TlState<D>) -> Result<(), BlowUp> {
@@ -402,22 +422,9 @@ impl<D: Dim, S: TlScheme<D>> Build<D> for TlSph<D, S> {
 impl<D: Dim, S: TlScheme<D>> Method<D> for TlSph<D, S> {
     fn initial_state(&self) -> TlState<D> {
         let core = &self.core;
-        let n = core.x0.len();
         let rate = self.scheme.integrates_stress(core);
-        TlState {
-            u: core.u0.clone(),
-            v: core.v0.clone(),
-            rho: if rate {
-                vec![core.material.rho0; n]
-            } else {
-                Vec::new()
-            },
-            s: if rate {
-                vec![D::zero_t(); n]
-            } else {
-                Vec::new()
-            },
-        }
+        let stresses = if rate { core.x0.len() } else { 0 };
+        TlState::initial(&core.u0, &core.v0, core.material.rho0, stresses)
     }
 
     particle_accessors!(TlState<D>, core);

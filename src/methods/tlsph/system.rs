@@ -421,10 +421,6 @@ impl<D: Dim> Tlsph<D> {
 impl<D: Dim> AtRest<D> for Tlsph<D> {
     /// u, v = 0 (ρ and S of a rate model, which a static run refuses, as initially).
     fn at_rest(&self, u: &[D::V]) -> TlState<D> {
-        TlState {
-            u: u.to_vec(),
-            v: vec![D::zero(); u.len()],
-            ..self.initial_state()
-        }
+        self.initial_state().at_rest(u)
     }
 }

@@ -33,21 +33,17 @@ use crate::reference::{Build, Reference};
 use crate::tensor::Dim;
 use rayon::prelude::*;
 
-/// Integrated state of an updated-Lagrangian SPH method.
-#[derive(Debug)]
-pub struct UlState<D: Dim> {
-    /// Displacement u = x − X.
-    pub u: Vec<D::V>,
-    pub v: Vec<D::V>,
-    /// Density ρ.
-    pub rho: Vec<f64>,
-    /// Deviatoric Cauchy stress S (Jaumann rate, seed 000 §2.2).
-    pub s: Vec<D::T>,
-    /// Deformation gradient F, integrated by Ḟ = L F (outputs only).
-    pub f: Vec<D::T>,
+particle_state! {
+    /// Integrated state of an updated-Lagrangian SPH method.
+    pub struct UlState {
+        /// Density ρ.
+        pub rho: Vec<f64>,
+        /// Deviatoric Cauchy stress S (Jaumann rate, seed 000 §2.2).
+        pub s: Vec<D::T>,
+        /// Deformation gradient F, integrated by Ḟ = L F (outputs only).
+        pub f: Vec<D::T>,
+    }
 }
-
-particle_state!(UlState { rho, s, f });
 
 /// The rates of one particle that a scheme computes: ẋ, v̇ (before contact and boundary
 /// conditions), ρ̇ and the velocity gradient L.

@@ -6,7 +6,7 @@
 //! CPU only. Numerics notes: `docs/methods/galerkin.md`.
 
 use super::galerkin::Mass;
-use super::galerkin::updated::{Degenerate, MovingPoints, Nodes, UlGalerkin, UlGalerkinState};
+use super::galerkin::updated::{Degenerate, MovingPoints, Nodes, UlGalerkin};
 use crate::case::{Case, CaseError};
 use crate::check::Problem;
 use crate::engine::{CpuEngine, EngineDim};
@@ -85,13 +85,7 @@ impl<D: Dim> MovingPoints<D> for Elements<D> {
     /// The bilinear (trilinear) functions of the point's cell with its corners at their
     /// current positions, from the rule's tabulated N_a and ∂N_a/∂ξ: w_q = det J (UL FEM
     /// step 1); an inverted cell (det J ≤ 0) degenerates.
-    fn shapes_at(
-        &self,
-        q: usize,
-        nodes: &Nodes<D>,
-        _y: &UlGalerkinState<D>,
-        row: ShapeRow<D>,
-    ) -> Result<f64, Degenerate> {
+    fn shapes_at(&self, q: usize, nodes: &Nodes<D>, row: ShapeRow<D>) -> Result<f64, Degenerate> {
         let corners = self.cells.of::<D>(self.points.cell[q] as usize);
         let parent = &self.points.rule[self.points.parent[q] as usize];
         let det = isoparametric_shapes::<D>(corners, nodes.x, parent, row.n, row.grad);

@@ -115,12 +115,10 @@ pub fn ellipse_shapes<D: Dim>(
 }
 
 impl<D: Dim> StressPoints<D> {
-    /// The particles' own functions at the positions `nodes.x` with volumes m/ρ.
-    fn update_particle_shapes(
-        &mut self,
-        nodes: &Nodes<D>,
-        node_rho: &[f64],
-    ) -> Result<(), (usize, Degenerate)> {
+    /// The particles' own functions at the positions `nodes.x` with volumes m/ρ (ρ of the
+    /// nodes' state).
+    fn update_particle_shapes(&mut self, nodes: &Nodes<D>) -> Result<(), (usize, Degenerate)> {
+        let node_rho = &nodes.y.node_rho;
         let vol = |j: usize| nodes.mass[j] / node_rho[j];
         self.particle_shapes
             .recompute(&mut [], |i, candidates, row| {
@@ -209,13 +207,8 @@ impl<D: Dim> MovingPoints<D> for StressPoints<D> {
         ]
     }
 
-    fn shapes_at(
-        &self,
-        q: usize,
-        nodes: &Nodes<D>,
-        y: &UlGalerkinState<D>,
-        row: ShapeRow<D>,
-    ) -> Result<f64, Degenerate> {
+    fn shapes_at(&self, q: usize, nodes: &Nodes<D>, row: ShapeRow<D>) -> Result<f64, Degenerate> {
+        let y = nodes.y;
         let centre = self.points.x0[q] + y.point_u[q];
         let vol = |j: usize| nodes.mass[j] / y.node_rho[j];
         let candidates = self.candidates.neighbours(q);
@@ -228,15 +221,14 @@ impl<D: Dim> MovingPoints<D> for StressPoints<D> {
     fn own_rates(
         &mut self,
         nodes: &Nodes<D>,
-        y: &UlGalerkinState<D>,
         shapes: &Shapes<D>,
         d: &mut UlGalerkinState<D>,
     ) -> Result<(), BlowUp> {
-        self.update_particle_shapes(nodes, &y.node_rho)
-            .map_err(|(i, e)| {
-                let what = format!("{} at the particle", e.quantity);
-                BlowUp::at::<D>(nodes.x0, i, &what, e.value)
-            })?;
+        let y = nodes.y;
+        self.update_particle_shapes(nodes).map_err(|(i, e)| {
+            let what = format!("{} at the particle", e.quantity);
+            BlowUp::at::<D>(nodes.x0, i, &what, e.value)
+        })?;
         let own = &self.particle_shapes;
         d.node_rho
             .par_iter_mut()
@@ -253,11 +245,11 @@ impl<D: Dim> MovingPoints<D> for StressPoints<D> {
     }
 
     /// The particles' own functions at the step's end, for the velocity smoothing.
-    fn smoothing(&mut self, nodes: &Nodes<D>, y: &UlGalerkinState<D>) -> Option<&Shapes<D>> {
+    fn smoothing(&mut self, nodes: &Nodes<D>) -> Option<&Shapes<D>> {
         if !self.smoothing {
             return None;
         }
-        self.update_particle_shapes(nodes, &y.node_rho).ok()?;
+        self.update_particle_shapes(nodes).ok()?;
         Some(&self.particle_shapes)
     }
 }

@@ -1,4 +1,5 @@
 use super::*;
+use crate::output::scratch::scratch;
 use std::fs;
 
 /// The values of the Float64 or Int32 `DataArray` named `name` of a frame, as f64.
@@ -66,28 +67,25 @@ fn block(raw: &[u8], offset: usize) -> &[u8] {
     &raw[offset + 8..offset + 8 + len]
 }
 
-fn decode_f64(bytes: &[u8]) -> Vec<u64> {
-    assert_eq!(bytes.len() % 8, 0);
+/// Little-endian words of N bytes each (the f64s as their bits).
+fn decode<const N: usize, T>(bytes: &[u8], from_le_bytes: fn([u8; N]) -> T) -> Vec<T> {
+    assert_eq!(bytes.len() % N, 0);
     bytes
-        .chunks_exact(8)
-        .map(|c| f64::from_le_bytes(c.try_into().unwrap()).to_bits())
+        .chunks_exact(N)
+        .map(|c| from_le_bytes(c.try_into().unwrap()))
         .collect()
+}
+
+fn decode_f64(bytes: &[u8]) -> Vec<u64> {
+    decode(bytes, u64::from_le_bytes)
 }
 
 fn decode_i32(bytes: &[u8]) -> Vec<i32> {
-    assert_eq!(bytes.len() % 4, 0);
-    bytes
-        .chunks_exact(4)
-        .map(|c| i32::from_le_bytes(c.try_into().unwrap()))
-        .collect()
+    decode(bytes, i32::from_le_bytes)
 }
 
 fn decode_i64(bytes: &[u8]) -> Vec<i64> {
-    assert_eq!(bytes.len() % 8, 0);
-    bytes
-        .chunks_exact(8)
-        .map(|c| i64::from_le_bytes(c.try_into().unwrap()))
-        .collect()
+    decode(bytes, i64::from_le_bytes)
 }
 
 fn bits(values: &[f64]) -> Vec<u64> {
@@ -96,8 +94,7 @@ fn bits(values: &[f64]) -> Vec<u64> {
 
 #[test]
 fn vtu_round_trips_all_field_kinds_bit_exact() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("frame_0003.vtu");
+    let (dir, path) = scratch("frame_0003.vtu");
     let points = [
         [0.0, 0.0, 0.0],
         [0.1, -0.0, 1e-300],
@@ -188,8 +185,7 @@ fn elements_follow_the_vertex_cells() {
     // Four points and one quadrilateral on them: five cells, the quad's corners after
     // the vertices, its offset four past theirs, its type VTK_QUAD; a cell naming a
     // fifth point is refused and nothing is written.
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("mesh.vtu");
+    let (dir, path) = scratch("mesh.vtu");
     let points = [
         [0.0, 0.0, 0.0],
         [1.0, 0.0, 0.0],
@@ -225,8 +221,7 @@ fn elements_follow_the_vertex_cells() {
 
 #[test]
 fn vtu_without_points_or_fields_is_well_formed() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("empty.vtu");
+    let (_dir, path) = scratch("empty.vtu");
 
     write_vtu(&path, &[], &[], 2.0, Mesh::NONE).unwrap();
     let (header, tags, raw) = read_vtu(&path);
@@ -247,8 +242,7 @@ fn vtu_without_points_or_fields_is_well_formed() {
 
 #[test]
 fn vtu_rejects_field_length_mismatch_naming_field() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("bad.vtu");
+    let (dir, path) = scratch("bad.vtu");
     let points = [[0.0; 3]; 3];
     let good = [1.0, 2.0, 3.0];
     let short = [[0.0; 9]; 2];
@@ -273,8 +267,7 @@ fn vtu_rejects_field_length_mismatch_naming_field() {
 
 #[test]
 fn vtu_rejects_empty_and_repeated_field_names() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("bad.vtu");
+    let (_dir, path) = scratch("bad.vtu");
     let points = [[0.0; 3]];
     let v = [1.0];
     let empty = [Field {
@@ -301,8 +294,7 @@ fn vtu_rejects_empty_and_repeated_field_names() {
 
 #[test]
 fn vtu_escapes_field_names() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("names.vtu");
+    let (_dir, path) = scratch("names.vtu");
     let v = [1.0];
 
     let fields = [Field {
