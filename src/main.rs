@@ -227,7 +227,8 @@ fn study_command(
     run_time_limit: f64,
 ) -> ExitCode {
     use meshless::study::{StudyError, resolve_suites, run_suites};
-    let paths = match resolve_suites(names, &cases_dir().join("studies")) {
+    let studies: Vec<PathBuf> = case_dirs().iter().map(|d| d.join("studies")).collect();
+    let paths = match resolve_suites(names, &studies) {
         Ok(p) => p,
         Err(e) => {
             eprintln!("error: {e}");
@@ -272,23 +273,99 @@ fn study_command(
     }
 }
 
-fn cases_dir() -> PathBuf {
+/// The folders case and suite names are looked up in, in order: `./cases` where the
+/// working directory has one, then the shipped cases (so a local folder adds to the
+/// shipped cases, and a name in both is the local one).
+fn case_dirs() -> Vec<PathBuf> {
+    let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases");
     let local = PathBuf::from("cases");
-    if local.is_dir() {
-        local
-    } else {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("cases")
+    let same = |a: &Path, b: &Path| matches!((a.canonicalize(), b.canonicalize()), (Ok(a), Ok(b)) if a == b);
+    let mut dirs = Vec::new();
+    if local.is_dir() && !same(&local, &shipped) {
+        dirs.push(local);
     }
+    dirs.push(shipped);
+    dirs
 }
 
-/// A path as given, or a shipped case by name.
-fn resolve(case: &str) -> PathBuf {
+/// The names (file stems) of the `.toml` files in `dir`, sorted.
+fn toml_names(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .map(|d| {
+            d.filter_map(|e| {
+                let path = e.ok()?.path();
+                (path.extension()? == "toml")
+                    .then(|| path.file_stem()?.to_str().map(String::from))?
+            })
+            .collect()
+        })
+        .unwrap_or_default();
+    names.sort();
+    names
+}
+
+/// The edit distance (insertions, deletions, substitutions) between two names.
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut diagonal = row[0];
+        row[0] = i + 1;
+        for (j, &cb) in b.iter().enumerate() {
+            let next = (diagonal + usize::from(ca != cb))
+                .min(row[j] + 1)
+                .min(row[j + 1] + 1);
+            diagonal = row[j + 1];
+            row[j + 1] = next;
+        }
+    }
+    row[b.len()]
+}
+
+/// Up to three of `names` nearest `name` (within a third of its length, or containing
+/// it), nearest first.
+fn nearest_names(name: &str, names: &[String]) -> Vec<String> {
+    let mut near: Vec<(usize, &String)> = names
+        .iter()
+        .map(|n| (edit_distance(name, n), n))
+        .filter(|(d, n)| *d <= name.len().div_ceil(3) || n.contains(name))
+        .collect();
+    near.sort();
+    near.dedup_by(|a, b| a.1 == b.1);
+    near.into_iter().take(3).map(|(_, n)| n.clone()).collect()
+}
+
+/// A path as given, or a case by name from [`case_dirs`]; Err names the folders looked in
+/// and the nearest names.
+fn resolve(case: &str) -> Result<PathBuf, String> {
     let given = PathBuf::from(case);
     if given.exists() || case.ends_with(".toml") {
-        given
-    } else {
-        cases_dir().join(format!("{case}.toml"))
+        return Ok(given);
     }
+    let dirs = case_dirs();
+    if let Some(path) = dirs
+        .iter()
+        .map(|d| d.join(format!("{case}.toml")))
+        .find(|p| p.is_file())
+    {
+        return Ok(path);
+    }
+    let names: Vec<String> = dirs.iter().flat_map(|d| toml_names(d)).collect();
+    let near = nearest_names(case, &names);
+    let looked = dirs
+        .iter()
+        .map(|d| d.display().to_string())
+        .collect::<Vec<_>>()
+        .join(" and ");
+    Err(format!(
+        "no case `{case}`: it is not a file, and neither {looked} holds `{case}.toml`{}; \
+         `meshless list` lists the cases",
+        if near.is_empty() {
+            String::new()
+        } else {
+            format!(" (did you mean {}?)", near.join(", "))
+        }
+    ))
 }
 
 /// Where and what a run writes.
@@ -310,17 +387,17 @@ fn run_command(
     set: &[String],
     limits: Limits,
 ) -> ExitCode {
-    let path = resolve(case);
-    let case = match Scene::load(&path, set) {
-        Ok(c) => {
-            show_notes(&c);
-            c
-        }
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::from(EXIT_INPUT);
-        }
-    };
+    let case =
+        match resolve(case).and_then(|path| Scene::load(&path, set).map_err(|e| e.to_string())) {
+            Ok(c) => {
+                show_notes(&c);
+                c
+            }
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(EXIT_INPUT);
+            }
+        };
     let opts = RunOptions {
         out_dir: output
             .dir
@@ -384,17 +461,13 @@ fn stop_on_signal() -> Arc<AtomicBool> {
 }
 
 fn list() -> ExitCode {
-    let dir = cases_dir();
-    println!("Shipped cases ({}):", dir.display());
-    let mut entries: Vec<PathBuf> = std::fs::read_dir(&dir)
-        .map(|d| d.filter_map(|e| e.ok().map(|e| e.path())).collect())
-        .unwrap_or_default();
-    entries.retain(|p| p.extension().is_some_and(|e| e == "toml"));
-    entries.sort();
-    for path in entries {
-        match Scene::load(&path, &[]) {
-            Ok(c) => println!("  {:<24} {}D  {}", c.name, c.dimension, c.description),
-            Err(e) => println!("  {:<24} invalid: {e}", path.display()),
+    for dir in case_dirs() {
+        println!("Cases ({}):", dir.display());
+        for name in toml_names(&dir) {
+            match Scene::load(&dir.join(format!("{name}.toml")), &[]) {
+                Ok(c) => println!("  {:<24} {}D  {}", c.name, c.dimension, c.description),
+                Err(e) => println!("  {name:<24} invalid: {e}"),
+            }
         }
     }
     println!("\nMethods:");
@@ -405,7 +478,7 @@ fn list() -> ExitCode {
 }
 
 fn explain_command(case: &str, backend: Backend, set: &[String]) -> ExitCode {
-    match Scene::load(&resolve(case), set) {
+    match resolve(case).and_then(|path| Scene::load(&path, set).map_err(|e| e.to_string())) {
         Ok(c) => {
             show_notes(&c);
             let gpu = match backend {
@@ -457,7 +530,13 @@ fn bench_command(
     );
     let dash = || "–".to_string();
     for name in cases {
-        let path = resolve(name);
+        let path = match resolve(name) {
+            Ok(path) => path,
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(EXIT_INPUT);
+            }
+        };
         for &target in particles {
             let result = Scene::load(&path, set)
                 .map_err(RunError::from)
@@ -530,7 +609,13 @@ fn bench_command(
 /// does before its first step; exit 2 at the first case that fails.
 fn check_command(cases: &[String], backend: Backend, set: &[String], limits: &Limits) -> ExitCode {
     for name in cases {
-        let path = resolve(name);
+        let path = match resolve(name) {
+            Ok(path) => path,
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(EXIT_INPUT);
+            }
+        };
         let built = Scene::load(&path, set)
             .map_err(RunError::from)
             .and_then(|case| {

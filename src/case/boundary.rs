@@ -128,6 +128,23 @@ impl Condition {
         }
     }
 
+    /// The size of what the condition's time law multiplies: the largest prescribed
+    /// velocity component, the norm of a traction or a body force, a pressure (0 for the
+    /// conditions without a law).
+    pub fn law_scale(&self) -> f64 {
+        let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        match self {
+            Self::Velocity { vx, vy, vz, .. } => [vx, vy, vz]
+                .iter()
+                .filter_map(|v| v.map(f64::abs))
+                .fold(0.0, f64::max),
+            Self::Traction { traction, .. } => norm(traction),
+            Self::BodyForce { acceleration, .. } => norm(acceleration),
+            Self::Pressure { pressure, .. } => pressure.abs(),
+            _ => 0.0,
+        }
+    }
+
     /// The condition's time law (constant for the conditions without one).
     pub fn law(&self) -> &TimeLaw {
         const CONSTANT: &TimeLaw = &TimeLaw::Constant;
@@ -173,6 +190,10 @@ pub enum Surface {
     Outer,
 }
 
+/// The intervals a time law is sampled at over a run ([`TimeLaw::over_run`]): enough
+/// that a law leaving the finite numbers, or f32's range, over 1/4096 of the run is caught.
+pub const LAW_SAMPLES: usize = 4096;
+
 /// How a load varies in time: its value at time t is the condition's times law(t). A
 /// load is evaluated at the middle of each step and held through its stages (as the
 /// contact forces are), on both backends.
@@ -216,6 +237,15 @@ impl TimeLaw {
 
     pub fn is_constant(&self) -> bool {
         *self == Self::Constant
+    }
+
+    /// The law sampled over a run of `span` seconds: (t, law(t)) at [`LAW_SAMPLES`] + 1
+    /// evenly spaced times from 0 to `span`.
+    pub fn over_run(&self, span: f64) -> impl Iterator<Item = (f64, f64)> + '_ {
+        (0..=LAW_SAMPLES).map(move |k| {
+            let t = span * k as f64 / LAW_SAMPLES as f64;
+            (t, self.at(t))
+        })
     }
 
     /// The law's value at time t.

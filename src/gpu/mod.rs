@@ -118,9 +118,9 @@ fn beyond_f32(case: &Case, key: impl Into<String>, what: String) -> CaseError {
 
 /// Refuses the values a GPU run reaches from the case besides its constants and initial
 /// state: the time step in the integrator's coefficients (its smallest, Δt/6 of RK4;
-/// a CFL step estimated as α Δx / c_p), prescribed velocities, the number of constrained
-/// particles (their slots are f32 integers) and the accelerations of the traction loads,
-/// each named by its key.
+/// a CFL step estimated as α Δx / c_p), prescribed velocities, the time laws over the run
+/// times what they scale, the number of constrained particles (their slots are f32
+/// integers) and the accelerations of the traction loads, each named by its key.
 pub fn check_f32_run<D: crate::tensor::Dim>(
     case: &Case,
     boundary: &crate::boundary::Boundary<D>,
@@ -150,6 +150,26 @@ pub fn check_f32_run<D: crate::tensor::Dim>(
                     ));
                 }
             }
+        }
+    }
+    // A time law over the run times what it scales: the velocity or load it reaches, at
+    // most f32's largest (a law that decays to nothing is fine). The constant laws' values
+    // are the conditions' own, checked by key.
+    for (b, bc) in case.boundaries.iter().enumerate() {
+        let (law, scale) = (bc.condition.law(), bc.condition.law_scale());
+        if law.is_constant() {
+            continue;
+        }
+        let beyond = |(_, l): &(f64, f64)| (l * scale).abs() > f64::from(f32::MAX);
+        if let Some((t, law)) = law.over_run(case.run.end_time).find(beyond) {
+            return Err(beyond_f32(
+                case,
+                format!("boundary.{b}.condition.law"),
+                format!(
+                    "reaches {law:.4e} at t = {t:.4e} s, which makes the condition {:.4e}",
+                    law * scale
+                ),
+            ));
         }
     }
     if boundary.constrained.len() > reference::MAX_SLOTS {

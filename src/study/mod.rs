@@ -399,29 +399,38 @@ fn errors(
     }
 }
 
-/// The suite files named on the command line: paths, names of files in `dir`, groups
-/// (a name with no file of its own: every `<name>-*.toml` in `dir`, as `verification`),
-/// or `all` (every suite in `dir` with `report = true`).
-pub fn resolve_suites(names: &[String], dir: &Path) -> Result<Vec<PathBuf>, String> {
+/// The suite files of `names`, looked up in `dirs` in order (the first folder holding a
+/// name wins): a path as given, a suite by name, `all` (every suite of the folders that
+/// the report includes), or a group (every suite whose name starts with `name-`). A name
+/// found nowhere is kept as the missing file of the first folder, which loading names.
+pub fn resolve_suites(names: &[String], dirs: &[PathBuf]) -> Result<Vec<PathBuf>, String> {
     let suite_files = || -> Result<Vec<PathBuf>, String> {
-        let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-            .map_err(|e| format!("{}: {e}", dir.display()))?
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-            .collect();
-        files.sort();
+        let mut files: Vec<PathBuf> = Vec::new();
+        for dir in dirs.iter().filter(|d| d.is_dir()) {
+            let found = std::fs::read_dir(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+            for path in found.filter_map(|e| e.ok().map(|e| e.path())) {
+                let taken = files.iter().any(|f| f.file_name() == path.file_name());
+                if path.extension().is_some_and(|e| e == "toml") && !taken {
+                    files.push(path);
+                }
+            }
+        }
+        files.sort_by(|a, b| a.file_name().cmp(&b.file_name()));
         Ok(files)
     };
     let mut out = Vec::new();
     for name in names {
         let given = PathBuf::from(name);
-        let file = dir.join(format!("{name}.toml"));
+        let file = dirs
+            .iter()
+            .map(|d| d.join(format!("{name}.toml")))
+            .find(|f| f.exists());
         if name == "all" {
             let all = suite_files()?.into_iter();
             out.extend(all.filter(|p| Suite::load(p).is_ok_and(|s| s.report)));
         } else if given.exists() || name.ends_with(".toml") {
             out.push(given);
-        } else if file.exists() {
+        } else if let Some(file) = file {
             out.push(file);
         } else {
             let prefix = format!("{name}-");
@@ -435,7 +444,8 @@ pub fn resolve_suites(names: &[String], dir: &Path) -> Result<Vec<PathBuf>, Stri
                 .collect();
             // No group either: the missing file, which loading names.
             if group.is_empty() {
-                out.push(file);
+                let first = dirs.first().map_or_else(PathBuf::new, PathBuf::clone);
+                out.push(first.join(format!("{name}.toml")));
             }
             out.extend(group);
         }
@@ -504,7 +514,8 @@ mod tests {
         ] {
             std::fs::write(dir.path().join(name), "").unwrap();
         }
-        let resolve = |name: &str| resolve_suites(&[name.to_string()], dir.path()).unwrap();
+        let dirs = [dir.path().to_path_buf()];
+        let resolve = |name: &str| resolve_suites(&[name.to_string()], &dirs).unwrap();
         let names = |paths: Vec<PathBuf>| -> Vec<String> {
             let name = |p: &PathBuf| p.file_name().unwrap().to_string_lossy().into_owned();
             paths.iter().map(name).collect()
@@ -514,5 +525,20 @@ mod tests {
         assert_eq!(names(resolve("check-b")), ["check-b.toml"]);
         // Neither a file nor a group: the missing file, for loading to name.
         assert_eq!(names(resolve("other")), ["other.toml"]);
+        // A second folder after it (the shipped suites after a local `cases/studies`):
+        // its names add to the first's, and a name in both is the first's.
+        let second = tempfile::tempdir().unwrap();
+        for name in ["check-a.toml", "check-c.toml", "extra.toml"] {
+            std::fs::write(second.path().join(name), "").unwrap();
+        }
+        let both = [dir.path().to_path_buf(), second.path().to_path_buf()];
+        let resolve = |name: &str| resolve_suites(&[name.to_string()], &both).unwrap();
+        let group = resolve("check");
+        assert_eq!(
+            names(group.clone()),
+            ["check-a.toml", "check-b.toml", "check-c.toml"]
+        );
+        assert!(group[0].starts_with(dir.path()), "{group:?}");
+        assert!(resolve("extra")[0].starts_with(second.path()));
     }
 }

@@ -380,7 +380,8 @@ fn values_beyond_f32_are_refused_with_their_key() {
     // density of 1e-46 (below the smallest normal f32), a spacing of 1e154 and a velocity
     // of 1e39 m/s; and values the run reaches: a fixed Δt of 1e-40 s (subnormal in
     // f32), a prescribed velocity of 1e39 m/s, a traction of 1e45 Pa (an acceleration of
-    // 2e46 m/s² on the strip's particles of 2.5e-3 kg). Each is a case error naming the
+    // 2e46 m/s² on the strip's particles of 2.5e-3 kg), a traction of 1e30 Pa under a
+    // law that grows past 1e9 within the run. Each is a case error naming the
     // key and the CPU backend, before anything reaches the device.
     for (set, key) in [
         ("method.dt=1e-40", "method.dt"),
@@ -388,6 +389,11 @@ fn values_beyond_f32_are_refused_with_their_key() {
         (
             "boundary.0.condition={ type = \"traction\", traction = [1e45, 0.0] }",
             "boundary.0.condition.traction",
+        ),
+        (
+            "boundary.0.condition={ type = \"traction\", traction = [1e30, 0.0], law = { type \
+             = \"expression\", value = \"1 + t*1e20\" } }",
+            "boundary.0.condition.law",
         ),
         ("material.youngs_modulus=1e39", "material.youngs_modulus"),
         ("material.density=1e-46", "material.density"),

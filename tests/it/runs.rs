@@ -210,6 +210,38 @@ fn command_line_exit_codes() {
 /// The swinging plate (Upwind-SPH, Δx = 0.1, about 100 steps of one period) with the
 /// hourglass observer and `overrides`, a sample after every step; its series and result.
 #[test]
+fn a_local_cases_folder_adds_to_the_shipped_cases_and_a_wrong_name_gets_suggestions() {
+    // In a working directory with a `cases/` folder of its own (one case, a copy of
+    // bar-mode under another name), `check` finds that case and a shipped one by name; a
+    // misspelt name is refused with exit 2, the folders looked in and the nearest names.
+    let exe = env!("CARGO_BIN_EXE_meshless");
+    let cwd = tempfile::tempdir().unwrap();
+    std::fs::create_dir(cwd.path().join("cases")).unwrap();
+    let text = std::fs::read_to_string(case_file("bar-mode")).unwrap();
+    std::fs::write(cwd.path().join("cases/my-bar.toml"), text).unwrap();
+    let check = |name: &str| {
+        Command::new(exe)
+            .current_dir(cwd.path())
+            .args(["check", "--backend", "cpu", name])
+            .output()
+            .unwrap()
+    };
+    for name in ["my-bar", "wave-rod"] {
+        let out = check(name);
+        assert_eq!(out.status.code(), Some(0), "{name}: {out:?}");
+    }
+    let out = check("wave-rods");
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("no case `wave-rods`")
+            && stderr.contains("did you mean wave-rod")
+            && stderr.contains("cases and "),
+        "{stderr}"
+    );
+}
+
+#[test]
 fn a_batch_run_logs_plain_progress_and_its_summary_records_how_it_was_set_up() {
     // stderr is a pipe here, as in a batch job: no bar, but the plain start line (and a
     // line every 10 s, which this short run does not reach). summary.json names the file,

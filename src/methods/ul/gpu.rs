@@ -247,6 +247,9 @@ pub struct UlDevice<D: GpuDim> {
     /// Neighbour builds of the lists that growth replaced, less those of
     /// [`GpuUl::time_rebuild`].
     builds_before: i64,
+    /// One build timed alone, the first time the builds' time is asked for: the same
+    /// factor for every later estimate, so that the estimates only grow.
+    rebuild_seconds: Option<f64>,
 }
 
 impl<D: GpuDim> GpuUl<D> {
@@ -340,6 +343,7 @@ impl<D: GpuDim> GpuUl<D> {
             lists: None,
             start,
             builds_before: 0,
+            rebuild_seconds: None,
         };
         family.lists = Some(family.bind_lists(&shell, capacity)?);
         Ok(Self::assemble(shell, interactions, family))
@@ -623,11 +627,17 @@ impl<D: GpuDim> GpuFamily<D> for UlDevice<D> {
     }
 
     /// The builds the device ran so far (those its drift checks asked for, and one at the
-    /// start of each batch) times one build timed alone ([`GpuUl::time_rebuild`]): the
+    /// start of each batch) times one build timed alone, once ([`GpuUl::time_rebuild`]): the
     /// device's passes are not timed one by one inside a step, and the drift checks (one
     /// position read per particle and evaluation) are left out.
     fn neighbour_seconds(&mut self, shell: &Shell) -> Option<f64> {
-        let seconds = self.time_rebuild(&shell.gpu);
+        let seconds = match self.rebuild_seconds {
+            Some(seconds) => seconds,
+            None => {
+                let seconds = self.time_rebuild(&shell.gpu);
+                *self.rebuild_seconds.insert(seconds)
+            }
+        };
         Some(self.builds(&shell.gpu) as f64 * seconds)
     }
 

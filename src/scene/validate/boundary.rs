@@ -71,11 +71,7 @@ fn boundary(b: &BoundarySpec, key: &str, bodies: &[BodySpec], dim: usize, span: 
             if let Some(until) = until {
                 positive(&format!("{key}.until"), *until)?;
             }
-            let largest = [vx, vy, vz]
-                .iter()
-                .filter_map(|v| v.map(f64::abs))
-                .fold(0.0, f64::max);
-            time_law(law, &format!("{key}.law"), span, largest)
+            time_law(law, &format!("{key}.law"), span)
         }
         Condition::Symmetry { normal } => {
             if dim != 3 && *normal == Axis::Z {
@@ -92,11 +88,11 @@ fn boundary(b: &BoundarySpec, key: &str, bodies: &[BodySpec], dim: usize, span: 
         }
         Condition::Traction { traction, law } => {
             vector(&format!("{key}.traction"), traction, dim)?;
-            time_law(law, &format!("{key}.law"), span, norm(traction))
+            time_law(law, &format!("{key}.law"), span)
         }
         Condition::BodyForce { acceleration, law } => {
             vector(&format!("{key}.acceleration"), acceleration, dim)?;
-            time_law(law, &format!("{key}.law"), span, norm(acceleration))
+            time_law(law, &format!("{key}.law"), span)
         }
         Condition::Pressure {
             pressure,
@@ -117,7 +113,7 @@ fn boundary(b: &BoundarySpec, key: &str, bodies: &[BodySpec], dim: usize, span: 
             finite(&format!("{key}.pressure"), *pressure)?;
             vector(&format!("{key}.center"), center, dim)?;
             positive(&format!("{key}.radius"), *radius)?;
-            time_law(law, &format!("{key}.law"), span, pressure.abs())
+            time_law(law, &format!("{key}.law"), span)
         }
         Condition::Displacement { ux, uy, uz } => components(
             &key,
@@ -196,47 +192,24 @@ fn components(key: &str, what: &str, given: [(&str, Option<f64>); 3], dim: usize
     Ok(())
 }
 
-/// The Euclidean norm of a vector of the case.
-fn norm(v: &[f64]) -> f64 {
-    v.iter().map(|x| x * x).sum::<f64>().sqrt()
-}
-
-/// Times at which a time law is sampled over a run: enough that a law that leaves the
-/// finite numbers over a stretch of 1/4096 of the run is caught.
-const LAW_SAMPLES: usize = 4096;
-
-/// A time law: positive durations and time constants, a table of finite points with
-/// non-decreasing times; and over the run, [0, `span`], finite values whose product with
-/// the condition's `magnitude` stays within f32's range, which the GPU computes in.
-fn time_law(law: &TimeLaw, key: &str, span: f64, magnitude: f64) -> Checked {
+/// A time law: its keys ([`time_law_keys`]), and a finite value at every time of the run,
+/// [0, `span`], sampled ([`TimeLaw::over_run`]). Its range on the GPU, f32's, is checked
+/// where a GPU run starts (`gpu::check_f32_run`).
+fn time_law(law: &TimeLaw, key: &str, span: f64) -> Checked {
     time_law_keys(law, key)?;
     if !(span.is_finite() && span > 0.0) {
         return Ok(()); // run.end_time's own check names it
     }
-    for k in 0..=LAW_SAMPLES {
-        let t = span * k as f64 / LAW_SAMPLES as f64;
-        let value = law.at(t);
-        if !value.is_finite() {
-            return fail(
-                key,
-                format!(
-                    "is {value} at t = {t:.4e} s, within the run (0 to run.end_time = {span:e} \
-                     s); a law must be a finite number at every time of the run"
-                ),
-            );
-        }
-        if (value * magnitude).abs() > f64::from(f32::MAX) {
-            return fail(
-                key,
-                format!(
-                    "is {value:.4e} at t = {t:.4e} s, which makes the condition {:.4e}, past \
-                     3.4e38, the largest f32 (the GPU's numbers) and any physical load",
-                    value * magnitude
-                ),
-            );
-        }
+    match law.over_run(span).find(|(_, value)| !value.is_finite()) {
+        Some((t, value)) => fail(
+            key,
+            format!(
+                "is {value} at t = {t:.4e} s, within the run (0 to run.end_time = {span:e} \
+                 s); a law must be a finite number at every time of the run"
+            ),
+        ),
+        None => Ok(()),
     }
-    Ok(())
 }
 
 /// The keys of a time law: positive durations and time constants, a table of finite
