@@ -368,6 +368,14 @@ fn resolve(case: &str) -> Result<PathBuf, String> {
     ))
 }
 
+/// [`resolve`], its error said on stderr with exit code 2.
+fn resolved(case: &str) -> Result<PathBuf, ExitCode> {
+    resolve(case).map_err(|e| {
+        eprintln!("error: {e}");
+        ExitCode::from(EXIT_INPUT)
+    })
+}
+
 /// Where and what a run writes.
 struct Output {
     /// The output folder (default: out/<case name>).
@@ -530,12 +538,9 @@ fn bench_command(
     );
     let dash = || "–".to_string();
     for name in cases {
-        let path = match resolve(name) {
+        let path = match resolved(name) {
             Ok(path) => path,
-            Err(e) => {
-                eprintln!("error: {e}");
-                return ExitCode::from(EXIT_INPUT);
-            }
+            Err(code) => return code,
         };
         for &target in particles {
             let result = Scene::load(&path, set)
@@ -609,12 +614,9 @@ fn bench_command(
 /// does before its first step; exit 2 at the first case that fails.
 fn check_command(cases: &[String], backend: Backend, set: &[String], limits: &Limits) -> ExitCode {
     for name in cases {
-        let path = match resolve(name) {
+        let path = match resolved(name) {
             Ok(path) => path,
-            Err(e) => {
-                eprintln!("error: {e}");
-                return ExitCode::from(EXIT_INPUT);
-            }
+            Err(code) => return code,
         };
         let built = Scene::load(&path, set)
             .map_err(RunError::from)
