@@ -238,32 +238,27 @@ impl Parser<'_> {
         Ok(())
     }
 
-    fn sum(&mut self) -> Result<(), Error> {
-        self.product()?;
-        loop {
-            let op = match self.peek() {
-                Some('+') => Op::Add,
-                Some('-') => Op::Subtract,
-                _ => return Ok(()),
-            };
+    /// A left-associative chain `operand (op operand)…` of the operators `ops`.
+    fn chain(
+        &mut self,
+        ops: &[(char, Op)],
+        operand: fn(&mut Self) -> Result<(), Error>,
+    ) -> Result<(), Error> {
+        operand(self)?;
+        while let Some(&(_, op)) = ops.iter().find(|(c, _)| self.peek() == Some(*c)) {
             self.at += 1;
-            self.product()?;
+            operand(self)?;
             self.program.push(op);
         }
+        Ok(())
+    }
+
+    fn sum(&mut self) -> Result<(), Error> {
+        self.chain(&[('+', Op::Add), ('-', Op::Subtract)], Self::product)
     }
 
     fn product(&mut self) -> Result<(), Error> {
-        self.signed()?;
-        loop {
-            let op = match self.peek() {
-                Some('*') => Op::Multiply,
-                Some('/') => Op::Divide,
-                _ => return Ok(()),
-            };
-            self.at += 1;
-            self.signed()?;
-            self.program.push(op);
-        }
+        self.chain(&[('*', Op::Multiply), ('/', Op::Divide)], Self::signed)
     }
 
     fn signed(&mut self) -> Result<(), Error> {

@@ -160,23 +160,27 @@ pub fn not_simple(vertices: &[Vec<f64>]) -> Option<String> {
     None
 }
 
+/// An L-shape, three quarters of the 2 m square, its reflex vertex at (1, 1): a test
+/// polygon.
+#[cfg(test)]
+pub(crate) const L_SHAPE: [[f64; 2]; 6] = [
+    [0.0, 0.0],
+    [2.0, 0.0],
+    [2.0, 1.0],
+    [1.0, 1.0],
+    [1.0, 2.0],
+    [0.0, 2.0],
+];
+
+/// The vertices of a test polygon as a case file gives them.
+#[cfg(test)]
+pub(crate) fn polygon(points: &[[f64; 2]]) -> Vec<Vec<f64>> {
+    points.iter().map(|p| p.to_vec()).collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// An L-shape, three quarters of the 2 m square, its reflex vertex at (1, 1).
-    const L_SHAPE: [[f64; 2]; 6] = [
-        [0.0, 0.0],
-        [2.0, 0.0],
-        [2.0, 1.0],
-        [1.0, 1.0],
-        [1.0, 2.0],
-        [0.0, 2.0],
-    ];
-
-    fn polygon(points: &[[f64; 2]]) -> Vec<Vec<f64>> {
-        points.iter().map(|p| p.to_vec()).collect()
-    }
 
     #[test]
     fn areas_of_an_l_shape_and_a_triangle_in_either_orientation() {

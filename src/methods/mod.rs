@@ -267,55 +267,16 @@ pub fn supporting(feature: Feature) -> impl Iterator<Item = &'static str> {
 /// The `[method]` table of a case: the keys every method reads, and the method's spec.
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct MethodTable {
-    pub kernel: KernelKind,
-    /// Smoothing length over particle spacing (1 for a method without a kernel, whose
-    /// smoothing length nothing reads).
-    pub h_over_dx: f64,
-    pub correction: CorrectionKind,
-    pub integrator: IntegratorKind,
-    /// Fixed time step [s]; exactly one of `dt` and `cfl` is given.
-    pub dt: Option<f64>,
-    /// Courant number of the adaptive step (each method states its signal speed).
-    pub cfl: Option<f64>,
+    /// The common keys, with what the registry resolves of the method for the layers
+    /// below it.
+    #[serde(flatten)]
+    pub keys: MethodKeys,
     #[serde(flatten)]
     pub spec: MethodSpec,
     /// Keys of other methods found in the table (well-typed for those methods), which
     /// validation reports with the methods that read them.
     #[serde(skip)]
     pub foreign: Vec<String>,
-}
-
-impl MethodTable {
-    /// The keys every method reads, with what the registry resolves of the method for
-    /// the layers below it.
-    pub fn keys(&self) -> MethodKeys {
-        let entry = self.spec.entry();
-        MethodKeys {
-            name: entry.name,
-            kernel: self.kernel,
-            h_over_dx: self.h_over_dx,
-            correction: self.correction,
-            integrator: self.integrator,
-            dt: self.dt,
-            cfl: self.cfl,
-            static_default: entry.features.contains(&Feature::StaticDefault),
-            lattice_cells: self.spec.lattice_cells(),
-        }
-    }
-
-    /// The table of a method's common keys and spec, as a case file gives it.
-    pub fn of(keys: &MethodKeys, spec: &MethodSpec) -> Self {
-        Self {
-            kernel: keys.kernel,
-            h_over_dx: keys.h_over_dx,
-            correction: keys.correction,
-            integrator: keys.integrator,
-            dt: keys.dt,
-            cfl: keys.cfl,
-            spec: spec.clone(),
-            foreign: Vec::new(),
-        }
-    }
 }
 
 /// The spec a system is built from ([`crate::reference::Build::Spec`]), as a case's
@@ -499,13 +460,19 @@ impl MethodTable {
             None => return Err("missing field `h_over_dx`".into()),
         };
         let spec = MethodSpec::deserialize(Value::Table(own)).map_err(|e| e.to_string())?;
-        Ok(Self {
+        let keys = MethodKeys {
+            name: entry.name,
             kernel: c.kernel,
             h_over_dx,
             correction: c.correction,
             integrator: c.integrator,
             dt: c.dt,
             cfl: c.cfl,
+            static_default: entry.features.contains(&Feature::StaticDefault),
+            lattice_cells: spec.lattice_cells(),
+        };
+        Ok(Self {
+            keys,
             spec,
             foreign,
         })

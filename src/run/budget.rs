@@ -247,6 +247,7 @@ fn particle_key(case: &Scene, estimate: &Estimate) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::case::polygon::{L_SHAPE, polygon};
     use crate::case::{Lattice, discretise};
     use crate::scene::validate::minimal_case;
     use crate::tensor::{D2, D3};
@@ -270,17 +271,7 @@ mod tests {
         // An L-shape, three quarters of its 2 m square: 21² × 3/4 = 330.75 against the
         // 21 × 11 + 11 × 10 = 341 points it keeps (its edges' included), within 10 %.
         c.bodies[0].geometry = Shape::Polygon {
-            vertices: [
-                [0.0, 0.0],
-                [2.0, 0.0],
-                [2.0, 1.0],
-                [1.0, 1.0],
-                [1.0, 2.0],
-                [0.0, 2.0],
-            ]
-            .iter()
-            .map(|v| v.to_vec())
-            .collect(),
+            vertices: polygon(&L_SHAPE),
             volumes: None,
         };
         let n = discretise::<D2>(&c).unwrap().x0.len() as f64;

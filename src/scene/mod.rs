@@ -34,7 +34,7 @@ pub struct Scene {
 impl Scene {
     /// The scene of a case read with the registry's `[method]` table.
     fn new(case: Case<MethodTable>) -> Self {
-        let keys = case.method.keys();
+        let keys = case.method.keys.clone();
         let (case, table) = case.with_method(keys);
         Self {
             case,
@@ -46,7 +46,11 @@ impl Scene {
     /// The case with its whole `[method]` table, the method's own keys with the common
     /// ones, as the run's summary records it.
     pub fn resolved(&self) -> Case<MethodTable> {
-        let table = MethodTable::of(&self.case.method, &self.spec);
+        let table = MethodTable {
+            keys: self.case.method.clone(),
+            spec: self.spec.clone(),
+            foreign: Vec::new(),
+        };
         self.case.clone().with_method(table).0
     }
 

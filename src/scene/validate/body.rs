@@ -1,9 +1,8 @@
 //! `[[body]]`: names, geometries and holes; the initial fields are checked in `fields`.
 
 use super::fields::{displacement, velocity};
-use super::{Checked, fail, non_negative, positive, unique_name, vector};
+use super::{Checked, fail, non_negative, positive, unique_names, vector};
 use crate::case::{BodySpec, Case, Hole, Lattice, MeshNodes, RingLattice, Shape, Volumes};
-use std::collections::HashSet;
 
 pub(super) fn check(bodies: &[BodySpec], dim: usize) -> Checked {
     if bodies.is_empty() {
@@ -12,16 +11,14 @@ pub(super) fn check(bodies: &[BodySpec], dim: usize) -> Checked {
             "the case has no body; add at least one [[body]] table with a name and a geometry",
         );
     }
-    let mut seen = HashSet::new();
+    unique_names(
+        bodies,
+        "body",
+        |body| &body.name,
+        "body names label output fields and boundary regions",
+    )?;
     for (i, body) in bodies.iter().enumerate() {
         let key = format!("body.{i}");
-        unique_name(
-            &key,
-            &body.name,
-            &mut seen,
-            "body",
-            "body names label output fields and boundary regions",
-        )?;
         shape(&body.geometry, &format!("{key}.geometry"), dim)?;
         for (k, hole) in body.holes.iter().enumerate() {
             self::hole(hole, &body.geometry, &format!("{key}.holes.{k}"), dim)?;

@@ -2,8 +2,8 @@
 //! that become reaction columns.
 
 use super::{
-    Checked, expression_constants, fail, finite, identifier, non_negative, positive, toml_name,
-    vector,
+    Checked, expression_constants, fail, finite, identifier, non_negative, only_in_3d, positive,
+    toml_name, vector,
 };
 use crate::case::{
     Axis, BodySpec, BoundarySpec, Case, Condition, Observer, Region, Solution, TimeLaw,
@@ -75,13 +75,11 @@ fn boundary(b: &BoundarySpec, key: &str, bodies: &[BodySpec], dim: usize, span: 
         }
         Condition::Symmetry { normal } => {
             if dim != 3 && *normal == Axis::Z {
-                return fail(
+                return only_in_3d(
                     format!("{key}.normal"),
-                    format!(
-                        "\"{}\" exists only in 3D, but the case has dimension = {dim}; in 2D \
-                         the normal is \"x\" or \"y\"",
-                        toml_name(normal)
-                    ),
+                    dim,
+                    Some(&toml_name(normal)),
+                    "in 2D the normal is \"x\" or \"y\"",
                 );
             }
             Ok(())
@@ -133,13 +131,7 @@ fn boundary(b: &BoundarySpec, key: &str, bodies: &[BodySpec], dim: usize, span: 
                 );
             }
             if let Some(z) = components.iter().find(|a| a.index() >= dim) {
-                return fail(
-                    format!("{key}.components"),
-                    format!(
-                        "\"{}\" exists only in 3D, but the case has dimension = {dim}",
-                        toml_name(z)
-                    ),
-                );
+                return only_in_3d(format!("{key}.components"), dim, Some(&toml_name(z)), "");
             }
             Ok(())
         }
@@ -176,12 +168,11 @@ fn components(key: &str, what: &str, given: [(&str, Option<f64>); 3], dim: usize
     if dim != 3
         && let Some(c) = given[2].1
     {
-        return fail(
+        return only_in_3d(
             format!("{key}.{}", names[2]),
-            format!(
-                "exists only in 3D, but the case has dimension = {dim}; got {c:?}; in 2D give {} and/or {}",
-                names[0], names[1]
-            ),
+            dim,
+            None,
+            &format!("got {c:?}; in 2D give {} and/or {}", names[0], names[1]),
         );
     }
     for (name, c) in given {
@@ -274,10 +265,7 @@ fn solution(s: &Solution, key: &str, dim: usize) -> Checked {
         }
         Solution::UniaxialStress { stress, axis } => {
             if axis.index() >= dim {
-                return fail(
-                    format!("{key}.axis"),
-                    format!("\"z\" exists only in 3D, but the case has dimension = {dim}"),
-                );
+                return only_in_3d(format!("{key}.axis"), dim, Some("z"), "");
             }
             finite(&format!("{key}.stress"), stress)
         }
@@ -307,12 +295,11 @@ pub(super) fn region(r: &Region, key: &str, bodies: &[BodySpec], dim: usize) -> 
             let Some(v) = bound else { continue };
             let bound_key = format!("{key}.{axis}_{end}");
             if k >= dim {
-                return fail(
+                return only_in_3d(
                     bound_key,
-                    format!(
-                        "exists only in 3D, but the case has dimension = {dim}; got {v:?}; in \
-                         2D bound the region with x_min, x_max, y_min, y_max"
-                    ),
+                    dim,
+                    None,
+                    &format!("got {v:?}; in 2D bound the region with x_min, x_max, y_min, y_max"),
                 );
             }
             finite(&bound_key, v)?;

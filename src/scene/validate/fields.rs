@@ -1,7 +1,8 @@
 //! A body's initial fields: `initial_velocity` and `initial_displacement`.
 
 use super::{
-    Checked, direction, expression_constants, fail, feature, finite, positive, toml_name, vector,
+    Checked, direction, expression_constants, fail, feature, finite, only_in_3d, positive,
+    toml_name, vector,
 };
 use crate::case::{Case, DisplacementField, VelocityField};
 use crate::methods::Feature;
@@ -38,12 +39,7 @@ pub(super) fn displacement(case: &Case, field: &DisplacementField, key: &str) ->
         DisplacementField::Linear { gradient } => gradient_rows(key, gradient, dim, "displacement"),
         DisplacementField::Expression { uz, constants, .. } => {
             if dim != 3 && uz.is_some() {
-                return fail(
-                    format!("{key}.uz"),
-                    format!(
-                        "exists only in 3D, but the case has dimension = {dim}; give ux and uy"
-                    ),
-                );
+                return only_in_3d(format!("{key}.uz"), dim, None, "give ux and uy");
             }
             expression_constants(key, constants, &["x", "y", "z"])?;
             field.expressions(key, dim).map(|_| ())
@@ -131,12 +127,7 @@ pub(super) fn velocity(field: &VelocityField, key: &str, dim: usize) -> Checked 
         }
         VelocityField::Expression { vz, constants, .. } => {
             if dim != 3 && vz.is_some() {
-                return fail(
-                    format!("{key}.vz"),
-                    format!(
-                        "exists only in 3D, but the case has dimension = {dim}; give vx and vy"
-                    ),
-                );
+                return only_in_3d(format!("{key}.vz"), dim, None, "give vx and vy");
             }
             expression_constants(key, constants, &["x", "y", "z"])?;
             match field.expressions(key, dim) {

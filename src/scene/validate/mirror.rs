@@ -1,6 +1,6 @@
 //! `[[mirror]]`: symmetry and skew-symmetry planes closed by ghost particles.
 
-use super::{Checked, fail, feature, finite, toml_name};
+use super::{Checked, fail, feature, finite, only_in_3d, toml_name};
 use crate::case::Case;
 use crate::methods::Feature;
 
@@ -18,11 +18,11 @@ pub(super) fn check(case: &Case) -> Checked {
             "use a [[boundary]] with a `symmetry` condition instead",
         )?;
         if mirror.normal.index() >= dim {
-            return fail(
+            return only_in_3d(
                 format!("{key}.normal"),
-                format!(
-                    "\"z\" exists only in 3D, but the case has dimension = {dim}; use \"x\" or \"y\""
-                ),
+                dim,
+                Some("z"),
+                "use \"x\" or \"y\"",
             );
         }
         finite(&format!("{key}.at"), mirror.at)?;

@@ -142,25 +142,39 @@ fn identifier(key: &str, value: &str, what: &str) -> Checked {
     Ok(())
 }
 
-/// The name of a table of one `kind` (`body`, `probe`, `section`) below `key`: an
-/// identifier (`becomes` says what it becomes) that no earlier table of the kind has.
-fn unique_name<'a>(
-    key: &str,
-    name: &'a str,
-    seen: &mut HashSet<&'a str>,
+/// Checks the names of the tables `kind.0`, `kind.1`, …: identifiers (the names become
+/// `becomes`), each unique among them.
+fn unique_names<'a, T>(
+    items: &'a [T],
     kind: &str,
+    name: impl Fn(&'a T) -> &'a str,
     becomes: &str,
 ) -> Checked {
-    identifier(&format!("{key}.name"), name, becomes)?;
-    if !seen.insert(name) {
-        return fail(
-            format!("{key}.name"),
-            format!(
-                "{name:?} is already the name of an earlier {kind}; {kind} names must be unique"
-            ),
-        );
+    let mut seen = HashSet::new();
+    for (i, item) in items.iter().enumerate() {
+        let (key, name) = (format!("{kind}.{i}.name"), name(item));
+        identifier(&key, name, becomes)?;
+        if !seen.insert(name) {
+            return fail(
+                key,
+                format!(
+                    "{name:?} is already the name of an earlier {kind}; {kind} names must be unique"
+                ),
+            );
+        }
     }
     Ok(())
+}
+
+/// Refuses `key` in a case of fewer than three dimensions: it (or its value `value`)
+/// exists only in 3D; `advice` says what a 2D case gives instead (empty: nothing to add).
+fn only_in_3d(key: String, dim: usize, value: Option<&str>, advice: &str) -> Checked {
+    let what = value.map_or(String::new(), |v| format!("\"{v}\" "));
+    let mut message = format!("{what}exists only in 3D, but the case has dimension = {dim}");
+    if !advice.is_empty() {
+        message = format!("{message}; {advice}");
+    }
+    fail(key, message)
 }
 
 fn top_level(case: &Case) -> Checked {

@@ -1,7 +1,7 @@
 //! `[output]` (frames, series, observers, checks), `[[probe]]` and `[[section]]`.
 
 use super::boundary::region;
-use super::{Checked, fail, finite, positive, toml_name, unique_name, vector};
+use super::{Checked, fail, finite, only_in_3d, positive, toml_name, unique_names, vector};
 use crate::case::{Case, Observer, OutputSpec, ProbeSpec, Region};
 use std::collections::HashSet;
 
@@ -100,36 +100,34 @@ pub(super) fn front_observers(case: &Case) -> Checked {
 }
 
 pub(super) fn probes(probes: &[ProbeSpec], dim: usize) -> Checked {
-    let mut seen = HashSet::new();
+    unique_names(
+        probes,
+        "probe",
+        |probe| &probe.name,
+        "probe names become CSV column prefixes",
+    )?;
     for (i, probe) in probes.iter().enumerate() {
         let key = format!("probe.{i}");
-        unique_name(
-            &key,
-            &probe.name,
-            &mut seen,
-            "probe",
-            "probe names become CSV column prefixes",
-        )?;
         vector(&format!("{key}.position"), &probe.position, dim)?;
     }
     Ok(())
 }
 pub(super) fn sections(case: &Case) -> Checked {
     let dim = case.dim();
-    let mut seen = HashSet::new();
+    unique_names(
+        &case.sections,
+        "section",
+        |section| &section.name,
+        "section names become CSV column prefixes",
+    )?;
     for (i, section) in case.sections.iter().enumerate() {
         let key = format!("section.{i}");
-        unique_name(
-            &key,
-            &section.name,
-            &mut seen,
-            "section",
-            "section names become CSV column prefixes",
-        )?;
         if section.normal.index() >= dim {
-            return fail(
+            return only_in_3d(
                 format!("{key}.normal"),
-                "is \"z\", which exists only in 3D; in 2D use \"x\" or \"y\"",
+                dim,
+                Some("z"),
+                "use \"x\" or \"y\"",
             );
         }
         finite(&format!("{key}.at"), section.at)?;
