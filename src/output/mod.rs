@@ -137,6 +137,20 @@ pub fn lock_folder(dir: &Path) -> io::Result<()> {
     fs::metadata(dir).map(|_| ())
 }
 
+/// The bytes free to an unprivileged writer on the file system of `dir`; None where the
+/// system does not say.
+#[cfg(unix)]
+pub fn free_bytes(dir: &Path) -> Option<u64> {
+    let stat = rustix::fs::statvfs(dir).ok()?;
+    Some(stat.f_bavail.saturating_mul(stat.f_frsize))
+}
+
+/// Elsewhere the free space is not looked up.
+#[cfg(not(unix))]
+pub fn free_bytes(_dir: &Path) -> Option<u64> {
+    None
+}
+
 /// Formats `x` so that it parses back to the same bits, in plain notation for
 /// moderate magnitudes and in scientific notation otherwise
 /// (`0.25`, `1e-9`, `6.02214076e23`, `NaN`, `inf`).

@@ -106,12 +106,36 @@ impl std::fmt::Display for CheckResult {
     }
 }
 
-/// Writes `summary` to `path` as pretty-printed JSON, atomically.
+/// Blanks after the JSON of a `"running"` summary [bytes]: room on the disk that its final
+/// version, a few kilobytes longer at most (the invariants, the energy balance, the checks
+/// and the failure), can take in place when the disk is full.
+const RESERVE: usize = 64 << 10;
+
+/// Writes `summary` to `path` as pretty-printed JSON, atomically. Where the new copy does
+/// not fit (a full disk), it overwrites the old one in place instead, within the room the
+/// running summary reserved ([`RESERVE`]), so that a run that fails for want of space
+/// still ends with its summary saying why.
 pub fn write_summary(path: &Path, summary: &RunSummary) -> io::Result<()> {
-    write_atomically(path, |w| {
-        serde_json::to_writer_pretty(&mut *w, summary)?;
-        w.write_all(b"\n")
-    })
+    let mut text = serde_json::to_vec_pretty(summary)?;
+    text.push(b'\n');
+    if summary.status == "running" {
+        text.resize(text.len() + RESERVE, b' ');
+    }
+    write_atomically(path, |w| w.write_all(&text))
+        .or_else(|error| overwrite_within(path, &text).map_err(|_| error))
+}
+
+/// Writes `text` over the regular file `path` from its start and cuts the file after it,
+/// when `text` is no longer than the file: the write then needs no new room on the disk.
+fn overwrite_within(path: &Path, text: &[u8]) -> io::Result<()> {
+    let meta = std::fs::symlink_metadata(path)?;
+    if !meta.is_file() || meta.len() < text.len() as u64 {
+        return Err(io::ErrorKind::StorageFull.into());
+    }
+    let mut file = std::fs::OpenOptions::new().write(true).open(path)?;
+    file.write_all(text)?;
+    file.set_len(text.len() as u64)?;
+    file.sync_data()
 }
 
 fn finite_or_none(x: f64) -> Option<f64> {
@@ -215,6 +239,37 @@ mod tests {
 
         assert!(!dir.path().join("summary.json.tmp").exists());
         assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn a_running_summary_reserves_the_room_its_failure_takes_in_place() {
+        let (_dir, path) = scratch("summary.json");
+        let mut summary = sample();
+        summary.status = "running".into();
+        write_summary(&path, &summary).unwrap();
+        let reserved = fs::metadata(&path).unwrap().len();
+        let back: RunSummary = serde_json::from_str(&fs::read_to_string(&path).unwrap()).unwrap();
+        assert_eq!(
+            back, summary,
+            "the blanks after the JSON are white space it allows"
+        );
+
+        // The failed summary, with a long reason, fits within the running one's bytes:
+        // written in place (what a full disk leaves), it reads back whole.
+        summary.status = "failed".into();
+        summary.failure = Some("output frame_000017.vtu: No space left on device; ".repeat(20));
+        let mut text = serde_json::to_vec_pretty(&summary).unwrap();
+        text.push(b'\n');
+        overwrite_within(&path, &text).unwrap();
+        assert!(fs::metadata(&path).unwrap().len() < reserved);
+        let back: RunSummary = serde_json::from_str(&fs::read_to_string(&path).unwrap()).unwrap();
+        assert_eq!(back, summary);
+
+        // A text longer than the file is refused, the file left as it was.
+        let long = vec![b' '; reserved as usize + 1];
+        let before = fs::read(&path).unwrap();
+        assert!(overwrite_within(&path, &long).is_err());
+        assert_eq!(fs::read(&path).unwrap(), before);
     }
 
     #[test]

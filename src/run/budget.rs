@@ -5,6 +5,7 @@
 
 use crate::case::{CaseError, Shape, estimate_particles};
 use crate::scene::Scene;
+use std::path::Path;
 
 /// Caps on what one run may ask for (`--max-particles`, `--max-steps`).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -62,8 +63,12 @@ pub struct Estimate {
     /// Device memory of a GPU run [bytes] (its host share is `cpu_bytes`).
     pub device_bytes: f64,
     /// Steps to the end time: exact for a fixed Δt; for a CFL step from c_p alone (the
-    /// velocities only shorten it), checked again once the first Δt is known.
+    /// velocities only shorten it), then from the engine's first Δt once it is built
+    /// ([`crate::run::check`]).
     pub steps: f64,
+    /// Whether the step is the CFL step, which follows the state: the count is then that of
+    /// the first Δt, and an impact that compresses and speeds the body up takes more.
+    pub adaptive: bool,
     /// Lattice points the sampler visits (the bodies' bounding boxes).
     pub visited: f64,
 }
@@ -87,6 +92,7 @@ impl Estimate {
             cpu_bytes: particles * CPU_PARTICLE_BYTES[k] + pairs * CPU_PAIR_BYTES[k],
             device_bytes: particles * DEVICE_PARTICLE_BYTES[k] + pairs * DEVICE_PAIR_BYTES[k],
             steps: case.run.end_time / first_step(case),
+            adaptive: case.method.dt.is_none(),
             bodies,
             visited,
         })
@@ -102,12 +108,17 @@ impl Estimate {
     pub fn describe(&self) -> String {
         format!(
             "about {:.3e} particles, {:.3e} neighbour pairs, {} on the CPU, {} on the GPU \
-             (host and device), {:.3e} steps",
+             (host and device), {:.3e} steps{}",
             self.particles,
             self.pairs,
             gib(self.cpu_bytes),
             gib(self.gpu_bytes()),
-            self.steps
+            self.steps,
+            if self.adaptive {
+                " at the first Δt (the CFL step follows the state: an impact takes more)"
+            } else {
+                ""
+            }
         )
     }
 }
@@ -224,6 +235,43 @@ pub fn check_steps(case: &Scene, steps: f64, dt: f64, limits: &Limits) -> Result
             case.run.end_time, limits.max_steps
         ),
     ))
+}
+
+/// The share of the output folder's free space past which the frames still to come draw
+/// a warning: past half, the run may leave too little room for anything else.
+pub const ROOM_WARNING: f64 = 0.5;
+
+/// Refuses the frames of case file `file` that will not fit: `bytes` of them still to
+/// come into the output folder `dir` with `free` bytes free. Ok(Some(warning)) past
+/// [`ROOM_WARNING`] of it.
+pub fn check_room(
+    file: &Path,
+    bytes: u64,
+    free: u64,
+    dir: &Path,
+) -> Result<Option<String>, CaseError> {
+    let gib = |b: u64| b as f64 / f64::from(1u32 << 30);
+    let what = format!(
+        "the frames still to come take about {:.3} GiB, and {} has {:.3} GiB free",
+        gib(bytes),
+        dir.display(),
+        gib(free)
+    );
+    let advice = "raise output.frame_interval, shorten run.end_time, or write into another \
+                  folder (--out)";
+    if bytes > free {
+        return Err(CaseError::Invalid {
+            file: file.to_path_buf(),
+            key: "output.frame_interval".into(),
+            message: format!("{what}; they will not fit: {advice}"),
+        });
+    }
+    Ok((bytes as f64 > ROOM_WARNING * free as f64).then(|| {
+        format!(
+            "{what}: more than {:.0} % of it; {advice}",
+            100.0 * ROOM_WARNING
+        )
+    }))
 }
 
 /// The key that sets the particle count: the points file of the largest body when it
@@ -401,5 +449,20 @@ mod tests {
         assert_eq!(key(&c), "method.cfl");
         c.method.cfl = Some(0.3);
         check(&c, false, &limits).unwrap();
+    }
+
+    #[test]
+    fn frames_past_the_free_space_are_refused_and_past_half_of_it_warned() {
+        // At ROOM_WARNING = 1/2: 40 of 100 bytes pass quietly, 60 warn, 101 are refused
+        // with the key that sets the frame count.
+        let (file, dir) = (Path::new("case.toml"), Path::new("out"));
+        assert_eq!(check_room(file, 40, 100, dir).unwrap(), None);
+        let warning = check_room(file, 60, 100, dir).unwrap().unwrap();
+        assert!(warning.contains("50 %") && warning.contains("output.frame_interval"));
+        let refusal = check_room(file, 101, 100, dir).unwrap_err().to_string();
+        assert!(
+            refusal.contains("output.frame_interval") && refusal.contains("case.toml"),
+            "{refusal}"
+        );
     }
 }

@@ -106,27 +106,9 @@ pub fn drive<D: Dim, E: Engine<D>>(
         dt_first,
         indicators,
     };
-    let (clock, next_checkpoint) = match &resumed {
-        Some(p) => {
-            let clock = Clock {
-                t: p.t,
-                step: p.step,
-                dt: p.dt,
-                booked: engine.booked(),
-                e0: p.e0,
-                pseudo_time: engine.pseudo_time().unwrap_or_default(),
-            };
-            (clock, p.next_checkpoint)
-        }
-        None => (
-            run.first_outputs(engine, callbacks)?,
-            case.run.checkpoint_interval.unwrap_or(f64::INFINITY),
-        ),
-    };
-    for callback in callbacks.iter_mut() {
-        callback.on_start(engine, &clock);
-    }
-    let ending = run.steps(engine, callbacks, clock, next_checkpoint, &running.backend)?;
+    let ending = run
+        .from(engine, callbacks, resumed.as_ref(), &running.backend)
+        .map_err(|error| failed(&summary_path, &running, started, error))?;
     let wall = started.elapsed().as_secs_f64();
     let mut end = End {
         engine,
@@ -144,6 +126,24 @@ pub fn drive<D: Dim, E: Engine<D>>(
     }
     write_summary(&summary_path, &summary).map_err(output_error(&summary_path))?;
     ending.result(summary, opts)
+}
+
+/// The error that ends a run after its running summary, which it makes say "failed" and
+/// why (written where it can be: the error is what the run reports either way).
+fn failed(
+    path: &std::path::Path,
+    running: &RunSummary,
+    started: Instant,
+    error: RunError,
+) -> RunError {
+    let summary = RunSummary {
+        status: "failed".into(),
+        failure: Some(error.to_string()),
+        wall_seconds: started.elapsed().as_secs_f64(),
+        ..running.clone()
+    };
+    let _ = write_summary(path, &summary);
+    error
 }
 
 /// The checkpoint's progress of a resumed run, with its state restored into `engine`;
@@ -236,6 +236,38 @@ struct Ending {
 }
 
 impl<D: Dim> Scheduler<'_, D> {
+    /// Runs from the start (its outputs at t = 0 first) or from the checkpoint's
+    /// `resumed` progress to the end time, a failure or a stop.
+    fn from(
+        &self,
+        engine: &mut dyn Engine<D>,
+        callbacks: &mut [&mut dyn Callback<D>],
+        resumed: Option<&checkpoint::Progress>,
+        backend: &str,
+    ) -> Result<Ending, RunError> {
+        let (clock, next_checkpoint) = match resumed {
+            Some(p) => {
+                let clock = Clock {
+                    t: p.t,
+                    step: p.step,
+                    dt: p.dt,
+                    booked: engine.booked(),
+                    e0: p.e0,
+                    pseudo_time: engine.pseudo_time().unwrap_or_default(),
+                };
+                (clock, p.next_checkpoint)
+            }
+            None => (
+                self.first_outputs(engine, callbacks)?,
+                self.case.run.checkpoint_interval.unwrap_or(f64::INFINITY),
+            ),
+        };
+        for callback in callbacks.iter_mut() {
+            callback.on_start(engine, &clock);
+        }
+        self.steps(engine, callbacks, clock, next_checkpoint, backend)
+    }
+
     /// The outputs at t = 0 of a run that starts: its clock, with E0 of the state.
     fn first_outputs(
         &self,

@@ -1,11 +1,12 @@
 //! Output callbacks of the driver: VTU frames at their interval and the PVD index.
 
 use super::batch::{Batch, Callback, Needs};
+use super::budget::check_room;
 use super::{RunError, RunOptions, checkpoint, output_error};
 use crate::engine::BlowUp;
 use crate::material::von_mises;
 use crate::observe::{Clock, IndicatorFields, Snapshot};
-use crate::output::{Field, FieldData, Mesh, PvdIndex, write_vtu};
+use crate::output::{Field, FieldData, Mesh, PvdIndex, free_bytes, write_vtu};
 use crate::pressure::pressures;
 use crate::scene::Scene;
 use crate::tensor::Dim;
@@ -19,6 +20,11 @@ pub(super) struct Frames {
     interval: Option<f64>,
     next: f64,
     count: usize,
+    /// The size of the last frame written [bytes].
+    last_bytes: Option<u64>,
+    /// The case file and end time, for the check that the frames fit on the disk.
+    file: PathBuf,
+    end_time: f64,
     constants: FrameConstants,
 }
 
@@ -58,6 +64,9 @@ impl Frames {
             interval: case.output.frame_interval,
             next: 0.0,
             count: 0,
+            last_bytes: None,
+            file: case.file.clone(),
+            end_time: case.run.end_time,
             constants: FrameConstants::of(case),
         })
     }
@@ -132,12 +141,44 @@ impl Frames {
         let indicators = [eta.as_slice(), deviation];
         write_frame::<D>(&path, snap, t, indicators, self.constants)
             .map_err(output_error(&path))?;
+        self.last_bytes = std::fs::metadata(&path).ok().map(|m| m.len());
         index
             .push(t, &file)
             .map_err(output_error(&self.dir.join(format!("{}.pvd", self.name))))?;
         self.count += 1;
         if let Some(interval) = self.interval {
             self.next = next_frame_time(self.next, interval, t);
+        }
+        Ok(())
+    }
+}
+
+impl Frames {
+    /// The bytes of the frames still to come up to the end time in steps of `dt`, by the
+    /// size of the last one written (each holds the same fields): those at the
+    /// interval's times, at most one a step, and the last one at the end. None before the
+    /// first frame.
+    fn bytes_to_come(&self, dt: f64) -> Option<u64> {
+        let last = self.last_bytes?;
+        let at_interval = match self.interval {
+            Some(interval) if self.next <= self.end_time => {
+                let per_interval = ((self.end_time - self.next) / interval).floor() + 1.0;
+                per_interval.min((self.end_time / dt).ceil())
+            }
+            _ => 0.0,
+        };
+        // f64 to u64 saturates: a count past u64 is refused all the same.
+        Some(last.saturating_mul((at_interval + 1.0) as u64))
+    }
+
+    /// Refuses frames that will not fit in the output folder's free space and warns when
+    /// they take most of it (`budget::check_room`), once the first frame gives their size.
+    fn check_room(&self, dt: f64) -> Result<(), RunError> {
+        let (Some(bytes), Some(free)) = (self.bytes_to_come(dt), free_bytes(&self.dir)) else {
+            return Ok(());
+        };
+        if let Some(warning) = check_room(&self.file, bytes, free, &self.dir)? {
+            eprintln!("warning: {}: {warning}", self.file.display());
         }
         Ok(())
     }
@@ -159,6 +200,9 @@ impl<D: Dim> Callback<D> for Frames {
     fn after_batch(&mut self, batch: &mut Batch<D>) -> Result<Option<BlowUp>, RunError> {
         if let (Some((snap, _)), Some(fields)) = (batch.state(), batch.fields()) {
             self.write(snap, batch.clock.t, batch.last, fields)?;
+        }
+        if batch.start {
+            self.check_room(batch.clock.dt)?;
         }
         Ok(None)
     }

@@ -158,24 +158,29 @@ pub fn check(
     backend: Backend,
     limits: &Limits,
 ) -> Result<(Estimate, usize), RunError> {
-    let estimate = budget::check(case, may_use_gpu(case, backend), limits)?;
-    let particles = match case.dimension {
+    let mut estimate = budget::check(case, may_use_gpu(case, backend), limits)?;
+    let (particles, dt_first) = match case.dimension {
         2 => built::<D2>(case, backend, limits)?,
         _ => built::<D3>(case, backend, limits)?,
     };
+    estimate.steps = case.run.end_time / dt_first;
     Ok((estimate, particles))
 }
 
 /// Builds a case's engine and its series' observers (probes, checks) as `run` does, and
-/// checks the step count with the first Δt; the particle count.
-fn built<D: EngineDim>(case: &Scene, backend: Backend, limits: &Limits) -> Result<usize, RunError> {
+/// checks the step count with the first Δt; the particle count and the first Δt.
+fn built<D: EngineDim>(
+    case: &Scene,
+    backend: Backend,
+    limits: &Limits,
+) -> Result<(usize, f64), RunError> {
     let mut engine = engine::<D>(case, backend)?;
     let dt_first = drive::time_step(case, &mut engine);
     budget::check_steps(case, case.run.end_time / dt_first, dt_first, limits)?;
     let columns = engine.columns();
     let constrained = engine.constrained().to_vec();
     crate::observe::Observers::new::<D>(case, &engine.snapshot(), &constrained, columns)?;
-    Ok(engine.reference().len())
+    Ok((engine.reference().len(), dt_first))
 }
 
 /// The error of an output file or folder at `path`.

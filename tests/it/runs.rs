@@ -906,3 +906,61 @@ fn the_plan_of_a_static_run_gives_load_steps_and_newton_not_an_integrator() {
     assert!(dynamic_plan.contains("rates of Y"), "{dynamic_plan}");
     assert!(!dynamic_plan.contains("load steps"), "{dynamic_plan}");
 }
+
+/// The status and failure of the summary in `dir`.
+fn summary_status(dir: &Path) -> (String, String) {
+    let text = std::fs::read_to_string(dir.join("summary.json")).unwrap();
+    let summary: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let failure = summary["failure"].as_str().unwrap_or_default().to_string();
+    (summary["status"].as_str().unwrap().to_string(), failure)
+}
+
+#[cfg(unix)]
+#[test]
+fn a_frame_the_disk_refuses_ends_the_summary_failed_with_the_reason() {
+    // A file size limit (ulimit -f, 1024 blocks of 512 bytes: 512 KiB) with its signal
+    // ignored makes a write past it fail with "File too large", as a full disk makes one
+    // fail with "No space left": the summary (about 70 KiB with its reserve) fits, the
+    // first frame of wave-rod (2211 particles, about 750 KiB) does not. The run exits 1,
+    // naming the frame, and its summary says "failed" and why.
+    let dir = tempfile::tempdir().unwrap();
+    let exe = env!("CARGO_BIN_EXE_meshless");
+    let script = format!(
+        "trap '' XFSZ; ulimit -f 1024; exec '{exe}' run '{}' --backend cpu --out '{}'",
+        case_file("wave-rod").display(),
+        dir.path().display()
+    );
+    let out = Command::new("sh").args(["-c", &script]).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("wave-rod_000000.vtu"), "{stderr}");
+    let (status, failure) = summary_status(dir.path());
+    assert_eq!(status, "failed");
+    assert!(failure.contains("wave-rod_000000.vtu"), "{failure}");
+}
+
+#[test]
+fn frames_that_cannot_fit_on_the_disk_are_refused_after_the_first() {
+    // A frame at every millisecond of a billion seconds: 10¹² frames of about 750 KiB,
+    // beyond any disk. Once the first frame gives their size the run is refused, before
+    // its first step, naming output.frame_interval and the free space; the summary says
+    // "failed" and why.
+    let dir = tempfile::tempdir().unwrap();
+    let case = load(
+        "wave-rod",
+        &["run.end_time=1e9", "output.frame_interval=1e-3"],
+    );
+    let mut opts = cpu_options(dir.path(), true);
+    opts.limits.max_steps = 1e16;
+    let e = run(&case, &opts).unwrap_err();
+    let shown = e.to_string();
+    assert_eq!(e.exit_code(), 2, "{shown}");
+    assert!(
+        shown.contains("output.frame_interval") && shown.contains("will not fit"),
+        "{shown}"
+    );
+    assert_eq!(frames_of(dir.path(), "wave-rod"), 1);
+    let (status, failure) = summary_status(dir.path());
+    assert_eq!(status, "failed");
+    assert!(failure.contains("will not fit"), "{failure}");
+}
