@@ -105,8 +105,11 @@ pub trait MethodFamily: Sized {
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source];
 
-    /// Checks of the case that concern this method (its keys, model, correction).
-    fn validate(&self, case: &Case) -> Result<(), Problem>;
+    /// Checks of the case that concern this method (its keys, model, correction); by
+    /// default none.
+    fn validate(&self, _case: &Case) -> Result<(), Problem> {
+        Ok(())
+    }
 
     /// The method's part of the run plan; `gpu` selects the GPU passes.
     fn plan(&self, case: &Case, gpu: bool) -> Plan;
