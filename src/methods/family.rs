@@ -9,6 +9,7 @@ use crate::engine::{Engine, EngineDim};
 use crate::material::Material;
 use crate::neighbour::Rebuild;
 use crate::tensor::Dim;
+use crate::viscosity::ArtificialViscosity;
 
 /// The `[method]` keys that only the methods with a kernel read.
 pub const KERNEL_KEYS: &[&str] = &["kernel", "h_over_dx", "correction"];
@@ -70,6 +71,20 @@ pub fn cfl_step(mat: &Material) -> String {
         "Δt = cfl·Δx/(c_p + max|v|), c_p = {:.1} m/s",
         mat.p_wave_speed()
     )
+}
+
+/// The checks of a method's optional Monaghan viscosity (`method.artificial_viscosity`).
+pub fn check_viscosity(av: Option<&ArtificialViscosity>) -> Result<(), Problem> {
+    av.map_or(Ok(()), ArtificialViscosity::validate)
+}
+
+/// What the plan of a method with an optional Monaghan viscosity leaves out for it: the
+/// viscosity, when it has none.
+pub fn left_out_viscosity(av: Option<&ArtificialViscosity>) -> Vec<&'static str> {
+    match av {
+        Some(_) => Vec::new(),
+        None => vec!["artificial viscosity"],
+    }
 }
 
 /// A method's CPU engine for a case, or the case's error ([`MethodFamily::cpu_engine`]).

@@ -16,7 +16,10 @@
 //! The methods differ in their points (Gauss points of cells, the particles themselves,
 //! or the particles with stress points), their shape functions (bilinear elements,
 //! reproducing-kernel, moving least-squares or Krongauz–Belytschko functions) and in what
-//! follows a step (the weak forms' velocity smoothing, [`smooth_velocities`]).
+//! follows a step (the weak forms' velocity smoothing, [`smooth_velocities`]). What their
+//! `MethodFamily` hooks share is here too: the total-Lagrangian ones' [`FEATURES`], the
+//! frame of their plan ([`tl_plan`]) and their engines ([`cpu_engine`], [`gpu_engine`]);
+//! the updated-Lagrangian ones' state text ([`updated::state`]).
 
 pub mod updated;
 
