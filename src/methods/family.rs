@@ -9,6 +9,7 @@ use crate::engine::{Engine, EngineDim};
 use crate::material::Material;
 use crate::neighbour::Rebuild;
 use crate::tensor::Dim;
+use crate::viscosity::ArtificialViscosity;
 
 /// The `[method]` keys that only the methods with a kernel read.
 pub const KERNEL_KEYS: &[&str] = &["kernel", "h_over_dx", "correction"];
@@ -72,6 +73,20 @@ pub fn cfl_step(mat: &Material) -> String {
     )
 }
 
+/// The checks of a method's optional Monaghan viscosity (`method.artificial_viscosity`).
+pub fn check_viscosity(av: Option<&ArtificialViscosity>) -> Result<(), Problem> {
+    av.map_or(Ok(()), ArtificialViscosity::validate)
+}
+
+/// What the plan of a method with an optional Monaghan viscosity leaves out for it: the
+/// viscosity, when it has none.
+pub fn left_out_viscosity(av: Option<&ArtificialViscosity>) -> Vec<&'static str> {
+    match av {
+        Some(_) => Vec::new(),
+        None => vec!["artificial viscosity"],
+    }
+}
+
 /// A method's CPU engine for a case, or the case's error ([`MethodFamily::cpu_engine`]).
 pub type CpuBuild<D> = Result<Box<dyn Engine<D>>, CaseError>;
 
@@ -105,8 +120,11 @@ pub trait MethodFamily: Sized {
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source];
 
-    /// Checks of the case that concern this method (its keys, model, correction).
-    fn validate(&self, case: &Case) -> Result<(), Problem>;
+    /// Checks of the case that concern this method (its keys, model, correction); by
+    /// default none.
+    fn validate(&self, _case: &Case) -> Result<(), Problem> {
+        Ok(())
+    }
 
     /// The method's part of the run plan; `gpu` selects the GPU passes.
     fn plan(&self, case: &Case, gpu: bool) -> Plan;

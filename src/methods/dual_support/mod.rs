@@ -152,9 +152,7 @@ impl DualSupportSpec {
             }
         })
     }
-}
 
-impl DualSupportSpec {
     /// The method on the reference configuration of `case`: smoothing lengths, supports,
     /// dual-supports and the hourglass coefficients (the static, dynamic and GPU paths
     /// alike).

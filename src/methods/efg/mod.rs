@@ -7,12 +7,9 @@
 //! ∇0Φ_a(X_q)·P_q. Everything is built once on the reference configuration. It runs on the shared Galerkin system ([`crate::methods::galerkin`]).
 //! Numerics notes: `docs/methods/seed001.md`.
 
-use super::fem::galerkin_state;
-use super::galerkin::{Mass, TlGalerkin, TlSystem, particle_mass, smoothing_cells};
+use super::galerkin::{Mass, TlGalerkin, TlSystem, particle_mass, smoothing_cells, tl_plan};
 use crate::case::{Case, CaseError};
-use crate::check::Problem;
-use crate::material::Material;
-use crate::methods::family::{Feature, MethodFamily, Plan, cfl_step};
+use crate::methods::family::{Feature, MethodFamily, Plan};
 use crate::quadrature::{Cells, QuadraturePoints, Rule, Shapes};
 use crate::reference::Reference;
 use crate::tensor::Dim;
@@ -93,28 +90,12 @@ impl MethodFamily for EfgSpec {
         moving least-squares functions of a linear basis, integration at the particles \
         (unstabilised or SCNI) or at 2^d Gauss points of the lattice cells";
     const KEYS: &'static [&'static str] = &["integration", "mass"];
-    const FEATURES: &'static [Feature] = &[
-        Feature::Contact,
-        Feature::Plasticity,
-        Feature::StaticSolve,
-        Feature::InitialDisplacement,
-    ];
+    const FEATURES: &'static [Feature] = super::galerkin::FEATURES;
     const CORRECTED: bool = false;
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = super::galerkin::gpu::SHADERS;
 
-    fn validate(&self, _case: &Case) -> Result<(), Problem> {
-        Ok(())
-    }
-
     fn plan(&self, case: &Case, gpu: bool) -> Plan {
-        let mat = Material::new(&case.material);
-        let mut left_out = Vec::new();
-        left_out.push(if mat.model.is_rate_based() {
-            "P(F) evaluation"
-        } else {
-            "continuity and Jaumann rates"
-        });
         let points = match self.integration {
             Integration::Cells => "the lattice cells with 2^d Gauss points each",
             Integration::Nodal => "the particles as points, weighted by their volumes",
@@ -125,27 +106,19 @@ impl MethodFamily for EfgSpec {
                  cell edge, 2×2 per face in 3D)"
             }
         };
-        Plan {
-            once: format!(
-                "once, on the reference configuration: {points}, the particles within the \
-                 kernel support of every point (with SCNI, of its cell's boundary too), the \
-                 MLS functions Φ_a and ∇0Φ_a there, and the node-to-point gather lists"
-            ),
-            state: galerkin_state(&mat),
-            cfl_step: cfl_step(&mat),
-            rates: if gpu {
-                "points pass (F_q, P_q, w_q ψ_q, ρ̇_q, Ṡ_q) + nodes pass (−Σ_q w_q P_q \
-                 ∇0Φ_a(X_q) gathered per particle, BCs)"
-                    .into()
-            } else {
-                "F_q (and Ḟ_q) and P_q at every point, then each particle gathers −Σ_q w_q \
-                 P_q ∇0Φ_a(X_q)"
-                    .into()
-            },
-            checked: "det F at the points",
-            check_note: String::new(),
-            left_out,
-        }
+        let once = format!(
+            "once, on the reference configuration: {points}, the particles within the \
+             kernel support of every point (with SCNI, of its cell's boundary too), the \
+             MLS functions Φ_a and ∇0Φ_a there, and the node-to-point gather lists"
+        );
+        let rates = if gpu {
+            "points pass (F_q, P_q, w_q ψ_q, ρ̇_q, Ṡ_q) + nodes pass (−Σ_q w_q P_q \
+             ∇0Φ_a(X_q) gathered per particle, BCs)"
+        } else {
+            "F_q (and Ḟ_q) and P_q at every point, then each particle gathers −Σ_q w_q \
+             P_q ∇0Φ_a(X_q)"
+        };
+        tl_plan(case, once, rates.into(), "det F at the points", Vec::new())
     }
 
     super::galerkin::tl_galerkin_engines!();

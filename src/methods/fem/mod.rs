@@ -3,11 +3,9 @@
 //! total-Lagrangian weak form with a lumped mass, explicit, on the shared Galerkin system
 //! ([`crate::methods::galerkin`]). Numerics notes: `docs/methods/galerkin.md`.
 
-use super::galerkin::{Mass, TlGalerkin, TlSystem};
+use super::galerkin::{Mass, TlGalerkin, TlSystem, tl_plan};
 use crate::case::{Case, CaseError};
-use crate::check::Problem;
-use crate::material::{Material, MaterialModel};
-use crate::methods::family::{Feature, MethodFamily, Plan, cfl_step};
+use crate::methods::family::{Feature, MethodFamily, Plan};
 use crate::quadrature::{QuadraturePoints, Rule, Shapes};
 use crate::reference::Reference;
 use crate::tensor::Dim;
@@ -39,71 +37,38 @@ impl MethodFamily for FemSpec {
         reference): bilinear quadrilaterals (trilinear hexahedra) on the lattice cells, 2^d \
         Gauss points, lumped mass, explicit";
     const KEYS: &'static [&'static str] = &["mass"];
-    const FEATURES: &'static [Feature] = &[
-        Feature::Contact,
-        Feature::Plasticity,
-        Feature::StaticSolve,
-        Feature::InitialDisplacement,
-    ];
+    const FEATURES: &'static [Feature] = super::galerkin::FEATURES;
     const KERNEL: bool = false;
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = super::galerkin::gpu::SHADERS;
 
-    fn validate(&self, _case: &Case) -> Result<(), Problem> {
-        Ok(())
-    }
-
     fn plan(&self, case: &Case, gpu: bool) -> Plan {
-        let mat = Material::new(&case.material);
-        let mut left_out = vec!["kernels and neighbour lists (the cells are the mesh)"];
-        left_out.push(if mat.model.is_rate_based() {
-            "P(F) evaluation"
+        let once = format!(
+            "once, on the reference configuration: the lattice cells of every body as \
+             elements, 2^d Gauss points each, ∇0N_a = J⁻ᵀ ∂N_a/∂ξ, the node-to-point gather \
+             lists, {} nodal masses",
+            self.mass.name()
+        );
+        let rates = if gpu {
+            "points pass (F_q, P_q, w_q ψ_q, ρ̇_q, Ṡ_q) + nodes pass (−Σ_q w_q P_q \
+             ∇0N_a(X_q) gathered per node, BCs)"
         } else {
-            "continuity and Jaumann rates"
-        });
-        Plan {
-            once: format!(
-                "once, on the reference configuration: the lattice cells of every body as \
-                 elements, 2^d Gauss points each, ∇0N_a = J⁻ᵀ ∂N_a/∂ξ, the node-to-point \
-                 gather lists, {} nodal masses",
-                self.mass.name()
-            ),
-            state: galerkin_state(&mat),
-            cfl_step: cfl_step(&mat),
-            rates: if gpu {
-                "points pass (F_q, P_q, w_q ψ_q, ρ̇_q, Ṡ_q) + nodes pass (−Σ_q w_q P_q \
-                 ∇0N_a(X_q) gathered per node, BCs)"
-                    .into()
-            } else {
-                "F_q (and Ḟ_q) and P_q at every Gauss point, then each node gathers \
-                 −Σ_q w_q P_q ∇0N_a(X_q)"
-                    .into()
-            },
-            checked: "det F at the Gauss points",
-            check_note: String::new(),
+            "F_q (and Ḟ_q) and P_q at every Gauss point, then each node gathers \
+             −Σ_q w_q P_q ∇0N_a(X_q)"
+        };
+        let left_out = vec!["kernels and neighbour lists (the cells are the mesh)"];
+        tl_plan(
+            case,
+            once,
+            rates.into(),
+            "det F at the Gauss points",
             left_out,
-        }
+        )
     }
 
     super::galerkin::tl_galerkin_engines!();
 
     fn lattice_cells(&self) -> bool {
         true
-    }
-}
-
-/// The state of a Galerkin method with material `mat`, for `--explain`.
-pub(crate) fn galerkin_state(mat: &Material) -> String {
-    if mat.model.is_rate_based() {
-        "u, v at the nodes; ρ, S at the quadrature points (rate model: Jaumann + linear EOS)".into()
-    } else if mat.model == MaterialModel::VonMisesPlastic {
-        "u, v at the nodes; the plastic history C_p⁻¹, ε_p at the quadrature points, committed \
-         once per step from the state at its start"
-            .into()
-    } else {
-        format!(
-            "u, v at the nodes (state model {:?}: no ρ or S integrated)",
-            mat.model
-        )
     }
 }

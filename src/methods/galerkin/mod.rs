@@ -16,7 +16,10 @@
 //! The methods differ in their points (Gauss points of cells, the particles themselves,
 //! or the particles with stress points), their shape functions (bilinear elements,
 //! reproducing-kernel, moving least-squares or Krongauz–Belytschko functions) and in what
-//! follows a step (the weak forms' velocity smoothing, [`smooth_velocities`]).
+//! follows a step (the weak forms' velocity smoothing, [`smooth_velocities`]). What their
+//! `MethodFamily` hooks share is here too: the total-Lagrangian ones' [`FEATURES`], the
+//! frame of their plan ([`tl_plan`]) and their engines ([`cpu_engine`], [`gpu_engine`]);
+//! the updated-Lagrangian ones' state text ([`updated::state`]).
 
 pub mod updated;
 
@@ -34,7 +37,8 @@ use crate::engine::{
 };
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
-use crate::material::{Material, stress_fields};
+use crate::material::{Material, MaterialModel, stress_fields};
+use crate::methods::family::{Feature, Plan, cfl_step};
 use crate::methods::particles::{Surroundings, check_stresses};
 use crate::neighbour::Csr;
 use crate::observe::{Quadrature, ScalarField, Snapshot};
@@ -107,6 +111,58 @@ macro_rules! tl_galerkin_engines {
     };
 }
 pub(crate) use tl_galerkin_engines;
+
+/// The scene features of the total-Lagrangian Galerkin methods (`tl-fem`, `tl-weak-form`,
+/// `kbm`, `efg`).
+pub const FEATURES: &[Feature] = &[
+    Feature::Contact,
+    Feature::Plasticity,
+    Feature::StaticSolve,
+    Feature::InitialDisplacement,
+];
+
+/// The `--explain` plan of a total-Lagrangian Galerkin method on the material of `case`:
+/// what it builds `once`, its `rates` and the quantities `checked`, and what it leaves
+/// out, `left_out` followed by the rates the material's model does without.
+pub fn tl_plan(
+    case: &Case,
+    once: String,
+    rates: String,
+    checked: &'static str,
+    mut left_out: Vec<&'static str>,
+) -> Plan {
+    let mat = Material::new(&case.material);
+    left_out.push(if mat.model.is_rate_based() {
+        "P(F) evaluation"
+    } else {
+        "continuity and Jaumann rates"
+    });
+    Plan {
+        once,
+        state: tl_state(&mat),
+        cfl_step: cfl_step(&mat),
+        rates,
+        checked,
+        check_note: String::new(),
+        left_out,
+    }
+}
+
+/// The state of a total-Lagrangian Galerkin method with material `mat`, for `--explain`.
+fn tl_state(mat: &Material) -> String {
+    if mat.model.is_rate_based() {
+        "u, v at the nodes; ρ, S at the quadrature points (rate model: Jaumann + linear EOS)".into()
+    } else if mat.model == MaterialModel::VonMisesPlastic {
+        "u, v at the nodes; the plastic history C_p⁻¹, ε_p at the quadrature points, committed \
+         once per step from the state at its start"
+            .into()
+    } else {
+        format!(
+            "u, v at the nodes (state model {:?}: no ρ or S integrated)",
+            mat.model
+        )
+    }
+}
 
 /// The particle mass, as a serde default.
 pub fn particle_mass() -> Mass {

@@ -22,7 +22,7 @@ use crate::case::{Case, CaseError};
 use crate::engine::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
 use crate::integrate::OdeSystem;
 use crate::interaction::Interactions;
-use crate::material::{Material, stress_fields};
+use crate::material::{Material, MaterialModel, stress_fields};
 use crate::methods::particles::Surroundings;
 use crate::neighbour::Csr;
 use crate::observe::{ScalarField, Snapshot};
@@ -32,6 +32,25 @@ use crate::quadrature::{Gather, ShapeRow, Shapes};
 use crate::reference::{Build, Reference};
 use crate::tensor::Dim;
 use rayon::prelude::*;
+
+/// The state of an updated-Lagrangian Galerkin method whose stress lives at `points`, for
+/// `--explain`.
+pub fn state(mat: &Material, points: &str) -> String {
+    if mat.model.is_rate_based() {
+        format!("u, v at the nodes; ρ, S at {points} (rate model: Jaumann + linear EOS)")
+    } else if mat.model == MaterialModel::VonMisesPlastic {
+        format!(
+            "u, v at the nodes; the plastic history C_p⁻¹, ε_p at {points}, committed once per \
+             step from F = (Σ_a X_a ⊗ ∇N_a)⁻¹ at the step's start"
+        )
+    } else {
+        format!(
+            "u, v at the nodes (state model {:?}: σ from F = (Σ_a X_a ⊗ ∇N_a)⁻¹ at {points}, \
+             no ρ or S integrated)",
+            mat.model
+        )
+    }
+}
 
 particle_state! {
     /// The integrated state: u, v at the nodes; ρ, S at the points (rate model; empty for

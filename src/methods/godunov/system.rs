@@ -11,7 +11,6 @@
 
 use super::GodunovSpec;
 use crate::case::{Case, CaseError};
-use crate::correction::CorrectionKind;
 use crate::methods::family::MethodFamily;
 use crate::methods::ul::{Correction, PairRates, PairScheme, UlCore, UlSph, UlState};
 use crate::neighbour::Rebuild;
@@ -59,9 +58,7 @@ pub struct Particle<D: Dim> {
 }
 
 /// The pair sums of Algorithm 2.
-pub struct Scheme {
-    correction: CorrectionKind,
-}
+pub struct Scheme;
 
 impl<D: Dim> PairScheme<D> for Scheme {
     type Particle = Particle<D>;
@@ -69,10 +66,8 @@ impl<D: Dim> PairScheme<D> for Scheme {
 
     type Spec = GodunovSpec;
 
-    fn new(case: &Case, _spec: &GodunovSpec, _core: &UlCore<D>) -> Result<Self, CaseError> {
-        Ok(Self {
-            correction: case.method.correction,
-        })
+    fn new(_case: &Case, _spec: &GodunovSpec, _core: &UlCore<D>) -> Result<Self, CaseError> {
+        Ok(Self)
     }
 
     fn particle(&self, core: &UlCore<D>, i: usize, y: &UlState<D>) -> Particle<D> {
@@ -83,12 +78,8 @@ impl<D: Dim> PairScheme<D> for Scheme {
             p,
             z: rho * (core.material.bulk / rho).sqrt(),
             vol: core.mass[i] / rho,
-            correction: core.correction(self.correction, i, &y.rho),
+            correction: core.correction_at(i, &y.rho),
         }
-    }
-
-    fn correction(&self) -> CorrectionKind {
-        self.correction
     }
 
     fn correction_of(particle: &Particle<D>) -> &Correction<D> {

@@ -11,7 +11,9 @@ pub use system::GrayMonaghan;
 
 #[cfg(feature = "gpu")]
 use crate::methods::family::GpuBuild;
-use crate::methods::family::{CpuBuild, Feature, MethodFamily, Plan, cfl_step};
+use crate::methods::family::{
+    CpuBuild, Feature, MethodFamily, Plan, cfl_step, check_viscosity, left_out_viscosity,
+};
 
 use crate::case::Case;
 use crate::check::{Problem, fail, non_negative};
@@ -56,9 +58,7 @@ impl MethodFamily for GrayMonaghanSpec {
 
     fn validate(&self, case: &Case) -> Result<(), Problem> {
         super::ul::validate(case)?;
-        if let Some(av) = &self.artificial_viscosity {
-            av.validate()?;
-        }
+        check_viscosity(self.artificial_viscosity.as_ref())?;
         if let Some(ArtificialStress { epsilon, n }) = self.artificial_stress {
             non_negative("method.artificial_stress.epsilon", epsilon)?;
             non_negative("method.artificial_stress.n", n)?;
@@ -84,10 +84,7 @@ impl MethodFamily for GrayMonaghanSpec {
 
     fn plan(&self, case: &Case, gpu: bool) -> Plan {
         let mat = Material::new(&case.material);
-        let mut left_out = Vec::new();
-        if self.artificial_viscosity.is_none() {
-            left_out.push("artificial viscosity");
-        }
+        let mut left_out = left_out_viscosity(self.artificial_viscosity.as_ref());
         if self.artificial_stress.is_none() {
             left_out.push("artificial stress");
         }

@@ -9,7 +9,6 @@
 
 use super::{ArtificialStress, GrayMonaghanSpec};
 use crate::case::{Case, CaseError};
-use crate::correction::CorrectionKind;
 use crate::methods::family::MethodFamily;
 use crate::methods::ul::{Correction, PairRates, PairScheme, UlCore, UlSph, UlState};
 use crate::neighbour::Rebuild;
@@ -108,7 +107,6 @@ pub fn principal_stresses<D: Dim>(sigma: D::T) -> ([f64; 3], [D::V; 3]) {
 
 /// The pair sums of Algorithm 1 with the case's constants.
 pub struct Scheme {
-    correction: CorrectionKind,
     av: Option<ArtificialViscosity>,
     /// The artificial stress with W(Δp), Δp the particle spacing (eq 118's
     /// f_ij = W_ij/W(Δp)).
@@ -124,7 +122,6 @@ impl<D: Dim> PairScheme<D> for Scheme {
 
     fn new(case: &Case, spec: &GrayMonaghanSpec, core: &UlCore<D>) -> Result<Self, CaseError> {
         Ok(Self {
-            correction: case.method.correction,
             av: spec.artificial_viscosity,
             stress: spec
                 .artificial_stress
@@ -143,12 +140,8 @@ impl<D: Dim> PairScheme<D> for Scheme {
             }),
             vol: core.mass[i] / rho,
             c: (core.material.bulk / rho).sqrt(),
-            correction: core.correction(self.correction, i, &y.rho),
+            correction: core.correction_at(i, &y.rho),
         }
-    }
-
-    fn correction(&self) -> CorrectionKind {
-        self.correction
     }
 
     fn correction_of(particle: &Particle<D>) -> &Correction<D> {

@@ -14,10 +14,8 @@
 
 pub mod eulerian;
 
-use super::fem::galerkin_state;
-use super::galerkin::updated::UlGalerkin;
-use super::galerkin::{Mass, TlGalerkin, TlSystem, particle_mass, smoothing_cells};
-use super::ul_fem::ul_galerkin_state;
+use super::galerkin::updated::{self, UlGalerkin};
+use super::galerkin::{Mass, TlGalerkin, TlSystem, particle_mass, smoothing_cells, tl_plan};
 use crate::case::{Case, CaseError};
 use crate::check::{Problem, fail};
 use crate::engine::{CpuEngine, EngineDim};
@@ -143,12 +141,7 @@ impl MethodFamily for KbmSpec {
         integration at the particles and at stress points in the cell centres, or at the \
         particles alone (unstabilised or SCNI)";
     const KEYS: &'static [&'static str] = &["integration", "mass", "kernel_frame", "search_every"];
-    const FEATURES: &'static [Feature] = &[
-        Feature::Contact,
-        Feature::Plasticity,
-        Feature::StaticSolve,
-        Feature::InitialDisplacement,
-    ];
+    const FEATURES: &'static [Feature] = super::galerkin::FEATURES;
     const CORRECTED: bool = false;
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = super::galerkin::gpu::SHADERS;
@@ -187,16 +180,6 @@ impl MethodFamily for KbmSpec {
         if self.kernel_frame == KernelFrame::Eulerian {
             return self.eulerian_plan(case);
         }
-        let mat = Material::new(&case.material);
-        let mut left_out = Vec::new();
-        if self.integration == Integration::Nodal {
-            left_out.push("stress points (nodal integration only: KBM (ni))");
-        }
-        left_out.push(if mat.model.is_rate_based() {
-            "P(F) evaluation"
-        } else {
-            "continuity and Jaumann rates"
-        });
         let (points, gradients) = match self.integration {
             Integration::StressPoints => (
                 "the particles and a stress point at every lattice-cell centre, weighted by \
@@ -215,28 +198,24 @@ impl MethodFamily for KbmSpec {
                  per cell edge, 2×2 per face in 3D), in M and G_a in place of ∇0W^S_a",
             ),
         };
-        Plan {
-            once: format!(
-                "once, on the reference configuration: the points ({points}), the particles \
-                 within the kernel support of every point (and of its cell's boundary), \
-                 {gradients}, M = Σ_a ∇0W^S_a ⊗ (X_a − X_q) and G_a = M⁻¹ ∇0W^S_a, and the \
-                 node-to-point gather lists"
-            ),
-            state: galerkin_state(&mat),
-            cfl_step: cfl_step(&mat),
-            rates: if gpu {
-                "points pass (F_q = I + Σ_a u_a ⊗ G_a, P_q, w_q ψ_q, ρ̇_q, Ṡ_q) + nodes pass \
-                 (−Σ_q w_q P_q ∇0W^S_a(X_q) gathered per particle, BCs)"
-                    .into()
-            } else {
-                "F_q = I + Σ_a u_a ⊗ G_a (and Ḟ_q) and P_q at every point, then each particle \
-                 gathers −Σ_q w_q P_q ∇0W^S_a(X_q)"
-                    .into()
-            },
-            checked: "det F at the points",
-            check_note: String::new(),
-            left_out,
+        let once = format!(
+            "once, on the reference configuration: the points ({points}), the particles \
+             within the kernel support of every point (and of its cell's boundary), \
+             {gradients}, M = Σ_a ∇0W^S_a ⊗ (X_a − X_q) and G_a = M⁻¹ ∇0W^S_a, and the \
+             node-to-point gather lists"
+        );
+        let rates = if gpu {
+            "points pass (F_q = I + Σ_a u_a ⊗ G_a, P_q, w_q ψ_q, ρ̇_q, Ṡ_q) + nodes pass \
+             (−Σ_q w_q P_q ∇0W^S_a(X_q) gathered per particle, BCs)"
+        } else {
+            "F_q = I + Σ_a u_a ⊗ G_a (and Ḟ_q) and P_q at every point, then each particle \
+             gathers −Σ_q w_q P_q ∇0W^S_a(X_q)"
+        };
+        let mut left_out = Vec::new();
+        if self.integration == Integration::Nodal {
+            left_out.push("stress points (nodal integration only: KBM (ni))");
         }
+        tl_plan(case, once, rates.into(), "det F at the points", left_out)
     }
 
     fn cpu_engine<D: EngineDim>(&self, case: &Case) -> CpuBuild<D> {
@@ -316,7 +295,7 @@ impl KbmSpec {
                  reference weights; runs on the CPU only (no GPU engine for the Eulerian \
                  kernel)"
             ),
-            state: ul_galerkin_state(&mat, "the points") + "; the stress points' displacements",
+            state: updated::state(&mat, "the points") + "; the stress points' displacements",
             cfl_step: cfl_step(&mat),
             rates: format!(
                 "on the CPU, on the current configuration: W^S_a, ∇W^S_a, M and G_a = M⁻¹∇W^S_a \

@@ -10,7 +10,10 @@ pub use system::Potential;
 
 #[cfg(feature = "gpu")]
 use crate::methods::family::GpuBuild;
-use crate::methods::family::{CpuBuild, Feature, MethodFamily, Plan, cfl_step, state_model};
+use crate::methods::family::{
+    CpuBuild, Feature, MethodFamily, Plan, cfl_step, check_viscosity, left_out_viscosity,
+    state_model,
+};
 
 use crate::case::Case;
 use crate::check::{Problem, toml_name};
@@ -51,18 +54,13 @@ impl MethodFamily for PotentialSpec {
     const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
 
     fn validate(&self, case: &Case) -> Result<(), Problem> {
-        if let Some(av) = &self.artificial_viscosity {
-            av.validate()?;
-        }
+        check_viscosity(self.artificial_viscosity.as_ref())?;
         state_model(case)
     }
 
     fn plan(&self, case: &Case, _gpu: bool) -> Plan {
         let mat = Material::new(&case.material);
-        let mut left_out = Vec::new();
-        if self.artificial_viscosity.is_none() {
-            left_out.push("artificial viscosity");
-        }
+        let left_out = left_out_viscosity(self.artificial_viscosity.as_ref());
         Plan {
             once: "once, on the reference configuration: cell-list neighbours (CSR), corrected \
                    gradients ∇0W̃_ij and their reverses ∇0W̃_ji"

@@ -12,7 +12,7 @@ pub use system::{Tlsph, TlsphScheme};
 
 #[cfg(feature = "gpu")]
 use crate::methods::family::GpuBuild;
-use crate::methods::family::{CpuBuild, Feature, MethodFamily, Plan, cfl_step};
+use crate::methods::family::{CpuBuild, Feature, MethodFamily, Plan, cfl_step, check_viscosity};
 
 use crate::case::Case;
 use crate::check::{Problem, positive};
@@ -92,10 +92,7 @@ impl MethodFamily for TlsphSpec {
         if let Some(alpha) = self.hourglass {
             positive("method.hourglass", alpha)?;
         }
-        match &self.artificial_viscosity {
-            Some(av) => av.validate(),
-            None => Ok(()),
-        }
+        check_viscosity(self.artificial_viscosity.as_ref())
     }
 
     fn plan(&self, case: &Case, gpu: bool) -> Plan {

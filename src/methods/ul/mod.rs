@@ -140,6 +140,8 @@ pub struct UlCore<D: Dim> {
     pub material: Material,
     /// The case's kernel (one smoothing length, as in seed 000).
     pub kernel: Kernel,
+    /// The correction of the velocity gradient (`none` or `randles-libersky`, eq 105).
+    pub correction: CorrectionKind,
     neighbours: Neighbours,
     /// Current positions x = X + u of the last rate evaluation.
     pub x: Vec<D::V>,
@@ -175,6 +177,7 @@ impl<D: Dim> UlCore<D> {
             surroundings: Surroundings::new(boundary, interactions),
             material,
             kernel,
+            correction: case.method.correction,
             neighbours,
         })
     }
@@ -184,10 +187,10 @@ impl<D: Dim> UlCore<D> {
         self.neighbours.lists()
     }
 
-    /// The correction `kind` (`none` or `randles-libersky`) of particle i's velocity
-    /// gradient, with V_j = m_j/ρ_j.
-    pub fn correction(&self, kind: CorrectionKind, i: usize, rho: &[f64]) -> Correction<D> {
-        if kind != CorrectionKind::RandlesLibersky {
+    /// The correction of particle i's velocity gradient ([`Self::correction`]), with
+    /// V_j = m_j/ρ_j.
+    pub fn correction_at(&self, i: usize, rho: &[f64]) -> Correction<D> {
+        if self.correction != CorrectionKind::RandlesLibersky {
             return Correction {
                 a_inv_t: D::identity(),
                 det: 1.0,
@@ -273,9 +276,6 @@ pub trait PairScheme<D: Dim>: Sized + Send + Sync {
     /// The quantities of particle i at state y (the core's positions and lists are
     /// current).
     fn particle(&self, core: &UlCore<D>, i: usize, y: &UlState<D>) -> Self::Particle;
-
-    /// The correction of the velocity gradient that the particle pass computes.
-    fn correction(&self) -> CorrectionKind;
 
     /// The correction in a particle's quantities: a singular one is inadmissible.
     fn correction_of(particle: &Self::Particle) -> &Correction<D>;
@@ -436,7 +436,7 @@ impl<D: Dim, S: PairScheme<D>> Method<D> for UlSph<D, S> {
         let Sizes { v, t, f, id } = Sizes::of::<D>();
         let record = size_of::<S::Particle>();
         // The particle pass sums the Randles–Libersky correction over the pairs.
-        let corrected = self.scheme.correction() == CorrectionKind::RandlesLibersky;
+        let corrected = self.core.correction == CorrectionKind::RandlesLibersky;
         let positions = 3 * v + (v + size_of::<[f64; 3]>()) + f;
         let particle = 2 * f + t + record + if corrected { v } else { 0 };
         let pair_pass = record + 2 * v + 2 * f + 2 * t + (2 * v + f + 2 * t);

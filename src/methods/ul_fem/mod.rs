@@ -6,11 +6,10 @@
 //! CPU only. Numerics notes: `docs/methods/galerkin.md`.
 
 use super::galerkin::Mass;
-use super::galerkin::updated::{Degenerate, MovingPoints, Nodes, UlGalerkin};
+use super::galerkin::updated::{self, Degenerate, MovingPoints, Nodes, UlGalerkin};
 use crate::case::{Case, CaseError};
-use crate::check::Problem;
 use crate::engine::{CpuEngine, EngineDim};
-use crate::material::{Material, MaterialModel};
+use crate::material::Material;
 use crate::methods::family::{CpuBuild, Feature, MethodFamily, Plan, cfl_step};
 use crate::neighbour::Csr;
 use crate::quadrature::{Cells, QuadraturePoints, Rule, ShapeRow, Shapes, isoparametric_shapes};
@@ -110,10 +109,6 @@ impl MethodFamily for UlFemSpec {
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = &[];
 
-    fn validate(&self, _case: &Case) -> Result<(), Problem> {
-        Ok(())
-    }
-
     fn plan(&self, case: &Case, _gpu: bool) -> Plan {
         let mat = Material::new(&case.material);
         Plan {
@@ -123,7 +118,7 @@ impl MethodFamily for UlFemSpec {
                  masses; runs on the CPU only (no GPU engine)",
                 self.mass.name()
             ),
-            state: ul_galerkin_state(&mat, "the Gauss points"),
+            state: updated::state(&mat, "the Gauss points"),
             cfl_step: cfl_step(&mat),
             rates: format!(
                 "on the CPU: x = X + u; at every Gauss point of the current cells N_a, \
@@ -145,25 +140,6 @@ impl MethodFamily for UlFemSpec {
 
     fn lattice_cells(&self) -> bool {
         true
-    }
-}
-
-/// The state of an updated-Lagrangian Galerkin method whose stress lives at `points`, for
-/// `--explain`.
-pub(crate) fn ul_galerkin_state(mat: &Material, points: &str) -> String {
-    if mat.model.is_rate_based() {
-        format!("u, v at the nodes; ρ, S at {points} (rate model: Jaumann + linear EOS)")
-    } else if mat.model == MaterialModel::VonMisesPlastic {
-        format!(
-            "u, v at the nodes; the plastic history C_p⁻¹, ε_p at {points}, committed once per \
-             step from F = (Σ_a X_a ⊗ ∇N_a)⁻¹ at the step's start"
-        )
-    } else {
-        format!(
-            "u, v at the nodes (state model {:?}: σ from F = (Σ_a X_a ⊗ ∇N_a)⁻¹ at {points}, \
-             no ρ or S integrated)",
-            mat.model
-        )
     }
 }
 

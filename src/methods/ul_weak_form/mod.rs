@@ -11,8 +11,7 @@
 pub mod ellipse;
 pub mod points;
 
-use super::galerkin::updated::UlGalerkin;
-use super::ul_fem::ul_galerkin_state;
+use super::galerkin::updated::{self, UlGalerkin};
 use crate::case::Case;
 use crate::check::{Problem, fail, toml_name};
 use crate::engine::{CpuEngine, EngineDim};
@@ -85,7 +84,7 @@ impl MethodFamily for UlWeakFormSpec {
                 .into(),
             state: format!(
                 "{}; ρ at the particles; the stress points' displacements",
-                ul_galerkin_state(&mat, "the stress points")
+                updated::state(&mat, "the stress points")
             ),
             cfl_step: cfl_step(&mat),
             rates: "on the CPU: covariance ellipses, h and RKPM N_j = V_j Ψ_j at every \

@@ -6,12 +6,9 @@
 //! the shared Galerkin system ([`crate::methods::galerkin`]). Numerics
 //! notes: `docs/methods/galerkin.md`.
 
-use super::fem::galerkin_state;
-use super::galerkin::{Mass, TlGalerkin, TlSystem, particle_mass, smoothing_shapes};
+use super::galerkin::{Mass, TlGalerkin, TlSystem, particle_mass, smoothing_shapes, tl_plan};
 use crate::case::{Case, CaseError};
-use crate::check::Problem;
-use crate::material::Material;
-use crate::methods::family::{Feature, MethodFamily, Plan, cfl_step};
+use crate::methods::family::{Feature, MethodFamily, Plan};
 use crate::quadrature::{QuadraturePoints, Rule, Shapes};
 use crate::reference::Reference;
 use crate::tensor::Dim;
@@ -74,53 +71,30 @@ impl MethodFamily for WeakFormSpec {
         000 §5.6): RKPM shape functions at 2×2 Gauss points of the lattice cells, lumped \
         mass, optional velocity smoothing after each step";
     const KEYS: &'static [&'static str] = &["smoothing", "mass"];
-    const FEATURES: &'static [Feature] = &[
-        Feature::Contact,
-        Feature::Plasticity,
-        Feature::StaticSolve,
-        Feature::InitialDisplacement,
-    ];
+    const FEATURES: &'static [Feature] = super::galerkin::FEATURES;
     const CORRECTED: bool = false;
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = super::galerkin::gpu::SHADERS;
 
-    fn validate(&self, _case: &Case) -> Result<(), Problem> {
-        Ok(())
-    }
-
     fn plan(&self, case: &Case, gpu: bool) -> Plan {
-        let mat = Material::new(&case.material);
+        let once = "once, on the reference configuration: the lattice cells with 2^d Gauss \
+                    points each, the particles within the kernel support of every point, RKPM \
+                    N_a = V_a Ψ_a and ∇0N_a there, the node-to-point gather lists, and the \
+                    particles' own RKPM weights for the smoothing";
+        let rates = if gpu {
+            "points pass (F_q, P_q, w_q ψ_q, ρ̇_q, Ṡ_q) + nodes pass (−Σ_q w_q P_q \
+             ∇0N_a(X_q) gathered per particle, BCs); after each step the smooth and settle \
+             passes (v_i ← Σ_j V_j Ψ_j(X_i) v_j, prescribed components kept)"
+        } else {
+            "F_q (and Ḟ_q) and P_q at every Gauss point, then each particle gathers \
+             −Σ_q w_q P_q ∇0N_a(X_q); after each step v_i ← Σ_j V_j Ψ_j(X_i) v_j"
+        };
         let mut left_out = Vec::new();
         if !self.smoothing {
             left_out.push("the velocity smoothing after each step");
         }
-        left_out.push(if mat.model.is_rate_based() {
-            "P(F) evaluation"
-        } else {
-            "continuity and Jaumann rates"
-        });
-        Plan {
-            once: "once, on the reference configuration: the lattice cells with 2^d Gauss \
-                   points each, the particles within the kernel support of every point, RKPM \
-                   N_a = V_a Ψ_a and ∇0N_a there, the node-to-point gather lists, and the \
-                   particles' own RKPM weights for the smoothing"
-                .into(),
-            state: galerkin_state(&mat),
-            cfl_step: cfl_step(&mat),
-            rates: if gpu {
-                "points pass (F_q, P_q, w_q ψ_q, ρ̇_q, Ṡ_q) + nodes pass (−Σ_q w_q P_q \
-                 ∇0N_a(X_q) gathered per particle, BCs); after each step the smooth and settle \
-                 passes (v_i ← Σ_j V_j Ψ_j(X_i) v_j, prescribed components kept)"
-                    .into()
-            } else {
-                "F_q (and Ḟ_q) and P_q at every Gauss point, then each particle gathers \
-                 −Σ_q w_q P_q ∇0N_a(X_q); after each step v_i ← Σ_j V_j Ψ_j(X_i) v_j"
-                    .into()
-            },
-            checked: "det F at the Gauss points",
-            check_note: String::new(),
-            left_out,
-        }
+        let checked = "det F at the Gauss points";
+        tl_plan(case, once.into(), rates.into(), checked, left_out)
     }
 
     super::galerkin::tl_galerkin_engines!();
