@@ -20,19 +20,18 @@ use crate::balance::Booked;
 use crate::boundary::{Boundary, OnPatches};
 use crate::case::Case;
 use crate::correction::{self, CorrectionKind};
-use crate::engine::{BlowUp, GpuEngine, GpuFamily};
+use crate::engine::{BlowUp, GpuEngine, GpuFamily, Start};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{GpuDim, flat_v};
 use crate::gpu::profile::Scale;
-use crate::gpu::program::{StateLayout, Stepper};
+use crate::gpu::program::StateLayout;
 use crate::gpu::reduction::{Reduced, Reduction};
 use crate::gpu::reference::DeviceReference;
-use crate::gpu::shaders::{self, CORRECTION, INTEGRATE, PAIR_OFFSETS, Source};
+use crate::gpu::shaders::{self, CORRECTION, PAIR_OFFSETS, Source};
 use crate::gpu::shell::Shell;
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
 use crate::integrate::{Buf, Evaluation};
 use crate::interaction::Interactions;
-use crate::interaction::gpu::GpuInteractions;
 use crate::methods::tl::{TlState, check_state, snapshot};
 use crate::neighbour::Csr;
 use crate::observe::Snapshot;
@@ -130,25 +129,22 @@ impl<D: GpuDim> GpuTlsph<D> {
         let mut y0 = layout.state.zeroed();
         layout.state.write_v::<D>(&mut y0, "U", &disc.u0);
         layout.state.write_v::<D>(&mut y0, "V", &disc.v0);
-        let stepper = Stepper::new(
-            &gpu,
-            case.method.integrator,
-            &compose(&INTEGRATE),
-            StateLayout::of(&layout.state, "RHO"),
-            &y0,
-        )?;
         let interactions =
             Interactions::<D>::build(case, &disc.x0, &disc.body, &OnPatches, &disc.mass, || {
                 csr.clone()
             })?;
-        let interactions = GpuInteractions::new(
-            &gpu,
+        let start = Start {
+            gpu: &gpu,
+            compose: &compose,
+            device: &device,
+        };
+        let state = StateLayout::of(&layout.state, "RHO");
+        let (stepper, interactions) = start.stepper(
+            case.method.integrator,
+            state,
+            &y0,
             &interactions,
             &disc.boundary,
-            &compose,
-            &device.reference,
-            stepper.buffer(Buf::Y),
-            device.traction,
         )?;
         let kin = gpu.zeroed("kinematics", layout.kin.bytes());
 
