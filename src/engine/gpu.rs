@@ -13,12 +13,55 @@ use crate::boundary::{Boundary, Reaction};
 use crate::gpu::context::{Gpu, GpuError};
 use crate::gpu::layout::GpuDim;
 use crate::gpu::profile::Scale;
-use crate::gpu::program::Stepper;
+use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::Reduced;
+use crate::gpu::reference::DeviceReference;
+use crate::gpu::shaders::Source;
 use crate::gpu::shell::Shell;
-use crate::integrate::{Evaluation, PseudoTime};
+use crate::integrate::{Buf, Evaluation, IntegratorKind, PseudoTime};
+use crate::interaction::Interactions;
 use crate::interaction::gpu::GpuInteractions;
 use crate::observe::{Invariants, Snapshot};
+
+/// What every family's set-up starts from on the device: the device, the composer of
+/// its pass files with the scene's constants, and the reference configuration uploaded.
+pub struct Start<'a> {
+    pub gpu: &'a Gpu,
+    pub compose: &'a dyn Fn(&Source) -> String,
+    pub device: &'a DeviceReference,
+}
+
+impl Start<'_> {
+    /// The integrator program from the initial state `y0` (laid out as `state`), and the
+    /// interactions' passes on its state `Y`, which read the device's reference
+    /// configuration and traction loads.
+    pub fn stepper<D: GpuDim>(
+        &self,
+        integrator: IntegratorKind,
+        state: StateLayout,
+        y0: &[f32],
+        interactions: &Interactions<D>,
+        boundary: &Boundary<D>,
+    ) -> Result<(Stepper, GpuInteractions), GpuError> {
+        let Self {
+            gpu,
+            compose,
+            device,
+        } = self;
+        let integrate = compose(&crate::gpu::shaders::INTEGRATE);
+        let stepper = Stepper::new(gpu, integrator, &integrate, state, y0)?;
+        let interactions = GpuInteractions::new(
+            gpu,
+            interactions,
+            boundary,
+            compose,
+            &device.reference,
+            stepper.buffer(Buf::Y),
+            device.traction.clone(),
+        )?;
+        Ok((stepper, interactions))
+    }
+}
 
 /// What a family gives the [`GpuEngine`]: its reference configuration, the recording of
 /// its passes, and the hooks where the families differ (each with the default of a

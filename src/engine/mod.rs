@@ -12,7 +12,7 @@ mod method;
 
 pub use cpu::CpuEngine;
 #[cfg(feature = "gpu")]
-pub use gpu::{GpuEngine, GpuFamily};
+pub use gpu::{GpuEngine, GpuFamily, Start};
 pub use method::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
 
 use crate::balance::Booked;

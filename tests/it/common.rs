@@ -60,7 +60,9 @@ pub fn gpus() -> Vec<Gpu> {
 #[cfg(feature = "gpu")]
 /// The GPU scheme of a total-Lagrangian SPH case's method (`tlsph`, `tl-potential`,
 /// `corotated-tlsph`, `dual-support-sph`), as the method's GPU engine builds it.
-pub fn tl_scheme(case: &Scene) -> meshless::methods::tlsph::gpu::TlScheme {
+pub fn tl_scheme<D: meshless::gpu::GpuDim>(
+    case: &Scene,
+) -> meshless::methods::tlsph::gpu::TlScheme<D> {
     use meshless::methods::{MethodSpec, corotated, dual_support, potential, tlsph};
     match &case.spec {
         MethodSpec::Tlsph(s) => tlsph::gpu::scheme(s),

@@ -97,12 +97,7 @@ const ORDER: &[(&str, &[&str])] = &[
 /// The imports against [`ORDER`] that the code still has, (from, to). Most are the whole
 /// case (`case::Case`) handed to every layer. Remove an entry with the import; never add
 /// one.
-const UPWARD: &[(&str, &str)] = &[
-    ("gpu", "methods"),
-    ("methods/tlsph", "methods/corotated"),
-    ("methods/tlsph", "methods/dual_support"),
-    ("methods/tlsph", "methods/potential"),
-];
+const UPWARD: &[(&str, &str)] = &[("gpu", "methods")];
 
 /// The module a file of `src/` belongs to, or None for the crate roots and unit-test
 /// files.

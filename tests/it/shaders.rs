@@ -132,7 +132,7 @@ fn check_tlsph<D: GpuDim>() {
             let MethodSpec::Tlsph(spec) = &case.spec else {
                 unreachable!("TLSPH variants")
             };
-            let scheme = tlsph::scheme(spec);
+            let scheme = tlsph::scheme::<D>(spec);
             let layout = Layout::new(100, 10, D::N, rate, 1000, &scheme);
             let constants = scene_constants(&case, &layout, &scheme);
             for source in tlsph::SHADERS {
@@ -185,7 +185,7 @@ fn check_potential<D: GpuDim>() {
         let MethodSpec::TlPotential(spec) = &case.spec else {
             unreachable!("a tl-potential case")
         };
-        let scheme = potential::scheme(spec);
+        let scheme = potential::scheme::<D>(spec);
         let layout = Layout::new(100, 10, D::N, false, 1000, &scheme);
         let constants = scene_constants(&case, &layout, &scheme);
         for source in potential::SHADERS {
@@ -221,7 +221,7 @@ fn check_corotated<D: GpuDim>() {
         let MethodSpec::CorotatedTlsph(spec) = &case.spec else {
             unreachable!("a corotated-tlsph case")
         };
-        let scheme = corotated::scheme(spec);
+        let scheme = corotated::scheme::<D>(spec);
         let layout = Layout::new(100, 10, D::N, false, 1000, &scheme);
         let constants = scene_constants(&case, &layout, &scheme);
         for source in corotated::SHADERS {
@@ -250,7 +250,7 @@ fn check_dual_support<D: GpuDim>() {
         let MethodSpec::DualSupportSph(spec) = &case.spec else {
             unreachable!("a dual-support-sph case")
         };
-        let scheme = dual_support::scheme(spec);
+        let scheme = dual_support::scheme::<D>(spec);
         let layout = Layout::new(100, 10, D::N, false, 1000, &scheme);
         let constants = scene_constants(&case, &layout, &scheme);
         for source in dual_support::SHADERS

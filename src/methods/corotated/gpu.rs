@@ -2,7 +2,8 @@
 //! (`shaders/corotated/`) on the total-Lagrangian engine of [`crate::methods::tlsph::gpu`].
 //! The CPU system ([`super::system`]) is the reference it is checked against.
 
-use super::{CorotatedForce, CorotatedSpec};
+use super::{CorotatedForce, CorotatedSpec, outputs};
+use crate::gpu::layout::GpuDim;
 use crate::gpu::profile::{NONE, PassBytes, count, loads, stores};
 use crate::gpu::shaders::{
     BOUNDARY, CONTACT, CORRECTION, INTEGRATE, KERNEL, MECHANICS, PAIR_OFFSETS, REFERENCE,
@@ -96,8 +97,9 @@ const CHECKS: &[&str] = &[
 
 /// Corotated TLSPH with the spec's force and viscosity: its own per-particle pass, which
 /// keeps R_i in the kinematics (`KR`) beside F̂_i − I, P̂_i, R_i F̂_i⁻ᵀ and ρ_i; the
-/// variational force reads the reverse gradients ∇0W_ji (field GREV).
-pub fn scheme(spec: &CorotatedSpec) -> TlScheme {
+/// variational force reads the reverse gradients ∇0W_ji (field GREV); its outputs are
+/// those of R_i and F̂_i ([`outputs`]).
+pub fn scheme<D: GpuDim>(spec: &CorotatedSpec) -> TlScheme<D> {
     let variational = spec.force == CorotatedForce::Variational;
     TlScheme {
         stress: STRESS,
@@ -111,9 +113,9 @@ pub fn scheme(spec: &CorotatedSpec) -> TlScheme {
             &["REFERENCE_CODE", "VARIATIONAL"],
             usize::from(variational),
         ),
-        unit_weights: false,
+        unit_weights: None,
         kin_tensors: &["R"],
-        frame: Frame::Corotated,
+        frame: Frame::Corotated(outputs::<D>),
         checks: CHECKS,
     }
 }

@@ -13,10 +13,14 @@
 use super::DualSupportSpec;
 use super::model::DualSupport;
 use crate::case::{Case, CaseError};
+use crate::gpu::layout::GpuDim;
 use crate::gpu::shaders::{MECHANICS, REFERENCE, Source, Wgsl, source, wgsl};
 use crate::methods::potential::gpu::ACCEL;
-use crate::methods::tlsph::gpu::{DET_F, Frame, Lists, STRESS, TlScheme, viscosity};
+use crate::methods::tlsph::gpu::{
+    DET_F, Frame, HostLists, HostModel, Lists, STRESS, TlScheme, viscosity,
+};
 use crate::neighbour::Csr;
+use crate::observe::Snapshot;
 use crate::reference::Reference;
 use crate::tensor::Dim;
 
@@ -47,22 +51,56 @@ pub const SHADERS: &[Source] = &[
 ];
 
 /// The scheme of the dynamic variant: the potential's consistent force with the
-/// dual-support hourglass term.
-pub fn scheme(spec: &DualSupportSpec) -> TlScheme {
+/// dual-support hourglass term, on the lists of [`lists`].
+pub fn scheme<D: GpuDim>(spec: &DualSupportSpec) -> TlScheme<D> {
+    let spec = spec.clone();
     TlScheme {
         stress: STRESS,
         accel: ACCEL,
         reduce: REDUCE,
         reverse: true,
         hourglass: None,
-        lists: Lists::DualSupport(spec.clone()),
+        lists: Lists::Host(Box::new(move |case, reference| {
+            lists(case, &spec, reference).map(DeviceLists::into_host)
+        })),
         constants: viscosity(None)
             .choice("FORCE", &["CONSISTENT", "REFERENCE_CODE"], 0)
             .u32("HOURGLASS_DS", 1),
-        unit_weights: false,
+        unit_weights: None,
         kin_tensors: &[],
         frame: Frame::Reference,
         checks: DET_F,
+    }
+}
+
+impl<D: GpuDim> DeviceLists<D> {
+    /// The engine's host lists: the supports and dual-supports S_i ∪ S'_i with each
+    /// particle's own h, g_ij/V_j (zero where j ∉ S_i), the hourglass stiffnesses of
+    /// both sides of every pair, and the model for the outputs.
+    fn into_host(self) -> HostLists<D> {
+        let hourglass = self.model.hourglass.iter().any(|&c| c != 0.0);
+        HostLists {
+            csr: self.csr,
+            g: self.g,
+            hgk: self.hgk,
+            hgk_rev: self.hgk_rev,
+            hourglass,
+            model: Box::new(self.model),
+        }
+    }
+}
+
+impl<D: GpuDim> HostModel<D> for DualSupport<D> {
+    /// The model's f64 outputs, the hourglass energy in the strain energy: the whole
+    /// energy the dynamic force derives from.
+    fn snapshot<'a>(
+        &'a self,
+        u: Vec<D::V>,
+        v: Vec<D::V>,
+        mass: &'a [f64],
+        body: &'a [u32],
+    ) -> Snapshot<'a, D> {
+        DualSupport::snapshot(self, u, v, mass, body, true)
     }
 }
 

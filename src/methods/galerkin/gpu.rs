@@ -10,11 +10,11 @@ use super::{GalerkinState, TlGalerkin};
 use crate::balance::Booked;
 use crate::boundary::Boundary;
 use crate::case::Case;
-use crate::engine::{BlowUp, GpuEngine, GpuFamily, Method};
+use crate::engine::{BlowUp, GpuEngine, GpuFamily, Method, Start};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::profile::{NONE, PassBytes, Scale, count, loads, stores};
-use crate::gpu::program::{StateLayout, Stepper};
+use crate::gpu::program::StateLayout;
 use crate::gpu::reduction::{self, Reduced, Reduction};
 use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
@@ -24,7 +24,6 @@ use crate::gpu::shaders::{
 use crate::gpu::shell::Shell;
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
 use crate::integrate::{Buf, Evaluation};
-use crate::interaction::gpu::GpuInteractions;
 use crate::material::Material;
 use crate::observe::Snapshot;
 use crate::plasticity::History;
@@ -398,21 +397,18 @@ impl<D: GpuDim> GpuGalerkin<D> {
         let mut y0 = layout.state.zeroed();
         layout.state.write_v::<D>(&mut y0, "U", &y0_host.u);
         layout.state.write_v::<D>(&mut y0, "V", &y0_host.v);
-        let stepper = Stepper::new(
-            &gpu,
+        let start = Start {
+            gpu: &gpu,
+            compose: &compose,
+            device: &device,
+        };
+        let state = StateLayout::of(&layout.state, "RHO");
+        let (stepper, interactions) = start.stepper(
             case.method.integrator,
-            &compose(&INTEGRATE),
-            StateLayout::of(&layout.state, "RHO"),
+            state,
             &y0,
-        )?;
-        let interactions = GpuInteractions::new(
-            &gpu,
             host.interactions(),
             host.boundary(),
-            &compose,
-            &device.reference,
-            stepper.buffer(Buf::Y),
-            device.traction,
         )?;
 
         let rates_source = compose(&RATES);

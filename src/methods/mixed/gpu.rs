@@ -19,7 +19,7 @@ use super::{CflWaveSpeed, DeformationGradient, MixedOptions, MixedScheme, Moment
 use crate::balance::Booked;
 use crate::boundary::Boundary;
 use crate::case::Case;
-use crate::engine::{BlowUp, GpuEngine, GpuFamily, Method};
+use crate::engine::{BlowUp, GpuEngine, GpuFamily, Method, Start};
 use crate::gpu::context::{Gpu, GpuError, Pipeline, WORKGROUP};
 use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::profile::{NONE, PassBytes, Scale, Traffic, count, loads, stores};
@@ -33,7 +33,6 @@ use crate::gpu::shaders::{
 use crate::gpu::shell::Shell;
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
 use crate::integrate::{Buf, Evaluation, IntegratorKind, PseudoTime, evaluations};
-use crate::interaction::gpu::GpuInteractions;
 use crate::material::MaterialModel;
 use crate::observe::Snapshot;
 use crate::plasticity::History;
@@ -171,21 +170,17 @@ impl<D: GpuDim> GpuMixed<D> {
 
         let scratch = Scratch::new(&gpu, &layout, plastic);
 
-        let stepper = Stepper::new(
-            &gpu,
+        let start = Start {
+            gpu: &gpu,
+            compose: &compose,
+            device: &device,
+        };
+        let (stepper, interactions) = start.stepper(
             case.method.integrator,
-            &compose(&INTEGRATE),
             StateLayout::of(&layout.state, "F"),
             &layout.encode(&cpu.initial_state()),
-        )?;
-        let interactions = GpuInteractions::new(
-            &gpu,
             cpu.interactions(),
             cpu.boundary(),
-            &compose,
-            &device.reference,
-            stepper.buffer(Buf::Y),
-            device.traction,
         )?;
 
         let passes = Passes::new(&gpu, &layout, &compose)?;

@@ -3,7 +3,9 @@
 //! F and P = ∂ψ/∂F. The CPU system ([`super::system`]) is the reference it is checked
 //! against.
 
+use super::system::unit_weight_wave_speed_scale;
 use super::{PotentialForce, PotentialSpec};
+use crate::gpu::layout::GpuDim;
 use crate::gpu::profile::{NONE, PassBytes, count, loads, stores};
 use crate::gpu::shaders::{
     BOUNDARY, CONTACT, CORRECTION, INTEGRATE, MECHANICS, PAIR_OFFSETS, REFERENCE,
@@ -69,8 +71,9 @@ pub const SHADERS: &[Source] = &[
     REDUCE,
 ];
 
-/// The potential's force with the spec's constants.
-pub fn scheme(spec: &PotentialSpec) -> TlScheme {
+/// The potential's force with the spec's constants; the reference code's force weighs
+/// each ψ_i by 1, with its CFL scale.
+pub fn scheme<D: GpuDim>(spec: &PotentialSpec) -> TlScheme<D> {
     let reference_code = spec.force == PotentialForce::ReferenceCode;
     TlScheme {
         stress: STRESS,
@@ -86,7 +89,7 @@ pub fn scheme(spec: &PotentialSpec) -> TlScheme {
                 usize::from(reference_code),
             )
             .u32("HOURGLASS_DS", 0),
-        unit_weights: reference_code,
+        unit_weights: reference_code.then_some(unit_weight_wave_speed_scale as fn(&[f64]) -> f64),
         kin_tensors: &[],
         frame: Frame::Reference,
         checks: DET_F,

@@ -15,7 +15,7 @@ use crate::balance::Booked;
 use crate::boundary::{Boundary, OnPatches};
 use crate::case::Case;
 use crate::correction::CorrectionKind;
-use crate::engine::{BlowUp, GpuEngine, GpuFamily};
+use crate::engine::{BlowUp, GpuEngine, GpuFamily, Start};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::neighbour::{CellList, CellParams, Positions};
@@ -31,7 +31,6 @@ use crate::gpu::shell::Shell;
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
 use crate::integrate::{Buf, Evaluation};
 use crate::interaction::Interactions;
-use crate::interaction::gpu::GpuInteractions;
 use crate::neighbour::{Csr, SKIN, bounding_box};
 use crate::observe::Snapshot;
 use crate::reference::Reference;
@@ -278,26 +277,23 @@ impl<D: GpuDim> GpuUl<D> {
         );
         let mut y0 = layout.state.zeroed();
         layout.state.write_v::<D>(&mut y0, "V", &disc.v0);
-        let stepper = Stepper::new(
-            &gpu,
-            case.method.integrator,
-            &compose(&INTEGRATE),
-            StateLayout::of(&layout.state, "RHO"),
-            &y0,
-        )?;
         let per_body = case.contact.is_some();
         let interactions =
             Interactions::<D>::build(case, &disc.x0, &disc.body, &OnPatches, &disc.mass, || {
                 disc.neighbours()
             })?;
-        let interactions = GpuInteractions::new(
-            &gpu,
+        let start = Start {
+            gpu: &gpu,
+            compose: &compose,
+            device: &device,
+        };
+        let state = StateLayout::of(&layout.state, "RHO");
+        let (stepper, interactions) = start.stepper(
+            case.method.integrator,
+            state,
+            &y0,
             &interactions,
             &disc.boundary,
-            &compose,
-            &device.reference,
-            stepper.buffer(Buf::Y),
-            device.traction.clone(),
         )?;
         let x = gpu.zeroed("positions x", (n * D::N) as u64 * 4);
         let kin = gpu.zeroed("per-particle quantities", layout.kin.bytes());

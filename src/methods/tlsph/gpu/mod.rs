@@ -11,8 +11,8 @@
 mod scheme;
 
 pub use scheme::{
-    ACCEL, DET_F, Frame, Layout, Lists, REDUCE, SHADERS, STRESS, TlScheme, scene_constants, scheme,
-    viscosity,
+    ACCEL, DET_F, Frame, HostListing, HostLists, HostModel, Layout, Lists, Outputs, REDUCE,
+    SHADERS, STRESS, TlScheme, scene_constants, scheme, viscosity,
 };
 
 use super::system::hourglass_stiffness;
@@ -20,20 +20,18 @@ use crate::balance::Booked;
 use crate::boundary::{Boundary, OnPatches};
 use crate::case::Case;
 use crate::correction::{self, CorrectionKind};
-use crate::engine::{BlowUp, GpuEngine, GpuFamily};
+use crate::engine::{BlowUp, GpuEngine, GpuFamily, Start};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{GpuDim, flat_v};
 use crate::gpu::profile::Scale;
-use crate::gpu::program::{StateLayout, Stepper};
+use crate::gpu::program::StateLayout;
 use crate::gpu::reduction::{Reduced, Reduction};
 use crate::gpu::reference::DeviceReference;
-use crate::gpu::shaders::{self, CORRECTION, INTEGRATE, PAIR_OFFSETS, Source};
+use crate::gpu::shaders::{self, CORRECTION, PAIR_OFFSETS, Source};
 use crate::gpu::shell::Shell;
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
 use crate::integrate::{Buf, Evaluation};
 use crate::interaction::Interactions;
-use crate::interaction::gpu::GpuInteractions;
-use crate::methods::dual_support::gpu::DeviceLists;
 use crate::methods::tl::{TlState, check_state, snapshot};
 use crate::neighbour::Csr;
 use crate::observe::Snapshot;
@@ -61,12 +59,12 @@ pub struct TlDevice<D: GpuDim> {
     /// The factor on c_p in the CFL step's wave speed (`TlScheme::unit_weights`).
     wave_speed_scale: f64,
     /// What the kinematics' H measures (`TlScheme::frame`).
-    frame: Frame,
+    frame: Frame<D>,
     /// The quantity of each status slot (`TlScheme::checks`).
     checks: &'static [&'static str],
-    /// Dual-support SPH's model on the host, whose f64 outputs the snapshots take from
-    /// the state read back ([`Lists::DualSupport`]).
-    dual_support: Option<crate::methods::dual_support::DualSupport<D>>,
+    /// The model on the host of a scheme with host lists, whose f64 outputs the
+    /// snapshots take from the state read back ([`Lists::Host`]).
+    host: Option<Box<dyn HostModel<D>>>,
     layout: Layout,
     /// Neighbour pairs of the reference lists.
     pairs: u64,
@@ -89,18 +87,16 @@ impl<D: GpuDim> GpuTlsph<D> {
     /// reference pair offsets and corrected gradients on the device (the RKPM and CGCK
     /// corrections on the host, in f64), for the method's `scheme` ([`scheme`] and the
     /// other families' of the same name).
-    pub fn new(case: &Case, scheme: TlScheme, gpu: Gpu) -> Result<Self, SetupError> {
+    pub fn new(case: &Case, scheme: TlScheme<D>, gpu: Gpu) -> Result<Self, SetupError> {
         let disc = Reference::<D>::build(case)?;
         check_f32_run(case, &disc.boundary)?;
         check_f32_particles::<D>(case, &disc.x0, &disc.u0, &disc.v0, &disc.body)?;
         let n = disc.len();
-        let dual = match &scheme.lists {
+        let host = match &scheme.lists {
             Lists::Kernel => None,
-            Lists::DualSupport(spec) => Some(crate::methods::dual_support::gpu::lists::<D>(
-                case, spec, &disc,
-            )?),
+            Lists::Host(build) => Some(build(case, &disc)?),
         };
-        let csr = dual
+        let csr = host
             .as_ref()
             .map_or_else(|| disc.neighbours(), |d| d.csr.clone());
         let layout = Layout::new(
@@ -128,30 +124,27 @@ impl<D: GpuDim> GpuTlsph<D> {
             layout: &layout,
             compose: &compose,
         };
-        let (pair, status) = set_up.pair_data(&device, dual.as_ref())?;
+        let (pair, status) = set_up.pair_data(&device, host.as_ref())?;
 
         let mut y0 = layout.state.zeroed();
         layout.state.write_v::<D>(&mut y0, "U", &disc.u0);
         layout.state.write_v::<D>(&mut y0, "V", &disc.v0);
-        let stepper = Stepper::new(
-            &gpu,
-            case.method.integrator,
-            &compose(&INTEGRATE),
-            StateLayout::of(&layout.state, "RHO"),
-            &y0,
-        )?;
         let interactions =
             Interactions::<D>::build(case, &disc.x0, &disc.body, &OnPatches, &disc.mass, || {
                 csr.clone()
             })?;
-        let interactions = GpuInteractions::new(
-            &gpu,
+        let start = Start {
+            gpu: &gpu,
+            compose: &compose,
+            device: &device,
+        };
+        let state = StateLayout::of(&layout.state, "RHO");
+        let (stepper, interactions) = start.stepper(
+            case.method.integrator,
+            state,
+            &y0,
             &interactions,
             &disc.boundary,
-            &compose,
-            &device.reference,
-            stepper.buffer(Buf::Y),
-            device.traction,
         )?;
         let kin = gpu.zeroed("kinematics", layout.kin.bytes());
 
@@ -182,13 +175,11 @@ impl<D: GpuDim> GpuTlsph<D> {
         let y = stepper.buffer(Buf::Y);
         let reduction = Reduction::new(&gpu, &compose(&scheme.reduce), &table(y, rates_d), n)?;
         let kinematics_y = gpu.bind(&stress, &table(y, stepper.buffer(Buf::Acc)))?;
-        let (energy_weight, wave_speed_scale) = if scheme.unit_weights {
-            let scale = crate::methods::potential::system::unit_weight_wave_speed_scale(&disc.vol);
-            (vec![1.0; n], scale)
-        } else {
-            (disc.vol.clone(), 1.0)
+        let (energy_weight, wave_speed_scale) = match scheme.unit_weights {
+            Some(scale) => (vec![1.0; n], scale(&disc.vol)),
+            None => (disc.vol.clone(), 1.0),
         };
-        let unbooked = unbooked(case, &scheme, dual.as_ref());
+        let unbooked = unbooked(case, &scheme, host.as_ref());
         let shell = Shell::new(gpu, stepper, reduction, kin, &layout.kin, unbooked);
         let family = TlDevice {
             pairs: csr.pair_count() as u64,
@@ -197,7 +188,7 @@ impl<D: GpuDim> GpuTlsph<D> {
             wave_speed_scale,
             frame: scheme.frame,
             checks: scheme.checks,
-            dual_support: dual.map(|d| d.model),
+            host: host.map(|h| h.model),
             layout,
             pair,
             status,
@@ -211,12 +202,12 @@ impl<D: GpuDim> GpuTlsph<D> {
 }
 
 /// The balance's terms the engine does not book besides the work and the dissipation,
-/// zero where the case has none: the hourglass control's work (the scheme's or
-/// dual-support SPH's); contact's, which `ext` adds to the loads' power.
-fn unbooked<D: GpuDim>(case: &Case, scheme: &TlScheme, dual: Option<&DeviceLists<D>>) -> Booked {
-    let dual_hourglass = dual.is_some_and(|d| d.model.hourglass.iter().any(|&c| c != 0.0));
+/// zero where the case has none: the hourglass control's work (the scheme's or its host
+/// lists'); contact's, which `ext` adds to the loads' power.
+fn unbooked<D: GpuDim>(case: &Case, scheme: &TlScheme<D>, host: Option<&HostLists<D>>) -> Booked {
+    let host_hourglass = host.is_some_and(|h| h.hourglass);
     Booked {
-        hourglass_work: (scheme.hourglass.is_none() && !dual_hourglass).then_some(0.0),
+        hourglass_work: (scheme.hourglass.is_none() && !host_hourglass).then_some(0.0),
         contact_energy: case.contact.is_none().then_some(0.0),
         ..Booked::default()
     }
@@ -227,7 +218,7 @@ fn unbooked<D: GpuDim>(case: &Case, scheme: &TlScheme, dual: Option<&DeviceLists
 struct SetUp<'a, D: GpuDim> {
     case: &'a Case,
     gpu: &'a Gpu,
-    scheme: &'a TlScheme,
+    scheme: &'a TlScheme<D>,
     disc: &'a Reference<D>,
     csr: &'a Csr,
     layout: &'a Layout,
@@ -236,12 +227,12 @@ struct SetUp<'a, D: GpuDim> {
 
 impl<D: GpuDim> SetUp<'_, D> {
     /// The per-pair data and the status buffer: X_j − X_i, the corrected gradients (on
-    /// the device, or the host's RKPM and CGCK or dual-support lists'), the hourglass
+    /// the device, or the host's RKPM and CGCK or host lists'), the hourglass
     /// stiffnesses and the reverse gradients of the schemes that read them.
     fn pair_data(
         &self,
         device: &DeviceReference,
-        dual: Option<&DeviceLists<D>>,
+        host: Option<&HostLists<D>>,
     ) -> Result<(wgpu::Buffer, wgpu::Buffer), SetupError> {
         let Self {
             case,
@@ -265,7 +256,7 @@ impl<D: GpuDim> SetUp<'_, D> {
         // X_j − X_i, then (but for the host's RKPM and CGCK) the corrected gradients.
         let offsets_pass = (compose(&PAIR_OFFSETS), "pair_offsets");
         let correct_pass = (compose(&CORRECTION), "correct");
-        let host_solved = dual.is_some()
+        let host_solved = host.is_some()
             || matches!(
                 case.method.correction,
                 CorrectionKind::Rkpm | CorrectionKind::Cgck
@@ -281,10 +272,10 @@ impl<D: GpuDim> SetUp<'_, D> {
             gpu.queue
                 .write_buffer(&pair, at, bytemuck::cast_slice(values));
         };
-        if let Some(d) = dual {
-            write_pair("G", &flat_v::<D>(d.g.clone()));
-            write_pair("HGK", &d.hgk);
-            write_pair("HGKR", &d.hgk_rev);
+        if let Some(h) = host {
+            write_pair("G", &flat_v::<D>(h.g.clone()));
+            write_pair("HGK", &h.hgk);
+            write_pair("HGKR", &h.hgk_rev);
         } else if host_solved {
             let g = correction::gradients::<D>(
                 case.method.correction,
@@ -534,14 +525,14 @@ impl<D: GpuDim> GpuFamily<D> for TlDevice<D> {
         gpu.queue.submit([encoder.finish()]);
         let y = self.decode(&shell.read_state(), self.reference.material.rho0);
         let r = &self.reference;
-        if let Some(model) = &self.dual_support {
-            return model.snapshot(y.u, y.v, &r.mass, &r.body, true);
+        if let Some(model) = &self.host {
+            return model.snapshot(y.u, y.v, &r.mass, &r.body);
         }
         let kin: Vec<f32> = gpu.read(&shell.kin);
         let f = self.deformation_gradient(&kin);
-        if self.frame == Frame::Corotated {
+        if let Frame::Corotated(outputs) = &self.frame {
             let rot = self.layout.kin.read_t::<D>(&kin, "R", D::zero_t());
-            let fields = crate::methods::corotated::outputs::<D>(&r.material, &r.vol, &rot, &f);
+            let fields = outputs(&r.material, &r.vol, &rot, &f);
             return fields.snapshot(&r.x0, &r.mass, &r.body, y);
         }
         snapshot(

@@ -1,11 +1,13 @@
-//! The pass files of the total-Lagrangian GPU engine, the schemes of the methods it runs
-//! (TLSPH's own here; the elastic potential's, corotated TLSPH's and dual-support SPH's
-//! in their folders) and the layout of its buffers with the constants compiled from them.
+//! The pass files of the total-Lagrangian GPU engine, the scheme a method runs on it
+//! ([`TlScheme`]: TLSPH's own here; the elastic potential's, corotated TLSPH's and
+//! dual-support SPH's in their folders, each supplying its own hooks: host-built lists,
+//! outputs in a rotated frame, the CFL scale of a unit-weight energy) and the layout of
+//! its buffers with the constants compiled from them.
 
 use super::super::{TlsphForce, ViscosityGradient};
-use crate::case::Case;
+use crate::case::{Case, CaseError};
 use crate::correction::CorrectionKind;
-use crate::gpu::layout::Fields;
+use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::profile::{NONE, PassBytes, count, loads, stores};
 use crate::gpu::reduction;
 use crate::gpu::reference::{self, Extras};
@@ -15,6 +17,11 @@ use crate::gpu::shaders::{
     source, wgsl,
 };
 use crate::material::Material;
+use crate::methods::tl;
+use crate::neighbour::Csr;
+use crate::observe::Snapshot;
+use crate::reference::Reference;
+use crate::tensor::Dim;
 
 /// Strain energy densities of the TLSPH models, for the reduction.
 const ENERGY: Wgsl = wgsl!("tlsph/tlsph_energy.wgsl");
@@ -114,7 +121,7 @@ pub const SHADERS: &[Source] = &[
 /// The force of one total-Lagrangian method on this engine: TLSPH's own, another method's
 /// on the same stress pass (the elastic potential's), or a method's with its own
 /// per-particle pass (corotated TLSPH's shape matching).
-pub struct TlScheme {
+pub struct TlScheme<D: GpuDim> {
     /// Its per-particle pass file (entry point `stress`): [`STRESS`], or the method's own.
     /// It writes the kinematics H, P, F⁻ᵀ and ρ (and its own `kin_tensors`) and records
     /// failed particles in `status` (slot k for the quantity `checks[k]`).
@@ -130,50 +137,81 @@ pub struct TlScheme {
     /// (field HGK), which the acceleration pass reads.
     pub hourglass: Option<f64>,
     /// Where the pair lists and gradients come from.
-    pub lists: Lists,
+    pub lists: Lists<D>,
     /// Its own compiled-in constants.
     pub constants: Constants,
-    /// Its force derives from Σ_i ψ_i rather than Σ_i V_i ψ_i (the reference code's
-    /// potential force): the strain energy weighs each ψ_i by 1 and the wave speed of the
-    /// CFL step is c_p/√V_min.
-    pub unit_weights: bool,
+    /// Some where its force derives from Σ_i ψ_i rather than Σ_i V_i ψ_i (the reference
+    /// code's potential force): the strain energy weighs each ψ_i by 1, and the factor on
+    /// c_p in the wave speed of the CFL step is this function of the volumes V_i.
+    pub unit_weights: Option<fn(&[f64]) -> f64>,
     /// Per-particle tensors its stress pass keeps in the kinematics besides H, P and F⁻ᵀ
     /// (field `K{name}`: corotated TLSPH's rotation R).
     pub kin_tensors: &'static [&'static str],
     /// What the kinematics' H = F − I is the excess of, for the outputs.
-    pub frame: Frame,
+    pub frame: Frame<D>,
     /// The quantities whose failure the stress pass records, one status slot each (the
     /// first particle, by `atomicMin`), as a blow-up names them.
     pub checks: &'static [&'static str],
 }
 
 /// The pair lists and corrected gradients of a scheme.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Lists {
+pub enum Lists<D: GpuDim> {
     /// The reference neighbours within the kernel's support and the case's correction.
     Kernel,
-    /// Dual-support SPH's ([`crate::methods::dual_support::gpu::lists`]): the supports
-    /// and dual-supports S_i ∪ S'_i with each particle's own h, g_ij/V_j (zero where
-    /// j ∉ S_i), the hourglass stiffnesses of both sides of every pair (fields HGK and
-    /// HGKR), and the host's model for the outputs.
-    DualSupport(crate::methods::dual_support::DualSupportSpec),
+    /// Lists and pair data the scheme's family builds on the host from the case and its
+    /// reference configuration (dual-support SPH's supports and dual-supports).
+    Host(HostListing<D>),
+}
+
+/// The builder of a scheme's host lists ([`Lists::Host`]).
+pub type HostListing<D> = Box<dyn Fn(&Case, &Reference<D>) -> Result<HostLists<D>, CaseError>>;
+
+/// Pair lists built on the host with their per-pair data: the gradients written into
+/// field G, the hourglass stiffnesses of both sides of every pair (fields HGK and HGKR),
+/// and the host's model the snapshots take their f64 outputs from.
+pub struct HostLists<D: GpuDim> {
+    pub csr: Csr,
+    /// The gradients of every pair, in `csr` order.
+    pub g: Vec<D::V>,
+    /// The hourglass stiffness k_ij of every pair and k_ji of its reverse.
+    pub hgk: Vec<f32>,
+    pub hgk_rev: Vec<f32>,
+    /// Some stiffness is not zero: the hourglass force does work.
+    pub hourglass: bool,
+    pub model: Box<dyn HostModel<D>>,
+}
+
+/// The host's f64 model of a scheme with host lists, which the snapshots come from.
+pub trait HostModel<D: GpuDim> {
+    /// The snapshot of displacements u and velocities v.
+    fn snapshot<'a>(
+        &'a self,
+        u: Vec<D::V>,
+        v: Vec<D::V>,
+        mass: &'a [f64],
+        body: &'a [u32],
+    ) -> Snapshot<'a, D>;
 }
 
 /// What the kinematics' H = F − I measures, for snapshots.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Frame {
+pub enum Frame<D: GpuDim> {
     /// The deformation gradient F itself.
     Reference,
     /// The corotated gradient F̂ in the frame of the kinematics' rotation R (field `KR`):
-    /// F = R F̂ (seed 000 §5.5).
-    Corotated,
+    /// F = R F̂ (seed 000 §5.5); the family's outputs of the material, the volumes, R and
+    /// F̂.
+    Corotated(Outputs<D>),
 }
+
+/// A family's outputs (F, σ, the strain energy) from the material, the volumes V_i, the
+/// rotations R_i and the corotated gradients F̂_i.
+pub type Outputs<D> = fn(&Material, &[f64], &[<D as Dim>::T], &[<D as Dim>::T]) -> tl::Fields<D>;
 
 /// The failure TLSPH's stress pass records (slot 0).
 pub const DET_F: &[&str] = &["det F (f32, GPU)"];
 
 /// TLSPH's own force: eq 134, or the variational form, with the spec's viscosity.
-pub fn scheme(spec: &super::super::TlsphSpec) -> TlScheme {
+pub fn scheme<D: GpuDim>(spec: &super::super::TlsphSpec) -> TlScheme<D> {
     let variational = spec.force == TlsphForce::Variational;
     TlScheme {
         stress: STRESS,
@@ -194,7 +232,7 @@ pub fn scheme(spec: &super::super::TlsphSpec) -> TlScheme {
                 &["REVELES", "VARIATIONAL"],
                 usize::from(variational),
             ),
-        unit_weights: false,
+        unit_weights: None,
         kin_tensors: &[],
         frame: Frame::Reference,
         checks: DET_F,
@@ -230,15 +268,15 @@ pub struct Layout {
 impl Layout {
     /// The layout of n particles, `constrained` of them with prescribed components, and
     /// `pairs` neighbour pairs.
-    pub fn new(
+    pub fn new<D: GpuDim>(
         n: usize,
         constrained: usize,
         dim: usize,
         rate: bool,
         pairs: usize,
-        scheme: &TlScheme,
+        scheme: &TlScheme<D>,
     ) -> Self {
-        let dual = matches!(scheme.lists, Lists::DualSupport(_));
+        let host = matches!(scheme.lists, Lists::Host(_));
         let kin = Fields::new("K", dim)
             .tensors("F", true, n)
             .tensors("P", true, n)
@@ -265,8 +303,8 @@ impl Layout {
                 .vectors("G", true, pairs)
                 .vectors("DX", true, pairs)
                 .vectors("GREV", scheme.reverse, pairs)
-                .scalars("HGK", scheme.hourglass.is_some() || dual, pairs)
-                .scalars("HGKR", dual, pairs),
+                .scalars("HGK", scheme.hourglass.is_some() || host, pairs)
+                .scalars("HGKR", host, pairs),
             reference: reference::fields(n, constrained, dim, EXTRAS),
         }
     }
@@ -280,7 +318,7 @@ pub(super) const EXTRAS: Extras = Extras {
 };
 
 /// The compiled-in constants of a scene's TLSPH passes with the scheme's own.
-pub fn scene_constants(case: &Case, layout: &Layout, scheme: &TlScheme) -> Constants {
+pub fn scene_constants<D: GpuDim>(case: &Case, layout: &Layout, scheme: &TlScheme<D>) -> Constants {
     let material = Material::new(&case.material);
     let kernel = case.kernel(layout.dim);
     let correction = match case.method.correction {
