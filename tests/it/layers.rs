@@ -98,7 +98,6 @@ const ORDER: &[(&str, &[&str])] = &[
 /// case (`case::Case`) handed to every layer. Remove an entry with the import; never add
 /// one.
 const UPWARD: &[(&str, &str)] = &[
-    ("gpu", "methods"),
     ("methods/tlsph", "methods/corotated"),
     ("methods/tlsph", "methods/dual_support"),
     ("methods/tlsph", "methods/potential"),

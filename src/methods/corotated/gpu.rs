@@ -3,10 +3,9 @@
 //! The CPU system ([`super::system`]) is the reference it is checked against.
 
 use super::{CorotatedForce, CorotatedSpec};
-use crate::gpu::profile::{NONE, PassBytes, count, loads, stores};
 use crate::gpu::shaders::{
     BOUNDARY, CONTACT, CORRECTION, INTEGRATE, KERNEL, MECHANICS, PAIR_OFFSETS, REFERENCE,
-    REVERSE_GRADIENTS, REVERSE_GRADIENTS_BYTES, Source, VISCOSITY, source,
+    REVERSE_GRADIENTS, Source, VISCOSITY, source,
 };
 use crate::methods::tlsph::gpu::{Frame, Lists, REDUCE, TlScheme, viscosity};
 
@@ -20,23 +19,7 @@ pub const STRESS: Source = source!(
         ("pair", false),
         ("reference", false),
         ("kin", true)
-    ],
-    &[PassBytes {
-        entry: "stress",
-        traffic: &[
-            count("offsets", [1, 0, 0], NONE),
-            // Both loops over a row: the second reads it from the cache.
-            count("ids", NONE, [1, 0, 0]),
-            // X_j − X_i, ∇0W̃_ij.
-            count("pair", NONE, [0, 2, 0]),
-            count("reference", [1, 0, 0], NONE),
-            // u.
-            count("y", [0, 1, 0], NONE),
-            // F̂ − I, P̂, R F̂⁻ᵀ, ρ, R.
-            count("kin", [1, 0, 4], NONE),
-            count("status", NONE, NONE),
-        ],
-    }]
+    ]
 );
 /// The forces R_i P̂_i ∇0W_ij − R_j P̂_j ∇0W_ji (variational) or
 /// ½(R_i + R_j)(P̂_i + P̂_j)∇0W_ij (eqs 154–155 as the reference code writes them) with
@@ -51,27 +34,6 @@ pub const ACCEL: Source = source!(
         ("ext", false),
         ("kin", true),
         ("d", true)
-    ],
-    &[
-        REVERSE_GRADIENTS_BYTES,
-        PassBytes {
-            entry: "accel",
-            traffic: &[
-                count("offsets", [1, 0, 0], NONE),
-                count("ids", NONE, [1, 0, 0]),
-                // ∇0W_ij, and ∇0W_ji for the variational force; X_j − X_i for the viscosity.
-                count("pair", NONE, [0, 1, 0]),
-                count("pair", NONE, [0, 1, 0]).when(&["FORCE == FORCE_VARIATIONAL"]),
-                count("pair", NONE, [0, 1, 0]).when(&["AV"]),
-                count("reference", [2, 0, 0], NONE),
-                count("y", [0, 2, 0], NONE),
-                // R, P̂, R F̂⁻ᵀ, ρ in; the power out.
-                loads("kin", [1, 0, 3], NONE),
-                stores("kin", [2, 0, 0], NONE),
-                count("ext", [0, 1, 0], NONE),
-                count("d", [0, 2, 0], NONE),
-            ],
-        }
     ]
 );
 

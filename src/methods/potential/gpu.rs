@@ -4,10 +4,9 @@
 //! against.
 
 use super::{PotentialForce, PotentialSpec};
-use crate::gpu::profile::{NONE, PassBytes, count, loads, stores};
 use crate::gpu::shaders::{
     BOUNDARY, CONTACT, CORRECTION, INTEGRATE, MECHANICS, PAIR_OFFSETS, REFERENCE,
-    REVERSE_GRADIENTS, REVERSE_GRADIENTS_BYTES, Source, VISCOSITY, Wgsl, source, wgsl,
+    REVERSE_GRADIENTS, Source, VISCOSITY, Wgsl, source, wgsl,
 };
 use crate::methods::tlsph::gpu::{DET_F, Frame, Lists, STRESS, TlScheme, viscosity};
 
@@ -25,30 +24,6 @@ pub const ACCEL: Source = source!(
         ("ext", false),
         ("kin", true),
         ("d", true)
-    ],
-    &[
-        REVERSE_GRADIENTS_BYTES,
-        PassBytes {
-            entry: "accel",
-            traffic: &[
-                count("offsets", [1, 0, 0], NONE),
-                count("ids", NONE, [1, 0, 0]),
-                // ∇0W̃_ij and the reverse ∇0W̃_ji; X_j − X_i for the viscosity.
-                count("pair", NONE, [0, 2, 0]),
-                count("pair", NONE, [0, 1, 0]).when(&["AV"]),
-                // k_ij, k_ji and X_j − X_i of dual-support SPH's hourglass force.
-                count("pair", NONE, [2, 1, 0]).when(&["HOURGLASS_DS"]),
-                count("reference", [2, 0, 0], NONE),
-                count("y", [0, 2, 0], NONE),
-                // P, F⁻ᵀ, ρ in; the power out.
-                loads("kin", [1, 0, 2], NONE),
-                // H for the hourglass force.
-                loads("kin", [0, 0, 1], NONE).when(&["HOURGLASS_DS"]),
-                stores("kin", [2, 0, 0], NONE),
-                count("ext", [0, 1, 0], NONE),
-                count("d", [0, 2, 0], NONE),
-            ],
-        }
     ]
 );
 /// Energies, momenta and checks of a state.
