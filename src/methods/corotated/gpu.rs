@@ -7,7 +7,7 @@ use crate::gpu::shaders::{
     BOUNDARY, CONTACT, CORRECTION, INTEGRATE, KERNEL, MECHANICS, PAIR_OFFSETS, REFERENCE,
     REVERSE_GRADIENTS, Source, VISCOSITY, source,
 };
-use crate::methods::tlsph::gpu::{Frame, Lists, REDUCE, TlScheme, viscosity};
+use crate::methods::tlsph::gpu::{self as tl, Frame, Lists, REDUCE, TlScheme, viscosity};
 
 /// Per particle: shape matching A_i and its rotation R_i (eq 151), the corotated gradient
 /// F̂_i (eqs 152–153), P̂_i = P(F̂_i), R_i F̂_i⁻ᵀ and ρ0/det F̂_i.
@@ -27,14 +27,8 @@ pub const STRESS: Source = source!(
 pub const ACCEL: Source = source!(
     "corotated/corotated_accel.wgsl",
     [BOUNDARY, REFERENCE, VISCOSITY, REVERSE_GRADIENTS],
-    [
-        ("y", false),
-        ("pair", true),
-        ("reference", false),
-        ("ext", false),
-        ("kin", true),
-        ("d", true)
-    ]
+    // The buffers of TLSPH's force pass: it runs on TLSPH's engine.
+    flat = tl::ACCEL.flat
 );
 
 /// The passes of a corotated scene (the strain energy Σ V ψ(F̂) is TLSPH's reduction of

@@ -8,7 +8,7 @@ use crate::gpu::shaders::{
     BOUNDARY, CONTACT, CORRECTION, INTEGRATE, MECHANICS, PAIR_OFFSETS, REFERENCE,
     REVERSE_GRADIENTS, Source, VISCOSITY, Wgsl, source, wgsl,
 };
-use crate::methods::tlsph::gpu::{DET_F, Frame, Lists, STRESS, TlScheme, viscosity};
+use crate::methods::tlsph::gpu::{self as tl, DET_F, Frame, Lists, STRESS, TlScheme, viscosity};
 
 /// The strain energy of the reduction (V_i ψ_i, or ψ_i for the reference code's force).
 const ENERGY: Wgsl = wgsl!("potential/potential_energy.wgsl");
@@ -17,14 +17,8 @@ const ENERGY: Wgsl = wgsl!("potential/potential_energy.wgsl");
 pub const ACCEL: Source = source!(
     "potential/potential.wgsl",
     [BOUNDARY, REFERENCE, VISCOSITY, REVERSE_GRADIENTS],
-    [
-        ("y", false),
-        ("pair", true),
-        ("reference", false),
-        ("ext", false),
-        ("kin", true),
-        ("d", true)
-    ]
+    // The buffers of TLSPH's force pass: it runs on TLSPH's engine.
+    flat = tl::ACCEL.flat
 );
 /// Energies, momenta and checks of a state.
 pub const REDUCE: Source = source!(

@@ -37,7 +37,8 @@ use crate::observe::Snapshot;
 use crate::reference::Reference;
 
 /// The core's bindings, positions pass, correction and closing of the rates, which each
-/// scheme's pass file includes last.
+/// scheme's pass file includes last; with the bytes model of `positions` and the blocks
+/// `particle_core` and `rates_core` that the schemes' models include (`gpu::bytes`).
 pub const CORE: Wgsl = wgsl!("ul/ul.wgsl");
 /// The strain energy of the reduction.
 const ENERGY: Wgsl = wgsl!("ul/ul_energy.wgsl");
