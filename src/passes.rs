@@ -15,7 +15,7 @@ pub struct PassRow {
     pub runs: u64,
     /// Device time of its dispatches, where the adapter has timestamp queries [s].
     pub seconds: Option<f64>,
-    /// Bytes moved by its bytes model, where its pass file declares one.
+    /// Bytes moved by its bytes model (`gpu::bytes`), where its entry point has one.
     pub bytes: Option<u64>,
 }
 

@@ -76,6 +76,10 @@ fn cell_id(c: vec3<u32>) -> u32 {
     return (c.z * params.dims.y + c.y) * params.dims.x + c.x;
 }
 
+// bytes:
+// - x: 1 vector per item
+// - cell: 1 scalar per item
+// - cell_start: 1 scalar per item
 @compute @workgroup_size(256)
 fn bin_particles(
     @builtin(global_invocation_id) gid: vec3<u32>,
@@ -90,6 +94,10 @@ fn bin_particles(
     atomicAdd(&cell_start[c], 1u);
 }
 
+// bytes:
+// - cell: 1 scalar per item
+// - cursor: 1 scalar per item
+// - sorted: 1 scalar per item
 @compute @workgroup_size(256)
 fn scatter(
     @builtin(global_invocation_id) gid: vec3<u32>,
@@ -151,6 +159,16 @@ fn gather(i: u32, fill: bool, first: u32, end: u32) -> u32 {
     return count;
 }
 
+// bytes:
+// The cell starts, the sorted ids and a candidate's position are counted once per item,
+// however many neighbours' searches read them.
+// - x: 1 vector per item
+// - cell_start: 1 scalar per item
+// - sorted: 1 scalar per item
+// - body: 1 scalar per item, when MASKED
+// - offsets: 1 scalar per item
+// The search it shares with `fill_neighbours` fills ids there only.
+// - ids: nothing
 @compute @workgroup_size(256)
 fn count_neighbours(
     @builtin(global_invocation_id) gid: vec3<u32>,
@@ -163,6 +181,17 @@ fn count_neighbours(
     offsets[i] = gather(i, false, 0u, 0u);
 }
 
+// bytes:
+// The ids of a row are sorted in place as they are found: read and written.
+// The cell starts, the sorted ids and a candidate's position are counted once per item,
+// however many neighbours' searches read them.
+// - x: 1 vector per item
+// - cell_start: 1 scalar per item
+// - sorted: 1 scalar per item
+// - body: 1 scalar per item, when MASKED
+// - offsets: 1 scalar per item
+// - ids: 1 scalar per pair
+// - overflow: nothing
 @compute @workgroup_size(256)
 fn fill_neighbours(
     @builtin(global_invocation_id) gid: vec3<u32>,
@@ -179,6 +208,10 @@ fn fill_neighbours(
     _ = gather(i, true, offsets[i], min(offsets[i + 1u], capacity));
 }
 
+// bytes:
+// - x: 1 vector per item
+// - built: 1 vector per item
+// - due: nothing
 @compute @workgroup_size(256)
 fn check_drift(
     @builtin(global_invocation_id) gid: vec3<u32>,
@@ -200,6 +233,12 @@ fn check_drift(
     }
 }
 
+// bytes:
+// One item: 3 workgroup counts of each of a build's dispatches (12 with one
+// level of each scan).
+// - due: 2 scalars per item
+// - full: 36 scalars per item
+// - args: 36 scalars per item
 @compute @workgroup_size(1)
 fn arm() {
     let build = atomicLoad(&due[0]) != 0u;
@@ -213,6 +252,9 @@ fn arm() {
     atomicStore(&due[0], 0u);
 }
 
+// bytes:
+// - cell_start: 1 scalar per item
+// - offsets: 1 scalar per item
 @compute @workgroup_size(256)
 fn clear_counts(
     @builtin(global_invocation_id) gid: vec3<u32>,
@@ -227,6 +269,9 @@ fn clear_counts(
     }
 }
 
+// bytes:
+// - cell_start: 1 scalar per item
+// - cursor: 1 scalar per item
 @compute @workgroup_size(256)
 fn copy_cursor(
     @builtin(global_invocation_id) gid: vec3<u32>,
@@ -238,6 +283,9 @@ fn copy_cursor(
     }
 }
 
+// bytes:
+// - x: 1 vector per item
+// - built: 1 vector per item
 @compute @workgroup_size(256)
 fn save_built(
     @builtin(global_invocation_id) gid: vec3<u32>,

@@ -34,6 +34,14 @@ fn turned_left(t: vecd) -> vecd {
     return normalize(n);
 }
 
+// bytes:
+// Hull particles' positions counted once each, as a slave's.
+// - reference: 1 vector per item
+// - y: 1 vector per item
+// - body: 1 scalar per item
+// - hull: 1 scalar per item
+// - hull_start: nothing
+// - ext: 1 vector per item
 @compute @workgroup_size(256)
 fn contact(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let s = index(gid, nwg);

@@ -12,6 +12,10 @@ struct Coefficients {
 @group(0) @binding(2) var<storage, read> x: array<f32>;
 
 // out = a·out + b·x (blend, axpy with a = 1).
+// bytes:
+// out = a·out + b·x.
+// - out: 1 scalar per item
+// - x: 1 scalar per item
 @compute @workgroup_size(256)
 fn blend(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let k = index(gid, nwg);
@@ -21,6 +25,10 @@ fn blend(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
 }
 
 // Leapfrog kick: v += b·(rate of v).
+// bytes:
+// v += b·v̇.
+// - out: 1 scalar per item
+// - x: 1 scalar per item
 @compute @workgroup_size(256)
 fn kick(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let k = index(gid, nwg);
@@ -30,6 +38,10 @@ fn kick(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
 }
 
 // Leapfrog drift: u += b·v (own velocity); every field after v += b·rate.
+// bytes:
+// u += b·v, and every field after v += b·rate: one more read either way.
+// - out: 1 scalar per item
+// - x: 1 scalar per item
 @compute @workgroup_size(256)
 fn drift(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let k = index(gid, nwg);

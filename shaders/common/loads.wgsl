@@ -8,6 +8,10 @@
 @group(0) @binding(1) var<storage, read> law: array<f32>;
 @group(0) @binding(2) var<storage, read_write> ext: array<f32>;
 
+// bytes:
+// - loads: 1 vector per item
+// - law: nothing
+// - ext: 1 vector per item
 @compute @workgroup_size(256)
 fn timed_loads(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let i = index(gid, nwg);

@@ -13,6 +13,11 @@
 @group(0) @binding(1) var<storage, read> steps: array<f32>;
 @group(0) @binding(2) var<storage, read_write> reference: array<f32>;
 
+// bytes:
+// - timed: 1 scalar + 2 vectors per item
+// - steps: nothing
+// - reference loads: 1 scalar per item
+// - reference stores: 1 scalar + 1 vector per item
 @compute @workgroup_size(256)
 fn timed_velocities(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let i = index(gid, nwg);

@@ -6,6 +6,10 @@
 @group(0) @binding(8) var<storage, read> rev: array<u32>;
 
 // One invocation per pair p = (i, j): ∇0W̃_ji, j's corrected gradient towards i.
+// bytes:
+// - rev: 1 scalar per item
+// - pair loads: 1 vector per item
+// - pair stores: 1 vector per item
 @compute @workgroup_size(256)
 fn reverse_gradients(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let p = index(gid, nwg);

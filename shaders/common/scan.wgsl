@@ -21,6 +21,10 @@ const SCAN_BLOCK: u32 = 512u;
 var<workgroup> tile: array<u32, 512>;
 var<workgroup> partial: array<u32, 256>;
 
+// bytes:
+// - data: 2 scalars per item
+// The block sums (one per 512 entries) are not counted.
+// - block_sums: nothing
 @compute @workgroup_size(256)
 fn scan_blocks(
     @builtin(workgroup_id) wid: vec3<u32>,
@@ -78,6 +82,10 @@ fn scan_blocks(
 }
 
 // data[i] += block_sums[i / SCAN_BLOCK], with block_sums already scanned.
+// bytes:
+// - data: 1 scalar per item
+// The block sums (one per 512 entries) are not counted.
+// - block_sums: nothing
 @compute @workgroup_size(256)
 fn add_block_sums(
     @builtin(global_invocation_id) gid: vec3<u32>,

@@ -64,6 +64,18 @@ fn polar_rotation(a: matd) -> matd {
     return r;
 }
 
+// bytes:
+// - offsets: 1 scalar per item
+// Both loops over a row: the second reads it from the cache.
+// - ids: 1 scalar per pair
+// X_j − X_i, ∇0W̃_ij.
+// - pair: 2 vectors per pair
+// - reference: 1 scalar per item
+// u.
+// - y: 1 vector per item
+// F̂ − I, P̂, R F̂⁻ᵀ, ρ, R.
+// - kin: 1 scalar + 4 tensors per item
+// - status: nothing
 @compute @workgroup_size(256)
 fn stress(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let i = index(gid, nwg);

@@ -19,6 +19,20 @@
 @group(0) @binding(6) var<storage, read> ext: array<f32>;
 @group(0) @binding(7) var<storage, read_write> d: array<f32>;
 
+// bytes:
+// - offsets: 1 scalar per item
+// - ids: 1 scalar per pair
+// ∇0W_ij, and ∇0W_ji for the variational force; X_j − X_i for the viscosity.
+// - pair: 1 vector per pair
+// - pair: 1 vector per pair, when FORCE == FORCE_VARIATIONAL
+// - pair: 1 vector per pair, when AV
+// - reference: 2 scalars per item
+// - y: 2 vectors per item
+// R, P̂, R F̂⁻ᵀ, ρ in; the power out.
+// - kin loads: 1 scalar + 3 tensors per item
+// - kin stores: 2 scalars per item
+// - ext: 1 vector per item
+// - d: 2 vectors per item
 @compute @workgroup_size(256)
 fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let i = index(gid, nwg);

@@ -92,6 +92,12 @@ fn total_partials(lid: u32, groups: u32) {
 }
 
 // Per particle: δH_i and V_i δP_i = V_i 𝔸_i : δH_i along the direction p.
+// bytes:
+// - lists: 1 scalar per item; 1 scalar per pair
+// - g: 1 vector per pair
+// - tangent: 1 modulus per item
+// - p: 1 vector per item
+// - lin: 2 tensors per item
 @compute @workgroup_size(256)
 fn strain(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let i = index(gid, nwg);
@@ -125,6 +131,16 @@ fn strain(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
 
 // Per particle: q_a = (K p)_a, and the workgroup's sum of p·q (p is 0 on the prescribed
 // components, so only the free rows enter).
+// bytes:
+// - lists: 1 scalar per item; 1 scalar per pair
+// - g: 1 vector per pair
+// - grev: 1 vector per pair
+// k_ij, k_ji and X_j − X_i with the hourglass term.
+// - hg: 2 scalars + 1 vector per pair, when HOURGLASS
+// - lin: 2 tensors per item
+// - p: 1 vector per item
+// - q: 1 vector per item
+// - partials: nothing
 @compute @workgroup_size(256)
 fn product(
     @builtin(global_invocation_id) gid: vec3<u32>,
@@ -159,6 +175,12 @@ fn product(
 
 // Per degree of freedom, from x = 0 and r = b (the host's): p = z = r/diag; partials of
 // r·z and r·r.
+// bytes:
+// - inv_diag: 1 scalar per item
+// - r: 1 scalar per item
+// - p: 1 scalar per item
+// - x: 1 scalar per item
+// - partials: nothing
 @compute @workgroup_size(256)
 fn start(
     @builtin(global_invocation_id) gid: vec3<u32>,
@@ -181,6 +203,9 @@ fn start(
 
 // One workgroup: ρ = r·z and |r|² of the start; the stop threshold (tolerance², from the
 // host) times |b|².
+// bytes:
+// - partials: 2 scalars per item
+// - scalars: nothing
 @compute @workgroup_size(256)
 fn begin(@builtin(local_invocation_index) lid: u32) {
     total_partials(lid, GROUPS_DOF);
@@ -195,6 +220,9 @@ fn begin(@builtin(local_invocation_index) lid: u32) {
 
 // One workgroup: α = ρ/(p·Kp), or 0 once stopped; p·Kp ≤ 0 stops as not positive
 // definite.
+// bytes:
+// - partials: 2 scalars per item
+// - scalars: nothing
 @compute @workgroup_size(256)
 fn alpha(@builtin(local_invocation_index) lid: u32) {
     total_partials(lid, GROUPS_N);
@@ -215,6 +243,14 @@ fn alpha(@builtin(local_invocation_index) lid: u32) {
 
 // Per degree of freedom: x += α p, r −= α q on the free components; partials of r·z and
 // r·r with z = r/diag.
+// bytes:
+// - scalars: nothing
+// - x: 1 scalar per item
+// - r: 1 scalar per item
+// - p: 1 scalar per item
+// - q: 1 scalar per item
+// - inv_diag: 1 scalar per item
+// - partials: nothing
 @compute @workgroup_size(256)
 fn update(
     @builtin(global_invocation_id) gid: vec3<u32>,
@@ -237,6 +273,9 @@ fn update(
 }
 
 // One workgroup: the iteration's |r|², its stop test, and β = ρ_new/ρ.
+// bytes:
+// - partials: 2 scalars per item
+// - scalars: nothing
 @compute @workgroup_size(256)
 fn beta(@builtin(local_invocation_index) lid: u32) {
     total_partials(lid, GROUPS_DOF);
@@ -257,6 +296,11 @@ fn beta(@builtin(local_invocation_index) lid: u32) {
 }
 
 // Per degree of freedom: p = z + β p.
+// bytes:
+// - scalars: nothing
+// - inv_diag: 1 scalar per item
+// - r: 1 scalar per item
+// - p: 1 scalar per item
 @compute @workgroup_size(256)
 fn direction(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let k = index(gid, nwg);

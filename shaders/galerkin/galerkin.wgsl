@@ -56,6 +56,22 @@ fn gradients(q: u32, rate: bool) -> Gradients {
 
 // F_q, P_q, ψ_q and, for the rate model, Ḟ_q, ρ̇_q and the Jaumann Ṡ_q (Algorithm 6
 // steps 2–3); the von Mises model returns P_q and ψ_q from the point's committed history.
+// bytes:
+// Items: points; pairs: the point–node pairs, which are also the nodes' gather entries.
+// - offsets: 1 scalar per item
+// - ids: 1 scalar per item; 1 scalar per pair
+// ∇0N_a.
+// - pair: 1 vector per pair
+// u of the first node and of every node; v too, ρ − ρ0 and S, for the
+// rate model.
+// - y: 1 vector per item; 1 vector per pair
+// - y: 1 scalar + 1 vector + 1 tensor per item; 1 vector per pair, when RATE
+// The committed C_p⁻¹ and ε_p of a von Mises point.
+// - hist: 10 scalars per item, when MODEL == MODEL_VON_MISES_PLASTIC
+// H, P, ψ.
+// - kin: 1 scalar + 2 tensors per item
+// - d: 1 scalar + 1 tensor per item, when RATE
+// - status: nothing
 @compute @workgroup_size(256)
 fn points(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let q = index(gid, nwg);
@@ -98,6 +114,13 @@ fn points(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
 // The commit of the plastic history before every step (TlGalerkin::begin_step): one
 // invocation per point returns its F of the step's start state from its history and
 // stores the result in its own entries of hist (plastic_store.wgsl).
+// bytes:
+// Items: points; pairs: the point–node pairs.
+// - offsets: 1 scalar per item
+// - ids: 1 scalar per item; 1 scalar per pair
+// - pair: 1 vector per pair
+// - y: 1 vector per item; 1 vector per pair
+// - hist: 10 scalars per item
 @compute @workgroup_size(256)
 fn commit(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let q = index(gid, nwg);
@@ -110,6 +133,20 @@ fn commit(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
 
 // ü_a = −(1/m_a) Σ_q w_q P_q ∇0N_a(X_q) (Algorithm 6 step 4), the boundary conditions
 // (boundary.wgsl) and u̇ = v.
+// bytes:
+// Items: nodes; pairs: the point–node pairs, the nodes' gather entries.
+// The row end, and the point of every entry.
+// - gather: 1 scalar per item; 1 scalar per pair
+// w_q ∇0N_a(X_q).
+// - entries: 1 vector per pair
+// P_q in; the power out.
+// - kin loads: 1 tensor per pair
+// - kin stores: 1 scalar per item
+// V and the mask.
+// - reference: 2 scalars per item
+// - y: 1 vector per item
+// - ext: 1 vector per item
+// - d: 2 vectors per item
 @compute @workgroup_size(256)
 fn nodes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let a = index(gid, nwg);

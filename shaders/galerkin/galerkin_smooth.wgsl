@@ -11,6 +11,14 @@
 @group(0) @binding(4) var<storage, read_write> y: array<f32>;
 @group(0) @binding(5) var<storage, read_write> smoothed: array<f32>;
 
+// bytes:
+// Items: nodes; pairs: counted as the point–node pairs (the smoothing lists are about
+// as long).
+// - smooth_offsets: 1 scalar per item
+// - smooth_ids: 1 scalar per pair
+// - smooth_weights: 1 scalar per pair
+// - y: 1 vector per pair
+// - smoothed: 1 vector per item
 @compute @workgroup_size(256)
 fn smooth_velocities(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let a = index(gid, nwg);
@@ -25,6 +33,12 @@ fn smooth_velocities(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num
     vstore_smoothed(DIM * a, v);
 }
 
+// bytes:
+// Items: nodes; pairs: counted as the point–node pairs (the smoothing lists are about
+// as long).
+// - reference: 1 scalar per item
+// - smoothed: 1 vector per item
+// - y: 1 vector per item
 @compute @workgroup_size(256)
 fn settle(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let a = index(gid, nwg);

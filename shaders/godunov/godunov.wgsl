@@ -5,6 +5,11 @@
 // the momentum equation. One invocation per particle, writing only its own particle.
 
 // Steps 1–2: σ, p, Z = ρ sqrt(K/ρ), V = m/ρ and the correction of L.
+// bytes:
+// The core's part, and ρ − ρ0, S in; σ, p, Z = ρc out.
+// - include particle_core
+// - y: 1 tensor per item
+// - kin: 2 scalars + 1 tensor per item
 @compute @workgroup_size(256)
 fn particle(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let i = index(gid, nwg);
@@ -20,6 +25,10 @@ fn particle(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
 
 // Steps 3–7: L (eq 105), ρ̇ with the Riemann velocity (eqs 131, 133) and v̇ with the
 // Riemann traction on the axis e = −n (eq 132).
+// bytes:
+// The core's part, and σ, p, Z of both particles.
+// - include rates_core
+// - kin loads: 2 scalars + 1 tensor per item
 @compute @workgroup_size(256)
 fn rates(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let i = index(gid, nwg);

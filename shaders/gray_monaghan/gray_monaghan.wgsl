@@ -19,6 +19,12 @@ fn artificial_stress(sigma: matd, rho: f32) -> matd {
 }
 
 // Steps 1–3: σ/ρ², R, V = m/ρ, c = sqrt(K/ρ) and the correction of L.
+// bytes:
+// The core's part, and ρ − ρ0, S in; σ/ρ², c (and R) out.
+// - include particle_core
+// - y: 1 tensor per item
+// - kin: 1 scalar + 1 tensor per item
+// - kin: 1 tensor per item, when AS
 @compute @workgroup_size(256)
 fn particle(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let i = index(gid, nwg);
@@ -37,6 +43,11 @@ fn particle(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
 
 // Steps 4–11: L (eq 105), the stress and artificial-stress accelerations (eq 118), the
 // viscosity of approaching pairs (§3.1 step 6), XSPH (eq 127) and ρ̇ = −ρ tr L (eq 104).
+// bytes:
+// The core's part, and σ/ρ², c (and R) of both particles.
+// - include rates_core
+// - kin loads: 1 scalar + 1 tensor per item
+// - kin loads: 1 tensor per item, when AS
 @compute @workgroup_size(256)
 fn rates(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let i = index(gid, nwg);

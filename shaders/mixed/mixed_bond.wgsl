@@ -13,6 +13,14 @@
 @group(0) @binding(3) var<storage, read> y: array<f32>;
 @group(0) @binding(4) var<storage, read_write> kin: array<f32>;
 
+// bytes:
+// - offsets: 1 scalar per item
+// - ids: 1 scalar per pair
+// X_b − X_a and the bond weight.
+// - pair: 1 scalar + 1 vector per pair
+// u, F; ghosts' u from kin.
+// - y: 1 vector + 1 tensor per item
+// - kin stores: 1 tensor per item
 @compute @workgroup_size(256)
 fn bond_f(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let a = index(gid, nwg);

@@ -125,6 +125,14 @@ fn largest_partial() -> vec2<u32> {
     return vec2<u32>(bitcast<u32>(r), worst);
 }
 
+// bytes:
+// v and p^n; F or H.
+// - y: 1 scalar + 1 vector + 1 tensor per item
+// - kin: 1 tensor per item, when BOND
+// - d: 1 scalar + 1 vector per item
+// v^int, w, δp, p^n, H^n; per workgroup a maximum (not counted).
+// - corr: 2 scalars + 2 vectors + 1 tensor per item
+// - control: nothing
 @compute @workgroup_size(256)
 fn start(
     @builtin(global_invocation_id) gid: vec3<u32>,
@@ -147,6 +155,10 @@ fn start(
     workgroup_max(lid, group_index(wid, nwg), speed2, a);
 }
 
+// bytes:
+// One item: the partials in (not counted), the scale and the workgroup counts out.
+// - control stores: 3 scalars per item
+// - args: 3 scalars per item
 @compute @workgroup_size(1)
 fn begin() {
     control[SCALE] = bitcast<u32>(sqrt(bitcast<f32>(largest_partial().x)));
@@ -194,6 +206,16 @@ fn stage_end(b: u32) -> Extended {
     return image(b, Extended(vload_corr(CVI_OFF + DIM * s), matd(), corr[CPN_OFF + s]));
 }
 
+// bytes:
+// - offsets: 1 scalar per item
+// - ids: 1 scalar per pair
+// - pair: 1 vector per pair
+// - pair: 1 scalar per pair, when PSEUDO_VISCOSITY
+// The particle's and its neighbours' v^int and p^n, its H^n.
+// - corr loads: 1 scalar + 1 vector + 1 tensor per item; 1 scalar + 1 vector per pair
+// - ghost_src: nothing
+// - ghost_img: nothing
+// - corr stores: 1 scalar per item
 @compute @workgroup_size(256)
 fn constraint(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let a = index(gid, nwg);
@@ -230,6 +252,18 @@ fn corrector_force(a: u32, v_at: u32, q_at: u32) -> vecd {
 // The pseudo-time rates of real particle a at the iterate v_at, q_at into R_w, R_δp
 // (eqs 52, 53–54, 58 with the divergence of eq 21). Returns the residual as a velocity,
 // max(Δt |∂w/∂τ|, Δx |∂δp/∂τ|/γ).
+// bytes block pseudo_rates:
+// - offsets: 1 scalar per item
+// - ids: 1 scalar per pair
+// - pair: 2 vectors per pair
+// - pair: 1 scalar per pair, when PSEUDO_VISCOSITY
+// The particle's iterate, c and H^n; the neighbours' iterate and H^n (w, δp and H^n of a
+// neighbour; the ghost maps of ghost neighbours not counted).
+// - corr loads: 2 scalars + 1 vector + 1 tensor per item; 1 scalar + 1 vector + 1 tensor per pair
+// - ghost_src: nothing
+// - ghost_img: nothing
+// - reference: 1 scalar per item
+// - corr stores: 1 scalar + 1 vector per item
 fn pseudo_rates(a: u32, v_at: u32, q_at: u32) -> f32 {
     let e_a = extended(a, v_at, q_at);
     let h_a = mload_corr(CHN_OFF + DIM * DIM * a);
@@ -262,6 +296,10 @@ fn pseudo_rates(a: u32, v_at: u32, q_at: u32) -> f32 {
     return max(length(r_v) * tau.dt, abs(r_q) * SPACING / tau.gamma);
 }
 
+// bytes:
+// Per workgroup a maximum (not counted).
+// - include pseudo_rates
+// - control: nothing
 @compute @workgroup_size(256)
 fn residual(
     @builtin(global_invocation_id) gid: vec3<u32>,
@@ -277,6 +315,8 @@ fn residual(
     workgroup_max(lid, group_index(wid, nwg), size, a);
 }
 
+// bytes:
+// - include pseudo_rates
 @compute @workgroup_size(256)
 fn residual_stage(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let a = index(gid, nwg);
@@ -293,6 +333,10 @@ fn stop() {
     args[2] = 0u;
 }
 
+// bytes:
+// One item: the partials in (not counted), the decision out.
+// - control: 8 scalars per item
+// - args: 3 scalars per item
 @compute @workgroup_size(1)
 fn check() {
     if control[RUN] == 0u {
@@ -327,6 +371,9 @@ fn check() {
     control[ITERATIONS] = iterations + 1u;
 }
 
+// bytes:
+// - corr loads: 2 scalars + 2 vectors per item
+// - corr stores: 1 scalar + 1 vector per item
 @compute @workgroup_size(256)
 fn euler(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let a = index(gid, nwg);
@@ -338,6 +385,9 @@ fn euler(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     corr[CQ1_OFF + a] = corr[CQ_OFF + a] + corr[CRQ_OFF + a] * h;
 }
 
+// bytes:
+// - corr loads: 3 scalars + 3 vectors per item
+// - corr stores: 1 scalar + 1 vector per item
 @compute @workgroup_size(256)
 fn average(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let a = index(gid, nwg);
@@ -350,6 +400,15 @@ fn average(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
     corr[CQ_OFF + a] = 0.5 * (corr[CQ_OFF + a] + corr[CQ1_OFF + a] + corr[CRQ_OFF + a] * h);
 }
 
+// bytes:
+// - offsets: 1 scalar per item
+// - ids: 1 scalar per pair
+// - pair: 2 vectors per pair
+// - corr: 1 scalar + 1 tensor per item; 2 scalars + 1 tensor per pair
+// - ghost_src: nothing
+// - ghost_img: nothing
+// - force: 1 vector per item
+// - d: 1 scalar per item
 @compute @workgroup_size(256)
 fn correct(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let a = index(gid, nwg);

@@ -34,6 +34,22 @@ fn slopes_of(b: u32) -> Slopes {
     return s;
 }
 
+// bytes:
+// - offsets: 1 scalar per item
+// - ids: 1 scalar per pair
+// ∇0W̃_ab, ∇0W̃_ba; X_b − X_a (upwind) or the JST scale.
+// - pair: 2 vectors per pair
+// - pair: 1 vector per pair, when STAB == STAB_UPWIND
+// - pair: 1 scalar per pair, when STAB == STAB_JST
+// - y: 2 vectors per item
+// P (and H).
+// - kin: 1 tensor per item
+// - kin: 1 tensor per item, when KIN_H
+// The Laplacian (JST) or the slopes (reconstruction).
+// - second: 1 vector per item, when STAB == STAB_JST
+// - second: 1 slope per item, when STAB == STAB_UPWIND and RECON
+// T, D(p), D(J).
+// - force: 1 scalar + 2 vectors per item
 @compute @workgroup_size(256)
 fn forces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let a = index(gid, nwg);

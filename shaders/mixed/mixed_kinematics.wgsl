@@ -19,6 +19,27 @@
 // The plastic history (plasticity.wgsl), read with MODEL 5 only.
 @group(0) @binding(7) var<storage, read> hist: array<f32>;
 
+// bytes:
+// - offsets: 1 scalar per item
+// - ids: 1 scalar per pair
+// ∇0W̃_ab.
+// - pair: 1 vector per pair
+// v, F; H, J and p where evolved; ghosts' v and the bond-based F^c from kin.
+// - y: 1 vector + 1 tensor per item
+// - y: 1 tensor per item, when EVOLVE_H
+// - y: 1 scalar per item, when EVOLVE_J
+// - y: 1 scalar per item, when AC
+// - kin loads: 1 tensor per item, when BOND
+// - hist: 10 scalars per item, when MODEL == MODEL_VON_MISES_PLASTIC
+// P (and H).
+// - kin stores: 1 tensor per item
+// - kin stores: 1 tensor per item, when KIN_H
+// Ḟ, Ḣ, J̇, ṗ.
+// - d: 1 tensor per item
+// - d: 1 tensor per item, when EVOLVE_H
+// - d: 1 scalar per item, when EVOLVE_J
+// - d: 1 scalar per item, when AC
+// - status: nothing
 @compute @workgroup_size(256)
 fn kinematics(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let a = index(gid, nwg);

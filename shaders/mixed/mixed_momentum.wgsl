@@ -56,6 +56,13 @@ fn net_force(a: u32) -> vecd {
     return vload_force(FD_OFF + DIM * a) - vload_force(FT_OFF + DIM * a);
 }
 
+// bytes:
+// Per workgroup, 16 partial sums (not counted).
+// - reference: 1 scalar + 1 vector per item
+// - y: 2 vectors per item
+// - y0: 2 vectors per item
+// - force: 2 vectors per item
+// - partials: nothing
 @compute @workgroup_size(256)
 fn balance_sums(
     @builtin(global_invocation_id) gid: vec3<u32>,
@@ -95,6 +102,11 @@ fn balance_sums(
     }
 }
 
+// bytes:
+// One item: the partial sums of every workgroup in (not counted), the rotation,
+// translation and centre of the projection out.
+// - partials: nothing
+// - force: 9 scalars per item
 @compute @workgroup_size(1)
 fn balance_solve() {
     // Kahan summation of the per-workgroup partials.
@@ -141,6 +153,19 @@ fn outer3(a: vec3<f32>, b: vec3<f32>) -> mat3x3<f32> {
     return mat3x3<f32>(a * b.x, a * b.y, a * b.z);
 }
 
+// bytes:
+// T, D(p); D(J) with H kept.
+// - force: 2 vectors per item
+// - force: 1 scalar per item, when KIN_H
+// - y: 1 vector per item
+// - y: 1 vector per item, when PROJECTION
+// - y0: 2 vectors per item, when PROJECTION
+// - reference: 2 scalars per item
+// - reference: 1 vector per item, when PROJECTION
+// - ext: 1 vector per item
+// - kin: 1 scalar per item
+// - d stores: 2 vectors per item
+// - d: 1 scalar per item, when KIN_H
 @compute @workgroup_size(256)
 fn rates(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let a = index(gid, nwg);

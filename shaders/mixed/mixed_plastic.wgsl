@@ -6,6 +6,9 @@
 @group(0) @binding(0) var<storage, read> y: array<f32>;
 @group(0) @binding(1) var<storage, read_write> hist: array<f32>;
 
+// bytes:
+// - y: 1 tensor per item
+// - hist: 10 scalars per item
 @compute @workgroup_size(256)
 fn commit(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let a = index(gid, nwg);

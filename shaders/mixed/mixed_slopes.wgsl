@@ -13,6 +13,15 @@
 @group(0) @binding(4) var<storage, read_write> out: array<f32>;
 @group(0) @binding(5) var<storage, read> kin: array<f32>;
 
+// bytes:
+// - offsets: 1 scalar per item
+// - ids: 1 scalar per pair
+// Least-squares weights.
+// - pair: 1 vector per pair
+// - y: 1 vector per item
+// P (and ghosts' v).
+// - kin: 1 tensor per item
+// - out: 1 slope per item
 @compute @workgroup_size(256)
 fn slopes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let a = index(gid, nwg);
@@ -40,6 +49,14 @@ fn slopes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     }
 }
 
+// bytes:
+// - offsets: 1 scalar per item
+// - ids: 1 scalar per pair
+// Laplacian weights.
+// - pair: 1 scalar per pair
+// - y: 1 vector per item
+// - kin: nothing
+// - out: 1 vector per item
 @compute @workgroup_size(256)
 fn laplacian(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let a = index(gid, nwg);

@@ -23,6 +23,23 @@
 // viscosity along ½(F_i⁻ᵀ ∇0W̃_ij − F_j⁻ᵀ ∇0W̃_ji), the dual-support hourglass force
 // Σ_j [(k_ij + k_ji)(u_j − u_i) − (k_ij H_i + k_ji H_j) X_ij], boundary conditions and
 // u̇ = v.
+// bytes:
+// - offsets: 1 scalar per item
+// - ids: 1 scalar per pair
+// ∇0W̃_ij and the reverse ∇0W̃_ji; X_j − X_i for the viscosity.
+// - pair: 2 vectors per pair
+// - pair: 1 vector per pair, when AV
+// k_ij, k_ji and X_j − X_i of dual-support SPH's hourglass force.
+// - pair: 2 scalars + 1 vector per pair, when HOURGLASS_DS
+// - reference: 2 scalars per item
+// - y: 2 vectors per item
+// P, F⁻ᵀ, ρ in; the power out.
+// - kin loads: 1 scalar + 2 tensors per item
+// H for the hourglass force.
+// - kin loads: 1 tensor per item, when HOURGLASS_DS
+// - kin stores: 2 scalars per item
+// - ext: 1 vector per item
+// - d: 2 vectors per item
 @compute @workgroup_size(256)
 fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let i = index(gid, nwg);

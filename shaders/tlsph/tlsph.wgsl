@@ -21,6 +21,20 @@
 @group(0) @binding(7) var<storage, read_write> status: array<atomic<u32>>;
 
 // Pass 1: F = I + Σ V_j (u_j − u_i) ⊗ ∇0W̃_ij (eq 137), P, and ρ̇, Ṡ of the rate model.
+// bytes:
+// - offsets: 1 scalar per item
+// - ids: 1 scalar per pair
+// ∇0W̃_ij.
+// - pair: 1 vector per pair
+// V_j.
+// - reference: 1 scalar per item
+// u, v; ρ − ρ0 and S of the rate model.
+// - y: 2 vectors per item
+// - y: 1 scalar + 1 tensor per item, when RATE
+// H, P, F⁻ᵀ, ρ.
+// - kin: 1 scalar + 3 tensors per item
+// - d: 1 scalar + 1 tensor per item, when RATE
+// - status: nothing
 @compute @workgroup_size(256)
 fn stress(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let i = index(gid, nwg);

@@ -20,6 +20,27 @@
 @group(0) @binding(6) var<storage, read> ext: array<f32>;
 @group(0) @binding(7) var<storage, read_write> d: array<f32>;
 
+// bytes:
+// - offsets: 1 scalar per item
+// - ids: 1 scalar per pair
+// ∇0W̃_ij, and ∇0W̃_ji for the variational force; X_j − X_i for the viscosity.
+// - pair: 1 vector per pair
+// - pair: 1 vector per pair, when FORCE == FORCE_VARIATIONAL
+// - pair: 1 vector per pair, when AV
+// κ_ij and X_j − X_i, u_j and H_j for the hourglass control.
+// - pair: 1 scalar + 1 vector per pair, when HOURGLASS
+// - y: 1 vector per pair, when HOURGLASS
+// - kin loads: 1 tensor per item; 1 tensor per pair, when HOURGLASS
+// V, the boundary mask.
+// - reference: 2 scalars per item
+// u, v.
+// - y: 2 vectors per item
+// P, F⁻ᵀ, ρ in; the power of supports and loads and the viscous dissipation out.
+// - kin loads: 1 scalar + 2 tensors per item
+// - kin stores: 2 scalars per item
+// - ext: 1 vector per item
+// u̇ = v, v̇.
+// - d: 2 vectors per item
 @compute @workgroup_size(256)
 fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let i = index(gid, nwg);

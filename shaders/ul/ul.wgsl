@@ -24,6 +24,10 @@
 @group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>>;
 
 // x = X + u, for the cell list and the pair sums.
+// bytes:
+// - reference: 1 vector per item
+// - y: 1 vector per item
+// - x: 1 vector per item
 @compute @workgroup_size(256)
 fn positions(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let i = index(gid, nwg);
@@ -79,6 +83,18 @@ fn correction_of(i: u32) -> matd {
 
 // The particle's V = m/ρ and correction into kin, which every scheme's particle pass
 // writes; ρ ≤ 0 (or NaN) records the particle in status[1].
+// bytes block particle_core:
+// The core's part of a scheme's `particle` pass: V = m/ρ (m from the reference volume, ρ
+// from the state), the linear correction's A⁻ᵀ (a gather over x), the failure flags (det A,
+// ρ > 0).
+// - reference: 1 scalar per item
+// - y: 1 scalar per item
+// - kin: 1 scalar per item
+// - kin: 1 tensor per item, when CORRECTION == CORRECTION_LINEAR
+// - offsets: 1 scalar per item, when CORRECTION == CORRECTION_LINEAR
+// - ids: 1 scalar per pair, when CORRECTION == CORRECTION_LINEAR
+// - x: 1 vector per item, when CORRECTION == CORRECTION_LINEAR
+// - status: nothing
 fn store_common(i: u32) {
     let rho = rho_of(i);
     if !(rho > 0.0) {
@@ -100,6 +116,20 @@ fn ait_of(i: u32) -> matd {
 // Writes the rates of particle i from its scheme's ẋ, a, ρ̇ and L: prescribed velocity
 // components take ẋ = v and v̇ = 0 (after the external accelerations, boundary.wgsl),
 // Ṡ by the Jaumann rate and Ḣ = Ḟ = L F.
+// bytes block rates_core:
+// The core's part of a scheme's `rates` pass: the row, x, the state (v, ρ, S, F), V, A⁻ᵀ,
+// the boundary conditions (V and mask, ext, the power of supports and loads into kin) and
+// the rates (u̇, v̇, ρ̇, Ṡ, Ḟ).
+// - offsets: 1 scalar per item
+// - ids: 1 scalar per pair
+// - x: 1 vector per item
+// - y: 1 scalar + 1 vector + 2 tensors per item
+// - kin loads: 1 scalar per item
+// - kin loads: 1 tensor per item, when CORRECTION == CORRECTION_LINEAR
+// - reference: 2 scalars per item
+// - ext: 1 vector per item
+// - d: 1 scalar + 2 vectors + 2 tensors per item
+// - kin stores: 1 scalar per item
 fn close_rates(i: u32, x_dot: vecd, acc: vecd, rho_dot: f32, l: matd) {
     let v_i = v_of(i);
     let a = apply_boundary(i, acc, v_i, mass_of(i));

@@ -1,7 +1,8 @@
 //! The wgpu device: adapter selection, buffers (uniforms laid out by encase from their
 //! `ShaderType` structs), pipelines, dispatch sizes and readback.
 
-use super::profile::{Access, BindingUse, Cost, PassBytes, Profiler};
+use super::bytes::{Access, BindingUse, Cost, pass_model};
+use super::profile::Profiler;
 use bytemuck::Pod;
 use encase::ShaderType;
 use encase::internal::WriteInto;
@@ -268,18 +269,9 @@ fn integer_constants(module: &naga::Module) -> Vec<(String, i64)> {
         .collect()
 }
 
-/// The bytes model of entry point `entry` of a composed pass: the one its pass file
-/// declares (the registered [`Source`](super::shaders::Source) whose text the composed
-/// source ends with), None if it declares none.
-pub fn pass_model(source: &str, entry: &str) -> Option<&'static PassBytes> {
-    crate::methods::shaders()
-        .into_iter()
-        .filter(|s| source.ends_with(s.text))
-        .find_map(|s| s.bytes.iter().find(|b| b.entry == entry))
-}
-
 /// The bytes model of entry point `entry` of a composed pass ([`pass_model`]) in the
-/// variant its constants select. Err: the model names a constant the variant lacks.
+/// variant its constants select. Err: the model is malformed, or names a constant the
+/// variant lacks or a binding (or a direction of one) the entry point does not use.
 pub fn pass_cost(source: &str, entry: &str) -> Result<Option<Cost>, String> {
     let (module, info) = validated(source)?;
     let reflection = reflect_module(&module, &info, entry)?;
@@ -294,7 +286,7 @@ fn cost_in(
     source: &str,
     entry: &str,
 ) -> Result<Option<Cost>, String> {
-    let Some(model) = pass_model(source, entry) else {
+    let Some(model) = pass_model(source, entry)? else {
         return Ok(None);
     };
     let constants = integer_constants(module);

@@ -2,6 +2,7 @@
 //! f32. The methods' GPU engines (`methods::<method>::gpu`) stand on it, each in a
 //! [`shell::Shell`] that holds what they share.
 
+pub mod bytes;
 pub mod context;
 pub mod layout;
 pub mod neighbour;

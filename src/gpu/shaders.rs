@@ -7,8 +7,8 @@
 //! live in `shaders/common/` and are declared here; a method's own in `shaders/<method>/`,
 //! declared by its GPU engine.
 
+use super::bytes::FILE;
 use super::layout::GpuDim;
-use super::profile::{NONE, PassBytes, count, loads, stores};
 use crate::kernel::{Kernel, KernelKind};
 use crate::material::{Material, MaterialModel};
 
@@ -40,34 +40,24 @@ pub struct Source {
     /// Flat f32 buffers that get `vload_/mload_` (and, if writable, `vstore_/mstore_`)
     /// accessors for DIM-vectors and DIM×DIM column-major tensors.
     pub flat: &'static [(&'static str, bool)],
-    /// The bytes model of its entry points that run in a step, for the pass report
-    /// (checked against the bindings each entry point reads and writes by a test).
-    pub bytes: &'static [PassBytes],
 }
 
-/// The [`Source`] of a pass file under `shaders/` with the function files it calls, its
-/// flat buffers `(name, writable)` (or `flat = ` a list shared by several files) and the
-/// bytes model of its entry points ([`PassBytes`]).
+/// The [`Source`] of a pass file under `shaders/` with the function files it calls and
+/// its flat buffers `(name, writable)` (or `flat = ` a list shared by several files). The
+/// bytes model of its entry points is in its WGSL (`gpu::bytes`).
 macro_rules! source {
     ($path:literal) => {
-        $crate::gpu::shaders::source!($path, [], [], &[])
-    };
-    ($path:literal, bytes = $bytes:expr) => {
-        $crate::gpu::shaders::source!($path, [], [], $bytes)
+        $crate::gpu::shaders::source!($path, [], [])
     };
     ($path:literal, [$($common:expr),*], [$(($buf:literal, $rw:literal)),*]) => {
-        $crate::gpu::shaders::source!($path, [$($common),*], [$(($buf, $rw)),*], &[])
+        $crate::gpu::shaders::source!($path, [$($common),*], flat = &[$(($buf, $rw)),*])
     };
-    ($path:literal, [$($common:expr),*], [$(($buf:literal, $rw:literal)),*], $bytes:expr) => {
-        $crate::gpu::shaders::source!($path, [$($common),*], flat = &[$(($buf, $rw)),*], $bytes)
-    };
-    ($path:literal, [$($common:expr),*], flat = $flat:expr, $bytes:expr) => {
+    ($path:literal, [$($common:expr),*], flat = $flat:expr) => {
         $crate::gpu::shaders::Source {
             name: $path,
             text: $crate::gpu::shaders::wgsl!($path).text,
             common: &[$($common),*],
             flat: $flat,
-            bytes: $bytes,
         }
     };
 }
@@ -89,15 +79,6 @@ pub const VISCOSITY: Wgsl = wgsl!("common/viscosity.wgsl");
 /// The set-up entry `reverse_gradients` of the pair forces from Σ_i V_i ψ(F_i): ∇0W̃_ji
 /// into the pair data's field GREV.
 pub const REVERSE_GRADIENTS: Wgsl = wgsl!("common/reverse_gradients.wgsl");
-/// The bytes model of [`REVERSE_GRADIENTS`]' entry; an item is a pair.
-pub const REVERSE_GRADIENTS_BYTES: PassBytes = PassBytes {
-    entry: "reverse_gradients",
-    traffic: &[
-        count("rev", [1, 0, 0], NONE),
-        loads("pair", [0, 1, 0], NONE),
-        stores("pair", [0, 1, 0], NONE),
-    ],
-};
 /// Eigen-decomposition of symmetric tensors (cyclic Jacobi) and tensors from principal
 /// values.
 pub const EIGEN: Wgsl = wgsl!("common/eigen.wgsl");
@@ -114,199 +95,34 @@ pub const CORRECTION: Source = source!(
     [("pair", true), ("reference", false)]
 );
 /// The integrators' stage operations over the flat state; an item is one f32 entry of it.
-pub const INTEGRATE: Source = source!(
-    "common/integrate.wgsl",
-    bytes = &[
-        // out = a·out + b·x.
-        PassBytes {
-            entry: "blend",
-            traffic: &[count("out", [1, 0, 0], NONE), count("x", [1, 0, 0], NONE)],
-        },
-        // v += b·v̇.
-        PassBytes {
-            entry: "kick",
-            traffic: &[count("out", [1, 0, 0], NONE), count("x", [1, 0, 0], NONE)],
-        },
-        // u += b·v, and every field after v += b·rate: one more read either way.
-        PassBytes {
-            entry: "drift",
-            traffic: &[count("out", [1, 0, 0], NONE), count("x", [1, 0, 0], NONE)],
-        },
-    ]
-);
+pub const INTEGRATE: Source = source!("common/integrate.wgsl");
 /// Reference pair offsets X_j − X_i from hi + lo positions.
 pub const PAIR_OFFSETS: Source = source!(
     "common/pair_offsets.wgsl",
     [REFERENCE],
     [("reference", false), ("pair", true)]
 );
-/// Penalty contact of seed 000 §5.8: one gather per slave over the other bodies' hulls
-/// (hull particles' positions counted once each, as a slave's).
+/// Penalty contact of seed 000 §5.8: one gather per slave over the other bodies' hulls.
 pub const CONTACT: Source = source!(
     "common/contact.wgsl",
     [REFERENCE],
-    [("reference", false), ("y", false), ("ext", true)],
-    &[PassBytes {
-        entry: "contact",
-        traffic: &[
-            count("reference", [0, 1, 0], NONE),
-            count("y", [0, 1, 0], NONE),
-            count("body", [1, 0, 0], NONE),
-            count("hull", [1, 0, 0], NONE),
-            count("hull_start", NONE, NONE),
-            count("ext", [0, 1, 0], NONE),
-        ],
-    }]
+    [("reference", false), ("y", false), ("ext", true)]
 );
 /// Loads that vary in time (`interaction::TimedLoads`): an item is a particle, whose
 /// acceleration it reads from every group.
-pub const LOADS: Source = source!(
-    "common/loads.wgsl",
-    [],
-    [("loads", false), ("ext", true)],
-    &[PassBytes {
-        entry: "timed_loads",
-        traffic: &[
-            count("loads", [0, 1, 0], NONE),
-            count("law", NONE, NONE),
-            count("ext", [0, 1, 0], NONE),
-        ],
-    }]
-);
+pub const LOADS: Source = source!("common/loads.wgsl", [], [("loads", false), ("ext", true)]);
 /// Prescribed velocities that vary in time (`boundary::TimedVelocity`): an item is a
 /// particle, whose timed components it reads (the mask, one index and one velocity each).
-pub const PRESCRIBED: Source = source!(
-    "common/prescribed.wgsl",
-    [],
-    [],
-    &[PassBytes {
-        entry: "timed_velocities",
-        traffic: &[
-            count("timed", [1, 2, 0], NONE),
-            count("steps", NONE, NONE),
-            loads("reference", [1, 0, 0], NONE),
-            stores("reference", [1, 1, 0], NONE),
-        ],
-    }]
-);
+pub const PRESCRIBED: Source = source!("common/prescribed.wgsl", [], []);
 /// Cell list and neighbour lists, with the constants of `gpu::neighbour::constants`. An
-/// item is a particle (a cell in `copy_cursor`, either in `clear_counts`); the cell
-/// starts, the sorted ids and a candidate's position are counted once per item, however
-/// many neighbours' searches read them.
-pub const CELL_LIST: Source = source!(
-    "common/cell_list.wgsl",
-    [],
-    [("x", false)],
-    &[
-        PassBytes {
-            entry: "clear_counts",
-            traffic: &[
-                count("cell_start", [1, 0, 0], NONE),
-                count("offsets", [1, 0, 0], NONE),
-            ],
-        },
-        PassBytes {
-            entry: "bin_particles",
-            traffic: &[
-                count("x", [0, 1, 0], NONE),
-                count("cell", [1, 0, 0], NONE),
-                count("cell_start", [1, 0, 0], NONE),
-            ],
-        },
-        PassBytes {
-            entry: "copy_cursor",
-            traffic: &[
-                count("cell_start", [1, 0, 0], NONE),
-                count("cursor", [1, 0, 0], NONE),
-            ],
-        },
-        PassBytes {
-            entry: "scatter",
-            traffic: &[
-                count("cell", [1, 0, 0], NONE),
-                count("cursor", [1, 0, 0], NONE),
-                count("sorted", [1, 0, 0], NONE),
-            ],
-        },
-        PassBytes {
-            entry: "count_neighbours",
-            traffic: &[
-                count("x", [0, 1, 0], NONE),
-                count("cell_start", [1, 0, 0], NONE),
-                count("sorted", [1, 0, 0], NONE),
-                count("body", [1, 0, 0], NONE).when(&["MASKED"]),
-                count("offsets", [1, 0, 0], NONE),
-                // The search it shares with `fill_neighbours` fills ids there only.
-                count("ids", NONE, NONE),
-            ],
-        },
-        // The ids of a row are sorted in place as they are found: read and written.
-        PassBytes {
-            entry: "fill_neighbours",
-            traffic: &[
-                count("x", [0, 1, 0], NONE),
-                count("cell_start", [1, 0, 0], NONE),
-                count("sorted", [1, 0, 0], NONE),
-                count("body", [1, 0, 0], NONE).when(&["MASKED"]),
-                count("offsets", [1, 0, 0], NONE),
-                count("ids", NONE, [1, 0, 0]),
-                count("overflow", NONE, NONE),
-            ],
-        },
-        PassBytes {
-            entry: "save_built",
-            traffic: &[count("x", [0, 1, 0], NONE), count("built", [0, 1, 0], NONE)],
-        },
-        PassBytes {
-            entry: "check_drift",
-            traffic: &[
-                count("x", [0, 1, 0], NONE),
-                count("built", [0, 1, 0], NONE),
-                count("due", NONE, NONE),
-            ],
-        },
-        // One item: 3 workgroup counts of each of a build's dispatches (12 with one
-        // level of each scan).
-        PassBytes {
-            entry: "arm",
-            traffic: &[
-                count("due", [2, 0, 0], NONE),
-                count("full", [36, 0, 0], NONE),
-                count("args", [36, 0, 0], NONE),
-            ],
-        },
-    ]
-);
+/// item is a particle (a cell in `copy_cursor`, either in `clear_counts`).
+pub const CELL_LIST: Source = source!("common/cell_list.wgsl", [], [("x", false)]);
 /// Prefix scans; an item is an invocation (two entries in `scan_blocks`, one in
-/// `add_block_sums`), the block sums (one per 512 entries) are not counted.
-pub const SCAN: Source = source!(
-    "common/scan.wgsl",
-    bytes = &[
-        PassBytes {
-            entry: "scan_blocks",
-            traffic: &[
-                count("data", [2, 0, 0], NONE),
-                count("block_sums", NONE, NONE),
-            ],
-        },
-        PassBytes {
-            entry: "add_block_sums",
-            traffic: &[
-                count("data", [1, 0, 0], NONE),
-                count("block_sums", NONE, NONE),
-            ],
-        },
-    ]
-);
+/// `add_block_sums`).
+pub const SCAN: Source = source!("common/scan.wgsl");
 /// The copy that measures an adapter's copy bandwidth (`gpu::profile`): 16 bytes an item,
 /// one `vec4<f32>` element.
-pub const COPY: Source = source!(
-    "common/copy.wgsl",
-    bytes = &[PassBytes {
-        entry: "copy",
-        traffic: &[count("src", [1, 0, 0], NONE), count("dst", [1, 0, 0], NONE)],
-    }]
-);
+pub const COPY: Source = source!("common/copy.wgsl");
 
 /// The shared pass files that take no scene constants (the cell list takes its own).
 pub const SHARED: &[Source] = &[CELL_LIST, SCAN, COPY];
@@ -415,19 +231,28 @@ impl Constants {
     }
 }
 
-/// The full WGSL text of a pass in dimension D with the given constants.
+/// The full WGSL text of a pass in dimension D with the given constants. Each file it
+/// holds is preceded by a line naming it ([`FILE`]), where the bytes models' errors find
+/// their file and line.
 pub fn compose<D: GpuDim>(source: &Source, constants: &Constants) -> String {
     let mut text = String::new();
     text.push_str(D::PRELUDE);
-    text.push_str(DISPATCH.text);
+    let file = |text: &mut String, name: &str, wgsl: &str| {
+        if !text.ends_with('\n') {
+            text.push('\n');
+        }
+        text.push_str(&format!("{FILE}{name}\n"));
+        text.push_str(wgsl);
+    };
+    file(&mut text, DISPATCH.name, DISPATCH.text);
     text.push_str(&constants.render());
-    for file in source.common {
-        text.push_str(file.text);
+    for common in source.common {
+        file(&mut text, common.name, common.text);
     }
     for &(name, writable) in source.flat {
         text.push_str(&accessors(name, D::N, writable));
     }
-    text.push_str(source.text);
+    file(&mut text, source.name, source.text);
     text
 }
 

@@ -222,11 +222,15 @@ pub fn validate_wgsl(name: &str, src: &str) {
 /// the variant ([`pass_cost`] fails otherwise).
 #[cfg(feature = "gpu")]
 fn bytes_model_matches_the_bindings(name: &str, src: &str, module: &naga::Module) {
-    use meshless::gpu::context::{pass_cost, pass_model, reflect};
+    use meshless::gpu::bytes::pass_model;
+    use meshless::gpu::context::{pass_cost, reflect};
     let models: Vec<_> = module
         .entry_points
         .iter()
-        .map(|e| (e.name.as_str(), pass_model(src, &e.name)))
+        .map(|e| {
+            let model = pass_model(src, &e.name).unwrap_or_else(|e| panic!("{name}: {e}"));
+            (e.name.as_str(), model)
+        })
         .collect();
     if models.iter().all(|(_, m)| m.is_none()) {
         return;
@@ -237,16 +241,18 @@ fn bytes_model_matches_the_bindings(name: &str, src: &str, module: &naga::Module
         });
         let r = reflect(src, entry).unwrap();
         let used = |binding: &str| r.reads.iter().chain(&r.writes).any(|b| b == binding);
-        for t in model.traffic {
+        for t in &model.traffic {
             assert!(
-                used(t.binding),
-                "{name}: the bytes model of `{entry}` counts `{}`, which its WGSL does not use",
+                used(&t.binding),
+                "{name}: {}: the bytes model of `{entry}` counts `{}`, which its WGSL does \
+                 not use",
+                t.at,
                 t.binding
             );
         }
         for binding in r.reads.iter().chain(&r.writes) {
             assert!(
-                model.traffic.iter().any(|t| t.binding == binding),
+                model.traffic.iter().any(|t| &t.binding == binding),
                 "{name}: the bytes model of `{entry}` does not count `{binding}`, which its \
                  WGSL uses"
             );

@@ -178,7 +178,6 @@ fn elastic_models_match<D: GpuDim>(gpu: &Gpu) {
         text: ELASTIC,
         common: &[MECHANICS],
         flat: &[("h_in", false), ("out", true)],
-        bytes: &[],
     };
     let stride = D::N * D::N + 1;
     for model in MaterialModel::ALL {
@@ -298,7 +297,6 @@ fn the_softening_return_map_matches_the_cpu() {
         text: RETURN_MAP,
         common: &[EIGEN, PLASTICITY],
         flat: &[],
-        bytes: &[],
     };
     for model in [steel, copper] {
         let mut yielded = 0;

@@ -6,7 +6,7 @@
 
 use crate::common::{cpu_options, load};
 use meshless::bench::measure;
-use meshless::gpu::profile::{Access, BindingUse, NONE, PassBytes, count, loads, stores};
+use meshless::gpu::bytes::{Access, BindingUse, PassBytes, pass_model};
 use meshless::integrate::{Op, program};
 use meshless::passes::PassReport;
 use meshless::reference::Reference;
@@ -239,43 +239,42 @@ fn the_mixed_report_has_every_pass_of_a_stage() {
     );
 }
 
+/// The model of entry point `pass` written above it in a one-file source `test.wgsl`:
+/// `rows`, one `// - ` row (or prose line) each, after the header.
+fn model(rows: &[&str]) -> Result<Option<PassBytes>, String> {
+    pass_model(&source(rows), "pass")
+}
+
+fn source(rows: &[&str]) -> String {
+    let rows: String = rows.iter().map(|r| format!("{r}\n")).collect();
+    format!("// file: test.wgsl\n// bytes:\n{rows}@compute @workgroup_size(1)\nfn pass() {{}}\n")
+}
+
 /// A model's bytes: each direction the WGSL uses a binding in once (a binding read and
 /// written twice, or its loads and stores apart), times the bytes of the binding's
-/// element; conditions on the variant's constants, slopes (DIM + 1)·DIM² elements. A
-/// count of a binding, or of a direction of one, that the entry point does not use is an
-/// error.
+/// element; conditions on the variant's constants, slopes (DIM + 1)·DIM² elements, moduli
+/// DIM⁴. A count of a binding, or of a direction of one, that the entry point does not use
+/// is an error naming the row's file and line.
 #[test]
 fn a_bytes_model_counts_directions_conditions_and_slopes() {
-    const MODEL: PassBytes = PassBytes {
-        entry: "pass",
-        traffic: &[
-            count("a", [1, 1, 1], [1, 0, 0]),
-            count("b", [0, 1, 0], NONE).when(&["AV"]),
-            count("c", NONE, NONE).slopes(1).when(&["STAB == STAB_JST"]),
-        ],
-    };
-    const MISSING: PassBytes = PassBytes {
-        entry: "pass",
-        traffic: &[count("a", [1, 0, 0], NONE).when(&["XSPH"])],
-    };
+    let parsed = |rows: &[&str]| model(rows).unwrap().unwrap();
+    let model = parsed(&[
+        "// - a: 1 scalar + 1 vector + 1 tensor per item; 1 scalar per pair",
+        "// Prose between the rows.",
+        "// - b: 1 vector per item, when AV",
+        "// - c: 1 slope per item, when STAB == STAB_JST",
+    ]);
+    let missing = parsed(&["// - a: 1 scalar per item, when XSPH"]);
     // A binding read and written with one tensor loaded and a scalar stored per item, and
     // a vec4<f32> (16 bytes) read per item.
-    const SPLIT: PassBytes = PassBytes {
-        entry: "pass",
-        traffic: &[
-            loads("c", [0, 0, 1], NONE),
-            stores("c", [1, 0, 0], NONE),
-            count("v", [1, 0, 0], NONE),
-        ],
-    };
-    const UNUSED: PassBytes = PassBytes {
-        entry: "pass",
-        traffic: &[count("e", [1, 0, 0], NONE)],
-    };
-    const NOT_STORED: PassBytes = PassBytes {
-        entry: "pass",
-        traffic: &[stores("a", [1, 0, 0], NONE)],
-    };
+    let split = parsed(&[
+        "// - c loads: 1 tensor per item",
+        "// - c stores: 1 scalar per item",
+        "// - v: 1 scalar per item",
+    ]);
+    let unused = parsed(&["// - e: 1 scalar per item"]);
+    let not_stored = parsed(&["// - a stores: 1 scalar per item"]);
+    let moduli = parsed(&["// - a: 1 modulus per item; 2 vectors per pair, when AV != 0"]);
     let constants = |av: i64, stab: i64| {
         move |name: &str| match name {
             "DIM" => Some(3),
@@ -300,18 +299,89 @@ fn a_bytes_model_counts_directions_conditions_and_slopes() {
             element_bytes,
         })
     };
-    let cost = MODEL.cost(constants(0, 0), uses).unwrap();
+    let cost = model.cost(constants(0, 0), uses).unwrap();
     assert_eq!((cost.item, cost.pair), (4 * (1 + 3 + 9), 4));
-    let cost = MODEL.cost(constants(1, 1), uses).unwrap();
+    let cost = model.cost(constants(1, 1), uses).unwrap();
     assert_eq!(cost.item, 4 * (1 + 3 + 9 + 3 + 2 * 4 * 9));
-    let err = MISSING.cost(constants(0, 0), uses).unwrap_err();
-    assert!(err.contains("XSPH"), "{err}");
-    let cost = SPLIT.cost(constants(0, 0), uses).unwrap();
+    let err = missing.cost(constants(0, 0), uses).unwrap_err();
+    assert!(err.contains("XSPH") && err.contains("test.wgsl:2"), "{err}");
+    let cost = split.cost(constants(0, 0), uses).unwrap();
     assert_eq!((cost.item, cost.pair), (4 * 9 + 4 + 16, 0));
-    let err = UNUSED.cost(constants(0, 0), uses).unwrap_err();
+    let err = unused.cost(constants(0, 0), uses).unwrap_err();
     assert!(err.contains("`e`") && err.contains("does not use"), "{err}");
-    let err = NOT_STORED.cost(constants(0, 0), uses).unwrap_err();
+    let err = not_stored.cost(constants(0, 0), uses).unwrap_err();
     assert!(err.contains("stores of `a`"), "{err}");
+    let cost = moduli.cost(constants(1, 0), uses).unwrap();
+    assert_eq!((cost.item, cost.pair), (4 * 81, 4 * 6));
+    let cost = moduli.cost(constants(0, 0), uses).unwrap();
+    assert_eq!((cost.item, cost.pair), (0, 0));
+}
+
+/// A malformed row, an include of a block that no line declares, and a model above no
+/// entry point are errors that name the file, the entry point and the line; an entry
+/// point without a model has none; a block's rows count where it is included.
+#[test]
+fn a_malformed_bytes_model_names_its_file_entry_and_line() {
+    for (rows, wrong) in [
+        (&["// - a 1 scalar per item"][..], "binding"),
+        (&["// - a: 1 scalar"], "per item"),
+        (&["// - a: one scalar per item"], "count"),
+        (&["// - a: 1 bushel per item"], "word"),
+        (&["// - a twice: 1 scalar per item"], "part"),
+        (&["// - include nowhere"], "`nowhere`"),
+    ] {
+        let err = model(rows).unwrap_err();
+        assert!(
+            err.contains("shaders/test.wgsl:2") && err.contains("`pass`") && err.contains(wrong),
+            "{rows:?}: {err}"
+        );
+    }
+    let stray = "// file: test.wgsl\n// bytes:\n// - a: 1 scalar per item\n\n\
+                 @compute @workgroup_size(1)\nfn pass() {}\n";
+    let err = pass_model(stray, "pass").unwrap_err();
+    assert!(
+        err.contains("shaders/test.wgsl:1") && err.contains("not directly above"),
+        "{err}"
+    );
+    assert_eq!(
+        pass_model(&source(&[]).replace("// bytes:\n", ""), "pass"),
+        Ok(None)
+    );
+    let shared = format!(
+        "// file: shared.wgsl\n// bytes block core:\n// - a: 2 scalars per item\nfn f() {{}}\n{}",
+        source(&["// - include core", "// - b: 1 scalar per pair"])
+    );
+    let with_block = pass_model(&shared, "pass").unwrap().unwrap();
+    let rows: Vec<_> = with_block
+        .traffic
+        .iter()
+        .map(|t| (t.binding.as_str(), t.at.as_str()))
+        .collect();
+    assert_eq!(
+        rows,
+        [("a", "shaders/shared.wgsl:2"), ("b", "shaders/test.wgsl:3")]
+    );
+}
+
+/// A row that names a binding the entry point does not use fails the pass's cost, named
+/// by its file and line: the reflection check over a real composed pass.
+#[test]
+fn a_bytes_model_of_a_binding_the_entry_does_not_use_fails() {
+    use meshless::gpu::context::pass_cost;
+    use meshless::gpu::shaders::{COPY, Constants, compose};
+    let text = compose::<D2>(&COPY, &Constants::default());
+    assert!(pass_cost(&text, "copy").unwrap().is_some());
+    let broken = text.replacen(
+        "// - dst:",
+        "// - elsewhere: 1 scalar per item\n// - dst:",
+        1,
+    );
+    assert_ne!(broken, text, "copy.wgsl's model counts dst");
+    let err = pass_cost(&broken, "copy").unwrap_err();
+    assert!(
+        err.contains("shaders/common/copy.wgsl:") && err.contains("`elsewhere`"),
+        "{err}"
+    );
 }
 
 /// `meshless run --profile` on the GPU: the summary carries the report of every step of

@@ -4,12 +4,11 @@
 
 use super::{CorotatedForce, CorotatedSpec, outputs};
 use crate::gpu::layout::GpuDim;
-use crate::gpu::profile::{NONE, PassBytes, count, loads, stores};
 use crate::gpu::shaders::{
     BOUNDARY, CONTACT, CORRECTION, INTEGRATE, KERNEL, MECHANICS, PAIR_OFFSETS, REFERENCE,
-    REVERSE_GRADIENTS, REVERSE_GRADIENTS_BYTES, Source, VISCOSITY, source,
+    REVERSE_GRADIENTS, Source, VISCOSITY, source,
 };
-use crate::methods::tlsph::gpu::{Frame, Lists, REDUCE, TlScheme, viscosity};
+use crate::methods::tlsph::gpu::{self as tl, Frame, Lists, REDUCE, TlScheme, viscosity};
 
 /// Per particle: shape matching A_i and its rotation R_i (eq 151), the corotated gradient
 /// F̂_i (eqs 152–153), P̂_i = P(F̂_i), R_i F̂_i⁻ᵀ and ρ0/det F̂_i.
@@ -21,23 +20,7 @@ pub const STRESS: Source = source!(
         ("pair", false),
         ("reference", false),
         ("kin", true)
-    ],
-    &[PassBytes {
-        entry: "stress",
-        traffic: &[
-            count("offsets", [1, 0, 0], NONE),
-            // Both loops over a row: the second reads it from the cache.
-            count("ids", NONE, [1, 0, 0]),
-            // X_j − X_i, ∇0W̃_ij.
-            count("pair", NONE, [0, 2, 0]),
-            count("reference", [1, 0, 0], NONE),
-            // u.
-            count("y", [0, 1, 0], NONE),
-            // F̂ − I, P̂, R F̂⁻ᵀ, ρ, R.
-            count("kin", [1, 0, 4], NONE),
-            count("status", NONE, NONE),
-        ],
-    }]
+    ]
 );
 /// The forces R_i P̂_i ∇0W_ij − R_j P̂_j ∇0W_ji (variational) or
 /// ½(R_i + R_j)(P̂_i + P̂_j)∇0W_ij (eqs 154–155 as the reference code writes them) with
@@ -45,35 +28,8 @@ pub const STRESS: Source = source!(
 pub const ACCEL: Source = source!(
     "corotated/corotated_accel.wgsl",
     [BOUNDARY, REFERENCE, VISCOSITY, REVERSE_GRADIENTS],
-    [
-        ("y", false),
-        ("pair", true),
-        ("reference", false),
-        ("ext", false),
-        ("kin", true),
-        ("d", true)
-    ],
-    &[
-        REVERSE_GRADIENTS_BYTES,
-        PassBytes {
-            entry: "accel",
-            traffic: &[
-                count("offsets", [1, 0, 0], NONE),
-                count("ids", NONE, [1, 0, 0]),
-                // ∇0W_ij, and ∇0W_ji for the variational force; X_j − X_i for the viscosity.
-                count("pair", NONE, [0, 1, 0]),
-                count("pair", NONE, [0, 1, 0]).when(&["FORCE == FORCE_VARIATIONAL"]),
-                count("pair", NONE, [0, 1, 0]).when(&["AV"]),
-                count("reference", [2, 0, 0], NONE),
-                count("y", [0, 2, 0], NONE),
-                // R, P̂, R F̂⁻ᵀ, ρ in; the power out.
-                loads("kin", [1, 0, 3], NONE),
-                stores("kin", [2, 0, 0], NONE),
-                count("ext", [0, 1, 0], NONE),
-                count("d", [0, 2, 0], NONE),
-            ],
-        }
-    ]
+    // The buffers of TLSPH's force pass: it runs on TLSPH's engine.
+    flat = tl::ACCEL.flat
 );
 
 /// The passes of a corotated scene (the strain energy Σ V ψ(F̂) is TLSPH's reduction of

@@ -22,7 +22,7 @@ use super::gpu::DeviceLists;
 use super::model::DualSupport;
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::GpuDim;
-use crate::gpu::profile::{NONE, PassBytes, Scale, count};
+use crate::gpu::profile::Scale;
 use crate::gpu::shaders::{Constants, Source, compose, source};
 use crate::statics::MatrixFree;
 use crate::statics::sparse::{SolveError, SolveStats};
@@ -58,84 +58,6 @@ pub const KRYLOV: Source = source!(
         ("hg", false),
         ("q", true),
         ("lin", true)
-    ],
-    &[
-        PassBytes {
-            entry: "strain",
-            traffic: &[
-                count("lists", [1, 0, 0], [1, 0, 0]),
-                count("g", NONE, [0, 1, 0]),
-                count("tangent", NONE, NONE).moduli(1),
-                count("p", [0, 1, 0], NONE),
-                count("lin", [0, 0, 2], NONE),
-            ],
-        },
-        PassBytes {
-            entry: "product",
-            traffic: &[
-                count("lists", [1, 0, 0], [1, 0, 0]),
-                count("g", NONE, [0, 1, 0]),
-                count("grev", NONE, [0, 1, 0]),
-                // k_ij, k_ji and X_j − X_i with the hourglass term.
-                count("hg", NONE, [2, 1, 0]).when(&["HOURGLASS"]),
-                count("lin", [0, 0, 2], NONE),
-                count("p", [0, 1, 0], NONE),
-                count("q", [0, 1, 0], NONE),
-                count("partials", NONE, NONE),
-            ],
-        },
-        PassBytes {
-            entry: "start",
-            traffic: &[
-                count("inv_diag", [1, 0, 0], NONE),
-                count("r", [1, 0, 0], NONE),
-                count("p", [1, 0, 0], NONE),
-                count("x", [1, 0, 0], NONE),
-                count("partials", NONE, NONE),
-            ],
-        },
-        PassBytes {
-            entry: "begin",
-            traffic: &[
-                count("partials", [2, 0, 0], NONE),
-                count("scalars", NONE, NONE),
-            ],
-        },
-        PassBytes {
-            entry: "alpha",
-            traffic: &[
-                count("partials", [2, 0, 0], NONE),
-                count("scalars", NONE, NONE),
-            ],
-        },
-        PassBytes {
-            entry: "update",
-            traffic: &[
-                count("scalars", NONE, NONE),
-                count("x", [1, 0, 0], NONE),
-                count("r", [1, 0, 0], NONE),
-                count("p", [1, 0, 0], NONE),
-                count("q", [1, 0, 0], NONE),
-                count("inv_diag", [1, 0, 0], NONE),
-                count("partials", NONE, NONE),
-            ],
-        },
-        PassBytes {
-            entry: "beta",
-            traffic: &[
-                count("partials", [2, 0, 0], NONE),
-                count("scalars", NONE, NONE),
-            ],
-        },
-        PassBytes {
-            entry: "direction",
-            traffic: &[
-                count("scalars", NONE, NONE),
-                count("inv_diag", [1, 0, 0], NONE),
-                count("r", [1, 0, 0], NONE),
-                count("p", [1, 0, 0], NONE),
-            ],
-        },
     ]
 );
 

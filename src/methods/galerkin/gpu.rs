@@ -13,7 +13,7 @@ use crate::case::Case;
 use crate::engine::{BlowUp, GpuEngine, GpuFamily, Method, Start};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
-use crate::gpu::profile::{NONE, PassBytes, Scale, count, loads, stores};
+use crate::gpu::profile::Scale;
 use crate::gpu::program::StateLayout;
 use crate::gpu::reduction::{self, Reduced, Reduction};
 use crate::gpu::reference::{self, DeviceReference, Extras};
@@ -48,56 +48,6 @@ pub const RATES: Source = source!(
         ("entries", false),
         ("kin", true),
         ("d", true)
-    ],
-    // Items: points, then nodes, then points; pairs: the point–node pairs, which are also
-    // the nodes' gather entries.
-    &[
-        PassBytes {
-            entry: "points",
-            traffic: &[
-                count("offsets", [1, 0, 0], NONE),
-                count("ids", [1, 0, 0], [1, 0, 0]),
-                // ∇0N_a.
-                count("pair", NONE, [0, 1, 0]),
-                // u of the first node and of every node; v too, ρ − ρ0 and S, for the
-                // rate model.
-                count("y", [0, 1, 0], [0, 1, 0]),
-                count("y", [1, 1, 1], [0, 1, 0]).when(&["RATE"]),
-                // The committed C_p⁻¹ and ε_p of a von Mises point.
-                count("hist", [10, 0, 0], NONE).when(&["MODEL==MODEL_VON_MISES_PLASTIC"]),
-                // H, P, ψ.
-                count("kin", [1, 0, 2], NONE),
-                count("d", [1, 0, 1], NONE).when(&["RATE"]),
-                count("status", NONE, NONE),
-            ],
-        },
-        PassBytes {
-            entry: "nodes",
-            traffic: &[
-                // The row end, and the point of every entry.
-                count("gather", [1, 0, 0], [1, 0, 0]),
-                // w_q ∇0N_a(X_q).
-                count("entries", NONE, [0, 1, 0]),
-                // P_q in; the power out.
-                loads("kin", NONE, [0, 0, 1]),
-                stores("kin", [1, 0, 0], NONE),
-                // V and the mask.
-                count("reference", [2, 0, 0], NONE),
-                count("y", [0, 1, 0], NONE),
-                count("ext", [0, 1, 0], NONE),
-                count("d", [0, 2, 0], NONE),
-            ],
-        },
-        PassBytes {
-            entry: "commit",
-            traffic: &[
-                count("offsets", [1, 0, 0], NONE),
-                count("ids", [1, 0, 0], [1, 0, 0]),
-                count("pair", NONE, [0, 1, 0]),
-                count("y", [0, 1, 0], [0, 1, 0]),
-                count("hist", [10, 0, 0], NONE),
-            ],
-        },
     ]
 );
 /// A node's share of the points' stored energy, for the reduction.
@@ -112,29 +62,7 @@ pub const REDUCE: Source = source!(
 pub const SMOOTH: Source = source!(
     "galerkin/galerkin_smooth.wgsl",
     [REFERENCE],
-    [("y", true), ("smoothed", true), ("reference", false)],
-    // Items: nodes; pairs: counted as the point–node pairs (the smoothing lists are about
-    // as long).
-    &[
-        PassBytes {
-            entry: "smooth_velocities",
-            traffic: &[
-                count("smooth_offsets", [1, 0, 0], NONE),
-                count("smooth_ids", NONE, [1, 0, 0]),
-                count("smooth_weights", NONE, [1, 0, 0]),
-                count("y", NONE, [0, 1, 0]),
-                count("smoothed", [0, 1, 0], NONE),
-            ],
-        },
-        PassBytes {
-            entry: "settle",
-            traffic: &[
-                count("reference", [1, 0, 0], NONE),
-                count("smoothed", [0, 1, 0], NONE),
-                count("y", [0, 1, 0], NONE),
-            ],
-        },
-    ]
+    [("y", true), ("smoothed", true), ("reference", false)]
 );
 
 /// The passes compiled with a Galerkin scene's constants ([`scene_constants`]).

@@ -3,35 +3,12 @@
 //! ([`super::system`]) is the reference it is checked against.
 
 use super::GrayMonaghanSpec;
-use crate::gpu::profile::{NONE, Traffic, count, joined, loads};
+use crate::case::Case;
 use crate::gpu::shaders::{
     BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, KERNEL, LOADS, MECHANICS, PRESCRIBED,
     REFERENCE, Source, VISCOSITY, source,
 };
-use crate::methods::ul::gpu::{
-    CORE, FLAT, PARTICLE_CORE, POWER, RATES_CORE, REDUCE, STATUS, Scheme, scheme_bytes,
-};
-
-/// The core's part of `particle` and the method's: ρ − ρ0, S in; σ/ρ², c (and R) out.
-const PARTICLE: [Traffic; 11] = joined(
-    PARTICLE_CORE,
-    [
-        count("y", [0, 0, 1], NONE),
-        count("kin", [1, 0, 1], NONE),
-        count("kin", [0, 0, 1], NONE).when(&["AS"]),
-        STATUS,
-    ],
-);
-/// The core's part of `rates` and the method's: σ/ρ², c (and R) of both particles.
-const RATES: [Traffic; 12] = joined(
-    RATES_CORE,
-    [
-        loads("kin", [1, 0, 1], NONE),
-        loads("kin", [0, 0, 1], NONE).when(&["AS"]),
-        POWER,
-    ],
-);
-use crate::case::Case;
+use crate::methods::ul::gpu::{CORE, FLAT, REDUCE, Scheme};
 
 /// Per-particle quantities (σ/ρ², R, c, V, the correction) and the pair gather.
 pub const PASSES: Source = source!(
@@ -39,8 +16,7 @@ pub const PASSES: Source = source!(
     [
         KERNEL, MECHANICS, REFERENCE, BOUNDARY, EIGEN, VISCOSITY, CORE
     ],
-    flat = FLAT,
-    &scheme_bytes(&PARTICLE, &RATES)
+    flat = FLAT
 );
 
 /// The passes of a Gray–Monaghan scene.

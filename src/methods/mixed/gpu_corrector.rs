@@ -13,29 +13,11 @@
 use super::compressibility::{Corrector, Unconverged};
 use super::gpu::{IMAGES, MIXED, MOTION};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
-use crate::gpu::profile::{IndirectRuns, NONE, PassBytes, Traffic, count, joined, loads, stores};
+use crate::gpu::profile::IndirectRuns;
 use crate::gpu::shaders::{REFERENCE, Source, source};
 use crate::integrate::PseudoTime;
 use crate::tensor::Dim;
 use encase::ShaderType;
-
-/// The words of the per-pair gathers of the iterate: w, δp and H^n of a neighbour (the
-/// ghost maps of ghost neighbours not counted).
-const ITERATE: [u32; 3] = [1, 1, 1];
-
-/// The pseudo-time rates of a particle, by `residual` and `residual_stage`.
-const RATES: [Traffic; 9] = [
-    count("offsets", [1, 0, 0], NONE),
-    count("ids", NONE, [1, 0, 0]),
-    count("pair", NONE, [0, 2, 0]),
-    count("pair", NONE, [1, 0, 0]).when(&["PSEUDO_VISCOSITY"]),
-    // The particle's iterate, c and H^n; the neighbours' iterate and H^n.
-    loads("corr", [2, 1, 1], ITERATE),
-    count("ghost_src", NONE, NONE),
-    count("ghost_img", NONE, NONE),
-    count("reference", [1, 0, 0], NONE),
-    stores("corr", [1, 1, 0], NONE),
-];
 
 /// The corrector's passes.
 pub const CORRECTOR: Source = source!(
@@ -50,86 +32,6 @@ pub const CORRECTOR: Source = source!(
         ("ghost_img", false),
         ("reference", false),
         ("force", true)
-    ],
-    &[
-        PassBytes {
-            entry: "start",
-            traffic: &[
-                // v and p^n; F or H.
-                count("y", [1, 1, 1], NONE),
-                count("kin", [0, 0, 1], NONE).when(&["BOND"]),
-                count("d", [1, 1, 0], NONE),
-                // v^int, w, δp, p^n, H^n; per workgroup a maximum (not counted).
-                count("corr", [2, 2, 1], NONE),
-                count("control", NONE, NONE),
-            ],
-        },
-        PassBytes {
-            entry: "constraint",
-            traffic: &[
-                count("offsets", [1, 0, 0], NONE),
-                count("ids", NONE, [1, 0, 0]),
-                count("pair", NONE, [0, 1, 0]),
-                count("pair", NONE, [1, 0, 0]).when(&["PSEUDO_VISCOSITY"]),
-                // The particle's and its neighbours' v^int and p^n, its H^n.
-                loads("corr", [1, 1, 1], [1, 1, 0]),
-                count("ghost_src", NONE, NONE),
-                count("ghost_img", NONE, NONE),
-                stores("corr", [1, 0, 0], NONE),
-            ],
-        },
-        // One item: the partials in (not counted), the scale and the workgroup counts out.
-        PassBytes {
-            entry: "begin",
-            traffic: &[
-                stores("control", [3, 0, 0], NONE),
-                count("args", [3, 0, 0], NONE),
-            ],
-        },
-        PassBytes {
-            entry: "residual",
-            // Per workgroup a maximum (not counted).
-            traffic: &joined::<9, 1, 10>(RATES, [count("control", NONE, NONE)]),
-        },
-        PassBytes {
-            entry: "residual_stage",
-            traffic: &RATES,
-        },
-        // One item: the partials in (not counted), the decision out.
-        PassBytes {
-            entry: "check",
-            traffic: &[
-                count("control", [8, 0, 0], NONE),
-                count("args", [3, 0, 0], NONE),
-            ],
-        },
-        PassBytes {
-            entry: "euler",
-            traffic: &[
-                loads("corr", [2, 2, 0], NONE),
-                stores("corr", [1, 1, 0], NONE)
-            ],
-        },
-        PassBytes {
-            entry: "average",
-            traffic: &[
-                loads("corr", [3, 3, 0], NONE),
-                stores("corr", [1, 1, 0], NONE)
-            ],
-        },
-        PassBytes {
-            entry: "correct",
-            traffic: &[
-                count("offsets", [1, 0, 0], NONE),
-                count("ids", NONE, [1, 0, 0]),
-                count("pair", NONE, [0, 2, 0]),
-                count("corr", [1, 0, 1], [2, 0, 1]),
-                count("ghost_src", NONE, NONE),
-                count("ghost_img", NONE, NONE),
-                count("force", [0, 1, 0], NONE),
-                count("d", [1, 0, 0], NONE),
-            ],
-        },
     ]
 );
 

@@ -6,12 +6,11 @@
 use super::system::unit_weight_wave_speed_scale;
 use super::{PotentialForce, PotentialSpec};
 use crate::gpu::layout::GpuDim;
-use crate::gpu::profile::{NONE, PassBytes, count, loads, stores};
 use crate::gpu::shaders::{
     BOUNDARY, CONTACT, CORRECTION, INTEGRATE, MECHANICS, PAIR_OFFSETS, REFERENCE,
-    REVERSE_GRADIENTS, REVERSE_GRADIENTS_BYTES, Source, VISCOSITY, Wgsl, source, wgsl,
+    REVERSE_GRADIENTS, Source, VISCOSITY, Wgsl, source, wgsl,
 };
-use crate::methods::tlsph::gpu::{DET_F, Frame, Lists, STRESS, TlScheme, viscosity};
+use crate::methods::tlsph::gpu::{self as tl, DET_F, Frame, Lists, STRESS, TlScheme, viscosity};
 
 /// The strain energy of the reduction (V_i ψ_i, or ψ_i for the reference code's force).
 const ENERGY: Wgsl = wgsl!("potential/potential_energy.wgsl");
@@ -20,38 +19,8 @@ const ENERGY: Wgsl = wgsl!("potential/potential_energy.wgsl");
 pub const ACCEL: Source = source!(
     "potential/potential.wgsl",
     [BOUNDARY, REFERENCE, VISCOSITY, REVERSE_GRADIENTS],
-    [
-        ("y", false),
-        ("pair", true),
-        ("reference", false),
-        ("ext", false),
-        ("kin", true),
-        ("d", true)
-    ],
-    &[
-        REVERSE_GRADIENTS_BYTES,
-        PassBytes {
-            entry: "accel",
-            traffic: &[
-                count("offsets", [1, 0, 0], NONE),
-                count("ids", NONE, [1, 0, 0]),
-                // ∇0W̃_ij and the reverse ∇0W̃_ji; X_j − X_i for the viscosity.
-                count("pair", NONE, [0, 2, 0]),
-                count("pair", NONE, [0, 1, 0]).when(&["AV"]),
-                // k_ij, k_ji and X_j − X_i of dual-support SPH's hourglass force.
-                count("pair", NONE, [2, 1, 0]).when(&["HOURGLASS_DS"]),
-                count("reference", [2, 0, 0], NONE),
-                count("y", [0, 2, 0], NONE),
-                // P, F⁻ᵀ, ρ in; the power out.
-                loads("kin", [1, 0, 2], NONE),
-                // H for the hourglass force.
-                loads("kin", [0, 0, 1], NONE).when(&["HOURGLASS_DS"]),
-                stores("kin", [2, 0, 0], NONE),
-                count("ext", [0, 1, 0], NONE),
-                count("d", [0, 2, 0], NONE),
-            ],
-        }
-    ]
+    // The buffers of TLSPH's force pass: it runs on TLSPH's engine.
+    flat = tl::ACCEL.flat
 );
 /// Energies, momenta and checks of a state.
 pub const REDUCE: Source = source!(

@@ -19,7 +19,7 @@ use crate::engine::{BlowUp, GpuEngine, GpuFamily, Start};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::neighbour::{CellList, CellParams, Positions};
-use crate::gpu::profile::{IndirectRuns, NONE, PassBytes, Scale, Traffic, count, loads, stores};
+use crate::gpu::profile::{IndirectRuns, Scale};
 use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{self, Reduced, Reduction};
 use crate::gpu::reference::{self, DeviceReference, Extras};
@@ -36,7 +36,8 @@ use crate::observe::Snapshot;
 use crate::reference::Reference;
 
 /// The core's bindings, positions pass, correction and closing of the rates, which each
-/// scheme's pass file includes last.
+/// scheme's pass file includes last; with the bytes model of `positions` and the blocks
+/// `particle_core` and `rates_core` that the schemes' models include (`gpu::bytes`).
 pub const CORE: Wgsl = wgsl!("ul/ul.wgsl");
 /// The strain energy of the reduction.
 const ENERGY: Wgsl = wgsl!("ul/ul_energy.wgsl");
@@ -46,49 +47,6 @@ pub const REDUCE: Source = source!(
     [MECHANICS, ENERGY, REFERENCE],
     [("y", false), ("kin", false), ("reference", false)]
 );
-/// The bytes model of the core's `positions` entry point: x = X + u.
-pub const POSITIONS: PassBytes = PassBytes {
-    entry: "positions",
-    traffic: &[
-        count("reference", [0, 1, 0], NONE),
-        count("y", [0, 1, 0], NONE),
-        count("x", [0, 1, 0], NONE),
-    ],
-};
-
-/// The traffic of the core's part of a scheme's `particle` pass: V = m/ρ (m from the
-/// reference volume, ρ from the state), the linear correction's A⁻ᵀ (a gather over x).
-pub const PARTICLE_CORE: [Traffic; 7] = [
-    count("reference", [1, 0, 0], NONE),
-    count("y", [1, 0, 0], NONE),
-    count("kin", [1, 0, 0], NONE),
-    count("kin", [0, 0, 1], NONE).when(&["CORRECTION == CORRECTION_LINEAR"]),
-    count("offsets", [1, 0, 0], NONE).when(&["CORRECTION == CORRECTION_LINEAR"]),
-    count("ids", NONE, [1, 0, 0]).when(&["CORRECTION == CORRECTION_LINEAR"]),
-    count("x", [0, 1, 0], NONE).when(&["CORRECTION == CORRECTION_LINEAR"]),
-];
-
-/// The traffic of the core's part of a scheme's `rates` pass: the row, x, the state
-/// (v, ρ, S, F), V, A⁻ᵀ, the boundary conditions (V and mask, ext, the power) and the
-/// rates (u̇, v̇, ρ̇, Ṡ, Ḟ).
-pub const RATES_CORE: [Traffic; 9] = [
-    count("offsets", [1, 0, 0], NONE),
-    count("ids", NONE, [1, 0, 0]),
-    count("x", [0, 1, 0], NONE),
-    count("y", [1, 1, 2], NONE),
-    loads("kin", [1, 0, 0], NONE),
-    loads("kin", [0, 0, 1], NONE).when(&["CORRECTION == CORRECTION_LINEAR"]),
-    count("reference", [2, 0, 0], NONE),
-    count("ext", [0, 1, 0], NONE),
-    count("d", [1, 2, 2], NONE),
-];
-
-/// The power of supports and loads, which the rates pass writes into `kin`.
-pub const POWER: Traffic = stores("kin", [1, 0, 0], NONE);
-
-/// The failure flags (det A, ρ > 0) of the particle pass.
-pub const STATUS: Traffic = count("status", NONE, NONE);
-
 /// The flat buffers of a scheme's pass file.
 pub const FLAT: &[(&str, bool)] = &[
     ("y", false),
@@ -98,26 +56,6 @@ pub const FLAT: &[(&str, bool)] = &[
     ("reference", false),
     ("ext", false),
 ];
-
-/// The bytes model of a scheme's pass file: the core's `positions`, and its `particle`
-/// and `rates` (each the core's part, [`PARTICLE_CORE`] and [`RATES_CORE`], and the
-/// scheme's).
-pub const fn scheme_bytes(
-    particle: &'static [Traffic],
-    rates: &'static [Traffic],
-) -> [PassBytes; 3] {
-    [
-        POSITIONS,
-        PassBytes {
-            entry: "particle",
-            traffic: particle,
-        },
-        PassBytes {
-            entry: "rates",
-            traffic: rates,
-        },
-    ]
-}
 
 /// The passes every UL engine compiles besides its scheme's.
 pub const SHARED: [Source; 4] = [CONTACT, PRESCRIBED, INTEGRATE, REDUCE];

@@ -8,13 +8,11 @@ use super::super::{TlsphForce, ViscosityGradient};
 use crate::case::{Case, CaseError};
 use crate::correction::CorrectionKind;
 use crate::gpu::layout::{Fields, GpuDim};
-use crate::gpu::profile::{NONE, PassBytes, count, loads, stores};
 use crate::gpu::reduction;
 use crate::gpu::reference::{self, Extras};
 use crate::gpu::shaders::{
     BOUNDARY, CONTACT, CORRECTION, Constants, INTEGRATE, LOADS, MECHANICS, PAIR_OFFSETS,
-    PRESCRIBED, REFERENCE, REVERSE_GRADIENTS, REVERSE_GRADIENTS_BYTES, Source, VISCOSITY, Wgsl,
-    source, wgsl,
+    PRESCRIBED, REFERENCE, REVERSE_GRADIENTS, Source, VISCOSITY, Wgsl, source, wgsl,
 };
 use crate::material::Material;
 use crate::methods::tl;
@@ -36,25 +34,7 @@ pub const STRESS: Source = source!(
         ("reference", false),
         ("d", true),
         ("kin", true)
-    ],
-    &[PassBytes {
-        entry: "stress",
-        traffic: &[
-            count("offsets", [1, 0, 0], NONE),
-            count("ids", NONE, [1, 0, 0]),
-            // ∇0W̃_ij.
-            count("pair", NONE, [0, 1, 0]),
-            // V_j.
-            count("reference", [1, 0, 0], NONE),
-            // u, v; ρ − ρ0 and S of the rate model.
-            count("y", [0, 2, 0], NONE),
-            count("y", [1, 0, 1], NONE).when(&["RATE"]),
-            // H, P, F⁻ᵀ, ρ.
-            count("kin", [1, 0, 3], NONE),
-            count("d", [1, 0, 1], NONE).when(&["RATE"]),
-            count("status", NONE, NONE),
-        ],
-    }]
+    ]
 );
 /// Accelerations, artificial viscosity, boundary conditions; the reverse gradients of
 /// the variational force (set-up).
@@ -68,34 +48,6 @@ pub const ACCEL: Source = source!(
         ("ext", false),
         ("kin", true),
         ("d", true)
-    ],
-    &[
-        REVERSE_GRADIENTS_BYTES,
-        PassBytes {
-            entry: "accel",
-            traffic: &[
-                count("offsets", [1, 0, 0], NONE),
-                count("ids", NONE, [1, 0, 0]),
-                // ∇0W̃_ij, and ∇0W̃_ji for the variational force; X_j − X_i for the viscosity.
-                count("pair", NONE, [0, 1, 0]),
-                count("pair", NONE, [0, 1, 0]).when(&["FORCE == FORCE_VARIATIONAL"]),
-                count("pair", NONE, [0, 1, 0]).when(&["AV"]),
-                // κ_ij and X_j − X_i, u_j and H_j for the hourglass control.
-                count("pair", NONE, [1, 1, 0]).when(&["HOURGLASS"]),
-                count("y", NONE, [0, 1, 0]).when(&["HOURGLASS"]),
-                loads("kin", [0, 0, 1], [0, 0, 1]).when(&["HOURGLASS"]),
-                // V, the boundary mask.
-                count("reference", [2, 0, 0], NONE),
-                // u, v.
-                count("y", [0, 2, 0], NONE),
-                // P, F⁻ᵀ, ρ in; the power of supports and loads and the viscous dissipation out.
-                loads("kin", [1, 0, 2], NONE),
-                stores("kin", [2, 0, 0], NONE),
-                count("ext", [0, 1, 0], NONE),
-                // u̇ = v, v̇.
-                count("d", [0, 2, 0], NONE),
-            ],
-        }
     ]
 );
 /// Energies, momenta and checks of a state.
