@@ -2,9 +2,7 @@
 //! core and the physics read without the methods, the methods without the driver, and a
 //! new method family touches its own folder and the registry. The test reads every
 //! `crate::` path of the library's code (comments and unit-test modules left out) and
-//! compares the paths that point up the order with [`UPWARD`], the imports against the
-//! order that the code still has: a new one fails, and so does an entry of the list that
-//! the code no longer needs, so the list only shrinks.
+//! fails on any that points up the order, naming the files.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -93,10 +91,6 @@ const ORDER: &[(&str, &[&str])] = &[
         &["methods", "scene", "output", "run", "bench", "study"],
     ),
 ];
-
-/// The imports against [`ORDER`] that the code still has, (from, to): none. Never add
-/// one; the test fails on any import against the order.
-const UPWARD: &[(&str, &str)] = &[];
 
 /// The module a file of `src/` belongs to, or None for the crate roots and unit-test
 /// files.
@@ -279,26 +273,14 @@ fn every_module_has_its_place_in_the_order() {
 }
 
 #[test]
-fn modules_import_only_down_the_order_but_for_the_listed_debt() {
-    let found = upward_imports(&library(), &ranks());
-    let known: BTreeSet<(String, String)> = UPWARD
+fn modules_import_only_down_the_order() {
+    let upward: Vec<String> = upward_imports(&library(), &ranks())
         .iter()
-        .map(|&(a, b)| (a.to_string(), b.to_string()))
-        .collect();
-    let new: Vec<String> = found
-        .iter()
-        .filter(|(edge, _)| !known.contains(*edge))
         .map(|((a, b), files)| format!("{a} → {b} ({files:?})"))
         .collect();
-    let stale: Vec<_> = known.iter().filter(|e| !found.contains_key(*e)).collect();
-    eprintln!("{} imports against the order remain", found.len());
     assert!(
-        new.is_empty(),
-        "imports against the layer order (tests/it/layers.rs, ORDER): {new:#?}"
-    );
-    assert!(
-        stale.is_empty(),
-        "gone from the code, remove them from UPWARD: {stale:?}"
+        upward.is_empty(),
+        "imports against the layer order (tests/it/layers.rs, ORDER): {upward:#?}"
     );
 }
 
