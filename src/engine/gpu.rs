@@ -9,9 +9,11 @@
 
 use super::{BlowUp, Engine, Failed};
 use crate::balance::Booked;
-use crate::boundary::{Boundary, Reaction};
+use crate::boundary::{Boundary, OnPatches, Reaction};
+use crate::case::Case;
+use crate::gpu::SetupError;
 use crate::gpu::context::{Gpu, GpuError};
-use crate::gpu::layout::GpuDim;
+use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::profile::Scale;
 use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::Reduced;
@@ -21,7 +23,9 @@ use crate::gpu::shell::Shell;
 use crate::integrate::{Buf, Evaluation, IntegratorKind, PseudoTime};
 use crate::interaction::Interactions;
 use crate::interaction::gpu::GpuInteractions;
+use crate::neighbour::Csr;
 use crate::observe::{Invariants, Snapshot};
+use crate::reference::Reference;
 
 /// What every family's set-up starts from on the device: the device, the composer of
 /// its pass files with the scene's constants, and the reference configuration uploaded.
@@ -60,6 +64,24 @@ impl Start<'_> {
             device.traction.clone(),
         )?;
         Ok((stepper, interactions))
+    }
+
+    /// [`Start::stepper`] of a family of particles on the host's reference
+    /// configuration `disc` of `case`, its state Y laid out as `state` with the rest
+    /// density at `RHO`; the interactions' reference neighbours come from `neighbours`.
+    pub fn particles<D: GpuDim>(
+        &self,
+        case: &Case,
+        disc: &Reference<D>,
+        state: &Fields,
+        y0: &[f32],
+        neighbours: impl FnOnce() -> Csr,
+    ) -> Result<(Stepper, GpuInteractions), SetupError> {
+        let (x0, body, mass) = (&disc.x0, &disc.body, &disc.mass);
+        let interactions = Interactions::<D>::build(case, x0, body, &OnPatches, mass, neighbours)?;
+        let state = StateLayout::of(state, "RHO");
+        let integrator = case.method.integrator;
+        Ok(self.stepper(integrator, state, y0, &interactions, &disc.boundary)?)
     }
 }
 

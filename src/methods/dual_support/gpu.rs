@@ -16,6 +16,7 @@ use crate::case::{Case, CaseError};
 use crate::gpu::layout::GpuDim;
 use crate::gpu::shaders::{MECHANICS, REFERENCE, Source, Wgsl, source, wgsl};
 use crate::methods::potential::gpu::ACCEL;
+use crate::methods::tl::TlState;
 use crate::methods::tlsph::gpu::{
     DET_F, Frame, HostLists, HostModel, Lists, STRESS, TlScheme, viscosity,
 };
@@ -93,14 +94,8 @@ impl<D: GpuDim> DeviceLists<D> {
 impl<D: GpuDim> HostModel<D> for DualSupport<D> {
     /// The model's f64 outputs, the hourglass energy in the strain energy: the whole
     /// energy the dynamic force derives from.
-    fn snapshot<'a>(
-        &'a self,
-        u: Vec<D::V>,
-        v: Vec<D::V>,
-        mass: &'a [f64],
-        body: &'a [u32],
-    ) -> Snapshot<'a, D> {
-        DualSupport::snapshot(self, u, v, mass, body, true)
+    fn snapshot<'a>(&'a self, y: TlState<D>, r: &'a Reference<D>) -> Snapshot<'a, D> {
+        DualSupport::snapshot(self, y.u, y.v, &r.mass, &r.body, true)
     }
 }
 

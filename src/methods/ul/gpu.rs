@@ -12,7 +12,7 @@
 
 use super::{UlState, check_state, snapshot};
 use crate::balance::Booked;
-use crate::boundary::{Boundary, OnPatches};
+use crate::boundary::Boundary;
 use crate::case::Case;
 use crate::correction::CorrectionKind;
 use crate::engine::{BlowUp, GpuEngine, GpuFamily, Start};
@@ -20,7 +20,7 @@ use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::neighbour::{CellList, CellParams, Positions};
 use crate::gpu::profile::{IndirectRuns, Scale};
-use crate::gpu::program::{StateLayout, Stepper};
+use crate::gpu::program::Stepper;
 use crate::gpu::reduction::{self, Reduced, Reduction};
 use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
@@ -30,7 +30,6 @@ use crate::gpu::shaders::{
 use crate::gpu::shell::Shell;
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
 use crate::integrate::{Buf, Evaluation};
-use crate::interaction::Interactions;
 use crate::neighbour::{Csr, SKIN, bounding_box};
 use crate::observe::Snapshot;
 use crate::reference::Reference;
@@ -216,23 +215,13 @@ impl<D: GpuDim> GpuUl<D> {
         let mut y0 = layout.state.zeroed();
         layout.state.write_v::<D>(&mut y0, "V", &disc.v0);
         let per_body = case.contact.is_some();
-        let interactions =
-            Interactions::<D>::build(case, &disc.x0, &disc.body, &OnPatches, &disc.mass, || {
-                disc.neighbours()
-            })?;
         let start = Start {
             gpu: &gpu,
             compose: &compose,
             device: &device,
         };
-        let state = StateLayout::of(&layout.state, "RHO");
-        let (stepper, interactions) = start.stepper(
-            case.method.integrator,
-            state,
-            &y0,
-            &interactions,
-            &disc.boundary,
-        )?;
+        let (stepper, interactions) =
+            start.particles(case, &disc, &layout.state, &y0, || disc.neighbours())?;
         let x = gpu.zeroed("positions x", (n * D::N) as u64 * 4);
         let kin = gpu.zeroed("per-particle quantities", layout.kin.bytes());
         let status = gpu.storage("status", &STATUS_OK);

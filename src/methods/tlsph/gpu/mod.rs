@@ -17,21 +17,19 @@ pub use scheme::{
 
 use super::system::hourglass_stiffness;
 use crate::balance::Booked;
-use crate::boundary::{Boundary, OnPatches};
+use crate::boundary::Boundary;
 use crate::case::Case;
 use crate::correction::{self, CorrectionKind};
 use crate::engine::{BlowUp, GpuEngine, GpuFamily, Start};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{GpuDim, flat_v};
 use crate::gpu::profile::Scale;
-use crate::gpu::program::StateLayout;
 use crate::gpu::reduction::{Reduced, Reduction};
 use crate::gpu::reference::DeviceReference;
 use crate::gpu::shaders::{self, CORRECTION, PAIR_OFFSETS, Source};
 use crate::gpu::shell::Shell;
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
 use crate::integrate::{Buf, Evaluation};
-use crate::interaction::Interactions;
 use crate::methods::tl::{TlState, check_state, snapshot};
 use crate::neighbour::Csr;
 use crate::observe::Snapshot;
@@ -129,23 +127,13 @@ impl<D: GpuDim> GpuTlsph<D> {
         let mut y0 = layout.state.zeroed();
         layout.state.write_v::<D>(&mut y0, "U", &disc.u0);
         layout.state.write_v::<D>(&mut y0, "V", &disc.v0);
-        let interactions =
-            Interactions::<D>::build(case, &disc.x0, &disc.body, &OnPatches, &disc.mass, || {
-                csr.clone()
-            })?;
         let start = Start {
             gpu: &gpu,
             compose: &compose,
             device: &device,
         };
-        let state = StateLayout::of(&layout.state, "RHO");
-        let (stepper, interactions) = start.stepper(
-            case.method.integrator,
-            state,
-            &y0,
-            &interactions,
-            &disc.boundary,
-        )?;
+        let (stepper, interactions) =
+            start.particles(case, &disc, &layout.state, &y0, || csr.clone())?;
         let kin = gpu.zeroed("kinematics", layout.kin.bytes());
 
         let stress = gpu.pipeline("tl stress", &compose(&scheme.stress), "stress")?;
@@ -526,7 +514,7 @@ impl<D: GpuDim> GpuFamily<D> for TlDevice<D> {
         let y = self.decode(&shell.read_state(), self.reference.material.rho0);
         let r = &self.reference;
         if let Some(model) = &self.host {
-            return model.snapshot(y.u, y.v, &r.mass, &r.body);
+            return model.snapshot(y, r);
         }
         let kin: Vec<f32> = gpu.read(&shell.kin);
         let f = self.deformation_gradient(&kin);

@@ -15,7 +15,7 @@ use crate::gpu::shaders::{
     PRESCRIBED, REFERENCE, REVERSE_GRADIENTS, Source, VISCOSITY, Wgsl, source, wgsl,
 };
 use crate::material::Material;
-use crate::methods::tl;
+use crate::methods::tl::{self, TlState};
 use crate::neighbour::Csr;
 use crate::observe::Snapshot;
 use crate::reference::Reference;
@@ -135,14 +135,8 @@ pub struct HostLists<D: GpuDim> {
 
 /// The host's f64 model of a scheme with host lists, which the snapshots come from.
 pub trait HostModel<D: GpuDim> {
-    /// The snapshot of displacements u and velocities v.
-    fn snapshot<'a>(
-        &'a self,
-        u: Vec<D::V>,
-        v: Vec<D::V>,
-        mass: &'a [f64],
-        body: &'a [u32],
-    ) -> Snapshot<'a, D>;
+    /// The snapshot of state y (its u and v) of the reference configuration r.
+    fn snapshot<'a>(&'a self, y: TlState<D>, r: &'a Reference<D>) -> Snapshot<'a, D>;
 }
 
 /// What the kinematics' H = F − I measures, for snapshots.
