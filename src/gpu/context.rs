@@ -136,6 +136,21 @@ pub fn uniform_bytes<T: ShaderType + WriteInto>(value: &T) -> Vec<u8> {
     buffer.into_inner()
 }
 
+/// The unit test `$test` that the uniform struct `$ty` is laid out as naga lays out its
+/// WGSL twin, the struct `$name` of the WGSL text `$wgsl` (exact: sizes in bytes).
+macro_rules! wgsl_twin_test {
+    ($test:ident: $ty:ty = $name:literal in $wgsl:expr) => {
+        #[cfg(test)]
+        #[test]
+        fn $test() {
+            use encase::ShaderType;
+            let size = $crate::gpu::context::wgsl_struct_size($wgsl, $name);
+            assert_eq!(<$ty>::min_size().get(), u64::from(size));
+        }
+    };
+}
+pub(crate) use wgsl_twin_test;
+
 /// The size naga gives the struct `name` of a WGSL file (its declaration parsed alone),
 /// for checking a uniform struct's `ShaderType` against the WGSL it mirrors.
 #[cfg(test)]

@@ -503,18 +503,5 @@ pub fn build<D: GpuDim>(
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::gpu::context::wgsl_struct_size;
-
-    /// The uniform struct is laid out as naga lays out its WGSL twin (exact: sizes in
-    /// bytes).
-    #[test]
-    fn uniforms_match_wgsl() {
-        let cell = wgsl_struct_size(CELL_LIST.text, "CellParams");
-        assert_eq!(CellParams::min_size().get(), u64::from(cell));
-        let scan = wgsl_struct_size(SCAN.text, "ScanParams");
-        assert_eq!(ScanParams::min_size().get(), u64::from(scan));
-    }
-}
+super::context::wgsl_twin_test!(cell_params_match_wgsl: CellParams = "CellParams" in CELL_LIST.text);
+super::context::wgsl_twin_test!(scan_params_match_wgsl: ScanParams = "ScanParams" in SCAN.text);

@@ -252,17 +252,4 @@ impl Stepper {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::gpu::context::wgsl_struct_size;
-
-    /// The uniform struct is laid out as naga lays out its WGSL twin (exact: sizes in
-    /// bytes).
-    #[test]
-    fn coefficients_match_wgsl() {
-        let wgsl = crate::gpu::shaders::INTEGRATE.text;
-        let size = wgsl_struct_size(wgsl, "Coefficients");
-        assert_eq!(Coefficients::min_size().get(), u64::from(size));
-    }
-}
+super::context::wgsl_twin_test!(coefficients_match_wgsl: Coefficients = "Coefficients" in super::shaders::INTEGRATE.text);

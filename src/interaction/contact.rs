@@ -302,16 +302,8 @@ mod tests {
     use crate::tensor::D2;
     use glam::DVec2;
 
-    /// The uniform struct is laid out as naga lays out its WGSL twin (exact: sizes in
-    /// bytes).
     #[cfg(feature = "gpu")]
-    #[test]
-    fn contact_params_match_wgsl() {
-        use encase::ShaderType;
-        let wgsl = crate::gpu::shaders::CONTACT.text;
-        let size = crate::gpu::context::wgsl_struct_size(wgsl, "ContactParams");
-        assert_eq!(ContactParams::min_size().get(), u64::from(size));
-    }
+    crate::gpu::context::wgsl_twin_test!(contact_params_match_wgsl: ContactParams = "ContactParams" in crate::gpu::shaders::CONTACT.text);
 
     /// A master square [0, 1]² sampled on a 5 × 5 lattice (body 0) and slave particles,
     /// each a body of its own (bodies 1, 2, …), which has no area and so is no master.

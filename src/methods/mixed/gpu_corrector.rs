@@ -308,16 +308,4 @@ impl DeviceCorrector {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::gpu::context::wgsl_struct_size;
-
-    /// The uniform struct is laid out as naga lays out its WGSL twin (exact: sizes in
-    /// bytes).
-    #[test]
-    fn tau_matches_wgsl() {
-        let size = wgsl_struct_size(CORRECTOR.text, "Tau");
-        assert_eq!(Tau::min_size().get(), u64::from(size));
-    }
-}
+crate::gpu::context::wgsl_twin_test!(tau_matches_wgsl: Tau = "Tau" in CORRECTOR.text);

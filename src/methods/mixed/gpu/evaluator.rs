@@ -232,16 +232,4 @@ impl Evaluator {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::gpu::context::wgsl_struct_size;
-
-    /// The uniform struct is laid out as naga lays out its WGSL twin (exact: sizes in
-    /// bytes).
-    #[test]
-    fn stage_points_match_wgsl() {
-        let size = wgsl_struct_size(MOMENTUM.text, "Stage");
-        assert_eq!(StagePoints::min_size().get(), u64::from(size));
-    }
-}
+crate::gpu::context::wgsl_twin_test!(stage_points_match_wgsl: StagePoints = "Stage" in MOMENTUM.text);
