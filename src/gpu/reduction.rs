@@ -126,15 +126,21 @@ pub struct WorkBalance {
 #[derive(Clone, Copy, Debug, Default)]
 struct Integral {
     value: f64,
-    /// Time and power of the last update.
-    last: (f64, f64),
+    /// Time and power of the last update (none yet: from zero at t = 0).
+    last: Option<(f64, f64)>,
 }
 
 impl Integral {
+    /// The integral up to `time`, given the power then. A second update at the time of
+    /// the last one changes nothing: the power recorded then stands. This is what keeps a
+    /// resumed run exact, whose engine, restored from a checkpoint, reduces before its
+    /// first rate evaluation a power that is not its state's.
     fn update(&mut self, time: f64, power: f64) -> f64 {
-        let (t_last, p_last) = self.last;
-        self.value += 0.5 * (p_last + power) * (time - t_last);
-        self.last = (time, power);
+        let (t_last, p_last) = self.last.unwrap_or_default();
+        if self.last.is_none() || time != t_last {
+            self.value += 0.5 * (p_last + power) * (time - t_last);
+            self.last = Some((time, power));
+        }
         self.value
     }
 }
@@ -151,9 +157,8 @@ impl WorkBalance {
     /// with the time and power of its last update.
     pub fn words(&self) -> [f64; WORK_WORDS] {
         let (w, d) = (self.work, self.dissipated);
-        [
-            self.time, w.value, w.last.0, w.last.1, d.value, d.last.0, d.last.1,
-        ]
+        let ((tw, pw), (td, pd)) = (w.last.unwrap_or_default(), d.last.unwrap_or_default());
+        [self.time, w.value, tw, pw, d.value, td, pd]
     }
 
     pub fn from_words([time, w, tw, pw, d, td, pd]: [f64; WORK_WORDS]) -> Self {
@@ -161,11 +166,11 @@ impl WorkBalance {
             time,
             work: Integral {
                 value: w,
-                last: (tw, pw),
+                last: Some((tw, pw)),
             },
             dissipated: Integral {
                 value: d,
-                last: (td, pd),
+                last: Some((td, pd)),
             },
         }
     }

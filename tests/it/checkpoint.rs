@@ -306,13 +306,32 @@ fn a_damaged_checkpoint_is_refused_before_anything_is_restored() {
     run(&case, &opts).unwrap();
 }
 
+/// The columns of a `series.csv`: (name, values).
+#[cfg(feature = "gpu")]
+fn series_columns(dir: &Path) -> Vec<(String, Vec<f64>)> {
+    let text = std::fs::read_to_string(dir.join("series.csv")).unwrap();
+    let mut lines = text.lines();
+    let names: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let mut columns: Vec<(String, Vec<f64>)> =
+        names.iter().map(|n| (n.to_string(), Vec::new())).collect();
+    for line in lines {
+        for (column, value) in columns.iter_mut().zip(line.split(',')) {
+            column.1.push(value.parse().unwrap_or(f64::NAN));
+        }
+    }
+    columns
+}
+
 #[cfg(feature = "gpu")]
 #[test]
 fn a_resumed_gpu_run_ends_where_the_uninterrupted_one_does() {
-    // The strip under TLSPH on the GPU, crashed at a random batch after its last
+    // The strip under TLSPH on the GPU, crashed at three random batches after its last
     // checkpoint and resumed: the checkpoint holds the device's f32 state exactly (f32 →
-    // f64 → f32), and the final invariants agree with the uninterrupted run's within f32
-    // round-off (1e-6 relative: a few ulps of the energies summed in f32).
+    // f64 → f32) and the work balance in f64 (the work and dissipation so far, and the
+    // last power of each), so the resumed run repeats the uninterrupted one's steps. Its
+    // final invariants, its energy balance and every column of its series agree with the
+    // uninterrupted run's within f32 round-off (1e-6 of each quantity's largest
+    // magnitude: a few ulps of the energies summed in f32).
     use meshless::run::Backend;
     let case = load(
         "tensile-strip",
@@ -329,38 +348,65 @@ fn a_resumed_gpu_run_ends_where_the_uninterrupted_one_does() {
     };
     let whole = tempfile::tempdir().unwrap();
     let summary = run(&case, &gpu_options(whole.path())).unwrap();
-    let at = random_batches(9, 1, 18)[0];
-    let dir = tempfile::tempdir().unwrap();
-    let opts = gpu_options(dir.path());
-    let cut_short = CutShort {
-        inner: engine::<D2>(&case, Backend::Gpu).unwrap(),
-        batches: 0,
-        at,
-        cut: Cut::Crash,
-        stop: Arc::new(AtomicBool::new(false)),
-    };
-    let crashed = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        drive::<D2, _>(&case, &opts, cut_short)
-    }));
-    assert!(crashed.is_err(), "batch {at}: not cut short");
-    let end = run(
-        &case,
-        &RunOptions {
-            resume: true,
-            ..gpu_options(dir.path())
-        },
-    )
-    .unwrap();
-    assert_eq!(end.steps, summary.steps);
-    let mut worst = 0.0f64;
-    for (name, value) in &summary.final_invariants {
-        let got = end.final_invariants[name];
-        let relative = (got - value).abs() / value.abs().max(1e-12);
-        assert!(
-            relative <= 1e-6,
-            "batch {at}: {name} = {got:e}, uninterrupted {value:e}"
+    let series = series_columns(whole.path());
+    let close = |got: f64, want: f64, scale: f64| (got - want).abs() <= 1e-6 * scale.max(1e-12);
+    // Batches 7 to 17 of 20 (of 1e-5 s each, the series interval), after the first
+    // checkpoint at 5e-5 s.
+    for at in random_batches(9, 3, 13).into_iter().map(|b| b + 5) {
+        let dir = tempfile::tempdir().unwrap();
+        let opts = gpu_options(dir.path());
+        let cut_short = CutShort {
+            inner: engine::<D2>(&case, Backend::Gpu).unwrap(),
+            batches: 0,
+            at,
+            cut: Cut::Crash,
+            stop: Arc::new(AtomicBool::new(false)),
+        };
+        let crashed = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            drive::<D2, _>(&case, &opts, cut_short)
+        }));
+        assert!(crashed.is_err(), "batch {at}: not cut short");
+        let end = run(
+            &case,
+            &RunOptions {
+                resume: true,
+                ..gpu_options(dir.path())
+            },
+        )
+        .unwrap_or_else(|e| panic!("batch {at}: {e}"));
+        assert_eq!(end.steps, summary.steps);
+        for (name, &value) in summary
+            .final_invariants
+            .iter()
+            .chain(&summary.energy_balance)
+        {
+            let got = end
+                .final_invariants
+                .get(name)
+                .or_else(|| end.energy_balance.get(name))
+                .copied()
+                .unwrap_or(f64::NAN);
+            let both_null = got.is_nan() && value.is_nan();
+            assert!(
+                both_null || close(got, value, value.abs()),
+                "batch {at}: {name} = {got:e}, uninterrupted {value:e}"
+            );
+        }
+        let resumed = series_columns(dir.path());
+        assert_eq!(
+            resumed.len(),
+            series.len(),
+            "batch {at}: the series' columns"
         );
-        worst = worst.max(relative);
+        for ((name, got), (_, want)) in resumed.iter().zip(&series) {
+            assert_eq!(got.len(), want.len(), "batch {at}: rows of {name}");
+            let scale = want.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            for (row, (&g, &w)) in got.iter().zip(want).enumerate() {
+                assert!(
+                    close(g, w, scale) || (g.is_nan() && w.is_nan()),
+                    "batch {at}: {name} at row {row} = {g:e}, uninterrupted {w:e}"
+                );
+            }
+        }
     }
-    eprintln!("GPU resume at batch {at}: invariants within {worst:.1e} of the uninterrupted run");
 }
