@@ -87,53 +87,40 @@ pub struct Case<M = MethodKeys> {
     pub overrides: Vec<String>,
 }
 
+/// `Case::with_method`, over the fields other than `method` (named once, here).
+macro_rules! with_method {
+    ($($field:ident),*) => {
+        /// This case with the `[method]` table `method` in place of its own, and its own.
+        pub fn with_method<N>(self, method: N) -> (Case<N>, M) {
+            let Self { method: own, $($field),* } = self;
+            (Case { method, $($field),* }, own)
+        }
+    };
+}
+
 impl<M> Case<M> {
     pub fn dim(&self) -> usize {
         self.dimension as usize
     }
 
-    /// This case with the `[method]` table `method` in place of its own, and its own.
-    pub fn with_method<N>(self, method: N) -> (Case<N>, M) {
-        let Self {
-            name,
-            description,
-            dimension,
-            spacing,
-            material,
-            method: own,
-            bodies,
-            boundaries,
-            mirrors,
-            run,
-            output,
-            probes,
-            sections,
-            contact,
-            file,
-            notes,
-            overrides,
-        } = self;
-        let case = Case {
-            name,
-            description,
-            dimension,
-            spacing,
-            material,
-            method,
-            bodies,
-            boundaries,
-            mirrors,
-            run,
-            output,
-            probes,
-            sections,
-            contact,
-            file,
-            notes,
-            overrides,
-        };
-        (case, own)
-    }
+    with_method!(
+        name,
+        description,
+        dimension,
+        spacing,
+        material,
+        bodies,
+        boundaries,
+        mirrors,
+        run,
+        output,
+        probes,
+        sections,
+        contact,
+        file,
+        notes,
+        overrides
+    );
 
     /// Folder that relative paths in the case are resolved against.
     pub fn base_dir(&self) -> &Path {

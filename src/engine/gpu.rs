@@ -92,8 +92,11 @@ pub trait GpuFamily<D: GpuDim> {
     /// The engine books the viscous dissipation the reduction gives besides the work.
     const BOOKS_DISSIPATION: bool = false;
 
-    /// The particles or nodes, which the interactions' passes run over.
-    fn nodes(&self) -> u32;
+    /// The particles or nodes, which the interactions' passes run over: one per
+    /// reference position.
+    fn nodes(&self) -> u32 {
+        self.reference().len() as u32
+    }
 
     /// The reference positions of the particles or nodes.
     fn reference(&self) -> &[D::V];

@@ -81,6 +81,14 @@ pub struct Field {
     pub width: usize,
 }
 
+/// U, V, RHO and S of a solid's state ([`Fields::read_solid`]).
+pub type Solid<D> = (
+    Vec<<D as Dim>::V>,
+    Vec<<D as Dim>::V>,
+    Vec<f64>,
+    Vec<<D as Dim>::T>,
+);
+
 /// The fields of one flat f32 buffer, laid end to end in the order they are declared.
 /// A field declared absent (`present = false`) takes no room but keeps its offset
 /// constant, so that a shader compiled for every variant still names it.
@@ -205,6 +213,21 @@ impl Fields {
         self.write(flat, name, values, |o, &t| D::push_t(o, t - rest));
     }
 
+    /// Writes the fields that TL and UL states share: displacement U, velocity V, density
+    /// RHO (less ρ0) and deviatoric stress S.
+    pub fn write_solid<D: Flat>(
+        &self,
+        flat: &mut [f32],
+        (u, v): (&[D::V], &[D::V]),
+        (rho, rho0): (&[f64], f64),
+        s: &[D::T],
+    ) {
+        self.write_v::<D>(flat, "U", u);
+        self.write_v::<D>(flat, "V", v);
+        self.write_s(flat, "RHO", rho, rho0);
+        self.write_t::<D>(flat, "S", s, D::zero_t());
+    }
+
     /// The items of field `name`, each read from its slice of `flat`.
     fn read<T>(&self, flat: &[f32], name: &str, get: impl Fn(&[f32]) -> T) -> Vec<T> {
         let f = self.field(name);
@@ -222,6 +245,14 @@ impl Fields {
     /// The vectors of field `name`.
     pub fn read_v<D: Flat>(&self, flat: &[f32], name: &str) -> Vec<D::V> {
         self.read(flat, name, D::read_v)
+    }
+
+    /// The fields of [`Fields::write_solid`], read back: U, V, RHO (plus ρ0) and S.
+    pub fn read_solid<D: Flat>(&self, flat: &[f32], rho0: f64) -> Solid<D> {
+        let u = self.read_v::<D>(flat, "U");
+        let v = self.read_v::<D>(flat, "V");
+        let s = self.read_t::<D>(flat, "S", D::zero_t());
+        (u, v, self.read_s(flat, "RHO", rho0), s)
     }
 
     /// The tensors of field `name` plus `rest`.

@@ -30,6 +30,9 @@ macro_rules! wgsl {
 }
 pub(crate) use wgsl;
 
+/// A pass file composed with an engine's scene constants: its WGSL text.
+pub type Compose<'a> = &'a dyn Fn(&Source) -> String;
+
 /// A pass file with the function files it calls and its flat buffers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Source {

@@ -14,7 +14,11 @@
 //! gains energy, as a ball struck by a bat does.
 
 use super::Interaction;
+#[cfg(feature = "gpu")]
+use super::gpu::{Bindings, GpuInteraction, Pass};
 use crate::case::{Case, CaseError};
+#[cfg(feature = "gpu")]
+use crate::gpu::{GpuError, context::Gpu, shaders::Compose};
 use crate::kernel::neighbour_radius;
 use crate::neighbour::Csr;
 use crate::tensor::Dim;
@@ -146,16 +150,11 @@ struct ContactParams {
 }
 
 #[cfg(feature = "gpu")]
-impl<D: Dim> super::gpu::GpuInteraction for Contact<D> {
+impl<D: Dim> GpuInteraction for Contact<D> {
     /// `shaders/common/contact.wgsl`: one invocation per slave over the other bodies'
     /// hulls (concatenated, body m's at hull_start[m]..hull_start[m + 1]), with α/Δt² in
     /// its uniform.
-    fn pass(
-        &self,
-        gpu: &crate::gpu::context::Gpu,
-        compose: &dyn Fn(&crate::gpu::shaders::Source) -> String,
-        on: &super::gpu::Bindings,
-    ) -> Result<super::gpu::Pass, crate::gpu::GpuError> {
+    fn pass(&self, gpu: &Gpu, compose: Compose<'_>, on: &Bindings) -> Result<Pass, GpuError> {
         let mut hull_start = vec![0u32];
         let mut hull = Vec::new();
         for h in &self.hulls {

@@ -12,7 +12,7 @@
 use super::Interactions;
 use crate::boundary::Boundary;
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
-use crate::gpu::shaders::Source;
+use crate::gpu::shaders::Compose;
 use crate::tensor::Dim;
 use std::cell::{Cell, RefCell};
 
@@ -85,12 +85,7 @@ impl Staging {
 /// An interaction that runs on the device.
 pub trait GpuInteraction {
     /// Compiles its pass with the engine's scene constants (`compose`) and binds it.
-    fn pass(
-        &self,
-        gpu: &Gpu,
-        compose: &dyn Fn(&Source) -> String,
-        on: &Bindings,
-    ) -> Result<Pass, GpuError>;
+    fn pass(&self, gpu: &Gpu, compose: Compose<'_>, on: &Bindings) -> Result<Pass, GpuError>;
 }
 
 /// The device passes of a scene's interactions, for one engine.
@@ -116,7 +111,7 @@ impl GpuInteractions {
         gpu: &Gpu,
         interactions: &Interactions<D>,
         boundary: &Boundary<D>,
-        compose: &dyn Fn(&Source) -> String,
+        compose: Compose<'_>,
         reference: &wgpu::Buffer,
         y: &wgpu::Buffer,
         traction: wgpu::Buffer,
@@ -214,12 +209,7 @@ impl<D: Dim> GpuInteraction for Boundary<D> {
     /// its timed components held over the step and its mask in `reference`, from the
     /// step's (held, rate) of every timed velocity (`steps`, written by the host for every
     /// step it records).
-    fn pass(
-        &self,
-        gpu: &Gpu,
-        compose: &dyn Fn(&Source) -> String,
-        on: &Bindings,
-    ) -> Result<Pass, GpuError> {
+    fn pass(&self, gpu: &Gpu, compose: Compose<'_>, on: &Bindings) -> Result<Pass, GpuError> {
         let pipeline = gpu.pipeline(
             "timed velocities",
             &compose(&crate::gpu::shaders::PRESCRIBED),

@@ -8,8 +8,12 @@
 //! and the pass `shaders/common/loads.wgsl` adds Σ_g law_g g_g,i to `ext`.
 
 use super::Interaction;
+#[cfg(feature = "gpu")]
+use super::gpu::{Bindings, GpuInteraction, Pass};
 use crate::boundary::NodalForces;
 use crate::case::{Case, CaseError, TimeLaw, discretise};
+#[cfg(feature = "gpu")]
+use crate::gpu::{GpuError, context::Gpu, shaders::Compose};
 use crate::tensor::Dim;
 
 /// The time-dependent loads of a case, one group per boundary condition.
@@ -79,16 +83,11 @@ impl<D: Dim> Interaction<D> for TimedLoads<D> {
 }
 
 #[cfg(feature = "gpu")]
-impl<D: Dim> super::gpu::GpuInteraction for TimedLoads<D> {
+impl<D: Dim> GpuInteraction for TimedLoads<D> {
     /// `shaders/common/loads.wgsl`: one invocation per particle adds the groups'
     /// accelerations (`loads`, group g's at g·N·DIM) times the step's law values (`law`,
     /// written by the host for every step it records).
-    fn pass(
-        &self,
-        gpu: &crate::gpu::context::Gpu,
-        compose: &dyn Fn(&crate::gpu::shaders::Source) -> String,
-        on: &super::gpu::Bindings,
-    ) -> Result<super::gpu::Pass, crate::gpu::GpuError> {
+    fn pass(&self, gpu: &Gpu, compose: Compose<'_>, on: &Bindings) -> Result<Pass, GpuError> {
         let mut dense = vec![D::zero(); self.n * self.groups.len()];
         for (g, group) in self.groups.iter().enumerate() {
             for &(i, a) in group {

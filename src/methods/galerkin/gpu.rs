@@ -18,7 +18,7 @@ use crate::gpu::program::StateLayout;
 use crate::gpu::reduction::{self, Reduced, Reduction};
 use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
-    self, BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, LOADS, MECHANICS, PLASTIC_STORE,
+    self, BOUNDARY, CONTACT, Compose, Constants, EIGEN, INTEGRATE, LOADS, MECHANICS, PLASTIC_STORE,
     PLASTICITY, PRESCRIBED, REFERENCE, Source, Wgsl, source, wgsl,
 };
 use crate::gpu::shell::Shell;
@@ -216,7 +216,7 @@ impl SmoothPasses {
         gpu: &Gpu,
         layout: &Layout,
         s: &Shapes<D>,
-        compose: &dyn Fn(&Source) -> String,
+        compose: Compose<'_>,
         reference: &wgpu::Buffer,
         y: &wgpu::Buffer,
         n: usize,
@@ -465,10 +465,6 @@ impl<D: GpuDim> GpuGalerkin<D> {
 }
 
 impl<D: GpuDim> GpuFamily<D> for GalerkinDevice<D> {
-    fn nodes(&self) -> u32 {
-        self.layout.n as u32
-    }
-
     fn reference(&self) -> &[D::V] {
         self.host.reference()
     }

@@ -11,6 +11,8 @@ pub use system::Godunov;
 #[cfg(feature = "gpu")]
 use crate::methods::family::GpuBuild;
 use crate::methods::family::{CpuBuild, Feature, MethodFamily, Plan, cfl_step};
+#[cfg(feature = "gpu")]
+use crate::methods::ul::gpu::GpuUl;
 
 use crate::case::Case;
 use crate::check::Problem;
@@ -60,7 +62,6 @@ impl MethodFamily for GodunovSpec {
 
     #[cfg(feature = "gpu")]
     fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> GpuBuild<D> {
-        let engine = crate::methods::ul::gpu::GpuUl::<D>::new(case, gpu, &gpu::scheme())?;
-        Ok(Box::new(engine))
+        Ok(Box::new(GpuUl::<D>::new(case, gpu, &gpu::scheme())?))
     }
 }

@@ -14,6 +14,8 @@ use crate::methods::family::GpuBuild;
 use crate::methods::family::{
     CpuBuild, Feature, MethodFamily, Plan, cfl_step, check_viscosity, left_out_viscosity,
 };
+#[cfg(feature = "gpu")]
+use crate::methods::ul::gpu::GpuUl;
 
 use crate::case::Case;
 use crate::check::{Problem, fail, non_negative};
@@ -109,7 +111,10 @@ impl MethodFamily for GrayMonaghanSpec {
 
     #[cfg(feature = "gpu")]
     fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> GpuBuild<D> {
-        let engine = crate::methods::ul::gpu::GpuUl::<D>::new(case, gpu, &gpu::scheme(case, self))?;
-        Ok(Box::new(engine))
+        Ok(Box::new(GpuUl::<D>::new(
+            case,
+            gpu,
+            &gpu::scheme(case, self),
+        )?))
     }
 }

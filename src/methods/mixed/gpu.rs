@@ -403,10 +403,6 @@ impl<D: GpuDim> GpuMixed<D> {
 }
 
 impl<D: GpuDim> GpuFamily<D> for MixedDevice<D> {
-    fn nodes(&self) -> u32 {
-        self.layout.n as u32
-    }
-
     fn reference(&self) -> &[D::V] {
         self.cpu.reference()
     }

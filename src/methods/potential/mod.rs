@@ -14,6 +14,8 @@ use crate::methods::family::{
     CpuBuild, Feature, MethodFamily, Plan, cfl_step, check_viscosity, left_out_viscosity,
     state_model,
 };
+#[cfg(feature = "gpu")]
+use crate::methods::tlsph::GpuTlsph;
 
 use crate::case::Case;
 use crate::check::{Problem, toml_name};
@@ -90,7 +92,6 @@ impl MethodFamily for PotentialSpec {
 
     #[cfg(feature = "gpu")]
     fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> GpuBuild<D> {
-        let engine = crate::methods::tlsph::GpuTlsph::<D>::new(case, gpu::scheme(self), gpu)?;
-        Ok(Box::new(engine))
+        Ok(Box::new(GpuTlsph::<D>::new(case, gpu::scheme(self), gpu)?))
     }
 }

@@ -406,8 +406,9 @@ impl<D: Dim, S: TlScheme<D>> OdeSystem for TlSph<D, S> {
 
     /// The interactions' work before the step (the contact forces of seed 000 §5.8).
     fn begin_step(&mut self, t: f64, dt: f64, y: &TlState<D>) {
-        let core = &mut self.core;
-        core.surroundings.begin_step(t, dt, &core.x0, &y.u, &y.v);
+        self.core
+            .surroundings
+            .begin_step(t, dt, &self.core.x0, &y.u, &y.v);
     }
 }
 

@@ -356,13 +356,9 @@ impl<D: GpuDim> UlDevice<D> {
     /// F − I) or rate buffer (`rho0` = 0, `f0` = 0).
     fn decode(&self, flat: &[f32], rho0: f64, f0: D::T) -> UlState<D> {
         let l = &self.layout.state;
-        UlState {
-            u: l.read_v::<D>(flat, "U"),
-            v: l.read_v::<D>(flat, "V"),
-            rho: l.read_s(flat, "RHO", rho0),
-            s: l.read_t::<D>(flat, "S", D::zero_t()),
-            f: l.read_t::<D>(flat, "F", f0),
-        }
+        let (u, v, rho, s) = l.read_solid::<D>(flat, rho0);
+        let f = l.read_t::<D>(flat, "F", f0);
+        UlState { u, v, rho, s, f }
     }
 
     /// A state read back.
@@ -427,17 +423,12 @@ impl<D: GpuDim> GpuUl<D> {
 
     /// Replaces the state (e.g. to cross-check rates on a given state).
     pub fn set_state(&mut self, y: &UlState<D>) {
-        let l = &self.family.layout.state;
-        let mut flat = l.zeroed();
-        l.write_v::<D>(&mut flat, "U", &y.u);
-        l.write_v::<D>(&mut flat, "V", &y.v);
-        l.write_s(
-            &mut flat,
-            "RHO",
-            &y.rho,
+        let (l, rho0) = (
+            &self.family.layout.state,
             self.family.reference.material.rho0,
         );
-        l.write_t::<D>(&mut flat, "S", &y.s, D::zero_t());
+        let mut flat = l.zeroed();
+        l.write_solid::<D>(&mut flat, (&y.u, &y.v), (&y.rho, rho0), &y.s);
         l.write_t::<D>(&mut flat, "F", &y.f, D::identity());
         self.shell.set_state(&flat);
     }
@@ -459,10 +450,6 @@ impl<D: GpuDim> GpuUl<D> {
 }
 
 impl<D: GpuDim> GpuFamily<D> for UlDevice<D> {
-    fn nodes(&self) -> u32 {
-        self.layout.n as u32
-    }
-
     fn reference(&self) -> &[D::V] {
         &self.reference.x0
     }

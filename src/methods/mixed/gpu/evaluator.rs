@@ -1,6 +1,7 @@
 //! The passes of a rate evaluation, their bind groups and how one evaluation is recorded.
 
 use super::*;
+use crate::gpu::shaders::Compose;
 
 /// The uniform `Stage` of `mixed_momentum.wgsl`.
 #[derive(Clone, Copy, Debug, ShaderType)]
@@ -55,7 +56,7 @@ impl Passes {
     pub(super) fn new(
         gpu: &Gpu,
         layout: &MixedLayout,
-        compose: &dyn Fn(&Source) -> String,
+        compose: Compose<'_>,
     ) -> Result<Self, GpuError> {
         let ghosts_src = compose(&GHOSTS);
         let slopes_src = compose(&SLOPES);

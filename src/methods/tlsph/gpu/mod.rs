@@ -363,13 +363,8 @@ impl<D: GpuDim> TlDevice<D> {
     /// Decodes a flat state (`rho0` = ρ0: the density is stored as ρ − ρ0) or rate
     /// buffer (`rho0` = 0).
     fn decode(&self, flat: &[f32], rho0: f64) -> TlState<D> {
-        let l = &self.layout.state;
-        TlState {
-            u: l.read_v::<D>(flat, "U"),
-            v: l.read_v::<D>(flat, "V"),
-            rho: l.read_s(flat, "RHO", rho0),
-            s: l.read_t::<D>(flat, "S", D::zero_t()),
-        }
+        let (u, v, rho, s) = self.layout.state.read_solid::<D>(flat, rho0);
+        TlState { u, v, rho, s }
     }
 
     /// F of a kinematics buffer read back (the GPU keeps H = F − I; I is added in f64).
@@ -396,17 +391,12 @@ impl<D: GpuDim> GpuTlsph<D> {
 
     /// Replaces the state (e.g. to cross-check rates on a given state).
     pub fn set_state(&mut self, y: &TlState<D>) {
-        let l = &self.family.layout.state;
-        let mut flat = l.zeroed();
-        l.write_v::<D>(&mut flat, "U", &y.u);
-        l.write_v::<D>(&mut flat, "V", &y.v);
-        l.write_s(
-            &mut flat,
-            "RHO",
-            &y.rho,
+        let (l, rho0) = (
+            &self.family.layout.state,
             self.family.reference.material.rho0,
         );
-        l.write_t::<D>(&mut flat, "S", &y.s, D::zero_t());
+        let mut flat = l.zeroed();
+        l.write_solid::<D>(&mut flat, (&y.u, &y.v), (&y.rho, rho0), &y.s);
         self.shell.set_state(&flat);
     }
 
@@ -453,10 +443,6 @@ impl<D: GpuDim> GpuTlsph<D> {
 impl<D: GpuDim> GpuFamily<D> for TlDevice<D> {
     /// The viscous dissipation of the artificial viscosity.
     const BOOKS_DISSIPATION: bool = true;
-
-    fn nodes(&self) -> u32 {
-        self.layout.n as u32
-    }
 
     fn reference(&self) -> &[D::V] {
         &self.reference.x0
