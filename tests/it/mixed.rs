@@ -632,19 +632,11 @@ fn jst_on_the_brookshaw_laplacian_survives_the_pull_the_corrected_one_does_not()
     );
 }
 
-/// Seed 003 §7.2.3: the copper Taylor bar at 227 m/s on a rigid wall, {p, F} Upwind-SPH
-/// with the von Mises return map, on 3 particles per radius (cell-centred, 960
-/// particles) to 40 µs, by when the impact end has stopped spreading. The radius of the
-/// impact end (half the width between the outermost particle centres, plus Δx/2) against
-/// the FEM and FVM references of the paper's Table 2, 0.695–0.700 cm: the rim is a
-/// particle layer and approaches from below by O(Δx). The report's `taylor-ladder` suite
-/// (to 80 µs; the radius moves by less than 0.02 mm after 40 µs) measures 1.27, 1.24 and
-/// 1.10 Δx below 0.6975 cm at 3, 4 and 6 particles per radius, and the shipped case 0.69 Δx
-/// at 8; bound: between 0 and 1.5 Δx below. An elastic bar would stay near 3.2 mm. The plastic work is dissipated: the total energy
-/// must fall by more than half by this time.
-#[test]
-fn the_taylor_bar_mushrooms_to_the_published_radius() {
-    let dx = 3.2e-3 / 3.0;
+/// The radius of the Taylor bar's impact end at 40 µs (half the width between the
+/// outermost particle centres, plus Δx/2) at `per_radius` particles per radius, and the
+/// total energy at the start and at 40 µs.
+fn taylor_radius(per_radius: f64) -> (f64, f64, [f64; 2]) {
+    let dx = 3.2e-3 / per_radius;
     let spacing = format!("spacing={dx}");
     let case = load("taylor-bar", &[&spacing, "run.end_time=4e-5"]);
     let dir = tempfile::tempdir().unwrap();
@@ -661,21 +653,40 @@ fn the_taylor_bar_mushrooms_to_the_published_radius() {
         .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
         .collect();
     let (first, last) = (&rows[0], &rows[rows.len() - 1]);
-    let radius = 0.5 * last[extent] + 0.5 * dx;
-    eprintln!(
-        "Taylor bar at 40 µs: impact-end radius {radius:e} m, energy {:e} of {:e} J",
-        last[5], first[5]
-    );
-    let lag = 6.975e-3 - radius;
+    (0.5 * last[extent] + 0.5 * dx, dx, [first[5], last[5]])
+}
+
+/// Seed 003 §7.2.3 and Table 2: the copper Taylor bar at 227 m/s on a rigid wall, {p, F}
+/// Upwind-SPH with the von Mises return map, at 3 and 4 particles per radius
+/// (cell-centred, 960 and 2,080 particles) to 40 µs, by when the impact end has stopped
+/// spreading (it moves by less than 0.02 mm after). The paper's Upwind-SPH gives 0.689
+/// cm at a resolution it does not state. The radius is resolved to a particle spacing
+/// (the rim is a particle layer, its surface anywhere within Δx/2 of the measure), and
+/// the discretisation error at these resolutions is of the same order (the report's
+/// `taylor-ladder`: 5.63, 5.98, 6.39 mm at 3, 4, 6 per radius; 6.70 mm at the shipped 8):
+/// bound: within 1.5 Δx of 6.89 mm either way, and rising as Δx falls (the outermost
+/// centres approach the surface from inside). Locking linear tetrahedra give 5.55 mm and
+/// an elastic bar stays near 3.2 mm. The plastic work is dissipated: the total energy
+/// must fall by more than half by 40 µs.
+#[test]
+fn the_taylor_bar_mushrooms_to_the_published_radius() {
+    let paper = 6.89e-3;
+    let mut radii = Vec::new();
+    for per_radius in [3.0, 4.0] {
+        let (radius, dx, [e0, e]) = taylor_radius(per_radius);
+        eprintln!(
+            "{per_radius} per radius: impact-end radius {radius:e} m, energy {e:e} of {e0:e} J"
+        );
+        assert!(
+            (radius - paper).abs() < 1.5 * dx,
+            "impact-end radius {radius:e} m against the paper's {paper:e} m (Δx = {dx:e} m)"
+        );
+        assert!(e < 0.5 * e0, "energy {e} of {e0} J");
+        radii.push(radius);
+    }
     assert!(
-        lag > 0.0 && lag < 1.5 * dx,
-        "impact-end radius {radius:e} m, the references 6.95e-3–7.00e-3 m (Δx = {dx:e} m)"
-    );
-    assert!(
-        last[5] < 0.5 * first[5],
-        "energy {} of {} J",
-        last[5],
-        first[5]
+        radii[1] > radii[0],
+        "the radius does not rise with resolution: {radii:?}"
     );
 }
 

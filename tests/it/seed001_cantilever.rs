@@ -156,54 +156,82 @@ fn the_finite_elements_converge_at_orders_two_and_one() {
     assert!((0.9..1.1).contains(&oe[1]), "{e:?}: {oe:?}");
 }
 
+/// Where a claim of §9.1 does not come out (docs/methods/seed001.md, "The cantilever of
+/// §9.1", "What does not", with the runs that separate the causes).
+const FINDING: &str = "docs/methods/seed001.md, \"The cantilever of §9.1\"";
+
 #[test]
-fn kbm_converges_at_first_order_with_patch_tractions() {
-    // The paper: KBM (si) "pretty good", at a rate close to 2 in the displacement norm,
-    // and KBM (ni) poor. Measured here: KBM (si) 0.573, 0.227, 0.103 (orders 1.34,
-    // 1.14), KBM (ni) 0.420, 0.198, 0.0905 (1.09, 1.13); energy 0.583, 0.384, 0.258
-    // against 0.547, 0.428, 0.306. So both converge at first order, KBM (si) about 30
-    // times EFG (ci)'s error at Δx = 1, and the stress points lower the energy error
-    // (0.84 of KBM (ni)'s at Δx = 1) but not the displacement error. The cause is the
-    // boundary treatment (docs/methods/seed001.md): the tractions are loaded as patch
-    // forces on the end particles, not as ∫ W^S_a t dΓ with the Shepard test functions,
-    // and the clamped end prescribes nodal values of non-interpolating functions.
-    // Bounds: the last order in u within 0.8–1.5 (first, not second), KBM (si) above 10
-    // times EFG (ci) at Δx = 1, and KBM (si) below KBM (ni) in energy at Δx = 2 and 1.
-    let (si, si_e) = ladder(KBM_SI, None);
-    let (ni, ni_e) = ladder(KBM_NI, None);
-    eprintln!("KBM (si) {si:?} {si_e:?}; KBM (ni) {ni:?} {ni_e:?}");
+#[ignore = "finding: docs/methods/seed001.md, \"The cantilever of §9.1\": KBM (si) converges at first order"]
+fn kbm_with_stress_points_converges_at_close_to_second_order() {
+    // The paper's conclusions: KBM (si)'s rate is "close to two" in the displacement norm,
+    // "only a little bit less" than EFG (ci)'s. Bound: the order on Δx = 2 → 1 within
+    // 1.6–2.4, the band EFG's own orders pass with (above). Measured: 0.477, 0.187,
+    // 0.0842 at Δx = 4, 2, 1, orders 1.35 and 1.15: first order (the Shepard functions'
+    // zeroth-order completeness at the free faces; the finding has the runs that show it).
+    let (si, _) = ladder(KBM_SI, None);
     let o = orders(&si);
-    assert!((0.8..1.5).contains(&o[1]), "{si:?}: {o:?}");
-    let (ci, _) = errors(EFG_CI, 1.0, None);
-    assert!(si[2] > 10.0 * ci, "{si:?} vs EFG (ci) {ci}");
+    assert!(
+        (1.6..2.4).contains(&o[1]),
+        "{si:?}: orders {o:?} ({FINDING})"
+    );
+}
+
+#[test]
+fn stress_points_lower_kbms_energy_error() {
+    // The paper: KBM (si) gives "pretty good results" where KB corrections with nodal
+    // integration "yield poor" ones. In the energy norm the stress points do lower the
+    // error (docs/methods/seed001.md's table of orders). Bound: KBM (si) below KBM (ni)
+    // at Δx = 2 and 1 (the claim, with no margin asked).
+    let (_, si_e) = ladder(KBM_SI, None);
+    let (_, ni_e) = ladder(KBM_NI, None);
     assert!(si_e[1] < ni_e[1] && si_e[2] < ni_e[2], "{si_e:?} {ni_e:?}");
 }
 
 #[test]
-fn rlm_does_not_converge() {
-    // The paper: RLM with nodal integration "poor". Measured: 0.807, 0.0708, 0.2525 (and
-    // 0.385 at Δx = 0.5) in u, energy 0.620, 0.409, 0.396 (0.438): no convergence.
-    // Bounds: the error at Δx = 1 above twice that at Δx = 2, every energy error above
-    // 0.3.
-    let (u, e) = ladder(RLM, None);
-    eprintln!("RLM {u:?} {e:?}");
-    assert!(u[2] > 2.0 * u[1], "{u:?}");
-    assert!(e.iter().all(|&x| x > 0.3), "{e:?}");
+fn rlm_with_nodal_integration_is_poor() {
+    // The paper: RL corrections with nodal integration "yield poor results", EFG (ni)
+    // "pretty good" ones. The paper's Fig. 6 has no numbers here, so "poor" is taken as
+    // an error over five times EFG (ni)'s at Δx = 1 in both norms; measured 0.253
+    // against 0.00978 in u (26 times) and 0.396 against 0.0393 in energy (10 times).
+    let (u, e) = errors(RLM, 1.0, None);
+    let (u_efg, e_efg) = errors(EFG_NI, 1.0, None);
+    eprintln!("RLM {u} {e}; EFG (ni) {u_efg} {e_efg}");
+    assert!(
+        u > 5.0 * u_efg && e > 5.0 * e_efg,
+        "RLM {u} {e}, EFG (ni) {u_efg} {e_efg}"
+    );
 }
 
 #[test]
-fn sph_is_far_off_with_h_over_dx_fixed_and_worse_with_h_fixed() {
-    // The paper: SPH does not converge with h/Δx fixed and converges with h fixed
-    // (Fig. 7). Measured with h/Δx = 1.3: 5.53, 1.69, 0.764 (and 0.339 at Δx = 0.5),
-    // decreasing at order ≈ 1.2 but still 34 % at 2,425 particles, the tip deflection
-    // 1.32 times the exact one there; with h = 2 fixed (h/Δx = 1 at Δx = 2, 2 at Δx = 1,
-    // 4 at Δx = 0.5): 1.02, 1.83, 5.36. Bounds: with h/Δx fixed the error at Δx = 1
-    // above 0.5 (every other variant is below 0.26 there) and below the one at Δx = 2;
-    // with h fixed the error at Δx = 1 above that at Δx = 2.
+fn sph_with_h_over_dx_fixed_is_far_off() {
+    // The paper: symmetrised SPH "does not converge at all" with h/Δx fixed. Its error
+    // stays far above every other method's: measured 0.764 at Δx = 1 with h/Δx = 1.3,
+    // where every other variant is below 0.26. Bound: above 0.5 at Δx = 1.
+    let (u, _) = errors(SPH, 1.0, None);
+    assert!(u > 0.5, "{u}");
+}
+
+#[test]
+#[ignore = "finding: docs/methods/seed001.md, \"The cantilever of §9.1\": SPH converges slowly with h/Δx fixed"]
+fn sph_does_not_converge_with_h_over_dx_fixed() {
+    // The paper: no convergence at all with h/Δx fixed. Bound: no order above 0.5 on
+    // the ladder (an error that does not fall as Δx halves). Measured: 5.53, 1.69, 0.764,
+    // orders 1.71 and 1.15: slow convergence.
     let (u, _) = ladder(SPH, None);
-    assert!(u[2] > 0.5 && u[2] < u[1], "{u:?}");
+    let o = orders(&u);
+    assert!(
+        o.iter().all(|&x| x < 0.5),
+        "{u:?}: orders {o:?} ({FINDING})"
+    );
+}
+
+#[test]
+#[ignore = "finding: docs/methods/seed001.md, \"The cantilever of §9.1\": SPH with h fixed gets worse"]
+fn sph_converges_with_h_fixed() {
+    // The paper's Fig. 7: SPH converges when the domain of influence is held constant.
+    // Bound: with h = 2 the error at Δx = 1 below that at Δx = 2. Measured: 1.02 at
+    // Δx = 2, 1.83 at Δx = 1 (and 5.36 at Δx = 0.5): it grows.
     let (coarse, _) = errors(SPH, 2.0, Some(2.0));
     let (fine, _) = errors(SPH, 1.0, Some(2.0));
-    eprintln!("SPH {u:?}; h fixed {coarse} {fine}");
-    assert!(fine > coarse, "{coarse} {fine}");
+    assert!(fine < coarse, "{coarse} {fine} ({FINDING})");
 }

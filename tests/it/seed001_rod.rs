@@ -360,16 +360,21 @@ fn rod_errors(case: &str, set: &[&str]) -> [f64; 2] {
 /// The paper's output times, t = L/c and 2L/c [s].
 const RETURNS: [f64; 2] = [1.1563e-5, 2.3126e-5];
 
+/// Table 3's L2 velocity errors at the two returns: SPH (ni) and RLM (ni).
+const TABLE_3: [(&str, &str, [f64; 2]); 2] = [
+    ("SPH", "rod-gaussian", [0.05026, 0.04999]),
+    ("RLM", "rod-gaussian-rlm", [0.01301, 0.01297]),
+];
+
+/// Where Table 3 does not come out (docs/methods/seed001.md, "The rod of §9.2, Gaussian
+/// case", "What does not", with the time series that shows why).
+const ROD_FINDING: &str = "docs/methods/seed001.md, \"The rod of §9.2, Gaussian case\"";
+
 #[test]
 fn rod_at_the_papers_resolution_against_table_3() {
     // Seed 001 §9.2 at the paper's Δx = 0.125 mm (about 30 s for both runs on 2 cores).
-    let sph = rod_errors("rod-gaussian", &[]);
-    let rlm = rod_errors("rod-gaussian-rlm", &[]);
-    // Table 3: SPH (ni) 0.05026 / 0.04999, RLM (ni) 0.01301 / 0.01297 at the two returns.
-    let table3 = [
-        ("SPH", sph, [0.05026, 0.04999]),
-        ("RLM", rlm, [0.01301, 0.01297]),
-    ];
+    let errors = TABLE_3.map(|(name, case, paper)| (name, rod_errors(case, &[]), paper));
+    let [(_, sph, _), (_, rlm, _)] = errors;
     for k in 0..2 {
         // The paper's ordering: uncorrected SPH is the less accurate (3.9 times RLM's
         // error in Table 3; measured here 15 and 14 times).
@@ -381,10 +386,9 @@ fn rod_at_the_papers_resolution_against_table_3() {
             rlm[k]
         );
     }
-    for (name, e, paper) in table3 {
+    for (name, e, paper) in errors {
         // No worse than the paper at its resolution (measured 0.0055 / 0.017 for SPH and
-        // 0.00036 / 0.0013 for RLM, 9 and 36 times below Table 3 at the first return:
-        // docs/methods/seed001.md). A wrong boundary mass, wave speed or correction costs
+        // 0.00036 / 0.0013 for RLM). A wrong boundary mass, wave speed or correction costs
         // far more: SPH at h/Δx = 1.2 is at 0.17 on the second return.
         for k in 0..2 {
             assert!(
@@ -395,13 +399,44 @@ fn rod_at_the_papers_resolution_against_table_3() {
                 paper[k]
             );
         }
-        // Table 3's errors stay level from the first return to the second; here they grow
-        // by 3.2 (SPH) and 3.6 (RLM), the phase error of the dispersive discrete wave
-        // accumulating (the error between the returns grows about linearly in time), by
-        // 2.3 to 3.6 on the ladder 0.5, 0.25, 0.125 mm. The margin, 4, still fails an
-        // error that grows faster than the phase (an instability, energy fed in at the
-        // free ends).
-        assert!(e[1] < 4.0 * e[0], "{name}: {} → {}", e[0], e[1]);
+    }
+}
+
+#[test]
+#[ignore = "finding: docs/methods/seed001.md, \"The rod of §9.2, Gaussian case\": errors 9–36 times below Table 3"]
+fn rod_errors_are_table_3s_within_one_and_a_half() {
+    // Table 3's errors to 1.5 times either way at both returns. Measured: SPH 0.0055 /
+    // 0.017, RLM 0.00036 / 0.0013, 9 and 36 times below Table 3 at the first return (the
+    // paper's h/Δx, integrator, viscosity and amplitude are not given).
+    for (name, case, paper) in TABLE_3 {
+        let e = rod_errors(case, &[]);
+        for k in 0..2 {
+            let ratio = e[k] / paper[k];
+            assert!(
+                (1.0 / 1.5..=1.5).contains(&ratio),
+                "{name} return {}: {} against Table 3's {} ({ROD_FINDING})",
+                k + 1,
+                e[k],
+                paper[k]
+            );
+        }
+    }
+}
+
+#[test]
+#[ignore = "finding: docs/methods/seed001.md, \"The rod of §9.2, Gaussian case\": errors grow between the returns"]
+fn rod_errors_stay_level_from_the_first_return_to_the_second() {
+    // Table 3's errors stay level: 0.05026 → 0.04999 (SPH), 0.01301 → 0.01297 (RLM).
+    // Bound: the second at most 1.5 times the first. Measured: growth by 3.2 (SPH) and
+    // 3.6 (RLM), the phase error of the dispersive discrete wave accumulating.
+    for (name, case, _) in TABLE_3 {
+        let e = rod_errors(case, &[]);
+        assert!(
+            e[1] <= 1.5 * e[0],
+            "{name}: {} → {} ({ROD_FINDING})",
+            e[0],
+            e[1]
+        );
     }
 }
 
