@@ -53,6 +53,7 @@ mod reactions;
 mod registry;
 mod runs;
 mod scni;
+mod seed000_disk;
 mod seed001_cantilever;
 mod seed001_pulse;
 mod seed001_ring;
