@@ -3,7 +3,8 @@
 //! on the plane-stress beam (§6.4), the rubber pull to 500 % (§6.5) and the Newton
 //! convergence of the hyperelastic cube (§6.6); the static FEM references of the plate and
 //! the cube (`tl-fem` with its closed-form stiffness). The paper-scale figures of
-//! docs/methods/dual-support.md come from the ignored `paper_scale_figures`.
+//! docs/methods/dual-support.md come from the suites `plate-hourglass`, `beam-smoothing`
+//! and `rubber-pull` (`meshless study …`).
 
 use meshless::analytic::Cantilever;
 use meshless::methods::dual_support::Statics;
@@ -260,48 +261,4 @@ fn the_trilinear_cube_converges_quadratically_towards_the_particle_solution() {
     let uz = snap.u[corner].z;
     eprintln!("Hex8 cube 8³: corner u_z {uz}");
     assert!(uz < -0.42, "corner u_z {uz}");
-}
-
-/// The paper-scale runs of the method page (minutes on two cores): `cargo test --release
-/// --test it paper_scale_figures -- --ignored --nocapture`.
-#[test]
-#[ignore]
-fn paper_scale_figures() {
-    println!("§6.2 plate, 20 × 20 and 40 × 40 irregular: α, max u_x, min u_y");
-    for file in ["20", "40"] {
-        let geometry = format!(
-            "body.0.geometry={{ shape = \"points\", file = \"points/plate-irregular-{file}.csv\" }}"
-        );
-        let extra: Vec<String> = if file == "40" {
-            vec![
-                geometry,
-                "spacing=0.025".into(),
-                "boundary.0.region.y_max=0.02".into(),
-                "boundary.1.region.y_min=0.98".into(),
-            ]
-        } else {
-            vec![]
-        };
-        let extra: Vec<&str> = extra.iter().map(String::as_str).collect();
-        for a in [0.0, 0.2, 1.0, 2.0, 10.0, 100.0, 1e3, 1e5] {
-            let (ux, uy) = plate(a, &extra);
-            println!("{file} {a:e} {ux:.5} {uy:.5}");
-        }
-    }
-    println!("§6.4 beam: Δx, n, ‖u‖_error, Σ V ψ");
-    for dx in [0.25, 0.125] {
-        for n in [0.9, 1.2, 1.5, 2.0, 2.2, 2.4, 3.0, 3.8] {
-            let (err, energy) = beam(dx, h_over_dx(n));
-            println!("{dx} {n} {err:.5} {energy:.6e}");
-        }
-    }
-    println!("§6.5 rubber: layout, α, top displacement reached");
-    let irregular =
-        "body.0.geometry={ shape = \"points\", file = \"points/rubber-irregular.csv\" }";
-    for (name, extra) in [("regular", vec![]), ("irregular", vec![irregular])] {
-        for a in [0.0, 5.0] {
-            let (reached, indefinite) = rubber(a, &extra);
-            println!("{name} {a} {reached:.3e}, indefinite from {indefinite:?}");
-        }
-    }
 }
