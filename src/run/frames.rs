@@ -7,6 +7,7 @@ use crate::engine::BlowUp;
 use crate::material::von_mises;
 use crate::observe::{Clock, IndicatorFields, Snapshot};
 use crate::output::{Field, FieldData, Mesh, PvdIndex, free_bytes, write_vtu};
+use crate::plasticity::symmetric_eigen;
 use crate::pressure::pressures;
 use crate::scene::Scene;
 use crate::tensor::Dim;
@@ -232,7 +233,7 @@ pub(super) fn next_frame_time(previous: f64, interval: f64, t: f64) -> f64 {
 }
 
 /// One VTU frame: current positions with the particle id, reference position X, u, v, F,
-/// σ, pressure p = −tr σ/3, von Mises stress, J, mass, volume V = V0 J, density ρ0/J,
+/// the Green–Lagrange and logarithmic strains of F ([`strains`]), σ, pressure p = −tr σ/3, von Mises stress, J, mass, volume V = V0 J, density ρ0/J,
 /// smoothing length, the hourglass indicator η and the pressure deviation δp
 /// (`indicators`), body, and the method's own fields (the
 /// plastic strain ε_p of a plastic material), which replace the derived field of the same
@@ -258,6 +259,8 @@ pub fn write_frame<D: Dim>(
     let f9: Vec<[f64; 9]> = snap.f.iter().map(|&f| flatten(pad_f::<D>(f))).collect();
     let vm: Vec<f64> = snap.sigma.iter().map(von_mises).collect();
     let s9: Vec<[f64; 9]> = snap.sigma.iter().map(|s| flatten(*s)).collect();
+    let (green, hencky): (Vec<[f64; 9]>, Vec<[f64; 9]>) =
+        snap.f.iter().map(|&f| strains(pad_f::<D>(f))).unzip();
     let body: Vec<i32> = snap.body.iter().map(|&b| b as i32).collect();
     let id: Vec<i32> = (0..snap.x0.len()).map(|i| i as i32).collect();
     let x0: Vec<[f64; 3]> = snap.x0.iter().map(|&a| D::to3(a)).collect();
@@ -290,6 +293,14 @@ pub fn write_frame<D: Dim>(
         Field {
             name: "F",
             data: FieldData::Tensor(&f9),
+        },
+        Field {
+            name: "green_lagrange_strain",
+            data: FieldData::Tensor(&green),
+        },
+        Field {
+            name: "log_strain",
+            data: FieldData::Tensor(&hencky),
         },
         Field {
             name: "sigma",
@@ -361,6 +372,26 @@ fn pad_f<D: Dim>(f: D::T) -> [[f64; 3]; 3] {
     m
 }
 
+/// The Green–Lagrange strain E = ½(FᵀF − I) and the logarithmic (Hencky) strain
+/// ε = ½ ln(F Fᵀ) = Σ_k ln λ_k n_k ⊗ n_k, with λ_k the principal stretches and n_k the
+/// eigenvectors of F Fᵀ (the Eulerian one, coaxial with σ for an isotropic law), of F as
+/// 3 × 3 (in 2D with the F_zz of [`pad_f`]). NaN where F Fᵀ is not positive definite (a
+/// particle whose F has failed).
+fn strains(f: [[f64; 3]; 3]) -> ([f64; 9], [f64; 9]) {
+    let f = glam::DMat3::from_cols_array_2d(&f).transpose();
+    let green = 0.5 * (f.transpose() * f - glam::DMat3::IDENTITY);
+    let (lambda2, n) = symmetric_eigen(f * f.transpose());
+    let mut hencky = glam::DMat3::ZERO;
+    for k in 0..3 {
+        let (l2, nk) = (lambda2[k], n.col(k));
+        let half_ln = if l2 > 0.0 { 0.5 * l2.ln() } else { f64::NAN };
+        hencky += glam::DMat3::from_cols(nk * nk.x, nk * nk.y, nk * nk.z) * half_ln;
+    }
+    // Both symmetric: the column arrays are the row-major ones.
+    let flat = |m: glam::DMat3| flatten(m.to_cols_array_2d());
+    (flat(green), flat(hencky))
+}
+
 fn flatten(m: [[f64; 3]; 3]) -> [f64; 9] {
     let mut out = [0.0; 9];
     for k in 0..3 {
@@ -421,6 +452,9 @@ mod tests {
         assert_eq!(field("density"), [2.0, 4.0]);
         assert_eq!(field("pressure"), [-6.0, 1.0]);
         assert_eq!(field("smoothing_length"), [0.13; 2]);
+        // F = diag(2, 1) (plane strain, F_zz = 1): E_xx = ½(4 − 1), ε_xx = ln 2.
+        assert_eq!(read_field(&path, "green_lagrange_strain")[0], 1.5);
+        assert!((read_field(&path, "log_strain")[0] - 2f64.ln()).abs() < 1e-15);
         let own = vec![ScalarField {
             name: "density",
             values: vec![5.0, 6.0],
@@ -434,6 +468,43 @@ mod tests {
         )
         .unwrap();
         assert_eq!(read_field(&path, "density"), [5.0, 6.0]);
+    }
+
+    #[test]
+    fn the_strains_of_a_rotated_stretch_are_the_closed_forms() {
+        // F = R(θ) diag(λ1, λ2, 1) with θ = 0.7, λ1 = 2, λ2 = 0.5: E = ½(U² − I) with
+        // U = diag(λ1, λ2, 1) (the rotation drops out of FᵀF), and ε = R diag(ln λ1, ln λ2,
+        // 0) Rᵀ (the left stretch's principal directions are R's columns). Jacobi's
+        // eigenvectors are exact to 1e-15 relative: bound 1e-13 on each component.
+        let (c, s) = (0.7f64.cos(), 0.7f64.sin());
+        let r = [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]];
+        let l = [2.0f64, 0.5, 1.0];
+        let f: [[f64; 3]; 3] = std::array::from_fn(|i| std::array::from_fn(|j| r[i][j] * l[j]));
+        let (green, hencky) = super::strains(f);
+        for i in 0..3 {
+            for j in 0..3 {
+                let e = if i == j {
+                    0.5 * (l[i] * l[i] - 1.0)
+                } else {
+                    0.0
+                };
+                let eps: f64 = (0..3).map(|k| r[i][k] * l[k].ln() * r[j][k]).sum();
+                assert!(
+                    (green[3 * i + j] - e).abs() < 1e-13,
+                    "E_{i}{j} = {}",
+                    green[3 * i + j]
+                );
+                assert!(
+                    (hencky[3 * i + j] - eps).abs() < 1e-13,
+                    "ε_{i}{j} = {}",
+                    hencky[3 * i + j]
+                );
+            }
+        }
+        // A failed particle's F (det F < 0 makes F Fᵀ still positive; a zero column does
+        // not) gives NaN, not a panic.
+        let (_, singular) = super::strains([[1.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]]);
+        assert!(singular.iter().any(|x| x.is_nan()), "{singular:?}");
     }
 
     #[test]
