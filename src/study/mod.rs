@@ -7,6 +7,7 @@
 //! again skips what it finished. Nothing here depends on the particle method: a method
 //! family plugs in by being named in a variant's `method.name=…`.
 
+pub mod convergence;
 pub mod engine;
 pub mod fields;
 pub mod history;

@@ -105,7 +105,8 @@ pub fn plottable<'a>(
         .collect()
 }
 
-/// Writes `<suite>-<metric>.png` and `.svg` into `dir` for an accuracy suite.
+/// Writes `<suite>-<metric>.png` and `.svg` into `dir` for an accuracy suite, and on a
+/// spacing ladder the error against the spacing ([`super::convergence`]).
 pub fn plots(suite: &Suite, records: &[RunRecord], dir: &Path) -> std::io::Result<Vec<PathBuf>> {
     let mut files = Vec::new();
     if suite.kind != SuiteKind::Accuracy {
@@ -142,6 +143,7 @@ pub fn plots(suite: &Suite, records: &[RunRecord], dir: &Path) -> std::io::Resul
             },
         )?);
     }
+    files.extend(super::convergence::plots(suite, records, dir)?);
     Ok(files)
 }
 
