@@ -122,6 +122,10 @@ enum Command {
         /// study goes on.
         #[arg(long, value_name = "SECONDS", default_value_t = meshless::study::RUN_TIME_LIMIT.as_secs_f64())]
         run_time_limit: f64,
+        /// Run nothing: list the suites whose report records (study/<suite>.csv beside
+        /// --report, default docs/REPORT.md) another solver made; exit 1 if any.
+        #[arg(long)]
+        stale: bool,
     },
 }
 
@@ -201,11 +205,19 @@ fn main() -> ExitCode {
         #[cfg(feature = "study")]
         Command::Study {
             suites,
+            report,
+            stale: true,
+            ..
+        } => stale_command(&suites, report.as_deref()),
+        #[cfg(feature = "study")]
+        Command::Study {
+            suites,
             out,
             no_resume,
             report,
             quiet,
             run_time_limit,
+            stale: false,
         } => study_command(
             &suites,
             out,
@@ -214,6 +226,50 @@ fn main() -> ExitCode {
             quiet,
             run_time_limit,
         ),
+    }
+}
+
+/// `meshless study --stale`: the freshness of every named suite's report records.
+#[cfg(feature = "study")]
+fn stale_command(names: &[String], report: Option<&Path>) -> ExitCode {
+    use meshless::study::stale::{Freshness, freshness, line};
+    use meshless::study::{Suite, records, resolve_suites};
+    let studies: Vec<PathBuf> = case_dirs().iter().map(|d| d.join("studies")).collect();
+    let paths = match resolve_suites(names, &studies) {
+        Ok(p) => p,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(EXIT_INPUT);
+        }
+    };
+    let report = report.unwrap_or(Path::new("docs/REPORT.md"));
+    let dir = report.parent().unwrap_or(Path::new(".")).join("study");
+    let mut stale = 0;
+    for path in &paths {
+        let suite = match Suite::load(path) {
+            Ok(s) => s,
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(EXIT_INPUT);
+            }
+        };
+        let file = dir.join(format!("{}.csv", suite.name));
+        let recs = match records::read(&file) {
+            Ok(r) => r,
+            Err(e) => {
+                eprintln!("error: {}: {e}", file.display());
+                return ExitCode::from(EXIT_FAILED);
+            }
+        };
+        let fresh = freshness(&recs);
+        stale += usize::from(matches!(fresh, Freshness::Stale { .. }));
+        println!("{}", line(&suite.name, &fresh));
+    }
+    println!("{stale} stale (records in {})", dir.display());
+    if stale == 0 {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
     }
 }
 

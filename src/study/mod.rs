@@ -15,6 +15,7 @@ pub mod picture;
 pub mod plot;
 pub mod records;
 pub mod report;
+pub mod stale;
 pub mod suite;
 
 pub use records::{RunRecord, Status};

@@ -61,9 +61,14 @@ pub struct RunRecord {
     pub reason: String,
     /// CPU model and thread count of the machine that measured it.
     pub machine: String,
+    /// The build that measured it ([`this_build`]: its commit and solver hash); empty for a
+    /// record written before builds were recorded.
+    pub build: String,
+    /// The UTC date it was measured (YYYY-MM-DD); empty as `build`.
+    pub date: String,
 }
 
-pub const HEADER: [&str; 25] = [
+pub const HEADER: [&str; 27] = [
     "id",
     "suite",
     "case",
@@ -89,7 +94,12 @@ pub const HEADER: [&str; 25] = [
     "reason",
     "machine",
     "version",
+    "build",
+    "date",
 ];
+
+/// The columns of the records written before the build and date were.
+const OLD_COLUMNS: usize = 25;
 
 fn num(x: f64) -> String {
     if x.is_nan() {
@@ -148,7 +158,19 @@ impl RunRecord {
             status: Status::Error,
             reason: String::new(),
             machine,
+            build: this_build(),
+            date: today(),
         }
+    }
+
+    /// The commit of the build that measured it (the first word of `build`).
+    pub fn build_commit(&self) -> &str {
+        self.build.split_whitespace().next().unwrap_or("")
+    }
+
+    /// The solver hash of the build that measured it (the second word of `build`).
+    pub fn solver(&self) -> &str {
+        self.build.split_whitespace().nth(1).unwrap_or("")
     }
 
     fn to_fields(&self) -> Vec<String> {
@@ -192,13 +214,16 @@ impl RunRecord {
             self.reason.clone(),
             self.machine.clone(),
             env!("CARGO_PKG_VERSION").to_string(),
+            self.build.clone(),
+            self.date.clone(),
         ]
     }
 
     fn from_fields(f: &[String]) -> Option<Self> {
-        if f.len() != HEADER.len() {
+        if f.len() != HEADER.len() && f.len() != OLD_COLUMNS {
             return None;
         }
+        let column = |k: usize| f.get(k).cloned().unwrap_or_default();
         let status = match f[17].as_str() {
             "ok" => Status::Ok,
             "failed" => Status::Failed {
@@ -230,6 +255,8 @@ impl RunRecord {
             status,
             reason: f[22].clone(),
             machine: f[23].clone(),
+            build: column(25),
+            date: column(26),
         })
     }
 
@@ -308,6 +335,40 @@ pub fn write(path: &Path, records: &[RunRecord]) -> std::io::Result<()> {
     })
 }
 
+/// This build: its commit and the hash of its solver sources (`build.rs`), as
+/// `"<commit> <solver>"`.
+pub fn this_build() -> String {
+    format!("{} {}", env!("MESHLESS_COMMIT"), env!("MESHLESS_SOLVER"))
+}
+
+/// The solver hash of this build.
+pub fn this_solver() -> &'static str {
+    env!("MESHLESS_SOLVER")
+}
+
+/// Today's UTC date, YYYY-MM-DD (days since 1970 to the civil calendar, Hinnant's
+/// algorithm).
+pub fn today() -> String {
+    let seconds = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs());
+    civil_date((seconds / 86_400) as i64)
+}
+
+/// The proleptic Gregorian date of day `days` after 1970-01-01.
+fn civil_date(days: i64) -> String {
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = doy - (153 * mp + 2) / 5 + 1;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 };
+    let year = yoe + era * 400 + i64::from(month <= 2);
+    format!("{year:04}-{month:02}-{day:02}")
+}
+
 /// CPU model and thread count of this machine, for the record.
 pub fn machine() -> String {
     let model = std::fs::read_to_string("/proc/cpuinfo")
@@ -356,6 +417,8 @@ mod tests {
             },
             reason: "det F = -1e0 at particle 7,\nline two".into(),
             machine: "x".into(),
+            build: "0123456789ab 00ff00ff00ff00ff".into(),
+            date: "2026-11-29".into(),
         };
         write(&path, &[rec.clone(), rec.clone()]).unwrap();
         let back = read(&path).unwrap();
@@ -366,6 +429,43 @@ mod tests {
         let mut b = rec;
         b.error_stress = 0.0;
         assert_eq!(a, b);
+    }
+
+    #[test]
+    fn records_of_before_the_build_column_still_read() {
+        // A row of the 25 columns written before `build` and `date`: read, with both
+        // empty, so a study resumes from it (and `--stale` counts it as another solver's).
+        let (_dir, path) = scratch("results.csv");
+        let old = "id,suite,case,variant,backend,sweep_key,sweep_value,spacing,particles,steps,\
+                   dt_last,time,wall_seconds,error_velocity,error_stress,\
+                   drift_angular_momentum,drift_energy,status,fail_time,fail_step,\
+                   fail_particle,fail_quantity,reason,machine,version\n\
+                   a1,s,c,v,cpu,spacing,0.1,1e-1,10,5,1e-3,1e-2,2e0,1e-2,,,,ok,,,,,,m,0.1.0\n";
+        std::fs::write(&path, old).unwrap();
+        let back = read(&path).unwrap();
+        assert_eq!(back.len(), 1);
+        assert_eq!((back[0].build.as_str(), back[0].date.as_str()), ("", ""));
+        assert_eq!(back[0].solver(), "");
+        let fresh = RunRecord::unmeasured(
+            "0".into(),
+            "s".into(),
+            "v".into(),
+            "cpu".into(),
+            ("spacing".into(), "0.05".into()),
+            String::new(),
+        );
+        assert_eq!(fresh.solver(), this_solver());
+    }
+
+    #[test]
+    fn civil_dates_of_known_days() {
+        // 1970-01-01 is day 0; 2000-03-01 follows a leap day (day 11,017); 2026-11-29 is
+        // day 20,786.
+        assert_eq!(civil_date(0), "1970-01-01");
+        assert_eq!(civil_date(11_016), "2000-02-29");
+        assert_eq!(civil_date(11_017), "2000-03-01");
+        assert_eq!(civil_date(20_786), "2026-11-29");
+        assert_eq!(civil_date(-1), "1969-12-31");
     }
 
     #[test]

@@ -29,6 +29,8 @@ pub(in crate::study) fn record(
         status: Status::Ok,
         reason: String::new(),
         machine: "m".into(),
+        build: String::new(),
+        date: String::new(),
     }
 }
 

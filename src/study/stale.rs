@@ -1,0 +1,110 @@
+//! Which suites' records another solver made (`meshless study --stale`): a record carries
+//! the build that measured it (its commit and the hash of the solver's sources,
+//! `records::this_build`), and a suite whose records were not all made by this solver
+//! needs running again before its figures are quoted.
+
+use super::records::{RunRecord, this_solver};
+use std::collections::BTreeSet;
+
+/// What the records of one suite say about the solver that made them.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Freshness {
+    /// No records.
+    NotRun,
+    /// Every record made by this solver: the commits and dates they carry.
+    Current {
+        commits: Vec<String>,
+        dates: Vec<String>,
+    },
+    /// `stale` of `of` records made by another solver (or before builds were recorded):
+    /// the builds they carry (`unrecorded` when empty).
+    Stale {
+        stale: usize,
+        of: usize,
+        builds: Vec<String>,
+    },
+}
+
+/// The freshness of `records` against this build's solver.
+pub fn freshness(records: &[RunRecord]) -> Freshness {
+    if records.is_empty() {
+        return Freshness::NotRun;
+    }
+    let others: Vec<&RunRecord> = records
+        .iter()
+        .filter(|r| r.solver() != this_solver())
+        .collect();
+    let distinct = |it: &mut dyn Iterator<Item = String>| -> Vec<String> {
+        it.collect::<BTreeSet<_>>().into_iter().collect()
+    };
+    if others.is_empty() {
+        let commits = distinct(&mut records.iter().map(|r| r.build_commit().to_string()));
+        let dates = distinct(&mut records.iter().map(|r| r.date.clone()));
+        return Freshness::Current { commits, dates };
+    }
+    let builds = distinct(&mut others.iter().map(|r| match r.build.as_str() {
+        "" => "unrecorded".to_string(),
+        b => b.to_string(),
+    }));
+    Freshness::Stale {
+        stale: others.len(),
+        of: records.len(),
+        builds,
+    }
+}
+
+/// One line of `--stale` for suite `name`.
+pub fn line(name: &str, freshness: &Freshness) -> String {
+    match freshness {
+        Freshness::NotRun => format!("{name}: no records"),
+        Freshness::Current { commits, dates } => format!(
+            "{name}: current (commit {}, measured {})",
+            commits.join(", "),
+            dates.join(", ")
+        ),
+        Freshness::Stale { stale, of, builds } => format!(
+            "{name}: stale: {stale} of {of} runs made by another solver (builds: {})",
+            builds.join("; ")
+        ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::study::plot::tests::record;
+
+    #[test]
+    fn records_of_another_solver_make_a_suite_stale() {
+        // Records made by this build are current; one from another solver hash, or one
+        // without a build, makes the suite stale and is named.
+        let ours = |sweep: &str| {
+            let mut r = record("v", "cpu", sweep, 1.0, 0.1);
+            r.build = crate::study::records::this_build();
+            r.date = "2026-11-29".into();
+            r
+        };
+        assert_eq!(freshness(&[]), Freshness::NotRun);
+        let current = freshness(&[ours("0.1"), ours("0.05")]);
+        let Freshness::Current { commits, dates } = &current else {
+            panic!("{current:?}");
+        };
+        assert_eq!(
+            (commits.len(), dates.as_slice()),
+            (1, &["2026-11-29".to_string()][..])
+        );
+        let mut other = ours("0.025");
+        other.build = "0123456789ab ffffffffffffffff".into();
+        let unrecorded = record("v", "cpu", "0.0125", 1.0, 0.1);
+        let stale = freshness(&[ours("0.1"), other, unrecorded]);
+        assert_eq!(
+            stale,
+            Freshness::Stale {
+                stale: 2,
+                of: 3,
+                builds: vec!["0123456789ab ffffffffffffffff".into(), "unrecorded".into()],
+            }
+        );
+        assert!(line("s", &stale).starts_with("s: stale: 2 of 3 runs"));
+    }
+}
