@@ -24,13 +24,13 @@ mod common;
 use criterion::{
     BatchSize, BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main,
 };
-use meshless::integrate::Integrator;
-use meshless::kernel::Kernel;
+use meshless::core::integrate::Integrator;
+use meshless::core::kernel::Kernel;
+use meshless::core::tensor::D2;
 use meshless::methods::tlsph::Tlsph;
 use meshless::methods::{Method, REGISTRY};
 use meshless::run::{Backend, Engine, build_method, engine};
 use meshless::scene::Scene;
-use meshless::tensor::D2;
 use std::hint::black_box;
 use std::path::PathBuf;
 use std::time::Duration;
@@ -146,7 +146,9 @@ fn neighbour_build(c: &mut Criterion) {
             BenchmarkId::new(format!("threads={threads}"), x.len()),
             x,
             |b, x| {
-                pool.install(|| b.iter(|| meshless::neighbour::build::<D2>(black_box(x), radius)))
+                pool.install(|| {
+                    b.iter(|| meshless::core::neighbour::build::<D2>(black_box(x), radius))
+                })
             },
         );
     }

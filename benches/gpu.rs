@@ -17,13 +17,13 @@ use criterion::{
     BatchSize, BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main,
 };
 use meshless::bench::resize;
+use meshless::core::tensor::{D2, D3};
 use meshless::gpu::Gpu;
 use meshless::methods::tlsph::GpuTlsph;
 use meshless::methods::tlsph::gpu::scheme;
 use meshless::methods::{MethodSpec, REGISTRY};
 use meshless::run::{Engine, EngineDim};
 use meshless::scene::Scene;
-use meshless::tensor::{D2, D3};
 use std::path::PathBuf;
 use std::time::Duration;
 

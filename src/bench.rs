@@ -2,11 +2,11 @@
 //! particle-steps per second, measured over whole steps after a warm-up.
 
 use crate::case::discretise;
+use crate::core::tensor::{D2, D3};
+use crate::diagnostics::passes::PassReport;
 use crate::engine::{Engine, EngineDim, StepTraffic};
-use crate::passes::PassReport;
 use crate::run::{Backend, RunError, engine, with_threads};
 use crate::scene::Scene;
-use crate::tensor::{D2, D3};
 use rayon::prelude::*;
 use std::time::Instant;
 

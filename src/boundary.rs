@@ -12,10 +12,10 @@
 //! accelerations here but forces of [`timed_loads`], which the interaction
 //! [`crate::interaction::TimedLoads`] scales at every step.
 
-use crate::analytic::ClosedForm;
+use crate::diagnostics::analytic::ClosedForm;
 
 use crate::case::{Case, CaseError, Condition, Discretised, TimeLaw};
-use crate::tensor::Dim;
+use crate::core::tensor::Dim;
 
 mod loads;
 
@@ -503,7 +503,7 @@ fn set_component<D: Dim>(x: &mut D::V, k: u8, c: f64) {
 
 #[cfg(feature = "gpu")]
 impl<D: Dim> Boundary<D> {
-    /// The timed velocities as `shaders/common/prescribed.wgsl` reads them, per particle
+    /// The timed velocities as `shaders/interaction/prescribed.wgsl` reads them, per particle
     /// (a stride of 1 + 2·DIM): the mask held for the whole run, 1 + g per component (g
     /// the timed velocity's index, 0 for a component none holds), the prescribed velocity
     /// v_p at law value 1.

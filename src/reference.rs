@@ -3,11 +3,11 @@
 
 use crate::boundary::Boundary;
 use crate::case::{Case, CaseError, discretise};
-use crate::kernel::{Kernel, neighbour_radius};
-use crate::material::Material;
-use crate::neighbour::{self, Csr, Neighbours, Rebuild};
-use crate::quadrature::{Cells, QuadratureError, lattice_cells};
-use crate::tensor::Dim;
+use crate::core::kernel::{Kernel, neighbour_radius};
+use crate::core::neighbour::{self, Csr, Neighbours, Rebuild};
+use crate::core::quadrature::{Cells, QuadratureError, lattice_cells};
+use crate::core::tensor::Dim;
+use crate::physics::material::Material;
 
 /// A method's CPU system, built on the reference configuration of a case.
 pub trait Build<D: Dim>: Sized {

@@ -2,12 +2,12 @@
 //! global allocator counts the allocations of the thread that evaluates the rates, while
 //! it evaluates them (the test harness's own threads allocate when they will).
 
-use meshless::integrate::OdeSystem;
+use meshless::core::integrate::OdeSystem;
+use meshless::core::tensor::D2;
 use meshless::methods::Method;
 use meshless::methods::mixed::MixedSph;
 use meshless::run::build_method;
 use meshless::scene::Scene;
-use meshless::tensor::D2;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::sync::atomic::{AtomicUsize, Ordering};

@@ -3,9 +3,9 @@
 //! [`PARTICLES`] particles by `meshless bench`'s rule, with a fixed Δt.
 
 use meshless::bench::resize;
+use meshless::core::tensor::D2;
 use meshless::run::Engine;
 use meshless::scene::Scene;
-use meshless::tensor::D2;
 use std::path::PathBuf;
 
 /// Particles of each method's bench case (the static plate keeps its 400).

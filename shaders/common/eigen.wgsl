@@ -1,4 +1,4 @@
-// Eigen-decomposition of symmetric 3 × 3 tensors in f32 (src/plasticity.rs
+// Eigen-decomposition of symmetric 3 × 3 tensors in f32 (src/physics/plasticity.rs
 // `symmetric_eigen` on the CPU), and tensors from principal values.
 
 struct Eigen {

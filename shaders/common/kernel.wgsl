@@ -1,4 +1,4 @@
-// Smoothing kernels (cubic spline, quintic, Wendland C2, quadratic), matching src/kernel.rs.
+// Smoothing kernels (cubic spline, quintic, Wendland C2, quadratic), matching src/core/kernel.rs.
 // Needs the scene constants KERNEL (one of KERNEL_CUBIC_SPLINE, KERNEL_QUINTIC,
 // KERNEL_WENDLAND_C2, KERNEL_QUADRATIC), KERNEL_H (smoothing length h) and KERNEL_SCALE (σ_d / h^d).
 

@@ -1,5 +1,5 @@
 // Constitutive functions shared by the TLSPH and mixed passes and the reductions
-// (src/material.rs in f32). State models are written in H = F − I so that small strains
+// (src/physics/material.rs in f32). State models are written in H = F − I so that small strains
 // keep their digits. Needs the scene constants RHO0, MU, LAMBDA, BULK, MODEL (a choice: MODEL_HYPOELASTIC,
 // MODEL_SAINT_VENANT_KIRCHHOFF, …), RATE and the Mooney–Rivlin MR_C1, MR_C2, MR_LAMBDA.
 
@@ -74,7 +74,7 @@ fn left_cauchy_green_excess(h: matd) -> matd {
 }
 
 // The Kirchhoff stress τ = J σ of the Mooney–Rivlin rubber (seed 001 eq 18;
-// src/mooney_rivlin.rs) from H = F − I: with b = B − I and ln I3 = 2 ln J,
+// src/physics/mooney_rivlin.rs) from H = F − I: with b = B − I and ln I3 = 2 ln J,
 // τ = c1 (b − (I3^(1/3) − 1) I) + c2 (b + tr b I + tr b b − b² − 2 (I3^(2/3) − 1) I)
 // + λ ln I3 I, every term small at small strain.
 fn mooney_rivlin_kirchhoff(h: matd) -> matd {
@@ -86,7 +86,7 @@ fn mooney_rivlin_kirchhoff(h: matd) -> matd {
     return b * (MR_C1 + MR_C2 * (1.0 + tr_b)) - b * b * MR_C2 + identity_d() * spherical;
 }
 
-// W of the Mooney–Rivlin rubber (src/mooney_rivlin.rs), with ℓ = ln J:
+// W of the Mooney–Rivlin rubber (src/physics/mooney_rivlin.rs), with ℓ = ln J:
 // W = c1/2 (I1 − 3 − 3(I3^(1/3) − 1)) + c2/2 (I2 − 3 − 3(I3^(2/3) − 1)) + λ ℓ², regrouped
 // so that the first-order terms cancel analytically: with a = I1 − 3 − 2ℓ = H:H +
 // 2((x − ln(1 + x)) − q) (x = J − 1, q = x − tr H) and g(y) = e^y − 1 − y,

@@ -2,13 +2,13 @@
 // methods::corotated::system on the CPU), pass 1 of a rate evaluation: one invocation per
 // particle, gathering over its CSR neighbours and writing only its own particle.
 //
-// Buffers as in tlsph/tlsph.wgsl: the state y = [u | v], the per-pair data
+// Buffers as in tl/tlsph.wgsl: the state y = [u | v], the per-pair data
 // pair = [∇0W_ij | X_j − X_i], the reference configuration (reference.wgsl) and the
 // kinematics kin = [Ĥ = F̂ − I | P̂ | R F̂⁻ᵀ | ρ | power | R], of which this pass writes all
 // but the power. status[0] receives the first particle with det F̂ ≤ 0, status[1] the
 // first whose A_i has no rotation as its polar factor. Constants: the kernel's
 // (kernel.wgsl), the material's (mechanics.wgsl), N and the field offsets of
-// methods::tlsph::gpu::Layout (U_OFF; KF_OFF, KP_OFF, KFIT_OFF, KRHO_OFF, KR_OFF; PG_OFF,
+// methods::cores::tl::gpu::Layout (U_OFF; KF_OFF, KP_OFF, KFIT_OFF, KRHO_OFF, KR_OFF; PG_OFF,
 // PDX_OFF).
 
 @group(0) @binding(0) var<storage, read> offsets: array<u32>;

@@ -10,7 +10,7 @@
 // entries = [w_q ∇0N_a(X_q) | w_q N_a(X_q)]; the points' plastic history hist
 // (plasticity.wgsl; 10 floats of a dummy for the elastic models). Constants: N (nodes), Q
 // (points), DIM, RATE, MODEL, RHO0, MU, LAMBDA, BULK, YIELD, HARDENING and the field
-// offsets of methods::galerkin::gpu::Layout.
+// offsets of methods::cores::galerkin::gpu::Layout.
 
 @group(0) @binding(0) var<storage, read> offsets: array<u32>;
 @group(0) @binding(1) var<storage, read> ids: array<u32>;

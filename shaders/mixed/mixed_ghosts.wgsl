@@ -1,4 +1,4 @@
-// Ghost fills of the mixed passes (src/mirror.rs): ghost k (extended index N + k) takes its
+// Ghost fills of the mixed passes (src/physics/mirror.rs): ghost k (extended index N + k) takes its
 // source's fields through its image (mixed_images.wgsl); slopes ∂P'/∂X'_l =
 // r_l σ R (∂P/∂X_l) R. One invocation per ghost.
 

@@ -1,4 +1,4 @@
-// The images of ghost k (extended index N + k) of the mixed passes (src/mirror.rs), with r
+// The images of ghost k (extended index N + k) of the mixed passes (src/physics/mirror.rs), with r
 // the diagonal of the reflection R and σ = −1 per skew-symmetric plane: vectors
 // v' = σ R v; two-point tensors and the excesses F − I, H − I: T' = σ R T R; the pressure
 // p' = σ p. Needs the binding `ghost_img` (r_0 … r_{DIM−1}, σ per ghost).

@@ -1,5 +1,5 @@
-// The updated-Lagrangian core on the device (src/methods/ul/gpu.rs), shared by the
-// Gray–Monaghan and Godunov passes as methods::ul is on the CPU: the bindings, the
+// The updated-Lagrangian core on the device (src/methods/cores/ul/gpu.rs), shared by the
+// Gray–Monaghan and Godunov passes as methods::cores::ul is on the CPU: the bindings, the
 // positions pass, the Randles–Libersky correction of L on the current positions, and the
 // closing of a particle's rates.
 //
@@ -10,7 +10,7 @@
 // artificial stress; AIT: A⁻ᵀ of the correction; VOL: m/ρ; C: sound speed or impedance;
 // P: pressure; POW: power of supports and loads); the CSR lists offsets/ids of the cell
 // list, rebuilt from x before every rate evaluation. Scene constants: N, DIM, RHO0, MU,
-// BULK, CORRECTION, the kernel's, and the field offsets of methods::ul::gpu::Layout.
+// BULK, CORRECTION, the kernel's, and the field offsets of methods::cores::ul::gpu::Layout.
 
 @group(0) @binding(0) var<storage, read> offsets: array<u32>;
 @group(0) @binding(1) var<storage, read> ids: array<u32>;

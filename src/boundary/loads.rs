@@ -2,10 +2,10 @@
 //! loads that vary in time, and the total force of each condition.
 
 use super::summed;
-use crate::analytic::ClosedForm;
 use crate::case::{Case, CaseError, Condition, Discretised, Surface, TimeLaw};
-use crate::neighbour;
-use crate::tensor::Dim;
+use crate::core::neighbour;
+use crate::core::tensor::Dim;
+use crate::diagnostics::analytic::ClosedForm;
 
 /// The face a traction region loads: the axes along it, and the extent its particles'
 /// patches are clipped to, the named shapes' bounds (and the region's own, where it sets

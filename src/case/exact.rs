@@ -1,9 +1,11 @@
-//! An analytic solution resolved for a case: the closed form of [`crate::analytic`] with
+//! An analytic solution resolved for a case: the closed form of [`crate::diagnostics::analytic`] with
 //! the case's material, the first body's initial field and, for the rods, its box.
 
 use super::{Case, Condition, DisplacementField, Shape, VelocityField};
-use crate::analytic::{AnalyticSolution, DrivenEnd, Exact, Rod, SwingingMode, bar_wave_speed};
-use crate::material::Material;
+use crate::diagnostics::analytic::{
+    AnalyticSolution, DrivenEnd, Exact, Rod, SwingingMode, bar_wave_speed,
+};
+use crate::physics::material::Material;
 
 impl Exact {
     /// The solution `solution` of `case`, or why the case does not have it.
@@ -11,7 +13,7 @@ impl Exact {
         let body = case.bodies.first().ok_or("the case has no body")?;
         let material = Material::new(&case.material);
         let dim = case.dim();
-        let name = crate::check::toml_name(&solution);
+        let name = crate::core::check::toml_name(&solution);
         match (solution, &body.initial_velocity) {
             (AnalyticSolution::Swinging, Some(VelocityField::Swinging { amplitude, mode })) => {
                 if body.initial_displacement.is_some() {

@@ -28,12 +28,12 @@ pub enum VelocityField {
         width: f64,
     },
     /// A swinging mode at t = 0 of its sine form, v = U0 ω Φ(X)
-    /// ([`crate::analytic::SwingingMode`]): `dilatational` (the default), seed 003
+    /// ([`crate::diagnostics::analytic::SwingingMode`]): `dilatational` (the default), seed 003
     /// §7.1.1's plate/cube on [0, 1]^d; `shear`, seed 002 §5.1's plate on [0, 2]².
     Swinging {
         amplitude: f64,
         #[serde(default)]
-        mode: crate::analytic::SwingingKind,
+        mode: crate::diagnostics::analytic::SwingingKind,
     },
     /// The twisting column of seed 003 §7.3.1: v = ω(Y) × X with ω = Ω sin(πY/(2L)) ŷ,
     /// about the Y axis through the origin.
@@ -92,12 +92,12 @@ pub enum DisplacementField {
         constants: std::collections::BTreeMap<String, f64>,
     },
     /// A swinging mode at t = 0 of its cosine form, u = U0 Φ(X), at rest
-    /// ([`crate::analytic::SwingingMode`], seed 003 §E.5): `dilatational` (the default),
+    /// ([`crate::diagnostics::analytic::SwingingMode`], seed 003 §E.5): `dilatational` (the default),
     /// seed 003 §7.1.1's plate/cube on [0, 1]^d; `shear`, seed 002 §5.1's plate on [0, 2]².
     Swinging {
         amplitude: f64,
         #[serde(default)]
-        mode: crate::analytic::SwingingKind,
+        mode: crate::diagnostics::analytic::SwingingKind,
     },
 }
 
@@ -108,7 +108,8 @@ impl DisplacementField {
         match self {
             Self::Linear { gradient } => linear_field(gradient, x),
             Self::Swinging { amplitude, mode } => {
-                crate::analytic::SwingingMode::shape_at(*mode, dim, x).map(|phi| amplitude * phi)
+                crate::diagnostics::analytic::SwingingMode::shape_at(*mode, dim, x)
+                    .map(|phi| amplitude * phi)
             }
             Self::Expression { .. } => {
                 let mut u = [0.0; 3];

@@ -1,8 +1,8 @@
 //! `[method]`: the keys every method reads, and what loading resolved of the method.
 
-use crate::correction::CorrectionKind;
-use crate::integrate::IntegratorKind;
-use crate::kernel::KernelKind;
+use crate::core::correction::CorrectionKind;
+use crate::core::integrate::IntegratorKind;
+use crate::core::kernel::KernelKind;
 use serde::Serialize;
 
 /// The `[method]` keys every method reads, and what the registry ([`crate::methods`])

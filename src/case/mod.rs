@@ -19,10 +19,10 @@ mod output;
 pub(crate) mod polygon;
 mod run;
 
-pub use crate::analytic::Solution;
-pub use crate::material::{MaterialSpec, Plane};
-pub use crate::mirror::{MirrorKind, MirrorSpec};
-pub use crate::tensor::Axis;
+pub use crate::core::tensor::Axis;
+pub use crate::diagnostics::analytic::Solution;
+pub use crate::physics::material::{MaterialSpec, Plane};
+pub use crate::physics::mirror::{MirrorKind, MirrorSpec};
 pub use body::{
     BodySpec, ContactSpec, Hole, Lattice, MeshNodes, RingLattice, Shape, VOLUME_TOLERANCE,
     VelocityNoise, Volumes,
@@ -153,8 +153,8 @@ impl Case {
     }
 
     /// The case's kernel in `dim` dimensions.
-    pub fn kernel(&self, dim: usize) -> crate::kernel::Kernel {
-        crate::kernel::Kernel::new(self.method.kernel, self.smoothing_length(), dim)
+    pub fn kernel(&self, dim: usize) -> crate::core::kernel::Kernel {
+        crate::core::kernel::Kernel::new(self.method.kernel, self.smoothing_length(), dim)
     }
 }
 

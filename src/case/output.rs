@@ -22,7 +22,7 @@ pub enum Observer {
     /// The relative L2 error of the velocity against a closed form at the row's time,
     /// sqrt(Σ V |v − v_ex|²)/sqrt(Σ V |v_ex|²) over the particles, all components (column
     /// `velocity_error`); in case files `{ velocity-error = "free-rod" }`.
-    VelocityError(crate::analytic::AnalyticSolution),
+    VelocityError(crate::diagnostics::analytic::AnalyticSolution),
     /// How far a ring is from rotational symmetry (2D): the particles grouped into rings
     /// of equal reference radius about the reference centroid (those of a polar lattice),
     /// the largest spread of σ_θθ around a ring, std over the largest |mean| of a ring
@@ -41,12 +41,12 @@ pub enum Observer {
     SolutionError,
     /// Oscillations about a closed form with jumps (`driven-rod`) away from them, relative
     /// to its amplitude V, over the particles farther than
-    /// [`crate::observe::FRONT_MARGIN`] smoothing lengths along its axis d from every jump:
+    /// [`crate::diagnostics::observe::FRONT_MARGIN`] smoothing lengths along its axis d from every jump:
     /// the largest |v·d|/V where the closed form is at rest and the nearest jump runs
     /// towards the particle (column `ahead_oscillation`: ahead of the pulse) or away from
     /// it (`behind_oscillation`), and the largest |(v − v_ex)·d|/V where it moves
     /// (`plateau_oscillation`); in case files `{ front-oscillation = "driven-rod" }`.
-    FrontOscillation(crate::analytic::AnalyticSolution),
+    FrontOscillation(crate::diagnostics::analytic::AnalyticSolution),
     /// The force each support (a boundary condition that prescribes motion) applies to
     /// hold its prescribed components, and its power, at the last rate evaluation:
     /// R = Σ m (a_prescribed − a) over the components it holds, columns
@@ -59,7 +59,7 @@ pub enum Observer {
     Reaction,
     /// How much of the pressure is a spurious oscillation: ‖δp‖/‖p‖ over the particles,
     /// δp the deviation of each particle's pressure from the linear fit over its
-    /// neighbours (column `pressure_oscillation`; [`crate::pressure`]). The frames carry
+    /// neighbours (column `pressure_oscillation`; [`crate::physics::pressure`]). The frames carry
     /// δp as `pressure_deviation` whether or not the observer is on.
     PressureOscillation,
 }

@@ -21,7 +21,7 @@ pub struct RunSpec {
     #[serde(default = "default_energy_growth")]
     pub energy_growth_limit: f64,
     /// Stop as failed when the hourglass indicator η of a particle exceeds this, checked
-    /// at every series sample (see [`crate::hourglass`]).
+    /// at every series sample (see [`crate::physics::hourglass`]).
     #[serde(default)]
     pub hourglass_limit: Option<f64>,
     /// Stop as failed when the CFL step falls below this fraction of the first step

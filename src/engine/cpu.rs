@@ -1,11 +1,11 @@
 //! The CPU reference engine: a [`Method`] and an integrator (f64, rayon).
 
 use super::{BlowUp, Engine, Failed, Method, StepTraffic};
-use crate::balance::Booked;
 use crate::boundary::Reaction;
-use crate::integrate::{Integrator, IntegratorKind, OdeState, PseudoTime, traffic};
-use crate::observe::Snapshot;
-use crate::tensor::Dim;
+use crate::core::integrate::{Integrator, IntegratorKind, OdeState, PseudoTime, traffic};
+use crate::core::tensor::Dim;
+use crate::diagnostics::balance::Booked;
+use crate::diagnostics::observe::Snapshot;
 
 /// The integral of a power over the steps, trapezoidal from the powers at the last rate
 /// evaluation of successive steps, and the last of those powers.
@@ -23,7 +23,7 @@ impl Trapezoid {
 }
 
 /// The CPU reference engine: a method and an integrator (f64, rayon). Built from the two
-/// ([`Self::with`]), or from a case by `CpuEngine::new` ([`crate::methods::shared`]).
+/// ([`Self::with`]), or from a case by `CpuEngine::new` ([`crate::methods::cores::shared`]).
 pub struct CpuEngine<D: Dim, M: Method<D>> {
     pub method: M,
     pub y: M::State,

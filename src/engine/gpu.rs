@@ -8,9 +8,12 @@
 //! observers, checks).
 
 use super::{BlowUp, Engine, Failed};
-use crate::balance::Booked;
 use crate::boundary::{Boundary, OnPatches, Reaction};
 use crate::case::Case;
+use crate::core::integrate::{Buf, Evaluation, IntegratorKind, PseudoTime};
+use crate::core::neighbour::Csr;
+use crate::diagnostics::balance::Booked;
+use crate::diagnostics::observe::{Invariants, Snapshot};
 use crate::gpu::SetupError;
 use crate::gpu::context::{Gpu, GpuError};
 use crate::gpu::layout::{Fields, GpuDim};
@@ -20,11 +23,8 @@ use crate::gpu::reduction::Reduced;
 use crate::gpu::reference::DeviceReference;
 use crate::gpu::shaders::Source;
 use crate::gpu::shell::Shell;
-use crate::integrate::{Buf, Evaluation, IntegratorKind, PseudoTime};
 use crate::interaction::Interactions;
 use crate::interaction::gpu::GpuInteractions;
-use crate::neighbour::Csr;
-use crate::observe::{Invariants, Snapshot};
 use crate::reference::Reference;
 
 /// What every family's set-up starts from on the device: the device, the composer of

@@ -4,10 +4,10 @@
 //! model of `meshless bench --roofline`.
 
 use crate::boundary::{Boundary, Reaction};
-use crate::integrate::{OdeSystem, PseudoTime};
+use crate::core::integrate::{OdeSystem, PseudoTime};
+use crate::core::tensor::Dim;
+use crate::diagnostics::observe::Snapshot;
 use crate::interaction::Interactions;
-use crate::observe::Snapshot;
-use crate::tensor::Dim;
 use rayon::prelude::*;
 use thiserror::Error;
 
@@ -122,7 +122,7 @@ pub trait Method<D: Dim>: OdeSystem<Error = BlowUp> + Sized {
         0.0
     }
     /// The plastic work Σ_q w_q ∫ τ_y dε̄_p up to state y (the committed history's and
-    /// the current step's, [`crate::plasticity::History::work_at`]); 0 for an elastic
+    /// the current step's, [`crate::physics::plasticity::History::work_at`]); 0 for an elastic
     /// material.
     fn plastic_work(&self, _y: &Self::State) -> f64 {
         0.0
@@ -198,7 +198,7 @@ pub struct Traffic {
     /// Bytes per neighbour pair: per-pair arrays (ids, gradients), summed over passes.
     pub per_pair: f64,
     /// Bytes of the integrated state per particle, which the integrator's stage
-    /// operations move ([`crate::integrate::traffic`]).
+    /// operations move ([`crate::core::integrate::traffic`]).
     pub state: f64,
     /// Bytes of the velocity per particle (the leapfrog's kicks move only it).
     pub velocity: f64,

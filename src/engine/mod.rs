@@ -15,13 +15,13 @@ pub use cpu::CpuEngine;
 pub use gpu::{GpuEngine, GpuFamily, Start};
 pub use method::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
 
-use crate::balance::Booked;
 use crate::boundary::Reaction;
+use crate::core::integrate::PseudoTime;
+use crate::core::tensor::Dim;
+use crate::diagnostics::balance::Booked;
+use crate::diagnostics::observe::{EngineColumns, Invariants, Snapshot};
 #[cfg(feature = "gpu")]
 use crate::gpu::Gpu;
-use crate::integrate::PseudoTime;
-use crate::observe::{EngineColumns, Invariants, Snapshot};
-use crate::tensor::Dim;
 
 /// A blow-up found during [`Engine::advance`], after `completed` whole steps of it.
 #[derive(Clone, Debug, PartialEq)]
@@ -114,7 +114,7 @@ pub trait Engine<D: Dim> {
     /// The reaction of every support of the case ([`crate::boundary::supports`]) at the last
     /// rate evaluation.
     fn reactions(&mut self) -> Vec<Reaction>;
-    /// The terms of the energy balance booked so far ([`crate::balance`]): the work of
+    /// The terms of the energy balance booked so far ([`crate::diagnostics::balance`]): the work of
     /// supports and loads, and the others this engine books.
     fn booked(&mut self) -> Booked;
     /// Pseudo-time iterations of a method that iterates within its stages

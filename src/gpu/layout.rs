@@ -6,7 +6,7 @@
 //! the same offsets as `{PREFIX}{NAME}_OFF` constants.
 
 use super::shaders::Constants;
-use crate::tensor::{D2, D3, Dim};
+use crate::core::tensor::{D2, D3, Dim};
 
 /// A dimension whose vectors can be laid out for the GPU.
 pub trait GpuDim: Dim + Flat {

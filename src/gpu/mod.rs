@@ -22,7 +22,7 @@ use thiserror::Error;
 
 /// Refuses reference positions, initial displacements and initial velocities beyond the
 /// f32 range of the device, naming the body whose geometry or initial field gives them.
-pub fn check_f32_particles<D: crate::tensor::Dim>(
+pub fn check_f32_particles<D: crate::core::tensor::Dim>(
     case: &Case,
     x0: &[D::V],
     u0: &[D::V],
@@ -122,14 +122,14 @@ fn beyond_f32(case: &Case, key: impl Into<String>, what: String) -> CaseError {
 /// a CFL step estimated as α Δx / c_p), prescribed velocities, the time laws over the run
 /// times what they scale, the number of constrained particles (their slots are f32
 /// integers) and the accelerations of the traction loads, each named by its key.
-pub fn check_f32_run<D: crate::tensor::Dim>(
+pub fn check_f32_run<D: crate::core::tensor::Dim>(
     case: &Case,
     boundary: &crate::boundary::Boundary<D>,
 ) -> Result<(), CaseError> {
     let (key, dt) = match (case.method.dt, case.method.cfl) {
         (Some(dt), _) => ("method.dt", dt),
         (_, cfl) => {
-            let c_p = crate::material::Material::new(&case.material).p_wave_speed();
+            let c_p = crate::physics::material::Material::new(&case.material).p_wave_speed();
             ("method.cfl", cfl.unwrap_or(0.0) * case.spacing / c_p)
         }
     };

@@ -2,14 +2,14 @@
 //! lists, rebuilt on the device from the current positions as often as a method's
 //! neighbours change, with per-body masks.
 //!
-//! The lists equal those of [`crate::neighbour::build`] (self excluded, |x_i − x_j| ≤ radius,
+//! The lists equal those of [`crate::core::neighbour::build`] (self excluded, |x_i − x_j| ≤ radius,
 //! ids ascending), up to the f32 rounding of the positions: a pair whose distance lies
 //! within the f32 rounding of its coordinates (about 1e-7·|x|, i.e. 1e-6 of the radius
 //! and more for coordinates far from the origin) of the radius may be classified
 //! differently. Lattice ties (pairs at exactly 2 dx, say) need a relative margin on the
 //! radius of that size (1e-5 is safe for |x| up to a few hundred radii); 1 + 1e-9 is not.
 //!
-//! Passes (`shaders/common/cell_list.wgsl`, `shaders/common/scan.wgsl`), recorded into one
+//! Passes (`shaders/setup/cell_list.wgsl`, `shaders/setup/scan.wgsl`), recorded into one
 //! command encoder: bin particles into cells and count per cell → exclusive scan of the
 //! counts → scatter into cell order → count neighbours per particle → exclusive scan into
 //! offsets (n + 1 entries) → fill and sort each particle's slice, up to the capacity of
@@ -19,7 +19,7 @@
 use super::context::{Gpu, GpuError, Pipeline, Vec3, WORKGROUP};
 use super::layout::GpuDim;
 use super::shaders::{CELL_LIST, Constants, SCAN, compose};
-use crate::tensor::D2;
+use crate::core::tensor::D2;
 use encase::ShaderType;
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -454,7 +454,7 @@ impl CellList {
     }
 
     /// The lists of the last build, read back (waits for the queue).
-    pub fn lists(&self, gpu: &Gpu) -> crate::neighbour::Csr {
+    pub fn lists(&self, gpu: &Gpu) -> crate::core::neighbour::Csr {
         let offsets: Vec<u32> = gpu.read(&self.offsets);
         let offsets: Vec<usize> = offsets[..=self.n as usize]
             .iter()
@@ -462,7 +462,7 @@ impl CellList {
             .collect();
         let mut ids: Vec<u32> = gpu.read(&self.ids);
         ids.truncate(offsets[self.n as usize]);
-        crate::neighbour::Csr { offsets, ids }
+        crate::core::neighbour::Csr { offsets, ids }
     }
 }
 

@@ -12,7 +12,7 @@
 use super::bytes::Cost;
 use super::context::{Gpu, Pipeline};
 use super::shaders::{COPY, Constants, compose};
-use crate::passes::{PassReport, PassRow};
+use crate::diagnostics::passes::{PassReport, PassRow};
 use std::time::Instant;
 
 /// Timestamps a query set holds (wgpu's maximum).
@@ -220,7 +220,7 @@ impl Gpu {
             .max_storage_buffer_binding_size
             .min(self.limits.max_buffer_size);
         let bytes = COPY_BYTES.min(limit) / 16 * 16;
-        let text = compose::<crate::tensor::D2>(&COPY, &Constants::default());
+        let text = compose::<crate::core::tensor::D2>(&COPY, &Constants::default());
         let pipeline = self
             .pipeline("copy", &text, "copy")
             .expect("copy.wgsl compiles (validated by the shader tests)");

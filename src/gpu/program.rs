@@ -1,12 +1,12 @@
 //! The integrator's program of one GPU step, shared by the GPU engines: the operations of
-//! each scheme ([`crate::integrate::program`], which the CPU interprets) on four
+//! each scheme ([`crate::core::integrate::program`], which the CPU interprets) on four
 //! state-sized flat buffers, the stage passes of `shaders/common/integrate.wgsl` with their
 //! coefficients, and the recording of whole steps, with the method's rate evaluations,
 //! into one command encoder.
 
 use super::context::{Gpu, GpuError, Pipeline};
 use super::layout::Fields;
-use crate::integrate::{Buf, Evaluation, IntegratorKind, Op, program, uses};
+use crate::core::integrate::{Buf, Evaluation, IntegratorKind, Op, program, uses};
 use encase::ShaderType;
 
 /// A flat state of n particles: u at 0 and v at n·DIM (DIM each), then the fields that

@@ -3,13 +3,13 @@
 //! loads, max |v|, a non-finite count, the largest pair wave speed of the CFL step and
 //! the viscous dissipation, per workgroup on the device and summed on the host in f64.
 //! Only the partials (13 floats per 256 particles) are read back; and, for the `reaction` observer, the reactions of
-//! the constrained particles (`shaders/common/boundary.wgsl`), which the host books to the
+//! the constrained particles (`shaders/interaction/boundary.wgsl`), which the host books to the
 //! supports.
 
 use super::context::{Gpu, GpuError, Pipeline};
 use super::layout::{Field, Fields, Flat};
 use crate::boundary::{Boundary, Reaction};
-use crate::observe::Invariants;
+use crate::diagnostics::observe::Invariants;
 
 /// Values per workgroup written by `reduce.wgsl`.
 const REDUCED: usize = 13;

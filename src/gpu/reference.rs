@@ -1,12 +1,12 @@
 //! The reference configuration on the device, uploaded the same way by every GPU engine
 //! from the host's f64 set-up ([`crate::reference::Reference`]): one flat buffer
-//! `reference` (`shaders/common/reference.wgsl`), the CSR neighbour lists, and the
+//! `reference` (`shaders/setup/reference.wgsl`), the CSR neighbour lists, and the
 //! traction loads.
 
 use super::context::Gpu;
 use super::layout::{Fields, Flat, flat_v};
 use crate::boundary::Boundary;
-use crate::neighbour::Csr;
+use crate::core::neighbour::Csr;
 
 /// Which optional fields of the `reference` buffer an engine's passes read.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

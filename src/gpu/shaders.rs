@@ -4,13 +4,16 @@
 //! dispatch prelude ([`DISPATCH`]: an invocation's flat index), a block of scene
 //! constants, the function files it names, and the pass file. Scene constants are
 //! compiled in (one variant per scene), so a 2D scene runs 2D code only. Shared files
-//! live in `shaders/common/` and are declared here; a method's own in `shaders/<method>/`,
+//! are declared here: helpers in `shaders/common/`, the set-up of lists and corrected
+//! gradients in `shaders/setup/`, the physics' in `shaders/physics/` and supports,
+//! loads and contact in `shaders/interaction/`. A core's files are in `shaders/tl/`,
+//! `shaders/ul/` and `shaders/galerkin/`, a family's own in `shaders/<family>/`, each
 //! declared by its GPU engine.
 
 use super::bytes::FILE;
 use super::layout::GpuDim;
-use crate::kernel::{Kernel, KernelKind};
-use crate::material::{Material, MaterialModel};
+use crate::core::kernel::{Kernel, KernelKind};
+use crate::physics::material::{Material, MaterialModel};
 
 /// A WGSL file of `shaders/`, by its path there (`common/kernel.wgsl`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -74,26 +77,26 @@ pub const KERNEL: Wgsl = wgsl!("common/kernel.wgsl");
 /// Stresses and strain energies of the material models, in H = F − I.
 pub const MECHANICS: Wgsl = wgsl!("common/mechanics.wgsl");
 /// Boundary conditions on the rates and the power of supports and loads.
-pub const BOUNDARY: Wgsl = wgsl!("common/boundary.wgsl");
+pub const BOUNDARY: Wgsl = wgsl!("interaction/boundary.wgsl");
 /// Accessors of the reference configuration on the device (`gpu::reference`).
-pub const REFERENCE: Wgsl = wgsl!("common/reference.wgsl");
+pub const REFERENCE: Wgsl = wgsl!("setup/reference.wgsl");
 /// Monaghan's artificial viscosity Π_ij of a pair.
-pub const VISCOSITY: Wgsl = wgsl!("common/viscosity.wgsl");
+pub const VISCOSITY: Wgsl = wgsl!("physics/viscosity.wgsl");
 /// The set-up entry `reverse_gradients` of the pair forces from Σ_i V_i ψ(F_i): ∇0W̃_ji
 /// into the pair data's field GREV.
-pub const REVERSE_GRADIENTS: Wgsl = wgsl!("common/reverse_gradients.wgsl");
+pub const REVERSE_GRADIENTS: Wgsl = wgsl!("setup/reverse_gradients.wgsl");
 /// Eigen-decomposition of symmetric tensors (cyclic Jacobi) and tensors from principal
 /// values.
 pub const EIGEN: Wgsl = wgsl!("common/eigen.wgsl");
 /// The von Mises return map (after [`EIGEN`]).
-pub const PLASTICITY: Wgsl = wgsl!("common/plasticity.wgsl");
+pub const PLASTICITY: Wgsl = wgsl!("physics/plasticity.wgsl");
 /// The store of a returned point into the plastic history (after [`PLASTICITY`], in a pass
 /// that writes `hist`).
-pub const PLASTIC_STORE: Wgsl = wgsl!("common/plastic_store.wgsl");
+pub const PLASTIC_STORE: Wgsl = wgsl!("physics/plastic_store.wgsl");
 
 /// Corrected reference gradients (Randles–Libersky, Shepard, none).
 pub const CORRECTION: Source = source!(
-    "common/correction.wgsl",
+    "setup/correction.wgsl",
     [KERNEL, REFERENCE],
     [("pair", true), ("reference", false)]
 );
@@ -101,28 +104,32 @@ pub const CORRECTION: Source = source!(
 pub const INTEGRATE: Source = source!("common/integrate.wgsl");
 /// Reference pair offsets X_j − X_i from hi + lo positions.
 pub const PAIR_OFFSETS: Source = source!(
-    "common/pair_offsets.wgsl",
+    "setup/pair_offsets.wgsl",
     [REFERENCE],
     [("reference", false), ("pair", true)]
 );
 /// Penalty contact of seed 000 §5.8: one gather per slave over the other bodies' hulls.
 pub const CONTACT: Source = source!(
-    "common/contact.wgsl",
+    "interaction/contact.wgsl",
     [REFERENCE],
     [("reference", false), ("y", false), ("ext", true)]
 );
 /// Loads that vary in time (`interaction::TimedLoads`): an item is a particle, whose
 /// acceleration it reads from every group.
-pub const LOADS: Source = source!("common/loads.wgsl", [], [("loads", false), ("ext", true)]);
+pub const LOADS: Source = source!(
+    "interaction/loads.wgsl",
+    [],
+    [("loads", false), ("ext", true)]
+);
 /// Prescribed velocities that vary in time (`boundary::TimedVelocity`): an item is a
 /// particle, whose timed components it reads (the mask, one index and one velocity each).
-pub const PRESCRIBED: Source = source!("common/prescribed.wgsl", [], []);
+pub const PRESCRIBED: Source = source!("interaction/prescribed.wgsl", [], []);
 /// Cell list and neighbour lists, with the constants of `gpu::neighbour::constants`. An
 /// item is a particle (a cell in `copy_cursor`, either in `clear_counts`).
-pub const CELL_LIST: Source = source!("common/cell_list.wgsl", [], [("x", false)]);
+pub const CELL_LIST: Source = source!("setup/cell_list.wgsl", [], [("x", false)]);
 /// Prefix scans; an item is an invocation (two entries in `scan_blocks`, one in
 /// `add_block_sums`).
-pub const SCAN: Source = source!("common/scan.wgsl");
+pub const SCAN: Source = source!("setup/scan.wgsl");
 /// The copy that measures an adapter's copy bandwidth (`gpu::profile`): 16 bytes an item,
 /// one `vec4<f32>` element.
 pub const COPY: Source = source!("common/copy.wgsl");

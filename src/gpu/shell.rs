@@ -11,9 +11,9 @@ use super::context::Gpu;
 use super::layout::{Fields, Flat};
 use super::program::Stepper;
 use super::reduction::{self, Reduced, Reduction, WorkBalance};
-use crate::balance::Booked;
 use crate::boundary::{Boundary, Reaction};
-use crate::integrate::Buf;
+use crate::core::integrate::Buf;
+use crate::diagnostics::balance::Booked;
 
 /// The parts of a GPU engine that are not its family's (see the module's doc).
 pub struct Shell {

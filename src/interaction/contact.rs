@@ -17,11 +17,11 @@ use super::Interaction;
 #[cfg(feature = "gpu")]
 use super::gpu::{Bindings, GpuInteraction, Pass};
 use crate::case::{Case, CaseError};
+use crate::core::kernel::neighbour_radius;
+use crate::core::neighbour::Csr;
+use crate::core::tensor::Dim;
 #[cfg(feature = "gpu")]
 use crate::gpu::{GpuError, context::Gpu, shaders::Compose};
-use crate::kernel::neighbour_radius;
-use crate::neighbour::Csr;
-use crate::tensor::Dim;
 use rayon::prelude::*;
 
 /// The hulls of a scene's bodies and the contact accelerations of the current step.
@@ -151,7 +151,7 @@ struct ContactParams {
 
 #[cfg(feature = "gpu")]
 impl<D: Dim> GpuInteraction for Contact<D> {
-    /// `shaders/common/contact.wgsl`: one invocation per slave over the other bodies'
+    /// `shaders/interaction/contact.wgsl`: one invocation per slave over the other bodies'
     /// hulls (concatenated, body m's at hull_start[m]..hull_start[m + 1]), with α/Δt² in
     /// its uniform.
     fn pass(&self, gpu: &Gpu, compose: Compose<'_>, on: &Bindings) -> Result<Pass, GpuError> {
@@ -298,7 +298,7 @@ fn hull_normals(hull: &[u32], at: impl Fn(u32) -> [f64; 2]) -> Vec<([f64; 2], [f
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::tensor::D2;
+    use crate::core::tensor::D2;
     use glam::DVec2;
 
     #[cfg(feature = "gpu")]

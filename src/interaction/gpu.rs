@@ -1,6 +1,6 @@
 //! Interactions on the device: passes recorded before every step. The engine copies the
 //! traction loads into its `ext` buffer, then each pass adds its particles'
-//! accelerations there, and the rate passes add `ext` (`shaders/common/boundary.wgsl`).
+//! accelerations there, and the rate passes add `ext` (`shaders/interaction/boundary.wgsl`).
 //!
 //! A pass may take values that change from step to step (the law values of the timed
 //! loads): the host keeps the time of the next step it records (set by the engine at the
@@ -11,9 +11,9 @@
 
 use super::Interactions;
 use crate::boundary::Boundary;
+use crate::core::tensor::Dim;
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::shaders::Compose;
-use crate::tensor::Dim;
 use std::cell::{Cell, RefCell};
 
 /// The engine buffers an interaction pass binds.
@@ -205,7 +205,7 @@ impl GpuInteractions {
 }
 
 impl<D: Dim> GpuInteraction for Boundary<D> {
-    /// `shaders/common/prescribed.wgsl`: one invocation per particle sets the rates of
+    /// `shaders/interaction/prescribed.wgsl`: one invocation per particle sets the rates of
     /// its timed components held over the step and its mask in `reference`, from the
     /// step's (held, rate) of every timed velocity (`steps`, written by the host for every
     /// step it records).

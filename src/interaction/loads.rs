@@ -5,16 +5,16 @@
 //! [`crate::boundary::Boundary`]) scaled by its law. The law is evaluated at the middle
 //! of every step and held through the step's stages, as the contact forces are, on both
 //! backends: on the GPU the host writes each step's law values as it records the step,
-//! and the pass `shaders/common/loads.wgsl` adds Σ_g law_g g_g,i to `ext`.
+//! and the pass `shaders/interaction/loads.wgsl` adds Σ_g law_g g_g,i to `ext`.
 
 use super::Interaction;
 #[cfg(feature = "gpu")]
 use super::gpu::{Bindings, GpuInteraction, Pass};
 use crate::boundary::NodalForces;
 use crate::case::{Case, CaseError, TimeLaw, discretise};
+use crate::core::tensor::Dim;
 #[cfg(feature = "gpu")]
 use crate::gpu::{GpuError, context::Gpu, shaders::Compose};
-use crate::tensor::Dim;
 
 /// The time-dependent loads of a case, one group per boundary condition.
 pub struct TimedLoads<D: Dim> {
@@ -84,7 +84,7 @@ impl<D: Dim> Interaction<D> for TimedLoads<D> {
 
 #[cfg(feature = "gpu")]
 impl<D: Dim> GpuInteraction for TimedLoads<D> {
-    /// `shaders/common/loads.wgsl`: one invocation per particle adds the groups'
+    /// `shaders/interaction/loads.wgsl`: one invocation per particle adds the groups'
     /// accelerations (`loads`, group g's at g·N·DIM) times the step's law values (`law`,
     /// written by the host for every step it records).
     fn pass(&self, gpu: &Gpu, compose: Compose<'_>, on: &Bindings) -> Result<Pass, GpuError> {

@@ -24,8 +24,8 @@ pub use loads::TimedLoads;
 
 use crate::boundary::NodalForces;
 use crate::case::{Case, CaseError};
-use crate::neighbour::Csr;
-use crate::tensor::Dim;
+use crate::core::neighbour::Csr;
+use crate::core::tensor::Dim;
 
 /// A force on the particles from outside the method, at named points of a step.
 pub trait Interaction<D: Dim>: Send + Sync {
@@ -38,7 +38,7 @@ pub trait Interaction<D: Dim>: Send + Sync {
     fn accelerate(&self, v: &[D::V], mass: &[f64], a: &mut [D::V]) -> f64;
 
     /// Whether its forces are contact between the bodies, whose work the energy balance
-    /// books apart from the work of the loads ([`crate::balance`]).
+    /// books apart from the work of the loads ([`crate::diagnostics::balance`]).
     fn contact(&self) -> bool {
         false
     }

@@ -5,47 +5,42 @@
 //! `--explain` plan, the CPU and GPU engines, blow-up attribution), its CPU system and its
 //! GPU engine. The driver, the command line, validation, benchmarks and studies go through
 //! [`MethodSpec`] and [`REGISTRY`] and never name a method: adding one is a folder here
-//! and one line in [`registry!`]. A family implements the hooks of [`family`] and imports
+//! and one line in [`registry!`]. A family implements the hooks of [`cores::family`] and imports
 //! nothing from this file; the registry hands each hook its typed spec, and [`Runs`]
 //! finds a system's spec in a case's method.
 
+pub mod cores;
 pub mod corotated;
 pub mod dual_support;
 pub mod efg;
-pub mod family;
 pub mod fem;
-pub mod galerkin;
 pub mod godunov;
 pub mod gray_monaghan;
 pub mod kbm;
 pub mod mixed;
-pub mod particles;
 pub mod potential;
-pub mod shared;
-pub mod tl;
 pub mod tlsph;
-pub mod ul;
 pub mod ul_fem;
 pub mod ul_weak_form;
 pub mod weak_form;
 
 pub use crate::engine::{BlowUp, Method};
 #[cfg(feature = "gpu")]
-pub use family::GpuBuild;
-pub use family::{
+pub use cores::family::GpuBuild;
+pub use cores::family::{
     COMMON_KEYS, CpuBuild, Feature, KERNEL_KEYS, MethodFamily, Plan, cfl_step, no_gpu_engine,
     state_model,
 };
 
 use crate::case::{Case, CaseError, MethodKeys};
-use crate::check::Problem;
-use crate::correction::CorrectionKind;
+use crate::core::check::Problem;
+use crate::core::correction::CorrectionKind;
+use crate::core::integrate::IntegratorKind;
+use crate::core::kernel::KernelKind;
+use crate::core::neighbour::Rebuild;
+use crate::core::tensor::Dim;
 use crate::engine::{Engine, EngineDim};
-use crate::integrate::IntegratorKind;
-use crate::kernel::KernelKind;
-use crate::material::Material;
-use crate::neighbour::Rebuild;
-use crate::tensor::Dim;
+use crate::physics::material::Material;
 use serde::de::{self, DeserializeSeed, MapAccess, Visitor};
 use serde::{Deserialize, Deserializer, Serialize};
 use std::fmt;
@@ -296,7 +291,7 @@ impl Runs for dyn mixed::MixedScheme {
     }
 }
 
-impl<D: Dim> Runs for dyn galerkin::TlSystem<D> {
+impl<D: Dim> Runs for dyn cores::galerkin::TlSystem<D> {
     fn spec_of(method: &MethodSpec) -> Option<&Self> {
         match method {
             MethodSpec::TlFem(s) => Some(s),

@@ -19,7 +19,7 @@ pub struct RunSummary {
     pub case: String,
     /// The GPU pass report of a run with `--profile` (not written to the file).
     #[serde(skip)]
-    pub passes: Option<crate::passes::PassReport>,
+    pub passes: Option<crate::diagnostics::passes::PassReport>,
     /// The version of meshless that ran it.
     #[serde(default)]
     pub version: String,
@@ -63,7 +63,7 @@ pub struct RunSummary {
     #[serde(with = "non_finite_values_as_null")]
     pub final_invariants: BTreeMap<String, f64>,
     /// The energy balance's terms booked by the end and its residue over its scale
-    /// (`crate::balance`: `external_work`, `dissipated`, `hourglass_work`, `plastic_work`,
+    /// (`crate::diagnostics::balance`: `external_work`, `dissipated`, `hourglass_work`, `plastic_work`,
     /// `contact_energy`, `energy_residue`); null for a term the engine does not book.
     #[serde(default, with = "non_finite_values_as_null")]
     pub energy_balance: BTreeMap<String, f64>,

@@ -4,12 +4,12 @@
 
 use super::{Engine, RunError, checkpoint};
 use crate::boundary::Reaction;
+use crate::core::tensor::Dim;
+use crate::diagnostics::observe::{Clock, IndicatorFields, Invariants, Snapshot};
 use crate::engine::BlowUp;
-use crate::hourglass::HourglassIndicator;
-use crate::observe::{Clock, IndicatorFields, Invariants, Snapshot};
-use crate::pressure::{PressureFit, pressures};
+use crate::physics::hourglass::HourglassIndicator;
+use crate::physics::pressure::{PressureFit, pressures};
 use crate::scene::Scene;
-use crate::tensor::Dim;
 use std::cell::OnceCell;
 
 /// An output, check or log of a run. The driver schedules the events (sample, frame,
@@ -51,7 +51,7 @@ pub(super) struct End<'a, D: Dim> {
     pub engine: &'a mut dyn Engine<D>,
     pub clock: Clock,
     /// With `--profile` on a GPU engine: the pass report of the run's steps.
-    pub passes: Option<crate::passes::PassReport>,
+    pub passes: Option<crate::diagnostics::passes::PassReport>,
 }
 
 /// What the callbacks need read back after a batch; the union of theirs is read.

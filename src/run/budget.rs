@@ -297,8 +297,8 @@ mod tests {
     use super::*;
     use crate::case::polygon::{L_SHAPE, polygon};
     use crate::case::{Lattice, discretise};
+    use crate::core::tensor::{D2, D3};
     use crate::scene::validate::minimal_case;
-    use crate::tensor::{D2, D3};
 
     #[test]
     fn the_estimate_counts_a_box_exactly_and_a_disk_within_a_few_percent() {

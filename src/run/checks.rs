@@ -4,10 +4,10 @@
 
 use super::batch::{Batch, Callback};
 use super::{Engine, RunError};
+use crate::core::tensor::Dim;
+use crate::diagnostics::observe::Snapshot;
 use crate::engine::BlowUp;
-use crate::observe::Snapshot;
 use crate::scene::Scene;
-use crate::tensor::Dim;
 
 /// The blow-up checks after each batch: the total energy against
 /// `run.energy_growth_limit` × (E0 + W_ext), and η against `run.hourglass_limit`.
@@ -130,7 +130,7 @@ fn fixed_step_warning(dt: f64, cfl_step: f64) -> Option<String> {
 /// shape the case names (beyond round-off, 1e-9), each with the difference: a lattice that
 /// does not fit the shape within `body.N.volume_tolerance`, said at the start of a run.
 fn mass_notes<D: Dim>(case: &Scene, snap: &Snapshot<D>) -> Vec<String> {
-    let rho0 = crate::material::Material::new(&case.material).rho0;
+    let rho0 = crate::physics::material::Material::new(&case.material).rho0;
     case.bodies
         .iter()
         .enumerate()

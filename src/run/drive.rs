@@ -11,12 +11,12 @@ use super::outputs::{Series, clear_previous_run, evaluate_checks};
 use super::profile::Profile;
 use super::progress::{IterationLog, Progress, ProgressDisplay, ShowProgress};
 use super::{Engine, Failed, RunError, RunOptions, output_error};
-use crate::balance::Balance;
+use crate::core::tensor::Dim;
+use crate::diagnostics::balance::Balance;
+use crate::diagnostics::observe::{Clock, Observers};
 use crate::engine::BlowUp;
-use crate::observe::{Clock, Observers};
 use crate::output::{RunSummary, write_summary};
 use crate::scene::Scene;
-use crate::tensor::Dim;
 use std::time::Instant;
 
 /// Steps between blow-up checks (and CFL updates) when samples are rarer.

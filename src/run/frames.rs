@@ -3,14 +3,14 @@
 use super::batch::{Batch, Callback, Needs};
 use super::budget::check_room;
 use super::{RunError, RunOptions, checkpoint, output_error};
+use crate::core::tensor::Dim;
+use crate::diagnostics::observe::{Clock, IndicatorFields, Snapshot};
 use crate::engine::BlowUp;
-use crate::material::von_mises;
-use crate::observe::{Clock, IndicatorFields, Snapshot};
 use crate::output::{Field, FieldData, Mesh, PvdIndex, free_bytes, write_vtu};
-use crate::plasticity::symmetric_eigen;
-use crate::pressure::pressures;
+use crate::physics::material::von_mises;
+use crate::physics::plasticity::symmetric_eigen;
+use crate::physics::pressure::pressures;
 use crate::scene::Scene;
-use crate::tensor::Dim;
 use std::path::{Path, PathBuf};
 
 /// VTU frames and their PVD index.
@@ -403,10 +403,10 @@ fn flatten(m: [[f64; 3]; 3]) -> [f64; 9] {
 #[cfg(test)]
 mod tests {
     use super::{FrameConstants, next_frame_time, write_frame};
-    use crate::observe::{ScalarField, Snapshot};
+    use crate::core::tensor::{D2, Dim};
+    use crate::diagnostics::observe::{ScalarField, Snapshot};
     use crate::output::scratch::scratch;
     use crate::output::vtu::tests::read_field;
-    use crate::tensor::{D2, Dim};
 
     #[test]
     fn a_frame_carries_what_a_particle_code_user_expects() {

@@ -22,13 +22,13 @@ pub use frames::{FrameConstants, write_frame};
 pub use progress::ProgressDisplay;
 
 use crate::case::CaseError;
-use crate::check::toml_name;
+use crate::core::check::toml_name;
+use crate::core::tensor::{D2, D3};
 use crate::engine::BlowUp;
-use crate::material::Material;
 use crate::methods::{Feature, supporting};
 use crate::output::RunSummary;
+use crate::physics::material::Material;
 use crate::scene::Scene;
-use crate::tensor::{D2, D3};
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
@@ -179,7 +179,12 @@ fn built<D: EngineDim>(
     budget::check_steps(case, case.run.end_time / dt_first, dt_first, limits)?;
     let columns = engine.columns();
     let constrained = engine.constrained().to_vec();
-    crate::observe::Observers::new::<D>(case, &engine.snapshot(), &constrained, columns)?;
+    crate::diagnostics::observe::Observers::new::<D>(
+        case,
+        &engine.snapshot(),
+        &constrained,
+        columns,
+    )?;
     Ok((engine.reference().len(), dt_first))
 }
 
@@ -356,7 +361,7 @@ pub fn explain(case: &Scene, gpu: bool) -> String {
 /// named volume and Σ V, and every boundary condition's region with its particles and,
 /// for a load, its total force at law value 1 (a body force's on the particle masses
 /// ρ0 V). A case that cannot be sampled says why instead.
-fn discretisation_lines<D: crate::tensor::Dim>(case: &Scene) -> Vec<String> {
+fn discretisation_lines<D: crate::core::tensor::Dim>(case: &Scene) -> Vec<String> {
     let name = case.method.name;
     let cells = case.method.lattice_cells;
     let mut out = vec![if cells {
@@ -385,8 +390,12 @@ fn discretisation_lines<D: crate::tensor::Dim>(case: &Scene) -> Vec<String> {
     let body_of = &disc.body;
     let members = |b: usize| (0..body_of.len()).filter(move |&i| body_of[i] as usize == b);
     if cells {
-        match crate::quadrature::lattice_cells::<D>(&disc.x0, &disc.body, case.spacing, &disc.cells)
-        {
+        match crate::core::quadrature::lattice_cells::<D>(
+            &disc.x0,
+            &disc.body,
+            case.spacing,
+            &disc.cells,
+        ) {
             Ok(found) => {
                 let mut corner = vec![false; disc.x0.len()];
                 found
@@ -507,7 +516,7 @@ fn step_lines(case: &Scene, gpu: bool, rates: &str) -> Vec<String> {
         "per step:".to_string()
     }];
     lines.extend(
-        crate::integrate::describe_step(case.method.integrator, rates)
+        crate::core::integrate::describe_step(case.method.integrator, rates)
             .into_iter()
             .map(|s| format!("  {s}")),
     );

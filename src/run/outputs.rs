@@ -4,13 +4,13 @@
 use super::batch::{Batch, Callback, Needs};
 use super::progress::ITERATIONS;
 use super::{RunError, checkpoint, output_error};
-use crate::check::toml_name;
+use crate::core::check::toml_name;
+use crate::core::tensor::Dim;
+use crate::diagnostics::observe::{Clock, Observers};
 use crate::engine::BlowUp;
-use crate::observe::{Clock, Observers};
 use crate::output::series::read_column;
 use crate::output::{CheckResult, SeriesWriter};
 use crate::scene::Scene;
-use crate::tensor::Dim;
 use std::path::{Path, PathBuf};
 
 /// `series.csv`: a row of the observers every `output.series_interval` (every batch

@@ -3,8 +3,8 @@
 
 use super::Engine;
 use super::batch::{Callback, End};
-use crate::observe::Clock;
-use crate::tensor::Dim;
+use crate::core::tensor::Dim;
+use crate::diagnostics::observe::Clock;
 
 /// The profile callback: on when `--profile` asks for it.
 pub(super) struct Profile {
@@ -69,7 +69,7 @@ fn pass_report<D: Dim>(
     engine: &mut dyn Engine<D>,
     from: Profiled,
     step: u64,
-) -> Option<crate::passes::PassReport> {
+) -> Option<crate::diagnostics::passes::PassReport> {
     let wall = from.started.elapsed().as_secs_f64();
     let particles = engine.reference().len();
     let (gpu, mut scale) = engine.device()?;
@@ -78,7 +78,7 @@ fn pass_report<D: Dim>(
         .zip(from.indirect)
         .map(|(now, then)| now - then);
     let steps = u32::try_from(step - from.step).unwrap_or(u32::MAX);
-    let report = crate::passes::PassReport {
+    let report = crate::diagnostics::passes::PassReport {
         particles,
         ..gpu.pass_report(scale, steps, wall)
     };
@@ -91,6 +91,6 @@ fn pass_report<D: Dim>(
     _: &mut dyn Engine<D>,
     from: Profiled,
     _: u64,
-) -> Option<crate::passes::PassReport> {
+) -> Option<crate::diagnostics::passes::PassReport> {
     match from {}
 }

@@ -4,10 +4,10 @@
 
 use super::batch::{Batch, Callback, End};
 use super::{Engine, Iteration, RunError, output_error};
+use crate::core::tensor::Dim;
 use crate::engine::BlowUp;
 use crate::output::SeriesWriter;
 use crate::scene::Scene;
-use crate::tensor::Dim;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::cell::Cell;
 use std::path::{Path, PathBuf};

@@ -12,10 +12,10 @@ mod overrides;
 pub(crate) mod validate;
 
 use crate::case::{Case, CaseError, fnv1a};
+use crate::core::tensor::Dim;
 use crate::engine::{CpuEngine, Method};
 use crate::methods::{MethodSpec, MethodTable, Runs};
 use crate::reference::Build;
-use crate::tensor::Dim;
 use std::ops::{Deref, DerefMut};
 
 /// A loaded case with its method's typed spec: what the driver holds. It dereferences to
@@ -66,7 +66,7 @@ impl Scene {
     /// own (a mixed method's artificial compressibility).
     pub fn step_wave_speed(&self) -> f64 {
         self.spec
-            .step_wave_speed(&crate::material::Material::new(&self.material))
+            .step_wave_speed(&crate::physics::material::Material::new(&self.material))
     }
 }
 

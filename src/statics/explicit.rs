@@ -26,12 +26,12 @@
 use super::sparse::{BlockPattern, Linear};
 use super::{Linearisation, Model, Newton, Setup, Statics};
 use crate::case::{Case, CaseError};
+use crate::core::kernel::neighbour_radius;
+use crate::core::neighbour;
+use crate::core::tensor::Dim;
+use crate::diagnostics::observe::Snapshot;
 use crate::engine::{BlowUp, CpuEngine, Engine, EngineDim, Method};
-use crate::kernel::neighbour_radius;
-use crate::neighbour;
-use crate::observe::Snapshot;
 use crate::reference::{Build, Reference, build_method};
-use crate::tensor::Dim;
 
 /// A method whose force depends on the displacement alone (a state model), so that a
 /// displacement field is a whole state of it.

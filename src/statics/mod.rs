@@ -10,12 +10,12 @@
 pub mod explicit;
 pub mod sparse;
 
-use crate::balance::Booked;
 use crate::boundary::{Boundary, Reaction};
 use crate::case::{Case, CaseError};
+use crate::core::tensor::Dim;
+use crate::diagnostics::balance::Booked;
+use crate::diagnostics::observe::Snapshot;
 use crate::engine::{BlowUp, Engine, Failed, Iteration};
-use crate::observe::Snapshot;
-use crate::tensor::Dim;
 use sparse::{BlockPattern, Fill, FreeSystem, Linear, SolveError, SolveStats};
 use std::time::Instant;
 
@@ -521,8 +521,8 @@ impl<D: Dim, S: Model<D>> Engine<D> for Statics<D, S> {
     /// The converged state: its pseudo-time, load-step count, work, u and the reactions.
     fn save(&mut self) -> Vec<f64> {
         let mut out = vec![self.t, self.load_step as f64, self.work];
-        crate::parallel::save_field(&self.u, &mut out);
-        crate::parallel::save_field(&self.reaction, &mut out);
+        crate::core::parallel::save_field(&self.u, &mut out);
+        crate::core::parallel::save_field(&self.reaction, &mut out);
         out
     }
 
@@ -530,8 +530,8 @@ impl<D: Dim, S: Model<D>> Engine<D> for Statics<D, S> {
         let (&[t, load_step, work], mut rest) = words
             .split_first_chunk()
             .ok_or("the checkpoint holds no static state")?;
-        crate::parallel::load_field(&mut self.u, "u", &mut rest)?;
-        crate::parallel::load_field(&mut self.reaction, "reaction", &mut rest)?;
+        crate::core::parallel::load_field(&mut self.u, "u", &mut rest)?;
+        crate::core::parallel::load_field(&mut self.reaction, "reaction", &mut rest)?;
         if !rest.is_empty() {
             return Err(format!(
                 "{} words are left over after the static state",

@@ -3,13 +3,13 @@
 //! and reads the final state.
 
 use super::fields::FinalState;
-use crate::balance::{Balance, Booked};
+use crate::core::tensor::{D2, D3, Dim};
+use crate::diagnostics::balance::{Balance, Booked};
+use crate::diagnostics::observe::{Invariants, Snapshot};
 use crate::engine::{BlowUp, Engine, EngineDim, Failed};
-use crate::observe::{Invariants, Snapshot};
 use crate::output::RunSummary;
 use crate::run::{Backend, RunError, RunOptions, budget, drive, engine, may_use_gpu, with_threads};
 use crate::scene::Scene;
-use crate::tensor::{D2, D3, Dim};
 use std::marker::PhantomData;
 use std::time::Instant;
 
@@ -18,7 +18,7 @@ use std::time::Instant;
 pub struct Drift {
     /// max |H(t) − H(0)| / |H(0)| (NaN when H(0) = 0).
     pub angular_momentum: f64,
-    /// The largest |energy_residue| of the energy balance ([`crate::balance`]): its
+    /// The largest |energy_residue| of the energy balance ([`crate::diagnostics::balance`]): its
     /// residue over its scale.
     pub energy: f64,
     /// Number of states checked.
@@ -105,7 +105,7 @@ impl<D: Dim, E: Engine<D>> Engine<D> for Tracked<'_, D, E> {
     fn booked(&mut self) -> Booked {
         self.inner.booked()
     }
-    fn pseudo_time(&mut self) -> Option<crate::integrate::PseudoTime> {
+    fn pseudo_time(&mut self) -> Option<crate::core::integrate::PseudoTime> {
         self.inner.pseudo_time()
     }
     fn check(&mut self) -> Result<(), BlowUp> {

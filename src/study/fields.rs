@@ -1,13 +1,13 @@
 //! Final fields of a run and the error norms against a reference: a closed form, or the
 //! final state of a converged run matched by reference position.
 
-use crate::analytic::{Exact, SwingingMode};
 use crate::case::VelocityField;
-use crate::material::Material;
-use crate::observe::Snapshot;
-use crate::plasticity::PLASTIC_STRAIN;
+use crate::core::tensor::Dim;
+use crate::diagnostics::analytic::{Exact, SwingingMode};
+use crate::diagnostics::observe::Snapshot;
+use crate::physics::material::Material;
+use crate::physics::plasticity::PLASTIC_STRAIN;
 use crate::scene::Scene;
-use crate::tensor::Dim;
 use std::collections::HashMap;
 use std::io::{BufRead, Write};
 use std::path::Path;
@@ -138,7 +138,7 @@ fn unit<D: Dim>(k: usize) -> D::V {
     D::from_slice(&e)
 }
 
-pub use crate::analytic::relative_l2;
+pub use crate::diagnostics::analytic::relative_l2;
 
 /// Velocity and stress of a closed-form solution at the particles of `state`, time t,
 /// flattened as [`FinalState::velocity_flat`] and [`FinalState::stress_flat`]. For the
@@ -154,8 +154,8 @@ pub fn analytic_fields(
     if let Exact::Swinging { mode, .. } = exact {
         let material = Material::new(&case.material);
         return Ok(match state.dim {
-            2 => swinging::<crate::tensor::D2>(mode, &material, state, t),
-            _ => swinging::<crate::tensor::D3>(mode, &material, state, t),
+            2 => swinging::<crate::core::tensor::D2>(mode, &material, state, t),
+            _ => swinging::<crate::core::tensor::D3>(mode, &material, state, t),
         });
     }
     let mut v = Vec::new();

@@ -370,8 +370,8 @@ fn errors(
                     // so the stress error is measured against the stress ρ0 c |v| that the
                     // exact velocity carries as a wave: the L2 norm of P_xx − σ_ex over
                     // ρ0 c ‖v_ex‖.
-                    let material = crate::material::Material::new(&case.material);
-                    let c = crate::analytic::bar_wave_speed(&material, state.dim);
+                    let material = crate::physics::material::Material::new(&case.material);
+                    let c = crate::diagnostics::analytic::bar_wave_speed(&material, state.dim);
                     let p = axial_stress(state, case);
                     let difference: Vec<f64> = p.iter().zip(&p_ex).map(|(a, b)| a - b).collect();
                     let scale: Vec<f64> = v_ex

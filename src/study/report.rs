@@ -75,7 +75,7 @@ pub fn reference_statement(suite: &Suite) -> String {
         Reference::Invariant {
             quantity: InvariantKind::Energy,
         } => "invariant: the energy balance E_kin + E_stored + D_art + W_hg + W_p + E_contact \
-              − W_ext = E(0) (src/balance.rs: the artificial dissipation, the hourglass \
+              − W_ext = E(0) (src/diagnostics/balance.rs: the artificial dissipation, the hourglass \
               control's, plastic and contact work and the work of supports and loads, each \
               where the engine books it). The error is max |R(t)|/S(t) over every check of \
               the run, R the balance's residue and S = E(0) + E_kin + E_stored + |W_ext|. A \

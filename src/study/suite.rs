@@ -45,7 +45,7 @@ impl BackendName {
     }
 }
 
-pub use crate::analytic::AnalyticSolution;
+pub use crate::diagnostics::analytic::AnalyticSolution;
 
 /// Invariants a suite can measure the drift of.
 #[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]

@@ -3,10 +3,10 @@
 
 use crate::common::{largest_v, material_and_method};
 use meshless::case::CaseError;
+use meshless::core::tensor::{D2, Dim};
 use meshless::methods::REGISTRY;
 use meshless::run::{Backend, Engine, engine};
 use meshless::scene::Scene;
-use meshless::tensor::{D2, Dim};
 use std::path::Path;
 
 /// Gravity with a sideways part, so that both components are checked [m/s²], as the

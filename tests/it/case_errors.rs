@@ -6,8 +6,8 @@
 
 use crate::common::{cases_dir, toml_files};
 use meshless::case::CaseError;
+use meshless::core::tensor::D2;
 use meshless::scene::Scene;
-use meshless::tensor::D2;
 use std::path::Path;
 
 /// 2D box body, hypoelastic, TLSPH with a fixed time step.
@@ -1039,7 +1039,9 @@ fn every_shipped_case_validates_and_discretises() {
         let case = Scene::load(&path, &[]).unwrap_or_else(|e| panic!("{e}"));
         let particles = match case.dimension {
             2 => meshless::case::discretise::<D2>(&case).map(|d| d.x0.len()),
-            _ => meshless::case::discretise::<meshless::tensor::D3>(&case).map(|d| d.x0.len()),
+            _ => {
+                meshless::case::discretise::<meshless::core::tensor::D3>(&case).map(|d| d.x0.len())
+            }
         }
         .unwrap_or_else(|e| panic!("{e}"));
         assert!(particles > 0, "{}: no particle", path.display());

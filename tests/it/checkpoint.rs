@@ -4,11 +4,11 @@
 //! case or method is refused.
 
 use crate::common::{cpu_options, load};
+use meshless::core::tensor::D2;
+use meshless::diagnostics::observe::{Invariants, Snapshot};
 use meshless::methods::BlowUp;
-use meshless::observe::{Invariants, Snapshot};
 use meshless::run::{Engine, Failed, RunError, RunOptions, drive, engine, run};
 use meshless::scene::Scene;
-use meshless::tensor::D2;
 use std::path::Path;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -49,7 +49,7 @@ impl Engine<D2> for CutShort {
     fn backend(&self) -> String {
         self.inner.backend()
     }
-    fn reference(&self) -> &[<D2 as meshless::tensor::Dim>::V] {
+    fn reference(&self) -> &[<D2 as meshless::core::tensor::Dim>::V] {
         self.inner.reference()
     }
     fn constrained(&self) -> &[(u32, u8)] {
@@ -74,7 +74,7 @@ impl Engine<D2> for CutShort {
     fn reactions(&mut self) -> Vec<meshless::boundary::Reaction> {
         self.inner.reactions()
     }
-    fn booked(&mut self) -> meshless::balance::Booked {
+    fn booked(&mut self) -> meshless::diagnostics::balance::Booked {
         self.inner.booked()
     }
     fn check(&mut self) -> Result<(), BlowUp> {

@@ -6,13 +6,13 @@
 //! build without them leaves those unused.
 #![cfg_attr(not(all(feature = "gpu", feature = "study")), allow(dead_code))]
 
+use meshless::core::tensor::Dim;
 #[cfg(feature = "gpu")]
 use meshless::gpu::Gpu;
 use meshless::methods::mixed::{MixedSph, MixedState};
 use meshless::methods::{Method, Runs};
 use meshless::run::{Backend, CpuEngine, Engine, ProgressDisplay, RunOptions};
 use meshless::scene::Scene;
-use meshless::tensor::Dim;
 use std::ops::Sub;
 use std::path::{Path, PathBuf};
 #[cfg(feature = "gpu")]
@@ -62,7 +62,7 @@ pub fn gpus() -> Vec<Gpu> {
 /// `corotated-tlsph`, `dual-support-sph`), as the method's GPU engine builds it.
 pub fn tl_scheme<D: meshless::gpu::GpuDim>(
     case: &Scene,
-) -> meshless::methods::tlsph::gpu::TlScheme<D> {
+) -> meshless::methods::cores::tl::gpu::TlScheme<D> {
     use meshless::methods::{MethodSpec, corotated, dual_support, potential, tlsph};
     match &case.spec {
         MethodSpec::Tlsph(s) => tlsph::gpu::scheme(s),
@@ -151,7 +151,7 @@ pub fn mixed_variants(base: &[&str]) -> Vec<Vec<String>> {
     out
 }
 
-/// Deterministic pseudo-random numbers in [0, 1) (64-bit LCG, as in src/neighbour.rs).
+/// Deterministic pseudo-random numbers in [0, 1) (64-bit LCG, as in src/core/neighbour.rs).
 pub fn lcg(seed: &mut u64) -> f64 {
     *seed = seed
         .wrapping_mul(6364136223846793005)
@@ -460,7 +460,7 @@ pub fn nearest(x0: &[glam::DVec2], point: [f64; 2]) -> usize {
 /// The largest hourglass indicator η after each of `steps` (increasing) steps of the
 /// system `m` from the state `y`, with the case's integrator and Δt; `fields` gives the
 /// displacements and deformation gradients of a state.
-pub fn hourglass_after<S: Method<meshless::tensor::D2>>(
+pub fn hourglass_after<S: Method<meshless::core::tensor::D2>>(
     case: &Scene,
     m: &mut S,
     mut y: S::State,
@@ -468,9 +468,10 @@ pub fn hourglass_after<S: Method<meshless::tensor::D2>>(
     fields: impl Fn(&S, &S::State) -> (Vec<glam::DVec2>, Vec<glam::DMat2>),
 ) -> Vec<f64> {
     let x0 = m.reference().to_vec();
-    let indicator =
-        meshless::hourglass::HourglassIndicator::new::<meshless::tensor::D2>(&case.kernel(2), &x0);
-    let mut integrator = meshless::integrate::Integrator::new(case.method.integrator, &y);
+    let indicator = meshless::physics::hourglass::HourglassIndicator::new::<
+        meshless::core::tensor::D2,
+    >(&case.kernel(2), &x0);
+    let mut integrator = meshless::core::integrate::Integrator::new(case.method.integrator, &y);
     let dt = case.method.dt.unwrap();
     let mut done = 0;
     steps
@@ -481,7 +482,7 @@ pub fn hourglass_after<S: Method<meshless::tensor::D2>>(
             }
             done = n;
             let (u, f) = fields(m, &y);
-            let eta = indicator.of::<meshless::tensor::D2>(&x0, &u, &f);
+            let eta = indicator.of::<meshless::core::tensor::D2>(&x0, &u, &f);
             eta.into_iter().fold(0.0, f64::max)
         })
         .collect()

@@ -3,10 +3,10 @@
 //! scheme), and the pseudo-viscosity's effect on the iteration counts.
 
 use crate::common::{load, run_mixed_steps};
+use meshless::core::tensor::{D2, D3, Dim};
 use meshless::methods::mixed::MixedSph;
 use meshless::run::{CpuEngine, Engine};
 use meshless::scene::Scene;
-use meshless::tensor::{D2, D3, Dim};
 
 /// The keys that switch a mixed case to artificial compressibility at Poisson ratio ν.
 fn incompressible(nu: f64, alpha: f64) -> Vec<String> {

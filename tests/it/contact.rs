@@ -4,9 +4,9 @@
 
 use crate::common::case_file;
 use meshless::case::CaseError;
+use meshless::core::tensor::D2;
 use meshless::run::{Backend, Engine, engine};
 use meshless::scene::Scene;
-use meshless::tensor::D2;
 
 /// The shipped rings case on the nbox = 20 lattice (Δx = 0.08/19): the centres at ∓47.5 mm,
 /// so that the 23.4 mm between the nearest particles exceed the kernel support

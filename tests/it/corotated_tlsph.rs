@@ -10,13 +10,13 @@ use crate::common::{
     block_case, block_text, largest_t, largest_v, random_tensor, random_vector, shipped,
 };
 use glam::{DMat2, DMat3, DVec2, DVec3};
-use meshless::integrate::OdeSystem;
+use meshless::core::integrate::OdeSystem;
+use meshless::core::tensor::{D2, D3, Dim};
 use meshless::methods::Method;
 use meshless::methods::corotated::{Corotated, rotation};
 use meshless::methods::tlsph::TlState;
 use meshless::run::{Backend, CpuEngine, Engine, build_method};
 use meshless::scene::Scene;
-use meshless::tensor::{D2, D3, Dim};
 use std::path::Path;
 
 const AV: &str = "artificial_viscosity = { alpha = 1.0, beta = 1.0, eta = 0.1 }";

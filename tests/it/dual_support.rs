@@ -5,12 +5,12 @@
 
 use crate::common::{largest_v, noise, random_vector};
 use meshless::case::{MaterialSpec, Plane};
-use meshless::kernel::{Kernel, KernelKind};
-use meshless::material::{Material, MaterialModel};
+use meshless::core::kernel::{Kernel, KernelKind};
+use meshless::core::tensor::{D2, D3, Dim};
 use meshless::methods::dual_support::{DualSupport, Statics, Support};
+use meshless::physics::material::{Material, MaterialModel};
 use meshless::run::Engine;
 use meshless::scene::Scene;
-use meshless::tensor::{D2, D3, Dim};
 use std::path::Path;
 
 fn material(model: MaterialModel) -> Material {

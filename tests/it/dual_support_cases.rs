@@ -6,10 +6,10 @@
 //! docs/methods/dual-support.md come from the suites `plate-hourglass`, `beam-smoothing`
 //! and `rubber-pull` (`meshless study …`).
 
-use meshless::analytic::Cantilever;
+use meshless::core::tensor::{D2, D3, Dim};
+use meshless::diagnostics::analytic::Cantilever;
 use meshless::methods::dual_support::Statics;
 use meshless::run::{Backend, Engine, Iteration};
-use meshless::tensor::{D2, D3, Dim};
 
 /// The static engine of a shipped case with overrides.
 fn engine<D: Dim>(name: &str, set: &[String]) -> Statics<D> {

@@ -1,4 +1,4 @@
-//! The energy balance of every explicit method (src/balance.rs),
+//! The energy balance of every explicit method (src/diagnostics/balance.rs),
 //! E_kin + E_stored + D_art + W_hg + W_p + E_contact − W_ext = E_0, its residue over its
 //! scale, on a strip pulled at one end and clamped at the other and on a free bar released
 //! with a velocity field, at two steps; a plastic strip whose balance needs its plastic
@@ -6,11 +6,11 @@
 //! measured residues.
 
 use crate::common::material_and_method;
-use meshless::balance::{Balance, Booked};
+use meshless::core::tensor::D2;
+use meshless::diagnostics::balance::{Balance, Booked};
 use meshless::methods::REGISTRY;
 use meshless::run::{Backend, Engine, engine};
 use meshless::scene::Scene as Case;
-use meshless::tensor::D2;
 use std::path::Path;
 
 /// The strip and the bar: 1 m × 0.2 m at Δx = 0.05 m (21 × 5 particles), E = 1 MPa,
@@ -253,7 +253,7 @@ fn the_plastic_work_closes_the_balance_of_a_yielding_strip() {
     // tl-fem on the copper strip at Δt = 2 µs and 1 µs (c_p Δt/Δx = 0.18, 0.09). The
     // plastic work W_p = Σ w_q ∫ τ_y dε̄_p is booked at every commit of the history and for
     // the current step; the return's potential makes it exact but for the integrator's
-    // error (src/plasticity.rs), so the residue shrinks at first order at least (measured
+    // error (src/physics/plasticity.rs), so the residue shrinks at first order at least (measured
     // 7.9e-4 → 3.9e-4) and stays far below W_p (W_p/S = 0.33): leaving W_p out leaves a
     // residue of W_p/S itself, which must exceed tenfold the residue with it at Δt.
     let dt = 2.0e-6;

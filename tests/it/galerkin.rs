@@ -7,13 +7,13 @@
 
 use crate::common::{block_text, largest_v, load, random_vector};
 use glam::{DMat2, DVec2};
-use meshless::integrate::OdeSystem;
+use meshless::core::integrate::OdeSystem;
+use meshless::core::tensor::{D2, D3, Dim};
 use meshless::methods::Method;
-use meshless::methods::galerkin::{GalerkinState, TlGalerkin};
+use meshless::methods::cores::galerkin::{GalerkinState, TlGalerkin};
 use meshless::run::{Engine, build_method};
 use meshless::scene::Scene;
 use meshless::statics::explicit::AtRest;
-use meshless::tensor::{D2, D3, Dim};
 use std::path::Path;
 
 /// A block of spacing 0.1 from the origin to `max` with material `model` under the

@@ -5,11 +5,11 @@
 use crate::common::{load, noise};
 use crate::gray_monaghan::{block_3d, net, random_deviator, random_state, random_vector, rates};
 use glam::{DMat2, DVec2};
+use meshless::core::tensor::{D2, D3};
 use meshless::methods::Method;
 use meshless::methods::godunov::Godunov;
 use meshless::methods::godunov::system::{contact_traction, contact_velocity};
 use meshless::run::build_method;
-use meshless::tensor::{D2, D3};
 
 /// The shipped Godunov disk (276 particles, h/dx = 1.7) with overrides.
 fn disk(overrides: &[&str]) -> Godunov<D2> {
@@ -72,8 +72,11 @@ fn equal_pair_states_give_the_standard_sph_sums() {
         y.s[i] = sigma_dev;
     }
     let d = rates(&mut m, &y);
-    let kernel =
-        meshless::kernel::Kernel::new(meshless::kernel::KernelKind::CubicSpline, 1.7 * dx, 2);
+    let kernel = meshless::core::kernel::Kernel::new(
+        meshless::core::kernel::KernelKind::CubicSpline,
+        1.7 * dx,
+        2,
+    );
     // p = (K/ρ0)(ρ − ρ0), K = E/(3(1 − 2ν)) = 1e7/0.6.
     let sigma = sigma_dev - DMat2::IDENTITY * (1e7 / 0.6 * (rho - 1.0));
     let x: Vec<DVec2> = m

@@ -3,6 +3,7 @@
 //! assembled tangent and direct solve.
 
 use crate::common::{gpu, load};
+use meshless::core::tensor::{D2, D3, Dim};
 use meshless::gpu::GpuDim;
 use meshless::methods::MethodSpec;
 use meshless::methods::dual_support::gpu::lists;
@@ -10,7 +11,6 @@ use meshless::methods::dual_support::krylov::NewtonKrylov;
 use meshless::methods::dual_support::pattern;
 use meshless::reference::Reference;
 use meshless::run::{Backend, Engine, Iteration};
-use meshless::tensor::{D2, D3, Dim};
 
 /// A smooth deformation with strains of ~10 % and a rotation-free shear, plus a
 /// deterministic ripple that varies from particle to particle, so that every 𝔸_i and every

@@ -5,15 +5,15 @@
 
 use crate::common::{gpu, load, max_s, max_t, max_v, noise, random_tensor, random_vector};
 use crate::galerkin::block;
+use meshless::core::integrate::{Integrator, OdeSystem};
+use meshless::core::tensor::{D2, D3, Dim};
 use meshless::gpu::layout::GpuDim;
-use meshless::integrate::{Integrator, OdeSystem};
 use meshless::methods::Method;
-use meshless::methods::galerkin::gpu::GpuGalerkin;
-use meshless::methods::galerkin::{GalerkinState, TlGalerkin};
-use meshless::plasticity::PLASTIC_STRAIN;
+use meshless::methods::cores::galerkin::gpu::GpuGalerkin;
+use meshless::methods::cores::galerkin::{GalerkinState, TlGalerkin};
+use meshless::physics::plasticity::PLASTIC_STRAIN;
 use meshless::run::{Engine, build_method};
 use meshless::scene::Scene;
-use meshless::tensor::{D2, D3, Dim};
 
 /// One rate evaluation of a random state (|u| ~ 1 mm, |v| ~ 1 m/s, ρ within 1 % of ρ0,
 /// |S| ~ 1e4 Pa) on both backends.

@@ -1,18 +1,18 @@
 //! The material functions of the shaders against the f64 CPU models, point by point: a
 //! test pass evaluates `pk1` and `energy_density` (`shaders/common/mechanics.wgsl`) and
-//! the von Mises `return_map` (`shaders/common/plasticity.wgsl`) on a set of deformation
+//! the von Mises `return_map` (`shaders/physics/plasticity.wgsl`) on a set of deformation
 //! gradients, from small strains to stretches of 2, compression to 0.6 and rotations.
 //! The inputs are rounded to f32 first, so that both sides see the same F and what
 //! differs is the device's f32 arithmetic alone.
 
 use crate::common::{gpu, noise, random_tensor};
 use meshless::case::{MaterialSpec, Plane};
+use meshless::core::tensor::{D2, D3, Dim};
 use meshless::gpu::Gpu;
 use meshless::gpu::layout::{Flat, GpuDim};
 use meshless::gpu::shaders::{Constants, EIGEN, MECHANICS, PLASTICITY, Source, compose};
-use meshless::material::{Material, MaterialModel};
-use meshless::plasticity::{Hardening, VonMises};
-use meshless::tensor::{D2, D3, Dim};
+use meshless::physics::material::{Material, MaterialModel};
+use meshless::physics::plasticity::{Hardening, VonMises};
 
 /// P and W of each H = F − I in `h` (DIM² floats each, column-major): DIM² + 1 floats
 /// out per point.
@@ -324,7 +324,8 @@ fn the_softening_return_map_matches_the_cpu() {
             // carries ~1e-6 of its largest term, the trial stress (2μ + κ)|ln λ|, and Δγ
             // that over 3μ + H. Bounds: 1e-5 of (2μ + κ)(|ln λ| + 0.01) for P and of its
             // strain for ε_p, and 1e-5 of (2μ + κ)(|ln λ| + 0.01)² for ψ.
-            let (eig, _) = meshless::plasticity::symmetric_eigen(f * cp_inv * f.transpose());
+            let (eig, _) =
+                meshless::physics::plasticity::symmetric_eigen(f * cp_inv * f.transpose());
             let ln_stretch = eig
                 .to_array()
                 .iter()
@@ -359,7 +360,7 @@ fn the_softening_return_map_matches_the_cpu() {
 
 /// exp(S) of a symmetric S, from its eigen-decomposition.
 fn exp_sym(s: glam::DMat3) -> glam::DMat3 {
-    let (eig, n) = meshless::plasticity::symmetric_eigen(s);
+    let (eig, n) = meshless::physics::plasticity::symmetric_eigen(s);
     let d = glam::DMat3::from_diagonal(glam::DVec3::from_array(eig.to_array().map(f64::exp)));
     n * d * n.transpose()
 }

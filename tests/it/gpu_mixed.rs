@@ -5,18 +5,18 @@
 use crate::common::{
     gpu, gpus, load, max_s, max_t, max_v, mixed_variants, random_state, random_tensor, shipped,
 };
+use meshless::core::integrate::{Integrator, OdeSystem};
+use meshless::core::tensor::{D2, D3};
+use meshless::diagnostics::observe::Invariants;
 use meshless::gpu::Gpu;
 use meshless::gpu::layout::GpuDim;
-use meshless::integrate::{Integrator, OdeSystem};
 use meshless::methods::Method;
 use meshless::methods::mixed::{
     GpuMixed, MixedOptions, MixedScheme, MixedSph, MixedState, Stabiliser,
 };
-use meshless::observe::Invariants;
-use meshless::plasticity::PLASTIC_STRAIN;
+use meshless::physics::plasticity::PLASTIC_STRAIN;
 use meshless::run::{Backend, Engine, build_method};
 use meshless::scene::Scene;
-use meshless::tensor::{D2, D3};
 
 /// Asserts `error ≤ tol · scale` and reports the ratio.
 fn check(label: &str, field: &str, (error, scale): (f64, f64), tol: f64) {

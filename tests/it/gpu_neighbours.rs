@@ -1,22 +1,22 @@
 //! GPU neighbour search (cell list + scan + CSR fill) against the CPU reference
-//! `meshless::neighbour::build`, and the GPU exclusive scan against a host prefix sum.
+//! `meshless::core::neighbour::build`, and the GPU exclusive scan against a host prefix sum.
 //!
 //! These tests need a GPU adapter (on CPU-only Linux: Mesa's lavapipe, Debian package
 //! mesa-vulkan-drivers). Without one they FAIL; they do not skip.
 
 use crate::common::{gpu, lcg, validate_wgsl};
 use glam::{DVec2, DVec3};
+use meshless::core::neighbour::{self, Csr};
+use meshless::core::tensor::{D2, D3, Dim};
 use meshless::gpu::layout::flat_v;
 use meshless::gpu::neighbour::{self as gpu_neighbour, CellParams, Positions};
 use meshless::gpu::shaders::compose;
 use meshless::gpu::{Gpu, GpuDim};
 use meshless::methods::shaders;
-use meshless::neighbour::{self, Csr};
-use meshless::tensor::{D2, D3, Dim};
 
 fn gpu_lists<D: GpuDim>(gpu: &Gpu, x: &[D::V], radius: f64) -> Csr {
     let buffer = gpu.storage("positions", &flat_v::<D>(x.iter().copied()));
-    let (lo, hi) = meshless::neighbour::bounding_box(x.iter().map(|&p| D::to3(p)));
+    let (lo, hi) = meshless::core::neighbour::bounding_box(x.iter().map(|&p| D::to3(p)));
     let at = Positions {
         x: &buffer,
         offset: 0,
@@ -109,7 +109,7 @@ fn cell_params_match_the_wgsl_uniform_layout() {
     let all = shaders();
     let source = all
         .iter()
-        .find(|s| s.name == "common/cell_list.wgsl")
+        .find(|s| s.name == "setup/cell_list.wgsl")
         .expect("cell_list.wgsl among the passes");
     let constants = gpu_neighbour::constants(0, false);
     for text in [
@@ -146,7 +146,7 @@ fn cell_params_match_the_wgsl_uniform_layout() {
 
 #[test]
 fn neighbour_shaders_validate_with_naga() {
-    for name in ["common/cell_list.wgsl", "common/scan.wgsl"] {
+    for name in ["setup/cell_list.wgsl", "setup/scan.wgsl"] {
         let all = shaders();
         let source = all
             .iter()

@@ -6,13 +6,13 @@
 
 use crate::common::{cpu_options, load};
 use meshless::bench::measure;
+use meshless::core::integrate::{Op, program};
+use meshless::core::tensor::D2;
+use meshless::diagnostics::passes::PassReport;
 use meshless::gpu::bytes::{Access, BindingUse, PassBytes, pass_model};
-use meshless::integrate::{Op, program};
-use meshless::passes::PassReport;
 use meshless::reference::Reference;
 use meshless::run::{Backend, RunOptions, run};
 use meshless::scene::Scene;
-use meshless::tensor::D2;
 
 /// Steps of each report: enough dispatches to time, few enough for lavapipe.
 const STEPS: u32 = 6;
@@ -40,7 +40,7 @@ fn blends(case: &Scene) -> u64 {
         .count() as u64
 }
 
-fn row<'a>(report: &'a PassReport, pass: &str) -> &'a meshless::passes::PassRow {
+fn row<'a>(report: &'a PassReport, pass: &str) -> &'a meshless::diagnostics::passes::PassRow {
     report
         .rows
         .iter()

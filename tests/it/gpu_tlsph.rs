@@ -2,23 +2,23 @@
 //! A missing adapter fails these tests: the GPU path is part of what CI checks.
 
 use crate::common::{gpu, gpus, largest_v, load, max_t, max_v};
+use meshless::core::integrate::{Integrator, OdeSystem};
+use meshless::core::tensor::{D2, D3, Dim};
 use meshless::gpu::Gpu;
 use meshless::gpu::layout::GpuDim;
-use meshless::integrate::{Integrator, OdeSystem};
-use meshless::material::Material;
 use meshless::methods::Method;
 use meshless::methods::tlsph::GpuTlsph;
 use meshless::methods::tlsph::{TlState, Tlsph};
+use meshless::physics::material::Material;
 use meshless::run::{Engine, build_method};
 use meshless::scene::Scene;
-use meshless::tensor::{D2, D3, Dim};
 use std::path::Path;
 
 /// Advances the CPU reference `steps` steps of size dt.
 fn cpu_run<D: Dim>(
     m: &mut Tlsph<D>,
     y: &mut TlState<D>,
-    kind: meshless::integrate::IntegratorKind,
+    kind: meshless::core::integrate::IntegratorKind,
     dt: f64,
     steps: usize,
 ) {

@@ -5,20 +5,20 @@
 
 use crate::common::{block_case, gpu, gpus, load, max_s, max_t, max_v, shipped};
 use crate::gray_monaghan::random_state;
+use meshless::core::neighbour::SKIN;
+use meshless::core::tensor::{D2, D3, Dim};
 use meshless::gpu::Gpu;
 use meshless::gpu::layout::GpuDim;
+use meshless::methods::cores::ul::gpu::{GpuUl, Scheme};
+use meshless::methods::cores::ul::{PairScheme, UlSph, UlState};
 use meshless::methods::godunov::system::Scheme as GodunovScheme;
 use meshless::methods::godunov::{Godunov, gpu as godunov};
 use meshless::methods::gray_monaghan::system::Scheme as GmScheme;
 use meshless::methods::gray_monaghan::{GrayMonaghan, gpu as gray_monaghan};
-use meshless::methods::ul::gpu::{GpuUl, Scheme};
-use meshless::methods::ul::{PairScheme, UlSph, UlState};
 use meshless::methods::{Method, MethodSpec, Runs};
-use meshless::neighbour::SKIN;
 use meshless::reference::Build;
 use meshless::run::{Engine, build_method};
 use meshless::scene::Scene;
-use meshless::tensor::{D2, D3, Dim};
 
 /// The GPU scheme of a UL case.
 fn scheme(case: &Scene) -> Scheme {
@@ -59,7 +59,7 @@ where
     let mut cpu: UlSph<D, S> = build_method(case).unwrap();
     let y = random_state(&cpu, case.spacing, &mut 17);
     let mut d = y.clone();
-    meshless::integrate::OdeSystem::rates(&mut cpu, 0.0, &y, &mut d).unwrap();
+    meshless::core::integrate::OdeSystem::rates(&mut cpu, 0.0, &y, &mut d).unwrap();
     let mut g = GpuUl::<D>::new(case, gpu, &scheme(case)).unwrap();
     let dg = g.rates(&y);
     // Each rate is a gather of 20–80 pair terms of the random state, which do not cancel:

@@ -11,10 +11,10 @@
 //! The weights and gradients are the project's (`correction::kernel_weights`,
 //! `correction::gradients`); the sums above are the paper's.
 
-use meshless::correction::{CorrectionKind, gradients, kernel_weights};
-use meshless::kernel::{Kernel, KernelKind};
-use meshless::neighbour::build;
-use meshless::tensor::D1;
+use meshless::core::correction::{CorrectionKind, gradients, kernel_weights};
+use meshless::core::kernel::{Kernel, KernelKind};
+use meshless::core::neighbour::build;
+use meshless::core::tensor::D1;
 
 /// The three estimates of dx/dX at every particle of the lattice of spacing `dx` on
 /// [0, 5], for the mapping `x`, and the self-weights w_ii.

@@ -6,15 +6,15 @@
 use crate::common::{load, noise, random_tensor};
 use glam::{DMat2, DVec2};
 use meshless::case::CaseError;
-use meshless::integrate::OdeSystem;
-use meshless::kernel::Kernel;
+use meshless::core::integrate::OdeSystem;
+use meshless::core::kernel::Kernel;
+use meshless::core::tensor::{D2, D3, Dim};
+use meshless::methods::cores::ul::{PairScheme, UlSph, UlState};
 use meshless::methods::gray_monaghan::GrayMonaghan;
 use meshless::methods::gray_monaghan::system::{artificial_stress, principal_stresses};
-use meshless::methods::ul::{PairScheme, UlSph, UlState};
 use meshless::methods::{Method, Runs};
 use meshless::run::build_method;
 use meshless::scene::Scene;
-use meshless::tensor::{D2, D3, Dim};
 use std::path::Path;
 
 /// The shipped Gray–Monaghan disk (276 particles, h/dx = 1.7, AV, artificial stress and
@@ -162,7 +162,7 @@ fn neighbours_rebuilt_from_moving_particles_equal_a_brute_force_search() {
                 .zip(&y.u)
                 .map(|(&x0, &u)| x0 + u)
                 .collect();
-            let widened = radius * (1.0 + meshless::neighbour::SKIN);
+            let widened = radius * (1.0 + meshless::core::neighbour::SKIN);
             let expected = brute_force::<D2>(&x, widened, masked.then_some(body.as_slice()));
             let lists = m.neighbours();
             let mut across = 0;

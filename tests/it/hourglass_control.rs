@@ -3,12 +3,12 @@
 //! does not resist held down, and the GPU pass against the CPU.
 
 use glam::DVec2;
-use meshless::integrate::OdeSystem;
+use meshless::core::integrate::OdeSystem;
+use meshless::core::tensor::D2;
 use meshless::methods::Method;
 use meshless::methods::tlsph::{TlState, Tlsph};
 use meshless::run::build_method;
 use meshless::scene::Scene;
-use meshless::tensor::D2;
 use std::path::Path;
 
 /// TLSPH (Randles–Libersky, h/Δx = 1.3, RK4, Δt = 5e-4 s: 0.18 of Δx/c_p) on a free SVK
@@ -176,7 +176,7 @@ fn the_gpu_control_tracks_the_cpu() {
     let run_cpu = |case: &Scene| {
         let mut m: Tlsph<D2> = build_method(case).unwrap();
         let mut y = checkerboard(case, &m);
-        let mut integrator = meshless::integrate::Integrator::new(case.method.integrator, &y);
+        let mut integrator = meshless::core::integrate::Integrator::new(case.method.integrator, &y);
         let dt = case.method.dt.unwrap();
         for k in 0..steps {
             integrator.step(&mut m, k as f64 * dt, dt, &mut y).unwrap();

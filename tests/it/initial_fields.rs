@@ -3,8 +3,8 @@
 
 use crate::common::material_and_method;
 use meshless::case::{CaseError, Discretised, discretise};
+use meshless::core::tensor::D2;
 use meshless::scene::Scene;
-use meshless::tensor::D2;
 use std::path::Path;
 
 /// The shipped rotating disk with its initial velocity replaced by `field`.
@@ -182,7 +182,7 @@ fn an_affine_initial_displacement_stores_the_energy_of_its_deformation_gradient(
     for method in methods {
         for field in [LINEAR, WRITTEN] {
             let case = prestretched(method, field).unwrap();
-            let material = meshless::material::Material::new(&case.material);
+            let material = meshless::physics::material::Material::new(&case.material);
             let psi = material.energy_density::<D2>(f, glam::DMat2::ZERO, material.rho0);
             let mut backends = vec![(meshless::run::Backend::Cpu, 1e-10)];
             if meshless::methods::REGISTRY

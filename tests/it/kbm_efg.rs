@@ -9,12 +9,12 @@
 use crate::common::{largest_v, random_vector};
 use crate::galerkin::block;
 use glam::{DMat2, DVec2};
-use meshless::integrate::OdeSystem;
+use meshless::core::integrate::OdeSystem;
+use meshless::core::tensor::{D2, D3, Dim};
 use meshless::methods::Method;
-use meshless::methods::galerkin::{GalerkinState, TlGalerkin};
+use meshless::methods::cores::galerkin::{GalerkinState, TlGalerkin};
 use meshless::run::build_method;
 use meshless::scene::Scene;
-use meshless::tensor::{D2, D3, Dim};
 
 /// The four variants: (method, keys, the paper's name).
 const VARIANTS: [(&str, &str, &str); 4] = [

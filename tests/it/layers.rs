@@ -7,35 +7,39 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
+/// The folders of `src/` whose modules are each a module of [`ORDER`].
+const GROUPS: &[&str] = &["core", "physics", "diagnostics"];
+
 /// The modules from the bottom up, in layers. Within a layer too a module uses only the
-/// ones before it. A `methods/<family>` folder is a module of its own; `methods` is the
-/// registry (`methods/mod.rs`).
+/// ones before it. A module of `core/`, `physics/` and `diagnostics/` is a module of its
+/// own (`core/kernel`), and so are a core of `methods/cores/` (`methods/cores/tl`) and a
+/// `methods/<family>` folder; `methods` is the registry (`methods/mod.rs`).
 const ORDER: &[(&str, &[&str])] = &[
     (
         "core maths, kernels and neighbours",
         &[
-            "check",
-            "tensor",
-            "kernel",
-            "neighbour",
-            "correction",
-            "quadrature",
-            "integrate",
-            "parallel",
+            "core/check",
+            "core/tensor",
+            "core/kernel",
+            "core/neighbour",
+            "core/correction",
+            "core/quadrature",
+            "core/integrate",
+            "core/parallel",
         ],
     ),
     (
         "physics",
         &[
-            "mooney_rivlin",
-            "plasticity",
-            "material",
-            "pressure",
-            "viscosity",
-            "hourglass",
-            "mirror",
-            "analytic",
-            "balance",
+            "physics/mooney_rivlin",
+            "physics/plasticity",
+            "physics/material",
+            "physics/pressure",
+            "physics/viscosity",
+            "physics/hourglass",
+            "physics/mirror",
+            "diagnostics/analytic",
+            "diagnostics/balance",
         ],
     ),
     (
@@ -45,10 +49,10 @@ const ORDER: &[(&str, &[&str])] = &[
     (
         "reference state, observers, GPU machinery, loads and contact",
         &[
-            "passes",
+            "diagnostics/passes",
             "boundary",
             "reference",
-            "observe",
+            "diagnostics/observe",
             "gpu",
             "interaction",
         ],
@@ -60,18 +64,18 @@ const ORDER: &[(&str, &[&str])] = &[
     (
         "method cores",
         &[
-            "methods/family",
-            "methods/shared",
-            "methods/particles",
-            "methods/tl",
-            "methods/tlsph",
-            "methods/ul",
-            "methods/galerkin",
+            "methods/cores/family",
+            "methods/cores/shared",
+            "methods/cores/particles",
+            "methods/cores/tl",
+            "methods/cores/ul",
+            "methods/cores/galerkin",
         ],
     ),
     (
         "method families",
         &[
+            "methods/tlsph",
             "methods/potential",
             "methods/corotated",
             "methods/dual_support",
@@ -92,8 +96,8 @@ const ORDER: &[(&str, &[&str])] = &[
     ),
 ];
 
-/// The module a file of `src/` belongs to, or None for the crate roots and unit-test
-/// files.
+/// The module a file of `src/` belongs to, or None for the crate roots, the `mod.rs`
+/// files that only declare a folder's modules, and unit-test files.
 fn module_of(file: &Path, src: &Path) -> Option<String> {
     let rel = file.strip_prefix(src).ok()?;
     let parts: Vec<String> = rel
@@ -103,6 +107,14 @@ fn module_of(file: &Path, src: &Path) -> Option<String> {
     match parts.as_slice() {
         [root] if root == "lib" || root == "main" => None,
         [.., last] if last == "tests" => None,
+        [group, last] if GROUPS.contains(&group.as_str()) && last == "mod" => None,
+        [group, module, ..] if GROUPS.contains(&group.as_str()) => {
+            Some(format!("{group}/{module}"))
+        }
+        [methods, cores, last] if methods == "methods" && cores == "cores" && last == "mod" => None,
+        [methods, cores, core, ..] if methods == "methods" && cores == "cores" => {
+            Some(format!("methods/cores/{core}"))
+        }
         [methods, family, ..] if methods == "methods" && family != "mod" => {
             Some(format!("methods/{family}"))
         }
@@ -126,9 +138,10 @@ fn code(text: &str) -> String {
         .join("\n")
 }
 
-/// The first two segments of every path that starts with `crate::` in `code`, with the
-/// groups of a `use crate::{a::b, c::{d, e}}` spread out.
-fn crate_paths(code: &str) -> Vec<[String; 2]> {
+/// The first three segments of every path that starts with `crate::` in `code` (empty
+/// where the path is shorter), with the groups of a `use crate::{a::b, c::{d, e}}` spread
+/// out.
+fn crate_paths(code: &str) -> Vec<[String; 3]> {
     let mut out = Vec::new();
     let mut rest = code;
     while let Some(i) = rest.find("crate::") {
@@ -140,7 +153,7 @@ fn crate_paths(code: &str) -> Vec<[String; 2]> {
 
 /// Reads one use-tree at the start of `text` under the segments `prefix`: an identifier
 /// followed by `::` and a tree, or a brace group of trees.
-fn tree(text: &str, prefix: &[String], out: &mut Vec<[String; 2]>) {
+fn tree(text: &str, prefix: &[String], out: &mut Vec<[String; 3]>) {
     let text = text.trim_start();
     if let Some(group) = text.strip_prefix('{') {
         let mut depth = 0;
@@ -167,26 +180,38 @@ fn tree(text: &str, prefix: &[String], out: &mut Vec<[String; 2]>) {
         .unwrap_or(text.len());
     let ident = &text[..end];
     if ident.is_empty() || ident == "self" {
-        if prefix.len() == 1 {
-            out.push([prefix[0].clone(), String::new()]);
+        if !prefix.is_empty() {
+            out.push(padded(prefix));
         }
         return;
     }
     let mut path = prefix.to_vec();
     path.push(ident.to_string());
-    if path.len() == 2 {
-        out.push([path[0].clone(), path[1].clone()]);
+    if path.len() == 3 {
+        out.push(padded(&path));
         return;
     }
     match text[end..].trim_start().strip_prefix("::") {
         Some(next) => tree(next, &path, out),
-        None => out.push([path[0].clone(), String::new()]),
+        None => out.push(padded(&path)),
     }
 }
 
-/// The module a path's first two segments name: `methods/<family>` where that is a
-/// module, else the first segment.
-fn target(path: &[String; 2], modules: &BTreeSet<String>) -> String {
+/// Up to three segments, padded with empty ones.
+fn padded(path: &[String]) -> [String; 3] {
+    std::array::from_fn(|i| path.get(i).cloned().unwrap_or_default())
+}
+
+/// The module a path's first segments name: `core/kernel` and the like,
+/// `methods/cores/<core>`, `methods/<family>` where that is a module, else the first
+/// segment.
+fn target(path: &[String; 3], modules: &BTreeSet<String>) -> String {
+    if GROUPS.contains(&path[0].as_str()) {
+        return format!("{}/{}", path[0], path[1]);
+    }
+    if path[0] == "methods" && path[1] == "cores" {
+        return format!("methods/cores/{}", path[2]);
+    }
     let family = format!("methods/{}", path[1]);
     if path[0] == "methods" && modules.contains(&family) {
         family
@@ -291,20 +316,44 @@ fn a_planted_upward_import_is_found() {
     let ranks = ranks();
     for text in [
         "use crate::run::Engine;",
-        "use crate::{tensor::Dim, run::{Engine, drive}};",
+        "use crate::{core::tensor::Dim, run::{Engine, drive}};",
         "fn f() { crate::run::drive(); }",
-        "use crate::{\n    tensor::Dim,\n    run::Engine,\n};",
+        "use crate::{\n    core::tensor::Dim,\n    run::Engine,\n};",
     ] {
-        let files = [("kernel".to_string(), "kernel.rs".to_string(), code(text))];
+        let files = [(kernel(), "core/kernel.rs".to_string(), code(text))];
         let found = upward_imports(&files, &ranks);
         let edges: Vec<_> = found.keys().collect();
-        assert_eq!(
-            edges,
-            [&("kernel".to_string(), "run".to_string())],
-            "{text}"
-        );
+        assert_eq!(edges, [&(kernel(), "run".to_string())], "{text}");
     }
-    let comment = code("// see crate::run::drive\nuse crate::tensor::Dim;");
-    let files = [("kernel".to_string(), "kernel.rs".to_string(), comment)];
+    // A core using a family, beside a use of a core below it, is found too (the family
+    // is a module of the library: it has a file).
+    for text in [
+        "use crate::methods::tlsph::TlsphSpec;",
+        "use crate::methods::{cores::shared, tlsph::TlsphSpec};",
+    ] {
+        let files = [
+            (core(), "methods/cores/tl/mod.rs".to_string(), code(text)),
+            (
+                "methods/tlsph".to_string(),
+                "methods/tlsph/mod.rs".to_string(),
+                String::new(),
+            ),
+        ];
+        let found = upward_imports(&files, &ranks);
+        let edges: Vec<_> = found.keys().collect();
+        assert_eq!(edges, [&(core(), "methods/tlsph".to_string())], "{text}");
+    }
+    let comment = code("// see crate::run::drive\nuse crate::core::tensor::Dim;");
+    let files = [(kernel(), "core/kernel.rs".to_string(), comment)];
     assert!(upward_imports(&files, &ranks).is_empty());
+}
+
+/// The module of the kernel, in the planted imports.
+fn kernel() -> String {
+    "core/kernel".to_string()
+}
+
+/// The module of the total-Lagrangian core, in the planted imports.
+fn core() -> String {
+    "methods/cores/tl".to_string()
 }

@@ -4,9 +4,9 @@
 
 use meshless::boundary::{Boundary, OnPatches, timed_loads};
 use meshless::case::discretise;
+use meshless::core::tensor::D2;
 use meshless::run::{Backend, Engine, engine};
 use meshless::scene::Scene;
-use meshless::tensor::D2;
 use std::path::Path;
 
 /// A plane-stress linear-elastic bar 1 m × 0.2 m (E = 1e6 Pa, ν = 0.3, ρ0 = 1000: c =

@@ -4,11 +4,11 @@
 //! (`nodes = "vertices"`), checked against the lattice's FEM bar.
 
 use crate::common::cpu_options;
+use meshless::core::tensor::D2;
 use meshless::output::series::read_column;
 use meshless::reference::Reference;
 use meshless::run::run;
 use meshless::scene::Scene;
-use meshless::tensor::D2;
 
 /// The box [0, L] × [0, H] as an nx × ny grid whose interior nodes are moved by up to a
 /// quarter of a cell in each direction (a fixed pseudo-random pattern), each quadrangle

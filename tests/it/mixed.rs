@@ -3,17 +3,17 @@
 //! angular-momentum projection, and the symmetry of the twisting column.
 
 use crate::common::{cpu_options, load, noise, random_state, run_mixed_steps, shipped};
-use meshless::analytic::SwingingMode;
-use meshless::integrate::OdeSystem;
-use meshless::material::Material;
+use meshless::core::integrate::OdeSystem;
+use meshless::core::tensor::{D2, D3, Dim};
+use meshless::diagnostics::analytic::SwingingMode;
 use meshless::methods::Method;
 use meshless::methods::mixed::{Fluxes, MixedSph};
+use meshless::physics::material::Material;
 use meshless::run::{Backend, CpuEngine, Engine, build_method};
 use meshless::scene::Scene;
 use meshless::study::engine::run_case;
 use meshless::study::fields::{analytic_fields, relative_l2};
 use meshless::study::suite::AnalyticSolution;
-use meshless::tensor::{D2, D3, Dim};
 
 fn sum_v<D: Dim>(f: &[D::V], vol: &[f64]) -> (D::V, f64) {
     let total = f.iter().zip(vol).fold(D::zero(), |s, (&f, &v)| s + f * v);
@@ -113,7 +113,7 @@ fn linear_fields_give_exact_gradients_and_no_dissipation() {
             + glam::DMat2::from_cols_array(&[-0.5, 1.0, 0.3, 2.0]) * (1e-3 * x.y);
     }
     let mut rates = y.clone();
-    meshless::integrate::OdeSystem::rates(&mut m, 0.0, &y, &mut rates).unwrap();
+    meshless::core::integrate::OdeSystem::rates(&mut m, 0.0, &y, &mut rates).unwrap();
     for (a, f_dot) in rates.f.iter().enumerate() {
         let e = *f_dot - a_mat;
         assert!(D2::ddot(e, e).sqrt() < 1e-10, "particle {a}: Ḟ − A = {e:?}");
@@ -250,7 +250,7 @@ fn swinging_rate_errors(spacing: f64, name: &str) -> (f64, f64) {
         5e-4,
         &Material::new(&case.material),
         2,
-        meshless::analytic::SwingingKind::Dilatational,
+        meshless::diagnostics::analytic::SwingingKind::Dilatational,
     );
     let x0 = m.reference().to_vec();
     let quarter = std::f64::consts::FRAC_PI_2 / mode.omega;

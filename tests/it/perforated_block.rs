@@ -4,10 +4,10 @@
 
 use crate::common::{cpu_options, load};
 use meshless::case::discretise;
+use meshless::core::tensor::D3;
 use meshless::output::series::read_column;
 use meshless::run::Backend;
 use meshless::study::engine::run_case;
-use meshless::tensor::D3;
 
 /// At Δx = 0.05 m the cube of side 0.5 m is an 11³ vertex lattice (1331 points). A hole of
 /// radius 0.06 m about a lattice line takes, in each of the 11 layers along its axis, the

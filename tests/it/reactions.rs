@@ -230,7 +230,7 @@ fn the_shipped_pulled_strip_follows_uniaxial_neo_hooke_from_its_reaction() {
         column("mid.force_x"),
         column("end.ux"),
     );
-    let material = meshless::material::Material::new(&case.material);
+    let material = meshless::physics::material::Material::new(&case.material);
     // The 0.02 m height on N_y = 0.02/Δx + 1 rows of particles of volume Δx².
     let area = ((0.02f64 / dx).round() + 1.0) * dx;
     let (mut worst, mut spread) = (0.0f64, 0.0f64);
@@ -239,7 +239,7 @@ fn the_shipped_pulled_strip_follows_uniaxial_neo_hooke_from_its_reaction() {
         if strain < 0.02 {
             continue;
         }
-        let exact = meshless::analytic::neo_hooke_plane_strain_tension(
+        let exact = meshless::diagnostics::analytic::neo_hooke_plane_strain_tension(
             1.0 + strain,
             material.mu,
             material.lambda,

@@ -3,12 +3,12 @@
 
 use crate::common::{case_file, cpu_options, load, shipped};
 use meshless::bench::{BenchRow, measure, resize};
-use meshless::integrate::Integrator;
+use meshless::core::integrate::Integrator;
+use meshless::core::tensor::D2;
 use meshless::methods::Method;
 use meshless::methods::tlsph::Tlsph;
 use meshless::reference::Reference;
 use meshless::run::{Backend, RunError, build_method, run};
-use meshless::tensor::D2;
 use std::path::Path;
 use std::process::Command;
 

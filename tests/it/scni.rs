@@ -7,14 +7,14 @@
 
 use crate::verification::{Row, cantilever_error};
 use glam::{DMat2, DVec2};
-use meshless::integrate::Integrator;
-use meshless::kernel::{Kernel, KernelKind};
+use meshless::core::integrate::Integrator;
+use meshless::core::kernel::{Kernel, KernelKind};
+use meshless::core::quadrature::{Shapes, SmoothingCells};
+use meshless::core::tensor::{D2, D3, Dim};
 use meshless::methods::Method;
-use meshless::methods::galerkin::{GalerkinState, TlGalerkin};
-use meshless::quadrature::{Shapes, SmoothingCells};
+use meshless::methods::cores::galerkin::{GalerkinState, TlGalerkin};
 use meshless::run::{Backend, build_method, engine};
 use meshless::scene::Scene;
-use meshless::tensor::{D2, D3, Dim};
 use std::path::Path;
 
 /// The particles of a vertex lattice of spacing dx from the origin with n_k points along

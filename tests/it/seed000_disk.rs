@@ -5,8 +5,8 @@
 //! completely due to excess numerical dissipation".
 
 use crate::common::load;
+use meshless::core::tensor::D2;
 use meshless::run::{Backend, Engine, engine};
-use meshless::tensor::D2;
 
 /// H̄ = ½ M R² ω with the continuous unit disk's mass ρ0 π R² at ω = 50 rad/s (eq 183).
 const H_BAR: f64 = 25.0 * std::f64::consts::PI;

@@ -6,11 +6,11 @@
 //! `cases/studies/seed001-cantilever.toml`; docs/methods/seed001.md has its orders.
 
 use crate::common::load;
-use meshless::material::Material;
-use meshless::observe::{solution_errors, solution_of};
+use meshless::core::tensor::D2;
+use meshless::diagnostics::observe::{solution_errors, solution_of};
+use meshless::physics::material::Material;
 use meshless::run::{Backend, Engine, engine};
 use meshless::scene::Scene;
-use meshless::tensor::D2;
 use std::path::Path;
 
 /// The variants of the paper, as overrides of the shipped case (SPH (ni)).

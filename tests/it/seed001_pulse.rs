@@ -11,7 +11,7 @@ use meshless::run::run;
 const PERIOD: f64 = 1.156_349e-5;
 
 /// The momentum the end gives the rod per unit thickness: ρ0 A V c t_p = 7800 × 0.005 ×
-/// 50 × 5188.7 × 5.8e-6 [N·s/m] (src/analytic.rs, `DrivenEnd`).
+/// 50 × 5188.7 × 5.8e-6 [N·s/m] (src/diagnostics/analytic.rs, `DrivenEnd`).
 const MOMENTUM: f64 = 7800.0 * 0.005 * 50.0 * 5188.745 * 5.8e-6;
 
 /// The columns of a run of the shipped `case` at Δx = 0.5 mm, each at t = 0.8, 1.8 and

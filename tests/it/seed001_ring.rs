@@ -7,16 +7,16 @@
 use crate::common::{cpu_options, load, random_vector};
 use glam::{DMat2, DVec2};
 use meshless::case::VelocityNoise;
-use meshless::integrate::OdeSystem;
+use meshless::core::integrate::OdeSystem;
+use meshless::core::tensor::D2;
 use meshless::methods::Method;
-use meshless::methods::galerkin::TlGalerkin;
-use meshless::methods::galerkin::updated::{MovingPoints, UlGalerkin, UlGalerkinState};
+use meshless::methods::cores::galerkin::TlGalerkin;
+use meshless::methods::cores::galerkin::updated::{MovingPoints, UlGalerkin, UlGalerkinState};
 use meshless::methods::kbm::eulerian::{EulerianPoints, SEARCH_EVERY};
 use meshless::output::series::read_column;
 use meshless::reference::Reference;
 use meshless::run::{RunError, build_method, run};
 use meshless::scene::Scene;
-use meshless::tensor::D2;
 
 type Eulerian = UlGalerkin<D2, EulerianPoints<D2>>;
 

@@ -6,14 +6,14 @@
 
 use crate::common::{cpu_options, load, noise};
 use glam::{DMat2, DVec2};
-use meshless::integrate::OdeSystem;
+use meshless::core::integrate::OdeSystem;
+use meshless::core::tensor::D2;
 use meshless::methods::Method;
 use meshless::methods::tlsph::Tlsph;
 use meshless::output::series::read_column;
 use meshless::reference::Reference;
 use meshless::run::{build_method, run};
 use meshless::scene::Scene;
-use meshless::tensor::D2;
 use std::f64::consts::PI;
 use std::path::Path;
 

@@ -5,15 +5,15 @@
 
 use crate::common::{block_text, cpu_options, load};
 use glam::DVec2;
+use meshless::core::tensor::D2;
 use meshless::methods::Method;
-use meshless::methods::galerkin::TlGalerkin;
-use meshless::methods::galerkin::updated::UlGalerkin;
+use meshless::methods::cores::galerkin::TlGalerkin;
+use meshless::methods::cores::galerkin::updated::UlGalerkin;
 use meshless::methods::kbm::eulerian::EulerianPoints;
 use meshless::output::series::read_column;
-use meshless::plasticity::PLASTIC_STRAIN;
+use meshless::physics::plasticity::PLASTIC_STRAIN;
 use meshless::run::{RunError, build_method, run};
 use meshless::scene::Scene;
-use meshless::tensor::D2;
 use std::path::Path;
 
 /// E = 1e6 Pa, ν = 0.3, τ_y⁰ = 1e4 Pa and H = −E/10 (see the test below).
@@ -83,7 +83,7 @@ fn a_uniaxial_strain_path_gives_every_point_the_closed_form_plastic_history() {
     // functions reproduce a linear field, on the Lagrangian kernel (F = I + Σ u_a ⊗ G_a)
     // and on the Eulerian one (F = (Σ X_a ⊗ ∇N_a(x))⁻¹ on the current positions). The
     // principal frame is fixed, so the return is exact and ε_p = (2με − τ_y⁰)/(3μ + H)
-    // past yield (src/plasticity.rs): with E = 1e6 Pa, ν = 0.3, τ_y⁰ = 1e4 Pa yield is
+    // past yield (src/physics/plasticity.rs): with E = 1e6 Pa, ν = 0.3, τ_y⁰ = 1e4 Pa yield is
     // at ε = 0.013, and the softening H = −E/10 keeps the yield stress positive on this
     // path (ε_p ≤ 0.064 < τ_y⁰/|H| = 0.1). The nodal ε_p and σ_xx = τ_xx/J, τ_xx = κε +
     // ⅔τ_y(ε_p), must hold at every particle, corners included. F is exact to the shape

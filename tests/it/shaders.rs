@@ -2,24 +2,24 @@
 //! dimensions and for every scene variant the solver compiles.
 
 use crate::common::{block_case, block_text, load, mixed_variants, shipped, validate_wgsl};
-use meshless::correction::CorrectionKind;
+use meshless::core::correction::CorrectionKind;
+use meshless::core::tensor::{D2, D3};
 use meshless::gpu::context::reflect;
 use meshless::gpu::layout::GpuDim;
 use meshless::gpu::shaders::{self, Constants};
 use meshless::methods::MethodSpec;
+use meshless::methods::cores::galerkin::gpu as galerkin;
+use meshless::methods::cores::tl::gpu::{self as tlsph, Layout, scene_constants};
+use meshless::methods::cores::ul::gpu as ul;
 use meshless::methods::corotated::gpu as corotated;
 use meshless::methods::dual_support::gpu as dual_support;
 use meshless::methods::dual_support::krylov;
-use meshless::methods::galerkin::gpu as galerkin;
 use meshless::methods::godunov::gpu as godunov;
 use meshless::methods::gray_monaghan::gpu as gray_monaghan;
 use meshless::methods::mixed::{MixedSph, gpu as mixed};
 use meshless::methods::potential::gpu as potential;
-use meshless::methods::tlsph::gpu::{self as tlsph, Layout, scene_constants};
-use meshless::methods::ul::gpu as ul;
 use meshless::run::build_method;
 use meshless::scene::Scene;
-use meshless::tensor::{D2, D3};
 use std::path::Path;
 
 /// TLSPH scenes: each material model, kernel and correction the GPU passes compile.
@@ -132,7 +132,7 @@ fn check_tlsph<D: GpuDim>() {
             let MethodSpec::Tlsph(spec) = &case.spec else {
                 unreachable!("TLSPH variants")
             };
-            let scheme = tlsph::scheme::<D>(spec);
+            let scheme = meshless::methods::tlsph::gpu::scheme::<D>(spec);
             let layout = Layout::new(100, 10, D::N, rate, 1000, &scheme);
             let constants = scene_constants(&case, &layout, &scheme);
             for source in tlsph::SHADERS {

@@ -6,10 +6,10 @@
 use crate::common::cpu_options;
 use meshless::boundary::condition_totals;
 use meshless::case::{CaseError, discretise};
+use meshless::core::tensor::{D2, D3};
 use meshless::output::series::read_column;
 use meshless::run::{Backend, engine, explain, run};
 use meshless::scene::Scene;
-use meshless::tensor::{D2, D3};
 use std::path::Path;
 
 /// Young's modulus [Pa], density [kg/m³] and spacing [m] of the 2D cases.

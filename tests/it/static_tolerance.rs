@@ -2,11 +2,11 @@
 //! (`src/statics/mod.rs`, `Tolerance`), on a steel cantilever at a peak strain of 1e-6
 //! and on rubber stretched 500 %.
 
-use meshless::analytic::Cantilever;
 use meshless::case::Tolerance;
+use meshless::core::tensor::D2;
+use meshless::diagnostics::analytic::Cantilever;
 use meshless::run::{Backend, Engine, Iteration, engine};
 use meshless::scene::Scene;
-use meshless::tensor::D2;
 use std::path::Path;
 
 /// A steel cantilever, L = 0.48 m, D = 0.12 m (y ∈ [−0.06, 0.06]), E = 2e11 Pa, ν = 0.3,

@@ -3,7 +3,7 @@
 //! and the files a suite writes.
 
 use crate::common::{cases_dir, toml_files};
-use meshless::material::Material;
+use meshless::physics::material::Material;
 use meshless::scene::Scene;
 use meshless::study::fields::{FinalState, analytic_fields, matched_fields, relative_l2};
 use meshless::study::suite::{AnalyticSolution, TimeMeasure};
@@ -90,11 +90,11 @@ fn analytic_errors_of_a_manufactured_swinging_state() {
     assert!((ev - eps).abs() < 1e-12, "e(v) = {ev}");
     assert!((es - 2.0 * eps).abs() < 1e-12, "e(P) = {es}");
     // The exact fields themselves: |v| peaks at U0 ω |cos ωt| at the corner X = (1, 0).
-    let omega = meshless::analytic::SwingingMode::new(
+    let omega = meshless::diagnostics::analytic::SwingingMode::new(
         5e-4,
         &Material::new(&case.material),
         2,
-        meshless::analytic::SwingingKind::Dilatational,
+        meshless::diagnostics::analytic::SwingingKind::Dilatational,
     )
     .omega;
     let vmax = v_ex.chunks(2).map(|v| v[0].hypot(v[1])).fold(0.0, f64::max);

@@ -3,12 +3,12 @@
 
 use crate::common::{largest_t, largest_v, shipped};
 use glam::{DMat2, DMat3, DVec2, DVec3};
-use meshless::integrate::OdeSystem;
+use meshless::core::integrate::OdeSystem;
+use meshless::core::tensor::{D2, D3};
 use meshless::methods::Method;
 use meshless::methods::tlsph::Tlsph;
 use meshless::run::{Engine, build_method};
 use meshless::scene::Scene;
-use meshless::tensor::{D2, D3};
 use std::f64::consts::PI;
 use std::path::Path;
 

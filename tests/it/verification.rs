@@ -7,10 +7,10 @@
 //! pressure, with the observed order of convergence.
 //! docs/verification.md has the matrix's figures.
 
-use meshless::analytic::Cantilever;
+use meshless::core::tensor::D2;
+use meshless::diagnostics::analytic::Cantilever;
 use meshless::run::{Backend, Engine, engine};
 use meshless::scene::Scene;
-use meshless::tensor::D2;
 use std::path::Path;
 
 /// A row of the matrix: a method name, the keys it requires, its documented order of

@@ -6,7 +6,7 @@ use super::file_error;
 use super::files::{read_mesh, read_points};
 use super::lattice::{around, lattice_counts, polar_counts};
 use crate::case::{Case, CaseError, Lattice, RingLattice, Shape};
-use crate::tensor::{D2, D3, Dim};
+use crate::core::tensor::{D2, D3, Dim};
 use std::collections::HashMap;
 use std::path::Path;
 

@@ -3,7 +3,7 @@
 use super::Sampled;
 use crate::case::MeshNodes;
 use crate::case::expression::COORDINATES;
-use crate::tensor::Dim;
+use crate::core::tensor::Dim;
 use std::path::Path;
 
 /// The particles of a Gmsh mesh ([`super::mesh`]): at the centroid of each cell, with

@@ -4,7 +4,7 @@ use super::files::{read_mesh, read_points};
 use super::{Sampled, file_error};
 use crate::case::polygon;
 use crate::case::{BodySpec, Case, CaseError, Lattice, RingLattice, Shape, Volumes};
-use crate::tensor::Dim;
+use crate::core::tensor::Dim;
 
 /// The particles of body `b` as its shape's generator makes them.
 pub(super) fn sample<D: Dim>(

@@ -15,10 +15,10 @@ pub(crate) use files::read_capped;
 pub use lattice::PARTICLE_ID_LIMIT;
 
 use super::{BodySpec, Case, CaseError, Expression, Hole, Shape, VelocityField, VelocityNoise};
-use crate::analytic::SwingingMode;
-use crate::material::Material;
-use crate::quadrature::Cells;
-use crate::tensor::Dim;
+use crate::core::quadrature::Cells;
+use crate::core::tensor::Dim;
+use crate::diagnostics::analytic::SwingingMode;
+use crate::physics::material::Material;
 use std::path::Path;
 
 /// The particles of a case in the reference configuration.
@@ -36,7 +36,7 @@ pub struct Discretised<D: Dim> {
     pub u0: Vec<D::V>,
     /// The cells of the bodies whose generator makes them (polar rings, meshes read at
     /// their vertices); the other bodies' cells are found on their lattice
-    /// ([`crate::quadrature::lattice_cells`]).
+    /// ([`crate::core::quadrature::lattice_cells`]).
     pub cells: Cells,
 }
 

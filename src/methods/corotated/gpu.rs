@@ -1,5 +1,5 @@
 //! Corotated TLSPH on the GPU: its shape-matching pass and its force pass
-//! (`shaders/corotated/`) on the total-Lagrangian engine of [`crate::methods::tlsph::gpu`].
+//! (`shaders/corotated/`) on the total-Lagrangian engine of [`crate::methods::cores::tl::gpu`].
 //! The CPU system ([`super::system`]) is the reference it is checked against.
 
 use super::{CorotatedForce, CorotatedSpec, outputs};
@@ -8,7 +8,7 @@ use crate::gpu::shaders::{
     BOUNDARY, CONTACT, CORRECTION, INTEGRATE, KERNEL, MECHANICS, PAIR_OFFSETS, REFERENCE,
     REVERSE_GRADIENTS, Source, VISCOSITY, source,
 };
-use crate::methods::tlsph::gpu::{self as tl, Frame, Lists, REDUCE, TlScheme, viscosity};
+use crate::methods::cores::tl::gpu::{self as tl, Frame, Lists, REDUCE, TlScheme, viscosity};
 
 /// Per particle: shape matching A_i and its rotation R_i (eq 151), the corotated gradient
 /// F̂_i (eqs 152–153), P̂_i = P(F̂_i), R_i F̂_i⁻ᵀ and ρ0/det F̂_i.

@@ -12,17 +12,17 @@
 
 use super::{CorotatedForce, CorotatedSpec};
 use crate::case::{Case, CaseError};
+use crate::core::neighbour::Csr;
+use crate::core::parallel::{MIN_CHUNK, ordered_reduce};
+use crate::core::tensor::Dim;
+use crate::diagnostics::observe::Snapshot;
 use crate::engine::{BlowUp, Sizes, Traffic};
-use crate::material::Material;
-use crate::methods::tl::{
+use crate::methods::cores::tl::{
     Fields, ReferencePairs, TlCore, TlScheme, TlSph, TlState, ViscousPairs, viscous_pair_pass,
 };
-use crate::neighbour::Csr;
-use crate::observe::Snapshot;
-use crate::parallel::{MIN_CHUNK, ordered_reduce};
+use crate::physics::material::Material;
+use crate::physics::viscosity::ArtificialViscosity;
 use crate::reference::Reference;
-use crate::tensor::Dim;
-use crate::viscosity::ArtificialViscosity;
 use rayon::prelude::*;
 
 /// Most iterations of the 3D polar decomposition; scaled Newton converges in under ten

@@ -9,13 +9,13 @@
 use super::DualSupportSpec;
 use super::model::DualSupport;
 use crate::case::{Case, CaseError};
+use crate::core::neighbour::Csr;
+use crate::core::parallel::MIN_CHUNK;
+use crate::core::tensor::Dim;
+use crate::diagnostics::observe::Snapshot;
 use crate::engine::{BlowUp, Sizes, Traffic};
-use crate::methods::tl::{TlCore, TlScheme, TlSph, TlState, displacement_rates};
-use crate::neighbour::Csr;
-use crate::observe::Snapshot;
-use crate::parallel::MIN_CHUNK;
+use crate::methods::cores::tl::{TlCore, TlScheme, TlSph, TlState, displacement_rates};
 use crate::reference::Reference;
-use crate::tensor::Dim;
 use rayon::prelude::*;
 
 /// Dual-support SPH integrated in time on the CPU (f64, rayon).

@@ -1,5 +1,5 @@
 //! The explicit dynamic variant of dual-support SPH on the GPU: the total-Lagrangian
-//! engine of [`crate::methods::tlsph::gpu`] with the elastic potential's force pass
+//! engine of [`crate::methods::cores::tl::gpu`] with the elastic potential's force pass
 //! (`shaders/potential/potential.wgsl`), on lists and gradients built here on the host.
 //!
 //! With F_i = I + Σ_{j∈S_i} (u_j − u_i) ⊗ g_ij, the force −∂(Σ_i V_i ψ(F_i))/∂u of eq 18,
@@ -13,17 +13,17 @@
 use super::DualSupportSpec;
 use super::model::DualSupport;
 use crate::case::{Case, CaseError};
+use crate::core::neighbour::Csr;
+use crate::core::tensor::Dim;
+use crate::diagnostics::observe::Snapshot;
 use crate::gpu::layout::GpuDim;
 use crate::gpu::shaders::{MECHANICS, REFERENCE, Source, Wgsl, source, wgsl};
-use crate::methods::potential::gpu::ACCEL;
-use crate::methods::tl::TlState;
-use crate::methods::tlsph::gpu::{
+use crate::methods::cores::tl::TlState;
+use crate::methods::cores::tl::gpu::{
     DET_F, Frame, HostLists, HostModel, Lists, STRESS, TlScheme, viscosity,
 };
-use crate::neighbour::Csr;
-use crate::observe::Snapshot;
+use crate::methods::potential::gpu::ACCEL;
 use crate::reference::Reference;
-use crate::tensor::Dim;
 
 /// The energy of the reduction: V_i ψ_i plus the hourglass energy of i's support.
 const ENERGY: Wgsl = wgsl!("dual_support/dual_support_energy.wgsl");

@@ -20,13 +20,13 @@
 
 use super::gpu::DeviceLists;
 use super::model::DualSupport;
+use crate::core::tensor::Dim;
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::GpuDim;
 use crate::gpu::profile::Scale;
 use crate::gpu::shaders::{Constants, Source, compose, source};
 use crate::statics::MatrixFree;
 use crate::statics::sparse::{SolveError, SolveStats};
-use crate::tensor::Dim;
 use std::time::Instant;
 
 /// The lowest relative residual the device's f32 iteration is asked for.

@@ -22,16 +22,16 @@ pub use statics::{Statics, pattern};
 pub use support::Support;
 
 #[cfg(feature = "gpu")]
-use crate::methods::family::GpuBuild;
-use crate::methods::family::{CpuBuild, Feature, MethodFamily, Plan};
+use crate::methods::cores::family::GpuBuild;
+use crate::methods::cores::family::{CpuBuild, Feature, MethodFamily, Plan};
 
 use crate::case::{Case, CaseError};
-use crate::check::{Problem, fail, non_negative, toml_name};
+use crate::core::check::{Problem, fail, non_negative, toml_name};
+use crate::core::neighbour;
+use crate::core::tensor::Dim;
 use crate::engine::{CpuEngine, EngineDim};
-use crate::material::Material;
-use crate::neighbour;
+use crate::physics::material::Material;
 use crate::reference::Reference;
-use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};
 
 /// How the smoothing length of each particle is chosen (`method.smoothing_length`).
@@ -400,9 +400,9 @@ impl MethodFamily for DualSupportSpec {
             return Ok(Box::new(engine));
         }
         let scheme = gpu::scheme(self);
-        Ok(Box::new(crate::methods::tlsph::gpu::GpuTlsph::<D>::new(
-            case, scheme, gpu,
-        )?))
+        Ok(Box::new(
+            crate::methods::cores::tl::gpu::GpuTlsph::<D>::new(case, scheme, gpu)?,
+        ))
     }
 
     /// c_p, the wave speed of the dynamic variant's step (the static path has none).

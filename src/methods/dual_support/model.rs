@@ -4,12 +4,12 @@
 //! tangent ∂²E/∂u² assembled in two steps (eqs 39–41 and the corrected eq 29).
 
 use super::support::Support;
+use crate::core::parallel::ordered_reduce;
+use crate::core::tensor::Dim;
+use crate::diagnostics::observe::{ScalarField, Snapshot};
 use crate::engine::BlowUp;
-use crate::material::{Material, Tangent};
-use crate::observe::{ScalarField, Snapshot};
-use crate::parallel::ordered_reduce;
+use crate::physics::material::{Material, Tangent};
 use crate::statics::sparse::BlockPattern;
-use crate::tensor::Dim;
 use rayon::prelude::*;
 
 /// Strain and hourglass energy of a displacement field.

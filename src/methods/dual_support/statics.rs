@@ -6,12 +6,12 @@ use super::DualSupportSpec;
 use super::model::DualSupport;
 use super::support::Support;
 use crate::case::{Case, CaseError};
+use crate::core::tensor::Dim;
+use crate::diagnostics::observe::Snapshot;
 use crate::engine::BlowUp;
-use crate::observe::Snapshot;
 use crate::reference::Reference;
 use crate::statics::sparse::{BlockPattern, CgSettings, Linear};
 use crate::statics::{Linearisation, Model, Newton, Setup};
-use crate::tensor::Dim;
 use rayon::prelude::*;
 
 /// The static dual-support engine (CPU, f64).

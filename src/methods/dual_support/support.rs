@@ -1,9 +1,9 @@
 //! Supports and dual-supports with a smoothing length per particle, and the corrected
 //! kernel gradients of the reference configuration (seed 004 eqs 5–13), built once.
 
-use crate::kernel::{Kernel, KernelKind, neighbour_radius};
-use crate::neighbour::{Csr, Reach, build_within};
-use crate::tensor::Dim;
+use crate::core::kernel::{Kernel, KernelKind, neighbour_radius};
+use crate::core::neighbour::{Csr, Reach, build_within};
+use crate::core::tensor::Dim;
 use rayon::prelude::*;
 use thiserror::Error;
 

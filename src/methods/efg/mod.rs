@@ -4,15 +4,15 @@
 //! with the gradients smoothed over their cells (stabilised conforming nodal integration,
 //! Chen, Wu, Yoon and You 2001) or at 2×2 (2×2×2) Gauss points of the lattice cells
 //! ("EFG (ci)", eqs 66–69), F_q = I + Σ_a u_a ⊗ ∇0Φ_a(X_q) and f_a = Σ_q w_q
-//! ∇0Φ_a(X_q)·P_q. Everything is built once on the reference configuration. It runs on the shared Galerkin system ([`crate::methods::galerkin`]).
+//! ∇0Φ_a(X_q)·P_q. Everything is built once on the reference configuration. It runs on the shared Galerkin system ([`crate::methods::cores::galerkin`]).
 //! Numerics notes: `docs/methods/seed001.md`.
 
-use super::galerkin::{Mass, TlGalerkin, TlSystem, particle_mass, smoothing_cells, tl_plan};
+use super::cores::galerkin::{Mass, TlGalerkin, TlSystem, particle_mass, smoothing_cells, tl_plan};
 use crate::case::{Case, CaseError};
-use crate::methods::family::{Feature, MethodFamily, Plan};
-use crate::quadrature::{Cells, QuadraturePoints, Rule, Shapes};
+use crate::core::quadrature::{Cells, QuadraturePoints, Rule, Shapes};
+use crate::core::tensor::Dim;
+use crate::methods::cores::family::{Feature, MethodFamily, Plan};
 use crate::reference::Reference;
-use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};
 
 /// Where the element-free Galerkin method integrates (`method.integration`).
@@ -90,10 +90,10 @@ impl MethodFamily for EfgSpec {
         moving least-squares functions of a linear basis, integration at the particles \
         (unstabilised or SCNI) or at 2^d Gauss points of the lattice cells";
     const KEYS: &'static [&'static str] = &["integration", "mass"];
-    const FEATURES: &'static [Feature] = super::galerkin::FEATURES;
+    const FEATURES: &'static [Feature] = super::cores::galerkin::FEATURES;
     const CORRECTED: bool = false;
     #[cfg(feature = "gpu")]
-    const SHADERS: &'static [crate::gpu::shaders::Source] = super::galerkin::gpu::SHADERS;
+    const SHADERS: &'static [crate::gpu::shaders::Source] = super::cores::galerkin::gpu::SHADERS;
 
     fn plan(&self, case: &Case, gpu: bool) -> Plan {
         let points = match self.integration {
@@ -121,7 +121,7 @@ impl MethodFamily for EfgSpec {
         tl_plan(case, once, rates.into(), "det F at the points", Vec::new())
     }
 
-    super::galerkin::tl_galerkin_engines!();
+    super::cores::galerkin::tl_galerkin_engines!();
 
     fn warning(&self, _case: &Case) -> Option<String> {
         (self.integration == Integration::Nodal).then(|| {

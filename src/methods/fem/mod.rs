@@ -1,14 +1,14 @@
 //! The finite-element reference of seed 000 (§5, "TL FEM"): 4-node quadrilaterals (8-node
 //! hexahedra in 3D) on the lattice cells of the bodies, 2×2 (2×2×2) Gauss points, the
 //! total-Lagrangian weak form with a lumped mass, explicit, on the shared Galerkin system
-//! ([`crate::methods::galerkin`]). Numerics notes: `docs/methods/galerkin.md`.
+//! ([`crate::methods::cores::galerkin`]). Numerics notes: `docs/methods/galerkin.md`.
 
-use super::galerkin::{Mass, TlGalerkin, TlSystem, tl_plan};
+use super::cores::galerkin::{Mass, TlGalerkin, TlSystem, tl_plan};
 use crate::case::{Case, CaseError};
-use crate::methods::family::{Feature, MethodFamily, Plan};
-use crate::quadrature::{QuadraturePoints, Rule, Shapes};
+use crate::core::quadrature::{QuadraturePoints, Rule, Shapes};
+use crate::core::tensor::Dim;
+use crate::methods::cores::family::{Feature, MethodFamily, Plan};
 use crate::reference::Reference;
-use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};
 
 /// The `[method]` keys of the total-Lagrangian FEM.
@@ -37,10 +37,10 @@ impl MethodFamily for FemSpec {
         reference): bilinear quadrilaterals (trilinear hexahedra) on the lattice cells, 2^d \
         Gauss points, lumped mass, explicit";
     const KEYS: &'static [&'static str] = &["mass"];
-    const FEATURES: &'static [Feature] = super::galerkin::FEATURES;
+    const FEATURES: &'static [Feature] = super::cores::galerkin::FEATURES;
     const KERNEL: bool = false;
     #[cfg(feature = "gpu")]
-    const SHADERS: &'static [crate::gpu::shaders::Source] = super::galerkin::gpu::SHADERS;
+    const SHADERS: &'static [crate::gpu::shaders::Source] = super::cores::galerkin::gpu::SHADERS;
 
     fn plan(&self, case: &Case, gpu: bool) -> Plan {
         let once = format!(
@@ -66,7 +66,7 @@ impl MethodFamily for FemSpec {
         )
     }
 
-    super::galerkin::tl_galerkin_engines!();
+    super::cores::galerkin::tl_galerkin_engines!();
 
     fn lattice_cells(&self) -> bool {
         true

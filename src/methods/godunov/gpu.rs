@@ -1,12 +1,12 @@
 //! Godunov SPH on the GPU: its passes (`shaders/godunov/`) on the updated-Lagrangian core
-//! of [`crate::methods::ul::gpu`]. The CPU system ([`super::system`]) is the reference it
+//! of [`crate::methods::cores::ul::gpu`]. The CPU system ([`super::system`]) is the reference it
 //! is checked against.
 
 use crate::gpu::shaders::{
     BOUNDARY, CONTACT, Constants, INTEGRATE, KERNEL, LOADS, MECHANICS, PRESCRIBED, REFERENCE,
     Source, source,
 };
-use crate::methods::ul::gpu::{CORE, FLAT, REDUCE, Scheme};
+use crate::methods::cores::ul::gpu::{CORE, FLAT, REDUCE, Scheme};
 
 /// Per-particle quantities (σ, p, Z, V, the correction) and the Riemann pair gather.
 pub const PASSES: Source = source!(

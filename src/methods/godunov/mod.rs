@@ -1,6 +1,6 @@
 //! Godunov SPH with the acoustic Riemann solver of Parshikov and Medin (seed 000 §5.2,
 //! Algorithm 2, eqs 128–133): the spec and the CPU system ([`system`], a pair scheme of
-//! the updated-Lagrangian core [`super::ul`]). Numerics notes: `docs/methods/godunov.md`.
+//! the updated-Lagrangian core [`super::cores::ul`]). Numerics notes: `docs/methods/godunov.md`.
 
 #[cfg(feature = "gpu")]
 pub mod gpu;
@@ -9,16 +9,16 @@ pub mod system;
 pub use system::Godunov;
 
 #[cfg(feature = "gpu")]
-use crate::methods::family::GpuBuild;
-use crate::methods::family::{CpuBuild, Feature, MethodFamily, Plan, cfl_step};
+use crate::methods::cores::family::GpuBuild;
+use crate::methods::cores::family::{CpuBuild, Feature, MethodFamily, Plan, cfl_step};
 #[cfg(feature = "gpu")]
-use crate::methods::ul::gpu::GpuUl;
+use crate::methods::cores::ul::gpu::GpuUl;
 
 use crate::case::Case;
-use crate::check::Problem;
+use crate::core::check::Problem;
+use crate::core::neighbour::Rebuild;
 use crate::engine::{CpuEngine, EngineDim};
-use crate::material::Material;
-use crate::neighbour::Rebuild;
+use crate::physics::material::Material;
 use serde::{Deserialize, Serialize};
 
 /// The `[method]` keys of Godunov SPH: none besides the common ones.
@@ -37,7 +37,7 @@ impl MethodFamily for GodunovSpec {
     const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
 
     fn validate(&self, case: &Case) -> Result<(), Problem> {
-        super::ul::validate(case)
+        super::cores::ul::validate(case)
     }
 
     fn plan(&self, case: &Case, gpu: bool) -> Plan {
@@ -48,7 +48,7 @@ impl MethodFamily for GodunovSpec {
             cfl_step: cfl_step(&mat),
             rates: format!(
                 "{}, Ṡ, Ḟ, and ρ̇ and a from the pairs' acoustic Riemann solutions",
-                super::ul::plan_rebuild(case, gpu)
+                super::cores::ul::plan_rebuild(case, gpu)
             ),
             checked: "ρ",
             check_note: String::new(),

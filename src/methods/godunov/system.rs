@@ -1,6 +1,6 @@
 //! Godunov SPH on the CPU (seed 000 §5.2, Algorithm 2, eqs 128–133, in the clean form of
 //! the spec notes §3.2): the pair scheme of the updated-Lagrangian core
-//! ([`crate::methods::ul`]).
+//! ([`crate::methods::cores::ul`]).
 //!
 //! Every pair (i, j) is an acoustic Riemann problem along n_ij = x_ij/r_ij with impedances
 //! Z = ρ c, c = sqrt(K/ρ). Its contact velocity u* replaces the mean normal velocity in the
@@ -11,10 +11,10 @@
 
 use super::GodunovSpec;
 use crate::case::{Case, CaseError};
-use crate::methods::family::MethodFamily;
-use crate::methods::ul::{Correction, PairRates, PairScheme, UlCore, UlSph, UlState};
-use crate::neighbour::Rebuild;
-use crate::tensor::Dim;
+use crate::core::neighbour::Rebuild;
+use crate::core::tensor::Dim;
+use crate::methods::cores::family::MethodFamily;
+use crate::methods::cores::ul::{Correction, PairRates, PairScheme, UlCore, UlSph, UlState};
 
 /// The Godunov SPH system on the CPU (f64, rayon).
 pub type Godunov<D> = UlSph<D, Scheme>;

@@ -1,5 +1,5 @@
 //! Gray–Monaghan SPH on the GPU: its passes (`shaders/gray_monaghan/`) on the
-//! updated-Lagrangian core of [`crate::methods::ul::gpu`]. The CPU system
+//! updated-Lagrangian core of [`crate::methods::cores::ul::gpu`]. The CPU system
 //! ([`super::system`]) is the reference it is checked against.
 
 use super::GrayMonaghanSpec;
@@ -8,7 +8,7 @@ use crate::gpu::shaders::{
     BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, KERNEL, LOADS, MECHANICS, PRESCRIBED,
     REFERENCE, Source, VISCOSITY, source,
 };
-use crate::methods::ul::gpu::{CORE, FLAT, REDUCE, Scheme};
+use crate::methods::cores::ul::gpu::{CORE, FLAT, REDUCE, Scheme};
 
 /// Per-particle quantities (σ/ρ², R, c, V, the correction) and the pair gather.
 pub const PASSES: Source = source!(

@@ -1,6 +1,6 @@
 //! Gray–Monaghan stress-corrected updated-Lagrangian SPH (seed 000 §5.1, Algorithm 1,
 //! eqs 118–127): the spec and the CPU system ([`system`], a pair scheme of the
-//! updated-Lagrangian core [`super::ul`]). Numerics notes:
+//! updated-Lagrangian core [`super::cores::ul`]). Numerics notes:
 //! `docs/methods/gray-monaghan.md`.
 
 #[cfg(feature = "gpu")]
@@ -10,20 +10,20 @@ pub mod system;
 pub use system::GrayMonaghan;
 
 #[cfg(feature = "gpu")]
-use crate::methods::family::GpuBuild;
-use crate::methods::family::{
+use crate::methods::cores::family::GpuBuild;
+use crate::methods::cores::family::{
     CpuBuild, Feature, MethodFamily, Plan, cfl_step, check_viscosity, left_out_viscosity,
 };
 #[cfg(feature = "gpu")]
-use crate::methods::ul::gpu::GpuUl;
+use crate::methods::cores::ul::gpu::GpuUl;
 
 use crate::case::Case;
-use crate::check::{Problem, fail, non_negative};
+use crate::core::check::{Problem, fail, non_negative};
+use crate::core::integrate::IntegratorKind;
+use crate::core::neighbour::Rebuild;
 use crate::engine::{CpuEngine, EngineDim};
-use crate::integrate::IntegratorKind;
-use crate::material::Material;
-use crate::neighbour::Rebuild;
-use crate::viscosity::ArtificialViscosity;
+use crate::physics::material::Material;
+use crate::physics::viscosity::ArtificialViscosity;
 use serde::{Deserialize, Serialize};
 
 /// The artificial stress of Gray, Monaghan and Swift (eqs 118–125): R_i from the tensile
@@ -59,7 +59,7 @@ impl MethodFamily for GrayMonaghanSpec {
     const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
 
     fn validate(&self, case: &Case) -> Result<(), Problem> {
-        super::ul::validate(case)?;
+        super::cores::ul::validate(case)?;
         check_viscosity(self.artificial_viscosity.as_ref())?;
         if let Some(ArtificialStress { epsilon, n }) = self.artificial_stress {
             non_negative("method.artificial_stress.epsilon", epsilon)?;
@@ -98,7 +98,10 @@ impl MethodFamily for GrayMonaghanSpec {
                 .into(),
             state: "u, v, ρ, S, and F integrated by Ḟ = L F for the outputs".into(),
             cfl_step: cfl_step(&mat),
-            rates: format!("{}, ρ̇, Ṡ, Ḟ, a, ẋ", super::ul::plan_rebuild(case, gpu)),
+            rates: format!(
+                "{}, ρ̇, Ṡ, Ḟ, a, ẋ",
+                super::cores::ul::plan_rebuild(case, gpu)
+            ),
             checked: "ρ",
             check_note: String::new(),
             left_out,

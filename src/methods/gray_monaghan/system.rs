@@ -1,6 +1,6 @@
 //! Gray–Monaghan stress-corrected updated-Lagrangian SPH on the CPU (seed 000 §5.1,
 //! Algorithm 1, eqs 103–105 and 118–127): the pair scheme of the updated-Lagrangian core
-//! ([`crate::methods::ul`]).
+//! ([`crate::methods::cores::ul`]).
 //!
 //! The momentum equation (eq 118) uses the plain, antisymmetric kernel gradient ∇W_ij, so
 //! the pair forces (stress, artificial stress and artificial viscosity) conserve linear
@@ -9,12 +9,12 @@
 
 use super::{ArtificialStress, GrayMonaghanSpec};
 use crate::case::{Case, CaseError};
-use crate::methods::family::MethodFamily;
-use crate::methods::ul::{Correction, PairRates, PairScheme, UlCore, UlSph, UlState};
-use crate::neighbour::Rebuild;
-use crate::plasticity::{symmetric_eigen, to_mat3};
-use crate::tensor::Dim;
-use crate::viscosity::ArtificialViscosity;
+use crate::core::neighbour::Rebuild;
+use crate::core::tensor::Dim;
+use crate::methods::cores::family::MethodFamily;
+use crate::methods::cores::ul::{Correction, PairRates, PairScheme, UlCore, UlSph, UlState};
+use crate::physics::plasticity::{symmetric_eigen, to_mat3};
+use crate::physics::viscosity::ArtificialViscosity;
 
 /// f^n, by repeated squaring for the integer exponents of every seed set-up (n = 4): the
 /// products of `f64::powi`, here inline in the pair loop, where `powi` with an exponent

@@ -2,7 +2,7 @@
 //! kernel W(x − x_a, h0) of the current positions, so that the Shepard functions, M and
 //! the corrected gradient G_a = M⁻¹∇W^S_a are recomputed at every rate evaluation on the
 //! current configuration, with σ, current weights and L_q = Σ_a v_a ⊗ G_a(x_q) (the
-//! updated-Lagrangian Galerkin system, [`crate::methods::galerkin::updated`]). The lists
+//! updated-Lagrangian Galerkin system, [`crate::methods::cores::galerkin::updated`]). The lists
 //! from the points to the particles are searched anew on the current configuration every
 //! `search_every` steps (the paper's 30, §9.3), within the kernel's reach widened by
 //! [`SKIN`]. The stress points move with the Shepard interpolant of the particles'
@@ -10,14 +10,14 @@
 
 use super::KbmSpec;
 use crate::case::{Case, CaseError};
+use crate::core::kernel::{Kernel, neighbour_radius};
+use crate::core::neighbour::{self, Csr, SKIN};
+use crate::core::quadrature::{QuadraturePoints, ShapeRow, Shapes, krongauz_belytschko_shapes};
+use crate::core::tensor::Dim;
 use crate::engine::BlowUp;
-use crate::kernel::{Kernel, neighbour_radius};
-use crate::methods::galerkin::Mass;
-use crate::methods::galerkin::updated::{Degenerate, MovingPoints, Nodes, UlGalerkinState};
-use crate::neighbour::{self, Csr, SKIN};
-use crate::quadrature::{QuadraturePoints, ShapeRow, Shapes, krongauz_belytschko_shapes};
+use crate::methods::cores::galerkin::Mass;
+use crate::methods::cores::galerkin::updated::{Degenerate, MovingPoints, Nodes, UlGalerkinState};
 use crate::reference::Reference;
-use crate::tensor::Dim;
 
 /// The points of the Eulerian-kernel KBM: the particles and (KBM (si)) the stress points,
 /// with their lists to the particles from the last search.

@@ -8,24 +8,24 @@
 //! their cells and the trial gradients corrected from those (stabilised conforming nodal
 //! integration, Chen, Wu, Yoon and You 2001). Everything is built once on the reference
 //! configuration (§2.2). It runs on the shared Galerkin system
-//! ([`crate::methods::galerkin`]). `kernel_frame = "eulerian"` selects the same method on
+//! ([`crate::methods::cores::galerkin`]). `kernel_frame = "eulerian"` selects the same method on
 //! an Eulerian kernel ([`eulerian`], updated-Lagrangian, CPU only). Numerics notes:
 //! `docs/methods/seed001.md`.
 
 pub mod eulerian;
 
-use super::galerkin::updated::{self, UlGalerkin};
-use super::galerkin::{Mass, TlGalerkin, TlSystem, particle_mass, smoothing_cells, tl_plan};
+use super::cores::galerkin::updated::{self, UlGalerkin};
+use super::cores::galerkin::{Mass, TlGalerkin, TlSystem, particle_mass, smoothing_cells, tl_plan};
 use crate::case::{Case, CaseError};
-use crate::check::{Problem, fail};
+use crate::core::check::{Problem, fail};
+use crate::core::quadrature::{Cells, QuadraturePoints, Shapes};
+use crate::core::tensor::Dim;
 use crate::engine::{CpuEngine, EngineDim};
-use crate::material::Material;
 #[cfg(feature = "gpu")]
-use crate::methods::family::GpuBuild;
-use crate::methods::family::{CpuBuild, Feature, MethodFamily, Plan, cfl_step};
-use crate::quadrature::{Cells, QuadraturePoints, Shapes};
+use crate::methods::cores::family::GpuBuild;
+use crate::methods::cores::family::{CpuBuild, Feature, MethodFamily, Plan, cfl_step};
+use crate::physics::material::Material;
 use crate::reference::Reference;
-use crate::tensor::Dim;
 use eulerian::EulerianPoints;
 use serde::{Deserialize, Serialize};
 
@@ -141,10 +141,10 @@ impl MethodFamily for KbmSpec {
         integration at the particles and at stress points in the cell centres, or at the \
         particles alone (unstabilised or SCNI)";
     const KEYS: &'static [&'static str] = &["integration", "mass", "kernel_frame", "search_every"];
-    const FEATURES: &'static [Feature] = super::galerkin::FEATURES;
+    const FEATURES: &'static [Feature] = super::cores::galerkin::FEATURES;
     const CORRECTED: bool = false;
     #[cfg(feature = "gpu")]
-    const SHADERS: &'static [crate::gpu::shaders::Source] = super::galerkin::gpu::SHADERS;
+    const SHADERS: &'static [crate::gpu::shaders::Source] = super::cores::galerkin::gpu::SHADERS;
 
     fn validate(&self, case: &Case) -> Result<(), Problem> {
         if self.kernel_frame == KernelFrame::Eulerian && self.integration == Integration::Scni {
@@ -220,7 +220,7 @@ impl MethodFamily for KbmSpec {
 
     fn cpu_engine<D: EngineDim>(&self, case: &Case) -> CpuBuild<D> {
         match self.kernel_frame {
-            KernelFrame::Lagrangian => super::galerkin::cpu_engine(case, self),
+            KernelFrame::Lagrangian => super::cores::galerkin::cpu_engine(case, self),
             KernelFrame::Eulerian => Ok(Box::new(
                 CpuEngine::<D, UlGalerkin<D, EulerianPoints<D>>>::new(case, self)?,
             )),
@@ -230,7 +230,7 @@ impl MethodFamily for KbmSpec {
     #[cfg(feature = "gpu")]
     fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> GpuBuild<D> {
         match self.kernel_frame {
-            KernelFrame::Lagrangian => super::galerkin::gpu_engine(case, self, gpu),
+            KernelFrame::Lagrangian => super::cores::galerkin::gpu_engine(case, self, gpu),
             KernelFrame::Eulerian => Err(case
                 .invalid(
                     "method.kernel_frame",

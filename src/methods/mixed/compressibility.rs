@@ -25,13 +25,13 @@
 use super::Momentum;
 use super::system::pair_force;
 use crate::case::Case;
-use crate::check::{Problem, fail, positive, toml_name};
-use crate::integrate::PseudoTime;
-use crate::material::{Material, MaterialModel};
-use crate::mirror::Ghosts;
-use crate::neighbour::Csr;
-use crate::parallel::MIN_CHUNK;
-use crate::tensor::{Dim, Linear};
+use crate::core::check::{Problem, fail, positive, toml_name};
+use crate::core::integrate::PseudoTime;
+use crate::core::neighbour::Csr;
+use crate::core::parallel::MIN_CHUNK;
+use crate::core::tensor::{Dim, Linear};
+use crate::physics::material::{Material, MaterialModel};
+use crate::physics::mirror::Ghosts;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -131,7 +131,7 @@ impl ArtificialCompressibility {
                  paper's {p, F, H, p}) or \"p-F\" ({p, F, p}, H = cof F)",
             );
         }
-        use crate::integrate::IntegratorKind::{SspRk3, TvdRk2};
+        use crate::core::integrate::IntegratorKind::{SspRk3, TvdRk2};
         if !matches!(case.method.integrator, TvdRk2 | SspRk3) {
             return fail(
                 "method.integrator",

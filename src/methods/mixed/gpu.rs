@@ -16,9 +16,12 @@ use super::compressibility::UNCONVERGED;
 use super::gpu_corrector::{CORRECTOR, DeviceCorrector};
 use super::system::{Fluxes, MixedSph, MixedState};
 use super::{CflWaveSpeed, DeformationGradient, MixedOptions, MixedScheme, Momentum};
-use crate::balance::Booked;
 use crate::boundary::Boundary;
 use crate::case::Case;
+use crate::core::integrate::{Buf, Evaluation, IntegratorKind, PseudoTime, evaluations};
+use crate::core::tensor::Dim;
+use crate::diagnostics::balance::Booked;
+use crate::diagnostics::observe::Snapshot;
 use crate::engine::{BlowUp, GpuEngine, GpuFamily, Method, Start};
 use crate::gpu::context::{Gpu, GpuError, Pipeline, WORKGROUP};
 use crate::gpu::layout::{Fields, GpuDim};
@@ -32,12 +35,9 @@ use crate::gpu::shaders::{
 };
 use crate::gpu::shell::Shell;
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
-use crate::integrate::{Buf, Evaluation, IntegratorKind, PseudoTime, evaluations};
-use crate::material::MaterialModel;
-use crate::observe::Snapshot;
-use crate::plasticity::History;
+use crate::physics::material::MaterialModel;
+use crate::physics::plasticity::History;
 use crate::reference::build_method;
-use crate::tensor::Dim;
 use encase::ShaderType;
 
 mod evaluator;

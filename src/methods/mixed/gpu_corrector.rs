@@ -12,11 +12,11 @@
 
 use super::compressibility::{Corrector, Unconverged};
 use super::gpu::{IMAGES, MIXED, MOTION};
+use crate::core::integrate::PseudoTime;
+use crate::core::tensor::Dim;
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::profile::IndirectRuns;
 use crate::gpu::shaders::{REFERENCE, Source, source};
-use crate::integrate::PseudoTime;
-use crate::tensor::Dim;
 use encase::ShaderType;
 
 /// The corrector's passes.

@@ -20,14 +20,14 @@ pub use gpu::GpuMixed;
 pub use system::{Fluxes, MixedSph, MixedState};
 
 #[cfg(feature = "gpu")]
-use crate::methods::family::GpuBuild;
-use crate::methods::family::{CpuBuild, Feature, MethodFamily, Plan};
+use crate::methods::cores::family::GpuBuild;
+use crate::methods::cores::family::{CpuBuild, Feature, MethodFamily, Plan};
 
 use crate::case::Case;
-use crate::check::{Problem, fail, non_negative, toml_name};
+use crate::core::check::{Problem, fail, non_negative, toml_name};
+use crate::core::tensor::{Dim, smallest_stretch_squared};
 use crate::engine::{CpuEngine, EngineDim};
-use crate::material::{Material, MaterialModel};
-use crate::tensor::{Dim, smallest_stretch_squared};
+use crate::physics::material::{Material, MaterialModel};
 use serde::{Deserialize, Serialize};
 
 /// Which geometric conservation laws a mixed method evolves besides p and F (seed 003 §6);

@@ -1,7 +1,7 @@
 //! The angular-momentum-preserving projection of seed 003 Appendix B.
 
-use crate::parallel::MIN_CHUNK;
-use crate::tensor::Dim;
+use crate::core::parallel::MIN_CHUNK;
+use crate::core::tensor::Dim;
 use rayon::prelude::*;
 
 /// The per-chunk partial sums of a projection, kept by its owner so that projecting

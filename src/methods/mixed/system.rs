@@ -7,7 +7,7 @@
 //! F and, per variant, H and J. Neighbours, corrected gradients G_b(X_a) = V_b ∇̃0W̃_b(X_a)
 //! and every per-pair weight are computed once on the reference configuration; every
 //! pair sum is a gather over particle a's own list, in both directions of the pair.
-//! Mirror planes are closed by ghost particles ([`crate::mirror`]): the per-pair data
+//! Mirror planes are closed by ghost particles ([`crate::physics::mirror`]): the per-pair data
 //! and every per-particle field are extended to them, and only real particles are
 //! integrated.
 
@@ -18,23 +18,23 @@ use super::{
     CflWaveSpeed, Conserved, DeformationGradient, JstLaplacian, MixedScheme, Momentum, Stabiliser,
 };
 use crate::boundary::OnPatches;
-use crate::correction;
+use crate::core::correction;
+use crate::core::integrate::{IntegratorKind, OdeSystem, PseudoTime};
+use crate::core::kernel::Kernel;
 use crate::engine::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
-use crate::integrate::{IntegratorKind, OdeSystem, PseudoTime};
 use crate::interaction::Interactions;
-use crate::kernel::Kernel;
 
 use crate::case::{Case, CaseError};
-use crate::material::Material;
-use crate::methods::particles::Surroundings;
-use crate::methods::shared::{neighbour_radius, reference_gradients};
-use crate::mirror::{Ghosts, Image};
-use crate::neighbour::{self, Csr};
-use crate::observe::{ScalarField, Snapshot};
-use crate::parallel::{MIN_CHUNK, ordered_reduce, particle_state};
-use crate::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
+use crate::core::neighbour::{self, Csr};
+use crate::core::parallel::{MIN_CHUNK, ordered_reduce, particle_state};
+use crate::core::tensor::{Dim, smallest_stretch_squared};
+use crate::diagnostics::observe::{ScalarField, Snapshot};
+use crate::methods::cores::particles::Surroundings;
+use crate::methods::cores::shared::{neighbour_radius, reference_gradients};
+use crate::physics::material::Material;
+use crate::physics::mirror::{Ghosts, Image};
+use crate::physics::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
 use crate::reference::Reference;
-use crate::tensor::{Dim, smallest_stretch_squared};
 use rayon::prelude::*;
 
 particle_state! {

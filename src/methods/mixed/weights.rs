@@ -2,9 +2,9 @@
 //! the least-squares reconstruction weights of Upwind-SPH and the Laplacian weights of
 //! JST-SPH.
 
-use crate::correction::{Small, solve_small};
-use crate::neighbour::Csr;
-use crate::tensor::Dim;
+use crate::core::correction::{Small, solve_small};
+use crate::core::neighbour::Csr;
+use crate::core::tensor::Dim;
 use rayon::prelude::*;
 
 /// One value per CSR pair (i, j).
@@ -99,10 +99,10 @@ pub(super) fn correct_laplacian<D: Dim>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::correction::{self, CorrectionKind};
-    use crate::kernel::{Kernel, KernelKind};
-    use crate::neighbour;
-    use crate::tensor::D3;
+    use crate::core::correction::{self, CorrectionKind};
+    use crate::core::kernel::{Kernel, KernelKind};
+    use crate::core::neighbour;
+    use crate::core::tensor::D3;
     use glam::DVec3;
 
     /// Σ_b ℓ_ab X_ab and Σ_b ℓ_ab |X_ab|² − 2d of every particle, and the smallest

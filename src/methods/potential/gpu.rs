@@ -1,5 +1,5 @@
 //! TLSPH from the elastic potential on the GPU: its force pass (`shaders/potential/`) on
-//! the total-Lagrangian engine of [`crate::methods::tlsph::gpu`], whose stress pass gives
+//! the total-Lagrangian engine of [`crate::methods::cores::tl::gpu`], whose stress pass gives
 //! F and P = ∂ψ/∂F. The CPU system ([`super::system`]) is the reference it is checked
 //! against.
 
@@ -10,7 +10,9 @@ use crate::gpu::shaders::{
     BOUNDARY, CONTACT, CORRECTION, INTEGRATE, MECHANICS, PAIR_OFFSETS, REFERENCE,
     REVERSE_GRADIENTS, Source, VISCOSITY, Wgsl, source, wgsl,
 };
-use crate::methods::tlsph::gpu::{self as tl, DET_F, Frame, Lists, STRESS, TlScheme, viscosity};
+use crate::methods::cores::tl::gpu::{
+    self as tl, DET_F, Frame, Lists, STRESS, TlScheme, viscosity,
+};
 
 /// The strain energy of the reduction (V_i ψ_i, or ψ_i for the reference code's force).
 const ENERGY: Wgsl = wgsl!("potential/potential_energy.wgsl");

@@ -9,8 +9,8 @@ pub mod system;
 pub use system::Potential;
 
 #[cfg(feature = "gpu")]
-use crate::methods::family::GpuBuild;
-use crate::methods::family::{
+use crate::methods::cores::family::GpuBuild;
+use crate::methods::cores::family::{
     CpuBuild, Feature, MethodFamily, Plan, cfl_step, check_viscosity, left_out_viscosity,
     state_model,
 };
@@ -18,10 +18,10 @@ use crate::methods::family::{
 use crate::methods::tlsph::GpuTlsph;
 
 use crate::case::Case;
-use crate::check::{Problem, toml_name};
+use crate::core::check::{Problem, toml_name};
 use crate::engine::{CpuEngine, EngineDim};
-use crate::material::Material;
-use crate::viscosity::ArtificialViscosity;
+use crate::physics::material::Material;
+use crate::physics::viscosity::ArtificialViscosity;
 use serde::{Deserialize, Serialize};
 
 /// The volume factors of the symmetrised potential force (seed 000 §3.4).

@@ -10,17 +10,17 @@
 
 use super::{PotentialForce, PotentialSpec};
 use crate::case::{Case, CaseError};
+use crate::core::neighbour::Csr;
+use crate::core::parallel::MIN_CHUNK;
+use crate::core::tensor::Dim;
+use crate::diagnostics::observe::Snapshot;
 use crate::engine::{BlowUp, Sizes, Traffic};
-use crate::material::stress_fields;
-use crate::methods::tl::{
+use crate::methods::cores::tl::{
     ReferencePairs, TlCore, TlScheme, TlSph, TlState, ViscousPairs, snapshot, viscous_pair_pass,
 };
-use crate::neighbour::Csr;
-use crate::observe::Snapshot;
-use crate::parallel::MIN_CHUNK;
+use crate::physics::material::stress_fields;
+use crate::physics::viscosity::ArtificialViscosity;
 use crate::reference::Reference;
-use crate::tensor::Dim;
-use crate::viscosity::ArtificialViscosity;
 use rayon::prelude::*;
 
 /// Per-particle quantities of one rate evaluation.

@@ -1,24 +1,27 @@
 //! Total-Lagrangian SPH after Reveles (seed 000 §5.3): the spec, the CPU system
-//! ([`system`]) and the GPU engine ([`gpu`]). Numerics notes: `docs/methods/tlsph.md`.
+//! ([`system`]) and its scheme on the total-Lagrangian core's GPU engine ([`gpu`]).
+//! Numerics notes: `docs/methods/tlsph.md`.
 
 #[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod system;
 
-pub use crate::methods::tl::TlState;
+pub use crate::methods::cores::tl::TlState;
 #[cfg(feature = "gpu")]
-pub use gpu::GpuTlsph;
+pub use crate::methods::cores::tl::gpu::GpuTlsph;
 pub use system::{Tlsph, TlsphScheme};
 
 #[cfg(feature = "gpu")]
-use crate::methods::family::GpuBuild;
-use crate::methods::family::{CpuBuild, Feature, MethodFamily, Plan, cfl_step, check_viscosity};
+use crate::methods::cores::family::GpuBuild;
+use crate::methods::cores::family::{
+    CpuBuild, Feature, MethodFamily, Plan, cfl_step, check_viscosity,
+};
 
 use crate::case::Case;
-use crate::check::{Problem, positive};
+use crate::core::check::{Problem, positive};
 use crate::engine::EngineDim;
-use crate::material::Material;
-use crate::viscosity::ArtificialViscosity;
+use crate::physics::material::Material;
+use crate::physics::viscosity::ArtificialViscosity;
 use serde::{Deserialize, Serialize};
 
 /// The direction along which TLSPH's artificial viscosity acts on a pair.
@@ -86,7 +89,7 @@ impl MethodFamily for TlsphSpec {
         Feature::InitialDisplacement,
     ];
     #[cfg(feature = "gpu")]
-    const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
+    const SHADERS: &'static [crate::gpu::shaders::Source] = crate::methods::cores::tl::gpu::SHADERS;
 
     fn validate(&self, _case: &Case) -> Result<(), Problem> {
         if let Some(alpha) = self.hourglass {

@@ -7,17 +7,18 @@
 
 use super::{ArtificialViscosity, TlsphForce, TlsphSpec, ViscosityGradient};
 use crate::case::{Case, CaseError};
+use crate::core::neighbour::Csr;
+use crate::core::parallel::MIN_CHUNK;
+use crate::core::tensor::Dim;
+use crate::diagnostics::observe::Snapshot;
 use crate::engine::{BlowUp, Method, Sizes, Traffic};
-use crate::material::stress_fields;
-use crate::methods::tl::{
+use crate::methods::cores::tl::hourglass::{hourglass_acceleration, hourglass_stiffness};
+use crate::methods::cores::tl::{
     ReferencePairs, TlCore, TlScheme, TlSph, TlState, inadmissible, snapshot,
 };
-use crate::neighbour::Csr;
-use crate::observe::Snapshot;
-use crate::parallel::MIN_CHUNK;
+use crate::physics::material::stress_fields;
 use crate::reference::Reference;
 use crate::statics::explicit::AtRest;
-use crate::tensor::Dim;
 use rayon::prelude::*;
 use std::mem::take;
 
@@ -42,44 +43,6 @@ struct Own<D: Dim> {
     f: D::T,
     /// F⁻ᵀ, which pushes reference gradients forward: ∇W = F⁻ᵀ ∇0W.
     f_inv_t: D::T,
-}
-
-/// The stiffness κ_ij = α E V_j W(|X_ij|)/(ρ0 |X_ij|²) of the hourglass control of every
-/// pair, in CSR order: the acceleration of i per unit δ_ij ([`hourglass_acceleration`]).
-/// m_i κ_ij = α E V_i V_j W/|X_ij|² is symmetric, so the pair forces are equal and
-/// opposite.
-pub fn hourglass_stiffness<D: Dim>(
-    case: &Case,
-    alpha: f64,
-    x0: &[D::V],
-    vol: &[f64],
-    csr: &Csr,
-) -> Vec<f64> {
-    let kernel = &case.kernel(D::N);
-    let (e, _) = case.material.youngs_and_poisson();
-    let rho0 = case.material.density;
-    (0..csr.len())
-        .into_par_iter()
-        .flat_map_iter(|i| {
-            csr.range(i).map(move |p| {
-                let j = csr.ids[p] as usize;
-                let r0_squared = D::norm2(x0[j] - x0[i]);
-                alpha * e * vol[j] * kernel.w(r0_squared.sqrt()) / (rho0 * r0_squared)
-            })
-        })
-        .collect()
-}
-
-/// The hourglass control's acceleration of i from its bond to j (Ganzenmüller 2015, the
-/// stiffness form of LAMMPS's SMD package): −κ_ij δ_ij e_ij, with the error vector
-/// γ_ij = ½(F_i + F_j) X_ij − x_ij = ½(H_i + H_j) X_ij − (u_j − u_i) (H = F − I, which
-/// keeps the digits of a small mismatch), e_ij = x_ij/|x_ij| and δ_ij = ½ γ_ij·e_ij. It
-/// vanishes when F_i and F_j map the bond exactly, as for every affine motion.
-pub fn hourglass_acceleration<D: Dim>(kappa: f64, dx0: D::V, du: D::V, h_sum: D::T) -> D::V {
-    let dx = dx0 + du;
-    let e = dx * (1.0 / D::norm2(dx).sqrt());
-    let gamma = h_sum * dx0 * 0.5 - du;
-    e * (-0.5 * kappa * D::dot(gamma, e))
 }
 
 /// Each pair's vector scaled by the neighbour's volume V_j, in CSR order.

@@ -2,19 +2,21 @@
 //! quadrilaterals (8-node hexahedra in 3D) on the lattice cells of the bodies, 2×2 (2×2×2)
 //! Gauss points whose positions, gradients ∇N_a = J⁻ᵀ ∂N_a/∂ξ and weights w_q = det J
 //! follow the current node positions at every rate evaluation, a lumped mass, explicit, on
-//! the shared updated-Lagrangian Galerkin system ([`crate::methods::galerkin::updated`]).
+//! the shared updated-Lagrangian Galerkin system ([`crate::methods::cores::galerkin::updated`]).
 //! CPU only. Numerics notes: `docs/methods/galerkin.md`.
 
-use super::galerkin::Mass;
-use super::galerkin::updated::{self, Degenerate, MovingPoints, Nodes, UlGalerkin};
+use super::cores::galerkin::Mass;
+use super::cores::galerkin::updated::{self, Degenerate, MovingPoints, Nodes, UlGalerkin};
 use crate::case::{Case, CaseError};
+use crate::core::neighbour::Csr;
+use crate::core::quadrature::{
+    Cells, QuadraturePoints, Rule, ShapeRow, Shapes, isoparametric_shapes,
+};
+use crate::core::tensor::Dim;
 use crate::engine::{CpuEngine, EngineDim};
-use crate::material::Material;
-use crate::methods::family::{CpuBuild, Feature, MethodFamily, Plan, cfl_step};
-use crate::neighbour::Csr;
-use crate::quadrature::{Cells, QuadraturePoints, Rule, ShapeRow, Shapes, isoparametric_shapes};
+use crate::methods::cores::family::{CpuBuild, Feature, MethodFamily, Plan, cfl_step};
+use crate::physics::material::Material;
 use crate::reference::Reference;
-use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};
 
 /// The `[method]` keys of the updated-Lagrangian FEM.

@@ -13,7 +13,7 @@
 //!   holds in 3D alike (where 1.6651, a 2-degree-of-freedom χ² scale, keeps a different
 //!   share of the candidates).
 
-use crate::tensor::Dim;
+use crate::core::tensor::Dim;
 
 /// The scale of the half-axes over sqrt(λ): 1.6651² = 2.7726 = −2 ln 0.25, the 75 %
 /// ellipse of a 2D normal distribution (the reference code's; the paper's example is the

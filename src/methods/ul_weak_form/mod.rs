@@ -5,19 +5,19 @@
 //! neighbourhoods with their own smoothing length (eq 64, [`ellipse`]) from candidate
 //! lists fixed at set-up; the velocity smoothing after each step with the particles'
 //! current functions. It runs on the shared updated-Lagrangian Galerkin system
-//! ([`crate::methods::galerkin::updated`]), CPU only. Numerics notes:
+//! ([`crate::methods::cores::galerkin::updated`]), CPU only. Numerics notes:
 //! `docs/methods/galerkin.md`.
 
 pub mod ellipse;
 pub mod points;
 
-use super::galerkin::updated::{self, UlGalerkin};
+use super::cores::galerkin::updated::{self, UlGalerkin};
 use crate::case::Case;
-use crate::check::{Problem, fail, toml_name};
+use crate::core::check::{Problem, fail, toml_name};
+use crate::core::neighbour::Rebuild;
 use crate::engine::{CpuEngine, EngineDim};
-use crate::material::Material;
-use crate::methods::family::{CpuBuild, Feature, MethodFamily, Plan, cfl_step};
-use crate::neighbour::Rebuild;
+use crate::methods::cores::family::{CpuBuild, Feature, MethodFamily, Plan, cfl_step};
+use crate::physics::material::Material;
 use points::StressPoints;
 use serde::{Deserialize, Serialize};
 

@@ -4,16 +4,16 @@
 
 use super::ellipse::Ellipse;
 use crate::case::{Case, CaseError};
-use crate::correction;
+use crate::core::correction;
+use crate::core::kernel::{Kernel, KernelKind};
+use crate::core::neighbour::{self, Csr};
+use crate::core::parallel::MIN_CHUNK;
+use crate::core::quadrature::{QuadraturePoints, Rule, ShapeRow, Shapes};
+use crate::core::tensor::Dim;
 use crate::engine::BlowUp;
-use crate::kernel::{Kernel, KernelKind};
-use crate::methods::galerkin::Mass;
-use crate::methods::galerkin::updated::{Degenerate, MovingPoints, Nodes, UlGalerkinState};
-use crate::neighbour::{self, Csr};
-use crate::parallel::MIN_CHUNK;
-use crate::quadrature::{QuadraturePoints, Rule, ShapeRow, Shapes};
+use crate::methods::cores::galerkin::Mass;
+use crate::methods::cores::galerkin::updated::{Degenerate, MovingPoints, Nodes, UlGalerkinState};
 use crate::reference::Reference;
-use crate::tensor::Dim;
 use rayon::prelude::*;
 
 /// The half-width of the candidate box in spacings: 2·h_c with h_c = 1.5 Δx (the

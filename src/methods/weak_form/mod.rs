@@ -3,15 +3,17 @@
 //! points of the lattice cells, a lumped mass, and, as an option (`smoothing`), the
 //! velocity smoothing after each step that turns the RKPM coefficients into nodal values
 //! ("virtual to actual"). It runs on
-//! the shared Galerkin system ([`crate::methods::galerkin`]). Numerics
+//! the shared Galerkin system ([`crate::methods::cores::galerkin`]). Numerics
 //! notes: `docs/methods/galerkin.md`.
 
-use super::galerkin::{Mass, TlGalerkin, TlSystem, particle_mass, smoothing_shapes, tl_plan};
+use super::cores::galerkin::{
+    Mass, TlGalerkin, TlSystem, particle_mass, smoothing_shapes, tl_plan,
+};
 use crate::case::{Case, CaseError};
-use crate::methods::family::{Feature, MethodFamily, Plan};
-use crate::quadrature::{QuadraturePoints, Rule, Shapes};
+use crate::core::quadrature::{QuadraturePoints, Rule, Shapes};
+use crate::core::tensor::Dim;
+use crate::methods::cores::family::{Feature, MethodFamily, Plan};
 use crate::reference::Reference;
-use crate::tensor::Dim;
 use serde::{Deserialize, Serialize};
 
 /// The `[method]` keys of the total-Lagrangian weak form.
@@ -71,10 +73,10 @@ impl MethodFamily for WeakFormSpec {
         000 §5.6): RKPM shape functions at 2×2 Gauss points of the lattice cells, lumped \
         mass, optional velocity smoothing after each step";
     const KEYS: &'static [&'static str] = &["smoothing", "mass"];
-    const FEATURES: &'static [Feature] = super::galerkin::FEATURES;
+    const FEATURES: &'static [Feature] = super::cores::galerkin::FEATURES;
     const CORRECTED: bool = false;
     #[cfg(feature = "gpu")]
-    const SHADERS: &'static [crate::gpu::shaders::Source] = super::galerkin::gpu::SHADERS;
+    const SHADERS: &'static [crate::gpu::shaders::Source] = super::cores::galerkin::gpu::SHADERS;
 
     fn plan(&self, case: &Case, gpu: bool) -> Plan {
         let once = "once, on the reference configuration: the lattice cells with 2^d Gauss \
@@ -97,7 +99,7 @@ impl MethodFamily for WeakFormSpec {
         tl_plan(case, once.into(), rates.into(), checked, left_out)
     }
 
-    super::galerkin::tl_galerkin_engines!();
+    super::cores::galerkin::tl_galerkin_engines!();
 
     fn lattice_cells(&self) -> bool {
         true

@@ -52,8 +52,12 @@ pub(super) fn displacement(case: &Case, field: &DisplacementField, key: &str) ->
 }
 
 /// A swinging mode that exists in the scene's dimension.
-fn swinging_mode(key: &str, mode: crate::analytic::SwingingKind, dim: usize) -> Checked {
-    if mode == crate::analytic::SwingingKind::Shear && dim != 2 {
+fn swinging_mode(
+    key: &str,
+    mode: crate::diagnostics::analytic::SwingingKind,
+    dim: usize,
+) -> Checked {
+    if mode == crate::diagnostics::analytic::SwingingKind::Shear && dim != 2 {
         return fail(
             key,
             format!(

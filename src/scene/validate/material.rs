@@ -1,7 +1,7 @@
 //! `[material]`: the keys each model reads, their ranges, and the plane assumption.
 
 use super::{Checked, fail, finite, non_negative, positive, toml_name};
-use crate::material::{Material, MaterialModel, MaterialSpec, Plane};
+use crate::physics::material::{Material, MaterialModel, MaterialSpec, Plane};
 
 /// A key of `[material]` that only some models read.
 struct ModelKey {

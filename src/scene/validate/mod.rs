@@ -23,9 +23,9 @@ mod tests;
 
 use super::Scene;
 use crate::case::Case;
-use crate::check::{Checked, fail, non_negative, positive, toml_name};
-use crate::material::MaterialModel;
+use crate::core::check::{Checked, fail, non_negative, positive, toml_name};
 use crate::methods::{Feature, features, quoted, supporting};
+use crate::physics::material::MaterialModel;
 use std::collections::HashSet;
 
 /// Semantic checks after parsing. Err((key, message)): the dotted key path, e.g. `material.poisson_ratio` or `body.1.geometry.radius` or `boundary.0.condition.vx`, and a message that says what is wrong and what is allowed, quoting the offending value.

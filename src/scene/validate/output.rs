@@ -59,7 +59,7 @@ pub(super) fn analytic_observers(case: &Case) -> Checked {
              against one closed form",
         );
     }
-    match crate::analytic::Exact::of(solution, case) {
+    match crate::diagnostics::analytic::Exact::of(solution, case) {
         Ok(_) => Ok(()),
         Err(message) => fail("output.observers", message),
     }
@@ -79,7 +79,7 @@ pub(super) fn front_observers(case: &Case) -> Checked {
         .collect();
     match solutions[..] {
         [] => Ok(()),
-        [solution] => match crate::analytic::Exact::of(solution, case) {
+        [solution] => match crate::diagnostics::analytic::Exact::of(solution, case) {
             Ok(exact) if exact.front_distance([0.0; 3], 0.0).is_some() => Ok(()),
             Ok(_) => fail(
                 "output.observers",

@@ -2,8 +2,8 @@
 
 use super::{Checked, fail, feature, positive, toml_name};
 use crate::case::{Case, MethodKeys, RunSpec, Solve};
-use crate::material::MaterialModel;
 use crate::methods::{Feature, features};
+use crate::physics::material::MaterialModel;
 
 /// Largest `run.threads`: more than any machine this runs on, few enough that a typo
 /// (`run.threads = 20000`) is refused rather than spawning the threads.

@@ -2,7 +2,7 @@
 //! traffic.
 
 use super::*;
-use crate::methods::particles::{max_speed, particle_accessors};
+use crate::methods::cores::particles::{max_speed, particle_accessors};
 use crate::reference::Build;
 
 impl<D: Dim> OdeSystem for MixedSph<D> {

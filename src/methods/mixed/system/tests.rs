@@ -1,7 +1,7 @@
 use super::*;
+use crate::core::tensor::{D2, D3};
 use crate::methods::MethodSpec;
 use crate::scene::{Scene, build_method};
-use crate::tensor::{D2, D3};
 
 /// A shipped case.
 fn shipped(name: &str) -> Scene {

@@ -1,0 +1,191 @@
+//! Deterministic parallel loops over particles and the field-wise arithmetic of a
+//! particle state: the ordered reduction every floating-point sum over particles goes
+//! through, y += a x and y = a y + b x on rayon, the [`particle_state!`] macro that declares
+//! a state of per-particle fields (u, v and the method's own) and makes it an
+//! [`crate::core::integrate::OdeState`], and the checkpoint words of a field.
+
+use crate::core::tensor::Words;
+use rayon::prelude::*;
+use std::ops::{Add, Mul};
+
+/// Smallest slice length rayon splits down to: below it the per-task overhead dominates.
+pub(crate) const MIN_CHUNK: usize = 256;
+
+/// Reduces map(0), …, map(n − 1) with `add` in parallel, deterministically: in fixed
+/// chunks of [`MIN_CHUNK`] indices, each folded in order, and the chunks' results then
+/// folded in order, so the sum has the same bits whatever the number of threads and
+/// however rayon steals work (rayon's `reduce` and `sum` combine in an order that
+/// depends on both). Every floating-point sum over particles goes through it.
+pub(crate) fn ordered_reduce<T: Send>(
+    n: usize,
+    identity: impl Fn() -> T + Sync,
+    map: impl Fn(usize) -> T + Sync,
+    add: impl Fn(T, T) -> T + Sync,
+) -> T {
+    let chunks: Vec<T> = (0..n.div_ceil(MIN_CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            (c * MIN_CHUNK..n.min((c + 1) * MIN_CHUNK))
+                .map(&map)
+                .fold(identity(), &add)
+        })
+        .collect();
+    chunks.into_iter().fold(identity(), add)
+}
+
+/// y += a x, field by field.
+pub(crate) fn axpy<T: Copy + Send + Sync + Add<Output = T> + Mul<f64, Output = T>>(
+    y: &mut [T],
+    a: f64,
+    x: &[T],
+) {
+    y.par_iter_mut()
+        .with_min_len(MIN_CHUNK)
+        .zip(x)
+        .for_each(|(y, &x)| *y = *y + x * a);
+}
+
+/// y = a y + b x, field by field.
+pub(crate) fn blend<T: Copy + Send + Sync + Add<Output = T> + Mul<f64, Output = T>>(
+    y: &mut [T],
+    a: f64,
+    b: f64,
+    x: &[T],
+) {
+    y.par_iter_mut()
+        .with_min_len(MIN_CHUNK)
+        .zip(x)
+        .for_each(|(y, &x)| *y = *y * a + x * b);
+}
+
+/// A particle state: the struct of displacement `u`, velocity `v` and the further fields
+/// given, and its `OdeState`, `Clone` (whose `clone_from` copies into the buffers there
+/// are) and empty `Default`. Every field has a rate of its own: RK stages combine every
+/// field; the leapfrog drift moves u with the state's own v and the other fields with
+/// their rates.
+macro_rules! particle_state {
+    (
+        $(#[$meta:meta])*
+        pub struct $state:ident {
+            $($(#[$field_meta:meta])* pub $field:ident: $type:ty,)*
+        }
+    ) => {
+        $(#[$meta])*
+        #[derive(Debug)]
+        pub struct $state<D: Dim> {
+            /// Displacement u = x − X.
+            pub u: Vec<D::V>,
+            /// Velocity v.
+            pub v: Vec<D::V>,
+            $($(#[$field_meta])* pub $field: $type,)*
+        }
+
+        impl<D: Dim> Default for $state<D> {
+            fn default() -> Self {
+                Self {
+                    u: Vec::new(),
+                    v: Vec::new(),
+                    $($field: Vec::new(),)*
+                }
+            }
+        }
+
+        impl<D: Dim> Clone for $state<D> {
+            fn clone(&self) -> Self {
+                Self {
+                    u: self.u.clone(),
+                    v: self.v.clone(),
+                    $($field: self.$field.clone(),)*
+                }
+            }
+
+            /// Field by field into the buffers there are: the integrators' stage copies
+            /// allocate nothing.
+            fn clone_from(&mut self, source: &Self) {
+                self.u.clone_from(&source.u);
+                self.v.clone_from(&source.v);
+                $(self.$field.clone_from(&source.$field);)*
+            }
+        }
+
+        impl<D: Dim> crate::core::integrate::OdeState for $state<D> {
+            fn axpy(&mut self, a: f64, r: &Self) {
+                crate::core::parallel::axpy(&mut self.u, a, &r.u);
+                crate::core::parallel::axpy(&mut self.v, a, &r.v);
+                $(crate::core::parallel::axpy(&mut self.$field, a, &r.$field);)*
+            }
+
+            fn blend(&mut self, a: f64, b: f64, o: &Self) {
+                crate::core::parallel::blend(&mut self.u, a, b, &o.u);
+                crate::core::parallel::blend(&mut self.v, a, b, &o.v);
+                $(crate::core::parallel::blend(&mut self.$field, a, b, &o.$field);)*
+            }
+
+            fn kick(&mut self, h: f64, r: &Self) {
+                crate::core::parallel::axpy(&mut self.v, h, &r.v);
+            }
+
+            fn drift(&mut self, h: f64, r: &Self) {
+                crate::core::parallel::axpy(&mut self.u, h, &self.v);
+                $(crate::core::parallel::axpy(&mut self.$field, h, &r.$field);)*
+            }
+
+            fn save(&self, out: &mut Vec<f64>) {
+                crate::core::parallel::save_field(&self.u, out);
+                crate::core::parallel::save_field(&self.v, out);
+                $(crate::core::parallel::save_field(&self.$field, out);)*
+            }
+
+            fn load(&mut self, words: &mut &[f64]) -> Result<(), String> {
+                crate::core::parallel::load_field(&mut self.u, "u", words)?;
+                crate::core::parallel::load_field(&mut self.v, "v", words)?;
+                $(crate::core::parallel::load_field(
+                    &mut self.$field,
+                    stringify!($field),
+                    words,
+                )?;)*
+                Ok(())
+            }
+        }
+    };
+}
+pub(crate) use particle_state;
+
+/// Appends a field for a checkpoint: its length, then its values.
+pub(crate) fn save_field<T: Words>(field: &[T], out: &mut Vec<f64>) {
+    out.push(field.len() as f64);
+    for x in field {
+        x.put(out);
+    }
+}
+
+/// Reads one word, `name`, from the front of a checkpoint's words.
+pub(crate) fn load_word(words: &mut &[f64], name: &str) -> Result<f64, String> {
+    let (&word, rest) = words
+        .split_first()
+        .ok_or_else(|| format!("the checkpoint ends before {name}"))?;
+    *words = rest;
+    Ok(word)
+}
+
+/// Reads a field [`save_field`] wrote into `field`, which must have its length.
+pub(crate) fn load_field<T: Words>(
+    field: &mut [T],
+    name: &str,
+    words: &mut &[f64],
+) -> Result<(), String> {
+    let (&len, rest) = words
+        .split_first()
+        .ok_or_else(|| format!("the checkpoint ends before the field {name}"))?;
+    if len != field.len() as f64 || rest.len() < field.len() * T::LEN {
+        return Err(format!(
+            "the field {name} holds {len} values in the checkpoint and {} in this run",
+            field.len()
+        ));
+    }
+    for (x, w) in field.iter_mut().zip(rest.chunks_exact(T::LEN)) {
+        *x = T::take(w);
+    }
+    *words = &rest[field.len() * T::LEN..];
+    Ok(())
+}

@@ -1,0 +1,549 @@
+//! The total-Lagrangian Galerkin methods on the GPU (`tl-fem`, `tl-weak-form`): the passes
+//! of `shaders/galerkin/`, on the points, shape functions, gather lists and smoothing
+//! weights that the host's f64 system ([`TlGalerkin`]) builds once and uploads. A rate
+//! evaluation is a points pass (F, P, w ψ and the rate model's rates per quadrature point)
+//! and a nodes pass (the force gathered over each node's points, the boundary conditions);
+//! the weak form's smoothing is two passes after each step. The engine is the
+//! [`GpuEngine`] on the family [`GalerkinDevice`].
+
+use super::{GalerkinState, TlGalerkin};
+use crate::boundary::Boundary;
+use crate::case::Case;
+use crate::core::integrate::{Buf, Evaluation};
+use crate::core::quadrature::Shapes;
+use crate::diagnostics::balance::Booked;
+use crate::diagnostics::observe::Snapshot;
+use crate::engine::{BlowUp, GpuEngine, GpuFamily, Method, Start};
+use crate::gpu::context::{Gpu, GpuError, Pipeline};
+use crate::gpu::layout::{Fields, GpuDim};
+use crate::gpu::profile::Scale;
+use crate::gpu::program::StateLayout;
+use crate::gpu::reduction::{self, Reduced, Reduction};
+use crate::gpu::reference::{self, DeviceReference, Extras};
+use crate::gpu::shaders::{
+    self, BOUNDARY, CONTACT, Compose, Constants, EIGEN, INTEGRATE, LOADS, MECHANICS, PLASTIC_STORE,
+    PLASTICITY, PRESCRIBED, REFERENCE, Source, Wgsl, source, wgsl,
+};
+use crate::gpu::shell::Shell;
+use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
+use crate::physics::material::Material;
+use crate::physics::plasticity::History;
+
+/// The points and nodes passes of one rate evaluation.
+pub const RATES: Source = source!(
+    "galerkin/galerkin.wgsl",
+    [
+        MECHANICS,
+        REFERENCE,
+        BOUNDARY,
+        EIGEN,
+        PLASTICITY,
+        PLASTIC_STORE
+    ],
+    [
+        ("y", false),
+        ("pair", false),
+        ("reference", false),
+        ("ext", false),
+        ("entries", false),
+        ("kin", true),
+        ("d", true)
+    ]
+);
+/// A node's share of the points' stored energy, for the reduction.
+const ENERGY: Wgsl = wgsl!("galerkin/galerkin_energy.wgsl");
+/// Energies, momenta and checks of a state.
+pub const REDUCE: Source = source!(
+    "common/reduce.wgsl",
+    [MECHANICS, ENERGY, REFERENCE],
+    [("y", false), ("kin", false), ("reference", false)]
+);
+/// The weak form's velocity smoothing.
+pub const SMOOTH: Source = source!(
+    "galerkin/galerkin_smooth.wgsl",
+    [REFERENCE],
+    [("y", true), ("smoothed", true), ("reference", false)]
+);
+
+/// The passes compiled with a Galerkin scene's constants ([`scene_constants`]).
+pub const SHADERS: &[Source] = &[RATES, REDUCE, SMOOTH, CONTACT, LOADS, PRESCRIBED, INTEGRATE];
+
+/// The flat buffers of a Galerkin scene of n nodes and q points: the state [u | v | ρ − ρ0
+/// | S] (ρ and S at the points, rate model only), the kinematics [H = F − I | P | ψ
+/// (points) | power (nodes)], the per-pair gradients ∇0N_a of the points' lists, the
+/// gather lists (u32: [offsets | the point of each entry]) with their per-entry data
+/// [w_q ∇0Φ_a(X_q) | w_q N_a(X_q)] (Φ_a the test functions), the smoothing weights N_b(X_a)
+/// per pair and the nodes' reference fields.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Layout {
+    pub n: usize,
+    pub q: usize,
+    pub dim: usize,
+    pub state: Fields,
+    pub kin: Fields,
+    pub pair: Fields,
+    pub gather: Fields,
+    pub entries: Fields,
+    pub smooth: Fields,
+    pub reference: Fields,
+}
+
+impl Layout {
+    /// n nodes (`constrained` of them with prescribed components), q points with `pairs`
+    /// point–node pairs, `smooth_pairs` smoothing pairs.
+    pub fn new(
+        n: usize,
+        constrained: usize,
+        q: usize,
+        pairs: usize,
+        smooth_pairs: usize,
+        dim: usize,
+        rate: bool,
+    ) -> Self {
+        Self {
+            n,
+            q,
+            dim,
+            state: Fields::new("", dim)
+                .vectors("U", true, n)
+                .vectors("V", true, n)
+                .scalars("RHO", rate, q)
+                .tensors("S", rate, q),
+            kin: reduction::with_reactions(
+                Fields::new("K", dim)
+                    .tensors("F", true, q)
+                    .tensors("P", true, q)
+                    .scalars("PSI", true, q)
+                    .scalars("POW", true, n),
+                constrained,
+            ),
+            pair: Fields::new("P", dim).vectors("G", true, pairs),
+            gather: Fields::new("G", dim)
+                .scalars("OFFSETS", true, n + 1)
+                .scalars("POINT", true, pairs),
+            entries: Fields::new("E", dim)
+                .vectors("WG", true, pairs)
+                .scalars("WN", true, pairs),
+            smooth: Fields::new("SW", dim).scalars("N", true, smooth_pairs),
+            reference: reference::fields(n, constrained, dim, Extras::default()),
+        }
+    }
+}
+
+/// The compiled-in constants of a Galerkin scene.
+pub fn scene_constants(case: &Case, layout: &Layout) -> Constants {
+    let u = |x: usize| x as u32;
+    let constants = Constants::default()
+        .u32("N", u(layout.n))
+        .u32("Q", u(layout.q))
+        .u32("BODIES", u(case.bodies.len()))
+        .material(&Material::new(&case.material))
+        .u32("REST_OFF", u(layout.state.offset("RHO")));
+    [
+        &layout.state,
+        &layout.kin,
+        &layout.pair,
+        &layout.gather,
+        &layout.entries,
+        &layout.smooth,
+        &layout.reference,
+    ]
+    .into_iter()
+    .fold(constants, |c, fields| fields.constants(c))
+}
+
+/// The points and nodes passes bound to a source state.
+struct Rates {
+    points: wgpu::BindGroup,
+    nodes: wgpu::BindGroup,
+}
+
+/// The weak form's smoothing passes, bound to the state and their scratch.
+struct SmoothPasses {
+    smooth: (Pipeline, wgpu::BindGroup),
+    settle: (Pipeline, wgpu::BindGroup),
+}
+
+/// The nodes' reference with V = m/ρ0, so that RHO0·V is the nodal mass, and the lists
+/// of the host's shape functions.
+fn upload_nodes<D: GpuDim>(gpu: &Gpu, host: &TlGalerkin<D>) -> DeviceReference {
+    let rho0 = host.material().rho0;
+    let mass_volume: Vec<f64> = host.mass().iter().map(|m| m / rho0).collect();
+    DeviceReference::upload::<D>(
+        gpu,
+        host.reference(),
+        &mass_volume,
+        host.boundary(),
+        &host.shapes().csr,
+        Extras::default(),
+    )
+}
+
+/// The flat u32 copy of a list of offsets.
+fn u32s(v: &[usize]) -> Vec<u32> {
+    v.iter().map(|&o| o as u32).collect()
+}
+
+/// The gather lists (offsets, then the point of every entry) and the entries' weighted
+/// test gradients w_q ∇Φ_a(X_q) and values w_q N_a(X_q) of the host's shape functions.
+fn gather_buffers<D: GpuDim>(
+    gpu: &Gpu,
+    layout: &Layout,
+    host: &TlGalerkin<D>,
+) -> (wgpu::Buffer, wgpu::Buffer) {
+    let (shapes, points, gather) = (host.shapes(), host.points(), host.gather());
+    let mut lists = u32s(&gather.offsets);
+    lists.extend(&gather.point);
+    let gather_lists = gpu.storage("gather lists", &lists);
+    let (weighted, values): (Vec<D::V>, Vec<f64>) = (0..gather.point.len())
+        .map(|e| {
+            let (q, p) = (gather.point[e] as usize, gather.pair[e] as usize);
+            let w = points.weight[q];
+            (shapes.test_gradient(p) * w, w * shapes.n[p])
+        })
+        .unzip();
+    let mut flat = layout.entries.zeroed();
+    layout.entries.write_v::<D>(&mut flat, "WG", &weighted);
+    layout.entries.write_s(&mut flat, "WN", &values, 0.0);
+    let entries = gpu.storage("gather entries", &flat);
+    (gather_lists, entries)
+}
+
+impl SmoothPasses {
+    /// The passes of the velocity smoothing with the functions `s` at the nodes, bound to
+    /// the state `y` and the nodes' `reference`.
+    fn new<D: GpuDim>(
+        gpu: &Gpu,
+        layout: &Layout,
+        s: &Shapes<D>,
+        compose: Compose<'_>,
+        reference: &wgpu::Buffer,
+        y: &wgpu::Buffer,
+        n: usize,
+    ) -> Result<Self, GpuError> {
+        let mut w = layout.smooth.zeroed();
+        layout.smooth.write_s(&mut w, "N", &s.n, 0.0);
+        let source = compose(&SMOOTH);
+        let smooth = gpu.pipeline("smooth velocities", &source, "smooth_velocities")?;
+        let settle = gpu.pipeline("settle", &source, "settle")?;
+        let (offsets, ids, weights) = (
+            gpu.storage("smoothing offsets", &u32s(&s.csr.offsets)),
+            gpu.storage("smoothing ids", &s.csr.ids),
+            gpu.storage("smoothing weights", &w),
+        );
+        let smoothed = gpu.zeroed("smoothed velocities", (n * D::N * 4) as u64);
+        let table = [
+            ("smooth_offsets", &offsets),
+            ("smooth_ids", &ids),
+            ("smooth_weights", &weights),
+            ("reference", reference),
+            ("y", y),
+            ("smoothed", &smoothed),
+        ];
+        let (smooth_bind, settle_bind) = (gpu.bind(&smooth, &table)?, gpu.bind(&settle, &table)?);
+        Ok(Self {
+            smooth: (smooth, smooth_bind),
+            settle: (settle, settle_bind),
+        })
+    }
+}
+
+/// Value of `status[0]` when no point failed.
+const STATUS_OK: u32 = u32::MAX;
+
+/// A total-Lagrangian Galerkin system resident on the GPU.
+pub type GpuGalerkin<D> = GpuEngine<D, GalerkinDevice<D>>;
+
+/// The total-Lagrangian Galerkin family on the device: the host's system, the buffers and
+/// the passes. The shell's checkpoints hold the plastic history too. The balance's terms
+/// the engine does not book besides the work of supports and loads: the velocity
+/// smoothing's dissipation; the plastic work, committed on the device; contact's, which
+/// `ext` adds to the loads' power.
+pub struct GalerkinDevice<D: GpuDim> {
+    /// The host's f64 system the device's set-up was uploaded from; outputs are computed
+    /// from the state read back.
+    host: TlGalerkin<D>,
+    layout: Layout,
+    status: wgpu::Buffer,
+    points: Pipeline,
+    nodes: Pipeline,
+    /// Rate evaluations of the states in `Y` and in `Stage`.
+    rates: [Rates; 2],
+    /// The points pass on `Y` writing its rates into `Acc` (kinematics for a reduction
+    /// without touching the integrator's rates).
+    points_y: wgpu::BindGroup,
+    smooth: Option<SmoothPasses>,
+    /// The points' plastic history (plasticity.wgsl; 10 floats of a dummy for the elastic
+    /// models).
+    hist: wgpu::Buffer,
+    /// The commit of the plastic history before every step (`commit` of galerkin.wgsl).
+    commit: Option<(Pipeline, wgpu::BindGroup)>,
+}
+
+impl<D: GpuDim> GpuGalerkin<D> {
+    /// Builds the host system of the case and uploads it with the initial state.
+    pub fn new(
+        case: &Case,
+        spec: &(dyn super::TlSystem<D> + 'static),
+        gpu: Gpu,
+    ) -> Result<Self, SetupError> {
+        let host: TlGalerkin<D> = crate::reference::build_method(case, spec)?;
+        check_f32_run(case, host.boundary())?;
+        let y0_host = host.initial_state();
+        check_f32_particles::<D>(case, host.reference(), &y0_host.u, &y0_host.v, host.body())?;
+        let (shapes, points) = (host.shapes(), host.points());
+        let (n, q) = (host.reference().len(), points.len());
+        let smoothing = host.smoothing();
+        let layout = Layout::new(
+            n,
+            host.boundary().constrained.len(),
+            q,
+            shapes.csr.pair_count(),
+            smoothing.map_or(0, |s| s.csr.pair_count()),
+            D::N,
+            host.material().model.is_rate_based(),
+        );
+        let constants = scene_constants(case, &layout);
+        check_f32_range(case, &constants)?;
+        gpu.check_size("per-pair buffer", layout.pair.bytes())?;
+        gpu.check_size("kinematics buffer", layout.kin.bytes())?;
+        let compose = |s: &Source| shaders::compose::<D>(s, &constants);
+
+        let device = upload_nodes(&gpu, &host);
+        let mut pair = layout.pair.zeroed();
+        layout.pair.write_v::<D>(&mut pair, "G", &shapes.grad);
+        let pair = gpu.storage("per-pair shape functions", &pair);
+        let (gather_lists, entries) = gather_buffers(&gpu, &layout, &host);
+        let status = gpu.storage("status", &[STATUS_OK]);
+        let kin = gpu.zeroed("kinematics", layout.kin.bytes());
+        let plastic = host.plastic().is_some();
+        let hist = gpu.storage(
+            "plastic history",
+            &History::VIRGIN_F32.repeat(if plastic { q } else { 1 }),
+        );
+
+        let mut y0 = layout.state.zeroed();
+        layout.state.write_v::<D>(&mut y0, "U", &y0_host.u);
+        layout.state.write_v::<D>(&mut y0, "V", &y0_host.v);
+        let start = Start {
+            gpu: &gpu,
+            compose: &compose,
+            device: &device,
+        };
+        let state = StateLayout::of(&layout.state, "RHO");
+        let (stepper, interactions) = start.stepper(
+            case.method.integrator,
+            state,
+            &y0,
+            host.interactions(),
+            host.boundary(),
+        )?;
+
+        let rates_source = compose(&RATES);
+        let points_pipeline = gpu.pipeline("galerkin points", &rates_source, "points")?;
+        let nodes_pipeline = gpu.pipeline("galerkin nodes", &rates_source, "nodes")?;
+        let table = |y, d| -> [(&str, &wgpu::Buffer); 12] {
+            [
+                ("offsets", &device.offsets),
+                ("ids", &device.ids),
+                ("pair", &pair),
+                ("reference", &device.reference),
+                ("y", y),
+                ("kin", &kin),
+                ("d", d),
+                ("status", &status),
+                ("gather", &gather_lists),
+                ("entries", &entries),
+                ("ext", interactions.ext()),
+                ("hist", &hist),
+            ]
+        };
+        let rates_d = stepper.buffer(Buf::Rates);
+        let bound = |src| -> Result<Rates, GpuError> {
+            let t = table(stepper.buffer(src), rates_d);
+            Ok(Rates {
+                points: gpu.bind(&points_pipeline, &t)?,
+                nodes: gpu.bind(&nodes_pipeline, &t)?,
+            })
+        };
+        let rates = [bound(Buf::Y)?, bound(Buf::Stage)?];
+        let y = stepper.buffer(Buf::Y);
+        let commit = match plastic {
+            true => {
+                let pipeline = gpu.pipeline("galerkin plastic commit", &rates_source, "commit")?;
+                let bind = gpu.bind(&pipeline, &table(y, rates_d))?;
+                Some((pipeline, bind))
+            }
+            false => None,
+        };
+        let points_y = gpu.bind(&points_pipeline, &table(y, stepper.buffer(Buf::Acc)))?;
+        let reduction = Reduction::new(&gpu, &compose(&REDUCE), &table(y, rates_d), n)?;
+        let smooth = smoothing
+            .map(|s| SmoothPasses::new(&gpu, &layout, s, &compose, &device.reference, y, n))
+            .transpose()?;
+        let unsmoothed = smooth.is_none();
+        let unbooked = Booked {
+            dissipated: unsmoothed.then_some(0.0),
+            plastic_work: (!plastic).then_some(0.0),
+            contact_energy: case.contact.is_none().then_some(0.0),
+            ..Booked::default()
+        };
+        let shell = Shell::new(gpu, stepper, reduction, kin, &layout.kin, unbooked)
+            .save_also("plastic history", &hist);
+        let family = GalerkinDevice {
+            host,
+            layout,
+            status,
+            points: points_pipeline,
+            nodes: nodes_pipeline,
+            rates,
+            points_y,
+            smooth,
+            hist,
+            commit,
+        };
+        Ok(Self::assemble(shell, interactions, family))
+    }
+}
+
+impl<D: GpuDim> GalerkinDevice<D> {
+    /// Records one rate evaluation: the points and nodes passes on `rates`.
+    fn record(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, rates: &Rates) {
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        gpu.dispatch(&mut pass, &self.points, &rates.points, self.layout.q as u32);
+        gpu.dispatch(&mut pass, &self.nodes, &rates.nodes, self.layout.n as u32);
+    }
+
+    /// Decodes a flat state (`rho0` = ρ0: the density is stored as ρ − ρ0) or rate buffer
+    /// (`rho0` = 0).
+    fn decode(&self, flat: &[f32], rho0: f64) -> GalerkinState<D> {
+        let l = &self.layout.state;
+        GalerkinState {
+            u: l.read_v::<D>(flat, "U"),
+            v: l.read_v::<D>(flat, "V"),
+            rho: l.read_s(flat, "RHO", rho0),
+            s: l.read_t::<D>(flat, "S", D::zero_t()),
+        }
+    }
+}
+
+impl<D: GpuDim> GpuGalerkin<D> {
+    /// Reads the current state back (waits for the queue).
+    pub fn state(&self) -> GalerkinState<D> {
+        let rho0 = self.family.host.material().rho0;
+        self.family.decode(&self.shell.read_state(), rho0)
+    }
+
+    /// Replaces the state (to cross-check rates on a given state).
+    pub fn set_state(&mut self, y: &GalerkinState<D>) {
+        let l = &self.family.layout.state;
+        let mut flat = l.zeroed();
+        l.write_v::<D>(&mut flat, "U", &y.u);
+        l.write_v::<D>(&mut flat, "V", &y.v);
+        l.write_s(&mut flat, "RHO", &y.rho, self.family.host.material().rho0);
+        l.write_t::<D>(&mut flat, "S", &y.s, D::zero_t());
+        self.shell.set_state(&flat);
+    }
+
+    /// The rates of a given state, read back, and P at every point.
+    pub fn rates(&mut self, y: &GalerkinState<D>) -> (GalerkinState<D>, Vec<D::T>) {
+        self.set_state(y);
+        let gpu = self.gpu();
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        self.family.record(gpu, &mut encoder, &self.family.rates[0]);
+        gpu.queue.submit([encoder.finish()]);
+        let d: Vec<f32> = gpu.read(self.shell.stepper.buffer(Buf::Rates));
+        let kin: Vec<f32> = gpu.read(&self.shell.kin);
+        let p = self.family.layout.kin.read_t::<D>(&kin, "P", D::zero_t());
+        (self.family.decode(&d, 0.0), p)
+    }
+
+    /// The host's system, which the device's set-up came from.
+    pub fn host(&self) -> &TlGalerkin<D> {
+        &self.family.host
+    }
+}
+
+impl<D: GpuDim> GpuFamily<D> for GalerkinDevice<D> {
+    fn reference(&self) -> &[D::V] {
+        self.host.reference()
+    }
+
+    fn boundary(&self) -> &Boundary<D> {
+        self.host.boundary()
+    }
+
+    fn scale(&self, _gpu: &Gpu) -> Scale {
+        Scale {
+            pairs: self.host.shapes().csr.pair_count() as u64,
+            indirect: None,
+        }
+    }
+
+    fn record_rates(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, e: Evaluation) {
+        self.record(gpu, encoder, &self.rates[usize::from(e.src != Buf::Y)]);
+    }
+
+    /// The commit of the plastic history.
+    fn begin_step(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder) {
+        if let Some((pipeline, bind)) = &self.commit {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            gpu.dispatch(&mut pass, pipeline, bind, self.layout.q as u32);
+        }
+    }
+
+    /// With the weak form's smoothing.
+    fn ends_steps(&self) -> bool {
+        self.smooth.is_some()
+    }
+
+    /// The weak form's velocity smoothing.
+    fn end_step(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder) {
+        if let Some(s) = &self.smooth {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            for (pipeline, bind) in [&s.smooth, &s.settle] {
+                gpu.dispatch(&mut pass, pipeline, bind, self.layout.n as u32);
+            }
+        }
+    }
+
+    /// The points pass on the current state (its kinematics).
+    fn before_reduction(&self, gpu: &Gpu, pass: &mut wgpu::ComputePass<'_>) {
+        gpu.dispatch(pass, &self.points, &self.points_y, self.layout.q as u32);
+    }
+
+    fn signal_speed(&self, reduced: &Reduced) -> f64 {
+        self.host.material().p_wave_speed() + reduced.max_speed
+    }
+
+    /// The first point whose points pass failed (det F ≤ 0 or NaN) so far.
+    fn flagged(&self, gpu: &Gpu) -> Result<(), BlowUp> {
+        let s: Vec<u32> = gpu.read(&self.status);
+        if s[0] == STATUS_OK {
+            return Ok(());
+        }
+        let q = s[0] as usize;
+        let node = self.host.shapes().strongest_node(q);
+        Err(BlowUp::at::<D>(
+            self.host.reference(),
+            node,
+            &format!("det F (f32, GPU) at quadrature point {q} next to it"),
+            0.0,
+        ))
+    }
+
+    fn check_state(&self, flat: &[f32]) -> Result<(), BlowUp> {
+        let y = self.decode(flat, self.host.material().rho0);
+        self.host.check_finite(&y)
+    }
+
+    /// The host's outputs (nodal F and σ, Σ_q w_q ψ_q in f64) of the state and the plastic
+    /// history read back.
+    fn snapshot(&mut self, shell: &Shell) -> Snapshot<'_, D> {
+        let y = self.decode(&shell.read_state(), self.host.material().rho0);
+        if let Some(history) = self.host.plastic_mut() {
+            history.read_f32(&shell.gpu.read::<f32>(&self.hist));
+        }
+        self.host.snapshot(&y)
+    }
+}

@@ -1,0 +1,75 @@
+//! What the method cores take from a case: the CPU engine of a system built on it, and
+//! the reference neighbours and gradients of the total-Lagrangian methods.
+
+use crate::case::{Case, CaseError};
+use crate::core::correction;
+use crate::core::kernel;
+use crate::core::neighbour::Csr;
+use crate::core::tensor::Dim;
+use crate::engine::{CpuEngine, Method};
+use crate::reference::{Build, build_method};
+use rayon::prelude::*;
+
+impl<D: Dim, M: Method<D> + Build<D>> CpuEngine<D, M> {
+    /// The engine of the system `M` of a method's spec built on a case, stepped by the
+    /// case's integrator.
+    pub fn new(case: &Case, spec: &M::Spec) -> Result<Self, CaseError> {
+        Ok(Self::with(
+            build_method::<D, M>(case, spec)?,
+            case.method.integrator,
+        ))
+    }
+}
+
+/// The kernel support of a case, with the margin of [`crate::core::kernel::neighbour_radius`].
+pub(crate) fn neighbour_radius<D: Dim>(case: &Case) -> f64 {
+    kernel::neighbour_radius(&case.kernel(D::N))
+}
+
+/// Corrected gradients g_ij on the neighbour lists `csr` of the reference positions x0
+/// (and volumes) of a total-Lagrangian method, computed once.
+pub(crate) fn reference_gradients<D: Dim>(
+    case: &Case,
+    x0: &[D::V],
+    vol: &[f64],
+    csr: &Csr,
+) -> Result<Vec<D::V>, CaseError> {
+    correction::gradients::<D>(case.method.correction, x0, vol, csr, &case.kernel(D::N))
+        .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))
+}
+
+/// For every pair (i, j) in CSR order, the index of the pair (j, i) in j's row. Lists
+/// that are not symmetric (a neighbour at the kernel support, by round-off) name the
+/// particle and the key to change.
+pub fn reverse_pairs(case: &Case, csr: &Csr) -> Result<Vec<u32>, CaseError> {
+    csr.map_rows(|i| {
+        csr.neighbours(i)
+            .iter()
+            .map(|&j| {
+                let row = j as usize;
+                let back = csr.neighbours(row).binary_search(&(i as u32));
+                back.map(|k| (csr.offsets[row] + k) as u32).map_err(|_| i)
+            })
+            .collect::<Result<Vec<_>, _>>()
+    })
+    .map_err(|i| {
+        case.invalid(
+            "method.h_over_dx",
+            format!(
+                "particle {i} has a neighbour at the kernel support that does not list it \
+                 back; change h/dx slightly"
+            ),
+        )
+    })
+}
+
+/// ∇0W̃_ji (j's corrected gradient, evaluated at i) for every pair (i, j), in CSR order:
+/// the second gradient of a pair force that derives from Σ_i V_i ψ(F_i) (seed 000 eq 148).
+pub(crate) fn reverse_gradients<D: Dim>(
+    case: &Case,
+    csr: &Csr,
+    grad: &[D::V],
+) -> Result<Vec<D::V>, CaseError> {
+    let rev = reverse_pairs(case, csr)?;
+    Ok(rev.par_iter().map(|&q| grad[q as usize]).collect())
+}

@@ -1,0 +1,559 @@
+//! The updated-Lagrangian core on the GPU: what the Gray–Monaghan and Godunov engines
+//! share, as [`super`] is on the CPU. A [`Scheme`] supplies one method's pass file (its
+//! `particle` and `rates` entry points, on `shaders/ul/ul.wgsl`) and constants; the core
+//! holds the state, the integrator program, the interactions and the neighbour lists.
+//!
+//! Every rate evaluation records, with no read-back: x = X + u (`positions`), a cell-list
+//! rebuild of the lists from x ([`CellList`], per body with contact), the scheme's
+//! per-particle pass and its pair gather. The lists live on the device with a capacity for
+//! a number of pairs; a rebuild that needs more sets an overflow flag, which the engine
+//! reads (one u32) after each batch of steps: it then grows the lists to the count the
+//! flag holds and runs the batch again from its start.
+
+use super::{UlState, check_state, snapshot};
+use crate::boundary::Boundary;
+use crate::case::Case;
+use crate::core::correction::CorrectionKind;
+use crate::core::integrate::{Buf, Evaluation};
+use crate::core::neighbour::{Csr, SKIN, bounding_box};
+use crate::diagnostics::balance::Booked;
+use crate::diagnostics::observe::Snapshot;
+use crate::engine::{BlowUp, GpuEngine, GpuFamily, Start};
+use crate::gpu::context::{Gpu, GpuError, Pipeline};
+use crate::gpu::layout::{Fields, GpuDim};
+use crate::gpu::neighbour::{CellList, CellParams, Positions};
+use crate::gpu::profile::{IndirectRuns, Scale};
+use crate::gpu::program::Stepper;
+use crate::gpu::reduction::{self, Reduced, Reduction};
+use crate::gpu::reference::{self, DeviceReference, Extras};
+use crate::gpu::shaders::{
+    self, CONTACT, Constants, INTEGRATE, MECHANICS, PRESCRIBED, REFERENCE, Source, Wgsl, source,
+    wgsl,
+};
+use crate::gpu::shell::Shell;
+use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
+use crate::reference::Reference;
+
+/// The core's bindings, positions pass, correction and closing of the rates, which each
+/// scheme's pass file includes last; with the bytes model of `positions` and the blocks
+/// `particle_core` and `rates_core` that the schemes' models include (`gpu::bytes`).
+pub const CORE: Wgsl = wgsl!("ul/ul.wgsl");
+/// The strain energy of the reduction.
+const ENERGY: Wgsl = wgsl!("ul/ul_energy.wgsl");
+/// Energies, momenta and checks of a state.
+pub const REDUCE: Source = source!(
+    "common/reduce.wgsl",
+    [MECHANICS, ENERGY, REFERENCE],
+    [("y", false), ("kin", false), ("reference", false)]
+);
+/// The flat buffers of a scheme's pass file.
+pub const FLAT: &[(&str, bool)] = &[
+    ("y", false),
+    ("x", true),
+    ("kin", true),
+    ("d", true),
+    ("reference", false),
+    ("ext", false),
+];
+
+/// The passes every UL engine compiles besides its scheme's.
+pub const SHARED: [Source; 4] = [CONTACT, PRESCRIBED, INTEGRATE, REDUCE];
+
+/// One updated-Lagrangian method on the device.
+pub struct Scheme {
+    /// Its pass file, with [`CORE`] among its function files: entry points `positions`
+    /// (the core's), `particle` and `rates`.
+    pub passes: Source,
+    /// It stores an artificial stress R per particle.
+    pub artificial_stress: bool,
+    /// It stores the pressure p per particle.
+    pub pressure: bool,
+    /// Its own compiled-in constants.
+    pub constants: Constants,
+}
+
+/// The flat buffers of an updated-Lagrangian scene, each described once: the state
+/// [u | v | ρ − ρ0 | S | H = F − I], the scheme's per-particle quantities
+/// [T | R | AIT | VOL | C | P | POW] (`shaders/ul/ul.wgsl`) and the reference
+/// configuration.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Layout {
+    pub n: usize,
+    pub dim: usize,
+    pub state: Fields,
+    pub kin: Fields,
+    pub reference: Fields,
+}
+
+impl Layout {
+    /// The layout of n particles, `constrained` of them with prescribed components.
+    pub fn new(n: usize, constrained: usize, dim: usize, scheme: &Scheme, corrected: bool) -> Self {
+        Self {
+            n,
+            dim,
+            state: Fields::new("", dim)
+                .vectors("U", true, n)
+                .vectors("V", true, n)
+                .scalars("RHO", true, n)
+                .tensors("S", true, n)
+                .tensors("F", true, n),
+            kin: reduction::with_reactions(
+                Fields::new("K", dim)
+                    .tensors("T", true, n)
+                    .tensors("R", scheme.artificial_stress, n)
+                    .tensors("AIT", corrected, n)
+                    .scalars("VOL", true, n)
+                    .scalars("C", true, n)
+                    .scalars("P", scheme.pressure, n)
+                    .scalars("POW", true, n),
+                constrained,
+            ),
+            reference: reference::fields(n, constrained, dim, Extras::default()),
+        }
+    }
+}
+
+/// The compiled-in constants of a scene's UL passes: the scheme's, the kernel, the
+/// material, the correction and the field offsets.
+pub fn scene_constants(case: &Case, layout: &Layout, scheme: &Scheme) -> Constants {
+    let corrected = case.method.correction == CorrectionKind::RandlesLibersky;
+    let constants = scheme
+        .constants
+        .clone()
+        .kernel(&case.kernel(layout.dim))
+        .u32("N", layout.n as u32)
+        .u32("BODIES", case.bodies.len() as u32)
+        .material(&crate::physics::material::Material::new(&case.material))
+        .choice("CORRECTION", &["NONE", "LINEAR"], usize::from(corrected))
+        .u32("REST_OFF", layout.state.offset("RHO") as u32);
+    [&layout.state, &layout.kin, &layout.reference]
+        .into_iter()
+        .fold(constants, |c, fields| fields.constants(c))
+}
+
+/// `status` slots: the first particle with a singular correction, and with ρ ≤ 0.
+const STATUS_OK: [u32; 2] = [u32::MAX; 2];
+
+/// The pipelines of one rate evaluation.
+struct Passes {
+    positions: Pipeline,
+    particle: Pipeline,
+    rates: Pipeline,
+}
+
+/// The bind groups of one rate evaluation on a source state.
+struct Bound {
+    positions: wgpu::BindGroup,
+    particle: wgpu::BindGroup,
+    rates: wgpu::BindGroup,
+}
+
+/// The neighbour lists on the device and the rate evaluations bound to them (on the
+/// states in `Y` and in `Stage`).
+struct Lists {
+    cells: CellList,
+    rates: [Bound; 2],
+}
+
+/// An updated-Lagrangian system resident on the GPU.
+pub type GpuUl<D> = GpuEngine<D, UlDevice<D>>;
+
+/// The updated-Lagrangian family on the device: the reference configuration, the buffers,
+/// the scheme's passes and the device's neighbour lists. The balance's terms the engine
+/// does not book besides the work of supports and loads: the artificial viscosity's or
+/// the Riemann solver's dissipation; contact's, which `ext` adds to the loads' power.
+pub struct UlDevice<D: GpuDim> {
+    /// The host's f64 reference configuration, which the device's was uploaded from.
+    reference: Reference<D>,
+    layout: Layout,
+    device: DeviceReference,
+    /// x = X + u of the last positions pass.
+    x: wgpu::Buffer,
+    status: wgpu::Buffer,
+    /// The interactions' `ext`, which the rates pass reads.
+    ext: wgpu::Buffer,
+    /// The body of each particle for per-body lists (with contact).
+    body: Option<wgpu::Buffer>,
+    grid: CellParams,
+    passes: Passes,
+    /// Bound once the engine's buffers exist, and again when they grow.
+    lists: Option<Lists>,
+    /// `Y` at the start of the batch, to run it again after the lists grew.
+    start: wgpu::Buffer,
+    /// Neighbour builds of the lists that growth replaced, less those of
+    /// [`GpuUl::time_rebuild`].
+    builds_before: i64,
+    /// One build timed alone, the first time the builds' time is asked for: the same
+    /// factor for every later estimate, so that the estimates only grow.
+    rebuild_seconds: Option<f64>,
+}
+
+impl<D: GpuDim> GpuUl<D> {
+    /// Uploads the case's reference configuration and initial state and compiles the
+    /// scheme's passes.
+    pub fn new(case: &Case, gpu: Gpu, scheme: &Scheme) -> Result<Self, SetupError> {
+        let disc = Reference::<D>::build(case)?;
+        check_f32_run(case, &disc.boundary)?;
+        check_f32_particles::<D>(case, &disc.x0, &disc.u0, &disc.v0, &disc.body)?;
+        let n = disc.len();
+        let corrected = case.method.correction == CorrectionKind::RandlesLibersky;
+        let layout = Layout::new(n, disc.boundary.constrained.len(), D::N, scheme, corrected);
+        let constants = scene_constants(case, &layout, scheme);
+        check_f32_range(case, &constants)?;
+        gpu.check_size("kinematics buffer", layout.kin.bytes())?;
+        let compose = |s: &Source| shaders::compose::<D>(s, &constants);
+
+        // The lists come from the device's cell list, not from the host.
+        let device = DeviceReference::upload::<D>(
+            &gpu,
+            &disc.x0,
+            &disc.vol,
+            &disc.boundary,
+            &Csr::default(),
+            Extras::default(),
+        );
+        let mut y0 = layout.state.zeroed();
+        layout.state.write_v::<D>(&mut y0, "V", &disc.v0);
+        let per_body = case.contact.is_some();
+        let start = Start {
+            gpu: &gpu,
+            compose: &compose,
+            device: &device,
+        };
+        let (stepper, interactions) =
+            start.particles(case, &disc, &layout.state, &y0, || disc.neighbours())?;
+        let x = gpu.zeroed("positions x", (n * D::N) as u64 * 4);
+        let kin = gpu.zeroed("per-particle quantities", layout.kin.bytes());
+        let status = gpu.storage("status", &STATUS_OK);
+        let body = per_body.then(|| gpu.storage("bodies", &disc.body));
+        let text = compose(&scheme.passes);
+        let passes = Passes {
+            positions: gpu.pipeline("ul positions", &text, "positions")?,
+            particle: gpu.pipeline("ul particle", &text, "particle")?,
+            rates: gpu.pipeline("ul rates", &text, "rates")?,
+        };
+        let grid = grid::<D>(&gpu, &disc, n as u32)?;
+        let reduction = Reduction::new(
+            &gpu,
+            &compose(&REDUCE),
+            &[
+                ("y", stepper.buffer(Buf::Y)),
+                ("kin", &kin),
+                ("reference", &device.reference),
+            ],
+            n,
+        )?;
+        let start = gpu.zeroed("state at the batch start", layout.state.bytes());
+        // Room for twice the reference configuration's pairs: compression adds
+        // neighbours, and a build that needs more grows the lists.
+        let capacity = 2 * disc.neighbours().pair_count().max(n) as u32;
+        let unbooked = Booked {
+            dissipated: None,
+            contact_energy: case.contact.is_none().then_some(0.0),
+            ..Booked::default()
+        };
+        let shell = Shell::new(gpu, stepper, reduction, kin, &layout.kin, unbooked);
+        let mut family = UlDevice {
+            reference: disc,
+            layout,
+            device,
+            x,
+            status,
+            ext: interactions.ext().clone(),
+            body,
+            grid,
+            passes,
+            lists: None,
+            start,
+            builds_before: 0,
+            rebuild_seconds: None,
+        };
+        family.lists = Some(family.bind_lists(&shell, capacity)?);
+        Ok(Self::assemble(shell, interactions, family))
+    }
+}
+
+impl<D: GpuDim> UlDevice<D> {
+    /// Neighbour lists with room for `capacity` pairs and the rate evaluations bound to
+    /// them.
+    fn bind_lists(&self, shell: &Shell, capacity: u32) -> Result<Lists, GpuError> {
+        let n = self.layout.n as u32;
+        let at = Positions {
+            x: &self.x,
+            offset: 0,
+            n,
+            body: self.body.as_ref(),
+        };
+        let drift = 0.5 * SKIN * self.reference.kernel.support();
+        let cells = CellList::new::<D>(&shell.gpu, at, &self.grid, capacity, drift)?;
+        let rates_d = shell.stepper.buffer(Buf::Rates);
+        let bound = |src: Buf| -> Result<Bound, GpuError> {
+            let table: [(&str, &wgpu::Buffer); 9] = [
+                ("offsets", &cells.offsets),
+                ("ids", &cells.ids),
+                ("reference", &self.device.reference),
+                ("y", shell.stepper.buffer(src)),
+                ("x", &self.x),
+                ("kin", &shell.kin),
+                ("ext", &self.ext),
+                ("d", rates_d),
+                ("status", &self.status),
+            ];
+            let p = &self.passes;
+            Ok(Bound {
+                positions: shell.gpu.bind(&p.positions, &table)?,
+                particle: shell.gpu.bind(&p.particle, &table)?,
+                rates: shell.gpu.bind(&p.rates, &table)?,
+            })
+        };
+        let rates = [bound(Buf::Y)?, bound(Buf::Stage)?];
+        Ok(Lists { cells, rates })
+    }
+
+    /// Makes the device's lists anew with room for `capacity` pairs (a rebuild that needs
+    /// more grows them again).
+    fn grow(&mut self, shell: &Shell, capacity: u32) -> Result<(), GpuError> {
+        self.builds_before += i64::from(self.lists().cells.builds(&shell.gpu));
+        self.lists = Some(self.bind_lists(shell, capacity)?);
+        Ok(())
+    }
+
+    fn lists(&self) -> &Lists {
+        self.lists
+            .as_ref()
+            .expect("the lists are bound when the engine is built")
+    }
+
+    /// The neighbour builds the device ran for the steps so far (reads one u32 back).
+    fn builds(&self, gpu: &Gpu) -> i64 {
+        self.builds_before + i64::from(self.lists().cells.builds(gpu))
+    }
+
+    /// The wall time of one neighbour rebuild (positions pass and cell list) from the
+    /// current state, timed alone over `REPEATS` rebuilds in one submission [s].
+    fn time_rebuild(&mut self, gpu: &Gpu) -> f64 {
+        const REPEATS: u32 = 20;
+        self.builds_before -= i64::from(REPEATS);
+        let lists = self.lists();
+        let bound = &lists.rates[0];
+        gpu.wait();
+        let started = std::time::Instant::now();
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        for _ in 0..REPEATS {
+            {
+                let mut pass = encoder.begin_compute_pass(&Default::default());
+                let n = self.layout.n as u32;
+                gpu.dispatch(&mut pass, &self.passes.positions, &bound.positions, n);
+            }
+            lists.cells.record(gpu, &mut encoder);
+        }
+        gpu.queue.submit([encoder.finish()]);
+        gpu.wait();
+        started.elapsed().as_secs_f64() / f64::from(REPEATS)
+    }
+
+    /// Decodes a flat state (`rho0` = ρ0 and `f0` = I: ρ and F are stored as ρ − ρ0 and
+    /// F − I) or rate buffer (`rho0` = 0, `f0` = 0).
+    fn decode(&self, flat: &[f32], rho0: f64, f0: D::T) -> UlState<D> {
+        let l = &self.layout.state;
+        let (u, v, rho, s) = l.read_solid::<D>(flat, rho0);
+        let f = l.read_t::<D>(flat, "F", f0);
+        UlState { u, v, rho, s, f }
+    }
+
+    /// A state read back.
+    fn decode_state(&self, flat: &[f32]) -> UlState<D> {
+        self.decode(flat, self.reference.material.rho0, D::identity())
+    }
+}
+
+/// The cell grid over the reference configuration's box, widened on every side by a
+/// fifth of its extent and the kernel support (particles that leave it are binned in the
+/// nearest cell, which keeps every pair), for the kernel support widened by the skin
+/// [`SKIN`] (the lists are rebuilt once a particle has moved half of it, as on the CPU)
+/// and a relative margin of 1e-5 for f32 ties at lattice distances (`gpu::neighbour`).
+fn grid<D: GpuDim>(gpu: &Gpu, disc: &Reference<D>, n: u32) -> Result<CellParams, GpuError> {
+    let radius = disc.kernel.support() * (1.0 + SKIN) * (1.0 + 1e-5);
+    let (mut lo, mut hi) = bounding_box(disc.x0.iter().map(|&x| D::to3(x)));
+    for k in 0..D::N {
+        let margin = 0.2 * (hi[k] - lo[k]) + radius;
+        lo[k] -= margin;
+        hi[k] += margin;
+    }
+    CellParams::new(gpu, D::N, lo, hi, n, radius)
+}
+
+impl<D: GpuDim> GpuUl<D> {
+    /// The host's reference configuration of the scene.
+    pub fn reference(&self) -> &Reference<D> {
+        &self.family.reference
+    }
+
+    /// The wall time of one neighbour rebuild (positions pass and cell list) from the
+    /// current state [s].
+    pub fn time_rebuild(&mut self) -> f64 {
+        self.family.time_rebuild(&self.shell.gpu)
+    }
+
+    /// The neighbour builds the device ran for the steps so far (reads one u32 back).
+    pub fn builds(&self) -> i64 {
+        self.family.builds(&self.shell.gpu)
+    }
+
+    /// Makes the device's lists anew with room for `capacity` pairs (a rebuild that needs
+    /// more grows them again).
+    pub fn set_capacity(&mut self, capacity: u32) -> Result<(), GpuError> {
+        self.family.grow(&self.shell, capacity)
+    }
+
+    /// Room for pairs in the device's lists.
+    pub fn capacity(&self) -> u32 {
+        self.family.lists().cells.capacity()
+    }
+
+    /// The lists of the last rate evaluation, read back.
+    pub fn neighbours(&self) -> Csr {
+        self.family.lists().cells.lists(&self.shell.gpu)
+    }
+
+    /// Reads the current state back (waits for the queue).
+    pub fn state(&self) -> UlState<D> {
+        self.family.decode_state(&self.shell.read_state())
+    }
+
+    /// Replaces the state (e.g. to cross-check rates on a given state).
+    pub fn set_state(&mut self, y: &UlState<D>) {
+        let (l, rho0) = (
+            &self.family.layout.state,
+            self.family.reference.material.rho0,
+        );
+        let mut flat = l.zeroed();
+        l.write_solid::<D>(&mut flat, (&y.u, &y.v), (&y.rho, rho0), &y.s);
+        l.write_t::<D>(&mut flat, "F", &y.f, D::identity());
+        self.shell.set_state(&flat);
+    }
+
+    /// The rates of a given state, read back (the lists are built from its positions).
+    pub fn rates(&mut self, y: &UlState<D>) -> UlState<D> {
+        self.set_state(y);
+        let gpu = self.gpu();
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        let e = Evaluation {
+            src: Buf::Y,
+            index: 0,
+        };
+        self.family.record_rates(gpu, &mut encoder, e);
+        gpu.queue.submit([encoder.finish()]);
+        let d: Vec<f32> = gpu.read(self.shell.stepper.buffer(Buf::Rates));
+        self.family.decode(&d, 0.0, D::zero_t())
+    }
+}
+
+impl<D: GpuDim> GpuFamily<D> for UlDevice<D> {
+    fn reference(&self) -> &[D::V] {
+        &self.reference.x0
+    }
+
+    fn boundary(&self) -> &Boundary<D> {
+        &self.reference.boundary
+    }
+
+    /// The pairs of the last build (read back), and the builds run and recorded so far.
+    fn scale(&self, gpu: &Gpu) -> Scale {
+        let cells = &self.lists().cells;
+        let offsets: Vec<u32> = gpu.read(&cells.offsets);
+        let builds = IndirectRuns {
+            ran: u64::from(cells.builds(gpu)),
+            recorded: cells.recorded(),
+        };
+        Scale {
+            pairs: u64::from(offsets[self.layout.n]),
+            indirect: Some(builds),
+        }
+    }
+
+    /// Records one rate evaluation on the state in `Y` or `Stage`: positions, the
+    /// rebuild of the lists, the scheme's particle and pair passes.
+    fn record_rates(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, e: Evaluation) {
+        let (passes, lists, n) = (&self.passes, self.lists(), self.layout.n as u32);
+        let bound = &lists.rates[usize::from(e.src != Buf::Y)];
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            gpu.dispatch(&mut pass, &passes.positions, &bound.positions, n);
+        }
+        lists.cells.record_on_drift(gpu, encoder);
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        gpu.dispatch(&mut pass, &passes.particle, &bound.particle, n);
+        gpu.dispatch(&mut pass, &passes.rates, &bound.rates, n);
+    }
+
+    /// Keeps `Y` in `start`. The batch may run again from its start (lists grown): its
+    /// first evaluation builds from its own positions, whatever the lists held.
+    fn begin_batch(
+        &mut self,
+        _gpu: &Gpu,
+        stepper: &Stepper,
+        encoder: &mut wgpu::CommandEncoder,
+        _dt: f64,
+        _steps: u32,
+    ) {
+        let bytes = self.layout.state.bytes();
+        encoder.copy_buffer_to_buffer(stepper.buffer(Buf::Y), 0, &self.start, 0, bytes);
+        self.lists().cells.force(encoder);
+    }
+
+    /// When a rebuild overflowed the lists: grows them to the pairs it needed (with a
+    /// quarter more) and puts back the state at the batch's start.
+    fn again(&mut self, shell: &mut Shell) -> Result<bool, GpuError> {
+        let Some(needed) = self.lists().cells.overflow(&shell.gpu) else {
+            return Ok(false);
+        };
+        self.grow(shell, needed.saturating_add(needed / 4))?;
+        shell.stepper.restart_from(&shell.gpu, &self.start);
+        Ok(true)
+    }
+
+    fn signal_speed(&self, reduced: &Reduced) -> f64 {
+        self.reference.material.p_wave_speed() + reduced.max_speed
+    }
+
+    /// The first particle with a singular correction, and with ρ ≤ 0, since the start.
+    fn flagged(&self, gpu: &Gpu) -> Result<(), BlowUp> {
+        let s: Vec<u32> = gpu.read(&self.status);
+        for (k, quantity) in ["det A (Randles–Libersky, f32, GPU)", "density (f32, GPU)"]
+            .into_iter()
+            .enumerate()
+        {
+            if s[k] != u32::MAX {
+                let i = s[k] as usize;
+                return Err(BlowUp::at::<D>(&self.reference.x0, i, quantity, 0.0));
+            }
+        }
+        Ok(())
+    }
+
+    fn check_state(&self, flat: &[f32]) -> Result<(), BlowUp> {
+        check_state(&self.reference.x0, &self.decode_state(flat))
+    }
+
+    /// The builds the device ran so far (those its drift checks asked for, and one at the
+    /// start of each batch) times one build timed alone, once ([`GpuUl::time_rebuild`]): the
+    /// device's passes are not timed one by one inside a step, and the drift checks (one
+    /// position read per particle and evaluation) are left out.
+    fn neighbour_seconds(&mut self, shell: &Shell) -> Option<f64> {
+        let seconds = match self.rebuild_seconds {
+            Some(seconds) => seconds,
+            None => {
+                let seconds = self.time_rebuild(&shell.gpu);
+                *self.rebuild_seconds.insert(seconds)
+            }
+        };
+        Some(self.builds(&shell.gpu) as f64 * seconds)
+    }
+
+    fn snapshot(&mut self, shell: &Shell) -> Snapshot<'_, D> {
+        let y = self.decode_state(&shell.read_state());
+        let r = &self.reference;
+        snapshot(&r.material, &r.x0, &r.mass, &r.body, &r.vol, y)
+    }
+}

@@ -1,0 +1,501 @@
+//! The core of the updated-Lagrangian SPH methods on the CPU: what Gray–Monaghan and
+//! Godunov SPH (seed 000 Algorithms 1 and 2) share.
+//!
+//! [`UlSph`] is a whole CPU system, generic over a [`PairScheme`], which supplies the
+//! per-particle quantities and the pair sums of one method. The core holds the particles,
+//! the neighbour lists kept by the family's [`Rebuild`] policy (rebuilt from the current
+//! positions at every rate evaluation, per body when the case has contact), the
+//! boundary conditions and the interactions. At every rate evaluation it forms
+//! x = X + u, updates the lists, checks ρ > 0, lets the scheme compute its particles and
+//! rates (ẋ, v̇, ρ̇ and the velocity gradient L), and closes with the Jaumann rate Ṡ, Ḟ = L F,
+//! the prescribed velocities and the interactions. The state is [`UlState`]: u = x − X,
+//! v, ρ, S and F (integrated for the outputs only).
+
+#[cfg(feature = "gpu")]
+pub mod gpu;
+
+use crate::boundary::OnPatches;
+use crate::case::{Case, CaseError};
+use crate::core::check::{Problem, fail, toml_name};
+use crate::core::correction::CorrectionKind;
+use crate::core::integrate::OdeSystem;
+use crate::core::kernel::Kernel;
+use crate::core::neighbour::{Csr, Neighbours, Rebuild};
+use crate::core::parallel::{MIN_CHUNK, particle_state};
+use crate::core::tensor::Dim;
+use crate::diagnostics::observe::{ScalarField, Snapshot};
+use crate::engine::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
+use crate::interaction::Interactions;
+use crate::methods::cores::particles::{
+    Surroundings, check_stresses, check_tensors, particle_accessors, signal_speed,
+};
+use crate::physics::material::{Material, stress_fields};
+use crate::reference::{Build, Reference};
+use rayon::prelude::*;
+
+particle_state! {
+    /// Integrated state of an updated-Lagrangian SPH method.
+    pub struct UlState {
+        /// Density ρ.
+        pub rho: Vec<f64>,
+        /// Deviatoric Cauchy stress S (Jaumann rate, seed 000 §2.2).
+        pub s: Vec<D::T>,
+        /// Deformation gradient F, integrated by Ḟ = L F (outputs only).
+        pub f: Vec<D::T>,
+    }
+}
+
+/// The rates of one particle that a scheme computes: ẋ, v̇ (before contact and boundary
+/// conditions), ρ̇ and the velocity gradient L.
+#[derive(Clone, Copy, Debug)]
+pub struct PairRates<D: Dim> {
+    pub x_dot: D::V,
+    pub v_dot: D::V,
+    /// The part of v̇ from the scheme's artificial dissipation (the artificial viscosity,
+    /// the Riemann solver's velocity jump), whose power the energy balance books.
+    pub v_dot_dissipative: D::V,
+    pub rho_dot: f64,
+    pub l: D::T,
+}
+
+/// The Randles–Libersky correction of a particle's velocity gradient on the current
+/// positions: g_ij = A_i⁻ᵀ ∇W_ij with A_i = Σ_j V_j (x_j − x_i) ⊗ ∇W_ij (seed 000 §1.3);
+/// I (and det 1) without a correction.
+#[derive(Clone, Copy, Debug)]
+pub struct Correction<D: Dim> {
+    pub a_inv_t: D::T,
+    pub det: f64,
+}
+
+impl<D: Dim> Correction<D> {
+    /// |det A| ≤ 1e-10, or NaN: e.g. a particle that has lost its neighbours.
+    pub fn is_singular(&self) -> bool {
+        self.det.is_nan() || self.det.abs() <= 1e-10
+    }
+}
+
+/// The corrections of the velocity gradient (eq 105) the UL methods run.
+const CORRECTIONS: [CorrectionKind; 2] = [CorrectionKind::None, CorrectionKind::RandlesLibersky];
+
+/// The checks every UL method makes of a case: the hypoelastic model and a correction of
+/// [`CORRECTIONS`].
+pub fn validate(case: &Case) -> Result<(), Problem> {
+    let name = case.method.name;
+    if !case.material.model.is_rate_based() {
+        return fail(
+            "material.model",
+            format!(
+                "`{name}` integrates ρ and S with the Jaumann rate: use `hypoelastic`, not {}",
+                toml_name(&case.material.model)
+            ),
+        );
+    }
+    if !CORRECTIONS.contains(&case.method.correction) {
+        return fail(
+            "method.correction",
+            format!(
+                "`{name}` corrects its velocity gradient with `none` (the paper's) or \
+                 `randles-libersky`, not {}",
+                toml_name(&case.method.correction)
+            ),
+        );
+    }
+    Ok(())
+}
+
+/// The start of a UL method's rate evaluation as `--explain` prints it: the rebuild (on
+/// drift on both backends, decided on the device on the GPU), per body with contact, and
+/// the gradients of L.
+pub fn plan_rebuild(case: &Case, gpu: bool) -> String {
+    format!(
+        "{}{}, then one gather: L ({})",
+        if gpu {
+            "device cell list from x = X + u, rebuilt on drift (a device check sets the \
+             build's indirect dispatches)"
+        } else {
+            "cell-list neighbours from the current positions (rebuilt on drift)"
+        },
+        if case.contact.is_some() {
+            " (per body)"
+        } else {
+            ""
+        },
+        match case.method.correction {
+            CorrectionKind::RandlesLibersky => "Randles–Libersky-corrected gradients",
+            _ => "plain kernel gradients",
+        }
+    )
+}
+
+/// The particles of an updated-Lagrangian method and what every such method does with
+/// them.
+pub struct UlCore<D: Dim> {
+    pub x0: Vec<D::V>,
+    /// Reference volumes V0 (the strain energy is per reference volume).
+    pub vol0: Vec<f64>,
+    pub mass: Vec<f64>,
+    pub body: Vec<u32>,
+    v0: Vec<D::V>,
+    pub surroundings: Surroundings<D>,
+    pub material: Material,
+    /// The case's kernel (one smoothing length, as in seed 000).
+    pub kernel: Kernel,
+    /// The correction of the velocity gradient (`none` or `randles-libersky`, eq 105).
+    pub correction: CorrectionKind,
+    neighbours: Neighbours,
+    /// Current positions x = X + u of the last rate evaluation.
+    pub x: Vec<D::V>,
+}
+
+impl<D: Dim> UlCore<D> {
+    /// The particles of the reference configuration with their lists kept by `rebuild`,
+    /// per body when the case has contact (without it the bodies interact through the SPH
+    /// sums as one body).
+    pub fn new(case: &Case, reference: Reference<D>, rebuild: Rebuild) -> Result<Self, CaseError> {
+        let neighbours = reference.neighbour_lists(rebuild, case.contact.is_some());
+        let Reference {
+            x0,
+            vol,
+            mass,
+            body,
+            v0,
+            boundary,
+            material,
+            kernel,
+            ..
+        } = reference;
+        let interactions = Interactions::build(case, &x0, &body, &OnPatches, &mass, || {
+            neighbours.lists().clone()
+        })?;
+        Ok(Self {
+            x: x0.clone(),
+            x0,
+            vol0: vol,
+            mass,
+            body,
+            v0,
+            surroundings: Surroundings::new(boundary, interactions),
+            material,
+            kernel,
+            correction: case.method.correction,
+            neighbours,
+        })
+    }
+
+    /// The neighbour lists of the last rate evaluation.
+    pub fn neighbours(&self) -> &Csr {
+        self.neighbours.lists()
+    }
+
+    /// The correction of particle i's velocity gradient ([`Self::correction`]), with
+    /// V_j = m_j/ρ_j.
+    pub fn correction_at(&self, i: usize, rho: &[f64]) -> Correction<D> {
+        if self.correction != CorrectionKind::RandlesLibersky {
+            return Correction {
+                a_inv_t: D::identity(),
+                det: 1.0,
+            };
+        }
+        let mut a = D::zero_t();
+        for &j in self.neighbours().neighbours(i) {
+            let j = j as usize;
+            let x_ij = self.x[i] - self.x[j];
+            a += D::outer(-x_ij, self.kernel.grad::<D>(x_ij)) * (self.mass[j] / rho[j]);
+        }
+        Correction {
+            a_inv_t: D::transpose(D::inverse(a)),
+            det: D::det(a),
+        }
+    }
+
+    /// The first particle of `corrections` whose correction is singular, as a blow-up.
+    pub fn first_singular<'a>(
+        &self,
+        corrections: impl IndexedParallelIterator<Item = &'a Correction<D>>,
+    ) -> Option<BlowUp> {
+        let (i, c) = corrections
+            .enumerate()
+            .find_first(|(_, c)| c.is_singular())?;
+        Some(BlowUp::at::<D>(
+            &self.x0,
+            i,
+            "det A (Randles–Libersky)",
+            c.det,
+        ))
+    }
+
+    /// x = X + u and the lists; the first particle with ρ ≤ 0 fails.
+    fn positions(&mut self, y: &UlState<D>) -> Result<(), BlowUp> {
+        self.x
+            .par_iter_mut()
+            .with_min_len(MIN_CHUNK)
+            .zip(&self.x0)
+            .zip(&y.u)
+            .for_each(|((x, &x0), &u)| *x = x0 + u);
+        self.neighbours.update::<D>(&self.x);
+        if let Some(i) = y
+            .rho
+            .par_iter()
+            .position_first(|&rho| rho.is_nan() || rho <= 0.0)
+        {
+            return Err(BlowUp::at::<D>(&self.x0, i, "density", y.rho[i]));
+        }
+        Ok(())
+    }
+
+    /// Velocity components prescribed over the step: ẋ takes them (a scheme's XSPH term is left out)
+    /// and v̇ is zeroed; then the interactions' accelerations. Records the power.
+    fn close(&mut self, y: &UlState<D>, d: &mut UlState<D>) {
+        for (i, mask) in self.surroundings.boundary.held_now() {
+            let i = i as usize;
+            let (mut x_dot, vi) = (D::to3(d.u[i]), D::to3(y.v[i]));
+            for k in 0..D::N {
+                if mask & (1 << k) != 0 {
+                    x_dot[k] = vi[k];
+                }
+            }
+            d.u[i] = D::from_slice(&x_dot[..D::N]);
+        }
+        self.surroundings.close(&y.v, &self.mass, &mut d.v);
+    }
+}
+
+/// The pair sums of one updated-Lagrangian method, on the core's particles and lists.
+pub trait PairScheme<D: Dim>: Sized + Send + Sync {
+    /// What the scheme computes per particle before its pair sums.
+    type Particle: Copy + Send + Sync;
+    /// The family's neighbour policy.
+    const REBUILD: Rebuild;
+
+    /// The typed spec of the scheme's method.
+    type Spec;
+
+    /// The scheme of a method's spec on the case's core.
+    fn new(case: &Case, spec: &Self::Spec, core: &UlCore<D>) -> Result<Self, CaseError>;
+
+    /// The quantities of particle i at state y (the core's positions and lists are
+    /// current).
+    fn particle(&self, core: &UlCore<D>, i: usize, y: &UlState<D>) -> Self::Particle;
+
+    /// The correction in a particle's quantities: a singular one is inadmissible.
+    fn correction_of(particle: &Self::Particle) -> &Correction<D>;
+
+    /// The rates of particle i from its neighbours.
+    fn rates_of(
+        &self,
+        core: &UlCore<D>,
+        particles: &[Self::Particle],
+        i: usize,
+        y: &UlState<D>,
+    ) -> PairRates<D>;
+}
+
+/// An updated-Lagrangian SPH system on the CPU (f64, rayon): the core and a scheme.
+pub struct UlSph<D: Dim, S: PairScheme<D>> {
+    pub core: UlCore<D>,
+    pub scheme: S,
+    particles: Vec<S::Particle>,
+    /// Each particle's power of the artificial dissipation, −m a_art·v, at the last rate
+    /// evaluation.
+    dissipation: Vec<f64>,
+}
+
+impl<D: Dim, S: PairScheme<D>> UlSph<D, S> {
+    /// The current neighbour lists (those of the last rate evaluation).
+    pub fn neighbours(&self) -> &Csr {
+        self.core.neighbours()
+    }
+}
+
+impl<D: Dim, S: PairScheme<D>> OdeSystem for UlSph<D, S> {
+    type State = UlState<D>;
+    type Error = BlowUp;
+
+    fn rates(&mut self, _t: f64, y: &UlState<D>, d: &mut UlState<D>) -> Result<(), BlowUp> {
+        self.core.positions(y)?;
+        let (core, scheme) = (&self.core, &self.scheme);
+        (0..y.u.len())
+            .into_par_iter()
+            .with_min_len(MIN_CHUNK)
+            .map(|i| scheme.particle(core, i, y))
+            .collect_into_vec(&mut self.particles);
+        let corrections = self.particles.par_iter().map(S::correction_of);
+        if let Some(b) = core.first_singular(corrections) {
+            return Err(b);
+        }
+        let particles = &self.particles;
+        self.dissipation.resize(y.u.len(), 0.0);
+        d.u.par_iter_mut()
+            .with_min_len(MIN_CHUNK)
+            .zip(d.v.par_iter_mut())
+            .zip(d.rho.par_iter_mut())
+            .zip(d.s.par_iter_mut())
+            .zip(d.f.par_iter_mut())
+            .zip(self.dissipation.par_iter_mut())
+            .enumerate()
+            .for_each(
+                |(i, (((((u_dot, v_dot), rho_dot), s_dot), f_dot), dissipation))| {
+                    let r = scheme.rates_of(core, particles, i, y);
+                    (*u_dot, *v_dot, *rho_dot) = (r.x_dot, r.v_dot, r.rho_dot);
+                    *dissipation = -core.mass[i] * D::dot(r.v_dot_dissipative, y.v[i]);
+                    *s_dot = core.material.jaumann_rate::<D>(y.s[i], r.l);
+                    *f_dot = r.l * y.f[i];
+                },
+            );
+        self.core.close(y, d);
+        Ok(())
+    }
+
+    /// The interactions' work before the step (the contact forces of seed 000 §5.8).
+    fn begin_step(&mut self, t: f64, dt: f64, y: &UlState<D>) {
+        self.core
+            .surroundings
+            .begin_step(t, dt, &self.core.x0, &y.u, &y.v);
+    }
+}
+
+impl<D: Dim, S: PairScheme<D>> Build<D> for UlSph<D, S> {
+    type Spec = S::Spec;
+
+    fn build(case: &Case, spec: &S::Spec, reference: Reference<D>) -> Result<Self, CaseError> {
+        let core = UlCore::new(case, reference, S::REBUILD)?;
+        let scheme = S::new(case, spec, &core)?;
+        Ok(Self {
+            core,
+            scheme,
+            particles: Vec::new(),
+            dissipation: Vec::new(),
+        })
+    }
+}
+
+impl<D: Dim, S: PairScheme<D>> Method<D> for UlSph<D, S> {
+    fn initial_state(&self) -> UlState<D> {
+        let n = self.core.x0.len();
+        UlState {
+            u: vec![D::zero(); n],
+            v: self.core.v0.clone(),
+            rho: vec![self.core.material.rho0; n],
+            s: vec![D::zero_t(); n],
+            f: vec![D::identity(); n],
+        }
+    }
+
+    particle_accessors!(UlState<D>, core);
+
+    fn reference(&self) -> &[D::V] {
+        &self.core.x0
+    }
+
+    fn deformation_gradient(&self, y: &UlState<D>) -> Vec<D::T> {
+        y.f.clone()
+    }
+
+    fn cauchy_stress(&self, y: &UlState<D>) -> Vec<[[f64; 3]; 3]> {
+        stress_fields::<D>(&self.core.material, &y.f, &y.s, &y.rho, &self.core.vol0).0
+    }
+
+    fn strain_energy(&self, y: &UlState<D>) -> f64 {
+        stress_fields::<D>(&self.core.material, &y.f, &y.s, &y.rho, &self.core.vol0).1
+    }
+
+    fn snapshot<'a>(&'a self, y: &UlState<D>) -> Snapshot<'a, D> {
+        let core = &self.core;
+        snapshot(
+            &core.material,
+            &core.x0,
+            &core.mass,
+            &core.body,
+            &core.vol0,
+            y.clone(),
+        )
+    }
+
+    fn neighbour_seconds(&self) -> Option<f64> {
+        Some(self.core.neighbours.seconds())
+    }
+
+    fn dissipation_power(&self) -> f64 {
+        self.dissipation.iter().sum()
+    }
+
+    fn max_signal_speed(&self, y: &UlState<D>) -> f64 {
+        signal_speed::<D>(&self.core.material, &y.v)
+    }
+
+    fn pairs(&self) -> usize {
+        self.core.neighbours().pair_count()
+    }
+
+    /// x = X + u; the lists' drift check reads x and the positions of the last build (a
+    /// rebuild, on drift only, is left out) and ρ > 0 reads ρ; the particle pass reads ρ,
+    /// S and m (with the Randles–Libersky correction also x and the ids of every pair)
+    /// and writes the scheme's records, which the admissibility check reads again; the
+    /// pair pass reads the records, x, v, ρ, S, F and m and the ids of every pair and
+    /// writes u̇, v̇, ρ̇, Ṡ and Ḟ. The kernel is evaluated per pair, not stored.
+    fn traffic(&self) -> Option<Traffic> {
+        let Sizes { v, t, f, id } = Sizes::of::<D>();
+        let record = size_of::<S::Particle>();
+        // The particle pass sums the Randles–Libersky correction over the pairs.
+        let corrected = self.core.correction == CorrectionKind::RandlesLibersky;
+        let positions = 3 * v + (v + size_of::<[f64; 3]>()) + f;
+        let particle = 2 * f + t + record + if corrected { v } else { 0 };
+        let pair_pass = record + 2 * v + 2 * f + 2 * t + (2 * v + f + 2 * t);
+        Some(Traffic {
+            per_particle: (positions + particle + record + pair_pass) as f64,
+            per_pair: (id + if corrected { id } else { 0 }) as f64,
+            state: (2 * v + f + 2 * t) as f64,
+            velocity: v as f64,
+        })
+    }
+
+    fn check_finite(&self, y: &UlState<D>) -> Result<(), BlowUp> {
+        check_state(&self.core.x0, y)
+    }
+}
+
+/// A snapshot of the UL state y: stresses and strain energy (per reference volume
+/// `vol0`) from `stress_fields`. Shared by the CPU and GPU paths.
+pub fn snapshot<'a, D: Dim>(
+    material: &crate::physics::material::Material,
+    x0: &'a [D::V],
+    mass: &'a [f64],
+    body: &'a [u32],
+    vol0: &[f64],
+    y: UlState<D>,
+) -> Snapshot<'a, D> {
+    let (sigma, strain_energy) = stress_fields::<D>(material, &y.f, &y.s, &y.rho, vol0);
+    // The method's own ρ (continuity equation) and V = m/ρ, in place of ρ0/J and V0 J of
+    // the integrated F.
+    let volume = mass.iter().zip(&y.rho).map(|(m, rho)| m / rho).collect();
+    Snapshot {
+        x0,
+        mass,
+        body,
+        u: y.u,
+        v: y.v,
+        f: y.f,
+        sigma,
+        strain_energy,
+        extra: vec![
+            ScalarField {
+                name: "density",
+                values: y.rho,
+            },
+            ScalarField {
+                name: "volume",
+                values: volume,
+            },
+        ],
+        cells: &[],
+        quadrature: None,
+    }
+}
+
+/// The first non-finite entry of a UL state, as a blow-up at its particle.
+pub fn check_state<D: Dim>(x0: &[D::V], y: &UlState<D>) -> Result<(), BlowUp> {
+    check_motion::<D>(x0, &y.u, &y.v)?;
+    let at = |i: usize, quantity: &str, value: f64| BlowUp::at::<D>(x0, i, quantity, value);
+    check_stresses::<D>(&y.rho, &y.s, at)?;
+    check_tensors::<D>(&y.f, "deformation gradient |F|", at)
+}

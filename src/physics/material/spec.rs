@@ -1,0 +1,77 @@
+//! The `[material]` table of a case: the constitutive model and its constants, which
+//! [`super::Material`] is built from.
+
+use super::MaterialModel;
+use crate::physics::mooney_rivlin::MooneyRivlin;
+use serde::{Deserialize, Serialize};
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialSpec {
+    pub model: MaterialModel,
+    /// Reference density ρ0 [kg/m³].
+    pub density: f64,
+    /// Young's modulus E [Pa]: every model but `mooney-rivlin`.
+    pub youngs_modulus: Option<f64>,
+    /// Poisson ratio ν: every model but `mooney-rivlin`.
+    pub poisson_ratio: Option<f64>,
+    /// `von-mises-plastic`: initial yield stress τ_y⁰ [Pa].
+    pub yield_stress: Option<f64>,
+    /// `von-mises-plastic`: linear isotropic hardening modulus H [Pa]: τ_y = τ_y⁰ + H ε_p,
+    /// negative for softening (down to τ_y = 0).
+    pub hardening_modulus: Option<f64>,
+    /// `mooney-rivlin`: c1 of seed 001 eq 18 [Pa].
+    pub c1: Option<f64>,
+    /// `mooney-rivlin`: c2 of seed 001 eq 18 [Pa].
+    pub c2: Option<f64>,
+    /// `mooney-rivlin`: λ of seed 001 eq 18 [Pa], half the bulk modulus (not Lamé's λ,
+    /// which is 2λ − ⅔(c1 + c2)).
+    pub lambda: Option<f64>,
+    /// What the out-of-plane direction of a 2D scene holds fixed.
+    #[serde(default)]
+    pub plane: Plane,
+}
+
+impl MaterialSpec {
+    /// The constants of a `mooney-rivlin` material (None for the other models).
+    pub fn mooney_rivlin(&self) -> Option<MooneyRivlin> {
+        match (self.model, self.c1, self.c2, self.lambda) {
+            (MaterialModel::MooneyRivlin, Some(c1), Some(c2), Some(lambda)) => {
+                Some(MooneyRivlin { c1, c2, lambda })
+            }
+            _ => None,
+        }
+    }
+
+    /// Young's modulus and Poisson's ratio (E, ν): as given, or for `mooney-rivlin` those
+    /// of its linearisation at F = I (μ = c1 + c2, λ_L = 2λ − ⅔μ). The closed-form
+    /// solutions of linear elasticity take them. NaN where validation would refuse the
+    /// case.
+    pub fn youngs_and_poisson(&self) -> (f64, f64) {
+        match self.mooney_rivlin() {
+            Some(m) => {
+                let (mu, lambda) = m.lame();
+                (
+                    mu * (3.0 * lambda + 2.0 * mu) / (lambda + mu),
+                    lambda / (2.0 * (lambda + mu)),
+                )
+            }
+            None => (
+                self.youngs_modulus.unwrap_or(f64::NAN),
+                self.poisson_ratio.unwrap_or(f64::NAN),
+            ),
+        }
+    }
+}
+
+/// The out-of-plane assumption of a 2D scene.
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum Plane {
+    /// F_zz = 1 (ε_zz = 0): a slice of a long body.
+    #[default]
+    Strain,
+    /// σ_zz = 0: a thin sheet, as the seed-000 reference code's SVK and small-strain
+    /// models are.
+    Stress,
+}
