@@ -115,6 +115,11 @@ enum Command {
         /// Also write a report over the suites (plots and CSV go to study/ beside it).
         #[arg(long)]
         report: Option<PathBuf>,
+        /// Run nothing: rewrite only the report's "Which method for which job" section
+        /// from the records in study/ beside it (the suites' [advice] applied to the
+        /// results as last measured).
+        #[arg(long, requires = "report")]
+        advice_only: bool,
         /// No progress bar or per-run lines.
         #[arg(long, short)]
         quiet: bool,
@@ -204,16 +209,46 @@ fn main() -> ExitCode {
             out,
             no_resume,
             report,
+            advice_only,
             quiet,
             run_time_limit,
-        } => study_command(
-            &suites,
-            out,
-            !no_resume,
-            report.as_deref(),
-            quiet,
-            run_time_limit,
-        ),
+        } => match (advice_only, report.as_deref()) {
+            (true, Some(report)) => advice_command(&suites, report),
+            _ => study_command(
+                &suites,
+                out,
+                !no_resume,
+                report.as_deref(),
+                quiet,
+                run_time_limit,
+            ),
+        },
+    }
+}
+
+/// `meshless study … --report PATH --advice-only`: the advice section rewritten from the
+/// recorded results.
+#[cfg(feature = "study")]
+fn advice_command(names: &[String], report: &Path) -> ExitCode {
+    use meshless::study::{StudyError, resolve_suites, rewrite_advice};
+    let studies: Vec<PathBuf> = case_dirs().iter().map(|d| d.join("studies")).collect();
+    let result = resolve_suites(names, &studies)
+        .map_err(|e| (EXIT_INPUT, e))
+        .and_then(|paths| {
+            rewrite_advice(&paths, report).map_err(|e| match e {
+                StudyError::Suite(_) => (EXIT_INPUT, e.to_string()),
+                StudyError::Io(_) => (EXIT_FAILED, e.to_string()),
+            })
+        });
+    match result {
+        Ok(()) => {
+            println!("report: {} (its advice section)", report.display());
+            ExitCode::SUCCESS
+        }
+        Err((code, e)) => {
+            eprintln!("error: {e}");
+            ExitCode::from(code)
+        }
     }
 }
 
