@@ -5,7 +5,7 @@
 use super::advice::{Evidence, ROUND_OFF, Ranked, Reach, Scored};
 use super::*;
 use crate::study::history::significant;
-use crate::study::suite::{Measure, label};
+use crate::study::suite::{Advice, Measure, label};
 
 /// The most lines to avoid a suite's advice names before it counts the rest.
 pub(super) const AVOID_SHOWN: usize = 4;
@@ -144,8 +144,7 @@ fn evidence_only(ev: &Evidence) -> String {
 }
 
 /// The advice of a suite with an error measure.
-fn error_advice(ev: &Evidence, ranked: &Ranked) -> Advised {
-    let a = ev.advice().expect("a measure comes with [advice]");
+fn error_advice(ev: &Evidence, a: &Advice, ranked: &Ranked) -> Advised {
     let sym = symbol(a.measure);
     let best = ranked.best;
     let show = |s: &Scored| {
@@ -233,8 +232,7 @@ fn reach_phrase(ev: &Evidence, r: &Reach) -> String {
 }
 
 /// The advice of a stability-only suite.
-fn stability_advice(ev: &Evidence) -> Advised {
-    let a = ev.advice().expect("stability advice comes with [advice]");
+fn stability_advice(ev: &Evidence, a: &Advice) -> Advised {
     let ranked = ev.reach();
     let head = format!("stability only; budget {} a run", seconds(a.budget));
     let Some(best) = ranked.first().filter(|r| r.stable > 0) else {
@@ -451,9 +449,9 @@ pub fn advise(ev: &Evidence) -> Advised {
     };
     let advised = match (ev.suite.choice, a.measure) {
         (Choice::Sweep, _) => sweep_advice(ev),
-        (_, Measure::Stability) => stability_advice(ev),
+        (_, Measure::Stability) => stability_advice(ev, a),
         _ => match ev.ranked() {
-            Some(r) => error_advice(ev, &r),
+            Some(r) => error_advice(ev, a, &r),
             None => Advised {
                 text: format!(
                     "no candidate has a measured run within the budget (measure: {}; budget \
