@@ -392,3 +392,30 @@ fn the_advice_section_is_rewritten_in_place() {
         "{e}"
     );
 }
+
+#[test]
+fn a_failure_beyond_the_advised_reach_is_no_reason_to_avoid() {
+    // `a` and `b` both hold at 0.1 and fail at 0.05 (the impact speed each carries); `b`
+    // is faster at 0.1, so advised, and `a`'s failure at 0.05 is its limit, as `b`'s is.
+    // `c` fails at 0.1, within the advised reach: avoided.
+    let s = suite(
+        "stability",
+        NONE,
+        r#"measure = "stability", budget = 10.0, candidates = ["a", "b", "c"]"#,
+    );
+    let recs = vec![
+        record("a", "0.1", 2.0, f64::NAN, Status::Ok),
+        record("a", "0.05", 1.0, f64::NAN, failed(0.5)),
+        record("b", "0.1", 1.0, f64::NAN, Status::Ok),
+        record("b", "0.05", 1.0, f64::NAN, failed(0.4)),
+        record("c", "0.1", 1.0, f64::NAN, failed(0.1)),
+    ];
+    let advised = advise_on(&s, &recs, &[]);
+    assert_eq!(advised.use_, "`b`", "{}", advised.text);
+    let text = &advised.text;
+    assert!(
+        text.contains(" Avoid `c`: fails at spacing = 0.1 (t = 1.00e-1 s, det F). Evidence"),
+        "{text}"
+    );
+    assert!(!text.contains("`a`: fails"), "{text}");
+}
