@@ -115,6 +115,11 @@ enum Command {
         /// Also write a report over the suites (plots and CSV go to study/ beside it).
         #[arg(long)]
         report: Option<PathBuf>,
+        /// Run nothing: rewrite only the report's "Which method for which job" section
+        /// from the records in study/ beside it (the suites' [advice] applied to the
+        /// results as last measured).
+        #[arg(long, requires = "report")]
+        advice_only: bool,
         /// No progress bar or per-run lines.
         #[arg(long, short)]
         quiet: bool,
@@ -215,17 +220,57 @@ fn main() -> ExitCode {
             out,
             no_resume,
             report,
+            advice_only,
             quiet,
             run_time_limit,
             stale: false,
-        } => study_command(
-            &suites,
-            out,
-            !no_resume,
-            report.as_deref(),
-            quiet,
-            run_time_limit,
-        ),
+        } => match (advice_only, report.as_deref()) {
+            (true, Some(report)) => advice_command(&suites, report),
+            _ => study_command(
+                &suites,
+                out,
+                !no_resume,
+                report.as_deref(),
+                quiet,
+                run_time_limit,
+            ),
+        },
+    }
+}
+
+/// The suite files `names` stand for, in the case folders' `studies/`; an unknown name is
+/// refused with exit code 2.
+#[cfg(feature = "study")]
+fn suite_paths(names: &[String]) -> Result<Vec<PathBuf>, ExitCode> {
+    let studies: Vec<PathBuf> = case_dirs().iter().map(|d| d.join("studies")).collect();
+    meshless::study::resolve_suites(names, &studies).map_err(|e| {
+        eprintln!("error: {e}");
+        ExitCode::from(EXIT_INPUT)
+    })
+}
+
+/// `meshless study … --report PATH --advice-only`: the advice section rewritten from the
+/// recorded results.
+#[cfg(feature = "study")]
+fn advice_command(names: &[String], report: &Path) -> ExitCode {
+    use meshless::study::{StudyError, rewrite_advice};
+    let paths = match suite_paths(names) {
+        Ok(p) => p,
+        Err(code) => return code,
+    };
+    let result = rewrite_advice(&paths, report).map_err(|e| match e {
+        StudyError::Suite(_) => (EXIT_INPUT, e.to_string()),
+        StudyError::Io(_) => (EXIT_FAILED, e.to_string()),
+    });
+    match result {
+        Ok(()) => {
+            println!("report: {} (its advice section)", report.display());
+            ExitCode::SUCCESS
+        }
+        Err((code, e)) => {
+            eprintln!("error: {e}");
+            ExitCode::from(code)
+        }
     }
 }
 
@@ -233,14 +278,10 @@ fn main() -> ExitCode {
 #[cfg(feature = "study")]
 fn stale_command(names: &[String], report: Option<&Path>) -> ExitCode {
     use meshless::study::stale::{Freshness, freshness, line};
-    use meshless::study::{Suite, records, resolve_suites};
-    let studies: Vec<PathBuf> = case_dirs().iter().map(|d| d.join("studies")).collect();
-    let paths = match resolve_suites(names, &studies) {
+    use meshless::study::{Suite, records};
+    let paths = match suite_paths(names) {
         Ok(p) => p,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::from(EXIT_INPUT);
-        }
+        Err(code) => return code,
     };
     let report = report.unwrap_or(Path::new("docs/REPORT.md"));
     let dir = report.parent().unwrap_or(Path::new(".")).join("study");
@@ -282,14 +323,10 @@ fn study_command(
     quiet: bool,
     run_time_limit: f64,
 ) -> ExitCode {
-    use meshless::study::{StudyError, resolve_suites, run_suites};
-    let studies: Vec<PathBuf> = case_dirs().iter().map(|d| d.join("studies")).collect();
-    let paths = match resolve_suites(names, &studies) {
+    use meshless::study::{StudyError, run_suites};
+    let paths = match suite_paths(names) {
         Ok(p) => p,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::from(EXIT_INPUT);
-        }
+        Err(code) => return code,
     };
     let out = out.unwrap_or_else(|| Path::new("out").join("study"));
     let mut command = format!("meshless study {}", names.join(" "));

@@ -3,8 +3,8 @@
 //! convergence, the least-squares slope of ln e against ln Δx over its runs.
 
 use super::plot::{
-    Metric, draw_marker, draw_path, legend_width, line_style, log_axis, metrics, pixel_area,
-    plottable, register_font, styled_mesh, tick_label, write_figure,
+    Metric, draw_marker, draw_path, legend_width, line_style, log_axis_over, log_log_chart,
+    metrics, pixel_area, plottable, register_font, styled_mesh, tick_label, write_figure,
 };
 use super::records::RunRecord;
 use super::suite::{Suite, SuiteKind};
@@ -93,34 +93,14 @@ fn draw<DB: DrawingBackend>(
     let err = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     root.fill(&WHITE).map_err(err)?;
     let all = || ladders.iter().flat_map(|l| l.points.iter());
-    let range = |v: &mut dyn Iterator<Item = f64>| {
-        v.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
-            (lo.min(x), hi.max(x))
-        })
-    };
-    let (h_lo, h_hi) = range(&mut all().map(|p| p.0));
-    let (e_lo, e_hi) = range(&mut all().map(|p| p.1));
-    let (xa, ya) = (log_axis(h_lo, h_hi), log_axis(e_lo, e_hi));
+    let xa = log_axis_over(all().map(|p| p.0));
+    let ya = log_axis_over(all().map(|p| p.1));
     let root = root.titled(title, ("sans-serif", 20)).map_err(err)?;
     let (width, _) = root.dim_in_pixel();
     let font = ("sans-serif", 14).into_font();
     let legend = legend_width(&root, ladders.iter().map(|l| l.name.as_str()), &font);
     let (plot_area, legend_area) = root.split_horizontally(width.saturating_sub(legend));
-    let mut chart = ChartBuilder::on(&plot_area)
-        .margin(12)
-        .x_label_area_size(48)
-        .y_label_area_size(78)
-        .build_cartesian_2d(
-            (xa.lo..xa.hi)
-                .log_scale()
-                .with_key_points(xa.ticks.clone())
-                .with_light_points(xa.minor.clone()),
-            (ya.lo..ya.hi)
-                .log_scale()
-                .with_key_points(ya.ticks.clone())
-                .with_light_points(ya.minor.clone()),
-        )
-        .map_err(err)?;
+    let mut chart = log_log_chart!(&plot_area, xa, ya).map_err(err)?;
     let x_label = |x: &f64| tick_label(*x, xa.plain);
     let y_label = |y: &f64| tick_label(*y, ya.plain);
     let mut mesh = chart.configure_mesh();

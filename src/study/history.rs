@@ -77,6 +77,40 @@ pub fn curves(h: &History, records: &[RunRecord], suite_dir: &Path) -> (Vec<Curv
     (curves, missing)
 }
 
+/// The curves of a `<suite>-history.csv` as [`write`] writes it (`run,sweep_value,x,y`);
+/// none when the file does not exist. A curve read back does not know whether its run
+/// failed (its record does).
+pub fn read_csv(path: &Path) -> std::io::Result<Vec<Curve>> {
+    let text = match std::fs::read_to_string(path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
+        Err(e) => return Err(e),
+    };
+    let mut curves: Vec<Curve> = Vec::new();
+    for row in text.lines().skip(1) {
+        // The run's name is the only field that may hold a comma: split from the right.
+        let mut fields = row.rsplitn(4, ',');
+        let (Some(y), Some(x), Some(value), Some(name)) =
+            (fields.next(), fields.next(), fields.next(), fields.next())
+        else {
+            continue;
+        };
+        let (Ok(x), Ok(y)) = (x.parse::<f64>(), y.parse::<f64>()) else {
+            continue;
+        };
+        match curves.last_mut() {
+            Some(c) if c.name == name && c.sweep_value == value => c.points.push((x, y)),
+            _ => curves.push(Curve {
+                name: name.to_string(),
+                sweep_value: value.to_string(),
+                points: vec![(x, y)],
+                failed: false,
+            }),
+        }
+    }
+    Ok(curves)
+}
+
 /// The most points of a run that its curve keeps.
 const MAX_POINTS: usize = 2000;
 
@@ -308,7 +342,7 @@ pub fn value_at(points: &[(f64, f64)], x: f64) -> f64 {
 }
 
 /// Four significant digits ("0.05026", "11.56"), – for NaN.
-fn significant(v: f64) -> String {
+pub(crate) fn significant(v: f64) -> String {
     if !v.is_finite() {
         return "–".into();
     }

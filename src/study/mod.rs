@@ -492,6 +492,34 @@ pub fn run_suites(
     Ok(done)
 }
 
+/// Rewrites only the advice section of the report at `report` from the records beside it
+/// (`study/<suite>.csv` and `study/<suite>-history.csv`, as the report last wrote them),
+/// running nothing: the suites' `[advice]` applied to the results as last measured.
+pub fn rewrite_advice(paths: &[PathBuf], report: &Path) -> Result<(), StudyError> {
+    let suites = paths
+        .iter()
+        .map(|p| Suite::load(p))
+        .collect::<Result<Vec<_>, _>>()?;
+    let study = report.parent().unwrap_or(Path::new(".")).join("study");
+    let mut measured = Vec::new();
+    for suite in &suites {
+        let records = records::read(&study.join(format!("{}.csv", suite.name)))?;
+        let curves = history::read_csv(&study.join(format!("{}-history.csv", suite.name)))?;
+        measured.push((records, curves));
+    }
+    let evidence: Vec<report::Evidence> = suites
+        .iter()
+        .zip(&measured)
+        .map(|(suite, (records, history))| report::Evidence {
+            suite,
+            records,
+            history,
+        })
+        .collect();
+    report::rewrite_advice(report, &report::advice_section(&evidence))?;
+    Ok(())
+}
+
 /// Why a study could not run (failed runs are results, not errors).
 #[derive(Debug, thiserror::Error)]
 pub enum StudyError {

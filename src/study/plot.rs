@@ -291,6 +291,36 @@ const SNAP: f64 = 1e-9;
 /// Data within this factor of an axis end is moved inwards, off the frame.
 const PAD: f64 = 1.08;
 
+/// The [`LogAxis`] over the values of `v`, from their smallest to their largest.
+pub(super) fn log_axis_over(v: impl Iterator<Item = f64>) -> LogAxis {
+    let (lo, hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
+        (lo.min(x), hi.max(x))
+    });
+    log_axis(lo, hi)
+}
+
+/// A chart on a drawing area with logarithmic axes over two [`LogAxis`], their labelled
+/// values as key points and the others as light grid lines.
+macro_rules! log_log_chart {
+    ($area:expr, $xa:expr, $ya:expr) => {
+        ChartBuilder::on($area)
+            .margin(12)
+            .x_label_area_size(48)
+            .y_label_area_size(78)
+            .build_cartesian_2d(
+                ($xa.lo..$xa.hi)
+                    .log_scale()
+                    .with_key_points($xa.ticks.clone())
+                    .with_light_points($xa.minor.clone()),
+                ($ya.lo..$ya.hi)
+                    .log_scale()
+                    .with_key_points($ya.ticks.clone())
+                    .with_light_points($ya.minor.clone()),
+            )
+    };
+}
+pub(super) use log_log_chart;
+
 /// The axis for data in `lo..=hi` (both positive): whole decades around the data when it
 /// spans two decades or more, else 1-2-5 steps around it with at least three of them
 /// labelled.
@@ -611,14 +641,8 @@ fn draw<DB: DrawingBackend>(
 ) -> Result<(), String> {
     let err = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     root.fill(&WHITE).map_err(err)?;
-    let bounds = |v: &mut dyn Iterator<Item = f64>| {
-        v.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
-            (lo.min(x), hi.max(x))
-        })
-    };
-    let (t_lo, t_hi) = bounds(&mut points.iter().map(|p| p.1));
-    let (e_lo, e_hi) = bounds(&mut points.iter().map(|p| p.2));
-    let (xa, ya) = (log_axis(t_lo, t_hi), log_axis(e_lo, e_hi));
+    let xa = log_axis_over(points.iter().map(|p| p.1));
+    let ya = log_axis_over(points.iter().map(|p| p.2));
     // The legend goes in a column right of the chart, never over the points.
     let root = root.titled(title, ("sans-serif", 20)).map_err(err)?;
     let (width, _) = root.dim_in_pixel();
@@ -626,21 +650,7 @@ fn draw<DB: DrawingBackend>(
     let lines = lines(points);
     let legend = legend_width(&root, lines.iter().map(|l| l.name.as_str()), &font);
     let (plot_area, legend_area) = root.split_horizontally(width.saturating_sub(legend));
-    let mut chart = ChartBuilder::on(&plot_area)
-        .margin(12)
-        .x_label_area_size(48)
-        .y_label_area_size(78)
-        .build_cartesian_2d(
-            (xa.lo..xa.hi)
-                .log_scale()
-                .with_key_points(xa.ticks.clone())
-                .with_light_points(xa.minor.clone()),
-            (ya.lo..ya.hi)
-                .log_scale()
-                .with_key_points(ya.ticks.clone())
-                .with_light_points(ya.minor.clone()),
-        )
-        .map_err(err)?;
+    let mut chart = log_log_chart!(&plot_area, xa, ya).map_err(err)?;
     let x_label = |x: &f64| tick_label(*x, xa.plain);
     let y_label = |y: &f64| tick_label(*y, ya.plain);
     let x_desc = "wall time [s] (set-up + time loop)";

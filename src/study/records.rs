@@ -431,6 +431,18 @@ mod tests {
         assert_eq!(a, b);
     }
 
+    /// The record of a run of variant `v` on the CPU at spacing 0.05, before it measures.
+    fn unmeasured() -> RunRecord {
+        RunRecord::unmeasured(
+            "0".into(),
+            "s".into(),
+            "v".into(),
+            "cpu".into(),
+            ("spacing".into(), "0.05".into()),
+            String::new(),
+        )
+    }
+
     #[test]
     fn records_of_before_the_build_column_still_read() {
         // A row of the 25 columns written before `build` and `date`: read, with both
@@ -446,14 +458,7 @@ mod tests {
         assert_eq!(back.len(), 1);
         assert_eq!((back[0].build.as_str(), back[0].date.as_str()), ("", ""));
         assert_eq!(back[0].solver(), "");
-        let fresh = RunRecord::unmeasured(
-            "0".into(),
-            "s".into(),
-            "v".into(),
-            "cpu".into(),
-            ("spacing".into(), "0.05".into()),
-            String::new(),
-        );
+        let fresh = unmeasured();
         assert_eq!(fresh.solver(), this_solver());
     }
 
@@ -470,14 +475,7 @@ mod tests {
 
     #[test]
     fn a_line_names_the_backend_kind_only_off_the_cpu() {
-        let mut rec = RunRecord::unmeasured(
-            "0".into(),
-            "s".into(),
-            "v".into(),
-            "cpu".into(),
-            ("spacing".into(), "0.05".into()),
-            String::new(),
-        );
+        let mut rec = unmeasured();
         for (backend, line) in [
             ("cpu", "v"),
             (

@@ -1,17 +1,20 @@
 //! Markdown: the table of one suite's runs, the stability map, and the report over suites
 //! with its "which method for which job" section drawn from the records alone.
 
-use super::history;
-use super::plot::{Metric, metrics, pareto, plottable};
+use super::history::{self, Curve};
+use super::plot::{metrics, pareto, plottable};
 use super::records::{self, RunRecord, Status};
 use super::suite::{AnalyticSolution, Choice, InvariantKind, Reference, Suite, SuiteKind};
 use std::fmt::Write;
 use std::path::Path;
 
+mod advice;
 mod recommend;
 
-use recommend::{AVOID_ERROR_RATIO, AVOID_SHOWN, TIE_RATIO};
-pub use recommend::{recommendation, recommendations};
+use advice::{AVOID_ERROR_RATIO, NEAR_RATIO, ROUND_OFF};
+pub use advice::{Evidence, distance};
+use recommend::AVOID_SHOWN;
+pub use recommend::{Advised, advise, recommendations};
 
 fn sci(x: f64) -> String {
     if x.is_finite() {
@@ -468,6 +471,65 @@ fn throughput(entries: &[(Suite, Vec<RunRecord>)]) -> String {
     s
 }
 
+/// The heading of the report's advice, which [`rewrite_advice`] finds.
+pub const ADVICE_HEADING: &str = "## Which method for which job";
+
+/// The report's "which method for which job" section: its rules, each suite's advice,
+/// the table, and the findings of every suite; up to the next section.
+pub fn advice_section(entries: &[Evidence]) -> String {
+    let mut s = format!("{ADVICE_HEADING}\n\n");
+    let _ = writeln!(
+        s,
+        "Read off the measurements below, suite by suite (nothing here is extrapolated), by \
+         the rules each suite declares in its `[advice]`: its measure of the job (an error, \
+         or stability only), its budget (the wall time of one run that a user would spend, \
+         on the machine above) and its candidates (the variants a user may be advised to \
+         use; the others are evidence, such as a run without contact, the reference code's \
+         force or a stand-in material, and are never advised). With an error measure, the \
+         advice is the candidate run with the smallest error within the budget, among the \
+         candidates that never failed; it names the runner-up (another candidate's best run \
+         within the budget), the fastest run within {NEAR_RATIO:.0}× of the advised error, \
+         and a more accurate run over the budget. A stability-only suite advises the \
+         candidate stable furthest into the sweep within the budget, then the one whose \
+         furthest stable run is the fastest. A suite whose choice is its sweep value, or \
+         that compares settings of one method, also gives each setting's effect (its error, \
+         else the last value of its history, else its wall time; down a spacing ladder, the \
+         observed orders). Each advice names the variants to avoid: every one that failed \
+         (in a stability-only suite, within the advised one's reach), earliest in the \
+         sweep first, then the candidates whose best error within the budget is over \
+         {AVOID_ERROR_RATIO:.0}× the advised (errors below {ROUND_OFF:e} count as \
+         round-off); {AVOID_SHOWN} at most, the rest counted. An advice holds for the suite's case and the variants it compares; \
+         the suite's section below says what its figures mean.\n\n{}",
+        recommendations(entries)
+    );
+    let _ = writeln!(s, "In detail:\n");
+    for ev in entries {
+        let _ = writeln!(s, "{}", findings(ev.suite, ev.records));
+    }
+    s + "\n"
+}
+
+/// Replaces the advice section of the report at `path` (from [`ADVICE_HEADING`] to the
+/// next section) with `section`, leaving the rest as it is.
+pub fn rewrite_advice(path: &Path, section: &str) -> std::io::Result<()> {
+    let text = std::fs::read_to_string(path)?;
+    let invalid = |what: &str| {
+        std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("{}: {what}", path.display()),
+        )
+    };
+    let start = text
+        .find(&format!("{ADVICE_HEADING}\n"))
+        .ok_or_else(|| invalid(&format!("no `{ADVICE_HEADING}` section to rewrite")))?;
+    let after = start + ADVICE_HEADING.len();
+    let end = text[after..]
+        .find("\n## ")
+        .map_or(text.len(), |k| after + k + 1);
+    let out = format!("{}{section}{}", &text[..start], &text[end..]);
+    crate::output::write_atomically(path, |w| std::io::Write::write_all(w, out.as_bytes()))
+}
+
 /// Writes the report over suites to `path`, with plots and CSV copies in `study/` beside it;
 /// `out_root` holds each suite's results (`<out_root>/<suite name>/`, with the runs' series).
 pub fn write_report(
@@ -501,27 +563,24 @@ pub fn write_report(
          without GPU adapter creation or error evaluation.\n",
         machines.join("; ")
     );
-    let _ = writeln!(s, "## Which method for which job\n");
-    let _ = writeln!(
-        s,
-        "Read off the measurements below, suite by suite (nothing here is extrapolated). \
-         Accuracy suites recommend the variant whose most expensive finished run has the \
-         smallest headline error among the variants that never failed (errors within \
-         {:.0} % of it count as equal, and the smaller energy drift decides), and list the ones \
-         that failed, then those whose error is over {AVOID_ERROR_RATIO:.0} times that, the \
-         largest first; stability suites recommend the variant stable furthest into the sweep (then the cheapest) and \
-         list the ones that fail, earliest first. A row shows at most {AVOID_SHOWN} to avoid and \
-         counts the rest, which the suite's section lists. A recommendation holds for the suite's \
-         case and the variants it compares; the suite's section below says what its \
-         figures mean.\n\n{}",
-        (TIE_RATIO - 1.0) * 100.0,
-        recommendations(entries)
-    );
-    let _ = writeln!(s, "In detail:\n");
-    for (suite, recs) in entries {
-        let _ = writeln!(s, "{}", findings(suite, recs));
-    }
-    let _ = writeln!(s, "\n## Suites\n");
+    let curves: Vec<Vec<Curve>> = entries
+        .iter()
+        .map(|(suite, recs)| match &suite.history {
+            Some(h) => history::curves(h, recs, &out_root.join(&suite.name)).0,
+            None => Vec::new(),
+        })
+        .collect();
+    let evidence: Vec<Evidence> = entries
+        .iter()
+        .zip(&curves)
+        .map(|((suite, records), history)| Evidence {
+            suite,
+            records,
+            history,
+        })
+        .collect();
+    s += &advice_section(&evidence);
+    let _ = writeln!(s, "## Suites\n");
     for (suite, recs) in entries {
         records::write(&assets.join(format!("{}.csv", suite.name)), recs)?;
         let files = super::figures(suite, recs, &out_root.join(&suite.name), &assets)?;

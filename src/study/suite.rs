@@ -178,6 +178,54 @@ pub enum PictureField {
     PlasticStrain,
 }
 
+/// What a suite's advice ranks its candidates by (`[advice] measure`).
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum Measure {
+    /// The relative L2 error of v at the end (an analytic or converged reference).
+    Velocity,
+    /// The relative L2 error of P at the end (an analytic or converged reference).
+    Stress,
+    /// max |H(t) − H(0)|/|H(0)| over the run.
+    AngularMomentum,
+    /// The energy balance's largest residue over its scale.
+    Energy,
+    /// The `[history]` column: its last value's magnitude, or with `against` the relative
+    /// L2 distance of the curve from that variant's at the same sweep value.
+    History,
+    /// No error measures the job: stable furthest into the sweep, then the cheapest.
+    Stability,
+}
+
+impl Measure {
+    /// The values of `[advice] measure`, as a suite file writes them.
+    pub const NAMES: &'static str =
+        "velocity, stress, angular-momentum, energy, history, stability";
+}
+
+/// What a suite's advice weighs (`[advice]`): the measure of the job, the wall time a user
+/// would spend on one run, and the variants a user may be advised to use.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Advice {
+    pub measure: Measure,
+    /// With `measure = "history"`: the variant whose curve the others are measured against.
+    pub against: Option<String>,
+    /// Wall time of one run [s] that a user would spend on the job on the measuring machine.
+    pub budget: f64,
+    /// The sweep value at which an error measure compares the candidates (a sweep of the
+    /// job's difficulty: the hardest value); without it, every run of the sweep (a
+    /// resolution ladder) competes.
+    pub at: Option<Value>,
+    /// Variants that may be advised; the others are evidence (no contact, a deliberately
+    /// broken setting, a stand-in material), shown but never advised.
+    pub candidates: Vec<String>,
+    /// The suite compares settings of one method: its advice also gives each setting's
+    /// effect (as `choice = "sweep"` does).
+    #[serde(default)]
+    pub settings: bool,
+}
+
 fn unit_scale() -> f64 {
     1.0
 }
@@ -218,9 +266,11 @@ pub struct Suite {
     pub history: Option<History>,
     /// A field drawn on the particles at the end of every run.
     pub picture: Option<Picture>,
-    /// Part of `meshless study all` (the published report).
+    /// Part of `meshless study all` (the published report); such a suite needs `[advice]`.
     #[serde(default)]
     pub report: bool,
+    /// How the report's advice ranks the variants.
+    pub advice: Option<Advice>,
     /// The suite file.
     #[serde(skip)]
     pub file: PathBuf,
@@ -368,7 +418,98 @@ impl Suite {
                 ));
             }
         }
+        suite.check_advice().map_err(invalid)?;
         Ok(suite)
+    }
+
+    /// `[advice]`: present on a reported suite, its measure one the suite records, its
+    /// `against` and candidates variants of the suite, its budget a positive time.
+    fn check_advice(&self) -> Result<(), String> {
+        let Some(a) = &self.advice else {
+            return match self.report {
+                true => Err(format!(
+                    "`report = true` needs an [advice] table: `measure` (one of {}), `budget` \
+                     (seconds) and `candidates` (variant names)",
+                    Measure::NAMES
+                )),
+                false => Ok(()),
+            };
+        };
+        let is_variant = |name: &str| self.variants.iter().any(|v| v.name == name);
+        let variants = || {
+            let names: Vec<&str> = self.variants.iter().map(|v| v.name.as_str()).collect();
+            names.join(", ")
+        };
+        let fields = matches!(
+            self.reference,
+            Reference::Analytic { .. } | Reference::Converged { .. }
+        );
+        if matches!(a.measure, Measure::Velocity | Measure::Stress) && !fields {
+            return Err(format!(
+                "[advice] `measure = {:?}` is measured against an analytic or converged \
+                 [reference], which this suite does not have; use one of {}",
+                format!("{:?}", a.measure).to_lowercase(),
+                "angular-momentum, energy, history, stability"
+            ));
+        }
+        if a.measure == Measure::History && self.history.is_none() {
+            return Err("[advice] `measure = \"history\"` needs a [history] column".into());
+        }
+        match &a.against {
+            Some(_) if a.measure != Measure::History => {
+                return Err(
+                    "[advice] `against` names the curve of `measure = \"history\"` only".into(),
+                );
+            }
+            Some(v) if !is_variant(v) => {
+                return Err(format!(
+                    "[advice] `against = {v:?}` is not a variant; use one of {}",
+                    variants()
+                ));
+            }
+            _ => {}
+        }
+        if let Some(at) = &a.at {
+            if a.measure == Measure::Stability {
+                return Err(
+                    "[advice] `at` picks the sweep value an error measure compares \
+                            the candidates at; `measure = \"stability\"` has none"
+                        .into(),
+                );
+            }
+            if !self.sweep.values.contains(at) {
+                return Err(format!(
+                    "[advice] `at = {at}` is not one of the sweep values of `{}`",
+                    self.sweep.key
+                ));
+            }
+        }
+        if !(a.budget.is_finite() && a.budget > 0.0) {
+            return Err(format!(
+                "[advice] `budget = {}`: give the wall time of one run in seconds, finite and \
+                 positive",
+                a.budget
+            ));
+        }
+        if a.candidates.is_empty() {
+            return Err(
+                "[advice] `candidates` is empty: name the variants a user may be \
+                        advised to use"
+                    .into(),
+            );
+        }
+        if let Some(c) = a.candidates.iter().find(|c| !is_variant(c)) {
+            return Err(format!(
+                "[advice] `candidates`: `{c}` is not a variant; use names of {}",
+                variants()
+            ));
+        }
+        let mut names: Vec<&String> = a.candidates.iter().collect();
+        names.sort_unstable();
+        if let Some(w) = names.windows(2).find(|w| w[0] == w[1]) {
+            return Err(format!("[advice] `candidates`: `{}` is listed twice", w[0]));
+        }
+        Ok(())
     }
 
     /// The base case file of a variant: its own `case`, else the suite's.
@@ -475,3 +616,90 @@ fn number(v: &Value) -> f64 {
 }
 
 pub use crate::case::fnv1a;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn shipped() -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/studies")
+    }
+
+    #[test]
+    fn every_reported_suite_declares_its_advice_over_its_own_variants() {
+        let mut reported = 0;
+        for entry in std::fs::read_dir(shipped()).unwrap() {
+            let path = entry.unwrap().path();
+            if path.extension().is_none_or(|e| e != "toml") {
+                continue;
+            }
+            let suite = Suite::load(&path).unwrap_or_else(|e| panic!("{e}"));
+            if !suite.report {
+                continue;
+            }
+            reported += 1;
+            let a = suite
+                .advice
+                .as_ref()
+                .unwrap_or_else(|| panic!("{}: reported without [advice]", path.display()));
+            assert!(a.budget > 0.0, "{}: budget {}", suite.name, a.budget);
+            assert!(!a.candidates.is_empty(), "{}: no candidates", suite.name);
+            for c in a.candidates.iter().chain(&a.against) {
+                assert!(
+                    suite.variants.iter().any(|v| v.name == *c),
+                    "{}: `{c}` is not a variant",
+                    suite.name
+                );
+            }
+        }
+        assert!(reported >= 30, "{reported} reported suites");
+    }
+
+    /// Loads a suite file of `text` and returns its error.
+    fn refused(text: &str) -> String {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("bad.toml");
+        std::fs::write(&path, text).unwrap();
+        Suite::load(&path).unwrap_err().to_string()
+    }
+
+    const SUITE: &str = r#"
+name = "s"
+kind = "accuracy"
+case = "c"
+sweep = { key = "spacing", values = [0.1] }
+reference = { type = "none" }
+[[variant]]
+name = "a"
+[[variant]]
+name = "b"
+"#;
+
+    #[test]
+    fn a_bad_advice_is_refused_naming_the_file_and_the_key() {
+        let e = refused(&format!("report = true\n{SUITE}"));
+        assert!(
+            e.contains("bad.toml") && e.contains("[advice]") && e.contains("stability"),
+            "{e}"
+        );
+        let with = |advice: &str| refused(&format!("advice = {{ {advice} }}\n{SUITE}"));
+        let e = with(r#"measure = "velocity", budget = 1.0, candidates = ["a"]"#);
+        assert!(
+            e.contains("bad.toml") && e.contains("`measure = \"velocity\"`"),
+            "{e}"
+        );
+        let e = with(r#"measure = "energy", budget = 1.0, candidates = ["a", "z"]"#);
+        assert!(
+            e.contains("`z` is not a variant") && e.contains("a, b"),
+            "{e}"
+        );
+        let e = with(r#"measure = "energy", budget = 0.0, candidates = ["a"]"#);
+        assert!(e.contains("`budget = 0`"), "{e}");
+        let e = with(r#"measure = "history", budget = 1.0, candidates = ["a"]"#);
+        assert!(e.contains("needs a [history]"), "{e}");
+        let e = with(r#"measure = "energy", against = "a", budget = 1.0, candidates = ["a"]"#);
+        assert!(e.contains("`against`"), "{e}");
+        let e = with(r#"measure = "size", budget = 1.0, candidates = ["a"]"#);
+        assert!(e.contains("bad.toml") && e.contains("stability"), "{e}");
+    }
+}

@@ -1,292 +1,493 @@
-//! The "which method for which job" table: one row per suite, drawn from its records.
+//! The "which method for which job" section: per suite, advice in sentences a user acts
+//! on, drawn from its records by the rules of its `[advice]` (`advice`), then a compact
+//! table.
 
+use super::advice::{Evidence, ROUND_OFF, Ranked, Reach, Scored};
 use super::*;
+use crate::study::history::significant;
+use crate::study::suite::{Advice, Measure, label};
 
-/// How much larger than the recommended line's error another's must be to be listed as
-/// one to avoid.
-pub(super) const AVOID_ERROR_RATIO: f64 = 10.0;
+/// The most lines to avoid a suite's advice names before it counts the rest.
+pub(super) const AVOID_SHOWN: usize = 4;
 
-/// Errors within this factor of the lowest count as equal: the energy drift decides.
-pub(super) const TIE_RATIO: f64 = 1.1;
-/// "fails at key = v (t = …, quantity)" of a line's first failed run.
-fn first_failure(suite: &Suite, recs: &[RunRecord], line: &str) -> Option<String> {
-    recs.iter()
-        .filter(|r| r.line() == line)
-        .find_map(|r| match &r.status {
-            Status::Failed { time, quantity, .. } => Some(format!(
-                "fails at {} = {} ({}, {})",
-                suite.sweep.key,
-                short_value(&r.sweep_value),
-                failure_time(suite, *time, 2),
-                short_quantity(quantity)
-            )),
-            _ => None,
-        })
+/// A suite's advice: the sentences, and what the table shows of them.
+pub struct Advised {
+    /// A Markdown list item (with sub-items for the settings' effects).
+    pub text: String,
+    /// What to use, for the table.
+    pub use_: String,
+    /// Its evidence, for the table.
+    pub evidence: String,
 }
 
-/// A table row: job and suite, what to use, the evidence, what to avoid.
-fn row(suite: &Suite, use_: &str, evidence: &str, avoid: Vec<String>) -> String {
-    format!(
-        "| {} (`{}`) | {use_} | {evidence} | {} |",
-        job_name(suite),
-        suite.name,
-        avoid_cell(avoid)
-    )
+/// A time in seconds to about three significant digits ("0.572 s", "9.51 s", "572 s").
+fn seconds(t: f64) -> String {
+    let decimals = match t {
+        t if t >= 100.0 => 0,
+        t if t >= 10.0 => 1,
+        t if t >= 1.0 => 2,
+        _ => 3,
+    };
+    format!("{t:.decimals$} s")
 }
 
-/// The row of a suite in the report's "which method for which job" table: the job, the
-/// line (variant and backend) to use with its evidence, and the lines to avoid with why.
-/// Accuracy suites recommend the line whose most expensive finished run has the smallest
-/// headline error, among the lines that never failed (errors within [`TIE_RATIO`] of it
-/// count as equal, and the smaller energy drift decides); they list the lines that failed and
-/// those whose error is more than [`AVOID_ERROR_RATIO`] times that. Stability suites
-/// recommend the line that stays stable furthest into the sweep (then the cheapest), and
-/// list the lines that fail, earliest first; where every line fails at once (a run to
-/// failure), the one that lasts longest.
-pub fn recommendation(suite: &Suite, recs: &[RunRecord]) -> String {
-    match (suite.choice, metrics(suite).first()) {
-        (Choice::Sweep, _) => sweep_recommendation(suite, recs),
-        (Choice::Variants, Some(m)) if suite.kind == SuiteKind::Accuracy => {
-            accuracy_recommendation(suite, recs, m)
-        }
-        _ => stability_recommendation(suite, recs),
+/// A ratio ("5×", "1.8×").
+fn times(x: f64) -> String {
+    if x >= 10.0 {
+        format!("{x:.0}×")
+    } else {
+        format!("{x:.1}×")
     }
 }
 
-fn accuracy_recommendation(suite: &Suite, recs: &[RunRecord], m: &Metric) -> String {
-    let key = &suite.sweep.key;
-    let pts = plottable(suite, recs, m);
-    let all_lines = lines(recs);
-    // Each line at its most expensive finished run.
-    let longest: Vec<(String, &RunRecord, f64, f64)> = all_lines
-        .iter()
-        .filter_map(|line| {
-            pts.iter()
-                .filter(|p| &p.0.line() == line)
-                .max_by(|a, b| a.1.total_cmp(&b.1))
-                .map(|&(r, t, e)| (line.clone(), r, t, e))
-        })
-        .collect();
-    let never_failed: Vec<_> = longest
-        .iter()
-        .filter(|l| first_failure(suite, recs, &l.0).is_none())
-        .collect();
-    let pool = if never_failed.is_empty() {
-        longest.iter().collect()
-    } else {
-        never_failed
-    };
-    let Some(lowest) = pool.iter().map(|l| l.3).min_by(f64::total_cmp) else {
-        return row(suite, "–", "no finished run", Vec::new());
-    };
-    // Among the errors within TIE_RATIO of the lowest, the smallest energy drift (a run
-    // whose energy grew is no recommendation; an unmeasured drift ranks last), then the
-    // fastest.
-    let drift = |r: &RunRecord| {
-        if r.drift_energy.is_finite() {
-            r.drift_energy
-        } else {
-            f64::INFINITY
-        }
-    };
-    let best = pool
-        .into_iter()
-        .filter(|l| l.3 <= TIE_RATIO * lowest)
-        .min_by(|a, b| drift(a.1).total_cmp(&drift(b.1)).then(a.2.total_cmp(&b.2)))
-        .expect("the lowest error is in the pool");
-    // Failed lines first, then the others over 10× the best error, the largest first.
-    let mut avoid: Vec<(f64, String)> = all_lines
-        .iter()
-        .filter(|line| **line != best.0)
-        .filter_map(|line| match first_failure(suite, recs, line) {
-            Some(f) => Some((f64::INFINITY, format!("`{line}`: {f}"))),
-            None => longest
-                .iter()
-                .find(|l| &l.0 == line && l.3 > AVOID_ERROR_RATIO * best.3)
-                .map(|l| {
-                    let why = format!(
-                        "`{line}`: {} = {} at {key} = {}, over {AVOID_ERROR_RATIO:.0}× the \
-                         recommended's",
-                        m.symbol,
-                        sci(l.3),
-                        short_value(&l.1.sweep_value)
-                    );
-                    (l.3, why)
-                }),
-        })
-        .collect();
-    avoid.sort_by(|a, b| b.0.total_cmp(&a.0));
-    let avoid = avoid.into_iter().map(|(_, why)| why).collect();
-    let evidence = format!(
-        "{} = {} at {key} = {}, {:.3} s",
-        m.symbol,
-        sci(best.3),
-        short_value(&best.1.sweep_value),
-        best.2
-    );
-    row(suite, &format!("`{}`", best.0), &evidence, avoid)
+/// The short name of a suite's measure in sentences (`e(P)`, `ΔH/H0`, `error`).
+fn symbol(measure: Measure) -> &'static str {
+    match measure {
+        Measure::Velocity => "e(v)",
+        Measure::Stress => "e(P)",
+        Measure::AngularMomentum => "ΔH/H0",
+        Measure::Energy => "R/S",
+        Measure::History | Measure::Stability => "error",
+    }
 }
 
-fn stability_recommendation(suite: &Suite, recs: &[RunRecord]) -> String {
-    let key = &suite.sweep.key;
-    let vals = values(recs);
-    let all_lines = lines(recs);
-    let first_failure = |line: &str| first_failure(suite, recs, line);
-    // Per line: how many sweep values it passes before its first failure, and the wall
-    // time of its finished runs.
-    let reach = |line: &str| {
-        let mut stable = 0;
-        for v in &vals {
-            match recs
-                .iter()
-                .find(|r| r.line() == line && &r.sweep_value == v)
-            {
-                Some(r) if r.status == Status::Ok => stable += 1,
-                Some(r) if matches!(r.status, Status::Failed { .. }) => break,
-                _ => {}
-            }
+/// What a suite's measure is, in words.
+fn measure_phrase(ev: &Evidence) -> String {
+    let Some(a) = ev.advice() else {
+        return String::new();
+    };
+    let label = ev.suite.history.as_ref().map_or("", |h| h.label.as_str());
+    match (a.measure, &a.against) {
+        (Measure::Velocity, _) => "e(v), the relative L2 error of v at the end".into(),
+        (Measure::Stress, _) => "e(P), the relative L2 error of P at the end".into(),
+        (Measure::AngularMomentum, _) => "ΔH/H0, the angular momentum's largest drift".into(),
+        (Measure::Energy, _) => "R/S, the energy balance's largest residue".into(),
+        (Measure::History, None) => format!("|{label}| at the end"),
+        (Measure::History, Some(v)) => {
+            format!("the relative L2 distance of the {label} curve from `{v}`'s")
         }
-        stable
-    };
-    let wall = |line: &str| -> f64 {
-        recs.iter()
-            .filter(|r| r.line() == line && r.status == Status::Ok)
-            .map(|r| r.wall_seconds)
-            .sum()
-    };
-    let Some(best) = all_lines
-        .iter()
-        .filter(|l| reach(l) > 0)
-        .max_by(|a, b| reach(a).cmp(&reach(b)).then(wall(b).total_cmp(&wall(a))))
-    else {
-        return failure_recommendation(suite, recs);
-    };
-    let last_stable = vals
-        .iter()
-        .rfind(|v| {
-            recs.iter()
-                .any(|r| &r.line() == best && &r.sweep_value == *v && r.status == Status::Ok)
-        })
-        .map(|v| short_value(v))
-        .unwrap_or_default();
-    let evidence = match first_failure(best) {
-        None => format!(
-            "stable over the sweep ({key} to {last_stable}), {:.1} s in all",
-            wall(best)
-        ),
-        Some(f) => format!("stable to {key} = {last_stable}, {f}"),
-    };
-    let mut failing: Vec<&String> = all_lines
-        .iter()
-        .filter(|l| *l != best && first_failure(l).is_some())
-        .collect();
-    failing.sort_by_key(|l| reach(l));
-    let avoid = failing
-        .into_iter()
-        .map(|l| format!("`{l}`: {}", first_failure(l).unwrap_or_default()))
-        .collect();
-    row(suite, &format!("`{best}`"), &evidence, avoid)
+        (Measure::Stability, _) => "stability only".into(),
+    }
 }
 
-/// Every line fails at its first sweep value (a run to failure): the one that lasts
-/// longest there, the others shortest first.
-fn failure_recommendation(suite: &Suite, recs: &[RunRecord]) -> String {
-    let vals = values(recs);
-    let lasts = |line: &str| {
-        recs.iter()
-            .find(|r| r.line() == line && Some(&r.sweep_value) == vals.first())
-            .and_then(|r| match r.status {
-                Status::Failed { time, .. } => Some(time),
-                _ => None,
-            })
-    };
-    let all_lines = lines(recs);
-    let mut ranked: Vec<(&String, f64)> = all_lines
-        .iter()
-        .filter_map(|l| lasts(l).map(|t| (l, t)))
-        .collect();
-    ranked.sort_by(|a, b| b.1.total_cmp(&a.1));
-    let Some((best, _)) = ranked.first().copied() else {
-        return row(suite, "–", "no finished run", Vec::new());
-    };
-    let why = |l: &str| first_failure(suite, recs, l).unwrap_or_default();
-    let avoid = ranked[1..]
-        .iter()
-        .rev()
-        .map(|(l, _)| format!("`{l}`: {}", why(l)))
-        .collect();
-    row(
-        suite,
-        &format!("`{best}`"),
-        &format!("lasts longest: {}", why(best)),
-        avoid,
+/// "`line` at key = value".
+fn at(r: &RunRecord) -> String {
+    format!(
+        "`{}` at {} = {}",
+        r.line(),
+        r.sweep_key,
+        short_value(&r.sweep_value)
     )
 }
 
-/// The most entries the "avoid" cell lists before it counts the rest.
-pub(super) const AVOID_SHOWN: usize = 4;
+/// "fails at key = v (t = …, quantity)" of a failed run.
+fn failure(suite: &Suite, r: &RunRecord) -> String {
+    match &r.status {
+        Status::Failed { time, quantity, .. } => format!(
+            "fails at {} = {} ({}, {})",
+            suite.sweep.key,
+            short_value(&r.sweep_value),
+            failure_time(suite, *time, 2),
+            short_quantity(quantity)
+        ),
+        _ => String::new(),
+    }
+}
 
-fn avoid_cell(mut avoid: Vec<String>) -> String {
+/// "Avoid `a`: why; `b`: why." with at most [`AVOID_SHOWN`] named.
+fn avoid_sentence(mut avoid: Vec<String>) -> String {
     if avoid.is_empty() {
-        return "–".into();
+        return String::new();
     }
     let more = avoid.len().saturating_sub(AVOID_SHOWN);
     avoid.truncate(AVOID_SHOWN);
-    if more > 0 {
-        avoid.push(format!("{more} more in the section"));
-    }
-    cell(&avoid.join("; "))
+    let rest = match more {
+        0 => String::new(),
+        n => format!("; and {n} more"),
+    };
+    format!(" Avoid {}{rest}.", avoid.join("; "))
 }
 
-/// The row of a suite whose choice is the sweep value (its variants are scenes): the
-/// values stable on every variant, and those that fail on some, with the first failure.
-fn sweep_recommendation(suite: &Suite, recs: &[RunRecord]) -> String {
-    let key = &suite.sweep.key;
-    let all_lines = lines(recs);
-    let mut stable = Vec::new();
-    let mut avoid = Vec::new();
-    for v in values(recs) {
-        let runs: Vec<&RunRecord> = recs.iter().filter(|r| r.sweep_value == v).collect();
-        let failure = runs.iter().find_map(|r| match &r.status {
-            Status::Failed { time, quantity, .. } => Some(format!(
-                "{key} = {}: fails on `{}` ({}, {})",
-                short_value(&v),
-                r.line(),
-                failure_time(suite, *time, 2),
-                short_quantity(quantity)
-            )),
-            _ => None,
-        });
-        match failure {
-            Some(f) => avoid.push(f),
-            None if runs.len() == all_lines.len()
-                && runs.iter().all(|r| r.status == Status::Ok) =>
-            {
-                stable.push(short_value(&v))
+/// Every line that failed, earliest in the sweep first, with its first failure; those
+/// whose first failure `keep` accepts.
+fn failures(ev: &Evidence, keep: impl Fn(&RunRecord) -> bool) -> Vec<String> {
+    let vals = values(ev.records);
+    let mut failed: Vec<&RunRecord> = ev
+        .lines()
+        .iter()
+        .filter_map(|l| ev.first_failure(l))
+        .filter(|r| keep(r))
+        .collect();
+    failed.sort_by_key(|r| vals.iter().position(|v| *v == r.sweep_value));
+    failed
+        .iter()
+        .map(|r| format!("`{}`: {}", r.line(), failure(ev.suite, r)))
+        .collect()
+}
+
+/// The variants a suite shows but never advises.
+fn evidence_only(ev: &Evidence) -> String {
+    let Some(a) = ev.advice() else {
+        return String::new();
+    };
+    let names: Vec<String> = ev
+        .suite
+        .variants
+        .iter()
+        .filter(|v| !a.candidates.contains(&v.name))
+        .map(|v| format!("`{}`", v.name))
+        .collect();
+    match names.is_empty() {
+        true => String::new(),
+        false => format!(" Evidence only, never advised: {}.", names.join(", ")),
+    }
+}
+
+/// The advice of a suite with an error measure.
+fn error_advice(ev: &Evidence, a: &Advice, ranked: &Ranked) -> Advised {
+    let sym = symbol(a.measure);
+    let best = ranked.best;
+    let show = |s: &Scored| {
+        format!(
+            "{sym} = {} in {}",
+            sci(s.error),
+            seconds(s.run.wall_seconds)
+        )
+    };
+    let evidence = format!("{} at {} = {}", show(&best), best.run.sweep_key, {
+        short_value(&best.run.sweep_value)
+    });
+    let compared =
+        a.at.as_ref()
+            .map(|v| format!(", compared at {} = {}", ev.suite.sweep.key, label(v)))
+            .unwrap_or_default();
+    let mut s = format!(
+        "use {}: {} on this machine (measure: {}{compared}; budget {} a run).",
+        at(best.run),
+        show(&best),
+        measure_phrase(ev),
+        seconds(a.budget)
+    );
+    if let Some(r) = &ranked.runner_up {
+        let _ = write!(s, " Runner-up: {} ({}).", at(r.run), show(r));
+    }
+    if let Some(c) = &ranked.cheapest_near {
+        let error = match c.error <= ROUND_OFF {
+            true => "its error at round-off too".to_string(),
+            false => format!("at {} the error", times(c.error / best.error)),
+        };
+        let _ = write!(
+            s,
+            " {} is {} faster, {error} ({}).",
+            at(c.run),
+            times(best.run.wall_seconds / c.run.wall_seconds),
+            show(c)
+        );
+    }
+    if let Some(o) = &ranked.over_budget {
+        let _ = write!(
+            s,
+            " {} is more accurate ({sym} = {}) but takes {}, over the budget.",
+            at(o.run),
+            sci(o.error),
+            seconds(o.run.wall_seconds)
+        );
+    }
+    let mut avoid = failures(ev, |_| true);
+    avoid.extend(ranked.far.iter().map(|f| {
+        let ratio = match best.error <= ROUND_OFF {
+            true => "where the advised's is at round-off".to_string(),
+            false => format!("{} the advised", times(f.error / best.error)),
+        };
+        format!(
+            "`{}`: {sym} = {} at best within the budget, {ratio}",
+            f.run.line(),
+            sci(f.error)
+        )
+    }));
+    s += &avoid_sentence(avoid);
+    Advised {
+        text: s,
+        use_: format!("`{}`", best.run.line()),
+        evidence,
+    }
+}
+
+/// "stable to key = v (the whole sweep) in t".
+fn reach_phrase(ev: &Evidence, r: &Reach) -> String {
+    let vals = values(ev.records);
+    let Some(last) = r.last else {
+        return "stable at no sweep value".into();
+    };
+    let whole = match r.stable == vals.len() {
+        true => ", the whole sweep",
+        false => "",
+    };
+    format!(
+        "stable to {} = {}{whole}, in {} there",
+        ev.suite.sweep.key,
+        short_value(&last.sweep_value),
+        seconds(last.wall_seconds)
+    )
+}
+
+/// The advice of a stability-only suite.
+fn stability_advice(ev: &Evidence, a: &Advice) -> Advised {
+    let ranked = ev.reach();
+    let head = format!("stability only; budget {} a run", seconds(a.budget));
+    let Some(best) = ranked.first().filter(|r| r.stable > 0) else {
+        return lasts_longest(ev, &head);
+    };
+    let evidence = reach_phrase(ev, best);
+    let mut s = format!("use `{}` ({head}): {evidence}.", best.line);
+    if let Some(r) = ranked.get(1).filter(|r| r.stable > 0) {
+        let _ = write!(s, " Runner-up: `{}`, {}.", r.line, reach_phrase(ev, r));
+    }
+    if let Some(o) = ranked.iter().find_map(|r| r.over_budget) {
+        let _ = write!(
+            s,
+            " {} is stable but takes {}, over the budget.",
+            at(o),
+            seconds(o.wall_seconds)
+        );
+    }
+    // Lines that fail within the advised one's reach; a failure beyond it is that
+    // line's limit, not a reason to avoid it here.
+    let vals = values(ev.records);
+    let reach = best
+        .last
+        .and_then(|r| vals.iter().position(|v| *v == r.sweep_value));
+    let within = |r: &RunRecord| {
+        r.line() != best.line && vals.iter().position(|v| *v == r.sweep_value) <= reach
+    };
+    s += &avoid_sentence(failures(ev, within));
+    Advised {
+        text: s,
+        use_: format!("`{}`", best.line),
+        evidence,
+    }
+}
+
+/// No candidate finishes its first sweep value: the one that lasts longest there.
+fn lasts_longest(ev: &Evidence, head: &str) -> Advised {
+    let first = values(ev.records).into_iter().next();
+    let time = |r: &RunRecord| match r.status {
+        Status::Failed { time, .. } => time,
+        _ => f64::NEG_INFINITY,
+    };
+    let longest = ev
+        .records
+        .iter()
+        .filter(|r| ev.is_candidate(r) && Some(&r.sweep_value) == first.as_ref())
+        .filter(|r| ev.advice().is_some_and(|a| r.wall_seconds <= a.budget))
+        .filter(|r| matches!(r.status, Status::Failed { .. }))
+        .max_by(|a, b| time(a).total_cmp(&time(b)));
+    let Some(r) = longest else {
+        return Advised {
+            text: format!("no candidate finished a run within the budget ({head})."),
+            use_: "–".into(),
+            evidence: "no finished run".into(),
+        };
+    };
+    let evidence = format!("lasts longest: {}", failure(ev.suite, r));
+    let others = failures(ev, |f| f.line() != r.line());
+    let s = format!(
+        "no candidate completes the run; use `{}` ({head}), which {evidence}.{}",
+        r.line(),
+        avoid_sentence(others)
+    );
+    Advised {
+        text: s,
+        use_: format!("`{}`", r.line()),
+        evidence,
+    }
+}
+
+/// The advice of a suite whose choice is its sweep value: the values stable on every
+/// scene, and per candidate scene, the value with the smallest error within the budget.
+fn sweep_advice(ev: &Evidence) -> Advised {
+    let key = &ev.suite.sweep.key;
+    let scenes = ev.lines();
+    let stable: Vec<String> = values(ev.records)
+        .into_iter()
+        .filter(|v| {
+            let runs: Vec<&RunRecord> = ev.records.iter().filter(|r| r.sweep_value == *v).collect();
+            runs.len() == scenes.len() && runs.iter().all(|r| r.status == Status::Ok)
+        })
+        .map(|v| short_value(&v))
+        .collect();
+    let evidence = match stable.is_empty() {
+        true => format!("no {key} is stable on every scene"),
+        false => format!("{key} = {} stable on every scene", stable.join(", ")),
+    };
+    let mut s = format!("the choice is the setting `{key}`: {evidence}.");
+    if let Some(a) = ev.advice().filter(|a| a.measure != Measure::Stability) {
+        let sym = symbol(a.measure);
+        for line in &scenes {
+            let best = ev
+                .records
+                .iter()
+                .filter(|r| r.line() == *line && ev.is_candidate(r))
+                .filter(|r| r.wall_seconds <= a.budget)
+                .map(|r| (r, ev.error(r)))
+                .filter(|(_, e)| e.is_finite())
+                .min_by(|x, y| x.1.total_cmp(&y.1));
+            if let Some((r, e)) = best {
+                let _ = write!(
+                    s,
+                    " On `{line}` use {key} = {}: {sym} = {} in {}.",
+                    short_value(&r.sweep_value),
+                    sci(e),
+                    seconds(r.wall_seconds)
+                );
             }
-            None => {}
+        }
+        let _ = write!(
+            s,
+            " (Measure: {}; budget {} a run.)",
+            measure_phrase(ev),
+            seconds(a.budget)
+        );
+    }
+    s += &avoid_sentence(failures(ev, |_| true));
+    Advised {
+        text: s,
+        use_: format!("`{key}`"),
+        evidence,
+    }
+}
+
+/// What a setting's effect is shown as: the measure's error, else the history's last
+/// value, else the wall time.
+fn effect_of(ev: &Evidence, r: &RunRecord) -> String {
+    if matches!(r.status, Status::Failed { .. }) {
+        return failure(ev.suite, r);
+    }
+    if r.status != Status::Ok {
+        return "not run".into();
+    }
+    let measured = ev.advice().is_some_and(|a| a.measure != Measure::Stability);
+    let e = ev.error(r);
+    let last = ev.history_last(r);
+    let recorded = metrics(ev.suite).first().map(|m| (m.value)(r));
+    let value = match recorded {
+        _ if measured && e.is_finite() => sci(e),
+        _ if last.is_finite() => significant(last),
+        Some(x) if x.is_finite() => sci(x),
+        _ => seconds(r.wall_seconds),
+    };
+    format!("{value} at {}", short_value(&r.sweep_value))
+}
+
+/// What the settings' effects are measured in: as [`effect_of`] chooses.
+fn effect_unit(ev: &Evidence) -> String {
+    let measured = ev.advice().is_some_and(|a| a.measure != Measure::Stability);
+    match (&ev.suite.history, metrics(ev.suite).first()) {
+        _ if measured => measure_phrase(ev),
+        (Some(h), _) => format!("{}, the last value of each run", h.label),
+        (None, Some(m)) => format!("{}, {}", m.symbol, m.label),
+        (None, None) => "the wall time of each run".into(),
+    }
+}
+
+/// The observed orders of a line's errors down a spacing ladder,
+/// ln(e_k/e_k+1)/ln(Δx_k/Δx_k+1) between successive finished runs.
+fn orders(ev: &Evidence, line: &str) -> Vec<f64> {
+    let points: Vec<(f64, f64)> = ev
+        .records
+        .iter()
+        .filter(|r| r.line() == line)
+        .filter_map(|r| {
+            let h: f64 = r.sweep_value.parse().ok()?;
+            let e = ev.error(r);
+            (e > 0.0 && e.is_finite() && h > 0.0).then_some((h, e))
+        })
+        .collect();
+    points
+        .windows(2)
+        .filter(|w| w[0].0 != w[1].0)
+        .map(|w| (w[0].1 / w[1].1).ln() / (w[0].0 / w[1].0).ln())
+        .collect()
+}
+
+/// Each setting's effect, a sub-item per line: its value at every sweep value, and down a
+/// spacing ladder with an error measure, the observed orders.
+fn effects(ev: &Evidence) -> String {
+    let mut s = format!(
+        "\n  Each setting's effect ({} against {}):",
+        effect_unit(ev),
+        ev.suite.sweep.key
+    );
+    let ladder = ev.suite.sweep.key == "spacing"
+        && ev.advice().is_some_and(|a| a.measure != Measure::Stability);
+    for line in ev.lines() {
+        let cells: Vec<String> = ev
+            .records
+            .iter()
+            .filter(|r| r.line() == line)
+            .map(|r| effect_of(ev, r))
+            .collect();
+        let _ = write!(s, "\n  - `{line}`: {}", cells.join(", "));
+        let p = orders(ev, &line);
+        if ladder && !p.is_empty() {
+            let shown: Vec<String> = p.iter().map(|p| format!("{p:.2}")).collect();
+            let _ = write!(s, "; observed order {}", shown.join(", "));
         }
     }
-    let compared = suite
-        .history
-        .as_ref()
-        .map(|h| format!("; its section compares them on {}", h.label))
-        .unwrap_or_default();
-    let use_ = if stable.is_empty() {
-        "–".to_string()
-    } else {
-        format!("{key} = {}", stable.join(", "))
-    };
-    let evidence = format!("stable on all {} variants{compared}", all_lines.len());
-    row(suite, &use_, &evidence, avoid)
+    s
 }
 
-/// The "which method for which job" table over suites.
-pub fn recommendations(entries: &[(Suite, Vec<RunRecord>)]) -> String {
-    let mut s =
-        String::from("| job (suite) | use | evidence | avoid, and why |\n|---|---|---|---|\n");
-    for (suite, recs) in entries {
-        let _ = writeln!(s, "{}", recommendation(suite, recs));
+/// The advice of one suite, drawn from its records by the rules of its `[advice]`.
+pub fn advise(ev: &Evidence) -> Advised {
+    let head = format!("- For **{}** (`{}`) ", job_name(ev.suite), ev.suite.name);
+    let Some(a) = ev.advice() else {
+        return Advised {
+            text: format!("{head}there is no advice: the suite declares no [advice]."),
+            use_: "–".into(),
+            evidence: "no [advice]".into(),
+        };
+    };
+    let advised = match (ev.suite.choice, a.measure) {
+        (Choice::Sweep, _) => sweep_advice(ev),
+        (_, Measure::Stability) => stability_advice(ev, a),
+        _ => match ev.ranked() {
+            Some(r) => error_advice(ev, a, &r),
+            None => Advised {
+                text: format!(
+                    "no candidate has a measured run within the budget (measure: {}; budget \
+                     {} a run).",
+                    measure_phrase(ev),
+                    seconds(a.budget)
+                ),
+                use_: "–".into(),
+                evidence: "no measured run".into(),
+            },
+        },
+    };
+    let mut text = head + &advised.text + &evidence_only(ev);
+    if ev.suite.choice == Choice::Sweep || a.settings {
+        text += &effects(ev);
+    }
+    Advised { text, ..advised }
+}
+
+/// The section's body over suites: each suite's advice, then the compact table.
+pub fn recommendations(entries: &[Evidence]) -> String {
+    let advised: Vec<Advised> = entries.iter().map(advise).collect();
+    let mut s = String::new();
+    for a in &advised {
+        let _ = writeln!(s, "{}", a.text);
+    }
+    s += "\n| job (suite) | use | evidence |\n|---|---|---|\n";
+    for (ev, a) in entries.iter().zip(&advised) {
+        let _ = writeln!(
+            s,
+            "| {} (`{}`) | {} | {} |",
+            job_name(ev.suite),
+            ev.suite.name,
+            a.use_,
+            cell(&a.evidence)
+        );
     }
     s
 }
