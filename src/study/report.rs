@@ -249,13 +249,16 @@ pub fn suite_section(
         .iter()
         .find(|r| !r.case.is_empty())
         .map(|r| r.case.as_str());
+    // The suite file relative to the repository when it is a shipped one.
+    let file = suite.file.strip_prefix(env!("CARGO_MANIFEST_DIR"));
     let _ = writeln!(
         s,
-        "Case `{}` (suite file `{}`), sweep over `{}`; overrides of every run: `{}`.\n",
+        "Case `{}` (suite file `{}`), sweep over `{}`; overrides of every run: `{}`. {}\n",
         case.unwrap_or(&suite.case),
-        suite.file.display(),
+        file.unwrap_or(&suite.file).display(),
         suite.sweep.key,
-        suite.set.join(" ")
+        suite.set.join(" "),
+        super::stale::provenance(recs)
     );
     let _ = writeln!(s, "Variants:\n");
     for v in &suite.variants {

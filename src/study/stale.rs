@@ -53,6 +53,30 @@ pub fn freshness(records: &[RunRecord]) -> Freshness {
     }
 }
 
+/// Which builds measured `records`, for a report's section: "Measured by commit C on D."
+/// with every distinct commit and date, or that they predate the recorded builds.
+pub fn provenance(records: &[RunRecord]) -> String {
+    let built: Vec<&RunRecord> = records.iter().filter(|r| !r.build.is_empty()).collect();
+    let distinct = |f: &dyn Fn(&RunRecord) -> &str| -> Vec<String> {
+        let set: BTreeSet<&str> = built.iter().map(|r| f(r)).collect();
+        set.into_iter().map(str::to_string).collect()
+    };
+    let unrecorded = records.len() - built.len();
+    let mut s = match built.is_empty() {
+        true => String::from("Measured before records carried their build"),
+        false => format!(
+            "Measured by commit {} on {}",
+            distinct(&|r| r.build_commit()).join(", "),
+            distinct(&|r| r.date.as_str()).join(", ")
+        ),
+    };
+    if unrecorded > 0 && !built.is_empty() {
+        let total = records.len();
+        s += &format!(" ({unrecorded} of its {total} runs from before records carried builds)");
+    }
+    s + " (`meshless study --stale` says whether this build's solver made them)."
+}
+
 /// One line of `--stale` for suite `name`.
 pub fn line(name: &str, freshness: &Freshness) -> String {
     match freshness {
@@ -106,5 +130,19 @@ mod tests {
             }
         );
         assert!(line("s", &stale).starts_with("s: stale: 2 of 3 runs"));
+        // A report section names the commits and dates, and counts the unrecorded runs.
+        let mut first = ours("0.1");
+        first.build = "aaaaaaaaaaaa 0000000000000000".into();
+        let text = provenance(&[first, ours("0.05"), record("v", "cpu", "0.025", 1.0, 0.1)]);
+        let commit = ours("0.1").build_commit().to_string();
+        for part in [
+            "Measured by commit ",
+            "aaaaaaaaaaaa",
+            commit.as_str(),
+            " on 2026-11-29 (1 of its 3 runs from before records carried builds)",
+        ] {
+            assert!(text.contains(part), "{part} in {text}");
+        }
+        assert!(provenance(&[record("v", "cpu", "0.1", 1.0, 0.1)]).starts_with("Measured before"));
     }
 }
