@@ -3,7 +3,7 @@
 //! convergence, the least-squares slope of ln e against ln Δx over its runs.
 
 use super::plot::{
-    Metric, draw_marker, draw_path, legend_width, line_style, log_axis_over, log_log_chart,
+    Metric, draw_marker, draw_path, legend_width, line_style, lines, log_axis_over, log_log_chart,
     metrics, pixel_area, plottable, register_font, styled_mesh, tick_label, write_figure,
 };
 use super::records::RunRecord;
@@ -31,23 +31,19 @@ struct Ladder {
     points: Vec<(f64, f64)>,
 }
 
-/// The runs of `points` grouped by line (variant and backend), in order of first
-/// appearance, each sorted by spacing and named with its observed order.
+/// The runs of `points` grouped by line (variant and backend) as the accuracy plots
+/// group them ([`lines`]), with the spacing in place of the wall time: each sorted by
+/// spacing and named with its observed order.
 fn ladders(points: &[(&RunRecord, f64, f64)]) -> Vec<Ladder> {
-    let mut out: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
-    for &(r, _, e) in points {
-        let line = r.line();
-        match out.iter_mut().find(|l| l.0 == line) {
-            Some(l) => l.1.push((r.spacing, e)),
-            None => out.push((line, vec![(r.spacing, e)])),
-        }
-    }
-    out.into_iter()
-        .map(|(line, mut points)| {
-            points.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let by_spacing: Vec<(&RunRecord, f64, f64)> =
+        points.iter().map(|&(r, _, e)| (r, r.spacing, e)).collect();
+    lines(&by_spacing)
+        .into_iter()
+        .map(|line| {
+            let points: Vec<(f64, f64)> = line.points.iter().map(|p| (p.0, p.1)).collect();
             let name = match observed_order(&points) {
-                Some(p) => format!("{line}: order {p:.2}"),
-                None => line,
+                Some(p) => format!("{}: order {p:.2}", line.name),
+                None => line.name,
             };
             Ladder { name, points }
         })

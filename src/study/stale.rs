@@ -25,6 +25,15 @@ pub enum Freshness {
     },
 }
 
+/// The distinct values of `f` over `records`, sorted.
+fn distinct<'a>(
+    records: impl Iterator<Item = &'a RunRecord>,
+    f: impl Fn(&'a RunRecord) -> &'a str,
+) -> Vec<String> {
+    let set: BTreeSet<&str> = records.map(f).collect();
+    set.into_iter().map(str::to_string).collect()
+}
+
 /// The freshness of `records` against this build's solver.
 pub fn freshness(records: &[RunRecord]) -> Freshness {
     if records.is_empty() {
@@ -34,18 +43,15 @@ pub fn freshness(records: &[RunRecord]) -> Freshness {
         .iter()
         .filter(|r| r.solver() != this_solver())
         .collect();
-    let distinct = |it: &mut dyn Iterator<Item = String>| -> Vec<String> {
-        it.collect::<BTreeSet<_>>().into_iter().collect()
-    };
     if others.is_empty() {
-        let commits = distinct(&mut records.iter().map(|r| r.build_commit().to_string()));
-        let dates = distinct(&mut records.iter().map(|r| r.date.clone()));
+        let commits = distinct(records.iter(), RunRecord::build_commit);
+        let dates = distinct(records.iter(), |r| r.date.as_str());
         return Freshness::Current { commits, dates };
     }
-    let builds = distinct(&mut others.iter().map(|r| match r.build.as_str() {
-        "" => "unrecorded".to_string(),
-        b => b.to_string(),
-    }));
+    let builds = distinct(others.iter().copied(), |r| match r.build.as_str() {
+        "" => "unrecorded",
+        b => b,
+    });
     Freshness::Stale {
         stale: others.len(),
         of: records.len(),
@@ -57,17 +63,13 @@ pub fn freshness(records: &[RunRecord]) -> Freshness {
 /// with every distinct commit and date, or that they predate the recorded builds.
 pub fn provenance(records: &[RunRecord]) -> String {
     let built: Vec<&RunRecord> = records.iter().filter(|r| !r.build.is_empty()).collect();
-    let distinct = |f: &dyn Fn(&RunRecord) -> &str| -> Vec<String> {
-        let set: BTreeSet<&str> = built.iter().map(|r| f(r)).collect();
-        set.into_iter().map(str::to_string).collect()
-    };
     let unrecorded = records.len() - built.len();
     let mut s = match built.is_empty() {
         true => String::from("Measured before records carried their build"),
         false => format!(
             "Measured by commit {} on {}",
-            distinct(&|r| r.build_commit()).join(", "),
-            distinct(&|r| r.date.as_str()).join(", ")
+            distinct(built.iter().copied(), RunRecord::build_commit).join(", "),
+            distinct(built.iter().copied(), |r| r.date.as_str()).join(", ")
         ),
     };
     if unrecorded > 0 && !built.is_empty() {
