@@ -54,10 +54,10 @@ pub const SHADERS: &[Source] = &[
 /// dual-support hourglass term, on the lists of [`lists`].
 pub fn scheme<D: GpuDim>(spec: &DualSupportSpec) -> TlScheme<D> {
     let spec = spec.clone();
-    let lists = Lists::Host(Box::new(move |case, reference| {
+    let host = Lists::Host(Box::new(move |case, reference| {
         lists(case, &spec, reference).map(DeviceLists::into_host)
     }));
-    potential(REDUCE, lists, None, None, true)
+    potential(REDUCE, host, None, None, true)
 }
 
 impl<D: GpuDim> DeviceLists<D> {
