@@ -8,11 +8,26 @@
 
 use super::context::{Gpu, GpuError, Pipeline};
 use super::layout::{Field, Fields, Flat};
+use super::shaders::{Source, Wgsl, source};
 use crate::boundary::{Boundary, Reaction};
 use crate::diagnostics::observe::Invariants;
 
 /// Values per workgroup written by `reduce.wgsl`.
 const REDUCED: usize = 13;
+
+/// The reduce pass of a method whose strain energy reads the buffers `reduce.wgsl` reads
+/// (the state `y`, `kin` and `reference`), with the function files it calls, the
+/// method's energy among them (one that reads more lists its own).
+pub const fn pass(common: &'static [Wgsl]) -> Source {
+    Source {
+        common,
+        ..source!(
+            "common/reduce.wgsl",
+            [],
+            [("y", false), ("kin", false), ("reference", false)]
+        )
+    }
+}
 
 /// The GPU reduction of one state, summed on the host.
 #[derive(Clone, Copy, Debug)]

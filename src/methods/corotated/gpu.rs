@@ -5,8 +5,7 @@
 use super::{CorotatedForce, CorotatedSpec, outputs};
 use crate::gpu::layout::GpuDim;
 use crate::gpu::shaders::{
-    BOUNDARY, CONTACT, CORRECTION, INTEGRATE, KERNEL, MECHANICS, PAIR_OFFSETS, REFERENCE,
-    REVERSE_GRADIENTS, Source, VISCOSITY, source,
+    BOUNDARY, KERNEL, MECHANICS, REFERENCE, REVERSE_GRADIENTS, Source, VISCOSITY, source,
 };
 use crate::methods::cores::tl::gpu::{self as tl, Frame, Lists, REDUCE, TlScheme, viscosity};
 
@@ -34,15 +33,7 @@ pub const ACCEL: Source = source!(
 
 /// The passes of a corotated scene (the strain energy Σ V ψ(F̂) is TLSPH's reduction of
 /// the kinematics' H, here F̂ − I).
-pub const SHADERS: &[Source] = &[
-    STRESS,
-    ACCEL,
-    CONTACT,
-    CORRECTION,
-    INTEGRATE,
-    PAIR_OFFSETS,
-    REDUCE,
-];
+pub const SHADERS: &[Source] = &tl::kernel_passes(STRESS, ACCEL, REDUCE);
 
 /// What the shape-matching pass records: det F̂ ≤ 0 (slot 0), and A_i without a rotation
 /// as its polar factor (slot 1: singular in 2D; det A_i ≤ 0 or no convergence in 3D).

@@ -1,6 +1,6 @@
 //! The explicit dynamic variant of dual-support SPH on the GPU: the total-Lagrangian
 //! engine of [`crate::methods::cores::tl::gpu`] with the elastic potential's force pass
-//! (`shaders/potential/potential.wgsl`), on lists and gradients built here on the host.
+//! ([`POTENTIAL`]), on lists and gradients built here on the host.
 //!
 //! With F_i = I + Σ_{j∈S_i} (u_j − u_i) ⊗ g_ij, the force −∂(Σ_i V_i ψ(F_i))/∂u of eq 18,
 //! f_a = V_a P_a Σ_j g_aj − Σ_{i∈S'_a} V_i P_i g_ia, is the potential's pair form
@@ -20,9 +20,8 @@ use crate::gpu::layout::GpuDim;
 use crate::gpu::shaders::{MECHANICS, REFERENCE, Source, Wgsl, source, wgsl};
 use crate::methods::cores::tl::TlState;
 use crate::methods::cores::tl::gpu::{
-    DET_F, Frame, HostLists, HostModel, Lists, STRESS, TlScheme, viscosity,
+    HostLists, HostModel, Lists, POTENTIAL, STRESS, TlScheme, potential,
 };
-use crate::methods::potential::gpu::ACCEL;
 use crate::reference::Reference;
 
 /// The energy of the reduction: V_i ψ_i plus the hourglass energy of i's support.
@@ -44,7 +43,7 @@ pub const REDUCE: Source = source!(
 /// matrix-free conjugate gradients ([`super::krylov`]).
 pub const SHADERS: &[Source] = &[
     STRESS,
-    ACCEL,
+    POTENTIAL,
     crate::gpu::shaders::INTEGRATE,
     crate::gpu::shaders::PAIR_OFFSETS,
     REDUCE,
@@ -55,23 +54,10 @@ pub const SHADERS: &[Source] = &[
 /// dual-support hourglass term, on the lists of [`lists`].
 pub fn scheme<D: GpuDim>(spec: &DualSupportSpec) -> TlScheme<D> {
     let spec = spec.clone();
-    TlScheme {
-        stress: STRESS,
-        accel: ACCEL,
-        reduce: REDUCE,
-        reverse: true,
-        hourglass: None,
-        lists: Lists::Host(Box::new(move |case, reference| {
-            lists(case, &spec, reference).map(DeviceLists::into_host)
-        })),
-        constants: viscosity(None)
-            .choice("FORCE", &["CONSISTENT", "REFERENCE_CODE"], 0)
-            .u32("HOURGLASS_DS", 1),
-        unit_weights: None,
-        kin_tensors: &[],
-        frame: Frame::Reference,
-        checks: DET_F,
-    }
+    let host = Lists::Host(Box::new(move |case, reference| {
+        lists(case, &spec, reference).map(DeviceLists::into_host)
+    }));
+    potential(REDUCE, host, None, None, true)
 }
 
 impl<D: GpuDim> DeviceLists<D> {

@@ -62,19 +62,24 @@ struct Tau {
     groups_y: u32,
 }
 
+/// A pass of the corrector with its bind group.
+struct Pass {
+    pipeline: Pipeline,
+    bind: wgpu::BindGroup,
+}
+
 /// The corrector's pipelines, buffers and bind groups.
 pub(super) struct DeviceCorrector {
+    /// The start, which binds the stage state ([`Self::bind_start`]).
     start: Pipeline,
-    constraint: Pipeline,
-    begin: Pipeline,
-    residual: Pipeline,
-    residual_stage: Pipeline,
-    check: Pipeline,
-    euler: Pipeline,
-    average: Pipeline,
-    correct: Pipeline,
-    /// Bind groups of the passes other than `start`, which binds the stage state.
-    bound: [wgpu::BindGroup; 8],
+    constraint: Pass,
+    begin: Pass,
+    residual: Pass,
+    residual_stage: Pass,
+    check: Pass,
+    euler: Pass,
+    average: Pass,
+    correct: Pass,
     tau: wgpu::Buffer,
     control: wgpu::Buffer,
     args: wgpu::Buffer,
@@ -120,39 +125,21 @@ impl DeviceCorrector {
         let saved_flags = gpu.zeroed("failure flags at the batch start", 16);
         let mut full = table.to_vec();
         full.extend([("tau", &tau), ("control", &control), ("args", &args)]);
-        let (constraint, begin, residual, residual_stage, check, euler, average, correct) = (
-            pipeline("constraint")?,
-            pipeline("begin")?,
-            pipeline("residual")?,
-            pipeline("residual_stage")?,
-            pipeline("check")?,
-            pipeline("euler")?,
-            pipeline("average")?,
-            pipeline("correct")?,
-        );
-        let bound = [
-            &constraint,
-            &begin,
-            &residual,
-            &residual_stage,
-            &check,
-            &euler,
-            &average,
-            &correct,
-        ]
-        .map(|p| gpu.bind(p, &full));
-        let [b0, b1, b2, b3, b4, b5, b6, b7] = bound;
+        let pass = |entry: &str| -> Result<Pass, GpuError> {
+            let pipeline = pipeline(entry)?;
+            let bind = gpu.bind(&pipeline, &full)?;
+            Ok(Pass { pipeline, bind })
+        };
         Ok(Self {
+            constraint: pass("constraint")?,
+            begin: pass("begin")?,
+            residual: pass("residual")?,
+            residual_stage: pass("residual_stage")?,
+            check: pass("check")?,
+            euler: pass("euler")?,
+            average: pass("average")?,
+            correct: pass("correct")?,
             start: pipeline("start")?,
-            constraint,
-            begin,
-            residual,
-            residual_stage,
-            check,
-            euler,
-            average,
-            correct,
-            bound: [b0?, b1?, b2?, b3?, b4?, b5?, b6?, b7?],
             tau,
             control,
             args,
@@ -234,34 +221,29 @@ impl DeviceCorrector {
     /// the start and the constant part of the constraint, then the budget's pseudo steps,
     /// each checked, then the force.
     pub fn record(&self, gpu: &Gpu, pass: &mut wgpu::ComputePass<'_>, start: &wgpu::BindGroup) {
-        let [
-            constraint,
-            begin,
-            residual,
-            residual_stage,
-            check,
-            euler,
-            average,
-            correct,
-        ] = &self.bound;
         let n = self.n;
-        let items = u64::from(n);
-        let args = (&self.args, 0);
+        let dispatch = |pass: &mut wgpu::ComputePass<'_>, p: &Pass, items: u32| {
+            gpu.dispatch(pass, &p.pipeline, &p.bind, items);
+        };
+        // The pseudo steps' passes, over the particles while the iteration runs.
+        let indirect = |pass: &mut wgpu::ComputePass<'_>, p: &Pass| {
+            gpu.dispatch_indirect(pass, &p.pipeline, &p.bind, (&self.args, 0), u64::from(n));
+        };
         gpu.dispatch(pass, &self.start, start, n);
-        gpu.dispatch(pass, &self.constraint, constraint, n);
-        gpu.dispatch(pass, &self.begin, begin, 1);
+        dispatch(pass, &self.constraint, n);
+        dispatch(pass, &self.begin, 1);
         let checked = |pass: &mut wgpu::ComputePass<'_>| {
-            gpu.dispatch_indirect(pass, &self.residual, residual, args, items);
-            gpu.dispatch(pass, &self.check, check, 1);
+            indirect(pass, &self.residual);
+            dispatch(pass, &self.check, 1);
         };
         checked(pass);
         for _ in 0..self.budget {
-            gpu.dispatch_indirect(pass, &self.euler, euler, args, items);
-            gpu.dispatch_indirect(pass, &self.residual_stage, residual_stage, args, items);
-            gpu.dispatch_indirect(pass, &self.average, average, args, items);
+            indirect(pass, &self.euler);
+            indirect(pass, &self.residual_stage);
+            indirect(pass, &self.average);
             checked(pass);
         }
-        gpu.dispatch(pass, &self.correct, correct, n);
+        dispatch(pass, &self.correct, n);
     }
 
     /// Books the pseudo steps a batch of `stages` stages records.

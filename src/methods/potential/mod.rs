@@ -15,7 +15,7 @@ use crate::methods::cores::family::{
     state_model,
 };
 #[cfg(feature = "gpu")]
-use crate::methods::tlsph::GpuTlsph;
+use crate::methods::cores::tl::gpu::GpuTlsph;
 
 use crate::case::Case;
 use crate::core::check::{Problem, toml_name};

@@ -83,13 +83,11 @@ impl MixedLayout {
                 .scalars("W", bond, pairs)
                 .scalars("BL", pseudo_viscosity, pairs),
             reference: reference::fields(n, constrained, dim, EXTRAS),
-            corr: Fields::new("C", dim)
-                .vectors("V", ac, n)
-                .scalars("Q", ac, n)
-                .vectors("V1", ac, n)
-                .scalars("Q1", ac, n)
-                .vectors("RV", ac, n)
-                .scalars("RQ", ac, n)
+            corr: [("V", "Q"), ("V1", "Q1"), ("RV", "RQ")]
+                .into_iter()
+                .fold(Fields::new("C", dim), |c, (w, dp)| {
+                    c.vectors(w, ac, n).scalars(dp, ac, n)
+                })
                 .vectors("VI", ac, n)
                 .scalars("PN", ac, n)
                 .tensors("HN", ac, n)

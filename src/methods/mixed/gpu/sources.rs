@@ -62,13 +62,9 @@ pub const MOMENTUM: Source = source!(
     ]
 );
 /// Energies, momenta, checks and the CFL pair wave speed of a state.
-pub const REDUCE: Source = source!(
-    "common/reduce.wgsl",
-    [
-        MECHANICS, MIXED, MOTION, ENERGY, EIGEN, PLASTICITY, REFERENCE
-    ],
-    [("y", false), ("kin", false), ("reference", false)]
-);
+pub const REDUCE: Source = crate::gpu::reduction::pass(&[
+    MECHANICS, MIXED, MOTION, ENERGY, EIGEN, PLASTICITY, REFERENCE,
+]);
 /// The per-step commit of the plastic history.
 pub const PLASTIC: Source = source!(
     "mixed/mixed_plastic.wgsl",

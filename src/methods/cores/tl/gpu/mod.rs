@@ -11,8 +11,8 @@
 mod scheme;
 
 pub use scheme::{
-    ACCEL, DET_F, Frame, HostListing, HostLists, HostModel, Layout, Lists, Outputs, REDUCE,
-    SHADERS, STRESS, TlScheme, scene_constants, viscosity,
+    ACCEL, DET_F, Frame, HostListing, HostLists, HostModel, Layout, Lists, Outputs, POTENTIAL,
+    REDUCE, SHADERS, STRESS, TlScheme, kernel_passes, potential, scene_constants, viscosity,
 };
 
 use crate::boundary::Boundary;

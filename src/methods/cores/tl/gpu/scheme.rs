@@ -1,8 +1,9 @@
 //! The pass files of the total-Lagrangian GPU engine, the scheme a method runs on it
 //! ([`TlScheme`]: TLSPH's, the elastic potential's, corotated TLSPH's and
 //! dual-support SPH's in their folders, each supplying its own hooks: host-built lists,
-//! outputs in a rotated frame, the CFL scale of a unit-weight energy) and the layout of
-//! its buffers with the constants compiled from them.
+//! outputs in a rotated frame, the CFL scale of a unit-weight energy), the elastic
+//! potential's force pass and scheme, which two families run ([`POTENTIAL`],
+//! [`potential`]), and the layout of its buffers with the constants compiled from them.
 
 use crate::case::{Case, CaseError};
 use crate::core::correction::CorrectionKind;
@@ -18,6 +19,7 @@ use crate::gpu::shaders::{
 };
 use crate::methods::cores::tl::{self, TlState};
 use crate::physics::material::Material;
+use crate::physics::viscosity::ArtificialViscosity;
 use crate::reference::Reference;
 
 /// Strain energy densities of the TLSPH models, for the reduction.
@@ -50,10 +52,14 @@ pub const ACCEL: Source = source!(
     ]
 );
 /// Energies, momenta and checks of a state.
-pub const REDUCE: Source = source!(
-    "common/reduce.wgsl",
-    [MECHANICS, ENERGY, REFERENCE],
-    [("y", false), ("kin", false), ("reference", false)]
+pub const REDUCE: Source = reduction::pass(&[MECHANICS, ENERGY, REFERENCE]);
+/// The symmetrised forces of eq 148 from Σ_i w_i ψ(F_i) with viscosity, boundary
+/// conditions; the reverse gradients (set-up): the elastic potential's force pass
+/// (`shaders/potential/`) on TLSPH's buffers, which dual-support SPH runs too.
+pub const POTENTIAL: Source = source!(
+    "potential/potential.wgsl",
+    [BOUNDARY, REFERENCE, VISCOSITY, REVERSE_GRADIENTS],
+    flat = ACCEL.flat
 );
 
 /// The passes compiled with a TLSPH scene's constants ([`scene_constants`]).
@@ -103,6 +109,54 @@ pub struct TlScheme<D: GpuDim> {
     /// The quantities whose failure the stress pass records, one status slot each (the
     /// first particle, by `atomicMin`), as a blow-up names them.
     pub checks: &'static [&'static str],
+}
+
+/// The passes of a scheme on the reference neighbours with contact and without loads
+/// (the elastic potential's, corotated TLSPH's): its `stress`, `accel` and `reduce`, and
+/// the core's set-up and integrators.
+pub const fn kernel_passes(stress: Source, accel: Source, reduce: Source) -> [Source; 7] {
+    [
+        stress,
+        accel,
+        CONTACT,
+        CORRECTION,
+        INTEGRATE,
+        PAIR_OFFSETS,
+        reduce,
+    ]
+}
+
+/// The elastic potential's force ([`POTENTIAL`]) on TLSPH's stress pass, with the
+/// reduction `reduce`, on `lists`, with the viscosity `av`: the reference code's force
+/// where `unit_weights` is some (its CFL scale, [`TlScheme::unit_weights`]), else the
+/// consistent one; `dual_support_hourglass`, dual-support SPH's hourglass term (eq 28)
+/// of the stiffnesses of the host's lists.
+pub fn potential<D: GpuDim>(
+    reduce: Source,
+    lists: Lists<D>,
+    av: Option<&ArtificialViscosity>,
+    unit_weights: Option<fn(&[f64]) -> f64>,
+    dual_support_hourglass: bool,
+) -> TlScheme<D> {
+    TlScheme {
+        stress: STRESS,
+        accel: POTENTIAL,
+        reduce,
+        reverse: true,
+        hourglass: None,
+        lists,
+        constants: viscosity(av)
+            .choice(
+                "FORCE",
+                &["CONSISTENT", "REFERENCE_CODE"],
+                usize::from(unit_weights.is_some()),
+            )
+            .u32("HOURGLASS_DS", u32::from(dual_support_hourglass)),
+        unit_weights,
+        kin_tensors: &[],
+        frame: Frame::Reference,
+        checks: DET_F,
+    }
 }
 
 /// The pair lists and corrected gradients of a scheme.
@@ -156,7 +210,7 @@ pub type Outputs<D> = fn(&Material, &[f64], &[<D as Dim>::T], &[<D as Dim>::T]) 
 pub const DET_F: &[&str] = &["det F (f32, GPU)"];
 
 /// The constants AV, AV_ALPHA, AV_BETA and AV_ETA of a Monaghan viscosity, if any.
-pub fn viscosity(av: Option<&crate::physics::viscosity::ArtificialViscosity>) -> Constants {
+pub fn viscosity(av: Option<&ArtificialViscosity>) -> Constants {
     Constants::default()
         .u32("AV", u32::from(av.is_some()))
         .f32("AV_ALPHA", av.map_or(0.0, |a| a.alpha))
