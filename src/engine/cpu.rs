@@ -20,6 +20,13 @@ impl Trapezoid {
         self.integral += 0.5 * (self.last + power) * dt;
         self.last = power;
     }
+
+    /// A step of a power whose force is held through the step: the trapezoid of its power
+    /// at the step's start and at its last rate evaluation.
+    fn add_held(&mut self, start: f64, power: f64, dt: f64) {
+        self.last = start;
+        self.add(power, dt);
+    }
 }
 
 /// The CPU reference engine: a method and an integrator (f64, rayon). Built from the two
@@ -86,11 +93,13 @@ impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
                     completed: k,
                     cause,
                 })?;
-            // The balance's powers, trapezoidal over successive steps; the work against
-            // contact is minus its power on the bodies.
+            // The balance's powers, trapezoidal over successive steps, but the contact's
+            // within the step its forces are held through; the work against contact is
+            // minus its power on the bodies.
             let boundary = self.method.boundary_work();
             self.external.add(boundary.power, dt);
-            self.contact.add(-boundary.contact, dt);
+            self.contact
+                .add_held(-boundary.contact_start, -boundary.contact, dt);
             self.dissipation.add(self.method.dissipation_power(), dt);
             self.hourglass.add(self.method.hourglass_power(), dt);
         }

@@ -31,6 +31,9 @@ pub struct BoundaryWork {
     pub power: f64,
     /// The power of the contact forces on the bodies (seed 000 §5.8).
     pub contact: f64,
+    /// The power of the same contact forces at the start of the step: they are held
+    /// through it.
+    pub contact_start: f64,
     /// The reaction of every support of the case.
     pub reactions: Vec<Reaction>,
 }
@@ -48,6 +51,7 @@ impl BoundaryWork {
     ) {
         let interaction = interactions.accelerate(v, mass, a);
         self.contact = interaction.contact;
+        self.contact_start = interaction.contact_start;
         self.power = boundary.apply(a, v, mass, &mut self.reactions)
             + boundary.external_power(v, mass)
             + interaction.external;

@@ -9,7 +9,8 @@
 //! f_c = −α m_s (d·n_c) n_c / Δt² (eqs 177–178, α the penalty stiffness): the acceleration
 //! that removes the fraction α of the penetration in one step. As in the seed's code the
 //! forces are found from the positions at the start of a step and held through its
-//! stages. The master feels no reaction, so neither linear momentum nor energy is
+//! stages, so that their work over a step is the trapezoid of their powers at its start
+//! and at its last rate evaluation. The master feels no reaction, so neither linear momentum nor energy is
 //! conserved during contact: a slave pushed out by a master surface that moves towards it
 //! gains energy, as a ball struck by a bat does.
 
@@ -33,13 +34,18 @@ pub struct Contact<D: Dim> {
     body: Vec<u32>,
     /// Hull particles of each body, counter-clockwise; empty for a body without area.
     hulls: Vec<Vec<u32>>,
+    /// Mass m of every particle (the method's nodal mass).
+    mass: Vec<f64>,
     /// a_c = f_c / m of every particle, held through the current step.
     accel: Vec<D::V>,
+    /// Σ m a_c·v at the start of the current step.
+    start_power: f64,
 }
 
 impl<D: Dim> Contact<D> {
-    /// Finds the hull of every body in the reference positions `x0`.
-    pub fn new(penalty: f64, x0: &[D::V], body: &[u32]) -> Self {
+    /// Finds the hull of every body in the reference positions `x0`; `mass` is the
+    /// particles' mass.
+    pub fn new(penalty: f64, x0: &[D::V], body: &[u32], mass: &[f64]) -> Self {
         assert_eq!(D::N, 2, "contact finds hulls in 2D only");
         let bodies = body.iter().map(|&b| b as usize + 1).max().unwrap_or(0);
         let hulls = (0..bodies)
@@ -69,7 +75,9 @@ impl<D: Dim> Contact<D> {
             penalty,
             body: body.to_vec(),
             hulls,
+            mass: mass.to_vec(),
             accel: vec![D::zero(); x0.len()],
+            start_power: 0.0,
         }
     }
 
@@ -107,6 +115,13 @@ impl<D: Dim> Contact<D> {
         });
     }
 
+    /// Σ m a_c·v of the current step's forces at velocities v.
+    fn power(&self, v: &[D::V], mass: &[f64]) -> f64 {
+        (0..self.accel.len())
+            .map(|i| mass[i] * D::dot(self.accel[i], v[i]))
+            .sum()
+    }
+
     /// a_c = f_c / m of every particle for the current step.
     pub fn accelerations(&self) -> &[D::V] {
         &self.accel
@@ -119,21 +134,24 @@ impl<D: Dim> Contact<D> {
 }
 
 impl<D: Dim> Interaction<D> for Contact<D> {
-    fn begin_step(&mut self, _t: f64, dt: f64, x: &[D::V], _v: &[D::V]) {
+    fn begin_step(&mut self, _t: f64, dt: f64, x: &[D::V], v: &[D::V]) {
         Contact::begin_step(self, x, dt);
+        self.start_power = self.power(v, &self.mass);
     }
 
     fn accelerate(&self, v: &[D::V], mass: &[f64], a: &mut [D::V]) -> f64 {
         for (a, &a_c) in a.iter_mut().zip(&self.accel) {
             *a += a_c;
         }
-        (0..self.accel.len())
-            .map(|i| mass[i] * D::dot(self.accel[i], v[i]))
-            .sum()
+        self.power(v, mass)
     }
 
     fn contact(&self) -> bool {
         true
+    }
+
+    fn start_power(&self) -> Option<f64> {
+        Some(self.start_power)
     }
 
     #[cfg(feature = "gpu")]
@@ -319,7 +337,7 @@ mod tests {
     #[test]
     fn the_hull_of_a_lattice_square_is_its_boundary_counter_clockwise() {
         let (x, body) = square_and(&[DVec2::new(2.0, 2.0)]);
-        let contact = Contact::<D2>::new(0.1, &x, &body);
+        let contact = Contact::<D2>::new(0.1, &x, &body, &vec![1.0; x.len()]);
         // The 16 boundary particles from (0, 0) along the bottom, up the right side,
         // back along the top and down the left side; the 9 interior ones are not on it.
         let boundary = vec![0, 1, 2, 3, 4, 9, 14, 19, 24, 23, 22, 21, 20, 15, 10, 5];
@@ -331,7 +349,7 @@ mod tests {
         x.extend_from_slice(&row);
         let mut body = body;
         body.extend([2; 4]);
-        assert!(Contact::<D2>::new(0.1, &x, &body).hulls()[2].is_empty());
+        assert!(Contact::<D2>::new(0.1, &x, &body, &vec![1.0; x.len()]).hulls()[2].is_empty());
     }
 
     #[test]
@@ -349,7 +367,7 @@ mod tests {
             DVec2::new(1.2, 1.1),
             DVec2::new(0.4, 1.1),
         ]);
-        let mut contact = Contact::<D2>::new(alpha, &x, &body);
+        let mut contact = Contact::<D2>::new(alpha, &x, &body, &vec![1.0; x.len()]);
         contact.begin_step(&x, dt);
         let a = contact.accelerations();
         let expected = DVec2::splat(alpha * 0.0375 / (dt * dt));

@@ -43,6 +43,13 @@ pub trait Interaction<D: Dim>: Send + Sync {
         false
     }
 
+    /// For forces held through a step (contact, found from the positions at its start):
+    /// their power Σ m a·v at the start of the current step, with which the balance
+    /// integrates their work over the step. `None` for forces that follow the stages.
+    fn start_power(&self) -> Option<f64> {
+        None
+    }
+
     /// The interaction's device pass, if it has one.
     #[cfg(feature = "gpu")]
     fn gpu_pass(&self) -> Option<&dyn gpu::GpuInteraction>;
@@ -54,6 +61,8 @@ pub trait Interaction<D: Dim>: Send + Sync {
 pub struct Power {
     pub external: f64,
     pub contact: f64,
+    /// The contact's power at the start of the step (its forces are held through it).
+    pub contact_start: f64,
 }
 
 /// The interactions a case asks for, in the order they act.
@@ -86,6 +95,7 @@ impl<D: Dim> Interactions<D> {
                 spec.penalty,
                 x0,
                 &body[..x0.len()],
+                mass,
             )));
         }
         Ok(Self { list })
@@ -113,6 +123,7 @@ impl<D: Dim> Interactions<D> {
                 true => power.contact += p,
                 false => power.external += p,
             }
+            power.contact_start += i.start_power().unwrap_or(0.0);
         }
         power
     }
