@@ -135,20 +135,41 @@ fn the_tensile_strip_report_has_the_bytes_of_the_wgsl() {
     assert_eq!(both, 4 * u64::from(STEPS) * (212 * n + 32 * pairs));
 }
 
-/// The elastic potential and corotated TLSPH on the same engine: their own passes.
+/// The elastic potential and corotated TLSPH on the rotating disk, on TLSPH's engine:
+/// their own passes, with the bytes read off their WGSL for each case's settings. Per
+/// particle a field counts once whether it is the particle's own or a neighbour's, per
+/// pair what is indexed by the pair, and a load whose value the case's variant never uses
+/// (behind a constant that is off) is no traffic.
+///
+/// The elastic potential (Saint Venant–Kirchhoff, not the rate model; consistent force,
+/// no viscosity): its stress pass is TLSPH's (`tl/tlsph.wgsl`, RATE = 0): the row end,
+/// V, u in and H, P, F⁻ᵀ, ρ out, 17 words = 68 B (v is read only for Ḟ of the rate
+/// model); the id and ∇0W̃ per pair, 3 words = 12 B. Its accel pass
+/// (`potential/potential.wgsl`): the row end, V and the mask, v, P, ext in and the power,
+/// the viscous dissipation, u̇, v̇ out, 17 words = 68 B (u, ρ and F⁻ᵀ feed only the
+/// viscosity and H the dual-support hourglass force); the id, ∇0W̃_ij and ∇0W̃_ji per
+/// pair, 5 words = 20 B. A rate evaluation: 136 B per particle, 32 B per pair.
+///
+/// Corotated TLSPH (linear elastic, the reference code's force, no viscosity): its stress
+/// pass (`corotated/corotated.wgsl`, shape matching): the row end, V, u in and F̂ − I, P̂,
+/// R F̂⁻ᵀ, ρ, R out, 21 words = 84 B; the id, X_j − X_i and ∇0W_ij per pair (both loops
+/// over the row read the same pairs), 5 words = 20 B. Its accel pass
+/// (`corotated/corotated_accel.wgsl`): the row end, V and the mask, v, R, P̂, ext in and
+/// the power, the viscous dissipation, u̇, v̇ out, 21 words = 84 B (u, ρ and R F̂⁻ᵀ feed
+/// only the viscosity); the id and ∇0W_ij per pair, 3 words = 12 B (∇0W_ji is the
+/// variational force's). A rate evaluation: 168 B per particle, 32 B per pair.
+///
+/// Both states are [u | v], 4 words a particle: each RK4 blend reads and writes 3 words
+/// of each, 48 B per particle. The pairs are the host's reference lists, which both
+/// schemes use (the kernel's support at each case's h).
 #[test]
 fn the_total_lagrangian_schemes_report_their_own_passes() {
+    const STRESS: &str = "tl stress (stress)";
+    const ACCEL: &str = "tl accel (accel)";
+    // (case, stress per particle, per pair; accel per particle, per pair) in bytes.
     for (name, stress, accel) in [
-        (
-            "rotating-disk-potential",
-            "tl stress (stress)",
-            "tl accel (accel)",
-        ),
-        (
-            "rotating-disk-corotated",
-            "tl stress (stress)",
-            "tl accel (accel)",
-        ),
+        ("rotating-disk-potential", (68, 12), (68, 20)),
+        ("rotating-disk-corotated", (84, 20), (84, 12)),
     ] {
         let case = load(name, &[] as &[&str]);
         let stages = case.method.integrator.stages() as u64;
@@ -156,17 +177,29 @@ fn the_total_lagrangian_schemes_report_their_own_passes() {
         check_common(
             &report,
             &[
-                (stress, stages),
-                (accel, stages),
+                (STRESS, stages),
+                (ACCEL, stages),
                 ("blend (blend)", blends(&case)),
             ],
         );
-        // Both read at least their row ends, ids and gradients.
+        assert_eq!(report.rows.len(), 3, "{name}:\n{report}");
         let evaluations = stages * u64::from(STEPS);
-        for pass in [stress, accel] {
-            let bytes = row(&report, pass).bytes.unwrap();
-            assert!(bytes >= evaluations * (4 * n + 12 * pairs), "{name} {pass}");
+        // Each pass's bytes: its words per particle and per pair, per rate evaluation.
+        for (pass, (item, pair)) in [(STRESS, stress), (ACCEL, accel)] {
+            assert_eq!(
+                row(&report, pass).bytes.unwrap(),
+                evaluations * (item * n + pair * pairs),
+                "{name} {pass}:\n{report}"
+            );
         }
+        // The blends: 12 B per entry of the 4-word state of a particle.
+        let blend = row(&report, "blend (blend)");
+        assert_eq!(
+            blend.bytes.unwrap(),
+            blend.runs * 12 * 4 * n,
+            "{name}:\n{report}"
+        );
+        assert_eq!(report.particles as u64, n);
     }
 }
 
