@@ -204,10 +204,37 @@ fn the_total_lagrangian_schemes_report_their_own_passes() {
 }
 
 /// The updated-Lagrangian engine: positions, the drift check and its arming at every rate
-/// evaluation, the build's passes only in the builds that ran, and the method's passes.
+/// evaluation, the build's passes only in the builds that ran, and the method's passes
+/// with the bytes read off their WGSL (both cases: the hypoelastic rate model, no
+/// correction of L, so neither pass gathers A⁻ᵀ). Per particle a field counts once
+/// whether it is the particle's own or a neighbour's, per pair what is indexed by it.
+///
+/// Gray–Monaghan (viscosity, artificial stress, XSPH on): `ul particle` reads V, ρ − ρ0,
+/// S and writes σ/ρ², R, c and V = m/ρ, 16 words = 64 B, no pairs; `ul rates` reads the
+/// row end, x, v, ρ − ρ0, S, F − I, σ/ρ², R, c, m/ρ, V and the mask, ext and writes the
+/// power, u̇, v̇, ρ̇, Ṡ, Ḟ, 42 words = 168 B; the id per pair, 4 B.
+///
+/// Godunov: `ul particle` reads V, ρ − ρ0, S and writes σ, p, Z = ρc and V = m/ρ,
+/// 13 words = 52 B; `ul rates` reads the row end, x, v, ρ − ρ0, S, F − I, σ, p, Z, m/ρ,
+/// V and the mask, ext and writes the power, u̇, v̇, ρ̇, Ṡ, Ḟ, 39 words = 156 B; the id
+/// per pair, 4 B.
+///
+/// The pairs are those of the device's last build, which the engine reads back: its
+/// lists hold every pair within the kernel's support widened by the skin (and the f32
+/// margin of `gpu::neighbour`), rebuilt once a particle has drifted half the skin. Over
+/// these steps no particle drifts that far (the rim moves ω R t ≤ 3e-3 in at most 6e-5 s,
+/// half the skin is 1.8e-2), so the last build is the first, on the reference positions:
+/// the pairs here are the host's lists of the reference positions within that radius.
 #[test]
 fn the_updated_lagrangian_report_counts_the_builds_that_ran() {
-    for name in ["rotating-disk-gray-monaghan", "rotating-disk-godunov"] {
+    use meshless::core::neighbour::{SKIN, build};
+    const PARTICLE: &str = "ul particle (particle)";
+    const RATES: &str = "ul rates (rates)";
+    // (case, particle per particle, rates per particle, rates per pair) in bytes.
+    for (name, particle, rates, rates_pair) in [
+        ("rotating-disk-gray-monaghan", 64, 168, 4),
+        ("rotating-disk-godunov", 52, 156, 4),
+    ] {
         let case = load(name, &[] as &[&str]);
         let stages = case.method.integrator.stages() as u64;
         let (report, n, _) = profiled(&case);
@@ -217,8 +244,8 @@ fn the_updated_lagrangian_report_counts_the_builds_that_ran() {
                 ("ul positions (positions)", stages),
                 ("check_drift (check_drift)", stages),
                 ("arm (arm)", stages),
-                ("ul particle (particle)", stages),
-                ("ul rates (rates)", stages),
+                (PARTICLE, stages),
+                (RATES, stages),
                 ("blend (blend)", blends(&case)),
             ],
         );
@@ -236,6 +263,31 @@ fn the_updated_lagrangian_report_counts_the_builds_that_ran() {
             let r = row(&report, pass);
             assert_eq!(r.dispatches, stages * u64::from(STEPS), "{name} {pass}");
         }
+        // No rebuild on moved positions: at most one build ran over the steps.
+        let built = row(&report, "fill_neighbours (fill_neighbours)").runs;
+        assert!(built <= 1, "{name}: {built} builds\n{report}");
+        let reference = Reference::<D2>::build(&case).unwrap();
+        let radius = reference.kernel.support() * (1.0 + SKIN) * (1.0 + 1e-5);
+        let pairs = build::<D2>(&reference.x0, radius).pair_count() as u64;
+        let evaluations = stages * u64::from(STEPS);
+        // The particle pass gathers nothing (no correction): bytes per particle alone.
+        assert_eq!(
+            row(&report, PARTICLE).bytes.unwrap(),
+            evaluations * particle * n,
+            "{name}:\n{report}"
+        );
+        assert_eq!(
+            row(&report, RATES).bytes.unwrap(),
+            evaluations * (rates * n + rates_pair * pairs),
+            "{name}:\n{report}"
+        );
+        // The blends: 12 B per entry of the 13-word state [u | v | ρ − ρ0 | S | F − I].
+        let blend = row(&report, "blend (blend)");
+        assert_eq!(
+            blend.bytes.unwrap(),
+            blend.runs * 12 * 13 * n,
+            "{name}:\n{report}"
+        );
     }
 }
 
