@@ -291,13 +291,44 @@ fn the_updated_lagrangian_report_counts_the_builds_that_ran() {
     }
 }
 
-/// The mixed family: ghosts, kinematics, slopes, forces and rates of Upwind-SPH on the
-/// swinging plate (mirror planes, reconstruction); the Laplacian of JST-SPH.
+/// The mixed family on the swinging plate at Δx = 0.05 (linear elastic {p, F}: the state
+/// [u | v | F − I]; mirror planes on all four sides, so no projection): ghosts,
+/// kinematics, slopes, forces and rates of Upwind-SPH (with reconstruction), the
+/// Laplacian of JST-SPH, with the bytes read off their WGSL. Per particle a field counts
+/// once whether it is the particle's own or a neighbour's, per pair what is indexed by
+/// it; a gather reads a ghost's values once each, which the ghost pass that fills them
+/// counts (per ghost), not the gather.
+///
+/// - `kinematics`: the row end, v, F − I in and P, Ḟ out, 15 words = 60 B; the id and
+///   G_ab per pair, 3 words = 12 B.
+/// - `slopes` (Upwind): the row end, v, P in and the slopes ∇0v, ∂P/∂X_l out, 19 words =
+///   76 B; the id and the least-squares weight per pair, 3 words = 12 B.
+/// - `laplacian` (JST): the row end, v in and ∇²v out, 5 words = 20 B; the id and ℓ_ab
+///   per pair, 2 words = 8 B.
+/// - `forces`, Upwind: the row end, u, v, P, the slopes in and T, D(p), D(J) out,
+///   26 words = 104 B; the id, G_ab, G_ba and X_b − X_a per pair, 7 words = 28 B. JST:
+///   the row end, v, P, ∇²v in and T, D(p), D(J) out, 14 words = 56 B (u orients only
+///   the upwind flux); the id, G_ab, G_ba and s_ab per pair, 6 words = 24 B.
+/// - `rates`: T, D(p), v, V and the mask, ext in and the power, u̇, v̇ out, 15 words =
+///   60 B, no pairs.
+/// - per ghost, its source and image (reflection and sign, 4 words) and: `ghost_motion`
+///   the source's u, v in, the ghost's out, 12 words = 48 B; `ghost_kin` P in and out,
+///   12 words = 48 B; `ghost_slopes` the slopes in and out, 28 words = 112 B;
+///   `ghost_laplacian` ∇²v in and out, 8 words = 32 B.
+/// - each TVD-RK2 blend: 12 B per entry of the 8-word state.
+///
+/// From the case's geometry: 20 × 20 cell-centred particles; the kernel's support is
+/// 2h = 2.6 Δx, so the ghosts are the images of the 3 layers of particles within it of
+/// each plane (3 · 20 a side) and of each corner's 3 × 3 (imaged through both planes),
+/// 276; and every particle, its support closed by the ghosts, has the 20 lattice points
+/// within 2.6 Δx (distances 1, √2, 2, √5) as neighbours: 20 pairs a particle.
 #[test]
 fn the_mixed_report_has_every_pass_of_a_stage() {
     let case = load("swinging-plate", &["spacing=0.05"]);
     let stages = case.method.integrator.stages() as u64;
-    let (report, _, _) = profiled(&case);
+    let (report, n, _) = profiled(&case);
+    assert_eq!(n, 20 * 20);
+    let (ghosts, pairs) = (4 * 3 * 20 + 4 * 3 * 3, 20 * n);
     check_common(
         &report,
         &[
@@ -311,6 +342,41 @@ fn the_mixed_report_has_every_pass_of_a_stage() {
             ("blend (blend)", blends(&case)),
         ],
     );
+    assert_eq!(report.rows.len(), 8, "{report}");
+    let evaluations = stages * u64::from(STEPS);
+    // Each pass's bytes per rate evaluation: (pass, per particle, per pair), and per ghost.
+    let check = |report: &PassReport, passes: &[(&str, u64, u64)], ghost: &[(&str, u64)]| {
+        for &(pass, item, pair) in passes {
+            assert_eq!(
+                row(report, pass).bytes.unwrap(),
+                evaluations * (item * n + pair * pairs),
+                "{pass}:\n{report}"
+            );
+        }
+        for &(pass, item) in ghost {
+            assert_eq!(
+                row(report, pass).bytes.unwrap(),
+                evaluations * item * ghosts,
+                "{pass}:\n{report}"
+            );
+        }
+        let blend = row(report, "blend (blend)");
+        assert_eq!(blend.bytes.unwrap(), blend.runs * 12 * 8 * n, "{report}");
+    };
+    check(
+        &report,
+        &[
+            ("mixed kinematics (kinematics)", 60, 12),
+            ("slopes (slopes)", 76, 12),
+            ("mixed forces (forces)", 104, 28),
+            ("mixed rates (rates)", 60, 0),
+        ],
+        &[
+            ("ghost motion (ghost_motion)", 48),
+            ("ghost kinematics (ghost_kin)", 48),
+            ("ghost slopes (ghost_slopes)", 112),
+        ],
+    );
     let jst = load("swinging-plate", &["spacing=0.05", "method.name=jst-sph"]);
     let stages = jst.method.integrator.stages() as u64;
     let (report, _, _) = profiled(&jst);
@@ -320,6 +386,20 @@ fn the_mixed_report_has_every_pass_of_a_stage() {
             ("slopes (laplacian)", stages),
             ("ghost slopes (ghost_laplacian)", stages),
             ("mixed forces (forces)", stages),
+        ],
+    );
+    check(
+        &report,
+        &[
+            ("mixed kinematics (kinematics)", 60, 12),
+            ("slopes (laplacian)", 20, 8),
+            ("mixed forces (forces)", 56, 24),
+            ("mixed rates (rates)", 60, 0),
+        ],
+        &[
+            ("ghost motion (ghost_motion)", 48),
+            ("ghost kinematics (ghost_kin)", 48),
+            ("ghost slopes (ghost_laplacian)", 32),
         ],
     );
 }
