@@ -27,9 +27,12 @@
 // - pair: 1 vector per pair, when FORCE == FORCE_VARIATIONAL
 // - pair: 1 vector per pair, when AV
 // - reference: 2 scalars per item
-// - y: 2 vectors per item
-// R, P̂, R F̂⁻ᵀ, ρ in; the power out.
-// - kin loads: 1 scalar + 3 tensors per item
+// v; u for the viscosity.
+// - y: 1 vector per item
+// - y: 1 vector per item, when AV
+// R, P̂ in; R F̂⁻ᵀ and ρ for the viscosity; the power out.
+// - kin loads: 2 tensors per item
+// - kin loads: 1 scalar + 1 tensor per item, when AV
 // - kin stores: 2 scalars per item
 // - ext: 1 vector per item
 // - d: 2 vectors per item

@@ -41,7 +41,9 @@ fn slopes_of(b: u32) -> Slopes {
 // - pair: 2 vectors per pair
 // - pair: 1 vector per pair, when STAB == STAB_UPWIND
 // - pair: 1 scalar per pair, when STAB == STAB_JST
-// - y: 2 vectors per item
+// v; u orients the upwind flux.
+// - y: 1 vector per item
+// - y: 1 vector per item, when STAB == STAB_UPWIND
 // P (and H).
 // - kin: 1 tensor per item
 // - kin: 1 tensor per item, when KIN_H

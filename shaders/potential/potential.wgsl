@@ -26,15 +26,21 @@
 // bytes:
 // - offsets: 1 scalar per item
 // - ids: 1 scalar per pair
-// ∇0W̃_ij and the reverse ∇0W̃_ji; X_j − X_i for the viscosity.
+// ∇0W̃_ij and the reverse ∇0W̃_ji; X_j − X_i for the viscosity and dual-support SPH's
+// hourglass force (read once per pair by either).
 // - pair: 2 vectors per pair
 // - pair: 1 vector per pair, when AV
-// k_ij, k_ji and X_j − X_i of dual-support SPH's hourglass force.
-// - pair: 2 scalars + 1 vector per pair, when HOURGLASS_DS
+// - pair: 1 vector per pair, when HOURGLASS_DS and AV == 0
+// k_ij, k_ji of the hourglass force.
+// - pair: 2 scalars per pair, when HOURGLASS_DS
 // - reference: 2 scalars per item
-// - y: 2 vectors per item
-// P, F⁻ᵀ, ρ in; the power out.
-// - kin loads: 1 scalar + 2 tensors per item
+// v; u for the viscosity and the hourglass force.
+// - y: 1 vector per item
+// - y: 1 vector per item, when AV
+// - y: 1 vector per item, when HOURGLASS_DS and AV == 0
+// P in; ρ and F⁻ᵀ for the viscosity; the power out.
+// - kin loads: 1 tensor per item
+// - kin loads: 1 scalar + 1 tensor per item, when AV
 // H for the hourglass force.
 // - kin loads: 1 tensor per item, when HOURGLASS_DS
 // - kin stores: 2 scalars per item

@@ -28,9 +28,9 @@
 // - pair: 1 vector per pair
 // V_j.
 // - reference: 1 scalar per item
-// u, v; ρ − ρ0 and S of the rate model.
-// - y: 2 vectors per item
-// - y: 1 scalar + 1 tensor per item, when RATE
+// u; v (for Ḟ), ρ − ρ0 and S of the rate model.
+// - y: 1 vector per item
+// - y: 1 scalar + 1 vector + 1 tensor per item, when RATE
 // H, P, F⁻ᵀ, ρ.
 // - kin: 1 scalar + 3 tensors per item
 // - d: 1 scalar + 1 tensor per item, when RATE

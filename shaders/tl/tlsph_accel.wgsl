@@ -23,20 +23,25 @@
 // bytes:
 // - offsets: 1 scalar per item
 // - ids: 1 scalar per pair
-// ∇0W̃_ij, and ∇0W̃_ji for the variational force; X_j − X_i for the viscosity.
+// ∇0W̃_ij, and ∇0W̃_ji for the variational force; X_j − X_i for the viscosity and the
+// hourglass control (read once per pair by either).
 // - pair: 1 vector per pair
 // - pair: 1 vector per pair, when FORCE == FORCE_VARIATIONAL
 // - pair: 1 vector per pair, when AV
-// κ_ij and X_j − X_i, u_j and H_j for the hourglass control.
-// - pair: 1 scalar + 1 vector per pair, when HOURGLASS
-// - y: 1 vector per pair, when HOURGLASS
-// - kin loads: 1 tensor per item; 1 tensor per pair, when HOURGLASS
+// - pair: 1 vector per pair, when HOURGLASS and AV == 0
+// κ_ij and H (of both particles) for the hourglass control.
+// - pair: 1 scalar per pair, when HOURGLASS
+// - kin loads: 1 tensor per item, when HOURGLASS
 // V, the boundary mask.
 // - reference: 2 scalars per item
-// u, v.
-// - y: 2 vectors per item
-// P, F⁻ᵀ, ρ in; the power of supports and loads and the viscous dissipation out.
-// - kin loads: 1 scalar + 2 tensors per item
+// v; u for the viscosity and the hourglass control.
+// - y: 1 vector per item
+// - y: 1 vector per item, when AV
+// - y: 1 vector per item, when HOURGLASS and AV == 0
+// P in; F⁻ᵀ and ρ for the viscosity; the power of supports and loads and the viscous
+// dissipation out.
+// - kin loads: 1 tensor per item
+// - kin loads: 1 scalar + 1 tensor per item, when AV
 // - kin stores: 2 scalars per item
 // - ext: 1 vector per item
 // u̇ = v, v̇.

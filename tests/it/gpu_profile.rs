@@ -135,20 +135,41 @@ fn the_tensile_strip_report_has_the_bytes_of_the_wgsl() {
     assert_eq!(both, 4 * u64::from(STEPS) * (212 * n + 32 * pairs));
 }
 
-/// The elastic potential and corotated TLSPH on the same engine: their own passes.
+/// The elastic potential and corotated TLSPH on the rotating disk, on TLSPH's engine:
+/// their own passes, with the bytes read off their WGSL for each case's settings. Per
+/// particle a field counts once whether it is the particle's own or a neighbour's, per
+/// pair what is indexed by the pair, and a load whose value the case's variant never uses
+/// (behind a constant that is off) is no traffic.
+///
+/// The elastic potential (Saint Venant–Kirchhoff, not the rate model; consistent force,
+/// no viscosity): its stress pass is TLSPH's (`tl/tlsph.wgsl`, RATE = 0): the row end,
+/// V, u in and H, P, F⁻ᵀ, ρ out, 17 words = 68 B (v is read only for Ḟ of the rate
+/// model); the id and ∇0W̃ per pair, 3 words = 12 B. Its accel pass
+/// (`potential/potential.wgsl`): the row end, V and the mask, v, P, ext in and the power,
+/// the viscous dissipation, u̇, v̇ out, 17 words = 68 B (u, ρ and F⁻ᵀ feed only the
+/// viscosity and H the dual-support hourglass force); the id, ∇0W̃_ij and ∇0W̃_ji per
+/// pair, 5 words = 20 B. A rate evaluation: 136 B per particle, 32 B per pair.
+///
+/// Corotated TLSPH (linear elastic, the reference code's force, no viscosity): its stress
+/// pass (`corotated/corotated.wgsl`, shape matching): the row end, V, u in and F̂ − I, P̂,
+/// R F̂⁻ᵀ, ρ, R out, 21 words = 84 B; the id, X_j − X_i and ∇0W_ij per pair (both loops
+/// over the row read the same pairs), 5 words = 20 B. Its accel pass
+/// (`corotated/corotated_accel.wgsl`): the row end, V and the mask, v, R, P̂, ext in and
+/// the power, the viscous dissipation, u̇, v̇ out, 21 words = 84 B (u, ρ and R F̂⁻ᵀ feed
+/// only the viscosity); the id and ∇0W_ij per pair, 3 words = 12 B (∇0W_ji is the
+/// variational force's). A rate evaluation: 168 B per particle, 32 B per pair.
+///
+/// Both states are [u | v], 4 words a particle: each RK4 blend reads and writes 3 words
+/// of each, 48 B per particle. The pairs are the host's reference lists, which both
+/// schemes use (the kernel's support at each case's h).
 #[test]
 fn the_total_lagrangian_schemes_report_their_own_passes() {
+    const STRESS: &str = "tl stress (stress)";
+    const ACCEL: &str = "tl accel (accel)";
+    // (case, stress per particle, per pair; accel per particle, per pair) in bytes.
     for (name, stress, accel) in [
-        (
-            "rotating-disk-potential",
-            "tl stress (stress)",
-            "tl accel (accel)",
-        ),
-        (
-            "rotating-disk-corotated",
-            "tl stress (stress)",
-            "tl accel (accel)",
-        ),
+        ("rotating-disk-potential", (68, 12), (68, 20)),
+        ("rotating-disk-corotated", (84, 20), (84, 12)),
     ] {
         let case = load(name, &[] as &[&str]);
         let stages = case.method.integrator.stages() as u64;
@@ -156,25 +177,64 @@ fn the_total_lagrangian_schemes_report_their_own_passes() {
         check_common(
             &report,
             &[
-                (stress, stages),
-                (accel, stages),
+                (STRESS, stages),
+                (ACCEL, stages),
                 ("blend (blend)", blends(&case)),
             ],
         );
-        // Both read at least their row ends, ids and gradients.
+        assert_eq!(report.rows.len(), 3, "{name}:\n{report}");
         let evaluations = stages * u64::from(STEPS);
-        for pass in [stress, accel] {
-            let bytes = row(&report, pass).bytes.unwrap();
-            assert!(bytes >= evaluations * (4 * n + 12 * pairs), "{name} {pass}");
+        // Each pass's bytes: its words per particle and per pair, per rate evaluation.
+        for (pass, (item, pair)) in [(STRESS, stress), (ACCEL, accel)] {
+            assert_eq!(
+                row(&report, pass).bytes.unwrap(),
+                evaluations * (item * n + pair * pairs),
+                "{name} {pass}:\n{report}"
+            );
         }
+        // The blends: 12 B per entry of the 4-word state of a particle.
+        let blend = row(&report, "blend (blend)");
+        assert_eq!(
+            blend.bytes.unwrap(),
+            blend.runs * 12 * 4 * n,
+            "{name}:\n{report}"
+        );
+        assert_eq!(report.particles as u64, n);
     }
 }
 
 /// The updated-Lagrangian engine: positions, the drift check and its arming at every rate
-/// evaluation, the build's passes only in the builds that ran, and the method's passes.
+/// evaluation, the build's passes only in the builds that ran, and the method's passes
+/// with the bytes read off their WGSL (both cases: the hypoelastic rate model, no
+/// correction of L, so neither pass gathers A⁻ᵀ). Per particle a field counts once
+/// whether it is the particle's own or a neighbour's, per pair what is indexed by it.
+///
+/// Gray–Monaghan (viscosity, artificial stress, XSPH on): `ul particle` reads V, ρ − ρ0,
+/// S and writes σ/ρ², R, c and V = m/ρ, 16 words = 64 B, no pairs; `ul rates` reads the
+/// row end, x, v, ρ − ρ0, S, F − I, σ/ρ², R, c, m/ρ, V and the mask, ext and writes the
+/// power, u̇, v̇, ρ̇, Ṡ, Ḟ, 42 words = 168 B; the id per pair, 4 B.
+///
+/// Godunov: `ul particle` reads V, ρ − ρ0, S and writes σ, p, Z = ρc and V = m/ρ,
+/// 13 words = 52 B; `ul rates` reads the row end, x, v, ρ − ρ0, S, F − I, σ, p, Z, m/ρ,
+/// V and the mask, ext and writes the power, u̇, v̇, ρ̇, Ṡ, Ḟ, 39 words = 156 B; the id
+/// per pair, 4 B.
+///
+/// The pairs are those of the device's last build, which the engine reads back: its
+/// lists hold every pair within the kernel's support widened by the skin (and the f32
+/// margin of `gpu::neighbour`), rebuilt once a particle has drifted half the skin. Over
+/// these steps no particle drifts that far (the rim moves ω R t ≤ 3e-3 in at most 6e-5 s,
+/// half the skin is 1.8e-2), so the last build is the first, on the reference positions:
+/// the pairs here are the host's lists of the reference positions within that radius.
 #[test]
 fn the_updated_lagrangian_report_counts_the_builds_that_ran() {
-    for name in ["rotating-disk-gray-monaghan", "rotating-disk-godunov"] {
+    use meshless::core::neighbour::{SKIN, build};
+    const PARTICLE: &str = "ul particle (particle)";
+    const RATES: &str = "ul rates (rates)";
+    // (case, particle per particle, rates per particle, rates per pair) in bytes.
+    for (name, particle, rates, rates_pair) in [
+        ("rotating-disk-gray-monaghan", 64, 168, 4),
+        ("rotating-disk-godunov", 52, 156, 4),
+    ] {
         let case = load(name, &[] as &[&str]);
         let stages = case.method.integrator.stages() as u64;
         let (report, n, _) = profiled(&case);
@@ -184,8 +244,8 @@ fn the_updated_lagrangian_report_counts_the_builds_that_ran() {
                 ("ul positions (positions)", stages),
                 ("check_drift (check_drift)", stages),
                 ("arm (arm)", stages),
-                ("ul particle (particle)", stages),
-                ("ul rates (rates)", stages),
+                (PARTICLE, stages),
+                (RATES, stages),
                 ("blend (blend)", blends(&case)),
             ],
         );
@@ -203,16 +263,72 @@ fn the_updated_lagrangian_report_counts_the_builds_that_ran() {
             let r = row(&report, pass);
             assert_eq!(r.dispatches, stages * u64::from(STEPS), "{name} {pass}");
         }
+        // No rebuild on moved positions: at most one build ran over the steps.
+        let built = row(&report, "fill_neighbours (fill_neighbours)").runs;
+        assert!(built <= 1, "{name}: {built} builds\n{report}");
+        let reference = Reference::<D2>::build(&case).unwrap();
+        let radius = reference.kernel.support() * (1.0 + SKIN) * (1.0 + 1e-5);
+        let pairs = build::<D2>(&reference.x0, radius).pair_count() as u64;
+        let evaluations = stages * u64::from(STEPS);
+        // The particle pass gathers nothing (no correction): bytes per particle alone.
+        assert_eq!(
+            row(&report, PARTICLE).bytes.unwrap(),
+            evaluations * particle * n,
+            "{name}:\n{report}"
+        );
+        assert_eq!(
+            row(&report, RATES).bytes.unwrap(),
+            evaluations * (rates * n + rates_pair * pairs),
+            "{name}:\n{report}"
+        );
+        // The blends: 12 B per entry of the 13-word state [u | v | ρ − ρ0 | S | F − I].
+        let blend = row(&report, "blend (blend)");
+        assert_eq!(
+            blend.bytes.unwrap(),
+            blend.runs * 12 * 13 * n,
+            "{name}:\n{report}"
+        );
     }
 }
 
-/// The mixed family: ghosts, kinematics, slopes, forces and rates of Upwind-SPH on the
-/// swinging plate (mirror planes, reconstruction); the Laplacian of JST-SPH.
+/// The mixed family on the swinging plate at Δx = 0.05 (linear elastic {p, F}: the state
+/// [u | v | F − I]; mirror planes on all four sides, so no projection): ghosts,
+/// kinematics, slopes, forces and rates of Upwind-SPH (with reconstruction), the
+/// Laplacian of JST-SPH, with the bytes read off their WGSL. Per particle a field counts
+/// once whether it is the particle's own or a neighbour's, per pair what is indexed by
+/// it; a gather reads a ghost's values once each, which the ghost pass that fills them
+/// counts (per ghost), not the gather.
+///
+/// - `kinematics`: the row end, v, F − I in and P, Ḟ out, 15 words = 60 B; the id and
+///   G_ab per pair, 3 words = 12 B.
+/// - `slopes` (Upwind): the row end, v, P in and the slopes ∇0v, ∂P/∂X_l out, 19 words =
+///   76 B; the id and the least-squares weight per pair, 3 words = 12 B.
+/// - `laplacian` (JST): the row end, v in and ∇²v out, 5 words = 20 B; the id and ℓ_ab
+///   per pair, 2 words = 8 B.
+/// - `forces`, Upwind: the row end, u, v, P, the slopes in and T, D(p), D(J) out,
+///   26 words = 104 B; the id, G_ab, G_ba and X_b − X_a per pair, 7 words = 28 B. JST:
+///   the row end, v, P, ∇²v in and T, D(p), D(J) out, 14 words = 56 B (u orients only
+///   the upwind flux); the id, G_ab, G_ba and s_ab per pair, 6 words = 24 B.
+/// - `rates`: T, D(p), v, V and the mask, ext in and the power, u̇, v̇ out, 15 words =
+///   60 B, no pairs.
+/// - per ghost, its source and image (reflection and sign, 4 words) and: `ghost_motion`
+///   the source's u, v in, the ghost's out, 12 words = 48 B; `ghost_kin` P in and out,
+///   12 words = 48 B; `ghost_slopes` the slopes in and out, 28 words = 112 B;
+///   `ghost_laplacian` ∇²v in and out, 8 words = 32 B.
+/// - each TVD-RK2 blend: 12 B per entry of the 8-word state.
+///
+/// From the case's geometry: 20 × 20 cell-centred particles; the kernel's support is
+/// 2h = 2.6 Δx, so the ghosts are the images of the 3 layers of particles within it of
+/// each plane (3 · 20 a side) and of each corner's 3 × 3 (imaged through both planes),
+/// 276; and every particle, its support closed by the ghosts, has the 20 lattice points
+/// within 2.6 Δx (distances 1, √2, 2, √5) as neighbours: 20 pairs a particle.
 #[test]
 fn the_mixed_report_has_every_pass_of_a_stage() {
     let case = load("swinging-plate", &["spacing=0.05"]);
     let stages = case.method.integrator.stages() as u64;
-    let (report, _, _) = profiled(&case);
+    let (report, n, _) = profiled(&case);
+    assert_eq!(n, 20 * 20);
+    let (ghosts, pairs) = (4 * 3 * 20 + 4 * 3 * 3, 20 * n);
     check_common(
         &report,
         &[
@@ -226,6 +342,41 @@ fn the_mixed_report_has_every_pass_of_a_stage() {
             ("blend (blend)", blends(&case)),
         ],
     );
+    assert_eq!(report.rows.len(), 8, "{report}");
+    let evaluations = stages * u64::from(STEPS);
+    // Each pass's bytes per rate evaluation: (pass, per particle, per pair), and per ghost.
+    let check = |report: &PassReport, passes: &[(&str, u64, u64)], ghost: &[(&str, u64)]| {
+        for &(pass, item, pair) in passes {
+            assert_eq!(
+                row(report, pass).bytes.unwrap(),
+                evaluations * (item * n + pair * pairs),
+                "{pass}:\n{report}"
+            );
+        }
+        for &(pass, item) in ghost {
+            assert_eq!(
+                row(report, pass).bytes.unwrap(),
+                evaluations * item * ghosts,
+                "{pass}:\n{report}"
+            );
+        }
+        let blend = row(report, "blend (blend)");
+        assert_eq!(blend.bytes.unwrap(), blend.runs * 12 * 8 * n, "{report}");
+    };
+    check(
+        &report,
+        &[
+            ("mixed kinematics (kinematics)", 60, 12),
+            ("slopes (slopes)", 76, 12),
+            ("mixed forces (forces)", 104, 28),
+            ("mixed rates (rates)", 60, 0),
+        ],
+        &[
+            ("ghost motion (ghost_motion)", 48),
+            ("ghost kinematics (ghost_kin)", 48),
+            ("ghost slopes (ghost_slopes)", 112),
+        ],
+    );
     let jst = load("swinging-plate", &["spacing=0.05", "method.name=jst-sph"]);
     let stages = jst.method.integrator.stages() as u64;
     let (report, _, _) = profiled(&jst);
@@ -235,6 +386,20 @@ fn the_mixed_report_has_every_pass_of_a_stage() {
             ("slopes (laplacian)", stages),
             ("ghost slopes (ghost_laplacian)", stages),
             ("mixed forces (forces)", stages),
+        ],
+    );
+    check(
+        &report,
+        &[
+            ("mixed kinematics (kinematics)", 60, 12),
+            ("slopes (laplacian)", 20, 8),
+            ("mixed forces (forces)", 56, 24),
+            ("mixed rates (rates)", 60, 0),
+        ],
+        &[
+            ("ghost motion (ghost_motion)", 48),
+            ("ghost kinematics (ghost_kin)", 48),
+            ("ghost slopes (ghost_laplacian)", 32),
         ],
     );
 }
