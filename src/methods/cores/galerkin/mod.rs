@@ -46,6 +46,7 @@ use crate::engine::{
 use crate::interaction::Interactions;
 use crate::methods::cores::family::{Feature, Plan, cfl_step};
 use crate::methods::cores::particles::{Surroundings, check_stresses};
+use crate::methods::cores::tl::displacement_rates;
 use crate::physics::material::{Material, MaterialModel, stress_fields};
 use crate::physics::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
 use crate::reference::Reference;

@@ -28,6 +28,7 @@ use crate::diagnostics::observe::{ScalarField, Snapshot};
 use crate::engine::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
 use crate::interaction::Interactions;
 use crate::methods::cores::particles::Surroundings;
+use crate::methods::cores::tl::displacement_rates;
 use crate::physics::material::{Material, MaterialModel, stress_fields};
 use crate::physics::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
 use crate::reference::{Build, Reference};
@@ -454,12 +455,7 @@ impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
     type State = UlGalerkinState<D>;
     type Error = BlowUp;
 
-    fn rates(
-        &mut self,
-        _t: f64,
-        y: &UlGalerkinState<D>,
-        d: &mut UlGalerkinState<D>,
-    ) -> Result<(), BlowUp> {
+    fn rates(&mut self, _t: f64, y: &Self::State, d: &mut Self::State) -> Result<(), BlowUp> {
         self.check_densities(y)?;
         let mut x = std::mem::take(&mut self.x);
         self.positions_into(y, &mut x);
@@ -484,10 +480,7 @@ impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
             &self.mass,
             &mut d.v,
         );
-        d.u.par_iter_mut()
-            .with_min_len(MIN_CHUNK)
-            .zip(&y.v)
-            .for_each(|(u, &v)| *u = v);
+        displacement_rates::<D>(&mut d.u, &y.v);
         let nodes = Nodes {
             x0: &self.x0,
             x: &self.x,
