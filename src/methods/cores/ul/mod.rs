@@ -186,35 +186,23 @@ pub struct UlCore<D: Dim> {
 }
 
 impl<D: Dim> UlCore<D> {
-    /// The particles of the reference configuration with their lists kept by `rebuild`,
+    /// The particles of the reference configuration r with their lists kept by `rebuild`,
     /// per body when the case has contact (without it the bodies interact through the SPH
     /// sums as one body).
-    pub fn new(case: &Case, reference: Reference<D>, rebuild: Rebuild) -> Result<Self, CaseError> {
-        let neighbours = reference.neighbour_lists(rebuild, case.contact.is_some());
-        let Reference {
-            x0,
-            vol,
-            mass,
-            body,
-            v0,
-            boundary,
-            material,
-            kernel,
-            ..
-        } = reference;
-        let interactions = Interactions::build(case, &x0, &body, &OnPatches, &mass, || {
-            neighbours.lists().clone()
-        })?;
+    pub fn new(case: &Case, r: Reference<D>, rebuild: Rebuild) -> Result<Self, CaseError> {
+        let neighbours = r.neighbour_lists(rebuild, case.contact.is_some());
+        let lists = || neighbours.lists().clone();
+        let interactions = Interactions::build(case, &r.x0, &r.body, &OnPatches, &r.mass, lists)?;
         Ok(Self {
-            x: x0.clone(),
-            x0,
-            vol0: vol,
-            mass,
-            body,
-            v0,
-            surroundings: Surroundings::new(boundary, interactions),
-            material,
-            kernel,
+            x: r.x0.clone(),
+            x0: r.x0,
+            vol0: r.vol,
+            mass: r.mass,
+            body: r.body,
+            v0: r.v0,
+            surroundings: Surroundings::new(r.boundary, interactions),
+            material: r.material,
+            kernel: r.kernel,
             correction: case.method.correction,
             neighbours,
         })
