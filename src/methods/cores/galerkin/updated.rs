@@ -139,14 +139,9 @@ pub trait MovingPoints<D: Dim>: Sized + Send + Sync {
     /// minimum-traffic model of `meshless bench --roofline`.
     fn shape_traffic(&self) -> [f64; 3];
 
-    /// The rates of `node_rho` and `point_u`, with `shapes` the functions at the points
-    /// of this evaluation; nothing by default.
-    fn own_rates(
-        &mut self,
-        _nodes: &Nodes<D>,
-        _shapes: &Shapes<D>,
-        _d: &mut UlGalerkinState<D>,
-    ) -> Result<(), BlowUp> {
+    /// The rates of `node_rho`, and of `point_u` beyond the core's ẋ_q = Σ_a N_a(x_q) v_a
+    /// of points that move on their own ([`Self::OWN_MOTION`]); nothing by default.
+    fn own_rates(&mut self, _nodes: &Nodes<D>, _d: &mut UlGalerkinState<D>) -> Result<(), BlowUp> {
         Ok(())
     }
 
@@ -487,7 +482,10 @@ impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
             mass: &self.mass,
             y,
         };
-        self.points.own_rates(&nodes, &self.shapes, d)?;
+        if P::OWN_MOTION {
+            d.point_u = self.shapes.interpolate(&y.v);
+        }
+        self.points.own_rates(&nodes, d)?;
         self.surroundings.close(&y.v, &self.mass, &mut d.v);
         Ok(())
     }
