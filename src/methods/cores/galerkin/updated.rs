@@ -14,7 +14,7 @@
 
 use super::contracts::galerkin_accessors;
 use super::{
-    Mass, check_points, gather_accelerations, row_sums, smooth_velocities, stress_at_nodes,
+    Fields, Mass, check_points, gather_accelerations, row_sums, smooth_velocities, stress_at_nodes,
     to_nodes,
 };
 use crate::boundary::OnPatches;
@@ -29,7 +29,7 @@ use crate::engine::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
 use crate::interaction::Interactions;
 use crate::methods::cores::particles::Surroundings;
 use crate::methods::cores::tl::displacement_rates;
-use crate::physics::material::{Material, MaterialModel, stress_fields};
+use crate::physics::material::{Material, MaterialModel};
 use crate::physics::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
 use crate::reference::{Build, Reference};
 use rayon::prelude::*;
@@ -410,40 +410,29 @@ impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
 
     /// F, σ and ε_p (plastic models) at the nodes and the stored energy Σ_q w0_q ψ_q, for
     /// state y.
-    fn node_fields(&self, y: &UlGalerkinState<D>) -> NodeFields<D> {
+    fn node_fields(&self, y: &UlGalerkinState<D>) -> Fields<D> {
         let (shapes, weight) = self.shapes_of(y);
-        let w0 = self.points.reference_weights();
-        let (sigma, energy, eps_p, f) = match self.returned_all(&shapes) {
-            Some((f, r)) => (
-                r.iter().zip(&f).map(|(r, &f)| r.cauchy::<D>(f)).collect(),
-                r.iter().zip(w0).map(|(r, w)| w * r.psi).sum(),
-                Some(r.iter().map(|r| r.eps_p).collect::<Vec<f64>>()),
-                f,
-            ),
+        let (f, r) = match self.returned_all(&shapes) {
+            Some((f, r)) => (f, Some(r)),
             None => {
-                let f: Vec<D::T> = (0..shapes.len())
+                let f = (0..shapes.len())
                     .into_par_iter()
                     .map(|q| self.point_f(&shapes, q))
                     .collect();
-                let (sigma, energy) = stress_fields::<D>(&self.material, &f, &y.s, &y.rho, w0);
-                (sigma, energy, None, f)
+                (f, None)
             }
         };
-        NodeFields {
-            f: to_nodes(&self.gather, &shapes, &weight, &f, D::identity()),
-            sigma: stress_at_nodes(&self.gather, &shapes, &weight, sigma),
-            energy,
-            eps_p: eps_p.map(|e| to_nodes(&self.gather, &shapes, &weight, &e, 0.0)),
+        let w0 = self.points.reference_weights();
+        let at = Fields::<D>::at_points(&self.material, f, r.as_deref(), (&y.rho, &y.s), w0);
+        Fields {
+            f: to_nodes(&self.gather, &shapes, &weight, &at.f, D::identity()),
+            sigma: stress_at_nodes(&self.gather, &shapes, &weight, at.sigma),
+            energy: at.energy,
+            eps_p: at
+                .eps_p
+                .map(|e| to_nodes(&self.gather, &shapes, &weight, &e, 0.0)),
         }
     }
-}
-
-/// F, σ and ε_p (plastic models) projected to the nodes, and the stored energy.
-struct NodeFields<D: Dim> {
-    f: Vec<D::T>,
-    sigma: Vec<[[f64; 3]; 3]>,
-    energy: f64,
-    eps_p: Option<Vec<f64>>,
 }
 
 impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
