@@ -1,8 +1,12 @@
 //! What the method cores take from a case: the CPU engine of a system built on it, and
-//! the reference neighbours and gradients of the total-Lagrangian methods.
+//! the reference neighbours and gradients of the total-Lagrangian methods; on the GPU,
+//! the bindings of a rate evaluation on each state an integrator evaluates
+//! ([`BySource`]).
 
 use crate::case::{Case, CaseError};
 use crate::core::correction;
+#[cfg(feature = "gpu")]
+use crate::core::integrate::{Buf, Evaluation};
 use crate::core::kernel;
 use crate::core::neighbour::Csr;
 use crate::core::tensor::Dim;
@@ -72,4 +76,32 @@ pub(crate) fn reverse_gradients<D: Dim>(
 ) -> Result<Vec<D::V>, CaseError> {
     let rev = reverse_pairs(case, csr)?;
     Ok(rev.par_iter().map(|&q| grad[q as usize]).collect())
+}
+
+/// A core's bindings `R` of one rate evaluation on each state an integrator evaluates
+/// rates of: the state in `Y` and the stage state in `Stage`, both writing into `Rates`.
+#[cfg(feature = "gpu")]
+pub struct BySource<R>([R; 2]);
+
+#[cfg(feature = "gpu")]
+impl<R> BySource<R> {
+    /// `bind(y, d)` with y the state in `Y`, then in `Stage`, and d the rates in `Rates`.
+    pub fn bind<'a, E>(
+        stepper: &'a crate::gpu::program::Stepper,
+        bind: impl Fn(&'a wgpu::Buffer, &'a wgpu::Buffer) -> Result<R, E>,
+    ) -> Result<Self, E> {
+        let d = stepper.buffer(Buf::Rates);
+        let y = bind(stepper.buffer(Buf::Y), d)?;
+        Ok(Self([y, bind(stepper.buffer(Buf::Stage), d)?]))
+    }
+
+    /// The bindings on the state in `Y`.
+    pub fn on_y(&self) -> &R {
+        &self.0[0]
+    }
+
+    /// The bindings on the source state of evaluation e.
+    pub fn of(&self, e: Evaluation) -> &R {
+        &self.0[usize::from(e.src != Buf::Y)]
+    }
 }

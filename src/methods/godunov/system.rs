@@ -14,7 +14,7 @@ use crate::case::{Case, CaseError};
 use crate::core::neighbour::Rebuild;
 use crate::core::tensor::Dim;
 use crate::methods::cores::family::MethodFamily;
-use crate::methods::cores::ul::{Correction, PairRates, PairScheme, UlCore, UlSph, UlState};
+use crate::methods::cores::ul::{PairRates, PairScheme, PairSums, UlCore, UlSph, UlState};
 
 /// The Godunov SPH system on the CPU (f64, rayon).
 pub type Godunov<D> = UlSph<D, Scheme>;
@@ -53,8 +53,6 @@ pub struct Particle<D: Dim> {
     z: f64,
     /// V_i = m_i/ρ_i.
     vol: f64,
-    /// The correction of L_i.
-    correction: Correction<D>,
 }
 
 /// The pair sums of Algorithm 2.
@@ -78,33 +76,19 @@ impl<D: Dim> PairScheme<D> for Scheme {
             p,
             z: rho * (core.material.bulk / rho).sqrt(),
             vol: core.mass[i] / rho,
-            correction: core.correction_at(i, &y.rho),
         }
     }
 
-    fn correction_of(particle: &Particle<D>) -> &Correction<D> {
-        &particle.correction
-    }
-
     /// Steps 3–7 for particle i.
-    fn rates_of(
-        &self,
-        core: &UlCore<D>,
-        particles: &[Particle<D>],
-        i: usize,
-        y: &UlState<D>,
-    ) -> PairRates<D> {
-        let pi = particles[i];
+    fn rates_of(&self, sums: &PairSums<D, Particle<D>>, i: usize) -> PairRates<D> {
+        let (core, y) = (sums.core, sums.y);
+        let pi = sums.particles[i];
         let (vi, rho_i) = (y.v[i], y.rho[i]);
         let mut l = D::zero_t();
         let mut rho_dot = 0.0;
         let mut a = D::zero();
         let mut jump = D::zero();
-        for &j in core.neighbours().neighbours(i) {
-            let j = j as usize;
-            let pj = particles[j];
-            let x_ij = core.x[i] - core.x[j];
-            let r = D::norm2(x_ij).sqrt();
+        for (j, pj, x_ij, r) in sums.pairs(i) {
             if r <= 1e-12 * core.kernel.h {
                 // Coincident particles: no axis for the Riemann problem, and ∇W_ij = 0.
                 continue;

@@ -12,7 +12,7 @@ use crate::case::{Case, CaseError};
 use crate::core::neighbour::Rebuild;
 use crate::core::tensor::Dim;
 use crate::methods::cores::family::MethodFamily;
-use crate::methods::cores::ul::{Correction, PairRates, PairScheme, UlCore, UlSph, UlState};
+use crate::methods::cores::ul::{PairRates, PairScheme, PairSums, UlCore, UlSph, UlState};
 use crate::physics::plasticity::{symmetric_eigen, to_mat3};
 use crate::physics::viscosity::ArtificialViscosity;
 
@@ -51,8 +51,6 @@ pub struct Particle<D: Dim> {
     vol: f64,
     /// Sound speed c_i = sqrt(K/ρ_i).
     c: f64,
-    /// The correction of L_i.
-    correction: Correction<D>,
 }
 
 /// The artificial stress R of a particle with Cauchy stress σ and density ρ (eqs
@@ -140,35 +138,21 @@ impl<D: Dim> PairScheme<D> for Scheme {
             }),
             vol: core.mass[i] / rho,
             c: (core.material.bulk / rho).sqrt(),
-            correction: core.correction_at(i, &y.rho),
         }
     }
 
-    fn correction_of(particle: &Particle<D>) -> &Correction<D> {
-        &particle.correction
-    }
-
     /// Steps 4–11 for particle i.
-    fn rates_of(
-        &self,
-        core: &UlCore<D>,
-        particles: &[Particle<D>],
-        i: usize,
-        y: &UlState<D>,
-    ) -> PairRates<D> {
+    fn rates_of(&self, sums: &PairSums<D, Particle<D>>, i: usize) -> PairRates<D> {
+        let (core, y) = (sums.core, sums.y);
         let kernel = &core.kernel;
         let h = kernel.h;
-        let pi = particles[i];
+        let pi = sums.particles[i];
         let (vi, rho_i) = (y.v[i], y.rho[i]);
         let mut l = D::zero_t();
         let mut a = D::zero();
         let mut xsph = D::zero();
         let mut viscous = D::zero();
-        for &j in core.neighbours().neighbours(i) {
-            let j = j as usize;
-            let pj = particles[j];
-            let x_ij = core.x[i] - core.x[j];
-            let r = D::norm2(x_ij).sqrt();
+        for (j, pj, x_ij, r) in sums.pairs(i) {
             let grad = kernel.grad::<D>(x_ij);
             let w = kernel.w(r);
             let v_ji = y.v[j] - vi;

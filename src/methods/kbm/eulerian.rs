@@ -12,7 +12,7 @@ use super::KbmSpec;
 use crate::case::{Case, CaseError};
 use crate::core::kernel::{Kernel, neighbour_radius};
 use crate::core::neighbour::{self, Csr, SKIN};
-use crate::core::quadrature::{QuadraturePoints, ShapeRow, Shapes, krongauz_belytschko_shapes};
+use crate::core::quadrature::{QuadraturePoints, ShapeRow, krongauz_belytschko_shapes};
 use crate::core::tensor::Dim;
 use crate::engine::BlowUp;
 use crate::methods::cores::galerkin::Mass;
@@ -157,18 +157,11 @@ impl<D: Dim> MovingPoints<D> for EulerianPoints<D> {
         Ok(self.points.weight[q] * det_f)
     }
 
-    /// ẋ_q = Σ_a W^S_a(x_q) v_a at the stress points (the particles move with their own
-    /// velocity).
-    fn own_rates(
-        &mut self,
-        nodes: &Nodes<D>,
-        shapes: &Shapes<D>,
-        d: &mut UlGalerkinState<D>,
-    ) -> Result<(), BlowUp> {
-        let y = nodes.y;
-        d.point_u = shapes.interpolate(&y.v);
+    /// ẋ = v at the points that are particles, which move with their own velocity (the
+    /// stress points with the core's ẋ_q = Σ_a W^S_a(x_q) v_a).
+    fn own_rates(&mut self, nodes: &Nodes<D>, d: &mut UlGalerkinState<D>) -> Result<(), BlowUp> {
         let n = self.points.particles;
-        d.point_u[..n].copy_from_slice(&y.v);
+        d.point_u[..n].copy_from_slice(&nodes.y.v);
         Ok(())
     }
 

@@ -216,14 +216,9 @@ impl<D: Dim> MovingPoints<D> for StressPoints<D> {
         Ok(self.points.weight[q] * self.rho0 / y.rho[q])
     }
 
-    /// ρ̇_i = −ρ_i tr L_i with L_i = Σ_j (v_j − v_i) ⊗ ∇N_j(x_i) (steps 6 and 9), and the
-    /// stress points' motion ẋ_q = Σ_j N_j(x_q) v_j (eq 169, step 11).
-    fn own_rates(
-        &mut self,
-        nodes: &Nodes<D>,
-        shapes: &Shapes<D>,
-        d: &mut UlGalerkinState<D>,
-    ) -> Result<(), BlowUp> {
+    /// ρ̇_i = −ρ_i tr L_i with L_i = Σ_j (v_j − v_i) ⊗ ∇N_j(x_i) (steps 6 and 9); the
+    /// stress points' motion ẋ_q = Σ_j N_j(x_q) v_j (eq 169, step 11) is the core's.
+    fn own_rates(&mut self, nodes: &Nodes<D>, d: &mut UlGalerkinState<D>) -> Result<(), BlowUp> {
         let y = nodes.y;
         self.update_particle_shapes(nodes).map_err(|(i, e)| {
             let what = format!("{} at the particle", e.quantity);
@@ -240,7 +235,6 @@ impl<D: Dim> MovingPoints<D> for StressPoints<D> {
                 });
                 *rho_dot = -y.node_rho[i] * div_v;
             });
-        d.point_u = shapes.interpolate(&y.v);
         Ok(())
     }
 

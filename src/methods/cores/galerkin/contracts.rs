@@ -48,21 +48,13 @@ impl<D: Dim> OdeSystem for TlGalerkin<D> {
     type State = GalerkinState<D>;
     type Error = BlowUp;
 
-    fn rates(
-        &mut self,
-        _t: f64,
-        y: &GalerkinState<D>,
-        d: &mut GalerkinState<D>,
-    ) -> Result<(), BlowUp> {
+    fn rates(&mut self, _t: f64, y: &Self::State, d: &mut Self::State) -> Result<(), BlowUp> {
         self.point_stresses(y, d);
         if let Some(b) = self.first_inadmissible() {
             return Err(b);
         }
         self.accelerations(&mut d.v);
-        d.u.par_iter_mut()
-            .with_min_len(MIN_CHUNK)
-            .zip(&y.v)
-            .for_each(|(u, &v)| *u = v);
+        displacement_rates::<D>(&mut d.u, &y.v);
         self.surroundings.close(&y.v, &self.mass, &mut d.v);
         Ok(())
     }

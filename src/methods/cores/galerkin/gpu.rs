@@ -26,6 +26,7 @@ use crate::gpu::shaders::{
 };
 use crate::gpu::shell::Shell;
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
+use crate::methods::cores::shared::BySource;
 use crate::physics::material::Material;
 use crate::physics::plasticity::History;
 
@@ -268,7 +269,7 @@ pub struct GalerkinDevice<D: GpuDim> {
     points: Pipeline,
     nodes: Pipeline,
     /// Rate evaluations of the states in `Y` and in `Stage`.
-    rates: [Rates; 2],
+    rates: BySource<Rates>,
     /// The points pass on `Y` writing its rates into `Acc` (kinematics for a reduction
     /// without touching the integrator's rates).
     points_y: wgpu::BindGroup,
@@ -358,16 +359,14 @@ impl<D: GpuDim> GpuGalerkin<D> {
                 ("hist", &hist),
             ]
         };
-        let rates_d = stepper.buffer(Buf::Rates);
-        let bound = |src| -> Result<Rates, GpuError> {
-            let t = table(stepper.buffer(src), rates_d);
+        let rates = BySource::bind(&stepper, |y, d| -> Result<Rates, GpuError> {
+            let t = table(y, d);
             Ok(Rates {
                 points: gpu.bind(&points_pipeline, &t)?,
                 nodes: gpu.bind(&nodes_pipeline, &t)?,
             })
-        };
-        let rates = [bound(Buf::Y)?, bound(Buf::Stage)?];
-        let y = stepper.buffer(Buf::Y);
+        })?;
+        let (y, rates_d) = (stepper.buffer(Buf::Y), stepper.buffer(Buf::Rates));
         let commit = match plastic {
             true => {
                 let pipeline = gpu.pipeline("galerkin plastic commit", &rates_source, "commit")?;
@@ -450,7 +449,8 @@ impl<D: GpuDim> GpuGalerkin<D> {
         self.set_state(y);
         let gpu = self.gpu();
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
-        self.family.record(gpu, &mut encoder, &self.family.rates[0]);
+        self.family
+            .record(gpu, &mut encoder, self.family.rates.on_y());
         gpu.queue.submit([encoder.finish()]);
         let d: Vec<f32> = gpu.read(self.shell.stepper.buffer(Buf::Rates));
         let kin: Vec<f32> = gpu.read(&self.shell.kin);
@@ -481,7 +481,7 @@ impl<D: GpuDim> GpuFamily<D> for GalerkinDevice<D> {
     }
 
     fn record_rates(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, e: Evaluation) {
-        self.record(gpu, encoder, &self.rates[usize::from(e.src != Buf::Y)]);
+        self.record(gpu, encoder, self.rates.of(e));
     }
 
     /// The commit of the plastic history.

@@ -46,6 +46,7 @@ use crate::engine::{
 use crate::interaction::Interactions;
 use crate::methods::cores::family::{Feature, Plan, cfl_step};
 use crate::methods::cores::particles::{Surroundings, check_stresses};
+use crate::methods::cores::tl::displacement_rates;
 use crate::physics::material::{Material, MaterialModel, stress_fields};
 use crate::physics::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
 use crate::reference::Reference;
@@ -598,26 +599,16 @@ impl<D: Dim> TlGalerkin<D> {
 
     /// F, σ, the stored energy Σ_q w_q ψ_q and ε_p (plastic models) at the points of
     /// state y.
-    fn point_fields(&self, y: &GalerkinState<D>) -> PointFields<D> {
+    fn point_fields(&self, y: &GalerkinState<D>) -> Fields<D> {
         let f = self.point_f(y);
-        let weight = &self.points.weight;
-        match self.returned_all(&f) {
-            Some(r) => PointFields {
-                sigma: r.iter().zip(&f).map(|(r, &f)| r.cauchy::<D>(f)).collect(),
-                energy: r.iter().zip(weight).map(|(r, w)| w * r.psi).sum(),
-                eps_p: Some(r.iter().map(|r| r.eps_p).collect()),
-                f,
-            },
-            None => {
-                let (sigma, energy) = stress_fields::<D>(&self.material, &f, &y.s, &y.rho, weight);
-                PointFields {
-                    f,
-                    sigma,
-                    energy,
-                    eps_p: None,
-                }
-            }
-        }
+        let r = self.returned_all(&f);
+        Fields::at_points(
+            &self.material,
+            f,
+            r.as_deref(),
+            (&y.rho, &y.s),
+            &self.points.weight,
+        )
     }
 }
 
@@ -661,14 +652,46 @@ impl<D: Dim> NodalForces<D> for ConsistentForces<'_, D> {
     }
 }
 
-/// F, σ and the stored energy at the quadrature points.
-struct PointFields<D: Dim> {
+/// F, σ and ε_p (plastic models) at the quadrature points or projected to the nodes, and
+/// the stored energy.
+struct Fields<D: Dim> {
     f: Vec<D::T>,
     sigma: Vec<[[f64; 3]; 3]>,
     /// Σ_q w_q ψ_q.
     energy: f64,
     /// ε_p of a plastic model.
     eps_p: Option<Vec<f64>>,
+}
+
+impl<D: Dim> Fields<D> {
+    /// The fields at points of weights w with deformation gradients f: σ, ψ and ε_p of
+    /// the plastic returns r where the model has them, else the material's stresses of f
+    /// (with a rate model's ρ and S at the points).
+    fn at_points(
+        material: &Material,
+        f: Vec<D::T>,
+        r: Option<&[Returned]>,
+        (rho, s): (&[f64], &[D::T]),
+        weight: &[f64],
+    ) -> Self {
+        match r {
+            Some(r) => Self {
+                sigma: r.iter().zip(&f).map(|(r, &f)| r.cauchy::<D>(f)).collect(),
+                energy: r.iter().zip(weight).map(|(r, w)| w * r.psi).sum(),
+                eps_p: Some(r.iter().map(|r| r.eps_p).collect()),
+                f,
+            },
+            None => {
+                let (sigma, energy) = stress_fields::<D>(material, &f, s, rho, weight);
+                Self {
+                    f,
+                    sigma,
+                    energy,
+                    eps_p: None,
+                }
+            }
+        }
+    }
 }
 
 /// m_a = ρ0 Σ_q w_q N_a(X_q) with the reference weights w_q and shapes; a particle no

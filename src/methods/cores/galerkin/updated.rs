@@ -14,7 +14,7 @@
 
 use super::contracts::galerkin_accessors;
 use super::{
-    Mass, check_points, gather_accelerations, row_sums, smooth_velocities, stress_at_nodes,
+    Fields, Mass, check_points, gather_accelerations, row_sums, smooth_velocities, stress_at_nodes,
     to_nodes,
 };
 use crate::boundary::OnPatches;
@@ -28,7 +28,8 @@ use crate::diagnostics::observe::{ScalarField, Snapshot};
 use crate::engine::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
 use crate::interaction::Interactions;
 use crate::methods::cores::particles::Surroundings;
-use crate::physics::material::{Material, MaterialModel, stress_fields};
+use crate::methods::cores::tl::displacement_rates;
+use crate::physics::material::{Material, MaterialModel};
 use crate::physics::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
 use crate::reference::{Build, Reference};
 use rayon::prelude::*;
@@ -138,14 +139,9 @@ pub trait MovingPoints<D: Dim>: Sized + Send + Sync {
     /// minimum-traffic model of `meshless bench --roofline`.
     fn shape_traffic(&self) -> [f64; 3];
 
-    /// The rates of `node_rho` and `point_u`, with `shapes` the functions at the points
-    /// of this evaluation; nothing by default.
-    fn own_rates(
-        &mut self,
-        _nodes: &Nodes<D>,
-        _shapes: &Shapes<D>,
-        _d: &mut UlGalerkinState<D>,
-    ) -> Result<(), BlowUp> {
+    /// The rates of `node_rho`, and of `point_u` beyond the core's ẋ_q = Σ_a N_a(x_q) v_a
+    /// of points that move on their own ([`Self::OWN_MOTION`]); nothing by default.
+    fn own_rates(&mut self, _nodes: &Nodes<D>, _d: &mut UlGalerkinState<D>) -> Result<(), BlowUp> {
         Ok(())
     }
 
@@ -414,52 +410,36 @@ impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
 
     /// F, σ and ε_p (plastic models) at the nodes and the stored energy Σ_q w0_q ψ_q, for
     /// state y.
-    fn node_fields(&self, y: &UlGalerkinState<D>) -> NodeFields<D> {
+    fn node_fields(&self, y: &UlGalerkinState<D>) -> Fields<D> {
         let (shapes, weight) = self.shapes_of(y);
-        let w0 = self.points.reference_weights();
-        let (sigma, energy, eps_p, f) = match self.returned_all(&shapes) {
-            Some((f, r)) => (
-                r.iter().zip(&f).map(|(r, &f)| r.cauchy::<D>(f)).collect(),
-                r.iter().zip(w0).map(|(r, w)| w * r.psi).sum(),
-                Some(r.iter().map(|r| r.eps_p).collect::<Vec<f64>>()),
-                f,
-            ),
+        let (f, r) = match self.returned_all(&shapes) {
+            Some((f, r)) => (f, Some(r)),
             None => {
-                let f: Vec<D::T> = (0..shapes.len())
+                let f = (0..shapes.len())
                     .into_par_iter()
                     .map(|q| self.point_f(&shapes, q))
                     .collect();
-                let (sigma, energy) = stress_fields::<D>(&self.material, &f, &y.s, &y.rho, w0);
-                (sigma, energy, None, f)
+                (f, None)
             }
         };
-        NodeFields {
-            f: to_nodes(&self.gather, &shapes, &weight, &f, D::identity()),
-            sigma: stress_at_nodes(&self.gather, &shapes, &weight, sigma),
-            energy,
-            eps_p: eps_p.map(|e| to_nodes(&self.gather, &shapes, &weight, &e, 0.0)),
+        let w0 = self.points.reference_weights();
+        let at = Fields::<D>::at_points(&self.material, f, r.as_deref(), (&y.rho, &y.s), w0);
+        Fields {
+            f: to_nodes(&self.gather, &shapes, &weight, &at.f, D::identity()),
+            sigma: stress_at_nodes(&self.gather, &shapes, &weight, at.sigma),
+            energy: at.energy,
+            eps_p: at
+                .eps_p
+                .map(|e| to_nodes(&self.gather, &shapes, &weight, &e, 0.0)),
         }
     }
-}
-
-/// F, σ and ε_p (plastic models) projected to the nodes, and the stored energy.
-struct NodeFields<D: Dim> {
-    f: Vec<D::T>,
-    sigma: Vec<[[f64; 3]; 3]>,
-    energy: f64,
-    eps_p: Option<Vec<f64>>,
 }
 
 impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
     type State = UlGalerkinState<D>;
     type Error = BlowUp;
 
-    fn rates(
-        &mut self,
-        _t: f64,
-        y: &UlGalerkinState<D>,
-        d: &mut UlGalerkinState<D>,
-    ) -> Result<(), BlowUp> {
+    fn rates(&mut self, _t: f64, y: &Self::State, d: &mut Self::State) -> Result<(), BlowUp> {
         self.check_densities(y)?;
         let mut x = std::mem::take(&mut self.x);
         self.positions_into(y, &mut x);
@@ -484,17 +464,17 @@ impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
             &self.mass,
             &mut d.v,
         );
-        d.u.par_iter_mut()
-            .with_min_len(MIN_CHUNK)
-            .zip(&y.v)
-            .for_each(|(u, &v)| *u = v);
+        displacement_rates::<D>(&mut d.u, &y.v);
         let nodes = Nodes {
             x0: &self.x0,
             x: &self.x,
             mass: &self.mass,
             y,
         };
-        self.points.own_rates(&nodes, &self.shapes, d)?;
+        if P::OWN_MOTION {
+            d.point_u = self.shapes.interpolate(&y.v);
+        }
+        self.points.own_rates(&nodes, d)?;
         self.surroundings.close(&y.v, &self.mass, &mut d.v);
         Ok(())
     }

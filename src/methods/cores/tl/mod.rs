@@ -181,35 +181,22 @@ pub struct TlCore<D: Dim> {
 }
 
 impl<D: Dim> TlCore<D> {
-    /// The particles of the reference configuration, with interactions on the scheme's
+    /// The particles of the reference configuration r, with interactions on the scheme's
     /// lists.
-    fn new(case: &Case, reference: Reference<D>, lists: &Csr) -> Result<Self, CaseError> {
-        let Reference {
-            x0,
-            vol,
-            mass,
-            body,
-            v0,
-            u0,
-            boundary,
-            material,
-            kernel,
-            ..
-        } = reference;
+    fn new(case: &Case, r: Reference<D>, lists: &Csr) -> Result<Self, CaseError> {
         let interactions =
-            Interactions::build(case, &x0, &body, &OnPatches, &mass, || lists.clone())?;
-        let dissipation = vec![0.0; x0.len()];
+            Interactions::build(case, &r.x0, &r.body, &OnPatches, &r.mass, || lists.clone())?;
         Ok(Self {
-            x0,
-            vol,
-            mass,
-            body,
-            v0,
-            u0,
-            material,
-            h: kernel.h,
-            surroundings: Surroundings::new(boundary, interactions),
-            dissipation,
+            dissipation: vec![0.0; r.len()],
+            x0: r.x0,
+            vol: r.vol,
+            mass: r.mass,
+            body: r.body,
+            v0: r.v0,
+            u0: r.u0,
+            material: r.material,
+            h: r.kernel.h,
+            surroundings: Surroundings::new(r.boundary, interactions),
         })
     }
 

@@ -32,6 +32,7 @@ use crate::gpu::shaders::{
 };
 use crate::gpu::shell::Shell;
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
+use crate::methods::cores::shared::BySource;
 use crate::reference::Reference;
 
 /// The core's bindings, positions pass, correction and closing of the rates, which each
@@ -152,7 +153,7 @@ struct Bound {
 /// states in `Y` and in `Stage`).
 struct Lists {
     cells: CellList,
-    rates: [Bound; 2],
+    rates: BySource<Bound>,
 }
 
 /// An updated-Lagrangian system resident on the GPU.
@@ -286,17 +287,16 @@ impl<D: GpuDim> UlDevice<D> {
         };
         let drift = 0.5 * SKIN * self.reference.kernel.support();
         let cells = CellList::new::<D>(&shell.gpu, at, &self.grid, capacity, drift)?;
-        let rates_d = shell.stepper.buffer(Buf::Rates);
-        let bound = |src: Buf| -> Result<Bound, GpuError> {
+        let rates = BySource::bind(&shell.stepper, |y, d| -> Result<Bound, GpuError> {
             let table: [(&str, &wgpu::Buffer); 9] = [
                 ("offsets", &cells.offsets),
                 ("ids", &cells.ids),
                 ("reference", &self.device.reference),
-                ("y", shell.stepper.buffer(src)),
+                ("y", y),
                 ("x", &self.x),
                 ("kin", &shell.kin),
                 ("ext", &self.ext),
-                ("d", rates_d),
+                ("d", d),
                 ("status", &self.status),
             ];
             let p = &self.passes;
@@ -305,8 +305,7 @@ impl<D: GpuDim> UlDevice<D> {
                 particle: shell.gpu.bind(&p.particle, &table)?,
                 rates: shell.gpu.bind(&p.rates, &table)?,
             })
-        };
-        let rates = [bound(Buf::Y)?, bound(Buf::Stage)?];
+        })?;
         Ok(Lists { cells, rates })
     }
 
@@ -335,7 +334,7 @@ impl<D: GpuDim> UlDevice<D> {
         const REPEATS: u32 = 20;
         self.builds_before -= i64::from(REPEATS);
         let lists = self.lists();
-        let bound = &lists.rates[0];
+        let bound = lists.rates.on_y();
         gpu.wait();
         let started = std::time::Instant::now();
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
@@ -476,7 +475,7 @@ impl<D: GpuDim> GpuFamily<D> for UlDevice<D> {
     /// rebuild of the lists, the scheme's particle and pair passes.
     fn record_rates(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, e: Evaluation) {
         let (passes, lists, n) = (&self.passes, self.lists(), self.layout.n as u32);
-        let bound = &lists.rates[usize::from(e.src != Buf::Y)];
+        let bound = lists.rates.of(e);
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
             gpu.dispatch(&mut pass, &passes.positions, &bound.positions, n);

@@ -74,6 +74,44 @@ impl<D: Dim> Correction<D> {
     }
 }
 
+/// A scheme's quantities `P` of one particle with the correction of its L, which the core
+/// computes for every scheme ([`UlCore::correction_at`]); it reads as `P` (`Deref`).
+#[derive(Clone, Copy, Debug)]
+pub struct Corrected<D: Dim, P> {
+    pub quantities: P,
+    /// The correction of L_i.
+    pub correction: Correction<D>,
+}
+
+impl<D: Dim, P> std::ops::Deref for Corrected<D, P> {
+    type Target = P;
+
+    fn deref(&self) -> &P {
+        &self.quantities
+    }
+}
+
+/// What a scheme's pair sums read at one rate evaluation: the core (its positions and
+/// lists current), the particles' records and the state y.
+pub struct PairSums<'a, D: Dim, P> {
+    pub core: &'a UlCore<D>,
+    pub particles: &'a [Corrected<D, P>],
+    pub y: &'a UlState<D>,
+}
+
+impl<D: Dim, P> PairSums<'_, D, P> {
+    /// The neighbours j of particle i with their records, x_ij = x_i − x_j and
+    /// r_ij = |x_ij|.
+    pub fn pairs(&self, i: usize) -> impl Iterator<Item = (usize, &Corrected<D, P>, D::V, f64)> {
+        let (core, x_i) = (self.core, self.core.x[i]);
+        core.neighbours().neighbours(i).iter().map(move |&j| {
+            let j = j as usize;
+            let x_ij = x_i - core.x[j];
+            (j, &self.particles[j], x_ij, D::norm2(x_ij).sqrt())
+        })
+    }
+}
+
 /// The corrections of the velocity gradient (eq 105) the UL methods run.
 const CORRECTIONS: [CorrectionKind; 2] = [CorrectionKind::None, CorrectionKind::RandlesLibersky];
 
@@ -148,35 +186,23 @@ pub struct UlCore<D: Dim> {
 }
 
 impl<D: Dim> UlCore<D> {
-    /// The particles of the reference configuration with their lists kept by `rebuild`,
+    /// The particles of the reference configuration r with their lists kept by `rebuild`,
     /// per body when the case has contact (without it the bodies interact through the SPH
     /// sums as one body).
-    pub fn new(case: &Case, reference: Reference<D>, rebuild: Rebuild) -> Result<Self, CaseError> {
-        let neighbours = reference.neighbour_lists(rebuild, case.contact.is_some());
-        let Reference {
-            x0,
-            vol,
-            mass,
-            body,
-            v0,
-            boundary,
-            material,
-            kernel,
-            ..
-        } = reference;
-        let interactions = Interactions::build(case, &x0, &body, &OnPatches, &mass, || {
-            neighbours.lists().clone()
-        })?;
+    pub fn new(case: &Case, r: Reference<D>, rebuild: Rebuild) -> Result<Self, CaseError> {
+        let neighbours = r.neighbour_lists(rebuild, case.contact.is_some());
+        let lists = || neighbours.lists().clone();
+        let interactions = Interactions::build(case, &r.x0, &r.body, &OnPatches, &r.mass, lists)?;
         Ok(Self {
-            x: x0.clone(),
-            x0,
-            vol0: vol,
-            mass,
-            body,
-            v0,
-            surroundings: Surroundings::new(boundary, interactions),
-            material,
-            kernel,
+            x: r.x0.clone(),
+            x0: r.x0,
+            vol0: r.vol,
+            mass: r.mass,
+            body: r.body,
+            v0: r.v0,
+            surroundings: Surroundings::new(r.boundary, interactions),
+            material: r.material,
+            kernel: r.kernel,
             correction: case.method.correction,
             neighbours,
         })
@@ -274,27 +300,18 @@ pub trait PairScheme<D: Dim>: Sized + Send + Sync {
     fn new(case: &Case, spec: &Self::Spec, core: &UlCore<D>) -> Result<Self, CaseError>;
 
     /// The quantities of particle i at state y (the core's positions and lists are
-    /// current).
+    /// current), besides the correction of its L.
     fn particle(&self, core: &UlCore<D>, i: usize, y: &UlState<D>) -> Self::Particle;
 
-    /// The correction in a particle's quantities: a singular one is inadmissible.
-    fn correction_of(particle: &Self::Particle) -> &Correction<D>;
-
     /// The rates of particle i from its neighbours.
-    fn rates_of(
-        &self,
-        core: &UlCore<D>,
-        particles: &[Self::Particle],
-        i: usize,
-        y: &UlState<D>,
-    ) -> PairRates<D>;
+    fn rates_of(&self, sums: &PairSums<D, Self::Particle>, i: usize) -> PairRates<D>;
 }
 
 /// An updated-Lagrangian SPH system on the CPU (f64, rayon): the core and a scheme.
 pub struct UlSph<D: Dim, S: PairScheme<D>> {
     pub core: UlCore<D>,
     pub scheme: S,
-    particles: Vec<S::Particle>,
+    particles: Vec<Corrected<D, S::Particle>>,
     /// Each particle's power of the artificial dissipation, −m a_art·v, at the last rate
     /// evaluation.
     dissipation: Vec<f64>,
@@ -317,13 +334,20 @@ impl<D: Dim, S: PairScheme<D>> OdeSystem for UlSph<D, S> {
         (0..y.u.len())
             .into_par_iter()
             .with_min_len(MIN_CHUNK)
-            .map(|i| scheme.particle(core, i, y))
+            .map(|i| Corrected {
+                quantities: scheme.particle(core, i, y),
+                correction: core.correction_at(i, &y.rho),
+            })
             .collect_into_vec(&mut self.particles);
-        let corrections = self.particles.par_iter().map(S::correction_of);
+        let corrections = self.particles.par_iter().map(|p| &p.correction);
         if let Some(b) = core.first_singular(corrections) {
             return Err(b);
         }
-        let particles = &self.particles;
+        let sums = PairSums {
+            core,
+            particles: &self.particles,
+            y,
+        };
         self.dissipation.resize(y.u.len(), 0.0);
         d.u.par_iter_mut()
             .with_min_len(MIN_CHUNK)
@@ -335,7 +359,7 @@ impl<D: Dim, S: PairScheme<D>> OdeSystem for UlSph<D, S> {
             .enumerate()
             .for_each(
                 |(i, (((((u_dot, v_dot), rho_dot), s_dot), f_dot), dissipation))| {
-                    let r = scheme.rates_of(core, particles, i, y);
+                    let r = scheme.rates_of(&sums, i);
                     (*u_dot, *v_dot, *rho_dot) = (r.x_dot, r.v_dot, r.rho_dot);
                     *dissipation = -core.mass[i] * D::dot(r.v_dot_dissipative, y.v[i]);
                     *s_dot = core.material.jaumann_rate::<D>(y.s[i], r.l);
@@ -435,7 +459,7 @@ impl<D: Dim, S: PairScheme<D>> Method<D> for UlSph<D, S> {
     /// writes u̇, v̇, ρ̇, Ṡ and Ḟ. The kernel is evaluated per pair, not stored.
     fn traffic(&self) -> Option<Traffic> {
         let Sizes { v, t, f, id } = Sizes::of::<D>();
-        let record = size_of::<S::Particle>();
+        let record = size_of::<Corrected<D, S::Particle>>();
         // The particle pass sums the Randles–Libersky correction over the pairs.
         let corrected = self.core.correction == CorrectionKind::RandlesLibersky;
         let positions = 3 * v + (v + size_of::<[f64; 3]>()) + f;

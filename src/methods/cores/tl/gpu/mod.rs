@@ -31,6 +31,7 @@ use crate::gpu::reference::DeviceReference;
 use crate::gpu::shaders::{self, CORRECTION, PAIR_OFFSETS, Source};
 use crate::gpu::shell::Shell;
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
+use crate::methods::cores::shared::BySource;
 use crate::methods::cores::tl::hourglass::hourglass_stiffness;
 use crate::methods::cores::tl::{TlState, check_state, snapshot};
 use crate::reference::Reference;
@@ -71,7 +72,7 @@ pub struct TlDevice<D: GpuDim> {
     stress: Pipeline,
     accel: Pipeline,
     /// Rate evaluations of the states in `Y` and in `Stage`.
-    rates: [Rates; 2],
+    rates: BySource<Rates>,
     /// The stress pass on `Y` writing into `Acc` (for snapshots: F at the current state
     /// without touching the integrator's rates).
     kinematics_y: wgpu::BindGroup,
@@ -151,16 +152,14 @@ impl<D: GpuDim> GpuTlsph<D> {
                 ("d", d),
             ]
         };
-        let rates_d = stepper.buffer(Buf::Rates);
-        let bound = |src| -> Result<Rates, GpuError> {
-            let t = table(stepper.buffer(src), rates_d);
+        let rates = BySource::bind(&stepper, |y, d| -> Result<Rates, GpuError> {
+            let t = table(y, d);
             Ok(Rates {
                 stress: gpu.bind(&stress, &t)?,
                 accel: gpu.bind(&accel, &t)?,
             })
-        };
-        let rates = [bound(Buf::Y)?, bound(Buf::Stage)?];
-        let y = stepper.buffer(Buf::Y);
+        })?;
+        let (y, rates_d) = (stepper.buffer(Buf::Y), stepper.buffer(Buf::Rates));
         let reduction = Reduction::new(&gpu, &compose(&scheme.reduce), &table(y, rates_d), n)?;
         let kinematics_y = gpu.bind(&stress, &table(y, stepper.buffer(Buf::Acc)))?;
         let (energy_weight, wave_speed_scale) = match scheme.unit_weights {
@@ -405,7 +404,8 @@ impl<D: GpuDim> GpuTlsph<D> {
         self.set_state(y);
         let gpu = self.gpu();
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
-        self.family.record(gpu, &mut encoder, &self.family.rates[0]);
+        self.family
+            .record(gpu, &mut encoder, self.family.rates.on_y());
         gpu.queue.submit([encoder.finish()]);
         let d: Vec<f32> = gpu.read(self.shell.stepper.buffer(Buf::Rates));
         let (f, p) = self.kinematics();
@@ -460,7 +460,7 @@ impl<D: GpuDim> GpuFamily<D> for TlDevice<D> {
     }
 
     fn record_rates(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, e: Evaluation) {
-        self.record(gpu, encoder, &self.rates[usize::from(e.src != Buf::Y)]);
+        self.record(gpu, encoder, self.rates.of(e));
     }
 
     /// The stress pass on the current state (F into the kinematics).
