@@ -11,7 +11,7 @@ use std::path::Path;
 mod advice;
 mod recommend;
 
-use advice::{AVOID_ERROR_RATIO, NEAR_RATIO, ROUND_OFF};
+use advice::{AVOID_ERROR_RATIO, MIN_SPEEDUP, NEAR_RATIO, ROUND_OFF, TIE_RATIO};
 pub use advice::{Evidence, distance};
 use recommend::AVOID_SHOWN;
 pub use recommend::{Advised, advise, recommendations};
@@ -490,9 +490,11 @@ pub fn advice_section(entries: &[Evidence]) -> String {
          use; the others are evidence, such as a run without contact, the reference code's \
          force or a stand-in material, and are never advised). With an error measure, the \
          advice is the candidate run with the smallest error within the budget, among the \
-         candidates that never failed; it names the runner-up (another candidate's best run \
-         within the budget), the fastest run within {NEAR_RATIO:.0}× of the advised error, \
-         and a more accurate run over the budget. A stability-only suite advises the \
+         candidates that never failed, errors within {tie:.0} % of it (or all below \
+         {ROUND_OFF:e}) counting as equal, the fastest of them advised; it names the \
+         runner-up (another candidate's best run within the budget, unless one to avoid), \
+         the fastest run within {NEAR_RATIO:.0}× of the advised error when it is at least \
+         {MIN_SPEEDUP}× faster, and a more accurate run over the budget. A stability-only suite advises the \
          candidate stable furthest into the sweep within the budget, then the one whose \
          furthest stable run is the fastest. A suite whose choice is its sweep value, or \
          that compares settings of one method, also gives each setting's effect (its error, \
@@ -500,10 +502,10 @@ pub fn advice_section(entries: &[Evidence]) -> String {
          observed orders). Each advice names the variants to avoid: every one that failed \
          (in a stability-only suite, within the advised one's reach), earliest in the \
          sweep first, then the candidates whose best error within the budget is over \
-         {AVOID_ERROR_RATIO:.0}× the advised (errors below {ROUND_OFF:e} count as \
-         round-off); {AVOID_SHOWN} at most, the rest counted. An advice holds for the suite's case and the variants it compares; \
+         {AVOID_ERROR_RATIO:.0}× the advised (errors below the round-off floor count as it); {AVOID_SHOWN} at most, the rest counted. An advice holds for the suite's case and the variants it compares; \
          the suite's section below says what its figures mean.\n\n{}",
-        recommendations(entries)
+        recommendations(entries),
+        tie = (TIE_RATIO - 1.0) * 100.0
     );
     let _ = writeln!(s, "In detail:\n");
     for ev in entries {

@@ -1,7 +1,7 @@
 //! The choice behind a suite's advice, by its `[advice]`: the candidate with the smallest
-//! error within the budget (its runner-up, the cheapest within [`NEAR_RATIO`] of its error,
-//! a more accurate run over the budget), or the candidate stable furthest into the sweep,
-//! then the cheapest.
+//! error within the budget, the fastest of those within [`TIE_RATIO`] of it (its
+//! runner-up, the cheapest within [`NEAR_RATIO`] of its error, a more accurate run over
+//! the budget), or the candidate stable furthest into the sweep, then the cheapest.
 
 use super::*;
 use crate::study::history::{Curve, value_at};
@@ -17,6 +17,15 @@ pub struct Evidence<'a> {
 
 /// A candidate within this factor of the advised error is named when it is cheaper.
 pub(super) const NEAR_RATIO: f64 = 2.0;
+
+/// Errors within this factor of the smallest count as equal, and the fastest of their runs
+/// is advised: a measured error's last few per cent do not separate two methods for a
+/// user, while their wall times do.
+pub(super) const TIE_RATIO: f64 = 1.05;
+
+/// A cheaper run is named only when it is at least this much faster: below it, the wall
+/// times of single runs on a shared machine do not separate them.
+pub(super) const MIN_SPEEDUP: f64 = 1.2;
 
 /// How much larger than the advised error a candidate's must be to be listed as one to
 /// avoid.
@@ -36,14 +45,15 @@ pub(super) struct Scored<'a> {
 /// What the rule of an error measure picks among the candidates.
 #[derive(Debug)]
 pub(super) struct Ranked<'a> {
-    /// The smallest error within the budget.
+    /// The fastest run within the budget whose error is within [`TIE_RATIO`] of the
+    /// smallest there.
     pub best: Scored<'a>,
-    /// The best run of another candidate within the budget.
+    /// The best run of another candidate within the budget, unless it is one to avoid.
     pub runner_up: Option<Scored<'a>>,
     /// The fastest run within the budget whose error is within [`NEAR_RATIO`] of the
-    /// best's, when it is not the best run itself.
+    /// best's, when it is [`MIN_SPEEDUP`] times faster than the best.
     pub cheapest_near: Option<Scored<'a>>,
-    /// The most accurate run over the budget, when it beats the best.
+    /// The most accurate run over the budget, when it beats the best by more than a tie.
     pub over_budget: Option<Scored<'a>>,
     /// Candidates' lines whose best error within the budget is over
     /// [`AVOID_ERROR_RATIO`] times the best's, the largest first.
@@ -142,7 +152,8 @@ impl<'a> Evidence<'a> {
 
     /// The rule of an error measure: among the runs within the budget of the candidates
     /// that never failed (at the advice's sweep value `at` when it names one), the
-    /// smallest error, then the faster run.
+    /// smallest error, errors within [`TIE_RATIO`] of it (or all at round-off) counting as
+    /// equal, then the faster run.
     pub(super) fn ranked(&self) -> Option<Ranked<'a>> {
         let advice = self.advice()?;
         let at = advice.at.as_ref().map(crate::study::suite::label);
@@ -162,7 +173,13 @@ impl<'a> Evidence<'a> {
             .filter(|s| s.run.wall_seconds <= advice.budget)
             .copied()
             .collect();
-        let best = *within.iter().min_by(|a, b| by_error(a, b))?;
+        // Errors at round-off count as equal.
+        let floor = |e: f64| e.max(ROUND_OFF);
+        let smallest = floor(within.iter().min_by(|a, b| by_error(a, b))?.error);
+        let best = *within
+            .iter()
+            .filter(|s| floor(s.error) <= TIE_RATIO * smallest)
+            .min_by(|a, b| wall_order(a, b))?;
         // Each other candidate line at its best run within the budget.
         let mut others: Vec<Scored> = Vec::new();
         for s in &within {
@@ -177,17 +194,17 @@ impl<'a> Evidence<'a> {
             }
         }
         others.sort_by(by_error);
-        // Errors at round-off count as equal.
-        let scale = best.error.max(ROUND_OFF);
+        let scale = floor(best.error);
         let cheapest_near = within
             .iter()
             .filter(|s| s.error <= NEAR_RATIO * scale)
             .min_by(|a, b| wall_order(a, b))
-            .filter(|s| s.run.id != best.run.id && s.run.wall_seconds < best.run.wall_seconds)
+            .filter(|s| best.run.wall_seconds >= MIN_SPEEDUP * s.run.wall_seconds)
             .copied();
         let over_budget = scored
             .iter()
-            .filter(|s| s.run.wall_seconds > advice.budget && s.error < best.error)
+            .filter(|s| s.run.wall_seconds > advice.budget)
+            .filter(|s| TIE_RATIO * floor(s.error) < smallest)
             .min_by(|a, b| by_error(a, b))
             .copied();
         let mut far: Vec<Scored> = others
@@ -198,7 +215,10 @@ impl<'a> Evidence<'a> {
         far.reverse();
         Some(Ranked {
             best,
-            runner_up: others.first().copied(),
+            runner_up: others
+                .first()
+                .filter(|o| o.error <= AVOID_ERROR_RATIO * scale)
+                .copied(),
             cheapest_near,
             over_budget,
             far,

@@ -2,7 +2,7 @@
 //! on, drawn from its records by the rules of its `[advice]` (`advice`), then a compact
 //! table.
 
-use super::advice::{Evidence, ROUND_OFF, Ranked, Reach, Scored};
+use super::advice::{Evidence, ROUND_OFF, Ranked, Reach, Scored, TIE_RATIO};
 use super::*;
 use crate::study::history::significant;
 use crate::study::suite::{Advice, Measure, label};
@@ -169,7 +169,14 @@ fn error_advice(ev: &Evidence, a: &Advice, ranked: &Ranked) -> Advised {
         seconds(a.budget)
     );
     if let Some(r) = &ranked.runner_up {
-        let _ = write!(s, " Runner-up: {} ({}).", at(r.run), show(r));
+        let tie = match r.error < best.error {
+            true => format!(
+                ", as accurate to {:.0} % but slower",
+                (TIE_RATIO - 1.0) * 100.0
+            ),
+            false => String::new(),
+        };
+        let _ = write!(s, " Runner-up: {} ({}){tie}.", at(r.run), show(r));
     }
     if let Some(c) = &ranked.cheapest_near {
         let error = match c.error <= ROUND_OFF {

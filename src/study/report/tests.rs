@@ -419,3 +419,81 @@ fn a_failure_beyond_the_advised_reach_is_no_reason_to_avoid() {
     );
     assert!(!text.contains("`a`: fails"), "{text}");
 }
+
+#[test]
+fn errors_within_five_per_cent_are_equal_and_the_faster_is_advised() {
+    // `a` is the most accurate by 3 % but takes twice `b`'s time: `b` is advised, `a` is
+    // its runner-up, as accurate but slower. `c` is 20 % less accurate, a real difference.
+    let s = suite(
+        "accuracy",
+        ANALYTIC,
+        r#"measure = "velocity", budget = 10.0, candidates = ["a", "b", "c"]"#,
+    );
+    let recs = vec![
+        record("a", "0.05", 8.0, 1.00e-3, Status::Ok),
+        record("b", "0.05", 4.0, 1.03e-3, Status::Ok),
+        record("c", "0.05", 1.0, 1.20e-3, Status::Ok),
+    ];
+    let advised = advise_on(&s, &recs, &[]);
+    assert_eq!(advised.use_, "`b`", "{}", advised.text);
+    assert!(
+        advised.text.contains(
+            "Runner-up: `a` at spacing = 0.05 (e(v) = 1.00e-3 in 8.00 s), as accurate to 5 % \
+             but slower."
+        ),
+        "{}",
+        advised.text
+    );
+    assert!(
+        advised
+            .text
+            .contains("`c` at spacing = 0.05 is 4.0× faster"),
+        "{}",
+        advised.text
+    );
+}
+
+#[test]
+fn errors_at_round_off_are_equal_and_the_fastest_is_advised() {
+    // Three conserved-quantity drifts at round-off: their ratios mean nothing, so the
+    // fastest run is advised; none is over the budget and more accurate.
+    let s = suite(
+        "accuracy",
+        ANALYTIC,
+        r#"measure = "velocity", budget = 100.0, candidates = ["a", "b", "c"]"#,
+    );
+    let recs = vec![
+        record("a", "0.05", 76.0, 7.3e-15, Status::Ok),
+        record("b", "0.05", 63.0, 9.4e-15, Status::Ok),
+        record("c", "0.05", 13.0, 1.3e-13, Status::Ok),
+        record("a", "0.025", 600.0, 1e-15, Status::Ok),
+    ];
+    let advised = advise_on(&s, &recs, &[]);
+    assert_eq!(advised.use_, "`c`", "{}", advised.text);
+    assert!(!advised.text.contains("more accurate"), "{}", advised.text);
+}
+
+#[test]
+fn a_candidate_to_avoid_is_no_runner_up_and_a_small_speed_up_is_not_named() {
+    // `b` is 46× the advised error: it is to be avoided, not the runner-up. `c`'s 4 %
+    // speed-up at 1.1× the error is within the noise of one run's wall time: not named.
+    let s = suite(
+        "accuracy",
+        ANALYTIC,
+        r#"measure = "velocity", budget = 600.0, candidates = ["a", "b", "c"]"#,
+    );
+    let recs = vec![
+        record("a", "0.05", 1.23, 1.0e-3, Status::Ok),
+        record("b", "0.05", 537.0, 4.6e-2, Status::Ok),
+        record("c", "0.05", 1.18, 1.1e-3, Status::Ok),
+    ];
+    let advised = advise_on(&s, &recs, &[]);
+    assert_eq!(advised.use_, "`a`", "{}", advised.text);
+    assert!(
+        advised.text.contains("Runner-up: `c`") && !advised.text.contains("Runner-up: `b`"),
+        "{}",
+        advised.text
+    );
+    assert!(!advised.text.contains("faster"), "{}", advised.text);
+    assert!(advised.text.contains("Avoid `b`"), "{}", advised.text);
+}
