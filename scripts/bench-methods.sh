@@ -15,7 +15,10 @@
 # and the instructions per f64 operation, which tell the arithmetic a method's
 # equations ask for from what the code spends around it. RAYON_NUM_THREADS sets the
 # threads; MESHLESS the binary (default: the release build); METHODS a regular
-# expression that picks the methods to run (default: all).
+# expression that picks the methods to run (default: all). BACKEND=gpu runs them on the
+# GPU instead: for each method a heading, its table (particle counts comma-separated, as
+# `meshless bench --particles` takes them) and its pass report; a method without a GPU
+# engine says so.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 count=false
@@ -75,12 +78,22 @@ bench() {
             printf "| %s | %d | %.1f | %.0f | %.0f | %.1f | %.1f | %.2f |\n", name, particles, pairs,
                 evaluations, per_step / particles, per_step / per_pair, flops / per_pair, per_step / flops
         }'
+    elif [ "${BACKEND:-cpu}" = gpu ]; then
+        printf '\n### %s\n\n' "$name"
+        local out
+        if ! out=$("$bin" bench "$@" --backend gpu --particles "$sizes" --steps "$n" 2>&1); then
+            # A method without a GPU engine is said so; any other failure fails the script.
+            grep -q 'has no GPU engine' <<<"$out" || { echo "$out" >&2; exit 1; }
+        fi
+        grep -v '^note:' <<<"$out"
     else
         "$bin" bench "$@" --backend cpu --particles "$sizes" --steps "$n" --roofline |
             grep '^| swinging-plate' | sed "s/^| swinging-plate/| $name/"
     fi
 }
-if $count; then
+if [ "${BACKEND:-cpu}" = gpu ]; then
+    :
+elif $count; then
     echo "| method | particles | pairs/particle | rate evaluations/step | instructions/particle-step | instructions per pair and evaluation | f64 operations per pair and evaluation | instructions per f64 operation |"
     echo "|---|---|---|---|---|---|---|---|"
 else

@@ -28,3 +28,6 @@ cargo fmt --all -- --check
 cargo clippy --no-default-features --all-targets -- -D warnings
 cargo clippy --release --all-targets -- -D warnings
 cargo test --release
+# The GPU owners' check at its smallest, on whatever adapter the tests used: every method's
+# GPU bench and pass report run (a method without a GPU engine is said so).
+scripts/gpu-check.sh --small "$(mktemp --suffix=.md)"

@@ -1,0 +1,66 @@
+#!/usr/bin/env bash
+# The check a GPU owner runs and attaches to a report: the adapter, the GPU tests (the
+# WGSL shaders against the f64 CPU reference), and `meshless bench` on the GPU for every
+# method of the registry on the 2D swinging plate (scripts/bench-methods.sh's set-ups),
+# each with its per-pass report (time, bytes of the model, GB/s). It writes one markdown
+# file.
+#
+#   scripts/gpu-check.sh [OUT.md]            # sizes 1e5 and 1e6 particles, 100 steps
+#   scripts/gpu-check.sh --small [OUT.md]    # 1e3 particles, 10 steps, no tests (CI, lavapipe)
+#
+# SIZES and STEPS override the sizes (comma-separated particle counts) and steps. Needs
+# what the tests need (Rust, a Vulkan, Metal or DX12 driver); `nvidia-smi` is read when
+# present. On an H100 or H200 the default run takes about 5 minutes after the build (the
+# bench set-ups build neighbour lists on the host, 1e6 particles in seconds).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+small=false
+if [ "${1:-}" = --small ]; then
+    small=true
+    shift
+fi
+if $small; then
+    sizes=${SIZES:-1e3}
+    steps=${STEPS:-10}
+else
+    sizes=${SIZES:-1e5,1e6}
+    steps=${STEPS:-100}
+fi
+out=${1:-gpu-check-$(hostname)-$(date -u +%Y%m%d-%H%M).md}
+if [ -z "${XDG_RUNTIME_DIR:-}" ] || [ ! -d "${XDG_RUNTIME_DIR}" ]; then
+    XDG_RUNTIME_DIR=$(mktemp -d)
+    export XDG_RUNTIME_DIR
+fi
+cargo build --release --quiet
+start=$(date +%s)
+{
+    echo "# meshless GPU check"
+    echo
+    echo "- date (UTC): $(date -u '+%Y-%m-%d %H:%M')"
+    echo "- commit: $(git rev-parse --short HEAD 2>/dev/null || echo unknown)$(git diff --quiet 2>/dev/null || echo ' (with local changes)')"
+    echo "- host: $(nproc) cores, $(awk '/MemTotal/ {printf "%.0f GiB", $2 / 1048576}' /proc/meminfo), $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //')"
+    echo "- $(rustc --version)"
+    if command -v nvidia-smi >/dev/null; then
+        echo "- nvidia-smi: $(nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader | head -1)"
+    fi
+    echo "- sizes: $sizes particles, $steps steps"
+    echo
+    if ! $small; then
+        echo "## GPU tests"
+        echo
+        echo '```'
+        test_start=$(date +%s)
+        if cargo test --release --test it gpu 2>&1 | grep -E '^test result|FAILED|panicked'; then :; fi
+        echo "($(($(date +%s) - test_start)) s)"
+        echo '```'
+        echo
+    fi
+    echo "## Throughput and passes, every method on the GPU"
+    echo
+    echo "The 2D swinging plate, each method with its set-up of \`scripts/bench-methods.sh\`;"
+    echo "the bound under each pass report is the model's bytes at the adapter's copy bandwidth."
+    BACKEND=gpu scripts/bench-methods.sh "$sizes" "$steps"
+    echo
+    echo "Wall time of the check after the build: $(($(date +%s) - start)) s."
+} >"$out"
+echo "gpu-check: wrote $out ($(($(date +%s) - start)) s)"
