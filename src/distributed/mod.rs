@@ -1,5 +1,5 @@
-//! Domain decomposition for distributed runs of the total-Lagrangian methods
-//! ([docs/distributed.md](../../docs/distributed.md)).
+//! Domain decomposition for distributed runs of the total-Lagrangian methods (what
+//! exists and what is missing: `docs/distributed.md`).
 //!
 //! A total-Lagrangian method keeps its neighbour graph in the reference configuration,
 //! so the particles are split among the ranks once: [`Partition`] bisects the reference
