@@ -28,8 +28,8 @@ impl Partition {
     /// nearest to n_L / n of the set's, n_L = ⌊n/2⌋ the ranks of that side; each side is
     /// split again for its ranks, down to one rank. Every rank gets at least one particle.
     /// Each cut misses its share by at most half a particle's weight, so a rank's weight
-    /// lies within ⌈log₂ n⌉ · w_max / 2 of total / n, while no cut is held back by that
-    /// rule. Deterministic: the same input gives the same partition.
+    /// lies within ⌈log₂ n⌉ · w_max / 2 of total / n, unless a cut is held back to leave
+    /// a side one particle per rank. Deterministic: the same input gives the same partition.
     pub fn bisect<D: Dim>(x: &[D::V], lists: &Csr, ranks: usize) -> Result<Self, Error> {
         assert_eq!(
             x.len(),
