@@ -12,6 +12,7 @@ pub mod boundary;
 pub mod case;
 pub mod core;
 pub mod diagnostics;
+pub mod distributed;
 pub mod engine;
 #[cfg(feature = "gpu")]
 pub mod gpu;

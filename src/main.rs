@@ -3,6 +3,7 @@
 #![deny(clippy::too_many_lines)]
 
 use clap::{Parser, Subcommand};
+use meshless::distributed::no_mpi_launcher;
 use meshless::methods::REGISTRY;
 use meshless::run::{
     Backend, EXIT_FAILED, EXIT_INPUT, Limits, ProgressDisplay, RunError, RunOptions, run,
@@ -156,7 +157,14 @@ impl From<LimitArgs> for Limits {
 }
 
 fn main() -> ExitCode {
-    match Cli::parse().command {
+    let command = Cli::parse().command;
+    // A command that computes refuses a launch of several copies by an MPI launcher.
+    let computes = !matches!(command, Command::List | Command::Info);
+    if computes && let Err(e) = no_mpi_launcher(|k| std::env::var(k).ok()) {
+        eprintln!("error: {e}");
+        return ExitCode::from(EXIT_INPUT);
+    }
+    match command {
         Command::Run {
             case,
             backend,

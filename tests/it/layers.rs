@@ -29,6 +29,10 @@ const ORDER: &[(&str, &[&str])] = &[
         ],
     ),
     (
+        "domain decomposition of the reference configuration",
+        &["distributed"],
+    ),
+    (
         "physics",
         &[
             "physics/mooney_rivlin",

@@ -14,6 +14,7 @@ mod common;
 mod compressibility;
 mod contact;
 mod corotated_tlsph;
+mod distributed;
 mod dual_support;
 mod dual_support_cases;
 mod energy_balance;
