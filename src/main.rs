@@ -345,7 +345,13 @@ fn study_command(
         eprintln!("error: --run-time-limit must be a number of seconds ≥ 0, got {run_time_limit}");
         return ExitCode::from(EXIT_INPUT);
     };
-    match run_suites(&paths, &out, resume, !quiet, report, &command, limit) {
+    let options = meshless::study::SuitesOptions {
+        resume,
+        progress: !quiet,
+        run_time_limit: limit,
+        long: !names.iter().any(|n| n == "all"),
+    };
+    match run_suites(&paths, &out, &options, report, &command) {
         Ok(done) => {
             for (suite, o) in &done {
                 let failed = o.records.iter().filter(|r| r.status.name() != "ok").count();

@@ -43,6 +43,9 @@ pub struct StudyOptions {
     /// Wall time after which a run is stopped (after its current batch of steps) and
     /// recorded as an error; the study goes on.
     pub run_time_limit: Duration,
+    /// Run what is not yet finished; `false` only reads the results already recorded (a
+    /// long suite under `meshless study all`).
+    pub measure: bool,
 }
 
 /// The default per-run wall-time limit: half an hour (the longest run of the published
@@ -73,7 +76,7 @@ pub fn run_suite(suite: &Suite, opts: &StudyOptions) -> std::io::Result<StudyOut
     std::fs::create_dir_all(&opts.out_dir)?;
     let results = opts.out_dir.join("results.csv");
     let plan = suite.plan();
-    let mut records: Vec<RunRecord> = if opts.resume {
+    let mut records: Vec<RunRecord> = if opts.resume || !opts.measure {
         records::read(&results)?
             .into_iter()
             .filter(|r| plan.iter().any(|p| p.id == r.id))
@@ -89,7 +92,7 @@ pub fn run_suite(suite: &Suite, opts: &StudyOptions) -> std::io::Result<StudyOut
 
     let bar = progress(opts.progress, plan.len() as u64, &suite.name);
     let (mut executed, mut skipped) = (0, 0);
-    for run in &plan {
+    for run in plan.iter().filter(|_| opts.measure) {
         let is_reference = reference_id.as_deref() == Some(run.id.as_str());
         let finished = records
             .iter()
@@ -455,17 +458,29 @@ pub fn resolve_suites(names: &[String], dirs: &[PathBuf]) -> Result<Vec<PathBuf>
     Ok(out)
 }
 
+/// How the suites of one `meshless study` run.
+#[derive(Clone, Debug)]
+pub struct SuitesOptions {
+    /// Skip runs whose results are already recorded.
+    pub resume: bool,
+    /// Progress bars on the terminal.
+    pub progress: bool,
+    /// See [`StudyOptions::run_time_limit`].
+    pub run_time_limit: Duration,
+    /// Run the suites marked `long` too (`meshless study all` does not: their sections are
+    /// drawn from the results they have).
+    pub long: bool,
+}
+
 /// Runs suites one after another (results in `<out_root>/<suite name>/`) and, with
 /// `report`, writes the report over them. `command` is quoted in the report as the way to
 /// regenerate it.
 pub fn run_suites(
     paths: &[PathBuf],
     out_root: &Path,
-    resume: bool,
-    progress: bool,
+    options: &SuitesOptions,
     report: Option<&Path>,
     command: &str,
-    run_time_limit: Duration,
 ) -> Result<Vec<(Suite, StudyOutcome)>, StudyError> {
     let suites = paths
         .iter()
@@ -473,11 +488,20 @@ pub fn run_suites(
         .collect::<Result<Vec<_>, _>>()?;
     let mut done = Vec::new();
     for suite in suites {
+        let measure = options.long || !suite.long;
+        if !measure && options.progress {
+            eprintln!(
+                "{}: a long suite, not run by `meshless study all`: its results so far are \
+                 reported (run it by its name: `meshless study {}`)",
+                suite.name, suite.name
+            );
+        }
         let opts = StudyOptions {
             out_dir: out_root.join(&suite.name),
-            resume,
-            progress,
-            run_time_limit,
+            resume: options.resume,
+            progress: options.progress,
+            run_time_limit: options.run_time_limit,
+            measure,
         };
         let outcome = run_suite(&suite, &opts)?;
         done.push((suite, outcome));

@@ -269,6 +269,10 @@ pub struct Suite {
     /// Part of `meshless study all` (the published report); such a suite needs `[advice]`.
     #[serde(default)]
     pub report: bool,
+    /// A paper-scale suite that `meshless study all` does not run: its section of the
+    /// report is drawn from the results it already has, and it is run by its own name.
+    #[serde(default)]
+    pub long: bool,
     /// How the report's advice ranks the variants.
     pub advice: Option<Advice>,
     /// The suite file.

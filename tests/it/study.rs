@@ -146,6 +146,7 @@ fn a_blow_up_is_recorded_and_the_study_goes_on_then_resumes_without_redoing() {
         resume: true,
         progress: false,
         run_time_limit: RUN_TIME_LIMIT,
+        measure: true,
     };
     let first = run_suite(&suite, &opts).unwrap();
     let n = suite.variants.len() * suite.sweep.values.len();
@@ -163,6 +164,15 @@ fn a_blow_up_is_recorded_and_the_study_goes_on_then_resumes_without_redoing() {
     let mut kept = records::read(&path).unwrap();
     kept.truncate(n - 2);
     records::write(&path, &kept).unwrap();
+    // A long suite under `meshless study all` only reads what it has, even without resume:
+    // nothing runs, the kept rows are its records.
+    let read_only = StudyOptions {
+        resume: false,
+        measure: false,
+        ..opts.clone()
+    };
+    let read = run_suite(&suite, &read_only).unwrap();
+    assert_eq!((read.executed, read.records.len()), (0, n - 2));
     let second = run_suite(&suite, &opts).unwrap();
     assert_eq!((second.executed, second.skipped), (2, n - 2));
     // Kept rows are the earlier measurements, bit for bit (wall times would differ).
@@ -440,6 +450,7 @@ fn a_run_past_the_estimate_or_the_time_limit_is_recorded_and_the_study_goes_on()
         resume: false,
         progress: false,
         run_time_limit: RUN_TIME_LIMIT,
+        measure: true,
     };
     let done = run_suite(&suite, &opts).unwrap();
     let [tiny, ok] = &done.records[..] else {
