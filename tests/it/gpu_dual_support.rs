@@ -164,7 +164,9 @@ fn the_gpu_newton_krylov_solution_is_the_cpu_direct_one() {
     // 1.3e-4). Measured, difference against bound, relative to max |u|: 5.1e-11 against
     // 4.3e-6 (the CPU's direct solve stops at the f64 floor of the cantilever's residual,
     // 3e-9 relative, which its estimate takes for an error), 3.4e-12 against 2.8e-10,
-    // and 3.9e-11 against 1.6e-9.
+    // and 3.9e-11 against 1.6e-9. Where the logs' bound is looser than the earlier
+    // 1e-6 of max |u| (the condition number, ~1e4, times the ~1e-10 relative residual the
+    // runs stop at), the tighter of the two holds: the cantilever's.
     for (name, set, d3) in [
         ("cantilever-3d", vec![], true),
         (
@@ -183,7 +185,8 @@ fn the_gpu_newton_krylov_solution_is_the_cpu_direct_one() {
             let (gpu, gpu_log) = run::<D2>(name, &set, Backend::Gpu);
             (difference::<D2>(&cpu, &gpu), cpu_log, gpu_log)
         };
-        let bound = 10.0 * (implied_error(&cpu_log) + implied_error(&gpu_log));
+        let bound =
+            (10.0 * (implied_error(&cpu_log) + implied_error(&gpu_log))).min(1e-6 * largest);
         let per_step = |log: &[Iteration]| -> Vec<u32> {
             let last = log.iter().map(|it| it.load_step).max().unwrap_or(0);
             (1..=last)
