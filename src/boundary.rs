@@ -342,6 +342,57 @@ impl<D: Dim> Boundary<D> {
         Ok(boundary)
     }
 
+    /// The conditions and loads of the particles a rank owns, in its local indices:
+    /// `ids` the global id of each local particle (ascending), `owned` whether the rank
+    /// owns it. A ghost's rates come from its owner, constraints included, so a rank
+    /// holds the conditions of its own particles only, and its reactions and powers are
+    /// its share of the run's.
+    pub fn restrict(&self, ids: &[u32], owned: &[bool]) -> Self {
+        let local = |g: u32| {
+            let i = ids.binary_search(&g).ok().filter(|&i| owned[i])?;
+            Some(i as u32)
+        };
+        let pairs = |all: &[(u32, D::V)]| -> Vec<(u32, D::V)> {
+            all.iter()
+                .filter_map(|&(g, x)| Some((local(g)?, x)))
+                .collect()
+        };
+        let slots: Vec<(usize, u32)> = (self.constrained.iter().enumerate())
+            .filter_map(|(k, &(g, _))| Some((k, local(g)?)))
+            .collect();
+        Self {
+            constrained: slots
+                .iter()
+                .map(|&(k, i)| (i, self.constrained[k].1))
+                .collect(),
+            held: slots.iter().map(|&(k, _)| self.held[k]).collect(),
+            support_of: slots.iter().map(|&(k, _)| self.support_of[k]).collect(),
+            supports: self.supports,
+            prescribed: pairs(&self.prescribed),
+            displacement: (self.displacement.iter())
+                .filter_map(|&(g, mask, u)| Some((local(g)?, mask, u)))
+                .collect(),
+            surface: (self.surface.iter())
+                .filter_map(|&p| {
+                    Some(SurfacePoint {
+                        particle: local(p.particle)?,
+                        ..p
+                    })
+                })
+                .collect(),
+            forces: pairs(&self.forces),
+            gravity: pairs(&self.gravity),
+            external: pairs(&self.external),
+            timed: self.timed.clone(),
+            timed_components: (self.timed_components.iter())
+                .filter_map(|&(g, k, law, vp)| Some((local(g)?, k, law, vp)))
+                .collect(),
+            step: self.step.clone(),
+            #[cfg(feature = "gpu")]
+            n: ids.len(),
+        }
+    }
+
     /// Sets the nodal forces of the surface loads as the method that holds the boundary
     /// carries them (`nodal`) and the external accelerations f/m + g for its nodal
     /// masses m, so that the loads' forces do not depend on how a method lumps its mass

@@ -7,6 +7,7 @@ use crate::core::kernel::{Kernel, neighbour_radius};
 use crate::core::neighbour::{self, Csr, Neighbours, Rebuild};
 use crate::core::quadrature::{Cells, QuadratureError, lattice_cells};
 use crate::core::tensor::Dim;
+use crate::distributed::Local;
 use crate::physics::material::Material;
 
 /// A method's CPU system, built on the reference configuration of a case.
@@ -48,6 +49,9 @@ pub struct Reference<D: Dim> {
     /// The cells the geometry generators make (polar rings, meshes read at their
     /// vertices); see [`Self::cells`].
     pub generated_cells: Cells,
+    /// Whether the system books each particle's share of its sums (energies, powers,
+    /// reactions): every particle, but a rank's ghosts in a distributed run.
+    pub counted: Vec<bool>,
 }
 
 impl<D: Dim> Reference<D> {
@@ -64,6 +68,7 @@ impl<D: Dim> Reference<D> {
         let kernel = case.kernel(D::N);
         Ok(Self {
             h: vec![kernel.h; disc.x0.len()],
+            counted: vec![true; disc.x0.len()],
             generated_cells: disc.cells,
             x0: disc.x0,
             vol: disc.vol,
@@ -81,6 +86,32 @@ impl<D: Dim> Reference<D> {
     /// vertices), and the lattice squares (cubes) of spacing Δx of the others.
     pub fn cells(&self, spacing: f64) -> Result<Cells, QuadratureError> {
         lattice_cells::<D>(&self.x0, &self.body, spacing, &self.generated_cells)
+    }
+
+    /// The particles a rank holds in a distributed run (`local`: its own and its
+    /// ghosts, in ascending global id): their rows of every array, the boundary
+    /// conditions and loads of its own ([`Boundary::restrict`]), and only its own
+    /// counted. The lists built on them keep each row's global order, and they are the
+    /// global rows of every particle whose neighbours are all local.
+    pub fn restrict(&self, local: &Local) -> Self {
+        fn rows<T: Copy>(all: &[T], ids: &[u32]) -> Vec<T> {
+            ids.iter().map(|&g| all[g as usize]).collect()
+        }
+        let ids = &local.ids;
+        Self {
+            x0: rows(&self.x0, ids),
+            vol: rows(&self.vol, ids),
+            mass: rows(&self.mass, ids),
+            body: rows(&self.body, ids),
+            v0: rows(&self.v0, ids),
+            u0: rows(&self.u0, ids),
+            boundary: self.boundary.restrict(ids, &local.owned),
+            material: self.material,
+            kernel: self.kernel,
+            h: rows(&self.h, ids),
+            generated_cells: Cells::default(),
+            counted: local.owned.clone(),
+        }
     }
 
     /// Number of particles.

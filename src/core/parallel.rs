@@ -147,9 +147,73 @@ macro_rules! particle_state {
                 Ok(())
             }
         }
+
+        impl<D: Dim> crate::core::parallel::ParticleRows for $state<D> {
+            fn rows(&self, ids: &[u32], out: &mut Vec<f64>) {
+                for &i in ids {
+                    crate::core::parallel::put_row(&self.u, i, out);
+                    crate::core::parallel::put_row(&self.v, i, out);
+                    $(crate::core::parallel::put_row(&self.$field, i, out);)*
+                }
+            }
+
+            fn set_rows<'w>(&mut self, ids: &[u32], mut words: &'w [f64]) -> &'w [f64] {
+                for &i in ids {
+                    crate::core::parallel::take_row(&mut self.u, i, &mut words);
+                    crate::core::parallel::take_row(&mut self.v, i, &mut words);
+                    $(crate::core::parallel::take_row(&mut self.$field, i, &mut words);)*
+                }
+                words
+            }
+
+            fn zeros_like(&self, n: usize) -> Self {
+                Self {
+                    u: crate::core::parallel::zeros_like(&self.u, n),
+                    v: crate::core::parallel::zeros_like(&self.v, n),
+                    $($field: crate::core::parallel::zeros_like(&self.$field, n),)*
+                }
+            }
+        }
     };
 }
 pub(crate) use particle_state;
+
+/// A state whose fields hold one value per particle each, or none: what a distributed
+/// run moves between ranks particle by particle ([`particle_state!`] implements it).
+pub trait ParticleRows: Sized {
+    /// Appends the row of each particle of `ids`: its value of every field that holds
+    /// values, in field order, exactly.
+    fn rows(&self, ids: &[u32], out: &mut Vec<f64>);
+    /// Overwrites the particles `ids` with the rows [`Self::rows`] wrote at the front of
+    /// `words`; returns the words after them.
+    fn set_rows<'w>(&mut self, ids: &[u32], words: &'w [f64]) -> &'w [f64];
+    /// A state of n particles, zero, whose fields hold values where this one's do.
+    fn zeros_like(&self, n: usize) -> Self;
+}
+
+/// Appends particle i's value of a field that holds values.
+pub(crate) fn put_row<T: Words>(field: &[T], i: u32, out: &mut Vec<f64>) {
+    if !field.is_empty() {
+        field[i as usize].put(out);
+    }
+}
+
+/// Reads particle i's value of a field that holds values from the front of `words`.
+pub(crate) fn take_row<T: Words>(field: &mut [T], i: u32, words: &mut &[f64]) {
+    if !field.is_empty() {
+        field[i as usize] = T::take(words);
+        *words = &words[T::LEN..];
+    }
+}
+
+/// n zeros where `field` holds values, none where it holds none.
+pub(crate) fn zeros_like<T: Words>(field: &[T], n: usize) -> Vec<T> {
+    if field.is_empty() {
+        Vec::new()
+    } else {
+        vec![T::take(&[0.0; 9][..T::LEN]); n]
+    }
+}
 
 /// Appends a field for a checkpoint: its length, then its values.
 pub(crate) fn save_field<T: Words>(field: &[T], out: &mut Vec<f64>) {

@@ -8,11 +8,15 @@
 //! [`no_mpi_launcher`] keeps a build without MPI from running one copy of a case per
 //! process when started by `mpirun`. It uses only the core (`tests/it/layers.rs`).
 
+mod comm;
+mod local;
 mod partition;
 #[cfg(test)]
 mod tests;
 
-pub use partition::{Halo, Partition, work};
+pub use comm::{Collectives, Comm, Threads};
+pub use local::Local;
+pub use partition::{Halo, Partition, within, work};
 
 /// What is wrong with a decomposition or with the way the program was started.
 #[derive(Clone, Debug, PartialEq, Eq)]

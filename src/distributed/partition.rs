@@ -144,49 +144,79 @@ impl Set<'_> {
     }
 }
 
-/// What rank `rank` exchanges with the others in each stage: the ghosts it receives (the
-/// neighbours of its particles that other ranks own) and the particles it sends (its own
-/// that are neighbours of another rank's particles), each grouped by the other rank and
-/// sorted by global id. Rank r's `receive[s]` is rank s's `send[r]`.
+/// The particles within `layers` hops of a set along the lists (the set itself included),
+/// ascending.
+pub fn within(lists: &Csr, set: &[u32], layers: usize) -> Vec<u32> {
+    let mut reached: BTreeSet<u32> = set.iter().copied().collect();
+    let mut front: Vec<u32> = set.to_vec();
+    for _ in 0..layers {
+        let mut next = Vec::new();
+        for &i in &front {
+            for &j in lists.neighbours(i as usize) {
+                if reached.insert(j) {
+                    next.push(j);
+                }
+            }
+        }
+        front = next;
+    }
+    reached.into_iter().collect()
+}
+
+/// What rank `rank` exchanges with the others: the ghosts it receives (the particles
+/// other ranks own within `layers` hops of its own along the lists) and the particles it
+/// sends (its own within `layers` hops of another rank's), each grouped by the other rank
+/// and sorted by global id. Rank r's `receive[s]` is rank s's `send[r]`. One layer holds
+/// the neighbours a pair loop reads; a rate evaluation that chains k pair loops (a
+/// neighbour's F, then its stress in the force) reads k layers.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Halo {
     pub rank: usize,
+    pub layers: usize,
     pub receive: BTreeMap<usize, Vec<u32>>,
     pub send: BTreeMap<usize, Vec<u32>>,
 }
 
 impl Halo {
-    /// The halo of `rank` in `partition` of the particles of `lists`: every pair (i, j)
-    /// of the lists whose particles have different owners a and b puts j in a's receive
-    /// list from b and in b's send list to a.
-    pub fn new(partition: &Partition, lists: &Csr, rank: usize) -> Self {
+    /// The halo of `rank` in `partition` of the particles of `lists`, `layers` deep.
+    pub fn new(partition: &Partition, lists: &Csr, rank: usize, layers: usize) -> Self {
         assert!(
             rank < partition.ranks(),
             "rank {rank} of a partition into {} ranks",
             partition.ranks()
         );
-        let mut receive: BTreeMap<usize, BTreeSet<u32>> = BTreeMap::new();
-        let mut send: BTreeMap<usize, BTreeSet<u32>> = BTreeMap::new();
-        for i in 0..lists.len() {
-            let a = partition.owner(i);
-            for &j in lists.neighbours(i) {
-                let b = partition.owner(j as usize);
-                if a == rank && b != rank {
-                    receive.entry(b).or_default().insert(j);
-                } else if b == rank && a != rank {
-                    send.entry(a).or_default().insert(j);
+        let by_owner = |ids: Vec<u32>, keep: &dyn Fn(usize) -> bool| {
+            let mut m: BTreeMap<usize, Vec<u32>> = BTreeMap::new();
+            for j in ids {
+                let s = partition.owner(j as usize);
+                if keep(s) {
+                    m.entry(s).or_default().push(j);
                 }
             }
-        }
-        let sorted = |m: BTreeMap<usize, BTreeSet<u32>>| {
-            m.into_iter()
-                .map(|(r, ids)| (r, ids.into_iter().collect()))
-                .collect()
+            m
         };
+        let receive = by_owner(within(lists, partition.owned(rank), layers), &|s| s != rank);
+        let mut send = BTreeMap::new();
+        for s in (0..partition.ranks()).filter(|&s| s != rank) {
+            let ids = within(lists, partition.owned(s), layers);
+            if let Some(mine) = by_owner(ids, &|o| o == rank).remove(&rank) {
+                send.insert(s, mine);
+            }
+        }
         Halo {
             rank,
-            receive: sorted(receive),
-            send: sorted(send),
+            layers,
+            receive,
+            send,
         }
+    }
+
+    /// The particles rank `rank` holds: its own and its ghosts, ascending; their
+    /// positions in this list are the rank's local indices.
+    pub fn local(&self, partition: &Partition) -> Vec<u32> {
+        let mut ids: Vec<u32> = partition.owned(self.rank).to_vec();
+        ids.extend(self.receive.values().flatten());
+        ids.sort_unstable();
+        ids
     }
 }

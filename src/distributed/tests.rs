@@ -94,28 +94,48 @@ fn every_particle_has_one_owner_and_the_weights_are_balanced() {
     }
 }
 
+/// The particles within `layers` hops of rank r's by brute force: hop counts relaxed over
+/// every pair of the global lists `layers` times.
+fn brute_force_reach(p: &Partition, lists: &Csr, r: usize, layers: usize) -> Vec<bool> {
+    let mut hops = vec![usize::MAX; lists.len()];
+    for &i in p.owned(r) {
+        hops[i as usize] = 0;
+    }
+    for _ in 0..layers {
+        let before = hops.clone();
+        for (i, &hops_i) in before.iter().enumerate() {
+            for &j in lists.neighbours(i) {
+                if hops_i != usize::MAX {
+                    hops[j as usize] = hops[j as usize].min(hops_i + 1);
+                }
+            }
+        }
+    }
+    hops.iter().map(|&h| h <= layers).collect()
+}
+
 /// The halo of rank r by brute force from the global lists: j is received from its owner
-/// s ≠ r when some particle of r has j in its row; i of r is sent to s when some particle
-/// of s has i in its row.
-fn brute_force_halo(p: &Partition, lists: &Csr, r: usize) -> Halo {
-    let has = |i: usize, j: u32| lists.neighbours(i).contains(&j);
+/// s ≠ r when it is within `layers` hops of r's particles; i of r is sent to s when it is
+/// within `layers` hops of s's.
+fn brute_force_halo(p: &Partition, lists: &Csr, r: usize, layers: usize) -> Halo {
     let mut receive: BTreeMap<usize, Vec<u32>> = BTreeMap::new();
     let mut send: BTreeMap<usize, Vec<u32>> = BTreeMap::new();
+    let mine = brute_force_reach(p, lists, r, layers);
     for j in 0..lists.len() as u32 {
         let s = p.owner(j as usize);
-        if s != r && p.owned(r).iter().any(|&i| has(i as usize, j)) {
+        if s != r && mine[j as usize] {
             receive.entry(s).or_default().push(j);
         }
     }
-    for &i in p.owned(r) {
-        for s in (0..p.ranks()).filter(|&s| s != r) {
-            if p.owned(s).iter().any(|&j| has(j as usize, i)) {
-                send.entry(s).or_default().push(i);
-            }
+    for s in (0..p.ranks()).filter(|&s| s != r) {
+        let theirs = brute_force_reach(p, lists, s, layers);
+        for &i in p.owned(r).iter().filter(|&&i| theirs[i as usize]) {
+            send.entry(s).or_default().push(i);
         }
     }
     Halo {
         rank: r,
+        layers,
         receive,
         send,
     }
@@ -125,14 +145,16 @@ fn brute_force_halo(p: &Partition, lists: &Csr, r: usize) -> Halo {
 fn halos_equal_those_of_the_global_lists() {
     for (name, lattice) in lattices() {
         let lists = &lattice.lists;
-        for ranks in [1, 2, 3, 5] {
+        for (ranks, layers) in [(1, 1), (2, 1), (3, 1), (5, 1), (2, 2), (3, 2)] {
             let p = (lattice.bisect)(ranks).unwrap();
-            let halos: Vec<Halo> = (0..ranks).map(|r| Halo::new(&p, lists, r)).collect();
+            let halos: Vec<Halo> = (0..ranks)
+                .map(|r| Halo::new(&p, lists, r, layers))
+                .collect();
             for (r, halo) in halos.iter().enumerate() {
                 assert_eq!(
                     *halo,
-                    brute_force_halo(&p, lists, r),
-                    "{name}, {ranks} ranks, rank {r}"
+                    brute_force_halo(&p, lists, r, layers),
+                    "{name}, {ranks} ranks, {layers} layers, rank {r}"
                 );
                 for (s, other) in halos.iter().enumerate().filter(|&(s, _)| s != r) {
                     assert_eq!(

@@ -2,7 +2,9 @@
 
 use super::{BlowUp, Engine, Failed, Method, StepTraffic};
 use crate::boundary::Reaction;
-use crate::core::integrate::{Integrator, IntegratorKind, OdeState, PseudoTime, traffic};
+use crate::core::integrate::{
+    Integrator, IntegratorKind, OdeState, OdeSystem, PseudoTime, traffic,
+};
 use crate::core::tensor::Dim;
 use crate::diagnostics::balance::Booked;
 use crate::diagnostics::observe::Snapshot;
@@ -26,6 +28,46 @@ impl Trapezoid {
     fn add_held(&mut self, start: f64, power: f64, dt: f64) {
         self.last = start;
         self.add(power, dt);
+    }
+}
+
+/// What runs after each rate evaluation of a method: nothing on one rank; a distributed
+/// run's exchange of the ghosts' rates with their owners ([`crate::engine::ranks`]).
+pub trait AfterRates<S> {
+    /// Called with the rates of each evaluation and how it ended; returns how it ends.
+    fn after_rates(&mut self, d: &mut S, result: Result<(), BlowUp>) -> Result<(), BlowUp>;
+}
+
+/// Nothing after the rates: a run on one rank.
+struct Alone;
+
+impl<S> AfterRates<S> for Alone {
+    fn after_rates(&mut self, _d: &mut S, result: Result<(), BlowUp>) -> Result<(), BlowUp> {
+        result
+    }
+}
+
+/// A method whose rate evaluations are followed by a hook.
+struct Hooked<'a, M, H> {
+    method: &'a mut M,
+    hook: &'a mut H,
+}
+
+impl<M: OdeSystem<Error = BlowUp>, H: AfterRates<M::State>> OdeSystem for Hooked<'_, M, H> {
+    type State = M::State;
+    type Error = BlowUp;
+
+    fn rates(&mut self, t: f64, y: &M::State, d: &mut M::State) -> Result<(), BlowUp> {
+        let result = self.method.rates(t, y, d);
+        self.hook.after_rates(d, result)
+    }
+
+    fn begin_step(&mut self, t: f64, dt: f64, y: &M::State) {
+        self.method.begin_step(t, dt, y);
+    }
+
+    fn end_step(&mut self, t: f64, y: &mut M::State) {
+        self.method.end_step(t, y);
     }
 }
 
@@ -61,6 +103,38 @@ impl<D: Dim, M: Method<D>> CpuEngine<D, M> {
         }
     }
 
+    /// [`Engine::advance`] with `hook` after each rate evaluation.
+    pub fn advance_hooked<H: AfterRates<M::State>>(
+        &mut self,
+        t: f64,
+        dt: f64,
+        steps: u32,
+        hook: &mut H,
+    ) -> Result<(), Failed> {
+        for k in 0..steps {
+            let mut system = Hooked {
+                method: &mut self.method,
+                hook,
+            };
+            self.integrator
+                .step(&mut system, t + f64::from(k) * dt, dt, &mut self.y)
+                .map_err(|cause| Failed {
+                    completed: k,
+                    cause,
+                })?;
+            // The balance's powers, trapezoidal over successive steps, but the contact's
+            // within the step its forces are held through; the work against contact is
+            // minus its power on the bodies.
+            let boundary = self.method.boundary_work();
+            self.external.add(boundary.power, dt);
+            self.contact
+                .add_held(-boundary.contact_start, -boundary.contact, dt);
+            self.dissipation.add(self.method.dissipation_power(), dt);
+            self.hourglass.add(self.method.hourglass_power(), dt);
+        }
+        Ok(())
+    }
+
     /// The integrated powers, in the order a checkpoint holds them.
     fn powers(&mut self) -> [&mut Trapezoid; 4] {
         [
@@ -86,24 +160,7 @@ impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
     }
 
     fn advance(&mut self, t: f64, dt: f64, steps: u32) -> Result<(), Failed> {
-        for k in 0..steps {
-            self.integrator
-                .step(&mut self.method, t + f64::from(k) * dt, dt, &mut self.y)
-                .map_err(|cause| Failed {
-                    completed: k,
-                    cause,
-                })?;
-            // The balance's powers, trapezoidal over successive steps, but the contact's
-            // within the step its forces are held through; the work against contact is
-            // minus its power on the bodies.
-            let boundary = self.method.boundary_work();
-            self.external.add(boundary.power, dt);
-            self.contact
-                .add_held(-boundary.contact_start, -boundary.contact, dt);
-            self.dissipation.add(self.method.dissipation_power(), dt);
-            self.hourglass.add(self.method.hourglass_power(), dt);
-        }
-        Ok(())
+        self.advance_hooked(t, dt, steps, &mut Alone)
     }
 
     fn max_signal_speed(&mut self) -> f64 {

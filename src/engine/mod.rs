@@ -9,8 +9,9 @@ mod cpu;
 #[cfg(feature = "gpu")]
 mod gpu;
 mod method;
+pub mod ranks;
 
-pub use cpu::CpuEngine;
+pub use cpu::{AfterRates, CpuEngine};
 #[cfg(feature = "gpu")]
 pub use gpu::{GpuEngine, GpuFamily, Start};
 pub use method::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};

@@ -63,6 +63,9 @@ pub struct Entry {
     pub kernel: bool,
     /// Whether it reads `correction` among them.
     pub corrected: bool,
+    /// The ghost layers a rank of a distributed run needs; none for a method that does
+    /// not run on several ranks ([`MethodFamily::HALO_LAYERS`]).
+    pub halo_layers: Option<usize>,
     #[cfg(feature = "gpu")]
     pub shaders: &'static [crate::gpu::shaders::Source],
 }
@@ -78,6 +81,7 @@ impl Entry {
             neighbours: S::NEIGHBOURS,
             kernel: S::KERNEL,
             corrected: S::KERNEL && S::CORRECTED,
+            halo_layers: S::HALO_LAYERS,
             #[cfg(feature = "gpu")]
             shaders: S::SHADERS,
         }
@@ -140,6 +144,17 @@ macro_rules! registry {
             ) -> Result<Box<dyn Engine<D>>, CaseError> {
                 match self {
                     $(Self::$variant(s) => s.cpu_engine::<D>(case)),*
+                }
+            }
+
+            pub fn rank_engine<D: EngineDim>(
+                &self,
+                case: &Case,
+                reference: crate::reference::Reference<D>,
+                rank: crate::engine::ranks::Rank<D>,
+            ) -> crate::methods::cores::family::RankBuild<D> {
+                match self {
+                    $(Self::$variant(s) => s.rank_engine::<D>(case, reference, rank)),*
                 }
             }
 

@@ -12,6 +12,7 @@ mod frames;
 mod outputs;
 mod profile;
 mod progress;
+pub mod ranks;
 
 pub use crate::engine::{CpuEngine, Engine, EngineDim, Failed, Iteration, StepTraffic};
 pub use crate::scene::build_method;
@@ -100,6 +101,9 @@ pub enum RunError {
     Busy { dir: PathBuf },
     #[error("backend: {0}")]
     Backend(String),
+    /// A run on several ranks that cannot go on (its case, the rank count).
+    #[error("distributed run: {0}")]
+    Ranks(String),
     /// A benchmark's steps failed (they write no outputs).
     #[error("{0}")]
     Benchmark(String),
@@ -135,13 +139,15 @@ pub const EXIT_INTERRUPTED: u8 = 130;
 
 impl RunError {
     /// The command line's exit code: 2 for input a run cannot start from (the case, the
-    /// backend, a checkpoint, an output folder in use), 1 for a run that failed (blow-up, output), 130 for one
-    /// interrupted.
+    /// backend, the ranks, a checkpoint, an output folder in use), 1 for a run that
+    /// failed (blow-up, output), 130 for one interrupted.
     pub fn exit_code(&self) -> u8 {
         match self {
-            Self::Case(_) | Self::Backend(_) | Self::Checkpoint { .. } | Self::Busy { .. } => {
-                EXIT_INPUT
-            }
+            Self::Case(_)
+            | Self::Backend(_)
+            | Self::Ranks(_)
+            | Self::Checkpoint { .. }
+            | Self::Busy { .. } => EXIT_INPUT,
             Self::Output { .. } | Self::BlowUp { .. } | Self::Benchmark(_) => EXIT_FAILED,
             Self::Interrupted { .. } => EXIT_INTERRUPTED,
         }

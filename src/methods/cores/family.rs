@@ -7,9 +7,11 @@ use crate::case::{Case, CaseError};
 use crate::core::check::Problem;
 use crate::core::neighbour::Rebuild;
 use crate::core::tensor::Dim;
+use crate::engine::ranks::{Distributed, Rank};
 use crate::engine::{Engine, EngineDim};
 use crate::physics::material::Material;
 use crate::physics::viscosity::ArtificialViscosity;
+use crate::reference::Reference;
 
 /// The `[method]` keys that only the methods with a kernel read.
 pub const KERNEL_KEYS: &[&str] = &["kernel", "h_over_dx", "correction"];
@@ -95,6 +97,10 @@ pub type CpuBuild<D> = Result<Box<dyn Engine<D>>, CaseError>;
 #[cfg(feature = "gpu")]
 pub type GpuBuild<D> = Result<Box<dyn Engine<D>>, crate::gpu::SetupError>;
 
+/// The engine of one rank of a distributed run for a case, or the case's error
+/// ([`MethodFamily::rank_engine`]).
+pub type RankBuild<D> = Result<Box<dyn Distributed<D>>, CaseError>;
+
 /// What the driver needs from a method. Implemented by the method's typed spec.
 pub trait MethodFamily: Sized {
     /// One line for `meshless list`.
@@ -116,6 +122,10 @@ pub trait MethodFamily: Sized {
     /// that builds its own consistent functions: moving least squares, reproducing or
     /// Krongauz–Belytschko functions, dual-support corrections).
     const CORRECTED: bool = true;
+    /// The ghost layers a rank of a distributed run needs to evaluate its own particles'
+    /// rates: the pair loops a rate evaluation chains (a neighbour's F, then its stress
+    /// in the force, make two). None for a method that does not run on several ranks.
+    const HALO_LAYERS: Option<usize> = None;
     /// The GPU passes it compiles with a scene's constants.
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source];
@@ -137,6 +147,24 @@ pub trait MethodFamily: Sized {
     #[cfg(feature = "gpu")]
     fn gpu_engine<D: EngineDim>(&self, case: &Case, _gpu: crate::gpu::Gpu) -> GpuBuild<D> {
         Err(no_gpu_engine(case).into())
+    }
+
+    /// The engine of one rank of a distributed run: the method's CPU system on the
+    /// rank's particles ([`Reference::restrict`]); only a method with
+    /// [`Self::HALO_LAYERS`] has one.
+    fn rank_engine<D: EngineDim>(
+        &self,
+        case: &Case,
+        _reference: Reference<D>,
+        _rank: Rank<D>,
+    ) -> RankBuild<D> {
+        Err(case.invalid(
+            "method.name",
+            format!(
+                "`{}` does not run on several ranks; run it on one",
+                case.method.name
+            ),
+        ))
     }
 
     /// Why this spec has no GPU engine for `case`, as a phrase after the method's name,

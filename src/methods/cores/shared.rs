@@ -9,9 +9,13 @@ use crate::core::correction;
 use crate::core::integrate::{Buf, Evaluation};
 use crate::core::kernel;
 use crate::core::neighbour::Csr;
+use crate::core::parallel::ParticleRows;
 use crate::core::tensor::Dim;
-use crate::engine::{CpuEngine, Method};
-use crate::reference::{Build, build_method};
+use crate::distributed::Collectives;
+use crate::engine::ranks::{Rank, RankEngine};
+use crate::engine::{CpuEngine, EngineDim, Method};
+use crate::methods::cores::family::RankBuild;
+use crate::reference::{Build, Reference, build_method};
 use rayon::prelude::*;
 
 impl<D: Dim, M: Method<D> + Build<D>> CpuEngine<D, M> {
@@ -23,6 +27,33 @@ impl<D: Dim, M: Method<D> + Build<D>> CpuEngine<D, M> {
             case.method.integrator,
         ))
     }
+}
+
+/// The engine of one rank of a distributed run: the system `M` of a method's spec built on
+/// the rank's particles, stepped by the case's integrator.
+pub fn rank_engine<D: EngineDim, M: Method<D> + Build<D> + 'static>(
+    case: &Case,
+    spec: &M::Spec,
+    reference: Reference<D>,
+    rank: Rank<D>,
+) -> RankBuild<D>
+where
+    M::State: ParticleRows,
+{
+    // Every rank learns whether all could set up, so that none waits for one that
+    // stopped.
+    let method = M::build(case, spec, reference);
+    let failed = (rank.comm).all_gather(vec![f64::from(u8::from(method.is_err()))]);
+    let method = method?;
+    if let Some(r) = failed.iter().position(|w| w[0] != 0.0) {
+        return Err(case.invalid(
+            "method.name",
+            format!("rank {r} could not set up its particles: its error says why"),
+        ));
+    }
+    let engine = CpuEngine::with(method, case.method.integrator);
+    let engine = RankEngine::new(engine, rank).map_err(|e| case.invalid("method.name", e))?;
+    Ok(Box::new(engine))
 }
 
 /// The kernel support of a case, with the margin of [`crate::core::kernel::neighbour_radius`].

@@ -91,7 +91,7 @@ impl<D: Dim> TlScheme<D> for DynamicsScheme<D> {
 
     /// −Σ f^hg·v at the last rate evaluation: its integral is the hourglass energy E_hg
     /// gained since the start, as the force derives from it (eq 21).
-    fn hourglass_power(&self) -> f64 {
+    fn hourglass_power(&self, _core: &TlCore<D>) -> f64 {
         self.hourglass_power
     }
 

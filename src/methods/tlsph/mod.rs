@@ -11,11 +11,14 @@ pub use crate::methods::cores::tl::TlState;
 pub use crate::methods::cores::tl::gpu::GpuTlsph;
 pub use system::{Tlsph, TlsphScheme};
 
+use crate::engine::ranks::Rank;
 #[cfg(feature = "gpu")]
 use crate::methods::cores::family::GpuBuild;
 use crate::methods::cores::family::{
-    CpuBuild, Feature, MethodFamily, Plan, cfl_step, check_viscosity,
+    CpuBuild, Feature, MethodFamily, Plan, RankBuild, cfl_step, check_viscosity,
 };
+use crate::methods::cores::shared;
+use crate::reference::Reference;
 
 use crate::case::Case;
 use crate::core::check::{Problem, positive};
@@ -88,6 +91,8 @@ impl MethodFamily for TlsphSpec {
         Feature::StaticSolve,
         Feature::InitialDisplacement,
     ];
+    /// A neighbour's F (pass 1), then its stress in the force (pass 2).
+    const HALO_LAYERS: Option<usize> = Some(2);
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = crate::methods::cores::tl::gpu::SHADERS;
 
@@ -154,6 +159,15 @@ impl MethodFamily for TlsphSpec {
 
     fn cpu_engine<D: EngineDim>(&self, case: &Case) -> CpuBuild<D> {
         crate::statics::explicit::cpu_engine::<D, Tlsph<D>>(case, self)
+    }
+
+    fn rank_engine<D: EngineDim>(
+        &self,
+        case: &Case,
+        reference: Reference<D>,
+        rank: Rank<D>,
+    ) -> RankBuild<D> {
+        shared::rank_engine::<D, Tlsph<D>>(case, self, reference, rank)
     }
 
     #[cfg(feature = "gpu")]

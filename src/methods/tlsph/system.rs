@@ -317,21 +317,23 @@ impl<D: Dim> TlScheme<D> for TlsphScheme<D> {
     }
 
     fn strain_energy(&self, core: &TlCore<D>, y: &TlState<D>) -> f64 {
-        stress_fields::<D>(&core.material, &self.each_f(y), &y.s, &y.rho, &core.vol).1
+        let weights = &core.energy_weights;
+        stress_fields::<D>(&core.material, &self.each_f(y), &y.s, &y.rho, weights).1
     }
 
     fn snapshot<'a>(&'a self, core: &'a TlCore<D>, y: &TlState<D>) -> Snapshot<'a, D> {
         let f = self.each_f(y);
-        let (x0, mass, body, vol) = (&core.x0, &core.mass, &core.body, &core.vol);
+        let (x0, mass, body) = (&core.x0, &core.mass, &core.body);
+        let vol = &core.energy_weights;
         snapshot(&core.material, x0, mass, body, vol, y.clone(), f)
     }
 
-    fn dissipation_power(&self, _core: &TlCore<D>) -> f64 {
-        self.powers.iter().map(|p| p[0]).sum()
+    fn dissipation_power(&self, core: &TlCore<D>) -> f64 {
+        core.booked_sum(self.powers.iter().map(|p| p[0]))
     }
 
-    fn hourglass_power(&self) -> f64 {
-        self.powers.iter().map(|p| p[1]).sum()
+    fn hourglass_power(&self, core: &TlCore<D>) -> f64 {
+        core.booked_sum(self.powers.iter().map(|p| p[1]))
     }
 
     /// Pass 1 reads X and u (and v, ρ, S of the rate model) and writes the two records (and

@@ -178,6 +178,12 @@ pub struct TlCore<D: Dim> {
     /// Each particle's power of the artificial viscosity, −m a_visc·v, at the last rate
     /// evaluation ([`viscous_pair_pass`]; zero for a scheme without the pass).
     dissipation: Vec<f64>,
+    /// Whether each particle's share of the sums is booked: all but a rank's ghosts
+    /// ([`Reference::counted`]).
+    counted: Vec<bool>,
+    /// V0 of the counted particles and 0 for a rank's ghosts: the weights of the strain
+    /// energy Σ V0 ψ.
+    pub energy_weights: Vec<f64>,
 }
 
 impl<D: Dim> TlCore<D> {
@@ -188,6 +194,10 @@ impl<D: Dim> TlCore<D> {
             Interactions::build(case, &r.x0, &r.body, &OnPatches, &r.mass, || lists.clone())?;
         Ok(Self {
             dissipation: vec![0.0; r.len()],
+            energy_weights: (r.vol.iter().zip(&r.counted))
+                .map(|(&v, &c)| if c { v } else { 0.0 })
+                .collect(),
+            counted: r.counted,
             x0: r.x0,
             vol: r.vol,
             mass: r.mass,
@@ -198,6 +208,13 @@ impl<D: Dim> TlCore<D> {
             h: r.kernel.h,
             surroundings: Surroundings::new(r.boundary, interactions),
         })
+    }
+
+    /// The sum of the particles' shares of a power, over the counted particles in order.
+    pub fn booked_sum(&self, shares: impl IntoIterator<Item = f64>) -> f64 {
+        (shares.into_iter().zip(&self.counted))
+            .filter_map(|(x, &counted)| counted.then_some(x))
+            .sum()
     }
 
     /// The first blow-up of `quantity` at particle i.
@@ -337,11 +354,11 @@ pub trait TlScheme<D: Dim>: Sized + Send + Sync {
     /// [`Method::dissipation_power`]: the sum of the core's record of the artificial
     /// viscosity's power.
     fn dissipation_power(&self, core: &TlCore<D>) -> f64 {
-        core.dissipation.iter().sum()
+        core.booked_sum(core.dissipation.iter().copied())
     }
 
     /// [`Method::hourglass_power`].
-    fn hourglass_power(&self) -> f64 {
+    fn hourglass_power(&self, _core: &TlCore<D>) -> f64 {
         0.0
     }
 
@@ -453,7 +470,7 @@ impl<D: Dim, S: TlScheme<D>> Method<D> for TlSph<D, S> {
     }
 
     fn hourglass_power(&self) -> f64 {
-        self.scheme.hourglass_power()
+        self.scheme.hourglass_power(&self.core)
     }
 
     fn pairs(&self) -> usize {

@@ -1,0 +1,557 @@
+//! The engine of one rank of a distributed run (`docs/distributed.md`): the method's CPU
+//! system on the rank's particles (its own and its ghosts, [`Local`]), whose ghosts' rates
+//! are replaced by their owners' after every rate evaluation, so that each rank's state
+//! of a particle has the bits of the one-rank run's.
+//!
+//! Rank 0 leads: the driver runs there, and each [`Engine`] call it makes is sent to the
+//! other ranks, which serve it ([`Distributed::serve`]) until rank 0's engine is dropped.
+//! What the driver reads back is gathered on rank 0 in global order (snapshots,
+//! checkpoints, the first blow-up); sums over particles (energies, powers, reactions)
+//! are each rank's sum over its own particles, added over the ranks in rank order.
+
+use super::cpu::AfterRates;
+use super::{BlowUp, CpuEngine, Engine, Failed, Method};
+use crate::boundary::Reaction;
+use crate::core::integrate::OdeState;
+use crate::core::parallel::ParticleRows;
+use crate::core::tensor::{Dim, Words};
+use crate::diagnostics::balance::Booked;
+use crate::diagnostics::observe::{ScalarField, Snapshot};
+use crate::distributed::{Collectives, Comm, Local};
+
+/// A rank's engine: rank 0's drives the run as an [`Engine`]; the others serve it.
+pub trait Distributed<D: Dim>: Engine<D> {
+    /// Whether this is rank 0's engine, which drives the run.
+    fn is_leader(&self) -> bool;
+    /// Serves rank 0's calls until its engine is dropped (the ranks other than 0).
+    fn serve(self: Box<Self>);
+}
+
+/// What rank 0 holds of the whole run: the reference arrays the driver reads.
+pub struct Whole<D: Dim> {
+    pub x0: Vec<D::V>,
+    pub mass: Vec<f64>,
+    pub body: Vec<u32>,
+    /// The constrained particles and their masks, by global id.
+    pub constrained: Vec<(u32, u8)>,
+}
+
+/// Where a rank's engine stands in the run: its particles, the other ranks, the run's
+/// particle count and, on rank 0, the whole run's reference arrays.
+pub struct Rank<D: Dim> {
+    pub local: Local,
+    pub comm: Box<dyn Comm>,
+    pub n: usize,
+    pub whole: Option<Whole<D>>,
+}
+
+/// The calls rank 0 sends, as the first word of a message.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Call {
+    Advance = 1,
+    MaxSignalSpeed,
+    Booked,
+    Reactions,
+    Check,
+    Snapshot,
+    Save,
+    Restore,
+    End,
+}
+
+impl Call {
+    const ALL: [Call; 9] = [
+        Call::Advance,
+        Call::MaxSignalSpeed,
+        Call::Booked,
+        Call::Reactions,
+        Call::Check,
+        Call::Snapshot,
+        Call::Save,
+        Call::Restore,
+        Call::End,
+    ];
+
+    fn of(word: f64) -> Call {
+        Self::ALL
+            .into_iter()
+            .find(|&c| c as u8 as f64 == word)
+            .expect("rank 0 sends the calls of this build")
+    }
+}
+
+/// The hook after each rate evaluation: the ghosts' rates from their owners, and the
+/// first blow-up of the step, kept (a rank that stopped would leave the others waiting
+/// for its rows) and agreed on by all ranks after the step.
+struct Exchange {
+    local: Local,
+    comm: Box<dyn Comm>,
+    /// The rate evaluations of the current step so far.
+    stage: usize,
+    /// The first blow-up of the current step and its evaluation.
+    failure: Option<(usize, BlowUp)>,
+}
+
+impl<S: ParticleRows> AfterRates<S> for Exchange {
+    fn after_rates(&mut self, d: &mut S, result: Result<(), BlowUp>) -> Result<(), BlowUp> {
+        if let (Err(b), None) = (result, &self.failure) {
+            self.failure = Some((self.stage, b));
+        }
+        self.stage += 1;
+        self.local.refresh(self.comm.as_ref(), d);
+        Ok(())
+    }
+}
+
+/// The engine of one rank: the method on its particles, an integrator and the exchange.
+pub struct RankEngine<D: Dim, M: Method<D>> {
+    engine: CpuEngine<D, M>,
+    exchange: Exchange,
+    /// The number of particles of the run.
+    n: usize,
+    /// Rank 0's view of the whole run; none on the others.
+    whole: Option<Whole<D>>,
+    /// The global ids each rank owns, in rank order (rank 0; none on the others): where
+    /// the rows gathered from each rank go.
+    owned: Vec<Vec<u32>>,
+}
+
+/// A blow-up as words: its global particle, value and quantity (one word per byte).
+fn blow_up_words(gid: u32, b: &BlowUp) -> Vec<f64> {
+    let mut w = vec![f64::from(gid), b.value];
+    w.extend(b.quantity.bytes().map(f64::from));
+    w
+}
+
+/// The blow-up of [`blow_up_words`] at its reference position in `x0` (global).
+fn blow_up_of<D: Dim>(w: &[f64], x0: &[D::V]) -> BlowUp {
+    let quantity: Vec<u8> = w[2..].iter().map(|&c| c as u8).collect();
+    BlowUp::at::<D>(x0, w[0] as usize, &String::from_utf8_lossy(&quantity), w[1])
+}
+
+impl<D: Dim, M: Method<D>> RankEngine<D, M>
+where
+    M::State: ParticleRows,
+{
+    /// The engine of a rank: `engine` on the rank's particles. An error for a method that
+    /// keeps a history besides its state, which a checkpoint of several ranks does not
+    /// gather yet.
+    pub fn new(engine: CpuEngine<D, M>, rank: Rank<D>) -> Result<Self, String> {
+        let Rank {
+            local,
+            comm,
+            n,
+            whole,
+        } = rank;
+        let mut history = Vec::new();
+        engine.method.save_history(&mut history);
+        if !history.is_empty() {
+            return Err(
+                "a method that keeps a history besides its state (a plastic \
+                        material's) does not run on several ranks yet"
+                    .into(),
+            );
+        }
+        let mine: Vec<f64> = (local.own.iter())
+            .map(|&i| f64::from(local.ids[i as usize]))
+            .collect();
+        let owned = (comm.gather(mine).unwrap_or_default().iter())
+            .map(|w| w.iter().map(|&g| g as u32).collect())
+            .collect();
+        Ok(Self {
+            owned,
+            engine,
+            exchange: Exchange {
+                local,
+                comm,
+                stage: 0,
+                failure: None,
+            },
+            n,
+            whole,
+        })
+    }
+
+    fn comm(&self) -> &dyn Comm {
+        self.exchange.comm.as_ref()
+    }
+
+    fn local(&self) -> &Local {
+        &self.exchange.local
+    }
+
+    /// Rank 0 sends a call and its arguments to the others.
+    fn send(&self, call: Call, args: &[f64]) {
+        let mut words = vec![call as u8 as f64];
+        words.extend_from_slice(args);
+        self.comm().broadcast(&mut words);
+    }
+
+    /// `steps` steps from t; every rank stops after the first step on which any failed
+    /// (Err: the steps completed before it), and rank 0 gets the blow-up one rank would
+    /// have found first: in the earliest rate evaluation, at the lowest global id.
+    fn advance_all(&mut self, t: f64, dt: f64, steps: u32) -> Result<(), (u32, Option<BlowUp>)> {
+        for k in 0..steps {
+            let ex = &mut self.exchange;
+            (ex.stage, ex.failure) = (0, None);
+            let t_k = t + f64::from(k) * dt;
+            self.engine
+                .advance_hooked(t_k, dt, 1, ex)
+                .expect("the exchange keeps every blow-up for the agreement");
+            let ex = &self.exchange;
+            let key = ex.failure.as_ref().map_or(f64::INFINITY, |(stage, b)| {
+                (*stage * self.n + ex.local.ids[b.particle] as usize) as f64
+            });
+            let keys = self.comm().all_gather(vec![key]);
+            let first = keys.iter().map(|w| w[0]).fold(f64::INFINITY, f64::min);
+            if first.is_finite() {
+                let mine = match &ex.failure {
+                    Some((_, b)) if key == first => blow_up_words(ex.local.ids[b.particle], b),
+                    _ => Vec::new(),
+                };
+                let cause = self.comm().gather(mine).map(|all| {
+                    let w = all.iter().find(|w| !w.is_empty()).expect("a rank failed");
+                    blow_up_of::<D>(w, &self.whole().x0)
+                });
+                return Err((k, cause));
+            }
+        }
+        Ok(())
+    }
+
+    /// The first non-finite particle of the run, on rank 0: the lowest global id among
+    /// the ranks' first.
+    fn check_all(&mut self) -> Result<(), BlowUp> {
+        let mine = match self.engine.check() {
+            Err(b) => blow_up_words(self.local().ids[b.particle], &b),
+            Ok(()) => Vec::new(),
+        };
+        let Some(all) = self.comm().gather(mine) else {
+            return Ok(());
+        };
+        let whole = self.whole.as_ref().expect("rank 0 holds the whole run");
+        let first = all
+            .iter()
+            .filter(|w| !w.is_empty())
+            .min_by(|a, b| a[0].total_cmp(&b[0]));
+        first.map_or(Ok(()), |w| Err(blow_up_of::<D>(w, &whole.x0)))
+    }
+
+    /// The snapshot's rows of this rank's own particles (u, v, F, σ, the extra fields)
+    /// gathered on rank 0 in global order, and the strain energy summed over the ranks.
+    fn snapshot_all(&mut self) -> Option<Snapshot<'_, D>> {
+        let (words, names, energy) = {
+            let local = &self.exchange.local;
+            let s = self.engine.snapshot();
+            let mut words = Vec::new();
+            for &i in &local.own {
+                let i = i as usize;
+                s.u[i].put(&mut words);
+                s.v[i].put(&mut words);
+                s.f[i].put(&mut words);
+                words.extend(s.sigma[i].iter().flatten());
+                words.extend(s.extra.iter().map(|e| e.values[i]));
+            }
+            let names: Vec<&'static str> = s.extra.iter().map(|e| e.name).collect();
+            (words, names, s.strain_energy)
+        };
+        let comm = self.exchange.comm.as_ref();
+        let strain_energy = comm.sum(&[energy])[0];
+        let all = comm.gather(words)?;
+        let owned = &self.owned;
+        let whole = self.whole.as_ref().expect("rank 0 holds the whole run");
+        let n = self.n;
+        let mut g = Snapshot {
+            x0: &whole.x0,
+            mass: &whole.mass,
+            body: &whole.body,
+            u: vec![D::zero(); n],
+            v: vec![D::zero(); n],
+            f: vec![D::zero_t(); n],
+            sigma: vec![[[0.0; 3]; 3]; n],
+            strain_energy,
+            extra: (names.iter())
+                .map(|&name| ScalarField {
+                    name,
+                    values: vec![0.0; n],
+                })
+                .collect(),
+            cells: &[],
+            quadrature: None,
+        };
+        let (lv, lt) = (D::V::LEN, D::T::LEN);
+        let row = 2 * lv + lt + 9 + names.len();
+        for (ids, words) in owned.iter().zip(&all) {
+            for (&gid, w) in ids.iter().zip(words.chunks_exact(row)) {
+                let i = gid as usize;
+                g.u[i] = D::V::take(w);
+                g.v[i] = D::V::take(&w[lv..]);
+                g.f[i] = D::T::take(&w[2 * lv..]);
+                let sigma = &w[2 * lv + lt..];
+                for (k, r) in g.sigma[i].iter_mut().enumerate() {
+                    r.copy_from_slice(&sigma[3 * k..3 * k + 3]);
+                }
+                for (e, &x) in g.extra.iter_mut().zip(&w[row - names.len()..]) {
+                    e.values[i] = x;
+                }
+            }
+        }
+        Some(g)
+    }
+
+    /// The engine's checkpoint words as one rank's would be (rank 0; none on the others):
+    /// the powers summed over the ranks, the state and the integrator's rates by global id.
+    fn save_all(&mut self) -> Option<Vec<f64>> {
+        let words = self.engine.save();
+        let (powers, mut rest) = words.split_at(8);
+        let template = self.engine.y.clone();
+        let mut y = template.clone();
+        y.load(&mut rest).expect("the engine's own words");
+        let primed = rest[0] == 1.0;
+        let mut rates = template.clone();
+        if primed {
+            let mut after = &rest[1..];
+            rates.load(&mut after).expect("the engine's own words");
+        }
+        let local = &self.exchange.local;
+        let mut rows = Vec::new();
+        y.rows(&local.own, &mut rows);
+        if primed {
+            rates.rows(&local.own, &mut rows);
+        }
+        let comm = self.exchange.comm.as_ref();
+        let powers = comm.sum(powers);
+        let all = comm.gather(rows)?;
+        let owned = &self.owned;
+        let mut y = template.zeros_like(self.n);
+        let mut rates = template.zeros_like(self.n);
+        for (ids, words) in owned.iter().zip(&all) {
+            let rest = y.set_rows(ids, words);
+            if primed {
+                rates.set_rows(ids, rest);
+            }
+        }
+        let mut out = powers;
+        y.save(&mut out);
+        out.push(f64::from(u8::from(primed)));
+        if primed {
+            rates.save(&mut out);
+        }
+        Some(out)
+    }
+
+    /// Continues from one rank's checkpoint words, `words` on rank 0 (any number of
+    /// ranks wrote them): each rank takes its particles' rows, rank 0 the powers.
+    fn restore_all(&mut self, words: &[f64]) -> Result<(), String> {
+        let result = self.restore_local(words);
+        let failed = self
+            .comm()
+            .all_gather(vec![f64::from(u8::from(result.is_err()))]);
+        match (result, failed.iter().any(|w| w[0] != 0.0)) {
+            (Err(e), _) => Err(e),
+            (Ok(()), true) => Err("another rank could not read the checkpoint".into()),
+            (Ok(()), false) => Ok(()),
+        }
+    }
+
+    fn restore_local(&mut self, words: &[f64]) -> Result<(), String> {
+        let (powers, mut rest) = words
+            .split_first_chunk::<8>()
+            .ok_or("the checkpoint holds no engine state")?;
+        let template = self.engine.y.zeros_like(self.n);
+        let mut y = template.clone();
+        y.load(&mut rest)?;
+        let (&flag, mut after) = rest.split_first().ok_or("no integrator flag")?;
+        let mut rates = template;
+        if flag == 1.0 {
+            rates.load(&mut after)?;
+        }
+        if !after.is_empty() {
+            return Err(format!(
+                "{} words are left over after the engine's state",
+                after.len()
+            ));
+        }
+        let local = &self.exchange.local;
+        let every: Vec<u32> = (0..local.len() as u32).collect();
+        let mine = |state: &M::State| {
+            let mut rows = Vec::new();
+            state.rows(&local.ids, &mut rows);
+            let mut part = state.zeros_like(local.len());
+            part.set_rows(&every, &rows);
+            part
+        };
+        let mut out = if local.rank == 0 {
+            powers.to_vec()
+        } else {
+            vec![0.0; 8]
+        };
+        mine(&y).save(&mut out);
+        out.push(flag);
+        if flag == 1.0 {
+            mine(&rates).save(&mut out);
+        }
+        self.engine.restore(&out)
+    }
+
+    fn booked_all(&mut self) -> Booked {
+        let b = self.engine.booked();
+        let terms = [
+            b.external_work,
+            b.dissipated.unwrap_or(0.0),
+            b.hourglass_work.unwrap_or(0.0),
+            b.plastic_work.unwrap_or(0.0),
+            b.contact_energy.unwrap_or(0.0),
+        ];
+        let s = self.comm().sum(&terms);
+        Booked {
+            external_work: s[0],
+            dissipated: b.dissipated.map(|_| s[1]),
+            hourglass_work: b.hourglass_work.map(|_| s[2]),
+            plastic_work: b.plastic_work.map(|_| s[3]),
+            contact_energy: b.contact_energy.map(|_| s[4]),
+        }
+    }
+
+    fn reactions_all(&mut self) -> Vec<Reaction> {
+        let mine = self.engine.reactions();
+        let words: Vec<f64> = mine
+            .iter()
+            .flat_map(|r| [r.force[0], r.force[1], r.force[2], r.power])
+            .collect();
+        self.comm()
+            .sum(&words)
+            .chunks_exact(4)
+            .map(|w| Reaction {
+                force: [w[0], w[1], w[2]],
+                power: w[3],
+            })
+            .collect()
+    }
+
+    fn whole(&self) -> &Whole<D> {
+        self.whole.as_ref().expect("rank 0 drives the run")
+    }
+}
+
+impl<D: Dim, M: Method<D>> Engine<D> for RankEngine<D, M>
+where
+    M::State: ParticleRows,
+{
+    fn backend(&self) -> String {
+        format!("cpu on {} ranks", self.comm().size())
+    }
+
+    fn reference(&self) -> &[D::V] {
+        &self.whole().x0
+    }
+
+    fn constrained(&self) -> &[(u32, u8)] {
+        &self.whole().constrained
+    }
+
+    fn advance(&mut self, t: f64, dt: f64, steps: u32) -> Result<(), Failed> {
+        self.send(Call::Advance, &[t, dt, f64::from(steps)]);
+        self.advance_all(t, dt, steps)
+            .map_err(|(completed, cause)| Failed {
+                completed,
+                cause: cause.expect("rank 0 gathers the blow-up"),
+            })
+    }
+
+    fn max_signal_speed(&mut self) -> f64 {
+        self.send(Call::MaxSignalSpeed, &[]);
+        let speed = self.engine.max_signal_speed();
+        self.comm().max(speed)
+    }
+
+    fn external_work(&mut self) -> f64 {
+        self.booked().external_work
+    }
+
+    fn reactions(&mut self) -> Vec<Reaction> {
+        self.send(Call::Reactions, &[]);
+        self.reactions_all()
+    }
+
+    fn booked(&mut self) -> Booked {
+        self.send(Call::Booked, &[]);
+        self.booked_all()
+    }
+
+    fn check(&mut self) -> Result<(), BlowUp> {
+        self.send(Call::Check, &[]);
+        self.check_all()
+    }
+
+    fn snapshot(&mut self) -> Snapshot<'_, D> {
+        self.send(Call::Snapshot, &[]);
+        self.snapshot_all().expect("rank 0 gathers the snapshot")
+    }
+
+    fn save(&mut self) -> Vec<f64> {
+        self.send(Call::Save, &[]);
+        self.save_all().expect("rank 0 gathers the checkpoint")
+    }
+
+    fn restore(&mut self, words: &[f64]) -> Result<(), String> {
+        self.send(Call::Restore, words);
+        self.restore_all(words)
+    }
+}
+
+impl<D: Dim, M: Method<D>> Distributed<D> for RankEngine<D, M>
+where
+    M::State: ParticleRows,
+{
+    fn is_leader(&self) -> bool {
+        self.whole.is_some()
+    }
+
+    fn serve(mut self: Box<Self>) {
+        loop {
+            let mut words = Vec::new();
+            self.comm().broadcast(&mut words);
+            let args = &words[1..];
+            match Call::of(words[0]) {
+                Call::Advance => {
+                    // Rank 0 reports the failure; this rank only stops.
+                    let _ = self.advance_all(args[0], args[1], args[2] as u32);
+                }
+                Call::MaxSignalSpeed => {
+                    let speed = self.engine.max_signal_speed();
+                    self.comm().max(speed);
+                }
+                Call::Booked => {
+                    self.booked_all();
+                }
+                Call::Reactions => {
+                    self.reactions_all();
+                }
+                Call::Check => {
+                    let _ = self.check_all();
+                }
+                Call::Snapshot => {
+                    self.snapshot_all();
+                }
+                Call::Save => {
+                    self.save_all();
+                }
+                Call::Restore => {
+                    let _ = self.restore_all(args);
+                }
+                Call::End => return,
+            }
+        }
+    }
+}
+
+impl<D: Dim, M: Method<D>> Drop for RankEngine<D, M> {
+    /// Rank 0's engine ends the others' service.
+    fn drop(&mut self) {
+        if self.whole.is_some() {
+            let mut words = vec![Call::End as u8 as f64];
+            self.exchange.comm.broadcast(&mut words);
+        }
+    }
+}

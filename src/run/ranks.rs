@@ -1,0 +1,153 @@
+//! A run of one case on several ranks (`docs/distributed.md`). Every rank builds the
+//! reference configuration and its lists, the same partition and its own particles with
+//! their ghosts; rank 0 drives the run with the driver of a one-rank run, and the others
+//! serve its engine ([`crate::engine::ranks`]). The outputs are rank 0's, in the
+//! one-rank formats.
+
+use super::{Backend, RunError, RunOptions, budget, drive::drive};
+use crate::case::fnv1a;
+use crate::core::tensor::{D2, D3};
+use crate::distributed::{Collectives, Comm, Local, Partition, Threads};
+use crate::engine::ranks::{Rank, Whole};
+use crate::engine::{Engine, EngineDim};
+use crate::output::RunSummary;
+use crate::reference::Reference;
+use crate::scene::Scene;
+
+/// Why a case cannot run on several ranks, or None.
+pub fn refusal(case: &Scene, backend: Backend) -> Option<String> {
+    let name = case.method.name;
+    let why = if case.spec.entry().halo_layers.is_none() {
+        let methods = crate::methods::REGISTRY
+            .iter()
+            .filter(|e| e.halo_layers.is_some())
+            .map(|e| format!("`{}`", e.name))
+            .collect::<Vec<_>>()
+            .join(", ");
+        format!("`{name}` does not run on several ranks yet (those that do: {methods})")
+    } else if backend == Backend::Gpu {
+        "the GPU backend does not run on several ranks yet; use --backend cpu".into()
+    } else if case.is_static() {
+        "the static solve (run.solve = \"static\") does not run on several ranks".into()
+    } else if case.contact.is_some() {
+        "contact ([contact]) does not run on several ranks yet".into()
+    } else if !case.mirrors.is_empty() {
+        "symmetry planes ([[mirror]]) do not run on several ranks yet".into()
+    } else if case.boundaries.iter().any(|b| b.condition.is_timed_load()) {
+        "loads with a time law do not run on several ranks yet".into()
+    } else {
+        return None;
+    };
+    Some(format!("{}: {why}", case.file.display()))
+}
+
+/// The threads each rank runs: the case's `run.threads`, or the cores shared among the
+/// `on_node` ranks of this machine (at least one).
+pub fn threads_per_rank(case: &Scene, on_node: usize) -> usize {
+    case.run.threads.unwrap_or_else(|| {
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        (cores / on_node.max(1)).max(1)
+    })
+}
+
+/// Runs a case as one rank of `comm`, with `threads` threads; rank 0 returns the summary,
+/// the others None when rank 0 ends the run. Every rank refuses what the others refuse,
+/// so that no rank waits for one that has stopped.
+pub fn run_rank(
+    case: &Scene,
+    opts: &RunOptions,
+    comm: Box<dyn Comm>,
+    threads: usize,
+) -> Result<Option<RunSummary>, RunError> {
+    same_case(case, comm.as_ref())?;
+    if let Some(why) = refusal(case, opts.backend) {
+        return Err(RunError::Ranks(why));
+    }
+    budget::check(case, false, &opts.limits)?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| RunError::Ranks(format!("cannot start {threads} threads: {e}")))?;
+    pool.install(|| match case.dimension {
+        2 => rank::<D2>(case, opts, comm),
+        _ => rank::<D3>(case, opts, comm),
+    })
+}
+
+/// Refuses ranks that read different cases (another file, other overrides).
+fn same_case(case: &Scene, comm: &dyn Comm) -> Result<(), RunError> {
+    let hash = fnv1a(format!("{:?}", case.case).as_bytes());
+    // The hash in two words, each exact in an f64.
+    let mine = vec![(hash >> 32) as f64, (hash & 0xffff_ffff) as f64];
+    let all = comm.all_gather(mine.clone());
+    match all.iter().position(|w| *w != mine) {
+        Some(r) => Err(RunError::Ranks(format!(
+            "rank {r} read another case than rank {} ({}): give every rank the same case \
+             file and --set overrides",
+            comm.rank(),
+            case.file.display()
+        ))),
+        None => Ok(()),
+    }
+}
+
+fn rank<D: EngineDim>(
+    case: &Scene,
+    opts: &RunOptions,
+    comm: Box<dyn Comm>,
+) -> Result<Option<RunSummary>, RunError> {
+    let reference = Reference::<D>::build(case)?;
+    let n = reference.len();
+    let lists = reference.neighbours();
+    let partition = Partition::bisect::<D>(&reference.x0, &lists, comm.size())
+        .map_err(|e| RunError::Ranks(format!("{}: {e}", case.file.display())))?;
+    let layers = case.spec.entry().halo_layers.expect("refusal checked it");
+    let local = Local::new(&partition, &lists, comm.rank(), layers);
+    let part = reference.restrict(&local);
+    let whole = (comm.rank() == 0).then(|| Whole {
+        constrained: reference.boundary.constrained.clone(),
+        x0: reference.x0,
+        mass: reference.mass,
+        body: reference.body,
+    });
+    let rank = Rank {
+        local,
+        comm,
+        n,
+        whole,
+    };
+    let engine = case.spec.rank_engine::<D>(case, part, rank)?;
+    if engine.is_leader() {
+        let engine: Box<dyn Engine<D>> = engine;
+        drive::<D, _>(case, opts, engine).map(Some)
+    } else {
+        engine.serve();
+        Ok(None)
+    }
+}
+
+/// Runs a case on `ranks` ranks that are threads of this process (each with its share of
+/// the cores), and returns rank 0's summary: a distributed run without MPI, to try a
+/// decomposition on one machine and to test it.
+pub fn run_on_threads(
+    case: &Scene,
+    opts: &RunOptions,
+    ranks: usize,
+) -> Result<RunSummary, RunError> {
+    let threads = threads_per_rank(case, ranks);
+    std::thread::scope(|s| {
+        let handles: Vec<_> = Threads::ranks(ranks)
+            .into_iter()
+            .map(|comm| s.spawn(move || run_rank(case, opts, Box::new(comm), threads)))
+            .collect();
+        let results: Vec<_> = handles
+            .into_iter()
+            .map(|h| h.join().expect("a rank's thread panicked"))
+            .collect();
+        // Rank 0's error first; a rank that refused alone says why.
+        let mut results = results.into_iter();
+        let first = results.next().expect("at least one rank")?;
+        results.try_for_each(|r| r.map(drop))?;
+        Ok(first.expect("rank 0 returns the summary"))
+    })
+}
