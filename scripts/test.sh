@@ -5,7 +5,8 @@
 #
 # The GPU tests run the WGSL shaders on whatever adapter wgpu finds; on a machine without
 # a GPU that is Mesa's lavapipe (Vulkan on the CPU), installed here when it is missing.
-# A GPU test without any adapter fails: it does not skip.
+# A GPU test without any adapter fails: it does not skip. The MPI tests run under MPICH's
+# mpirun, installed here when it is missing.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -16,6 +17,15 @@ if ! ls /usr/share/vulkan/icd.d/*.json >/dev/null 2>&1; then
     $sudo_cmd apt-get update -qq
     DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq --no-install-recommends \
         mesa-vulkan-drivers libvulkan1 >/dev/null
+fi
+# MPICH (and libclang for the MPI bindings) for the distributed runs under mpirun.
+if ! command -v mpicc >/dev/null 2>&1 || ! command -v mpirun >/dev/null 2>&1; then
+    echo "installing MPICH and libclang for the MPI tests"
+    sudo_cmd=""
+    [ "$(id -u)" -ne 0 ] && sudo_cmd="sudo"
+    $sudo_cmd apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq --no-install-recommends \
+        libmpich-dev mpich libclang-dev >/dev/null
 fi
 # The Vulkan loader's Wayland probe complains without a runtime directory.
 if [ -z "${XDG_RUNTIME_DIR:-}" ] || [ ! -d "${XDG_RUNTIME_DIR}" ]; then
@@ -31,3 +41,8 @@ cargo test --release
 # The GPU owners' check at its smallest, on whatever adapter the tests used: every method's
 # GPU bench and pass report run (a method without a GPU engine is said so).
 scripts/gpu-check.sh --small "$(mktemp --suffix=.md)"
+# Distributed runs under mpirun (feature `mpi`): 2 and 3 ranks, oversubscribed on the
+# cores there are (MPICH's Hydra places them without binding; a waiting rank polls and
+# yields its core).
+cargo clippy --release --features mpi --all-targets -- -D warnings
+cargo test --release --features mpi --test mpi

@@ -4,7 +4,12 @@
 
 use clap::{Parser, Subcommand};
 use meshless::distributed::no_mpi_launcher;
+#[cfg(feature = "mpi")]
+use meshless::distributed::{launcher_size, ranks_on_node};
 use meshless::methods::REGISTRY;
+use meshless::run::ranks::run_on_threads;
+#[cfg(feature = "mpi")]
+use meshless::run::ranks::{run_rank, threads_per_rank};
 use meshless::run::{
     Backend, EXIT_FAILED, EXIT_INPUT, Limits, ProgressDisplay, RunError, RunOptions, run,
 };
@@ -54,6 +59,11 @@ enum Command {
         /// On the GPU, time every pass of the steps and print the pass report at the end.
         #[arg(long)]
         profile: bool,
+        /// Run on N ranks that are threads of this process: the distributed path on one
+        /// machine, without MPI (under mpirun, a build with the `mpi` feature runs one
+        /// rank per process).
+        #[arg(long, value_name = "N", conflicts_with = "explain")]
+        ranks: Option<usize>,
         #[command(flatten)]
         limits: LimitArgs,
     },
@@ -158,9 +168,14 @@ impl From<LimitArgs> for Limits {
 
 fn main() -> ExitCode {
     let command = Cli::parse().command;
-    // A command that computes refuses a launch of several copies by an MPI launcher.
+    // A command that computes refuses a launch of several copies by an MPI launcher,
+    // but `run` in a build with MPI, which runs one rank per process.
     let computes = !matches!(command, Command::List | Command::Info);
-    if computes && let Err(e) = no_mpi_launcher(|k| std::env::var(k).ok()) {
+    #[cfg(feature = "mpi")]
+    if matches!(command, Command::Run { .. }) && launcher_size(env).is_some() {
+        return mpi_run(command);
+    }
+    if computes && let Err(e) = no_mpi_launcher(env) {
         eprintln!("error: {e}");
         return ExitCode::from(EXIT_INPUT);
     }
@@ -175,6 +190,7 @@ fn main() -> ExitCode {
             quiet,
             explain,
             profile,
+            ranks,
             limits,
         } => {
             if explain {
@@ -187,7 +203,11 @@ fn main() -> ExitCode {
                     quiet,
                     profile,
                 };
-                run_command(&case, backend, output, &set, limits.into())
+                let on = match ranks {
+                    Some(n) => Ranks::Threads(n),
+                    None => Ranks::One,
+                };
+                run_command(&case, backend, output, &set, limits.into(), on)
             }
         }
         Command::Check {
@@ -495,17 +515,75 @@ struct Output {
     profile: bool,
 }
 
+/// The process's own environment variable `k`.
+fn env(k: &str) -> Option<String> {
+    std::env::var(k).ok()
+}
+
+/// The ranks a run is on.
+enum Ranks {
+    /// This process alone.
+    One,
+    /// N threads of this process, each a rank.
+    Threads(usize),
+    /// This process as one rank of the processes an MPI launcher started.
+    #[cfg(feature = "mpi")]
+    Mpi(meshless::distributed::mpi::World),
+}
+
+/// `meshless run` as one of the processes an MPI launcher started: MPI initialised for
+/// the run, and finalised when it ends on every rank.
+#[cfg(feature = "mpi")]
+fn mpi_run(command: Command) -> ExitCode {
+    let Some(mpi) = meshless::distributed::mpi::Mpi::init() else {
+        eprintln!("error: MPI could not be initialised");
+        return ExitCode::from(EXIT_INPUT);
+    };
+    let Command::Run {
+        case,
+        backend,
+        out,
+        resume,
+        set,
+        no_frames,
+        quiet,
+        profile,
+        limits,
+        ..
+    } = command
+    else {
+        unreachable!("called for `run`")
+    };
+    let output = Output {
+        resume: resume.is_some(),
+        dir: resume.or(out),
+        frames: !no_frames,
+        quiet,
+        profile,
+    };
+    let on = Ranks::Mpi(mpi.world());
+    run_command(&case, backend, output, &set, limits.into(), on)
+}
+
 fn run_command(
     case: &str,
     backend: Backend,
     output: Output,
     set: &[String],
     limits: Limits,
+    ranks: Ranks,
 ) -> ExitCode {
+    // Rank 0 alone speaks for a run on several processes.
+    #[cfg(feature = "mpi")]
+    let speaks = !matches!(&ranks, Ranks::Mpi(w) if meshless::distributed::Comm::rank(w) > 0);
+    #[cfg(not(feature = "mpi"))]
+    let speaks = true;
     let case =
         match resolve(case).and_then(|path| Scene::load(&path, set).map_err(|e| e.to_string())) {
             Ok(c) => {
-                show_notes(&c);
+                if speaks {
+                    show_notes(&c);
+                }
                 c
             }
             Err(e) => {
@@ -525,7 +603,29 @@ fn run_command(
         resume: output.resume,
         profile: output.profile,
     };
-    match run(&case, &opts) {
+    let result = match ranks {
+        Ranks::One => run(&case, &opts).map(Some),
+        Ranks::Threads(n) => run_on_threads(&case, &opts, n).map(Some),
+        #[cfg(feature = "mpi")]
+        Ranks::Mpi(world) => {
+            use meshless::distributed::Comm;
+            let (rank, size) = (world.rank(), world.size());
+            let threads = threads_per_rank(&case, ranks_on_node(env, size));
+            let result = run_rank(&case, &opts, Box::new(world), threads);
+            if rank > 0 {
+                // Rank 0 reports the run; another rank, only what stopped it.
+                return match result {
+                    Ok(_) => ExitCode::SUCCESS,
+                    Err(e) => {
+                        eprintln!("error (rank {rank}): {e}");
+                        exit_code(&e)
+                    }
+                };
+            }
+            result
+        }
+    };
+    match result.map(|s| s.expect("rank 0 and a run on one rank return the summary")) {
         Ok(s) => {
             println!(
                 "{} on {}: {} particles, {} steps to t = {:e} s in {:.2} s ({:.3e} particle-steps/s); outputs in {}",

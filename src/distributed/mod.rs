@@ -10,6 +10,8 @@
 
 mod comm;
 mod local;
+#[cfg(feature = "mpi")]
+pub mod mpi;
 mod partition;
 #[cfg(test)]
 mod tests;
@@ -44,9 +46,8 @@ impl std::fmt::Display for Error {
                 f,
                 "{variable}={size}: an MPI launcher started {size} processes, but this build \
                  of meshless has no MPI and would run {size} independent copies of the case. \
-                 Run it as one process (without mpirun or mpiexec); distributed runs of the \
-                 total-Lagrangian methods need the `mpi` feature once it is supported \
-                 (`cargo build --release --features mpi`)"
+                 Run it as one process (without mpirun or mpiexec), or build with MPI for \
+                 distributed runs (`cargo build --release --features mpi`, README)"
             ),
         }
     }
@@ -61,16 +62,33 @@ impl std::error::Error for Error {}
 /// script that runs the program once sees it too.
 pub const LAUNCHER_SIZES: [&str; 3] = ["OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "MPI_LOCALNRANKS"];
 
-/// Refuses a start by an MPI launcher on more than one process in a build without MPI:
-/// the first of [`LAUNCHER_SIZES`] that `env` gives as a number above 1 is the error.
-/// `env` looks a variable up (`|k| std::env::var(k).ok()` for the process's own); a value
-/// that is not a number is no launcher's and is passed over.
-pub fn no_mpi_launcher(env: impl Fn(&str) -> Option<String>) -> Result<(), Error> {
-    for variable in LAUNCHER_SIZES {
+/// The processes an MPI launcher started, when more than one: the first of
+/// [`LAUNCHER_SIZES`] that `env` gives as a number above 1, and its value. `env` looks a
+/// variable up (`|k| std::env::var(k).ok()` for the process's own); a value that is not
+/// a number is no launcher's and is passed over.
+pub fn launcher_size(env: impl Fn(&str) -> Option<String>) -> Option<(&'static str, u64)> {
+    LAUNCHER_SIZES.into_iter().find_map(|variable| {
         let size = env(variable).and_then(|v| v.trim().parse::<u64>().ok());
-        if let Some(size) = size.filter(|&n| n > 1) {
-            return Err(Error::NoMpi { variable, size });
-        }
+        size.filter(|&n| n > 1).map(|n| (variable, n))
+    })
+}
+
+/// Refuses a start by an MPI launcher on more than one process in a build without MPI
+/// ([`launcher_size`]).
+pub fn no_mpi_launcher(env: impl Fn(&str) -> Option<String>) -> Result<(), Error> {
+    match launcher_size(env) {
+        Some((variable, size)) => Err(Error::NoMpi { variable, size }),
+        None => Ok(()),
     }
-    Ok(())
+}
+
+/// The variables in which MPI launchers give the number of ranks on this machine:
+/// MPICH's and Open MPI's.
+pub const LAUNCHER_LOCAL_SIZES: [&str; 2] = ["MPI_LOCALNRANKS", "OMPI_COMM_WORLD_LOCAL_SIZE"];
+
+/// The ranks the launcher started on this machine (`size` when it does not say).
+pub fn ranks_on_node(env: impl Fn(&str) -> Option<String>, size: usize) -> usize {
+    (LAUNCHER_LOCAL_SIZES.into_iter())
+        .find_map(|v| env(v).and_then(|n| n.trim().parse().ok()))
+        .unwrap_or(size)
 }

@@ -7,6 +7,7 @@
 
 use super::comm::Comm;
 use mpi::environment::Universe;
+use mpi::point_to_point::MatchedReceiveVec;
 use mpi::topology::SimpleCommunicator;
 use mpi::traits::*;
 
@@ -80,8 +81,8 @@ impl Comm for World {
                 .map(|&s| {
                     let source = world.process_at_rank(s as i32);
                     loop {
-                        if let Some((message, _)) = source.immediate_matched_probe() {
-                            break message.matched_receive_vec::<f64>().0;
+                        if let Some(probed) = source.immediate_matched_probe() {
+                            break probed.matched_receive_vec::<f64>().0;
                         }
                         std::thread::yield_now();
                     }

@@ -160,9 +160,10 @@ fn header(case: &Scene, backend: &str, particles: usize) -> Vec<(&'static str, S
     ]
 }
 
-/// "cpu" or "gpu" (a checkpoint may move between adapters).
+/// "cpu" or "gpu": a checkpoint may move between adapters, and between rank counts
+/// ("cpu on 3 ranks" writes the words of the run on one).
 fn backend_kind(backend: &str) -> &str {
-    backend.split(':').next().unwrap_or(backend)
+    backend.split([':', ' ']).next().unwrap_or(backend)
 }
 
 /// Writes the checkpoint of a run atomically into `dir`.

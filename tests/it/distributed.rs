@@ -4,9 +4,12 @@
 
 use crate::common::{case_file, cpu_options, load};
 use meshless::distributed::LAUNCHER_SIZES;
+use meshless::run::RunError;
 use meshless::run::ranks::run_on_threads;
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
 
 /// The `meshless` binary with `args`, as an MPI launcher would start it: `variable` set to
 /// `size` and the other launchers' variables removed.
@@ -159,5 +162,75 @@ fn tlsph_on_two_and_three_ranks_ends_in_the_one_rank_state() {
             "output.frame_interval=1e-4",
             "output.series_interval=2e-5",
         ],
+    );
+}
+
+#[test]
+fn tlsph_in_3d_with_the_variational_force_and_hourglass_control_matches_one_rank() {
+    // A state model (neo-Hookean), the variational force (−∂Π/∂u, which reads the
+    // neighbours' corrected gradients ∇0W̃_ji), hourglass control (the neighbours' F),
+    // SSP-RK3 with a CFL step; 9³ particles.
+    assert_ranks_match_one(
+        "spinning-block-3d",
+        &[
+            "spacing=0.125",
+            "method.force=variational",
+            "method.hourglass=0.05",
+            "run.end_time=2e-3",
+            "output.frame_interval=1e-3",
+            "output.series_interval=2e-4",
+        ],
+    );
+}
+
+#[test]
+fn a_run_interrupted_on_two_ranks_resumes_on_three_in_the_one_rank_state() {
+    // The checkpoint is the one-rank engine's words, gathered by global id, so any rank
+    // count resumes it.
+    let overrides = [
+        "run.end_time=2e-4",
+        "output.frame_interval=1e-4",
+        "run.checkpoint_interval=5e-5",
+    ];
+    let scene = load("tensile-strip", &overrides);
+    let (one, many) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    meshless::run::run(&scene, &cpu_options(one.path(), true)).unwrap();
+    let mut opts = cpu_options(many.path(), true);
+    // Stopped after its first batch, with a checkpoint, as SIGINT does.
+    opts.stop = Some(Arc::new(AtomicBool::new(true)));
+    let stopped = run_on_threads(&scene, &opts, 2);
+    assert!(
+        matches!(stopped, Err(RunError::Interrupted { .. })),
+        "{stopped:?}"
+    );
+    opts.stop = None;
+    opts.resume = true;
+    run_on_threads(&scene, &opts, 3).unwrap();
+    let (a, b) = (last_frame(one.path()), last_frame(many.path()));
+    assert_eq!(a.file_name(), b.file_name());
+    assert!(std::fs::read(a).unwrap() == std::fs::read(b).unwrap());
+}
+
+#[test]
+fn what_does_not_run_on_several_ranks_is_refused_by_every_rank() {
+    let dir = tempfile::tempdir().unwrap();
+    let opts = cpu_options(dir.path(), false);
+    let refused = |case: &str, overrides: &[&str], ranks: usize, needle: &str| {
+        let scene = load(case, overrides);
+        match run_on_threads(&scene, &opts, ranks) {
+            Err(e @ RunError::Ranks(_)) => {
+                assert!(e.to_string().contains(needle), "{case}: {e}");
+                assert_eq!(e.exit_code(), 2);
+            }
+            other => panic!("{case} on {ranks} ranks: {other:?}"),
+        }
+    };
+    refused("rings-impact", &[], 2, "contact ([contact])");
+    refused("wave-rod", &["method.name=gray-monaghan-sph"], 2, "`tlsph`");
+    refused(
+        "tensile-strip",
+        &["spacing=0.5"],
+        10,
+        "10 ranks for 9 particles: run on at most 9 ranks",
     );
 }
