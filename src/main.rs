@@ -3,6 +3,7 @@
 #![deny(clippy::too_many_lines)]
 
 use clap::{Parser, Subcommand};
+#[cfg(not(feature = "mpi"))]
 use meshless::distributed::no_mpi_launcher;
 #[cfg(feature = "mpi")]
 use meshless::distributed::{launcher_size, ranks_on_node};
@@ -172,9 +173,17 @@ fn main() -> ExitCode {
     // but `run` in a build with MPI, which runs one rank per process.
     let computes = !matches!(command, Command::List | Command::Info);
     #[cfg(feature = "mpi")]
-    if matches!(command, Command::Run { .. }) && launcher_size(env).is_some() {
-        return mpi_run(command);
+    if computes && let Some((variable, size)) = launcher_size(env) {
+        if matches!(command, Command::Run { .. }) {
+            return mpi_run(command);
+        }
+        eprintln!(
+            "error: {variable}={size}: an MPI launcher started {size} processes, and only \
+             `meshless run` runs on several; run this command as one process"
+        );
+        return ExitCode::from(EXIT_INPUT);
     }
+    #[cfg(not(feature = "mpi"))]
     if computes && let Err(e) = no_mpi_launcher(env) {
         eprintln!("error: {e}");
         return ExitCode::from(EXIT_INPUT);

@@ -161,8 +161,7 @@ fn rank_process(dir: &str) -> Option<u32> {
         let pid: u32 = e.ok()?.file_name().to_str()?.parse().ok()?;
         let cmdline = std::fs::read(format!("/proc/{pid}/cmdline")).ok()?;
         let args: Vec<&[u8]> = cmdline.split(|&b| b == 0).collect();
-        let is_rank =
-            args.first() == Some(&exe.as_bytes()) && args.iter().any(|a| *a == dir.as_bytes());
+        let is_rank = args.first() == Some(&exe.as_bytes()) && args.contains(&dir.as_bytes());
         is_rank.then_some(pid)
     })
 }
