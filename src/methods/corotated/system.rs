@@ -321,7 +321,7 @@ impl<D: Dim> TlScheme<D> for CorotatedScheme<D> {
         let kin = self.each_kinematics(core, &y.u);
         let r: Vec<D::T> = kin.iter().map(|k| k.r).collect();
         let f_hat: Vec<D::T> = kin.iter().map(|k| k.f_hat).collect();
-        let fields = outputs::<D>(&core.material, &core.vol, &r, &f_hat);
+        let fields = outputs::<D>(&core.material, &core.energy_weights, &r, &f_hat);
         fields.snapshot(&core.x0, &core.mass, &core.body, y.clone())
     }
 

@@ -8,14 +8,17 @@ pub mod system;
 
 pub use system::Potential;
 
+use crate::engine::ranks::Rank;
 #[cfg(feature = "gpu")]
 use crate::methods::cores::family::GpuBuild;
 use crate::methods::cores::family::{
-    CpuBuild, Feature, MethodFamily, Plan, cfl_step, check_viscosity, left_out_viscosity,
-    state_model,
+    CpuBuild, Feature, MethodFamily, Plan, RankBuild, cfl_step, check_viscosity,
+    left_out_viscosity, state_model,
 };
+use crate::methods::cores::shared;
 #[cfg(feature = "gpu")]
 use crate::methods::cores::tl::gpu::GpuTlsph;
+use crate::reference::Reference;
 
 use crate::case::Case;
 use crate::core::check::{Problem, toml_name};
@@ -52,6 +55,8 @@ impl MethodFamily for PotentialSpec {
         gradients of both sides, state-based stress, Monaghan artificial viscosity";
     const KEYS: &'static [&'static str] = &["force", "artificial_viscosity"];
     const FEATURES: &'static [Feature] = &[Feature::Contact, Feature::InitialDisplacement];
+    /// A neighbour's kinematics (pass 1), then its stress in the force (pass 2).
+    const HALO_LAYERS: Option<usize> = Some(2);
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
 
@@ -88,6 +93,22 @@ impl MethodFamily for PotentialSpec {
 
     fn cpu_engine<D: EngineDim>(&self, case: &Case) -> CpuBuild<D> {
         Ok(Box::new(CpuEngine::<D, Potential<D>>::new(case, self)?))
+    }
+
+    fn rank_engine<D: EngineDim>(
+        &self,
+        case: &Case,
+        reference: Reference<D>,
+        rank: Rank<D>,
+    ) -> RankBuild<D> {
+        if self.force == PotentialForce::ReferenceCode {
+            return Err(case.invalid(
+                "method.force",
+                "`reference-code` scales its wave speed by the smallest volume of all the \
+                 particles, which a rank does not see; on several ranks use the default force",
+            ));
+        }
+        shared::rank_engine::<D, Potential<D>>(case, self, reference, rank)
     }
 
     #[cfg(feature = "gpu")]

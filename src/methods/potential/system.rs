@@ -170,10 +170,14 @@ impl<D: Dim> TlScheme<D> for PotentialScheme<D> {
             f_inv_t: D::identity(),
             rho: reference.material.rho0,
         };
-        let energy_weight = match spec.force {
-            PotentialForce::Consistent => vol.clone(),
-            PotentialForce::ReferenceCode => vec![1.0; n],
-        };
+        // Zero at a rank's ghosts: the energy sums its own particles.
+        let energy_weight = (vol.iter().zip(&reference.counted))
+            .map(|(&v, &counted)| match (counted, spec.force) {
+                (false, _) => 0.0,
+                (true, PotentialForce::Consistent) => v,
+                (true, PotentialForce::ReferenceCode) => 1.0,
+            })
+            .collect();
         Ok(Self {
             kin: vec![identity; n],
             csr,
