@@ -173,10 +173,10 @@ fn main() -> ExitCode {
     // but `run` in a build with MPI, which runs one rank per process.
     let computes = !matches!(command, Command::List | Command::Info);
     #[cfg(feature = "mpi")]
-    if computes && let Some((variable, size)) = launcher_size(env) {
-        if matches!(command, Command::Run { .. }) {
-            return mpi_run(command);
-        }
+    if computes
+        && !matches!(command, Command::Run { .. })
+        && let Some((variable, size)) = launcher_size(env)
+    {
         eprintln!(
             "error: {variable}={size}: an MPI launcher started {size} processes, and only \
              `meshless run` runs on several; run this command as one process"
@@ -215,6 +215,19 @@ fn main() -> ExitCode {
                 let on = match ranks {
                     Some(n) => Ranks::Threads(n),
                     None => Ranks::One,
+                };
+                // One rank per process when an MPI launcher started several; MPI is
+                // finalised when `mpi` is dropped, after the run on every rank.
+                #[cfg(feature = "mpi")]
+                let mpi = launcher_size(env).map(|_| meshless::distributed::mpi::Mpi::init());
+                #[cfg(feature = "mpi")]
+                let on = match &mpi {
+                    Some(Some(mpi)) => Ranks::Mpi(mpi.world()),
+                    Some(None) => {
+                        eprintln!("error: MPI could not be initialised");
+                        return ExitCode::from(EXIT_INPUT);
+                    }
+                    None => on,
                 };
                 run_command(&case, backend, output, &set, limits.into(), on)
             }
@@ -538,40 +551,6 @@ enum Ranks {
     /// This process as one rank of the processes an MPI launcher started.
     #[cfg(feature = "mpi")]
     Mpi(meshless::distributed::mpi::World),
-}
-
-/// `meshless run` as one of the processes an MPI launcher started: MPI initialised for
-/// the run, and finalised when it ends on every rank.
-#[cfg(feature = "mpi")]
-fn mpi_run(command: Command) -> ExitCode {
-    let Some(mpi) = meshless::distributed::mpi::Mpi::init() else {
-        eprintln!("error: MPI could not be initialised");
-        return ExitCode::from(EXIT_INPUT);
-    };
-    let Command::Run {
-        case,
-        backend,
-        out,
-        resume,
-        set,
-        no_frames,
-        quiet,
-        profile,
-        limits,
-        ..
-    } = command
-    else {
-        unreachable!("called for `run`")
-    };
-    let output = Output {
-        resume: resume.is_some(),
-        dir: resume.or(out),
-        frames: !no_frames,
-        quiet,
-        profile,
-    };
-    let on = Ranks::Mpi(mpi.world());
-    run_command(&case, backend, output, &set, limits.into(), on)
 }
 
 fn run_command(

@@ -43,11 +43,6 @@ impl Mpi {
             size: world.size() as usize,
         }
     }
-
-    /// Ends every rank with `code` (a rank that cannot go on while the others wait).
-    pub fn abort(&self, code: i32) -> ! {
-        SimpleCommunicator::world().abort(code)
-    }
 }
 
 /// One rank of the world communicator.
