@@ -15,6 +15,7 @@
 use crate::diagnostics::analytic::ClosedForm;
 
 use crate::case::{Case, CaseError, Condition, Discretised, TimeLaw};
+use crate::core::sum::Exact;
 use crate::core::tensor::Dim;
 
 mod loads;
@@ -184,6 +185,32 @@ impl<D: Dim> Prescribed<D> {
 pub struct Reaction {
     pub force: [f64; 3],
     pub power: f64,
+}
+
+/// A support's [`Reaction`] as exact sums over its particles' components, which the
+/// ranks of a distributed run add without rounding.
+#[derive(Clone, Debug, Default)]
+pub struct ReactionSum {
+    pub force: [Exact; 3],
+    pub power: Exact,
+}
+
+impl ReactionSum {
+    /// The reaction, each sum rounded once.
+    pub fn value(&self) -> Reaction {
+        Reaction {
+            force: self.force.each_ref().map(Exact::value),
+            power: self.power.value(),
+        }
+    }
+
+    /// Adds another share of the same support's reaction.
+    pub fn merge(&mut self, other: &ReactionSum) {
+        for (a, b) in self.force.iter_mut().zip(&other.force) {
+            a.merge(b);
+        }
+        self.power.merge(&other.power);
+    }
 }
 
 /// The supports of a case, the boundary conditions that prescribe motion, in case order:
@@ -456,13 +483,13 @@ impl<D: Dim> Boundary<D> {
         a: &mut [D::V],
         v: &[D::V],
         mass: &[f64],
-        reactions: &mut Vec<Reaction>,
-    ) -> f64 {
+        reactions: &mut Vec<ReactionSum>,
+    ) -> Exact {
         for &(i, g) in &self.external {
             a[i as usize] += g;
         }
         reactions.clear();
-        reactions.resize(self.supports, Reaction::default());
+        reactions.resize(self.supports, ReactionSum::default());
         // The reaction m (rate − a_k) on component k of the particle in `slot`.
         let mut hold = |slot: usize, k: usize, rate: f64, a: &mut D::V| {
             let i = self.constrained[slot].0 as usize;
@@ -481,7 +508,7 @@ impl<D: Dim> Boundary<D> {
                 hold(slot, usize::from(k), vp * step.rate, &mut a[i as usize]);
             }
         }
-        reactions.iter().map(|r| r.power).sum()
+        reactions.iter().map(|r| &r.power).sum()
     }
 
     /// The index in `constrained` of constrained particle i.
@@ -493,17 +520,17 @@ impl<D: Dim> Boundary<D> {
 
     /// Books the reaction force and power on component k of the particle in `slot` to the
     /// support that prescribes it.
-    fn book(&self, reactions: &mut [Reaction], slot: usize, k: usize, force: f64, power: f64) {
+    fn book(&self, reactions: &mut [ReactionSum], slot: usize, k: usize, force: f64, power: f64) {
         let reaction = &mut reactions[usize::from(self.support_of[slot][k])];
-        reaction.force[k] += force;
-        reaction.power += power;
+        reaction.force[k].add(force);
+        reaction.power.add(power);
     }
 
     /// The supports' reactions from the reaction force and its power on each component of
     /// every constrained particle (`force` and `power`, by entry of `constrained`; zero on
     /// the components it does not prescribe).
     pub fn reactions(&self, force: &[D::V], power: &[D::V]) -> Vec<Reaction> {
-        let mut reactions = vec![Reaction::default(); self.supports];
+        let mut reactions = vec![ReactionSum::default(); self.supports];
         for (slot, (&(_, mask), (&f, &p))) in self
             .constrained
             .iter()
@@ -514,7 +541,7 @@ impl<D: Dim> Boundary<D> {
                 self.book(&mut reactions, slot, k, D::comp(f, k), D::comp(p, k));
             }
         }
-        reactions
+        reactions.iter().map(ReactionSum::value).collect()
     }
 
     /// (particle, mask of the components prescribed over the current step) of every
@@ -537,7 +564,7 @@ impl<D: Dim> Boundary<D> {
 
     /// Power of the external loads (tractions and body forces), Σ m a_ext · v, for the
     /// masses of [`Self::use_method`].
-    pub fn external_power(&self, v: &[D::V], mass: &[f64]) -> f64 {
+    pub fn external_power(&self, v: &[D::V], mass: &[f64]) -> Exact {
         self.external
             .iter()
             .map(|&(i, g)| mass[i as usize] * D::dot(g, v[i as usize]))

@@ -1,6 +1,6 @@
 //! The core: the vocabulary of checks, small tensors, smoothing kernels, neighbour
-//! lists, kernel corrections, quadrature points, deterministic parallel loops and the
-//! explicit time integrators. It knows no material, case, method or device: every
+//! lists, kernel corrections, quadrature points, deterministic parallel loops, exact sums
+//! and the explicit time integrators. It knows no material, case, method or device: every
 //! other layer builds on it (`tests/it/layers.rs`).
 
 pub mod check;
@@ -10,4 +10,5 @@ pub mod kernel;
 pub mod neighbour;
 pub mod parallel;
 pub mod quadrature;
+pub mod sum;
 pub mod tensor;

@@ -1,6 +1,6 @@
 //! Deterministic parallel loops over particles and the field-wise arithmetic of a
-//! particle state: the ordered reduction every floating-point sum over particles goes
-//! through, y += a x and y = a y + b x on rayon, the [`particle_state!`] macro that declares
+//! particle state: the ordered reduction of the sums over particles that are not exact
+//! ([`crate::core::sum`]), y += a x and y = a y + b x on rayon, the [`particle_state!`] macro that declares
 //! a state of per-particle fields (u, v and the method's own) and makes it an
 //! [`crate::core::integrate::OdeState`], and the checkpoint words of a field.
 
@@ -15,7 +15,8 @@ pub(crate) const MIN_CHUNK: usize = 256;
 /// chunks of [`MIN_CHUNK`] indices, each folded in order, and the chunks' results then
 /// folded in order, so the sum has the same bits whatever the number of threads and
 /// however rayon steals work (rayon's `reduce` and `sum` combine in an order that
-/// depends on both). Every floating-point sum over particles goes through it.
+/// depends on both). Every floating-point sum over particles that is not an exact sum
+/// ([`crate::core::sum::Exact`]) goes through it.
 pub(crate) fn ordered_reduce<T: Send>(
     n: usize,
     identity: impl Fn() -> T + Sync,

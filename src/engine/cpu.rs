@@ -1,10 +1,11 @@
 //! The CPU reference engine: a [`Method`] and an integrator (f64, rayon).
 
 use super::{BlowUp, Engine, Failed, Method, StepTraffic};
-use crate::boundary::Reaction;
+use crate::boundary::{Reaction, ReactionSum};
 use crate::core::integrate::{
     Integrator, IntegratorKind, OdeState, OdeSystem, PseudoTime, traffic,
 };
+use crate::core::sum::Exact;
 use crate::core::tensor::Dim;
 use crate::diagnostics::balance::Booked;
 use crate::diagnostics::observe::Snapshot;
@@ -31,19 +32,33 @@ impl Trapezoid {
     }
 }
 
-/// What runs after each rate evaluation of a method: nothing on one rank; a distributed
-/// run's exchange of the ghosts' rates with their owners ([`crate::engine::ranks`]).
+/// The powers the balance integrates, at the last rate evaluation of a step: of the
+/// supports and loads, of contact at the step's start and at its end, of the artificial
+/// dissipation and against the hourglass control.
+pub type StepPowers<T> = [T; 5];
+
+/// What runs after each rate evaluation of a method and at the end of each step: nothing
+/// on one rank; on the ranks of a distributed run, the exchange of the ghosts' rates with
+/// their owners and the sum of the ranks' shares of the powers
+/// ([`crate::engine::ranks`]).
 pub trait AfterRates<S> {
     /// Called with the rates of each evaluation and how it ended; returns how it ends.
     fn after_rates(&mut self, d: &mut S, result: Result<(), BlowUp>) -> Result<(), BlowUp>;
+
+    /// The run's powers at the end of a step, from this process's exact shares.
+    fn powers(&mut self, shares: StepPowers<Exact>) -> StepPowers<f64>;
 }
 
-/// Nothing after the rates: a run on one rank.
+/// Nothing after the rates, and the powers are this process's: a run on one rank.
 struct Alone;
 
 impl<S> AfterRates<S> for Alone {
     fn after_rates(&mut self, _d: &mut S, result: Result<(), BlowUp>) -> Result<(), BlowUp> {
         result
+    }
+
+    fn powers(&mut self, shares: StepPowers<Exact>) -> StepPowers<f64> {
+        shares.each_ref().map(Exact::value)
     }
 }
 
@@ -126,13 +141,31 @@ impl<D: Dim, M: Method<D>> CpuEngine<D, M> {
             // within the step its forces are held through; the work against contact is
             // minus its power on the bodies.
             let boundary = self.method.boundary_work();
-            self.external.add(boundary.power, dt);
-            self.contact
-                .add_held(-boundary.contact_start, -boundary.contact, dt);
-            self.dissipation.add(self.method.dissipation_power(), dt);
-            self.hourglass.add(self.method.hourglass_power(), dt);
+            let [power, contact_start, contact, dissipation, hourglass] = hook.powers([
+                boundary.power.clone(),
+                boundary.contact_start.clone(),
+                boundary.contact.clone(),
+                self.method.dissipation_power(),
+                self.method.hourglass_power(),
+            ]);
+            self.external.add(power, dt);
+            self.contact.add_held(-contact_start, -contact, dt);
+            self.dissipation.add(dissipation, dt);
+            self.hourglass.add(hourglass, dt);
         }
         Ok(())
+    }
+
+    /// The balance's terms: the integrated powers, with the method's step dissipation and
+    /// plastic work as given.
+    pub fn booked_with(&self, step_dissipation: f64, plastic_work: f64) -> Booked {
+        Booked {
+            external_work: self.external.integral,
+            dissipated: Some(self.dissipation.integral + step_dissipation),
+            hourglass_work: Some(self.hourglass.integral),
+            plastic_work: Some(plastic_work),
+            contact_energy: Some(self.contact.integral),
+        }
     }
 
     /// The integrated powers, in the order a checkpoint holds them.
@@ -172,17 +205,14 @@ impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
     }
 
     fn reactions(&mut self) -> Vec<Reaction> {
-        self.method.boundary_work().reactions.clone()
+        (self.method.boundary_work().reactions.iter())
+            .map(ReactionSum::value)
+            .collect()
     }
 
     fn booked(&mut self) -> Booked {
-        Booked {
-            external_work: self.external.integral,
-            dissipated: Some(self.dissipation.integral + self.method.step_dissipation()),
-            hourglass_work: Some(self.hourglass.integral),
-            plastic_work: Some(self.method.plastic_work(&self.y)),
-            contact_energy: Some(self.contact.integral),
-        }
+        let plastic_work = self.method.plastic_work(&self.y);
+        self.booked_with(self.method.step_dissipation(), plastic_work)
     }
 
     fn pseudo_time(&mut self) -> Option<PseudoTime> {

@@ -3,8 +3,9 @@
 //! [`BlowUp`] that stops a run, the boundary's work at a rate evaluation and the traffic
 //! model of `meshless bench --roofline`.
 
-use crate::boundary::{Boundary, Reaction};
+use crate::boundary::{Boundary, ReactionSum};
 use crate::core::integrate::{OdeSystem, PseudoTime};
+use crate::core::sum::Exact;
 use crate::core::tensor::Dim;
 use crate::diagnostics::observe::Snapshot;
 use crate::interaction::Interactions;
@@ -28,14 +29,14 @@ pub fn check_motion<D: Dim>(x0: &[D::V], u: &[D::V], v: &[D::V]) -> Result<(), B
 #[derive(Clone, Debug, Default)]
 pub struct BoundaryWork {
     /// The power of supports, loads and the interactions other than contact.
-    pub power: f64,
+    pub power: Exact,
     /// The power of the contact forces on the bodies (seed 000 §5.8).
-    pub contact: f64,
+    pub contact: Exact,
     /// The power of the same contact forces at the start of the step: they are held
     /// through it.
-    pub contact_start: f64,
+    pub contact_start: Exact,
     /// The reaction of every support of the case.
-    pub reactions: Vec<Reaction>,
+    pub reactions: Vec<ReactionSum>,
 }
 
 impl BoundaryWork {
@@ -52,9 +53,9 @@ impl BoundaryWork {
         let interaction = interactions.accelerate(v, mass, a);
         self.contact = interaction.contact;
         self.contact_start = interaction.contact_start;
-        self.power = boundary.apply(a, v, mass, &mut self.reactions)
-            + boundary.external_power(v, mass)
-            + interaction.external;
+        self.power = boundary.apply(a, v, mass, &mut self.reactions);
+        self.power.merge(&boundary.external_power(v, mass));
+        self.power.merge(&interaction.external);
     }
 }
 
@@ -100,7 +101,7 @@ pub trait Method<D: Dim>: OdeSystem<Error = BlowUp> + Sized {
     /// Cauchy stress of every particle as a 3×3 tensor (2D: σ_zz of plane strain).
     fn cauchy_stress(&self, y: &Self::State) -> Vec<[[f64; 3]; 3]>;
     /// Σ V0 ψ: the stored strain energy.
-    fn strain_energy(&self, y: &Self::State) -> f64;
+    fn strain_energy(&self, y: &Self::State) -> Exact;
     /// Everything observers and frames read, at state y.
     fn snapshot<'a>(&'a self, y: &Self::State) -> Snapshot<'a, D>;
     /// Largest signal speed c_p + |v| for the CFL condition.
@@ -112,13 +113,13 @@ pub trait Method<D: Dim>: OdeSystem<Error = BlowUp> + Sized {
     /// with a_art the acceleration of the artificial viscosity, of a mixed method's
     /// stabilisation or of a Riemann solver's velocity jump (each method's document says
     /// which part of its dissipation this is); 0 for a method without one.
-    fn dissipation_power(&self) -> f64 {
-        0.0
+    fn dissipation_power(&self) -> Exact {
+        Exact::default()
     }
     /// The power against the hourglass control at the last rate evaluation, −Σ m a_hg·v;
     /// 0 for a method without one.
-    fn hourglass_power(&self) -> f64 {
-        0.0
+    fn hourglass_power(&self) -> Exact {
+        Exact::default()
     }
     /// The energy the method took out at the ends of the steps so far (the kinetic
     /// energy a velocity smoothing removes), booked with the artificial dissipation.

@@ -6,14 +6,16 @@
 //! Rank 0 leads: the driver runs there, and each [`Engine`] call it makes is sent to the
 //! other ranks, which serve it ([`Distributed::serve`]) until rank 0's engine is dropped.
 //! What the driver reads back is gathered on rank 0 in global order (snapshots,
-//! checkpoints, the first blow-up); sums over particles (energies, powers, reactions)
-//! are each rank's sum over its own particles, added over the ranks in rank order.
+//! checkpoints, the first blow-up). Sums over particles (energies, powers, reactions)
+//! are exact sums ([`Exact`]) of each rank's own particles' shares, added over the ranks
+//! without rounding: they have the bits of the one-rank run's, on any number of ranks.
 
-use super::cpu::AfterRates;
+use super::cpu::{AfterRates, StepPowers};
 use super::{BlowUp, CpuEngine, Engine, Failed, Method};
 use crate::boundary::Reaction;
 use crate::core::integrate::OdeState;
 use crate::core::parallel::ParticleRows;
+use crate::core::sum::Exact;
 use crate::core::tensor::{Dim, Words};
 use crate::diagnostics::balance::Booked;
 use crate::diagnostics::observe::{ScalarField, Snapshot};
@@ -82,14 +84,28 @@ impl Call {
 
 /// The hook after each rate evaluation: the ghosts' rates from their owners, and the
 /// first blow-up of the step, kept (a rank that stopped would leave the others waiting
-/// for its rows) and agreed on by all ranks after the step.
+/// for its rows). At the end of the step the ranks agree on the first blow-up and add
+/// their shares of the powers, in one collective.
 struct Exchange {
     local: Local,
     comm: Box<dyn Comm>,
+    /// The number of particles of the run.
+    n: usize,
     /// The rate evaluations of the current step so far.
     stage: usize,
     /// The first blow-up of the current step and its evaluation.
     failure: Option<(usize, BlowUp)>,
+    /// The key of the run's first blow-up in the step (evaluation · n + global id), or
+    /// none: every rank's, agreed at the end of the step.
+    first: Option<usize>,
+}
+
+impl Exchange {
+    /// The key of this rank's first blow-up of the step: by evaluation, then global id.
+    fn key(&self) -> Option<usize> {
+        (self.failure.as_ref())
+            .map(|(stage, b)| stage * self.n + self.local.ids[b.particle] as usize)
+    }
 }
 
 impl<S: ParticleRows> AfterRates<S> for Exchange {
@@ -101,6 +117,35 @@ impl<S: ParticleRows> AfterRates<S> for Exchange {
         self.local.refresh(self.comm.as_ref(), d);
         Ok(())
     }
+
+    fn powers(&mut self, shares: StepPowers<Exact>) -> StepPowers<f64> {
+        let key = self.key().map_or(f64::INFINITY, |k| k as f64);
+        let mut words = vec![key];
+        words.extend(shares.iter().flat_map(Exact::words));
+        let all = self.comm.all_gather(words);
+        let first = all.iter().map(|w| w[0]).fold(f64::INFINITY, f64::min);
+        self.first = first.is_finite().then_some(first as usize);
+        let mut total: StepPowers<Exact> = Default::default();
+        for w in &all {
+            for (t, sum) in total.iter_mut().zip(w[1..].chunks_exact(Exact::WORDS)) {
+                t.merge(&Exact::from_words(sum));
+            }
+        }
+        total.each_ref().map(Exact::value)
+    }
+}
+
+/// The exact sums of `sums` over the ranks, on rank 0 (none on the others).
+fn gathered_sums(comm: &dyn Comm, sums: &[&Exact]) -> Option<Vec<Exact>> {
+    let words = sums.iter().flat_map(|s| s.words()).collect();
+    let all = comm.gather(words)?;
+    let mut total = vec![Exact::default(); sums.len()];
+    for w in &all {
+        for (t, sum) in total.iter_mut().zip(w.chunks_exact(Exact::WORDS)) {
+            t.merge(&Exact::from_words(sum));
+        }
+    }
+    Some(total)
 }
 
 /// The engine of one rank: the method on its particles, an integrator and the exchange.
@@ -164,8 +209,10 @@ where
             exchange: Exchange {
                 local,
                 comm,
+                n,
                 stage: 0,
                 failure: None,
+                first: None,
             },
             n,
             whole,
@@ -193,20 +240,17 @@ where
     fn advance_all(&mut self, t: f64, dt: f64, steps: u32) -> Result<(), (u32, Option<BlowUp>)> {
         for k in 0..steps {
             let ex = &mut self.exchange;
-            (ex.stage, ex.failure) = (0, None);
+            (ex.stage, ex.failure, ex.first) = (0, None, None);
             let t_k = t + f64::from(k) * dt;
             self.engine
                 .advance_hooked(t_k, dt, 1, ex)
                 .expect("the exchange keeps every blow-up for the agreement");
             let ex = &self.exchange;
-            let key = ex.failure.as_ref().map_or(f64::INFINITY, |(stage, b)| {
-                (*stage * self.n + ex.local.ids[b.particle] as usize) as f64
-            });
-            let keys = self.comm().all_gather(vec![key]);
-            let first = keys.iter().map(|w| w[0]).fold(f64::INFINITY, f64::min);
-            if first.is_finite() {
+            if let Some(first) = ex.first {
                 let mine = match &ex.failure {
-                    Some((_, b)) if key == first => blow_up_words(ex.local.ids[b.particle], b),
+                    Some((_, b)) if ex.key() == Some(first) => {
+                        blow_up_words(ex.local.ids[b.particle], b)
+                    }
                     _ => Vec::new(),
                 };
                 let cause = self.comm().gather(mine).map(|all| {
@@ -256,8 +300,9 @@ where
             (words, names, s.strain_energy)
         };
         let comm = self.exchange.comm.as_ref();
-        let strain_energy = comm.sum(&[energy])[0];
+        let strain_energy = gathered_sums(comm, &[&energy]).map(|mut s| s.remove(0));
         let all = comm.gather(words)?;
+        let strain_energy = strain_energy.expect("rank 0 gathers");
         let owned = &self.owned;
         let whole = self.whole.as_ref().expect("rank 0 holds the whole run");
         let n = self.n;
@@ -300,7 +345,8 @@ where
     }
 
     /// The engine's checkpoint words as one rank's would be (rank 0; none on the others):
-    /// the powers summed over the ranks, the state and the integrator's rates by global id.
+    /// the integrated powers (the run's, on every rank), the state and the integrator's
+    /// rates by global id.
     fn save_all(&mut self) -> Option<Vec<f64>> {
         let words = self.engine.save();
         let (powers, mut rest) = words.split_at(8);
@@ -319,9 +365,7 @@ where
         if primed {
             rates.rows(&local.own, &mut rows);
         }
-        let comm = self.exchange.comm.as_ref();
-        let powers = comm.sum(powers);
-        let all = comm.gather(rows)?;
+        let all = self.exchange.comm.gather(rows)?;
         let owned = &self.owned;
         let mut y = template.zeros_like(self.n);
         let mut rates = template.zeros_like(self.n);
@@ -331,7 +375,7 @@ where
                 rates.set_rows(ids, rest);
             }
         }
-        let mut out = powers;
+        let mut out = powers.to_vec();
         y.save(&mut out);
         out.push(f64::from(u8::from(primed)));
         if primed {
@@ -341,7 +385,7 @@ where
     }
 
     /// Continues from one rank's checkpoint words, `words` on rank 0 (any number of
-    /// ranks wrote them): each rank takes its particles' rows, rank 0 the powers.
+    /// ranks wrote them): each rank takes its particles' rows and the integrated powers.
     fn restore_all(&mut self, words: &[f64]) -> Result<(), String> {
         let result = self.restore_local(words);
         let failed = self
@@ -381,11 +425,7 @@ where
             part.set_rows(&every, &rows);
             part
         };
-        let mut out = if local.rank == 0 {
-            powers.to_vec()
-        } else {
-            vec![0.0; 8]
-        };
+        let mut out = powers.to_vec();
         mine(&y).save(&mut out);
         out.push(flag);
         if flag == 1.0 {
@@ -394,39 +434,30 @@ where
         self.engine.restore(&out)
     }
 
+    /// The balance's terms: the integrated powers are the run's on every rank; the
+    /// method's step dissipation and plastic work, each rank's share, are added over the
+    /// ranks (both are zero for the methods that run on several ranks).
     fn booked_all(&mut self) -> Booked {
-        let b = self.engine.booked();
-        let terms = [
-            b.external_work,
-            b.dissipated.unwrap_or(0.0),
-            b.hourglass_work.unwrap_or(0.0),
-            b.plastic_work.unwrap_or(0.0),
-            b.contact_energy.unwrap_or(0.0),
-        ];
-        let s = self.comm().sum(&terms);
-        Booked {
-            external_work: s[0],
-            dissipated: b.dissipated.map(|_| s[1]),
-            hourglass_work: b.hourglass_work.map(|_| s[2]),
-            plastic_work: b.plastic_work.map(|_| s[3]),
-            contact_energy: b.contact_energy.map(|_| s[4]),
-        }
+        let m = &self.engine.method;
+        let shares = [m.step_dissipation(), m.plastic_work(&self.engine.y)];
+        let s = self.comm().sum(&shares);
+        self.engine.booked_with(s[0], s[1])
     }
 
-    fn reactions_all(&mut self) -> Vec<Reaction> {
-        let mine = self.engine.reactions();
-        let words: Vec<f64> = mine
+    /// The supports' reactions, their exact sums added over the ranks (rank 0; none on
+    /// the others).
+    fn reactions_all(&mut self) -> Option<Vec<Reaction>> {
+        let mine = &self.engine.method.boundary_work().reactions;
+        let sums: Vec<&Exact> = mine
             .iter()
-            .flat_map(|r| [r.force[0], r.force[1], r.force[2], r.power])
+            .flat_map(|r| r.force.iter().chain([&r.power]))
             .collect();
-        self.comm()
-            .sum(&words)
-            .chunks_exact(4)
-            .map(|w| Reaction {
-                force: [w[0], w[1], w[2]],
-                power: w[3],
-            })
-            .collect()
+        let total = gathered_sums(self.exchange.comm.as_ref(), &sums)?;
+        let reaction = |w: &[Exact]| Reaction {
+            force: [w[0].value(), w[1].value(), w[2].value()],
+            power: w[3].value(),
+        };
+        Some(total.chunks_exact(4).map(reaction).collect())
     }
 
     fn whole(&self) -> &Whole<D> {
@@ -471,7 +502,7 @@ where
 
     fn reactions(&mut self) -> Vec<Reaction> {
         self.send(Call::Reactions, &[]);
-        self.reactions_all()
+        self.reactions_all().expect("rank 0 gathers the reactions")
     }
 
     fn booked(&mut self) -> Booked {

@@ -20,6 +20,7 @@ use super::gpu::{Bindings, GpuInteraction, Pass};
 use crate::case::{Case, CaseError};
 use crate::core::kernel::neighbour_radius;
 use crate::core::neighbour::Csr;
+use crate::core::sum::Exact;
 use crate::core::tensor::Dim;
 #[cfg(feature = "gpu")]
 use crate::gpu::{GpuError, context::Gpu, shaders::Compose};
@@ -39,7 +40,7 @@ pub struct Contact<D: Dim> {
     /// a_c = f_c / m of every particle, held through the current step.
     accel: Vec<D::V>,
     /// Σ m a_c·v at the start of the current step.
-    start_power: f64,
+    start_power: Exact,
 }
 
 impl<D: Dim> Contact<D> {
@@ -77,7 +78,7 @@ impl<D: Dim> Contact<D> {
             hulls,
             mass: mass.to_vec(),
             accel: vec![D::zero(); x0.len()],
-            start_power: 0.0,
+            start_power: Exact::default(),
         }
     }
 
@@ -116,7 +117,7 @@ impl<D: Dim> Contact<D> {
     }
 
     /// Σ m a_c·v of the current step's forces at velocities v.
-    fn power(&self, v: &[D::V], mass: &[f64]) -> f64 {
+    fn power(&self, v: &[D::V], mass: &[f64]) -> Exact {
         (0..self.accel.len())
             .map(|i| mass[i] * D::dot(self.accel[i], v[i]))
             .sum()
@@ -139,7 +140,7 @@ impl<D: Dim> Interaction<D> for Contact<D> {
         self.start_power = self.power(v, &self.mass);
     }
 
-    fn accelerate(&self, v: &[D::V], mass: &[f64], a: &mut [D::V]) -> f64 {
+    fn accelerate(&self, v: &[D::V], mass: &[f64], a: &mut [D::V]) -> Exact {
         for (a, &a_c) in a.iter_mut().zip(&self.accel) {
             *a += a_c;
         }
@@ -150,8 +151,8 @@ impl<D: Dim> Interaction<D> for Contact<D> {
         true
     }
 
-    fn start_power(&self) -> Option<f64> {
-        Some(self.start_power)
+    fn start_power(&self) -> Option<Exact> {
+        Some(self.start_power.clone())
     }
 
     #[cfg(feature = "gpu")]

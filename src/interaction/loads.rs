@@ -12,6 +12,7 @@ use super::Interaction;
 use super::gpu::{Bindings, GpuInteraction, Pass};
 use crate::boundary::NodalForces;
 use crate::case::{Case, CaseError, TimeLaw, discretise};
+use crate::core::sum::Exact;
 use crate::core::tensor::Dim;
 #[cfg(feature = "gpu")]
 use crate::gpu::{GpuError, context::Gpu, shaders::Compose};
@@ -64,13 +65,13 @@ impl<D: Dim> Interaction<D> for TimedLoads<D> {
         self.factors = step_values(&self.laws, t, dt).collect();
     }
 
-    fn accelerate(&self, v: &[D::V], mass: &[f64], a: &mut [D::V]) -> f64 {
-        let mut power = 0.0;
+    fn accelerate(&self, v: &[D::V], mass: &[f64], a: &mut [D::V]) -> Exact {
+        let mut power = Exact::default();
         for (group, &factor) in self.groups.iter().zip(&self.factors) {
             for &(i, g) in group {
                 let (i, g) = (i as usize, g * factor);
                 a[i] += g;
-                power += mass[i] * D::dot(g, v[i]);
+                power.add(mass[i] * D::dot(g, v[i]));
             }
         }
         power

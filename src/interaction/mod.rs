@@ -25,6 +25,7 @@ pub use loads::TimedLoads;
 use crate::boundary::NodalForces;
 use crate::case::{Case, CaseError};
 use crate::core::neighbour::Csr;
+use crate::core::sum::Exact;
 use crate::core::tensor::Dim;
 
 /// A force on the particles from outside the method, at named points of a step.
@@ -35,7 +36,7 @@ pub trait Interaction<D: Dim>: Send + Sync {
 
     /// Adds the interaction's accelerations to `a` at a rate evaluation with velocities v
     /// and masses m; returns their power Σ m a·v.
-    fn accelerate(&self, v: &[D::V], mass: &[f64], a: &mut [D::V]) -> f64;
+    fn accelerate(&self, v: &[D::V], mass: &[f64], a: &mut [D::V]) -> Exact;
 
     /// Whether its forces are contact between the bodies, whose work the energy balance
     /// books apart from the work of the loads ([`crate::diagnostics::balance`]).
@@ -46,7 +47,7 @@ pub trait Interaction<D: Dim>: Send + Sync {
     /// For forces held through a step (contact, found from the positions at its start):
     /// their power Σ m a·v at the start of the current step, with which the balance
     /// integrates their work over the step. `None` for forces that follow the stages.
-    fn start_power(&self) -> Option<f64> {
+    fn start_power(&self) -> Option<Exact> {
         None
     }
 
@@ -57,12 +58,12 @@ pub trait Interaction<D: Dim>: Send + Sync {
 
 /// The power of the interactions at a rate evaluation, Σ m a·v: of the loads, and of
 /// contact.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default)]
 pub struct Power {
-    pub external: f64,
-    pub contact: f64,
+    pub external: Exact,
+    pub contact: Exact,
     /// The contact's power at the start of the step (its forces are held through it).
-    pub contact_start: f64,
+    pub contact_start: Exact,
 }
 
 /// The interactions a case asks for, in the order they act.
@@ -120,10 +121,12 @@ impl<D: Dim> Interactions<D> {
         for i in &self.list {
             let p = i.accelerate(v, mass, a);
             match i.contact() {
-                true => power.contact += p,
-                false => power.external += p,
+                true => power.contact.merge(&p),
+                false => power.external.merge(&p),
             }
-            power.contact_start += i.start_power().unwrap_or(0.0);
+            if let Some(start) = i.start_power() {
+                power.contact_start.merge(&start);
+            }
         }
         power
     }

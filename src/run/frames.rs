@@ -433,7 +433,7 @@ mod tests {
             v: vec![D2::zero(); 2],
             f: f.clone(),
             sigma: sigma.clone(),
-            strain_energy: 0.0,
+            strain_energy: crate::core::sum::Exact::default(),
             extra,
             cells: &[],
             quadrature: None,

@@ -403,7 +403,7 @@ fn differences<D: meshless::gpu::layout::GpuDim>(c: &Scene, q: D::T) -> Differen
     let f_cpu = cpu.corotated_gradients(&y);
     let w_reduced = g.invariants().strain;
     let snap = g.snapshot();
-    let w_cpu = cpu.strain_energy(&y);
+    let w_cpu = cpu.strain_energy(&y).value();
     let sigma_cpu = cpu.cauchy_stress(&y);
     let sigma_err = snap
         .sigma
@@ -419,7 +419,7 @@ fn differences<D: meshless::gpu::layout::GpuDim>(c: &Scene, q: D::T) -> Differen
         stress: sigma_err / largest_entry(&sigma_cpu),
         deformation: relative_t(&snap.f, &cpu.deformation_gradient(&y), D::zero_t()),
         energy_reduced: (w_reduced - w_cpu).abs() / w_cpu,
-        energy_snapshot: (snap.strain_energy - w_cpu).abs() / w_cpu,
+        energy_snapshot: (snap.strain_energy.value() - w_cpu).abs() / w_cpu,
     }
 }
 

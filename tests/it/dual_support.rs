@@ -683,7 +683,7 @@ fn the_dynamic_variant_conserves_energy_and_momentum() {
             .zip(s.mass)
             .map(|(f, m)| m / rho0 * f)
             .sum();
-        kinetic + s.strain_energy + hourglass
+        kinetic + s.strain_energy.value() + hourglass
     };
     let e0 = energy(&mut e);
     e.advance(0.0, 0.0220608 / 107.0, 107)

@@ -68,7 +68,7 @@ fn force_is_minus_the_energy_gradient<D: Dim>(max: &[f64], method: &str) {
                 let mut e = [0.0; 3];
                 e[c] = s * delta;
                 z.u[k] += D::from_slice(&e[..D::N]);
-                m.strain_energy(&z)
+                m.strain_energy(&z).value()
             };
             let fd = -(energy(1.0) - energy(-1.0)) / (2.0 * delta);
             let force = D::comp(f[k], c);

@@ -485,8 +485,8 @@ fn plastic_flow_matches_the_cpu() {
     let (on_cpu, on_gpu) = (cpu.snapshot(), Engine::<D3>::snapshot(&mut g));
     let (deviation, largest) = max_v::<D3>(&on_cpu.u, &on_gpu.u);
     let (energy_cpu, energy_gpu) = (
-        on_cpu.strain_energy + Invariants::of(&on_cpu).kinetic,
-        on_gpu.strain_energy + Invariants::of(&on_gpu).kinetic,
+        on_cpu.strain_energy.value() + Invariants::of(&on_cpu).kinetic,
+        on_gpu.strain_energy.value() + Invariants::of(&on_gpu).kinetic,
     );
     eprintln!(
         "Taylor bar, 500 steps: max |u_GPU − u_CPU| = {deviation:e} m of {largest:e} m; \

@@ -199,7 +199,7 @@ fn an_affine_initial_displacement_stores_the_energy_of_its_deformation_gradient(
                     Some(q) => q.weight.iter().sum(),
                     None => snap.mass.iter().sum::<f64>() / material.rho0,
                 };
-                let stored = snap.strain_energy / (psi * volume);
+                let stored = snap.strain_energy.value() / (psi * volume);
                 assert!(
                     (stored - 1.0).abs() < bound,
                     "{method} on {backend:?}: stored energy over ψ(I + G) V = {stored}"

@@ -151,7 +151,7 @@ fn the_element_free_galerkin_force_is_minus_the_energy_gradient() {
                 let energy = |s: f64| {
                     let mut z = y.clone();
                     z.u[k][c] += s * delta;
-                    m.strain_energy(&z)
+                    m.strain_energy(&z).value()
                 };
                 let fd = -(energy(1.0) - energy(-1.0)) / (2.0 * delta);
                 worst = worst.max((fd - f_kc).abs() / scale);

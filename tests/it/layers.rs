@@ -26,6 +26,7 @@ const ORDER: &[(&str, &[&str])] = &[
             "core/quadrature",
             "core/integrate",
             "core/parallel",
+            "core/sum",
         ],
     ),
     (

@@ -322,7 +322,7 @@ fn energy_and_deflection(method: &str, keys: &str, steps: usize) -> Option<(f64,
                 .zip(m.mass())
                 .map(|(v, m)| 0.5 * m * v.length_squared())
                 .sum();
-        kinetic + m.strain_energy(y)
+        kinetic + m.strain_energy(y).value()
     };
     let e0 = energy(&m, &y);
     let mut integrator = Integrator::new(case.method.integrator, &y);

@@ -84,7 +84,7 @@ fn rigid_rotation_of_state_based_models_is_stress_free() {
         // F = Q holds to ~1e-12 (sums of O(1/Δx) terms), so ψ ~ E·1e-12 per unit volume:
         // bound 1e-10·E·V, while a true strain of 1e-5 would give ψ ~ ½E·1e-10.
         let volume = 1.1 * 0.7;
-        let w = m.strain_energy(&y);
+        let w = m.strain_energy(&y).value();
         assert!(
             w.abs() < 1e-10 * 1e6 * volume,
             "{model}: strain energy {w:e}"

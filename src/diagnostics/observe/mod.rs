@@ -12,6 +12,7 @@ use crate::boundary::Reaction;
 use crate::case::{Case, CaseError, Observer, TimeLaw};
 use crate::core::integrate::PseudoTime;
 use crate::core::parallel::ordered_reduce;
+use crate::core::sum;
 use crate::core::tensor::Dim;
 use crate::diagnostics::analytic::{AnalyticSolution, ClosedForm, Exact, relative_l2};
 use crate::diagnostics::balance::{self, Balance, Booked};
@@ -31,7 +32,8 @@ pub struct Snapshot<'a, D: Dim> {
     pub f: Vec<D::T>,
     /// 3×3 Cauchy stress (2D: plane-strain σ_zz filled in).
     pub sigma: Vec<[[f64; 3]; 3]>,
-    pub strain_energy: f64,
+    /// Σ V0 ψ, exact until read (the ranks of a distributed run add their shares).
+    pub strain_energy: sum::Exact,
     /// Per-particle fields of the method's own, written into the frames.
     pub extra: Vec<ScalarField>,
     /// The corners of the method's elements, 2^d per cell in VTK order, which the frames
@@ -114,7 +116,7 @@ impl Invariants {
         );
         Self {
             kinetic,
-            strain: snap.strain_energy,
+            strain: snap.strain_energy.value(),
             linear,
             angular,
         }

@@ -13,7 +13,8 @@
 use super::{CorotatedForce, CorotatedSpec};
 use crate::case::{Case, CaseError};
 use crate::core::neighbour::Csr;
-use crate::core::parallel::{MIN_CHUNK, ordered_reduce};
+use crate::core::parallel::MIN_CHUNK;
+use crate::core::sum::par_sum;
 use crate::core::tensor::Dim;
 use crate::diagnostics::observe::Snapshot;
 use crate::engine::{BlowUp, Sizes, Traffic};
@@ -196,12 +197,9 @@ pub fn outputs<D: Dim>(mat: &Material, vol: &[f64], r: &[D::T], f_hat: &[D::T]) 
             out
         })
         .collect();
-    let strain_energy = ordered_reduce(
-        f_hat.len(),
-        || 0.0,
-        |a| vol[a] * mat.energy_density::<D>(f_hat[a], D::zero_t(), mat.rho0),
-        |x, y| x + y,
-    );
+    let strain_energy = par_sum(f_hat.len(), |a| {
+        vol[a] * mat.energy_density::<D>(f_hat[a], D::zero_t(), mat.rho0)
+    });
     Fields {
         f,
         sigma,

@@ -11,6 +11,7 @@ use super::model::DualSupport;
 use crate::case::{Case, CaseError};
 use crate::core::neighbour::Csr;
 use crate::core::parallel::MIN_CHUNK;
+use crate::core::sum::Exact;
 use crate::core::tensor::Dim;
 use crate::diagnostics::observe::Snapshot;
 use crate::engine::{BlowUp, Sizes, Traffic};
@@ -85,14 +86,14 @@ impl<D: Dim> TlScheme<D> for DynamicsScheme<D> {
 
     /// E_strain alone: the hourglass energy is booked as the work against the hourglass
     /// control ([`Self::hourglass_power`]; its density is also a field of the frames).
-    fn strain_energy(&self, _core: &TlCore<D>, y: &TlState<D>) -> f64 {
-        self.model.energies(&y.u).strain
+    fn strain_energy(&self, _core: &TlCore<D>, y: &TlState<D>) -> Exact {
+        Exact::from(self.model.energies(&y.u).strain)
     }
 
     /// −Σ f^hg·v at the last rate evaluation: its integral is the hourglass energy E_hg
     /// gained since the start, as the force derives from it (eq 21).
-    fn hourglass_power(&self, _core: &TlCore<D>) -> f64 {
-        self.hourglass_power
+    fn hourglass_power(&self, _core: &TlCore<D>) -> Exact {
+        Exact::from(self.hourglass_power)
     }
 
     /// Pass 1 reads u and the ids and g_ij of every pair and writes H = F − I; the det F

@@ -5,6 +5,7 @@
 
 use super::support::Support;
 use crate::core::parallel::ordered_reduce;
+use crate::core::sum::Exact;
 use crate::core::tensor::Dim;
 use crate::diagnostics::observe::{ScalarField, Snapshot};
 use crate::engine::BlowUp;
@@ -246,12 +247,14 @@ impl<D: Dim> DualSupport<D> {
             v,
             f,
             sigma,
-            strain_energy: energies.strain
-                + if stored_hourglass {
-                    energies.hourglass
-                } else {
-                    0.0
-                },
+            strain_energy: Exact::from(
+                energies.strain
+                    + if stored_hourglass {
+                        energies.hourglass
+                    } else {
+                        0.0
+                    },
+            ),
             extra: vec![
                 ScalarField {
                     name: "hourglass_energy_density",

@@ -26,7 +26,8 @@ use crate::interaction::Interactions;
 
 use crate::case::{Case, CaseError};
 use crate::core::neighbour::{self, Csr};
-use crate::core::parallel::{MIN_CHUNK, ordered_reduce, particle_state};
+use crate::core::parallel::{MIN_CHUNK, particle_state};
+use crate::core::sum::{Exact, par_sum};
 use crate::core::tensor::{Dim, smallest_stretch_squared};
 use crate::diagnostics::observe::{ScalarField, Snapshot};
 use crate::methods::cores::particles::Surroundings;

@@ -12,6 +12,7 @@ use super::{PotentialForce, PotentialSpec};
 use crate::case::{Case, CaseError};
 use crate::core::neighbour::Csr;
 use crate::core::parallel::MIN_CHUNK;
+use crate::core::sum::Exact;
 use crate::core::tensor::Dim;
 use crate::diagnostics::observe::Snapshot;
 use crate::engine::{BlowUp, Sizes, Traffic};
@@ -223,7 +224,7 @@ impl<D: Dim> TlScheme<D> for PotentialScheme<D> {
 
     /// Σ_i w_i ψ(F_i): the energy the force is minus the gradient of (w_i = V_i for the
     /// consistent force; 1 for the reference code's, Π/V on a uniform lattice).
-    fn strain_energy(&self, core: &TlCore<D>, y: &TlState<D>) -> f64 {
+    fn strain_energy(&self, core: &TlCore<D>, y: &TlState<D>) -> Exact {
         let f = self.each_f(&core.vol, &y.u);
         stress_fields::<D>(&core.material, &f, &[], &[], &self.energy_weight).1
     }

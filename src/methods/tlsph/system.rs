@@ -9,6 +9,7 @@ use super::{ArtificialViscosity, TlsphForce, TlsphSpec, ViscosityGradient};
 use crate::case::{Case, CaseError};
 use crate::core::neighbour::Csr;
 use crate::core::parallel::MIN_CHUNK;
+use crate::core::sum::Exact;
 use crate::core::tensor::Dim;
 use crate::diagnostics::observe::Snapshot;
 use crate::engine::{BlowUp, Method, Sizes, Traffic};
@@ -316,7 +317,7 @@ impl<D: Dim> TlScheme<D> for TlsphScheme<D> {
         stress_fields::<D>(&core.material, &self.each_f(y), &y.s, &y.rho, &core.vol).0
     }
 
-    fn strain_energy(&self, core: &TlCore<D>, y: &TlState<D>) -> f64 {
+    fn strain_energy(&self, core: &TlCore<D>, y: &TlState<D>) -> Exact {
         let weights = &core.energy_weights;
         stress_fields::<D>(&core.material, &self.each_f(y), &y.s, &y.rho, weights).1
     }
@@ -328,11 +329,11 @@ impl<D: Dim> TlScheme<D> for TlsphScheme<D> {
         snapshot(&core.material, x0, mass, body, vol, y.clone(), f)
     }
 
-    fn dissipation_power(&self, core: &TlCore<D>) -> f64 {
+    fn dissipation_power(&self, core: &TlCore<D>) -> Exact {
         core.booked_sum(self.powers.iter().map(|p| p[0]))
     }
 
-    fn hourglass_power(&self, core: &TlCore<D>) -> f64 {
+    fn hourglass_power(&self, core: &TlCore<D>) -> Exact {
         core.booked_sum(self.powers.iter().map(|p| p[1]))
     }
 

@@ -11,6 +11,7 @@ mod spec;
 
 pub use spec::{MaterialSpec, Plane};
 
+use crate::core::sum::Exact;
 use crate::core::tensor::Dim;
 use crate::physics::mooney_rivlin::MooneyRivlin;
 use crate::physics::plasticity::{Hardening, Returned, VonMises, from_mat3, to_mat3};
@@ -553,7 +554,7 @@ pub fn stress_fields<D: Dim>(
     s: &[D::T],
     rho: &[f64],
     vol: &[f64],
-) -> (Vec<[[f64; 3]; 3]>, f64) {
+) -> (Vec<[[f64; 3]; 3]>, Exact) {
     let rate = mat.model.is_rate_based();
     let per_particle: Vec<([[f64; 3]; 3], f64)> = f
         .par_iter()

@@ -239,7 +239,7 @@ impl<D: Dim> Method<D> for TlGalerkin<D> {
     }
 
     /// Σ_q w_q ψ_q.
-    fn strain_energy(&self, y: &GalerkinState<D>) -> f64 {
+    fn strain_energy(&self, y: &GalerkinState<D>) -> Exact {
         self.point_fields(y).energy
     }
 

@@ -38,6 +38,7 @@ use crate::core::parallel::{MIN_CHUNK, ordered_reduce};
 use crate::core::quadrature::{
     Cells, Family, Gather, QuadratureError, QuadraturePoints, Shapes, SmoothingCells,
 };
+use crate::core::sum::Exact;
 use crate::core::tensor::Dim;
 use crate::diagnostics::observe::{Quadrature, ScalarField, Snapshot};
 use crate::engine::{
@@ -658,7 +659,7 @@ struct Fields<D: Dim> {
     f: Vec<D::T>,
     sigma: Vec<[[f64; 3]; 3]>,
     /// Σ_q w_q ψ_q.
-    energy: f64,
+    energy: Exact,
     /// ε_p of a plastic model.
     eps_p: Option<Vec<f64>>,
 }

@@ -23,6 +23,7 @@ use crate::core::integrate::OdeSystem;
 use crate::core::neighbour::Csr;
 use crate::core::parallel::{MIN_CHUNK, particle_state};
 use crate::core::quadrature::{Gather, ShapeRow, Shapes};
+use crate::core::sum::Exact;
 use crate::core::tensor::Dim;
 use crate::diagnostics::observe::{ScalarField, Snapshot};
 use crate::engine::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
@@ -542,7 +543,7 @@ impl<D: Dim, P: MovingPoints<D>> Method<D> for UlGalerkin<D, P> {
     }
 
     /// Σ_q w0_q ψ_q.
-    fn strain_energy(&self, y: &UlGalerkinState<D>) -> f64 {
+    fn strain_energy(&self, y: &UlGalerkinState<D>) -> Exact {
         self.node_fields(y).energy
     }
 

@@ -26,6 +26,7 @@ use crate::physics::material::{Material, stress_fields};
 use crate::case::{Case, CaseError};
 use crate::core::neighbour::Csr;
 use crate::core::parallel::{MIN_CHUNK, particle_state};
+use crate::core::sum::Exact;
 use crate::core::tensor::Dim;
 use crate::diagnostics::observe::Snapshot;
 use crate::methods::cores::shared::{reference_gradients, reverse_gradients};
@@ -83,7 +84,7 @@ pub struct Fields<D: Dim> {
     /// The Cauchy stress σ (3 × 3; 2D: with σ_zz).
     pub sigma: Vec<[[f64; 3]; 3]>,
     /// The strain energy.
-    pub strain_energy: f64,
+    pub strain_energy: Exact,
 }
 
 impl<D: Dim> Fields<D> {
@@ -210,8 +211,8 @@ impl<D: Dim> TlCore<D> {
         })
     }
 
-    /// The sum of the particles' shares of a power, over the counted particles in order.
-    pub fn booked_sum(&self, shares: impl IntoIterator<Item = f64>) -> f64 {
+    /// The exact sum of the particles' shares of a power, over the counted particles.
+    pub fn booked_sum(&self, shares: impl IntoIterator<Item = f64>) -> Exact {
         (shares.into_iter().zip(&self.counted))
             .filter_map(|(x, &counted)| counted.then_some(x))
             .sum()
@@ -342,7 +343,7 @@ pub trait TlScheme<D: Dim>: Sized + Send + Sync {
     }
 
     /// The strain energy.
-    fn strain_energy(&self, core: &TlCore<D>, y: &TlState<D>) -> f64 {
+    fn strain_energy(&self, core: &TlCore<D>, y: &TlState<D>) -> Exact {
         self.snapshot(core, y).strain_energy
     }
 
@@ -353,13 +354,13 @@ pub trait TlScheme<D: Dim>: Sized + Send + Sync {
 
     /// [`Method::dissipation_power`]: the sum of the core's record of the artificial
     /// viscosity's power.
-    fn dissipation_power(&self, core: &TlCore<D>) -> f64 {
+    fn dissipation_power(&self, core: &TlCore<D>) -> Exact {
         core.booked_sum(core.dissipation.iter().copied())
     }
 
     /// [`Method::hourglass_power`].
-    fn hourglass_power(&self, _core: &TlCore<D>) -> f64 {
-        0.0
+    fn hourglass_power(&self, _core: &TlCore<D>) -> Exact {
+        Exact::default()
     }
 
     /// [`Method::traffic`].
@@ -452,7 +453,7 @@ impl<D: Dim, S: TlScheme<D>> Method<D> for TlSph<D, S> {
         self.scheme.cauchy_stress(&self.core, y)
     }
 
-    fn strain_energy(&self, y: &TlState<D>) -> f64 {
+    fn strain_energy(&self, y: &TlState<D>) -> Exact {
         self.scheme.strain_energy(&self.core, y)
     }
 
@@ -465,11 +466,11 @@ impl<D: Dim, S: TlScheme<D>> Method<D> for TlSph<D, S> {
         self.scheme.wave_speed(&self.core) + max_speed::<D>(&y.v)
     }
 
-    fn dissipation_power(&self) -> f64 {
+    fn dissipation_power(&self) -> Exact {
         self.scheme.dissipation_power(&self.core)
     }
 
-    fn hourglass_power(&self) -> f64 {
+    fn hourglass_power(&self) -> Exact {
         self.scheme.hourglass_power(&self.core)
     }
 

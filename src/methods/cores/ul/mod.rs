@@ -22,6 +22,7 @@ use crate::core::integrate::OdeSystem;
 use crate::core::kernel::Kernel;
 use crate::core::neighbour::{Csr, Neighbours, Rebuild};
 use crate::core::parallel::{MIN_CHUNK, particle_state};
+use crate::core::sum::Exact;
 use crate::core::tensor::Dim;
 use crate::diagnostics::observe::{ScalarField, Snapshot};
 use crate::engine::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
@@ -419,7 +420,7 @@ impl<D: Dim, S: PairScheme<D>> Method<D> for UlSph<D, S> {
         stress_fields::<D>(&self.core.material, &y.f, &y.s, &y.rho, &self.core.vol0).0
     }
 
-    fn strain_energy(&self, y: &UlState<D>) -> f64 {
+    fn strain_energy(&self, y: &UlState<D>) -> Exact {
         stress_fields::<D>(&self.core.material, &y.f, &y.s, &y.rho, &self.core.vol0).1
     }
 
@@ -439,8 +440,8 @@ impl<D: Dim, S: PairScheme<D>> Method<D> for UlSph<D, S> {
         Some(self.core.neighbours.seconds())
     }
 
-    fn dissipation_power(&self) -> f64 {
-        self.dissipation.iter().sum()
+    fn dissipation_power(&self) -> Exact {
+        self.dissipation.iter().copied().sum()
     }
 
     fn max_signal_speed(&self, y: &UlState<D>) -> f64 {

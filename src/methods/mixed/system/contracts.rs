@@ -172,30 +172,25 @@ impl<D: Dim> Method<D> for MixedSph<D> {
             .collect()
     }
 
-    fn strain_energy(&self, y: &MixedState<D>) -> f64 {
+    fn strain_energy(&self, y: &MixedState<D>) -> Exact {
         let u_ext = self.extended_displacement(&y.u);
-        ordered_reduce(
-            self.n,
-            || 0.0,
-            |a| {
-                let (f, _, j) = self.stress_arguments(y, a, &u_ext);
-                self.vol[a]
-                    * match self.returned(a, f) {
-                        Some(r) => r.psi,
-                        // ψ = ψ_iso + p²/(2κ): no volumetric energy at κ = ∞.
-                        None if self.compressibility.is_some() => {
-                            self.material.isochoric_energy_density::<D>(f, j)
-                                + y.pressure[a].powi(2) / (2.0 * self.material.bulk)
-                        }
-                        None => self.material.energy_density_mixed::<D>(f, j),
+        par_sum(self.n, |a| {
+            let (f, _, j) = self.stress_arguments(y, a, &u_ext);
+            self.vol[a]
+                * match self.returned(a, f) {
+                    Some(r) => r.psi,
+                    // ψ = ψ_iso + p²/(2κ): no volumetric energy at κ = ∞.
+                    None if self.compressibility.is_some() => {
+                        self.material.isochoric_energy_density::<D>(f, j)
+                            + y.pressure[a].powi(2) / (2.0 * self.material.bulk)
                     }
-            },
-            |x, y| x + y,
-        )
+                    None => self.material.energy_density_mixed::<D>(f, j),
+                }
+        })
     }
 
-    fn dissipation_power(&self) -> f64 {
-        self.dissipation
+    fn dissipation_power(&self) -> Exact {
+        Exact::from(self.dissipation)
     }
 
     /// The committed plastic work and the current step's, over the reference volumes.
