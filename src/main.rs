@@ -615,8 +615,12 @@ fn run_command(
     };
     match result.map(|s| s.expect("rank 0 and a run on one rank return the summary")) {
         Ok(s) => {
+            let halo = s.halo_seconds.map_or(String::new(), |h| {
+                let share = 100.0 * h / s.wall_seconds.max(1e-12);
+                format!(", {share:.0} % of it in the exchanges between ranks")
+            });
             println!(
-                "{} on {}: {} particles, {} steps to t = {:e} s in {:.2} s ({:.3e} particle-steps/s); outputs in {}",
+                "{} on {}: {} particles, {} steps to t = {:e} s in {:.2} s ({:.3e} particle-steps/s{halo}); outputs in {}",
                 s.case,
                 s.backend,
                 s.particles,

@@ -155,6 +155,13 @@ pub trait Engine<D: Dim> {
     fn neighbour_seconds(&mut self) -> Option<f64> {
         None
     }
+    /// Wall time this rank of a distributed run spent since its engine was built in the
+    /// exchanges with the other ranks during the steps (the halo's rows after every rate
+    /// evaluation and the collective that ends each step), waiting for them included [s];
+    /// none on one rank.
+    fn halo_seconds(&mut self) -> Option<f64> {
+        None
+    }
     /// What a step moves on the CPU by the method's traffic model, for `meshless bench
     /// --roofline`; none for a GPU engine or a method without a model.
     fn traffic(&self) -> Option<StepTraffic> {
@@ -225,6 +232,9 @@ impl<D: Dim> Engine<D> for Box<dyn Engine<D>> {
     }
     fn neighbour_seconds(&mut self) -> Option<f64> {
         (**self).neighbour_seconds()
+    }
+    fn halo_seconds(&mut self) -> Option<f64> {
+        (**self).halo_seconds()
     }
     fn traffic(&self) -> Option<StepTraffic> {
         (**self).traffic()

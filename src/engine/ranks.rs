@@ -20,6 +20,7 @@ use crate::core::tensor::{Dim, Words};
 use crate::diagnostics::balance::Booked;
 use crate::diagnostics::observe::{ScalarField, Snapshot};
 use crate::distributed::{Collectives, Comm, Local};
+use std::time::Instant;
 
 /// A rank's engine: rank 0's drives the run as an [`Engine`]; the others serve it.
 pub trait Distributed<D: Dim>: Engine<D> {
@@ -98,6 +99,8 @@ struct Exchange {
     /// The key of the run's first blow-up in the step (evaluation · n + global id), or
     /// none: every rank's, agreed at the end of the step.
     first: Option<usize>,
+    /// Wall time in the exchanges so far ([`Engine::halo_seconds`]) [s].
+    seconds: f64,
 }
 
 impl Exchange {
@@ -114,7 +117,9 @@ impl<S: ParticleRows> AfterRates<S> for Exchange {
             self.failure = Some((self.stage, b));
         }
         self.stage += 1;
+        let started = Instant::now();
         self.local.refresh(self.comm.as_ref(), d);
+        self.seconds += started.elapsed().as_secs_f64();
         Ok(())
     }
 
@@ -122,7 +127,9 @@ impl<S: ParticleRows> AfterRates<S> for Exchange {
         let key = self.key().map_or(f64::INFINITY, |k| k as f64);
         let mut words = vec![key];
         words.extend(shares.iter().flat_map(Exact::words));
+        let started = Instant::now();
         let all = self.comm.all_gather(words);
+        self.seconds += started.elapsed().as_secs_f64();
         let first = all.iter().map(|w| w[0]).fold(f64::INFINITY, f64::min);
         self.first = first.is_finite().then_some(first as usize);
         let mut total: StepPowers<Exact> = Default::default();
@@ -213,6 +220,7 @@ where
                 stage: 0,
                 failure: None,
                 first: None,
+                seconds: 0.0,
             },
             n,
             whole,
@@ -488,6 +496,10 @@ where
                 completed,
                 cause: cause.expect("rank 0 gathers the blow-up"),
             })
+    }
+
+    fn halo_seconds(&mut self) -> Option<f64> {
+        Some(self.exchange.seconds)
     }
 
     fn max_signal_speed(&mut self) -> f64 {

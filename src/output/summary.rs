@@ -53,6 +53,10 @@ pub struct RunSummary {
     /// Throughput: particles times steps per wall-clock second.
     #[serde(with = "non_finite_as_null")]
     pub particle_steps_per_second: f64,
+    /// Of a distributed run: the wall time rank 0 spent in the exchanges with the other
+    /// ranks during the steps, waiting for them included (`Engine::halo_seconds`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub halo_seconds: Option<f64>,
     /// `"running"` (written when the run starts), `"completed"`, `"failed"` or
     /// `"interrupted"`.
     pub status: String,
@@ -197,6 +201,7 @@ mod tests {
             end_time: 8.0e-5,
             wall_seconds: 12.5,
             particle_steps_per_second: 1.0 / 3.0 * 1e9,
+            halo_seconds: Some(0.25),
             status: "completed".into(),
             failure: None,
             energy_balance: BTreeMap::new(),

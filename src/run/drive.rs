@@ -189,6 +189,7 @@ fn running_summary(case: &Scene, backend: String, particles: usize) -> RunSummar
         end_time: 0.0,
         wall_seconds: 0.0,
         particle_steps_per_second: f64::NAN,
+        halo_seconds: None,
         status: "running".into(),
         failure: None,
         final_invariants: Default::default(),
@@ -443,6 +444,7 @@ impl<D: Dim> Scheduler<'_, D> {
             end_time: t,
             wall_seconds: wall,
             particle_steps_per_second: self.n as f64 * step as f64 / wall.max(1e-12),
+            halo_seconds: end.engine.halo_seconds(),
             status: match (&ending.failure, ending.interrupted) {
                 (Some(_), _) => "failed",
                 (None, true) => "interrupted",

@@ -3,9 +3,9 @@
 //! rather than run one copy of the case per process; on one process it runs as usual.
 
 use crate::common::{case_file, cpu_options, load};
-use meshless::distributed::LAUNCHER_SIZES;
+use meshless::distributed::{LAUNCHER_SIZES, Threads};
 use meshless::run::RunError;
-use meshless::run::ranks::run_on_threads;
+use meshless::run::ranks::{run_on_threads, run_rank};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::Arc;
@@ -230,6 +230,49 @@ fn what_does_not_run_on_several_ranks_is_refused_by_every_rank() {
         10,
         "10 ranks for 9 particles: run on at most 9 ranks",
     );
+}
+
+#[test]
+fn a_rank_that_reads_another_case_stops_every_rank() {
+    // Rank 1 reads the case with another end time (as a case file that differs on one
+    // node would): every rank refuses with exit 2, and none waits for another.
+    let dir = tempfile::tempdir().unwrap();
+    let opts = cpu_options(dir.path(), false);
+    let mine = load("tensile-strip", &["run.end_time=2e-5"]);
+    let other = load("tensile-strip", &["run.end_time=3e-5"]);
+    let results: Vec<_> = std::thread::scope(|s| {
+        let handles: Vec<_> = (Threads::ranks(2).into_iter().enumerate())
+            .map(|(r, comm)| {
+                let (case, opts) = (if r == 1 { &other } else { &mine }, &opts);
+                s.spawn(move || run_rank(case, opts, Box::new(comm), 1))
+            })
+            .collect();
+        handles.into_iter().map(|h| h.join().unwrap()).collect()
+    });
+    for (r, result) in results.iter().enumerate() {
+        match result {
+            Err(e @ RunError::Ranks(_)) => {
+                let shown = e.to_string();
+                assert!(shown.contains("read another case"), "rank {r}: {shown}");
+                assert_eq!(e.exit_code(), 2);
+            }
+            other => panic!("rank {r}: {other:?}"),
+        }
+    }
+}
+
+#[test]
+fn rank_zero_failing_to_write_ends_the_other_ranks() {
+    // The output folder lies below a regular file: rank 0's driver fails on its first
+    // write, names the folder, and its engine's end releases the ranks serving it.
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("not-a-folder");
+    std::fs::write(&file, "x").unwrap();
+    let out = file.join("run");
+    let case = load("tensile-strip", &["run.end_time=2e-5"]);
+    let e = run_on_threads(&case, &cpu_options(&out, true), 3).unwrap_err();
+    assert!(matches!(e, RunError::Output { .. }), "{e}");
+    assert!(e.to_string().contains(&out.display().to_string()), "{e}");
 }
 
 #[test]
