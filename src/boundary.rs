@@ -203,14 +203,6 @@ impl ReactionSum {
             power: self.power.value(),
         }
     }
-
-    /// Adds another share of the same support's reaction.
-    pub fn merge(&mut self, other: &ReactionSum) {
-        for (a, b) in self.force.iter_mut().zip(&other.force) {
-            a.merge(b);
-        }
-        self.power.merge(&other.power);
-    }
 }
 
 /// The supports of a case, the boundary conditions that prescribe motion, in case order:

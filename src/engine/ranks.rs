@@ -132,27 +132,27 @@ impl<S: ParticleRows> AfterRates<S> for Exchange {
         self.seconds += started.elapsed().as_secs_f64();
         let first = all.iter().map(|w| w[0]).fold(f64::INFINITY, f64::min);
         self.first = first.is_finite().then_some(first as usize);
-        let mut total: StepPowers<Exact> = Default::default();
-        for w in &all {
-            for (t, sum) in total.iter_mut().zip(w[1..].chunks_exact(Exact::WORDS)) {
-                t.merge(&Exact::from_words(sum));
-            }
-        }
-        total.each_ref().map(Exact::value)
+        let total = sum_over_ranks(&all, 1, shares.len());
+        std::array::from_fn(|k| total[k].value())
     }
+}
+
+/// The `count` exact sums each rank sent as words (from word `skip` on), added over the
+/// ranks.
+fn sum_over_ranks(all: &[Vec<f64>], skip: usize, count: usize) -> Vec<Exact> {
+    let mut total = vec![Exact::default(); count];
+    for w in all {
+        for (t, sum) in total.iter_mut().zip(w[skip..].chunks_exact(Exact::WORDS)) {
+            t.merge(&Exact::from_words(sum));
+        }
+    }
+    total
 }
 
 /// The exact sums of `sums` over the ranks, on rank 0 (none on the others).
 fn gathered_sums(comm: &dyn Comm, sums: &[&Exact]) -> Option<Vec<Exact>> {
     let words = sums.iter().flat_map(|s| s.words()).collect();
-    let all = comm.gather(words)?;
-    let mut total = vec![Exact::default(); sums.len()];
-    for w in &all {
-        for (t, sum) in total.iter_mut().zip(w.chunks_exact(Exact::WORDS)) {
-            t.merge(&Exact::from_words(sum));
-        }
-    }
-    Some(total)
+    Some(sum_over_ranks(&comm.gather(words)?, 0, sums.len()))
 }
 
 /// The engine of one rank: the method on its particles, an integrator and the exchange.
