@@ -599,7 +599,7 @@ fn run_command(
             use meshless::distributed::Comm;
             let (rank, size) = (world.rank(), world.size());
             let threads = threads_per_rank(&case, ranks_on_node(env, size));
-            let result = run_rank(&case, &opts, Box::new(world), threads);
+            let result = run_rank(&case, &opts, Arc::new(world), threads);
             if rank > 0 {
                 // Rank 0 reports the run; another rank, only what stopped it.
                 return match result {

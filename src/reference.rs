@@ -6,9 +6,11 @@ use crate::case::{Case, CaseError, discretise};
 use crate::core::kernel::{Kernel, neighbour_radius};
 use crate::core::neighbour::{self, Csr, Neighbours, Rebuild};
 use crate::core::quadrature::{Cells, QuadratureError, lattice_cells};
+use crate::core::sum::{OneRank, Ranks};
 use crate::core::tensor::Dim;
 use crate::distributed::Local;
 use crate::physics::material::Material;
+use std::sync::Arc;
 
 /// A method's CPU system, built on the reference configuration of a case.
 pub trait Build<D: Dim>: Sized {
@@ -52,6 +54,9 @@ pub struct Reference<D: Dim> {
     /// Whether the system books each particle's share of its sums (energies, powers,
     /// reactions): every particle, but a rank's ghosts in a distributed run.
     pub counted: Vec<bool>,
+    /// The ranks that share the particles, for the sums a rate evaluation takes over all
+    /// of them (one rank: [`OneRank`]).
+    pub ranks: Arc<dyn Ranks>,
 }
 
 impl<D: Dim> Reference<D> {
@@ -69,6 +74,7 @@ impl<D: Dim> Reference<D> {
         Ok(Self {
             h: vec![kernel.h; disc.x0.len()],
             counted: vec![true; disc.x0.len()],
+            ranks: Arc::new(OneRank),
             generated_cells: disc.cells,
             x0: disc.x0,
             vol: disc.vol,
@@ -91,9 +97,10 @@ impl<D: Dim> Reference<D> {
     /// The particles a rank holds in a distributed run (`local`: its own and its
     /// ghosts, in ascending global id): their rows of every array, the boundary
     /// conditions and loads of its own ([`Boundary::restrict`]), and only its own
-    /// counted. The lists built on them keep each row's global order, and they are the
-    /// global rows of every particle whose neighbours are all local.
-    pub fn restrict(&self, local: &Local) -> Self {
+    /// counted, its sums completed over `ranks`. The lists built on them keep each row's
+    /// global order, and they are the global rows of every particle whose neighbours are
+    /// all local.
+    pub fn restrict(&self, local: &Local, ranks: Arc<dyn Ranks>) -> Self {
         fn rows<T: Copy>(all: &[T], ids: &[u32]) -> Vec<T> {
             ids.iter().map(|&g| all[g as usize]).collect()
         }
@@ -111,6 +118,7 @@ impl<D: Dim> Reference<D> {
             h: rows(&self.h, ids),
             generated_cells: Cells::default(),
             counted: local.owned.clone(),
+            ranks,
         }
     }
 

@@ -198,6 +198,42 @@ pub fn par_sum(n: usize, map: impl Fn(usize) -> f64 + Sync) -> Exact {
         .reduce(Exact::default, Exact::merged)
 }
 
+/// The exact sums of the K components of map(0), …, map(n − 1), in parallel.
+pub fn par_sums<const K: usize>(n: usize, map: impl Fn(usize) -> [f64; K] + Sync) -> [Exact; K] {
+    let merged = |mut a: [Exact; K], b: [Exact; K]| {
+        a.iter_mut().zip(&b).for_each(|(a, b)| a.merge(b));
+        a
+    };
+    (0..n)
+        .into_par_iter()
+        .with_min_len(MIN_CHUNK)
+        .fold(
+            || std::array::from_fn(|_| Exact::default()),
+            |mut e: [Exact; K], i| {
+                e.iter_mut().zip(map(i)).for_each(|(e, x)| e.add(x));
+                e
+            },
+        )
+        .reduce(|| std::array::from_fn(|_| Exact::default()), merged)
+}
+
+/// The ranks that share a system's particles, as its sums over them see them: each rank
+/// sums its own particles' shares ([`crate::reference::Reference::counted`]), and
+/// [`Ranks::add_others`] adds the other ranks' shares, so that every rank holds the
+/// sums over all particles, with the bits of one rank's.
+pub trait Ranks: Send + Sync {
+    /// Adds the other ranks' shares to `sums` (every rank calls it with the same number
+    /// of sums at the same point of the run).
+    fn add_others(&self, sums: &mut [Exact]);
+}
+
+/// A run on one rank: its sums are complete.
+pub struct OneRank;
+
+impl Ranks for OneRank {
+    fn add_others(&self, _sums: &mut [Exact]) {}
+}
+
 /// 2^e for −1022 ≤ e ≤ 1023.
 fn power_of_two(e: i32) -> f64 {
     debug_assert!((-1022..=1023).contains(&e));
@@ -287,6 +323,17 @@ mod tests {
         // 2⁻⁵³ of a partial sum below 2⁵⁴).
         let plain: f64 = xs.iter().sum();
         assert!((plain - forward.value()).abs() <= 1e4 * 2f64.powi(54 - 53));
+    }
+
+    #[test]
+    fn the_parallel_sums_are_the_serial_ones() {
+        let xs = values(10_000, 11);
+        let [a, b] = par_sums(xs.len(), |i| [xs[i], -3.0 * xs[i] * xs[i]]);
+        let serial_a: Exact = xs.iter().copied().sum();
+        let serial_b: Exact = xs.iter().map(|x| -3.0 * x * x).sum();
+        assert_eq!(a.value(), serial_a.value());
+        assert_eq!(b.value(), serial_b.value());
+        assert_eq!(par_sum(xs.len(), |i| xs[i]).value(), serial_a.value());
     }
 
     #[test]

@@ -9,7 +9,7 @@ use std::sync::Mutex;
 use std::sync::mpsc::{Receiver, Sender, channel};
 
 /// The ranks of a run as one rank sees them.
-pub trait Comm: Send {
+pub trait Comm: Send + Sync {
     /// This rank, 0 ≤ rank < size.
     fn rank(&self) -> usize;
     /// The number of ranks.

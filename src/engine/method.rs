@@ -106,6 +106,12 @@ pub trait Method<D: Dim>: OdeSystem<Error = BlowUp> + Sized {
     fn snapshot<'a>(&'a self, y: &Self::State) -> Snapshot<'a, D>;
     /// Largest signal speed c_p + |v| for the CFL condition.
     fn max_signal_speed(&self, y: &Self::State) -> f64;
+    /// The maxima over the particles whose sum is [`Self::max_signal_speed`] (a wave
+    /// speed and the largest |v|, say): a distributed run takes each over the ranks
+    /// before adding them, as the sum of the ranks' sums would not be one rank's.
+    fn signal_speed_terms(&self, y: &Self::State) -> [f64; 2] {
+        [self.max_signal_speed(y), 0.0]
+    }
     /// The power of supports, loads and interactions and the supports' reactions at the
     /// last rate evaluation.
     fn boundary_work(&self) -> &BoundaryWork;

@@ -15,11 +15,12 @@ use super::{BlowUp, CpuEngine, Engine, Failed, Method};
 use crate::boundary::Reaction;
 use crate::core::integrate::OdeState;
 use crate::core::parallel::ParticleRows;
-use crate::core::sum::Exact;
+use crate::core::sum::{Exact, Ranks};
 use crate::core::tensor::{Dim, Words};
 use crate::diagnostics::balance::Booked;
 use crate::diagnostics::observe::{ScalarField, Snapshot};
 use crate::distributed::{Collectives, Comm, Local};
+use std::sync::Arc;
 use std::time::Instant;
 
 /// A rank's engine: rank 0's drives the run as an [`Engine`]; the others serve it.
@@ -43,7 +44,7 @@ pub struct Whole<D: Dim> {
 /// particle count and, on rank 0, the whole run's reference arrays.
 pub struct Rank<D: Dim> {
     pub local: Local,
-    pub comm: Box<dyn Comm>,
+    pub comm: Arc<dyn Comm>,
     pub n: usize,
     pub whole: Option<Whole<D>>,
 }
@@ -89,7 +90,7 @@ impl Call {
 /// their shares of the powers, in one collective.
 struct Exchange {
     local: Local,
-    comm: Box<dyn Comm>,
+    comm: Arc<dyn Comm>,
     /// The number of particles of the run.
     n: usize,
     /// The rate evaluations of the current step so far.
@@ -147,6 +148,23 @@ fn sum_over_ranks(all: &[Vec<f64>], skip: usize, count: usize) -> Vec<Exact> {
         }
     }
     total
+}
+
+/// The sums of a rank's system completed over the ranks of `comm` ([`Ranks`]): one
+/// collective per call.
+pub struct RankSums(pub Arc<dyn Comm>);
+
+impl Ranks for RankSums {
+    fn add_others(&self, sums: &mut [Exact]) {
+        let words = sums.iter().flat_map(Exact::words).collect();
+        let all = self.0.all_gather(words);
+        for (s, total) in sums
+            .iter_mut()
+            .zip(sum_over_ranks(&all, 0, all[0].len() / Exact::WORDS))
+        {
+            *s = total;
+        }
+    }
 }
 
 /// The exact sums of `sums` over the ranks, on rank 0 (none on the others).
@@ -269,6 +287,15 @@ where
             }
         }
         Ok(())
+    }
+
+    /// The run's signal speed: each of the method's terms the largest of the ranks',
+    /// then added as one rank adds them.
+    fn max_signal_speed_all(&self) -> f64 {
+        let terms = self.engine.method.signal_speed_terms(&self.engine.y);
+        let all = self.comm().all_gather(terms.to_vec());
+        let largest = |k: usize| all.iter().map(|w| w[k]).fold(f64::NEG_INFINITY, f64::max);
+        largest(0) + largest(1)
     }
 
     /// The first non-finite particle of the run, on rank 0: the lowest global id among
@@ -504,8 +531,7 @@ where
 
     fn max_signal_speed(&mut self) -> f64 {
         self.send(Call::MaxSignalSpeed, &[]);
-        let speed = self.engine.max_signal_speed();
-        self.comm().max(speed)
+        self.max_signal_speed_all()
     }
 
     fn external_work(&mut self) -> f64 {
@@ -562,8 +588,7 @@ where
                     let _ = self.advance_all(args[0], args[1], args[2] as u32);
                 }
                 Call::MaxSignalSpeed => {
-                    let speed = self.engine.max_signal_speed();
-                    self.comm().max(speed);
+                    self.max_signal_speed_all();
                 }
                 Call::Booked => {
                     self.booked_all();

@@ -175,6 +175,12 @@ macro_rules! registry {
                 }
             }
 
+            pub fn ranks_refusal(&self, case: &Case) -> Option<&'static str> {
+                match self {
+                    $(Self::$variant(s) => s.ranks_refusal(case)),*
+                }
+            }
+
             pub fn searches_current_configuration(&self) -> bool {
                 match self {
                     $(Self::$variant(s) => s.searches_current_configuration()),*

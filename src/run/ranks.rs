@@ -8,11 +8,12 @@ use super::{Backend, RunError, RunOptions, budget, drive::drive};
 use crate::case::fnv1a;
 use crate::core::tensor::{D2, D3};
 use crate::distributed::{Collectives, Comm, Local, Partition, Threads};
-use crate::engine::ranks::{Rank, Whole};
+use crate::engine::ranks::{Rank, RankSums, Whole};
 use crate::engine::{Engine, EngineDim};
 use crate::output::RunSummary;
 use crate::reference::Reference;
 use crate::scene::Scene;
+use std::sync::Arc;
 
 /// Why a case cannot run on several ranks, or None.
 pub fn refusal(case: &Scene, backend: Backend) -> Option<String> {
@@ -25,6 +26,8 @@ pub fn refusal(case: &Scene, backend: Backend) -> Option<String> {
             .collect::<Vec<_>>()
             .join(", ");
         format!("`{name}` does not run on several ranks yet (those that do: {methods})")
+    } else if let Some(why) = case.spec.ranks_refusal(case) {
+        format!("`{name}` {why}")
     } else if backend == Backend::Gpu {
         "the GPU backend does not run on several ranks yet; use --backend cpu".into()
     } else if case.is_static() {
@@ -56,7 +59,7 @@ pub fn threads_per_rank(case: &Scene, on_node: usize) -> usize {
 pub fn run_rank(
     case: &Scene,
     opts: &RunOptions,
-    comm: Box<dyn Comm>,
+    comm: Arc<dyn Comm>,
     threads: usize,
 ) -> Result<Option<RunSummary>, RunError> {
     same_case(case, comm.as_ref())?;
@@ -94,7 +97,7 @@ fn same_case(case: &Scene, comm: &dyn Comm) -> Result<(), RunError> {
 fn rank<D: EngineDim>(
     case: &Scene,
     opts: &RunOptions,
-    comm: Box<dyn Comm>,
+    comm: Arc<dyn Comm>,
 ) -> Result<Option<RunSummary>, RunError> {
     let reference = Reference::<D>::build(case)?;
     let n = reference.len();
@@ -103,7 +106,7 @@ fn rank<D: EngineDim>(
         .map_err(|e| RunError::Ranks(format!("{}: {e}", case.file.display())))?;
     let layers = case.spec.entry().halo_layers.expect("refusal checked it");
     let local = Local::new(&partition, &lists, comm.rank(), layers);
-    let part = reference.restrict(&local);
+    let part = reference.restrict(&local, Arc::new(RankSums(comm.clone())));
     let whole = (comm.rank() == 0).then(|| Whole {
         constrained: reference.boundary.constrained.clone(),
         x0: reference.x0,
@@ -138,7 +141,7 @@ pub fn run_on_threads(
     std::thread::scope(|s| {
         let handles: Vec<_> = Threads::ranks(ranks)
             .into_iter()
-            .map(|comm| s.spawn(move || run_rank(case, opts, Box::new(comm), threads)))
+            .map(|comm| s.spawn(move || run_rank(case, opts, Arc::new(comm), threads)))
             .collect();
         let results: Vec<_> = handles
             .into_iter()

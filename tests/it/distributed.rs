@@ -170,6 +170,47 @@ fn tlsph_in_3d_with_the_variational_force_and_hourglass_control_matches_one_rank
 }
 
 #[test]
+fn the_mixed_methods_on_two_and_three_ranks_match_one_rank() {
+    // The free spinning plate, with the angular-momentum projection: its sums over all
+    // particles inside every rate evaluation are exact and completed over the ranks.
+    let short = [
+        "run.end_time=2e-3",
+        "output.frame_interval=1e-3",
+        "output.series_interval=2e-4",
+    ];
+    // Upwind-SPH on {p, F, H, J} with the reconstruction (the slopes of the neighbours'
+    // v and P in the force: two layers).
+    assert_ranks_match_one("spinning-plate", &short);
+    // JST-SPH (the neighbours' Laplacians of v in the dissipation).
+    let jst = [&short[..], &["method.name=jst-sph"]].concat();
+    assert_ranks_match_one("spinning-plate", &jst);
+    // {p, F} with the bond-based F^c (from the neighbours' u) and the reconstruction.
+    let bond = [
+        &short[..],
+        &[
+            "method.variables=\"p-F\"",
+            "method.deformation_gradient=\"bond-based\"",
+        ],
+    ]
+    .concat();
+    assert_ranks_match_one("spinning-plate", &bond);
+}
+
+#[test]
+fn upwind_sph_in_3d_with_a_clamped_end_matches_one_rank() {
+    // The twisting column: a fixed support on one rank's particles, the projection's
+    // 3×3 inertia, {p, F, H, J} with D(J).
+    assert_ranks_match_one(
+        "twisting-column",
+        &[
+            "run.end_time=2e-3",
+            "output.frame_interval=1e-3",
+            "output.series_interval=2e-4",
+        ],
+    );
+}
+
+#[test]
 fn a_run_interrupted_on_two_ranks_resumes_on_three_in_the_one_rank_state() {
     // The checkpoint is the one-rank engine's words, gathered by global id (the balance's
     // integrated powers are the run's on every rank), so any rank count resumes it.
@@ -225,6 +266,15 @@ fn what_does_not_run_on_several_ranks_is_refused_by_every_rank() {
         "on several ranks use the default force",
     );
     refused(
+        "spinning-plate",
+        &[
+            "method.artificial_compressibility={}",
+            "material.poisson_ratio=0.5",
+        ],
+        2,
+        "`upwind-sph` with artificial compressibility does not run on several ranks",
+    );
+    refused(
         "tensile-strip",
         &["spacing=0.5"],
         10,
@@ -244,7 +294,7 @@ fn a_rank_that_reads_another_case_stops_every_rank() {
         let handles: Vec<_> = (Threads::ranks(2).into_iter().enumerate())
             .map(|(r, comm)| {
                 let (case, opts) = (if r == 1 { &other } else { &mine }, &opts);
-                s.spawn(move || run_rank(case, opts, Box::new(comm), 1))
+                s.spawn(move || run_rank(case, opts, Arc::new(comm), 1))
             })
             .collect();
         handles.into_iter().map(|h| h.join().unwrap()).collect()

@@ -19,9 +19,12 @@ pub use compressibility::ArtificialCompressibility;
 pub use gpu::GpuMixed;
 pub use system::{Fluxes, MixedSph, MixedState};
 
+use crate::engine::ranks::Rank;
 #[cfg(feature = "gpu")]
 use crate::methods::cores::family::GpuBuild;
-use crate::methods::cores::family::{CpuBuild, Feature, MethodFamily, Plan};
+use crate::methods::cores::family::{CpuBuild, Feature, MethodFamily, Plan, RankBuild};
+use crate::methods::cores::shared;
+use crate::reference::Reference;
 
 use crate::case::Case;
 use crate::core::check::{Problem, fail, non_negative, toml_name};
@@ -541,12 +544,33 @@ impl<S: MixedMethod + 'static> MethodFamily for S {
         Feature::MirrorPlanes,
         Feature::Plasticity,
     ];
+    /// The force reads the neighbours' stress (of the bond-based F^c, from their
+    /// neighbours' u) and their slopes or Laplacians of v; the slopes of P, which would
+    /// read a third layer's u through F^c, enter only D(J), which {p, F} leaves out.
+    const HALO_LAYERS: Option<usize> = Some(2);
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
 
     fn validate(&self, case: &Case) -> Result<(), Problem> {
         self.validate_own()?;
         validate(self.options(), case)
+    }
+
+    fn ranks_refusal(&self, _case: &Case) -> Option<&'static str> {
+        self.options().artificial_compressibility.map(|_| {
+            "with artificial compressibility does not run on several ranks yet (its \
+             pseudo-time iteration exchanges no ghosts); remove \
+             method.artificial_compressibility or run on one rank"
+        })
+    }
+
+    fn rank_engine<D: EngineDim>(
+        &self,
+        case: &Case,
+        reference: Reference<D>,
+        rank: Rank<D>,
+    ) -> RankBuild<D> {
+        shared::rank_engine::<D, MixedSph<D>>(case, self, reference, rank)
     }
 
     fn plan(&self, case: &Case, gpu: bool) -> Plan {

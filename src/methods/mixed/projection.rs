@@ -1,86 +1,79 @@
 //! The angular-momentum-preserving projection of seed 003 Appendix B.
 
 use crate::core::parallel::MIN_CHUNK;
+use crate::core::sum::{Exact, Ranks, par_sums};
 use crate::core::tensor::Dim;
 use rayon::prelude::*;
-
-/// The per-chunk partial sums of a projection, kept by its owner so that projecting
-/// allocates nothing once they have their size.
-pub struct Sums<D: Dim> {
-    inertia: Vec<glam::DMat3>,
-    moments: Vec<(D::V, glam::DVec3)>,
-}
-
-impl<D: Dim> Default for Sums<D> {
-    fn default() -> Self {
-        Self {
-            inertia: Vec::new(),
-            moments: Vec::new(),
-        }
-    }
-}
-
-/// The sum of map(0..n) in fixed chunks of [`MIN_CHUNK`], folded in order (the chunks
-/// and order of `parallel::ordered_reduce`, so the same bits), the chunks' sums kept in
-/// `chunks`.
-fn reduce_in<T: Copy + Send>(
-    chunks: &mut Vec<T>,
-    n: usize,
-    identity: impl Fn() -> T + Sync,
-    map: impl Fn(usize) -> T + Sync,
-    add: impl Fn(T, T) -> T + Sync,
-) -> T {
-    chunks.resize_with(n.div_ceil(MIN_CHUNK), &identity);
-    chunks.par_iter_mut().enumerate().for_each(|(c, sum)| {
-        *sum = (c * MIN_CHUNK..n.min((c + 1) * MIN_CHUNK))
-            .map(&map)
-            .fold(identity(), &add);
-    });
-    chunks.iter().fold(identity(), |x, &y| add(x, y))
-}
 
 /// The balance of a per-volume force field f_a about the points 𝒳_a (seed 003 eqs
 /// B.2–B.5): f̂_a = f_a + λ × (𝒳_a − c) + μ removes its net force and moment. With the
 /// V-weighted centroid c the 6×6 system of eq B.4 decouples into μ = −Σ V f / Σ V and
 /// I_c λ = −Σ V r × f, I_c = Σ V (|r|² I − r ⊗ r), r = 𝒳 − c; c and I_c⁻¹ depend on the
 /// points only and serve every field projected about them.
+///
+/// The sums are exact ([`Exact`]) over the counted particles, completed over the ranks
+/// that share them: the projection has the same bits on any number of threads or ranks.
 pub struct Balance<'a, D: Dim> {
     points: &'a [D::V],
     vol: &'a [f64],
+    counted: &'a [bool],
+    ranks: &'a dyn Ranks,
     total_vol: f64,
     centroid: D::V,
     /// I_c⁻¹ (2D: only the zz entry, 1/Σ V |r|², is used).
     inertia_inv: glam::DMat3,
 }
 
+/// The exact sums of the K components of map(a) over the counted particles a, completed
+/// over the ranks.
+fn sums<const K: usize>(
+    counted: &[bool],
+    ranks: &dyn Ranks,
+    map: impl Fn(usize) -> [f64; K] + Sync,
+) -> [f64; K] {
+    let mut s = par_sums(
+        counted.len(),
+        |a| if counted[a] { map(a) } else { [0.0; K] },
+    );
+    ranks.add_others(&mut s);
+    s.each_ref().map(Exact::value)
+}
+
 impl<'a, D: Dim> Balance<'a, D> {
-    pub fn new(points: &'a [D::V], vol: &'a [f64], sums: &mut Sums<D>) -> Self {
-        let total_vol: f64 = vol.iter().sum();
-        let centroid = points
-            .iter()
-            .zip(vol)
-            .fold(D::zero(), |c, (&x, &v)| c + x * v)
-            * (1.0 / total_vol);
-        let inertia = reduce_in(
-            &mut sums.inertia,
-            points.len(),
-            || glam::DMat3::ZERO,
-            |a| {
-                let r = glam::DVec3::from_array(D::to3(points[a] - centroid));
-                (glam::DMat3::IDENTITY * r.length_squared()
-                    - glam::DMat3::from_cols(r * r.x, r * r.y, r * r.z))
-                    * vol[a]
-            },
-            |x, y| x + y,
-        );
+    pub fn new(
+        points: &'a [D::V],
+        vol: &'a [f64],
+        counted: &'a [bool],
+        ranks: &'a dyn Ranks,
+    ) -> Self {
+        let [total_vol, vx, vy, vz] = sums(counted, ranks, |a| {
+            let x = D::to3(points[a]);
+            [vol[a], vol[a] * x[0], vol[a] * x[1], vol[a] * x[2]]
+        });
+        let centroid = D::from_slice(&[vx, vy, vz]) * (1.0 / total_vol);
+        // Σ V (|r|² I − r ⊗ r): xx, yy, zz, xy, xz, yz.
+        let [xx, yy, zz, xy, xz, yz] = sums(counted, ranks, |a| {
+            let [x, y, z] = D::to3(points[a] - centroid);
+            let v = vol[a];
+            [
+                v * (y * y + z * z),
+                v * (x * x + z * z),
+                v * (x * x + y * y),
+                -v * x * y,
+                -v * x * z,
+                -v * y * z,
+            ]
+        });
         let inertia_inv = if D::N == 2 {
-            glam::DMat3::from_diagonal(glam::DVec3::new(0.0, 0.0, 1.0 / inertia.z_axis.z))
+            glam::DMat3::from_diagonal(glam::DVec3::new(0.0, 0.0, 1.0 / zz))
         } else {
-            inertia.inverse()
+            glam::DMat3::from_cols_array(&[xx, xy, xz, xy, yy, yz, xz, yz, zz]).inverse()
         };
         Self {
             points,
             vol,
+            counted,
+            ranks,
             total_vol,
             centroid,
             inertia_inv,
@@ -88,20 +81,15 @@ impl<'a, D: Dim> Balance<'a, D> {
     }
 
     /// Projects f in place.
-    pub fn project(&self, f: &mut [D::V], sums: &mut Sums<D>) {
+    pub fn project(&self, f: &mut [D::V]) {
         let (points, vol, c) = (self.points, self.vol, self.centroid);
-        let (net, moment) = reduce_in(
-            &mut sums.moments,
-            f.len(),
-            || (D::zero(), glam::DVec3::ZERO),
-            |a| {
-                let m = glam::DVec3::from_array(D::cross3(points[a] - c, f[a]));
-                (f[a] * vol[a], m * vol[a])
-            },
-            |x, y| (x.0 + y.0, x.1 + y.1),
-        );
-        let mu = net * (-1.0 / self.total_vol);
-        let lambda = -(self.inertia_inv * moment);
+        let [fx, fy, fz, mx, my, mz] = sums(self.counted, self.ranks, |a| {
+            let [x, y, z] = D::to3(f[a] * vol[a]);
+            let [u, v, w] = D::cross3(points[a] - c, f[a]);
+            [x, y, z, u * vol[a], v * vol[a], w * vol[a]]
+        });
+        let mu = D::from_slice(&[fx, fy, fz]) * (-1.0 / self.total_vol);
+        let lambda = -(self.inertia_inv * glam::DVec3::new(mx, my, mz));
         f.par_iter_mut()
             .with_min_len(MIN_CHUNK)
             .zip(points)

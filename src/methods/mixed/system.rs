@@ -12,7 +12,7 @@
 //! integrated.
 
 use super::compressibility::{Corrector, Pairs, StageStart, UNCONVERGED};
-use super::projection::{Balance, Sums};
+use super::projection::Balance;
 use super::weights::{brookshaw_weights, correct_laplacian, least_squares_weights, pair_map};
 use super::{
     CflWaveSpeed, Conserved, DeformationGradient, JstLaplacian, MixedScheme, Momentum, Stabiliser,
@@ -27,7 +27,7 @@ use crate::interaction::Interactions;
 use crate::case::{Case, CaseError};
 use crate::core::neighbour::{self, Csr};
 use crate::core::parallel::{MIN_CHUNK, particle_state};
-use crate::core::sum::{Exact, par_sum};
+use crate::core::sum::{Exact, Ranks, par_sum};
 use crate::core::tensor::{Dim, smallest_stretch_squared};
 use crate::diagnostics::observe::{ScalarField, Snapshot};
 use crate::methods::cores::particles::Surroundings;
@@ -37,6 +37,7 @@ use crate::physics::mirror::{Ghosts, Image};
 use crate::physics::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
 use crate::reference::Reference;
 use rayon::prelude::*;
+use std::sync::Arc;
 
 particle_state! {
     /// Integrated state of a mixed method (its velocity v = p/ρ0).
@@ -214,9 +215,12 @@ pub struct MixedSph<D: Dim> {
     t: Vec<D::V>,
     dp: Vec<D::V>,
     /// The power of the stabilisation D(p) at the last rate evaluation, −Σ V D(p)·v.
-    dissipation: f64,
+    dissipation: Exact,
     points: Vec<D::V>,
-    sums: Sums<D>,
+    /// Whether each real particle's shares are booked in the sums (a rank's own), and
+    /// the ranks that complete them ([`Reference::counted`], [`Reference::ranks`]).
+    counted: Vec<bool>,
+    ranks: Arc<dyn Ranks>,
     /// State at the start of the step (u, v) and the step size, for the projection's
     /// positions 𝒳 at the second TVD-RK2 stage.
     step_start: Option<StepStart<D>>,
@@ -244,6 +248,8 @@ impl<D: Dim> MixedSph<D> {
             boundary,
             material,
             kernel,
+            counted,
+            ranks,
             ..
         } = reference;
         let m = &case.method;
@@ -308,9 +314,10 @@ impl<D: Dim> MixedSph<D> {
             forces: vec![Forces::zero(); n],
             t: vec![D::zero(); n],
             dp: vec![D::zero(); n],
-            dissipation: 0.0,
+            dissipation: Exact::default(),
             points: vec![D::zero(); n],
-            sums: Sums::default(),
+            counted,
+            ranks,
             u_ext: vec![D::zero(); n_ext],
             v_ext: vec![D::zero(); n_ext],
             n,

@@ -463,7 +463,12 @@ impl<D: Dim, S: TlScheme<D>> Method<D> for TlSph<D, S> {
 
     /// The scheme's wave speed plus max |v|.
     fn max_signal_speed(&self, y: &TlState<D>) -> f64 {
-        self.scheme.wave_speed(&self.core) + max_speed::<D>(&y.v)
+        let [waves, flow] = self.signal_speed_terms(y);
+        waves + flow
+    }
+
+    fn signal_speed_terms(&self, y: &TlState<D>) -> [f64; 2] {
+        [self.scheme.wave_speed(&self.core), max_speed::<D>(&y.v)]
     }
 
     fn dissipation_power(&self) -> Exact {

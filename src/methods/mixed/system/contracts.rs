@@ -41,9 +41,10 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
                 .for_each(|((t, dp), f)| (*t, *dp) = (f.t, f.d));
             let mut points = std::mem::take(&mut self.points);
             self.balance_points(y, &mut points);
-            let balance = Balance::<D>::new(&points, &self.vol[..self.n], &mut self.sums);
-            balance.project(&mut t, &mut self.sums);
-            balance.project(&mut dp, &mut self.sums);
+            let balance =
+                Balance::<D>::new(&points, &self.vol[..self.n], &self.counted, &*self.ranks);
+            balance.project(&mut t);
+            balance.project(&mut dp);
             self.points = points;
         }
         self.stage += 1;
@@ -68,13 +69,15 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
         // The stabilisation's power on the bodies, Σ_a V_a D(p_a)·v_a (D per unit reference
         // volume, m_a = ρ0 V_a): minus the power the balance books as dissipated. D(J) acts
         // on J, not on the momentum, and stays in the residue (docs/methods/mixed.md).
-        // A serial sum in particle order: deterministic, and without the chunks' buffer
-        // that a parallel ordered reduction allocates at every rate evaluation.
+        // Over the counted particles: a rank's own.
         let stabilisation = |a: usize| if projected { dp[a] } else { forces[a].d };
-        let power: f64 = (0..self.n)
-            .map(|a| self.vol[a] * D::dot(stabilisation(a), y.v[a]))
-            .sum();
-        self.dissipation = -power;
+        self.dissipation = par_sum(self.n, |a| {
+            if self.counted[a] {
+                -self.vol[a] * D::dot(stabilisation(a), y.v[a])
+            } else {
+                0.0
+            }
+        });
         // eqs 38c–d in the difference form 39c–d.
         if self.conserved.evolves_h() {
             d.h.par_iter_mut()
@@ -175,6 +178,9 @@ impl<D: Dim> Method<D> for MixedSph<D> {
     fn strain_energy(&self, y: &MixedState<D>) -> Exact {
         let u_ext = self.extended_displacement(&y.u);
         par_sum(self.n, |a| {
+            if !self.counted[a] {
+                return 0.0;
+            }
             let (f, _, j) = self.stress_arguments(y, a, &u_ext);
             self.vol[a]
                 * match self.returned(a, f) {
@@ -190,7 +196,7 @@ impl<D: Dim> Method<D> for MixedSph<D> {
     }
 
     fn dissipation_power(&self) -> Exact {
-        Exact::from(self.dissipation)
+        self.dissipation.clone()
     }
 
     /// The committed plastic work and the current step's, over the reference volumes.
@@ -228,7 +234,12 @@ impl<D: Dim> Method<D> for MixedSph<D> {
     /// Δx max_ab C_p,ab / r_ab + max |v| ([`MixedSph::pair_wave_speed`]): with v = 0 the
     /// driver's Δt = α Δx / signal speed is seed 002 eq 31, α min_ab r_ab / C_p,ab.
     fn max_signal_speed(&self, y: &MixedState<D>) -> f64 {
-        self.pair_wave_speed(y) + max_speed::<D>(&y.v)
+        let [waves, flow] = self.signal_speed_terms(y);
+        waves + flow
+    }
+
+    fn signal_speed_terms(&self, y: &MixedState<D>) -> [f64; 2] {
+        [self.pair_wave_speed(y), max_speed::<D>(&y.v)]
     }
 
     fn pseudo_time(&self) -> Option<PseudoTime> {

@@ -32,9 +32,9 @@ impl<D: Dim> MixedSph<D> {
             det_f: m.unit_scalar(k.det_f),
         });
         self.kin = kin;
-        let bad = self.kin[..self.n]
-            .par_iter()
-            .position_first(|k| !(k.j > 0.0 && k.det_f > 0.0));
+        // A rank's own particles: its outermost ghosts' F^c and ∇0v lack neighbours.
+        let bad = (self.kin[..self.n].par_iter().zip(&self.counted))
+            .position_first(|(k, &counted)| counted && !(k.j > 0.0 && k.det_f > 0.0));
         match bad {
             Some(a) if self.kin[a].det_f > 0.0 => Err(self.blow_up(a, "J", self.kin[a].j)),
             Some(a) => Err(self.blow_up(a, "det F", self.kin[a].det_f)),
@@ -275,8 +275,9 @@ impl<D: Dim> MixedSph<D> {
             let force = &mut b.a_int;
             corrector.force(&pairs, force);
             if self.projection {
-                let balance = Balance::<D>::new(&self.points, &self.vol[..n], &mut self.sums);
-                balance.project(force, &mut self.sums);
+                let balance =
+                    Balance::<D>::new(&self.points, &self.vol[..n], &self.counted, &*self.ranks);
+                balance.project(force);
             }
             let inv_rho0 = 1.0 / self.material.rho0;
             let p_next = corrector.p();
