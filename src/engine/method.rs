@@ -104,13 +104,14 @@ pub trait Method<D: Dim>: OdeSystem<Error = BlowUp> + Sized {
     fn strain_energy(&self, y: &Self::State) -> Exact;
     /// Everything observers and frames read, at state y.
     fn snapshot<'a>(&'a self, y: &Self::State) -> Snapshot<'a, D>;
-    /// Largest signal speed c_p + |v| for the CFL condition.
-    fn max_signal_speed(&self, y: &Self::State) -> f64;
-    /// The maxima over the particles whose sum is [`Self::max_signal_speed`] (a wave
-    /// speed and the largest |v|, say): a distributed run takes each over the ranks
-    /// before adding them, as the sum of the ranks' sums would not be one rank's.
-    fn signal_speed_terms(&self, y: &Self::State) -> [f64; 2] {
-        [self.max_signal_speed(y), 0.0]
+    /// The two maxima over the particles whose sum is the CFL condition's signal speed:
+    /// a wave speed and the largest |v|. A distributed run takes each over the ranks
+    /// before adding them, as the largest of the ranks' sums would not be one rank's.
+    fn signal_speed_terms(&self, y: &Self::State) -> [f64; 2];
+    /// Largest signal speed c_p + |v| for the CFL condition: the sum of the terms.
+    fn max_signal_speed(&self, y: &Self::State) -> f64 {
+        let [waves, flow] = self.signal_speed_terms(y);
+        waves + flow
     }
     /// The power of supports, loads and interactions and the supports' reactions at the
     /// last rate evaluation.

@@ -158,12 +158,8 @@ impl Ranks for RankSums {
     fn add_others(&self, sums: &mut [Exact]) {
         let words = sums.iter().flat_map(Exact::words).collect();
         let all = self.0.all_gather(words);
-        for (s, total) in sums
-            .iter_mut()
-            .zip(sum_over_ranks(&all, 0, all[0].len() / Exact::WORDS))
-        {
-            *s = total;
-        }
+        let total = sum_over_ranks(&all, 0, sums.len());
+        sums.clone_from_slice(&total);
     }
 }
 

@@ -175,9 +175,9 @@ macro_rules! registry {
                 }
             }
 
-            pub fn ranks_refusal(&self, case: &Case) -> Option<&'static str> {
+            pub fn ranks_refusal(&self) -> Option<&'static str> {
                 match self {
-                    $(Self::$variant(s) => s.ranks_refusal(case)),*
+                    $(Self::$variant(s) => s.ranks_refusal()),*
                 }
             }
 

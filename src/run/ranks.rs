@@ -26,7 +26,7 @@ pub fn refusal(case: &Scene, backend: Backend) -> Option<String> {
             .collect::<Vec<_>>()
             .join(", ");
         format!("`{name}` does not run on several ranks yet (those that do: {methods})")
-    } else if let Some(why) = case.spec.ranks_refusal(case) {
+    } else if let Some(why) = case.spec.ranks_refusal() {
         format!("`{name}` {why}")
     } else if backend == Backend::Gpu {
         "the GPU backend does not run on several ranks yet; use --backend cpu".into()

@@ -169,7 +169,7 @@ pub trait MethodFamily: Sized {
 
     /// Why this spec does not run on several ranks although its method does (a key
     /// selects a variant that does not), as a phrase after the method's name, or None.
-    fn ranks_refusal(&self, _case: &Case) -> Option<&'static str> {
+    fn ranks_refusal(&self) -> Option<&'static str> {
         None
     }
 

@@ -54,10 +54,10 @@ pub fn max_speed<D: Dim>(v: &[D::V]) -> f64 {
         .sqrt()
 }
 
-/// c_p + max |v|: the signal speed of the CFL step of a method whose waves travel at the
-/// material's p-wave speed.
-pub fn signal_speed<D: Dim>(material: &Material, v: &[D::V]) -> f64 {
-    material.p_wave_speed() + max_speed::<D>(v)
+/// c_p and max |v|: the terms of the signal speed of the CFL step of a method whose waves
+/// travel at the material's p-wave speed.
+pub fn signal_speed_terms<D: Dim>(material: &Material, v: &[D::V]) -> [f64; 2] {
+    [material.p_wave_speed(), max_speed::<D>(v)]
 }
 
 /// The first non-finite density ρ_k or deviatoric stress S_k (either empty where a model

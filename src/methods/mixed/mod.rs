@@ -556,7 +556,7 @@ impl<S: MixedMethod + 'static> MethodFamily for S {
         validate(self.options(), case)
     }
 
-    fn ranks_refusal(&self, _case: &Case) -> Option<&'static str> {
+    fn ranks_refusal(&self) -> Option<&'static str> {
         self.options().artificial_compressibility.map(|_| {
             "with artificial compressibility does not run on several ranks yet (its \
              pseudo-time iteration exchanges no ghosts); remove \

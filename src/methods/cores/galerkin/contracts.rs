@@ -16,8 +16,8 @@ macro_rules! galerkin_accessors {
             &self.x0
         }
 
-        fn max_signal_speed(&self, y: &$state) -> f64 {
-            $crate::methods::cores::particles::signal_speed::<D>(&self.material, &y.v)
+        fn signal_speed_terms(&self, y: &$state) -> [f64; 2] {
+            $crate::methods::cores::particles::signal_speed_terms::<D>(&self.material, &y.v)
         }
 
         fn pairs(&self) -> usize {

@@ -461,12 +461,7 @@ impl<D: Dim, S: TlScheme<D>> Method<D> for TlSph<D, S> {
         self.scheme.snapshot(&self.core, y)
     }
 
-    /// The scheme's wave speed plus max |v|.
-    fn max_signal_speed(&self, y: &TlState<D>) -> f64 {
-        let [waves, flow] = self.signal_speed_terms(y);
-        waves + flow
-    }
-
+    /// The scheme's wave speed and max |v|.
     fn signal_speed_terms(&self, y: &TlState<D>) -> [f64; 2] {
         [self.scheme.wave_speed(&self.core), max_speed::<D>(&y.v)]
     }

@@ -28,7 +28,7 @@ use crate::diagnostics::observe::{ScalarField, Snapshot};
 use crate::engine::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
 use crate::interaction::Interactions;
 use crate::methods::cores::particles::{
-    Surroundings, check_stresses, check_tensors, particle_accessors, signal_speed,
+    Surroundings, check_stresses, check_tensors, particle_accessors, signal_speed_terms,
 };
 use crate::physics::material::{Material, stress_fields};
 use crate::reference::{Build, Reference};
@@ -444,8 +444,8 @@ impl<D: Dim, S: PairScheme<D>> Method<D> for UlSph<D, S> {
         self.dissipation.iter().copied().sum()
     }
 
-    fn max_signal_speed(&self, y: &UlState<D>) -> f64 {
-        signal_speed::<D>(&self.core.material, &y.v)
+    fn signal_speed_terms(&self, y: &UlState<D>) -> [f64; 2] {
+        signal_speed_terms::<D>(&self.core.material, &y.v)
     }
 
     fn pairs(&self) -> usize {

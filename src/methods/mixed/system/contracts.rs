@@ -233,11 +233,6 @@ impl<D: Dim> Method<D> for MixedSph<D> {
 
     /// Δx max_ab C_p,ab / r_ab + max |v| ([`MixedSph::pair_wave_speed`]): with v = 0 the
     /// driver's Δt = α Δx / signal speed is seed 002 eq 31, α min_ab r_ab / C_p,ab.
-    fn max_signal_speed(&self, y: &MixedState<D>) -> f64 {
-        let [waves, flow] = self.signal_speed_terms(y);
-        waves + flow
-    }
-
     fn signal_speed_terms(&self, y: &MixedState<D>) -> [f64; 2] {
         [self.pair_wave_speed(y), max_speed::<D>(&y.v)]
     }
