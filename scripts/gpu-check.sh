@@ -8,7 +8,8 @@
 #   scripts/gpu-check.sh [OUT.md]            # sizes 1e5 and 1e6 particles, 100 steps
 #   scripts/gpu-check.sh --small [OUT.md]    # 1e3 particles, 10 steps, no tests (CI, lavapipe)
 #
-# SIZES and STEPS override the sizes (comma-separated particle counts) and steps. Needs
+# SIZES and STEPS override the sizes (comma-separated particle counts) and steps; FEATURES
+# (say `mpi`) builds with those cargo features besides the default ones. Needs
 # what the tests need (Rust, a Vulkan, Metal or DX12 driver); `nvidia-smi` is read when
 # present. On an H100 or H200 the default run takes about 5 minutes after the build (the
 # bench set-ups build neighbour lists on the host, 1e6 particles in seconds).
@@ -31,7 +32,7 @@ if [ -z "${XDG_RUNTIME_DIR:-}" ] || [ ! -d "${XDG_RUNTIME_DIR}" ]; then
     XDG_RUNTIME_DIR=$(mktemp -d)
     export XDG_RUNTIME_DIR
 fi
-cargo build --release --quiet
+cargo build --release --quiet --features "${FEATURES:-}"
 start=$(date +%s)
 {
     echo "# meshless GPU check"
@@ -51,7 +52,7 @@ start=$(date +%s)
         echo '```'
         test_start=$(date +%s)
         tests=passed
-        log=$(cargo test --release --test it gpu 2>&1) || tests=FAILED
+        log=$(cargo test --release --features "${FEATURES:-}" --test it gpu 2>&1) || tests=FAILED
         grep -E '^test result|FAILED|panicked' <<<"$log" || true
         echo "GPU tests $tests ($(($(date +%s) - test_start)) s)"
         echo '```'
