@@ -12,7 +12,8 @@
 # integrators. The states depend on the compiler and the CPU's floating point, so record
 # and compare on the same machine: record on the commit before a refactor, then compare
 # after each of its steps. A mismatch names the case and the file; the run folders stay
-# in the work folder that the script prints.
+# in the work folder that the script prints. FEATURES (say `mpi`) builds with those cargo
+# features besides the default ones, as scripts/test.sh's build has.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -48,7 +49,7 @@ cases=(
     "dual-support-dynamic|bar-mode|method.name=dual-support-sph run.solve=dynamic run.end_time=5e-3"
 )
 
-cargo build --release --quiet
+cargo build --release --quiet --features "${FEATURES:-}"
 work=$(mktemp -d)
 echo "runs in $work"
 export RAYON_NUM_THREADS=1

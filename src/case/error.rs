@@ -1,5 +1,6 @@
 //! The error of a case: a file that cannot be read or parsed, an override that does not
-//! apply, or a key whose value is not allowed.
+//! apply, a key whose value is not allowed, or, on several ranks, another rank's failed
+//! set-up of it.
 
 use std::path::PathBuf;
 use thiserror::Error;
@@ -26,4 +27,8 @@ pub enum CaseError {
         key: String,
         message: String,
     },
+    /// Rank `rank` of a distributed run could not set up its particles (it reports its
+    /// own error); the other ranks stop with this one rather than wait for it.
+    #[error("{file}: rank {rank} could not set up its particles: its error says why")]
+    OtherRank { file: PathBuf, rank: usize },
 }

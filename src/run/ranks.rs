@@ -5,7 +5,7 @@
 //! one-rank formats.
 
 use super::{Backend, RunError, RunOptions, budget, drive::drive};
-use crate::case::fnv1a;
+use crate::case::{CaseError, fnv1a};
 use crate::core::tensor::{D2, D3};
 use crate::distributed::{Collectives, Comm, Local, Partition, Threads};
 use crate::engine::ranks::{Rank, RankSums, Whole};
@@ -34,8 +34,6 @@ pub fn refusal(case: &Scene, backend: Backend) -> Option<String> {
         "the static solve (run.solve = \"static\") does not run on several ranks".into()
     } else if case.contact.is_some() {
         "contact ([contact]) does not run on several ranks yet".into()
-    } else if !case.mirrors.is_empty() {
-        "symmetry planes ([[mirror]]) do not run on several ranks yet".into()
     } else if case.boundaries.iter().any(|b| b.condition.is_timed_load()) {
         "loads with a time law do not run on several ranks yet".into()
     } else {
@@ -147,10 +145,20 @@ pub fn run_on_threads(
             .into_iter()
             .map(|h| h.join().expect("a rank's thread panicked"))
             .collect();
-        // Rank 0's error first; a rank that refused alone says why.
-        let mut results = results.into_iter();
-        let first = results.next().expect("at least one rank")?;
-        results.try_for_each(|r| r.map(drop))?;
-        Ok(first.expect("rank 0 returns the summary"))
+        // The first rank's own error: the others stop with one that names the rank
+        // whose set-up failed.
+        let relayed = |e: &RunError| matches!(e, RunError::Case(CaseError::OtherRank { .. }));
+        let (mut errors, mut summary) = (Vec::new(), None);
+        for result in results {
+            match result {
+                Ok(s) => summary = summary.or(s),
+                Err(e) => errors.push(e),
+            }
+        }
+        if !errors.is_empty() {
+            let own = errors.iter().position(|e| !relayed(e)).unwrap_or(0);
+            return Err(errors.swap_remove(own));
+        }
+        Ok(summary.expect("rank 0 returns the summary"))
     })
 }

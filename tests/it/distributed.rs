@@ -201,6 +201,21 @@ fn the_mixed_methods_on_two_and_three_ranks_match_one_rank() {
 }
 
 #[test]
+fn the_mixed_methods_with_mirror_planes_match_one_rank() {
+    // The swinging plate (seed 003 §7.1.1), closed by four mirror planes: every rank
+    // images its own particles and its ghosts, and the rows it never reads (the images
+    // of its outer ghosts) are not set up.
+    let short = [
+        "run.end_time=2e-3",
+        "output.frame_interval=1e-3",
+        "output.series_interval=2e-4",
+    ];
+    assert_ranks_match_one("swinging-plate", &short);
+    let jst = [&short[..], &["method.name=jst-sph"]].concat();
+    assert_ranks_match_one("swinging-plate", &jst);
+}
+
+#[test]
 fn upwind_sph_in_3d_with_a_clamped_end_matches_one_rank() {
     // The twisting column: a fixed support on one rank's particles, the projection's
     // 3×3 inertia, {p, F, H, J} with D(J).
@@ -313,6 +328,27 @@ fn a_rank_that_reads_another_case_stops_every_rank() {
             other => panic!("rank {r}: {other:?}"),
         }
     }
+}
+
+#[test]
+fn a_set_up_that_fails_on_one_rank_is_reported_with_its_own_error() {
+    // A second body of two particles on a line, far above the strip: the bisection cuts
+    // across y, so only rank 1 holds it, and its Randles–Libersky matrix is singular. Rank
+    // 0 stops with an error that names rank 1; the run reports rank 1's own.
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("stray.toml");
+    let strip = std::fs::read_to_string(case_file("tensile-strip")).unwrap();
+    let stray = "\n[[body]]\nname = \"stray\"\ngeometry = { shape = \"box\", \
+                 min = [0.4, 5.0], max = [0.45, 5.01], volumes = \"uniform\" }\n";
+    std::fs::write(&file, strip + stray).unwrap();
+    let case = meshless::scene::Scene::load(&file, &[]).unwrap();
+    let e = run_on_threads(&case, &cpu_options(&dir.path().join("out"), false), 2).unwrap_err();
+    let shown = e.to_string();
+    assert!(
+        shown.contains("correction matrix of particle") && shown.contains("is singular"),
+        "{shown}"
+    );
+    assert_eq!(e.exit_code(), 2);
 }
 
 #[test]

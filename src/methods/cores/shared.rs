@@ -45,11 +45,11 @@ where
     let method = M::build(case, spec, reference);
     let failed = (rank.comm).all_gather(vec![f64::from(u8::from(method.is_err()))]);
     let method = method?;
-    if let Some(r) = failed.iter().position(|w| w[0] != 0.0) {
-        return Err(case.invalid(
-            "method.name",
-            format!("rank {r} could not set up its particles: its error says why"),
-        ));
+    if let Some(rank) = failed.iter().position(|w| w[0] != 0.0) {
+        return Err(CaseError::OtherRank {
+            file: case.file.clone(),
+            rank,
+        });
     }
     let engine = CpuEngine::with(method, case.method.integrator);
     let engine = RankEngine::new(engine, rank).map_err(|e| case.invalid("method.name", e))?;

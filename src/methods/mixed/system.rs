@@ -258,11 +258,12 @@ impl<D: Dim> MixedSph<D> {
         let ghosts = Ghosts::build(&case.mirrors, case.spacing, &x_real, &vol_real, radius)
             .map_err(|(key, message)| case.invalid(key, message))?;
         let (x0, vol) = ghosts.extend_reference(&x_real, &vol_real);
-        // Real and ghost particles together: the ghosts close the real rows' lists.
+        // The real rows' lists over real and ghost particles: the ghosts close them, and a
+        // ghost's own row is never read (on a rank, that of an image of an outer ghost
+        // may lack neighbours on one side).
         let mut csr = neighbour::build::<D>(&x0, radius);
-        let mut grad = reference_gradients::<D>(case, &x0, &vol, &csr)?;
         csr.truncate(n);
-        grad.truncate(csr.pair_count());
+        let grad = reference_gradients::<D>(case, &x0, &vol, &csr)?;
         let (rev, grad_rev) = reverse_pairs(case, &ghosts, &csr, &grad)?;
         let normal: Vec<D::V> = pair_map(&csr, |i, j| {
             let d = x0[j] - x0[i];
