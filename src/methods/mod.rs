@@ -175,6 +175,16 @@ macro_rules! registry {
                 }
             }
 
+            pub fn smoothing_lengths<D: Dim>(
+                &self,
+                case: &Case,
+                reference: &crate::reference::Reference<D>,
+            ) -> Result<Option<Vec<f64>>, CaseError> {
+                match self {
+                    $(Self::$variant(s) => s.smoothing_lengths::<D>(case, reference)),*
+                }
+            }
+
             pub fn ranks_refusal(&self) -> Option<&'static str> {
                 match self {
                     $(Self::$variant(s) => s.ranks_refusal()),*

@@ -97,7 +97,10 @@ fn rank<D: EngineDim>(
     opts: &RunOptions,
     comm: Arc<dyn Comm>,
 ) -> Result<Option<RunSummary>, RunError> {
-    let reference = Reference::<D>::build(case)?;
+    let mut reference = Reference::<D>::build(case)?;
+    if let Some(h) = case.spec.smoothing_lengths::<D>(case, &reference)? {
+        reference.h = h;
+    }
     let n = reference.len();
     let lists = reference.neighbours();
     let partition = Partition::bisect::<D>(&reference.x0, &lists, comm.size())

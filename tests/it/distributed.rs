@@ -216,6 +216,25 @@ fn the_mixed_methods_with_mirror_planes_match_one_rank() {
 }
 
 #[test]
+fn dual_support_dynamics_matches_one_rank() {
+    // The plate under a pressure (seed 004), in time: supports reaching each particle's
+    // 10th nearest (the halo is built on the lists of these lengths, taken over all the
+    // particles; a rank's own nearest-particle rule would lengthen its outer ghosts'
+    // supports into its own particles' dual-supports), the variational force gathered over
+    // supports and dual-supports, hourglass control (its power an exact sum).
+    assert_ranks_match_one(
+        "plate-compression-2d",
+        &[
+            "run.solve=dynamic",
+            "method.dt=1e-3",
+            "run.end_time=2e-2",
+            "output.frame_interval=1e-2",
+            "output.series_interval=2e-3",
+        ],
+    );
+}
+
+#[test]
 fn upwind_sph_in_3d_with_a_clamped_end_matches_one_rank() {
     // The twisting column: a fixed support on one rank's particles, the projection's
     // 3×3 inertia, {p, F, H, J} with D(J).

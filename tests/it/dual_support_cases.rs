@@ -83,7 +83,7 @@ fn beam(spacing: f64, h_over_dx: f64) -> (f64, f64) {
         num += ((ux - u.x).powi(2) + (uy - u.y).powi(2)) * v;
         den += (ux * ux + uy * uy) * v;
     }
-    ((num / den).sqrt(), e.model.energies(&e.u).strain)
+    ((num / den).sqrt(), e.model.energies(&e.u).strain.value())
 }
 
 /// The paper's n of eq 58 as the kernel's h_over_dx: support radius n · 2√(V/π) with

@@ -167,6 +167,18 @@ pub trait MethodFamily: Sized {
         ))
     }
 
+    /// The smoothing length of every particle, where the method sets its own (the
+    /// dual-support method's per-particle rules): a distributed run builds its halo on the
+    /// lists of these, which reach every pair the method's supports hold. None: the
+    /// case's kernel h ([`Reference::h`]).
+    fn smoothing_lengths<D: Dim>(
+        &self,
+        _case: &Case,
+        _reference: &Reference<D>,
+    ) -> Result<Option<Vec<f64>>, CaseError> {
+        Ok(None)
+    }
+
     /// Why this spec does not run on several ranks although its method does (a key
     /// selects a variant that does not), as a phrase after the method's name, or None.
     fn ranks_refusal(&self) -> Option<&'static str> {

@@ -28,7 +28,7 @@ pub struct DynamicsScheme<D: Dim> {
     /// The displacement gradients H = F − I of the last stress pass.
     h: Vec<D::T>,
     /// The power against the hourglass control at the last rate evaluation.
-    hourglass_power: f64,
+    hourglass_power: Exact,
 }
 
 impl<D: Dim> TlScheme<D> for DynamicsScheme<D> {
@@ -43,7 +43,7 @@ impl<D: Dim> TlScheme<D> for DynamicsScheme<D> {
         Ok(Self {
             model: spec.model(case, reference)?,
             h: Vec::new(),
-            hourglass_power: 0.0,
+            hourglass_power: Exact::default(),
         })
     }
 
@@ -87,13 +87,13 @@ impl<D: Dim> TlScheme<D> for DynamicsScheme<D> {
     /// E_strain alone: the hourglass energy is booked as the work against the hourglass
     /// control ([`Self::hourglass_power`]; its density is also a field of the frames).
     fn strain_energy(&self, _core: &TlCore<D>, y: &TlState<D>) -> Exact {
-        Exact::from(self.model.energies(&y.u).strain)
+        self.model.energies(&y.u).strain
     }
 
     /// −Σ f^hg·v at the last rate evaluation: its integral is the hourglass energy E_hg
     /// gained since the start, as the force derives from it (eq 21).
     fn hourglass_power(&self, _core: &TlCore<D>) -> Exact {
-        Exact::from(self.hourglass_power)
+        self.hourglass_power.clone()
     }
 
     /// Pass 1 reads u and the ids and g_ij of every pair and writes H = F − I; the det F

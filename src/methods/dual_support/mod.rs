@@ -21,9 +21,11 @@ pub use model::{DualSupport, Energies};
 pub use statics::{Statics, pattern};
 pub use support::Support;
 
+use crate::engine::ranks::Rank;
 #[cfg(feature = "gpu")]
 use crate::methods::cores::family::GpuBuild;
-use crate::methods::cores::family::{CpuBuild, Feature, MethodFamily, Plan};
+use crate::methods::cores::family::{CpuBuild, Feature, MethodFamily, Plan, RankBuild};
+use crate::methods::cores::shared;
 
 use crate::case::{Case, CaseError};
 use crate::core::check::{Problem, fail, non_negative, toml_name};
@@ -119,8 +121,9 @@ impl Default for DualSupportSpec {
 }
 
 impl DualSupportSpec {
-    /// The smoothing length of every particle of a reference configuration.
-    pub fn smoothing_lengths<D: Dim>(
+    /// The smoothing length of every particle of a reference configuration, by the rule
+    /// `method.smoothing_length`.
+    pub fn particle_smoothing_lengths<D: Dim>(
         &self,
         case: &Case,
         reference: &Reference<D>,
@@ -161,7 +164,15 @@ impl DualSupportSpec {
         case: &Case,
         reference: &Reference<D>,
     ) -> Result<DualSupport<D>, CaseError> {
-        let h = self.smoothing_lengths::<D>(case, reference)?;
+        // A rank's share carries the lengths of the whole run, set before its halo was
+        // built ([`MethodFamily::smoothing_lengths`]): the nearest-particle rule on the
+        // share alone would lengthen its outer ghosts' supports.
+        let share = reference.counted.contains(&false);
+        let h = if share {
+            reference.h.clone()
+        } else {
+            self.particle_smoothing_lengths::<D>(case, reference)?
+        };
         let (x0, vol) = (reference.x0.clone(), reference.vol.clone());
         let support = Support::<D>::new(x0, vol, h, case.method.kernel)
             .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))?;
@@ -169,6 +180,7 @@ impl DualSupportSpec {
             support,
             reference.material,
             self.hourglass,
+            reference.counted.clone(),
         ))
     }
 }
@@ -218,6 +230,9 @@ impl MethodFamily for DualSupportSpec {
         Feature::StaticDefault,
         Feature::InitialDisplacement,
     ];
+    /// F_j of a neighbour j (from its support) enters the gather of i's force over its
+    /// support and dual-support, as do the hourglass terms of j's pair slots.
+    const HALO_LAYERS: Option<usize> = Some(2);
     const GPU_ENGINE: bool = true;
     const CORRECTED: bool = false;
     #[cfg(feature = "gpu")]
@@ -376,6 +391,25 @@ impl MethodFamily for DualSupportSpec {
             check_note: String::new(),
             left_out,
         }
+    }
+
+    fn smoothing_lengths<D: Dim>(
+        &self,
+        case: &Case,
+        reference: &Reference<D>,
+    ) -> Result<Option<Vec<f64>>, CaseError> {
+        self.particle_smoothing_lengths(case, reference).map(Some)
+    }
+
+    /// The dynamic variant's system on a rank's particles (the static solve does not run
+    /// on several ranks).
+    fn rank_engine<D: EngineDim>(
+        &self,
+        case: &Case,
+        reference: Reference<D>,
+        rank: Rank<D>,
+    ) -> RankBuild<D> {
+        shared::rank_engine::<D, DualSupportDynamics<D>>(case, self, reference, rank)
     }
 
     fn cpu_engine<D: EngineDim>(&self, case: &Case) -> CpuBuild<D> {

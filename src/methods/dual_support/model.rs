@@ -4,8 +4,7 @@
 //! tangent ∂²E/∂u² assembled in two steps (eqs 39–41 and the corrected eq 29).
 
 use super::support::Support;
-use crate::core::parallel::ordered_reduce;
-use crate::core::sum::Exact;
+use crate::core::sum::{Exact, par_sum, par_sums};
 use crate::core::tensor::Dim;
 use crate::diagnostics::observe::{ScalarField, Snapshot};
 use crate::engine::BlowUp;
@@ -13,13 +12,14 @@ use crate::physics::material::{Material, Tangent};
 use crate::statics::sparse::BlockPattern;
 use rayon::prelude::*;
 
-/// Strain and hourglass energy of a displacement field.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+/// Strain and hourglass energy of a displacement field: exact sums over the counted
+/// particles ([`Reference::counted`](crate::reference::Reference::counted)).
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Energies {
     /// Σ_i V_i ψ(F_i).
-    pub strain: f64,
+    pub strain: Exact,
     /// Σ_i V_i 𝓕_i^hg.
-    pub hourglass: f64,
+    pub hourglass: Exact,
 }
 
 /// Dual-support SPH on a reference configuration: supports, material and the hourglass
@@ -33,11 +33,16 @@ pub struct DualSupport<D: Dim> {
     /// The hourglass term 2 V_i c_i w_ij e_ij of every pair slot, kept from one force
     /// evaluation to the next.
     pair_terms: Vec<D::V>,
+    /// Whether each particle's share of the sums is booked and its F checked: all but a
+    /// rank's ghosts.
+    counted: Vec<bool>,
 }
 
 impl<D: Dim> DualSupport<D> {
-    /// The method with hourglass penalty α = `factor` · μ (0: no hourglass control).
-    pub fn new(support: Support<D>, material: Material, factor: f64) -> Self {
+    /// The method on `support` with the hourglass penalty α = `factor` · μ (0: no
+    /// hourglass control), booking the sums of the `counted` particles and checking
+    /// their F.
+    pub fn new(support: Support<D>, material: Material, factor: f64, counted: Vec<bool>) -> Self {
         let alpha = factor * material.mu;
         let hourglass = support.l.iter().map(|&l| alpha / D::trace(l)).collect();
         Self {
@@ -45,6 +50,7 @@ impl<D: Dim> DualSupport<D> {
             material,
             hourglass,
             pair_terms: Vec::new(),
+            counted,
         }
     }
 
@@ -75,9 +81,9 @@ impl<D: Dim> DualSupport<D> {
     /// The first particle with det F ≤ 0 or a non-finite F among H = F − I, as a blow-up.
     pub fn first_inadmissible(&self, h: &[D::T]) -> Option<BlowUp> {
         let det = |h: D::T| D::det(D::identity() + h);
-        let i = h
-            .par_iter()
-            .position_first(|&h| !D::is_finite_t(h) || det(h) <= 0.0 || det(h).is_nan())?;
+        let bad = |h: D::T| !D::is_finite_t(h) || det(h) <= 0.0 || det(h).is_nan();
+        let i =
+            (h.par_iter().zip(&self.counted)).position_first(|(&h, &counted)| counted && bad(h))?;
         Some(BlowUp::at::<D>(&self.support.x0, i, "det F", det(h[i])))
     }
 
@@ -123,20 +129,18 @@ impl<D: Dim> DualSupport<D> {
     /// The strain and hourglass energies of displacement u.
     pub fn energies(&self, u: &[D::V]) -> Energies {
         let s = &self.support;
-        let (strain, hourglass) = ordered_reduce(
-            self.len(),
-            || (0.0, 0.0),
-            |i| {
-                let h = s.displacement_gradient(u, i);
-                let psi = self.material.energy_density::<D>(
-                    D::identity() + h,
-                    D::zero_t(),
-                    self.material.rho0,
-                );
-                (s.vol[i] * psi, s.vol[i] * self.hourglass_density(u, h, i))
-            },
-            |a, b| (a.0 + b.0, a.1 + b.1),
-        );
+        let [strain, hourglass] = par_sums(self.len(), |i| {
+            if !self.counted[i] {
+                return [0.0; 2];
+            }
+            let h = s.displacement_gradient(u, i);
+            let psi = (self.material).energy_density::<D>(
+                D::identity() + h,
+                D::zero_t(),
+                self.material.rho0,
+            );
+            [s.vol[i] * psi, s.vol[i] * self.hourglass_density(u, h, i)]
+        });
         Energies { strain, hourglass }
     }
 
@@ -170,19 +174,16 @@ impl<D: Dim> DualSupport<D> {
     /// The power against the hourglass control at velocities v, from the hourglass terms
     /// of the last [`Self::internal_force_at`] with them: −Σ_a f_a^hg·v_a = Σ over the pair
     /// slots (i, j) of T_ij·(v_j − v_i), each slot's term acting on i and, opposite, on j.
-    pub fn hourglass_power(&self, v: &[D::V]) -> f64 {
+    pub fn hourglass_power(&self, v: &[D::V]) -> Exact {
         let s = &self.support;
-        ordered_reduce(
-            self.len(),
-            || 0.0,
-            |i| {
-                s.lists
-                    .pairs(i, &self.pair_terms)
-                    .map(|(j, &term)| D::dot(term, v[j] - v[i]))
-                    .sum::<f64>()
-            },
-            |a, b| a + b,
-        )
+        par_sum(self.len(), |i| {
+            if !self.counted[i] {
+                return 0.0;
+            }
+            (s.lists.pairs(i, &self.pair_terms))
+                .map(|(j, &term)| D::dot(term, v[j] - v[i]))
+                .sum::<f64>()
+        })
     }
 
     /// f_a = −Σ V P ∇W over a's support and dual-support, plus the hourglass terms of its
@@ -247,14 +248,11 @@ impl<D: Dim> DualSupport<D> {
             v,
             f,
             sigma,
-            strain_energy: Exact::from(
+            strain_energy: if stored_hourglass {
+                energies.strain.merged(energies.hourglass)
+            } else {
                 energies.strain
-                    + if stored_hourglass {
-                        energies.hourglass
-                    } else {
-                        0.0
-                    },
-            ),
+            },
             extra: vec![
                 ScalarField {
                     name: "hourglass_energy_density",
