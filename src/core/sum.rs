@@ -217,21 +217,41 @@ pub fn par_sums<const K: usize>(n: usize, map: impl Fn(usize) -> [f64; K] + Sync
         .reduce(|| std::array::from_fn(|_| Exact::default()), merged)
 }
 
-/// The ranks that share a system's particles, as its sums over them see them: each rank
-/// sums its own particles' shares ([`crate::reference::Reference::counted`]), and
-/// [`Ranks::add_others`] adds the other ranks' shares, so that every rank holds the
-/// sums over all particles, with the bits of one rank's.
+/// The ranks that share a system's particles, as a rate evaluation sees them: each rank
+/// sums its own particles' shares ([`crate::reference::Reference::counted`]) and
+/// [`Ranks::add_others`] adds the other ranks' shares, so that every rank holds the sums
+/// over all particles, with the bits of one rank's; [`Ranks::max`] and
+/// [`Ranks::refresh`] serve an iteration inside a rate evaluation (the mixed family's
+/// pseudo time). Every rank calls each at the same point of the run.
 pub trait Ranks: Send + Sync {
-    /// Adds the other ranks' shares to `sums` (every rank calls it with the same number
-    /// of sums at the same point of the run).
+    /// Adds the other ranks' shares to `sums`.
     fn add_others(&self, sums: &mut [Exact]);
+    /// Each of `values` the largest of the ranks'.
+    fn max(&self, values: &mut [f64]);
+    /// The largest of the ranks' `size`, each at its local particle `particle` (the
+    /// lowest global id on ties, as one rank's scan in particle order finds it): whether
+    /// it is this rank's, and the size.
+    fn worst(&self, particle: usize, size: f64) -> (bool, f64);
+    /// Overwrites the rows of the rank's ghosts with their owners': `put(ids, out)`
+    /// appends the rows of the local particles `ids`, `take(ids, words)` overwrites
+    /// them.
+    fn refresh(&self, put: &dyn Fn(&[u32], &mut Vec<f64>), take: &mut dyn FnMut(&[u32], &[f64]));
 }
 
-/// A run on one rank: its sums are complete.
+/// A run on one rank: its sums are complete, and it has no ghosts.
 pub struct OneRank;
 
 impl Ranks for OneRank {
     fn add_others(&self, _sums: &mut [Exact]) {}
+
+    fn max(&self, _values: &mut [f64]) {}
+
+    fn worst(&self, _particle: usize, size: f64) -> (bool, f64) {
+        (true, size)
+    }
+
+    fn refresh(&self, _put: &dyn Fn(&[u32], &mut Vec<f64>), _take: &mut dyn FnMut(&[u32], &[f64])) {
+    }
 }
 
 /// 2^e for −1022 ≤ e ≤ 1023.

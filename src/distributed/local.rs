@@ -63,19 +63,37 @@ impl Local {
 
     /// Overwrites the ghosts' rows of `state` with their owners' rows.
     pub fn refresh<S: ParticleRows>(&self, comm: &dyn Comm, state: &mut S) {
+        let state = std::cell::RefCell::new(state);
+        self.refresh_rows(
+            comm,
+            &|ids, out| state.borrow().rows(ids, out),
+            &mut |ids, words| {
+                let rest = state.borrow_mut().set_rows(ids, words);
+                debug_assert!(rest.is_empty(), "a ghost's rows are its owner's");
+            },
+        );
+    }
+
+    /// Overwrites the ghosts' rows with their owners': `put(ids, out)` appends the rows
+    /// of the local particles `ids`, `take(ids, words)` overwrites them with `words`.
+    pub fn refresh_rows(
+        &self,
+        comm: &dyn Comm,
+        put: &dyn Fn(&[u32], &mut Vec<f64>),
+        take: &mut dyn FnMut(&[u32], &[f64]),
+    ) {
         let out = self
             .send
             .iter()
             .map(|(s, ids)| {
                 let mut words = Vec::new();
-                state.rows(ids, &mut words);
+                put(ids, &mut words);
                 (*s, words)
             })
             .collect();
         let from: Vec<usize> = self.receive.iter().map(|r| r.0).collect();
         for ((_, ids), words) in self.receive.iter().zip(comm.exchange(out, &from)) {
-            let rest = state.set_rows(ids, &words);
-            debug_assert!(rest.is_empty(), "a ghost's rows are its owner's");
+            take(ids, &words);
         }
     }
 }

@@ -13,14 +13,14 @@
 use super::cpu::{AfterRates, StepPowers};
 use super::{BlowUp, CpuEngine, Engine, Failed, Method};
 use crate::boundary::Reaction;
-use crate::core::integrate::OdeState;
+use crate::core::integrate::{OdeState, PseudoTime};
 use crate::core::parallel::ParticleRows;
 use crate::core::sum::{Exact, Ranks};
 use crate::core::tensor::{Dim, Words};
 use crate::diagnostics::balance::Booked;
 use crate::diagnostics::observe::{ScalarField, Snapshot};
 use crate::distributed::{Collectives, Comm, Local};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 /// A rank's engine: rank 0's drives the run as an [`Engine`]; the others serve it.
@@ -47,6 +47,20 @@ pub struct Rank<D: Dim> {
     pub comm: Arc<dyn Comm>,
     pub n: usize,
     pub whole: Option<Whole<D>>,
+    /// Wall time the rank's system spends in its own collectives and exchanges inside
+    /// its rate evaluations ([`Peers`]) [s].
+    pub inside: Arc<Mutex<f64>>,
+}
+
+impl<D: Dim> Rank<D> {
+    /// The other ranks as the rank's system sees them ([`Reference::ranks`](crate::reference::Reference::ranks)).
+    pub fn peers(&self) -> Peers {
+        Peers {
+            comm: self.comm.clone(),
+            local: self.local.clone(),
+            seconds: self.inside.clone(),
+        }
+    }
 }
 
 /// The calls rank 0 sends, as the first word of a message.
@@ -100,8 +114,10 @@ struct Exchange {
     /// The key of the run's first blow-up in the step (evaluation · n + global id), or
     /// none: every rank's, agreed at the end of the step.
     first: Option<usize>,
-    /// Wall time in the exchanges so far ([`Engine::halo_seconds`]) [s].
+    /// Wall time in the exchanges so far ([`Engine::halo_seconds`]) [s], and in the
+    /// system's own inside its rate evaluations ([`Peers`]).
     seconds: f64,
+    inside: Arc<Mutex<f64>>,
 }
 
 impl Exchange {
@@ -150,16 +166,53 @@ fn sum_over_ranks(all: &[Vec<f64>], skip: usize, count: usize) -> Vec<Exact> {
     total
 }
 
-/// The sums of a rank's system completed over the ranks of `comm` ([`Ranks`]): one
-/// collective per call.
-pub struct RankSums(pub Arc<dyn Comm>);
+/// The other ranks as a rank's system sees them inside a rate evaluation ([`Ranks`]):
+/// its sums completed and its ghosts refreshed over `comm`, one collective or exchange
+/// per call.
+pub struct Peers {
+    comm: Arc<dyn Comm>,
+    local: Local,
+    /// The wall time in these calls so far [s].
+    seconds: Arc<Mutex<f64>>,
+}
 
-impl Ranks for RankSums {
+impl Peers {
+    /// The words of every rank, in rank order, timed.
+    fn all_gather(&self, words: Vec<f64>) -> Vec<Vec<f64>> {
+        let started = Instant::now();
+        let all = self.comm.all_gather(words);
+        *self.seconds.lock().expect("a rank's clock") += started.elapsed().as_secs_f64();
+        all
+    }
+}
+
+impl Ranks for Peers {
     fn add_others(&self, sums: &mut [Exact]) {
         let words = sums.iter().flat_map(Exact::words).collect();
-        let all = self.0.all_gather(words);
+        let all = self.all_gather(words);
         let total = sum_over_ranks(&all, 0, sums.len());
         sums.clone_from_slice(&total);
+    }
+
+    fn max(&self, values: &mut [f64]) {
+        for w in self.all_gather(values.to_vec()) {
+            values.iter_mut().zip(w).for_each(|(v, w)| *v = v.max(w));
+        }
+    }
+
+    fn worst(&self, particle: usize, size: f64) -> (bool, f64) {
+        let gid = f64::from(self.local.ids[particle]);
+        let all = self.all_gather(vec![size, gid]);
+        // As one rank's scan in particle order: the larger, then the lower global id.
+        let later = |a: &[f64], b: &[f64]| b[0] > a[0] || (b[0] == a[0] && b[1] < a[1]);
+        let w = (all.iter()).fold(&all[0], |a, b| if later(a, b) { b } else { a });
+        (w[1] == gid, w[0])
+    }
+
+    fn refresh(&self, put: &dyn Fn(&[u32], &mut Vec<f64>), take: &mut dyn FnMut(&[u32], &[f64])) {
+        let started = Instant::now();
+        self.local.refresh_rows(self.comm.as_ref(), put, take);
+        *self.seconds.lock().expect("a rank's clock") += started.elapsed().as_secs_f64();
     }
 }
 
@@ -208,6 +261,7 @@ where
             comm,
             n,
             whole,
+            inside,
         } = rank;
         let mut history = Vec::new();
         engine.method.save_history(&mut history);
@@ -235,6 +289,7 @@ where
                 failure: None,
                 first: None,
                 seconds: 0.0,
+                inside,
             },
             n,
             whole,
@@ -522,7 +577,14 @@ where
     }
 
     fn halo_seconds(&mut self) -> Option<f64> {
-        Some(self.exchange.seconds)
+        let inside = *self.exchange.inside.lock().expect("a rank's clock");
+        Some(self.exchange.seconds + inside)
+    }
+
+    /// Rank 0's counts: every rank iterates until the residual over all of them
+    /// converges, so all count the same iterations and residuals.
+    fn pseudo_time(&mut self) -> Option<PseudoTime> {
+        self.engine.pseudo_time()
     }
 
     fn max_signal_speed(&mut self) -> f64 {

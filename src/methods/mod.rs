@@ -185,12 +185,6 @@ macro_rules! registry {
                 }
             }
 
-            pub fn ranks_refusal(&self) -> Option<&'static str> {
-                match self {
-                    $(Self::$variant(s) => s.ranks_refusal()),*
-                }
-            }
-
             pub fn searches_current_configuration(&self) -> bool {
                 match self {
                     $(Self::$variant(s) => s.searches_current_configuration()),*

@@ -8,7 +8,7 @@ use super::{Backend, RunError, RunOptions, budget, drive::drive};
 use crate::case::{CaseError, fnv1a};
 use crate::core::tensor::{D2, D3};
 use crate::distributed::{Collectives, Comm, Local, Partition, Threads};
-use crate::engine::ranks::{Rank, RankSums, Whole};
+use crate::engine::ranks::{Rank, Whole};
 use crate::engine::{Engine, EngineDim};
 use crate::output::RunSummary;
 use crate::reference::Reference;
@@ -26,8 +26,6 @@ pub fn refusal(case: &Scene, backend: Backend) -> Option<String> {
             .collect::<Vec<_>>()
             .join(", ");
         format!("`{name}` does not run on several ranks yet (those that do: {methods})")
-    } else if let Some(why) = case.spec.ranks_refusal() {
-        format!("`{name}` {why}")
     } else if backend == Backend::Gpu {
         "the GPU backend does not run on several ranks yet; use --backend cpu".into()
     } else if case.is_static() {
@@ -107,19 +105,21 @@ fn rank<D: EngineDim>(
         .map_err(|e| RunError::Ranks(format!("{}: {e}", case.file.display())))?;
     let layers = case.spec.entry().halo_layers.expect("refusal checked it");
     let local = Local::new(&partition, &lists, comm.rank(), layers);
-    let part = reference.restrict(&local, Arc::new(RankSums(comm.clone())));
-    let whole = (comm.rank() == 0).then(|| Whole {
+    let leads = comm.rank() == 0;
+    let mut rank = Rank {
+        local,
+        comm,
+        n,
+        whole: None,
+        inside: Arc::default(),
+    };
+    let part = reference.restrict(&rank.local, Arc::new(rank.peers()));
+    rank.whole = leads.then(|| Whole {
         constrained: reference.boundary.constrained.clone(),
         x0: reference.x0,
         mass: reference.mass,
         body: reference.body,
     });
-    let rank = Rank {
-        local,
-        comm,
-        n,
-        whole,
-    };
     let engine = case.spec.rank_engine::<D>(case, part, rank)?;
     if engine.is_leader() {
         let engine: Box<dyn Engine<D>> = engine;

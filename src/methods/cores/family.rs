@@ -179,12 +179,6 @@ pub trait MethodFamily: Sized {
         Ok(None)
     }
 
-    /// Why this spec does not run on several ranks although its method does (a key
-    /// selects a variant that does not), as a phrase after the method's name, or None.
-    fn ranks_refusal(&self) -> Option<&'static str> {
-        None
-    }
-
     /// Why this spec has no GPU engine for `case`, as a phrase after the method's name,
     /// or None: [`Self::GPU_ENGINE`] unless a key or the material selects a CPU-only
     /// variant.

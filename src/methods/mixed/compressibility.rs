@@ -28,12 +28,15 @@ use crate::case::Case;
 use crate::core::check::{Problem, fail, positive, toml_name};
 use crate::core::integrate::PseudoTime;
 use crate::core::neighbour::Csr;
-use crate::core::parallel::MIN_CHUNK;
+use crate::core::parallel::{MIN_CHUNK, put_row, take_row};
+use crate::core::sum::Ranks;
 use crate::core::tensor::{Dim, Linear};
 use crate::physics::material::{Material, MaterialModel};
 use crate::physics::mirror::Ghosts;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use std::cell::RefCell;
+use std::sync::Arc;
 
 /// `[method.artificial_compressibility]` of a mixed method.
 #[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
@@ -264,12 +267,21 @@ pub(super) struct Corrector<D: Dim> {
     rho0: f64,
     /// c̃_p.
     c_p: f64,
-    /// Δx and the largest extent L of the reference configuration.
+    /// Δx and the largest extent L of the reference configuration, from the box of its
+    /// particles as (−lo, hi).
     spacing: f64,
     size: f64,
+    bounds: [f64; 6],
     /// ℓ_ab = 2 V_b N_ab · ∇̃W̃^Ave_b(X_a)/|X_ab| (eq 58), CSR order, and max_a Σ_b |ℓ_ab|.
     ell: Vec<f64>,
     ell_sum: f64,
+    /// The ranks that share the particles, whose own (`counted`) rows each iterates and
+    /// whose ghosts it refreshes after every pseudo-stage; and whether L and max Σ|ℓ| are
+    /// the run's yet (taken over the ranks at the first stage, once every rank is set
+    /// up).
+    ranks: Arc<dyn Ranks>,
+    counted: Vec<bool>,
+    agreed: bool,
     /// The iterate (v, p), the pseudo-stage's and their residuals.
     v: Vec<D::V>,
     p: Vec<f64>,
@@ -293,8 +305,8 @@ impl<D: Dim> Corrector<D> {
         spec: &ArtificialCompressibility,
         case: &Case,
         pairs: &Pairs<D>,
-        x0: &[D::V],
-        normal: &[D::V],
+        (x0, normal): (&[D::V], &[D::V]),
+        (counted, ranks): (&[bool], Arc<dyn Ranks>),
     ) -> Self {
         let mat = Material::new(&case.material);
         let n = pairs.csr.len();
@@ -309,21 +321,17 @@ impl<D: Dim> Corrector<D> {
             .collect();
         let ell_sum = (0..n)
             .into_par_iter()
+            .filter(|&a| counted[a])
             .map(|a| pairs.csr.range(a).map(|q| ell[q].abs()).sum::<f64>())
             .reduce(|| 0.0, f64::max);
-        let (lo, hi) = x0[..n].iter().fold(
-            ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]),
-            |(mut lo, mut hi), &x| {
-                for (k, c) in D::to3(x).into_iter().enumerate().take(D::N) {
-                    lo[k] = lo[k].min(c);
-                    hi[k] = hi[k].max(c);
-                }
-                (lo, hi)
-            },
-        );
-        let size = (0..D::N)
-            .map(|k| hi[k] - lo[k])
-            .fold(case.spacing, f64::max);
+        // The own particles' box, as (−lo, hi) so that the ranks take its maxima.
+        let mut bounds = [f64::NEG_INFINITY; 6];
+        for (&x, _) in x0[..n].iter().zip(counted).filter(|(_, c)| **c) {
+            for (k, c) in D::to3(x).into_iter().enumerate().take(D::N) {
+                bounds[k] = bounds[k].max(-c);
+                bounds[3 + k] = bounds[3 + k].max(c);
+            }
+        }
         let n_ext = x0.len();
         Self {
             kappa: mat.bulk,
@@ -335,9 +343,13 @@ impl<D: Dim> Corrector<D> {
             rho0: mat.rho0,
             c_p: spec.p_wave_speed(&mat),
             spacing: case.spacing,
-            size,
+            size: size_of::<D>(&bounds, case.spacing),
+            bounds,
             ell,
             ell_sum,
+            ranks,
+            counted: counted.to_vec(),
+            agreed: false,
             v: vec![D::zero(); n],
             p: vec![0.0; n],
             v1: vec![D::zero(); n],
@@ -392,31 +404,49 @@ impl<D: Dim> Corrector<D> {
 
     /// Iterates the stage `s` to its pseudo steady state; `p()` then holds p^{n+1}.
     pub fn solve(&mut self, pairs: &Pairs<D>, s: &StageStart<D>) -> Result<(), Unconverged> {
+        if !self.agreed {
+            let mut run = [self.ell_sum, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+            run[1..].copy_from_slice(&self.bounds);
+            self.ranks.max(&mut run);
+            self.ell_sum = run[0];
+            self.bounds.copy_from_slice(&run[1..]);
+            self.size = size_of::<D>(&self.bounds, self.spacing);
+            self.agreed = true;
+        }
         let gamma = self.gamma(s.dt);
         let dtau = self.pseudo_step(s.dt, gamma);
-        let scale = s
-            .v_int
-            .par_iter()
-            .chain(s.v_n.par_iter())
-            .map(|&v| D::norm2(v))
-            .reduce(|| 0.0, f64::max)
-            .sqrt();
+        let counted = &self.counted;
+        let largest = |v: &[D::V]| {
+            (v.par_iter().zip(counted))
+                .map(|(&v, &c)| if c { D::norm2(v) } else { 0.0 })
+                .reduce(|| 0.0, f64::max)
+        };
+        let mut scale = [largest(s.v_int).max(largest(s.v_n))];
+        self.ranks.max(&mut scale);
+        let scale = scale[0].sqrt();
         self.v.copy_from_slice(s.v_int);
         self.p.copy_from_slice(s.p_int);
+        refresh::<D>(self.ranks.as_ref(), &mut self.v, &mut self.p);
         let mut iterations = 0;
         let residual = loop {
             let (v, p) = (std::mem::take(&mut self.v), std::mem::take(&mut self.p));
             let (worst, r) = self.residual(pairs, s, gamma, &v, &p);
             (self.v, self.p) = (v, p);
+            let (mine, r) = self.ranks.worst(worst, r);
             let relative = if scale > 0.0 { r / scale } else { r };
             if r <= self.tolerance * scale {
                 break relative;
             }
             if iterations == self.max_iterations {
-                return Err(Unconverged {
-                    particle: worst,
-                    residual: relative,
-                });
+                // The rank that holds the worst particle reports it; the others end the
+                // stage, and the step, with it.
+                return match mine {
+                    true => Err(Unconverged {
+                        particle: worst,
+                        residual: relative,
+                    }),
+                    false => Ok(()),
+                };
             }
             self.pseudo_step_rk2(pairs, s, gamma, dtau);
             iterations += 1;
@@ -439,10 +469,12 @@ impl<D: Dim> Corrector<D> {
         let mut p1 = std::mem::take(&mut self.p1);
         euler(&mut v1, &self.v, &self.rv, dtau);
         euler(&mut p1, &self.p, &self.rp, dtau);
+        refresh::<D>(self.ranks.as_ref(), &mut v1, &mut p1);
         self.residual(pairs, s, gamma, &v1, &p1);
         // y ← ½(y + y1 + Δτ R(y1)).
         average(&mut self.v, &v1, &self.rv, dtau);
         average(&mut self.p, &p1, &self.rp, dtau);
+        refresh::<D>(self.ranks.as_ref(), &mut self.v, &mut self.p);
         (self.v1, self.p1) = (v1, p1);
     }
 
@@ -470,6 +502,7 @@ impl<D: Dim> Corrector<D> {
         let (inv_rho0, inv_dt) = (1.0 / self.rho0, 1.0 / s.dt);
         let relax_p = 1.0 / (self.kappa * s.dt);
         let (v_ext, dp_ext, p_ext, ell) = (&self.v_ext, &self.dp_ext, &self.p_ext, &self.ell);
+        let counted = &self.counted;
         let (csr, vol) = (pairs.csr, pairs.vol);
         self.rv
             .par_iter_mut()
@@ -510,7 +543,7 @@ impl<D: Dim> Corrector<D> {
                 // eqs 52b, 53–54, 58.
                 *rp = gamma * (div - (p[a] - s.p_n[a]) * relax_p + eta * lap);
                 let size = (D::norm2(r).sqrt() * s.dt).max(rp.abs() * self.spacing / gamma);
-                (a, size)
+                (a, if counted[a] { size } else { 0.0 })
             })
             .reduce(|| (0, 0.0), |x, y| if y.1 > x.1 { y } else { x })
     }
@@ -565,6 +598,34 @@ impl<D: Dim> Corrector<D> {
 }
 
 /// out = y + h r.
+/// The largest extent of the box (−lo, hi), at least Δx.
+fn size_of<D: Dim>(bounds: &[f64; 6], spacing: f64) -> f64 {
+    (0..D::N)
+        .map(|k| bounds[3 + k] + bounds[k])
+        .fold(spacing, f64::max)
+}
+
+/// The owners' v and p of the ghosts of the rank ([`Ranks::refresh`]).
+fn refresh<D: Dim>(ranks: &dyn Ranks, v: &mut [D::V], p: &mut [f64]) {
+    let (v, p) = (RefCell::new(v), RefCell::new(p));
+    ranks.refresh(
+        &|ids, out| {
+            let (v, p) = (v.borrow(), p.borrow());
+            for &i in ids {
+                put_row(&v, i, out);
+                put_row(&p, i, out);
+            }
+        },
+        &mut |ids, mut words| {
+            let (mut v, mut p) = (v.borrow_mut(), p.borrow_mut());
+            for &i in ids {
+                take_row(&mut v, i, &mut words);
+                take_row(&mut p, i, &mut words);
+            }
+        },
+    );
+}
+
 fn euler<T: Linear>(out: &mut [T], y: &[T], r: &[T], h: f64) {
     out.par_iter_mut()
         .with_min_len(MIN_CHUNK)

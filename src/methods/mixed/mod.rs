@@ -556,14 +556,6 @@ impl<S: MixedMethod + 'static> MethodFamily for S {
         validate(self.options(), case)
     }
 
-    fn ranks_refusal(&self) -> Option<&'static str> {
-        self.options().artificial_compressibility.map(|_| {
-            "with artificial compressibility does not run on several ranks yet (its \
-             pseudo-time iteration exchanges no ghosts); remove \
-             method.artificial_compressibility or run on one rank"
-        })
-    }
-
     fn rank_engine<D: EngineDim>(
         &self,
         case: &Case,

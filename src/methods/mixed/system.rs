@@ -301,9 +301,10 @@ impl<D: Dim> MixedSph<D> {
         let interactions =
             Interactions::build(case, &x0[..n], &body, &OnPatches, &mass, || csr.clone())?;
         let n_ext = x0.len();
-        let compressibility = options
-            .artificial_compressibility
-            .map(|spec| Corrector::new(&spec, case, &pairs, &x0, &normal));
+        let compressibility = options.artificial_compressibility.map(|spec| {
+            let ranks = (&counted[..], ranks.clone());
+            Corrector::new(&spec, case, &pairs, (&x0, &normal), ranks)
+        });
         let c_p = match options.artificial_compressibility {
             Some(spec) => spec.p_wave_speed(&material),
             None => material.p_wave_speed(),
