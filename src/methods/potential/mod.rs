@@ -101,13 +101,6 @@ impl MethodFamily for PotentialSpec {
         reference: Reference<D>,
         rank: Rank<D>,
     ) -> RankBuild<D> {
-        if self.force == PotentialForce::ReferenceCode {
-            return Err(case.invalid(
-                "method.force",
-                "`reference-code` scales its wave speed by the smallest volume of all the \
-                 particles, which a rank does not see; on several ranks use the default force",
-            ));
-        }
         shared::rank_engine::<D, Potential<D>>(case, self, reference, rank)
     }
 
