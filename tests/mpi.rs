@@ -1,9 +1,9 @@
 //! Distributed runs under `mpirun` (feature `mpi`; MPICH's Hydra launcher, 2 and 3 ranks
 //! oversubscribed on the cores there are): the ranks end in the one-process state (TLSPH,
-//! and JST-SPH with its projection's sums inside every rate evaluation), a
-//! blow-up is reported once with its particle, a rank killed mid-run leaves a
-//! checkpoint another rank count resumes, and nothing waits forever (`MPIEXEC_TIMEOUT`
-//! ends a hung job).
+//! JST-SPH with its projection's sums inside every rate evaluation, and artificial
+//! compressibility's exchanges inside every stage), a blow-up is reported once with its
+//! particle, a rank killed mid-run leaves a checkpoint another rank count resumes, and
+//! nothing waits forever (`MPIEXEC_TIMEOUT` ends a hung job).
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -97,27 +97,58 @@ fn two_and_three_ranks_end_in_the_one_process_state() {
     assert!(same_final_state(dirs[0].path(), dirs[2].path()), "3 ranks");
 }
 
+/// `case` with the overrides `set` on 2 and 3 processes ends in the one-process run's
+/// last frame and series, byte for byte.
+fn assert_processes_match_one(case_name: &str, set: &[&str]) {
+    let dirs: Vec<_> = (0..3).map(|_| tempfile::tempdir().unwrap()).collect();
+    for (dir, ranks) in dirs.iter().zip([0, 2, 3]) {
+        let mut args = vec![case(case_name)];
+        args.extend(["--backend", "cpu", "-q", "--out"].map(String::from));
+        args.push(dir.path().to_str().unwrap().to_string());
+        for s in set {
+            args.extend(["--set".to_string(), s.to_string()]);
+        }
+        assert!(ok(&run(ranks, &args)), "{case_name}: {ranks} ranks");
+    }
+    assert!(
+        same_final_state(dirs[0].path(), dirs[1].path()),
+        "{case_name}: 2 ranks"
+    );
+    assert!(
+        same_final_state(dirs[0].path(), dirs[2].path()),
+        "{case_name}: 3 ranks"
+    );
+}
+
 #[test]
 fn jst_sph_with_its_projection_on_two_and_three_ranks_ends_in_the_one_process_state() {
     // The spinning plate: the angular-momentum projection adds the ranks' exact sums in
     // every rate evaluation, through MPI.
-    let dirs: Vec<_> = (0..3).map(|_| tempfile::tempdir().unwrap()).collect();
-    for (dir, ranks) in dirs.iter().zip([0, 2, 3]) {
-        let mut args = vec![case("spinning-plate")];
-        args.extend(["--backend", "cpu", "-q", "--out"].map(String::from));
-        args.push(dir.path().to_str().unwrap().to_string());
-        for s in [
+    assert_processes_match_one(
+        "spinning-plate",
+        &[
             "method.name=jst-sph",
             "run.end_time=2e-3",
             "output.frame_interval=1e-3",
             "output.series_interval=2e-4",
-        ] {
-            args.extend(["--set".to_string(), s.to_string()]);
-        }
-        assert!(ok(&run(ranks, &args)), "{ranks} ranks");
-    }
-    assert!(same_final_state(dirs[0].path(), dirs[1].path()), "2 ranks");
-    assert!(same_final_state(dirs[0].path(), dirs[2].path()), "3 ranks");
+        ],
+    );
+}
+
+#[test]
+fn artificial_compressibility_on_two_and_three_ranks_ends_in_the_one_process_state() {
+    // ν = 0.5: the pseudo-time iteration of every stage exchanges the ghosts' v and p
+    // after each pseudo-stage and takes its residual over the ranks, through MPI.
+    assert_processes_match_one(
+        "spinning-plate",
+        &[
+            "material.poisson_ratio=0.5",
+            "method.artificial_compressibility={}",
+            "run.end_time=2e-3",
+            "output.frame_interval=1e-3",
+            "output.series_interval=2e-4",
+        ],
+    );
 }
 
 #[test]
