@@ -220,9 +220,10 @@ pub fn par_sums<const K: usize>(n: usize, map: impl Fn(usize) -> [f64; K] + Sync
 /// The ranks that share a system's particles, as a rate evaluation sees them: each rank
 /// sums its own particles' shares ([`crate::reference::Reference::counted`]) and
 /// [`Ranks::add_others`] adds the other ranks' shares, so that every rank holds the sums
-/// over all particles, with the bits of one rank's; [`Ranks::max`] and
+/// over all particles, with the bits of one rank's; [`Ranks::max`], [`Ranks::worst`] and
 /// [`Ranks::refresh`] serve an iteration inside a rate evaluation (the mixed family's
-/// pseudo time). Every rank calls each at the same point of the run.
+/// pseudo time) and the agreement on a blow-up before its collectives. Every rank calls
+/// each at the same point of the run.
 pub trait Ranks: Send + Sync {
     /// Adds the other ranks' shares to `sums`.
     fn add_others(&self, sums: &mut [Exact]);

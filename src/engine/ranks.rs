@@ -53,7 +53,8 @@ pub struct Rank<D: Dim> {
 }
 
 impl<D: Dim> Rank<D> {
-    /// The other ranks as the rank's system sees them ([`Reference::ranks`](crate::reference::Reference::ranks)).
+    /// The other ranks as the rank's system sees them
+    /// ([`Reference::ranks`](crate::reference::Reference::ranks)).
     pub fn peers(&self) -> Peers {
         Peers {
             comm: self.comm.clone(),
@@ -114,9 +115,10 @@ struct Exchange {
     /// The key of the run's first blow-up in the step (evaluation · n + global id), or
     /// none: every rank's, agreed at the end of the step.
     first: Option<usize>,
-    /// Wall time in the exchanges so far ([`Engine::halo_seconds`]) [s], and in the
-    /// system's own inside its rate evaluations ([`Peers`]).
+    /// Wall time in the exchanges so far ([`Engine::halo_seconds`]) [s].
     seconds: f64,
+    /// Wall time in the system's own collectives and exchanges, inside its rate
+    /// evaluations ([`Rank::inside`]) [s].
     inside: Arc<Mutex<f64>>,
 }
 
@@ -205,8 +207,8 @@ impl Ranks for Peers {
         let all = self.all_gather(vec![size, gid]);
         // As one rank's scan in particle order: the larger, then the lower global id.
         let later = |a: &[f64], b: &[f64]| b[0] > a[0] || (b[0] == a[0] && b[1] < a[1]);
-        let w = (all.iter()).fold(&all[0], |a, b| if later(a, b) { b } else { a });
-        (w[1] == gid, w[0])
+        let winner = (1..all.len()).fold(0, |w, r| if later(&all[w], &all[r]) { r } else { w });
+        (winner == self.comm.rank(), all[winner][0])
     }
 
     fn refresh(&self, put: &dyn Fn(&[u32], &mut Vec<f64>), take: &mut dyn FnMut(&[u32], &[f64])) {

@@ -151,10 +151,10 @@ impl<D: Dim> CorotatedScheme<D> {
     fn first_inadmissible(&self, core: &TlCore<D>) -> Option<BlowUp> {
         let det = |k: &Kinematics<D>| D::det(k.f_hat);
         let bad = |k: &Kinematics<D>| D::det(k.r).is_nan() || D::det(k.r) <= 0.0;
-        let i = self
-            .kin
-            .par_iter()
-            .position_first(|k| bad(k) || det(k).is_nan() || det(k) <= 0.0)?;
+        // A rank's own particles: its outer ghosts' F lack neighbours.
+        let inadmissible = |k: &Kinematics<D>| bad(k) || det(k).is_nan() || det(k) <= 0.0;
+        let i = (self.kin.par_iter().zip(&core.counted))
+            .position_first(|(k, &counted)| counted && inadmissible(k))?;
         let k = &self.kin[i];
         Some(if bad(k) {
             let quantity = "det R (shape matching: A_i has no rotation as its polar factor)";

@@ -275,10 +275,10 @@ pub(super) struct Corrector<D: Dim> {
     /// ℓ_ab = 2 V_b N_ab · ∇̃W̃^Ave_b(X_a)/|X_ab| (eq 58), CSR order, and max_a Σ_b |ℓ_ab|.
     ell: Vec<f64>,
     ell_sum: f64,
-    /// The ranks that share the particles, whose own (`counted`) rows each iterates and
-    /// whose ghosts it refreshes after every pseudo-stage; and whether L and max Σ|ℓ| are
-    /// the run's yet (taken over the ranks at the first stage, once every rank is set
-    /// up).
+    /// The ranks that share the particles: each iterates all its rows, measures the
+    /// residual on its own (`counted`) ones and refreshes its ghosts after every
+    /// pseudo-stage; and whether L and max Σ|ℓ| are the run's yet (taken over the ranks
+    /// at the first stage, once every rank is set up).
     ranks: Arc<dyn Ranks>,
     counted: Vec<bool>,
     agreed: bool,
@@ -300,7 +300,8 @@ pub(super) struct Corrector<D: Dim> {
 
 impl<D: Dim> Corrector<D> {
     /// The corrector of `spec` for the real particles of `pairs`, at reference positions
-    /// x0 (real then ghosts), with the unit normals N_ab of their pairs.
+    /// x0 (real then ghosts), with the unit normals N_ab of their pairs, on the ranks
+    /// that share the particles (`counted`: this rank's own).
     pub fn new(
         spec: &ArtificialCompressibility,
         case: &Case,
@@ -343,7 +344,7 @@ impl<D: Dim> Corrector<D> {
             rho0: mat.rho0,
             c_p: spec.p_wave_speed(&mat),
             spacing: case.spacing,
-            size: size_of::<D>(&bounds, case.spacing),
+            size: largest_extent::<D>(&bounds, case.spacing),
             bounds,
             ell,
             ell_sum,
@@ -410,7 +411,7 @@ impl<D: Dim> Corrector<D> {
             self.ranks.max(&mut run);
             self.ell_sum = run[0];
             self.bounds.copy_from_slice(&run[1..]);
-            self.size = size_of::<D>(&self.bounds, self.spacing);
+            self.size = largest_extent::<D>(&self.bounds, self.spacing);
             self.agreed = true;
         }
         let gamma = self.gamma(s.dt);
@@ -597,9 +598,8 @@ impl<D: Dim> Corrector<D> {
     }
 }
 
-/// out = y + h r.
 /// The largest extent of the box (−lo, hi), at least Δx.
-fn size_of<D: Dim>(bounds: &[f64; 6], spacing: f64) -> f64 {
+fn largest_extent<D: Dim>(bounds: &[f64; 6], spacing: f64) -> f64 {
     (0..D::N)
         .map(|k| bounds[3 + k] + bounds[k])
         .fold(spacing, f64::max)
@@ -626,6 +626,7 @@ fn refresh<D: Dim>(ranks: &dyn Ranks, v: &mut [D::V], p: &mut [f64]) {
     );
 }
 
+/// out = y + h r.
 fn euler<T: Linear>(out: &mut [T], y: &[T], r: &[T], h: f64) {
     out.par_iter_mut()
         .with_min_len(MIN_CHUNK)

@@ -120,10 +120,9 @@ impl<D: Dim> PotentialScheme<D> {
 
     fn first_inadmissible(&self, core: &TlCore<D>) -> Option<BlowUp> {
         let det = |k: &Kinematics<D>| D::det(k.f);
-        let i = self
-            .kin
-            .par_iter()
-            .position_first(|k| det(k).is_nan() || det(k) <= 0.0)?;
+        // A rank's own particles: its outer ghosts' F lack neighbours.
+        let i = (self.kin.par_iter().zip(&core.counted))
+            .position_first(|(k, &counted)| counted && (det(k).is_nan() || det(k) <= 0.0))?;
         Some(core.blow_up(i, "det F", det(&self.kin[i])))
     }
 }

@@ -179,9 +179,9 @@ pub struct TlCore<D: Dim> {
     /// Each particle's power of the artificial viscosity, −m a_visc·v, at the last rate
     /// evaluation ([`viscous_pair_pass`]; zero for a scheme without the pass).
     dissipation: Vec<f64>,
-    /// Whether each particle's share of the sums is booked: all but a rank's ghosts
-    /// ([`Reference::counted`]).
-    counted: Vec<bool>,
+    /// Whether each particle's share of the sums is booked and its kinematics checked:
+    /// all but a rank's ghosts ([`Reference::counted`]).
+    pub counted: Vec<bool>,
     /// V0 of the counted particles and 0 for a rank's ghosts: the weights of the strain
     /// energy Σ V0 ψ.
     pub energy_weights: Vec<f64>,

@@ -29,7 +29,17 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
     }
 
     fn rates(&mut self, _t: f64, y: &MixedState<D>, d: &mut MixedState<D>) -> Result<(), BlowUp> {
-        self.prepare(y)?;
+        let checked = self.prepare(y);
+        if self.projection || self.compressibility.is_some() {
+            // The projection's sums and the corrector's iteration are collectives: every
+            // rank learns whether any met a blow-up, and all skip them together.
+            let mut failed = [f64::from(u8::from(checked.is_err()))];
+            self.ranks.max(&mut failed);
+            if failed[0] != 0.0 {
+                return checked;
+            }
+        }
+        checked?;
         let mut forces = std::mem::take(&mut self.forces);
         self.forces(y, &mut forces);
         let (mut t, mut dp) = (std::mem::take(&mut self.t), std::mem::take(&mut self.dp));

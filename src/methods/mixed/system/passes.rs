@@ -209,8 +209,9 @@ impl<D: Dim> MixedSph<D> {
     /// Artificial compressibility: the pressure rate of the predictor and the corrector
     /// of the stage (eqs 51d, 52–58, without D(J)) on the rates `d` of the explicit stage, before loads
     /// and supports. v^int and p^int are the predictor's stage ends, loads, contact and
-    /// supports included; the converged pressure's force −T[(p^{n+1} − p^n)H^n] is
-    /// added to v̇ (projected with the stage's other forces), and ṗ = (p^{n+1} − p^n)/Δt.
+    /// supports included; the converged pressure's force −T[(p^{n+1} − p^n)H^n] (the
+    /// last iterate's if the iteration fails) is added to v̇ (projected with the stage's
+    /// other forces), and ṗ = (p^{n+1} − p^n)/Δt.
     pub(super) fn correct(
         &mut self,
         y: &MixedState<D>,
@@ -270,21 +271,21 @@ impl<D: Dim> MixedSph<D> {
         let solved = corrector
             .solve(&pairs, &stage)
             .map_err(|u| self.blow_up(u.particle, UNCONVERGED, u.residual));
-        if solved.is_ok() {
-            // The corrector's force, into the predictor's stage ends' array.
-            let force = &mut b.a_int;
-            corrector.force(&pairs, force);
-            if self.projection {
-                let balance =
-                    Balance::<D>::new(&self.points, &self.vol[..n], &self.counted, &*self.ranks);
-                balance.project(force);
-            }
-            let inv_rho0 = 1.0 / self.material.rho0;
-            let p_next = corrector.p();
-            for a in 0..n {
-                d.v[a] += force[a] * inv_rho0;
-                d.pressure[a] = (p_next[a] - y.pressure[a]) / dt;
-            }
+        // The corrector's force, into the predictor's stage ends' array, at the last
+        // iterate if the iteration failed: the projection's sums are collectives that the
+        // other ranks, whose share converged or not, take too.
+        let force = &mut b.a_int;
+        corrector.force(&pairs, force);
+        if self.projection {
+            let balance =
+                Balance::<D>::new(&self.points, &self.vol[..n], &self.counted, &*self.ranks);
+            balance.project(force);
+        }
+        let inv_rho0 = 1.0 / self.material.rho0;
+        let p_next = corrector.p();
+        for a in 0..n {
+            d.v[a] += force[a] * inv_rho0;
+            d.pressure[a] = (p_next[a] - y.pressure[a]) / dt;
         }
         corrector.buffers = b;
         self.compressibility = Some(corrector);
