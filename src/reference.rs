@@ -48,6 +48,11 @@ pub struct Reference<D: Dim> {
     /// The smoothing length of every particle (all the kernel's h until a case sets them
     /// per particle); the neighbour search reaches the support of the larger of a pair's.
     pub h: Vec<f64>,
+    /// Whether `h` holds the method's own lengths of the whole run
+    /// ([`MethodFamily::smoothing_lengths`](crate::methods::cores::family::MethodFamily::smoothing_lengths)),
+    /// set before a distributed run's partition: a rank's share then takes them rather
+    /// than apply the method's rule to its particles alone.
+    pub method_lengths: bool,
     /// The cells the geometry generators make (polar rings, meshes read at their
     /// vertices); see [`Self::cells`].
     pub generated_cells: Cells,
@@ -73,6 +78,7 @@ impl<D: Dim> Reference<D> {
         let kernel = case.kernel(D::N);
         Ok(Self {
             h: vec![kernel.h; disc.x0.len()],
+            method_lengths: false,
             counted: vec![true; disc.x0.len()],
             ranks: Arc::new(OneRank),
             generated_cells: disc.cells,
@@ -116,6 +122,7 @@ impl<D: Dim> Reference<D> {
             material: self.material,
             kernel: self.kernel,
             h: rows(&self.h, ids),
+            method_lengths: self.method_lengths,
             generated_cells: Cells::default(),
             counted: local.owned.clone(),
             ranks,

@@ -97,7 +97,7 @@ fn rank<D: EngineDim>(
 ) -> Result<Option<RunSummary>, RunError> {
     let mut reference = Reference::<D>::build(case)?;
     if let Some(h) = case.spec.smoothing_lengths::<D>(case, &reference)? {
-        reference.h = h;
+        (reference.h, reference.method_lengths) = (h, true);
     }
     let n = reference.len();
     let lists = reference.neighbours();

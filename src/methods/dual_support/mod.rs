@@ -167,8 +167,7 @@ impl DualSupportSpec {
         // A rank's share carries the lengths of the whole run, set before its halo was
         // built ([`MethodFamily::smoothing_lengths`]): the nearest-particle rule on the
         // share alone would lengthen its outer ghosts' supports.
-        let share = reference.counted.contains(&false);
-        let h = if share {
+        let h = if reference.method_lengths {
             reference.h.clone()
         } else {
             self.particle_smoothing_lengths::<D>(case, reference)?
