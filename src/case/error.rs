@@ -31,4 +31,7 @@ pub enum CaseError {
     /// own error); the other ranks stop with this one rather than wait for it.
     #[error("{file}: rank {rank} could not set up its particles: its error says why")]
     OtherRank { file: PathBuf, rank: usize },
+    /// The run cannot be split among its ranks (more ranks than particles).
+    #[error("{file}: {reason}")]
+    Ranks { file: PathBuf, reason: String },
 }

@@ -12,6 +12,19 @@ pub struct Csr {
 }
 
 impl Csr {
+    /// The lists of `rows`, in order.
+    pub fn from_rows(rows: &[Vec<u32>]) -> Self {
+        let mut offsets = Vec::with_capacity(rows.len() + 1);
+        offsets.push(0);
+        for row in rows {
+            offsets.push(offsets[offsets.len() - 1] + row.len());
+        }
+        Self {
+            offsets,
+            ids: rows.concat(),
+        }
+    }
+
     pub fn len(&self) -> usize {
         self.offsets.len().saturating_sub(1)
     }

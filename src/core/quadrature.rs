@@ -295,6 +295,28 @@ impl<D: Dim> QuadraturePoints<D> {
         }
     }
 
+    /// The points `keep` (ascending): a rank's share of a distributed run.
+    pub fn restrict(&self, keep: &[u32]) -> Self {
+        fn rows<T: Copy>(all: &[T], keep: &[u32]) -> Vec<T> {
+            match all.is_empty() {
+                true => Vec::new(),
+                false => keep.iter().map(|&q| all[q as usize]).collect(),
+            }
+        }
+        Self {
+            x0: rows(&self.x0, keep),
+            weight: rows(&self.weight, keep),
+            cell: rows(&self.cell, keep),
+            body: rows(&self.body, keep),
+            rule: self.rule.clone(),
+            parent: rows(&self.parent, keep),
+            particles: keep
+                .iter()
+                .filter(|&&q| (q as usize) < self.particles)
+                .count(),
+        }
+    }
+
     /// Number of points.
     pub fn len(&self) -> usize {
         self.x0.len()

@@ -32,21 +32,29 @@ impl Trapezoid {
     }
 }
 
-/// The powers the balance integrates, at the last rate evaluation of a step: of the
-/// supports and loads, of contact at the step's start and at its end, of the artificial
-/// dissipation and against the hourglass control.
-pub type StepPowers<T> = [T; 5];
+/// What the balance takes at the end of a step: the powers at its last rate evaluation
+/// (of the supports and loads, of contact at the step's start and at its end, of the
+/// artificial dissipation and against the hourglass control), then the kinetic energy
+/// the step's end took out ([`Method::step_end_dissipation`]).
+pub type StepSums<T> = [T; 6];
+
+/// The words of the balance's integrals a checkpoint of the engine starts with: four
+/// integrated powers and their last values, then the energy the steps' ends took out.
+pub const BALANCE_WORDS: usize = 9;
 
 /// What runs after each rate evaluation of a method and at the end of each step: nothing
 /// on one rank; on the ranks of a distributed run, the exchange of the ghosts' rates with
-/// their owners and the sum of the ranks' shares of the powers
-/// ([`crate::engine::ranks`]).
+/// their owners, of their state after a step whose end changes it, and the sum of the
+/// ranks' shares of the step's sums ([`crate::engine::ranks`]).
 pub trait AfterRates<S> {
     /// Called with the rates of each evaluation and how it ended; returns how it ends.
     fn after_rates(&mut self, d: &mut S, result: Result<(), BlowUp>) -> Result<(), BlowUp>;
 
-    /// The run's powers at the end of a step, from this process's exact shares.
-    fn powers(&mut self, shares: StepPowers<Exact>) -> StepPowers<f64>;
+    /// Called with the state after the method's end of a step.
+    fn after_step(&mut self, _y: &mut S) {}
+
+    /// The run's sums at the end of a step, from this process's exact shares.
+    fn sums(&mut self, shares: StepSums<Exact>) -> StepSums<f64>;
 }
 
 /// Nothing after the rates, and the powers are this process's: a run on one rank.
@@ -57,7 +65,7 @@ impl<S> AfterRates<S> for Alone {
         result
     }
 
-    fn powers(&mut self, shares: StepPowers<Exact>) -> StepPowers<f64> {
+    fn sums(&mut self, shares: StepSums<Exact>) -> StepSums<f64> {
         shares.each_ref().map(Exact::value)
     }
 }
@@ -83,6 +91,7 @@ impl<M: OdeSystem<Error = BlowUp>, H: AfterRates<M::State>> OdeSystem for Hooked
 
     fn end_step(&mut self, t: f64, y: &mut M::State) {
         self.method.end_step(t, y);
+        self.hook.after_step(y);
     }
 }
 
@@ -98,6 +107,9 @@ pub struct CpuEngine<D: Dim, M: Method<D>> {
     dissipation: Trapezoid,
     hourglass: Trapezoid,
     contact: Trapezoid,
+    /// The kinetic energy the steps' ends took out so far, booked with the artificial
+    /// dissipation.
+    step_ends: f64,
     _dim: std::marker::PhantomData<D>,
 }
 
@@ -114,6 +126,7 @@ impl<D: Dim, M: Method<D>> CpuEngine<D, M> {
             dissipation: Trapezoid::default(),
             hourglass: Trapezoid::default(),
             contact: Trapezoid::default(),
+            step_ends: 0.0,
             _dim: std::marker::PhantomData,
         }
     }
@@ -141,27 +154,36 @@ impl<D: Dim, M: Method<D>> CpuEngine<D, M> {
             // within the step its forces are held through; the work against contact is
             // minus its power on the bodies.
             let boundary = self.method.boundary_work();
-            let [power, contact_start, contact, dissipation, hourglass] = hook.powers([
+            let [
+                power,
+                contact_start,
+                contact,
+                dissipation,
+                hourglass,
+                step_end,
+            ] = hook.sums([
                 boundary.power.clone(),
                 boundary.contact_start.clone(),
                 boundary.contact.clone(),
                 self.method.dissipation_power(),
                 self.method.hourglass_power(),
+                self.method.step_end_dissipation(),
             ]);
             self.external.add(power, dt);
             self.contact.add_held(-contact_start, -contact, dt);
             self.dissipation.add(dissipation, dt);
             self.hourglass.add(hourglass, dt);
+            self.step_ends += step_end;
         }
         Ok(())
     }
 
-    /// The balance's terms: the integrated powers, with the method's step dissipation and
+    /// The balance's terms: the integrated powers and the steps' ends, with the method's
     /// plastic work as given.
-    pub fn booked_with(&self, step_dissipation: f64, plastic_work: f64) -> Booked {
+    pub fn booked_with(&self, plastic_work: f64) -> Booked {
         Booked {
             external_work: self.external.integral,
-            dissipated: Some(self.dissipation.integral + step_dissipation),
+            dissipated: Some(self.dissipation.integral + self.step_ends),
             hourglass_work: Some(self.hourglass.integral),
             plastic_work: Some(plastic_work),
             contact_energy: Some(self.contact.integral),
@@ -212,7 +234,7 @@ impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
 
     fn booked(&mut self) -> Booked {
         let plastic_work = self.method.plastic_work(&self.y);
-        self.booked_with(self.method.step_dissipation(), plastic_work)
+        self.booked_with(plastic_work)
     }
 
     fn pseudo_time(&mut self) -> Option<PseudoTime> {
@@ -242,14 +264,15 @@ impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
         self.method.snapshot(&self.y)
     }
 
-    /// The integrals of the balance's powers and their last powers, the state y, the
-    /// integrator's and the method's history.
+    /// The integrals of the balance's powers and their last powers, the steps' ends
+    /// ([`BALANCE_WORDS`]), the state y, the integrator's and the method's history.
     fn save(&mut self) -> Vec<f64> {
         let mut out: Vec<f64> = self
             .powers()
             .iter()
             .flat_map(|p| [p.integral, p.last])
             .collect();
+        out.push(self.step_ends);
         self.y.save(&mut out);
         self.integrator.save(&mut out);
         self.method.save_history(&mut out);
@@ -257,7 +280,7 @@ impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
     }
 
     fn restore(&mut self, words: &[f64]) -> Result<(), String> {
-        let (powers, mut rest): (&[f64; 8], _) = words
+        let (balance, mut rest): (&[f64; BALANCE_WORDS], _) = words
             .split_first_chunk()
             .ok_or("the checkpoint holds no engine state")?;
         self.y.load(&mut rest)?;
@@ -269,9 +292,11 @@ impl<D: Dim, M: Method<D>> Engine<D> for CpuEngine<D, M> {
                 rest.len()
             ));
         }
+        let (powers, step_ends) = balance.split_at(BALANCE_WORDS - 1);
         for (p, w) in self.powers().into_iter().zip(powers.chunks_exact(2)) {
             (p.integral, p.last) = (w[0], w[1]);
         }
+        self.step_ends = step_ends[0];
         Ok(())
     }
 

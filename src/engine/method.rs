@@ -128,10 +128,16 @@ pub trait Method<D: Dim>: OdeSystem<Error = BlowUp> + Sized {
     fn hourglass_power(&self) -> Exact {
         Exact::default()
     }
-    /// The energy the method took out at the ends of the steps so far (the kinetic
-    /// energy a velocity smoothing removes), booked with the artificial dissipation.
-    fn step_dissipation(&self) -> f64 {
-        0.0
+    /// The kinetic energy the end of the last step took out (a velocity smoothing), the
+    /// exact sum over the counted particles; the engine books it with the artificial
+    /// dissipation. 0 for a method whose steps' ends change nothing.
+    fn step_end_dissipation(&self) -> Exact {
+        Exact::default()
+    }
+    /// Whether the end of a step changes the state (a velocity smoothing), so that the
+    /// ghosts of a rank take their owners' state again after it.
+    fn step_end_changes_state(&self) -> bool {
+        false
     }
     /// The plastic work Σ_q w_q ∫ τ_y dε̄_p up to state y (the committed history's and
     /// the current step's, [`crate::physics::plasticity::History::work_at`]); 0 for an elastic

@@ -10,16 +10,19 @@
 //! are exact sums ([`Exact`]) of each rank's own particles' shares, added over the ranks
 //! without rounding: they have the bits of the one-rank run's, on any number of ranks.
 
-use super::cpu::{AfterRates, StepPowers};
+use super::cpu::{AfterRates, BALANCE_WORDS, StepSums};
 use super::{BlowUp, CpuEngine, Engine, Failed, Method};
 use crate::boundary::Reaction;
+use crate::case::CaseError;
 use crate::core::integrate::{OdeState, PseudoTime};
+use crate::core::neighbour::Csr;
 use crate::core::parallel::ParticleRows;
 use crate::core::sum::{Exact, Ranks};
 use crate::core::tensor::{Dim, Words};
 use crate::diagnostics::balance::Booked;
-use crate::diagnostics::observe::{ScalarField, Snapshot};
-use crate::distributed::{Collectives, Comm, Local};
+use crate::diagnostics::observe::{Quadrature, ScalarField, Snapshot};
+use crate::distributed::{Collectives, Comm, Local, Partition};
+use std::path::Path;
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
@@ -34,10 +37,52 @@ pub trait Distributed<D: Dim>: Engine<D> {
 /// What rank 0 holds of the whole run: the reference arrays the driver reads.
 pub struct Whole<D: Dim> {
     pub x0: Vec<D::V>,
+    /// The method's masses (a Galerkin method's nodal masses).
     pub mass: Vec<f64>,
     pub body: Vec<u32>,
     /// The constrained particles and their masks, by global id.
     pub constrained: Vec<(u32, u8)>,
+    /// The corners of the method's elements, shown in the frames (none for a particle
+    /// method).
+    pub cells: Vec<u32>,
+}
+
+/// What a rank knows before its method partitions the run: the ranks, and the ghost
+/// layers the method needs along its graph ([`MethodFamily::HALO_LAYERS`](crate::methods::cores::family::MethodFamily::HALO_LAYERS)).
+pub struct RankStart {
+    pub comm: Arc<dyn Comm>,
+    pub layers: usize,
+}
+
+impl RankStart {
+    /// This rank of a run whose particles (a Galerkin method's nodes) are `whole`, split
+    /// by recursive coordinate bisection of their reference positions weighted by the
+    /// rows of `graph` (a particle's neighbours; the nodes a node shares a point with),
+    /// with the ghosts within the method's layers along `graph`. Rank 0 keeps `whole`.
+    /// An error names the case `file` when the run has fewer particles than ranks.
+    pub fn split<D: Dim>(
+        self,
+        graph: &Csr,
+        whole: Whole<D>,
+        file: &Path,
+    ) -> Result<Rank<D>, CaseError> {
+        let partition =
+            Partition::bisect::<D>(&whole.x0, graph, self.comm.size()).map_err(|e| {
+                CaseError::Ranks {
+                    file: file.to_path_buf(),
+                    reason: e.to_string(),
+                }
+            })?;
+        let local = Local::new(&partition, graph, self.comm.rank(), self.layers);
+        let leads = self.comm.rank() == 0;
+        Ok(Rank {
+            local,
+            n: whole.x0.len(),
+            comm: self.comm,
+            whole: leads.then_some(whole),
+            inside: Arc::default(),
+        })
+    }
 }
 
 /// Where a rank's engine stands in the run: its particles, the other ranks, the run's
@@ -101,11 +146,15 @@ impl Call {
 
 /// The hook after each rate evaluation: the ghosts' rates from their owners, and the
 /// first blow-up of the step, kept (a rank that stopped would leave the others waiting
-/// for its rows). At the end of the step the ranks agree on the first blow-up and add
-/// their shares of the powers, in one collective.
+/// for its rows). After a step whose end changes the state, the ghosts' state from their
+/// owners. At the end of the step the ranks agree on the first blow-up and add their
+/// shares of the step's sums, in one collective.
 struct Exchange {
     local: Local,
     comm: Arc<dyn Comm>,
+    /// Whether the method's end of a step changes the state
+    /// ([`Method::step_end_changes_state`]).
+    step_end: bool,
     /// The number of particles of the run.
     n: usize,
     /// The rate evaluations of the current step so far.
@@ -142,7 +191,15 @@ impl<S: ParticleRows> AfterRates<S> for Exchange {
         Ok(())
     }
 
-    fn powers(&mut self, shares: StepPowers<Exact>) -> StepPowers<f64> {
+    fn after_step(&mut self, y: &mut S) {
+        if self.step_end {
+            let started = Instant::now();
+            self.local.refresh(self.comm.as_ref(), y);
+            self.seconds += started.elapsed().as_secs_f64();
+        }
+    }
+
+    fn sums(&mut self, shares: StepSums<Exact>) -> StepSums<f64> {
         let key = self.key().map_or(f64::INFINITY, |k| k as f64);
         let mut words = vec![key];
         words.extend(shares.iter().flat_map(Exact::words));
@@ -218,6 +275,43 @@ impl Ranks for Peers {
     }
 }
 
+/// The rows of a rank's quadrature points (those it counts): global index, X, w, u^h
+/// and F.
+fn point_words<D: Dim>(q: &Quadrature<D>) -> Vec<f64> {
+    let mut words = Vec::new();
+    for (k, &id) in q.ids.iter().enumerate() {
+        words.push(f64::from(id));
+        q.x0[k].put(&mut words);
+        words.push(q.weight[k]);
+        q.u[k].put(&mut words);
+        q.f[k].put(&mut words);
+    }
+    words
+}
+
+/// The quadrature points of the whole run from every rank's [`point_words`], in global
+/// order.
+fn gathered_points<D: Dim>(all: &[Vec<f64>]) -> Quadrature<D> {
+    let (lv, lt) = (D::V::LEN, D::T::LEN);
+    let row = 2 + 2 * lv + lt;
+    let count = all.iter().map(|w| w.len() / row).sum();
+    let mut q = Quadrature {
+        x0: vec![D::zero(); count],
+        weight: vec![0.0; count],
+        u: vec![D::zero(); count],
+        f: vec![D::zero_t(); count],
+        ids: Vec::new(),
+    };
+    for w in all.iter().flat_map(|w| w.chunks_exact(row)) {
+        let k = w[0] as usize;
+        q.x0[k] = D::V::take(&w[1..]);
+        q.weight[k] = w[1 + lv];
+        q.u[k] = D::V::take(&w[2 + lv..]);
+        q.f[k] = D::T::take(&w[2 + 2 * lv..]);
+    }
+    q
+}
+
 /// The exact sums of `sums` over the ranks, on rank 0 (none on the others).
 fn gathered_sums(comm: &dyn Comm, sums: &[&Exact]) -> Option<Vec<Exact>> {
     let words = sums.iter().flat_map(|s| s.words()).collect();
@@ -282,8 +376,8 @@ where
             .collect();
         Ok(Self {
             owned,
-            engine,
             exchange: Exchange {
+                step_end: engine.method.step_end_changes_state(),
                 local,
                 comm,
                 n,
@@ -293,6 +387,7 @@ where
                 seconds: 0.0,
                 inside,
             },
+            engine,
             n,
             whole,
         })
@@ -370,9 +465,10 @@ where
     }
 
     /// The snapshot's rows of this rank's own particles (u, v, F, σ, the extra fields)
-    /// gathered on rank 0 in global order, and the strain energy summed over the ranks.
+    /// and of its quadrature points, if the method has them, gathered on rank 0 in global
+    /// order, and the strain energy summed over the ranks.
     fn snapshot_all(&mut self) -> Option<Snapshot<'_, D>> {
-        let (words, names, energy) = {
+        let (words, names, energy, points) = {
             let local = &self.exchange.local;
             let s = self.engine.snapshot();
             let mut words = Vec::new();
@@ -385,10 +481,12 @@ where
                 words.extend(s.extra.iter().map(|e| e.values[i]));
             }
             let names: Vec<&'static str> = s.extra.iter().map(|e| e.name).collect();
-            (words, names, s.strain_energy)
+            let points = s.quadrature.as_ref().map(point_words::<D>);
+            (words, names, s.strain_energy, points)
         };
         let comm = self.exchange.comm.as_ref();
         let strain_energy = gathered_sums(comm, &[&energy]).map(|mut s| s.remove(0));
+        let points = points.and_then(|w| comm.gather(w));
         let all = comm.gather(words)?;
         let strain_energy = strain_energy.expect("rank 0 gathers");
         let owned = &self.owned;
@@ -409,8 +507,8 @@ where
                     values: vec![0.0; n],
                 })
                 .collect(),
-            cells: &[],
-            quadrature: None,
+            cells: &whole.cells,
+            quadrature: points.map(|all| gathered_points::<D>(&all)),
         };
         let (lv, lt) = (D::V::LEN, D::T::LEN);
         let row = 2 * lv + lt + 9 + names.len();
@@ -437,7 +535,7 @@ where
     /// rates by global id.
     fn save_all(&mut self) -> Option<Vec<f64>> {
         let words = self.engine.save();
-        let (powers, mut rest) = words.split_at(8);
+        let (balance, mut rest) = words.split_at(BALANCE_WORDS);
         let template = self.engine.y.clone();
         let mut y = template.clone();
         y.load(&mut rest).expect("the engine's own words");
@@ -463,7 +561,7 @@ where
                 rates.set_rows(ids, rest);
             }
         }
-        let mut out = powers.to_vec();
+        let mut out = balance.to_vec();
         y.save(&mut out);
         out.push(f64::from(u8::from(primed)));
         if primed {
@@ -487,8 +585,8 @@ where
     }
 
     fn restore_local(&mut self, words: &[f64]) -> Result<(), String> {
-        let (powers, mut rest) = words
-            .split_first_chunk::<8>()
+        let (balance, mut rest) = words
+            .split_first_chunk::<BALANCE_WORDS>()
             .ok_or("the checkpoint holds no engine state")?;
         let template = self.engine.y.zeros_like(self.n);
         let mut y = template.clone();
@@ -513,7 +611,7 @@ where
             part.set_rows(&every, &rows);
             part
         };
-        let mut out = powers.to_vec();
+        let mut out = balance.to_vec();
         mine(&y).save(&mut out);
         out.push(flag);
         if flag == 1.0 {
@@ -522,14 +620,13 @@ where
         self.engine.restore(&out)
     }
 
-    /// The balance's terms: the integrated powers are the run's on every rank; the
-    /// method's step dissipation and plastic work, each rank's share, are added over the
-    /// ranks (both are zero for the methods that run on several ranks).
+    /// The balance's terms: the integrated powers and the steps' ends are the run's on
+    /// every rank; the plastic work, each rank's share, is added over the ranks (zero for
+    /// the methods that run on several ranks).
     fn booked_all(&mut self) -> Booked {
-        let m = &self.engine.method;
-        let shares = [m.step_dissipation(), m.plastic_work(&self.engine.y)];
-        let s = self.comm().sum(&shares);
-        self.engine.booked_with(s[0], s[1])
+        let share = [self.engine.method.plastic_work(&self.engine.y)];
+        let s = self.comm().sum(&share);
+        self.engine.booked_with(s[0])
     }
 
     /// The supports' reactions, their exact sums added over the ranks (rank 0; none on

@@ -151,10 +151,10 @@ macro_rules! registry {
                 &self,
                 case: &Case,
                 reference: crate::reference::Reference<D>,
-                rank: crate::engine::ranks::Rank<D>,
+                start: crate::engine::ranks::RankStart,
             ) -> crate::methods::cores::family::RankBuild<D> {
                 match self {
-                    $(Self::$variant(s) => s.rank_engine::<D>(case, reference, rank)),*
+                    $(Self::$variant(s) => s.rank_engine::<D>(case, reference, start)),*
                 }
             }
 

@@ -3,12 +3,12 @@
 //! `checkpoint.bin` in its output folder, from which `meshless run CASE --resume DIR`
 //! continues as if it had not stopped.
 //!
-//! The file (version 4) is a small header, raw little-endian f64 words and a checksum:
+//! The file (version 5) is a small header, raw little-endian f64 words and a checksum:
 //!
 //! | bytes | what |
 //! |---|---|
 //! | 8 | `MESHCKPT` |
-//! | 4 | the version, u32 (3) |
+//! | 4 | the version, u32 (5) |
 //! | 4 | the header's length H, u32 |
 //! | H | the header, UTF-8 `key = value` lines: `case`, `method`, `backend`, `dimension`, `particles` and `fingerprint` (FNV-1a of the case with its end time left out, [`Scene::fingerprint`]) |
 //! | 8 | the number W of words, u64 |
@@ -33,7 +33,7 @@ use std::path::Path;
 /// The checkpoint's file name in a run's output folder.
 pub const FILE: &str = "checkpoint.bin";
 const MAGIC: &[u8; 8] = b"MESHCKPT";
-const VERSION: u32 = 4;
+const VERSION: u32 = 5;
 /// The largest header read (a header names a case and a method: a few hundred bytes).
 const HEADER_CAP: u32 = 1 << 16;
 

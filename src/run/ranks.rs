@@ -1,14 +1,14 @@
 //! A run of one case on several ranks (`docs/distributed.md`). Every rank builds the
-//! reference configuration and its lists, the same partition and its own particles with
-//! their ghosts; rank 0 drives the run with the driver of a one-rank run, and the others
+//! reference configuration; the method partitions it along its graph and sets up on the
+//! rank's own particles with their ghosts; rank 0 drives the run with the driver of a one-rank run, and the others
 //! serve its engine ([`crate::engine::ranks`]). The outputs are rank 0's, in the
 //! one-rank formats.
 
 use super::{Backend, RunError, RunOptions, budget, drive::drive};
 use crate::case::{CaseError, fnv1a};
 use crate::core::tensor::{D2, D3};
-use crate::distributed::{Collectives, Comm, Local, Partition, Threads};
-use crate::engine::ranks::{Rank, Whole};
+use crate::distributed::{Collectives, Comm, Threads};
+use crate::engine::ranks::RankStart;
 use crate::engine::{Engine, EngineDim};
 use crate::output::RunSummary;
 use crate::reference::Reference;
@@ -99,28 +99,9 @@ fn rank<D: EngineDim>(
     if let Some(h) = case.spec.smoothing_lengths::<D>(case, &reference)? {
         (reference.h, reference.method_lengths) = (h, true);
     }
-    let n = reference.len();
-    let lists = reference.neighbours();
-    let partition = Partition::bisect::<D>(&reference.x0, &lists, comm.size())
-        .map_err(|e| RunError::Ranks(format!("{}: {e}", case.file.display())))?;
     let layers = case.spec.entry().halo_layers.expect("refusal checked it");
-    let local = Local::new(&partition, &lists, comm.rank(), layers);
-    let leads = comm.rank() == 0;
-    let mut rank = Rank {
-        local,
-        comm,
-        n,
-        whole: None,
-        inside: Arc::default(),
-    };
-    let part = reference.restrict(&rank.local, Arc::new(rank.peers()));
-    rank.whole = leads.then(|| Whole {
-        constrained: reference.boundary.constrained.clone(),
-        x0: reference.x0,
-        mass: reference.mass,
-        body: reference.body,
-    });
-    let engine = case.spec.rank_engine::<D>(case, part, rank)?;
+    let start = RankStart { comm, layers };
+    let engine = case.spec.rank_engine::<D>(case, reference, start)?;
     if engine.is_leader() {
         let engine: Box<dyn Engine<D>> = engine;
         drive::<D, _>(case, opts, engine).map(Some)

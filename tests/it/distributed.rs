@@ -322,6 +322,19 @@ fn what_does_not_run_on_several_ranks_is_refused_by_every_rank() {
     };
     refused("rings-impact", &[], 2, "contact ([contact])");
     refused("wave-rod", &["method.name=gray-monaghan-sph"], 2, "`tlsph`");
+    // The rate model of a Galerkin method keeps ρ and S at its points.
+    refused(
+        "tensile-strip-fem",
+        &[],
+        2,
+        "keeps its state at the quadrature points",
+    );
+    refused(
+        "rod-rectangular-kbm",
+        &["method.kernel_frame=eulerian"],
+        2,
+        "Eulerian kernel",
+    );
     refused(
         "tensile-strip",
         &["spacing=0.5"],
@@ -470,4 +483,103 @@ fn the_potential_and_corotated_tlsph_on_two_and_three_ranks_match_one_rank() {
     assert_ranks_match_one("tensile-strip-corotated", &short);
     let variational = [&short[..], &["method.force=variational"]].concat();
     assert_ranks_match_one("tensile-strip-corotated", &variational);
+}
+
+#[test]
+fn the_tl_galerkin_methods_on_two_and_three_ranks_match_one_rank() {
+    // The nodes are split along the points they share: a rank holds the points of its
+    // own nodes with all their nodes, computes the stresses there and gathers its own
+    // nodes' forces in the one-rank order. A state model (the rate model keeps ρ and S
+    // at the points, which is refused).
+    let strip = [
+        "material.model=neo-hookean",
+        "run.end_time=2e-5",
+        "output.frame_interval=1e-5",
+        "output.series_interval=2e-6",
+    ];
+    // Bilinear cells with 2 × 2 Gauss points, row-sum masses, pulled supports.
+    assert_ranks_match_one("tensile-strip-fem", &strip);
+    // Reproducing-kernel functions at the Gauss points, and the velocity smoothing after
+    // each step: the ghosts' velocities are their owners' again after it, and the energy
+    // it takes out is an exact sum over the ranks.
+    assert_ranks_match_one("tensile-strip-weak-form", &strip);
+    // The driven rod (1 331 particles, a timed velocity): EFG at the Gauss points of the
+    // cells and at the particles (nodal integration, where the points of a rank's outer
+    // ghosts lack some of their nodes), and KBM with its test functions.
+    let rod = [
+        "spacing=5e-4",
+        "run.end_time=2e-7",
+        "output.frame_interval=1e-7",
+        "output.series_interval=4e-8",
+    ];
+    assert_ranks_match_one("rod-rectangular-efg", &rod);
+    let nodal = [&rod[..], &["method.integration=nodal"]].concat();
+    assert_ranks_match_one("rod-rectangular-efg", &nodal);
+    assert_ranks_match_one("rod-rectangular-kbm", &rod);
+}
+
+#[test]
+fn a_traction_spread_to_nodes_of_several_ranks_matches_one_rank() {
+    // The plate's top edge carries a pressure: the FEM spreads each surface point's
+    // force over its patch, and the meshfree methods over the nodes their functions
+    // reach there, nodes that may be other ranks'. In time, from rest.
+    let dynamic = [
+        "run.solve=dynamic",
+        "method.dt=1e-3",
+        "run.end_time=2e-2",
+        "output.frame_interval=1e-2",
+        "output.series_interval=2e-3",
+    ];
+    assert_ranks_match_one("plate-compression-fem", &dynamic);
+    let efg = [
+        &dynamic[..],
+        &[
+            "method.name=efg",
+            "method.h_over_dx=1.3",
+            "method.kernel=cubic-spline",
+        ],
+    ]
+    .concat();
+    assert_ranks_match_one("plate-compression-fem", &efg);
+    // In 3D (trilinear cells, 9³ nodes): the pressure on half the cube's top.
+    let cube = [
+        "run.solve=dynamic",
+        "spacing=0.125",
+        "method.dt=1e-3",
+        "run.end_time=1e-2",
+        "output.frame_interval=5e-3",
+        "output.series_interval=1e-3",
+    ];
+    assert_ranks_match_one("hyperelastic-cube-fem", &cube);
+}
+
+#[test]
+fn a_galerkin_blow_up_is_reported_as_one_rank_reports_it() {
+    // The rod's far end driven into it at 10 km/s, twice its wave speed:
+    // det F < 0 at the points of the last rank's nodes, named as one rank names them:
+    // the inadmissible point whose strongest node comes first, its global index.
+    let overrides = [
+        "spacing=5e-4",
+        "boundary.0.region={ x_min = 0.06 }",
+        "boundary.0.condition={ type = \"velocity\", vx = -1.0e4 }",
+        "output.observers=[\"energy\"]",
+        "run.end_time=2e-6",
+    ];
+    let scene = load("rod-rectangular-efg", &overrides);
+    let dir = tempfile::tempdir().unwrap();
+    let one = meshless::run::run(&scene, &cpu_options(dir.path(), false)).unwrap_err();
+    assert!(matches!(one, RunError::BlowUp { .. }), "{one}");
+    assert!(
+        one.to_string().contains("det F at quadrature point"),
+        "{one}"
+    );
+    for ranks in [2, 3] {
+        let many = error_on_ranks("rod-rectangular-efg", &overrides, ranks);
+        let cause = |s: &str| s.split("; outputs").next().unwrap().to_string();
+        assert_eq!(
+            cause(&one.to_string()),
+            cause(&many.to_string()),
+            "{ranks} ranks"
+        );
+    }
 }

@@ -376,6 +376,33 @@ impl<D: Dim> Shapes<D> {
         })
     }
 
+    /// The functions at the points `points` (ascending) on the nodes renumbered by `at`
+    /// (`u32::MAX`: a node left out, whose pairs are dropped): a rank's share of a
+    /// distributed run.
+    pub fn restrict(&self, points: &[u32], at: &[u32]) -> Self {
+        let mut out = Self {
+            family: self.family,
+            ..Self::default()
+        };
+        out.csr.offsets.push(0);
+        for &q in points {
+            for p in self.csr.range(q as usize) {
+                let a = at[self.csr.ids[p] as usize];
+                if a == u32::MAX {
+                    continue;
+                }
+                out.csr.ids.push(a);
+                out.n.push(self.n[p]);
+                out.grad.push(self.grad[p]);
+                if !self.test.is_empty() {
+                    out.test.push(self.test[p]);
+                }
+            }
+            out.csr.offsets.push(out.csr.ids.len());
+        }
+        out
+    }
+
     /// The transposed lists, for the per-node gather.
     pub fn gather(&self, nodes: usize) -> Gather {
         let mut offsets = vec![0usize; nodes + 1];

@@ -52,6 +52,9 @@ pub struct Quadrature<D: Dim> {
     /// u^h(X_q) = Σ_a N_a(X_q) u_a with the method's shape function values.
     pub u: Vec<D::V>,
     pub f: Vec<D::T>,
+    /// The global index of each point on a rank of a distributed run, which holds the
+    /// points it counts; empty on one rank, which holds them all in order.
+    pub ids: Vec<u32>,
 }
 
 /// A per-particle scalar field that a method adds to the frames (the plastic strain ε_p).

@@ -7,7 +7,7 @@ use crate::case::{Case, CaseError};
 use crate::core::check::Problem;
 use crate::core::neighbour::Rebuild;
 use crate::core::tensor::Dim;
-use crate::engine::ranks::{Distributed, Rank};
+use crate::engine::ranks::{Distributed, RankStart};
 use crate::engine::{Engine, EngineDim};
 use crate::physics::material::Material;
 use crate::physics::viscosity::ArtificialViscosity;
@@ -123,8 +123,10 @@ pub trait MethodFamily: Sized {
     /// Krongauz–Belytschko functions, dual-support corrections).
     const CORRECTED: bool = true;
     /// The ghost layers a rank of a distributed run needs to evaluate its own particles'
-    /// rates: the pair loops a rate evaluation chains (a neighbour's F, then its stress
-    /// in the force, make two). None for a method that does not run on several ranks.
+    /// rates, along the graph the method partitions: the pair loops a rate evaluation
+    /// chains over the neighbour lists (a neighbour's F, then its stress in the force,
+    /// make two); one along the nodes a Galerkin node shares a point with. None for a
+    /// method that does not run on several ranks.
     const HALO_LAYERS: Option<usize> = None;
     /// The GPU passes it compiles with a scene's constants.
     #[cfg(feature = "gpu")]
@@ -149,14 +151,14 @@ pub trait MethodFamily: Sized {
         Err(no_gpu_engine(case).into())
     }
 
-    /// The engine of one rank of a distributed run: the method's CPU system on the
-    /// rank's particles ([`Reference::restrict`]); only a method with
-    /// [`Self::HALO_LAYERS`] has one.
+    /// The engine of one rank of a distributed run: the method partitions the whole
+    /// run's `reference` along its graph ([`RankStart::split`]) and sets up its CPU system on
+    /// the rank's share; only a method with [`Self::HALO_LAYERS`] has one.
     fn rank_engine<D: EngineDim>(
         &self,
         case: &Case,
         _reference: Reference<D>,
-        _rank: Rank<D>,
+        _start: RankStart,
     ) -> RankBuild<D> {
         Err(case.invalid(
             "method.name",

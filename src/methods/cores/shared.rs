@@ -12,11 +12,12 @@ use crate::core::neighbour::Csr;
 use crate::core::parallel::ParticleRows;
 use crate::core::tensor::Dim;
 use crate::distributed::Collectives;
-use crate::engine::ranks::{Rank, RankEngine};
+use crate::engine::ranks::{Rank, RankEngine, RankStart, Whole};
 use crate::engine::{CpuEngine, EngineDim, Method};
 use crate::methods::cores::family::RankBuild;
 use crate::reference::{Build, Reference, build_method};
 use rayon::prelude::*;
+use std::sync::Arc;
 
 impl<D: Dim, M: Method<D> + Build<D>> CpuEngine<D, M> {
     /// The engine of the system `M` of a method's spec built on a case, stepped by the
@@ -29,20 +30,41 @@ impl<D: Dim, M: Method<D> + Build<D>> CpuEngine<D, M> {
     }
 }
 
-/// The engine of one rank of a distributed run: the system `M` of a method's spec built on
-/// the rank's particles, stepped by the case's integrator.
+/// The engine of one rank of a distributed run of a particle method: the run's
+/// `reference` split along its neighbour lists, and the system `M` of the method's spec
+/// built on the rank's particles ([`Reference::restrict`]).
 pub fn rank_engine<D: EngineDim, M: Method<D> + Build<D> + 'static>(
     case: &Case,
     spec: &M::Spec,
     reference: Reference<D>,
+    start: RankStart,
+) -> RankBuild<D>
+where
+    M::State: ParticleRows,
+{
+    let whole = Whole {
+        x0: reference.x0.clone(),
+        mass: reference.mass.clone(),
+        body: reference.body.clone(),
+        constrained: reference.boundary.constrained.clone(),
+        cells: Vec::new(),
+    };
+    let rank = start.split(&reference.neighbours(), whole, &case.file)?;
+    let part = reference.restrict(&rank.local, Arc::new(rank.peers()));
+    drop(reference);
+    engine_on_rank(case, M::build(case, spec, part), rank)
+}
+
+/// The engine of a rank whose system's set-up ended in `method`. Every rank learns
+/// whether all could set up, so that none waits for one that stopped.
+pub fn engine_on_rank<D: EngineDim, M: Method<D> + 'static>(
+    case: &Case,
+    method: Result<M, CaseError>,
     rank: Rank<D>,
 ) -> RankBuild<D>
 where
     M::State: ParticleRows,
 {
-    // Every rank learns whether all could set up, so that none waits for one that
-    // stopped.
-    let method = M::build(case, spec, reference);
     let failed = (rank.comm).all_gather(vec![f64::from(u8::from(method.is_err()))]);
     let method = method?;
     if let Some(rank) = failed.iter().position(|w| w[0] != 0.0) {

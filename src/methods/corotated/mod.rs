@@ -8,7 +8,7 @@ pub mod system;
 
 pub use system::{Corotated, CorotatedScheme, outputs, rotation};
 
-use crate::engine::ranks::Rank;
+use crate::engine::ranks::RankStart;
 #[cfg(feature = "gpu")]
 use crate::methods::cores::family::GpuBuild;
 use crate::methods::cores::family::{
@@ -126,9 +126,9 @@ impl MethodFamily for CorotatedSpec {
         &self,
         case: &Case,
         reference: Reference<D>,
-        rank: Rank<D>,
+        start: RankStart,
     ) -> RankBuild<D> {
-        shared::rank_engine::<D, Corotated<D>>(case, self, reference, rank)
+        shared::rank_engine::<D, Corotated<D>>(case, self, reference, start)
     }
 
     #[cfg(feature = "gpu")]

@@ -21,7 +21,7 @@ pub use model::{DualSupport, Energies};
 pub use statics::{Statics, pattern};
 pub use support::Support;
 
-use crate::engine::ranks::Rank;
+use crate::engine::ranks::RankStart;
 #[cfg(feature = "gpu")]
 use crate::methods::cores::family::GpuBuild;
 use crate::methods::cores::family::{CpuBuild, Feature, MethodFamily, Plan, RankBuild};
@@ -406,9 +406,9 @@ impl MethodFamily for DualSupportSpec {
         &self,
         case: &Case,
         reference: Reference<D>,
-        rank: Rank<D>,
+        start: RankStart,
     ) -> RankBuild<D> {
-        shared::rank_engine::<D, DualSupportDynamics<D>>(case, self, reference, rank)
+        shared::rank_engine::<D, DualSupportDynamics<D>>(case, self, reference, start)
     }
 
     fn cpu_engine<D: EngineDim>(&self, case: &Case) -> CpuBuild<D> {

@@ -92,6 +92,7 @@ impl MethodFamily for EfgSpec {
     const KEYS: &'static [&'static str] = &["integration", "mass"];
     const FEATURES: &'static [Feature] = super::cores::galerkin::FEATURES;
     const CORRECTED: bool = false;
+    const HALO_LAYERS: Option<usize> = Some(1);
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = super::cores::galerkin::gpu::SHADERS;
 

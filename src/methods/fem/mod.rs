@@ -39,6 +39,7 @@ impl MethodFamily for FemSpec {
     const KEYS: &'static [&'static str] = &["mass"];
     const FEATURES: &'static [Feature] = super::cores::galerkin::FEATURES;
     const KERNEL: bool = false;
+    const HALO_LAYERS: Option<usize> = Some(1);
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = super::cores::galerkin::gpu::SHADERS;
 

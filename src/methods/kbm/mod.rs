@@ -20,10 +20,11 @@ use crate::case::{Case, CaseError};
 use crate::core::check::{Problem, fail};
 use crate::core::quadrature::{Cells, QuadraturePoints, Shapes};
 use crate::core::tensor::Dim;
+use crate::engine::ranks::RankStart;
 use crate::engine::{CpuEngine, EngineDim};
 #[cfg(feature = "gpu")]
 use crate::methods::cores::family::GpuBuild;
-use crate::methods::cores::family::{CpuBuild, Feature, MethodFamily, Plan, cfl_step};
+use crate::methods::cores::family::{CpuBuild, Feature, MethodFamily, Plan, RankBuild, cfl_step};
 use crate::physics::material::Material;
 use crate::reference::Reference;
 use eulerian::EulerianPoints;
@@ -143,6 +144,7 @@ impl MethodFamily for KbmSpec {
     const KEYS: &'static [&'static str] = &["integration", "mass", "kernel_frame", "search_every"];
     const FEATURES: &'static [Feature] = super::cores::galerkin::FEATURES;
     const CORRECTED: bool = false;
+    const HALO_LAYERS: Option<usize> = Some(1);
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = super::cores::galerkin::gpu::SHADERS;
 
@@ -223,6 +225,26 @@ impl MethodFamily for KbmSpec {
             KernelFrame::Lagrangian => super::cores::galerkin::cpu_engine(case, self),
             KernelFrame::Eulerian => Ok(Box::new(
                 CpuEngine::<D, UlGalerkin<D, EulerianPoints<D>>>::new(case, self)?,
+            )),
+        }
+    }
+
+    /// On a Lagrangian kernel; the Eulerian kernel's (updated-Lagrangian) does not run on
+    /// several ranks.
+    fn rank_engine<D: EngineDim>(
+        &self,
+        case: &Case,
+        reference: Reference<D>,
+        start: RankStart,
+    ) -> RankBuild<D> {
+        match self.kernel_frame {
+            KernelFrame::Lagrangian => {
+                super::cores::galerkin::rank_engine(case, self, reference, start)
+            }
+            KernelFrame::Eulerian => Err(case.invalid(
+                "method.kernel_frame",
+                "`kbm` on an Eulerian kernel (updated-Lagrangian) does not run on several \
+                 ranks yet; run it on one, or with `kernel_frame = \"lagrangian\"`",
             )),
         }
     }

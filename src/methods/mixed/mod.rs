@@ -19,7 +19,7 @@ pub use compressibility::ArtificialCompressibility;
 pub use gpu::GpuMixed;
 pub use system::{Fluxes, MixedSph, MixedState};
 
-use crate::engine::ranks::Rank;
+use crate::engine::ranks::RankStart;
 #[cfg(feature = "gpu")]
 use crate::methods::cores::family::GpuBuild;
 use crate::methods::cores::family::{CpuBuild, Feature, MethodFamily, Plan, RankBuild};
@@ -560,9 +560,9 @@ impl<S: MixedMethod + 'static> MethodFamily for S {
         &self,
         case: &Case,
         reference: Reference<D>,
-        rank: Rank<D>,
+        start: RankStart,
     ) -> RankBuild<D> {
-        shared::rank_engine::<D, MixedSph<D>>(case, self, reference, rank)
+        shared::rank_engine::<D, MixedSph<D>>(case, self, reference, start)
     }
 
     fn plan(&self, case: &Case, gpu: bool) -> Plan {

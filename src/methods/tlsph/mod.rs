@@ -11,7 +11,7 @@ pub use crate::methods::cores::tl::TlState;
 pub use crate::methods::cores::tl::gpu::GpuTlsph;
 pub use system::{Tlsph, TlsphScheme};
 
-use crate::engine::ranks::Rank;
+use crate::engine::ranks::RankStart;
 #[cfg(feature = "gpu")]
 use crate::methods::cores::family::GpuBuild;
 use crate::methods::cores::family::{
@@ -165,9 +165,9 @@ impl MethodFamily for TlsphSpec {
         &self,
         case: &Case,
         reference: Reference<D>,
-        rank: Rank<D>,
+        start: RankStart,
     ) -> RankBuild<D> {
-        shared::rank_engine::<D, Tlsph<D>>(case, self, reference, rank)
+        shared::rank_engine::<D, Tlsph<D>>(case, self, reference, start)
     }
 
     #[cfg(feature = "gpu")]

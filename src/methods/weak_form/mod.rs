@@ -75,6 +75,7 @@ impl MethodFamily for WeakFormSpec {
     const KEYS: &'static [&'static str] = &["smoothing", "mass"];
     const FEATURES: &'static [Feature] = super::cores::galerkin::FEATURES;
     const CORRECTED: bool = false;
+    const HALO_LAYERS: Option<usize> = Some(1);
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = super::cores::galerkin::gpu::SHADERS;
 

@@ -6,8 +6,8 @@ use crate::reference::Build;
 
 /// The `Method` members that the total- and updated-Lagrangian Galerkin cores give
 /// alike: the particles' accessors, the reference positions, the signal speed c_p +
-/// max |v|, the pairs of the shape functions' lists, and the history words (the points'
-/// plastic history, then the dissipation of the velocity smoothing).
+/// max |v|, the pairs of the shape functions' lists, the history words (the points'
+/// plastic history) and the dissipation of the velocity smoothing.
 macro_rules! galerkin_accessors {
     ($state:ty) => {
         $crate::methods::cores::particles::particle_accessors!($state);
@@ -27,18 +27,15 @@ macro_rules! galerkin_accessors {
         /// The plastic history C_p⁻¹, ε_p of the points.
         fn save_history(&self, out: &mut Vec<f64>) {
             $crate::physics::plasticity::History::save(self.plastic.as_ref(), out);
-            out.push(self.smoothed);
         }
 
         fn load_history(&mut self, words: &mut &[f64]) -> Result<(), String> {
-            $crate::physics::plasticity::History::load(self.plastic.as_mut(), words)?;
-            self.smoothed =
-                $crate::core::parallel::load_word(words, "the smoothing's dissipation")?;
-            Ok(())
+            $crate::physics::plasticity::History::load(self.plastic.as_mut(), words)
         }
 
-        fn step_dissipation(&self) -> f64 {
-            self.smoothed
+        /// The kinetic energy the last velocity smoothing took out.
+        fn step_end_dissipation(&self) -> $crate::core::sum::Exact {
+            self.step_end.clone()
         }
     };
 }
@@ -74,8 +71,9 @@ impl<D: Dim> OdeSystem for TlGalerkin<D> {
     /// The weak form's velocity smoothing, then the prescribed velocities again.
     fn end_step(&mut self, _t: f64, y: &mut GalerkinState<D>) {
         if let Some(shapes) = &self.smoothing {
-            self.smoothed +=
-                smooth_velocities(shapes, &self.surroundings.boundary, &self.mass, &mut y.v);
+            let boundary = &self.surroundings.boundary;
+            self.step_end =
+                smooth_velocities(shapes, boundary, &self.mass, &self.counted, &mut y.v);
         }
     }
 }
@@ -228,6 +226,10 @@ impl<D: Dim> Method<D> for TlGalerkin<D> {
 
     galerkin_accessors!(GalerkinState<D>);
 
+    fn step_end_changes_state(&self) -> bool {
+        self.smoothing.is_some()
+    }
+
     /// F at the nodes, projected from the points.
     fn deformation_gradient(&self, y: &GalerkinState<D>) -> Vec<D::T> {
         self.projected(&self.point_f(y), D::identity())
@@ -255,12 +257,7 @@ impl<D: Dim> Method<D> for TlGalerkin<D> {
     /// The nodal fields, and the points with u^h(X_q) = Σ_a N_a(X_q) u_a and F_q.
     fn snapshot<'a>(&'a self, y: &GalerkinState<D>) -> Snapshot<'a, D> {
         let fields = self.point_fields(y);
-        let quadrature = Quadrature {
-            x0: self.points.x0.clone(),
-            weight: self.points.weight.clone(),
-            u: self.shapes.interpolate(&y.u),
-            f: fields.f.clone(),
-        };
+        let quadrature = self.quadrature(y, &fields.f);
         Snapshot {
             x0: &self.x0,
             mass: &self.mass,

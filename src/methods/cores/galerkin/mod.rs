@@ -34,19 +34,22 @@ use crate::boundary::{Boundary, NodalForces, OnPatches, SurfacePoint};
 use crate::case::{Case, CaseError, Shape};
 use crate::core::integrate::OdeSystem;
 use crate::core::neighbour::Csr;
-use crate::core::parallel::{MIN_CHUNK, ordered_reduce};
+use crate::core::parallel::MIN_CHUNK;
 use crate::core::quadrature::{
     Cells, Family, Gather, QuadratureError, QuadraturePoints, Shapes, SmoothingCells,
 };
-use crate::core::sum::Exact;
+use crate::core::sum::{Exact, par_sum};
 use crate::core::tensor::Dim;
 use crate::diagnostics::observe::{Quadrature, ScalarField, Snapshot};
+use crate::distributed::Local;
+use crate::engine::ranks::{RankStart, Whole};
 use crate::engine::{
     BlowUp, BoundaryWork, Engine, EngineDim, Method, Sizes, Traffic, check_motion,
 };
 use crate::interaction::Interactions;
-use crate::methods::cores::family::{Feature, Plan, cfl_step};
+use crate::methods::cores::family::{Feature, Plan, RankBuild, cfl_step};
 use crate::methods::cores::particles::{Surroundings, check_stresses};
+use crate::methods::cores::shared::engine_on_rank;
 use crate::methods::cores::tl::displacement_rates;
 use crate::physics::material::{Material, MaterialModel, stress_fields};
 use crate::physics::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
@@ -90,9 +93,45 @@ pub fn gpu_engine<D: EngineDim>(
     Ok(Box::new(gpu::GpuGalerkin::<D>::new(case, spec, gpu)?))
 }
 
+/// The engine of one rank of a distributed run of a total-Lagrangian Galerkin method:
+/// the system built on the whole run (every rank builds the same), split along its
+/// [`TlGalerkin::node_graph`], then [`TlGalerkin::restrict`]ed to the rank's nodes. The
+/// rate model (ρ and S at the points) and plasticity (a history at the points) are
+/// refused: a rank exchanges the nodes' rows only.
+pub fn rank_engine<D: EngineDim>(
+    case: &Case,
+    spec: &(dyn TlSystem<D> + 'static),
+    reference: Reference<D>,
+    start: RankStart,
+) -> RankBuild<D> {
+    let model = Material::new(&case.material).model;
+    if model.is_rate_based() || model == MaterialModel::VonMisesPlastic {
+        return Err(case.invalid(
+            "material.model",
+            format!(
+                "`{}` with the {model:?} model keeps its state at the quadrature points, \
+                 which a rank of a distributed run does not exchange yet; run it on one \
+                 rank, or with a hyperelastic model",
+                case.method.name
+            ),
+        ));
+    }
+    let system = spec.system(case, reference)?;
+    let whole = Whole {
+        x0: system.x0.clone(),
+        mass: system.mass.clone(),
+        body: system.body.clone(),
+        constrained: system.boundary().constrained.clone(),
+        cells: system.cells.corners.clone(),
+    };
+    let rank = start.split(&system.node_graph(), whole, &case.file)?;
+    let part = system.restrict(&rank.local);
+    engine_on_rank(case, Ok(part), rank)
+}
+
 /// The engine hooks of the [`MethodFamily`](crate::methods::cores::family::MethodFamily) implementation
 /// of a total-Lagrangian Galerkin method whose engines do not depend on its keys (`tl-fem`,
-/// `tl-weak-form`, `efg`): [`cpu_engine`] and [`gpu_engine`].
+/// `tl-weak-form`, `efg`): [`cpu_engine`], [`rank_engine`] and [`gpu_engine`].
 macro_rules! tl_galerkin_engines {
     () => {
         fn cpu_engine<D: $crate::engine::EngineDim>(
@@ -100,6 +139,15 @@ macro_rules! tl_galerkin_engines {
             case: &$crate::case::Case,
         ) -> $crate::methods::cores::family::CpuBuild<D> {
             $crate::methods::cores::galerkin::cpu_engine(case, self)
+        }
+
+        fn rank_engine<D: $crate::engine::EngineDim>(
+            &self,
+            case: &$crate::case::Case,
+            reference: $crate::reference::Reference<D>,
+            start: $crate::engine::ranks::RankStart,
+        ) -> $crate::methods::cores::family::RankBuild<D> {
+            $crate::methods::cores::galerkin::rank_engine(case, self, reference, start)
         }
 
         #[cfg(feature = "gpu")]
@@ -242,23 +290,23 @@ pub fn smoothing_cells<D: Dim>(
 /// §5.6 and §5.7, the "virtual to actual" conversion): v_i ← Σ_j N_j(x_i) v_j =
 /// Σ_j V_j Ψ_j(x_i) v_j with the particles' own functions `shapes` (one point per
 /// particle), then the prescribed velocities again. Returns the kinetic energy it took
-/// out, ½ Σ m (|v_before|² − |v_after|²) with the nodal masses m, which the energy balance
-/// books with the artificial dissipation.
+/// out, ½ Σ m (|v_before|² − |v_after|²) with the nodal masses m over the `counted`
+/// particles (a rank's own), which the energy balance books with the artificial
+/// dissipation.
 pub fn smooth_velocities<D: Dim>(
     shapes: &Shapes<D>,
     boundary: &Boundary<D>,
     mass: &[f64],
+    counted: &[bool],
     v: &mut Vec<D::V>,
-) -> f64 {
+) -> Exact {
     let smoothed = shapes.interpolate(v);
     let mut next = smoothed;
     boundary.impose(&mut next);
-    let taken = ordered_reduce(
-        v.len(),
-        || 0.0,
-        |i| 0.5 * mass[i] * (D::norm2(v[i]) - D::norm2(next[i])),
-        |a, b| a + b,
-    );
+    let taken = par_sum(v.len(), |i| {
+        let share = 0.5 * mass[i] * (D::norm2(v[i]) - D::norm2(next[i]));
+        if counted[i] { share } else { 0.0 }
+    });
     *v = next;
     taken
 }
@@ -367,11 +415,29 @@ pub struct TlGalerkin<D: Dim> {
     surroundings: Surroundings<D>,
     /// The plastic history of the points (von Mises); None for the elastic models.
     plastic: Option<History>,
-    /// The kinetic energy the velocity smoothing took out so far.
-    smoothed: f64,
+    /// The kinetic energy the last velocity smoothing took out.
+    step_end: Exact,
+    /// The nodes the sums count: all of them, or a rank's own ([`Reference::counted`]).
+    counted: Vec<bool>,
+    /// A rank's share of the points ([`Self::restrict`]); None on one rank.
+    share: Option<PointShare>,
     /// F_q and P_q of the last rate evaluation.
     f: Vec<D::T>,
     pk1: Vec<D::T>,
+}
+
+/// The points a rank of a distributed run holds ([`TlGalerkin::restrict`]).
+struct PointShare {
+    /// The global index of each point.
+    ids: Vec<u32>,
+    /// Whether the rank holds all the point's nodes, so that F_q is the run's; the others
+    /// (where the particles are points, those of the outer ghosts) take F = I.
+    complete: Vec<bool>,
+    /// Whether the rank counts the point, as the owner of its strongest node: in the
+    /// stored energy, the det F check and the snapshot's points.
+    counted: Vec<bool>,
+    /// w_q of the counted points and 0 for the others: the weights of the stored energy.
+    energy_weight: Vec<f64>,
 }
 
 impl<D: Dim> TlGalerkin<D> {
@@ -426,6 +492,7 @@ impl<D: Dim> TlGalerkin<D> {
             u0,
             boundary,
             material,
+            counted,
             ..
         } = reference;
         let n = points.len();
@@ -443,7 +510,9 @@ impl<D: Dim> TlGalerkin<D> {
             material,
             surroundings: Surroundings::new(boundary, interactions),
             plastic: material.von_mises().map(|model| History::virgin(model, n)),
-            smoothed: 0.0,
+            step_end: Exact::default(),
+            counted,
+            share: None,
             f: vec![D::identity(); n],
             pk1: vec![D::zero_t(); n],
         })
@@ -508,7 +577,7 @@ impl<D: Dim> TlGalerkin<D> {
             each.zip(d.rho.par_iter_mut().zip(d.s.par_iter_mut()))
                 .with_min_len(MIN_CHUNK)
                 .for_each(|((q, (f, pk1)), (rho_dot, s_dot))| {
-                    *f = D::identity() + self.shapes.gradient(q, &y.u);
+                    *f = self.f_at(q, &y.u);
                     let f_dot = self.shapes.gradient(q, &y.v);
                     let r = mat.rate_response::<D>(*f, f_dot, y.rho[q], y.s[q]);
                     (*pk1, *rho_dot, *s_dot) = (r.pk1, r.rho_dot, r.s_dot);
@@ -516,7 +585,7 @@ impl<D: Dim> TlGalerkin<D> {
         } else {
             let plastic = self.plastic.as_ref();
             each.with_min_len(MIN_CHUNK).for_each(|(q, (f, pk1))| {
-                *f = D::identity() + self.shapes.gradient(q, &y.u);
+                *f = self.f_at(q, &y.u);
                 *pk1 = match plastic {
                     Some(pl) => from_mat3::<D>(pl.returned::<D>(q, *f).p),
                     None => mat.pk1::<D>(*f),
@@ -533,18 +602,37 @@ impl<D: Dim> TlGalerkin<D> {
         gather_accelerations(&self.gather, &self.shapes, weight, stress, &self.mass, a);
     }
 
+    /// F_q = I + Σ_a u_a ⊗ ∇0N_a(X_q); I at a point whose nodes a rank does not all
+    /// hold.
+    fn f_at(&self, q: usize, u: &[D::V]) -> D::T {
+        match &self.share {
+            Some(share) if !share.complete[q] => D::identity(),
+            _ => D::identity() + self.shapes.gradient(q, u),
+        }
+    }
+
+    /// Whether the sums and checks count point q (a rank's share counts those of its
+    /// own strongest nodes).
+    fn counts_point(&self, q: usize) -> bool {
+        self.share.as_ref().is_none_or(|s| s.counted[q])
+    }
+
+    /// The inadmissible point (det F NaN or ≤ 0) whose strongest node comes first, and
+    /// the first such point of that node: the point one rank names on any number of
+    /// ranks, as each checks the points of its own strongest nodes.
     fn first_inadmissible(&self) -> Option<BlowUp> {
-        let q = self.f.par_iter().position_first(|&f| {
-            let det = D::det(f);
-            det.is_nan() || det <= 0.0
-        })?;
-        let what = format!("det F at quadrature point {q} next to it");
-        Some(BlowUp::at::<D>(
-            &self.x0,
-            self.shapes.strongest_node(q),
-            &what,
-            D::det(self.f[q]),
-        ))
+        let (node, q) = (0..self.points.len())
+            .into_par_iter()
+            .with_min_len(MIN_CHUNK)
+            .filter(|&q| {
+                let det = D::det(self.f[q]);
+                self.counts_point(q) && (det.is_nan() || det <= 0.0)
+            })
+            .map(|q| (self.shapes.strongest_node(q), q))
+            .min()?;
+        let id = self.share.as_ref().map_or(q, |s| s.ids[q] as usize);
+        let what = format!("det F at quadrature point {id} next to it");
+        Some(BlowUp::at::<D>(&self.x0, node, &what, D::det(self.f[q])))
     }
 
     /// F at every point of state y.
@@ -552,8 +640,134 @@ impl<D: Dim> TlGalerkin<D> {
         (0..self.points.len())
             .into_par_iter()
             .with_min_len(MIN_CHUNK)
-            .map(|q| D::identity() + self.shapes.gradient(q, &y.u))
+            .map(|q| self.f_at(q, &y.u))
             .collect()
+    }
+
+    /// The points with u^h(X_q) = Σ_a N_a(X_q) u_a of state y and F_q (`f`): all of
+    /// them, or those a rank counts, with their global indices.
+    fn quadrature(&self, y: &GalerkinState<D>, f: &[D::T]) -> Quadrature<D> {
+        let u = self.shapes.interpolate(&y.u);
+        let Some(share) = &self.share else {
+            return Quadrature {
+                x0: self.points.x0.clone(),
+                weight: self.points.weight.clone(),
+                u,
+                f: f.to_vec(),
+                ids: Vec::new(),
+            };
+        };
+        let counted: Vec<usize> = (0..self.points.len())
+            .filter(|&q| share.counted[q])
+            .collect();
+        Quadrature {
+            x0: counted.iter().map(|&q| self.points.x0[q]).collect(),
+            weight: counted.iter().map(|&q| self.points.weight[q]).collect(),
+            u: counted.iter().map(|&q| u[q]).collect(),
+            f: counted.iter().map(|&q| f[q]).collect(),
+            ids: counted.iter().map(|&q| share.ids[q]).collect(),
+        }
+    }
+
+    /// The graph a distributed run splits the nodes along ([`RankStart::split`]): each node's
+    /// neighbours are the nodes it shares a point with, and those its velocity smoothing
+    /// reads or is read by. With one layer of ghosts along it a rank holds every point of
+    /// its own nodes with all the point's nodes, and every node an own node's smoothing
+    /// reads.
+    pub fn node_graph(&self) -> Csr {
+        let n = self.x0.len();
+        let smoothing = self.smoothing.as_ref().map(|s| (s, s.gather(n)));
+        let (gather, csr) = (&self.gather, &self.shapes.csr);
+        let rows: Vec<Vec<u32>> = (0..n)
+            .into_par_iter()
+            .with_min_len(MIN_CHUNK)
+            .map(|a| {
+                let mut row: Vec<u32> = (gather.range(a))
+                    .flat_map(|e| csr.neighbours(gather.point[e] as usize).iter().copied())
+                    .collect();
+                if let Some((s, by)) = &smoothing {
+                    row.extend(s.csr.neighbours(a));
+                    row.extend(by.range(a).map(|e| by.point[e]));
+                }
+                row.sort_unstable();
+                row.dedup();
+                row.retain(|&b| b as usize != a);
+                row
+            })
+            .collect();
+        Csr::from_rows(&rows)
+    }
+
+    /// A rank's share of the system built on the whole run: its nodes `local` (own and
+    /// ghosts, with the boundary of its own); the points that reach an own node and,
+    /// where the particles are points, those of all its nodes, in global order, with
+    /// their functions on its nodes. With the ghosts of [`Self::node_graph`] every point
+    /// of an own node has all its nodes here, and an own node gathers its points in the
+    /// one-rank order: its force, mass and smoothed velocity are the one-rank run's. The
+    /// interactions stay empty (contact and timed loads do not run on several ranks); the
+    /// rate model and plasticity are refused before ([`rank_engine`]).
+    pub fn restrict(self, local: &Local) -> Self {
+        let mut at = vec![u32::MAX; self.x0.len()];
+        for (i, &g) in local.ids.iter().enumerate() {
+            at[g as usize] = i as u32;
+        }
+        let held = |g: u32| at[g as usize] != u32::MAX;
+        let own = |g: u32| held(g) && local.owned[at[g as usize] as usize];
+        let (csr, particles) = (&self.shapes.csr, self.points.particles);
+        let keep: Vec<u32> = (0..self.points.len() as u32)
+            .filter(|&q| {
+                ((q as usize) < particles && held(q))
+                    || csr.neighbours(q as usize).iter().any(|&a| own(a))
+            })
+            .collect();
+        let counted: Vec<bool> = (keep.iter())
+            .map(|&q| own(self.shapes.strongest_node(q as usize) as u32))
+            .collect();
+        let share = PointShare {
+            complete: (keep.iter())
+                .map(|&q| csr.neighbours(q as usize).iter().all(|&a| held(a)))
+                .collect(),
+            energy_weight: (keep.iter().zip(&counted))
+                .map(|(&q, &c)| {
+                    if c {
+                        self.points.weight[q as usize]
+                    } else {
+                        0.0
+                    }
+                })
+                .collect(),
+            counted,
+            ids: keep.clone(),
+        };
+        let shapes = self.shapes.restrict(&keep, &at);
+        let points = self.points.restrict(&keep);
+        let smoothing = (self.smoothing).map(|s| s.restrict(&local.ids, &at));
+        let rows = |all: &[D::V]| local.ids.iter().map(|&g| all[g as usize]).collect();
+        let boundary = self
+            .surroundings
+            .boundary
+            .restrict(&local.ids, &local.owned);
+        let q = keep.len();
+        Self {
+            x0: rows(&self.x0),
+            mass: local.ids.iter().map(|&g| self.mass[g as usize]).collect(),
+            body: local.ids.iter().map(|&g| self.body[g as usize]).collect(),
+            v0: rows(&self.v0),
+            u0: rows(&self.u0),
+            cells: Cells::default(),
+            gather: shapes.gather(local.len()),
+            points,
+            shapes,
+            smoothing,
+            material: self.material,
+            surroundings: Surroundings::new(boundary, self.surroundings.interactions),
+            plastic: None,
+            step_end: Exact::default(),
+            counted: local.owned.clone(),
+            share: Some(share),
+            f: vec![D::identity(); q],
+            pk1: vec![D::zero_t(); q],
+        }
     }
 
     /// Whether the particles are points (nodal or stress-point integration), so that a
@@ -603,13 +817,11 @@ impl<D: Dim> TlGalerkin<D> {
     fn point_fields(&self, y: &GalerkinState<D>) -> Fields<D> {
         let f = self.point_f(y);
         let r = self.returned_all(&f);
-        Fields::at_points(
-            &self.material,
-            f,
-            r.as_deref(),
-            (&y.rho, &y.s),
-            &self.points.weight,
-        )
+        let weight = self
+            .share
+            .as_ref()
+            .map_or(&self.points.weight, |s| &s.energy_weight);
+        Fields::at_points(&self.material, f, r.as_deref(), (&y.rho, &y.s), weight)
     }
 }
 

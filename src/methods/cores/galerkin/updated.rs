@@ -173,8 +173,10 @@ pub struct UlGalerkin<D: Dim, P: MovingPoints<D>> {
     sigma: Vec<D::T>,
     /// The points' plastic history (von Mises); None for the elastic models.
     plastic: Option<History>,
-    /// The kinetic energy the velocity smoothing took out so far.
-    smoothed: f64,
+    /// The kinetic energy the last velocity smoothing took out.
+    step_end: Exact,
+    /// The particles the smoothing's energy counts ([`Reference::counted`]).
+    counted: Vec<bool>,
 }
 
 /// The initial state: at rest in the reference configuration, v = v0, ρ = ρ0, S = 0.
@@ -233,6 +235,7 @@ impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
             v0,
             mut boundary,
             material,
+            counted,
             ..
         } = reference;
         let y0 = initial::<D, P>(&material, &v0, shapes.len());
@@ -281,7 +284,8 @@ impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
             surroundings: Surroundings::new(boundary, interactions),
             sigma: vec![D::zero_t(); q],
             plastic: material.von_mises().map(|model| History::virgin(model, q)),
-            smoothed: 0.0,
+            step_end: Exact::default(),
+            counted,
         })
     }
 
@@ -510,8 +514,9 @@ impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
             y,
         };
         if let Some(shapes) = self.points.smoothing(&nodes) {
-            self.smoothed +=
-                smooth_velocities(shapes, &self.surroundings.boundary, &self.mass, &mut y.v);
+            let boundary = &self.surroundings.boundary;
+            self.step_end =
+                smooth_velocities(shapes, boundary, &self.mass, &self.counted, &mut y.v);
         }
     }
 }
