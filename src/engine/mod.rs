@@ -144,6 +144,21 @@ pub trait Engine<D: Dim> {
     fn save(&mut self) -> Vec<f64>;
     /// Continues from what [`Self::save`] returned; Err says what does not fit.
     fn restore(&mut self, words: &[f64]) -> Result<(), String>;
+    /// A checkpoint in pieces, on several ranks: every rank writes its own particles'
+    /// words for `step` ([`ranks::PieceStore`]); returns the words of the checkpoint file
+    /// itself, which name the pieces, and the rank count. None: the engine's words are
+    /// [`Self::save`]'s.
+    fn save_pieces(&mut self, _step: u64) -> Option<Result<(Vec<f64>, usize), String>> {
+        None
+    }
+    /// Continues from a checkpoint in pieces that `ranks` ranks wrote, whose file holds
+    /// `words`.
+    fn restore_pieces(&mut self, ranks: usize, _words: &[f64]) -> Result<(), String> {
+        Err(format!(
+            "it was written in pieces by {ranks} ranks; resume it on several ranks \
+             (--ranks N, or mpirun with a build with MPI), any number of them"
+        ))
+    }
     /// The nonlinear-solver iterations since the last call (a static engine's Newton
     /// iterations; a time stepper has none).
     fn iterations(&mut self) -> Vec<Iteration> {
@@ -226,6 +241,12 @@ impl<D: Dim> Engine<D> for Box<dyn Engine<D>> {
     }
     fn restore(&mut self, words: &[f64]) -> Result<(), String> {
         (**self).restore(words)
+    }
+    fn save_pieces(&mut self, step: u64) -> Option<Result<(Vec<f64>, usize), String>> {
+        (**self).save_pieces(step)
+    }
+    fn restore_pieces(&mut self, ranks: usize, words: &[f64]) -> Result<(), String> {
+        (**self).restore_pieces(ranks, words)
     }
     fn iterations(&mut self) -> Vec<Iteration> {
         (**self).iterations()

@@ -30,8 +30,20 @@ use std::time::Instant;
 pub trait Distributed<D: Dim>: Engine<D> {
     /// Whether this is rank 0's engine, which drives the run.
     fn is_leader(&self) -> bool;
+    /// Where the rank writes and reads its pieces of the checkpoints
+    /// ([`Engine::save_pieces`]).
+    fn keep_pieces(&mut self, store: Box<dyn PieceStore>);
     /// Serves rank 0's calls until its engine is dropped (the ranks other than 0).
     fn serve(self: Box<Self>);
+}
+
+/// Where the ranks of a distributed run keep their pieces of a checkpoint: the run's
+/// files ([`crate::run::checkpoint::Pieces`]).
+pub trait PieceStore: Send {
+    /// Writes this rank's words of the checkpoint at `step` of a run on `ranks` ranks.
+    fn write(&self, step: u64, ranks: usize, words: &[f64]) -> Result<(), String>;
+    /// The words rank `rank` of `ranks` wrote at `step`, at most `most` of them.
+    fn read(&self, step: u64, rank: usize, ranks: usize, most: u64) -> Result<Vec<f64>, String>;
 }
 
 /// What rank 0 holds of the whole run: the reference arrays the driver reads.
@@ -120,11 +132,13 @@ enum Call {
     Snapshot,
     Save,
     Restore,
+    SavePieces,
+    RestorePieces,
     End,
 }
 
 impl Call {
-    const ALL: [Call; 9] = [
+    const ALL: [Call; 11] = [
         Call::Advance,
         Call::MaxSignalSpeed,
         Call::Booked,
@@ -133,6 +147,8 @@ impl Call {
         Call::Snapshot,
         Call::Save,
         Call::Restore,
+        Call::SavePieces,
+        Call::RestorePieces,
         Call::End,
     ];
 
@@ -312,6 +328,24 @@ fn gathered_points<D: Dim>(all: &[Vec<f64>]) -> Quadrature<D> {
     q
 }
 
+/// Every rank's `result`: Ok on all, or the first rank's error, naming the rank (on
+/// every rank, so that none goes on alone).
+fn agree(comm: &dyn Comm, result: Result<(), String>) -> Result<(), String> {
+    let mine = match &result {
+        Ok(()) => Vec::new(),
+        Err(e) => e.bytes().map(f64::from).collect(),
+    };
+    let all = comm.all_gather(mine);
+    match all.iter().position(|w| !w.is_empty()) {
+        None => Ok(()),
+        Some(r) if r == comm.rank() => result,
+        Some(r) => {
+            let bytes: Vec<u8> = all[r].iter().map(|&b| b as u8).collect();
+            Err(format!("rank {r}: {}", String::from_utf8_lossy(&bytes)))
+        }
+    }
+}
+
 /// The exact sums of `sums` over the ranks, on rank 0 (none on the others).
 fn gathered_sums(comm: &dyn Comm, sums: &[&Exact]) -> Option<Vec<Exact>> {
     let words = sums.iter().flat_map(|s| s.words()).collect();
@@ -329,6 +363,8 @@ pub struct RankEngine<D: Dim, M: Method<D>> {
     /// The global ids each rank owns, in rank order (rank 0; none on the others): where
     /// the rows gathered from each rank go.
     owned: Vec<Vec<u32>>,
+    /// Where the rank keeps its pieces of the checkpoints.
+    pieces: Option<Box<dyn PieceStore>>,
 }
 
 /// A blow-up as words: its global particle, value and quantity (one word per byte).
@@ -390,6 +426,7 @@ where
             engine,
             n,
             whole,
+            pieces: None,
         })
     }
 
@@ -620,6 +657,106 @@ where
         self.engine.restore(&out)
     }
 
+    /// This rank's piece of the checkpoint at `step`: the balance's words and, for each
+    /// particle it owns, its global id and its rows of the state and of the integrator's
+    /// rates; every rank learns whether all wrote theirs. Rank 0 gets the words of the
+    /// checkpoint file (the balance's and the step) and the rank count.
+    fn save_pieces_all(&mut self, step: u64) -> Option<Result<(Vec<f64>, usize), String>> {
+        let store = self.pieces.as_ref()?;
+        let words = self.engine.save();
+        let (balance, mut rest) = words.split_at(BALANCE_WORDS);
+        let mut y = self.engine.y.clone();
+        y.load(&mut rest).expect("the engine's own words");
+        let primed = rest[0] == 1.0;
+        let local = &self.exchange.local;
+        let mut piece = vec![local.own.len() as f64];
+        piece.extend(local.own.iter().map(|&i| f64::from(local.ids[i as usize])));
+        y.rows(&local.own, &mut piece);
+        piece.push(f64::from(u8::from(primed)));
+        if primed {
+            let mut after = &rest[1..];
+            y.load(&mut after).expect("the engine's own words");
+            y.rows(&local.own, &mut piece);
+        }
+        let ranks = self.comm().size();
+        let written = store.write(step, ranks, &piece);
+        let agreed = agree(self.comm(), written);
+        let mut file = balance.to_vec();
+        file.push(step as f64);
+        Some(agreed.map(|()| (file, ranks)))
+    }
+
+    /// Continues from a checkpoint in pieces that `ranks` ranks wrote (any number), whose
+    /// file holds `words` (the balance's and the step): each rank reads every piece and
+    /// takes the rows of its particles, own and ghosts, by global id.
+    fn restore_pieces_all(&mut self, ranks: usize, words: &[f64]) -> Result<(), String> {
+        let result = self.restore_pieces_local(ranks, words);
+        agree(self.comm(), result)
+    }
+
+    fn restore_pieces_local(&mut self, ranks: usize, words: &[f64]) -> Result<(), String> {
+        let store = self.pieces.as_ref().ok_or("this rank keeps no pieces")?;
+        let (balance, step) = match words {
+            [balance @ .., step] if balance.len() == BALANCE_WORDS => (balance, *step),
+            _ => return Err("its engine words do not name a step of pieces".into()),
+        };
+        let step = (step >= 0.0 && step.fract() == 0.0)
+            .then_some(step as u64)
+            .ok_or("its step of pieces is not a count")?;
+        let local = &self.exchange.local;
+        let template = &self.engine.y;
+        let mut width = Vec::new();
+        template.rows(&[0], &mut width);
+        let row = width.len();
+        let most = (2 + (1 + 2 * row) * self.n) as u64;
+        let (mut y, mut rates) = (
+            template.zeros_like(local.len()),
+            template.zeros_like(local.len()),
+        );
+        let (mut found, mut primed) = (0, None);
+        for rank in 0..ranks {
+            let piece = store.read(step, rank, ranks, most)?;
+            let bad = || format!("the piece of rank {rank} is malformed");
+            let (&m, rest) = piece.split_first().ok_or_else(bad)?;
+            let m = m as usize;
+            if rest.len() < m + m * row + 1 {
+                return Err(bad());
+            }
+            let (gids, rest) = rest.split_at(m);
+            let (states, rest) = rest.split_at(m * row);
+            let (&flag, rest) = rest.split_first().ok_or_else(bad)?;
+            if *primed.get_or_insert(flag) != flag
+                || rest.len() != if flag == 1.0 { m * row } else { 0 }
+            {
+                return Err(bad());
+            }
+            for (k, &g) in gids.iter().enumerate() {
+                if let Ok(i) = local.ids.binary_search(&(g as u32)) {
+                    let at = [i as u32];
+                    y.set_rows(&at, &states[k * row..]);
+                    if flag == 1.0 {
+                        rates.set_rows(&at, &rest[k * row..]);
+                    }
+                    found += 1;
+                }
+            }
+        }
+        if found != local.len() {
+            return Err(format!(
+                "the pieces hold {found} of this rank's {} particles",
+                local.len()
+            ));
+        }
+        let mut out = balance.to_vec();
+        y.save(&mut out);
+        let primed = primed == Some(1.0);
+        out.push(f64::from(u8::from(primed)));
+        if primed {
+            rates.save(&mut out);
+        }
+        self.engine.restore(&out)
+    }
+
     /// The balance's terms: the integrated powers and the steps' ends are the run's on
     /// every rank; the plastic work, each rank's share, is added over the ranks (zero for
     /// the methods that run on several ranks).
@@ -724,6 +861,19 @@ where
         self.send(Call::Restore, words);
         self.restore_all(words)
     }
+
+    fn save_pieces(&mut self, step: u64) -> Option<Result<(Vec<f64>, usize), String>> {
+        self.pieces.as_ref()?;
+        self.send(Call::SavePieces, &[step as f64]);
+        self.save_pieces_all(step)
+    }
+
+    fn restore_pieces(&mut self, ranks: usize, words: &[f64]) -> Result<(), String> {
+        let mut args = vec![ranks as f64];
+        args.extend_from_slice(words);
+        self.send(Call::RestorePieces, &args);
+        self.restore_pieces_all(ranks, words)
+    }
 }
 
 impl<D: Dim, M: Method<D>> Distributed<D> for RankEngine<D, M>
@@ -732,6 +882,10 @@ where
 {
     fn is_leader(&self) -> bool {
         self.whole.is_some()
+    }
+
+    fn keep_pieces(&mut self, store: Box<dyn PieceStore>) {
+        self.pieces = Some(store);
     }
 
     fn serve(mut self: Box<Self>) {
@@ -764,6 +918,12 @@ where
                 }
                 Call::Restore => {
                     let _ = self.restore_all(args);
+                }
+                Call::SavePieces => {
+                    let _ = self.save_pieces_all(args[0] as u64);
+                }
+                Call::RestorePieces => {
+                    let _ = self.restore_pieces_all(args[0] as usize, &args[1..]);
                 }
                 Call::End => return,
             }

@@ -25,10 +25,11 @@
 
 use super::RunError;
 use crate::case::{FNV_OFFSET, fnv1a_extend};
+use crate::engine::ranks::PieceStore;
 use crate::output::write_atomically;
 use crate::scene::Scene;
-use std::io::{BufReader, Read, Write};
-use std::path::Path;
+use std::io::{BufReader, Read as _, Write};
+use std::path::{Path, PathBuf};
 
 /// The checkpoint's file name in a run's output folder.
 pub const FILE: &str = "checkpoint.bin";
@@ -166,7 +167,9 @@ fn backend_kind(backend: &str) -> &str {
     backend.split([':', ' ']).next().unwrap_or(backend)
 }
 
-/// Writes the checkpoint of a run atomically into `dir`.
+/// Writes the checkpoint of a run atomically into `dir`: the driver's `progress` and the
+/// `engine`'s words, which on several ranks name the `pieces` (the ranks' files,
+/// [`Pieces`]) rather than hold the state.
 pub fn write(
     dir: &Path,
     case: &Scene,
@@ -174,15 +177,23 @@ pub fn write(
     particles: usize,
     progress: &Progress,
     engine: &[f64],
+    pieces: Option<usize>,
 ) -> Result<(), RunError> {
-    let path = dir.join(FILE);
-    let text: String = header(case, backend, particles)
-        .iter()
-        .map(|(k, v)| format!("{k} = {v}\n"))
-        .collect();
+    let mut lines = header(case, backend, particles);
+    if let Some(ranks) = pieces {
+        lines.push((PIECES, ranks.to_string()));
+    }
     let mut words = progress.words();
     words.extend(engine);
-    write_atomically(&path, |w| {
+    let path = dir.join(FILE);
+    write_framed(&path, &lines, &words).map_err(super::output_error(&path))
+}
+
+/// Writes `words` under the header `lines` atomically to `path`, framed as a checkpoint:
+/// magic, version, header, word count, words and checksum.
+fn write_framed(path: &Path, lines: &[(&str, String)], words: &[f64]) -> std::io::Result<()> {
+    let text: String = lines.iter().map(|(k, v)| format!("{k} = {v}\n")).collect();
+    write_atomically(path, |w| {
         let mut hash = FNV_OFFSET;
         let mut put = |bytes: &[u8]| {
             hash = fnv1a_extend(hash, bytes);
@@ -193,84 +204,49 @@ pub fn write(
         put(&(text.len() as u32).to_le_bytes())?;
         put(text.as_bytes())?;
         put(&(words.len() as u64).to_le_bytes())?;
-        for x in &words {
+        for x in words {
             put(&x.to_le_bytes())?;
         }
         w.write_all(&hash.to_le_bytes())
     })
-    .map_err(super::output_error(&path))
+}
+
+/// What [`read`] found: the driver's progress, the engine's words, and the rank count
+/// of a checkpoint in pieces ([`Pieces`]).
+pub struct Read {
+    pub progress: Progress,
+    pub engine: Vec<f64>,
+    pub pieces: Option<usize>,
 }
 
 /// Reads the checkpoint in `dir` of a run of `case` on `backend` with `particles`
-/// particles, whose engine saves at most `engine_words` words: the driver's progress and
-/// the engine's words.
+/// particles, whose engine saves at most `engine_words` words.
 pub fn read(
     dir: &Path,
     case: &Scene,
     backend: &str,
     particles: usize,
     engine_words: usize,
-) -> Result<(Progress, Vec<f64>), RunError> {
+) -> Result<Read, RunError> {
     let path = dir.join(FILE);
     let refuse = |message: String| RunError::Checkpoint {
         path: path.clone(),
         message,
     };
-    let mut file = Hashed::open(&path).map_err(|e| refuse(format!("cannot read it: {e}")))?;
-    let torn = |e: std::io::Error| match e.kind() {
-        std::io::ErrorKind::UnexpectedEof => {
-            refuse("it ends early (a torn or foreign file)".into())
-        }
-        _ => refuse(format!("cannot read it: {e}")),
+    let mut file = Framed::open(&path).map_err(refuse)?;
+    file.belongs(&header(case, backend, particles))
+        .map_err(refuse)?;
+    let pieces = match file.value(PIECES) {
+        None => None,
+        Some(ranks) => Some(
+            (ranks.parse().ok())
+                .filter(|&r: &usize| r > 0)
+                .ok_or_else(|| refuse(format!("its {PIECES} = {ranks} is not a rank count")))?,
+        ),
     };
-    if &file.array::<8>().map_err(torn)? != MAGIC {
-        return Err(refuse("it is not a meshless checkpoint".into()));
-    }
-    let version = u32::from_le_bytes(file.array().map_err(torn)?);
-    if version != VERSION {
-        return Err(refuse(format!(
-            "it has version {version}; this meshless reads version {VERSION}"
-        )));
-    }
-    let length = u32::from_le_bytes(file.array().map_err(torn)?);
-    if length > HEADER_CAP {
-        return Err(refuse("its header is too long (a foreign file)".into()));
-    }
-    let mut text = vec![0; length as usize];
-    file.fill(&mut text).map_err(torn)?;
-    let text = String::from_utf8(text)
-        .map_err(|_| refuse("its header is not UTF-8 (a foreign file)".into()))?;
-    for (key, expected) in header(case, backend, particles) {
-        let found = text
-            .lines()
-            .find_map(|l| l.strip_prefix(key)?.trim_start().strip_prefix('='))
-            .map(str::trim)
-            .unwrap_or("(none)");
-        if found != expected {
-            let what = if key == "fingerprint" {
-                "the case's keys differ (only run.end_time may change between a run and its \
-                 resumption)"
-                    .to_string()
-            } else {
-                format!("its {key} is {found}, this run's is {expected}")
-            };
-            return Err(refuse(format!(
-                "it belongs to another run: {what}; resume with the case, --set overrides, \
-                 method and backend of the run that wrote it"
-            )));
-        }
-    }
-    let count = u64::from_le_bytes(file.array().map_err(torn)?);
-    let held = file.left().saturating_sub(8);
-    if count.checked_mul(8) != Some(held) {
-        return Err(refuse(format!(
-            "it announces {count} words but holds {held} bytes of them"
-        )));
-    }
     // The driver's words name the frame count; with the engine's they bound the whole.
-    let mut words = Vec::new();
-    file.words(count.min(10) as usize, &mut words)
-        .map_err(torn)?;
+    let count = file.count;
+    let mut words = file.words(count.min(10)).map_err(refuse)?;
     let frames = words.get(9).copied().and_then(whole);
     let step = words.get(1).copied().and_then(whole);
     let most = match (frames, step) {
@@ -284,25 +260,206 @@ pub fn read(
              saves: the file is damaged"
         )));
     }
-    words
-        .try_reserve_exact(count as usize - words.len())
-        .map_err(|_| refuse(format!("its {count} words do not fit in memory")))?;
-    file.words(count as usize - words.len(), &mut words)
-        .map_err(torn)?;
-    let sum = file.hash;
-    if u64::from_le_bytes(file.array().map_err(torn)?) != sum {
-        return Err(refuse(
-            "its checksum does not match its contents: the file is damaged; resume from \
-             a copy, or run again without --resume"
-                .into(),
-        ));
-    }
+    words.extend(file.words(count - words.len() as u64).map_err(refuse)?);
+    file.verify().map_err(refuse)?;
     let (progress, engine) = Progress::from_words(&words)
         .ok_or_else(|| refuse("its driver state is malformed".into()))?;
     if let Some(why) = progress.implausible(case.run.end_time) {
         return Err(refuse(why));
     }
-    Ok((progress, engine.to_vec()))
+    Ok(Read {
+        progress,
+        engine: engine.to_vec(),
+        pieces,
+    })
+}
+
+/// The header key of a checkpoint in pieces: the number of ranks that wrote them.
+const PIECES: &str = "pieces";
+/// The folder of the pieces in a run's output folder: one folder per step.
+pub const PIECES_DIR: &str = "checkpoint.pieces";
+
+/// The pieces of the checkpoints of a run on several ranks
+/// ([`crate::engine::ranks::PieceStore`]): each rank writes its own particles' words
+/// into `checkpoint.pieces/<step>/rank-<r>.bin`, framed as a checkpoint, and rank 0 then
+/// writes `checkpoint.bin`, which names the step and the rank count. A run stopped
+/// while the ranks write leaves the last `checkpoint.bin` and the folder it names
+/// intact; a later checkpoint removes the folders of the other steps
+/// ([`prune_pieces`]).
+pub struct Pieces {
+    dir: PathBuf,
+    /// The case's name, method and fingerprint, which every piece carries.
+    case: Vec<(&'static str, String)>,
+    rank: usize,
+}
+
+impl Pieces {
+    /// The pieces of rank `rank` of a run of `case` writing into `dir`.
+    pub fn new(dir: &Path, case: &Scene, rank: usize) -> Self {
+        let case = header(case, "cpu", 0)
+            .into_iter()
+            .filter(|(k, _)| ["case", "method", "fingerprint"].contains(k))
+            .collect();
+        Self {
+            dir: dir.to_path_buf(),
+            case,
+            rank,
+        }
+    }
+
+    fn path(&self, step: u64, rank: usize) -> PathBuf {
+        (self.dir.join(PIECES_DIR))
+            .join(format!("{step:012}"))
+            .join(format!("rank-{rank:05}.bin"))
+    }
+
+    fn header(&self, step: u64, rank: usize, ranks: usize) -> Vec<(&'static str, String)> {
+        let mut lines = self.case.clone();
+        lines.push(("step", step.to_string()));
+        lines.push(("rank", rank.to_string()));
+        lines.push(("ranks", ranks.to_string()));
+        lines
+    }
+}
+
+impl PieceStore for Pieces {
+    fn write(&self, step: u64, ranks: usize, words: &[f64]) -> Result<(), String> {
+        let path = self.path(step, self.rank);
+        let folder = path.parent().expect("a piece lies in its step's folder");
+        std::fs::create_dir_all(folder)
+            .and_then(|()| write_framed(&path, &self.header(step, self.rank, ranks), words))
+            .map_err(|e| format!("cannot write {}: {e}", path.display()))
+    }
+
+    fn read(&self, step: u64, rank: usize, ranks: usize, most: u64) -> Result<Vec<f64>, String> {
+        let path = self.path(step, rank);
+        let refuse = |why: String| format!("{}: {why}", path.display());
+        let mut file = Framed::open(&path).map_err(refuse)?;
+        file.belongs(&self.header(step, rank, ranks))
+            .map_err(refuse)?;
+        if file.count > most {
+            return Err(refuse(format!(
+                "it holds {} words, more than the {most} of a rank's share: the file is \
+                 damaged",
+                file.count
+            )));
+        }
+        let words = file.words(file.count).map_err(refuse)?;
+        file.verify().map_err(refuse)?;
+        Ok(words)
+    }
+}
+
+/// Removes the folders of pieces in `dir` of every step but `keep` (those of earlier
+/// checkpoints, or of one whose writing stopped); a folder that cannot be removed stays.
+pub fn prune_pieces(dir: &Path, keep: u64) {
+    let Ok(folders) = std::fs::read_dir(dir.join(PIECES_DIR)) else {
+        return;
+    };
+    let keep = format!("{keep:012}");
+    for folder in folders.flatten() {
+        if folder.file_name().to_str() != Some(&keep) {
+            let _ = std::fs::remove_dir_all(folder.path());
+        }
+    }
+}
+
+/// A checkpoint file opened past its header, with its word count checked against its
+/// length; its words are read with [`Self::words`], then [`Self::verify`] checks the
+/// checksum. Errors are messages about the file.
+struct Framed {
+    file: Hashed,
+    text: String,
+    count: u64,
+}
+
+impl Framed {
+    fn open(path: &Path) -> Result<Self, String> {
+        let mut file = Hashed::open(path).map_err(|e| format!("cannot read it: {e}"))?;
+        let torn = |e: std::io::Error| match e.kind() {
+            std::io::ErrorKind::UnexpectedEof => "it ends early (a torn or foreign file)".into(),
+            _ => format!("cannot read it: {e}"),
+        };
+        if &file.array::<8>().map_err(torn)? != MAGIC {
+            return Err("it is not a meshless checkpoint".into());
+        }
+        let version = u32::from_le_bytes(file.array().map_err(torn)?);
+        if version != VERSION {
+            return Err(format!(
+                "it has version {version}; this meshless reads version {VERSION}"
+            ));
+        }
+        let length = u32::from_le_bytes(file.array().map_err(torn)?);
+        if length > HEADER_CAP {
+            return Err("its header is too long (a foreign file)".into());
+        }
+        let mut text = vec![0; length as usize];
+        file.fill(&mut text).map_err(torn)?;
+        let text =
+            String::from_utf8(text).map_err(|_| "its header is not UTF-8 (a foreign file)")?;
+        let count = u64::from_le_bytes(file.array().map_err(torn)?);
+        let held = file.left().saturating_sub(8);
+        if count.checked_mul(8) != Some(held) {
+            return Err(format!(
+                "it announces {count} words but holds {held} bytes of them"
+            ));
+        }
+        Ok(Self { file, text, count })
+    }
+
+    /// The header's value of `key`, if it has one.
+    fn value(&self, key: &str) -> Option<&str> {
+        (self.text.lines())
+            .find_map(|l| l.strip_prefix(key)?.trim_start().strip_prefix('='))
+            .map(str::trim)
+    }
+
+    /// Refuses a file whose header differs from `expected` in a key.
+    fn belongs(&self, expected: &[(&str, String)]) -> Result<(), String> {
+        for (key, expected) in expected {
+            let found = self.value(key).unwrap_or("(none)");
+            if found != expected {
+                let what = if *key == "fingerprint" {
+                    "the case's keys differ (only run.end_time may change between a run and \
+                     its resumption)"
+                        .to_string()
+                } else {
+                    format!("its {key} is {found}, this run's is {expected}")
+                };
+                return Err(format!(
+                    "it belongs to another run: {what}; resume with the case, --set \
+                     overrides, method and backend of the run that wrote it"
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The next `n` words.
+    fn words(&mut self, n: u64) -> Result<Vec<f64>, String> {
+        let mut words = Vec::new();
+        words
+            .try_reserve_exact(n as usize)
+            .map_err(|_| format!("its {n} words do not fit in memory"))?;
+        (self.file.words(n as usize, &mut words))
+            .map_err(|_| "it ends early (a torn or foreign file)".to_string())?;
+        Ok(words)
+    }
+
+    /// Checks the checksum after the last word.
+    fn verify(mut self) -> Result<(), String> {
+        let sum = self.file.hash;
+        let stored = (self.file.array())
+            .map_err(|_| "it ends early (a torn or foreign file)".to_string())?;
+        if u64::from_le_bytes(stored) != sum {
+            return Err(
+                "its checksum does not match its contents: the file is damaged; \
+                        resume from a copy, or run again without --resume"
+                    .into(),
+            );
+        }
+        Ok(())
+    }
 }
 
 /// The bytes read per chunk of words.

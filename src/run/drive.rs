@@ -161,14 +161,16 @@ fn resume<D: Dim>(
     // An engine saves its state and what a step carries to the next: at most one more
     // copy of the state (a multistep integrator's last rates, absent at the start).
     let engine_words = 2 * engine.save().len();
-    let (progress, words) = checkpoint::read(&opts.out_dir, case, backend, n, engine_words)?;
-    engine
-        .restore(&words)
-        .map_err(|message| RunError::Checkpoint {
-            path: opts.out_dir.join(checkpoint::FILE),
-            message,
-        })?;
-    Ok(Some(progress))
+    let read = checkpoint::read(&opts.out_dir, case, backend, n, engine_words)?;
+    let restored = match read.pieces {
+        None => engine.restore(&read.engine),
+        Some(ranks) => engine.restore_pieces(ranks, &read.engine),
+    };
+    restored.map_err(|message| RunError::Checkpoint {
+        path: opts.out_dir.join(checkpoint::FILE),
+        message,
+    })?;
+    Ok(Some(read.progress))
 }
 
 /// The summary written before the first step: the case, the method and status "running".
@@ -414,8 +416,18 @@ impl<D: Dim> Scheduler<'_, D> {
         for callback in callbacks {
             callback.save(&mut at);
         }
-        let words = engine.save();
-        checkpoint::write(&self.opts.out_dir, self.case, backend, self.n, &at, &words)
+        let dir = &self.opts.out_dir;
+        let Some(pieces) = engine.save_pieces(clock.step) else {
+            let words = engine.save();
+            return checkpoint::write(dir, self.case, backend, self.n, &at, &words, None);
+        };
+        let (words, ranks) = pieces.map_err(|e| RunError::Output {
+            path: dir.join(checkpoint::PIECES_DIR),
+            source: std::io::Error::other(e),
+        })?;
+        checkpoint::write(dir, self.case, backend, self.n, &at, &words, Some(ranks))?;
+        checkpoint::prune_pieces(dir, clock.step);
+        Ok(())
     }
 
     /// The summary of a run that ended as `ending` says, after `wall` seconds.

@@ -105,7 +105,7 @@ impl<D: Dim> Callback<D> for Series {
 const INDEX_CAP: u64 = 256 << 20;
 
 /// Removes what an earlier run of the case `name` wrote into `dir`, and nothing else:
-/// the summary, the series, the checkpoint and the iteration log (one run's files a
+/// the summary, the series, the checkpoint with its pieces and the iteration log (one run's files a
 /// folder), and the case's PVD index (`<name>.pvd`) with the frames it lists under the
 /// case's name (`<name>_*.vtu`), so that no stale file of it is left beside the new
 /// run's. Another case's index and frames in the folder stay. Only a regular file is
@@ -117,6 +117,11 @@ pub(super) fn clear_previous_run(dir: &Path, name: &str) -> Result<(), RunError>
     };
     for file in ["summary.json", "series.csv", checkpoint::FILE, ITERATIONS] {
         remove(&dir.join(file))?;
+    }
+    let pieces = dir.join(checkpoint::PIECES_DIR);
+    match std::fs::remove_dir_all(&pieces) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(output_error(&pieces)(e))?,
+        _ => {}
     }
     let index = dir.join(format!("{name}.pvd"));
     let text = match std::fs::symlink_metadata(&index) {

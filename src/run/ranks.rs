@@ -2,8 +2,10 @@
 //! reference configuration; the method partitions it along its graph and sets up on the
 //! rank's own particles with their ghosts; rank 0 drives the run with the driver of a one-rank run, and the others
 //! serve its engine ([`crate::engine::ranks`]). The outputs are rank 0's, in the
-//! one-rank formats.
+//! one-rank formats, but for the checkpoints, which every rank writes its piece of
+//! ([`Pieces`]).
 
+use super::checkpoint::Pieces;
 use super::{Backend, RunError, RunOptions, budget, drive::drive};
 use crate::case::{CaseError, fnv1a};
 use crate::core::tensor::{D2, D3};
@@ -100,8 +102,10 @@ fn rank<D: EngineDim>(
         (reference.h, reference.method_lengths) = (h, true);
     }
     let layers = case.spec.entry().halo_layers.expect("refusal checked it");
+    let pieces = Pieces::new(&opts.out_dir, case, comm.rank());
     let start = RankStart { comm, layers };
-    let engine = case.spec.rank_engine::<D>(case, reference, start)?;
+    let mut engine = case.spec.rank_engine::<D>(case, reference, start)?;
+    engine.keep_pieces(Box::new(pieces));
     if engine.is_leader() {
         let engine: Box<dyn Engine<D>> = engine;
         drive::<D, _>(case, opts, engine).map(Some)

@@ -274,36 +274,94 @@ fn upwind_sph_in_3d_with_a_clamped_end_matches_one_rank() {
 }
 
 #[test]
-fn a_run_interrupted_on_two_ranks_resumes_on_three_in_the_one_rank_state() {
-    // The checkpoint is the one-rank engine's words, gathered by global id (the balance's
-    // integrated powers are the run's on every rank), so any rank count resumes it.
-    let overrides = [
-        "run.end_time=2e-4",
-        "output.frame_interval=1e-4",
-        "run.checkpoint_interval=5e-5",
-    ];
+fn a_run_interrupted_on_ranks_resumes_on_any_rank_count_in_the_one_rank_state() {
+    // Each rank writes its own particles' rows (and global ids) into its piece of the
+    // checkpoint; a resume on any rank count reads every piece and takes the rows of its
+    // particles, so 2 ranks stopped and 3 resumed end in the one-rank state. The same
+    // holds for 2 and 2, for the Galerkin weak form with its velocity smoothing, and
+    // for one process's checkpoint (the one-rank words) resumed on 2 ranks.
+    let weak_form = ["material.model=neo-hookean"];
+    for (case, extra, stopped, resumed) in [
+        ("tensile-strip", &[][..], 2, 3),
+        ("tensile-strip", &[], 2, 2),
+        ("tensile-strip-weak-form", &weak_form[..], 2, 3),
+        ("tensile-strip", &[], 1, 2),
+    ] {
+        let overrides = [
+            &[
+                "run.end_time=2e-4",
+                "output.frame_interval=1e-4",
+                "run.checkpoint_interval=5e-5",
+            ][..],
+            extra,
+        ]
+        .concat();
+        let scene = load(case, &overrides);
+        let (one, many) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+        meshless::run::run(&scene, &cpu_options(one.path(), true)).unwrap();
+        let mut opts = cpu_options(many.path(), true);
+        // Stopped after its first batch, with a checkpoint, as SIGINT does.
+        opts.stop = Some(Arc::new(AtomicBool::new(true)));
+        let end = match stopped {
+            1 => meshless::run::run(&scene, &opts).map(drop),
+            _ => run_on_threads(&scene, &opts, stopped).map(drop),
+        };
+        assert!(matches!(end, Err(RunError::Interrupted { .. })), "{end:?}");
+        if stopped > 1 {
+            let steps: Vec<_> = std::fs::read_dir(many.path().join("checkpoint.pieces"))
+                .unwrap()
+                .map(|e| e.unwrap().path())
+                .collect();
+            assert_eq!(steps.len(), 1, "{steps:?}");
+            for rank in ["rank-00000.bin", "rank-00001.bin"] {
+                assert!(steps[0].join(rank).is_file(), "{case}: no piece {rank}");
+            }
+        }
+        opts.stop = None;
+        opts.resume = true;
+        run_on_threads(&scene, &opts, resumed).unwrap();
+        let (name_a, frame_a, series_a) = final_state(one.path());
+        let (name_b, frame_b, series_b) = final_state(many.path());
+        assert_eq!(name_a, name_b);
+        assert!(
+            frame_a == frame_b,
+            "{case}, {resumed} ranks: the last frames differ"
+        );
+        assert_eq!(
+            String::from_utf8(series_a).unwrap(),
+            String::from_utf8(series_b).unwrap()
+        );
+    }
+}
+
+#[test]
+fn a_checkpoint_in_pieces_is_refused_where_it_cannot_be_read() {
+    // One process (not on ranks) cannot read pieces: refused, saying how to resume; a
+    // piece that is missing is named. Exit 2 each, and the run does not start over.
+    let overrides = ["run.end_time=2e-4", "run.checkpoint_interval=5e-5"];
     let scene = load("tensile-strip", &overrides);
-    let (one, many) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
-    meshless::run::run(&scene, &cpu_options(one.path(), true)).unwrap();
-    let mut opts = cpu_options(many.path(), true);
-    // Stopped after its first batch, with a checkpoint, as SIGINT does.
+    let dir = tempfile::tempdir().unwrap();
+    let mut opts = cpu_options(dir.path(), true);
     opts.stop = Some(Arc::new(AtomicBool::new(true)));
-    let stopped = run_on_threads(&scene, &opts, 2);
-    assert!(
-        matches!(stopped, Err(RunError::Interrupted { .. })),
-        "{stopped:?}"
-    );
+    assert!(run_on_threads(&scene, &opts, 2).is_err());
     opts.stop = None;
     opts.resume = true;
-    run_on_threads(&scene, &opts, 3).unwrap();
-    let (name_a, frame_a, series_a) = final_state(one.path());
-    let (name_b, frame_b, series_b) = final_state(many.path());
-    assert_eq!(name_a, name_b);
-    assert!(frame_a == frame_b, "the last frames differ");
-    assert_eq!(
-        String::from_utf8(series_a).unwrap(),
-        String::from_utf8(series_b).unwrap()
+    let alone = meshless::run::run(&scene, &opts).unwrap_err();
+    assert!(
+        alone.to_string().contains("written in pieces by 2 ranks"),
+        "{alone}"
     );
+    assert_eq!(alone.exit_code(), 2);
+    let step = std::fs::read_dir(dir.path().join("checkpoint.pieces"))
+        .unwrap()
+        .next()
+        .unwrap()
+        .unwrap()
+        .path();
+    std::fs::remove_file(step.join("rank-00001.bin")).unwrap();
+    let missing = run_on_threads(&scene, &opts, 3).unwrap_err();
+    assert!(missing.to_string().contains("rank-00001.bin"), "{missing}");
+    assert_eq!(missing.exit_code(), 2);
 }
 
 #[test]
