@@ -144,6 +144,12 @@ pub trait Engine<D: Dim> {
     fn save(&mut self) -> Vec<f64>;
     /// Continues from what [`Self::save`] returned; Err says what does not fit.
     fn restore(&mut self, words: &[f64]) -> Result<(), String>;
+    /// The words [`Self::save`] returns at the start of a run: what bounds a checkpoint
+    /// that an engine of this run reads (with at most one more copy of the state, a
+    /// multistep integrator's rates).
+    fn checkpoint_words(&mut self) -> usize {
+        self.save().len()
+    }
     /// A checkpoint in pieces, on several ranks: every rank writes its own particles'
     /// words for `step` ([`ranks::PieceStore`]); returns the words of the checkpoint file
     /// itself, which name the pieces, and the rank count. None: the engine's words are
@@ -241,6 +247,9 @@ impl<D: Dim> Engine<D> for Box<dyn Engine<D>> {
     }
     fn restore(&mut self, words: &[f64]) -> Result<(), String> {
         (**self).restore(words)
+    }
+    fn checkpoint_words(&mut self) -> usize {
+        (**self).checkpoint_words()
     }
     fn save_pieces(&mut self, step: u64) -> Option<Result<(Vec<f64>, usize), String>> {
         (**self).save_pieces(step)

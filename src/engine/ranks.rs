@@ -5,8 +5,8 @@
 //!
 //! Rank 0 leads: the driver runs there, and each [`Engine`] call it makes is sent to the
 //! other ranks, which serve it ([`Distributed::serve`]) until rank 0's engine is dropped.
-//! What the driver reads back is gathered on rank 0 in global order (snapshots,
-//! checkpoints, the first blow-up). Sums over particles (energies, powers, reactions)
+//! What the driver reads back is gathered on rank 0 in global order (snapshots, the first
+//! blow-up); each rank writes its own piece of a checkpoint ([`PieceStore`]). Sums over particles (energies, powers, reactions)
 //! are exact sums ([`Exact`]) of each rank's own particles' shares, added over the ranks
 //! without rounding: they have the bits of the one-rank run's, on any number of ranks.
 
@@ -30,9 +30,6 @@ use std::time::Instant;
 pub trait Distributed<D: Dim>: Engine<D> {
     /// Whether this is rank 0's engine, which drives the run.
     fn is_leader(&self) -> bool;
-    /// Where the rank writes and reads its pieces of the checkpoints
-    /// ([`Engine::save_pieces`]).
-    fn keep_pieces(&mut self, store: Box<dyn PieceStore>);
     /// Serves rank 0's calls until its engine is dropped (the ranks other than 0).
     fn serve(self: Box<Self>);
 }
@@ -64,6 +61,8 @@ pub struct Whole<D: Dim> {
 pub struct RankStart {
     pub comm: Arc<dyn Comm>,
     pub layers: usize,
+    /// Where the rank writes and reads its pieces of the checkpoints.
+    pub pieces: Box<dyn PieceStore>,
 }
 
 impl RankStart {
@@ -93,6 +92,7 @@ impl RankStart {
             comm: self.comm,
             whole: leads.then_some(whole),
             inside: Arc::default(),
+            pieces: self.pieces,
         })
     }
 }
@@ -107,6 +107,8 @@ pub struct Rank<D: Dim> {
     /// Wall time the rank's system spends in its own collectives and exchanges inside
     /// its rate evaluations ([`Peers`]) [s].
     pub inside: Arc<Mutex<f64>>,
+    /// Where the rank writes and reads its pieces of the checkpoints.
+    pub pieces: Box<dyn PieceStore>,
 }
 
 impl<D: Dim> Rank<D> {
@@ -346,6 +348,91 @@ fn agree(comm: &dyn Comm, result: Result<(), String>) -> Result<(), String> {
     }
 }
 
+/// A count stored as an f64 word, at most `most`.
+fn count(x: f64, most: u64) -> Option<u64> {
+    (x >= 0.0 && x.fract() == 0.0 && x <= most as f64).then_some(x as u64)
+}
+
+/// The words of a CPU engine's checkpoint ([`CpuEngine::save`]) of a method without a
+/// history besides its state (those that run on several ranks): the balance's, the
+/// state and, once the leapfrog is primed, its rates.
+struct Saved<S> {
+    balance: Vec<f64>,
+    y: S,
+    rates: Option<S>,
+}
+
+impl<S: OdeState + ParticleRows> Saved<S> {
+    /// The words of an engine whose state has the fields of `template`.
+    fn split(template: &S, words: &[f64]) -> Result<Self, String> {
+        let (balance, mut rest) = words
+            .split_at_checked(BALANCE_WORDS)
+            .ok_or("the checkpoint holds no engine state")?;
+        let mut y = template.clone();
+        y.load(&mut rest)?;
+        let (&flag, mut after) = rest.split_first().ok_or("no integrator flag")?;
+        let rates = match flag == 1.0 {
+            true => {
+                let mut rates = template.clone();
+                rates.load(&mut after)?;
+                Some(rates)
+            }
+            false => None,
+        };
+        if !after.is_empty() {
+            return Err(format!(
+                "{} words are left over after the engine's state",
+                after.len()
+            ));
+        }
+        Ok(Self {
+            balance: balance.to_vec(),
+            y,
+            rates,
+        })
+    }
+
+    /// n particles of zero state (and rates, if `primed`) with the fields of `template`.
+    fn zeros(template: &S, n: usize, balance: Vec<f64>, primed: bool) -> Self {
+        Self {
+            balance,
+            y: template.zeros_like(n),
+            rates: primed.then(|| template.zeros_like(n)),
+        }
+    }
+
+    /// Appends the rows of the particles `ids`: each one's state, then its rates.
+    fn rows(&self, ids: &[u32], out: &mut Vec<f64>) {
+        for &i in ids {
+            self.y.rows(&[i], out);
+            if let Some(rates) = &self.rates {
+                rates.rows(&[i], out);
+            }
+        }
+    }
+
+    /// Overwrites the particles `ids` with the rows of [`Self::rows`].
+    fn set_rows(&mut self, ids: &[u32], mut words: &[f64]) {
+        for &i in ids {
+            words = self.y.set_rows(&[i], words);
+            if let Some(rates) = &mut self.rates {
+                words = rates.set_rows(&[i], words);
+            }
+        }
+    }
+
+    /// The words [`Self::split`] reads.
+    fn join(self) -> Vec<f64> {
+        let mut out = self.balance;
+        self.y.save(&mut out);
+        out.push(f64::from(u8::from(self.rates.is_some())));
+        if let Some(rates) = self.rates {
+            rates.save(&mut out);
+        }
+        out
+    }
+}
+
 /// The exact sums of `sums` over the ranks, on rank 0 (none on the others).
 fn gathered_sums(comm: &dyn Comm, sums: &[&Exact]) -> Option<Vec<Exact>> {
     let words = sums.iter().flat_map(|s| s.words()).collect();
@@ -364,7 +451,7 @@ pub struct RankEngine<D: Dim, M: Method<D>> {
     /// the rows gathered from each rank go.
     owned: Vec<Vec<u32>>,
     /// Where the rank keeps its pieces of the checkpoints.
-    pieces: Option<Box<dyn PieceStore>>,
+    pieces: Box<dyn PieceStore>,
 }
 
 /// A blow-up as words: its global particle, value and quantity (one word per byte).
@@ -394,6 +481,7 @@ where
             n,
             whole,
             inside,
+            pieces,
         } = rank;
         let mut history = Vec::new();
         engine.method.save_history(&mut history);
@@ -426,7 +514,7 @@ where
             engine,
             n,
             whole,
-            pieces: None,
+            pieces,
         })
     }
 
@@ -572,118 +660,56 @@ where
     /// rates by global id.
     fn save_all(&mut self) -> Option<Vec<f64>> {
         let words = self.engine.save();
-        let (balance, mut rest) = words.split_at(BALANCE_WORDS);
-        let template = self.engine.y.clone();
-        let mut y = template.clone();
-        y.load(&mut rest).expect("the engine's own words");
-        let primed = rest[0] == 1.0;
-        let mut rates = template.clone();
-        if primed {
-            let mut after = &rest[1..];
-            rates.load(&mut after).expect("the engine's own words");
-        }
+        let saved = Saved::split(&self.engine.y, &words).expect("the engine's own words");
         let local = &self.exchange.local;
         let mut rows = Vec::new();
-        y.rows(&local.own, &mut rows);
-        if primed {
-            rates.rows(&local.own, &mut rows);
-        }
+        saved.rows(&local.own, &mut rows);
         let all = self.exchange.comm.gather(rows)?;
-        let owned = &self.owned;
-        let mut y = template.zeros_like(self.n);
-        let mut rates = template.zeros_like(self.n);
-        for (ids, words) in owned.iter().zip(&all) {
-            let rest = y.set_rows(ids, words);
-            if primed {
-                rates.set_rows(ids, rest);
-            }
+        let mut whole = Saved::zeros(&self.engine.y, self.n, saved.balance, saved.rates.is_some());
+        for (ids, words) in self.owned.iter().zip(&all) {
+            whole.set_rows(ids, words);
         }
-        let mut out = balance.to_vec();
-        y.save(&mut out);
-        out.push(f64::from(u8::from(primed)));
-        if primed {
-            rates.save(&mut out);
-        }
-        Some(out)
+        Some(whole.join())
     }
 
     /// Continues from one rank's checkpoint words, `words` on rank 0 (any number of
     /// ranks wrote them): each rank takes its particles' rows and the integrated powers.
     fn restore_all(&mut self, words: &[f64]) -> Result<(), String> {
         let result = self.restore_local(words);
-        let failed = self
-            .comm()
-            .all_gather(vec![f64::from(u8::from(result.is_err()))]);
-        match (result, failed.iter().any(|w| w[0] != 0.0)) {
-            (Err(e), _) => Err(e),
-            (Ok(()), true) => Err("another rank could not read the checkpoint".into()),
-            (Ok(()), false) => Ok(()),
-        }
+        agree(self.comm(), result)
     }
 
     fn restore_local(&mut self, words: &[f64]) -> Result<(), String> {
-        let (balance, mut rest) = words
-            .split_first_chunk::<BALANCE_WORDS>()
-            .ok_or("the checkpoint holds no engine state")?;
         let template = self.engine.y.zeros_like(self.n);
-        let mut y = template.clone();
-        y.load(&mut rest)?;
-        let (&flag, mut after) = rest.split_first().ok_or("no integrator flag")?;
-        let mut rates = template;
-        if flag == 1.0 {
-            rates.load(&mut after)?;
-        }
-        if !after.is_empty() {
-            return Err(format!(
-                "{} words are left over after the engine's state",
-                after.len()
-            ));
-        }
+        let whole = Saved::split(&template, words)?;
         let local = &self.exchange.local;
+        let mut rows = Vec::new();
+        whole.rows(&local.ids, &mut rows);
+        let primed = whole.rates.is_some();
+        let mut mine = Saved::zeros(&self.engine.y, local.len(), whole.balance, primed);
         let every: Vec<u32> = (0..local.len() as u32).collect();
-        let mine = |state: &M::State| {
-            let mut rows = Vec::new();
-            state.rows(&local.ids, &mut rows);
-            let mut part = state.zeros_like(local.len());
-            part.set_rows(&every, &rows);
-            part
-        };
-        let mut out = balance.to_vec();
-        mine(&y).save(&mut out);
-        out.push(flag);
-        if flag == 1.0 {
-            mine(&rates).save(&mut out);
-        }
-        self.engine.restore(&out)
+        mine.set_rows(&every, &rows);
+        self.engine.restore(&mine.join())
     }
 
-    /// This rank's piece of the checkpoint at `step`: the balance's words and, for each
-    /// particle it owns, its global id and its rows of the state and of the integrator's
-    /// rates; every rank learns whether all wrote theirs. Rank 0 gets the words of the
-    /// checkpoint file (the balance's and the step) and the rank count.
-    fn save_pieces_all(&mut self, step: u64) -> Option<Result<(Vec<f64>, usize), String>> {
-        let store = self.pieces.as_ref()?;
+    /// This rank's piece of the checkpoint at `step`: the number of particles it owns,
+    /// their global ids, their rows of the state and, once the leapfrog is primed, of its
+    /// rates after a flag; every rank learns whether all wrote theirs. Rank 0 gets the
+    /// words of the checkpoint file (the balance's and the step) and the rank count.
+    fn save_pieces_all(&mut self, step: u64) -> Result<(Vec<f64>, usize), String> {
         let words = self.engine.save();
-        let (balance, mut rest) = words.split_at(BALANCE_WORDS);
-        let mut y = self.engine.y.clone();
-        y.load(&mut rest).expect("the engine's own words");
-        let primed = rest[0] == 1.0;
+        let saved = Saved::split(&self.engine.y, &words).expect("the engine's own words");
         let local = &self.exchange.local;
         let mut piece = vec![local.own.len() as f64];
         piece.extend(local.own.iter().map(|&i| f64::from(local.ids[i as usize])));
-        y.rows(&local.own, &mut piece);
-        piece.push(f64::from(u8::from(primed)));
-        if primed {
-            let mut after = &rest[1..];
-            y.load(&mut after).expect("the engine's own words");
-            y.rows(&local.own, &mut piece);
-        }
+        piece.push(f64::from(u8::from(saved.rates.is_some())));
+        saved.rows(&local.own, &mut piece);
         let ranks = self.comm().size();
-        let written = store.write(step, ranks, &piece);
-        let agreed = agree(self.comm(), written);
-        let mut file = balance.to_vec();
+        let written = self.pieces.write(step, ranks, &piece);
+        agree(self.comm(), written)?;
+        let mut file = saved.balance;
         file.push(step as f64);
-        Some(agreed.map(|()| (file, ranks)))
+        Ok((file, ranks))
     }
 
     /// Continues from a checkpoint in pieces that `ranks` ranks wrote (any number), whose
@@ -695,66 +721,54 @@ where
     }
 
     fn restore_pieces_local(&mut self, ranks: usize, words: &[f64]) -> Result<(), String> {
-        let store = self.pieces.as_ref().ok_or("this rank keeps no pieces")?;
         let (balance, step) = match words {
             [balance @ .., step] if balance.len() == BALANCE_WORDS => (balance, *step),
             _ => return Err("its engine words do not name a step of pieces".into()),
         };
-        let step = (step >= 0.0 && step.fract() == 0.0)
-            .then_some(step as u64)
-            .ok_or("its step of pieces is not a count")?;
+        let step = count(step, u64::MAX).ok_or("its step of pieces is not a count")?;
         let local = &self.exchange.local;
-        let template = &self.engine.y;
         let mut width = Vec::new();
-        template.rows(&[0], &mut width);
+        self.engine.y.rows(&[0], &mut width);
         let row = width.len();
         let most = (2 + (1 + 2 * row) * self.n) as u64;
-        let (mut y, mut rates) = (
-            template.zeros_like(local.len()),
-            template.zeros_like(local.len()),
-        );
-        let (mut found, mut primed) = (0, None);
+        let mut mine: Option<Saved<M::State>> = None;
+        let mut seen = vec![false; local.len()];
         for rank in 0..ranks {
-            let piece = store.read(step, rank, ranks, most)?;
-            let bad = || format!("the piece of rank {rank} is malformed");
-            let (&m, rest) = piece.split_first().ok_or_else(bad)?;
-            let m = m as usize;
-            if rest.len() < m + m * row + 1 {
-                return Err(bad());
+            let piece = self.pieces.read(step, rank, ranks, most)?;
+            let bad = |why: &str| format!("the piece of rank {rank} is malformed: {why}");
+            let (&m, rest) = piece.split_first().ok_or_else(|| bad("it is empty"))?;
+            let m = count(m, self.n as u64).ok_or_else(|| bad("its particle count"))? as usize;
+            let (gids, rest) = rest.split_at_checked(m).ok_or_else(|| bad("its ids"))?;
+            let (&flag, rows) = rest.split_first().ok_or_else(|| bad("its flag"))?;
+            let primed = flag == 1.0;
+            let per = if primed { 2 * row } else { row };
+            if !(flag == 0.0 || primed) || rows.len() != m * per {
+                return Err(bad("its rows"));
             }
-            let (gids, rest) = rest.split_at(m);
-            let (states, rest) = rest.split_at(m * row);
-            let (&flag, rest) = rest.split_first().ok_or_else(bad)?;
-            if *primed.get_or_insert(flag) != flag
-                || rest.len() != if flag == 1.0 { m * row } else { 0 }
-            {
-                return Err(bad());
+            let mine = mine.get_or_insert_with(|| {
+                Saved::zeros(&self.engine.y, local.len(), balance.to_vec(), primed)
+            });
+            if mine.rates.is_some() != primed {
+                return Err(bad("its flag differs from rank 0's"));
             }
-            for (k, &g) in gids.iter().enumerate() {
+            for (&g, words) in gids.iter().zip(rows.chunks_exact(per)) {
+                let g = count(g, self.n as u64 - 1).ok_or_else(|| bad("a global id"))?;
                 if let Ok(i) = local.ids.binary_search(&(g as u32)) {
-                    let at = [i as u32];
-                    y.set_rows(&at, &states[k * row..]);
-                    if flag == 1.0 {
-                        rates.set_rows(&at, &rest[k * row..]);
+                    if std::mem::replace(&mut seen[i], true) {
+                        return Err(bad("a particle it holds twice"));
                     }
-                    found += 1;
+                    mine.set_rows(&[i as u32], words);
                 }
             }
         }
-        if found != local.len() {
-            return Err(format!(
-                "the pieces hold {found} of this rank's {} particles",
+        let missing = seen.iter().filter(|&&s| !s).count();
+        match mine {
+            Some(mine) if missing == 0 => self.engine.restore(&mine.join()),
+            _ => Err(format!(
+                "the pieces lack {missing} of this rank's {} particles",
                 local.len()
-            ));
+            )),
         }
-        let mut out = balance.to_vec();
-        y.save(&mut out);
-        let primed = primed == Some(1.0);
-        out.push(f64::from(u8::from(primed)));
-        if primed {
-            rates.save(&mut out);
-        }
-        self.engine.restore(&out)
     }
 
     /// The balance's terms: the integrated powers and the steps' ends are the run's on
@@ -863,9 +877,16 @@ where
     }
 
     fn save_pieces(&mut self, step: u64) -> Option<Result<(Vec<f64>, usize), String>> {
-        self.pieces.as_ref()?;
         self.send(Call::SavePieces, &[step as f64]);
-        self.save_pieces_all(step)
+        Some(self.save_pieces_all(step))
+    }
+
+    /// The words of one rank's checkpoint of the whole run (of [`Self::save`]) before the
+    /// leapfrog is primed, without gathering them.
+    fn checkpoint_words(&mut self) -> usize {
+        let mut state = Vec::new();
+        self.engine.y.zeros_like(self.n).save(&mut state);
+        BALANCE_WORDS + state.len() + 1
     }
 
     fn restore_pieces(&mut self, ranks: usize, words: &[f64]) -> Result<(), String> {
@@ -882,10 +903,6 @@ where
 {
     fn is_leader(&self) -> bool {
         self.whole.is_some()
-    }
-
-    fn keep_pieces(&mut self, store: Box<dyn PieceStore>) {
-        self.pieces = Some(store);
     }
 
     fn serve(mut self: Box<Self>) {

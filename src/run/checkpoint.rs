@@ -10,10 +10,14 @@
 //! | 8 | `MESHCKPT` |
 //! | 4 | the version, u32 (5) |
 //! | 4 | the header's length H, u32 |
-//! | H | the header, UTF-8 `key = value` lines: `case`, `method`, `backend`, `dimension`, `particles` and `fingerprint` (FNV-1a of the case with its end time left out, [`Scene::fingerprint`]) |
+//! | H | the header, UTF-8 `key = value` lines: `case`, `method`, `backend`, `dimension`, `particles` and `fingerprint` (FNV-1a of the case with its end time left out, [`Scene::fingerprint`]); on several ranks also `pieces`, the rank count |
 //! | 8 | the number W of words, u64 |
-//! | 8 W | the words, f64: the driver's ([`Progress`]: t, step, Δt, the first Δt, E0, the next series sample, checkpoint and frame times, the series' length in bytes, the frame count and each frame's time), then the engine's ([`super::Engine::save`]: the state and what a step carries to the next) |
+//! | 8 W | the words, f64: the driver's ([`Progress`]: t, step, Δt, the first Δt, E0, the next series sample, checkpoint and frame times, the series' length in bytes, the frame count and each frame's time), then the engine's ([`super::Engine::save`]: the state and what a step carries to the next; on several ranks the balance's words and the step of the pieces, [`Pieces`]) |
 //! | 8 | FNV-1a (64 bits) of every byte before it, u64 |
+//!
+//! A piece of a checkpoint on several ranks has the same framing; its header names the
+//! case, method, fingerprint, step, rank and rank count, and its words are the rank's
+//! particle count, their global ids, the integrator's flag and each particle's rows.
 //!
 //! A checkpoint is refused, naming what differs, when its case, method, backend kind
 //! (CPU or GPU), dimension or particle count is not this run's. It is read in chunks of
@@ -190,7 +194,8 @@ pub fn write(
 }
 
 /// Writes `words` under the header `lines` atomically to `path`, framed as a checkpoint:
-/// magic, version, header, word count, words and checksum.
+/// magic, version, header, word count, words and checksum; the file is on the disk
+/// before it takes the name, and its folder's entry after where the platform allows.
 fn write_framed(path: &Path, lines: &[(&str, String)], words: &[f64]) -> std::io::Result<()> {
     let text: String = lines.iter().map(|(k, v)| format!("{k} = {v}\n")).collect();
     write_atomically(path, |w| {
@@ -207,8 +212,14 @@ fn write_framed(path: &Path, lines: &[(&str, String)], words: &[f64]) -> std::io
         for x in words {
             put(&x.to_le_bytes())?;
         }
-        w.write_all(&hash.to_le_bytes())
-    })
+        w.write_all(&hash.to_le_bytes())?;
+        w.flush()?;
+        w.get_ref().sync_all()
+    })?;
+    // Best effort: not every platform syncs a folder.
+    let folder = path.parent().expect("a checkpoint lies in a folder");
+    let _ = std::fs::File::open(folder).and_then(|f| f.sync_all());
+    Ok(())
 }
 
 /// What [`read`] found: the driver's progress, the engine's words, and the rank count
@@ -351,15 +362,24 @@ impl PieceStore for Pieces {
 }
 
 /// Removes the folders of pieces in `dir` of every step but `keep` (those of earlier
-/// checkpoints, or of one whose writing stopped); a folder that cannot be removed stays.
+/// checkpoints, or of one whose writing stopped): folders named by a step, not links,
+/// in a `checkpoint.pieces` that is itself a folder; one that cannot be removed stays.
 pub fn prune_pieces(dir: &Path, keep: u64) {
-    let Ok(folders) = std::fs::read_dir(dir.join(PIECES_DIR)) else {
+    let pieces = dir.join(PIECES_DIR);
+    let folder = |path: &Path| std::fs::symlink_metadata(path).is_ok_and(|m| m.is_dir());
+    if !folder(&pieces) {
+        return;
+    }
+    let Ok(steps) = std::fs::read_dir(&pieces) else {
         return;
     };
     let keep = format!("{keep:012}");
-    for folder in folders.flatten() {
-        if folder.file_name().to_str() != Some(&keep) {
-            let _ = std::fs::remove_dir_all(folder.path());
+    for step in steps.flatten() {
+        let name = step.file_name();
+        let name = name.to_string_lossy();
+        let a_step = name.len() == 12 && name.bytes().all(|b| b.is_ascii_digit());
+        if a_step && name != keep && folder(&step.path()) {
+            let _ = std::fs::remove_dir_all(step.path());
         }
     }
 }

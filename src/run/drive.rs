@@ -160,7 +160,7 @@ fn resume<D: Dim>(
     let n = engine.reference().len();
     // An engine saves its state and what a step carries to the next: at most one more
     // copy of the state (a multistep integrator's last rates, absent at the start).
-    let engine_words = 2 * engine.save().len();
+    let engine_words = 2 * engine.checkpoint_words();
     let read = checkpoint::read(&opts.out_dir, case, backend, n, engine_words)?;
     let restored = match read.pieces {
         None => engine.restore(&read.engine),

@@ -102,10 +102,13 @@ fn rank<D: EngineDim>(
         (reference.h, reference.method_lengths) = (h, true);
     }
     let layers = case.spec.entry().halo_layers.expect("refusal checked it");
-    let pieces = Pieces::new(&opts.out_dir, case, comm.rank());
-    let start = RankStart { comm, layers };
-    let mut engine = case.spec.rank_engine::<D>(case, reference, start)?;
-    engine.keep_pieces(Box::new(pieces));
+    let pieces = Box::new(Pieces::new(&opts.out_dir, case, comm.rank()));
+    let start = RankStart {
+        comm,
+        layers,
+        pieces,
+    };
+    let engine = case.spec.rank_engine::<D>(case, reference, start)?;
     if engine.is_leader() {
         let engine: Box<dyn Engine<D>> = engine;
         drive::<D, _>(case, opts, engine).map(Some)

@@ -5,7 +5,9 @@
 
 use crate::common::{case_file, cpu_options, load};
 use meshless::distributed::{LAUNCHER_SIZES, Threads};
+use meshless::engine::ranks::PieceStore;
 use meshless::run::RunError;
+use meshless::run::checkpoint::Pieces;
 use meshless::run::ranks::{run_on_threads, run_rank};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -358,10 +360,27 @@ fn a_checkpoint_in_pieces_is_refused_where_it_cannot_be_read() {
         .unwrap()
         .unwrap()
         .path();
+    // Rank 1's piece replaced by rank 0's words under rank 1's name (a valid file whose
+    // particles another piece holds too): refused, not restored with rows left at zero.
+    let pieces = |rank| Pieces::new(dir.path(), &scene, rank);
+    let name = step.file_name().unwrap().to_string_lossy().into_owned();
+    let at: u64 = name.parse().unwrap();
+    let rank0 = pieces(0).read(at, 0, 2, u64::MAX).unwrap();
+    pieces(1).write(at, 2, &rank0).unwrap();
+    let twice = run_on_threads(&scene, &opts, 2).unwrap_err();
+    assert!(twice.to_string().contains("holds twice"), "{twice}");
     std::fs::remove_file(step.join("rank-00001.bin")).unwrap();
     let missing = run_on_threads(&scene, &opts, 3).unwrap_err();
     assert!(missing.to_string().contains("rank-00001.bin"), "{missing}");
     assert_eq!(missing.exit_code(), 2);
+    // A later checkpoint prunes the other steps' folders, and only those.
+    let stale = dir.path().join("checkpoint.pieces/000000000000");
+    let other = dir.path().join("checkpoint.pieces/notes.txt");
+    std::fs::create_dir_all(&stale).unwrap();
+    std::fs::write(&other, "kept").unwrap();
+    pieces(0).write(0, 2, &[]).unwrap();
+    meshless::run::checkpoint::prune_pieces(dir.path(), at);
+    assert!(!stale.exists() && other.is_file() && step.is_dir());
 }
 
 #[test]

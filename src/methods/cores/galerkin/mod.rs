@@ -104,8 +104,9 @@ pub fn rank_engine<D: EngineDim>(
     reference: Reference<D>,
     start: RankStart,
 ) -> RankBuild<D> {
-    let model = Material::new(&case.material).model;
-    if model.is_rate_based() || model == MaterialModel::VonMisesPlastic {
+    let system = spec.system(case, reference)?;
+    let model = system.material.model;
+    if model.is_rate_based() || system.plastic.is_some() {
         return Err(case.invalid(
             "material.model",
             format!(
@@ -116,7 +117,6 @@ pub fn rank_engine<D: EngineDim>(
             ),
         ));
     }
-    let system = spec.system(case, reference)?;
     let whole = Whole {
         x0: system.x0.clone(),
         mass: system.mass.clone(),
@@ -704,8 +704,9 @@ impl<D: Dim> TlGalerkin<D> {
     /// their functions on its nodes. With the ghosts of [`Self::node_graph`] every point
     /// of an own node has all its nodes here, and an own node gathers its points in the
     /// one-rank order: its force, mass and smoothed velocity are the one-rank run's. The
-    /// interactions stay empty (contact and timed loads do not run on several ranks); the
-    /// rate model and plasticity are refused before ([`rank_engine`]).
+    /// interactions are the whole run's, none (contact and timed loads do not run on
+    /// several ranks); the rate model and plasticity are refused before
+    /// ([`rank_engine`]).
     pub fn restrict(self, local: &Local) -> Self {
         let mut at = vec![u32::MAX; self.x0.len()];
         for (i, &g) in local.ids.iter().enumerate() {
