@@ -10,7 +10,7 @@ use meshless::distributed::{launcher_size, ranks_on_node};
 use meshless::methods::REGISTRY;
 use meshless::run::ranks::run_on_threads;
 #[cfg(feature = "mpi")]
-use meshless::run::ranks::{run_rank, threads_per_rank};
+use meshless::run::ranks::run_rank;
 use meshless::run::{
     Backend, EXIT_FAILED, EXIT_INPUT, Limits, ProgressDisplay, RunError, RunOptions, run,
 };
@@ -598,8 +598,7 @@ fn run_command(
         Ranks::Mpi(world) => {
             use meshless::distributed::Comm;
             let (rank, size) = (world.rank(), world.size());
-            let threads = threads_per_rank(&case, ranks_on_node(env, size));
-            let result = run_rank(&case, &opts, Arc::new(world), threads);
+            let result = run_rank(&case, &opts, Arc::new(world), ranks_on_node(env, size));
             if rank > 0 {
                 // Rank 0 reports the run; another rank, only what stopped it.
                 return match result {

@@ -149,6 +149,23 @@ pub fn available_memory() -> Option<f64> {
 /// memory on `gpu` or the CPU, or whose step count passes the step cap; returns the
 /// estimate otherwise.
 pub fn check(case: &Scene, gpu: bool, limits: &Limits) -> Result<Estimate, CaseError> {
+    check_copies(case, gpu, limits, 1)
+}
+
+/// [`check`] for a rank of a distributed run, one of `on_node` ranks on this machine:
+/// each builds the whole run's set-up before it keeps its share, so the machine holds
+/// `on_node` of them at once.
+pub fn check_rank(case: &Scene, limits: &Limits, on_node: usize) -> Result<Estimate, CaseError> {
+    check_copies(case, false, limits, on_node.max(1))
+}
+
+/// [`check`] with `copies` set-ups of the run in memory at once.
+fn check_copies(
+    case: &Scene,
+    gpu: bool,
+    limits: &Limits,
+    copies: usize,
+) -> Result<Estimate, CaseError> {
     let estimate = Estimate::of(case)?;
     let key = particle_key(case, &estimate);
     if estimate.particles > limits.max_particles {
@@ -172,10 +189,23 @@ pub fn check(case: &Scene, gpu: bool, limits: &Limits) -> Result<Estimate, CaseE
             ),
         ));
     }
-    let (needed, backend) = if gpu {
-        (estimate.gpu_bytes(), "the GPU backend (host and device)")
+    let (one, backend) = if gpu {
+        (
+            estimate.gpu_bytes(),
+            "the GPU backend (host and device)".to_string(),
+        )
     } else {
-        (estimate.cpu_bytes, "the CPU backend")
+        (estimate.cpu_bytes, "the CPU backend".to_string())
+    };
+    let (needed, backend) = match copies {
+        1 => (one, backend),
+        n => (
+            one * n as f64,
+            format!(
+                "{backend} for {n} ranks on this machine (each builds the whole run's \
+                 set-up; run fewer ranks a machine)"
+            ),
+        ),
     };
     let (available, source) = match available_memory() {
         Some(bytes) => (bytes, "available (MemAvailable of /proc/meminfo)"),

@@ -44,27 +44,29 @@ pub fn refusal(case: &Scene, backend: Backend) -> Option<String> {
 
 /// The threads each rank runs: the case's `run.threads`, or the cores shared among the
 /// `on_node` ranks of this machine (at least one).
-pub fn threads_per_rank(case: &Scene, on_node: usize) -> usize {
+fn threads_per_rank(case: &Scene, on_node: usize) -> usize {
     case.run.threads.unwrap_or_else(|| {
         let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
         (cores / on_node.max(1)).max(1)
     })
 }
 
-/// Runs a case as one rank of `comm`, with `threads` threads; rank 0 returns the summary,
-/// the others None when rank 0 ends the run. Every rank refuses what the others refuse,
-/// so that no rank waits for one that has stopped.
+/// Runs a case as one rank of `comm`, one of `on_node` ranks on this machine (which share
+/// its cores and memory); rank 0 returns the summary, the others None when rank 0 ends
+/// the run. Every rank refuses what the others refuse, so that no rank waits for one
+/// that has stopped.
 pub fn run_rank(
     case: &Scene,
     opts: &RunOptions,
     comm: Arc<dyn Comm>,
-    threads: usize,
+    on_node: usize,
 ) -> Result<Option<RunSummary>, RunError> {
     same_case(case, comm.as_ref())?;
     if let Some(why) = refusal(case, opts.backend) {
         return Err(RunError::Ranks(why));
     }
-    budget::check(case, false, &opts.limits)?;
+    budget::check_rank(case, &opts.limits, on_node)?;
+    let threads = threads_per_rank(case, on_node);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -126,11 +128,10 @@ pub fn run_on_threads(
     opts: &RunOptions,
     ranks: usize,
 ) -> Result<RunSummary, RunError> {
-    let threads = threads_per_rank(case, ranks);
     std::thread::scope(|s| {
         let handles: Vec<_> = Threads::ranks(ranks)
             .into_iter()
-            .map(|comm| s.spawn(move || run_rank(case, opts, Arc::new(comm), threads)))
+            .map(|comm| s.spawn(move || run_rank(case, opts, Arc::new(comm), ranks)))
             .collect();
         let results: Vec<_> = handles
             .into_iter()
