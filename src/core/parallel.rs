@@ -233,6 +233,12 @@ pub(crate) fn load_word(words: &mut &[f64], name: &str) -> Result<f64, String> {
     Ok(word)
 }
 
+/// A count stored as an f64 word of a checkpoint, if it is one: whole, not negative,
+/// and exact in an f64.
+pub fn whole_word(x: f64) -> Option<u64> {
+    (x >= 0.0 && x.fract() == 0.0 && x < 2f64.powi(53)).then_some(x as u64)
+}
+
 /// Reads a field [`save_field`] wrote into `field`, which must have its length.
 pub(crate) fn load_field<T: Words>(
     field: &mut [T],

@@ -16,7 +16,7 @@ use crate::boundary::Reaction;
 use crate::case::CaseError;
 use crate::core::integrate::{OdeState, PseudoTime};
 use crate::core::neighbour::Csr;
-use crate::core::parallel::ParticleRows;
+use crate::core::parallel::{ParticleRows, whole_word};
 use crate::core::sum::{Exact, Ranks};
 use crate::core::tensor::{Dim, Words};
 use crate::diagnostics::balance::Booked;
@@ -346,11 +346,6 @@ fn agree(comm: &dyn Comm, result: Result<(), String>) -> Result<(), String> {
             Err(format!("rank {r}: {}", String::from_utf8_lossy(&bytes)))
         }
     }
-}
-
-/// A count stored as an f64 word, at most `most`.
-fn count(x: f64, most: u64) -> Option<u64> {
-    (x >= 0.0 && x.fract() == 0.0 && x <= most as f64).then_some(x as u64)
 }
 
 /// The words of a CPU engine's checkpoint ([`CpuEngine::save`]) of a method without a
@@ -725,7 +720,7 @@ where
             [balance @ .., step] if balance.len() == BALANCE_WORDS => (balance, *step),
             _ => return Err("its engine words do not name a step of pieces".into()),
         };
-        let step = count(step, u64::MAX).ok_or("its step of pieces is not a count")?;
+        let step = whole_word(step).ok_or("its step of pieces is not a count")?;
         let local = &self.exchange.local;
         let mut width = Vec::new();
         self.engine.y.rows(&[0], &mut width);
@@ -737,7 +732,9 @@ where
             let piece = self.pieces.read(step, rank, ranks, most)?;
             let bad = |why: &str| format!("the piece of rank {rank} is malformed: {why}");
             let (&m, rest) = piece.split_first().ok_or_else(|| bad("it is empty"))?;
-            let m = count(m, self.n as u64).ok_or_else(|| bad("its particle count"))? as usize;
+            let m = whole_word(m)
+                .filter(|&c| c <= self.n as u64)
+                .ok_or_else(|| bad("its particle count"))? as usize;
             let (gids, rest) = rest.split_at_checked(m).ok_or_else(|| bad("its ids"))?;
             let (&flag, rows) = rest.split_first().ok_or_else(|| bad("its flag"))?;
             let primed = flag == 1.0;
@@ -752,7 +749,9 @@ where
                 return Err(bad("its flag differs from rank 0's"));
             }
             for (&g, words) in gids.iter().zip(rows.chunks_exact(per)) {
-                let g = count(g, self.n as u64 - 1).ok_or_else(|| bad("a global id"))?;
+                let g = whole_word(g)
+                    .filter(|&c| c < self.n as u64)
+                    .ok_or_else(|| bad("a global id"))?;
                 if let Ok(i) = local.ids.binary_search(&(g as u32)) {
                     if std::mem::replace(&mut seen[i], true) {
                         return Err(bad("a particle it holds twice"));

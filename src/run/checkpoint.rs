@@ -29,6 +29,7 @@
 
 use super::RunError;
 use crate::case::{FNV_OFFSET, fnv1a_extend};
+use crate::core::parallel::whole_word;
 use crate::engine::ranks::PieceStore;
 use crate::output::write_atomically;
 use crate::scene::Scene;
@@ -95,17 +96,17 @@ impl Progress {
             ],
             rest,
         ) = words.split_first_chunk::<10>()?;
-        let n = whole(n)? as usize;
+        let n = whole_word(n)? as usize;
         (rest.len() >= n).then(|| {
             let progress = Self {
                 t,
-                step: whole(step)?,
+                step: whole_word(step)?,
                 dt,
                 dt_first,
                 e0,
                 next_sample,
                 next_checkpoint,
-                series_bytes: whole(series)?,
+                series_bytes: whole_word(series)?,
                 next_frame,
                 frames: rest[..n].to_vec(),
             };
@@ -146,11 +147,6 @@ impl Progress {
         }
         None
     }
-}
-
-/// A count stored as an f64 word, if it is one.
-fn whole(x: f64) -> Option<u64> {
-    (x >= 0.0 && x.fract() == 0.0 && x < 2f64.powi(53)).then_some(x as u64)
 }
 
 /// What identifies the run a checkpoint belongs to.
@@ -258,8 +254,8 @@ pub fn read(
     // The driver's words name the frame count; with the engine's they bound the whole.
     let count = file.count;
     let mut words = file.words(count.min(10)).map_err(refuse)?;
-    let frames = words.get(9).copied().and_then(whole);
-    let step = words.get(1).copied().and_then(whole);
+    let frames = words.get(9).copied().and_then(whole_word);
+    let step = words.get(1).copied().and_then(whole_word);
     let most = match (frames, step) {
         (Some(frames), Some(step)) if frames <= step + 2 => 10 + frames + engine_words as u64,
         _ => 0,

@@ -345,7 +345,11 @@ fn a_checkpoint_in_pieces_is_refused_where_it_cannot_be_read() {
     let dir = tempfile::tempdir().unwrap();
     let mut opts = cpu_options(dir.path(), true);
     opts.stop = Some(Arc::new(AtomicBool::new(true)));
-    assert!(run_on_threads(&scene, &opts, 2).is_err());
+    let stopped = run_on_threads(&scene, &opts, 2);
+    assert!(
+        matches!(stopped, Err(RunError::Interrupted { .. })),
+        "{stopped:?}"
+    );
     opts.stop = None;
     opts.resume = true;
     let alone = meshless::run::run(&scene, &opts).unwrap_err();
