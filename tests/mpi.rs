@@ -5,6 +5,10 @@
 //! particle, a rank killed mid-run leaves a checkpoint another rank count resumes, and
 //! nothing waits forever (`MPIEXEC_TIMEOUT` ends a hung job).
 
+#[path = "support/frames.rs"]
+mod frames;
+
+use frames::read_frame;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
@@ -50,25 +54,24 @@ fn strip(set: &[&str], out: &str) -> Vec<String> {
     args
 }
 
-/// The last VTU frame in `dir`.
+/// The last frame in `dir`: whole (`.vtu`) or in pieces (`.pvtu`).
 fn last_frame(dir: &Path) -> PathBuf {
     let mut frames: Vec<PathBuf> = std::fs::read_dir(dir)
         .unwrap()
         .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "vtu"))
+        .filter(|p| p.extension().is_some_and(|e| e == "vtu" || e == "pvtu"))
         .collect();
     frames.sort();
     frames.pop().expect("a frame")
 }
 
-/// Whether two runs end with the same last frame and the same series, byte for byte.
+/// Whether two runs end with the same series, byte for byte, and the same last frame:
+/// its values in particle order, bit for bit, whether written whole or in pieces.
 fn same_final_state(a: &Path, b: &Path) -> bool {
     let series = |d: &Path| std::fs::read(d.join("series.csv")).unwrap();
     let same_series = series(a) == series(b);
     let (a, b) = (last_frame(a), last_frame(b));
-    same_series
-        && a.file_name() == b.file_name()
-        && std::fs::read(a).unwrap() == std::fs::read(b).unwrap()
+    same_series && a.file_stem() == b.file_stem() && read_frame(&a) == read_frame(&b)
 }
 
 fn ok(out: &Output) -> bool {

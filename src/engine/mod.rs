@@ -165,6 +165,17 @@ pub trait Engine<D: Dim> {
              (--ranks N, or mpirun with a build with MPI), any number of them"
         ))
     }
+    /// Whether the engine writes its frames itself, in pieces (one a rank of a
+    /// distributed run), rather than the driver writing them whole from
+    /// [`Self::snapshot`].
+    fn writes_frame_pieces(&self) -> bool {
+        false
+    }
+    /// Writes frame `frame` at time t in pieces with their index
+    /// ([`ranks::FrameStore`]); returns the bytes written.
+    fn write_frame_pieces(&mut self, _frame: usize, _t: f64) -> Result<u64, String> {
+        Err("this engine's frames are written whole".into())
+    }
     /// The nonlinear-solver iterations since the last call (a static engine's Newton
     /// iterations; a time stepper has none).
     fn iterations(&mut self) -> Vec<Iteration> {
@@ -256,6 +267,12 @@ impl<D: Dim> Engine<D> for Box<dyn Engine<D>> {
     }
     fn restore_pieces(&mut self, ranks: usize, words: &[f64]) -> Result<(), String> {
         (**self).restore_pieces(ranks, words)
+    }
+    fn writes_frame_pieces(&self) -> bool {
+        (**self).writes_frame_pieces()
+    }
+    fn write_frame_pieces(&mut self, frame: usize, t: f64) -> Result<u64, String> {
+        (**self).write_frame_pieces(frame, t)
     }
     fn iterations(&mut self) -> Vec<Iteration> {
         (**self).iterations()

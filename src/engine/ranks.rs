@@ -26,6 +26,10 @@ use std::path::Path;
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
+mod frames;
+use frames::FrameRank;
+pub use frames::FrameStore;
+
 /// A rank's engine: rank 0's drives the run as an [`Engine`]; the others serve it.
 pub trait Distributed<D: Dim>: Engine<D> {
     /// Whether this is rank 0's engine, which drives the run.
@@ -58,25 +62,22 @@ pub struct Whole<D: Dim> {
 
 /// What a rank knows before its method partitions the run: the ranks, and the ghost
 /// layers the method needs along its graph ([`MethodFamily::HALO_LAYERS`](crate::methods::cores::family::MethodFamily::HALO_LAYERS)).
-pub struct RankStart {
+pub struct RankStart<D: Dim> {
     pub comm: Arc<dyn Comm>,
     pub layers: usize,
     /// Where the rank writes and reads its pieces of the checkpoints.
     pub pieces: Box<dyn PieceStore>,
+    /// Where it writes its pieces of the frames; None when the run writes no frames.
+    pub frames: Option<Box<dyn FrameStore<D>>>,
 }
 
-impl RankStart {
+impl<D: Dim> RankStart<D> {
     /// This rank of a run whose particles (a Galerkin method's nodes) are `whole`, split
     /// by recursive coordinate bisection of their reference positions weighted by the
     /// rows of `graph` (a particle's neighbours; the nodes a node shares a point with),
     /// with the ghosts within the method's layers along `graph`. Rank 0 keeps `whole`.
     /// An error names the case `file` when the run has fewer particles than ranks.
-    pub fn split<D: Dim>(
-        self,
-        graph: &Csr,
-        whole: Whole<D>,
-        file: &Path,
-    ) -> Result<Rank<D>, CaseError> {
+    pub fn split(self, graph: &Csr, whole: Whole<D>, file: &Path) -> Result<Rank<D>, CaseError> {
         let partition =
             Partition::bisect::<D>(&whole.x0, graph, self.comm.size()).map_err(|e| {
                 CaseError::Ranks {
@@ -84,15 +85,17 @@ impl RankStart {
                     reason: e.to_string(),
                 }
             })?;
-        let local = Local::new(&partition, graph, self.comm.rank(), self.layers);
-        let leads = self.comm.rank() == 0;
+        let rank = self.comm.rank();
+        let local = Local::new(&partition, graph, rank, self.layers);
+        let frames = (self.frames).map(|store| FrameRank::new(store, &partition, &whole, rank));
         Ok(Rank {
             local,
             n: whole.x0.len(),
             comm: self.comm,
-            whole: leads.then_some(whole),
+            whole: (rank == 0).then_some(whole),
             inside: Arc::default(),
             pieces: self.pieces,
+            frames,
         })
     }
 }
@@ -109,6 +112,8 @@ pub struct Rank<D: Dim> {
     pub inside: Arc<Mutex<f64>>,
     /// Where the rank writes and reads its pieces of the checkpoints.
     pub pieces: Box<dyn PieceStore>,
+    /// Its share of the frames, when the run writes them.
+    pub frames: Option<FrameRank<D>>,
 }
 
 impl<D: Dim> Rank<D> {
@@ -136,11 +141,12 @@ enum Call {
     Restore,
     SavePieces,
     RestorePieces,
+    Frame,
     End,
 }
 
 impl Call {
-    const ALL: [Call; 11] = [
+    const ALL: [Call; 12] = [
         Call::Advance,
         Call::MaxSignalSpeed,
         Call::Booked,
@@ -151,6 +157,7 @@ impl Call {
         Call::Restore,
         Call::SavePieces,
         Call::RestorePieces,
+        Call::Frame,
         Call::End,
     ];
 
@@ -447,6 +454,8 @@ pub struct RankEngine<D: Dim, M: Method<D>> {
     owned: Vec<Vec<u32>>,
     /// Where the rank keeps its pieces of the checkpoints.
     pieces: Box<dyn PieceStore>,
+    /// Its share of the frames, when the run writes them.
+    frames: Option<FrameRank<D>>,
 }
 
 /// A blow-up as words: its global particle, value and quantity (one word per byte).
@@ -477,6 +486,7 @@ where
             whole,
             inside,
             pieces,
+            frames,
         } = rank;
         let mut history = Vec::new();
         engine.method.save_history(&mut history);
@@ -510,6 +520,7 @@ where
             n,
             whole,
             pieces,
+            frames,
         })
     }
 
@@ -770,6 +781,15 @@ where
         }
     }
 
+    /// Every rank writes its piece of frame `frame` at time t, and rank 0 the frame's
+    /// index; returns the bytes written.
+    fn frame_all(&mut self, frame: usize, t: f64) -> Result<u64, String> {
+        let frames = (self.frames.as_mut()).ok_or("the run was started without frames")?;
+        let state = self.engine.snapshot();
+        let ex = &self.exchange;
+        frames.write(ex.comm.as_ref(), &ex.local, &state, frame, t)
+    }
+
     /// The balance's terms: the integrated powers and the steps' ends are the run's on
     /// every rank; the plastic work, each rank's share, is added over the ranks (zero for
     /// the methods that run on several ranks).
@@ -894,6 +914,15 @@ where
         self.send(Call::RestorePieces, &args);
         self.restore_pieces_all(ranks, words)
     }
+
+    fn writes_frame_pieces(&self) -> bool {
+        self.frames.is_some()
+    }
+
+    fn write_frame_pieces(&mut self, frame: usize, t: f64) -> Result<u64, String> {
+        self.send(Call::Frame, &[frame as f64, t]);
+        self.frame_all(frame, t)
+    }
 }
 
 impl<D: Dim, M: Method<D>> Distributed<D> for RankEngine<D, M>
@@ -940,6 +969,9 @@ where
                 }
                 Call::RestorePieces => {
                     let _ = self.restore_pieces_all(args[0] as usize, &args[1..]);
+                }
+                Call::Frame => {
+                    let _ = self.frame_all(args[0] as usize, args[1]);
                 }
                 Call::End => return,
             }

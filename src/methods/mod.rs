@@ -151,7 +151,7 @@ macro_rules! registry {
                 &self,
                 case: &Case,
                 reference: crate::reference::Reference<D>,
-                start: crate::engine::ranks::RankStart,
+                start: crate::engine::ranks::RankStart<D>,
             ) -> crate::methods::cores::family::RankBuild<D> {
                 match self {
                     $(Self::$variant(s) => s.rank_engine::<D>(case, reference, start)),*

@@ -18,7 +18,7 @@ pub mod vtu;
 
 pub use series::SeriesWriter;
 pub use summary::{CheckResult, RunSummary, write_summary};
-pub use vtu::{Field, FieldData, Mesh, PvdIndex, write_vtu};
+pub use vtu::{Field, FieldData, Mesh, PieceArrays, PvdIndex, write_pvtu, write_vtu};
 
 use std::ffi::OsString;
 use std::fs::{self, File};

@@ -1,5 +1,6 @@
 //! VTK XML UnstructuredGrid (`.vtu`) frames for particle clouds and the
-//! ParaView collection (`.pvd`) that indexes them in time.
+//! ParaView collection (`.pvd`) that indexes them in time; a frame written in pieces
+//! (one a rank) has a parallel index (`.pvtu`) that ParaView reads as one grid.
 //!
 //! Frames use binary appended raw encoding with UInt64 block headers in
 //! little-endian byte order. Every particle is one `VTK_VERTEX` cell so that
@@ -19,6 +20,10 @@ const VTK_VERTEX: u8 = 1;
 /// VTK cell types of the 4-node quadrilateral and the 8-node hexahedron.
 const VTK_QUAD: u8 = 9;
 const VTK_HEXAHEDRON: u8 = 12;
+/// The `vtkGhostType` flag of a point that another piece owns.
+const DUPLICATE_POINT: u8 = 1;
+/// The name VTK gives the ghost flags of the points.
+const GHOST_ARRAY: &str = "vtkGhostType";
 
 /// Elements on the points of a frame: 2^dim corner indices per cell, in VTK order.
 #[derive(Debug, Clone, Copy)]
@@ -26,6 +31,10 @@ pub struct Mesh<'a> {
     pub corners: &'a [u32],
     /// 2 (quadrilaterals) or 3 (hexahedra).
     pub dim: usize,
+    /// In a piece of a frame: how many of the points, the last ones, are another piece's,
+    /// there as corners of this piece's elements. They get no vertex cell, and the
+    /// `vtkGhostType` array flags them as duplicates. None for a frame written whole.
+    pub ghosts: Option<usize>,
 }
 
 impl Mesh<'_> {
@@ -33,6 +42,7 @@ impl Mesh<'_> {
     pub const NONE: Mesh<'static> = Mesh {
         corners: &[],
         dim: 2,
+        ghosts: None,
     };
 
     fn per_cell(&self) -> usize {
@@ -93,8 +103,9 @@ pub struct Field<'a> {
 ///
 /// Two-dimensional data passes `z = 0`. Fails with
 /// [`io::ErrorKind::InvalidInput`] if a field's length differs from the point
-/// count, if field names are empty or repeated, or if a cell names a point that is not
-/// there; the file at `path` is then left untouched. The frame is written to a fresh temporary sibling and renamed into
+/// count, if field names are empty or repeated, if a cell names a point that is not
+/// there, or if there are more ghosts than points; the file at `path` is then left
+/// untouched. The frame is written to a fresh temporary sibling and renamed into
 /// place ([`super::write_atomically`]).
 pub fn write_vtu(
     path: &Path,
@@ -109,7 +120,13 @@ pub fn write_vtu(
             "a VTU cell names point {c} but there are {n} points"
         )));
     }
-    let mut names = HashSet::new();
+    let ghosts = mesh.ghosts.unwrap_or(0);
+    if ghosts > n {
+        return Err(invalid_input(format!(
+            "a VTU piece has {ghosts} ghosts but {n} points"
+        )));
+    }
+    let mut names = HashSet::from([GHOST_ARRAY]);
     for field in fields {
         if field.name.is_empty() {
             return Err(invalid_input("a VTU field has an empty name".into()));
@@ -131,10 +148,20 @@ pub fn write_vtu(
 
     let time = [time];
     let time_array = Array::new("TimeValue", 1, Payload::F64(&time));
-    let point_arrays: Vec<Array> = fields.iter().map(Array::from_field).collect();
+    let flags: Vec<u8> = mesh.ghosts.map_or_else(Vec::new, |_| {
+        let own = std::iter::repeat_n(0, n - ghosts);
+        own.chain(std::iter::repeat_n(DUPLICATE_POINT, ghosts))
+            .collect()
+    });
+    let mut point_arrays: Vec<Array> = fields.iter().map(Array::from_field).collect();
+    if mesh.ghosts.is_some() {
+        point_arrays.push(Array::new(GHOST_ARRAY, 1, Payload::U8(&flags)));
+    }
     let points_array = Array::new("Points", 3, Payload::F64(points.as_flattened()));
-    let count = i64::try_from(n).map_err(|_| invalid_input(format!("{n} points is too many")))?;
-    // The vertex cells 0..n, then the elements.
+    // The vertex cells of the points but the ghosts, then the elements.
+    let vertices = n - ghosts;
+    let count =
+        i64::try_from(vertices).map_err(|_| invalid_input(format!("{n} points is too many")))?;
     let elements = mesh.corners.len() / mesh.per_cell();
     let connectivity: Vec<i64> = (0..count)
         .chain(mesh.corners.iter().map(|&c| i64::from(c)))
@@ -148,10 +175,10 @@ pub fn write_vtu(
     } else {
         VTK_QUAD
     };
-    let types: Vec<u8> = std::iter::repeat_n(VTK_VERTEX, n)
+    let types: Vec<u8> = std::iter::repeat_n(VTK_VERTEX, vertices)
         .chain(std::iter::repeat_n(element_type, elements))
         .collect();
-    let cells = n + elements;
+    let cells = vertices + elements;
     let cell_arrays = [
         Array::new("connectivity", 1, Payload::I64(&connectivity)),
         Array::new("offsets", 1, Payload::I64(&offsets)),
@@ -203,6 +230,68 @@ pub fn write_vtu(
         }
         w.write_all(b"\n  </AppendedData>\n</VTKFile>\n")
     })
+}
+
+/// The point arrays every piece of a frame holds (a piece's fields and its ghost
+/// flags), which the frame's parallel index declares.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PieceArrays(Vec<(String, &'static str, usize)>);
+
+impl PieceArrays {
+    /// The arrays of a piece written with `fields` and a [`Mesh`] with ghosts.
+    pub fn of(fields: &[Field]) -> Self {
+        let mut arrays: Vec<_> = (fields.iter())
+            .map(|f| {
+                let array = Array::from_field(f);
+                (
+                    f.name.to_owned(),
+                    array.payload.vtk_type(),
+                    array.components,
+                )
+            })
+            .collect();
+        arrays.push((GHOST_ARRAY.to_owned(), "UInt8", 1));
+        Self(arrays)
+    }
+}
+
+/// Writes the parallel index (`.pvtu`) of a frame written in pieces: the point arrays
+/// each piece holds and the pieces' files, relative to the index's folder. Written
+/// through a temporary sibling, as a frame is.
+pub fn write_pvtu(path: &Path, arrays: &PieceArrays, pieces: &[String]) -> io::Result<()> {
+    if let Some(p) = (pieces.iter()).find(|p| p.is_empty() || Path::new(p).is_absolute()) {
+        return Err(invalid_input(format!(
+            "piece `{p}` must be a path relative to the index"
+        )));
+    }
+    let mut xml = String::new();
+    xml.push_str("<?xml version=\"1.0\"?>\n");
+    xml.push_str(
+        "<VTKFile type=\"PUnstructuredGrid\" version=\"1.0\" \
+         byte_order=\"LittleEndian\" header_type=\"UInt64\">\n",
+    );
+    xml.push_str("  <PUnstructuredGrid GhostLevel=\"0\">\n");
+    xml.push_str("    <PPointData>\n");
+    let array = |xml: &mut String, (name, vtk_type, components): &(String, &str, usize)| {
+        let _ = writeln!(
+            xml,
+            "      <PDataArray type=\"{vtk_type}\" Name=\"{}\" NumberOfComponents=\"{components}\"/>",
+            escape_xml(name)
+        );
+    };
+    for a in &arrays.0 {
+        array(&mut xml, a);
+    }
+    xml.push_str("    </PPointData>\n");
+    xml.push_str("    <PPoints>\n");
+    array(&mut xml, &("Points".to_owned(), "Float64", 3));
+    xml.push_str("    </PPoints>\n");
+    for piece in pieces {
+        let _ = writeln!(xml, "    <Piece Source=\"{}\"/>", escape_xml(piece));
+    }
+    xml.push_str("  </PUnstructuredGrid>\n");
+    xml.push_str("</VTKFile>\n");
+    write_atomically(path, |w| w.write_all(xml.as_bytes()))
 }
 
 /// Raw values of one appended block.

@@ -4,6 +4,7 @@
 
 use super::{Engine, RunError, checkpoint};
 use crate::boundary::Reaction;
+use crate::core::kernel::Kernel;
 use crate::core::tensor::Dim;
 use crate::diagnostics::observe::{Clock, IndicatorFields, Invariants, Snapshot};
 use crate::engine::BlowUp;
@@ -37,6 +38,17 @@ pub(super) trait Callback<D: Dim> {
     /// failure found ends the run, and no later callback sees the batch.
     fn after_batch(&mut self, _batch: &mut Batch<D>) -> Result<Option<BlowUp>, RunError> {
         Ok(None)
+    }
+
+    /// After the batch's outputs that read the state back (and those at t = 0): the
+    /// outputs the engine writes itself (a distributed run's frames in pieces).
+    fn after_outputs(
+        &mut self,
+        _engine: &mut dyn Engine<D>,
+        _clock: &Clock,
+        _last: bool,
+    ) -> Result<(), RunError> {
+        Ok(())
     }
 
     /// Its part of a checkpoint, from which [`Self`] goes on when the run is resumed.
@@ -169,8 +181,7 @@ impl<'a, D: Dim> Batch<'a, D> {
 /// row with its observer or the hourglass limit needs it.
 pub(super) struct Indicators<'a, D: Dim> {
     case: &'a Scene,
-    hourglass: Option<HourglassIndicator>,
-    pressure_fit: OnceCell<PressureFit>,
+    fits: IndicatorFits,
     /// The series' observers need η, δp.
     row_eta: bool,
     row_deviation: bool,
@@ -178,21 +189,12 @@ pub(super) struct Indicators<'a, D: Dim> {
 }
 
 impl<'a, D: Dim> Indicators<'a, D> {
-    /// The indicators of a run whose frames are `frames_on` and whose rows need η and δp
-    /// as `row_eta` and `row_deviation` say.
-    pub(super) fn new(
-        case: &'a Scene,
-        x0: &[D::V],
-        frames_on: bool,
-        row_eta: bool,
-        row_deviation: bool,
-    ) -> Self {
-        let hourglass = (frames_on || row_eta || case.run.hourglass_limit.is_some())
-            .then(|| HourglassIndicator::new::<D>(&case.kernel(D::N), x0));
+    /// The indicators of a run whose rows need η and δp as `row_eta` and
+    /// `row_deviation` say.
+    pub(super) fn new(case: &'a Scene, row_eta: bool, row_deviation: bool) -> Self {
         Self {
             case,
-            hourglass,
-            pressure_fit: OnceCell::new(),
+            fits: IndicatorFits::new(case.kernel(D::N)),
             row_eta,
             row_deviation,
             _dim: std::marker::PhantomData,
@@ -204,18 +206,46 @@ impl<'a, D: Dim> Indicators<'a, D> {
         let eta_needed = frame || (row && self.row_eta) || self.case.run.hourglass_limit.is_some();
         let deviation_needed = frame || (row && self.row_deviation);
         IndicatorFields {
-            eta: self
-                .hourglass
-                .as_ref()
-                .filter(|_| eta_needed)
-                .map(|h| h.of::<D>(snap.x0, &snap.u, &snap.f)),
-            pressure_deviation: deviation_needed.then(|| {
-                self.pressure_fit
-                    .get_or_init(|| {
-                        PressureFit::new::<D>(&self.case.kernel(D::N), snap.x0, snap.body)
-                    })
-                    .deviation(&pressures(&snap.sigma))
-            }),
+            eta: eta_needed.then(|| self.fits.eta(snap)),
+            pressure_deviation: deviation_needed.then(|| self.fits.deviation(snap)),
         }
+    }
+}
+
+/// The neighbours and weights η and δp are evaluated with, each built at its first use
+/// on the reference positions of the state it is given (always the same particles).
+pub(super) struct IndicatorFits {
+    kernel: Kernel,
+    hourglass: OnceCell<HourglassIndicator>,
+    pressure: OnceCell<PressureFit>,
+}
+
+impl IndicatorFits {
+    /// The fits with the case's `kernel`.
+    pub(super) fn new(kernel: Kernel) -> Self {
+        Self {
+            kernel,
+            hourglass: OnceCell::new(),
+            pressure: OnceCell::new(),
+        }
+    }
+
+    /// The kernel's support [m].
+    pub(super) fn reach(&self) -> f64 {
+        self.kernel.support()
+    }
+
+    /// The hourglass indicator η of every particle of `snap`.
+    pub(super) fn eta<D: Dim>(&self, snap: &Snapshot<D>) -> Vec<f64> {
+        (self.hourglass)
+            .get_or_init(|| HourglassIndicator::new::<D>(&self.kernel, snap.x0))
+            .of::<D>(snap.x0, &snap.u, &snap.f)
+    }
+
+    /// The pressure deviation δp of every particle of `snap`.
+    pub(super) fn deviation<D: Dim>(&self, snap: &Snapshot<D>) -> Vec<f64> {
+        (self.pressure)
+            .get_or_init(|| PressureFit::new::<D>(&self.kernel, snap.x0, snap.body))
+            .deviation(&pressures(&snap.sigma))
     }
 }

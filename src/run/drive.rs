@@ -62,7 +62,7 @@ pub fn drive<D: Dim, E: Engine<D>>(
     if resumed.is_none() {
         clear_previous_run(&opts.out_dir, &case.name)?;
     }
-    let mut frames = Frames::new(case, opts)?;
+    let mut frames = Frames::new(case, opts, engine.writes_frame_pieces())?;
     if let Some(p) = &resumed {
         frames.resume(p.next_frame, &p.frames)?;
     }
@@ -71,13 +71,7 @@ pub fn drive<D: Dim, E: Engine<D>>(
         observers.need_pressure_deviation(),
     );
     let mut series = Series::new(case, &opts.out_dir, observers, resumed.as_ref())?;
-    let indicators = Indicators::new(
-        case,
-        engine.reference(),
-        frames.on(),
-        row_eta,
-        row_deviation,
-    );
+    let indicators = Indicators::new(case, row_eta, row_deviation);
     if opts.progress != ProgressDisplay::Off {
         eprintln!("{}: {n} particles on {backend}", case.name);
     }
@@ -293,7 +287,11 @@ impl<D: Dim> Scheduler<'_, D> {
         for callback in callbacks.iter_mut() {
             callback.after_batch(&mut batch)?;
         }
-        Ok(batch.clock)
+        let clock = batch.clock;
+        for callback in callbacks.iter_mut() {
+            callback.after_outputs(engine, &clock, true)?;
+        }
+        Ok(clock)
     }
 
     /// Steps from `clock` to the end time, a failure or a stop.
@@ -358,6 +356,9 @@ impl<D: Dim> Scheduler<'_, D> {
                 break Some(cause);
             }
             let stop = batch.stop;
+            for callback in callbacks.iter_mut() {
+                callback.after_outputs(engine, &clock, last)?;
+            }
             // A checkpoint when one is due, and on a stop (with checkpoints on), after
             // the batch's outputs: a resumed run goes on from here exactly as this one
             // would.

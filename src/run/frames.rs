@@ -1,12 +1,17 @@
-//! Output callbacks of the driver: VTU frames at their interval and the PVD index.
+//! Output callbacks of the driver: VTU frames at their interval and the PVD index. A
+//! distributed run's engine writes each frame in pieces, one a rank, with a parallel
+//! index (`.pvtu`) that the PVD index lists ([`FramePieces`]).
 
-use super::batch::{Batch, Callback, Needs};
+use super::batch::{Batch, Callback, IndicatorFits, Needs};
 use super::budget::check_room;
-use super::{RunError, RunOptions, checkpoint, output_error};
+use super::{Engine, RunError, RunOptions, checkpoint, output_error};
 use crate::core::tensor::Dim;
 use crate::diagnostics::observe::{Clock, IndicatorFields, Snapshot};
 use crate::engine::BlowUp;
-use crate::output::{Field, FieldData, Mesh, PvdIndex, free_bytes, write_vtu};
+use crate::engine::ranks::FrameStore;
+use crate::output::{
+    Field, FieldData, Mesh, PieceArrays, PvdIndex, free_bytes, write_pvtu, write_vtu,
+};
 use crate::physics::material::von_mises;
 use crate::physics::plasticity::symmetric_eigen;
 use crate::physics::pressure::pressures;
@@ -23,6 +28,11 @@ pub(super) struct Frames {
     count: usize,
     /// The size of the last frame written [bytes].
     last_bytes: Option<u64>,
+    /// Whether the frames' room on the disk was checked (after the first one written).
+    room_checked: bool,
+    /// The engine writes each frame in pieces (a distributed run), which the index lists
+    /// by their `.pvtu`.
+    pieces: bool,
     /// The case file and end time, for the check that the frames fit on the disk.
     file: PathBuf,
     end_time: f64,
@@ -48,7 +58,8 @@ impl FrameConstants {
 }
 
 impl Frames {
-    pub(super) fn new(case: &Scene, opts: &RunOptions) -> Result<Self, RunError> {
+    /// The frames of a run whose engine writes them in `pieces`, or not.
+    pub(super) fn new(case: &Scene, opts: &RunOptions, pieces: bool) -> Result<Self, RunError> {
         let index = if opts.frames {
             Some(
                 PvdIndex::create(&opts.out_dir, &case.name).map_err(output_error(
@@ -66,6 +77,8 @@ impl Frames {
             next: 0.0,
             count: 0,
             last_bytes: None,
+            room_checked: false,
+            pieces,
             file: case.file.clone(),
             end_time: case.run.end_time,
             constants: FrameConstants::of(case),
@@ -81,14 +94,22 @@ impl Frames {
     }
 
     /// Continues after the frames written before a checkpoint: lists them again (they
-    /// must still be in the folder) and takes the next frame time.
+    /// must still be in the folder, whole or in pieces, as the run that wrote them ran)
+    /// and takes the next frame time.
     pub(super) fn resume(&mut self, next: f64, times: &[f64]) -> Result<(), RunError> {
         self.next = next;
         let Some(index) = &mut self.index else {
             return Ok(());
         };
         for &t in times {
-            let file = frame_file(&self.name, self.count);
+            let (whole, pieces) = (
+                frame_file(&self.name, self.count),
+                index_file(&self.name, self.count),
+            );
+            let file = match self.dir.join(&whole).is_file() {
+                true => whole,
+                false => pieces,
+            };
             index
                 .push(t, &file)
                 .map_err(output_error(&self.dir.join(&file)))?;
@@ -120,35 +141,63 @@ impl Frames {
         self.index.is_some() && self.interval.is_some() && t >= self.next * (1.0 - 1e-9)
     }
 
-    /// Writes a frame when one is due (or `force`); `fields` holds the hourglass indicator
-    /// and the pressure deviation whenever [`Self::will_write`].
+    /// Writes a frame of `snap` when one is due (or `force`); `fields` holds the hourglass
+    /// indicator and the pressure deviation whenever [`Self::will_write`].
     pub(super) fn write<D: Dim>(
         &mut self,
         snap: &Snapshot<D>,
-        t: f64,
+        clock: &Clock,
         force: bool,
         fields: &IndicatorFields,
     ) -> Result<(), RunError> {
-        if !self.will_write(t, force) {
+        if !self.will_write(clock.t, force) {
             return Ok(());
         }
-        let (Some(index), Some(eta), Some(deviation)) =
-            (&mut self.index, &fields.eta, &fields.pressure_deviation)
-        else {
+        let (Some(eta), Some(deviation)) = (&fields.eta, &fields.pressure_deviation) else {
             return Ok(());
         };
         let file = frame_file(&self.name, self.count);
         let path = self.dir.join(&file);
         let indicators = [eta.as_slice(), deviation];
-        write_frame::<D>(&path, snap, t, indicators, self.constants)
+        write_frame::<D>(&path, snap, clock.t, indicators, self.constants, None)
             .map_err(output_error(&path))?;
-        self.last_bytes = std::fs::metadata(&path).ok().map(|m| m.len());
+        let bytes = std::fs::metadata(&path).map_or(0, |m| m.len());
+        self.listed(clock, &file, bytes)
+    }
+
+    /// Has the engine write a frame in pieces when one is due (or `force`).
+    fn write_pieces<D: Dim>(
+        &mut self,
+        engine: &mut dyn Engine<D>,
+        clock: &Clock,
+        force: bool,
+    ) -> Result<(), RunError> {
+        if !self.will_write(clock.t, force) {
+            return Ok(());
+        }
+        let file = index_file(&self.name, self.count);
+        let bytes =
+            (engine.write_frame_pieces(self.count, clock.t)).map_err(|e| RunError::Output {
+                path: self.dir.join(&file),
+                source: std::io::Error::other(e),
+            })?;
+        self.listed(clock, &file, bytes)
+    }
+
+    /// Lists the frame `file` of `bytes` written at the clock's time in the index and
+    /// takes the next frame time; after the first, checks the room for those to come.
+    fn listed(&mut self, clock: &Clock, file: &str, bytes: u64) -> Result<(), RunError> {
+        let index = self.index.as_mut().expect("frames are on");
         index
-            .push(t, &file)
+            .push(clock.t, file)
             .map_err(output_error(&self.dir.join(format!("{}.pvd", self.name))))?;
+        self.last_bytes = Some(bytes);
         self.count += 1;
         if let Some(interval) = self.interval {
-            self.next = next_frame_time(self.next, interval, t);
+            self.next = next_frame_time(self.next, interval, clock.t);
+        }
+        if !std::mem::replace(&mut self.room_checked, true) {
+            self.check_room(clock.dt)?;
         }
         Ok(())
     }
@@ -191,6 +240,9 @@ impl<D: Dim> Callback<D> for Frames {
     }
 
     fn needs(&self, clock: &Clock, last: bool) -> Needs {
+        if self.pieces {
+            return Needs::default();
+        }
         Needs {
             state: self.due(clock.t) || last,
             frame: self.will_write(clock.t, last),
@@ -199,13 +251,25 @@ impl<D: Dim> Callback<D> for Frames {
     }
 
     fn after_batch(&mut self, batch: &mut Batch<D>) -> Result<Option<BlowUp>, RunError> {
-        if let (Some((snap, _)), Some(fields)) = (batch.state(), batch.fields()) {
-            self.write(snap, batch.clock.t, batch.last, fields)?;
+        if self.pieces {
+            return Ok(None);
         }
-        if batch.start {
-            self.check_room(batch.clock.dt)?;
+        if let (Some((snap, _)), Some(fields)) = (batch.state(), batch.fields()) {
+            self.write(snap, &batch.clock, batch.last, fields)?;
         }
         Ok(None)
+    }
+
+    fn after_outputs(
+        &mut self,
+        engine: &mut dyn Engine<D>,
+        clock: &Clock,
+        last: bool,
+    ) -> Result<(), RunError> {
+        match self.pieces {
+            true => self.write_pieces(engine, clock, last),
+            false => Ok(()),
+        }
     }
 
     fn save(&self, at: &mut checkpoint::Progress) {
@@ -216,6 +280,81 @@ impl<D: Dim> Callback<D> for Frames {
 /// The file of frame k of a case.
 fn frame_file(name: &str, k: usize) -> String {
     format!("{name}_{k:06}.vtu")
+}
+
+/// The parallel index of frame k of a case written in pieces.
+fn index_file(name: &str, k: usize) -> String {
+    format!("{name}_{k:06}.pvtu")
+}
+
+/// Rank r's piece of frame k of a case, in the frame's folder.
+fn piece_file(name: &str, k: usize, r: usize) -> String {
+    format!("{name}_{k:06}/rank-{r:05}.vtu")
+}
+
+/// A rank's pieces of the frames of a case ([`FrameStore`]): `<name>_<k>/rank-<r>.vtu`,
+/// with the hourglass indicator and the pressure deviation of its own particles, and on
+/// rank 0 the frame's index `<name>_<k>.pvtu`.
+pub(super) struct FramePieces {
+    dir: PathBuf,
+    name: String,
+    rank: usize,
+    constants: FrameConstants,
+    fits: IndicatorFits,
+    /// The arrays of the rank's last piece, which the index declares (rank 0).
+    arrays: Option<PieceArrays>,
+}
+
+impl FramePieces {
+    /// Rank `rank`'s pieces of the frames of `case` in the run's folder.
+    pub(super) fn new(case: &Scene, opts: &RunOptions, rank: usize, dim: usize) -> Self {
+        Self {
+            dir: opts.out_dir.clone(),
+            name: case.name.clone(),
+            rank,
+            constants: FrameConstants::of(case),
+            fits: IndicatorFits::new(case.kernel(dim)),
+            arrays: None,
+        }
+    }
+}
+
+impl<D: Dim> FrameStore<D> for FramePieces {
+    fn reach(&self) -> f64 {
+        self.fits.reach()
+    }
+
+    fn derived(&mut self, all: &Snapshot<D>) -> [Vec<f64>; 2] {
+        [self.fits.eta(all), self.fits.deviation(all)]
+    }
+
+    fn write(
+        &mut self,
+        frame: usize,
+        t: f64,
+        piece: &Snapshot<D>,
+        ids: &[u32],
+        ghosts: usize,
+        derived: [&[f64]; 2],
+    ) -> Result<u64, String> {
+        let path = self.dir.join(piece_file(&self.name, frame, self.rank));
+        let of = Piece { ids, ghosts };
+        let written = (path.parent())
+            .map_or(Ok(()), std::fs::create_dir_all)
+            .and_then(|()| write_frame::<D>(&path, piece, t, derived, self.constants, Some(of)));
+        let arrays = written.map_err(|e| format!("{}: {e}", path.display()))?;
+        self.arrays = Some(arrays);
+        Ok(std::fs::metadata(&path).map_or(0, |m| m.len()))
+    }
+
+    fn index(&mut self, frame: usize, ranks: usize) -> Result<(), String> {
+        let path = self.dir.join(index_file(&self.name, frame));
+        let pieces: Vec<String> = (0..ranks)
+            .map(|r| piece_file(&self.name, frame, r))
+            .collect();
+        let arrays = self.arrays.as_ref().ok_or("rank 0 wrote no piece")?;
+        write_pvtu(&path, arrays, &pieces).map_err(|e| format!("{}: {e}", path.display()))
+    }
 }
 
 /// The time of the frame after one written at t: the next multiple of the interval past
@@ -238,14 +377,16 @@ pub(super) fn next_frame_time(previous: f64, interval: f64, t: f64) -> f64 {
 /// (`indicators`), body, and the method's own fields (the
 /// plastic strain ε_p of a plastic material), which replace the derived field of the same
 /// name (a UL method's own density, a per-particle smoothing length); the method's
-/// elements, if it has them, as cells on the particles.
+/// elements, if it has them, as cells on the particles. A `piece` of a frame carries the
+/// particles' global ids and flags its ghosts; returns the arrays a piece holds.
 pub fn write_frame<D: Dim>(
     path: &Path,
     snap: &Snapshot<D>,
     t: f64,
     indicators: [&[f64]; 2],
     constants: FrameConstants,
-) -> std::io::Result<()> {
+    piece: Option<Piece>,
+) -> std::io::Result<PieceArrays> {
     let [eta, pressure_deviation] = indicators;
     let points: Vec<[f64; 3]> = snap
         .x0
@@ -262,7 +403,10 @@ pub fn write_frame<D: Dim>(
     let (green, hencky): (Vec<[f64; 9]>, Vec<[f64; 9]>) =
         snap.f.iter().map(|&f| strains(pad_f::<D>(f))).unzip();
     let body: Vec<i32> = snap.body.iter().map(|&b| b as i32).collect();
-    let id: Vec<i32> = (0..snap.x0.len()).map(|i| i as i32).collect();
+    let id: Vec<i32> = match &piece {
+        Some(p) => p.ids.iter().map(|&g| g as i32).collect(),
+        None => (0..snap.x0.len()).map(|i| i as i32).collect(),
+    };
     let x0: Vec<[f64; 3]> = snap.x0.iter().map(|&a| D::to3(a)).collect();
     let pressure = pressures(&snap.sigma);
     let volume: Vec<f64> = snap
@@ -359,8 +503,18 @@ pub fn write_frame<D: Dim>(
     let mesh = Mesh {
         corners: snap.cells,
         dim: D::N,
+        ghosts: piece.map(|p| p.ghosts),
     };
-    write_vtu(path, &points, &fields, t, mesh)
+    write_vtu(path, &points, &fields, t, mesh)?;
+    Ok(PieceArrays::of(&fields))
+}
+
+/// A rank's piece of a frame: the global ids of its points, the last `ghosts` of which
+/// are other ranks' (corners of its cells).
+#[derive(Clone, Copy, Debug)]
+pub struct Piece<'a> {
+    pub ids: &'a [u32],
+    pub ghosts: usize,
 }
 
 /// F as 3×3; in plane strain F_zz = 1.
@@ -441,7 +595,15 @@ mod tests {
         let (_dir, path) = scratch("frame.vtu");
         let constants = FrameConstants { rho0: 4.0, h: 0.13 };
         let indicators = [&[0.5, 0.25][..], &[-1.5, 2.5][..]];
-        write_frame(&path, &snapshot(Vec::new()), 0.0, indicators, constants).unwrap();
+        write_frame(
+            &path,
+            &snapshot(Vec::new()),
+            0.0,
+            indicators,
+            constants,
+            None,
+        )
+        .unwrap();
         let field = |name| read_field(&path, name);
         assert_eq!(field("hourglass"), [0.5, 0.25]);
         assert_eq!(field("pressure_deviation"), [-1.5, 2.5]);
@@ -465,6 +627,7 @@ mod tests {
             0.0,
             [&[0.0; 2], &[0.0; 2]],
             constants,
+            None,
         )
         .unwrap();
         assert_eq!(read_field(&path, "density"), [5.0, 6.0]);

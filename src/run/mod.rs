@@ -19,7 +19,7 @@ pub use crate::scene::build_method;
 pub use budget::{Estimate, Limits};
 pub use drive::drive;
 pub use engine::engine;
-pub use frames::{FrameConstants, write_frame};
+pub use frames::{FrameConstants, Piece, write_frame};
 pub use progress::ProgressDisplay;
 
 use crate::case::CaseError;

@@ -107,8 +107,8 @@ const INDEX_CAP: u64 = 256 << 20;
 /// Removes what an earlier run of the case `name` wrote into `dir`, and nothing else:
 /// the summary, the series, the checkpoint with its pieces and the iteration log (one run's files a
 /// folder), and the case's PVD index (`<name>.pvd`) with the frames it lists under the
-/// case's name (`<name>_*.vtu`), so that no stale file of it is left beside the new
-/// run's. Another case's index and frames in the folder stay. Only a regular file is
+/// case's name (`<name>_*.vtu`, or `<name>_*.pvtu` with the folder of its pieces), so
+/// that no stale file of it is left beside the new run's. Another case's index and frames in the folder stay. Only a regular file is
 /// read as the index: a FIFO there is never waited on.
 pub(super) fn clear_previous_run(dir: &Path, name: &str) -> Result<(), RunError> {
     let remove = |path: &Path| match std::fs::remove_file(path) {
@@ -135,7 +135,7 @@ pub(super) fn clear_previous_run(dir: &Path, name: &str) -> Result<(), RunError>
     let ours = |frame: &Path| {
         // A name in this folder (no path) of one of the case's frames.
         frame.components().count() == 1
-            && frame.extension().is_some_and(|e| e == "vtu")
+            && frame.extension().is_some_and(|e| e == "vtu" || e == "pvtu")
             && frame
                 .to_str()
                 .is_some_and(|f| f.strip_prefix(name).is_some_and(|r| r.starts_with('_')))
@@ -148,6 +148,13 @@ pub(super) fn clear_previous_run(dir: &Path, name: &str) -> Result<(), RunError>
         .filter(|f| ours(f))
     {
         remove(&dir.join(frame))?;
+        // The folder of a frame's pieces, when it is one (not a link).
+        let pieces = dir.join(frame.with_extension(""));
+        if frame.extension().is_some_and(|e| e == "pvtu")
+            && std::fs::symlink_metadata(&pieces).is_ok_and(|m| m.is_dir())
+        {
+            std::fs::remove_dir_all(&pieces).map_err(output_error(&pieces))?;
+        }
     }
     remove(&index)
 }

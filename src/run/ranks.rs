@@ -1,11 +1,12 @@
 //! A run of one case on several ranks (`docs/distributed.md`). Every rank builds the
 //! reference configuration; the method partitions it along its graph and sets up on the
 //! rank's own particles with their ghosts; rank 0 drives the run with the driver of a one-rank run, and the others
-//! serve its engine ([`crate::engine::ranks`]). The outputs are rank 0's, in the
-//! one-rank formats, but for the checkpoints, which every rank writes its piece of
-//! ([`Pieces`]).
+//! serve its engine ([`crate::engine::ranks`]). The series and the summary are rank 0's,
+//! in the one-rank formats; every rank writes its piece of each frame ([`FramePieces`])
+//! and of each checkpoint ([`Pieces`]).
 
 use super::checkpoint::Pieces;
+use super::frames::FramePieces;
 use super::{Backend, RunError, RunOptions, budget, drive::drive};
 use crate::case::{CaseError, fnv1a};
 use crate::core::tensor::{D2, D3};
@@ -61,7 +62,7 @@ pub fn run_rank(
     comm: Arc<dyn Comm>,
     on_node: usize,
 ) -> Result<Option<RunSummary>, RunError> {
-    same_case(case, comm.as_ref())?;
+    same_case(case, opts, comm.as_ref())?;
     if let Some(why) = refusal(case, opts.backend) {
         return Err(RunError::Ranks(why));
     }
@@ -77,16 +78,17 @@ pub fn run_rank(
     })
 }
 
-/// Refuses ranks that read different cases (another file, other overrides).
-fn same_case(case: &Scene, comm: &dyn Comm) -> Result<(), RunError> {
-    let hash = fnv1a(format!("{:?}", case.case).as_bytes());
+/// Refuses ranks that read different cases (another file, other overrides) or write
+/// different outputs (frames on or off).
+fn same_case(case: &Scene, opts: &RunOptions, comm: &dyn Comm) -> Result<(), RunError> {
+    let hash = fnv1a(format!("{:?} {}", case.case, opts.frames).as_bytes());
     // The hash in two words, each exact in an f64.
     let mine = vec![(hash >> 32) as f64, (hash & 0xffff_ffff) as f64];
     let all = comm.all_gather(mine.clone());
     match all.iter().position(|w| *w != mine) {
         Some(r) => Err(RunError::Ranks(format!(
             "rank {r} read another case than rank {} ({}): give every rank the same case \
-             file and --set overrides",
+             file, --set overrides and --no-frames",
             comm.rank(),
             case.file.display()
         ))),
@@ -105,10 +107,15 @@ fn rank<D: EngineDim>(
     }
     let layers = case.spec.entry().halo_layers.expect("refusal checked it");
     let pieces = Box::new(Pieces::new(&opts.out_dir, case, comm.rank()));
+    let frames = opts.frames.then(|| {
+        let store = FramePieces::new(case, opts, comm.rank(), D::N);
+        Box::new(store) as Box<dyn crate::engine::ranks::FrameStore<D>>
+    });
     let start = RankStart {
         comm,
         layers,
         pieces,
+        frames,
     };
     let engine = case.spec.rank_engine::<D>(case, reference, start)?;
     if engine.is_leader() {

@@ -4,6 +4,7 @@
 //! but `run`); on one process it runs as usual.
 
 use crate::common::{case_file, cpu_options, load};
+use crate::frames::{Frame, read_frame};
 use meshless::distributed::{LAUNCHER_SIZES, Threads};
 use meshless::engine::ranks::PieceStore;
 use meshless::run::RunError;
@@ -103,29 +104,33 @@ fn one_and_many(
     (one, many)
 }
 
-/// The last frame of a run in `dir`.
+/// The last frame of a run in `dir`: whole (`.vtu`, one rank) or in pieces (`.pvtu`).
 fn last_frame(dir: &Path) -> PathBuf {
     let mut frames: Vec<PathBuf> = std::fs::read_dir(dir)
         .unwrap()
         .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "vtu"))
+        .filter(|p| p.extension().is_some_and(|e| e == "vtu" || e == "pvtu"))
         .collect();
     frames.sort();
     frames.pop().expect("a frame")
 }
 
-/// The last frame and the series of a run in `dir`, as bytes.
-fn final_state(dir: &Path) -> (String, Vec<u8>, Vec<u8>) {
+/// The last frame's name (without its extension) and its values in particle order, and
+/// the series, of a run in `dir`.
+fn final_state(dir: &Path) -> (String, Frame, Vec<u8>) {
     let frame = last_frame(dir);
-    let name = frame.file_name().unwrap().to_string_lossy().into_owned();
+    let name = frame.file_stem().unwrap().to_string_lossy().into_owned();
     let series = std::fs::read(dir.join("series.csv")).unwrap();
-    (name, std::fs::read(frame).unwrap(), series)
+    (name, read_frame(&frame), series)
 }
 
 /// A case on 2 and 3 ranks ends with the one-rank run's last frame and series, digit for
 /// digit: each rank's particles and their ghosts follow the one-rank arithmetic (rows in
 /// global order, ghosts' rates from their owners), and the sums over particles
-/// (energies, powers, reactions) are exact sums of the ranks' shares, rounded once.
+/// (energies, powers, reactions) are exact sums of the ranks' shares, rounded once. The
+/// ranks' pieces of the frame, put in particle order, hold the bits of the one-rank
+/// frame's every field (the hourglass indicator and the pressure deviation, which each
+/// rank evaluates from its neighbours' state, included) and its cells.
 fn assert_ranks_match_one(case: &str, overrides: &[&str]) {
     for ranks in [2, 3] {
         let (one, many) = one_and_many(case, overrides, ranks);
@@ -543,6 +548,69 @@ fn rank_zero_failing_to_write_ends_the_other_ranks() {
     let e = run_on_threads(&case, &cpu_options(&out, true), 3).unwrap_err();
     assert!(matches!(e, RunError::Output { .. }), "{e}");
     assert!(e.to_string().contains(&out.display().to_string()), "{e}");
+}
+
+#[test]
+fn a_rank_failing_to_write_its_piece_of_a_frame_ends_every_rank() {
+    // Rank 1's piece of the second frame cannot be written (a folder holds its name):
+    // the run fails on every rank with the error naming rank 1 and the piece, nothing
+    // waits, and the index lists only the frames written whole.
+    let dir = tempfile::tempdir().unwrap();
+    let blocked = dir.path().join("tensile-strip_000001/rank-00001.vtu");
+    std::fs::create_dir_all(blocked.join("x")).unwrap();
+    let case = load(
+        "tensile-strip",
+        &["run.end_time=2e-5", "output.frame_interval=1e-5"],
+    );
+    let e = run_on_threads(&case, &cpu_options(dir.path(), true), 3).unwrap_err();
+    let message = e.to_string();
+    assert!(matches!(e, RunError::Output { .. }), "{message}");
+    assert!(
+        message.contains("rank 1") && message.contains(&blocked.display().to_string()),
+        "{message}"
+    );
+    let index = std::fs::read_to_string(dir.path().join("tensile-strip.pvd")).unwrap();
+    assert!(index.contains("tensile-strip_000000.pvtu"), "{index}");
+    assert!(!index.contains("tensile-strip_000001"), "{index}");
+}
+
+#[test]
+fn a_new_run_removes_the_frames_an_earlier_run_wrote_in_pieces() {
+    // A run on 2 ranks leaves `.pvtu` indices and their folders of pieces; the next run
+    // of the case in the folder, on one rank, removes them with the index that lists
+    // them, and leaves another file alone.
+    let dir = tempfile::tempdir().unwrap();
+    let case = load(
+        "tensile-strip",
+        &["run.end_time=2e-5", "output.frame_interval=1e-5"],
+    );
+    run_on_threads(&case, &cpu_options(dir.path(), true), 2).unwrap();
+    let names = || -> Vec<String> {
+        let mut n: Vec<String> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        n.sort();
+        n
+    };
+    assert!(
+        names().contains(&"tensile-strip_000002.pvtu".to_string()),
+        "{:?}",
+        names()
+    );
+    assert!(
+        dir.path()
+            .join("tensile-strip_000002/rank-00001.vtu")
+            .is_file()
+    );
+    std::fs::write(dir.path().join("notes.txt"), "mine").unwrap();
+    meshless::run::run(&case, &cpu_options(dir.path(), true)).unwrap();
+    let left: Vec<String> = names()
+        .into_iter()
+        .filter(|n| n.contains("pvtu") || !n.contains('.'))
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
+    assert!(names().contains(&"notes.txt".to_string()));
 }
 
 #[test]

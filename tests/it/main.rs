@@ -18,6 +18,8 @@ mod distributed;
 mod dual_support;
 mod dual_support_cases;
 mod energy_balance;
+#[path = "../support/frames.rs"]
+mod frames;
 mod fuzz;
 mod galerkin;
 mod godunov;

@@ -158,7 +158,7 @@ pub trait MethodFamily: Sized {
         &self,
         case: &Case,
         _reference: Reference<D>,
-        _start: RankStart,
+        _start: RankStart<D>,
     ) -> RankBuild<D> {
         Err(case.invalid(
             "method.name",

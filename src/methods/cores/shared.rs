@@ -37,7 +37,7 @@ pub fn rank_engine<D: EngineDim, M: Method<D> + Build<D> + 'static>(
     case: &Case,
     spec: &M::Spec,
     reference: Reference<D>,
-    start: RankStart,
+    start: RankStart<D>,
 ) -> RankBuild<D>
 where
     M::State: ParticleRows,

@@ -126,7 +126,7 @@ impl MethodFamily for CorotatedSpec {
         &self,
         case: &Case,
         reference: Reference<D>,
-        start: RankStart,
+        start: RankStart<D>,
     ) -> RankBuild<D> {
         shared::rank_engine::<D, Corotated<D>>(case, self, reference, start)
     }

@@ -406,7 +406,7 @@ impl MethodFamily for DualSupportSpec {
         &self,
         case: &Case,
         reference: Reference<D>,
-        start: RankStart,
+        start: RankStart<D>,
     ) -> RankBuild<D> {
         shared::rank_engine::<D, DualSupportDynamics<D>>(case, self, reference, start)
     }

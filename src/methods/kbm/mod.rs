@@ -235,7 +235,7 @@ impl MethodFamily for KbmSpec {
         &self,
         case: &Case,
         reference: Reference<D>,
-        start: RankStart,
+        start: RankStart<D>,
     ) -> RankBuild<D> {
         match self.kernel_frame {
             KernelFrame::Lagrangian => {

@@ -560,7 +560,7 @@ impl<S: MixedMethod + 'static> MethodFamily for S {
         &self,
         case: &Case,
         reference: Reference<D>,
-        start: RankStart,
+        start: RankStart<D>,
     ) -> RankBuild<D> {
         shared::rank_engine::<D, MixedSph<D>>(case, self, reference, start)
     }

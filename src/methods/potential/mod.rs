@@ -99,7 +99,7 @@ impl MethodFamily for PotentialSpec {
         &self,
         case: &Case,
         reference: Reference<D>,
-        start: RankStart,
+        start: RankStart<D>,
     ) -> RankBuild<D> {
         shared::rank_engine::<D, Potential<D>>(case, self, reference, start)
     }

@@ -165,7 +165,7 @@ impl MethodFamily for TlsphSpec {
         &self,
         case: &Case,
         reference: Reference<D>,
-        start: RankStart,
+        start: RankStart<D>,
     ) -> RankBuild<D> {
         shared::rank_engine::<D, Tlsph<D>>(case, self, reference, start)
     }

@@ -195,6 +195,7 @@ fn elements_follow_the_vertex_cells() {
     let mesh = Mesh {
         corners: &[0, 1, 2, 3],
         dim: 2,
+        ghosts: None,
     };
     write_vtu(&path, &points, &[], 0.0, mesh).unwrap();
     let (header, tags, raw) = read_vtu(&path);
@@ -212,11 +213,71 @@ fn elements_follow_the_vertex_cells() {
     let bad = Mesh {
         corners: &[0, 1, 2, 4],
         dim: 2,
+        ghosts: None,
     };
     let other = dir.path().join("bad.vtu");
     let err = write_vtu(&other, &points, &[], 0.0, bad).unwrap_err();
     assert!(err.to_string().contains("point 4"), "{err}");
     assert!(!other.exists());
+}
+
+#[test]
+fn a_piece_flags_its_ghosts_and_gives_them_no_vertex_cell() {
+    // Four points, the last two another piece's corners of this piece's quadrilateral:
+    // two vertex cells and the quad (three cells), vtkGhostType 0, 0, 1, 1 after the
+    // fields; the parallel index declares the same arrays and lists the pieces.
+    let (dir, path) = scratch("piece.vtu");
+    let points = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [0.0, 1.0, 0.0],
+    ];
+    let ids = [4, 5, 9, 8];
+    let fields = [Field {
+        name: "id",
+        data: FieldData::Int(&ids),
+    }];
+    let mesh = Mesh {
+        corners: &[0, 1, 2, 3],
+        dim: 2,
+        ghosts: Some(2),
+    };
+    write_vtu(&path, &points, &fields, 0.5, mesh).unwrap();
+    let (header, tags, raw) = read_vtu(&path);
+    assert!(header.contains("NumberOfPoints=\"4\" NumberOfCells=\"3\""));
+    let data = |name: &str| {
+        let tag = tags.iter().find(|t| t.name == name).unwrap();
+        block(&raw, tag.offset).to_vec()
+    };
+    assert_eq!(data("vtkGhostType"), [0, 0, 1, 1]);
+    assert_eq!(decode_i64(&data("connectivity")), [0, 1, 0, 1, 2, 3]);
+    assert_eq!(decode_i64(&data("offsets")), [1, 2, 6]);
+    assert_eq!(data("types"), [VTK_VERTEX, VTK_VERTEX, VTK_QUAD]);
+    let index = dir.path().join("frame.pvtu");
+    let pieces = [
+        "frame/rank-00000.vtu".to_owned(),
+        "frame/rank-00001.vtu".to_owned(),
+    ];
+    super::write_pvtu(&index, &super::PieceArrays::of(&fields), &pieces).unwrap();
+    let xml = fs::read_to_string(&index).unwrap();
+    assert!(xml.contains("type=\"PUnstructuredGrid\""), "{xml}");
+    for line in [
+        "<PDataArray type=\"Int32\" Name=\"id\" NumberOfComponents=\"1\"/>",
+        "<PDataArray type=\"UInt8\" Name=\"vtkGhostType\" NumberOfComponents=\"1\"/>",
+        "<PDataArray type=\"Float64\" Name=\"Points\" NumberOfComponents=\"3\"/>",
+        "<Piece Source=\"frame/rank-00001.vtu\"/>",
+    ] {
+        assert!(xml.contains(line), "{line} in {xml}");
+    }
+    // More ghosts than points, and a piece outside the index's folder, are refused.
+    let too_many = Mesh {
+        ghosts: Some(5),
+        ..mesh
+    };
+    assert!(write_vtu(&path, &points, &[], 0.0, too_many).is_err());
+    let absolute = ["/tmp/piece.vtu".to_owned()];
+    assert!(super::write_pvtu(&index, &super::PieceArrays::of(&[]), &absolute).is_err());
 }
 
 #[test]

@@ -102,7 +102,7 @@ pub fn rank_engine<D: EngineDim>(
     case: &Case,
     spec: &(dyn TlSystem<D> + 'static),
     reference: Reference<D>,
-    start: RankStart,
+    start: RankStart<D>,
 ) -> RankBuild<D> {
     let system = spec.system(case, reference)?;
     let model = system.material.model;
@@ -145,7 +145,7 @@ macro_rules! tl_galerkin_engines {
             &self,
             case: &$crate::case::Case,
             reference: $crate::reference::Reference<D>,
-            start: $crate::engine::ranks::RankStart,
+            start: $crate::engine::ranks::RankStart<D>,
         ) -> $crate::methods::cores::family::RankBuild<D> {
             $crate::methods::cores::galerkin::rank_engine(case, self, reference, start)
         }
