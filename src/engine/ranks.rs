@@ -787,7 +787,7 @@ where
         let frames = (self.frames.as_mut()).ok_or("the run was started without frames")?;
         let state = self.engine.snapshot();
         let ex = &self.exchange;
-        frames.write(ex.comm.as_ref(), &ex.local, &state, frame, t)
+        frames.write(ex.comm.as_ref(), &ex.local, state, frame, t)
     }
 
     /// The balance's terms: the integrated powers and the steps' ends are the run's on

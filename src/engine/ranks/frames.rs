@@ -145,7 +145,7 @@ impl<D: Dim> FrameRank<D> {
         &mut self,
         comm: &dyn Comm,
         system: &Local,
-        state: &Snapshot<D>,
+        state: Snapshot<D>,
         frame: usize,
         t: f64,
     ) -> Result<u64, String> {
@@ -163,11 +163,12 @@ impl<D: Dim> FrameRank<D> {
         &mut self,
         comm: &dyn Comm,
         system: &Local,
-        state: &Snapshot<D>,
+        state: Snapshot<D>,
         frame: usize,
         t: f64,
     ) -> Result<u64, String> {
-        // The rows of the own particles, then those within reach from their owners.
+        // The rows of the own particles, then those within reach from their owners (each
+        // copy of the state dropped once read: a frame's memory is the rank's).
         let names: Vec<&'static str> = state.extra.iter().map(|e| e.name).collect();
         let (lv, lt) = (D::V::LEN, D::T::LEN);
         let mut rows = Rows::new(self.local.len(), 2 * lv + lt + 9 + names.len());
@@ -182,15 +183,18 @@ impl<D: Dim> FrameRank<D> {
             row.extend(state.extra.iter().map(|e| e.values[i]));
             rows.set_rows(&[k], &row);
         }
+        drop(state);
         self.local.refresh(comm, &mut rows);
         let every: Vec<u32> = (0..self.local.len() as u32).collect();
-        let all = unpack(&rows, &every, &self.all, &names);
-        let [eta, deviation] = self.store.derived(&all);
+        let [eta, deviation] = self
+            .store
+            .derived(&unpack(&rows, &every, &self.all, &names));
         // The own particles' derived fields, then the ghost corners' from their owners.
         let mut derived = Rows::new(self.local.len(), 2);
         for &k in &self.local.own {
             derived.set_rows(&[k], &[eta[k as usize], deviation[k as usize]]);
         }
+        drop((eta, deviation));
         self.local.refresh(comm, &mut derived);
         let mut piece = unpack(&rows, &self.points, &self.piece, &names);
         piece.cells = &self.cells;
