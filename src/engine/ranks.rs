@@ -441,6 +441,70 @@ fn gathered_sums(comm: &dyn Comm, sums: &[&Exact]) -> Option<Vec<Exact>> {
     Some(sum_over_ranks(&comm.gather(words)?, 0, sums.len()))
 }
 
+/// The words of particle i's state in a snapshot, as the ranks send them: u, v, F, σ
+/// (9 words) and the method's extra fields.
+fn put_state_row<D: Dim>(s: &Snapshot<D>, i: usize, out: &mut Vec<f64>) {
+    s.u[i].put(out);
+    s.v[i].put(out);
+    s.f[i].put(out);
+    out.extend(s.sigma[i].iter().flatten());
+    out.extend(s.extra.iter().map(|e| e.values[i]));
+}
+
+/// The words of [`put_state_row`] with `extra` extra fields.
+fn state_row_width<D: Dim>(extra: usize) -> usize {
+    2 * D::V::LEN + D::T::LEN + 9 + extra
+}
+
+/// Sets particle i's state in `s` from the words of [`put_state_row`].
+fn set_state_row<D: Dim>(s: &mut Snapshot<D>, i: usize, w: &[f64]) {
+    let (lv, lt) = (D::V::LEN, D::T::LEN);
+    s.u[i] = D::V::take(w);
+    s.v[i] = D::V::take(&w[lv..]);
+    s.f[i] = D::T::take(&w[2 * lv..]);
+    let sigma = &w[2 * lv + lt..];
+    for (k, r) in s.sigma[i].iter_mut().enumerate() {
+        r.copy_from_slice(&sigma[3 * k..3 * k + 3]);
+    }
+    for (e, &x) in s.extra.iter_mut().zip(&w[2 * lv + lt + 9..]) {
+        e.values[i] = x;
+    }
+}
+
+/// The names of a snapshot's extra fields.
+fn extra_names<D: Dim>(s: &Snapshot<D>) -> Vec<&'static str> {
+    s.extra.iter().map(|e| e.name).collect()
+}
+
+/// A snapshot of n particles of zero state on the reference arrays given, with the
+/// extra fields `names`, no cells and no quadrature points.
+fn zero_snapshot<'a, D: Dim>(
+    x0: &'a [D::V],
+    mass: &'a [f64],
+    body: &'a [u32],
+    names: &[&'static str],
+    n: usize,
+) -> Snapshot<'a, D> {
+    Snapshot {
+        x0,
+        mass,
+        body,
+        u: vec![D::zero(); n],
+        v: vec![D::zero(); n],
+        f: vec![D::zero_t(); n],
+        sigma: vec![[[0.0; 3]; 3]; n],
+        strain_energy: Exact::default(),
+        extra: (names.iter())
+            .map(|&name| ScalarField {
+                name,
+                values: vec![0.0; n],
+            })
+            .collect(),
+        cells: &[],
+        quadrature: None,
+    }
+}
+
 /// The engine of one rank: the method on its particles, an integrator and the exchange.
 pub struct RankEngine<D: Dim, M: Method<D>> {
     engine: CpuEngine<D, M>,
@@ -604,58 +668,24 @@ where
             let s = self.engine.snapshot();
             let mut words = Vec::new();
             for &i in &local.own {
-                let i = i as usize;
-                s.u[i].put(&mut words);
-                s.v[i].put(&mut words);
-                s.f[i].put(&mut words);
-                words.extend(s.sigma[i].iter().flatten());
-                words.extend(s.extra.iter().map(|e| e.values[i]));
+                put_state_row(&s, i as usize, &mut words);
             }
-            let names: Vec<&'static str> = s.extra.iter().map(|e| e.name).collect();
             let points = s.quadrature.as_ref().map(point_words::<D>);
-            (words, names, s.strain_energy, points)
+            (words, extra_names(&s), s.strain_energy, points)
         };
         let comm = self.exchange.comm.as_ref();
         let strain_energy = gathered_sums(comm, &[&energy]).map(|mut s| s.remove(0));
         let points = points.and_then(|w| comm.gather(w));
         let all = comm.gather(words)?;
-        let strain_energy = strain_energy.expect("rank 0 gathers");
-        let owned = &self.owned;
         let whole = self.whole.as_ref().expect("rank 0 holds the whole run");
-        let n = self.n;
-        let mut g = Snapshot {
-            x0: &whole.x0,
-            mass: &whole.mass,
-            body: &whole.body,
-            u: vec![D::zero(); n],
-            v: vec![D::zero(); n],
-            f: vec![D::zero_t(); n],
-            sigma: vec![[[0.0; 3]; 3]; n],
-            strain_energy,
-            extra: (names.iter())
-                .map(|&name| ScalarField {
-                    name,
-                    values: vec![0.0; n],
-                })
-                .collect(),
-            cells: &whole.cells,
-            quadrature: points.map(|all| gathered_points::<D>(&all)),
-        };
-        let (lv, lt) = (D::V::LEN, D::T::LEN);
-        let row = 2 * lv + lt + 9 + names.len();
-        for (ids, words) in owned.iter().zip(&all) {
-            for (&gid, w) in ids.iter().zip(words.chunks_exact(row)) {
-                let i = gid as usize;
-                g.u[i] = D::V::take(w);
-                g.v[i] = D::V::take(&w[lv..]);
-                g.f[i] = D::T::take(&w[2 * lv..]);
-                let sigma = &w[2 * lv + lt..];
-                for (k, r) in g.sigma[i].iter_mut().enumerate() {
-                    r.copy_from_slice(&sigma[3 * k..3 * k + 3]);
-                }
-                for (e, &x) in g.extra.iter_mut().zip(&w[row - names.len()..]) {
-                    e.values[i] = x;
-                }
+        let mut g = zero_snapshot(&whole.x0, &whole.mass, &whole.body, &names, self.n);
+        g.strain_energy = strain_energy.expect("rank 0 gathers");
+        g.cells = &whole.cells;
+        g.quadrature = points.map(|all| gathered_points::<D>(&all));
+        let width = state_row_width::<D>(names.len());
+        for (ids, words) in self.owned.iter().zip(&all) {
+            for (&gid, w) in ids.iter().zip(words.chunks_exact(width)) {
+                set_state_row(&mut g, gid as usize, w);
             }
         }
         Some(g)

@@ -119,7 +119,7 @@ impl Frames {
     }
 
     /// Whether frames are written at all.
-    pub(super) fn on(&self) -> bool {
+    fn on(&self) -> bool {
         self.index.is_some()
     }
 
@@ -187,6 +187,7 @@ impl Frames {
     /// Lists the frame `file` of `bytes` written at the clock's time in the index and
     /// takes the next frame time; after the first, checks the room for those to come.
     fn listed(&mut self, clock: &Clock, file: &str, bytes: u64) -> Result<(), RunError> {
+        self.remove_other_form()?;
         let index = self.index.as_mut().expect("frames are on");
         index
             .push(clock.t, file)
@@ -204,6 +205,27 @@ impl Frames {
 }
 
 impl Frames {
+    /// Removes the current frame in the form this run does not write (whole on one rank,
+    /// in pieces on several), which an earlier run resumed here wrote past its
+    /// checkpoint: a resumed run finds each frame it lists in one form only.
+    fn remove_other_form(&self) -> Result<(), RunError> {
+        let k = self.count;
+        let stale = match self.pieces {
+            true => vec![frame_file(&self.name, k)],
+            false => vec![index_file(&self.name, k), folder(&self.name, k)],
+        };
+        for name in stale {
+            let path = self.dir.join(name);
+            let removed = match std::fs::symlink_metadata(&path) {
+                Ok(m) if m.is_dir() => std::fs::remove_dir_all(&path),
+                Ok(_) => std::fs::remove_file(&path),
+                Err(_) => Ok(()),
+            };
+            removed.map_err(output_error(&path))?;
+        }
+        Ok(())
+    }
+
     /// The bytes of the frames still to come up to the end time in steps of `dt`, by the
     /// size of the last one written (each holds the same fields): those at the
     /// interval's times, at most one a step, and the last one at the end. None before the
@@ -287,9 +309,19 @@ fn index_file(name: &str, k: usize) -> String {
     format!("{name}_{k:06}.pvtu")
 }
 
-/// Rank r's piece of frame k of a case, in the frame's folder.
+/// The folder of the pieces of frame k of a case.
+fn folder(name: &str, k: usize) -> String {
+    format!("{name}_{k:06}")
+}
+
+/// The file of rank r's piece of a frame, in the frame's folder.
+fn piece_name(r: usize) -> String {
+    format!("rank-{r:05}.vtu")
+}
+
+/// Rank r's piece of frame k of a case.
 fn piece_file(name: &str, k: usize, r: usize) -> String {
-    format!("{name}_{k:06}/rank-{r:05}.vtu")
+    format!("{}/{}", folder(name, k), piece_name(r))
 }
 
 /// A rank's pieces of the frames of a case ([`FrameStore`]): `<name>_<k>/rank-<r>.vtu`,
@@ -342,12 +374,21 @@ impl<D: Dim> FrameStore<D> for FramePieces {
         let written = (path.parent())
             .map_or(Ok(()), std::fs::create_dir_all)
             .and_then(|()| write_frame::<D>(&path, piece, t, derived, self.constants, Some(of)));
-        let arrays = written.map_err(|e| format!("{}: {e}", path.display()))?;
-        self.arrays = Some(arrays);
+        self.arrays = written.map_err(|e| format!("{}: {e}", path.display()))?;
         Ok(std::fs::metadata(&path).map_or(0, |m| m.len()))
     }
 
     fn index(&mut self, frame: usize, ranks: usize) -> Result<(), String> {
+        // The pieces of ranks past this run's, left by an earlier run on more ranks.
+        let dir = self.dir.join(folder(&self.name, frame));
+        let ours: Vec<String> = (0..ranks).map(piece_name).collect();
+        for entry in std::fs::read_dir(&dir).into_iter().flatten().flatten() {
+            let name = entry.file_name().to_string_lossy().into_owned();
+            if name.starts_with("rank-") && name.ends_with(".vtu") && !ours.contains(&name) {
+                let stale = entry.path();
+                std::fs::remove_file(&stale).map_err(|e| format!("{}: {e}", stale.display()))?;
+            }
+        }
         let path = self.dir.join(index_file(&self.name, frame));
         let pieces: Vec<String> = (0..ranks)
             .map(|r| piece_file(&self.name, frame, r))
@@ -378,7 +419,7 @@ pub(super) fn next_frame_time(previous: f64, interval: f64, t: f64) -> f64 {
 /// plastic strain ε_p of a plastic material), which replace the derived field of the same
 /// name (a UL method's own density, a per-particle smoothing length); the method's
 /// elements, if it has them, as cells on the particles. A `piece` of a frame carries the
-/// particles' global ids and flags its ghosts; returns the arrays a piece holds.
+/// particles' global ids and flags its ghosts; for a piece, returns the arrays it holds.
 pub fn write_frame<D: Dim>(
     path: &Path,
     snap: &Snapshot<D>,
@@ -386,7 +427,7 @@ pub fn write_frame<D: Dim>(
     indicators: [&[f64]; 2],
     constants: FrameConstants,
     piece: Option<Piece>,
-) -> std::io::Result<PieceArrays> {
+) -> std::io::Result<Option<PieceArrays>> {
     let [eta, pressure_deviation] = indicators;
     let points: Vec<[f64; 3]> = snap
         .x0
@@ -506,7 +547,7 @@ pub fn write_frame<D: Dim>(
         ghosts: piece.map(|p| p.ghosts),
     };
     write_vtu(path, &points, &fields, t, mesh)?;
-    Ok(PieceArrays::of(&fields))
+    Ok(piece.map(|_| PieceArrays::of(&fields)))
 }
 
 /// A rank's piece of a frame: the global ids of its points, the last `ghosts` of which

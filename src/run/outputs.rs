@@ -105,11 +105,12 @@ impl<D: Dim> Callback<D> for Series {
 const INDEX_CAP: u64 = 256 << 20;
 
 /// Removes what an earlier run of the case `name` wrote into `dir`, and nothing else:
-/// the summary, the series, the checkpoint with its pieces and the iteration log (one run's files a
-/// folder), and the case's PVD index (`<name>.pvd`) with the frames it lists under the
-/// case's name (`<name>_*.vtu`, or `<name>_*.pvtu` with the folder of its pieces), so
-/// that no stale file of it is left beside the new run's. Another case's index and frames in the folder stay. Only a regular file is
-/// read as the index: a FIFO there is never waited on.
+/// the summary, the series, the checkpoint with its pieces and the iteration log (one
+/// run's files a folder), and the case's PVD index (`<name>.pvd`) with the frames it
+/// lists under the case's name (`<name>_*.vtu`, or `<name>_*.pvtu` with the folder of
+/// its pieces), so that no stale file of it is left beside the new run's. Another case's
+/// index and frames in the folder stay. Only a regular file is read as the index: a FIFO
+/// there is never waited on.
 pub(super) fn clear_previous_run(dir: &Path, name: &str) -> Result<(), RunError> {
     let remove = |path: &Path| match std::fs::remove_file(path) {
         Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(output_error(path)(e)),

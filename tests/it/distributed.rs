@@ -324,9 +324,14 @@ fn a_run_interrupted_on_ranks_resumes_on_any_rank_count_in_the_one_rank_state() 
                 assert!(steps[0].join(rank).is_file(), "{case}: no piece {rank}");
             }
         }
+        // A frame past the checkpoint in the other form, as a run killed after writing
+        // it leaves: the resumed run replaces it.
+        let stale = many.path().join(format!("{case}_000001.vtu"));
+        std::fs::write(&stale, "stale").unwrap();
         opts.stop = None;
         opts.resume = true;
         run_on_threads(&scene, &opts, resumed).unwrap();
+        assert!(!stale.exists(), "{case}: the stale frame is left");
         let (name_a, frame_a, series_a) = final_state(one.path());
         let (name_b, frame_b, series_b) = final_state(many.path());
         assert_eq!(name_a, name_b);
@@ -338,7 +343,30 @@ fn a_run_interrupted_on_ranks_resumes_on_any_rank_count_in_the_one_rank_state() 
             String::from_utf8(series_a).unwrap(),
             String::from_utf8(series_b).unwrap()
         );
+        // Every frame the index lists, those before the checkpoint as the stopped run
+        // wrote them (whole on one rank), the others in pieces.
+        let (listed_a, listed_b) = (listed(one.path()), listed(many.path()));
+        assert_eq!(listed_a.len(), listed_b.len(), "{case}");
+        for (k, (a, b)) in listed_a.iter().zip(&listed_b).enumerate() {
+            let whole = stopped == 1 && k == 0;
+            let form = if whole { "vtu" } else { "pvtu" };
+            assert_eq!(b.extension().unwrap(), form, "{case}: frame {k}");
+            assert!(read_frame(a) == read_frame(b), "{case}: frame {k} differs");
+        }
     }
+}
+
+/// The frames the PVD index of a run in `dir` lists, in order.
+fn listed(dir: &Path) -> Vec<PathBuf> {
+    let index = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.extension().is_some_and(|e| e == "pvd"))
+        .expect("an index");
+    let text = std::fs::read_to_string(index).unwrap();
+    (text.split("file=\"").skip(1))
+        .map(|t| dir.join(&t[..t.find('"').unwrap()]))
+        .collect()
 }
 
 #[test]

@@ -16,6 +16,15 @@ pub enum Values {
 }
 
 impl Values {
+    fn vtk_type(&self) -> &'static str {
+        match self {
+            Values::F64(_) => "Float64",
+            Values::I32(_) => "Int32",
+            Values::I64(_) => "Int64",
+            Values::U8(_) => "UInt8",
+        }
+    }
+
     fn as_i64(&self) -> Vec<i64> {
         match self {
             Values::I32(v) => v.iter().map(|&x| i64::from(x)).collect(),
@@ -52,11 +61,12 @@ pub struct Frame {
     pub cells: Vec<Vec<i64>>,
 }
 
-/// One `.vtu` file as written: its time, point arrays and cells (vertices left out), the
-/// cells' corners as indices of its points.
+/// One `.vtu` file as written: its time, point arrays, the points of its vertex cells
+/// and its other cells, the corners as indices of its points.
 struct Piece {
     time: Vec<u64>,
     points: BTreeMap<String, (usize, Values)>,
+    vertices: Vec<i64>,
     cells: Vec<Vec<i64>>,
 }
 
@@ -113,38 +123,67 @@ fn read_piece(path: &Path) -> Piece {
         take("offsets").as_i64(),
         take("types").as_i64(),
     );
-    let mut cells = Vec::new();
+    let (mut vertices, mut cells) = (Vec::new(), Vec::new());
     let mut start = 0;
     for (&end, &kind) in offsets.iter().zip(&types) {
-        if kind != 1 {
-            cells.push(connectivity[start as usize..end as usize].to_vec());
+        let corners = connectivity[start as usize..end as usize].to_vec();
+        match kind {
+            1 => vertices.extend(corners),
+            _ => cells.push(corners),
         }
         start = end;
     }
     Piece {
         time,
         points: arrays,
+        vertices,
         cells,
     }
 }
 
-/// The pieces a `.pvtu` index lists, beside it.
-fn sources(index: &Path) -> Vec<PathBuf> {
+/// The arrays of a piece's points: name, VTK type and components.
+type Declared = Vec<(String, String, usize)>;
+
+/// The pieces a `.pvtu` index lists, beside it, and the point arrays it declares.
+fn read_index(index: &Path) -> (Vec<PathBuf>, Declared) {
     let text = std::fs::read_to_string(index).unwrap();
     let dir = index.parent().unwrap();
-    text.split("<Piece Source=\"")
-        .skip(1)
+    let sources = (text.split("<Piece Source=\"").skip(1))
         .map(|s| dir.join(&s[..s.find('"').unwrap()]))
-        .collect()
+        .collect();
+    let mut declared: Declared = (text.split("<PDataArray").skip(1))
+        .map(|rest| {
+            let tag = &rest[..rest.find("/>").unwrap()];
+            let components = attribute(tag, "NumberOfComponents").parse().unwrap();
+            let (name, vtk_type) = (attribute(tag, "Name"), attribute(tag, "type"));
+            (name.to_string(), vtk_type.to_string(), components)
+        })
+        .collect();
+    declared.sort();
+    (sources, declared)
 }
 
 /// The frame at `path` (`.vtu` whole, or `.pvtu` in pieces) in particle order: a piece's
 /// own points (those that are no ghost) placed by their `id`, its cells' corners named by
-/// id. A particle in no piece, or in two, fails the read, as does a ghost point whose
-/// values differ from those of its particle in the piece that owns it.
+/// id. The read fails unless the ids found are 0..m once each, the index declares the
+/// arrays every piece holds, each own point has one vertex cell and a ghost none (a
+/// ghost flagged 1, a duplicate point), and a ghost point's values are those of its
+/// particle in the piece that owns it. A missing particle past the highest id found
+/// shows only against another frame.
 pub fn read_frame(path: &Path) -> Frame {
     let pieces: Vec<Piece> = match path.extension().and_then(|e| e.to_str()) {
-        Some("pvtu") => sources(path).iter().map(|p| read_piece(p)).collect(),
+        Some("pvtu") => {
+            let (sources, declared) = read_index(path);
+            let pieces: Vec<Piece> = sources.iter().map(|p| read_piece(p)).collect();
+            for (p, source) in pieces.iter().zip(&sources) {
+                let mut held: Declared = (p.points.iter())
+                    .map(|(name, (c, v))| (name.clone(), v.vtk_type().to_string(), *c))
+                    .collect();
+                held.sort();
+                assert_eq!(held, declared, "{} against its index", source.display());
+            }
+            pieces
+        }
         _ => vec![read_piece(path)],
     };
     let time = pieces[0].time.clone();
@@ -154,9 +193,17 @@ pub fn read_frame(path: &Path) -> Frame {
         assert_eq!(p.time, time, "the pieces' times");
         let id = p.points["id"].1.as_i64();
         let ghost = p.points.get("vtkGhostType").map(|g| g.1.as_i64());
+        if let Some(flags) = &ghost {
+            assert!(
+                flags.iter().all(|&g| g == 0 || g == 1),
+                "ghost flags {flags:?}"
+            );
+        }
         let mine: Vec<usize> = (0..id.len())
             .filter(|&i| ghost.as_ref().is_none_or(|f| f[i] == 0))
             .collect();
+        let vertices: Vec<usize> = p.vertices.iter().map(|&v| v as usize).collect();
+        assert_eq!(vertices, mine, "one vertex cell an own point, none a ghost");
         ids.extend(mine.iter().map(|&i| id[i]));
         own.push(mine);
         let corners = |c: &Vec<i64>| c.iter().map(|&i| id[i as usize]).collect::<Vec<_>>();

@@ -4,12 +4,13 @@
 //! evaluated on the rank from the state of its neighbours on other ranks, which it
 //! receives for the frame ([`FrameRank`]).
 
-use super::{Whole, agree};
+use super::{
+    Whole, agree, extra_names, put_state_row, set_state_row, state_row_width, zero_snapshot,
+};
 use crate::core::neighbour::{self, Csr};
 use crate::core::parallel::ParticleRows;
-use crate::core::sum::Exact;
-use crate::core::tensor::{Dim, Words};
-use crate::diagnostics::observe::{ScalarField, Snapshot};
+use crate::core::tensor::Dim;
+use crate::diagnostics::observe::Snapshot;
 use crate::distributed::{Collectives, Comm, Local, Partition};
 
 /// Where the ranks write their pieces of the frames: the run's files
@@ -46,12 +47,12 @@ pub struct FrameRank<D: Dim> {
     /// The rank's own particles and those it receives for a frame.
     local: Local,
     /// The reference arrays of the local particles.
-    all: Reference<D>,
+    all: Arrays<D>,
     /// The local indices of the piece's points: the own particles, then the other ranks'
     /// corners of the piece's cells, each ascending.
     points: Vec<u32>,
     /// The reference arrays of the piece's points.
-    piece: Reference<D>,
+    piece: Arrays<D>,
     /// Their global ids.
     ids: Vec<u32>,
     /// How many of `points` are other ranks'.
@@ -62,13 +63,13 @@ pub struct FrameRank<D: Dim> {
 }
 
 /// The reference arrays of some of the run's particles.
-struct Reference<D: Dim> {
+struct Arrays<D: Dim> {
     x0: Vec<D::V>,
     mass: Vec<f64>,
     body: Vec<u32>,
 }
 
-impl<D: Dim> Reference<D> {
+impl<D: Dim> Arrays<D> {
     /// Those of the particles `ids` of `whole`.
     fn of(whole: &Whole<D>, ids: &[u32]) -> Self {
         let ids = ids.iter().map(|&g| g as usize);
@@ -126,8 +127,8 @@ impl<D: Dim> FrameRank<D> {
         }
         let ids: Vec<u32> = points.iter().map(|&i| local.ids[i as usize]).collect();
         Self {
-            all: Reference::of(whole, &local.ids),
-            piece: Reference::of(whole, &ids),
+            all: Arrays::of(whole, &local.ids),
+            piece: Arrays::of(whole, &ids),
             cells: cells.iter().map(|&i| in_piece[i as usize]).collect(),
             ghosts: corners.len(),
             ids,
@@ -169,18 +170,13 @@ impl<D: Dim> FrameRank<D> {
     ) -> Result<u64, String> {
         // The rows of the own particles, then those within reach from their owners (each
         // copy of the state dropped once read: a frame's memory is the rank's).
-        let names: Vec<&'static str> = state.extra.iter().map(|e| e.name).collect();
-        let (lv, lt) = (D::V::LEN, D::T::LEN);
-        let mut rows = Rows::new(self.local.len(), 2 * lv + lt + 9 + names.len());
+        let names = extra_names(&state);
+        let mut rows = Rows::new(self.local.len(), state_row_width::<D>(names.len()));
         let mut row = Vec::with_capacity(rows.width);
         for (&i, &k) in system.own.iter().zip(&self.local.own) {
-            let i = i as usize;
+            debug_assert_eq!(system.ids[i as usize], self.local.ids[k as usize]);
             row.clear();
-            state.u[i].put(&mut row);
-            state.v[i].put(&mut row);
-            state.f[i].put(&mut row);
-            row.extend(state.sigma[i].iter().flatten());
-            row.extend(state.extra.iter().map(|e| e.values[i]));
+            put_state_row(&state, i as usize, &mut row);
             rows.set_rows(&[k], &row);
         }
         drop(state);
@@ -213,37 +209,14 @@ impl<D: Dim> FrameRank<D> {
 fn unpack<'a, D: Dim>(
     rows: &Rows,
     which: &[u32],
-    at: &'a Reference<D>,
+    at: &'a Arrays<D>,
     names: &[&'static str],
 ) -> Snapshot<'a, D> {
-    let (lv, lt) = (D::V::LEN, D::T::LEN);
-    let row = |i: u32| rows.row(i);
-    let sigma = |w: &[f64]| std::array::from_fn(|k| std::array::from_fn(|l| w[3 * k + l]));
-    Snapshot {
-        x0: &at.x0,
-        mass: &at.mass,
-        body: &at.body,
-        u: which.iter().map(|&i| D::V::take(row(i))).collect(),
-        v: which.iter().map(|&i| D::V::take(&row(i)[lv..])).collect(),
-        f: which
-            .iter()
-            .map(|&i| D::T::take(&row(i)[2 * lv..]))
-            .collect(),
-        sigma: (which.iter())
-            .map(|&i| sigma(&row(i)[2 * lv + lt..]))
-            .collect(),
-        strain_energy: Exact::default(),
-        extra: (names.iter().enumerate())
-            .map(|(e, &name)| ScalarField {
-                name,
-                values: (which.iter())
-                    .map(|&i| row(i)[2 * lv + lt + 9 + e])
-                    .collect(),
-            })
-            .collect(),
-        cells: &[],
-        quadrature: None,
+    let mut s = zero_snapshot(&at.x0, &at.mass, &at.body, names, which.len());
+    for (k, &i) in which.iter().enumerate() {
+        set_state_row(&mut s, k, rows.row(i));
     }
+    s
 }
 
 /// Rows of equal width, one a local particle, in one array.
