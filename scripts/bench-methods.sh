@@ -97,8 +97,8 @@ elif $count; then
     echo "| method | particles | pairs/particle | rate evaluations/step | instructions/particle-step | instructions per pair and evaluation | f64 operations per pair and evaluation | instructions per f64 operation |"
     echo "|---|---|---|---|---|---|---|---|"
 else
-    echo "| method | backend | particles | steps | set-up [s] | particle-steps/s | rate evaluations/s | neighbours [% of steps] | pairs/particle | ns per pair | bytes/particle-step | GB/s | of triad |"
-    echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    echo "| method | backend | particles | steps | set-up [s] | particle-steps/s | rate evaluations/s | neighbours [% of steps] | pairs/particle | ns per pair | device B/particle | bytes/particle-step | GB/s | of triad |"
+    echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 fi
 bench tlsph "$steps" "$plate"
 bench tlsph-hypoelastic "$steps" "$plate" --set material.model=hypoelastic

@@ -34,6 +34,9 @@ pub struct BenchRow {
     /// On the CPU, the pairs per particle a rate evaluation loops over
     /// (`Engine::pairs_per_particle`).
     pub pairs_per_particle: Option<f64>,
+    /// On the GPU, the bytes of the device buffers the engine made by the end of its
+    /// warm-up step ([`crate::gpu::Gpu::allocated`]).
+    pub device_bytes: Option<u64>,
 }
 
 impl BenchRow {
@@ -50,11 +53,16 @@ impl BenchRow {
             .map(|pairs| 1.0 / (self.rate_evaluations_per_second * pairs))
     }
 
-    pub const HEADER: &'static str = "case,backend,particles,steps,setup_s,seconds,particle_steps_per_s,rate_evaluations_per_s,neighbour_share,pairs_per_particle,ns_per_pair,bytes_per_particle_step";
+    /// The device bytes per particle.
+    pub fn device_bytes_per_particle(&self) -> Option<f64> {
+        (self.device_bytes).map(|b| b as f64 / self.particles.max(1) as f64)
+    }
+
+    pub const HEADER: &'static str = "case,backend,particles,steps,setup_s,seconds,particle_steps_per_s,rate_evaluations_per_s,neighbour_share,pairs_per_particle,ns_per_pair,bytes_per_particle_step,device_bytes";
 
     pub fn csv(&self) -> String {
         format!(
-            "{},{},{},{},{:.6},{:.6},{:.6e},{:.6e},{},{},{},{}",
+            "{},{},{},{},{:.6},{:.6},{:.6e},{:.6e},{},{},{},{},{}",
             self.case,
             self.backend.replace(',', ";"),
             self.particles,
@@ -70,7 +78,8 @@ impl BenchRow {
             self.seconds_per_pair()
                 .map_or(String::new(), |s| format!("{:.3}", s * 1e9)),
             self.traffic
-                .map_or(String::new(), |t| format!("{:.0}", t.bytes_per_particle))
+                .map_or(String::new(), |t| format!("{:.0}", t.bytes_per_particle)),
+            self.device_bytes.map_or(String::new(), |b| b.to_string())
         )
     }
 }
@@ -135,6 +144,10 @@ fn time_steps<D: EngineDim, E: Engine<D>>(
         .map_err(|f| blow_up(case, f.cause))?;
     engine.finish();
     let setup_seconds = started.elapsed().as_secs_f64();
+    #[cfg(feature = "gpu")]
+    let device_bytes = engine.device().map(|(gpu, _)| gpu.allocated());
+    #[cfg(not(feature = "gpu"))]
+    let device_bytes = None;
     let neighbours_before = engine.neighbour_seconds();
     let timer = Instant::now();
     let mut done = 0;
@@ -173,6 +186,7 @@ fn time_steps<D: EngineDim, E: Engine<D>>(
         passes,
         traffic: engine.traffic(),
         pairs_per_particle: engine.pairs_per_particle(),
+        device_bytes,
     })
 }
 

@@ -728,10 +728,10 @@ fn bench_command(
         ""
     };
     println!(
-        "| case | backend | particles | steps | set-up [s] | particle-steps/s | rate evaluations/s | neighbours [% of steps] | pairs/particle | ns per pair |{roofline_header}"
+        "| case | backend | particles | steps | set-up [s] | particle-steps/s | rate evaluations/s | neighbours [% of steps] | pairs/particle | ns per pair | device B/particle |{roofline_header}"
     );
     println!(
-        "|---|---|---|---|---|---|---|---|---|---|{}",
+        "|---|---|---|---|---|---|---|---|---|---|---|{}",
         "---|".repeat(3 * usize::from(roofline))
     );
     let dash = || "–".to_string();
@@ -762,7 +762,7 @@ fn bench_command(
                         )
                     });
                     println!(
-                        "| {} | {} | {} | {} | {:.2} | {:.3e} | {:.3e} | {} | {} | {} |{fractions}",
+                        "| {} | {} | {} | {} | {:.2} | {:.3e} | {:.3e} | {} | {} | {} | {} |{fractions}",
                         r.case,
                         r.backend,
                         r.particles,
@@ -776,6 +776,8 @@ fn bench_command(
                             .map_or_else(dash, |p| format!("{p:.1}")),
                         r.seconds_per_pair()
                             .map_or_else(dash, |s| format!("{:.2}", s * 1e9)),
+                        r.device_bytes_per_particle()
+                            .map_or_else(dash, |b| format!("{b:.0}")),
                     );
                     rows.push(r);
                 }

@@ -7,6 +7,7 @@ use bytemuck::Pod;
 use encase::ShaderType;
 use encase::internal::WriteInto;
 use std::borrow::Cow;
+use std::collections::BTreeMap;
 use std::sync::Mutex;
 use thiserror::Error;
 use wgpu::util::DeviceExt;
@@ -382,6 +383,8 @@ pub struct Gpu {
     pub(crate) profiler: Mutex<Option<Profiler>>,
     /// The copy bandwidth, once measured [B/s].
     pub(crate) copy: Mutex<Option<f64>>,
+    /// The bytes of the buffers made so far, by label ([`Gpu::allocated`]).
+    ledger: Mutex<BTreeMap<String, u64>>,
 }
 
 impl Gpu {
@@ -439,6 +442,7 @@ impl Gpu {
             limits,
             profiler: Mutex::new(None),
             copy: Mutex::new(None),
+            ledger: Mutex::new(BTreeMap::new()),
         })
     }
 
@@ -463,6 +467,25 @@ impl Gpu {
         Ok(())
     }
 
+    /// The bytes of the buffers made on this device so far, but for the read-back and
+    /// profiling buffers, which live for one copy: what a run's set-up allocated, read
+    /// after it. A buffer made again (a list that grew) counts each time.
+    pub fn allocated(&self) -> u64 {
+        self.allocations().values().sum()
+    }
+
+    /// [`Self::allocated`] by buffer label.
+    pub fn allocations(&self) -> BTreeMap<String, u64> {
+        self.ledger.lock().expect("the ledger").clone()
+    }
+
+    /// Books `buffer`, made under `label`, in the ledger.
+    fn booked(&self, label: &str, buffer: wgpu::Buffer) -> wgpu::Buffer {
+        let mut ledger = self.ledger.lock().expect("the ledger");
+        *ledger.entry(label.to_owned()).or_default() += buffer.size();
+        buffer
+    }
+
     /// A storage buffer holding `data` (at least 4 bytes, so empty fields still bind).
     pub fn storage<T: Pod>(&self, label: &str, data: &[T]) -> wgpu::Buffer {
         let bytes: &[u8] = bytemuck::cast_slice(data);
@@ -471,18 +494,25 @@ impl Gpu {
         } else {
             Cow::Borrowed(bytes)
         };
-        self.device
+        let buffer = self
+            .device
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
                 contents: &contents,
                 usage: wgpu::BufferUsages::STORAGE
                     | wgpu::BufferUsages::COPY_SRC
                     | wgpu::BufferUsages::COPY_DST,
-            })
+            });
+        self.booked(label, buffer)
     }
 
     /// A zero-filled storage buffer of `bytes` (at least 4).
     pub fn zeroed(&self, label: &str, bytes: u64) -> wgpu::Buffer {
+        self.booked(label, self.scratch(label, bytes))
+    }
+
+    /// [`Self::zeroed`] without booking it: a buffer that lives for one measurement.
+    pub(crate) fn scratch(&self, label: &str, bytes: u64) -> wgpu::Buffer {
         self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some(label),
             size: bytes.max(4).next_multiple_of(4),
@@ -493,14 +523,28 @@ impl Gpu {
         })
     }
 
+    /// A zero-filled buffer of `bytes` that a pass writes and an indirect dispatch reads
+    /// its workgroup counts from.
+    pub fn indirect(&self, label: &str, bytes: u64) -> wgpu::Buffer {
+        let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: bytes.max(4).next_multiple_of(4),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT,
+            mapped_at_creation: false,
+        });
+        self.booked(label, buffer)
+    }
+
     /// A uniform buffer holding `value`, laid out by WGSL's uniform rules.
     pub fn uniform<T: ShaderType + WriteInto>(&self, label: &str, value: &T) -> wgpu::Buffer {
-        self.device
+        let buffer = self
+            .device
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
                 contents: &uniform_bytes(value),
                 usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            })
+            });
+        self.booked(label, buffer)
     }
 
     /// Writes `value` over the uniform buffer `buffer` (made by [`Gpu::uniform`]).

@@ -331,12 +331,7 @@ impl CellList {
             .collect();
         let full: Vec<u32> = groups.iter().flat_map(|&(x, y)| [x, y, 1]).collect();
         let full = gpu.storage("build workgroups", &full);
-        let args = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("build workgroups due"),
-            size: full.size(),
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT,
-            mapped_at_creation: false,
-        });
+        let args = gpu.indirect("build workgroups due", full.size());
         let params = CellParams {
             drift2: (drift * drift) as f32,
             dispatches: groups.len() as u32,

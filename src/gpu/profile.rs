@@ -225,8 +225,8 @@ impl Gpu {
             .pipeline("copy", &text, "copy")
             .expect("copy.wgsl compiles (validated by the shader tests)");
         let (src, dst) = (
-            self.zeroed("copy src", bytes),
-            self.zeroed("copy dst", bytes),
+            self.scratch("copy src", bytes),
+            self.scratch("copy dst", bytes),
         );
         let bind = self
             .bind(&pipeline, &[("src", &src), ("dst", &dst)])

@@ -607,3 +607,50 @@ fn the_galerkin_report_has_its_points_nodes_and_smoothing_passes() {
         assert_eq!(report.rows.len(), expected.len(), "{name}:\n{report}");
     }
 }
+
+#[test]
+fn the_ledger_books_every_buffer_the_device_keeps() {
+    // A storage buffer of 100 f32, a zeroed one of 10 bytes (made 12, a multiple of 4)
+    // and an indirect one of 12 are booked at their sizes; a read-back's staging buffer,
+    // which lives for one copy, is not.
+    let gpu = crate::common::gpu();
+    let before = gpu.allocated();
+    let a = gpu.storage("ledger a", &[1.0f32; 100]);
+    let _b = gpu.zeroed("ledger b", 10);
+    let _c = gpu.indirect("ledger c", 12);
+    assert_eq!(gpu.read::<f32>(&a), vec![1.0; 100]);
+    let book = gpu.allocations();
+    assert_eq!(
+        [book["ledger a"], book["ledger b"], book["ledger c"]],
+        [400, 12, 12]
+    );
+    assert_eq!(gpu.allocated(), before + 424);
+}
+
+#[test]
+fn the_device_memory_of_a_run_is_within_the_case_estimate() {
+    // `meshless check` refuses a case by its estimate (`budget::Estimate`, per particle
+    // and per pair constants); the device bytes each GPU core allocates for a shipped case
+    // (after its set-up and a warm-up step, `Gpu::allocated`) must not pass the estimate's
+    // device share, or a case that does not fit would pass the check. TLSPH, Upwind-SPH
+    // in 2D and 3D, the FEM and Gray–Monaghan's lists that follow the particles.
+    for name in [
+        "rotating-disk",
+        "swinging-plate",
+        "twisting-column",
+        "rotating-disk-fem",
+        "rotating-disk-gray-monaghan",
+    ] {
+        let case = crate::common::shipped(name);
+        let estimate = meshless::run::Estimate::of(&case).unwrap();
+        let row = measure(&case, Backend::Gpu, 1).unwrap();
+        let used = row.device_bytes.expect("a GPU engine books its buffers") as f64;
+        assert!(
+            used > 0.0 && used <= estimate.device_bytes,
+            "{name}: {used:.3e} bytes on the device, estimate {:.3e} ({} particles, {:.3e} pairs)",
+            estimate.device_bytes,
+            row.particles,
+            estimate.pairs
+        );
+    }
+}

@@ -115,12 +115,7 @@ impl DeviceCorrector {
         let mut words = vec![0u32; control_words];
         words[FAILED as usize] = u32::MAX;
         let control = gpu.storage("corrector control", &words);
-        let args = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("corrector workgroups"),
-            size: 12,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT,
-            mapped_at_creation: false,
-        });
+        let args = gpu.indirect("corrector workgroups", 12);
         let saved_state = gpu.zeroed("state at the batch start", state_bytes);
         let saved_flags = gpu.zeroed("failure flags at the batch start", 16);
         let mut full = table.to_vec();
