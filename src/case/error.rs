@@ -34,4 +34,11 @@ pub enum CaseError {
     /// The run cannot be split among its ranks (more ranks than particles).
     #[error("{file}: {reason}")]
     Ranks { file: PathBuf, reason: String },
+    /// An environment variable the run reads has a value it cannot use.
+    #[error("{variable}={value}: {message}")]
+    Environment {
+        variable: &'static str,
+        value: String,
+        message: String,
+    },
 }

@@ -145,9 +145,89 @@ pub fn available_memory() -> Option<f64> {
     Some(kib * 1024.0)
 }
 
+/// The variable that states the GPU's memory, which wgpu does not report: bytes, or a
+/// number with a unit (`80GB`, `141 GB`, `24GiB`, `512MiB`).
+pub const DEVICE_MEMORY_ENV: &str = "MESHLESS_DEVICE_MEMORY";
+
+/// The device memory `MESHLESS_DEVICE_MEMORY` states [bytes], None when it is not set.
+fn device_memory() -> Result<Option<f64>, CaseError> {
+    let Ok(value) = std::env::var(DEVICE_MEMORY_ENV) else {
+        return Ok(None);
+    };
+    parse_bytes(&value)
+        .map(Some)
+        .ok_or_else(|| CaseError::Environment {
+            variable: DEVICE_MEMORY_ENV,
+            value,
+            message: "give the GPU's memory as bytes or with a unit: B, kB, MB, GB, TB \
+                      (powers of 1000) or KiB, MiB, GiB, TiB (powers of 1024), e.g. 80GB"
+                .into(),
+        })
+}
+
+/// A positive size in bytes: a number, then an optional unit of [`DEVICE_MEMORY_ENV`].
+fn parse_bytes(text: &str) -> Option<f64> {
+    let text = text.trim();
+    let split = text
+        .find(|c: char| c.is_ascii_alphabetic() && c != 'e' && c != 'E')
+        .unwrap_or(text.len());
+    let (number, unit) = text.split_at(split);
+    let scale = match unit.trim() {
+        "" | "B" => 1.0,
+        "kB" | "KB" => 1e3,
+        "MB" => 1e6,
+        "GB" => 1e9,
+        "TB" => 1e12,
+        "KiB" => 1024.0,
+        "MiB" => 1024.0f64.powi(2),
+        "GiB" => 1024.0f64.powi(3),
+        "TiB" => 1024.0f64.powi(4),
+        _ => return None,
+    };
+    let bytes = number.trim().parse::<f64>().ok()? * scale;
+    (bytes.is_finite() && bytes > 0.0).then_some(bytes)
+}
+
+/// Refuses a GPU run whose estimated device share passes the memory
+/// `MESHLESS_DEVICE_MEMORY` states, naming the spacing that would fit.
+fn check_device(case: &Scene, estimate: &Estimate) -> Result<(), CaseError> {
+    let Some(memory) = device_memory()? else {
+        return Ok(());
+    };
+    if estimate.device_bytes <= memory {
+        return Ok(());
+    }
+    // Particles and pairs scale together with the spacing to the power −d.
+    let ratio = estimate.device_bytes / memory;
+    let fits = estimate.particles / ratio;
+    let spacing = case.spacing * ratio.powf(1.0 / case.dim() as f64);
+    Err(case.invalid(
+        particle_key(case, estimate),
+        format!(
+            "gives about {:.3e} particles and {:.3e} neighbour pairs, which need about {} \
+             of GPU memory, and {DEVICE_MEMORY_ENV} says the device has {}: about {fits:.3e} \
+             particles fit, at `spacing` ≥ {spacing:.4e} (now {:e}); or run on the CPU",
+            estimate.particles,
+            estimate.pairs,
+            size(estimate.device_bytes),
+            size(memory),
+            case.spacing
+        ),
+    ))
+}
+
+/// Bytes in GiB, MiB or KiB, whichever shows them with at least one whole unit.
+fn size(bytes: f64) -> String {
+    match bytes {
+        b if b >= GIB => gib(b),
+        b if b >= 1024.0 * 1024.0 => format!("{:.3} MiB", b / (1024.0 * 1024.0)),
+        b => format!("{:.3} KiB", b / 1024.0),
+    }
+}
+
 /// Refuses a case whose estimate passes the particle cap or the machine's available
-/// memory on `gpu` or the CPU, or whose step count passes the step cap; returns the
-/// estimate otherwise.
+/// memory on `gpu` or the CPU, the device memory `MESHLESS_DEVICE_MEMORY` states on the
+/// GPU, or whose step count passes the step cap; returns the estimate otherwise.
 pub fn check(case: &Scene, gpu: bool, limits: &Limits) -> Result<Estimate, CaseError> {
     check_copies(case, gpu, limits, 1)
 }
@@ -188,6 +268,9 @@ fn check_copies(
                 estimate.visited, limits.max_particles, case.spacing
             ),
         ));
+    }
+    if gpu {
+        check_device(case, &estimate)?;
     }
     let (one, backend) = if gpu {
         (
@@ -329,6 +412,20 @@ mod tests {
     use crate::case::{Lattice, discretise};
     use crate::core::tensor::{D2, D3};
     use crate::scene::validate::minimal_case;
+
+    #[test]
+    fn a_stated_device_memory_reads_bytes_and_units() {
+        // Decimal and binary units, a space before the unit, an exponent; nothing else.
+        assert_eq!(parse_bytes("80GB"), Some(80e9));
+        assert_eq!(parse_bytes("141 GB"), Some(141e9));
+        assert_eq!(parse_bytes("24GiB"), Some(24.0 * 1024f64.powi(3)));
+        assert_eq!(parse_bytes("512MiB"), Some(512.0 * 1024f64.powi(2)));
+        assert_eq!(parse_bytes("1.5e9"), Some(1.5e9));
+        assert_eq!(parse_bytes("4096"), Some(4096.0));
+        for bad in ["", "GB", "-1GB", "0", "80 gigabytes", "inf", "1e400"] {
+            assert_eq!(parse_bytes(bad), None, "{bad}");
+        }
+    }
 
     #[test]
     fn the_estimate_counts_a_box_exactly_and_a_disk_within_a_few_percent() {

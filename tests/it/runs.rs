@@ -669,6 +669,49 @@ fn check_builds_a_case_without_running_it() {
 }
 
 #[test]
+fn a_case_past_the_stated_device_memory_is_refused_before_any_buffer() {
+    // MESHLESS_DEVICE_MEMORY states the GPU's memory, which wgpu does not report. The
+    // strip (441 particles, about 0.5 MB on the device by the estimate) does not fit in
+    // 64 kB: `check --backend gpu` exits 2 naming the variable and a spacing that fits,
+    // before an adapter is opened; a malformed value is refused naming the variable; in
+    // 1 GB it fits, and the CPU backend ignores the variable.
+    let exe = env!("CARGO_BIN_EXE_meshless");
+    let check = |memory: &str, backend: &str| {
+        Command::new(exe)
+            .args(["check", "tensile-strip", "--backend", backend])
+            .env("MESHLESS_DEVICE_MEMORY", memory)
+            .env("MESHLESS_ADAPTER", "no adapter has this name")
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .output()
+            .unwrap()
+    };
+    let small = check("64kB", "gpu");
+    let stderr = String::from_utf8_lossy(&small.stderr);
+    assert_eq!(small.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("MESHLESS_DEVICE_MEMORY says the device has")
+            && stderr.contains("key `spacing`")
+            && stderr.contains("particles fit"),
+        "{stderr}"
+    );
+    let bad = check("lots", "gpu");
+    let stderr = String::from_utf8_lossy(&bad.stderr);
+    assert_eq!(bad.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("MESHLESS_DEVICE_MEMORY=lots"), "{stderr}");
+    let cpu = check("64kB", "cpu");
+    assert!(
+        cpu.status.success(),
+        "{}",
+        String::from_utf8_lossy(&cpu.stderr)
+    );
+    // In 1 GB the estimate fits: the check goes on to open the adapter, which the
+    // name given does not match (its error, not the memory's).
+    let fits = check("1GB", "gpu");
+    let stderr = String::from_utf8_lossy(&fits.stderr);
+    assert!(!stderr.contains("MESHLESS_DEVICE_MEMORY"), "{stderr}");
+}
+
+#[test]
 fn runs_that_would_not_fit_or_never_end_are_refused_at_once() {
     // The inputs that grew to 4 GB and aborted (spacing 1e-6), wrapped the particle count
     // to zero (1e-300) or ran forever (Δt = 1e-300, an end time of 1e300, CFL 1e-12):
