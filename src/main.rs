@@ -826,13 +826,20 @@ fn check_command(cases: &[String], backend: Backend, set: &[String], limits: &Li
                 Ok((case, particles, estimate))
             });
         match built {
-            Ok((case, particles, estimate)) => println!(
-                "{}: ok ({}D, {particles} particles, {}; estimated {})",
-                path.display(),
-                case.dimension,
-                case.method.name,
-                estimate.describe()
-            ),
+            Ok((case, particles, estimate)) => {
+                let gpu = meshless::run::may_use_gpu(&case, backend);
+                println!(
+                    "{}: ok ({}D, {particles} particles, {}; estimated {})",
+                    path.display(),
+                    case.dimension,
+                    case.method.name,
+                    estimate.describe(gpu)
+                );
+                #[cfg(feature = "gpu")]
+                if let Some(table) = estimate.device_table().filter(|_| gpu) {
+                    print!("device buffers:\n{table}");
+                }
+            }
             Err(e) => {
                 eprintln!("error: {e}");
                 return exit_code(&e);

@@ -5,6 +5,7 @@
 pub mod bytes;
 pub mod context;
 pub mod layout;
+pub mod memory;
 pub mod neighbour;
 pub mod profile;
 pub mod program;

@@ -18,6 +18,7 @@
 
 use super::context::{Gpu, GpuError, Pipeline, Vec3, WORKGROUP};
 use super::layout::GpuDim;
+use super::memory::DeviceMemory;
 use super::shaders::{CELL_LIST, Constants, SCAN, compose};
 use crate::core::tensor::D2;
 use encase::ShaderType;
@@ -66,6 +67,27 @@ impl CellParams {
         n: u32,
         radius: f64,
     ) -> Result<Self, GpuError> {
+        let (cell, dims) = Self::cells(dim, lo, hi, n, radius);
+        let ncells = dims.iter().product::<u64>();
+        gpu.check_size("cell list", (ncells + 1) * 4)?;
+        let mut origin = [0.0f32; 3];
+        for k in 0..dim {
+            origin[k] = lo[k] as f32;
+        }
+        Ok(Self {
+            origin: Vec3(origin),
+            inv_cell: (1.0 / cell) as f32,
+            dims: Vec3(dims.map(|d| d as u32)),
+            n,
+            radius2: (radius * radius) as f32,
+            ncells: ncells as u32,
+            drift2: 0.0,
+            dispatches: 0,
+        })
+    }
+
+    /// The cell edge and the cells along each axis of the grid of [`Self::new`].
+    pub fn cells(dim: usize, lo: [f64; 3], hi: [f64; 3], n: u32, radius: f64) -> (f64, [u64; 3]) {
         let mut extent = [0.0f64; 3];
         for k in 0..dim {
             extent[k] = (hi[k] - lo[k]).max(0.0);
@@ -86,24 +108,7 @@ impl CellParams {
         }
         let axis_max = (0..dim).map(|k| cells_along(cell, k)).fold(1.0, f64::max);
         cell *= 1.0 + 1e-5 + axis_max * 2f64.powi(-21);
-
-        let dims = [0, 1, 2].map(|k| cells_along(cell, k) as u64);
-        let ncells = dims.iter().product::<u64>();
-        gpu.check_size("cell list", (ncells + 1) * 4)?;
-        let mut origin = [0.0f32; 3];
-        for k in 0..dim {
-            origin[k] = lo[k] as f32;
-        }
-        Ok(Self {
-            origin: Vec3(origin),
-            inv_cell: (1.0 / cell) as f32,
-            dims: Vec3(dims.map(|d| d as u32)),
-            n,
-            radius2: (radius * radius) as f32,
-            ncells: ncells as u32,
-            drift2: 0.0,
-            dispatches: 0,
-        })
+        (cell, [0, 1, 2].map(|k| cells_along(cell, k) as u64))
     }
 }
 
@@ -153,6 +158,31 @@ pub struct ScanPlan {
 }
 
 impl Scan {
+    /// The block sums of each level of a scan of `n` entries, from the bottom up: one
+    /// a block of [`SCAN_BLOCK`], down to a single block.
+    fn levels(n: u64) -> Vec<u64> {
+        let mut levels = Vec::new();
+        let mut len = n;
+        loop {
+            let blocks = len.div_ceil(u64::from(SCAN_BLOCK)).max(1);
+            levels.push(blocks);
+            if blocks == 1 {
+                return levels;
+            }
+            len = blocks;
+        }
+    }
+
+    /// The buffers [`Self::plan`] makes for `n` entries, and its dispatches.
+    fn memory(m: &mut DeviceMemory, n: u64) -> usize {
+        let levels = Self::levels(n);
+        for &blocks in &levels {
+            m.words("scan block sums", blocks as f64);
+            m.add("scan params", ScanParams::min_size().get() as f64);
+        }
+        2 * levels.len() - 1
+    }
+
     /// Compiles the scan (it does not depend on the dimension; the 2D prelude is unused).
     pub fn new(gpu: &Gpu) -> Result<Self, GpuError> {
         let text = compose::<D2>(&SCAN, &Constants::default());
@@ -169,8 +199,9 @@ impl Scan {
         let mut adds = Vec::new();
         let mut level = data.clone();
         let mut len = n;
-        loop {
-            let blocks = len.div_ceil(SCAN_BLOCK).max(1);
+        for blocks in Self::levels(u64::from(n)) {
+            // At most n: a u32.
+            let blocks = blocks as u32;
             let sums = gpu.zeroed("scan block sums", u64::from(blocks) * 4);
             let params = gpu.uniform("scan params", &ScanParams { n: len });
             let table = [("scan", &params), ("data", &level), ("block_sums", &sums)];
@@ -274,6 +305,29 @@ pub struct CellList {
 }
 
 impl CellList {
+    /// The buffers [`Self::new`] makes for `n` particles in `dim` dimensions on a grid of
+    /// `ncells` cells, with room for `capacity` pairs.
+    pub fn memory(m: &mut DeviceMemory, n: u64, dim: usize, ncells: u64, capacity: u64) {
+        let n_words = n.max(1) as f64;
+        m.words("particle cells", n_words);
+        m.words("cell start", ncells as f64 + 1.0);
+        m.words("cell cursor", ncells as f64);
+        m.words("cell-sorted particles", n_words);
+        m.words("neighbour offsets", n_words + 1.0);
+        m.words("neighbour ids", capacity.max(1) as f64);
+        for label in ["neighbour overflow", "bodies (unmasked)", "one"] {
+            m.words(label, 1.0);
+        }
+        m.words("positions of the last build", n_words * dim as f64);
+        m.words("build due", 2.0);
+        // The passes of a build besides the scans': 7.
+        let dispatches = 7 + Scan::memory(m, ncells + 1) + Scan::memory(m, n + 1);
+        for label in ["build workgroups", "build workgroups due"] {
+            m.words(label, 3.0 * dispatches as f64);
+        }
+        m.add("cell list params", CellParams::min_size().get() as f64);
+    }
+
     /// The passes over `grid` (a box the particles may leave: a particle outside is put in
     /// the nearest cell, which keeps every pair and only adds candidates) with room for
     /// `capacity` pairs (at least 1).

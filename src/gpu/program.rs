@@ -6,6 +6,7 @@
 
 use super::context::{Gpu, GpuError, Pipeline};
 use super::layout::Fields;
+use super::memory::DeviceMemory;
 use crate::core::integrate::{Buf, Evaluation, IntegratorKind, Op, program, uses};
 use encase::ShaderType;
 
@@ -68,7 +69,37 @@ pub struct Stepper {
     primed: bool,
 }
 
+/// The bytes of the buffer `Stage` of a program `ops` on states of `bytes`: a state only
+/// where the scheme uses it (not the leapfrog). The engines bind it as their second
+/// evaluation source either way, which a scheme without it never runs: one word then.
+/// `Acc` is the engines' scratch for the rates of `Y` that outputs read, so every scheme
+/// has it.
+fn stage_bytes(ops: &[Op], bytes: u64) -> u64 {
+    if uses(ops, Buf::Stage) { bytes } else { 4 }
+}
+
 impl Stepper {
+    /// The buffers [`Self::new`] makes for a state of `len` words under `kind`: `y`,
+    /// `stage`, `rates`, `acc`, and the coefficients of each blend, kick and drift.
+    pub fn memory(memory: &mut DeviceMemory, kind: IntegratorKind, len: usize) {
+        let ops = program(kind);
+        let bytes = len.max(1) as u64 * 4;
+        for (label, b) in [
+            ("y", bytes),
+            ("stage", stage_bytes(&ops, bytes)),
+            ("rates", bytes),
+            ("acc", bytes),
+        ] {
+            memory.add(label, b as f64);
+        }
+        let passes = ops
+            .iter()
+            .filter(|op| !matches!(op, Op::Rates { .. } | Op::Copy { .. }))
+            .count();
+        let uniform = super::context::uniform_bytes(&Coefficients { a: 1.0, b: 0.0 }).len();
+        memory.add("coefficients", (passes * uniform) as f64);
+    }
+
     /// The program of `kind` on a state starting at `y0`; `integrate` is
     /// `shaders/common/integrate.wgsl` composed with the scene's constants (N, DIM, U_OFF, V_OFF,
     /// REST_OFF, LEN of `layout`, [`StateLayout::of`] the state's fields).
@@ -81,11 +112,7 @@ impl Stepper {
     ) -> Result<Self, GpuError> {
         let bytes = layout.len as u64 * 4;
         let ops = program(kind);
-        // `Stage` holds a state only where the scheme uses it (not the leapfrog). The
-        // engines bind it as their second evaluation source either way, which a scheme
-        // without it never runs: one word then. `Acc` is the engines' scratch for the
-        // rates of `Y` that outputs read, so every scheme has it.
-        let stage = if uses(&ops, Buf::Stage) { bytes } else { 4 };
+        let stage = stage_bytes(&ops, bytes);
         let states = [
             gpu.storage("y", y0),
             gpu.zeroed("stage", stage),

@@ -8,6 +8,7 @@
 
 use super::context::{Gpu, GpuError, Pipeline};
 use super::layout::{Field, Fields, Flat};
+use super::memory::DeviceMemory;
 use super::shaders::{Source, Wgsl, source};
 use crate::boundary::{Boundary, Reaction};
 use crate::diagnostics::observe::Invariants;
@@ -55,6 +56,14 @@ pub struct Reduction {
 }
 
 impl Reduction {
+    /// The buffer [`Self::new`] makes for `n` particles: a partial sum per workgroup.
+    pub fn memory(memory: &mut DeviceMemory, n: usize) {
+        let groups = (n as u64)
+            .div_ceil(u64::from(super::context::WORKGROUP))
+            .max(1);
+        memory.words("partials", (groups * REDUCED as u64) as f64);
+    }
+
     /// `source` is `reduce.wgsl` composed for the method; `inputs` its engine's buffers
     /// by binding name (the state `y`, `kin`, `reference` and those its hooks declare);
     /// the reduction adds its `partials`.

@@ -5,6 +5,7 @@
 
 use super::context::Gpu;
 use super::layout::{Fields, Flat, flat_v};
+use super::memory::DeviceMemory;
 use crate::boundary::Boundary;
 use crate::core::neighbour::Csr;
 
@@ -48,6 +49,24 @@ pub struct DeviceReference {
 }
 
 impl DeviceReference {
+    /// The buffers [`Self::upload`] makes: the reference configuration of `n` particles
+    /// in `dim` dimensions laid out as `fields`, their tractions, and lists of `rows` rows
+    /// and `pairs` pairs (a method whose lists live elsewhere uploads none: 0 and 0).
+    pub fn memory(
+        memory: &mut DeviceMemory,
+        fields: &Fields,
+        n: usize,
+        dim: usize,
+        rows: usize,
+        pairs: usize,
+    ) {
+        memory.fields("reference", fields);
+        memory.words("traction", (n * dim) as f64);
+        // The offsets of no rows are one word, as an empty list's ids.
+        memory.words("neighbour offsets", (rows + 1) as f64);
+        memory.words("neighbour ids", pairs as f64);
+    }
+
     /// Uploads positions `x0`, volumes `vol`, the boundary conditions and the neighbour
     /// lists `csr` of the particles (f64 on the host, rounded once to f32).
     pub fn upload<D: Flat>(

@@ -11,8 +11,10 @@
 
 use super::Interactions;
 use crate::boundary::Boundary;
+use crate::case::Case;
 use crate::core::tensor::Dim;
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
+use crate::gpu::memory::DeviceMemory;
 use crate::gpu::shaders::Compose;
 use std::cell::{Cell, RefCell};
 
@@ -103,6 +105,27 @@ pub struct GpuInteractions {
 }
 
 impl GpuInteractions {
+    /// The buffers [`Self::new`] and the interactions' passes make for the `n` particles
+    /// of `case` in `dim` dimensions: the timed loads' accelerations, one DIM-vector a
+    /// particle for each load, and the contact's body of each particle, with the `ext`
+    /// buffer they add to (the hulls, law values and timed velocities take a few words).
+    pub fn memory(memory: &mut DeviceMemory, case: &Case, n: usize, dim: usize) {
+        let loads = case
+            .boundaries
+            .iter()
+            .filter(|b| b.condition.is_timed_load())
+            .count();
+        if loads > 0 {
+            memory.words("timed loads", (loads * n * dim) as f64);
+        }
+        if case.contact.is_some() {
+            memory.words("body", n as f64);
+        }
+        if loads > 0 || case.contact.is_some() {
+            memory.words("ext (traction + interactions)", (n * dim) as f64);
+        }
+    }
+
     /// The passes of `interactions` on the engine's `reference` and state `y`, then the
     /// timed velocities of `boundary` (which write their rates into `reference`);
     /// `traction` holds the loads, and the `ext` the rate passes read is

@@ -169,6 +169,17 @@ macro_rules! registry {
                 }
             }
 
+            #[cfg(feature = "gpu")]
+            pub fn device_memory<D: EngineDim>(
+                &self,
+                case: &Case,
+                counts: &crate::gpu::memory::Counts,
+            ) -> Option<crate::gpu::memory::DeviceMemory> {
+                match self {
+                    $(Self::$variant(s) => s.device_memory::<D>(case, counts)),*
+                }
+            }
+
             pub fn gpu_refusal(&self, case: &Case) -> Option<&'static str> {
                 match self {
                     $(Self::$variant(s) => s.gpu_refusal(case)),*

@@ -4,6 +4,8 @@
 //! naming the key that sets the figure.
 
 use crate::case::{CaseError, Shape, estimate_particles};
+#[cfg(feature = "gpu")]
+use crate::core::tensor::{D2, D3};
 use crate::scene::Scene;
 use std::path::Path;
 
@@ -36,17 +38,13 @@ pub const ASSUMED_MEMORY: f64 = 8.0 * GIB;
 
 const GIB: f64 = (1u64 << 30) as f64;
 
-/// Bytes per particle and per neighbour pair of each backend, [2D, 3D]. Peak resident
+/// Bytes per particle and per neighbour pair of a CPU run, [2D, 3D]. Peak resident
 /// sizes measured on the CPU (`/usr/bin/time -f %M` over one step): TLSPH 2D 1.1 kB a
 /// particle (12 pairs), Upwind-SPH {p, F} 2D 3.1 kB (21 pairs), TLSPH 3D 3.7 kB (73
 /// pairs), Upwind-SPH 3D 17.8 kB (73 pairs, the heaviest); the constants bound them all
-/// (the last by 20 %). The device's share of a GPU run is the f32 copies of the state,
-/// the scratch and the per-pair data, about half the host's; its host share is the CPU
-/// reference its set-up builds.
+/// (the last by 20 %). A GPU run's host share is the CPU reference its set-up builds.
 const CPU_PARTICLE_BYTES: [f64; 2] = [1500.0, 3000.0];
 const CPU_PAIR_BYTES: [f64; 2] = [120.0, 260.0];
-const DEVICE_PARTICLE_BYTES: [f64; 2] = [750.0, 1500.0];
-const DEVICE_PAIR_BYTES: [f64; 2] = [60.0, 130.0];
 
 /// What a case needs, estimated from its keys alone.
 #[derive(Clone, Debug, PartialEq)]
@@ -58,10 +56,17 @@ pub struct Estimate {
     /// Neighbour pairs within the kernel support, body by body ([`crate::case::BodySize::pairs`]: from
     /// the lattice's density, or the points a file holds).
     pub pairs: f64,
+    /// Cells between the lattice points ([`crate::case::BodySize::cells`]).
+    pub cells: f64,
     /// Host memory of a CPU run [bytes].
     pub cpu_bytes: f64,
-    /// Device memory of a GPU run [bytes] (its host share is `cpu_bytes`).
+    /// Device memory of a GPU run [bytes] (its host share is `cpu_bytes`): the total of
+    /// [`Self::device`]; 0 for a method without a GPU engine, or without the GPU backend.
     pub device_bytes: f64,
+    /// The buffers of the method's GPU engine for these counts, field by field
+    /// ([`crate::methods::MethodSpec::device_memory`]).
+    #[cfg(feature = "gpu")]
+    pub device: Option<crate::gpu::memory::DeviceMemory>,
     /// Steps to the end time: exact for a fixed Δt; for a CFL step from c_p alone (the
     /// velocities only shorten it), then from the engine's first Δt once it is built
     /// ([`crate::run::check`]).
@@ -85,12 +90,38 @@ impl Estimate {
         let particles: f64 = bodies.iter().sum();
         let visited: f64 = sizes.iter().map(|s| s.visited).sum();
         let pairs: f64 = sizes.iter().map(|s| s.pairs).sum();
+        let cells: f64 = sizes.iter().map(|s| s.cells).sum();
         let k = case.dim() - 2;
+        #[cfg(feature = "gpu")]
+        let (device, device_bytes) = {
+            let sum = |of: fn(&crate::case::BodySize) -> f64| sizes.iter().map(of).sum();
+            let counts = crate::gpu::memory::Counts {
+                particles,
+                pairs,
+                cells,
+                gauss_pairs: sum(|s| s.gauss_pairs),
+                centre_pairs: sum(|s| s.centre_pairs),
+                ghosts: sum(|s| s.ghosts),
+            };
+            let device = match case.dimension {
+                2 => case.spec.device_memory::<D2>(case, &counts),
+                _ => case.spec.device_memory::<D3>(case, &counts),
+            };
+            let bytes = device
+                .as_ref()
+                .map_or(0.0, crate::gpu::memory::DeviceMemory::total);
+            (device, bytes)
+        };
+        #[cfg(not(feature = "gpu"))]
+        let device_bytes = 0.0;
         Ok(Self {
             particles,
             pairs,
+            cells,
             cpu_bytes: particles * CPU_PARTICLE_BYTES[k] + pairs * CPU_PAIR_BYTES[k],
-            device_bytes: particles * DEVICE_PARTICLE_BYTES[k] + pairs * DEVICE_PAIR_BYTES[k],
+            device_bytes,
+            #[cfg(feature = "gpu")]
+            device,
             steps: case.run.end_time / first_step(case),
             adaptive: case.method.dt.is_none(),
             bodies,
@@ -104,15 +135,23 @@ impl Estimate {
         self.cpu_bytes + self.device_bytes
     }
 
-    /// One line for `meshless check`.
-    pub fn describe(&self) -> String {
+    /// One line for `meshless check` and `--explain`, with the device's share on the
+    /// `gpu`.
+    pub fn describe(&self, gpu: bool) -> String {
+        let gpu = match gpu && self.device_bytes > 0.0 {
+            true => format!(
+                ", on the GPU {} of device memory ({:.0} B/particle) beside the host's",
+                size(self.device_bytes),
+                self.device_bytes / self.particles.max(1.0),
+            ),
+            false => String::new(),
+        };
         format!(
-            "about {:.3e} particles, {:.3e} neighbour pairs, {} on the CPU, {} on the GPU \
-             (host and device), {:.3e} steps{}",
+            "about {:.3e} particles, {:.3e} neighbour pairs, {} of host memory{gpu}, {:.3e} \
+             steps{}",
             self.particles,
             self.pairs,
-            gib(self.cpu_bytes),
-            gib(self.gpu_bytes()),
+            size(self.cpu_bytes),
             self.steps,
             if self.adaptive {
                 " at the first Δt (the CFL step follows the state: an impact takes more)"
@@ -120,6 +159,34 @@ impl Estimate {
                 ""
             }
         )
+    }
+
+    /// The GPU engine's buffers, largest first, an indented line each with its bytes, its
+    /// bytes per particle and its share, those under 0.1 % of the total in one line (for
+    /// `check` and `--explain` on the GPU); None for a method without a GPU engine.
+    #[cfg(feature = "gpu")]
+    pub fn device_table(&self) -> Option<String> {
+        let mut rows = self.device.as_ref()?.rows().to_vec();
+        rows.sort_by(|a, b| b.1.total_cmp(&a.1));
+        let small = rows.iter().position(|r| r.1 < 1e-3 * self.device_bytes);
+        let rest = small.map(|k| rows.split_off(k)).unwrap_or_default();
+        let line = |label: &str, bytes: f64| {
+            format!(
+                "  {label}: {} ({:.0} B/particle, {:.1} %)\n",
+                size(bytes),
+                bytes / self.particles.max(1.0),
+                100.0 * bytes / self.device_bytes
+            )
+        };
+        let mut table: String = rows
+            .iter()
+            .map(|&(label, bytes)| line(label, bytes))
+            .collect();
+        if !rest.is_empty() {
+            let bytes = rest.iter().map(|r| r.1).sum();
+            table += &line(&format!("{} other buffers", rest.len()), bytes);
+        }
+        Some(table)
     }
 }
 
@@ -149,13 +216,16 @@ pub fn available_memory() -> Option<f64> {
 /// number with a unit (`80GB`, `141 GB`, `24GiB`, `512MiB`).
 pub const DEVICE_MEMORY_ENV: &str = "MESHLESS_DEVICE_MEMORY";
 
-/// The device memory `MESHLESS_DEVICE_MEMORY` states [bytes], None when it is not set.
-fn device_memory() -> Result<Option<f64>, CaseError> {
+/// The device's memory [bytes] and where it was read: `MESHLESS_DEVICE_MEMORY`, else the
+/// largest GPU memory the platform reports ([`platform_device_memory`]), else None (an
+/// integrated GPU or a software adapter shares the host's memory, which the host check
+/// bounds with the device's share in it).
+fn device_memory() -> Result<Option<(f64, String)>, CaseError> {
     let Ok(value) = std::env::var(DEVICE_MEMORY_ENV) else {
-        return Ok(None);
+        return Ok(platform_device_memory());
     };
     parse_bytes(&value)
-        .map(Some)
+        .map(|bytes| Some((bytes, format!("{DEVICE_MEMORY_ENV} says"))))
         .ok_or_else(|| CaseError::Environment {
             variable: DEVICE_MEMORY_ENV,
             value,
@@ -163,6 +233,48 @@ fn device_memory() -> Result<Option<f64>, CaseError> {
                       (powers of 1000) or KiB, MiB, GiB, TiB (powers of 1024), e.g. 80GB"
                 .into(),
         })
+}
+
+/// The largest GPU memory the platform reports, where it can be read: on Linux, the
+/// `mem_info_vram_total` of every card of the amdgpu driver in /sys/class/drm, and
+/// `nvidia-smi --query-gpu=memory.total` of NVIDIA's driver (MiB a GPU); wgpu reports
+/// none on any back end. The largest, since the best adapter is the one a run opens
+/// unless `MESHLESS_ADAPTER` names another.
+fn platform_device_memory() -> Option<(f64, String)> {
+    let amd = std::fs::read_dir("/sys/class/drm").ok().and_then(|cards| {
+        cards
+            .filter_map(|card| {
+                let path = card.ok()?.path().join("device/mem_info_vram_total");
+                std::fs::read_to_string(path)
+                    .ok()?
+                    .trim()
+                    .parse::<f64>()
+                    .ok()
+            })
+            .reduce(f64::max)
+            .map(|bytes| (bytes, "the amdgpu driver reports".to_string()))
+    });
+    let nvidia = || {
+        let out = std::process::Command::new("nvidia-smi")
+            .args(["--query-gpu=memory.total", "--format=csv,noheader,nounits"])
+            .output()
+            .ok()
+            .filter(|o| o.status.success())?;
+        nvidia_memory(&String::from_utf8_lossy(&out.stdout))
+            .map(|bytes| (bytes, "nvidia-smi reports".to_string()))
+    };
+    amd.or_else(nvidia)
+}
+
+/// The largest of the memories `nvidia-smi --query-gpu=memory.total
+/// --format=csv,noheader,nounits` lists, one GPU a line in MiB [bytes].
+fn nvidia_memory(listing: &str) -> Option<f64> {
+    listing
+        .lines()
+        .filter_map(|l| l.trim().parse::<f64>().ok())
+        .filter(|m| m.is_finite() && *m > 0.0)
+        .map(|mib| mib * 1024.0 * 1024.0)
+        .reduce(f64::max)
 }
 
 /// A positive size in bytes: a number, then an optional unit of [`DEVICE_MEMORY_ENV`].
@@ -191,7 +303,7 @@ fn parse_bytes(text: &str) -> Option<f64> {
 /// Refuses a GPU run whose estimated device share passes the memory
 /// `MESHLESS_DEVICE_MEMORY` states, naming the spacing that would fit.
 fn check_device(case: &Scene, estimate: &Estimate) -> Result<(), CaseError> {
-    let Some(memory) = device_memory()? else {
+    let Some((memory, source)) = device_memory()? else {
         return Ok(());
     };
     if estimate.device_bytes <= memory {
@@ -205,8 +317,8 @@ fn check_device(case: &Scene, estimate: &Estimate) -> Result<(), CaseError> {
         particle_key(case, estimate),
         format!(
             "gives about {:.3e} particles and {:.3e} neighbour pairs, which need about {} \
-             of GPU memory, and {DEVICE_MEMORY_ENV} says the device has {}: about {fits:.3e} \
-             particles fit, at `spacing` ≥ {spacing:.4e} (now {:e}); or run on the CPU",
+             of GPU memory, and {source} the device has {}: about {fits:.3e} particles \
+             fit, at `spacing` ≥ {spacing:.4e} (now {:e}); or run on the CPU",
             estimate.particles,
             estimate.pairs,
             size(estimate.device_bytes),
@@ -425,6 +537,16 @@ mod tests {
         for bad in ["", "GB", "-1GB", "0", "80 gigabytes", "inf", "1e400"] {
             assert_eq!(parse_bytes(bad), None, "{bad}");
         }
+    }
+
+    #[test]
+    fn nvidia_smi_lists_mib_a_gpu_and_the_largest_is_taken() {
+        // Two GPUs of 81,559 and 143,771 MiB (an H100 and an H200); blank and odd lines
+        // are skipped; nothing readable is None.
+        let listing = "81559\n143771\n\n[N/A]\n";
+        assert_eq!(nvidia_memory(listing), Some(143_771.0 * 1024.0 * 1024.0));
+        assert_eq!(nvidia_memory("[N/A]\n"), None);
+        assert_eq!(nvidia_memory(""), None);
     }
 
     #[test]

@@ -359,7 +359,24 @@ pub fn explain(case: &Scene, gpu: bool) -> String {
         plan.check_note,
         case.output.observers
     ));
+    out.extend(memory_lines(case, gpu));
     out.join("\n")
+}
+
+/// The `--explain` lines of the memory a run needs, estimated from the case before
+/// anything is built ([`Estimate`]): the host's, and on the GPU the device's by buffer.
+fn memory_lines(case: &Scene, gpu: bool) -> Vec<String> {
+    let Ok(estimate) = Estimate::of(case) else {
+        return Vec::new();
+    };
+    let line = format!("memory (estimated): {}", estimate.describe(gpu));
+    #[cfg(feature = "gpu")]
+    if let Some(table) = estimate.device_table().filter(|_| gpu) {
+        return vec![line, format!("device buffers:\n{}", table.trim_end())];
+    }
+    #[cfg(not(feature = "gpu"))]
+    let _ = gpu;
+    vec![line]
 }
 
 /// The discretisation lines of the plan: the lattice the method samples on and why

@@ -656,7 +656,30 @@ fn check_builds_a_case_without_running_it() {
         String::from_utf8_lossy(&ok.stderr)
     );
     assert_eq!(stdout.matches(": ok (").count(), 2, "{stdout}");
-    assert_eq!(stdout.matches("GiB on the CPU").count(), 2, "{stdout}");
+    assert_eq!(stdout.matches("of host memory").count(), 2, "{stdout}");
+    assert!(!stdout.contains("device"), "{stdout}");
+    // On the GPU: the device's share, and its buffers, largest first (the per-pair data
+    // of TLSPH's 11 pairs a particle, 16 B each in 2D, above its 16 B-a-particle state).
+    let gpu = Command::new(exe)
+        .args(["check", "tensile-strip", "--backend", "gpu"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&gpu.stdout);
+    assert!(
+        gpu.status.success(),
+        "{}",
+        String::from_utf8_lossy(&gpu.stderr)
+    );
+    assert!(stdout.contains("of device memory ("), "{stdout}");
+    let first = stdout
+        .lines()
+        .skip_while(|l| *l != "device buffers:")
+        .nth(1);
+    assert!(
+        first.is_some_and(|l| l.starts_with("  per-pair data: ")),
+        "{stdout}"
+    );
     let bad = Command::new(exe)
         .args(["check", "tensile-strip", "--backend", "cpu"])
         .args(["--set", "boundary.1.region.x_min=5.0"])

@@ -144,7 +144,7 @@ fn on_lattice<D: Dim>(
 
 /// The shape on the vertex lattice where a method that integrates over the lattice's
 /// cells samples a cell-centred box or cylinder; None where the shape is sampled as given.
-fn on_vertex_lattice(shape: &Shape, cells: bool) -> Option<Shape> {
+pub(super) fn on_vertex_lattice(shape: &Shape, cells: bool) -> Option<Shape> {
     match shape {
         Shape::Box {
             min,

@@ -151,6 +151,17 @@ pub trait MethodFamily: Sized {
         Err(no_gpu_engine(case).into())
     }
 
+    /// The buffers its GPU engine makes for `case` on `counts`, field by field, computed
+    /// before any is made ([`crate::gpu::memory`]); None for a method without a GPU engine.
+    #[cfg(feature = "gpu")]
+    fn device_memory<D: EngineDim>(
+        &self,
+        _case: &Case,
+        _counts: &crate::gpu::memory::Counts,
+    ) -> Option<crate::gpu::memory::DeviceMemory> {
+        None
+    }
+
     /// The engine of one rank of a distributed run: the method partitions the whole
     /// run's `reference` along its graph ([`RankStart::split`]) and sets up its CPU system on
     /// the rank's share; only a method with [`Self::HALO_LAYERS`] has one.

@@ -136,6 +136,15 @@ impl MethodFamily for CorotatedSpec {
         Ok(Box::new(GpuTlsph::<D>::new(case, gpu::scheme(self), gpu)?))
     }
 
+    #[cfg(feature = "gpu")]
+    fn device_memory<D: EngineDim>(
+        &self,
+        case: &Case,
+        counts: &crate::gpu::memory::Counts,
+    ) -> Option<crate::gpu::memory::DeviceMemory> {
+        Some(GpuTlsph::<D>::memory(case, &gpu::scheme(self), counts))
+    }
+
     fn warning(&self, case: &Case) -> Option<String> {
         let undamped = self.artificial_viscosity.is_none() && !case.is_static();
         (self.force == CorotatedForce::ReferenceCode && undamped).then(|| {

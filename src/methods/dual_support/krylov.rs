@@ -23,6 +23,7 @@ use super::model::DualSupport;
 use crate::core::tensor::Dim;
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::GpuDim;
+use crate::gpu::memory::{Counts, DeviceMemory};
 use crate::gpu::profile::Scale;
 use crate::gpu::shaders::{Constants, Source, compose, source};
 use crate::statics::MatrixFree;
@@ -122,6 +123,30 @@ pub struct NewtonKrylov {
 }
 
 impl NewtonKrylov {
+    /// The buffers [`Self::new`] makes for `counts` in `dim` dimensions: the union lists
+    /// (taken as the case kernel's pairs) with their per-pair data, the tangent moduli
+    /// (dim³ a degree of freedom) and the conjugate gradients' vectors.
+    pub fn memory(counts: &Counts, dim: usize) -> DeviceMemory {
+        DeviceMemory::of(counts, |m| {
+            let (n, pairs) = (counts.particles, counts.pairs);
+            let dofs = n * dim as f64;
+            m.words("lists", n + 1.0 + pairs);
+            m.words("g", pairs * dim as f64);
+            m.words("grev", pairs * dim as f64);
+            m.words("hg", pairs * (dim + 2) as f64);
+            m.words("tangent", dofs * dim.pow(3) as f64);
+            for label in ["inv_diag", "x", "r", "p", "q"] {
+                m.words(label, dofs);
+            }
+            m.words("lin", 2.0 * dofs * dim as f64);
+            let groups = (dofs / f64::from(crate::gpu::context::WORKGROUP))
+                .ceil()
+                .max(1.0);
+            m.words("partials", 2.0 * groups);
+            m.words("scalars", SCALARS as f64);
+        })
+    }
+
     /// The passes and buffers on the union lists of `lists` (the pairs' g_ij, g_ji,
     /// X_j − X_i and hourglass stiffnesses, uploaded once); CG stops at the relative
     /// residual max(`tolerance`, [`F32_TOLERANCE`]) or fails after `max_iterations`.

@@ -438,6 +438,20 @@ impl MethodFamily for DualSupportSpec {
         ))
     }
 
+    /// The dynamic variant's buffers, or the static solve's ([`krylov`]).
+    #[cfg(feature = "gpu")]
+    fn device_memory<D: EngineDim>(
+        &self,
+        case: &Case,
+        counts: &crate::gpu::memory::Counts,
+    ) -> Option<crate::gpu::memory::DeviceMemory> {
+        use crate::methods::cores::tl::gpu::GpuTlsph;
+        Some(match case.is_static() {
+            true => krylov::NewtonKrylov::memory(counts, D::N),
+            false => GpuTlsph::<D>::memory(case, &gpu::scheme(self), counts),
+        })
+    }
+
     /// c_p, the wave speed of the dynamic variant's step (the static path has none).
     fn stretch_signal_speed<D: Dim>(&self, c_p: f64, _f: D::T) -> f64 {
         c_p

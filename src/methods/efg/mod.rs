@@ -124,6 +124,20 @@ impl MethodFamily for EfgSpec {
 
     super::cores::galerkin::tl_galerkin_engines!();
 
+    #[cfg(feature = "gpu")]
+    fn device_memory<D: crate::engine::EngineDim>(
+        &self,
+        case: &Case,
+        counts: &crate::gpu::memory::Counts,
+    ) -> Option<crate::gpu::memory::DeviceMemory> {
+        use crate::methods::cores::galerkin::gpu::{GpuGalerkin, Points};
+        let points = match self.integration {
+            Integration::Cells => Points::gauss(counts, D::N),
+            Integration::Nodal | Integration::Scni => Points::nodal(counts),
+        };
+        Some(GpuGalerkin::<D>::memory(case, counts, &points))
+    }
+
     fn warning(&self, _case: &Case) -> Option<String> {
         (self.integration == Integration::Nodal).then(|| {
             "method.integration = \"nodal\" integrates at the particles without \

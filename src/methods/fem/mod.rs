@@ -69,6 +69,17 @@ impl MethodFamily for FemSpec {
 
     super::cores::galerkin::tl_galerkin_engines!();
 
+    #[cfg(feature = "gpu")]
+    fn device_memory<D: crate::engine::EngineDim>(
+        &self,
+        case: &Case,
+        counts: &crate::gpu::memory::Counts,
+    ) -> Option<crate::gpu::memory::DeviceMemory> {
+        use crate::methods::cores::galerkin::gpu::{GpuGalerkin, Points};
+        let points = Points::elements(counts, D::N);
+        Some(GpuGalerkin::<D>::memory(case, counts, &points))
+    }
+
     fn lattice_cells(&self) -> bool {
         true
     }

@@ -64,4 +64,13 @@ impl MethodFamily for GodunovSpec {
     fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> GpuBuild<D> {
         Ok(Box::new(GpuUl::<D>::new(case, gpu, &gpu::scheme())?))
     }
+
+    #[cfg(feature = "gpu")]
+    fn device_memory<D: EngineDim>(
+        &self,
+        case: &Case,
+        counts: &crate::gpu::memory::Counts,
+    ) -> Option<crate::gpu::memory::DeviceMemory> {
+        Some(GpuUl::<D>::memory(case, &gpu::scheme(), counts))
+    }
 }

@@ -120,4 +120,13 @@ impl MethodFamily for GrayMonaghanSpec {
             &gpu::scheme(case, self),
         )?))
     }
+
+    #[cfg(feature = "gpu")]
+    fn device_memory<D: EngineDim>(
+        &self,
+        case: &Case,
+        counts: &crate::gpu::memory::Counts,
+    ) -> Option<crate::gpu::memory::DeviceMemory> {
+        Some(GpuUl::<D>::memory(case, &gpu::scheme(case, self), counts))
+    }
 }

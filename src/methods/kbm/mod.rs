@@ -263,6 +263,21 @@ impl MethodFamily for KbmSpec {
         }
     }
 
+    #[cfg(feature = "gpu")]
+    fn device_memory<D: EngineDim>(
+        &self,
+        case: &Case,
+        counts: &crate::gpu::memory::Counts,
+    ) -> Option<crate::gpu::memory::DeviceMemory> {
+        use crate::methods::cores::galerkin::gpu::{GpuGalerkin, Points};
+        let points = match (self.kernel_frame, self.integration) {
+            (KernelFrame::Eulerian, _) => return None,
+            (_, Integration::StressPoints) => Points::stress_points(counts),
+            (_, Integration::Nodal | Integration::Scni) => Points::nodal(counts),
+        };
+        Some(GpuGalerkin::<D>::memory(case, counts, &points))
+    }
+
     fn gpu_refusal(&self, _case: &Case) -> Option<&'static str> {
         (self.kernel_frame == KernelFrame::Eulerian)
             .then_some("on an Eulerian kernel has no GPU engine")

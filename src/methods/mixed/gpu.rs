@@ -15,7 +15,7 @@
 use super::compressibility::UNCONVERGED;
 use super::gpu_corrector::{CORRECTOR, DeviceCorrector};
 use super::system::{Fluxes, MixedSph, MixedState};
-use super::{CflWaveSpeed, DeformationGradient, MixedOptions, MixedScheme, Momentum};
+use super::{CflWaveSpeed, DeformationGradient, MixedOptions, MixedScheme, Momentum, Stabiliser};
 use crate::boundary::Boundary;
 use crate::case::Case;
 use crate::core::integrate::{Buf, Evaluation, IntegratorKind, PseudoTime, evaluations};
@@ -25,6 +25,7 @@ use crate::diagnostics::observe::Snapshot;
 use crate::engine::{BlowUp, GpuEngine, GpuFamily, Method, Start};
 use crate::gpu::context::{Gpu, GpuError, Pipeline, WORKGROUP};
 use crate::gpu::layout::{Fields, GpuDim};
+use crate::gpu::memory::{Counts, DeviceMemory};
 use crate::gpu::profile::Scale;
 use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{self, Reduced, Reduction};
@@ -35,6 +36,7 @@ use crate::gpu::shaders::{
 };
 use crate::gpu::shell::Shell;
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
+use crate::interaction::gpu::GpuInteractions;
 use crate::physics::material::MaterialModel;
 use crate::physics::plasticity::History;
 use crate::reference::build_method;
@@ -46,7 +48,7 @@ mod sources;
 
 use evaluator::{Bound, Evaluator, Passes, StagePoints};
 use layout::{EXTRAS, pair_data};
-pub use layout::{MixedLayout, scene};
+pub use layout::{MixedLayout, Sizes, scene};
 pub use sources::{BOND, FORCES, GHOSTS, KINEMATICS, MOMENTUM, PLASTIC, REDUCE, SHADERS, SLOPES};
 pub(super) use sources::{IMAGES, MIXED, MOTION};
 
@@ -93,6 +95,21 @@ struct Scratch {
 }
 
 impl Scratch {
+    /// The buffers [`Self::new`] makes.
+    fn memory(m: &mut DeviceMemory, layout: &MixedLayout, plastic: bool) {
+        let n = layout.n;
+        m.fields("kinematics", &layout.kin);
+        m.fields("forces", &layout.force);
+        m.words("status", STATUS_OK.len() as f64);
+        let groups = (n as u64).div_ceil(u64::from(WORKGROUP)).max(1);
+        m.words("balance partials", (groups * 16) as f64);
+        let copies = if plastic { n } else { 1 };
+        m.words(
+            "plastic history",
+            (copies * History::VIRGIN_F32.len()) as f64,
+        );
+    }
+
     fn new(gpu: &Gpu, layout: &MixedLayout, plastic: bool) -> Self {
         let n = layout.n;
         let (gx, gy) = gpu.groups(n as u32);
@@ -135,6 +152,33 @@ pub struct MixedDevice<D: GpuDim> {
 }
 
 impl<D: GpuDim> GpuMixed<D> {
+    /// The buffers [`Self::new`] makes for `case` under `spec` on `counts`, from the same
+    /// layout ([`Sizes::of_case`]).
+    pub fn memory(case: &Case, spec: &dyn MixedScheme, counts: &Counts) -> DeviceMemory {
+        DeviceMemory::of(counts, |m| {
+            let sizes = Sizes::of_case(case, spec, counts);
+            let layout = MixedLayout::new(&sizes, D::N);
+            let (n, ghosts) = (sizes.n, sizes.ghosts);
+            DeviceReference::memory(m, &layout.reference, n, D::N, n, sizes.pairs);
+            m.fields("per-pair data", &layout.pair);
+            m.words("slopes or Laplacians", second_len::<D>(&layout) as f64);
+            m.words("ghost sources", ghosts as f64);
+            m.words("ghost images", (ghosts * (D::N + 1)) as f64);
+            let plastic = case.material.model == MaterialModel::VonMisesPlastic;
+            Scratch::memory(m, &layout, plastic);
+            Stepper::memory(m, case.method.integrator, layout.state.len());
+            for label in ["stage points", "mid-step points"] {
+                m.add(label, StagePoints::bytes() as f64);
+            }
+            m.fields("corrector", &layout.corr);
+            if sizes.ac {
+                DeviceCorrector::memory(m, n, layout.state.bytes());
+            }
+            Reduction::memory(m, n);
+            GpuInteractions::memory(m, case, n, D::N);
+        })
+    }
+
     /// Builds the CPU set-up of the case and uploads it with the initial state.
     pub fn new(
         case: &Case,

@@ -14,7 +14,8 @@ use super::compressibility::{Corrector, Unconverged};
 use super::gpu::{IMAGES, MIXED, MOTION};
 use crate::core::integrate::PseudoTime;
 use crate::core::tensor::Dim;
-use crate::gpu::context::{Gpu, GpuError, Pipeline};
+use crate::gpu::context::{Gpu, GpuError, Pipeline, WORKGROUP};
+use crate::gpu::memory::DeviceMemory;
 use crate::gpu::profile::IndirectRuns;
 use crate::gpu::shaders::{REFERENCE, Source, source};
 use encase::ShaderType;
@@ -48,6 +49,10 @@ const STEP_ITERATIONS: u64 = 3;
 const TOTAL: u64 = 5;
 const FAILED: u64 = 7;
 const PARTIALS: u64 = 10;
+/// The bytes of the indirect dispatch's workgroup counts, and of the failure flags saved
+/// at the batch start.
+const ARGS_BYTES: u64 = 12;
+const FLAGS_BYTES: u64 = 16;
 
 /// The uniform `Tau` of mixed_corrector.wgsl.
 #[derive(Clone, Copy, Debug, Default, ShaderType)]
@@ -97,6 +102,17 @@ pub(super) struct DeviceCorrector {
 }
 
 impl DeviceCorrector {
+    /// The buffers [`Self::new`] makes for `n` particles and a state of `state_bytes`.
+    pub fn memory(m: &mut DeviceMemory, n: usize, state_bytes: u64) {
+        let groups = (n as u64).div_ceil(u64::from(WORKGROUP)).max(1);
+        let tau = crate::gpu::context::uniform_bytes(&Tau::default()).len();
+        m.add("pseudo-time constants", tau as f64);
+        m.words("corrector control", (PARTIALS + 2 * groups) as f64);
+        m.add("corrector workgroups", ARGS_BYTES as f64);
+        m.add("state at the batch start", state_bytes as f64);
+        m.add("failure flags at the batch start", FLAGS_BYTES as f64);
+    }
+
     /// The passes of `source` (mixed_corrector.wgsl composed with the scene's constants)
     /// for `n` particles and a state of `state_bytes`, with the other buffers of the mixed
     /// passes by binding name in `table`.
@@ -115,9 +131,9 @@ impl DeviceCorrector {
         let mut words = vec![0u32; control_words];
         words[FAILED as usize] = u32::MAX;
         let control = gpu.storage("corrector control", &words);
-        let args = gpu.indirect("corrector workgroups", 12);
+        let args = gpu.indirect("corrector workgroups", ARGS_BYTES);
         let saved_state = gpu.zeroed("state at the batch start", state_bytes);
-        let saved_flags = gpu.zeroed("failure flags at the batch start", 16);
+        let saved_flags = gpu.zeroed("failure flags at the batch start", FLAGS_BYTES);
         let mut full = table.to_vec();
         full.extend([("tau", &tau), ("control", &control), ("args", &args)]);
         let pass = |entry: &str| -> Result<Pass, GpuError> {

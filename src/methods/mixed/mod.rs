@@ -578,6 +578,15 @@ impl<S: MixedMethod + 'static> MethodFamily for S {
         Ok(Box::new(GpuMixed::<D>::new(case, self, gpu)?))
     }
 
+    #[cfg(feature = "gpu")]
+    fn device_memory<D: EngineDim>(
+        &self,
+        case: &Case,
+        counts: &crate::gpu::memory::Counts,
+    ) -> Option<crate::gpu::memory::DeviceMemory> {
+        Some(GpuMixed::<D>::memory(case, self, counts))
+    }
+
     /// With artificial compressibility, that of the fictitious bulk modulus κ̃.
     fn step_wave_speed(&self, mat: &Material) -> f64 {
         match self.options().artificial_compressibility {

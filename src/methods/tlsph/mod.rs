@@ -174,6 +174,15 @@ impl MethodFamily for TlsphSpec {
     fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> GpuBuild<D> {
         Ok(Box::new(GpuTlsph::<D>::new(case, gpu::scheme(self), gpu)?))
     }
+
+    #[cfg(feature = "gpu")]
+    fn device_memory<D: EngineDim>(
+        &self,
+        case: &Case,
+        counts: &crate::gpu::memory::Counts,
+    ) -> Option<crate::gpu::memory::DeviceMemory> {
+        Some(GpuTlsph::<D>::memory(case, &gpu::scheme(self), counts))
+    }
 }
 
 #[cfg(test)]

@@ -102,6 +102,22 @@ impl MethodFamily for WeakFormSpec {
 
     super::cores::galerkin::tl_galerkin_engines!();
 
+    #[cfg(feature = "gpu")]
+    fn device_memory<D: crate::engine::EngineDim>(
+        &self,
+        case: &Case,
+        counts: &crate::gpu::memory::Counts,
+    ) -> Option<crate::gpu::memory::DeviceMemory> {
+        use crate::methods::cores::galerkin::gpu::{GpuGalerkin, Points};
+        let gauss = Points::gauss(counts, D::N);
+        let points = if self.smoothing {
+            gauss.smoothed(counts)
+        } else {
+            gauss
+        };
+        Some(GpuGalerkin::<D>::memory(case, counts, &points))
+    }
+
     fn lattice_cells(&self) -> bool {
         true
     }

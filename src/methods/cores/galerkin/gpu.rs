@@ -16,8 +16,9 @@ use crate::diagnostics::observe::Snapshot;
 use crate::engine::{BlowUp, GpuEngine, GpuFamily, Method, Start};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
+use crate::gpu::memory::{Counts, DeviceMemory};
 use crate::gpu::profile::Scale;
-use crate::gpu::program::StateLayout;
+use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{self, Reduced, Reduction};
 use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
@@ -26,8 +27,9 @@ use crate::gpu::shaders::{
 };
 use crate::gpu::shell::Shell;
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
+use crate::interaction::gpu::GpuInteractions;
 use crate::methods::cores::shared::BySource;
-use crate::physics::material::Material;
+use crate::physics::material::{Material, MaterialModel};
 use crate::physics::plasticity::History;
 
 /// The points and nodes passes of one rate evaluation.
@@ -153,6 +155,66 @@ pub fn scene_constants(case: &Case, layout: &Layout) -> Constants {
     .fold(constants, |c, fields| fields.constants(c))
 }
 
+/// The integration points of a Galerkin method and their pairs with the nodes, from the
+/// counts of a case before it is built ([`Counts`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Points {
+    pub points: f64,
+    pub pairs: f64,
+    /// The pairs of the velocity smoothing at the nodes (0 without it).
+    pub smoothing: f64,
+}
+
+impl Points {
+    /// The finite elements: 2^d Gauss points in each cell, each with its 2^d corners.
+    pub fn elements(counts: &Counts, dim: usize) -> Self {
+        let points = f64::from(1u32 << dim) * counts.cells;
+        Self {
+            points,
+            pairs: f64::from(1u32 << dim) * points,
+            smoothing: 0.0,
+        }
+    }
+
+    /// 2^d Gauss points in each cell, each with the nodes within its support.
+    pub fn gauss(counts: &Counts, dim: usize) -> Self {
+        Self {
+            points: f64::from(1u32 << dim) * counts.cells,
+            pairs: counts.gauss_pairs,
+            smoothing: 0.0,
+        }
+    }
+
+    /// The particles, each with the nodes within its support and itself (the smoothed
+    /// integration's dilated supports, about 1.5–1.8 times as many pairs, not counted).
+    pub fn nodal(counts: &Counts) -> Self {
+        Self {
+            points: counts.particles,
+            pairs: counts.pairs + counts.particles,
+            smoothing: 0.0,
+        }
+    }
+
+    /// The particles and a stress point at the centre of every cell.
+    pub fn stress_points(counts: &Counts) -> Self {
+        let nodal = Self::nodal(counts);
+        Self {
+            points: nodal.points + counts.cells,
+            pairs: nodal.pairs + counts.centre_pairs,
+            smoothing: 0.0,
+        }
+    }
+
+    /// With the velocity smoothing at the nodes (each with the nodes within its support
+    /// and itself).
+    pub fn smoothed(self, counts: &Counts) -> Self {
+        Self {
+            smoothing: counts.pairs + counts.particles,
+            ..self
+        }
+    }
+}
+
 /// The points and nodes passes bound to a source state.
 struct Rates {
     points: wgpu::BindGroup,
@@ -211,6 +273,14 @@ fn gather_buffers<D: GpuDim>(
 }
 
 impl SmoothPasses {
+    /// The buffers [`Self::new`] makes for `n` nodes with the smoothing of `layout`.
+    fn memory(m: &mut DeviceMemory, layout: &Layout, n: usize, pairs: usize) {
+        m.words("smoothing offsets", (n + 1) as f64);
+        m.words("smoothing ids", pairs as f64);
+        m.fields("smoothing weights", &layout.smooth);
+        m.words("smoothed velocities", (n * layout.dim) as f64);
+    }
+
     /// The passes of the velocity smoothing with the functions `s` at the nodes, bound to
     /// the state `y` and the nodes' `reference`.
     fn new<D: GpuDim>(
@@ -282,6 +352,37 @@ pub struct GalerkinDevice<D: GpuDim> {
 }
 
 impl<D: GpuDim> GpuGalerkin<D> {
+    /// The buffers [`Self::new`] makes for `case` on `counts` with the integration
+    /// `points`, from the same layout (the constrained nodes' reaction slots, a surface's
+    /// few words each, left out).
+    pub fn memory(case: &Case, counts: &Counts, points: &Points) -> DeviceMemory {
+        DeviceMemory::of(counts, |m| {
+            let n = counts.n();
+            let (q, pairs) = (Counts::whole(points.points), Counts::whole(points.pairs));
+            let smoothing = Counts::whole(points.smoothing);
+            let rate = case.material.model.is_rate_based();
+            let layout = Layout::new(n, 0, q, pairs, smoothing, D::N, rate);
+            DeviceReference::memory(m, &layout.reference, n, D::N, q, pairs);
+            m.fields("per-pair shape functions", &layout.pair);
+            m.fields("gather lists", &layout.gather);
+            m.fields("gather entries", &layout.entries);
+            m.words("status", 1.0);
+            m.fields("kinematics", &layout.kin);
+            let plastic = case.material.model == MaterialModel::VonMisesPlastic;
+            let copies = if plastic { q } else { 1 };
+            m.words(
+                "plastic history",
+                (copies * History::VIRGIN_F32.len()) as f64,
+            );
+            Stepper::memory(m, case.method.integrator, layout.state.len());
+            if smoothing > 0 {
+                SmoothPasses::memory(m, &layout, n, smoothing);
+            }
+            Reduction::memory(m, n);
+            GpuInteractions::memory(m, case, n, D::N);
+        })
+    }
+
     /// Builds the host system of the case and uploads it with the initial state.
     pub fn new(
         case: &Case,

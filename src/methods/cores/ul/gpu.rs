@@ -21,6 +21,7 @@ use crate::diagnostics::observe::Snapshot;
 use crate::engine::{BlowUp, GpuEngine, GpuFamily, Start};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
+use crate::gpu::memory::{Counts, DeviceMemory};
 use crate::gpu::neighbour::{CellList, CellParams, Positions};
 use crate::gpu::profile::{IndirectRuns, Scale};
 use crate::gpu::program::Stepper;
@@ -32,6 +33,7 @@ use crate::gpu::shaders::{
 };
 use crate::gpu::shell::Shell;
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
+use crate::interaction::gpu::GpuInteractions;
 use crate::methods::cores::shared::BySource;
 use crate::reference::Reference;
 
@@ -189,7 +191,47 @@ pub struct UlDevice<D: GpuDim> {
     rebuild_seconds: Option<f64>,
 }
 
+/// The room of the device's lists for `pairs` reference pairs of `n` particles: twice
+/// them, as compression adds neighbours, and a build that needs more grows the lists.
+fn capacity(pairs: usize, n: usize) -> u64 {
+    2 * pairs.max(n) as u64
+}
+
 impl<D: GpuDim> GpuUl<D> {
+    /// The buffers [`Self::new`] makes for `case` under `scheme` on `counts`, from the same
+    /// layout and rules (the cell grid over the bodies' boxes; the constrained particles'
+    /// reaction slots, a surface's few words each, left out). Lists that grow past their
+    /// room are made again, larger.
+    pub fn memory(case: &Case, scheme: &Scheme, counts: &Counts) -> DeviceMemory {
+        DeviceMemory::of(counts, |m| {
+            let n = counts.n();
+            let corrected = case.method.correction == CorrectionKind::RandlesLibersky;
+            let layout = Layout::new(n, 0, D::N, scheme, corrected);
+            DeviceReference::memory(m, &layout.reference, n, D::N, 0, 0);
+            Stepper::memory(m, case.method.integrator, layout.state.len());
+            m.words("positions x", (n * D::N) as f64);
+            m.fields("per-particle quantities", &layout.kin);
+            m.words("status", STATUS_OK.len() as f64);
+            if case.contact.is_some() {
+                m.words("bodies", n as f64);
+            }
+            m.fields("state at the batch start", &layout.state);
+            let radius = search_radius(case.kernel(D::N).support());
+            let boxes = case.bodies.iter().map(|b| b.geometry.extent(D::N));
+            let ncells = boxes.collect::<Option<Vec<_>>>().map_or(n as u64, |boxes| {
+                let corners = boxes.iter().flat_map(|&(lo, hi)| [lo, hi]);
+                let (lo, hi) = widened(bounding_box(corners), D::N, radius);
+                let points = n.min(u32::MAX as usize) as u32;
+                let (_, dims) = CellParams::cells(D::N, lo, hi, points, radius);
+                dims.iter().product()
+            });
+            let room = capacity(counts.pair_count(), n);
+            CellList::memory(m, n as u64, D::N, ncells, room);
+            Reduction::memory(m, n);
+            GpuInteractions::memory(m, case, n, D::N);
+        })
+    }
+
     /// Uploads the case's reference configuration and initial state and compiles the
     /// scheme's passes.
     pub fn new(case: &Case, gpu: Gpu, scheme: &Scheme) -> Result<Self, SetupError> {
@@ -245,9 +287,9 @@ impl<D: GpuDim> GpuUl<D> {
             n,
         )?;
         let start = gpu.zeroed("state at the batch start", layout.state.bytes());
-        // Room for twice the reference configuration's pairs: compression adds
-        // neighbours, and a build that needs more grows the lists.
-        let capacity = 2 * disc.neighbours().pair_count().max(n) as u32;
+        // Past a u32, the lists' size check refuses it.
+        let capacity =
+            u32::try_from(capacity(disc.neighbours().pair_count(), n)).unwrap_or(u32::MAX);
         let unbooked = Booked {
             dissipated: None,
             contact_energy: case.contact.is_none().then_some(0.0),
@@ -372,14 +414,33 @@ impl<D: GpuDim> UlDevice<D> {
 /// [`SKIN`] (the lists are rebuilt once a particle has moved half of it, as on the CPU)
 /// and a relative margin of 1e-5 for f32 ties at lattice distances (`gpu::neighbour`).
 fn grid<D: GpuDim>(gpu: &Gpu, disc: &Reference<D>, n: u32) -> Result<CellParams, GpuError> {
-    let radius = disc.kernel.support() * (1.0 + SKIN) * (1.0 + 1e-5);
-    let (mut lo, mut hi) = bounding_box(disc.x0.iter().map(|&x| D::to3(x)));
-    for k in 0..D::N {
+    let radius = search_radius(disc.kernel.support());
+    let (lo, hi) = widened(
+        bounding_box(disc.x0.iter().map(|&x| D::to3(x))),
+        D::N,
+        radius,
+    );
+    CellParams::new(gpu, D::N, lo, hi, n, radius)
+}
+
+/// The radius the cell list searches for a kernel `support` (see [`grid`]).
+fn search_radius(support: f64) -> f64 {
+    support * (1.0 + SKIN) * (1.0 + 1e-5)
+}
+
+/// The box `lo..hi` of `dim` dimensions widened on every side by a fifth of its extent
+/// and `radius` (see [`grid`]).
+fn widened(
+    (mut lo, mut hi): ([f64; 3], [f64; 3]),
+    dim: usize,
+    radius: f64,
+) -> ([f64; 3], [f64; 3]) {
+    for k in 0..dim {
         let margin = 0.2 * (hi[k] - lo[k]) + radius;
         lo[k] -= margin;
         hi[k] += margin;
     }
-    CellParams::new(gpu, D::N, lo, hi, n, radius)
+    (lo, hi)
 }
 
 impl<D: GpuDim> GpuUl<D> {

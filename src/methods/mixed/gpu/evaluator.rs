@@ -11,6 +11,15 @@ pub(super) struct StagePoints {
 }
 
 impl StagePoints {
+    /// The bytes of the uniform.
+    pub(super) fn bytes() -> usize {
+        crate::gpu::context::uniform_bytes(&StagePoints {
+            half_dt: 0.0,
+            mid: 0,
+        })
+        .len()
+    }
+
     /// The uniform of the stage's points (`mid` = 0) or the mid-step points (1), with
     /// Δt/2 written when Δt is set.
     pub(super) fn uniform(gpu: &Gpu, label: &str, mid: u32) -> wgpu::Buffer {

@@ -31,22 +31,99 @@ pub struct MixedLayout {
     pub corr: Fields,
 }
 
+/// What sizes the buffers of a mixed scene: its counts, and the options that add fields.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Sizes {
+    /// Real particles, mirror particles, neighbour pairs (ghost neighbours among them)
+    /// and particles with prescribed components.
+    pub n: usize,
+    pub ghosts: usize,
+    pub pairs: usize,
+    pub constrained: usize,
+    pub evolves_h: bool,
+    pub evolves_j: bool,
+    /// Artificial compressibility, and its pseudo-viscosity (α > 0).
+    pub ac: bool,
+    pub pseudo_viscosity: bool,
+    pub jst: bool,
+    /// The bond-based F.
+    pub bond: bool,
+    /// Upwind-SPH's linear reconstruction.
+    pub reconstruction: bool,
+}
+
+impl Sizes {
+    /// The sizes of the scene set up in `cpu`.
+    fn of_system<D: Dim>(cpu: &MixedSph<D>) -> Self {
+        let n = cpu.reference().len();
+        let corrector = cpu.corrector();
+        Self {
+            n,
+            ghosts: cpu.extended_reference().0.len() - n,
+            pairs: cpu.neighbours().pair_count(),
+            constrained: cpu.boundary().constrained.len(),
+            evolves_h: cpu.conserved().evolves_h(),
+            evolves_j: cpu.evolves_j(),
+            ac: corrector.is_some(),
+            pseudo_viscosity: corrector.is_some_and(|c| c.laplacian_weights().is_some()),
+            jst: cpu.jst().is_some(),
+            bond: cpu.bond_weights().is_some(),
+            reconstruction: cpu.reconstruction(),
+        }
+    }
+
+    /// The sizes a scene of `case` under `spec` will have on `counts`, before it is set
+    /// up (the constrained particles' reaction slots, a surface's few words each, left
+    /// out): what [`Self::of_system`] gives once it is.
+    pub fn of_case(case: &Case, spec: &dyn MixedScheme, counts: &Counts) -> Self {
+        let options = spec.options();
+        let conserved = options.evolved(case.material.model);
+        let ac = options.artificial_compressibility.as_ref();
+        let stabiliser = spec.stabiliser();
+        Self {
+            n: Counts::whole(counts.particles),
+            ghosts: Counts::whole(counts.ghosts),
+            pairs: Counts::whole(counts.pairs),
+            constrained: 0,
+            evolves_h: conserved.evolves_h(),
+            evolves_j: conserved.evolves_j() && ac.is_none(),
+            ac: ac.is_some(),
+            pseudo_viscosity: ac.is_some_and(|a| a.alpha > 0.0),
+            jst: matches!(stabiliser, Stabiliser::Jst(_)),
+            bond: options.bond_based(),
+            reconstruction: matches!(
+                stabiliser,
+                Stabiliser::Upwind {
+                    reconstruction: true
+                }
+            ),
+        }
+    }
+}
+
 impl MixedLayout {
     /// The layout of the scene set up in `cpu`.
     pub fn of<D: Dim>(cpu: &MixedSph<D>) -> Self {
-        let n = cpu.reference().len();
-        let ghosts = cpu.extended_reference().0.len() - n;
-        let pairs = cpu.neighbours().pair_count();
-        let conserved = cpu.conserved();
-        let (evolves_h, evolves_j) = (conserved.evolves_h(), cpu.evolves_j());
-        let corrector = cpu.corrector();
-        let ac = corrector.is_some();
-        let pseudo_viscosity = corrector.is_some_and(|c| c.laplacian_weights().is_some());
-        let (jst, bond) = (cpu.jst().is_some(), cpu.bond_weights().is_some());
+        Self::new(&Sizes::of_system(cpu), D::N)
+    }
+
+    /// The layout of a scene of `sizes` in `dim` dimensions.
+    pub fn new(sizes: &Sizes, dim: usize) -> Self {
+        let Sizes {
+            n,
+            ghosts,
+            pairs,
+            constrained,
+            evolves_h,
+            evolves_j,
+            ac,
+            pseudo_viscosity,
+            jst,
+            bond,
+            reconstruction,
+        } = *sizes;
         let upwind = !jst;
         let kin_h = upwind && evolves_j;
-        let dim = D::N;
-        let constrained = cpu.boundary().constrained.len();
         Self {
             n,
             ghosts,
@@ -78,7 +155,7 @@ impl MixedLayout {
                 .vectors("GR", true, pairs)
                 .vectors("DX", upwind || bond, pairs)
                 .scalars("S", jst, pairs)
-                .vectors("LS", upwind && cpu.reconstruction(), pairs)
+                .vectors("LS", upwind && reconstruction, pairs)
                 .scalars("ELL", jst, pairs)
                 .scalars("W", bond, pairs)
                 .scalars("BL", pseudo_viscosity, pairs),

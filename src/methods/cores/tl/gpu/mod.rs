@@ -25,12 +25,15 @@ use crate::diagnostics::observe::Snapshot;
 use crate::engine::{BlowUp, GpuEngine, GpuFamily, Start};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{GpuDim, flat_v};
+use crate::gpu::memory::{Counts, DeviceMemory};
 use crate::gpu::profile::Scale;
+use crate::gpu::program::Stepper;
 use crate::gpu::reduction::{Reduced, Reduction};
 use crate::gpu::reference::DeviceReference;
 use crate::gpu::shaders::{self, CORRECTION, PAIR_OFFSETS, Source};
 use crate::gpu::shell::Shell;
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
+use crate::interaction::gpu::GpuInteractions;
 use crate::methods::cores::shared::BySource;
 use crate::methods::cores::tl::hourglass::hourglass_stiffness;
 use crate::methods::cores::tl::{TlState, check_state, snapshot};
@@ -185,6 +188,29 @@ impl<D: GpuDim> GpuTlsph<D> {
             kinematics_y,
         };
         Ok(Self::assemble(shell, interactions, family))
+    }
+}
+
+impl<D: GpuDim> GpuTlsph<D> {
+    /// The buffers [`Self::new`] makes for `case` under `scheme` on `counts`, from the same
+    /// layout (the constrained particles' reaction slots, a surface's few words each, left
+    /// out).
+    pub fn memory(case: &Case, scheme: &TlScheme<D>, counts: &Counts) -> DeviceMemory {
+        DeviceMemory::of(counts, |m| {
+            let (n, pairs) = (counts.n(), counts.pair_count());
+            let rate = case.material.model.is_rate_based();
+            let layout = Layout::new(n, 0, D::N, rate, pairs, scheme);
+            DeviceReference::memory(m, &layout.reference, n, D::N, n, pairs);
+            m.fields("per-pair data", &layout.pair);
+            m.words("status", scheme.checks.len().max(1) as f64);
+            if scheme.reverse {
+                m.words("reverse pairs", pairs as f64);
+            }
+            Stepper::memory(m, case.method.integrator, layout.state.len());
+            m.fields("kinematics", &layout.kin);
+            Reduction::memory(m, n);
+            GpuInteractions::memory(m, case, n, D::N);
+        })
     }
 }
 
