@@ -238,7 +238,6 @@ pub fn estimate_particles(case: &Case) -> Result<Vec<BodySize>, CaseError> {
         |inner: f64, outer: f64| std::f64::consts::FRAC_PI_4 * (1.0 - (inner / outer).powi(2));
     let d = case.dim();
     let reach = case.method.kernel.support_factor() * case.method.h_over_dx;
-    let size = |grid: Grid, fraction: f64, visited: f64| grid.size(fraction, visited);
     case.bodies
         .iter()
         .enumerate()
@@ -266,22 +265,18 @@ pub fn estimate_particles(case: &Case) -> Result<Vec<BodySize>, CaseError> {
                     let hi: Vec<f64> = max.iter().map(|m| m - half).collect();
                     let counts = box_of(&lo, &hi);
                     let visited = counts.iter().product();
-                    size(grid(counts, 0.5), 1.0, visited)
+                    grid(counts, 0.5).size(1.0, visited)
                 }
                 Shape::Box { min, max, .. } => {
                     let counts = box_of(min, max);
                     let visited = counts.iter().product();
-                    size(grid(counts, 0.0), 1.0, visited)
+                    grid(counts, 0.0).size(1.0, visited)
                 }
                 Shape::Disk { center, radius, .. } => {
                     let (lo, hi) = around(center, *radius);
                     let counts = box_of(&lo, &hi);
                     let visited = counts.iter().product();
-                    size(
-                        grid(across(counts, None), 0.0),
-                        annulus(0.0, *radius),
-                        visited,
-                    )
+                    grid(across(counts, None), 0.0).size(annulus(0.0, *radius), visited)
                 }
                 Shape::Ring {
                     inner_radius,
@@ -300,7 +295,7 @@ pub fn estimate_particles(case: &Case) -> Result<Vec<BodySize>, CaseError> {
                     };
                     BodySize {
                         cells: n_r * n_theta,
-                        ..size(polar, 1.0, (n_r + 1.0) * n_theta)
+                        ..polar.size(1.0, (n_r + 1.0) * n_theta)
                     }
                 }
                 Shape::Ring {
@@ -313,7 +308,7 @@ pub fn estimate_particles(case: &Case) -> Result<Vec<BodySize>, CaseError> {
                     let counts = box_of(&lo, &hi);
                     let visited = counts.iter().product();
                     let fraction = annulus(*inner_radius, *outer_radius);
-                    size(grid(across(counts, None), 0.0), fraction, visited)
+                    grid(across(counts, None), 0.0).size(fraction, visited)
                 }
                 Shape::Cylinder {
                     radius,
@@ -331,7 +326,7 @@ pub fn estimate_particles(case: &Case) -> Result<Vec<BodySize>, CaseError> {
                         Lattice::Vertex => (across(counts, Some(axis.index())), 0.0),
                     };
                     let fraction = annulus(*inner_radius, *radius);
-                    size(grid(counts, inset), fraction, visited)
+                    grid(counts, inset).size(fraction, visited)
                 }
                 Shape::Polygon { vertices, .. } => {
                     let (lo, hi) = crate::case::polygon::bounds(vertices);
@@ -339,7 +334,7 @@ pub fn estimate_particles(case: &Case) -> Result<Vec<BodySize>, CaseError> {
                     let counts = box_of(&lo, &hi);
                     let visited = counts.iter().product();
                     let fraction = crate::case::polygon::area(vertices) / bounding;
-                    size(grid(counts, 0.0), fraction, visited)
+                    grid(counts, 0.0).size(fraction, visited)
                 }
                 Shape::Points { file } | Shape::Mesh { file, .. } => {
                     file_size(case, b, &spec.geometry, file, reach)?
