@@ -78,15 +78,16 @@ fn polar_rotation(a: matd) -> matd {
 // - status: nothing
 @compute @workgroup_size(256)
 fn stress(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let i = index(gid, nwg);
-    if i >= N {
+    let row = index(gid, nwg);
+    if row >= part.rows {
         return;
     }
+    let i = part.first + row;
     let u_i = vload_y(U_OFF + DIM * i);
     // Shape matching A_i = Σ_j m_j W_ij (x_j − x_i) ⊗ (X_j − X_i) (eq 151).
     var a: matd;
-    let p_end = offsets[i + 1u];
-    for (var p = offsets[i]; p < p_end; p++) {
+    let p_end = offsets[row + 1u];
+    for (var p = offsets[row]; p < p_end; p++) {
         let j = ids[p];
         let dx = vload_pair(PDX_OFF + DIM * p);
         let x_ji = vload_y(U_OFF + DIM * j) - u_i + dx;
@@ -100,7 +101,7 @@ fn stress(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     // (eqs 152–153), summed as Ĥ = F̂ − I.
     let r_t = transpose(r);
     var h: matd;
-    for (var p = offsets[i]; p < p_end; p++) {
+    for (var p = offsets[row]; p < p_end; p++) {
         let j = ids[p];
         let dx = vload_pair(PDX_OFF + DIM * p);
         let u_hat = r_t * (vload_y(U_OFF + DIM * j) - u_i + dx) - dx;

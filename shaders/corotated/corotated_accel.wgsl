@@ -1,7 +1,7 @@
 // Corotated total-Lagrangian SPH on the device (seed 000 §5.5), pass 2 of a rate
 // evaluation: with FORCE_VARIATIONAL m_i a_i = Σ_j V_i V_j (R_i P̂_i ∇0W_ij −
-// R_j P̂_j ∇0W_ji), the reverse gradients GREV filled by the set-up entry of
-// reverse_gradients.wgsl; with FORCE_REFERENCE_CODE Σ_j V_i V_j ½(R_i + R_j)(P̂_i + P̂_j)
+// R_j P̂_j ∇0W_ji), the reverse gradients GREV copied at set-up from the reverse pairs'
+// gradients; with FORCE_REFERENCE_CODE Σ_j V_i V_j ½(R_i + R_j)(P̂_i + P̂_j)
 // ∇0W_ij (eqs 154–155 as the reference code writes them); plus Monaghan viscosity along
 // ½(R_iF̂_i⁻ᵀ + R_jF̂_j⁻ᵀ)∇0W_ij, boundary conditions (boundary.wgsl) and u̇ = v. One
 // invocation per particle; writes only its own particle. Buffers and constants as in
@@ -38,10 +38,11 @@
 // - d: 2 vectors per item
 @compute @workgroup_size(256)
 fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let i = index(gid, nwg);
-    if i >= N {
+    let row = index(gid, nwg);
+    if row >= part.rows {
         return;
     }
+    let i = part.first + row;
     let r_i = mload_kin(KR_OFF + DIM * DIM * i);
     let p_i = mload_kin(KP_OFF + DIM * DIM * i);
     let push_i = mload_kin(KFIT_OFF + DIM * DIM * i);
@@ -51,8 +52,8 @@ fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     let c_i = sqrt(BULK / rho_i);
     var stress: vecd;
     var viscous: vecd;
-    let p_end = offsets[i + 1u];
-    for (var p = offsets[i]; p < p_end; p++) {
+    let p_end = offsets[row + 1u];
+    for (var p = offsets[row]; p < p_end; p++) {
         let j = ids[p];
         let g = vload_pair(PG_OFF + DIM * p);
         let r_j = mload_kin(KR_OFF + DIM * DIM * j);

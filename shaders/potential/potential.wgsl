@@ -48,10 +48,11 @@
 // - d: 2 vectors per item
 @compute @workgroup_size(256)
 fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let i = index(gid, nwg);
-    if i >= N {
+    let row = index(gid, nwg);
+    if row >= part.rows {
         return;
     }
+    let i = part.first + row;
     let p_i = mload_kin(KP_OFF + DIM * DIM * i);
     let rho_i = kin[KRHO_OFF + i];
     let fit_i = mload_kin(KFIT_OFF + DIM * DIM * i);
@@ -62,8 +63,8 @@ fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     let h_i = mload_kin(KF_OFF + DIM * DIM * i);
     var force: vecd;
     var viscous: vecd;
-    let p_end = offsets[i + 1u];
-    for (var p = offsets[i]; p < p_end; p++) {
+    let p_end = offsets[row + 1u];
+    for (var p = offsets[row]; p < p_end; p++) {
         let j = ids[p];
         let g = vload_pair(PG_OFF + DIM * p);
         let g_rev = vload_pair(PGREV_OFF + DIM * p);

@@ -14,14 +14,15 @@
 
 @compute @workgroup_size(256)
 fn correct(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let i = index(gid, nwg);
-    if i >= N {
+    let row = index(gid, nwg);
+    if row >= part.rows {
         return;
     }
+    let i = part.first + row;
     var a: matd;
     var shepard = vol_of(i) * kernel_w(0.0);
-    let p_end = offsets[i + 1u];
-    for (var p = offsets[i]; p < p_end; p++) {
+    let p_end = offsets[row + 1u];
+    for (var p = offsets[row]; p < p_end; p++) {
         let j = ids[p];
         let x_ij = -vload_pair(PDX_OFF + DIM * p);
         a += outer(-x_ij, kernel_grad(x_ij)) * vol_of(j);
@@ -36,7 +37,7 @@ fn correct(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
         }
         m = transpose(inverse_d(a));
     }
-    for (var p = offsets[i]; p < p_end; p++) {
+    for (var p = offsets[row]; p < p_end; p++) {
         let x_ij = -vload_pair(PDX_OFF + DIM * p);
         vstore_pair(PG_OFF + DIM * p, m * kernel_grad(x_ij));
     }

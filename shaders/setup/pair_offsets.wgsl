@@ -10,14 +10,15 @@
 
 @compute @workgroup_size(256)
 fn pair_offsets(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let i = index(gid, nwg);
-    if i >= N {
+    let row = index(gid, nwg);
+    if row >= part.rows {
         return;
     }
+    let i = part.first + row;
     let hi_i = x0_of(i);
     let lo_i = vload_reference(RXLO_OFF + DIM * i);
-    let p_end = offsets[i + 1u];
-    for (var p = offsets[i]; p < p_end; p++) {
+    let p_end = offsets[row + 1u];
+    for (var p = offsets[row]; p < p_end; p++) {
         let j = ids[p];
         let lo_j = vload_reference(RXLO_OFF + DIM * j);
         vstore_pair(PDX_OFF + DIM * p, (x0_of(j) - hi_i) + (lo_j - lo_i));

@@ -1,6 +1,6 @@
 // Total-Lagrangian SPH accelerations (seed 000 eq 134, or with FORCE_VARIATIONAL the
 // pair force P_i ∇0W̃_ij − P_j ∇0W̃_ji from the reverse gradients GREV, which the set-up
-// entry of reverse_gradients.wgsl fills) with Monaghan viscosity along the
+// copies from the reverse pairs' gradients) with Monaghan viscosity along the
 // pushed-forward gradient F_i⁻ᵀ ∇0W̃_ij (or ∇0W̃_ij unmapped, AV_GRADIENT_REFERENCE: the
 // paper's form), with HOURGLASS the hourglass control −κ_ij δ_ij e_ij of every bond
 // (src/methods/tlsph/system.rs, `hourglass_acceleration`; κ_ij in the pair field HGK),
@@ -48,10 +48,11 @@
 // - d: 2 vectors per item
 @compute @workgroup_size(256)
 fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let i = index(gid, nwg);
-    if i >= N {
+    let row = index(gid, nwg);
+    if row >= part.rows {
         return;
     }
+    let i = part.first + row;
     let p_i = mload_kin(KP_OFF + DIM * DIM * i);
     let rho_i = kin[KRHO_OFF + i];
     let f_inv_t = mload_kin(KFIT_OFF + DIM * DIM * i);
@@ -62,8 +63,8 @@ fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     var stress: vecd;
     var viscous: vecd;
     var hourglass: vecd;
-    let p_end = offsets[i + 1u];
-    for (var p = offsets[i]; p < p_end; p++) {
+    let p_end = offsets[row + 1u];
+    for (var p = offsets[row]; p < p_end; p++) {
         let j = ids[p];
         let g = vload_pair(PG_OFF + DIM * p);
         let p_j = mload_kin(KP_OFF + DIM * DIM * j);

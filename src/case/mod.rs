@@ -28,7 +28,7 @@ pub use body::{
     VelocityNoise, Volumes,
 };
 pub use boundary::{BoundarySpec, Condition, Region, Surface, TimeLaw};
-pub use error::CaseError;
+pub use error::{CaseError, parse_bytes};
 pub use expression::Expression;
 pub(crate) use fields::linear_field;
 pub use fields::{DisplacementField, VelocityField};

@@ -16,6 +16,11 @@ use wgpu::util::DeviceExt;
 /// (`vulkan`, `metal`, `dx12`, `gl`).
 pub const ADAPTER_ENV: &str = "MESHLESS_ADAPTER";
 
+/// Environment variable that lowers the largest storage binding a pass may use below the
+/// adapter's (bytes, or a number with a unit: `1MiB`), so that the neighbour lists split
+/// into parts ([`super::parts`]) on any adapter.
+pub const MAX_BINDING_ENV: &str = "MESHLESS_MAX_BINDING";
+
 /// Invocations per workgroup of every 1D pass (see the shaders' `@workgroup_size`).
 pub const WORKGROUP: u32 = 256;
 
@@ -48,13 +53,33 @@ pub enum GpuError {
         count: u32,
         limit: u32,
     },
+    #[error(
+        "{MAX_BINDING_ENV}={value}: give the largest storage binding as bytes or with a \
+         unit: B, kB, MB, GB (powers of 1000) or KiB, MiB, GiB (powers of 1024), e.g. 1MiB"
+    )]
+    BindingEnv { value: String },
+    #[error(
+        "adapter `{adapter}`: pass `{pass}` binds `{binding}` of {bytes} bytes, above the \
+         binding limit {limit} ({}); use fewer particles or a device with a larger limit \
+         (`meshless info` lists each adapter's)",
+        if *.forced { MAX_BINDING_ENV } else { "max_storage_buffer_binding_size" }
+    )]
+    BindingTooLarge {
+        adapter: String,
+        pass: String,
+        binding: String,
+        bytes: u64,
+        limit: u64,
+        forced: bool,
+    },
     #[error("pass `{pass}` does not compile: {message}")]
     Shader { pass: String, message: String },
     #[error("pass `{pass}` uses the binding `{binding}`, which its engine does not provide")]
     Unbound { pass: String, binding: String },
     #[error(
-        "adapter `{adapter}`: the scene needs a {what} of {needed} bytes, above the device \
-         limit {limit}; use fewer particles or a device with more memory"
+        "adapter `{adapter}`: the scene needs a {what} of {needed} bytes, above the largest \
+         storage binding, {limit} bytes (the adapter's max_storage_buffer_binding_size, or \
+         {MAX_BINDING_ENV}); use fewer particles or a device with a larger limit"
     )]
     TooLarge {
         adapter: String,
@@ -73,6 +98,13 @@ pub struct Pipeline {
     bindings: Vec<(u32, String)>,
     /// The bytes model of its pass file for this variant, if the file declares one.
     pub cost: Option<Cost>,
+}
+
+impl Pipeline {
+    /// Whether its entry point uses the binding `name`.
+    pub fn uses(&self, name: &str) -> bool {
+        self.bindings.iter().any(|(_, n)| n == name)
+    }
 }
 
 /// One adapter as `meshless info` shows it.
@@ -385,6 +417,9 @@ pub struct Gpu {
     pub(crate) copy: Mutex<Option<f64>>,
     /// The bytes of the buffers made so far, by label ([`Gpu::allocated`]).
     ledger: Mutex<BTreeMap<String, u64>>,
+    /// The largest storage binding a pass may use ([`Gpu::binding_limit`]) and whether
+    /// it is below the adapter's.
+    binding: (u64, bool),
 }
 
 impl Gpu {
@@ -435,7 +470,10 @@ impl Gpu {
             adapter: describe(&info),
             source,
         })?;
-        Ok(Self {
+        let adapter_limit = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size);
+        let gpu = Self {
             device,
             queue,
             info,
@@ -443,7 +481,31 @@ impl Gpu {
             profiler: Mutex::new(None),
             copy: Mutex::new(None),
             ledger: Mutex::new(BTreeMap::new()),
-        })
+            binding: (adapter_limit, false),
+        };
+        match std::env::var(MAX_BINDING_ENV) {
+            Err(_) => Ok(gpu),
+            Ok(value) => match crate::case::parse_bytes(&value) {
+                Some(bytes) => Ok(gpu.with_binding_limit(bytes as u64)),
+                None => Err(GpuError::BindingEnv { value }),
+            },
+        }
+    }
+
+    /// This device with its largest storage binding lowered to `bytes` (a multiple of
+    /// 4), where that is below the adapter's: what [`MAX_BINDING_ENV`] sets.
+    pub fn with_binding_limit(mut self, bytes: u64) -> Self {
+        let bytes = (bytes / 4 * 4).max(4);
+        if bytes < self.binding.0 {
+            self.binding = (bytes, true);
+        }
+        self
+    }
+
+    /// The largest storage binding a pass may use [bytes]: the adapter's
+    /// `max_storage_buffer_binding_size` (and buffer size), or [`MAX_BINDING_ENV`]'s.
+    pub fn binding_limit(&self) -> u64 {
+        self.binding.0
     }
 
     pub fn name(&self) -> String {
@@ -452,10 +514,7 @@ impl Gpu {
 
     /// Fails with a clear error when a buffer of `bytes` exceeds the device's limits.
     pub fn check_size(&self, what: &'static str, bytes: u64) -> Result<(), GpuError> {
-        let limit = self
-            .limits
-            .max_storage_buffer_binding_size
-            .min(self.limits.max_buffer_size);
+        let limit = self.binding_limit();
         if bytes > limit {
             return Err(GpuError::TooLarge {
                 adapter: self.name(),
@@ -599,7 +658,7 @@ impl Gpu {
     /// Bind group 0 of `pipeline`, each binding its entry point uses taking the buffer of
     /// the same variable name in `resources` (names it does not use are ignored, so one
     /// table serves every entry point of a file). Err names the pass and the binding
-    /// that `resources` lacks.
+    /// that `resources` lacks, or whose buffer exceeds the binding limit.
     pub fn bind(
         &self,
         pipeline: &Pipeline,
@@ -618,6 +677,16 @@ impl Gpu {
                         binding: name.clone(),
                     })?
                     .1;
+                if buffer.size() > self.binding.0 {
+                    return Err(GpuError::BindingTooLarge {
+                        adapter: self.name(),
+                        pass: pipeline.pass.clone(),
+                        binding: name.clone(),
+                        bytes: buffer.size(),
+                        limit: self.binding.0,
+                        forced: self.binding.1,
+                    });
+                }
                 Ok(wgpu::BindGroupEntry {
                     binding: *binding,
                     resource: buffer.as_entire_binding(),

@@ -7,6 +7,7 @@ pub mod context;
 pub mod layout;
 pub mod memory;
 pub mod neighbour;
+pub mod parts;
 pub mod profile;
 pub mod program;
 pub mod reduction;

@@ -6,6 +6,7 @@
 use super::context::Gpu;
 use super::layout::{Fields, Flat, flat_v};
 use super::memory::DeviceMemory;
+use super::parts::{PartLists, Split};
 use crate::boundary::Boundary;
 use crate::core::neighbour::Csr;
 
@@ -41,9 +42,8 @@ pub const MAX_SLOTS: usize = 1 << 24;
 pub struct DeviceReference {
     pub fields: Fields,
     pub reference: wgpu::Buffer,
-    /// CSR row offsets (n + 1) and neighbour ids.
-    pub offsets: wgpu::Buffer,
-    pub ids: wgpu::Buffer,
+    /// The neighbour lists, a part each ([`super::parts`]).
+    pub lists: Vec<PartLists>,
     /// External accelerations of the traction loads (DIM per particle).
     pub traction: wgpu::Buffer,
 }
@@ -51,7 +51,8 @@ pub struct DeviceReference {
 impl DeviceReference {
     /// The buffers [`Self::upload`] makes: the reference configuration of `n` particles
     /// in `dim` dimensions laid out as `fields`, their tractions, and lists of `rows` rows
-    /// and `pairs` pairs (a method whose lists live elsewhere uploads none: 0 and 0).
+    /// and `pairs` pairs in one part (a method whose lists live elsewhere uploads none: 0
+    /// and 0).
     pub fn memory(
         memory: &mut DeviceMemory,
         fields: &Fields,
@@ -65,16 +66,18 @@ impl DeviceReference {
         // The offsets of no rows are one word, as an empty list's ids.
         memory.words("neighbour offsets", (rows + 1) as f64);
         memory.words("neighbour ids", pairs as f64);
+        memory.add("list part", 8.0);
     }
 
     /// Uploads positions `x0`, volumes `vol`, the boundary conditions and the neighbour
-    /// lists `csr` of the particles (f64 on the host, rounded once to f32).
+    /// lists `csr` of the particles in the parts of `split` (f64 on the host, rounded
+    /// once to f32).
     pub fn upload<D: Flat>(
         gpu: &Gpu,
         x0: &[D::V],
         vol: &[f64],
         boundary: &Boundary<D>,
-        csr: &Csr,
+        (csr, split): (&Csr, &Split),
         extras: Extras,
     ) -> Self {
         let n = x0.len();
@@ -112,11 +115,9 @@ impl DeviceReference {
         for &(i, a) in &boundary.external {
             ext[i as usize] = a;
         }
-        let offsets: Vec<u32> = csr.offsets.iter().map(|&o| o as u32).collect();
         Self {
             reference: gpu.storage("reference", &flat),
-            offsets: gpu.storage("neighbour offsets", &offsets),
-            ids: gpu.storage("neighbour ids", &csr.ids),
+            lists: PartLists::upload(gpu, csr, split),
             traction: gpu.storage("traction", &flat_v::<D>(ext)),
             fields,
         }

@@ -82,9 +82,8 @@ pub const BOUNDARY: Wgsl = wgsl!("interaction/boundary.wgsl");
 pub const REFERENCE: Wgsl = wgsl!("setup/reference.wgsl");
 /// Monaghan's artificial viscosity Π_ij of a pair.
 pub const VISCOSITY: Wgsl = wgsl!("physics/viscosity.wgsl");
-/// The set-up entry `reverse_gradients` of the pair forces from Σ_i V_i ψ(F_i): ∇0W̃_ji
-/// into the pair data's field GREV.
-pub const REVERSE_GRADIENTS: Wgsl = wgsl!("setup/reverse_gradients.wgsl");
+/// The uniform `part` of the neighbour lists a dispatch runs on (`gpu::parts`).
+pub const PART: Wgsl = wgsl!("common/part.wgsl");
 /// Eigen-decomposition of symmetric tensors (cyclic Jacobi) and tensors from principal
 /// values.
 pub const EIGEN: Wgsl = wgsl!("common/eigen.wgsl");
@@ -97,7 +96,7 @@ pub const PLASTIC_STORE: Wgsl = wgsl!("physics/plastic_store.wgsl");
 /// Corrected reference gradients (Randles–Libersky, Shepard, none).
 pub const CORRECTION: Source = source!(
     "setup/correction.wgsl",
-    [KERNEL, REFERENCE],
+    [KERNEL, REFERENCE, PART],
     [("pair", true), ("reference", false)]
 );
 /// The integrators' stage operations over the flat state; an item is one f32 entry of it.
@@ -105,7 +104,7 @@ pub const INTEGRATE: Source = source!("common/integrate.wgsl");
 /// Reference pair offsets X_j − X_i from hi + lo positions.
 pub const PAIR_OFFSETS: Source = source!(
     "setup/pair_offsets.wgsl",
-    [REFERENCE],
+    [REFERENCE, PART],
     [("reference", false), ("pair", true)]
 );
 /// Penalty contact of seed 000 §5.8: one gather per slave over the other bodies' hulls.

@@ -224,7 +224,7 @@ fn device_memory() -> Result<Option<(f64, String)>, CaseError> {
     let Ok(value) = std::env::var(DEVICE_MEMORY_ENV) else {
         return Ok(platform_device_memory());
     };
-    parse_bytes(&value)
+    crate::case::parse_bytes(&value)
         .map(|bytes| Some((bytes, format!("{DEVICE_MEMORY_ENV} says"))))
         .ok_or_else(|| CaseError::Environment {
             variable: DEVICE_MEMORY_ENV,
@@ -275,29 +275,6 @@ fn nvidia_memory(listing: &str) -> Option<f64> {
         .filter(|m| m.is_finite() && *m > 0.0)
         .map(|mib| mib * 1024.0 * 1024.0)
         .reduce(f64::max)
-}
-
-/// A positive size in bytes: a number, then an optional unit of [`DEVICE_MEMORY_ENV`].
-fn parse_bytes(text: &str) -> Option<f64> {
-    let text = text.trim();
-    let split = text
-        .find(|c: char| c.is_ascii_alphabetic() && c != 'e' && c != 'E')
-        .unwrap_or(text.len());
-    let (number, unit) = text.split_at(split);
-    let scale = match unit.trim() {
-        "" | "B" => 1.0,
-        "kB" | "KB" => 1e3,
-        "MB" => 1e6,
-        "GB" => 1e9,
-        "TB" => 1e12,
-        "KiB" => 1024.0,
-        "MiB" => 1024.0f64.powi(2),
-        "GiB" => 1024.0f64.powi(3),
-        "TiB" => 1024.0f64.powi(4),
-        _ => return None,
-    };
-    let bytes = number.trim().parse::<f64>().ok()? * scale;
-    (bytes.is_finite() && bytes > 0.0).then_some(bytes)
 }
 
 /// Refuses a GPU run whose estimated device share passes the memory
@@ -524,20 +501,6 @@ mod tests {
     use crate::case::{Lattice, discretise};
     use crate::core::tensor::{D2, D3};
     use crate::scene::validate::minimal_case;
-
-    #[test]
-    fn a_stated_device_memory_reads_bytes_and_units() {
-        // Decimal and binary units, a space before the unit, an exponent; nothing else.
-        assert_eq!(parse_bytes("80GB"), Some(80e9));
-        assert_eq!(parse_bytes("141 GB"), Some(141e9));
-        assert_eq!(parse_bytes("24GiB"), Some(24.0 * 1024f64.powi(3)));
-        assert_eq!(parse_bytes("512MiB"), Some(512.0 * 1024f64.powi(2)));
-        assert_eq!(parse_bytes("1.5e9"), Some(1.5e9));
-        assert_eq!(parse_bytes("4096"), Some(4096.0));
-        for bad in ["", "GB", "-1GB", "0", "80 gigabytes", "inf", "1e400"] {
-            assert_eq!(parse_bytes(bad), None, "{bad}");
-        }
-    }
 
     #[test]
     fn nvidia_smi_lists_mib_a_gpu_and_the_largest_is_taken() {

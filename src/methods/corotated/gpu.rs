@@ -5,7 +5,7 @@
 use super::{CorotatedForce, CorotatedSpec, outputs};
 use crate::gpu::layout::GpuDim;
 use crate::gpu::shaders::{
-    BOUNDARY, KERNEL, MECHANICS, REFERENCE, REVERSE_GRADIENTS, Source, VISCOSITY, source,
+    BOUNDARY, KERNEL, MECHANICS, PART, REFERENCE, Source, VISCOSITY, source,
 };
 use crate::methods::cores::tl::gpu::{self as tl, Frame, Lists, REDUCE, TlScheme, viscosity};
 
@@ -13,7 +13,7 @@ use crate::methods::cores::tl::gpu::{self as tl, Frame, Lists, REDUCE, TlScheme,
 /// F̂_i (eqs 152–153), P̂_i = P(F̂_i), R_i F̂_i⁻ᵀ and ρ0/det F̂_i.
 pub const STRESS: Source = source!(
     "corotated/corotated.wgsl",
-    [KERNEL, MECHANICS, REFERENCE],
+    [KERNEL, MECHANICS, REFERENCE, PART],
     [
         ("y", false),
         ("pair", false),
@@ -23,10 +23,10 @@ pub const STRESS: Source = source!(
 );
 /// The forces R_i P̂_i ∇0W_ij − R_j P̂_j ∇0W_ji (variational) or
 /// ½(R_i + R_j)(P̂_i + P̂_j)∇0W_ij (eqs 154–155 as the reference code writes them) with
-/// viscosity, boundary conditions; the reverse gradients of the variational force (set-up).
+/// viscosity, boundary conditions.
 pub const ACCEL: Source = source!(
     "corotated/corotated_accel.wgsl",
-    [BOUNDARY, REFERENCE, VISCOSITY, REVERSE_GRADIENTS],
+    [BOUNDARY, REFERENCE, VISCOSITY, PART],
     // The buffers of TLSPH's force pass: it runs on TLSPH's engine.
     flat = tl::ACCEL.flat
 );

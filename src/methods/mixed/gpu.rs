@@ -26,6 +26,7 @@ use crate::engine::{BlowUp, GpuEngine, GpuFamily, Method, Start};
 use crate::gpu::context::{Gpu, GpuError, Pipeline, WORKGROUP};
 use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::memory::{Counts, DeviceMemory};
+use crate::gpu::parts::Split;
 use crate::gpu::profile::Scale;
 use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{self, Reduced, Reduction};
@@ -202,7 +203,7 @@ impl<D: GpuDim> GpuMixed<D> {
             &x0[..n],
             &vol[..n],
             cpu.boundary(),
-            cpu.neighbours(),
+            (cpu.neighbours(), &Split::whole(cpu.neighbours())),
             EXTRAS,
         );
         let pair = gpu.storage("per-pair data", &pair_data(&cpu, &layout.pair));
@@ -238,8 +239,8 @@ impl<D: GpuDim> GpuMixed<D> {
         // reads and the balance points of its stage.
         let table = |y, points| -> Vec<(&str, &wgpu::Buffer)> {
             vec![
-                ("offsets", &device.offsets),
-                ("ids", &device.ids),
+                ("offsets", &device.lists[0].offsets),
+                ("ids", &device.lists[0].ids),
                 ("reference", &device.reference),
                 ("pair", &pair),
                 ("ghost_src", &ghost_src),

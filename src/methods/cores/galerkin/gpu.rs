@@ -17,6 +17,7 @@ use crate::engine::{BlowUp, GpuEngine, GpuFamily, Method, Start};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::memory::{Counts, DeviceMemory};
+use crate::gpu::parts::Split;
 use crate::gpu::profile::Scale;
 use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{self, Reduced, Reduction};
@@ -237,7 +238,7 @@ fn upload_nodes<D: GpuDim>(gpu: &Gpu, host: &TlGalerkin<D>) -> DeviceReference {
         host.reference(),
         &mass_volume,
         host.boundary(),
-        &host.shapes().csr,
+        (&host.shapes().csr, &Split::whole(&host.shapes().csr)),
         Extras::default(),
     )
 }
@@ -446,8 +447,8 @@ impl<D: GpuDim> GpuGalerkin<D> {
         let nodes_pipeline = gpu.pipeline("galerkin nodes", &rates_source, "nodes")?;
         let table = |y, d| -> [(&str, &wgpu::Buffer); 12] {
             [
-                ("offsets", &device.offsets),
-                ("ids", &device.ids),
+                ("offsets", &device.lists[0].offsets),
+                ("ids", &device.lists[0].ids),
                 ("pair", &pair),
                 ("reference", &device.reference),
                 ("y", y),

@@ -23,6 +23,7 @@ use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::memory::{Counts, DeviceMemory};
 use crate::gpu::neighbour::{CellList, CellParams, Positions};
+use crate::gpu::parts::Split;
 use crate::gpu::profile::{IndirectRuns, Scale};
 use crate::gpu::program::Stepper;
 use crate::gpu::reduction::{self, Reduced, Reduction};
@@ -252,7 +253,7 @@ impl<D: GpuDim> GpuUl<D> {
             &disc.x0,
             &disc.vol,
             &disc.boundary,
-            &Csr::default(),
+            (&Csr::default(), &Split::whole(&Csr::default())),
             Extras::default(),
         );
         let mut y0 = layout.state.zeroed();

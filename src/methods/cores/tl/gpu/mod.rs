@@ -23,9 +23,10 @@ use crate::core::neighbour::Csr;
 use crate::diagnostics::balance::Booked;
 use crate::diagnostics::observe::Snapshot;
 use crate::engine::{BlowUp, GpuEngine, GpuFamily, Start};
-use crate::gpu::context::{Gpu, GpuError, Pipeline};
+use crate::gpu::context::{Gpu, GpuError, Pipeline, reflect};
 use crate::gpu::layout::{GpuDim, flat_v};
 use crate::gpu::memory::{Counts, DeviceMemory};
+use crate::gpu::parts::Split;
 use crate::gpu::profile::Scale;
 use crate::gpu::program::Stepper;
 use crate::gpu::reduction::{Reduced, Reduction};
@@ -40,10 +41,11 @@ use crate::methods::cores::tl::{TlState, check_state, snapshot};
 use crate::reference::Reference;
 use scheme::EXTRAS;
 
-/// The stress and acceleration passes of one rate evaluation, bound to a source state.
+/// The stress and acceleration passes of one rate evaluation, bound to a source state: a
+/// bind group a part of the lists.
 struct Rates {
-    stress: wgpu::BindGroup,
-    accel: wgpu::BindGroup,
+    stress: Vec<wgpu::BindGroup>,
+    accel: Vec<wgpu::BindGroup>,
 }
 
 /// The TLSPH system resident on the GPU.
@@ -70,16 +72,21 @@ pub struct TlDevice<D: GpuDim> {
     layout: Layout,
     /// Neighbour pairs of the reference lists.
     pairs: u64,
-    pair: wgpu::Buffer,
+    /// The parts of the lists ([`crate::gpu::parts`]) and the per-pair data of each.
+    split: Split,
+    pair: Vec<wgpu::Buffer>,
     status: wgpu::Buffer,
     stress: Pipeline,
     accel: Pipeline,
     /// Rate evaluations of the states in `Y` and in `Stage`.
     rates: BySource<Rates>,
     /// The stress pass on `Y` writing into `Acc` (for snapshots: F at the current state
-    /// without touching the integrator's rates).
-    kinematics_y: wgpu::BindGroup,
+    /// without touching the integrator's rates), a part each.
+    kinematics_y: Vec<wgpu::BindGroup>,
 }
+
+/// What a scheme whose energy reduction reads the neighbour lists needs in one binding.
+const WHOLE_LISTS: &str = "whole per-pair buffer (its energy reduction reads every pair)";
 
 /// Value of `status[0]` when no particle failed.
 const STATUS_OK: u32 = u32::MAX;
@@ -101,28 +108,42 @@ impl<D: GpuDim> GpuTlsph<D> {
         let csr = host
             .as_ref()
             .map_or_else(|| disc.neighbours(), |d| d.csr.clone());
-        let layout = Layout::new(
-            n,
-            disc.boundary.constrained.len(),
-            D::N,
-            disc.material.model.is_rate_based(),
-            csr.pair_count(),
-            &scheme,
-        );
+        let layout = |pairs| {
+            let (constrained, rate) = (
+                disc.boundary.constrained.len(),
+                disc.material.model.is_rate_based(),
+            );
+            Layout::new(n, constrained, D::N, rate, pairs, &scheme)
+        };
+        // The per-pair data of one pair, then of the most pairs of a part.
+        let pair_bytes = layout(1).pair.bytes();
+        let split = Split::fitting(&gpu, &csr, pair_bytes)?;
+        let layout = layout(split.capacity());
         let constants = scene_constants(case, &layout, &scheme);
         check_f32_range(case, &constants)?;
-        gpu.check_size("per-pair buffer", layout.pair.bytes())?;
         gpu.check_size("kinematics buffer", layout.kin.bytes())?;
         let compose = |s: &Source| shaders::compose::<D>(s, &constants);
+        let reduce = compose(&scheme.reduce);
+        if reflect(&reduce, "reduce").is_ok_and(|r| r.bindings.iter().any(|(_, b)| b == "offsets"))
+        {
+            split.whole_for(&gpu, WHOLE_LISTS, pair_bytes)?;
+        }
 
-        let device =
-            DeviceReference::upload::<D>(&gpu, &disc.x0, &disc.vol, &disc.boundary, &csr, EXTRAS);
+        let device = DeviceReference::upload::<D>(
+            &gpu,
+            &disc.x0,
+            &disc.vol,
+            &disc.boundary,
+            (&csr, &split),
+            EXTRAS,
+        );
         let set_up = SetUp {
             case,
             gpu: &gpu,
             scheme: &scheme,
             disc: &disc,
             csr: &csr,
+            split: &split,
             layout: &layout,
             compose: &compose,
         };
@@ -142,11 +163,13 @@ impl<D: GpuDim> GpuTlsph<D> {
 
         let stress = gpu.pipeline("tl stress", &compose(&scheme.stress), "stress")?;
         let accel = gpu.pipeline("tl accel", &compose(&scheme.accel), "accel")?;
-        let table = |y, d| -> [(&str, &wgpu::Buffer); 9] {
+        let table = |k: usize, y, d| -> [(&str, &wgpu::Buffer); 10] {
+            let [offsets, ids, part] = device.lists[k].table();
             [
-                ("offsets", &device.offsets),
-                ("ids", &device.ids),
-                ("pair", &pair),
+                offsets,
+                ids,
+                part,
+                ("pair", &pair[k]),
                 ("reference", &device.reference),
                 ("kin", &kin),
                 ("status", &status),
@@ -155,16 +178,21 @@ impl<D: GpuDim> GpuTlsph<D> {
                 ("d", d),
             ]
         };
+        // A bind group of `pipeline` a part, on the state y and the rates d.
+        let by_part = |pipeline: &Pipeline, y, d| -> Result<Vec<wgpu::BindGroup>, GpuError> {
+            (0..pair.len())
+                .map(|k| gpu.bind(pipeline, &table(k, y, d)))
+                .collect()
+        };
         let rates = BySource::bind(&stepper, |y, d| -> Result<Rates, GpuError> {
-            let t = table(y, d);
             Ok(Rates {
-                stress: gpu.bind(&stress, &t)?,
-                accel: gpu.bind(&accel, &t)?,
+                stress: by_part(&stress, y, d)?,
+                accel: by_part(&accel, y, d)?,
             })
         })?;
         let (y, rates_d) = (stepper.buffer(Buf::Y), stepper.buffer(Buf::Rates));
-        let reduction = Reduction::new(&gpu, &compose(&scheme.reduce), &table(y, rates_d), n)?;
-        let kinematics_y = gpu.bind(&stress, &table(y, stepper.buffer(Buf::Acc)))?;
+        let reduction = Reduction::new(&gpu, &reduce, &table(0, y, rates_d), n)?;
+        let kinematics_y = by_part(&stress, y, stepper.buffer(Buf::Acc))?;
         let (energy_weight, wave_speed_scale) = match scheme.unit_weights {
             Some(scale) => (vec![1.0; n], scale(&disc.vol)),
             None => (disc.vol.clone(), 1.0),
@@ -180,6 +208,7 @@ impl<D: GpuDim> GpuTlsph<D> {
             checks: scheme.checks,
             host: host.map(|h| h.model),
             layout,
+            split,
             pair,
             status,
             stress,
@@ -203,9 +232,6 @@ impl<D: GpuDim> GpuTlsph<D> {
             DeviceReference::memory(m, &layout.reference, n, D::N, n, pairs);
             m.fields("per-pair data", &layout.pair);
             m.words("status", scheme.checks.len().max(1) as f64);
-            if scheme.reverse {
-                m.words("reverse pairs", pairs as f64);
-            }
             Stepper::memory(m, case.method.integrator, layout.state.len());
             m.fields("kinematics", &layout.kin);
             Reduction::memory(m, n);
@@ -234,38 +260,45 @@ struct SetUp<'a, D: GpuDim> {
     scheme: &'a TlScheme<D>,
     disc: &'a Reference<D>,
     csr: &'a Csr,
+    split: &'a Split,
     layout: &'a Layout,
     compose: &'a dyn Fn(&Source) -> String,
 }
 
 impl<D: GpuDim> SetUp<'_, D> {
-    /// The per-pair data and the status buffer: X_j − X_i, the corrected gradients (on
-    /// the device, or the host's RKPM and CGCK or host lists'), the hourglass
-    /// stiffnesses and the reverse gradients of the schemes that read them.
+    /// The per-pair data of each part and the status buffer: X_j − X_i, the corrected
+    /// gradients (on the device, or the host's RKPM and CGCK or host lists'), the
+    /// hourglass stiffnesses and the reverse gradients of the schemes that read them.
     fn pair_data(
         &self,
         device: &DeviceReference,
         host: Option<&HostLists<D>>,
-    ) -> Result<(wgpu::Buffer, wgpu::Buffer), SetupError> {
+    ) -> Result<(Vec<wgpu::Buffer>, wgpu::Buffer), SetupError> {
         let Self {
             case,
             gpu,
             scheme,
             disc,
             csr,
+            split,
             layout,
             compose,
         } = self;
-        let n = disc.len();
-        let pair = gpu.zeroed("per-pair data", layout.pair.bytes());
+        let pair: Vec<wgpu::Buffer> = (split.parts.iter())
+            .map(|_| gpu.zeroed("per-pair data", layout.pair.bytes()))
+            .collect();
         let status = gpu.storage("status", &vec![STATUS_OK; scheme.checks.len().max(1)]);
-        let set_up: [(&str, &wgpu::Buffer); 5] = [
-            ("offsets", &device.offsets),
-            ("ids", &device.ids),
-            ("reference", &device.reference),
-            ("pair", &pair),
-            ("status", &status),
-        ];
+        let table = |k: usize| -> Vec<(&str, &wgpu::Buffer)> {
+            let [offsets, ids, part] = device.lists[k].table();
+            vec![
+                offsets,
+                ids,
+                part,
+                ("reference", &device.reference),
+                ("pair", &pair[k]),
+                ("status", &status),
+            ]
+        };
         // X_j − X_i, then (but for the host's RKPM and CGCK) the corrected gradients.
         let offsets_pass = (compose(&PAIR_OFFSETS), "pair_offsets");
         let correct_pass = (compose(&CORRECTION), "correct");
@@ -279,11 +312,16 @@ impl<D: GpuDim> SetUp<'_, D> {
         } else {
             vec![offsets_pass, correct_pass]
         };
-        run_once(gpu, &passes, &set_up, n)?;
+        run_once(gpu, &passes, split, &table)?;
+        // Writes a per-pair field of every pair, in CSR order, into each part's buffer.
         let write_pair = |field: &str, values: &[f32]| {
+            let width = layout.pair.field(field).width;
             let at = (layout.pair.offset(field) * 4) as u64;
-            gpu.queue
-                .write_buffer(&pair, at, bytemuck::cast_slice(values));
+            for (part, buffer) in split.parts.iter().zip(&pair) {
+                let own = &values[part.start * width..(part.start + part.pairs) * width];
+                gpu.queue
+                    .write_buffer(buffer, at, bytemuck::cast_slice(own));
+            }
         };
         if let Some(h) = host {
             write_pair("G", &flat_v::<D>(h.g.clone()));
@@ -316,53 +354,64 @@ impl<D: GpuDim> SetUp<'_, D> {
             write_pair("HGK", &kappa);
         }
         if scheme.reverse {
+            // ∇0W̃_ji of every pair (i, j): the gradient of the pair (j, i), copied.
             let rev = crate::methods::cores::shared::reverse_pairs(case, csr)?;
-            reverse_gradients(gpu, &compose(&scheme.accel), &rev, &pair)?;
+            let g = pair_field(gpu, layout, split, &pair, "G");
+            let width = layout.pair.field("G").width;
+            let reverse: Vec<f32> = (rev.iter())
+                .flat_map(|&q| {
+                    g[q as usize * width..(q as usize + 1) * width]
+                        .iter()
+                        .copied()
+                })
+                .collect();
+            write_pair("GREV", &reverse);
         }
         Ok((pair, status))
     }
 }
 
-/// Compiles the entry points `(source, entry)`, binds them from `table` and runs them
-/// once, in order, over n particles (set-up passes), in one compute pass.
-fn run_once(
+/// The per-pair field `name` of every pair in CSR order, read back from each part's
+/// buffer of `pair` (flat: the field's width a pair).
+fn pair_field(
+    gpu: &Gpu,
+    layout: &Layout,
+    split: &Split,
+    pair: &[wgpu::Buffer],
+    name: &str,
+) -> Vec<f32> {
+    let field = layout.pair.field(name);
+    let at = (field.offset * 4) as u64;
+    (split.parts.iter().zip(pair))
+        .flat_map(|(part, buffer)| {
+            gpu.read_range::<f32>(buffer, at, (part.pairs * field.width * 4) as u64)
+        })
+        .collect()
+}
+
+/// Compiles the entry points `(source, entry)`, binds them a part each from `table(k)`
+/// and runs them once, in order, over each part's particles (set-up passes), in one
+/// compute pass.
+fn run_once<'a>(
     gpu: &Gpu,
     passes: &[(String, &str)],
-    table: &[(&str, &wgpu::Buffer)],
-    n: usize,
+    split: &Split,
+    table: &dyn Fn(usize) -> Vec<(&'a str, &'a wgpu::Buffer)>,
 ) -> Result<(), GpuError> {
     let mut bound = Vec::new();
     for (source, entry) in passes {
         let pipeline = gpu.pipeline(entry, source, entry)?;
-        let bind = gpu.bind(&pipeline, table)?;
-        bound.push((pipeline, bind));
+        let binds = (0..split.parts.len())
+            .map(|k| gpu.bind(&pipeline, &table(k)))
+            .collect::<Result<Vec<_>, _>>()?;
+        bound.push((pipeline, binds));
     }
     let mut encoder = gpu.device.create_command_encoder(&Default::default());
     {
         let mut pass = encoder.begin_compute_pass(&Default::default());
-        for (pipeline, bind) in &bound {
-            gpu.dispatch(&mut pass, pipeline, bind, n as u32);
+        for (pipeline, binds) in &bound {
+            split.dispatch(gpu, &mut pass, pipeline, binds);
         }
-    }
-    gpu.queue.submit([encoder.finish()]);
-    Ok(())
-}
-
-/// Runs the pass file's `reverse_gradients` set-up entry: ∇0W̃_ji of every pair (i, j)
-/// into GREV, from `rev`, the index of the pair (j, i) of each.
-fn reverse_gradients(
-    gpu: &Gpu,
-    source: &str,
-    rev: &[u32],
-    pair: &wgpu::Buffer,
-) -> Result<(), GpuError> {
-    let index = gpu.storage("reverse pairs", rev);
-    let pipeline = gpu.pipeline("reverse_gradients", source, "reverse_gradients")?;
-    let bind = gpu.bind(&pipeline, &[("pair", pair), ("rev", &index)])?;
-    let mut encoder = gpu.device.create_command_encoder(&Default::default());
-    {
-        let mut pass = encoder.begin_compute_pass(&Default::default());
-        gpu.dispatch(&mut pass, &pipeline, &bind, rev.len() as u32);
     }
     gpu.queue.submit([encoder.finish()]);
     Ok(())
@@ -380,9 +429,10 @@ impl<D: GpuDim> TlDevice<D> {
     /// Records one rate evaluation: the stress and acceleration passes on `rates`.
     fn record(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, rates: &Rates) {
         let mut pass = encoder.begin_compute_pass(&Default::default());
-        let n = self.layout.n as u32;
-        gpu.dispatch(&mut pass, &self.stress, &rates.stress, n);
-        gpu.dispatch(&mut pass, &self.accel, &rates.accel, n);
+        self.split
+            .dispatch(gpu, &mut pass, &self.stress, &rates.stress);
+        self.split
+            .dispatch(gpu, &mut pass, &self.accel, &rates.accel);
     }
 
     /// Decodes a flat state (`rho0` = ρ0: the density is stored as ρ − ρ0) or rate
@@ -440,8 +490,14 @@ impl<D: GpuDim> GpuTlsph<D> {
 
     /// The corrected reference gradients, in CSR order.
     pub fn gradients(&self) -> Vec<D::V> {
-        let pair: Vec<f32> = self.gpu().read(&self.family.pair);
-        self.family.layout.pair.read_v::<D>(&pair, "G")
+        let f = &self.family;
+        let g = pair_field(self.gpu(), &f.layout, &f.split, &f.pair, "G");
+        g.chunks_exact(D::N).map(D::read_v).collect()
+    }
+
+    /// The parts the neighbour lists are split into.
+    pub fn split(&self) -> &Split {
+        &self.family.split
     }
 
     /// F and P of the last rate evaluation (the GPU keeps H = F − I; I is added in f64);
@@ -491,7 +547,8 @@ impl<D: GpuDim> GpuFamily<D> for TlDevice<D> {
 
     /// The stress pass on the current state (F into the kinematics).
     fn before_reduction(&self, gpu: &Gpu, pass: &mut wgpu::ComputePass<'_>) {
-        gpu.dispatch(pass, &self.stress, &self.kinematics_y, self.layout.n as u32);
+        self.split
+            .dispatch(gpu, pass, &self.stress, &self.kinematics_y);
     }
 
     fn signal_speed(&self, reduced: &Reduced) -> f64 {

@@ -14,8 +14,8 @@ use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::reduction;
 use crate::gpu::reference::{self, Extras};
 use crate::gpu::shaders::{
-    BOUNDARY, CONTACT, CORRECTION, Constants, INTEGRATE, LOADS, MECHANICS, PAIR_OFFSETS,
-    PRESCRIBED, REFERENCE, REVERSE_GRADIENTS, Source, VISCOSITY, Wgsl, source, wgsl,
+    BOUNDARY, CONTACT, CORRECTION, Constants, INTEGRATE, LOADS, MECHANICS, PAIR_OFFSETS, PART,
+    PRESCRIBED, REFERENCE, Source, VISCOSITY, Wgsl, source, wgsl,
 };
 use crate::methods::cores::tl::{self, TlState};
 use crate::physics::material::Material;
@@ -28,7 +28,7 @@ const ENERGY: Wgsl = wgsl!("tl/tlsph_energy.wgsl");
 /// F, P (and ρ̇, Ṡ of the rate model) per particle.
 pub const STRESS: Source = source!(
     "tl/tlsph.wgsl",
-    [MECHANICS, REFERENCE],
+    [MECHANICS, REFERENCE, PART],
     [
         ("y", false),
         ("pair", false),
@@ -37,11 +37,10 @@ pub const STRESS: Source = source!(
         ("kin", true)
     ]
 );
-/// Accelerations, artificial viscosity, boundary conditions; the reverse gradients of
-/// the variational force (set-up).
+/// Accelerations, artificial viscosity, boundary conditions.
 pub const ACCEL: Source = source!(
     "tl/tlsph_accel.wgsl",
-    [BOUNDARY, REFERENCE, VISCOSITY, REVERSE_GRADIENTS],
+    [BOUNDARY, REFERENCE, VISCOSITY, PART],
     [
         ("y", false),
         ("pair", true),
@@ -53,12 +52,12 @@ pub const ACCEL: Source = source!(
 );
 /// Energies, momenta and checks of a state.
 pub const REDUCE: Source = reduction::pass(&[MECHANICS, ENERGY, REFERENCE]);
-/// The symmetrised forces of eq 148 from Σ_i w_i ψ(F_i) with viscosity, boundary
-/// conditions; the reverse gradients (set-up): the elastic potential's force pass
+/// The symmetrised forces of eq 148 from Σ_i w_i ψ(F_i) with viscosity and boundary
+/// conditions: the elastic potential's force pass
 /// (`shaders/potential/`) on TLSPH's buffers, which dual-support SPH runs too.
 pub const POTENTIAL: Source = source!(
     "potential/potential.wgsl",
-    [BOUNDARY, REFERENCE, VISCOSITY, REVERSE_GRADIENTS],
+    [BOUNDARY, REFERENCE, VISCOSITY, PART],
     flat = ACCEL.flat
 );
 
@@ -87,8 +86,8 @@ pub struct TlScheme<D: GpuDim> {
     pub accel: Source,
     /// Its reduction (`reduce`, with the method's strain energy).
     pub reduce: Source,
-    /// The pass file's set-up entry `reverse_gradients` fills ∇0W̃_ji of every pair (i, j)
-    /// into the pair data (field GREV) from the index of the reverse pair (`rev`).
+    /// The set-up copies ∇0W̃_ji of every pair (i, j) into the pair data (field GREV) from
+    /// the gradient of the reverse pair, for a force pass that reads both.
     pub reverse: bool,
     /// The hourglass control's α: the host fills its stiffness κ_ij into the pair data
     /// (field HGK), which the acceleration pass reads.
