@@ -33,6 +33,7 @@ mod gpu_materials;
 mod gpu_mixed;
 #[cfg(feature = "gpu")]
 mod gpu_neighbours;
+#[cfg(feature = "gpu")]
 mod gpu_parts;
 #[cfg(feature = "gpu")]
 mod gpu_profile;
