@@ -31,8 +31,11 @@
 // u; v (for Ḟ), ρ − ρ0 and S of the rate model.
 // - y: 1 vector per item
 // - y: 1 scalar + 1 vector + 1 tensor per item, when RATE
-// H, P, F⁻ᵀ, ρ.
-// - kin: 1 scalar + 3 tensors per item
+// P; H where the force pass or the outputs read it (KEEP_H); F⁻ᵀ and ρ where the
+// viscosity or the outputs read them (KEEP_AV).
+// - kin: 1 tensor per item
+// - kin: 1 tensor per item, when KEEP_H
+// - kin: 1 scalar + 1 tensor per item, when KEEP_AV
 // - d: 1 scalar + 1 tensor per item, when RATE
 // - status: nothing
 @compute @workgroup_size(256)
@@ -77,8 +80,12 @@ fn stress(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
         rho = RHO0 / jac;
         p = pk1(h, f_inv_t);
     }
-    mstore_kin(KF_OFF + DIM * DIM * i, h);
     mstore_kin(KP_OFF + DIM * DIM * i, p);
-    mstore_kin(KFIT_OFF + DIM * DIM * i, f_inv_t);
-    kin[KRHO_OFF + i] = rho;
+    if KEEP_H == 1u {
+        mstore_kin(KF_OFF + DIM * DIM * i, h);
+    }
+    if KEEP_AV == 1u {
+        mstore_kin(KFIT_OFF + DIM * DIM * i, f_inv_t);
+        kin[KRHO_OFF + i] = rho;
+    }
 }

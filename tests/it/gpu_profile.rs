@@ -90,8 +90,9 @@ fn check_common(report: &PassReport, expected: &[(&str, u64)]) {
 }
 
 /// TLSPH's rotating disk (2D, rate model, viscosity, RK4): the stress and accel passes
-/// move 212 B per particle and 32 B per pair per rate evaluation, as read off the WGSL
-/// (stress: the row end, V, u, v, ρ − ρ0, S in and H, P, F⁻ᵀ, ρ, ρ̇, Ṡ out, 29 words; ids
+/// move 196 B per particle and 32 B per pair per rate evaluation, as read off the WGSL
+/// (stress: the row end, V, u, v, ρ − ρ0, S in and P, F⁻ᵀ, ρ, ρ̇, Ṡ out, 25 words, H being
+/// stored only by the kinematics pass of the outputs, since no force pass reads it; ids
 /// and ∇0W̃ per pair, 3 words; accel: the row end, V and the mask, u, v, P, F⁻ᵀ, ρ, ext in
 /// and the power, the viscous dissipation, u̇, v̇ out, 24 words; ids, ∇0W̃ and X_j − X_i per pair, 5 words), and
 /// each RK4 blend reads and writes 3 words of the 9-word state per particle.
@@ -111,8 +112,8 @@ fn the_rotating_disk_report_has_the_bytes_of_the_wgsl() {
     assert_eq!(report.rows.len(), 3, "{report}");
     let stress = row(&report, "tl stress (stress)").bytes.unwrap();
     let accel = row(&report, "tl accel (accel)").bytes.unwrap();
-    assert_eq!(stress, evaluations * (116 * n + 12 * pairs));
-    assert_eq!(stress + accel, evaluations * (212 * n + 32 * pairs));
+    assert_eq!(stress, evaluations * (100 * n + 12 * pairs));
+    assert_eq!(stress + accel, evaluations * (196 * n + 32 * pairs));
     let blend = row(&report, "blend (blend)");
     assert_eq!(blend.bytes.unwrap(), blend.runs * 12 * 9 * n);
     assert_eq!(report.particles as u64, n);
@@ -133,7 +134,7 @@ fn the_tensile_strip_report_has_the_bytes_of_the_wgsl() {
     );
     let both = row(&report, "tl stress (stress)").bytes.unwrap()
         + row(&report, "tl accel (accel)").bytes.unwrap();
-    assert_eq!(both, 4 * u64::from(STEPS) * (212 * n + 32 * pairs));
+    assert_eq!(both, 4 * u64::from(STEPS) * (196 * n + 32 * pairs));
 }
 
 /// The elastic potential and corotated TLSPH on the rotating disk, on TLSPH's engine:
@@ -144,12 +145,14 @@ fn the_tensile_strip_report_has_the_bytes_of_the_wgsl() {
 ///
 /// The elastic potential (Saint Venant–Kirchhoff, not the rate model; consistent force,
 /// no viscosity): its stress pass is TLSPH's (`tl/tlsph.wgsl`, RATE = 0): the row end,
-/// V, u in and H, P, F⁻ᵀ, ρ out, 17 words = 68 B (v is read only for Ḟ of the rate
-/// model); the id and ∇0W̃ per pair, 3 words = 12 B. Its accel pass
+/// V, u in and P out, 8 words = 32 B (v is read only for Ḟ of the rate model; H, F⁻ᵀ and
+/// ρ, which the force pass reads only for the viscosity or the dual-support hourglass
+/// force, are stored by the kinematics pass of the outputs alone); the id and ∇0W̃ per
+/// pair, 3 words = 12 B. Its accel pass
 /// (`potential/potential.wgsl`): the row end, V and the mask, v, P, ext in and the power,
 /// the viscous dissipation, u̇, v̇ out, 17 words = 68 B (u, ρ and F⁻ᵀ feed only the
 /// viscosity and H the dual-support hourglass force); the id, ∇0W̃_ij and ∇0W̃_ji per
-/// pair, 5 words = 20 B. A rate evaluation: 136 B per particle, 32 B per pair.
+/// pair, 5 words = 20 B. A rate evaluation: 100 B per particle, 32 B per pair.
 ///
 /// Corotated TLSPH (linear elastic, the reference code's force, no viscosity): its stress
 /// pass (`corotated/corotated.wgsl`, shape matching): the row end, V, u in and F̂ − I, P̂,
@@ -169,7 +172,7 @@ fn the_total_lagrangian_schemes_report_their_own_passes() {
     const ACCEL: &str = "tl accel (accel)";
     // (case, stress per particle, per pair; accel per particle, per pair) in bytes.
     for (name, stress, accel) in [
-        ("rotating-disk-potential", (68, 12), (68, 20)),
+        ("rotating-disk-potential", (32, 12), (68, 20)),
         ("rotating-disk-corotated", (84, 20), (84, 12)),
     ] {
         let case = load(name, &[] as &[&str]);

@@ -134,10 +134,13 @@ fn check_tlsph<D: GpuDim>() {
             };
             let scheme = meshless::methods::tlsph::gpu::scheme::<D>(spec);
             let layout = Layout::new(100, 10, D::N, rate, 1000, &scheme);
-            let constants = scene_constants(&case, &layout, &scheme);
-            for source in tlsph::SHADERS {
-                let src = shaders::compose::<D>(source, &constants);
-                validate_wgsl(&format!("{}D {} ({})", D::N, source.name, case.name), &src);
+            for every in [false, true] {
+                let constants = scene_constants(&case, &layout, &scheme, every);
+                for source in tlsph::SHADERS {
+                    let src = shaders::compose::<D>(source, &constants);
+                    let name = format!("{}D {} ({})", D::N, source.name, case.name);
+                    validate_wgsl(&name, &src);
+                }
             }
         }
     }
@@ -187,7 +190,7 @@ fn check_potential<D: GpuDim>() {
         };
         let scheme = potential::scheme::<D>(spec);
         let layout = Layout::new(100, 10, D::N, false, 1000, &scheme);
-        let constants = scene_constants(&case, &layout, &scheme);
+        let constants = scene_constants(&case, &layout, &scheme, false);
         for source in potential::SHADERS {
             let src = shaders::compose::<D>(source, &constants);
             validate_wgsl(&format!("{}D {} ({force})", D::N, source.name), &src);
@@ -223,7 +226,7 @@ fn check_corotated<D: GpuDim>() {
         };
         let scheme = corotated::scheme::<D>(spec);
         let layout = Layout::new(100, 10, D::N, false, 1000, &scheme);
-        let constants = scene_constants(&case, &layout, &scheme);
+        let constants = scene_constants(&case, &layout, &scheme, false);
         for source in corotated::SHADERS {
             let src = shaders::compose::<D>(source, &constants);
             validate_wgsl(&format!("{}D {} ({model})", D::N, source.name), &src);
@@ -252,7 +255,7 @@ fn check_dual_support<D: GpuDim>() {
         };
         let scheme = dual_support::scheme::<D>(spec);
         let layout = Layout::new(100, 10, D::N, false, 1000, &scheme);
-        let constants = scene_constants(&case, &layout, &scheme);
+        let constants = scene_constants(&case, &layout, &scheme, false);
         for source in dual_support::SHADERS
             .iter()
             .filter(|s| **s != krylov::KRYLOV)

@@ -7,7 +7,9 @@ use crate::gpu::layout::GpuDim;
 use crate::gpu::shaders::{
     BOUNDARY, KERNEL, MECHANICS, PART, REFERENCE, Source, VISCOSITY, source,
 };
-use crate::methods::cores::tl::gpu::{self as tl, Frame, Lists, REDUCE, TlScheme, viscosity};
+use crate::methods::cores::tl::gpu::{
+    self as tl, ForceReads, Frame, Lists, REDUCE, TlScheme, viscosity,
+};
 
 /// Per particle: shape matching A_i and its rotation R_i (eq 151), the corotated gradient
 /// F̂_i (eqs 152–153), P̂_i = P(F̂_i), R_i F̂_i⁻ᵀ and ρ0/det F̂_i.
@@ -64,5 +66,6 @@ pub fn scheme<D: GpuDim>(spec: &CorotatedSpec) -> TlScheme<D> {
         kin_tensors: &["R"],
         frame: Frame::Corotated(outputs::<D>),
         checks: CHECKS,
+        reads: ForceReads::ALL,
     }
 }

@@ -5,7 +5,7 @@
 use super::{TlsphForce, TlsphSpec, ViscosityGradient};
 use crate::gpu::layout::GpuDim;
 use crate::methods::cores::tl::gpu::{
-    ACCEL, DET_F, Frame, Lists, REDUCE, STRESS, TlScheme, viscosity,
+    ACCEL, DET_F, ForceReads, Frame, Lists, REDUCE, STRESS, TlScheme, viscosity,
 };
 
 /// TLSPH's own force: eq 134, or the variational form, with the spec's viscosity.
@@ -34,5 +34,9 @@ pub fn scheme<D: GpuDim>(spec: &TlsphSpec) -> TlScheme<D> {
         kin_tensors: &[],
         frame: Frame::Reference,
         checks: DET_F,
+        reads: ForceReads {
+            h: spec.hourglass.is_some(),
+            viscosity: spec.artificial_viscosity.is_some(),
+        },
     }
 }

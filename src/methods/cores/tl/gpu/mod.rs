@@ -11,8 +11,9 @@
 mod scheme;
 
 pub use scheme::{
-    ACCEL, DET_F, Frame, HostListing, HostLists, HostModel, Layout, Lists, Outputs, POTENTIAL,
-    REDUCE, SHADERS, STRESS, TlScheme, kernel_passes, potential, scene_constants, viscosity,
+    ACCEL, DET_F, ForceReads, Frame, HostListing, HostLists, HostModel, Layout, Lists, Outputs,
+    POTENTIAL, REDUCE, SHADERS, STRESS, TlScheme, kernel_passes, potential, scene_constants,
+    viscosity,
 };
 
 use crate::boundary::Boundary;
@@ -80,8 +81,11 @@ pub struct TlDevice<D: GpuDim> {
     accel: Pipeline,
     /// Rate evaluations of the states in `Y` and in `Stage`.
     rates: BySource<Rates>,
-    /// The stress pass on `Y` writing into `Acc` (for snapshots: F at the current state
-    /// without touching the integrator's rates), a part each.
+    /// The stress pass that stores all the kinematics (the rate evaluations' store what
+    /// the force pass reads, [`TlScheme::reads`]), on `Y` writing into `Acc` (for the
+    /// snapshots and the reduction: F at the current state without touching the
+    /// integrator's rates), a part each.
+    kinematics: Pipeline,
     kinematics_y: Vec<wgpu::BindGroup>,
 }
 
@@ -119,7 +123,7 @@ impl<D: GpuDim> GpuTlsph<D> {
         let pair_bytes = layout(1).pair.bytes();
         let split = Split::fitting(&gpu, &csr, pair_bytes)?;
         let layout = layout(split.capacity());
-        let constants = scene_constants(case, &layout, &scheme);
+        let constants = scene_constants(case, &layout, &scheme, false);
         check_f32_range(case, &constants)?;
         gpu.check_size("kinematics buffer", layout.kin.bytes())?;
         let compose = |s: &Source| shaders::compose::<D>(s, &constants);
@@ -162,6 +166,9 @@ impl<D: GpuDim> GpuTlsph<D> {
         let kin = gpu.zeroed("kinematics", layout.kin.bytes());
 
         let stress = gpu.pipeline("tl stress", &compose(&scheme.stress), "stress")?;
+        let every = scene_constants(case, &layout, &scheme, true);
+        let stress_every = shaders::compose::<D>(&scheme.stress, &every);
+        let kinematics = gpu.pipeline("tl kinematics", &stress_every, "stress")?;
         let accel = gpu.pipeline("tl accel", &compose(&scheme.accel), "accel")?;
         let table = |k: usize, y, d| -> [(&str, &wgpu::Buffer); 10] {
             let [offsets, ids, part] = device.lists[k].table();
@@ -192,7 +199,7 @@ impl<D: GpuDim> GpuTlsph<D> {
         })?;
         let (y, rates_d) = (stepper.buffer(Buf::Y), stepper.buffer(Buf::Rates));
         let reduction = Reduction::new(&gpu, &reduce, &table(0, y, rates_d), n)?;
-        let kinematics_y = by_part(&stress, y, stepper.buffer(Buf::Acc))?;
+        let kinematics_y = by_part(&kinematics, y, stepper.buffer(Buf::Acc))?;
         let (energy_weight, wave_speed_scale) = match scheme.unit_weights {
             Some(scale) => (vec![1.0; n], scale(&disc.vol)),
             None => (disc.vol.clone(), 1.0),
@@ -214,6 +221,7 @@ impl<D: GpuDim> GpuTlsph<D> {
             stress,
             accel,
             rates,
+            kinematics,
             kinematics_y,
         };
         Ok(Self::assemble(shell, interactions, family))
@@ -482,6 +490,11 @@ impl<D: GpuDim> GpuTlsph<D> {
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
         self.family
             .record(gpu, &mut encoder, self.family.rates.on_y());
+        {
+            // F of the state: the kinematics the rate evaluation did not store.
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            self.family.before_reduction(gpu, &mut pass);
+        }
         gpu.queue.submit([encoder.finish()]);
         let d: Vec<f32> = gpu.read(self.shell.stepper.buffer(Buf::Rates));
         let (f, p) = self.kinematics();
@@ -548,7 +561,7 @@ impl<D: GpuDim> GpuFamily<D> for TlDevice<D> {
     /// The stress pass on the current state (F into the kinematics).
     fn before_reduction(&self, gpu: &Gpu, pass: &mut wgpu::ComputePass<'_>) {
         self.split
-            .dispatch(gpu, pass, &self.stress, &self.kinematics_y);
+            .dispatch(gpu, pass, &self.kinematics, &self.kinematics_y);
     }
 
     fn signal_speed(&self, reduced: &Reduced) -> f64 {

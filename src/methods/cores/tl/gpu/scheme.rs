@@ -108,6 +108,26 @@ pub struct TlScheme<D: GpuDim> {
     /// The quantities whose failure the stress pass records, one status slot each (the
     /// first particle, by `atomicMin`), as a blow-up names them.
     pub checks: &'static [&'static str],
+    /// The kinematics besides P its force pass reads, which the stress pass of a rate
+    /// evaluation writes.
+    pub reads: ForceReads,
+}
+
+/// The kinematics besides P that a force pass reads: H (an hourglass control), and F⁻ᵀ
+/// and ρ (a viscosity). TLSPH's stress pass of a rate evaluation stores these alone; the
+/// one the outputs and the reduction read stores them all ([`scene_constants`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ForceReads {
+    pub h: bool,
+    pub viscosity: bool,
+}
+
+impl ForceReads {
+    /// Everything: a scheme with its own stress pass, which stores it all.
+    pub const ALL: Self = Self {
+        h: true,
+        viscosity: true,
+    };
 }
 
 /// The passes of a scheme on the reference neighbours with contact and without loads
@@ -155,6 +175,10 @@ pub fn potential<D: GpuDim>(
         kin_tensors: &[],
         frame: Frame::Reference,
         checks: DET_F,
+        reads: ForceReads {
+            h: dual_support_hourglass,
+            viscosity: av.is_some(),
+        },
     }
 }
 
@@ -286,8 +310,16 @@ pub(super) const EXTRAS: Extras = Extras {
     centred: false,
 };
 
-/// The compiled-in constants of a scene's TLSPH passes with the scheme's own.
-pub fn scene_constants<D: GpuDim>(case: &Case, layout: &Layout, scheme: &TlScheme<D>) -> Constants {
+/// The compiled-in constants of a scene's TLSPH passes with the scheme's own: those of
+/// its rate evaluations, whose stress pass stores the kinematics the force pass reads
+/// (KEEP_H, KEEP_AV from [`TlScheme::reads`]), or with `every`, those of the stress pass
+/// the outputs and the reduction read, which stores them all.
+pub fn scene_constants<D: GpuDim>(
+    case: &Case,
+    layout: &Layout,
+    scheme: &TlScheme<D>,
+    every: bool,
+) -> Constants {
     let material = Material::new(&case.material);
     let kernel = case.kernel(layout.dim);
     let correction = match case.method.correction {
@@ -305,7 +337,9 @@ pub fn scene_constants<D: GpuDim>(case: &Case, layout: &Layout, scheme: &TlSchem
         .u32("BODIES", u(case.bodies.len()))
         .material(&material)
         .choice("CORRECTION", &["NONE", "SHEPARD", "LINEAR"], correction)
-        .u32("REST_OFF", u(layout.state.offset("RHO")));
+        .u32("REST_OFF", u(layout.state.offset("RHO")))
+        .u32("KEEP_H", u32::from(every || scheme.reads.h))
+        .u32("KEEP_AV", u32::from(every || scheme.reads.viscosity));
     [&layout.state, &layout.kin, &layout.pair, &layout.reference]
         .into_iter()
         .fold(constants, |c, fields| fields.constants(c))
