@@ -73,8 +73,11 @@ fn polar_rotation(a: matd) -> matd {
 // - reference: 1 scalar per item
 // u.
 // - y: 1 vector per item
-// F̂ − I, P̂, R F̂⁻ᵀ, ρ, R.
-// - kin: 1 scalar + 4 tensors per item
+// P̂ and R; F̂ − I where the outputs read it (KEEP_H); R F̂⁻ᵀ and ρ where the viscosity
+// or the outputs read them (KEEP_AV).
+// - kin: 2 tensors per item
+// - kin: 1 tensor per item, when KEEP_H
+// - kin: 1 scalar + 1 tensor per item, when KEEP_AV
 // - status: nothing
 @compute @workgroup_size(256)
 fn stress(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
@@ -113,11 +116,15 @@ fn stress(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
         atomicMin(&status[0], i);
     }
     let f_inv_t = transpose(inverse_d(f_hat));
-    mstore_kin(KF_OFF + DIM * DIM * i, h);
+    if KEEP_H == 1u {
+        mstore_kin(KF_OFF + DIM * DIM * i, h);
+    }
     // P̂_i = P(F̂_i), the material's first Piola–Kirchhoff stress in the rotated frame.
     mstore_kin(KP_OFF + DIM * DIM * i, pk1(h, f_inv_t));
-    // R_i F̂_i⁻ᵀ = F_i⁻ᵀ: the push-forward of ∇0W_ij along which the viscosity acts.
-    mstore_kin(KFIT_OFF + DIM * DIM * i, r * f_inv_t);
-    kin[KRHO_OFF + i] = RHO0 / jac;
+    if KEEP_AV == 1u {
+        // R_i F̂_i⁻ᵀ = F_i⁻ᵀ: the push-forward of ∇0W_ij along which the viscosity acts.
+        mstore_kin(KFIT_OFF + DIM * DIM * i, r * f_inv_t);
+        kin[KRHO_OFF + i] = RHO0 / jac;
+    }
     mstore_kin(KR_OFF + DIM * DIM * i, r);
 }

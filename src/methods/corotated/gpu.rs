@@ -66,6 +66,9 @@ pub fn scheme<D: GpuDim>(spec: &CorotatedSpec) -> TlScheme<D> {
         kin_tensors: &["R"],
         frame: Frame::Corotated(outputs::<D>),
         checks: CHECKS,
-        reads: ForceReads::ALL,
+        reads: ForceReads {
+            h: false,
+            viscosity: spec.artificial_viscosity.is_some(),
+        },
     }
 }

@@ -113,21 +113,14 @@ pub struct TlScheme<D: GpuDim> {
     pub reads: ForceReads,
 }
 
-/// The kinematics besides P that a force pass reads: H (an hourglass control), and F⁻ᵀ
-/// and ρ (a viscosity). TLSPH's stress pass of a rate evaluation stores these alone; the
-/// one the outputs and the reduction read stores them all ([`scene_constants`]).
+/// The kinematics besides P (and a scheme's own tensors) that a force pass reads: H (an
+/// hourglass control), and F⁻ᵀ and ρ (a viscosity). The stress pass of a rate evaluation
+/// stores these alone; the one the outputs and the reduction read stores them all
+/// ([`scene_constants`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ForceReads {
     pub h: bool,
     pub viscosity: bool,
-}
-
-impl ForceReads {
-    /// Everything: a scheme with its own stress pass, which stores it all.
-    pub const ALL: Self = Self {
-        h: true,
-        viscosity: true,
-    };
 }
 
 /// The passes of a scheme on the reference neighbours with contact and without loads
