@@ -1,8 +1,8 @@
 // Total-Lagrangian SPH from the elastic potential on the device (seed 000 §5.4, eq 148
 // symmetrised; methods::potential::system on the CPU), on the stress pass of tlsph.wgsl
-// (F, P = ∂ψ/∂F, F⁻ᵀ, ρ0/J in kin). Buffers as in tlsph.wgsl, with the per-pair data
-// pair = [∇0W̃ | X_j − X_i | ∇0W̃_ji] and rev, the index of pair (j, i) for every pair
-// (i, j). Scheme constants: FORCE (FORCE_CONSISTENT: weights V_i V_j on both terms;
+// (P = ∂ψ/∂F in kin, with H = F − I for the hourglass force and F⁻ᵀ, ρ0/J for the
+// viscosity). Buffers as in tlsph.wgsl, with the per-pair data
+// pair = [∇0W̃ | X_j − X_i | ∇0W̃_ji]. Scheme constants: FORCE (FORCE_CONSISTENT: weights V_i V_j on both terms;
 // FORCE_REFERENCE_CODE: V_i and V_j, seed 000 §3.4), AV, AV_ALPHA, AV_BETA, AV_ETA, and
 // HOURGLASS_DS: dual-support SPH's hourglass force (seed 004 eq 28 with its sign
 // corrected; methods::dual_support::model), on its lists S_i ∪ S'_i with
@@ -11,7 +11,7 @@
 
 @group(0) @binding(0) var<storage, read> offsets: array<u32>;
 @group(0) @binding(1) var<storage, read> ids: array<u32>;
-@group(0) @binding(2) var<storage, read_write> pair: array<f32>;
+@group(0) @binding(2) var<storage, read> pair: array<f32>;
 @group(0) @binding(3) var<storage, read> reference: array<f32>;
 @group(0) @binding(4) var<storage, read> y: array<f32>;
 // The kinematics of the stress pass; this pass writes only the power and reactions

@@ -1,5 +1,6 @@
-// Total-Lagrangian SPH rates (seed 000 §5.3), one invocation per particle, gathering
-// over its CSR neighbours and writing only its own particle.
+// Total-Lagrangian SPH rates (seed 000 §5.3), one invocation per particle of a part of
+// the lists (part.wgsl), gathering over its CSR neighbours and writing only its own
+// particle.
 //
 // Buffers are flat f32 arrays in structure-of-arrays segments: the state y = [u | v | ρ − ρ0 | S]
 // (ρ and S only for the rate model; the density is stored as its deviation so that the
@@ -9,7 +10,8 @@
 // reference configuration (reference.wgsl). Constitutive functions: mechanics.wgsl.
 // Scene constants: N, DIM, RATE, MODEL, RHO0, MU, LAMBDA, BULK, AV, AV_ALPHA, AV_BETA,
 // AV_ETA (viscosity.wgsl), and the field offsets of methods::cores::tl::gpu::Layout (U_OFF, V_OFF, RHO_OFF,
-// S_OFF; KF_OFF, KP_OFF, KFIT_OFF, KRHO_OFF, KPOW_OFF; PG_OFF, PDX_OFF).
+// S_OFF; KF_OFF, KP_OFF, KFIT_OFF, KRHO_OFF, KPOW_OFF; PG_OFF, PDX_OFF), and KEEP_H,
+// KEEP_AV: which kinematics besides P the pass stores.
 
 @group(0) @binding(0) var<storage, read> offsets: array<u32>;
 @group(0) @binding(1) var<storage, read> ids: array<u32>;

@@ -10,7 +10,7 @@
 
 @group(0) @binding(0) var<storage, read> offsets: array<u32>;
 @group(0) @binding(1) var<storage, read> ids: array<u32>;
-@group(0) @binding(2) var<storage, read_write> pair: array<f32>;
+@group(0) @binding(2) var<storage, read> pair: array<f32>;
 @group(0) @binding(3) var<storage, read> reference: array<f32>;
 @group(0) @binding(4) var<storage, read> y: array<f32>;
 // The kinematics of the stress pass; this pass writes only the power and reactions

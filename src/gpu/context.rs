@@ -55,7 +55,8 @@ pub enum GpuError {
     },
     #[error(
         "{MAX_BINDING_ENV}={value}: give the largest storage binding as bytes or with a \
-         unit: B, kB, MB, GB (powers of 1000) or KiB, MiB, GiB (powers of 1024), e.g. 1MiB"
+         unit: B, kB, MB, GB, TB (powers of 1000) or KiB, MiB, GiB, TiB (powers of 1024), \
+         e.g. 1MiB"
     )]
     BindingEnv { value: String },
     #[error(
@@ -98,13 +99,6 @@ pub struct Pipeline {
     bindings: Vec<(u32, String)>,
     /// The bytes model of its pass file for this variant, if the file declares one.
     pub cost: Option<Cost>,
-}
-
-impl Pipeline {
-    /// Whether its entry point uses the binding `name`.
-    pub fn uses(&self, name: &str) -> bool {
-        self.bindings.iter().any(|(_, n)| n == name)
-    }
 }
 
 /// One adapter as `meshless info` shows it.

@@ -51,39 +51,57 @@ impl Split {
         }
     }
 
-    /// The lists `csr` in the fewest parts, taken in order, whose per-pair buffers of
-    /// `pair_bytes` a pair, ids and offsets each fit `limit` bytes. Err: one particle's
-    /// pairs alone exceed it.
+    /// The lists `csr` in parts of consecutive rows whose per-pair buffers of
+    /// `pair_bytes` a pair, ids and offsets each fit `limit` bytes: as many parts as the
+    /// bytes need (or the fewest more that fit), cut where the pairs are evenly shared, so
+    /// that the per-pair buffers, each laid out for the most pairs of a part, hold little
+    /// room unused. Err: one particle's pairs alone exceed the limit (their bytes).
     pub fn plan(csr: &Csr, pair_bytes: u64, limit: u64) -> Result<Self, u64> {
         let per_pair = pair_bytes.max(4);
-        let mut parts = Vec::new();
-        let mut part = Part {
-            first: 0,
-            rows: 0,
-            start: 0,
-            pairs: 0,
-        };
-        for i in 0..csr.len() {
-            let row = csr.offsets[i + 1] - csr.offsets[i];
-            let bytes =
-                |rows: usize, pairs: usize| (pairs as u64 * per_pair).max((rows as u64 + 1) * 4);
-            if bytes(1, row) > limit {
-                return Err(bytes(1, row));
-            }
-            if part.rows > 0 && bytes(part.rows + 1, part.pairs + row) > limit {
-                parts.push(part);
-                part = Part {
-                    first: i,
-                    rows: 0,
-                    start: csr.offsets[i],
-                    pairs: 0,
-                };
-            }
-            part.rows += 1;
-            part.pairs += row;
+        let bytes =
+            |rows: usize, pairs: usize| (pairs as u64 * per_pair).max((rows as u64 + 1) * 4);
+        if let Some(row) = (0..csr.len())
+            .map(|i| bytes(1, csr.offsets[i + 1] - csr.offsets[i]))
+            .find(|&b| b > limit)
+        {
+            return Err(row);
         }
-        parts.push(part);
-        Ok(Self { parts })
+        let (rows, pairs) = (csr.len(), csr.pair_count());
+        if rows == 0 {
+            return Ok(Self::whole(csr));
+        }
+        let needed = |b: u64| b.div_ceil(limit) as usize;
+        let mut k = needed(pairs as u64 * per_pair)
+            .max(needed((rows as u64 + 1) * 4))
+            .max(1);
+        loop {
+            // Part j ends at the first row boundary at or past ⌈(j + 1) pairs / k⌉.
+            let mut cuts: Vec<usize> = (1..k)
+                .map(|j| {
+                    (csr.offsets
+                        .partition_point(|&o| o < (j * pairs).div_ceil(k)))
+                    .min(rows)
+                })
+                .collect();
+            cuts.insert(0, 0);
+            cuts.push(rows);
+            cuts.dedup();
+            let parts: Vec<Part> = cuts
+                .windows(2)
+                .map(|w| Part {
+                    first: w[0],
+                    rows: w[1] - w[0],
+                    start: csr.offsets.get(w[0]).copied().unwrap_or(0),
+                    pairs: csr.offsets.get(w[1]).copied().unwrap_or(0)
+                        - csr.offsets.get(w[0]).copied().unwrap_or(0),
+                })
+                .collect();
+            if parts.iter().all(|p| bytes(p.rows, p.pairs) <= limit) {
+                return Ok(Self { parts });
+            }
+            // One row a part always fits: k grows at most to the rows.
+            k += 1;
+        }
     }
 
     /// [`Self::plan`] for the binding limit of `gpu`; Err names the bytes of the particle
@@ -92,7 +110,7 @@ impl Split {
         let limit = gpu.binding_limit();
         Self::plan(csr, pair_bytes, limit).map_err(|needed| GpuError::TooLarge {
             adapter: gpu.name(),
-            what: "one particle's per-pair data",
+            what: "list part (one particle's pairs)",
             needed,
             limit,
         })
@@ -202,26 +220,44 @@ mod tests {
         )
     }
 
+    /// Each part of `split` of `lists` follows the last, and fits `limit` at `bytes` a pair.
+    fn cover(lists: &Csr, split: &Split, bytes: u64, limit: u64) {
+        let mut next = (0, 0);
+        for p in &split.parts {
+            assert_eq!((p.first, p.start), next);
+            assert!(p.pairs as u64 * bytes <= limit && (p.rows as u64 + 1) * 4 <= limit);
+            assert_eq!(p.pairs, lists.offsets[p.first + p.rows] - p.start);
+            next = (p.first + p.rows, p.start + p.pairs);
+        }
+        assert_eq!(next, (lists.len(), lists.pair_count()));
+    }
+
     #[test]
     fn parts_cover_every_row_in_order_and_each_fits_the_limit() {
         let lists = csr(&[3, 5, 2, 0, 7, 4, 4, 1]);
         let split = Split::plan(&lists, 8, 64).unwrap();
-        let mut next = (0, 0);
-        for p in &split.parts {
-            assert_eq!((p.first, p.start), next);
-            assert!(p.pairs as u64 * 8 <= 64 && (p.rows as u64 + 1) * 4 <= 64);
-            assert_eq!(p.pairs, lists.offsets[p.first + p.rows] - p.start);
-            next = (p.first + p.rows, p.start + p.pairs);
-        }
-        assert_eq!(next, (8, 26));
-        // Greedy: 3 + 5 = 8 pairs fill 64 bytes; then 2 + 0 (7 does not fit), 7, 4 + 4, 1.
+        cover(&lists, &split, 8, 64);
+        // 26 pairs of 8 B in 64 B parts: 4 parts at least, but no cut at the shares of 4 or
+        // 5 parts fits (rows 2–4 hold 9 pairs); 6 parts at ⌈26 j / 6⌉ do.
         let pairs: Vec<usize> = split.parts.iter().map(|p| p.pairs).collect();
-        assert_eq!(pairs, [8, 2, 7, 8, 1]);
-        assert_eq!(split.capacity(), 8);
+        assert_eq!(pairs, [8, 2, 7, 4, 4, 1]);
         assert_eq!(
             Split::plan(&lists, 8, 1 << 20).unwrap(),
             Split::whole(&lists)
         );
+    }
+
+    #[test]
+    fn parts_share_the_pairs_evenly() {
+        // 1,000 rows of 20 pairs, at most 300 rows a part: 4 parts of 250 rows, so that
+        // the per-pair buffers, laid out for the most pairs of a part, waste nothing (a
+        // greedy cut, 300 + 300 + 300 + 100 rows, would lay out 4 × 6,000 pairs for 20,000).
+        let lists = csr(&[20; 1000]);
+        let limit = 8 * 20 * 300 + 8;
+        let split = Split::plan(&lists, 8, limit).unwrap();
+        cover(&lists, &split, 8, limit);
+        assert!(split.parts.iter().all(|p| p.rows == 250), "{split:?}");
+        assert_eq!(split.capacity(), 5000);
     }
 
     #[test]

@@ -175,11 +175,13 @@ impl std::ops::Sub for IndirectRuns {
     }
 }
 
-/// What scales a step's bytes: the neighbour pairs of the engine's lists and, for an
-/// engine with indirect passes, their runs.
+/// What scales a step's bytes: the neighbour pairs of the engine's lists, the parts they
+/// are split into (`gpu::parts`: a pass over pairs is a dispatch a part, each moving its
+/// part's pairs), and, for an engine with indirect passes, their runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Scale {
     pub pairs: u64,
+    pub parts: u64,
     pub indirect: Option<IndirectRuns>,
 }
 
@@ -298,7 +300,7 @@ impl Gpu {
                 };
                 let bytes = p.cost.map(|c| {
                     let items = p.items / p.dispatches.max(1);
-                    runs * (c.item * items + c.pair * scale.pairs)
+                    runs * c.item * items + c.pair * scale.pairs * runs / scale.parts.max(1)
                 });
                 PassRow {
                     pass: p.label.clone(),

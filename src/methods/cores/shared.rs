@@ -99,6 +99,16 @@ pub(crate) fn reference_gradients<D: Dim>(
 /// that are not symmetric (a neighbour at the kernel support, by round-off) name the
 /// particle and the key to change.
 pub fn reverse_pairs(case: &Case, csr: &Csr) -> Result<Vec<u32>, CaseError> {
+    if csr.pair_count() > u32::MAX as usize {
+        return Err(case.invalid(
+            "spacing",
+            format!(
+                "{} neighbour pairs: the reverse pairs are indexed in u32, 4,294,967,295 at \
+                 most; use a coarser spacing",
+                csr.pair_count()
+            ),
+        ));
+    }
     csr.map_rows(|i| {
         csr.neighbours(i)
             .iter()

@@ -459,6 +459,7 @@ impl<D: GpuDim> GpuFamily<D> for MixedDevice<D> {
     fn scale(&self, _gpu: &Gpu) -> Scale {
         Scale {
             pairs: self.cpu.neighbours().pair_count() as u64,
+            parts: 1,
             indirect: self.evaluator.corrector.as_ref().map(|c| c.runs),
         }
     }

@@ -89,8 +89,31 @@ pub struct TlDevice<D: GpuDim> {
     kinematics_y: Vec<wgpu::BindGroup>,
 }
 
-/// What a scheme whose energy reduction reads the neighbour lists needs in one binding.
-const WHOLE_LISTS: &str = "whole per-pair buffer (its energy reduction reads every pair)";
+/// Refuses lists split into parts for a scheme whose reduction `reduce` reads them
+/// (`offsets`, `ids` or `pair`: dual-support SPH's energy sums each particle's support
+/// from the whole lists), naming the bytes of `pair_bytes` a pair that must fit one
+/// binding.
+fn whole_for_reduction(
+    gpu: &Gpu,
+    split: &Split,
+    reduce: &str,
+    pair_bytes: u64,
+) -> Result<(), GpuError> {
+    let reflection = reflect(reduce, "reduce").map_err(|message| GpuError::Shader {
+        pass: "reduce".into(),
+        message,
+    })?;
+    let lists = ["offsets", "ids", "pair"];
+    if reflection
+        .bindings
+        .iter()
+        .any(|(_, b)| lists.contains(&b.as_str()))
+    {
+        let what = "whole per-pair buffer (its energy reduction reads every pair)";
+        split.whole_for(gpu, what, pair_bytes)?;
+    }
+    Ok(())
+}
 
 /// Value of `status[0]` when no particle failed.
 const STATUS_OK: u32 = u32::MAX;
@@ -128,10 +151,7 @@ impl<D: GpuDim> GpuTlsph<D> {
         gpu.check_size("kinematics buffer", layout.kin.bytes())?;
         let compose = |s: &Source| shaders::compose::<D>(s, &constants);
         let reduce = compose(&scheme.reduce);
-        if reflect(&reduce, "reduce").is_ok_and(|r| r.bindings.iter().any(|(_, b)| b == "offsets"))
-        {
-            split.whole_for(&gpu, WHOLE_LISTS, pair_bytes)?;
-        }
+        whole_for_reduction(&gpu, &split, &reduce, pair_bytes)?;
 
         let device = DeviceReference::upload::<D>(
             &gpu,
@@ -513,8 +533,9 @@ impl<D: GpuDim> GpuTlsph<D> {
         &self.family.split
     }
 
-    /// F and P of the last rate evaluation (the GPU keeps H = F − I; I is added in f64);
-    /// the corotated F̂ and P̂ of a [`Frame::Corotated`] scheme.
+    /// F and P of the last kinematics pass, which stores them all ([`Self::rates`] runs it
+    /// after the rate evaluation; the GPU keeps H = F − I; I is added in f64); the
+    /// corotated F̂ and P̂ of a [`Frame::Corotated`] scheme.
     pub fn kinematics(&self) -> (Vec<D::T>, Vec<D::T>) {
         let kin: Vec<f32> = self.gpu().read(&self.shell.kin);
         let p = self.family.layout.kin.read_t::<D>(&kin, "P", D::zero_t());
@@ -550,6 +571,7 @@ impl<D: GpuDim> GpuFamily<D> for TlDevice<D> {
     fn scale(&self, _gpu: &Gpu) -> Scale {
         Scale {
             pairs: self.pairs,
+            parts: self.split.parts.len() as u64,
             indirect: None,
         }
     }

@@ -43,7 +43,7 @@ pub const ACCEL: Source = source!(
     [BOUNDARY, REFERENCE, VISCOSITY, PART],
     [
         ("y", false),
-        ("pair", true),
+        ("pair", false),
         ("reference", false),
         ("ext", false),
         ("kin", true),
@@ -326,7 +326,6 @@ pub fn scene_constants<D: GpuDim>(
         .clone()
         .kernel(&kernel)
         .u32("N", u(layout.n))
-        .u32("PAIRS", u(layout.pair.field("G").count))
         .u32("BODIES", u(case.bodies.len()))
         .material(&material)
         .choice("CORRECTION", &["NONE", "SHEPARD", "LINEAR"], correction)
