@@ -217,11 +217,7 @@ impl Gpu {
     /// timed by timestamps where the adapter has them, else by the wall clock around a
     /// submission and its wait.
     fn measure_copy_bandwidth(&self) -> f64 {
-        let limit = self
-            .limits
-            .max_storage_buffer_binding_size
-            .min(self.limits.max_buffer_size);
-        let bytes = COPY_BYTES.min(limit) / 16 * 16;
+        let bytes = COPY_BYTES.min(self.binding_limit()) / 16 * 16;
         let text = compose::<crate::core::tensor::D2>(&COPY, &Constants::default());
         let pipeline = self
             .pipeline("copy", &text, "copy")
@@ -298,9 +294,11 @@ impl Gpu {
                     (true, Some(b)) => p.dispatches * b.ran / b.recorded.max(1),
                     _ => p.dispatches,
                 };
+                // The items of the dispatches, and a pass dispatched a part moves its
+                // pairs once over the parts, each scaled to the runs.
                 let bytes = p.cost.map(|c| {
-                    let items = p.items / p.dispatches.max(1);
-                    runs * c.item * items + c.pair * scale.pairs * runs / scale.parts.max(1)
+                    c.item * p.items * runs / p.dispatches.max(1)
+                        + c.pair * scale.pairs * runs / scale.parts.max(1)
                 });
                 PassRow {
                     pass: p.label.clone(),

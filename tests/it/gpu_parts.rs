@@ -168,3 +168,48 @@ fn the_binding_limit_variable_splits_a_run_or_refuses_it_by_name() {
     assert!(!bad.status.success(), "{stderr}");
     assert!(stderr.contains("MESHLESS_MAX_BINDING=a lot"), "{stderr}");
 }
+
+#[test]
+fn a_split_run_reports_the_bytes_of_the_unsplit_one() {
+    // The pass report's bytes model counts a pass's pairs once over the dispatches of its
+    // parts: `meshless bench` of TLSPH on the plate at about 1e4 particles gives each pass
+    // the same bytes per step, and the step the same bytes per particle, split by a 1 MiB
+    // binding or whole (the dispatches per step differ: one a part).
+    let exe = env!("CARGO_BIN_EXE_meshless");
+    let bench = |limit: Option<&str>| {
+        let mut command = Command::new(exe);
+        command
+            .args(["bench", "studies/cases/swinging-plate", "--backend", "gpu"])
+            .args(["--particles", "1e4", "--steps", "2"])
+            .current_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/cases"));
+        if let Some(limit) = limit {
+            command.env("MESHLESS_MAX_BINDING", limit);
+        }
+        let out = command.output().unwrap();
+        let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+        assert!(
+            out.status.success(),
+            "{stdout}{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        // (pass, bytes per step) of each row of the pass report, and its last line.
+        let rows: Vec<(String, String)> = stdout
+            .lines()
+            .filter(|l| l.starts_with("| tl ") || l.starts_with("| blend"))
+            .map(|l| {
+                let cells: Vec<&str> = l.split('|').map(str::trim).collect();
+                (cells[1].to_string(), cells[4].to_string())
+            })
+            .collect();
+        let total = stdout
+            .lines()
+            .find(|l| l.contains("bytes per particle-step"))
+            .and_then(|l| l.rsplit('(').next())
+            .unwrap_or_default()
+            .to_string();
+        (rows, total)
+    };
+    let (whole, split) = (bench(None), bench(Some("1MiB")));
+    assert_eq!(whole.0.len(), 3, "{whole:?}");
+    assert_eq!(whole, split);
+}
