@@ -287,7 +287,7 @@ fn binding(c: &mut Criterion) {
         gpu.bind(pipeline, &table).unwrap()
     };
     // The lists in four parts of about a quarter of the pair bytes each, and whole.
-    let quarter = Split::plan(&csr, 8, (pairs as u64 * 8).div_ceil(4) + 8 * 32).unwrap();
+    let quarter = Split::plan(&csr, 8, (pairs as u64 * 8).div_ceil(4) + 8 * 32, 256).unwrap();
     let whole = Split::whole(&csr);
     let upload = |split: &Split| {
         let lists = PartLists::upload(&gpu, &csr, split);

@@ -4,14 +4,17 @@
 // for the mixed methods, seed 002 eqs 31–32; unused, 0, for TLSPH) and the viscous
 // dissipation of the last rate evaluation (`viscous_dissipation(i)`: the TLSPH family's
 // kin[KDIS_OFF + i]; 0 for the methods that do not book it).
-// One invocation per particle; a tree reduction in workgroup memory writes REDUCED values
-// per workgroup to `partials`, summed (max for |v|² and the pair wave speed) on the host in
-// f64. The method's `strain_energy(i)` (tlsph_energy.wgsl: from the stress pass's kin for
-// the same state; mixed_energy.wgsl: from the F of the stress) is V_i ψ_i; a non-finite
-// energy counts as a non-finite entry. The power of supports and loads is the rate
-// passes' kin[KPOW_OFF + i] (boundary.wgsl). The method's file may declare bindings past 3
-// for its hooks (mixed_energy.wgsl: the neighbour lists). Constants: N, DIM, RHO0, U_OFF,
-// V_OFF, KPOW_OFF and the reference fields (reference.wgsl).
+// One invocation per particle of a part of the lists (part.wgsl); a tree reduction in
+// workgroup memory writes REDUCED values per workgroup to `partials` at the workgroup's
+// index in the whole run (parts start at workgroup boundaries, src/gpu/parts.rs), so a
+// split run writes the unsplit run's partials; the host sums them (max for |v|² and the
+// pair wave speed) in f64. The method's `strain_energy(i)` (tlsph_energy.wgsl: from the
+// stress pass's kin for the same state; mixed_energy.wgsl: from the F of the stress) is
+// V_i ψ_i; a non-finite energy counts as a non-finite entry. The power of supports and
+// loads is the rate passes' kin[KPOW_OFF + i] (boundary.wgsl). The method's file may
+// declare bindings past 3 for its hooks (mixed_energy.wgsl: the part's neighbour lists,
+// particle i at row i − part.first). Constants: N, DIM, RHO0, U_OFF, V_OFF, KPOW_OFF and
+// the reference fields (reference.wgsl).
 
 const REDUCED: u32 = 13u;
 
@@ -35,9 +38,10 @@ fn reduce(
     @builtin(local_invocation_index) lid: u32,
     @builtin(workgroup_id) wid: vec3<u32>,
 ) {
-    let i = index(gid, nwg);
+    let row = index(gid, nwg);
+    let i = part.first + row;
     var q: array<f32, REDUCED>;
-    if i < N {
+    if row < part.rows {
         let m = RHO0 * vol_of(i);
         let u = pad3(vload_y(U_OFF + DIM * i));
         let v = pad3(vload_y(V_OFF + DIM * i));
@@ -81,10 +85,13 @@ fn reduce(
         }
         workgroupBarrier();
     }
-    if lid == 0u {
-        let group = group_index(wid, nwg);
+    // A dispatch may hold workgroups past the part's rows (Gpu::groups): they write no
+    // partial, so as not to overwrite the next part's.
+    let group = group_index(wid, nwg);
+    if lid == 0u && group * 256u < part.rows {
+        let slot = part.first / 256u + group;
         for (var k = 0u; k < REDUCED; k++) {
-            partials[group * REDUCED + k] = sums[0][k];
+            partials[slot * REDUCED + k] = sums[0][k];
         }
     }
 }

@@ -1,13 +1,15 @@
 // The hooks of reduce.wgsl for dual-support SPH (methods::dual_support on the CPU): the
 // energy its force derives from, V_i ψ(F_i) plus the hourglass energy of i's support,
 // Σ_j ½ k_ij |e_ij|² with e_ij = (u_j − u_i) − H_i X_ij and k_ij = 2 V_i c_i w_ij (pair
-// field HGK; zero where j ∉ S_i) (seed 004 eq 21). F from the stress pass's kin.
+// field HGK; zero where j ∉ S_i) (seed 004 eq 21), over the part's lists (part.wgsl). F
+// from the stress pass's kin.
 fn strain_energy(i: u32) -> f32 {
     let h_i = mload_kin(KF_OFF + DIM * DIM * i);
     let u_i = vload_y(U_OFF + DIM * i);
     var hourglass = 0.0;
-    let p_end = offsets[i + 1u];
-    for (var p = offsets[i]; p < p_end; p++) {
+    let row = i - part.first;
+    let p_end = offsets[row + 1u];
+    for (var p = offsets[row]; p < p_end; p++) {
         let j = ids[p];
         let e = vload_y(U_OFF + DIM * j) - u_i - h_i * vload_pair(PDX_OFF + DIM * p);
         hourglass += 0.5 * pair[PHGK_OFF + p] * dot(e, e);
@@ -25,7 +27,7 @@ fn viscous_dissipation(i: u32) -> f32 {
     return 0.0;
 }
 
-// The lists S_i ∪ S'_i and the pair data of the force pass.
+// The part's lists S_i ∪ S'_i and the pair data of the force pass.
 @group(0) @binding(4) var<storage, read> offsets: array<u32>;
 @group(0) @binding(5) var<storage, read> ids: array<u32>;
 @group(0) @binding(6) var<storage, read> pair: array<f32>;

@@ -7,7 +7,8 @@
 // ghosts follow the real particles in the extended index (ghost k is N + k); per-pair
 // data are in CSR order over the real rows, whose neighbour ids may be ghosts:
 // pair = [G_ab | G_ba | d_ab | s_ab | w_ab (least squares) | ℓ_ab | w_ab (bond)], each
-// where the scene uses it. The kinematics kin = [P | H − I | ghost motion | F^c − I |
+// where the scene uses it. The passes over the pairs run a part of the lists at a time
+// (part.wgsl: rows part.first + row, offsets and pair data of the part's own). The kinematics kin = [P | H − I | ghost motion | F^c − I |
 // power] (H only where D(J) gathers it, F^c with the bond-based F), the slopes and the
 // Laplacians hold the real particles then the ghosts (filled by mixed_ghosts.wgsl). The
 // stress is evaluated at stress_excess(a) (mixed_motion.wgsl): the evolved F − I, or the

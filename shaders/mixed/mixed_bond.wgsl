@@ -23,15 +23,16 @@
 // - kin stores: 1 tensor per item
 @compute @workgroup_size(256)
 fn bond_f(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let a = index(gid, nwg);
-    if a >= N {
+    let row = index(gid, nwg);
+    if row >= part.rows {
         return;
     }
+    let a = part.first + row;
     let f = mload_y(F_OFF + DIM * DIM * a);
     let u_a = displacement(a);
     var f_c = f;
-    let p_end = offsets[a + 1u];
-    for (var p = offsets[a]; p < p_end; p++) {
+    let p_end = offsets[row + 1u];
+    for (var p = offsets[row]; p < p_end; p++) {
         let x = vload_pair(PDX_OFF + DIM * p);
         f_c += outer(displacement(ids[p]) - u_a - f * x, x * pair[PW_OFF + p]);
     }

@@ -32,7 +32,10 @@
 //                   projects and applies it with the predictor's forces), ṗ = δp/Δt.
 //
 // The passes after `begin` run indirectly from `args`, which `check` sets to zero
-// workgroups once the iteration stops: nothing is read back per step. Ghost neighbours
+// workgroups once the iteration stops: nothing is read back per step. Those that read the
+// lists (constraint, residual, residual_stage, correct) run a part of the lists at a time
+// (part.wgsl); parts start at workgroup boundaries, so the residual's per-workgroup
+// partials are those of the unsplit lists. Ghost neighbours
 // take their source's values through its image (mixed_images.wgsl). Layout and constants:
 // mixed.wgsl, and the corrector's fields C*_OFF of methods::mixed::gpu::MixedLayout.
 
@@ -45,9 +48,6 @@ struct Tau {
     relax: f32,
     // Pseudo steps recorded per stage.
     budget: u32,
-    // Workgroups of a per-particle pass (x, y).
-    groups_x: u32,
-    groups_y: u32,
 }
 
 @group(0) @binding(0) var<uniform> tau: Tau;
@@ -66,9 +66,11 @@ struct Tau {
 @group(0) @binding(10) var<storage, read> reference: array<f32>;
 // The words below, then per workgroup a maximum and its particle.
 @group(0) @binding(11) var<storage, read_write> control: array<u32>;
-// The workgroup counts of the indirect passes.
+// The workgroup counts (x, y, z) of the indirect passes: over every particle, then over
+// each part of the lists; while the stage iterates, those of `groups`, else zero.
 @group(0) @binding(12) var<storage, read_write> args: array<u32>;
 @group(0) @binding(13) var<storage, read_write> force: array<f32>;
+@group(0) @binding(14) var<storage, read> groups: array<u32>;
 
 // Words of `control`: 1 while the stage iterates; its pseudo steps; the velocity scale
 // (f32 bits); the step's pseudo steps and largest final residual over the scale (f32
@@ -90,8 +92,10 @@ const PARTIALS: u32 = 10u;
 var<workgroup> best: array<f32, 256>;
 var<workgroup> who: array<u32, 256>;
 
-// The largest `value` of the workgroup and its particle, into its partial.
-fn workgroup_max(lid: u32, group: u32, value: f32, particle: u32) {
+// The largest `value` of the workgroup and its particle, into partial `group` unless the
+// workgroup holds no particle (`keep` false: past a part's rows, where the next part's
+// workgroups write).
+fn workgroup_max(lid: u32, group: u32, keep: bool, value: f32, particle: u32) {
     best[lid] = value;
     who[lid] = particle;
     workgroupBarrier();
@@ -102,7 +106,7 @@ fn workgroup_max(lid: u32, group: u32, value: f32, particle: u32) {
         }
         workgroupBarrier();
     }
-    if lid == 0u {
+    if lid == 0u && keep {
         control[PARTIALS + 2u * group] = bitcast<u32>(best[0]);
         control[PARTIALS + 2u * group + 1u] = who[0];
     }
@@ -152,21 +156,24 @@ fn start(
         mstore_corr(CHN_OFF + DIM * DIM * a, identity_d() + h_excess(a, stress_excess(a)));
         speed2 = max(dot(v_int, v_int), dot(v_n, v_n));
     }
-    workgroup_max(lid, group_index(wid, nwg), speed2, a);
+    workgroup_max(lid, group_index(wid, nwg), true, speed2, a);
 }
 
 // bytes:
-// One item: the partials in (not counted), the scale and the workgroup counts out.
+// One item: the partials in (not counted), the scale and the workgroup counts out (those
+// of the parts not counted).
 // - control stores: 3 scalars per item
+// - groups: 3 scalars per item
 // - args: 3 scalars per item
 @compute @workgroup_size(1)
 fn begin() {
     control[SCALE] = bitcast<u32>(sqrt(bitcast<f32>(largest_partial().x)));
     control[ITERATIONS] = 0u;
     control[RUN] = 1u;
-    args[0] = tau.groups_x;
-    args[1] = tau.groups_y;
-    args[2] = 1u;
+    let words = arrayLength(&args);
+    for (var k = 0u; k < words; k++) {
+        args[k] = groups[k];
+    }
 }
 
 // A vector, a tensor and a scalar of extended particle b: its own, or for a ghost its
@@ -218,16 +225,17 @@ fn stage_end(b: u32) -> Extended {
 // - corr stores: 1 scalar per item
 @compute @workgroup_size(256)
 fn constraint(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let a = index(gid, nwg);
-    if a >= N {
+    let row = index(gid, nwg);
+    if row >= part.rows {
         return;
     }
+    let a = part.first + row;
     let e_a = stage_end(a);
     let h_a = mload_corr(CHN_OFF + DIM * DIM * a);
     var div = 0.0;
     var lap = 0.0;
-    let p_end = offsets[a + 1u];
-    for (var p = offsets[a]; p < p_end; p++) {
+    let p_end = offsets[row + 1u];
+    for (var p = offsets[row]; p < p_end; p++) {
         let e_b = stage_end(ids[p]);
         div += dot(e_b.v - e_a.v, h_a * vload_pair(PG_OFF + DIM * p));
         if PSEUDO_VISCOSITY == 1u {
@@ -241,8 +249,9 @@ fn constraint(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
 fn corrector_force(a: u32, v_at: u32, q_at: u32) -> vecd {
     let dp_a = extended(a, v_at, q_at).t;
     var t: vecd;
-    let p_end = offsets[a + 1u];
-    for (var p = offsets[a]; p < p_end; p++) {
+    let row = a - part.first;
+    let p_end = offsets[row + 1u];
+    for (var p = offsets[row]; p < p_end; p++) {
         let e_b = extended(ids[p], v_at, q_at);
         t += pair_force(dp_a, e_b.t, vload_pair(PG_OFF + DIM * p), vload_pair(PGR_OFF + DIM * p));
     }
@@ -270,8 +279,9 @@ fn pseudo_rates(a: u32, v_at: u32, q_at: u32) -> f32 {
     var t: vecd;
     var div = 0.0;
     var lap = 0.0;
-    let p_end = offsets[a + 1u];
-    for (var p = offsets[a]; p < p_end; p++) {
+    let row = a - part.first;
+    let p_end = offsets[row + 1u];
+    for (var p = offsets[row]; p < p_end; p++) {
         let e_b = extended(ids[p], v_at, q_at);
         let g_ab = vload_pair(PG_OFF + DIM * p);
         let g_ba = vload_pair(PGR_OFF + DIM * p);
@@ -307,30 +317,34 @@ fn residual(
     @builtin(local_invocation_index) lid: u32,
     @builtin(workgroup_id) wid: vec3<u32>,
 ) {
-    let a = index(gid, nwg);
+    let row = index(gid, nwg);
+    let a = part.first + row;
     var size = 0.0;
-    if a < N {
+    if row < part.rows {
         size = pseudo_rates(a, CV_OFF, CQ_OFF);
     }
-    workgroup_max(lid, group_index(wid, nwg), size, a);
+    // Parts start at workgroup boundaries (src/gpu/parts.rs): the unsplit run's partials.
+    let group = group_index(wid, nwg);
+    workgroup_max(lid, part.first / 256u + group, group * 256u < part.rows, size, a);
 }
 
 // bytes:
 // - include pseudo_rates
 @compute @workgroup_size(256)
 fn residual_stage(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let a = index(gid, nwg);
-    if a < N {
-        pseudo_rates(a, CV1_OFF, CQ1_OFF);
+    let row = index(gid, nwg);
+    if row < part.rows {
+        pseudo_rates(part.first + row, CV1_OFF, CQ1_OFF);
     }
 }
 
 // Ends the stage's iteration: no more workgroups for the indirect passes.
 fn stop() {
     control[RUN] = 0u;
-    args[0] = 0u;
-    args[1] = 0u;
-    args[2] = 0u;
+    let words = arrayLength(&args);
+    for (var k = 0u; k < words; k++) {
+        args[k] = 0u;
+    }
 }
 
 // bytes:
@@ -411,10 +425,11 @@ fn average(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
 // - d: 1 scalar per item
 @compute @workgroup_size(256)
 fn correct(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let a = index(gid, nwg);
-    if a >= N {
+    let row = index(gid, nwg);
+    if row >= part.rows {
         return;
     }
+    let a = part.first + row;
     let t = vload_force(FT_OFF + DIM * a) + corrector_force(a, CV_OFF, CQ_OFF);
     vstore_force(FT_OFF + DIM * a, t);
     d[PRES_OFF + a] = corr[CQ_OFF + a] / tau.dt;

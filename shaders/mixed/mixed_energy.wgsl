@@ -22,7 +22,8 @@ fn strain_energy(i: u32) -> f32 {
     return vol_of(i) * energy_density_mixed(f, j);
 }
 
-// The neighbour lists (CSR over the real rows; ids ≥ N are ghosts), for the pair rate.
+// The part's neighbour lists (CSR over the real rows; ids ≥ N are ghosts), for the pair
+// rate.
 @group(0) @binding(4) var<storage, read> offsets: array<u32>;
 @group(0) @binding(5) var<storage, read> ids: array<u32>;
 // The plastic history (plasticity.wgsl), read with MODEL_VON_MISES_PLASTIC only.
@@ -45,8 +46,9 @@ fn pair_wave_speed(i: u32) -> f32 {
     let x_i = x0_of(i) + vload_y(U_OFF + DIM * i);
     let lambda_i = smallest_stretch(i);
     var fastest = 0.0;
-    let q_end = offsets[i + 1u];
-    for (var q = offsets[i]; q < q_end; q++) {
+    let row = i - part.first;
+    let q_end = offsets[row + 1u];
+    for (var q = offsets[row]; q < q_end; q++) {
         let j = ids[q];
         if j < N {
             let r_ij = length(x0_of(j) + vload_y(U_OFF + DIM * j) - x_i);

@@ -54,10 +54,11 @@ fn slopes_of(b: u32) -> Slopes {
 // - force: 1 scalar + 2 vectors per item
 @compute @workgroup_size(256)
 fn forces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let a = index(gid, nwg);
-    if a >= N {
+    let row = index(gid, nwg);
+    if row >= part.rows {
         return;
     }
+    let a = part.first + row;
     let p_a = mload_kin(KP_OFF + DIM * DIM * a);
     var h_a: matd;
     if KIN_H == 1u {
@@ -75,8 +76,8 @@ fn forces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     var t: vecd;
     var dp_sum: vecd;
     var dj = 0.0;
-    let p_end = offsets[a + 1u];
-    for (var p = offsets[a]; p < p_end; p++) {
+    let p_end = offsets[row + 1u];
+    for (var p = offsets[row]; p < p_end; p++) {
         let b = ids[p];
         let g_ab = vload_pair(PG_OFF + DIM * p);
         let g_ba = vload_pair(PGR_OFF + DIM * p);

@@ -42,14 +42,15 @@
 // - status: nothing
 @compute @workgroup_size(256)
 fn kinematics(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let a = index(gid, nwg);
-    if a >= N {
+    let row = index(gid, nwg);
+    if row >= part.rows {
         return;
     }
+    let a = part.first + row;
     let v_a = velocity(a);
     var grad_v: matd;
-    let p_end = offsets[a + 1u];
-    for (var p = offsets[a]; p < p_end; p++) {
+    let p_end = offsets[row + 1u];
+    for (var p = offsets[row]; p < p_end; p++) {
         grad_v += outer(velocity(ids[p]) - v_a, vload_pair(PG_OFF + DIM * p));
     }
     let f = stress_excess(a);

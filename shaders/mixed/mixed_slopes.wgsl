@@ -24,16 +24,17 @@
 // - out: 1 slope per item
 @compute @workgroup_size(256)
 fn slopes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let a = index(gid, nwg);
-    if a >= N {
+    let row = index(gid, nwg);
+    if row >= part.rows {
         return;
     }
+    let a = part.first + row;
     let v_a = velocity(a);
     let p_a = mload_kin(KP_OFF + DIM * DIM * a);
     var grad_v: matd;
     var grad_p: array<matd, 3>;
-    let p_end = offsets[a + 1u];
-    for (var p = offsets[a]; p < p_end; p++) {
+    let p_end = offsets[row + 1u];
+    for (var p = offsets[row]; p < p_end; p++) {
         let b = ids[p];
         let w = vload_pair(PLS_OFF + DIM * p);
         grad_v += outer(velocity(b) - v_a, w);
@@ -59,14 +60,15 @@ fn slopes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
 // - out: 1 vector per item
 @compute @workgroup_size(256)
 fn laplacian(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let a = index(gid, nwg);
-    if a >= N {
+    let row = index(gid, nwg);
+    if row >= part.rows {
         return;
     }
+    let a = part.first + row;
     let v_a = velocity(a);
     var sum: vecd;
-    let p_end = offsets[a + 1u];
-    for (var p = offsets[a]; p < p_end; p++) {
+    let p_end = offsets[row + 1u];
+    for (var p = offsets[row]; p < p_end; p++) {
         sum += (velocity(ids[p]) - v_a) * pair[PELL_OFF + p];
     }
     vstore_out(DIM * a, sum);

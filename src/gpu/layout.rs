@@ -189,6 +189,27 @@ impl Fields {
         vec![0.0; self.len]
     }
 
+    /// The same fields, each present one holding `count` items: a per-pair layout for
+    /// another number of pairs.
+    pub fn resized(&self, count: usize) -> Self {
+        (self.fields.iter()).fold(Self::new(self.prefix, self.dim), |l, f| {
+            l.block(f.name, f.count > 0, count, f.width)
+        })
+    }
+
+    /// A host copy of a buffer of this layout holding items `start..start + count` of
+    /// each field of `flat`, laid out as `whole` (the same fields, more items).
+    pub fn items_of(&self, whole: &Fields, flat: &[f32], start: usize, count: usize) -> Vec<f32> {
+        let mut out = self.zeroed();
+        for (f, w) in self.fields.iter().zip(&whole.fields) {
+            let (from, len) = (w.offset + start * w.width, count * w.width);
+            if f.count > 0 {
+                out[f.offset..][..len].copy_from_slice(&flat[from..][..len]);
+            }
+        }
+        out
+    }
+
     /// Writes items of `width` floats each into field `name`, item k from `put(k, out)`.
     fn write<T>(&self, flat: &mut [f32], name: &str, items: &[T], put: impl Fn(&mut Vec<f32>, &T)) {
         let f = self.field(name);

@@ -10,7 +10,7 @@
 //! stay whole, each in one binding. One part is the unsplit run, and a split run computes
 //! every pair's terms in the same order, so its results are the unsplit run's, bit for bit.
 
-use super::context::{Gpu, GpuError, Pipeline};
+use super::context::{Gpu, GpuError, Pipeline, WORKGROUP};
 use crate::core::neighbour::Csr;
 use encase::ShaderType;
 
@@ -52,67 +52,86 @@ impl Split {
     }
 
     /// The lists `csr` in parts of consecutive rows whose per-pair buffers of
-    /// `pair_bytes` a pair, ids and offsets each fit `limit` bytes: as many parts as the
-    /// bytes need (or the fewest more that fit), cut where the pairs are evenly shared, so
-    /// that the per-pair buffers, each laid out for the most pairs of a part, hold little
-    /// room unused. Err: one particle's pairs alone exceed the limit (their bytes).
-    pub fn plan(csr: &Csr, pair_bytes: u64, limit: u64) -> Result<Self, u64> {
+    /// `pair_bytes` a pair, ids and offsets each fit `limit` bytes, each part starting at
+    /// a multiple of `align` rows: as many parts as the bytes need (or the fewest more
+    /// that fit), cut where the pairs are evenly shared, so that the per-pair buffers,
+    /// each laid out for the most pairs of a part, hold little room unused. Err: the
+    /// pairs of one block of `align` rows alone exceed the limit (their bytes).
+    pub fn plan(csr: &Csr, pair_bytes: u64, limit: u64, align: usize) -> Result<Self, u64> {
         let per_pair = pair_bytes.max(4);
-        let bytes =
-            |rows: usize, pairs: usize| (pairs as u64 * per_pair).max((rows as u64 + 1) * 4);
-        if let Some(row) = (0..csr.len())
-            .map(|i| bytes(1, csr.offsets[i + 1] - csr.offsets[i]))
+        let (rows, pairs) = (csr.len(), csr.pair_count());
+        let align = align.max(1);
+        let bytes = |first: usize, end: usize| {
+            let pairs = csr.offsets[end] - csr.offsets[first];
+            (pairs as u64 * per_pair).max((end - first + 1) as u64 * 4)
+        };
+        let blocks: Vec<usize> = (0..rows.div_ceil(align))
+            .map(|b| b * align)
+            .chain([rows])
+            .collect();
+        if let Some(block) = blocks
+            .windows(2)
+            .map(|w| bytes(w[0], w[1]))
             .find(|&b| b > limit)
         {
-            return Err(row);
+            return Err(block);
         }
-        let (rows, pairs) = (csr.len(), csr.pair_count());
         if rows == 0 {
             return Ok(Self::whole(csr));
         }
+        let parts = |cuts: &[usize]| -> Vec<Part> {
+            (cuts.windows(2))
+                .map(|w| Part {
+                    first: w[0],
+                    rows: w[1] - w[0],
+                    start: csr.offsets[w[0]],
+                    pairs: csr.offsets[w[1]] - csr.offsets[w[0]],
+                })
+                .collect()
+        };
+        let fits =
+            |parts: &[Part]| (parts.iter()).all(|p| bytes(p.first, p.first + p.rows) <= limit);
         let needed = |b: u64| b.div_ceil(limit) as usize;
-        let mut k = needed(pairs as u64 * per_pair)
+        let least = needed(pairs as u64 * per_pair)
             .max(needed((rows as u64 + 1) * 4))
             .max(1);
-        loop {
-            // Part j ends at the first row boundary at or past ⌈(j + 1) pairs / k⌉.
+        for k in least..blocks.len() - 1 {
+            // Part j ends at the block boundary nearest ⌈(j + 1) pairs / k⌉.
             let mut cuts: Vec<usize> = (1..k)
                 .map(|j| {
-                    (csr.offsets
-                        .partition_point(|&o| o < (j * pairs).div_ceil(k)))
-                    .min(rows)
+                    let row = csr
+                        .offsets
+                        .partition_point(|&o| o < (j * pairs).div_ceil(k));
+                    ((row + align / 2) / align * align).min(rows)
                 })
                 .collect();
             cuts.insert(0, 0);
             cuts.push(rows);
             cuts.dedup();
-            let parts: Vec<Part> = cuts
-                .windows(2)
-                .map(|w| Part {
-                    first: w[0],
-                    rows: w[1] - w[0],
-                    start: csr.offsets.get(w[0]).copied().unwrap_or(0),
-                    pairs: csr.offsets.get(w[1]).copied().unwrap_or(0)
-                        - csr.offsets.get(w[0]).copied().unwrap_or(0),
-                })
-                .collect();
-            if parts.iter().all(|p| bytes(p.rows, p.pairs) <= limit) {
-                return Ok(Self { parts });
+            let split = parts(&cuts);
+            if fits(&split) {
+                return Ok(Self { parts: split });
             }
-            // One row a part always fits: k grows at most to the rows.
-            k += 1;
         }
+        // A block a part, each of which fits.
+        Ok(Self {
+            parts: parts(&blocks),
+        })
     }
 
-    /// [`Self::plan`] for the binding limit of `gpu`; Err names the bytes of the particle
-    /// whose pairs alone exceed it.
+    /// [`Self::plan`] for the binding limit of `gpu`, the parts starting at workgroup
+    /// boundaries: a split run's workgroups are the unsplit run's, so that a pass that
+    /// writes a partial result per workgroup writes the same partials a part at a time.
+    /// Err names the bytes of the workgroup of particles whose pairs alone exceed it.
     pub fn fitting(gpu: &Gpu, csr: &Csr, pair_bytes: u64) -> Result<Self, GpuError> {
         let limit = gpu.binding_limit();
-        Self::plan(csr, pair_bytes, limit).map_err(|needed| GpuError::TooLarge {
-            adapter: gpu.name(),
-            what: "list part (one particle's pairs)",
-            needed,
-            limit,
+        Self::plan(csr, pair_bytes, limit, WORKGROUP as usize).map_err(|needed| {
+            GpuError::TooLarge {
+                adapter: gpu.name(),
+                what: "list part (the pairs of one workgroup of particles)",
+                needed,
+                limit,
+            }
         })
     }
 
@@ -120,6 +139,11 @@ impl Split {
     /// that one compiled layout serves every part.
     pub fn capacity(&self) -> usize {
         self.parts.iter().map(|p| p.pairs).max().unwrap_or(0)
+    }
+
+    /// The rows (particles) of every part.
+    pub fn rows(&self) -> usize {
+        self.parts.iter().map(|p| p.rows).sum()
     }
 
     pub fn is_whole(&self) -> bool {
@@ -135,30 +159,20 @@ impl Split {
         pipeline: &Pipeline,
         binds: &[wgpu::BindGroup],
     ) {
+        assert_eq!(binds.len(), self.parts.len(), "a bind group a part");
         for (part, bind) in self.parts.iter().zip(binds) {
             gpu.dispatch(pass, pipeline, bind, part.rows as u32);
         }
     }
+}
 
-    /// Err where the lists are split and `pass` reads them whole (`offsets[i]` of any
-    /// particle): its `pair_bytes` a pair of the whole lists must fit one binding.
-    pub fn whole_for(
-        &self,
-        gpu: &Gpu,
-        pass: &'static str,
-        pair_bytes: u64,
-    ) -> Result<(), GpuError> {
-        if self.is_whole() {
-            return Ok(());
-        }
-        let pairs: usize = self.parts.iter().map(|p| p.pairs).sum();
-        Err(GpuError::TooLarge {
-            adapter: gpu.name(),
-            what: pass,
-            needed: pairs as u64 * pair_bytes,
-            limit: gpu.binding_limit(),
-        })
-    }
+/// The uniform `part` of the `rows` particles from `first`.
+pub fn uniform(gpu: &Gpu, first: usize, rows: usize) -> wgpu::Buffer {
+    let part = PartUniform {
+        first: first as u32,
+        rows: rows as u32,
+    };
+    gpu.uniform("list part", &part)
 }
 
 /// A part's lists on the device: its offsets (from its first pair), ids and uniform.
@@ -182,14 +196,10 @@ impl PartLists {
                     .unwrap_or(&[0]);
                 let offsets: Vec<u32> = rows.iter().map(|&o| (o - part.start) as u32).collect();
                 let ids = &csr.ids[part.start..part.start + part.pairs];
-                let uniform = PartUniform {
-                    first: part.first as u32,
-                    rows: part.rows as u32,
-                };
                 Self {
                     offsets: gpu.storage("neighbour offsets", &offsets),
                     ids: gpu.storage("neighbour ids", ids),
-                    uniform: gpu.uniform("list part", &uniform),
+                    uniform: uniform(gpu, part.first, part.rows),
                 }
             })
             .collect()
@@ -235,14 +245,14 @@ mod tests {
     #[test]
     fn parts_cover_every_row_in_order_and_each_fits_the_limit() {
         let lists = csr(&[3, 5, 2, 0, 7, 4, 4, 1]);
-        let split = Split::plan(&lists, 8, 64).unwrap();
+        let split = Split::plan(&lists, 8, 64, 1).unwrap();
         cover(&lists, &split, 8, 64);
         // 26 pairs of 8 B in 64 B parts: 4 parts at least, but no cut at the shares of 4 or
         // 5 parts fits (rows 2–4 hold 9 pairs); 6 parts at ⌈26 j / 6⌉ do.
         let pairs: Vec<usize> = split.parts.iter().map(|p| p.pairs).collect();
         assert_eq!(pairs, [8, 2, 7, 4, 4, 1]);
         assert_eq!(
-            Split::plan(&lists, 8, 1 << 20).unwrap(),
+            Split::plan(&lists, 8, 1 << 20, 1).unwrap(),
             Split::whole(&lists)
         );
     }
@@ -254,7 +264,7 @@ mod tests {
         // greedy cut, 300 + 300 + 300 + 100 rows, would lay out 4 × 6,000 pairs for 20,000).
         let lists = csr(&[20; 1000]);
         let limit = 8 * 20 * 300 + 8;
-        let split = Split::plan(&lists, 8, limit).unwrap();
+        let split = Split::plan(&lists, 8, limit, 1).unwrap();
         cover(&lists, &split, 8, limit);
         assert!(split.parts.iter().all(|p| p.rows == 250), "{split:?}");
         assert_eq!(split.capacity(), 5000);
@@ -262,6 +272,20 @@ mod tests {
 
     #[test]
     fn a_row_past_the_limit_is_refused_with_its_bytes() {
-        assert_eq!(Split::plan(&csr(&[2, 9]), 8, 64), Err(72));
+        assert_eq!(Split::plan(&csr(&[2, 9]), 8, 64, 1), Err(72));
+    }
+
+    #[test]
+    fn aligned_parts_start_at_a_block_and_a_block_past_the_limit_is_refused() {
+        // At most 300 rows a part in blocks of 256: the even cuts at rows 250, 500 and
+        // 750 move to the nearest block, 256, 512 and 768.
+        let lists = csr(&[20; 1000]);
+        let limit = 8 * 20 * 300 + 8;
+        let split = Split::plan(&lists, 8, limit, 256).unwrap();
+        cover(&lists, &split, 8, limit);
+        let firsts: Vec<usize> = split.parts.iter().map(|p| p.first).collect();
+        assert_eq!(firsts, [0, 256, 512, 768]);
+        // A block of 256 rows holds 5,120 pairs: 40,960 B past a limit of 100 rows.
+        assert_eq!(Split::plan(&lists, 8, 8 * 20 * 100, 256), Err(40_960));
     }
 }

@@ -9,6 +9,7 @@
 use super::context::{Gpu, GpuError, Pipeline};
 use super::layout::{Field, Fields, Flat};
 use super::memory::DeviceMemory;
+use super::parts;
 use super::shaders::{Source, Wgsl, source};
 use crate::boundary::{Boundary, Reaction};
 use crate::diagnostics::observe::Invariants;
@@ -49,9 +50,9 @@ pub struct Reduced {
 /// The reduce pass of an engine and its cached result for the current state.
 pub struct Reduction {
     pipeline: Pipeline,
-    bind: wgpu::BindGroup,
+    /// A bind group and its rows a part of the lists.
+    parts: Vec<(wgpu::BindGroup, u32)>,
     partials: wgpu::Buffer,
-    n: u32,
     cached: Option<Reduced>,
 }
 
@@ -65,25 +66,54 @@ impl Reduction {
     }
 
     /// `source` is `reduce.wgsl` composed for the method; `inputs` its engine's buffers
-    /// by binding name (the state `y`, `kin`, `reference` and those its hooks declare);
-    /// the reduction adds its `partials`.
+    /// by binding name (the state `y`, `kin`, `reference` and those its hooks declare,
+    /// none of the lists); the reduction adds its `partials` and the `part` of all `n`
+    /// particles.
     pub fn new(
         gpu: &Gpu,
         source: &str,
         inputs: &[(&str, &wgpu::Buffer)],
         n: usize,
     ) -> Result<Self, GpuError> {
+        let whole = parts::uniform(gpu, 0, n);
+        let table = [inputs, &[("part", &whole)]].concat();
+        Self::bind(gpu, source, n, vec![(n, table)])
+    }
+
+    /// [`Self::new`] a part of the lists of `split` at a time, `tables` holding each
+    /// part's buffers, its `part` uniform, `offsets`, `ids` and per-pair data among them.
+    /// The parts start at workgroup boundaries ([`parts::Split::fitting`]), so the
+    /// partials are the unsplit run's.
+    pub fn by_part(
+        gpu: &Gpu,
+        source: &str,
+        split: &parts::Split,
+        tables: Vec<Vec<(&str, &wgpu::Buffer)>>,
+    ) -> Result<Self, GpuError> {
+        let rows = split.parts.iter().map(|p| p.rows);
+        Self::bind(gpu, source, split.rows(), rows.zip(tables).collect())
+    }
+
+    /// The pass over `n` particles in parts of the given rows and buffers.
+    fn bind(
+        gpu: &Gpu,
+        source: &str,
+        n: usize,
+        parts: Vec<(usize, Vec<(&str, &wgpu::Buffer)>)>,
+    ) -> Result<Self, GpuError> {
         let pipeline = gpu.pipeline("reduce", source, "reduce")?;
         let (gx, gy) = gpu.groups(n as u32);
         let partials = gpu.zeroed("partials", u64::from(gx * gy) * REDUCED as u64 * 4);
-        let mut entries = inputs.to_vec();
-        entries.push(("partials", &partials));
-        let bind = gpu.bind(&pipeline, &entries)?;
+        let parts = (parts.iter())
+            .map(|(rows, inputs)| {
+                let entries = [inputs.as_slice(), &[("partials", &partials)]].concat();
+                Ok((gpu.bind(&pipeline, &entries)?, *rows as u32))
+            })
+            .collect::<Result<_, GpuError>>()?;
         Ok(Self {
             pipeline,
-            bind,
+            parts,
             partials,
-            n: n as u32,
             cached: None,
         })
     }
@@ -103,7 +133,9 @@ impl Reduction {
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
             before(&mut pass);
-            gpu.dispatch(&mut pass, &self.pipeline, &self.bind, self.n);
+            for (bind, rows) in &self.parts {
+                gpu.dispatch(&mut pass, &self.pipeline, bind, *rows);
+            }
         }
         gpu.queue.submit([encoder.finish()]);
         let partials: Vec<f32> = gpu.read(&self.partials);

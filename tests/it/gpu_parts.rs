@@ -1,12 +1,16 @@
 //! Neighbour lists split into parts past the largest storage binding (`gpu::parts`): the
-//! rates of a run whose binding limit is forced down to 1 MiB against the unsplit run's on
-//! the same adapter, and the refusals, by name, of the passes that still need a buffer
-//! whole.
+//! rates, reductions and steps of a run whose binding limit is forced down to 1 MiB
+//! against the unsplit run's on the same adapter, and the refusals, by name, of the
+//! engines that still need a buffer whole.
 
-use crate::common::{gpu, load, tl_scheme};
+use crate::common::{gpu, load, random_state, spec_of, tl_scheme};
 use meshless::core::tensor::{D2, D3};
 use meshless::gpu::layout::GpuDim;
+use meshless::gpu::reduction::Reduced;
+use meshless::methods::Method;
+use meshless::methods::mixed::{GpuMixed, MixedState};
 use meshless::methods::tlsph::{GpuTlsph, TlState};
+use meshless::run::Engine;
 use meshless::scene::Scene;
 use std::process::Command;
 
@@ -49,8 +53,34 @@ fn bits<D: GpuDim>(g: &mut GpuTlsph<D>, y: &TlState<D>) -> Vec<u64> {
     out
 }
 
-/// The rates of `case` on lists split by [`LIMIT`] and on whole lists: the same bits. The
-/// split run sums each particle's pairs in the same order, from the same f32 inputs.
+/// The values of a reduction, as bits.
+fn reduced_bits(r: &Reduced) -> Vec<u64> {
+    let i = &r.invariants;
+    [i.kinetic, i.strain]
+        .into_iter()
+        .chain(i.linear)
+        .chain(i.angular)
+        .chain([
+            r.power,
+            r.max_speed,
+            r.pair_wave_speed,
+            r.viscous_dissipation,
+        ])
+        .map(f64::to_bits)
+        .collect()
+}
+
+/// Asserts that `a` and `b` hold the same bits, naming how many differ.
+fn same_bits(what: &str, a: &[u64], b: &[u64]) {
+    assert_eq!(a.len(), b.len(), "{what}");
+    let differ = a.iter().zip(b).filter(|(a, b)| a != b).count();
+    assert_eq!(differ, 0, "{what}: {differ} of {} values differ", a.len());
+}
+
+/// The rates and the reduction of `case` on lists split by [`LIMIT`] and on whole lists:
+/// the same bits. The split run sums each particle's pairs in the same order, from the
+/// same f32 inputs, and its parts start at workgroup boundaries, so the reduction's
+/// per-workgroup partials are the same too.
 fn split_equals_whole<D: GpuDim>(what: &str, case: &Scene) {
     let mut whole = GpuTlsph::<D>::new(case, tl_scheme(case), gpu()).unwrap();
     let split_gpu = gpu().with_binding_limit(LIMIT);
@@ -62,10 +92,9 @@ fn split_equals_whole<D: GpuDim>(what: &str, case: &Scene) {
     let parts = split.split().parts.len();
     assert!(parts >= 3, "{what}: {parts} parts under 1 MiB");
     let y = deformed(&whole);
-    let (a, b) = (bits(&mut whole, &y), bits(&mut split, &y));
-    assert_eq!(a.len(), b.len());
-    let differ = a.iter().zip(&b).filter(|(a, b)| a != b).count();
-    assert_eq!(differ, 0, "{what}: {differ} of {} values differ", a.len());
+    same_bits(what, &bits(&mut whole, &y), &bits(&mut split, &y));
+    let reduced = |g: &mut GpuTlsph<D>| reduced_bits(&g.reduced());
+    same_bits(what, &reduced(&mut whole), &reduced(&mut split));
 }
 
 #[test]
@@ -109,9 +138,9 @@ fn tl_rates_on_lists_split_past_a_1mib_binding_are_the_unsplit_bits() {
 }
 
 #[test]
-fn a_pass_that_reads_split_lists_whole_is_refused_by_name() {
-    // Dual-support SPH's energy reduction sums each particle's support from the whole
-    // lists: past one binding its set-up is refused, naming the buffer and the limit.
+fn dual_support_rates_and_energy_on_split_lists_are_the_unsplit_bits() {
+    // Dual-support SPH's energy reduction sums each particle's support S_i ∪ S'_i over
+    // the part's lists.
     let case = load(
         "studies/cases/swinging-plate",
         &[
@@ -122,23 +151,114 @@ fn a_pass_that_reads_split_lists_whole_is_refused_by_name() {
             "spacing=0.01",
         ],
     );
-    let gpu = gpu().with_binding_limit(LIMIT);
-    let err = match GpuTlsph::<D2>::new(&case, tl_scheme(&case), gpu) {
-        Ok(_) => panic!("dual-support SPH ran on split lists"),
-        Err(e) => e.to_string(),
+    split_equals_whole::<D2>("dual-support", &case);
+}
+
+/// The values of a mixed state, as bits.
+fn mixed_bits<D: GpuDim>(y: &MixedState<D>) -> Vec<u64> {
+    let vectors = [&y.u, &y.v].into_iter().flatten().flat_map(|&v| D::to3(v));
+    let tensors = (y.f.iter().chain(&y.h)).flat_map(|&t| D::to3x3(t).into_iter().flatten());
+    (vectors.chain(tensors))
+        .chain(y.j.iter().chain(&y.pressure).copied())
+        .map(f64::to_bits)
+        .collect()
+}
+
+/// A mixed engine of `case` on whole lists and on lists split by [`LIMIT`] (at least 3
+/// parts): the rates of a random state (but under artificial compressibility, whose
+/// corrector needs a step), its reduction, then 3 steps from the initial state, are the
+/// same bits, and so are the corrector's pseudo steps.
+fn mixed_split_equals_whole<D: GpuDim>(what: &str, case: &Scene) {
+    let new = |gpu| GpuMixed::<D>::new(case, spec_of(case), gpu).unwrap();
+    let (mut whole, mut split) = (new(gpu()), new(gpu().with_binding_limit(LIMIT)));
+    let parts = Engine::<D>::device(&mut split).unwrap().1.parts;
+    assert!(parts >= 3, "{what}: {parts} parts under 1 MiB");
+    let corrected = whole.pseudo_time().is_some();
+    if !corrected {
+        let y = random_state(whole.cpu(), &mut 7, 0.01);
+        let rates = |g: &mut GpuMixed<D>| {
+            let d = g.rates(&y);
+            let fluxes = g.fluxes();
+            let forces = (fluxes.t.iter().chain(&fluxes.d)).flat_map(|&v| D::to3(v));
+            let mut out = mixed_bits(&d);
+            out.extend(forces.chain(fluxes.dj).map(f64::to_bits));
+            (out, reduced_bits(&g.reduced()))
+        };
+        let (a, b) = (rates(&mut whole), rates(&mut split));
+        same_bits(&format!("{what}: rates"), &a.0, &b.0);
+        same_bits(&format!("{what}: reduction"), &a.1, &b.1);
+    }
+    let steps = |g: &mut GpuMixed<D>| {
+        let y0 = g.cpu().initial_state();
+        g.set_state(&y0);
+        let r = g.reduced();
+        let dt = 0.3 * case.spacing / (r.pair_wave_speed.max(1.0) + r.max_speed);
+        Engine::<D>::advance(g, 0.0, dt, 3).unwrap();
+        let pseudo = g.pseudo_time().map(|p| (p.total, p.residual.to_bits()));
+        (mixed_bits(&g.state()), reduced_bits(&g.reduced()), pseudo)
     };
-    assert!(
-        err.contains("energy reduction reads every pair") && err.contains(&LIMIT.to_string()),
-        "{err}"
-    );
+    let (a, b) = (steps(&mut whole), steps(&mut split));
+    same_bits(&format!("{what}: 3 steps"), &a.0, &b.0);
+    same_bits(&format!("{what}: reduction after 3 steps"), &a.1, &b.1);
+    assert_eq!(a.2, b.2, "{what}: pseudo steps");
+}
+
+#[test]
+fn mixed_rates_steps_and_reductions_on_split_lists_are_the_unsplit_bits() {
+    // Upwind-SPH with and without the reconstruction, JST-SPH, the seed 002 options (the
+    // bond-based F, the symmetrised momentum) and artificial compressibility (the
+    // corrector's passes over the lists and its per-workgroup residuals), on the plate at
+    // Δx = 0.01, whose mirror planes put ghosts in the lists (10,201 particles, 2–4 MB of
+    // pair data); Upwind-SPH in 3D on the swinging cube at Δx = 0.1 (1,331 particles,
+    // about 3.5 MB of pair data).
+    let plate = |set: &[&str]| {
+        let mut set = set.to_vec();
+        set.push("spacing=0.01");
+        load("swinging-plate", &set)
+    };
+    let schemes: [(&str, &[&str]); 6] = [
+        ("upwind-sph", &["method.name=upwind-sph"]),
+        (
+            "upwind-sph (no reconstruction)",
+            &["method.name=upwind-sph", "method.reconstruction=false"],
+        ),
+        ("jst-sph", &["method.name=jst-sph"]),
+        (
+            "upwind-sph (seed 002 options)",
+            &[
+                "method.name=upwind-sph",
+                "method.variables=p-F",
+                "method.momentum=symmetrised",
+                "method.deformation_gradient=bond-based",
+            ],
+        ),
+        (
+            "upwind-sph (p-F-H-J)",
+            &["method.name=upwind-sph", "method.variables=p-F-H-J"],
+        ),
+        (
+            "upwind-sph (artificial compressibility)",
+            &[
+                "method.name=upwind-sph",
+                "material.poisson_ratio=0.4999",
+                "material.model=nearly-incompressible-neo-hookean",
+                "method.artificial_compressibility={ alpha = 0.2 }",
+            ],
+        ),
+    ];
+    for (what, set) in schemes {
+        mixed_split_equals_whole::<D2>(what, &plate(set));
+    }
+    let cube = load("swinging-cube", &["method.name=upwind-sph", "spacing=0.1"]);
+    mixed_split_equals_whole::<D3>("upwind-sph 3D", &cube);
 }
 
 #[test]
 fn the_binding_limit_variable_splits_a_run_or_refuses_it_by_name() {
-    // MESHLESS_MAX_BINDING forces the limit on any adapter. A TLSPH check and run go on
-    // with split lists; the upwind-SPH engine, whose per-pair buffer stays whole, is
-    // refused with exit code 2 naming the buffer and the variable; a malformed value is
-    // refused naming the variable.
+    // MESHLESS_MAX_BINDING forces the limit on any adapter. TLSPH and Upwind-SPH runs go
+    // on with split lists; the Galerkin engine (tl-fem), whose per-pair buffer stays
+    // whole, is refused with exit code 2 naming the buffer and the variable; a malformed
+    // value is refused naming the variable.
     let exe = env!("CARGO_BIN_EXE_meshless");
     let dir = tempfile::tempdir().unwrap();
     let run = |limit: &str, method: &str| {
@@ -153,12 +273,14 @@ fn the_binding_limit_variable_splits_a_run_or_refuses_it_by_name() {
             .output()
             .unwrap()
     };
-    let tl = run("1MiB", "tlsph");
-    let stderr = String::from_utf8_lossy(&tl.stderr);
-    assert!(tl.status.success(), "{stderr}");
-    let mixed = run("1MiB", "upwind-sph");
-    let stderr = String::from_utf8_lossy(&mixed.stderr);
-    assert_eq!(mixed.status.code(), Some(2), "{stderr}");
+    for method in ["tlsph", "upwind-sph"] {
+        let split = run("1MiB", method);
+        let stderr = String::from_utf8_lossy(&split.stderr);
+        assert!(split.status.success(), "{method}: {stderr}");
+    }
+    let galerkin = run("1MiB", "tl-fem");
+    let stderr = String::from_utf8_lossy(&galerkin.stderr);
+    assert_eq!(galerkin.status.code(), Some(2), "{stderr}");
     assert!(
         stderr.contains("per-pair buffer") && stderr.contains("MESHLESS_MAX_BINDING"),
         "{stderr}"

@@ -151,7 +151,8 @@ fn check_mixed<D: GpuDim>() {
     for case in mixed_cases(D::N) {
         let cpu: MixedSph<D> = build_method(&case).unwrap();
         let spec: &dyn meshless::methods::mixed::MixedScheme = crate::common::spec_of(&case);
-        let (_, constants) = mixed::scene(&case, spec.options(), &cpu);
+        let (_, constants) =
+            mixed::scene(&case, spec.options(), &cpu, cpu.neighbours().pair_count());
         for source in mixed::SHADERS {
             let src = shaders::compose::<D>(source, &constants);
             validate_wgsl(&format!("{}D {} ({})", D::N, source.name, case.name), &src);

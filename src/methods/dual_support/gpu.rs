@@ -17,7 +17,7 @@ use crate::core::neighbour::Csr;
 use crate::core::tensor::Dim;
 use crate::diagnostics::observe::Snapshot;
 use crate::gpu::layout::GpuDim;
-use crate::gpu::shaders::{MECHANICS, REFERENCE, Source, Wgsl, source, wgsl};
+use crate::gpu::shaders::{MECHANICS, PART, REFERENCE, Source, Wgsl, source, wgsl};
 use crate::methods::cores::tl::TlState;
 use crate::methods::cores::tl::gpu::{
     HostLists, HostModel, Lists, POTENTIAL, STRESS, TlScheme, potential,
@@ -30,7 +30,7 @@ const ENERGY: Wgsl = wgsl!("dual_support/dual_support_energy.wgsl");
 /// Energies, momenta and checks of a state.
 pub const REDUCE: Source = source!(
     "common/reduce.wgsl",
-    [MECHANICS, ENERGY, REFERENCE],
+    [MECHANICS, ENERGY, REFERENCE, PART],
     [
         ("y", false),
         ("kin", false),

@@ -32,7 +32,7 @@ use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{self, Reduced, Reduction};
 use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
-    self, BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, LOADS, MECHANICS, PLASTIC_STORE,
+    self, BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, LOADS, MECHANICS, PART, PLASTIC_STORE,
     PLASTICITY, PRESCRIBED, REFERENCE, Source, Wgsl, source, wgsl,
 };
 use crate::gpu::shell::Shell;
@@ -188,14 +188,11 @@ impl<D: GpuDim> GpuMixed<D> {
     ) -> Result<Self, SetupError> {
         let plastic = plastic_on_device(case, spec.options())?;
         let cpu: MixedSph<D> = build_method(case, spec)?;
-        let (layout, constants) = scene(case, spec.options(), &cpu);
-        check_f32_range(case, &constants)?;
-        check_f32_run(case, cpu.boundary())?;
-        let y0 = cpu.initial_state();
-        check_f32_particles::<D>(case, cpu.reference(), &y0.u, &y0.v, cpu.body())?;
+        let split = split_lists(&gpu, &cpu)?;
+        let (layout, constants) = scene(case, spec.options(), &cpu, split.capacity());
+        check_f32(case, &cpu, &constants)?;
         let compose = |s: &Source| shaders::compose::<D>(s, &constants);
         let n = layout.n;
-        gpu.check_size("per-pair buffer", layout.pair.bytes())?;
         gpu.check_size("kinematics buffer", layout.kin.bytes())?;
         let (x0, vol) = cpu.extended_reference();
         let device = DeviceReference::upload::<D>(
@@ -203,10 +200,12 @@ impl<D: GpuDim> GpuMixed<D> {
             &x0[..n],
             &vol[..n],
             cpu.boundary(),
-            (cpu.neighbours(), &Split::whole(cpu.neighbours())),
+            (cpu.neighbours(), &split),
             EXTRAS,
         );
-        let pair = gpu.storage("per-pair data", &pair_data(&cpu, &layout.pair));
+        let pair: Vec<_> = (pair_data(&cpu, &layout.pair, &split))
+            .map(|data| gpu.storage("per-pair data", &data))
+            .collect();
         let second_len = second_len::<D>(&layout);
         gpu.check_size("slope buffer", second_len as u64 * 4)?;
         let second = gpu.zeroed("slopes or Laplacians", second_len as u64 * 4);
@@ -214,6 +213,7 @@ impl<D: GpuDim> GpuMixed<D> {
         let (ghost_src, ghost_img) = ghost_table(&gpu, &cpu);
 
         let scratch = Scratch::new(&gpu, &layout, plastic);
+        let corr = gpu.zeroed("corrector", layout.corr.bytes());
 
         let start = Start {
             gpu: &gpu,
@@ -232,17 +232,20 @@ impl<D: GpuDim> GpuMixed<D> {
 
         let stage_points = StagePoints::uniform(&gpu, "stage points", 0);
         let mid_points = StagePoints::uniform(&gpu, "mid-step points", 1);
-        let mut evaluator = Evaluator::new(passes, &layout, &cpu, case.method.integrator);
-        let keys = evaluator.keys(case.method.integrator);
+        let integrator = case.method.integrator;
+        let mut evaluator = Evaluator::new(passes, &layout, &cpu, (integrator, split.clone()));
+        let keys = evaluator.keys(integrator);
         let y_start = stepper.buffer(Buf::Y);
-        // Every buffer of the passes by binding name, with the state `y` an evaluation
-        // reads and the balance points of its stage.
-        let table = |y, points| -> Vec<(&str, &wgpu::Buffer)> {
+        // Every buffer of the passes by binding name, with the lists and per-pair data of
+        // part k, the state `y` an evaluation reads and the balance points of its stage.
+        let table = |k: usize, y, points| -> Vec<(&str, &wgpu::Buffer)> {
+            let [offsets, ids, part] = device.lists[k].table();
             vec![
-                ("offsets", &device.lists[0].offsets),
-                ("ids", &device.lists[0].ids),
+                offsets,
+                ids,
+                part,
                 ("reference", &device.reference),
-                ("pair", &pair),
+                ("pair", &pair[k]),
                 ("ghost_src", &ghost_src),
                 ("ghost_img", &ghost_img),
                 ("field", &scratch.kin),
@@ -253,6 +256,7 @@ impl<D: GpuDim> GpuMixed<D> {
                 ("status", &scratch.status),
                 ("hist", &scratch.hist),
                 ("partials", &scratch.partials),
+                ("corr", &corr),
                 ("ext", interactions.ext()),
                 ("y0", y_start),
                 ("d", stepper.buffer(Buf::Rates)),
@@ -260,36 +264,41 @@ impl<D: GpuDim> GpuMixed<D> {
                 ("y", y),
             ]
         };
-        let commit = match plastic {
-            true => {
-                let pipeline = gpu.pipeline("plastic commit", &compose(&PLASTIC), "commit")?;
-                let bind = gpu.bind(&pipeline, &table(y_start, &stage_points))?;
-                Some((pipeline, bind))
-            }
-            false => None,
+        // The tables of every part.
+        let tables = |y, points| -> Vec<Vec<(&str, &wgpu::Buffer)>> {
+            (0..split.parts.len())
+                .map(|k| table(k, y, points))
+                .collect()
         };
+        let commit = plastic
+            .then(|| -> Result<_, GpuError> {
+                let pipeline = gpu.pipeline("plastic commit", &compose(&PLASTIC), "commit")?;
+                let bind = gpu.bind(&pipeline, &table(0, y_start, &stage_points))?;
+                Ok((pipeline, bind))
+            })
+            .transpose()?;
         let p = &evaluator.passes;
-        let corr = gpu.zeroed("corrector", layout.corr.bytes());
         let corrector = cpu
             .corrector()
             .map(|c| {
-                let t = [table(y_start, &stage_points), vec![("corr", &corr)]].concat();
-                let source = compose(&CORRECTOR);
-                DeviceCorrector::new(&gpu, &source, c, n, layout.state.bytes(), &t)
+                let (source, sizes) = (compose(&CORRECTOR), (n, layout.state.bytes()));
+                let t = tables(y_start, &stage_points);
+                DeviceCorrector::new(&gpu, &source, c, sizes, &split, &t)
             })
             .transpose()?;
         let bind = |(src, mid): (Buf, bool)| -> Result<Bound, GpuError> {
             let points = if mid { &mid_points } else { &stage_points };
-            let t = table(stepper.buffer(src), points);
+            let t = tables(stepper.buffer(src), points);
             let second = (second_len > 0).then_some(&second);
-            Bound::new(&gpu, p, &t, second, corrector.as_ref(), &corr)
+            Bound::new(&gpu, p, &t, second, corrector.as_ref())
         };
         evaluator.bound = keys
             .into_iter()
             .map(|k| Ok((k, bind(k)?)))
             .collect::<Result<_, GpuError>>()?;
         evaluator.corrector = corrector;
-        let reduction = Reduction::new(&gpu, &compose(&REDUCE), &table(y_start, &stage_points), n)?;
+        let reduce = compose(&REDUCE);
+        let reduction = Reduction::by_part(&gpu, &reduce, &split, tables(y_start, &stage_points))?;
         let unbooked = unbooked(case, plastic);
         let shell = Shell::new(gpu, stepper, reduction, scratch.kin, &layout.kin, unbooked)
             .save_also("plastic history", &scratch.hist);
@@ -306,6 +315,30 @@ impl<D: GpuDim> GpuMixed<D> {
         };
         Ok(Self::assemble(shell, interactions, family))
     }
+}
+
+/// The neighbour lists of the scene set up in `cpu` in parts whose per-pair data fit the
+/// binding limit of `gpu`.
+fn split_lists<D: GpuDim>(gpu: &Gpu, cpu: &MixedSph<D>) -> Result<Split, GpuError> {
+    let one = Sizes {
+        pairs: 1,
+        ..Sizes::of_system(cpu)
+    };
+    let pair_bytes = MixedLayout::new(&one, D::N).pair.bytes();
+    Split::fitting(gpu, cpu.neighbours(), pair_bytes)
+}
+
+/// Refuses a scene whose constants, run or initial particles f32 does not carry.
+fn check_f32<D: GpuDim>(
+    case: &Case,
+    cpu: &MixedSph<D>,
+    constants: &Constants,
+) -> Result<(), SetupError> {
+    check_f32_range(case, constants)?;
+    check_f32_run(case, cpu.boundary())?;
+    let y0 = cpu.initial_state();
+    check_f32_particles::<D>(case, cpu.reference(), &y0.u, &y0.v, cpu.body())?;
+    Ok(())
 }
 
 /// Whether the plastic history is committed on the device; an error for the bond-based F
@@ -459,7 +492,7 @@ impl<D: GpuDim> GpuFamily<D> for MixedDevice<D> {
     fn scale(&self, _gpu: &Gpu) -> Scale {
         Scale {
             pairs: self.cpu.neighbours().pair_count() as u64,
-            parts: 1,
+            parts: self.evaluator.split.parts.len() as u64,
             indirect: self.evaluator.corrector.as_ref().map(|c| c.runs),
         }
     }

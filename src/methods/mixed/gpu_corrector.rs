@@ -8,7 +8,8 @@
 //! [`FIRST_BUDGET`] and follows twice the most a stage took, read back once per batch of
 //! steps. When a stage reaches it without converging, the batch runs again from its
 //! start with a larger budget, up to `max_iterations`: the result is the one of an
-//! unlimited budget.
+//! unlimited budget. The passes that read the neighbour lists run a part of them at a
+//! time ([`crate::gpu::parts`]).
 
 use super::compressibility::{Corrector, Unconverged};
 use super::gpu::{IMAGES, MIXED, MOTION};
@@ -16,14 +17,15 @@ use crate::core::integrate::PseudoTime;
 use crate::core::tensor::Dim;
 use crate::gpu::context::{Gpu, GpuError, Pipeline, WORKGROUP};
 use crate::gpu::memory::DeviceMemory;
+use crate::gpu::parts::Split;
 use crate::gpu::profile::IndirectRuns;
-use crate::gpu::shaders::{REFERENCE, Source, source};
+use crate::gpu::shaders::{PART, REFERENCE, Source, source};
 use encase::ShaderType;
 
 /// The corrector's passes.
 pub const CORRECTOR: Source = source!(
     "mixed/mixed_corrector.wgsl",
-    [MIXED, MOTION, IMAGES, REFERENCE],
+    [MIXED, MOTION, IMAGES, REFERENCE, PART],
     [
         ("pair", false),
         ("y", false),
@@ -49,7 +51,7 @@ const STEP_ITERATIONS: u64 = 3;
 const TOTAL: u64 = 5;
 const FAILED: u64 = 7;
 const PARTIALS: u64 = 10;
-/// The bytes of the indirect dispatch's workgroup counts, and of the failure flags saved
+/// The bytes of an indirect dispatch's workgroup counts, and of the failure flags saved
 /// at the batch start.
 const ARGS_BYTES: u64 = 12;
 const FLAGS_BYTES: u64 = 16;
@@ -63,14 +65,14 @@ struct Tau {
     eta: f32,
     relax: f32,
     budget: u32,
-    groups_x: u32,
-    groups_y: u32,
 }
 
-/// A pass of the corrector with its bind group.
+/// A pass of the corrector with its bind group, or one a part of the lists for a pass
+/// that reads them.
 struct Pass {
     pipeline: Pipeline,
-    bind: wgpu::BindGroup,
+    binds: Vec<wgpu::BindGroup>,
+    by_part: bool,
 }
 
 /// The corrector's pipelines, buffers and bind groups.
@@ -87,13 +89,16 @@ pub(super) struct DeviceCorrector {
     correct: Pass,
     tau: wgpu::Buffer,
     control: wgpu::Buffer,
+    /// The workgroup counts of the indirect passes: over every particle, then a part
+    /// each.
     args: wgpu::Buffer,
     /// The state at the start of a batch, and the failure flags (the kinematics'
     /// `status`, then [`FAILED`] and its residual), for running it again.
     saved_state: wgpu::Buffer,
     saved_flags: wgpu::Buffer,
     n: u32,
-    groups: (u32, u32),
+    /// The rows of each part of the lists.
+    rows: Vec<u32>,
     budget: u32,
     max_iterations: u32,
     pub stats: PseudoTime,
@@ -102,54 +107,84 @@ pub(super) struct DeviceCorrector {
 }
 
 impl DeviceCorrector {
-    /// The buffers [`Self::new`] makes for `n` particles and a state of `state_bytes`.
+    /// The buffers [`Self::new`] makes for `n` particles and a state of `state_bytes`,
+    /// on lists in one part.
     pub fn memory(m: &mut DeviceMemory, n: usize, state_bytes: u64) {
         let groups = (n as u64).div_ceil(u64::from(WORKGROUP)).max(1);
         let tau = crate::gpu::context::uniform_bytes(&Tau::default()).len();
         m.add("pseudo-time constants", tau as f64);
         m.words("corrector control", (PARTIALS + 2 * groups) as f64);
-        m.add("corrector workgroups", ARGS_BYTES as f64);
+        for label in ["corrector workgroups", "corrector workgroups when running"] {
+            m.add(label, (2 * ARGS_BYTES) as f64);
+        }
         m.add("state at the batch start", state_bytes as f64);
         m.add("failure flags at the batch start", FLAGS_BYTES as f64);
     }
 
     /// The passes of `source` (mixed_corrector.wgsl composed with the scene's constants)
     /// for `n` particles and a state of `state_bytes`, with the other buffers of the mixed
-    /// passes by binding name in `table`.
+    /// passes by binding name in `tables`, one a part of `split` (its lists and per-pair
+    /// data).
     pub fn new<D: Dim>(
         gpu: &Gpu,
         source: &str,
         cpu: &Corrector<D>,
-        n: usize,
-        state_bytes: u64,
-        table: &[(&str, &wgpu::Buffer)],
+        (n, state_bytes): (usize, u64),
+        split: &Split,
+        tables: &[Vec<(&str, &wgpu::Buffer)>],
     ) -> Result<Self, GpuError> {
         let pipeline = |entry: &str| gpu.pipeline(&format!("corrector {entry}"), source, entry);
-        let groups = gpu.groups(n as u32);
+        let (gx, gy) = gpu.groups(n as u32);
         let tau = gpu.uniform("pseudo-time constants", &Tau::default());
-        let control_words = PARTIALS as usize + 2 * (groups.0 * groups.1) as usize;
+        let control_words = PARTIALS as usize + 2 * (gx * gy) as usize;
         let mut words = vec![0u32; control_words];
         words[FAILED as usize] = u32::MAX;
         let control = gpu.storage("corrector control", &words);
-        let args = gpu.indirect("corrector workgroups", ARGS_BYTES);
+        let rows: Vec<u32> = split.parts.iter().map(|p| p.rows as u32).collect();
+        let counts: Vec<u32> = [n as u32]
+            .iter()
+            .chain(&rows)
+            .flat_map(|&items| {
+                let (x, y) = gpu.groups(items);
+                [x, y, 1]
+            })
+            .collect();
+        let groups = gpu.storage("corrector workgroups when running", &counts);
+        let args = gpu.indirect("corrector workgroups", 4 * counts.len() as u64);
         let saved_state = gpu.zeroed("state at the batch start", state_bytes);
         let saved_flags = gpu.zeroed("failure flags at the batch start", FLAGS_BYTES);
-        let mut full = table.to_vec();
-        full.extend([("tau", &tau), ("control", &control), ("args", &args)]);
-        let pass = |entry: &str| -> Result<Pass, GpuError> {
+        let own = [
+            ("tau", &tau),
+            ("control", &control),
+            ("args", &args),
+            ("groups", &groups),
+        ];
+        let full: Vec<Vec<_>> = (tables.iter())
+            .map(|t| [t.as_slice(), &own].concat())
+            .collect();
+        // A pass over every particle binds the first part's table, whose lists it does
+        // not read.
+        let pass = |entry: &str, by_part: bool| -> Result<Pass, GpuError> {
             let pipeline = pipeline(entry)?;
-            let bind = gpu.bind(&pipeline, &full)?;
-            Ok(Pass { pipeline, bind })
+            let tables = if by_part { &full[..] } else { &full[..1] };
+            let binds = (tables.iter())
+                .map(|t| gpu.bind(&pipeline, t))
+                .collect::<Result<_, GpuError>>()?;
+            Ok(Pass {
+                pipeline,
+                binds,
+                by_part,
+            })
         };
         Ok(Self {
-            constraint: pass("constraint")?,
-            begin: pass("begin")?,
-            residual: pass("residual")?,
-            residual_stage: pass("residual_stage")?,
-            check: pass("check")?,
-            euler: pass("euler")?,
-            average: pass("average")?,
-            correct: pass("correct")?,
+            constraint: pass("constraint", true)?,
+            begin: pass("begin", false)?,
+            residual: pass("residual", true)?,
+            residual_stage: pass("residual_stage", true)?,
+            check: pass("check", false)?,
+            euler: pass("euler", false)?,
+            average: pass("average", false)?,
+            correct: pass("correct", true)?,
             start: pipeline("start")?,
             tau,
             control,
@@ -157,7 +192,7 @@ impl DeviceCorrector {
             saved_state,
             saved_flags,
             n: n as u32,
-            groups,
+            rows,
             budget: FIRST_BUDGET.min(cpu.max_iterations()),
             max_iterations: cpu.max_iterations(),
             stats: PseudoTime::default(),
@@ -190,8 +225,6 @@ impl DeviceCorrector {
             eta: cpu.eta(dt) as f32,
             relax: (1.0 / (cpu.kappa() * dt)) as f32,
             budget: self.budget,
-            groups_x: self.groups.0,
-            groups_y: self.groups.1,
         };
         gpu.write_uniform(&self.tau, &t);
     }
@@ -233,19 +266,32 @@ impl DeviceCorrector {
     /// each checked, then the force.
     pub fn record(&self, gpu: &Gpu, pass: &mut wgpu::ComputePass<'_>, start: &wgpu::BindGroup) {
         let n = self.n;
-        let dispatch = |pass: &mut wgpu::ComputePass<'_>, p: &Pass, items: u32| {
-            gpu.dispatch(pass, &p.pipeline, &p.bind, items);
+        // A pass over every particle (its one bind group), or a part of the lists at a
+        // time (a bind group each).
+        let rows = |p: &Pass| match p.by_part {
+            true => &self.rows[..],
+            false => std::slice::from_ref(&self.n),
         };
-        // The pseudo steps' passes, over the particles while the iteration runs.
+        let dispatch = |pass: &mut wgpu::ComputePass<'_>, p: &Pass| {
+            for (bind, &items) in p.binds.iter().zip(rows(p)) {
+                gpu.dispatch(pass, &p.pipeline, bind, items);
+            }
+        };
+        // The pseudo steps' passes, while the iteration runs: the counts of every
+        // particle at `args`' start, then of each part.
         let indirect = |pass: &mut wgpu::ComputePass<'_>, p: &Pass| {
-            gpu.dispatch_indirect(pass, &p.pipeline, &p.bind, (&self.args, 0), u64::from(n));
+            let at = if p.by_part { ARGS_BYTES } else { 0 };
+            for (k, (bind, &items)) in p.binds.iter().zip(rows(p)).enumerate() {
+                let args = (&self.args, at + ARGS_BYTES * k as u64);
+                gpu.dispatch_indirect(pass, &p.pipeline, bind, args, u64::from(items));
+            }
         };
         gpu.dispatch(pass, &self.start, start, n);
-        dispatch(pass, &self.constraint, n);
-        dispatch(pass, &self.begin, 1);
+        dispatch(pass, &self.constraint);
+        gpu.dispatch(pass, &self.begin.pipeline, &self.begin.binds[0], 1);
         let checked = |pass: &mut wgpu::ComputePass<'_>| {
             indirect(pass, &self.residual);
-            dispatch(pass, &self.check, 1);
+            gpu.dispatch(pass, &self.check.pipeline, &self.check.binds[0], 1);
         };
         checked(pass);
         for _ in 0..self.budget {
@@ -254,7 +300,7 @@ impl DeviceCorrector {
             indirect(pass, &self.average);
             checked(pass);
         }
-        dispatch(pass, &self.correct, n);
+        dispatch(pass, &self.correct);
     }
 
     /// Books the pseudo steps a batch of `stages` stages records.

@@ -8,14 +8,14 @@ use super::system::unit_weight_wave_speed_scale;
 use super::{PotentialForce, PotentialSpec};
 use crate::gpu::layout::GpuDim;
 use crate::gpu::reduction;
-use crate::gpu::shaders::{MECHANICS, REFERENCE, Source, Wgsl, wgsl};
+use crate::gpu::shaders::{MECHANICS, PART, REFERENCE, Source, Wgsl, wgsl};
 use crate::methods::cores::tl::gpu::{self as tl, Lists, POTENTIAL, STRESS, TlScheme};
 
 /// The strain energy of the reduction (V_i ψ_i, or ψ_i for the reference code's force).
 const ENERGY: Wgsl = wgsl!("potential/potential_energy.wgsl");
 
 /// Energies, momenta and checks of a state.
-pub const REDUCE: Source = reduction::pass(&[MECHANICS, ENERGY, REFERENCE]);
+pub const REDUCE: Source = reduction::pass(&[MECHANICS, ENERGY, REFERENCE, PART]);
 
 /// The passes of an elastic-potential scene: TLSPH's stress pass and the potential's
 /// force pass ([`POTENTIAL`]).

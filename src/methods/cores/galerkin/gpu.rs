@@ -23,8 +23,8 @@ use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{self, Reduced, Reduction};
 use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
-    self, BOUNDARY, CONTACT, Compose, Constants, EIGEN, INTEGRATE, LOADS, MECHANICS, PLASTIC_STORE,
-    PLASTICITY, PRESCRIBED, REFERENCE, Source, Wgsl, source, wgsl,
+    self, BOUNDARY, CONTACT, Compose, Constants, EIGEN, INTEGRATE, LOADS, MECHANICS, PART,
+    PLASTIC_STORE, PLASTICITY, PRESCRIBED, REFERENCE, Source, Wgsl, source, wgsl,
 };
 use crate::gpu::shell::Shell;
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
@@ -59,7 +59,7 @@ const ENERGY: Wgsl = wgsl!("galerkin/galerkin_energy.wgsl");
 /// Energies, momenta and checks of a state.
 pub const REDUCE: Source = source!(
     "common/reduce.wgsl",
-    [MECHANICS, ENERGY, REFERENCE],
+    [MECHANICS, ENERGY, REFERENCE, PART],
     [("y", false), ("kin", false), ("reference", false)]
 );
 /// The weak form's velocity smoothing.

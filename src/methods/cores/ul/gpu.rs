@@ -29,8 +29,8 @@ use crate::gpu::program::Stepper;
 use crate::gpu::reduction::{self, Reduced, Reduction};
 use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
-    self, CONTACT, Constants, INTEGRATE, MECHANICS, PRESCRIBED, REFERENCE, Source, Wgsl, source,
-    wgsl,
+    self, CONTACT, Constants, INTEGRATE, MECHANICS, PART, PRESCRIBED, REFERENCE, Source, Wgsl,
+    source, wgsl,
 };
 use crate::gpu::shell::Shell;
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
@@ -47,7 +47,7 @@ const ENERGY: Wgsl = wgsl!("ul/ul_energy.wgsl");
 /// Energies, momenta and checks of a state.
 pub const REDUCE: Source = source!(
     "common/reduce.wgsl",
-    [MECHANICS, ENERGY, REFERENCE],
+    [MECHANICS, ENERGY, REFERENCE, PART],
     [("y", false), ("kin", false), ("reference", false)]
 );
 /// The flat buffers of a scheme's pass file.

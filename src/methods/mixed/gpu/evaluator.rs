@@ -44,15 +44,16 @@ pub(super) struct Passes {
     pub(super) rates: Pipeline,
 }
 
-/// The bind groups of one rate evaluation (a source state and its balance points).
+/// The bind groups of one rate evaluation (a source state and its balance points); a
+/// pass over the pairs has one a part of the lists.
 pub(super) struct Bound {
     pub(super) ghost_motion: wgpu::BindGroup,
     pub(super) ghost_kin: wgpu::BindGroup,
-    pub(super) bond: Option<wgpu::BindGroup>,
-    pub(super) kinematics: wgpu::BindGroup,
+    pub(super) bond: Option<Vec<wgpu::BindGroup>>,
+    pub(super) kinematics: Vec<wgpu::BindGroup>,
     /// Slopes or Laplacians, and their ghost fill.
-    pub(super) second: Option<(wgpu::BindGroup, wgpu::BindGroup)>,
-    pub(super) forces: wgpu::BindGroup,
+    pub(super) second: Option<(Vec<wgpu::BindGroup>, wgpu::BindGroup)>,
+    pub(super) forces: Vec<wgpu::BindGroup>,
     pub(super) balance_sums: wgpu::BindGroup,
     pub(super) balance_solve: wgpu::BindGroup,
     pub(super) rates: wgpu::BindGroup,
@@ -96,22 +97,26 @@ impl Passes {
 }
 
 impl Bound {
-    /// The bind groups of the passes over the buffers `t` (by binding name); `second`
-    /// the slopes or Laplacians, where the scene has them.
+    /// The bind groups of the passes over the buffers `tables` (by binding name, one a
+    /// part of the lists; a pass over the particles binds the first); `second` the
+    /// slopes or Laplacians, where the scene has them.
     pub(super) fn new(
         gpu: &Gpu,
         p: &Passes,
-        t: &[(&str, &wgpu::Buffer)],
+        tables: &[Vec<(&str, &wgpu::Buffer)>],
         second: Option<&wgpu::Buffer>,
         corrector: Option<&DeviceCorrector>,
-        corr: &wgpu::Buffer,
     ) -> Result<Self, GpuError> {
+        let t = tables[0].as_slice();
+        let by_part = |pipeline: &Pipeline| -> Result<Vec<wgpu::BindGroup>, GpuError> {
+            tables.iter().map(|t| gpu.bind(pipeline, t)).collect()
+        };
         let second = match second {
             None => None,
             Some(field) => {
                 let with_second = [t, &[("field", field)]].concat();
                 Some((
-                    gpu.bind(&p.second, t)?,
+                    by_part(&p.second)?,
                     gpu.bind(&p.ghost_second, &with_second)?,
                 ))
             }
@@ -119,16 +124,14 @@ impl Bound {
         Ok(Self {
             ghost_motion: gpu.bind(&p.ghost_motion, t)?,
             ghost_kin: gpu.bind(&p.ghost_kin, t)?,
-            bond: p.bond.as_ref().map(|b| gpu.bind(b, t)).transpose()?,
-            kinematics: gpu.bind(&p.kinematics, t)?,
+            bond: p.bond.as_ref().map(by_part).transpose()?,
+            kinematics: by_part(&p.kinematics)?,
             second,
-            forces: gpu.bind(&p.forces, t)?,
+            forces: by_part(&p.forces)?,
             balance_sums: gpu.bind(&p.balance_sums, t)?,
             balance_solve: gpu.bind(&p.balance_solve, t)?,
             rates: gpu.bind(&p.rates, t)?,
-            corrector_start: corrector
-                .map(|c| c.bind_start(gpu, &[t, &[("corr", corr)]].concat()))
-                .transpose()?,
+            corrector_start: corrector.map(|c| c.bind_start(gpu, t)).transpose()?,
         })
     }
 }
@@ -140,6 +143,8 @@ pub(super) struct Evaluator {
     pub(super) corrector: Option<DeviceCorrector>,
     /// Bind groups by [`Evaluator::key`].
     pub(super) bound: Vec<((Buf, bool), Bound)>,
+    /// The parts of the neighbour lists.
+    pub(super) split: Split,
     pub(super) n: u32,
     pub(super) ghosts: u32,
     pub(super) projection: bool,
@@ -153,12 +158,13 @@ impl Evaluator {
         passes: Passes,
         layout: &MixedLayout,
         cpu: &MixedSph<D>,
-        integrator: IntegratorKind,
+        (integrator, split): (IntegratorKind, Split),
     ) -> Self {
         Self {
             passes,
             corrector: None,
             bound: Vec::new(),
+            split,
             n: layout.n as u32,
             ghosts: layout.ghosts as u32,
             projection: cpu.projection(),
@@ -201,27 +207,28 @@ impl Evaluator {
             gpu.dispatch(pass, &p.ghost_motion, &b.ghost_motion, self.ghosts);
         }
         if let (Some(pipeline), Some(bond)) = (&p.bond, &b.bond) {
-            gpu.dispatch(pass, pipeline, bond, self.n);
+            self.split.dispatch(gpu, pass, pipeline, bond);
         }
     }
 
     /// Records one rate evaluation into one compute pass.
     pub(super) fn record(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, e: Evaluation) {
         let b = self.bound(self.key(e));
-        let (p, n, ng) = (&self.passes, self.n, self.ghosts);
+        let (p, ng) = (&self.passes, self.ghosts);
         let mut pass = encoder.begin_compute_pass(&Default::default());
         self.record_motion(gpu, &mut pass, b);
-        gpu.dispatch(&mut pass, &p.kinematics, &b.kinematics, n);
+        self.split
+            .dispatch(gpu, &mut pass, &p.kinematics, &b.kinematics);
         if ng > 0 {
             gpu.dispatch(&mut pass, &p.ghost_kin, &b.ghost_kin, ng);
         }
         if let Some((second, ghost_second)) = &b.second {
-            gpu.dispatch(&mut pass, &p.second, second, n);
+            self.split.dispatch(gpu, &mut pass, &p.second, second);
             if ng > 0 {
                 gpu.dispatch(&mut pass, &p.ghost_second, ghost_second, ng);
             }
         }
-        gpu.dispatch(&mut pass, &p.forces, &b.forces, n);
+        self.split.dispatch(gpu, &mut pass, &p.forces, &b.forces);
         self.record_rates(gpu, &mut pass, b);
         if let (Some(corrector), Some(start)) = (&self.corrector, &b.corrector_start) {
             // The predictor's rates give v^int; the corrector adds its force to T, and

@@ -54,7 +54,7 @@ pub struct Sizes {
 
 impl Sizes {
     /// The sizes of the scene set up in `cpu`.
-    fn of_system<D: Dim>(cpu: &MixedSph<D>) -> Self {
+    pub(super) fn of_system<D: Dim>(cpu: &MixedSph<D>) -> Self {
         let n = cpu.reference().len();
         let corrector = cpu.corrector();
         Self {
@@ -102,9 +102,14 @@ impl Sizes {
 }
 
 impl MixedLayout {
-    /// The layout of the scene set up in `cpu`.
-    pub fn of<D: Dim>(cpu: &MixedSph<D>) -> Self {
-        Self::new(&Sizes::of_system(cpu), D::N)
+    /// The layout of the scene set up in `cpu`, whose per-pair buffers hold `pairs` pairs
+    /// each (the most of a part of the lists).
+    pub fn of<D: Dim>(cpu: &MixedSph<D>, pairs: usize) -> Self {
+        let sizes = Sizes {
+            pairs,
+            ..Sizes::of_system(cpu)
+        };
+        Self::new(&sizes, D::N)
     }
 
     /// The layout of a scene of `sizes` in `dim` dimensions.
@@ -210,7 +215,8 @@ pub(super) const EXTRAS: Extras = Extras {
     centred: true,
 };
 
-/// The layout and compiled-in constants of a scene's mixed passes, from its CPU set-up.
+/// The layout and compiled-in constants of a scene's mixed passes, from its CPU set-up,
+/// with per-pair buffers of `pairs` pairs each (the most of a part of the lists).
 ///
 /// Under artificial compressibility the material's constants are the predictor's: BULK
 /// and LAMBDA of κ̃, and C_P = c̃_p; the true κ enters the corrector as INV_BULK = 1/κ,
@@ -219,8 +225,9 @@ pub fn scene<D: GpuDim>(
     case: &Case,
     options: &MixedOptions,
     cpu: &MixedSph<D>,
+    pairs: usize,
 ) -> (MixedLayout, Constants) {
-    let layout = MixedLayout::of(cpu);
+    let layout = MixedLayout::of(cpu, pairs);
     let l = &layout;
     let spec = options.artificial_compressibility;
     let material = &match spec {
@@ -276,8 +283,13 @@ pub fn scene<D: GpuDim>(
     (layout, constants)
 }
 
-/// The per-pair buffer of the scene set up in `cpu`, host side (f32).
-pub(super) fn pair_data<D: GpuDim>(cpu: &MixedSph<D>, l: &Fields) -> Vec<f32> {
+/// The per-pair buffer of each part of `split` of the lists of the scene set up in `cpu`,
+/// host side (f32), laid out as `l`.
+pub(super) fn pair_data<D: GpuDim>(
+    cpu: &MixedSph<D>,
+    l: &Fields,
+    split: &Split,
+) -> impl Iterator<Item = Vec<f32>> {
     let csr = cpu.neighbours();
     let (x0, vol) = cpu.extended_reference();
     let (grad, grad_rev) = cpu.pair_gradients();
@@ -288,27 +300,29 @@ pub(super) fn pair_data<D: GpuDim>(cpu: &MixedSph<D>, l: &Fields) -> Vec<f32> {
             .map(|(_, q)| g[q] * vol[csr.ids[q] as usize])
             .collect()
     };
-    let mut flat = l.zeroed();
-    l.write_v::<D>(&mut flat, "G", &scaled(grad));
-    l.write_v::<D>(&mut flat, "GR", &scaled(grad_rev));
-    if l.has("DX") {
+    // The fields of every pair, then each part's share.
+    let whole = l.resized(csr.pair_count());
+    let mut flat = whole.zeroed();
+    whole.write_v::<D>(&mut flat, "G", &scaled(grad));
+    whole.write_v::<D>(&mut flat, "GR", &scaled(grad_rev));
+    if whole.has("DX") {
         let d: Vec<D::V> = rows()
             .map(|(a, q)| x0[csr.ids[q] as usize] - x0[a])
             .collect();
-        l.write_v::<D>(&mut flat, "DX", &d);
+        whole.write_v::<D>(&mut flat, "DX", &d);
     }
     if let Some((_, ell, s)) = cpu.jst() {
-        l.write_s(&mut flat, "S", s, 0.0);
-        l.write_s(&mut flat, "ELL", ell, 0.0);
+        whole.write_s(&mut flat, "S", s, 0.0);
+        whole.write_s(&mut flat, "ELL", ell, 0.0);
     }
-    if l.has("LS") {
-        l.write_v::<D>(&mut flat, "LS", cpu.ls_weights());
+    if whole.has("LS") {
+        whole.write_v::<D>(&mut flat, "LS", cpu.ls_weights());
     }
     if let Some(w) = cpu.bond_weights() {
-        l.write_s(&mut flat, "W", w, 0.0);
+        whole.write_s(&mut flat, "W", w, 0.0);
     }
     if let Some(ell) = cpu.corrector().and_then(|c| c.laplacian_weights()) {
-        l.write_s(&mut flat, "BL", ell, 0.0);
+        whole.write_s(&mut flat, "BL", ell, 0.0);
     }
-    flat
+    (split.parts.clone().into_iter()).map(move |p| l.items_of(&whole, &flat, p.start, p.pairs))
 }

@@ -20,25 +20,25 @@ pub const GHOSTS: Source = source!(
 /// ∇0v, P(F, H, J) and the rates of F, H, J.
 pub const KINEMATICS: Source = source!(
     "mixed/mixed_kinematics.wgsl",
-    [MECHANICS, MIXED, MOTION, EIGEN, PLASTICITY],
+    [MECHANICS, MIXED, MOTION, EIGEN, PLASTICITY, PART],
     [("pair", false), ("y", false), ("kin", true), ("d", true)]
 );
 /// The bond-based F^c (seed 002 eqs 37, 39).
 pub const BOND: Source = source!(
     "mixed/mixed_bond.wgsl",
-    [MIXED, MOTION],
+    [MIXED, MOTION, PART],
     [("pair", false), ("y", false), ("kin", true)]
 );
 /// Least-squares slopes of v and P, or the Laplacian ∇²v.
 pub const SLOPES: Source = source!(
     "mixed/mixed_slopes.wgsl",
-    [MIXED, MOTION],
+    [MIXED, MOTION, PART],
     [("pair", false), ("y", false), ("out", true), ("kin", false)]
 );
 /// T, D(p) and D(J) per particle.
 pub const FORCES: Source = source!(
     "mixed/mixed_forces.wgsl",
-    [MIXED, MOTION],
+    [MIXED, MOTION, PART],
     [
         ("pair", false),
         ("y", false),
@@ -63,7 +63,7 @@ pub const MOMENTUM: Source = source!(
 );
 /// Energies, momenta, checks and the CFL pair wave speed of a state.
 pub const REDUCE: Source = crate::gpu::reduction::pass(&[
-    MECHANICS, MIXED, MOTION, ENERGY, EIGEN, PLASTICITY, REFERENCE,
+    MECHANICS, MIXED, MOTION, ENERGY, EIGEN, PLASTICITY, REFERENCE, PART,
 ]);
 /// The per-step commit of the plastic history.
 pub const PLASTIC: Source = source!(

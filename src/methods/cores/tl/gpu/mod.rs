@@ -24,7 +24,7 @@ use crate::core::neighbour::Csr;
 use crate::diagnostics::balance::Booked;
 use crate::diagnostics::observe::Snapshot;
 use crate::engine::{BlowUp, GpuEngine, GpuFamily, Start};
-use crate::gpu::context::{Gpu, GpuError, Pipeline, reflect};
+use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{GpuDim, flat_v};
 use crate::gpu::memory::{Counts, DeviceMemory};
 use crate::gpu::parts::Split;
@@ -89,32 +89,6 @@ pub struct TlDevice<D: GpuDim> {
     kinematics_y: Vec<wgpu::BindGroup>,
 }
 
-/// Refuses lists split into parts for a scheme whose reduction `reduce` reads them
-/// (`offsets`, `ids` or `pair`: dual-support SPH's energy sums each particle's support
-/// from the whole lists), naming the bytes of `pair_bytes` a pair that must fit one
-/// binding.
-fn whole_for_reduction(
-    gpu: &Gpu,
-    split: &Split,
-    reduce: &str,
-    pair_bytes: u64,
-) -> Result<(), GpuError> {
-    let reflection = reflect(reduce, "reduce").map_err(|message| GpuError::Shader {
-        pass: "reduce".into(),
-        message,
-    })?;
-    let lists = ["offsets", "ids", "pair"];
-    if reflection
-        .bindings
-        .iter()
-        .any(|(_, b)| lists.contains(&b.as_str()))
-    {
-        let what = "whole per-pair buffer (its energy reduction reads every pair)";
-        split.whole_for(gpu, what, pair_bytes)?;
-    }
-    Ok(())
-}
-
 /// Value of `status[0]` when no particle failed.
 const STATUS_OK: u32 = u32::MAX;
 
@@ -150,8 +124,6 @@ impl<D: GpuDim> GpuTlsph<D> {
         check_f32_range(case, &constants)?;
         gpu.check_size("kinematics buffer", layout.kin.bytes())?;
         let compose = |s: &Source| shaders::compose::<D>(s, &constants);
-        let reduce = compose(&scheme.reduce);
-        whole_for_reduction(&gpu, &split, &reduce, pair_bytes)?;
 
         let device = DeviceReference::upload::<D>(
             &gpu,
@@ -218,7 +190,9 @@ impl<D: GpuDim> GpuTlsph<D> {
             })
         })?;
         let (y, rates_d) = (stepper.buffer(Buf::Y), stepper.buffer(Buf::Rates));
-        let reduction = Reduction::new(&gpu, &reduce, &table(0, y, rates_d), n)?;
+        let tables = (0..pair.len()).map(|k| table(k, y, rates_d).to_vec());
+        let reduce = compose(&scheme.reduce);
+        let reduction = Reduction::by_part(&gpu, &reduce, &split, tables.collect())?;
         let kinematics_y = by_part(&kinematics, y, stepper.buffer(Buf::Acc))?;
         let (energy_weight, wave_speed_scale) = match scheme.unit_weights {
             Some(scale) => (vec![1.0; n], scale(&disc.vol)),

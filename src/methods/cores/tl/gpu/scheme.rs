@@ -51,7 +51,7 @@ pub const ACCEL: Source = source!(
     ]
 );
 /// Energies, momenta and checks of a state.
-pub const REDUCE: Source = reduction::pass(&[MECHANICS, ENERGY, REFERENCE]);
+pub const REDUCE: Source = reduction::pass(&[MECHANICS, ENERGY, REFERENCE, PART]);
 /// The symmetrised forces of eq 148 from Σ_i w_i ψ(F_i) with viscosity and boundary
 /// conditions: the elastic potential's force pass
 /// (`shaders/potential/`) on TLSPH's buffers, which dual-support SPH runs too.
