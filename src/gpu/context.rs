@@ -717,6 +717,29 @@ impl Gpu {
         self.dispatch_groups(pass, pipeline, bind, self.groups(n), u64::from(n));
     }
 
+    /// Records one dispatch of `pipeline` over the `rows` particles of a part of the
+    /// neighbour lists holding `share` of their pairs (`gpu::parts`).
+    pub fn dispatch_part(
+        &self,
+        pass: &mut wgpu::ComputePass<'_>,
+        pipeline: &Pipeline,
+        bind: &wgpu::BindGroup,
+        rows: u32,
+        share: f64,
+    ) {
+        let (x, y) = self.groups(rows);
+        self.record(
+            pass,
+            pipeline,
+            bind,
+            (u64::from(rows), share),
+            false,
+            |pass| {
+                pass.dispatch_workgroups(x, y, 1);
+            },
+        );
+    }
+
     /// Records one dispatch of `pipeline` over `groups` workgroups in `pass`, `items`
     /// items of its bytes model (profiled like every dispatch).
     pub fn dispatch_groups(
@@ -727,22 +750,23 @@ impl Gpu {
         groups: (u32, u32),
         items: u64,
     ) {
-        self.record(pass, pipeline, bind, items, false, |pass| {
+        self.record(pass, pipeline, bind, (items, 1.0), false, |pass| {
             pass.dispatch_workgroups(groups.0, groups.1, 1);
         });
     }
 
     /// Records one dispatch of `pipeline` with the workgroup counts at `offset` bytes of
-    /// `args`, `items` items of its bytes model when it runs.
+    /// `args`, `items` items of its bytes model and `share` of the lists' pairs (1 but
+    /// for a part of them) when it runs.
     pub fn dispatch_indirect(
         &self,
         pass: &mut wgpu::ComputePass<'_>,
         pipeline: &Pipeline,
         bind: &wgpu::BindGroup,
         (args, offset): (&wgpu::Buffer, u64),
-        items: u64,
+        work: (u64, f64),
     ) {
-        self.record(pass, pipeline, bind, items, true, |pass| {
+        self.record(pass, pipeline, bind, work, true, |pass| {
             pass.dispatch_workgroups_indirect(args, offset);
         });
     }
@@ -752,7 +776,7 @@ impl Gpu {
         pass: &mut wgpu::ComputePass<'_>,
         pipeline: &Pipeline,
         bind: &wgpu::BindGroup,
-        items: u64,
+        work: (u64, f64),
         indirect: bool,
         encode: impl FnOnce(&mut wgpu::ComputePass<'_>),
     ) {
@@ -760,7 +784,7 @@ impl Gpu {
         pass.set_bind_group(0, bind, &[]);
         match self.profiler.lock().expect("profiler lock").as_mut() {
             Some(profiler) => {
-                profiler.dispatch(&self.device, pass, pipeline, items, indirect, encode);
+                profiler.dispatch(&self.device, pass, pipeline, work, indirect, encode);
             }
             None => encode(pass),
         }

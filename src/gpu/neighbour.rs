@@ -147,7 +147,8 @@ impl Step {
         k: usize,
     ) {
         let at = (args, 12 * k as u64);
-        gpu.dispatch_indirect(pass, &self.pipeline, &self.bind, at, u64::from(self.items));
+        let work = (u64::from(self.items), 1.0);
+        gpu.dispatch_indirect(pass, &self.pipeline, &self.bind, at, work);
     }
 }
 

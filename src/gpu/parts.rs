@@ -161,7 +161,17 @@ impl Split {
     ) {
         assert_eq!(binds.len(), self.parts.len(), "a bind group a part");
         for (part, bind) in self.parts.iter().zip(binds) {
-            gpu.dispatch(pass, pipeline, bind, part.rows as u32);
+            gpu.dispatch_part(pass, pipeline, bind, part.rows as u32, self.share(part));
+        }
+    }
+
+    /// The share of the lists' pairs `part` holds (of the rows, for lists without pairs),
+    /// for the pass report's bytes.
+    pub fn share(&self, part: &Part) -> f64 {
+        let pairs: usize = self.parts.iter().map(|p| p.pairs).sum();
+        match pairs {
+            0 => part.rows as f64 / self.rows().max(1) as f64,
+            _ => part.pairs as f64 / pairs as f64,
         }
     }
 }

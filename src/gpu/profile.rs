@@ -24,6 +24,9 @@ struct Totals {
     cost: Option<Cost>,
     dispatches: u64,
     items: u64,
+    /// The lists its dispatches covered: 1 a dispatch over whole lists, the share of the
+    /// pairs a dispatch over a part covers (`gpu::parts`).
+    lists: f64,
     /// Indirect dispatches (a neighbour build that runs only when due).
     indirect: bool,
     nanos: f64,
@@ -52,14 +55,15 @@ impl Profiler {
         }
     }
 
-    /// Records one dispatch of `pipeline` over `items` items, `encode` encoding it in
-    /// `pass`, with a timestamp before and after where the adapter has them.
+    /// Records one dispatch of `pipeline` over `items` items and the `share` of the lists'
+    /// pairs, `encode` encoding it in `pass`, with a timestamp before and after where the
+    /// adapter has them.
     pub(crate) fn dispatch(
         &mut self,
         device: &wgpu::Device,
         pass: &mut wgpu::ComputePass<'_>,
         pipeline: &Pipeline,
-        items: u64,
+        (items, share): (u64, f64),
         indirect: bool,
         encode: impl FnOnce(&mut wgpu::ComputePass<'_>),
     ) {
@@ -71,6 +75,7 @@ impl Profiler {
                     cost: pipeline.cost,
                     dispatches: 0,
                     items: 0,
+                    lists: 0.0,
                     indirect,
                     nanos: 0.0,
                 });
@@ -80,6 +85,7 @@ impl Profiler {
         let totals = &mut self.passes[index];
         totals.dispatches += 1;
         totals.items += items;
+        totals.lists += share;
         if !self.timestamps {
             encode(pass);
             return;
@@ -175,13 +181,12 @@ impl std::ops::Sub for IndirectRuns {
     }
 }
 
-/// What scales a step's bytes: the neighbour pairs of the engine's lists, the parts they
-/// are split into (`gpu::parts`: a pass over pairs is a dispatch a part, each moving its
-/// part's pairs), and, for an engine with indirect passes, their runs.
+/// What scales a step's bytes: the neighbour pairs of the engine's lists (a pass over a
+/// part of them moves the part's share, `gpu::parts`), and, for an engine with indirect
+/// passes, their runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Scale {
     pub pairs: u64,
-    pub parts: u64,
     pub indirect: Option<IndirectRuns>,
 }
 
@@ -243,7 +248,7 @@ impl Gpu {
                     &self.device,
                     &mut pass,
                     &pipeline,
-                    u64::from(items),
+                    (u64::from(items), 1.0),
                     false,
                     |pass| pass.dispatch_workgroups(x, y, 1),
                 );
@@ -294,11 +299,12 @@ impl Gpu {
                     (true, Some(b)) => p.dispatches * b.ran / b.recorded.max(1),
                     _ => p.dispatches,
                 };
-                // The items of the dispatches, and a pass dispatched a part moves its
-                // pairs once over the parts, each scaled to the runs.
+                // The items of the dispatches, and the pairs of the lists they covered (a
+                // pass dispatched a part covers each part's share), scaled to the runs.
                 let bytes = p.cost.map(|c| {
+                    let share = p.lists / p.dispatches.max(1) as f64;
                     c.item * p.items * runs / p.dispatches.max(1)
-                        + c.pair * scale.pairs * runs / scale.parts.max(1)
+                        + (c.pair as f64 * scale.pairs as f64 * share * runs as f64).round() as u64
                 });
                 PassRow {
                     pass: p.label.clone(),

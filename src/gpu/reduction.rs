@@ -31,6 +31,9 @@ pub const fn pass(common: &'static [Wgsl]) -> Source {
     }
 }
 
+/// Buffers by binding name.
+type Table<'a> = Vec<(&'a str, &'a wgpu::Buffer)>;
+
 /// The GPU reduction of one state, summed on the host.
 #[derive(Clone, Copy, Debug)]
 pub struct Reduced {
@@ -50,8 +53,8 @@ pub struct Reduced {
 /// The reduce pass of an engine and its cached result for the current state.
 pub struct Reduction {
     pipeline: Pipeline,
-    /// A bind group and its rows a part of the lists.
-    parts: Vec<(wgpu::BindGroup, u32)>,
+    /// A bind group, its rows and its share of the pairs, a part of the lists.
+    parts: Vec<(wgpu::BindGroup, u32, f64)>,
     partials: wgpu::Buffer,
     cached: Option<Reduced>,
 }
@@ -77,7 +80,7 @@ impl Reduction {
     ) -> Result<Self, GpuError> {
         let whole = parts::uniform(gpu, 0, n);
         let table = [inputs, &[("part", &whole)]].concat();
-        Self::bind(gpu, source, n, vec![(n, table)])
+        Self::bind(gpu, source, n, vec![((n, 1.0), table)])
     }
 
     /// [`Self::new`] a part of the lists of `split` at a time, `tables` holding each
@@ -88,26 +91,27 @@ impl Reduction {
         gpu: &Gpu,
         source: &str,
         split: &parts::Split,
-        tables: Vec<Vec<(&str, &wgpu::Buffer)>>,
+        tables: Vec<Table<'_>>,
     ) -> Result<Self, GpuError> {
-        let rows = split.parts.iter().map(|p| p.rows);
+        let rows = split.parts.iter().map(|p| (p.rows, split.share(p)));
         Self::bind(gpu, source, split.rows(), rows.zip(tables).collect())
     }
 
-    /// The pass over `n` particles in parts of the given rows and buffers.
+    /// The pass over `n` particles in parts of the given rows, shares of the pairs and
+    /// buffers.
     fn bind(
         gpu: &Gpu,
         source: &str,
         n: usize,
-        parts: Vec<(usize, Vec<(&str, &wgpu::Buffer)>)>,
+        parts: Vec<((usize, f64), Table<'_>)>,
     ) -> Result<Self, GpuError> {
         let pipeline = gpu.pipeline("reduce", source, "reduce")?;
         let (gx, gy) = gpu.groups(n as u32);
         let partials = gpu.zeroed("partials", u64::from(gx * gy) * REDUCED as u64 * 4);
         let parts = (parts.iter())
-            .map(|(rows, inputs)| {
+            .map(|((rows, share), inputs)| {
                 let entries = [inputs.as_slice(), &[("partials", &partials)]].concat();
-                Ok((gpu.bind(&pipeline, &entries)?, *rows as u32))
+                Ok((gpu.bind(&pipeline, &entries)?, *rows as u32, *share))
             })
             .collect::<Result<_, GpuError>>()?;
         Ok(Self {
@@ -133,8 +137,8 @@ impl Reduction {
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
             before(&mut pass);
-            for (bind, rows) in &self.parts {
-                gpu.dispatch(&mut pass, &self.pipeline, bind, *rows);
+            for (bind, rows, share) in &self.parts {
+                gpu.dispatch_part(&mut pass, &self.pipeline, bind, *rows, *share);
             }
         }
         gpu.queue.submit([encoder.finish()]);

@@ -171,7 +171,7 @@ fn mixed_bits<D: GpuDim>(y: &MixedState<D>) -> Vec<u64> {
 fn mixed_split_equals_whole<D: GpuDim>(what: &str, case: &Scene) {
     let new = |gpu| GpuMixed::<D>::new(case, spec_of(case), gpu).unwrap();
     let (mut whole, mut split) = (new(gpu()), new(gpu().with_binding_limit(LIMIT)));
-    let parts = Engine::<D>::device(&mut split).unwrap().1.parts;
+    let parts = split.split().parts.len();
     assert!(parts >= 3, "{what}: {parts} parts under 1 MiB");
     let corrected = whole.pseudo_time().is_some();
     if !corrected {
@@ -294,15 +294,22 @@ fn the_binding_limit_variable_splits_a_run_or_refuses_it_by_name() {
 #[test]
 fn a_split_run_reports_the_bytes_of_the_unsplit_one() {
     // The pass report's bytes model counts a pass's pairs once over the dispatches of its
-    // parts: `meshless bench` of TLSPH on the plate at about 1e4 particles gives each pass
-    // the same bytes per step, and the step the same bytes per particle, split by a 1 MiB
-    // binding or whole (the dispatches per step differ: one a part).
+    // parts (each a share of the pairs): `meshless bench` of TLSPH and of Upwind-SPH on the
+    // plate at about 1e4 particles gives each pass the same bytes per step, and the step
+    // the same bytes per particle, split by a 1 MiB binding or whole (the dispatches per
+    // step differ: one a part).
     let exe = env!("CARGO_BIN_EXE_meshless");
-    let bench = |limit: Option<&str>| {
+    let bench = |method: &str, limit: Option<&str>| {
         let mut command = Command::new(exe);
         command
             .args(["bench", "studies/cases/swinging-plate", "--backend", "gpu"])
             .args(["--particles", "1e4", "--steps", "2"])
+            .args([
+                "--set",
+                &format!("method.name={method}"),
+                "--set",
+                "method.force=",
+            ])
             .current_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/cases"));
         if let Some(limit) = limit {
             command.env("MESHLESS_MAX_BINDING", limit);
@@ -317,11 +324,9 @@ fn a_split_run_reports_the_bytes_of_the_unsplit_one() {
         // (pass, bytes per step) of each row of the pass report, and its last line.
         let rows: Vec<(String, String)> = stdout
             .lines()
-            .filter(|l| l.starts_with("| tl ") || l.starts_with("| blend"))
-            .map(|l| {
-                let cells: Vec<&str> = l.split('|').map(str::trim).collect();
-                (cells[1].to_string(), cells[4].to_string())
-            })
+            .map(|l| l.split('|').map(str::trim).collect::<Vec<_>>())
+            .filter(|cells| cells.len() == 8 && cells[4].parse::<u64>().is_ok())
+            .map(|cells| (cells[1].to_string(), cells[4].to_string()))
             .collect();
         let total = stdout
             .lines()
@@ -331,7 +336,9 @@ fn a_split_run_reports_the_bytes_of_the_unsplit_one() {
             .to_string();
         (rows, total)
     };
-    let (whole, split) = (bench(None), bench(Some("1MiB")));
-    assert_eq!(whole.0.len(), 3, "{whole:?}");
-    assert_eq!(whole, split);
+    for (method, passes) in [("tlsph", 4), ("upwind-sph", 8)] {
+        let (whole, split) = (bench(method, None), bench(method, Some("1MiB")));
+        assert_eq!(whole.0.len(), passes, "{method}: {whole:?}");
+        assert_eq!(whole, split, "{method}");
+    }
 }

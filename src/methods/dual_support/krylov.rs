@@ -423,7 +423,6 @@ impl<D: Dim> MatrixFree<D, DualSupport<D>> for NewtonKrylov {
     fn device(&mut self) -> Option<(&Gpu, Scale)> {
         let scale = Scale {
             pairs: self.pairs,
-            parts: 1,
             indirect: None,
         };
         Some((&self.gpu, scale))

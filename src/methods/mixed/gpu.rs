@@ -478,6 +478,11 @@ impl<D: GpuDim> GpuMixed<D> {
     pub fn failed_particles(&self) -> [Option<usize>; 2] {
         self.family.failed_particles(&self.shell.gpu)
     }
+
+    /// The parts the neighbour lists are split into.
+    pub fn split(&self) -> &Split {
+        &self.family.evaluator.split
+    }
 }
 
 impl<D: GpuDim> GpuFamily<D> for MixedDevice<D> {
@@ -492,7 +497,6 @@ impl<D: GpuDim> GpuFamily<D> for MixedDevice<D> {
     fn scale(&self, _gpu: &Gpu) -> Scale {
         Scale {
             pairs: self.cpu.neighbours().pair_count() as u64,
-            parts: self.evaluator.split.parts.len() as u64,
             indirect: self.evaluator.corrector.as_ref().map(|c| c.runs),
         }
     }

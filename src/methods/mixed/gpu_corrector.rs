@@ -96,9 +96,10 @@ pub(super) struct DeviceCorrector {
     /// `status`, then [`FAILED`] and its residual), for running it again.
     saved_state: wgpu::Buffer,
     saved_flags: wgpu::Buffer,
-    n: u32,
-    /// The rows of each part of the lists.
-    rows: Vec<u32>,
+    /// The particles and the lists' share of a pass over every particle, then the rows
+    /// and the share of the pairs of each part of the lists.
+    whole: (u32, f64),
+    parts: Vec<(u32, f64)>,
     budget: u32,
     max_iterations: u32,
     pub stats: PseudoTime,
@@ -140,11 +141,13 @@ impl DeviceCorrector {
         let mut words = vec![0u32; control_words];
         words[FAILED as usize] = u32::MAX;
         let control = gpu.storage("corrector control", &words);
-        let rows: Vec<u32> = split.parts.iter().map(|p| p.rows as u32).collect();
+        let parts: Vec<(u32, f64)> = (split.parts.iter())
+            .map(|p| (p.rows as u32, split.share(p)))
+            .collect();
         let counts: Vec<u32> = [n as u32]
-            .iter()
-            .chain(&rows)
-            .flat_map(|&items| {
+            .into_iter()
+            .chain(parts.iter().map(|p| p.0))
+            .flat_map(|items| {
                 let (x, y) = gpu.groups(items);
                 [x, y, 1]
             })
@@ -191,8 +194,8 @@ impl DeviceCorrector {
             args,
             saved_state,
             saved_flags,
-            n: n as u32,
-            rows,
+            whole: (n as u32, 1.0),
+            parts,
             budget: FIRST_BUDGET.min(cpu.max_iterations()),
             max_iterations: cpu.max_iterations(),
             stats: PseudoTime::default(),
@@ -265,25 +268,26 @@ impl DeviceCorrector {
     /// the start and the constant part of the constraint, then the budget's pseudo steps,
     /// each checked, then the force.
     pub fn record(&self, gpu: &Gpu, pass: &mut wgpu::ComputePass<'_>, start: &wgpu::BindGroup) {
-        let n = self.n;
+        let n = self.whole.0;
         // A pass over every particle (its one bind group), or a part of the lists at a
         // time (a bind group each).
-        let rows = |p: &Pass| match p.by_part {
-            true => &self.rows[..],
-            false => std::slice::from_ref(&self.n),
+        let parts = |p: &Pass| match p.by_part {
+            true => &self.parts[..],
+            false => std::slice::from_ref(&self.whole),
         };
         let dispatch = |pass: &mut wgpu::ComputePass<'_>, p: &Pass| {
-            for (bind, &items) in p.binds.iter().zip(rows(p)) {
-                gpu.dispatch(pass, &p.pipeline, bind, items);
+            for (bind, &(rows, share)) in p.binds.iter().zip(parts(p)) {
+                gpu.dispatch_part(pass, &p.pipeline, bind, rows, share);
             }
         };
         // The pseudo steps' passes, while the iteration runs: the counts of every
         // particle at `args`' start, then of each part.
         let indirect = |pass: &mut wgpu::ComputePass<'_>, p: &Pass| {
             let at = if p.by_part { ARGS_BYTES } else { 0 };
-            for (k, (bind, &items)) in p.binds.iter().zip(rows(p)).enumerate() {
+            for (k, (bind, &(rows, share))) in p.binds.iter().zip(parts(p)).enumerate() {
                 let args = (&self.args, at + ARGS_BYTES * k as u64);
-                gpu.dispatch_indirect(pass, &p.pipeline, bind, args, u64::from(items));
+                let work = (u64::from(rows), share);
+                gpu.dispatch_indirect(pass, &p.pipeline, bind, args, work);
             }
         };
         gpu.dispatch(pass, &self.start, start, n);

@@ -578,7 +578,6 @@ impl<D: GpuDim> GpuFamily<D> for GalerkinDevice<D> {
     fn scale(&self, _gpu: &Gpu) -> Scale {
         Scale {
             pairs: self.host.shapes().csr.pair_count() as u64,
-            parts: 1,
             indirect: None,
         }
     }

@@ -529,7 +529,6 @@ impl<D: GpuDim> GpuFamily<D> for UlDevice<D> {
         };
         Scale {
             pairs: u64::from(offsets[self.layout.n]),
-            parts: 1,
             indirect: Some(builds),
         }
     }

@@ -545,7 +545,6 @@ impl<D: GpuDim> GpuFamily<D> for TlDevice<D> {
     fn scale(&self, _gpu: &Gpu) -> Scale {
         Scale {
             pairs: self.pairs,
-            parts: self.split.parts.len() as u64,
             indirect: None,
         }
     }
