@@ -6,8 +6,11 @@
 // kin = [H = F − I | P | ψ (points) | power (nodes)], pair = [∇0N_a] per point–node pair
 // of the points' CSR (offsets, ids), and the reference configuration of the nodes
 // (reference.wgsl; its V is m/ρ0, so that RHO0·V is the nodal mass). The gather lists,
-// node → its points: gather = [offsets (N + 1) | the point of each entry], and per entry
-// entries = [w_q ∇0N_a(X_q) | w_q N_a(X_q)]; the points' plastic history hist
+// node → its points: gather = [offsets | the point of each entry], and per entry
+// entries = [w_q ∇0N_a(X_q) | w_q N_a(X_q)]. The points' lists and the gather lists are
+// each split into parts (part.wgsl: rows part.first + row, with the part's own offsets,
+// ids and per-pair data): the points pass runs a part of the points at a time, the nodes
+// pass a part of the nodes; the points' plastic history hist
 // (plasticity.wgsl; 10 floats of a dummy for the elastic models). Constants: N (nodes), Q
 // (points), DIM, RATE, MODEL, RHO0, MU, LAMBDA, BULK, YIELD, HARDENING and the field
 // offsets of methods::cores::galerkin::gpu::Layout.
@@ -35,10 +38,11 @@ struct Gradients {
 }
 
 // F_q − I = Σ_a u_a ⊗ ∇0N_a(X_q) (as Σ_a (u_a − u_first) ⊗ ∇0N_a, since Σ_a ∇0N_a = 0,
-// so that a rigid displacement keeps its digits) and, with `rate`, Ḟ_q likewise.
-fn gradients(q: u32, rate: bool) -> Gradients {
-    let p_start = offsets[q];
-    let p_end = offsets[q + 1u];
+// so that a rigid displacement keeps its digits) and, with `rate`, Ḟ_q likewise, for the
+// point at `row` of the part.
+fn gradients(row: u32, rate: bool) -> Gradients {
+    let p_start = offsets[row];
+    let p_end = offsets[row + 1u];
     let first = ids[p_start];
     let u0 = vload_y(U_OFF + DIM * first);
     let v0 = vload_y(V_OFF + DIM * first);
@@ -74,11 +78,12 @@ fn gradients(q: u32, rate: bool) -> Gradients {
 // - status: nothing
 @compute @workgroup_size(256)
 fn points(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let q = index(gid, nwg);
-    if q >= Q {
+    let row = index(gid, nwg);
+    if row >= part.rows {
         return;
     }
-    let grads = gradients(q, RATE == 1u);
+    let q = part.first + row;
+    let grads = gradients(row, RATE == 1u);
     let h = grads.h;
     let f_dot = grads.f_dot;
     let f = identity_d() + h;
@@ -123,11 +128,12 @@ fn points(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
 // - hist: 10 scalars per item
 @compute @workgroup_size(256)
 fn commit(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let q = index(gid, nwg);
-    if q >= Q {
+    let row = index(gid, nwg);
+    if row >= part.rows {
         return;
     }
-    let f = identity_d() + gradients(q, false).h;
+    let q = part.first + row;
+    let f = identity_d() + gradients(row, false).h;
     store_history(q, return_map(lift3(f, 1.0), history(q)));
 }
 
@@ -149,13 +155,14 @@ fn commit(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
 // - d: 2 vectors per item
 @compute @workgroup_size(256)
 fn nodes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let a = index(gid, nwg);
-    if a >= N {
+    let row = index(gid, nwg);
+    if row >= part.rows {
         return;
     }
+    let a = part.first + row;
     var force: vecd;
-    let e_end = gather[a + 1u];
-    for (var e = gather[a]; e < e_end; e++) {
+    let e_end = gather[row + 1u];
+    for (var e = gather[row]; e < e_end; e++) {
         let q = gather[GPOINT_OFF + e];
         force -= mload_kin(KP_OFF + DIM * DIM * q) * vload_entries(EWG_OFF + DIM * e);
     }

@@ -3,11 +3,14 @@
 //! against the unsplit run's on the same adapter, and the refusals, by name, of the
 //! engines that still need a buffer whole.
 
-use crate::common::{gpu, load, random_state, spec_of, tl_scheme};
+use crate::common::{gpu, load, random_state, random_vector, spec_of, tl_scheme};
+use crate::galerkin::block;
 use meshless::core::tensor::{D2, D3};
 use meshless::gpu::layout::GpuDim;
 use meshless::gpu::reduction::Reduced;
 use meshless::methods::Method;
+use meshless::methods::cores::galerkin::GalerkinState;
+use meshless::methods::cores::galerkin::gpu::GpuGalerkin;
 use meshless::methods::mixed::{GpuMixed, MixedState};
 use meshless::methods::tlsph::{GpuTlsph, TlState};
 use meshless::run::Engine;
@@ -253,19 +256,70 @@ fn mixed_rates_steps_and_reductions_on_split_lists_are_the_unsplit_bits() {
     mixed_split_equals_whole::<D3>("upwind-sph 3D", &cube);
 }
 
+/// The values of a Galerkin state, as bits.
+fn galerkin_bits<D: GpuDim>(y: &GalerkinState<D>, p: &[D::T]) -> Vec<u64> {
+    let vectors = [&y.u, &y.v].into_iter().flatten().flat_map(|&v| D::to3(v));
+    let tensors = (y.s.iter().chain(p)).flat_map(|&t| D::to3x3(t).into_iter().flatten());
+    (vectors.chain(tensors))
+        .chain(y.rho.iter().copied())
+        .map(f64::to_bits)
+        .collect()
+}
+
+/// A Galerkin engine of `case` on whole lists and on lists split by [`LIMIT`]: the rates
+/// and P of a random state (|u| ~ 1 mm, |v| ~ 1 m/s) and its reduction (a node's share
+/// of the points' energy, gathered over the part's lists) are the same bits.
+fn galerkin_split_equals_whole<D: GpuDim>(what: &str, case: &Scene) {
+    let new = |gpu| GpuGalerkin::<D>::new(case, spec_of(case), gpu).expect(what);
+    let (mut whole, mut split) = (new(gpu()), new(gpu().with_binding_limit(LIMIT)));
+    let (points, gather) = split.splits();
+    let parts = (points.parts.len(), gather.parts.len());
+    assert!(
+        parts.0 >= 2 && parts.1 >= 2,
+        "{what}: {parts:?} parts under 1 MiB"
+    );
+    let mut y = whole.state();
+    let mut seed = 5;
+    for (u, v) in y.u.iter_mut().zip(y.v.iter_mut()) {
+        *u = random_vector::<D>(&mut seed, 1e-3);
+        *v = random_vector::<D>(&mut seed, 1.0);
+    }
+    let rates = |g: &mut GpuGalerkin<D>| {
+        let (d, p) = g.rates(&y);
+        (galerkin_bits(&d, &p), reduced_bits(&g.reduced()))
+    };
+    let (a, b) = (rates(&mut whole), rates(&mut split));
+    same_bits(&format!("{what}: rates"), &a.0, &b.0);
+    same_bits(&format!("{what}: reduction"), &a.1, &b.1);
+}
+
+#[test]
+fn galerkin_rates_and_reductions_on_split_lists_are_the_unsplit_bits() {
+    // The weak form, EFG and KBM (points' lists of 12–50 nodes a point) on a 2D block of
+    // 81 × 81 nodes, whose point kinematics (under 1 MiB) stay whole; the weak form in 3D
+    // on a slab of 25 × 25 × 2 nodes (in a cube, a workgroup of nodes gathers about 590
+    // points each, whose entries pass 1 MiB alone).
+    for method in ["tl-weak-form", "efg", "kbm"] {
+        let case = block(&[8.0, 8.0], "neo-hookean", method, "");
+        galerkin_split_equals_whole::<D2>(method, &case);
+    }
+    let slab = block(&[2.4, 2.4, 0.1], "neo-hookean", "tl-weak-form", "");
+    galerkin_split_equals_whole::<D3>("tl-weak-form 3D", &slab);
+}
+
 #[test]
 fn the_binding_limit_variable_splits_a_run_or_refuses_it_by_name() {
     // MESHLESS_MAX_BINDING forces the limit on any adapter. TLSPH and Upwind-SPH runs go
-    // on with split lists; the Galerkin engine (tl-fem), whose per-pair buffer stays
-    // whole, is refused with exit code 2 naming the buffer and the variable; a malformed
-    // value is refused naming the variable.
+    // on with split lists; the updated-Lagrangian engine (gray-monaghan-sph), whose
+    // neighbour list stays whole, is refused with exit code 2 naming the buffer and the
+    // variable; a malformed value is refused naming the variable.
     let exe = env!("CARGO_BIN_EXE_meshless");
     let dir = tempfile::tempdir().unwrap();
-    let run = |limit: &str, method: &str| {
+    let run = |limit: &str, set: &[&str]| {
         Command::new(exe)
             .args(["run", "studies/cases/swinging-plate", "--backend", "gpu"])
             .args(["--set", "spacing=0.01", "--set", "run.end_time=2e-5"])
-            .args(["--set", &format!("method.name={method}")])
+            .args(set.iter().flat_map(|s| ["--set", s]))
             .args(["--set", "method.force=", "--quiet", "--out"])
             .arg(dir.path())
             .env("MESHLESS_MAX_BINDING", limit)
@@ -273,19 +327,25 @@ fn the_binding_limit_variable_splits_a_run_or_refuses_it_by_name() {
             .output()
             .unwrap()
     };
-    for method in ["tlsph", "upwind-sph"] {
-        let split = run("1MiB", method);
+    for method in ["method.name=tlsph", "method.name=upwind-sph"] {
+        let split = run("1MiB", &[method]);
         let stderr = String::from_utf8_lossy(&split.stderr);
         assert!(split.status.success(), "{method}: {stderr}");
     }
-    let galerkin = run("1MiB", "tl-fem");
-    let stderr = String::from_utf8_lossy(&galerkin.stderr);
-    assert_eq!(galerkin.status.code(), Some(2), "{stderr}");
+    let ul = run(
+        "1MiB",
+        &[
+            "method.name=gray-monaghan-sph",
+            "material.model=hypoelastic",
+        ],
+    );
+    let stderr = String::from_utf8_lossy(&ul.stderr);
+    assert_eq!(ul.status.code(), Some(2), "{stderr}");
     assert!(
-        stderr.contains("per-pair buffer") && stderr.contains("MESHLESS_MAX_BINDING"),
+        stderr.contains("neighbour list") && stderr.contains("MESHLESS_MAX_BINDING"),
         "{stderr}"
     );
-    let bad = run("a lot", "tlsph");
+    let bad = run("a lot", &["method.name=tlsph"]);
     let stderr = String::from_utf8_lossy(&bad.stderr);
     assert!(!bad.status.success(), "{stderr}");
     assert!(stderr.contains("MESHLESS_MAX_BINDING=a lot"), "{stderr}");

@@ -280,7 +280,8 @@ fn check_galerkin<D: GpuDim>() {
     for model in ["hypoelastic", "neo-hookean"] {
         let case = block_case(max, model, "tl-weak-form", "");
         let rate = model == "hypoelastic";
-        let layout = galerkin::Layout::new(100, 10, 400, 1600, 1000, D::N, rate);
+        let lists = galerkin::ListSizes::whole(100, 1600);
+        let layout = galerkin::Layout::new(100, 10, 400, lists, 1000, D::N, rate);
         let constants = galerkin::scene_constants(&case, &layout);
         for source in galerkin::SHADERS {
             let src = shaders::compose::<D>(source, &constants);

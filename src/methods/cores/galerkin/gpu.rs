@@ -10,6 +10,7 @@ use super::{GalerkinState, TlGalerkin};
 use crate::boundary::Boundary;
 use crate::case::Case;
 use crate::core::integrate::{Buf, Evaluation};
+use crate::core::neighbour::Csr;
 use crate::core::quadrature::Shapes;
 use crate::diagnostics::balance::Booked;
 use crate::diagnostics::observe::Snapshot;
@@ -17,7 +18,7 @@ use crate::engine::{BlowUp, GpuEngine, GpuFamily, Method, Start};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::memory::{Counts, DeviceMemory};
-use crate::gpu::parts::Split;
+use crate::gpu::parts::{self, Split};
 use crate::gpu::profile::Scale;
 use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{self, Reduced, Reduction};
@@ -42,7 +43,8 @@ pub const RATES: Source = source!(
         BOUNDARY,
         EIGEN,
         PLASTICITY,
-        PLASTIC_STORE
+        PLASTIC_STORE,
+        PART
     ],
     [
         ("y", false),
@@ -92,14 +94,36 @@ pub struct Layout {
     pub reference: Fields,
 }
 
+/// The sizes of the lists' buffers of a Galerkin scene, each laid out for the largest
+/// part of its lists ([`Split`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ListSizes {
+    /// Point–node pairs of a part of the points' lists.
+    pub pairs: usize,
+    /// Nodes and entries of a part of the gather lists.
+    pub nodes: usize,
+    pub entries: usize,
+}
+
+impl ListSizes {
+    /// The lists of n nodes and `pairs` point–node pairs in one part each.
+    pub fn whole(n: usize, pairs: usize) -> Self {
+        Self {
+            pairs,
+            nodes: n,
+            entries: pairs,
+        }
+    }
+}
+
 impl Layout {
-    /// n nodes (`constrained` of them with prescribed components), q points with `pairs`
-    /// point–node pairs, `smooth_pairs` smoothing pairs.
+    /// n nodes (`constrained` of them with prescribed components), q points, the lists of
+    /// `lists`, `smooth_pairs` smoothing pairs.
     pub fn new(
         n: usize,
         constrained: usize,
         q: usize,
-        pairs: usize,
+        lists: ListSizes,
         smooth_pairs: usize,
         dim: usize,
         rate: bool,
@@ -121,13 +145,13 @@ impl Layout {
                     .scalars("POW", true, n),
                 constrained,
             ),
-            pair: Fields::new("P", dim).vectors("G", true, pairs),
+            pair: Fields::new("P", dim).vectors("G", true, lists.pairs),
             gather: Fields::new("G", dim)
-                .scalars("OFFSETS", true, n + 1)
-                .scalars("POINT", true, pairs),
+                .scalars("OFFSETS", true, lists.nodes + 1)
+                .scalars("POINT", true, lists.entries),
             entries: Fields::new("E", dim)
-                .vectors("WG", true, pairs)
-                .scalars("WN", true, pairs),
+                .vectors("WG", true, lists.entries)
+                .scalars("WN", true, lists.entries),
             smooth: Fields::new("SW", dim).scalars("N", true, smooth_pairs),
             reference: reference::fields(n, constrained, dim, Extras::default()),
         }
@@ -216,10 +240,11 @@ impl Points {
     }
 }
 
-/// The points and nodes passes bound to a source state.
+/// The points and nodes passes bound to a source state, a bind group a part of their
+/// lists.
 struct Rates {
-    points: wgpu::BindGroup,
-    nodes: wgpu::BindGroup,
+    points: Vec<wgpu::BindGroup>,
+    nodes: Vec<wgpu::BindGroup>,
 }
 
 /// The weak form's smoothing passes, bound to the state and their scratch.
@@ -229,8 +254,8 @@ struct SmoothPasses {
 }
 
 /// The nodes' reference with V = m/ρ0, so that RHO0·V is the nodal mass, and the lists
-/// of the host's shape functions.
-fn upload_nodes<D: GpuDim>(gpu: &Gpu, host: &TlGalerkin<D>) -> DeviceReference {
+/// of the host's shape functions in the parts of `split`.
+fn upload_nodes<D: GpuDim>(gpu: &Gpu, host: &TlGalerkin<D>, split: &Split) -> DeviceReference {
     let rho0 = host.material().rho0;
     let mass_volume: Vec<f64> = host.mass().iter().map(|m| m / rho0).collect();
     DeviceReference::upload::<D>(
@@ -238,7 +263,7 @@ fn upload_nodes<D: GpuDim>(gpu: &Gpu, host: &TlGalerkin<D>) -> DeviceReference {
         host.reference(),
         &mass_volume,
         host.boundary(),
-        (&host.shapes().csr, &Split::whole(&host.shapes().csr)),
+        (&host.shapes().csr, split),
         Extras::default(),
     )
 }
@@ -248,17 +273,77 @@ fn u32s(v: &[usize]) -> Vec<u32> {
     v.iter().map(|&o| o as u32).collect()
 }
 
-/// The gather lists (offsets, then the point of every entry) and the entries' weighted
-/// test gradients w_q ∇Φ_a(X_q) and values w_q N_a(X_q) of the host's shape functions.
+/// The layout of the host's scene, whose lists' buffers each hold a part of the points'
+/// lists and of the gather lists, in parts that fit the binding limit of `gpu`.
+fn layout_of<D: GpuDim>(
+    gpu: &Gpu,
+    host: &TlGalerkin<D>,
+) -> Result<(Layout, Split, Split), GpuError> {
+    let points_split = Split::fitting(gpu, &host.shapes().csr, (4 * D::N) as u64)?;
+    let gather_split = Split::fitting(gpu, &gather_csr(host), (4 * (D::N + 1)) as u64)?;
+    let lists = ListSizes {
+        pairs: points_split.capacity(),
+        nodes: (gather_split.parts.iter())
+            .map(|p| p.rows)
+            .max()
+            .unwrap_or(0),
+        entries: gather_split.capacity(),
+    };
+    let layout = Layout::new(
+        host.reference().len(),
+        host.boundary().constrained.len(),
+        host.points().len(),
+        lists,
+        host.smoothing().map_or(0, |s| s.csr.pair_count()),
+        D::N,
+        host.material().model.is_rate_based(),
+    );
+    Ok((layout, points_split, gather_split))
+}
+
+/// The per-pair gradients ∇0N_a of each part of `split` of the points' lists.
+fn pair_buffers<D: GpuDim>(
+    gpu: &Gpu,
+    layout: &Layout,
+    shapes: &Shapes<D>,
+    split: &Split,
+) -> Vec<wgpu::Buffer> {
+    let whole = layout.pair.resized(shapes.csr.pair_count());
+    let mut flat = whole.zeroed();
+    whole.write_v::<D>(&mut flat, "G", &shapes.grad);
+    (split.parts.iter())
+        .map(|p| layout.pair.items_of(&whole, &flat, p.start, p.pairs))
+        .map(|data| gpu.storage("per-pair shape functions", &data))
+        .collect()
+}
+
+/// The gather lists of the host as neighbour lists: node a's entries, each naming its
+/// point.
+fn gather_csr<D: GpuDim>(host: &TlGalerkin<D>) -> Csr {
+    let gather = host.gather();
+    Csr {
+        offsets: gather.offsets.clone(),
+        ids: gather.point.clone(),
+    }
+}
+
+/// A part of the gather lists on the device: its lists (offsets from its first entry,
+/// then the point of every entry), its entries' weighted test gradients w_q ∇Φ_a(X_q)
+/// and values w_q N_a(X_q) of the host's shape functions, and its uniform `part`.
+struct GatherPart {
+    lists: wgpu::Buffer,
+    entries: wgpu::Buffer,
+    part: wgpu::Buffer,
+}
+
+/// The parts of `split` of the gather lists.
 fn gather_buffers<D: GpuDim>(
     gpu: &Gpu,
     layout: &Layout,
     host: &TlGalerkin<D>,
-) -> (wgpu::Buffer, wgpu::Buffer) {
+    split: &Split,
+) -> Vec<GatherPart> {
     let (shapes, points, gather) = (host.shapes(), host.points(), host.gather());
-    let mut lists = u32s(&gather.offsets);
-    lists.extend(&gather.point);
-    let gather_lists = gpu.storage("gather lists", &lists);
     let (weighted, values): (Vec<D::V>, Vec<f64>) = (0..gather.point.len())
         .map(|e| {
             let (q, p) = (gather.point[e] as usize, gather.pair[e] as usize);
@@ -266,11 +351,27 @@ fn gather_buffers<D: GpuDim>(
             (shapes.test_gradient(p) * w, w * shapes.n[p])
         })
         .unzip();
-    let mut flat = layout.entries.zeroed();
-    layout.entries.write_v::<D>(&mut flat, "WG", &weighted);
-    layout.entries.write_s(&mut flat, "WN", &values, 0.0);
-    let entries = gpu.storage("gather entries", &flat);
-    (gather_lists, entries)
+    let whole = layout.entries.resized(gather.point.len());
+    let mut flat = whole.zeroed();
+    whole.write_v::<D>(&mut flat, "WG", &weighted);
+    whole.write_s(&mut flat, "WN", &values, 0.0);
+    (split.parts.iter())
+        .map(|p| {
+            let mut lists = vec![0u32; layout.gather.len()];
+            let offsets = &gather.offsets[p.first..=p.first + p.rows];
+            for (to, &o) in lists.iter_mut().zip(offsets) {
+                *to = (o - p.start) as u32;
+            }
+            let at = layout.gather.offset("POINT");
+            lists[at..at + p.pairs].copy_from_slice(&gather.point[p.start..p.start + p.pairs]);
+            let entries = layout.entries.items_of(&whole, &flat, p.start, p.pairs);
+            GatherPart {
+                lists: gpu.storage("gather lists", &lists),
+                entries: gpu.storage("gather entries", &entries),
+                part: parts::uniform(gpu, p.first, p.rows),
+            }
+        })
+        .collect()
 }
 
 impl SmoothPasses {
@@ -336,6 +437,9 @@ pub struct GalerkinDevice<D: GpuDim> {
     /// from the state read back.
     host: TlGalerkin<D>,
     layout: Layout,
+    /// The parts of the points' lists and of the gather lists ([`crate::gpu::parts`]).
+    points_split: Split,
+    gather_split: Split,
     status: wgpu::Buffer,
     points: Pipeline,
     nodes: Pipeline,
@@ -343,13 +447,13 @@ pub struct GalerkinDevice<D: GpuDim> {
     rates: BySource<Rates>,
     /// The points pass on `Y` writing its rates into `Acc` (kinematics for a reduction
     /// without touching the integrator's rates).
-    points_y: wgpu::BindGroup,
+    points_y: Vec<wgpu::BindGroup>,
     smooth: Option<SmoothPasses>,
     /// The points' plastic history (plasticity.wgsl; 10 floats of a dummy for the elastic
     /// models).
     hist: wgpu::Buffer,
     /// The commit of the plastic history before every step (`commit` of galerkin.wgsl).
-    commit: Option<(Pipeline, wgpu::BindGroup)>,
+    commit: Option<(Pipeline, Vec<wgpu::BindGroup>)>,
 }
 
 impl<D: GpuDim> GpuGalerkin<D> {
@@ -362,7 +466,7 @@ impl<D: GpuDim> GpuGalerkin<D> {
             let (q, pairs) = (Counts::whole(points.points), Counts::whole(points.pairs));
             let smoothing = Counts::whole(points.smoothing);
             let rate = case.material.model.is_rate_based();
-            let layout = Layout::new(n, 0, q, pairs, smoothing, D::N, rate);
+            let layout = Layout::new(n, 0, q, ListSizes::whole(n, pairs), smoothing, D::N, rate);
             DeviceReference::memory(m, &layout.reference, n, D::N, q, pairs);
             m.fields("per-pair shape functions", &layout.pair);
             m.fields("gather lists", &layout.gather);
@@ -394,29 +498,17 @@ impl<D: GpuDim> GpuGalerkin<D> {
         check_f32_run(case, host.boundary())?;
         let y0_host = host.initial_state();
         check_f32_particles::<D>(case, host.reference(), &y0_host.u, &y0_host.v, host.body())?;
-        let (shapes, points) = (host.shapes(), host.points());
-        let (n, q) = (host.reference().len(), points.len());
+        let (n, q) = (host.reference().len(), host.points().len());
         let smoothing = host.smoothing();
-        let layout = Layout::new(
-            n,
-            host.boundary().constrained.len(),
-            q,
-            shapes.csr.pair_count(),
-            smoothing.map_or(0, |s| s.csr.pair_count()),
-            D::N,
-            host.material().model.is_rate_based(),
-        );
+        let (layout, points_split, gather_split) = layout_of(&gpu, &host)?;
         let constants = scene_constants(case, &layout);
         check_f32_range(case, &constants)?;
-        gpu.check_size("per-pair buffer", layout.pair.bytes())?;
         gpu.check_size("kinematics buffer", layout.kin.bytes())?;
         let compose = |s: &Source| shaders::compose::<D>(s, &constants);
 
-        let device = upload_nodes(&gpu, &host);
-        let mut pair = layout.pair.zeroed();
-        layout.pair.write_v::<D>(&mut pair, "G", &shapes.grad);
-        let pair = gpu.storage("per-pair shape functions", &pair);
-        let (gather_lists, entries) = gather_buffers(&gpu, &layout, &host);
+        let device = upload_nodes(&gpu, &host, &points_split);
+        let pair = pair_buffers(&gpu, &layout, host.shapes(), &points_split);
+        let gather = gather_buffers(&gpu, &layout, &host, &gather_split);
         let status = gpu.storage("status", &[STATUS_OK]);
         let kin = gpu.zeroed("kinematics", layout.kin.bytes());
         let plastic = host.plastic().is_some();
@@ -445,40 +537,59 @@ impl<D: GpuDim> GpuGalerkin<D> {
         let rates_source = compose(&RATES);
         let points_pipeline = gpu.pipeline("galerkin points", &rates_source, "points")?;
         let nodes_pipeline = gpu.pipeline("galerkin nodes", &rates_source, "nodes")?;
-        let table = |y, d| -> [(&str, &wgpu::Buffer); 12] {
-            [
-                ("offsets", &device.lists[0].offsets),
-                ("ids", &device.lists[0].ids),
-                ("pair", &pair),
+        // The buffers of the passes on the state y and the rates d, with part k of the
+        // points' lists or of the gather lists.
+        let table = |y, d| -> Vec<(&str, &wgpu::Buffer)> {
+            vec![
                 ("reference", &device.reference),
                 ("y", y),
                 ("kin", &kin),
                 ("d", d),
                 ("status", &status),
-                ("gather", &gather_lists),
-                ("entries", &entries),
                 ("ext", interactions.ext()),
                 ("hist", &hist),
             ]
         };
+        let points_table = |k: usize, y, d| {
+            let t = [("pair", &pair[k])]
+                .into_iter()
+                .chain(device.lists[k].table());
+            [table(y, d), t.collect()].concat()
+        };
+        let nodes_table = |k: usize, y, d| {
+            let g = &gather[k];
+            let t = [
+                ("gather", &g.lists),
+                ("entries", &g.entries),
+                ("part", &g.part),
+            ];
+            [table(y, d), t.to_vec()].concat()
+        };
+        let bind_points = |pipeline: &Pipeline, y, d| -> Result<Vec<_>, GpuError> {
+            (0..pair.len())
+                .map(|k| gpu.bind(pipeline, &points_table(k, y, d)))
+                .collect()
+        };
         let rates = BySource::bind(&stepper, |y, d| -> Result<Rates, GpuError> {
-            let t = table(y, d);
             Ok(Rates {
-                points: gpu.bind(&points_pipeline, &t)?,
-                nodes: gpu.bind(&nodes_pipeline, &t)?,
+                points: bind_points(&points_pipeline, y, d)?,
+                nodes: (0..gather.len())
+                    .map(|k| gpu.bind(&nodes_pipeline, &nodes_table(k, y, d)))
+                    .collect::<Result<_, GpuError>>()?,
             })
         })?;
         let (y, rates_d) = (stepper.buffer(Buf::Y), stepper.buffer(Buf::Rates));
-        let commit = match plastic {
-            true => {
+        let commit = plastic
+            .then(|| -> Result<_, GpuError> {
                 let pipeline = gpu.pipeline("galerkin plastic commit", &rates_source, "commit")?;
-                let bind = gpu.bind(&pipeline, &table(y, rates_d))?;
-                Some((pipeline, bind))
-            }
-            false => None,
-        };
-        let points_y = gpu.bind(&points_pipeline, &table(y, stepper.buffer(Buf::Acc)))?;
-        let reduction = Reduction::new(&gpu, &compose(&REDUCE), &table(y, rates_d), n)?;
+                let binds = bind_points(&pipeline, y, rates_d)?;
+                Ok((pipeline, binds))
+            })
+            .transpose()?;
+        let points_y = bind_points(&points_pipeline, y, stepper.buffer(Buf::Acc))?;
+        let nodes_y = (0..gather.len()).map(|k| nodes_table(k, y, rates_d));
+        let reduce = compose(&REDUCE);
+        let reduction = Reduction::by_part(&gpu, &reduce, &gather_split, nodes_y.collect())?;
         let smooth = smoothing
             .map(|s| SmoothPasses::new(&gpu, &layout, s, &compose, &device.reference, y, n))
             .transpose()?;
@@ -494,6 +605,8 @@ impl<D: GpuDim> GpuGalerkin<D> {
         let family = GalerkinDevice {
             host,
             layout,
+            points_split,
+            gather_split,
             status,
             points: points_pipeline,
             nodes: nodes_pipeline,
@@ -511,8 +624,8 @@ impl<D: GpuDim> GalerkinDevice<D> {
     /// Records one rate evaluation: the points and nodes passes on `rates`.
     fn record(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, rates: &Rates) {
         let mut pass = encoder.begin_compute_pass(&Default::default());
-        gpu.dispatch(&mut pass, &self.points, &rates.points, self.layout.q as u32);
-        gpu.dispatch(&mut pass, &self.nodes, &rates.nodes, self.layout.n as u32);
+        (self.points_split).dispatch(gpu, &mut pass, &self.points, &rates.points);
+        (self.gather_split).dispatch(gpu, &mut pass, &self.nodes, &rates.nodes);
     }
 
     /// Decodes a flat state (`rho0` = ρ0: the density is stored as ρ − ρ0) or rate buffer
@@ -564,6 +677,11 @@ impl<D: GpuDim> GpuGalerkin<D> {
     pub fn host(&self) -> &TlGalerkin<D> {
         &self.family.host
     }
+
+    /// The parts the points' lists and the gather lists are split into.
+    pub fn splits(&self) -> (&Split, &Split) {
+        (&self.family.points_split, &self.family.gather_split)
+    }
 }
 
 impl<D: GpuDim> GpuFamily<D> for GalerkinDevice<D> {
@@ -588,9 +706,9 @@ impl<D: GpuDim> GpuFamily<D> for GalerkinDevice<D> {
 
     /// The commit of the plastic history.
     fn begin_step(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder) {
-        if let Some((pipeline, bind)) = &self.commit {
+        if let Some((pipeline, binds)) = &self.commit {
             let mut pass = encoder.begin_compute_pass(&Default::default());
-            gpu.dispatch(&mut pass, pipeline, bind, self.layout.q as u32);
+            (self.points_split).dispatch(gpu, &mut pass, pipeline, binds);
         }
     }
 
@@ -611,7 +729,7 @@ impl<D: GpuDim> GpuFamily<D> for GalerkinDevice<D> {
 
     /// The points pass on the current state (its kinematics).
     fn before_reduction(&self, gpu: &Gpu, pass: &mut wgpu::ComputePass<'_>) {
-        gpu.dispatch(pass, &self.points, &self.points_y, self.layout.q as u32);
+        (self.points_split).dispatch(gpu, pass, &self.points, &self.points_y);
     }
 
     fn signal_speed(&self, reduced: &Reduced) -> f64 {
