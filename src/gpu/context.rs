@@ -363,6 +363,18 @@ pub fn adapters() -> Vec<AdapterSummary> {
 /// What `--backend auto` runs on: the best adapter, unless it emulates a GPU on the CPU
 /// (Mesa's lavapipe, SwiftShader: slower than the CPU backend) and `MESHLESS_ADAPTER`
 /// does not name it. Err: why the CPU backend runs instead.
+/// The binding limit [`MAX_BINDING_ENV`] forces, if set; Err where its value is not a
+/// size.
+pub fn binding_env() -> Result<Option<u64>, GpuError> {
+    match std::env::var(MAX_BINDING_ENV) {
+        Err(_) => Ok(None),
+        Ok(value) => match crate::case::parse_bytes(&value) {
+            Some(bytes) => Ok(Some(bytes as u64)),
+            None => Err(GpuError::BindingEnv { value }),
+        },
+    }
+}
+
 pub fn auto_adapter() -> Result<String, String> {
     let requested = std::env::var(ADAPTER_ENV).ok().filter(|s| !s.is_empty());
     let list = adapters();
@@ -477,13 +489,10 @@ impl Gpu {
             ledger: Mutex::new(BTreeMap::new()),
             binding: (adapter_limit, false),
         };
-        match std::env::var(MAX_BINDING_ENV) {
-            Err(_) => Ok(gpu),
-            Ok(value) => match crate::case::parse_bytes(&value) {
-                Some(bytes) => Ok(gpu.with_binding_limit(bytes as u64)),
-                None => Err(GpuError::BindingEnv { value }),
-            },
-        }
+        Ok(match binding_env()? {
+            Some(bytes) => gpu.with_binding_limit(bytes),
+            None => gpu,
+        })
     }
 
     /// This device with its largest storage binding lowered to `bytes` (a multiple of

@@ -45,15 +45,19 @@ fn gpu(backend: Backend) -> Result<Option<Gpu>, RunError> {
     Ok(match backend {
         Backend::Cpu => None,
         Backend::Gpu => Some(Gpu::new().map_err(|e| RunError::Backend(e.to_string()))?),
-        Backend::Auto => match crate::gpu::context::auto_adapter() {
-            Ok(_) => Gpu::new()
-                .inspect_err(|e| eprintln!("note: {e}; running on the CPU (rayon, f64)"))
-                .ok(),
-            Err(why) => {
-                eprintln!("note: --backend auto: {why}; running on the CPU (rayon, f64)");
-                None
+        Backend::Auto => {
+            // A malformed setting is the user's to mend, whichever backend runs.
+            crate::gpu::context::binding_env().map_err(|e| RunError::Backend(e.to_string()))?;
+            match crate::gpu::context::auto_adapter() {
+                Ok(_) => Gpu::new()
+                    .inspect_err(|e| eprintln!("note: {e}; running on the CPU (rayon, f64)"))
+                    .ok(),
+                Err(why) => {
+                    eprintln!("note: --backend auto: {why}; running on the CPU (rayon, f64)");
+                    None
+                }
             }
-        },
+        }
     })
 }
 

@@ -349,6 +349,16 @@ fn the_binding_limit_variable_splits_a_run_or_refuses_it_by_name() {
     let stderr = String::from_utf8_lossy(&bad.stderr);
     assert!(!bad.status.success(), "{stderr}");
     assert!(stderr.contains("MESHLESS_MAX_BINDING=a lot"), "{stderr}");
+    // `--backend auto` refuses it too, rather than falling back to the CPU.
+    let auto = Command::new(exe)
+        .args(["check", "studies/cases/swinging-plate", "--backend", "auto"])
+        .env("MESHLESS_MAX_BINDING", "a lot")
+        .current_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/cases"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&auto.stderr);
+    assert!(!auto.status.success(), "{stderr}");
+    assert!(stderr.contains("MESHLESS_MAX_BINDING=a lot"), "{stderr}");
 }
 
 #[test]
