@@ -723,7 +723,7 @@ impl Gpu {
         bind: &wgpu::BindGroup,
         n: u32,
     ) {
-        self.dispatch_groups(pass, pipeline, bind, self.groups(n), u64::from(n));
+        self.dispatch_part(pass, pipeline, bind, n, 1.0);
     }
 
     /// Records one dispatch of `pipeline` over the `rows` particles of a part of the
@@ -736,17 +736,8 @@ impl Gpu {
         rows: u32,
         share: f64,
     ) {
-        let (x, y) = self.groups(rows);
-        self.record(
-            pass,
-            pipeline,
-            bind,
-            (u64::from(rows), share),
-            false,
-            |pass| {
-                pass.dispatch_workgroups(x, y, 1);
-            },
-        );
+        let work = (u64::from(rows), share);
+        self.dispatch_work(pass, pipeline, bind, self.groups(rows), work);
     }
 
     /// Records one dispatch of `pipeline` over `groups` workgroups in `pass`, `items`
@@ -759,8 +750,20 @@ impl Gpu {
         groups: (u32, u32),
         items: u64,
     ) {
-        self.record(pass, pipeline, bind, (items, 1.0), false, |pass| {
-            pass.dispatch_workgroups(groups.0, groups.1, 1);
+        self.dispatch_work(pass, pipeline, bind, groups, (items, 1.0));
+    }
+
+    /// One direct dispatch over `groups`, booked as `work` (items, share of the pairs).
+    fn dispatch_work(
+        &self,
+        pass: &mut wgpu::ComputePass<'_>,
+        pipeline: &Pipeline,
+        bind: &wgpu::BindGroup,
+        (x, y): (u32, u32),
+        work: (u64, f64),
+    ) {
+        self.record(pass, pipeline, bind, work, false, |pass| {
+            pass.dispatch_workgroups(x, y, 1);
         });
     }
 
