@@ -13,17 +13,20 @@
 //   + Σ_j [(k_aj + k_ja)(p_j − p_a) − (k_aj δH_a + k_ja δH_j) X_aj],
 // with g_aj = 0 for j ∉ S_a and k_aj = 2 V_a c_a w_aj.
 //
-// Buffers: lists = the union CSR lists, N + 1 offsets then the ids (at IDS_OFF); per pair
-// k, g = g_ij, grev = g_ji (DIM each) and hg = [X_j − X_i | k_ij | k_ji] (DIM + 2), apart
-// so that no pair buffer outgrows a binding before the others; tangent = V_i 𝔸_i per
+// Buffers: the lists and per-pair data of the part of the rows a dispatch of `strain` or
+// `product` runs on (part.wgsl): lists = the part's union CSR lists, part.rows + 1
+// offsets counted from its first pair, then the ids; per pair k of the part, g = g_ij,
+// grev = g_ji (DIM each) and hg = [X_j − X_i | k_ij | k_ji] (DIM + 2), apart so that no
+// pair buffer outgrows a binding before the others; tangent = V_i 𝔸_i per
 // particle, DIM⁴ words, [(k·DIM + J)·DIM² + l·DIM + L] = V_i ∂P_kJ/∂F_lL; inv_diag = 1/K_kk
 // per degree of freedom, 0 where it is prescribed (z, p, x and r stay 0 there, so the
 // prescribed rows of K p never enter); the CG vectors x, r, p, q = K p (DIM per particle);
 // lin = [δH | V δP] per particle (DIM² each, V δP at LP_OFF); partials = two sums per
 // workgroup; scalars = [ρ, α, β, |r|², stop threshold, state, iterations, p·Kp] with
 // state 0 running, 1 converged, 2 p·Kp ≤ 0 (not positive definite).
-// Constants: N, NDOF = N·DIM, IDS_OFF = N + 1, LP_OFF, HOURGLASS, GROUPS_N and GROUPS_DOF
-// (the workgroups of the particle and degree-of-freedom passes: the partials each writes).
+// Constants: N, NDOF = N·DIM, LP_OFF, HOURGLASS, GROUPS_N = ⌈N/256⌉ (the workgroups of
+// particles, whose partials `product` writes a part at a time) and GROUPS_DOF (the
+// workgroups of the degree-of-freedom passes).
 
 @group(0) @binding(0) var<storage, read> lists: array<u32>;
 @group(0) @binding(1) var<storage, read> g: array<f32>;
@@ -80,6 +83,19 @@ fn store_sums(lid: u32, wid: vec3<u32>, nwg: vec3<u32>, a: f32, b: f32) {
     }
 }
 
+// The workgroup's sum of a into the partial of its workgroup of particles: the part's
+// first workgroup (parts start at a workgroup) plus its own; none for a workgroup past
+// the part's rows (a 2D dispatch's last row). Called in uniform control flow.
+fn store_particle_sums(lid: u32, wid: vec3<u32>, nwg: vec3<u32>, a: f32) {
+    workgroup_sums(lid, a, 0.0);
+    let w = group_index(wid, nwg);
+    if lid == 0u && w * 256u < part.rows {
+        let slot = part.first / 256u + w;
+        partials[2u * slot] = sum_a[0];
+        partials[2u * slot + 1u] = 0.0;
+    }
+}
+
 // One workgroup: the sums of the partials of `groups` workgroups (a: even words, b: odd).
 fn total_partials(lid: u32, groups: u32) {
     var a = 0.0;
@@ -100,15 +116,17 @@ fn total_partials(lid: u32, groups: u32) {
 // - lin: 2 tensors per item
 @compute @workgroup_size(256)
 fn strain(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let i = index(gid, nwg);
-    if i >= N {
+    let row = index(gid, nwg);
+    if row >= part.rows {
         return;
     }
+    let i = part.first + row;
+    let ids = part.rows + 1u;
     let p_i = vload_p(DIM * i);
     var dh: matd;
-    let p_end = lists[i + 1u];
-    for (var k = lists[i]; k < p_end; k++) {
-        dh += outer(vload_p(DIM * lists[IDS_OFF + k]) - p_i, vload_g(DIM * k));
+    let p_end = lists[row + 1u];
+    for (var k = lists[row]; k < p_end; k++) {
+        dh += outer(vload_p(DIM * lists[ids + k]) - p_i, vload_g(DIM * k));
     }
     // (V δP)_kJ = Σ_lL V 𝔸[kJ][lL] δH_lL; matd is column-major, m[col][row].
     var dp: matd;
@@ -148,16 +166,18 @@ fn product(
     @builtin(workgroup_id) wid: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
 ) {
-    let a = index(gid, nwg);
+    let row = index(gid, nwg);
     var pq = 0.0;
-    if a < N {
+    if row < part.rows {
+        let a = part.first + row;
+        let ids = part.rows + 1u;
         let vdp_a = mload_lin(LP_OFF + DIM * DIM * a);
         let dh_a = mload_lin(DIM * DIM * a);
         let p_a = vload_p(DIM * a);
         var df: vecd;
-        let p_end = lists[a + 1u];
-        for (var k = lists[a]; k < p_end; k++) {
-            let j = lists[IDS_OFF + k];
+        let p_end = lists[row + 1u];
+        for (var k = lists[row]; k < p_end; k++) {
+            let j = lists[ids + k];
             df += vdp_a * vload_g(DIM * k) - mload_lin(LP_OFF + DIM * DIM * j) * vload_grev(DIM * k);
             if HOURGLASS == 1u {
                 let k_aj = hg[(DIM + 2u) * k + DIM];
@@ -170,7 +190,7 @@ fn product(
         vstore_q(DIM * a, kp);
         pq = dot(p_a, kp);
     }
-    store_sums(lid, wid, nwg, pq, 0.0);
+    store_particle_sums(lid, wid, nwg, pq);
 }
 
 // Per degree of freedom, from x = 0 and r = b (the host's): p = z = r/diag; partials of

@@ -12,10 +12,11 @@
 // - kin: 2 scalars + 1 tensor per item
 @compute @workgroup_size(256)
 fn particle(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let i = index(gid, nwg);
-    if i >= N {
+    let row = index(gid, nwg);
+    if row >= part.rows {
         return;
     }
+    let i = part.first + row;
     let rho = rho_of(i);
     mstore_kin(KT_OFF + DIM * DIM * i, cauchy_of(i));
     kin[KP_OFF + i] = pressure(y[RHO_OFF + i]);
@@ -31,10 +32,11 @@ fn particle(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
 // - kin loads: 2 scalars + 1 tensor per item
 @compute @workgroup_size(256)
 fn rates(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let i = index(gid, nwg);
-    if i >= N {
+    let row = index(gid, nwg);
+    if row >= part.rows {
         return;
     }
+    let i = part.first + row;
     let x_i = x_of(i);
     let v_i = v_of(i);
     let rho_i = rho_of(i);
@@ -45,8 +47,8 @@ fn rates(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     var l: matd;
     var rho_dot = 0.0;
     var a: vecd;
-    let p_end = offsets[i + 1u];
-    for (var p = offsets[i]; p < p_end; p++) {
+    let pairs = pairs_of(i);
+    for (var p = pairs.x; p < pairs.y; p++) {
         let j = ids[p];
         let x_ij = x_i - x_of(j);
         let r = length(x_ij);

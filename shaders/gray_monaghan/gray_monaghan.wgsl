@@ -27,10 +27,11 @@ fn artificial_stress(sigma: matd, rho: f32) -> matd {
 // - kin: 1 tensor per item, when AS
 @compute @workgroup_size(256)
 fn particle(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let i = index(gid, nwg);
-    if i >= N {
+    let row = index(gid, nwg);
+    if row >= part.rows {
         return;
     }
+    let i = part.first + row;
     let rho = rho_of(i);
     let sigma = cauchy_of(i);
     mstore_kin(KT_OFF + DIM * DIM * i, sigma * (1.0 / (rho * rho)));
@@ -50,10 +51,11 @@ fn particle(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
 // - kin loads: 1 tensor per item, when AS
 @compute @workgroup_size(256)
 fn rates(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let i = index(gid, nwg);
-    if i >= N {
+    let row = index(gid, nwg);
+    if row >= part.rows {
         return;
     }
+    let i = part.first + row;
     let x_i = x_of(i);
     let v_i = v_of(i);
     let rho_i = rho_of(i);
@@ -67,8 +69,8 @@ fn rates(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     var l: matd;
     var a: vecd;
     var xsph: vecd;
-    let p_end = offsets[i + 1u];
-    for (var p = offsets[i]; p < p_end; p++) {
+    let pairs = pairs_of(i);
+    for (var p = pairs.x; p < pairs.y; p++) {
         let j = ids[p];
         let x_ij = x_i - x_of(j);
         let r = length(x_ij);

@@ -2,8 +2,11 @@
 // (and, with MASKED = 1, body[i] = body[j]), each particle's ids sorted ascending (the same
 // lists as src/core/neighbour.rs). Positions are read from a flat f32 buffer, DIM floats per
 // particle from POS_OFF (a state's displacement or position field, or positions alone).
-// The lists fill `ids` up to its length, the capacity; past it `overflow[0]` receives the
-// pair count the lists need, and the host grows `ids`. Nothing is read back to rebuild.
+// The rows are split into parts (src/gpu/neighbour.rs, `Room`), each with its own `ids`
+// counted from the part's first pair; `offsets` counts over every particle (wrapping past
+// 2³²). A part's lists fill its `ids` up to its length, the capacity; past it `overflow[0]`
+// receives the most pairs a part needs, and the host grows the parts. Nothing is read back
+// to rebuild.
 //
 // A build is due when check_drift finds a particle that moved more than sqrt(drift2)
 // since the last one (or the host forces one); `arm` then sets the workgroup counts of the
@@ -16,7 +19,8 @@
 //   scatter           particle ids into cell-sorted order (atomic cursors)
 //   count_neighbours  offsets[i] = number of neighbours of i
 //   (scan of offsets over n + 1 entries: offsets[n] = number of pairs)
-//   fill_neighbours   ids[offsets[i]..offsets[i + 1]] = neighbours of i, sorted
+//   fill_neighbours   ids[offsets[i]..offsets[i + 1]] = neighbours of i, sorted; one
+//                     dispatch a part of the rows (part.wgsl), each with its own ids
 //   save_built        the positions of this build, for the next drift check
 // Each invocation writes only its own particle's entries (plus the u32 atomic counters).
 
@@ -50,11 +54,11 @@ struct CellParams {
 @group(0) @binding(5) var<storage, read_write> sorted: array<u32>;
 // Neighbour counts, then (after the scan) CSR offsets; n + 1.
 @group(0) @binding(6) var<storage, read_write> offsets: array<u32>;
-// CSR neighbour ids.
+// CSR neighbour ids of the part (fill_neighbours).
 @group(0) @binding(7) var<storage, read_write> ids: array<u32>;
 // The body of each particle (read with MASKED = 1).
 @group(0) @binding(8) var<storage, read> body: array<u32>;
-// The pair count, where it exceeds the capacity of `ids` (atomicMax).
+// The most pairs of a part, where they exceed the capacity of its `ids` (atomicMax).
 @group(0) @binding(9) var<storage, read_write> overflow: array<atomic<u32>>;
 // The positions of the last build, DIM floats per particle.
 @group(0) @binding(10) var<storage, read_write> built: array<f32>;
@@ -197,15 +201,28 @@ fn fill_neighbours(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(num_workgroups) nwg: vec3<u32>,
 ) {
-    let i = index(gid, nwg);
-    if i >= params.n {
+    let row = index(gid, nwg);
+    if row >= part.rows {
         return;
     }
+    let i = part.first + row;
+    // The part's ids count from its first pair; the differences of the offsets, which
+    // wrap past 2³² pairs in all, are exact within a part.
+    let base = offsets[part.first];
+    let first = offsets[i] - base;
+    let end = offsets[i + 1u] - base;
     let capacity = arrayLength(&ids);
-    if i == 0u && offsets[params.n] > capacity {
-        atomicMax(&overflow[0], offsets[params.n]);
+    if row == 0u {
+        let pairs = offsets[part.first + part.rows] - base;
+        if pairs > capacity {
+            atomicMax(&overflow[0], pairs);
+        }
     }
-    _ = gather(i, true, offsets[i], min(offsets[i + 1u], capacity));
+    if end < first {
+        // The part's pairs pass 2³²: it needs more than any part can hold.
+        atomicMax(&overflow[0], 0xffffffffu);
+    }
+    _ = gather(i, true, first, min(end, capacity));
 }
 
 // bytes:

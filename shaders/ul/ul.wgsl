@@ -9,7 +9,9 @@
 // kin = [T | R | AIT | VOL | C | P | POW] (T: σ/ρ² for Gray–Monaghan, σ for Godunov; R:
 // artificial stress; AIT: A⁻ᵀ of the correction; VOL: m/ρ; C: sound speed or impedance;
 // P: pressure; POW: power of supports and loads); the CSR lists offsets/ids of the cell
-// list, rebuilt from x before every rate evaluation. Scene constants: N, DIM, RHO0, MU,
+// list, rebuilt from x before every rate evaluation. The `particle` and `rates` passes run
+// a part of the rows at a time (part.wgsl), each part with its own ids, counted from its
+// first pair; `offsets` counts over every particle. Scene constants: N, DIM, RHO0, MU,
 // BULK, CORRECTION, the kernel's, and the field offsets of methods::cores::ul::gpu::Layout.
 
 @group(0) @binding(0) var<storage, read> offsets: array<u32>;
@@ -35,6 +37,13 @@ fn positions(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
         return;
     }
     vstore_x(DIM * i, x0_of(i) + vload_y(U_OFF + DIM * i));
+}
+
+// The pairs of particle i in the bound part's ids: the offsets less the part's first,
+// exact within a part however far the offsets over every particle wrap past 2³².
+fn pairs_of(i: u32) -> vec2<u32> {
+    let base = offsets[part.first];
+    return vec2<u32>(offsets[i] - base, offsets[i + 1u] - base);
 }
 
 fn x_of(i: u32) -> vecd {
@@ -67,8 +76,8 @@ fn correction_of(i: u32) -> matd {
     }
     let xi = x_of(i);
     var a: matd;
-    let p_end = offsets[i + 1u];
-    for (var p = offsets[i]; p < p_end; p++) {
+    let pairs = pairs_of(i);
+    for (var p = pairs.x; p < pairs.y; p++) {
         let j = ids[p];
         let x_ij = xi - x_of(j);
         a += outer(-x_ij, kernel_grad(x_ij)) * (mass_of(j) / rho_of(j));

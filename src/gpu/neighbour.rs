@@ -124,12 +124,14 @@ pub struct Scan {
     add: Pipeline,
 }
 
-/// One dispatch: pipeline, bind group, workgroup counts, and the items of its bytes model.
+/// One dispatch: pipeline, bind group, workgroup counts, and the items and share of the
+/// pairs (by rows) of its bytes model.
 struct Step {
     pipeline: Pipeline,
     bind: wgpu::BindGroup,
     groups: (u32, u32),
     items: u32,
+    share: f64,
 }
 
 impl Step {
@@ -147,7 +149,7 @@ impl Step {
         k: usize,
     ) {
         let at = (args, 12 * k as u64);
-        let work = (u64::from(self.items), 1.0);
+        let work = (u64::from(self.items), self.share);
         gpu.dispatch_indirect(pass, &self.pipeline, &self.bind, at, work);
     }
 }
@@ -211,6 +213,7 @@ impl Scan {
                 bind: gpu.bind(&self.blocks, &table)?,
                 groups: gpu.groups(blocks * WORKGROUP),
                 items: blocks * WORKGROUP,
+                share: 1.0,
             });
             if blocks == 1 {
                 // The single block's sum is the total: nothing to add back at this level.
@@ -221,6 +224,7 @@ impl Scan {
                 bind: gpu.bind(&self.add, &table)?,
                 groups: gpu.groups(len),
                 items: len,
+                share: 1.0,
             });
             level = sums;
             len = blocks;
@@ -272,22 +276,99 @@ pub struct Positions<'a> {
     pub body: Option<&'a wgpu::Buffer>,
 }
 
+/// How a [`CellList`]'s ids are laid out: parts of `rows` consecutive particles (the last
+/// part takes the rest), each with its own ids buffer of room for `pairs` pairs, so that
+/// each fits one storage binding however many pairs the scene has.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Room {
+    /// The rows of every part but the last: all of them, or a multiple of the workgroup.
+    pub rows: u32,
+    /// The pairs each part's ids hold.
+    pub pairs: u32,
+}
+
+impl Room {
+    /// Room for `pairs` pairs of `n` particles in ids buffers of at most `limit` bytes: one
+    /// part while they fit; past it, the fewest parts of equal rows (a multiple of the
+    /// workgroup) with room each for their rows' share of the pairs. Err: the bytes of the
+    /// share of one workgroup of particles, which alone passes the limit.
+    pub fn plan(n: u32, pairs: u64, limit: u64) -> Result<Self, u64> {
+        let (n64, words, pairs) = (u64::from(n.max(1)), limit / 4, pairs.max(1));
+        if pairs <= words {
+            return Ok(Self {
+                rows: n.max(1),
+                pairs: pairs as u32,
+            });
+        }
+        let block = u64::from(WORKGROUP);
+        let share = |rows: u64| (pairs * rows).div_ceil(n64);
+        // The most rows whose share fits, in whole workgroups.
+        let most = words * n64 / pairs / block * block;
+        if most == 0 {
+            return Err(4 * share(block));
+        }
+        let parts = n64.div_ceil(most);
+        let rows = n64.div_ceil(parts).div_ceil(block) * block;
+        Ok(Self {
+            rows: rows as u32,
+            pairs: share(rows) as u32,
+        })
+    }
+
+    /// The pairs of every part's room together.
+    pub fn total(&self, n: u32) -> u64 {
+        u64::from(self.pairs) * self.parts(n).len() as u64
+    }
+
+    /// The first row and the rows of each part, for `n` particles.
+    pub fn parts(&self, n: u32) -> Vec<(u32, u32)> {
+        let rows = self.rows.max(1);
+        (0..n.div_ceil(rows).max(1))
+            .map(|k| (k * rows, rows.min(n - (k * rows).min(n))))
+            .collect()
+    }
+
+    /// The pairs to plan for after a build needed `needed` pairs in its fullest part: the
+    /// share of that need, with a quarter more, over every row.
+    pub fn grown(&self, n: u32, needed: u32) -> u64 {
+        let per_part = u64::from(needed) + u64::from(needed) / 4;
+        (per_part * u64::from(n.max(1))).div_ceil(u64::from(self.rows.max(1)))
+    }
+}
+
+/// One part of a [`CellList`]'s rows: its ids, counted from its first pair, and its
+/// uniform `part` (`shaders/common/part.wgsl`).
+pub struct ListPart {
+    pub first: u32,
+    pub rows: u32,
+    pub ids: wgpu::Buffer,
+    pub uniform: wgpu::Buffer,
+}
+
+impl ListPart {
+    /// The bindings `ids` and `part` of this part.
+    pub fn table(&self) -> [(&'static str, &wgpu::Buffer); 2] {
+        [("ids", &self.ids), ("part", &self.uniform)]
+    }
+}
+
 /// A neighbour build resident on the device: the cell list's buffers and passes for n
 /// particles, allocated once and recorded into an encoder as often as the particles move,
-/// without reading anything back. The lists are CSR (`offsets`, n + 1 entries, and `ids`,
-/// filled up to its capacity); a build that needs more pairs than the capacity records
-/// the count it needs ([`CellList::overflow`]) and the owner makes a larger one.
+/// without reading anything back. The lists are CSR: `offsets` (n + 1 entries, over every
+/// particle) and the ids of each part of the rows ([`Room`]), filled up to the part's
+/// room; a build that needs more pairs in a part than its room records the most a part
+/// needs ([`CellList::overflow`]) and the owner makes a larger one.
 ///
 /// Every dispatch of a build is indirect: [`CellList::record`] forces a build, and
 /// [`CellList::record_on_drift`] builds only when a particle has moved more than the drift
 /// distance since the last build (a check on the device sets the workgroup counts), so
 /// that lists searched with a skin stay complete without a build at every evaluation.
 pub struct CellList {
-    /// n + 1 entries; the last is the pair count.
+    /// n + 1 entries: the pairs of the rows before each, modulo 2³² (a part's are exact
+    /// as differences).
     pub offsets: wgpu::Buffer,
-    /// `capacity` entries.
-    pub ids: wgpu::Buffer,
-    capacity: u32,
+    pub parts: Vec<ListPart>,
+    room: Room,
     n: u32,
     overflow: wgpu::Buffer,
     /// [a build is due, builds so far].
@@ -298,16 +379,31 @@ pub struct CellList {
     args: wgpu::Buffer,
     check: Step,
     arm: Step,
-    /// clear, bin, (scan of cells), copy cursor, scatter, count, (scan of offsets), fill,
-    /// save the positions.
+    /// clear, bin, (scan of cells), copy cursor, scatter, count, (scan of offsets), fill
+    /// (a part each), save the positions.
     build: Vec<Step>,
     /// Builds recorded so far, due or not.
     recorded: AtomicU64,
 }
 
+impl Room {
+    /// [`Self::plan`] for the binding limit of `gpu`. Err names the bytes of the ids of
+    /// one workgroup of particles, which alone pass it.
+    pub fn fitting(gpu: &Gpu, n: u32, pairs: u64) -> Result<Self, GpuError> {
+        let limit = gpu.binding_limit();
+        Self::plan(n, pairs, limit).map_err(|needed| GpuError::TooLarge {
+            adapter: gpu.name(),
+            what: "neighbour list part (the pairs of one workgroup of particles)",
+            needed,
+            limit,
+        })
+    }
+}
+
 impl CellList {
     /// The buffers [`Self::new`] makes for `n` particles in `dim` dimensions on a grid of
-    /// `ncells` cells, with room for `capacity` pairs.
+    /// `ncells` cells, with room for `capacity` pairs in all (the parts' rounding left
+    /// out).
     pub fn memory(m: &mut DeviceMemory, n: u64, dim: usize, ncells: u64, capacity: u64) {
         let n_words = n.max(1) as f64;
         m.words("particle cells", n_words);
@@ -330,26 +426,36 @@ impl CellList {
     }
 
     /// The passes over `grid` (a box the particles may leave: a particle outside is put in
-    /// the nearest cell, which keeps every pair and only adds candidates) with room for
-    /// `capacity` pairs (at least 1).
+    /// the nearest cell, which keeps every pair and only adds candidates) with the ids laid
+    /// out as `room` says.
     pub fn new<D: GpuDim>(
         gpu: &Gpu,
         at: Positions,
         grid: &CellParams,
-        capacity: u32,
+        room: Room,
         drift: f64,
     ) -> Result<Self, GpuError> {
         let n = at.n;
-        let capacity = capacity.max(1);
+        let room = Room {
+            pairs: room.pairs.max(1),
+            ..room
+        };
         let n_bytes = u64::from(n.max(1)) * 4;
-        gpu.check_size("neighbour list", u64::from(capacity) * 4)?;
+        gpu.check_size("neighbour list", u64::from(room.pairs) * 4)?;
         let ncells = grid.ncells;
         let cell = gpu.zeroed("particle cells", n_bytes);
         let cell_start = gpu.zeroed("cell start", (u64::from(ncells) + 1) * 4);
         let cursor = gpu.zeroed("cell cursor", u64::from(ncells) * 4);
         let sorted = gpu.zeroed("cell-sorted particles", n_bytes);
         let offsets = gpu.zeroed("neighbour offsets", n_bytes + 4);
-        let ids = gpu.zeroed("neighbour ids", u64::from(capacity) * 4);
+        let parts: Vec<ListPart> = (room.parts(n).into_iter())
+            .map(|(first, rows)| ListPart {
+                first,
+                rows,
+                ids: gpu.zeroed("neighbour ids", u64::from(room.pairs) * 4),
+                uniform: super::parts::uniform(gpu, first as usize, rows as usize),
+            })
+            .collect();
         let overflow = gpu.zeroed("neighbour overflow", 4);
         let unmasked = gpu.zeroed("bodies (unmasked)", 4);
         let built = gpu.zeroed("positions of the last build", n_bytes * D::N as u64);
@@ -357,39 +463,16 @@ impl CellList {
         let one = gpu.storage("one", &[1u32]);
 
         let scan = Scan::new(gpu)?;
-        let scans = [
+        let [scan_cells, scan_offsets] = [
             scan.plan(gpu, &cell_start, ncells + 1)?,
             scan.plan(gpu, &offsets, n + 1)?,
         ];
         let text = compose::<D>(&CELL_LIST, &constants(at.offset, at.body.is_some()));
-        let particles = gpu.groups(n);
-        let cleared = n.max(ncells) + 1;
-        let order: [(&str, (u32, u32), u32); 8] = [
-            ("clear_counts", gpu.groups(cleared), cleared),
-            ("bin_particles", particles, n),
-            ("copy_cursor", gpu.groups(ncells), ncells),
-            ("scatter", particles, n),
-            ("count_neighbours", particles, n),
-            ("fill_neighbours", particles, n),
-            ("save_built", particles, n),
-            ("check_drift", particles, n),
-        ];
-        let scan_groups =
-            |plan: &ScanPlan| -> Vec<(u32, u32)> { plan.steps.iter().map(|s| s.groups).collect() };
-        // The groups of every dispatch of a build, in order, 3 u32 each.
-        let groups: Vec<(u32, u32)> = [order[0].1, order[1].1]
-            .into_iter()
-            .chain(scan_groups(&scans[0]))
-            .chain([order[2].1, order[3].1, order[4].1])
-            .chain(scan_groups(&scans[1]))
-            .chain([order[5].1, order[6].1])
-            .collect();
-        let full: Vec<u32> = groups.iter().flat_map(|&(x, y)| [x, y, 1]).collect();
-        let full = gpu.storage("build workgroups", &full);
-        let args = gpu.indirect("build workgroups due", full.size());
+        // clear, bin, copy, scatter, count, a fill a part, save, and the scans'.
+        let dispatches = 6 + parts.len() + scan_cells.steps.len() + scan_offsets.steps.len();
         let params = CellParams {
             drift2: (drift * drift) as f32,
-            dispatches: groups.len() as u32,
+            dispatches: dispatches as u32,
             ..*grid
         };
         let uniform = gpu.uniform("cell list params", &params);
@@ -401,45 +484,75 @@ impl CellList {
             ("cursor", &cursor),
             ("sorted", &sorted),
             ("offsets", &offsets),
-            ("ids", &ids),
             ("body", at.body.unwrap_or(&unmasked)),
             ("overflow", &overflow),
             ("built", &built),
             ("due", &due),
-            ("args", &args),
-            ("full", &full),
         ];
-        let step = |entry: &str, groups: (u32, u32), items: u32| -> Result<Step, GpuError> {
+        // Every pass binds the first part and runs over every row; `fill_neighbours` binds
+        // its own part and runs over its rows, with their share of the pairs.
+        let step = |entry: &str, items: u32, part: &ListPart| -> Result<Step, GpuError> {
             let pipeline = gpu.pipeline(entry, &text, entry)?;
+            let bindings: Vec<_> = table.iter().copied().chain(part.table()).collect();
+            let share = match entry {
+                "fill_neighbours" => f64::from(part.rows) / f64::from(n.max(1)),
+                _ => 1.0,
+            };
             Ok(Step {
-                bind: gpu.bind(&pipeline, &table)?,
+                bind: gpu.bind(&pipeline, &bindings)?,
                 pipeline,
-                groups,
+                groups: gpu.groups(items),
                 items,
+                share,
             })
         };
-        let [clear, bin, copy, scatter, count, fill, save, check] =
-            order.map(|(entry, groups, items)| step(entry, groups, items));
-        let arm = step("arm", (1, 1), 1)?;
-        let [scan_cells, scan_offsets] = scans;
-        let build: Vec<Step> = [clear?, bin?]
-            .into_iter()
-            .chain(scan_cells.steps)
-            .chain([copy?, scatter?, count?])
-            .chain(scan_offsets.steps)
-            .chain([fill?, save?])
+        let first = &parts[0];
+        let cleared = n.max(ncells) + 1;
+        let mut build = vec![
+            step("clear_counts", cleared, first)?,
+            step("bin_particles", n, first)?,
+        ];
+        build.extend(scan_cells.steps);
+        for entry in ["copy_cursor", "scatter", "count_neighbours"] {
+            let items = if entry == "copy_cursor" { ncells } else { n };
+            build.push(step(entry, items, first)?);
+        }
+        build.extend(scan_offsets.steps);
+        for part in &parts {
+            build.push(step("fill_neighbours", part.rows, part)?);
+        }
+        build.push(step("save_built", n, first)?);
+        // The groups of every dispatch of a build, in order, 3 u32 each: `arm` copies them
+        // into `args` when a build is due.
+        let full: Vec<u32> = (build.iter())
+            .flat_map(|s| [s.groups.0, s.groups.1, 1])
             .collect();
+        let full = gpu.storage("build workgroups", &full);
+        let args = gpu.indirect("build workgroups due", full.size());
+        debug_assert_eq!(build.len(), dispatches);
+        let counts = [("args", &args), ("full", &full)];
+        let armed = |entry: &str, items: u32| -> Result<Step, GpuError> {
+            let pipeline = gpu.pipeline(entry, &text, entry)?;
+            let bindings: Vec<_> = table.iter().copied().chain(counts).collect();
+            Ok(Step {
+                bind: gpu.bind(&pipeline, &bindings)?,
+                pipeline,
+                groups: gpu.groups(items),
+                items,
+                share: 1.0,
+            })
+        };
         Ok(Self {
+            check: armed("check_drift", n)?,
+            arm: armed("arm", 1)?,
             offsets,
-            ids,
-            capacity,
+            parts,
+            room,
             n,
             overflow,
             due,
             one,
             args,
-            check: check?,
-            arm,
             build,
             recorded: AtomicU64::new(0),
         })
@@ -491,28 +604,66 @@ impl CellList {
         self.recorded.load(Ordering::Relaxed)
     }
 
-    /// Room for pairs in `ids`.
-    pub fn capacity(&self) -> u32 {
-        self.capacity
+    /// Records one dispatch of `pipeline` a part, over its rows, with the part's bind
+    /// group of `binds` (bound with [`ListPart::table`]). The pass report books each
+    /// dispatch its share of the rows: the device's lists are not read back to count
+    /// a part's pairs.
+    pub fn dispatch(
+        &self,
+        gpu: &Gpu,
+        pass: &mut wgpu::ComputePass<'_>,
+        pipeline: &Pipeline,
+        binds: &[wgpu::BindGroup],
+    ) {
+        assert_eq!(binds.len(), self.parts.len(), "a bind group a part");
+        for (part, bind) in self.parts.iter().zip(binds) {
+            let share = f64::from(part.rows) / f64::from(self.n.max(1));
+            gpu.dispatch_part(pass, pipeline, bind, part.rows, share);
+        }
     }
 
-    /// The pair count a build since the list was made needed beyond its capacity, if any
-    /// (reads one u32 back).
+    /// How the ids are laid out.
+    pub fn room(&self) -> Room {
+        self.room
+    }
+
+    /// The most pairs a part needed beyond its room in a build since the lists were made,
+    /// if any (reads one u32 back; u32::MAX: a part's pairs passed 2³²).
     pub fn overflow(&self, gpu: &Gpu) -> Option<u32> {
         let needed: Vec<u32> = gpu.read(&self.overflow);
         (needed[0] > 0).then_some(needed[0])
     }
 
-    /// The lists of the last build, read back (waits for the queue).
+    /// The pairs of the last build (reads the offsets back).
+    pub fn pairs(&self, gpu: &Gpu) -> u64 {
+        let offsets: Vec<u32> = gpu.read(&self.offsets);
+        (self.parts.iter())
+            .map(|p| {
+                let (first, end) = (p.first as usize, (p.first + p.rows) as usize);
+                u64::from(offsets[end].wrapping_sub(offsets[first]))
+            })
+            .sum()
+    }
+
+    /// The lists of the last build, read back (waits for the queue); a part past its room
+    /// keeps the pairs it held.
     pub fn lists(&self, gpu: &Gpu) -> crate::core::neighbour::Csr {
         let offsets: Vec<u32> = gpu.read(&self.offsets);
-        let offsets: Vec<usize> = offsets[..=self.n as usize]
-            .iter()
-            .map(|&o| o as usize)
-            .collect();
-        let mut ids: Vec<u32> = gpu.read(&self.ids);
-        ids.truncate(offsets[self.n as usize]);
-        crate::core::neighbour::Csr { offsets, ids }
+        let mut csr = crate::core::neighbour::Csr {
+            offsets: vec![0],
+            ids: Vec::new(),
+        };
+        for part in &self.parts {
+            let ids: Vec<u32> = gpu.read(&part.ids);
+            let base = offsets[part.first as usize];
+            for i in part.first..part.first + part.rows {
+                let local =
+                    |i: u32| (offsets[i as usize].wrapping_sub(base) as usize).min(ids.len());
+                csr.ids.extend(&ids[local(i)..local(i + 1)]);
+                csr.offsets.push(csr.ids.len());
+            }
+        }
+        csr
     }
 }
 
@@ -540,18 +691,53 @@ pub fn build<D: GpuDim>(
         at.x.size()
     );
     let grid = CellParams::new(gpu, D::N, lo, hi, at.n, radius)?;
-    let mut capacity = at.n.saturating_mul(64);
+    let mut room = Room::fitting(gpu, at.n, u64::from(at.n) * 64)?;
     loop {
-        let list = CellList::new::<D>(gpu, at, &grid, capacity, 0.0)?;
+        let list = CellList::new::<D>(gpu, at, &grid, room, 0.0)?;
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
         list.record(gpu, &mut encoder);
         gpu.queue.submit([encoder.finish()]);
         match list.overflow(gpu) {
             None => return Ok(list),
-            Some(needed) => capacity = needed,
+            Some(needed) => room = Room::fitting(gpu, at.n, room.grown(at.n, needed))?,
         }
     }
 }
 
 super::context::wgsl_twin_test!(cell_params_match_wgsl: CellParams = "CellParams" in CELL_LIST.text);
 super::context::wgsl_twin_test!(scan_params_match_wgsl: ScanParams = "ScanParams" in SCAN.text);
+
+#[cfg(test)]
+mod tests {
+    use super::Room;
+
+    #[test]
+    fn room_is_one_part_while_the_pairs_fit_and_equal_rows_past_it() {
+        // 400,000 pairs of 4 B fit one 2 MiB binding: one part of every row.
+        let whole = Room::plan(10_000, 400_000, 2 << 20).unwrap();
+        assert_eq!(
+            whole,
+            Room {
+                rows: 10_000,
+                pairs: 400_000
+            }
+        );
+        assert_eq!(whole.parts(10_000), [(0, 10_000)]);
+        // Past 1 MiB (262,144 ids): at most 6,400 rows (25 workgroups) a part, so 2 parts,
+        // of 5,000 rows rounded up to 20 workgroups, each with its rows' share of the pairs.
+        let split = Room::plan(10_000, 400_000, 1 << 20).unwrap();
+        assert_eq!(
+            split,
+            Room {
+                rows: 5120,
+                pairs: 204_800
+            }
+        );
+        assert_eq!(split.parts(10_000), [(0, 5120), (5120, 4880)]);
+        assert_eq!(split.total(10_000), 409_600);
+        // A build whose fullest part needed 300,000 pairs: a quarter more, over every row.
+        assert_eq!(split.grown(10_000, 300_000), 732_422);
+        // One workgroup's share, 2.56e6 pairs, passes 1,024 ids: refused with its bytes.
+        assert_eq!(Room::plan(1000, 10_000_000, 4096), Err(10_240_000));
+    }
+}

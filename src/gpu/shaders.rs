@@ -125,7 +125,7 @@ pub const LOADS: Source = source!(
 pub const PRESCRIBED: Source = source!("interaction/prescribed.wgsl", [], []);
 /// Cell list and neighbour lists, with the constants of `gpu::neighbour::constants`. An
 /// item is a particle (a cell in `copy_cursor`, either in `clear_counts`).
-pub const CELL_LIST: Source = source!("setup/cell_list.wgsl", [], [("x", false)]);
+pub const CELL_LIST: Source = source!("setup/cell_list.wgsl", [PART], [("x", false)]);
 /// Prefix scans; an item is an invocation (two entries in `scan_blocks`, one in
 /// `add_block_sums`).
 pub const SCAN: Source = source!("setup/scan.wgsl");

@@ -9,7 +9,7 @@ use glam::{DVec2, DVec3};
 use meshless::core::neighbour::{self, Csr};
 use meshless::core::tensor::{D2, D3, Dim};
 use meshless::gpu::layout::flat_v;
-use meshless::gpu::neighbour::{self as gpu_neighbour, CellParams, Positions};
+use meshless::gpu::neighbour::{self as gpu_neighbour, CellParams, Positions, Room};
 use meshless::gpu::shaders::compose;
 use meshless::gpu::{Gpu, GpuDim};
 use meshless::methods::shaders;
@@ -353,8 +353,8 @@ fn sparse_clusters_and_tiny_inputs() {
 
 /// A list built once and recorded again after the particles moved (rotated, stretched,
 /// jittered and partly carried out of the grid's box) gives the CPU's lists of the new
-/// positions, with and without per-body masks; a list with too little room reports the
-/// pair count it needs.
+/// positions, with and without per-body masks, whole or in parts of 256 rows; a list with
+/// too little room reports the most pairs a part needs.
 #[test]
 fn a_rebuild_on_the_device_follows_moving_particles() {
     let gpu = gpu();
@@ -392,14 +392,30 @@ fn a_rebuild_on_the_device_follows_moving_particles() {
     // The grid covers the reference box only: the moved cloud leaves it by up to 0.6.
     let (lo, hi) = neighbour::bounding_box(reference.iter().map(|&p| D2::to3(p)));
     let grid = CellParams::new(&gpu, 2, lo, hi, n, radius).unwrap();
-    for masked in [false, true] {
+    // The lists whole, and in parts of 256 rows each with room for 256 × 40 pairs.
+    let rooms = [
+        Room {
+            rows: n,
+            pairs: 40 * n,
+        },
+        Room {
+            rows: 256,
+            pairs: 40 * 256,
+        },
+    ];
+    for (masked, room) in [false, true]
+        .into_iter()
+        .flat_map(|m| rooms.map(|r| (m, r)))
+    {
         let at = Positions {
             x: &positions,
             offset: 0,
             n,
             body: masked.then_some(&bodies),
         };
-        let lists = gpu_neighbour::CellList::new::<D2>(&gpu, at, &grid, 40 * n, 0.0).unwrap();
+        let what = format!("masked {masked}, {room:?}");
+        let lists = gpu_neighbour::CellList::new::<D2>(&gpu, at, &grid, room, 0.0).unwrap();
+        assert_eq!(lists.parts.len(), n.div_ceil(room.rows) as usize, "{what}");
         let mask = masked.then_some(body.as_slice());
         for x in [&reference, &moved] {
             gpu.queue.write_buffer(
@@ -416,19 +432,26 @@ fn a_rebuild_on_the_device_follows_moving_particles() {
                 "{} pairs",
                 cpu.pair_count()
             );
-            assert_eq!(lists.overflow(&gpu), None, "masked {masked}");
+            assert_eq!(lists.overflow(&gpu), None, "{what}");
             assert_eq!(
                 lists.lists(&gpu),
                 cpu,
-                "masked {masked}: lists of the moved particles"
+                "{what}: lists of the moved particles"
             );
+            assert_eq!(lists.pairs(&gpu), cpu.pair_count() as u64, "{what}");
         }
-        // Room for 10 pairs: the build reports the count the moved particles need.
-        let small = gpu_neighbour::CellList::new::<D2>(&gpu, at, &grid, 10, 0.0).unwrap();
+        // Room for 10 pairs a part: the build reports the most pairs of a part (of the
+        // moved particles).
+        let small = Room { pairs: 10, ..room };
+        let small = gpu_neighbour::CellList::new::<D2>(&gpu, at, &grid, small, 0.0).unwrap();
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
         small.record(&gpu, &mut encoder);
         gpu.queue.submit([encoder.finish()]);
         let cpu = neighbour::build_within::<D2>(&moved, neighbour::Reach::Uniform(radius), mask);
-        assert_eq!(small.overflow(&gpu), Some(cpu.pair_count() as u32));
+        let rows = room.rows as usize;
+        let fullest = (0..cpu.len().div_ceil(rows))
+            .map(|k| cpu.offsets[((k + 1) * rows).min(cpu.len())] - cpu.offsets[k * rows])
+            .max();
+        assert_eq!(small.overflow(&gpu), fullest.map(|p| p as u32), "{what}");
     }
 }

@@ -5,16 +5,25 @@
 
 use crate::common::{gpu, load, random_state, random_vector, spec_of, tl_scheme};
 use crate::galerkin::block;
+use crate::gpu_ul::scheme as ul_scheme;
+use crate::gray_monaghan::random_state as ul_random_state;
 use meshless::core::tensor::{D2, D3};
 use meshless::gpu::layout::GpuDim;
 use meshless::gpu::reduction::Reduced;
-use meshless::methods::Method;
 use meshless::methods::cores::galerkin::GalerkinState;
 use meshless::methods::cores::galerkin::gpu::GpuGalerkin;
+use meshless::methods::cores::ul::gpu::GpuUl;
+use meshless::methods::cores::ul::{PairScheme, UlSph, UlState};
+use meshless::methods::dual_support::{self, krylov::NewtonKrylov};
+use meshless::methods::godunov::system::Scheme as GodunovScheme;
+use meshless::methods::gray_monaghan::system::Scheme as GmScheme;
 use meshless::methods::mixed::{GpuMixed, MixedState};
 use meshless::methods::tlsph::{GpuTlsph, TlState};
-use meshless::run::Engine;
+use meshless::methods::{Method, MethodSpec, Runs};
+use meshless::reference::Reference;
+use meshless::run::{Engine, build_method};
 use meshless::scene::Scene;
+use meshless::statics::MatrixFree;
 use std::process::Command;
 
 /// The forced binding limit: several parts for the per-pair data of the scenes below
@@ -157,6 +166,163 @@ fn dual_support_rates_and_energy_on_split_lists_are_the_unsplit_bits() {
     split_equals_whole::<D2>("dual-support", &case);
 }
 
+/// The device's K(u) v and one conjugate-gradient solve K Δu = r of dual-support SPH's
+/// static Newton step, on the union lists whole and split by `limit` (at least 2 parts):
+/// the same bits and iterations. The strain and product passes run a part at a time, and
+/// the product's per-workgroup partials of p·Kp land in the unsplit slots.
+fn krylov_split_equals_whole<D: GpuDim>(what: &str, case: &Scene, limit: u64) {
+    let MethodSpec::DualSupportSph(spec) = &case.spec else {
+        panic!("{what} runs dual-support-sph")
+    };
+    let reference = Reference::<D>::build(case).unwrap();
+    let lists = dual_support::gpu::lists(case, spec, &reference).unwrap();
+    let new = |gpu| NewtonKrylov::new(gpu, &lists, 1e-5, 1000).unwrap();
+    let (mut whole, mut split) = (new(gpu()), new(gpu().with_binding_limit(limit)));
+    assert!(
+        whole.split().is_whole(),
+        "{what}: one part without the limit"
+    );
+    let parts = split.split().parts.len();
+    assert!(parts >= 2, "{what}: {parts} parts under {limit} B");
+    let mut model = lists.model;
+    let (n, d) = (model.len(), D::N);
+    // A stretch of 1 % ± 0.1 % from particle to particle; the face x = x_min held (no rigid
+    // motion, so K is positive definite on the free components).
+    let x0 = &model.support.x0;
+    let u: Vec<D::V> = (x0.iter().enumerate())
+        .map(|(i, &x)| x * (0.01 + 1e-3 * (i as f64 * 0.7).sin()))
+        .collect();
+    let x_min = x0
+        .iter()
+        .map(|&x| D::comp(x, 0))
+        .fold(f64::INFINITY, f64::min);
+    let held = |i: usize| D::comp(x0[i], 0) < x_min + 0.5 * case.spacing;
+    let mut unknowns = 0;
+    let free: Vec<Option<u32>> = (0..n * d)
+        .map(|dof| {
+            let f = (!held(dof / d)).then_some(unknowns);
+            unknowns += u32::from(f.is_some());
+            f
+        })
+        .collect();
+    let v: Vec<f32> = (free.iter().enumerate())
+        .map(|(k, f)| f.map_or(0.0, |_| (k as f32 * 1.37).sin()))
+        .collect();
+    let product = |s: &mut NewtonKrylov| s.product(&model, &u, &free, &v).unwrap();
+    let bits = |q: Vec<f32>| {
+        q.into_iter()
+            .map(|x| u64::from(x.to_bits()))
+            .collect::<Vec<_>>()
+    };
+    let (a, b) = (bits(product(&mut whole)), bits(product(&mut split)));
+    same_bits(&format!("{what}: K v"), &a, &b);
+    let r: Vec<f64> = (0..unknowns).map(|k| (f64::from(k) * 0.61).cos()).collect();
+    let mut solve = |s: &mut NewtonKrylov| {
+        let (du, stats) = MatrixFree::solve(s, &mut model, &u, &free, &r).unwrap();
+        (
+            du.into_iter().map(f64::to_bits).collect::<Vec<_>>(),
+            stats.iterations,
+        )
+    };
+    let (a, b) = (solve(&mut whole), solve(&mut split));
+    same_bits(&format!("{what}: Δu"), &a.0, &b.0);
+    assert_eq!(a.1, b.1, "{what}: CG iterations");
+}
+
+#[test]
+fn dual_support_static_products_and_solves_on_split_lists_are_the_unsplit_bits() {
+    // The §6.4 beam at Δx = 0.05 (9,821 particles, 3.1 MB of per-pair data in its
+    // largest buffer: 3 parts under 1 MiB, where the tangent moduli, 64 B a particle, still
+    // fit one binding), and the neo-Hookean cube at Δx = 0.1 (1,331 particles, 0.77 MB
+    // of per-pair data, under a 512 KiB binding; the moduli, 324 B a particle, fit it).
+    let beam = load("beam-smoothing-2d", &["spacing=0.05"]);
+    krylov_split_equals_whole::<D2>("beam", &beam, LIMIT);
+    let cube = load("hyperelastic-cube-3d", &["spacing=0.1"]);
+    krylov_split_equals_whole::<D3>("cube", &cube, 512 << 10);
+}
+
+/// The values of an updated-Lagrangian state, as bits.
+fn ul_bits<D: GpuDim>(y: &UlState<D>) -> Vec<u64> {
+    let vectors = [&y.u, &y.v].into_iter().flatten().flat_map(|&v| D::to3(v));
+    let tensors = (y.s.iter().chain(&y.f)).flat_map(|&t| D::to3x3(t).into_iter().flatten());
+    (vectors.chain(tensors))
+        .chain(y.rho.iter().copied())
+        .map(f64::to_bits)
+        .collect()
+}
+
+/// An updated-Lagrangian engine of `case` on the device's lists whole and split by
+/// [`LIMIT`] (at least 2 parts, each built on the device with its own ids): the rates of
+/// a random state and its reduction, then 3 steps from the initial state (also on lists
+/// that start with room for one pair and grow into parts), are the same bits. The parts' rows are whole workgroups and each particle's ids are sorted, so the
+/// split run sums the same pairs in the same order.
+fn ul_split_equals_whole<D: GpuDim, S: PairScheme<D>>(what: &str, case: &Scene)
+where
+    S::Spec: Runs,
+{
+    let cpu: UlSph<D, S> = build_method(case).unwrap();
+    let new = |gpu| GpuUl::<D>::new(case, gpu, &ul_scheme(case)).unwrap();
+    let (mut whole, mut split) = (new(gpu()), new(gpu().with_binding_limit(LIMIT)));
+    let n = cpu.initial_state().u.len() as u32;
+    assert_eq!(whole.room().rows, n, "{what}: one part without the limit");
+    let parts = n.div_ceil(split.room().rows);
+    assert!(parts >= 2, "{what}: {parts} parts under 1 MiB");
+    let steps = |g: &mut GpuUl<D>| {
+        let dt = 0.3 * case.spacing / Engine::<D>::max_signal_speed(g);
+        Engine::<D>::advance(g, 0.0, dt, 3).unwrap();
+        (ul_bits(&g.state()), reduced_bits(&g.reduced()))
+    };
+    let (a, b) = (steps(&mut whole), steps(&mut split));
+    same_bits(&format!("{what}: 3 steps"), &a.0, &b.0);
+    same_bits(&format!("{what}: reduction after 3 steps"), &a.1, &b.1);
+    // Lists with room for one pair overflow at the first build and grow into parts.
+    let mut grown = new(gpu().with_binding_limit(LIMIT));
+    grown.set_capacity(1).unwrap();
+    let c = steps(&mut grown);
+    let grown_parts = n.div_ceil(grown.room().rows);
+    assert!(grown_parts >= 2, "{what}: grown into {grown_parts} parts");
+    same_bits(&format!("{what}: 3 steps on grown lists"), &a.0, &c.0);
+    let y = ul_random_state(&cpu, case.spacing, &mut 17);
+    let rates = |g: &mut GpuUl<D>| (ul_bits(&g.rates(&y)), reduced_bits(&g.reduced()));
+    let (a, b) = (rates(&mut whole), rates(&mut split));
+    same_bits(&format!("{what}: rates"), &a.0, &b.0);
+    same_bits(&format!("{what}: reduction"), &a.1, &b.1);
+}
+
+#[test]
+fn ul_rates_and_steps_on_split_device_lists_are_the_unsplit_bits() {
+    // Gray–Monaghan SPH (with the Randles–Libersky correction, which gathers in the
+    // particle pass too) and Godunov SPH on the plate at Δx = 0.01 (10,201 particles,
+    // 2 parts of ids; finer, the per-particle quantities pass 1 MiB), and Gray–Monaghan SPH in 3D on the block at Δx = 1/16 (4,913
+    // particles, about 5 MB of ids).
+    let plate = |set: &[&str]| {
+        let mut set = set.to_vec();
+        set.extend([
+            "spacing=0.01",
+            "material.model=hypoelastic",
+            "method.force=",
+        ]);
+        load("studies/cases/swinging-plate", &set)
+    };
+    let corrected = plate(&[
+        "method.name=gray-monaghan-sph",
+        "method.correction=randles-libersky",
+    ]);
+    ul_split_equals_whole::<D2, GmScheme>("gray-monaghan-sph", &corrected);
+    let godunov = plate(&["method.name=godunov-sph", "method.correction="]);
+    ul_split_equals_whole::<D2, GodunovScheme>("godunov-sph", &godunov);
+    let block = load(
+        "spinning-block-3d",
+        &[
+            "spacing=0.0625",
+            "material.model=hypoelastic",
+            "method.name=gray-monaghan-sph",
+            "method.force=",
+        ],
+    );
+    ul_split_equals_whole::<D3, GmScheme>("gray-monaghan-sph 3D", &block);
+}
+
 /// The values of a mixed state, as bits.
 fn mixed_bits<D: GpuDim>(y: &MixedState<D>) -> Vec<u64> {
     let vectors = [&y.u, &y.v].into_iter().flatten().flat_map(|&v| D::to3(v));
@@ -268,7 +434,8 @@ fn galerkin_bits<D: GpuDim>(y: &GalerkinState<D>, p: &[D::T]) -> Vec<u64> {
 
 /// A Galerkin engine of `case` on whole lists and on lists split by [`LIMIT`]: the rates
 /// and P of a random state (|u| ~ 1 mm, |v| ~ 1 m/s) and its reduction (a node's share
-/// of the points' energy, gathered over the part's lists) are the same bits.
+/// of the points' energy, gathered over the part's lists) are the same bits, and so are
+/// 3 steps from it with the weak form's velocity smoothing.
 fn galerkin_split_equals_whole<D: GpuDim>(what: &str, case: &Scene) {
     let new = |gpu| GpuGalerkin::<D>::new(case, spec_of(case), gpu).expect(what);
     let (mut whole, mut split) = (new(gpu()), new(gpu().with_binding_limit(LIMIT)));
@@ -291,17 +458,35 @@ fn galerkin_split_equals_whole<D: GpuDim>(what: &str, case: &Scene) {
     let (a, b) = (rates(&mut whole), rates(&mut split));
     same_bits(&format!("{what}: rates"), &a.0, &b.0);
     same_bits(&format!("{what}: reduction"), &a.1, &b.1);
+    if let Some(smoothing) = split.smoothing_split() {
+        let parts = smoothing.parts.len();
+        assert!(parts >= 2, "{what}: {parts} parts of the smoothing lists");
+        // Steps that end in the velocity smoothing, a part of its lists at a time.
+        let steps = |g: &mut GpuGalerkin<D>| {
+            g.set_state(&y);
+            Engine::<D>::advance(g, 0.0, 1e-6, 3).unwrap();
+            galerkin_bits(&g.state(), &[])
+        };
+        let (a, b) = (steps(&mut whole), steps(&mut split));
+        same_bits(&format!("{what}: 3 smoothed steps"), &a, &b);
+    }
 }
 
 #[test]
 fn galerkin_rates_and_reductions_on_split_lists_are_the_unsplit_bits() {
     // The weak form, EFG and KBM (points' lists of 12–50 nodes a point) on a 2D block of
-    // 81 × 81 nodes, whose point kinematics (under 1 MiB) stay whole; the weak form in 3D
-    // on a slab of 25 × 25 × 2 nodes (in a cube, a workgroup of nodes gathers about 590
-    // points each, whose entries pass 1 MiB alone).
-    for method in ["tl-weak-form", "efg", "kbm"] {
-        let case = block(&[8.0, 8.0], "neo-hookean", method, "");
-        galerkin_split_equals_whole::<D2>(method, &case);
+    // 81 × 81 nodes, whose point kinematics (under 1 MiB) stay whole, and the weak form
+    // with its velocity smoothing after each step (at h = 2 Δx, lists of about 50 nodes a
+    // node: 2 parts); the weak form in 3D on a slab of 25 × 25 × 2 nodes (in a cube, a workgroup
+    // of nodes gathers about 590 points each, whose entries pass 1 MiB alone).
+    for (method, keys) in [
+        ("tl-weak-form", ""),
+        ("tl-weak-form", "smoothing = true\nh_over_dx = 2.0"),
+        ("efg", ""),
+        ("kbm", ""),
+    ] {
+        let case = block(&[8.0, 8.0], "neo-hookean", method, keys);
+        galerkin_split_equals_whole::<D2>(&format!("{method} {keys:?}"), &case);
     }
     let slab = block(&[2.4, 2.4, 0.1], "neo-hookean", "tl-weak-form", "");
     galerkin_split_equals_whole::<D3>("tl-weak-form 3D", &slab);
@@ -309,43 +494,46 @@ fn galerkin_rates_and_reductions_on_split_lists_are_the_unsplit_bits() {
 
 #[test]
 fn the_binding_limit_variable_splits_a_run_or_refuses_it_by_name() {
-    // MESHLESS_MAX_BINDING forces the limit on any adapter. TLSPH and Upwind-SPH runs go
-    // on with split lists; the updated-Lagrangian engine (gray-monaghan-sph), whose
-    // neighbour list stays whole, is refused with exit code 2 naming the buffer and the
-    // variable; a malformed value is refused naming the variable.
+    // MESHLESS_MAX_BINDING forces the limit on any adapter. TLSPH, Upwind-SPH and
+    // Gray–Monaghan SPH (the device's own lists) runs go on with split lists; a scene
+    // whose per-particle buffers pass the limit (TLSPH at Δx = 0.005: 40,401 particles) is
+    // refused with exit code 2 naming the buffer and the variable; a malformed value is
+    // refused naming the variable.
     let exe = env!("CARGO_BIN_EXE_meshless");
     let dir = tempfile::tempdir().unwrap();
     let run = |limit: &str, set: &[&str]| {
         Command::new(exe)
             .args(["run", "studies/cases/swinging-plate", "--backend", "gpu"])
-            .args(["--set", "spacing=0.01", "--set", "run.end_time=2e-5"])
+            .args(["--set", "run.end_time=2e-5", "--set", "method.force="])
             .args(set.iter().flat_map(|s| ["--set", s]))
-            .args(["--set", "method.force=", "--quiet", "--out"])
+            .args(["--quiet", "--out"])
             .arg(dir.path())
             .env("MESHLESS_MAX_BINDING", limit)
             .current_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/cases"))
             .output()
             .unwrap()
     };
-    for method in ["method.name=tlsph", "method.name=upwind-sph"] {
-        let split = run("1MiB", &[method]);
-        let stderr = String::from_utf8_lossy(&split.stderr);
-        assert!(split.status.success(), "{method}: {stderr}");
-    }
-    let ul = run(
-        "1MiB",
+    let methods: [&[&str]; 3] = [
+        &["method.name=tlsph"],
+        &["method.name=upwind-sph"],
         &[
             "method.name=gray-monaghan-sph",
             "material.model=hypoelastic",
         ],
-    );
-    let stderr = String::from_utf8_lossy(&ul.stderr);
-    assert_eq!(ul.status.code(), Some(2), "{stderr}");
+    ];
+    for method in methods {
+        let split = run("1MiB", &[method, &["spacing=0.01"]].concat());
+        let stderr = String::from_utf8_lossy(&split.stderr);
+        assert!(split.status.success(), "{method:?}: {stderr}");
+    }
+    let fine = run("1MiB", &["method.name=tlsph", "spacing=0.005"]);
+    let stderr = String::from_utf8_lossy(&fine.stderr);
+    assert_eq!(fine.status.code(), Some(2), "{stderr}");
     assert!(
-        stderr.contains("neighbour list") && stderr.contains("MESHLESS_MAX_BINDING"),
+        stderr.contains("kinematics buffer") && stderr.contains("MESHLESS_MAX_BINDING"),
         "{stderr}"
     );
-    let bad = run("a lot", &["method.name=tlsph"]);
+    let bad = run("a lot", &["method.name=tlsph", "spacing=0.01"]);
     let stderr = String::from_utf8_lossy(&bad.stderr);
     assert!(!bad.status.success(), "{stderr}");
     assert!(stderr.contains("MESHLESS_MAX_BINDING=a lot"), "{stderr}");
@@ -364,22 +552,25 @@ fn the_binding_limit_variable_splits_a_run_or_refuses_it_by_name() {
 #[test]
 fn a_split_run_reports_the_bytes_of_the_unsplit_one() {
     // The pass report's bytes model counts a pass's pairs once over the dispatches of its
-    // parts (each a share of the pairs): `meshless bench` of TLSPH and of Upwind-SPH on the
-    // plate at about 1e4 particles gives each pass the same bytes per step, and the step
+    // parts (each a share of the pairs, or of the rows for the device's own lists):
+    // `meshless bench` of TLSPH, Upwind-SPH and Gray–Monaghan SPH on the plate at about
+    // 1e4 particles gives each pass the same bytes per step, and the step
     // the same bytes per particle, split by a 1 MiB binding or whole (the dispatches per
     // step differ: one a part).
     let exe = env!("CARGO_BIN_EXE_meshless");
-    let bench = |method: &str, limit: Option<&str>| {
+    let bench = |set: &[&str], limit: Option<&str>| {
         let mut command = Command::new(exe);
         command
             .args(["bench", "studies/cases/swinging-plate", "--backend", "gpu"])
-            .args(["--particles", "1e4", "--steps", "2"])
             .args([
-                "--set",
-                &format!("method.name={method}"),
+                "--particles",
+                "1e4",
+                "--steps",
+                "2",
                 "--set",
                 "method.force=",
             ])
+            .args(set.iter().flat_map(|s| ["--set", s]))
             .current_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/cases"));
         if let Some(limit) = limit {
             command.env("MESHLESS_MAX_BINDING", limit);
@@ -406,9 +597,20 @@ fn a_split_run_reports_the_bytes_of_the_unsplit_one() {
             .to_string();
         (rows, total)
     };
-    for (method, passes) in [("tlsph", 4), ("upwind-sph", 8)] {
-        let (whole, split) = (bench(method, None), bench(method, Some("1MiB")));
-        assert_eq!(whole.0.len(), passes, "{method}: {whole:?}");
-        assert_eq!(whole, split, "{method}");
+    let methods: [(&[&str], usize); 3] = [
+        (&["method.name=tlsph"], 4),
+        (&["method.name=upwind-sph"], 8),
+        (
+            &[
+                "method.name=gray-monaghan-sph",
+                "material.model=hypoelastic",
+            ],
+            16,
+        ),
+    ];
+    for (set, passes) in methods {
+        let (whole, split) = (bench(set, None), bench(set, Some("1MiB")));
+        assert_eq!(whole.0.len(), passes, "{set:?}: {whole:?}");
+        assert_eq!(whole, split, "{set:?}");
     }
 }

@@ -21,7 +21,7 @@ use meshless::run::{Engine, build_method};
 use meshless::scene::Scene;
 
 /// The GPU scheme of a UL case.
-fn scheme(case: &Scene) -> Scheme {
+pub fn scheme(case: &Scene) -> Scheme {
     match &case.spec {
         MethodSpec::GrayMonaghanSph(spec) => gray_monaghan::scheme(case, spec),
         MethodSpec::GodunovSph(_) => godunov::scheme(),
@@ -216,13 +216,13 @@ fn lists_that_overflow_grow_and_the_steps_run_again() {
     // that the state is bit for bit that of an engine whose lists never overflowed (the
     // same passes on the same device, lists sorted per particle).
     let case = shipped("rotating-disk-gray-monaghan");
-    let run = |capacity: Option<u32>| {
+    let run = |capacity: Option<u64>| {
         let mut g = GpuUl::<D2>::new(&case, gpu(), &scheme(&case)).unwrap();
         if let Some(c) = capacity {
             g.set_capacity(c).unwrap();
         }
         g.advance_steps(1e-5, 20).unwrap();
-        let pairs = g.neighbours().pair_count() as u32;
+        let pairs = g.neighbours().pair_count() as u64;
         assert!(g.capacity() >= pairs, "capacity {} < {pairs}", g.capacity());
         (g.state(), g.capacity())
     };

@@ -20,12 +20,14 @@
 
 use super::gpu::DeviceLists;
 use super::model::DualSupport;
+use crate::core::neighbour::Csr;
 use crate::core::tensor::Dim;
-use crate::gpu::context::{Gpu, GpuError, Pipeline};
+use crate::gpu::context::{Gpu, GpuError, Pipeline, WORKGROUP};
 use crate::gpu::layout::GpuDim;
 use crate::gpu::memory::{Counts, DeviceMemory};
+use crate::gpu::parts::{self, Split};
 use crate::gpu::profile::Scale;
-use crate::gpu::shaders::{Constants, Source, compose, source};
+use crate::gpu::shaders::{Constants, PART, Source, compose, source};
 use crate::statics::MatrixFree;
 use crate::statics::sparse::{SolveError, SolveStats};
 use std::time::Instant;
@@ -51,7 +53,7 @@ const INDEFINITE: f32 = 2.0;
 /// freedom (start, update, direction) and workgroup partials (begin, alpha, beta).
 pub const KRYLOV: Source = source!(
     "dual_support/krylov.wgsl",
-    [],
+    [PART],
     [
         ("p", false),
         ("g", false),
@@ -62,13 +64,11 @@ pub const KRYLOV: Source = source!(
     ]
 );
 
-/// The scene constants of the passes on n particles in `dim` dimensions, dispatched as
-/// `groups` = (workgroups over the particles, over the degrees of freedom).
+/// The scene constants of the passes on n particles in `dim` dimensions, whose partials
+/// are `groups` = (the workgroups of particles, of the degrees of freedom's dispatch).
 pub fn constants(dim: usize, n: usize, hourglass: bool, groups: (u32, u32)) -> Constants {
     Constants::default()
-        .u32("N", n as u32)
         .u32("NDOF", (n * dim) as u32)
-        .u32("IDS_OFF", n as u32 + 1)
         .u32("LP_OFF", (n * dim * dim) as u32)
         .u32("HOURGLASS", u32::from(hourglass))
         .u32("GROUPS_N", groups.0)
@@ -97,14 +97,17 @@ const ITERATION: [(&str, Items); 6] = [
 ];
 const START: [(&str, Items); 2] = [("start", Items::Dofs), ("begin", Items::DofSums)];
 
-/// A pass with its bind group and items.
-type Pass = (Pipeline, wgpu::BindGroup, Items);
+/// A pass with its bind groups (one a part of the lists for the particle passes, else
+/// one) and items.
+type Pass = (Pipeline, Vec<wgpu::BindGroup>, Items);
 
 /// The device's matrix-free solver of one dual-support model.
 pub struct NewtonKrylov {
     gpu: Gpu,
     n: usize,
     dim: usize,
+    /// The parts of the union lists, each with its own lists and per-pair buffers.
+    split: Split,
     /// The passes of an iteration and of the start.
     iteration: Vec<Pass>,
     start: Vec<Pass>,
@@ -157,50 +160,21 @@ impl NewtonKrylov {
         max_iterations: usize,
     ) -> Result<Self, GpuError> {
         let (n, dim) = (lists.model.len(), D::N);
-        let x0 = &lists.model.support.x0;
-        let vol = &lists.model.support.vol;
         let csr = &lists.csr;
-        let pairs = csr.ids.len();
-        let (mut g, mut grev) = (vec![0.0f32; pairs * dim], vec![0.0f32; pairs * dim]);
-        let mut hg = vec![0.0f32; pairs * (dim + 2)];
-        for i in 0..n {
-            for k in csr.offsets[i]..csr.offsets[i + 1] {
-                let j = csr.ids[k] as usize;
-                let back = csr.offsets[j]
-                    + csr
-                        .neighbours(j)
-                        .binary_search(&(i as u32))
-                        .expect("the union lists are symmetric");
-                let (g_ij, g_ji) = (lists.g[k] * vol[j], lists.g[back] * vol[i]);
-                let dx = x0[j] - x0[i];
-                for c in 0..dim {
-                    g[k * dim + c] = D::comp(g_ij, c) as f32;
-                    grev[k * dim + c] = D::comp(g_ji, c) as f32;
-                    hg[k * (dim + 2) + c] = D::comp(dx, c) as f32;
-                }
-                hg[k * (dim + 2) + dim] = lists.hgk[k];
-                hg[k * (dim + 2) + dim + 1] = lists.hgk_rev[k];
-            }
-        }
-        let list: Vec<u32> = (csr.offsets.iter().map(|&o| o as u32))
-            .chain(csr.ids.iter().copied())
-            .collect();
+        let [g, grev, hg] = pair_data(lists);
+        let split = Split::fitting(&gpu, csr, 4 * (dim as u64 + 2))?;
         let nd = (n * dim) as u64 * 4;
         let moduli = nd * (dim * dim * dim) as u64;
-        gpu.check_size("neighbour lists", list.len() as u64 * 4)?;
-        gpu.check_size("per-pair buffer", hg.len() as u64 * 4)?;
         gpu.check_size("tangent buffer", moduli)?;
         let hourglass = lists.model.hourglass.iter().any(|&c| c != 0.0);
-        let (groups_n, groups_dof) = (gpu.groups(n as u32), gpu.groups((n * dim) as u32));
-        let groups = (groups_n.0 * groups_n.1, groups_dof.0 * groups_dof.1);
+        let groups_dof = gpu.groups((n * dim) as u32);
+        let groups = (
+            n.div_ceil(WORKGROUP as usize) as u32,
+            groups_dof.0 * groups_dof.1,
+        );
         let text = compose::<D>(&KRYLOV, &constants(dim, n, hourglass, groups));
         let partials = u64::from(groups.0.max(groups.1)) * 8;
-        let list = gpu.storage("lists", &list);
-        let (g, grev, hg) = (
-            gpu.storage("g", &g),
-            gpu.storage("grev", &grev),
-            gpu.storage("hg", &hg),
-        );
+        let part_buffers = part_buffers(&gpu, csr, &split, [&g, &grev, &hg], dim);
         let tangent = gpu.zeroed("tangent", moduli);
         let inv_diag = gpu.zeroed("inv_diag", nd);
         let (x, r, p, q) = (
@@ -212,11 +186,7 @@ impl NewtonKrylov {
         let lin = gpu.zeroed("lin", 2 * nd * dim as u64);
         let partials = gpu.zeroed("partials", partials);
         let scalars = gpu.zeroed("scalars", SCALARS as u64 * 4);
-        let resources = [
-            ("lists", &list),
-            ("g", &g),
-            ("grev", &grev),
-            ("hg", &hg),
+        let whole = [
             ("tangent", &tangent),
             ("inv_diag", &inv_diag),
             ("x", &x),
@@ -227,13 +197,26 @@ impl NewtonKrylov {
             ("partials", &partials),
             ("scalars", &scalars),
         ];
+        let bind = |pipeline: &Pipeline, part: &[wgpu::Buffer; 5]| {
+            let table: Vec<(&str, &wgpu::Buffer)> = (whole.iter().copied())
+                .chain(PART_NAMES.into_iter().zip(part))
+                .collect();
+            gpu.bind(pipeline, &table)
+        };
+        // The particle passes bind each part; the others bind the first, which they leave
+        // unread.
         let passes = |entries: &[(&str, Items)]| -> Result<Vec<Pass>, GpuError> {
             entries
                 .iter()
                 .map(|&(entry, items)| {
                     let pipeline = gpu.pipeline("dual-support Krylov", &text, entry)?;
-                    let bind = gpu.bind(&pipeline, &resources)?;
-                    Ok((pipeline, bind, items))
+                    let binds = match items {
+                        Items::Particles => (part_buffers.iter())
+                            .map(|part| bind(&pipeline, part))
+                            .collect::<Result<Vec<_>, _>>()?,
+                        _ => vec![bind(&pipeline, &part_buffers[0])?],
+                    };
+                    Ok((pipeline, binds, items))
                 })
                 .collect()
         };
@@ -241,6 +224,7 @@ impl NewtonKrylov {
         Ok(Self {
             n,
             dim,
+            split,
             iteration,
             start,
             tangent,
@@ -257,21 +241,31 @@ impl NewtonKrylov {
         })
     }
 
+    /// The parts of the union lists.
+    pub fn split(&self) -> &Split {
+        &self.split
+    }
+
     /// Records the passes `passes` once each into `pass`.
     fn record(&self, pass: &mut wgpu::ComputePass<'_>, passes: &[Pass]) {
         let gpu = &self.gpu;
         let (n, nd) = (self.n as u32, (self.n * self.dim) as u32);
-        // The items of a summing pass: the workgroups whose partials it sums.
+        // The items of a summing pass: the workgroups whose partials it sums (of the
+        // particles, a part at a time: the workgroups of particles).
         let sums = |over: u32| {
             let (gx, gy) = gpu.groups(over);
             u64::from(gx * gy)
         };
-        for (pipeline, bind, items) in passes {
+        let particle_groups = u64::from(n.div_ceil(WORKGROUP));
+        for (pipeline, binds, items) in passes {
+            let one = (1, 1);
             match *items {
-                Items::Particles => gpu.dispatch(pass, pipeline, bind, n),
-                Items::Dofs => gpu.dispatch(pass, pipeline, bind, nd),
-                Items::ParticleSums => gpu.dispatch_groups(pass, pipeline, bind, (1, 1), sums(n)),
-                Items::DofSums => gpu.dispatch_groups(pass, pipeline, bind, (1, 1), sums(nd)),
+                Items::Particles => self.split.dispatch(gpu, pass, pipeline, binds),
+                Items::Dofs => gpu.dispatch(pass, pipeline, &binds[0], nd),
+                Items::ParticleSums => {
+                    gpu.dispatch_groups(pass, pipeline, &binds[0], one, particle_groups);
+                }
+                Items::DofSums => gpu.dispatch_groups(pass, pipeline, &binds[0], one, sums(nd)),
             }
         }
     }
@@ -378,6 +372,68 @@ impl NewtonKrylov {
             }
         }
     }
+}
+
+/// The per-pair data of the union lists of `lists`: g = V_j g_ij and grev = V_i g_ji (DIM
+/// each), and hg = [X_j − X_i | k_ij | k_ji] (DIM + 2).
+fn pair_data<D: GpuDim>(lists: &DeviceLists<D>) -> [Vec<f32>; 3] {
+    let dim = D::N;
+    let x0 = &lists.model.support.x0;
+    let vol = &lists.model.support.vol;
+    let csr = &lists.csr;
+    let pairs = csr.ids.len();
+    let (mut g, mut grev) = (vec![0.0f32; pairs * dim], vec![0.0f32; pairs * dim]);
+    let mut hg = vec![0.0f32; pairs * (dim + 2)];
+    for i in 0..csr.len() {
+        for k in csr.offsets[i]..csr.offsets[i + 1] {
+            let j = csr.ids[k] as usize;
+            let back = csr.offsets[j]
+                + csr
+                    .neighbours(j)
+                    .binary_search(&(i as u32))
+                    .expect("the union lists are symmetric");
+            let (g_ij, g_ji) = (lists.g[k] * vol[j], lists.g[back] * vol[i]);
+            let dx = x0[j] - x0[i];
+            for c in 0..dim {
+                g[k * dim + c] = D::comp(g_ij, c) as f32;
+                grev[k * dim + c] = D::comp(g_ji, c) as f32;
+                hg[k * (dim + 2) + c] = D::comp(dx, c) as f32;
+            }
+            hg[k * (dim + 2) + dim] = lists.hgk[k];
+            hg[k * (dim + 2) + dim + 1] = lists.hgk_rev[k];
+        }
+    }
+    [g, grev, hg]
+}
+
+/// The names each part's buffers of [`part_buffers`] are bound as.
+const PART_NAMES: [&str; 5] = ["lists", "g", "grev", "hg", "part"];
+
+/// Each part's lists (its offsets from its first pair, then its ids), per-pair data
+/// `[g, grev, hg]` (DIM, DIM and DIM + 2 words a pair) and uniform.
+fn part_buffers(
+    gpu: &Gpu,
+    csr: &Csr,
+    split: &Split,
+    [g, grev, hg]: [&[f32]; 3],
+    dim: usize,
+) -> Vec<[wgpu::Buffer; 5]> {
+    (split.parts.iter())
+        .map(|part| {
+            let (from, to) = (part.start, part.start + part.pairs);
+            let rows = &csr.offsets[part.first..=part.first + part.rows];
+            let list: Vec<u32> = (rows.iter().map(|&o| (o - from) as u32))
+                .chain(csr.ids[from..to].iter().copied())
+                .collect();
+            [
+                gpu.storage("lists", &list),
+                gpu.storage("g", &g[from * dim..to * dim]),
+                gpu.storage("grev", &grev[from * dim..to * dim]),
+                gpu.storage("hg", &hg[from * (dim + 2)..to * (dim + 2)]),
+                parts::uniform(gpu, part.first, part.rows),
+            ]
+        })
+        .collect()
 }
 
 impl<D: Dim> MatrixFree<D, DualSupport<D>> for NewtonKrylov {

@@ -3,7 +3,7 @@
 //! is checked against.
 
 use crate::gpu::shaders::{
-    BOUNDARY, CONTACT, Constants, INTEGRATE, KERNEL, LOADS, MECHANICS, PRESCRIBED, REFERENCE,
+    BOUNDARY, CONTACT, Constants, INTEGRATE, KERNEL, LOADS, MECHANICS, PART, PRESCRIBED, REFERENCE,
     Source, source,
 };
 use crate::methods::cores::ul::gpu::{CORE, FLAT, REDUCE, Scheme};
@@ -11,7 +11,7 @@ use crate::methods::cores::ul::gpu::{CORE, FLAT, REDUCE, Scheme};
 /// Per-particle quantities (σ, p, Z, V, the correction) and the Riemann pair gather.
 pub const PASSES: Source = source!(
     "godunov/godunov.wgsl",
-    [KERNEL, MECHANICS, REFERENCE, BOUNDARY, CORE],
+    [KERNEL, MECHANICS, REFERENCE, BOUNDARY, PART, CORE],
     flat = FLAT
 );
 

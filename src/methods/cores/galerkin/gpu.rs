@@ -18,7 +18,7 @@ use crate::engine::{BlowUp, GpuEngine, GpuFamily, Method, Start};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::memory::{Counts, DeviceMemory};
-use crate::gpu::parts::{self, Split};
+use crate::gpu::parts::{self, PartLists, Split};
 use crate::gpu::profile::Scale;
 use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{self, Reduced, Reduction};
@@ -67,7 +67,7 @@ pub const REDUCE: Source = source!(
 /// The weak form's velocity smoothing.
 pub const SMOOTH: Source = source!(
     "galerkin/galerkin_smooth.wgsl",
-    [REFERENCE],
+    [REFERENCE, PART],
     [("y", true), ("smoothed", true), ("reference", false)]
 );
 
@@ -247,9 +247,11 @@ struct Rates {
     nodes: Vec<wgpu::BindGroup>,
 }
 
-/// The weak form's smoothing passes, bound to the state and their scratch.
+/// The weak form's smoothing passes, bound to the state and their scratch: the smoothing
+/// a part of its lists at a time, with a bind group a part.
 struct SmoothPasses {
-    smooth: (Pipeline, wgpu::BindGroup),
+    split: Split,
+    smooth: (Pipeline, Vec<wgpu::BindGroup>),
     settle: (Pipeline, wgpu::BindGroup),
 }
 
@@ -268,19 +270,23 @@ fn upload_nodes<D: GpuDim>(gpu: &Gpu, host: &TlGalerkin<D>, split: &Split) -> De
     )
 }
 
-/// The flat u32 copy of a list of offsets.
-fn u32s(v: &[usize]) -> Vec<u32> {
-    v.iter().map(|&o| o as u32).collect()
+/// The parts of a scene's lists, each split on its own ([`crate::gpu::parts`]).
+struct Splits {
+    points: Split,
+    gather: Split,
+    /// The weak form's smoothing lists, if it smooths.
+    smooth: Option<Split>,
 }
 
 /// The layout of the host's scene, whose lists' buffers each hold a part of the points'
-/// lists and of the gather lists, in parts that fit the binding limit of `gpu`.
-fn layout_of<D: GpuDim>(
-    gpu: &Gpu,
-    host: &TlGalerkin<D>,
-) -> Result<(Layout, Split, Split), GpuError> {
+/// lists, of the gather lists and of the smoothing lists, in parts that fit the binding
+/// limit of `gpu`.
+fn layout_of<D: GpuDim>(gpu: &Gpu, host: &TlGalerkin<D>) -> Result<(Layout, Splits), GpuError> {
     let points_split = Split::fitting(gpu, &host.shapes().csr, (4 * D::N) as u64)?;
     let gather_split = Split::fitting(gpu, &gather_csr(host), (4 * (D::N + 1)) as u64)?;
+    let smooth = (host.smoothing())
+        .map(|s| Split::fitting(gpu, &s.csr, 4))
+        .transpose()?;
     let lists = ListSizes {
         pairs: points_split.capacity(),
         nodes: (gather_split.parts.iter())
@@ -294,11 +300,16 @@ fn layout_of<D: GpuDim>(
         host.boundary().constrained.len(),
         host.points().len(),
         lists,
-        host.smoothing().map_or(0, |s| s.csr.pair_count()),
+        smooth.as_ref().map_or(0, Split::capacity),
         D::N,
         host.material().model.is_rate_based(),
     );
-    Ok((layout, points_split, gather_split))
+    let splits = Splits {
+        points: points_split,
+        gather: gather_split,
+        smooth,
+    };
+    Ok((layout, splits))
 }
 
 /// The per-pair gradients ∇0N_a of each part of `split` of the points' lists.
@@ -383,39 +394,41 @@ impl SmoothPasses {
         m.words("smoothed velocities", (n * layout.dim) as f64);
     }
 
-    /// The passes of the velocity smoothing with the functions `s` at the nodes, bound to
-    /// the state `y` and the nodes' `reference`.
+    /// The passes of the velocity smoothing with the functions `s` at the nodes, on the
+    /// parts of `split` of their lists, bound to the state `y` and the nodes' `reference`.
     fn new<D: GpuDim>(
         gpu: &Gpu,
         layout: &Layout,
-        s: &Shapes<D>,
+        (s, split): (&Shapes<D>, Split),
         compose: Compose<'_>,
         reference: &wgpu::Buffer,
         y: &wgpu::Buffer,
-        n: usize,
     ) -> Result<Self, GpuError> {
-        let mut w = layout.smooth.zeroed();
-        layout.smooth.write_s(&mut w, "N", &s.n, 0.0);
+        let whole = layout.smooth.resized(s.csr.pair_count());
+        let mut w = whole.zeroed();
+        whole.write_s(&mut w, "N", &s.n, 0.0);
         let source = compose(&SMOOTH);
         let smooth = gpu.pipeline("smooth velocities", &source, "smooth_velocities")?;
         let settle = gpu.pipeline("settle", &source, "settle")?;
-        let (offsets, ids, weights) = (
-            gpu.storage("smoothing offsets", &u32s(&s.csr.offsets)),
-            gpu.storage("smoothing ids", &s.csr.ids),
-            gpu.storage("smoothing weights", &w),
-        );
-        let smoothed = gpu.zeroed("smoothed velocities", (n * D::N * 4) as u64);
-        let table = [
-            ("smooth_offsets", &offsets),
-            ("smooth_ids", &ids),
-            ("smooth_weights", &weights),
-            ("reference", reference),
-            ("y", y),
-            ("smoothed", &smoothed),
-        ];
-        let (smooth_bind, settle_bind) = (gpu.bind(&smooth, &table)?, gpu.bind(&settle, &table)?);
+        let smoothed = gpu.zeroed("smoothed velocities", (layout.n * D::N * 4) as u64);
+        let table = [("reference", reference), ("y", y), ("smoothed", &smoothed)];
+        let lists = PartLists::upload(gpu, &s.csr, &split);
+        let binds = (split.parts.iter().zip(&lists))
+            .map(|(p, part)| {
+                let weights = layout.smooth.items_of(&whole, &w, p.start, p.pairs);
+                let weights = gpu.storage("smoothing weights", &weights);
+                let [offsets, ids, uniform] = part.table().map(|(_, b)| b);
+                let names = ["smooth_offsets", "smooth_ids", "part", "smooth_weights"];
+                let bound: Vec<(&str, &wgpu::Buffer)> = (table.iter().copied())
+                    .chain(names.into_iter().zip([offsets, ids, uniform, &weights]))
+                    .collect();
+                gpu.bind(&smooth, &bound)
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let settle_bind = gpu.bind(&settle, &table)?;
         Ok(Self {
-            smooth: (smooth, smooth_bind),
+            split,
+            smooth: (smooth, binds),
             settle: (settle, settle_bind),
         })
     }
@@ -498,9 +511,10 @@ impl<D: GpuDim> GpuGalerkin<D> {
         check_f32_run(case, host.boundary())?;
         let y0_host = host.initial_state();
         check_f32_particles::<D>(case, host.reference(), &y0_host.u, &y0_host.v, host.body())?;
-        let (n, q) = (host.reference().len(), host.points().len());
+        let q = host.points().len();
         let smoothing = host.smoothing();
-        let (layout, points_split, gather_split) = layout_of(&gpu, &host)?;
+        let (layout, splits) = layout_of(&gpu, &host)?;
+        let (points_split, gather_split) = (splits.points, splits.gather);
         let constants = scene_constants(case, &layout);
         check_f32_range(case, &constants)?;
         gpu.check_size("kinematics buffer", layout.kin.bytes())?;
@@ -590,8 +604,8 @@ impl<D: GpuDim> GpuGalerkin<D> {
         let nodes_y = (0..gather.len()).map(|k| nodes_table(k, y, rates_d));
         let reduce = compose(&REDUCE);
         let reduction = Reduction::by_part(&gpu, &reduce, &gather_split, nodes_y.collect())?;
-        let smooth = smoothing
-            .map(|s| SmoothPasses::new(&gpu, &layout, s, &compose, &device.reference, y, n))
+        let smooth = (smoothing.zip(splits.smooth))
+            .map(|s| SmoothPasses::new(&gpu, &layout, s, &compose, &device.reference, y))
             .transpose()?;
         let unsmoothed = smooth.is_none();
         let unbooked = Booked {
@@ -682,6 +696,11 @@ impl<D: GpuDim> GpuGalerkin<D> {
     pub fn splits(&self) -> (&Split, &Split) {
         (&self.family.points_split, &self.family.gather_split)
     }
+
+    /// The parts the weak form's smoothing lists are split into, if it smooths.
+    pub fn smoothing_split(&self) -> Option<&Split> {
+        self.family.smooth.as_ref().map(|s| &s.split)
+    }
 }
 
 impl<D: GpuDim> GpuFamily<D> for GalerkinDevice<D> {
@@ -721,9 +740,9 @@ impl<D: GpuDim> GpuFamily<D> for GalerkinDevice<D> {
     fn end_step(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder) {
         if let Some(s) = &self.smooth {
             let mut pass = encoder.begin_compute_pass(&Default::default());
-            for (pipeline, bind) in [&s.smooth, &s.settle] {
-                gpu.dispatch(&mut pass, pipeline, bind, self.layout.n as u32);
-            }
+            s.split.dispatch(gpu, &mut pass, &s.smooth.0, &s.smooth.1);
+            let (pipeline, bind) = &s.settle;
+            gpu.dispatch(&mut pass, pipeline, bind, self.layout.n as u32);
         }
     }
 

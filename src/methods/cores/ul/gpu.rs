@@ -5,10 +5,13 @@
 //!
 //! Every rate evaluation records, with no read-back: x = X + u (`positions`), a cell-list
 //! rebuild of the lists from x ([`CellList`], per body with contact), the scheme's
-//! per-particle pass and its pair gather. The lists live on the device with a capacity for
-//! a number of pairs; a rebuild that needs more sets an overflow flag, which the engine
-//! reads (one u32) after each batch of steps: it then grows the lists to the count the
-//! flag holds and runs the batch again from its start.
+//! per-particle pass and its pair gather. The lists live on the device in parts of equal
+//! rows, each with room for its share of the pairs in its own ids buffer, so that each
+//! fits one storage binding ([`Room`]); the particle pass and the pair gather run a
+//! dispatch a part. A rebuild that needs more room in a part sets an overflow flag, which
+//! the engine reads (one u32) after each batch of steps: it then grows every part to the
+//! most pairs a part needed (with a quarter more, in more parts past the binding limit) and
+//! runs the batch again from its start.
 
 use super::{UlState, check_state, snapshot};
 use crate::boundary::Boundary;
@@ -22,7 +25,7 @@ use crate::engine::{BlowUp, GpuEngine, GpuFamily, Start};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::memory::{Counts, DeviceMemory};
-use crate::gpu::neighbour::{CellList, CellParams, Positions};
+use crate::gpu::neighbour::{CellList, CellParams, Positions, Room};
 use crate::gpu::parts::Split;
 use crate::gpu::profile::{IndirectRuns, Scale};
 use crate::gpu::program::Stepper;
@@ -145,11 +148,12 @@ struct Passes {
     rates: Pipeline,
 }
 
-/// The bind groups of one rate evaluation on a source state.
+/// The bind groups of one rate evaluation on a source state: the particle and pair
+/// passes', a part of the lists each.
 struct Bound {
     positions: wgpu::BindGroup,
-    particle: wgpu::BindGroup,
-    rates: wgpu::BindGroup,
+    particle: Vec<wgpu::BindGroup>,
+    rates: Vec<wgpu::BindGroup>,
 }
 
 /// The neighbour lists on the device and the rate evaluations bound to them (on the
@@ -288,9 +292,7 @@ impl<D: GpuDim> GpuUl<D> {
             n,
         )?;
         let start = gpu.zeroed("state at the batch start", layout.state.bytes());
-        // Past a u32, the lists' size check refuses it.
-        let capacity =
-            u32::try_from(capacity(disc.neighbours().pair_count(), n)).unwrap_or(u32::MAX);
+        let room = Room::fitting(&gpu, n as u32, capacity(disc.neighbours().pair_count(), n))?;
         let unbooked = Booked {
             dissipated: None,
             contact_energy: case.contact.is_none().then_some(0.0),
@@ -312,15 +314,14 @@ impl<D: GpuDim> GpuUl<D> {
             builds_before: 0,
             rebuild_seconds: None,
         };
-        family.lists = Some(family.bind_lists(&shell, capacity)?);
+        family.lists = Some(family.bind_lists(&shell, room)?);
         Ok(Self::assemble(shell, interactions, family))
     }
 }
 
 impl<D: GpuDim> UlDevice<D> {
-    /// Neighbour lists with room for `capacity` pairs and the rate evaluations bound to
-    /// them.
-    fn bind_lists(&self, shell: &Shell, capacity: u32) -> Result<Lists, GpuError> {
+    /// Neighbour lists laid out as `room` says and the rate evaluations bound to them.
+    fn bind_lists(&self, shell: &Shell, room: Room) -> Result<Lists, GpuError> {
         let n = self.layout.n as u32;
         let at = Positions {
             x: &self.x,
@@ -329,11 +330,10 @@ impl<D: GpuDim> UlDevice<D> {
             body: self.body.as_ref(),
         };
         let drift = 0.5 * SKIN * self.reference.kernel.support();
-        let cells = CellList::new::<D>(&shell.gpu, at, &self.grid, capacity, drift)?;
+        let cells = CellList::new::<D>(&shell.gpu, at, &self.grid, room, drift)?;
         let rates = BySource::bind(&shell.stepper, |y, d| -> Result<Bound, GpuError> {
-            let table: [(&str, &wgpu::Buffer); 9] = [
+            let table: [(&str, &wgpu::Buffer); 8] = [
                 ("offsets", &cells.offsets),
-                ("ids", &cells.ids),
                 ("reference", &self.device.reference),
                 ("y", y),
                 ("x", &self.x),
@@ -342,21 +342,30 @@ impl<D: GpuDim> UlDevice<D> {
                 ("d", d),
                 ("status", &self.status),
             ];
+            let per_part = |pipeline: &Pipeline| -> Result<Vec<wgpu::BindGroup>, GpuError> {
+                (cells.parts.iter())
+                    .map(|part| {
+                        let bindings: Vec<_> = table.iter().copied().chain(part.table()).collect();
+                        shell.gpu.bind(pipeline, &bindings)
+                    })
+                    .collect()
+            };
             let p = &self.passes;
             Ok(Bound {
                 positions: shell.gpu.bind(&p.positions, &table)?,
-                particle: shell.gpu.bind(&p.particle, &table)?,
-                rates: shell.gpu.bind(&p.rates, &table)?,
+                particle: per_part(&p.particle)?,
+                rates: per_part(&p.rates)?,
             })
         })?;
         Ok(Lists { cells, rates })
     }
 
-    /// Makes the device's lists anew with room for `capacity` pairs (a rebuild that needs
-    /// more grows them again).
-    fn grow(&mut self, shell: &Shell, capacity: u32) -> Result<(), GpuError> {
+    /// Makes the device's lists anew with room for `pairs` pairs, in as many parts as the
+    /// binding limit needs (a rebuild that needs more grows them again).
+    fn grow(&mut self, shell: &Shell, pairs: u64) -> Result<(), GpuError> {
+        let room = Room::fitting(&shell.gpu, self.layout.n as u32, pairs)?;
         self.builds_before += i64::from(self.lists().cells.builds(&shell.gpu));
-        self.lists = Some(self.bind_lists(shell, capacity)?);
+        self.lists = Some(self.bind_lists(shell, room)?);
         Ok(())
     }
 
@@ -461,15 +470,21 @@ impl<D: GpuDim> GpuUl<D> {
         self.family.builds(&self.shell.gpu)
     }
 
-    /// Makes the device's lists anew with room for `capacity` pairs (a rebuild that needs
+    /// Makes the device's lists anew with room for `pairs` pairs (a rebuild that needs
     /// more grows them again).
-    pub fn set_capacity(&mut self, capacity: u32) -> Result<(), GpuError> {
-        self.family.grow(&self.shell, capacity)
+    pub fn set_capacity(&mut self, pairs: u64) -> Result<(), GpuError> {
+        self.family.grow(&self.shell, pairs)
     }
 
-    /// Room for pairs in the device's lists.
-    pub fn capacity(&self) -> u32 {
-        self.family.lists().cells.capacity()
+    /// Room for pairs in the device's lists, every part's together.
+    pub fn capacity(&self) -> u64 {
+        let cells = &self.family.lists().cells;
+        cells.room().total(self.family.layout.n as u32)
+    }
+
+    /// How the device's lists are laid out: the rows of a part and its room.
+    pub fn room(&self) -> Room {
+        self.family.lists().cells.room()
     }
 
     /// The lists of the last rate evaluation, read back.
@@ -522,13 +537,12 @@ impl<D: GpuDim> GpuFamily<D> for UlDevice<D> {
     /// The pairs of the last build (read back), and the builds run and recorded so far.
     fn scale(&self, gpu: &Gpu) -> Scale {
         let cells = &self.lists().cells;
-        let offsets: Vec<u32> = gpu.read(&cells.offsets);
         let builds = IndirectRuns {
             ran: u64::from(cells.builds(gpu)),
             recorded: cells.recorded(),
         };
         Scale {
-            pairs: u64::from(offsets[self.layout.n]),
+            pairs: cells.pairs(gpu),
             indirect: Some(builds),
         }
     }
@@ -544,8 +558,8 @@ impl<D: GpuDim> GpuFamily<D> for UlDevice<D> {
         }
         lists.cells.record_on_drift(gpu, encoder);
         let mut pass = encoder.begin_compute_pass(&Default::default());
-        gpu.dispatch(&mut pass, &passes.particle, &bound.particle, n);
-        gpu.dispatch(&mut pass, &passes.rates, &bound.rates, n);
+        (lists.cells).dispatch(gpu, &mut pass, &passes.particle, &bound.particle);
+        (lists.cells).dispatch(gpu, &mut pass, &passes.rates, &bound.rates);
     }
 
     /// Keeps `Y` in `start`. The batch may run again from its start (lists grown): its
@@ -563,13 +577,15 @@ impl<D: GpuDim> GpuFamily<D> for UlDevice<D> {
         self.lists().cells.force(encoder);
     }
 
-    /// When a rebuild overflowed the lists: grows them to the pairs it needed (with a
-    /// quarter more) and puts back the state at the batch's start.
+    /// When a rebuild overflowed the lists: grows every part to the pairs the fullest
+    /// needed (with a quarter more) and puts back the state at the batch's start.
     fn again(&mut self, shell: &mut Shell) -> Result<bool, GpuError> {
-        let Some(needed) = self.lists().cells.overflow(&shell.gpu) else {
+        let cells = &self.lists().cells;
+        let Some(needed) = cells.overflow(&shell.gpu) else {
             return Ok(false);
         };
-        self.grow(shell, needed.saturating_add(needed / 4))?;
+        let pairs = cells.room().grown(self.layout.n as u32, needed);
+        self.grow(shell, pairs)?;
         shell.stepper.restart_from(&shell.gpu, &self.start);
         Ok(true)
     }
