@@ -726,6 +726,22 @@ impl Gpu {
         self.dispatch_part(pass, pipeline, bind, n, 1.0);
     }
 
+    /// Records one dispatch of `pipeline` a part of the neighbour lists, each over the
+    /// part's rows with its bind group of `binds`: `parts` gives each part's rows and
+    /// share of the pairs (`gpu::parts`).
+    pub fn dispatch_parts(
+        &self,
+        pass: &mut wgpu::ComputePass<'_>,
+        pipeline: &Pipeline,
+        binds: &[wgpu::BindGroup],
+        parts: impl ExactSizeIterator<Item = (u32, f64)>,
+    ) {
+        assert_eq!(binds.len(), parts.len(), "a bind group a part");
+        for ((rows, share), bind) in parts.zip(binds) {
+            self.dispatch_part(pass, pipeline, bind, rows, share);
+        }
+    }
+
     /// Records one dispatch of `pipeline` over the `rows` particles of a part of the
     /// neighbour lists holding `share` of their pairs (`gpu::parts`).
     pub fn dispatch_part(

@@ -315,6 +315,18 @@ impl Room {
         })
     }
 
+    /// [`Self::plan`] for the binding limit of `gpu`. Err names the bytes of the ids of
+    /// one workgroup of particles, which alone pass it.
+    pub fn fitting(gpu: &Gpu, n: u32, pairs: u64) -> Result<Self, GpuError> {
+        let limit = gpu.binding_limit();
+        Self::plan(n, pairs, limit).map_err(|needed| GpuError::TooLarge {
+            adapter: gpu.name(),
+            what: "neighbour list part (the pairs of one workgroup of particles)",
+            needed,
+            limit,
+        })
+    }
+
     /// The pairs of every part's room together.
     pub fn total(&self, n: u32) -> u64 {
         u64::from(self.pairs) * self.parts(n).len() as u64
@@ -384,20 +396,6 @@ pub struct CellList {
     build: Vec<Step>,
     /// Builds recorded so far, due or not.
     recorded: AtomicU64,
-}
-
-impl Room {
-    /// [`Self::plan`] for the binding limit of `gpu`. Err names the bytes of the ids of
-    /// one workgroup of particles, which alone pass it.
-    pub fn fitting(gpu: &Gpu, n: u32, pairs: u64) -> Result<Self, GpuError> {
-        let limit = gpu.binding_limit();
-        Self::plan(n, pairs, limit).map_err(|needed| GpuError::TooLarge {
-            adapter: gpu.name(),
-            what: "neighbour list part (the pairs of one workgroup of particles)",
-            needed,
-            limit,
-        })
-    }
 }
 
 impl CellList {
@@ -489,16 +487,12 @@ impl CellList {
             ("built", &built),
             ("due", &due),
         ];
-        // Every pass binds the first part and runs over every row; `fill_neighbours` binds
-        // its own part and runs over its rows, with their share of the pairs.
-        let step = |entry: &str, items: u32, part: &ListPart| -> Result<Step, GpuError> {
+        // A pass over `items` with the bindings `extra` besides the table's, booked with
+        // `share` of the pairs.
+        let step = |entry: &str, items: u32, extra: &[(&str, &wgpu::Buffer)], share: f64| {
             let pipeline = gpu.pipeline(entry, &text, entry)?;
-            let bindings: Vec<_> = table.iter().copied().chain(part.table()).collect();
-            let share = match entry {
-                "fill_neighbours" => f64::from(part.rows) / f64::from(n.max(1)),
-                _ => 1.0,
-            };
-            Ok(Step {
+            let bindings: Vec<_> = table.iter().chain(extra).copied().collect();
+            Ok::<_, GpuError>(Step {
                 bind: gpu.bind(&pipeline, &bindings)?,
                 pipeline,
                 groups: gpu.groups(items),
@@ -506,22 +500,26 @@ impl CellList {
                 share,
             })
         };
-        let first = &parts[0];
+        // Every pass of a build binds the first part and runs over every row;
+        // `fill_neighbours` binds its own part and runs over its rows, with their share of
+        // the pairs.
+        let first = parts[0].table();
         let cleared = n.max(ncells) + 1;
         let mut build = vec![
-            step("clear_counts", cleared, first)?,
-            step("bin_particles", n, first)?,
+            step("clear_counts", cleared, &first, 1.0)?,
+            step("bin_particles", n, &first, 1.0)?,
         ];
         build.extend(scan_cells.steps);
         for entry in ["copy_cursor", "scatter", "count_neighbours"] {
             let items = if entry == "copy_cursor" { ncells } else { n };
-            build.push(step(entry, items, first)?);
+            build.push(step(entry, items, &first, 1.0)?);
         }
         build.extend(scan_offsets.steps);
         for part in &parts {
-            build.push(step("fill_neighbours", part.rows, part)?);
+            let share = f64::from(part.rows) / f64::from(n.max(1));
+            build.push(step("fill_neighbours", part.rows, &part.table(), share)?);
         }
-        build.push(step("save_built", n, first)?);
+        build.push(step("save_built", n, &first, 1.0)?);
         // The groups of every dispatch of a build, in order, 3 u32 each: `arm` copies them
         // into `args` when a build is due.
         let full: Vec<u32> = (build.iter())
@@ -531,20 +529,9 @@ impl CellList {
         let args = gpu.indirect("build workgroups due", full.size());
         debug_assert_eq!(build.len(), dispatches);
         let counts = [("args", &args), ("full", &full)];
-        let armed = |entry: &str, items: u32| -> Result<Step, GpuError> {
-            let pipeline = gpu.pipeline(entry, &text, entry)?;
-            let bindings: Vec<_> = table.iter().copied().chain(counts).collect();
-            Ok(Step {
-                bind: gpu.bind(&pipeline, &bindings)?,
-                pipeline,
-                groups: gpu.groups(items),
-                items,
-                share: 1.0,
-            })
-        };
         Ok(Self {
-            check: armed("check_drift", n)?,
-            arm: armed("arm", 1)?,
+            check: step("check_drift", n, &counts, 1.0)?,
+            arm: step("arm", 1, &counts, 1.0)?,
             offsets,
             parts,
             room,
@@ -615,11 +602,9 @@ impl CellList {
         pipeline: &Pipeline,
         binds: &[wgpu::BindGroup],
     ) {
-        assert_eq!(binds.len(), self.parts.len(), "a bind group a part");
-        for (part, bind) in self.parts.iter().zip(binds) {
-            let share = f64::from(part.rows) / f64::from(self.n.max(1));
-            gpu.dispatch_part(pass, pipeline, bind, part.rows, share);
-        }
+        let rows = f64::from(self.n.max(1));
+        let parts = (self.parts.iter()).map(|p| (p.rows, f64::from(p.rows) / rows));
+        gpu.dispatch_parts(pass, pipeline, binds, parts);
     }
 
     /// How the ids are laid out.

@@ -159,20 +159,21 @@ impl Split {
         pipeline: &Pipeline,
         binds: &[wgpu::BindGroup],
     ) {
-        assert_eq!(binds.len(), self.parts.len(), "a bind group a part");
-        for (part, bind) in self.parts.iter().zip(binds) {
-            gpu.dispatch_part(pass, pipeline, bind, part.rows as u32, self.share(part));
-        }
+        let parts = self.shares().map(|(rows, share)| (rows as u32, share));
+        gpu.dispatch_parts(pass, pipeline, binds, parts);
     }
 
-    /// The share of the lists' pairs `part` holds (of the rows, for lists without pairs),
-    /// for the pass report's bytes.
-    pub fn share(&self, part: &Part) -> f64 {
-        let pairs: usize = self.parts.iter().map(|p| p.pairs).sum();
-        match pairs {
-            0 => part.rows as f64 / self.rows().max(1) as f64,
-            _ => part.pairs as f64 / pairs as f64,
-        }
+    /// The rows of each part and the share of the lists' pairs it holds (of the rows, for
+    /// lists without pairs), for the pass report's bytes.
+    pub fn shares(&self) -> impl ExactSizeIterator<Item = (usize, f64)> + '_ {
+        let (pairs, rows) = (self.parts.iter().map(|p| p.pairs).sum(), self.rows());
+        self.parts.iter().map(move |p| {
+            let share = match pairs {
+                0 => p.rows as f64 / rows.max(1) as f64,
+                _ => p.pairs as f64 / pairs as f64,
+            };
+            (p.rows, share)
+        })
     }
 }
 

@@ -93,8 +93,12 @@ impl Reduction {
         split: &parts::Split,
         tables: Vec<Table<'_>>,
     ) -> Result<Self, GpuError> {
-        let rows = split.parts.iter().map(|p| (p.rows, split.share(p)));
-        Self::bind(gpu, source, split.rows(), rows.zip(tables).collect())
+        Self::bind(
+            gpu,
+            source,
+            split.rows(),
+            split.shares().zip(tables).collect(),
+        )
     }
 
     /// The pass over `n` particles in parts of the given rows, shares of the pairs and

@@ -141,8 +141,8 @@ impl DeviceCorrector {
         let mut words = vec![0u32; control_words];
         words[FAILED as usize] = u32::MAX;
         let control = gpu.storage("corrector control", &words);
-        let parts: Vec<(u32, f64)> = (split.parts.iter())
-            .map(|p| (p.rows as u32, split.share(p)))
+        let parts: Vec<(u32, f64)> = (split.shares())
+            .map(|(rows, share)| (rows as u32, share))
             .collect();
         let counts: Vec<u32> = [n as u32]
             .into_iter()
