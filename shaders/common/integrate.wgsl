@@ -10,10 +10,12 @@ struct Coefficients {
 @group(0) @binding(0) var<uniform> c: Coefficients;
 @group(0) @binding(1) var<storage, read_write> out: array<f32>;
 @group(0) @binding(2) var<storage, read> x: array<f32>;
+// The state a blend starts from when it is not `out`.
+@group(0) @binding(3) var<storage, read> base: array<f32>;
 
 // out = a·out + b·x (blend, axpy with a = 1).
 // bytes:
-// out = a·out + b·x.
+// out = a·out + b·x: out read and written.
 // - out: 1 scalar per item
 // - x: 1 scalar per item
 @compute @workgroup_size(256)
@@ -21,6 +23,19 @@ fn blend(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     let k = index(gid, nwg);
     if k < LEN {
         out[k] = c.a * out[k] + c.b * x[k];
+    }
+}
+
+// out = a·base + b·x: a copy fused into a blend (out is written, not read).
+// bytes:
+// - out: 1 scalar per item
+// - base: 1 scalar per item
+// - x: 1 scalar per item
+@compute @workgroup_size(256)
+fn blend_from(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let k = index(gid, nwg);
+    if k < LEN {
+        out[k] = c.a * base[k] + c.b * x[k];
     }
 }
 

@@ -38,6 +38,8 @@ pub trait OdeState: Clone + Default + Send + Sync {
     fn axpy(&mut self, a: f64, rate: &Self);
     /// self = a · self + b · other.
     fn blend(&mut self, a: f64, b: f64, other: &Self);
+    /// self = a · from + b · other (self shaped like `from`).
+    fn blend_from(&mut self, a: f64, from: &Self, b: f64, other: &Self);
     /// Leapfrog kick: velocity += h · acceleration.
     fn kick(&mut self, h: f64, rate: &Self);
     /// Leapfrog drift: position += h · (own) velocity, every other field += h · rate.
@@ -117,8 +119,15 @@ pub enum Op {
     Rates { src: Buf, c: f64 },
     /// `to` = `from`.
     Copy { from: Buf, to: Buf },
-    /// out = a·out + b·x.
-    Blend { out: Buf, x: Buf, a: f64, b: Weight },
+    /// out = a·from + b·x: in place where `from` is `out`, else a copy fused into the
+    /// blend.
+    Blend {
+        out: Buf,
+        from: Buf,
+        x: Buf,
+        a: f64,
+        b: Weight,
+    },
     /// v(out) += h·(rate of v), h a multiple of Δt.
     Kick { out: Buf, h: OfDt },
     /// u(out) += h·v(out); every field after v += h·rates.
@@ -126,13 +135,14 @@ pub enum Op {
 }
 
 impl Op {
-    /// The two buffers the operation reads or writes (`Rates` for a kick or a drift).
-    pub fn buffers(self) -> [Buf; 2] {
+    /// The buffers the operation reads or writes (`Rates` for a kick or a drift), the
+    /// last repeated when it touches two.
+    pub fn buffers(self) -> [Buf; 3] {
         match self {
-            Self::Rates { src, .. } => [src, Buf::Rates],
-            Self::Copy { from, to } => [from, to],
-            Self::Blend { out, x, .. } => [out, x],
-            Self::Kick { out, .. } | Self::Drift { out, .. } => [out, Buf::Rates],
+            Self::Rates { src, .. } => [src, Buf::Rates, Buf::Rates],
+            Self::Copy { from, to } => [from, to, to],
+            Self::Blend { out, from, x, .. } => [out, from, x],
+            Self::Kick { out, .. } | Self::Drift { out, .. } => [out, Buf::Rates, Buf::Rates],
         }
     }
 }
@@ -157,14 +167,17 @@ pub fn program(kind: IntegratorKind) -> Vec<Op> {
     use Buf::*;
     let rates = |src, c| Op::Rates { src, c };
     let copy = |from, to| Op::Copy { from, to };
-    let axpy = |out, x, num, den| Op::Blend {
+    // out = from + num/den·Δt·x; in place where `from` is `out`.
+    let axpy = |out, from, x, num, den| Op::Blend {
         out,
+        from,
         x,
         a: 1.0,
         b: Weight::Dt(OfDt(num, den)),
     };
     let mix = |out, x, a, b| Op::Blend {
         out,
+        from: out,
         x,
         a,
         b: Weight::Const(b),
@@ -174,35 +187,34 @@ pub fn program(kind: IntegratorKind) -> Vec<Op> {
     let shu_osher = |blends: Vec<Op>| {
         let mut ops = vec![
             rates(Y, 0.0),
-            copy(Y, Stage),
-            axpy(Stage, Rates, 1.0, 1.0),
+            axpy(Stage, Y, Rates, 1.0, 1.0),
             rates(Stage, 1.0),
-            axpy(Stage, Rates, 1.0, 1.0),
+            axpy(Stage, Stage, Rates, 1.0, 1.0),
         ];
         ops.extend(blends);
         ops
     };
     match kind {
         IntegratorKind::Rk4 => {
-            // k1 at t, into Acc = Y + Δt k1/6; then each later stage's rates at Y + Δt
-            // k_prev/a_den at t + cΔt, into Acc with weight 1/b_den (the classical tableau).
-            let mut ops = vec![rates(Y, 0.0), copy(Y, Acc), axpy(Acc, Rates, 1.0, 6.0)];
-            for (a_den, c, b_den) in [(2.0, 0.5, 3.0), (2.0, 0.5, 3.0), (1.0, 1.0, 6.0)] {
-                ops.extend([
-                    copy(Y, Stage),
-                    axpy(Stage, Rates, 1.0, a_den),
-                    rates(Stage, c),
-                    axpy(Acc, Rates, 1.0, b_den),
-                ]);
+            // k1 at t, into Acc = Y + Δt k1/6; then each later stage's rates at Stage = Y
+            // + Δt k_prev/a_den at t + cΔt, into Acc with weight 1/b_den (the classical
+            // tableau), the last into Y = Acc + Δt k4/6.
+            let mut ops = vec![rates(Y, 0.0), axpy(Acc, Y, Rates, 1.0, 6.0)];
+            for (a_den, c) in [(2.0, 0.5), (2.0, 0.5), (1.0, 1.0)] {
+                ops.extend([axpy(Stage, Y, Rates, 1.0, a_den), rates(Stage, c)]);
+                ops.push(if c < 1.0 {
+                    axpy(Acc, Acc, Rates, 1.0, 3.0)
+                } else {
+                    axpy(Y, Acc, Rates, 1.0, 6.0)
+                });
             }
-            ops.push(copy(Acc, Y));
             ops
         }
         IntegratorKind::TvdRk2 => shu_osher(vec![mix(Y, Stage, 0.5, 0.5)]),
         IntegratorKind::SspRk3 => shu_osher(vec![
             mix(Stage, Y, 0.25, 0.75),
             rates(Stage, 0.5),
-            axpy(Stage, Rates, 1.0, 1.0),
+            axpy(Stage, Stage, Rates, 1.0, 1.0),
             mix(Y, Stage, 1.0 / 3.0, 2.0 / 3.0),
         ]),
         IntegratorKind::Leapfrog => vec![
@@ -230,7 +242,7 @@ pub fn program(kind: IntegratorKind) -> Vec<Op> {
 
 /// Bytes per particle the stage operations of one step move (rate evaluations aside),
 /// by the minimum-traffic model: a copy reads and writes the state, a blend reads two
-/// states and writes one, a kick reads v and a and writes v, a drift reads and writes
+/// states and writes one (from another buffer or in place), a kick reads v and a and writes v, a drift reads and writes
 /// u and the fields after v and reads v and their rates. `state` and `velocity` are the
 /// bytes per particle of the state and of v; u has v's size.
 pub fn traffic(kind: IntegratorKind, state: f64, velocity: f64) -> f64 {
@@ -269,12 +281,12 @@ pub fn describe_step(kind: IntegratorKind, rates: &str) -> Vec<String> {
         .map(|op| match op {
             Op::Rates { src, .. } => format!("rates of {src:?}: {rates}"),
             Op::Copy { from, to } => format!("copy {from:?} → {to:?}"),
-            Op::Blend { out, x, a, b } => {
+            Op::Blend { out, from, x, a, b } => {
                 let b = match b {
                     Weight::Dt(h) => of_dt(h),
                     Weight::Const(b) => format!("{b:.4}"),
                 };
-                format!("{out:?} = {a:.4}·{out:?} + {b}·{x:?}")
+                format!("{out:?} = {a:.4}·{from:?} + {b}·{x:?}")
             }
             Op::Kick { out, h } => format!("kick: v({out:?}) += {}·a", of_dt(h)),
             Op::Drift { out, h } => {
@@ -367,13 +379,26 @@ impl<S: OdeState> Integrator<S> {
                     let (out, x) = pair(y, &mut self.buffers, to, from);
                     out.clone_from(x);
                 }
-                Op::Blend { out, x, a, b } => {
+                Op::Blend { out, from, x, a, b } if from == out => {
                     let (out, x) = pair(y, &mut self.buffers, out, x);
                     if a == 1.0 {
                         out.axpy(b.at(dt), x);
                     } else {
                         out.blend(a, b.at(dt), x);
                     }
+                }
+                Op::Blend { out, from, x, a, b } => {
+                    // Out of its place while the others are read (an empty state there).
+                    let mut target = std::mem::take(buffer(y, &mut self.buffers, out));
+                    {
+                        let (y, buffers) = (&*y, &self.buffers);
+                        let read = |b: Buf| match b {
+                            Buf::Y => y,
+                            b => &buffers[b as usize - 1],
+                        };
+                        target.blend_from(a, read(from), b.at(dt), read(x));
+                    }
+                    *buffer(y, &mut self.buffers, out) = target;
                 }
                 Op::Kick { out, h } => {
                     let (out, rates) = pair(y, &mut self.buffers, out, Buf::Rates);
@@ -387,6 +412,14 @@ impl<S: OdeState> Integrator<S> {
         }
         sys.end_step(t + dt, y);
         Ok(())
+    }
+}
+
+/// Buffer `b` of y and [Stage, Rates, Acc].
+fn buffer<'a, S>(y: &'a mut S, buffers: &'a mut [S; 3], b: Buf) -> &'a mut S {
+    match b {
+        Buf::Y => y,
+        b => &mut buffers[b as usize - 1],
     }
 }
 
@@ -434,6 +467,10 @@ mod tests {
             self.x = a * self.x + b * o.x;
             self.v = a * self.v + b * o.v;
             self.z = a * self.z + b * o.z;
+        }
+        fn blend_from(&mut self, a: f64, f: &Self, b: f64, o: &Self) {
+            *self = f.clone();
+            self.blend(a, b, o);
         }
         fn kick(&mut self, h: f64, r: &Self) {
             self.v += h * r.v;
@@ -515,9 +552,9 @@ mod tests {
         // and the copy into the stage.
         let leapfrog = 3.0 * 3.0 * velocity + 3.0 * velocity + 3.0 * fields + 2.0 * state;
         assert_eq!(traffic(IntegratorKind::Leapfrog, state, velocity), leapfrog);
-        // Copies of Y into the accumulator and three times into the stage, the final copy
-        // back, and seven blends.
-        let rk4 = 5.0 * 2.0 * state + 7.0 * 3.0 * state;
+        // Seven blends: Y into the accumulator, three times Y into the stage, two in place
+        // into the accumulator and the accumulator into Y.
+        let rk4 = 7.0 * 3.0 * state;
         assert_eq!(traffic(IntegratorKind::Rk4, state, velocity), rk4);
     }
 }

@@ -59,6 +59,25 @@ pub(crate) fn blend<T: Copy + Send + Sync + Add<Output = T> + Mul<f64, Output = 
         .for_each(|(y, &x)| *y = *y * a + x * b);
 }
 
+/// y = a f + b x, field by field, y first shaped like f (the bits of y = f, then
+/// y = a y + b x, or y += b x where a = 1).
+pub(crate) fn blend_from<T: Copy + Send + Sync + Add<Output = T> + Mul<f64, Output = T>>(
+    y: &mut Vec<T>,
+    a: f64,
+    f: &[T],
+    b: f64,
+    x: &[T],
+) {
+    if y.len() != f.len() {
+        y.clear();
+        y.extend_from_slice(f);
+    }
+    y.par_iter_mut()
+        .with_min_len(MIN_CHUNK)
+        .zip(f.par_iter().zip(x))
+        .for_each(|(y, (&f, &x))| *y = f * a + x * b);
+}
+
 /// A particle state: the struct of displacement `u`, velocity `v` and the further fields
 /// given, and its `OdeState`, `Clone` (whose `clone_from` copies into the buffers there
 /// are) and empty `Default`. Every field has a rate of its own: RK stages combine every
@@ -120,6 +139,18 @@ macro_rules! particle_state {
                 crate::core::parallel::blend(&mut self.u, a, b, &o.u);
                 crate::core::parallel::blend(&mut self.v, a, b, &o.v);
                 $(crate::core::parallel::blend(&mut self.$field, a, b, &o.$field);)*
+            }
+
+            fn blend_from(&mut self, a: f64, f: &Self, b: f64, o: &Self) {
+                crate::core::parallel::blend_from(&mut self.u, a, &f.u, b, &o.u);
+                crate::core::parallel::blend_from(&mut self.v, a, &f.v, b, &o.v);
+                $(crate::core::parallel::blend_from(
+                    &mut self.$field,
+                    a,
+                    &f.$field,
+                    b,
+                    &o.$field,
+                );)*
             }
 
             fn kick(&mut self, h: f64, r: &Self) {

@@ -61,8 +61,8 @@ pub struct Stepper {
     layout: StateLayout,
     /// y, stage (one word for a scheme without it), rates, acc.
     states: [wgpu::Buffer; 4],
-    /// blend, kick, drift.
-    stages: [Pipeline; 3],
+    /// blend (in place), blend from another buffer, kick, drift.
+    stages: [Pipeline; 4],
     steps: Vec<Recorded>,
     dt: f64,
     /// Leapfrog only: rates primed at the current state.
@@ -121,6 +121,7 @@ impl Stepper {
         ];
         let stages = [
             gpu.pipeline("blend", integrate, "blend")?,
+            gpu.pipeline("blend", integrate, "blend_from")?,
             gpu.pipeline("kick", integrate, "kick")?,
             gpu.pipeline("drift", integrate, "drift")?,
         ];
@@ -129,7 +130,7 @@ impl Stepper {
         let steps = ops
             .into_iter()
             .map(|op| {
-                let (pipeline, out, x, invocations) = match op {
+                let (pipeline, out, from, x, invocations) = match op {
                     Op::Rates { src, .. } => {
                         index += 1;
                         return Ok(Recorded::Rates(Evaluation {
@@ -138,9 +139,10 @@ impl Stepper {
                         }));
                     }
                     Op::Copy { from, to } => return Ok(Recorded::Copy(from, to)),
-                    Op::Blend { out, x, .. } => (0, out, x, layout.len),
-                    Op::Kick { out, .. } => (1, out, Buf::Rates, nd),
-                    Op::Drift { out, .. } => (2, out, Buf::Rates, nd + rest),
+                    Op::Blend { out, from, x, .. } if from == out => (0, out, from, x, layout.len),
+                    Op::Blend { out, from, x, .. } => (1, out, from, x, layout.len),
+                    Op::Kick { out, .. } => (2, out, out, Buf::Rates, nd),
+                    Op::Drift { out, .. } => (3, out, out, Buf::Rates, nd + rest),
                 };
                 let coefficients = gpu.uniform("coefficients", &Coefficients { a: 1.0, b: 0.0 });
                 let bind = gpu.bind(
@@ -149,6 +151,7 @@ impl Stepper {
                         ("c", &coefficients),
                         ("out", &states[out as usize]),
                         ("x", &states[x as usize]),
+                        ("base", &states[from as usize]),
                     ],
                 )?;
                 Ok(Recorded::Pass {

@@ -33,12 +33,38 @@ fn profiled(case: &Scene) -> (PassReport, u64, u64) {
     (report, reference.x0.len() as u64, pairs)
 }
 
-/// Dispatches per step of the blends of the case's integrator.
-fn blends(case: &Scene) -> u64 {
-    program(case.method.integrator)
+/// `passes` and the blend passes of the case's integrator with their dispatches per
+/// step: in place (`blend (blend)`) and from another buffer, a copy fused in
+/// (`blend (blend_from)`).
+fn with_blends<'a>(case: &Scene, passes: &[(&'a str, u64)]) -> Vec<(&'a str, u64)> {
+    let ops = program(case.method.integrator);
+    let count = |in_place: bool| {
+        ops.iter()
+            .filter(|op| matches!(op, Op::Blend { out, from, .. } if (out == from) == in_place))
+            .count() as u64
+    };
+    let blends = [
+        ("blend (blend)", count(true)),
+        ("blend (blend_from)", count(false)),
+    ];
+    passes
         .iter()
-        .filter(|op| matches!(op, Op::Blend { .. }))
-        .count() as u64
+        .copied()
+        .chain(blends.into_iter().filter(|b| b.1 > 0))
+        .collect()
+}
+
+/// Each blend, in place or from another buffer, moves 12 B per entry of a state of
+/// `words` words a particle: two entries read and one written.
+fn check_blends(report: &PassReport, words: u64, n: u64) {
+    for r in report.rows.iter().filter(|r| r.pass.starts_with("blend (")) {
+        assert_eq!(
+            r.bytes.unwrap(),
+            r.runs * 12 * words * n,
+            "{}:\n{report}",
+            r.pass
+        );
+    }
 }
 
 fn row<'a>(report: &'a PassReport, pass: &str) -> &'a meshless::diagnostics::passes::PassRow {
@@ -101,21 +127,14 @@ fn the_rotating_disk_report_has_the_bytes_of_the_wgsl() {
     let case = load("rotating-disk", &[] as &[&str]);
     let (report, n, pairs) = profiled(&case);
     let evaluations = 4 * u64::from(STEPS);
-    check_common(
-        &report,
-        &[
-            ("tl stress (stress)", 4),
-            ("tl accel (accel)", 4),
-            ("blend (blend)", blends(&case)),
-        ],
-    );
-    assert_eq!(report.rows.len(), 3, "{report}");
+    let expected = with_blends(&case, &[("tl stress (stress)", 4), ("tl accel (accel)", 4)]);
+    check_common(&report, &expected);
+    assert_eq!(report.rows.len(), expected.len(), "{report}");
     let stress = row(&report, "tl stress (stress)").bytes.unwrap();
     let accel = row(&report, "tl accel (accel)").bytes.unwrap();
     assert_eq!(stress, evaluations * (100 * n + 12 * pairs));
     assert_eq!(stress + accel, evaluations * (196 * n + 32 * pairs));
-    let blend = row(&report, "blend (blend)");
-    assert_eq!(blend.bytes.unwrap(), blend.runs * 12 * 9 * n);
+    check_blends(&report, 9, n);
     assert_eq!(report.particles as u64, n);
 }
 
@@ -126,11 +145,7 @@ fn the_tensile_strip_report_has_the_bytes_of_the_wgsl() {
     let (report, n, pairs) = profiled(&case);
     check_common(
         &report,
-        &[
-            ("tl stress (stress)", 4),
-            ("tl accel (accel)", 4),
-            ("blend (blend)", blends(&case)),
-        ],
+        &with_blends(&case, &[("tl stress (stress)", 4), ("tl accel (accel)", 4)]),
     );
     let both = row(&report, "tl stress (stress)").bytes.unwrap()
         + row(&report, "tl accel (accel)").bytes.unwrap();
@@ -179,15 +194,9 @@ fn the_total_lagrangian_schemes_report_their_own_passes() {
         let case = load(name, &[] as &[&str]);
         let stages = case.method.integrator.stages() as u64;
         let (report, n, pairs) = profiled(&case);
-        check_common(
-            &report,
-            &[
-                (STRESS, stages),
-                (ACCEL, stages),
-                ("blend (blend)", blends(&case)),
-            ],
-        );
-        assert_eq!(report.rows.len(), 3, "{name}:\n{report}");
+        let expected = with_blends(&case, &[(STRESS, stages), (ACCEL, stages)]);
+        check_common(&report, &expected);
+        assert_eq!(report.rows.len(), expected.len(), "{name}:\n{report}");
         let evaluations = stages * u64::from(STEPS);
         // Each pass's bytes: its words per particle and per pair, per rate evaluation.
         for (pass, (item, pair)) in [(STRESS, stress), (ACCEL, accel)] {
@@ -198,12 +207,7 @@ fn the_total_lagrangian_schemes_report_their_own_passes() {
             );
         }
         // The blends: 12 B per entry of the 4-word state of a particle.
-        let blend = row(&report, "blend (blend)");
-        assert_eq!(
-            blend.bytes.unwrap(),
-            blend.runs * 12 * 4 * n,
-            "{name}:\n{report}"
-        );
+        check_blends(&report, 4, n);
         assert_eq!(report.particles as u64, n);
     }
 }
@@ -245,14 +249,16 @@ fn the_updated_lagrangian_report_counts_the_builds_that_ran() {
         let (report, n, _) = profiled(&case);
         check_common(
             &report,
-            &[
-                ("ul positions (positions)", stages),
-                ("check_drift (check_drift)", stages),
-                ("arm (arm)", stages),
-                (PARTICLE, stages),
-                (RATES, stages),
-                ("blend (blend)", blends(&case)),
-            ],
+            &with_blends(
+                &case,
+                &[
+                    ("ul positions (positions)", stages),
+                    ("check_drift (check_drift)", stages),
+                    ("arm (arm)", stages),
+                    (PARTICLE, stages),
+                    (RATES, stages),
+                ],
+            ),
         );
         // x = X + u: X and u in, x out, DIM floats each.
         let positions = row(&report, "ul positions (positions)");
@@ -287,12 +293,7 @@ fn the_updated_lagrangian_report_counts_the_builds_that_ran() {
             "{name}:\n{report}"
         );
         // The blends: 12 B per entry of the 13-word state [u | v | ρ − ρ0 | S | F − I].
-        let blend = row(&report, "blend (blend)");
-        assert_eq!(
-            blend.bytes.unwrap(),
-            blend.runs * 12 * 13 * n,
-            "{name}:\n{report}"
-        );
+        check_blends(&report, 13, n);
     }
 }
 
@@ -334,8 +335,8 @@ fn the_mixed_report_has_every_pass_of_a_stage() {
     let (report, n, _) = profiled(&case);
     assert_eq!(n, 20 * 20);
     let (ghosts, pairs) = (4 * 3 * 20 + 4 * 3 * 3, 20 * n);
-    check_common(
-        &report,
+    let expected = with_blends(
+        &case,
         &[
             ("ghost motion (ghost_motion)", stages),
             ("mixed kinematics (kinematics)", stages),
@@ -344,10 +345,10 @@ fn the_mixed_report_has_every_pass_of_a_stage() {
             ("ghost slopes (ghost_slopes)", stages),
             ("mixed forces (forces)", stages),
             ("mixed rates (rates)", stages),
-            ("blend (blend)", blends(&case)),
         ],
     );
-    assert_eq!(report.rows.len(), 8, "{report}");
+    check_common(&report, &expected);
+    assert_eq!(report.rows.len(), expected.len(), "{report}");
     let evaluations = stages * u64::from(STEPS);
     // Each pass's bytes per rate evaluation: (pass, per particle, per pair), and per ghost.
     let check = |report: &PassReport, passes: &[(&str, u64, u64)], ghost: &[(&str, u64)]| {
@@ -365,8 +366,7 @@ fn the_mixed_report_has_every_pass_of_a_stage() {
                 "{pass}:\n{report}"
             );
         }
-        let blend = row(report, "blend (blend)");
-        assert_eq!(blend.bytes.unwrap(), blend.runs * 12 * 8 * n, "{report}");
+        check_blends(report, 8, n);
     };
     check(
         &report,
@@ -599,11 +599,13 @@ fn the_galerkin_report_has_its_points_nodes_and_smoothing_passes() {
         let case = load(name, &[] as &[&str]);
         let stages = case.method.integrator.stages() as u64;
         let (report, _, _) = profiled(&case);
-        let mut expected = vec![
-            ("galerkin points (points)", stages),
-            ("galerkin nodes (nodes)", stages),
-            ("blend (blend)", blends(&case)),
-        ];
+        let mut expected = with_blends(
+            &case,
+            &[
+                ("galerkin points (points)", stages),
+                ("galerkin nodes (nodes)", stages),
+            ],
+        );
         if smoothing {
             expected.push(("smooth velocities (smooth_velocities)", 1));
             expected.push(("settle (settle)", 1));
