@@ -36,7 +36,7 @@ fn load(name: &str, particles: f64) -> Scene {
         .join("cases")
         .join(name);
     let base = Scene::load(&path, &[]).expect("case loads");
-    let mut sizes = resize(&base, particles).expect("case resizes");
+    let mut sizes = resize(&base, particles, false).expect("case resizes");
     // A fixed step at the case's Courant number, so every iteration does the same work.
     if let Some(dt) = base.method.dt {
         let spacing = Scene::load(&path, &sizes)

@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
 # The check a GPU owner runs and attaches to a report: the adapter, the GPU tests (the
-# WGSL shaders against the f64 CPU reference), and `meshless bench` on the GPU for every
+# WGSL shaders against the f64 CPU reference), `meshless bench` on the GPU for every
 # method of the registry on the 2D swinging plate (scripts/bench-methods.sh's set-ups),
-# each with its per-pass report (time, bytes of the model, GB/s). It writes one markdown
-# file.
+# each with its per-pass report (time, bytes of the model, GB/s), and TLSPH there at the
+# largest size the device's and the host's memory hold. It writes one markdown file.
 #
 #   scripts/gpu-check.sh [OUT.md]            # sizes 1e5 and 1e6 particles, 100 steps
-#   scripts/gpu-check.sh --small [OUT.md]    # 1e3 particles, 10 steps, no tests (CI, lavapipe)
+#   scripts/gpu-check.sh --small [OUT.md]    # 1e3 particles, 10 steps, no tests, the
+#                                            # largest size in 16 MB (CI, lavapipe)
 #
 # SIZES and STEPS override the sizes (comma-separated particle counts) and steps; FEATURES
 # (say `mpi`) builds with those cargo features besides the default ones. Needs
@@ -23,9 +24,11 @@ fi
 if $small; then
     sizes=${SIZES:-1e3}
     steps=${STEPS:-10}
+    largest_steps=2
 else
     sizes=${SIZES:-1e5,1e6}
     steps=${STEPS:-100}
+    largest_steps=20
 fi
 out=${1:-gpu-check-$(hostname)-$(date -u +%Y%m%d-%H%M).md}
 if [ -z "${XDG_RUNTIME_DIR:-}" ] || [ ! -d "${XDG_RUNTIME_DIR}" ]; then
@@ -63,6 +66,23 @@ start=$(date +%s)
     echo "The 2D swinging plate, each method with its set-up of \`scripts/bench-methods.sh\`;"
     echo "the bound under each pass report is the model's bytes at the adapter's copy bandwidth."
     BACKEND=gpu scripts/bench-methods.sh "$sizes" "$steps"
+    echo
+    echo "## The largest TLSPH run that fits"
+    echo
+    # The most particles the device's memory and the host's hold by the estimate, a tenth
+    # kept free (`meshless bench --particles largest`). A software adapter states no memory
+    # of its own, so the small check states 16 MB to keep the run small.
+    if $small; then
+        memory=${MESHLESS_DEVICE_MEMORY:-16MB}
+    else
+        memory=${MESHLESS_DEVICE_MEMORY:-}
+    fi
+    echo "TLSPH on the plate (the set-up of \`scripts/bench-methods.sh\`), sized to the device's"
+    echo "memory (${memory:-as the platform reports it}) and the host's, $largest_steps steps:"
+    echo
+    env ${memory:+MESHLESS_DEVICE_MEMORY=$memory} ./target/release/meshless bench \
+        cases/studies/cases/swinging-plate.toml --backend gpu --particles largest \
+        --max-particles 1e10 --steps "$largest_steps" 2>&1 | grep -v '^note:'
     echo
     echo "Wall time of the check after the build: $(($(date +%s) - start)) s."
 } >"$out"

@@ -84,21 +84,48 @@ impl BenchRow {
     }
 }
 
-/// Overrides that rescale a case to about `particles` particles: the spacing scales with
-/// (N0/N)^(1/d), rounded to a whole divisor (finer) or multiple (coarser) of the case's
-/// own, so that lattices anchored at the bodies' corners keep points on the bounds the
-/// case's regions select (a grip at the far end of a strip); a fixed Δt scales with the
-/// spacing (same Courant number).
-pub fn resize(case: &Scene, particles: f64) -> Result<Vec<String>, RunError> {
+/// A size to run a case at: about a number of particles, or the most the memory holds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Size {
+    About(f64),
+    /// [`crate::run::budget::largest`]: the most particles the memory and the particle
+    /// cap hold by the estimate, with a tenth kept free.
+    Largest,
+}
+
+impl std::str::FromStr for Size {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.trim() {
+            "largest" => Ok(Self::Largest),
+            n => match n.parse::<f64>() {
+                Ok(n) if n.is_finite() && n >= 1.0 => Ok(Self::About(n)),
+                _ => Err(format!(
+                    "`{n}` is no size: give a particle count (at least 1, e.g. 1e5) or \
+                     `largest` (the most the memory holds)"
+                )),
+            },
+        }
+    }
+}
+
+/// Overrides that rescale a case to about `particles` particles, or at most that many
+/// where `at_most`: the spacing scales with (N0/N)^(1/d), rounded (towards the coarser
+/// where `at_most`) to a whole divisor (finer) or multiple (coarser) of the case's own, so that lattices
+/// anchored at the bodies' corners keep points on the bounds the case's regions select (a
+/// grip at the far end of a strip); a fixed Δt scales with the spacing (same Courant
+/// number).
+pub fn resize(case: &Scene, particles: f64, at_most: bool) -> Result<Vec<String>, RunError> {
     let n0 = match case.dimension {
         2 => discretise::<D2>(case)?.x0.len(),
         _ => discretise::<D3>(case)?.x0.len(),
     } as f64;
     let exact = (n0 / particles).powf(1.0 / f64::from(case.dimension));
-    let factor = if exact < 1.0 {
-        1.0 / (1.0 / exact).round()
-    } else {
-        exact.round()
+    let factor = match (exact < 1.0, at_most) {
+        (true, false) => 1.0 / (1.0 / exact).round(),
+        (true, true) => 1.0 / (1.0 / exact).floor(),
+        (false, false) => exact.round(),
+        (false, true) => exact.ceil(),
     };
     let mut set = vec![format!("spacing={:e}", case.spacing * factor)];
     if let Some(dt) = case.method.dt {

@@ -3,6 +3,7 @@
 #![deny(clippy::too_many_lines)]
 
 use clap::{Parser, Subcommand};
+use meshless::bench::Size;
 #[cfg(not(feature = "mpi"))]
 use meshless::distributed::no_mpi_launcher;
 #[cfg(feature = "mpi")]
@@ -12,7 +13,7 @@ use meshless::run::ranks::run_on_threads;
 #[cfg(feature = "mpi")]
 use meshless::run::ranks::run_rank;
 use meshless::run::{
-    Backend, EXIT_FAILED, EXIT_INPUT, Limits, ProgressDisplay, RunError, RunOptions, run,
+    Backend, EXIT_FAILED, EXIT_INPUT, Limits, ProgressDisplay, RunError, RunOptions, budget, run,
 };
 use meshless::scene::Scene;
 use std::path::{Path, PathBuf};
@@ -91,25 +92,8 @@ enum Command {
         /// Case files or shipped case names.
         #[arg(required = true)]
         cases: Vec<String>,
-        #[arg(long, value_enum, default_value_t = Backend::Auto)]
-        backend: Backend,
-        /// Target particle counts (the spacing is scaled to reach them), e.g. 1e3,1e4,1e5.
-        #[arg(long, value_delimiter = ',', default_value = "1e3,1e4,1e5")]
-        particles: Vec<f64>,
-        /// Timed steps per configuration (after one warm-up step).
-        #[arg(long, default_value_t = 200)]
-        steps: u32,
-        /// Override case keys, as for `run`.
-        #[arg(long = "set", value_name = "KEY=VALUE")]
-        set: Vec<String>,
-        /// Also write the table as CSV.
-        #[arg(long)]
-        csv: Option<PathBuf>,
-        /// Measure this machine's memory bandwidth (STREAM triad) first, and give each CPU
-        /// row the bytes per particle-step of its method's traffic model, the bandwidth
-        /// they reach and its fraction of the triad's.
-        #[arg(long)]
-        roofline: bool,
+        #[command(flatten)]
+        args: BenchArgs,
     },
     /// Run study suites: error against wall time and stability sweeps (see cases/studies/).
     #[cfg(feature = "study")]
@@ -144,6 +128,36 @@ enum Command {
         #[arg(long)]
         stale: bool,
     },
+}
+
+/// The options of `meshless bench`.
+#[derive(clap::Args)]
+struct BenchArgs {
+    #[arg(long, value_enum, default_value_t = Backend::Auto)]
+    backend: Backend,
+    /// Target particle counts (the spacing is scaled to reach them), e.g. 1e3,1e4,1e5, or
+    /// `largest`: the most the memory holds by the estimate, a tenth kept free (the GPU's
+    /// as `MESHLESS_DEVICE_MEMORY` or the platform states it, and the host's).
+    #[arg(long, value_delimiter = ',', default_value = "1e3,1e4,1e5")]
+    particles: Vec<Size>,
+    /// Timed steps per configuration (after one warm-up step).
+    #[arg(long, default_value_t = 200)]
+    steps: u32,
+    /// Override case keys, as for `run`.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    set: Vec<String>,
+    /// Also write the table as CSV.
+    #[arg(long)]
+    csv: Option<PathBuf>,
+    /// Measure this machine's memory bandwidth (STREAM triad) first, and give each CPU
+    /// row the bytes per particle-step of its method's traffic model, the bandwidth
+    /// they reach and its fraction of the triad's.
+    #[arg(long)]
+    roofline: bool,
+    /// Refuse a size of more particles than this (estimated before anything is
+    /// allocated); a size past the memory is refused too.
+    #[arg(long, value_name = "N", default_value_t = Limits::MAX_PARTICLES)]
+    max_particles: f64,
 }
 
 /// Caps on what one run may ask for; a case past them is refused with exit code 2.
@@ -240,23 +254,7 @@ fn main() -> ExitCode {
         } => check_command(&cases, backend, &set, &limits.into()),
         Command::List => list(),
         Command::Info => info(),
-        Command::Bench {
-            cases,
-            backend,
-            particles,
-            steps,
-            set,
-            csv,
-            roofline,
-        } => bench_command(
-            &cases,
-            backend,
-            &particles,
-            steps,
-            &set,
-            csv.as_deref(),
-            roofline,
-        ),
+        Command::Bench { cases, args } => bench_command(&cases, &args),
         #[cfg(feature = "study")]
         Command::Study {
             suites,
@@ -702,16 +700,21 @@ fn explain_command(case: &str, backend: Backend, set: &[String]) -> ExitCode {
     }
 }
 
-fn bench_command(
-    cases: &[String],
-    backend: Backend,
-    particles: &[f64],
-    steps: u32,
-    set: &[String],
-    csv: Option<&Path>,
-    roofline: bool,
-) -> ExitCode {
+fn bench_command(cases: &[String], args: &BenchArgs) -> ExitCode {
     use meshless::bench::{BenchRow, measure, resize, triad_bandwidth};
+    let BenchArgs {
+        backend,
+        ref particles,
+        steps,
+        ref set,
+        ref csv,
+        roofline,
+        max_particles,
+    } = *args;
+    let limits = Limits {
+        max_particles,
+        ..Limits::default()
+    };
     let mut rows = Vec::new();
     let triad = roofline.then(|| {
         let triad = triad_bandwidth();
@@ -740,14 +743,21 @@ fn bench_command(
             Ok(path) => path,
             Err(code) => return code,
         };
-        for &target in particles {
+        for &size in particles {
+            let sized = |base: Scene| {
+                let gpu = meshless::run::may_use_gpu(&base, backend);
+                let sizes = match size {
+                    Size::About(n) => resize(&base, n, false)?,
+                    Size::Largest => resize(&base, budget::largest(&base, gpu, &limits)?, true)?,
+                };
+                let all: Vec<String> = set.iter().cloned().chain(sizes).collect();
+                let case = Scene::load(&path, &all)?;
+                budget::fits(&case, gpu, &limits)?;
+                Ok::<_, RunError>(case)
+            };
             let result = Scene::load(&path, set)
                 .map_err(RunError::from)
-                .and_then(|base| resize(&base, target))
-                .and_then(|sizes| {
-                    let all: Vec<String> = set.iter().cloned().chain(sizes).collect();
-                    Ok(Scene::load(&path, &all)?)
-                })
+                .and_then(sized)
                 .and_then(|case| measure(&case, backend, steps));
             match result {
                 Ok(r) => {

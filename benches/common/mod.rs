@@ -102,7 +102,7 @@ pub fn method_case(name: &str) -> (Scene, Kind) {
     let mut set: Vec<String> = extra.iter().map(|s| s.to_string()).collect();
     let base = Scene::load(&path, &set).expect("case loads");
     if kind == Kind::Dynamic {
-        set.extend(resize(&base, PARTICLES).expect("case resizes"));
+        set.extend(resize(&base, PARTICLES, false).expect("case resizes"));
     }
     (Scene::load(&path, &set).expect("resized case loads"), kind)
 }

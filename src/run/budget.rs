@@ -318,17 +318,59 @@ fn size(bytes: f64) -> String {
 /// memory on `gpu` or the CPU, the device memory `MESHLESS_DEVICE_MEMORY` states on the
 /// GPU, or whose step count passes the step cap; returns the estimate otherwise.
 pub fn check(case: &Scene, gpu: bool, limits: &Limits) -> Result<Estimate, CaseError> {
+    let estimate = fits(case, gpu, limits)?;
+    check_steps(case, estimate.steps, first_step(case), limits)?;
+    Ok(estimate)
+}
+
+/// [`check`] without the step count: the particle cap and the memory, for a run of a
+/// given number of steps (`meshless bench`).
+pub fn fits(case: &Scene, gpu: bool, limits: &Limits) -> Result<Estimate, CaseError> {
     check_copies(case, gpu, limits, 1)
+}
+
+/// Keeps a tenth of the memory free when [`largest`] sizes a run to it: the pairs per
+/// particle grow a little with the size, and the lattice's spacing is rounded.
+const HEADROOM: f64 = 0.9;
+
+/// The most particles of `case` (its bodies, finer or coarser) that the particle cap and
+/// the memory hold by the estimate, with a tenth kept free: the host's available memory
+/// for the host's share (with the device's on the GPU, as [`fits`] counts them), and on
+/// the GPU the device's memory, where it is known (`MESHLESS_DEVICE_MEMORY` or the
+/// platform), for the device's share. The bytes a particle are those of the
+/// case's estimate at its own spacing, taken again at the size they give, since a finer
+/// lattice has fewer particles at the surface and so more pairs a particle.
+pub fn largest(case: &Scene, gpu: bool, limits: &Limits) -> Result<f64, CaseError> {
+    let host = available_memory().unwrap_or(ASSUMED_MEMORY);
+    let device = match gpu {
+        true => device_memory()?.map(|(bytes, _)| bytes),
+        false => None,
+    };
+    // As `fits` counts them: the host holds the host's share, and on the GPU the
+    // device's share beside it.
+    let most = |e: &Estimate| {
+        let per = |bytes: f64| bytes / e.particles.max(1.0);
+        let on_host = host / per(if gpu { e.gpu_bytes() } else { e.cpu_bytes });
+        let on_device = device.map_or(f64::INFINITY, |memory| memory / per(e.device_bytes));
+        (HEADROOM * on_host.min(on_device)).min(limits.max_particles)
+    };
+    let own = Estimate::of(case)?;
+    let first = most(&own);
+    let mut there = case.clone();
+    there.case.spacing *= (own.particles / first).powf(1.0 / case.dim() as f64);
+    Ok(most(&Estimate::of(&there)?).min(first))
 }
 
 /// [`check`] for a rank of a distributed run, one of `on_node` ranks on this machine:
 /// each builds the whole run's set-up before it keeps its share, so the machine holds
 /// `on_node` of them at once.
 pub fn check_rank(case: &Scene, limits: &Limits, on_node: usize) -> Result<Estimate, CaseError> {
-    check_copies(case, false, limits, on_node.max(1))
+    let estimate = check_copies(case, false, limits, on_node.max(1))?;
+    check_steps(case, estimate.steps, first_step(case), limits)?;
+    Ok(estimate)
 }
 
-/// [`check`] with `copies` set-ups of the run in memory at once.
+/// [`fits`] with `copies` set-ups of the run in memory at once.
 fn check_copies(
     case: &Scene,
     gpu: bool,
