@@ -15,7 +15,9 @@
 # and the instructions per f64 operation, which tell the arithmetic a method's
 # equations ask for from what the code spends around it. RAYON_NUM_THREADS sets the
 # threads; MESHLESS the binary (default: the release build); METHODS a regular
-# expression that picks the methods to run (default: all). BACKEND=gpu runs them on the
+# expression that picks the methods to run (default: all); PLATE and MIXED the cases in
+# place of the plate and of the mixed family's shipped plate (`PLATE=spinning-block-3d
+# MIXED=twisting-column` for 3D). BACKEND=gpu runs them on the
 # GPU instead: for each method a heading, its table (particle counts comma-separated, as
 # `meshless bench --particles` takes them) and its pass report; a method without a GPU
 # engine says so.
@@ -34,7 +36,8 @@ else
     steps=${2:-40}
 fi
 bin=${MESHLESS:-./target/release/meshless}
-plate=cases/studies/cases/swinging-plate.toml
+plate=${PLATE:-cases/studies/cases/swinging-plate.toml}
+mixed=${MIXED:-swinging-plate}
 [ -x "$bin" ] || cargo build --release
 for tool in valgrind objdump python3; do
     if $count && ! command -v $tool >/dev/null; then
@@ -55,7 +58,7 @@ instructions() {
         "$bin" bench "$@" --backend cpu --particles "$sizes" --steps "$n" >"$out" 2>&1
     local flops
     flops=$(python3 scripts/flops.py "$profile" "$(realpath "$bin")")
-    echo "$(grep -o 'Collected : [0-9]*' "$out" | grep -o '[0-9]*$') ${flops#* } $(grep '^| swinging-plate' "$out")"
+    echo "$(grep -o 'Collected : [0-9]*' "$out" | grep -o '[0-9]*$') ${flops#* } $(grep -v '^| case |' "$out" | grep -m1 '^| [a-z]')"
     rm -f "$out" "$profile"
 }
 bench() {
@@ -88,7 +91,7 @@ bench() {
         grep -v '^note:' <<<"$out"
     else
         "$bin" bench "$@" --backend cpu --particles "$sizes" --steps "$n" --roofline |
-            grep '^| swinging-plate' | sed "s/^| swinging-plate/| $name/"
+            grep -v '^| case |' | grep '^| [a-z]' | sed "s/^| [^|]*|/| $name |/"
     fi
 }
 if [ "${BACKEND:-cpu}" = gpu ]; then
@@ -102,8 +105,8 @@ else
 fi
 bench tlsph "$steps" "$plate"
 bench tlsph-hypoelastic "$steps" "$plate" --set material.model=hypoelastic
-bench upwind-sph "$steps" swinging-plate --set method.name=upwind-sph
-bench jst-sph "$steps" swinging-plate --set method.name=jst-sph
+bench upwind-sph "$steps" "$mixed" --set method.name=upwind-sph
+bench jst-sph "$steps" "$mixed" --set method.name=jst-sph
 # The plate's `force = "reveles"` is TLSPH's: the potential takes its own default, corotated
 # TLSPH the reference code's force of its suite variant.
 bench tl-potential "$steps" "$plate" --set method.name=tl-potential --set method.force=
