@@ -157,10 +157,19 @@ impl<D: GpuDim> GpuTlsph<D> {
             start.particles(case, &disc, &layout.state, &y0, || csr.clone())?;
         let kin = gpu.zeroed("kinematics", layout.kin.bytes());
 
-        let stress = gpu.pipeline("tl stress", &compose(&scheme.stress), "stress")?;
+        let stress_source = compose(&scheme.stress);
+        let stress = gpu.pipeline("tl stress", &stress_source, "stress")?;
         let every = scene_constants(case, &layout, &scheme, true);
         let stress_every = shaders::compose::<D>(&scheme.stress, &every);
-        let kinematics = gpu.pipeline("tl kinematics", &stress_every, "stress")?;
+        let kinematics = if stress_every == stress_source {
+            // The rate evaluations' stress pass stores every field already: the same
+            // pipeline, named apart in the pass report.
+            let mut same = stress.clone();
+            same.pass = "tl kinematics (stress)".into();
+            same
+        } else {
+            gpu.pipeline("tl kinematics", &stress_every, "stress")?
+        };
         let accel = gpu.pipeline("tl accel", &compose(&scheme.accel), "accel")?;
         let table = |k: usize, y, d| -> [(&str, &wgpu::Buffer); 10] {
             let [offsets, ids, part] = device.lists[k].table();
