@@ -89,6 +89,24 @@ pub struct TlDevice<D: GpuDim> {
     kinematics_y: Vec<wgpu::BindGroup>,
 }
 
+/// The stress pass that stores every field of the kinematics, of source `every`: the
+/// rate evaluations' `stress` pipeline (of source `source`) where that stores them all
+/// already, named apart in the pass report; else its own.
+fn kinematics_pipeline(
+    gpu: &Gpu,
+    stress: &Pipeline,
+    source: &str,
+    every: &str,
+) -> Result<Pipeline, GpuError> {
+    if every == source {
+        let mut same = stress.clone();
+        same.pass = "tl kinematics (stress)".into();
+        Ok(same)
+    } else {
+        gpu.pipeline("tl kinematics", every, "stress")
+    }
+}
+
 /// Value of `status[0]` when no particle failed.
 const STATUS_OK: u32 = u32::MAX;
 
@@ -161,15 +179,7 @@ impl<D: GpuDim> GpuTlsph<D> {
         let stress = gpu.pipeline("tl stress", &stress_source, "stress")?;
         let every = scene_constants(case, &layout, &scheme, true);
         let stress_every = shaders::compose::<D>(&scheme.stress, &every);
-        let kinematics = if stress_every == stress_source {
-            // The rate evaluations' stress pass stores every field already: the same
-            // pipeline, named apart in the pass report.
-            let mut same = stress.clone();
-            same.pass = "tl kinematics (stress)".into();
-            same
-        } else {
-            gpu.pipeline("tl kinematics", &stress_every, "stress")?
-        };
+        let kinematics = kinematics_pipeline(&gpu, &stress, &stress_source, &stress_every)?;
         let accel = gpu.pipeline("tl accel", &compose(&scheme.accel), "accel")?;
         let table = |k: usize, y, d| -> [(&str, &wgpu::Buffer); 10] {
             let [offsets, ids, part] = device.lists[k].table();
