@@ -111,10 +111,10 @@ impl std::str::FromStr for Size {
 
 /// Overrides that rescale a case to about `particles` particles, or at most that many
 /// where `at_most`: the spacing scales with (N0/N)^(1/d), rounded (towards the coarser
-/// where `at_most`) to a whole divisor (finer) or multiple (coarser) of the case's own, so that lattices
-/// anchored at the bodies' corners keep points on the bounds the case's regions select (a
-/// grip at the far end of a strip); a fixed Δt scales with the spacing (same Courant
-/// number).
+/// where `at_most`) to a whole divisor (finer) or multiple (coarser) of the case's own,
+/// so that lattices anchored at the bodies' corners keep points on the bounds the case's
+/// regions select (a grip at the far end of a strip); a fixed Δt scales with the spacing
+/// (same Courant number).
 pub fn resize(case: &Scene, particles: f64, at_most: bool) -> Result<Vec<String>, RunError> {
     let n0 = match case.dimension {
         2 => discretise::<D2>(case)?.x0.len(),

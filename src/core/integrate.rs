@@ -242,8 +242,9 @@ pub fn program(kind: IntegratorKind) -> Vec<Op> {
 
 /// Bytes per particle the stage operations of one step move (rate evaluations aside),
 /// by the minimum-traffic model: a copy reads and writes the state, a blend reads two
-/// states and writes one (from another buffer or in place), a kick reads v and a and writes v, a drift reads and writes
-/// u and the fields after v and reads v and their rates. `state` and `velocity` are the
+/// states and writes one (from another buffer or in place), a kick reads v and a and
+/// writes v, a drift reads and writes u and the fields after v and reads v and their
+/// rates. `state` and `velocity` are the
 /// bytes per particle of the state and of v; u has v's size.
 pub fn traffic(kind: IntegratorKind, state: f64, velocity: f64) -> f64 {
     let fields = state - 2.0 * velocity;

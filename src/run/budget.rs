@@ -129,10 +129,14 @@ impl Estimate {
         })
     }
 
-    /// Memory a run on the GPU needs on the host and device together (on an integrated
-    /// GPU or lavapipe both are the host's).
-    pub fn gpu_bytes(&self) -> f64 {
-        self.cpu_bytes + self.device_bytes
+    /// The bytes the host's memory is held to: the CPU run's, and on the `gpu` the
+    /// device's share beside them (an integrated GPU or a software adapter shares the
+    /// host's memory).
+    pub fn host_bytes(&self, gpu: bool) -> f64 {
+        match gpu {
+            true => self.cpu_bytes + self.device_bytes,
+            false => self.cpu_bytes,
+        }
     }
 
     /// One line for `meshless check` and `--explain`, with the device's share on the
@@ -318,7 +322,11 @@ fn size(bytes: f64) -> String {
 /// memory on `gpu` or the CPU, the device memory `MESHLESS_DEVICE_MEMORY` states on the
 /// GPU, or whose step count passes the step cap; returns the estimate otherwise.
 pub fn check(case: &Scene, gpu: bool, limits: &Limits) -> Result<Estimate, CaseError> {
-    let estimate = fits(case, gpu, limits)?;
+    with_steps(case, fits(case, gpu, limits)?, limits)
+}
+
+/// `estimate`, once its step count passes the step cap.
+fn with_steps(case: &Scene, estimate: Estimate, limits: &Limits) -> Result<Estimate, CaseError> {
     check_steps(case, estimate.steps, first_step(case), limits)?;
     Ok(estimate)
 }
@@ -346,11 +354,9 @@ pub fn largest(case: &Scene, gpu: bool, limits: &Limits) -> Result<f64, CaseErro
         true => device_memory()?.map(|(bytes, _)| bytes),
         false => None,
     };
-    // As `fits` counts them: the host holds the host's share, and on the GPU the
-    // device's share beside it.
     let most = |e: &Estimate| {
         let per = |bytes: f64| bytes / e.particles.max(1.0);
-        let on_host = host / per(if gpu { e.gpu_bytes() } else { e.cpu_bytes });
+        let on_host = host / per(e.host_bytes(gpu));
         let on_device = device.map_or(f64::INFINITY, |memory| memory / per(e.device_bytes));
         (HEADROOM * on_host.min(on_device)).min(limits.max_particles)
     };
@@ -365,9 +371,11 @@ pub fn largest(case: &Scene, gpu: bool, limits: &Limits) -> Result<f64, CaseErro
 /// each builds the whole run's set-up before it keeps its share, so the machine holds
 /// `on_node` of them at once.
 pub fn check_rank(case: &Scene, limits: &Limits, on_node: usize) -> Result<Estimate, CaseError> {
-    let estimate = check_copies(case, false, limits, on_node.max(1))?;
-    check_steps(case, estimate.steps, first_step(case), limits)?;
-    Ok(estimate)
+    with_steps(
+        case,
+        check_copies(case, false, limits, on_node.max(1))?,
+        limits,
+    )
 }
 
 /// [`fits`] with `copies` set-ups of the run in memory at once.
@@ -403,13 +411,10 @@ fn check_copies(
     if gpu {
         check_device(case, &estimate)?;
     }
-    let (one, backend) = if gpu {
-        (
-            estimate.gpu_bytes(),
-            "the GPU backend (host and device)".to_string(),
-        )
-    } else {
-        (estimate.cpu_bytes, "the CPU backend".to_string())
+    let one = estimate.host_bytes(gpu);
+    let backend = match gpu {
+        true => "the GPU backend (host and device)".to_string(),
+        false => "the CPU backend".to_string(),
     };
     let (needed, backend) = match copies {
         1 => (one, backend),
