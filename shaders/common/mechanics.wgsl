@@ -1,20 +1,12 @@
 // Constitutive functions shared by the TLSPH and mixed passes and the reductions
 // (src/physics/material.rs in f32). State models are written in H = F − I so that small strains
 // keep their digits. Needs the scene constants RHO0, MU, LAMBDA, BULK, MODEL (a choice: MODEL_HYPOELASTIC,
-// MODEL_SAINT_VENANT_KIRCHHOFF, …), RATE and the Mooney–Rivlin MR_C1, MR_C2, MR_LAMBDA.
+// MODEL_SAINT_VENANT_KIRCHHOFF, …), RATE, OBJECTIVE_RATE (a choice) and the Mooney–Rivlin
+// MR_C1, MR_C2, MR_LAMBDA.
 
 // Linear EOS from the density deviation ρ − ρ0, positive in compression.
 fn pressure(rho_dev: f32) -> f32 {
     return BULK / RHO0 * rho_dev;
-}
-
-// Jaumann deviatoric stress rate (seed 000 eqs 89–92).
-fn jaumann(s: matd, l: matd) -> matd {
-    let lt = transpose(l);
-    let eps = (l + lt) * 0.5;
-    let omega = (l - lt) * 0.5;
-    let dev = eps - identity_d() * (trace_d(eps) / 3.0);
-    return dev * (2.0 * MU) - s * omega + omega * s;
 }
 
 // det(I + H) − 1 from the invariants of H.
@@ -160,8 +152,11 @@ fn pk1_pressure(f: matd, h: matd, j: f32, p: f32) -> matd {
 // tr H + q, tr C − DIM = 2 tr H + H:H and tr H − ln J = (x − ln(1 + x)) − q.
 fn energy_density(h: matd, s: matd, rho_dev: f32) -> f32 {
     if RATE == 1u {
+        // S_zz of plane strain (src/physics/material/mod.rs `plane_strain_szz`).
         var szz = 0.0;
-        if DIM == 2u {
+        if DIM == 2u && OBJECTIVE_RATE == OBJECTIVE_RATE_TRUESDELL {
+            szz = 2.0 * MU / 3.0 * rho_dev / RHO0;
+        } else if DIM == 2u {
             szz = -trace_d(s);
         }
         let p = pressure(rho_dev);

@@ -100,7 +100,7 @@ fn points(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
         let rho_dev = y[RHO_OFF + q];
         let s = mload_y(S_OFF + DIM * DIM * q);
         d[RHO_OFF + q] = -(RHO0 + rho_dev) * trace_d(l);
-        mstore_d(S_OFF + DIM * DIM * q, jaumann(s, l));
+        mstore_d(S_OFF + DIM * DIM * q, stress_rate(s, l, f));
         pk = (s - identity_d() * pressure(rho_dev)) * f_inv_t * jac;
         psi = energy_density(h, s, rho_dev);
     } else if MODEL == MODEL_VON_MISES_PLASTIC {

@@ -76,7 +76,7 @@ fn stress(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
         rho = RHO0 + rho_dev;
         let s = mload_y(S_OFF + DIM * DIM * i);
         d[RHO_OFF + i] = -rho * trace_d(l);
-        mstore_d(S_OFF + DIM * DIM * i, jaumann(s, l));
+        mstore_d(S_OFF + DIM * DIM * i, stress_rate(s, l, f));
         p = (s - identity_d() * pressure(rho_dev)) * f_inv_t * jac;
     } else {
         rho = RHO0 / jac;

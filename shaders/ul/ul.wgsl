@@ -152,6 +152,7 @@ fn close_rates(i: u32, x_dot: vecd, acc: vecd, rho_dot: f32, l: matd) {
     vstore_d(U_OFF + DIM * i, xd);
     vstore_d(V_OFF + DIM * i, a);
     d[RHO_OFF + i] = rho_dot;
-    mstore_d(S_OFF + DIM * DIM * i, jaumann(mload_y(S_OFF + DIM * DIM * i), l));
-    mstore_d(F_OFF + DIM * DIM * i, l * (identity_d() + mload_y(F_OFF + DIM * DIM * i)));
+    let f = identity_d() + mload_y(F_OFF + DIM * DIM * i);
+    mstore_d(S_OFF + DIM * DIM * i, stress_rate(mload_y(S_OFF + DIM * DIM * i), l, f));
+    mstore_d(F_OFF + DIM * DIM * i, l * f);
 }

@@ -13,7 +13,7 @@
 use super::bytes::FILE;
 use super::layout::GpuDim;
 use crate::core::kernel::{Kernel, KernelKind};
-use crate::physics::material::{Material, MaterialModel};
+use crate::physics::material::{Material, MaterialModel, ObjectiveRate};
 
 /// A WGSL file of `shaders/`, by its path there (`common/kernel.wgsl`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -87,6 +87,8 @@ pub const PART: Wgsl = wgsl!("common/part.wgsl");
 /// Eigen-decomposition of symmetric tensors (cyclic Jacobi) and tensors from principal
 /// values.
 pub const EIGEN: Wgsl = wgsl!("common/eigen.wgsl");
+/// The rate model's objective stress rate (after [`EIGEN`]).
+pub const OBJECTIVE: Wgsl = wgsl!("common/objective.wgsl");
 /// The von Mises return map (after [`EIGEN`]).
 pub const PLASTICITY: Wgsl = wgsl!("physics/plasticity.wgsl");
 /// The store of a returned point into the plastic history (after [`PLASTICITY`], in a pass
@@ -179,7 +181,8 @@ impl Constants {
         .f32("KERNEL_SCALE", kernel.scale())
     }
 
-    /// MODEL (a choice), RHO0, MU, LAMBDA, BULK, RATE and the Mooney–Rivlin constants
+    /// MODEL (a choice), RHO0, MU, LAMBDA, BULK, RATE, OBJECTIVE_RATE (a choice) and the
+    /// Mooney–Rivlin constants
     /// MR_C1, MR_C2, MR_LAMBDA (zero for the other models), YIELD and HARDENING (zero but for
     /// `von-mises-plastic`) of a material (mechanics.wgsl, plasticity.wgsl).
     pub fn material(self, material: &Material) -> Self {
@@ -205,6 +208,15 @@ impl Constants {
                 "MOONEY_RIVLIN",
             ],
             model,
+        )
+        .choice(
+            "OBJECTIVE_RATE",
+            &["JAUMANN", "GREEN_NAGHDI", "TRUESDELL"],
+            match material.objective_rate {
+                ObjectiveRate::Jaumann => 0,
+                ObjectiveRate::GreenNaghdi => 1,
+                ObjectiveRate::Truesdell => 2,
+            },
         )
         .u32("RATE", u32::from(material.model.is_rate_based()))
         .f32("RHO0", material.rho0)

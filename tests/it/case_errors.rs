@@ -240,6 +240,30 @@ fn plane_stress_is_2d_and_for_the_models_linear_in_their_strain() {
 }
 
 #[test]
+fn objective_rates_are_for_rate_models_and_named() {
+    let rate = |r: &str| {
+        edit(
+            VALID,
+            "poisson_ratio = 0.3",
+            &format!("poisson_ratio = 0.3\nobjective_rate = \"{r}\""),
+        )
+    };
+    for r in ["jaumann", "green-naghdi", "truesdell"] {
+        Scene::from_toml(&rate(r), Path::new(FILE), &[]).unwrap();
+    }
+    assert_invalid(
+        &edit(&rate("truesdell"), "\"hypoelastic\"", "\"neo-hookean\""),
+        "material.objective_rate",
+        &["`hypoelastic`", "`neo-hookean`", "remove it"],
+    );
+    let shown = error(&rate("oldroyd"));
+    assert_mentions(
+        &shown,
+        &[FILE, "`jaumann`", "`green-naghdi`", "`truesdell`"],
+    );
+}
+
+#[test]
 fn wrong_shape_lists_allowed_shapes() {
     let text = edit(VALID, "shape = \"box\"", "shape = \"sphere\"");
     let shown = error(&text);

@@ -25,6 +25,7 @@ fn material(model: MaterialModel) -> Material {
         c2: None,
         lambda: None,
         plane: Plane::Strain,
+        objective_rate: None,
     })
 }
 

@@ -17,7 +17,7 @@ use meshless::scene::Scene;
 
 /// One rate evaluation of a random state (|u| ~ 1 mm, |v| ~ 1 m/s, ρ within 1 % of ρ0,
 /// |S| ~ 1e4 Pa) on both backends.
-fn compare_rates<D: GpuDim>(case: &Scene) {
+pub fn compare_rates<D: GpuDim>(case: &Scene) {
     let mut cpu: TlGalerkin<D> = build_method(case).unwrap();
     let mut seed = 11;
     let mut y = cpu.initial_state();

@@ -164,6 +164,7 @@ fn material(model: MaterialModel) -> Material {
         c2: rubber.then_some(0.1 * mu),
         lambda: rubber.then_some(bulk / 2.0),
         plane: Plane::Strain,
+        objective_rate: None,
     })
 }
 

@@ -29,7 +29,7 @@ fn cpu_run<D: Dim>(
 }
 
 /// Compares one rate evaluation on a deformed, stressed state on the adapter `gpu()` picks.
-fn compare_rates<D: GpuDim>(c: &Scene, steps: usize, dt: f64) {
+pub fn compare_rates<D: GpuDim>(c: &Scene, steps: usize, dt: f64) {
     compare_rates_on::<D>(c, steps, dt, gpu());
 }
 

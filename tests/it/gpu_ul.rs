@@ -56,8 +56,20 @@ fn compare_rates_on<D: GpuDim, S: PairScheme<D>>(case: &Scene, gpu: Gpu)
 where
     S::Spec: Runs,
 {
+    compare_edited_rates::<D, S>(case, gpu, |_| {});
+}
+
+/// [`compare_rates`] on `gpu`, with the disordered state changed by `edit`.
+pub fn compare_edited_rates<D: GpuDim, S: PairScheme<D>>(
+    case: &Scene,
+    gpu: Gpu,
+    edit: impl FnOnce(&mut UlState<D>),
+) where
+    S::Spec: Runs,
+{
     let mut cpu: UlSph<D, S> = build_method(case).unwrap();
-    let y = random_state(&cpu, case.spacing, &mut 17);
+    let mut y = random_state(&cpu, case.spacing, &mut 17);
+    edit(&mut y);
     let mut d = y.clone();
     meshless::core::integrate::OdeSystem::rates(&mut cpu, 0.0, &y, &mut d).unwrap();
     let mut g = GpuUl::<D>::new(case, gpu, &scheme(case)).unwrap();
@@ -77,7 +89,7 @@ where
     }
 }
 
-fn block(dim: usize, method: &str, keys: &str) -> Scene {
+pub fn block(dim: usize, method: &str, keys: &str) -> Scene {
     let max: &[f64] = if dim == 2 {
         &[1.0, 0.6]
     } else {
@@ -86,7 +98,7 @@ fn block(dim: usize, method: &str, keys: &str) -> Scene {
     block_case(max, "hypoelastic", method, keys)
 }
 
-const GRAY_MONAGHAN_KEYS: &str = "artificial_viscosity = { alpha = 1.0, beta = 1.0 }\n\
+pub const GRAY_MONAGHAN_KEYS: &str = "artificial_viscosity = { alpha = 1.0, beta = 1.0 }\n\
     artificial_stress = { epsilon = 0.3, n = 4.0 }\nxsph = 0.5";
 
 #[test]

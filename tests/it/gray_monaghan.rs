@@ -4,7 +4,7 @@
 //! stress and viscosity (seed 000 §7 items 6, 7, 12, 22 and 23), and validation.
 
 use crate::common::{load, noise, random_tensor};
-use glam::{DMat2, DVec2};
+use glam::{DMat2, DMat3, DVec2};
 use meshless::case::CaseError;
 use meshless::core::integrate::OdeSystem;
 use meshless::core::kernel::Kernel;
@@ -29,6 +29,11 @@ pub fn block_3d<S: PairScheme<D3>>(name: &str, correction: &str, keys: &str) -> 
 where
     S::Spec: Runs,
 {
+    build_method(&block_3d_scene(name, correction, keys, &[])).unwrap()
+}
+
+/// The scene of [`block_3d`], with `overrides`.
+fn block_3d_scene(name: &str, correction: &str, keys: &str, overrides: &[&str]) -> Scene {
     let text = format!(
         r#"
 name = "block"
@@ -52,17 +57,26 @@ geometry = {{ shape = "box", min = [0.0, 0.0, 0.0], max = [0.5, 0.4, 0.3] }}
 end_time = 1.0e-4
 "#
     );
-    build_method(&Scene::from_toml(&text, Path::new("block.toml"), &[]).unwrap()).unwrap()
+    let overrides: Vec<String> = overrides.iter().map(|o| o.to_string()).collect();
+    Scene::from_toml(&text, Path::new("block.toml"), &overrides).unwrap()
+}
+
+/// The 3D block under Gray–Monaghan with every stabilisation, with `overrides`.
+fn gray_monaghan_3d_with(correction: &str, overrides: &[&str]) -> GrayMonaghan<D3> {
+    let keys = "artificial_viscosity = { alpha = 1.0, beta = 1.0, eta = 0.1 }\n\
+                artificial_stress = { epsilon = 0.3, n = 4.0 }\nxsph = 0.5";
+    build_method(&block_3d_scene(
+        "gray-monaghan-sph",
+        correction,
+        keys,
+        overrides,
+    ))
+    .unwrap()
 }
 
 /// The 3D block under Gray–Monaghan with every stabilisation.
 fn gray_monaghan_3d(correction: &str) -> GrayMonaghan<D3> {
-    block_3d(
-        "gray-monaghan-sph",
-        correction,
-        "artificial_viscosity = { alpha = 1.0, beta = 1.0, eta = 0.1 }\n\
-         artificial_stress = { epsilon = 0.3, n = 4.0 }\nxsph = 0.5",
-    )
+    gray_monaghan_3d_with(correction, &[])
 }
 
 /// The rates of state y.
@@ -268,9 +282,16 @@ fn jaumann<D: Dim>(g: f64, s: D::T, l: D::T) -> D::T {
     (eps - D::identity() * (D::trace(eps) / 3.0)) * (2.0 * g) - s * w + w * s
 }
 
-/// Under v = L0 x + b with a uniform pre-stress S0 and density ρ1, the corrected L is L0
-/// at every particle and the rates are the analytic ρ̇ = −ρ1 tr L0 and Ṡ = Jaumann(S0, L0).
-fn check_affine<D: Dim>(mut m: GrayMonaghan<D>, g: f64, seed: &mut u64) {
+/// Under v = L0 x + b with a uniform pre-stress S0, density ρ1 and deformation gradient F1,
+/// the corrected L is L0 at every particle and the rates are the analytic ρ̇ = −ρ1 tr L0
+/// and Ṡ = `rate`(S0, L0).
+fn check_affine<D: Dim>(
+    mut m: GrayMonaghan<D>,
+    g: f64,
+    seed: &mut u64,
+    f1: D::T,
+    rate: impl Fn(D::T, D::T) -> D::T,
+) {
     let l0 = random_tensor::<D>(seed, 30.0);
     let b = random_vector::<D>(seed, 5.0);
     let s0 = random_deviator::<D>(seed, 2e4);
@@ -280,14 +301,15 @@ fn check_affine<D: Dim>(mut m: GrayMonaghan<D>, g: f64, seed: &mut u64) {
         y.v[i] = l0 * m.reference()[i] + b;
         y.s[i] = s0;
         y.rho[i] = rho1;
+        y.f[i] = f1;
     }
     let d = rates(&mut m, &y);
-    let s_dot = jaumann::<D>(g, s0, l0);
+    let s_dot = rate(s0, l0);
     // Round-off of O(40) terms of size |L0|: 1e-11 relative to |L0| (measured 1e-13).
     let scale = D::ddot(l0, l0).sqrt();
     for i in 0..y.u.len() {
-        let dl = d.f[i] - l0;
-        assert!(D::ddot(dl, dl).sqrt() < 1e-11 * scale, "L at {i}");
+        let dl = d.f[i] - l0 * f1;
+        assert!(D::ddot(dl, dl).sqrt() < 1e-11 * scale, "Ḟ at {i}");
         let drho = d.rho[i] + rho1 * D::trace(l0);
         assert!(drho.abs() < 1e-11 * rho1 * scale, "ρ̇ at {i}: {drho:e}");
         let ds = d.s[i] - s_dot;
@@ -303,12 +325,56 @@ fn check_affine<D: Dim>(mut m: GrayMonaghan<D>, g: f64, seed: &mut u64) {
 fn an_affine_velocity_gives_the_analytic_jaumann_rate() {
     let mut seed = 3;
     // The disk: E = 1e7, ν = 0.4 ⇒ G = E/(2(1 + ν)); the 3D block: E = 1e6, ν = 0.3.
-    check_affine::<D2>(
-        disk(&["method.correction=randles-libersky"]),
-        1e7 / 2.8,
-        &mut seed,
+    let g = 1e7 / 2.8;
+    let disk = disk(&["method.correction=randles-libersky"]);
+    check_affine::<D2>(disk, g, &mut seed, DMat2::IDENTITY, |s, l| {
+        jaumann::<D2>(g, s, l)
+    });
+    let g = 1e6 / 2.6;
+    let block = gray_monaghan_3d("randles-libersky");
+    check_affine::<D3>(block, g, &mut seed, DMat3::IDENTITY, |s, l| {
+        jaumann::<D3>(g, s, l)
+    });
+}
+
+#[test]
+fn an_affine_velocity_gives_the_green_naghdi_and_truesdell_rates() {
+    // Written out for the test: Green–Naghdi is the Jaumann form with W replaced by the
+    // spin θ̇ of R's angle θ = atan2(F_yx − F_xy, F_xx + F_yy) in 2D (Ḟ = L F), and
+    // Truesdell Ṡ = 2G dev D + L S + S Lᵀ − tr(D) S. F1 stretches by 30 % and turns.
+    let mut seed = 5;
+    let g = 1e7 / 2.8;
+    let f1 = DMat2::from_angle(0.4) * DMat2::from_cols_array(&[1.3, 0.1, 0.1, 0.8]);
+    let disk = disk(&[
+        "method.correction=randles-libersky",
+        "material.objective_rate=\"green-naghdi\"",
+    ]);
+    check_affine::<D2>(disk, g, &mut seed, f1, |s, l| {
+        let f_dot = l * f1;
+        let (a, b) = (f1.x_axis.x + f1.y_axis.y, f1.x_axis.y - f1.y_axis.x);
+        let (a_dot, b_dot) = (
+            f_dot.x_axis.x + f_dot.y_axis.y,
+            f_dot.x_axis.y - f_dot.y_axis.x,
+        );
+        let spin = (a * b_dot - b * a_dot) / (a * a + b * b);
+        let w = (l - l.transpose()) * 0.5;
+        let omega = DMat2::from_cols_array(&[0.0, spin, -spin, 0.0]);
+        jaumann::<D2>(g, s, l) + s * w - w * s - s * omega + omega * s
+    });
+    let truesdell = |g: f64| {
+        move |s: DMat3, l: DMat3| {
+            let d = (l + l.transpose()) * 0.5;
+            let dev = d - DMat3::IDENTITY * (D3::trace(d) / 3.0);
+            dev * (2.0 * g) + l * s + s * l.transpose() - s * D3::trace(d)
+        }
+    };
+    let block = gray_monaghan_3d_with(
+        "randles-libersky",
+        &["material.objective_rate=\"truesdell\""],
     );
-    check_affine::<D3>(gray_monaghan_3d("randles-libersky"), 1e6 / 2.6, &mut seed);
+    let g = 1e6 / 2.6;
+    let f1 = DMat3::from_cols_array(&[1.2, 0.1, 0.0, -0.2, 0.9, 0.1, 0.0, 0.3, 1.1]);
+    check_affine::<D3>(block, g, &mut seed, f1, truesdell(g));
 }
 
 // ---------------------------------------------------------------------------------------

@@ -52,6 +52,8 @@ mod loads;
 mod mesh_input;
 #[cfg(feature = "study")]
 mod mixed;
+#[cfg(feature = "gpu")]
+mod objective_rates;
 #[cfg(feature = "study")]
 mod perforated_block;
 mod reactions;

@@ -294,6 +294,7 @@ mod tests {
             c2: None,
             lambda: None,
             plane,
+            objective_rate: None,
         })
     }
 

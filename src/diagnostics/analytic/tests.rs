@@ -14,6 +14,7 @@ fn material() -> Material {
         c2: None,
         lambda: None,
         plane: crate::physics::material::Plane::Strain,
+        objective_rate: None,
     })
 }
 

@@ -3,15 +3,17 @@
 //! is checked against.
 
 use crate::gpu::shaders::{
-    BOUNDARY, CONTACT, Constants, INTEGRATE, KERNEL, LOADS, MECHANICS, PART, PRESCRIBED, REFERENCE,
-    Source, source,
+    BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, KERNEL, LOADS, MECHANICS, OBJECTIVE, PART,
+    PRESCRIBED, REFERENCE, Source, source,
 };
 use crate::methods::cores::ul::gpu::{CORE, FLAT, REDUCE, Scheme};
 
 /// Per-particle quantities (σ, p, Z, V, the correction) and the Riemann pair gather.
 pub const PASSES: Source = source!(
     "godunov/godunov.wgsl",
-    [KERNEL, MECHANICS, REFERENCE, BOUNDARY, PART, CORE],
+    [
+        KERNEL, MECHANICS, REFERENCE, BOUNDARY, EIGEN, OBJECTIVE, PART, CORE
+    ],
     flat = FLAT
 );
 

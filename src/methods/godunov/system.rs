@@ -6,7 +6,7 @@
 //! Z = ρ c, c = sqrt(K/ρ). Its contact velocity u* replaces the mean normal velocity in the
 //! continuity equation and its traction t* the mean traction in the momentum equation;
 //! t*_ji = −t*_ij, so the pair forces conserve linear momentum. The velocity gradient of
-//! the Jaumann rate is eq 105 with the case's correction (`none`, the paper's, or
+//! the stress rate is eq 105 with the case's correction (`none`, the paper's, or
 //! `randles-libersky`).
 
 use super::GodunovSpec;

@@ -50,7 +50,7 @@ pub struct GrayMonaghanSpec {
 
 impl MethodFamily for GrayMonaghanSpec {
     const DESCRIPTION: &'static str = "Gray–Monaghan stress-corrected updated-Lagrangian SPH \
-        (seed 000 §5.1): neighbours rebuilt every stage, Jaumann rate, artificial viscosity, \
+        (seed 000 §5.1): neighbours rebuilt every stage, objective stress rate, artificial viscosity, \
         artificial stress and XSPH";
     const KEYS: &'static [&'static str] = &["artificial_viscosity", "artificial_stress", "xsph"];
     const FEATURES: &'static [Feature] = &[Feature::Contact];

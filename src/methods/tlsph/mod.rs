@@ -122,7 +122,7 @@ impl MethodFamily for TlsphSpec {
         left_out.push(if rate {
             "P(F) evaluation"
         } else {
-            "continuity and Jaumann rates"
+            "continuity and stress rates"
         });
         let (once, force) = match self.force {
             TlsphForce::Reveles => ("", "(P_i + P_j) ∇0W̃_ij, eq 134"),
@@ -141,7 +141,7 @@ impl MethodFamily for TlsphSpec {
                  gradients ∇0W̃_ij{once}"
             ),
             state: if rate {
-                "u, v, ρ, S (rate model: Jaumann + linear EOS)".into()
+                format!("u, v, ρ, S (rate model: {})", mat.rate_model())
             } else {
                 format!("u, v (state model {:?}: no ρ or S integrated)", mat.model)
             },

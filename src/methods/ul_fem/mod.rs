@@ -148,7 +148,7 @@ impl MethodFamily for UlFemSpec {
 /// What a point computes in one rate evaluation, for `--explain`.
 pub(crate) fn point_rates(mat: &Material) -> &'static str {
     if mat.model.is_rate_based() {
-        "L_q = Σ_a v_a ⊗ ∇N_a, ρ̇_q = −ρ_q tr L_q, the Jaumann Ṡ_q and σ_q = S_q − p I"
+        "L_q = Σ_a v_a ⊗ ∇N_a, ρ̇_q = −ρ_q tr L_q, the objective Ṡ_q and σ_q = S_q − p I"
     } else {
         "F_q = (Σ_a X_a ⊗ ∇N_a)⁻¹ and σ_q = P(F_q) F_qᵀ / det F_q"
     }

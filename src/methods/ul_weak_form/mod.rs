@@ -62,8 +62,8 @@ impl MethodFamily for UlWeakFormSpec {
         fail(
             "material.model",
             format!(
-                "`ul-weak-form` integrates ρ and S at its moving stress points with the \
-                 Jaumann rate: use `hypoelastic`, not {}; for a state model use \
+                "`ul-weak-form` integrates ρ and S at its moving stress points with an \
+                 objective rate: use `hypoelastic`, not {}; for a state model use \
                  `tl-weak-form` or `ul-fem`",
                 toml_name(&case.material.model)
             ),
@@ -88,7 +88,7 @@ impl MethodFamily for UlWeakFormSpec {
             ),
             cfl_step: cfl_step(&mat),
             rates: "on the CPU: covariance ellipses, h and RKPM N_j = V_j Ψ_j at every \
-                    stress point and particle (V_j = m_j/ρ_j); L, ρ̇, Jaumann Ṡ, σ and \
+                    stress point and particle (V_j = m_j/ρ_j); L, ρ̇, the objective Ṡ, σ and \
                     ẋ_q = Σ_j N_j v_j at the stress points, ρ̇ at the particles; each particle \
                     gathers −Σ_q V_q σ_q ∇N_j(x_q); after each step v_i ← Σ_j N_j(x_i) v_j \
                     with the particles' functions anew"

@@ -1,4 +1,4 @@
-//! Constitutive models: hypoelastic (Jaumann rate + linear EOS), Saint Venant–Kirchhoff,
+//! Constitutive models: hypoelastic (an objective rate + linear EOS), Saint Venant–Kirchhoff,
 //! compressible neo-Hookean, linear elastic, polyconvex nearly incompressible
 //! neo-Hookean, the compressible Mooney–Rivlin rubber of seed 001 eq 18
 //! ([`crate::physics::mooney_rivlin`]) and von Mises hyperelastic-plastic ([`crate::physics::plasticity`]).
@@ -7,9 +7,11 @@
 //! exactly through λ* = 2λμ/(λ + 2μ) in place of λ. The models are described in
 //! docs/materials.md.
 
+mod objective;
 mod spec;
 
-pub use spec::{MaterialSpec, Plane};
+pub use objective::rotation_spin;
+pub use spec::{MaterialSpec, ObjectiveRate, Plane};
 
 use crate::core::sum::Exact;
 use crate::core::tensor::Dim;
@@ -23,7 +25,9 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum MaterialModel {
-    /// Rate form (seed 000 §2.2): Ṡ = 2G(ε̇ − ⅓ tr ε̇ I) − Sω + ωS, p = c0²(ρ − ρ0), σ = S − pI.
+    /// Rate form (seed 000 §2.2): S̊ = 2G(ε̇ − ⅓ tr ε̇ I) with the objective rate S̊ of
+    /// [`ObjectiveRate`] (Jaumann: Ṡ = 2G(ε̇ − ⅓ tr ε̇ I) − Sω + ωS), p = c0²(ρ − ρ0),
+    /// σ = S − pI.
     Hypoelastic,
     /// S = λ tr(E) I + 2μ E with E = ½(FᵀF − I); P = F S.
     SaintVenantKirchhoff,
@@ -115,6 +119,8 @@ pub struct Material {
     pub mooney_rivlin: Option<MooneyRivlin>,
     /// σ_zz = 0 in 2D (λ and K are then the plane-stress λ* and λ* + 2μ/3).
     pub plane_stress: bool,
+    /// The objective rate of the rate model.
+    pub objective_rate: ObjectiveRate,
 }
 
 impl Material {
@@ -155,6 +161,7 @@ impl Material {
                 _ => None,
             },
             mooney_rivlin,
+            objective_rate: spec.objective_rate.unwrap_or_default(),
         }
     }
 
@@ -192,23 +199,46 @@ impl Material {
         (self.mu / self.rho0).sqrt()
     }
 
+    /// The rate model's state and laws, for `--explain`: "<rate> rate + linear EOS".
+    pub fn rate_model(&self) -> String {
+        format!("{} rate + linear EOS", self.objective_rate.describe())
+    }
+
     /// Pressure of the linear EOS, positive in compression (seed 000 erratum to eq 77).
     pub fn pressure(&self, rho: f64) -> f64 {
         self.bulk / self.rho0 * (rho - self.rho0)
     }
 
-    /// Jaumann deviatoric stress rate Ṡ from the velocity gradient L (eqs 89–92).
-    pub fn jaumann_rate<D: Dim>(&self, s: D::T, l: D::T) -> D::T {
+    /// The deviatoric stress rate Ṡ of the rate model from the velocity gradient L at a
+    /// point with deformation gradient F: its objective rate S̊ equated to 2μ dev D
+    /// (eq 91; Jaumann: eq 92).
+    pub fn stress_rate<D: Dim>(&self, s: D::T, l: D::T, f: D::T) -> D::T {
         let lt = D::transpose(l);
-        let eps_dot = (l + lt) * 0.5;
-        let omega = (l - lt) * 0.5;
-        let dev = eps_dot - D::identity() * (D::trace(eps_dot) / 3.0);
-        dev * (2.0 * self.mu) - s * omega + omega * s
+        let d = (l + lt) * 0.5;
+        let tr_d = D::trace(d);
+        let elastic = (d - D::identity() * (tr_d / 3.0)) * (2.0 * self.mu);
+        let corotational = |omega: D::T| elastic - s * omega + omega * s;
+        match self.objective_rate {
+            ObjectiveRate::Jaumann => corotational((l - lt) * 0.5),
+            ObjectiveRate::GreenNaghdi => corotational(rotation_spin::<D>(f, l)),
+            ObjectiveRate::Truesdell => elastic + l * s + s * lt - s * tr_d,
+        }
+    }
+
+    /// S_zz of a 2D plane-strain rate model, which the in-plane S does not carry: −tr S
+    /// under a corotational rate, which keeps S traceless; under Truesdell's, Ṡ_zz =
+    /// −tr D (2μ/3 + S_zz) with tr D = −ρ̇/ρ integrates to (2μ/3)(ρ/ρ0 − 1). Zero in 3D.
+    fn plane_strain_szz<D: Dim>(&self, s: D::T, rho: f64) -> f64 {
+        match (D::N, self.objective_rate) {
+            (2, ObjectiveRate::Truesdell) => 2.0 * self.mu / 3.0 * (rho / self.rho0 - 1.0),
+            (2, _) => -D::trace(s),
+            _ => 0.0,
+        }
     }
 
     /// The rate model at a point with deformation gradient F, its rate Ḟ, density ρ and
     /// deviatoric stress S (seed 000 Algorithms 3 and 6, step 3): L = Ḟ F⁻¹, ρ̇ = −ρ tr L,
-    /// the Jaumann Ṡ, and P = J σ F⁻ᵀ with σ = S − p(ρ) I.
+    /// Ṡ of the objective rate, and P = J σ F⁻ᵀ with σ = S − p(ρ) I.
     pub fn rate_response<D: Dim>(
         &self,
         f: D::T,
@@ -224,7 +254,7 @@ impl Material {
             pk1: sigma * f_inv_t * D::det(f),
             f_inv_t,
             rho_dot: -rho * D::trace(l),
-            s_dot: self.jaumann_rate::<D>(s, l),
+            s_dot: self.stress_rate::<D>(s, l, f),
         }
     }
 
@@ -301,7 +331,7 @@ impl Material {
         match self.model {
             MaterialModel::Hypoelastic => {
                 let p = self.pressure(rho);
-                let szz = plane_strain_szz::<D>(s);
+                let szz = self.plane_strain_szz::<D>(s, rho);
                 (D::ddot(s, s) + szz * szz) / (4.0 * self.mu) + p * p / (2.0 * self.bulk)
             }
             MaterialModel::SaintVenantKirchhoff => {
@@ -335,7 +365,7 @@ impl Material {
         }
         let j = D::det(f);
         match self.model {
-            MaterialModel::Hypoelastic => plane_strain_szz::<D>(s) - self.pressure(rho),
+            MaterialModel::Hypoelastic => self.plane_strain_szz::<D>(s, rho) - self.pressure(rho),
             MaterialModel::SaintVenantKirchhoff => {
                 let e = (D::transpose(f) * f - D::identity()) * 0.5;
                 self.lambda * D::trace(e) / j
@@ -515,11 +545,6 @@ fn full_ddot<D: Dim>(f: D::T) -> f64 {
     D::ddot(f, f) + (3 - D::N) as f64
 }
 
-/// S_zz of a traceless 3D deviator whose in-plane part is `s` (2D only).
-fn plane_strain_szz<D: Dim>(s: D::T) -> f64 {
-    if D::N == 2 { -D::trace(s) } else { 0.0 }
-}
-
 /// Von Mises equivalent stress of a 3×3 Cauchy stress, sqrt(3/2 s:s).
 pub fn von_mises(sigma: &[[f64; 3]; 3]) -> f64 {
     let mean = (sigma[0][0] + sigma[1][1] + sigma[2][2]) / 3.0;
@@ -541,7 +566,7 @@ pub struct RateResponse<D: Dim> {
     /// F⁻ᵀ, which pushes reference gradients forward.
     pub f_inv_t: D::T,
     pub rho_dot: f64,
-    /// Jaumann rate of the deviatoric stress.
+    /// Ṡ of the objective rate.
     pub s_dot: D::T,
 }
 
@@ -606,6 +631,7 @@ mod tests {
             c2: given(1e7 / 2.8 - 3.2e6, rubber),
             lambda: given(1e7 / (3.0 * 0.2) / 2.0, rubber),
             plane: Plane::Strain,
+            objective_rate: None,
         }
     }
 
@@ -625,7 +651,7 @@ mod tests {
             let p = if model.is_rate_based() {
                 // Rates per unit time at L = diag(ε, −ν ε): σ̇ = Ṡ − ṗ I with ṗ = −K tr L.
                 let l = f - DMat2::IDENTITY;
-                let s_dot = m.jaumann_rate::<D2>(DMat2::ZERO, l);
+                let s_dot = m.stress_rate::<D2>(DMat2::ZERO, l, DMat2::IDENTITY);
                 s_dot + DMat2::IDENTITY * (m.bulk * l.x_axis.x + m.bulk * l.y_axis.y)
             } else {
                 m.pk1::<D2>(f)

@@ -30,6 +30,8 @@ pub struct MaterialSpec {
     /// What the out-of-plane direction of a 2D scene holds fixed.
     #[serde(default)]
     pub plane: Plane,
+    /// The objective rate of a rate model's deviatoric stress (Jaumann when absent).
+    pub objective_rate: Option<ObjectiveRate>,
 }
 
 impl MaterialSpec {
@@ -60,6 +62,31 @@ impl MaterialSpec {
                 self.youngs_modulus.unwrap_or(f64::NAN),
                 self.poisson_ratio.unwrap_or(f64::NAN),
             ),
+        }
+    }
+}
+
+/// The objective rate S̊ that the rate model equates to 2μ dev D (seed 000 §4.1, eq 91).
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum ObjectiveRate {
+    /// S̊ = Ṡ + S W − W S with the spin W = ½(L − Lᵀ) (eqs 89–90).
+    #[default]
+    Jaumann,
+    /// S̊ = Ṡ + S Ω − Ω S with the spin Ω = Ṙ Rᵀ of the rotation of F = R U.
+    GreenNaghdi,
+    /// S̊ = Ṡ − L S − S Lᵀ + tr(D) S: S is then the stress beyond the EOS pressure, and
+    /// need not stay traceless.
+    Truesdell,
+}
+
+impl ObjectiveRate {
+    /// The rate's name in prose, for `--explain`.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Self::Jaumann => "Jaumann",
+            Self::GreenNaghdi => "Green–Naghdi",
+            Self::Truesdell => "Truesdell",
         }
     }
 }

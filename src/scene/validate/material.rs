@@ -75,6 +75,17 @@ pub(super) fn check(m: &MaterialSpec, incompressible: bool) -> Checked {
             _ => {}
         }
     }
+    if m.objective_rate.is_some() && !m.model.is_rate_based() {
+        return fail(
+            "material.objective_rate",
+            format!(
+                "is read only by {}, not by `{}`, whose stress follows from F and is objective \
+                 as it is; remove it",
+                MaterialModel::names_where(MaterialModel::is_rate_based),
+                toml_name(&m.model)
+            ),
+        );
+    }
     if let Some(e) = m.youngs_modulus {
         positive("material.youngs_modulus", e)?;
     }

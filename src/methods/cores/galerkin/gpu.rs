@@ -24,8 +24,8 @@ use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{self, Reduced, Reduction};
 use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
-    self, BOUNDARY, CONTACT, Compose, Constants, EIGEN, INTEGRATE, LOADS, MECHANICS, PART,
-    PLASTIC_STORE, PLASTICITY, PRESCRIBED, REFERENCE, Source, Wgsl, source, wgsl,
+    self, BOUNDARY, CONTACT, Compose, Constants, EIGEN, INTEGRATE, LOADS, MECHANICS, OBJECTIVE,
+    PART, PLASTIC_STORE, PLASTICITY, PRESCRIBED, REFERENCE, Source, Wgsl, source, wgsl,
 };
 use crate::gpu::shell::Shell;
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
@@ -42,6 +42,7 @@ pub const RATES: Source = source!(
         REFERENCE,
         BOUNDARY,
         EIGEN,
+        OBJECTIVE,
         PLASTICITY,
         PLASTIC_STORE,
         PART

@@ -185,7 +185,7 @@ pub fn tl_plan(
     left_out.push(if mat.model.is_rate_based() {
         "P(F) evaluation"
     } else {
-        "continuity and Jaumann rates"
+        "continuity and stress rates"
     });
     Plan {
         once,
@@ -201,7 +201,10 @@ pub fn tl_plan(
 /// The state of a total-Lagrangian Galerkin method with material `mat`, for `--explain`.
 fn tl_state(mat: &Material) -> String {
     if mat.model.is_rate_based() {
-        "u, v at the nodes; ρ, S at the quadrature points (rate model: Jaumann + linear EOS)".into()
+        format!(
+            "u, v at the nodes; ρ, S at the quadrature points (rate model: {})",
+            mat.rate_model()
+        )
     } else if mat.model == MaterialModel::VonMisesPlastic {
         "u, v at the nodes; the plastic history C_p⁻¹, ε_p at the quadrature points, committed \
          once per step from the state at its start"

@@ -6,7 +6,7 @@
 //! nodes fixed at set-up, so that the transposed lists of the per-node gather are fixed
 //! too. Then
 //!
-//! - at each point: L_q = Σ_a v_a ⊗ ∇N_a(x_q), ρ̇_q = −ρ_q tr L_q, the Jaumann Ṡ_q and
+//! - at each point: L_q = Σ_a v_a ⊗ ∇N_a(x_q), ρ̇_q = −ρ_q tr L_q, the objective Ṡ_q and
 //!   σ_q = S_q − p(ρ_q) I (rate model), or σ_q from F_q = (Σ_a X_a ⊗ ∇N_a(x_q))⁻¹ (state
 //!   model; the von Mises model returns it from the point's plastic history, committed
 //!   at the start of every step from F_q there);
@@ -39,7 +39,10 @@ use rayon::prelude::*;
 /// `--explain`.
 pub fn state(mat: &Material, points: &str) -> String {
     if mat.model.is_rate_based() {
-        format!("u, v at the nodes; ρ, S at {points} (rate model: Jaumann + linear EOS)")
+        format!(
+            "u, v at the nodes; ρ, S at {points} (rate model: {})",
+            mat.rate_model()
+        )
     } else if mat.model == MaterialModel::VonMisesPlastic {
         format!(
             "u, v at the nodes; the plastic history C_p⁻¹, ε_p at {points}, committed once per \
@@ -355,7 +358,7 @@ impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
                     // L_q = Σ_a v_a ⊗ ∇N_a(x_q) (UL FEM step 4; Algorithm 7 step 6).
                     let l = shapes.gradient(q, &y.v);
                     *rho_dot = -y.rho[q] * D::trace(l);
-                    *s_dot = mat.jaumann_rate::<D>(y.s[q], l);
+                    *s_dot = mat.stress_rate::<D>(y.s[q], l, self.point_f(shapes, q));
                     *sigma = y.s[q] - D::identity() * mat.pressure(y.rho[q]);
                 });
         } else {

@@ -7,7 +7,7 @@
 //! positions at every rate evaluation, per body when the case has contact), the
 //! boundary conditions and the interactions. At every rate evaluation it forms
 //! x = X + u, updates the lists, checks ρ > 0, lets the scheme compute its particles and
-//! rates (ẋ, v̇, ρ̇ and the velocity gradient L), and closes with the Jaumann rate Ṡ, Ḟ = L F,
+//! rates (ẋ, v̇, ρ̇ and the velocity gradient L), and closes with the objective rate Ṡ, Ḟ = L F,
 //! the prescribed velocities and the interactions. The state is [`UlState`]: u = x − X,
 //! v, ρ, S and F (integrated for the outputs only).
 
@@ -39,7 +39,7 @@ particle_state! {
     pub struct UlState {
         /// Density ρ.
         pub rho: Vec<f64>,
-        /// Deviatoric Cauchy stress S (Jaumann rate, seed 000 §2.2).
+        /// Deviatoric Cauchy stress S (an objective rate, seed 000 §2.2 and §4.1).
         pub s: Vec<D::T>,
         /// Deformation gradient F, integrated by Ḟ = L F (outputs only).
         pub f: Vec<D::T>,
@@ -124,7 +124,7 @@ pub fn validate(case: &Case) -> Result<(), Problem> {
         return fail(
             "material.model",
             format!(
-                "`{name}` integrates ρ and S with the Jaumann rate: use `hypoelastic`, not {}",
+                "`{name}` integrates ρ and S with an objective rate: use `hypoelastic`, not {}",
                 toml_name(&case.material.model)
             ),
         );
@@ -363,7 +363,7 @@ impl<D: Dim, S: PairScheme<D>> OdeSystem for UlSph<D, S> {
                     let r = scheme.rates_of(&sums, i);
                     (*u_dot, *v_dot, *rho_dot) = (r.x_dot, r.v_dot, r.rho_dot);
                     *dissipation = -core.mass[i] * D::dot(r.v_dot_dissipative, y.v[i]);
-                    *s_dot = core.material.jaumann_rate::<D>(y.s[i], r.l);
+                    *s_dot = core.material.stress_rate::<D>(y.s[i], r.l, y.f[i]);
                     *f_dot = r.l * y.f[i];
                 },
             );

@@ -14,8 +14,8 @@ use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::reduction;
 use crate::gpu::reference::{self, Extras};
 use crate::gpu::shaders::{
-    BOUNDARY, CONTACT, CORRECTION, Constants, INTEGRATE, LOADS, MECHANICS, PAIR_OFFSETS, PART,
-    PRESCRIBED, REFERENCE, Source, VISCOSITY, Wgsl, source, wgsl,
+    BOUNDARY, CONTACT, CORRECTION, Constants, EIGEN, INTEGRATE, LOADS, MECHANICS, OBJECTIVE,
+    PAIR_OFFSETS, PART, PRESCRIBED, REFERENCE, Source, VISCOSITY, Wgsl, source, wgsl,
 };
 use crate::methods::cores::tl::{self, TlState};
 use crate::physics::material::Material;
@@ -28,7 +28,7 @@ const ENERGY: Wgsl = wgsl!("tl/tlsph_energy.wgsl");
 /// F, P (and ρ̇, Ṡ of the rate model) per particle.
 pub const STRESS: Source = source!(
     "tl/tlsph.wgsl",
-    [MECHANICS, REFERENCE, PART],
+    [MECHANICS, EIGEN, OBJECTIVE, REFERENCE, PART],
     [
         ("y", false),
         ("pair", false),
