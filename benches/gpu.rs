@@ -98,7 +98,8 @@ fn setup(c: &mut Criterion) {
                 let MethodSpec::Tlsph(spec) = &case.spec else {
                     panic!("rotating-disk runs tlsph")
                 };
-                GpuTlsph::<D2>::new(&case, scheme(spec), gpu()).expect("GPU set-up")
+                GpuTlsph::<D2>::new(&case, scheme(spec, case.method.correction), gpu())
+                    .expect("GPU set-up")
             })
         },
     );

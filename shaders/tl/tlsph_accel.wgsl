@@ -1,6 +1,8 @@
-// Total-Lagrangian SPH accelerations (seed 000 eq 134, or with FORCE_VARIATIONAL the
-// pair force P_i ∇0W̃_ij − P_j ∇0W̃_ji from the reverse gradients GREV, which the set-up
-// copies from the reverse pairs' gradients) with Monaghan viscosity along the
+// Total-Lagrangian SPH accelerations (seed 000 eq 134; with FORCE_VARIATIONAL the pair
+// force P_i ∇0W̃_ij − P_j ∇0W̃_ji from the reverse gradients GREV, which the set-up copies
+// from the reverse pairs' gradients; with FORCE_PLAIN seed 002 eq 21, P_j ∇0W̃_ij and i's
+// own term, −P_i ∇0W̃_ij per pair where the kernel REPRODUCES_CONSTANTS, else none) with
+// Monaghan viscosity along the
 // pushed-forward gradient F_i⁻ᵀ ∇0W̃_ij (or ∇0W̃_ij unmapped, AV_GRADIENT_REFERENCE: the
 // paper's form), with HOURGLASS the hourglass control −κ_ij δ_ij e_ij of every bond
 // (src/methods/tlsph/system.rs, `hourglass_acceleration`; κ_ij in the pair field HGK),
@@ -71,6 +73,12 @@ fn accel(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
         var flux = (p_i + p_j) * g;
         if FORCE == FORCE_VARIATIONAL {
             flux = p_i * g - p_j * vload_pair(PGREV_OFF + DIM * p);
+        } else if FORCE == FORCE_PLAIN && REPRODUCES_CONSTANTS == 1u {
+            // Seed 002 eq 21: i's own term V_i P_i ∇0W̃_i(X_i) = −P_i Σ_j V_j ∇0W̃_ij.
+            flux = (p_j - p_i) * g;
+        } else if FORCE == FORCE_PLAIN {
+            // The own gradient ∇W(0) = 0 of a kernel that does not reproduce constants.
+            flux = p_j * g;
         }
         stress += flux * vol_of(j);
         if HOURGLASS == 1u {

@@ -33,6 +33,13 @@ impl CorrectionKind {
     pub fn is_first_order(self) -> bool {
         matches!(self, Self::RandlesLibersky | Self::Rkpm | Self::Cgck)
     }
+
+    /// Whether the corrected kernel reproduces constants with its own point included,
+    /// Σ_j V_j W̃_j = 1, so that its gradients sum to zero over the whole neighbourhood:
+    /// V_i ∇W̃_i(x_i) = −Σ_{j≠i} V_j g_ij ([`own_gradients`]).
+    pub fn reproduces_constants(self) -> bool {
+        matches!(self, Self::Rkpm | Self::Cgck)
+    }
 }
 
 #[derive(Debug, Error, PartialEq)]
@@ -107,8 +114,9 @@ impl<'a, D: Dim> Cloud<'a, D> {
     }
 
     /// ∇W̃_j(x_i) of the Shepard kernel W̃_j = W_j/S (Bonet & Lok 1999 eq 4.14, with the
-    /// W_j factor on ∇S that seed 002 eq 13 drops) of row i's pairs, into `g`.
-    fn shepard_kernel_gradients(&self, i: usize, g: &mut [D::V]) {
+    /// W_j factor on ∇S that seed 002 eq 13 drops) of row i's pairs, into `g`; returns the
+    /// own term ∇W̃_i(x_i) = −W(0) ∇S/S².
+    fn shepard_kernel_gradients(&self, i: usize, g: &mut [D::V]) -> D::V {
         let (x, vol, kernel) = (self.x, self.vol, self.kernel);
         let mut s = vol[i] * kernel.w(0.0);
         let mut grad_s = D::zero();
@@ -122,16 +130,17 @@ impl<'a, D: Dim> Cloud<'a, D> {
             let w = kernel.w(D::norm2(r).sqrt());
             *g = (kernel.grad::<D>(r) - grad_s * (w / s)) * (1.0 / s);
         }
+        grad_s * (-kernel.w(0.0) / (s * s))
     }
 
     /// g ← L_i g with L_i = [Σ_j V_j g_j ⊗ (x_j − x_i)]⁻¹, so that
-    /// Σ_j V_j (x_j − x_i) ⊗ L_i g_j = I, in place on row i's gradients.
+    /// Σ_j V_j (x_j − x_i) ⊗ L_i g_j = I, in place on row i's gradients; returns L_i.
     fn linear_correction(
         &self,
         kind: CorrectionKind,
         i: usize,
         g: &mut [D::V],
-    ) -> Result<(), CorrectionError> {
+    ) -> Result<D::T, CorrectionError> {
         let (x, vol) = (self.x, self.vol);
         let mut a = D::zero_t();
         for (&j, &g) in self.csr.neighbours(i).iter().zip(&*g) {
@@ -145,7 +154,7 @@ impl<'a, D: Dim> Cloud<'a, D> {
         for g in g {
             *g = a_inv_t * *g;
         }
-        Ok(())
+        Ok(a_inv_t)
     }
 
     /// The correction `kind` of particle i failed: its matrix has determinant `det`.
@@ -212,14 +221,47 @@ pub fn gradients<D: Dim>(
         }
         CorrectionKind::RandlesLibersky => {
             cloud.plain(i, g);
-            cloud.linear_correction(kind, i, g)
+            cloud.linear_correction(kind, i, g).map(drop)
         }
         CorrectionKind::Cgck => {
             cloud.shepard_kernel_gradients(i, g);
-            cloud.linear_correction(kind, i, g)
+            cloud.linear_correction(kind, i, g).map(drop)
         }
         CorrectionKind::Rkpm => cloud.rkpm(i, g),
     })
+}
+
+/// Each row's corrected gradient of its own kernel at its own position, ∇W̃_i(x_i): the
+/// j = i term of a sum over the whole neighbourhood (seed 002 eq 21), which the pair lists
+/// leave out. Zero for `none`, `shepard` and `randles-libersky`, whose gradients scale
+/// ∇W(0) = 0; RKPM's ∇Ψ_i(x_i), and the CGCK's L_i ∇W̃_i(x_i) = −L_i W(0) ∇S_i/S_i². Where
+/// the kernel reproduces constants ([`CorrectionKind::reproduces_constants`]) it is
+/// −(1/V_i) Σ_j V_j g_ij.
+pub fn own_gradients<D: Dim>(
+    kind: CorrectionKind,
+    x: &[D::V],
+    vol: &[f64],
+    csr: &Csr,
+    kernel: &Kernel,
+) -> Result<Vec<D::V>, CorrectionError> {
+    let cloud = Cloud::<D>::new(x, vol, csr, kernel);
+    (0..csr.len())
+        .into_par_iter()
+        .map(|i| match kind {
+            CorrectionKind::None | CorrectionKind::Shepard | CorrectionKind::RandlesLibersky => {
+                Ok(D::zero())
+            }
+            CorrectionKind::Rkpm => {
+                let (c, dc) = cloud.coefficients(i)?;
+                Ok(rkpm_shape::<D>(&c, &dc, D::zero(), kernel).1)
+            }
+            CorrectionKind::Cgck => {
+                let mut g = vec![D::zero(); csr.neighbours(i).len()];
+                let own = cloud.shepard_kernel_gradients(i, &mut g);
+                Ok(cloud.linear_correction(kind, i, &mut g)? * own)
+            }
+        })
+        .collect()
 }
 
 /// Per-pair weights V_j W̃_j(x_i) of the corrected kernel in CSR order (rows of `csr`,
@@ -467,6 +509,51 @@ mod tests {
                 }
                 _ => assert!(worst_moment > 1e-3, "Shepard first moment {worst_moment:e}"),
             }
+        }
+    }
+
+    #[test]
+    fn own_gradients_close_the_sum_of_a_kernel_that_reproduces_constants() {
+        // Σ_j V_j ∇W̃_j(x_i) = ∇(Σ_j V_j W̃_j) = 0 over the whole neighbourhood, self
+        // included, for RKPM and the CGCK: the own term computed on its own (RKPM's
+        // ∇Ψ_i(x_i), the CGCK's L_i ∇W̃_i(x_i)) closes the pairs' sum to round-off (1e-12 of
+        // Σ_j V_j |g_ij|), and is not small at the boundary (> 1e-2 of it). The other
+        // corrections' own term is zero.
+        let dx = 0.1;
+        let x = lattice2(12, dx, 0.2);
+        let vol = vec![dx * dx; x.len()];
+        let kernel = Kernel::new(KernelKind::CubicSpline, 1.3 * dx, 2);
+        let csr = neighbour::build::<D2>(&x, kernel.support());
+        for kind in [CorrectionKind::Rkpm, CorrectionKind::Cgck] {
+            let g = gradients::<D2>(kind, &x, &vol, &csr, &kernel).unwrap();
+            let own = own_gradients::<D2>(kind, &x, &vol, &csr, &kernel).unwrap();
+            let corner_share = |i: usize| {
+                let pairs = csr.range(i);
+                let v = |q: usize| vol[csr.ids[q] as usize];
+                let sum = pairs.clone().fold(own[i] * vol[i], |s, q| s + g[q] * v(q));
+                let scale: f64 = pairs.map(|q| g[q].length() * v(q)).sum();
+                (sum.length() / scale, (own[i] * vol[i]).length() / scale)
+            };
+            for i in 0..x.len() {
+                let (closure, _) = corner_share(i);
+                assert!(
+                    closure < 1e-12,
+                    "{kind:?} particle {i}: |Σ V g| = {closure:e}"
+                );
+            }
+            let (_, corner) = corner_share(0);
+            assert!(
+                corner > 1e-2,
+                "{kind:?}: the corner's own term is {corner:e} of the sum"
+            );
+        }
+        for kind in [
+            CorrectionKind::None,
+            CorrectionKind::Shepard,
+            CorrectionKind::RandlesLibersky,
+        ] {
+            let own = own_gradients::<D2>(kind, &x, &vol, &csr, &kernel).unwrap();
+            assert!(own.iter().all(|g| *g == DVec2::ZERO), "{kind:?}");
         }
     }
 

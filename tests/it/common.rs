@@ -65,7 +65,7 @@ pub fn tl_scheme<D: meshless::gpu::GpuDim>(
 ) -> meshless::methods::cores::tl::gpu::TlScheme<D> {
     use meshless::methods::{MethodSpec, corotated, dual_support, potential, tlsph};
     match &case.spec {
-        MethodSpec::Tlsph(s) => tlsph::gpu::scheme(s),
+        MethodSpec::Tlsph(s) => tlsph::gpu::scheme(s, case.method.correction),
         MethodSpec::TlPotential(s) => potential::gpu::scheme(s),
         MethodSpec::CorotatedTlsph(s) => corotated::gpu::scheme(s),
         MethodSpec::DualSupportSph(s) => dual_support::gpu::scheme(s),

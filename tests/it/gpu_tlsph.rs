@@ -146,6 +146,19 @@ fn rates_match_the_cpu_on_the_rotating_disk() {
         &["method.dt=5e-6", "method.force=\"variational\""],
     );
     compare_rates::<D2>(&c, 200, 5e-6);
+    // Seed 002's plain force, whose own term is zero under Randles–Libersky and closes
+    // the pairs' sum under RKPM.
+    for correction in ["randles-libersky", "rkpm"] {
+        let c = load(
+            "rotating-disk",
+            &[
+                "method.dt=5e-6",
+                "method.force=\"plain\"",
+                &format!("method.correction=\"{correction}\""),
+            ],
+        );
+        compare_rates::<D2>(&c, 50, 5e-6);
+    }
 }
 
 #[test]

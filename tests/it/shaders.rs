@@ -132,7 +132,7 @@ fn check_tlsph<D: GpuDim>() {
             let MethodSpec::Tlsph(spec) = &case.spec else {
                 unreachable!("TLSPH variants")
             };
-            let scheme = meshless::methods::tlsph::gpu::scheme::<D>(spec);
+            let scheme = meshless::methods::tlsph::gpu::scheme::<D>(spec, case.method.correction);
             let layout = Layout::new(100, 10, D::N, rate, 1000, &scheme);
             for every in [false, true] {
                 let constants = scene_constants(&case, &layout, &scheme, every);

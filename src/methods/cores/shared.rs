@@ -95,6 +95,18 @@ pub(crate) fn reference_gradients<D: Dim>(
         .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))
 }
 
+/// Each row's corrected gradient of its own kernel at its own reference position,
+/// ∇0W̃_i(X_i), with the case's correction and kernel ([`correction::own_gradients`]).
+pub(crate) fn own_gradients<D: Dim>(
+    case: &Case,
+    x0: &[D::V],
+    vol: &[f64],
+    csr: &Csr,
+) -> Result<Vec<D::V>, CaseError> {
+    correction::own_gradients::<D>(case.method.correction, x0, vol, csr, &case.kernel(D::N))
+        .map_err(|e| case.invalid("method.h_over_dx", e.to_string()))
+}
+
 /// For every pair (i, j) in CSR order, the index of the pair (j, i) in j's row. Lists
 /// that are not symmetric (a neighbour at the kernel support, by round-off) name the
 /// particle and the key to change.

@@ -1,15 +1,17 @@
 //! TLSPH's own scheme on the total-Lagrangian GPU engine of
-//! [`crate::methods::cores::tl::gpu`]: the pair force of eq 134 or the variational
-//! one, with the spec's viscosity and hourglass control.
+//! [`crate::methods::cores::tl::gpu`]: the pair force of eq 134, the variational one or
+//! the plain one of seed 002 eq 21, with the spec's viscosity and hourglass control.
 
 use super::{TlsphForce, TlsphSpec, ViscosityGradient};
+use crate::core::correction::CorrectionKind;
 use crate::gpu::layout::GpuDim;
 use crate::methods::cores::tl::gpu::{
     ACCEL, DET_F, ForceReads, Frame, Lists, REDUCE, STRESS, TlScheme, viscosity,
 };
 
-/// TLSPH's own force: eq 134, or the variational form, with the spec's viscosity.
-pub fn scheme<D: GpuDim>(spec: &TlsphSpec) -> TlScheme<D> {
+/// TLSPH's own force: eq 134, the variational form or the plain one, with the spec's
+/// viscosity, for a case with the correction `correction`.
+pub fn scheme<D: GpuDim>(spec: &TlsphSpec, correction: CorrectionKind) -> TlScheme<D> {
     let variational = spec.force == TlsphForce::Variational;
     TlScheme {
         stress: STRESS,
@@ -27,8 +29,16 @@ pub fn scheme<D: GpuDim>(spec: &TlsphSpec) -> TlScheme<D> {
             )
             .choice(
                 "FORCE",
-                &["REVELES", "VARIATIONAL"],
-                usize::from(variational),
+                &["REVELES", "VARIATIONAL", "PLAIN"],
+                match spec.force {
+                    TlsphForce::Reveles => 0,
+                    TlsphForce::Variational => 1,
+                    TlsphForce::Plain => 2,
+                },
+            )
+            .u32(
+                "REPRODUCES_CONSTANTS",
+                u32::from(correction.reproduces_constants()),
             ),
         unit_weights: None,
         kin_tensors: &[],

@@ -56,6 +56,12 @@ pub enum TlsphForce {
     /// surface loads whole and closes the energy balance of driven boundaries.
     #[default]
     Variational,
+    /// m_i a_i = V_i Σ_{j∈N(X_i)} V_j P_j ∇0W̃_j(X_i) (seed 002 eq 21): the plain
+    /// collocation of div P, the sum over the whole neighbourhood with i's own term
+    /// V_i P_i ∇0W̃_i(X_i) ([`crate::core::correction::own_gradients`]). Its pair terms
+    /// are not equal and opposite under a correction, so it does not conserve linear
+    /// momentum: the reason for seed 002's symmetrised eq 22.
+    Plain,
 }
 
 /// The `[method]` keys of TLSPH.
@@ -66,7 +72,8 @@ pub struct TlsphSpec {
     /// The direction of the viscous pair force.
     #[serde(default)]
     pub viscosity_gradient: ViscosityGradient,
-    /// The pair force (default `variational`, −∂Π/∂u; `reveles` is eq 134).
+    /// The pair force (default `variational`, −∂Π/∂u; `reveles` is eq 134; `plain` is seed
+    /// 002 eq 21).
     #[serde(default)]
     pub force: TlsphForce,
     /// Ganzenmüller's hourglass control with stiffness α (in units of Young's modulus);
@@ -130,6 +137,10 @@ impl MethodFamily for TlsphSpec {
                 " and their reverses ∇0W̃_ji",
                 "P_i ∇0W̃_ij − P_j ∇0W̃_ji, variational",
             ),
+            TlsphForce::Plain => (
+                " and each particle's own ∇0W̃_i(X_i)",
+                "P_j ∇0W̃_ij with i's own term, seed 002 eq 21",
+            ),
         };
         let force = match self.hourglass {
             None => force.to_string(),
@@ -172,7 +183,11 @@ impl MethodFamily for TlsphSpec {
 
     #[cfg(feature = "gpu")]
     fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> GpuBuild<D> {
-        Ok(Box::new(GpuTlsph::<D>::new(case, gpu::scheme(self), gpu)?))
+        Ok(Box::new(GpuTlsph::<D>::new(
+            case,
+            gpu::scheme(self, case.method.correction),
+            gpu,
+        )?))
     }
 
     #[cfg(feature = "gpu")]
@@ -181,7 +196,11 @@ impl MethodFamily for TlsphSpec {
         case: &Case,
         counts: &crate::gpu::memory::Counts,
     ) -> Option<crate::gpu::memory::DeviceMemory> {
-        Some(GpuTlsph::<D>::memory(case, &gpu::scheme(self), counts))
+        Some(GpuTlsph::<D>::memory(
+            case,
+            &gpu::scheme(self, case.method.correction),
+            counts,
+        ))
     }
 }
 

@@ -66,8 +66,9 @@ pub struct TlsphScheme<D: Dim> {
     grad: Vec<D::V>,
     /// V_j ∇0W̃_ji for every pair (i, j), in CSR order: the variational force only.
     grad_rev: Option<Vec<D::V>>,
-    /// Σ_j V_j ∇0W̃_ij of every particle.
-    grad_sum: Vec<D::V>,
+    /// What multiplies P_i in particle i's sum: Σ_j V_j ∇0W̃_ij (eq 134 and the
+    /// variational force), or V_i ∇0W̃_i(X_i) (the plain force of seed 002 eq 21).
+    own_term: Vec<D::V>,
     /// The hourglass stiffness κ_ij of every pair, in CSR order, with the control on.
     hourglass: Option<Vec<f64>>,
     av: Option<ArtificialViscosity>,
@@ -95,9 +96,10 @@ impl<D: Dim> TlsphScheme<D> {
         g
     }
 
-    /// Pass 2: a_i = (1/ρ0) Σ_j V_j (P_i + P_j) ∇0W̃_ij (eq 134), or the variational
-    /// (1/ρ0) Σ_j V_j (P_i ∇0W̃_ij − P_j ∇0W̃_ji), plus artificial viscosity and the
-    /// hourglass control.
+    /// Pass 2: a_i = (1/ρ0) Σ_j V_j (P_i + P_j) ∇0W̃_ij (eq 134), the variational
+    /// (1/ρ0) Σ_j V_j (P_i ∇0W̃_ij − P_j ∇0W̃_ji), or the plain (1/ρ0) Σ_j V_j P_j ∇0W̃_ij
+    /// with i's own term V_i P_i ∇0W̃_i(X_i) (seed 002 eq 21), plus artificial viscosity
+    /// and the hourglass control.
     ///
     /// The viscous term acts along the current-configuration gradient F_i⁻ᵀ ∇0W̃_ij, or, with
     /// `viscosity_gradient = "reference"`, along ∇0W̃_ij unmapped as the paper and the
@@ -143,9 +145,10 @@ impl<D: Dim> TlsphScheme<D> {
             .enumerate()
             .for_each(|(i, ((a, u_dot), powers))| {
                 let (gi, oi, vi) = (self.gathered[i], self.own[i], y.v[i]);
-                // Σ_j P_j ∇0W̃_ij V_j (eq 134) or −Σ_j P_j ∇0W̃_ji V_j (variational); P_i's
-                // term is P_i Σ_j V_j ∇0W̃_ij, summed once on the reference.
-                let mut stress = gi.p * self.grad_sum[i];
+                // Σ_j P_j ∇0W̃_ij V_j (eq 134, plain) or −Σ_j P_j ∇0W̃_ji V_j (variational);
+                // P_i's term is P_i Σ_j V_j ∇0W̃_ij, or P_i V_i ∇0W̃_i(X_i) (plain), set once
+                // on the reference.
+                let mut stress = gi.p * self.own_term[i];
                 // Σ_j m_j Π_ij ∇0W̃_ij: F_i⁻ᵀ applies once to the sum.
                 let mut viscous = D::zero();
                 let mut hourglass = D::zero();
@@ -215,15 +218,26 @@ impl<D: Dim> TlScheme<D> for TlsphScheme<D> {
         let pairs = ReferencePairs::new(case, reference)?;
         let (x0, vol) = (&reference.x0, &reference.vol);
         let grad_rev = match spec.force {
-            TlsphForce::Reveles => None,
+            TlsphForce::Reveles | TlsphForce::Plain => None,
             TlsphForce::Variational => Some(weighted::<D>(&pairs.csr, vol, pairs.reverse(case)?)),
+        };
+        let own_gradients = match spec.force {
+            TlsphForce::Plain => pairs.own(case, reference)?,
+            TlsphForce::Reveles | TlsphForce::Variational => Vec::new(),
         };
         let ReferencePairs { csr, grad } = pairs;
         let grad = weighted::<D>(&csr, vol, grad);
-        let grad_sum = (0..csr.len())
-            .into_par_iter()
-            .map(|i| csr.range(i).fold(D::zero(), |sum, p| sum + grad[p]))
-            .collect();
+        let own_term = match spec.force {
+            TlsphForce::Plain => own_gradients
+                .iter()
+                .zip(vol)
+                .map(|(&g, &v)| g * v)
+                .collect(),
+            TlsphForce::Reveles | TlsphForce::Variational => (0..csr.len())
+                .into_par_iter()
+                .map(|i| csr.range(i).fold(D::zero(), |sum, p| sum + grad[p]))
+                .collect(),
+        };
         let hourglass = spec
             .hourglass
             .map(|alpha| hourglass_stiffness::<D>(case, alpha, x0, vol, &csr));
@@ -244,7 +258,7 @@ impl<D: Dim> TlScheme<D> for TlsphScheme<D> {
             csr,
             grad,
             grad_rev,
-            grad_sum,
+            own_term,
             hourglass,
             av: spec.artificial_viscosity,
             av_gradient: spec.viscosity_gradient,

@@ -29,7 +29,7 @@ use crate::core::parallel::{MIN_CHUNK, particle_state};
 use crate::core::sum::Exact;
 use crate::core::tensor::Dim;
 use crate::diagnostics::observe::Snapshot;
-use crate::methods::cores::shared::{reference_gradients, reverse_gradients};
+use crate::methods::cores::shared::{own_gradients, reference_gradients, reverse_gradients};
 use crate::physics::viscosity::ArtificialViscosity;
 use crate::reference::{Build, Reference};
 use rayon::prelude::*;
@@ -151,6 +151,12 @@ impl<D: Dim> ReferencePairs<D> {
     /// order: the second gradient of a force with each side's own gradient.
     pub fn reverse(&self, case: &Case) -> Result<Vec<D::V>, CaseError> {
         reverse_gradients::<D>(case, &self.csr, &self.grad)
+    }
+
+    /// ∇0W̃_i(X_i), each row's corrected gradient of its own kernel at its own position
+    /// ([`crate::core::correction::own_gradients`]).
+    pub fn own(&self, case: &Case, reference: &Reference<D>) -> Result<Vec<D::V>, CaseError> {
+        own_gradients::<D>(case, &reference.x0, &reference.vol, &self.csr)
     }
 }
 
