@@ -147,6 +147,18 @@ impl Case {
         }
     }
 
+    /// Whether the run integrates in time by implicit Newmark/HHT-α steps (`run.solve =
+    /// "implicit"`).
+    pub fn is_implicit(&self) -> bool {
+        self.run.solve == Some(Solve::Implicit)
+    }
+
+    /// Whether the run is solved by Newton's method on a model's residual and tangent
+    /// ([`crate::statics`]): a static run or an implicit one.
+    pub fn solves_by_newton(&self) -> bool {
+        self.is_static() || self.is_implicit()
+    }
+
     /// The smoothing length h = h_over_dx · Δx.
     pub fn smoothing_length(&self) -> f64 {
         self.method.h_over_dx * self.spacing

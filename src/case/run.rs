@@ -7,11 +7,17 @@ use serde::{Deserialize, Serialize};
 pub struct RunSpec {
     /// Simulated end time [s] (of the static path: the pseudo-time of the full load).
     pub end_time: f64,
-    /// How the run advances: `dynamic`, integrating in time, or `static`, solving for
-    /// equilibrium at every load step of `method.dt` ([`crate::statics`]). Absent: the
-    /// method's own (static for the static-only methods, dynamic for the others).
+    /// How the run advances: `dynamic`, integrating in time, `static`, solving for
+    /// equilibrium at every load step of `method.dt` ([`crate::statics`]), or `implicit`,
+    /// integrating in time by Newmark/HHT-α steps of `method.dt` on the static path's
+    /// residual and tangent ([`crate::statics::newmark`]). Absent: the method's own
+    /// (static for the static-only methods, dynamic for the others).
     #[serde(default)]
     pub solve: Option<Solve>,
+    /// `implicit`: HHT's α in [−1/3, 0] (β = (1 − α)²/4, γ = ½ − α); absent: 0, Newmark's
+    /// average-acceleration rule.
+    #[serde(default)]
+    pub hht_alpha: Option<f64>,
     /// Newton's convergence tolerances of a static run, `{ residual = …, increment = … }`
     /// (each optional; the defaults and the force scale: [`Tolerance`]).
     #[serde(default, skip_serializing_if = "Tolerance::is_unset")]
@@ -44,6 +50,7 @@ pub struct RunSpec {
 pub enum Solve {
     Dynamic,
     Static,
+    Implicit,
 }
 
 fn default_energy_growth() -> f64 {

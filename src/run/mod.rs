@@ -240,6 +240,11 @@ pub fn may_use_gpu(case: &Scene, backend: Backend) -> bool {
 /// or its method, keys or material), or None if it has a GPU engine.
 pub fn cpu_only(case: &Scene) -> Option<String> {
     let features = case.spec.entry().features;
+    if case.is_implicit() {
+        return Some(
+            "the implicit solve (run.solve = \"implicit\") runs on the CPU only".to_string(),
+        );
+    }
     if case.is_static() && !features.contains(&crate::methods::Feature::GpuStaticSolve) {
         return Some(format!(
             "the static solve (run.solve = \"static\") of `{}` runs on the CPU only (on the \
@@ -271,9 +276,15 @@ pub fn explain(case: &Scene, gpu: bool) -> String {
             if case.bodies.len() == 1 { "y" } else { "ies" }
         ),
         {
-            let integrator = match case.is_static() {
-                true => String::new(),
-                false => format!(", {} integrator", toml_name(&m.integrator)),
+            let integrator = if case.is_static() {
+                String::new()
+            } else if case.is_implicit() {
+                format!(
+                    ", implicit HHT-α integrator (α = {})",
+                    case.run.hht_alpha.unwrap_or(0.0)
+                )
+            } else {
+                format!(", {} integrator", toml_name(&m.integrator))
             };
             if case.spec.entry().kernel {
                 let correction = match case.spec.entry().corrected {
@@ -305,6 +316,8 @@ pub fn explain(case: &Scene, gpu: bool) -> String {
     out.extend([plan.once, format!("state: {}", plan.state)]);
     if case.is_static() {
         out.extend(load_step_lines(case, &plan.rates));
+    } else if case.is_implicit() {
+        out.extend(implicit_step_lines(case, &plan.rates));
     } else {
         out.push(format!(
             "time step: {}",
@@ -527,6 +540,30 @@ fn load_step_lines(case: &Scene, rates: &str) -> Vec<String> {
              {rates}"
         ),
         "  a load step whose Newton iterations stall is cut".to_string(),
+    ]
+}
+
+/// The plan of an implicit run's steps (`statics::newmark`).
+fn implicit_step_lines(case: &Scene, rates: &str) -> Vec<String> {
+    let newmark = crate::statics::newmark::Newmark::hht(case.run.hht_alpha.unwrap_or(0.0));
+    let dt = case
+        .method
+        .dt
+        .map_or_else(|| "method.dt".to_string(), |dt| format!("{dt:e} s"));
+    vec![
+        format!(
+            "time steps: fixed Δt = {dt} (not bound by the CFL step), HHT-α with α = {}, β = \
+             {}, γ = {}; loads whole, prescribed velocities held",
+            newmark.alpha, newmark.beta, newmark.gamma
+        ),
+        "per step:".to_string(),
+        "  Newmark's predictor u_n + Δt v_n + ½ Δt² a_n".to_string(),
+        format!(
+            "  Newton–Raphson on G = (1 + α) f_int(u) − α f_int(u_n) + f_ext − M a(u) with \
+             the tangent (1 + α) K + M/(β Δt²), until the residual or the increment \
+             tolerance; each iteration: {rates}"
+        ),
+        "  v and a from Newmark's update; a step whose Newton iterations stall is cut".to_string(),
     ]
 }
 

@@ -31,8 +31,10 @@ pub fn refusal(case: &Scene, backend: Backend) -> Option<String> {
         format!("`{name}` does not run on several ranks yet (those that do: {methods})")
     } else if backend == Backend::Gpu {
         "the GPU backend does not run on several ranks yet; use --backend cpu".into()
-    } else if case.is_static() {
-        "the static solve (run.solve = \"static\") does not run on several ranks".into()
+    } else if case.solves_by_newton() {
+        "the static and implicit solves (run.solve = \"static\" or \"implicit\") do not run \
+         on several ranks"
+            .into()
     } else if case.contact.is_some() {
         "contact ([contact]) does not run on several ranks yet".into()
     } else if case.boundaries.iter().any(|b| b.condition.is_timed_load()) {

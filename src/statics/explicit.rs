@@ -36,8 +36,12 @@ use crate::reference::{Build, Reference, build_method};
 /// A method whose force depends on the displacement alone (a state model), so that a
 /// displacement field is a whole state of it.
 pub trait AtRest<D: Dim>: Method<D> + Build<D> {
-    /// The state with displacement u and velocity zero.
-    fn at_rest(&self, u: &[D::V]) -> Self::State;
+    /// The state with displacement u and velocity v.
+    fn moving(&self, u: &[D::V], v: &[D::V]) -> Self::State;
+    /// The state with displacement u and velocity zero, whose rates give the force.
+    fn at_rest(&self, u: &[D::V]) -> Self::State {
+        self.moving(u, &vec![D::zero(); u.len()])
+    }
     /// The method's stiffness in closed form for this case, where it has one; the static
     /// solve forms it by finite differences otherwise.
     fn closed_form(&self) -> Option<&dyn ClosedForm<D>> {
@@ -64,13 +68,14 @@ pub trait ClosedForm<D: Dim> {
     fn describe(&self) -> String;
 }
 
-/// The CPU engine of an explicit method: the static solve of this module when the case is
-/// static (`run.solve = "static"`), the method with its integrator otherwise.
+/// The CPU engine of an explicit method: the static or implicit solve of this module when
+/// the case asks for one (`run.solve = "static"` or `"implicit"`), the method with its
+/// integrator otherwise.
 pub fn cpu_engine<D: EngineDim, M: AtRest<D> + 'static>(
     case: &Case,
     spec: &M::Spec,
 ) -> Result<Box<dyn Engine<D>>, CaseError> {
-    Ok(if case.is_static() {
+    Ok(if case.solves_by_newton() {
         Box::new(Statics::<D, Explicit<D, M>>::new(case, spec)?)
     } else {
         Box::new(CpuEngine::with(
@@ -113,6 +118,7 @@ impl<D: Dim, M: AtRest<D>> Statics<D, Explicit<D, M>> {
         reference.boundary.constrained.clear();
         reference.boundary.prescribed.clear();
         reference.boundary.displacement.clear();
+        let (u0, v0) = (reference.u0.clone(), reference.v0.clone());
         let method = M::build(case, spec, reference)?;
         let (x0, mass) = (method.reference(), method.mass());
         let full = (1u8 << D::N) - 1;
@@ -139,6 +145,8 @@ impl<D: Dim, M: AtRest<D>> Statics<D, Explicit<D, M>> {
         let setup = Setup {
             mass: mass.to_vec(),
             body: method.body().to_vec(),
+            u0,
+            v0,
             boundary: &boundary,
             linearisation: Linearisation::Assembled(pattern, linear),
             newton: Newton::of(case, MAX_ITERATIONS, MAX_CUTS, "the static solve's limit"),
@@ -263,10 +271,11 @@ impl<D: Dim, M: AtRest<D>> Model<D> for Explicit<D, M> {
     fn snapshot<'a>(
         &'a mut self,
         u: &[D::V],
+        v: &[D::V],
         _mass: &'a [f64],
         _body: &'a [u32],
     ) -> Snapshot<'a, D> {
-        let y = self.method.at_rest(u);
+        let y = self.method.moving(u, v);
         self.method.snapshot(&y)
     }
 

@@ -8,6 +8,7 @@
 //! it, prescribed velocities give u = v t.
 
 pub mod explicit;
+pub mod newmark;
 pub mod sparse;
 
 use crate::boundary::{Boundary, Reaction};
@@ -16,6 +17,7 @@ use crate::core::tensor::Dim;
 use crate::diagnostics::balance::Booked;
 use crate::diagnostics::observe::Snapshot;
 use crate::engine::{BlowUp, Engine, Failed, Iteration};
+use newmark::Newmark;
 use sparse::{BlockPattern, Fill, FreeSystem, Linear, SolveError, SolveStats};
 use std::time::Instant;
 
@@ -31,8 +33,15 @@ pub trait Model<D: Dim> {
     fn stiffness(&mut self, u: &[D::V], pattern: &BlockPattern, values: &mut [f64]);
     /// The first particle of state u with det F ≤ 0 or a non-finite F, as a blow-up.
     fn inadmissible(&mut self, u: &[D::V]) -> Option<BlowUp>;
-    /// The state u as observers and frames read it, with the engine's masses and bodies.
-    fn snapshot<'a>(&'a mut self, u: &[D::V], mass: &'a [f64], body: &'a [u32]) -> Snapshot<'a, D>;
+    /// The state (u, v) as observers and frames read it, with the engine's masses and
+    /// bodies.
+    fn snapshot<'a>(
+        &'a mut self,
+        u: &[D::V],
+        v: &[D::V],
+        mass: &'a [f64],
+        body: &'a [u32],
+    ) -> Snapshot<'a, D>;
     /// The `backend` line's account of the stiffness (how it is formed).
     fn describe(&self) -> String {
         String::new()
@@ -162,20 +171,77 @@ pub struct Statics<D: Dim, S: Model<D>> {
     free: Vec<Option<u32>>,
     newton: Newton,
     end_time: f64,
-    /// The converged state and its pseudo-time.
+    /// The converged state and its (pseudo-)time.
     pub u: Vec<D::V>,
     t: f64,
-    /// −f_int at the converged state: the forces of loads and supports on the body.
+    /// The forces of loads and supports on the body at the converged state: −f_int, or
+    /// M a − f_int in an implicit run.
     reaction: Vec<D::V>,
+    /// The inertia of an implicit run; None for a static one.
+    inertia: Option<Inertia<D>>,
     work: f64,
     load_step: u64,
     log: Vec<Iteration>,
+}
+
+/// The motion of an implicit run ([`newmark`]): its scheme, and the velocities,
+/// accelerations and internal forces of the converged state.
+struct Inertia<D: Dim> {
+    scheme: Newmark,
+    v: Vec<D::V>,
+    a: Vec<D::V>,
+    /// f_int(u_n), the old end of HHT's average.
+    f_int: Vec<D::V>,
+}
+
+impl<D: Dim> Inertia<D> {
+    /// a_{n+1} of the displacement `u` from the converged state `u_n` (eq of
+    /// [`Newmark::acceleration`], per particle).
+    fn acceleration(&self, dt: f64, u: &[D::V], u_n: &[D::V]) -> Vec<D::V> {
+        let s = self.scheme;
+        (0..u.len())
+            .map(|i| {
+                let predicted = u_n[i] + self.v[i] * dt + self.a[i] * (dt * dt * (0.5 - s.beta));
+                (u[i] - predicted) * s.mass_factor(dt)
+            })
+            .collect()
+    }
+
+    /// (1 + α) f_int(u) − α f_int(u_n) − M a(u): the residual G less the loads.
+    fn effective(
+        &self,
+        dt: f64,
+        f_int: &[D::V],
+        u: &[D::V],
+        u_n: &[D::V],
+        mass: &[f64],
+    ) -> Vec<D::V> {
+        let alpha = self.scheme.alpha;
+        let a = self.acceleration(dt, u, u_n);
+        (0..u.len())
+            .map(|i| f_int[i] * (1.0 + alpha) - self.f_int[i] * alpha - a[i] * mass[i])
+            .collect()
+    }
+
+    /// Moves the state to the converged u of a step from u_n: a, v and f_int.
+    fn advance(&mut self, dt: f64, u: &[D::V], u_n: &[D::V], f_int: Vec<D::V>) {
+        let s = self.scheme;
+        let a = self.acceleration(dt, u, u_n);
+        for (i, a) in a.into_iter().enumerate() {
+            self.v[i] = self.v[i] + (self.a[i] * (1.0 - s.gamma) + a * s.gamma) * dt;
+            self.a[i] = a;
+        }
+        self.f_int = f_int;
+    }
 }
 
 /// The parts of a static engine besides its model.
 pub struct Setup<'a, D: Dim, S> {
     pub mass: Vec<f64>,
     pub body: Vec<u32>,
+    /// The initial displacements and velocities (an implicit run's start).
+    pub u0: Vec<D::V>,
+    pub v0: Vec<D::V>,
     pub boundary: &'a Boundary<D>,
     pub linearisation: Linearisation<D, S>,
     pub newton: Newton,
@@ -194,6 +260,8 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
         let Setup {
             mass,
             body,
+            u0,
+            v0,
             boundary,
             linearisation,
             newton,
@@ -255,7 +323,26 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
             }
             Linearisation::MatrixFree(solver) => Step::MatrixFree(solver),
         };
-        Ok(Self {
+        let mut inertia = case.is_implicit().then(|| Inertia {
+            scheme: Newmark::hht(case.run.hht_alpha.unwrap_or(0.0)),
+            v: v0,
+            a: vec![D::zero(); n],
+            f_int: Vec::new(),
+        });
+        if let Some(inertia) = &mut inertia {
+            if matches!(step, Step::MatrixFree(_)) {
+                return Err(case.invalid(
+                    "run.solve",
+                    "the implicit solve adds the mass to an assembled tangent, and this solve \
+                     is matrix-free: run it on the CPU (--backend cpu)",
+                ));
+            }
+            // The prescribed components move at their velocities, without acceleration.
+            for p in &prescribed {
+                Self::set(&mut inertia.v, p.dof, p.velocity);
+            }
+        }
+        let mut engine = Self {
             model,
             mass,
             body,
@@ -267,13 +354,51 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
             free,
             newton,
             end_time: case.run.end_time,
-            u: vec![D::zero(); n],
+            u: u0,
             t: 0.0,
             reaction: vec![D::zero(); n],
+            inertia,
             work: 0.0,
             load_step: 0,
             log: Vec::new(),
-        })
+        };
+        engine.start().map_err(|b| {
+            case.invalid(
+                "run.solve",
+                format!(
+                    "the implicit solve's initial force has {} = {:e} at particle {} (X = \
+                     {:?}): the initial displacement is not admissible",
+                    b.quantity, b.value, b.particle, b.position
+                ),
+            )
+        })?;
+        Ok(engine)
+    }
+
+    /// An implicit run's initial state: f_int(u0) and the accelerations a0 = (f_int +
+    /// f_ext)/m of the free components (zero on the prescribed ones), with the reaction
+    /// M a0 − f_int.
+    fn start(&mut self) -> Result<(), BlowUp> {
+        let Some(inertia) = &mut self.inertia else {
+            return Ok(());
+        };
+        let f_int = self.model.force(&self.u)?;
+        let d = D::N;
+        for (i, a) in inertia.a.iter_mut().enumerate() {
+            let (f, load) = (D::to3(f_int[i]), D::to3(self.load[i]));
+            let mut c = [0.0; 3];
+            for k in 0..d {
+                if self.free[i * d + k].is_some() {
+                    c[k] = (f[k] + load[k]) / self.mass[i];
+                }
+            }
+            *a = D::from_slice(&c[..d]);
+        }
+        self.reaction = (0..f_int.len())
+            .map(|i| inertia.a[i] * self.mass[i] - f_int[i])
+            .collect();
+        inertia.f_int = f_int;
+        Ok(())
     }
 
     /// Number of free degrees of freedom.
@@ -281,17 +406,33 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
         self.unknowns
     }
 
-    /// Solves K(u) Δu = r on the free components by the linear step of `model`.
+    /// Solves K(u) Δu = r on the free components by the linear step of `model`; with
+    /// `inertia` = ((s, c), M) the tangent is s K + c M with the lumped masses M (an
+    /// implicit step: s = 1 + α, c = 1/(β Δt²)).
     fn solve_step(
         step: &mut Step<D, S>,
         model: &mut S,
         free: &[Option<u32>],
         u: &[D::V],
         r: &[f64],
+        inertia: Option<((f64, f64), &[f64])>,
     ) -> Result<(Vec<f64>, SolveStats), SolveError> {
         match step {
             Step::Assembled(a) => {
                 model.stiffness(u, &a.pattern, &mut a.values);
+                if let Some(((scale, c), mass)) = inertia {
+                    let d = D::N;
+                    a.values.iter_mut().for_each(|k| *k *= scale);
+                    for (row, &m) in mass.iter().enumerate() {
+                        let Ok(k) = a.pattern.row(row).binary_search(&(row as u32)) else {
+                            continue;
+                        };
+                        let block = (a.pattern.offsets[row] + k) * d * d;
+                        for l in 0..d {
+                            a.values[block + l * d + l] += c * m;
+                        }
+                    }
+                }
                 a.system.solve(&a.system.gather(&a.values), r)
             }
             Step::MatrixFree(solver) => solver.solve(model, u, free, r),
@@ -361,15 +502,22 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
     /// free components until |R| ≤ residual_tolerance · (force scale) or
     /// |Δu| ≤ increment_tolerance · |u| ([`crate::case::Tolerance`]). Returns the iterations, or why
     /// it stalled.
+    ///
+    /// In an implicit run t is time, the loads are whole (λ = 1), the residual is
+    /// [`newmark`]'s G and the tangent (1 + α) K + M/(β Δt²); Newton starts from
+    /// u_n + Δt v_n + ½ Δt² a_n, which moves the prescribed components at their velocity.
     fn solve_at(&mut self, t: f64) -> Result<u32, Stalled> {
-        let lambda = t / self.end_time;
-        let mut u = self.u.clone();
-        for p in &self.prescribed {
-            Self::set(&mut u, p.dof, p.velocity * t + p.displacement * lambda);
-        }
-        if let Some(predicted) = self.predict(&u) {
-            u = predicted;
-        }
+        let dt = t - self.t;
+        let lambda = if self.inertia.is_some() {
+            1.0
+        } else {
+            t / self.end_time
+        };
+        let mut u = self.first_iterate(t, lambda);
+        let shift = self.inertia.as_ref().map(|i| {
+            let s = i.scheme;
+            (1.0 + s.alpha, s.mass_factor(dt))
+        });
         let mut increment = 0.0;
         let mut stats = SolveStats::default();
         // The smallest relative residual and relative increment met, for the message of
@@ -384,7 +532,11 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
                 reason: format!("{} = {:e}", b.quantity, b.value),
                 at_round_off: false,
             })?;
-            let (r, norm, relative) = self.residual(&f_int, lambda);
+            let effective = match &self.inertia {
+                Some(inertia) => inertia.effective(dt, &f_int, &u, &self.u, &self.mass),
+                None => f_int.clone(),
+            };
+            let (r, norm, relative) = self.residual(&effective, lambda);
             self.log.push(Iteration {
                 load_step: self.load_step,
                 time: t,
@@ -423,8 +575,7 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
             if relative <= self.newton.residual_tolerance
                 || (iteration > 0 && increment <= self.newton.increment_tolerance * u_norm)
             {
-                self.u = u;
-                self.reaction = f_int.iter().map(|&f| -f).collect();
+                self.accept(u, f_int, dt);
                 return Ok(iteration);
             }
             if iteration == self.newton.max_iterations {
@@ -449,7 +600,9 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
                 });
             }
             let started = Instant::now();
-            let solved = Self::solve_step(&mut self.step, &mut self.model, &self.free, &u, &r);
+            let inertia = shift.map(|s| (s, &self.mass[..]));
+            let solved =
+                Self::solve_step(&mut self.step, &mut self.model, &self.free, &u, &r, inertia);
             let (du, s) = solved.map_err(|e| Stalled {
                 iterations: iteration,
                 residual: norm,
@@ -474,6 +627,38 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
             }
         }
         unreachable!("the loop returns at max_iterations")
+    }
+
+    /// Newton's first iterate at (pseudo-)time t with load factor λ: Newmark's predictor
+    /// in an implicit run; else the prescribed components moved to their values at t and
+    /// the free ones predicted linearly ([`Self::predict`]).
+    fn first_iterate(&mut self, t: f64, lambda: f64) -> Vec<D::V> {
+        let mut u = self.u.clone();
+        if let Some(inertia) = &self.inertia {
+            let dt = t - self.t;
+            for (i, u) in u.iter_mut().enumerate() {
+                *u = *u + inertia.v[i] * dt + inertia.a[i] * (0.5 * dt * dt);
+            }
+            return u;
+        }
+        for p in &self.prescribed {
+            Self::set(&mut u, p.dof, p.velocity * t + p.displacement * lambda);
+        }
+        self.predict(&u).unwrap_or(u)
+    }
+
+    /// Takes the converged u of a step of dt with its internal force: the reactions −f_int,
+    /// or in an implicit run Newmark's v and a and the reactions M a − f_int.
+    fn accept(&mut self, u: Vec<D::V>, f_int: Vec<D::V>, dt: f64) {
+        match &mut self.inertia {
+            Some(inertia) => {
+                inertia.advance(dt, &u, &self.u, f_int);
+                let (a, f) = (&inertia.a, &inertia.f_int);
+                self.reaction = (0..u.len()).map(|i| a[i] * self.mass[i] - f[i]).collect();
+            }
+            None => self.reaction = f_int.iter().map(|&f| -f).collect(),
+        }
+        self.u = u;
     }
 
     /// The linearised predictor of a load step that moves prescribed components: with
@@ -509,7 +694,7 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
                 }
             }
         }
-        let solved = Self::solve_step(&mut self.step, &mut self.model, &self.free, &u0, &r);
+        let solved = Self::solve_step(&mut self.step, &mut self.model, &self.free, &u0, &r, None);
         let (du, _) = solved.ok()?;
         let mut u = moved.to_vec();
         self.add_free(&mut u, &du);
@@ -518,11 +703,17 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
 }
 
 impl<D: Dim, S: Model<D>> Engine<D> for Statics<D, S> {
-    /// The converged state: its pseudo-time, load-step count, work, u and the reactions.
+    /// The converged state: its (pseudo-)time, step count, work, u and the reactions,
+    /// and an implicit run's v, a and f_int.
     fn save(&mut self) -> Vec<f64> {
         let mut out = vec![self.t, self.load_step as f64, self.work];
         crate::core::parallel::save_field(&self.u, &mut out);
         crate::core::parallel::save_field(&self.reaction, &mut out);
+        if let Some(inertia) = &self.inertia {
+            for field in [&inertia.v, &inertia.a, &inertia.f_int] {
+                crate::core::parallel::save_field(field, &mut out);
+            }
+        }
         out
     }
 
@@ -532,6 +723,11 @@ impl<D: Dim, S: Model<D>> Engine<D> for Statics<D, S> {
             .ok_or("the checkpoint holds no static state")?;
         crate::core::parallel::load_field(&mut self.u, "u", &mut rest)?;
         crate::core::parallel::load_field(&mut self.reaction, "reaction", &mut rest)?;
+        if let Some(inertia) = &mut self.inertia {
+            crate::core::parallel::load_field(&mut inertia.v, "v", &mut rest)?;
+            crate::core::parallel::load_field(&mut inertia.a, "a", &mut rest)?;
+            crate::core::parallel::load_field(&mut inertia.f_int, "f_int", &mut rest)?;
+        }
         if !rest.is_empty() {
             return Err(format!(
                 "{} words are left over after the static state",
@@ -576,7 +772,10 @@ impl<D: Dim, S: Model<D>> Engine<D> for Statics<D, S> {
     /// factor t/end_time on each prescribed component, whose power is at its pseudo-time
     /// rate (u = velocity·t + displacement·t/end_time).
     fn reactions(&mut self) -> Vec<Reaction> {
-        let factor = self.t / self.end_time;
+        let factor = match self.inertia {
+            Some(_) => 1.0,
+            None => self.t / self.end_time,
+        };
         let mut prescribed = self.prescribed.iter();
         let (force, power): (Vec<D::V>, Vec<D::V>) = self
             .boundary
@@ -690,7 +889,11 @@ impl<D: Dim, S: Model<D>> Engine<D> for Statics<D, S> {
     }
 
     fn snapshot(&mut self) -> Snapshot<'_, D> {
-        self.model.snapshot(&self.u, &self.mass, &self.body)
+        let v = match &self.inertia {
+            Some(inertia) => inertia.v.clone(),
+            None => vec![D::zero(); self.u.len()],
+        };
+        self.model.snapshot(&self.u, &v, &self.mass, &self.body)
     }
 
     fn iterations(&mut self) -> Vec<Iteration> {

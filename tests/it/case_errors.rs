@@ -264,6 +264,49 @@ fn objective_rates_are_for_rate_models_and_named() {
 }
 
 #[test]
+fn the_implicit_solve_takes_a_state_model_a_fixed_step_and_its_alpha() {
+    let elastic = edit(VALID, "\"hypoelastic\"", "\"neo-hookean\"");
+    let implicit = edit(
+        &elastic,
+        "end_time = 1e-3",
+        "end_time = 1e-3\nsolve = \"implicit\"",
+    );
+    Scene::from_toml(&implicit, Path::new(FILE), &[]).unwrap();
+    let with_alpha = |alpha: &str| {
+        edit(
+            &implicit,
+            "solve = \"implicit\"",
+            &format!("solve = \"implicit\"\nhht_alpha = {alpha}"),
+        )
+    };
+    Scene::from_toml(&with_alpha("-0.1"), Path::new(FILE), &[]).unwrap();
+    assert_invalid(&with_alpha("0.2"), "run.hht_alpha", &["[−1/3, 0]", "0.2"]);
+    assert_invalid(
+        &edit(
+            &elastic,
+            "end_time = 1e-3",
+            "end_time = 1e-3\nhht_alpha = -0.1",
+        ),
+        "run.hht_alpha",
+        &["run.solve = \"implicit\""],
+    );
+    assert_invalid(
+        &edit(
+            VALID,
+            "end_time = 1e-3",
+            "end_time = 1e-3\nsolve = \"implicit\"",
+        ),
+        "material.model",
+        &["static or implicit", "`hypoelastic`"],
+    );
+    assert_invalid(
+        &edit(&implicit, "dt = 1e-5", "cfl = 0.3"),
+        "method.dt",
+        &["implicit run", "CFL"],
+    );
+}
+
+#[test]
 fn wrong_shape_lists_allowed_shapes() {
     let text = edit(VALID, "shape = \"box\"", "shape = \"sphere\"");
     let shown = error(&text);

@@ -45,6 +45,7 @@ mod gradients_1d;
 mod gray_monaghan;
 mod hostile;
 mod hourglass_control;
+mod implicit;
 mod initial_fields;
 mod kbm_efg;
 mod layers;

@@ -249,7 +249,7 @@ impl MethodFamily for DualSupportSpec {
                 ),
             );
         }
-        if case.is_static() && !model.has_tangent() {
+        if case.solves_by_newton() && !model.has_tangent() {
             return fail(
                 "material.model",
                 format!(
@@ -261,7 +261,7 @@ impl MethodFamily for DualSupportSpec {
                 ),
             );
         }
-        if case.is_static() && (case.method.dt.is_none() || case.method.cfl.is_some()) {
+        if case.solves_by_newton() && (case.method.dt.is_none() || case.method.cfl.is_some()) {
             return fail(
                 "method.dt",
                 "`dual-support-sph` is static: give method.dt, the load step in the \
@@ -327,7 +327,7 @@ impl MethodFamily for DualSupportSpec {
             SmoothingLength::Volume => "h_over_dx · V^(1/d)".to_string(),
             SmoothingLength::Nearest(k) => format!("{k} nearest"),
         };
-        if !case.is_static() {
+        if !case.solves_by_newton() {
             let mut left_out = vec!["the tangent and the linear solver (explicit in time)"];
             if self.hourglass == 0.0 {
                 left_out.push("hourglass energy");
@@ -412,7 +412,7 @@ impl MethodFamily for DualSupportSpec {
     }
 
     fn cpu_engine<D: EngineDim>(&self, case: &Case) -> CpuBuild<D> {
-        Ok(if case.is_static() {
+        Ok(if case.solves_by_newton() {
             Box::new(Statics::<D>::new(case, self)?)
         } else {
             Box::new(CpuEngine::<D, DualSupportDynamics<D>>::new(case, self)?)

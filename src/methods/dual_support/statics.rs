@@ -64,11 +64,15 @@ impl<D: Dim> crate::statics::Statics<D, DualSupport<D>> {
             mass,
             body,
             boundary,
+            u0,
+            v0,
             ..
         } = reference;
         let setup = Setup {
             mass,
             body,
+            u0,
+            v0,
             boundary: &boundary,
             linearisation,
             newton: spec.newton(case),
@@ -120,8 +124,13 @@ impl<D: Dim> Model<D> for DualSupport<D> {
     }
 
     /// The strain energy Σ V ψ alone: the hourglass energy is a field of its own.
-    fn snapshot<'a>(&'a mut self, u: &[D::V], mass: &'a [f64], body: &'a [u32]) -> Snapshot<'a, D> {
-        let v = vec![D::zero(); u.len()];
-        DualSupport::snapshot(self, u.to_vec(), v, mass, body, false)
+    fn snapshot<'a>(
+        &'a mut self,
+        u: &[D::V],
+        v: &[D::V],
+        mass: &'a [f64],
+        body: &'a [u32],
+    ) -> Snapshot<'a, D> {
+        DualSupport::snapshot(self, u.to_vec(), v.to_vec(), mass, body, false)
     }
 }

@@ -157,11 +157,11 @@ impl MethodFamily for KbmSpec {
                  or \"nodal\" with kernel_frame = \"eulerian\", or remove kernel_frame",
             );
         }
-        if self.kernel_frame == KernelFrame::Eulerian && case.is_static() {
+        if self.kernel_frame == KernelFrame::Eulerian && case.solves_by_newton() {
             return fail(
                 "method.kernel_frame",
-                "the static solve (run.solve = \"static\") takes the Lagrangian kernel only: \
-                 remove kernel_frame = \"eulerian\" or the static solve",
+                "the static and implicit solves (run.solve = \"static\" or \"implicit\") take \
+                 the Lagrangian kernel only: remove kernel_frame = \"eulerian\" or the solve",
             );
         }
         match (self.kernel_frame, self.search_every) {

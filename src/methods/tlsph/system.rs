@@ -399,8 +399,9 @@ impl<D: Dim> Tlsph<D> {
 }
 
 impl<D: Dim> AtRest<D> for Tlsph<D> {
-    /// u, v = 0 (ρ and S of a rate model, which a static run refuses, as initially).
-    fn at_rest(&self, u: &[D::V]) -> TlState<D> {
-        self.initial_state().at_rest(u)
+    /// u, v (ρ and S of a rate model, which a static or implicit run refuses, as
+    /// initially).
+    fn moving(&self, u: &[D::V], v: &[D::V]) -> TlState<D> {
+        self.initial_state().moving(u, v)
     }
 }

@@ -18,15 +18,19 @@ pub(super) fn check(case: &Case) -> Checked {
         let span = case.run.end_time;
         self::boundary(boundary, &format!("boundary.{i}"), &case.bodies, dim, span)?;
         if (boundary.condition.is_timed_load() || boundary.condition.is_timed_velocity())
-            && case.is_static()
+            && case.solves_by_newton()
         {
             return fail(
                 format!("boundary.{i}.condition"),
                 format!(
-                    "the run of `{}` is static: its load steps scale the loads by t/end_time, \
-                     so it takes no time law and no release (`until`); give a constant \
-                     `traction`, `pressure` or `velocity`",
-                    case.method.name
+                    "the run of `{}` is {}, so it takes no time law and no release \
+                     (`until`); give a constant `traction`, `pressure` or `velocity`",
+                    case.method.name,
+                    if case.is_implicit() {
+                        "implicit: its steps hold the loads and prescribed velocities constant"
+                    } else {
+                        "static: its load steps scale the loads by t/end_time"
+                    }
                 ),
             );
         }

@@ -52,27 +52,55 @@ pub(super) fn check(r: &RunSpec, m: &MethodKeys) -> Checked {
     Ok(())
 }
 
-/// `run.solve`: a method that runs it; the static solve of an explicit method takes
-/// load steps of `method.dt`, a state model without history and no contact.
+/// `run.solve`: a method that runs it; the static solve of an explicit method, and the
+/// implicit solve of any method, take steps of `method.dt`, a state model without history
+/// and no contact; `run.hht_alpha` belongs to the implicit solve.
 pub(super) fn statics(case: &Case) -> Checked {
     let features = features(case.method.name);
-    if case.run.solve == Some(Solve::Static) {
+    if let Some(solve @ (Solve::Static | Solve::Implicit)) = case.run.solve {
         feature(
             case,
             Feature::StaticSolve,
             "run.solve",
-            "`static` is the static solve",
+            match solve {
+                Solve::Static => "`static` is the static solve",
+                _ => "`implicit` integrates on the static solve's residual and tangent",
+            },
             "give run.solve = \"dynamic\"",
         )?;
     }
-    if !case.is_static() || features.contains(&Feature::StaticDefault) {
+    if let Some(alpha) = case.run.hht_alpha {
+        if !case.is_implicit() {
+            return fail(
+                "run.hht_alpha",
+                "is HHT's α of an implicit run: give run.solve = \"implicit\" or remove it",
+            );
+        }
+        if !(-1.0 / 3.0..=0.0).contains(&alpha) {
+            return fail(
+                "run.hht_alpha",
+                format!(
+                    "must lie in [−1/3, 0] (0: Newmark's average acceleration, no numerical \
+                     damping; −1/3: the most), got {alpha:?}"
+                ),
+            );
+        }
+    }
+    let implicit = case.is_implicit();
+    if !case.solves_by_newton() || (features.contains(&Feature::StaticDefault) && !implicit) {
         return Ok(());
     }
     if case.method.dt.is_none() || case.method.cfl.is_some() {
         return fail(
             "method.dt",
-            "a static run takes load steps of method.dt in the pseudo-time of run.end_time \
-             (end_time/dt load steps; dt = end_time for one): give method.dt and no method.cfl",
+            if implicit {
+                "an implicit run takes time steps of method.dt (it may exceed the explicit \
+                 CFL step; end_time/dt steps): give method.dt and no method.cfl"
+            } else {
+                "a static run takes load steps of method.dt in the pseudo-time of \
+                 run.end_time (end_time/dt load steps; dt = end_time for one): give method.dt \
+                 and no method.cfl"
+            },
         );
     }
     let model = case.material.model;
@@ -80,8 +108,8 @@ pub(super) fn statics(case: &Case) -> Checked {
         return fail(
             "material.model",
             format!(
-                "a static run solves for u alone, so the stress must follow from F without \
-                 history: use {}, not {}",
+                "a static or implicit run solves for u alone, so the stress must follow from \
+                 F without history: use {}, not `{}`",
                 MaterialModel::names_where(
                     |m| !m.is_rate_based() && m != MaterialModel::VonMisesPlastic
                 ),
@@ -92,8 +120,8 @@ pub(super) fn statics(case: &Case) -> Checked {
     if case.contact.is_some() {
         return fail(
             "contact",
-            "a static run has no contact (penalty contact acts through the time step); \
-             remove the [contact] table or give run.solve = \"dynamic\"",
+            "a static or implicit run has no contact (penalty contact acts through the \
+             explicit time step); remove the [contact] table or give run.solve = \"dynamic\"",
         );
     }
     Ok(())
@@ -119,11 +147,12 @@ pub(super) fn tolerance(case: &Case) -> Checked {
             );
         }
     }
-    if !t.is_unset() && !case.is_static() {
+    if !t.is_unset() && !case.solves_by_newton() {
         return fail(
             "run.tolerance",
-            "is the Newton tolerance of a static run, and this run is dynamic (it has no \
-             Newton iteration): remove run.tolerance or give run.solve = \"static\"",
+            "is the Newton tolerance of a static or implicit run, and this run is explicit \
+             dynamic (it has no Newton iteration): remove run.tolerance or give run.solve = \
+             \"static\" or \"implicit\"",
         );
     }
     Ok(())

@@ -79,10 +79,10 @@ impl<D: Dim> OdeSystem for TlGalerkin<D> {
 }
 
 impl<D: Dim> AtRest<D> for TlGalerkin<D> {
-    /// u at the nodes, v = 0 (ρ and S of a rate model, which a static run refuses, as
-    /// initially).
-    fn at_rest(&self, u: &[D::V]) -> GalerkinState<D> {
-        self.initial_state().at_rest(u)
+    /// u and v at the nodes (ρ and S of a rate model, which a static or implicit run
+    /// refuses, as initially).
+    fn moving(&self, u: &[D::V], v: &[D::V]) -> GalerkinState<D> {
+        self.initial_state().moving(u, v)
     }
 
     /// The closed form on a model with a tangent (every model a static run accepts but

@@ -59,11 +59,11 @@ impl<D: Dim> TlState<D> {
         }
     }
 
-    /// This state with displacement u and v = 0: a static solve's state of u.
-    pub fn at_rest(self, u: &[D::V]) -> Self {
+    /// This state with displacement u and velocity v: a static or implicit solve's state.
+    pub fn moving(self, u: &[D::V], v: &[D::V]) -> Self {
         Self {
             u: u.to_vec(),
-            v: vec![D::zero(); u.len()],
+            v: v.to_vec(),
             ..self
         }
     }
