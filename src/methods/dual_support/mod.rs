@@ -349,7 +349,11 @@ impl MethodFamily for DualSupportSpec {
                 left_out,
             };
         }
-        let mut left_out = vec!["time integration (static)"];
+        let implicit = case.is_implicit();
+        let mut left_out = match implicit {
+            true => vec![],
+            false => vec!["time integration (static)"],
+        };
         if self.hourglass == 0.0 {
             left_out.push("hourglass energy");
         }
@@ -369,8 +373,14 @@ impl MethodFamily for DualSupportSpec {
                     (false, SolverKind::Cg) => "the two-hop pattern of the tangent",
                 }
             ),
-            state: format!("u (state model {:?}); no velocity", mat.model),
-            cfl_step: "none: load steps of method.dt".into(),
+            state: match implicit {
+                true => format!("u, v, a and f_int(u_n) (state model {:?})", mat.model),
+                false => format!("u (state model {:?}); no velocity", mat.model),
+            },
+            cfl_step: match implicit {
+                true => "none: implicit steps of method.dt".into(),
+                false => "none: load steps of method.dt".into(),
+            },
             rates: format!(
                 "F_i, P_i, 𝔸_i; R = f_int + λ f_ext; K = Σ_i V_i δF_iᵀ𝔸_iδF_i + hourglass \
                  (α = {}μ); {}",
