@@ -3,6 +3,7 @@
 // ⊗ X_ab with w_ab = V_b W̃_b(X_a)/|X_ab|² (eqs 37, 39 with the self-bond). In excesses
 // f = F − I the X_ab of x_b − x_a and of F_a X_ab cancel analytically:
 //   F^c_a − I = f_a + Σ_b w_ab [(u_b − u_a) − f_a X_ab] ⊗ X_ab,
+// or with KINEMATIC_BOND eq 38's F^c_a − I = f_a + Σ_b w_ab [x_ab ⊗ X_ab − |X_ab|² F_a],
 // with u of the ghosts from the ghost motion, X_ab at PDX_OFF and w_ab at PW_OFF of
 // `pair`. Writes F^c − I of its own particle at KFC_OFF of kin, which the kinematics and
 // the strain energy read in place of F. Layout and constants: mixed.wgsl.
@@ -34,7 +35,13 @@ fn bond_f(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     let p_end = offsets[row + 1u];
     for (var p = offsets[row]; p < p_end; p++) {
         let x = vload_pair(PDX_OFF + DIM * p);
-        f_c += outer(displacement(ids[p]) - u_a - f * x, x * pair[PW_OFF + p]);
+        let du = displacement(ids[p]) - u_a;
+        if KINEMATIC_BOND == 1u {
+            // Eq 38: w_ab [x_ab ⊗ X_ab − |X_ab|² F_a] in excesses.
+            f_c += (outer(du + x, x) - (identity_d() + f) * dot(x, x)) * pair[PW_OFF + p];
+        } else {
+            f_c += outer(du - f * x, x * pair[PW_OFF + p]);
+        }
     }
     mstore_kin(KFC_OFF + DIM * DIM * a, f_c);
 }

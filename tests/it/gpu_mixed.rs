@@ -108,7 +108,8 @@ fn compare_rates<D: GpuDim>(c: &Scene, gpu: Gpu) {
 }
 
 /// The seed 002 options on every variant of `mixed_variants`: the symmetrised momentum with each
-/// set of conserved variables, and with {p, F} the bond-based F under either momentum.
+/// set of conserved variables, and with {p, F} the bond-based F under either momentum and
+/// eq 38's kinematic bond F under the symmetrised one.
 fn seed_002_variants(base: &[&str]) -> Vec<Vec<String>> {
     let mut out = Vec::new();
     for set in mixed_variants(base) {
@@ -128,6 +129,10 @@ fn seed_002_variants(base: &[&str]) -> Vec<Vec<String>> {
                     "deformation_gradient=bond-based",
                 ]));
             }
+            out.push(with([
+                "momentum=symmetrised",
+                "deformation_gradient=kinematic-bond",
+            ]));
         }
     }
     out

@@ -2,11 +2,14 @@
 //! of the stabilisation, exactness on linear fields, momenta with and without the
 //! angular-momentum projection, and the symmetry of the twisting column.
 
-use crate::common::{cpu_options, load, noise, random_state, run_mixed_steps, shipped};
+use crate::common::{
+    cpu_options, load, noise, random_state, random_tensor, random_vector, run_mixed_steps, shipped,
+};
 use meshless::core::integrate::OdeSystem;
 use meshless::core::tensor::{D2, D3, Dim};
 use meshless::diagnostics::analytic::SwingingMode;
 use meshless::methods::Method;
+use meshless::methods::mixed::system::bond_gradient;
 use meshless::methods::mixed::{Fluxes, MixedSph};
 use meshless::physics::material::Material;
 use meshless::run::{Backend, CpuEngine, Engine, build_method};
@@ -475,6 +478,69 @@ const SEED_002: [&str; 6] = [
     "method.kernel=cubic-spline",
     "method.h_over_dx=1.1",
 ];
+
+#[test]
+fn the_kinematic_bond_f_of_eq_38_is_rank_deficient_and_not_exact_for_affine_motion() {
+    // Seed 002 eq 38's bond F, (x_ab/r) ⊗ (X_ab/r), has rank one: det = 0 to round-off
+    // (1e-14 of |F_ab|^d) in 2D and 3D for random bonds and stretches, where eq 39's,
+    // F_a − (F_a n) ⊗ n + (x_ab/r) ⊗ n, keeps det F_ab = (x_ab·F_a⁻ᵀn)/r det F_a ≠ 0 (above
+    // 0.1 for |F_a − I| ≤ 0.1 and bonds stretched by ≤ 10 %).
+    let mut seed = 41;
+    for _ in 0..50 {
+        let f2 = glam::DMat2::IDENTITY + random_tensor::<D2>(&mut seed, 0.1);
+        let x0 = random_vector::<D2>(&mut seed, 1.0);
+        let x = f2 * x0 + random_vector::<D2>(&mut seed, 0.05 * x0.length());
+        let (k, b) = (
+            bond_gradient::<D2>(true, f2, x, x0),
+            bond_gradient::<D2>(false, f2, x, x0),
+        );
+        assert!(
+            k.determinant().abs() < 1e-14 * D2::ddot(k, k),
+            "eq 38: det {}",
+            k.determinant()
+        );
+        assert!(b.determinant() > 0.1, "eq 39: det {}", b.determinant());
+        let f3 = glam::DMat3::IDENTITY + random_tensor::<D3>(&mut seed, 0.1);
+        let x0 = random_vector::<D3>(&mut seed, 1.0);
+        let x = f3 * x0 + random_vector::<D3>(&mut seed, 0.05 * x0.length());
+        let k = bond_gradient::<D3>(true, f3, x, x0);
+        // Rank one: every 2 × 2 minor vanishes, so the cofactor does.
+        let cof = D3::cof(k);
+        assert!(
+            D3::ddot(cof, cof).sqrt() < 1e-14 * D3::ddot(k, k),
+            "eq 38 in 3D: cof {cof}"
+        );
+        assert!(bond_gradient::<D3>(false, f3, x, x0).determinant() > 0.1);
+    }
+    // Kernel-smoothed (eq 37) over a neighbourhood with the self-bond, eq 38 gives F_a(w_aa
+    // I + Σ_b w_ab n_ab ⊗ n_ab) for x = A X + b, F = A: not A, so P(F^c) is off P(A) at
+    // every particle (by more than 1 % of |P(A)|), where eq 39 is exact (the test below).
+    let a_mat = glam::DMat2::from_cols_array(&[1.2, -0.1, 0.3, 0.9]);
+    let mut overrides = SEED_002.to_vec();
+    overrides.extend([
+        "mirror=",
+        "spacing=0.1",
+        "method.deformation_gradient=kinematic-bond",
+        "method.correction=rkpm",
+    ]);
+    let case = load("swinging-plate", &overrides);
+    let mut m: MixedSph<D2> = build_method(&case).unwrap();
+    let mut y = m.initial_state();
+    for (a, &x) in m.reference().iter().enumerate() {
+        y.u[a] = a_mat * x - x;
+        y.f[a] = a_mat;
+    }
+    let mat = Material::new(&case.material);
+    let exact = mat.pk1_mixed::<D2>(a_mat, D2::cof(a_mat), a_mat.determinant());
+    let scale = D2::ddot(exact, exact).sqrt();
+    for (a, p) in m.first_piola(&y).unwrap().iter().enumerate() {
+        let e = D2::ddot(*p - exact, *p - exact).sqrt();
+        assert!(
+            e > 1e-2 * scale,
+            "particle {a}: |P − P(A)| = {e:e} of {scale:e}"
+        );
+    }
+}
 
 /// Seed 002 §6 check 2: for x = A X + b and F = A the bond-based F^c equals A at every
 /// particle, boundary and corners included, with both corrected kernels (W̃¹ whose

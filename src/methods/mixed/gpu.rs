@@ -345,7 +345,7 @@ fn check_f32<D: GpuDim>(
 /// with plasticity, which the GPU does not run.
 fn plastic_on_device(case: &Case, options: &MixedOptions) -> Result<bool, SetupError> {
     let plastic = case.material.model == MaterialModel::VonMisesPlastic;
-    if plastic && options.deformation_gradient == DeformationGradient::BondBased {
+    if plastic && options.deformation_gradient != DeformationGradient::Evolved {
         return Err(case
             .invalid(
                 "method.deformation_gradient",

@@ -134,6 +134,10 @@ pub enum DeformationGradient {
     /// The kernel-smoothed bond-based F^c with the self-bond (seed 002 eqs 37, 39),
     /// recomputed from the positions at every stage; the evolved F stays the state.
     BondBased,
+    /// The kernel-smoothed purely kinematic bond F of seed 002 eqs 37 and 38, F_ab =
+    /// (x_ab/r) ⊗ (X_ab/r): rank one per bond and not exact for affine motion, the
+    /// deficiency that eq 39 mends; for comparison with the paper.
+    KinematicBond,
 }
 
 /// The `[method]` keys both mixed methods read.
@@ -182,7 +186,7 @@ impl MixedOptions {
     }
 
     fn bond_based(&self) -> bool {
-        self.deformation_gradient == DeformationGradient::BondBased
+        self.deformation_gradient != DeformationGradient::Evolved
     }
 }
 

@@ -184,6 +184,8 @@ pub struct MixedSph<D: Dim> {
     momentum: Momentum,
     /// V_b W̃_b(X_a) / |X_ab|² per pair, for the bond-based F; None for the evolved F.
     bond_weights: Option<Vec<f64>>,
+    /// Whether the bond F is eq 38's purely kinematic one rather than eq 39's.
+    kinematic_bond: bool,
     /// The plastic history of the real particles (von Mises); None for the elastic
     /// models.
     plastic: Option<History>,
@@ -292,10 +294,11 @@ impl<D: Dim> MixedSph<D> {
         };
         let bond_weights = match options.deformation_gradient {
             DeformationGradient::Evolved => None,
-            DeformationGradient::BondBased => {
+            DeformationGradient::BondBased | DeformationGradient::KinematicBond => {
                 Some(bond_weights::<D>(case, &x0, &vol, &csr, &kernel)?)
             }
         };
+        let kinematic_bond = options.deformation_gradient == DeformationGradient::KinematicBond;
         let mut body = vec![0; x0.len()];
         ghosts.fill(&mut body, |a| body_real[a], |_, b| b);
         let interactions =
@@ -339,6 +342,7 @@ impl<D: Dim> MixedSph<D> {
             conserved: options.evolved(case.material.model),
             momentum: options.momentum,
             bond_weights,
+            kinematic_bond,
             plastic: material.von_mises().map(|model| History::virgin(model, n)),
             stabilisation,
             compressibility,
@@ -420,17 +424,18 @@ impl<D: Dim> MixedSph<D> {
         }
     }
 
-    /// F^c_a = F_a + Σ_b V_b W̃_b(X_a) [(x_b − x_a) − F_a X_ab] ⊗ X_ab / |X_ab|²: the
-    /// kernel-smoothed Breitzman–Dayal bond F with the self-bond F_aa = F_a (seed 002 eqs
-    /// 37 and 39, summed with the partition of unity Σ_b V_b W̃_b = 1). Exact for affine
-    /// motion: the bracket vanishes.
-    /// `w` holds V_b W̃_b(X_a) / |X_ab|² per pair.
+    /// F^c_a = Σ_b V_b W̃_b(X_a) F_ab over the whole neighbourhood with the self-bond
+    /// F_aa = F_a (seed 002 eq 37), summed with the partition of unity Σ_b V_b W̃_b = 1 as
+    /// F_a + Σ_{b≠a} V_b W̃_b(X_a) (F_ab − F_a), the bond F_ab of [`bond_gradient`]. With
+    /// eq 39's, the term is [(x_b − x_a) − F_a X_ab] ⊗ X_ab / |X_ab|², which vanishes for
+    /// affine motion. `w` holds V_b W̃_b(X_a) / |X_ab|² per pair.
     fn bond_based_f(&self, a: usize, f: D::T, u_ext: &[D::V], w: &[f64]) -> D::T {
         let mut fc = f;
         for (b, &w) in self.csr.pairs(a, w) {
             let x_ab = self.x0[b] - self.x0[a];
             let dx = x_ab + u_ext[b] - u_ext[a];
-            fc += D::outer(dx - f * x_ab, x_ab) * w;
+            let f_ab = bond_gradient::<D>(self.kinematic_bond, f, dx, x_ab);
+            fc += (f_ab - f) * (w * D::norm2(x_ab));
         }
         fc
     }
@@ -559,6 +564,18 @@ fn jst<D: Dim>(
 }
 
 /// The bond-based F's per-pair weights V_b W̃_b(X_a) / |X_ab|².
+/// The bond deformation gradient F_ab of a bond X_ab = X_b − X_a, r = |X_ab|, n = X_ab/r,
+/// stretched to x_ab: eq 39 (Breitzman–Dayal) F_a − (F_a n) ⊗ n + (x_ab/r) ⊗ n, or with
+/// `kinematic` eq 38, (x_ab/r) ⊗ n, which has rank one.
+pub fn bond_gradient<D: Dim>(kinematic: bool, f: D::T, x_ab: D::V, x0_ab: D::V) -> D::T {
+    let r2 = D::norm2(x0_ab);
+    let stretch = D::outer(x_ab, x0_ab) * (1.0 / r2);
+    match kinematic {
+        true => stretch,
+        false => f - D::outer(f * x0_ab, x0_ab) * (1.0 / r2) + stretch,
+    }
+}
+
 fn bond_weights<D: Dim>(
     case: &Case,
     x0: &[D::V],

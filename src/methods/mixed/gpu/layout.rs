@@ -265,6 +265,7 @@ pub fn scene<D: GpuDim>(
         .u32("EVOLVE_J", u32::from(l.state.has("J")))
         .u32("KIN_H", u32::from(l.kin_h))
         .u32("BOND", u32::from(l.kin.has("FC")))
+        .u32("KINEMATIC_BOND", u32::from(cpu.kinematic_bond()))
         .u32("PROJECTION", u32::from(cpu.projection()))
         .u32("GROUPS", u(l.n).div_ceil(WORKGROUP))
         .f32("TOTAL_VOL", total_vol)

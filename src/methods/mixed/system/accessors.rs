@@ -52,6 +52,11 @@ impl<D: Dim> MixedSph<D> {
         self.bond_weights.as_deref()
     }
 
+    /// Whether the bond F is eq 38's purely kinematic one.
+    pub(crate) fn kinematic_bond(&self) -> bool {
+        self.kinematic_bond
+    }
+
     pub(crate) fn momentum(&self) -> Momentum {
         self.momentum
     }
