@@ -85,16 +85,12 @@ impl Scene {
         case.notes = notes;
         case.file = file.to_path_buf();
         case.overrides = overrides.to_vec();
-        let mut scene = Scene::new(case);
+        let scene = Scene::new(case);
         validate::check(&scene).map_err(|(key, message)| CaseError::Invalid {
             file: file.to_path_buf(),
             key,
             message,
         })?;
-        // The summary records the objective rate a rate model runs with.
-        if scene.material.model.is_rate_based() {
-            scene.case.material.objective_rate.get_or_insert_default();
-        }
         Ok(scene)
     }
 }

@@ -175,7 +175,7 @@ pub struct Statics<D: Dim, S: Model<D>> {
     pub u: Vec<D::V>,
     t: f64,
     /// The forces of loads and supports on the body at the converged state: −f_int, or
-    /// M a − f_int in an implicit run.
+    /// M a − [(1 + α) f_int(u_{n+1}) − α f_int(u_n)] in an implicit run.
     reaction: Vec<D::V>,
     /// The inertia of an implicit run; None for a static one.
     inertia: Option<Inertia<D>>,
@@ -223,15 +223,27 @@ impl<D: Dim> Inertia<D> {
             .collect()
     }
 
-    /// Moves the state to the converged u of a step from u_n: a, v and f_int.
-    fn advance(&mut self, dt: f64, u: &[D::V], u_n: &[D::V], f_int: Vec<D::V>) {
+    /// Moves the state to the converged u of a step from u_n: a, v and f_int. Returns the
+    /// forces of loads and supports that G balances, M a − [(1 + α) f_int(u) − α f_int(u_n)].
+    fn advance(
+        &mut self,
+        dt: f64,
+        u: &[D::V],
+        u_n: &[D::V],
+        f_int: Vec<D::V>,
+        mass: &[f64],
+    ) -> Vec<D::V> {
         let s = self.scheme;
         let a = self.acceleration(dt, u, u_n);
+        let applied = (0..u.len())
+            .map(|i| a[i] * mass[i] - f_int[i] * (1.0 + s.alpha) + self.f_int[i] * s.alpha)
+            .collect();
         for (i, a) in a.into_iter().enumerate() {
             self.v[i] = self.v[i] + (self.a[i] * (1.0 - s.gamma) + a * s.gamma) * dt;
             self.a[i] = a;
         }
         self.f_int = f_int;
+        applied
     }
 }
 
@@ -648,14 +660,10 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
     }
 
     /// Takes the converged u of a step of dt with its internal force: the reactions −f_int,
-    /// or in an implicit run Newmark's v and a and the reactions M a − f_int.
+    /// or in an implicit run Newmark's v and a and the forces that G balances.
     fn accept(&mut self, u: Vec<D::V>, f_int: Vec<D::V>, dt: f64) {
         match &mut self.inertia {
-            Some(inertia) => {
-                inertia.advance(dt, &u, &self.u, f_int);
-                let (a, f) = (&inertia.a, &inertia.f_int);
-                self.reaction = (0..u.len()).map(|i| a[i] * self.mass[i] - f[i]).collect();
-            }
+            Some(inertia) => self.reaction = inertia.advance(dt, &u, &self.u, f_int, &self.mass),
             None => self.reaction = f_int.iter().map(|&f| -f).collect(),
         }
         self.u = u;
@@ -768,9 +776,10 @@ impl<D: Dim, S: Model<D>> Engine<D> for Statics<D, S> {
         &self.boundary.constrained
     }
 
-    /// The supports' reactions at the converged state: −f_int less the loads at the load
-    /// factor t/end_time on each prescribed component, whose power is at its pseudo-time
-    /// rate (u = velocity·t + displacement·t/end_time).
+    /// The supports' reactions at the converged state: the forces of loads and supports
+    /// less the loads (at the load factor t/end_time of a static run, whole in an implicit
+    /// one) on each prescribed component, whose power is at its (pseudo-)time rate (u =
+    /// velocity·t + displacement·t/end_time).
     fn reactions(&mut self) -> Vec<Reaction> {
         let factor = match self.inertia {
             Some(_) => 1.0,
@@ -867,8 +876,9 @@ impl<D: Dim, S: Model<D>> Engine<D> for Statics<D, S> {
         self.work
     }
 
-    /// The work of the loads alone: a static solve has no kinetic energy, and its
-    /// balance is the equilibrium, not these terms.
+    /// The work of the loads and supports alone: a static solve has no kinetic energy,
+    /// and an implicit one books no dissipation (HHT's numerical damping shows in the
+    /// balance's residue).
     fn booked(&mut self) -> Booked {
         Booked::external(self.work)
     }

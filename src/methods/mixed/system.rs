@@ -563,7 +563,6 @@ fn jst<D: Dim>(
     })
 }
 
-/// The bond-based F's per-pair weights V_b W̃_b(X_a) / |X_ab|².
 /// The bond deformation gradient F_ab of a bond X_ab = X_b − X_a, r = |X_ab|, n = X_ab/r,
 /// stretched to x_ab: eq 39 (Breitzman–Dayal) F_a − (F_a n) ⊗ n + (x_ab/r) ⊗ n, or with
 /// `kinematic` eq 38, (x_ab/r) ⊗ n, which has rank one.
@@ -576,6 +575,7 @@ pub fn bond_gradient<D: Dim>(kinematic: bool, f: D::T, x_ab: D::V, x0_ab: D::V) 
     }
 }
 
+/// The bond-based F's per-pair weights V_b W̃_b(X_a) / |X_ab|².
 fn bond_weights<D: Dim>(
     case: &Case,
     x0: &[D::V],
