@@ -264,9 +264,13 @@ impl MethodFamily for DualSupportSpec {
         if case.solves_by_newton() && (case.method.dt.is_none() || case.method.cfl.is_some()) {
             return fail(
                 "method.dt",
-                "`dual-support-sph` solves by Newton's method here: give method.dt, the load \
-                 step in the pseudo-time of run.end_time of a static run or the time step of \
-                 an implicit one (end_time/dt steps), and no method.cfl",
+                if case.is_implicit() {
+                    "`dual-support-sph` runs implicitly here: give method.dt, the time step \
+                     (end_time/dt steps), and no method.cfl"
+                } else {
+                    "`dual-support-sph` is static: give method.dt, the load step in the \
+                     pseudo-time of run.end_time (end_time/dt load steps), and no method.cfl"
+                },
             );
         }
         non_negative("method.hourglass", self.hourglass)?;
