@@ -146,19 +146,26 @@ fn pk1_pressure(f: matd, h: matd, j: f32, p: f32) -> matd {
     return (f - h - hh * c) * (MU * exp(-2.0 / 3.0 * log_1p(j))) + hh * p;
 }
 
+// S_zz of a 2D plane-strain rate model, which the in-plane S does not carry
+// (src/physics/material/mod.rs `plane_strain_szz`): −tr S under a corotational rate,
+// (2μ/3)(ρ/ρ0 − 1) under Truesdell's; zero in 3D.
+fn plane_strain_szz(s: matd, rho_dev: f32) -> f32 {
+    if DIM == 3u {
+        return 0.0;
+    }
+    if OBJECTIVE_RATE == OBJECTIVE_RATE_TRUESDELL {
+        return 2.0 * MU / 3.0 * rho_dev / RHO0;
+    }
+    return -trace_d(s);
+}
+
 // Strain-energy density per reference volume. Rate model: the complementary energy
 // S:S/(4G) + p²/(2K) (with S_zz = −tr S in 2D). Neo-Hookean: ψ = μ/2 (tr C − DIM) − μ ln J
 // + λ/2 ln²J regrouped so the first-order terms cancel analytically: with J − 1 = x =
 // tr H + q, tr C − DIM = 2 tr H + H:H and tr H − ln J = (x − ln(1 + x)) − q.
 fn energy_density(h: matd, s: matd, rho_dev: f32) -> f32 {
     if RATE == 1u {
-        // S_zz of plane strain (src/physics/material/mod.rs `plane_strain_szz`).
-        var szz = 0.0;
-        if DIM == 2u && OBJECTIVE_RATE == OBJECTIVE_RATE_TRUESDELL {
-            szz = 2.0 * MU / 3.0 * rho_dev / RHO0;
-        } else if DIM == 2u {
-            szz = -trace_d(s);
-        }
+        let szz = plane_strain_szz(s, rho_dev);
         let p = pressure(rho_dev);
         return (ddot_d(s, s) + szz * szz) / (4.0 * MU) + p * p / (2.0 * BULK);
     }

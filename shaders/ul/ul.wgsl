@@ -3,8 +3,9 @@
 // positions pass, the Randles–Libersky correction of L on the current positions, and the
 // closing of a particle's rates.
 //
-// Flat f32 buffers: the state y = [u | v | ρ − ρ0 | S | H = F − I] (ρ as its deviation and
-// F as H, as in tlsph.wgsl, to keep their digits in f32); x = X + u of the last positions
+// Flat f32 buffers: the state y = [u | v | ρ − ρ0 | S | H = F − I | ε_p] (ε_p with a yield
+// stress; ρ as its deviation and F as H, as in tlsph.wgsl, to keep their digits in f32);
+// x = X + u of the last positions
 // pass (DIM per particle), which the cell list reads; the scheme's per-particle quantities
 // kin = [T | R | AIT | VOL | C | P | POW] (T: σ/ρ² for Gray–Monaghan, σ for Godunov; R:
 // artificial stress; AIT: A⁻ᵀ of the correction; VOL: m/ρ; C: sound speed or impedance;
@@ -124,7 +125,8 @@ fn ait_of(i: u32) -> matd {
 
 // Writes the rates of particle i from its scheme's ẋ, a, ρ̇ and L: prescribed velocity
 // components take ẋ = v and v̇ = 0 (after the external accelerations, boundary.wgsl),
-// Ṡ by the Jaumann rate and Ḣ = Ḟ = L F.
+// Ṡ by the objective rate, Ḣ = Ḟ = L F, and ε̇_p = 0 with a yield stress (plastic.wgsl
+// returns S at the step's end).
 // bytes block rates_core:
 // The core's part of a scheme's `rates` pass: the row, x, the state (v, ρ, S, F), V, A⁻ᵀ,
 // the boundary conditions (V and mask, ext, the power of supports and loads into kin) and
@@ -138,6 +140,7 @@ fn ait_of(i: u32) -> matd {
 // - reference: 2 scalars per item
 // - ext: 1 vector per item
 // - d: 1 scalar + 2 vectors + 2 tensors per item
+// - d: 1 scalar per item, when PLASTIC
 // - kin stores: 1 scalar per item
 fn close_rates(i: u32, x_dot: vecd, acc: vecd, rho_dot: f32, l: matd) {
     let v_i = v_of(i);
@@ -155,4 +158,7 @@ fn close_rates(i: u32, x_dot: vecd, acc: vecd, rho_dot: f32, l: matd) {
     let f = identity_d() + mload_y(F_OFF + DIM * DIM * i);
     mstore_d(S_OFF + DIM * DIM * i, stress_rate(mload_y(S_OFF + DIM * DIM * i), l, f));
     mstore_d(F_OFF + DIM * DIM * i, l * f);
+    if PLASTIC == 1u {
+        d[EP_OFF + i] = 0.0;
+    }
 }

@@ -40,7 +40,7 @@ impl Hardening {
 
     /// The plastic multiplier Δγ of a return from the trial equivalent stress q̄ =
     /// sqrt(3/2 τ̄':τ̄') beyond yield at ε_pⁿ (module docs).
-    fn multiplier(&self, mu: f64, q_trial: f64, eps_p: f64) -> f64 {
+    pub fn multiplier(&self, mu: f64, q_trial: f64, eps_p: f64) -> f64 {
         let linear =
             (q_trial - (self.yield_stress + self.modulus * eps_p)) / (3.0 * mu + self.modulus);
         linear.min(q_trial / (3.0 * mu))

@@ -329,12 +329,19 @@ pub fn explain(case: &Scene, gpu: bool) -> String {
         ));
         out.extend(step_lines(case, gpu, &plan.rates));
     }
-    if mat.hardening.is_some() {
+    if mat.von_mises().is_some() {
         out.push(
             "before every step: the plastic history C_p⁻¹, ε_p committed from the step's start \
              state (seed 003 Algorithm 2); every stage returns F from it"
                 .into(),
         );
+    }
+    if let Some(h) = mat.rate_plasticity() {
+        out.push(format!(
+            "after every step: the radial return of S to the von Mises surface, τ_y = {:e} + \
+             {:e} ε_p Pa (seed 000 App. 9.1; its plastic work booked on the CPU only)",
+            h.yield_stress, h.modulus
+        ));
     }
     if let Some(contact) = case.contact {
         out.push(format!(

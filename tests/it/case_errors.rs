@@ -264,6 +264,65 @@ fn objective_rates_are_for_rate_models_and_named() {
 }
 
 #[test]
+fn a_yield_stress_on_the_rate_model_is_for_the_ul_strong_forms_and_named() {
+    let plastic = |method: &str, extra: &str| {
+        let text = edit(
+            VALID,
+            "poisson_ratio = 0.3",
+            &format!("poisson_ratio = 0.3\nyield_stress = 1e4\n{extra}"),
+        );
+        edit(&text, "\"tlsph\"", &format!("\"{method}\""))
+    };
+    for method in ["gray-monaghan-sph", "godunov-sph"] {
+        Scene::from_toml(&plastic(method, ""), Path::new(FILE), &[]).unwrap();
+        Scene::from_toml(
+            &plastic(method, "hardening_modulus = 1e5"),
+            Path::new(FILE),
+            &[],
+        )
+        .unwrap();
+    }
+    assert_invalid(
+        &plastic("tlsph", ""),
+        "material.yield_stress",
+        &[
+            "`gray-monaghan-sph`",
+            "`godunov-sph`",
+            "`tlsph`",
+            "remove it",
+        ],
+    );
+    assert_invalid(
+        &edit(
+            VALID,
+            "poisson_ratio = 0.3",
+            "poisson_ratio = 0.3\nhardening_modulus = 1e5",
+        ),
+        "material.hardening_modulus",
+        &["`yield_stress`"],
+    );
+    assert_invalid(
+        &plastic("gray-monaghan-sph", "objective_rate = \"truesdell\""),
+        "material.objective_rate",
+        &["\"jaumann\"", "\"green-naghdi\""],
+    );
+    assert_invalid(
+        &plastic("gray-monaghan-sph", "plane = \"stress\""),
+        "material.plane",
+        &["\"strain\""],
+    );
+    assert_invalid(
+        &edit(
+            &plastic("gray-monaghan-sph", ""),
+            "\"hypoelastic\"",
+            "\"neo-hookean\"",
+        ),
+        "material.yield_stress",
+        &["`hypoelastic`", "`von-mises-plastic`", "`neo-hookean`"],
+    );
+}
+
+#[test]
 fn the_implicit_solve_takes_a_state_model_a_fixed_step_and_its_alpha() {
     let elastic = edit(VALID, "\"hypoelastic\"", "\"neo-hookean\"");
     let implicit = edit(
@@ -941,7 +1000,7 @@ fn the_plastic_model_needs_its_hardening_and_a_mixed_method() {
             "poisson_ratio = 0.3\nyield_stress = 1e5",
         ),
         "material.yield_stress",
-        &["von-mises-plastic", "hypoelastic", "remove it"],
+        &["`gray-monaghan-sph`", "`tlsph`", "remove it"],
     );
     // Softening (seed 001 §9.5: H = −E/10) is accepted down to −3μ (μ = 3.85e5 Pa here).
     let softening = edit(

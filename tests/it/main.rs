@@ -77,4 +77,5 @@ mod timed_velocity;
 mod tl_potential;
 mod tlsph;
 mod ul_galerkin;
+mod ul_plasticity;
 mod verification;

@@ -2,7 +2,6 @@
 //! dimensions and for every scene variant the solver compiles.
 
 use crate::common::{block_case, block_text, load, mixed_variants, shipped, validate_wgsl};
-use meshless::core::correction::CorrectionKind;
 use meshless::core::tensor::{D2, D3};
 use meshless::gpu::context::reflect;
 use meshless::gpu::layout::GpuDim;
@@ -169,8 +168,7 @@ fn check_ul<D: GpuDim>() {
             }
             _ => (godunov::scheme(), godunov::SHADERS),
         };
-        let corrected = case.method.correction == CorrectionKind::RandlesLibersky;
-        let layout = ul::Layout::new(100, 10, D::N, &scheme, corrected);
+        let layout = ul::Layout::new(100, 10, D::N, &scheme, &case);
         let constants = ul::scene_constants(&case, &layout, &scheme);
         for source in sources {
             let src = shaders::compose::<D>(source, &constants);

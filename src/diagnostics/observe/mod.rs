@@ -16,7 +16,7 @@ use crate::core::sum;
 use crate::core::tensor::Dim;
 use crate::diagnostics::analytic::{AnalyticSolution, ClosedForm, Exact, relative_l2};
 use crate::diagnostics::balance::{self, Balance, Booked};
-use crate::physics::material::{Material, MaterialModel};
+use crate::physics::material::Material;
 use crate::physics::pressure::{oscillation, pressures};
 use std::collections::BTreeMap;
 
@@ -232,7 +232,7 @@ fn observer_columns<D: Dim>(
         Observer::VelocityError(_) => names.push("velocity_error".into()),
         Observer::RingSymmetry => {
             names.extend(["hoop_stress_spread", "hoop_gap_spread"].map(String::from));
-            if case.material.model == MaterialModel::VonMisesPlastic {
+            if Material::new(&case.material).hardening.is_some() {
                 names.push("plastic_strain_spread".into());
             }
         }
@@ -363,7 +363,7 @@ impl Observers {
                 let mat = crate::physics::material::Material::new(&case.material);
                 1e-9 * (mat.lambda + 2.0 * mat.mu)
             },
-            plastic: case.material.model == MaterialModel::VonMisesPlastic,
+            plastic: Material::new(&case.material).hardening.is_some(),
             solution,
             front,
             supports: crate::boundary::supports(case).len(),

@@ -36,6 +36,9 @@ pub enum Feature {
     MirrorPlanes,
     /// A material with a plastic history (`von-mises-plastic`).
     Plasticity,
+    /// A yield stress on the rate model (`hypoelastic` with `yield_stress`): the radial
+    /// return of S at every step's end.
+    RatePlasticity,
     /// The static solve of `run.solve = "static"` ([`crate::statics`]).
     StaticSolve,
     /// The static solve on the GPU as well (`--backend gpu`).

@@ -6,7 +6,7 @@ use crate::gpu::shaders::{
     BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, KERNEL, LOADS, MECHANICS, OBJECTIVE, PART,
     PRESCRIBED, REFERENCE, Source, source,
 };
-use crate::methods::cores::ul::gpu::{CORE, FLAT, REDUCE, Scheme};
+use crate::methods::cores::ul::gpu::{CORE, FLAT, REDUCE, RETURN, Scheme};
 
 /// Per-particle quantities (σ, p, Z, V, the correction) and the Riemann pair gather.
 pub const PASSES: Source = source!(
@@ -18,7 +18,9 @@ pub const PASSES: Source = source!(
 );
 
 /// The passes of a Godunov scene.
-pub const SHADERS: &[Source] = &[PASSES, CONTACT, LOADS, PRESCRIBED, INTEGRATE, REDUCE];
+pub const SHADERS: &[Source] = &[
+    PASSES, CONTACT, LOADS, PRESCRIBED, INTEGRATE, REDUCE, RETURN,
+];
 
 /// The scheme: no constants of its own.
 pub fn scheme() -> Scheme {

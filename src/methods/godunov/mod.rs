@@ -31,7 +31,7 @@ impl MethodFamily for GodunovSpec {
         updated-Lagrangian, neighbours rebuilt every stage, acoustic Riemann solutions in \
         the continuity and momentum equations, no artificial viscosity";
     const KEYS: &'static [&'static str] = &[];
-    const FEATURES: &'static [Feature] = &[Feature::Contact];
+    const FEATURES: &'static [Feature] = &[Feature::Contact, Feature::RatePlasticity];
     const NEIGHBOURS: Rebuild = Rebuild::OnDrift;
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
@@ -44,7 +44,7 @@ impl MethodFamily for GodunovSpec {
         let mat = Material::new(&case.material);
         Plan {
             once: "nothing: the neighbour lists follow the particles (see the rates)".into(),
-            state: "u, v, ρ, S, and F integrated by Ḟ = L F for the outputs".into(),
+            state: super::cores::ul::plan_state(case),
             cfl_step: cfl_step(&mat),
             rates: format!(
                 "{}, Ṡ, Ḟ, and ρ̇ and a from the pairs' acoustic Riemann solutions",

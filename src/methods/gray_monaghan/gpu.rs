@@ -8,7 +8,7 @@ use crate::gpu::shaders::{
     BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, KERNEL, LOADS, MECHANICS, OBJECTIVE, PART,
     PRESCRIBED, REFERENCE, Source, VISCOSITY, source,
 };
-use crate::methods::cores::ul::gpu::{CORE, FLAT, REDUCE, Scheme};
+use crate::methods::cores::ul::gpu::{CORE, FLAT, REDUCE, RETURN, Scheme};
 
 /// Per-particle quantities (σ/ρ², R, c, V, the correction) and the pair gather.
 pub const PASSES: Source = source!(
@@ -20,7 +20,9 @@ pub const PASSES: Source = source!(
 );
 
 /// The passes of a Gray–Monaghan scene.
-pub const SHADERS: &[Source] = &[PASSES, CONTACT, LOADS, PRESCRIBED, INTEGRATE, REDUCE];
+pub const SHADERS: &[Source] = &[
+    PASSES, CONTACT, LOADS, PRESCRIBED, INTEGRATE, REDUCE, RETURN,
+];
 
 /// The scheme of a case with the spec's constants: viscosity, artificial stress with
 /// W(Δp) at Δp = the spacing, XSPH.

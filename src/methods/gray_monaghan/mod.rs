@@ -53,7 +53,7 @@ impl MethodFamily for GrayMonaghanSpec {
         (seed 000 §5.1): neighbours rebuilt every stage, objective stress rate, artificial viscosity, \
         artificial stress and XSPH";
     const KEYS: &'static [&'static str] = &["artificial_viscosity", "artificial_stress", "xsph"];
-    const FEATURES: &'static [Feature] = &[Feature::Contact];
+    const FEATURES: &'static [Feature] = &[Feature::Contact, Feature::RatePlasticity];
     const NEIGHBOURS: Rebuild = Rebuild::OnDrift;
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
@@ -96,7 +96,7 @@ impl MethodFamily for GrayMonaghanSpec {
         Plan {
             once: "nothing but W(Δp): the neighbour lists follow the particles (see the rates)"
                 .into(),
-            state: "u, v, ρ, S, and F integrated by Ḟ = L F for the outputs".into(),
+            state: super::cores::ul::plan_state(case),
             cfl_step: cfl_step(&mat),
             rates: format!(
                 "{}, ρ̇, Ṡ, Ḟ, a, ẋ",

@@ -158,6 +158,11 @@ impl Material {
                         modulus,
                     })
                 }
+                // A yield stress on the rate model: perfectly plastic unless hardened.
+                (MaterialModel::Hypoelastic, Some(yield_stress), modulus) => Some(Hardening {
+                    yield_stress,
+                    modulus: modulus.unwrap_or(0.0),
+                }),
                 _ => None,
             },
             mooney_rivlin,
@@ -174,11 +179,14 @@ impl Material {
 
     /// The von Mises model of a `von-mises-plastic` material.
     pub fn von_mises(&self) -> Option<VonMises> {
-        self.hardening.map(|hardening| VonMises {
-            mu: self.mu,
-            bulk: self.bulk,
-            hardening,
-        })
+        let hyperelastic = self.model == MaterialModel::VonMisesPlastic;
+        self.hardening
+            .filter(|_| hyperelastic)
+            .map(|hardening| VonMises {
+                mu: self.mu,
+                bulk: self.bulk,
+                hardening,
+            })
     }
 
     /// Algorithm 2 from the virgin state (C_p⁻¹ = I, ε_p = 0) at a D tensor F.
@@ -223,6 +231,31 @@ impl Material {
             ObjectiveRate::GreenNaghdi => corotational(rotation_spin::<D>(f, l)),
             ObjectiveRate::Truesdell => elastic + l * s + s * lt - s * tr_d,
         }
+    }
+
+    /// The yield stress and hardening of a rate model given a `yield_stress`, whose
+    /// deviatoric stress each step's end returns to the von Mises surface
+    /// ([`Self::radial_return`]); None for an elastic rate model and the state models.
+    pub fn rate_plasticity(&self) -> Option<Hardening> {
+        self.hardening.filter(|_| self.model.is_rate_based())
+    }
+
+    /// The radial return of a rate model's deviatoric stress S at equivalent plastic
+    /// strain ε_p (Wilkins 1964; the "very simple plasticity" of Gray, Monaghan and Swift
+    /// 2001 that seed 000 App. 9.1 re-creates): with q = sqrt(3/2 S:S) (S_zz of plane
+    /// strain included) beyond τ_y(ε_p) = τ_y⁰ + H ε_p, Δε_p = (q − τ_y)/(3μ + H) and S is
+    /// scaled by 1 − 3μΔε_p/q, onto the yield surface τ_y(ε_p + Δε_p). Returns the new S
+    /// and Δε_p; None inside the surface or for an elastic material. At H = 0 the scale
+    /// is τ_y⁰/q, the reference code's sqrt(τ_y²/(3 J2)).
+    pub fn radial_return<D: Dim>(&self, s: D::T, rho: f64, eps_p: f64) -> Option<(D::T, f64)> {
+        let hardening = self.rate_plasticity()?;
+        let szz = self.plane_strain_szz::<D>(s, rho);
+        let q = (1.5 * (D::ddot(s, s) + szz * szz)).sqrt();
+        if q <= hardening.yield_stress_at(eps_p) {
+            return None;
+        }
+        let d_eps = hardening.multiplier(self.mu, q, eps_p);
+        Some((s * (1.0 - 3.0 * self.mu * d_eps / q), d_eps))
     }
 
     /// S_zz of a 2D plane-strain rate model, which the in-plane S does not carry: −tr S

@@ -1,13 +1,15 @@
 //! `[material]`: the keys each model reads, their ranges, and the plane assumption.
 
 use super::{Checked, fail, finite, non_negative, positive, toml_name};
-use crate::physics::material::{Material, MaterialModel, MaterialSpec, Plane};
+use crate::physics::material::{Material, MaterialModel, MaterialSpec, ObjectiveRate, Plane};
 
 /// A key of `[material]` that only some models read.
 struct ModelKey {
     key: &'static str,
     value: Option<f64>,
     reads: fn(MaterialModel) -> bool,
+    /// The models that must be given it (the others that read it take it as an option).
+    required: fn(MaterialModel) -> bool,
     /// What a model that reads it must be given.
     needs: &'static str,
 }
@@ -16,6 +18,9 @@ struct ModelKey {
 fn model_keys(m: &MaterialSpec) -> [ModelKey; 7] {
     let elastic = |model: MaterialModel| !model.reads_mooney_rivlin_constants();
     let plastic = |model| model == MaterialModel::VonMisesPlastic;
+    // The rate model takes a yield stress as an option (a radial return of S).
+    let yielding =
+        |model| model == MaterialModel::VonMisesPlastic || model == MaterialModel::Hypoelastic;
     let rubber = MaterialModel::reads_mooney_rivlin_constants;
     const E_NU: &str = "give `youngs_modulus` (E [Pa], > 0) and `poisson_ratio` (ν in (−1, 0.5))";
     const PLASTIC: &str = "give `yield_stress` (τ_y⁰ [Pa], > 0) and `hardening_modulus` (H \
@@ -26,13 +31,21 @@ fn model_keys(m: &MaterialSpec) -> [ModelKey; 7] {
         key,
         value,
         reads,
+        required: reads,
         needs,
+    };
+    let option = |key, value| ModelKey {
+        key,
+        value,
+        reads: yielding,
+        required: plastic,
+        needs: PLASTIC,
     };
     [
         key("youngs_modulus", m.youngs_modulus, elastic, E_NU),
         key("poisson_ratio", m.poisson_ratio, elastic, E_NU),
-        key("yield_stress", m.yield_stress, plastic, PLASTIC),
-        key("hardening_modulus", m.hardening_modulus, plastic, PLASTIC),
+        option("yield_stress", m.yield_stress),
+        option("hardening_modulus", m.hardening_modulus),
         key("c1", m.c1, rubber, RUBBER),
         key("c2", m.c2, rubber, RUBBER),
         key("lambda", m.lambda, rubber, RUBBER),
@@ -46,6 +59,7 @@ pub(super) fn check(m: &MaterialSpec, incompressible: bool) -> Checked {
         key,
         value,
         reads,
+        required,
         needs,
     } in model_keys(m)
     {
@@ -66,7 +80,7 @@ pub(super) fn check(m: &MaterialSpec, incompressible: bool) -> Checked {
                     ),
                 );
             }
-            None if reads(m.model) => {
+            None if required(m.model) => {
                 return fail(
                     key,
                     format!("the `{}` model needs it: {needs}", toml_name(&m.model)),
@@ -85,6 +99,9 @@ pub(super) fn check(m: &MaterialSpec, incompressible: bool) -> Checked {
                 toml_name(&m.model)
             ),
         );
+    }
+    if m.model == MaterialModel::Hypoelastic {
+        rate_plasticity(m)?;
     }
     if let Some(e) = m.youngs_modulus {
         positive("material.youngs_modulus", e)?;
@@ -128,6 +145,33 @@ pub(super) fn check(m: &MaterialSpec, incompressible: bool) -> Checked {
     }
     if let Some(lambda) = m.lambda {
         positive("material.lambda", lambda)?;
+    }
+    Ok(())
+}
+
+/// The yield stress of the rate model: `hardening_modulus` only with it, and a rate that
+/// keeps S deviatoric, which the radial return scales.
+fn rate_plasticity(m: &MaterialSpec) -> Checked {
+    if m.yield_stress.is_none() {
+        if m.hardening_modulus.is_some() {
+            return fail(
+                "material.hardening_modulus",
+                "hardens the yield stress of the `hypoelastic` model, which has none: give                  `yield_stress` (τ_y⁰ [Pa], > 0) too, or remove it",
+            );
+        }
+        return Ok(());
+    }
+    if m.objective_rate == Some(ObjectiveRate::Truesdell) {
+        return fail(
+            "material.objective_rate",
+            "\"truesdell\" does not keep S deviatoric, and the radial return of              `yield_stress` scales a deviatoric S onto the von Mises surface: use              \"jaumann\" or \"green-naghdi\" with a yield stress",
+        );
+    }
+    if m.plane == Plane::Stress {
+        return fail(
+            "material.plane",
+            "\"stress\" with a `yield_stress`: the radial return is that of plane strain              and 3D (σ_zz = 0 would need an iterated return); use plane = \"strain\"",
+        );
     }
     Ok(())
 }

@@ -47,6 +47,15 @@ pub(super) fn check(scene: &Scene) -> Result<(), (String, String)> {
             "use an elastic model",
         )?;
     }
+    if case.material.model.is_rate_based() && case.material.yield_stress.is_some() {
+        feature(
+            case,
+            Feature::RatePlasticity,
+            "material.yield_stress",
+            "a yield stress on the rate model is a radial return of S at every step's end",
+            "remove it",
+        )?;
+    }
     body::check(&case.bodies, dim)?;
     body::against_method(case)?;
     boundary::check(case)?;

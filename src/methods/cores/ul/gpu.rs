@@ -32,13 +32,13 @@ use crate::gpu::program::Stepper;
 use crate::gpu::reduction::{self, Reduced, Reduction};
 use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
-    self, CONTACT, Constants, INTEGRATE, MECHANICS, PART, PRESCRIBED, REFERENCE, Source, Wgsl,
-    source, wgsl,
+    self, Constants, MECHANICS, PART, REFERENCE, Source, Wgsl, source, wgsl,
 };
 use crate::gpu::shell::Shell;
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
 use crate::interaction::gpu::GpuInteractions;
 use crate::methods::cores::shared::BySource;
+use crate::physics::material::Material;
 use crate::reference::Reference;
 
 /// The core's bindings, positions pass, correction and closing of the rates, which each
@@ -63,8 +63,8 @@ pub const FLAT: &[(&str, bool)] = &[
     ("ext", false),
 ];
 
-/// The passes every UL engine compiles besides its scheme's.
-pub const SHARED: [Source; 4] = [CONTACT, PRESCRIBED, INTEGRATE, REDUCE];
+/// The radial return of S at every step's end, with a yield stress.
+pub const RETURN: Source = source!("ul/plastic.wgsl", [MECHANICS], [("y", true)]);
 
 /// One updated-Lagrangian method on the device.
 pub struct Scheme {
@@ -80,7 +80,7 @@ pub struct Scheme {
 }
 
 /// The flat buffers of an updated-Lagrangian scene, each described once: the state
-/// [u | v | ρ − ρ0 | S | H = F − I], the scheme's per-particle quantities
+/// [u | v | ρ − ρ0 | S | H = F − I | ε_p] (ε_p with a yield stress), the scheme's per-particle quantities
 /// [T | R | AIT | VOL | C | P | POW] (`shaders/ul/ul.wgsl`) and the reference
 /// configuration.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -93,8 +93,11 @@ pub struct Layout {
 }
 
 impl Layout {
-    /// The layout of n particles, `constrained` of them with prescribed components.
-    pub fn new(n: usize, constrained: usize, dim: usize, scheme: &Scheme, corrected: bool) -> Self {
+    /// The layout of n particles, `constrained` of them with prescribed components, for
+    /// `case`'s correction and material.
+    pub fn new(n: usize, constrained: usize, dim: usize, scheme: &Scheme, case: &Case) -> Self {
+        let corrected = case.method.correction == CorrectionKind::RandlesLibersky;
+        let plastic = Material::new(&case.material).rate_plasticity().is_some();
         Self {
             n,
             dim,
@@ -103,7 +106,8 @@ impl Layout {
                 .vectors("V", true, n)
                 .scalars("RHO", true, n)
                 .tensors("S", true, n)
-                .tensors("F", true, n),
+                .tensors("F", true, n)
+                .scalars("EP", plastic, n),
             kin: reduction::with_reactions(
                 Fields::new("K", dim)
                     .tensors("T", true, n)
@@ -130,8 +134,9 @@ pub fn scene_constants(case: &Case, layout: &Layout, scheme: &Scheme) -> Constan
         .kernel(&case.kernel(layout.dim))
         .u32("N", layout.n as u32)
         .u32("BODIES", case.bodies.len() as u32)
-        .material(&crate::physics::material::Material::new(&case.material))
+        .material(&Material::new(&case.material))
         .choice("CORRECTION", &["NONE", "LINEAR"], usize::from(corrected))
+        .u32("PLASTIC", u32::from(layout.state.has("EP")))
         .u32("REST_OFF", layout.state.offset("RHO") as u32);
     [&layout.state, &layout.kin, &layout.reference]
         .into_iter()
@@ -184,6 +189,8 @@ pub struct UlDevice<D: GpuDim> {
     body: Option<wgpu::Buffer>,
     grid: CellParams,
     passes: Passes,
+    /// The radial return at every step's end on `Y`, with a yield stress.
+    plastic_return: Option<(Pipeline, wgpu::BindGroup)>,
     /// Bound once the engine's buffers exist, and again when they grow.
     lists: Option<Lists>,
     /// `Y` at the start of the batch, to run it again after the lists grew.
@@ -210,8 +217,7 @@ impl<D: GpuDim> GpuUl<D> {
     pub fn memory(case: &Case, scheme: &Scheme, counts: &Counts) -> DeviceMemory {
         DeviceMemory::of(counts, |m| {
             let n = counts.n();
-            let corrected = case.method.correction == CorrectionKind::RandlesLibersky;
-            let layout = Layout::new(n, 0, D::N, scheme, corrected);
+            let layout = Layout::new(n, 0, D::N, scheme, case);
             DeviceReference::memory(m, &layout.reference, n, D::N, 0, 0);
             Stepper::memory(m, case.method.integrator, layout.state.len());
             m.words("positions x", (n * D::N) as f64);
@@ -244,8 +250,7 @@ impl<D: GpuDim> GpuUl<D> {
         check_f32_run(case, &disc.boundary)?;
         check_f32_particles::<D>(case, &disc.x0, &disc.u0, &disc.v0, &disc.body)?;
         let n = disc.len();
-        let corrected = case.method.correction == CorrectionKind::RandlesLibersky;
-        let layout = Layout::new(n, disc.boundary.constrained.len(), D::N, scheme, corrected);
+        let layout = Layout::new(n, disc.boundary.constrained.len(), D::N, scheme, case);
         let constants = scene_constants(case, &layout, scheme);
         check_f32_range(case, &constants)?;
         gpu.check_size("kinematics buffer", layout.kin.bytes())?;
@@ -280,6 +285,15 @@ impl<D: GpuDim> GpuUl<D> {
             particle: gpu.pipeline("ul particle", &text, "particle")?,
             rates: gpu.pipeline("ul rates", &text, "rates")?,
         };
+        let plastic_return = match layout.state.has("EP") {
+            true => {
+                let pipeline =
+                    gpu.pipeline("ul radial return", &compose(&RETURN), "plastic_return")?;
+                let bind = gpu.bind(&pipeline, &[("y", stepper.buffer(Buf::Y))])?;
+                Some((pipeline, bind))
+            }
+            false => None,
+        };
         let grid = grid::<D>(&gpu, &disc, n as u32)?;
         let reduction = Reduction::new(
             &gpu,
@@ -296,6 +310,7 @@ impl<D: GpuDim> GpuUl<D> {
         let unbooked = Booked {
             dissipated: None,
             contact_energy: case.contact.is_none().then_some(0.0),
+            plastic_work: plastic_return.is_none().then_some(0.0),
             ..Booked::default()
         };
         let shell = Shell::new(gpu, stepper, reduction, kin, &layout.kin, unbooked);
@@ -309,6 +324,7 @@ impl<D: GpuDim> GpuUl<D> {
             body,
             grid,
             passes,
+            plastic_return,
             lists: None,
             start,
             builds_before: 0,
@@ -409,7 +425,15 @@ impl<D: GpuDim> UlDevice<D> {
         let l = &self.layout.state;
         let (u, v, rho, s) = l.read_solid::<D>(flat, rho0);
         let f = l.read_t::<D>(flat, "F", f0);
-        UlState { u, v, rho, s, f }
+        let eps_p = l.read_s(flat, "EP", 0.0);
+        UlState {
+            u,
+            v,
+            rho,
+            s,
+            f,
+            eps_p,
+        }
     }
 
     /// A state read back.
@@ -506,6 +530,9 @@ impl<D: GpuDim> GpuUl<D> {
         let mut flat = l.zeroed();
         l.write_solid::<D>(&mut flat, (&y.u, &y.v), (&y.rho, rho0), &y.s);
         l.write_t::<D>(&mut flat, "F", &y.f, D::identity());
+        if l.has("EP") {
+            l.write_s(&mut flat, "EP", &y.eps_p, 0.0);
+        }
         self.shell.set_state(&flat);
     }
 
@@ -588,6 +615,19 @@ impl<D: GpuDim> GpuFamily<D> for UlDevice<D> {
         self.grow(shell, pairs)?;
         shell.stepper.restart_from(&shell.gpu, &self.start);
         Ok(true)
+    }
+
+    /// With a yield stress.
+    fn ends_steps(&self) -> bool {
+        self.plastic_return.is_some()
+    }
+
+    /// The radial return of every particle's S.
+    fn end_step(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder) {
+        if let Some((pipeline, bind)) = &self.plastic_return {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            gpu.dispatch(&mut pass, pipeline, bind, self.layout.n as u32);
+        }
     }
 
     fn signal_speed(&self, reduced: &Reduced) -> f64 {

@@ -31,6 +31,7 @@ use crate::methods::cores::particles::{
     Surroundings, check_stresses, check_tensors, particle_accessors, signal_speed_terms,
 };
 use crate::physics::material::{Material, stress_fields};
+use crate::physics::plasticity::PLASTIC_STRAIN;
 use crate::reference::{Build, Reference};
 use rayon::prelude::*;
 
@@ -43,6 +44,10 @@ particle_state! {
         pub s: Vec<D::T>,
         /// Deformation gradient F, integrated by Ḟ = L F (outputs only).
         pub f: Vec<D::T>,
+        /// Equivalent plastic strain ε_p of a rate model with a yield stress (empty for an
+        /// elastic one): its rate is zero, and each step's end adds the radial return's
+        /// Δε_p ([`Material::radial_return`]).
+        pub eps_p: Vec<f64>,
     }
 }
 
@@ -142,6 +147,15 @@ pub fn validate(case: &Case) -> Result<(), Problem> {
     Ok(())
 }
 
+/// A UL method's state as `--explain` prints it: ε_p with a yield stress.
+pub fn plan_state(case: &Case) -> String {
+    let plastic = Material::new(&case.material).rate_plasticity().is_some();
+    format!(
+        "u, v, ρ, S, {}F integrated by Ḟ = L F for the outputs",
+        if plastic { "ε_p, and " } else { "and " }
+    )
+}
+
 /// The start of a UL method's rate evaluation as `--explain` prints it: the rebuild (on
 /// drift on both backends, decided on the device on the GPU), per body with contact, and
 /// the gradients of L.
@@ -207,6 +221,11 @@ impl<D: Dim> UlCore<D> {
             correction: case.method.correction,
             neighbours,
         })
+    }
+
+    /// Whether the material has a yield stress, and the state an ε_p.
+    pub fn plastic(&self) -> bool {
+        self.material.rate_plasticity().is_some()
     }
 
     /// The neighbour lists of the last rate evaluation.
@@ -316,6 +335,9 @@ pub struct UlSph<D: Dim, S: PairScheme<D>> {
     /// Each particle's power of the artificial dissipation, −m a_art·v, at the last rate
     /// evaluation.
     dissipation: Vec<f64>,
+    /// The strain energy the radial returns of the steps so far took out of S: the
+    /// plastic work of the balance.
+    plastic_work: f64,
 }
 
 impl<D: Dim, S: PairScheme<D>> UlSph<D, S> {
@@ -367,8 +389,34 @@ impl<D: Dim, S: PairScheme<D>> OdeSystem for UlSph<D, S> {
                     *f_dot = r.l * y.f[i];
                 },
             );
+        d.eps_p.par_iter_mut().for_each(|e| *e = 0.0);
         self.core.close(y, d);
         Ok(())
+    }
+
+    /// With a yield stress, the radial return of every particle's S onto the von Mises
+    /// surface; the strain energy it takes out is booked as plastic work.
+    fn end_step(&mut self, _t: f64, y: &mut UlState<D>) {
+        if y.eps_p.is_empty() {
+            return;
+        }
+        let (mat, vol0) = (&self.core.material, &self.core.vol0);
+        let work: Vec<f64> = (y.s.par_iter_mut())
+            .with_min_len(MIN_CHUNK)
+            .zip(y.eps_p.par_iter_mut())
+            .zip(&y.rho)
+            .zip(&y.f)
+            .zip(vol0)
+            .map(|((((s, eps_p), &rho), &f), &vol0)| {
+                let Some((returned, d_eps)) = mat.radial_return::<D>(*s, rho, *eps_p) else {
+                    return 0.0;
+                };
+                let before = mat.energy_density::<D>(f, *s, rho);
+                (*s, *eps_p) = (returned, *eps_p + d_eps);
+                vol0 * (before - mat.energy_density::<D>(f, returned, rho))
+            })
+            .collect();
+        self.plastic_work += work.into_iter().sum::<Exact>().value();
     }
 
     /// The interactions' work before the step (the contact forces of seed 000 §5.8).
@@ -390,6 +438,7 @@ impl<D: Dim, S: PairScheme<D>> Build<D> for UlSph<D, S> {
             scheme,
             particles: Vec::new(),
             dissipation: Vec::new(),
+            plastic_work: 0.0,
         })
     }
 }
@@ -403,6 +452,7 @@ impl<D: Dim, S: PairScheme<D>> Method<D> for UlSph<D, S> {
             rho: vec![self.core.material.rho0; n],
             s: vec![D::zero_t(); n],
             f: vec![D::identity(); n],
+            eps_p: vec![0.0; if self.core.plastic() { n } else { 0 }],
         }
     }
 
@@ -442,6 +492,25 @@ impl<D: Dim, S: PairScheme<D>> Method<D> for UlSph<D, S> {
 
     fn dissipation_power(&self) -> Exact {
         self.dissipation.iter().copied().sum()
+    }
+
+    fn step_end_changes_state(&self) -> bool {
+        self.core.plastic()
+    }
+
+    fn plastic_work(&self, _y: &UlState<D>) -> f64 {
+        self.plastic_work
+    }
+
+    fn save_history(&self, out: &mut Vec<f64>) {
+        out.push(self.plastic_work);
+    }
+
+    fn load_history(&mut self, words: &mut &[f64]) -> Result<(), String> {
+        let (&work, rest) = (words.split_first())
+            .ok_or("the checkpoint ends before the plastic work of the returns")?;
+        (self.plastic_work, *words) = (work, rest);
+        Ok(())
     }
 
     fn signal_speed_terms(&self, y: &UlState<D>) -> [f64; 2] {
@@ -493,6 +562,22 @@ pub fn snapshot<'a, D: Dim>(
     // The method's own ρ (continuity equation) and V = m/ρ, in place of ρ0/J and V0 J of
     // the integrated F.
     let volume = mass.iter().zip(&y.rho).map(|(m, rho)| m / rho).collect();
+    let mut extra = vec![
+        ScalarField {
+            name: "density",
+            values: y.rho,
+        },
+        ScalarField {
+            name: "volume",
+            values: volume,
+        },
+    ];
+    if !y.eps_p.is_empty() {
+        extra.push(ScalarField {
+            name: PLASTIC_STRAIN,
+            values: y.eps_p,
+        });
+    }
     Snapshot {
         x0,
         mass,
@@ -502,16 +587,7 @@ pub fn snapshot<'a, D: Dim>(
         f: y.f,
         sigma,
         strain_energy,
-        extra: vec![
-            ScalarField {
-                name: "density",
-                values: y.rho,
-            },
-            ScalarField {
-                name: "volume",
-                values: volume,
-            },
-        ],
+        extra,
         cells: &[],
         quadrature: None,
     }
