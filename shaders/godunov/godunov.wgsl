@@ -43,7 +43,7 @@ fn rates(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     let sigma_i = mload_kin(KT_OFF + DIM * DIM * i);
     let p_i = kin[KP_OFF + i];
     let z_i = kin[KC_OFF + i];
-    let ait = ait_of(i);
+    let k = corrector_of(i);
     var l: matd;
     var rho_dot = 0.0;
     var a: vecd;
@@ -61,7 +61,7 @@ fn rates(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
         let v_j = v_of(j);
         let vol_j = kin[KVOL_OFF + j];
         let z_j = kin[KC_OFF + j];
-        l += outer(v_j - v_i, ait * (n * dw)) * vol_j;
+        l += outer(v_j - v_i, corrected_grad(k, x_ij, kernel_w(r), n * dw)) * vol_j;
         let u_i = dot(v_i, n);
         let u_j = dot(v_j, n);
         let u_star = (z_i * u_i + z_j * u_j - p_i + kin[KP_OFF + j]) / (z_i + z_j);

@@ -61,7 +61,7 @@ fn rates(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     let rho_i = rho_of(i);
     let t_i = mload_kin(KT_OFF + DIM * DIM * i);
     let c_i = kin[KC_OFF + i];
-    let ait = ait_of(i);
+    let k = corrector_of(i);
     var r_i: matd;
     if AS == 1u {
         r_i = mload_kin(KR_OFF + DIM * DIM * i);
@@ -78,7 +78,7 @@ fn rates(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
         let w = kernel_w(r);
         let v_ji = v_of(j) - v_i;
         let m_j = mass_of(j);
-        l += outer(v_ji, ait * grad) * kin[KVOL_OFF + j];
+        l += outer(v_ji, corrected_grad(k, x_ij, w, grad)) * kin[KVOL_OFF + j];
         var t = t_i + mload_kin(KT_OFF + DIM * DIM * j);
         if AS == 1u && w > 0.0 {
             t += (r_i + mload_kin(KR_OFF + DIM * DIM * j)) * pow(w / AS_W_DP, AS_N);

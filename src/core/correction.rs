@@ -170,7 +170,7 @@ impl<'a, D: Dim> Cloud<'a, D> {
 
     /// The reproducing-kernel coefficients of particle i, its own term included in the
     /// moments.
-    fn coefficients(&self, i: usize) -> Result<([f64; 4], [[f64; 4]; 3]), CorrectionError> {
+    fn coefficients(&self, i: usize) -> Result<Rkpm<D>, CorrectionError> {
         let (x, vol) = (self.x, self.vol);
         let own = std::iter::once((D::zero(), vol[i]));
         let others = self
@@ -178,15 +178,15 @@ impl<'a, D: Dim> Cloud<'a, D> {
             .neighbours(i)
             .iter()
             .map(|&j| (x[i] - x[j as usize], vol[j as usize]));
-        rkpm_coefficients::<D>(own.chain(others), self.kernel)
+        Rkpm::at(own.chain(others), self.kernel)
             .ok_or_else(|| self.singular(CorrectionKind::Rkpm, i, 0.0))
     }
 
     /// ∇Ψ_j(x_i) of the reproducing kernel of row i's pairs, into `g`.
     fn rkpm(&self, i: usize, g: &mut [D::V]) -> Result<(), CorrectionError> {
-        let (c, dc) = self.coefficients(i)?;
+        let at = self.coefficients(i)?;
         for (g, &j) in g.iter_mut().zip(self.csr.neighbours(i)) {
-            *g = rkpm_shape::<D>(&c, &dc, self.x[i] - self.x[j as usize], self.kernel).1;
+            *g = at.shape(self.x[i] - self.x[j as usize], self.kernel).1;
         }
         Ok(())
     }
@@ -251,10 +251,7 @@ pub fn own_gradients<D: Dim>(
             CorrectionKind::None | CorrectionKind::Shepard | CorrectionKind::RandlesLibersky => {
                 Ok(D::zero())
             }
-            CorrectionKind::Rkpm => {
-                let (c, dc) = cloud.coefficients(i)?;
-                Ok(rkpm_shape::<D>(&c, &dc, D::zero(), kernel).1)
-            }
+            CorrectionKind::Rkpm => Ok(cloud.coefficients(i)?.shape(D::zero(), kernel).1),
             CorrectionKind::Cgck => {
                 let mut g = vec![D::zero(); csr.neighbours(i).len()];
                 let own = cloud.shepard_kernel_gradients(i, &mut g);
@@ -286,14 +283,11 @@ pub fn kernel_weights<D: Dim>(
                 .map(|&j| vol[j as usize] * cloud.w(i, j) / s)
                 .collect::<Vec<_>>());
         }
-        let (c, _) = cloud.coefficients(i)?;
+        let at = cloud.coefficients(i)?;
         Ok(csr
             .neighbours(i)
             .iter()
-            .map(|&j| {
-                let p = linear_basis::<D>(x[i] - x[j as usize]);
-                vol[j as usize] * cloud.w(i, j) * (0..=D::N).map(|a| c[a] * p[a]).sum::<f64>()
-            })
+            .map(|&j| vol[j as usize] * at.value(x[i] - x[j as usize], cloud.w(i, j)))
             .collect::<Vec<_>>())
     })
 }
@@ -377,24 +371,6 @@ fn rkpm_coefficients<D: Dim>(
     Some((c, dc))
 }
 
-/// Ψ_j(x) and ∇Ψ_j(x) of the node at offset r = x − x_j, from the coefficients C and
-/// ∂_k C at x: ∂_k Ψ_j = (∂_k C·p + C_k) W + C·p ∂_k W (seed 000 §1.4).
-fn rkpm_shape<D: Dim>(c: &[f64; 4], dc: &[[f64; 4]; 3], r: D::V, kernel: &Kernel) -> (f64, D::V) {
-    let n = D::N + 1;
-    let (w, gw, p) = (
-        kernel.w(D::norm2(r).sqrt()),
-        kernel.grad::<D>(r),
-        linear_basis::<D>(r),
-    );
-    let cp: f64 = (0..n).map(|a| c[a] * p[a]).sum();
-    let mut g = [0.0; 3];
-    for (k, gk) in g.iter_mut().enumerate().take(D::N) {
-        let dcp: f64 = (0..n).map(|a| dc[k][a] * p[a]).sum();
-        *gk = (dcp + c[k + 1]) * w + cp * D::comp(gw, k);
-    }
-    (cp * w, D::from_slice(&g))
-}
-
 /// RKPM shape functions with a linear basis at a point y (not one of the nodes) from the
 /// nodes x_j with volumes V_j that reach it: Ψ_j(y) and ∇Ψ_j(y) of every node, in the
 /// order given (seed 000 eqs 42–59). None when the nodes do not span the linear basis at
@@ -419,34 +395,53 @@ pub fn reproducing_shapes_of<D: Dim>(
     kernel: &Kernel,
 ) -> Option<Vec<(f64, D::V)>> {
     let at = Rkpm::<D>::at(nodes.iter().copied(), kernel)?;
-    Some(nodes.iter().map(|&(r, _)| at.shape(r)).collect())
+    Some(nodes.iter().map(|&(r, _)| at.shape(r, kernel)).collect())
 }
 
 /// The reproducing-kernel coefficients C and ∂_k C at a point, which give every node's
 /// function there ([`Rkpm::shape`]).
-pub struct Rkpm<'a, D: Dim> {
+#[derive(Clone, Copy, Debug)]
+pub struct Rkpm<D: Dim> {
     c: [f64; 4],
     dc: [[f64; 4]; 3],
-    kernel: &'a Kernel,
     dim: std::marker::PhantomData<D>,
 }
 
-impl<'a, D: Dim> Rkpm<'a, D> {
+impl<D: Dim> Rkpm<D> {
     /// The coefficients at a point from its nodes' offsets r_j and volumes V_j; None when
     /// they do not span the linear basis there.
-    pub fn at(nodes: impl Iterator<Item = (D::V, f64)>, kernel: &'a Kernel) -> Option<Self> {
+    pub fn at(nodes: impl Iterator<Item = (D::V, f64)>, kernel: &Kernel) -> Option<Self> {
         let (c, dc) = rkpm_coefficients::<D>(nodes, kernel)?;
         Some(Self {
             c,
             dc,
-            kernel,
             dim: std::marker::PhantomData,
         })
     }
 
     /// Ψ_j and ∇Ψ_j of the node at offset r_j.
-    pub fn shape(&self, r: D::V) -> (f64, D::V) {
-        rkpm_shape::<D>(&self.c, &self.dc, r, self.kernel)
+    pub fn shape(&self, r: D::V, kernel: &Kernel) -> (f64, D::V) {
+        let w = kernel.w(D::norm2(r).sqrt());
+        (self.value(r, w), self.gradient(r, w, kernel.grad::<D>(r)))
+    }
+
+    /// Ψ_j = C·p(r_j) W(r_j) from the kernel's value w = W(r_j).
+    pub fn value(&self, r: D::V, w: f64) -> f64 {
+        let p = linear_basis::<D>(r);
+        (0..=D::N).map(|a| self.c[a] * p[a]).sum::<f64>() * w
+    }
+
+    /// ∇Ψ_j: ∂_k Ψ_j = (∂_k C·p + C_k) W + C·p ∂_k W (seed 000 §1.4), from the kernel's
+    /// value w and gradient ∇W at r_j.
+    pub fn gradient(&self, r: D::V, w: f64, grad_w: D::V) -> D::V {
+        let (n, p) = (D::N + 1, linear_basis::<D>(r));
+        let cp: f64 = (0..n).map(|a| self.c[a] * p[a]).sum();
+        let mut g = [0.0; 3];
+        for (k, gk) in g.iter_mut().enumerate().take(D::N) {
+            let dcp: f64 = (0..n).map(|a| self.dc[k][a] * p[a]).sum();
+            *gk = (dcp + self.c[k + 1]) * w + cp * D::comp(grad_w, k);
+        }
+        D::from_slice(&g)
     }
 }
 
@@ -484,12 +479,10 @@ mod tests {
                 let own = vol[i]
                     * kernel.w(0.0)
                     * match kind {
-                        CorrectionKind::Rkpm => {
-                            Cloud::<D2>::new(&x, &vol, &csr, &kernel)
-                                .coefficients(i)
-                                .unwrap()
-                                .0[0]
-                        }
+                        CorrectionKind::Rkpm => Cloud::<D2>::new(&x, &vol, &csr, &kernel)
+                            .coefficients(i)
+                            .unwrap()
+                            .value(DVec2::ZERO, 1.0),
                         _ => 1.0 / shepard[i],
                     };
                 let pairs = csr.range(i);

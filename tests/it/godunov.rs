@@ -145,7 +145,7 @@ fn the_riemann_pair_forces_conserve_linear_momentum() {
     // Item 12: t*_ji = −t*_ij and W'(r) is common to both, so Σ m v̇ cancels pairwise; the
     // sum of ~1e4 terms in f64 leaves 1e-13 of their size.
     let mut seed = 13;
-    for correction in ["none", "randles-libersky"] {
+    for correction in ["none", "randles-libersky", "rkpm"] {
         let mut m = disk(&[&format!("method.correction={correction}")]);
         let y = random_state(&m, 2.0 / 19.0, &mut seed);
         let d = rates(&mut m, &y);

@@ -77,8 +77,9 @@ pub fn compare_edited_rates<D: GpuDim, S: PairScheme<D>>(
     // Each rate is a gather of 20–80 pair terms of the random state, which do not cancel:
     // f32 rounding of the inputs (positions 6e-8 of |x| ≲ 1 m against pair distances of
     // 0.1 m, so ~1e-6 in x_ij and ∇W_ij; stresses and velocities 6e-8) and of the sums
-    // leaves ~1e-6 of the largest rate; the Randles–Libersky inverse adds its condition
-    // number (≲ 10 here). Bound 1e-4 of the largest rate of each kind.
+    // leaves ~1e-6 of the largest rate; the inverse of the correction (A of
+    // Randles–Libersky, the moment matrix of RKPM) adds its condition number (≲ 10 here).
+    // Bound 1e-4 of the largest rate of each kind.
     for (what, e) in rate_errors::<D>(&d, &dg) {
         assert!(
             e < 1e-4,
@@ -103,7 +104,7 @@ pub const GRAY_MONAGHAN_KEYS: &str = "artificial_viscosity = { alpha = 1.0, beta
 
 #[test]
 fn gray_monaghan_rates_match_the_cpu_in_2d_and_3d() {
-    for correction in ["none", "randles-libersky"] {
+    for correction in ["none", "randles-libersky", "rkpm"] {
         let keys = format!("correction = \"{correction}\"\n{GRAY_MONAGHAN_KEYS}");
         compare_rates::<D2, GmScheme>(&block(2, "gray-monaghan-sph", &keys));
         compare_rates::<D3, GmScheme>(&block(3, "gray-monaghan-sph", &keys));
@@ -129,7 +130,7 @@ fn ul_rates_match_the_cpu_on_every_adapter() {
 
 #[test]
 fn godunov_rates_match_the_cpu_in_2d_and_3d() {
-    for correction in ["none", "randles-libersky"] {
+    for correction in ["none", "randles-libersky", "rkpm"] {
         let keys = format!("correction = \"{correction}\"");
         compare_rates::<D2, GodunovScheme>(&block(2, "godunov-sph", &keys));
         compare_rates::<D3, GodunovScheme>(&block(3, "godunov-sph", &keys));

@@ -102,7 +102,7 @@ fn ul_cases(dim: usize) -> Vec<Scene> {
     let all = "artificial_viscosity = { alpha = 1.0, beta = 1.0 }\n\
                artificial_stress = { epsilon = 0.3, n = 4.0 }\nxsph = 0.5";
     let mut cases = Vec::new();
-    for correction in ["none", "randles-libersky"] {
+    for correction in ["none", "randles-libersky", "rkpm"] {
         let c = format!("correction = \"{correction}\"");
         cases.push(block_case(max, "hypoelastic", "godunov-sph", &c));
         for keys in [all, ""] {

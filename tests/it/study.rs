@@ -332,7 +332,9 @@ fn a_variant_runs_its_own_case_and_run_threads_sizes_the_pool() {
         let case = run.case.as_ref().unwrap();
         let expected = match run.variant.as_str() {
             "godunov" => ("godunov-sph", 1e-6),
-            "gray-monaghan" => ("gray-monaghan-sph", 1e-5),
+            "gray-monaghan" | "gray-monaghan-rl" | "gray-monaghan-rkpm" => {
+                ("gray-monaghan-sph", 1e-5)
+            }
             "corotated" => ("corotated-tlsph", 2.5e-6),
             "potential" => ("tl-potential", 1e-6),
             "tl-weak-form" => ("tl-weak-form", 1e-6),

@@ -95,7 +95,8 @@ impl<D: Dim> PairScheme<D> for Scheme {
             }
             let n = x_ij * (1.0 / r);
             let dw = core.kernel.dw_dr(r);
-            l += D::outer(y.v[j] - vi, pi.correction.a_inv_t * (n * dw)) * pj.vol; // eq 105
+            let g = pi.correction.gradient(x_ij, core.kernel.w(r), n * dw);
+            l += D::outer(y.v[j] - vi, g) * pj.vol; // eq 105
             // Continuity with the Riemann velocity (eqs 131, 133).
             let (u_i, u_j) = (D::dot(vi, n), D::dot(y.v[j], n));
             let u_star = contact_velocity(pi.z, u_i, pi.p, pj.z, u_j, pj.p);

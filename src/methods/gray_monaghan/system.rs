@@ -156,7 +156,7 @@ impl<D: Dim> PairScheme<D> for Scheme {
             let grad = kernel.grad::<D>(x_ij);
             let w = kernel.w(r);
             let v_ji = y.v[j] - vi;
-            l += D::outer(v_ji, pi.correction.a_inv_t * grad) * pj.vol; // eq 105
+            l += D::outer(v_ji, pi.correction.gradient(x_ij, w, grad)) * pj.vol; // eq 105
             let mut t = pi.sigma_rho2 + pj.sigma_rho2;
             if let Some((s, w_dp)) = self.stress {
                 t += (pi.r + pj.r) * power(w / w_dp, s.n); // eq 118

@@ -105,7 +105,7 @@ pub fn ellipse_shapes<D: Dim>(
     })?;
     for (n, g) in n.iter_mut().zip(grad.iter_mut()) {
         (*n, *g) = if *n != 0.0 {
-            let (psi, grad_psi) = rkpm.shape(*g);
+            let (psi, grad_psi) = rkpm.shape(*g, &kernel);
             (*n * psi, grad_psi * *n)
         } else {
             (0.0, D::zero())

@@ -81,7 +81,7 @@ pub struct Scheme {
 
 /// The flat buffers of an updated-Lagrangian scene, each described once: the state
 /// [u | v | ρ − ρ0 | S | H = F − I | ε_p] (ε_p with a yield stress), the scheme's per-particle quantities
-/// [T | R | AIT | VOL | C | P | POW] (`shaders/ul/ul.wgsl`) and the reference
+/// [T | R | AIT | RK | VOL | C | P | POW] (`shaders/ul/ul.wgsl`) and the reference
 /// configuration.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Layout {
@@ -97,6 +97,7 @@ impl Layout {
     /// `case`'s correction and material.
     pub fn new(n: usize, constrained: usize, dim: usize, scheme: &Scheme, case: &Case) -> Self {
         let corrected = case.method.correction == CorrectionKind::RandlesLibersky;
+        let reproducing = case.method.correction == CorrectionKind::Rkpm;
         let plastic = Material::new(&case.material).rate_plasticity().is_some();
         Self {
             n,
@@ -113,6 +114,7 @@ impl Layout {
                     .tensors("T", true, n)
                     .tensors("R", scheme.artificial_stress, n)
                     .tensors("AIT", corrected, n)
+                    .block("RK", reproducing, n, (dim + 1) * (dim + 1))
                     .scalars("VOL", true, n)
                     .scalars("C", true, n)
                     .scalars("P", scheme.pressure, n)
@@ -127,7 +129,11 @@ impl Layout {
 /// The compiled-in constants of a scene's UL passes: the scheme's, the kernel, the
 /// material, the correction and the field offsets.
 pub fn scene_constants(case: &Case, layout: &Layout, scheme: &Scheme) -> Constants {
-    let corrected = case.method.correction == CorrectionKind::RandlesLibersky;
+    let correction = match case.method.correction {
+        CorrectionKind::RandlesLibersky => 1,
+        CorrectionKind::Rkpm => 2,
+        _ => 0,
+    };
     let constants = scheme
         .constants
         .clone()
@@ -135,7 +141,7 @@ pub fn scene_constants(case: &Case, layout: &Layout, scheme: &Scheme) -> Constan
         .u32("N", layout.n as u32)
         .u32("BODIES", case.bodies.len() as u32)
         .material(&Material::new(&case.material))
-        .choice("CORRECTION", &["NONE", "LINEAR"], usize::from(corrected))
+        .choice("CORRECTION", &["NONE", "LINEAR", "REPRODUCING"], correction)
         .u32("PLASTIC", u32::from(layout.state.has("EP")))
         .u32("REST_OFF", layout.state.offset("RHO") as u32);
     [&layout.state, &layout.kin, &layout.reference]
@@ -143,7 +149,8 @@ pub fn scene_constants(case: &Case, layout: &Layout, scheme: &Scheme) -> Constan
         .fold(constants, |c, fields| fields.constants(c))
 }
 
-/// `status` slots: the first particle with a singular correction, and with ρ ≤ 0.
+/// `status` slots: the first particle with a singular correction (det A or the RKPM
+/// moment matrix), and with ρ ≤ 0.
 const STATUS_OK: [u32; 2] = [u32::MAX; 2];
 
 /// The pipelines of one rate evaluation.
@@ -637,10 +644,11 @@ impl<D: GpuDim> GpuFamily<D> for UlDevice<D> {
     /// The first particle with a singular correction, and with ρ ≤ 0, since the start.
     fn flagged(&self, gpu: &Gpu) -> Result<(), BlowUp> {
         let s: Vec<u32> = gpu.read(&self.status);
-        for (k, quantity) in ["det A (Randles–Libersky, f32, GPU)", "density (f32, GPU)"]
-            .into_iter()
-            .enumerate()
-        {
+        let correction = match self.layout.kin.has("RK") {
+            true => "RKPM moment matrix (f32, GPU)",
+            false => "det A (Randles–Libersky, f32, GPU)",
+        };
+        for (k, quantity) in [correction, "density (f32, GPU)"].into_iter().enumerate() {
             if s[k] != u32::MAX {
                 let i = s[k] as usize;
                 return Err(BlowUp::at::<D>(&self.reference.x0, i, quantity, 0.0));

@@ -17,7 +17,7 @@ pub mod gpu;
 use crate::boundary::OnPatches;
 use crate::case::{Case, CaseError};
 use crate::core::check::{Problem, fail, toml_name};
-use crate::core::correction::CorrectionKind;
+use crate::core::correction::{CorrectionKind, Rkpm};
 use crate::core::integrate::OdeSystem;
 use crate::core::kernel::Kernel;
 use crate::core::neighbour::{Csr, Neighbours, Rebuild};
@@ -64,19 +64,31 @@ pub struct PairRates<D: Dim> {
     pub l: D::T,
 }
 
-/// The Randles–Libersky correction of a particle's velocity gradient on the current
-/// positions: g_ij = A_i⁻ᵀ ∇W_ij with A_i = Σ_j V_j (x_j − x_i) ⊗ ∇W_ij (seed 000 §1.3);
-/// I (and det 1) without a correction.
+/// The correction of a particle's velocity gradient on the current positions (eq 105
+/// with the case's `correction`), with V_j = m_j/ρ_j: the gradient g_ij of each pair.
 #[derive(Clone, Copy, Debug)]
-pub struct Correction<D: Dim> {
-    pub a_inv_t: D::T,
-    pub det: f64,
+pub enum Correction<D: Dim> {
+    /// The plain kernel gradient g_ij = ∇W_ij (the paper's).
+    Plain,
+    /// Randles–Libersky: g_ij = A_i⁻ᵀ ∇W_ij with A_i = Σ_j V_j (x_j − x_i) ⊗ ∇W_ij (seed
+    /// 000 §1.3; the paper's W↪ of §6.1).
+    Linear { a_inv_t: D::T },
+    /// RKPM: g_ij = ∇Ψ_j(x_i) of the reproducing kernel with a linear basis, its moments
+    /// over the particle and its neighbours (seed 000 §1.4; the paper's W̊ of §6.1).
+    Reproducing(Rkpm<D>),
+    /// A correction the neighbours do not determine: |det A| ≤ 1e-10 (or NaN), or an
+    /// RKPM moment matrix they do not span; `value` is det A (0 for RKPM).
+    Singular { quantity: &'static str, value: f64 },
 }
 
 impl<D: Dim> Correction<D> {
-    /// |det A| ≤ 1e-10, or NaN: e.g. a particle that has lost its neighbours.
-    pub fn is_singular(&self) -> bool {
-        self.det.is_nan() || self.det.abs() <= 1e-10
+    /// g_ij from x_ij = x_i − x_j with W_ij = `w` and ∇W_ij = `grad`.
+    pub fn gradient(&self, x_ij: D::V, w: f64, grad: D::V) -> D::V {
+        match self {
+            Self::Linear { a_inv_t } => *a_inv_t * grad,
+            Self::Reproducing(rkpm) => rkpm.gradient(x_ij, w, grad),
+            Self::Plain | Self::Singular { .. } => grad,
+        }
     }
 }
 
@@ -119,7 +131,11 @@ impl<D: Dim, P> PairSums<'_, D, P> {
 }
 
 /// The corrections of the velocity gradient (eq 105) the UL methods run.
-const CORRECTIONS: [CorrectionKind; 2] = [CorrectionKind::None, CorrectionKind::RandlesLibersky];
+const CORRECTIONS: [CorrectionKind; 3] = [
+    CorrectionKind::None,
+    CorrectionKind::RandlesLibersky,
+    CorrectionKind::Rkpm,
+];
 
 /// The checks every UL method makes of a case: the hypoelastic model and a correction of
 /// [`CORRECTIONS`].
@@ -138,8 +154,8 @@ pub fn validate(case: &Case) -> Result<(), Problem> {
         return fail(
             "method.correction",
             format!(
-                "`{name}` corrects its velocity gradient with `none` (the paper's) or \
-                 `randles-libersky`, not {}",
+                "`{name}` corrects its velocity gradient with `none` (the paper's), \
+                 `randles-libersky` or `rkpm`, not {}",
                 toml_name(&case.method.correction)
             ),
         );
@@ -175,6 +191,7 @@ pub fn plan_rebuild(case: &Case, gpu: bool) -> String {
         },
         match case.method.correction {
             CorrectionKind::RandlesLibersky => "Randles–Libersky-corrected gradients",
+            CorrectionKind::Rkpm => "RKPM gradients on the current positions",
             _ => "plain kernel gradients",
         }
     )
@@ -236,21 +253,38 @@ impl<D: Dim> UlCore<D> {
     /// The correction of particle i's velocity gradient ([`Self::correction`]), with
     /// V_j = m_j/ρ_j.
     pub fn correction_at(&self, i: usize, rho: &[f64]) -> Correction<D> {
-        if self.correction != CorrectionKind::RandlesLibersky {
-            return Correction {
-                a_inv_t: D::identity(),
-                det: 1.0,
-            };
-        }
-        let mut a = D::zero_t();
-        for &j in self.neighbours().neighbours(i) {
+        let volume = |j: usize| self.mass[j] / rho[j];
+        let pairs = self.neighbours().neighbours(i).iter().map(|&j| {
             let j = j as usize;
-            let x_ij = self.x[i] - self.x[j];
-            a += D::outer(-x_ij, self.kernel.grad::<D>(x_ij)) * (self.mass[j] / rho[j]);
-        }
-        Correction {
-            a_inv_t: D::transpose(D::inverse(a)),
-            det: D::det(a),
+            (self.x[i] - self.x[j], volume(j))
+        });
+        match self.correction {
+            CorrectionKind::RandlesLibersky => {
+                let a = pairs.fold(D::zero_t(), |a, (x_ij, v)| {
+                    a + D::outer(-x_ij, self.kernel.grad::<D>(x_ij)) * v
+                });
+                let det = D::det(a);
+                if det.is_nan() || det.abs() <= 1e-10 {
+                    return Correction::Singular {
+                        quantity: "det A (Randles–Libersky)",
+                        value: det,
+                    };
+                }
+                Correction::Linear {
+                    a_inv_t: D::transpose(D::inverse(a)),
+                }
+            }
+            CorrectionKind::Rkpm => {
+                let own = std::iter::once((D::zero(), volume(i)));
+                match Rkpm::at(own.chain(pairs), &self.kernel) {
+                    Some(rkpm) => Correction::Reproducing(rkpm),
+                    None => Correction::Singular {
+                        quantity: "RKPM moment matrix (neighbours that do not span the linear basis)",
+                        value: 0.0,
+                    },
+                }
+            }
+            _ => Correction::Plain,
         }
     }
 
@@ -259,15 +293,12 @@ impl<D: Dim> UlCore<D> {
         &self,
         corrections: impl IndexedParallelIterator<Item = &'a Correction<D>>,
     ) -> Option<BlowUp> {
-        let (i, c) = corrections
-            .enumerate()
-            .find_first(|(_, c)| c.is_singular())?;
-        Some(BlowUp::at::<D>(
-            &self.x0,
-            i,
-            "det A (Randles–Libersky)",
-            c.det,
-        ))
+        corrections.enumerate().find_map_first(|(i, c)| match c {
+            Correction::Singular { quantity, value } => {
+                Some(BlowUp::at::<D>(&self.x0, i, quantity, *value))
+            }
+            _ => None,
+        })
     }
 
     /// x = X + u and the lists; the first particle with ρ ≤ 0 fails.
