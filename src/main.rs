@@ -95,6 +95,14 @@ enum Command {
         #[command(flatten)]
         args: BenchArgs,
     },
+    /// Seed 000 Fig. 3: the neighbourhood algorithms of §3.2 (eqs 60–64) on a lattice
+    /// under a prescribed shear and tension; writes neighbourhoods.csv and the figure.
+    #[cfg(feature = "study")]
+    Neighbourhoods {
+        /// Output folder (default: out/neighbourhoods).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
     /// Run study suites: error against wall time and stability sweeps (see cases/studies/).
     #[cfg(feature = "study")]
     Study {
@@ -255,6 +263,22 @@ fn main() -> ExitCode {
         Command::List => list(),
         Command::Info => info(),
         Command::Bench { cases, args } => bench_command(&cases, &args),
+        #[cfg(feature = "study")]
+        Command::Neighbourhoods { out } => {
+            let dir = out.unwrap_or_else(|| PathBuf::from("out/neighbourhoods"));
+            match meshless::study::neighbourhoods::write(&dir) {
+                Ok(files) => {
+                    for f in files {
+                        println!("{}", f.display());
+                    }
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("error: {}: {e}", dir.display());
+                    ExitCode::FAILURE
+                }
+            }
+        }
         #[cfg(feature = "study")]
         Command::Study {
             suites,

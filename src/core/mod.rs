@@ -5,9 +5,11 @@
 
 pub mod check;
 pub mod correction;
+pub mod hull;
 pub mod integrate;
 pub mod kernel;
 pub mod neighbour;
+pub mod neighbourhood;
 pub mod parallel;
 pub mod quadrature;
 pub mod sum;

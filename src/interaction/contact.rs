@@ -18,6 +18,7 @@ use super::Interaction;
 #[cfg(feature = "gpu")]
 use super::gpu::{Bindings, GpuInteraction, Pass};
 use crate::case::{Case, CaseError};
+use crate::core::hull::{convex_hull, cross};
 use crate::core::kernel::neighbour_radius;
 use crate::core::neighbour::Csr;
 use crate::core::sum::Exact;
@@ -255,43 +256,6 @@ fn plane<D: Dim>(x: D::V) -> [f64; 2] {
 
 fn dist2(a: [f64; 2], b: [f64; 2]) -> f64 {
     (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)
-}
-
-/// z of (a − o) × (b − o): positive when o → a → b turns counter-clockwise.
-fn cross(o: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
-    (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-}
-
-/// Andrew's monotone chain: the particles on the convex hull of `ids`, counter-clockwise,
-/// collinear ones included: on a flat face the closest hull particle is then one of the
-/// face, whose normal is the face's, not a distant corner's averaged one.
-fn convex_hull(ids: &[u32], at: impl Fn(u32) -> [f64; 2]) -> Vec<u32> {
-    let mut sorted = ids.to_vec();
-    sorted.sort_by(|&a, &b| {
-        let (p, q) = (at(a), at(b));
-        p[0].total_cmp(&q[0]).then(p[1].total_cmp(&q[1]))
-    });
-    if sorted.len() < 3 {
-        return sorted;
-    }
-    let mut hull: Vec<u32> = Vec::with_capacity(2 * sorted.len());
-    for pass in [
-        &sorted[..],
-        &sorted.iter().rev().copied().collect::<Vec<_>>()[..],
-    ] {
-        let start = hull.len();
-        for &i in pass {
-            while hull.len() >= start + 2
-                && cross(at(hull[hull.len() - 2]), at(hull[hull.len() - 1]), at(i)) < 0.0
-            {
-                hull.pop();
-            }
-            hull.push(i);
-        }
-        // The last point of each chain starts the other.
-        hull.pop();
-    }
-    hull
 }
 
 /// Current position and normal n_p = ½(n_left + n_right) of every hull particle (eqs

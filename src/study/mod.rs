@@ -11,6 +11,7 @@ pub mod convergence;
 pub mod engine;
 pub mod fields;
 pub mod history;
+pub mod neighbourhoods;
 pub mod picture;
 pub mod plot;
 pub mod records;

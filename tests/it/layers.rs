@@ -22,6 +22,8 @@ const ORDER: &[(&str, &[&str])] = &[
             "core/tensor",
             "core/kernel",
             "core/neighbour",
+            "core/hull",
+            "core/neighbourhood",
             "core/correction",
             "core/quadrature",
             "core/integrate",

@@ -53,6 +53,8 @@ mod loads;
 mod mesh_input;
 #[cfg(feature = "study")]
 mod mixed;
+#[cfg(feature = "study")]
+mod neighbourhoods;
 #[cfg(feature = "gpu")]
 mod objective_rates;
 #[cfg(feature = "study")]

@@ -8,12 +8,12 @@ use crate::common::{largest_v, load, max_v, noise, random_tensor, random_vector}
 use crate::galerkin::block;
 use glam::{DMat2, DVec2};
 use meshless::core::integrate::OdeSystem;
+use meshless::core::neighbourhood::Ellipse;
 use meshless::core::quadrature::Shapes;
 use meshless::core::tensor::{D2, Dim};
 use meshless::methods::cores::galerkin::TlGalerkin;
 use meshless::methods::cores::galerkin::updated::{MovingPoints, UlGalerkin, UlGalerkinState};
 use meshless::methods::ul_fem::Elements;
-use meshless::methods::ul_weak_form::ellipse::Ellipse;
 use meshless::methods::ul_weak_form::points::{CANDIDATE_BOX, StressPoints, box_candidates};
 use meshless::methods::{Method, Runs};
 use meshless::reference::Build;

@@ -8,7 +8,6 @@
 //! ([`crate::methods::cores::galerkin::updated`]), CPU only. Numerics notes:
 //! `docs/methods/galerkin.md`.
 
-pub mod ellipse;
 pub mod points;
 
 use super::cores::galerkin::updated::{self, UlGalerkin};

@@ -2,11 +2,11 @@
 //! fixed at set-up, covariance-ellipse neighbourhoods and reproducing-kernel functions
 //! recomputed on the current configuration.
 
-use super::ellipse::Ellipse;
 use crate::case::{Case, CaseError};
 use crate::core::correction;
 use crate::core::kernel::{Kernel, KernelKind};
 use crate::core::neighbour::{self, Csr};
+use crate::core::neighbourhood::Ellipse;
 use crate::core::parallel::MIN_CHUNK;
 use crate::core::quadrature::{QuadraturePoints, Rule, ShapeRow, Shapes};
 use crate::core::tensor::Dim;

@@ -1,0 +1,141 @@
+//! The neighbourhoods and smoothing lengths of an updated-Lagrangian particle method, seed
+//! 000 §3.2 (eqs 60–64), each at one particle from its candidates' offsets x_ij = x_i − x_j
+//! at the current positions:
+//!
+//! - **eqs 60–61** ([`density_smoothing_length`]): h ∝ ⟨ρ⟩^(−1/d) with the kernel-sum
+//!   density ⟨ρ⟩_i = Σ_j W(x_ij, h_i) m_j, interdependent with h, by fixed-point iteration
+//!   (Monaghan; Springel–Hernquist): h_i = η (m_i/⟨ρ⟩_i)^(1/d);
+//! - **eq 62** ([`continuity_smoothing_length`]): Mohammadi's update h^(n+1) = h^n
+//!   (ρ^n/ρ^(n+1))^(1/d) with ρ of the continuity equation, which telescopes to h = h0
+//!   (ρ0/ρ)^(1/d) (the printed equation is garbled; notes §1.5);
+//! - **eq 63** ([`prime_space`]): Randles and Libersky's prime space, the candidates mapped
+//!   so that the closest lie farthest, x'_j = x_ij/|x_ij|², and the neighbourhood the
+//!   vertices of the mapped points' convex hull (2D). The paper's anisotropy scale χ is
+//!   garbled in the equation and not recoverable; it is 1 here;
+//! - **eq 64** ([`Ellipse`]): the covariance ellipse, with the reference code's recipe
+//!   (notes §1.5), which the updated-Lagrangian weak form uses.
+//!
+//! The isotropic ones (60–62) keep the candidates within the kernel's support of h
+//! ([`within`]). Seed 000 Fig. 3 compares all four under a prescribed shear and tension
+//! (`meshless neighbourhoods`, docs/methods/ul-neighbourhoods.md).
+//!
+//! The covariance ellipse over a point's N candidates (itself included, for a particle):
+//!
+//! - C = (1/N) Σ_j x_ij ⊗ x_ij (1/N, not the paper's 1/(N − 1));
+//! - h = max_j |x_ij| / 2, so that the cubic spline's support 2h reaches the farthest
+//!   candidate;
+//! - candidate j is a neighbour when it lies inside the ellipse with half-axes
+//!   1.6651·sqrt(λ_k) along the eigenvectors e_k of C. With x_ij = Σ_k c_k e_k that is
+//!   Σ_k c_k²/(1.6651² λ_k) = x_ijᵀ C⁻¹ x_ij ≤ 1.6651², which needs no eigenvectors and
+//!   holds in 3D alike (where 1.6651, a 2-degree-of-freedom χ² scale, keeps a different
+//!   share of the candidates).
+
+use crate::core::hull::convex_hull;
+use crate::core::kernel::{Kernel, KernelKind};
+use crate::core::tensor::Dim;
+
+/// eqs 60–61 at particle i: the fixed point of h = η (m_i/⟨ρ⟩)^(1/d) with ⟨ρ⟩ = Σ_j
+/// W(x_ij, h) m_j over its candidates `(x_ij, m_j)` (itself included at x_ij = 0), from
+/// h = `start`; η is the ratio h/Δx of a lattice whose density is m/Δx^d. Iterates until h
+/// changes by less than 1e-12 of itself; None after 200 iterations or where no candidate
+/// is in reach (⟨ρ⟩ = 0).
+pub fn density_smoothing_length<D: Dim>(
+    candidates: &[(D::V, f64)],
+    m_i: f64,
+    eta: f64,
+    kind: KernelKind,
+    start: f64,
+) -> Option<f64> {
+    let mut h = start;
+    for _ in 0..200 {
+        let kernel = Kernel::new(kind, h, D::N);
+        let rho: f64 = candidates
+            .iter()
+            .map(|&(r, m)| kernel.w(D::norm2(r).sqrt()) * m)
+            .sum();
+        if rho.is_nan() || rho <= 0.0 {
+            return None;
+        }
+        let next = eta * (m_i / rho).powf(1.0 / D::N as f64);
+        if (next - h).abs() <= 1e-12 * h {
+            return Some(next);
+        }
+        h = next;
+    }
+    None
+}
+
+/// eq 62: h = h0 (ρ0/ρ)^(1/d), Mohammadi's update over the steps with ρ of the continuity
+/// equation.
+pub fn continuity_smoothing_length(h0: f64, rho0: f64, rho: f64, dim: usize) -> f64 {
+    h0 * (rho0 / rho).powf(1.0 / dim as f64)
+}
+
+/// The candidates within the support `reach` of the kernel (|x_ij| ≤ reach), by index
+/// into `offsets`.
+pub fn within<D: Dim>(offsets: &[D::V], reach: f64) -> Vec<usize> {
+    (0..offsets.len())
+        .filter(|&k| D::norm2(offsets[k]) <= reach * reach)
+        .collect()
+}
+
+/// eq 63 in 2D: the candidates at offsets x_ij (the particle itself left out) whose
+/// images x_ij/|x_ij|² are vertices of the images' convex hull, by index into `offsets`.
+pub fn prime_space(offsets: &[[f64; 2]]) -> Vec<usize> {
+    let image = |k: u32| {
+        let [x, y] = offsets[k as usize];
+        let r2 = x * x + y * y;
+        [x / r2, y / r2]
+    };
+    let others: Vec<u32> = (0..offsets.len() as u32)
+        .filter(|&k| offsets[k as usize] != [0.0, 0.0])
+        .collect();
+    let mut hull: Vec<usize> = convex_hull(&others, image)
+        .into_iter()
+        .map(|k| k as usize)
+        .collect();
+    hull.sort_unstable();
+    hull
+}
+
+/// The scale of the half-axes over sqrt(λ): 1.6651² = 2.7726 = −2 ln 0.25, the 75 %
+/// ellipse of a 2D normal distribution (the reference code's; the paper's example is the
+/// 95 % ellipse, sqrt(5.991)).
+pub const AXIS_SCALE: f64 = 1.6651;
+
+/// The ellipse of a point.
+#[derive(Clone, Copy, Debug)]
+pub struct Ellipse<D: Dim> {
+    /// C = (1/N) Σ_j x_ij ⊗ x_ij.
+    pub c: D::T,
+    c_inv: D::T,
+    /// The smoothing length h = max_j |x_ij| / 2.
+    pub h: f64,
+}
+
+impl<D: Dim> Ellipse<D> {
+    /// The ellipse of the candidates at offsets x_ij; None when C is singular (the
+    /// candidates all on one line or plane through the point).
+    pub fn new(offsets: &[D::V]) -> Option<Self> {
+        let n = offsets.len() as f64;
+        let c = offsets
+            .iter()
+            .fold(D::zero_t(), |c, &r| c + D::outer(r, r) * (1.0 / n));
+        let reach = offsets.iter().map(|&r| D::norm2(r)).fold(0.0, f64::max);
+        let scale = (D::trace(c) / D::N as f64).powi(D::N as i32);
+        let det = D::det(c);
+        if det.is_nan() || det <= 1e-12 * scale {
+            return None;
+        }
+        Some(Self {
+            c,
+            c_inv: D::inverse(c),
+            h: reach.sqrt() / 2.0,
+        })
+    }
+
+    /// Whether the candidate at offset x_ij lies inside (boundary included).
+    pub fn contains(&self, x_ij: D::V) -> bool {
+        D::dot(x_ij, self.c_inv * x_ij) <= AXIS_SCALE * AXIS_SCALE
+    }
+}
