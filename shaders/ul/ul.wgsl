@@ -63,9 +63,32 @@ fn mass_of(i: u32) -> f32 {
     return RHO0 * vol_of(i);
 }
 
-// σ = S − p I with p = c0²(ρ − ρ0).
+// σ = S − p I with p = c0²(ρ − ρ0); with FREE_SURFACE, σ·n = 0 projected at a surface
+// particle, σ ← (I − n⊗n) σ (I − n⊗n), where its Shepard sum S_i = V_i W(0) + Σ_j V_j W_ij
+// is below SURFACE_SHEPARD and n = −∇S_i/|∇S_i| (methods::cores::ul `UlCore::cauchy`).
 fn cauchy_of(i: u32) -> matd {
-    return mload_y(S_OFF + DIM * DIM * i) - identity_d() * pressure(y[RHO_OFF + i]);
+    let sigma = mload_y(S_OFF + DIM * DIM * i) - identity_d() * pressure(y[RHO_OFF + i]);
+    if FREE_SURFACE != 1u {
+        return sigma;
+    }
+    let xi = x_of(i);
+    var s = mass_of(i) / rho_of(i) * kernel_w(0.0);
+    var g: vecd;
+    let pairs = pairs_of(i);
+    for (var p = pairs.x; p < pairs.y; p++) {
+        let j = ids[p];
+        let x_ij = xi - x_of(j);
+        let v = mass_of(j) / rho_of(j);
+        s += v * kernel_w(length(x_ij));
+        g += kernel_grad(x_ij) * v;
+    }
+    let norm = length(g);
+    if !(s < SURFACE_SHEPARD && norm > 0.0) {
+        return sigma;
+    }
+    let n = g * (-1.0 / norm);
+    let proj = identity_d() - outer(n, n);
+    return proj * sigma * proj;
 }
 
 // A_i⁻ᵀ of the Randles–Libersky correction of L_i on the current positions, A_i =
@@ -247,6 +270,10 @@ fn reproducing_of(i: u32) -> Corrector {
 // - offsets: 1 scalar per item, when CORRECTION == CORRECTION_REPRODUCING
 // - ids: 1 scalar per pair, when CORRECTION == CORRECTION_REPRODUCING
 // - x: 1 vector per item, when CORRECTION == CORRECTION_REPRODUCING
+// The Shepard sum and its gradient of a traction-free surface (`cauchy_of`).
+// - offsets: 1 scalar per item, when FREE_SURFACE
+// - ids: 1 scalar per pair, when FREE_SURFACE
+// - x: 1 vector per item, when FREE_SURFACE
 // - status: nothing
 fn store_common(i: u32) {
     let rho = rho_of(i);

@@ -24,7 +24,7 @@ use meshless::scene::Scene;
 pub fn scheme(case: &Scene) -> Scheme {
     match &case.spec {
         MethodSpec::GrayMonaghanSph(spec) => gray_monaghan::scheme(case, spec),
-        MethodSpec::GodunovSph(_) => godunov::scheme(),
+        MethodSpec::GodunovSph(spec) => godunov::scheme(spec),
         other => panic!("not an updated-Lagrangian method: {other:?}"),
     }
 }
@@ -109,6 +109,10 @@ fn gray_monaghan_rates_match_the_cpu_in_2d_and_3d() {
         compare_rates::<D2, GmScheme>(&block(2, "gray-monaghan-sph", &keys));
         compare_rates::<D3, GmScheme>(&block(3, "gray-monaghan-sph", &keys));
     }
+    // The traction-free projection at the surface (`cauchy_of`).
+    let keys = format!("free_surface = \"projection\"\n{GRAY_MONAGHAN_KEYS}");
+    compare_rates::<D2, GmScheme>(&block(2, "gray-monaghan-sph", &keys));
+    compare_rates::<D3, GmScheme>(&block(3, "gray-monaghan-sph", &keys));
 }
 
 #[test]
@@ -130,8 +134,12 @@ fn ul_rates_match_the_cpu_on_every_adapter() {
 
 #[test]
 fn godunov_rates_match_the_cpu_in_2d_and_3d() {
-    for correction in ["none", "randles-libersky", "rkpm"] {
-        let keys = format!("correction = \"{correction}\"");
+    let projection = "correction = \"randles-libersky\"\nfree_surface = \"projection\"";
+    for keys in ["none", "randles-libersky", "rkpm"]
+        .map(|c| format!("correction = \"{c}\""))
+        .into_iter()
+        .chain([projection.to_string()])
+    {
         compare_rates::<D2, GodunovScheme>(&block(2, "godunov-sph", &keys));
         compare_rates::<D3, GodunovScheme>(&block(3, "godunov-sph", &keys));
     }

@@ -20,6 +20,7 @@ mod dual_support_cases;
 mod energy_balance;
 #[path = "../support/frames.rs"]
 mod frames;
+mod free_surface;
 mod fuzz;
 mod galerkin;
 mod godunov;

@@ -166,7 +166,7 @@ fn check_ul<D: GpuDim>() {
             MethodSpec::GrayMonaghanSph(spec) => {
                 (gray_monaghan::scheme(&case, spec), gray_monaghan::SHADERS)
             }
-            _ => (godunov::scheme(), godunov::SHADERS),
+            _ => (godunov::scheme(&Default::default()), godunov::SHADERS),
         };
         let layout = ul::Layout::new(100, 10, D::N, &scheme, &case);
         let constants = ul::scene_constants(&case, &layout, &scheme);

@@ -2,6 +2,7 @@
 //! of [`crate::methods::cores::ul::gpu`]. The CPU system ([`super::system`]) is the reference it
 //! is checked against.
 
+use super::GodunovSpec;
 use crate::gpu::shaders::{
     BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, KERNEL, LOADS, MECHANICS, OBJECTIVE, PART,
     PRESCRIBED, REFERENCE, Source, source,
@@ -22,12 +23,13 @@ pub const SHADERS: &[Source] = &[
     PASSES, CONTACT, LOADS, PRESCRIBED, INTEGRATE, REDUCE, RETURN,
 ];
 
-/// The scheme: no constants of its own.
-pub fn scheme() -> Scheme {
+/// The scheme of a spec: no constants of its own.
+pub fn scheme(spec: &GodunovSpec) -> Scheme {
     Scheme {
         passes: PASSES,
         artificial_stress: false,
         pressure: true,
+        free_surface: spec.free_surface,
         constants: Constants::default(),
     }
 }

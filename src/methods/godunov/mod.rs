@@ -11,6 +11,7 @@ pub use system::Godunov;
 #[cfg(feature = "gpu")]
 use crate::methods::cores::family::GpuBuild;
 use crate::methods::cores::family::{CpuBuild, Feature, MethodFamily, Plan, cfl_step};
+use crate::methods::cores::ul::FreeSurface;
 #[cfg(feature = "gpu")]
 use crate::methods::cores::ul::gpu::GpuUl;
 
@@ -21,16 +22,20 @@ use crate::engine::{CpuEngine, EngineDim};
 use crate::physics::material::Material;
 use serde::{Deserialize, Serialize};
 
-/// The `[method]` keys of Godunov SPH: none besides the common ones.
+/// The `[method]` keys of Godunov SPH.
 #[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
-pub struct GodunovSpec {}
+pub struct GodunovSpec {
+    /// The traction-free treatment of the surface (none by default).
+    #[serde(default)]
+    pub free_surface: FreeSurface,
+}
 
 impl MethodFamily for GodunovSpec {
     const DESCRIPTION: &'static str = "Godunov SPH (Parshikov–Medin; seed 000 §5.2): \
         updated-Lagrangian, neighbours rebuilt every stage, acoustic Riemann solutions in \
         the continuity and momentum equations, no artificial viscosity";
-    const KEYS: &'static [&'static str] = &[];
+    const KEYS: &'static [&'static str] = &["free_surface"];
     const FEATURES: &'static [Feature] = &[Feature::Contact, Feature::RatePlasticity];
     const NEIGHBOURS: Rebuild = Rebuild::OnDrift;
     #[cfg(feature = "gpu")]
@@ -52,7 +57,14 @@ impl MethodFamily for GodunovSpec {
             ),
             checked: "ρ",
             check_note: String::new(),
-            left_out: vec!["artificial viscosity (the Riemann solver dissipates)"],
+            left_out: [
+                Some("artificial viscosity (the Riemann solver dissipates)"),
+                (self.free_surface == FreeSurface::None)
+                    .then_some("traction-free surface (free_surface)"),
+            ]
+            .into_iter()
+            .flatten()
+            .collect(),
         }
     }
 
@@ -62,7 +74,7 @@ impl MethodFamily for GodunovSpec {
 
     #[cfg(feature = "gpu")]
     fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> GpuBuild<D> {
-        Ok(Box::new(GpuUl::<D>::new(case, gpu, &gpu::scheme())?))
+        Ok(Box::new(GpuUl::<D>::new(case, gpu, &gpu::scheme(self))?))
     }
 
     #[cfg(feature = "gpu")]
@@ -71,6 +83,10 @@ impl MethodFamily for GodunovSpec {
         case: &Case,
         counts: &crate::gpu::memory::Counts,
     ) -> Option<crate::gpu::memory::DeviceMemory> {
-        Some(GpuUl::<D>::memory(case, &gpu::scheme(), counts))
+        Some(GpuUl::<D>::memory(case, &gpu::scheme(self), counts))
+    }
+
+    fn warning(&self, _case: &Case) -> Option<String> {
+        super::cores::ul::free_surface_warning(self.free_surface)
     }
 }

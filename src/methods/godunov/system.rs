@@ -14,7 +14,9 @@ use crate::case::{Case, CaseError};
 use crate::core::neighbour::Rebuild;
 use crate::core::tensor::Dim;
 use crate::methods::cores::family::MethodFamily;
-use crate::methods::cores::ul::{PairRates, PairScheme, PairSums, UlCore, UlSph, UlState};
+use crate::methods::cores::ul::{
+    FreeSurface, PairRates, PairScheme, PairSums, UlCore, UlSph, UlState,
+};
 
 /// The Godunov SPH system on the CPU (f64, rayon).
 pub type Godunov<D> = UlSph<D, Scheme>;
@@ -68,11 +70,15 @@ impl<D: Dim> PairScheme<D> for Scheme {
         Ok(Self)
     }
 
+    fn free_surface(spec: &GodunovSpec) -> FreeSurface {
+        spec.free_surface
+    }
+
     fn particle(&self, core: &UlCore<D>, i: usize, y: &UlState<D>) -> Particle<D> {
         let rho = y.rho[i];
         let p = core.material.pressure(rho);
         Particle {
-            sigma: y.s[i] - D::identity() * p,
+            sigma: core.cauchy(i, y),
             p,
             z: rho * (core.material.bulk / rho).sqrt(),
             vol: core.mass[i] / rho,

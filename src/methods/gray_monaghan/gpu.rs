@@ -45,6 +45,7 @@ pub fn scheme(case: &Case, spec: &GrayMonaghanSpec) -> Scheme {
         passes: PASSES,
         artificial_stress: stress.is_some(),
         pressure: false,
+        free_surface: spec.free_surface,
         constants,
     }
 }

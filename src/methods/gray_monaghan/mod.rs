@@ -14,6 +14,7 @@ use crate::methods::cores::family::GpuBuild;
 use crate::methods::cores::family::{
     CpuBuild, Feature, MethodFamily, Plan, cfl_step, check_viscosity, left_out_viscosity,
 };
+use crate::methods::cores::ul::FreeSurface;
 #[cfg(feature = "gpu")]
 use crate::methods::cores::ul::gpu::GpuUl;
 
@@ -46,13 +47,21 @@ pub struct GrayMonaghanSpec {
     pub artificial_stress: Option<ArtificialStress>,
     /// The XSPH factor ε of eq 127; none when absent.
     pub xsph: Option<f64>,
+    /// The traction-free treatment of the surface (none by default).
+    #[serde(default)]
+    pub free_surface: FreeSurface,
 }
 
 impl MethodFamily for GrayMonaghanSpec {
     const DESCRIPTION: &'static str = "Gray–Monaghan stress-corrected updated-Lagrangian SPH \
         (seed 000 §5.1): neighbours rebuilt every stage, objective stress rate, artificial viscosity, \
         artificial stress and XSPH";
-    const KEYS: &'static [&'static str] = &["artificial_viscosity", "artificial_stress", "xsph"];
+    const KEYS: &'static [&'static str] = &[
+        "artificial_viscosity",
+        "artificial_stress",
+        "xsph",
+        "free_surface",
+    ];
     const FEATURES: &'static [Feature] = &[Feature::Contact, Feature::RatePlasticity];
     const NEIGHBOURS: Rebuild = Rebuild::OnDrift;
     #[cfg(feature = "gpu")]
@@ -93,6 +102,9 @@ impl MethodFamily for GrayMonaghanSpec {
         if self.xsph.is_none() {
             left_out.push("XSPH");
         }
+        if self.free_surface == FreeSurface::None {
+            left_out.push("traction-free surface (free_surface)");
+        }
         Plan {
             once: "nothing but W(Δp): the neighbour lists follow the particles (see the rates)"
                 .into(),
@@ -128,5 +140,9 @@ impl MethodFamily for GrayMonaghanSpec {
         counts: &crate::gpu::memory::Counts,
     ) -> Option<crate::gpu::memory::DeviceMemory> {
         Some(GpuUl::<D>::memory(case, &gpu::scheme(case, self), counts))
+    }
+
+    fn warning(&self, _case: &Case) -> Option<String> {
+        super::cores::ul::free_surface_warning(self.free_surface)
     }
 }

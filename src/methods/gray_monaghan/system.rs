@@ -12,7 +12,9 @@ use crate::case::{Case, CaseError};
 use crate::core::neighbour::Rebuild;
 use crate::core::tensor::Dim;
 use crate::methods::cores::family::MethodFamily;
-use crate::methods::cores::ul::{PairRates, PairScheme, PairSums, UlCore, UlSph, UlState};
+use crate::methods::cores::ul::{
+    FreeSurface, PairRates, PairScheme, PairSums, UlCore, UlSph, UlState,
+};
 use crate::physics::plasticity::{symmetric_eigen, to_mat3};
 use crate::physics::viscosity::ArtificialViscosity;
 
@@ -128,9 +130,13 @@ impl<D: Dim> PairScheme<D> for Scheme {
         })
     }
 
+    fn free_surface(spec: &GrayMonaghanSpec) -> FreeSurface {
+        spec.free_surface
+    }
+
     fn particle(&self, core: &UlCore<D>, i: usize, y: &UlState<D>) -> Particle<D> {
         let rho = y.rho[i];
-        let sigma = y.s[i] - D::identity() * core.material.pressure(rho); // σ = S − pI
+        let sigma = core.cauchy(i, y); // σ = S − pI
         Particle {
             sigma_rho2: sigma * (1.0 / (rho * rho)),
             r: self.stress.map_or(D::zero_t(), |(s, _)| {

@@ -13,7 +13,7 @@
 //! most pairs a part needed (with a quarter more, in more parts past the binding limit) and
 //! runs the batch again from its start.
 
-use super::{UlState, check_state, snapshot};
+use super::{FreeSurface, SURFACE_SHEPARD, UlState, check_state, snapshot};
 use crate::boundary::Boundary;
 use crate::case::Case;
 use crate::core::correction::CorrectionKind;
@@ -75,6 +75,8 @@ pub struct Scheme {
     pub artificial_stress: bool,
     /// It stores the pressure p per particle.
     pub pressure: bool,
+    /// Its traction-free treatment of the surface (`cauchy_of` in `shaders/ul/ul.wgsl`).
+    pub free_surface: FreeSurface,
     /// Its own compiled-in constants.
     pub constants: Constants,
 }
@@ -143,6 +145,11 @@ pub fn scene_constants(case: &Case, layout: &Layout, scheme: &Scheme) -> Constan
         .material(&Material::new(&case.material))
         .choice("CORRECTION", &["NONE", "LINEAR", "REPRODUCING"], correction)
         .u32("PLASTIC", u32::from(layout.state.has("EP")))
+        .u32(
+            "FREE_SURFACE",
+            u32::from(scheme.free_surface == FreeSurface::Projection),
+        )
+        .f32("SURFACE_SHEPARD", SURFACE_SHEPARD)
         .u32("REST_OFF", layout.state.offset("RHO") as u32);
     [&layout.state, &layout.kin, &layout.reference]
         .into_iter()

@@ -34,6 +34,7 @@ use crate::physics::material::{Material, stress_fields};
 use crate::physics::plasticity::PLASTIC_STRAIN;
 use crate::reference::{Build, Reference};
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 
 particle_state! {
     /// Integrated state of an updated-Lagrangian SPH method.
@@ -130,6 +131,37 @@ impl<D: Dim, P> PairSums<'_, D, P> {
     }
 }
 
+/// The traction-free treatment of the free surface (seed 000 §4, eq 110), a `[method]`
+/// key of the updated-Lagrangian strong forms.
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum FreeSurface {
+    /// None (the paper's and the reference code's).
+    #[default]
+    None,
+    /// σ·n = 0 solved at each surface particle by projection, σ ← (I − n⊗n) σ (I − n⊗n)
+    /// (the paper's first option, "rotation of the stress tensor along n, then zeroing"
+    /// the stresses along n).
+    Projection,
+}
+
+/// The warning of a run under [`FreeSurface::Projection`]: the projected stress does no
+/// work against the stress rate, which integrates S unprojected.
+pub fn free_surface_warning(free_surface: FreeSurface) -> Option<String> {
+    (free_surface == FreeSurface::Projection).then(|| {
+        "method.free_surface = \"projection\" is not energy-consistent: the forces take the \
+         projected stress while S is integrated whole, so energy appears at the surface (the \
+         rotating disk blows up within 430 steps, the tensile strip's energy residue reaches \
+         4; docs/methods/gray-monaghan.md); use free_surface = \"none\" (the default)"
+            .to_string()
+    })
+}
+
+/// A particle is on the surface where its Shepard sum S_i = Σ_j V_j W_ij (itself included)
+/// is below this: 0.70–0.84 on a lattice's face and 0.95–0.99 one row in, for h/Δx from 1
+/// to 1.7 (cubic spline).
+pub const SURFACE_SHEPARD: f64 = 0.9;
+
 /// The corrections of the velocity gradient (eq 105) the UL methods run.
 const CORRECTIONS: [CorrectionKind; 3] = [
     CorrectionKind::None,
@@ -210,8 +242,11 @@ pub struct UlCore<D: Dim> {
     pub material: Material,
     /// The case's kernel (one smoothing length, as in seed 000).
     pub kernel: Kernel,
-    /// The correction of the velocity gradient (`none` or `randles-libersky`, eq 105).
+    /// The correction of the velocity gradient (`none`, `randles-libersky` or `rkpm`, eq
+    /// 105).
     pub correction: CorrectionKind,
+    /// The traction-free treatment of the surface.
+    pub free_surface: FreeSurface,
     neighbours: Neighbours,
     /// Current positions x = X + u of the last rate evaluation.
     pub x: Vec<D::V>,
@@ -236,6 +271,7 @@ impl<D: Dim> UlCore<D> {
             material: r.material,
             kernel: r.kernel,
             correction: case.method.correction,
+            free_surface: FreeSurface::None,
             neighbours,
         })
     }
@@ -248,6 +284,37 @@ impl<D: Dim> UlCore<D> {
     /// The neighbour lists of the last rate evaluation.
     pub fn neighbours(&self) -> &Csr {
         self.neighbours.lists()
+    }
+
+    /// The Cauchy stress σ_i = S_i − p(ρ_i) I of the state, with σ·n = 0 projected at a
+    /// surface particle under [`FreeSurface::Projection`] ([`Self::surface_normal`]).
+    pub fn cauchy(&self, i: usize, y: &UlState<D>) -> D::T {
+        let sigma = y.s[i] - D::identity() * self.material.pressure(y.rho[i]);
+        if self.free_surface == FreeSurface::None {
+            return sigma;
+        }
+        match self.surface_normal(i, &y.rho) {
+            Some(n) => {
+                let p = D::identity() - D::outer(n, n);
+                p * sigma * p
+            }
+            None => sigma,
+        }
+    }
+
+    /// The outward unit normal n_i = −∇S_i/|∇S_i| of a surface particle, S_i = V_i W(0) +
+    /// Σ_j V_j W_ij below [`SURFACE_SHEPARD`] and ∇S_i = Σ_j V_j ∇W_ij (V_j = m_j/ρ_j);
+    /// None inside.
+    pub fn surface_normal(&self, i: usize, rho: &[f64]) -> Option<D::V> {
+        let (mut s, mut g) = (self.mass[i] / rho[i] * self.kernel.w(0.0), D::zero());
+        for &j in self.neighbours().neighbours(i) {
+            let j = j as usize;
+            let (x_ij, v) = (self.x[i] - self.x[j], self.mass[j] / rho[j]);
+            s += v * self.kernel.w(D::norm2(x_ij).sqrt());
+            g += self.kernel.grad::<D>(x_ij) * v;
+        }
+        let norm = D::norm2(g).sqrt();
+        (s < SURFACE_SHEPARD && norm > 0.0).then(|| g * (-1.0 / norm))
     }
 
     /// The correction of particle i's velocity gradient ([`Self::correction`]), with
@@ -349,6 +416,9 @@ pub trait PairScheme<D: Dim>: Sized + Send + Sync {
 
     /// The scheme of a method's spec on the case's core.
     fn new(case: &Case, spec: &Self::Spec, core: &UlCore<D>) -> Result<Self, CaseError>;
+
+    /// The spec's traction-free treatment of the surface.
+    fn free_surface(spec: &Self::Spec) -> FreeSurface;
 
     /// The quantities of particle i at state y (the core's positions and lists are
     /// current), besides the correction of its L.
@@ -462,7 +532,8 @@ impl<D: Dim, S: PairScheme<D>> Build<D> for UlSph<D, S> {
     type Spec = S::Spec;
 
     fn build(case: &Case, spec: &S::Spec, reference: Reference<D>) -> Result<Self, CaseError> {
-        let core = UlCore::new(case, reference, S::REBUILD)?;
+        let mut core = UlCore::new(case, reference, S::REBUILD)?;
+        core.free_surface = S::free_surface(spec);
         let scheme = S::new(case, spec, &core)?;
         Ok(Self {
             core,
