@@ -4,7 +4,7 @@
 //! constitutive tangents, and one Newton iteration for a linear problem.
 
 use crate::common::{largest_v, noise, random_vector};
-use meshless::case::{MaterialSpec, Plane};
+use meshless::case::MaterialSpec;
 use meshless::core::kernel::{Kernel, KernelKind};
 use meshless::core::tensor::{D2, D3, Dim};
 use meshless::methods::dual_support::{DualSupport, Statics, Support};
@@ -14,19 +14,7 @@ use meshless::scene::Scene;
 use std::path::Path;
 
 fn material(model: MaterialModel) -> Material {
-    Material::new(&MaterialSpec {
-        model,
-        density: 1000.0,
-        youngs_modulus: Some(1.0e6),
-        poisson_ratio: Some(0.3),
-        yield_stress: None,
-        hardening_modulus: None,
-        c1: None,
-        c2: None,
-        lambda: None,
-        plane: Plane::Strain,
-        objective_rate: None,
-    })
+    Material::new(&MaterialSpec::elastic(model, 1000.0, 1.0e6, 0.3))
 }
 
 /// An irregular cloud: a lattice of `n` points per side with spacing 1, jittered by

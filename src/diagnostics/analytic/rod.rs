@@ -284,17 +284,8 @@ mod tests {
 
     fn material(nu: f64, plane: Plane) -> Material {
         Material::new(&MaterialSpec {
-            model: MaterialModel::LinearElastic,
-            density: RHO,
-            youngs_modulus: Some(2.1e11),
-            poisson_ratio: Some(nu),
-            yield_stress: None,
-            hardening_modulus: None,
-            c1: None,
-            c2: None,
-            lambda: None,
             plane,
-            objective_rate: None,
+            ..MaterialSpec::elastic(MaterialModel::LinearElastic, RHO, 2.1e11, nu)
         })
     }
 

@@ -3,19 +3,12 @@ use crate::core::tensor::{D2, D3};
 use crate::physics::material::{MaterialModel, MaterialSpec};
 
 fn material() -> Material {
-    Material::new(&MaterialSpec {
-        model: MaterialModel::NeoHookean,
-        density: 1100.0,
-        youngs_modulus: Some(1.7e7),
-        poisson_ratio: Some(0.3),
-        yield_stress: None,
-        hardening_modulus: None,
-        c1: None,
-        c2: None,
-        lambda: None,
-        plane: crate::physics::material::Plane::Strain,
-        objective_rate: None,
-    })
+    Material::new(&MaterialSpec::elastic(
+        MaterialModel::NeoHookean,
+        1100.0,
+        1.7e7,
+        0.3,
+    ))
 }
 
 /// ρ0 ü = DIV P at interior points, by central differences of the analytic stress

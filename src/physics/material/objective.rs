@@ -37,7 +37,7 @@ pub fn rotation_spin<D: Dim>(f: D::T, l: D::T) -> D::T {
 
 #[cfg(test)]
 mod tests {
-    use super::super::{Material, MaterialModel, MaterialSpec, ObjectiveRate, Plane};
+    use super::super::{Material, MaterialModel, MaterialSpec, ObjectiveRate};
     use super::*;
     use crate::core::tensor::{D2, D3};
     use glam::{DMat2, DVec3};
@@ -50,17 +50,8 @@ mod tests {
 
     fn material(rate: ObjectiveRate) -> Material {
         Material::new(&MaterialSpec {
-            model: MaterialModel::Hypoelastic,
-            density: 1000.0,
-            youngs_modulus: Some(2.5),
-            poisson_ratio: Some(0.25),
-            yield_stress: None,
-            hardening_modulus: None,
-            c1: None,
-            c2: None,
-            lambda: None,
-            plane: Plane::Strain,
             objective_rate: Some(rate),
+            ..MaterialSpec::elastic(MaterialModel::Hypoelastic, 1000.0, 2.5, 0.25)
         })
     }
 

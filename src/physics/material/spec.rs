@@ -35,6 +35,30 @@ pub struct MaterialSpec {
 }
 
 impl MaterialSpec {
+    /// An isotropic elastic material of `model` with E and ν: plane strain, no yield
+    /// stress, the default objective rate; what a `[material]` table with those four keys
+    /// gives.
+    pub fn elastic(
+        model: MaterialModel,
+        density: f64,
+        youngs_modulus: f64,
+        poisson_ratio: f64,
+    ) -> Self {
+        Self {
+            model,
+            density,
+            youngs_modulus: Some(youngs_modulus),
+            poisson_ratio: Some(poisson_ratio),
+            yield_stress: None,
+            hardening_modulus: None,
+            c1: None,
+            c2: None,
+            lambda: None,
+            plane: Plane::Strain,
+            objective_rate: None,
+        }
+    }
+
     /// The constants of a `mooney-rivlin` material (None for the other models).
     pub fn mooney_rivlin(&self) -> Option<MooneyRivlin> {
         match (self.model, self.c1, self.c2, self.lambda) {
