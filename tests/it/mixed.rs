@@ -10,7 +10,7 @@ use meshless::core::tensor::{D2, D3, Dim};
 use meshless::diagnostics::analytic::SwingingMode;
 use meshless::methods::Method;
 use meshless::methods::mixed::system::bond_gradient;
-use meshless::methods::mixed::{Fluxes, MixedSph};
+use meshless::methods::mixed::{Fluxes, MixedSph, MixedState};
 use meshless::physics::material::Material;
 use meshless::run::{Backend, CpuEngine, Engine, build_method};
 use meshless::scene::Scene;
@@ -516,29 +516,50 @@ fn the_kinematic_bond_f_of_eq_38_is_rank_deficient_and_not_exact_for_affine_moti
     // I + Σ_b w_ab n_ab ⊗ n_ab) for x = A X + b, F = A: not A, so P(F^c) is off P(A) at
     // every particle (by more than 1 % of |P(A)|), where eq 39 is exact (the test below).
     let a_mat = glam::DMat2::from_cols_array(&[1.2, -0.1, 0.3, 0.9]);
-    let mut overrides = SEED_002.to_vec();
-    overrides.extend([
-        "mirror=",
-        "spacing=0.1",
-        "method.deformation_gradient=kinematic-bond",
-        "method.correction=rkpm",
-    ]);
-    let case = load("swinging-plate", &overrides);
-    let mut m: MixedSph<D2> = build_method(&case).unwrap();
-    let mut y = m.initial_state();
-    for (a, &x) in m.reference().iter().enumerate() {
-        y.u[a] = a_mat * x - x;
-        y.f[a] = a_mat;
-    }
-    let mat = Material::new(&case.material);
-    let exact = mat.pk1_mixed::<D2>(a_mat, D2::cof(a_mat), a_mat.determinant());
-    let scale = D2::ddot(exact, exact).sqrt();
-    for (a, p) in m.first_piola(&y).unwrap().iter().enumerate() {
+    let mut plate = AffinePlate::new("kinematic-bond", "rkpm", a_mat, glam::DVec2::ZERO);
+    let (exact, scale) = (plate.exact, plate.scale);
+    for (a, p) in plate.m.first_piola(&plate.y).unwrap().iter().enumerate() {
         let e = D2::ddot(*p - exact, *p - exact).sqrt();
         assert!(
             e > 1e-2 * scale,
             "particle {a}: |P − P(A)| = {e:e} of {scale:e}"
         );
+    }
+}
+
+/// Seed 002's swinging plate (Δx = 0.1, no mirror planes) under `deformation_gradient`
+/// and `correction`, in the state x = A X + b, F = A, with P(A) and |P(A)|.
+struct AffinePlate {
+    m: MixedSph<D2>,
+    y: MixedState<D2>,
+    mat: Material,
+    exact: glam::DMat2,
+    scale: f64,
+}
+
+impl AffinePlate {
+    fn new(deformation_gradient: &str, correction: &str, a: glam::DMat2, b: glam::DVec2) -> Self {
+        let mut overrides = SEED_002.to_vec();
+        let gradient = format!("method.deformation_gradient={deformation_gradient}");
+        let correction = format!("method.correction={correction}");
+        overrides.extend(["mirror=", "spacing=0.1", &gradient, &correction]);
+        let case = load("swinging-plate", &overrides);
+        let m: MixedSph<D2> = build_method(&case).unwrap();
+        let mut y = m.initial_state();
+        for (k, &x) in m.reference().iter().enumerate() {
+            y.u[k] = a * x + b - x;
+            y.f[k] = a;
+        }
+        let mat = Material::new(&case.material);
+        let exact = mat.pk1_mixed::<D2>(a, D2::cof(a), a.determinant());
+        let scale = D2::ddot(exact, exact).sqrt();
+        Self {
+            m,
+            y,
+            mat,
+            exact,
+            scale,
+        }
     }
 }
 
@@ -552,24 +573,13 @@ fn bond_based_deformation_gradient_is_exact_for_affine_motion() {
     let a_mat = glam::DMat2::from_cols_array(&[1.2, -0.1, 0.3, 0.9]);
     let b = glam::DVec2::new(0.05, -0.02);
     for correction in ["rkpm", "cgck"] {
-        let mut overrides = SEED_002.to_vec();
-        let correction = format!("method.correction={correction}");
-        overrides.extend([
-            "mirror=",
-            "spacing=0.1",
-            "method.deformation_gradient=bond-based",
-            correction.as_str(),
-        ]);
-        let case = load("swinging-plate", &overrides);
-        let mut m: MixedSph<D2> = build_method(&case).unwrap();
-        let mut y = m.initial_state();
-        for (a, &x) in m.reference().iter().enumerate() {
-            y.u[a] = a_mat * x + b - x;
-            y.f[a] = a_mat;
-        }
-        let mat = Material::new(&case.material);
-        let exact = mat.pk1_mixed::<D2>(a_mat, D2::cof(a_mat), a_mat.determinant());
-        let scale = D2::ddot(exact, exact).sqrt();
+        let AffinePlate {
+            mut m,
+            mut y,
+            mat,
+            exact,
+            scale,
+        } = AffinePlate::new("bond-based", correction, a_mat, b);
         for (a, p) in m.first_piola(&y).unwrap().iter().enumerate() {
             let e = D2::ddot(*p - exact, *p - exact).sqrt();
             assert!(
