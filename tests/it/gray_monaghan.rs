@@ -328,28 +328,20 @@ fn check_affine<D: Dim>(
 #[test]
 fn an_affine_velocity_gives_the_analytic_jaumann_rate() {
     let mut seed = 3;
-    // The disk: E = 1e7, ν = 0.4 ⇒ G = E/(2(1 + ν)); the 3D block: E = 1e6, ν = 0.3.
-    let g = 1e7 / 2.8;
-    let disk = disk(&["method.correction=randles-libersky"]);
-    check_affine::<D2>(disk, g, &mut seed, DMat2::IDENTITY, |s, l| {
-        jaumann::<D2>(g, s, l)
-    });
-    let g = 1e6 / 2.6;
-    let block = gray_monaghan_3d("randles-libersky");
-    check_affine::<D3>(block, g, &mut seed, DMat3::IDENTITY, |s, l| {
-        jaumann::<D3>(g, s, l)
-    });
-    // RKPM's gradients on the current positions reproduce linear fields too (§6.1's W̊).
-    let g = 1e7 / 2.8;
-    let reproducing = self::disk(&["method.correction=rkpm"]);
-    check_affine::<D2>(reproducing, g, &mut seed, DMat2::IDENTITY, |s, l| {
-        jaumann::<D2>(g, s, l)
-    });
-    let g = 1e6 / 2.6;
-    let block = gray_monaghan_3d("rkpm");
-    check_affine::<D3>(block, g, &mut seed, DMat3::IDENTITY, |s, l| {
-        jaumann::<D3>(g, s, l)
-    });
+    // The disk: E = 1e7, ν = 0.4 ⇒ G = E/(2(1 + ν)); the 3D block: E = 1e6, ν = 0.3. Both
+    // first-order corrections on the current positions reproduce linear fields (RKPM is
+    // §6.1's W̊).
+    let (g2, g3) = (1e7 / 2.8, 1e6 / 2.6);
+    for correction in ["randles-libersky", "rkpm"] {
+        let disk = disk(&[&format!("method.correction={correction}")]);
+        check_affine::<D2>(disk, g2, &mut seed, DMat2::IDENTITY, |s, l| {
+            jaumann::<D2>(g2, s, l)
+        });
+        let block = gray_monaghan_3d(correction);
+        check_affine::<D3>(block, g3, &mut seed, DMat3::IDENTITY, |s, l| {
+            jaumann::<D3>(g3, s, l)
+        });
+    }
 }
 
 #[test]
