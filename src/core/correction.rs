@@ -334,19 +334,19 @@ fn linear_basis<D: Dim>(r: D::V) -> [f64; 4] {
 }
 
 /// The reproducing-kernel coefficients at a point x: C = M⁻¹ e₁ and ∂_k C (seed 000
-/// eqs 55–59), from the nodes' offsets r_j = x − x_j and volumes V_j, so that
-/// Ψ_j(x) = C·p(r_j) W(r_j). None when the moment matrix is singular.
+/// eqs 55–59), from the nodes' offsets r_j = x − x_j, volumes V_j, and kernel values
+/// W(r_j) and gradients ∇W(r_j), so that Ψ_j(x) = C·p(r_j) W(r_j). None when the moment
+/// matrix is singular.
 fn rkpm_coefficients<D: Dim>(
-    nodes: impl Iterator<Item = (D::V, f64)>,
-    kernel: &Kernel,
+    nodes: impl Iterator<Item = (D::V, f64, f64, D::V)>,
 ) -> Option<([f64; 4], [[f64; 4]; 3])> {
     let n = D::N + 1;
     let basis = linear_basis::<D>;
     // Moment matrix M and its derivatives ∂_k M (eqs 55–58).
     let mut m: Small = [[0.0; 4]; 4];
     let mut dm: [Small; 3] = [[[0.0; 4]; 4]; 3];
-    for (r, v) in nodes {
-        let (w, gw, p) = (kernel.w(D::norm2(r).sqrt()), kernel.grad::<D>(r), basis(r));
+    for (r, v, w, gw) in nodes {
+        let p = basis(r);
         for a in 0..n {
             for b in 0..n {
                 m[a][b] += v * w * p[a] * p[b];
@@ -411,7 +411,15 @@ impl<D: Dim> Rkpm<D> {
     /// The coefficients at a point from its nodes' offsets r_j and volumes V_j; None when
     /// they do not span the linear basis there.
     pub fn at(nodes: impl Iterator<Item = (D::V, f64)>, kernel: &Kernel) -> Option<Self> {
-        let (c, dc) = rkpm_coefficients::<D>(nodes, kernel)?;
+        Self::weighted(
+            nodes.map(|(r, v)| (r, v, kernel.w(D::norm2(r).sqrt()), kernel.grad::<D>(r))),
+        )
+    }
+
+    /// [`Self::at`] with each node's own kernel value W(r_j) and gradient ∇W(r_j) (a
+    /// smoothing length per pair): nodes `(r_j, V_j, W, ∇W)`.
+    pub fn weighted(nodes: impl Iterator<Item = (D::V, f64, f64, D::V)>) -> Option<Self> {
+        let (c, dc) = rkpm_coefficients::<D>(nodes)?;
         Some(Self {
             c,
             dc,

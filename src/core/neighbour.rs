@@ -459,12 +459,21 @@ pub enum Rebuild {
 /// The skin of [`Rebuild::OnDrift`], a fraction of each particle's reach.
 pub const SKIN: f64 = 0.1;
 
+/// The room a rebuild for a grown reach leaves above it ([`Neighbours::update_reaching`]
+/// with [`Rebuild::OnDrift`]), a fraction of the reach: a reach that grows a little at
+/// every step then rebuilds once per 5 % of growth.
+pub const HEADROOM: f64 = 0.05;
+
 /// A method's neighbour lists, kept by its [`Rebuild`] policy: the reach of every
 /// particle, the body masks, and the cell list that rebuilds them with its buffers.
 #[derive(Clone, Debug)]
 pub struct Neighbours {
     rebuild: Rebuild,
-    /// The reach of every particle, widened by the skin with [`Rebuild::OnDrift`].
+    /// The reach the lists hold every pair within (at the current positions, while no
+    /// particle has drifted past [`Self::drift`]).
+    covered: Vec<f64>,
+    /// The reach of every particle at the last build: [`Self::covered`] widened by the
+    /// skin with [`Rebuild::OnDrift`].
     reach: Vec<f64>,
     body: Option<Vec<u32>>,
     search: CellList,
@@ -487,24 +496,60 @@ impl Neighbours {
         reach: Vec<f64>,
         body: Option<Vec<u32>>,
     ) -> Self {
-        let widen = if rebuild == Rebuild::OnDrift {
-            1.0 + SKIN
-        } else {
-            1.0
-        };
-        let drift = 0.5 * SKIN * reach.iter().copied().fold(f64::INFINITY, f64::min);
         let mut n = Self {
             rebuild,
-            reach: reach.iter().map(|r| r * widen).collect(),
+            covered: Vec::new(),
+            reach: Vec::new(),
             body,
             search: CellList::default(),
             lists: Csr::default(),
             built_at: Vec::new(),
-            drift,
+            drift: 0.0,
             seconds: 0.0,
         };
+        n.cover(reach.iter().copied());
         n.rebuild::<D>(x);
         n
+    }
+
+    /// Sets the reach the next build covers, and the skin and drift limit around it.
+    fn cover(&mut self, reach: impl Iterator<Item = f64>) {
+        self.covered.clear();
+        self.covered.extend(reach);
+        let widen = if self.rebuild == Rebuild::OnDrift {
+            1.0 + SKIN
+        } else {
+            1.0
+        };
+        self.reach.clear();
+        self.reach.extend(self.covered.iter().map(|r| r * widen));
+        self.drift = 0.5 * SKIN * self.covered.iter().copied().fold(f64::INFINITY, f64::min);
+    }
+
+    /// [`Self::update`] for particles whose reach changes (an adaptive smoothing length):
+    /// the lists are rebuilt, each particle reaching `need` (with [`HEADROOM`] above it
+    /// under [`Rebuild::OnDrift`]), whenever the policy asks for a rebuild or some
+    /// particle needs more than the lists cover. Returns whether it rebuilt.
+    pub fn update_reaching<D: Dim>(&mut self, x: &[D::V], need: &[f64]) -> bool {
+        let started = std::time::Instant::now();
+        let short = need.iter().zip(&self.covered).any(|(n, c)| n > c);
+        let rebuilt = short || self.due::<D>(x);
+        if rebuilt {
+            let room = if self.rebuild == Rebuild::OnDrift {
+                1.0 + HEADROOM
+            } else {
+                1.0
+            };
+            self.cover(need.iter().map(|n| n * room));
+            self.rebuild::<D>(x);
+        }
+        self.seconds += started.elapsed().as_secs_f64();
+        rebuilt
+    }
+
+    /// The reach of every particle that the current lists cover.
+    pub fn covered(&self) -> &[f64] {
+        &self.covered
     }
 
     /// At a rate evaluation with positions x: rebuilds the lists if the policy asks for
@@ -522,23 +567,25 @@ impl Neighbours {
     }
 
     fn follow<D: Dim>(&mut self, x: &[D::V]) -> bool {
+        let due = self.due::<D>(x);
+        if due {
+            self.rebuild::<D>(x);
+        }
+        due
+    }
+
+    /// Whether the policy asks for a rebuild at positions x.
+    fn due<D: Dim>(&self, x: &[D::V]) -> bool {
         match self.rebuild {
             Rebuild::Once => false,
-            Rebuild::EveryStage => {
-                self.rebuild::<D>(x);
-                true
-            }
+            Rebuild::EveryStage => true,
             Rebuild::OnDrift => {
                 let moved = |(p, q): (&D::V, &[f64; 3])| {
                     let p = D::to3(*p);
                     let d2: f64 = (0..3).map(|k| (p[k] - q[k]).powi(2)).sum();
                     d2.is_nan() || d2 > self.drift * self.drift
                 };
-                let rebuild = x.iter().zip(&self.built_at).any(moved);
-                if rebuild {
-                    self.rebuild::<D>(x);
-                }
-                rebuild
+                x.iter().zip(&self.built_at).any(moved)
             }
         }
     }

@@ -3,8 +3,8 @@
 //! at the current positions:
 //!
 //! - **eqs 60–61** ([`density_smoothing_length`]): h ∝ ⟨ρ⟩^(−1/d) with the kernel-sum
-//!   density ⟨ρ⟩_i = Σ_j W(x_ij, h_i) m_j, interdependent with h, by fixed-point iteration
-//!   (Monaghan; Springel–Hernquist): h_i = η (m_i/⟨ρ⟩_i)^(1/d);
+//!   density ⟨ρ⟩_i = Σ_j W(x_ij, h_i) m_j, interdependent with h: the fixed point of
+//!   h_i = η (m_i/⟨ρ⟩_i)^(1/d) (Monaghan; Springel–Hernquist), reached by Newton steps;
 //! - **eq 62** ([`continuity_smoothing_length`]): Mohammadi's update h^(n+1) = h^n
 //!   (ρ^n/ρ^(n+1))^(1/d) with ρ of the continuity equation, which telescopes to h = h0
 //!   (ρ0/ρ)^(1/d) (the printed equation is garbled; notes §1.5);
@@ -34,29 +34,48 @@ use crate::core::hull::convex_hull;
 use crate::core::kernel::{Kernel, KernelKind};
 use crate::core::tensor::Dim;
 
-/// eqs 60–61 at particle i: the fixed point of h = η (m_i/⟨ρ⟩)^(1/d) with ⟨ρ⟩ = Σ_j
-/// W(x_ij, h) m_j over its candidates `(x_ij, m_j)` (itself included at x_ij = 0), from
-/// h = `start`; η is the ratio h/Δx of a lattice whose density is m/Δx^d. Iterates until h
-/// changes by less than 1e-12 of itself; None after 200 iterations or where no candidate
-/// is in reach (⟨ρ⟩ = 0).
+/// eqs 60–61 at particle i: the fixed point of h = min(η (m_i/⟨ρ⟩)^(1/d), h_max) with
+/// ⟨ρ⟩ = Σ_j W(x_ij, h) m_j over its candidates `(x_ij, m_j)` (itself included at
+/// x_ij = 0), from h = `start`; η is the ratio h/Δx of a lattice whose density is m/Δx^d.
+/// The cap h_max keeps a particle that has lost its neighbours from growing without bound
+/// (alone, ⟨ρ⟩ = m W(0, h) ∝ h^(−d) and the map diverges for η σ_d^(−1/d) > 1).
+///
+/// Each iteration takes the Newton step on h − η (m_i/⟨ρ⟩)^(1/d) = 0, with ∂W/∂h =
+/// −(d W + r ∂W/∂r)/h, where its slope is above 0.1 and the step stays within a factor of
+/// two; else the plain fixed-point step. It stops when h changes by less than 1e-12 of
+/// itself; None after 100 iterations or where no candidate is in reach (⟨ρ⟩ = 0).
 pub fn density_smoothing_length<D: Dim>(
-    candidates: &[(D::V, f64)],
+    candidates: impl Iterator<Item = (D::V, f64)> + Clone,
     m_i: f64,
     eta: f64,
     kind: KernelKind,
     start: f64,
+    h_max: f64,
 ) -> Option<f64> {
-    let mut h = start;
-    for _ in 0..200 {
+    let d = D::N as f64;
+    let mut h = start.min(h_max);
+    for _ in 0..100 {
         let kernel = Kernel::new(kind, h, D::N);
-        let rho: f64 = candidates
-            .iter()
-            .map(|&(r, m)| kernel.w(D::norm2(r).sqrt()) * m)
-            .sum();
+        let (rho, rho_h) = candidates.clone().fold((0.0, 0.0), |(rho, rho_h), (x, m)| {
+            let r = D::norm2(x).sqrt();
+            let w = kernel.w(r);
+            (rho + m * w, rho_h - m * (d * w + r * kernel.dw_dr(r)) / h)
+        });
         if rho.is_nan() || rho <= 0.0 {
             return None;
         }
-        let next = eta * (m_i / rho).powf(1.0 / D::N as f64);
+        let target = eta * (m_i / rho).powf(1.0 / d);
+        let next = if target >= h_max {
+            h_max
+        } else {
+            let slope = 1.0 + target / d * rho_h / rho;
+            let newton = h - (h - target) / slope;
+            if slope > 0.1 && newton > 0.5 * h && newton < 2.0 * h {
+                newton.min(h_max)
+            } else {
+                target
+            }
+        };
         if (next - h).abs() <= 1e-12 * h {
             return Some(next);
         }

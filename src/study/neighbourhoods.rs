@@ -112,10 +112,16 @@ pub fn compare() -> Vec<Neighbourhood> {
                 .collect()
         };
         let f_inv = f.inverse();
-        let with_mass: Vec<(DVec2, f64)> = all.iter().map(|&r| (r, 1.0)).collect();
         let kind = KernelKind::CubicSpline;
-        let density = density_smoothing_length::<D2>(&with_mass, 1.0, H0, kind, H0)
-            .expect("the lattice reaches every support");
+        let density = density_smoothing_length::<D2>(
+            all.iter().map(|&r| (r, 1.0)),
+            1.0,
+            H0,
+            kind,
+            H0,
+            f64::INFINITY,
+        )
+        .expect("the lattice reaches every support");
         // ρ of the continuity equation is ρ0/J, and both motions keep the volume.
         let det = f.determinant();
         let continuity = continuity_smoothing_length(H0, 1.0, 1.0 / det, 2);

@@ -1,11 +1,17 @@
 //! The neighbourhood and smoothing-length algorithms of seed 000 §3.2 (eqs 60–64) and the
 //! comparison of its Fig. 3 (`meshless neighbourhoods`, docs/methods/ul-neighbourhoods.md).
 
+use crate::common::block_case;
+use crate::gray_monaghan::rates;
 use meshless::core::kernel::KernelKind;
 use meshless::core::neighbourhood::{
     Ellipse, continuity_smoothing_length, density_smoothing_length,
 };
 use meshless::core::tensor::{D2, D3, Dim};
+use meshless::methods::Method;
+use meshless::methods::cores::ul::H_CAP;
+use meshless::methods::gray_monaghan::GrayMonaghan;
+use meshless::run::build_method;
 use meshless::study::neighbourhoods::{MOTIONS, Neighbourhood, compare, motion_anisotropy};
 
 /// A cubic lattice of spacing `s` (13 points a side), as offsets from its centre with unit
@@ -32,13 +38,21 @@ fn uniform_compression_scales_h<D: Dim>() {
     // of eqs 60–61 is h(s) = s h(1) and ⟨ρ⟩ = s^(−d) ⟨ρ⟩(1): h ∝ ρ^(−1/d) exactly. The fixed
     // point stops at 1e-12 of h; the bound leaves 100 times that. The continuity update of
     // eq 62 with ρ = ρ0 s^(−d) gives the same h.
-    let h1 =
-        density_smoothing_length::<D>(&lattice::<D>(1.0), 1.0, 1.3, KernelKind::CubicSpline, 1.0)
-            .unwrap();
+    let h_of = |s: f64| {
+        let candidates = lattice::<D>(s);
+        density_smoothing_length::<D>(
+            candidates.iter().copied(),
+            1.0,
+            1.3,
+            KernelKind::CubicSpline,
+            1.0,
+            f64::INFINITY,
+        )
+        .unwrap()
+    };
+    let h1 = h_of(1.0);
     for s in [0.5, 0.8, 1.25] {
-        let h =
-            density_smoothing_length::<D>(&lattice::<D>(s), 1.0, 1.3, KernelKind::CubicSpline, 1.0)
-                .unwrap();
+        let h = h_of(s);
         assert!(
             (h / h1 - s).abs() < 1e-10,
             "{}D: h({s})/h(1) = {}",
@@ -152,4 +166,77 @@ fn figure_3_the_prime_space_follows_the_tension_more_closely_than_the_ellipse() 
         off("prime-space"),
         off("ellipse")
     );
+}
+
+/// The smoothing lengths of `gray-monaghan-sph` with `smoothing_length = mode` on a block
+/// (Δx = 0.1, h = 1.3Δx) scaled uniformly by s about the origin, x = s X with ρ = ρ0 s^(−d),
+/// after one rate evaluation; and whether the lists then hold every pair within the
+/// support of its kernel.
+fn scaled_block_lengths<D: Dim>(mode: &str, s: f64) -> (Vec<f64>, bool) {
+    let max = vec![0.8; D::N];
+    let key = format!("smoothing_length = \"{mode}\"");
+    let case = block_case(&max, "hypoelastic", "gray-monaghan-sph", &key);
+    let mut m: GrayMonaghan<D> = build_method(&case).unwrap();
+    let mut y = m.initial_state();
+    for (i, &x0) in m.reference().iter().enumerate() {
+        y.u[i] = x0 * (s - 1.0);
+        y.rho[i] *= s.powi(-(D::N as i32));
+    }
+    rates(&mut m, &y);
+    let core = &m.core;
+    let n = y.u.len();
+    let h: Vec<f64> = (0..n).map(|i| core.h(i)).collect();
+    let complete = (0..n).all(|i| {
+        let listed = core.neighbours().neighbours(i);
+        (0..n).filter(|&j| j != i).all(|j| {
+            let r = D::norm2(core.x[i] - core.x[j]).sqrt();
+            r >= core.pair_kernel(i, j).support() || listed.contains(&(j as u32))
+        })
+    });
+    (h, complete)
+}
+
+fn adaptive_lengths_scale_with_the_block<D: Dim>() {
+    // x = s X scales every kernel sum of eqs 60–61 as ρ does, at every particle (the faces
+    // and corners too), so h_i(s) = s h_i(1) wherever h stays below its cap of 2h; the
+    // fixed point stops at 1e-12 of h, and the bound leaves 100 times that. Eq 62 gives
+    // h(s) = s h from ρ alone. Expanding by 1.3 moves every support past the lists built
+    // for s = 1, so the lists must grow with h.
+    let cap = H_CAP * 0.13;
+    for mode in ["density", "continuity"] {
+        let (h1, complete) = scaled_block_lengths::<D>(mode, 1.0);
+        assert!(complete, "{}D {mode}: lists short at s = 1", D::N);
+        if mode == "continuity" {
+            assert!(h1.iter().all(|&h| (h - 0.13).abs() < 1e-15));
+        }
+        for s in [0.8, 1.3] {
+            let (h, complete) = scaled_block_lengths::<D>(mode, s);
+            assert!(complete, "{}D {mode}: lists short at s = {s}", D::N);
+            let mut checked = 0;
+            for (i, (&hs, &h1)) in h.iter().zip(&h1).enumerate() {
+                if h1 * s < cap * (1.0 - 1e-9) {
+                    checked += 1;
+                    let ratio = hs / h1;
+                    assert!(
+                        (ratio - s).abs() < 1e-10,
+                        "{}D {mode}: h_{i}({s})/h_{i}(1) = {ratio}",
+                        D::N
+                    );
+                } else {
+                    assert!(hs <= cap * (1.0 + 1e-12), "{}D {mode}: h_{i} = {hs}", D::N);
+                }
+            }
+            assert!(
+                checked > h.len() / 2,
+                "{}D {mode}: {checked} uncapped",
+                D::N
+            );
+        }
+    }
+}
+
+#[test]
+fn adaptive_smoothing_lengths_scale_with_a_uniformly_scaled_block() {
+    adaptive_lengths_scale_with_the_block::<D2>();
+    adaptive_lengths_scale_with_the_block::<D3>();
 }

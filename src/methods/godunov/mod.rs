@@ -11,9 +11,9 @@ pub use system::Godunov;
 #[cfg(feature = "gpu")]
 use crate::methods::cores::family::GpuBuild;
 use crate::methods::cores::family::{CpuBuild, Feature, MethodFamily, Plan, cfl_step};
-use crate::methods::cores::ul::FreeSurface;
 #[cfg(feature = "gpu")]
 use crate::methods::cores::ul::gpu::GpuUl;
+use crate::methods::cores::ul::{FreeSurface, SmoothingLength};
 
 use crate::case::Case;
 use crate::core::check::Problem;
@@ -29,13 +29,16 @@ pub struct GodunovSpec {
     /// The traction-free treatment of the surface (none by default).
     #[serde(default)]
     pub free_surface: FreeSurface,
+    /// The smoothing length, fixed (the default) or adaptive (eqs 60–62).
+    #[serde(default)]
+    pub smoothing_length: SmoothingLength,
 }
 
 impl MethodFamily for GodunovSpec {
     const DESCRIPTION: &'static str = "Godunov SPH (Parshikov–Medin; seed 000 §5.2): \
         updated-Lagrangian, neighbours rebuilt every stage, acoustic Riemann solutions in \
         the continuity and momentum equations, no artificial viscosity";
-    const KEYS: &'static [&'static str] = &["free_surface"];
+    const KEYS: &'static [&'static str] = &["free_surface", "smoothing_length"];
     const FEATURES: &'static [Feature] = &[Feature::Contact, Feature::RatePlasticity];
     const NEIGHBOURS: Rebuild = Rebuild::OnDrift;
     #[cfg(feature = "gpu")]
@@ -53,7 +56,7 @@ impl MethodFamily for GodunovSpec {
             cfl_step: cfl_step(&mat),
             rates: format!(
                 "{}, Ṡ, Ḟ, and ρ̇ and a from the pairs' acoustic Riemann solutions",
-                super::cores::ul::plan_rebuild(case, gpu)
+                super::cores::ul::plan_rebuild(case, gpu, self.smoothing_length)
             ),
             checked: "ρ",
             check_note: String::new(),
@@ -61,6 +64,7 @@ impl MethodFamily for GodunovSpec {
                 Some("artificial viscosity (the Riemann solver dissipates)"),
                 (self.free_surface == FreeSurface::None)
                     .then_some("traction-free surface (free_surface)"),
+                super::cores::ul::left_out_smoothing(self.smoothing_length),
             ]
             .into_iter()
             .flatten()
@@ -84,6 +88,10 @@ impl MethodFamily for GodunovSpec {
         counts: &crate::gpu::memory::Counts,
     ) -> Option<crate::gpu::memory::DeviceMemory> {
         Some(GpuUl::<D>::memory(case, &gpu::scheme(self), counts))
+    }
+
+    fn gpu_refusal(&self, _case: &Case) -> Option<&'static str> {
+        super::cores::ul::smoothing_gpu_refusal(self.smoothing_length)
     }
 
     fn warning(&self, _case: &Case) -> Option<String> {

@@ -15,7 +15,7 @@ use crate::core::neighbour::Rebuild;
 use crate::core::tensor::Dim;
 use crate::methods::cores::family::MethodFamily;
 use crate::methods::cores::ul::{
-    FreeSurface, PairRates, PairScheme, PairSums, UlCore, UlSph, UlState,
+    CoreKeys, PairRates, PairScheme, PairSums, UlCore, UlSph, UlState,
 };
 
 /// The Godunov SPH system on the CPU (f64, rayon).
@@ -70,8 +70,11 @@ impl<D: Dim> PairScheme<D> for Scheme {
         Ok(Self)
     }
 
-    fn free_surface(spec: &GodunovSpec) -> FreeSurface {
-        spec.free_surface
+    fn core_keys(spec: &GodunovSpec) -> CoreKeys {
+        CoreKeys {
+            free_surface: spec.free_surface,
+            smoothing_length: spec.smoothing_length,
+        }
     }
 
     fn particle(&self, core: &UlCore<D>, i: usize, y: &UlState<D>) -> Particle<D> {
@@ -87,21 +90,21 @@ impl<D: Dim> PairScheme<D> for Scheme {
 
     /// Steps 3–7 for particle i.
     fn rates_of(&self, sums: &PairSums<D, Particle<D>>, i: usize) -> PairRates<D> {
-        let (core, y) = (sums.core, sums.y);
+        let y = sums.y;
         let pi = sums.particles[i];
         let (vi, rho_i) = (y.v[i], y.rho[i]);
         let mut l = D::zero_t();
         let mut rho_dot = 0.0;
         let mut a = D::zero();
         let mut jump = D::zero();
-        for (j, pj, x_ij, r) in sums.pairs(i) {
-            if r <= 1e-12 * core.kernel.h {
+        for (j, pj, x_ij, r, kernel) in sums.pairs(i) {
+            if r <= 1e-12 * kernel.h {
                 // Coincident particles: no axis for the Riemann problem, and ∇W_ij = 0.
                 continue;
             }
             let n = x_ij * (1.0 / r);
-            let dw = core.kernel.dw_dr(r);
-            let g = pi.correction.gradient(x_ij, core.kernel.w(r), n * dw);
+            let dw = kernel.dw_dr(r);
+            let g = pi.correction.gradient(x_ij, kernel.w(r), n * dw);
             l += D::outer(y.v[j] - vi, g) * pj.vol; // eq 105
             // Continuity with the Riemann velocity (eqs 131, 133).
             let (u_i, u_j) = (D::dot(vi, n), D::dot(y.v[j], n));

@@ -14,9 +14,9 @@ use crate::methods::cores::family::GpuBuild;
 use crate::methods::cores::family::{
     CpuBuild, Feature, MethodFamily, Plan, cfl_step, check_viscosity, left_out_viscosity,
 };
-use crate::methods::cores::ul::FreeSurface;
 #[cfg(feature = "gpu")]
 use crate::methods::cores::ul::gpu::GpuUl;
+use crate::methods::cores::ul::{FreeSurface, SmoothingLength};
 
 use crate::case::Case;
 use crate::core::check::{Problem, fail, non_negative};
@@ -50,6 +50,9 @@ pub struct GrayMonaghanSpec {
     /// The traction-free treatment of the surface (none by default).
     #[serde(default)]
     pub free_surface: FreeSurface,
+    /// The smoothing length, fixed (the default) or adaptive (eqs 60–62).
+    #[serde(default)]
+    pub smoothing_length: SmoothingLength,
 }
 
 impl MethodFamily for GrayMonaghanSpec {
@@ -61,6 +64,7 @@ impl MethodFamily for GrayMonaghanSpec {
         "artificial_stress",
         "xsph",
         "free_surface",
+        "smoothing_length",
     ];
     const FEATURES: &'static [Feature] = &[Feature::Contact, Feature::RatePlasticity];
     const NEIGHBOURS: Rebuild = Rebuild::OnDrift;
@@ -105,6 +109,7 @@ impl MethodFamily for GrayMonaghanSpec {
         if self.free_surface == FreeSurface::None {
             left_out.push("traction-free surface (free_surface)");
         }
+        left_out.extend(super::cores::ul::left_out_smoothing(self.smoothing_length));
         Plan {
             once: "nothing but W(Δp): the neighbour lists follow the particles (see the rates)"
                 .into(),
@@ -112,7 +117,7 @@ impl MethodFamily for GrayMonaghanSpec {
             cfl_step: cfl_step(&mat),
             rates: format!(
                 "{}, ρ̇, Ṡ, Ḟ, a, ẋ",
-                super::cores::ul::plan_rebuild(case, gpu)
+                super::cores::ul::plan_rebuild(case, gpu, self.smoothing_length)
             ),
             checked: "ρ",
             check_note: String::new(),
@@ -140,6 +145,10 @@ impl MethodFamily for GrayMonaghanSpec {
         counts: &crate::gpu::memory::Counts,
     ) -> Option<crate::gpu::memory::DeviceMemory> {
         Some(GpuUl::<D>::memory(case, &gpu::scheme(case, self), counts))
+    }
+
+    fn gpu_refusal(&self, _case: &Case) -> Option<&'static str> {
+        super::cores::ul::smoothing_gpu_refusal(self.smoothing_length)
     }
 
     fn warning(&self, _case: &Case) -> Option<String> {

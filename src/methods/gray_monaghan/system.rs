@@ -13,7 +13,7 @@ use crate::core::neighbour::Rebuild;
 use crate::core::tensor::Dim;
 use crate::methods::cores::family::MethodFamily;
 use crate::methods::cores::ul::{
-    FreeSurface, PairRates, PairScheme, PairSums, UlCore, UlSph, UlState,
+    CoreKeys, PairRates, PairScheme, PairSums, UlCore, UlSph, UlState,
 };
 use crate::physics::plasticity::{symmetric_eigen, to_mat3};
 use crate::physics::viscosity::ArtificialViscosity;
@@ -108,9 +108,9 @@ pub fn principal_stresses<D: Dim>(sigma: D::T) -> ([f64; 3], [D::V; 3]) {
 /// The pair sums of Algorithm 1 with the case's constants.
 pub struct Scheme {
     av: Option<ArtificialViscosity>,
-    /// The artificial stress with W(Δp), Δp the particle spacing (eq 118's
-    /// f_ij = W_ij/W(Δp)).
-    stress: Option<(ArtificialStress, f64)>,
+    /// The artificial stress with W(Δp) of the case's kernel, Δp the particle spacing
+    /// (eq 118's f_ij = W_ij/W(Δp)), and that kernel's σ_d/h^d.
+    stress: Option<(ArtificialStress, f64, f64)>,
     xsph: Option<f64>,
 }
 
@@ -125,13 +125,16 @@ impl<D: Dim> PairScheme<D> for Scheme {
             av: spec.artificial_viscosity,
             stress: spec
                 .artificial_stress
-                .map(|s| (s, core.kernel.w(case.spacing))),
+                .map(|s| (s, core.kernel.w(case.spacing), core.kernel.scale())),
             xsph: spec.xsph,
         })
     }
 
-    fn free_surface(spec: &GrayMonaghanSpec) -> FreeSurface {
-        spec.free_surface
+    fn core_keys(spec: &GrayMonaghanSpec) -> CoreKeys {
+        CoreKeys {
+            free_surface: spec.free_surface,
+            smoothing_length: spec.smoothing_length,
+        }
     }
 
     fn particle(&self, core: &UlCore<D>, i: usize, y: &UlState<D>) -> Particle<D> {
@@ -139,7 +142,7 @@ impl<D: Dim> PairScheme<D> for Scheme {
         let sigma = core.cauchy(i, y); // σ = S − pI
         Particle {
             sigma_rho2: sigma * (1.0 / (rho * rho)),
-            r: self.stress.map_or(D::zero_t(), |(s, _)| {
+            r: self.stress.map_or(D::zero_t(), |(s, _, _)| {
                 artificial_stress::<D>(sigma, rho, s.epsilon)
             }),
             vol: core.mass[i] / rho,
@@ -150,22 +153,23 @@ impl<D: Dim> PairScheme<D> for Scheme {
     /// Steps 4–11 for particle i.
     fn rates_of(&self, sums: &PairSums<D, Particle<D>>, i: usize) -> PairRates<D> {
         let (core, y) = (sums.core, sums.y);
-        let kernel = &core.kernel;
-        let h = kernel.h;
         let pi = sums.particles[i];
         let (vi, rho_i) = (y.v[i], y.rho[i]);
         let mut l = D::zero_t();
         let mut a = D::zero();
         let mut xsph = D::zero();
         let mut viscous = D::zero();
-        for (j, pj, x_ij, r) in sums.pairs(i) {
+        for (j, pj, x_ij, r, kernel) in sums.pairs(i) {
+            let h = kernel.h;
             let grad = kernel.grad::<D>(x_ij);
             let w = kernel.w(r);
             let v_ji = y.v[j] - vi;
             l += D::outer(v_ji, pi.correction.gradient(x_ij, w, grad)) * pj.vol; // eq 105
             let mut t = pi.sigma_rho2 + pj.sigma_rho2;
-            if let Some((s, w_dp)) = self.stress {
-                t += (pi.r + pj.r) * power(w / w_dp, s.n); // eq 118
+            if let Some((s, w_dp, scale)) = self.stress {
+                // eq 118; an adaptive h_ij scales Δp with it: f_ij = w(r/h_ij)/w(Δp/h).
+                let f = w / w_dp * (scale / kernel.scale());
+                t += (pi.r + pj.r) * power(f, s.n);
             }
             a += t * grad * core.mass[j];
             let rho_bar = 0.5 * (rho_i + y.rho[j]);

@@ -21,6 +21,7 @@ use crate::core::correction::{CorrectionKind, Rkpm};
 use crate::core::integrate::OdeSystem;
 use crate::core::kernel::Kernel;
 use crate::core::neighbour::{Csr, Neighbours, Rebuild};
+use crate::core::neighbourhood::{continuity_smoothing_length, density_smoothing_length};
 use crate::core::parallel::{MIN_CHUNK, particle_state};
 use crate::core::sum::Exact;
 use crate::core::tensor::Dim;
@@ -119,14 +120,18 @@ pub struct PairSums<'a, D: Dim, P> {
 }
 
 impl<D: Dim, P> PairSums<'_, D, P> {
-    /// The neighbours j of particle i with their records, x_ij = x_i − x_j and
-    /// r_ij = |x_ij|.
-    pub fn pairs(&self, i: usize) -> impl Iterator<Item = (usize, &Corrected<D, P>, D::V, f64)> {
+    /// The neighbours j of particle i with their records, x_ij = x_i − x_j, r_ij = |x_ij|
+    /// and the pair's kernel ([`UlCore::pair_kernel`]).
+    pub fn pairs(
+        &self,
+        i: usize,
+    ) -> impl Iterator<Item = (usize, &Corrected<D, P>, D::V, f64, Kernel)> {
         let (core, x_i) = (self.core, self.core.x[i]);
         core.neighbours().neighbours(i).iter().map(move |&j| {
             let j = j as usize;
             let x_ij = x_i - core.x[j];
-            (j, &self.particles[j], x_ij, D::norm2(x_ij).sqrt())
+            let kernel = core.pair_kernel(i, j);
+            (j, &self.particles[j], x_ij, D::norm2(x_ij).sqrt(), kernel)
         })
     }
 }
@@ -156,6 +161,51 @@ pub fn free_surface_warning(free_surface: FreeSurface) -> Option<String> {
             .to_string()
     })
 }
+
+/// The `[method]` keys of an updated-Lagrangian strong form that the core reads.
+#[derive(Clone, Copy, Debug)]
+pub struct CoreKeys {
+    pub free_surface: FreeSurface,
+    pub smoothing_length: SmoothingLength,
+}
+
+/// The smoothing length of the updated-Lagrangian strong forms (seed 000 §3.2), a
+/// `[method]` key. An adaptive one gives each particle its own h_i, and each pair the
+/// kernel at h_ij = ½(h_i + h_j), so that ∇W_ij stays antisymmetric and the pair forces
+/// conserve linear momentum. It is capped at [`H_CAP`] times the case's h.
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum SmoothingLength {
+    /// The case's h for every particle (the paper's runs).
+    #[default]
+    Fixed,
+    /// eqs 60–61: h_i = η_i (m_i/⟨ρ⟩_i)^(1/d) with the kernel-sum density ⟨ρ⟩_i, by
+    /// fixed-point iteration ([`density_smoothing_length`]) on the current positions, from
+    /// the continuity estimate; η_i = h (ρ0/m_i)^(1/d) makes it the case's h on a lattice
+    /// whose kernel sums give ρ0.
+    Density,
+    /// eq 62: Mohammadi's h_i = h (ρ0/ρ_i)^(1/d) with ρ_i of the continuity equation.
+    Continuity,
+}
+
+/// The output field of an adaptive smoothing length: h_i of the last rate evaluation.
+pub const SMOOTHING_LENGTH: &str = "smoothing_length";
+
+/// What a UL method leaves out with a fixed smoothing length, as `--explain` lists it.
+pub fn left_out_smoothing(smoothing_length: SmoothingLength) -> Option<&'static str> {
+    (smoothing_length == SmoothingLength::Fixed)
+        .then_some("adaptive smoothing length (smoothing_length)")
+}
+
+/// Why a UL method has no GPU engine for its smoothing length.
+pub fn smoothing_gpu_refusal(smoothing_length: SmoothingLength) -> Option<&'static str> {
+    (smoothing_length != SmoothingLength::Fixed)
+        .then_some("runs an adaptive smoothing_length on the CPU only")
+}
+
+/// The largest adaptive smoothing length, in units of the case's h: a particle that has
+/// lost its neighbours would otherwise grow without bound under eqs 60–61.
+pub const H_CAP: f64 = 2.0;
 
 /// A particle is on the surface where its Shepard sum S_i = Σ_j V_j W_ij (itself included)
 /// is below this: 0.70–0.84 on a lattice's face and 0.95–0.99 one row in, for h/Δx from 1
@@ -207,9 +257,9 @@ pub fn plan_state(case: &Case) -> String {
 /// The start of a UL method's rate evaluation as `--explain` prints it: the rebuild (on
 /// drift on both backends, decided on the device on the GPU), per body with contact, and
 /// the gradients of L.
-pub fn plan_rebuild(case: &Case, gpu: bool) -> String {
+pub fn plan_rebuild(case: &Case, gpu: bool, smoothing_length: SmoothingLength) -> String {
     format!(
-        "{}{}, then one gather: L ({})",
+        "{}{}{}, then one gather: L ({})",
         if gpu {
             "device cell list from x = X + u, rebuilt on drift (a device check sets the \
              build's indirect dispatches)"
@@ -220,6 +270,15 @@ pub fn plan_rebuild(case: &Case, gpu: bool) -> String {
             " (per body)"
         } else {
             ""
+        },
+        match smoothing_length {
+            SmoothingLength::Fixed => "",
+            SmoothingLength::Density =>
+                ", h_i = η (m_i/⟨ρ⟩_i)^(1/d) (eqs 60–61, Newton steps to the fixed point; the lists \
+                 grow with it), pair kernels at ½(h_i + h_j)",
+            SmoothingLength::Continuity =>
+                ", h_i = h (ρ0/ρ_i)^(1/d) (eq 62; the lists grow with it), pair kernels at \
+                 ½(h_i + h_j)",
         },
         match case.method.correction {
             CorrectionKind::RandlesLibersky => "Randles–Libersky-corrected gradients",
@@ -247,6 +306,11 @@ pub struct UlCore<D: Dim> {
     pub correction: CorrectionKind,
     /// The traction-free treatment of the surface.
     pub free_surface: FreeSurface,
+    /// The smoothing length: fixed or adaptive.
+    pub smoothing_length: SmoothingLength,
+    /// h_i of every particle at the last rate evaluation with an adaptive smoothing
+    /// length (empty with a fixed one).
+    h: Vec<f64>,
     neighbours: Neighbours,
     /// Current positions x = X + u of the last rate evaluation.
     pub x: Vec<D::V>,
@@ -272,6 +336,8 @@ impl<D: Dim> UlCore<D> {
             kernel: r.kernel,
             correction: case.method.correction,
             free_surface: FreeSurface::None,
+            smoothing_length: SmoothingLength::Fixed,
+            h: Vec::new(),
             neighbours,
         })
     }
@@ -284,6 +350,27 @@ impl<D: Dim> UlCore<D> {
     /// The neighbour lists of the last rate evaluation.
     pub fn neighbours(&self) -> &Csr {
         self.neighbours.lists()
+    }
+
+    /// The smoothing length h_i of particle i at the last rate evaluation.
+    pub fn h(&self, i: usize) -> f64 {
+        self.h.get(i).copied().unwrap_or(self.kernel.h)
+    }
+
+    /// The kernel of the pair (i, j): at h_ij = ½(h_i + h_j) with an adaptive smoothing
+    /// length, the case's kernel with a fixed one.
+    pub fn pair_kernel(&self, i: usize, j: usize) -> Kernel {
+        if self.h.is_empty() {
+            return self.kernel;
+        }
+        Kernel::new(self.kernel.kind, 0.5 * (self.h[i] + self.h[j]), D::N)
+    }
+
+    /// eq 62 at density ρ, capped at [`H_CAP`] h: the continuity smoothing length, and the
+    /// start of the fixed point of eqs 60–61.
+    fn continuity_h(&self, rho: f64) -> f64 {
+        let h = self.kernel.h;
+        continuity_smoothing_length(h, self.material.rho0, rho, D::N).min(H_CAP * h)
     }
 
     /// The Cauchy stress σ_i = S_i − p(ρ_i) I of the state, with σ·n = 0 projected at a
@@ -306,12 +393,14 @@ impl<D: Dim> UlCore<D> {
     /// Σ_j V_j W_ij below [`SURFACE_SHEPARD`] and ∇S_i = Σ_j V_j ∇W_ij (V_j = m_j/ρ_j);
     /// None inside.
     pub fn surface_normal(&self, i: usize, rho: &[f64]) -> Option<D::V> {
-        let (mut s, mut g) = (self.mass[i] / rho[i] * self.kernel.w(0.0), D::zero());
+        let own = self.pair_kernel(i, i).w(0.0);
+        let (mut s, mut g) = (self.mass[i] / rho[i] * own, D::zero());
         for &j in self.neighbours().neighbours(i) {
             let j = j as usize;
             let (x_ij, v) = (self.x[i] - self.x[j], self.mass[j] / rho[j]);
-            s += v * self.kernel.w(D::norm2(x_ij).sqrt());
-            g += self.kernel.grad::<D>(x_ij) * v;
+            let kernel = self.pair_kernel(i, j);
+            s += v * kernel.w(D::norm2(x_ij).sqrt());
+            g += kernel.grad::<D>(x_ij) * v;
         }
         let norm = D::norm2(g).sqrt();
         (s < SURFACE_SHEPARD && norm > 0.0).then(|| g * (-1.0 / norm))
@@ -321,14 +410,17 @@ impl<D: Dim> UlCore<D> {
     /// V_j = m_j/ρ_j.
     pub fn correction_at(&self, i: usize, rho: &[f64]) -> Correction<D> {
         let volume = |j: usize| self.mass[j] / rho[j];
+        // (x_ij, V_j, W_ij, ∇W_ij) of every neighbour.
         let pairs = self.neighbours().neighbours(i).iter().map(|&j| {
             let j = j as usize;
-            (self.x[i] - self.x[j], volume(j))
+            let (x_ij, kernel) = (self.x[i] - self.x[j], self.pair_kernel(i, j));
+            let w = kernel.w(D::norm2(x_ij).sqrt());
+            (x_ij, volume(j), w, kernel.grad::<D>(x_ij))
         });
         match self.correction {
             CorrectionKind::RandlesLibersky => {
-                let a = pairs.fold(D::zero_t(), |a, (x_ij, v)| {
-                    a + D::outer(-x_ij, self.kernel.grad::<D>(x_ij)) * v
+                let a = pairs.fold(D::zero_t(), |a, (x_ij, v, _, grad)| {
+                    a + D::outer(-x_ij, grad) * v
                 });
                 let det = D::det(a);
                 if det.is_nan() || det.abs() <= 1e-10 {
@@ -342,8 +434,9 @@ impl<D: Dim> UlCore<D> {
                 }
             }
             CorrectionKind::Rkpm => {
-                let own = std::iter::once((D::zero(), volume(i)));
-                match Rkpm::at(own.chain(pairs), &self.kernel) {
+                let w_ii = self.pair_kernel(i, i).w(0.0);
+                let own = std::iter::once((D::zero(), volume(i), w_ii, D::zero()));
+                match Rkpm::weighted(own.chain(pairs)) {
                     Some(rkpm) => Correction::Reproducing(rkpm),
                     None => Correction::Singular {
                         quantity: "RKPM moment matrix (neighbours that do not span the linear basis)",
@@ -368,7 +461,8 @@ impl<D: Dim> UlCore<D> {
         })
     }
 
-    /// x = X + u and the lists; the first particle with ρ ≤ 0 fails.
+    /// x = X + u, the smoothing lengths and the lists; the first particle with ρ ≤ 0
+    /// fails.
     fn positions(&mut self, y: &UlState<D>) -> Result<(), BlowUp> {
         self.x
             .par_iter_mut()
@@ -376,7 +470,6 @@ impl<D: Dim> UlCore<D> {
             .zip(&self.x0)
             .zip(&y.u)
             .for_each(|((x, &x0), &u)| *x = x0 + u);
-        self.neighbours.update::<D>(&self.x);
         if let Some(i) = y
             .rho
             .par_iter()
@@ -384,7 +477,68 @@ impl<D: Dim> UlCore<D> {
         {
             return Err(BlowUp::at::<D>(&self.x0, i, "density", y.rho[i]));
         }
+        let support = self.kernel.kind.support_factor();
+        match self.smoothing_length {
+            SmoothingLength::Fixed => {
+                self.neighbours.update::<D>(&self.x);
+            }
+            SmoothingLength::Continuity => {
+                self.h = y.rho.iter().map(|&rho| self.continuity_h(rho)).collect();
+                let need: Vec<f64> = self.h.iter().map(|h| support * h).collect();
+                self.neighbours.update_reaching::<D>(&self.x, &need);
+            }
+            SmoothingLength::Density => self.density_lengths(y)?,
+        }
         Ok(())
+    }
+
+    /// eqs 60–61 at every particle over the lists, each from its continuity estimate; the
+    /// lists are rebuilt until they reach every h_i's support (from the last evaluation's
+    /// h, a pass or two when h grows past the lists' headroom).
+    fn density_lengths(&mut self, y: &UlState<D>) -> Result<(), BlowUp> {
+        let (kind, h0, rho0) = (self.kernel.kind, self.kernel.h, self.material.rho0);
+        let support = kind.support_factor();
+        let d = D::N as f64;
+        let mut need: Vec<f64> = if self.h.is_empty() {
+            y.rho
+                .iter()
+                .map(|&rho| support * self.continuity_h(rho))
+                .collect()
+        } else {
+            self.h.iter().map(|h| support * h).collect()
+        };
+        for _ in 0..8 {
+            self.neighbours.update_reaching::<D>(&self.x, &need);
+            let core = &*self;
+            let h: Vec<Option<f64>> = (0..core.x.len())
+                .into_par_iter()
+                .with_min_len(MIN_CHUNK)
+                .map(|i| {
+                    let (x_i, m_i) = (core.x[i], core.mass[i]);
+                    let others = core.neighbours().neighbours(i).iter();
+                    let candidates = std::iter::once((D::zero(), m_i))
+                        .chain(others.map(|&j| (x_i - core.x[j as usize], core.mass[j as usize])));
+                    let eta = h0 * (rho0 / m_i).powf(1.0 / d);
+                    let start = core.continuity_h(y.rho[i]);
+                    density_smoothing_length::<D>(candidates, m_i, eta, kind, start, H_CAP * h0)
+                })
+                .collect();
+            if let Some(i) = h.iter().position(Option::is_none) {
+                let quantity = "smoothing length (eqs 60–61 found no fixed point)";
+                return Err(BlowUp::at::<D>(&self.x0, i, quantity, f64::NAN));
+            }
+            self.h = h.into_iter().flatten().collect();
+            need = self.h.iter().map(|h| support * h).collect();
+            let covered = self.neighbours.covered();
+            if need.iter().zip(covered).all(|(n, c)| n <= c) {
+                return Ok(());
+            }
+        }
+        let i = (need.iter().zip(self.neighbours.covered()))
+            .position(|(n, c)| n > c)
+            .unwrap_or(0);
+        let quantity = "smoothing length (eqs 60–61: its support outgrew the lists 8 times)";
+        Err(BlowUp::at::<D>(&self.x0, i, quantity, need[i] / support))
     }
 
     /// Velocity components prescribed over the step: ẋ takes them (a scheme's XSPH term is left out)
@@ -417,8 +571,8 @@ pub trait PairScheme<D: Dim>: Sized + Send + Sync {
     /// The scheme of a method's spec on the case's core.
     fn new(case: &Case, spec: &Self::Spec, core: &UlCore<D>) -> Result<Self, CaseError>;
 
-    /// The spec's traction-free treatment of the surface.
-    fn free_surface(spec: &Self::Spec) -> FreeSurface;
+    /// The spec's keys that the core reads.
+    fn core_keys(spec: &Self::Spec) -> CoreKeys;
 
     /// The quantities of particle i at state y (the core's positions and lists are
     /// current), besides the correction of its L.
@@ -533,7 +687,8 @@ impl<D: Dim, S: PairScheme<D>> Build<D> for UlSph<D, S> {
 
     fn build(case: &Case, spec: &S::Spec, reference: Reference<D>) -> Result<Self, CaseError> {
         let mut core = UlCore::new(case, reference, S::REBUILD)?;
-        core.free_surface = S::free_surface(spec);
+        let keys = S::core_keys(spec);
+        (core.free_surface, core.smoothing_length) = (keys.free_surface, keys.smoothing_length);
         let scheme = S::new(case, spec, &core)?;
         Ok(Self {
             core,
@@ -578,14 +733,21 @@ impl<D: Dim, S: PairScheme<D>> Method<D> for UlSph<D, S> {
 
     fn snapshot<'a>(&'a self, y: &UlState<D>) -> Snapshot<'a, D> {
         let core = &self.core;
-        snapshot(
+        let mut snapshot = snapshot(
             &core.material,
             &core.x0,
             &core.mass,
             &core.body,
             &core.vol0,
             y.clone(),
-        )
+        );
+        if !core.h.is_empty() {
+            snapshot.extra.push(ScalarField {
+                name: SMOOTHING_LENGTH,
+                values: core.h.clone(),
+            });
+        }
+        snapshot
     }
 
     fn neighbour_seconds(&self) -> Option<f64> {
