@@ -9,7 +9,7 @@
 // The core's part, and ρ − ρ0, S in; σ, p, Z = ρc out.
 // - include particle_core
 // - y: 1 tensor per item
-// - kin: 2 scalars + 1 tensor per item
+// - kin stores: 2 scalars + 1 tensor per item
 @compute @workgroup_size(256)
 fn particle(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let row = index(gid, nwg);
@@ -52,16 +52,17 @@ fn rates(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
         let j = ids[p];
         let x_ij = x_i - x_of(j);
         let r = length(x_ij);
-        if r <= 1e-6 * KERNEL_H {
+        let h = h_pair(i, j);
+        if r <= 1e-6 * h {
             // Coincident particles: no axis for the Riemann problem, and ∇W_ij = 0.
             continue;
         }
         let n = x_ij * (1.0 / r);
-        let dw = kernel_dw(r);
+        let dw = kernel_dw_at(r, h);
         let v_j = v_of(j);
         let vol_j = kin[KVOL_OFF + j];
         let z_j = kin[KC_OFF + j];
-        l += outer(v_j - v_i, corrected_grad(k, x_ij, kernel_w(r), n * dw)) * vol_j;
+        l += outer(v_j - v_i, corrected_grad(k, x_ij, kernel_w_at(r, h), n * dw)) * vol_j;
         let u_i = dot(v_i, n);
         let u_j = dot(v_j, n);
         let u_star = (z_i * u_i + z_j * u_j - p_i + kin[KP_OFF + j]) / (z_i + z_j);

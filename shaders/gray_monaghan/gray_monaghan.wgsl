@@ -23,8 +23,8 @@ fn artificial_stress(sigma: matd, rho: f32) -> matd {
 // The core's part, and ρ − ρ0, S in; σ/ρ², c (and R) out.
 // - include particle_core
 // - y: 1 tensor per item
-// - kin: 1 scalar + 1 tensor per item
-// - kin: 1 tensor per item, when AS
+// - kin stores: 1 scalar + 1 tensor per item
+// - kin stores: 1 tensor per item, when AS
 @compute @workgroup_size(256)
 fn particle(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let row = index(gid, nwg);
@@ -74,19 +74,22 @@ fn rates(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
         let j = ids[p];
         let x_ij = x_i - x_of(j);
         let r = length(x_ij);
-        let grad = kernel_grad(x_ij);
-        let w = kernel_w(r);
+        let h = h_pair(i, j);
+        let grad = kernel_grad_at(x_ij, h);
+        let w = kernel_w_at(r, h);
         let v_ji = v_of(j) - v_i;
         let m_j = mass_of(j);
         l += outer(v_ji, corrected_grad(k, x_ij, w, grad)) * kin[KVOL_OFF + j];
         var t = t_i + mload_kin(KT_OFF + DIM * DIM * j);
         if AS == 1u && w > 0.0 {
-            t += (r_i + mload_kin(KR_OFF + DIM * DIM * j)) * pow(w / AS_W_DP, AS_N);
+            // An adaptive h_ij scales Δp with it: f_ij = w(r/h_ij)/w(Δp/h).
+            let f = w / AS_W_DP * (KERNEL_SCALE / kernel_scale_at(h));
+            t += (r_i + mload_kin(KR_OFF + DIM * DIM * j)) * pow(f, AS_N);
         }
         a += t * grad * m_j;
         let rho_bar = 0.5 * (rho_i + rho_of(j));
         if AV == 1u {
-            let pi = monaghan_pi(x_ij, -v_ji, 0.5 * (c_i + kin[KC_OFF + j]), rho_bar);
+            let pi = monaghan_pi_at(x_ij, -v_ji, 0.5 * (c_i + kin[KC_OFF + j]), rho_bar, h);
             a -= grad * (m_j * pi);
         }
         if XSPH == 1u {

@@ -7,13 +7,15 @@
 // stress; ρ as its deviation and F as H, as in tlsph.wgsl, to keep their digits in f32);
 // x = X + u of the last positions
 // pass (DIM per particle), which the cell list reads; the scheme's per-particle quantities
-// kin = [T | R | AIT | RK | VOL | C | P | POW] (T: σ/ρ² for Gray–Monaghan, σ for Godunov; R:
-// artificial stress; AIT: A⁻ᵀ of the linear correction; RK: C and ∂_k C of RKPM; VOL: m/ρ; C: sound speed or impedance;
+// kin = [T | R | AIT | RK | H | VOL | C | P | POW] (T: σ/ρ² for Gray–Monaghan, σ for Godunov; R:
+// artificial stress; AIT: A⁻ᵀ of the linear correction; RK: C and ∂_k C of RKPM; H: an
+// adaptive smoothing length; VOL: m/ρ; C: sound speed or impedance;
 // P: pressure; POW: power of supports and loads); the CSR lists offsets/ids of the cell
 // list, rebuilt from x before every rate evaluation. The `particle` and `rates` passes run
 // a part of the rows at a time (part.wgsl), each part with its own ids, counted from its
 // first pair; `offsets` counts over every particle. Scene constants: N, DIM, RHO0, MU,
-// BULK, CORRECTION, the kernel's, and the field offsets of methods::cores::ul::gpu::Layout.
+// BULK, CORRECTION, ADAPTIVE_H and H_CAP, the kernel's, and the field offsets of
+// methods::cores::ul::gpu::Layout.
 
 @group(0) @binding(0) var<storage, read> offsets: array<u32>;
 @group(0) @binding(1) var<storage, read> ids: array<u32>;
@@ -63,6 +65,98 @@ fn mass_of(i: u32) -> f32 {
     return RHO0 * vol_of(i);
 }
 
+// The smoothing length h_i: KERNEL_H, or the adaptive one of the `smoothing` pass.
+fn h_of(i: u32) -> f32 {
+    if ADAPTIVE_H == ADAPTIVE_H_FIXED {
+        return KERNEL_H;
+    }
+    return kin[KH_OFF + i];
+}
+
+// The smoothing length of the pair (i, j), h_ij = ½(h_i + h_j) (KERNEL_H when fixed).
+fn h_pair(i: u32, j: u32) -> f32 {
+    return 0.5 * (h_of(i) + h_of(j));
+}
+
+// eq 62 at density ρ, capped at H_CAP h: h (ρ0/ρ)^(1/d) (methods::cores::ul
+// `UlCore::continuity_h`).
+fn continuity_h(rho: f32) -> f32 {
+    return min(KERNEL_H * pow(RHO0 / rho, 1.0 / f32(DIM)), H_CAP * KERNEL_H);
+}
+
+// eqs 60–61 at particle i: the fixed point of h = min(η (m_i/⟨ρ⟩)^(1/d), H_CAP h) with
+// ⟨ρ⟩ = Σ_j W(x_ij, h) m_j over the particle and its list, η = h (ρ0/m_i)^(1/d), from
+// `start`, by the Newton steps of core::neighbourhood `density_smoothing_length` (the
+// plain step where the slope is below 0.1 or the step leaves a factor of two), to 1e-6 of
+// h in f32; at most 50 steps, after which (or with ⟨ρ⟩ ≤ 0) status[2] records the particle.
+fn density_h(i: u32, start: f32) -> f32 {
+    let d = f32(DIM);
+    let xi = x_of(i);
+    let m_i = mass_of(i);
+    let eta = KERNEL_H * pow(RHO0 / m_i, 1.0 / d);
+    let h_max = H_CAP * KERNEL_H;
+    let pairs = pairs_of(i);
+    var h = min(start, h_max);
+    for (var it = 0u; it < 50u; it++) {
+        let w0 = kernel_w_at(0.0, h);
+        var rho = m_i * w0;
+        var rho_h = -m_i * d * w0 / h;
+        for (var p = pairs.x; p < pairs.y; p++) {
+            let j = ids[p];
+            let r = length(xi - x_of(j));
+            let w = kernel_w_at(r, h);
+            rho += mass_of(j) * w;
+            rho_h -= mass_of(j) * (d * w + r * kernel_dw_at(r, h)) / h;
+        }
+        if !(rho > 0.0) {
+            break;
+        }
+        let aim = eta * pow(m_i / rho, 1.0 / d);
+        var next = h_max;
+        if aim < h_max {
+            let slope = 1.0 + aim / d * rho_h / rho;
+            let newton = h - (h - aim) / slope;
+            next = aim;
+            if slope > 0.1 && newton > 0.5 * h && newton < 2.0 * h {
+                next = min(newton, h_max);
+            }
+        }
+        if abs(next - h) <= 1e-6 * h {
+            return next;
+        }
+        h = next;
+    }
+    atomicMin(&status[2], i);
+    return h;
+}
+
+// The adaptive smoothing length of each particle into kin (methods::cores::ul
+// `UlCore::positions`), after the lists' build and before the scheme's particle pass:
+// eq 62 from ρ, or eqs 60–61 over the lists from it.
+// bytes:
+// ρ and h; eqs 60–61 read the lists, x and m over the Newton steps (taken as one).
+// - y: 1 scalar per item
+// - kin stores: 1 scalar per item
+// - reference: 1 scalar per item, when ADAPTIVE_H == ADAPTIVE_H_DENSITY
+// - offsets: 1 scalar per item, when ADAPTIVE_H == ADAPTIVE_H_DENSITY
+// - ids: 1 scalar per pair, when ADAPTIVE_H == ADAPTIVE_H_DENSITY
+// - x: 1 vector per item, when ADAPTIVE_H == ADAPTIVE_H_DENSITY
+// - reference loads: 1 scalar per pair, when ADAPTIVE_H == ADAPTIVE_H_DENSITY
+// - status: nothing
+@compute @workgroup_size(256)
+fn smoothing(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let row = index(gid, nwg);
+    if row >= part.rows {
+        return;
+    }
+    let i = part.first + row;
+    var h = continuity_h(rho_of(i));
+    if ADAPTIVE_H == ADAPTIVE_H_DENSITY {
+        h = density_h(i, h);
+    }
+    kin[KH_OFF + i] = h;
+}
+
 // σ = S − p I with p = c0²(ρ − ρ0); with FREE_SURFACE, σ·n = 0 projected at a surface
 // particle, σ ← (I − n⊗n) σ (I − n⊗n), where its Shepard sum S_i = V_i W(0) + Σ_j V_j W_ij
 // is below SURFACE_SHEPARD and n = −∇S_i/|∇S_i| (methods::cores::ul `UlCore::cauchy`).
@@ -72,15 +166,16 @@ fn cauchy_of(i: u32) -> matd {
         return sigma;
     }
     let xi = x_of(i);
-    var s = mass_of(i) / rho_of(i) * kernel_w(0.0);
+    var s = mass_of(i) / rho_of(i) * kernel_w_at(0.0, h_of(i));
     var g: vecd;
     let pairs = pairs_of(i);
     for (var p = pairs.x; p < pairs.y; p++) {
         let j = ids[p];
         let x_ij = xi - x_of(j);
         let v = mass_of(j) / rho_of(j);
-        s += v * kernel_w(length(x_ij));
-        g += kernel_grad(x_ij) * v;
+        let h = h_pair(i, j);
+        s += v * kernel_w_at(length(x_ij), h);
+        g += kernel_grad_at(x_ij, h) * v;
     }
     let norm = length(g);
     if !(s < SURFACE_SHEPARD && norm > 0.0) {
@@ -104,7 +199,7 @@ fn correction_of(i: u32) -> matd {
     for (var p = pairs.x; p < pairs.y; p++) {
         let j = ids[p];
         let x_ij = xi - x_of(j);
-        a += outer(-x_ij, kernel_grad(x_ij)) * (mass_of(j) / rho_of(j));
+        a += outer(-x_ij, kernel_grad_at(x_ij, h_pair(i, j))) * (mass_of(j) / rho_of(j));
     }
     let det = determinant(a);
     if !(abs(det) > 1e-10) {
@@ -207,8 +302,9 @@ fn reproducing_of(i: u32) -> Corrector {
         }
         let r = xi - x_of(j);
         let v = mass_of(j) / rho_of(j);
-        let w = kernel_w(length(r));
-        let gw = kernel_grad(r);
+        let h = h_pair(i, j);
+        let w = kernel_w_at(length(r), h);
+        let gw = kernel_grad_at(r, h);
         let q = basis(r);
         for (var a = 0u; a < n; a++) {
             for (var b = 0u; b < n; b++) {
@@ -260,13 +356,13 @@ fn reproducing_of(i: u32) -> Corrector {
 // ρ > 0).
 // - reference: 1 scalar per item
 // - y: 1 scalar per item
-// - kin: 1 scalar per item
-// - kin: 1 tensor per item, when CORRECTION == CORRECTION_LINEAR
+// - kin stores: 1 scalar per item
+// - kin stores: 1 tensor per item, when CORRECTION == CORRECTION_LINEAR
 // - offsets: 1 scalar per item, when CORRECTION == CORRECTION_LINEAR
 // - ids: 1 scalar per pair, when CORRECTION == CORRECTION_LINEAR
 // - x: 1 vector per item, when CORRECTION == CORRECTION_LINEAR
 // The RKPM moments over the pairs and the particle itself, and C, ∂C into kin.
-// - kin: 1 tensor + 2 vectors + 1 scalar per item, when CORRECTION == CORRECTION_REPRODUCING
+// - kin stores: 1 tensor + 2 vectors + 1 scalar per item, when CORRECTION == CORRECTION_REPRODUCING
 // - offsets: 1 scalar per item, when CORRECTION == CORRECTION_REPRODUCING
 // - ids: 1 scalar per pair, when CORRECTION == CORRECTION_REPRODUCING
 // - x: 1 vector per item, when CORRECTION == CORRECTION_REPRODUCING
@@ -274,6 +370,9 @@ fn reproducing_of(i: u32) -> Corrector {
 // - offsets: 1 scalar per item, when FREE_SURFACE
 // - ids: 1 scalar per pair, when FREE_SURFACE
 // - x: 1 vector per item, when FREE_SURFACE
+// An adaptive h_j in the pair sums of the correction and the surface.
+// - kin loads: 1 scalar per pair, when ADAPTIVE_H != ADAPTIVE_H_FIXED and CORRECTION != CORRECTION_NONE
+// - kin loads: 1 scalar per pair, when ADAPTIVE_H != ADAPTIVE_H_FIXED and FREE_SURFACE
 // - status: nothing
 fn store_common(i: u32) {
     let rho = rho_of(i);
@@ -358,6 +457,9 @@ fn corrected_grad(k: Corrector, x_ij: vecd, w: f32, grad: vecd) -> vecd {
 // - d: 1 scalar + 2 vectors + 2 tensors per item
 // - d: 1 scalar per item, when PLASTIC
 // - kin stores: 1 scalar per item
+// An adaptive h of the particle and of each neighbour.
+// - kin loads: 1 scalar per item, when ADAPTIVE_H != ADAPTIVE_H_FIXED
+// - kin loads: 1 scalar per pair, when ADAPTIVE_H != ADAPTIVE_H_FIXED
 fn close_rates(i: u32, x_dot: vecd, acc: vecd, rho_dot: f32, l: matd) {
     let v_i = v_of(i);
     let a = apply_boundary(i, acc, v_i, mass_of(i));

@@ -109,10 +109,18 @@ fn gray_monaghan_rates_match_the_cpu_in_2d_and_3d() {
         compare_rates::<D2, GmScheme>(&block(2, "gray-monaghan-sph", &keys));
         compare_rates::<D3, GmScheme>(&block(3, "gray-monaghan-sph", &keys));
     }
-    // The traction-free projection at the surface (`cauchy_of`).
-    let keys = format!("free_surface = \"projection\"\n{GRAY_MONAGHAN_KEYS}");
-    compare_rates::<D2, GmScheme>(&block(2, "gray-monaghan-sph", &keys));
-    compare_rates::<D3, GmScheme>(&block(3, "gray-monaghan-sph", &keys));
+    // The traction-free projection at the surface (`cauchy_of`), and the adaptive
+    // smoothing lengths (the `smoothing` pass; with the surface, which reads h too).
+    for extra in [
+        "free_surface = \"projection\"",
+        "smoothing_length = \"density\"\nfree_surface = \"projection\"",
+        "smoothing_length = \"continuity\"\ncorrection = \"randles-libersky\"",
+        "smoothing_length = \"density\"\ncorrection = \"rkpm\"",
+    ] {
+        let keys = format!("{extra}\n{GRAY_MONAGHAN_KEYS}");
+        compare_rates::<D2, GmScheme>(&block(2, "gray-monaghan-sph", &keys));
+        compare_rates::<D3, GmScheme>(&block(3, "gray-monaghan-sph", &keys));
+    }
 }
 
 #[test]
@@ -135,10 +143,12 @@ fn ul_rates_match_the_cpu_on_every_adapter() {
 #[test]
 fn godunov_rates_match_the_cpu_in_2d_and_3d() {
     let projection = "correction = \"randles-libersky\"\nfree_surface = \"projection\"";
+    let density = "correction = \"randles-libersky\"\nsmoothing_length = \"density\"";
+    let continuity = "smoothing_length = \"continuity\"";
     for keys in ["none", "randles-libersky", "rkpm"]
         .map(|c| format!("correction = \"{c}\""))
         .into_iter()
-        .chain([projection.to_string()])
+        .chain([projection, density, continuity].map(String::from))
     {
         compare_rates::<D2, GodunovScheme>(&block(2, "godunov-sph", &keys));
         compare_rates::<D3, GodunovScheme>(&block(3, "godunov-sph", &keys));
@@ -228,6 +238,52 @@ fn godunov_runs_track_the_cpu_past_the_rebuild_distance() {
     // slows down from the start, so the steps go in one batch of 1 ms: its start builds
     // once, and the rim's travel past half the skin must build again within it.
     compare_runs::<Godunov<D2>>("rotating-disk-godunov", 2.5e-6, (400, 1), 2);
+}
+
+#[test]
+fn adaptive_smoothing_lengths_track_the_cpu() {
+    // The disk's rim at 50 m/s for 100 steps, each smoothing length on both backends: the
+    // states within the bounds of `compare_runs` (f32 rounding of u over 400 stage
+    // updates), and the h of the last rate evaluation (the output field) within 1e-5 of h:
+    // eqs 60–61 stop at 1e-6 of h in f32, and the kernel sums carry the f32 rounding of
+    // the positions (1e-6 of the pair distances).
+    let dt = 1e-5;
+    for mode in ["density", "continuity"] {
+        let keys = [
+            format!("method.dt={dt}"),
+            format!("method.smoothing_length=\"{mode}\""),
+        ];
+        let case = load("rotating-disk-gray-monaghan", &[&keys[0], &keys[1]]);
+        let mut cpu = meshless::scene::cpu_engine::<D2, GrayMonaghan<D2>>(&case).unwrap();
+        cpu.advance(0.0, dt, 100).unwrap();
+        let mut g = GpuUl::<D2>::new(&case, gpu(), &scheme(&case)).unwrap();
+        g.advance(0.0, dt, 100).unwrap();
+        g.check().unwrap();
+        let yg = g.state();
+        let (eu, _) = max_v::<D2>(&cpu.y.u, &yg.u);
+        assert!(eu < 1e-4, "{mode}: max |Δu| = {eu:e} m");
+        let (ev, _) = max_v::<D2>(&cpu.y.v, &yg.v);
+        assert!(ev < 1e-2, "{mode}: max |Δv| = {ev:e} m/s (|v| ≤ 50 m/s)");
+        let h = |s: &meshless::diagnostics::observe::Snapshot<D2>| -> Vec<f64> {
+            let field = s.extra.iter().find(|f| f.name == "smoothing_length");
+            field.expect("the smoothing_length field").values.clone()
+        };
+        let (hc, hg) = (h(&cpu.snapshot()), h(&g.snapshot()));
+        let h0 = cpu.method.core.kernel.h;
+        let eh = hc
+            .iter()
+            .zip(&hg)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        let spread =
+            hc.iter().copied().fold(0.0, f64::max) - hc.iter().copied().fold(f64::MAX, f64::min);
+        eprintln!(
+            "{mode}: max |Δu| = {eu:e} m, |Δv| = {ev:e} m/s, |Δh| = {eh:e} m, h0 = {h0}, spread {spread:e}"
+        );
+        assert!(eh < 1e-5 * h0, "{mode}: max |Δh| = {eh:e} m of h = {h0}");
+        // The comparison means something only where h varies past its bound.
+        assert!(spread > 1e-4 * h0, "{mode}: h varies by {spread:e} only");
+    }
 }
 
 #[test]

@@ -30,6 +30,7 @@ pub fn scheme(spec: &GodunovSpec) -> Scheme {
         artificial_stress: false,
         pressure: true,
         free_surface: spec.free_surface,
+        smoothing_length: spec.smoothing_length,
         constants: Constants::default(),
     }
 }

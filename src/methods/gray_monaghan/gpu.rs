@@ -46,6 +46,7 @@ pub fn scheme(case: &Case, spec: &GrayMonaghanSpec) -> Scheme {
         artificial_stress: stress.is_some(),
         pressure: false,
         free_surface: spec.free_surface,
+        smoothing_length: spec.smoothing_length,
         constants,
     }
 }

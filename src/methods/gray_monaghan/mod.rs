@@ -147,10 +147,6 @@ impl MethodFamily for GrayMonaghanSpec {
         Some(GpuUl::<D>::memory(case, &gpu::scheme(case, self), counts))
     }
 
-    fn gpu_refusal(&self, _case: &Case) -> Option<&'static str> {
-        super::cores::ul::smoothing_gpu_refusal(self.smoothing_length)
-    }
-
     fn warning(&self, _case: &Case) -> Option<String> {
         super::cores::ul::free_surface_warning(self.free_surface)
     }

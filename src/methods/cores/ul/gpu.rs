@@ -13,14 +13,17 @@
 //! most pairs a part needed (with a quarter more, in more parts past the binding limit) and
 //! runs the batch again from its start.
 
-use super::{FreeSurface, SURFACE_SHEPARD, UlState, check_state, snapshot};
+use super::{
+    FreeSurface, H_CAP, SMOOTHING_LENGTH, SURFACE_SHEPARD, SmoothingLength, UlState, check_state,
+    snapshot,
+};
 use crate::boundary::Boundary;
 use crate::case::Case;
 use crate::core::correction::CorrectionKind;
 use crate::core::integrate::{Buf, Evaluation};
 use crate::core::neighbour::{Csr, SKIN, bounding_box};
 use crate::diagnostics::balance::Booked;
-use crate::diagnostics::observe::Snapshot;
+use crate::diagnostics::observe::{ScalarField, Snapshot};
 use crate::engine::{BlowUp, GpuEngine, GpuFamily, Start};
 use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
@@ -77,13 +80,15 @@ pub struct Scheme {
     pub pressure: bool,
     /// Its traction-free treatment of the surface (`cauchy_of` in `shaders/ul/ul.wgsl`).
     pub free_surface: FreeSurface,
+    /// Its smoothing length (the `smoothing` pass of `shaders/ul/ul.wgsl`).
+    pub smoothing_length: SmoothingLength,
     /// Its own compiled-in constants.
     pub constants: Constants,
 }
 
 /// The flat buffers of an updated-Lagrangian scene, each described once: the state
 /// [u | v | ρ − ρ0 | S | H = F − I | ε_p] (ε_p with a yield stress), the scheme's per-particle quantities
-/// [T | R | AIT | RK | VOL | C | P | POW] (`shaders/ul/ul.wgsl`) and the reference
+/// [T | R | AIT | RK | H | VOL | C | P | POW] (`shaders/ul/ul.wgsl`) and the reference
 /// configuration.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Layout {
@@ -117,6 +122,7 @@ impl Layout {
                     .tensors("R", scheme.artificial_stress, n)
                     .tensors("AIT", corrected, n)
                     .block("RK", reproducing, n, (dim + 1) * (dim + 1))
+                    .scalars("H", scheme.adaptive(), n)
                     .scalars("VOL", true, n)
                     .scalars("C", true, n)
                     .scalars("P", scheme.pressure, n)
@@ -150,6 +156,16 @@ pub fn scene_constants(case: &Case, layout: &Layout, scheme: &Scheme) -> Constan
             u32::from(scheme.free_surface == FreeSurface::Projection),
         )
         .f32("SURFACE_SHEPARD", SURFACE_SHEPARD)
+        .choice(
+            "ADAPTIVE_H",
+            &["FIXED", "DENSITY", "CONTINUITY"],
+            match scheme.smoothing_length {
+                SmoothingLength::Fixed => 0,
+                SmoothingLength::Density => 1,
+                SmoothingLength::Continuity => 2,
+            },
+        )
+        .f32("H_CAP", H_CAP)
         .u32("REST_OFF", layout.state.offset("RHO") as u32);
     [&layout.state, &layout.kin, &layout.reference]
         .into_iter()
@@ -157,20 +173,40 @@ pub fn scene_constants(case: &Case, layout: &Layout, scheme: &Scheme) -> Constan
 }
 
 /// `status` slots: the first particle with a singular correction (det A or the RKPM
-/// moment matrix), and with ρ ≤ 0.
-const STATUS_OK: [u32; 2] = [u32::MAX; 2];
+/// moment matrix), with ρ ≤ 0, and without a fixed point of eqs 60–61.
+const STATUS_OK: [u32; 3] = [u32::MAX; 3];
+
+impl Scheme {
+    /// Whether each particle has its own smoothing length.
+    pub fn adaptive(&self) -> bool {
+        self.smoothing_length != SmoothingLength::Fixed
+    }
+
+    /// The kernel support the lists must reach for a kernel of `support`: H_CAP times it
+    /// with an adaptive smoothing length, whose h_ij may reach H_CAP h.
+    fn reach(&self, support: f64) -> f64 {
+        if self.adaptive() {
+            H_CAP * support
+        } else {
+            support
+        }
+    }
+}
 
 /// The pipelines of one rate evaluation.
 struct Passes {
     positions: Pipeline,
+    /// With an adaptive smoothing length.
+    smoothing: Option<Pipeline>,
     particle: Pipeline,
     rates: Pipeline,
 }
 
-/// The bind groups of one rate evaluation on a source state: the particle and pair
-/// passes', a part of the lists each.
+/// The bind groups of one rate evaluation on a source state: the smoothing (with an
+/// adaptive h), particle and pair passes', a part of the lists each.
 struct Bound {
     positions: wgpu::BindGroup,
+    smoothing: Vec<wgpu::BindGroup>,
     particle: Vec<wgpu::BindGroup>,
     rates: Vec<wgpu::BindGroup>,
 }
@@ -201,6 +237,8 @@ pub struct UlDevice<D: GpuDim> {
     ext: wgpu::Buffer,
     /// The body of each particle for per-body lists (with contact).
     body: Option<wgpu::Buffer>,
+    /// The kernel support the lists reach ([`Scheme::reach`]).
+    reach: f64,
     grid: CellParams,
     passes: Passes,
     /// The radial return at every step's end on `Y`, with a yield stress.
@@ -218,9 +256,11 @@ pub struct UlDevice<D: GpuDim> {
 }
 
 /// The room of the device's lists for `pairs` reference pairs of `n` particles: twice
-/// them, as compression adds neighbours, and a build that needs more grows the lists.
-fn capacity(pairs: usize, n: usize) -> u64 {
-    2 * pairs.max(n) as u64
+/// them, as compression adds neighbours, and a build that needs more grows the lists;
+/// H_CAP^d times that for the reach of an adaptive smoothing length.
+fn capacity<D: GpuDim>(scheme: &Scheme, pairs: usize, n: usize) -> u64 {
+    let widened = (scheme.reach(1.0)).powi(D::N as i32);
+    (2.0 * pairs.max(n) as f64 * widened).ceil() as u64
 }
 
 impl<D: GpuDim> GpuUl<D> {
@@ -241,7 +281,7 @@ impl<D: GpuDim> GpuUl<D> {
                 m.words("bodies", n as f64);
             }
             m.fields("state at the batch start", &layout.state);
-            let radius = search_radius(case.kernel(D::N).support());
+            let radius = search_radius(scheme.reach(case.kernel(D::N).support()));
             let boxes = case.bodies.iter().map(|b| b.geometry.extent(D::N));
             let ncells = boxes.collect::<Option<Vec<_>>>().map_or(n as u64, |boxes| {
                 let corners = boxes.iter().flat_map(|&(lo, hi)| [lo, hi]);
@@ -250,7 +290,7 @@ impl<D: GpuDim> GpuUl<D> {
                 let (_, dims) = CellParams::cells(D::N, lo, hi, points, radius);
                 dims.iter().product()
             });
-            let room = capacity(counts.pair_count(), n);
+            let room = capacity::<D>(scheme, counts.pair_count(), n);
             CellList::memory(m, n as u64, D::N, ncells, room);
             Reduction::memory(m, n);
             GpuInteractions::memory(m, case, n, D::N);
@@ -296,6 +336,10 @@ impl<D: GpuDim> GpuUl<D> {
         let text = compose(&scheme.passes);
         let passes = Passes {
             positions: gpu.pipeline("ul positions", &text, "positions")?,
+            smoothing: match scheme.adaptive() {
+                true => Some(gpu.pipeline("ul smoothing length", &text, "smoothing")?),
+                false => None,
+            },
             particle: gpu.pipeline("ul particle", &text, "particle")?,
             rates: gpu.pipeline("ul rates", &text, "rates")?,
         };
@@ -308,7 +352,8 @@ impl<D: GpuDim> GpuUl<D> {
             }
             false => None,
         };
-        let grid = grid::<D>(&gpu, &disc, n as u32)?;
+        let reach = scheme.reach(disc.kernel.support());
+        let grid = grid::<D>(&gpu, &disc, n as u32, reach)?;
         let reduction = Reduction::new(
             &gpu,
             &compose(&REDUCE),
@@ -320,7 +365,8 @@ impl<D: GpuDim> GpuUl<D> {
             n,
         )?;
         let start = gpu.zeroed("state at the batch start", layout.state.bytes());
-        let room = Room::fitting(&gpu, n as u32, capacity(disc.neighbours().pair_count(), n))?;
+        let pairs = capacity::<D>(scheme, disc.neighbours().pair_count(), n);
+        let room = Room::fitting(&gpu, n as u32, pairs)?;
         let unbooked = Booked {
             dissipated: None,
             contact_energy: case.contact.is_none().then_some(0.0),
@@ -336,6 +382,7 @@ impl<D: GpuDim> GpuUl<D> {
             status,
             ext: interactions.ext().clone(),
             body,
+            reach,
             grid,
             passes,
             plastic_return,
@@ -359,7 +406,7 @@ impl<D: GpuDim> UlDevice<D> {
             n,
             body: self.body.as_ref(),
         };
-        let drift = 0.5 * SKIN * self.reference.kernel.support();
+        let drift = 0.5 * SKIN * self.reach;
         let cells = CellList::new::<D>(&shell.gpu, at, &self.grid, room, drift)?;
         let rates = BySource::bind(&shell.stepper, |y, d| -> Result<Bound, GpuError> {
             let table: [(&str, &wgpu::Buffer); 8] = [
@@ -383,6 +430,10 @@ impl<D: GpuDim> UlDevice<D> {
             let p = &self.passes;
             Ok(Bound {
                 positions: shell.gpu.bind(&p.positions, &table)?,
+                smoothing: match &p.smoothing {
+                    Some(pipeline) => per_part(pipeline)?,
+                    None => Vec::new(),
+                },
                 particle: per_part(&p.particle)?,
                 rates: per_part(&p.rates)?,
             })
@@ -457,12 +508,18 @@ impl<D: GpuDim> UlDevice<D> {
 }
 
 /// The cell grid over the reference configuration's box, widened on every side by a
-/// fifth of its extent and the kernel support (particles that leave it are binned in the
-/// nearest cell, which keeps every pair), for the kernel support widened by the skin
-/// [`SKIN`] (the lists are rebuilt once a particle has moved half of it, as on the CPU)
-/// and a relative margin of 1e-5 for f32 ties at lattice distances (`gpu::neighbour`).
-fn grid<D: GpuDim>(gpu: &Gpu, disc: &Reference<D>, n: u32) -> Result<CellParams, GpuError> {
-    let radius = search_radius(disc.kernel.support());
+/// fifth of its extent and the reach (particles that leave it are binned in the nearest
+/// cell, which keeps every pair), for the kernel support the lists `reach` widened by the
+/// skin [`SKIN`] (the lists are rebuilt once a particle has moved half of it, as on the
+/// CPU) and a relative margin of 1e-5 for f32 ties at lattice distances
+/// (`gpu::neighbour`).
+fn grid<D: GpuDim>(
+    gpu: &Gpu,
+    disc: &Reference<D>,
+    n: u32,
+    reach: f64,
+) -> Result<CellParams, GpuError> {
+    let radius = search_radius(reach);
     let (lo, hi) = widened(
         bounding_box(disc.x0.iter().map(|&x| D::to3(x))),
         D::N,
@@ -599,6 +656,9 @@ impl<D: GpuDim> GpuFamily<D> for UlDevice<D> {
         }
         lists.cells.record_on_drift(gpu, encoder);
         let mut pass = encoder.begin_compute_pass(&Default::default());
+        if let Some(smoothing) = &passes.smoothing {
+            (lists.cells).dispatch(gpu, &mut pass, smoothing, &bound.smoothing);
+        }
         (lists.cells).dispatch(gpu, &mut pass, &passes.particle, &bound.particle);
         (lists.cells).dispatch(gpu, &mut pass, &passes.rates, &bound.rates);
     }
@@ -655,7 +715,12 @@ impl<D: GpuDim> GpuFamily<D> for UlDevice<D> {
             true => "RKPM moment matrix (f32, GPU)",
             false => "det A (Randles–Libersky, f32, GPU)",
         };
-        for (k, quantity) in [correction, "density (f32, GPU)"].into_iter().enumerate() {
+        let quantities = [
+            correction,
+            "density (f32, GPU)",
+            "smoothing length (eqs 60–61 found no fixed point, f32, GPU)",
+        ];
+        for (k, quantity) in quantities.into_iter().enumerate() {
             if s[k] != u32::MAX {
                 let i = s[k] as usize;
                 return Err(BlowUp::at::<D>(&self.reference.x0, i, quantity, 0.0));
@@ -686,6 +751,14 @@ impl<D: GpuDim> GpuFamily<D> for UlDevice<D> {
     fn snapshot(&mut self, shell: &Shell) -> Snapshot<'_, D> {
         let y = self.decode_state(&shell.read_state());
         let r = &self.reference;
-        snapshot(&r.material, &r.x0, &r.mass, &r.body, &r.vol, y)
+        let mut snapshot = snapshot(&r.material, &r.x0, &r.mass, &r.body, &r.vol, y);
+        if self.layout.kin.has("H") {
+            let kin: Vec<f32> = shell.gpu.read(&shell.kin);
+            snapshot.extra.push(ScalarField {
+                name: SMOOTHING_LENGTH,
+                values: self.layout.kin.read_s(&kin, "H", 0.0),
+            });
+        }
+        snapshot
     }
 }

@@ -197,12 +197,6 @@ pub fn left_out_smoothing(smoothing_length: SmoothingLength) -> Option<&'static 
         .then_some("adaptive smoothing length (smoothing_length)")
 }
 
-/// Why a UL method has no GPU engine for its smoothing length.
-pub fn smoothing_gpu_refusal(smoothing_length: SmoothingLength) -> Option<&'static str> {
-    (smoothing_length != SmoothingLength::Fixed)
-        .then_some("runs an adaptive smoothing_length on the CPU only")
-}
-
 /// The largest adaptive smoothing length, in units of the case's h: a particle that has
 /// lost its neighbours would otherwise grow without bound under eqs 60–61.
 pub const H_CAP: f64 = 2.0;
