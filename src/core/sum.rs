@@ -56,6 +56,14 @@ impl Sum<f64> for Exact {
     }
 }
 
+impl Sum<Exact> for Exact {
+    fn sum<I: Iterator<Item = Exact>>(iter: I) -> Self {
+        let mut e = Self::default();
+        iter.for_each(|x| e.merge(&x));
+        e
+    }
+}
+
 impl<'a> Sum<&'a Exact> for Exact {
     fn sum<I: Iterator<Item = &'a Exact>>(iter: I) -> Self {
         let mut e = Self::default();

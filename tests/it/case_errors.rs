@@ -363,6 +363,16 @@ fn the_implicit_solve_takes_a_state_model_a_fixed_step_and_its_alpha() {
         "method.dt",
         &["implicit run", "CFL"],
     );
+    // The viscosity acts on v, which a Newton solve for u does not carry.
+    assert_invalid(
+        &edit(
+            &implicit,
+            "dt = 1e-5",
+            "dt = 1e-5\nartificial_viscosity = { alpha = 1.0, beta = 1.0 }",
+        ),
+        "method.artificial_viscosity",
+        &["static or implicit", "left out", "run.hht_alpha"],
+    );
 }
 
 #[test]

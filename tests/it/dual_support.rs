@@ -185,6 +185,68 @@ fn the_hourglass_energy_is_positive_and_vanishes_for_affine_fields() {
     ));
 }
 
+fn scalar_hourglass_properties<D: Dim>() {
+    let m = model::<D>(5, 41, MaterialModel::NeoHookean, 2.0);
+    let (x0, n) = (&m.support.x0, m.len());
+    let component =
+        |u: &[D::V], k: usize| -> Vec<f64> { u.iter().map(|&v| D::comp(v, k)).collect() };
+    // The vector form of eq 21 is eq 30 on each component: the energies agree to the
+    // rounding of their ~1e3 terms (1e-12 relative).
+    let u = random_u::<D>(n, 29, 0.1);
+    let vector = m.energies(&u).hourglass.value();
+    let by_component: f64 = (0..D::N)
+        .map(|k| m.scalar_hourglass(&component(&u, k)).0.value())
+        .sum();
+    assert!(
+        (by_component - vector).abs() < 1e-12 * vector,
+        "{}D: Σ_k eq 30 = {by_component}, eq 21 = {vector}",
+        D::N
+    );
+    // Zero for a linear field s = a·X + b (ε_ij = 0 up to round-off of O(1) values against
+    // μ ~ 1e6: 1e-16 relative to μ), and the force −∂E/∂s by central differences (the
+    // energy is quadratic in s: only cancellation, ε·E/δ; 1e-8 of the largest force).
+    let linear: Vec<f64> = x0
+        .iter()
+        .map(|&x| D::dot(x, D::from_slice(&[0.7, -1.3, 0.4][..D::N])) + 2.0)
+        .collect();
+    let (e, f) = m.scalar_hourglass(&linear);
+    assert!(
+        e.value().abs() < 1e-16 * m.material.mu,
+        "{}D linear: {}",
+        D::N,
+        e.value()
+    );
+    assert!(
+        f.iter().all(|f| f.abs() < 1e-9 * m.material.mu),
+        "{}D linear force",
+        D::N
+    );
+    let s = component(&u, 0);
+    let (_, f) = m.scalar_hourglass(&s);
+    let scale = f.iter().fold(0.0f64, |a, f| a.max(f.abs()));
+    let delta = 1e-6;
+    for a in (0..n).step_by(5) {
+        let energy = |by: f64| {
+            let mut shifted = s.clone();
+            shifted[a] += by;
+            m.scalar_hourglass(&shifted).0.value()
+        };
+        let fd = -(energy(delta) - energy(-delta)) / (2.0 * delta);
+        assert!(
+            (fd - f[a]).abs() < 1e-8 * scale,
+            "{}D particle {a}: {fd} vs {}",
+            D::N,
+            f[a]
+        );
+    }
+}
+
+#[test]
+fn the_scalar_hourglass_of_eq_30_is_the_vector_form_per_component() {
+    scalar_hourglass_properties::<D2>();
+    scalar_hourglass_properties::<D3>();
+}
+
 fn force_is_minus_gradient<D: Dim>(law: MaterialModel, hourglass: f64) {
     // Spec §5.4: f = −∂E/∂u by central differences, δ = 1e-6 on strains of ~5 %:
     // truncation O(δ²)·E‴ and cancellation ε·E/δ ~ 1e-4 N against forces ~1e5 N, so 1e-7

@@ -118,6 +118,35 @@ impl<D: Dim> DualSupport<D> {
             .sum::<f64>()
     }
 
+    /// The scalar-field hourglass of eq 30 on a field s (a temperature, a pressure, one
+    /// component of u): per particle 𝓕_i = c_i Σ_j w_ij ε_ij² with the error of the linear
+    /// map of i at j, ε_ij = s_ij − ∇s_i·X_ij, ∇s_i = Σ_j s_ij g_ij; returns the energy
+    /// Σ_i V_i 𝓕_i and the force −∂E/∂s on every particle. The pair term is eq 30's with
+    /// the sign of the energy, 2 V_i c_i w_ij ε_ij, as for eq 27 (notes §1.6): the ∇s_i it
+    /// depends on adds nothing, since Σ_j w_ij ε_ij X_ij = 0. The vector form (eq 21) is
+    /// this on each component of u.
+    pub fn scalar_hourglass(&self, s: &[f64]) -> (Exact, Vec<f64>) {
+        let sup = &self.support;
+        let mut force = vec![0.0; s.len()];
+        let mut energy = Exact::default();
+        for i in 0..self.len() {
+            let c = self.hourglass[i];
+            if c == 0.0 {
+                continue;
+            }
+            let pairs = || sup.lists.pairs(i, &sup.g);
+            let grad = pairs().fold(D::zero(), |acc, (j, &g)| acc + g * (s[j] - s[i]));
+            for (j, &w) in sup.lists.pairs(i, &sup.w) {
+                let eps = s[j] - s[i] - D::dot(grad, sup.x0[j] - sup.x0[i]);
+                energy.add(sup.vol[i] * c * w * eps * eps);
+                let t = 2.0 * sup.vol[i] * c * w * eps;
+                force[i] += t;
+                force[j] -= t;
+            }
+        }
+        (energy, force)
+    }
+
     /// 𝓕_i^hg of every particle (eq 21), for the frames.
     pub fn hourglass_densities(&self, u: &[D::V]) -> Vec<f64> {
         (0..self.len())

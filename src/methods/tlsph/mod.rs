@@ -21,7 +21,7 @@ use crate::methods::cores::shared;
 use crate::reference::Reference;
 
 use crate::case::Case;
-use crate::core::check::{Problem, positive};
+use crate::core::check::{Problem, fail, positive};
 use crate::engine::EngineDim;
 use crate::physics::material::Material;
 use crate::physics::viscosity::ArtificialViscosity;
@@ -103,9 +103,17 @@ impl MethodFamily for TlsphSpec {
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = crate::methods::cores::tl::gpu::SHADERS;
 
-    fn validate(&self, _case: &Case) -> Result<(), Problem> {
+    fn validate(&self, case: &Case) -> Result<(), Problem> {
         if let Some(alpha) = self.hourglass {
             positive("method.hourglass", alpha)?;
+        }
+        if self.artificial_viscosity.is_some() && case.solves_by_newton() {
+            return fail(
+                "method.artificial_viscosity",
+                "a static or implicit run solves for u alone and the viscosity acts on the \
+                 velocities, so it would be left out: remove it (an implicit run damps the \
+                 modes its step does not resolve with run.hht_alpha)",
+            );
         }
         check_viscosity(self.artificial_viscosity.as_ref())
     }

@@ -650,7 +650,7 @@ impl<D: Dim, S: PairScheme<D>> OdeSystem for UlSph<D, S> {
             return;
         }
         let (mat, vol0) = (&self.core.material, &self.core.vol0);
-        let work: Vec<f64> = (y.s.par_iter_mut())
+        let work: Exact = (y.s.par_iter_mut())
             .with_min_len(MIN_CHUNK)
             .zip(y.eps_p.par_iter_mut())
             .zip(&y.rho)
@@ -664,8 +664,8 @@ impl<D: Dim, S: PairScheme<D>> OdeSystem for UlSph<D, S> {
                 (*s, *eps_p) = (returned, *eps_p + d_eps);
                 vol0 * (before - mat.energy_density::<D>(f, returned, rho))
             })
-            .collect();
-        self.plastic_work += work.into_iter().sum::<Exact>().value();
+            .sum();
+        self.plastic_work += work.value();
     }
 
     /// The interactions' work before the step (the contact forces of seed 000 §5.8).
