@@ -207,7 +207,8 @@ impl<D: Dim> Inertia<D> {
             .collect()
     }
 
-    /// (1 + α) f_int(u) − α f_int(u_n) − M a(u): the residual G less the loads.
+    /// (1 + α) f_int(u) − α f_int(u_n) − M a(u): the residual G less the loads, with
+    /// the acceleration a(u).
     fn effective(
         &self,
         dt: f64,
@@ -215,27 +216,21 @@ impl<D: Dim> Inertia<D> {
         u: &[D::V],
         u_n: &[D::V],
         mass: &[f64],
-    ) -> Vec<D::V> {
+    ) -> (Vec<D::V>, Vec<D::V>) {
         let alpha = self.scheme.alpha;
         let a = self.acceleration(dt, u, u_n);
-        (0..u.len())
+        let effective = (0..u.len())
             .map(|i| f_int[i] * (1.0 + alpha) - self.f_int[i] * alpha - a[i] * mass[i])
-            .collect()
+            .collect();
+        (effective, a)
     }
 
-    /// Moves the state to the converged u of a step from u_n: a, v and f_int. Returns the
-    /// forces of loads and supports that G balances, M a − [(1 + α) f_int(u) − α f_int(u_n)].
-    fn advance(
-        &mut self,
-        dt: f64,
-        u: &[D::V],
-        u_n: &[D::V],
-        f_int: Vec<D::V>,
-        mass: &[f64],
-    ) -> Vec<D::V> {
+    /// Moves the state to a step's converged u, of acceleration a (from
+    /// [`Self::effective`]) and internal force f_int: a, v and f_int. Returns the forces
+    /// of loads and supports that G balances, M a − [(1 + α) f_int(u) − α f_int(u_n)].
+    fn advance(&mut self, dt: f64, a: Vec<D::V>, f_int: Vec<D::V>, mass: &[f64]) -> Vec<D::V> {
         let s = self.scheme;
-        let a = self.acceleration(dt, u, u_n);
-        let applied = (0..u.len())
+        let applied = (0..a.len())
             .map(|i| a[i] * mass[i] - f_int[i] * (1.0 + s.alpha) + self.f_int[i] * s.alpha)
             .collect();
         for (i, a) in a.into_iter().enumerate() {
@@ -544,9 +539,12 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
                 reason: format!("{} = {:e}", b.quantity, b.value),
                 at_round_off: false,
             })?;
-            let effective = match &self.inertia {
-                Some(inertia) => inertia.effective(dt, &f_int, &u, &self.u, &self.mass),
-                None => f_int.clone(),
+            let (effective, a) = match &self.inertia {
+                Some(inertia) => {
+                    let (effective, a) = inertia.effective(dt, &f_int, &u, &self.u, &self.mass);
+                    (effective, Some(a))
+                }
+                None => (f_int.clone(), None),
             };
             let (r, norm, relative) = self.residual(&effective, lambda);
             self.log.push(Iteration {
@@ -587,7 +585,7 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
             if relative <= self.newton.residual_tolerance
                 || (iteration > 0 && increment <= self.newton.increment_tolerance * u_norm)
             {
-                self.accept(u, f_int, dt);
+                self.accept(u, f_int, a, dt);
                 return Ok(iteration);
             }
             if iteration == self.newton.max_iterations {
@@ -659,11 +657,15 @@ impl<D: Dim, S: Model<D>> Statics<D, S> {
         self.predict(&u).unwrap_or(u)
     }
 
-    /// Takes the converged u of a step of dt with its internal force: the reactions −f_int,
-    /// or in an implicit run Newmark's v and a and the forces that G balances.
-    fn accept(&mut self, u: Vec<D::V>, f_int: Vec<D::V>, dt: f64) {
+    /// Takes the converged u of a step of dt with its internal force (and in an implicit
+    /// run its acceleration a): the reactions −f_int, or in an implicit run Newmark's v
+    /// and a and the forces that G balances.
+    fn accept(&mut self, u: Vec<D::V>, f_int: Vec<D::V>, a: Option<Vec<D::V>>, dt: f64) {
         match &mut self.inertia {
-            Some(inertia) => self.reaction = inertia.advance(dt, &u, &self.u, f_int, &self.mass),
+            Some(inertia) => {
+                let a = a.unwrap_or_else(|| inertia.acceleration(dt, &u, &self.u));
+                self.reaction = inertia.advance(dt, a, f_int, &self.mass);
+            }
             None => self.reaction = f_int.iter().map(|&f| -f).collect(),
         }
         self.u = u;
