@@ -252,8 +252,23 @@ pub fn plan_state(case: &Case) -> String {
 /// drift on both backends, decided on the device on the GPU), per body with contact, and
 /// the gradients of L.
 pub fn plan_rebuild(case: &Case, gpu: bool, smoothing_length: SmoothingLength) -> String {
+    let lists = if gpu {
+        "the lists reach the cap's support, 2·2h"
+    } else {
+        "the lists grow with it"
+    };
+    let smoothing = match smoothing_length {
+        SmoothingLength::Fixed => String::new(),
+        SmoothingLength::Density => format!(
+            ", h_i = η (m_i/⟨ρ⟩_i)^(1/d) (eqs 60–61, Newton steps to the fixed point; \
+             {lists}), pair kernels at ½(h_i + h_j)"
+        ),
+        SmoothingLength::Continuity => {
+            format!(", h_i = h (ρ0/ρ_i)^(1/d) (eq 62; {lists}), pair kernels at ½(h_i + h_j)")
+        }
+    };
     format!(
-        "{}{}{}, then one gather: L ({})",
+        "{}{}{smoothing}, then one gather: L ({})",
         if gpu {
             "device cell list from x = X + u, rebuilt on drift (a device check sets the \
              build's indirect dispatches)"
@@ -264,15 +279,6 @@ pub fn plan_rebuild(case: &Case, gpu: bool, smoothing_length: SmoothingLength) -
             " (per body)"
         } else {
             ""
-        },
-        match smoothing_length {
-            SmoothingLength::Fixed => "",
-            SmoothingLength::Density =>
-                ", h_i = η (m_i/⟨ρ⟩_i)^(1/d) (eqs 60–61, Newton steps to the fixed point; the lists \
-                 grow with it), pair kernels at ½(h_i + h_j)",
-            SmoothingLength::Continuity =>
-                ", h_i = h (ρ0/ρ_i)^(1/d) (eq 62; the lists grow with it), pair kernels at \
-                 ½(h_i + h_j)",
         },
         match case.method.correction {
             CorrectionKind::RandlesLibersky => "Randles–Libersky-corrected gradients",
