@@ -473,11 +473,7 @@ mod tests {
         // RKPM's W̃¹ also has Σ_j V_j W̃_j (x_i − x_j) = 0 (eq 5b), Shepard's does not at
         // the boundary. Jittered 12×12 lattice, boundary included; round-off of O(k) sums
         // of O(1) terms: 1e-12.
-        let dx = 0.1;
-        let x = lattice2(12, dx, 0.2);
-        let vol = vec![dx * dx; x.len()];
-        let kernel = Kernel::new(KernelKind::CubicSpline, 1.3 * dx, 2);
-        let csr = neighbour::build::<D2>(&x, kernel.support());
+        let (dx, x, vol, kernel, csr) = jittered_cloud();
         let shepard = shepard_sums::<D2>(&x, &vol, &csr, &kernel);
         for kind in [CorrectionKind::Rkpm, CorrectionKind::Cgck] {
             let w = kernel_weights::<D2>(kind, &x, &vol, &csr, &kernel).unwrap();
@@ -520,11 +516,7 @@ mod tests {
         // ∇Ψ_i(x_i), the CGCK's L_i ∇W̃_i(x_i)) closes the pairs' sum to round-off (1e-12 of
         // Σ_j V_j |g_ij|), and is not small at the boundary (> 1e-2 of it). The other
         // corrections' own term is zero.
-        let dx = 0.1;
-        let x = lattice2(12, dx, 0.2);
-        let vol = vec![dx * dx; x.len()];
-        let kernel = Kernel::new(KernelKind::CubicSpline, 1.3 * dx, 2);
-        let csr = neighbour::build::<D2>(&x, kernel.support());
+        let (_, x, vol, kernel, csr) = jittered_cloud();
         for kind in [CorrectionKind::Rkpm, CorrectionKind::Cgck] {
             let g = gradients::<D2>(kind, &x, &vol, &csr, &kernel).unwrap();
             let own = own_gradients::<D2>(kind, &x, &vol, &csr, &kernel).unwrap();
@@ -556,6 +548,17 @@ mod tests {
             let own = own_gradients::<D2>(kind, &x, &vol, &csr, &kernel).unwrap();
             assert!(own.iter().all(|g| *g == DVec2::ZERO), "{kind:?}");
         }
+    }
+
+    /// A 12 × 12 lattice of Δx = 0.1 jittered by 0.2Δx, its volumes, the cubic spline at
+    /// h = 1.3Δx and its neighbour lists.
+    fn jittered_cloud() -> (f64, Vec<DVec2>, Vec<f64>, Kernel, Csr) {
+        let dx = 0.1;
+        let x = lattice2(12, dx, 0.2);
+        let vol = vec![dx * dx; x.len()];
+        let kernel = Kernel::new(KernelKind::CubicSpline, 1.3 * dx, 2);
+        let csr = neighbour::build::<D2>(&x, kernel.support());
+        (dx, x, vol, kernel, csr)
     }
 
     fn lattice2(n: usize, dx: f64, amp: f64) -> Vec<DVec2> {
