@@ -109,8 +109,8 @@ pub fn principal_stresses<D: Dim>(sigma: D::T) -> ([f64; 3], [D::V; 3]) {
 pub struct Scheme {
     av: Option<ArtificialViscosity>,
     /// The artificial stress with W(Δp) of the case's kernel, Δp the particle spacing
-    /// (eq 118's f_ij = W_ij/W(Δp)), and that kernel's σ_d/h^d.
-    stress: Option<(ArtificialStress, f64, f64)>,
+    /// (eq 118's f_ij = W_ij/W(Δp)).
+    stress: Option<(ArtificialStress, f64)>,
     xsph: Option<f64>,
 }
 
@@ -125,7 +125,7 @@ impl<D: Dim> PairScheme<D> for Scheme {
             av: spec.artificial_viscosity,
             stress: spec
                 .artificial_stress
-                .map(|s| (s, core.kernel.w(case.spacing), core.kernel.scale())),
+                .map(|s| (s, core.kernel.w(case.spacing))),
             xsph: spec.xsph,
         })
     }
@@ -142,7 +142,7 @@ impl<D: Dim> PairScheme<D> for Scheme {
         let sigma = core.cauchy(i, y); // σ = S − pI
         Particle {
             sigma_rho2: sigma * (1.0 / (rho * rho)),
-            r: self.stress.map_or(D::zero_t(), |(s, _, _)| {
+            r: self.stress.map_or(D::zero_t(), |(s, _)| {
                 artificial_stress::<D>(sigma, rho, s.epsilon)
             }),
             vol: core.mass[i] / rho,
@@ -166,9 +166,9 @@ impl<D: Dim> PairScheme<D> for Scheme {
             let v_ji = y.v[j] - vi;
             l += D::outer(v_ji, pi.correction.gradient(x_ij, w, grad)) * pj.vol; // eq 105
             let mut t = pi.sigma_rho2 + pj.sigma_rho2;
-            if let Some((s, w_dp, scale)) = self.stress {
+            if let Some((s, w_dp)) = self.stress {
                 // eq 118; an adaptive h_ij scales Δp with it: f_ij = w(r/h_ij)/w(Δp/h).
-                let f = w / w_dp * (scale / kernel.scale());
+                let f = w / w_dp * (core.kernel.scale() / kernel.scale());
                 t += (pi.r + pj.r) * power(f, s.n);
             }
             a += t * grad * core.mass[j];

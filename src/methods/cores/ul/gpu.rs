@@ -182,14 +182,10 @@ impl Scheme {
         self.smoothing_length != SmoothingLength::Fixed
     }
 
-    /// The kernel support the lists must reach for a kernel of `support`: H_CAP times it
-    /// with an adaptive smoothing length, whose h_ij may reach H_CAP h.
-    fn reach(&self, support: f64) -> f64 {
-        if self.adaptive() {
-            H_CAP * support
-        } else {
-            support
-        }
+    /// The reach of the lists in units of the kernel's support: H_CAP with an adaptive
+    /// smoothing length, whose h_ij may reach H_CAP h.
+    fn reach_factor(&self) -> f64 {
+        if self.adaptive() { H_CAP } else { 1.0 }
     }
 }
 
@@ -237,7 +233,7 @@ pub struct UlDevice<D: GpuDim> {
     ext: wgpu::Buffer,
     /// The body of each particle for per-body lists (with contact).
     body: Option<wgpu::Buffer>,
-    /// The kernel support the lists reach ([`Scheme::reach`]).
+    /// The kernel support the lists reach ([`Scheme::reach_factor`]).
     reach: f64,
     grid: CellParams,
     passes: Passes,
@@ -259,7 +255,7 @@ pub struct UlDevice<D: GpuDim> {
 /// them, as compression adds neighbours, and a build that needs more grows the lists;
 /// H_CAP^d times that for the reach of an adaptive smoothing length.
 fn capacity<D: GpuDim>(scheme: &Scheme, pairs: usize, n: usize) -> u64 {
-    let widened = (scheme.reach(1.0)).powi(D::N as i32);
+    let widened = scheme.reach_factor().powi(D::N as i32);
     (2.0 * pairs.max(n) as f64 * widened).ceil() as u64
 }
 
@@ -281,7 +277,7 @@ impl<D: GpuDim> GpuUl<D> {
                 m.words("bodies", n as f64);
             }
             m.fields("state at the batch start", &layout.state);
-            let radius = search_radius(scheme.reach(case.kernel(D::N).support()));
+            let radius = search_radius(scheme.reach_factor() * case.kernel(D::N).support());
             let boxes = case.bodies.iter().map(|b| b.geometry.extent(D::N));
             let ncells = boxes.collect::<Option<Vec<_>>>().map_or(n as u64, |boxes| {
                 let corners = boxes.iter().flat_map(|&(lo, hi)| [lo, hi]);
@@ -352,7 +348,7 @@ impl<D: GpuDim> GpuUl<D> {
             }
             false => None,
         };
-        let reach = scheme.reach(disc.kernel.support());
+        let reach = scheme.reach_factor() * disc.kernel.support();
         let grid = grid::<D>(&gpu, &disc, n as u32, reach)?;
         let reduction = Reduction::new(
             &gpu,

@@ -179,9 +179,9 @@ pub enum SmoothingLength {
     /// The case's h for every particle (the paper's runs).
     #[default]
     Fixed,
-    /// eqs 60–61: h_i = η_i (m_i/⟨ρ⟩_i)^(1/d) with the kernel-sum density ⟨ρ⟩_i, by
-    /// fixed-point iteration ([`density_smoothing_length`]) on the current positions, from
-    /// the continuity estimate; η_i = h (ρ0/m_i)^(1/d) makes it the case's h on a lattice
+    /// eqs 60–61: h_i = η_i (m_i/⟨ρ⟩_i)^(1/d) with the kernel-sum density ⟨ρ⟩_i, its
+    /// fixed point by Newton steps ([`density_smoothing_length`]) on the current positions,
+    /// from the continuity estimate; η_i = h (ρ0/m_i)^(1/d) makes it the case's h on a lattice
     /// whose kernel sums give ρ0.
     Density,
     /// eq 62: Mohammadi's h_i = h (ρ0/ρ_i)^(1/d) with ρ_i of the continuity equation.
@@ -253,9 +253,9 @@ pub fn plan_state(case: &Case) -> String {
 /// the gradients of L.
 pub fn plan_rebuild(case: &Case, gpu: bool, smoothing_length: SmoothingLength) -> String {
     let lists = if gpu {
-        "the lists reach the cap's support, 2·2h"
+        format!("the lists reach the kernel's support at the cap, h = {H_CAP}h0")
     } else {
-        "the lists grow with it"
+        "the lists grow with it".to_string()
     };
     let smoothing = match smoothing_length {
         SmoothingLength::Fixed => String::new(),
