@@ -10,7 +10,7 @@
 //!   (ρ0/ρ)^(1/d) (the printed equation is garbled; notes §1.5);
 //! - **eq 63** ([`prime_space`]): Randles and Libersky's prime space, the candidates mapped
 //!   so that the closest lie farthest, x'_j = x_ij/|x_ij|², and the neighbourhood the
-//!   vertices of the mapped points' convex hull (2D). The paper's anisotropy scale χ is
+//!   mapped points on their convex hull's boundary (2D). The paper's anisotropy scale χ is
 //!   garbled in the equation and not recoverable; it is 1 here;
 //! - **eq 64** ([`Ellipse`]): the covariance ellipse, with the reference code's recipe
 //!   (notes §1.5), which the updated-Lagrangian weak form uses.
@@ -98,23 +98,102 @@ pub fn within<D: Dim>(offsets: &[D::V], reach: f64) -> Vec<usize> {
         .collect()
 }
 
-/// eq 63 in 2D: the candidates at offsets x_ij (the particle itself left out) whose
-/// images x_ij/|x_ij|² are vertices of the images' convex hull, by index into `offsets`.
+/// The share of the largest image's length within which an image counts as on the
+/// boundary of the images' convex hull in [`prime_space`]: a lattice's diagonal
+/// neighbours lie on it exactly (their images on the edges between the nearest ones'),
+/// and positions in f32 put them up to about 1e-5 off.
+pub const PRIME_SPACE_TOLERANCE: f64 = 1e-3;
+
+/// eq 63 in 2D: the candidates at offsets x_ij (the particle itself, x_ij = 0, left out)
+/// whose images x_ij/|x_ij|² lie on the boundary of the images' convex hull, within
+/// [`PRIME_SPACE_TOLERANCE`], by index into `offsets`, ascending. An image inside a convex
+/// polygon is as far from its boundary as from the nearest edge's line, so the choice is
+/// continuous in the positions: a point that moves onto an edge joins, whether or not it
+/// becomes a vertex. Candidates all on one line through the particle are all taken.
+///
+/// The hull is built over the images that are not deep inside the polygon of those
+/// extreme along x, y, x + y and x − y (Akl and Toussaint's filter): that polygon lies
+/// within the hull, so an image farther inside it than the tolerance is not taken, and
+/// far candidates, whose images crowd about the origin, are dropped at once.
 pub fn prime_space(offsets: &[[f64; 2]]) -> Vec<usize> {
-    let image = |k: u32| {
-        let [x, y] = offsets[k as usize];
-        let r2 = x * x + y * y;
-        [x / r2, y / r2]
-    };
+    let images: Vec<[f64; 2]> = offsets
+        .iter()
+        .map(|&[x, y]| {
+            let r2 = x * x + y * y;
+            [x / r2, y / r2]
+        })
+        .collect();
+    let at = |k: u32| images[k as usize];
     let others: Vec<u32> = (0..offsets.len() as u32)
         .filter(|&k| offsets[k as usize] != [0.0, 0.0])
         .collect();
-    let mut hull: Vec<usize> = convex_hull(&others, image)
-        .into_iter()
-        .map(|k| k as usize)
+    let scale = others
+        .iter()
+        .map(|&k| {
+            let [x, y] = at(k);
+            (x * x + y * y).sqrt()
+        })
+        .fold(0.0, f64::max);
+    let tolerance = PRIME_SPACE_TOLERANCE * scale;
+    // The largest image along each of the eight directions ±x, ±y, ±(x + y), ±(x − y).
+    let mut best = [(f64::NEG_INFINITY, u32::MAX); 8];
+    for &k in &others {
+        let [x, y] = at(k);
+        for (slot, along) in best
+            .iter_mut()
+            .zip([x, -x, y, -y, x + y, -x - y, x - y, y - x])
+        {
+            if along > slot.0 {
+                *slot = (along, k);
+            }
+        }
+    }
+    let mut extreme: Vec<u32> = best
+        .iter()
+        .map(|&(_, k)| k)
+        .filter(|&k| k != u32::MAX)
         .collect();
-    hull.sort_unstable();
-    hull
+    extreme.sort_unstable();
+    extreme.dedup();
+    let inner = polygon(&convex_hull(&extreme, at), at);
+    let near: Vec<u32> = others
+        .into_iter()
+        .filter(|&k| depth(&inner, at(k)) <= tolerance)
+        .collect();
+    let hull = polygon(&convex_hull(&near, at), at);
+    near.into_iter()
+        .filter(|&k| depth(&hull, at(k)) <= tolerance)
+        .map(|k| k as usize)
+        .collect()
+}
+
+/// The edges of a counter-clockwise polygon `vertices` as (a point, inward unit normal),
+/// without those of length zero; none for fewer than three vertices.
+fn polygon(vertices: &[u32], at: impl Fn(u32) -> [f64; 2]) -> Vec<([f64; 2], [f64; 2])> {
+    if vertices.len() < 3 {
+        return Vec::new();
+    }
+    (0..vertices.len())
+        .filter_map(|e| {
+            let (a, b) = (at(vertices[e]), at(vertices[(e + 1) % vertices.len()]));
+            let (tx, ty) = (b[0] - a[0], b[1] - a[1]);
+            let length = (tx * tx + ty * ty).sqrt();
+            (length > 0.0).then(|| (a, [-ty / length, tx / length]))
+        })
+        .collect()
+}
+
+/// How far p lies inside the polygon of `edges` ([`polygon`]): its distance to the
+/// nearest edge's line, negative outside; −∞ without edges (nothing is inside), and at
+/// most 0 for a polygon flat on a line (whose two sides face each other).
+fn depth(edges: &[([f64; 2], [f64; 2])], p: [f64; 2]) -> f64 {
+    if edges.is_empty() {
+        return f64::NEG_INFINITY;
+    }
+    edges
+        .iter()
+        .map(|(a, n)| n[0] * (p[0] - a[0]) + n[1] * (p[1] - a[1]))
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// The scale of the half-axes over sqrt(λ): 1.6651² = 2.7726 = −2 ln 0.25, the 75 %

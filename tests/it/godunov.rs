@@ -145,13 +145,15 @@ fn the_riemann_pair_forces_conserve_linear_momentum() {
     // Item 12: t*_ji = −t*_ij and W'(r) is common to both, so Σ m v̇ cancels pairwise; the
     // sum of ~1e4 terms in f64 leaves 1e-13 of their size.
     let mut seed = 13;
-    // An adaptive h keeps W'(r) common to both through h_ij = ½(h_i + h_j).
+    // An adaptive h keeps W'(r) common to both through h_ij = ½(h_i + h_j), and the prime
+    // space's lists are symmetric.
     for key in [
         "method.correction=none",
         "method.correction=randles-libersky",
         "method.correction=rkpm",
         "method.smoothing_length=density",
         "method.smoothing_length=continuity",
+        "method.smoothing_length=prime-space",
     ] {
         let mut m = disk(&[key]);
         let y = random_state(&m, 2.0 / 19.0, &mut seed);

@@ -430,8 +430,9 @@ fn the_pair_forces_conserve_linear_momentum() {
         );
     }
     check_momentum::<D3>(gray_monaghan_3d("none"), 0.1, &mut seed);
-    // An adaptive h: each pair's kernel at h_ij = ½(h_i + h_j) keeps ∇W_ij antisymmetric.
-    for smoothing in ["density", "continuity"] {
+    // An adaptive h: each pair's kernel at h_ij = ½(h_i + h_j) keeps ∇W_ij antisymmetric
+    // (and the prime space's lists are symmetric).
+    for smoothing in ["density", "continuity", "prime-space"] {
         let key = format!("method.smoothing_length={smoothing}");
         check_momentum::<D2>(disk(&[&key]), dx, &mut seed);
     }

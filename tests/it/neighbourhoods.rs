@@ -1,18 +1,22 @@
 //! The neighbourhood and smoothing-length algorithms of seed 000 §3.2 (eqs 60–64) and the
 //! comparison of its Fig. 3 (`meshless neighbourhoods`, docs/methods/ul-neighbourhoods.md).
 
-use crate::common::block_case;
+use crate::common::{block_case, block_text};
 use crate::gray_monaghan::rates;
 use meshless::core::kernel::KernelKind;
+use meshless::core::neighbour::Csr;
 use meshless::core::neighbourhood::{
-    Ellipse, continuity_smoothing_length, density_smoothing_length,
+    Ellipse, PRIME_SPACE_TOLERANCE, continuity_smoothing_length, density_smoothing_length,
+    prime_space,
 };
 use meshless::core::tensor::{D2, D3, Dim};
 use meshless::methods::Method;
-use meshless::methods::cores::ul::H_CAP;
+use meshless::methods::cores::ul::{H_CAP, PRIME_SPACE_REACH};
 use meshless::methods::gray_monaghan::GrayMonaghan;
 use meshless::run::build_method;
+use meshless::scene::Scene;
 use meshless::study::neighbourhoods::{MOTIONS, Neighbourhood, compare, motion_anisotropy};
+use std::path::Path;
 
 /// A cubic lattice of spacing `s` (13 points a side), as offsets from its centre with unit
 /// masses.
@@ -156,7 +160,8 @@ fn figure_3_the_prime_space_is_not_symmetric_under_shear() {
 fn figure_3_the_prime_space_follows_the_tension_more_closely_than_the_ellipse() {
     // The paper: in tension "the prime space algorithm follows the anisotropy of the
     // deformation more closely". The ellipse keeps the same candidates under any affine
-    // motion, so its stretch ratio is the motion's exactly (4); the prime space's is 4.69.
+    // motion, so its stretch ratio is the motion's exactly (4); the prime space keeps the
+    // 3×3 stencil, whose ratio is 4 too: a tie, not closer.
     let rows = compare();
     let f = MOTIONS[2].1;
     let off = |a: &str| (find(&rows, "tension", a).anisotropy() - motion_anisotropy(f)).abs();
@@ -170,9 +175,9 @@ fn figure_3_the_prime_space_follows_the_tension_more_closely_than_the_ellipse() 
 
 /// The smoothing lengths of `gray-monaghan-sph` with `smoothing_length = mode` on a block
 /// (Δx = 0.1, h = 1.3Δx) scaled uniformly by s about the origin, x = s X with ρ = ρ0 s^(−d),
-/// after one rate evaluation; and whether the lists then hold every pair within the
-/// support of its kernel.
-fn scaled_block_lengths<D: Dim>(mode: &str, s: f64) -> (Vec<f64>, bool) {
+/// after one rate evaluation; and the lists, with whether they then hold every pair within
+/// the support of its kernel.
+fn scaled_block_lengths<D: Dim>(mode: &str, s: f64) -> (Vec<f64>, Csr, bool) {
     let max = vec![0.8; D::N];
     let key = format!("smoothing_length = \"{mode}\"");
     let case = block_case(&max, "hypoelastic", "gray-monaghan-sph", &key);
@@ -193,7 +198,7 @@ fn scaled_block_lengths<D: Dim>(mode: &str, s: f64) -> (Vec<f64>, bool) {
             r >= core.pair_kernel(i, j).support() || listed.contains(&(j as u32))
         })
     });
-    (h, complete)
+    (h, core.neighbours().clone(), complete)
 }
 
 fn adaptive_lengths_scale_with_the_block<D: Dim>() {
@@ -204,13 +209,13 @@ fn adaptive_lengths_scale_with_the_block<D: Dim>() {
     // for s = 1, so the lists must grow with h.
     let cap = H_CAP * 0.13;
     for mode in ["density", "continuity"] {
-        let (h1, complete) = scaled_block_lengths::<D>(mode, 1.0);
+        let (h1, _, complete) = scaled_block_lengths::<D>(mode, 1.0);
         assert!(complete, "{}D {mode}: lists short at s = 1", D::N);
         if mode == "continuity" {
             assert!(h1.iter().all(|&h| (h - 0.13).abs() < 1e-15));
         }
         for s in [0.8, 1.3] {
-            let (h, complete) = scaled_block_lengths::<D>(mode, s);
+            let (h, _, complete) = scaled_block_lengths::<D>(mode, s);
             assert!(complete, "{}D {mode}: lists short at s = {s}", D::N);
             let mut checked = 0;
             for (i, (&hs, &h1)) in h.iter().zip(&h1).enumerate() {
@@ -239,4 +244,112 @@ fn adaptive_lengths_scale_with_the_block<D: Dim>() {
 fn adaptive_smoothing_lengths_scale_with_a_uniformly_scaled_block() {
     adaptive_lengths_scale_with_the_block::<D2>();
     adaptive_lengths_scale_with_the_block::<D3>();
+}
+
+#[test]
+fn the_prime_space_of_a_lattice_is_its_stencil_at_any_angle() {
+    // eq 63 on the offsets (a, b)Δx, |a|, |b| ≤ 4, of a square lattice: the images
+    // (a, b)/((a² + b²)Δx) lie inside the diamond |x'| + |y'| ≤ 1/Δx, on it exactly for
+    // the eight of the 3×3 stencil (the diagonals mid-edge) and at least 0.35/Δx inside
+    // for any other. Rotated by any angle and perturbed by 1e-6 Δx (positions in f32 far
+    // from the origin), the choice stays the stencil: the diagonals, within 1e-6 of an
+    // edge, are inside the tolerance of 1e-3; without it they would depend on rounding.
+    let dx = 0.1;
+    let mut seed = 3_u64;
+    let mut noise = || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    };
+    for angle in [0.0_f64, 0.3, std::f64::consts::FRAC_PI_4, 2.0] {
+        let (c, s) = (angle.cos(), angle.sin());
+        let mut offsets = Vec::new();
+        let mut stencil = Vec::new();
+        for a in -4_i32..=4 {
+            for b in -4_i32..=4 {
+                if (a, b) == (0, 0) {
+                    continue;
+                }
+                let (x, y) = (f64::from(a) * dx, f64::from(b) * dx);
+                if a.abs().max(b.abs()) == 1 {
+                    stencil.push(offsets.len());
+                }
+                offsets.push([
+                    c * x - s * y + 1e-6 * dx * noise(),
+                    s * x + c * y + 1e-6 * dx * noise(),
+                ]);
+            }
+        }
+        assert_eq!(prime_space(&offsets), stencil, "angle {angle}");
+    }
+    assert!(PRIME_SPACE_TOLERANCE > 1e-5 && PRIME_SPACE_TOLERANCE < 0.35 / 2f64.sqrt());
+}
+
+#[test]
+fn prime_space_neighbourhoods_take_the_stencil_and_scale_with_the_block() {
+    // `smoothing_length = "prime-space"` on the block (Δx = 0.1, h0 = 0.13): a particle off
+    // the faces takes the eight of its 3×3 stencil (the lists are symmetric, and a face
+    // particle takes no interior particle outside its stencil), so h_i = √2 Δx/(0.75 · 2),
+    // the farthest at three quarters of the cubic spline's support. x = s X scales the
+    // images by 1/s and the hull's tolerance with them: the same pairs and h_i(s) = s h_i(1)
+    // there (1e-12 covers the rounding of x = s X). Face particles take every face
+    // particle within the candidates' reach, 2 H_CAP h0 at any s, so theirs do not scale.
+    let dx = 0.1;
+    let (h1, lists1, _) = scaled_block_lengths::<D2>("prime-space", 1.0);
+    let case = block_case(&[0.8, 0.8], "hypoelastic", "gray-monaghan-sph", "");
+    let m: GrayMonaghan<D2> = build_method(&case).unwrap();
+    let x0 = m.reference().to_vec();
+    let inner = |i: usize| x0[i].min_element() > 1e-9 && x0[i].max_element() < 0.8 - 1e-9;
+    let stencil = 2f64.sqrt() * dx / (PRIME_SPACE_REACH * 2.0);
+    let mut checked = 0;
+    for i in (0..x0.len()).filter(|&i| inner(i)) {
+        let listed = lists1.neighbours(i);
+        assert_eq!(listed.len(), 8, "particle {i} at {}", x0[i]);
+        for &j in listed {
+            let r = (x0[i] - x0[j as usize]).length();
+            assert!(r < 2f64.sqrt() * dx * (1.0 + 1e-9), "{i}–{j} at {r}");
+        }
+        assert!(
+            (h1[i] - stencil).abs() < 1e-12 * stencil,
+            "h_{i} = {}",
+            h1[i]
+        );
+        checked += 1;
+    }
+    assert!(checked >= 49, "{checked} particles off the faces");
+    for s in [0.8, 1.3] {
+        let (h, lists, _) = scaled_block_lengths::<D2>("prime-space", s);
+        for i in (0..x0.len()).filter(|&i| inner(i)) {
+            assert_eq!(lists.neighbours(i), lists1.neighbours(i), "s = {s}, {i}");
+            let ratio = h[i] / h1[i];
+            assert!((ratio - s).abs() < 1e-12, "h_{i}({s})/h_{i}(1) = {ratio}");
+        }
+        assert!(h.iter().all(|&h| h <= H_CAP * 0.13 * (1.0 + 1e-12)));
+    }
+}
+
+#[test]
+fn the_prime_space_is_refused_in_3d_and_runs_on_the_cpu() {
+    // Eq 63's hull is planar: a 3D case is refused with the key and the keys that work;
+    // on the GPU the run is sent to the CPU with the reason named.
+    let key = "smoothing_length = \"prime-space\"";
+    for method in ["gray-monaghan-sph", "godunov-sph"] {
+        let text = block_text(&[0.4, 0.4, 0.4], "hypoelastic", method, key);
+        let err = Scene::from_toml(&text, Path::new("block.toml"), &[])
+            .err()
+            .unwrap_or_else(|| panic!("{method}: a 3D prime space was accepted"))
+            .to_string();
+        for part in [
+            "block.toml",
+            "method.smoothing_length",
+            "2D only",
+            "\"density\"",
+        ] {
+            assert!(err.contains(part), "{method}: {part} not in {err}");
+        }
+        let case = block_case(&[0.8, 0.8], "hypoelastic", method, key);
+        let why = meshless::run::cpu_only(&case).expect("the prime space runs on the CPU");
+        assert!(why.contains("prime-space") && why.contains(method), "{why}");
+    }
 }

@@ -45,7 +45,7 @@ impl MethodFamily for GodunovSpec {
     const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
 
     fn validate(&self, case: &Case) -> Result<(), Problem> {
-        super::cores::ul::validate(case)
+        super::cores::ul::validate(case, self.smoothing_length)
     }
 
     fn plan(&self, case: &Case, gpu: bool) -> Plan {
@@ -70,6 +70,10 @@ impl MethodFamily for GodunovSpec {
             .flatten()
             .collect(),
         }
+    }
+
+    fn gpu_refusal(&self, _case: &Case) -> Option<&'static str> {
+        super::cores::ul::gpu_refusal(self.smoothing_length)
     }
 
     fn cpu_engine<D: EngineDim>(&self, case: &Case) -> CpuBuild<D> {

@@ -72,7 +72,7 @@ impl MethodFamily for GrayMonaghanSpec {
     const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
 
     fn validate(&self, case: &Case) -> Result<(), Problem> {
-        super::cores::ul::validate(case)?;
+        super::cores::ul::validate(case, self.smoothing_length)?;
         check_viscosity(self.artificial_viscosity.as_ref())?;
         if let Some(ArtificialStress { epsilon, n }) = self.artificial_stress {
             non_negative("method.artificial_stress.epsilon", epsilon)?;
@@ -123,6 +123,10 @@ impl MethodFamily for GrayMonaghanSpec {
             check_note: String::new(),
             left_out,
         }
+    }
+
+    fn gpu_refusal(&self, _case: &Case) -> Option<&'static str> {
+        super::cores::ul::gpu_refusal(self.smoothing_length)
     }
 
     fn cpu_engine<D: EngineDim>(&self, case: &Case) -> CpuBuild<D> {

@@ -162,7 +162,8 @@ pub fn scene_constants(case: &Case, layout: &Layout, scheme: &Scheme) -> Constan
             match scheme.smoothing_length {
                 SmoothingLength::Fixed => 0,
                 SmoothingLength::Density => 1,
-                SmoothingLength::Continuity => 2,
+                // The prime space is refused on the device (`cores::ul::gpu_refusal`).
+                SmoothingLength::Continuity | SmoothingLength::PrimeSpace => 2,
             },
         )
         .f32("H_CAP", H_CAP)

@@ -21,7 +21,9 @@ use crate::core::correction::{CorrectionKind, Rkpm};
 use crate::core::integrate::OdeSystem;
 use crate::core::kernel::Kernel;
 use crate::core::neighbour::{Csr, Neighbours, Rebuild};
-use crate::core::neighbourhood::{continuity_smoothing_length, density_smoothing_length};
+use crate::core::neighbourhood::{
+    continuity_smoothing_length, density_smoothing_length, prime_space,
+};
 use crate::core::parallel::{MIN_CHUNK, particle_state};
 use crate::core::sum::Exact;
 use crate::core::tensor::Dim;
@@ -186,10 +188,29 @@ pub enum SmoothingLength {
     Density,
     /// eq 62: Mohammadi's h_i = h (ρ0/ρ_i)^(1/d) with ρ_i of the continuity equation.
     Continuity,
+    /// eq 63 (2D): Randles and Libersky's prime space. The neighbours of particle i are
+    /// its candidates within the kernel's support at the cap whose images x_ij/|x_ij|² lie
+    /// on the images' convex hull ([`prime_space`]); a pair interacts when either particle
+    /// takes the other. h_i puts i's farthest neighbour at [`PRIME_SPACE_REACH`] of the
+    /// kernel's support.
+    PrimeSpace,
 }
+
+/// Where the farthest prime-space neighbour lies, as a share of the kernel's support of
+/// h_i: inside it, with a weight (at the support's edge it would have none). On a square
+/// lattice the neighbours are the eight of the 3×3 stencil, and the support, 2√2/1.5 Δx
+/// = 1.89Δx for the cubic spline, then holds exactly them.
+pub const PRIME_SPACE_REACH: f64 = 0.75;
 
 /// The output field of an adaptive smoothing length: h_i of the last rate evaluation.
 pub const SMOOTHING_LENGTH: &str = "smoothing_length";
+
+/// Why a UL method's key keeps it off the GPU, as a phrase after the method's name: the
+/// prime space's per-particle convex hull has no device pass.
+pub fn gpu_refusal(smoothing_length: SmoothingLength) -> Option<&'static str> {
+    (smoothing_length == SmoothingLength::PrimeSpace)
+        .then_some("with smoothing_length = \"prime-space\" runs on the CPU only (eq 63's convex hull per particle has no device pass)")
+}
 
 /// What a UL method leaves out with a fixed smoothing length, as `--explain` lists it.
 pub fn left_out_smoothing(smoothing_length: SmoothingLength) -> Option<&'static str> {
@@ -215,8 +236,19 @@ const CORRECTIONS: [CorrectionKind; 3] = [
 
 /// The checks every UL method makes of a case: the hypoelastic model and a correction of
 /// [`CORRECTIONS`].
-pub fn validate(case: &Case) -> Result<(), Problem> {
+pub fn validate(case: &Case, smoothing_length: SmoothingLength) -> Result<(), Problem> {
     let name = case.method.name;
+    if smoothing_length == SmoothingLength::PrimeSpace && case.dim() != 2 {
+        return fail(
+            "method.smoothing_length",
+            format!(
+                "\"prime-space\" (eq 63) selects the neighbours by a convex hull in the \
+                 plane and runs in 2D only, and this case is {}D; use \"density\", \
+                 \"continuity\" or \"fixed\"",
+                case.dim()
+            ),
+        );
+    }
     if !case.material.model.is_rate_based() {
         return fail(
             "material.model",
@@ -266,6 +298,12 @@ pub fn plan_rebuild(case: &Case, gpu: bool, smoothing_length: SmoothingLength) -
         SmoothingLength::Continuity => {
             format!(", h_i = h (ρ0/ρ_i)^(1/d) (eq 62; {lists}), pair kernels at ½(h_i + h_j)")
         }
+        SmoothingLength::PrimeSpace => format!(
+            ", the neighbours of the prime space (eq 63: the candidates within the support \
+             at {H_CAP}h0 whose images x_ij/|x_ij|² lie on their convex hull, a pair when \
+             either takes the other), h_i with the farthest at {PRIME_SPACE_REACH} of the \
+             support, pair kernels at ½(h_i + h_j)"
+        ),
     };
     format!(
         "{}{}{smoothing}, then one gather: L ({})",
@@ -311,7 +349,12 @@ pub struct UlCore<D: Dim> {
     /// h_i of every particle at the last rate evaluation with an adaptive smoothing
     /// length (empty with a fixed one).
     h: Vec<f64>,
+    /// The candidates of every particle (all of them within the kernel's support, or that
+    /// at the cap with an adaptive h).
     neighbours: Neighbours,
+    /// [`SmoothingLength::PrimeSpace`]: the pairs of the prime space at the last rate
+    /// evaluation, a subset of the candidates.
+    prime: Option<Csr>,
     /// Current positions x = X + u of the last rate evaluation.
     pub x: Vec<D::V>,
 }
@@ -339,6 +382,7 @@ impl<D: Dim> UlCore<D> {
             smoothing_length: SmoothingLength::Fixed,
             h: Vec::new(),
             neighbours,
+            prime: None,
         })
     }
 
@@ -349,7 +393,7 @@ impl<D: Dim> UlCore<D> {
 
     /// The neighbour lists of the last rate evaluation.
     pub fn neighbours(&self) -> &Csr {
-        self.neighbours.lists()
+        self.prime.as_ref().unwrap_or(self.neighbours.lists())
     }
 
     /// The smoothing length h_i of particle i at the last rate evaluation.
@@ -488,8 +532,65 @@ impl<D: Dim> UlCore<D> {
                 self.neighbours.update_reaching::<D>(&self.x, &need);
             }
             SmoothingLength::Density => self.density_lengths(y)?,
+            SmoothingLength::PrimeSpace => self.prime_space_lists(),
         }
         Ok(())
+    }
+
+    /// eq 63 at every particle, over its candidates within the kernel's support at the
+    /// cap (at the current positions, so that the choice does not depend on when the lists
+    /// were built): its prime-space neighbours and h_i, capped at [`H_CAP`] h (the cap alone
+    /// without neighbours); then the lists of the pairs either particle takes.
+    fn prime_space_lists(&mut self) {
+        let (h0, support) = (self.kernel.h, self.kernel.kind.support_factor());
+        let reach = support * H_CAP * h0;
+        let n = self.x.len();
+        self.neighbours
+            .update_reaching::<D>(&self.x, &vec![reach; n]);
+        let (x, candidates) = (&self.x, self.neighbours.lists());
+        let offset = |i: usize, j: u32| x[i] - x[j as usize];
+        // Per particle: the candidates in reach, those it takes, and h_i.
+        let chosen: Vec<(Vec<u32>, Vec<u32>, f64)> = (0..n)
+            .into_par_iter()
+            .with_min_len(MIN_CHUNK)
+            .map(|i| {
+                let in_reach = |&j: &u32| D::norm2(offset(i, j)) <= reach * reach;
+                let near: Vec<u32> = candidates
+                    .neighbours(i)
+                    .iter()
+                    .copied()
+                    .filter(in_reach)
+                    .collect();
+                let planar = |&j: &u32| {
+                    let x_ij = D::to3(offset(i, j));
+                    [x_ij[0], x_ij[1]]
+                };
+                let offsets: Vec<[f64; 2]> = near.iter().map(planar).collect();
+                let taken: Vec<u32> = prime_space(&offsets).into_iter().map(|k| near[k]).collect();
+                let farthest = taken
+                    .iter()
+                    .map(|&j| D::norm2(offset(i, j)).sqrt())
+                    .fold(0.0, f64::max);
+                let h = if taken.is_empty() {
+                    H_CAP * h0
+                } else {
+                    (farthest / (PRIME_SPACE_REACH * support)).min(H_CAP * h0)
+                };
+                (near, taken, h)
+            })
+            .collect();
+        // Candidates are sorted, and so is each particle's choice.
+        let takes = |i: usize, j: u32| chosen[i].1.binary_search(&j).is_ok();
+        let rows: Vec<Vec<u32>> = (0..n)
+            .into_par_iter()
+            .with_min_len(MIN_CHUNK)
+            .map(|i| {
+                let paired = |&j: &u32| takes(i, j) || takes(j as usize, i as u32);
+                chosen[i].0.iter().copied().filter(paired).collect()
+            })
+            .collect();
+        self.h = chosen.into_iter().map(|(_, _, h)| h).collect();
+        self.prime = Some(Csr::from_rows(&rows));
     }
 
     /// eqs 60–61 at every particle over the lists, each from its continuity estimate; the
