@@ -127,18 +127,13 @@ pub fn prime_space(offsets: &[[f64; 2]]) -> Vec<usize> {
     let others: Vec<u32> = (0..offsets.len() as u32)
         .filter(|&k| offsets[k as usize] != [0.0, 0.0])
         .collect();
-    let scale = others
-        .iter()
-        .map(|&k| {
-            let [x, y] = at(k);
-            (x * x + y * y).sqrt()
-        })
-        .fold(0.0, f64::max);
-    let tolerance = PRIME_SPACE_TOLERANCE * scale;
-    // The largest image along each of the eight directions ±x, ±y, ±(x + y), ±(x − y).
+    // The largest image's length, and the largest image along each of the eight
+    // directions ±x, ±y, ±(x + y), ±(x − y).
+    let mut scale: f64 = 0.0;
     let mut best = [(f64::NEG_INFINITY, u32::MAX); 8];
     for &k in &others {
         let [x, y] = at(k);
+        scale = scale.max((x * x + y * y).sqrt());
         for (slot, along) in best
             .iter_mut()
             .zip([x, -x, y, -y, x + y, -x - y, x - y, y - x])
@@ -155,6 +150,7 @@ pub fn prime_space(offsets: &[[f64; 2]]) -> Vec<usize> {
         .collect();
     extreme.sort_unstable();
     extreme.dedup();
+    let tolerance = PRIME_SPACE_TOLERANCE * scale;
     let inner = polygon(&convex_hull(&extreme, at), at);
     let near: Vec<u32> = others
         .into_iter()

@@ -264,6 +264,19 @@ fn objective_rates_are_for_rate_models_and_named() {
 }
 
 #[test]
+fn the_prime_space_is_refused_in_3d() {
+    // Eq 63's hull is planar: a 3D case is refused with the key and the keys that work.
+    for method in ["gray-monaghan-sph", "godunov-sph"] {
+        let key = "smoothing_length = \"prime-space\"";
+        assert_invalid(
+            &crate::common::block_text(&[0.4, 0.4, 0.4], "hypoelastic", method, key),
+            "method.smoothing_length",
+            &["2D only", "this case is 3D", "\"density\""],
+        );
+    }
+}
+
+#[test]
 fn a_yield_stress_on_the_rate_model_is_for_the_ul_strong_forms_and_named() {
     let plastic = |method: &str, extra: &str| {
         let text = edit(

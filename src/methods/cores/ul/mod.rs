@@ -234,8 +234,8 @@ const CORRECTIONS: [CorrectionKind; 3] = [
     CorrectionKind::Rkpm,
 ];
 
-/// The checks every UL method makes of a case: the hypoelastic model and a correction of
-/// [`CORRECTIONS`].
+/// The checks every UL method makes of a case: the hypoelastic model, a correction of
+/// [`CORRECTIONS`], and the prime space in 2D only.
 pub fn validate(case: &Case, smoothing_length: SmoothingLength) -> Result<(), Problem> {
     let name = case.method.name;
     if smoothing_length == SmoothingLength::PrimeSpace && case.dim() != 2 {
@@ -349,8 +349,8 @@ pub struct UlCore<D: Dim> {
     /// h_i of every particle at the last rate evaluation with an adaptive smoothing
     /// length (empty with a fixed one).
     h: Vec<f64>,
-    /// The candidates of every particle (all of them within the kernel's support, or that
-    /// at the cap with an adaptive h).
+    /// The candidates of every particle: all of them within its kernel's support (of h_i
+    /// with an adaptive h, of the cap under the prime space).
     neighbours: Neighbours,
     /// [`SmoothingLength::PrimeSpace`]: the pairs of the prime space at the last rate
     /// evaluation, a subset of the candidates.
