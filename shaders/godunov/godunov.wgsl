@@ -50,6 +50,9 @@ fn rates(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     let pairs = pairs_of(i);
     for (var p = pairs.x; p < pairs.y; p++) {
         let j = ids[p];
+        if !paired(i, j) {
+            continue;
+        }
         let x_ij = x_i - x_of(j);
         let r = length(x_ij);
         let h = h_pair(i, j);

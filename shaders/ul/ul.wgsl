@@ -78,6 +78,188 @@ fn h_pair(i: u32, j: u32) -> f32 {
     return 0.5 * (h_of(i) + h_of(j));
 }
 
+// eq 63, the prime space (methods::cores::ul `UlCore::prime_space_lists`, core::neighbourhood
+// `prime_space`), 2D: particle i's candidates are its pairs within PS_R2 (the kernel's
+// support at the cap, squared), whose images x_ij/|x_ij|² the `smoothing` pass wraps in a
+// convex hull. Its PS block in kin is [edges, tolerance, (n_x, n_y, c) per edge], n the
+// inward unit normal of an edge and c = n·a at a point a on it, so that an image p lies
+// depth(p) = min_e (n_e·p − c_e) inside; no edges (fewer than three candidates, or all on
+// a line) take every candidate.
+
+const PI: f32 = 3.14159265;
+
+// The image x_ij/|x_ij|² of an offset, in the plane.
+fn ps_image(x_ij: vecd) -> vec2<f32> {
+    let r2 = dot(x_ij, x_ij);
+    return vec2<f32>(x_ij[0], x_ij[1]) / r2;
+}
+
+// How far image p lies inside particle i's hull (−3.4e38 without edges).
+fn ps_depth(i: u32, p: vec2<f32>) -> f32 {
+    let base = KPS_OFF + PS_WIDTH * i;
+    let edges = u32(kin[base]);
+    if edges == 0u {
+        return -3.4e38;
+    }
+    var depth = 3.4e38;
+    for (var e = 0u; e < edges; e++) {
+        let at = base + 2u + 3u * e;
+        depth = min(depth, kin[at] * p.x + kin[at + 1u] * p.y - kin[at + 2u]);
+    }
+    return depth;
+}
+
+// Whether particle i takes the candidate at offset x_ij (within reach): its image within
+// the tolerance of the hull's boundary.
+fn ps_takes(i: u32, x_ij: vecd) -> bool {
+    return ps_depth(i, ps_image(x_ij)) <= kin[KPS_OFF + PS_WIDTH * i + 1u];
+}
+
+// Whether the pair (i, j) of the lists interacts: always, but under the prime space only
+// within reach and when either particle takes the other.
+fn paired(i: u32, j: u32) -> bool {
+    if ADAPTIVE_H != ADAPTIVE_H_PRIME_SPACE {
+        return true;
+    }
+    let x_ij = x_of(i) - x_of(j);
+    if !(dot(x_ij, x_ij) <= PS_R2) {
+        return false;
+    }
+    return ps_takes(i, x_ij) || ps_takes(j, -x_ij);
+}
+
+// Particle i's hull by gift wrapping, from its lowest image (then leftmost), taking at
+// each vertex the smallest left turn from the last edge (the farthest of collinear
+// images; an image behind, collinear with the edge, is never next), so that every image
+// lies left of each edge, until it reaches a vertex again (the start, or one that
+// rounding let it reach past the start, which then lies within rounding of an edge): the
+// edges counter-clockwise, stored with the tolerance, PS_TOLERANCE of the largest
+// image's length. A hull of more than PS_EDGES edges, or a wrap that does not close,
+// records the particle in status[3] and takes every candidate. Then h_i: PS_H_PER_R
+// times the distance of the farthest candidate taken, capped at H_CAP h (the cap
+// without one).
+fn prime_space_h(i: u32) -> f32 {
+    let xi = x_of(i);
+    let pairs = pairs_of(i);
+    let base = KPS_OFF + PS_WIDTH * i;
+    var count = 0u;
+    var scale = 0.0;
+    var start = pairs.y;
+    var first: vec2<f32>;
+    for (var p = pairs.x; p < pairs.y; p++) {
+        let x_ij = xi - x_of(ids[p]);
+        let r2 = dot(x_ij, x_ij);
+        if !(r2 <= PS_R2) || r2 == 0.0 {
+            continue;
+        }
+        count++;
+        let img = ps_image(x_ij);
+        scale = max(scale, length(img));
+        if start == pairs.y || img.y < first.y || (img.y == first.y && img.x < first.x) {
+            start = p;
+            first = img;
+        }
+    }
+    var edges = 0u;
+    if count >= 3u {
+        var current = start;
+        var tail = first;
+        var steps = 0u;
+        // The vertices reached after the start: rounding can make the wrap pass the start
+        // by a near-collinear image, and it closes on any vertex it reaches again.
+        var visited: array<u32, PS_EDGES>;
+        var visits = 0u;
+        // Below the lowest image every other lies at a left turn from +x.
+        var direction = vec2<f32>(1.0, 0.0);
+        loop {
+            // A hull has at most one vertex per image: more steps are a wrap that rounding
+            // keeps from closing.
+            steps++;
+            if steps > count {
+                atomicMin(&status[3], i);
+                edges = 0u;
+                break;
+            }
+            // The candidate of the smallest left turn from the last edge's direction, in
+            // [−π/2, 3π/2) so that an image behind (a turn of ±π) is never taken; the
+            // farther of two at the same turn.
+            var next = pairs.y;
+            var head: vec2<f32>;
+            var best = 3.4e38;
+            var best_d2 = 0.0;
+            for (var p = pairs.x; p < pairs.y; p++) {
+                let x_ij = xi - x_of(ids[p]);
+                let r2 = dot(x_ij, x_ij);
+                if !(r2 <= PS_R2) || r2 == 0.0 || p == current {
+                    continue;
+                }
+                let img = ps_image(x_ij);
+                let w = img - tail;
+                let d2 = dot(w, w);
+                if d2 == 0.0 {
+                    continue;
+                }
+                var turn = atan2(direction.x * w.y - direction.y * w.x, dot(direction, w));
+                if turn < -0.5 * PI {
+                    turn += 2.0 * PI;
+                }
+                if turn < best || (turn == best && d2 > best_d2) {
+                    best = turn;
+                    best_d2 = d2;
+                    next = p;
+                    head = img;
+                }
+            }
+            if next == pairs.y {
+                break;
+            }
+            let t = head - tail;
+            let length_t = length(t);
+            if length_t > 0.0 {
+                if edges == PS_EDGES {
+                    atomicMin(&status[3], i);
+                    edges = 0u;
+                    break;
+                }
+                let n = vec2<f32>(-t.y, t.x) / length_t;
+                let e = base + 2u + 3u * edges;
+                kin[e] = n.x;
+                kin[e + 1u] = n.y;
+                kin[e + 2u] = dot(n, tail);
+                edges++;
+            }
+            var closed = next == start;
+            for (var v = 0u; v < visits; v++) {
+                closed = closed || visited[v] == next;
+            }
+            if closed {
+                break;
+            }
+            if visits < PS_EDGES {
+                visited[visits] = next;
+                visits++;
+            }
+            current = next;
+            direction = head - tail;
+            tail = head;
+        }
+    }
+    kin[base] = f32(edges);
+    kin[base + 1u] = PS_TOLERANCE * scale;
+    var farthest = 0.0;
+    for (var p = pairs.x; p < pairs.y; p++) {
+        let x_ij = xi - x_of(ids[p]);
+        let r2 = dot(x_ij, x_ij);
+        if r2 <= PS_R2 && r2 > 0.0 && ps_takes(i, x_ij) {
+            farthest = max(farthest, sqrt(r2));
+        }
+    }
+    if farthest == 0.0 {
+        return H_CAP * KERNEL_H;
+    }
+    return min(PS_H_PER_R * farthest, H_CAP * KERNEL_H);
+}
+
 // eq 62 at density ρ, capped at H_CAP h: h (ρ0/ρ)^(1/d) (methods::cores::ul
 // `UlCore::continuity_h`).
 fn continuity_h(rho: f32) -> f32 {
@@ -142,6 +324,15 @@ fn density_h(i: u32, start: f32) -> f32 {
 // - ids: 1 scalar per pair, when ADAPTIVE_H == ADAPTIVE_H_DENSITY
 // - x: 1 vector per item, when ADAPTIVE_H == ADAPTIVE_H_DENSITY
 // - reference loads: 1 scalar per pair, when ADAPTIVE_H == ADAPTIVE_H_DENSITY
+// The prime space's hull: the list read once for the candidates, once per vertex (about
+// six) and once for the farthest taken; the hull's count, tolerance and edges stored, and
+// read back per pair.
+// - offsets: 1 scalar per item, when ADAPTIVE_H == ADAPTIVE_H_PRIME_SPACE
+// - ids: 8 scalars per pair, when ADAPTIVE_H == ADAPTIVE_H_PRIME_SPACE
+// - x: 1 vector per item, when ADAPTIVE_H == ADAPTIVE_H_PRIME_SPACE
+// - x loads: 8 vectors per pair, when ADAPTIVE_H == ADAPTIVE_H_PRIME_SPACE
+// - kin stores: 20 scalars per item, when ADAPTIVE_H == ADAPTIVE_H_PRIME_SPACE
+// - kin loads: 20 scalars per pair, when ADAPTIVE_H == ADAPTIVE_H_PRIME_SPACE
 // - status: nothing
 @compute @workgroup_size(256)
 fn smoothing(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
@@ -153,6 +344,9 @@ fn smoothing(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     var h = continuity_h(rho_of(i));
     if ADAPTIVE_H == ADAPTIVE_H_DENSITY {
         h = density_h(i, h);
+    }
+    if ADAPTIVE_H == ADAPTIVE_H_PRIME_SPACE {
+        h = prime_space_h(i);
     }
     kin[KH_OFF + i] = h;
 }
@@ -171,6 +365,9 @@ fn cauchy_of(i: u32) -> matd {
     let pairs = pairs_of(i);
     for (var p = pairs.x; p < pairs.y; p++) {
         let j = ids[p];
+        if !paired(i, j) {
+            continue;
+        }
         let x_ij = xi - x_of(j);
         let v = mass_of(j) / rho_of(j);
         let h = h_pair(i, j);
@@ -198,6 +395,9 @@ fn correction_of(i: u32) -> matd {
     let pairs = pairs_of(i);
     for (var p = pairs.x; p < pairs.y; p++) {
         let j = ids[p];
+        if !paired(i, j) {
+            continue;
+        }
         let x_ij = xi - x_of(j);
         a += outer(-x_ij, kernel_grad_at(x_ij, h_pair(i, j))) * (mass_of(j) / rho_of(j));
     }
@@ -299,6 +499,9 @@ fn reproducing_of(i: u32) -> Corrector {
         var j = i;
         if p < pairs.y {
             j = ids[p];
+            if !paired(i, j) {
+                continue;
+            }
         }
         let r = xi - x_of(j);
         let v = mass_of(j) / rho_of(j);
@@ -373,6 +576,9 @@ fn reproducing_of(i: u32) -> Corrector {
 // An adaptive h_j in the pair sums of the correction and the surface.
 // - kin loads: 1 scalar per pair, when ADAPTIVE_H != ADAPTIVE_H_FIXED and CORRECTION != CORRECTION_NONE
 // - kin loads: 1 scalar per pair, when ADAPTIVE_H != ADAPTIVE_H_FIXED and FREE_SURFACE
+// The prime space's test of each pair: both hulls (about six edges each).
+// - kin loads: 40 scalars per pair, when ADAPTIVE_H == ADAPTIVE_H_PRIME_SPACE and CORRECTION != CORRECTION_NONE
+// - kin loads: 40 scalars per pair, when ADAPTIVE_H == ADAPTIVE_H_PRIME_SPACE and FREE_SURFACE
 // - status: nothing
 fn store_common(i: u32) {
     let rho = rho_of(i);
@@ -460,6 +666,8 @@ fn corrected_grad(k: Corrector, x_ij: vecd, w: f32, grad: vecd) -> vecd {
 // An adaptive h of the particle and of each neighbour.
 // - kin loads: 1 scalar per item, when ADAPTIVE_H != ADAPTIVE_H_FIXED
 // - kin loads: 1 scalar per pair, when ADAPTIVE_H != ADAPTIVE_H_FIXED
+// The prime space's test of each pair: both hulls (about six edges each).
+// - kin loads: 40 scalars per pair, when ADAPTIVE_H == ADAPTIVE_H_PRIME_SPACE
 fn close_rates(i: u32, x_dot: vecd, acc: vecd, rho_dot: f32, l: matd) {
     let v_i = v_of(i);
     let a = apply_boundary(i, acc, v_i, mass_of(i));

@@ -326,14 +326,3 @@ fn prime_space_neighbourhoods_take_the_stencil_and_scale_with_the_block() {
         assert!(h.iter().all(|&h| h <= H_CAP * 0.13 * (1.0 + 1e-12)));
     }
 }
-
-#[test]
-fn the_prime_space_runs_on_the_cpu() {
-    // A GPU run is sent to the CPU with the reason named (the hull has no device pass).
-    for method in ["gray-monaghan-sph", "godunov-sph"] {
-        let key = "smoothing_length = \"prime-space\"";
-        let case = block_case(&[0.8, 0.8], "hypoelastic", method, key);
-        let why = meshless::run::cpu_only(&case).expect("the prime space runs on the CPU");
-        assert!(why.contains("prime-space") && why.contains(method), "{why}");
-    }
-}

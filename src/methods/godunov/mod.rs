@@ -72,10 +72,6 @@ impl MethodFamily for GodunovSpec {
         }
     }
 
-    fn gpu_refusal(&self, _case: &Case) -> Option<&'static str> {
-        super::cores::ul::gpu_refusal(self.smoothing_length)
-    }
-
     fn cpu_engine<D: EngineDim>(&self, case: &Case) -> CpuBuild<D> {
         Ok(Box::new(CpuEngine::<D, Godunov<D>>::new(case, self)?))
     }

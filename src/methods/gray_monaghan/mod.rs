@@ -125,10 +125,6 @@ impl MethodFamily for GrayMonaghanSpec {
         }
     }
 
-    fn gpu_refusal(&self, _case: &Case) -> Option<&'static str> {
-        super::cores::ul::gpu_refusal(self.smoothing_length)
-    }
-
     fn cpu_engine<D: EngineDim>(&self, case: &Case) -> CpuBuild<D> {
         Ok(Box::new(CpuEngine::<D, GrayMonaghan<D>>::new(case, self)?))
     }

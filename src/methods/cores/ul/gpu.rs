@@ -14,14 +14,15 @@
 //! runs the batch again from its start.
 
 use super::{
-    FreeSurface, H_CAP, SMOOTHING_LENGTH, SURFACE_SHEPARD, SmoothingLength, UlState, check_state,
-    snapshot,
+    FreeSurface, H_CAP, PRIME_SPACE_REACH, SMOOTHING_LENGTH, SURFACE_SHEPARD, SmoothingLength,
+    UlState, check_state, snapshot,
 };
 use crate::boundary::Boundary;
 use crate::case::Case;
 use crate::core::correction::CorrectionKind;
 use crate::core::integrate::{Buf, Evaluation};
 use crate::core::neighbour::{Csr, SKIN, bounding_box};
+use crate::core::neighbourhood::PRIME_SPACE_TOLERANCE;
 use crate::diagnostics::balance::Booked;
 use crate::diagnostics::observe::{ScalarField, Snapshot};
 use crate::engine::{BlowUp, GpuEngine, GpuFamily, Start};
@@ -106,6 +107,7 @@ impl Layout {
         let corrected = case.method.correction == CorrectionKind::RandlesLibersky;
         let reproducing = case.method.correction == CorrectionKind::Rkpm;
         let plastic = Material::new(&case.material).rate_plasticity().is_some();
+        let prime = scheme.smoothing_length == SmoothingLength::PrimeSpace;
         Self {
             n,
             dim,
@@ -123,6 +125,7 @@ impl Layout {
                     .tensors("AIT", corrected, n)
                     .block("RK", reproducing, n, (dim + 1) * (dim + 1))
                     .scalars("H", scheme.adaptive(), n)
+                    .block("PS", prime, n, PS_WIDTH)
                     .scalars("VOL", true, n)
                     .scalars("C", true, n)
                     .scalars("P", scheme.pressure, n)
@@ -142,10 +145,11 @@ pub fn scene_constants(case: &Case, layout: &Layout, scheme: &Scheme) -> Constan
         CorrectionKind::Rkpm => 2,
         _ => 0,
     };
+    let kernel = case.kernel(layout.dim);
     let constants = scheme
         .constants
         .clone()
-        .kernel(&case.kernel(layout.dim))
+        .kernel(&kernel)
         .u32("N", layout.n as u32)
         .u32("BODIES", case.bodies.len() as u32)
         .material(&Material::new(&case.material))
@@ -158,15 +162,23 @@ pub fn scene_constants(case: &Case, layout: &Layout, scheme: &Scheme) -> Constan
         .f32("SURFACE_SHEPARD", SURFACE_SHEPARD)
         .choice(
             "ADAPTIVE_H",
-            &["FIXED", "DENSITY", "CONTINUITY"],
+            &["FIXED", "DENSITY", "CONTINUITY", "PRIME_SPACE"],
             match scheme.smoothing_length {
                 SmoothingLength::Fixed => 0,
                 SmoothingLength::Density => 1,
-                // The prime space is refused on the device (`cores::ul::gpu_refusal`).
-                SmoothingLength::Continuity | SmoothingLength::PrimeSpace => 2,
+                SmoothingLength::Continuity => 2,
+                SmoothingLength::PrimeSpace => 3,
             },
         )
         .f32("H_CAP", H_CAP)
+        .f32("PS_R2", (H_CAP * kernel.support()).powi(2))
+        .f32("PS_TOLERANCE", PRIME_SPACE_TOLERANCE)
+        .f32(
+            "PS_H_PER_R",
+            1.0 / (PRIME_SPACE_REACH * kernel.kind.support_factor()),
+        )
+        .u32("PS_EDGES", PS_EDGES as u32)
+        .u32("PS_WIDTH", PS_WIDTH as u32)
         .u32("REST_OFF", layout.state.offset("RHO") as u32);
     [&layout.state, &layout.kin, &layout.reference]
         .into_iter()
@@ -174,8 +186,17 @@ pub fn scene_constants(case: &Case, layout: &Layout, scheme: &Scheme) -> Constan
 }
 
 /// `status` slots: the first particle with a singular correction (det A or the RKPM
-/// moment matrix), with ρ ≤ 0, and without a fixed point of eqs 60–61.
-const STATUS_OK: [u32; 3] = [u32::MAX; 3];
+/// moment matrix), with ρ ≤ 0, without a fixed point of eqs 60–61, and whose prime-space
+/// hull has more than [`PS_EDGES`] edges.
+const STATUS_OK: [u32; 4] = [u32::MAX; 4];
+
+/// The most edges of a particle's prime-space hull on the device: a lattice's has 4, a
+/// disordered interior 5–8, a face more (its face particles' images lie near one line).
+const PS_EDGES: usize = 24;
+
+/// The floats of a particle's prime-space hull in `kin`: its edge count, its tolerance,
+/// and each edge's inward normal and offset.
+const PS_WIDTH: usize = 2 + 3 * PS_EDGES;
 
 impl Scheme {
     /// Whether each particle has its own smoothing length.
@@ -716,6 +737,8 @@ impl<D: GpuDim> GpuFamily<D> for UlDevice<D> {
             correction,
             "density (f32, GPU)",
             "smoothing length (eqs 60–61 found no fixed point, f32, GPU)",
+            "prime-space hull (eq 63: more edges than the device keeps, or a wrap that \
+             rounding kept open, f32, GPU; run it on the CPU with --backend cpu)",
         ];
         for (k, quantity) in quantities.into_iter().enumerate() {
             if s[k] != u32::MAX {

@@ -205,13 +205,6 @@ pub const PRIME_SPACE_REACH: f64 = 0.75;
 /// The output field of an adaptive smoothing length: h_i of the last rate evaluation.
 pub const SMOOTHING_LENGTH: &str = "smoothing_length";
 
-/// Why a UL method's key keeps it off the GPU, as a phrase after the method's name: the
-/// prime space's per-particle convex hull has no device pass.
-pub fn gpu_refusal(smoothing_length: SmoothingLength) -> Option<&'static str> {
-    (smoothing_length == SmoothingLength::PrimeSpace)
-        .then_some("with smoothing_length = \"prime-space\" runs on the CPU only (eq 63's convex hull per particle has no device pass)")
-}
-
 /// What a UL method leaves out with a fixed smoothing length, as `--explain` lists it.
 pub fn left_out_smoothing(smoothing_length: SmoothingLength) -> Option<&'static str> {
     (smoothing_length == SmoothingLength::Fixed)
