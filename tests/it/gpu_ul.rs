@@ -251,6 +251,30 @@ fn godunov_runs_track_the_cpu_past_the_rebuild_distance() {
     compare_runs::<Godunov<D2>>("rotating-disk-godunov", 2.5e-6, (400, 1), 2);
 }
 
+/// The largest differences between the CPU's and the device's runs: |Δu|, |Δv| and the
+/// |Δh| of the smoothing-length fields; and the spread of the CPU's h.
+fn disk_gaps(
+    cpu: &mut meshless::engine::CpuEngine<D2, GrayMonaghan<D2>>,
+    g: &mut GpuUl<D2>,
+) -> [f64; 4] {
+    let yg = g.state();
+    let (eu, _) = max_v::<D2>(&cpu.y.u, &yg.u);
+    let (ev, _) = max_v::<D2>(&cpu.y.v, &yg.v);
+    let h = |s: &meshless::diagnostics::observe::Snapshot<D2>| -> Vec<f64> {
+        let field = s.extra.iter().find(|f| f.name == "smoothing_length");
+        field.expect("the smoothing_length field").values.clone()
+    };
+    let (hc, hg) = (h(&cpu.snapshot()), h(&g.snapshot()));
+    let eh = hc
+        .iter()
+        .zip(&hg)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    let spread =
+        hc.iter().copied().fold(0.0, f64::max) - hc.iter().copied().fold(f64::MAX, f64::min);
+    [eu, ev, eh, spread]
+}
+
 #[test]
 fn adaptive_smoothing_lengths_track_the_cpu() {
     // The disk's rim at 50 m/s for 100 steps, each smoothing length on both backends: the
@@ -270,22 +294,8 @@ fn adaptive_smoothing_lengths_track_the_cpu() {
         let mut g = GpuUl::<D2>::new(&case, gpu(), &scheme(&case)).unwrap();
         g.advance(0.0, dt, 100).unwrap();
         g.check().unwrap();
-        let yg = g.state();
-        let (eu, _) = max_v::<D2>(&cpu.y.u, &yg.u);
-        let (ev, _) = max_v::<D2>(&cpu.y.v, &yg.v);
-        let h = |s: &meshless::diagnostics::observe::Snapshot<D2>| -> Vec<f64> {
-            let field = s.extra.iter().find(|f| f.name == "smoothing_length");
-            field.expect("the smoothing_length field").values.clone()
-        };
-        let (hc, hg) = (h(&cpu.snapshot()), h(&g.snapshot()));
+        let [eu, ev, eh, spread] = disk_gaps(&mut cpu, &mut g);
         let h0 = cpu.method.core.kernel.h;
-        let eh = hc
-            .iter()
-            .zip(&hg)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max);
-        let spread =
-            hc.iter().copied().fold(0.0, f64::max) - hc.iter().copied().fold(f64::MAX, f64::min);
         eprintln!(
             "{mode}: max |Δu| = {eu:e} m, |Δv| = {ev:e} m/s, |Δh| = {eh:e} m, h0 = {h0}, spread {spread:e}"
         );
@@ -383,20 +393,8 @@ fn the_prime_space_tracks_the_cpu() {
     let mut g = GpuUl::<D2>::new(&case, gpu(), &scheme(&case)).unwrap();
     g.advance(0.0, dt, steps).unwrap();
     g.check().unwrap();
-    let yg = g.state();
-    let (eu, _) = max_v::<D2>(&cpu.y.u, &yg.u);
-    let (ev, _) = max_v::<D2>(&cpu.y.v, &yg.v);
-    let h = |s: &meshless::diagnostics::observe::Snapshot<D2>| -> Vec<f64> {
-        let field = s.extra.iter().find(|f| f.name == "smoothing_length");
-        field.expect("the smoothing_length field").values.clone()
-    };
-    let (hc, hg) = (h(&cpu.snapshot()), h(&g.snapshot()));
+    let [eu, ev, eh, _] = disk_gaps(&mut cpu, &mut g);
     let h0 = cpu.method.core.kernel.h;
-    let eh = hc
-        .iter()
-        .zip(&hg)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0, f64::max);
     eprintln!("prime space, {steps} steps: |Δu| = {eu:e} m, |Δv| = {ev:e} m/s, |Δh| = {eh:e} m");
     assert!(eu < 1e-4, "max |Δu| = {eu:e} m");
     assert!(ev < 1e-2, "max |Δv| = {ev:e} m/s (|v| ≤ 50 m/s)");
