@@ -43,18 +43,34 @@ pub struct Hole {
     pub center: Vec<f64>,
     pub radius: f64,
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub axis: Option<Axis>,
+    pub axis: Option<HoleAxis>,
+}
+
+/// The direction of a 3D hole: a coordinate axis, or any direction [a_x, a_y, a_z] (a
+/// radial hole through a tube's wall).
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(untagged)]
+pub enum HoleAxis {
+    Named(Axis),
+    Direction([f64; 3]),
 }
 
 impl Hole {
     /// Whether the point p (padded to 3D) is inside.
     pub fn contains(&self, p: [f64; 3]) -> bool {
-        let along = self.axis.map(Axis::index);
-        let r2: f64 = (0..self.center.len())
-            .filter(|&k| Some(k) != along)
-            .map(|k| (p[k] - self.center[k]).powi(2))
-            .sum();
-        r2 < self.radius * self.radius
+        let d: Vec<f64> = (0..self.center.len())
+            .map(|k| p[k] - self.center[k])
+            .collect();
+        let length2: f64 = d.iter().map(|x| x * x).sum();
+        let along = match self.axis {
+            None => 0.0,
+            Some(HoleAxis::Named(a)) => d[a.index()],
+            Some(HoleAxis::Direction(a)) => {
+                let norm = a.iter().map(|x| x * x).sum::<f64>().sqrt();
+                (0..3).map(|k| d[k] * a[k]).sum::<f64>() / norm
+            }
+        };
+        length2 - along * along < self.radius * self.radius
     }
 }
 
@@ -164,6 +180,27 @@ pub enum Shape {
         /// falls: the mass is off by the cells the boundary cuts).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         volumes: Option<Volumes>,
+    },
+    /// A tube (3D) on its own cylindrical lattice, for thin walls: the cell centres of
+    /// n_r layers across the wall, n_θ rays over the `angles` and n_z layers along the
+    /// axis, each count the nearest whole number to the span over Δx (at least one; n_θ
+    /// over the mid radius's arc, or `sectors`), each particle its cell's volume
+    /// ½(r₊² − r₋²) Δθ Δz, so that the volumes sum to the tube's. θ turns from the next
+    /// axis after `axis` towards the one after it (from x towards y about z); no particle
+    /// lies on a face of the tube or of its angles, so a `[[mirror]]` plane can close any
+    /// of them.
+    Tube {
+        base: Vec<f64>,
+        axis: Axis,
+        inner_radius: f64,
+        radius: f64,
+        length: f64,
+        /// [θ0, θ1] in degrees, 0 < θ1 − θ0 ≤ 360 (the default: the whole circle).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        angles: Option<[f64; 2]>,
+        /// The rays over the angles (default: the mid radius's arc over Δx, rounded).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        sectors: Option<u32>,
     },
     /// Solid or hollow cylinder along a coordinate axis (3D); `base` is the centre of
     /// the bottom face.

@@ -24,8 +24,8 @@ pub use crate::diagnostics::analytic::Solution;
 pub use crate::physics::material::{MaterialSpec, Plane};
 pub use crate::physics::mirror::{MirrorKind, MirrorSpec};
 pub use body::{
-    BodySpec, ContactSpec, Hole, Lattice, MeshNodes, RingLattice, Shape, VOLUME_TOLERANCE,
-    VelocityNoise, Volumes,
+    BodySpec, ContactSpec, Hole, HoleAxis, Lattice, MeshNodes, RingLattice, Shape,
+    VOLUME_TOLERANCE, VelocityNoise, Volumes,
 };
 pub use boundary::{BoundarySpec, Condition, Region, Surface, TimeLaw};
 pub use error::{CaseError, parse_bytes};

@@ -1479,3 +1479,75 @@ fn artificial_compressibility_alone_takes_nu_one_half_and_checks_its_keys() {
         ],
     );
 }
+
+/// VALID_3D with its tube body sampled as a `tube` of `keys` (angles, sectors).
+fn tube_case(keys: &str) -> String {
+    edit(
+        VALID_3D,
+        "{ shape = \"cylinder\", base = [0.0, 0.0, 0.0], axis = \"z\", radius = 0.5, inner_radius = 0.25, length = 1.0 }",
+        &format!(
+            "{{ shape = \"tube\", base = [0.0, 0.0, 0.0], axis = \"z\", radius = 0.5, inner_radius = 0.25, length = 1.0{keys} }}"
+        ),
+    )
+}
+
+#[test]
+fn a_tube_is_refused_with_the_key_that_is_wrong() {
+    Scene::from_toml(
+        &tube_case(", angles = [0.0, 90.0], sectors = 12"),
+        Path::new(FILE),
+        &[],
+    )
+    .expect("a quarter tube is valid");
+    assert_invalid(
+        &tube_case(", angles = [10.0, 10.0]"),
+        "body.0.geometry.angles",
+        &["0 < θ1 − θ0 ≤ 360", "[10.0, 10.0]"],
+    );
+    assert_invalid(
+        &tube_case(", angles = [0.0, 400.0]"),
+        "body.0.geometry.angles",
+        &["0 < θ1 − θ0 ≤ 360"],
+    );
+    assert_invalid(
+        &tube_case(", sectors = 0"),
+        "body.0.geometry.sectors",
+        &["at least 1"],
+    );
+    let inverted = edit(&tube_case(""), "inner_radius = 0.25", "inner_radius = 0.5");
+    assert_invalid(
+        &inverted,
+        "body.0.geometry.inner_radius",
+        &["smaller than radius"],
+    );
+    let in_2d = edit(
+        VALID,
+        "{ shape = \"box\", min = [0.0, 0.0], max = [1.0, 0.5] }",
+        "{ shape = \"tube\", base = [0.0, 0.0], axis = \"y\", inner_radius = 0.5, radius = 1.0, length = 2.0 }",
+    );
+    assert_invalid(&in_2d, "body.0.geometry.shape", &["\"tube\"", "only in 3D"]);
+    let cells = edit(
+        &tube_case(""),
+        "name = \"tlsph\"\nh_over_dx = 1.5\ncorrection = \"shepard\"\ncfl = 0.3\nartificial_viscosity = { alpha = 1.0, beta = 2.0 }",
+        "name = \"tl-fem\"\ncfl = 0.3",
+    );
+    assert_invalid(
+        &cells,
+        "body.0.geometry.shape",
+        &["\"tube\"", "no cells", "tl-fem", "\"cylinder\""],
+    );
+}
+
+#[test]
+fn a_hole_direction_of_zero_length_is_refused() {
+    let text = edit(
+        &tube_case(""),
+        "initial_velocity = { type = \"rigid-rotation\"",
+        "holes = [{ center = [0.0, 0.0, 0.5], radius = 0.05, axis = [0.0, 0.0, 0.0] }]\ninitial_velocity = { type = \"rigid-rotation\"",
+    );
+    assert_invalid(
+        &text,
+        "body.0.holes.0.axis",
+        &["\"x\", \"y\", \"z\" or a direction", "not all zero"],
+    );
+}

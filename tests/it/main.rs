@@ -74,6 +74,7 @@ mod seed001_steel_ring;
 mod shaders;
 mod shapes;
 mod static_tolerance;
+mod stent;
 #[cfg(feature = "study")]
 mod study;
 mod timed_velocity;

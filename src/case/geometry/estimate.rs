@@ -4,8 +4,8 @@
 
 use super::file_error;
 use super::files::{read_mesh, read_points};
-use super::lattice::{around, lattice_counts, on_vertex_lattice, polar_counts};
-use crate::case::{Case, CaseError, Lattice, RingLattice, Shape};
+use super::lattice::{TubeLattice, around, lattice_counts, on_vertex_lattice, polar_counts};
+use crate::case::{Axis, Case, CaseError, HoleAxis, Lattice, RingLattice, Shape};
 use crate::core::tensor::{D2, D3, Dim};
 use std::collections::HashMap;
 use std::path::Path;
@@ -229,6 +229,26 @@ fn across(counts: Vec<f64>, axis: Option<usize>) -> Vec<f64> {
         .collect()
 }
 
+/// A [`Shape::Tube`]'s size on its lattice, across the wall, around the angles and along
+/// the axis: a mirror plane not normal to the axis may close the angles' faces, one
+/// normal to it the end faces.
+fn tube_size(case: &Case, shape: &Shape, axis: Axis, reach: f64) -> BodySize {
+    let tube = TubeLattice::of(shape, case.spacing).expect("a tube has its lattice");
+    let (lo, hi) = shape.extent(3).expect("a tube has its box");
+    let a = axis.index();
+    let around = case.mirrors.iter().any(|m| m.normal.index() != a);
+    let lattice = Grid {
+        counts: tube.counts().to_vec(),
+        mirrored: vec![[false; 2], [around; 2], mirrored(case, &lo, &hi, 3)[a]],
+        inset: 0.5,
+        reach,
+    };
+    BodySize {
+        cells: 0.0,
+        ..lattice.size(1.0, tube.total())
+    }
+}
+
 /// The size of each body of a case.
 pub fn estimate_particles(case: &Case) -> Result<Vec<BodySize>, CaseError> {
     let dx = case.spacing;
@@ -298,6 +318,7 @@ pub fn estimate_particles(case: &Case) -> Result<Vec<BodySize>, CaseError> {
                         ..polar.size(1.0, (n_r + 1.0) * n_theta)
                     }
                 }
+                Shape::Tube { axis, .. } => tube_size(case, geometry, *axis, reach),
                 Shape::Ring {
                     center,
                     inner_radius,
@@ -397,7 +418,10 @@ fn drilled(
         let r = h.radius / dx;
         let (dv, ds) = match (d, h.axis) {
             (2, _) => (pi * r * r, 2.0 * pi * r),
-            (_, Some(a)) => {
+            // An oblique hole's length through the body is not known here: it is not
+            // subtracted, and the estimate stays an upper bound.
+            (_, Some(HoleAxis::Direction(_))) => (0.0, 0.0),
+            (_, Some(HoleAxis::Named(a))) => {
                 let length = (hi[a.index()] - lo[a.index()]) / dx;
                 (pi * r * r * length, 2.0 * pi * r * length)
             }

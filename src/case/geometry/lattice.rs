@@ -101,6 +101,10 @@ pub(super) fn sample<D: Dim>(
             })?;
             (points, to_named_volume(geometry, *volumes, D::N, vol)).into()
         }
+        Shape::Tube { base, axis, .. } => {
+            let tube = TubeLattice::of(geometry, dx).expect("a tube has its lattice");
+            tube.sample::<D>(case, spec, base, *axis)?
+        }
         Shape::Polygon { vertices, volumes } => {
             let (lo, hi) = polygon::bounds(vertices);
             let tol = 1e-9 * dx;
@@ -220,6 +224,113 @@ fn polar<D: Dim>(
         (inner_radius, outer_radius),
         (n_r as usize, n_theta as usize),
     ))
+}
+
+/// The cylindrical lattice of a [`Shape::Tube`]: n_r × n_θ × n_z cells of the wall, the
+/// sector and the length, each count in f64 so that a vanishing spacing gives a huge
+/// one, never a wrapped one.
+pub(super) struct TubeLattice {
+    inner: f64,
+    dr: f64,
+    theta0: f64,
+    dtheta: f64,
+    dz: f64,
+    counts: [f64; 3],
+}
+
+impl TubeLattice {
+    /// The lattice of a tube at spacing Δx; None for the other shapes.
+    pub(super) fn of(shape: &Shape, dx: f64) -> Option<Self> {
+        let Shape::Tube {
+            inner_radius,
+            radius,
+            length,
+            angles,
+            sectors,
+            ..
+        } = shape
+        else {
+            return None;
+        };
+        let (inner, outer, length) = (*inner_radius, *radius, *length);
+        let (angles, sectors) = (*angles, *sectors);
+        let [theta0, theta1] = angles.unwrap_or([0.0, 360.0]).map(f64::to_radians);
+        let mid = 0.5 * (inner + outer);
+        let mut counts = [outer - inner, (theta1 - theta0) * mid, length]
+            .map(|span| (span / dx).round().max(1.0));
+        if let Some(n) = sectors {
+            counts[1] = f64::from(n);
+        }
+        Some(Self {
+            inner,
+            dr: (outer - inner) / counts[0],
+            theta0,
+            dtheta: (theta1 - theta0) / counts[1],
+            dz: length / counts[2],
+            counts,
+        })
+    }
+
+    /// n_r, n_θ and n_z.
+    pub(super) fn counts(&self) -> [f64; 3] {
+        self.counts
+    }
+
+    pub(super) fn total(&self) -> f64 {
+        self.counts.iter().product()
+    }
+
+    /// The cell centres about the axis through `base`, each with its cell's volume;
+    /// refused where the lattice has more points than particle ids.
+    fn sample<D: Dim>(
+        &self,
+        case: &Case,
+        spec: &BodySpec,
+        base: &[f64],
+        axis: crate::case::Axis,
+    ) -> Result<Sampled<D>, CaseError> {
+        if self.total() > PARTICLE_ID_LIMIT {
+            return Err(case.invalid(
+                "spacing",
+                format!(
+                    "{:e} samples body `{}` on a tube's lattice of {:.3e} points, more than \
+                     the {PARTICLE_ID_LIMIT:.0} particle ids hold; increase `spacing`",
+                    case.spacing,
+                    spec.name,
+                    self.total()
+                ),
+            ));
+        }
+        let a = axis.index();
+        let (u, w) = ((a + 1) % 3, (a + 2) % 3);
+        let [n_r, n_theta, n_z] = self.counts.map(|n| n as usize);
+        let mut points = Vec::with_capacity(n_r * n_theta * n_z);
+        let mut volumes = Vec::with_capacity(points.capacity());
+        for k in 0..n_z {
+            for j in 0..n_theta {
+                let (sin, cos) = (self.theta0 + (j as f64 + 0.5) * self.dtheta).sin_cos();
+                for i in 0..n_r {
+                    let (r0, r1) = (
+                        self.inner + i as f64 * self.dr,
+                        self.inner + (i + 1) as f64 * self.dr,
+                    );
+                    let r = 0.5 * (r0 + r1);
+                    let mut p = [base[0], base[1], base[2]];
+                    p[a] += (k as f64 + 0.5) * self.dz;
+                    p[u] += r * cos;
+                    p[w] += r * sin;
+                    points.push(D::from_slice(&p));
+                    volumes.push(0.5 * (r1 * r1 - r0 * r0) * self.dtheta * self.dz);
+                }
+            }
+        }
+        Ok(Sampled {
+            points,
+            volumes,
+            corners: Vec::new(),
+            velocities: None,
+        })
+    }
 }
 
 /// The volumes of a round shape's square-lattice points, `scaled` by default: by one factor

@@ -34,7 +34,7 @@ impl Shape {
             | Shape::Ring { volumes, .. }
             | Shape::Cylinder { volumes, .. }
             | Shape::Polygon { volumes, .. } => volumes.is_some(),
-            Shape::Points { .. } | Shape::Mesh { .. } => false,
+            Shape::Tube { .. } | Shape::Points { .. } | Shape::Mesh { .. } => false,
         }
     }
 
@@ -56,6 +56,20 @@ impl Shape {
                 length,
                 ..
             } => Some(pi * (radius * radius - inner_radius * inner_radius) * length),
+            Shape::Tube {
+                inner_radius,
+                radius,
+                length,
+                angles,
+                ..
+            } => {
+                let [theta0, theta1] = angles.unwrap_or([0.0, 360.0]).map(f64::to_radians);
+                Some(
+                    0.5 * (radius * radius - inner_radius * inner_radius)
+                        * (theta1 - theta0)
+                        * length,
+                )
+            }
             Shape::Polygon { vertices, .. } => Some(crate::case::polygon::area(vertices)),
             Shape::Points { .. } | Shape::Mesh { .. } => None,
         }
@@ -80,6 +94,20 @@ impl Shape {
                 length,
                 ..
             } => {
+                let a = axis.index();
+                let (mut lo, mut hi) = around(base, *radius);
+                lo[a] = base[a];
+                hi[a] = base[a] + length;
+                (lo, hi)
+            }
+            Shape::Tube {
+                base,
+                axis,
+                radius,
+                length,
+                ..
+            } => {
+                // The whole circle's box: the sector's lies within it.
                 let a = axis.index();
                 let (mut lo, mut hi) = around(base, *radius);
                 lo[a] = base[a];

@@ -2,7 +2,9 @@
 
 use super::fields::{displacement, velocity};
 use super::{Checked, fail, non_negative, positive, unique_names, vector};
-use crate::case::{BodySpec, Case, Hole, Lattice, MeshNodes, RingLattice, Shape, Volumes};
+use crate::case::{
+    BodySpec, Case, Hole, HoleAxis, Lattice, MeshNodes, RingLattice, Shape, Volumes,
+};
 
 pub(super) fn check(bodies: &[BodySpec], dim: usize) -> Checked {
     if bodies.is_empty() {
@@ -59,6 +61,17 @@ pub(super) fn against_method(case: &Case) -> Checked {
                 ),
             );
         }
+        if matches!(body.geometry, Shape::Tube { .. }) && case.method.lattice_cells {
+            return fail(
+                format!("body.{b}.geometry.shape"),
+                format!(
+                    "\"tube\" samples the cell centres of a cylindrical lattice, which has no \
+                     cells for `{}` to integrate over; take shape = \"cylinder\" with an \
+                     inner_radius, or a method that integrates at its particles",
+                    case.method.name
+                ),
+            );
+        }
         if let Some(u) = &body.initial_displacement {
             displacement(case, u, &format!("body.{b}.initial_displacement"))?;
         }
@@ -106,6 +119,17 @@ fn hole(hole: &Hole, shape: &Shape, key: &str, dim: usize) -> Checked {
     }
     vector(&format!("{key}.center"), &hole.center, dim)?;
     positive(&format!("{key}.radius"), hole.radius)?;
+    if let Some(HoleAxis::Direction(a)) = hole.axis
+        && !(a.iter().all(|x| x.is_finite()) && a.iter().any(|&x| x != 0.0))
+    {
+        return fail(
+            format!("{key}.axis"),
+            format!(
+                "must be \"x\", \"y\", \"z\" or a direction [a_x, a_y, a_z] of finite \
+                 components, not all zero; got {a:?}"
+            ),
+        );
+    }
     match (dim, hole.axis) {
         (3, None) => fail(
             format!("{key}.axis"),
@@ -119,6 +143,45 @@ fn hole(hole: &Hole, shape: &Shape, key: &str, dim: usize) -> Checked {
         ),
         _ => Ok(()),
     }
+}
+
+/// A cylinder's or tube's radii: 0 ≤ inner_radius < radius.
+fn radii(key: &str, inner_radius: f64, radius: f64) -> Checked {
+    positive(&format!("{key}.radius"), radius)?;
+    non_negative(&format!("{key}.inner_radius"), inner_radius)?;
+    if inner_radius >= radius {
+        return fail(
+            format!("{key}.inner_radius"),
+            format!(
+                "must be smaller than radius = {radius:?} (0 ≤ inner_radius < radius), got \
+                 {inner_radius:?}"
+            ),
+        );
+    }
+    Ok(())
+}
+
+/// A tube's `angles` [θ0, θ1] (degrees, 0 < θ1 − θ0 ≤ 360) and `sectors` (≥ 1).
+fn tube_angles(key: &str, angles: Option<[f64; 2]>, sectors: Option<u32>) -> Checked {
+    if sectors == Some(0) {
+        return fail(
+            format!("{key}.sectors"),
+            "must be at least 1: the rays of the tube's lattice over its angles",
+        );
+    }
+    if let Some([theta0, theta1]) = angles {
+        let span = theta1 - theta0;
+        if !(theta0.is_finite() && span > 0.0 && span <= 360.0) {
+            return fail(
+                format!("{key}.angles"),
+                format!(
+                    "must be [θ0, θ1] in degrees with 0 < θ1 − θ0 ≤ 360, got [{theta0:?}, \
+                     {theta1:?}]"
+                ),
+            );
+        }
+    }
+    Ok(())
 }
 
 /// A shape that exists only in `exists` dimensions, in a `dim`-D case.
@@ -192,18 +255,25 @@ fn shape(shape: &Shape, key: &str, dim: usize) -> Checked {
                 return only_in(key, dim, "cylinder", 3, "\"disk\" or \"ring\"");
             }
             vector(&format!("{key}.base"), base, dim)?;
-            positive(&format!("{key}.radius"), *radius)?;
-            non_negative(&format!("{key}.inner_radius"), *inner_radius)?;
-            if inner_radius >= radius {
-                return fail(
-                    format!("{key}.inner_radius"),
-                    format!(
-                        "must be smaller than radius = {radius:?} (0 ≤ inner_radius < radius), \
-                         got {inner_radius:?}"
-                    ),
-                );
-            }
+            radii(key, *inner_radius, *radius)?;
             positive(&format!("{key}.length"), *length)?;
+        }
+        Shape::Tube {
+            base,
+            inner_radius,
+            radius,
+            length,
+            angles,
+            sectors,
+            ..
+        } => {
+            if dim != 3 {
+                return only_in(key, dim, "tube", 3, "\"ring\" with lattice = \"polar\"");
+            }
+            vector(&format!("{key}.base"), base, dim)?;
+            radii(key, *inner_radius, *radius)?;
+            positive(&format!("{key}.length"), *length)?;
+            tube_angles(key, *angles, *sectors)?;
         }
         Shape::Polygon { vertices, volumes } => {
             if dim != 2 {
