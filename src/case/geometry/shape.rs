@@ -87,27 +87,21 @@ impl Shape {
                 outer_radius,
                 ..
             } => around(center, *outer_radius),
+            // A tube's whole circle: the box of its angles lies within it.
             Shape::Cylinder {
                 base,
                 axis,
                 radius,
                 length,
                 ..
-            } => {
-                let a = axis.index();
-                let (mut lo, mut hi) = around(base, *radius);
-                lo[a] = base[a];
-                hi[a] = base[a] + length;
-                (lo, hi)
             }
-            Shape::Tube {
+            | Shape::Tube {
                 base,
                 axis,
                 radius,
                 length,
                 ..
             } => {
-                // The whole circle's box: the sector's lies within it.
                 let a = axis.index();
                 let (mut lo, mut hi) = around(base, *radius);
                 lo[a] = base[a];
