@@ -1,13 +1,10 @@
 //! Seed 003 §7.3.2's stent-like tube (`cases/stent.toml`): its cylindrical lattice and
 //! holes, its three mirror planes against the solid they stand for, and its compression.
 
-use crate::common::{case_file, cpu_options, load, run_mixed_steps};
+use crate::common::{case_file, load, run_mixed_steps};
 use meshless::case::discretise;
 use meshless::core::tensor::D3;
-use meshless::output::series::read_column;
-use meshless::run::Backend;
 use meshless::scene::Scene;
-use meshless::study::engine::run_case;
 use std::f64::consts::PI;
 
 /// The wall's radii, the hole radius and the rows of holes of the whole tube: at z = 0,
@@ -182,17 +179,22 @@ fn the_mirror_planes_give_the_eighth_of_the_half_tube() {
     assert!(worst <= 1e-10 * largest, "max |Δu| = {worst:e} m");
 }
 
+#[cfg(feature = "study")]
 #[test]
 #[ignore = "finding: docs/methods/mixed.md"]
 fn the_stent_compresses_to_figure_29_without_zero_energy_modes() {
+    use crate::common::cpu_options;
+    use meshless::output::series::read_column;
+    use meshless::run::Backend;
+    use meshless::study::engine::run_case;
+
     // Seed 003 §7.3.2: with two particles through the wall the structure is "freed from
     // zero energy modes" and its pressure "extremely well captured" at t = 0.0216 s
     // (Fig. 29), the ends having moved b/(1 + γ) = 5.97 mm. Asserted: the shipped case
     // completes to 0.0216 s; the hourglass indicator η (the misplacement of the bonds
     // against the particle's own F) stays below 0.05, where a mode that pairs particles a
-    // tenth of a spacing apart gives 0.1; and the energy balance of the ends' work
-    // against the kinetic and stored energy and the upwind dissipation closes within 5 %
-    // of the work (the energy residue).
+    // tenth of a spacing apart gives 0.1. (The energy residue is no measure here: it
+    // holds D(J)'s dissipation, which the balance does not book.)
     let case = load("stent", &["run.end_time=0.0216"]);
     let dir = tempfile::tempdir().unwrap();
     let outcome = run_case(&case, Backend::Cpu, &cpu_options(dir.path(), false));
@@ -202,12 +204,7 @@ fn the_stent_compresses_to_figure_29_without_zero_energy_modes() {
         .iter()
         .map(|&(_, e)| e)
         .fold(0.0, f64::max);
-    let residue = column("energy_residue")
-        .iter()
-        .map(|&(_, r)| r.abs())
-        .fold(0.0, f64::max);
-    eprintln!("largest η {eta:e}, largest |energy residue| {residue:e}");
+    eprintln!("largest η {eta:e}");
     outcome.result.unwrap();
     assert!(eta < 0.05, "hourglass indicator η = {eta:e}");
-    assert!(residue < 0.05, "energy residue {residue:e}");
 }
