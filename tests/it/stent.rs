@@ -193,8 +193,7 @@ fn the_stent_compresses_to_figure_29_without_zero_energy_modes() {
     // (Fig. 29), the ends having moved b/(1 + γ) = 5.97 mm. Asserted: the shipped case
     // completes to 0.0216 s; the hourglass indicator η (the misplacement of the bonds
     // against the particle's own F) stays below 0.05, where a mode that pairs particles a
-    // tenth of a spacing apart gives 0.1. (The energy residue is no measure here: it
-    // holds D(J)'s dissipation, which the balance does not book.)
+    // tenth of a spacing apart gives 0.1.
     let case = load("stent", &["run.end_time=0.0216"]);
     let dir = tempfile::tempdir().unwrap();
     let outcome = run_case(&case, Backend::Cpu, &cpu_options(dir.path(), false));

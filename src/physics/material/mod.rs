@@ -358,6 +358,16 @@ impl Material {
         self.isochoric_energy_density::<D>(f, j) + 0.5 * self.bulk * (j - 1.0).powi(2)
     }
 
+    /// π = ∂ψ/∂J of [`Self::energy_density_mixed`] at F and J: −(μ/3)J^{-5/3}(F:F) +
+    /// κ(J − 1) for the polyconvex model (the coefficient of H in its P, seed 003 eq 1);
+    /// zero for the others, whose ψ does not read J.
+    pub fn energy_density_mixed_dj<D: Dim>(&self, f: D::T, j: f64) -> f64 {
+        if self.model != MaterialModel::NearlyIncompressibleNeoHookean {
+            return 0.0;
+        }
+        -self.mu / 3.0 * j.powf(-5.0 / 3.0) * full_ddot::<D>(f) + self.bulk * (j - 1.0)
+    }
+
     /// Strain-energy density per reference volume. For the hypoelastic model this is the
     /// complementary energy of the linearised model, S:S/(4G) + p²/(2K).
     pub fn energy_density<D: Dim>(&self, f: D::T, s: D::T, rho: f64) -> f64 {

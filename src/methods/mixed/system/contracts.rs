@@ -77,16 +77,22 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
                 *f_dot = self.kin[a].grad_v;
             });
         // The stabilisation's power on the bodies, Σ_a V_a D(p_a)·v_a (D per unit reference
-        // volume, m_a = ρ0 V_a): minus the power the balance books as dissipated. D(J) acts
-        // on J, not on the momentum, and stays in the residue (docs/methods/mixed.md).
-        // Over the counted particles: a rank's own.
+        // volume, m_a = ρ0 V_a), and D(J)'s on the stored energy, Σ_a V_a π_a D(J_a) with
+        // π = ∂ψ/∂J (J̇ = H:∇0v + D(J), and the forces do the work of H:∇0v): minus the
+        // power the balance books as dissipated. Over the counted particles: a rank's own.
         let stabilisation = |a: usize| if projected { dp[a] } else { forces[a].d };
+        let evolves_j = self.evolves_j();
         self.dissipation = par_sum(self.n, |a| {
-            if self.counted[a] {
-                -self.vol[a] * D::dot(stabilisation(a), y.v[a])
+            if !self.counted[a] {
+                return 0.0;
+            }
+            let volume_jump = if evolves_j {
+                let pi = self.material.energy_density_mixed_dj::<D>(y.f[a], y.j[a]);
+                pi * forces[a].dj
             } else {
                 0.0
-            }
+            };
+            -self.vol[a] * (D::dot(stabilisation(a), y.v[a]) + volume_jump)
         });
         // eqs 38c–d in the difference form 39c–d.
         if self.conserved.evolves_h() {
