@@ -58,9 +58,8 @@ pub enum HoleAxis {
 impl Hole {
     /// Whether the point p (padded to 3D) is inside.
     pub fn contains(&self, p: [f64; 3]) -> bool {
-        let d: Vec<f64> = (0..self.center.len())
-            .map(|k| p[k] - self.center[k])
-            .collect();
+        // p − c, padded with zeros past the hole's dimension.
+        let d: [f64; 3] = std::array::from_fn(|k| self.center.get(k).map_or(0.0, |c| p[k] - c));
         let length2: f64 = d.iter().map(|x| x * x).sum();
         let along = match self.axis {
             None => 0.0,
