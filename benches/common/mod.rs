@@ -82,6 +82,12 @@ const CASES: &[(&str, &str, &[&str], Kind)] = &[
         Kind::Dynamic,
     ),
     (
+        "supg-sph",
+        "swinging-plate.toml",
+        &["method.name=supg-sph"],
+        Kind::Dynamic,
+    ),
+    (
         "dual-support-sph",
         "plate-compression-2d.toml",
         &[],

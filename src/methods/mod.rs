@@ -248,6 +248,7 @@ registry! {
     "tlsph" => Tlsph(tlsph::TlsphSpec),
     "upwind-sph" => UpwindSph(mixed::UpwindSpec),
     "jst-sph" => JstSph(mixed::JstSpec),
+    "supg-sph" => SupgSph(mixed::SupgSpec),
     "tl-potential" => TlPotential(potential::PotentialSpec),
     "corotated-tlsph" => CorotatedTlsph(corotated::CorotatedSpec),
     "gray-monaghan-sph" => GrayMonaghanSph(gray_monaghan::GrayMonaghanSpec),
@@ -322,6 +323,7 @@ impl Runs for dyn mixed::MixedScheme {
         match method {
             MethodSpec::UpwindSph(s) => Some(s),
             MethodSpec::JstSph(s) => Some(s),
+            MethodSpec::SupgSph(s) => Some(s),
             _ => None,
         }
     }

@@ -125,6 +125,8 @@ pub struct Ghosts<D: Dim> {
     /// Reference positions and volumes of the ghosts.
     x0: Vec<D::V>,
     vol: Vec<f64>,
+    /// Per plane: its axis, position and the sign of the body's side (+1 above).
+    planes: Vec<(usize, f64, f64)>,
     _dim: PhantomData<D>,
 }
 
@@ -142,6 +144,7 @@ impl<D: Dim> Ghosts<D> {
         let tol = 1e-6 * spacing;
         // Signed distance of every particle to every plane, oriented into the body.
         let mut dist = vec![Vec::with_capacity(x0.len()); planes.len()];
+        let mut sides = Vec::with_capacity(planes.len());
         for (i, plane) in planes.iter().enumerate() {
             let key = format!("mirror.{i}.at");
             let k = plane.normal.index();
@@ -171,6 +174,8 @@ impl<D: Dim> Ghosts<D> {
                 ));
             }
             dist[i] = signed.iter().map(|s| s.abs()).collect();
+            let side = if below == 0 { 1.0 } else { -1.0 };
+            sides.push((k, plane.at, side));
         }
         for (i, p) in planes.iter().enumerate() {
             for (j, q) in planes.iter().enumerate().skip(i + 1) {
@@ -219,6 +224,7 @@ impl<D: Dim> Ghosts<D> {
             index: HashMap::new(),
             x0: Vec::new(),
             vol: Vec::new(),
+            planes: sides,
             _dim: PhantomData,
         };
         for mask in 1..ghosts.images.len() {
@@ -252,6 +258,25 @@ impl<D: Dim> Ghosts<D> {
 
     pub fn is_empty(&self) -> bool {
         self.source.is_empty()
+    }
+
+    /// The number of real particles.
+    pub fn real(&self) -> usize {
+        self.n
+    }
+
+    /// The real particle an extended index stands for, and the image it passes through
+    /// (None for a real particle).
+    pub fn origin(&self, extended: usize) -> (usize, Option<Image>) {
+        match extended.checked_sub(self.n) {
+            None => (extended, None),
+            Some(k) => (self.source[k] as usize, self.images[self.image[k] as usize]),
+        }
+    }
+
+    /// The signed distance of a point from every plane, positive on the body's side.
+    pub fn depths(&self, x: D::V) -> impl Iterator<Item = f64> + '_ {
+        (self.planes.iter()).map(move |&(k, at, side)| (D::comp(x, k) - at) * side)
     }
 
     /// Real then ghost reference positions and volumes.

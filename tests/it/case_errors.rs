@@ -1551,3 +1551,48 @@ fn a_hole_direction_of_zero_length_is_refused() {
         &["\"x\", \"y\", \"z\" or a direction", "not all zero"],
     );
 }
+
+// ---------------------------------------------------------------------------------------
+// SUPG-SPH
+
+/// SUPG-SPH's parameters are checked by name, and what it does not run is refused with
+/// the methods that do: artificial compressibility, the bond-based F and plasticity.
+#[test]
+fn supg_sph_checks_its_parameters_and_refuses_what_it_does_not_run() {
+    let plate = std::fs::read_to_string(cases_dir().join("spinning-plate.toml")).unwrap();
+    let supg = edit(&plate, "name = \"upwind-sph\"", "name = \"supg-sph\"");
+    Scene::from_toml(&supg, Path::new(FILE), &[]).expect("the plate under SUPG-SPH");
+    let with = |line: &str| edit(&supg, "cfl = 0.3", &format!("cfl = 0.3\n{line}"));
+    assert_invalid(
+        &with("supg = { tau_p = -0.1 }"),
+        "method.supg.tau_p",
+        &["-0.1"],
+    );
+    assert_invalid(
+        &with("supg = { xi_f = 1.5 }"),
+        "method.supg.xi_f",
+        &["1.5", "[0, 1)", "0.2"],
+    );
+    let (_, shown) = error_with(&with("supg = { tau = 1.0 }"), &[]);
+    assert_mentions(
+        &shown,
+        &[FILE, "unknown field `tau`", "tau_f", "tau_p", "xi_f"],
+    );
+    assert_invalid(
+        &with("artificial_compressibility = {}"),
+        "method.artificial_compressibility",
+        &["supg-sph", "upwind-sph", "jst-sph"],
+    );
+    assert_invalid(
+        &with("variables = \"p-F\"\ndeformation_gradient = \"bond-based\""),
+        "method.deformation_gradient",
+        &["supg-sph", "upwind-sph"],
+    );
+    let plastic = [
+        "material.model=von-mises-plastic",
+        "material.yield_stress=1e5",
+        "material.hardening_modulus=1e4",
+    ];
+    let (_, shown) = error_with(&supg, &plastic);
+    assert_mentions(&shown, &["material.model", "upwind-sph", "jst-sph"]);
+}

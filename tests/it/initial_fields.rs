@@ -178,7 +178,7 @@ fn an_affine_initial_displacement_stores_the_energy_of_its_deformation_gradient(
         })
         .map(|e| e.name)
         .collect();
-    assert_eq!(methods.len(), 10, "{methods:?}");
+    assert_eq!(methods.len(), 11, "{methods:?}");
     for method in methods {
         for field in [LINEAR, WRITTEN] {
             let case = prestretched(method, field).unwrap();

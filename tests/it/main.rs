@@ -77,6 +77,7 @@ mod static_tolerance;
 mod stent;
 #[cfg(feature = "study")]
 mod study;
+mod supg;
 mod timed_velocity;
 mod tl_potential;
 mod tlsph;

@@ -28,8 +28,8 @@ fn holes_leave_out_the_particles_inside_them() {
 }
 
 /// The series `column` of the tension block at Δx = 0.05 m, ν = 0.499, to 2 ms (1.3
-/// times its height by then) with the conserved set `variables`.
-fn tension_block(variables: &str, column: &str) -> Vec<(f64, f64)> {
+/// times its height by then) under `method` with the conserved set `variables`.
+fn tension_block(method: &str, variables: &str, column: &str) -> Vec<(f64, f64)> {
     let case = load(
         "perforated-block-tension",
         &[
@@ -37,6 +37,7 @@ fn tension_block(variables: &str, column: &str) -> Vec<(f64, f64)> {
             "run.end_time=2.0e-3",
             "output.series_interval=1.0e-4",
             &format!("method.variables={variables}"),
+            &format!("method.name={method}"),
         ],
     );
     let dir = tempfile::tempdir().unwrap();
@@ -46,8 +47,8 @@ fn tension_block(variables: &str, column: &str) -> Vec<(f64, f64)> {
 }
 
 /// `pressure_oscillation` of the tension block at 2 ms.
-fn oscillation(variables: &str) -> f64 {
-    tension_block(variables, "pressure_oscillation")
+fn oscillation(method: &str, variables: &str) -> f64 {
+    tension_block(method, variables, "pressure_oscillation")
         .last()
         .unwrap()
         .1
@@ -61,8 +62,8 @@ fn oscillation(variables: &str) -> f64 {
 /// different machine adds to a growing mode.
 #[test]
 fn the_evolved_j_removes_the_pressure_checkerboard_of_p_f() {
-    let pf = oscillation("p-F");
-    let pfj = oscillation("p-F-J");
+    let pf = oscillation("upwind-sph", "p-F");
+    let pfj = oscillation("upwind-sph", "p-F-J");
     eprintln!("‖δp‖/‖p‖ at 2 ms: {{p, F}} {pf:.3e}, {{p, F, J}} {pfj:.3e}");
     assert!(pf > 0.5, "{{p, F}}: {pf:e}");
     assert!(pfj < 0.25, "{{p, F, J}}: {pfj:e}");
@@ -74,7 +75,7 @@ fn the_evolved_j_removes_the_pressure_checkerboard_of_p_f() {
 
 /// The largest |energy_residue| of the tension block to 2 ms.
 fn residue(variables: &str) -> f64 {
-    tension_block(variables, "energy_residue")
+    tension_block("upwind-sph", variables, "energy_residue")
         .iter()
         .map(|&(_, r)| r.abs())
         .fold(0.0, f64::max)
@@ -93,4 +94,17 @@ fn the_balance_books_the_dissipation_of_d_j() {
         pfj < 2.0 * pf,
         "{{p, F, J}}: {pfj:e} against {{p, F}}: {pf:e}"
     );
+}
+
+/// Seed 003 §1: SUPG-SPH eliminates the spurious pressure of near incompressibility, as
+/// Upwind-SPH's D(J) does. Asserted as Upwind-SPH's {p, F, J} is above: ‖δp‖/‖p‖ below
+/// 0.25 at 2 ms. Measured on SUPG-SPH {p, F, H, J} with the paper's parameters: 0.640
+/// (Upwind-SPH {p, F, J}: 0.117), and its CFL step falls to a fifth of Upwind-SPH's (1541
+/// steps against 308). Its τ_p damps a J checkerboard a hundredth as fast as D(J)
+/// (docs/methods/mixed.md "SUPG-SPH").
+#[test]
+#[ignore = "finding: docs/methods/mixed.md#supg-sph"]
+fn supg_removes_the_pressure_checkerboard() {
+    let osc = oscillation("supg-sph", "p-F-H-J");
+    assert!(osc < 0.25, "SUPG-SPH {{p, F, H, J}}: ‖δp‖/‖p‖ = {osc:e}");
 }

@@ -1,9 +1,9 @@
 //! Mixed {p, F, H, J} total-Lagrangian SPH (seed 003, with the options of seed 002):
-//! Upwind-SPH and JST-SPH. The specs, the CPU system ([`system`], with its pair weights
-//! in [`weights`], the angular-momentum projection in [`projection`] and artificial
-//! compressibility in [`compressibility`]) and the GPU engine ([`gpu`], with the
-//! corrector of artificial compressibility in `gpu_corrector`). Numerics notes:
-//! `docs/methods/mixed.md`.
+//! Upwind-SPH, JST-SPH and SUPG-SPH. The specs, the CPU system ([`system`], with its pair
+//! weights in [`weights`], the angular-momentum projection in [`projection`], artificial
+//! compressibility in [`compressibility`] and SUPG's stress points in [`stress_points`])
+//! and the GPU engine ([`gpu`], with the corrector of artificial compressibility in
+//! `gpu_corrector`). Numerics notes: `docs/methods/mixed.md`.
 
 pub mod compressibility;
 #[cfg(feature = "gpu")]
@@ -11,6 +11,7 @@ pub mod gpu;
 #[cfg(feature = "gpu")]
 mod gpu_corrector;
 pub mod projection;
+pub mod stress_points;
 pub mod system;
 pub mod weights;
 
@@ -214,11 +215,62 @@ pub struct JstSpec {
     pub jst: Jst,
 }
 
+/// SUPG-SPH's parameters (seed 003 Fig. 23b: τ_F = Δt, ξ_F = 0.2, τ_p = 0.1Δt): the
+/// stress of the stress points is evaluated at F^st = F − τ_F (Ḟ − ∇0v) + ξ_F (∇0x − F),
+/// and the velocity in the geometric laws is v + (τ_p/ρ0)(DIV P − ṗ).
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Supg {
+    /// τ_F in units of the step Δt.
+    #[serde(default = "one")]
+    pub tau_f: f64,
+    /// τ_p in units of the step Δt.
+    #[serde(default = "default_tau_p")]
+    pub tau_p: f64,
+    /// ξ_F, dimensionless.
+    #[serde(default = "default_xi_f")]
+    pub xi_f: f64,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+fn default_tau_p() -> f64 {
+    0.1
+}
+
+fn default_xi_f() -> f64 {
+    0.2
+}
+
+impl Default for Supg {
+    fn default() -> Self {
+        Self {
+            tau_f: one(),
+            tau_p: default_tau_p(),
+            xi_f: default_xi_f(),
+        }
+    }
+}
+
+/// SUPG-SPH: the residual-based Petrov–Galerkin stabilisation evaluated at stress points
+/// (seed 003 §1, ref. [27]).
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+pub struct SupgSpec {
+    #[serde(flatten)]
+    pub mixed: MixedOptions,
+    /// The parameters (default τ_F = Δt, τ_p = 0.1Δt, ξ_F = 0.2).
+    #[serde(default)]
+    pub supg: Supg,
+}
+
 /// The stabilisation of a mixed method, as its systems read it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Stabiliser {
     Upwind { reconstruction: bool },
     Jst(Jst),
+    Supg(Supg),
 }
 
 /// What a mixed system reads of its method's spec ([`UpwindSpec`], [`JstSpec`]).
@@ -308,6 +360,11 @@ fn plan(m: &MixedOptions, stab: Stabiliser, case: &Case, gpu: bool) -> Plan {
         Stabiliser::Upwind {
             reconstruction: false,
         } => "N_ab",
+        Stabiliser::Supg(_) => {
+            "stress points at the 2^d Gauss points of the lattice cells with the cells' \
+             isoparametric functions N_b(X_s), G_b(X_s), and the lists that gather them to \
+             the particles"
+        }
     };
     let mut left_out = Vec::new();
     if !m.projection(case) {
@@ -402,8 +459,8 @@ fn rate_passes(m: &MixedOptions, stab: Stabiliser, case: &Case) -> String {
     let ghosts = !case.mirrors.is_empty();
     let evolved = m.evolved(case.material.model);
     let (h, j) = (evolved.evolves_h(), evolved.evolves_j());
-    let jst = matches!(stab, Stabiliser::Jst(_));
-    let d_j = !jst && j && m.artificial_compressibility.is_none();
+    let upwind = matches!(stab, Stabiliser::Upwind { .. });
+    let d_j = upwind && j && m.artificial_compressibility.is_none();
     let bond = m.bond_based();
     let mut passes = Vec::new();
     if ghosts {
@@ -432,7 +489,8 @@ fn rate_passes(m: &MixedOptions, stab: Stabiliser, case: &Case) -> String {
         } => Some("least-squares slopes of v, P"),
         Stabiliser::Upwind {
             reconstruction: false,
-        } => None,
+        }
+        | Stabiliser::Supg(_) => None,
     };
     if let Some(second) = second {
         passes.push(second.into());
@@ -444,11 +502,21 @@ fn rate_passes(m: &MixedOptions, stab: Stabiliser, case: &Case) -> String {
         Momentum::Weak => "T",
         Momentum::Symmetrised => "T symmetrised",
     };
-    passes.push(match (jst, d_j) {
-        (true, _) => format!("forces ({t}, JST D(p))"),
-        (false, true) => format!("forces ({t}, upwind D(p), D(J))"),
-        (false, false) => format!("forces ({t}, upwind D(p))"),
+    passes.push(match (stab, d_j) {
+        (Stabiliser::Jst(_), _) => format!("forces ({t}, JST D(p))"),
+        (Stabiliser::Supg(_), _) => format!("forces ({t})"),
+        (_, true) => format!("forces ({t}, upwind D(p), D(J))"),
+        (_, false) => format!("forces ({t}, upwind D(p))"),
     });
+    if let Stabiliser::Supg(_) = stab {
+        passes.push(format!(
+            "stress points (F{}{}, their rates and ṗ interpolated; ∇0v, ∇0x, DIV P; ΔP = \
+             P(F^st) − P(F), Δv = τ_p/ρ0 (DIV P − ṗ))",
+            if h { ", H" } else { "" },
+            if j { ", J" } else { "" }
+        ));
+        passes.push("gather of the points' −ΔP G and −Δv ⊗ G to the particles".into());
+    }
     if m.projection(case) {
         passes.push("projection sums (per workgroup) + solve (one invocation)".into());
         passes.push("rates (ρ0 v̇ = D(p) − T projected, BCs, u̇ = v)".into());
@@ -491,7 +559,18 @@ const fn keys(own: &'static str) -> [&'static str; 7] {
 trait MixedMethod: MixedScheme {
     const DESCRIPTION: &'static str;
     const KEYS: &'static [&'static str];
-    /// Checks of the stabilisation's own keys.
+    const FEATURES: &'static [Feature] = &[
+        Feature::Contact,
+        Feature::InitialDisplacement,
+        Feature::MirrorPlanes,
+        Feature::Plasticity,
+    ];
+    /// The force reads the neighbours' stress (of the bond-based F^c, from their
+    /// neighbours' u) and their slopes or Laplacians of v; the slopes of P, which would
+    /// read a third layer's u through F^c, enter only D(J), which {p, F} leaves out.
+    const HALO_LAYERS: Option<usize> = Some(2);
+    const GPU_ENGINE: bool = true;
+    /// Checks of the stabilisation's own keys and of the options it runs with.
     fn validate_own(&self) -> Result<(), Problem>;
 }
 
@@ -539,19 +618,70 @@ impl MixedScheme for JstSpec {
     }
 }
 
-impl<S: MixedMethod + 'static> MethodFamily for S {
-    const DESCRIPTION: &'static str = S::DESCRIPTION;
-    const KEYS: &'static [&'static str] = S::KEYS;
+impl MixedMethod for SupgSpec {
+    const DESCRIPTION: &'static str = "mixed {p, F, H, J} total-Lagrangian SPH with the \
+        residual-based SUPG stabilisation evaluated at stress points (Lee et al. 2017; seed \
+        003)";
+    const KEYS: &'static [&'static str] = &keys("supg");
     const FEATURES: &'static [Feature] = &[
         Feature::Contact,
         Feature::InitialDisplacement,
         Feature::MirrorPlanes,
-        Feature::Plasticity,
     ];
-    /// The force reads the neighbours' stress (of the bond-based F^c, from their
-    /// neighbours' u) and their slopes or Laplacians of v; the slopes of P, which would
-    /// read a third layer's u through F^c, enter only D(J), which {p, F} leaves out.
-    const HALO_LAYERS: Option<usize> = Some(2);
+    /// Not yet distributed: a rank would need the stress points of its halo's cells.
+    const HALO_LAYERS: Option<usize> = None;
+    const GPU_ENGINE: bool = false;
+
+    fn validate_own(&self) -> Result<(), Problem> {
+        non_negative("method.supg.tau_f", self.supg.tau_f)?;
+        non_negative("method.supg.tau_p", self.supg.tau_p)?;
+        non_negative("method.supg.xi_f", self.supg.xi_f)?;
+        if self.supg.xi_f >= 1.0 {
+            return fail(
+                "method.supg.xi_f",
+                format!(
+                    "is {}; ξ_F blends ∇0x into F^st = F − τ_F R_F + ξ_F (∇0x − F) and must \
+                     lie in [0, 1) (the paper's 0.2 by default)",
+                    self.supg.xi_f
+                ),
+            );
+        }
+        let m = &self.mixed;
+        if m.artificial_compressibility.is_some() {
+            return fail(
+                "method.artificial_compressibility",
+                "`supg-sph` stabilises the pressure through J's residual at its stress points \
+                 and does not run artificial compressibility; remove the table or use \
+                 `upwind-sph` or `jst-sph`",
+            );
+        }
+        if m.bond_based() {
+            return fail(
+                "method.deformation_gradient",
+                "`supg-sph` stabilises the evolved F; remove the key or use `upwind-sph` or \
+                 `jst-sph`",
+            );
+        }
+        Ok(())
+    }
+}
+
+impl MixedScheme for SupgSpec {
+    fn options(&self) -> &MixedOptions {
+        &self.mixed
+    }
+
+    fn stabiliser(&self) -> Stabiliser {
+        Stabiliser::Supg(self.supg)
+    }
+}
+
+impl<S: MixedMethod + 'static> MethodFamily for S {
+    const DESCRIPTION: &'static str = S::DESCRIPTION;
+    const KEYS: &'static [&'static str] = S::KEYS;
+    const FEATURES: &'static [Feature] = S::FEATURES;
+    const HALO_LAYERS: Option<usize> = S::HALO_LAYERS;
+    const GPU_ENGINE: bool = S::GPU_ENGINE;
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
 

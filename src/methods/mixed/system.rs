@@ -1,7 +1,7 @@
 //! Mixed total-Lagrangian SPH on the conservation laws of {p, F, H, J} (seed 003):
-//! Upwind-SPH (acoustic Riemann stabilisation with linear reconstruction) and JST-SPH
-//! (Jameson–Schmidt–Turkel dissipation on p), with the angular-momentum-preserving
-//! projection of Appendix B.
+//! Upwind-SPH (acoustic Riemann stabilisation with linear reconstruction), JST-SPH
+//! (Jameson–Schmidt–Turkel dissipation on p) and SUPG-SPH (residuals at stress points),
+//! with the angular-momentum-preserving projection of Appendix B.
 //!
 //! The state holds u = x − X, v = p/ρ0 (ρ0 is uniform, so this is p up to a constant),
 //! F and, per variant, H and J. Neighbours, corrected gradients G_b(X_a) = V_b ∇̃0W̃_b(X_a)
@@ -13,6 +13,7 @@
 
 use super::compressibility::{Corrector, Pairs, StageStart, UNCONVERGED};
 use super::projection::Balance;
+use super::stress_points::StressPoints;
 use super::weights::{brookshaw_weights, correct_laplacian, least_squares_weights, pair_map};
 use super::{
     CflWaveSpeed, Conserved, DeformationGradient, JstLaplacian, MixedScheme, Momentum, Stabiliser,
@@ -23,6 +24,7 @@ use crate::core::integrate::{IntegratorKind, OdeSystem, PseudoTime};
 use crate::core::kernel::Kernel;
 use crate::engine::{BlowUp, BoundaryWork, Method, Sizes, Traffic, check_motion};
 use crate::interaction::Interactions;
+use supg::SupgBuffers;
 
 use crate::case::{Case, CaseError};
 use crate::core::neighbour::{self, Csr};
@@ -55,8 +57,7 @@ particle_state! {
 }
 
 /// The stabilising flux of a mixed method.
-#[derive(Clone, Debug)]
-enum Stabilisation {
+enum Stabilisation<D: Dim> {
     /// Acoustic Riemann solver on p and J (eqs 27–33), optionally with the least-squares
     /// linear reconstruction of p and P to the mid-pair (eq 37).
     Upwind { reconstruction: bool },
@@ -66,6 +67,13 @@ enum Stabilisation {
         coefficients: super::Jst,
         ell: Vec<f64>,
         s: Vec<f64>,
+    },
+    /// SUPG: the stress increments ΔP_s = P(F^st_s) − P(F_s) and velocity increments
+    /// Δv_s = (τ_p/ρ0)(DIV P − ṗ)_s at the stress points, tested with the particles'
+    /// functions (`supg` pass).
+    Supg {
+        parameters: super::Supg,
+        points: Box<StressPoints<D>>,
     },
 }
 
@@ -189,7 +197,9 @@ pub struct MixedSph<D: Dim> {
     /// The plastic history of the real particles (von Mises); None for the elastic
     /// models.
     plastic: Option<History>,
-    stabilisation: Stabilisation,
+    stabilisation: Stabilisation<D>,
+    /// SUPG's buffers of a rate evaluation (empty for the other stabilisations).
+    supg: SupgBuffers<D>,
     /// The pseudo-time corrector of artificial compressibility; None without.
     compressibility: Option<Corrector<D>>,
     /// The p-wave speed of the fluxes and the CFL step: c_p, or c̃_p of the fictitious
@@ -252,6 +262,7 @@ impl<D: Dim> MixedSph<D> {
             kernel,
             counted,
             ranks,
+            generated_cells,
             ..
         } = reference;
         let m = &case.method;
@@ -271,15 +282,8 @@ impl<D: Dim> MixedSph<D> {
             let d = x0[j] - x0[i];
             d * (1.0 / D::norm2(d).sqrt())
         });
-        let ls = least_squares_weights::<D>(&x0, &csr, &normal).map_err(|i| {
-            case.invalid(
-                "method.h_over_dx",
-                format!(
-                    "the least-squares matrix Σ N_ab ⊗ N_ab of particle {i} is singular (its \
-                 neighbours lie on a line); increase h/dx"
-                ),
-            )
-        })?;
+        let ls = least_squares_weights::<D>(&x0, &csr, &normal)
+            .map_err(|i| singular_least_squares(case, i))?;
         let pairs = Pairs {
             csr: &csr,
             grad: &grad,
@@ -288,9 +292,14 @@ impl<D: Dim> MixedSph<D> {
             ghosts: &ghosts,
             momentum: options.momentum,
         };
+        let mut body = vec![0; x0.len()];
+        ghosts.fill(&mut body, |a| body_real[a], |_, b| b);
         let stabilisation = match stabiliser {
             Stabiliser::Jst(coefficients) => jst(case, coefficients, &pairs, &x0, &normal, &rev)?,
             Stabiliser::Upwind { reconstruction } => Stabilisation::Upwind { reconstruction },
+            Stabiliser::Supg(p) => {
+                supg::stabilisation(case, p, (&x0, &body), &ghosts, &generated_cells)?
+            }
         };
         let bond_weights = match options.deformation_gradient {
             DeformationGradient::Evolved => None,
@@ -299,8 +308,6 @@ impl<D: Dim> MixedSph<D> {
             }
         };
         let kinematic_bond = options.deformation_gradient == DeformationGradient::KinematicBond;
-        let mut body = vec![0; x0.len()];
-        ghosts.fill(&mut body, |a| body_real[a], |_, b| b);
         let interactions =
             Interactions::build(case, &x0[..n], &body, &OnPatches, &mass, || csr.clone())?;
         let n_ext = x0.len();
@@ -345,6 +352,7 @@ impl<D: Dim> MixedSph<D> {
             kinematic_bond,
             plastic: material.von_mises().map(|model| History::virgin(model, n)),
             stabilisation,
+            supg: SupgBuffers::default(),
             compressibility,
             c_p,
             projection: options.projection(case),
@@ -499,6 +507,17 @@ pub(super) fn pair_force<D: Dim>(
 /// goes through (None: none).
 type ReversePairs = Vec<(u32, Option<Image>)>;
 
+/// The error of a particle whose least-squares matrix Σ N_ab ⊗ N_ab is singular.
+fn singular_least_squares(case: &Case, i: usize) -> CaseError {
+    case.invalid(
+        "method.h_over_dx",
+        format!(
+            "the least-squares matrix Σ N_ab ⊗ N_ab of particle {i} is singular (its \
+             neighbours lie on a line); increase h/dx"
+        ),
+    )
+}
+
 /// The [`ReversePairs`] of the real rows' pairs, and g_ba = ∇̃0W̃_a(X_b) in CSR order.
 fn reverse_pairs<D: Dim>(
     case: &Case,
@@ -534,7 +553,7 @@ fn jst<D: Dim>(
     x0: &[D::V],
     normal: &[D::V],
     rev: &ReversePairs,
-) -> Result<Stabilisation, CaseError> {
+) -> Result<Stabilisation<D>, CaseError> {
     let (csr, vol, grad) = (pairs.csr, pairs.vol, pairs.grad);
     let ij = pair_map(csr, |i, j| (i, j));
     let mut ell = brookshaw_weights::<D>(x0, vol, &ij, grad, normal);
@@ -598,5 +617,6 @@ fn fill_extended<D: Dim>(ghosts: &Ghosts<D>, out: &mut [D::V], real: &[D::V]) {
 mod accessors;
 mod contracts;
 mod passes;
+mod supg;
 #[cfg(test)]
 mod tests;

@@ -43,7 +43,7 @@ impl<D: Dim> MixedSph<D> {
                 ell,
                 s,
             } => Some((*coefficients, ell, s)),
-            Stabilisation::Upwind { .. } => None,
+            Stabilisation::Upwind { .. } | Stabilisation::Supg { .. } => None,
         }
     }
 

@@ -42,6 +42,10 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
         checked?;
         let mut forces = std::mem::take(&mut self.forces);
         self.forces(y, &mut forces);
+        if let Err(e) = self.supg(y, &mut forces) {
+            self.forces = forces;
+            return Err(e);
+        }
         let (mut t, mut dp) = (std::mem::take(&mut self.t), std::mem::take(&mut self.dp));
         if self.projection {
             t.par_iter_mut()
@@ -60,6 +64,12 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
         self.stage += 1;
         let inv_rho0 = 1.0 / self.material.rho0;
         let projected = self.projection;
+        // The velocity gradient of the geometric laws: ∇0v, and with SUPG ∇0v + L.
+        let supg_l = &self.supg.l;
+        let grad_v = |a: usize| match supg_l.get(a) {
+            Some(&l) => self.kin[a].grad_v + l,
+            None => self.kin[a].grad_v,
+        };
         // eq 38a: dp/dt = −T + D(p) (the state holds v = p/ρ0); u̇ = v; eq 39b: Ḟ = ∇0v.
         d.v.par_iter_mut()
             .zip(d.u.par_iter_mut())
@@ -74,12 +84,13 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
                 };
                 *v_dot = (dp_a - t_a) * inv_rho0;
                 *u_dot = y.v[a];
-                *f_dot = self.kin[a].grad_v;
+                *f_dot = grad_v(a);
             });
         // The stabilisation's power on the bodies, Σ_a V_a D(p_a)·v_a (D per unit reference
-        // volume, m_a = ρ0 V_a), and D(J)'s on the stored energy, Σ_a V_a π_a D(J_a) with
-        // π = ∂ψ/∂J (J̇ = H:∇0v + D(J), and the forces do the work of H:∇0v): minus the
-        // power the balance books as dissipated. Over the counted particles: a rank's own.
+        // volume, m_a = ρ0 V_a), D(J)'s on the stored energy, Σ_a V_a π_a D(J_a) with
+        // π = ∂ψ/∂J (J̇ = H:∇0v + D(J), and the forces do the work of H:∇0v), and SUPG's
+        // L on it, Σ_a V_a P_a : L_a (P = Σ_F + Σ_H × F + Σ_J H): minus the power the
+        // balance books as dissipated. Over the counted particles: a rank's own.
         let stabilisation = |a: usize| if projected { dp[a] } else { forces[a].d };
         let evolves_j = self.evolves_j();
         self.dissipation = par_sum(self.n, |a| {
@@ -92,22 +103,22 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
             } else {
                 0.0
             };
-            -self.vol[a] * (D::dot(stabilisation(a), y.v[a]) + volume_jump)
+            let supg = supg_l.get(a).map_or(0.0, |&l| D::ddot(self.kin[a].p, l));
+            -self.vol[a] * (D::dot(stabilisation(a), y.v[a]) + volume_jump + supg)
         });
         // eqs 38c–d in the difference form 39c–d.
         if self.conserved.evolves_h() {
             d.h.par_iter_mut()
                 .with_min_len(MIN_CHUNK)
                 .enumerate()
-                .for_each(|(a, h)| *h = D::cof_rate(y.f[a], self.kin[a].grad_v));
+                .for_each(|(a, h)| *h = D::cof_rate(y.f[a], grad_v(a)));
         }
         if self.evolves_j() {
             d.j.par_iter_mut()
                 .with_min_len(MIN_CHUNK)
                 .enumerate()
                 .for_each(|(a, j)| {
-                    let k = self.kin[a];
-                    *j = D::ddot(k.h, k.grad_v) + forces[a].dj;
+                    *j = D::ddot(self.kin[a].h, grad_v(a)) + forces[a].dj;
                 });
         }
         (self.forces, self.t, self.dp) = (forces, t, dp);
@@ -284,6 +295,7 @@ impl<D: Dim> Method<D> for MixedSph<D> {
         let (upwind, reconstruction, jst) = match self.stabilisation {
             Stabilisation::Upwind { reconstruction } => (true, reconstruction, false),
             Stabilisation::Jst { .. } => (false, false, true),
+            Stabilisation::Supg { .. } => (false, false, false),
         };
         let (evolves_h, evolves_j) = (self.conserved.evolves_h(), self.evolves_j());
         let pressure = self.compressibility.is_some();

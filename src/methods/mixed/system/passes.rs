@@ -103,7 +103,7 @@ impl<D: Dim> MixedSph<D> {
                 coefficients.eps4 * self.h.powi(3),
                 0.5 * c_p * mat.rho0,
             ),
-            Stabilisation::Upwind { .. } => (0.0, 0.0, 0.0),
+            Stabilisation::Upwind { .. } | Stabilisation::Supg { .. } => (0.0, 0.0, 0.0),
         };
         let (u, v) = (&self.u_ext, &self.v_ext);
         out.par_iter_mut()
@@ -157,6 +157,8 @@ impl<D: Dim> MixedSph<D> {
                             let dv = v[b] - v[a];
                             d += (dv * e2_h - lap * e4_h3) * (jst_scale * s[q]);
                         }
+                        // Its terms come from the stress points (`supg`).
+                        Stabilisation::Supg { .. } => {}
                     }
                 }
                 *out = Forces { t, d, dj };
@@ -183,7 +185,9 @@ impl<D: Dim> MixedSph<D> {
         self.prepare(y)?;
         let mut forces = std::mem::take(&mut self.forces);
         self.forces(y, &mut forces);
+        let supg = self.supg(y, &mut forces);
         self.forces = forces;
+        supg?;
         let forces = &self.forces;
         Ok(Fluxes {
             t: forces.iter().map(|f| f.t).collect(),
@@ -201,7 +205,7 @@ impl<D: Dim> MixedSph<D> {
                 reconstruction: true,
             } => self.slopes(),
             Stabilisation::Jst { .. } => self.laplacians(),
-            Stabilisation::Upwind { .. } => {}
+            Stabilisation::Upwind { .. } | Stabilisation::Supg { .. } => {}
         }
         Ok(())
     }
