@@ -341,10 +341,11 @@ impl<D: Dim> Ghosts<D> {
 impl<D: Dim> Ghosts<D> {
     /// Source (real particle) and image of every ghost, in extended order.
     pub(crate) fn table(&self) -> Vec<(u32, Image)> {
-        self.source
-            .iter()
-            .zip(&self.image)
-            .map(|(&s, &m)| (s, self.images[m as usize].expect("ghost images are valid")))
+        (self.n..self.n + self.source.len())
+            .map(|g| match self.origin(g) {
+                (s, Some(m)) => (s as u32, m),
+                (_, None) => unreachable!("ghost images are valid"),
+            })
             .collect()
     }
 }
