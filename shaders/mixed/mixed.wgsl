@@ -18,7 +18,7 @@
 // Scene constants: N, NG, DIM, MODEL, RHO0, MU, LAMBDA, BULK, YIELD, HARDENING (von Mises
 // model, plasticity.wgsl), C_P, C_S, SPACING
 // (particle spacing Δx), PAIR_STRETCH (1: the CFL step's C_p,ij = C_P / λ^Ave_ij, 0:
-// C_P), H (smoothing length), STAB (STAB_UPWIND or STAB_JST), RECON, EPS2, EPS4,
+// C_P), H (smoothing length), STAB (STAB_UPWIND, STAB_JST or STAB_SUPG), RECON, EPS2, EPS4,
 // MOMENTUM (MOMENTUM_WEAK or MOMENTUM_SYMMETRISED), EVOLVE_H, EVOLVE_J, KIN_H, BOND,
 // PROJECTION, GROUPS (workgroups over N), TOTAL_VOL, and the field offsets.
 

@@ -6,7 +6,8 @@
 //   reconstructed to the mid-pair face (eq 37, "−" from a, "+" from b) and n_ab from the
 //   current positions; D(J_a) = Σ_b p^stab/ρ0 · (H_a G_ab − H_b G_ba) (eq 33 with the
 //   dissipative sign), p^stab = n (n · ΔP N_ab)/(2 c_p), only where J is evolved;
-//   JST-SPH: D(p_a) = ½ c_p ρ0 Σ_b s_ab (ε⁽²⁾ h Δv − ε⁽⁴⁾ h³ Δ∇²v) (seed 002 eq 28).
+//   JST-SPH: D(p_a) = ½ c_p ρ0 Σ_b s_ab (ε⁽²⁾ h Δv − ε⁽⁴⁾ h³ Δ∇²v) (seed 002 eq 28);
+//   SUPG-SPH: D(p_a) = 0 here, its terms gathered from the stress points (mixed_supg.wgsl).
 // Writes force = [T | D(p) | D(J)] of its own particle. Per pair: G_ab, G_ba, and
 // d_ab = X_b − X_a (Upwind-SPH) or s_ab (JST-SPH). Layout and constants: mixed.wgsl.
 
@@ -110,7 +111,7 @@ fn forces(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
                 let h_b = identity_d() + mload_kin(KH_OFF + DIM * DIM * b);
                 dj += dot(p_stab, h_a * g_ab - h_b * g_ba) / RHO0;
             }
-        } else {
+        } else if STAB == STAB_JST {
             let lap = vload_second(DIM * b) - lap_a;
             dp_sum += ((v_b - v_a) * (EPS2 * H) - lap * (EPS4 * H * H * H)) * (0.5 * C_P * RHO0 * pair[PS_OFF + p]);
         }

@@ -127,14 +127,15 @@ pub fn cpu_options(dir: &Path, frames: bool) -> RunOptions {
 }
 
 /// Every variant the mixed methods compile, on top of the overrides `base`: Upwind-SPH
-/// with and without reconstruction, JST-SPH, each with each set of conserved variables
-/// (the last override of each variant); the sets with H or J on the polyconvex model, the
-/// one model that reads them (a model of F alone evolves {p, F}).
+/// with and without reconstruction, JST-SPH and SUPG-SPH, each with each set of conserved
+/// variables (the last override of each variant); the sets with H or J on the polyconvex
+/// model, the one model that reads them (a model of F alone evolves {p, F}).
 pub fn mixed_variants(base: &[&str]) -> Vec<Vec<String>> {
-    let methods: [&[&str]; 3] = [
+    let methods: [&[&str]; 4] = [
         &["method.name=upwind-sph"],
         &["method.name=upwind-sph", "method.reconstruction=false"],
         &["method.name=jst-sph"],
+        &["method.name=supg-sph"],
     ];
     let mut out = Vec::new();
     for method in methods {
@@ -149,6 +150,12 @@ pub fn mixed_variants(base: &[&str]) -> Vec<Vec<String>> {
         }
     }
     out
+}
+
+/// Whether a variant of [`mixed_variants`] is SUPG-SPH, which stabilises the evolved F
+/// only (no bond-based F).
+pub fn is_supg(set: &[String]) -> bool {
+    set.iter().any(|s| s == "method.name=supg-sph")
 }
 
 /// Deterministic pseudo-random numbers in [0, 1) (64-bit LCG, as in src/core/neighbour.rs).

@@ -1,7 +1,9 @@
 //! Every WGSL pass validates with naga (and lowers to an IR) without any adapter, in both
 //! dimensions and for every scene variant the solver compiles.
 
-use crate::common::{block_case, block_text, load, mixed_variants, shipped, validate_wgsl};
+use crate::common::{
+    block_case, block_text, is_supg, load, mixed_variants, shipped, validate_wgsl,
+};
 use meshless::core::tensor::{D2, D3};
 use meshless::gpu::context::reflect;
 use meshless::gpu::layout::GpuDim;
@@ -81,7 +83,7 @@ fn mixed_cases(dim: usize) -> Vec<Scene> {
         ("bending-column", "method.jst=")
     };
     for mut set in mixed_variants(&[base]) {
-        if set.last().is_some_and(|v| v == "method.variables=p-F") {
+        if set.last().is_some_and(|v| v == "method.variables=p-F") && !is_supg(&set) {
             set.extend(
                 [
                     "method.momentum=symmetrised",

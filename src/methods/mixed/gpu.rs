@@ -1,14 +1,16 @@
-//! Mixed {p, F, H, J} SPH (seed 003: Upwind-SPH and JST-SPH) on the GPU: the passes of
+//! Mixed {p, F, H, J} SPH (seed 003: Upwind-SPH, JST-SPH and SUPG-SPH) on the GPU: the
+//! passes of
 //! `shaders/mixed/` and the integrator program of [`crate::gpu::program`]. The set-up is
 //! the CPU reference's own (`MixedSph::new`, f64): the reference configuration and
 //! neighbours ([`crate::gpu::reference`]), corrected gradients, the reverse pairs,
-//! least-squares and Laplacian weights and the ghost table are computed once on the host
-//! and uploaded in f32. The CPU method is kept for snapshots (σ and the
+//! least-squares and Laplacian weights, the ghost table and SUPG-SPH's stress points are
+//! computed once on the host and uploaded in f32. The CPU method is kept for snapshots (σ and the
 //! strain energy of a read-back state, in f64).
 //!
 //! One rate evaluation, all on the device and recorded in one compute pass:
 //! ghost motion → [bond-based F^c] → kinematics (P, ∇0v, Ḟ, Ḣ, J̇) → ghost kinematics →
-//! [slopes or Laplacians → their ghosts] → forces (T, D(p), D(J)) → [projection sums →
+//! [slopes or Laplacians → their ghosts] → forces (T, D(p), D(J)) → [SUPG nodes →
+//! stress points → their gather to D(p) and the rates of F, H, J] → [projection sums →
 //! solve] → rates of v and u with the boundary conditions. The engine is the
 //! [`GpuEngine`] on the family [`MixedDevice`].
 
@@ -46,12 +48,16 @@ use encase::ShaderType;
 mod evaluator;
 mod layout;
 mod sources;
+mod supg;
 
 use evaluator::{Bound, Evaluator, Passes, StagePoints};
 use layout::{EXTRAS, pair_data};
 pub use layout::{MixedLayout, Sizes, scene};
-pub use sources::{BOND, FORCES, GHOSTS, KINEMATICS, MOMENTUM, PLASTIC, REDUCE, SHADERS, SLOPES};
+pub use sources::{
+    BOND, FORCES, GHOSTS, KINEMATICS, MOMENTUM, PLASTIC, REDUCE, SHADERS, SLOPES, SUPG,
+};
 pub(super) use sources::{IMAGES, MIXED, MOTION};
+use supg::{SupgBuffers, SupgStep};
 
 /// The length of the slopes (upwind with reconstruction) or Laplacians (JST) of the
 /// extended particles, in floats; zero without either.
@@ -91,6 +97,8 @@ struct Scratch {
     status: wgpu::Buffer,
     /// The projection's partial sums, per workgroup.
     partials: wgpu::Buffer,
+    /// The slopes or Laplacians of the extended particles (4 bytes without either).
+    second: wgpu::Buffer,
     /// The plastic history (plasticity.wgsl; 10 floats of a dummy for elastic models).
     hist: wgpu::Buffer,
 }
@@ -111,10 +119,13 @@ impl Scratch {
         );
     }
 
-    fn new(gpu: &Gpu, layout: &MixedLayout, plastic: bool) -> Self {
+    fn new<D: GpuDim>(gpu: &Gpu, layout: &MixedLayout, plastic: bool) -> Result<Self, GpuError> {
         let n = layout.n;
         let (gx, gy) = gpu.groups(n as u32);
-        Self {
+        gpu.check_size("kinematics buffer", layout.kin.bytes())?;
+        let second = second_len::<D>(layout) as u64 * 4;
+        gpu.check_size("slope buffer", second)?;
+        Ok(Self {
             kin: gpu.zeroed("kinematics", layout.kin.bytes()),
             force: gpu.zeroed("forces", layout.force.bytes()),
             status: gpu.storage("status", &STATUS_OK),
@@ -123,12 +134,13 @@ impl Scratch {
                 "plastic history",
                 &History::VIRGIN_F32.repeat(if plastic { n } else { 1 }),
             ),
-        }
+            second: gpu.zeroed("slopes or Laplacians", second),
+        })
     }
 }
 
-/// Values of `status` when no particle failed.
-const STATUS_OK: [u32; 2] = [u32::MAX; 2];
+/// Values of `status` when no particle failed: det F, J, and SUPG-SPH's det F^st or J^st.
+const STATUS_OK: [u32; 3] = [u32::MAX; 3];
 
 /// The mixed system resident on the GPU.
 pub type GpuMixed<D> = GpuEngine<D, MixedDevice<D>>;
@@ -150,6 +162,8 @@ pub struct MixedDevice<D: GpuDim> {
     hist: wgpu::Buffer,
     /// The commit of the plastic history before every step (mixed_plastic.wgsl).
     commit: Option<(Pipeline, wgpu::BindGroup)>,
+    /// SUPG-SPH's stress points and terms.
+    supg: Option<SupgBuffers>,
 }
 
 impl<D: GpuDim> GpuMixed<D> {
@@ -175,6 +189,7 @@ impl<D: GpuDim> GpuMixed<D> {
             if sizes.ac {
                 DeviceCorrector::memory(m, n, layout.state.bytes());
             }
+            SupgBuffers::memory(m, &layout, &sizes);
             Reduction::memory(m, n);
             GpuInteractions::memory(m, case, n, D::N);
         })
@@ -193,7 +208,6 @@ impl<D: GpuDim> GpuMixed<D> {
         check_f32(case, &cpu, &constants)?;
         let compose = |s: &Source| shaders::compose::<D>(s, &constants);
         let n = layout.n;
-        gpu.check_size("kinematics buffer", layout.kin.bytes())?;
         let (x0, vol) = cpu.extended_reference();
         let device = DeviceReference::upload::<D>(
             &gpu,
@@ -206,13 +220,10 @@ impl<D: GpuDim> GpuMixed<D> {
         let pair: Vec<_> = (pair_data(&cpu, &layout.pair, &split))
             .map(|data| gpu.storage("per-pair data", &data))
             .collect();
-        let second_len = second_len::<D>(&layout);
-        gpu.check_size("slope buffer", second_len as u64 * 4)?;
-        let second = gpu.zeroed("slopes or Laplacians", second_len as u64 * 4);
-
         let (ghost_src, ghost_img) = ghost_table(&gpu, &cpu);
+        let supg = SupgBuffers::upload(&gpu, &cpu, &layout)?;
 
-        let scratch = Scratch::new(&gpu, &layout, plastic);
+        let scratch = Scratch::new::<D>(&gpu, &layout, plastic)?;
         let corr = gpu.zeroed("corrector", layout.corr.bytes());
 
         let start = Start {
@@ -240,7 +251,8 @@ impl<D: GpuDim> GpuMixed<D> {
         // part k, the state `y` an evaluation reads and the balance points of its stage.
         let table = |k: usize, y, points| -> Vec<(&str, &wgpu::Buffer)> {
             let [offsets, ids, part] = device.lists[k].table();
-            vec![
+            let supg = supg.iter().flat_map(SupgBuffers::table);
+            [
                 offsets,
                 ids,
                 part,
@@ -250,8 +262,8 @@ impl<D: GpuDim> GpuMixed<D> {
                 ("ghost_img", &ghost_img),
                 ("field", &scratch.kin),
                 ("kin", &scratch.kin),
-                ("second", &second),
-                ("out", &second),
+                ("second", &scratch.second),
+                ("out", &scratch.second),
                 ("force", &scratch.force),
                 ("status", &scratch.status),
                 ("hist", &scratch.hist),
@@ -263,6 +275,9 @@ impl<D: GpuDim> GpuMixed<D> {
                 ("stage", points),
                 ("y", y),
             ]
+            .into_iter()
+            .chain(supg)
+            .collect()
         };
         // The tables of every part.
         let tables = |y, points| -> Vec<Vec<(&str, &wgpu::Buffer)>> {
@@ -271,11 +286,7 @@ impl<D: GpuDim> GpuMixed<D> {
                 .collect()
         };
         let commit = plastic
-            .then(|| -> Result<_, GpuError> {
-                let pipeline = gpu.pipeline("plastic commit", &compose(&PLASTIC), "commit")?;
-                let bind = gpu.bind(&pipeline, &table(0, y_start, &stage_points))?;
-                Ok((pipeline, bind))
-            })
+            .then(|| plastic_commit(&gpu, &compose(&PLASTIC), &table(0, y_start, &stage_points)))
             .transpose()?;
         let p = &evaluator.passes;
         let corrector = cpu
@@ -289,7 +300,7 @@ impl<D: GpuDim> GpuMixed<D> {
         let bind = |(src, mid): (Buf, bool)| -> Result<Bound, GpuError> {
             let points = if mid { &mid_points } else { &stage_points };
             let t = tables(stepper.buffer(src), points);
-            let second = (second_len > 0).then_some(&second);
+            let second = (second_len::<D>(&layout) > 0).then_some(&scratch.second);
             Bound::new(&gpu, p, &t, second, corrector.as_ref())
         };
         evaluator.bound = keys
@@ -312,9 +323,21 @@ impl<D: GpuDim> GpuMixed<D> {
             status: scratch.status,
             hist: scratch.hist,
             commit,
+            supg,
         };
         Ok(Self::assemble(shell, interactions, family))
     }
+}
+
+/// The per-step commit of the plastic history (`source`), bound to the buffers `table`.
+fn plastic_commit(
+    gpu: &Gpu,
+    source: &str,
+    table: &[(&str, &wgpu::Buffer)],
+) -> Result<(Pipeline, wgpu::BindGroup), GpuError> {
+    let pipeline = gpu.pipeline("plastic commit", source, "commit")?;
+    let bind = gpu.bind(&pipeline, table)?;
+    Ok((pipeline, bind))
 }
 
 /// The neighbour lists of the scene set up in `cpu` in parts whose per-pair data fit the
@@ -369,7 +392,8 @@ fn unbooked(case: &Case, plastic: bool) -> Booked {
 }
 
 impl<D: GpuDim> MixedDevice<D> {
-    /// Writes Δt/2 into the uniform of the mid-step balance points when Δt changes.
+    /// Writes Δt/2 into the uniform of the mid-step balance points, and Δt into
+    /// SUPG-SPH's, when Δt changes.
     fn set_dt(&mut self, gpu: &Gpu, dt: f64) {
         if dt != self.dt {
             self.dt = dt;
@@ -378,13 +402,17 @@ impl<D: GpuDim> MixedDevice<D> {
                 mid: 1,
             };
             gpu.write_uniform(&self.mid_points, &points);
+            if let Some(s) = &self.supg {
+                gpu.write_uniform(&s.step, &SupgStep { dt: dt as f32 });
+            }
         }
     }
 
-    /// The first particles whose det F ≤ 0 and whose J ≤ 0 (or NaN) in any evaluation.
-    fn failed_particles(&self, gpu: &Gpu) -> [Option<usize>; 2] {
+    /// The first particles whose det F ≤ 0, whose J ≤ 0 (or NaN), and (SUPG-SPH) nearest
+    /// a stress point whose det F^st or J^st ≤ 0, in any evaluation.
+    fn failed_particles(&self, gpu: &Gpu) -> [Option<usize>; 3] {
         let s: Vec<u32> = gpu.read(&self.status);
-        [0, 1].map(|k| (s[k] != STATUS_OK[k]).then_some(s[k] as usize))
+        [0, 1, 2].map(|k| (s[k] != STATUS_OK[k]).then_some(s[k] as usize))
     }
 }
 
@@ -405,8 +433,14 @@ impl<D: GpuDim> GpuMixed<D> {
         self.shell.set_state(&flat);
     }
 
+    /// Sets the step Δt the next [`Self::rates`] take: SUPG-SPH's τ_F Δt and τ_p Δt.
+    pub fn set_step(&mut self, dt: f64) {
+        self.family.set_dt(&self.shell.gpu, dt);
+    }
+
     /// Rates of a given state (balanced about its own positions), read back. Under
-    /// artificial compressibility the corrector takes the Δt of the last step.
+    /// artificial compressibility the corrector takes the Δt of the last step, and
+    /// SUPG-SPH the Δt of [`Self::set_step`] or of the last step.
     pub fn rates(&mut self, y: &MixedState<D>) -> MixedState<D> {
         self.set_state(y);
         self.evaluate(Evaluation {
@@ -474,8 +508,9 @@ impl<D: GpuDim> GpuMixed<D> {
         }
     }
 
-    /// The first particles whose det F ≤ 0 and whose J ≤ 0 (or NaN) in any evaluation.
-    pub fn failed_particles(&self) -> [Option<usize>; 2] {
+    /// The first particles whose det F ≤ 0, whose J ≤ 0 (or NaN), and (SUPG-SPH) nearest
+    /// a stress point whose det F^st or J^st ≤ 0, in any evaluation.
+    pub fn failed_particles(&self) -> [Option<usize>; 3] {
         self.family.failed_particles(&self.shell.gpu)
     }
 
@@ -571,11 +606,11 @@ impl<D: GpuDim> GpuFamily<D> for MixedDevice<D> {
             let quantity = format!("{UNCONVERGED}; f32 on the GPU");
             return Err(BlowUp::at::<D>(x0, u.particle, &quantity, u.residual));
         }
-        for (failed, quantity) in self
-            .failed_particles(gpu)
-            .into_iter()
-            .zip(["det F (f32, GPU)", "J (f32, GPU)"])
-        {
+        for (failed, quantity) in self.failed_particles(gpu).into_iter().zip([
+            "det F (f32, GPU)",
+            "J (f32, GPU)",
+            "det F^st at a stress point (f32, GPU)",
+        ]) {
             if let Some(i) = failed {
                 return Err(BlowUp::at::<D>(x0, i, quantity, 0.0));
             }

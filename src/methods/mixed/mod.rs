@@ -510,11 +510,16 @@ fn rate_passes(m: &MixedOptions, stab: Stabiliser, case: &Case) -> String {
     });
     if let Stabiliser::Supg(_) = stab {
         passes.push(format!(
-            "stress points (F{}{}, their rates and ṗ interpolated; ∇0v, ∇0x, DIV P; ΔP = \
-             P(F^st) − P(F), Δv = τ_p/ρ0 (DIV P − ṗ))",
-            if h { ", H" } else { "" },
-            if j { ", J" } else { "" }
+            "SUPG nodes (F, ∇0v{}{}, ṗ of the particles{})",
+            if h { ", H, Ḣ" } else { "" },
+            if j { ", J, J̇" } else { "" },
+            if ghosts { " and ghosts" } else { "" }
         ));
+        passes.push(
+            "stress points (the nodes interpolated; ∇0v, ∇0x, DIV P; ΔP = P(F^st) − P(F), Δv \
+             = τ_p/ρ0 (DIV P − ṗ))"
+                .into(),
+        );
         passes.push("gather of the points' −ΔP G and −Δv ⊗ G to the particles".into());
     }
     if m.projection(case) {
@@ -630,7 +635,6 @@ impl MixedMethod for SupgSpec {
     ];
     /// Not yet distributed: a rank would need the stress points of its halo's cells.
     const HALO_LAYERS: Option<usize> = None;
-    const GPU_ENGINE: bool = false;
 
     fn validate_own(&self) -> Result<(), Problem> {
         non_negative("method.supg.tau_f", self.supg.tau_f)?;

@@ -39,6 +39,8 @@ pub(super) struct Passes {
     /// Slopes or Laplacians.
     pub(super) second: Pipeline,
     pub(super) forces: Pipeline,
+    /// SUPG-SPH's nodes, points and gather.
+    pub(super) supg: Option<[Pipeline; 3]>,
     pub(super) balance_sums: Pipeline,
     pub(super) balance_solve: Pipeline,
     pub(super) rates: Pipeline,
@@ -54,6 +56,7 @@ pub(super) struct Bound {
     /// Slopes or Laplacians, and their ghost fill.
     pub(super) second: Option<(Vec<wgpu::BindGroup>, wgpu::BindGroup)>,
     pub(super) forces: Vec<wgpu::BindGroup>,
+    pub(super) supg: Option<[wgpu::BindGroup; 3]>,
     pub(super) balance_sums: wgpu::BindGroup,
     pub(super) balance_solve: wgpu::BindGroup,
     pub(super) rates: wgpu::BindGroup,
@@ -89,6 +92,15 @@ impl Passes {
             kinematics: pipeline("mixed kinematics", &compose(&KINEMATICS), "kinematics")?,
             second: pipeline("slopes", &slopes_src, second_entry)?,
             forces: pipeline("mixed forces", &compose(&FORCES), "forces")?,
+            supg: match layout.nodes.is_empty() {
+                true => None,
+                false => {
+                    let src = compose(&SUPG);
+                    let [nodes, points, gather] = ["supg_nodes", "supg_points", "supg_gather"]
+                        .map(|entry| pipeline("SUPG-SPH", &src, entry));
+                    Some([nodes?, points?, gather?])
+                }
+            },
             balance_sums: pipeline("balance sums", &momentum_src, "balance_sums")?,
             balance_solve: pipeline("balance solve", &momentum_src, "balance_solve")?,
             rates: pipeline("mixed rates", &momentum_src, "rates")?,
@@ -128,6 +140,14 @@ impl Bound {
             kinematics: by_part(&p.kinematics)?,
             second,
             forces: by_part(&p.forces)?,
+            supg: match &p.supg {
+                None => None,
+                Some([nodes, points, gather]) => Some([
+                    gpu.bind(nodes, t)?,
+                    gpu.bind(points, t)?,
+                    gpu.bind(gather, t)?,
+                ]),
+            },
             balance_sums: gpu.bind(&p.balance_sums, t)?,
             balance_solve: gpu.bind(&p.balance_solve, t)?,
             rates: gpu.bind(&p.rates, t)?,
@@ -147,6 +167,9 @@ pub(super) struct Evaluator {
     pub(super) split: Split,
     pub(super) n: u32,
     pub(super) ghosts: u32,
+    /// SUPG-SPH: its stress points, and their row entries as a share of the neighbour
+    /// lists' pairs (the bytes models' pairs of its passes).
+    pub(super) supg: Option<(u32, f64)>,
     pub(super) projection: bool,
     /// The second TVD-RK2 stage balances about x^n + Δt/2 (v^n + v*) (projection on).
     pub(super) tvd_mid: bool,
@@ -167,6 +190,10 @@ impl Evaluator {
             split,
             n: layout.n as u32,
             ghosts: layout.ghosts as u32,
+            supg: cpu.stress_points().map(|(_, s)| {
+                let pairs = cpu.neighbours().pair_count().max(1);
+                (s.len() as u32, s.shapes.csr.ids.len() as f64 / pairs as f64)
+            }),
             projection: cpu.projection(),
             tvd_mid: cpu.projection() && integrator == IntegratorKind::TvdRk2,
         }
@@ -229,6 +256,13 @@ impl Evaluator {
             }
         }
         self.split.dispatch(gpu, &mut pass, &p.forces, &b.forces);
+        if let (Some([nodes, points, gather]), Some(bound), Some((count, share))) =
+            (&p.supg, &b.supg, self.supg)
+        {
+            gpu.dispatch(&mut pass, nodes, &bound[0], self.n + ng);
+            gpu.dispatch_part(&mut pass, points, &bound[1], count, share);
+            gpu.dispatch_part(&mut pass, gather, &bound[2], self.n, share);
+        }
         self.record_rates(gpu, &mut pass, b);
         if let (Some(corrector), Some(start)) = (&self.corrector, &b.corrector_start) {
             // The predictor's rates give v^int; the corrector adds its force to T, and

@@ -25,6 +25,14 @@ pub struct MixedLayout {
     /// Laplacian), w_ab (bond-based F), ℓ_ab of the pseudo-viscosity (eq 58).
     pub pair: Fields,
     pub reference: Fields,
+    /// SUPG-SPH (mixed_supg.wgsl): per extended particle what the stress points read,
+    /// [F − I | ∇0v | Ḣ | J̇ | H − I | J − 1 | q | P | u | v] (H, J and their rates where
+    /// evolved).
+    pub nodes: Fields,
+    /// SUPG-SPH: N_b and G_b per entry of the stress points' rows, and w_s per point.
+    pub shapes: Fields,
+    /// SUPG-SPH: ΔP_s and Δv_s per stress point.
+    pub terms: Fields,
     /// The corrector of artificial compressibility (mixed_corrector.wgsl): the iterate
     /// [w | δp] = [v − v^int | p − p^n], its pseudo stage, their rates, v^int, p^n, H^n
     /// and the constant part c of the pressure equation.
@@ -46,6 +54,11 @@ pub struct Sizes {
     pub ac: bool,
     pub pseudo_viscosity: bool,
     pub jst: bool,
+    /// SUPG-SPH: its stress points and the entries of their rows (zero for the other
+    /// stabilisations).
+    pub points: usize,
+    pub point_pairs: usize,
+    pub supg: bool,
     /// The bond-based F.
     pub bond: bool,
     /// Upwind-SPH's linear reconstruction.
@@ -57,6 +70,7 @@ impl Sizes {
     pub(super) fn of_system<D: Dim>(cpu: &MixedSph<D>) -> Self {
         let n = cpu.reference().len();
         let corrector = cpu.corrector();
+        let points = cpu.stress_points().map(|(_, s)| s);
         Self {
             n,
             ghosts: cpu.extended_reference().0.len() - n,
@@ -67,6 +81,9 @@ impl Sizes {
             ac: corrector.is_some(),
             pseudo_viscosity: corrector.is_some_and(|c| c.laplacian_weights().is_some()),
             jst: cpu.jst().is_some(),
+            points: points.map_or(0, |s| s.len()),
+            point_pairs: points.map_or(0, |s| s.shapes.csr.ids.len()),
+            supg: points.is_some(),
             bond: cpu.bond_weights().is_some(),
             reconstruction: cpu.reconstruction(),
         }
@@ -74,14 +91,19 @@ impl Sizes {
 
     /// The sizes a scene of `case` under `spec` will have on `counts`, before it is set
     /// up (the constrained particles' reaction slots, a surface's few words each, left
-    /// out): what [`Self::of_system`] gives once it is.
+    /// out): what [`Self::of_system`] gives once it is. SUPG-SPH's stress points are
+    /// those of a lattice of one cell a particle: 2^d points of 2^d corners each.
     pub fn of_case(case: &Case, spec: &dyn MixedScheme, counts: &Counts) -> Self {
         let options = spec.options();
         let conserved = options.evolved(case.material.model);
         let ac = options.artificial_compressibility.as_ref();
         let stabiliser = spec.stabiliser();
+        let supg = matches!(stabiliser, Stabiliser::Supg(_));
+        let n = Counts::whole(counts.particles);
+        let corners = 1 << case.dim();
+        let points = if supg { corners * n } else { 0 };
         Self {
-            n: Counts::whole(counts.particles),
+            n,
             ghosts: Counts::whole(counts.ghosts),
             pairs: Counts::whole(counts.pairs),
             constrained: 0,
@@ -90,6 +112,9 @@ impl Sizes {
             ac: ac.is_some(),
             pseudo_viscosity: ac.is_some_and(|a| a.alpha > 0.0),
             jst: matches!(stabiliser, Stabiliser::Jst(_)),
+            points,
+            point_pairs: corners * points,
+            supg,
             bond: options.bond_based(),
             reconstruction: matches!(
                 stabiliser,
@@ -124,10 +149,14 @@ impl MixedLayout {
             ac,
             pseudo_viscosity,
             jst,
+            points,
+            point_pairs,
+            supg,
             bond,
             reconstruction,
         } = *sizes;
-        let upwind = !jst;
+        let upwind = !jst && !supg;
+        let ne = n + ghosts;
         let kin_h = upwind && evolves_j;
         Self {
             n,
@@ -165,6 +194,24 @@ impl MixedLayout {
                 .scalars("W", bond, pairs)
                 .scalars("BL", pseudo_viscosity, pairs),
             reference: reference::fields(n, constrained, dim, EXTRAS),
+            nodes: Fields::new("SN", dim)
+                .tensors("F", supg, ne)
+                .tensors("GV", supg, ne)
+                .tensors("HD", supg && evolves_h, ne)
+                .scalars("JD", supg && evolves_j, ne)
+                .tensors("H", supg && evolves_h, ne)
+                .scalars("J", supg && evolves_j, ne)
+                .vectors("Q", supg, ne)
+                .tensors("P", supg, ne)
+                .vectors("U", supg, ne)
+                .vectors("V", supg, ne),
+            shapes: Fields::new("SS", dim)
+                .scalars("N", supg, point_pairs)
+                .vectors("G", supg, point_pairs)
+                .scalars("W", supg, points),
+            terms: Fields::new("ST", dim)
+                .tensors("DP", supg, points)
+                .vectors("DV", supg, points),
             corr: [("V", "Q"), ("V1", "Q1"), ("RV", "RQ")]
                 .into_iter()
                 .fold(Fields::new("C", dim), |c, (w, dp)| {
@@ -238,6 +285,13 @@ pub fn scene<D: GpuDim>(
     let total_vol: f64 = cpu.volume().iter().sum();
     let jst = cpu.jst();
     let (eps2, eps4) = jst.map_or((0.0, 0.0), |(c, ..)| (c.eps2, c.eps4));
+    let supg = cpu.stress_points();
+    let stab = match (jst, supg) {
+        (Some(_), _) => 1,
+        (None, Some(_)) => 2,
+        (None, None) => 0,
+    };
+    let parameters = supg.map(|(p, _)| p);
     let u = |x: usize| x as u32;
     let constants = Constants::default()
         .u32("N", u(l.n))
@@ -252,7 +306,7 @@ pub fn scene<D: GpuDim>(
             u32::from(cpu.cfl_wave_speed() == CflWaveSpeed::Pair),
         )
         .f32("H", cpu.smoothing_length())
-        .choice("STAB", &["UPWIND", "JST"], usize::from(jst.is_some()))
+        .choice("STAB", &["UPWIND", "JST", "SUPG"], stab)
         .u32("RECON", u32::from(cpu.reconstruction()))
         .f32("EPS2", eps2)
         .f32("EPS4", eps4)
@@ -277,9 +331,14 @@ pub fn scene<D: GpuDim>(
             "MAX_ITERATIONS",
             corrector.map_or(0, |c| c.max_iterations()),
         )
-        .u32("PSEUDO_VISCOSITY", u32::from(l.pair.has("BL")));
-    let constants = [&l.state, &l.kin, &l.force, &l.pair, &l.reference, &l.corr]
-        .into_iter()
+        .u32("PSEUDO_VISCOSITY", u32::from(l.pair.has("BL")))
+        .u32("NS", supg.map_or(0, |(_, s)| u(s.len())))
+        .f32("TAU_F", parameters.map_or(0.0, |p| p.tau_f))
+        .f32("TAU_P", parameters.map_or(0.0, |p| p.tau_p))
+        .f32("XI_F", parameters.map_or(0.0, |p| p.xi_f));
+    let fields = [&l.state, &l.kin, &l.force, &l.pair, &l.reference, &l.corr];
+    let constants = (fields.into_iter())
+        .chain([&l.nodes, &l.shapes, &l.terms])
         .fold(constants, |c, fields| fields.constants(c));
     (layout, constants)
 }

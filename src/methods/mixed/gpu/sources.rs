@@ -61,6 +61,23 @@ pub const MOMENTUM: Source = source!(
         ("d", true)
     ]
 );
+/// SUPG-SPH: the nodes the stress points read, the points' ΔP and Δv, and their gather
+/// to D(p) and the rates of F, H, J.
+pub const SUPG: Source = source!(
+    "mixed/mixed_supg.wgsl",
+    [MECHANICS, MIXED, MOTION, IMAGES, REFERENCE],
+    [
+        ("y", false),
+        ("d", true),
+        ("kin", false),
+        ("force", true),
+        ("reference", false),
+        ("ghost_img", false),
+        ("nodes", true),
+        ("shapes", false),
+        ("terms", true)
+    ]
+);
 /// Energies, momenta, checks and the CFL pair wave speed of a state.
 pub const REDUCE: Source = crate::gpu::reduction::pass(&[
     MECHANICS, MIXED, MOTION, ENERGY, EIGEN, PLASTICITY, REFERENCE, PART,
@@ -74,6 +91,6 @@ pub const PLASTIC: Source = source!(
 
 /// The passes compiled with a mixed scene's constants ([`scene`]).
 pub const SHADERS: &[Source] = &[
-    GHOSTS, KINEMATICS, PLASTIC, BOND, SLOPES, FORCES, MOMENTUM, CORRECTOR, REDUCE, INTEGRATE,
-    CONTACT, LOADS, PRESCRIBED,
+    GHOSTS, KINEMATICS, PLASTIC, BOND, SLOPES, FORCES, SUPG, MOMENTUM, CORRECTOR, REDUCE,
+    INTEGRATE, CONTACT, LOADS, PRESCRIBED,
 ];
