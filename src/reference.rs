@@ -95,9 +95,11 @@ impl<D: Dim> Reference<D> {
     }
 
     /// The background cells of the bodies: the generators' (polar rings, meshes at their
-    /// vertices), and the lattice squares (cubes) of spacing Δx of the others.
+    /// vertices), and the lattice squares (cubes) of spacing Δx of the others (a tube,
+    /// whose particles are its cells' centres, is refused by the methods that integrate
+    /// over cells).
     pub fn cells(&self, spacing: f64) -> Result<Cells, QuadratureError> {
-        lattice_cells::<D>(&self.x0, &self.body, spacing, &self.generated_cells)
+        lattice_cells::<D>(&self.x0, &self.body, spacing, &self.generated_cells, &[])
     }
 
     /// The particles a rank holds in a distributed run (`local`: its own and its

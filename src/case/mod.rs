@@ -33,7 +33,9 @@ pub use expression::Expression;
 pub(crate) use fields::linear_field;
 pub use fields::{DisplacementField, VelocityField};
 pub(crate) use geometry::read_capped;
-pub use geometry::{BodySize, Discretised, PARTICLE_ID_LIMIT, discretise, estimate_particles};
+pub use geometry::{
+    BodySize, Discretised, PARTICLE_ID_LIMIT, discretise, estimate_particles, tube_frames,
+};
 pub use method::MethodKeys;
 pub use output::{CheckSpec, Observer, OutputSpec, ProbeSpec, SectionSpec, Statistic};
 pub use run::{RunSpec, Solve, Tolerance};

@@ -100,15 +100,60 @@ impl Cells {
     }
 }
 
+/// The cylindrical lattice of a tube (`case::Shape::Tube`), whose particles sit at the
+/// centres of its cells: the lattice coordinates of a point are ((r − r_in)/Δr − ½,
+/// (θ − θ0)/Δθ − ½, (x_a − base_a)/Δz − ½) about the axis a through `base`, integers at
+/// the particles. θ turns from the axis after a towards the one after that.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CylindricalFrame {
+    pub base: [f64; 3],
+    pub axis: usize,
+    pub inner: f64,
+    pub dr: f64,
+    pub theta0: f64,
+    /// θ1 − θ0 of the sector.
+    pub span: f64,
+    pub dtheta: f64,
+    pub dz: f64,
+}
+
+impl CylindricalFrame {
+    /// The lattice coordinates of x. θ is taken within half a turn of the middle of the
+    /// sector, so that the images of the particles across a mirror plane on either edge
+    /// continue the rays.
+    fn coordinates(&self, x: [f64; 3]) -> [f64; 3] {
+        use std::f64::consts::{PI, TAU};
+        let a = self.axis;
+        let (u, w) = ((a + 1) % 3, (a + 2) % 3);
+        let (du, dw) = (x[u] - self.base[u], x[w] - self.base[w]);
+        let mid = 0.5 * self.span;
+        let theta = mid + (dw.atan2(du) - self.theta0 - mid + PI).rem_euclid(TAU) - PI;
+        [
+            (du.hypot(dw) - self.inner) / self.dr - 0.5,
+            theta / self.dtheta - 0.5,
+            (x[a] - self.base[a]) / self.dz - 0.5,
+        ]
+    }
+
+    /// n_θ where the rays close the circle (their index wraps round), else None.
+    fn rays(&self) -> Option<i64> {
+        let n = (std::f64::consts::TAU / self.dtheta).round();
+        ((self.span - std::f64::consts::TAU).abs() < 1e-9).then_some(n as i64)
+    }
+}
+
 /// The cells of the bodies: those `given` by their generator (a polar ring's, a mesh's
-/// read at its vertices), then for every other body each square (cube) of the lattice of
-/// spacing Δx whose 2^d corners are particles of the body. A body's lattice is anchored at its smallest coordinates; a
-/// particle off it is an error, as is a body without a cell.
+/// read at its vertices), then for every other body each square (cube) of its lattice
+/// whose 2^d corners are particles of the body: the tube's cylindrical lattice of
+/// `tubes[b]` where it is given (cells of the particles at their corners, not centres),
+/// else the lattice of spacing Δx anchored at the body's smallest coordinates. A particle
+/// off its lattice is an error, as is a body without a cell.
 pub fn lattice_cells<D: Dim>(
     x0: &[D::V],
     body: &[u32],
     spacing: f64,
     given: &Cells,
+    tubes: &[Option<CylindricalFrame>],
 ) -> Result<Cells, QuadratureError> {
     let bodies = body.iter().map(|&b| b as usize + 1).max().unwrap_or(0);
     let mut generated = vec![false; bodies];
@@ -116,6 +161,14 @@ pub fn lattice_cells<D: Dim>(
         generated[b as usize] = true;
     }
     let on_lattice = |b: u32| !generated[b as usize];
+    let tube = |b: u32| tubes.get(b as usize).and_then(Option::as_ref);
+    // The lattice index a body's corner is kept under: a closed tube's rays wrap round.
+    let key = |b: u32, mut at: [i64; 3]| {
+        if let Some(n) = tube(b).and_then(CylindricalFrame::rays) {
+            at[1] = at[1].rem_euclid(n);
+        }
+        (b, at)
+    };
     let mut origin = vec![[f64::INFINITY; 3]; bodies];
     for (&x, &b) in x0.iter().zip(body).filter(|(_, b)| on_lattice(**b)) {
         let x = D::to3(x);
@@ -131,9 +184,13 @@ pub fn lattice_cells<D: Dim>(
             continue;
         }
         let x = D::to3(x);
+        let coordinates = match tube(b) {
+            Some(frame) => frame.coordinates(x),
+            None => std::array::from_fn(|k| (x[k] - origin[b as usize][k]) / spacing),
+        };
         let mut at = [0i64; 3];
         for k in 0..D::N {
-            let s = (x[k] - origin[b as usize][k]) / spacing;
+            let s = coordinates[k];
             let offset = (s - s.round()).abs();
             if offset > 1e-6 {
                 return Err(QuadratureError::OffLattice {
@@ -145,7 +202,7 @@ pub fn lattice_cells<D: Dim>(
             }
             at[k] = s.round() as i64;
         }
-        index.insert((b, at), i as u32);
+        index.insert(key(b, at), i as u32);
         lattice_index.push(Some(at));
     }
     let mut cells = given.clone();
@@ -154,7 +211,7 @@ pub fn lattice_cells<D: Dim>(
         let Some(base) = base else { continue };
         let found: Option<Vec<u32>> = corners
             .iter()
-            .map(|c| index.get(&(b, [base[0] + c[0], base[1] + c[1], base[2] + c[2]])))
+            .map(|c| index.get(&key(b, [base[0] + c[0], base[1] + c[1], base[2] + c[2]])))
             .map(|j| j.copied())
             .collect();
         if let Some(found) = found {

@@ -438,6 +438,7 @@ fn discretisation_lines<D: crate::core::tensor::Dim>(case: &Scene) -> Vec<String
             &disc.body,
             case.spacing,
             &disc.cells,
+            &[],
         ) {
             Ok(found) => {
                 let mut corner = vec![false; disc.x0.len()];

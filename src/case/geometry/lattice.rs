@@ -4,6 +4,7 @@ use super::files::{read_mesh, read_points};
 use super::{Sampled, file_error};
 use crate::case::polygon;
 use crate::case::{BodySpec, Case, CaseError, Lattice, RingLattice, Shape, Volumes};
+use crate::core::quadrature::CylindricalFrame;
 use crate::core::tensor::Dim;
 
 /// The particles of body `b` as its shape's generator makes them.
@@ -269,6 +270,20 @@ impl TubeLattice {
             dz: length / counts[2],
             counts,
         })
+    }
+
+    /// The lattice about the axis through `base`.
+    pub(super) fn frame(&self, base: &[f64], axis: crate::case::Axis) -> CylindricalFrame {
+        CylindricalFrame {
+            base: std::array::from_fn(|k| base[k]),
+            axis: axis.index(),
+            inner: self.inner,
+            dr: self.dr,
+            theta0: self.theta0,
+            span: self.dtheta * self.counts[1],
+            dtheta: self.dtheta,
+            dz: self.dz,
+        }
     }
 
     /// n_r, n_θ and n_z.

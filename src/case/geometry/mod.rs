@@ -15,11 +15,24 @@ pub(crate) use files::read_capped;
 pub use lattice::PARTICLE_ID_LIMIT;
 
 use super::{BodySpec, Case, CaseError, Expression, Hole, Shape, VelocityField, VelocityNoise};
-use crate::core::quadrature::Cells;
+use crate::core::quadrature::{Cells, CylindricalFrame};
 use crate::core::tensor::Dim;
 use crate::diagnostics::analytic::SwingingMode;
 use crate::physics::material::Material;
 use std::path::Path;
+
+/// The cylindrical lattice of every body of `case` that is a tube, by body (None for the
+/// others).
+pub fn tube_frames(case: &Case) -> Vec<Option<CylindricalFrame>> {
+    (case.bodies.iter())
+        .map(|b| match &b.geometry {
+            Shape::Tube { base, axis, .. } => {
+                lattice::TubeLattice::of(&b.geometry, case.spacing).map(|t| t.frame(base, *axis))
+            }
+            _ => None,
+        })
+        .collect()
+}
 
 /// The particles of a case in the reference configuration.
 #[derive(Clone, Debug)]

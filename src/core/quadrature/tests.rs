@@ -23,7 +23,7 @@ fn a_rectangle_has_its_lattice_squares_as_cells() {
     // rectangle's area to round-off.
     let (nx, ny, dx) = (5, 4, 0.25);
     let x = lattice(nx, ny, dx);
-    let cells = lattice_cells::<D2>(&x, &vec![0; x.len()], dx, &Cells::default()).unwrap();
+    let cells = lattice_cells::<D2>(&x, &vec![0; x.len()], dx, &Cells::default(), &[]).unwrap();
     assert_eq!(cells.len(), (nx - 1) * (ny - 1));
     for c in 0..cells.len() {
         let k = cells.of::<D2>(c);
@@ -47,13 +47,13 @@ fn particles_off_the_lattice_and_bodies_without_cells_are_refused() {
     let dx = 0.1;
     let mut x = lattice(3, 3, dx);
     x[4].x += 0.3 * dx;
-    let err = lattice_cells::<D2>(&x, &[0; 9], dx, &Cells::default()).unwrap_err();
+    let err = lattice_cells::<D2>(&x, &[0; 9], dx, &Cells::default(), &[]).unwrap_err();
     assert!(
         matches!(err, QuadratureError::OffLattice { particle: 4, .. }),
         "{err}"
     );
     let line = lattice(4, 1, dx);
-    let err = lattice_cells::<D2>(&line, &[0; 4], dx, &Cells::default()).unwrap_err();
+    let err = lattice_cells::<D2>(&line, &[0; 4], dx, &Cells::default(), &[]).unwrap_err();
     assert_eq!(err, QuadratureError::NoCell { body: 0 });
 }
 
@@ -99,7 +99,7 @@ fn hexahedra_weights_and_gradients() {
     let x: Vec<DVec3> = (0..27)
         .map(|i| DVec3::new((i % 3) as f64, ((i / 3) % 3) as f64, (i / 9) as f64) * dx)
         .collect();
-    let cells = lattice_cells::<D3>(&x, &[0; 27], dx, &Cells::default()).unwrap();
+    let cells = lattice_cells::<D3>(&x, &[0; 27], dx, &Cells::default(), &[]).unwrap();
     assert_eq!(cells.len(), 8);
     let points = QuadraturePoints::<D3>::new(&cells, &x, Rule::Gauss2);
     assert_eq!(points.len(), 64);
@@ -124,7 +124,7 @@ fn reproducing_functions_reproduce_linear_fields_at_every_point() {
     let dx = 0.1;
     let (x, body) = one_body(9, 7, dx);
     let vol = vec![dx * dx; x.len()];
-    let cells = lattice_cells::<D2>(&x, &body, dx, &Cells::default()).unwrap();
+    let cells = lattice_cells::<D2>(&x, &body, dx, &Cells::default(), &[]).unwrap();
     let points = QuadraturePoints::<D2>::new(&cells, &x, Rule::Gauss2);
     let kernel = Kernel::new(KernelKind::CubicSpline, 1.5 * dx, 2);
     let shapes =
@@ -150,7 +150,7 @@ fn stress_point_weights_are_the_joint_voronoi_cells() {
     // Δx²/2, cut to Δx²/4 on an edge and Δx²/8 at a corner. Exact in binary: 1e-15.
     let (nx, ny, dx) = (5, 4, 0.5);
     let (x, body) = one_body(nx, ny, dx);
-    let cells = lattice_cells::<D2>(&x, &body, dx, &Cells::default()).unwrap();
+    let cells = lattice_cells::<D2>(&x, &body, dx, &Cells::default(), &[]).unwrap();
     let points = QuadraturePoints::<D2>::with_stress_points(&cells, &x, &body);
     assert_eq!(points.len(), nx * ny + (nx - 1) * (ny - 1));
     assert_eq!(points.particles, nx * ny);
@@ -175,7 +175,7 @@ fn stress_point_weights_are_the_joint_voronoi_cells() {
     let x3: Vec<DVec3> = (0..27)
         .map(|i| DVec3::new((i % 3) as f64, ((i / 3) % 3) as f64, (i / 9) as f64) * dx)
         .collect();
-    let cells = lattice_cells::<D3>(&x3, &[0; 27], dx, &Cells::default()).unwrap();
+    let cells = lattice_cells::<D3>(&x3, &[0; 27], dx, &Cells::default(), &[]).unwrap();
     let points = QuadraturePoints::<D3>::with_stress_points(&cells, &x3, &[0; 27]);
     assert_eq!(points.weight[13], dx.powi(3) / 2.0);
     assert!((points.weight.iter().sum::<f64>() - 8.0 * dx.powi(3)).abs() < 1e-14);
@@ -217,7 +217,7 @@ fn krongauz_belytschko_gradients_are_linearly_complete_at_every_point() {
     let dx = 0.1;
     let kernel = Kernel::new(KernelKind::CubicSpline, 1.3 * dx, 2);
     let (x, body) = one_body(9, 7, dx);
-    let cells = lattice_cells::<D2>(&x, &body, dx, &Cells::default()).unwrap();
+    let cells = lattice_cells::<D2>(&x, &body, dx, &Cells::default(), &[]).unwrap();
     let points = QuadraturePoints::<D2>::with_stress_points(&cells, &x, &body);
     let kb =
         Shapes::<D2>::krongauz_belytschko(&points.x0, &points.body, &x, &body, &kernel).unwrap();
@@ -283,7 +283,7 @@ fn moving_least_squares_functions_are_those_of_eqs_40_to_42() {
 fn the_gather_lists_every_pair_once_under_its_node() {
     let dx = 1.0;
     let x = lattice(4, 3, dx);
-    let cells = lattice_cells::<D2>(&x, &[0; 12], dx, &Cells::default()).unwrap();
+    let cells = lattice_cells::<D2>(&x, &[0; 12], dx, &Cells::default(), &[]).unwrap();
     let points = QuadraturePoints::<D2>::new(&cells, &x, Rule::Gauss2);
     let shapes = Shapes::isoparametric(&cells, &points, &x);
     let gather = shapes.gather(x.len());
@@ -308,7 +308,7 @@ fn recompute_writes_each_point_into_its_own_slots_and_fails_at_the_first_point()
     // land in its own pairs' slots and its weight in its own entry, the test gradients
     // too (Petrov–Galerkin); of two failing points the error names the first in order.
     let x = lattice(20, 12, 1.0);
-    let cells = lattice_cells::<D2>(&x, &[0; 240], 1.0, &Cells::default()).unwrap();
+    let cells = lattice_cells::<D2>(&x, &[0; 240], 1.0, &Cells::default(), &[]).unwrap();
     let points = QuadraturePoints::<D2>::new(&cells, &x, Rule::Gauss2);
     let mut shapes = Shapes::isoparametric(&cells, &points, &x);
     shapes.test = vec![DVec2::ZERO; shapes.csr.pair_count()];

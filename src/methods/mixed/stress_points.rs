@@ -64,7 +64,8 @@ impl<D: Dim> StressPoints<D> {
                  and model the whole body, or use `upwind-sph` or `jst-sph`",
             ));
         }
-        let cells = lattice_cells::<D>(x0, body, case.spacing, generated).map_err(|e| {
+        let tubes = crate::case::tube_frames(case);
+        let cells = lattice_cells::<D>(x0, body, case.spacing, generated, &tubes).map_err(|e| {
             case.invalid(
                 "method.name",
                 format!(

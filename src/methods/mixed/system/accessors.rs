@@ -47,14 +47,6 @@ impl<D: Dim> MixedSph<D> {
         }
     }
 
-    /// SUPG-SPH: its parameters and stress points.
-    pub(crate) fn stress_points(&self) -> Option<(crate::methods::mixed::Supg, &StressPoints<D>)> {
-        match &self.stabilisation {
-            Stabilisation::Supg { parameters, points } => Some((*parameters, points)),
-            Stabilisation::Upwind { .. } | Stabilisation::Jst { .. } => None,
-        }
-    }
-
     /// The bond-based F: w_ab = V_b W̃_b(X_a) / |X_ab|² per pair, CSR order.
     pub(crate) fn bond_weights(&self) -> Option<&[f64]> {
         self.bond_weights.as_deref()

@@ -64,6 +64,14 @@ impl<D: Dim> Default for SupgBuffers<D> {
 }
 
 impl<D: Dim> MixedSph<D> {
+    /// SUPG-SPH: its parameters and stress points.
+    pub fn stress_points(&self) -> Option<(crate::methods::mixed::Supg, &StressPoints<D>)> {
+        match &self.stabilisation {
+            Stabilisation::Supg { parameters, points } => Some((*parameters, points)),
+            Stabilisation::Upwind { .. } | Stabilisation::Jst { .. } => None,
+        }
+    }
+
     /// SUPG: adds −(1/V_a) Σ_s V_s ΔP_s G_a(X_s) to the stabilisation D of every real
     /// particle and sets L_a in `self.supg.l`; nothing for the other stabilisations.
     pub(super) fn supg(
