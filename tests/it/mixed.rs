@@ -910,3 +910,37 @@ fn seed_002_swinging_plate_converges_until_the_neo_hookean_floor() {
     );
     assert!(neo > fine, "neo-Hookean {neo} against linear {fine}");
 }
+
+/// The frames show where the evolved J and H part from F: on a state with J = 1.1 det F
+/// and H = cof F + 0.05 |cof F| E/|E| (E a fixed unit-norm tensor) the snapshot's fields
+/// read 1.1 and 0.05 at every particle, and 1 and 0 on the initial state, to round-off.
+#[test]
+fn snapshots_show_the_evolved_j_and_h_against_f() {
+    let case = load(
+        "swinging-plate",
+        &[
+            "material.model=nearly-incompressible-neo-hookean",
+            "method.variables=p-F-H-J",
+        ],
+    );
+    let m: MixedSph<D2> = build_method(&case).unwrap();
+    let y0 = m.initial_state();
+    let mut y = random_state(&m, &mut 11, 0.0);
+    let e = glam::DMat2::from_cols_array(&[0.6, 0.0, 0.0, 0.8]);
+    for k in 0..y.f.len() {
+        y.j[k] = 1.1 * D2::det(y.f[k]);
+        let cof = D2::cof(y.f[k]);
+        y.h[k] = cof + e * (0.05 * D2::ddot(cof, cof).sqrt());
+    }
+    for (state, (j, h)) in [(&y0, (1.0, 0.0)), (&y, (1.1, 0.05))] {
+        let s = m.snapshot(state);
+        for (name, expected) in [("J_over_det_F", j), ("H_cof_F_deviation", h)] {
+            let values = s.field(name).unwrap_or_else(|| panic!("no field {name}"));
+            let worst = values
+                .iter()
+                .map(|v| (v - expected).abs())
+                .fold(0.0, f64::max);
+            assert!(worst < 1e-12, "{name}: off {expected} by {worst:e}");
+        }
+    }
+}

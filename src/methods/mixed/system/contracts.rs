@@ -252,6 +252,7 @@ impl<D: Dim> Method<D> for MixedSph<D> {
                     values: r.iter().map(|r| r.eps_p).collect(),
                 })
                 .into_iter()
+                .chain(compatibility::<D>(y))
                 .collect(),
             cells: &[],
             quadrature: None,
@@ -366,4 +367,29 @@ impl<D: Dim> Method<D> for MixedSph<D> {
     fn load_history(&mut self, words: &mut &[f64]) -> Result<(), String> {
         History::load(self.plastic.as_mut(), words)
     }
+}
+
+/// Where the evolved J and H part from F's determinant and cofactor: J/det F and
+/// |H − cof F|/|cof F| of every particle, for those of J and H the state evolves (1 and
+/// 0 on a compatible state; the polyconvex ψ(F, H, J) may turn negative where they part).
+fn compatibility<D: Dim>(y: &MixedState<D>) -> Vec<ScalarField> {
+    let mut out = Vec::new();
+    if !y.j.is_empty() {
+        out.push(ScalarField {
+            name: "J_over_det_F",
+            values: (y.j.iter().zip(&y.f))
+                .map(|(&j, &f)| j / D::det(f))
+                .collect(),
+        });
+    }
+    if !y.h.is_empty() {
+        let norm = |t: D::T| D::ddot(t, t).sqrt();
+        out.push(ScalarField {
+            name: "H_cof_F_deviation",
+            values: (y.h.iter().zip(&y.f))
+                .map(|(&h, &f)| norm(h - D::cof(f)) / norm(D::cof(f)))
+                .collect(),
+        });
+    }
+    out
 }
