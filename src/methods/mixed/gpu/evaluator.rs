@@ -92,14 +92,13 @@ impl Passes {
             kinematics: pipeline("mixed kinematics", &compose(&KINEMATICS), "kinematics")?,
             second: pipeline("slopes", &slopes_src, second_entry)?,
             forces: pipeline("mixed forces", &compose(&FORCES), "forces")?,
-            supg: match layout.nodes.is_empty() {
-                true => None,
-                false => {
-                    let src = compose(&SUPG);
-                    let [nodes, points, gather] = ["supg_nodes", "supg_points", "supg_gather"]
-                        .map(|entry| pipeline("SUPG-SPH", &src, entry));
-                    Some([nodes?, points?, gather?])
-                }
+            supg: if layout.nodes.is_empty() {
+                None
+            } else {
+                let src = compose(&SUPG);
+                let [nodes, points, gather] = ["supg_nodes", "supg_points", "supg_gather"]
+                    .map(|entry| pipeline("SUPG-SPH", &src, entry));
+                Some([nodes?, points?, gather?])
             },
             balance_sums: pipeline("balance sums", &momentum_src, "balance_sums")?,
             balance_solve: pipeline("balance solve", &momentum_src, "balance_solve")?,
@@ -140,14 +139,15 @@ impl Bound {
             kinematics: by_part(&p.kinematics)?,
             second,
             forces: by_part(&p.forces)?,
-            supg: match &p.supg {
-                None => None,
-                Some([nodes, points, gather]) => Some([
-                    gpu.bind(nodes, t)?,
-                    gpu.bind(points, t)?,
-                    gpu.bind(gather, t)?,
-                ]),
-            },
+            supg: (p.supg.as_ref())
+                .map(|[nodes, points, gather]| -> Result<_, GpuError> {
+                    Ok([
+                        gpu.bind(nodes, t)?,
+                        gpu.bind(points, t)?,
+                        gpu.bind(gather, t)?,
+                    ])
+                })
+                .transpose()?,
             balance_sums: gpu.bind(&p.balance_sums, t)?,
             balance_solve: gpu.bind(&p.balance_solve, t)?,
             rates: gpu.bind(&p.rates, t)?,
