@@ -1,12 +1,15 @@
 //! A suite's `[picture]`: a field on the particles' current positions at the end of every
 //! run (or at its failure), one panel per run, each on its own colour scale: σ_θθ on the
-//! rings of seed 001 (Figs. 18–19), ε_p on the steel ring (Fig. 17). The run writes its
-//! points (`runs/<id>/picture.csv`: x, y, value), the report draws them.
+//! rings of seed 001 (Figs. 18–19), ε_p on the steel ring (Fig. 17), the pressure on seed
+//! 003's stent (Fig. 29, seen from a `view` and mirrored across its symmetry planes). The
+//! run writes its points (`runs/<id>/picture.csv`: x, y on the page, value; drawn in file
+//! order, farthest first), the report draws them.
 
 use super::fields::FinalState;
 use super::plot::{register_font, write_figure};
 use super::records::{RunRecord, Status};
 use super::suite::{Picture, PictureField, Suite};
+use glam::DVec3;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::fmt::Write as _;
@@ -32,6 +35,9 @@ pub fn values(p: &Picture, state: &FinalState) -> Result<Vec<f64>, String> {
                     .into(),
             );
         }
+        PictureField::Pressure => (state.sigma.iter())
+            .map(|s| -(s[0][0] + s[1][1] + s[2][2]) / 3.0)
+            .collect(),
     };
     Ok(raw.into_iter().map(|v| v * p.scale).collect())
 }
@@ -57,12 +63,46 @@ fn hoop_stress(state: &FinalState) -> Vec<f64> {
         .collect()
 }
 
+/// The page's axes of an orthographic view from `view` (towards the eye, d): up e2, the
+/// part of e_z normal to d (of e_y where d is along z), and right e1 = e2 × d.
+fn page_axes(view: [f64; 3]) -> [DVec3; 3] {
+    let d = DVec3::from(view).normalize();
+    let up = if d.cross(DVec3::Z).length() > 1e-6 {
+        DVec3::Z
+    } else {
+        DVec3::Y
+    };
+    let e2 = (up - d * up.dot(d)).normalize();
+    [e2.cross(d), e2, d]
+}
+
+/// The points of picture `p` on the page, each (x, y, value), the farthest from the eye
+/// first: every particle, and its mirror images across the planes of `reflect`.
+pub fn page_points(p: &Picture, state: &FinalState) -> Result<Vec<[f64; 3]>, String> {
+    let values = values(p, state)?;
+    let [e1, e2, d] = p.view.map_or([DVec3::X, DVec3::Y, DVec3::Z], page_axes);
+    let mut points: Vec<(f64, [f64; 3])> = Vec::new();
+    for images in 0..1u32 << p.reflect.len() {
+        for (x, &v) in state.x.iter().zip(&values) {
+            let mut x = DVec3::from(*x);
+            for (k, axis) in p.reflect.iter().enumerate() {
+                if images & (1 << k) != 0 {
+                    x[axis.index()] = -x[axis.index()];
+                }
+            }
+            points.push((x.dot(d), [x.dot(e1), x.dot(e2), v]));
+        }
+    }
+    points.sort_by(|a, b| a.0.total_cmp(&b.0));
+    Ok(points.into_iter().map(|(_, point)| point).collect())
+}
+
 /// Writes the points of picture `p` of a run's final state.
 pub fn write_points(path: &Path, p: &Picture, state: &FinalState) -> std::io::Result<()> {
-    let values = values(p, state).map_err(std::io::Error::other)?;
+    let points = page_points(p, state).map_err(std::io::Error::other)?;
     let mut text = String::from("x,y,value\n");
-    for (x, v) in state.x.iter().zip(values) {
-        let _ = writeln!(text, "{:e},{:e},{v:e}", x[0], x[1]);
+    for [x, y, v] in points {
+        let _ = writeln!(text, "{x:e},{y:e},{v:e}");
     }
     crate::output::write_atomically(path, |w| std::io::Write::write_all(w, text.as_bytes()))
 }
@@ -154,6 +194,8 @@ pub fn write(
         .collect();
     let size = (480 * cols as u32, 440 * rows as u32 + 40);
     let title = format!("{}: {}", suite.name, p.label);
+    // A view's page coordinates are no lengths along the body's axes.
+    let axes = p.view.is_none();
     let stem = format!("{}-picture", suite.name);
     write_figure(
         dir,
@@ -164,6 +206,7 @@ pub fn write(
                 &title,
                 &grid,
                 cols,
+                axes,
             )
         },
         |path| {
@@ -172,6 +215,7 @@ pub fn write(
                 &title,
                 &grid,
                 cols,
+                axes,
             )
         },
     )
@@ -182,6 +226,7 @@ fn draw<DB: DrawingBackend>(
     title: &str,
     grid: &[Option<&Panel>],
     cols: usize,
+    axes: bool,
 ) -> Result<(), String> {
     let err = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     area.fill(&WHITE).map_err(err)?;
@@ -191,7 +236,7 @@ fn draw<DB: DrawingBackend>(
     let rows = grid.len().div_ceil(cols);
     for (panel, cell) in grid.iter().zip(area.split_evenly((rows, cols))) {
         if let Some(panel) = panel {
-            draw_panel(&cell, panel).map_err(err)?;
+            draw_panel(&cell, panel, axes).map_err(err)?;
         }
     }
     area.present().map_err(err)
@@ -222,6 +267,7 @@ fn colour(t: f64) -> RGBColor {
 fn draw_panel<DB: DrawingBackend>(
     cell: &DrawingArea<DB, Shift>,
     panel: &Panel,
+    axes: bool,
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
     let (lo, hi) = panel
         .points
@@ -246,7 +292,9 @@ fn draw_panel<DB: DrawingBackend>(
         .caption(&panel.title, ("sans-serif", 13))
         .margin(8)
         .build_cartesian_2d(cx - half..cx + half, cy - half..cy + half)?;
-    chart.configure_mesh().disable_mesh().draw()?;
+    if axes {
+        chart.configure_mesh().disable_mesh().draw()?;
+    }
     let span = if hi > lo { hi - lo } else { 1.0 };
     chart.draw_series(panel.points.iter().map(|p| {
         let c = colour((p[2] - lo) / span);
@@ -274,5 +322,79 @@ fn label(v: f64) -> String {
         format!("{v:.4}")
     } else {
         format!("{v:.3e}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::core::tensor::Axis;
+
+    /// Particles at `x` under the stress diag(−1, −2, −3) × k for the k-th (pressure 2k).
+    fn state(x: &[[f64; 3]]) -> FinalState {
+        let n = x.len();
+        FinalState {
+            dim: 3,
+            x0: x.to_vec(),
+            volume: vec![1.0; n],
+            v: vec![[0.0; 3]; n],
+            pk1: vec![[[0.0; 3]; 3]; n],
+            x: x.to_vec(),
+            sigma: (1..=n)
+                .map(|k| {
+                    let k = k as f64;
+                    [[-k, 0.0, 0.0], [0.0, -2.0 * k, 0.0], [0.0, 0.0, -3.0 * k]]
+                })
+                .collect(),
+            plastic_strain: Vec::new(),
+        }
+    }
+
+    fn pressure(view: Option<[f64; 3]>, reflect: Vec<Axis>) -> Picture {
+        Picture {
+            field: PictureField::Pressure,
+            label: "p".into(),
+            scale: 1.0,
+            view,
+            reflect,
+        }
+    }
+
+    #[test]
+    fn a_view_puts_z_up_and_draws_the_nearest_last() {
+        // Seen from +x: the page's right is +y, its up +z; the particle at x = 5 is
+        // nearer the eye than the one at x = −1, so it comes last whatever the order.
+        let s = state(&[[5.0, 1.0, 2.0], [-1.0, 3.0, 4.0]]);
+        let points = page_points(&pressure(Some([2.0, 0.0, 0.0]), vec![]), &s).unwrap();
+        assert_eq!(points, vec![[3.0, 4.0, 4.0], [1.0, 2.0, 2.0]]);
+        // From an oblique direction the page's axes are orthonormal and normal to it,
+        // up the part of e_z normal to the view.
+        let [e1, e2, d] = page_axes([1.0, 0.6, 0.5]);
+        let m = glam::DMat3::from_cols(e1, e2, d);
+        assert!((m.transpose() * m).abs_diff_eq(glam::DMat3::IDENTITY, 1e-15));
+        assert!((m.determinant() - 1.0).abs() < 1e-15);
+        assert!(e2.z > 0.0 && e1.z.abs() < 1e-15);
+        // Along z the page is the x–y plane, as without a view.
+        let s = state(&[[1.0, 2.0, 0.0]]);
+        let top = page_points(&pressure(Some([0.0, 0.0, 1.0]), vec![]), &s).unwrap();
+        assert_eq!(top, page_points(&pressure(None, vec![]), &s).unwrap());
+        assert_eq!(top, vec![[1.0, 2.0, 2.0]]);
+    }
+
+    #[test]
+    fn reflecting_across_two_planes_gives_four_images() {
+        // Seen from +y the page is (−x, z): the images of (1, 2, 3) across x = 0 and z = 0
+        // are (∓1, ±3) on it, all at the same depth, so in the order of the images.
+        let s = state(&[[1.0, 2.0, 3.0]]);
+        let picture = pressure(Some([0.0, 1.0, 0.0]), vec![Axis::X, Axis::Z]);
+        assert_eq!(
+            page_points(&picture, &s).unwrap(),
+            vec![
+                [-1.0, 3.0, 2.0],
+                [1.0, 3.0, 2.0],
+                [-1.0, -3.0, 2.0],
+                [1.0, -3.0, 2.0]
+            ]
+        );
     }
 }

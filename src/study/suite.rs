@@ -2,6 +2,7 @@
 //! expanded into the runs of a study.
 
 use crate::case::CaseError;
+use crate::core::tensor::Axis;
 use crate::scene::Scene;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -156,8 +157,9 @@ pub struct History {
     pub published: Option<String>,
 }
 
-/// A field drawn on the particles' current positions (projected on the x–y plane) at the
-/// end of every run, or at its failure: one panel per run, y = `scale` × field.
+/// A field drawn on the particles' current positions at the end of every run, or at its
+/// failure: one panel per run, y = `scale` × field. The positions are projected on the
+/// x–y plane, or with `view` seen from that direction.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Picture {
@@ -166,6 +168,13 @@ pub struct Picture {
     pub label: String,
     #[serde(default = "unit_scale")]
     pub scale: f64,
+    /// The direction towards the eye of an orthographic view (a 3D body), z up on the
+    /// page (y where the view is along z); None: the x–y plane.
+    pub view: Option<[f64; 3]>,
+    /// The coordinate planes through the origin the particles are also mirrored across
+    /// (a model's symmetry planes), so that the picture shows the whole body.
+    #[serde(default)]
+    pub reflect: Vec<Axis>,
 }
 
 /// The fields a picture draws.
@@ -176,6 +185,8 @@ pub enum PictureField {
     HoopStress,
     /// The equivalent plastic strain ε_p (`von-mises-plastic`).
     PlasticStrain,
+    /// The pressure p = −tr σ/3.
+    Pressure,
 }
 
 /// What a suite's advice ranks its candidates by (`[advice] measure`).
@@ -357,6 +368,18 @@ impl Suite {
                 "[history]: `scale` must be finite and non-zero and `x_scale` finite and \
                  positive (got {} and {})",
                 h.scale, h.x_scale
+            )));
+        }
+        if let Some(p) = &suite.picture
+            && !(p.scale.is_finite()
+                && p.scale != 0.0
+                && p.view
+                    .is_none_or(|v| v.iter().all(|c| c.is_finite()) && v.iter().any(|&c| c != 0.0)))
+        {
+            return Err(invalid(format!(
+                "[picture]: `scale` must be finite and non-zero (got {}) and `view` a finite, \
+                 non-zero direction (got {:?})",
+                p.scale, p.view
             )));
         }
         if let Some(h) = &suite.history
@@ -705,5 +728,27 @@ name = "b"
         assert!(e.contains("`against`"), "{e}");
         let e = with(r#"measure = "size", budget = 1.0, candidates = ["a"]"#);
         assert!(e.contains("bad.toml") && e.contains("stability"), "{e}");
+    }
+
+    #[test]
+    fn a_picture_without_a_direction_or_scale_is_refused() {
+        let with = |picture: &str| {
+            refused(&format!(
+                "picture = {{ field = \"pressure\", label = \"p\", {picture} }}\n{SUITE}"
+            ))
+        };
+        for bad in [
+            "view = [0.0, 0.0, 0.0]",
+            "view = [1.0, nan, 0.0]",
+            "scale = 0.0",
+        ] {
+            let e = with(bad);
+            assert!(
+                e.contains("bad.toml") && e.contains("[picture]"),
+                "{bad}: {e}"
+            );
+        }
+        let e = with(r#"reflect = ["w"]"#);
+        assert!(e.contains("bad.toml") && e.contains("`x`"), "{e}");
     }
 }
