@@ -242,7 +242,8 @@ fn draw<DB: DrawingBackend>(
     area.present().map_err(err)
 }
 
-/// A blue–white–red scale over [lo, hi] (white at the middle), readable in greyscale as
+/// A blue–white–red scale over [lo, hi] (white at the middle: zero for a field of both
+/// signs, [`scale_range`]), readable in greyscale as
 /// dark–light–dark only at the ends, so the panel also prints its range.
 fn colour(t: f64) -> RGBColor {
     let t = t.clamp(0.0, 1.0);
@@ -269,12 +270,7 @@ fn draw_panel<DB: DrawingBackend>(
     panel: &Panel,
     axes: bool,
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
-    let (lo, hi) = panel
-        .points
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
-            (lo.min(p[2]), hi.max(p[2]))
-        });
+    let (lo, hi) = scale_range(&panel.points);
     let (x0, x1, y0, y1) = panel.points.iter().fold(
         (
             f64::INFINITY,
@@ -314,6 +310,20 @@ fn draw_panel<DB: DrawingBackend>(
     bar.draw(&text(top - 18, hi))?;
     bar.draw(&text(bottom + 6, lo))?;
     Ok(())
+}
+
+/// The colour scale's range over the points' values: [min, max], or for a field of both
+/// signs ±max |value|, so that white is zero.
+fn scale_range(points: &[[f64; 3]]) -> (f64, f64) {
+    let (lo, hi) = (points.iter()).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+        (lo.min(p[2]), hi.max(p[2]))
+    });
+    if lo < 0.0 && hi > 0.0 {
+        let m = hi.max(-lo);
+        (-m, m)
+    } else {
+        (lo, hi)
+    }
 }
 
 /// A colour-bar end: four significant digits, in exponent form outside [0.01, 1e4).
@@ -379,6 +389,17 @@ mod tests {
         let top = page_points(&pressure(Some([0.0, 0.0, 1.0]), vec![]), &s).unwrap();
         assert_eq!(top, page_points(&pressure(None, vec![]), &s).unwrap());
         assert_eq!(top, vec![[1.0, 2.0, 2.0]]);
+    }
+
+    #[test]
+    fn a_field_of_both_signs_is_white_at_zero() {
+        let at = |values: &[f64]| {
+            scale_range(&values.iter().map(|&v| [0.0, 0.0, v]).collect::<Vec<_>>())
+        };
+        assert_eq!(at(&[-1.0, 3.0, 0.5]), (-3.0, 3.0));
+        assert_eq!(at(&[-4.0, 1.0]), (-4.0, 4.0));
+        assert_eq!(at(&[0.0, 2.0, 1.0]), (0.0, 2.0));
+        assert_eq!(at(&[-2.0, -1.0]), (-2.0, -1.0));
     }
 
     #[test]
