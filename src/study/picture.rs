@@ -35,9 +35,7 @@ pub fn values(p: &Picture, state: &FinalState) -> Result<Vec<f64>, String> {
                     .into(),
             );
         }
-        PictureField::Pressure => (state.sigma.iter())
-            .map(|s| -(s[0][0] + s[1][1] + s[2][2]) / 3.0)
-            .collect(),
+        PictureField::Pressure => crate::physics::pressure::pressures(&state.sigma),
     };
     Ok(raw.into_iter().map(|v| v * p.scale).collect())
 }
@@ -78,7 +76,7 @@ fn page_axes(view: [f64; 3]) -> [DVec3; 3] {
 
 /// The points of picture `p` on the page, each (x, y, value), the farthest from the eye
 /// first: every particle, and its mirror images across the planes of `reflect`.
-pub fn page_points(p: &Picture, state: &FinalState) -> Result<Vec<[f64; 3]>, String> {
+fn page_points(p: &Picture, state: &FinalState) -> Result<Vec<[f64; 3]>, String> {
     let values = values(p, state)?;
     let [e1, e2, d] = p.view.map_or([DVec3::X, DVec3::Y, DVec3::Z], page_axes);
     let mut points: Vec<(f64, [f64; 3])> = Vec::new();
