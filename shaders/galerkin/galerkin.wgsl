@@ -1,19 +1,27 @@
-// Total-Lagrangian Galerkin rates (seed 000 §5.6 and its FEM reference): one invocation per
+// Galerkin rates (seed 000 §5.6, §5.7 and its FEM references): one invocation per
 // quadrature point for the stress, then one per node for the force, a gather over the
 // node's points through the transposed lists; each writes only its own point or node.
+// Total-Lagrangian (UL = 0): per pair ∇0N_a(X_q), per entry w_q ∇0N_a(X_q), and the
+// points pass writes P_q. Updated-Lagrangian elements (UL = 1, `ul-fem`): per pair the
+// parent derivatives ∂N_a/∂ξ at the point and the reference offset X_a − X_first from the
+// point's first node, per entry ∂N_a/∂ξ; the points pass evaluates its cell on the current
+// node positions, J_q = Σ_a x_a ⊗ ∂N_a/∂ξ, ∇N_a(x_q) = J_q⁻ᵀ ∂N_a/∂ξ and w_q = W_RULE
+// det J_q, and writes w_q σ_q J_q⁻ᵀ, so that the same nodes pass gathers −Σ_q w_q σ_q
+// ∇N_a(x_q).
 //
 // Flat f32 buffers: the state y = [u | v (nodes) | ρ − ρ0 | S (points, rate model only)],
-// kin = [H = F − I | P | ψ (points) | power (nodes)], pair = [∇0N_a] per point–node pair
-// of the points' CSR (offsets, ids), and the reference configuration of the nodes
-// (reference.wgsl; its V is m/ρ0, so that RHO0·V is the nodal mass). The gather lists,
-// node → its points: gather = [offsets | the point of each entry], and per entry
-// entries = [w_q ∇0N_a(X_q) | w_q N_a(X_q)]. The points' lists and the gather lists are
-// each split into parts (part.wgsl: rows part.first + row, with the part's own offsets,
-// ids and per-pair data): the points pass runs a part of the points at a time, the nodes
-// pass a part of the nodes; the points' plastic history hist
-// (plasticity.wgsl; 10 floats of a dummy for the elastic models). Constants: N (nodes), Q
-// (points), DIM, RATE, MODEL, RHO0, MU, LAMBDA, BULK, YIELD, HARDENING and the field
-// offsets of methods::cores::galerkin::gpu::Layout.
+// kin = [H = F − I | P (w σ J⁻ᵀ with UL) | ψ (points) | power (nodes)], pair = [∇0N_a
+// (∂N_a/∂ξ with UL) | X_a − X_first (UL only)] per point–node pair of the points' CSR
+// (offsets, ids), and the reference configuration of the nodes (reference.wgsl; its V is
+// m/ρ0, so that RHO0·V is the nodal mass). The gather lists, node → its points: gather =
+// [offsets | the point of each entry], and per entry entries = [w_q ∇0N_a(X_q) (∂N_a/∂ξ
+// with UL) | w_q N_a(X_q)]. The points' lists and the gather lists are each split into
+// parts (part.wgsl: rows part.first + row, with the part's own offsets, ids and per-pair
+// data): the points pass runs a part of the points at a time, the nodes pass a part of
+// the nodes; the points' plastic history hist (plasticity.wgsl; 10 floats of a dummy for
+// the elastic models). Constants: N (nodes), Q (points), DIM, UL, W_RULE, RATE, MODEL,
+// RHO0, MU, LAMBDA, BULK, YIELD, HARDENING and the field offsets of
+// methods::cores::galerkin::gpu::Layout.
 
 @group(0) @binding(0) var<storage, read> offsets: array<u32>;
 @group(0) @binding(1) var<storage, read> ids: array<u32>;
@@ -31,15 +39,19 @@
 @group(0) @binding(11) var<storage, read> ext: array<f32>;
 
 struct Gradients {
-    // H = F − I.
+    // Σ_a (u_a − u_first) ⊗ g_a: H = F − I, or J − J0 with UL.
     h: matd,
-    // Ḟ, with `rate` only.
+    // Σ_a (v_a − v_first) ⊗ g_a, with `rate` only: Ḟ, or L J with UL.
     f_dot: matd,
+    // J0 = Σ_a (X_a − X_first) ⊗ ∂N_a/∂ξ, with UL only.
+    j0: matd,
 }
 
-// F_q − I = Σ_a u_a ⊗ ∇0N_a(X_q) (as Σ_a (u_a − u_first) ⊗ ∇0N_a, since Σ_a ∇0N_a = 0,
-// so that a rigid displacement keeps its digits) and, with `rate`, Ḟ_q likewise, for the
-// point at `row` of the part.
+// The sums over the nodes of the point at `row` of the part with g_a its pair's vector
+// (∇0N_a(X_q), or ∂N_a/∂ξ with UL), each over differences to the first node, since
+// Σ_a g_a = 0, so that a rigid displacement keeps its digits: F_q − I = Σ_a u_a ⊗
+// ∇0N_a(X_q) and, with `rate`, Ḟ_q; with UL, J_q − J0_q, J0_q (from the pair's
+// X_a − X_first) and, with `rate`, L_q J_q.
 fn gradients(row: u32, rate: bool) -> Gradients {
     let p_start = offsets[row];
     let p_end = offsets[row + 1u];
@@ -54,18 +66,64 @@ fn gradients(row: u32, rate: bool) -> Gradients {
         if rate {
             out.f_dot += outer(vload_y(V_OFF + DIM * a) - v0, g);
         }
+        if UL == 1u {
+            out.j0 += outer(vload_pair(PDX_OFF + DIM * p), g);
+        }
     }
     return out;
 }
 
-// F_q, P_q, ψ_q and, for the rate model, Ḟ_q, ρ̇_q and the Jaumann Ṡ_q (Algorithm 6
-// steps 2–3); the von Mises model returns P_q and ψ_q from the point's committed history.
+// F_q − I of the sums: H, or (J − J0) J0⁻¹ with UL (F = J J0⁻¹).
+fn strain(g: Gradients) -> matd {
+    if UL == 1u {
+        return g.h * inverse_d(g.j0);
+    }
+    return g.h;
+}
+
+// P_q and ψ_q at F_q = I + h: the rate model from ρ_q and S_q, writing ρ̇_q and the
+// objective Ṡ_q for L_q (Algorithm 6 steps 2–3); the von Mises model from the point's
+// committed history; otherwise P(F_q).
+struct Stressed {
+    pk: matd,
+    psi: f32,
+}
+
+fn stressed(q: u32, h: matd, l: matd) -> Stressed {
+    let f = identity_d() + h;
+    let f_inv_t = transpose(inverse_d(f));
+    var out: Stressed;
+    if RATE == 1u {
+        let rho_dev = y[RHO_OFF + q];
+        let s = mload_y(S_OFF + DIM * DIM * q);
+        d[RHO_OFF + q] = -(RHO0 + rho_dev) * trace_d(l);
+        mstore_d(S_OFF + DIM * DIM * q, stress_rate(s, l, f));
+        out.pk = (s - identity_d() * pressure(rho_dev)) * f_inv_t * determinant(f);
+        out.psi = energy_density(h, s, rho_dev);
+    } else if MODEL == MODEL_VON_MISES_PLASTIC {
+        let r = return_map(lift3(f, 1.0), history(q));
+        out.pk = lower3(r.p);
+        out.psi = r.psi;
+    } else {
+        out.pk = pk1(h, f_inv_t);
+        out.psi = energy_density(h, matd(), 0.0);
+    }
+    return out;
+}
+
+// Total-Lagrangian: F_q = I + Σ_a u_a ⊗ ∇0N_a(X_q), L_q = Ḟ_q F_q⁻¹ and P_q, ψ_q
+// ([`stressed`]); det F_q ≤ 0 flags the point. Updated-Lagrangian elements (UL FEM steps
+// 1 and 4): J_q and det J_q of the current cell (det J_q ≤ 0, an inverted element, flags
+// the point), L_q = Σ_a v_a ⊗ ∇N_a(x_q) = (Σ_a v_a ⊗ ∂N_a/∂ξ) J_q⁻¹, F_q = J_q J0_q⁻¹ (the
+// inverse of Σ_a X_a ⊗ ∇N_a(x_q)), σ_q = P_q F_qᵀ / det F_q and the force tensor
+// w_q σ_q J_q⁻ᵀ.
 // bytes:
 // Items: points; pairs: the point–node pairs, which are also the nodes' gather entries.
 // - offsets: 1 scalar per item
 // - ids: 1 scalar per item; 1 scalar per pair
-// ∇0N_a.
+// ∇0N_a (∂N_a/∂ξ with UL), and X_a − X_first with UL.
 // - pair: 1 vector per pair
+// - pair: 1 vector per pair, when UL
 // u of the first node and of every node; v too, ρ − ρ0 and S, for the
 // rate model.
 // - y: 1 vector per item; 1 vector per pair
@@ -84,36 +142,28 @@ fn points(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     }
     let q = part.first + row;
     let grads = gradients(row, RATE == 1u);
-    let h = grads.h;
-    let f_dot = grads.f_dot;
+    let h = strain(grads);
     let f = identity_d() + h;
-    let jac = determinant(f);
-    if !(jac > 0.0) {
-        atomicMin(&status[0], q);
-    }
-    let f_inv = inverse_d(f);
-    let f_inv_t = transpose(f_inv);
-    var pk: matd;
-    var psi: f32;
-    if RATE == 1u {
-        let l = f_dot * f_inv;
-        let rho_dev = y[RHO_OFF + q];
-        let s = mload_y(S_OFF + DIM * DIM * q);
-        d[RHO_OFF + q] = -(RHO0 + rho_dev) * trace_d(l);
-        mstore_d(S_OFF + DIM * DIM * q, stress_rate(s, l, f));
-        pk = (s - identity_d() * pressure(rho_dev)) * f_inv_t * jac;
-        psi = energy_density(h, s, rho_dev);
-    } else if MODEL == MODEL_VON_MISES_PLASTIC {
-        let r = return_map(lift3(f, 1.0), history(q));
-        pk = lower3(r.p);
-        psi = r.psi;
+    if UL == 1u {
+        let j = grads.j0 + grads.h;
+        let det_j = determinant(j);
+        if !(det_j > 0.0) {
+            atomicMin(&status[0], q);
+        }
+        let j_inv = inverse_d(j);
+        let st = stressed(q, h, grads.f_dot * j_inv);
+        let sigma = st.pk * transpose(f) * (1.0 / determinant(f));
+        mstore_kin(KP_OFF + DIM * DIM * q, sigma * transpose(j_inv) * (W_RULE * det_j));
+        kin[KPSI_OFF + q] = st.psi;
     } else {
-        pk = pk1(h, f_inv_t);
-        psi = energy_density(h, matd(), 0.0);
+        if !(determinant(f) > 0.0) {
+            atomicMin(&status[0], q);
+        }
+        let st = stressed(q, h, grads.f_dot * inverse_d(f));
+        mstore_kin(KP_OFF + DIM * DIM * q, st.pk);
+        kin[KPSI_OFF + q] = st.psi;
     }
     mstore_kin(KF_OFF + DIM * DIM * q, h);
-    mstore_kin(KP_OFF + DIM * DIM * q, pk);
-    kin[KPSI_OFF + q] = psi;
 }
 
 // The commit of the plastic history before every step (TlGalerkin::begin_step): one
@@ -124,6 +174,7 @@ fn points(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
 // - offsets: 1 scalar per item
 // - ids: 1 scalar per item; 1 scalar per pair
 // - pair: 1 vector per pair
+// - pair: 1 vector per pair, when UL
 // - y: 1 vector per item; 1 vector per pair
 // - hist: 10 scalars per item
 @compute @workgroup_size(256)
@@ -133,19 +184,20 @@ fn commit(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
         return;
     }
     let q = part.first + row;
-    let f = identity_d() + gradients(row, false).h;
+    let f = identity_d() + strain(gradients(row, false));
     store_history(q, return_map(lift3(f, 1.0), history(q)));
 }
 
-// ü_a = −(1/m_a) Σ_q w_q P_q ∇0N_a(X_q) (Algorithm 6 step 4), the boundary conditions
-// (boundary.wgsl) and u̇ = v.
+// ü_a = −(1/m_a) Σ_q w_q P_q ∇0N_a(X_q) (Algorithm 6 step 4; with UL, −(1/m_a) Σ_q
+// (w_q σ_q J_q⁻ᵀ) ∂N_a/∂ξ(ξ_q) = −(1/m_a) Σ_q w_q σ_q ∇N_a(x_q), UL FEM step 4), the
+// boundary conditions (boundary.wgsl) and u̇ = v.
 // bytes:
 // Items: nodes; pairs: the point–node pairs, the nodes' gather entries.
 // The row end, and the point of every entry.
 // - gather: 1 scalar per item; 1 scalar per pair
-// w_q ∇0N_a(X_q).
+// w_q ∇0N_a(X_q) (∂N_a/∂ξ with UL).
 // - entries: 1 vector per pair
-// P_q in; the power out.
+// P_q (w_q σ_q J_q⁻ᵀ with UL) in; the power out.
 // - kin loads: 1 tensor per pair
 // - kin stores: 1 scalar per item
 // V and the mask.

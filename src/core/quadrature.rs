@@ -239,8 +239,13 @@ pub enum Rule {
 impl Rule {
     /// The weight of each point in the parent cell [−1, 1]^d, so that w_q = weight·det J.
     pub fn weight<D: Dim>(self) -> f64 {
+        self.weight_in(D::N)
+    }
+
+    /// [`Self::weight`] in dimension `dim`.
+    pub fn weight_in(self, dim: usize) -> f64 {
         match self {
-            Self::Centre => f64::from(1 << D::N),
+            Self::Centre => f64::from(1 << dim),
             Self::Gauss2 => 1.0,
         }
     }
@@ -267,6 +272,13 @@ pub struct QuadraturePoints<D: Dim> {
 }
 
 impl<D: Dim> QuadraturePoints<D> {
+    /// ∂N_a/∂ξ of corner `corner` of point q's cell at the point's parent point (points in
+    /// cells only).
+    pub fn parent_gradient(&self, q: usize, corner: usize) -> D::V {
+        let dn = self.rule[self.parent[q] as usize].dn[corner];
+        D::from_slice(&dn[..D::N])
+    }
+
     /// The points of `rule` in every cell, mapped isoparametrically from the parent cell.
     pub fn new(cells: &Cells, x0: &[D::V], rule: Rule) -> Self {
         let parents: Vec<[f64; 3]> = match rule {

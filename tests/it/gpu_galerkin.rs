@@ -41,11 +41,22 @@ pub fn compare_rates<D: GpuDim>(case: &Scene) {
         ep < 1e-5 * scale_p,
         "{what}: max |ΔP| = {ep:e} of {scale_p:e}"
     );
-    // a_a = −(1/m_a) Σ_q w_q P_q ∇0N_a: the node's terms cancel to a small net force, so
-    // the f32 bound is relative to the sum of their magnitudes (16 to 50 terms of
-    // relative error 1e-5 each from P): 1e-4 of Σ_q w_q |P_q| |∇0N_a| / m_a.
+    check_rates(&what, &cpu, &d, &dg);
+}
+
+/// The GPU's rates `dg` against the CPU's `d` of one state, under the bounds of
+/// [`compare_rates`], with the terms of each node's force from `cpu`'s evaluation of that
+/// state: a_a = −(1/m_a) Σ_q w_q P_q ∇0Φ_a: the node's terms cancel to a small net force,
+/// so the f32 bound is relative to the sum of their magnitudes (16 to 50 terms of
+/// relative error 1e-5 each from P): 1e-4 of Σ_q w_q |P_q| |∇0Φ_a| / m_a.
+pub fn check_rates<D: Dim>(
+    what: &str,
+    cpu: &TlGalerkin<D>,
+    d: &GalerkinState<D>,
+    dg: &GalerkinState<D>,
+) {
     let (shapes, gather, w) = (cpu.shapes(), cpu.gather(), &cpu.points().weight);
-    for a in 0..y.u.len() {
+    for a in 0..d.u.len() {
         let terms: f64 = gather
             .range(a)
             .map(|e| {
@@ -65,7 +76,7 @@ pub fn compare_rates<D: GpuDim>(case: &Scene) {
     // u̇ = v exactly in f32.
     let (eu, scale_v) = max_v::<D>(&d.u, &dg.u);
     assert!(eu < 1e-6 * scale_v, "{what}: u̇ off by {eu:e}");
-    if !y.rho.is_empty() {
+    if !d.rho.is_empty() {
         // ρ̇ = −ρ tr L and the Jaumann Ṡ from Ḟ = Σ_a (v_a − v_first) ⊗ ∇0N_a: 40 terms of
         // |v||∇N| ~ 10 s⁻¹ in f32: 1e-5 of the largest rate.
         let (er, scale_r) = max_s(&d.rho, &dg.rho);
@@ -168,28 +179,40 @@ fn whole_runs_track_the_cpu() {
         let (cpu, y) = cpu_run::<D2>(&case, steps, dt);
         let mut g = GpuGalerkin::<D2>::new(&case, crate::common::spec_of(&case), gpu()).unwrap();
         g.advance_steps(dt, steps as u32).unwrap();
-        let yg = g.state();
-        let (ev, scale) = max_v::<D2>(&y.v, &yg.v);
-        assert!(ev < 1e-4 * scale, "{name}: max |Δv| = {ev:e} of {scale:e}");
-        g.check().unwrap();
-        let kinetic: f64 =
-            y.v.iter()
-                .zip(cpu.mass())
-                .map(|(v, m)| 0.5 * m * v.length_squared())
-                .sum();
-        let invariants = g.invariants();
-        assert!(
-            (invariants.kinetic - kinetic).abs() < 1e-5 * kinetic,
-            "{name}: kinetic energy {} on the GPU, {kinetic} on the CPU",
-            invariants.kinetic
-        );
         let strain = cpu.strain_energy(&y).value();
-        assert!(
-            (invariants.strain - strain).abs() < 1e-3 * strain,
-            "{name}: strain energy {} on the GPU, {strain} on the CPU",
-            invariants.strain
-        );
+        check_run(name, &mut g, &y.v, cpu.mass(), strain);
     }
+}
+
+/// The GPU engine `g` after a run against the CPU's velocities `v`, masses and stored
+/// energy at its end, under the bounds of [`whole_runs_track_the_cpu`]: v within 1e-4 of
+/// max |v|, the kinetic energy within 1e-5 and the stored energy within 1e-3; and the
+/// device's checks pass.
+pub fn check_run(
+    name: &str,
+    g: &mut GpuGalerkin<D2>,
+    v: &[<D2 as Dim>::V],
+    mass: &[f64],
+    strain: f64,
+) {
+    let yg = g.state();
+    let (ev, scale) = max_v::<D2>(v, &yg.v);
+    assert!(ev < 1e-4 * scale, "{name}: max |Δv| = {ev:e} of {scale:e}");
+    g.check().unwrap();
+    let kinetic: f64 = (v.iter().zip(mass))
+        .map(|(v, m)| 0.5 * m * v.length_squared())
+        .sum();
+    let invariants = g.invariants();
+    assert!(
+        (invariants.kinetic - kinetic).abs() < 1e-5 * kinetic,
+        "{name}: kinetic energy {} on the GPU, {kinetic} on the CPU",
+        invariants.kinetic
+    );
+    assert!(
+        (invariants.strain - strain).abs() < 1e-3 * strain,
+        "{name}: strain energy {} on the GPU, {strain} on the CPU",
+        invariants.strain
+    );
 }
 
 #[test]

@@ -437,7 +437,10 @@ fn galerkin_bits<D: GpuDim>(y: &GalerkinState<D>, p: &[D::T]) -> Vec<u64> {
 /// of the points' energy, gathered over the part's lists) are the same bits, and so are
 /// 3 steps from it with the weak form's velocity smoothing.
 fn galerkin_split_equals_whole<D: GpuDim>(what: &str, case: &Scene) {
-    let new = |gpu| GpuGalerkin::<D>::new(case, spec_of(case), gpu).expect(what);
+    let new = |gpu| match case.spec {
+        MethodSpec::UlFem(_) => crate::gpu_ul_galerkin::device_on::<D>(case, gpu),
+        _ => GpuGalerkin::<D>::new(case, spec_of(case), gpu).expect(what),
+    };
     let (mut whole, mut split) = (new(gpu()), new(gpu().with_binding_limit(LIMIT)));
     let (points, gather) = split.splits();
     let parts = (points.parts.len(), gather.parts.len());
@@ -478,8 +481,10 @@ fn galerkin_rates_and_reductions_on_split_lists_are_the_unsplit_bits() {
     // 81 × 81 nodes, whose point kinematics (under 1 MiB) stay whole, and the weak form
     // with its velocity smoothing after each step (at h = 2 Δx, lists of about 50 nodes a
     // node: 2 parts); the weak form in 3D on a slab of 25 × 25 × 2 nodes (in a cube, a workgroup
-    // of nodes gathers about 590 points each, whose entries pass 1 MiB alone).
+    // of nodes gathers about 590 points each, whose entries pass 1 MiB alone); `ul-fem`
+    // on the 2D block (102,400 pairs of ∂N_a/∂ξ and X_a − X_first, 1.6 MB: 2 parts).
     for (method, keys) in [
+        ("ul-fem", ""),
         ("tl-weak-form", ""),
         ("tl-weak-form", "smoothing = true\nh_over_dx = 2.0"),
         ("efg", ""),

@@ -588,12 +588,13 @@ fn a_profiled_run_reports_the_passes_of_its_steps() {
     assert!(run(&case, &options(false)).unwrap().passes.is_none());
 }
 
-/// The total-Lagrangian Galerkin engine: the points and nodes passes at every rate
-/// evaluation, and the weak form's two smoothing passes after every step.
+/// The Galerkin engine: the points and nodes passes at every rate evaluation (on the
+/// current cells for `ul-fem`), and the weak form's two smoothing passes after every step.
 #[test]
 fn the_galerkin_report_has_its_points_nodes_and_smoothing_passes() {
     for (name, smoothing) in [
         ("tensile-strip-fem", false),
+        ("tensile-strip-ul-fem", false),
         ("rotating-disk-weak-form", true),
     ] {
         let case = load(name, &[] as &[&str]);
@@ -651,7 +652,7 @@ fn allocated<D: meshless::engine::EngineDim>(case: &Scene) -> (f64, BTreeMap<Str
 fn every_gpu_method() -> Vec<(&'static str, Scene)> {
     let plate = "studies/cases/swinging-plate";
     let block = "spinning-block-3d";
-    let variants: [(&str, &[&str]); 11] = [
+    let variants: [(&str, &[&str]); 12] = [
         ("tlsph", &[]),
         ("tlsph-hypoelastic", &["material.model=hypoelastic"]),
         (
@@ -705,6 +706,15 @@ fn every_gpu_method() -> Vec<(&'static str, Scene)> {
             "tl-fem",
             &[
                 "method.name=tl-fem",
+                "method.kernel=",
+                "method.h_over_dx=",
+                "method.correction=",
+            ],
+        ),
+        (
+            "ul-fem",
+            &[
+                "method.name=ul-fem",
                 "method.kernel=",
                 "method.h_over_dx=",
                 "method.correction=",

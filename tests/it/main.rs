@@ -42,6 +42,8 @@ mod gpu_profile;
 mod gpu_tlsph;
 #[cfg(feature = "gpu")]
 mod gpu_ul;
+#[cfg(feature = "gpu")]
+mod gpu_ul_galerkin;
 mod gradients_1d;
 mod gray_monaghan;
 mod hostile;

@@ -4,6 +4,7 @@
 use crate::common::{
     block_case, block_text, is_supg, load, mixed_variants, shipped, validate_wgsl,
 };
+use meshless::core::quadrature::Rule;
 use meshless::core::tensor::{D2, D3};
 use meshless::gpu::context::reflect;
 use meshless::gpu::layout::GpuDim;
@@ -273,19 +274,25 @@ fn check_dual_support<D: GpuDim>() {
     }
 }
 
-/// The total-Lagrangian Galerkin passes, rate and state models (the weak form's and
-/// the elements' passes are the same files).
+/// The Galerkin passes, rate and state models, on the reference and on the current
+/// configuration (the weak form's and the elements' passes are the same files).
 fn check_galerkin<D: GpuDim>() {
     let max = block_max(D::N);
     for model in ["hypoelastic", "neo-hookean"] {
-        let case = block_case(max, model, "tl-weak-form", "");
-        let rate = model == "hypoelastic";
-        let lists = galerkin::ListSizes::whole(100, 1600);
-        let layout = galerkin::Layout::new(100, 10, 400, lists, 1000, D::N, rate);
-        let constants = galerkin::scene_constants(&case, &layout);
-        for source in galerkin::SHADERS {
-            let src = shaders::compose::<D>(source, &constants);
-            validate_wgsl(&format!("{}D {} ({model})", D::N, source.name), &src);
+        for frame in [
+            galerkin::Frame::Reference,
+            galerkin::Frame::Current(Rule::Gauss2),
+        ] {
+            let case = block_case(max, model, "tl-weak-form", "");
+            let rate = model == "hypoelastic";
+            let lists = galerkin::ListSizes::whole(100, 1600);
+            let layout = galerkin::Layout::new(100, 10, 400, lists, 1000, D::N, rate).on(frame);
+            let constants = galerkin::scene_constants(&case, &layout);
+            for source in galerkin::SHADERS {
+                let src = shaders::compose::<D>(source, &constants);
+                let what = format!("{}D {} ({model}, {frame:?})", D::N, source.name);
+                validate_wgsl(&what, &src);
+            }
         }
     }
 }

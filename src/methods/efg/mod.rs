@@ -130,12 +130,17 @@ impl MethodFamily for EfgSpec {
         case: &Case,
         counts: &crate::gpu::memory::Counts,
     ) -> Option<crate::gpu::memory::DeviceMemory> {
-        use crate::methods::cores::galerkin::gpu::{GpuGalerkin, Points};
+        use crate::methods::cores::galerkin::gpu::{Frame, GpuGalerkin, Points};
         let points = match self.integration {
             Integration::Cells => Points::gauss(counts, D::N),
             Integration::Nodal | Integration::Scni => Points::nodal(counts),
         };
-        Some(GpuGalerkin::<D>::memory(case, counts, &points))
+        Some(GpuGalerkin::<D>::memory(
+            case,
+            counts,
+            &points,
+            Frame::Reference,
+        ))
     }
 
     fn warning(&self, _case: &Case) -> Option<String> {

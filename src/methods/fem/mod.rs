@@ -11,6 +11,9 @@ use crate::methods::cores::family::{Feature, MethodFamily, Plan};
 use crate::reference::Reference;
 use serde::{Deserialize, Serialize};
 
+/// The Gauss rule of the elements (also `ul-fem`'s).
+pub const RULE: Rule = Rule::Gauss2;
+
 /// The `[method]` keys of the total-Lagrangian FEM.
 #[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -26,7 +29,7 @@ impl<D: Dim> TlSystem<D> for FemSpec {
         let cells = reference
             .cells(case.spacing)
             .map_err(|e| case.invalid("body", e.to_string()))?;
-        let points = QuadraturePoints::new(&cells, &reference.x0, Rule::Gauss2);
+        let points = QuadraturePoints::new(&cells, &reference.x0, RULE);
         let shapes = Shapes::isoparametric(&cells, &points, &reference.x0);
         TlGalerkin::new(case, reference, cells, points, shapes, self.mass, None)
     }
@@ -75,9 +78,14 @@ impl MethodFamily for FemSpec {
         case: &Case,
         counts: &crate::gpu::memory::Counts,
     ) -> Option<crate::gpu::memory::DeviceMemory> {
-        use crate::methods::cores::galerkin::gpu::{GpuGalerkin, Points};
+        use crate::methods::cores::galerkin::gpu::{Frame, GpuGalerkin, Points};
         let points = Points::elements(counts, D::N);
-        Some(GpuGalerkin::<D>::memory(case, counts, &points))
+        Some(GpuGalerkin::<D>::memory(
+            case,
+            counts,
+            &points,
+            Frame::Reference,
+        ))
     }
 
     fn lattice_cells(&self) -> bool {

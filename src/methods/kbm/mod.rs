@@ -269,13 +269,18 @@ impl MethodFamily for KbmSpec {
         case: &Case,
         counts: &crate::gpu::memory::Counts,
     ) -> Option<crate::gpu::memory::DeviceMemory> {
-        use crate::methods::cores::galerkin::gpu::{GpuGalerkin, Points};
+        use crate::methods::cores::galerkin::gpu::{Frame, GpuGalerkin, Points};
         let points = match (self.kernel_frame, self.integration) {
             (KernelFrame::Eulerian, _) => return None,
             (_, Integration::StressPoints) => Points::stress_points(counts),
             (_, Integration::Nodal | Integration::Scni) => Points::nodal(counts),
         };
-        Some(GpuGalerkin::<D>::memory(case, counts, &points))
+        Some(GpuGalerkin::<D>::memory(
+            case,
+            counts,
+            &points,
+            Frame::Reference,
+        ))
     }
 
     fn gpu_refusal(&self, _case: &Case) -> Option<&'static str> {

@@ -2,16 +2,20 @@
 //! quadrilaterals (8-node hexahedra in 3D) on the lattice cells of the bodies, 2×2 (2×2×2)
 //! Gauss points whose positions, gradients ∇N_a = J⁻ᵀ ∂N_a/∂ξ and weights w_q = det J
 //! follow the current node positions at every rate evaluation, a lumped mass, explicit, on
-//! the shared updated-Lagrangian Galerkin system ([`crate::methods::cores::galerkin::updated`]).
-//! CPU only. Numerics notes: `docs/methods/galerkin.md`.
+//! the shared updated-Lagrangian Galerkin system ([`crate::methods::cores::galerkin::updated`])
+//! on the CPU, and on the GPU on the Galerkin passes evaluating the elements of `tl-fem`
+//! on the current cells ([`Frame::Current`]). Numerics notes: `docs/methods/galerkin.md`.
 
 use super::cores::galerkin::Mass;
+#[cfg(feature = "gpu")]
+use super::cores::galerkin::gpu::{Frame, GpuGalerkin, Points};
 use super::cores::galerkin::updated::{self, Degenerate, MovingPoints, Nodes, UlGalerkin};
+#[cfg(feature = "gpu")]
+use super::fem::FemSpec;
+use super::fem::RULE;
 use crate::case::{Case, CaseError};
 use crate::core::neighbour::Csr;
-use crate::core::quadrature::{
-    Cells, QuadraturePoints, Rule, ShapeRow, Shapes, isoparametric_shapes,
-};
+use crate::core::quadrature::{Cells, QuadraturePoints, ShapeRow, Shapes, isoparametric_shapes};
 use crate::core::tensor::Dim;
 use crate::engine::{CpuEngine, EngineDim};
 use crate::methods::cores::family::{CpuBuild, Feature, MethodFamily, Plan, cfl_step};
@@ -36,9 +40,6 @@ pub struct Elements<D: Dim> {
     lists: Csr,
     mass: Mass,
 }
-
-/// The Gauss rule of the elements.
-const RULE: Rule = Rule::Gauss2;
 
 impl<D: Dim> MovingPoints<D> for Elements<D> {
     const OWN_MOTION: bool = false;
@@ -103,31 +104,40 @@ impl<D: Dim> MovingPoints<D> for Elements<D> {
 impl MethodFamily for UlFemSpec {
     const DESCRIPTION: &'static str = "updated-Lagrangian finite elements (seed 000's UL FEM \
         reference): bilinear quadrilaterals (trilinear hexahedra) on the lattice cells, 2^d \
-        Gauss points recomputed on the current configuration, lumped mass, explicit; CPU only";
+        Gauss points recomputed on the current configuration, lumped mass, explicit";
     const KEYS: &'static [&'static str] = &["mass"];
     const FEATURES: &'static [Feature] = &[Feature::Contact];
-    const GPU_ENGINE: bool = false;
     const KERNEL: bool = false;
     #[cfg(feature = "gpu")]
-    const SHADERS: &'static [crate::gpu::shaders::Source] = &[];
+    const SHADERS: &'static [crate::gpu::shaders::Source] = super::cores::galerkin::gpu::SHADERS;
 
-    fn plan(&self, case: &Case, _gpu: bool) -> Plan {
+    fn plan(&self, case: &Case, gpu: bool) -> Plan {
         let mat = Material::new(&case.material);
+        let rates = if gpu {
+            format!(
+                "points pass (at every Gauss point J = Σ_a x_a ⊗ ∂N_a/∂ξ of the current \
+                 cell, ∇N_a = J⁻ᵀ ∂N_a/∂ξ and w_q = det J, then {}; w_q σ_q J⁻ᵀ) + nodes \
+                 pass (−Σ_q w_q σ_q ∇N_a(x_q) gathered per node, BCs)",
+                point_rates(&mat)
+            )
+        } else {
+            format!(
+                "x = X + u; at every Gauss point of the current cells N_a, ∇N_a = J⁻ᵀ \
+                 ∂N_a/∂ξ and w_q = det J, then {}; each node gathers −Σ_q w_q σ_q \
+                 ∇N_a(x_q)",
+                point_rates(&mat)
+            )
+        };
         Plan {
             once: format!(
                 "once, on the reference configuration: the lattice cells of every body as \
                  elements, 2^d Gauss points each, the node-to-point gather lists, {} nodal \
-                 masses; runs on the CPU only (no GPU engine)",
+                 masses",
                 self.mass.name()
             ),
             state: updated::state(&mat, "the Gauss points"),
             cfl_step: cfl_step(&mat),
-            rates: format!(
-                "on the CPU: x = X + u; at every Gauss point of the current cells N_a, \
-                 ∇N_a = J⁻ᵀ ∂N_a/∂ξ and w_q = det J, then {}; each node gathers \
-                 −Σ_q w_q σ_q ∇N_a(x_q)",
-                point_rates(&mat)
-            ),
+            rates,
             checked: "det J (an inverted element) and ρ at the Gauss points",
             check_note: String::new(),
             left_out: vec!["kernels and neighbour lists (the cells are the mesh)"],
@@ -138,6 +148,37 @@ impl MethodFamily for UlFemSpec {
         Ok(Box::new(CpuEngine::<D, UlGalerkin<D, Elements<D>>>::new(
             case, self,
         )?))
+    }
+
+    /// The Galerkin passes on `tl-fem`'s elements (the same cells, Gauss points and
+    /// masses) evaluated on the current cells; the host's outputs are those of the same
+    /// discrete method (`docs/methods/galerkin.md`).
+    #[cfg(feature = "gpu")]
+    fn gpu_engine<D: EngineDim>(
+        &self,
+        case: &Case,
+        gpu: crate::gpu::Gpu,
+    ) -> crate::methods::cores::family::GpuBuild<D> {
+        let elements = FemSpec { mass: self.mass };
+        let frame = Frame::Current(RULE);
+        Ok(Box::new(GpuGalerkin::<D>::in_frame(
+            case, &elements, frame, gpu,
+        )?))
+    }
+
+    #[cfg(feature = "gpu")]
+    fn device_memory<D: EngineDim>(
+        &self,
+        case: &Case,
+        counts: &crate::gpu::memory::Counts,
+    ) -> Option<crate::gpu::memory::DeviceMemory> {
+        let points = Points::elements(counts, D::N);
+        Some(GpuGalerkin::<D>::memory(
+            case,
+            counts,
+            &points,
+            Frame::Current(RULE),
+        ))
     }
 
     fn lattice_cells(&self) -> bool {

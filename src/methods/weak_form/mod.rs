@@ -108,14 +108,19 @@ impl MethodFamily for WeakFormSpec {
         case: &Case,
         counts: &crate::gpu::memory::Counts,
     ) -> Option<crate::gpu::memory::DeviceMemory> {
-        use crate::methods::cores::galerkin::gpu::{GpuGalerkin, Points};
+        use crate::methods::cores::galerkin::gpu::{Frame, GpuGalerkin, Points};
         let gauss = Points::gauss(counts, D::N);
         let points = if self.smoothing {
             gauss.smoothed(counts)
         } else {
             gauss
         };
-        Some(GpuGalerkin::<D>::memory(case, counts, &points))
+        Some(GpuGalerkin::<D>::memory(
+            case,
+            counts,
+            &points,
+            Frame::Reference,
+        ))
     }
 
     fn lattice_cells(&self) -> bool {

@@ -1,17 +1,18 @@
-//! The total-Lagrangian Galerkin methods on the GPU (`tl-fem`, `tl-weak-form`): the passes
-//! of `shaders/galerkin/`, on the points, shape functions, gather lists and smoothing
-//! weights that the host's f64 system ([`TlGalerkin`]) builds once and uploads. A rate
-//! evaluation is a points pass (F, P, w ψ and the rate model's rates per quadrature point)
-//! and a nodes pass (the force gathered over each node's points, the boundary conditions);
-//! the weak form's smoothing is two passes after each step. The engine is the
-//! [`GpuEngine`] on the family [`GalerkinDevice`].
+//! The Galerkin methods on the GPU (`tl-fem`, `tl-weak-form`, `kbm`, `efg`, and `ul-fem` on
+//! the current cells, [`Frame::Current`]): the passes of `shaders/galerkin/`, on the
+//! points, shape functions, gather lists and smoothing weights that the host's f64 system
+//! ([`TlGalerkin`]) builds once and uploads. A rate evaluation is a points pass (F, P, w ψ
+//! and the rate model's rates per quadrature point) and a nodes pass (the force gathered
+//! over each node's points, the boundary conditions); the weak form's smoothing is two
+//! passes after each step. The engine is the [`GpuEngine`] on the family
+//! [`GalerkinDevice`].
 
 use super::{GalerkinState, TlGalerkin};
 use crate::boundary::Boundary;
 use crate::case::Case;
 use crate::core::integrate::{Buf, Evaluation};
 use crate::core::neighbour::Csr;
-use crate::core::quadrature::Shapes;
+use crate::core::quadrature::{Rule, Shapes};
 use crate::diagnostics::balance::Booked;
 use crate::diagnostics::observe::Snapshot;
 use crate::engine::{BlowUp, GpuEngine, GpuFamily, Method, Start};
@@ -75,14 +76,30 @@ pub const SMOOTH: Source = source!(
 /// The passes compiled with a Galerkin scene's constants ([`scene_constants`]).
 pub const SHADERS: &[Source] = &[RATES, REDUCE, SMOOTH, CONTACT, LOADS, PRESCRIBED, INTEGRATE];
 
+/// Where the points pass evaluates the points' functions.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Frame {
+    /// Once, on the reference configuration (the total-Lagrangian methods): the pairs
+    /// carry ∇0N_a(X_q), the gather entries w_q ∇0N_a(X_q).
+    #[default]
+    Reference,
+    /// On the current cells at every rate evaluation, with the rule's weight (`ul-fem`):
+    /// the pairs carry the parent derivatives ∂N_a/∂ξ at the point and the reference
+    /// offset X_a − X_first of the node from the point's first node, the gather entries
+    /// ∂N_a/∂ξ, from which the points pass forms J_q, ∇N_a(x_q) = J_q⁻ᵀ ∂N_a/∂ξ and w_q.
+    Current(Rule),
+}
+
 /// The flat buffers of a Galerkin scene of n nodes and q points: the state [u | v | ρ − ρ0
 /// | S] (ρ and S at the points, rate model only), the kinematics [H = F − I | P | ψ
 /// (points) | power (nodes)], the per-pair gradients ∇0N_a of the points' lists, the
 /// gather lists (u32: [offsets | the point of each entry]) with their per-entry data
 /// [w_q ∇0Φ_a(X_q) | w_q N_a(X_q)] (Φ_a the test functions), the smoothing weights N_b(X_a)
-/// per pair and the nodes' reference fields.
+/// per pair and the nodes' reference fields; and the frame the points' functions are
+/// evaluated in.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Layout {
+    pub frame: Frame,
     pub n: usize,
     pub q: usize,
     pub dim: usize,
@@ -130,6 +147,7 @@ impl Layout {
         rate: bool,
     ) -> Self {
         Self {
+            frame: Frame::Reference,
             n,
             q,
             dim,
@@ -146,7 +164,7 @@ impl Layout {
                     .scalars("POW", true, n),
                 constrained,
             ),
-            pair: Fields::new("P", dim).vectors("G", true, lists.pairs),
+            pair: pair_fields(dim, lists.pairs, Frame::Reference),
             gather: Fields::new("G", dim)
                 .scalars("OFFSETS", true, lists.nodes + 1)
                 .scalars("POINT", true, lists.entries),
@@ -157,6 +175,24 @@ impl Layout {
             reference: reference::fields(n, constrained, dim, Extras::default()),
         }
     }
+
+    /// The layout with the points' functions evaluated in `frame`.
+    pub fn on(self, frame: Frame) -> Self {
+        let pairs = self.pair.field("G").count;
+        Self {
+            frame,
+            pair: pair_fields(self.dim, pairs, frame),
+            ..self
+        }
+    }
+}
+
+/// The per-pair fields of `pairs` point–node pairs in `frame`: G (∇0N_a(X_q), or ∂N_a/∂ξ)
+/// and, on the current cells, DX (X_a − X_first).
+fn pair_fields(dim: usize, pairs: usize, frame: Frame) -> Fields {
+    Fields::new("P", dim)
+        .vectors("G", true, pairs)
+        .vectors("DX", frame != Frame::Reference, pairs)
 }
 
 /// The compiled-in constants of a Galerkin scene.
@@ -168,6 +204,12 @@ pub fn scene_constants(case: &Case, layout: &Layout) -> Constants {
         .u32("BODIES", u(case.bodies.len()))
         .material(&Material::new(&case.material))
         .u32("REST_OFF", u(layout.state.offset("RHO")));
+    let constants = match layout.frame {
+        Frame::Reference => constants.u32("UL", 0).f32("W_RULE", 0.0),
+        Frame::Current(rule) => constants
+            .u32("UL", 1)
+            .f32("W_RULE", rule.weight_in(layout.dim)),
+    };
     [
         &layout.state,
         &layout.kin,
@@ -282,8 +324,13 @@ struct Splits {
 /// The layout of the host's scene, whose lists' buffers each hold a part of the points'
 /// lists, of the gather lists and of the smoothing lists, in parts that fit the binding
 /// limit of `gpu`.
-fn layout_of<D: GpuDim>(gpu: &Gpu, host: &TlGalerkin<D>) -> Result<(Layout, Splits), GpuError> {
-    let points_split = Split::fitting(gpu, &host.shapes().csr, (4 * D::N) as u64)?;
+fn layout_of<D: GpuDim>(
+    gpu: &Gpu,
+    host: &TlGalerkin<D>,
+    frame: Frame,
+) -> Result<(Layout, Splits), GpuError> {
+    let per_pair = pair_fields(D::N, 1, frame).bytes();
+    let points_split = Split::fitting(gpu, &host.shapes().csr, per_pair)?;
     let gather_split = Split::fitting(gpu, &gather_csr(host), (4 * (D::N + 1)) as u64)?;
     let smooth = (host.smoothing())
         .map(|s| Split::fitting(gpu, &s.csr, 4))
@@ -304,7 +351,8 @@ fn layout_of<D: GpuDim>(gpu: &Gpu, host: &TlGalerkin<D>) -> Result<(Layout, Spli
         smooth.as_ref().map_or(0, Split::capacity),
         D::N,
         host.material().model.is_rate_based(),
-    );
+    )
+    .on(frame);
     let splits = Splits {
         points: points_split,
         gather: gather_split,
@@ -313,16 +361,45 @@ fn layout_of<D: GpuDim>(gpu: &Gpu, host: &TlGalerkin<D>) -> Result<(Layout, Spli
     Ok((layout, splits))
 }
 
-/// The per-pair gradients ∇0N_a of each part of `split` of the points' lists.
+/// The per-pair vectors of the host's points' lists in `frame`: ∇0N_a(X_q), or ∂N_a/∂ξ at
+/// the point.
+fn pair_gradients<D: GpuDim>(host: &TlGalerkin<D>, frame: Frame) -> Vec<D::V> {
+    let shapes = host.shapes();
+    match frame {
+        Frame::Reference => shapes.grad.clone(),
+        Frame::Current(_) => (0..shapes.len())
+            .flat_map(|q| {
+                let corners = shapes.csr.range(q).len();
+                (0..corners).map(move |c| host.points().parent_gradient(q, c))
+            })
+            .collect(),
+    }
+}
+
+/// The per-pair vectors `grad` ([`pair_gradients`]) of each part of `split` of the
+/// points' lists, and on the current cells the reference offsets X_a − X_first (f64
+/// differences, so that a small cell keeps its digits in f32).
 fn pair_buffers<D: GpuDim>(
     gpu: &Gpu,
     layout: &Layout,
-    shapes: &Shapes<D>,
+    host: &TlGalerkin<D>,
+    grad: &[D::V],
     split: &Split,
 ) -> Vec<wgpu::Buffer> {
-    let whole = layout.pair.resized(shapes.csr.pair_count());
+    let whole = layout.pair.resized(grad.len());
     let mut flat = whole.zeroed();
-    whole.write_v::<D>(&mut flat, "G", &shapes.grad);
+    whole.write_v::<D>(&mut flat, "G", grad);
+    if whole.has("DX") {
+        let (csr, x0) = (&host.shapes().csr, host.reference());
+        let offsets: Vec<D::V> = (0..csr.offsets.len() - 1)
+            .flat_map(|q| {
+                let ids = &csr.ids[csr.range(q)];
+                let first = x0[ids[0] as usize];
+                ids.iter().map(move |&a| x0[a as usize] - first)
+            })
+            .collect();
+        whole.write_v::<D>(&mut flat, "DX", &offsets);
+    }
     (split.parts.iter())
         .map(|p| layout.pair.items_of(&whole, &flat, p.start, p.pairs))
         .map(|data| gpu.storage("per-pair shape functions", &data))
@@ -341,18 +418,21 @@ fn gather_csr<D: GpuDim>(host: &TlGalerkin<D>) -> Csr {
 
 /// A part of the gather lists on the device: its lists (offsets from its first entry,
 /// then the point of every entry), its entries' weighted test gradients w_q ∇Φ_a(X_q)
-/// and values w_q N_a(X_q) of the host's shape functions, and its uniform `part`.
+/// (the parent derivatives ∂N_a/∂ξ in [`Frame::Current`]) and values w_q N_a(X_q) of the
+/// host's shape functions, and its uniform `part`.
 struct GatherPart {
     lists: wgpu::Buffer,
     entries: wgpu::Buffer,
     part: wgpu::Buffer,
 }
 
-/// The parts of `split` of the gather lists.
+/// The parts of `split` of the gather lists, with the per-pair vectors `grad` of the
+/// points' lists in `layout.frame`.
 fn gather_buffers<D: GpuDim>(
     gpu: &Gpu,
     layout: &Layout,
     host: &TlGalerkin<D>,
+    grad: &[D::V],
     split: &Split,
 ) -> Vec<GatherPart> {
     let (shapes, points, gather) = (host.shapes(), host.points(), host.gather());
@@ -360,7 +440,11 @@ fn gather_buffers<D: GpuDim>(
         .map(|e| {
             let (q, p) = (gather.point[e] as usize, gather.pair[e] as usize);
             let w = points.weight[q];
-            (shapes.test_gradient(p) * w, w * shapes.n[p])
+            let test = match layout.frame {
+                Frame::Reference => shapes.test_gradient(p) * w,
+                Frame::Current(_) => grad[p],
+            };
+            (test, w * shapes.n[p])
         })
         .unzip();
     let whole = layout.entries.resized(gather.point.len());
@@ -438,10 +522,10 @@ impl SmoothPasses {
 /// Value of `status[0]` when no point failed.
 const STATUS_OK: u32 = u32::MAX;
 
-/// A total-Lagrangian Galerkin system resident on the GPU.
+/// A Galerkin system resident on the GPU.
 pub type GpuGalerkin<D> = GpuEngine<D, GalerkinDevice<D>>;
 
-/// The total-Lagrangian Galerkin family on the device: the host's system, the buffers and
+/// The Galerkin family on the device: the host's system, the buffers and
 /// the passes. The shell's checkpoints hold the plastic history too. The balance's terms
 /// the engine does not book besides the work of supports and loads: the velocity
 /// smoothing's dissipation; the plastic work, committed on the device; contact's, which
@@ -471,16 +555,17 @@ pub struct GalerkinDevice<D: GpuDim> {
 }
 
 impl<D: GpuDim> GpuGalerkin<D> {
-    /// The buffers [`Self::new`] makes for `case` on `counts` with the integration
-    /// `points`, from the same layout (the constrained nodes' reaction slots, a surface's
-    /// few words each, left out).
-    pub fn memory(case: &Case, counts: &Counts, points: &Points) -> DeviceMemory {
+    /// The buffers [`Self::in_frame`] makes for `case` on `counts` with the integration
+    /// `points` in `frame`, from the same layout (the constrained nodes' reaction slots, a
+    /// surface's few words each, left out).
+    pub fn memory(case: &Case, counts: &Counts, points: &Points, frame: Frame) -> DeviceMemory {
         DeviceMemory::of(counts, |m| {
             let n = counts.n();
             let (q, pairs) = (Counts::whole(points.points), Counts::whole(points.pairs));
             let smoothing = Counts::whole(points.smoothing);
             let rate = case.material.model.is_rate_based();
-            let layout = Layout::new(n, 0, q, ListSizes::whole(n, pairs), smoothing, D::N, rate);
+            let lists = ListSizes::whole(n, pairs);
+            let layout = Layout::new(n, 0, q, lists, smoothing, D::N, rate).on(frame);
             DeviceReference::memory(m, &layout.reference, n, D::N, q, pairs);
             m.fields("per-pair shape functions", &layout.pair);
             m.fields("gather lists", &layout.gather);
@@ -502,10 +587,23 @@ impl<D: GpuDim> GpuGalerkin<D> {
         })
     }
 
-    /// Builds the host system of the case and uploads it with the initial state.
+    /// Builds the host system of the case and uploads it with the initial state, its
+    /// points' functions evaluated once on the reference configuration.
     pub fn new(
         case: &Case,
         spec: &(dyn super::TlSystem<D> + 'static),
+        gpu: Gpu,
+    ) -> Result<Self, SetupError> {
+        Self::in_frame(case, spec, Frame::Reference, gpu)
+    }
+
+    /// Builds the host system of the case and uploads it with the initial state, its
+    /// points' functions evaluated in `frame`: [`Frame::Current`] takes the host's cells
+    /// for elements whose Gauss points follow the current node positions (`ul-fem`).
+    pub fn in_frame(
+        case: &Case,
+        spec: &(dyn super::TlSystem<D> + 'static),
+        frame: Frame,
         gpu: Gpu,
     ) -> Result<Self, SetupError> {
         let host: TlGalerkin<D> = crate::reference::build_method(case, spec)?;
@@ -514,7 +612,7 @@ impl<D: GpuDim> GpuGalerkin<D> {
         check_f32_particles::<D>(case, host.reference(), &y0_host.u, &y0_host.v, host.body())?;
         let q = host.points().len();
         let smoothing = host.smoothing();
-        let (layout, splits) = layout_of(&gpu, &host)?;
+        let (layout, splits) = layout_of(&gpu, &host, frame)?;
         let (points_split, gather_split) = (splits.points, splits.gather);
         let constants = scene_constants(case, &layout);
         check_f32_range(case, &constants)?;
@@ -522,8 +620,9 @@ impl<D: GpuDim> GpuGalerkin<D> {
         let compose = |s: &Source| shaders::compose::<D>(s, &constants);
 
         let device = upload_nodes(&gpu, &host, &points_split);
-        let pair = pair_buffers(&gpu, &layout, host.shapes(), &points_split);
-        let gather = gather_buffers(&gpu, &layout, &host, &gather_split);
+        let grad = pair_gradients(&host, frame);
+        let pair = pair_buffers::<D>(&gpu, &layout, &host, &grad, &points_split);
+        let gather = gather_buffers(&gpu, &layout, &host, &grad, &gather_split);
         let status = gpu.storage("status", &[STATUS_OK]);
         let kin = gpu.zeroed("kinematics", layout.kin.bytes());
         let plastic = host.plastic().is_some();
@@ -674,7 +773,8 @@ impl<D: GpuDim> GpuGalerkin<D> {
         self.shell.set_state(&flat);
     }
 
-    /// The rates of a given state, read back, and P at every point.
+    /// The rates of a given state, read back, and the force tensor at every point: P_q,
+    /// or w_q σ_q J_q⁻ᵀ in [`Frame::Current`].
     pub fn rates(&mut self, y: &GalerkinState<D>) -> (GalerkinState<D>, Vec<D::T>) {
         self.set_state(y);
         let gpu = self.gpu();
@@ -756,7 +856,8 @@ impl<D: GpuDim> GpuFamily<D> for GalerkinDevice<D> {
         self.host.material().p_wave_speed() + reduced.max_speed
     }
 
-    /// The first point whose points pass failed (det F ≤ 0 or NaN) so far.
+    /// The first point whose points pass failed (det F ≤ 0, det J ≤ 0 of an inverted
+    /// element in [`Frame::Current`], or NaN) so far.
     fn flagged(&self, gpu: &Gpu) -> Result<(), BlowUp> {
         let s: Vec<u32> = gpu.read(&self.status);
         if s[0] == STATUS_OK {
@@ -764,10 +865,14 @@ impl<D: GpuDim> GpuFamily<D> for GalerkinDevice<D> {
         }
         let q = s[0] as usize;
         let node = self.host.shapes().strongest_node(q);
+        let quantity = match self.layout.frame {
+            Frame::Reference => "det F",
+            Frame::Current(_) => "det J (an inverted element)",
+        };
         Err(BlowUp::at::<D>(
             self.host.reference(),
             node,
-            &format!("det F (f32, GPU) at quadrature point {q} next to it"),
+            &format!("{quantity} (f32, GPU) at quadrature point {q} next to it"),
             0.0,
         ))
     }
