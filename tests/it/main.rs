@@ -67,6 +67,7 @@ mod registry;
 mod runs;
 mod scni;
 mod seed000_disk;
+mod seed000_strip;
 mod seed001_cantilever;
 mod seed001_pulse;
 mod seed001_ring;
