@@ -81,7 +81,7 @@ fn strain(g: Gradients) -> matd {
     return g.h;
 }
 
-// P_q and ψ_q at F_q = I + h: the rate model from ρ_q and S_q, writing ρ̇_q and the
+// P_q and ψ_q at F_q = I + h (with F_q⁻¹ = f_inv): the rate model from ρ_q and S_q, writing ρ̇_q and the
 // objective Ṡ_q for L_q (Algorithm 6 steps 2–3); the von Mises model from the point's
 // committed history; otherwise P(F_q).
 struct Stressed {
@@ -89,9 +89,9 @@ struct Stressed {
     psi: f32,
 }
 
-fn stressed(q: u32, h: matd, l: matd) -> Stressed {
+fn stressed(q: u32, h: matd, f_inv: matd, l: matd) -> Stressed {
     let f = identity_d() + h;
-    let f_inv_t = transpose(inverse_d(f));
+    let f_inv_t = transpose(f_inv);
     var out: Stressed;
     if RATE == 1u {
         let rho_dev = y[RHO_OFF + q];
@@ -151,7 +151,7 @@ fn points(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
             atomicMin(&status[0], q);
         }
         let j_inv = inverse_d(j);
-        let st = stressed(q, h, grads.f_dot * j_inv);
+        let st = stressed(q, h, inverse_d(f), grads.f_dot * j_inv);
         let sigma = st.pk * transpose(f) * (1.0 / determinant(f));
         mstore_kin(KP_OFF + DIM * DIM * q, sigma * transpose(j_inv) * (W_RULE * det_j));
         kin[KPSI_OFF + q] = st.psi;
@@ -159,7 +159,8 @@ fn points(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
         if !(determinant(f) > 0.0) {
             atomicMin(&status[0], q);
         }
-        let st = stressed(q, h, grads.f_dot * inverse_d(f));
+        let f_inv = inverse_d(f);
+        let st = stressed(q, h, f_inv, grads.f_dot * f_inv);
         mstore_kin(KP_OFF + DIM * DIM * q, st.pk);
         kin[KPSI_OFF + q] = st.psi;
     }

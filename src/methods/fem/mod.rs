@@ -11,6 +11,19 @@ use crate::methods::cores::family::{Feature, MethodFamily, Plan};
 use crate::reference::Reference;
 use serde::{Deserialize, Serialize};
 
+/// The device memory of the Galerkin passes on the elements of `case` with their Gauss
+/// points evaluated in `frame` (`tl-fem`'s and `ul-fem`'s).
+#[cfg(feature = "gpu")]
+pub fn element_memory<D: crate::engine::EngineDim>(
+    case: &Case,
+    counts: &crate::gpu::memory::Counts,
+    frame: crate::methods::cores::galerkin::gpu::Frame,
+) -> crate::gpu::memory::DeviceMemory {
+    use crate::methods::cores::galerkin::gpu::{GpuGalerkin, Points};
+    let points = Points::elements(counts, D::N);
+    GpuGalerkin::<D>::memory(case, counts, &points, frame)
+}
+
 /// The Gauss rule of the elements (also `ul-fem`'s).
 pub const RULE: Rule = Rule::Gauss2;
 
@@ -78,14 +91,8 @@ impl MethodFamily for FemSpec {
         case: &Case,
         counts: &crate::gpu::memory::Counts,
     ) -> Option<crate::gpu::memory::DeviceMemory> {
-        use crate::methods::cores::galerkin::gpu::{Frame, GpuGalerkin, Points};
-        let points = Points::elements(counts, D::N);
-        Some(GpuGalerkin::<D>::memory(
-            case,
-            counts,
-            &points,
-            Frame::Reference,
-        ))
+        let frame = crate::methods::cores::galerkin::gpu::Frame::Reference;
+        Some(element_memory::<D>(case, counts, frame))
     }
 
     fn lattice_cells(&self) -> bool {

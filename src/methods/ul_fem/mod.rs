@@ -8,7 +8,7 @@
 
 use super::cores::galerkin::Mass;
 #[cfg(feature = "gpu")]
-use super::cores::galerkin::gpu::{Frame, GpuGalerkin, Points};
+use super::cores::galerkin::gpu::{Frame, GpuGalerkin};
 use super::cores::galerkin::updated::{self, Degenerate, MovingPoints, Nodes, UlGalerkin};
 #[cfg(feature = "gpu")]
 use super::fem::FemSpec;
@@ -172,11 +172,9 @@ impl MethodFamily for UlFemSpec {
         case: &Case,
         counts: &crate::gpu::memory::Counts,
     ) -> Option<crate::gpu::memory::DeviceMemory> {
-        let points = Points::elements(counts, D::N);
-        Some(GpuGalerkin::<D>::memory(
+        Some(super::fem::element_memory::<D>(
             case,
             counts,
-            &points,
             Frame::Current(RULE),
         ))
     }
