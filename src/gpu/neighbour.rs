@@ -20,6 +20,8 @@ use super::context::{Gpu, GpuError, Pipeline, Vec3, WORKGROUP};
 use super::layout::GpuDim;
 use super::memory::DeviceMemory;
 use super::shaders::{CELL_LIST, Constants, SCAN, compose};
+use crate::case::Case;
+use crate::core::neighbour::{SKIN, bounding_box};
 use crate::core::tensor::D2;
 use encase::ShaderType;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -109,6 +111,54 @@ impl CellParams {
         let axis_max = (0..dim).map(|k| cells_along(cell, k)).fold(1.0, f64::max);
         cell *= 1.0 + 1e-5 + axis_max * 2f64.powi(-21);
         (cell, [0, 1, 2].map(|k| cells_along(cell, k) as u64))
+    }
+}
+
+/// The radius a cell list searches for a kernel `support`: widened by the skin [`SKIN`]
+/// (the lists are rebuilt once a particle has moved half of it, as on the CPU) and by a
+/// relative margin of 1e-5 for f32 ties at lattice distances (see the module's doc).
+pub fn search_radius(support: f64) -> f64 {
+    support * (1.0 + SKIN) * (1.0 + 1e-5)
+}
+
+/// The box `lo..hi` of `dim` dimensions widened on every side by a fifth of its extent
+/// and `radius`.
+pub fn widened(
+    (mut lo, mut hi): ([f64; 3], [f64; 3]),
+    dim: usize,
+    radius: f64,
+) -> ([f64; 3], [f64; 3]) {
+    for k in 0..dim {
+        let margin = 0.2 * (hi[k] - lo[k]) + radius;
+        lo[k] -= margin;
+        hi[k] += margin;
+    }
+    (lo, hi)
+}
+
+impl CellParams {
+    /// The grid over the box of the reference positions `x0`, [`widened`] by the search
+    /// radius of a kernel `support` ([`search_radius`]): points that leave it are binned
+    /// in the nearest cell, which keeps every pair.
+    pub fn around<D: GpuDim>(gpu: &Gpu, x0: &[D::V], support: f64) -> Result<Self, GpuError> {
+        let radius = search_radius(support);
+        let (lo, hi) = widened(bounding_box(x0.iter().map(|&x| D::to3(x))), D::N, radius);
+        let n = x0.len().min(u32::MAX as usize) as u32;
+        Self::new(gpu, D::N, lo, hi, n, radius)
+    }
+
+    /// The cells of the grid [`Self::around`] makes for `n` points in the bodies' boxes of
+    /// `case` (`n` where a body's box is not known before it is built).
+    pub fn cells_of(case: &Case, dim: usize, n: usize, support: f64) -> u64 {
+        let radius = search_radius(support);
+        let boxes = case.bodies.iter().map(|b| b.geometry.extent(dim));
+        boxes.collect::<Option<Vec<_>>>().map_or(n as u64, |boxes| {
+            let corners = boxes.iter().flat_map(|&(lo, hi)| [lo, hi]);
+            let (lo, hi) = widened(bounding_box(corners), dim, radius);
+            let points = n.min(u32::MAX as usize) as u32;
+            let (_, dims) = Self::cells(dim, lo, hi, points, radius);
+            dims.iter().product()
+        })
     }
 }
 

@@ -7,16 +7,18 @@ use crate::common::{gpu, load, random_state, random_vector, spec_of, tl_scheme};
 use crate::galerkin::block;
 use crate::gpu_ul::scheme as ul_scheme;
 use crate::gray_monaghan::random_state as ul_random_state;
-use meshless::core::tensor::{D2, D3};
+use meshless::core::tensor::{D2, D3, Dim};
 use meshless::gpu::layout::GpuDim;
 use meshless::gpu::reduction::Reduced;
 use meshless::methods::cores::galerkin::GalerkinState;
 use meshless::methods::cores::galerkin::gpu::GpuGalerkin;
+use meshless::methods::cores::galerkin::updated::UlGalerkinState;
 use meshless::methods::cores::ul::gpu::GpuUl;
 use meshless::methods::cores::ul::{PairScheme, UlSph, UlState};
 use meshless::methods::dual_support::{self, krylov::NewtonKrylov};
 use meshless::methods::godunov::system::Scheme as GodunovScheme;
 use meshless::methods::gray_monaghan::system::Scheme as GmScheme;
+use meshless::methods::kbm::gpu::GpuEulerianKbm;
 use meshless::methods::mixed::{GpuMixed, MixedState};
 use meshless::methods::tlsph::{GpuTlsph, TlState};
 use meshless::methods::{Method, MethodSpec, Runs};
@@ -495,6 +497,51 @@ fn galerkin_rates_and_reductions_on_split_lists_are_the_unsplit_bits() {
     }
     let slab = block(&[2.4, 2.4, 0.1], "neo-hookean", "tl-weak-form", "");
     galerkin_split_equals_whole::<D3>("tl-weak-form 3D", &slab);
+}
+
+#[test]
+fn eulerian_kbm_on_split_lists_is_the_unsplit_bits() {
+    // KBM (si) on an Eulerian kernel on the 2D block of 81 × 81 particles and 6,400 stress
+    // points: the self-search of all points (about 50 a point, 2.6 MB of ids) in 3 parts
+    // under 1 MiB. The rates, the reduction and 12 steps through a search (every 5 steps)
+    // on the split lists are the unsplit bits.
+    let case = block(
+        &[8.0, 8.0],
+        "neo-hookean",
+        "kbm",
+        "kernel_frame = \"eulerian\"\nsearch_every = 5",
+    );
+    let new = |gpu| GpuEulerianKbm::<D2>::new(&case, spec_of(&case), gpu).unwrap();
+    let (mut whole, mut split) = (new(gpu()), new(gpu().with_binding_limit(LIMIT)));
+    let parts = split.parts();
+    assert!(parts >= 2, "{parts} parts under 1 MiB");
+    let mut y = whole.state();
+    let mut seed = 5;
+    for (u, v) in y.u.iter_mut().zip(y.v.iter_mut()) {
+        *u = random_vector::<D2>(&mut seed, 1e-3);
+        *v = random_vector::<D2>(&mut seed, 1.0);
+    }
+    let bits = |y: &UlGalerkinState<D2>| -> Vec<u64> {
+        let vectors = [&y.u, &y.v, &y.point_u].into_iter().flatten();
+        vectors
+            .flat_map(|&v| D2::to3(v))
+            .map(f64::to_bits)
+            .collect()
+    };
+    let rates = |g: &mut GpuEulerianKbm<D2>| (bits(&g.rates(&y)), reduced_bits(&g.reduced()));
+    let (a, b) = (rates(&mut whole), rates(&mut split));
+    same_bits("eulerian kbm: rates", &a.0, &b.0);
+    same_bits("eulerian kbm: reduction", &a.1, &b.1);
+    let steps = |g: &mut GpuEulerianKbm<D2>| {
+        g.set_state(&y);
+        Engine::<D2>::advance(g, 0.0, 1e-5, 12).unwrap();
+        bits(&g.state())
+    };
+    same_bits(
+        "eulerian kbm: 12 steps",
+        &steps(&mut whole),
+        &steps(&mut split),
+    );
 }
 
 #[test]

@@ -652,7 +652,7 @@ fn allocated<D: meshless::engine::EngineDim>(case: &Scene) -> (f64, BTreeMap<Str
 fn every_gpu_method() -> Vec<(&'static str, Scene)> {
     let plate = "studies/cases/swinging-plate";
     let block = "spinning-block-3d";
-    let variants: [(&str, &[&str]); 12] = [
+    let variants: [(&str, &[&str]); 13] = [
         ("tlsph", &[]),
         ("tlsph-hypoelastic", &["material.model=hypoelastic"]),
         (
@@ -726,6 +726,16 @@ fn every_gpu_method() -> Vec<(&'static str, Scene)> {
                 "method.name=kbm",
                 "method.kernel=cubic-spline",
                 "method.correction=",
+                "body.0.geometry.volumes=tributary",
+            ],
+        ),
+        (
+            "kbm (eulerian)",
+            &[
+                "method.name=kbm",
+                "method.kernel=cubic-spline",
+                "method.correction=",
+                "method.kernel_frame=eulerian",
                 "body.0.geometry.volumes=tributary",
             ],
         ),

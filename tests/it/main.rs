@@ -27,6 +27,8 @@ mod godunov;
 #[cfg(feature = "gpu")]
 mod gpu_dual_support;
 #[cfg(feature = "gpu")]
+mod gpu_eulerian_kbm;
+#[cfg(feature = "gpu")]
 mod gpu_galerkin;
 #[cfg(feature = "gpu")]
 mod gpu_materials;

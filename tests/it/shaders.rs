@@ -18,6 +18,7 @@ use meshless::methods::dual_support::gpu as dual_support;
 use meshless::methods::dual_support::krylov;
 use meshless::methods::godunov::gpu as godunov;
 use meshless::methods::gray_monaghan::gpu as gray_monaghan;
+use meshless::methods::kbm::gpu as kbm;
 use meshless::methods::mixed::{MixedSph, gpu as mixed};
 use meshless::methods::potential::gpu as potential;
 use meshless::run::build_method;
@@ -124,6 +125,7 @@ fn check_all<D: GpuDim>() {
     check_corotated::<D>();
     check_dual_support::<D>();
     check_galerkin::<D>();
+    check_eulerian_kbm::<D>();
     check_without_constants::<D>();
 }
 
@@ -297,6 +299,24 @@ fn check_galerkin<D: GpuDim>() {
     }
 }
 
+/// The Eulerian kernel's passes, rate and state models, with and without stress points.
+fn check_eulerian_kbm<D: GpuDim>() {
+    let max = block_max(D::N);
+    for model in ["hypoelastic", "neo-hookean"] {
+        let case = block_case(max, model, "kbm", "kernel_frame = \"eulerian\"");
+        let rate = model == "hypoelastic";
+        for q in [100, 180] {
+            let layout = kbm::Layout::new(100, 10, q, D::N, rate);
+            let constants = kbm::scene_constants(&case, &layout);
+            for source in [kbm::RATES, kbm::REDUCE] {
+                let src = shaders::compose::<D>(&source, &constants);
+                let what = format!("{}D {} ({model}, {q} points)", D::N, source.name);
+                validate_wgsl(&what, &src);
+            }
+        }
+    }
+}
+
 /// Passes without scene constants (neighbour build, scans) validate on their own.
 fn check_without_constants<D: GpuDim>() {
     let ul_shaders = [
@@ -305,6 +325,7 @@ fn check_without_constants<D: GpuDim>() {
         potential::SHADERS,
         corotated::SHADERS,
         galerkin::SHADERS,
+        kbm::SHADERS,
         dual_support::SHADERS,
     ]
     .concat();

@@ -44,6 +44,21 @@ impl<D: Dim> EulerianPoints<D> {
         &self.points
     }
 
+    /// The kernel W(x − x_a, h0).
+    pub fn kernel(&self) -> &Kernel {
+        &self.kernel
+    }
+
+    /// The steps between two searches.
+    pub fn search_every(&self) -> u32 {
+        self.search_every
+    }
+
+    /// Takes `lists` as those of the last search (the device's, read back).
+    pub fn set_lists(&mut self, lists: Csr) {
+        self.lists = lists;
+    }
+
     /// The current position of point q, with the particles at x: its particle's, or
     /// X_q + u_q of a stress point.
     fn position(&self, q: usize, x: &[D::V], y: &UlGalerkinState<D>) -> D::V {

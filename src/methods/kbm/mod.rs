@@ -9,10 +9,12 @@
 //! integration, Chen, Wu, Yoon and You 2001). Everything is built once on the reference
 //! configuration (§2.2). It runs on the shared Galerkin system
 //! ([`crate::methods::cores::galerkin`]). `kernel_frame = "eulerian"` selects the same method on
-//! an Eulerian kernel ([`eulerian`], updated-Lagrangian, CPU only). Numerics notes:
-//! `docs/methods/seed001.md`.
+//! an Eulerian kernel ([`eulerian`], updated-Lagrangian; on the GPU [`gpu`]). Numerics
+//! notes: `docs/methods/seed001.md`.
 
 pub mod eulerian;
+#[cfg(feature = "gpu")]
+pub mod gpu;
 
 use super::cores::galerkin::updated::{self, UlGalerkin};
 use super::cores::galerkin::{Mass, TlGalerkin, TlSystem, particle_mass, smoothing_cells, tl_plan};
@@ -146,7 +148,7 @@ impl MethodFamily for KbmSpec {
     const CORRECTED: bool = false;
     const HALO_LAYERS: Option<usize> = Some(1);
     #[cfg(feature = "gpu")]
-    const SHADERS: &'static [crate::gpu::shaders::Source] = super::cores::galerkin::gpu::SHADERS;
+    const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
 
     fn validate(&self, case: &Case) -> Result<(), Problem> {
         if self.kernel_frame == KernelFrame::Eulerian && self.integration == Integration::Scni {
@@ -180,7 +182,7 @@ impl MethodFamily for KbmSpec {
 
     fn plan(&self, case: &Case, gpu: bool) -> Plan {
         if self.kernel_frame == KernelFrame::Eulerian {
-            return self.eulerian_plan(case);
+            return self.eulerian_plan(case, gpu);
         }
         let (points, gradients) = match self.integration {
             Integration::StressPoints => (
@@ -253,13 +255,7 @@ impl MethodFamily for KbmSpec {
     fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> GpuBuild<D> {
         match self.kernel_frame {
             KernelFrame::Lagrangian => super::cores::galerkin::gpu_engine(case, self, gpu),
-            KernelFrame::Eulerian => Err(case
-                .invalid(
-                    "method.kernel_frame",
-                    "`kbm` on an Eulerian kernel has no GPU engine; run it with `--backend \
-                     cpu` (`--backend auto` picks the CPU for it)",
-                )
-                .into()),
+            KernelFrame::Eulerian => Ok(Box::new(gpu::GpuEulerianKbm::<D>::new(case, self, gpu)?)),
         }
     }
 
@@ -270,22 +266,16 @@ impl MethodFamily for KbmSpec {
         counts: &crate::gpu::memory::Counts,
     ) -> Option<crate::gpu::memory::DeviceMemory> {
         use crate::methods::cores::galerkin::gpu::{Frame, GpuGalerkin, Points};
-        let points = match (self.kernel_frame, self.integration) {
-            (KernelFrame::Eulerian, _) => return None,
-            (_, Integration::StressPoints) => Points::stress_points(counts),
-            (_, Integration::Nodal | Integration::Scni) => Points::nodal(counts),
+        let points = match self.integration {
+            Integration::StressPoints => Points::stress_points(counts),
+            Integration::Nodal | Integration::Scni => Points::nodal(counts),
         };
-        Some(GpuGalerkin::<D>::memory(
-            case,
-            counts,
-            &points,
-            Frame::Reference,
-        ))
-    }
-
-    fn gpu_refusal(&self, _case: &Case) -> Option<&'static str> {
-        (self.kernel_frame == KernelFrame::Eulerian)
-            .then_some("on an Eulerian kernel has no GPU engine")
+        Some(match self.kernel_frame {
+            KernelFrame::Lagrangian => {
+                GpuGalerkin::<D>::memory(case, counts, &points, Frame::Reference)
+            }
+            KernelFrame::Eulerian => gpu::GpuEulerianKbm::<D>::memory(case, counts, &points),
+        })
     }
 
     fn searches_current_configuration(&self) -> bool {
@@ -319,7 +309,7 @@ impl MethodFamily for KbmSpec {
 
 impl KbmSpec {
     /// The run plan of the Eulerian kernel.
-    fn eulerian_plan(&self, case: &Case) -> Plan {
+    fn eulerian_plan(&self, case: &Case, gpu: bool) -> Plan {
         let mat = Material::new(&case.material);
         let points = if self.integration == Integration::StressPoints {
             "the particles and a stress point at every cell centre (moving with the Shepard \
@@ -334,17 +324,27 @@ impl KbmSpec {
         Plan {
             once: format!(
                 "once, on the reference configuration: the points ({points}) and their \
-                 reference weights; runs on the CPU only (no GPU engine for the Eulerian \
-                 kernel)"
+                 reference weights"
             ),
             state: updated::state(&mat, "the points") + "; the stress points' displacements",
             cfl_step: cfl_step(&mat),
             rates: format!(
-                "on the CPU, on the current configuration: W^S_a, ∇W^S_a, M and G_a = M⁻¹∇W^S_a \
-                 at every point among the particles of its list (searched within 2h·(1 + \
-                 skin) every {} steps), L_q = Σ_a v_a ⊗ G_a and σ_q, then each particle \
-                 gathers −Σ_q w_q σ_q ∇W^S_a(x_q)",
-                self.search_every()
+                "on the current configuration: W^S_a, ∇W^S_a, M and G_a = M⁻¹∇W^S_a at every \
+                 point among the particles of its list (searched within 2h·(1 + skin) every \
+                 {} steps{}), L_q = Σ_a v_a ⊗ G_a and σ_q, then each particle gathers \
+                 −Σ_q w_q σ_q ∇W^S_a(x_q){}",
+                self.search_every(),
+                if gpu {
+                    ", on the device: one cell-list search of every point, particles and \
+                     stress points"
+                } else {
+                    ""
+                },
+                if gpu {
+                    " over the points of its own list (points pass + nodes pass)"
+                } else {
+                    ""
+                }
             ),
             checked: "det F (or ρ) at the points, and M at every point,",
             check_note: String::new(),

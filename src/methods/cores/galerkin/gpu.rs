@@ -46,6 +46,7 @@ pub const RATES: Source = source!(
         OBJECTIVE,
         PLASTICITY,
         PLASTIC_STORE,
+        STRESS,
         PART
     ],
     [
@@ -58,6 +59,8 @@ pub const RATES: Source = source!(
         ("d", true)
     ]
 );
+/// The stress at a point, which the Galerkin passes on either kernel share.
+pub const STRESS: Wgsl = wgsl!("galerkin/stress.wgsl");
 /// A node's share of the points' stored energy, for the reduction.
 const ENERGY: Wgsl = wgsl!("galerkin/galerkin_energy.wgsl");
 /// Energies, momenta and checks of a state.

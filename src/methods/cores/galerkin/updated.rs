@@ -17,7 +17,7 @@ use super::{
     Fields, Mass, check_points, gather_accelerations, row_sums, smooth_velocities, stress_at_nodes,
     to_nodes,
 };
-use crate::boundary::OnPatches;
+use crate::boundary::{Boundary, OnPatches};
 use crate::case::{Case, CaseError};
 use crate::core::integrate::OdeSystem;
 use crate::core::neighbour::Csr;
@@ -297,9 +297,48 @@ impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
         &self.points
     }
 
+    /// The method's points, to give them lists searched elsewhere (the device's).
+    pub fn points_mut(&mut self) -> &mut P {
+        &mut self.points
+    }
+
     /// The functions at the points of the last rate evaluation.
     pub fn shapes(&self) -> &Shapes<D> {
         &self.shapes
+    }
+
+    /// w_q of the last rate evaluation.
+    pub fn weights(&self) -> &[f64] {
+        &self.weight
+    }
+
+    /// σ_q of the last rate evaluation.
+    pub fn stresses(&self) -> &[D::T] {
+        &self.sigma
+    }
+
+    /// Evaluates the points' functions on `lists` from now on, with their transposed
+    /// lists for the gather (the points' own lists are set apart).
+    pub fn use_lists(&mut self, lists: Csr) {
+        self.shapes = on_lists::<D, P>(lists);
+        self.gather = self.shapes.gather(self.x0.len());
+    }
+
+    pub fn material(&self) -> &Material {
+        &self.material
+    }
+
+    pub fn boundary(&self) -> &Boundary<D> {
+        &self.surroundings.boundary
+    }
+
+    pub fn interactions(&self) -> &Interactions<D> {
+        &self.surroundings.interactions
+    }
+
+    /// The points' plastic history (von Mises); None for the elastic models.
+    pub fn plastic_mut(&mut self) -> Option<&mut History> {
+        self.plastic.as_mut()
     }
 
     /// x = X + u.
@@ -492,8 +531,7 @@ impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
     /// evaluation reports why), then the interactions.
     fn begin_step(&mut self, t: f64, dt: f64, y: &UlGalerkinState<D>) {
         if let Some(lists) = self.points.relist(&self.x0, y) {
-            self.shapes = on_lists::<D, P>(lists);
-            self.gather = self.shapes.gather(self.x0.len());
+            self.use_lists(lists);
         }
         if self.plastic.is_some()
             && let Ok((shapes, _)) = self.evaluated(y)

@@ -21,7 +21,7 @@ use crate::boundary::Boundary;
 use crate::case::Case;
 use crate::core::correction::CorrectionKind;
 use crate::core::integrate::{Buf, Evaluation};
-use crate::core::neighbour::{Csr, SKIN, bounding_box};
+use crate::core::neighbour::{Csr, SKIN};
 use crate::core::neighbourhood::PRIME_SPACE_TOLERANCE;
 use crate::diagnostics::balance::Booked;
 use crate::diagnostics::observe::{ScalarField, Snapshot};
@@ -299,15 +299,8 @@ impl<D: GpuDim> GpuUl<D> {
                 m.words("bodies", n as f64);
             }
             m.fields("state at the batch start", &layout.state);
-            let radius = search_radius(scheme.reach_factor() * case.kernel(D::N).support());
-            let boxes = case.bodies.iter().map(|b| b.geometry.extent(D::N));
-            let ncells = boxes.collect::<Option<Vec<_>>>().map_or(n as u64, |boxes| {
-                let corners = boxes.iter().flat_map(|&(lo, hi)| [lo, hi]);
-                let (lo, hi) = widened(bounding_box(corners), D::N, radius);
-                let points = n.min(u32::MAX as usize) as u32;
-                let (_, dims) = CellParams::cells(D::N, lo, hi, points, radius);
-                dims.iter().product()
-            });
+            let support = scheme.reach_factor() * case.kernel(D::N).support();
+            let ncells = CellParams::cells_of(case, D::N, n, support);
             let room = capacity::<D>(scheme, counts.pair_count(), n);
             CellList::memory(m, n as u64, D::N, ncells, room);
             Reduction::memory(m, n);
@@ -371,7 +364,7 @@ impl<D: GpuDim> GpuUl<D> {
             false => None,
         };
         let reach = scheme.reach_factor() * disc.kernel.support();
-        let grid = grid::<D>(&gpu, &disc, n as u32, reach)?;
+        let grid = CellParams::around::<D>(&gpu, &disc.x0, reach)?;
         let reduction = Reduction::new(
             &gpu,
             &compose(&REDUCE),
@@ -523,47 +516,6 @@ impl<D: GpuDim> UlDevice<D> {
     fn decode_state(&self, flat: &[f32]) -> UlState<D> {
         self.decode(flat, self.reference.material.rho0, D::identity())
     }
-}
-
-/// The cell grid over the reference configuration's box, widened on every side by a
-/// fifth of its extent and the reach (particles that leave it are binned in the nearest
-/// cell, which keeps every pair), for the kernel support the lists `reach` widened by the
-/// skin [`SKIN`] (the lists are rebuilt once a particle has moved half of it, as on the
-/// CPU) and a relative margin of 1e-5 for f32 ties at lattice distances
-/// (`gpu::neighbour`).
-fn grid<D: GpuDim>(
-    gpu: &Gpu,
-    disc: &Reference<D>,
-    n: u32,
-    reach: f64,
-) -> Result<CellParams, GpuError> {
-    let radius = search_radius(reach);
-    let (lo, hi) = widened(
-        bounding_box(disc.x0.iter().map(|&x| D::to3(x))),
-        D::N,
-        radius,
-    );
-    CellParams::new(gpu, D::N, lo, hi, n, radius)
-}
-
-/// The radius the cell list searches for a kernel `support` (see [`grid`]).
-fn search_radius(support: f64) -> f64 {
-    support * (1.0 + SKIN) * (1.0 + 1e-5)
-}
-
-/// The box `lo..hi` of `dim` dimensions widened on every side by a fifth of its extent
-/// and `radius` (see [`grid`]).
-fn widened(
-    (mut lo, mut hi): ([f64; 3], [f64; 3]),
-    dim: usize,
-    radius: f64,
-) -> ([f64; 3], [f64; 3]) {
-    for k in 0..dim {
-        let margin = 0.2 * (hi[k] - lo[k]) + radius;
-        lo[k] -= margin;
-        hi[k] += margin;
-    }
-    (lo, hi)
 }
 
 impl<D: GpuDim> GpuUl<D> {
