@@ -131,5 +131,8 @@ bench ul-weak-form $(( (steps + 7) / 8 )) "$plate" --set method.name=ul-weak-for
     --set material.model=hypoelastic --set method.kernel= --set method.h_over_dx= --set method.correction=
 bench kbm "$steps" "$plate" --set method.name=kbm --set method.kernel=cubic-spline \
     --set method.correction= --set body.0.geometry.volumes=tributary
+bench kbm-eulerian "$steps" "$plate" --set method.name=kbm --set method.kernel=cubic-spline \
+    --set method.correction= --set body.0.geometry.volumes=tributary \
+    --set method.kernel_frame=eulerian
 bench efg "$steps" "$plate" --set method.name=efg --set method.kernel=cubic-spline \
     --set method.correction= --set body.0.geometry.volumes=tributary

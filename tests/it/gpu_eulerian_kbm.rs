@@ -268,3 +268,95 @@ fn eulerian_kbm_whole_runs_track_the_cpu_through_the_searches() {
     compare_runs::<D2>(&sheared(&[1.0, 0.6], "hypoelastic"));
     compare_runs::<D3>(&sheared(&[0.4, 0.3, 0.3], "neo-hookean"));
 }
+
+#[test]
+fn a_search_past_the_room_grows_the_lists_and_runs_the_batch_again() {
+    // A block squeezed at 30 s⁻¹ from the centre, searching every 5 steps: lists with room
+    // for exactly the first search's pairs overflow at the second search (the block 1.5 %
+    // smaller, more points within reach); the engine grows them, searches again from the
+    // positions of the last search before the batch and runs the batch again, ending on the
+    // bits of a run whose lists had room from the start.
+    let text = crate::common::block_text(
+        &[1.0, 0.6],
+        "hypoelastic",
+        "kbm",
+        &(eulerian("stress-points") + "\nsearch_every = 5"),
+    );
+    let squeeze = "initial_velocity = { type = \"expression\", vx = \"-30*(x-0.5)\", vy = \"-30*(y-0.3)\" }\n";
+    let text = text.replacen(
+        "volumes = \"uniform\" }\n",
+        &format!("volumes = \"uniform\" }}\n{squeeze}"),
+        1,
+    );
+    let case = Scene::from_toml(&text, std::path::Path::new("squeezed.toml"), &[]).unwrap();
+    let mut roomy = device::<D2>(&case);
+    let mut tight = device::<D2>(&case);
+    let first = tight.pairs();
+    tight.set_capacity(first).unwrap();
+    assert_eq!(tight.capacity(), first);
+    for g in [&mut roomy, &mut tight] {
+        g.advance_steps(1e-4, 20).unwrap();
+        g.check().unwrap();
+    }
+    assert!(tight.pairs() > first, "the squeeze added no pairs");
+    assert!(tight.capacity() >= tight.pairs(), "the lists did not grow");
+    let bits = |g: &GpuEulerianKbm<D2>| -> Vec<u64> {
+        let y = g.state();
+        (y.u.iter().chain(&y.v).chain(&y.point_u))
+            .flat_map(|&v| D2::to3(v))
+            .chain(y.rho.iter().copied())
+            .map(f64::to_bits)
+            .collect()
+    };
+    assert!(
+        bits(&roomy) == bits(&tight),
+        "the grown run left the roomy run's bits"
+    );
+}
+
+#[test]
+fn the_eulerian_steel_ring_flows_plastically_as_on_the_cpu() {
+    // The steel ring of tests/it/gpu_galerkin.rs (J2 with softening, the history at the
+    // particles and the stress points, no imperfection) on the Eulerian kernel: 300 leapfrog
+    // steps of 0.16 µs, searching every 30, by 48 µs the whole wall yielded. The GPU
+    // commits its f32 history from the step's start state before every step, on the lists
+    // of the last search, as the CPU does in f64. The bounds are the Lagrangian kernel's:
+    // the displacement within 1e-4 of its largest (f32 round-off through the return
+    // map's tangent over 300 steps, ~1e-5), ε_p within 1e-3 of its largest (the gradient's
+    // round-off, larger by the ring's size over the spacing, 30).
+    let case = crate::common::load(
+        "steel-ring-kbm",
+        &[
+            "body.0.velocity_noise.amplitude=0",
+            "method.cfl=",
+            "method.dt=1.6e-7",
+            "method.kernel_frame=eulerian",
+        ],
+    );
+    let (dt, steps) = (1.6e-7, 300);
+    let mut cpu = meshless::scene::cpu_engine::<D2, Eulerian<D2>>(&case).unwrap();
+    cpu.advance(0.0, dt, steps).unwrap();
+    let mut g = device::<D2>(&case);
+    Engine::<D2>::advance(&mut g, 0.0, dt, steps).unwrap();
+    g.check().unwrap();
+    let (on_cpu, on_gpu) = (cpu.snapshot(), Engine::<D2>::snapshot(&mut g));
+    let (du, largest) = max_v::<D2>(&on_cpu.u, &on_gpu.u);
+    let field = |s: &meshless::diagnostics::observe::Snapshot<D2>| {
+        s.field(meshless::physics::plasticity::PLASTIC_STRAIN)
+            .unwrap()
+            .to_vec()
+    };
+    let (eps_cpu, eps_gpu) = (field(&on_cpu), field(&on_gpu));
+    let (de, eps_max) = max_s(&eps_cpu, &eps_gpu);
+    let eps_min = eps_cpu.iter().copied().fold(f64::INFINITY, f64::min);
+    eprintln!(
+        "eulerian steel ring: max |Δu| = {du:e} of {largest:e} m; ε_p from {eps_min} to \
+         {eps_max}: max |Δε_p| = {de:e}"
+    );
+    assert!(du < 1e-4 * largest, "max |Δu| = {du:e} of {largest:e} m");
+    assert!(
+        eps_min > 0.05,
+        "the whole wall must flow: min ε_p = {eps_min}"
+    );
+    assert!(de < 1e-3 * eps_max, "max |Δε_p| = {de:e} of {eps_max}");
+}

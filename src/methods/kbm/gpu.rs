@@ -591,6 +591,11 @@ impl<D: GpuDim> GpuEulerianKbm<D> {
         &self.family.host
     }
 
+    /// The pairs of the last search (reads them back).
+    pub fn pairs(&self) -> u64 {
+        self.family.lists().cells.pairs(self.gpu())
+    }
+
     /// The parts the device's lists are split into.
     pub fn parts(&self) -> usize {
         self.family.lists().cells.parts.len()
@@ -674,7 +679,8 @@ impl<D: GpuDim> GpuFamily<D> for EulerianDevice<D> {
 
     /// When a search overflowed the lists: grows every part to the pairs the fullest
     /// needed (with a quarter more), searches again from the positions of the last search
-    /// before the batch, and puts back the state and the step count at its start.
+    /// before the batch, clears the flags, and puts back the state and the step count at
+    /// its start.
     fn again(&mut self, shell: &mut Shell) -> Result<bool, GpuError> {
         let cells = &self.lists().cells;
         let Some(needed) = cells.overflow(&shell.gpu) else {
@@ -687,6 +693,8 @@ impl<D: GpuDim> GpuFamily<D> for EulerianDevice<D> {
         encoder.copy_buffer_to_buffer(&self.searched_start, 0, &self.searched, 0, bytes);
         shell.gpu.queue.submit([encoder.finish()]);
         self.search(shell, room, false)?;
+        // What the truncated lists flagged is no failure of the batch run again.
+        (shell.gpu.queue).write_buffer(&self.status, 0, bytemuck::cast_slice(&STATUS_OK));
         self.steps.store(self.steps_start, Ordering::Relaxed);
         shell.stepper.restart_from(&shell.gpu, &self.start);
         Ok(true)

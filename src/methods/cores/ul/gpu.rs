@@ -649,7 +649,8 @@ impl<D: GpuDim> GpuFamily<D> for UlDevice<D> {
     }
 
     /// When a rebuild overflowed the lists: grows every part to the pairs the fullest
-    /// needed (with a quarter more) and puts back the state at the batch's start.
+    /// needed (with a quarter more), clears the flags and puts back the state at the
+    /// batch's start.
     fn again(&mut self, shell: &mut Shell) -> Result<bool, GpuError> {
         let cells = &self.lists().cells;
         let Some(needed) = cells.overflow(&shell.gpu) else {
@@ -657,6 +658,8 @@ impl<D: GpuDim> GpuFamily<D> for UlDevice<D> {
         };
         let pairs = cells.room().grown(self.layout.n as u32, needed);
         self.grow(shell, pairs)?;
+        // What the truncated lists flagged is no failure of the batch run again.
+        (shell.gpu.queue).write_buffer(&self.status, 0, bytemuck::cast_slice(&STATUS_OK));
         shell.stepper.restart_from(&shell.gpu, &self.start);
         Ok(true)
     }
