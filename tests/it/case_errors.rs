@@ -1041,15 +1041,24 @@ fn the_plastic_model_needs_its_hardening_and_a_mixed_method() {
         "material.hardening_modulus",
         &["-2000000", "−3μ", "-1.153846"],
     );
+    // TLSPH takes it; the elastic potential, whose force is ∂Π/∂u of an elastic Π, does not.
     let on_tlsph = edit(&plastic, "name = \"upwind-sph\"", "name = \"tlsph\"");
+    let on_tlsph = edit(
+        &on_tlsph,
+        "correction = \"cgck\"",
+        "correction = \"randles-libersky\"",
+    );
+    Scene::from_toml(&on_tlsph, Path::new(FILE), &[]).expect("a plastic TLSPH case");
     assert_invalid(
-        &edit(
-            &on_tlsph,
-            "correction = \"cgck\"",
-            "correction = \"randles-libersky\"",
-        ),
+        &edit(&on_tlsph, "name = \"tlsph\"", "name = \"tl-potential\""),
         "material.model",
-        &["von-mises-plastic", "upwind-sph", "jst-sph", "tlsph"],
+        &[
+            "von-mises-plastic",
+            "upwind-sph",
+            "jst-sph",
+            "`tlsph`",
+            "tl-potential",
+        ],
     );
 }
 

@@ -213,6 +213,10 @@ fn the_energy_balance_closes_for_the_remaining_methods() {
 /// H = 0.1 GPa, ρ0 = 8930 kg/m³; c_p = 4.6 km/s), pulled at 20 m/s (ramped over 0.1 ms)
 /// for 0.4 ms: 0.8 % extension, past the yield strain of 0.34 %.
 fn plastic_strip(method: &str, dt: f64) -> Case {
+    let kernel = match method {
+        "tlsph" => "\nh_over_dx = 1.3",
+        _ => "",
+    };
     let tables = format!(
         r#"[material]
 model = "von-mises-plastic"
@@ -224,7 +228,7 @@ hardening_modulus = 0.1e9
 [method]
 name = "{method}"
 integrator = "rk4"
-dt = {dt:e}"#
+dt = {dt:e}{kernel}"#
     );
     let text = format!(
         r#"
@@ -250,16 +254,24 @@ end_time = 4.0e-4
 
 #[test]
 fn the_plastic_work_closes_the_balance_of_a_yielding_strip() {
-    // tl-fem on the copper strip at Δt = 2 µs and 1 µs (c_p Δt/Δx = 0.18, 0.09). The
-    // plastic work W_p = Σ w_q ∫ τ_y dε̄_p is booked at every commit of the history and for
-    // the current step; the return's potential makes it exact but for the integrator's
-    // error (src/physics/plasticity.rs), so the residue shrinks at first order at least (measured
-    // 7.9e-4 → 3.9e-4) and stays far below W_p (W_p/S = 0.33): leaving W_p out leaves a
+    // tl-fem (history at the Gauss points) and TLSPH (at the particles) on the copper strip
+    // at Δt = 2 µs and 1 µs (c_p Δt/Δx = 0.18, 0.09). The plastic work W_p = Σ w_q ∫ τ_y
+    // dε̄_p is booked at every commit of the history and for the current step; the return's
+    // potential makes it exact but for the integrator's error (src/physics/plasticity.rs),
+    // so the residue shrinks at first order at least (measured 7.9e-4 → 3.9e-4 and 9.4e-4
+    // → 4.6e-4) and stays far below W_p (W_p/S = 0.33 and 0.38): leaving W_p out leaves a
     // residue of W_p/S itself, which must exceed tenfold the residue with it at Δt.
     let dt = 2.0e-6;
+    for method in ["tl-fem", "tlsph"] {
+        plastic_balance(method, dt);
+    }
+}
+
+/// [`the_plastic_work_closes_the_balance_of_a_yielding_strip`] under `method`.
+fn plastic_balance(method: &str, dt: f64) {
     let (coarse, fine) = (
-        measure_plastic(&plastic_strip("tl-fem", dt), dt),
-        measure_plastic(&plastic_strip("tl-fem", dt / 2.0), dt / 2.0),
+        measure_plastic(&plastic_strip(method, dt), dt),
+        measure_plastic(&plastic_strip(method, dt / 2.0), dt / 2.0),
     );
     let b = fine.end.booked;
     let w_p = b.plastic_work.unwrap();
@@ -272,14 +284,14 @@ fn the_plastic_work_closes_the_balance_of_a_yielding_strip() {
         ..fine.end
     };
     eprintln!(
-        "plastic strip: residue {:.2e} (Δt) {:.2e} (Δt/2); W_p/S {:.2e}, residue without \
-         W_p {:.2e}",
+        "plastic strip, {method}: residue {:.2e} (Δt) {:.2e} (Δt/2); W_p/S {:.2e}, residue \
+         without W_p {:.2e}",
         coarse.error,
         fine.error,
         w_p / scale,
         without.relative_residue()
     );
-    assert!(w_p > 0.0, "the strip must yield: W_p = {w_p:e}");
+    assert!(w_p > 0.0, "{method}: the strip must yield: W_p = {w_p:e}");
     assert!(
         (coarse.error / fine.error).log2() > 0.5,
         "{} vs {}",

@@ -432,3 +432,99 @@ fn the_viscous_dissipation_closes_the_energy_balance_with_artificial_viscosity()
         assert!(residue.abs() < 2e-5, "{name}: {residue:e}");
     }
 }
+
+/// A block of seed 003's copper (von Mises, E = 117 GPa, ν = 0.35, τ_y = 0.4 GPa, H = 0.1
+/// GPa) under TLSPH, at rest under the initial displacement u = 0.01 X e_x.
+fn uniaxial_strain() -> Scene {
+    let text = r#"
+name = "uniaxial-strain"
+dimension = 2
+spacing = 0.05
+[material]
+model = "von-mises-plastic"
+density = 8930.0
+youngs_modulus = 117.0e9
+poisson_ratio = 0.35
+yield_stress = 0.4e9
+hardening_modulus = 0.1e9
+[method]
+name = "tlsph"
+h_over_dx = 1.3
+dt = 1.0e-6
+[[body]]
+name = "block"
+geometry = { shape = "box", min = [0.0, 0.0], max = [0.3, 0.2] }
+initial_displacement = { type = "linear", gradient = [[0.01, 0.0], [0.0, 0.0]] }
+[run]
+end_time = 1.0e-5
+"#;
+    Scene::from_toml(text, Path::new("uniaxial-strain.toml"), &[]).unwrap()
+}
+
+#[test]
+fn tlsph_yields_under_uniaxial_strain_at_the_closed_form() {
+    // Seed 003's copper (von Mises, E = 117 GPa, ν = 0.35, τ_y = 0.4 GPa, H = 0.1 GPa) under
+    // the initial displacement u = (λ − 1) X e_x, λ = 1.01: the corrected kernel gradients
+    // reproduce the affine field, so every particle is at F = diag(λ, 1, 1) (plane strain:
+    // uniaxial strain). From the virgin history, in the Hencky strain e = ln λ = 0.00995,
+    // the trial equivalent stress q = 2μe = 0.862 GPa passes τ_y, so Δε_p = (q − τ_y)/(3μ +
+    // H) and τ = K e I + 2μ (1 − 3μΔε_p/q) dev(e e_x ⊗ e_x), σ = τ/λ (seed 003 Algorithm 2
+    // on a proportional path). Bound 1e-9 of |σ_xx|: the f64 round-off of F and of the
+    // eigen-decomposition; an elastic P(F), or a return from another strain, is off by
+    // Δε_p's share, ~50 %.
+    let case = uniaxial_strain();
+    let (e_mod, nu, tau_y, hardening) = (117.0e9, 0.35, 0.4e9, 0.1e9);
+    let (mu, bulk) = (e_mod / (2.0 * (1.0 + nu)), e_mod / (3.0 * (1.0 - 2.0 * nu)));
+    let lambda: f64 = 1.01;
+    let e = lambda.ln();
+    let q = 2.0 * mu * e;
+    let d_eps = (q - tau_y) / (3.0 * mu + hardening);
+    let scale = 1.0 - 3.0 * mu * d_eps / q;
+    let sigma_xx = (bulk * e + 4.0 / 3.0 * mu * e * scale) / lambda;
+    let sigma_yy = (bulk * e - 2.0 / 3.0 * mu * e * scale) / lambda;
+    let mut engine = meshless::run::engine::<D2>(&case, meshless::run::Backend::Cpu).unwrap();
+    let snap = engine.snapshot();
+    let eps_p = snap
+        .field(meshless::physics::plasticity::PLASTIC_STRAIN)
+        .expect("the plastic strain field")
+        .to_vec();
+    for (i, s) in snap.sigma.iter().enumerate() {
+        let off = [
+            s[0][0] - sigma_xx,
+            s[1][1] - sigma_yy,
+            s[2][2] - sigma_yy,
+            s[0][1],
+        ];
+        let worst = off.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        assert!(
+            worst < 1e-9 * sigma_xx.abs(),
+            "particle {i}: σ = {s:?}, closed form ({sigma_xx:e}, {sigma_yy:e})"
+        );
+        assert!(
+            (eps_p[i] - d_eps).abs() < 1e-9 * d_eps,
+            "particle {i}: ε_p = {}",
+            eps_p[i]
+        );
+    }
+}
+
+#[cfg(feature = "gpu")]
+#[test]
+fn plastic_tlsph_runs_on_the_cpu_and_says_why() {
+    // `--backend auto` takes the CPU for it, and the GPU engine refuses it by name, not
+    // with an elastic stress.
+    let case = uniaxial_strain();
+    let why = meshless::run::cpu_only(&case).expect("a CPU-only case");
+    assert!(
+        why.contains("`tlsph` with `von-mises-plastic` has no GPU engine"),
+        "{why}"
+    );
+    let refused = meshless::run::engine::<D2>(&case, meshless::run::Backend::Gpu)
+        .err()
+        .expect("the GPU engine refuses it")
+        .to_string();
+    assert!(
+        refused.contains("has no GPU engine") && refused.contains("--backend cpu"),
+        "{refused}"
+    );
+}

@@ -232,7 +232,7 @@ impl<D: Dim> TlScheme<D> for PotentialScheme<D> {
         let f = self.each_f(&core.vol, &y.u);
         let (x0, mass, body) = (&core.x0, &core.mass, &core.body);
         let weight = &self.energy_weight;
-        snapshot(&core.material, x0, mass, body, weight, y.clone(), f)
+        snapshot(&core.material, (x0, mass, body), weight, y.clone(), f, None)
     }
 
     /// c_p, scaled by the reference code's stiffness factor 1/V (in SI units, the

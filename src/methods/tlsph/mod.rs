@@ -23,7 +23,7 @@ use crate::reference::Reference;
 use crate::case::Case;
 use crate::core::check::{Problem, fail, positive};
 use crate::engine::EngineDim;
-use crate::physics::material::Material;
+use crate::physics::material::{Material, MaterialModel};
 use crate::physics::viscosity::ArtificialViscosity;
 use serde::{Deserialize, Serialize};
 
@@ -95,6 +95,7 @@ impl MethodFamily for TlsphSpec {
     ];
     const FEATURES: &'static [Feature] = &[
         Feature::Contact,
+        Feature::Plasticity,
         Feature::StaticSolve,
         Feature::InitialDisplacement,
     ];
@@ -161,6 +162,10 @@ impl MethodFamily for TlsphSpec {
             ),
             state: if rate {
                 format!("u, v, ρ, S (rate model: {})", mat.rate_model())
+            } else if mat.model == MaterialModel::VonMisesPlastic {
+                "u, v; the plastic history C_p⁻¹, ε_p of every particle, committed once per \
+                 step from F at the step's start"
+                    .into()
             } else {
                 format!("u, v (state model {:?}: no ρ or S integrated)", mat.model)
             },
@@ -186,11 +191,29 @@ impl MethodFamily for TlsphSpec {
         reference: Reference<D>,
         start: RankStart<D>,
     ) -> RankBuild<D> {
+        if case.material.model == MaterialModel::VonMisesPlastic {
+            return Err(case.invalid(
+                "material.model",
+                "`tlsph` with `von-mises-plastic` does not run on several ranks yet (the \
+                 halo particles' plastic history is not exchanged); run it on one",
+            ));
+        }
         shared::rank_engine::<D, Tlsph<D>>(case, self, reference, start)
+    }
+
+    fn gpu_refusal(&self, case: &Case) -> Option<&'static str> {
+        (case.material.model == MaterialModel::VonMisesPlastic).then_some(
+            "with `von-mises-plastic` has no GPU engine (its plastic history per particle \
+             runs on the CPU)",
+        )
     }
 
     #[cfg(feature = "gpu")]
     fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> GpuBuild<D> {
+        if let Some(why) = self.gpu_refusal(case) {
+            let what = format!("`tlsph` {why}; run it with `--backend cpu`");
+            return Err(case.invalid("material.model", what).into());
+        }
         Ok(Box::new(GpuTlsph::<D>::new(
             case,
             gpu::scheme(self, case.method.correction),

@@ -15,9 +15,9 @@ use crate::diagnostics::observe::Snapshot;
 use crate::engine::{BlowUp, Method, Sizes, Traffic};
 use crate::methods::cores::tl::hourglass::{hourglass_acceleration, hourglass_stiffness};
 use crate::methods::cores::tl::{
-    ReferencePairs, TlCore, TlScheme, TlSph, TlState, inadmissible, snapshot,
+    ReferencePairs, TlCore, TlScheme, TlSph, TlState, inadmissible, snapshot, stress_state,
 };
-use crate::physics::material::stress_fields;
+use crate::physics::plasticity::from_mat3;
 use crate::reference::Reference;
 use crate::statics::explicit::AtRest;
 use rayon::prelude::*;
@@ -308,7 +308,12 @@ impl<D: Dim> TlScheme<D> for TlsphScheme<D> {
                         f,
                         f_inv_t: D::transpose(D::inverse(f)),
                     };
-                    *g = gathered_of(core, i, y, mat.pk1::<D>(f), mat.rho0 / D::det(f));
+                    // P(F), or the von Mises return from the committed history.
+                    let p = match &core.plastic {
+                        Some(history) => from_mat3::<D>(history.returned::<D>(i, f).p),
+                        None => mat.pk1::<D>(f),
+                    };
+                    *g = gathered_of(core, i, y, p, mat.rho0 / D::det(f));
                     inadmissible::<D>(i, f)
                 })
                 .min()
@@ -328,19 +333,21 @@ impl<D: Dim> TlScheme<D> for TlsphScheme<D> {
     }
 
     fn cauchy_stress(&self, core: &TlCore<D>, y: &TlState<D>) -> Vec<[[f64; 3]; 3]> {
-        stress_fields::<D>(&core.material, &self.each_f(y), &y.s, &y.rho, &core.vol).0
+        let history = core.plastic.as_ref();
+        stress_state::<D>(&core.material, &self.each_f(y), y, &core.vol, history).sigma
     }
 
     fn strain_energy(&self, core: &TlCore<D>, y: &TlState<D>) -> Exact {
-        let weights = &core.energy_weights;
-        stress_fields::<D>(&core.material, &self.each_f(y), &y.s, &y.rho, weights).1
+        let (weights, history) = (&core.energy_weights, core.plastic.as_ref());
+        stress_state::<D>(&core.material, &self.each_f(y), y, weights, history).energy
     }
 
     fn snapshot<'a>(&'a self, core: &'a TlCore<D>, y: &TlState<D>) -> Snapshot<'a, D> {
         let f = self.each_f(y);
         let (x0, mass, body) = (&core.x0, &core.mass, &core.body);
         let vol = &core.energy_weights;
-        snapshot(&core.material, x0, mass, body, vol, y.clone(), f)
+        let history = core.plastic.as_ref();
+        snapshot(&core.material, (x0, mass, body), vol, y.clone(), f, history)
     }
 
     fn dissipation_power(&self, core: &TlCore<D>) -> Exact {

@@ -16,12 +16,14 @@ pub mod hourglass;
 
 use crate::boundary::OnPatches;
 use crate::core::integrate::OdeSystem;
+use crate::diagnostics::observe::ScalarField;
 use crate::engine::{BlowUp, BoundaryWork, Method, Traffic, check_motion};
 use crate::interaction::Interactions;
 use crate::methods::cores::particles::{
     Surroundings, check_stresses, max_speed, particle_accessors,
 };
 use crate::physics::material::{Material, stress_fields};
+use crate::physics::plasticity::{History, PLASTIC_STRAIN, Returned};
 
 use crate::case::{Case, CaseError};
 use crate::core::neighbour::Csr;
@@ -112,24 +114,73 @@ impl<D: Dim> Fields<D> {
     }
 }
 
-/// A snapshot of state y with deformation gradients f: stresses and strain energy
-/// Σ w_i ψ_i (weights `vol`) follow from `stress_fields`. Shared by the CPU and GPU paths.
+/// Each particle's return map at its F in `f` from its committed plastic history.
+pub fn returned_all<D: Dim>(history: &History, f: &[D::T]) -> Vec<Returned> {
+    (f.par_iter().enumerate())
+        .with_min_len(MIN_CHUNK)
+        .map(|(i, &f)| history.returned::<D>(i, f))
+        .collect()
+}
+
+/// The stresses of a total-Lagrangian state, its strain energy and, with a plastic
+/// history, the particles' ε_p.
+pub struct StressState {
+    /// σ (3 × 3; 2D with σ_zz).
+    pub sigma: Vec<[[f64; 3]; 3]>,
+    /// Σ w_i ψ_i.
+    pub energy: Exact,
+    pub eps_p: Option<Vec<f64>>,
+}
+
+/// The [`StressState`] of state y with deformation gradients f and weights `vol`, from
+/// `stress_fields`, or with a plastic `history` from each particle's return map.
+pub fn stress_state<D: Dim>(
+    material: &Material,
+    f: &[D::T],
+    y: &TlState<D>,
+    vol: &[f64],
+    history: Option<&History>,
+) -> StressState {
+    let Some(history) = history else {
+        let (sigma, energy) = stress_fields::<D>(material, f, &y.s, &y.rho, vol);
+        return StressState {
+            sigma,
+            energy,
+            eps_p: None,
+        };
+    };
+    let r = returned_all::<D>(history, f);
+    StressState {
+        sigma: r.iter().zip(f).map(|(r, &f)| r.cauchy::<D>(f)).collect(),
+        energy: r.iter().zip(vol).map(|(r, w)| w * r.psi).sum(),
+        eps_p: Some(r.iter().map(|r| r.eps_p).collect()),
+    }
+}
+
+/// A snapshot of state y of the particles (x0, mass, body) with deformation gradients f:
+/// stresses and strain energy Σ w_i ψ_i (weights `vol`) follow from [`stress_state`], with
+/// ε_p as a field of a plastic `history`. Shared by the CPU and GPU paths.
 pub fn snapshot<'a, D: Dim>(
     material: &Material,
-    x0: &'a [D::V],
-    mass: &'a [f64],
-    body: &'a [u32],
+    (x0, mass, body): (&'a [D::V], &'a [f64], &'a [u32]),
     vol: &[f64],
     y: TlState<D>,
     f: Vec<D::T>,
+    history: Option<&History>,
 ) -> Snapshot<'a, D> {
-    let (sigma, strain_energy) = stress_fields::<D>(material, &f, &y.s, &y.rho, vol);
+    let stressed = stress_state::<D>(material, &f, &y, vol, history);
     let fields = Fields {
         f,
-        sigma,
-        strain_energy,
+        sigma: stressed.sigma,
+        strain_energy: stressed.energy,
     };
-    fields.snapshot(x0, mass, body, y)
+    let eps_p = stressed.eps_p;
+    let mut snapshot = fields.snapshot(x0, mass, body, y);
+    snapshot.extra.extend(eps_p.map(|values| ScalarField {
+        name: PLASTIC_STRAIN,
+        values,
+    }));
+    snapshot
 }
 
 /// The neighbour lists of the reference configuration and the corrected reference
@@ -191,6 +242,9 @@ pub struct TlCore<D: Dim> {
     /// V0 of the counted particles and 0 for a rank's ghosts: the weights of the strain
     /// energy Σ V0 ψ.
     pub energy_weights: Vec<f64>,
+    /// The particles' plastic history (von Mises), committed at the start of every step;
+    /// None for the elastic models.
+    pub plastic: Option<History>,
 }
 
 impl<D: Dim> TlCore<D> {
@@ -200,6 +254,7 @@ impl<D: Dim> TlCore<D> {
         let interactions =
             Interactions::build(case, &r.x0, &r.body, &OnPatches, &r.mass, || lists.clone())?;
         Ok(Self {
+            plastic: r.material.von_mises().map(|m| History::virgin(m, r.len())),
             dissipation: vec![0.0; r.len()],
             energy_weights: (r.vol.iter().zip(&r.counted))
                 .map(|(&v, &c)| if c { v } else { 0.0 })
@@ -421,8 +476,17 @@ impl<D: Dim, S: TlScheme<D>> OdeSystem for TlSph<D, S> {
         Ok(())
     }
 
-    /// The interactions' work before the step (the contact forces of seed 000 §5.8).
+    /// The plastic history committed from F at the step's start, then the interactions'
+    /// work before the step (the contact forces of seed 000 §5.8).
     fn begin_step(&mut self, t: f64, dt: f64, y: &TlState<D>) {
+        if let Some(history) = &self.core.plastic {
+            let f = self.scheme.deformation_gradient(&self.core, y);
+            let committed = returned_all::<D>(history, &f);
+            let core = &mut self.core;
+            if let Some(history) = core.plastic.as_mut() {
+                history.commit(&committed, &core.energy_weights);
+            }
+        }
         self.core
             .surroundings
             .begin_step(t, dt, &self.core.x0, &y.u, &y.v);
@@ -482,6 +546,24 @@ impl<D: Dim, S: TlScheme<D>> Method<D> for TlSph<D, S> {
 
     fn pairs(&self) -> usize {
         self.scheme.lists().pair_count()
+    }
+
+    /// The committed plastic work and the current step's, over the reference volumes.
+    fn plastic_work(&self, y: &TlState<D>) -> f64 {
+        let Some(history) = &self.core.plastic else {
+            return 0.0;
+        };
+        let f = self.scheme.deformation_gradient(&self.core, y);
+        history.work_at(&returned_all::<D>(history, &f), &self.core.energy_weights)
+    }
+
+    /// The plastic history C_p⁻¹, ε_p of the particles.
+    fn save_history(&self, out: &mut Vec<f64>) {
+        History::save(self.core.plastic.as_ref(), out);
+    }
+
+    fn load_history(&mut self, words: &mut &[f64]) -> Result<(), String> {
+        History::load(self.core.plastic.as_mut(), words)
     }
 
     fn traffic(&self) -> Option<Traffic> {

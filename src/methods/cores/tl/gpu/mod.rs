@@ -621,12 +621,11 @@ impl<D: GpuDim> GpuFamily<D> for TlDevice<D> {
         }
         snapshot(
             &r.material,
-            &r.x0,
-            &r.mass,
-            &r.body,
+            (&r.x0, &r.mass, &r.body),
             &self.energy_weight,
             y,
             f,
+            None,
         )
     }
 }
