@@ -156,8 +156,8 @@ fn kb_point(q: u32) -> KbPoint {
 // w0_q det F_q (det F_q ≤ 0 flags it), then T_q = w_q σ_q / S_q, t_q = T_q ∇S_q / S_q and
 // w0_q ψ_q into kin; ρ̇_q and Ṡ_q (rate model) and a stress point's ẋ_q into d.
 // bytes:
-// Items: points; pairs: the pairs of their lists (particles and stress points), read
-// twice over the particles.
+// Items: points; pairs: the pairs of their lists, read twice over the particles (the
+// pass stops at a list's first stress point: counting every pair bounds it from above).
 // - offsets: 2 scalars per item
 // - ids: 2 scalars per pair
 // X_q, w0_q and every particle's X.

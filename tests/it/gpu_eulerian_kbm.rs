@@ -275,43 +275,65 @@ fn a_search_past_the_room_grows_the_lists_and_runs_the_batch_again() {
     // for exactly the first search's pairs overflow at the second search (the block 1.5 %
     // smaller, more points within reach); the engine grows them, searches again from the
     // positions of the last search before the batch and runs the batch again, ending on the
-    // bits of a run whose lists had room from the start.
-    let text = crate::common::block_text(
-        &[1.0, 0.6],
-        "hypoelastic",
-        "kbm",
-        &(eulerian("stress-points") + "\nsearch_every = 5"),
-    );
-    let squeeze = "initial_velocity = { type = \"expression\", vx = \"-30*(x-0.5)\", vy = \"-30*(y-0.3)\" }\n";
-    let text = text.replacen(
-        "volumes = \"uniform\" }\n",
-        &format!("volumes = \"uniform\" }}\n{squeeze}"),
-        1,
-    );
-    let case = Scene::from_toml(&text, std::path::Path::new("squeezed.toml"), &[]).unwrap();
-    let mut roomy = device::<D2>(&case);
-    let mut tight = device::<D2>(&case);
-    let first = tight.pairs();
-    tight.set_capacity(first).unwrap();
-    assert_eq!(tight.capacity(), first);
-    for g in [&mut roomy, &mut tight] {
-        g.advance_steps(1e-4, 20).unwrap();
-        g.check().unwrap();
+    // bits of a run whose lists had room from the start. Elastic (the rate model) and von
+    // Mises with τ_y = 1 kPa (yielding at 0.1 % strain, so that every step commits a
+    // history the rerun must start from anew).
+    let plastic = "poisson_ratio = 0.3\nyield_stress = 1.0e3\nhardening_modulus = 1.0e4";
+    for (model, extra) in [("hypoelastic", ""), ("von-mises-plastic", plastic)] {
+        let keys = eulerian("stress-points") + "\nsearch_every = 5";
+        let text = crate::common::block_text(&[1.0, 0.6], model, "kbm", &keys);
+        let text = if extra.is_empty() {
+            text
+        } else {
+            text.replacen("poisson_ratio = 0.3", extra, 1)
+        };
+        let squeeze = "initial_velocity = { type = \"expression\", vx = \"-30*(x-0.5)\", vy = \"-30*(y-0.3)\" }\n";
+        let text = text.replacen(
+            "volumes = \"uniform\" }\n",
+            &format!("volumes = \"uniform\" }}\n{squeeze}"),
+            1,
+        );
+        let case = Scene::from_toml(&text, std::path::Path::new("squeezed.toml"), &[]).unwrap();
+        let mut roomy = device::<D2>(&case);
+        let mut tight = device::<D2>(&case);
+        let first = tight.pairs();
+        tight.set_capacity(first).unwrap();
+        assert_eq!(tight.capacity(), first);
+        for g in [&mut roomy, &mut tight] {
+            g.advance_steps(1e-4, 20).unwrap();
+            g.check().unwrap();
+        }
+        assert!(tight.pairs() > first, "{model}: the squeeze added no pairs");
+        assert!(
+            tight.capacity() >= tight.pairs(),
+            "{model}: the lists did not grow"
+        );
+        let bits = |g: &mut GpuEulerianKbm<D2>| -> Vec<u64> {
+            let y = g.state();
+            let snap = Engine::<D2>::snapshot(g);
+            let eps_p = snap.extra.iter().flat_map(|f| f.values.iter().copied());
+            (y.u.iter().chain(&y.v).chain(&y.point_u))
+                .flat_map(|&v| D2::to3(v))
+                .chain(y.rho.iter().copied())
+                .chain(eps_p.collect::<Vec<_>>())
+                .map(f64::to_bits)
+                .collect()
+        };
+        if !extra.is_empty() {
+            let snap = Engine::<D2>::snapshot(&mut tight);
+            let eps_p = snap
+                .field(meshless::physics::plasticity::PLASTIC_STRAIN)
+                .unwrap();
+            assert!(
+                eps_p.iter().all(|&e| e > 0.0),
+                "{model}: not every point yielded"
+            );
+        }
+        assert!(
+            bits(&mut roomy) == bits(&mut tight),
+            "{model}: the grown run left the roomy run's bits"
+        );
     }
-    assert!(tight.pairs() > first, "the squeeze added no pairs");
-    assert!(tight.capacity() >= tight.pairs(), "the lists did not grow");
-    let bits = |g: &GpuEulerianKbm<D2>| -> Vec<u64> {
-        let y = g.state();
-        (y.u.iter().chain(&y.v).chain(&y.point_u))
-            .flat_map(|&v| D2::to3(v))
-            .chain(y.rho.iter().copied())
-            .map(f64::to_bits)
-            .collect()
-    };
-    assert!(
-        bits(&roomy) == bits(&tight),
-        "the grown run left the roomy run's bits"
-    );
 }
 
 #[test]

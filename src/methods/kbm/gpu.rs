@@ -226,6 +226,8 @@ pub struct EulerianDevice<D: GpuDim> {
     status: wgpu::Buffer,
     /// The points' plastic history (10 floats of a dummy for the elastic models).
     hist: wgpu::Buffer,
+    /// `hist` at the start of the batch, whose steps commit it, to run the batch again.
+    hist_start: wgpu::Buffer,
     /// The points' positions at the last search, which the cell list reads.
     searched: wgpu::Buffer,
     /// `searched` at the start of the batch, to search again after the lists grew.
@@ -263,10 +265,9 @@ impl<D: GpuDim> GpuEulerianKbm<D> {
             m.fields("kinematics", &layout.kin);
             let plastic = case.material.model == MaterialModel::VonMisesPlastic;
             let copies = if plastic { q } else { 1 };
-            m.words(
-                "plastic history",
-                (copies * History::VIRGIN_F32.len()) as f64,
-            );
+            for label in ["plastic history", "plastic history at the batch start"] {
+                m.words(label, (copies * History::VIRGIN_F32.len()) as f64);
+            }
             for label in [
                 "positions of the last search",
                 "positions at the batch start",
@@ -320,10 +321,9 @@ impl<D: GpuDim> GpuEulerianKbm<D> {
         let status = gpu.storage("status", &STATUS_OK);
         let kin = gpu.zeroed("kinematics", layout.kin.bytes());
         let plastic = host.material().model == MaterialModel::VonMisesPlastic;
-        let hist = gpu.storage(
-            "plastic history",
-            &History::VIRGIN_F32.repeat(if plastic { q } else { 1 }),
-        );
+        let virgin = History::VIRGIN_F32.repeat(if plastic { q } else { 1 });
+        let hist = gpu.storage("plastic history", &virgin);
+        let hist_start = gpu.storage("plastic history at the batch start", &virgin);
         let position_bytes = (q * D::N * 4) as u64;
         let searched = gpu.zeroed("positions of the last search", position_bytes);
         let searched_start = gpu.zeroed("positions at the batch start", position_bytes);
@@ -387,6 +387,7 @@ impl<D: GpuDim> GpuEulerianKbm<D> {
             kin_ext: (kin, interactions.ext().clone()),
             status,
             hist,
+            hist_start,
             searched,
             searched_start,
             body,
@@ -641,8 +642,8 @@ impl<D: GpuDim> GpuFamily<D> for EulerianDevice<D> {
         self.record(gpu, encoder, self.lists().rates.of(e));
     }
 
-    /// Keeps `Y`, the positions of the last search and the steps since it, to run the
-    /// batch again after the lists grew.
+    /// Keeps `Y`, the plastic history, the positions of the last search and the steps
+    /// since it, to run the batch again after the lists grew.
     fn begin_batch(
         &mut self,
         _gpu: &Gpu,
@@ -653,8 +654,12 @@ impl<D: GpuDim> GpuFamily<D> for EulerianDevice<D> {
     ) {
         let bytes = self.layout.state.bytes();
         encoder.copy_buffer_to_buffer(stepper.buffer(Buf::Y), 0, &self.start, 0, bytes);
-        let searched = self.searched.size();
-        encoder.copy_buffer_to_buffer(&self.searched, 0, &self.searched_start, 0, searched);
+        for (from, to) in [
+            (&self.searched, &self.searched_start),
+            (&self.hist, &self.hist_start),
+        ] {
+            encoder.copy_buffer_to_buffer(from, 0, to, 0, from.size());
+        }
         self.steps_start = self.steps.load(Ordering::Relaxed);
     }
 
@@ -679,8 +684,8 @@ impl<D: GpuDim> GpuFamily<D> for EulerianDevice<D> {
 
     /// When a search overflowed the lists: grows every part to the pairs the fullest
     /// needed (with a quarter more), searches again from the positions of the last search
-    /// before the batch, clears the flags, and puts back the state and the step count at
-    /// its start.
+    /// before the batch, clears the flags, and puts back the state, the plastic history
+    /// and the step count at its start.
     fn again(&mut self, shell: &mut Shell) -> Result<bool, GpuError> {
         let cells = &self.lists().cells;
         let Some(needed) = cells.overflow(&shell.gpu) else {
@@ -689,8 +694,12 @@ impl<D: GpuDim> GpuFamily<D> for EulerianDevice<D> {
         let q = self.layout.q as u32;
         let room = Room::fitting(&shell.gpu, q, cells.room().grown(q, needed))?;
         let mut encoder = shell.gpu.device.create_command_encoder(&Default::default());
-        let bytes = self.searched.size();
-        encoder.copy_buffer_to_buffer(&self.searched_start, 0, &self.searched, 0, bytes);
+        for (from, to) in [
+            (&self.searched_start, &self.searched),
+            (&self.hist_start, &self.hist),
+        ] {
+            encoder.copy_buffer_to_buffer(from, 0, to, 0, from.size());
+        }
         shell.gpu.queue.submit([encoder.finish()]);
         self.search(shell, room, false)?;
         // What the truncated lists flagged is no failure of the batch run again.

@@ -358,10 +358,11 @@ impl<D: Dim> TlScheme<D> for TlsphScheme<D> {
         core.booked_sum(self.powers.iter().map(|p| p[1]))
     }
 
-    /// Pass 1 reads X and u (and v, ρ, S of the rate model) and writes the two records (and
-    /// ρ̇, Ṡ); pass 2 reads the records, v, Σ V_j ∇0W̃_ij and m (and X, u with hourglass
-    /// control) and writes a, u̇ and the dissipation. Both read the ids and V_j ∇0W̃_ij of
-    /// every pair; the variational force also V_j ∇0W̃_ji, the hourglass control κ_ij.
+    /// Pass 1 reads X and u (and v, ρ, S of the rate model, or the plastic history) and
+    /// writes the two records (and ρ̇, Ṡ); pass 2 reads the records, v, Σ V_j ∇0W̃_ij and m
+    /// (and X, u with hourglass control) and writes a, u̇ and the dissipation. Both read the
+    /// ids and V_j ∇0W̃_ij of every pair; the variational force also V_j ∇0W̃_ji, the
+    /// hourglass control κ_ij. The commit of a plastic history once a step is left out.
     fn traffic(&self, core: &TlCore<D>) -> Traffic {
         let Sizes { v, t, f, id } = Sizes::of::<D>();
         let records = size_of::<Gathered<D>>() + size_of::<Own<D>>();
@@ -372,7 +373,8 @@ impl<D: Dim> TlScheme<D> for TlsphScheme<D> {
             0
         };
         let hourglass = self.hourglass.is_some();
-        let pass_1 = 2 * v + records + 2 * rate + if rate > 0 { v } else { 0 };
+        let plastic = Sizes::plastic_history(core.plastic.is_some());
+        let pass_1 = 2 * v + records + 2 * rate + if rate > 0 { v } else { 0 } + plastic;
         let pass_2 = records + 4 * v + 2 * f + if hourglass { 2 * v } else { 0 };
         let pair = id + v;
         let per_pair =
