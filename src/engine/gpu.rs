@@ -66,6 +66,23 @@ impl Start<'_> {
         Ok((stepper, interactions))
     }
 
+    /// [`Start::stepper`] from the nodes' displacements and velocities (u, v), every other
+    /// field of `state` zero, those from the field `rest` on integrated with their rates.
+    pub fn from_motion<D: GpuDim>(
+        &self,
+        integrator: IntegratorKind,
+        (state, rest): (&Fields, &str),
+        (u, v): (&[D::V], &[D::V]),
+        interactions: &Interactions<D>,
+        boundary: &Boundary<D>,
+    ) -> Result<(Stepper, GpuInteractions), GpuError> {
+        let mut y0 = state.zeroed();
+        state.write_v::<D>(&mut y0, "U", u);
+        state.write_v::<D>(&mut y0, "V", v);
+        let layout = StateLayout::of(state, rest);
+        self.stepper(integrator, layout, &y0, interactions, boundary)
+    }
+
     /// [`Start::stepper`] of a family of particles on the host's reference
     /// configuration `disc` of `case`, its state Y laid out as `state` with the rest
     /// density at `RHO`; the interactions' reference neighbours come from `neighbours`.

@@ -19,6 +19,7 @@
 use super::context::{Gpu, GpuError, Pipeline, Vec3, WORKGROUP};
 use super::layout::GpuDim;
 use super::memory::DeviceMemory;
+use super::profile::{IndirectRuns, Scale};
 use super::shaders::{CELL_LIST, Constants, SCAN, compose};
 use crate::case::Case;
 use crate::core::neighbour::{SKIN, bounding_box};
@@ -655,6 +656,19 @@ impl CellList {
         let rows = f64::from(self.n.max(1));
         let parts = (self.parts.iter()).map(|p| (p.rows, f64::from(p.rows) / rows));
         gpu.dispatch_parts(pass, pipeline, binds, parts);
+    }
+
+    /// What scales the passes on these lists in the pass report: the pairs of the last
+    /// build and the builds run and recorded so far (reads them back).
+    pub fn scale(&self, gpu: &Gpu) -> Scale {
+        let builds = IndirectRuns {
+            ran: u64::from(self.builds(gpu)),
+            recorded: self.recorded(),
+        };
+        Scale {
+            pairs: self.pairs(gpu),
+            indirect: Some(builds),
+        }
     }
 
     /// How the ids are laid out.

@@ -523,3 +523,15 @@ pub fn run_mixed_steps<D: Dim>(case: &Scene, steps: u32) -> CpuEngine<D, MixedSp
     e.advance(0.0, dt, steps).unwrap();
     e
 }
+
+/// The tensor whose columns are the first D::N entries of the first D::N of `columns`.
+pub fn of_columns<D: Dim>(columns: &[[f64; 3]; 3]) -> D::T {
+    (0..D::N).fold(D::zero_t(), |m, k| {
+        let mut e = [0.0; 3];
+        e[k] = 1.0;
+        m + D::outer(
+            D::from_slice(&columns[k][..D::N]),
+            D::from_slice(&e[..D::N]),
+        )
+    })
+}

@@ -38,14 +38,7 @@ fn deformed<D: Dim>(m: &Eulerian<D>, seed: u64) -> UlGalerkinState<D> {
         [-0.95 * s, 0.95 * c, 0.03],
         [0.0, 0.0, 1.05],
     ];
-    let map = (0..D::N).fold(D::zero_t(), |m, k| {
-        let mut e = [0.0; 3];
-        e[k] = 1.0;
-        m + D::outer(
-            D::from_slice(&columns[k][..D::N]),
-            D::from_slice(&e[..D::N]),
-        )
-    });
+    let map = crate::common::of_columns::<D>(&columns);
     let mut y = m.initial_state();
     let n = y.u.len();
     for (u, v) in y.u.iter_mut().zip(y.v.iter_mut()) {

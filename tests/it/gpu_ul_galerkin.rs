@@ -62,14 +62,7 @@ fn deformed<D: Dim>(m: &UlFem<D>, seed: u64) -> UlGalerkinState<D> {
         [-0.9 * s, 0.9 * c, 0.1],
         [0.0, 0.0, 1.1],
     ];
-    let map = (0..D::N).fold(D::zero_t(), |m, k| {
-        let mut e = [0.0; 3];
-        e[k] = 1.0;
-        m + D::outer(
-            D::from_slice(&columns[k][..D::N]),
-            D::from_slice(&e[..D::N]),
-        )
-    });
+    let map = crate::common::of_columns::<D>(&columns);
     let mut y = m.initial_state();
     for ((u, v), &x) in y.u.iter_mut().zip(y.v.iter_mut()).zip(m.reference()) {
         *u = map * x - x + random_vector::<D>(&mut seed, 1e-3);

@@ -29,8 +29,8 @@ use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::memory::{Counts, DeviceMemory};
 use crate::gpu::neighbour::{CellList, CellParams, Positions, Room};
 use crate::gpu::parts::Split;
-use crate::gpu::profile::{IndirectRuns, Scale};
-use crate::gpu::program::{StateLayout, Stepper};
+use crate::gpu::profile::Scale;
+use crate::gpu::program::Stepper;
 use crate::gpu::reduction::{self, Reduced, Reduction};
 use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
@@ -329,19 +329,15 @@ impl<D: GpuDim> GpuEulerianKbm<D> {
         let searched_start = gpu.zeroed("positions at the batch start", position_bytes);
         let body = (case.bodies.len() > 1).then(|| gpu.storage("bodies", &points.body));
 
-        let mut y0 = layout.state.zeroed();
-        layout.state.write_v::<D>(&mut y0, "U", &y0_host.u);
-        layout.state.write_v::<D>(&mut y0, "V", &y0_host.v);
         let start = Start {
             gpu: &gpu,
             compose: &compose,
             device: &device,
         };
-        let state = StateLayout::of(&layout.state, "PU");
-        let (stepper, interactions) = start.stepper(
+        let (stepper, interactions) = start.from_motion(
             case.method.integrator,
-            state,
-            &y0,
+            (&layout.state, "PU"),
+            (&y0_host.u, &y0_host.v),
             host.interactions(),
             host.boundary(),
         )?;
@@ -627,15 +623,7 @@ impl<D: GpuDim> GpuFamily<D> for EulerianDevice<D> {
 
     /// The pairs of the last search (read back), and the searches run and recorded so far.
     fn scale(&self, gpu: &Gpu) -> Scale {
-        let cells = &self.lists().cells;
-        let searches = IndirectRuns {
-            ran: u64::from(cells.builds(gpu)),
-            recorded: cells.recorded(),
-        };
-        Scale {
-            pairs: cells.pairs(gpu),
-            indirect: Some(searches),
-        }
+        self.lists().cells.scale(gpu)
     }
 
     fn record_rates(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, e: Evaluation) {

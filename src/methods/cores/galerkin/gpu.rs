@@ -21,7 +21,7 @@ use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::memory::{Counts, DeviceMemory};
 use crate::gpu::parts::{self, PartLists, Split};
 use crate::gpu::profile::Scale;
-use crate::gpu::program::{StateLayout, Stepper};
+use crate::gpu::program::Stepper;
 use crate::gpu::reduction::{self, Reduced, Reduction};
 use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
@@ -634,19 +634,15 @@ impl<D: GpuDim> GpuGalerkin<D> {
             &History::VIRGIN_F32.repeat(if plastic { q } else { 1 }),
         );
 
-        let mut y0 = layout.state.zeroed();
-        layout.state.write_v::<D>(&mut y0, "U", &y0_host.u);
-        layout.state.write_v::<D>(&mut y0, "V", &y0_host.v);
         let start = Start {
             gpu: &gpu,
             compose: &compose,
             device: &device,
         };
-        let state = StateLayout::of(&layout.state, "RHO");
-        let (stepper, interactions) = start.stepper(
+        let (stepper, interactions) = start.from_motion(
             case.method.integrator,
-            state,
-            &y0,
+            (&layout.state, "RHO"),
+            (&y0_host.u, &y0_host.v),
             host.interactions(),
             host.boundary(),
         )?;

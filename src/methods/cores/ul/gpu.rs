@@ -31,7 +31,7 @@ use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::memory::{Counts, DeviceMemory};
 use crate::gpu::neighbour::{CellList, CellParams, Positions, Room};
 use crate::gpu::parts::Split;
-use crate::gpu::profile::{IndirectRuns, Scale};
+use crate::gpu::profile::Scale;
 use crate::gpu::program::Stepper;
 use crate::gpu::reduction::{self, Reduced, Reduction};
 use crate::gpu::reference::{self, DeviceReference, Extras};
@@ -604,15 +604,7 @@ impl<D: GpuDim> GpuFamily<D> for UlDevice<D> {
 
     /// The pairs of the last build (read back), and the builds run and recorded so far.
     fn scale(&self, gpu: &Gpu) -> Scale {
-        let cells = &self.lists().cells;
-        let builds = IndirectRuns {
-            ran: u64::from(cells.builds(gpu)),
-            recorded: cells.recorded(),
-        };
-        Scale {
-            pairs: cells.pairs(gpu),
-            indirect: Some(builds),
-        }
+        self.lists().cells.scale(gpu)
     }
 
     /// Records one rate evaluation on the state in `Y` or `Stage`: positions, the
