@@ -1,7 +1,7 @@
 // The weak form's velocity smoothing after a step (seed 000 §5.6): v_a ← Σ_b N_b(X_a) v_b
 // with N_b = V_b Ψ_b over the particles' own reproducing-kernel lists (a itself
 // included), into `smoothed` (`smooth_velocities`), then back into the state but for the
-// prescribed components, which keep their values (`settle`). Weights: smooth_weights =
+// prescribed components, which keep their values (`settle`, settle.wgsl). Weights: smooth_weights =
 // [N per pair]. The lists and weights bound to `smooth_velocities` are those of a part of
 // the nodes (part.wgsl), the offsets counted from its first pair. Constants: N, DIM,
 // V_OFF, SWN_OFF and the reference fields.
@@ -34,24 +34,4 @@ fn smooth_velocities(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num
         v += vload_y(V_OFF + DIM * smooth_ids[p]) * smooth_weights[SWN_OFF + p];
     }
     vstore_smoothed(DIM * a, v);
-}
-
-// bytes:
-// Items: nodes; pairs: counted as the point–node pairs (the smoothing lists are about
-// as long).
-// - reference: 1 scalar per item
-// - smoothed: 1 vector per item
-// - y: 1 vector per item
-@compute @workgroup_size(256)
-fn settle(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
-    let a = index(gid, nwg);
-    if a >= N {
-        return;
-    }
-    let m = mask_of(a);
-    for (var k = 0u; k < DIM; k++) {
-        if ((m >> k) & 1u) == 0u {
-            y[V_OFF + DIM * a + k] = smoothed[DIM * a + k];
-        }
-    }
 }

@@ -409,90 +409,19 @@ fn correction_of(i: u32) -> matd {
     return transpose(inverse_d(a));
 }
 
-// The linear basis p̂(r) = (1, r/h) of the RKPM correction, scaled by the smoothing
-// length.
-fn basis(r: vecd) -> array<f32, 4> {
-    var q: array<f32, 4>;
-    q[0] = 1.0;
-    for (var k = 0u; k < DIM; k++) {
-        q[k + 1u] = r[k] / KERNEL_H;
-    }
-    return q;
-}
-
-// The solution of M y = b for the n × n (n ≤ 4) moment matrix M by Gaussian elimination
-// with partial pivoting (src/core/correction.rs `solve_small`); ok = false where a pivot
-// is below 1e-6 of M's largest entry (singular in f32).
-struct Solved {
-    y: array<f32, 4>,
-    ok: bool,
-}
-
-fn solve_moments(m_in: array<array<f32, 4>, 4>, b_in: array<f32, 4>, n: u32) -> Solved {
-    var m = m_in;
-    var b = b_in;
-    var out: Solved;
-    var scale = 0.0;
-    for (var a = 0u; a < n; a++) {
-        for (var c = 0u; c < n; c++) {
-            scale = max(scale, abs(m[a][c]));
-        }
-    }
-    for (var c = 0u; c < n; c++) {
-        var p = c;
-        for (var r = c + 1u; r < n; r++) {
-            if abs(m[r][c]) > abs(m[p][c]) {
-                p = r;
-            }
-        }
-        if !(abs(m[p][c]) > 1e-6 * scale) {
-            out.ok = false;
-            return out;
-        }
-        let row = m[c];
-        m[c] = m[p];
-        m[p] = row;
-        let bc = b[c];
-        b[c] = b[p];
-        b[p] = bc;
-        for (var r = c + 1u; r < n; r++) {
-            let f = m[r][c] / m[c][c];
-            for (var k = c; k < n; k++) {
-                m[r][k] -= f * m[c][k];
-            }
-            b[r] -= f * b[c];
-        }
-    }
-    for (var rr = 0u; rr < n; rr++) {
-        let r = n - 1u - rr;
-        var s = b[r];
-        for (var k = r + 1u; k < n; k++) {
-            s -= m[r][k] * out.y[k];
-        }
-        out.y[r] = s / m[r][r];
-    }
-    out.ok = true;
-    return out;
-}
-
 // The correction of particle i's velocity gradient, loaded once per particle for its
 // pairs: A⁻ᵀ of the Randles–Libersky correction, or the RKPM coefficients C and ∂_k C.
 struct Corrector {
     ait: matd,
-    c: vec4<f32>,
-    dc: array<vec4<f32>, 3>,
+    rk: Rkpm,
 }
 
-// The RKPM coefficients at x_i from its pairs and itself on the current positions, in
-// the basis p̂(r) = (1, r/h) scaled by the smoothing length (seed 000 eqs 55–59; f32 keeps
-// the moment matrix's entries of one order): M̂ C = e₁ and M̂ ∂_k C = −(∂_k M̂) C, with
-// V_j = m_j/ρ_j. A moment matrix the neighbours do not span records the particle in
+// The RKPM coefficients at x_i from its pairs and itself on the current positions
+// (rkpm.wgsl, scaled by KERNEL_H), with V_j = m_j/ρ_j. A moment matrix the neighbours do not span records the particle in
 // status[0] and leaves the plain gradients (C = e₁, ∂C = 0).
 fn reproducing_of(i: u32) -> Corrector {
-    let n = DIM + 1u;
     let xi = x_of(i);
-    var m: array<array<f32, 4>, 4>;
-    var dm: array<array<array<f32, 4>, 4>, 3>;
+    var mo: Moments;
     let pairs = pairs_of(i);
     // The self pair (r = 0: W(0), ∇W = 0) and then the neighbours.
     for (var p = pairs.x; p <= pairs.y; p++) {
@@ -504,49 +433,15 @@ fn reproducing_of(i: u32) -> Corrector {
             }
         }
         let r = xi - x_of(j);
-        let v = mass_of(j) / rho_of(j);
         let h = h_pair(i, j);
-        let w = kernel_w_at(length(r), h);
-        let gw = kernel_grad_at(r, h);
-        let q = basis(r);
-        for (var a = 0u; a < n; a++) {
-            for (var b = 0u; b < n; b++) {
-                m[a][b] += v * w * q[a] * q[b];
-                for (var k = 0u; k < DIM; k++) {
-                    var e = 0.0;
-                    if a == k + 1u {
-                        e += q[b];
-                    }
-                    if b == k + 1u {
-                        e += q[a];
-                    }
-                    dm[k][a][b] += v * (gw[k] * q[a] * q[b] + w * e / KERNEL_H);
-                }
-            }
-        }
+        let v = mass_of(j) / rho_of(j);
+        add_moments(&mo, r, v, kernel_w_at(length(r), h), kernel_grad_at(r, h), KERNEL_H);
     }
     var out: Corrector;
     out.ait = identity_d();
-    out.c = vec4<f32>(1.0, 0.0, 0.0, 0.0);
-    var e1: array<f32, 4>;
-    e1[0] = 1.0;
-    let c = solve_moments(m, e1, n);
-    if !c.ok {
+    out.rk = rkpm_solve(mo);
+    if !out.rk.ok {
         atomicMin(&status[0], i);
-        return out;
-    }
-    out.c = vec4<f32>(c.y[0], c.y[1], c.y[2], c.y[3]);
-    for (var k = 0u; k < DIM; k++) {
-        var rhs: array<f32, 4>;
-        for (var a = 0u; a < n; a++) {
-            var s = 0.0;
-            for (var b = 0u; b < n; b++) {
-                s += dm[k][a][b] * out.c[b];
-            }
-            rhs[a] = -s;
-        }
-        let dc = solve_moments(m, rhs, n);
-        out.dc[k] = vec4<f32>(dc.y[0], dc.y[1], dc.y[2], dc.y[3]);
     }
     return out;
 }
@@ -593,9 +488,9 @@ fn store_common(i: u32) {
         let k = reproducing_of(i);
         let base = KRK_OFF + (DIM + 1u) * (DIM + 1u) * i;
         for (var a = 0u; a <= DIM; a++) {
-            kin[base + a] = k.c[a];
+            kin[base + a] = k.rk.c[a];
             for (var d = 0u; d < DIM; d++) {
-                kin[base + (DIM + 1u) * (d + 1u) + a] = k.dc[d][a];
+                kin[base + (DIM + 1u) * (d + 1u) + a] = k.rk.dc[d][a];
             }
         }
     }
@@ -611,9 +506,9 @@ fn corrector_of(i: u32) -> Corrector {
     if CORRECTION == CORRECTION_REPRODUCING {
         let base = KRK_OFF + (DIM + 1u) * (DIM + 1u) * i;
         for (var a = 0u; a <= DIM; a++) {
-            k.c[a] = kin[base + a];
+            k.rk.c[a] = kin[base + a];
             for (var d = 0u; d < DIM; d++) {
-                k.dc[d][a] = kin[base + (DIM + 1u) * (d + 1u) + a];
+                k.rk.dc[d][a] = kin[base + (DIM + 1u) * (d + 1u) + a];
             }
         }
     }
@@ -626,20 +521,7 @@ fn corrected_grad(k: Corrector, x_ij: vecd, w: f32, grad: vecd) -> vecd {
     if CORRECTION != CORRECTION_REPRODUCING {
         return k.ait * grad;
     }
-    var q = basis(x_ij);
-    var cp = 0.0;
-    for (var a = 0u; a <= DIM; a++) {
-        cp += k.c[a] * q[a];
-    }
-    var g: vecd;
-    for (var d = 0u; d < DIM; d++) {
-        var dcp = 0.0;
-        for (var a = 0u; a <= DIM; a++) {
-            dcp += k.dc[d][a] * q[a];
-        }
-        g[d] = (dcp + k.c[d + 1u] / KERNEL_H) * w + cp * grad[d];
-    }
-    return g;
+    return rkpm_gradient(k.rk, x_ij, w, grad, KERNEL_H);
 }
 
 // Writes the rates of particle i from its scheme's ẋ, a, ρ̇ and L: prescribed velocity

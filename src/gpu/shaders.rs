@@ -89,6 +89,8 @@ pub const PART: Wgsl = wgsl!("common/part.wgsl");
 pub const EIGEN: Wgsl = wgsl!("common/eigen.wgsl");
 /// The rate model's objective stress rate (after [`EIGEN`]).
 pub const OBJECTIVE: Wgsl = wgsl!("common/objective.wgsl");
+/// Reproducing-kernel functions with a linear basis at a smoothing length of the caller's.
+pub const RKPM: Wgsl = wgsl!("common/rkpm.wgsl");
 /// The von Mises return map (after [`EIGEN`]).
 pub const PLASTICITY: Wgsl = wgsl!("physics/plasticity.wgsl");
 /// The store of a returned point into the plastic history (after [`PLASTICITY`], in a pass

@@ -308,7 +308,7 @@ fn check_eulerian_kbm<D: GpuDim>() {
         for q in [100, 180] {
             let layout = kbm::Layout::new(100, 10, q, D::N, rate);
             let constants = kbm::scene_constants(&case, &layout);
-            for source in [kbm::RATES, kbm::REDUCE] {
+            for source in [kbm::RATES, galerkin::FOLDED_REDUCE] {
                 let src = shaders::compose::<D>(&source, &constants);
                 let what = format!("{}D {} ({model}, {q} points)", D::N, source.name);
                 validate_wgsl(&what, &src);

@@ -5,7 +5,7 @@
 use super::GodunovSpec;
 use crate::gpu::shaders::{
     BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, KERNEL, LOADS, MECHANICS, OBJECTIVE, PART,
-    PRESCRIBED, REFERENCE, Source, source,
+    PRESCRIBED, REFERENCE, RKPM, Source, source,
 };
 use crate::methods::cores::ul::gpu::{CORE, FLAT, REDUCE, RETURN, Scheme};
 
@@ -13,7 +13,7 @@ use crate::methods::cores::ul::gpu::{CORE, FLAT, REDUCE, RETURN, Scheme};
 pub const PASSES: Source = source!(
     "godunov/godunov.wgsl",
     [
-        KERNEL, MECHANICS, REFERENCE, BOUNDARY, EIGEN, OBJECTIVE, PART, CORE
+        KERNEL, MECHANICS, REFERENCE, BOUNDARY, EIGEN, OBJECTIVE, PART, RKPM, CORE
     ],
     flat = FLAT
 );

@@ -6,7 +6,7 @@ use super::GrayMonaghanSpec;
 use crate::case::Case;
 use crate::gpu::shaders::{
     BOUNDARY, CONTACT, Constants, EIGEN, INTEGRATE, KERNEL, LOADS, MECHANICS, OBJECTIVE, PART,
-    PRESCRIBED, REFERENCE, Source, VISCOSITY, source,
+    PRESCRIBED, REFERENCE, RKPM, Source, VISCOSITY, source,
 };
 use crate::methods::cores::ul::gpu::{CORE, FLAT, REDUCE, RETURN, Scheme};
 
@@ -14,7 +14,7 @@ use crate::methods::cores::ul::gpu::{CORE, FLAT, REDUCE, RETURN, Scheme};
 pub const PASSES: Source = source!(
     "gray_monaghan/gray_monaghan.wgsl",
     [
-        KERNEL, MECHANICS, REFERENCE, BOUNDARY, EIGEN, OBJECTIVE, VISCOSITY, PART, CORE
+        KERNEL, MECHANICS, REFERENCE, BOUNDARY, EIGEN, OBJECTIVE, VISCOSITY, PART, RKPM, CORE
     ],
     flat = FLAT
 );

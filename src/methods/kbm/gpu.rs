@@ -35,12 +35,14 @@ use crate::gpu::reduction::{self, Reduced, Reduction};
 use crate::gpu::reference::{self, DeviceReference, Extras};
 use crate::gpu::shaders::{
     self, BOUNDARY, Constants, EIGEN, KERNEL, MECHANICS, OBJECTIVE, PART, PLASTIC_STORE,
-    PLASTICITY, REFERENCE, Source, Wgsl, source, wgsl,
+    PLASTICITY, REFERENCE, Source, source,
 };
 use crate::gpu::shell::Shell;
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
 use crate::interaction::gpu::GpuInteractions;
-use crate::methods::cores::galerkin::gpu::{self as galerkin, Points, STRESS};
+use crate::methods::cores::galerkin::gpu::{
+    self as galerkin, FOLDED_REDUCE, Points, RATE_POINT, STRESS,
+};
 use crate::methods::cores::galerkin::updated::{MovingPoints, UlGalerkin, UlGalerkinState};
 use crate::methods::cores::shared::BySource;
 use crate::physics::material::{Material, MaterialModel};
@@ -59,6 +61,7 @@ pub const RATES: Source = source!(
         OBJECTIVE,
         PLASTICITY,
         PLASTIC_STORE,
+        RATE_POINT,
         STRESS,
         PART
     ],
@@ -72,14 +75,6 @@ pub const RATES: Source = source!(
         ("xs", true)
     ]
 );
-/// The points' stored energy folded onto the particles, for the reduction.
-const ENERGY: Wgsl = wgsl!("kbm/eulerian_energy.wgsl");
-/// Energies, momenta and checks of a state.
-pub const REDUCE: Source = source!(
-    "common/reduce.wgsl",
-    [MECHANICS, ENERGY, REFERENCE, PART],
-    [("y", false), ("kin", false), ("reference", false)]
-);
 
 /// The passes of either kernel: the Galerkin passes of the Lagrangian kernel's, then the
 /// Eulerian kernel's own.
@@ -92,7 +87,7 @@ pub const SHADERS: &[Source] = &[
     shaders::PRESCRIBED,
     shaders::INTEGRATE,
     RATES,
-    REDUCE,
+    FOLDED_REDUCE,
 ];
 
 /// The host's system of the Eulerian kernel.
@@ -358,7 +353,7 @@ impl<D: GpuDim> GpuEulerianKbm<D> {
         )?;
         let reduction = Reduction::new(
             &gpu,
-            &compose(&REDUCE),
+            &compose(&FOLDED_REDUCE),
             &[("y", y), ("kin", &kin), ("reference", &device.reference)],
             n,
         )?;

@@ -46,6 +46,7 @@ pub const RATES: Source = source!(
         OBJECTIVE,
         PLASTICITY,
         PLASTIC_STORE,
+        RATE_POINT,
         STRESS,
         PART
     ],
@@ -61,20 +62,34 @@ pub const RATES: Source = source!(
 );
 /// The stress at a point, which the Galerkin passes on either kernel share.
 pub const STRESS: Wgsl = wgsl!("galerkin/stress.wgsl");
+/// The rate model at a point (before [`STRESS`]), which the weak form's stress points share.
+pub const RATE_POINT: Wgsl = wgsl!("galerkin/rate_point.wgsl");
 /// A node's share of the points' stored energy, for the reduction.
 const ENERGY: Wgsl = wgsl!("galerkin/galerkin_energy.wgsl");
+/// The stored energy of points that move on their own, folded onto the particles, for
+/// the reduction.
+const FOLDED_ENERGY: Wgsl = wgsl!("galerkin/folded_energy.wgsl");
 /// Energies, momenta and checks of a state.
 pub const REDUCE: Source = source!(
     "common/reduce.wgsl",
     [MECHANICS, ENERGY, REFERENCE, PART],
     [("y", false), ("kin", false), ("reference", false)]
 );
+/// Energies, momenta and checks of a state whose points move on their own.
+pub const FOLDED_REDUCE: Source = source!(
+    "common/reduce.wgsl",
+    [MECHANICS, FOLDED_ENERGY, REFERENCE, PART],
+    [("y", false), ("kin", false), ("reference", false)]
+);
 /// The weak form's velocity smoothing.
 pub const SMOOTH: Source = source!(
     "galerkin/galerkin_smooth.wgsl",
-    [REFERENCE, PART],
+    [REFERENCE, PART, SETTLE],
     [("y", true), ("smoothed", true), ("reference", false)]
 );
+
+/// The smoothed velocities back into the state but for the prescribed components.
+pub const SETTLE: Wgsl = wgsl!("galerkin/settle.wgsl");
 
 /// The passes compiled with a Galerkin scene's constants ([`scene_constants`]).
 pub const SHADERS: &[Source] = &[RATES, REDUCE, SMOOTH, CONTACT, LOADS, PRESCRIBED, INTEGRATE];

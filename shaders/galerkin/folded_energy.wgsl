@@ -1,4 +1,5 @@
-// The stored energy of the reduction (reduce.wgsl) for the Eulerian kernel: the points'
+// The stored energy of the reduction (reduce.wgsl) for the Galerkin methods whose points
+// move on their own (kbm/eulerian.wgsl, ul_weak_form/ul_weak_form.wgsl): the points'
 // w0_q ψ_q (kin, from the points pass of the same state) folded onto the particles,
 // particle a summing the points a, a + N, a + 2N, … below Q, so that the particles'
 // values sum to Σ_q w0_q ψ_q (a particle's value is that sum's share, no field of its own).
