@@ -34,7 +34,7 @@ pub(crate) use fields::linear_field;
 pub use fields::{DisplacementField, VelocityField};
 pub(crate) use geometry::read_capped;
 pub use geometry::{
-    BodySize, Discretised, PARTICLE_ID_LIMIT, discretise, estimate_particles, tube_frames,
+    BOX_HALF, BodySize, Discretised, PARTICLE_ID_LIMIT, discretise, estimate_particles, tube_frames,
 };
 pub use method::MethodKeys;
 pub use output::{CheckSpec, Observer, OutputSpec, ProbeSpec, SectionSpec, Statistic};

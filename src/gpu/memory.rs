@@ -21,6 +21,10 @@ pub struct Counts {
     pub gauss_pairs: f64,
     /// Pairs of the cells' centres with the particles within the support.
     pub centre_pairs: f64,
+    /// Pairs of the particles and of the cells' centres with the particles of their
+    /// candidate boxes (`ul-weak-form`).
+    pub box_pairs: f64,
+    pub centre_box_pairs: f64,
     /// Mirror particles of the symmetry planes.
     pub ghosts: f64,
 }
@@ -38,6 +42,8 @@ impl Counts {
             self.cells,
             self.gauss_pairs,
             self.centre_pairs,
+            self.box_pairs,
+            self.centre_box_pairs,
             self.ghosts,
         ]
         .iter()
@@ -123,6 +129,8 @@ mod tests {
             cells: 0.0,
             gauss_pairs: 0.0,
             centre_pairs: 0.0,
+            box_pairs: 0.0,
+            centre_box_pairs: 0.0,
             ghosts: 0.0,
         };
         let m = DeviceMemory::of(&counts, |m| {

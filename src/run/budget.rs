@@ -101,6 +101,8 @@ impl Estimate {
                 cells,
                 gauss_pairs: sum(|s| s.gauss_pairs),
                 centre_pairs: sum(|s| s.centre_pairs),
+                box_pairs: sum(|s| s.box_pairs),
+                centre_box_pairs: sum(|s| s.centre_box_pairs),
                 ghosts: sum(|s| s.ghosts),
             };
             let device = match case.dimension {

@@ -21,6 +21,7 @@ use meshless::methods::gray_monaghan::system::Scheme as GmScheme;
 use meshless::methods::kbm::gpu::GpuEulerianKbm;
 use meshless::methods::mixed::{GpuMixed, MixedState};
 use meshless::methods::tlsph::{GpuTlsph, TlState};
+use meshless::methods::ul_weak_form::gpu::GpuUlWeakForm;
 use meshless::methods::{Method, MethodSpec, Runs};
 use meshless::reference::Reference;
 use meshless::run::{Engine, build_method};
@@ -539,6 +540,46 @@ fn eulerian_kbm_on_split_lists_is_the_unsplit_bits() {
     };
     same_bits(
         "eulerian kbm: 12 steps",
+        &steps(&mut whole),
+        &steps(&mut split),
+    );
+}
+
+#[test]
+fn ul_weak_form_on_split_lists_is_the_unsplit_bits() {
+    // The updated-Lagrangian weak form on the 2D block of 101 × 101 particles and 10,000
+    // stress points: the candidate lists, their transpose and the particles' own (42–46
+    // ids a row, 1.7–1.9 MB each) in 2 parts each under 1 MiB. The rates, the reduction
+    // and 12 steps with the velocity smoothing on the split lists are the unsplit bits.
+    let case = block(&[10.0, 10.0], "hypoelastic", "ul-weak-form", "");
+    let new = |gpu| GpuUlWeakForm::<D2>::new(&case, spec_of(&case), gpu).unwrap();
+    let (mut whole, mut split) = (new(gpu()), new(gpu().with_binding_limit(LIMIT)));
+    let parts = split.parts();
+    assert!(parts.iter().all(|&p| p >= 2), "{parts:?} parts under 1 MiB");
+    let mut y = whole.state();
+    let mut seed = 5;
+    for (u, v) in y.u.iter_mut().zip(y.v.iter_mut()) {
+        *u = random_vector::<D2>(&mut seed, 1e-3);
+        *v = random_vector::<D2>(&mut seed, 1.0);
+    }
+    let bits = |y: &UlGalerkinState<D2>| -> Vec<u64> {
+        let vectors = [&y.u, &y.v, &y.point_u].into_iter().flatten();
+        (vectors.flat_map(|&v| D2::to3(v)))
+            .chain(y.node_rho.iter().copied())
+            .map(f64::to_bits)
+            .collect()
+    };
+    let rates = |g: &mut GpuUlWeakForm<D2>| (bits(&g.rates(&y)), reduced_bits(&g.reduced()));
+    let (a, b) = (rates(&mut whole), rates(&mut split));
+    same_bits("ul-weak-form: rates", &a.0, &b.0);
+    same_bits("ul-weak-form: reduction", &a.1, &b.1);
+    let steps = |g: &mut GpuUlWeakForm<D2>| {
+        g.set_state(&y);
+        Engine::<D2>::advance(g, 0.0, 1e-5, 12).unwrap();
+        bits(&g.state())
+    };
+    same_bits(
+        "ul-weak-form: 12 steps",
         &steps(&mut whole),
         &steps(&mut split),
     );

@@ -652,7 +652,7 @@ fn allocated<D: meshless::engine::EngineDim>(case: &Scene) -> (f64, BTreeMap<Str
 fn every_gpu_method() -> Vec<(&'static str, Scene)> {
     let plate = "studies/cases/swinging-plate";
     let block = "spinning-block-3d";
-    let variants: [(&str, &[&str]); 13] = [
+    let variants: [(&str, &[&str]); 14] = [
         ("tlsph", &[]),
         ("tlsph-hypoelastic", &["material.model=hypoelastic"]),
         (
@@ -715,6 +715,16 @@ fn every_gpu_method() -> Vec<(&'static str, Scene)> {
             "ul-fem",
             &[
                 "method.name=ul-fem",
+                "method.kernel=",
+                "method.h_over_dx=",
+                "method.correction=",
+            ],
+        ),
+        (
+            "ul-weak-form",
+            &[
+                "method.name=ul-weak-form",
+                "material.model=hypoelastic",
                 "method.kernel=",
                 "method.h_over_dx=",
                 "method.correction=",

@@ -46,6 +46,8 @@ mod gpu_tlsph;
 mod gpu_ul;
 #[cfg(feature = "gpu")]
 mod gpu_ul_galerkin;
+#[cfg(feature = "gpu")]
+mod gpu_ul_weak_form;
 mod gradients_1d;
 mod gray_monaghan;
 mod hostile;

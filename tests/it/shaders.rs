@@ -21,6 +21,7 @@ use meshless::methods::gray_monaghan::gpu as gray_monaghan;
 use meshless::methods::kbm::gpu as kbm;
 use meshless::methods::mixed::{MixedSph, gpu as mixed};
 use meshless::methods::potential::gpu as potential;
+use meshless::methods::ul_weak_form::gpu as ul_weak_form;
 use meshless::run::build_method;
 use meshless::scene::Scene;
 use std::path::Path;
@@ -126,6 +127,7 @@ fn check_all<D: GpuDim>() {
     check_dual_support::<D>();
     check_galerkin::<D>();
     check_eulerian_kbm::<D>();
+    check_ul_weak_form::<D>();
     check_without_constants::<D>();
 }
 
@@ -317,6 +319,19 @@ fn check_eulerian_kbm<D: GpuDim>() {
     }
 }
 
+/// The weak form's passes, with fewer and more stress points than particles.
+fn check_ul_weak_form<D: GpuDim>() {
+    let case = crate::galerkin::block(block_max(D::N), "hypoelastic", "ul-weak-form", "");
+    for q in [80, 120] {
+        let layout = ul_weak_form::Layout::new(100, 10, q, D::N);
+        let constants = ul_weak_form::scene_constants(&case, &layout);
+        for source in ul_weak_form::SHADERS {
+            let src = shaders::compose::<D>(source, &constants);
+            validate_wgsl(&format!("{}D {} ({q} points)", D::N, source.name), &src);
+        }
+    }
+}
+
 /// Passes without scene constants (neighbour build, scans) validate on their own.
 fn check_without_constants<D: GpuDim>() {
     let ul_shaders = [
@@ -326,6 +341,7 @@ fn check_without_constants<D: GpuDim>() {
         corotated::SHADERS,
         galerkin::SHADERS,
         kbm::SHADERS,
+        ul_weak_form::SHADERS,
         dual_support::SHADERS,
     ]
     .concat();

@@ -339,7 +339,7 @@ fn a_variant_runs_its_own_case_and_run_threads_sizes_the_pool() {
             "potential" => ("tl-potential", 1e-6),
             "tl-weak-form" => ("tl-weak-form", 1e-6),
             "tl-fem" => ("tl-fem", 1e-6),
-            "ul-weak-form" => ("ul-weak-form", 1e-6),
+            "ul-weak-form" | "ul-weak-form-gpu" => ("ul-weak-form", 1e-6),
             "ul-fem" | "ul-fem-gpu" => ("ul-fem", 1e-5),
             _ => ("tlsph", 1e-6),
         };

@@ -34,6 +34,11 @@ pub struct BodySize {
     pub gauss_pairs: f64,
     /// The pairs of the cells' centres with the particles within κh of them.
     pub centre_pairs: f64,
+    /// The pairs of its lattice points and of its cells' centres with the lattice points
+    /// within [`BOX_HALF`] spacings along every axis (the candidate boxes of
+    /// `ul-weak-form`, a point itself included; [`Grid::box_pairs`]).
+    pub box_pairs: f64,
+    pub centre_box_pairs: f64,
     /// The mirror particles of the planes on its faces ([`Grid::ghosts`]).
     pub ghosts: f64,
 }
@@ -49,6 +54,10 @@ struct Grid {
     inset: f64,
     reach: f64,
 }
+
+/// The half-width of the candidate boxes in spacings (`ul-weak-form`'s
+/// `points::CANDIDATE_BOX`).
+pub const BOX_HALF: f64 = 3.0;
 
 /// The most lattice offsets within a support the pair sums of [`Grid`] visit: past it
 /// (h_over_dx in the hundreds), the bulk density alone.
@@ -135,6 +144,33 @@ impl Grid {
             .sum()
     }
 
+    /// The pairs of the lattice points (or, with `centres`, of the cells' centres) with
+    /// the lattice points at most [`BOX_HALF`] away along every axis, a point itself
+    /// included: the product over the axes of the pairs along each, Σ_o (n − |o|) over
+    /// |o| ≤ 3 from the points of an axis of n, Σ_o (N + 1 − o) for o = 1..3 and (N + o)
+    /// for o = −2..0 from the N = n − 1 centres (the point c + o of centre c + ½).
+    fn box_pairs(&self, centres: bool) -> f64 {
+        let half = BOX_HALF as i64;
+        let offsets = match centres {
+            true => 1 - half..=half,
+            false => -half..=half,
+        };
+        self.counts
+            .iter()
+            .map(|&n| {
+                let cells = (n - 1.0).max(0.0);
+                (offsets.clone())
+                    .map(|o| match (centres, o >= 1) {
+                        (false, _) => n - o.abs() as f64,
+                        (true, true) => cells + 1.0 - o as f64,
+                        (true, false) => cells + o as f64,
+                    })
+                    .map(|along| along.max(0.0))
+                    .sum::<f64>()
+            })
+            .product()
+    }
+
     /// The mirror particles: the images of the points within the support of a set of
     /// mirrored faces of distinct axes, one for every such set (a face's, an edge's, a
     /// corner's), Π_k (n_k + f_k r_k) − Π_k n_k with f_k the mirrored faces of axis k and
@@ -199,6 +235,8 @@ impl Grid {
             cells: finite(cells * fraction),
             gauss_pairs: finite(gauss_pairs * fraction),
             centre_pairs: finite(centre_pairs * fraction),
+            box_pairs: finite(self.box_pairs(false) * fraction),
+            centre_box_pairs: finite(self.box_pairs(true) * fraction),
             ghosts: finite(self.ghosts() * fraction),
         }
     }
@@ -393,6 +431,8 @@ fn file_size(
         cells: n,
         gauss_pairs: f64::from(1u32 << d) * n * around,
         centre_pairs: n * around,
+        box_pairs: n * (2.0 * BOX_HALF + 1.0).powi(d as i32),
+        centre_box_pairs: n * (2.0 * BOX_HALF).powi(d as i32),
         ghosts: 0.0,
     })
 }
@@ -447,6 +487,8 @@ fn drilled(
         cells: size.cells * kept,
         gauss_pairs: size.gauss_pairs * paired,
         centre_pairs: size.centre_pairs * paired,
+        box_pairs: size.box_pairs * paired,
+        centre_box_pairs: size.centre_box_pairs * paired,
         ghosts: size.ghosts * kept,
     }
 }

@@ -10,7 +10,7 @@ mod files;
 mod lattice;
 mod shape;
 
-pub use estimate::{BodySize, estimate_particles};
+pub use estimate::{BOX_HALF, BodySize, estimate_particles};
 pub(crate) use files::read_capped;
 pub use lattice::PARTICLE_ID_LIMIT;
 

@@ -18,7 +18,7 @@ use rayon::prelude::*;
 
 /// The half-width of the candidate box in spacings: 2·h_c with h_c = 1.5 Δx (the
 /// reference code's `neighbor_ellipse`).
-pub const CANDIDATE_BOX: f64 = 3.0;
+pub const CANDIDATE_BOX: f64 = crate::case::BOX_HALF;
 
 /// The stress points (one per lattice cell, at its centre) and the particles' candidate
 /// lists and own functions.
