@@ -176,7 +176,7 @@ fn load_functions(q: u32) -> Functions {
 // X_q, w0_q, u_q, ρ_q and S_q; X, u, V and ρ of each candidate, and its v.
 // - pts: 1 vector + 1 scalar per item
 // - y: 1 vector + 1 scalar + 1 tensor per item; 2 vectors + 1 scalar per pair
-// - reference: 2 vectors + 1 scalar per pair
+// - reference: 1 vector + 1 scalar per pair
 // T, C⁻¹, h, the coefficients and w0 ψ.
 // - kin: 2 scalars + 3 tensors + 2 vectors + 1 scalar per item
 // ẋ_q, ρ̇_q and Ṡ_q.
@@ -238,7 +238,7 @@ fn points(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
 // - kin loads: 2 tensors + 1 scalar + 1 tensor + 2 vectors + 1 scalar per pair
 // - kin stores: 1 scalar per item
 // - reference: 1 vector + 2 scalars per item
-// - y: 3 vectors + 1 scalar per item
+// - y: 2 vectors + 1 scalar per item
 // - ext: 1 vector per item
 // - d: 2 vectors per item
 @compute @workgroup_size(256)
@@ -271,7 +271,7 @@ fn nodes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
 // Items: particles; pairs: the candidates of their own lists, read twice.
 // - offsets: 2 scalars per item
 // - ids: 2 scalars per pair
-// - reference: 1 vector per item; 2 vectors + 1 scalar per pair
+// - reference: 1 vector per item; 1 vector + 1 scalar per pair
 // - y: 2 vectors + 1 scalar per item; 2 vectors + 1 scalar per pair
 // - d: 1 scalar per item
 // - status: nothing
@@ -313,7 +313,7 @@ fn particles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
 // Items: particles; pairs: the candidates of their own lists, read twice.
 // - offsets: 2 scalars per item
 // - ids: 2 scalars per pair
-// - reference: 1 vector per item; 2 vectors + 1 scalar per pair
+// - reference: 1 vector per item; 1 vector + 1 scalar per pair
 // - y: 2 vectors per item; 2 vectors + 1 scalar per pair
 // - smoothed: 1 vector per item
 @compute @workgroup_size(256)

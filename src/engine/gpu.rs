@@ -182,6 +182,16 @@ pub trait GpuFamily<D: GpuDim> {
     fn neighbour_seconds(&mut self, _shell: &Shell) -> Option<f64> {
         None
     }
+
+    /// What the family keeps on the host from step to step (an Eulerian kernel's steps
+    /// since its search), for a checkpoint, before the shell's words; nothing by default.
+    fn save(&self, _out: &mut Vec<f64>) {}
+
+    /// Restores the shell from the words after what [`Self::save`] wrote, and the family
+    /// from those words and the restored buffers.
+    fn restore(&mut self, shell: &mut Shell, words: &[f64]) -> Result<(), String> {
+        shell.restore(words)
+    }
 }
 
 /// A family's system resident on the GPU (see the module's doc).
@@ -353,13 +363,17 @@ impl<D: GpuDim, F: GpuFamily<D>> Engine<D> for GpuEngine<D, F> {
         self.family.neighbour_seconds(&self.shell)
     }
 
-    /// The work balance, the state buffer and the saved buffers (f32).
+    /// What the family keeps on the host, then the work balance, the state buffer and
+    /// the saved buffers (f32).
     fn save(&mut self) -> Vec<f64> {
-        self.shell.save()
+        let mut out = Vec::new();
+        self.family.save(&mut out);
+        out.extend(self.shell.save());
+        out
     }
 
     fn restore(&mut self, words: &[f64]) -> Result<(), String> {
-        self.shell.restore(words)
+        self.family.restore(&mut self.shell, words)
     }
 
     fn snapshot(&mut self) -> Snapshot<'_, D> {

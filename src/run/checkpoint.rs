@@ -3,7 +3,7 @@
 //! `checkpoint.bin` in its output folder, from which `meshless run CASE --resume DIR`
 //! continues as if it had not stopped.
 //!
-//! The file (version 5) is a small header, raw little-endian f64 words and a checksum:
+//! The file (version 6) is a small header, raw little-endian f64 words and a checksum:
 //!
 //! | bytes | what |
 //! |---|---|
@@ -39,7 +39,7 @@ use std::path::{Path, PathBuf};
 /// The checkpoint's file name in a run's output folder.
 pub const FILE: &str = "checkpoint.bin";
 const MAGIC: &[u8; 8] = b"MESHCKPT";
-const VERSION: u32 = 5;
+const VERSION: u32 = 6;
 /// The largest header read (a header names a case and a method: a few hundred bytes).
 const HEADER_CAP: u32 = 1 << 16;
 

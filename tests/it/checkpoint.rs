@@ -410,3 +410,50 @@ fn a_resumed_gpu_run_ends_where_the_uninterrupted_one_does() {
         }
     }
 }
+
+/// The bits of the particles' displacements and velocities of an engine's snapshot.
+fn motion_bits(e: &mut Box<dyn Engine<D2>>) -> Vec<u64> {
+    let snap = e.snapshot();
+    (snap.u.iter().chain(&snap.v))
+        .flat_map(|v| [v.x, v.y])
+        .map(f64::to_bits)
+        .collect()
+}
+
+/// `kbm` on an Eulerian kernel under a shear, searching every 5 steps, checkpointed
+/// after 13 steps (3 steps past a search, its lists those of the positions after 10 and
+/// far from the reference's) and resumed in a new engine for 12 more: the bits of an
+/// uninterrupted run of 25 steps. A checkpoint without the last search's positions and
+/// the steps since it would resume on the reference configuration's lists.
+fn resumed_eulerian_kbm_is_the_uninterrupted_bits(backend: meshless::run::Backend) {
+    let velocity = "initial_velocity = { type = \"expression\", vx = \"200*(y-0.3)\", \
+                    vy = \"100*(x-0.5)\" }\n";
+    let keys = "kernel_frame = \"eulerian\"\nintegration = \"stress-points\"\nsearch_every = 5";
+    let text = crate::common::block_text(&[1.0, 0.6], "hypoelastic", "kbm", keys).replacen(
+        "volumes = \"uniform\" }\n",
+        &format!("volumes = \"uniform\" }}\n{velocity}"),
+        1,
+    );
+    let case = Scene::from_toml(&text, Path::new("sheared.toml"), &[]).unwrap();
+    let dt = 1e-4;
+    let new = || engine::<D2>(&case, backend).unwrap();
+    let mut whole = new();
+    whole.advance(0.0, dt, 25).unwrap();
+    let mut first = new();
+    first.advance(0.0, dt, 13).unwrap();
+    let words = first.save();
+    let mut resumed = new();
+    resumed.restore(&words).unwrap();
+    resumed.advance(13.0 * dt, dt, 12).unwrap();
+    assert!(
+        motion_bits(&mut resumed) == motion_bits(&mut whole),
+        "{backend:?}: the resumed run left the uninterrupted run's bits"
+    );
+}
+
+#[test]
+fn a_resumed_eulerian_kernel_searches_where_the_uninterrupted_one_did() {
+    resumed_eulerian_kbm_is_the_uninterrupted_bits(meshless::run::Backend::Cpu);
+    #[cfg(feature = "gpu")]
+    resumed_eulerian_kbm_is_the_uninterrupted_bits(meshless::run::Backend::Gpu);
+}

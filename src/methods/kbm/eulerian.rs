@@ -12,6 +12,7 @@ use super::KbmSpec;
 use crate::case::{Case, CaseError};
 use crate::core::kernel::{Kernel, neighbour_radius};
 use crate::core::neighbour::{self, Csr, SKIN};
+use crate::core::parallel::{load_field, load_word, save_field, whole_word};
 use crate::core::quadrature::{QuadraturePoints, ShapeRow, krongauz_belytschko_shapes};
 use crate::core::tensor::Dim;
 use crate::engine::BlowUp;
@@ -25,6 +26,9 @@ pub struct EulerianPoints<D: Dim> {
     /// Reference positions and volumes w0_q of the points (the particles first).
     points: QuadraturePoints<D>,
     lists: Csr,
+    /// The positions of the points at the last search (the particles first), from which
+    /// a checkpoint's lists are searched again.
+    searched: Vec<D::V>,
     kernel: Kernel,
     /// The reach of a search: the kernel support widened by the skin.
     reach: f64,
@@ -57,6 +61,11 @@ impl<D: Dim> EulerianPoints<D> {
     /// Takes `lists` as those of the last search (the device's, read back).
     pub fn set_lists(&mut self, lists: Csr) {
         self.lists = lists;
+    }
+
+    /// The lists of a search from `at` (the points' positions, the particles first).
+    fn search_at(&self, at: &[D::V]) -> Csr {
+        self.search(at, &at[..self.points.particles])
     }
 
     /// The current position of point q, with the particles at x: its particle's, or
@@ -110,8 +119,9 @@ impl<D: Dim> MovingPoints<D> for EulerianPoints<D> {
         let (_, points) = spec.points(case, reference)?;
         let kernel = reference.kernel;
         let mut eulerian = Self {
-            points,
             lists: Csr::default(),
+            searched: points.x0.clone(),
+            points,
             reach: neighbour_radius(&kernel) * (1.0 + SKIN),
             kernel,
             search_every: spec.search_every(),
@@ -120,7 +130,7 @@ impl<D: Dim> MovingPoints<D> for EulerianPoints<D> {
             rate_model: reference.material.model.is_rate_based(),
             rho0: reference.material.rho0,
         };
-        eulerian.lists = eulerian.search(&eulerian.points.x0, &reference.x0);
+        eulerian.lists = eulerian.search_at(&eulerian.searched);
         Ok(eulerian)
     }
 
@@ -188,11 +198,35 @@ impl<D: Dim> MovingPoints<D> for EulerianPoints<D> {
         }
         self.steps = 0;
         let x: Vec<D::V> = x0.iter().zip(&y.u).map(|(&x0, &u)| x0 + u).collect();
-        let at: Vec<D::V> = (0..self.points.len())
+        self.searched = (0..self.points.len())
             .map(|q| self.position(q, &x, y))
             .collect();
-        self.lists = self.search(&at, &x);
+        self.lists = self.search_at(&self.searched);
         Some(self.lists.clone())
+    }
+
+    /// The steps since the last search and the points' positions then.
+    fn save(&self, out: &mut Vec<f64>) {
+        out.push(f64::from(self.steps));
+        save_field(&self.searched, out);
+    }
+
+    /// The steps since the last search, and its lists searched again from the positions
+    /// then.
+    fn load(&mut self, words: &mut &[f64]) -> Result<Option<Csr>, String> {
+        let name = "the steps since the Eulerian kernel's last search";
+        let steps = whole_word(load_word(words, name)?)
+            .and_then(|s| u32::try_from(s).ok())
+            .filter(|&s| s < self.search_every)
+            .ok_or_else(|| format!("{name} is not a count below search_every"))?;
+        load_field(
+            &mut self.searched,
+            "the points' positions at the last search",
+            words,
+        )?;
+        self.steps = steps;
+        self.lists = self.search_at(&self.searched);
+        Ok(Some(self.lists.clone()))
     }
 }
 

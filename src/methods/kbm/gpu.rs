@@ -21,6 +21,7 @@ use crate::case::Case;
 use crate::core::integrate::{Buf, Evaluation};
 use crate::core::kernel::neighbour_radius;
 use crate::core::neighbour::Csr;
+use crate::core::parallel::whole_word;
 use crate::diagnostics::balance::Booked;
 use crate::diagnostics::observe::Snapshot;
 use crate::engine::{BlowUp, GpuEngine, GpuFamily, Method, Start};
@@ -368,7 +369,8 @@ impl<D: GpuDim> GpuEulerianKbm<D> {
             ..Booked::default()
         };
         let shell = Shell::new(gpu, stepper, reduction, kin.clone(), &layout.kin, unbooked)
-            .save_also("plastic history", &hist);
+            .save_also("plastic history", &hist)
+            .save_also("positions of the last search", &searched);
         let search_every = host.points().search_every();
         let mut family = EulerianDevice {
             host,
@@ -728,6 +730,27 @@ impl<D: GpuDim> GpuFamily<D> for EulerianDevice<D> {
     fn check_state(&self, flat: &[f32]) -> Result<(), BlowUp> {
         let y = self.decode(flat, self.host.material().rho0);
         self.host.check_finite(&y)
+    }
+
+    /// The steps since the last search.
+    fn save(&self, out: &mut Vec<f64>) {
+        out.push(f64::from(self.steps.load(Ordering::Relaxed)));
+    }
+
+    /// The steps since the last search, the shell's buffers (the positions of that
+    /// search among them), and its lists searched again from those positions.
+    fn restore(&mut self, shell: &mut Shell, words: &[f64]) -> Result<(), String> {
+        let name = "the steps since the Eulerian kernel's last search";
+        let (&steps, rest) =
+            (words.split_first()).ok_or(format!("the checkpoint ends before {name}"))?;
+        let steps = whole_word(steps)
+            .and_then(|s| u32::try_from(s).ok())
+            .filter(|&s| s < self.search_every)
+            .ok_or_else(|| format!("{name} is not a count below search_every"))?;
+        shell.restore(rest)?;
+        self.steps.store(steps, Ordering::Relaxed);
+        let room = self.lists().cells.room();
+        self.search(shell, room, false).map_err(|e| e.to_string())
     }
 
     /// The host's outputs (nodal F and σ, Σ_q w0_q ψ_q in f64) of the state, the lists and

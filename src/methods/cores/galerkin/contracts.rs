@@ -6,8 +6,8 @@ use crate::reference::Build;
 
 /// The `Method` members that the total- and updated-Lagrangian Galerkin cores give
 /// alike: the particles' accessors, the reference positions, the signal speed c_p +
-/// max |v|, the pairs of the shape functions' lists, the history words (the points'
-/// plastic history) and the dissipation of the velocity smoothing.
+/// max |v|, the pairs of the shape functions' lists and the dissipation of the velocity
+/// smoothing.
 macro_rules! galerkin_accessors {
     ($state:ty) => {
         $crate::methods::cores::particles::particle_accessors!($state);
@@ -22,15 +22,6 @@ macro_rules! galerkin_accessors {
 
         fn pairs(&self) -> usize {
             self.shapes.csr.pair_count()
-        }
-
-        /// The plastic history C_p⁻¹, ε_p of the points.
-        fn save_history(&self, out: &mut Vec<f64>) {
-            $crate::physics::plasticity::History::save(self.plastic.as_ref(), out);
-        }
-
-        fn load_history(&mut self, words: &mut &[f64]) -> Result<(), String> {
-            $crate::physics::plasticity::History::load(self.plastic.as_mut(), words)
         }
 
         /// The kinetic energy the last velocity smoothing took out.
@@ -225,6 +216,15 @@ impl<D: Dim> Method<D> for TlGalerkin<D> {
     }
 
     galerkin_accessors!(GalerkinState<D>);
+
+    /// The plastic history C_p⁻¹, ε_p of the points.
+    fn save_history(&self, out: &mut Vec<f64>) {
+        History::save(self.plastic.as_ref(), out);
+    }
+
+    fn load_history(&mut self, words: &mut &[f64]) -> Result<(), String> {
+        History::load(self.plastic.as_mut(), words)
+    }
 
     fn step_end_changes_state(&self) -> bool {
         self.smoothing.is_some()

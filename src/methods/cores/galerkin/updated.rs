@@ -138,6 +138,16 @@ pub trait MovingPoints<D: Dim>: Sized + Send + Sync {
         None
     }
 
+    /// What the points carry from step to step besides the state (an Eulerian kernel's
+    /// last search), for a checkpoint; nothing by default.
+    fn save(&self, _out: &mut Vec<f64>) {}
+
+    /// Reads what [`Self::save`] wrote: the lists it implies, when they are not the
+    /// lists of the set-up.
+    fn load(&mut self, _words: &mut &[f64]) -> Result<Option<Csr>, String> {
+        Ok(None)
+    }
+
     /// Bytes [per point, per pair of the lists, per node] that [`Self::shapes_at`] and
     /// [`Self::own_rates`] move beyond the passes every family shares, by the
     /// minimum-traffic model of `meshless bench --roofline`.
@@ -577,6 +587,21 @@ impl<D: Dim, P: MovingPoints<D>> Method<D> for UlGalerkin<D, P> {
     }
 
     galerkin_accessors!(UlGalerkinState<D>);
+
+    /// The points' plastic history, then what the points carry between steps (an
+    /// Eulerian kernel's last search).
+    fn save_history(&self, out: &mut Vec<f64>) {
+        History::save(self.plastic.as_ref(), out);
+        self.points.save(out);
+    }
+
+    fn load_history(&mut self, words: &mut &[f64]) -> Result<(), String> {
+        History::load(self.plastic.as_mut(), words)?;
+        if let Some(lists) = self.points.load(words)? {
+            self.use_lists(lists);
+        }
+        Ok(())
+    }
 
     /// F at the nodes, projected from F_q = (Σ_a X_a ⊗ ∇N_a(x_q))⁻¹.
     fn deformation_gradient(&self, y: &UlGalerkinState<D>) -> Vec<D::T> {
