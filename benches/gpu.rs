@@ -140,7 +140,7 @@ fn methods(c: &mut Criterion) {
         .warm_up_time(Duration::from_millis(500))
         .measurement_time(Duration::from_secs(3))
         .sampling_mode(SamplingMode::Flat);
-    for entry in REGISTRY.iter().filter(|e| e.gpu_engine) {
+    for entry in REGISTRY {
         let (case, kind) = common::method_case(entry.name);
         let build = || {
             case.spec

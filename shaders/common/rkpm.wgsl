@@ -130,6 +130,29 @@ fn rkpm_solve(mo: Moments) -> Rkpm {
     return out;
 }
 
+// The coefficients into kin from `base`, (DIM + 1)² words: C, then ∂_k C for each k
+// (needs the binding kin); and back.
+fn rkpm_store(base: u32, k: Rkpm) {
+    for (var a = 0u; a <= DIM; a++) {
+        kin[base + a] = k.c[a];
+        for (var d = 0u; d < DIM; d++) {
+            kin[base + (DIM + 1u) * (d + 1u) + a] = k.dc[d][a];
+        }
+    }
+}
+
+fn rkpm_load(base: u32) -> Rkpm {
+    var k: Rkpm;
+    for (var a = 0u; a <= DIM; a++) {
+        k.c[a] = kin[base + a];
+        for (var d = 0u; d < DIM; d++) {
+            k.dc[d][a] = kin[base + (DIM + 1u) * (d + 1u) + a];
+        }
+    }
+    k.ok = true;
+    return k;
+}
+
 // Ψ_j = C·p̂(r) W of the node at offset r, from the kernel's value w there.
 fn rkpm_value(k: Rkpm, r: vecd, w: f32, h: f32) -> f32 {
     let q = rkpm_basis(r, h);

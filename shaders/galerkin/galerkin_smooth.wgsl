@@ -1,9 +1,10 @@
 // The weak form's velocity smoothing after a step (seed 000 §5.6): v_a ← Σ_b N_b(X_a) v_b
 // with N_b = V_b Ψ_b over the particles' own reproducing-kernel lists (a itself
 // included), into `smoothed` (`smooth_velocities`), then back into the state but for the
-// prescribed components, which keep their values (`settle`, settle.wgsl). Weights: smooth_weights =
-// [N per pair]. The lists and weights bound to `smooth_velocities` are those of a part of
-// the nodes (part.wgsl), the offsets counted from its first pair. Constants: N, DIM,
+// prescribed components, which keep their values (`settle`, settle.wgsl). Weights:
+// smooth_weights = [N per pair]. The lists and weights bound to `smooth_velocities` are
+// those of a part of the nodes (part.wgsl), the offsets counted from its first pair.
+// Constants: N, DIM,
 // V_OFF, SWN_OFF and the reference fields.
 
 @group(0) @binding(0) var<storage, read> smooth_offsets: array<u32>;

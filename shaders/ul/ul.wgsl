@@ -485,14 +485,7 @@ fn store_common(i: u32) {
         mstore_kin(KAIT_OFF + DIM * DIM * i, correction_of(i));
     }
     if CORRECTION == CORRECTION_REPRODUCING {
-        let k = reproducing_of(i);
-        let base = KRK_OFF + (DIM + 1u) * (DIM + 1u) * i;
-        for (var a = 0u; a <= DIM; a++) {
-            kin[base + a] = k.rk.c[a];
-            for (var d = 0u; d < DIM; d++) {
-                kin[base + (DIM + 1u) * (d + 1u) + a] = k.rk.dc[d][a];
-            }
-        }
+        rkpm_store(KRK_OFF + (DIM + 1u) * (DIM + 1u) * i, reproducing_of(i).rk);
     }
 }
 
@@ -504,13 +497,7 @@ fn corrector_of(i: u32) -> Corrector {
         k.ait = mload_kin(KAIT_OFF + DIM * DIM * i);
     }
     if CORRECTION == CORRECTION_REPRODUCING {
-        let base = KRK_OFF + (DIM + 1u) * (DIM + 1u) * i;
-        for (var a = 0u; a <= DIM; a++) {
-            k.rk.c[a] = kin[base + a];
-            for (var d = 0u; d < DIM; d++) {
-                k.rk.dc[d][a] = kin[base + (DIM + 1u) * (d + 1u) + a];
-            }
-        }
+        k.rk = rkpm_load(KRK_OFF + (DIM + 1u) * (DIM + 1u) * i);
     }
     return k;
 }

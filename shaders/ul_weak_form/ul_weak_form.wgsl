@@ -140,26 +140,14 @@ fn shape_of(f: Functions, r: vecd, v: f32) -> Shape {
 fn store_functions(q: u32, f: Functions) {
     mstore_kin(KCI_OFF + DIM * DIM * q, f.c_inv);
     kin[KH_OFF + q] = f.h;
-    let base = KRK_OFF + (DIM + 1u) * (DIM + 1u) * q;
-    for (var a = 0u; a <= DIM; a++) {
-        kin[base + a] = f.rk.c[a];
-        for (var k = 0u; k < DIM; k++) {
-            kin[base + (DIM + 1u) * (k + 1u) + a] = f.rk.dc[k][a];
-        }
-    }
+    rkpm_store(KRK_OFF + (DIM + 1u) * (DIM + 1u) * q, f.rk);
 }
 
 fn load_functions(q: u32) -> Functions {
     var f: Functions;
     f.c_inv = mload_kin(KCI_OFF + DIM * DIM * q);
     f.h = kin[KH_OFF + q];
-    let base = KRK_OFF + (DIM + 1u) * (DIM + 1u) * q;
-    for (var a = 0u; a <= DIM; a++) {
-        f.rk.c[a] = kin[base + a];
-        for (var k = 0u; k < DIM; k++) {
-            f.rk.dc[k][a] = kin[base + (DIM + 1u) * (k + 1u) + a];
-        }
-    }
+    f.rk = rkpm_load(KRK_OFF + (DIM + 1u) * (DIM + 1u) * q);
     return f;
 }
 
@@ -169,10 +157,10 @@ fn load_functions(q: u32) -> Functions {
 // point) and ẋ_q = v_o + Σ_j N_j (v_j − v_o) (Σ_j N_j = 1) into d; C_q⁻¹, h_q, the
 // coefficients, T_q = w_q σ_q and w0_q ψ_q into kin.
 // bytes:
-// Items: stress points; pairs: the candidates of their lists, read twice (ellipse and
-// moments, then the functions).
-// - offsets: 2 scalars per item
-// - ids: 2 scalars per pair
+// Items: stress points; pairs: the candidates of their lists, whose ids are read three
+// times (the ellipse, the moments, the functions) and their particles' fields once.
+// - offsets: 1 scalar per item
+// - ids: 3 scalars per pair
 // X_q, w0_q, u_q, ρ_q and S_q; X, u, V and ρ of each candidate, and its v.
 // - pts: 1 vector + 1 scalar per item
 // - y: 1 vector + 1 scalar + 1 tensor per item; 2 vectors + 1 scalar per pair
@@ -268,9 +256,10 @@ fn nodes(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
 // ρ̇_i = −ρ_i Σ_j (v_j − v_i) · ∇N_j(x_i) with particle i's own functions (Algorithm 7
 // steps 6 and 9); degenerate functions or ρ_i ≤ 0 flag the particle.
 // bytes:
-// Items: particles; pairs: the candidates of their own lists, read twice.
-// - offsets: 2 scalars per item
-// - ids: 2 scalars per pair
+// Items: particles; pairs: the candidates of their own lists, whose ids are read three
+// times and their particles' fields once.
+// - offsets: 1 scalar per item
+// - ids: 3 scalars per pair
 // - reference: 1 vector per item; 1 vector + 1 scalar per pair
 // - y: 2 vectors + 1 scalar per item; 2 vectors + 1 scalar per pair
 // - d: 1 scalar per item
@@ -310,9 +299,10 @@ fn particles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
 // particle whose functions degenerate keeps its velocity (the next rate evaluation flags
 // it).
 // bytes:
-// Items: particles; pairs: the candidates of their own lists, read twice.
-// - offsets: 2 scalars per item
-// - ids: 2 scalars per pair
+// Items: particles; pairs: the candidates of their own lists, whose ids are read three
+// times and their particles' fields once.
+// - offsets: 1 scalar per item
+// - ids: 3 scalars per pair
 // - reference: 1 vector per item; 1 vector + 1 scalar per pair
 // - y: 2 vectors per item; 2 vectors + 1 scalar per pair
 // - smoothed: 1 vector per item
@@ -344,7 +334,7 @@ fn smooth_own(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
 // pair of the part (0 throughout where the functions degenerate), for a read-back.
 // bytes:
 // Items: stress points; pairs: the candidates of their lists, read three times.
-// - offsets: 2 scalars per item
+// - offsets: 1 scalar per item
 // - ids: 3 scalars per pair
 // - pts: 1 vector per item
 // - y: 1 vector per item; 1 vector + 1 scalar per pair

@@ -28,8 +28,7 @@ pub use crate::engine::{BlowUp, Method};
 #[cfg(feature = "gpu")]
 pub use cores::family::GpuBuild;
 pub use cores::family::{
-    COMMON_KEYS, CpuBuild, Feature, KERNEL_KEYS, MethodFamily, Plan, cfl_step, no_gpu_engine,
-    state_model,
+    COMMON_KEYS, CpuBuild, Feature, KERNEL_KEYS, MethodFamily, Plan, cfl_step, state_model,
 };
 
 use crate::case::{Case, CaseError, MethodKeys};
@@ -55,8 +54,6 @@ pub struct Entry {
     pub description: &'static str,
     pub keys: &'static [&'static str],
     pub features: &'static [Feature],
-    /// Whether it has a GPU engine.
-    pub gpu_engine: bool,
     /// When the method's neighbour lists are built.
     pub neighbours: Rebuild,
     /// Whether it reads the kernel keys ([`KERNEL_KEYS`]).
@@ -77,7 +74,6 @@ impl Entry {
             description: S::DESCRIPTION,
             keys: S::KEYS,
             features: S::FEATURES,
-            gpu_engine: S::GPU_ENGINE,
             neighbours: S::NEIGHBOURS,
             kernel: S::KERNEL,
             corrected: S::KERNEL && S::CORRECTED,

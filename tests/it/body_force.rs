@@ -158,13 +158,13 @@ fn a_ramped_body_force_is_taken_at_the_middle_of_each_step() {
 #[cfg(feature = "gpu")]
 #[test]
 fn every_gpu_engine_falls_freely_under_gravity() {
-    // The same falls in f32 on every method with a GPU engine, constant and ramped
+    // The same falls in f32 on every method (each has a GPU engine), constant and ramped
     // (the ramp's law values written by the host for every step). Bounds 1e-5 of g t,
     // ½ g t² and W: 100 f32 additions of g Δt to v, each rounding by 6e-8 relative, and
     // u kept beside X in f32.
     let (gt, half_gt2) = constant_scales();
     let _adapter = crate::common::gpu();
-    for name in REGISTRY.iter().filter(|e| e.gpu_engine).map(|e| e.name) {
+    for name in REGISTRY.iter().map(|e| e.name) {
         let case = ring(name, GRAVITY).unwrap();
         let mut e = engine::<D2>(&case, Backend::Gpu).unwrap_or_else(|e| panic!("{name}: {e}"));
         let (dv, du, balance, work) = fall(&mut *e, constant);

@@ -112,8 +112,6 @@ pub trait MethodFamily: Sized {
     const KEYS: &'static [&'static str];
     /// The scene features it runs.
     const FEATURES: &'static [Feature];
-    /// Whether it has a GPU engine (`--backend auto` runs the others on the CPU).
-    const GPU_ENGINE: bool = true;
     /// When its neighbour lists are built: once on the reference configuration
     /// (total-Lagrangian), or from the current positions at every rate evaluation
     /// (updated-Lagrangian).
@@ -147,12 +145,9 @@ pub trait MethodFamily: Sized {
     /// The CPU reference engine (f64, rayon).
     fn cpu_engine<D: EngineDim>(&self, case: &Case) -> CpuBuild<D>;
 
-    /// The GPU engine (wgpu, f32); by default none, the error [`no_gpu_engine`] of a
-    /// method without one ([`Self::GPU_ENGINE`] false).
+    /// The GPU engine (wgpu, f32).
     #[cfg(feature = "gpu")]
-    fn gpu_engine<D: EngineDim>(&self, case: &Case, _gpu: crate::gpu::Gpu) -> GpuBuild<D> {
-        Err(no_gpu_engine(case).into())
-    }
+    fn gpu_engine<D: EngineDim>(&self, case: &Case, gpu: crate::gpu::Gpu) -> GpuBuild<D>;
 
     /// The buffers its GPU engine makes for `case` on `counts`, field by field, computed
     /// before any is made ([`crate::gpu::memory`]); None for a method without a GPU engine.
@@ -195,11 +190,10 @@ pub trait MethodFamily: Sized {
         Ok(None)
     }
 
-    /// Why this spec has no GPU engine for `case`, as a phrase after the method's name,
-    /// or None: [`Self::GPU_ENGINE`] unless a key or the material selects a CPU-only
-    /// variant.
+    /// Why this spec has no GPU engine for `case`, as a phrase after the method's name
+    /// (a key or the material that selects a variant the CPU alone runs), or None.
     fn gpu_refusal(&self, _case: &Case) -> Option<&'static str> {
-        (!Self::GPU_ENGINE).then_some("has no GPU engine")
+        None
     }
 
     /// Whether this spec searches neighbours on the current configuration
@@ -242,19 +236,6 @@ pub trait MethodFamily: Sized {
     fn warning(&self, _case: &Case) -> Option<String> {
         None
     }
-}
-
-/// The error of a GPU run of a method without a GPU engine: it names the method and the
-/// backend that runs it.
-pub fn no_gpu_engine(case: &Case) -> CaseError {
-    case.invalid(
-        "method.name",
-        format!(
-            "`{}` has no GPU engine; run it with `--backend cpu` (`--backend auto` picks the \
-             CPU for it)",
-            case.method.name
-        ),
-    )
 }
 
 /// The check of a method that evaluates P = ∂ψ/∂F: the material must be a state model.

@@ -232,7 +232,6 @@ impl MethodFamily for DualSupportSpec {
     /// F_j of a neighbour j (from its support) enters the gather of i's force over its
     /// support and dual-support, as do the hourglass terms of j's pair slots.
     const HALO_LAYERS: Option<usize> = Some(2);
-    const GPU_ENGINE: bool = true;
     const CORRECTED: bool = false;
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;

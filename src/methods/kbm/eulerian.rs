@@ -58,7 +58,8 @@ impl<D: Dim> EulerianPoints<D> {
         self.search_every
     }
 
-    /// Takes `lists` as those of the last search (the device's, read back).
+    /// Takes `lists` as those of the last search (the device's, read back; the positions
+    /// of that search, which the device's checkpoints hold, stay the host's).
     pub fn set_lists(&mut self, lists: Csr) {
         self.lists = lists;
     }
@@ -214,20 +215,27 @@ impl<D: Dim> MovingPoints<D> for EulerianPoints<D> {
     /// The steps since the last search, and its lists searched again from the positions
     /// then.
     fn load(&mut self, words: &mut &[f64]) -> Result<Option<Csr>, String> {
-        let name = "the steps since the Eulerian kernel's last search";
-        let steps = whole_word(load_word(words, name)?)
-            .and_then(|s| u32::try_from(s).ok())
-            .filter(|&s| s < self.search_every)
-            .ok_or_else(|| format!("{name} is not a count below search_every"))?;
-        load_field(
-            &mut self.searched,
-            "the points' positions at the last search",
-            words,
-        )?;
-        self.steps = steps;
+        let steps = load_steps(words, self.search_every)?;
+        let mut searched = vec![D::zero(); self.points.len()];
+        let name = "the points' positions at the last search";
+        load_field(&mut searched, name, words)?;
+        if !searched.iter().all(|&x| D::is_finite_v(x)) {
+            return Err(format!("{name} are not all finite"));
+        }
+        (self.steps, self.searched) = (steps, searched);
         self.lists = self.search_at(&self.searched);
         Ok(Some(self.lists.clone()))
     }
+}
+
+/// The steps since an Eulerian kernel's last search, from the front of a checkpoint's
+/// words: a count below `search_every`.
+pub fn load_steps(words: &mut &[f64], search_every: u32) -> Result<u32, String> {
+    let name = "the steps since the Eulerian kernel's last search";
+    whole_word(load_word(words, name)?)
+        .and_then(|s| u32::try_from(s).ok())
+        .filter(|&s| s < search_every)
+        .ok_or_else(|| format!("{name} is not a count below search_every ({search_every})"))
 }
 
 impl KbmSpec {

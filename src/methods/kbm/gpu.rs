@@ -15,13 +15,12 @@
 //! batch, and runs the batch again from its start.
 
 use super::KbmSpec;
-use super::eulerian::EulerianPoints;
+use super::eulerian::{EulerianPoints, load_steps};
 use crate::boundary::Boundary;
 use crate::case::Case;
 use crate::core::integrate::{Buf, Evaluation};
 use crate::core::kernel::neighbour_radius;
 use crate::core::neighbour::Csr;
-use crate::core::parallel::whole_word;
 use crate::diagnostics::balance::Booked;
 use crate::diagnostics::observe::Snapshot;
 use crate::engine::{BlowUp, GpuEngine, GpuFamily, Method, Start};
@@ -740,13 +739,8 @@ impl<D: GpuDim> GpuFamily<D> for EulerianDevice<D> {
     /// The steps since the last search, the shell's buffers (the positions of that
     /// search among them), and its lists searched again from those positions.
     fn restore(&mut self, shell: &mut Shell, words: &[f64]) -> Result<(), String> {
-        let name = "the steps since the Eulerian kernel's last search";
-        let (&steps, rest) =
-            (words.split_first()).ok_or(format!("the checkpoint ends before {name}"))?;
-        let steps = whole_word(steps)
-            .and_then(|s| u32::try_from(s).ok())
-            .filter(|&s| s < self.search_every)
-            .ok_or_else(|| format!("{name} is not a count below search_every"))?;
+        let mut rest = words;
+        let steps = load_steps(&mut rest, self.search_every)?;
         shell.restore(rest)?;
         self.steps.store(steps, Ordering::Relaxed);
         let room = self.lists().cells.room();

@@ -574,7 +574,6 @@ trait MixedMethod: MixedScheme {
     /// neighbours' u) and their slopes or Laplacians of v; the slopes of P, which would
     /// read a third layer's u through F^c, enter only D(J), which {p, F} leaves out.
     const HALO_LAYERS: Option<usize> = Some(2);
-    const GPU_ENGINE: bool = true;
     /// Checks of the stabilisation's own keys and of the options it runs with.
     fn validate_own(&self) -> Result<(), Problem>;
 }
@@ -685,7 +684,6 @@ impl<S: MixedMethod + 'static> MethodFamily for S {
     const KEYS: &'static [&'static str] = S::KEYS;
     const FEATURES: &'static [Feature] = S::FEATURES;
     const HALO_LAYERS: Option<usize> = S::HALO_LAYERS;
-    const GPU_ENGINE: bool = S::GPU_ENGINE;
     #[cfg(feature = "gpu")]
     const SHADERS: &'static [crate::gpu::shaders::Source] = gpu::SHADERS;
 
