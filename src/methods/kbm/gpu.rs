@@ -28,7 +28,6 @@ use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::memory::{Counts, DeviceMemory};
 use crate::gpu::neighbour::{CellList, CellParams, Positions, Room};
-use crate::gpu::parts::Split;
 use crate::gpu::profile::Scale;
 use crate::gpu::program::Stepper;
 use crate::gpu::reduction::{self, Reduced, Reduction};
@@ -298,21 +297,7 @@ impl<D: GpuDim> GpuEulerianKbm<D> {
         gpu.check_size("kinematics buffer", layout.kin.bytes())?;
         let compose = |s: &Source| shaders::compose::<D>(s, &constants);
 
-        let rho0 = host.material().rho0;
-        let mass_volume: Vec<f64> = Method::mass(&host).iter().map(|m| m / rho0).collect();
-        let no_lists = Csr::default();
-        let device = DeviceReference::upload::<D>(
-            &gpu,
-            x0,
-            &mass_volume,
-            host.boundary(),
-            (&no_lists, &Split::whole(&no_lists)),
-            Extras::default(),
-        );
-        let mut flat_pts = layout.pts.zeroed();
-        layout.pts.write_v::<D>(&mut flat_pts, "X", &points.x0);
-        layout.pts.write_s(&mut flat_pts, "W", &points.weight, 0.0);
-        let pts = gpu.storage("points", &flat_pts);
+        let (device, pts) = galerkin::upload_moving(&gpu, &host, points, &layout.pts);
         let status = gpu.storage("status", &STATUS_OK);
         let kin = gpu.zeroed("kinematics", layout.kin.bytes());
         let plastic = host.material().model == MaterialModel::VonMisesPlastic;

@@ -40,7 +40,7 @@ use crate::gpu::shaders::{
 use crate::gpu::shell::Shell;
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
 use crate::interaction::gpu::GpuInteractions;
-use crate::methods::cores::galerkin::gpu::{FOLDED_REDUCE, RATE_POINT, SETTLE};
+use crate::methods::cores::galerkin::gpu::{self as galerkin, FOLDED_REDUCE, RATE_POINT, SETTLE};
 use crate::methods::cores::galerkin::updated::{MovingPoints, UlGalerkin, UlGalerkinState};
 use crate::methods::cores::shared::BySource;
 use crate::physics::material::Material;
@@ -222,7 +222,7 @@ impl<D: GpuDim> GpuUlWeakForm<D> {
             let q = Counts::whole(counts.cells);
             let layout = Layout::new(n, 0, q, D::N);
             DeviceReference::memory(m, &layout.reference, n, D::N, 0, 0);
-            m.fields("stress points", &layout.pts);
+            m.fields("points", &layout.pts);
             m.words("status", STATUS_OK.len() as f64);
             m.fields("kinematics", &layout.kin);
             // The candidate lists, their transpose and the particles' own.
@@ -254,21 +254,7 @@ impl<D: GpuDim> GpuUlWeakForm<D> {
         gpu.check_size("kinematics buffer", layout.kin.bytes())?;
         let compose = |s: &Source| shaders::compose::<D>(s, &constants);
 
-        let rho0 = host.material().rho0;
-        let mass_volume: Vec<f64> = Method::mass(&host).iter().map(|m| m / rho0).collect();
-        let no_lists = Csr::default();
-        let device = DeviceReference::upload::<D>(
-            &gpu,
-            x0,
-            &mass_volume,
-            host.boundary(),
-            (&no_lists, &Split::whole(&no_lists)),
-            Extras::default(),
-        );
-        let mut flat_pts = layout.pts.zeroed();
-        layout.pts.write_v::<D>(&mut flat_pts, "X", &points.x0);
-        layout.pts.write_s(&mut flat_pts, "W", &points.weight, 0.0);
-        let pts = gpu.storage("stress points", &flat_pts);
+        let (device, pts) = galerkin::upload_moving(&gpu, &host, points, &layout.pts);
         let status = gpu.storage("status", &STATUS_OK);
         let kin = gpu.zeroed("kinematics", layout.kin.bytes());
         let gather = host.shapes().gather(n);

@@ -7,12 +7,13 @@
 //! passes after each step. The engine is the [`GpuEngine`] on the family
 //! [`GalerkinDevice`].
 
+use super::updated::{MovingPoints, UlGalerkin};
 use super::{GalerkinState, TlGalerkin};
 use crate::boundary::Boundary;
 use crate::case::Case;
 use crate::core::integrate::{Buf, Evaluation};
 use crate::core::neighbour::Csr;
-use crate::core::quadrature::{Rule, Shapes};
+use crate::core::quadrature::{QuadraturePoints, Rule, Shapes};
 use crate::diagnostics::balance::Booked;
 use crate::diagnostics::observe::Snapshot;
 use crate::engine::{BlowUp, GpuEngine, GpuFamily, Method, Start};
@@ -329,6 +330,32 @@ fn upload_nodes<D: GpuDim>(gpu: &Gpu, host: &TlGalerkin<D>, split: &Split) -> De
         (&host.shapes().csr, split),
         Extras::default(),
     )
+}
+
+/// The upload of an updated-Lagrangian host whose points move on their own (`kbm` on an
+/// Eulerian kernel, `ul-weak-form`): the particles' reference with V = m/ρ0 and no lists
+/// (the family's own hold the pairs), and the points' [X_q | w0_q] laid out as `pts`.
+pub fn upload_moving<D: GpuDim, P: MovingPoints<D>>(
+    gpu: &Gpu,
+    host: &UlGalerkin<D, P>,
+    points: &QuadraturePoints<D>,
+    pts: &Fields,
+) -> (DeviceReference, wgpu::Buffer) {
+    let rho0 = host.material().rho0;
+    let mass_volume: Vec<f64> = Method::mass(host).iter().map(|m| m / rho0).collect();
+    let no_lists = Csr::default();
+    let device = DeviceReference::upload::<D>(
+        gpu,
+        Method::reference(host),
+        &mass_volume,
+        host.boundary(),
+        (&no_lists, &Split::whole(&no_lists)),
+        Extras::default(),
+    );
+    let mut flat = pts.zeroed();
+    pts.write_v::<D>(&mut flat, "X", &points.x0);
+    pts.write_s(&mut flat, "W", &points.weight, 0.0);
+    (device, gpu.storage("points", &flat))
 }
 
 /// The parts of a scene's lists, each split on its own ([`crate::gpu::parts`]).
