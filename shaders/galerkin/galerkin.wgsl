@@ -18,7 +18,7 @@
 // with UL) | w_q N_a(X_q)]. The points' lists and the gather lists are each split into
 // parts (part.wgsl: rows part.first + row, with the part's own offsets, ids and per-pair
 // data): the points pass runs a part of the points at a time, the nodes pass a part of
-// the nodes; the points' plastic history hist (plasticity.wgsl; 10 floats of a dummy for
+// the nodes; the points' plastic history hist (plasticity.wgsl; 13 floats of a dummy for
 // the elastic models). Constants: N (nodes), Q (points), DIM, UL, W_RULE, RATE, MODEL,
 // RHO0, MU, LAMBDA, BULK, YIELD, HARDENING and the field offsets of
 // methods::cores::galerkin::gpu::Layout.
@@ -99,7 +99,7 @@ fn strain(g: Gradients) -> matd {
 // - y: 1 vector per item; 1 vector per pair
 // - y: 1 scalar + 1 vector + 1 tensor per item; 1 vector per pair, when RATE
 // The committed C_p⁻¹ and ε_p of a von Mises point.
-// - hist: 10 scalars per item, when MODEL == MODEL_VON_MISES_PLASTIC
+// - hist: 12 scalars per item, when MODEL == MODEL_VON_MISES_PLASTIC
 // H, P, ψ.
 // - kin: 1 scalar + 2 tensors per item
 // - d: 1 scalar + 1 tensor per item, when RATE
@@ -147,7 +147,7 @@ fn points(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
 // - pair: 1 vector per pair
 // - pair: 1 vector per pair, when UL
 // - y: 1 vector per item; 1 vector per pair
-// - hist: 10 scalars per item
+// - hist: 12 scalars per item
 @compute @workgroup_size(256)
 fn commit(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let row = index(gid, nwg);

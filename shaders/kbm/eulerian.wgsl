@@ -20,7 +20,7 @@
 // Flat f32 buffers: the state y = [u | v (particles) | u (stress points) | ρ − ρ0 | S
 // (points, rate model only)], pts = [X_q | w0_q] of every point, kin = [T | t | w0 ψ
 // (points) | power (particles)], the particles' reference configuration (reference.wgsl;
-// its V is m/ρ0) and the points' plastic history hist (plasticity.wgsl; 10 floats of a
+// its V is m/ρ0) and the points' plastic history hist (plasticity.wgsl; 13 floats of a
 // dummy for the elastic models). status = [first point whose M is singular, whose
 // det F ≤ 0, whose ρ ≤ 0]. Constants: N, Q, DIM, RATE, MODEL, RHO0, MU, LAMBDA, BULK,
 // YIELD, HARDENING, the kernel's and the field offsets of methods::kbm::gpu::Layout.
@@ -166,7 +166,7 @@ fn kb_point(q: u32) -> KbPoint {
 // - y: 1 vector per item; 2 vectors per pair
 // - y: 1 scalar + 1 tensor per item, when RATE
 // The committed C_p⁻¹ and ε_p of a von Mises point.
-// - hist: 10 scalars per item, when MODEL == MODEL_VON_MISES_PLASTIC
+// - hist: 12 scalars per item, when MODEL == MODEL_VON_MISES_PLASTIC
 // T, t and w0 ψ.
 // - kin: 1 scalar + 1 vector + 1 tensor per item
 // ẋ of a stress point; ρ̇ and Ṡ.
@@ -221,7 +221,7 @@ fn points(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
 // - ids: 2 scalars per pair
 // - pts: 1 vector per item; 1 vector per pair
 // - y: 1 vector per item; 2 vectors per pair
-// - hist: 10 scalars per item
+// - hist: 12 scalars per item
 @compute @workgroup_size(256)
 fn commit(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let row = index(gid, nwg);

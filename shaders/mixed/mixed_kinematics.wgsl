@@ -30,7 +30,7 @@
 // - y: 1 scalar per item, when EVOLVE_J
 // - y: 1 scalar per item, when AC
 // - kin loads: 1 tensor per item, when BOND
-// - hist: 10 scalars per item, when MODEL == MODEL_VON_MISES_PLASTIC
+// - hist: 12 scalars per item, when MODEL == MODEL_VON_MISES_PLASTIC
 // P (and H).
 // - kin stores: 1 tensor per item
 // - kin stores: 1 tensor per item, when KIN_H

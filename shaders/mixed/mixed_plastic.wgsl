@@ -8,7 +8,7 @@
 
 // bytes:
 // - y: 1 tensor per item
-// - hist: 10 scalars per item
+// - hist: 12 scalars per item
 @compute @workgroup_size(256)
 fn commit(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let a = index(gid, nwg);

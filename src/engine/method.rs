@@ -195,11 +195,11 @@ impl Sizes {
         }
     }
 
-    /// A point's plastic history, C_p⁻¹ (3 × 3 in 2D too) and ε_p, when the model keeps
-    /// one; nothing otherwise.
+    /// A point's plastic history, C_p⁻¹ (3 × 3 in 2D too), ε_p and ΔT, when the model
+    /// keeps one; nothing otherwise.
     pub fn plastic_history(kept: bool) -> usize {
         if kept {
-            size_of::<glam::DMat3>() + size_of::<f64>()
+            size_of::<glam::DMat3>() + 2 * size_of::<f64>()
         } else {
             0
         }

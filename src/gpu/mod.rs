@@ -8,6 +8,7 @@ pub mod layout;
 pub mod memory;
 pub mod neighbour;
 pub mod parts;
+pub mod plastic;
 pub mod profile;
 pub mod program;
 pub mod reduction;
@@ -235,6 +236,12 @@ pub fn check_f32_range(case: &Case, constants: &Constants) -> Result<(), CaseErr
         "MR_LAMBDA" => "material.lambda",
         "YIELD" => "material.yield_stress",
         "HARDENING" => "material.hardening_modulus",
+        "HARDENING_EXPONENT" => "material.hardening_exponent",
+        "RATE_COEFFICIENT" => "material.strain_rate_coefficient",
+        "REFERENCE_RATE" => "material.reference_strain_rate",
+        "THERMAL_EXPONENT" => "material.thermal_softening_exponent",
+        "THERMAL_SPAN" => "material.melting_temperature",
+        "HEATING" => "material.specific_heat",
         "EPS2" | "EPS4" => "method.jst",
         n if n.starts_with("AV_") => "method.artificial_viscosity",
         n if n.starts_with("AS_") => "method.artificial_stress",

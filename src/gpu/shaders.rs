@@ -14,6 +14,7 @@ use super::bytes::FILE;
 use super::layout::GpuDim;
 use crate::core::kernel::{Kernel, KernelKind};
 use crate::physics::material::{Material, MaterialModel, ObjectiveRate};
+use crate::physics::plasticity::{Hardening, RateSensitivity};
 
 /// A WGSL file of `shaders/`, by its path there (`common/kernel.wgsl`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -183,10 +184,9 @@ impl Constants {
         .f32("KERNEL_SCALE", kernel.scale())
     }
 
-    /// MODEL (a choice), RHO0, MU, LAMBDA, BULK, RATE, OBJECTIVE_RATE (a choice) and the
-    /// Mooney–Rivlin constants
-    /// MR_C1, MR_C2, MR_LAMBDA (zero for the other models), YIELD and HARDENING (zero but for
-    /// `von-mises-plastic`) of a material (mechanics.wgsl, plasticity.wgsl).
+    /// MODEL (a choice), RHO0, MU, LAMBDA, BULK, RATE, OBJECTIVE_RATE (a choice), the
+    /// Mooney–Rivlin constants MR_C1, MR_C2, MR_LAMBDA (zero for the other models) and the
+    /// yield stress's ([`Self::hardening`]) of a material (mechanics.wgsl, plasticity.wgsl).
     pub fn material(self, material: &Material) -> Self {
         let model = match material.model {
             MaterialModel::Hypoelastic => 0,
@@ -228,8 +228,29 @@ impl Constants {
         .f32("MR_C1", rubber.map_or(0.0, |m| m.c1))
         .f32("MR_C2", rubber.map_or(0.0, |m| m.c2))
         .f32("MR_LAMBDA", rubber.map_or(0.0, |m| m.lambda))
-        .f32("YIELD", material.hardening.map_or(0.0, |h| h.yield_stress))
-        .f32("HARDENING", material.hardening.map_or(0.0, |h| h.modulus))
+        .hardening(&material.hardening.unwrap_or(Hardening::linear(0.0, 0.0)))
+    }
+
+    /// The yield stress (plasticity.wgsl): YIELD (τ_y⁰), HARDENING (H), HARDENING_EXPONENT
+    /// (n), RATE_COEFFICIENT (C, zero without the rate term), REFERENCE_RATE (ε̇0),
+    /// THERMAL_EXPONENT (m), THERMAL_SPAN (T_m − T_r, zero without thermal softening),
+    /// HEATING (χ/(ρ0 c_p)).
+    pub fn hardening(self, h: &Hardening) -> Self {
+        let rate = h.rate.unwrap_or(RateSensitivity {
+            coefficient: 0.0,
+            reference: 1.0,
+        });
+        let (exponent, span, heating) = h.thermal.map_or((1.0, 0.0, 0.0), |t| {
+            (t.exponent, t.melting - t.room, t.heating)
+        });
+        self.f32("YIELD", h.yield_stress)
+            .f32("HARDENING", h.modulus)
+            .f32("HARDENING_EXPONENT", h.exponent)
+            .f32("RATE_COEFFICIENT", rate.coefficient)
+            .f32("REFERENCE_RATE", rate.reference)
+            .f32("THERMAL_EXPONENT", exponent)
+            .f32("THERMAL_SPAN", span)
+            .f32("HEATING", heating)
     }
 
     /// The first f32 constant whose value f32 cannot hold: infinite, or a nonzero value

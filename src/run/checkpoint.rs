@@ -39,7 +39,7 @@ use std::path::{Path, PathBuf};
 /// The checkpoint's file name in a run's output folder.
 pub const FILE: &str = "checkpoint.bin";
 const MAGIC: &[u8; 8] = b"MESHCKPT";
-const VERSION: u32 = 6;
+const VERSION: u32 = 7;
 /// The largest header read (a header names a case and a method: a few hundred bytes).
 const HEADER_CAP: u32 = 1 << 16;
 

@@ -994,6 +994,77 @@ fn contact_between_bodies_that_a_kernel_spans_is_rejected() {
 // Plasticity
 
 #[test]
+fn johnson_cooks_keys_are_checked_and_named() {
+    // The strain-rate and thermal terms of `von-mises-plastic` (docs/materials.md): each
+    // refused key is named with what it needs.
+    let mixed = edit(
+        &edit(VALID, "name = \"tlsph\"", "name = \"upwind-sph\""),
+        "h_over_dx = 1.3",
+        "h_over_dx = 1.3\ncorrection = \"cgck\"",
+    );
+    let jc = edit(
+        &mixed,
+        "model = \"hypoelastic\"",
+        "model = \"von-mises-plastic\"\nyield_stress = 1e5\nhardening_modulus = 1e5\n\
+         hardening_exponent = 0.3\nstrain_rate_coefficient = 0.02\n\
+         thermal_softening_exponent = 1.0\nmelting_temperature = 1000.0\n\
+         specific_heat = 400.0",
+    );
+    Scene::from_toml(&jc, Path::new(FILE), &[]).expect("a valid Johnson–Cook case");
+    let cases: [(&str, &str, &str, &[&str]); 6] = [
+        (
+            "melting_temperature = 1000.0\n",
+            "",
+            "material.melting_temperature",
+            &["missing", "thermal_softening_exponent", "specific_heat"],
+        ),
+        (
+            "melting_temperature = 1000.0",
+            "melting_temperature = 200.0",
+            "material.melting_temperature",
+            &["200", "293.15", "T_m > T_r"],
+        ),
+        (
+            "hardening_modulus = 1e5",
+            "hardening_modulus = -1e4",
+            "material.hardening_exponent",
+            &["0.3", "softening is linear only"],
+        ),
+        (
+            "strain_rate_coefficient = 0.02",
+            "strain_rate_coefficient = -0.02",
+            "material.strain_rate_coefficient",
+            &["-0.02"],
+        ),
+        (
+            "specific_heat = 400.0",
+            "specific_heat = 400.0\ntaylor_quinney = 1.5",
+            "material.taylor_quinney",
+            &["1.5", "[0, 1]"],
+        ),
+        (
+            "strain_rate_coefficient = 0.02",
+            "reference_strain_rate = 1.0",
+            "material.reference_strain_rate",
+            &["strain_rate_coefficient"],
+        ),
+    ];
+    for (from, to, key, words) in cases {
+        assert_invalid(&edit(&jc, from, to), key, words);
+    }
+    // The rate model's radial return takes no Johnson–Cook term.
+    assert_invalid(
+        &edit(
+            VALID,
+            "poisson_ratio = 0.3",
+            "poisson_ratio = 0.3\nyield_stress = 1e5\nhardening_exponent = 0.5",
+        ),
+        "material.hardening_exponent",
+        &["`von-mises-plastic`", "remove it"],
+    );
+}
+
+#[test]
 fn the_plastic_model_needs_its_hardening_and_a_mixed_method() {
     let mixed = edit(
         &edit(VALID, "name = \"tlsph\"", "name = \"upwind-sph\""),

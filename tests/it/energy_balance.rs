@@ -209,25 +209,43 @@ fn the_energy_balance_closes_for_the_remaining_methods() {
     assert!(open.is_empty(), "{open:#?}");
 }
 
-/// The plastic strip: seed 003's copper (von Mises, E = 117 GPa, ν = 0.35, τ_y = 0.4 GPa,
-/// H = 0.1 GPa, ρ0 = 8930 kg/m³; c_p = 4.6 km/s), pulled at 20 m/s (ramped over 0.1 ms)
-/// for 0.4 ms: 0.8 % extension, past the yield strain of 0.34 %.
-fn plastic_strip(method: &str, dt: f64) -> Case {
+/// Seed 003's copper: von Mises, E = 117 GPa, ν = 0.35, τ_y = 0.4 GPa, H = 0.1 GPa,
+/// ρ0 = 8930 kg/m³ (c_p = 4.6 km/s).
+const SEED_003_COPPER: &str = r#"model = "von-mises-plastic"
+density = 8930.0
+youngs_modulus = 117.0e9
+poisson_ratio = 0.35
+yield_stress = 0.4e9
+hardening_modulus = 0.1e9"#;
+
+/// Johnson and Cook's OFHC copper (1983, Table 1) with adiabatic heating, E and ν of
+/// `taylor-bar-johnson-cook.toml`.
+const JOHNSON_COOK_COPPER: &str = r#"model = "von-mises-plastic"
+density = 8960.0
+youngs_modulus = 124.0e9
+poisson_ratio = 0.34
+yield_stress = 90.0e6
+hardening_modulus = 292.0e6
+hardening_exponent = 0.31
+strain_rate_coefficient = 0.025
+thermal_softening_exponent = 1.09
+melting_temperature = 1356.0
+specific_heat = 383.0"#;
+
+/// The plastic strip of `material`, pulled at 20 m/s (ramped over 0.1 ms) for 0.4 ms:
+/// 0.8 % extension, past the yield strain of seed 003's copper (0.34 %) and of Johnson
+/// and Cook's (0.07 %).
+fn plastic_strip(method: &str, dt: f64, (material, integrator): (&str, &str)) -> Case {
     let kernel = match method {
         "tlsph" => "\nh_over_dx = 1.3",
         _ => "",
     };
     let tables = format!(
         r#"[material]
-model = "von-mises-plastic"
-density = 8930.0
-youngs_modulus = 117.0e9
-poisson_ratio = 0.35
-yield_stress = 0.4e9
-hardening_modulus = 0.1e9
+{material}
 [method]
 name = "{method}"
-integrator = "rk4"
+integrator = "{integrator}"
 dt = {dt:e}{kernel}"#
     );
     let text = format!(
@@ -263,15 +281,27 @@ fn the_plastic_work_closes_the_balance_of_a_yielding_strip() {
     // residue of W_p/S itself, which must exceed tenfold the residue with it at Δt.
     let dt = 2.0e-6;
     for method in ["tl-fem", "tlsph"] {
-        plastic_balance(method, dt);
+        plastic_balance(method, dt, (SEED_003_COPPER, "rk4"));
     }
 }
 
+#[test]
+#[ignore = "finding: docs/materials.md, Johnson–Cook, \"Not yet\": the residue converges at order 0.4"]
+fn the_plastic_work_closes_the_balance_under_johnson_cook() {
+    // The same strip in Johnson and Cook's copper on tl-fem with `tvd-rk2`, whose stages
+    // sit at the step's ends, where the implicit rate Δγ/Δt is the flow's
+    // (src/physics/plasticity.rs): the work booked at the step's rate should close the
+    // balance to first order in the step, under the same bounds. Measured: 1.80e-3 →
+    // 1.36e-3 (order 0.41; W_p/S 0.49, residue without W_p 0.49), so the residue is 0.4 %
+    // of the plastic work but does not yet shrink at first order.
+    plastic_balance("tl-fem", 2.0e-6, (JOHNSON_COOK_COPPER, "tvd-rk2"));
+}
+
 /// [`the_plastic_work_closes_the_balance_of_a_yielding_strip`] under `method`.
-fn plastic_balance(method: &str, dt: f64) {
+fn plastic_balance(method: &str, dt: f64, material: (&str, &str)) {
     let (coarse, fine) = (
-        measure_plastic(&plastic_strip(method, dt), dt),
-        measure_plastic(&plastic_strip(method, dt / 2.0), dt / 2.0),
+        measure_plastic(&plastic_strip(method, dt, material), dt),
+        measure_plastic(&plastic_strip(method, dt / 2.0, material), dt / 2.0),
     );
     let b = fine.end.booked;
     let w_p = b.plastic_work.unwrap();

@@ -6,13 +6,13 @@
 //! differs is the device's f32 arithmetic alone.
 
 use crate::common::{gpu, noise, random_tensor};
-use meshless::case::{MaterialSpec, Plane};
+use meshless::case::MaterialSpec;
 use meshless::core::tensor::{D2, D3, Dim};
 use meshless::gpu::Gpu;
 use meshless::gpu::layout::{Flat, GpuDim};
 use meshless::gpu::shaders::{Constants, EIGEN, MECHANICS, PLASTICITY, Source, compose};
 use meshless::physics::material::{Material, MaterialModel};
-use meshless::physics::plasticity::{Hardening, VonMises};
+use meshless::physics::plasticity::{Hardening, RateSensitivity, Thermal, VonMises};
 
 /// P and W of each H = F − I in `h` (DIM² floats each, column-major): DIM² + 1 floats
 /// out per point.
@@ -154,17 +154,12 @@ fn material(model: MaterialModel) -> Material {
     let (e, nu) = (1e7, 0.45);
     let (mu, bulk) = (e / (2.0 * (1.0 + nu)), e / (3.0 * (1.0 - 2.0 * nu)));
     Material::new(&MaterialSpec {
-        model,
-        density: 1000.0,
         youngs_modulus: (!rubber).then_some(e),
         poisson_ratio: (!rubber).then_some(nu),
-        yield_stress: None,
-        hardening_modulus: None,
         c1: rubber.then_some(0.9 * mu),
         c2: rubber.then_some(0.1 * mu),
         lambda: rubber.then_some(bulk / 2.0),
-        plane: Plane::Strain,
-        objective_rate: None,
+        ..MaterialSpec::elastic(model, 1000.0, e, nu)
     })
 }
 
@@ -249,36 +244,51 @@ fn the_state_models_match_the_cpu_point_by_point() {
 }
 
 #[test]
-fn the_softening_return_map_matches_the_cpu() {
+fn the_softening_and_johnson_cook_return_maps_match_the_cpu() {
     // The steel of seed 001 §9.5 (E = 2e11 Pa, ν = 0.3 (not given there), σ_Y(0) = 1e10
-    // Pa, H = −E/10: the yield stress reaches zero at ε_p = 0.5) and a hardening copper
-    // (seed 003), from histories that put the returns on both branches: virgin and
-    // elastic, virgin and yielding, ε_p = 0.45 crossing ε_p = 0.5 within the return, and
-    // ε_p = 0.7 with τ_y = 0.
+    // Pa, H = −E/10: the yield stress reaches zero at ε_p = 0.5), a hardening copper
+    // (seed 003) and Johnson and Cook's OFHC copper (Johnson and Cook 1983, Table 1:
+    // A = 90 MPa, B = 292 MPa, n = 0.31, C = 0.025, m = 1.09, T_m = 1356 K), from
+    // histories that put the returns on both branches: virgin and elastic, virgin and
+    // yielding, ε_p = 0.45 crossing ε_p = 0.5 within the return, and ε_p = 0.7 with
+    // τ_y = 0; the Johnson–Cook points at a rise of 0 or 300 K over steps of 1e-8 s (rates
+    // of 1e5–1e7 /s).
     let gpu = gpu();
     let (e, nu) = (2e11, 0.3);
     let steel = VonMises {
         mu: e / (2.0 * (1.0 + nu)),
         bulk: e / (3.0 * (1.0 - 2.0 * nu)),
-        hardening: Hardening {
-            yield_stress: 1e10,
-            modulus: -e / 10.0,
-        },
+        hardening: Hardening::linear(1e10, -e / 10.0),
     };
     let (e, nu) = (117e9, 0.35);
     let copper = VonMises {
         mu: e / (2.0 * (1.0 + nu)),
         bulk: e / (3.0 * (1.0 - 2.0 * nu)),
-        hardening: Hardening {
-            yield_stress: 0.4e9,
-            modulus: 0.1e9,
-        },
+        hardening: Hardening::linear(0.4e9, 0.1e9),
     };
+    let johnson_cook = VonMises {
+        hardening: Hardening {
+            exponent: 0.31,
+            rate: Some(RateSensitivity {
+                coefficient: 0.025,
+                reference: 1.0,
+            }),
+            thermal: Some(Thermal {
+                exponent: 1.09,
+                room: 293.15,
+                melting: 1356.0,
+                heating: 0.9 / (8960.0 * 383.0),
+            }),
+            ..Hardening::linear(90e6, 292e6)
+        },
+        ..copper
+    };
+    let dt = f64::from(1e-8f32);
     let mut seed = 5;
     let mut f_flat = Vec::new();
     let mut hist = Vec::new();
     let mut points = Vec::new();
-    for eps_p in [0.0, 0.0, 0.45, 0.7] {
+    for (eps_p, heat) in [(0.0, 0.0), (0.0, 300.0), (0.45, 0.0), (0.7, 300.0)] {
         for scale in [0.01, 0.2] {
             let f = rounded::<D3>(glam::DMat3::IDENTITY + random_tensor::<D3>(&mut seed, scale));
             // A plastic history: an isochoric C_p⁻¹ = exp(−2 ε_p N) about a random
@@ -289,8 +299,8 @@ fn the_softening_return_map_matches_the_cpu() {
             let cp_inv = rounded::<D3>(exp_sym(dev * (-2.0 * eps_p)));
             D3::push_t(&mut f_flat, f);
             D3::push_t(&mut hist, cp_inv);
-            hist.push(eps_p as f32);
-            points.push((f, cp_inv, f64::from(eps_p as f32)));
+            hist.extend([eps_p as f32, heat as f32, dt as f32]);
+            points.push((f, cp_inv, f64::from(eps_p as f32), heat));
         }
     }
     let source = Source {
@@ -299,13 +309,13 @@ fn the_softening_return_map_matches_the_cpu() {
         common: &[EIGEN, PLASTICITY],
         flat: &[],
     };
-    for model in [steel, copper] {
+    hist.push(1e-8);
+    for model in [steel, copper, johnson_cook] {
         let mut yielded = 0;
         let constants = Constants::default()
             .f32("MU", model.mu)
             .f32("BULK", model.bulk)
-            .f32("YIELD", model.hardening.yield_stress)
-            .f32("HARDENING", model.hardening.modulus);
+            .hardening(&model.hardening);
         let out = run::<D3>(
             &gpu,
             source,
@@ -314,8 +324,8 @@ fn the_softening_return_map_matches_the_cpu() {
             &[("f_in", &f_flat), ("hist", &hist)],
             20 * points.len(),
         );
-        for (k, &(f, cp_inv, eps_p)) in points.iter().enumerate() {
-            let cpu = model.return_map(f, cp_inv, eps_p);
+        for (k, &(f, cp_inv, eps_p, heat)) in points.iter().enumerate() {
+            let cpu = model.return_map(f, cp_inv, eps_p, dt, heat);
             let o = &out[20 * k..];
             let p_gpu = D3::read_t(o);
             let (eps_gpu, psi_gpu) = (f64::from(o[18]), f64::from(o[19]));

@@ -15,7 +15,7 @@ use meshless::methods::Method;
 use meshless::methods::mixed::{
     GpuMixed, MixedOptions, MixedScheme, MixedSph, MixedState, Stabiliser,
 };
-use meshless::physics::plasticity::PLASTIC_STRAIN;
+use meshless::physics::plasticity::{PLASTIC_STRAIN, TEMPERATURE};
 use meshless::run::{Backend, Engine, build_method};
 use meshless::scene::Scene;
 
@@ -488,8 +488,25 @@ fn the_cfl_signal_speed_follows_the_fastest_pair() {
 /// strains, up to 0.66, agree to 1e-3 of the largest (measured 3e-5).
 #[test]
 fn plastic_flow_matches_the_cpu() {
+    plastic_flow_matches("taylor-bar");
+}
+
+/// [`plastic_flow_matches_the_cpu`] in Johnson and Cook's OFHC copper: the rate term
+/// (the history's ε̇_p, f32 on the device), the power law's Newton return (to 1e-6 of
+/// its bracket in f32) and the adiabatic heating, under the same bounds. The temperature
+/// rises, up to some 100 K at the impact end, agree to 1e-3 of the largest rise: the
+/// heat of a step is k ∫ τ_s dγ of its Δγ, so it carries the plastic strain's relative
+/// deviation.
+#[test]
+fn johnson_cook_flow_and_heating_match_the_cpu() {
+    plastic_flow_matches("taylor-bar-johnson-cook");
+}
+
+/// The coarse bar of `case` over 500 steps of 20 ns on both backends (see
+/// [`plastic_flow_matches_the_cpu`]); with thermal softening, its temperatures too.
+fn plastic_flow_matches(case: &str) {
     let c = load(
-        "taylor-bar",
+        case,
         &[
             "spacing=1.0666666666666667e-3",
             "method.cfl=",
@@ -531,6 +548,18 @@ fn plastic_flow_matches_the_cpu() {
         eps_deviation < 1e-3 * eps_max,
         "{eps_deviation:e} of {eps_max}"
     );
+    let Some(t_cpu) = on_cpu.field(TEMPERATURE) else {
+        return;
+    };
+    let room = t_cpu.iter().copied().fold(f64::INFINITY, f64::min);
+    let rise = |t: &[f64]| t.iter().map(|t| t - room).collect::<Vec<f64>>();
+    let t_gpu = on_gpu
+        .field(TEMPERATURE)
+        .expect("the device's temperatures");
+    let (t_deviation, t_max) = max_s(&rise(t_cpu), &rise(t_gpu));
+    eprintln!("ΔT: max {t_max} K, max |T_GPU − T_CPU| = {t_deviation:e} K");
+    assert!(t_max > 10.0, "the impact end must heat: max ΔT = {t_max} K");
+    assert!(t_deviation < 1e-3 * t_max, "{t_deviation:e} K of {t_max} K");
 }
 
 /// Artificial compressibility (seed 003 §5) on the GPU against the CPU: the same steps

@@ -28,6 +28,7 @@ use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::memory::{Counts, DeviceMemory};
 use crate::gpu::neighbour::{CellList, CellParams, Positions, Room};
+use crate::gpu::plastic;
 use crate::gpu::profile::Scale;
 use crate::gpu::program::Stepper;
 use crate::gpu::reduction::{self, Reduced, Reduction};
@@ -45,7 +46,6 @@ use crate::methods::cores::galerkin::gpu::{
 use crate::methods::cores::galerkin::updated::{MovingPoints, UlGalerkin, UlGalerkinState};
 use crate::methods::cores::shared::BySource;
 use crate::physics::material::{Material, MaterialModel};
-use crate::physics::plasticity::History;
 use std::sync::atomic::{AtomicU32, Ordering};
 
 /// The points, nodes, commit and positions passes.
@@ -218,7 +218,7 @@ pub struct EulerianDevice<D: GpuDim> {
     pts: wgpu::Buffer,
     kin_ext: (wgpu::Buffer, wgpu::Buffer),
     status: wgpu::Buffer,
-    /// The points' plastic history (10 floats of a dummy for the elastic models).
+    /// The points' plastic history (13 floats of a dummy for the elastic models).
     hist: wgpu::Buffer,
     /// `hist` at the start of the batch, whose steps commit it, to run the batch again.
     hist_start: wgpu::Buffer,
@@ -258,9 +258,8 @@ impl<D: GpuDim> GpuEulerianKbm<D> {
             m.words("status", STATUS_OK.len() as f64);
             m.fields("kinematics", &layout.kin);
             let plastic = case.material.model == MaterialModel::VonMisesPlastic;
-            let copies = if plastic { q } else { 1 };
             for label in ["plastic history", "plastic history at the batch start"] {
-                m.words(label, (copies * History::VIRGIN_F32.len()) as f64);
+                m.words(label, plastic::words(plastic, q) as f64);
             }
             for label in [
                 "positions of the last search",
@@ -301,9 +300,8 @@ impl<D: GpuDim> GpuEulerianKbm<D> {
         let status = gpu.storage("status", &STATUS_OK);
         let kin = gpu.zeroed("kinematics", layout.kin.bytes());
         let plastic = host.material().model == MaterialModel::VonMisesPlastic;
-        let virgin = History::VIRGIN_F32.repeat(if plastic { q } else { 1 });
-        let hist = gpu.storage("plastic history", &virgin);
-        let hist_start = gpu.storage("plastic history at the batch start", &virgin);
+        let hist = plastic::upload(&gpu, "plastic history", plastic, q);
+        let hist_start = plastic::upload(&gpu, "plastic history at the batch start", plastic, q);
         let position_bytes = (q * D::N * 4) as u64;
         let searched = gpu.zeroed("positions of the last search", position_bytes);
         let searched_start = gpu.zeroed("positions at the batch start", position_bytes);
@@ -615,12 +613,13 @@ impl<D: GpuDim> GpuFamily<D> for EulerianDevice<D> {
     /// since it, to run the batch again after the lists grew.
     fn begin_batch(
         &mut self,
-        _gpu: &Gpu,
+        gpu: &Gpu,
         stepper: &Stepper,
         encoder: &mut wgpu::CommandEncoder,
-        _dt: f64,
+        dt: f64,
         _steps: u32,
     ) {
+        plastic::set_step(gpu, &self.hist, dt);
         let bytes = self.layout.state.bytes();
         encoder.copy_buffer_to_buffer(stepper.buffer(Buf::Y), 0, &self.start, 0, bytes);
         for (from, to) in [

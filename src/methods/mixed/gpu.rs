@@ -29,6 +29,7 @@ use crate::gpu::context::{Gpu, GpuError, Pipeline, WORKGROUP};
 use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::memory::{Counts, DeviceMemory};
 use crate::gpu::parts::Split;
+use crate::gpu::plastic;
 use crate::gpu::profile::Scale;
 use crate::gpu::program::{StateLayout, Stepper};
 use crate::gpu::reduction::{self, Reduced, Reduction};
@@ -41,7 +42,6 @@ use crate::gpu::shell::Shell;
 use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run};
 use crate::interaction::gpu::GpuInteractions;
 use crate::physics::material::MaterialModel;
-use crate::physics::plasticity::History;
 use crate::reference::build_method;
 use encase::ShaderType;
 
@@ -99,7 +99,7 @@ struct Scratch {
     partials: wgpu::Buffer,
     /// The slopes or Laplacians of the extended particles (4 bytes without either).
     second: wgpu::Buffer,
-    /// The plastic history (plasticity.wgsl; 10 floats of a dummy for elastic models).
+    /// The plastic history (plasticity.wgsl; 13 floats of a dummy for elastic models).
     hist: wgpu::Buffer,
 }
 
@@ -112,11 +112,7 @@ impl Scratch {
         m.words("status", STATUS_OK.len() as f64);
         let groups = (n as u64).div_ceil(u64::from(WORKGROUP)).max(1);
         m.words("balance partials", (groups * 16) as f64);
-        let copies = if plastic { n } else { 1 };
-        m.words(
-            "plastic history",
-            (copies * History::VIRGIN_F32.len()) as f64,
-        );
+        m.words("plastic history", plastic::words(plastic, n) as f64);
     }
 
     fn new<D: GpuDim>(gpu: &Gpu, layout: &MixedLayout, plastic: bool) -> Result<Self, GpuError> {
@@ -130,10 +126,7 @@ impl Scratch {
             force: gpu.zeroed("forces", layout.force.bytes()),
             status: gpu.storage("status", &STATUS_OK),
             partials: gpu.zeroed("balance partials", u64::from(gx * gy) * 16 * 4),
-            hist: gpu.storage(
-                "plastic history",
-                &History::VIRGIN_F32.repeat(if plastic { n } else { 1 }),
-            ),
+            hist: plastic::upload(gpu, "plastic history", plastic, n),
             second: gpu.zeroed("slopes or Laplacians", second),
         })
     }
@@ -158,7 +151,7 @@ pub struct MixedDevice<D: GpuDim> {
     dt: f64,
     force: wgpu::Buffer,
     status: wgpu::Buffer,
-    /// The plastic history (plasticity.wgsl; 10 floats of a dummy for elastic models).
+    /// The plastic history (plasticity.wgsl; 13 floats of a dummy for elastic models).
     hist: wgpu::Buffer,
     /// The commit of the plastic history before every step (mixed_plastic.wgsl).
     commit: Option<(Pipeline, wgpu::BindGroup)>,
@@ -551,6 +544,7 @@ impl<D: GpuDim> GpuFamily<D> for MixedDevice<D> {
         steps: u32,
     ) {
         self.set_dt(gpu, dt);
+        plastic::set_step(gpu, &self.hist, dt);
         if let (Some(c), Some(cpu)) = (&mut self.evaluator.corrector, self.cpu.corrector()) {
             c.record_batch(u64::from(steps) * evaluations(stepper.kind()).len() as u64);
             c.set_dt(gpu, dt, cpu);

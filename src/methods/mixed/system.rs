@@ -36,7 +36,7 @@ use crate::methods::cores::particles::Surroundings;
 use crate::methods::cores::shared::{neighbour_radius, reference_gradients};
 use crate::physics::material::Material;
 use crate::physics::mirror::{Ghosts, Image};
-use crate::physics::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
+use crate::physics::plasticity::{History, Returned, from_mat3};
 use crate::reference::Reference;
 use rayon::prelude::*;
 use std::sync::Arc;

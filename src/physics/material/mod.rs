@@ -151,20 +151,7 @@ impl Material {
             mu,
             lambda,
             bulk: lambda + 2.0 * mu / 3.0,
-            hardening: match (spec.model, spec.yield_stress, spec.hardening_modulus) {
-                (MaterialModel::VonMisesPlastic, Some(yield_stress), Some(modulus)) => {
-                    Some(Hardening {
-                        yield_stress,
-                        modulus,
-                    })
-                }
-                // A yield stress on the rate model: perfectly plastic unless hardened.
-                (MaterialModel::Hypoelastic, Some(yield_stress), modulus) => Some(Hardening {
-                    yield_stress,
-                    modulus: modulus.unwrap_or(0.0),
-                }),
-                _ => None,
-            },
+            hardening: spec.hardening(),
             mooney_rivlin,
             objective_rate: spec.objective_rate.unwrap_or_default(),
         }
@@ -194,7 +181,7 @@ impl Material {
         let model = self
             .von_mises()
             .expect("validation gives a von-mises-plastic material its hardening");
-        model.return_map(to_mat3::<D>(f, 1.0), DMat3::IDENTITY, 0.0)
+        model.return_map(to_mat3::<D>(f, 1.0), DMat3::IDENTITY, 0.0, 0.0, 0.0)
     }
 
     /// Longitudinal (p-wave) speed of the linearised model, sqrt((λ + 2μ)/ρ0).
@@ -251,10 +238,10 @@ impl Material {
         let hardening = self.rate_plasticity()?;
         let szz = self.plane_strain_szz::<D>(s, rho);
         let q = (1.5 * (D::ddot(s, s) + szz * szz)).sqrt();
-        if q <= hardening.yield_stress_at(eps_p) {
+        if q <= hardening.flow_stress(eps_p, 0.0, 0.0) {
             return None;
         }
-        let d_eps = hardening.multiplier(self.mu, q, eps_p);
+        let d_eps = hardening.multiplier(self.mu, q, eps_p, 0.0, 0.0);
         Some((s * (1.0 - 3.0 * self.mu * d_eps / q), d_eps))
     }
 
@@ -660,10 +647,6 @@ mod tests {
         let rubber = model.reads_mooney_rivlin_constants();
         let given = |value: f64, read: bool| read.then_some(value);
         MaterialSpec {
-            model,
-            density: 1.0,
-            youngs_modulus: given(1e7, !rubber),
-            poisson_ratio: given(0.4, !rubber),
             // Read by `von-mises-plastic` only: far above the tests' stresses, so that its
             // response is the Hencky elastic one.
             yield_stress: Some(1e12),
@@ -673,8 +656,9 @@ mod tests {
             c1: given(3.2e6, rubber),
             c2: given(1e7 / 2.8 - 3.2e6, rubber),
             lambda: given(1e7 / (3.0 * 0.2) / 2.0, rubber),
-            plane: Plane::Strain,
-            objective_rate: None,
+            youngs_modulus: given(1e7, !rubber),
+            poisson_ratio: given(0.4, !rubber),
+            ..MaterialSpec::elastic(model, 1.0, f64::NAN, f64::NAN)
         }
     }
 

@@ -15,7 +15,7 @@ struct ModelKey {
 }
 
 /// The keys of `[material]` that only some models read.
-fn model_keys(m: &MaterialSpec) -> [ModelKey; 7] {
+fn model_keys(m: &MaterialSpec) -> [ModelKey; 15] {
     let elastic = |model: MaterialModel| !model.reads_mooney_rivlin_constants();
     let plastic = |model| model == MaterialModel::VonMisesPlastic;
     // The rate model takes a yield stress as an option (a radial return of S).
@@ -41,11 +41,27 @@ fn model_keys(m: &MaterialSpec) -> [ModelKey; 7] {
         required: plastic,
         needs: PLASTIC,
     };
+    // Johnson–Cook's terms, which the hyperelastic-plastic model takes as options.
+    let johnson_cook = |key, value| ModelKey {
+        key,
+        value,
+        reads: plastic,
+        required: |_| false,
+        needs: "",
+    };
     [
         key("youngs_modulus", m.youngs_modulus, elastic, E_NU),
         key("poisson_ratio", m.poisson_ratio, elastic, E_NU),
         option("yield_stress", m.yield_stress),
         option("hardening_modulus", m.hardening_modulus),
+        johnson_cook("hardening_exponent", m.hardening_exponent),
+        johnson_cook("strain_rate_coefficient", m.strain_rate_coefficient),
+        johnson_cook("reference_strain_rate", m.reference_strain_rate),
+        johnson_cook("thermal_softening_exponent", m.thermal_softening_exponent),
+        johnson_cook("melting_temperature", m.melting_temperature),
+        johnson_cook("room_temperature", m.room_temperature),
+        johnson_cook("specific_heat", m.specific_heat),
+        johnson_cook("taylor_quinney", m.taylor_quinney),
         key("c1", m.c1, rubber, RUBBER),
         key("c2", m.c2, rubber, RUBBER),
         key("lambda", m.lambda, rubber, RUBBER),
@@ -137,6 +153,7 @@ pub(super) fn check(m: &MaterialSpec, incompressible: bool) -> Checked {
             );
         }
     }
+    johnson_cook(m)?;
     if let Some(c1) = m.c1 {
         positive("material.c1", c1)?;
     }
@@ -145,6 +162,91 @@ pub(super) fn check(m: &MaterialSpec, incompressible: bool) -> Checked {
     }
     if let Some(lambda) = m.lambda {
         positive("material.lambda", lambda)?;
+    }
+    Ok(())
+}
+
+/// Johnson–Cook's terms of `von-mises-plastic`: a positive exponent, with softening only
+/// on the linear law; a rate coefficient ≥ 0 and its reference rate; and the thermal
+/// softening's exponent, melting temperature and specific heat together, above the room
+/// temperature.
+fn johnson_cook(m: &MaterialSpec) -> Checked {
+    if let Some(n) = m.hardening_exponent {
+        positive("material.hardening_exponent", n)?;
+        if n != 1.0 && m.hardening_modulus.is_some_and(|h| h < 0.0) {
+            return fail(
+                "material.hardening_exponent",
+                format!(
+                    "is {n:?} with a negative `hardening_modulus`: softening is linear only \
+                     (the return's root is then unique); use hardening_exponent = 1 or a \
+                     modulus ≥ 0"
+                ),
+            );
+        }
+    }
+    if let Some(c) = m.strain_rate_coefficient {
+        non_negative("material.strain_rate_coefficient", c)?;
+    }
+    if let Some(rate) = m.reference_strain_rate {
+        positive("material.reference_strain_rate", rate)?;
+        if m.strain_rate_coefficient.is_none() {
+            return fail(
+                "material.reference_strain_rate",
+                "is the reference of the strain-rate term, which needs \
+                 `strain_rate_coefficient` (Johnson–Cook's C, ≥ 0): give it, or remove this",
+            );
+        }
+    }
+    const THERMAL: &str = "give `thermal_softening_exponent` (m, > 0), \
+                           `melting_temperature` (T_m [K]) and `specific_heat` (c_p [J/(kg K)], \
+                           > 0) together";
+    let thermal = [
+        ("thermal_softening_exponent", m.thermal_softening_exponent),
+        ("melting_temperature", m.melting_temperature),
+        ("specific_heat", m.specific_heat),
+    ];
+    let given = thermal.iter().filter(|(_, v)| v.is_some()).count();
+    if given == 0 {
+        for (key, value) in [
+            ("room_temperature", m.room_temperature),
+            ("taylor_quinney", m.taylor_quinney),
+        ] {
+            if value.is_some() {
+                return fail(
+                    format!("material.{key}"),
+                    format!(
+                        "belongs to the thermal softening, which is off: {THERMAL}, or remove it"
+                    ),
+                );
+            }
+        }
+        return Ok(());
+    }
+    if let Some((key, _)) = thermal.iter().find(|(_, v)| v.is_none()) {
+        return fail(format!("material.{key}"), format!("is missing: {THERMAL}"));
+    }
+    for (key, value) in thermal {
+        positive(&format!("material.{key}"), value.unwrap_or(f64::NAN))?;
+    }
+    let room = m.room_temperature.unwrap_or(MaterialSpec::ROOM_TEMPERATURE);
+    positive("material.room_temperature", room)?;
+    let melting = m.melting_temperature.unwrap_or(f64::NAN);
+    if melting <= room {
+        return fail(
+            "material.melting_temperature",
+            format!(
+                "is {melting:?} K, at or below the room temperature {room:?} K; the thermal \
+                 softening needs T_m > T_r"
+            ),
+        );
+    }
+    if let Some(chi) = m.taylor_quinney
+        && !(0.0..=1.0).contains(&chi)
+    {
+        return fail(
+            "material.taylor_quinney",
+            format!("is {chi:?}; the fraction of the plastic work that heats lies in [0, 1]"),
+        );
     }
     Ok(())
 }

@@ -55,7 +55,7 @@ impl<D: Dim> OdeSystem for TlGalerkin<D> {
             && let Some(committed) = self.returned_all(&self.point_f(y))
             && let Some(pl) = self.plastic.as_mut()
         {
-            pl.commit(&committed, &self.points.weight);
+            pl.commit(&committed, &self.points.weight, dt);
         }
     }
 
@@ -267,13 +267,11 @@ impl<D: Dim> Method<D> for TlGalerkin<D> {
             f: self.projected(&fields.f, D::identity()),
             sigma: self.stress_at_nodes(fields.sigma),
             strain_energy: fields.energy,
-            extra: fields
-                .eps_p
-                .map(|eps_p| ScalarField {
-                    name: PLASTIC_STRAIN,
-                    values: self.projected(&eps_p, 0.0),
+            extra: (fields.plastic.iter())
+                .map(|(name, values)| ScalarField {
+                    name,
+                    values: self.projected(values, 0.0),
                 })
-                .into_iter()
                 .collect(),
             cells: &self.cells.corners,
             quadrature: Some(quadrature),

@@ -21,6 +21,7 @@ use crate::gpu::context::{Gpu, GpuError, Pipeline};
 use crate::gpu::layout::{Fields, GpuDim};
 use crate::gpu::memory::{Counts, DeviceMemory};
 use crate::gpu::parts::{self, PartLists, Split};
+use crate::gpu::plastic;
 use crate::gpu::profile::Scale;
 use crate::gpu::program::Stepper;
 use crate::gpu::reduction::{self, Reduced, Reduction};
@@ -34,7 +35,6 @@ use crate::gpu::{SetupError, check_f32_particles, check_f32_range, check_f32_run
 use crate::interaction::gpu::GpuInteractions;
 use crate::methods::cores::shared::BySource;
 use crate::physics::material::{Material, MaterialModel};
-use crate::physics::plasticity::History;
 
 /// The points and nodes passes of one rate evaluation.
 pub const RATES: Source = source!(
@@ -592,7 +592,7 @@ pub struct GalerkinDevice<D: GpuDim> {
     /// without touching the integrator's rates).
     points_y: Vec<wgpu::BindGroup>,
     smooth: Option<SmoothPasses>,
-    /// The points' plastic history (plasticity.wgsl; 10 floats of a dummy for the elastic
+    /// The points' plastic history (plasticity.wgsl; 13 floats of a dummy for the elastic
     /// models).
     hist: wgpu::Buffer,
     /// The commit of the plastic history before every step (`commit` of galerkin.wgsl).
@@ -618,11 +618,7 @@ impl<D: GpuDim> GpuGalerkin<D> {
             m.words("status", 1.0);
             m.fields("kinematics", &layout.kin);
             let plastic = case.material.model == MaterialModel::VonMisesPlastic;
-            let copies = if plastic { q } else { 1 };
-            m.words(
-                "plastic history",
-                (copies * History::VIRGIN_F32.len()) as f64,
-            );
+            m.words("plastic history", plastic::words(plastic, q) as f64);
             Stepper::memory(m, case.method.integrator, layout.state.len());
             if smoothing > 0 {
                 SmoothPasses::memory(m, &layout, n, smoothing);
@@ -671,10 +667,7 @@ impl<D: GpuDim> GpuGalerkin<D> {
         let status = gpu.storage("status", &[STATUS_OK]);
         let kin = gpu.zeroed("kinematics", layout.kin.bytes());
         let plastic = host.plastic().is_some();
-        let hist = gpu.storage(
-            "plastic history",
-            &History::VIRGIN_F32.repeat(if plastic { q } else { 1 }),
-        );
+        let hist = plastic::upload(&gpu, "plastic history", plastic, q);
 
         let start = Start {
             gpu: &gpu,
@@ -863,6 +856,18 @@ impl<D: GpuDim> GpuFamily<D> for GalerkinDevice<D> {
 
     fn record_rates(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, e: Evaluation) {
         self.record(gpu, encoder, self.rates.of(e));
+    }
+
+    /// The step the plastic history's commits take.
+    fn begin_batch(
+        &mut self,
+        gpu: &Gpu,
+        _stepper: &Stepper,
+        _encoder: &mut wgpu::CommandEncoder,
+        dt: f64,
+        _steps: u32,
+    ) {
+        plastic::set_step(gpu, &self.hist, dt);
     }
 
     /// The commit of the plastic history.

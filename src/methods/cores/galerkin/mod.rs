@@ -52,7 +52,7 @@ use crate::methods::cores::particles::{Surroundings, check_stresses};
 use crate::methods::cores::shared::engine_on_rank;
 use crate::methods::cores::tl::displacement_rates;
 use crate::physics::material::{Material, MaterialModel, stress_fields};
-use crate::physics::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
+use crate::physics::plasticity::{History, Returned, from_mat3};
 use crate::reference::Reference;
 use crate::statics::explicit::{AtRest, ClosedForm};
 use crate::statics::sparse::BlockPattern;
@@ -825,7 +825,8 @@ impl<D: Dim> TlGalerkin<D> {
             .share
             .as_ref()
             .map_or(&self.points.weight, |s| &s.energy_weight);
-        Fields::at_points(&self.material, f, r.as_deref(), (&y.rho, &y.s), weight)
+        let r = self.plastic.as_ref().zip(r.as_deref());
+        Fields::at_points(&self.material, f, r, (&y.rho, &y.s), weight)
     }
 }
 
@@ -876,8 +877,8 @@ struct Fields<D: Dim> {
     sigma: Vec<[[f64; 3]; 3]>,
     /// Σ_q w_q ψ_q.
     energy: Exact,
-    /// ε_p of a plastic model.
-    eps_p: Option<Vec<f64>>,
+    /// The plastic history's fields (ε_p, T) of a plastic model.
+    plastic: Vec<(&'static str, Vec<f64>)>,
 }
 
 impl<D: Dim> Fields<D> {
@@ -887,15 +888,15 @@ impl<D: Dim> Fields<D> {
     fn at_points(
         material: &Material,
         f: Vec<D::T>,
-        r: Option<&[Returned]>,
+        r: Option<(&History, &[Returned])>,
         (rho, s): (&[f64], &[D::T]),
         weight: &[f64],
     ) -> Self {
         match r {
-            Some(r) => Self {
+            Some((history, r)) => Self {
                 sigma: r.iter().zip(&f).map(|(r, &f)| r.cauchy::<D>(f)).collect(),
                 energy: r.iter().zip(weight).map(|(r, w)| w * r.psi).sum(),
-                eps_p: Some(r.iter().map(|r| r.eps_p).collect()),
+                plastic: history.fields(r),
                 f,
             },
             None => {
@@ -904,7 +905,7 @@ impl<D: Dim> Fields<D> {
                     f,
                     sigma,
                     energy,
-                    eps_p: None,
+                    plastic: Vec::new(),
                 }
             }
         }

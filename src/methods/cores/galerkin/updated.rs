@@ -31,7 +31,7 @@ use crate::interaction::Interactions;
 use crate::methods::cores::particles::Surroundings;
 use crate::methods::cores::tl::displacement_rates;
 use crate::physics::material::{Material, MaterialModel};
-use crate::physics::plasticity::{History, PLASTIC_STRAIN, Returned, from_mat3};
+use crate::physics::plasticity::{History, Returned, from_mat3};
 use crate::reference::{Build, Reference};
 use rayon::prelude::*;
 
@@ -480,14 +480,15 @@ impl<D: Dim, P: MovingPoints<D>> UlGalerkin<D, P> {
             }
         };
         let w0 = self.points.reference_weights();
-        let at = Fields::<D>::at_points(&self.material, f, r.as_deref(), (&y.rho, &y.s), w0);
+        let r = self.plastic.as_ref().zip(r.as_deref());
+        let at = Fields::<D>::at_points(&self.material, f, r, (&y.rho, &y.s), w0);
         Fields {
             f: to_nodes(&self.gather, &shapes, &weight, &at.f, D::identity()),
             sigma: stress_at_nodes(&self.gather, &shapes, &weight, at.sigma),
             energy: at.energy,
-            eps_p: at
-                .eps_p
-                .map(|e| to_nodes(&self.gather, &shapes, &weight, &e, 0.0)),
+            plastic: (at.plastic.into_iter())
+                .map(|(name, e)| (name, to_nodes(&self.gather, &shapes, &weight, &e, 0.0)))
+                .collect(),
         }
     }
 }
@@ -548,7 +549,7 @@ impl<D: Dim, P: MovingPoints<D>> OdeSystem for UlGalerkin<D, P> {
             && let Some((_, committed)) = self.returned_all(&shapes)
             && let Some(pl) = self.plastic.as_mut()
         {
-            pl.commit(&committed, self.points.reference_weights());
+            pl.commit(&committed, self.points.reference_weights(), dt);
         }
         self.surroundings.begin_step(t, dt, &self.x0, &y.u, &y.v);
     }
@@ -640,13 +641,8 @@ impl<D: Dim, P: MovingPoints<D>> Method<D> for UlGalerkin<D, P> {
             f: fields.f,
             sigma: fields.sigma,
             strain_energy: fields.energy,
-            extra: fields
-                .eps_p
-                .map(|eps_p| ScalarField {
-                    name: PLASTIC_STRAIN,
-                    values: eps_p,
-                })
-                .into_iter()
+            extra: (fields.plastic.into_iter())
+                .map(|(name, values)| ScalarField { name, values })
                 .collect(),
             cells: self.points.cells(),
             quadrature: None,

@@ -23,7 +23,7 @@ use crate::methods::cores::particles::{
     Surroundings, check_stresses, max_speed, particle_accessors,
 };
 use crate::physics::material::{Material, stress_fields};
-use crate::physics::plasticity::{History, PLASTIC_STRAIN, Returned};
+use crate::physics::plasticity::{History, Returned};
 
 use crate::case::{Case, CaseError};
 use crate::core::neighbour::Csr;
@@ -129,7 +129,7 @@ pub struct StressState {
     pub sigma: Vec<[[f64; 3]; 3]>,
     /// Σ w_i ψ_i.
     pub energy: Exact,
-    pub eps_p: Option<Vec<f64>>,
+    pub plastic: Vec<(&'static str, Vec<f64>)>,
 }
 
 /// The [`StressState`] of state y with deformation gradients f and weights `vol`, from
@@ -146,14 +146,14 @@ pub fn stress_state<D: Dim>(
         return StressState {
             sigma,
             energy,
-            eps_p: None,
+            plastic: Vec::new(),
         };
     };
     let r = returned_all::<D>(history, f);
     StressState {
         sigma: r.iter().zip(f).map(|(r, &f)| r.cauchy::<D>(f)).collect(),
         energy: r.iter().zip(vol).map(|(r, w)| w * r.psi).sum(),
-        eps_p: Some(r.iter().map(|r| r.eps_p).collect()),
+        plastic: history.fields(&r),
     }
 }
 
@@ -174,12 +174,9 @@ pub fn snapshot<'a, D: Dim>(
         sigma: stressed.sigma,
         strain_energy: stressed.energy,
     };
-    let eps_p = stressed.eps_p;
     let mut snapshot = fields.snapshot(x0, mass, body, y);
-    snapshot.extra.extend(eps_p.map(|values| ScalarField {
-        name: PLASTIC_STRAIN,
-        values,
-    }));
+    let plastic = stressed.plastic.into_iter();
+    (snapshot.extra).extend(plastic.map(|(name, values)| ScalarField { name, values }));
     snapshot
 }
 
@@ -484,7 +481,7 @@ impl<D: Dim, S: TlScheme<D>> OdeSystem for TlSph<D, S> {
             let committed = returned_all::<D>(history, &f);
             let core = &mut self.core;
             if let Some(history) = core.plastic.as_mut() {
-                history.commit(&committed, &core.energy_weights);
+                history.commit(&committed, &core.energy_weights, dt);
             }
         }
         self.core

@@ -17,7 +17,7 @@ impl<D: Dim> OdeSystem for MixedSph<D> {
         if let Some(committed) = self.returned_all(y)
             && let Some(pl) = self.plastic.as_mut()
         {
-            pl.commit(&committed, &self.vol[..self.n]);
+            pl.commit(&committed, &self.vol[..self.n], dt);
         }
         if self.projection && self.integrator == IntegratorKind::TvdRk2 {
             self.step_start = Some((y.u.clone(), y.v.clone(), dt));
@@ -245,13 +245,10 @@ impl<D: Dim> Method<D> for MixedSph<D> {
             f: y.f.clone(),
             sigma: self.cauchy_stress(y),
             strain_energy: self.strain_energy(y),
-            extra: self
-                .returned_all(y)
-                .map(|r| ScalarField {
-                    name: PLASTIC_STRAIN,
-                    values: r.iter().map(|r| r.eps_p).collect(),
-                })
+            extra: (self.returned_all(y).zip(self.plastic.as_ref()))
+                .map_or(Vec::new(), |(r, pl)| pl.fields(&r))
                 .into_iter()
+                .map(|(name, values)| ScalarField { name, values })
                 .chain(compatibility::<D>(y))
                 .collect(),
             cells: &[],
