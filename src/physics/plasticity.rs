@@ -374,11 +374,12 @@ impl History {
     /// plastic work ([`Self::work_at`], reference weights w_q) and its heat, and takes
     /// `dt` as the step that starts.
     pub fn commit(&mut self, returned: &[Returned], weight: &[f64], dt: f64) {
-        self.work = self.work_at(returned, weight);
+        let works: Vec<f64> = (returned.iter().enumerate())
+            .map(|(a, r)| self.point_work(a, r))
+            .collect();
+        self.work += works.iter().zip(weight).map(|(w, v)| w * v).sum::<f64>();
         if let Some(thermal) = self.model.hardening.thermal {
-            let rise: Vec<f64> = (returned.iter().enumerate())
-                .map(|(a, r)| thermal.heating * self.point_work(a, r))
-                .collect();
+            let rise = works.iter().map(|w| thermal.heating * w);
             self.heat.iter_mut().zip(rise).for_each(|(h, d)| *h += d);
         }
         (self.cp_inv, self.eps_p) = returned.iter().map(|r| (r.cp_inv, r.eps_p)).unzip();
